@@ -1,0 +1,1 @@
+//! Actuators (thesis chapter 2). Work in progress.

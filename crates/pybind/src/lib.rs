@@ -1,0 +1,7 @@
+//! Thin pyo3 layer: `selfmanip._native`.
+use pyo3::prelude::*;
+
+#[pymodule]
+fn _native(_m: &Bound<'_, PyModule>) -> PyResult<()> {
+    Ok(())
+}

@@ -1,0 +1,221 @@
+//! RHex parameters (thesis Table 4.2) and the generic robot description they build.
+//!
+//! The planar model (section 4.2.1): hips at `+ℓ₁` (front), `0` (middle) and `−ℓ₂` (rear)
+//! on the body's x axis; one joint per leg with the thesis's clockwise θ (joint axis `−y`),
+//! so that `θ = 0` points the leg straight down the body's `+z`. A half-circle leg is an arc
+//! of radius `ρ/2` about the middle of the hip–toe line, rounded on the side where
+//! `−π < θ − φ < 0` (4.2.2); a stick leg ends in a point toe. The body has rounded ends of
+//! radius `ρ_b` about the front and rear hips, which slide without friction (C.3). Toes
+//! stick (C.4) unless a finite `μ` lets them slip (section 5.1.5).
+use selfmanip_core::description::{
+    BodyDescription, ContactDescription, FrictionDescription, JointAxis, LegDescription, LinkDescription,
+    RobotDescription, ShapeDescription,
+};
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// Shape of RHex's legs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LegShape {
+    HalfCircle,
+    Stick,
+}
+
+/// A hip position along the body.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, PartialOrd, Ord)]
+#[serde(rename_all = "snake_case")]
+pub enum LegPair {
+    Front,
+    Middle,
+    Rear,
+}
+
+impl LegPair {
+    pub fn name(self) -> &'static str {
+        match self {
+            LegPair::Front => "front",
+            LegPair::Middle => "middle",
+            LegPair::Rear => "rear",
+        }
+    }
+}
+
+/// Table 4.2 with the thesis's symbols (planar legs = contralateral pairs).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[allow(non_snake_case)]
+pub struct RhexParams {
+    pub m_b: f64,
+    pub I_b: f64,
+    pub m_l: f64,
+    pub I_l: f64,
+    pub l1: f64,
+    pub l2: f64,
+    pub rho1: f64,
+    pub rho2: f64,
+    pub rho_b: f64,
+    pub tau_s: f64,
+    pub g: f64,
+    pub leg_shape: LegShape,
+    pub pairs: Vec<LegPair>,
+    /// Toe friction coefficients (front-most, middle, rear-most pair); `None` never slips.
+    #[serde(default)]
+    pub mu_front: Option<f64>,
+    #[serde(default)]
+    pub mu_middle: Option<f64>,
+    #[serde(default)]
+    pub mu_rear: Option<f64>,
+}
+
+/// The shipped Table 4.2 file.
+pub const TABLE_4_2_TOML: &str = include_str!("../data/table_4_2.toml");
+
+impl Default for RhexParams {
+    fn default() -> Self {
+        toml::from_str(TABLE_4_2_TOML).expect("the shipped Table 4.2 parses")
+    }
+}
+
+impl RhexParams {
+    pub fn from_toml_str(s: &str) -> Result<Self, crate::RhexError> {
+        toml::from_str(s).map_err(|e| crate::RhexError::Params { field: "toml".into(), reason: e.to_string() })
+    }
+
+    /// Checks every field (names in errors are the Table 4.2 symbols).
+    pub fn validate(&self) -> Result<(), crate::RhexError> {
+        let bad = |f: &str, r: &str| Err(crate::RhexError::Params { field: f.into(), reason: r.into() });
+        let fields = [
+            ("m_b", self.m_b),
+            ("I_b", self.I_b),
+            ("m_l", self.m_l),
+            ("I_l", self.I_l),
+            ("l1", self.l1),
+            ("l2", self.l2),
+            ("rho1", self.rho1),
+            ("rho2", self.rho2),
+            ("rho_b", self.rho_b),
+            ("tau_s", self.tau_s),
+            ("g", self.g),
+        ];
+        for (name, v) in fields {
+            if !v.is_finite() {
+                return bad(name, "must be finite");
+            }
+            if v < 0.0 {
+                return bad(name, "must be non-negative");
+            }
+        }
+        for (name, v) in [("m_b", self.m_b), ("rho1", self.rho1), ("rho2", self.rho2)] {
+            if v == 0.0 {
+                return bad(name, "must be positive");
+            }
+        }
+        if self.pairs.is_empty() {
+            return bad("pairs", "at least one leg pair is needed");
+        }
+        let mut sorted = self.pairs.clone();
+        sorted.sort();
+        sorted.dedup();
+        if sorted.len() != self.pairs.len() {
+            return bad("pairs", "duplicate leg pair");
+        }
+        for (name, mu) in [("mu_front", self.mu_front), ("mu_middle", self.mu_middle), ("mu_rear", self.mu_rear)] {
+            if let Some(m) = mu {
+                if !(m >= 0.0) {
+                    return bad(name, "must be non-negative");
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Leg pairs in body order (front to rear).
+    pub fn ordered_pairs(&self) -> Vec<LegPair> {
+        let mut p = self.pairs.clone();
+        p.sort();
+        p
+    }
+
+    /// Leg length of a pair (the middle leg uses the front length).
+    pub fn rho(&self, pair: LegPair) -> f64 {
+        match pair {
+            LegPair::Front | LegPair::Middle => self.rho1,
+            LegPair::Rear => self.rho2,
+        }
+    }
+
+    /// Hip position along the body x axis.
+    pub fn hip_x(&self, pair: LegPair) -> f64 {
+        match pair {
+            LegPair::Front => self.l1,
+            LegPair::Middle => 0.0,
+            LegPair::Rear => -self.l2,
+        }
+    }
+
+    fn mu(&self, pair: LegPair) -> Option<f64> {
+        match pair {
+            LegPair::Front => self.mu_front,
+            LegPair::Middle => self.mu_middle,
+            LegPair::Rear => self.mu_rear,
+        }
+    }
+
+    /// The generic description: legs in body order, contacts `<pair>_leg` in body order,
+    /// then `front_body`, `rear_body` (chapter 4's k = 1, 2, 3, 4 for two pairs).
+    pub fn description(&self) -> RobotDescription {
+        let pairs = self.ordered_pairs();
+        let legs = pairs
+            .iter()
+            .map(|&p| LegDescription {
+                name: p.name().into(),
+                hip_m: [self.hip_x(p), 0.0],
+                links: vec![LinkDescription {
+                    length_m: self.rho(p),
+                    mass_kg: self.m_l,
+                    inertia_kg_m2: self.I_l,
+                    com_m: Some([0.0, 0.5 * self.rho(p)]),
+                    axis: JointAxis::MinusY,
+                }],
+            })
+            .collect();
+        let mut contacts: Vec<ContactDescription> = pairs
+            .iter()
+            .map(|&p| {
+                let rho = self.rho(p);
+                let shape = match self.leg_shape {
+                    LegShape::Stick => ShapeDescription::Point { position_m: [0.0, rho] },
+                    LegShape::HalfCircle => ShapeDescription::Arc {
+                        center_m: [0.0, 0.5 * rho],
+                        radius_m: 0.5 * rho,
+                        normal_range_rad: [-PI, 0.0],
+                    },
+                };
+                ContactDescription {
+                    name: format!("{}_leg", p.name()),
+                    leg: Some(p.name().into()),
+                    link: None,
+                    shape,
+                    friction: FrictionDescription::Sticking { mu: self.mu(p) },
+                }
+            })
+            .collect();
+        for (name, x) in [("front_body", self.l1), ("rear_body", -self.l2)] {
+            contacts.push(ContactDescription {
+                name: name.into(),
+                leg: None,
+                link: None,
+                shape: ShapeDescription::Circle { center_m: [x, 0.0], radius_m: self.rho_b },
+                friction: FrictionDescription::Sliding,
+            });
+        }
+        RobotDescription {
+            name: format!("RHex ({} pairs, {:?} legs)", pairs.len(), self.leg_shape),
+            gravity_m_s2: self.g,
+            body: BodyDescription { mass_kg: self.m_b, inertia_kg_m2: self.I_b },
+            legs,
+            contacts,
+        }
+    }
+}

@@ -1,0 +1,144 @@
+//! The quasi-static contact-mode map over the joint torus (Fig. 4.3) and the pitch as an
+//! implicit function of the legs (eq. 4.44, Fig. 4.6), for two-pair models.
+//!
+//! Quasi-statically on level ground the robot rests on its lowest front support and its
+//! lowest rear support (section 4.2.2): with the body at `x = z = 0`, the pitch `φ(θ₁, θ₂)`
+//! is the root of `depth_front(φ) = depth_rear(φ)` where each depth is the largest world
+//! `z` (z down) of that side's contact sites (body end, leg on its round or on its toe).
+use crate::modes::Rhex;
+use selfmanip_core::contact::{contact_geometry, TouchKind};
+use selfmanip_core::kinematics::Kinematics;
+use selfmanip_core::{ContactMode, FlatGround};
+use serde::Serialize;
+
+/// How one side of the robot is supported (the letters of Fig. 4.3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum Support {
+    /// `B`: the rounded body end.
+    Body,
+    /// `R`: the leg's round side (rolling).
+    Rolling,
+    /// `T`: the leg's toe.
+    Toe,
+}
+
+impl Support {
+    pub fn letter(self) -> char {
+        match self {
+            Support::Body => 'B',
+            Support::Rolling => 'R',
+            Support::Toe => 'T',
+        }
+    }
+}
+
+/// The quasi-static pose at one leg configuration.
+#[derive(Debug, Clone, Serialize)]
+pub struct QuasiStaticPose {
+    pub theta1: f64,
+    pub theta2: f64,
+    /// Pitch `φ` (rad) from (4.44).
+    pub phi: f64,
+    pub front: Support,
+    pub rear: Support,
+    /// Body height above the ground (m, positive up).
+    pub height_m: f64,
+    /// Chapter-3 label of the active contacts (`FB FL RB RL`).
+    pub label: String,
+    #[serde(skip)]
+    pub mode: ContactMode,
+}
+
+struct Sides {
+    front: [usize; 2], // [leg, body]
+    rear: [usize; 2],
+}
+
+fn sides(rhex: &Rhex) -> Option<Sides> {
+    let m = &rhex.model;
+    let pairs = rhex.params.ordered_pairs();
+    if pairs.len() != 2 {
+        return None;
+    }
+    let leg = |i: usize| m.contact_index(&format!("{}_leg", pairs[i].name())).ok();
+    Some(Sides {
+        front: [leg(0)?, m.contact_index("front_body").ok()?],
+        rear: [leg(1)?, m.contact_index("rear_body").ok()?],
+    })
+}
+
+/// Lowest depth of a side and which site gives it.
+fn side_depth(rhex: &Rhex, kin: &Kinematics, sites: [usize; 2]) -> (f64, usize, TouchKind) {
+    let g: Vec<_> = sites.iter().map(|&k| (k, contact_geometry(&rhex.model, kin, &FlatGround, k))).collect();
+    let (k, geo) = if g[0].1.point.y >= g[1].1.point.y { g[0] } else { g[1] };
+    (geo.point.y, k, geo.touch)
+}
+
+/// Pitch and supports for legs `(θ₁, θ₂)`; `None` for a model without exactly two pairs or
+/// where no pitch in (−π/2, π/2) balances the two sides.
+pub fn quasi_static_pose(rhex: &Rhex, theta1: f64, theta2: f64) -> Option<QuasiStaticPose> {
+    let s = sides(rhex)?;
+    let mut kin = Kinematics::default();
+    let zero = [0.0; 5];
+    let mut eval = |phi: f64| {
+        kin.compute(&rhex.model, &[theta1, theta2, 0.0, 0.0, phi], &zero);
+        let f = side_depth(rhex, &kin, s.front);
+        let r = side_depth(rhex, &kin, s.rear);
+        (f.0 - r.0, f, r)
+    };
+    // depth_front − depth_rear decreases as the nose rises: bisection.
+    let (mut lo, mut hi) = (-std::f64::consts::FRAC_PI_2 + 1e-9, std::f64::consts::FRAC_PI_2 - 1e-9);
+    let (glo, ghi) = (eval(lo).0, eval(hi).0);
+    if !(glo >= 0.0 && ghi <= 0.0) {
+        return None;
+    }
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if eval(mid).0 > 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+        if hi - lo < 1e-14 {
+            break;
+        }
+    }
+    let phi = 0.5 * (lo + hi);
+    let (_, (fdepth, fk, ftouch), (_, rk, rtouch)) = eval(phi);
+    let support = |k: usize, touch: TouchKind| {
+        if rhex.model.contacts[k].link.is_none() {
+            Support::Body
+        } else if touch == TouchKind::Rolling {
+            Support::Rolling
+        } else {
+            Support::Toe
+        }
+    };
+    let mode = ContactMode::with_defaults(&rhex.model, &[fk, rk]).ok()?;
+    Some(QuasiStaticPose {
+        theta1,
+        theta2,
+        phi,
+        front: support(fk, ftouch),
+        rear: support(rk, rtouch),
+        height_m: fdepth,
+        label: rhex.label(mode),
+        mode,
+    })
+}
+
+/// Fig. 4.3 / 4.6 as data: the pose on an `n × n` grid over `θ₁, θ₂ ∈ [−π, π)`.
+pub fn contact_mode_map(rhex: &Rhex, n: usize) -> Vec<QuasiStaticPose> {
+    let step = std::f64::consts::TAU / n as f64;
+    let mut out = Vec::with_capacity(n * n);
+    for i in 0..n {
+        for j in 0..n {
+            let t1 = -std::f64::consts::PI + i as f64 * step;
+            let t2 = -std::f64::consts::PI + j as f64 * step;
+            if let Some(p) = quasi_static_pose(rhex, t1, t2) {
+                out.push(p);
+            }
+        }
+    }
+    out
+}

@@ -1,0 +1,315 @@
+//! Contact sites, contact modes and the constraint rows `A`, `Ȧ` (thesis 4.1.3–4.1.6, 5.2.2).
+//!
+//! **Contact frame.** Each active contact has a frame aligned with its ground plane: the
+//! normal axis `n` points *into* the ground (on level ground, world `+z`), the tangent is
+//! `t = S(n) = (n_z, −n_x)` (world `+x` on level ground). A contact contributes a tangential
+//! row (if sticking) before its normal row.
+//!
+//! **Constraint.** Thesis (4.11)/(4.17): `a_k = π(g_{c_k w}) − x̂`, i.e. the *negative* of the
+//! contact point in the contact frame, so `A_k = −Bᵀ J_p` with `J_p` the Jacobian of the
+//! material point of the robot at the contact. Consequently `λ` is the force the ground
+//! exerts on the robot in the contact frame, and a pushing normal force is **negative**
+//! (`U = −1` on the normal row, thesis (4.76)).
+//!
+//! **Rolling.** For a circle or arc on a plane the contact point is `c + r n` with `c` the
+//! centre; `A` is the stick-leg row at that point, while `Ȧ` uses the rate of the contact
+//! point `ċ` instead of the (zero) material velocity (thesis 4.1.6, 4.4.3).
+use crate::error::{CoreError, Result};
+use crate::frames::{perp, rotate};
+use crate::kinematics::{Kinematics, Part};
+use crate::model::{ContactShape, Friction, Model};
+use nalgebra::Vector2;
+use serde::Serialize;
+
+/// A plane of the ground: a point on it and the unit normal pointing into the ground.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct GroundPlane {
+    pub point_m: [f64; 2],
+    pub normal_into_ground: [f64; 2],
+}
+
+impl GroundPlane {
+    /// Level ground whose surface is at world `z = height_z_m` (z down).
+    pub fn level(height_z_m: f64) -> Self {
+        GroundPlane { point_m: [0.0, height_z_m], normal_into_ground: [0.0, 1.0] }
+    }
+    pub fn normal(&self) -> Vector2<f64> {
+        Vector2::new(self.normal_into_ground[0], self.normal_into_ground[1])
+    }
+    pub fn tangent(&self) -> Vector2<f64> {
+        perp(self.normal())
+    }
+    /// Signed height of a point above the plane (positive above, negative penetrating).
+    pub fn height_of(&self, p: Vector2<f64>) -> f64 {
+        -(p - Vector2::new(self.point_m[0], self.point_m[1])).dot(&self.normal())
+    }
+}
+
+/// What the ground looks like under a point. Implementations must be deterministic.
+pub trait Terrain: Send + Sync {
+    /// The ground plane that a part centred at world `x_m` would touch.
+    fn plane_under(&self, x_m: f64) -> GroundPlane;
+}
+
+/// Level ground at world `z = 0`.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct FlatGround;
+
+impl Terrain for FlatGround {
+    fn plane_under(&self, _x_m: f64) -> GroundPlane {
+        GroundPlane::level(0.0)
+    }
+}
+
+impl Terrain for GroundPlane {
+    fn plane_under(&self, _x_m: f64) -> GroundPlane {
+        *self
+    }
+}
+
+/// Which constraint rows are active: a bitset over normal rows and one over tangential rows
+/// (a tangential row only with its normal row, Definition 5.2 / eq. 5.45).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, PartialOrd, Ord, Serialize)]
+pub struct ContactMode {
+    normal: u32,
+    tangential: u32,
+}
+
+/// How an active contact is constrained.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum ContactKind {
+    /// Normal and tangential rows.
+    Stick,
+    /// Normal row only.
+    Slide,
+}
+
+/// Direction of one constraint row.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum RowDirection {
+    Tangential,
+    Normal,
+}
+
+/// One row of `A` / one entry of `λ`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct ConstraintRow {
+    pub contact: usize,
+    pub direction: RowDirection,
+}
+
+impl ContactMode {
+    /// No contact (flight).
+    pub const FLIGHT: ContactMode = ContactMode { normal: 0, tangential: 0 };
+
+    /// From raw bitsets; `tangential ⊆ normal` is required.
+    pub fn from_bits(normal: u32, tangential: u32) -> Result<Self> {
+        if tangential & !normal != 0 {
+            return Err(CoreError::InvalidMode {
+                reason: format!("tangential rows {tangential:#b} without their normal rows {normal:#b}"),
+            });
+        }
+        Ok(ContactMode { normal, tangential })
+    }
+
+    pub fn normal_bits(self) -> u32 {
+        self.normal
+    }
+    pub fn tangential_bits(self) -> u32 {
+        self.tangential
+    }
+
+    /// Each listed contact active with its own friction model (sticking contacts stick).
+    pub fn with_defaults(model: &Model, contacts: &[usize]) -> Result<Self> {
+        let mut m = ContactMode::FLIGHT;
+        for &k in contacts {
+            let kind = match model.contacts.get(k).map(|c| c.friction) {
+                None => return Err(CoreError::InvalidMode { reason: format!("no contact with index {k}") }),
+                Some(Friction::Sticking { .. }) => ContactKind::Stick,
+                Some(Friction::Sliding) => ContactKind::Slide,
+            };
+            m = m.with(k, kind);
+        }
+        Ok(m)
+    }
+
+    /// Parses `"front_leg,rear_leg:slide"`-style lists of contact names (empty = flight).
+    pub fn parse_names(model: &Model, spec: &str) -> Result<Self> {
+        let mut m = ContactMode::FLIGHT;
+        for item in spec.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+            let (name, kind) = match item.split_once(':') {
+                Some((n, "slide")) => (n, Some(ContactKind::Slide)),
+                Some((n, "stick")) => (n, Some(ContactKind::Stick)),
+                Some((_, other)) => {
+                    return Err(CoreError::InvalidMode { reason: format!("unknown contact kind `{other}`") })
+                }
+                None => (item, None),
+            };
+            let k = model.contact_index(name)?;
+            m = match kind {
+                Some(kind) => m.with(k, kind),
+                None => m.union(ContactMode::with_defaults(model, &[k])?),
+            };
+        }
+        m.validate(model)?;
+        Ok(m)
+    }
+
+    pub fn with(self, k: usize, kind: ContactKind) -> Self {
+        let bit = 1u32 << k;
+        match kind {
+            ContactKind::Stick => ContactMode { normal: self.normal | bit, tangential: self.tangential | bit },
+            ContactKind::Slide => ContactMode { normal: self.normal | bit, tangential: self.tangential & !bit },
+        }
+    }
+
+    pub fn without(self, k: usize) -> Self {
+        let bit = !(1u32 << k);
+        ContactMode { normal: self.normal & bit, tangential: self.tangential & bit }
+    }
+
+    pub fn union(self, o: Self) -> Self {
+        ContactMode { normal: self.normal | o.normal, tangential: self.tangential | o.tangential }
+    }
+
+    pub fn contains(self, k: usize) -> bool {
+        self.normal >> k & 1 == 1
+    }
+
+    pub fn kind(self, k: usize) -> Option<ContactKind> {
+        if !self.contains(k) {
+            None
+        } else if self.tangential >> k & 1 == 1 {
+            Some(ContactKind::Stick)
+        } else {
+            Some(ContactKind::Slide)
+        }
+    }
+
+    pub fn is_flight(self) -> bool {
+        self.normal == 0
+    }
+
+    /// Number of constraint rows `c`.
+    pub fn n_rows(self) -> usize {
+        (self.normal.count_ones() + self.tangential.count_ones()) as usize
+    }
+
+    /// Active contacts in ascending order.
+    pub fn active(self) -> impl Iterator<Item = usize> {
+        (0..32).filter(move |k| self.normal >> k & 1 == 1)
+    }
+
+    /// The rows in order: by contact, tangential before normal.
+    pub fn rows(self) -> impl Iterator<Item = ConstraintRow> {
+        self.active().flat_map(move |k| {
+            let t = (self.tangential >> k & 1 == 1)
+                .then_some(ConstraintRow { contact: k, direction: RowDirection::Tangential });
+            t.into_iter().chain(std::iter::once(ConstraintRow { contact: k, direction: RowDirection::Normal }))
+        })
+    }
+
+    /// Checks the mode against a model: contacts exist, sliding-only sites have no
+    /// tangential row.
+    pub fn validate(self, model: &Model) -> Result<()> {
+        let nc = model.n_contacts();
+        if nc < 32 && self.normal >> nc != 0 {
+            return Err(CoreError::InvalidMode {
+                reason: format!("mode names contact indices ≥ {nc} (the model has {nc} contacts)"),
+            });
+        }
+        for k in self.active() {
+            if self.kind(k) == Some(ContactKind::Stick) && model.contacts[k].friction == Friction::Sliding {
+                return Err(CoreError::InvalidMode {
+                    reason: format!("contact `{}` is frictionless and cannot stick", model.contacts[k].name),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Where a contact site touches (or would touch) the ground.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub enum TouchKind {
+    /// A point: a toe, a body point, or an end of an arc.
+    Point,
+    /// The interior of an arc or circle: rolling.
+    Rolling,
+}
+
+/// Geometry of one contact site against its ground plane.
+#[derive(Debug, Clone, Copy)]
+pub struct ContactGeometry {
+    pub part: Part,
+    pub plane: GroundPlane,
+    /// World position of the lowest point of the shape (the contact point).
+    pub point: Vector2<f64>,
+    /// Height of that point above the plane (`a_k` of the guard (5.49); negative = penetrating).
+    pub gap_m: f64,
+    pub touch: TouchKind,
+    /// Rate of the evaluation point used in `Ȧ` (material velocity for a point; the centre's
+    /// velocity for rolling).
+    pub point_rate: Vector2<f64>,
+}
+
+fn angle_in_range(a: f64, range: [f64; 2]) -> bool {
+    // distance counter-clockwise from range start, in [0, 2π)
+    let from_start = (a - range[0]).rem_euclid(std::f64::consts::TAU);
+    from_start <= range[1] - range[0]
+}
+
+/// Contact geometry for site `k` at the current kinematics.
+pub fn contact_geometry(model: &Model, kin: &Kinematics, terrain: &dyn Terrain, k: usize) -> ContactGeometry {
+    let site = &model.contacts[k];
+    let part = match site.link {
+        None => Part::Body,
+        Some(j) => Part::Link(j),
+    };
+    let beta = kin.part_angle(part);
+    let reference = match &site.shape {
+        ContactShape::Point { position_m } => *position_m,
+        ContactShape::Arc { center_m, .. } => *center_m,
+    };
+    let plane = terrain.plane_under(kin.point(part, reference).x);
+    let n = plane.normal();
+    let (local, touch) = match &site.shape {
+        ContactShape::Point { position_m } => (*position_m, TouchKind::Point),
+        ContactShape::Arc { center_m, radius_m, normal_range_rad } => {
+            // direction into the ground in the part frame, and its normal angle α
+            let d = rotate(-beta, n);
+            let alpha = d.x.atan2(d.y);
+            let inside = match normal_range_rad {
+                None => true,
+                Some(r) => angle_in_range(alpha, *r),
+            };
+            if inside {
+                (center_m + *radius_m * d, TouchKind::Rolling)
+            } else {
+                // the lower of the two ends acts as a point
+                let r = normal_range_rad.expect("circle is always inside");
+                let e0 = center_m + *radius_m * Vector2::new(r[0].sin(), r[0].cos());
+                let e1 = center_m + *radius_m * Vector2::new(r[1].sin(), r[1].cos());
+                (if e0.dot(&d) >= e1.dot(&d) { e0 } else { e1 }, TouchKind::Point)
+            }
+        }
+    };
+    let point = kin.point(part, local);
+    let point_rate = match (touch, &site.shape) {
+        (TouchKind::Rolling, ContactShape::Arc { center_m, .. }) => {
+            let c = kin.point(part, *center_m);
+            kin.material_velocity(part, c)
+        }
+        _ => kin.material_velocity(part, point),
+    };
+    ContactGeometry { part, plane, point, gap_m: plane.height_of(point), touch, point_rate }
+}
+
+/// Direction (world) of a constraint row in its contact frame.
+pub fn row_direction(plane: &GroundPlane, dir: RowDirection) -> Vector2<f64> {
+    match dir {
+        RowDirection::Tangential => plane.tangent(),
+        RowDirection::Normal => plane.normal(),
+    }
+}
+

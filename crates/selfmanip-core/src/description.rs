@@ -1,0 +1,319 @@
+//! The serde robot description (TOML or JSON) and its validation into a [`Model`].
+//!
+//! A description is a rigid body, legs as planar serial chains of revolute joints, and
+//! contact sites with shapes and friction. Lengths in metres, masses in kg, inertias in
+//! kg·m² about the link's centre of mass, angles in radians, all in the frames of
+//! [`crate::frames`]. A link's frame sits at its joint and, at zero joint angle, is aligned
+//! with its parent; the link extends along its own `+z` axis to the next joint.
+//!
+//! ```toml
+//! name = "two-leg RHex"
+//! gravity_m_s2 = 9.81
+//! [body]
+//! mass_kg = 7.15
+//! inertia_kg_m2 = 0.15
+//! [[legs]]
+//! name = "front"
+//! hip_m = [0.205, 0.0]
+//! [[legs.links]]
+//! length_m = 0.17
+//! axis = "-y"              # thesis θ is clockwise: rotation about −y
+//! [[contacts]]
+//! name = "front_leg"
+//! leg = "front"            # omit for a body contact
+//! shape = { kind = "arc", center_m = [0.0, 0.085], radius_m = 0.085, normal_range_rad = [-3.141592653589793, 0.0] }
+//! friction = { kind = "sticking", mu = 1.8 }
+//! ```
+use crate::error::{CoreError, Result};
+use crate::model::{Contact, ContactShape, Friction, Joint, Leg, Model};
+use nalgebra::Vector2;
+use serde::{Deserialize, Serialize};
+
+fn default_gravity() -> f64 {
+    9.81
+}
+
+/// Top-level robot description.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobotDescription {
+    pub name: String,
+    #[serde(default = "default_gravity")]
+    pub gravity_m_s2: f64,
+    pub body: BodyDescription,
+    #[serde(default)]
+    pub legs: Vec<LegDescription>,
+    #[serde(default)]
+    pub contacts: Vec<ContactDescription>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodyDescription {
+    pub mass_kg: f64,
+    /// Inertia about the body's centre of mass (the palm frame `P`).
+    pub inertia_kg_m2: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LegDescription {
+    pub name: String,
+    /// Hip (first joint) position in the body frame.
+    pub hip_m: [f64; 2],
+    pub links: Vec<LinkDescription>,
+}
+
+/// Sense of a revolute joint's positive angle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum JointAxis {
+    /// Positive angle = rotation about `+y`, the same sense as nose-up pitch.
+    #[default]
+    #[serde(rename = "+y")]
+    PlusY,
+    /// Positive angle = rotation about `−y` (clockwise in the side view): the thesis's θ.
+    #[serde(rename = "-y")]
+    MinusY,
+}
+
+impl JointAxis {
+    pub fn sign(self) -> f64 {
+        match self {
+            JointAxis::PlusY => 1.0,
+            JointAxis::MinusY => -1.0,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LinkDescription {
+    pub length_m: f64,
+    #[serde(default)]
+    pub mass_kg: f64,
+    /// Inertia about the link's own centre of mass.
+    #[serde(default)]
+    pub inertia_kg_m2: f64,
+    /// Centre of mass in the link frame; defaults to the middle of the link `[0, length/2]`.
+    #[serde(default)]
+    pub com_m: Option<[f64; 2]>,
+    #[serde(default)]
+    pub axis: JointAxis,
+}
+
+/// Contact shape, in the frame of the part it is attached to (body or link).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ShapeDescription {
+    /// A point (a toe).
+    Point { position_m: [f64; 2] },
+    /// A full circle that rolls (e.g. RHex's rounded body ends).
+    Circle { center_m: [f64; 2], radius_m: f64 },
+    /// A circular arc that rolls on its interior and acts as a point at its two ends. The
+    /// range holds the angles `α` of the outward normals `(sin α, cos α)` in the part's frame
+    /// (`α = 0` points along the link, `+z`), from `normal_range_rad[0]` to `[1]`
+    /// counter-clockwise. RHex's half-circle leg is `[-π, 0]`.
+    Arc { center_m: [f64; 2], radius_m: f64, normal_range_rad: [f64; 2] },
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum FrictionDescription {
+    /// Resists sliding: a normal and a tangential constraint row, Coulomb coefficient `mu`
+    /// (omit for "never slips").
+    Sticking {
+        #[serde(default)]
+        mu: Option<f64>,
+    },
+    /// Never resists sliding: a normal row only (kinetic friction zero, thesis assumption 5.9).
+    Sliding,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactDescription {
+    pub name: String,
+    /// The leg the contact belongs to; omitted for a body contact.
+    #[serde(default)]
+    pub leg: Option<String>,
+    /// Link index within the leg (default: the last link).
+    #[serde(default)]
+    pub link: Option<usize>,
+    pub shape: ShapeDescription,
+    pub friction: FrictionDescription,
+}
+
+impl RobotDescription {
+    pub fn from_toml_str(s: &str) -> Result<Self> {
+        toml::from_str(s).map_err(|e| CoreError::Parse { format: "toml", message: e.to_string() })
+    }
+
+    pub fn from_json_str(s: &str) -> Result<Self> {
+        serde_json::from_str(s).map_err(|e| CoreError::Parse { format: "json", message: e.to_string() })
+    }
+
+    /// Reads a `.toml` or `.json` file (by extension).
+    pub fn from_file(path: &std::path::Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|e| CoreError::Parse {
+            format: "file",
+            message: format!("{}: {e}", path.display()),
+        })?;
+        match path.extension().and_then(|e| e.to_str()) {
+            Some("json") => Self::from_json_str(&text),
+            _ => Self::from_toml_str(&text),
+        }
+    }
+
+    pub fn to_toml_string(&self) -> String {
+        toml::to_string_pretty(self).expect("a validated description always serializes")
+    }
+
+    /// Validates every field and builds the immutable [`Model`].
+    pub fn build(&self) -> Result<Model> {
+        let bad = |field: String, reason: &str| CoreError::InvalidDescription { field, reason: reason.into() };
+        let finite_nonneg = |field: String, v: f64| -> Result<()> {
+            if !v.is_finite() {
+                Err(bad(field, "must be finite"))
+            } else if v < 0.0 {
+                Err(bad(field, "must be non-negative"))
+            } else {
+                Ok(())
+            }
+        };
+        let finite2 = |field: String, v: [f64; 2]| -> Result<Vector2<f64>> {
+            if v.iter().all(|x| x.is_finite()) {
+                Ok(Vector2::new(v[0], v[1]))
+            } else {
+                Err(bad(field, "must be finite"))
+            }
+        };
+        if !(self.gravity_m_s2.is_finite()) {
+            return Err(bad("gravity_m_s2".into(), "must be finite"));
+        }
+        finite_nonneg("body.mass_kg".into(), self.body.mass_kg)?;
+        finite_nonneg("body.inertia_kg_m2".into(), self.body.inertia_kg_m2)?;
+        if self.body.mass_kg == 0.0 {
+            return Err(bad("body.mass_kg".into(), "the body (palm frame P) must have positive mass"));
+        }
+
+        let mut legs = Vec::with_capacity(self.legs.len());
+        let mut joints = Vec::new();
+        for (li, leg) in self.legs.iter().enumerate() {
+            let f = |s: &str| format!("legs[{li}].{s}");
+            if leg.name.is_empty() {
+                return Err(bad(f("name"), "must not be empty"));
+            }
+            if self.legs[..li].iter().any(|o| o.name == leg.name) {
+                return Err(bad(f("name"), "duplicate leg name"));
+            }
+            if leg.links.is_empty() {
+                return Err(bad(f("links"), "a leg needs at least one link"));
+            }
+            let hip = finite2(f("hip_m"), leg.hip_m)?;
+            let first_joint = joints.len();
+            for (k, link) in leg.links.iter().enumerate() {
+                let g = |s: &str| format!("legs[{li}].links[{k}].{s}");
+                finite_nonneg(g("length_m"), link.length_m)?;
+                finite_nonneg(g("mass_kg"), link.mass_kg)?;
+                finite_nonneg(g("inertia_kg_m2"), link.inertia_kg_m2)?;
+                let com = match link.com_m {
+                    Some(c) => finite2(g("com_m"), c)?,
+                    None => Vector2::new(0.0, 0.5 * link.length_m),
+                };
+                joints.push(Joint {
+                    leg: li,
+                    index_in_leg: k,
+                    axis_sign: link.axis.sign(),
+                    length_m: link.length_m,
+                    mass_kg: link.mass_kg,
+                    inertia_kg_m2: link.inertia_kg_m2,
+                    com_m: com,
+                });
+            }
+            legs.push(Leg { name: leg.name.clone(), hip_m: hip, first_joint, n_links: leg.links.len() });
+        }
+
+        if self.contacts.len() > 32 {
+            return Err(bad("contacts".into(), "at most 32 contact sites are supported"));
+        }
+        let mut contacts = Vec::with_capacity(self.contacts.len());
+        for (ci, c) in self.contacts.iter().enumerate() {
+            let f = |s: &str| format!("contacts[{ci}].{s}");
+            if c.name.is_empty() {
+                return Err(bad(f("name"), "must not be empty"));
+            }
+            if self.contacts[..ci].iter().any(|o| o.name == c.name) {
+                return Err(bad(f("name"), "duplicate contact name"));
+            }
+            let link = match &c.leg {
+                None => {
+                    if c.link.is_some() {
+                        return Err(bad(f("link"), "a body contact has no link index"));
+                    }
+                    None
+                }
+                Some(name) => {
+                    let li = legs
+                        .iter()
+                        .position(|l| &l.name == name)
+                        .ok_or_else(|| bad(f("leg"), &format!("no leg named `{name}`")))?;
+                    let leg = &legs[li];
+                    let k = c.link.unwrap_or(leg.n_links - 1);
+                    if k >= leg.n_links {
+                        return Err(bad(f("link"), "link index out of range"));
+                    }
+                    Some(leg.first_joint + k)
+                }
+            };
+            let shape = match &c.shape {
+                ShapeDescription::Point { position_m } => {
+                    ContactShape::Point { position_m: finite2(f("shape.position_m"), *position_m)? }
+                }
+                ShapeDescription::Circle { center_m, radius_m } => {
+                    finite_nonneg(f("shape.radius_m"), *radius_m)?;
+                    ContactShape::Arc {
+                        center_m: finite2(f("shape.center_m"), *center_m)?,
+                        radius_m: *radius_m,
+                        normal_range_rad: None,
+                    }
+                }
+                ShapeDescription::Arc { center_m, radius_m, normal_range_rad } => {
+                    finite_nonneg(f("shape.radius_m"), *radius_m)?;
+                    let [a0, a1] = *normal_range_rad;
+                    if !(a0.is_finite() && a1.is_finite()) || a1 <= a0 || a1 - a0 > std::f64::consts::TAU {
+                        return Err(bad(
+                            f("shape.normal_range_rad"),
+                            "must be finite with start < end and span at most 2π",
+                        ));
+                    }
+                    ContactShape::Arc {
+                        center_m: finite2(f("shape.center_m"), *center_m)?,
+                        radius_m: *radius_m,
+                        normal_range_rad: Some([a0, a1]),
+                    }
+                }
+            };
+            let friction = match c.friction {
+                FrictionDescription::Sliding => Friction::Sliding,
+                FrictionDescription::Sticking { mu } => {
+                    let mu = mu.unwrap_or(f64::INFINITY);
+                    if mu.is_nan() || mu < 0.0 {
+                        return Err(bad(f("friction.mu"), "must be non-negative"));
+                    }
+                    Friction::Sticking { mu }
+                }
+            };
+            contacts.push(Contact { name: c.name.clone(), link, shape, friction });
+        }
+
+        Ok(Model::new(
+            self.name.clone(),
+            self.gravity_m_s2,
+            self.body.mass_kg,
+            self.body.inertia_kg_m2,
+            legs,
+            joints,
+            contacts,
+        ))
+    }
+}

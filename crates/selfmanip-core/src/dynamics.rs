@@ -1,0 +1,246 @@
+//! The constrained dynamics of thesis (5.3)–(5.4) and the plastic impact (5.10), read as a
+//! pipeline on a reusable [`Data`] workspace (Pinocchio's `(model, data, …)`):
+//!
+//! ```text
+//! (q, q̇)      => kinematics            (link poses, velocities)
+//!             => inertia               (M̄, C̄q̇, N̄)
+//!             => constraints(mode)     (A, Ȧ, Ȧq̇)
+//!             => free massless joints  (dropped: no inertia, no contact)
+//!             => KKT factor            (M†, A†, Λ; Lemma 5.1)
+//! (τ)         => solve                 (q̈, λ)
+//! ```
+//!
+//! **Massless limbs out of contact.** A joint whose whole distal chain is massless and
+//! carries no active contact has no dynamics (thesis 5.1.1, footnote 3): its motion is
+//! prescribed, not computed. Such joints are removed from the KKT system; their `q̈` is the
+//! prescribed acceleration (`free_joint_qdd`, default 0) and their torque does no work.
+use crate::constraint::Constraints;
+use crate::contact::{ContactMode, Terrain};
+use crate::error::{check_vector, Result};
+use crate::inertia::{mass_coriolis_gravity, InertiaScratch};
+use crate::kinematics::Kinematics;
+use crate::kkt::KktFactorization;
+use crate::model::Model;
+use nalgebra::{DMatrix, DVector};
+
+/// Reusable workspace: every intermediate and output of one evaluation.
+#[derive(Debug, Clone, Default)]
+pub struct Data {
+    pub kin: Kinematics,
+    pub constraints: Constraints,
+    /// `M̄` (q×q).
+    pub m_bar: DMatrix<f64>,
+    /// `C̄ q̇` (q).
+    pub c_qd: DVector<f64>,
+    /// `N̄` (q).
+    pub n_bar: DVector<f64>,
+    pub kkt: KktFactorization,
+    /// Coordinates kept in the KKT system, ascending.
+    pub dynamic_coords: Vec<usize>,
+    /// Joints removed as free massless joints, ascending.
+    pub free_joints: Vec<usize>,
+    /// Outputs: `q̈` (q) and `λ` (c), in the row order of `constraints.rows`.
+    pub qdd: DVector<f64>,
+    pub lambda: DVector<f64>,
+    scratch: InertiaScratch,
+    m_r: DMatrix<f64>,
+    a_r: DMatrix<f64>,
+    f_r: Vec<f64>,
+    g_r: Vec<f64>,
+    x_r: Vec<f64>,
+}
+
+impl Data {
+    pub fn new(model: &Model) -> Self {
+        let nq = model.nq();
+        Data {
+            m_bar: DMatrix::zeros(nq, nq),
+            c_qd: DVector::zeros(nq),
+            n_bar: DVector::zeros(nq),
+            qdd: DVector::zeros(nq),
+            ..Default::default()
+        }
+    }
+
+    /// Runs every stage up to and including the KKT factorization.
+    pub fn prepare(
+        &mut self,
+        model: &Model,
+        terrain: &dyn Terrain,
+        mode: ContactMode,
+        q: &[f64],
+        qd: &[f64],
+    ) -> Result<()> {
+        let nq = model.nq();
+        check_vector("q", q, nq)?;
+        check_vector("qd", qd, nq)?;
+        mode.validate(model)?;
+        if self.m_bar.shape() != (nq, nq) {
+            *self = Data::new(model);
+        }
+        // (q, q̇) => poses, velocities
+        self.kin.compute(model, q, qd);
+        // => M̄, C̄q̇, N̄
+        mass_coriolis_gravity(model, &self.kin, qd, &mut self.scratch, &mut self.m_bar, &mut self.c_qd, &mut self.n_bar);
+        // => A, Ȧ, Ȧq̇
+        self.constraints.assemble(model, &self.kin, terrain, mode, qd);
+        // => which joints are free and massless
+        self.free_joints.clear();
+        for j in 0..model.n_joints() {
+            let distal = model.distal(j);
+            let massless = distal.clone().all(|k| model.joints[k].is_massless());
+            let touched = mode.active().any(|c| model.contacts[c].link.is_some_and(|l| distal.contains(&l)));
+            if massless && !touched {
+                self.free_joints.push(j);
+            }
+        }
+        self.dynamic_coords.clear();
+        self.dynamic_coords.extend((0..nq).filter(|i| !self.free_joints.contains(i)));
+        let m = self.dynamic_coords.len();
+        let c = self.constraints.n_rows();
+        if self.m_r.shape() != (m, m) {
+            self.m_r = DMatrix::zeros(m, m);
+        }
+        if self.a_r.shape() != (c, m) {
+            self.a_r = DMatrix::zeros(c, m);
+        }
+        for (i, &a) in self.dynamic_coords.iter().enumerate() {
+            for (j, &b) in self.dynamic_coords.iter().enumerate() {
+                self.m_r[(i, j)] = self.m_bar[(a, b)];
+            }
+            for r in 0..c {
+                self.a_r[(r, i)] = self.constraints.a[(r, a)];
+            }
+        }
+        // => factor [M̄ Aᵀ; A 0] on the dynamic coordinates
+        self.kkt.factor(&self.m_r, &self.a_r)
+    }
+
+    /// Solves the prepared KKT system for the generalized force `f` (full q) and constraint
+    /// right-hand side `g` (c), writing full-length `x` (prescribed entries = `x_free`) and `y`.
+    fn solve_prepared(&mut self, f: &[f64], g: &[f64], x_free: Option<&[f64]>, x: &mut DVector<f64>, y: &mut DVector<f64>) {
+        let nq = f.len();
+        let m = self.dynamic_coords.len();
+        let c = g.len();
+        self.f_r.resize(m, 0.0);
+        self.g_r.resize(c, 0.0);
+        self.x_r.resize(m, 0.0);
+        if x.len() != nq {
+            *x = DVector::zeros(nq);
+        }
+        if y.len() != c {
+            *y = DVector::zeros(c);
+        }
+        // prescribed accelerations of free joints move the rest through M̄ and A
+        x.fill(0.0);
+        if let Some(xf) = x_free {
+            for (i, &j) in self.free_joints.iter().enumerate() {
+                x[j] = xf[i];
+            }
+        }
+        for (i, &a) in self.dynamic_coords.iter().enumerate() {
+            let coupling: f64 = self.free_joints.iter().map(|&j| self.m_bar[(a, j)] * x[j]).sum();
+            self.f_r[i] = f[a] - coupling;
+        }
+        for r in 0..c {
+            let coupling: f64 = self.free_joints.iter().map(|&j| self.constraints.a[(r, j)] * x[j]).sum();
+            self.g_r[r] = g[r] - coupling;
+        }
+        self.kkt.solve(&self.f_r, &self.g_r, &mut self.x_r, y.as_mut_slice());
+        for (i, &a) in self.dynamic_coords.iter().enumerate() {
+            x[a] = self.x_r[i];
+        }
+    }
+
+    /// `Υ − C̄q̇ − N̄` for joint torques `tau`.
+    pub fn generalized_force(&self, model: &Model, tau: &[f64]) -> DVector<f64> {
+        let mut f = -&self.c_qd - &self.n_bar;
+        for (j, t) in tau.iter().enumerate().take(model.n_joints()) {
+            f[j] += t;
+        }
+        f
+    }
+}
+
+/// Thesis (5.3)–(5.4): `q̈ = M†(Υ − C̄q̇ − N̄) − A†ᵀȦq̇`, `λ = A†(Υ − C̄q̇ − N̄) − ΛȦq̇`.
+/// Results land in `data.qdd` and `data.lambda` (rows as in `data.constraints.rows`).
+#[allow(clippy::too_many_arguments)]
+pub fn forward_dynamics(
+    model: &Model,
+    data: &mut Data,
+    terrain: &dyn Terrain,
+    mode: ContactMode,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+    free_joint_qdd: Option<&[f64]>,
+) -> Result<()> {
+    check_vector("tau", tau, model.n_joints())?;
+    data.prepare(model, terrain, mode, q, qd)?;
+    if let Some(xf) = free_joint_qdd {
+        check_vector("free_joint_qdd", xf, data.free_joints.len())?;
+    }
+    let f = data.generalized_force(model, tau);
+    let g = -&data.constraints.a_dot_qd;
+    let (mut x, mut y) = (std::mem::take(&mut data.qdd), std::mem::take(&mut data.lambda));
+    data.solve_prepared(f.as_slice(), g.as_slice(), free_joint_qdd, &mut x, &mut y);
+    data.qdd = x;
+    data.lambda = y;
+    Ok(())
+}
+
+/// Result of a plastic impact into a mode.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Impact {
+    /// Post-impact velocity `q̇⁺ = q̇⁻ − A†ᵀ A q̇⁻` (5.52).
+    pub qd_plus: DVector<f64>,
+    /// Contact impulse `P_λ = −Λ A q̇⁻` (5.10), same sign convention as `λ`.
+    pub impulse: DVector<f64>,
+}
+
+/// Thesis (5.10)/(5.52): plastic impact into `mode` at `q` with incoming velocity `qd_minus`.
+/// Free massless joints keep their velocity (they carry no momentum).
+pub fn plastic_impact(
+    model: &Model,
+    data: &mut Data,
+    terrain: &dyn Terrain,
+    mode: ContactMode,
+    q: &[f64],
+    qd_minus: &[f64],
+) -> Result<Impact> {
+    data.prepare(model, terrain, mode, q, qd_minus)?;
+    let nq = model.nq();
+    let c = data.constraints.n_rows();
+    // [M̄ Aᵀ; A 0][Δq̇; P] = [0; −A q̇⁻]
+    let g = -(&data.constraints.a * DVector::from_column_slice(qd_minus));
+    let f = vec![0.0; nq];
+    let (mut dx, mut p) = (DVector::zeros(nq), DVector::zeros(c));
+    data.solve_prepared(&f, g.as_slice(), None, &mut dx, &mut p);
+    Ok(Impact { qd_plus: DVector::from_column_slice(qd_minus) + dx, impulse: p })
+}
+
+/// Thesis (5.39): the pseudo-impulse `P_δ = A†(Υ − C̄q̇⁻ − N̄) δt` for an impact into `mode`.
+pub fn pseudo_impulse(
+    model: &Model,
+    data: &mut Data,
+    terrain: &dyn Terrain,
+    mode: ContactMode,
+    q: &[f64],
+    qd_minus: &[f64],
+    tau: &[f64],
+    delta_t_s: f64,
+) -> Result<DVector<f64>> {
+    check_vector("tau", tau, model.n_joints())?;
+    data.prepare(model, terrain, mode, q, qd_minus)?;
+    let f = data.generalized_force(model, tau);
+    let g = vec![0.0; data.constraints.n_rows()];
+    let (mut x, mut y) = (DVector::zeros(model.nq()), DVector::zeros(g.len()));
+    data.solve_prepared(f.as_slice(), &g, None, &mut x, &mut y);
+    Ok(y * delta_t_s)
+}
+
+/// Kinetic energy `½ q̇ᵀ M̄ q̇` (4.24) at the state of the last `prepare`.
+pub fn kinetic_energy(data: &Data, qd: &[f64]) -> f64 {
+    let v = DVector::from_column_slice(qd);
+    0.5 * v.dot(&(&data.m_bar * &v))
+}

@@ -1,0 +1,54 @@
+//! The one error type of the core crate.
+use thiserror::Error;
+
+/// Why the KKT matrix of (5.2) cannot be inverted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum SingularityKind {
+    /// The active constraint rows of `A` are linearly dependent (an over-constrained
+    /// contact set such as RHex's `1111`, or a kinematic singularity).
+    RedundantConstraints,
+    /// Lemma 5.1: the reduced mass matrix `M̃ = Hᵀ M̄ H` is singular — some allowed motion
+    /// carries no kinetic energy (a massless limb that no contact pins down).
+    UnconstrainedMasslessMotion,
+}
+
+/// Errors of the self-manipulation core. Every public entry point returns these instead of
+/// panicking or producing NaN.
+#[derive(Debug, Clone, Error, PartialEq)]
+pub enum CoreError {
+    #[error("robot description: field `{field}`: {reason}")]
+    InvalidDescription { field: String, reason: String },
+    #[error("could not parse robot description ({format}): {message}")]
+    Parse { format: &'static str, message: String },
+    #[error("`{field}` has length {actual}, expected {expected}")]
+    WrongLength { field: &'static str, expected: usize, actual: usize },
+    #[error("`{field}` has a non-finite entry at index {index} ({value})")]
+    NonFinite { field: &'static str, index: usize, value: f64 },
+    #[error("unknown contact `{name}`")]
+    UnknownContact { name: String },
+    #[error("invalid contact mode: {reason}")]
+    InvalidMode { reason: String },
+    #[error("KKT matrix is singular ({kind:?}); condition estimate {condition_estimate:.3e}")]
+    SingularKkt { kind: SingularityKind, condition_estimate: f64 },
+    #[error("parameterization `{field}` is invalid: {reason}")]
+    InvalidParameterization { field: &'static str, reason: String },
+    #[error("quasi-static problem is ill-posed: {reason}")]
+    IllPosedQuasiStatic { reason: String },
+}
+
+pub type Result<T> = std::result::Result<T, CoreError>;
+
+/// Checks that a slice has the expected length and finite entries.
+pub(crate) fn check_vector(field: &'static str, v: &[f64], expected: usize) -> Result<()> {
+    if v.len() != expected {
+        return Err(CoreError::WrongLength { field, expected, actual: v.len() });
+    }
+    check_finite(field, v)
+}
+
+pub(crate) fn check_finite(field: &'static str, v: &[f64]) -> Result<()> {
+    match v.iter().position(|x| !x.is_finite()) {
+        Some(index) => Err(CoreError::NonFinite { field, index, value: v[index] }),
+        None => Ok(()),
+    }
+}

@@ -1,0 +1,162 @@
+//! Mass matrix `M̄` (4.25–4.26), Coriolis `C̄` (4.30) and gravity `N̄` (4.31).
+//!
+//! `M̄ = Σ_i J_iᵀ M_i J_i` over the body and every link, with `J_i` the Jacobian of the
+//! part's centre of mass and angle. This equals (4.26): `M̄ = diag(I, R_wp) M̂ diag(I, R_wpᵀ)`
+//! is the same kinetic energy written in body twists. Massless links contribute nothing.
+//!
+//! The Coriolis matrix used on the hot path is `C̄ = Σ_i J_iᵀ M_i J̇_i`. It differs from the
+//! Christoffel form (4.30) as a matrix but gives the same vector `C̄ q̇`, and keeps
+//! `dM̄/dt − 2C̄` skew-symmetric. [`coriolis_christoffel`] builds (4.30) itself.
+use crate::kinematics::{Kinematics, Part};
+use crate::model::Model;
+use nalgebra::{DMatrix, DVector, Vector2};
+
+/// Parts with mass: the body and every massive link, with (mass, inertia, COM local).
+fn massive_parts(model: &Model) -> impl Iterator<Item = (Part, f64, f64, Vector2<f64>)> + '_ {
+    std::iter::once((Part::Body, model.body_mass_kg, model.body_inertia_kg_m2, Vector2::zeros())).chain(
+        model
+            .joints
+            .iter()
+            .enumerate()
+            .filter(|(_, j)| !j.is_massless())
+            .map(|(i, j)| (Part::Link(i), j.mass_kg, j.inertia_kg_m2, j.com_m)),
+    )
+}
+
+/// Scratch rows reused by the inertia computations.
+#[derive(Debug, Clone, Default)]
+pub struct InertiaScratch {
+    jx: Vec<f64>,
+    jz: Vec<f64>,
+    jw: Vec<f64>,
+    jdx: Vec<f64>,
+    jdz: Vec<f64>,
+}
+
+impl InertiaScratch {
+    fn resize(&mut self, nq: usize) {
+        for v in [&mut self.jx, &mut self.jz, &mut self.jw, &mut self.jdx, &mut self.jdz] {
+            v.resize(nq, 0.0);
+        }
+    }
+}
+
+const EX: Vector2<f64> = Vector2::new(1.0, 0.0);
+const EZ: Vector2<f64> = Vector2::new(0.0, 1.0);
+
+/// Writes `M̄`, `C̄ q̇` and `N̄` (the latter two as vectors) for the current kinematics.
+pub fn mass_coriolis_gravity(
+    model: &Model,
+    kin: &Kinematics,
+    qd: &[f64],
+    s: &mut InertiaScratch,
+    m_bar: &mut DMatrix<f64>,
+    c_qd: &mut DVector<f64>,
+    n_bar: &mut DVector<f64>,
+) {
+    let nq = model.nq();
+    s.resize(nq);
+    m_bar.fill(0.0);
+    c_qd.fill(0.0);
+    n_bar.fill(0.0);
+    let g = model.gravity_m_s2;
+    for (part, m, inertia, com) in massive_parts(model) {
+        let p = kin.point(part, com);
+        let pd = kin.material_velocity(part, p);
+        kin.point_jacobian_row(model, part, p, EX, &mut s.jx);
+        kin.point_jacobian_row(model, part, p, EZ, &mut s.jz);
+        kin.angular_jacobian_row(model, part, &mut s.jw);
+        // M̄ += m Jᵀ J + I J_ωᵀ J_ω
+        for a in 0..nq {
+            for b in 0..nq {
+                m_bar[(a, b)] += m * (s.jx[a] * s.jx[b] + s.jz[a] * s.jz[b]) + inertia * s.jw[a] * s.jw[b];
+            }
+        }
+        // C̄ q̇ += m Jᵀ (J̇ q̇)   (planar: J̇_ω = 0)
+        kin.point_jacobian_rate_row(model, part, pd, EX, &mut s.jdx);
+        kin.point_jacobian_rate_row(model, part, pd, EZ, &mut s.jdz);
+        let ax: f64 = s.jdx.iter().zip(qd).map(|(a, b)| a * b).sum();
+        let az: f64 = s.jdz.iter().zip(qd).map(|(a, b)| a * b).sum();
+        for a in 0..nq {
+            c_qd[a] += m * (s.jx[a] * ax + s.jz[a] * az);
+            // N̄ = ∂V/∂q with V = −m g z_com (z down)
+            n_bar[a] -= m * g * s.jz[a];
+        }
+    }
+}
+
+/// The matrix `C̄ = Σ m J_pᵀ J̇_p` (same `C̄ q̇` as (4.30)).
+pub fn coriolis_matrix(model: &Model, kin: &Kinematics) -> DMatrix<f64> {
+    let nq = model.nq();
+    let mut s = InertiaScratch::default();
+    s.resize(nq);
+    let mut c = DMatrix::zeros(nq, nq);
+    for (part, m, _inertia, com) in massive_parts(model) {
+        let p = kin.point(part, com);
+        let pd = kin.material_velocity(part, p);
+        kin.point_jacobian_row(model, part, p, EX, &mut s.jx);
+        kin.point_jacobian_row(model, part, p, EZ, &mut s.jz);
+        kin.point_jacobian_rate_row(model, part, pd, EX, &mut s.jdx);
+        kin.point_jacobian_rate_row(model, part, pd, EZ, &mut s.jdz);
+        for a in 0..nq {
+            for b in 0..nq {
+                c[(a, b)] += m * (s.jx[a] * s.jdx[b] + s.jz[a] * s.jdz[b]);
+            }
+        }
+    }
+    c
+}
+
+/// `∂M̄/∂q_k` for every `k`, exactly: `J̇` evaluated at `q̇ = e_k` is `∂J/∂q_k`.
+pub fn mass_matrix_partials(model: &Model, q: &[f64]) -> Vec<DMatrix<f64>> {
+    let nq = model.nq();
+    let mut kin = Kinematics::default();
+    let mut s = InertiaScratch::default();
+    s.resize(nq);
+    let mut out = Vec::with_capacity(nq);
+    for k in 0..nq {
+        let mut e = vec![0.0; nq];
+        e[k] = 1.0;
+        kin.compute(model, q, &e);
+        let mut dm = DMatrix::zeros(nq, nq);
+        for (part, m, _inertia, com) in massive_parts(model) {
+            let p = kin.point(part, com);
+            let pd = kin.material_velocity(part, p);
+            kin.point_jacobian_row(model, part, p, EX, &mut s.jx);
+            kin.point_jacobian_row(model, part, p, EZ, &mut s.jz);
+            kin.point_jacobian_rate_row(model, part, pd, EX, &mut s.jdx);
+            kin.point_jacobian_rate_row(model, part, pd, EZ, &mut s.jdz);
+            for a in 0..nq {
+                for b in 0..nq {
+                    dm[(a, b)] += m
+                        * (s.jdx[a] * s.jx[b] + s.jx[a] * s.jdx[b] + s.jdz[a] * s.jz[b] + s.jz[a] * s.jdz[b]);
+                }
+            }
+        }
+        out.push(dm);
+    }
+    out
+}
+
+/// The Christoffel-symbol Coriolis matrix of thesis (4.30):
+/// `C̄_ij = ½ Σ_k (∂M̄_ij/∂q_k + ∂M̄_ik/∂q_j − ∂M̄_kj/∂q_i) q̇_k`.
+pub fn coriolis_christoffel(model: &Model, q: &[f64], qd: &[f64]) -> DMatrix<f64> {
+    let nq = model.nq();
+    let dm = mass_matrix_partials(model, q);
+    let mut c = DMatrix::zeros(nq, nq);
+    for i in 0..nq {
+        for j in 0..nq {
+            let mut acc = 0.0;
+            for k in 0..nq {
+                acc += 0.5 * (dm[k][(i, j)] + dm[j][(i, k)] - dm[i][(k, j)]) * qd[k];
+            }
+            c[(i, j)] = acc;
+        }
+    }
+    c
+}
+
+/// Potential energy `V` (4.27): `−Σ m g z_com` (z down).
+pub fn potential_energy(model: &Model, kin: &Kinematics) -> f64 {
+    massive_parts(model).map(|(part, m, _, com)| -m * model.gravity_m_s2 * kin.point(part, com).y).sum()
+}

@@ -1,0 +1,166 @@
+//! Forward kinematics of the planar tree: link poses and velocities, point Jacobians and
+//! their exact time derivatives (closed forms; no finite differences).
+//!
+//! Every angle in a planar tree is a sum of coordinates (`β_j = φ + Σ_{k≤j} s_k θ_k`), so for
+//! a point `p` on part `b` the Jacobian column of a coordinate that rotates `b` about the
+//! point `o` is `s S(p − o)`, and its time derivative is `s S(ṗ − ȯ)` where `ṗ` is the rate of
+//! the point at which the Jacobian is evaluated (the material velocity for a fixed point,
+//! the centre's velocity for a rolling contact on a plane).
+use crate::frames::{perp, rotate};
+use crate::model::Model;
+use nalgebra::{DMatrix, Vector2};
+
+/// The rigid part a point belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Part {
+    Body,
+    /// The link driven by joint `j`.
+    Link(usize),
+}
+
+/// Poses and velocities of all parts at one `(q, q̇)`.
+#[derive(Debug, Clone, Default)]
+pub struct Kinematics {
+    pub body_pos: Vector2<f64>,
+    pub body_vel: Vector2<f64>,
+    pub phi: f64,
+    pub phi_dot: f64,
+    /// World position of joint `j` (the origin of link `j`).
+    pub origin: Vec<Vector2<f64>>,
+    pub origin_vel: Vec<Vector2<f64>>,
+    /// World angle of link `j` about `+y`.
+    pub beta: Vec<f64>,
+    pub beta_dot: Vec<f64>,
+}
+
+impl Kinematics {
+    /// Recomputes every pose and velocity (no allocation after the first call).
+    pub fn compute(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
+        let n = model.n_joints();
+        self.origin.resize(n, Vector2::zeros());
+        self.origin_vel.resize(n, Vector2::zeros());
+        self.beta.resize(n, 0.0);
+        self.beta_dot.resize(n, 0.0);
+        self.body_pos = Vector2::new(q[n], q[n + 1]);
+        self.body_vel = Vector2::new(qd[n], qd[n + 1]);
+        self.phi = q[n + 2];
+        self.phi_dot = qd[n + 2];
+        for leg in &model.legs {
+            // hip: o = X + R(φ) h,  ȯ = Ẋ + φ̇ S(R(φ) h)
+            let rh = rotate(self.phi, leg.hip_m);
+            let mut o = self.body_pos + rh;
+            let mut od = self.body_vel + self.phi_dot * perp(rh);
+            let mut b = self.phi;
+            let mut bd = self.phi_dot;
+            for j in leg.first_joint..leg.first_joint + leg.n_links {
+                let joint = &model.joints[j];
+                b += joint.axis_sign * q[j];
+                bd += joint.axis_sign * qd[j];
+                self.origin[j] = o;
+                self.origin_vel[j] = od;
+                self.beta[j] = b;
+                self.beta_dot[j] = bd;
+                // next joint at the link's tip
+                let tip = rotate(b, Vector2::new(0.0, joint.length_m));
+                o += tip;
+                od += bd * perp(tip);
+            }
+        }
+    }
+
+    pub fn part_angle(&self, part: Part) -> f64 {
+        match part {
+            Part::Body => self.phi,
+            Part::Link(j) => self.beta[j],
+        }
+    }
+
+    pub fn part_angle_rate(&self, part: Part) -> f64 {
+        match part {
+            Part::Body => self.phi_dot,
+            Part::Link(j) => self.beta_dot[j],
+        }
+    }
+
+    pub fn part_origin(&self, part: Part) -> Vector2<f64> {
+        match part {
+            Part::Body => self.body_pos,
+            Part::Link(j) => self.origin[j],
+        }
+    }
+
+    /// World position of a point given in the part's frame.
+    pub fn point(&self, part: Part, local: Vector2<f64>) -> Vector2<f64> {
+        self.part_origin(part) + rotate(self.part_angle(part), local)
+    }
+
+    /// Material velocity of the part's point currently at world position `p`.
+    pub fn material_velocity(&self, part: Part, p: Vector2<f64>) -> Vector2<f64> {
+        let (o, od) = match part {
+            Part::Body => (self.body_pos, self.body_vel),
+            Part::Link(j) => (self.origin[j], self.origin_vel[j]),
+        };
+        od + self.part_angle_rate(part) * perp(p - o)
+    }
+
+    /// Writes the 2×nq Jacobian of the material point of `part` at world position `p`
+    /// (projected on the unit direction `d`) into `row`: `row = dᵀ J_p`.
+    pub fn point_jacobian_row(&self, model: &Model, part: Part, p: Vector2<f64>, d: Vector2<f64>, row: &mut [f64]) {
+        let n = model.n_joints();
+        row.iter_mut().for_each(|x| *x = 0.0);
+        row[n] = d.x;
+        row[n + 1] = d.y;
+        row[n + 2] = d.dot(&perp(p - self.body_pos));
+        if let Part::Link(j) = part {
+            for k in model.chain(j) {
+                row[k] = model.joints[k].axis_sign * d.dot(&perp(p - self.origin[k]));
+            }
+        }
+    }
+
+    /// Time derivative of [`Self::point_jacobian_row`] when the evaluation point moves with
+    /// velocity `p_dot` (and `d` is constant in the world).
+    pub fn point_jacobian_rate_row(
+        &self,
+        model: &Model,
+        part: Part,
+        p_dot: Vector2<f64>,
+        d: Vector2<f64>,
+        row: &mut [f64],
+    ) {
+        let n = model.n_joints();
+        row.iter_mut().for_each(|x| *x = 0.0);
+        row[n + 2] = d.dot(&perp(p_dot - self.body_vel));
+        if let Part::Link(j) = part {
+            for k in model.chain(j) {
+                row[k] = model.joints[k].axis_sign * d.dot(&perp(p_dot - self.origin_vel[k]));
+            }
+        }
+    }
+
+    /// Angular Jacobian row of a part: `ω = row · q̇`.
+    pub fn angular_jacobian_row(&self, model: &Model, part: Part, row: &mut [f64]) {
+        let n = model.n_joints();
+        row.iter_mut().for_each(|x| *x = 0.0);
+        row[n + 2] = 1.0;
+        if let Part::Link(j) = part {
+            for k in model.chain(j) {
+                row[k] = model.joints[k].axis_sign;
+            }
+        }
+    }
+
+    /// Full 2×nq translational Jacobian of a material point (rows: world x, z).
+    pub fn point_jacobian(&self, model: &Model, part: Part, p: Vector2<f64>) -> DMatrix<f64> {
+        let nq = model.nq();
+        let mut j = DMatrix::zeros(2, nq);
+        let mut row = vec![0.0; nq];
+        for (r, d) in [Vector2::new(1.0, 0.0), Vector2::new(0.0, 1.0)].into_iter().enumerate() {
+            self.point_jacobian_row(model, part, p, d, &mut row);
+            for c in 0..nq {
+                j[(r, c)] = row[c];
+            }
+        }
+        j
+    }
+}

@@ -1,0 +1,35 @@
+//! # selfmanip-core
+//!
+//! Exact constrained dynamics of planar legged robots in any contact mode, after the
+//! self-manipulation framework of the RHex thesis (chapters 4–5): the robot is the object
+//! it manipulates, contacts are fingers, and the legs may be massless.
+//!
+//! Conventions (documented once, in [`frames`] and [`contact`]): SI units; world and body
+//! frames North-East-Down (x forward, **z down**, pitch φ nose-up positive);
+//! `q = [θ₁…θₙ, x, z, φ]`; `λ` is the ground's force on the robot in each contact frame
+//! (normal axis into the ground, so pushing normal forces are negative); rows ordered by
+//! contact, tangential before normal.
+//!
+//! Pipeline: [`RobotDescription`] → [`Model`] (immutable) + [`Data`] (workspace) →
+//! [`forward_dynamics`] / [`plastic_impact`] / [`reduced::ReducedDynamics`] /
+//! [`quasistatic::QuasiStatic`].
+pub mod constraint;
+pub mod contact;
+pub mod description;
+pub mod dynamics;
+pub mod error;
+pub mod frames;
+pub mod grasp;
+pub mod inertia;
+pub mod kinematics;
+pub mod kkt;
+pub mod model;
+pub mod quasistatic;
+pub mod reduced;
+
+pub use contact::{ConstraintRow, ContactKind, ContactMode, FlatGround, GroundPlane, RowDirection, Terrain};
+pub use description::RobotDescription;
+pub use dynamics::{forward_dynamics, kinetic_energy, plastic_impact, pseudo_impulse, Data, Impact};
+pub use error::{CoreError, Result, SingularityKind};
+pub use kkt::{KktBlocks, KktFactorization, KktInfo};
+pub use model::Model;

@@ -1,0 +1,141 @@
+//! The immutable, validated robot model (built from a [`crate::RobotDescription`]).
+//!
+//! Generalized coordinates follow the thesis (section 4.1.2): `q = [θ, x]` with the `n`
+//! joint angles first (leg by leg, proximal to distal) and then the body pose
+//! `x = (x, z, φ)` in the world frame (z down, φ nose-up).
+use crate::description::RobotDescription;
+use nalgebra::Vector2;
+
+/// A leg: a planar serial chain of revolute joints attached at `hip_m` in the body frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Leg {
+    pub name: String,
+    pub hip_m: Vector2<f64>,
+    /// Index of the leg's first joint in `q`.
+    pub first_joint: usize,
+    pub n_links: usize,
+}
+
+/// Joint `j` and the link it drives (one link per joint).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Joint {
+    pub leg: usize,
+    pub index_in_leg: usize,
+    /// `+1` if a positive angle rotates about `+y` (nose-up sense), `−1` about `−y`.
+    pub axis_sign: f64,
+    pub length_m: f64,
+    pub mass_kg: f64,
+    pub inertia_kg_m2: f64,
+    /// Centre of mass in the link frame.
+    pub com_m: Vector2<f64>,
+}
+
+impl Joint {
+    pub fn is_massless(&self) -> bool {
+        self.mass_kg == 0.0 && self.inertia_kg_m2 == 0.0
+    }
+}
+
+/// Shape of a contact site in the frame of its part.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ContactShape {
+    Point { position_m: Vector2<f64> },
+    /// A circle (`normal_range_rad = None`) or an arc of outward-normal angles `[α0, α1]`.
+    Arc { center_m: Vector2<f64>, radius_m: f64, normal_range_rad: Option<[f64; 2]> },
+}
+
+/// Friction model of a contact site.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Friction {
+    /// Normal and tangential rows while the force stays in the Coulomb cone `|λ_t| ≤ μ|λ_n|`.
+    Sticking { mu: f64 },
+    /// Normal row only (frictionless sliding).
+    Sliding,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Contact {
+    pub name: String,
+    /// The joint whose link carries the contact, or `None` for the body.
+    pub link: Option<usize>,
+    pub shape: ContactShape,
+    pub friction: Friction,
+}
+
+/// The validated robot. Cheap to share between threads (`Send + Sync`, no interior mutability).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Model {
+    pub name: String,
+    pub gravity_m_s2: f64,
+    pub body_mass_kg: f64,
+    pub body_inertia_kg_m2: f64,
+    pub legs: Vec<Leg>,
+    pub joints: Vec<Joint>,
+    pub contacts: Vec<Contact>,
+}
+
+impl Model {
+    pub(crate) fn new(
+        name: String,
+        gravity_m_s2: f64,
+        body_mass_kg: f64,
+        body_inertia_kg_m2: f64,
+        legs: Vec<Leg>,
+        joints: Vec<Joint>,
+        contacts: Vec<Contact>,
+    ) -> Self {
+        Model { name, gravity_m_s2, body_mass_kg, body_inertia_kg_m2, legs, joints, contacts }
+    }
+
+    pub fn from_description(d: &RobotDescription) -> crate::Result<Self> {
+        d.build()
+    }
+
+    /// Number of joints `n`.
+    pub fn n_joints(&self) -> usize {
+        self.joints.len()
+    }
+    /// Dimension of `q`: `n + 3`.
+    pub fn nq(&self) -> usize {
+        self.joints.len() + 3
+    }
+    pub fn ix_x(&self) -> usize {
+        self.joints.len()
+    }
+    pub fn ix_z(&self) -> usize {
+        self.joints.len() + 1
+    }
+    pub fn ix_phi(&self) -> usize {
+        self.joints.len() + 2
+    }
+    pub fn n_contacts(&self) -> usize {
+        self.contacts.len()
+    }
+
+    pub fn contact_index(&self, name: &str) -> crate::Result<usize> {
+        self.contacts
+            .iter()
+            .position(|c| c.name == name)
+            .ok_or_else(|| crate::CoreError::UnknownContact { name: name.to_string() })
+    }
+
+    /// Joints `first..=j` of the leg of joint `j`: the chain that moves link `j`.
+    pub fn chain(&self, j: usize) -> std::ops::RangeInclusive<usize> {
+        self.legs[self.joints[j].leg].first_joint..=j
+    }
+
+    /// Joints of the leg that holds joint `j`, from `j` to the tip.
+    pub fn distal(&self, j: usize) -> std::ops::Range<usize> {
+        let leg = &self.legs[self.joints[j].leg];
+        j..leg.first_joint + leg.n_links
+    }
+
+    /// Total mass including links.
+    pub fn total_mass_kg(&self) -> f64 {
+        self.body_mass_kg + self.joints.iter().map(|j| j.mass_kg).sum::<f64>()
+    }
+
+    pub fn has_massless_links(&self) -> bool {
+        self.joints.iter().any(Joint::is_massless)
+    }
+}

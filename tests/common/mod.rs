@@ -1,0 +1,65 @@
+//! Shared helpers for the cross-crate tests: robots, seeded random states, projections.
+#![allow(dead_code)]
+use nalgebra::{DMatrix, DVector};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use selfmanip::core::{ContactMode, Data, FlatGround, Model, RobotDescription};
+use selfmanip::rhex::{LegShape, Rhex, RhexParams};
+
+pub fn rng(seed: u64) -> ChaCha8Rng {
+    ChaCha8Rng::seed_from_u64(seed)
+}
+
+/// RHex with the Table 4.2 planar-leg masses (2 × 0.063 kg, 2 × 0.00046 kg m²).
+pub fn rhex_massive(shape: LegShape) -> Rhex {
+    Rhex::new(RhexParams { m_l: 0.126, I_l: 0.00092, leg_shape: shape, ..RhexParams::default() }).unwrap()
+}
+
+pub fn rhex_massless(shape: LegShape) -> Rhex {
+    Rhex::new(RhexParams { leg_shape: shape, ..RhexParams::default() }).unwrap()
+}
+
+pub fn quadruped() -> Model {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/quadruped.toml");
+    RobotDescription::from_file(&path).unwrap().build().unwrap()
+}
+
+/// A random configuration: joints in (−π, π), body pose near the origin.
+pub fn random_q(model: &Model, r: &mut ChaCha8Rng) -> Vec<f64> {
+    let mut q: Vec<f64> = (0..model.n_joints()).map(|_| r.gen_range(-3.0..3.0)).collect();
+    q.push(r.gen_range(-0.5..0.5));
+    q.push(r.gen_range(-0.5..0.0));
+    q.push(r.gen_range(-0.6..0.6));
+    q
+}
+
+pub fn random_vec(n: usize, scale: f64, r: &mut ChaCha8Rng) -> Vec<f64> {
+    (0..n).map(|_| r.gen_range(-scale..scale)).collect()
+}
+
+/// Projects `v` onto `ker A` (Euclidean), giving a velocity consistent with the mode.
+pub fn project_to_constraints(model: &Model, mode: ContactMode, q: &[f64], v: &[f64]) -> Vec<f64> {
+    let mut data = Data::new(model);
+    let _ = data.prepare(model, &FlatGround, mode, q, v);
+    let a = data.constraints.a.clone();
+    let v = DVector::from_column_slice(v);
+    if a.nrows() == 0 {
+        return v.as_slice().to_vec();
+    }
+    let pinv = a.clone().pseudo_inverse(1e-12).unwrap();
+    (&v - pinv * (&a * &v)).as_slice().to_vec()
+}
+
+/// Relative error `‖a − b‖ / max(‖b‖, floor)`.
+pub fn rel_err(a: &DMatrix<f64>, b: &DMatrix<f64>, floor: f64) -> f64 {
+    (a - b).norm() / b.norm().max(floor)
+}
+
+pub fn rel_err_v(a: &DVector<f64>, b: &DVector<f64>, floor: f64) -> f64 {
+    (a - b).norm() / b.norm().max(floor)
+}
+
+/// Every `0/1` label of a model except the over-constrained all-contact one when `c > q`.
+pub fn feasible_labels(rhex: &Rhex) -> Vec<String> {
+    rhex.all_labels().into_iter().filter(|l| rhex.mode(l).unwrap().n_rows() <= rhex.model.nq()).collect()
+}
