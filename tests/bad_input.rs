@@ -1,0 +1,135 @@
+//! Bad input gets typed errors, never a panic or a NaN.
+mod common;
+use common::*;
+use proptest::prelude::*;
+use selfmanip::core::{
+    forward_dynamics, plastic_impact, ContactMode, CoreError, Data, FlatGround, RobotDescription, SingularityKind,
+};
+use selfmanip::rhex::{LegShape, Rhex, RhexError, RhexParams};
+
+#[test]
+fn non_finite_and_wrong_length_states() {
+    let rhex = rhex_massless(LegShape::HalfCircle);
+    let m = &rhex.model;
+    let mode = rhex.mode("0101").unwrap();
+    let mut d = Data::new(m);
+    let q = [0.1, 0.1, 0.0, -0.17, 0.0];
+    let e = forward_dynamics(m, &mut d, &FlatGround, mode, &[0.1, f64::NAN, 0.0, 0.0, 0.0], &[0.0; 5], &[0.0; 2], None);
+    assert!(matches!(e, Err(CoreError::NonFinite { field: "q", index: 1, .. })));
+    let e = forward_dynamics(m, &mut d, &FlatGround, mode, &q, &[0.0, 0.0, f64::INFINITY, 0.0, 0.0], &[0.0; 2], None);
+    assert!(matches!(e, Err(CoreError::NonFinite { field: "qd", index: 2, .. })));
+    let e = forward_dynamics(m, &mut d, &FlatGround, mode, &q, &[0.0; 5], &[f64::NAN, 0.0], None);
+    assert!(matches!(e, Err(CoreError::NonFinite { field: "tau", index: 0, .. })));
+    let e = forward_dynamics(m, &mut d, &FlatGround, mode, &q[..4], &[0.0; 5], &[0.0; 2], None);
+    assert!(matches!(e, Err(CoreError::WrongLength { field: "q", expected: 5, actual: 4 })));
+    let e = forward_dynamics(m, &mut d, &FlatGround, mode, &q, &[0.0; 5], &[0.0; 3], None);
+    assert!(matches!(e, Err(CoreError::WrongLength { field: "tau", .. })));
+    let e = plastic_impact(m, &mut d, &FlatGround, mode, &q, &[0.0; 6]);
+    assert!(matches!(e, Err(CoreError::WrongLength { field: "qd", .. })));
+}
+
+#[test]
+fn over_constrained_mode_is_a_typed_singularity() {
+    let rhex = rhex_massless(LegShape::HalfCircle);
+    let mut d = Data::new(&rhex.model);
+    let mode = rhex.mode("1111").unwrap(); // c = 6 > q = 5
+    let e = forward_dynamics(&rhex.model, &mut d, &FlatGround, mode, &[0.1, 0.1, 0.0, -0.17, 0.0], &[0.0; 5], &[0.0; 2], None);
+    match e {
+        Err(CoreError::SingularKkt { kind: SingularityKind::RedundantConstraints, condition_estimate }) => {
+            assert!(condition_estimate > 1e12, "{condition_estimate}")
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn unconstrained_massless_motion_violates_lemma_5_1() {
+    // A massless two-link leg touching with a sliding foot: the knee can fold with no
+    // kinetic energy, so M̃ is singular (Lemma 5.1).
+    let toml = r#"
+name = "massless two-link"
+[body]
+mass_kg = 5.0
+inertia_kg_m2 = 0.1
+[[legs]]
+name = "leg"
+hip_m = [0.0, 0.0]
+[[legs.links]]
+length_m = 0.2
+[[legs.links]]
+length_m = 0.2
+[[contacts]]
+name = "foot"
+leg = "leg"
+shape = { kind = "point", position_m = [0.0, 0.2] }
+friction = { kind = "sliding" }
+"#;
+    let m = RobotDescription::from_toml_str(toml).unwrap().build().unwrap();
+    let mode = ContactMode::parse_names(&m, "foot").unwrap();
+    let mut d = Data::new(&m);
+    let e = forward_dynamics(&m, &mut d, &FlatGround, mode, &[0.3, -0.6, 0.0, -0.3, 0.0], &[0.0; 5], &[0.0; 2], None);
+    assert!(
+        matches!(e, Err(CoreError::SingularKkt { kind: SingularityKind::UnconstrainedMasslessMotion, .. })),
+        "{e:?}"
+    );
+}
+
+#[test]
+fn bad_descriptions_and_labels() {
+    let base = RhexParams::default().description();
+    let mut d = base.clone();
+    d.body.mass_kg = -1.0;
+    assert!(matches!(d.build(), Err(CoreError::InvalidDescription { field, .. }) if field == "body.mass_kg"));
+    let mut d = base.clone();
+    d.legs[0].links[0].length_m = f64::NAN;
+    assert!(matches!(d.build(), Err(CoreError::InvalidDescription { field, .. }) if field == "legs[0].links[0].length_m"));
+    let mut d = base.clone();
+    d.contacts[0].leg = Some("nope".into());
+    assert!(matches!(d.build(), Err(CoreError::InvalidDescription { field, .. }) if field == "contacts[0].leg"));
+    assert!(matches!(RobotDescription::from_toml_str("name = 3"), Err(CoreError::Parse { .. })));
+    assert!(matches!(RobotDescription::from_json_str("{}"), Err(CoreError::Parse { format: "json", .. })));
+
+    let rhex = Rhex::chapter4();
+    assert!(matches!(rhex.mode("010"), Err(RhexError::ModeLabel { .. })));
+    assert!(matches!(rhex.mode("01x1"), Err(RhexError::ModeLabel { .. })));
+    assert!(matches!(rhex.mode("s101"), Err(RhexError::ModeLabel { .. })), "the body cannot be marked sliding");
+    assert!(matches!(
+        Rhex::new(RhexParams { m_b: -7.0, ..RhexParams::default() }),
+        Err(RhexError::Params { field, .. }) if field == "m_b"
+    ));
+    assert!(matches!(
+        Rhex::new(RhexParams { pairs: vec![], ..RhexParams::default() }),
+        Err(RhexError::Params { field, .. }) if field == "pairs"
+    ));
+    // a sliding-only contact cannot stick
+    let m = &rhex.model;
+    assert!(matches!(ContactMode::parse_names(m, "front_body:stick"), Err(CoreError::InvalidMode { .. })));
+    assert!(matches!(ContactMode::parse_names(m, "nose"), Err(CoreError::UnknownContact { .. })));
+    assert!(ContactMode::from_bits(0b01, 0b10).is_err());
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+    /// Any finite state in any mode gives either finite outputs or a typed error.
+    #[test]
+    fn never_nan_never_panic(
+        q in proptest::collection::vec(-10.0f64..10.0, 5),
+        qd in proptest::collection::vec(-50.0f64..50.0, 5),
+        tau in proptest::collection::vec(-100.0f64..100.0, 2),
+        bits in 0u32..16,
+        massive in any::<bool>(),
+    ) {
+        let rhex = if massive { rhex_massive(LegShape::HalfCircle) } else { rhex_massless(LegShape::HalfCircle) };
+        let label: String = (0..4).map(|i| if bits >> (3 - i) & 1 == 1 { '1' } else { '0' }).collect();
+        let mode = rhex.mode(&label).unwrap();
+        let mut d = Data::new(&rhex.model);
+        match forward_dynamics(&rhex.model, &mut d, &FlatGround, mode, &q, &qd, &tau, None) {
+            Ok(()) => {
+                prop_assert!(d.qdd.iter().all(|x| x.is_finite()));
+                prop_assert!(d.lambda.iter().all(|x| x.is_finite()));
+            }
+            Err(CoreError::SingularKkt { .. }) => {}
+            Err(other) => prop_assert!(false, "unexpected error {other:?}"),
+        }
+    }
+}
