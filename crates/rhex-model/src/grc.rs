@@ -1,0 +1,1 @@
+//! Ground reaction complex (thesis ch. 3). Work in progress.
