@@ -1,0 +1,147 @@
+"""The ``selfmanip`` command (also ``python -m selfmanip``).
+
+``selfmanip demo`` (the default) runs the chapter-4 RHex model end to end on built-in defaults
+and prints a readable report; ``selfmanip dynamics`` evaluates (5.3)-(5.4) at one state;
+``selfmanip map`` writes the quasi-static contact-mode map (Fig. 4.3/4.6) as CSV.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from typing import Sequence
+
+import numpy as np
+
+from . import SelfmanipError
+from .rhex import Model
+
+_SUPPORT_GLYPH = {("B", "B"): ".", ("B", "R"): "r", ("B", "T"): "t", ("R", "B"): "R", ("T", "B"): "T",
+                  ("R", "R"): "o", ("R", "T"): "/", ("T", "R"): "\\", ("T", "T"): "#"}
+
+
+def _floats(text: str) -> list[float]:
+    try:
+        return [float(v) for v in text.split(",") if v.strip()]
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers: {e}") from e
+
+
+def demo(out=None) -> int:
+    """The chapter-4 RHex, end to end."""
+    out = out or sys.stdout
+    p = print
+    m = Model()
+    prm = m.params
+    p("selfmanip demo: the chapter-4 RHex (Table 4.2, massless half-circle legs)", file=out)
+    p(f"  m_b={prm['m_b']} kg  I_b={prm['I_b']} kg m^2  l={prm['l1']} m  rho={prm['rho1']} m  "
+      f"rho_b={prm['rho_b']} m  tau_s={prm['tau_s']} N m", file=out)
+    p("  frames: North-East-Down (z down, phi nose-up); lam = ground force on robot, normal into ground", file=out)
+
+    # 1. standing on both toes, pushing: (5.3)-(5.4) and Result C.1 (4.60)
+    theta, tau = 0.4, 0.1 * prm["tau_s"]
+    q = [theta, theta, 0.0, -prm["rho1"] * math.cos(theta), 0.0]
+    d = m.dynamics("0101", q, [0.0] * 5, [tau, tau])
+    p(f"\n[1] stance 0101 at theta1=theta2={theta} rad, tau={tau} N m on both legs", file=out)
+    p(f"    qdd = {np.array2string(d.qdd, precision=4)}  (theta1, theta2, x, z, phi)", file=out)
+    p(f"    lam = {np.array2string(d.lam, precision=3)}  rows {[r[0] + '.' + r[1][0] for r in d.rows]}", file=out)
+    diff = d.lam[1] - d.lam[3]
+    p(f"    Result C.1: rear-front toe push {diff:.6f} N vs 2 tau / l = {2 * tau / prm['l1']:.6f} N", file=out)
+
+    # 2. the KKT blocks
+    k = m.kkt("0101", q)
+    p(f"\n[2] KKT (5.2): A is {k.A.shape[0]}x{k.A.shape[1]}, constraint condition "
+      f"{k.constraint_condition:.2f}, eig(Lambda) = {np.array2string(np.linalg.eigvalsh(k.Lambda), precision=3)}",
+      file=out)
+
+    # 3. landing: plastic impact from flight onto both legs
+    qd = [0.0, 0.0, 0.3, 1.0, -0.5]
+    ke0, _ = m.energy(q, qd)
+    imp = m.impact("0101", q, qd)
+    ke1, _ = m.energy(q, imp.qd_plus)
+    p(f"\n[3] plastic impact (5.10) landing at z' = 1 m/s: kinetic energy {ke0:.3f} J -> {ke1:.3f} J, "
+      f"impulse {np.array2string(imp.impulse, precision=3)} N s", file=out)
+
+    # 4. the quasi-static contact-mode map and Result B.1
+    n = 36
+    cm = m.contact_mode_map(n)
+    p(f"\n[4] quasi-static supports over the joint torus (Fig. 4.3), theta1 down, theta2 across, "
+      f"[-pi, pi) on {n}x{n}:", file=out)
+    p("    front/rear support: . body/body  # toe/toe  o roll/roll  T toe/body  R roll/body  "
+      "t body/toe  r body/roll  / roll/toe  \\ toe/roll", file=out)
+    for i in range(n):
+        p("    " + "".join(_SUPPORT_GLYPH.get((cm.front[i, j], cm.rear[i, j]), " ") for j in range(n)), file=out)
+    phi_max = np.nanmax(cm.phi)
+    b1 = math.asin((prm["rho1"] - prm["rho_b"]) / (prm["l1"] + prm["l2"]))
+    p(f"    largest pitch on this grid {math.degrees(phi_max):.2f} deg; Result B.1 bound "
+      f"arcsin((rho-rho_b)/2l) = {math.degrees(b1):.2f} deg", file=out)
+
+    # 5. speed of one evaluation through Python
+    reps = 20000
+    t0 = time.perf_counter()
+    for _ in range(reps):
+        m.dynamics("0101", q, qd, [tau, tau])
+    dt = (time.perf_counter() - t0) / reps
+    p(f"\n[5] {dt * 1e6:.1f} us per dynamics call from Python (the Rust core alone: see `cargo bench --bench kkt`)",
+      file=out)
+    return 0
+
+
+def _dynamics(args) -> int:
+    m = Model()
+    d = m.dynamics(args.mode, args.q, args.qd, args.tau)
+    print(f"mode {d.mode}")
+    print("qdd " + " ".join(f"{v:.9g}" for v in d.qdd))
+    for (contact, direction), v in zip(d.rows, d.lam):
+        print(f"lam {contact} {direction} {v:.9g}")
+    if d.free_joints:
+        print(f"free massless joints (prescribed qdd): {d.free_joints}")
+    return 0
+
+
+def _map(args) -> int:
+    cm = Model().contact_mode_map(args.n)
+    out = open(args.csv, "w", encoding="utf-8") if args.csv else sys.stdout
+    try:
+        out.write("theta1_rad,theta2_rad,phi_rad,height_m,front,rear,label\n")
+        for i in range(args.n):
+            for j in range(args.n):
+                out.write(f"{cm.theta1[i, j]:.12g},{cm.theta2[i, j]:.12g},{cm.phi[i, j]:.12g},"
+                          f"{cm.height_m[i, j]:.12g},{cm.front[i, j]},{cm.rear[i, j]},{cm.label[i, j]}\n")
+    finally:
+        if out is not sys.stdout:
+            out.close()
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="selfmanip", description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="command")
+    sub.add_parser("demo", help="the chapter-4 RHex end to end on built-in defaults (default)")
+    dy = sub.add_parser("dynamics", help="evaluate (5.3)-(5.4) for the default RHex at one state")
+    dy.add_argument("--mode", default="0101", help="chapter-3 label, bits FB FL RB RL (default 0101)")
+    dy.add_argument("--q", type=_floats, default=[0.3, 0.3, 0.0, -0.17 * math.cos(0.3), 0.0],
+                    help="theta1,theta2,x,z,phi (rad, m; z down)")
+    dy.add_argument("--qd", type=_floats, default=[0.0] * 5)
+    dy.add_argument("--tau", type=_floats, default=[0.0, 0.0], help="hip torques (N m)")
+    mp = sub.add_parser("map", help="quasi-static contact-mode map (Fig. 4.3/4.6) as CSV")
+    mp.add_argument("--n", type=int, default=64)
+    mp.add_argument("--csv", help="output file (default: stdout)")
+    return ap
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        if args.command in (None, "demo"):
+            return demo()
+        if args.command == "dynamics":
+            return _dynamics(args)
+        if args.command == "map":
+            return _map(args)
+    except (SelfmanipError, ValueError, TypeError) as e:
+        print(f"selfmanip: error: {e}", file=sys.stderr)
+        return 2
+    return 2

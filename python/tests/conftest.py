@@ -1,0 +1,47 @@
+import math
+import pathlib
+
+import numpy as np
+import pytest
+
+import selfmanip
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+QUADRUPED = REPO / "tests" / "data" / "quadruped.toml"
+
+# Table 4.2 planar-pair leg values (2 x the single-leg 0.063 kg, 0.00046 kg m^2)
+MASSIVE_LEGS = {"m_l": 0.126, "I_l": 0.00092}
+
+
+def gravity_by_finite_differences(robot, q, h=1e-6):
+    """N(q) = dV/dq from the engine's potential energy by central differences: a second route
+    to the gravity term the dynamics use internally."""
+    q = np.asarray(q, dtype=float)
+    n = np.zeros_like(q)
+    for i in range(len(q)):
+        e = np.zeros_like(q)
+        e[i] = h
+        n[i] = (robot.energy(q + e, 0 * q)[1] - robot.energy(q - e, 0 * q)[1]) / (2 * h)
+    return n
+
+
+def standing_q(theta1, theta2, rho=0.17):
+    """Both stick-like toes on the ground with the body level: z = -rho cos(theta) requires
+    theta1 = theta2 for phi = 0."""
+    assert theta1 == theta2
+    return [theta1, theta2, 0.0, -rho * math.cos(theta1), 0.0]
+
+
+@pytest.fixture(scope="module")
+def rhex():
+    return selfmanip.rhex.Model()
+
+
+@pytest.fixture(scope="module")
+def rhex_massive():
+    return selfmanip.rhex.Model(MASSIVE_LEGS)
+
+
+@pytest.fixture(scope="module")
+def quadruped():
+    return selfmanip.Robot.from_file(QUADRUPED)
