@@ -20,7 +20,16 @@ fn dynamics(c: &mut Criterion) {
             b.iter(|| {
                 // some modes are kinematically singular at this pose: the typed error path
                 // is part of what is timed
-                let _ = forward_dynamics(model, &mut data, &FlatGround, mode, black_box(&q), black_box(&qd), &tau, None);
+                let _ = forward_dynamics(
+                    model,
+                    &mut data,
+                    &FlatGround,
+                    mode,
+                    black_box(&q),
+                    black_box(&qd),
+                    &tau,
+                    None,
+                );
                 black_box(&data.qdd);
             })
         });

@@ -3,7 +3,8 @@ mod common;
 use common::*;
 use proptest::prelude::*;
 use selfmanip::core::{
-    forward_dynamics, plastic_impact, ContactMode, CoreError, Data, FlatGround, RobotDescription, SingularityKind,
+    forward_dynamics, plastic_impact, ContactMode, CoreError, Data, FlatGround, RobotDescription,
+    SingularityKind,
 };
 use selfmanip::rhex::{LegShape, Rhex, RhexError, RhexParams};
 
@@ -14,16 +15,83 @@ fn non_finite_and_wrong_length_states() {
     let mode = rhex.mode("0101").unwrap();
     let mut d = Data::new(m);
     let q = [0.1, 0.1, 0.0, -0.17, 0.0];
-    let e = forward_dynamics(m, &mut d, &FlatGround, mode, &[0.1, f64::NAN, 0.0, 0.0, 0.0], &[0.0; 5], &[0.0; 2], None);
-    assert!(matches!(e, Err(CoreError::NonFinite { field: "q", index: 1, .. })));
-    let e = forward_dynamics(m, &mut d, &FlatGround, mode, &q, &[0.0, 0.0, f64::INFINITY, 0.0, 0.0], &[0.0; 2], None);
-    assert!(matches!(e, Err(CoreError::NonFinite { field: "qd", index: 2, .. })));
-    let e = forward_dynamics(m, &mut d, &FlatGround, mode, &q, &[0.0; 5], &[f64::NAN, 0.0], None);
-    assert!(matches!(e, Err(CoreError::NonFinite { field: "tau", index: 0, .. })));
-    let e = forward_dynamics(m, &mut d, &FlatGround, mode, &q[..4], &[0.0; 5], &[0.0; 2], None);
-    assert!(matches!(e, Err(CoreError::WrongLength { field: "q", expected: 5, actual: 4 })));
+    let e = forward_dynamics(
+        m,
+        &mut d,
+        &FlatGround,
+        mode,
+        &[0.1, f64::NAN, 0.0, 0.0, 0.0],
+        &[0.0; 5],
+        &[0.0; 2],
+        None,
+    );
+    assert!(matches!(
+        e,
+        Err(CoreError::NonFinite {
+            field: "q",
+            index: 1,
+            ..
+        })
+    ));
+    let e = forward_dynamics(
+        m,
+        &mut d,
+        &FlatGround,
+        mode,
+        &q,
+        &[0.0, 0.0, f64::INFINITY, 0.0, 0.0],
+        &[0.0; 2],
+        None,
+    );
+    assert!(matches!(
+        e,
+        Err(CoreError::NonFinite {
+            field: "qd",
+            index: 2,
+            ..
+        })
+    ));
+    let e = forward_dynamics(
+        m,
+        &mut d,
+        &FlatGround,
+        mode,
+        &q,
+        &[0.0; 5],
+        &[f64::NAN, 0.0],
+        None,
+    );
+    assert!(matches!(
+        e,
+        Err(CoreError::NonFinite {
+            field: "tau",
+            index: 0,
+            ..
+        })
+    ));
+    let e = forward_dynamics(
+        m,
+        &mut d,
+        &FlatGround,
+        mode,
+        &q[..4],
+        &[0.0; 5],
+        &[0.0; 2],
+        None,
+    );
+    assert!(matches!(
+        e,
+        Err(CoreError::WrongLength {
+            field: "q",
+            expected: 5,
+            actual: 4
+        })
+    ));
     let e = forward_dynamics(m, &mut d, &FlatGround, mode, &q, &[0.0; 5], &[0.0; 3], None);
-    assert!(matches!(e, Err(CoreError::WrongLength { field: "tau", .. })));
+    assert!(matches!(
+        e,
+        Err(CoreError::WrongLength { field: "tau", .. })
+    ));
     let e = plastic_impact(m, &mut d, &FlatGround, mode, &q, &[0.0; 6]);
     assert!(matches!(e, Err(CoreError::WrongLength { field: "qd", .. })));
 }
@@ -33,9 +101,21 @@ fn over_constrained_mode_is_a_typed_singularity() {
     let rhex = rhex_massless(LegShape::HalfCircle);
     let mut d = Data::new(&rhex.model);
     let mode = rhex.mode("1111").unwrap(); // c = 6 > q = 5
-    let e = forward_dynamics(&rhex.model, &mut d, &FlatGround, mode, &[0.1, 0.1, 0.0, -0.17, 0.0], &[0.0; 5], &[0.0; 2], None);
+    let e = forward_dynamics(
+        &rhex.model,
+        &mut d,
+        &FlatGround,
+        mode,
+        &[0.1, 0.1, 0.0, -0.17, 0.0],
+        &[0.0; 5],
+        &[0.0; 2],
+        None,
+    );
     match e {
-        Err(CoreError::SingularKkt { kind: SingularityKind::RedundantConstraints, condition_estimate }) => {
+        Err(CoreError::SingularKkt {
+            kind: SingularityKind::RedundantConstraints,
+            condition_estimate,
+        }) => {
             assert!(condition_estimate > 1e12, "{condition_estimate}")
         }
         other => panic!("{other:?}"),
@@ -64,12 +144,30 @@ leg = "leg"
 shape = { kind = "point", position_m = [0.0, 0.2] }
 friction = { kind = "sliding" }
 "#;
-    let m = RobotDescription::from_toml_str(toml).unwrap().build().unwrap();
+    let m = RobotDescription::from_toml_str(toml)
+        .unwrap()
+        .build()
+        .unwrap();
     let mode = ContactMode::parse_names(&m, "foot").unwrap();
     let mut d = Data::new(&m);
-    let e = forward_dynamics(&m, &mut d, &FlatGround, mode, &[0.3, -0.6, 0.0, -0.3, 0.0], &[0.0; 5], &[0.0; 2], None);
+    let e = forward_dynamics(
+        &m,
+        &mut d,
+        &FlatGround,
+        mode,
+        &[0.3, -0.6, 0.0, -0.3, 0.0],
+        &[0.0; 5],
+        &[0.0; 2],
+        None,
+    );
     assert!(
-        matches!(e, Err(CoreError::SingularKkt { kind: SingularityKind::UnconstrainedMasslessMotion, .. })),
+        matches!(
+            e,
+            Err(CoreError::SingularKkt {
+                kind: SingularityKind::UnconstrainedMasslessMotion,
+                ..
+            })
+        ),
         "{e:?}"
     );
 }
@@ -79,20 +177,38 @@ fn bad_descriptions_and_labels() {
     let base = RhexParams::default().description();
     let mut d = base.clone();
     d.body.mass_kg = -1.0;
-    assert!(matches!(d.build(), Err(CoreError::InvalidDescription { field, .. }) if field == "body.mass_kg"));
+    assert!(
+        matches!(d.build(), Err(CoreError::InvalidDescription { field, .. }) if field == "body.mass_kg")
+    );
     let mut d = base.clone();
     d.legs[0].links[0].length_m = f64::NAN;
-    assert!(matches!(d.build(), Err(CoreError::InvalidDescription { field, .. }) if field == "legs[0].links[0].length_m"));
+    assert!(
+        matches!(d.build(), Err(CoreError::InvalidDescription { field, .. }) if field == "legs[0].links[0].length_m")
+    );
     let mut d = base.clone();
     d.contacts[0].leg = Some("nope".into());
-    assert!(matches!(d.build(), Err(CoreError::InvalidDescription { field, .. }) if field == "contacts[0].leg"));
-    assert!(matches!(RobotDescription::from_toml_str("name = 3"), Err(CoreError::Parse { .. })));
-    assert!(matches!(RobotDescription::from_json_str("{}"), Err(CoreError::Parse { format: "json", .. })));
+    assert!(
+        matches!(d.build(), Err(CoreError::InvalidDescription { field, .. }) if field == "contacts[0].leg")
+    );
+    assert!(matches!(
+        RobotDescription::from_toml_str("name = 3"),
+        Err(CoreError::Parse { .. })
+    ));
+    assert!(matches!(
+        RobotDescription::from_json_str("{}"),
+        Err(CoreError::Parse { format: "json", .. })
+    ));
 
     let rhex = Rhex::chapter4();
     assert!(matches!(rhex.mode("010"), Err(RhexError::ModeLabel { .. })));
-    assert!(matches!(rhex.mode("01x1"), Err(RhexError::ModeLabel { .. })));
-    assert!(matches!(rhex.mode("s101"), Err(RhexError::ModeLabel { .. })), "the body cannot be marked sliding");
+    assert!(matches!(
+        rhex.mode("01x1"),
+        Err(RhexError::ModeLabel { .. })
+    ));
+    assert!(
+        matches!(rhex.mode("s101"), Err(RhexError::ModeLabel { .. })),
+        "the body cannot be marked sliding"
+    );
     assert!(matches!(
         Rhex::new(RhexParams { m_b: -7.0, ..RhexParams::default() }),
         Err(RhexError::Params { field, .. }) if field == "m_b"
@@ -103,8 +219,14 @@ fn bad_descriptions_and_labels() {
     ));
     // a sliding-only contact cannot stick
     let m = &rhex.model;
-    assert!(matches!(ContactMode::parse_names(m, "front_body:stick"), Err(CoreError::InvalidMode { .. })));
-    assert!(matches!(ContactMode::parse_names(m, "nose"), Err(CoreError::UnknownContact { .. })));
+    assert!(matches!(
+        ContactMode::parse_names(m, "front_body:stick"),
+        Err(CoreError::InvalidMode { .. })
+    ));
+    assert!(matches!(
+        ContactMode::parse_names(m, "nose"),
+        Err(CoreError::UnknownContact { .. })
+    ));
     assert!(ContactMode::from_bits(0b01, 0b10).is_err());
 }
 

@@ -11,7 +11,11 @@ use selfmanip::rhex::LegShape;
 /// accelerations are measured (a fully constrained mode has q̈ = 0 exactly, and the classical
 /// formula reproduces that only to its own rounding).
 fn classical(data: &Data, model: &Model, tau: &[f64]) -> (DVector<f64>, DVector<f64>, f64) {
-    let minv = data.m_bar.clone().try_inverse().expect("massive legs: M̄ invertible");
+    let minv = data
+        .m_bar
+        .clone()
+        .try_inverse()
+        .expect("massive legs: M̄ invertible");
     let a = &data.constraints.a;
     let f = data.generalized_force(model, tau);
     let s = a * &minv * a.transpose();
@@ -19,7 +23,9 @@ fn classical(data: &Data, model: &Model, tau: &[f64]) -> (DVector<f64>, DVector<
     let lambda = if a.nrows() == 0 {
         DVector::zeros(0)
     } else {
-        s.lu().solve(&(a * &minv * &f + &data.constraints.a_dot_qd)).unwrap()
+        s.lu()
+            .solve(&(a * &minv * &f + &data.constraints.a_dot_qd))
+            .unwrap()
     };
     let qdd = &minv * (&f - a.transpose() * &lambda);
     let scale = (&minv * &f).norm();
@@ -46,8 +52,19 @@ fn check_lemmas(model: &Model, modes: &[ContactMode], seed: u64) {
             }
             let (qdd, lambda, scale) = classical(&data, model, &tau);
             // Lemma 5.2: (5.3)–(5.4) ≡ (5.8)–(5.9)
-            assert!(rel_err_v(&data.qdd, &qdd, scale) < 1e-10, "q̈ differs in {mode:?}: {} vs {}", data.qdd, qdd);
-            assert!(rel_err_v(&data.lambda, &lambda, 1.0) < 1e-10, "λ differs in {mode:?}: {} vs {} (cond {:?})", data.lambda, lambda, data.kkt.info);
+            assert!(
+                rel_err_v(&data.qdd, &qdd, scale) < 1e-10,
+                "q̈ differs in {mode:?}: {} vs {}",
+                data.qdd,
+                qdd
+            );
+            assert!(
+                rel_err_v(&data.lambda, &lambda, 1.0) < 1e-10,
+                "λ differs in {mode:?}: {} vs {} (cond {:?})",
+                data.lambda,
+                lambda,
+                data.kkt.info
+            );
             // Lemma 5.3: (5.10) ≡ (5.11) for an arbitrary incoming velocity
             let qd_minus = random_vec(model.nq(), 2.0, &mut r);
             let imp = plastic_impact(model, &mut data, &FlatGround, mode, &q, &qd_minus).unwrap();
@@ -59,7 +76,10 @@ fn check_lemmas(model: &Model, modes: &[ContactMode], seed: u64) {
             } else {
                 (a * &minv * a.transpose()).lu().solve(&(a * &v)).unwrap()
             };
-            assert!(rel_err_v(&imp.impulse, &p, 1.0) < 1e-10, "P_λ differs in {mode:?}");
+            assert!(
+                rel_err_v(&imp.impulse, &p, 1.0) < 1e-10,
+                "P_λ differs in {mode:?}"
+            );
             checked += 1;
         }
     }
@@ -70,7 +90,10 @@ fn check_lemmas(model: &Model, modes: &[ContactMode], seed: u64) {
 fn lemma_5_2_and_5_3_rhex_massive_legs() {
     for shape in [LegShape::HalfCircle, LegShape::Stick] {
         let rhex = rhex_massive(shape);
-        let modes: Vec<_> = feasible_labels(&rhex).iter().map(|l| rhex.mode(l).unwrap()).collect();
+        let modes: Vec<_> = feasible_labels(&rhex)
+            .iter()
+            .map(|l| rhex.mode(l).unwrap())
+            .collect();
         check_lemmas(&rhex.model, &modes, 52);
     }
 }
@@ -78,10 +101,16 @@ fn lemma_5_2_and_5_3_rhex_massive_legs() {
 #[test]
 fn lemma_5_2_and_5_3_quadruped() {
     let model = quadruped();
-    let modes: Vec<_> = ["", "fore_foot", "fore_foot,hind_foot", "hind_foot,belly", "fore_knee,hind_foot"]
-        .iter()
-        .map(|s| ContactMode::parse_names(&model, s).unwrap())
-        .collect();
+    let modes: Vec<_> = [
+        "",
+        "fore_foot",
+        "fore_foot,hind_foot",
+        "hind_foot,belly",
+        "fore_knee,hind_foot",
+    ]
+    .iter()
+    .map(|s| ContactMode::parse_names(&model, s).unwrap())
+    .collect();
     check_lemmas(&model, &modes, 53);
 }
 
@@ -95,18 +124,35 @@ fn massless_limit_converges() {
     let qd = project_to_constraints(&massless.model, mode, &q, &[1.0, -2.0, 0.3, 0.1, 0.4]);
     let tau = [12.0, 7.0];
     let mut data = Data::new(&massless.model);
-    forward_dynamics(&massless.model, &mut data, &FlatGround, mode, &q, &qd, &tau, None).unwrap();
+    forward_dynamics(
+        &massless.model,
+        &mut data,
+        &FlatGround,
+        mode,
+        &q,
+        &qd,
+        &tau,
+        None,
+    )
+    .unwrap();
     let (qdd0, lam0) = (data.qdd.clone(), data.lambda.clone());
     let mut errors = vec![];
     for eps in [1e-1, 1e-2, 1e-3, 1e-4] {
-        let p = selfmanip::rhex::RhexParams { m_l: eps, I_l: 0.007 * eps, ..massless.params.clone() };
+        let p = selfmanip::rhex::RhexParams {
+            m_l: eps,
+            I_l: 0.007 * eps,
+            ..massless.params.clone()
+        };
         let r = selfmanip::rhex::Rhex::new(p).unwrap();
         let mut d = Data::new(&r.model);
         forward_dynamics(&r.model, &mut d, &FlatGround, mode, &q, &qd, &tau, None).unwrap();
         errors.push(rel_err_v(&d.qdd, &qdd0, 1.0) + rel_err_v(&d.lambda, &lam0, 1.0));
     }
     for w in errors.windows(2) {
-        assert!(w[1] < 0.2 * w[0], "error must shrink ~linearly with ε: {errors:?}");
+        assert!(
+            w[1] < 0.2 * w[0],
+            "error must shrink ~linearly with ε: {errors:?}"
+        );
     }
     assert!(errors[3] < 1e-3, "{errors:?}");
 }
@@ -120,7 +166,8 @@ fn kkt_blocks_match_explicit_forms() {
     let mode = rhex.mode("0101").unwrap();
     let q = [-0.3, 0.4, 0.0, -0.15, 0.05];
     let mut data = Data::new(model);
-    data.prepare(model, &FlatGround, mode, &q, &[0.0; 5]).unwrap();
+    data.prepare(model, &FlatGround, mode, &q, &[0.0; 5])
+        .unwrap();
     let b = data.kkt.blocks();
     let a = data.constraints.a.clone();
     let minv = data.m_bar.clone().try_inverse().unwrap();
@@ -132,6 +179,15 @@ fn kkt_blocks_match_explicit_forms() {
     assert!(rel_err(&b.lambda, &(-&s), 1e-12) < 1e-10);
     // A† Aᵀ = I (left inverse), symmetric Λ, negative definite
     let c = a.nrows();
-    assert_relative_eq!(&b.a_dagger * a.transpose(), DMatrix::identity(c, c), epsilon = 1e-10);
-    assert!(b.lambda.clone().symmetric_eigenvalues().iter().all(|&e| e < 0.0));
+    assert_relative_eq!(
+        &b.a_dagger * a.transpose(),
+        DMatrix::identity(c, c),
+        epsilon = 1e-10
+    );
+    assert!(b
+        .lambda
+        .clone()
+        .symmetric_eigenvalues()
+        .iter()
+        .all(|&e| e < 0.0));
 }

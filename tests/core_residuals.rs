@@ -26,11 +26,17 @@ fn check_residuals(model: &Model, modes: &[ContactMode], seed: u64) -> usize {
             let qdd = &data.qdd;
             let acc = a * qdd + &data.constraints.a_dot_qd;
             let scale = 1.0 + qdd.norm();
-            assert!(acc.norm() < 1e-9 * scale * (1.0 + a.norm()), "A q̈ + Ȧ q̇ = {acc} in {mode:?}");
+            assert!(
+                acc.norm() < 1e-9 * scale * (1.0 + a.norm()),
+                "A q̈ + Ȧ q̇ = {acc} in {mode:?}"
+            );
             let f = data.generalized_force(model, &tau);
             let res = &data.m_bar * qdd + a.transpose() * &data.lambda - &f;
             for &i in &data.dynamic_coords {
-                assert!(res[i].abs() < 1e-8 * (1.0 + f.norm() + data.lambda.norm()), "EoM row {i}: {res} in {mode:?}");
+                assert!(
+                    res[i].abs() < 1e-8 * (1.0 + f.norm() + data.lambda.norm()),
+                    "EoM row {i}: {res} in {mode:?}"
+                );
             }
             // free massless joints: nothing acts on them (no inertia, no contact)
             for &j in &data.free_joints {
@@ -73,7 +79,10 @@ fn residuals_user_quadruped_from_file() {
         "fore_knee,belly",
         "fore_knee,hind_foot,belly",
     ];
-    let modes: Vec<_> = specs.iter().map(|s| ContactMode::parse_names(&model, s).unwrap()).collect();
+    let modes: Vec<_> = specs
+        .iter()
+        .map(|s| ContactMode::parse_names(&model, s).unwrap())
+        .collect();
     assert!(check_residuals(&model, &modes, 8) > 150);
 }
 
@@ -85,12 +94,16 @@ fn a_dot_matches_directional_difference() {
     for (model, modes) in [
         {
             let rh = rhex_massive(LegShape::HalfCircle);
-            let m: Vec<_> = ["0101", "1001", "0110", "0100", "0001"].iter().map(|l| rh.mode(l).unwrap()).collect();
+            let m: Vec<_> = ["0101", "1001", "0110", "0100", "0001"]
+                .iter()
+                .map(|l| rh.mode(l).unwrap())
+                .collect();
             (rh.model, m)
         },
         {
             let q = quadruped();
-            let m = vec![ContactMode::parse_names(&q, "fore_foot,hind_foot,fore_knee,belly").unwrap()];
+            let m =
+                vec![ContactMode::parse_names(&q, "fore_foot,hind_foot,fore_knee,belly").unwrap()];
             (q, m)
         },
     ] {
@@ -114,11 +127,17 @@ fn a_dot_matches_directional_difference() {
                 if (&fd - &a_dot).norm() > 1e-3 {
                     continue;
                 }
-                assert!((&fd - &a_dot).norm() < 1e-6 * (1.0 + a_dot.norm()), "Ȧ:\n{a_dot}\nFD:\n{fd}");
+                assert!(
+                    (&fd - &a_dot).norm() < 1e-6 * (1.0 + a_dot.norm()),
+                    "Ȧ:\n{a_dot}\nFD:\n{fd}"
+                );
                 checked += 1;
             }
         }
-        assert!(checked * 10 >= total * 9, "only {checked}/{total} samples away from a shape switch");
+        assert!(
+            checked * 10 >= total * 9,
+            "only {checked}/{total} samples away from a shape switch"
+        );
     }
 }
 
@@ -141,11 +160,26 @@ fn rolling_and_stick_share_a_but_not_a_dot() {
     kin.compute(&round.model, &q, &qd);
     let mut row = vec![0.0; 5];
     let part = selfmanip::core::kinematics::Part::Link(0);
-    kin.point_jacobian_row(&round.model, part, geo.point, nalgebra::Vector2::new(0.0, 1.0), &mut row);
-    assert!((a_round[(1, 0)] + row[0]).abs() < 1e-14, "same normal row as a stick at the contact point");
+    kin.point_jacobian_row(
+        &round.model,
+        part,
+        geo.point,
+        nalgebra::Vector2::new(0.0, 1.0),
+        &mut row,
+    );
+    assert!(
+        (a_round[(1, 0)] + row[0]).abs() < 1e-14,
+        "same normal row as a stick at the contact point"
+    );
     // stick: Ȧq̇ uses the material velocity of the contact point
     let v_mat = kin.material_velocity(part, geo.point);
-    kin.point_jacobian_rate_row(&round.model, part, v_mat, nalgebra::Vector2::new(0.0, 1.0), &mut row);
+    kin.point_jacobian_rate_row(
+        &round.model,
+        part,
+        v_mat,
+        nalgebra::Vector2::new(0.0, 1.0),
+        &mut row,
+    );
     let adq_stick: f64 = -row.iter().zip(&qd).map(|(a, b)| a * b).sum::<f64>();
     let beta_dot = kin.beta_dot[0];
     let radius = 0.5 * round.params.rho1;
@@ -169,8 +203,11 @@ fn coriolis_forms_agree() {
             let c_chr = coriolis_christoffel(&model, &q, &qd);
             let v = DVector::from_column_slice(&qd);
             assert!((&c_fast * &v - &c_chr * &v).norm() < 1e-10 * (1.0 + (&c_chr * &v).norm()));
-            let dm: DMatrix<f64> =
-                mass_matrix_partials(&model, &q).iter().zip(&qd).map(|(p, v)| p * *v).fold(DMatrix::zeros(model.nq(), model.nq()), |a, b| a + b);
+            let dm: DMatrix<f64> = mass_matrix_partials(&model, &q)
+                .iter()
+                .zip(&qd)
+                .map(|(p, v)| p * *v)
+                .fold(DMatrix::zeros(model.nq(), model.nq()), |a, b| a + b);
             for c in [&c_fast, &c_chr] {
                 let s = &dm - 2.0 * c;
                 assert!((&s + s.transpose()).norm() < 1e-10 * (1.0 + dm.norm()));
@@ -204,12 +241,16 @@ fn grasp_map_formulation_equals_direct_constraint() {
     for (model, modes) in [
         {
             let rh = rhex_massless(LegShape::HalfCircle);
-            let m: Vec<_> = feasible_labels(&rh).iter().map(|l| rh.mode(l).unwrap()).collect();
+            let m: Vec<_> = feasible_labels(&rh)
+                .iter()
+                .map(|l| rh.mode(l).unwrap())
+                .collect();
             (rh.model, m)
         },
         {
             let q = quadruped();
-            let m = vec![ContactMode::parse_names(&q, "fore_foot,hind_foot,fore_knee,belly").unwrap()];
+            let m =
+                vec![ContactMode::parse_names(&q, "fore_foot,hind_foot,fore_knee,belly").unwrap()];
             (q, m)
         },
     ] {
@@ -230,7 +271,10 @@ fn grasp_map_formulation_equals_direct_constraint() {
                         assert!((a[(row, j)] + maps.j_h[(row, j)]).abs() < 1e-12);
                     }
                     for k in 0..3 {
-                        assert!((a[(row, n + k)] - body[(row, k)]).abs() < 1e-12, "row {row} col {k}");
+                        assert!(
+                            (a[(row, n + k)] - body[(row, k)]).abs() < 1e-12,
+                            "row {row} col {k}"
+                        );
                     }
                 }
             }

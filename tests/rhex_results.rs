@@ -36,27 +36,56 @@ fn grasp_map_and_hand_jacobian_match_section_4_4_7() {
                 let rolling = shape == LegShape::HalfCircle && (u.sin() < 0.0);
                 let (gz, gx, jh_t, jh_n) = if rolling {
                     // (4.82), (4.86) — with ℓ_k signed (rear hip at −ℓ)
-                    (lk * s - 0.5 * rho * (1.0 + u.cos()), lk * c - 0.5 * rho * u.sin(), -0.5 * rho * (1.0 + u.cos()), -0.5 * rho * u.sin())
+                    (
+                        lk * s - 0.5 * rho * (1.0 + u.cos()),
+                        lk * c - 0.5 * rho * u.sin(),
+                        -0.5 * rho * (1.0 + u.cos()),
+                        -0.5 * rho * u.sin(),
+                    )
                 } else {
                     // (4.81), (4.85) — valid on the toe, i.e. whenever the lowest point is the toe
-                    (lk * s - rho * u.cos(), lk * c - rho * u.sin(), -rho * u.cos(), -rho * u.sin())
+                    (
+                        lk * s - rho * u.cos(),
+                        lk * c - rho * u.sin(),
+                        -rho * u.cos(),
+                        -rho * u.sin(),
+                    )
                 };
                 if shape == LegShape::HalfCircle && !rolling && u.cos() < 0.0 {
                     continue; // leg pointing up: the lowest point of the half disc is the hip end
                 }
                 let g = &maps.g_s;
                 let e = 1e-12;
-                assert!((g[(0, col)] + c).abs() < e && (g[(1, col)] + s).abs() < e, "G_s tangential force, k={k}");
-                assert!((g[(0, col + 1)] - s).abs() < e && (g[(1, col + 1)] + c).abs() < e, "G_s normal force");
-                assert!((g[(2, col)] - gz).abs() < e, "G_s moment of tangential row (k={k}, rolling={rolling})");
-                assert!((g[(2, col + 1)] - gx).abs() < e, "G_s moment of normal row (k={k})");
-                assert!((maps.j_h[(col, k)] - jh_t).abs() < e && (maps.j_h[(col + 1, k)] - jh_n).abs() < e, "J_h");
+                assert!(
+                    (g[(0, col)] + c).abs() < e && (g[(1, col)] + s).abs() < e,
+                    "G_s tangential force, k={k}"
+                );
+                assert!(
+                    (g[(0, col + 1)] - s).abs() < e && (g[(1, col + 1)] + c).abs() < e,
+                    "G_s normal force"
+                );
+                assert!(
+                    (g[(2, col)] - gz).abs() < e,
+                    "G_s moment of tangential row (k={k}, rolling={rolling})"
+                );
+                assert!(
+                    (g[(2, col + 1)] - gx).abs() < e,
+                    "G_s moment of normal row (k={k})"
+                );
+                assert!(
+                    (maps.j_h[(col, k)] - jh_t).abs() < e
+                        && (maps.j_h[(col + 1, k)] - jh_n).abs() < e,
+                    "J_h"
+                );
             }
             // (4.83) body contacts: (sin φ, −cos φ, ℓ_k cos φ)
             for (col, lk) in [(4usize, l), (5, -l)] {
                 let g = &maps.g_s;
                 assert!((g[(0, col)] - s).abs() < 1e-12 && (g[(1, col)] + c).abs() < 1e-12);
-                assert!((g[(2, col)] - lk * c).abs() < 1e-12, "body moment, radius ρ_b = {rho_b} drops out");
+                assert!(
+                    (g[(2, col)] - lk * c).abs() < 1e-12,
+                    "body moment, radius ρ_b = {rho_b} drops out"
+                );
             }
         }
     }
@@ -67,7 +96,10 @@ fn grasp_map_and_hand_jacobian_match_section_4_4_7() {
 /// the constrained motion. (`U = −1` on normal rows, so this is `λ_1n − λ_2n`.)
 #[test]
 fn result_c1_rear_minus_front_normal_force() {
-    for rhex in [rhex_massless(LegShape::Stick), rhex_massless(LegShape::HalfCircle)] {
+    for rhex in [
+        rhex_massless(LegShape::Stick),
+        rhex_massless(LegShape::HalfCircle),
+    ] {
         let l = rhex.params.l1;
         let mode = rhex.mode("0101").unwrap();
         let mut r = rng(41);
@@ -81,11 +113,25 @@ fn result_c1_rear_minus_front_normal_force() {
             let yd = random_vec(1, 3.0, &mut r)[0];
             let qd = project_to_constraints(&rhex.model, mode, &q, &[yd, yd, 0.0, 0.0, 0.0]);
             let tau = 5.0 + 20.0 * (i as f64) / 30.0;
-            forward_dynamics(&rhex.model, &mut data, &FlatGround, mode, &q, &qd, &[tau, tau], None).unwrap();
+            forward_dynamics(
+                &rhex.model,
+                &mut data,
+                &FlatGround,
+                mode,
+                &q,
+                &qd,
+                &[tau, tau],
+                None,
+            )
+            .unwrap();
             // rows: FL t, FL n, RL t, RL n
             let (l1n, l2n) = (data.lambda[1], data.lambda[3]);
             let diff = (-l2n) - (-l1n);
-            assert!((diff - 2.0 * tau / l).abs() < 1e-9 * (1.0 + diff.abs()), "θ={theta}: {diff} vs {}", 2.0 * tau / l);
+            assert!(
+                (diff - 2.0 * tau / l).abs() < 1e-9 * (1.0 + diff.abs()),
+                "θ={theta}: {diff} vs {}",
+                2.0 * tau / l
+            );
         }
     }
 }
@@ -99,7 +145,10 @@ fn result_b1_maximal_sensor_pitch() {
     let p = &rhex.params;
     let expected = ((p.rho1 - p.rho_b) / (p.l1 + p.l2)).asin();
     let map = contact_mode_map(&rhex, 144);
-    assert!(map.len() > 144 * 144 * 9 / 10, "the pitch is defined almost everywhere");
+    assert!(
+        map.len() > 144 * 144 * 9 / 10,
+        "the pitch is defined almost everywhere"
+    );
     let best = map.iter().max_by(|a, b| a.phi.total_cmp(&b.phi)).unwrap();
     // refine around the best grid point
     let mut phi_max = best.phi;
@@ -116,10 +165,19 @@ fn result_b1_maximal_sensor_pitch() {
             }
         }
     }
-    assert!((phi_max - expected).abs() < 1e-6, "max pitch {} vs {}", phi_max.to_degrees(), expected.to_degrees());
+    assert!(
+        (phi_max - expected).abs() < 1e-6,
+        "max pitch {} vs {}",
+        phi_max.to_degrees(),
+        expected.to_degrees()
+    );
     assert!((expected.to_degrees() - 17.0).abs() < 0.05);
     let at = quasi_static_pose(&rhex, t1, t2).unwrap();
-    assert_eq!(at.rear, Support::Body, "reached with the rear body on the ground");
+    assert_eq!(
+        at.rear,
+        Support::Body,
+        "reached with the rear body on the ground"
+    );
     assert!(matches!(at.front, Support::Toe | Support::Rolling));
     assert!((t1 - at.phi).abs() < 1e-3, "front leg vertical: θ₁ = φ");
     // Both legs rolling: the thesis says "about 10°" ([155]). Geometrically the supremum over
@@ -131,7 +189,11 @@ fn result_b1_maximal_sensor_pitch() {
         .filter(|p| p.front == Support::Rolling && p.rear == Support::Rolling)
         .map(|p| p.phi)
         .fold(f64::MIN, f64::max);
-    println!("max pitch {:.3}°, rolling-only {:.3}°", phi_max.to_degrees(), rolling_max.to_degrees());
+    println!(
+        "max pitch {:.3}°, rolling-only {:.3}°",
+        phi_max.to_degrees(),
+        rolling_max.to_degrees()
+    );
     assert!(rolling_max < expected && rolling_max > expected - 1f64.to_radians());
     // downward: symmetric
     let worst = map.iter().map(|p| p.phi).fold(f64::MAX, f64::min);
@@ -154,16 +216,38 @@ fn result_b2_round_leg_needs_less_holding_torque() {
         let phi = 0.25 * (i as f64 / 40.0) - 0.05;
         let u = -PI / 2.0 * (i as f64) / 40.0; // θ₁ − φ ∈ (−π/2, 0): round side down
         let q = [u + phi, -2.5, 0.0, -0.1, phi];
-        let tau_round = quasi_static(&round.model, &mut data, &FlatGround, round.mode("0110").unwrap(), &q, &none)
-            .unwrap()
-            .tau_particular[0];
-        let tau_stick = quasi_static(&stick.model, &mut data, &FlatGround, stick.mode("0110").unwrap(), &q, &none)
-            .unwrap()
-            .tau_particular[0];
+        let tau_round = quasi_static(
+            &round.model,
+            &mut data,
+            &FlatGround,
+            round.mode("0110").unwrap(),
+            &q,
+            &none,
+        )
+        .unwrap()
+        .tau_particular[0];
+        let tau_stick = quasi_static(
+            &stick.model,
+            &mut data,
+            &FlatGround,
+            stick.mode("0110").unwrap(),
+            &q,
+            &none,
+        )
+        .unwrap()
+        .tau_particular[0];
         // (4.57)–(4.58): τ₁ = −ℓ₂ρ m g cos φ sin(θ₁−φ) / (k(ℓ₁+ℓ₂) cos φ − ρ sin(θ₁−φ)), k = 2 round, 1 stick
-        let formula = |k: f64| -l * rho * m * g * phi.cos() * u.sin() / (k * 2.0 * l * phi.cos() - rho * u.sin());
-        assert!((tau_round - formula(2.0)).abs() < 1e-9, "(4.57) at θ₁−φ = {u}");
-        assert!((tau_stick - formula(1.0)).abs() < 1e-9, "(4.58) at θ₁−φ = {u}");
+        let formula = |k: f64| {
+            -l * rho * m * g * phi.cos() * u.sin() / (k * 2.0 * l * phi.cos() - rho * u.sin())
+        };
+        assert!(
+            (tau_round - formula(2.0)).abs() < 1e-9,
+            "(4.57) at θ₁−φ = {u}"
+        );
+        assert!(
+            (tau_stick - formula(1.0)).abs() < 1e-9,
+            "(4.58) at θ₁−φ = {u}"
+        );
         assert!(tau_round.abs() < tau_stick.abs(), "B.2 at θ₁−φ = {u}");
         compared += 1;
     }
@@ -189,7 +273,17 @@ fn gamma_ratio_bounds_under_d1() {
                 let t2 = (-30.0 + 2.5 * j as f64) * deg;
                 let phi = (-10.0 + 5.0 * k as f64) * deg;
                 let q = [t1, t2, 0.0, -0.17, phi];
-                let red = reduced_dynamics(&rhex.model, &mut data, &FlatGround, mode, &q, &[0.0; 5], &[0.0; 2], &y).unwrap();
+                let red = reduced_dynamics(
+                    &rhex.model,
+                    &mut data,
+                    &FlatGround,
+                    mode,
+                    &q,
+                    &[0.0; 5],
+                    &[0.0; 2],
+                    &y,
+                )
+                .unwrap();
                 let ratio = red.h[(0, 0)] / red.h[(1, 0)];
                 if k == 2 {
                     // (4.47) at φ = 0
@@ -208,29 +302,57 @@ fn gamma_ratio_bounds_under_d1() {
     // The thesis quotes 0.83 ≤ γ₁/γ₂ ≤ 1.19. With its own (4.47) over D.1 the range is
     // symmetric under θ₁ ↔ θ₂ (ratio ↔ 1/ratio), so both ends cannot hold as printed:
     // 1/0.83 = 1.205 ≠ 1.19. Our computed range is asserted to be reciprocal-symmetric.
-    assert!((lo * hi - 1.0).abs() < 1e-9, "range must be closed under inversion");
-    assert!(lo > 0.0, "γ stays positive: H_h never passes through the origin");
+    assert!(
+        (lo * hi - 1.0).abs() < 1e-9,
+        "range must be closed under inversion"
+    );
+    assert!(
+        lo > 0.0,
+        "γ stays positive: H_h never passes through the origin"
+    );
 }
 
 /// With τ = 0 and no impacts, `T + V` is conserved along the constrained flow (massive legs,
 /// double stance and single stance), integrated with RK4 at 1e-5 s for 0.1 s.
 #[test]
 fn energy_is_conserved_along_constrained_flow() {
-    for (label, q0) in [("0101", [-0.5, 0.6, 0.0, -0.16, 0.02]), ("0001", [0.3, 0.4, 0.0, -0.19, 0.1])] {
+    for (label, q0) in [
+        ("0101", [-0.5, 0.6, 0.0, -0.16, 0.02]),
+        ("0001", [0.3, 0.4, 0.0, -0.19, 0.1]),
+    ] {
         let rhex = rhex_massive(LegShape::HalfCircle);
         let model = &rhex.model;
         let mode = rhex.mode(label).unwrap();
         let mut data = Data::new(model);
-        let mut x: Vec<f64> = q0.iter().cloned().chain(std::iter::repeat(0.0).take(5)).collect();
+        let mut x: Vec<f64> = q0
+            .iter()
+            .cloned()
+            .chain(std::iter::repeat(0.0).take(5))
+            .collect();
         // start with a consistent velocity
         let qd0 = project_to_constraints(model, mode, &q0, &[1.0, -1.0, 0.2, 0.1, 0.3]);
         x[5..].copy_from_slice(&qd0);
         let mut f = |x: &[f64]| -> Vec<f64> {
-            forward_dynamics(model, &mut data, &FlatGround, mode, &x[..5], &x[5..], &[0.0, 0.0], None).unwrap();
-            x[5..].iter().cloned().chain(data.qdd.iter().cloned()).collect()
+            forward_dynamics(
+                model,
+                &mut data,
+                &FlatGround,
+                mode,
+                &x[..5],
+                &x[5..],
+                &[0.0, 0.0],
+                None,
+            )
+            .unwrap();
+            x[5..]
+                .iter()
+                .cloned()
+                .chain(data.qdd.iter().cloned())
+                .collect()
         };
         let energy = |x: &[f64], d: &mut Data| {
-            d.prepare(model, &FlatGround, mode, &x[..5], &x[5..]).unwrap();
+            d.prepare(model, &FlatGround, mode, &x[..5], &x[5..])
+                .unwrap();
             let mut kin = Kinematics::default();
             kin.compute(model, &x[..5], &x[5..]);
             kinetic_energy(d, &x[5..]) + potential_energy(model, &kin)
@@ -253,7 +375,11 @@ fn energy_is_conserved_along_constrained_flow() {
         let e1 = energy(&x, &mut d2);
         let ke = 0.5 * DVector::from_column_slice(&x[5..]).norm_squared();
         println!("{label}: E0 = {e0:.9}, E1 = {e1:.9}, drift {:.3e}", e1 - e0);
-        assert!((e1 - e0).abs() < 1e-8 * (1.0 + e0.abs()), "energy drift {} in {label}", e1 - e0);
+        assert!(
+            (e1 - e0).abs() < 1e-8 * (1.0 + e0.abs()),
+            "energy drift {} in {label}",
+            e1 - e0
+        );
         assert!(ke > 1e-4, "the robot moved");
     }
 }
@@ -280,18 +406,30 @@ fn base_constraints_4_41_to_4_43() {
                 let a = -geo.point; // a_k = π(g_{c_k w}) = −(contact point) on level ground
                 let rolling = shape == LegShape::HalfCircle && u.sin() < 0.0;
                 let (ax, az) = if rolling {
-                    (-x - lk * phi.cos() + 0.5 * rho * u.sin(), -z + lk * phi.sin() - 0.5 * rho * (1.0 + u.cos()))
+                    (
+                        -x - lk * phi.cos() + 0.5 * rho * u.sin(),
+                        -z + lk * phi.sin() - 0.5 * rho * (1.0 + u.cos()),
+                    )
                 } else {
-                    (-x - lk * phi.cos() + rho * u.sin(), -z + lk * phi.sin() - rho * u.cos())
+                    (
+                        -x - lk * phi.cos() + rho * u.sin(),
+                        -z + lk * phi.sin() - rho * u.cos(),
+                    )
                 };
                 if shape == LegShape::HalfCircle && !rolling && u.cos() < 0.0 {
                     continue; // leg up: the half disc's lowest point is its hip end
                 }
-                assert!((a.x - ax).abs() < 1e-12 && (a.y - az).abs() < 1e-12, "k={k} rolling={rolling}");
+                assert!(
+                    (a.x - ax).abs() < 1e-12 && (a.y - az).abs() < 1e-12,
+                    "k={k} rolling={rolling}"
+                );
             }
             for (k, lk) in [(2usize, l), (3, -l)] {
                 let geo = contact_geometry(&rhex.model, &kin, &FlatGround, k);
-                assert!((-geo.point.y - (-z + lk * phi.sin() - rho_b)).abs() < 1e-12, "(4.43)");
+                assert!(
+                    (-geo.point.y - (-z + lk * phi.sin() - rho_b)).abs() < 1e-12,
+                    "(4.43)"
+                );
             }
         }
     }

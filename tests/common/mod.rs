@@ -12,11 +12,21 @@ pub fn rng(seed: u64) -> ChaCha8Rng {
 
 /// RHex with the Table 4.2 planar-leg masses (2 × 0.063 kg, 2 × 0.00046 kg m²).
 pub fn rhex_massive(shape: LegShape) -> Rhex {
-    Rhex::new(RhexParams { m_l: 0.126, I_l: 0.00092, leg_shape: shape, ..RhexParams::default() }).unwrap()
+    Rhex::new(RhexParams {
+        m_l: 0.126,
+        I_l: 0.00092,
+        leg_shape: shape,
+        ..RhexParams::default()
+    })
+    .unwrap()
 }
 
 pub fn rhex_massless(shape: LegShape) -> Rhex {
-    Rhex::new(RhexParams { leg_shape: shape, ..RhexParams::default() }).unwrap()
+    Rhex::new(RhexParams {
+        leg_shape: shape,
+        ..RhexParams::default()
+    })
+    .unwrap()
 }
 
 pub fn quadruped() -> Model {
@@ -26,7 +36,9 @@ pub fn quadruped() -> Model {
 
 /// A random configuration: joints in (−π, π), body pose near the origin.
 pub fn random_q(model: &Model, r: &mut ChaCha8Rng) -> Vec<f64> {
-    let mut q: Vec<f64> = (0..model.n_joints()).map(|_| r.gen_range(-3.0..3.0)).collect();
+    let mut q: Vec<f64> = (0..model.n_joints())
+        .map(|_| r.gen_range(-3.0..3.0))
+        .collect();
     q.push(r.gen_range(-0.5..0.5));
     q.push(r.gen_range(-0.5..0.0));
     q.push(r.gen_range(-0.6..0.6));
@@ -61,5 +73,8 @@ pub fn rel_err_v(a: &DVector<f64>, b: &DVector<f64>, floor: f64) -> f64 {
 
 /// Every `0/1` label of a model except the over-constrained all-contact one when `c > q`.
 pub fn feasible_labels(rhex: &Rhex) -> Vec<String> {
-    rhex.all_labels().into_iter().filter(|l| rhex.mode(l).unwrap().n_rows() <= rhex.model.nq()).collect()
+    rhex.all_labels()
+        .into_iter()
+        .filter(|l| rhex.mode(l).unwrap().n_rows() <= rhex.model.nq())
+        .collect()
 }

@@ -46,7 +46,9 @@ pub(crate) fn guard<T>(f: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
                 .cloned()
                 .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
                 .unwrap_or_else(|| "unknown panic".into());
-            Err(pyo3::exceptions::PyRuntimeError::new_err(format!("internal error in selfmanip: {what}")))
+            Err(pyo3::exceptions::PyRuntimeError::new_err(format!(
+                "internal error in selfmanip: {what}"
+            )))
         }
     }
 }

@@ -14,8 +14,8 @@ use selfmanip_core::inertia::potential_energy;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::quasistatic::quasi_static;
 use selfmanip_core::{
-    forward_dynamics, kinetic_energy, plastic_impact, ContactMode, Data, FlatGround, Model, RobotDescription,
-    RowDirection,
+    forward_dynamics, kinetic_energy, plastic_impact, ContactMode, Data, FlatGround, Model,
+    RobotDescription, RowDirection,
 };
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -39,7 +39,13 @@ fn mat<'py>(py: Python<'py>, m: &DMatrix<f64>) -> Bound<'py, PyArray2<f64>> {
 }
 
 /// Embeds a matrix over the `dynamic` coordinates into a `rows × nq` (or `nq × nq`) one.
-fn embed(m: &DMatrix<f64>, row_map: &[usize], col_map: &[usize], nrows: usize, ncols: usize) -> DMatrix<f64> {
+fn embed(
+    m: &DMatrix<f64>,
+    row_map: &[usize],
+    col_map: &[usize],
+    nrows: usize,
+    ncols: usize,
+) -> DMatrix<f64> {
     let mut out = DMatrix::zeros(nrows, ncols);
     for (i, &r) in row_map.iter().enumerate() {
         for (j, &c) in col_map.iter().enumerate() {
@@ -76,9 +82,9 @@ impl Robot {
     }
 
     fn rhex(&self) -> PyResult<&Rhex> {
-        self.rhex
-            .as_ref()
-            .ok_or_else(|| crate::SelfmanipError::new_err("this call needs an RHex model (selfmanip.rhex.Model)"))
+        self.rhex.as_ref().ok_or_else(|| {
+            crate::SelfmanipError::new_err("this call needs an RHex model (selfmanip.rhex.Model)")
+        })
     }
 
     /// `[(contact name, "tangential" | "normal"), …]` in the row order of `A` and `λ`.
@@ -137,15 +143,22 @@ impl Robot {
                 let culprit = u.iter().find_map(|(k, v)| {
                     let mut one = defaults.clone();
                     one[k.as_str()] = v.clone();
-                    serde_json::from_value::<RhexParams>(one).err().map(|e| (k.clone(), e))
+                    serde_json::from_value::<RhexParams>(one)
+                        .err()
+                        .map(|e| (k.clone(), e))
                 });
                 match culprit {
-                    Some((k, e1)) => crate::SelfmanipError::new_err(format!("RHex parameter `{k}`: {e1}")),
+                    Some((k, e1)) => {
+                        crate::SelfmanipError::new_err(format!("RHex parameter `{k}`: {e1}"))
+                    }
                     None => crate::SelfmanipError::new_err(format!("RHex parameters: {e}")),
                 }
             })?;
             let rhex = Rhex::new(params).map_err(to_py_err)?;
-            Ok(Robot { model: rhex.model.clone(), rhex: Some(rhex) })
+            Ok(Robot {
+                model: rhex.model.clone(),
+                rhex: Some(rhex),
+            })
         })
     }
 
@@ -163,7 +176,10 @@ impl Robot {
                 }
             }
             .map_err(to_py_err)?;
-            Ok(Robot { model: d.build().map_err(to_py_err)?, rhex: None })
+            Ok(Robot {
+                model: d.build().map_err(to_py_err)?,
+                rhex: None,
+            })
         })
     }
 
@@ -214,7 +230,10 @@ impl Robot {
     fn description_toml(&self) -> PyResult<String> {
         Ok(match &self.rhex {
             Some(r) => r.params.description().to_toml_string(),
-            None => format!("# {}: loaded from a description; see the source file\n", self.model.name),
+            None => format!(
+                "# {}: loaded from a description; see the source file\n",
+                self.model.name
+            ),
         })
     }
 
@@ -242,8 +261,17 @@ impl Robot {
         guard(|| {
             let mode = self.mode(mode)?;
             let mut data = Data::new(&self.model);
-            forward_dynamics(&self.model, &mut data, &FlatGround, mode, &q, &qd, &tau, free_joint_qdd.as_deref())
-                .map_err(to_py_err)?;
+            forward_dynamics(
+                &self.model,
+                &mut data,
+                &FlatGround,
+                mode,
+                &q,
+                &qd,
+                &tau,
+                free_joint_qdd.as_deref(),
+            )
+            .map_err(to_py_err)?;
             let d = PyDict::new(py);
             d.set_item("qdd", vec1(py, &data.qdd))?;
             d.set_item("lam", vec1(py, &data.lambda))?;
@@ -261,7 +289,8 @@ impl Robot {
             let mode = self.mode(mode)?;
             let nq = self.model.nq();
             let mut data = Data::new(&self.model);
-            data.prepare(&self.model, &FlatGround, mode, &q, &vec![0.0; nq]).map_err(to_py_err)?;
+            data.prepare(&self.model, &FlatGround, mode, &q, &vec![0.0; nq])
+                .map_err(to_py_err)?;
             let b = data.kkt.blocks();
             let c = data.constraints.n_rows();
             let rows: Vec<usize> = (0..c).collect();
@@ -275,17 +304,27 @@ impl Robot {
             d.set_item("rows", self.rows(py, &data)?)?;
             d.set_item("dynamic_coords", dc)?;
             d.set_item("constraint_condition", data.kkt.info.constraint_condition)?;
-            d.set_item("reduced_mass_condition", data.kkt.info.reduced_mass_condition)?;
+            d.set_item(
+                "reduced_mass_condition",
+                data.kkt.info.reduced_mass_condition,
+            )?;
             Ok(d)
         })
     }
 
     /// Plastic impact (5.10)/(5.52) into `mode` at `q` with incoming velocity `qd_minus`.
-    fn impact<'py>(&self, py: Python<'py>, mode: &str, q: Vec<f64>, qd_minus: Vec<f64>) -> PyResult<Bound<'py, PyDict>> {
+    fn impact<'py>(
+        &self,
+        py: Python<'py>,
+        mode: &str,
+        q: Vec<f64>,
+        qd_minus: Vec<f64>,
+    ) -> PyResult<Bound<'py, PyDict>> {
         guard(|| {
             let mode = self.mode(mode)?;
             let mut data = Data::new(&self.model);
-            let imp = plastic_impact(&self.model, &mut data, &FlatGround, mode, &q, &qd_minus).map_err(to_py_err)?;
+            let imp = plastic_impact(&self.model, &mut data, &FlatGround, mode, &q, &qd_minus)
+                .map_err(to_py_err)?;
             let d = PyDict::new(py);
             d.set_item("qd_plus", vec1(py, &imp.qd_plus))?;
             d.set_item("impulse", vec1(py, &imp.impulse))?;
@@ -305,7 +344,10 @@ impl Robot {
                     e => Err(e),
                 })
                 .map_err(to_py_err)?;
-            Ok((kinetic_energy(&data, &qd), potential_energy(&self.model, &data.kin)))
+            Ok((
+                kinetic_energy(&data, &qd),
+                potential_energy(&self.model, &data.kin),
+            ))
         })
     }
 
@@ -314,15 +356,25 @@ impl Robot {
         guard(|| {
             let nq = self.model.nq();
             if q.len() != nq {
-                return Err(crate::SelfmanipError::new_err(format!("`q` has length {}, expected {nq}", q.len())));
+                return Err(crate::SelfmanipError::new_err(format!(
+                    "`q` has length {}, expected {nq}",
+                    q.len()
+                )));
             }
             if let Some(i) = q.iter().position(|v| !v.is_finite()) {
-                return Err(crate::SelfmanipError::new_err(format!("`q` has a non-finite entry at index {i}")));
+                return Err(crate::SelfmanipError::new_err(format!(
+                    "`q` has a non-finite entry at index {i}"
+                )));
             }
             let mut kin = Kinematics::default();
             kin.compute(&self.model, &q, &vec![0.0; nq]);
             Ok((0..self.model.n_contacts())
-                .map(|k| (self.model.contacts[k].name.clone(), contact_geometry(&self.model, &kin, &FlatGround, k).gap_m))
+                .map(|k| {
+                    (
+                        self.model.contacts[k].name.clone(),
+                        contact_geometry(&self.model, &kin, &FlatGround, k).gap_m,
+                    )
+                })
                 .collect())
         })
     }
@@ -350,7 +402,8 @@ impl Robot {
             }
             let t = DMatrix::from_fn(n, torque_constraints.len(), |i, j| torque_constraints[j][i]);
             let mut data = Data::new(&self.model);
-            let qs = quasi_static(&self.model, &mut data, &FlatGround, mode, &q, &t).map_err(to_py_err)?;
+            let qs = quasi_static(&self.model, &mut data, &FlatGround, mode, &q, &t)
+                .map_err(to_py_err)?;
             let d = PyDict::new(py);
             d.set_item("G_s", mat(py, &qs.g_s))?;
             d.set_item("J_h", mat(py, &qs.j_h))?;
@@ -365,12 +418,21 @@ impl Robot {
     }
 
     /// RHex: the quasi-static pose (4.44) at legs `(theta1, theta2)`, or `None`.
-    fn quasi_static_pose<'py>(&self, py: Python<'py>, theta1: f64, theta2: f64) -> PyResult<Option<Bound<'py, PyDict>>> {
+    fn quasi_static_pose<'py>(
+        &self,
+        py: Python<'py>,
+        theta1: f64,
+        theta2: f64,
+    ) -> PyResult<Option<Bound<'py, PyDict>>> {
         guard(|| {
             if !theta1.is_finite() || !theta2.is_finite() {
-                return Err(crate::SelfmanipError::new_err("`theta1`/`theta2` must be finite"));
+                return Err(crate::SelfmanipError::new_err(
+                    "`theta1`/`theta2` must be finite",
+                ));
             }
-            quasi_static_pose(self.rhex()?, theta1, theta2).map(|p| Self::pose_dict(py, &p)).transpose()
+            quasi_static_pose(self.rhex()?, theta1, theta2)
+                .map(|p| Self::pose_dict(py, &p))
+                .transpose()
         })
     }
 
@@ -381,7 +443,10 @@ impl Robot {
                 return Err(crate::SelfmanipError::new_err("`n` must be in 1..=4096"));
             }
             let poses = contact_mode_map(self.rhex()?, n);
-            let items = poses.iter().map(|p| Self::pose_dict(py, p)).collect::<PyResult<Vec<_>>>()?;
+            let items = poses
+                .iter()
+                .map(|p| Self::pose_dict(py, p))
+                .collect::<PyResult<Vec<_>>>()?;
             PyList::new(py, items)
         })
     }

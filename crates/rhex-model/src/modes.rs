@@ -33,7 +33,11 @@ impl Rhex {
         if pairs.len() > 1 {
             label_sites.push(leg(*pairs.last().expect("non-empty")));
         }
-        Ok(Rhex { params, model, label_sites })
+        Ok(Rhex {
+            params,
+            model,
+            label_sites,
+        })
     }
 
     /// The chapter-4 default: two half-circle massless legs, Table 4.2.
@@ -48,7 +52,10 @@ impl Rhex {
 
     /// Parses a label such as `"0101"` into a contact mode.
     pub fn mode(&self, label: &str) -> Result<ContactMode, RhexError> {
-        let err = |reason: String| RhexError::ModeLabel { label: label.to_string(), reason };
+        let err = |reason: String| RhexError::ModeLabel {
+            label: label.to_string(),
+            reason,
+        };
         let chars: Vec<char> = label.chars().collect();
         if chars.len() != self.label_sites.len() {
             return Err(err(format!(
@@ -63,8 +70,14 @@ impl Rhex {
             mode = match ch {
                 '0' => mode,
                 '1' => mode.union(ContactMode::with_defaults(&self.model, &[site])?),
-                's' if self.model.contacts[site].link.is_some() => mode.with(site, ContactKind::Slide),
-                's' => return Err(err("`s` (sliding) only applies to legs; the body always slides".into())),
+                's' if self.model.contacts[site].link.is_some() => {
+                    mode.with(site, ContactKind::Slide)
+                }
+                's' => {
+                    return Err(err(
+                        "`s` (sliding) only applies to legs; the body always slides".into(),
+                    ))
+                }
                 other => return Err(err(format!("character `{other}` is not 0, 1 or s"))),
             };
         }
@@ -97,7 +110,17 @@ impl Rhex {
     pub fn all_labels(&self) -> Vec<String> {
         let k = self.label_sites.len();
         (0..1u32 << k)
-            .map(|bits| (0..k).map(|i| if bits >> (k - 1 - i) & 1 == 1 { '1' } else { '0' }).collect())
+            .map(|bits| {
+                (0..k)
+                    .map(|i| {
+                        if bits >> (k - 1 - i) & 1 == 1 {
+                            '1'
+                        } else {
+                            '0'
+                        }
+                    })
+                    .collect()
+            })
             .collect()
     }
 }

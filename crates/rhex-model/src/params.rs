@@ -8,8 +8,8 @@
 //! radius `ρ_b` about the front and rear hips, which slide without friction (C.3). Toes
 //! stick (C.4) unless a finite `μ` lets them slip (section 5.1.5).
 use selfmanip_core::description::{
-    BodyDescription, ContactDescription, FrictionDescription, JointAxis, LegDescription, LinkDescription,
-    RobotDescription, ShapeDescription,
+    BodyDescription, ContactDescription, FrictionDescription, JointAxis, LegDescription,
+    LinkDescription, RobotDescription, ShapeDescription,
 };
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
@@ -79,12 +79,20 @@ impl Default for RhexParams {
 
 impl RhexParams {
     pub fn from_toml_str(s: &str) -> Result<Self, crate::RhexError> {
-        toml::from_str(s).map_err(|e| crate::RhexError::Params { field: "toml".into(), reason: e.to_string() })
+        toml::from_str(s).map_err(|e| crate::RhexError::Params {
+            field: "toml".into(),
+            reason: e.to_string(),
+        })
     }
 
     /// Checks every field (names in errors are the Table 4.2 symbols).
     pub fn validate(&self) -> Result<(), crate::RhexError> {
-        let bad = |f: &str, r: &str| Err(crate::RhexError::Params { field: f.into(), reason: r.into() });
+        let bad = |f: &str, r: &str| {
+            Err(crate::RhexError::Params {
+                field: f.into(),
+                reason: r.into(),
+            })
+        };
         let fields = [
             ("m_b", self.m_b),
             ("I_b", self.I_b),
@@ -120,7 +128,11 @@ impl RhexParams {
         if sorted.len() != self.pairs.len() {
             return bad("pairs", "duplicate leg pair");
         }
-        for (name, mu) in [("mu_front", self.mu_front), ("mu_middle", self.mu_middle), ("mu_rear", self.mu_rear)] {
+        for (name, mu) in [
+            ("mu_front", self.mu_front),
+            ("mu_middle", self.mu_middle),
+            ("mu_rear", self.mu_rear),
+        ] {
             if let Some(m) = mu {
                 if !(m >= 0.0) {
                     return bad(name, "must be non-negative");
@@ -185,7 +197,9 @@ impl RhexParams {
             .map(|&p| {
                 let rho = self.rho(p);
                 let shape = match self.leg_shape {
-                    LegShape::Stick => ShapeDescription::Point { position_m: [0.0, rho] },
+                    LegShape::Stick => ShapeDescription::Point {
+                        position_m: [0.0, rho],
+                    },
                     LegShape::HalfCircle => ShapeDescription::Arc {
                         center_m: [0.0, 0.5 * rho],
                         radius_m: 0.5 * rho,
@@ -206,14 +220,20 @@ impl RhexParams {
                 name: name.into(),
                 leg: None,
                 link: None,
-                shape: ShapeDescription::Circle { center_m: [x, 0.0], radius_m: self.rho_b },
+                shape: ShapeDescription::Circle {
+                    center_m: [x, 0.0],
+                    radius_m: self.rho_b,
+                },
                 friction: FrictionDescription::Sliding,
             });
         }
         RobotDescription {
             name: format!("RHex ({} pairs, {:?} legs)", pairs.len(), self.leg_shape),
             gravity_m_s2: self.g,
-            body: BodyDescription { mass_kg: self.m_b, inertia_kg_m2: self.I_b },
+            body: BodyDescription {
+                mass_kg: self.m_b,
+                inertia_kg_m2: self.I_b,
+            },
             legs,
             contacts,
         }

@@ -69,8 +69,15 @@ fn sides(rhex: &Rhex) -> Option<Sides> {
 
 /// Lowest depth of a side and which site gives it.
 fn side_depth(rhex: &Rhex, kin: &Kinematics, sites: [usize; 2]) -> (f64, usize, TouchKind) {
-    let g: Vec<_> = sites.iter().map(|&k| (k, contact_geometry(&rhex.model, kin, &FlatGround, k))).collect();
-    let (k, geo) = if g[0].1.point.y >= g[1].1.point.y { g[0] } else { g[1] };
+    let g: Vec<_> = sites
+        .iter()
+        .map(|&k| (k, contact_geometry(&rhex.model, kin, &FlatGround, k)))
+        .collect();
+    let (k, geo) = if g[0].1.point.y >= g[1].1.point.y {
+        g[0]
+    } else {
+        g[1]
+    };
     (geo.point.y, k, geo.touch)
 }
 
@@ -87,7 +94,10 @@ pub fn quasi_static_pose(rhex: &Rhex, theta1: f64, theta2: f64) -> Option<QuasiS
         (f.0 - r.0, f, r)
     };
     // depth_front − depth_rear decreases as the nose rises: bisection.
-    let (mut lo, mut hi) = (-std::f64::consts::FRAC_PI_2 + 1e-9, std::f64::consts::FRAC_PI_2 - 1e-9);
+    let (mut lo, mut hi) = (
+        -std::f64::consts::FRAC_PI_2 + 1e-9,
+        std::f64::consts::FRAC_PI_2 - 1e-9,
+    );
     let (glo, ghi) = (eval(lo).0, eval(hi).0);
     if !(glo >= 0.0 && ghi <= 0.0) {
         return None;

@@ -1,7 +1,9 @@
 //! The velocity constraint `A` of thesis (4.11)/(4.17) and its time derivative `Ȧ`, for the
 //! rows of one contact mode: `A_k = −Bᵀ J_p` at the contact point, `Ȧ_k = −Bᵀ J̇_p`
 //! (see [`crate::contact`] for the frame and rolling conventions).
-use crate::contact::{contact_geometry, row_direction, ConstraintRow, ContactGeometry, ContactMode, Terrain};
+use crate::contact::{
+    contact_geometry, row_direction, ConstraintRow, ContactGeometry, ContactMode, Terrain,
+};
 use crate::kinematics::Kinematics;
 use crate::model::Model;
 use nalgebra::{DMatrix, DVector};
@@ -21,13 +23,23 @@ pub struct Constraints {
 impl Constraints {
     /// Rebuilds every row for `mode` at the current kinematics (allocates only when the
     /// number of rows grows).
-    pub fn assemble(&mut self, model: &Model, kin: &Kinematics, terrain: &dyn Terrain, mode: ContactMode, qd: &[f64]) {
+    pub fn assemble(
+        &mut self,
+        model: &Model,
+        kin: &Kinematics,
+        terrain: &dyn Terrain,
+        mode: ContactMode,
+        qd: &[f64],
+    ) {
         let nq = model.nq();
         let c = mode.n_rows();
         self.rows.clear();
         self.rows.extend(mode.rows());
         self.geometry.clear();
-        self.geometry.extend(mode.active().map(|k| (k, contact_geometry(model, kin, terrain, k))));
+        self.geometry.extend(
+            mode.active()
+                .map(|k| (k, contact_geometry(model, kin, terrain, k))),
+        );
         if self.a.shape() != (c, nq) {
             self.a = DMatrix::zeros(c, nq);
             self.a_dot = DMatrix::zeros(c, nq);
@@ -35,7 +47,12 @@ impl Constraints {
         }
         self.row.resize(nq, 0.0);
         for (r, row) in self.rows.iter().enumerate() {
-            let geo = &self.geometry.iter().find(|(k, _)| *k == row.contact).expect("active contact").1;
+            let geo = &self
+                .geometry
+                .iter()
+                .find(|(k, _)| *k == row.contact)
+                .expect("active contact")
+                .1;
             let d = row_direction(&geo.plane, row.direction);
             kin.point_jacobian_row(model, geo.part, geo.point, d, &mut self.row);
             for col in 0..nq {

@@ -15,7 +15,7 @@
 //! centre; `A` is the stick-leg row at that point, while `Ȧ` uses the rate of the contact
 //! point `ċ` instead of the (zero) material velocity (thesis 4.1.6, 4.4.3).
 use crate::error::{CoreError, Result};
-use crate::frames::{perp, rotate};
+use crate::frames::{perp, rotate_sc};
 use crate::kinematics::{Kinematics, Part};
 use crate::model::{ContactShape, Friction, Model};
 use nalgebra::Vector2;
@@ -31,7 +31,10 @@ pub struct GroundPlane {
 impl GroundPlane {
     /// Level ground whose surface is at world `z = height_z_m` (z down).
     pub fn level(height_z_m: f64) -> Self {
-        GroundPlane { point_m: [0.0, height_z_m], normal_into_ground: [0.0, 1.0] }
+        GroundPlane {
+            point_m: [0.0, height_z_m],
+            normal_into_ground: [0.0, 1.0],
+        }
     }
     pub fn normal(&self) -> Vector2<f64> {
         Vector2::new(self.normal_into_ground[0], self.normal_into_ground[1])
@@ -100,13 +103,18 @@ pub struct ConstraintRow {
 
 impl ContactMode {
     /// No contact (flight).
-    pub const FLIGHT: ContactMode = ContactMode { normal: 0, tangential: 0 };
+    pub const FLIGHT: ContactMode = ContactMode {
+        normal: 0,
+        tangential: 0,
+    };
 
     /// From raw bitsets; `tangential ⊆ normal` is required.
     pub fn from_bits(normal: u32, tangential: u32) -> Result<Self> {
         if tangential & !normal != 0 {
             return Err(CoreError::InvalidMode {
-                reason: format!("tangential rows {tangential:#b} without their normal rows {normal:#b}"),
+                reason: format!(
+                    "tangential rows {tangential:#b} without their normal rows {normal:#b}"
+                ),
             });
         }
         Ok(ContactMode { normal, tangential })
@@ -124,7 +132,11 @@ impl ContactMode {
         let mut m = ContactMode::FLIGHT;
         for &k in contacts {
             let kind = match model.contacts.get(k).map(|c| c.friction) {
-                None => return Err(CoreError::InvalidMode { reason: format!("no contact with index {k}") }),
+                None => {
+                    return Err(CoreError::InvalidMode {
+                        reason: format!("no contact with index {k}"),
+                    })
+                }
                 Some(Friction::Sticking { .. }) => ContactKind::Stick,
                 Some(Friction::Sliding) => ContactKind::Slide,
             };
@@ -141,7 +153,9 @@ impl ContactMode {
                 Some((n, "slide")) => (n, Some(ContactKind::Slide)),
                 Some((n, "stick")) => (n, Some(ContactKind::Stick)),
                 Some((_, other)) => {
-                    return Err(CoreError::InvalidMode { reason: format!("unknown contact kind `{other}`") })
+                    return Err(CoreError::InvalidMode {
+                        reason: format!("unknown contact kind `{other}`"),
+                    })
                 }
                 None => (item, None),
             };
@@ -158,18 +172,30 @@ impl ContactMode {
     pub fn with(self, k: usize, kind: ContactKind) -> Self {
         let bit = 1u32 << k;
         match kind {
-            ContactKind::Stick => ContactMode { normal: self.normal | bit, tangential: self.tangential | bit },
-            ContactKind::Slide => ContactMode { normal: self.normal | bit, tangential: self.tangential & !bit },
+            ContactKind::Stick => ContactMode {
+                normal: self.normal | bit,
+                tangential: self.tangential | bit,
+            },
+            ContactKind::Slide => ContactMode {
+                normal: self.normal | bit,
+                tangential: self.tangential & !bit,
+            },
         }
     }
 
     pub fn without(self, k: usize) -> Self {
         let bit = !(1u32 << k);
-        ContactMode { normal: self.normal & bit, tangential: self.tangential & bit }
+        ContactMode {
+            normal: self.normal & bit,
+            tangential: self.tangential & bit,
+        }
     }
 
     pub fn union(self, o: Self) -> Self {
-        ContactMode { normal: self.normal | o.normal, tangential: self.tangential | o.tangential }
+        ContactMode {
+            normal: self.normal | o.normal,
+            tangential: self.tangential | o.tangential,
+        }
     }
 
     pub fn contains(self, k: usize) -> bool {
@@ -197,15 +223,27 @@ impl ContactMode {
 
     /// Active contacts in ascending order.
     pub fn active(self) -> impl Iterator<Item = usize> {
-        (0..32).filter(move |k| self.normal >> k & 1 == 1)
+        let mut bits = self.normal;
+        std::iter::from_fn(move || {
+            (bits != 0).then(|| {
+                let k = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                k
+            })
+        })
     }
 
     /// The rows in order: by contact, tangential before normal.
     pub fn rows(self) -> impl Iterator<Item = ConstraintRow> {
         self.active().flat_map(move |k| {
-            let t = (self.tangential >> k & 1 == 1)
-                .then_some(ConstraintRow { contact: k, direction: RowDirection::Tangential });
-            t.into_iter().chain(std::iter::once(ConstraintRow { contact: k, direction: RowDirection::Normal }))
+            let t = (self.tangential >> k & 1 == 1).then_some(ConstraintRow {
+                contact: k,
+                direction: RowDirection::Tangential,
+            });
+            t.into_iter().chain(std::iter::once(ConstraintRow {
+                contact: k,
+                direction: RowDirection::Normal,
+            }))
         })
     }
 
@@ -219,9 +257,14 @@ impl ContactMode {
             });
         }
         for k in self.active() {
-            if self.kind(k) == Some(ContactKind::Stick) && model.contacts[k].friction == Friction::Sliding {
+            if self.kind(k) == Some(ContactKind::Stick)
+                && model.contacts[k].friction == Friction::Sliding
+            {
                 return Err(CoreError::InvalidMode {
-                    reason: format!("contact `{}` is frictionless and cannot stick", model.contacts[k].name),
+                    reason: format!(
+                        "contact `{}` is frictionless and cannot stick",
+                        model.contacts[k].name
+                    ),
                 });
             }
         }
@@ -260,13 +303,17 @@ fn angle_in_range(a: f64, range: [f64; 2]) -> bool {
 }
 
 /// Contact geometry for site `k` at the current kinematics.
-pub fn contact_geometry(model: &Model, kin: &Kinematics, terrain: &dyn Terrain, k: usize) -> ContactGeometry {
+pub fn contact_geometry(
+    model: &Model,
+    kin: &Kinematics,
+    terrain: &dyn Terrain,
+    k: usize,
+) -> ContactGeometry {
     let site = &model.contacts[k];
     let part = match site.link {
         None => Part::Body,
         Some(j) => Part::Link(j),
     };
-    let beta = kin.part_angle(part);
     let reference = match &site.shape {
         ContactShape::Point { position_m } => *position_m,
         ContactShape::Arc { center_m, .. } => *center_m,
@@ -275,9 +322,14 @@ pub fn contact_geometry(model: &Model, kin: &Kinematics, terrain: &dyn Terrain, 
     let n = plane.normal();
     let (local, touch) = match &site.shape {
         ContactShape::Point { position_m } => (*position_m, TouchKind::Point),
-        ContactShape::Arc { center_m, radius_m, normal_range_rad } => {
+        ContactShape::Arc {
+            center_m,
+            radius_m,
+            normal_range_rad,
+        } => {
             // direction into the ground in the part frame, and its normal angle α
-            let d = rotate(-beta, n);
+            let (sb, cb) = kin.part_sin_cos(part);
+            let d = rotate_sc((-sb, cb), n);
             let alpha = d.x.atan2(d.y);
             let inside = match normal_range_rad {
                 None => true,
@@ -290,7 +342,10 @@ pub fn contact_geometry(model: &Model, kin: &Kinematics, terrain: &dyn Terrain, 
                 let r = normal_range_rad.expect("circle is always inside");
                 let e0 = center_m + *radius_m * Vector2::new(r[0].sin(), r[0].cos());
                 let e1 = center_m + *radius_m * Vector2::new(r[1].sin(), r[1].cos());
-                (if e0.dot(&d) >= e1.dot(&d) { e0 } else { e1 }, TouchKind::Point)
+                (
+                    if e0.dot(&d) >= e1.dot(&d) { e0 } else { e1 },
+                    TouchKind::Point,
+                )
             }
         }
     };
@@ -302,7 +357,14 @@ pub fn contact_geometry(model: &Model, kin: &Kinematics, terrain: &dyn Terrain, 
         }
         _ => kin.material_velocity(part, point),
     };
-    ContactGeometry { part, plane, point, gap_m: plane.height_of(point), touch, point_rate }
+    ContactGeometry {
+        part,
+        plane,
+        point,
+        gap_m: plane.height_of(point),
+        touch,
+        point_rate,
+    }
 }
 
 /// Direction (world) of a constraint row in its contact frame.
@@ -312,4 +374,3 @@ pub fn row_direction(plane: &GroundPlane, dir: RowDirection) -> Vector2<f64> {
         RowDirection::Normal => plane.normal(),
     }
 }
-

@@ -113,7 +113,11 @@ pub enum ShapeDescription {
     /// range holds the angles `α` of the outward normals `(sin α, cos α)` in the part's frame
     /// (`α = 0` points along the link, `+z`), from `normal_range_rad[0]` to `[1]`
     /// counter-clockwise. RHex's half-circle leg is `[-π, 0]`.
-    Arc { center_m: [f64; 2], radius_m: f64, normal_range_rad: [f64; 2] },
+    Arc {
+        center_m: [f64; 2],
+        radius_m: f64,
+        normal_range_rad: [f64; 2],
+    },
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -145,11 +149,17 @@ pub struct ContactDescription {
 
 impl RobotDescription {
     pub fn from_toml_str(s: &str) -> Result<Self> {
-        toml::from_str(s).map_err(|e| CoreError::Parse { format: "toml", message: e.to_string() })
+        toml::from_str(s).map_err(|e| CoreError::Parse {
+            format: "toml",
+            message: e.to_string(),
+        })
     }
 
     pub fn from_json_str(s: &str) -> Result<Self> {
-        serde_json::from_str(s).map_err(|e| CoreError::Parse { format: "json", message: e.to_string() })
+        serde_json::from_str(s).map_err(|e| CoreError::Parse {
+            format: "json",
+            message: e.to_string(),
+        })
     }
 
     /// Reads a `.toml` or `.json` file (by extension).
@@ -170,7 +180,10 @@ impl RobotDescription {
 
     /// Validates every field and builds the immutable [`Model`].
     pub fn build(&self) -> Result<Model> {
-        let bad = |field: String, reason: &str| CoreError::InvalidDescription { field, reason: reason.into() };
+        let bad = |field: String, reason: &str| CoreError::InvalidDescription {
+            field,
+            reason: reason.into(),
+        };
         let finite_nonneg = |field: String, v: f64| -> Result<()> {
             if !v.is_finite() {
                 Err(bad(field, "must be finite"))
@@ -193,7 +206,10 @@ impl RobotDescription {
         finite_nonneg("body.mass_kg".into(), self.body.mass_kg)?;
         finite_nonneg("body.inertia_kg_m2".into(), self.body.inertia_kg_m2)?;
         if self.body.mass_kg == 0.0 {
-            return Err(bad("body.mass_kg".into(), "the body (palm frame P) must have positive mass"));
+            return Err(bad(
+                "body.mass_kg".into(),
+                "the body (palm frame P) must have positive mass",
+            ));
         }
 
         let mut legs = Vec::with_capacity(self.legs.len());
@@ -230,11 +246,19 @@ impl RobotDescription {
                     com_m: com,
                 });
             }
-            legs.push(Leg { name: leg.name.clone(), hip_m: hip, first_joint, n_links: leg.links.len() });
+            legs.push(Leg {
+                name: leg.name.clone(),
+                hip_m: hip,
+                first_joint,
+                n_links: leg.links.len(),
+            });
         }
 
         if self.contacts.len() > 32 {
-            return Err(bad("contacts".into(), "at most 32 contact sites are supported"));
+            return Err(bad(
+                "contacts".into(),
+                "at most 32 contact sites are supported",
+            ));
         }
         let mut contacts = Vec::with_capacity(self.contacts.len());
         for (ci, c) in self.contacts.iter().enumerate() {
@@ -266,9 +290,9 @@ impl RobotDescription {
                 }
             };
             let shape = match &c.shape {
-                ShapeDescription::Point { position_m } => {
-                    ContactShape::Point { position_m: finite2(f("shape.position_m"), *position_m)? }
-                }
+                ShapeDescription::Point { position_m } => ContactShape::Point {
+                    position_m: finite2(f("shape.position_m"), *position_m)?,
+                },
                 ShapeDescription::Circle { center_m, radius_m } => {
                     finite_nonneg(f("shape.radius_m"), *radius_m)?;
                     ContactShape::Arc {
@@ -277,10 +301,17 @@ impl RobotDescription {
                         normal_range_rad: None,
                     }
                 }
-                ShapeDescription::Arc { center_m, radius_m, normal_range_rad } => {
+                ShapeDescription::Arc {
+                    center_m,
+                    radius_m,
+                    normal_range_rad,
+                } => {
                     finite_nonneg(f("shape.radius_m"), *radius_m)?;
                     let [a0, a1] = *normal_range_rad;
-                    if !(a0.is_finite() && a1.is_finite()) || a1 <= a0 || a1 - a0 > std::f64::consts::TAU {
+                    if !(a0.is_finite() && a1.is_finite())
+                        || a1 <= a0
+                        || a1 - a0 > std::f64::consts::TAU
+                    {
                         return Err(bad(
                             f("shape.normal_range_rad"),
                             "must be finite with start < end and span at most 2π",
@@ -303,7 +334,12 @@ impl RobotDescription {
                     Friction::Sticking { mu }
                 }
             };
-            contacts.push(Contact { name: c.name.clone(), link, shape, friction });
+            contacts.push(Contact {
+                name: c.name.clone(),
+                link,
+                shape,
+                friction,
+            });
         }
 
         Ok(Model::new(

@@ -48,6 +48,8 @@ pub struct Data {
     f_r: Vec<f64>,
     g_r: Vec<f64>,
     x_r: Vec<f64>,
+    f_full: Vec<f64>,
+    g_full: Vec<f64>,
 }
 
 impl Data {
@@ -81,21 +83,33 @@ impl Data {
         // (q, q̇) => poses, velocities
         self.kin.compute(model, q, qd);
         // => M̄, C̄q̇, N̄
-        mass_coriolis_gravity(model, &self.kin, qd, &mut self.scratch, &mut self.m_bar, &mut self.c_qd, &mut self.n_bar);
+        mass_coriolis_gravity(
+            model,
+            &self.kin,
+            qd,
+            &mut self.scratch,
+            &mut self.m_bar,
+            &mut self.c_qd,
+            &mut self.n_bar,
+        );
         // => A, Ȧ, Ȧq̇
-        self.constraints.assemble(model, &self.kin, terrain, mode, qd);
+        self.constraints
+            .assemble(model, &self.kin, terrain, mode, qd);
         // => which joints are free and massless
         self.free_joints.clear();
         for j in 0..model.n_joints() {
             let distal = model.distal(j);
             let massless = distal.clone().all(|k| model.joints[k].is_massless());
-            let touched = mode.active().any(|c| model.contacts[c].link.is_some_and(|l| distal.contains(&l)));
+            let touched = mode
+                .active()
+                .any(|c| model.contacts[c].link.is_some_and(|l| distal.contains(&l)));
             if massless && !touched {
                 self.free_joints.push(j);
             }
         }
         self.dynamic_coords.clear();
-        self.dynamic_coords.extend((0..nq).filter(|i| !self.free_joints.contains(i)));
+        self.dynamic_coords
+            .extend((0..nq).filter(|i| !self.free_joints.contains(i)));
         let m = self.dynamic_coords.len();
         let c = self.constraints.n_rows();
         if self.m_r.shape() != (m, m) {
@@ -118,7 +132,14 @@ impl Data {
 
     /// Solves the prepared KKT system for the generalized force `f` (full q) and constraint
     /// right-hand side `g` (c), writing full-length `x` (prescribed entries = `x_free`) and `y`.
-    fn solve_prepared(&mut self, f: &[f64], g: &[f64], x_free: Option<&[f64]>, x: &mut DVector<f64>, y: &mut DVector<f64>) {
+    fn solve_prepared(
+        &mut self,
+        f: &[f64],
+        g: &[f64],
+        x_free: Option<&[f64]>,
+        x: &mut DVector<f64>,
+        y: &mut DVector<f64>,
+    ) {
         let nq = f.len();
         let m = self.dynamic_coords.len();
         let c = g.len();
@@ -139,14 +160,23 @@ impl Data {
             }
         }
         for (i, &a) in self.dynamic_coords.iter().enumerate() {
-            let coupling: f64 = self.free_joints.iter().map(|&j| self.m_bar[(a, j)] * x[j]).sum();
+            let coupling: f64 = self
+                .free_joints
+                .iter()
+                .map(|&j| self.m_bar[(a, j)] * x[j])
+                .sum();
             self.f_r[i] = f[a] - coupling;
         }
         for r in 0..c {
-            let coupling: f64 = self.free_joints.iter().map(|&j| self.constraints.a[(r, j)] * x[j]).sum();
+            let coupling: f64 = self
+                .free_joints
+                .iter()
+                .map(|&j| self.constraints.a[(r, j)] * x[j])
+                .sum();
             self.g_r[r] = g[r] - coupling;
         }
-        self.kkt.solve(&self.f_r, &self.g_r, &mut self.x_r, y.as_mut_slice());
+        self.kkt
+            .solve(&self.f_r, &self.g_r, &mut self.x_r, y.as_mut_slice());
         for (i, &a) in self.dynamic_coords.iter().enumerate() {
             x[a] = self.x_r[i];
         }
@@ -154,11 +184,17 @@ impl Data {
 
     /// `Υ − C̄q̇ − N̄` for joint torques `tau`.
     pub fn generalized_force(&self, model: &Model, tau: &[f64]) -> DVector<f64> {
-        let mut f = -&self.c_qd - &self.n_bar;
+        let mut f = Vec::new();
+        self.generalized_force_into(model, tau, &mut f);
+        DVector::from_vec(f)
+    }
+
+    fn generalized_force_into(&self, model: &Model, tau: &[f64], f: &mut Vec<f64>) {
+        f.clear();
+        f.extend(self.c_qd.iter().zip(self.n_bar.iter()).map(|(c, n)| -c - n));
         for (j, t) in tau.iter().enumerate().take(model.n_joints()) {
             f[j] += t;
         }
-        f
     }
 }
 
@@ -180,12 +216,19 @@ pub fn forward_dynamics(
     if let Some(xf) = free_joint_qdd {
         check_vector("free_joint_qdd", xf, data.free_joints.len())?;
     }
-    let f = data.generalized_force(model, tau);
-    let g = -&data.constraints.a_dot_qd;
-    let (mut x, mut y) = (std::mem::take(&mut data.qdd), std::mem::take(&mut data.lambda));
-    data.solve_prepared(f.as_slice(), g.as_slice(), free_joint_qdd, &mut x, &mut y);
-    data.qdd = x;
-    data.lambda = y;
+    let (mut f, mut g) = (
+        std::mem::take(&mut data.f_full),
+        std::mem::take(&mut data.g_full),
+    );
+    data.generalized_force_into(model, tau, &mut f);
+    g.clear();
+    g.extend(data.constraints.a_dot_qd.iter().map(|v| -v));
+    let (mut x, mut y) = (
+        std::mem::take(&mut data.qdd),
+        std::mem::take(&mut data.lambda),
+    );
+    data.solve_prepared(&f, &g, free_joint_qdd, &mut x, &mut y);
+    (data.qdd, data.lambda, data.f_full, data.g_full) = (x, y, f, g);
     Ok(())
 }
 
@@ -216,7 +259,10 @@ pub fn plastic_impact(
     let f = vec![0.0; nq];
     let (mut dx, mut p) = (DVector::zeros(nq), DVector::zeros(c));
     data.solve_prepared(&f, g.as_slice(), None, &mut dx, &mut p);
-    Ok(Impact { qd_plus: DVector::from_column_slice(qd_minus) + dx, impulse: p })
+    Ok(Impact {
+        qd_plus: DVector::from_column_slice(qd_minus) + dx,
+        impulse: p,
+    })
 }
 
 /// Thesis (5.39): the pseudo-impulse `P_δ = A†(Υ − C̄q̇⁻ − N̄) δt` for an impact into `mode`.

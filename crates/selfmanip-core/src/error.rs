@@ -19,17 +19,31 @@ pub enum CoreError {
     #[error("robot description: field `{field}`: {reason}")]
     InvalidDescription { field: String, reason: String },
     #[error("could not parse robot description ({format}): {message}")]
-    Parse { format: &'static str, message: String },
+    Parse {
+        format: &'static str,
+        message: String,
+    },
     #[error("`{field}` has length {actual}, expected {expected}")]
-    WrongLength { field: &'static str, expected: usize, actual: usize },
+    WrongLength {
+        field: &'static str,
+        expected: usize,
+        actual: usize,
+    },
     #[error("`{field}` has a non-finite entry at index {index} ({value})")]
-    NonFinite { field: &'static str, index: usize, value: f64 },
+    NonFinite {
+        field: &'static str,
+        index: usize,
+        value: f64,
+    },
     #[error("unknown contact `{name}`")]
     UnknownContact { name: String },
     #[error("invalid contact mode: {reason}")]
     InvalidMode { reason: String },
     #[error("KKT matrix is singular ({kind:?}); condition estimate {condition_estimate:.3e}")]
-    SingularKkt { kind: SingularityKind, condition_estimate: f64 },
+    SingularKkt {
+        kind: SingularityKind,
+        condition_estimate: f64,
+    },
     #[error("parameterization `{field}` is invalid: {reason}")]
     InvalidParameterization { field: &'static str, reason: String },
     #[error("quasi-static problem is ill-posed: {reason}")]
@@ -41,14 +55,22 @@ pub type Result<T> = std::result::Result<T, CoreError>;
 /// Checks that a slice has the expected length and finite entries.
 pub(crate) fn check_vector(field: &'static str, v: &[f64], expected: usize) -> Result<()> {
     if v.len() != expected {
-        return Err(CoreError::WrongLength { field, expected, actual: v.len() });
+        return Err(CoreError::WrongLength {
+            field,
+            expected,
+            actual: v.len(),
+        });
     }
     check_finite(field, v)
 }
 
 pub(crate) fn check_finite(field: &'static str, v: &[f64]) -> Result<()> {
     match v.iter().position(|x| !x.is_finite()) {
-        Some(index) => Err(CoreError::NonFinite { field, index, value: v[index] }),
+        Some(index) => Err(CoreError::NonFinite {
+            field,
+            index,
+            value: v[index],
+        }),
         None => Ok(()),
     }
 }

@@ -21,7 +21,12 @@ pub fn rot(beta: f64) -> Matrix2<f64> {
 /// `R(β) r` without forming the matrix.
 #[inline]
 pub fn rotate(beta: f64, r: Vector2<f64>) -> Vector2<f64> {
-    let (s, c) = beta.sin_cos();
+    rotate_sc(beta.sin_cos(), r)
+}
+
+/// [`rotate`] with `(sin β, cos β)` already known.
+#[inline]
+pub fn rotate_sc((s, c): (f64, f64), r: Vector2<f64>) -> Vector2<f64> {
     Vector2::new(c * r.x + s * r.y, -s * r.x + c * r.y)
 }
 
@@ -35,7 +40,17 @@ pub fn perp(r: Vector2<f64>) -> Vector2<f64> {
 /// (thesis `R_wp` in 4.1.1: `V^b_wp = R_wpᵀ ẋ`).
 pub fn rot3(phi: f64) -> Matrix3<f64> {
     let r = rot(phi);
-    Matrix3::new(r[(0, 0)], r[(0, 1)], 0.0, r[(1, 0)], r[(1, 1)], 0.0, 0.0, 0.0, 1.0)
+    Matrix3::new(
+        r[(0, 0)],
+        r[(0, 1)],
+        0.0,
+        r[(1, 0)],
+        r[(1, 1)],
+        0.0,
+        0.0,
+        0.0,
+        1.0,
+    )
 }
 
 /// Planar adjoint `Ad_g` of `g_ab = (p, R(β))` (frame B seen from A) acting on twists
@@ -45,7 +60,17 @@ pub fn rot3(phi: f64) -> Matrix3<f64> {
 pub fn adjoint(p: Vector2<f64>, beta: f64) -> Matrix3<f64> {
     let r = rot(beta);
     let s = perp(p);
-    Matrix3::new(r[(0, 0)], r[(0, 1)], -s.x, r[(1, 0)], r[(1, 1)], -s.y, 0.0, 0.0, 1.0)
+    Matrix3::new(
+        r[(0, 0)],
+        r[(0, 1)],
+        -s.x,
+        r[(1, 0)],
+        r[(1, 1)],
+        -s.y,
+        0.0,
+        0.0,
+        1.0,
+    )
 }
 
 /// Wraps an angle to `(−π, π]`.
@@ -98,6 +123,10 @@ mod tests {
     fn wrap_is_half_open() {
         assert_relative_eq!(wrap_angle(std::f64::consts::PI), std::f64::consts::PI);
         assert_relative_eq!(wrap_angle(-std::f64::consts::PI), std::f64::consts::PI);
-        assert_relative_eq!(wrap_angle(7.0), 7.0 - std::f64::consts::TAU, epsilon = 1e-15);
+        assert_relative_eq!(
+            wrap_angle(7.0),
+            7.0 - std::f64::consts::TAU,
+            epsilon = 1e-15
+        );
     }
 }

@@ -37,7 +37,12 @@ fn contact_frame_angle(t: Vector2<f64>) -> f64 {
     (-t.y).atan2(t.x)
 }
 
-pub fn grasp_maps(model: &Model, kin: &Kinematics, terrain: &dyn Terrain, mode: ContactMode) -> GraspMaps {
+pub fn grasp_maps(
+    model: &Model,
+    kin: &Kinematics,
+    terrain: &dyn Terrain,
+    mode: ContactMode,
+) -> GraspMaps {
     let rows: Vec<ConstraintRow> = mode.rows().collect();
     let c = rows.len();
     let n = model.n_joints();

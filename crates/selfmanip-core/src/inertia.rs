@@ -13,7 +13,13 @@ use nalgebra::{DMatrix, DVector, Vector2};
 
 /// Parts with mass: the body and every massive link, with (mass, inertia, COM local).
 fn massive_parts(model: &Model) -> impl Iterator<Item = (Part, f64, f64, Vector2<f64>)> + '_ {
-    std::iter::once((Part::Body, model.body_mass_kg, model.body_inertia_kg_m2, Vector2::zeros())).chain(
+    std::iter::once((
+        Part::Body,
+        model.body_mass_kg,
+        model.body_inertia_kg_m2,
+        Vector2::zeros(),
+    ))
+    .chain(
         model
             .joints
             .iter()
@@ -35,7 +41,13 @@ pub struct InertiaScratch {
 
 impl InertiaScratch {
     fn resize(&mut self, nq: usize) {
-        for v in [&mut self.jx, &mut self.jz, &mut self.jw, &mut self.jdx, &mut self.jdz] {
+        for v in [
+            &mut self.jx,
+            &mut self.jz,
+            &mut self.jw,
+            &mut self.jdx,
+            &mut self.jdz,
+        ] {
             v.resize(nq, 0.0);
         }
     }
@@ -69,7 +81,8 @@ pub fn mass_coriolis_gravity(
         // M̄ += m Jᵀ J + I J_ωᵀ J_ω
         for a in 0..nq {
             for b in 0..nq {
-                m_bar[(a, b)] += m * (s.jx[a] * s.jx[b] + s.jz[a] * s.jz[b]) + inertia * s.jw[a] * s.jw[b];
+                m_bar[(a, b)] +=
+                    m * (s.jx[a] * s.jx[b] + s.jz[a] * s.jz[b]) + inertia * s.jw[a] * s.jw[b];
             }
         }
         // C̄ q̇ += m Jᵀ (J̇ q̇)   (planar: J̇_ω = 0)
@@ -129,7 +142,10 @@ pub fn mass_matrix_partials(model: &Model, q: &[f64]) -> Vec<DMatrix<f64>> {
             for a in 0..nq {
                 for b in 0..nq {
                     dm[(a, b)] += m
-                        * (s.jdx[a] * s.jx[b] + s.jx[a] * s.jdx[b] + s.jdz[a] * s.jz[b] + s.jz[a] * s.jdz[b]);
+                        * (s.jdx[a] * s.jx[b]
+                            + s.jx[a] * s.jdx[b]
+                            + s.jdz[a] * s.jz[b]
+                            + s.jz[a] * s.jdz[b]);
                 }
             }
         }
@@ -158,5 +174,7 @@ pub fn coriolis_christoffel(model: &Model, q: &[f64], qd: &[f64]) -> DMatrix<f64
 
 /// Potential energy `V` (4.27): `−Σ m g z_com` (z down).
 pub fn potential_energy(model: &Model, kin: &Kinematics) -> f64 {
-    massive_parts(model).map(|(part, m, _, com)| -m * model.gravity_m_s2 * kin.point(part, com).y).sum()
+    massive_parts(model)
+        .map(|(part, m, _, com)| -m * model.gravity_m_s2 * kin.point(part, com).y)
+        .sum()
 }

@@ -6,7 +6,7 @@
 //! point `o` is `s S(p − o)`, and its time derivative is `s S(ṗ − ȯ)` where `ṗ` is the rate of
 //! the point at which the Jacobian is evaluated (the material velocity for a fixed point,
 //! the centre's velocity for a rolling contact on a plane).
-use crate::frames::{perp, rotate};
+use crate::frames::{perp, rotate_sc};
 use crate::model::Model;
 use nalgebra::{DMatrix, Vector2};
 
@@ -31,6 +31,9 @@ pub struct Kinematics {
     /// World angle of link `j` about `+y`.
     pub beta: Vec<f64>,
     pub beta_dot: Vec<f64>,
+    /// `(sin, cos)` of `φ` and of every `β_j` (each computed once per evaluation).
+    body_sc: (f64, f64),
+    link_sc: Vec<(f64, f64)>,
 }
 
 impl Kinematics {
@@ -41,13 +44,15 @@ impl Kinematics {
         self.origin_vel.resize(n, Vector2::zeros());
         self.beta.resize(n, 0.0);
         self.beta_dot.resize(n, 0.0);
+        self.link_sc.resize(n, (0.0, 1.0));
         self.body_pos = Vector2::new(q[n], q[n + 1]);
         self.body_vel = Vector2::new(qd[n], qd[n + 1]);
         self.phi = q[n + 2];
         self.phi_dot = qd[n + 2];
+        self.body_sc = self.phi.sin_cos();
         for leg in &model.legs {
             // hip: o = X + R(φ) h,  ȯ = Ẋ + φ̇ S(R(φ) h)
-            let rh = rotate(self.phi, leg.hip_m);
+            let rh = rotate_sc(self.body_sc, leg.hip_m);
             let mut o = self.body_pos + rh;
             let mut od = self.body_vel + self.phi_dot * perp(rh);
             let mut b = self.phi;
@@ -60,8 +65,9 @@ impl Kinematics {
                 self.origin_vel[j] = od;
                 self.beta[j] = b;
                 self.beta_dot[j] = bd;
+                self.link_sc[j] = b.sin_cos();
                 // next joint at the link's tip
-                let tip = rotate(b, Vector2::new(0.0, joint.length_m));
+                let tip = rotate_sc(self.link_sc[j], Vector2::new(0.0, joint.length_m));
                 o += tip;
                 od += bd * perp(tip);
             }
@@ -72,6 +78,14 @@ impl Kinematics {
         match part {
             Part::Body => self.phi,
             Part::Link(j) => self.beta[j],
+        }
+    }
+
+    /// `(sin, cos)` of the part's world angle.
+    pub fn part_sin_cos(&self, part: Part) -> (f64, f64) {
+        match part {
+            Part::Body => self.body_sc,
+            Part::Link(j) => self.link_sc[j],
         }
     }
 
@@ -91,7 +105,7 @@ impl Kinematics {
 
     /// World position of a point given in the part's frame.
     pub fn point(&self, part: Part, local: Vector2<f64>) -> Vector2<f64> {
-        self.part_origin(part) + rotate(self.part_angle(part), local)
+        self.part_origin(part) + rotate_sc(self.part_sin_cos(part), local)
     }
 
     /// Material velocity of the part's point currently at world position `p`.
@@ -105,7 +119,14 @@ impl Kinematics {
 
     /// Writes the 2×nq Jacobian of the material point of `part` at world position `p`
     /// (projected on the unit direction `d`) into `row`: `row = dᵀ J_p`.
-    pub fn point_jacobian_row(&self, model: &Model, part: Part, p: Vector2<f64>, d: Vector2<f64>, row: &mut [f64]) {
+    pub fn point_jacobian_row(
+        &self,
+        model: &Model,
+        part: Part,
+        p: Vector2<f64>,
+        d: Vector2<f64>,
+        row: &mut [f64],
+    ) {
         let n = model.n_joints();
         row.iter_mut().for_each(|x| *x = 0.0);
         row[n] = d.x;
@@ -155,7 +176,10 @@ impl Kinematics {
         let nq = model.nq();
         let mut j = DMatrix::zeros(2, nq);
         let mut row = vec![0.0; nq];
-        for (r, d) in [Vector2::new(1.0, 0.0), Vector2::new(0.0, 1.0)].into_iter().enumerate() {
+        for (r, d) in [Vector2::new(1.0, 0.0), Vector2::new(0.0, 1.0)]
+            .into_iter()
+            .enumerate()
+        {
             self.point_jacobian_row(model, part, p, d, &mut row);
             for c in 0..nq {
                 j[(r, c)] = row[c];

@@ -99,43 +99,55 @@ impl KktFactorization {
         self.t3.resize(m, 0.0);
         self.mbar.copy_from(mbar);
 
-        // Householder QR of Aᵀ, accumulating Q = H₁ H₂ … H_c.
+        // Householder QR of Aᵀ, accumulating Q = H₁ H₂ … H_c. Column-major slices: every
+        // inner loop runs down a contiguous column.
         self.q.fill_with_identity();
         for i in 0..m {
             for k in 0..c {
                 self.work[(i, k)] = a[(k, i)];
             }
         }
+        let work = self.work.as_mut_slice();
+        let q = self.q.as_mut_slice();
+        let v = &mut self.v[..m];
+        let w = &mut self.t1[..m];
         for k in 0..c {
-            let norm = (k..m).map(|i| self.work[(i, k)].powi(2)).sum::<f64>().sqrt();
+            let col_k = &work[k * m..(k + 1) * m];
+            let norm = col_k[k..].iter().map(|x| x * x).sum::<f64>().sqrt();
             if norm == 0.0 {
-                self.r[(k, k)] = 0.0;
                 continue;
             }
-            let x0 = self.work[(k, k)];
+            let x0 = col_k[k];
             let alpha = if x0 >= 0.0 { -norm } else { norm };
-            for i in 0..m {
-                self.v[i] = if i < k { 0.0 } else { self.work[(i, k)] };
-            }
-            self.v[k] -= alpha;
-            let vnorm2: f64 = (k..m).map(|i| self.v[i] * self.v[i]).sum();
+            v[..k].fill(0.0);
+            v[k..].copy_from_slice(&col_k[k..]);
+            v[k] -= alpha;
+            let vnorm2: f64 = v[k..].iter().map(|x| x * x).sum();
             if vnorm2 == 0.0 {
                 continue;
             }
+            let beta = 2.0 / vnorm2;
             // work ← H work on columns k..c
             for col in k..c {
-                let dot: f64 = (k..m).map(|i| self.v[i] * self.work[(i, col)]).sum();
-                let s = 2.0 * dot / vnorm2;
+                let wc = &mut work[col * m..(col + 1) * m];
+                let s = beta * (k..m).map(|i| v[i] * wc[i]).sum::<f64>();
                 for i in k..m {
-                    self.work[(i, col)] -= s * self.v[i];
+                    wc[i] -= s * v[i];
                 }
             }
-            // Q ← Q H
-            for row in 0..m {
-                let dot: f64 = (k..m).map(|i| self.q[(row, i)] * self.v[i]).sum();
-                let s = 2.0 * dot / vnorm2;
-                for i in k..m {
-                    self.q[(row, i)] -= s * self.v[i];
+            // Q ← Q H = Q − β (Q v) vᵀ
+            w.fill(0.0);
+            for i in k..m {
+                let qi = &q[i * m..(i + 1) * m];
+                for row in 0..m {
+                    w[row] += qi[row] * v[i];
+                }
+            }
+            for i in k..m {
+                let s = beta * v[i];
+                let qi = &mut q[i * m..(i + 1) * m];
+                for row in 0..m {
+                    qi[row] -= s * w[row];
                 }
             }
         }
@@ -154,19 +166,24 @@ impl KktFactorization {
             return Err(self.singular(mbar, a, SingularityKind::RedundantConstraints));
         }
 
-        // M̃ = Q₂ᵀ M̄ Q₂ and its Cholesky factor L (lower).
-        for i in 0..e {
-            for j in 0..=i {
-                let mut acc = 0.0;
-                for p in 0..m {
-                    let qp = self.q[(p, c + i)];
-                    if qp == 0.0 {
-                        continue;
-                    }
-                    for s in 0..m {
-                        acc += qp * mbar[(p, s)] * self.q[(s, c + j)];
+        // M̃ = Q₂ᵀ (M̄ Q₂) and its Cholesky factor L (lower).
+        let (q, mb) = (self.q.as_slice(), mbar.as_slice());
+        for j in 0..e {
+            // t2 = M̄ q_{c+j}
+            let qj = &q[(c + j) * m..(c + j + 1) * m];
+            let t = &mut self.t2[..m];
+            t.fill(0.0);
+            for (s, &qs) in qj.iter().enumerate() {
+                if qs != 0.0 {
+                    let col = &mb[s * m..(s + 1) * m];
+                    for p in 0..m {
+                        t[p] += col[p] * qs;
                     }
                 }
+            }
+            for i in j..e {
+                let qi = &q[(c + i) * m..(c + i + 1) * m];
+                let acc: f64 = qi.iter().zip(t.iter()).map(|(a, b)| a * b).sum();
                 self.l[(i, j)] = acc;
                 self.l[(j, i)] = acc;
             }
@@ -206,7 +223,10 @@ impl KktFactorization {
     }
 
     fn singular(&self, mbar: &DMatrix<f64>, a: &DMatrix<f64>, kind: SingularityKind) -> CoreError {
-        CoreError::SingularKkt { kind, condition_estimate: kkt_condition_number(mbar, a) }
+        CoreError::SingularKkt {
+            kind,
+            condition_estimate: kkt_condition_number(mbar, a),
+        }
     }
 
     /// Solves `[M̄ Aᵀ; A 0][x; y] = [f; g]` with the current factorization.
@@ -222,17 +242,31 @@ impl KktFactorization {
             }
             y[i] = s / self.r[(i, i)];
         }
+        let (q, mb) = (self.q.as_slice(), self.mbar.as_slice());
+        let col = |j: usize| j * m..(j + 1) * m;
         // x = Q₁ x₁
-        for p in 0..m {
-            x[p] = (0..c).map(|k| self.q[(p, k)] * y[k]).sum();
+        x.fill(0.0);
+        for k in 0..c {
+            for (xp, qp) in x.iter_mut().zip(&q[col(k)]) {
+                *xp += qp * y[k];
+            }
         }
-        // t1 = f − M̄ x
+        // t1 = f − M̄ x   (M̄ symmetric: row p = column p)
         for p in 0..m {
-            self.t1[p] = f[p] - (0..m).map(|s| self.mbar[(p, s)] * x[s]).sum::<f64>();
+            self.t1[p] = f[p]
+                - mb[col(p)]
+                    .iter()
+                    .zip(x.iter())
+                    .map(|(a, b)| a * b)
+                    .sum::<f64>();
         }
         // t2 = Q₂ᵀ t1 ; solve L Lᵀ z = t2
         for i in 0..e {
-            self.t2[i] = (0..m).map(|p| self.q[(p, c + i)] * self.t1[p]).sum();
+            self.t2[i] = q[col(c + i)]
+                .iter()
+                .zip(&self.t1[..m])
+                .map(|(a, b)| a * b)
+                .sum();
         }
         for i in 0..e {
             let mut s = self.t2[i];
@@ -249,15 +283,27 @@ impl KktFactorization {
             self.t2[i] = s / self.l[(i, i)];
         }
         // x += Q₂ z
-        for p in 0..m {
-            x[p] += (0..e).map(|i| self.q[(p, c + i)] * self.t2[i]).sum::<f64>();
+        for i in 0..e {
+            let zi = self.t2[i];
+            for (xp, qp) in x.iter_mut().zip(&q[col(c + i)]) {
+                *xp += qp * zi;
+            }
         }
         // y = R⁻¹ Q₁ᵀ (f − M̄ x)
         for p in 0..m {
-            self.t3[p] = f[p] - (0..m).map(|s| self.mbar[(p, s)] * x[s]).sum::<f64>();
+            self.t3[p] = f[p]
+                - mb[col(p)]
+                    .iter()
+                    .zip(x.iter())
+                    .map(|(a, b)| a * b)
+                    .sum::<f64>();
         }
         for k in 0..c {
-            y[k] = (0..m).map(|p| self.q[(p, k)] * self.t3[p]).sum();
+            y[k] = q[col(k)]
+                .iter()
+                .zip(&self.t3[..m])
+                .map(|(a, b)| a * b)
+                .sum();
         }
         for i in (0..c).rev() {
             let mut s = y[i];
@@ -298,7 +344,11 @@ impl KktFactorization {
                 lambda[(i, j)] = y[i];
             }
         }
-        KktBlocks { m_dagger, a_dagger, lambda }
+        KktBlocks {
+            m_dagger,
+            a_dagger,
+            lambda,
+        }
     }
 
     /// Basis of the free motions `Q₂` (columns span `ker A`).
@@ -332,7 +382,12 @@ pub fn kkt_matrix(mbar: &DMatrix<f64>, a: &DMatrix<f64>) -> DMatrix<f64> {
 }
 
 /// Solves the same KKT system densely via `M̄_ε`-free LU, for cross-checks.
-pub fn kkt_solve_dense(mbar: &DMatrix<f64>, a: &DMatrix<f64>, f: &DVector<f64>, g: &DVector<f64>) -> Option<(DVector<f64>, DVector<f64>)> {
+pub fn kkt_solve_dense(
+    mbar: &DMatrix<f64>,
+    a: &DMatrix<f64>,
+    f: &DVector<f64>,
+    g: &DVector<f64>,
+) -> Option<(DVector<f64>, DVector<f64>)> {
     let m = mbar.nrows();
     let c = a.nrows();
     let k = kkt_matrix(mbar, a);

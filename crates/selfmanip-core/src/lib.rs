@@ -27,9 +27,13 @@ pub mod model;
 pub mod quasistatic;
 pub mod reduced;
 
-pub use contact::{ConstraintRow, ContactKind, ContactMode, FlatGround, GroundPlane, RowDirection, Terrain};
+pub use contact::{
+    ConstraintRow, ContactKind, ContactMode, FlatGround, GroundPlane, RowDirection, Terrain,
+};
 pub use description::RobotDescription;
-pub use dynamics::{forward_dynamics, kinetic_energy, plastic_impact, pseudo_impulse, Data, Impact};
+pub use dynamics::{
+    forward_dynamics, kinetic_energy, plastic_impact, pseudo_impulse, Data, Impact,
+};
 pub use error::{CoreError, Result, SingularityKind};
 pub use kkt::{KktBlocks, KktFactorization, KktInfo};
 pub use model::Model;

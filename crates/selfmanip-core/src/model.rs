@@ -39,9 +39,15 @@ impl Joint {
 /// Shape of a contact site in the frame of its part.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ContactShape {
-    Point { position_m: Vector2<f64> },
+    Point {
+        position_m: Vector2<f64>,
+    },
     /// A circle (`normal_range_rad = None`) or an arc of outward-normal angles `[α0, α1]`.
-    Arc { center_m: Vector2<f64>, radius_m: f64, normal_range_rad: Option<[f64; 2]> },
+    Arc {
+        center_m: Vector2<f64>,
+        radius_m: f64,
+        normal_range_rad: Option<[f64; 2]>,
+    },
 }
 
 /// Friction model of a contact site.
@@ -84,7 +90,15 @@ impl Model {
         joints: Vec<Joint>,
         contacts: Vec<Contact>,
     ) -> Self {
-        Model { name, gravity_m_s2, body_mass_kg, body_inertia_kg_m2, legs, joints, contacts }
+        Model {
+            name,
+            gravity_m_s2,
+            body_mass_kg,
+            body_inertia_kg_m2,
+            legs,
+            joints,
+            contacts,
+        }
     }
 
     pub fn from_description(d: &RobotDescription) -> crate::Result<Self> {
@@ -116,7 +130,9 @@ impl Model {
         self.contacts
             .iter()
             .position(|c| c.name == name)
-            .ok_or_else(|| crate::CoreError::UnknownContact { name: name.to_string() })
+            .ok_or_else(|| crate::CoreError::UnknownContact {
+                name: name.to_string(),
+            })
     }
 
     /// Joints `first..=j` of the leg of joint `j`: the chain that moves link `j`.

@@ -52,7 +52,11 @@ pub fn quasi_static(
     check_vector("q", q, nq)?;
     mode.validate(model)?;
     if t.nrows() != n {
-        return Err(CoreError::WrongLength { field: "torque_constraints rows", expected: n, actual: t.nrows() });
+        return Err(CoreError::WrongLength {
+            field: "torque_constraints rows",
+            expected: n,
+            actual: t.nrows(),
+        });
     }
     check_finite("torque_constraints", t.as_slice())?;
     let zero = vec![0.0; nq];
@@ -62,7 +66,13 @@ pub fn quasi_static(
     // N̄ at rest (C̄q̇ = 0)
     let mut scratch = Default::default();
     crate::inertia::mass_coriolis_gravity(
-        model, &kin, &zero, &mut scratch, &mut data.m_bar, &mut data.c_qd, &mut data.n_bar,
+        model,
+        &kin,
+        &zero,
+        &mut scratch,
+        &mut data.m_bar,
+        &mut data.c_qd,
+        &mut data.n_bar,
     );
     let nb = Vector3::new(data.n_bar[n], data.n_bar[n + 1], data.n_bar[n + 2]);
     let f_g = -(rot3(q[n + 2]).transpose() * nb);
@@ -71,8 +81,15 @@ pub fn quasi_static(
     // ker G_s from the eigenvectors of G_sᵀ G_s with (relatively) zero eigenvalue
     let gtg = maps.g_s.transpose() * &maps.g_s;
     let eig = SymmetricEigen::new(gtg);
-    let scale = eig.eigenvalues.iter().cloned().fold(0.0, f64::max).max(f64::MIN_POSITIVE);
-    let null: Vec<usize> = (0..c).filter(|&i| eig.eigenvalues[i] <= NULL_SPACE_TOLERANCE * scale).collect();
+    let scale = eig
+        .eigenvalues
+        .iter()
+        .cloned()
+        .fold(0.0, f64::max)
+        .max(f64::MIN_POSITIVE);
+    let null: Vec<usize> = (0..c)
+        .filter(|&i| eig.eigenvalues[i] <= NULL_SPACE_TOLERANCE * scale)
+        .collect();
     let mut internal_basis = DMatrix::zeros(c, null.len());
     for (col, &i) in null.iter().enumerate() {
         internal_basis.set_column(col, &eig.eigenvectors.column(i));
@@ -83,7 +100,10 @@ pub fn quasi_static(
     let at = t.ncols();
     if 3 + at != c {
         return Err(CoreError::IllPosedQuasiStatic {
-            reason: format!("{c} contact rows need {} torque constraints, got {at}", c as i64 - 3),
+            reason: format!(
+                "{c} contact rows need {} torque constraints, got {at}",
+                c as i64 - 3
+            ),
         });
     }
     let mut lhs = DMatrix::zeros(c, c);
@@ -93,17 +113,24 @@ pub fn quasi_static(
     let n_theta = data.n_bar.rows(0, n).into_owned();
     let mut rhs = DVector::zeros(c);
     rhs.rows_mut(0, 3).copy_from(&(-f_g));
-    rhs.rows_mut(3, at).copy_from(&(-(t.transpose() * &n_theta)));
+    rhs.rows_mut(3, at)
+        .copy_from(&(-(t.transpose() * &n_theta)));
     let svd = lhs.clone().svd(false, false);
     let (smax, smin) = (svd.singular_values.max(), svd.singular_values.min());
     if !(smin > 1e-12 * smax) {
         return Err(CoreError::IllPosedQuasiStatic {
-            reason: format!("the augmented grasp map is singular (condition {:.3e})", smax / smin),
+            reason: format!(
+                "the augmented grasp map is singular (condition {:.3e})",
+                smax / smin
+            ),
         });
     }
-    let f_p = lhs.lu().solve(&rhs).ok_or_else(|| CoreError::IllPosedQuasiStatic {
-        reason: "the augmented grasp map is singular".into(),
-    })?;
+    let f_p = lhs
+        .lu()
+        .solve(&rhs)
+        .ok_or_else(|| CoreError::IllPosedQuasiStatic {
+            reason: "the augmented grasp map is singular".into(),
+        })?;
     let tau_p = &n_theta + maps.j_h.transpose() * &f_p;
     Ok(QuasiStatic {
         rows: maps.rows,

@@ -51,13 +51,20 @@ pub fn reduced_dynamics(
     check_finite("Y", y_map.as_slice())?;
     let c = mode.n_rows();
     if c > nq {
-        return Err(CoreError::SingularKkt { kind: SingularityKind::RedundantConstraints, condition_estimate: f64::INFINITY });
+        return Err(CoreError::SingularKkt {
+            kind: SingularityKind::RedundantConstraints,
+            condition_estimate: f64::INFINITY,
+        });
     }
     let e = nq - c;
     if y_map.shape() != (e, nq) {
         return Err(CoreError::InvalidParameterization {
             field: "Y",
-            reason: format!("must be {e}×{nq} (e = q − c), got {}×{}", y_map.nrows(), y_map.ncols()),
+            reason: format!(
+                "must be {e}×{nq} (e = q − c), got {}×{}",
+                y_map.nrows(),
+                y_map.ncols()
+            ),
         });
     }
     // Geometry and inertia at (q, q̇_in) to get H; then re-evaluate at the constrained q̇.
@@ -71,7 +78,9 @@ pub fn reduced_dynamics(
     ay.view_mut((0, 0), (c, nq)).copy_from(&data.constraints.a);
     ay.view_mut((c, 0), (e, nq)).copy_from(y_map);
     let lu = ay.clone().lu();
-    if !lu.is_invertible() || ay.clone().svd(false, false).singular_values.min() <= 1e-12 * ay.norm() {
+    if !lu.is_invertible()
+        || ay.clone().svd(false, false).singular_values.min() <= 1e-12 * ay.norm()
+    {
         return Err(CoreError::InvalidParameterization {
             field: "Y",
             reason: "[A; Y] is singular: y does not parameterize the free motion here".into(),
@@ -84,7 +93,9 @@ pub fn reduced_dynamics(
     let qd_c = &h * &yd;
     tolerate_kkt(data.prepare(model, terrain, mode, q, qd_c.as_slice()))?;
     let mut adot0 = DMatrix::zeros(nq, e);
-    adot0.view_mut((0, 0), (c, e)).copy_from(&(&data.constraints.a_dot * &h));
+    adot0
+        .view_mut((0, 0), (c, e))
+        .copy_from(&(&data.constraints.a_dot * &h));
     let h_dot = -lu.solve(&adot0).expect("invertible");
     let c_bar = coriolis_matrix(model, &data.kin);
     let m_bar = &data.m_bar;
@@ -92,7 +103,9 @@ pub fn reduced_dynamics(
     let c_tilde = h.transpose() * &c_bar * &h + h.transpose() * m_bar * &h_dot;
     let n_tilde = h.transpose() * &data.n_bar;
     let mut upsilon = DVector::zeros(nq);
-    upsilon.rows_mut(0, n).copy_from(&DVector::from_column_slice(tau));
+    upsilon
+        .rows_mut(0, n)
+        .copy_from(&DVector::from_column_slice(tau));
     let upsilon_tilde = h.transpose() * &upsilon;
     let chol = m_tilde.clone().cholesky().ok_or(CoreError::SingularKkt {
         kind: SingularityKind::UnconstrainedMasslessMotion,
@@ -102,13 +115,27 @@ pub fn reduced_dynamics(
     let qdd = &h * &ydd + &h_dot * &yd;
     // [Aᵀ, M̄H]⁻¹ : first c rows are A*
     let mut am = DMatrix::zeros(nq, nq);
-    am.view_mut((0, 0), (nq, c)).copy_from(&data.constraints.a.transpose());
+    am.view_mut((0, 0), (nq, c))
+        .copy_from(&data.constraints.a.transpose());
     am.view_mut((0, c), (nq, e)).copy_from(&(m_bar * &h));
     let am_inv = am.try_inverse().ok_or(CoreError::SingularKkt {
         kind: SingularityKind::UnconstrainedMasslessMotion,
         condition_estimate: f64::INFINITY,
     })?;
     let a_star = am_inv.rows(0, c).into_owned();
-    let lambda = &a_star * (&upsilon - &data.n_bar) - &a_star * (m_bar * &h_dot + &c_bar * &h) * &yd;
-    Ok(ReducedDynamics { h, h_dot, m_tilde, c_tilde, n_tilde, upsilon_tilde, a_star, yd, ydd, qdd, lambda })
+    let lambda =
+        &a_star * (&upsilon - &data.n_bar) - &a_star * (m_bar * &h_dot + &c_bar * &h) * &yd;
+    Ok(ReducedDynamics {
+        h,
+        h_dot,
+        m_tilde,
+        c_tilde,
+        n_tilde,
+        upsilon_tilde,
+        a_star,
+        yd,
+        ydd,
+        qdd,
+        lambda,
+    })
 }
