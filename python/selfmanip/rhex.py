@@ -34,7 +34,7 @@ import numpy as np
 
 from . import _checks
 from ._native import Robot as _NativeRobot
-from ._native import rhex_default_params_json
+from ._native import ground_reaction_complex_json, rhex_default_params_json
 from .robot import Robot
 
 _REAL_KEYS = ("m_b", "I_b", "m_l", "I_l", "l1", "l2", "rho1", "rho2", "rho_b", "tau_s", "g")
@@ -44,6 +44,15 @@ _MU_KEYS = ("mu_front", "mu_middle", "mu_rear")
 def default_params() -> dict[str, Any]:
     """Table 4.2 as shipped (``crates/rhex-model/data/table_4_2.toml``)."""
     return json.loads(rhex_default_params_json())
+
+
+def ground_reaction_complex() -> dict[str, Any]:
+    """The ground reaction complex of chapter 3 as data: ``cells`` (16, with contacts and
+    DOF), ``hasse`` (64 directed single-contact transitions with their section-3.1.3
+    category), ``allowable`` (the 18 of Fig. 3.3), ``leap_words`` ((3.2)-(3.7): printed form,
+    full path from rest ``1010`` to flight ``0000``, and the timing condition) and the four
+    leg ``strategies``. Labels are bits ``FB FL RB RL``."""
+    return json.loads(ground_reaction_complex_json())
 
 
 def _check_params(params: Mapping[str, Any]) -> dict[str, Any]:

@@ -21,7 +21,15 @@ use selfmanip_core::{
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Robot>()?;
     m.add_function(wrap_pyfunction!(rhex_default_params_json, m)?)?;
+    m.add_function(wrap_pyfunction!(ground_reaction_complex_json, m)?)?;
     Ok(())
+}
+
+/// The ground reaction complex of chapter 3 (cells, Hasse edges, allowable edges with their
+/// categories, leap words, strategies) as JSON.
+#[pyfunction]
+fn ground_reaction_complex_json() -> String {
+    rhex_model::grc::grc_json().to_string()
 }
 
 /// The shipped Table 4.2 parameters as JSON (the defaults of `selfmanip.rhex.Model`).
