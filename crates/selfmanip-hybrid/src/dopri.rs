@@ -1,0 +1,256 @@
+//! Dormand–Prince 5(4) with its 4th-order-accurate dense output (Hairer, Nørsett & Wanner,
+//! *Solving ODEs I*, II.5 / DOPRI5): adaptive steps, FSAL, and a continuous interpolant on
+//! every accepted step, on which guards are located by root finding ([`crate::events`]).
+//! Written once here because the maintained Rust ODE crates either lack event location on
+//! the dense output or misplace events (see `shared/ECOSYSTEM.md`).
+
+/// Butcher tableau of DOPRI5.
+const C: [f64; 7] = [0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0];
+const A: [[f64; 6]; 7] = [
+    [0.0; 6],
+    [1.0 / 5.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [3.0 / 40.0, 9.0 / 40.0, 0.0, 0.0, 0.0, 0.0],
+    [44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0, 0.0, 0.0, 0.0],
+    [
+        19372.0 / 6561.0,
+        -25360.0 / 2187.0,
+        64448.0 / 6561.0,
+        -212.0 / 729.0,
+        0.0,
+        0.0,
+    ],
+    [
+        9017.0 / 3168.0,
+        -355.0 / 33.0,
+        46732.0 / 5247.0,
+        49.0 / 176.0,
+        -5103.0 / 18656.0,
+        0.0,
+    ],
+    [
+        35.0 / 384.0,
+        0.0,
+        500.0 / 1113.0,
+        125.0 / 192.0,
+        -2187.0 / 6784.0,
+        11.0 / 84.0,
+    ],
+];
+/// Error coefficients `b − b̂`.
+const E: [f64; 7] = [
+    71.0 / 57600.0,
+    0.0,
+    -71.0 / 16695.0,
+    71.0 / 1920.0,
+    -17253.0 / 339200.0,
+    22.0 / 525.0,
+    -1.0 / 40.0,
+];
+/// Dense output coefficients.
+const D: [f64; 7] = [
+    -12715105075.0 / 11282082432.0,
+    0.0,
+    87487479700.0 / 32700410799.0,
+    -10690763975.0 / 1880347072.0,
+    701980252875.0 / 199316789632.0,
+    -1453857185.0 / 822651844.0,
+    69997945.0 / 29380423.0,
+];
+
+/// Tolerances and step limits.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct StepOptions {
+    pub rtol: f64,
+    pub atol: f64,
+    pub h_initial_s: f64,
+    pub h_max_s: f64,
+    pub h_min_s: f64,
+}
+
+impl Default for StepOptions {
+    fn default() -> Self {
+        StepOptions {
+            rtol: 1e-9,
+            atol: 1e-11,
+            h_initial_s: 1e-4,
+            h_max_s: 1e-2,
+            h_min_s: 1e-14,
+        }
+    }
+}
+
+/// The continuous extension of one accepted step `[t0, t0 + h]`.
+#[derive(Debug, Clone, Default)]
+pub struct DenseStep {
+    pub t0: f64,
+    pub h: f64,
+    r: [Vec<f64>; 5],
+}
+
+impl DenseStep {
+    pub fn t1(&self) -> f64 {
+        self.t0 + self.h
+    }
+
+    /// `y(t)` for `t` in the step.
+    pub fn eval(&self, t: f64, y: &mut [f64]) {
+        let s = (t - self.t0) / self.h;
+        let s1 = 1.0 - s;
+        for (i, yi) in y.iter_mut().enumerate() {
+            *yi = self.r[0][i]
+                + s * (self.r[1][i] + s1 * (self.r[2][i] + s * (self.r[3][i] + s1 * self.r[4][i])));
+        }
+    }
+}
+
+/// An integrator for `ẏ = f(t, y)` that may fail (the right-hand side returns `Err`).
+pub struct Dopri5<'a, E> {
+    f: &'a mut dyn FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
+    pub opts: StepOptions,
+    k: [Vec<f64>; 7],
+    ytmp: Vec<f64>,
+    ynew: Vec<f64>,
+    h: f64,
+    fsal_valid: bool,
+}
+
+impl<'a, E> Dopri5<'a, E> {
+    pub fn new(
+        f: &'a mut dyn FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
+        n: usize,
+        opts: StepOptions,
+    ) -> Self {
+        Dopri5 {
+            f,
+            opts,
+            k: std::array::from_fn(|_| vec![0.0; n]),
+            ytmp: vec![0.0; n],
+            ynew: vec![0.0; n],
+            h: opts.h_initial_s,
+            fsal_valid: false,
+        }
+    }
+
+    /// Forgets the stored derivative (call after the state jumps).
+    pub fn reset(&mut self) {
+        self.fsal_valid = false;
+        self.h = self.opts.h_initial_s;
+    }
+
+    /// One accepted step from `(t, y)` not past `t_end`; advances `y` and returns the dense
+    /// output. `Err(Left(e))` if the right-hand side failed, `Err(Right(h))` if the step
+    /// size fell below `h_min`.
+    pub fn step(
+        &mut self,
+        t: f64,
+        y: &mut [f64],
+        t_end: f64,
+        dense: &mut DenseStep,
+    ) -> Result<(), StepError<E>> {
+        let n = y.len();
+        if !self.fsal_valid {
+            (self.f)(t, y, &mut self.k[0]).map_err(StepError::Rhs)?;
+            self.fsal_valid = true;
+        }
+        loop {
+            let h = self.h.min(self.opts.h_max_s).min(t_end - t);
+            if h < self.opts.h_min_s && t_end - t > self.opts.h_min_s {
+                return Err(StepError::StepTooSmall(h));
+            }
+            for s in 1..7 {
+                for i in 0..n {
+                    let mut acc = 0.0;
+                    for j in 0..s {
+                        acc += A[s][j] * self.k[j][i];
+                    }
+                    self.ytmp[i] = y[i] + h * acc;
+                }
+                let (head, tail) = self.k.split_at_mut(s);
+                let _ = head;
+                (self.f)(t + C[s] * h, &self.ytmp, &mut tail[0]).map_err(StepError::Rhs)?;
+            }
+            // the 7th stage point is y_{n+1} (FSAL)
+            self.ynew.copy_from_slice(&self.ytmp);
+            let mut err = 0.0;
+            for i in 0..n {
+                let e: f64 = h * (0..7).map(|j| E[j] * self.k[j][i]).sum::<f64>();
+                let sc = self.opts.atol + self.opts.rtol * y[i].abs().max(self.ynew[i].abs());
+                err += (e / sc).powi(2);
+            }
+            let err = (err / n.max(1) as f64).sqrt();
+            if err <= 1.0 || h <= self.opts.h_min_s {
+                dense.t0 = t;
+                dense.h = h;
+                for r in dense.r.iter_mut() {
+                    r.resize(n, 0.0);
+                }
+                for i in 0..n {
+                    let dy = self.ynew[i] - y[i];
+                    let bspl = h * self.k[0][i] - dy;
+                    dense.r[0][i] = y[i];
+                    dense.r[1][i] = dy;
+                    dense.r[2][i] = bspl;
+                    dense.r[3][i] = dy - h * self.k[6][i] - bspl;
+                    dense.r[4][i] = h * (0..7).map(|j| D[j] * self.k[j][i]).sum::<f64>();
+                }
+                y.copy_from_slice(&self.ynew);
+                let (first, rest) = self.k.split_at_mut(1);
+                first[0].copy_from_slice(&rest[5]);
+                let fac = if err == 0.0 {
+                    5.0
+                } else {
+                    (0.9 * err.powf(-0.2)).clamp(0.2, 5.0)
+                };
+                self.h = h * fac;
+                return Ok(());
+            }
+            self.h = h * (0.9 * err.powf(-0.2)).clamp(0.2, 1.0);
+        }
+    }
+}
+
+/// Why a step failed.
+#[derive(Debug)]
+pub enum StepError<E> {
+    Rhs(E),
+    StepTooSmall(f64),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Harmonic oscillator: the 5th-order steps and the dense output against cos/sin.
+    #[test]
+    fn oscillator_steps_and_dense_output() {
+        let mut f = |_t: f64, y: &[f64], d: &mut [f64]| -> Result<(), ()> {
+            d[0] = y[1];
+            d[1] = -y[0];
+            Ok(())
+        };
+        let mut ode = Dopri5::new(
+            &mut f,
+            2,
+            StepOptions {
+                rtol: 1e-11,
+                atol: 1e-13,
+                ..Default::default()
+            },
+        );
+        let (mut t, mut y) = (0.0, vec![1.0, 0.0]);
+        let mut dense = DenseStep::default();
+        let mut worst_dense: f64 = 0.0;
+        let mut probe = [0.0; 2];
+        while t < 10.0 {
+            ode.step(t, &mut y, 10.0, &mut dense).unwrap();
+            for s in [0.25, 0.5, 0.75] {
+                let tm = dense.t0 + s * dense.h;
+                dense.eval(tm, &mut probe);
+                worst_dense = worst_dense.max((probe[0] - tm.cos()).abs());
+            }
+            t = dense.t1();
+        }
+        assert!((y[0] - 10f64.cos()).abs() < 1e-9 && (y[1] + 10f64.sin()).abs() < 1e-9);
+        assert!(worst_dense < 1e-8, "dense output error {worst_dense}");
+    }
+}

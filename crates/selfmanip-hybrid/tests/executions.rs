@@ -1,0 +1,226 @@
+//! Executions against closed forms: a falling block's touchdown time, the rocking block of
+//! Figs. 5.4–5.5 (Zeno without the pseudo-impulse, at rest with δt = 0.03 s), and impacts that
+//! never add energy.
+use selfmanip_core::{ContactMode, FlatGround, Model, RobotDescription};
+use selfmanip_hybrid::{simulate, EventKind, HybridError, HybridOptions, Termination, ZeroTorque};
+
+const H: f64 = 0.10;
+const W: f64 = 0.05;
+const G: f64 = 9.81;
+
+fn block() -> Model {
+    let text = format!(
+        r#"
+name = "block"
+gravity_m_s2 = {G}
+legs = []
+[body]
+mass_kg = 5.0
+inertia_kg_m2 = {i}
+[[contacts]]
+name = "left"
+shape = {{ kind = "point", position_m = [{l}, {hz}] }}
+friction = {{ kind = "sticking" }}
+[[contacts]]
+name = "right"
+shape = {{ kind = "point", position_m = [{r}, {hz}] }}
+friction = {{ kind = "sticking" }}
+"#,
+        i = 5.0 * (W * W + H * H) / 12.0,
+        l = -W / 2.0,
+        r = W / 2.0,
+        hz = H / 2.0
+    );
+    RobotDescription::from_toml_str(&text)
+        .unwrap()
+        .build()
+        .unwrap()
+}
+
+/// A level block released at rest with its corners `d` above the ground lands at
+/// `t = sqrt(2d/g)` on both corners at once (a simultaneous event) and stays.
+#[test]
+fn falling_block_lands_at_closed_form_time() {
+    let model = block();
+    for d in [0.01, 0.2, 1.3] {
+        let q = [0.3, -H / 2.0 - d, 0.0];
+        let exec = simulate(
+            &model,
+            &FlatGround,
+            &ZeroTorque,
+            ContactMode::FLIGHT,
+            &q,
+            &[0.0; 3],
+            2.0,
+            HybridOptions::default(),
+        )
+        .unwrap();
+        let first = &exec.events[0];
+        assert_eq!(first.kind, EventKind::Touchdown);
+        let expected = (2.0 * d / G).sqrt();
+        assert!(
+            (first.t - expected).abs() < 1e-9,
+            "d={d}: {} vs {expected}",
+            first.t
+        );
+        assert_eq!(first.triggered, vec![0, 1], "both corners in one event");
+        assert_eq!(first.mode_after.active().collect::<Vec<_>>(), vec![0, 1]);
+        assert_eq!(exec.termination, Termination::FinalTime);
+        assert_eq!(exec.events.len(), 1, "no chatter after landing");
+        assert!(exec.qd.iter().all(|v| v.abs() < 1e-9));
+        // the impact removes all the kinetic energy m g d
+        assert!((first.kinetic_before - 5.0 * G * d).abs() < 1e-6 * (1.0 + 5.0 * G * d));
+        assert!(first.kinetic_after.abs() < 1e-12);
+    }
+}
+
+fn tilted_on_left_corner(phi: f64) -> ([f64; 3], ContactMode, Model) {
+    let model = block();
+    // left corner (−w/2, h/2) at the origin: X = −R(φ) c
+    let (s, c) = phi.sin_cos();
+    let (cx, cz) = (-W / 2.0, H / 2.0);
+    let q = [-(c * cx + s * cz), -(-s * cx + c * cz), phi];
+    let mode = ContactMode::parse_names(&model, "left").unwrap();
+    (q, mode, model)
+}
+
+/// Without the pseudo-impulse a slender block (h² > w² − 4I/m, see tests/rocking_block.rs)
+/// rocks forever with ever shorter swings: the execution is Zeno and is stopped as such.
+#[test]
+fn rocking_block_is_zeno_without_pseudo_impulse() {
+    let (q, mode, model) = tilted_on_left_corner(0.15);
+    let exec = simulate(
+        &model,
+        &FlatGround,
+        &ZeroTorque,
+        mode,
+        &q,
+        &[0.0; 3],
+        5.0,
+        HybridOptions::default(),
+    )
+    .unwrap();
+    assert!(
+        matches!(exec.termination, Termination::Zeno { .. }),
+        "{:?}",
+        exec.termination
+    );
+    // every impact transfers the pivot: the trailing corner lifts
+    for e in exec.events.iter().take(10) {
+        assert_eq!(e.kind, EventKind::Touchdown);
+        assert_eq!(e.mode_after.active().count(), 1, "pivot transfer, not rest");
+    }
+    assert!(
+        exec.impact_losses().iter().all(|&l| l >= -1e-12),
+        "impacts never add energy"
+    );
+    // the impact times accumulate: swings shrink geometrically
+    let t: Vec<f64> = exec.events.iter().map(|e| e.t).collect();
+    assert!(t[3] - t[2] < t[2] - t[1] && t[2] - t[1] < t[1] - t[0]);
+}
+
+/// With δt = 0.03 s the block comes to rest after finitely many impacts, on the first impact
+/// slower than the threshold δt g w² / (h² − w² + 4I/m) ≈ 6.31 cm/s.
+#[test]
+fn rocking_block_comes_to_rest_with_pseudo_impulse() {
+    let (q, mode, model) = tilted_on_left_corner(0.15);
+    let opts = HybridOptions {
+        delta_t_s: 0.03,
+        ..Default::default()
+    };
+    let exec = simulate(
+        &model,
+        &FlatGround,
+        &ZeroTorque,
+        mode,
+        &q,
+        &[0.0; 3],
+        3.0,
+        opts,
+    )
+    .unwrap();
+    assert_eq!(exec.termination, Termination::FinalTime);
+    let last = exec.events.last().unwrap();
+    assert_eq!(last.mode_after.active().count(), 2, "both corners down");
+    assert!(exec.events.len() < 40, "{} impacts", exec.events.len());
+    assert!(exec.qd.iter().all(|v| v.abs() < 1e-9), "at rest");
+    let i = 5.0 * (W * W + H * H) / 12.0;
+    let threshold = 0.03 * G * W * W / (H * H - W * W + 4.0 * i / 5.0);
+    // the COM's downward speed at each impact, from the kinetic energy of the pivoting block:
+    // T = ½ (I + m r²) Ω², ż = Ω w/2 at landing (flat)
+    let r2 = (W * W + H * H) / 4.0;
+    for e in &exec.events {
+        let omega = (2.0 * e.kinetic_before / (i + 5.0 * r2)).sqrt();
+        let zdot = omega * W / 2.0;
+        let rest = e.mode_after.active().count() == 2;
+        assert_eq!(
+            rest,
+            zdot <= threshold,
+            "impact at ż = {zdot} (threshold {threshold})"
+        );
+    }
+}
+
+#[test]
+fn bad_initial_states_are_typed_errors() {
+    let model = block();
+    let both = ContactMode::parse_names(&model, "left,right:slide").unwrap();
+    // corners not on the ground
+    let err = simulate(
+        &model,
+        &FlatGround,
+        &ZeroTorque,
+        both,
+        &[0.0, -0.2, 0.0],
+        &[0.0; 3],
+        1.0,
+        HybridOptions::default(),
+    )
+    .unwrap_err();
+    assert!(matches!(err, HybridError::OffManifold { field: "q", .. }));
+    // velocity through the ground
+    let err = simulate(
+        &model,
+        &FlatGround,
+        &ZeroTorque,
+        both,
+        &[0.0, -H / 2.0, 0.0],
+        &[0.0, 1.0, 0.0],
+        1.0,
+        HybridOptions::default(),
+    )
+    .unwrap_err();
+    assert!(matches!(err, HybridError::OffManifold { field: "qd", .. }));
+    let err = simulate(
+        &model,
+        &FlatGround,
+        &ZeroTorque,
+        ContactMode::FLIGHT,
+        &[0.0, f64::NAN, 0.0],
+        &[0.0; 3],
+        1.0,
+        HybridOptions::default(),
+    )
+    .unwrap_err();
+    assert!(matches!(err, HybridError::Core(_)));
+    let bad = HybridOptions {
+        delta_t_s: -1.0,
+        ..Default::default()
+    };
+    assert!(matches!(
+        simulate(
+            &model,
+            &FlatGround,
+            &ZeroTorque,
+            ContactMode::FLIGHT,
+            &[0.0, -1.0, 0.0],
+            &[0.0; 3],
+            1.0,
+            bad
+        ),
+        Err(HybridError::InvalidOption {
+            field: "delta_t_s",
+            ..
+        })
+    ));
+}
