@@ -1,1 +1,0 @@
-//! Actuators (thesis chapter 2). Work in progress.
