@@ -298,7 +298,19 @@ pub struct ContactGeometry {
 
 fn angle_in_range(a: f64, range: [f64; 2]) -> bool {
     // distance counter-clockwise from range start, in [0, 2π)
-    let from_start = (a - range[0]).rem_euclid(std::f64::consts::TAU);
+    // (a − start) mod 2π without the slow `fmod`: `a` comes from atan2 and the range from a
+    // validated description, so usually within a turn
+    let tau = std::f64::consts::TAU;
+    let mut from_start = a - range[0];
+    if from_start.abs() > 2.0 * tau {
+        from_start = from_start.rem_euclid(tau);
+    }
+    while from_start < 0.0 {
+        from_start += tau;
+    }
+    while from_start >= tau {
+        from_start -= tau;
+    }
     from_start <= range[1] - range[0]
 }
 
