@@ -223,26 +223,18 @@ impl<'a> Sim<'a> {
         q: &[f64],
         qd: &[f64],
     ) -> Result<(), CoreError> {
-        self.tau.resize(self.model.n_joints(), 0.0);
-        self.ctrl.torque(t, q, qd, mode, &mut self.tau);
-        // the free joints are known only after prepare; prepare once to learn them
-        self.data.prepare(self.model, self.terrain, mode, q, qd)?;
-        self.free.resize(self.data.free_joints.len(), 0.0);
-        self.ctrl
-            .free_joint_qdd(t, q, qd, &self.data.free_joints, &mut self.free);
-        let free = std::mem::take(&mut self.free);
-        let r = forward_dynamics(
+        flow(
             self.model,
-            &mut self.data,
             self.terrain,
+            self.ctrl,
+            &mut self.data,
+            &mut self.tau,
+            &mut self.free,
+            t,
             mode,
             q,
             qd,
-            &self.tau,
-            Some(&free),
-        );
-        self.free = free;
-        r
+        )
     }
 
     fn guard_value(
@@ -428,6 +420,30 @@ impl<'a> Sim<'a> {
     }
 }
 
+/// The flow (5.48) of `mode` at `(t, q, q̇)`: the controller's torques and free-joint
+/// accelerations, then (5.3)–(5.4); results in `data.qdd`, `data.lambda`.
+#[allow(clippy::too_many_arguments)]
+fn flow(
+    model: &Model,
+    terrain: &dyn Terrain,
+    ctrl: &dyn Controller,
+    data: &mut Data,
+    tau: &mut Vec<f64>,
+    free: &mut Vec<f64>,
+    t: f64,
+    mode: ContactMode,
+    q: &[f64],
+    qd: &[f64],
+) -> Result<(), CoreError> {
+    tau.resize(model.n_joints(), 0.0);
+    ctrl.torque(t, q, qd, mode, tau);
+    // which joints are free (massless, untouched) is known after `prepare`
+    data.prepare(model, terrain, mode, q, qd)?;
+    free.resize(data.free_joints.len(), 0.0);
+    ctrl.free_joint_qdd(t, q, qd, &data.free_joints, free);
+    forward_dynamics(model, data, terrain, mode, q, qd, tau, Some(free))
+}
+
 /// Runs the hybrid system from `(q0, qd0)` in `mode0` until `t_final` or a terminal event.
 #[allow(clippy::too_many_arguments)]
 pub fn simulate(
@@ -521,19 +537,17 @@ pub fn simulate(
         let mut free = Vec::new();
         let mut rhs = |tt: f64, yy: &[f64], dy: &mut [f64]| -> Result<(), CoreError> {
             let (q, qd) = yy.split_at(nq);
-            ctrl.torque(tt, q, qd, mode, &mut tau);
-            rhs_data.prepare(model, terrain, mode, q, qd)?;
-            free.resize(rhs_data.free_joints.len(), 0.0);
-            ctrl.free_joint_qdd(tt, q, qd, &rhs_data.free_joints, &mut free);
-            forward_dynamics(
+            flow(
                 model,
-                &mut rhs_data,
                 terrain,
+                ctrl,
+                &mut rhs_data,
+                &mut tau,
+                &mut free,
+                tt,
                 mode,
                 q,
                 qd,
-                &tau,
-                Some(&free),
             )?;
             dy[..nq].copy_from_slice(qd);
             dy[nq..].copy_from_slice(rhs_data.qdd.as_slice());
