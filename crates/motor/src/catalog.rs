@@ -1,0 +1,231 @@
+//! Motor and gearbox catalogs (serde TOML): the thesis's Tables 2.1–2.3 shipped in
+//! `data/thesis_actuators.toml`, user catalogs in the same format, and a seeded synthetic
+//! catalog for selection benchmarks (the thesis searched 1,546 commercial motors).
+use crate::dc::{DcMotor, Drive, Gearbox};
+use crate::error::{non_negative, positive, MotorError, Result};
+use crate::thermal::ThermalModel;
+use rand::{Rng, SeedableRng};
+use serde::{Deserialize, Serialize};
+
+/// Brushed or brushless (informational; the linear model is the same).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MotorKind {
+    Brushed,
+    Brushless,
+}
+
+/// A catalog motor: the linear model's parameters at `voltage_v`, plus size and mass.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotorSpec {
+    pub name: String,
+    #[serde(default)]
+    pub part_number: String,
+    pub kind: MotorKind,
+    pub voltage_v: f64,
+    pub no_load_speed_rad_s: f64,
+    pub torque_constant_n_m_per_a: f64,
+    /// Unlimited stall torque at `voltage_v`. When absent the model assumes the current
+    /// limit binds exactly at stall (`τ_stall = k_M I_max`).
+    #[serde(default)]
+    pub stall_torque_n_m: Option<f64>,
+    /// Controller peak current; absent = unlimited.
+    #[serde(default)]
+    pub current_limit_a: Option<f64>,
+    pub continuous_torque_n_m: f64,
+    #[serde(default)]
+    pub mechanical_time_constant_s: Option<f64>,
+    pub length_m: f64,
+    pub width_m: f64,
+    pub mass_kg: f64,
+}
+
+impl MotorSpec {
+    /// The linear model at the catalog voltage.
+    pub fn motor(&self) -> Result<DcMotor> {
+        let current_limit = match self.current_limit_a {
+            Some(limit) => positive("current_limit_a", limit)?,
+            None => f64::INFINITY,
+        };
+        let stall = match self.stall_torque_n_m {
+            Some(stall) => stall,
+            None if current_limit.is_finite() => self.torque_constant_n_m_per_a * current_limit,
+            None => {
+                return Err(MotorError::InvalidParameter {
+                    field: "stall_torque_n_m",
+                    value: f64::NAN,
+                    reason: "needed when there is no current_limit_a",
+                })
+            }
+        };
+        positive("length_m", self.length_m)?;
+        positive("width_m", self.width_m)?;
+        non_negative("mass_kg", self.mass_kg)?;
+        DcMotor::new(
+            self.voltage_v,
+            self.no_load_speed_rad_s,
+            stall,
+            self.torque_constant_n_m_per_a,
+            current_limit,
+            self.continuous_torque_n_m,
+        )
+    }
+}
+
+/// Table 2.3's thermal description of a drive: time constants and heat coefficients
+/// `H = R_c R_th/(k_M² G²)` in K/(N m)².
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HeatSpec {
+    pub tau_core_s: f64,
+    pub tau_case_s: f64,
+    pub h_core_k_per_n2m2: f64,
+    pub h_case_k_per_n2m2: f64,
+}
+
+/// Which of Table 2.3's case parameters to use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CaseParameters {
+    /// maxon's bare-motor values.
+    Listed,
+    /// The thesis's bench fit with the gearbox attached (used for Fig. 2.8).
+    Measured,
+}
+
+/// A motor/gearbox combination of the catalog.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DriveSpec {
+    pub name: String,
+    pub motor: String,
+    pub gearbox: String,
+    #[serde(default)]
+    pub thermal_listed: Option<HeatSpec>,
+    #[serde(default)]
+    pub thermal_measured: Option<HeatSpec>,
+}
+
+/// A catalog of motors, gearboxes and drives.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Catalog {
+    #[serde(default)]
+    pub motor: Vec<MotorSpec>,
+    #[serde(default)]
+    pub gearbox: Vec<Gearbox>,
+    #[serde(default)]
+    pub drive: Vec<DriveSpec>,
+}
+
+/// The thesis's Tables 2.1–2.3 as a TOML catalog.
+pub const THESIS_CATALOG_TOML: &str = include_str!("../data/thesis_actuators.toml");
+
+impl Catalog {
+    /// Parses and validates a TOML catalog (every motor and gearbox, every drive's
+    /// references).
+    pub fn from_toml_str(text: &str) -> Result<Self> {
+        let catalog: Self = toml::from_str(text).map_err(|e| MotorError::Parse {
+            message: e.to_string(),
+        })?;
+        if catalog.motor.is_empty() {
+            return Err(MotorError::EmptyCatalog { field: "motor" });
+        }
+        for m in &catalog.motor {
+            m.motor()?;
+        }
+        for g in &catalog.gearbox {
+            g.validate()?;
+        }
+        for d in &catalog.drive {
+            catalog.drive(&d.name)?;
+        }
+        Ok(catalog)
+    }
+
+    /// Tables 2.1–2.3.
+    pub fn thesis() -> Self {
+        Self::from_toml_str(THESIS_CATALOG_TOML).expect("the shipped catalog is valid")
+    }
+
+    pub fn motor_spec(&self, name: &str) -> Result<&MotorSpec> {
+        self.motor.iter().find(|m| m.name == name).ok_or_else(|| MotorError::UnknownEntry {
+            kind: "motor",
+            name: name.into(),
+        })
+    }
+
+    pub fn gearbox(&self, name: &str) -> Result<&Gearbox> {
+        self.gearbox.iter().find(|g| g.name == name).ok_or_else(|| MotorError::UnknownEntry {
+            kind: "gearbox",
+            name: name.into(),
+        })
+    }
+
+    pub fn drive_spec(&self, name: &str) -> Result<&DriveSpec> {
+        self.drive.iter().find(|d| d.name == name).ok_or_else(|| MotorError::UnknownEntry {
+            kind: "drive",
+            name: name.into(),
+        })
+    }
+
+    /// The motor/gearbox combination `name`.
+    pub fn drive(&self, name: &str) -> Result<Drive> {
+        let spec = self.drive_spec(name)?;
+        Drive::new(self.motor_spec(&spec.motor)?.motor()?, self.gearbox(&spec.gearbox)?.clone())
+    }
+
+    /// The thermal model of drive `name` from its Table 2.3 row.
+    pub fn drive_thermal(&self, name: &str, which: CaseParameters) -> Result<ThermalModel> {
+        let spec = self.drive_spec(name)?;
+        let heat = match which {
+            CaseParameters::Listed => spec.thermal_listed,
+            CaseParameters::Measured => spec.thermal_measured,
+        }
+        .ok_or_else(|| MotorError::UnknownEntry {
+            kind: "thermal data of drive",
+            name: name.into(),
+        })?;
+        ThermalModel::from_heat_coefficients(
+            &self.drive(name)?,
+            heat.h_core_k_per_n2m2,
+            heat.h_case_k_per_n2m2,
+            heat.tau_core_s,
+            heat.tau_case_s,
+        )
+    }
+}
+
+/// `count` synthetic catalog motors, seeded and deterministic: log-uniform power
+/// 1–500 W, no-load speeds 3,000–20,000 rpm, supply 6–48 V, lengths 10–120 mm and masses
+/// growing with power (a stand-in for the 1,546-motor catalog of section 2.1.1, which is
+/// not public).
+pub fn synthetic_motors(count: usize, seed: u64) -> Vec<MotorSpec> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut log_uniform = |lo: f64, hi: f64| (lo.ln() + rng.gen::<f64>() * (hi / lo).ln()).exp();
+    (0..count)
+        .map(|i| {
+            let power_w = log_uniform(1.0, 500.0);
+            let no_load_speed_rad_s = log_uniform(3000.0, 20000.0) * crate::dc::RAD_S_PER_RPM;
+            let voltage_v = log_uniform(6.0, 48.0);
+            let stall_torque_n_m = 4.0 * power_w / no_load_speed_rad_s;
+            let length_m = log_uniform(0.010, 0.120);
+            let mass_kg = 0.02 * power_w.powf(0.6) * log_uniform(0.7, 1.4);
+            MotorSpec {
+                name: format!("synthetic-{i:05}"),
+                part_number: String::new(),
+                kind: if i % 2 == 0 { MotorKind::Brushed } else { MotorKind::Brushless },
+                voltage_v,
+                no_load_speed_rad_s,
+                torque_constant_n_m_per_a: voltage_v / no_load_speed_rad_s,
+                stall_torque_n_m: Some(stall_torque_n_m),
+                current_limit_a: None,
+                continuous_torque_n_m: 0.15 * stall_torque_n_m,
+                mechanical_time_constant_s: None,
+                length_m,
+                width_m: log_uniform(0.010, 0.090),
+                mass_kg,
+            }
+        })
+        .collect()
+}

@@ -1,0 +1,101 @@
+//! The one error type of the motor crate.
+use thiserror::Error;
+
+/// Errors of the actuator models. Every public constructor and analysis checks its inputs
+/// and returns one of these instead of panicking or producing NaN.
+#[derive(Debug, Clone, Error, PartialEq)]
+pub enum MotorError {
+    /// A physical parameter is out of its domain (negative resistance, zero gear ratio, …).
+    #[error("`{field}` = {value}: {reason}")]
+    InvalidParameter {
+        field: &'static str,
+        value: f64,
+        reason: &'static str,
+    },
+    /// A logged or profiled sample is NaN or infinite.
+    #[error("`{field}` has a non-finite sample at index {index} ({value})")]
+    NonFiniteSample {
+        field: &'static str,
+        index: usize,
+        value: f64,
+    },
+    /// Two logged signals that must pair up sample by sample have different lengths.
+    #[error("`{field}` has {actual} samples, expected {expected}")]
+    LengthMismatch {
+        field: &'static str,
+        expected: usize,
+        actual: usize,
+    },
+    /// Too few samples for the requested fit or simulation.
+    #[error("`{field}` needs at least {required} samples, got {actual}")]
+    TooFewSamples {
+        field: &'static str,
+        required: usize,
+        actual: usize,
+    },
+    /// A catalog or candidate list is empty.
+    #[error("`{field}` is empty")]
+    EmptyCatalog { field: &'static str },
+    /// A catalog entry refers to a motor or gearbox that the catalog does not contain.
+    #[error("no {kind} named `{name}` in the catalog")]
+    UnknownEntry { kind: &'static str, name: String },
+    /// The catalog file does not parse.
+    #[error("could not parse the catalog: {message}")]
+    Parse { message: String },
+    /// A root finder or optimizer failed to converge (reported, never guessed).
+    #[error("{what} did not converge: {reason}")]
+    NoConvergence { what: &'static str, reason: String },
+}
+
+pub type Result<T> = std::result::Result<T, MotorError>;
+
+/// Checks that `value` is finite and strictly positive.
+pub(crate) fn positive(field: &'static str, value: f64) -> Result<f64> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(MotorError::InvalidParameter {
+            field,
+            value,
+            reason: "must be finite and > 0",
+        })
+    }
+}
+
+/// Checks that `value` is finite and non-negative.
+pub(crate) fn non_negative(field: &'static str, value: f64) -> Result<f64> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(value)
+    } else {
+        Err(MotorError::InvalidParameter {
+            field,
+            value,
+            reason: "must be finite and >= 0",
+        })
+    }
+}
+
+/// Checks that `value` is finite.
+pub(crate) fn finite(field: &'static str, value: f64) -> Result<f64> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(MotorError::InvalidParameter {
+            field,
+            value,
+            reason: "must be finite",
+        })
+    }
+}
+
+/// Checks every sample of a logged signal.
+pub(crate) fn finite_samples(field: &'static str, samples: &[f64]) -> Result<()> {
+    match samples.iter().position(|v| !v.is_finite()) {
+        Some(index) => Err(MotorError::NonFiniteSample {
+            field,
+            index,
+            value: samples[index],
+        }),
+        None => Ok(()),
+    }
+}
