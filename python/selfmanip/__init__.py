@@ -8,7 +8,8 @@ in each contact frame (normal axis into the ground, so a pushing normal force is
 rows ordered by contact, tangential before normal.
 
 Modules: :mod:`selfmanip.robot` (any planar robot from a description file),
-:mod:`selfmanip.rhex` (the RHex of thesis section 4.2), :mod:`selfmanip.cli` (the
+:mod:`selfmanip.rhex` (the RHex of thesis section 4.2),
+:mod:`selfmanip.motor` (motors, gearboxes, thermal model, tail optimum, leg observer), :mod:`selfmanip.cli` (the
 ``selfmanip`` command).
 """
 
@@ -16,7 +17,7 @@ from __future__ import annotations
 
 from ._native import SelfmanipError, SingularKktError
 from .robot import Dynamics, Impact, KktBlocks, QuasiStatic, Robot
-from . import rhex
+from . import motor, rhex
 
 __all__ = [
     "Dynamics",
@@ -26,6 +27,7 @@ __all__ = [
     "Robot",
     "SelfmanipError",
     "SingularKktError",
+    "motor",
     "rhex",
 ]
 __version__ = "0.1.0"

@@ -2,7 +2,9 @@
 
 ``selfmanip demo`` (the default) runs the chapter-4 RHex model end to end on built-in defaults
 and prints a readable report; ``selfmanip dynamics`` evaluates (5.3)-(5.4) at one state;
-``selfmanip map`` writes the quasi-static contact-mode map (Fig. 4.3/4.6) as CSV.
+``selfmanip map`` writes the quasi-static contact-mode map (Fig. 4.3/4.6) as CSV;
+``selfmanip motor`` prints the motor/gearbox table (Tables 2.2-2.3) and a thermal simulation
+(Fig. 2.8).
 """
 
 from __future__ import annotations
@@ -116,6 +118,46 @@ def _map(args) -> int:
     return 0
 
 
+def _motor(args) -> int:
+    from . import motor
+
+    for name in ("dt", "every"):
+        if not getattr(args, name) > 0:
+            raise ValueError(f"`--{name}` must be > 0, got {getattr(args, name)}")
+    for name in ("duration", "cooling"):
+        if not getattr(args, name) >= 0:
+            raise ValueError(f"`--{name}` must be >= 0, got {getattr(args, name)}")
+    n_on = int(round(args.duration / args.dt))
+    n_off = int(round(args.cooling / args.dt))
+    profile = np.concatenate([np.full(n_on, args.torque), np.zeros(n_off)])
+    sim = motor.thermal_simulation(args.drive, profile, dt_s=args.dt, ambient_c=args.ambient, case=args.case)
+    rows = motor.drive_table(current_limit_a=args.current_limit)
+    rpm = 30.0 / math.pi
+    print("motor/gearbox combinations (thesis Tables 2.1-2.3; SI, speeds also in rpm)")
+    print(f"{'drive':<15}{'G':>5}{'eta':>6}{'I_max A':>9}{'w0 rad/s':>10}{'(rpm)':>8}{'stall N m':>11}"
+          f"{'cont N m':>10}{'P_peak W':>10}{'mass kg':>9}{'H_core':>8}{'H_case':>8}")
+    for r in rows:
+        print(f"{r['name']:<15}{r['gear_ratio']:>5.0f}{r['efficiency']:>6.2f}{r['current_limit_a']:>9.1f}"
+              f"{r['output_no_load_speed_rad_s']:>10.2f}{r['output_no_load_speed_rad_s'] * rpm:>8.1f}"
+              f"{r['achievable_output_stall_torque_n_m']:>11.2f}{r['continuous_output_torque_n_m']:>10.2f}"
+              f"{r['peak_output_power_w']:>10.1f}{r['mass_kg']:>9.3f}{r.get('h_core_k_per_n2m2', float('nan')):>8.1f}"
+              f"{r.get('h_case_k_per_n2m2', float('nan')):>8.1f}")
+    print("H: heat coefficients in K/(N m)^2 of ideal output torque (Table 2.3, measured case)")
+    print(f"\nthermal simulation: {args.drive}, {args.torque} N m at the output for {args.duration:g} s, "
+          f"then {args.cooling:g} s cooling; ambient {args.ambient} C, {args.case} case parameters")
+    print(f"{'t s':>8}{'core C':>10}{'case C':>10}")
+    step = max(1, int(round(args.every / args.dt)))
+    for k in range(0, len(sim["time_s"]), step):
+        print(f"{sim['time_s'][k]:>8.0f}{sim['core_c'][k]:>10.2f}{sim['case_c'][k]:>10.2f}")
+    on = motor.thermal_simulation(args.drive, np.full(1, args.torque), dt_s=args.dt, ambient_c=args.ambient,
+                                  case=args.case)
+    if "steady_core_c" in on:
+        print(f"steady state at {args.torque} N m: core {on['steady_core_c']:.2f} C, case {on['steady_case_c']:.2f} C")
+    cont = motor.continuous_output_torque(args.drive, ambient_c=args.ambient, case=args.case)
+    print(f"continuous output torque for a 125 C winding: {cont:.3f} N m")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="selfmanip", description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="command")
@@ -129,6 +171,16 @@ def build_parser() -> argparse.ArgumentParser:
     mp = sub.add_parser("map", help="quasi-static contact-mode map (Fig. 4.3/4.6) as CSV")
     mp.add_argument("--n", type=int, default=64)
     mp.add_argument("--csv", help="output file (default: stdout)")
+    mo = sub.add_parser("motor", help="motor/gearbox table (Tables 2.2-2.3) and a thermal simulation (Fig. 2.8)")
+    mo.add_argument("--drive", default="x-rhex-28", help="research-rhex, x-rhex-18 or x-rhex-28")
+    mo.add_argument("--torque", type=float, default=2.0, help="output torque during the run (N m)")
+    mo.add_argument("--duration", type=float, default=1800.0, help="run time (s)")
+    mo.add_argument("--cooling", type=float, default=1200.0, help="cooling time after the run (s)")
+    mo.add_argument("--dt", type=float, default=1.0, help="sample time (s)")
+    mo.add_argument("--every", type=float, default=300.0, help="print a row every this many seconds")
+    mo.add_argument("--ambient", type=float, default=25.0, help="ambient temperature (C)")
+    mo.add_argument("--case", default="measured", choices=["measured", "listed"])
+    mo.add_argument("--current-limit", type=float, default=None, help="controller current limit (A)")
     return ap
 
 
@@ -141,6 +193,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _dynamics(args)
         if args.command == "map":
             return _map(args)
+        if args.command == "motor":
+            return _motor(args)
     except (SelfmanipError, ValueError, TypeError) as e:
         print(f"selfmanip: error: {e}", file=sys.stderr)
         return 2

@@ -6,6 +6,7 @@
 //! arrays inside plain dicts that the Python package (`python/selfmanip`) wraps in
 //! documented dataclasses. No call can panic across the FFI: errors are values, and
 //! every entry point is additionally guarded by [`guard`].
+mod motor;
 mod robot;
 
 use pyo3::create_exception;
@@ -58,5 +59,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SelfmanipError", m.py().get_type::<SelfmanipError>())?;
     m.add("SingularKktError", m.py().get_type::<SingularKktError>())?;
     robot::register(m)?;
+    motor::register(m)?;
     Ok(())
 }

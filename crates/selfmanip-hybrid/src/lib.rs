@@ -5,13 +5,17 @@
 //! the dense output of a Dormand–Prince 5(4) integrator ([`dopri`]) to a time tolerance
 //! (1e-10 s by default), plastic-impact resets (5.10)/(5.52) with impulse–velocity
 //! complementarity and the pseudo-impulse (5.28)–(5.29), (5.39)–(5.40), force–acceleration
-//! complementarity for liftoff (5.19)–(5.20), and Zeno detection ([`execution`]).
+//! complementarity for liftoff (5.19)–(5.20), and Zeno detection ([`execution`]); joint
+//! torques from actuator models (saturated torque, current-limited geared DC motor) through
+//! [`actuated`].
 //!
 //! Status: sticking and frictionless sliding contacts; stick–slip transitions with Coulomb
 //! friction and the RHex leap controllers are not implemented yet (issue 3).
+pub mod actuated;
 pub mod dopri;
 pub mod execution;
 
+pub use actuated::{Actuated, CommandPolicy};
 pub use execution::{
     simulate, Controller, Event, EventKind, Execution, HybridError, HybridOptions, Segment,
     Termination, ZeroTorque,

@@ -1,0 +1,334 @@
+//! `selfmanip.motor`'s native half: conversions only. Results are plain dicts (numpy
+//! arrays for series); structured inputs (observer parameters, machine configuration)
+//! arrive as JSON so that serde names any missing or mistyped field.
+use crate::{guard, to_py_err};
+use motor::catalog::{synthetic_motors, Catalog, CaseParameters};
+use motor::observer::{self, FaultFsmConfig, LegLog, ObserverParams};
+use motor::tail::{self, SelectionConstraints, TailTask};
+use motor::{Drive, ThermalState};
+use numpy::{IntoPyArray, PyReadonlyArray1};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(motor_tail_optimum, m)?)?;
+    m.add_function(wrap_pyfunction!(motor_tail_constants, m)?)?;
+    m.add_function(wrap_pyfunction!(motor_rank_tail_motors, m)?)?;
+    m.add_function(wrap_pyfunction!(motor_thesis_catalog_toml, m)?)?;
+    m.add_function(wrap_pyfunction!(motor_drive_table, m)?)?;
+    m.add_function(wrap_pyfunction!(motor_torque_speed_curve, m)?)?;
+    m.add_function(wrap_pyfunction!(motor_thermal_simulation, m)?)?;
+    m.add_function(wrap_pyfunction!(motor_continuous_output_torque, m)?)?;
+    m.add_function(wrap_pyfunction!(motor_observe, m)?)?;
+    m.add_function(wrap_pyfunction!(motor_calibrate_observer, m)?)?;
+    m.add_function(wrap_pyfunction!(motor_identify_faults, m)?)?;
+    Ok(())
+}
+
+fn catalog(catalog_toml: Option<&str>) -> PyResult<Catalog> {
+    match catalog_toml {
+        Some(text) => Catalog::from_toml_str(text).map_err(to_py_err),
+        None => Ok(Catalog::thesis()),
+    }
+}
+
+fn case_parameters(case: &str) -> PyResult<CaseParameters> {
+    match case {
+        "measured" => Ok(CaseParameters::Measured),
+        "listed" => Ok(CaseParameters::Listed),
+        other => Err(crate::SelfmanipError::new_err(format!(
+            "`case` must be \"measured\" or \"listed\", got {other:?}"
+        ))),
+    }
+}
+
+fn drive_with_limit(cat: &Catalog, drive: &str, current_limit_a: Option<f64>) -> PyResult<Drive> {
+    let d = cat.drive(drive).map_err(to_py_err)?;
+    match current_limit_a {
+        Some(limit) => Drive::new(d.motor.with_current_limit(limit).map_err(to_py_err)?, d.gearbox)
+            .map_err(to_py_err),
+        None => Ok(d),
+    }
+}
+
+#[pyfunction]
+fn motor_tail_optimum<'py>(
+    py: Python<'py>,
+    theta0_rad: f64,
+    power_w: f64,
+    body_inertia_kg_m2: f64,
+    effectiveness: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    guard(|| {
+        let task = TailTask::new(theta0_rad, body_inertia_kg_m2, effectiveness).map_err(to_py_err)?;
+        let opt = tail::tail_optimum(&task, power_w).map_err(to_py_err)?;
+        let d = PyDict::new(py);
+        d.set_item("no_load_speed_rad_s", opt.no_load_speed_rad_s)?;
+        d.set_item("completion_time_s", opt.completion_time_s)?;
+        Ok(d)
+    })
+}
+
+#[pyfunction]
+fn motor_tail_constants<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+    let k = tail::tail_constants();
+    let d = PyDict::new(py);
+    d.set_item("s_star", k.s_star)?;
+    d.set_item("k_omega", k.k_omega)?;
+    d.set_item("k_t", k.k_t)?;
+    Ok(d)
+}
+
+#[pyfunction]
+#[pyo3(signature = (theta0_rad, body_inertia_kg_m2, effectiveness, max_length_m, max_mass_kg, max_completion_time_s, catalog_toml=None, synthetic_count=1546, seed=7))]
+#[allow(clippy::too_many_arguments)]
+fn motor_rank_tail_motors<'py>(
+    py: Python<'py>,
+    theta0_rad: f64,
+    body_inertia_kg_m2: f64,
+    effectiveness: f64,
+    max_length_m: f64,
+    max_mass_kg: f64,
+    max_completion_time_s: f64,
+    catalog_toml: Option<&str>,
+    synthetic_count: usize,
+    seed: u64,
+) -> PyResult<Bound<'py, PyDict>> {
+    guard(|| {
+        let task = TailTask::new(theta0_rad, body_inertia_kg_m2, effectiveness).map_err(to_py_err)?;
+        let motors = match catalog_toml {
+            Some(text) => Catalog::from_toml_str(text).map_err(to_py_err)?.motor,
+            None => synthetic_motors(synthetic_count, seed),
+        };
+        let constraints = SelectionConstraints {
+            max_length_m,
+            max_mass_kg,
+            max_completion_time_s,
+        };
+        let selection = py
+            .detach(|| tail::rank_tail_motors(&motors, &task, &constraints))
+            .map_err(to_py_err)?;
+        let d = PyDict::new(py);
+        let r = &selection.ranked;
+        d.set_item("name", PyList::new(py, r.iter().map(|m| m.name.clone()))?)?;
+        d.set_item("index", r.iter().map(|m| m.index as i64).collect::<Vec<_>>().into_pyarray(py))?;
+        d.set_item("peak_power_w", r.iter().map(|m| m.peak_power_w).collect::<Vec<_>>().into_pyarray(py))?;
+        d.set_item("gear_ratio", r.iter().map(|m| m.gear_ratio).collect::<Vec<_>>().into_pyarray(py))?;
+        d.set_item(
+            "completion_time_s",
+            r.iter().map(|m| m.completion_time_s).collect::<Vec<_>>().into_pyarray(py),
+        )?;
+        d.set_item(
+            "invalid",
+            PyList::new(py, selection.invalid.iter().map(|(i, e)| (*i, e.to_string())))?,
+        )?;
+        Ok(d)
+    })
+}
+
+#[pyfunction]
+fn motor_thesis_catalog_toml() -> &'static str {
+    motor::catalog::THESIS_CATALOG_TOML
+}
+
+#[pyfunction]
+#[pyo3(signature = (catalog_toml=None, current_limit_a=None))]
+fn motor_drive_table<'py>(
+    py: Python<'py>,
+    catalog_toml: Option<&str>,
+    current_limit_a: Option<f64>,
+) -> PyResult<Bound<'py, PyList>> {
+    guard(|| {
+        let cat = catalog(catalog_toml)?;
+        let rows = PyList::empty(py);
+        for spec in &cat.drive {
+            let drive = drive_with_limit(&cat, &spec.name, current_limit_a)?;
+            let motor_spec = cat.motor_spec(&spec.motor).map_err(to_py_err)?;
+            let d = PyDict::new(py);
+            d.set_item("name", &spec.name)?;
+            d.set_item("motor", &spec.motor)?;
+            d.set_item("gearbox", &spec.gearbox)?;
+            d.set_item("supply_voltage_v", drive.motor.supply_voltage_v)?;
+            d.set_item("current_limit_a", drive.motor.current_limit_a)?;
+            d.set_item("gear_ratio", drive.gearbox.ratio)?;
+            d.set_item("efficiency", drive.gearbox.efficiency)?;
+            d.set_item("output_no_load_speed_rad_s", drive.output_no_load_speed_rad_s())?;
+            d.set_item("achievable_output_stall_torque_n_m", drive.achievable_output_stall_torque_n_m())?;
+            d.set_item("continuous_output_torque_n_m", drive.continuous_output_torque_n_m())?;
+            d.set_item("peak_output_power_w", drive.peak_output_power_w())?;
+            d.set_item("gearbox_peak_torque_n_m", drive.gearbox.peak_torque_n_m)?;
+            d.set_item("gearbox_continuous_torque_n_m", drive.gearbox.continuous_torque_n_m)?;
+            d.set_item("mass_kg", drive.combination_mass_kg(motor_spec.mass_kg))?;
+            if let Some(h) = spec.thermal_measured {
+                d.set_item("h_core_k_per_n2m2", h.h_core_k_per_n2m2)?;
+                d.set_item("h_case_k_per_n2m2", h.h_case_k_per_n2m2)?;
+                d.set_item("tau_core_s", h.tau_core_s)?;
+                d.set_item("tau_case_s", h.tau_case_s)?;
+            }
+            rows.append(d)?;
+        }
+        Ok(rows)
+    })
+}
+
+#[pyfunction]
+#[pyo3(signature = (drive, points=50, current_limit_a=None, catalog_toml=None))]
+fn motor_torque_speed_curve<'py>(
+    py: Python<'py>,
+    drive: &str,
+    points: usize,
+    current_limit_a: Option<f64>,
+    catalog_toml: Option<&str>,
+) -> PyResult<Bound<'py, PyDict>> {
+    guard(|| {
+        let cat = catalog(catalog_toml)?;
+        let d = drive_with_limit(&cat, drive, current_limit_a)?;
+        let curve = d.torque_speed_curve(points).map_err(to_py_err)?;
+        let out = PyDict::new(py);
+        out.set_item("speed_rad_s", curve.iter().map(|p| p.speed_rad_s).collect::<Vec<_>>().into_pyarray(py))?;
+        out.set_item("torque_n_m", curve.iter().map(|p| p.torque_n_m).collect::<Vec<_>>().into_pyarray(py))?;
+        out.set_item("power_w", curve.iter().map(|p| p.power_w).collect::<Vec<_>>().into_pyarray(py))?;
+        Ok(out)
+    })
+}
+
+#[pyfunction]
+#[pyo3(signature = (drive, torque_n_m, dt_s, ambient_c=25.0, case="measured", catalog_toml=None))]
+fn motor_thermal_simulation<'py>(
+    py: Python<'py>,
+    drive: &str,
+    torque_n_m: PyReadonlyArray1<'py, f64>,
+    dt_s: f64,
+    ambient_c: f64,
+    case: &str,
+    catalog_toml: Option<&str>,
+) -> PyResult<Bound<'py, PyDict>> {
+    guard(|| {
+        let cat = catalog(catalog_toml)?;
+        let d = cat.drive(drive).map_err(to_py_err)?;
+        let thermal = cat.drive_thermal(drive, case_parameters(case)?).map_err(to_py_err)?;
+        let torque = torque_n_m.as_slice()?.to_vec();
+        let trace = py
+            .detach(|| thermal.simulate_output_torque(&d, ThermalState::ambient(ambient_c), ambient_c, dt_s, &torque))
+            .map_err(to_py_err)?;
+        let mean_torque_sq = torque.iter().map(|t| t * t).sum::<f64>() / torque.len().max(1) as f64;
+        let steady = thermal.steady_state_for_current(d.current_for_output_torque_a(mean_torque_sq.sqrt()), ambient_c);
+        let out = PyDict::new(py);
+        out.set_item("time_s", trace.time_s.into_pyarray(py))?;
+        out.set_item("core_c", trace.core_c.into_pyarray(py))?;
+        out.set_item("case_c", trace.case_c.into_pyarray(py))?;
+        if let Ok(s) = steady {
+            out.set_item("steady_core_c", s.core_c)?;
+            out.set_item("steady_case_c", s.case_c)?;
+        }
+        Ok(out)
+    })
+}
+
+#[pyfunction]
+#[pyo3(signature = (drive, max_winding_c=125.0, ambient_c=25.0, case="measured", catalog_toml=None))]
+fn motor_continuous_output_torque(
+    drive: &str,
+    max_winding_c: f64,
+    ambient_c: f64,
+    case: &str,
+    catalog_toml: Option<&str>,
+) -> PyResult<f64> {
+    guard(|| {
+        let cat = catalog(catalog_toml)?;
+        let d = cat.drive(drive).map_err(to_py_err)?;
+        let thermal = cat.drive_thermal(drive, case_parameters(case)?).map_err(to_py_err)?;
+        thermal
+            .continuous_output_torque_n_m(&d, max_winding_c, ambient_c)
+            .map_err(to_py_err)
+    })
+}
+
+fn params_from_json(params_json: &str) -> PyResult<ObserverParams> {
+    let p: ObserverParams = serde_json::from_str(params_json)
+        .map_err(|e| crate::SelfmanipError::new_err(format!("observer params: {e}")))?;
+    p.validate().map_err(to_py_err)?;
+    Ok(p)
+}
+
+fn leg_log(
+    dt_s: f64,
+    theta_d: PyReadonlyArray1<'_, f64>,
+    omega_d: PyReadonlyArray1<'_, f64>,
+    theta: PyReadonlyArray1<'_, f64>,
+    omega: PyReadonlyArray1<'_, f64>,
+) -> PyResult<LegLog> {
+    Ok(LegLog {
+        dt_s,
+        theta_d_rad: theta_d.as_slice()?.to_vec(),
+        omega_d_rad_s: omega_d.as_slice()?.to_vec(),
+        theta_rad: theta.as_slice()?.to_vec(),
+        omega_rad_s: omega.as_slice()?.to_vec(),
+    })
+}
+
+#[pyfunction]
+fn motor_observe<'py>(
+    py: Python<'py>,
+    params_json: &str,
+    dt_s: f64,
+    theta_d: PyReadonlyArray1<'py, f64>,
+    omega_d: PyReadonlyArray1<'py, f64>,
+    theta: PyReadonlyArray1<'py, f64>,
+    omega: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    guard(|| {
+        let params = params_from_json(params_json)?;
+        let log = leg_log(dt_s, theta_d, omega_d, theta, omega)?;
+        let samples = py.detach(|| observer::observe(&params, &log)).map_err(to_py_err)?;
+        let out = PyDict::new(py);
+        let col = |f: fn(&observer::ObserverSample) -> f64| samples.iter().map(f).collect::<Vec<_>>();
+        out.set_item("theta_hat_rad", col(|s| s.theta_hat_rad).into_pyarray(py))?;
+        out.set_item("omega_hat_rad_s", col(|s| s.omega_hat_rad_s).into_pyarray(py))?;
+        out.set_item("r_theta_rad", col(|s| s.r_theta_rad).into_pyarray(py))?;
+        out.set_item("r_omega_rad_s", col(|s| s.r_omega_rad_s).into_pyarray(py))?;
+        Ok(out)
+    })
+}
+
+#[pyfunction]
+fn motor_calibrate_observer<'py>(
+    py: Python<'py>,
+    initial_params_json: &str,
+    dt_s: f64,
+    theta_d: PyReadonlyArray1<'py, f64>,
+    omega_d: PyReadonlyArray1<'py, f64>,
+    theta: PyReadonlyArray1<'py, f64>,
+    omega: PyReadonlyArray1<'py, f64>,
+) -> PyResult<String> {
+    guard(|| {
+        let initial = params_from_json(initial_params_json)?;
+        let log = leg_log(dt_s, theta_d, omega_d, theta, omega)?;
+        let calibration = py.detach(|| observer::calibrate(&log, &initial)).map_err(to_py_err)?;
+        serde_json::to_string(&calibration).map_err(to_py_err)
+    })
+}
+
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn motor_identify_faults<'py>(
+    py: Python<'py>,
+    params_json: &str,
+    config_json: &str,
+    dt_s: f64,
+    theta_d: PyReadonlyArray1<'py, f64>,
+    omega_d: PyReadonlyArray1<'py, f64>,
+    theta: PyReadonlyArray1<'py, f64>,
+    omega: PyReadonlyArray1<'py, f64>,
+) -> PyResult<String> {
+    guard(|| {
+        let params = params_from_json(params_json)?;
+        let config: FaultFsmConfig = serde_json::from_str(config_json)
+            .map_err(|e| crate::SelfmanipError::new_err(format!("fault machine config: {e}")))?;
+        let log = leg_log(dt_s, theta_d, omega_d, theta, omega)?;
+        let changes = py
+            .detach(|| observer::identify(&params, &config, &log))
+            .map_err(to_py_err)?;
+        serde_json::to_string(&changes).map_err(to_py_err)
+    })
+}
