@@ -22,12 +22,22 @@ fn motor_tools(c: &mut Criterion) {
 
     let catalog = Catalog::thesis();
     let drive = catalog.drive("x-rhex-28").unwrap();
-    let thermal = catalog.drive_thermal("x-rhex-28", CaseParameters::Measured).unwrap();
-    let torque: Vec<f64> = (0..3600).map(|k| if k % 60 < 30 { 2.0 } else { 0.5 }).collect();
+    let thermal = catalog
+        .drive_thermal("x-rhex-28", CaseParameters::Measured)
+        .unwrap();
+    let torque: Vec<f64> = (0..3600)
+        .map(|k| if k % 60 < 30 { 2.0 } else { 0.5 })
+        .collect();
     c.bench_function("thermal_one_hour_at_1s", |b| {
         b.iter(|| {
             thermal
-                .simulate_output_torque(&drive, ThermalState::ambient(25.0), 25.0, 1.0, black_box(&torque))
+                .simulate_output_torque(
+                    &drive,
+                    ThermalState::ambient(25.0),
+                    25.0,
+                    1.0,
+                    black_box(&torque),
+                )
                 .unwrap()
         })
     });

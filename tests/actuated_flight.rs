@@ -26,19 +26,41 @@ fn motor_work_equals_the_energy_gained_in_flight() {
     let model = common::quadruped();
     let drive = Catalog::thesis().drive("x-rhex-28").unwrap();
     let nj = model.n_joints();
-    let actuators: Vec<Box<dyn Actuator>> = (0..nj).map(|_| Box::new(drive.clone()) as Box<dyn Actuator>).collect();
+    let actuators: Vec<Box<dyn Actuator>> = (0..nj)
+        .map(|_| Box::new(drive.clone()) as Box<dyn Actuator>)
+        .collect();
     let controller = Actuated::new(Waves, actuators);
     let mut q0 = vec![0.0; model.nq()];
     q0[nj + 1] = -5.0; // high above the ground (z down)
     let qd0 = vec![0.0; model.nq()];
     let t_final = 0.3;
-    let exec = simulate(&model, &FlatGround, &controller, ContactMode::FLIGHT, &q0, &qd0, t_final, HybridOptions::default()).unwrap();
+    let exec = simulate(
+        &model,
+        &FlatGround,
+        &controller,
+        ContactMode::FLIGHT,
+        &q0,
+        &qd0,
+        t_final,
+        HybridOptions::default(),
+    )
+    .unwrap();
     assert_eq!(exec.termination, Termination::FinalTime);
     assert!(exec.events.is_empty());
 
     let energy = |q: &[f64], qd: &[f64]| {
         let mut data = Data::new(&model);
-        forward_dynamics(&model, &mut data, &FlatGround, ContactMode::FLIGHT, q, qd, &vec![0.0; nj], None).unwrap();
+        forward_dynamics(
+            &model,
+            &mut data,
+            &FlatGround,
+            ContactMode::FLIGHT,
+            q,
+            qd,
+            &vec![0.0; nj],
+            None,
+        )
+        .unwrap();
         kinetic_energy(&data, qd) + potential_energy(&model, &data.kin)
     };
     // motor work and supply energy by composite Simpson on the dense output
@@ -58,12 +80,24 @@ fn motor_work_equals_the_energy_gained_in_flight() {
         Waves.command(t, q, qd, ContactMode::FLIGHT, &mut u);
         let power: f64 = (0..nj).map(|k| tau[k] * qd[k]).sum();
         let electrical: f64 = (0..nj).map(|k| drive.electrical_power_w(u[k], qd[k])).sum();
-        let w = if i == 0 || i == n { 1.0 } else if i % 2 == 1 { 4.0 } else { 2.0 };
+        let w = if i == 0 || i == n {
+            1.0
+        } else if i % 2 == 1 {
+            4.0
+        } else {
+            2.0
+        };
         work += w * power * h / 3.0;
         supplied += w * electrical * h / 3.0;
     }
     let gained = energy(&exec.q, &exec.qd) - energy(&q0, &qd0);
     assert!(gained.abs() > 1.0, "the motors do real work: {gained} J");
-    assert!((work - gained).abs() < 1e-4 * gained.abs().max(1.0), "motor work {work} J vs ΔE {gained} J");
-    assert!(supplied > work, "supply {supplied} J must cover the work {work} J plus losses");
+    assert!(
+        (work - gained).abs() < 1e-4 * gained.abs().max(1.0),
+        "motor work {work} J vs ΔE {gained} J"
+    );
+    assert!(
+        supplied > work,
+        "supply {supplied} J must cover the work {work} J plus losses"
+    );
 }

@@ -5,7 +5,10 @@ use motor::tail::{rank_tail_motors, tail_constants, SelectionConstraints, TailTa
 
 fn main() {
     let k = tail_constants();
-    println!("s* = {:.6}, k_omega = {:.6}, k_t = {:.6}", k.s_star, k.k_omega, k.k_t);
+    println!(
+        "s* = {:.6}, k_omega = {:.6}, k_t = {:.6}",
+        k.s_star, k.k_omega, k.k_t
+    );
     let task = TailTask::new(std::f64::consts::FRAC_PI_2, 0.05, 1.29).expect("valid task");
     let motors = synthetic_motors(1546, 7);
     let constraints = SelectionConstraints {
@@ -14,7 +17,11 @@ fn main() {
         max_completion_time_s: 0.5,
     };
     let selection = rank_tail_motors(&motors, &task, &constraints).expect("non-empty catalog");
-    println!("{} of {} motors feasible; fastest three:", selection.ranked.len(), motors.len());
+    println!(
+        "{} of {} motors feasible; fastest three:",
+        selection.ranked.len(),
+        motors.len()
+    );
     for r in selection.ranked.iter().take(3) {
         println!(
             "  {:>16}  P = {:6.1} W  G = {:6.1}  t = {:.3} s",

@@ -149,30 +149,42 @@ impl Catalog {
     }
 
     pub fn motor_spec(&self, name: &str) -> Result<&MotorSpec> {
-        self.motor.iter().find(|m| m.name == name).ok_or_else(|| MotorError::UnknownEntry {
-            kind: "motor",
-            name: name.into(),
-        })
+        self.motor
+            .iter()
+            .find(|m| m.name == name)
+            .ok_or_else(|| MotorError::UnknownEntry {
+                kind: "motor",
+                name: name.into(),
+            })
     }
 
     pub fn gearbox(&self, name: &str) -> Result<&Gearbox> {
-        self.gearbox.iter().find(|g| g.name == name).ok_or_else(|| MotorError::UnknownEntry {
-            kind: "gearbox",
-            name: name.into(),
-        })
+        self.gearbox
+            .iter()
+            .find(|g| g.name == name)
+            .ok_or_else(|| MotorError::UnknownEntry {
+                kind: "gearbox",
+                name: name.into(),
+            })
     }
 
     pub fn drive_spec(&self, name: &str) -> Result<&DriveSpec> {
-        self.drive.iter().find(|d| d.name == name).ok_or_else(|| MotorError::UnknownEntry {
-            kind: "drive",
-            name: name.into(),
-        })
+        self.drive
+            .iter()
+            .find(|d| d.name == name)
+            .ok_or_else(|| MotorError::UnknownEntry {
+                kind: "drive",
+                name: name.into(),
+            })
     }
 
     /// The motor/gearbox combination `name`.
     pub fn drive(&self, name: &str) -> Result<Drive> {
         let spec = self.drive_spec(name)?;
-        Drive::new(self.motor_spec(&spec.motor)?.motor()?, self.gearbox(&spec.gearbox)?.clone())
+        Drive::new(
+            self.motor_spec(&spec.motor)?.motor()?,
+            self.gearbox(&spec.gearbox)?.clone(),
+        )
     }
 
     /// The thermal model of drive `name` from its Table 2.3 row.
@@ -214,7 +226,11 @@ pub fn synthetic_motors(count: usize, seed: u64) -> Vec<MotorSpec> {
             MotorSpec {
                 name: format!("synthetic-{i:05}"),
                 part_number: String::new(),
-                kind: if i % 2 == 0 { MotorKind::Brushed } else { MotorKind::Brushless },
+                kind: if i % 2 == 0 {
+                    MotorKind::Brushed
+                } else {
+                    MotorKind::Brushless
+                },
                 voltage_v,
                 no_load_speed_rad_s,
                 torque_constant_n_m_per_a: voltage_v / no_load_speed_rad_s,

@@ -207,12 +207,18 @@ impl Drive {
 
     /// Output torque at full command and output speed `speed_rad_s`.
     pub fn max_output_torque_at_speed_n_m(&self, speed_rad_s: f64) -> f64 {
-        self.g_eta() * self.motor.max_torque_at_speed_n_m(speed_rad_s * self.gearbox.ratio)
+        self.g_eta()
+            * self
+                .motor
+                .max_torque_at_speed_n_m(speed_rad_s * self.gearbox.ratio)
     }
 
     /// Output torque for a voltage command at output speed `speed_rad_s`.
     pub fn output_torque_n_m(&self, command: f64, speed_rad_s: f64) -> f64 {
-        self.g_eta() * self.motor.torque_n_m(command, speed_rad_s * self.gearbox.ratio)
+        self.g_eta()
+            * self
+                .motor
+                .torque_n_m(command, speed_rad_s * self.gearbox.ratio)
     }
 
     /// Winding current that produces `torque_n_m` at the output, `τ_out / (G η k_M)`.

@@ -151,7 +151,11 @@ mod tests {
             NelderMeadOptions::default(),
         );
         assert!(r.converged);
-        assert!((r.x[0] - 1.0).abs() < 1e-5 && (r.x[1] - 1.0).abs() < 1e-5, "{:?}", r.x);
+        assert!(
+            (r.x[0] - 1.0).abs() < 1e-5 && (r.x[1] - 1.0).abs() < 1e-5,
+            "{:?}",
+            r.x
+        );
     }
 
     /// A 6-dimensional convex quadratic with distinct curvatures: the minimizer is known.
@@ -179,7 +183,13 @@ mod tests {
     fn infeasible_points_are_rejected() {
         // minimum of (x-2)^2 subject to x <= 1 (infeasible returns NaN) is at the boundary
         let r = minimize(
-            |x| if x[0] > 1.0 { f64::NAN } else { (x[0] - 2.0).powi(2) },
+            |x| {
+                if x[0] > 1.0 {
+                    f64::NAN
+                } else {
+                    (x[0] - 2.0).powi(2)
+                }
+            },
             &[0.0],
             &[0.3],
             NelderMeadOptions::default(),

@@ -70,8 +70,18 @@ impl ObserverParams {
     /// One RK4 step of length `dt` with the reference held.
     fn rk4(&self, theta: f64, omega: f64, theta_d: f64, omega_d: f64, dt: f64) -> (f64, f64) {
         let (a1, b1) = self.derivative(theta, omega, theta_d, omega_d);
-        let (a2, b2) = self.derivative(theta + 0.5 * dt * a1, omega + 0.5 * dt * b1, theta_d, omega_d);
-        let (a3, b3) = self.derivative(theta + 0.5 * dt * a2, omega + 0.5 * dt * b2, theta_d, omega_d);
+        let (a2, b2) = self.derivative(
+            theta + 0.5 * dt * a1,
+            omega + 0.5 * dt * b1,
+            theta_d,
+            omega_d,
+        );
+        let (a3, b3) = self.derivative(
+            theta + 0.5 * dt * a2,
+            omega + 0.5 * dt * b2,
+            theta_d,
+            omega_d,
+        );
         let (a4, b4) = self.derivative(theta + dt * a3, omega + dt * b3, theta_d, omega_d);
         (
             theta + dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4),
@@ -103,7 +113,12 @@ pub struct LegObserver {
 
 impl LegObserver {
     /// Starts at the leg's measured state (as if it had been there for the whole delay).
-    pub fn new(params: ObserverParams, dt_s: f64, theta0_rad: f64, omega0_rad_s: f64) -> Result<Self> {
+    pub fn new(
+        params: ObserverParams,
+        dt_s: f64,
+        theta0_rad: f64,
+        omega0_rad_s: f64,
+    ) -> Result<Self> {
         params.validate()?;
         let dt_s = positive("dt_s", dt_s)?;
         finite("theta0_rad", theta0_rad)?;
@@ -123,7 +138,9 @@ impl LegObserver {
     /// Advances the model by one sample on the reference `(θ_d, ω_d)` and compares its
     /// delayed output with the measured `(θ, ω)`.
     pub fn update(&mut self, theta_d: f64, omega_d: f64, theta: f64, omega: f64) -> ObserverSample {
-        (self.theta, self.omega) = self.params.rk4(self.theta, self.omega, theta_d, omega_d, self.dt_s);
+        (self.theta, self.omega) = self
+            .params
+            .rk4(self.theta, self.omega, theta_d, omega_d, self.dt_s);
         self.history.pop_front();
         self.history.push_back((self.theta, self.omega));
         // delayed output: D samples back, linear between neighbours
@@ -196,13 +213,20 @@ impl LegLog {
 /// Runs the observer over a log; sample 0 initializes it.
 pub fn observe(params: &ObserverParams, log: &LegLog) -> Result<Vec<ObserverSample>> {
     log.validate()?;
-    Ok(observe_unchecked(params, log)?)
+    observe_unchecked(params, log)
 }
 
 fn observe_unchecked(params: &ObserverParams, log: &LegLog) -> Result<Vec<ObserverSample>> {
     let mut observer = LegObserver::new(*params, log.dt_s, log.theta_rad[0], log.omega_rad_s[0])?;
     Ok((0..log.len())
-        .map(|k| observer.update(log.theta_d_rad[k], log.omega_d_rad_s[k], log.theta_rad[k], log.omega_rad_s[k]))
+        .map(|k| {
+            observer.update(
+                log.theta_d_rad[k],
+                log.omega_d_rad_s[k],
+                log.theta_rad[k],
+                log.omega_rad_s[k],
+            )
+        })
         .collect())
 }
 
@@ -304,7 +328,8 @@ pub fn calibrate(log: &LegLog, initial: &ObserverParams) -> Result<Calibration> 
     Ok(Calibration {
         params,
         rms_r_theta_rad: (samples.iter().map(|s| s.r_theta_rad.powi(2)).sum::<f64>() / n).sqrt(),
-        rms_r_omega_rad_s: (samples.iter().map(|s| s.r_omega_rad_s.powi(2)).sum::<f64>() / n).sqrt(),
+        rms_r_omega_rad_s: (samples.iter().map(|s| s.r_omega_rad_s.powi(2)).sum::<f64>() / n)
+            .sqrt(),
         evaluations,
     })
 }
@@ -327,8 +352,16 @@ impl BuehlerClock {
         positive("sweep_rad", sweep_rad)?;
         if duty_factor >= 1.0 || sweep_rad >= TAU {
             return Err(MotorError::InvalidParameter {
-                field: if duty_factor >= 1.0 { "duty_factor" } else { "sweep_rad" },
-                value: if duty_factor >= 1.0 { duty_factor } else { sweep_rad },
+                field: if duty_factor >= 1.0 {
+                    "duty_factor"
+                } else {
+                    "sweep_rad"
+                },
+                value: if duty_factor >= 1.0 {
+                    duty_factor
+                } else {
+                    sweep_rad
+                },
                 reason: "duty factor must be < 1 and sweep < 2π",
             });
         }
@@ -353,7 +386,11 @@ impl BuehlerClock {
         } else {
             let flight = TAU - self.sweep_rad;
             (
-                wrap_angle(start + self.sweep_rad + flight * (p - self.duty_factor) / (1.0 - self.duty_factor)),
+                wrap_angle(
+                    start
+                        + self.sweep_rad
+                        + flight * (p - self.duty_factor) / (1.0 - self.duty_factor),
+                ),
                 flight / ((1.0 - self.duty_factor) * self.period_s),
             )
         }
@@ -383,7 +420,11 @@ pub struct PhasePartition {
 impl PhasePartition {
     fn offsets(&self) -> (f64, f64, f64) {
         let o = |a: f64| (a - self.landing_start_rad).rem_euclid(TAU);
-        (o(self.ground_start_rad), o(self.takeoff_start_rad), o(self.air_start_rad))
+        (
+            o(self.ground_start_rad),
+            o(self.takeoff_start_rad),
+            o(self.air_start_rad),
+        )
     }
 
     pub fn validate(&self) -> Result<()> {
@@ -494,7 +535,12 @@ impl FaultFsmConfig {
 /// (→ possible landing → stance) and unexpected in takeoff/air (→ unexpected disturbance);
 /// a low residual through the ground arc is missing ground; a falling residual in
 /// takeoff/air leaves stance through possible takeoff.
-pub fn next_state(state: LegState, phase: LegPhase, level: ResidualLevel, expect_ground: bool) -> LegState {
+pub fn next_state(
+    state: LegState,
+    phase: LegPhase,
+    level: ResidualLevel,
+    expect_ground: bool,
+) -> LegState {
     use LegPhase::*;
     use LegState::*;
     use ResidualLevel::*;
@@ -587,7 +633,11 @@ impl FaultFsm {
 
 /// Runs the observer and the state machine over a log (starting in flight) and returns the
 /// state changes.
-pub fn identify(params: &ObserverParams, config: &FaultFsmConfig, log: &LegLog) -> Result<Vec<StateChange>> {
+pub fn identify(
+    params: &ObserverParams,
+    config: &FaultFsmConfig,
+    log: &LegLog,
+) -> Result<Vec<StateChange>> {
     let samples = observe(params, log)?;
     let mut fsm = FaultFsm::new(*config, LegState::Flight)?;
     let mut changes = Vec::new();

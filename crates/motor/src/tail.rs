@@ -116,7 +116,8 @@ pub fn tail_optimum(task: &TailTask, power_w: f64) -> Result<TailOptimum> {
         no_load_speed_rad_s: (k.k_omega * task.rotation_rad * p * lever * lever
             / task.body_inertia_kg_m2)
             .cbrt(),
-        completion_time_s: (k.k_t * task.rotation_rad.powi(2) * task.body_inertia_kg_m2 * lever / p)
+        completion_time_s: (k.k_t * task.rotation_rad.powi(2) * task.body_inertia_kg_m2 * lever
+            / p)
             .cbrt(),
     })
 }
@@ -147,7 +148,12 @@ pub fn completion_time_s(task: &TailTask, power_w: f64, no_load_speed_rad_s: f64
 /// `I_eff ω̇ = (4P/Ω)(1 − ω/Ω)` with classical RK4 at step `dt_s` and locating the crossing
 /// `θ = θ_rel` on the cubic Hermite interpolant (an independent route to
 /// [`completion_time_s`]).
-pub fn simulated_completion_time_s(task: &TailTask, power_w: f64, no_load_speed_rad_s: f64, dt_s: f64) -> Result<f64> {
+pub fn simulated_completion_time_s(
+    task: &TailTask,
+    power_w: f64,
+    no_load_speed_rad_s: f64,
+    dt_s: f64,
+) -> Result<f64> {
     let p = positive("power_w", power_w)?;
     let omega_max = positive("no_load_speed_rad_s", no_load_speed_rad_s)?;
     let h = positive("dt_s", dt_s)?;
@@ -196,7 +202,12 @@ pub fn simulated_completion_time_s(task: &TailTask, power_w: f64, no_load_speed_
 /// Numerical minimum-time optimum: golden-section search over `ln Ω` in
 /// `[Ω_lo, Ω_hi]` of the *simulated* completion time (the thesis's numerical route of
 /// [124], 1,000× slower than eq. (2.1)).
-pub fn numerical_optimum(task: &TailTask, power_w: f64, bracket_rad_s: (f64, f64), dt_s: f64) -> Result<TailOptimum> {
+pub fn numerical_optimum(
+    task: &TailTask,
+    power_w: f64,
+    bracket_rad_s: (f64, f64),
+    dt_s: f64,
+) -> Result<TailOptimum> {
     let (mut a, mut b) = (
         positive("bracket_low", bracket_rad_s.0)?.ln(),
         positive("bracket_high", bracket_rad_s.1)?.ln(),
@@ -258,7 +269,11 @@ pub struct TailSelection {
 /// Ranks `motors` on `task` by the analytic completion time (eq. (2.1) at each motor's peak
 /// power), keeping those that meet `constraints`; ties are broken by catalog index so the
 /// order is deterministic.
-pub fn rank_tail_motors(motors: &[MotorSpec], task: &TailTask, constraints: &SelectionConstraints) -> Result<TailSelection> {
+pub fn rank_tail_motors(
+    motors: &[MotorSpec],
+    task: &TailTask,
+    constraints: &SelectionConstraints,
+) -> Result<TailSelection> {
     if motors.is_empty() {
         return Err(MotorError::EmptyCatalog { field: "motors" });
     }

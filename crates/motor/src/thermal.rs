@@ -130,7 +130,11 @@ impl ThermalModel {
 
     /// The same model with a temperature-dependent winding resistance
     /// `R_c(T) = R_c (1 + α (T − T_ref))`.
-    pub fn with_winding_alpha(mut self, alpha_per_k: f64, reference_temperature_c: f64) -> Result<Self> {
+    pub fn with_winding_alpha(
+        mut self,
+        alpha_per_k: f64,
+        reference_temperature_c: f64,
+    ) -> Result<Self> {
         self.winding_alpha_per_k = non_negative("winding_alpha_per_k", alpha_per_k)?;
         self.reference_temperature_c = finite("reference_temperature_c", reference_temperature_c)?;
         Ok(self)
@@ -181,10 +185,13 @@ impl ThermalModel {
             return Err(MotorError::InvalidParameter {
                 field: "current_a",
                 value: current_a,
-                reason: "thermal runaway: the winding resistance grows faster than the heat can leave",
+                reason:
+                    "thermal runaway: the winding resistance grows faster than the heat can leave",
             });
         }
-        let rise = g * r_sum * (1.0 + self.winding_alpha_per_k * (ambient_c - self.reference_temperature_c))
+        let rise = g
+            * r_sum
+            * (1.0 + self.winding_alpha_per_k * (ambient_c - self.reference_temperature_c))
             / denominator;
         let power = rise / r_sum;
         Ok(self.steady_state(power, ambient_c))
@@ -200,7 +207,12 @@ impl ThermalModel {
     }
 
     /// The continuous current seen as output torque behind `drive`, `k_M G η I`.
-    pub fn continuous_output_torque_n_m(&self, drive: &Drive, max_winding_c: f64, ambient_c: f64) -> Result<f64> {
+    pub fn continuous_output_torque_n_m(
+        &self,
+        drive: &Drive,
+        max_winding_c: f64,
+        ambient_c: f64,
+    ) -> Result<f64> {
         let current = self.continuous_current_a(max_winding_c, ambient_c)?;
         Ok(current
             * drive.motor.torque_constant_n_m_per_a
@@ -217,7 +229,12 @@ impl ThermalModel {
             self.c_core_j_per_k,
             self.c_case_j_per_k,
         );
-        let (a, b, c, d) = (-1.0 / (r1 * c1), 1.0 / (r1 * c1), 1.0 / (r1 * c2), -1.0 / (r1 * c2) - 1.0 / (r2 * c2));
+        let (a, b, c, d) = (
+            -1.0 / (r1 * c1),
+            1.0 / (r1 * c1),
+            1.0 / (r1 * c2),
+            -1.0 / (r1 * c2) - 1.0 / (r2 * c2),
+        );
         let half_trace = 0.5 * (a + d);
         let root = (0.25 * (a - d) * (a - d) + b * c).sqrt();
         let (l1, l2) = (half_trace + root, half_trace - root);
@@ -230,7 +247,12 @@ impl ThermalModel {
         ]
     }
 
-    fn check_profile(field: &'static str, samples: &[f64], dt_s: f64, ambient_c: f64) -> Result<()> {
+    fn check_profile(
+        field: &'static str,
+        samples: &[f64],
+        dt_s: f64,
+        ambient_c: f64,
+    ) -> Result<()> {
         positive("dt_s", dt_s)?;
         finite("ambient_c", ambient_c)?;
         finite_samples(field, samples)
@@ -272,18 +294,32 @@ impl ThermalModel {
     }
 
     /// Temperatures for a heat-input profile `power_w[k]` held over `[k dt, (k+1) dt)`.
-    pub fn simulate_power(&self, initial: ThermalState, ambient_c: f64, dt_s: f64, power_w: &[f64]) -> Result<ThermalTrace> {
+    pub fn simulate_power(
+        &self,
+        initial: ThermalState,
+        ambient_c: f64,
+        dt_s: f64,
+        power_w: &[f64],
+    ) -> Result<ThermalTrace> {
         Self::check_profile("power_w", power_w, dt_s, ambient_c)?;
         Ok(self.run(initial, ambient_c, dt_s, power_w.len(), |k, _| power_w[k]))
     }
 
     /// Temperatures for a winding-current profile; the Joule heat uses the winding
     /// resistance at the core temperature at the start of each sample.
-    pub fn simulate_current(&self, initial: ThermalState, ambient_c: f64, dt_s: f64, current_a: &[f64]) -> Result<ThermalTrace> {
+    pub fn simulate_current(
+        &self,
+        initial: ThermalState,
+        ambient_c: f64,
+        dt_s: f64,
+        current_a: &[f64],
+    ) -> Result<ThermalTrace> {
         Self::check_profile("current_a", current_a, dt_s, ambient_c)?;
-        Ok(self.run(initial, ambient_c, dt_s, current_a.len(), |k, core_c| {
-            current_a[k] * current_a[k] * self.winding_resistance_at(core_c)
-        }))
+        Ok(
+            self.run(initial, ambient_c, dt_s, current_a.len(), |k, core_c| {
+                current_a[k] * current_a[k] * self.winding_resistance_at(core_c)
+            }),
+        )
     }
 
     /// Temperatures for an output-torque profile of `drive` (Fig. 2.8):
@@ -297,7 +333,10 @@ impl ThermalModel {
         torque_n_m: &[f64],
     ) -> Result<ThermalTrace> {
         finite_samples("torque_n_m", torque_n_m)?;
-        let current: Vec<f64> = torque_n_m.iter().map(|&t| drive.current_for_output_torque_a(t)).collect();
+        let current: Vec<f64> = torque_n_m
+            .iter()
+            .map(|&t| drive.current_for_output_torque_a(t))
+            .collect();
         self.simulate_current(initial, ambient_c, dt_s, &current)
     }
 
@@ -306,7 +345,13 @@ impl ThermalModel {
     /// `self` (the datasheet's), as the thesis does for Table 2.3's "measured" rows. `self`'s
     /// case parameters are the starting guess. `measured_case_c[k]` is the case temperature
     /// at `k dt` (so one more sample than `current_a`); the log starts at ambient.
-    pub fn fit_case(&self, ambient_c: f64, dt_s: f64, current_a: &[f64], measured_case_c: &[f64]) -> Result<CaseFit> {
+    pub fn fit_case(
+        &self,
+        ambient_c: f64,
+        dt_s: f64,
+        current_a: &[f64],
+        measured_case_c: &[f64],
+    ) -> Result<CaseFit> {
         Self::check_profile("current_a", current_a, dt_s, ambient_c)?;
         finite_samples("measured_case_c", measured_case_c)?;
         if current_a.len() < 2 {
@@ -323,13 +368,12 @@ impl ThermalModel {
                 actual: measured_case_c.len(),
             });
         }
-        let (tau1, tau2) = self.time_constants_s();
+        let (_, tau2) = self.time_constants_s();
         let with_case = |x: &[f64]| -> Self {
             let (r2, t2) = (x[0].exp(), x[1].exp());
             Self {
                 r_case_ambient_k_per_w: r2,
                 c_case_j_per_k: t2 / r2,
-                c_core_j_per_k: tau1 / self.r_core_case_k_per_w,
                 ..*self
             }
         };

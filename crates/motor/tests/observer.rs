@@ -36,7 +36,13 @@ const CONTACT_HALF_ANGLE: f64 = 30.0 * PI / 180.0;
 /// Simulates the physical leg: the same motor/PD/gravity structure driven by the reference
 /// delayed by `T_del` (what reaches the hip over the bus), plus contact damping, sampled
 /// with a 4096-count encoder and noisy velocity.
-fn simulate(p: &ObserverParams, world: World, frequency_hz: impl Fn(f64) -> f64, duration_s: f64, seed: u64) -> LegLog {
+fn simulate(
+    p: &ObserverParams,
+    world: World,
+    frequency_hz: impl Fn(f64) -> f64,
+    duration_s: f64,
+    seed: u64,
+) -> LegLog {
     let n = (duration_s / DT) as usize;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     // reference from the Buehler clock, integrating the (possibly ramped) frequency
@@ -50,7 +56,10 @@ fn simulate(p: &ObserverParams, world: World, frequency_hz: impl Fn(f64) -> f64,
     }
     let delay = (p.delay_s / DT).round() as usize;
     let (mut theta, mut omega) = refs[0];
-    let mut log = LegLog { dt_s: DT, ..Default::default() };
+    let mut log = LegLog {
+        dt_s: DT,
+        ..Default::default()
+    };
     let substeps = 4;
     let h = DT / substeps as f64;
     for k in 0..n {
@@ -59,7 +68,9 @@ fn simulate(p: &ObserverParams, world: World, frequency_hz: impl Fn(f64) -> f64,
         let broken = world.break_time.is_some_and(|tb| t >= tb);
         let k_g = if broken { 0.7 * p.k_g } else { p.k_g };
         let accel = |th: f64, w: f64| {
-            let e = p.k_p * wrap_angle(theta_d - th) + p.k_d * (omega_d - w) + k_g * (th + p.theta_g_rad).sin();
+            let e = p.k_p * wrap_angle(theta_d - th)
+                + p.k_d * (omega_d - w)
+                + k_g * (th + p.theta_g_rad).sin();
             let mut a = -p.a_m * w + p.k_m * e;
             if world.ground && !broken && wrap_angle(th).abs() < CONTACT_HALF_ANGLE {
                 a -= 60.0 * w; // the body's weight on the leg resists its rotation
@@ -74,8 +85,14 @@ fn simulate(p: &ObserverParams, world: World, frequency_hz: impl Fn(f64) -> f64,
         };
         for _ in 0..substeps {
             let (a1, b1) = (omega, accel(theta, omega));
-            let (a2, b2) = (omega + 0.5 * h * b1, accel(theta + 0.5 * h * a1, omega + 0.5 * h * b1));
-            let (a3, b3) = (omega + 0.5 * h * b2, accel(theta + 0.5 * h * a2, omega + 0.5 * h * b2));
+            let (a2, b2) = (
+                omega + 0.5 * h * b1,
+                accel(theta + 0.5 * h * a1, omega + 0.5 * h * b1),
+            );
+            let (a3, b3) = (
+                omega + 0.5 * h * b2,
+                accel(theta + 0.5 * h * a2, omega + 0.5 * h * b2),
+            );
             let (a4, b4) = (omega + h * b3, accel(theta + h * a3, omega + h * b3));
             theta += h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4);
             omega += h / 6.0 * (b1 + 2.0 * b2 + 2.0 * b3 + b4);
@@ -84,7 +101,8 @@ fn simulate(p: &ObserverParams, world: World, frequency_hz: impl Fn(f64) -> f64,
         log.theta_d_rad.push(refs[k].0);
         log.omega_d_rad_s.push(refs[k].1);
         log.theta_rad.push(wrap_angle(counts * 2.0 * PI / 4096.0));
-        log.omega_rad_s.push(omega + 0.05 * (rng.gen::<f64>() - 0.5));
+        log.omega_rad_s
+            .push(omega + 0.05 * (rng.gen::<f64>() - 0.5));
     }
     log
 }
@@ -106,7 +124,11 @@ fn fsm(expect_ground: bool) -> FaultFsmConfig {
 }
 
 fn faults(changes: &[StateChange]) -> Vec<StateChange> {
-    changes.iter().copied().filter(|c| c.to.is_fault()).collect()
+    changes
+        .iter()
+        .copied()
+        .filter(|c| c.to.is_fault())
+        .collect()
 }
 
 #[test]
@@ -123,7 +145,10 @@ fn free_swing_residuals_are_small_where_the_tracking_error_is_not_and_nothing_is
     let log = simulate(&p, World::default(), |_| 1.0, 6.0, 1);
     let samples = observe(&p, &log).unwrap();
     let skip = 200; // initial transient
-    let max_r = samples[skip..].iter().map(|s| s.r_theta_rad.abs()).fold(0.0, f64::max);
+    let max_r = samples[skip..]
+        .iter()
+        .map(|s| s.r_theta_rad.abs())
+        .fold(0.0, f64::max);
     let max_tracking = (skip..log.len())
         .map(|k| wrap_angle(log.theta_d_rad[k] - log.theta_rad[k]).abs())
         .fold(0.0, f64::max);
@@ -139,7 +164,16 @@ fn free_swing_residuals_are_small_where_the_tracking_error_is_not_and_nothing_is
 #[test]
 fn walking_on_ground_cycles_stance_and_flight_without_faults() {
     let p = truth();
-    let log = simulate(&p, World { ground: true, ..Default::default() }, |_| 1.0, 6.0, 2);
+    let log = simulate(
+        &p,
+        World {
+            ground: true,
+            ..Default::default()
+        },
+        |_| 1.0,
+        6.0,
+        2,
+    );
     let changes = identify(&p, &fsm(true), &log).unwrap();
     assert!(faults(&changes).is_empty(), "{changes:?}");
     let stances = changes.iter().filter(|c| c.to == LegState::Stance).count();
@@ -148,7 +182,10 @@ fn walking_on_ground_cycles_stance_and_flight_without_faults() {
     // stance is declared while the leg is in the contact arc
     for c in changes.iter().filter(|c| c.to == LegState::Stance) {
         let k = (c.time_s / DT).round() as usize;
-        assert!(wrap_angle(log.theta_rad[k]).abs() < CONTACT_HALF_ANGLE + 0.05, "{c:?}");
+        assert!(
+            wrap_angle(log.theta_rad[k]).abs() < CONTACT_HALF_ANGLE + 0.05,
+            "{c:?}"
+        );
     }
 }
 
@@ -167,7 +204,10 @@ fn an_obstacle_in_the_air_is_an_unexpected_disturbance() {
     assert!(!found.is_empty(), "{changes:?}");
     assert_eq!(found[0].to, LegState::UnexpectedDisturbance, "{changes:?}");
     assert!(found[0].time_s > 3.5 && found[0].time_s < 4.1, "{found:?}");
-    assert!(found.iter().all(|c| c.to != LegState::MissingGround), "{found:?}");
+    assert!(
+        found.iter().all(|c| c.to != LegState::MissingGround),
+        "{found:?}"
+    );
 }
 
 #[test]
@@ -186,9 +226,17 @@ fn a_leg_that_breaks_off_misses_the_ground_in_its_next_stance() {
     // the first stance after the break starts at t = 4 s (clock phase 0)
     assert!(found[0].time_s > 4.0 && found[0].time_s < 4.5, "{found:?}");
     // and every later stance is missed too
-    let missed = found.iter().filter(|c| c.to == LegState::MissingGround).count();
+    let missed = found
+        .iter()
+        .filter(|c| c.to == LegState::MissingGround)
+        .count();
     assert!(missed >= 2, "{found:?}");
-    assert!(found.iter().all(|c| c.to != LegState::UnexpectedDisturbance), "{found:?}");
+    assert!(
+        found
+            .iter()
+            .all(|c| c.to != LegState::UnexpectedDisturbance),
+        "{found:?}"
+    );
 }
 
 #[test]
@@ -196,7 +244,13 @@ fn nelder_mead_calibration_recovers_the_free_swing_parameters() {
     // Thesis section 2.2.1: trained on free leg spinning with the gait speed ramped from
     // about 0.6 to 2.5 strides per second.
     let p = truth();
-    let log = simulate(&p, World::default(), |t| 0.6 + (2.5 - 0.6) * t / 8.0, 8.0, 5);
+    let log = simulate(
+        &p,
+        World::default(),
+        |t| 0.6 + (2.5 - 0.6) * t / 8.0,
+        8.0,
+        5,
+    );
     let initial = ObserverParams {
         k_m: 60.0,
         a_m: 15.0,
@@ -223,14 +277,30 @@ fn bad_observer_inputs_are_typed_errors() {
     let p = truth();
     let mut log = simulate(&p, World::default(), |_| 1.0, 0.1, 6);
     log.theta_rad[7] = f64::NAN;
-    assert!(matches!(observe(&p, &log), Err(MotorError::NonFiniteSample { field: "theta_rad", index: 7, .. })));
+    assert!(matches!(
+        observe(&p, &log),
+        Err(MotorError::NonFiniteSample {
+            field: "theta_rad",
+            index: 7,
+            ..
+        })
+    ));
     log.theta_rad.pop();
-    assert!(matches!(observe(&p, &log), Err(MotorError::LengthMismatch { .. })));
+    assert!(matches!(
+        observe(&p, &log),
+        Err(MotorError::LengthMismatch { .. })
+    ));
     let bad = ObserverParams { k_m: -1.0, ..p };
-    assert!(matches!(LegObserver::new(bad, DT, 0.0, 0.0), Err(MotorError::InvalidParameter { field: "k_m", .. })));
+    assert!(matches!(
+        LegObserver::new(bad, DT, 0.0, 0.0),
+        Err(MotorError::InvalidParameter { field: "k_m", .. })
+    ));
     let mut config = fsm(true);
     config.high_residual_rad = 0.01;
-    assert!(matches!(FaultFsm::new(config, LegState::Flight), Err(MotorError::InvalidParameter { .. })));
+    assert!(matches!(
+        FaultFsm::new(config, LegState::Flight),
+        Err(MotorError::InvalidParameter { .. })
+    ));
     let mut config = fsm(true);
     config.phases.air_start_rad = 0.0;
     assert!(FaultFsm::new(config, LegState::Flight).is_err());

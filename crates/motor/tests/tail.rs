@@ -27,9 +27,16 @@ fn constants_minimize_the_completion_time_and_differ_slightly_from_the_printed_o
     // Thesis eq. (2.1): k_ω ≈ 3.156, k_t ≈ 1.547. Our derivation (constant full voltage
     // from rest, no braking, P = τ_stall ω₀ / 4) gives 3.161 and 1.549: the printed values
     // are 0.15 % / 0.13 % low (recorded in docs/errata/ch2-actuators.md).
-    assert!((k.k_omega - 3.156).abs() / 3.156 < 2.5e-3, "k_omega = {}", k.k_omega);
+    assert!(
+        (k.k_omega - 3.156).abs() / 3.156 < 2.5e-3,
+        "k_omega = {}",
+        k.k_omega
+    );
     assert!((k.k_t - 1.547).abs() / 1.547 < 2.5e-3, "k_t = {}", k.k_t);
-    assert!((k.k_omega - 3.1606).abs() < 1e-3 && (k.k_t - 1.5489).abs() < 1e-3, "{k:?}");
+    assert!(
+        (k.k_omega - 3.1606).abs() < 1e-3 && (k.k_t - 1.5489).abs() < 1e-3,
+        "{k:?}"
+    );
 }
 
 #[test]
@@ -40,7 +47,11 @@ fn closed_form_completion_time_matches_integration_at_the_optimum() {
     let newton = completion_time_s(&t, power, opt.no_load_speed_rad_s).unwrap();
     let simulated = simulated_completion_time_s(&t, power, opt.no_load_speed_rad_s, 1e-5).unwrap();
     assert!((newton - opt.completion_time_s).abs() < 1e-12 * opt.completion_time_s);
-    assert!((simulated - opt.completion_time_s).abs() < 1e-9, "{simulated} vs {}", opt.completion_time_s);
+    assert!(
+        (simulated - opt.completion_time_s).abs() < 1e-9,
+        "{simulated} vs {}",
+        opt.completion_time_s
+    );
 }
 
 #[test]
@@ -51,7 +62,10 @@ fn numerical_gear_ratio_optimizer_agrees_with_eq_2_1() {
     let numeric = numerical_optimum(
         &t,
         power,
-        (0.2 * closed.no_load_speed_rad_s, 5.0 * closed.no_load_speed_rad_s),
+        (
+            0.2 * closed.no_load_speed_rad_s,
+            5.0 * closed.no_load_speed_rad_s,
+        ),
         1e-4,
     )
     .unwrap();
@@ -78,7 +92,10 @@ fn scaling_laws_and_the_infinite_effectiveness_limit() {
     assert!((b.no_load_speed_rad_s / a.no_load_speed_rad_s - 2.0).abs() < 1e-12);
     // t ∝ θ₀^{2/3}
     let t8 = TailTask::new(8.0 * t.rotation_rad, t.body_inertia_kg_m2, t.effectiveness).unwrap();
-    assert!((tail_optimum(&t8, 10.0).unwrap().completion_time_s / a.completion_time_s - 4.0).abs() < 1e-12);
+    assert!(
+        (tail_optimum(&t8, 10.0).unwrap().completion_time_s / a.completion_time_s - 4.0).abs()
+            < 1e-12
+    );
     // ε → ∞: a reaction wheel against a fixed frame, I_eff = I_b, θ_rel = θ₀; check against
     // the integration with those values directly.
     let rigid = TailTask::new(t.rotation_rad, t.body_inertia_kg_m2, 1e12).unwrap();
@@ -111,7 +128,9 @@ fn ranking_a_synthetic_catalog_is_sorted_feasible_and_keeps_good_entries_past_ba
         let spec = &motors[r.index];
         assert!(spec.length_m < 0.030 && spec.mass_kg < 0.200 && r.completion_time_s < 0.5);
         // the reported gear ratio puts the output no-load speed at Ω*
-        let omega_star = tail_optimum(&t, r.peak_power_w).unwrap().no_load_speed_rad_s;
+        let omega_star = tail_optimum(&t, r.peak_power_w)
+            .unwrap()
+            .no_load_speed_rad_s;
         assert!((spec.no_load_speed_rad_s / r.gear_ratio / omega_star - 1.0).abs() < 1e-12);
     }
     // every feasible motor is ranked: recount by brute force
@@ -121,7 +140,8 @@ fn ranking_a_synthetic_catalog_is_sorted_feasible_and_keeps_good_entries_past_ba
         .filter(|(i, m)| *i != 3 && m.length_m < 0.030 && m.mass_kg < 0.200)
         .filter(|(_, m)| {
             let p = m.motor().unwrap().peak_power_w();
-            completion_time_s(&t, p, tail_optimum(&t, p).unwrap().no_load_speed_rad_s).unwrap() < 0.5
+            completion_time_s(&t, p, tail_optimum(&t, p).unwrap().no_load_speed_rad_s).unwrap()
+                < 0.5
         })
         .count();
     assert_eq!(brute, selection.ranked.len());
@@ -131,17 +151,27 @@ fn ranking_a_synthetic_catalog_is_sorted_feasible_and_keeps_good_entries_past_ba
 fn bad_tail_inputs_are_typed_errors() {
     assert!(matches!(
         TailTask::new(0.0, 0.05, 1.0),
-        Err(MotorError::InvalidParameter { field: "theta0_rad", .. })
+        Err(MotorError::InvalidParameter {
+            field: "theta0_rad",
+            ..
+        })
     ));
     assert!(matches!(
         tail_optimum(&task(), f64::NAN),
-        Err(MotorError::InvalidParameter { field: "power_w", .. })
+        Err(MotorError::InvalidParameter {
+            field: "power_w",
+            ..
+        })
     ));
     assert!(matches!(
         rank_tail_motors(
             &[],
             &task(),
-            &SelectionConstraints { max_length_m: 1.0, max_mass_kg: 1.0, max_completion_time_s: 1.0 }
+            &SelectionConstraints {
+                max_length_m: 1.0,
+                max_mass_kg: 1.0,
+                max_completion_time_s: 1.0
+            }
         ),
         Err(MotorError::EmptyCatalog { .. })
     ));

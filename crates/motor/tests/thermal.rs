@@ -13,10 +13,19 @@ fn model() -> ThermalModel {
 
 /// Classical RK4 on the circuit ODE with the heat input held per sample: an independent
 /// route to the exact exponential step.
-fn rk4_reference(m: &ThermalModel, ambient: f64, dt: f64, power: &[f64], substeps: usize) -> Vec<(f64, f64)> {
+fn rk4_reference(
+    m: &ThermalModel,
+    ambient: f64,
+    dt: f64,
+    power: &[f64],
+    substeps: usize,
+) -> Vec<(f64, f64)> {
     let f = |x1: f64, x2: f64, p: f64| {
         let q12 = (x1 - x2) / m.r_core_case_k_per_w;
-        ((p - q12) / m.c_core_j_per_k, (q12 - x2 / m.r_case_ambient_k_per_w) / m.c_case_j_per_k)
+        (
+            (p - q12) / m.c_core_j_per_k,
+            (q12 - x2 / m.r_case_ambient_k_per_w) / m.c_case_j_per_k,
+        )
     };
     let h = dt / substeps as f64;
     let (mut x1, mut x2) = (0.0, 0.0);
@@ -38,14 +47,29 @@ fn rk4_reference(m: &ThermalModel, ambient: f64, dt: f64, power: &[f64], substep
 #[test]
 fn exact_step_matches_rk4_and_converges_to_the_closed_form_steady_state() {
     let m = model();
-    let power: Vec<f64> = (0..600).map(|k| if k < 300 { 10.0 } else { 2.0 + (k as f64 * 0.1).sin() }).collect();
-    let trace = m.simulate_power(ThermalState::ambient(25.0), 25.0, 1.0, &power).unwrap();
+    let power: Vec<f64> = (0..600)
+        .map(|k| {
+            if k < 300 {
+                10.0
+            } else {
+                2.0 + (k as f64 * 0.1).sin()
+            }
+        })
+        .collect();
+    let trace = m
+        .simulate_power(ThermalState::ambient(25.0), 25.0, 1.0, &power)
+        .unwrap();
     let reference = rk4_reference(&m, 25.0, 1.0, &power, 50);
     for (k, (c1, c2)) in reference.iter().enumerate() {
-        assert!((trace.core_c[k] - c1).abs() < 1e-9 && (trace.case_c[k] - c2).abs() < 1e-9, "sample {k}");
+        assert!(
+            (trace.core_c[k] - c1).abs() < 1e-9 && (trace.case_c[k] - c2).abs() < 1e-9,
+            "sample {k}"
+        );
     }
     // steady state x1 = P (R1 + R2), x2 = P R2
-    let long = m.simulate_power(ThermalState::ambient(20.0), 20.0, 5.0, &vec![7.0; 2000]).unwrap();
+    let long = m
+        .simulate_power(ThermalState::ambient(20.0), 20.0, 5.0, &vec![7.0; 2000])
+        .unwrap();
     let steady = m.steady_state(7.0, 20.0);
     assert!((long.core_c.last().unwrap() - (20.0 + 7.0 * 8.0)).abs() < 1e-9);
     assert!((long.case_c.last().unwrap() - (20.0 + 7.0 * 6.0)).abs() < 1e-9);
@@ -58,16 +82,25 @@ fn heat_in_equals_heat_stored_plus_heat_lost() {
     // integral by the trapezoid rule on a fine grid.
     let m = model();
     let dt = 0.01;
-    let power: Vec<f64> = (0..60_000).map(|k| if k < 30_000 { 12.0 } else { 0.0 }).collect();
-    let trace = m.simulate_power(ThermalState::ambient(0.0), 0.0, dt, &power).unwrap();
+    let power: Vec<f64> = (0..60_000)
+        .map(|k| if k < 30_000 { 12.0 } else { 0.0 })
+        .collect();
+    let trace = m
+        .simulate_power(ThermalState::ambient(0.0), 0.0, dt, &power)
+        .unwrap();
     let heat_in: f64 = power.iter().sum::<f64>() * dt;
     let lost: f64 = trace
         .case_c
         .windows(2)
         .map(|w| 0.5 * (w[0] + w[1]) * dt / m.r_case_ambient_k_per_w)
         .sum();
-    let stored = m.c_core_j_per_k * trace.core_c.last().unwrap() + m.c_case_j_per_k * trace.case_c.last().unwrap();
-    assert!(((stored + lost) / heat_in - 1.0).abs() < 1e-6, "{} vs {heat_in}", stored + lost);
+    let stored = m.c_core_j_per_k * trace.core_c.last().unwrap()
+        + m.c_case_j_per_k * trace.case_c.last().unwrap();
+    assert!(
+        ((stored + lost) / heat_in - 1.0).abs() < 1e-6,
+        "{} vs {heat_in}",
+        stored + lost
+    );
 }
 
 #[test]
@@ -75,7 +108,9 @@ fn table_2_3_heat_coefficients_scale_as_one_over_g_squared_and_give_the_60_perce
     let catalog = Catalog::thesis();
     let x18 = catalog.drive("x-rhex-18").unwrap();
     let x28 = catalog.drive("x-rhex-28").unwrap();
-    let t18 = catalog.drive_thermal("x-rhex-18", CaseParameters::Measured).unwrap();
+    let t18 = catalog
+        .drive_thermal("x-rhex-18", CaseParameters::Measured)
+        .unwrap();
     // the round trip H → (R_th) → H
     let (hc, hk) = t18.heat_coefficients(&x18);
     assert!((hc - 9.4).abs() < 1e-12 && (hk - 10.2).abs() < 1e-12);
@@ -85,14 +120,23 @@ fn table_2_3_heat_coefficients_scale_as_one_over_g_squared_and_give_the_60_perce
     let (hc28, hk28) = t18.heat_coefficients(&x28);
     assert!((hc28 - 9.4 * s).abs() < 1e-12 && (hk28 - 10.2 * s).abs() < 1e-12);
     for (h18, printed28) in [(9.4, 3.9), (8.9, 3.7), (10.2, 4.2)] {
-        assert!((h18 * s - printed28).abs() <= 0.05 + 1e-12, "{h18} → {printed28}");
+        assert!(
+            (h18 * s - printed28).abs() <= 0.05 + 1e-12,
+            "{h18} → {printed28}"
+        );
     }
     // Simulate one output-torque profile through both gearboxes (same motor, same thermal
     // circuit): the rise over ambient is linear in I² ∝ 1/G², so at every instant the 28:1
     // rise is (18/28)² of the 18:1 rise, a 58.7 % reduction -- the thesis's "60 %".
-    let profile: Vec<f64> = (0..3600).map(|k| if k % 600 < 400 { 1.5 } else { 0.3 }).collect();
-    let a = t18.simulate_output_torque(&x18, ThermalState::ambient(25.0), 25.0, 1.0, &profile).unwrap();
-    let b = t18.simulate_output_torque(&x28, ThermalState::ambient(25.0), 25.0, 1.0, &profile).unwrap();
+    let profile: Vec<f64> = (0..3600)
+        .map(|k| if k % 600 < 400 { 1.5 } else { 0.3 })
+        .collect();
+    let a = t18
+        .simulate_output_torque(&x18, ThermalState::ambient(25.0), 25.0, 1.0, &profile)
+        .unwrap();
+    let b = t18
+        .simulate_output_torque(&x28, ThermalState::ambient(25.0), 25.0, 1.0, &profile)
+        .unwrap();
     for k in 1..a.core_c.len() {
         let ratio = (b.core_c[k] - 25.0) / (a.core_c[k] - 25.0);
         assert!((ratio - s).abs() < 1e-9, "sample {k}: {ratio}");
@@ -105,20 +149,38 @@ fn table_2_3_heat_coefficients_scale_as_one_over_g_squared_and_give_the_60_perce
 
 #[test]
 fn continuous_current_reaches_exactly_the_winding_limit_with_hot_resistance() {
-    let m = model().with_winding_alpha(COPPER_ALPHA_PER_K, 25.0).unwrap();
-    let current = m.continuous_current_a(MAX_WINDING_TEMPERATURE_C, 25.0).unwrap();
+    let m = model()
+        .with_winding_alpha(COPPER_ALPHA_PER_K, 25.0)
+        .unwrap();
+    let current = m
+        .continuous_current_a(MAX_WINDING_TEMPERATURE_C, 25.0)
+        .unwrap();
     // closed form: I² R_c (1 + α (125 − 25)) (R1 + R2) = 100 K
     let expected = (100.0 / (1.2 * (1.0 + COPPER_ALPHA_PER_K * 100.0) * 8.0)).sqrt();
     assert!((current - expected).abs() < 1e-12);
     // simulation with the temperature-dependent resistance settles at 125 °C
-    let trace = m.simulate_current(ThermalState::ambient(25.0), 25.0, 0.5, &vec![current; 20_000]).unwrap();
-    assert!((trace.core_c.last().unwrap() - 125.0).abs() < 1e-6, "{}", trace.core_c.last().unwrap());
+    let trace = m
+        .simulate_current(
+            ThermalState::ambient(25.0),
+            25.0,
+            0.5,
+            &vec![current; 20_000],
+        )
+        .unwrap();
+    assert!(
+        (trace.core_c.last().unwrap() - 125.0).abs() < 1e-6,
+        "{}",
+        trace.core_c.last().unwrap()
+    );
     let steady = m.steady_state_for_current(current, 25.0).unwrap();
     assert!((steady.core_c - 125.0).abs() < 1e-9);
     // thermal runaway is reported, not integrated into nonsense
     assert!(matches!(
         m.steady_state_for_current(100.0, 25.0),
-        Err(MotorError::InvalidParameter { field: "current_a", .. })
+        Err(MotorError::InvalidParameter {
+            field: "current_a",
+            ..
+        })
     ));
 }
 
@@ -128,8 +190,12 @@ fn case_fit_recovers_the_parameters_of_a_heating_and_cooling_log() {
     // the model with the Table 2.3 measured X-RHex case (H_case 10.2, τ 710 s) plus 0.3 K
     // Gaussian sensor noise; the fit starts from the listed values (8.9, 212 s).
     let catalog = Catalog::thesis();
-    let truth = catalog.drive_thermal("x-rhex-18", CaseParameters::Measured).unwrap();
-    let start = catalog.drive_thermal("x-rhex-18", CaseParameters::Listed).unwrap();
+    let truth = catalog
+        .drive_thermal("x-rhex-18", CaseParameters::Measured)
+        .unwrap();
+    let start = catalog
+        .drive_thermal("x-rhex-18", CaseParameters::Listed)
+        .unwrap();
     let current: Vec<f64> = (0..4400)
         .map(|k| match k {
             0..1100 => 2.0,
@@ -138,7 +204,9 @@ fn case_fit_recovers_the_parameters_of_a_heating_and_cooling_log() {
             _ => 0.0,
         })
         .collect();
-    let clean = truth.simulate_current(ThermalState::ambient(22.0), 22.0, 1.0, &current).unwrap();
+    let clean = truth
+        .simulate_current(ThermalState::ambient(22.0), 22.0, 1.0, &current)
+        .unwrap();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);
     let noisy: Vec<f64> = clean
         .case_c
@@ -154,23 +222,37 @@ fn case_fit_recovers_the_parameters_of_a_heating_and_cooling_log() {
     assert!((fit.model.r_case_ambient_k_per_w / truth.r_case_ambient_k_per_w - 1.0).abs() < 0.01);
     assert!((tau2 / 710.0 - 1.0).abs() < 0.02, "τ2 = {tau2}");
     // the RMS error is the noise level (the thesis reports ≈ 1 °C on real data)
-    assert!((fit.rms_error_c - 0.3).abs() < 0.03, "rms {}", fit.rms_error_c);
+    assert!(
+        (fit.rms_error_c - 0.3).abs() < 0.03,
+        "rms {}",
+        fit.rms_error_c
+    );
 }
 
 #[test]
 fn bad_thermal_inputs_are_typed_errors() {
     assert!(matches!(
         ThermalModel::new(-1.0, 6.0, 10.0, 100.0, 1.0),
-        Err(MotorError::InvalidParameter { field: "r_core_case_k_per_w", .. })
+        Err(MotorError::InvalidParameter {
+            field: "r_core_case_k_per_w",
+            ..
+        })
     ));
     assert!(matches!(
         ThermalModel::from_time_constants(2.0, 6.0, 17.0, 300.0, -1.2),
-        Err(MotorError::InvalidParameter { field: "winding_resistance_ohm", .. })
+        Err(MotorError::InvalidParameter {
+            field: "winding_resistance_ohm",
+            ..
+        })
     ));
     let m = model();
     assert!(matches!(
         m.simulate_power(ThermalState::ambient(25.0), 25.0, 1.0, &[1.0, f64::NAN]),
-        Err(MotorError::NonFiniteSample { field: "power_w", index: 1, .. })
+        Err(MotorError::NonFiniteSample {
+            field: "power_w",
+            index: 1,
+            ..
+        })
     ));
     assert!(matches!(
         m.fit_case(25.0, 1.0, &[1.0, 1.0, 1.0], &[25.0, 25.0]),
@@ -178,6 +260,9 @@ fn bad_thermal_inputs_are_typed_errors() {
     ));
     assert!(matches!(
         m.fit_case(25.0, 1.0, &[1.0, 1.0], &[25.0, f64::NAN, 25.0]),
-        Err(MotorError::NonFiniteSample { field: "measured_case_c", .. })
+        Err(MotorError::NonFiniteSample {
+            field: "measured_case_c",
+            ..
+        })
     ));
 }

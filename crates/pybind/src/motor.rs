@@ -2,7 +2,7 @@
 //! arrays for series); structured inputs (observer parameters, machine configuration)
 //! arrive as JSON so that serde names any missing or mistyped field.
 use crate::{guard, to_py_err};
-use motor::catalog::{synthetic_motors, Catalog, CaseParameters};
+use motor::catalog::{synthetic_motors, CaseParameters, Catalog};
 use motor::observer::{self, FaultFsmConfig, LegLog, ObserverParams};
 use motor::tail::{self, SelectionConstraints, TailTask};
 use motor::{Drive, ThermalState};
@@ -45,8 +45,11 @@ fn case_parameters(case: &str) -> PyResult<CaseParameters> {
 fn drive_with_limit(cat: &Catalog, drive: &str, current_limit_a: Option<f64>) -> PyResult<Drive> {
     let d = cat.drive(drive).map_err(to_py_err)?;
     match current_limit_a {
-        Some(limit) => Drive::new(d.motor.with_current_limit(limit).map_err(to_py_err)?, d.gearbox)
-            .map_err(to_py_err),
+        Some(limit) => Drive::new(
+            d.motor.with_current_limit(limit).map_err(to_py_err)?,
+            d.gearbox,
+        )
+        .map_err(to_py_err),
         None => Ok(d),
     }
 }
@@ -60,7 +63,8 @@ fn motor_tail_optimum<'py>(
     effectiveness: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     guard(|| {
-        let task = TailTask::new(theta0_rad, body_inertia_kg_m2, effectiveness).map_err(to_py_err)?;
+        let task =
+            TailTask::new(theta0_rad, body_inertia_kg_m2, effectiveness).map_err(to_py_err)?;
         let opt = tail::tail_optimum(&task, power_w).map_err(to_py_err)?;
         let d = PyDict::new(py);
         d.set_item("no_load_speed_rad_s", opt.no_load_speed_rad_s)?;
@@ -95,7 +99,8 @@ fn motor_rank_tail_motors<'py>(
     seed: u64,
 ) -> PyResult<Bound<'py, PyDict>> {
     guard(|| {
-        let task = TailTask::new(theta0_rad, body_inertia_kg_m2, effectiveness).map_err(to_py_err)?;
+        let task =
+            TailTask::new(theta0_rad, body_inertia_kg_m2, effectiveness).map_err(to_py_err)?;
         let motors = match catalog_toml {
             Some(text) => Catalog::from_toml_str(text).map_err(to_py_err)?.motor,
             None => synthetic_motors(synthetic_count, seed),
@@ -111,16 +116,40 @@ fn motor_rank_tail_motors<'py>(
         let d = PyDict::new(py);
         let r = &selection.ranked;
         d.set_item("name", PyList::new(py, r.iter().map(|m| m.name.clone()))?)?;
-        d.set_item("index", r.iter().map(|m| m.index as i64).collect::<Vec<_>>().into_pyarray(py))?;
-        d.set_item("peak_power_w", r.iter().map(|m| m.peak_power_w).collect::<Vec<_>>().into_pyarray(py))?;
-        d.set_item("gear_ratio", r.iter().map(|m| m.gear_ratio).collect::<Vec<_>>().into_pyarray(py))?;
+        d.set_item(
+            "index",
+            r.iter()
+                .map(|m| m.index as i64)
+                .collect::<Vec<_>>()
+                .into_pyarray(py),
+        )?;
+        d.set_item(
+            "peak_power_w",
+            r.iter()
+                .map(|m| m.peak_power_w)
+                .collect::<Vec<_>>()
+                .into_pyarray(py),
+        )?;
+        d.set_item(
+            "gear_ratio",
+            r.iter()
+                .map(|m| m.gear_ratio)
+                .collect::<Vec<_>>()
+                .into_pyarray(py),
+        )?;
         d.set_item(
             "completion_time_s",
-            r.iter().map(|m| m.completion_time_s).collect::<Vec<_>>().into_pyarray(py),
+            r.iter()
+                .map(|m| m.completion_time_s)
+                .collect::<Vec<_>>()
+                .into_pyarray(py),
         )?;
         d.set_item(
             "invalid",
-            PyList::new(py, selection.invalid.iter().map(|(i, e)| (*i, e.to_string())))?,
+            PyList::new(
+                py,
+                selection.invalid.iter().map(|(i, e)| (*i, e.to_string())),
+            )?,
         )?;
         Ok(d)
     })
@@ -152,12 +181,24 @@ fn motor_drive_table<'py>(
             d.set_item("current_limit_a", drive.motor.current_limit_a)?;
             d.set_item("gear_ratio", drive.gearbox.ratio)?;
             d.set_item("efficiency", drive.gearbox.efficiency)?;
-            d.set_item("output_no_load_speed_rad_s", drive.output_no_load_speed_rad_s())?;
-            d.set_item("achievable_output_stall_torque_n_m", drive.achievable_output_stall_torque_n_m())?;
-            d.set_item("continuous_output_torque_n_m", drive.continuous_output_torque_n_m())?;
+            d.set_item(
+                "output_no_load_speed_rad_s",
+                drive.output_no_load_speed_rad_s(),
+            )?;
+            d.set_item(
+                "achievable_output_stall_torque_n_m",
+                drive.achievable_output_stall_torque_n_m(),
+            )?;
+            d.set_item(
+                "continuous_output_torque_n_m",
+                drive.continuous_output_torque_n_m(),
+            )?;
             d.set_item("peak_output_power_w", drive.peak_output_power_w())?;
             d.set_item("gearbox_peak_torque_n_m", drive.gearbox.peak_torque_n_m)?;
-            d.set_item("gearbox_continuous_torque_n_m", drive.gearbox.continuous_torque_n_m)?;
+            d.set_item(
+                "gearbox_continuous_torque_n_m",
+                drive.gearbox.continuous_torque_n_m,
+            )?;
             d.set_item("mass_kg", drive.combination_mass_kg(motor_spec.mass_kg))?;
             if let Some(h) = spec.thermal_measured {
                 d.set_item("h_core_k_per_n2m2", h.h_core_k_per_n2m2)?;
@@ -185,9 +226,30 @@ fn motor_torque_speed_curve<'py>(
         let d = drive_with_limit(&cat, drive, current_limit_a)?;
         let curve = d.torque_speed_curve(points).map_err(to_py_err)?;
         let out = PyDict::new(py);
-        out.set_item("speed_rad_s", curve.iter().map(|p| p.speed_rad_s).collect::<Vec<_>>().into_pyarray(py))?;
-        out.set_item("torque_n_m", curve.iter().map(|p| p.torque_n_m).collect::<Vec<_>>().into_pyarray(py))?;
-        out.set_item("power_w", curve.iter().map(|p| p.power_w).collect::<Vec<_>>().into_pyarray(py))?;
+        out.set_item(
+            "speed_rad_s",
+            curve
+                .iter()
+                .map(|p| p.speed_rad_s)
+                .collect::<Vec<_>>()
+                .into_pyarray(py),
+        )?;
+        out.set_item(
+            "torque_n_m",
+            curve
+                .iter()
+                .map(|p| p.torque_n_m)
+                .collect::<Vec<_>>()
+                .into_pyarray(py),
+        )?;
+        out.set_item(
+            "power_w",
+            curve
+                .iter()
+                .map(|p| p.power_w)
+                .collect::<Vec<_>>()
+                .into_pyarray(py),
+        )?;
         Ok(out)
     })
 }
@@ -206,13 +268,26 @@ fn motor_thermal_simulation<'py>(
     guard(|| {
         let cat = catalog(catalog_toml)?;
         let d = cat.drive(drive).map_err(to_py_err)?;
-        let thermal = cat.drive_thermal(drive, case_parameters(case)?).map_err(to_py_err)?;
+        let thermal = cat
+            .drive_thermal(drive, case_parameters(case)?)
+            .map_err(to_py_err)?;
         let torque = torque_n_m.as_slice()?.to_vec();
         let trace = py
-            .detach(|| thermal.simulate_output_torque(&d, ThermalState::ambient(ambient_c), ambient_c, dt_s, &torque))
+            .detach(|| {
+                thermal.simulate_output_torque(
+                    &d,
+                    ThermalState::ambient(ambient_c),
+                    ambient_c,
+                    dt_s,
+                    &torque,
+                )
+            })
             .map_err(to_py_err)?;
         let mean_torque_sq = torque.iter().map(|t| t * t).sum::<f64>() / torque.len().max(1) as f64;
-        let steady = thermal.steady_state_for_current(d.current_for_output_torque_a(mean_torque_sq.sqrt()), ambient_c);
+        let steady = thermal.steady_state_for_current(
+            d.current_for_output_torque_a(mean_torque_sq.sqrt()),
+            ambient_c,
+        );
         let out = PyDict::new(py);
         out.set_item("time_s", trace.time_s.into_pyarray(py))?;
         out.set_item("core_c", trace.core_c.into_pyarray(py))?;
@@ -237,7 +312,9 @@ fn motor_continuous_output_torque(
     guard(|| {
         let cat = catalog(catalog_toml)?;
         let d = cat.drive(drive).map_err(to_py_err)?;
-        let thermal = cat.drive_thermal(drive, case_parameters(case)?).map_err(to_py_err)?;
+        let thermal = cat
+            .drive_thermal(drive, case_parameters(case)?)
+            .map_err(to_py_err)?;
         thermal
             .continuous_output_torque_n_m(&d, max_winding_c, ambient_c)
             .map_err(to_py_err)
@@ -280,11 +357,17 @@ fn motor_observe<'py>(
     guard(|| {
         let params = params_from_json(params_json)?;
         let log = leg_log(dt_s, theta_d, omega_d, theta, omega)?;
-        let samples = py.detach(|| observer::observe(&params, &log)).map_err(to_py_err)?;
+        let samples = py
+            .detach(|| observer::observe(&params, &log))
+            .map_err(to_py_err)?;
         let out = PyDict::new(py);
-        let col = |f: fn(&observer::ObserverSample) -> f64| samples.iter().map(f).collect::<Vec<_>>();
+        let col =
+            |f: fn(&observer::ObserverSample) -> f64| samples.iter().map(f).collect::<Vec<_>>();
         out.set_item("theta_hat_rad", col(|s| s.theta_hat_rad).into_pyarray(py))?;
-        out.set_item("omega_hat_rad_s", col(|s| s.omega_hat_rad_s).into_pyarray(py))?;
+        out.set_item(
+            "omega_hat_rad_s",
+            col(|s| s.omega_hat_rad_s).into_pyarray(py),
+        )?;
         out.set_item("r_theta_rad", col(|s| s.r_theta_rad).into_pyarray(py))?;
         out.set_item("r_omega_rad_s", col(|s| s.r_omega_rad_s).into_pyarray(py))?;
         Ok(out)
@@ -304,7 +387,9 @@ fn motor_calibrate_observer<'py>(
     guard(|| {
         let initial = params_from_json(initial_params_json)?;
         let log = leg_log(dt_s, theta_d, omega_d, theta, omega)?;
-        let calibration = py.detach(|| observer::calibrate(&log, &initial)).map_err(to_py_err)?;
+        let calibration = py
+            .detach(|| observer::calibrate(&log, &initial))
+            .map_err(to_py_err)?;
         serde_json::to_string(&calibration).map_err(to_py_err)
     })
 }
