@@ -118,6 +118,22 @@ pub struct Catalog {
     pub drive: Vec<DriveSpec>,
 }
 
+/// The entry of `entries` called `name`, or `UnknownEntry { kind, name }`.
+fn find_named<'a, T>(
+    entries: &'a [T],
+    kind: &'static str,
+    name: &str,
+    name_of: impl Fn(&T) -> &String,
+) -> Result<&'a T> {
+    entries
+        .iter()
+        .find(|e| name_of(e) == name)
+        .ok_or_else(|| MotorError::UnknownEntry {
+            kind,
+            name: name.into(),
+        })
+}
+
 /// The thesis's Tables 2.1–2.3 as a TOML catalog.
 pub const THESIS_CATALOG_TOML: &str = include_str!("../data/thesis_actuators.toml");
 
@@ -143,39 +159,26 @@ impl Catalog {
         Ok(catalog)
     }
 
-    /// Tables 2.1–2.3.
+    /// Tables 2.1–2.3 (parsed and validated once per process).
     pub fn thesis() -> Self {
-        Self::from_toml_str(THESIS_CATALOG_TOML).expect("the shipped catalog is valid")
+        static THESIS: std::sync::OnceLock<Catalog> = std::sync::OnceLock::new();
+        THESIS
+            .get_or_init(|| {
+                Self::from_toml_str(THESIS_CATALOG_TOML).expect("the shipped catalog is valid")
+            })
+            .clone()
     }
 
     pub fn motor_spec(&self, name: &str) -> Result<&MotorSpec> {
-        self.motor
-            .iter()
-            .find(|m| m.name == name)
-            .ok_or_else(|| MotorError::UnknownEntry {
-                kind: "motor",
-                name: name.into(),
-            })
+        find_named(&self.motor, "motor", name, |m| &m.name)
     }
 
     pub fn gearbox(&self, name: &str) -> Result<&Gearbox> {
-        self.gearbox
-            .iter()
-            .find(|g| g.name == name)
-            .ok_or_else(|| MotorError::UnknownEntry {
-                kind: "gearbox",
-                name: name.into(),
-            })
+        find_named(&self.gearbox, "gearbox", name, |g| &g.name)
     }
 
     pub fn drive_spec(&self, name: &str) -> Result<&DriveSpec> {
-        self.drive
-            .iter()
-            .find(|d| d.name == name)
-            .ok_or_else(|| MotorError::UnknownEntry {
-                kind: "drive",
-                name: name.into(),
-            })
+        find_named(&self.drive, "drive", name, |d| &d.name)
     }
 
     /// The motor/gearbox combination `name`.

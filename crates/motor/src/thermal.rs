@@ -315,11 +315,20 @@ impl ThermalModel {
         current_a: &[f64],
     ) -> Result<ThermalTrace> {
         Self::check_profile("current_a", current_a, dt_s, ambient_c)?;
-        Ok(
-            self.run(initial, ambient_c, dt_s, current_a.len(), |k, core_c| {
-                current_a[k] * current_a[k] * self.winding_resistance_at(core_c)
-            }),
-        )
+        Ok(self.run_current(initial, ambient_c, dt_s, current_a))
+    }
+
+    /// [`Self::simulate_current`] on checked inputs.
+    fn run_current(
+        &self,
+        initial: ThermalState,
+        ambient_c: f64,
+        dt_s: f64,
+        current_a: &[f64],
+    ) -> ThermalTrace {
+        self.run(initial, ambient_c, dt_s, current_a.len(), |k, core_c| {
+            current_a[k] * current_a[k] * self.winding_resistance_at(core_c)
+        })
     }
 
     /// Temperatures for an output-torque profile of `drive` (Fig. 2.8):
@@ -382,9 +391,7 @@ impl ThermalModel {
             case_c: measured_case_c[0],
         };
         let rms = |model: &Self| -> f64 {
-            let trace = model.run(initial, ambient_c, dt_s, current_a.len(), |k, core_c| {
-                current_a[k] * current_a[k] * model.winding_resistance_at(core_c)
-            });
+            let trace = model.run_current(initial, ambient_c, dt_s, current_a);
             let sum: f64 = trace
                 .case_c
                 .iter()

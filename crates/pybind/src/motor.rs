@@ -25,6 +25,19 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     Ok(())
 }
 
+/// One field of every record as a numpy column.
+fn column<'py, T, V: numpy::Element>(
+    py: Python<'py>,
+    records: &[T],
+    field: impl Fn(&T) -> V,
+) -> Bound<'py, numpy::PyArray1<V>> {
+    records
+        .iter()
+        .map(field)
+        .collect::<Vec<_>>()
+        .into_pyarray(py)
+}
+
 fn catalog(catalog_toml: Option<&str>) -> PyResult<Catalog> {
     match catalog_toml {
         Some(text) => Catalog::from_toml_str(text).map_err(to_py_err),
@@ -116,34 +129,10 @@ fn motor_rank_tail_motors<'py>(
         let d = PyDict::new(py);
         let r = &selection.ranked;
         d.set_item("name", PyList::new(py, r.iter().map(|m| m.name.clone()))?)?;
-        d.set_item(
-            "index",
-            r.iter()
-                .map(|m| m.index as i64)
-                .collect::<Vec<_>>()
-                .into_pyarray(py),
-        )?;
-        d.set_item(
-            "peak_power_w",
-            r.iter()
-                .map(|m| m.peak_power_w)
-                .collect::<Vec<_>>()
-                .into_pyarray(py),
-        )?;
-        d.set_item(
-            "gear_ratio",
-            r.iter()
-                .map(|m| m.gear_ratio)
-                .collect::<Vec<_>>()
-                .into_pyarray(py),
-        )?;
-        d.set_item(
-            "completion_time_s",
-            r.iter()
-                .map(|m| m.completion_time_s)
-                .collect::<Vec<_>>()
-                .into_pyarray(py),
-        )?;
+        d.set_item("index", column(py, r, |m| m.index as i64))?;
+        d.set_item("peak_power_w", column(py, r, |m| m.peak_power_w))?;
+        d.set_item("gear_ratio", column(py, r, |m| m.gear_ratio))?;
+        d.set_item("completion_time_s", column(py, r, |m| m.completion_time_s))?;
         d.set_item(
             "invalid",
             PyList::new(
@@ -226,30 +215,9 @@ fn motor_torque_speed_curve<'py>(
         let d = drive_with_limit(&cat, drive, current_limit_a)?;
         let curve = d.torque_speed_curve(points).map_err(to_py_err)?;
         let out = PyDict::new(py);
-        out.set_item(
-            "speed_rad_s",
-            curve
-                .iter()
-                .map(|p| p.speed_rad_s)
-                .collect::<Vec<_>>()
-                .into_pyarray(py),
-        )?;
-        out.set_item(
-            "torque_n_m",
-            curve
-                .iter()
-                .map(|p| p.torque_n_m)
-                .collect::<Vec<_>>()
-                .into_pyarray(py),
-        )?;
-        out.set_item(
-            "power_w",
-            curve
-                .iter()
-                .map(|p| p.power_w)
-                .collect::<Vec<_>>()
-                .into_pyarray(py),
-        )?;
+        out.set_item("speed_rad_s", column(py, &curve, |p| p.speed_rad_s))?;
+        out.set_item("torque_n_m", column(py, &curve, |p| p.torque_n_m))?;
+        out.set_item("power_w", column(py, &curve, |p| p.power_w))?;
         Ok(out)
     })
 }
@@ -361,15 +329,13 @@ fn motor_observe<'py>(
             .detach(|| observer::observe(&params, &log))
             .map_err(to_py_err)?;
         let out = PyDict::new(py);
-        let col =
-            |f: fn(&observer::ObserverSample) -> f64| samples.iter().map(f).collect::<Vec<_>>();
-        out.set_item("theta_hat_rad", col(|s| s.theta_hat_rad).into_pyarray(py))?;
+        out.set_item("theta_hat_rad", column(py, &samples, |s| s.theta_hat_rad))?;
         out.set_item(
             "omega_hat_rad_s",
-            col(|s| s.omega_hat_rad_s).into_pyarray(py),
+            column(py, &samples, |s| s.omega_hat_rad_s),
         )?;
-        out.set_item("r_theta_rad", col(|s| s.r_theta_rad).into_pyarray(py))?;
-        out.set_item("r_omega_rad_s", col(|s| s.r_omega_rad_s).into_pyarray(py))?;
+        out.set_item("r_theta_rad", column(py, &samples, |s| s.r_theta_rad))?;
+        out.set_item("r_omega_rad_s", column(py, &samples, |s| s.r_omega_rad_s))?;
         Ok(out)
     })
 }
