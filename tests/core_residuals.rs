@@ -100,12 +100,7 @@ fn a_dot_matches_directional_difference() {
                 .collect();
             (rh.model, m)
         },
-        {
-            let q = quadruped();
-            let m =
-                vec![ContactMode::parse_names(&q, "fore_foot,hind_foot,fore_knee,belly").unwrap()];
-            (q, m)
-        },
+        quadruped_with_all_contacts(),
     ] {
         let mut d = Data::new(&model);
         let (mut checked, mut total) = (0, 0);
@@ -247,12 +242,7 @@ fn grasp_map_formulation_equals_direct_constraint() {
                 .collect();
             (rh.model, m)
         },
-        {
-            let q = quadruped();
-            let m =
-                vec![ContactMode::parse_names(&q, "fore_foot,hind_foot,fore_knee,belly").unwrap()];
-            (q, m)
-        },
+        quadruped_with_all_contacts(),
     ] {
         let n = model.n_joints();
         for &mode in &modes {
@@ -280,4 +270,11 @@ fn grasp_map_formulation_equals_direct_constraint() {
             }
         }
     }
+}
+
+/// The quadruped with every contact active: more constraint rows than any RHex mode.
+fn quadruped_with_all_contacts() -> (Model, Vec<ContactMode>) {
+    let q = quadruped();
+    let m = vec![ContactMode::parse_names(&q, "fore_foot,hind_foot,fore_knee,belly").unwrap()];
+    (q, m)
 }

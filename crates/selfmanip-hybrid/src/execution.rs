@@ -444,6 +444,23 @@ fn flow(
     forward_dynamics(model, data, terrain, mode, q, qd, tau, Some(free))
 }
 
+/// `T = ½ q̇ᵀ M̄ q̇` at `(q, q̇)`. `M̄` does not depend on the contacts, so the flight mode is
+/// prepared; its KKT may be singular (free massless legs), which does not matter here.
+fn kinetic_energy_at(
+    model: &Model,
+    terrain: &dyn Terrain,
+    data: &mut Data,
+    q: &[f64],
+    qd: &[f64],
+) -> Result<f64, CoreError> {
+    data.prepare(model, terrain, ContactMode::FLIGHT, q, qd)
+        .or_else(|e| match e {
+            CoreError::SingularKkt { .. } => Ok(()),
+            e => Err(e),
+        })?;
+    Ok(kinetic_energy(data, qd))
+}
+
 /// Runs the hybrid system from `(q0, qd0)` in `mode0` until `t_final` or a terminal event.
 #[allow(clippy::too_many_arguments)]
 pub fn simulate(
@@ -672,13 +689,7 @@ pub fn simulate(
                 }
             })
             .collect();
-        sim.data
-            .prepare(model, terrain, ContactMode::FLIGHT, &q, &qd)
-            .or_else(|e| match e {
-                CoreError::SingularKkt { .. } => Ok(()),
-                e => Err(e),
-            })?;
-        let ke_before = kinetic_energy(&sim.data, &qd);
+        let ke_before = kinetic_energy_at(model, terrain, &mut sim.data, &q, &qd)?;
         let impact = !touched.is_empty();
         let mut candidates: Vec<usize> = mode.active().chain(touched.iter().copied()).collect();
         candidates.sort_unstable();
@@ -701,13 +712,7 @@ pub fn simulate(
                 Err(term) => break 'run term,
             }
         }
-        sim.data
-            .prepare(model, terrain, ContactMode::FLIGHT, &q, &qd_new)
-            .or_else(|e| match e {
-                CoreError::SingularKkt { .. } => Ok(()),
-                e => Err(e),
-            })?;
-        let ke_after = kinetic_energy(&sim.data, &qd_new);
+        let ke_after = kinetic_energy_at(model, terrain, &mut sim.data, &q, &qd_new)?;
         events.push(Event {
             t: te,
             kind: if impact {
