@@ -5,7 +5,17 @@
 //! that has just been made or broken cannot re-trigger at once — no chattering at zero):
 //! - touchdown of an inactive contact: its height `a_k(q)` above the ground (Definition 5.4);
 //! - liftoff of an active contact: its normal force `U λ_n` (pushing positive) (5.51);
-//! - apex (terminal, optional): the upward body speed `−ż` in flight.
+//! - apex (terminal, optional): the upward body speed `−ż` in flight;
+//! - stick→slip of a sticking contact with finite Coulomb `μ` (section 5.1.5): the cone margin
+//!   `μ U(λ_n) − |λ_t|` (Drake's positive-then-non-positive);
+//! - slip→stick of a sliding contact that can stick: its tangential sliding velocity `v_t`
+//!   crosses zero (armed once `|v_t|` exceeds the margin, oriented by its sign then).
+//!
+//! Friction (Assumption 5.9): sliding contacts have no kinetic friction (`μ_k = 0`). A
+//! sticking contact is kept sticking only while its force — or, at an impact, its impulse —
+//! lies in the cone `|λ_t| ≤ μ U(λ_n)`; otherwise it slides. A contact that starts to slide
+//! stays sliding until its velocity crosses zero; it then sticks only if the sticking force
+//! lies in the cone, so stick and slip cannot cycle at zero velocity.
 //!
 //! Resets: a touchdown is a plastic impact. Every candidate contact set `J` among the active
 //! and touching contacts is tried (exact enumeration): `J` is accepted when each of its
@@ -18,7 +28,9 @@
 //! thesis does for the rocking block (footnote 8 of section 5.1.4).
 use crate::dopri::{DenseStep, Dopri5, StepError, StepOptions};
 use selfmanip_core::contact::{contact_geometry, ContactKind, RowDirection};
+use selfmanip_core::inertia::potential_energy;
 use selfmanip_core::kinematics::Kinematics;
+use selfmanip_core::model::Friction;
 use selfmanip_core::{
     forward_dynamics, kinetic_energy, plastic_impact, pseudo_impulse, ContactMode, CoreError, Data,
     Model, SingularityKind, Terrain,
@@ -39,6 +51,9 @@ pub trait Controller {
     ) {
         out.fill(0.0);
     }
+    /// Called after every reset with the event just applied (for controllers whose phase
+    /// depends on the contact history, e.g. a leg that retracts once it has lifted off).
+    fn on_event(&self, _event: &Event) {}
 }
 
 /// No actuation.
@@ -109,6 +124,10 @@ pub enum EventKind {
     Liftoff,
     /// The body reached its highest point in flight (terminal).
     Apex,
+    /// Sticking contacts reached the friction cone and started to slide.
+    Slip,
+    /// Sliding contacts reached zero sliding velocity (and stuck, if `mode_after` says so).
+    Stick,
 }
 
 /// One reset of the execution.
@@ -168,6 +187,13 @@ pub enum Termination {
         t: f64,
         candidates: Vec<ContactMode>,
     },
+    /// A contact's height jumped through zero: the terrain has a step (a vertical face) that
+    /// is not a contact surface of the model.
+    TerrainDiscontinuity {
+        t: f64,
+        contact: usize,
+        gap_m: f64,
+    },
 }
 
 /// The record of one execution.
@@ -196,8 +222,20 @@ impl Execution {
 #[derive(Clone, Copy, PartialEq)]
 enum Guard {
     Touchdown(usize),
-    Liftoff { contact: usize, row: usize },
+    Liftoff {
+        contact: usize,
+        row: usize,
+    },
     Apex,
+    /// Cone margin `μ U(λ_n) − |λ_t|` of a sticking contact.
+    Slip {
+        contact: usize,
+        t_row: usize,
+        n_row: usize,
+        mu: f64,
+    },
+    /// Tangential sliding velocity of a sliding contact that can stick.
+    Stick(usize),
 }
 
 struct Sim<'a> {
@@ -209,6 +247,9 @@ struct Sim<'a> {
     kin: Kinematics,
     tau: Vec<f64>,
     free: Vec<f64>,
+    /// `(t, mode, [q; q̇])` of the flow whose results `data` holds (several force guards are
+    /// evaluated at the same sample).
+    flow_key: Option<(f64, ContactMode, Vec<f64>)>,
 }
 
 impl<'a> Sim<'a> {
@@ -223,6 +264,12 @@ impl<'a> Sim<'a> {
         q: &[f64],
         qd: &[f64],
     ) -> Result<(), CoreError> {
+        if let Some((t0, m0, y0)) = &self.flow_key {
+            if *t0 == t && *m0 == mode && y0[..q.len()] == *q && y0[q.len()..] == *qd {
+                return Ok(());
+            }
+        }
+        self.flow_key = None;
         flow(
             self.model,
             self.terrain,
@@ -234,7 +281,9 @@ impl<'a> Sim<'a> {
             mode,
             q,
             qd,
-        )
+        )?;
+        self.flow_key = Some((t, mode, q.iter().chain(qd).copied().collect()));
+        Ok(())
     }
 
     fn guard_value(
@@ -256,6 +305,16 @@ impl<'a> Sim<'a> {
                 -self.data.lambda[row]
             }
             Guard::Apex => -qd[self.model.ix_z()],
+            Guard::Slip {
+                t_row, n_row, mu, ..
+            } => {
+                self.dynamics(t, mode, q, qd)?;
+                mu * (-self.data.lambda[n_row]) - self.data.lambda[t_row].abs()
+            }
+            Guard::Stick(k) => {
+                self.kin.compute(self.model, q, qd);
+                sliding_velocity(self.model, &self.kin, self.terrain, k)
+            }
         })
     }
 
@@ -264,12 +323,25 @@ impl<'a> Sim<'a> {
             .filter(|&k| !mode.contains(k))
             .map(Guard::Touchdown)
             .collect();
-        for (row, r) in mode.rows().enumerate() {
-            if r.direction == RowDirection::Normal {
-                g.push(Guard::Liftoff {
-                    contact: r.contact,
-                    row,
-                });
+        let rows: Vec<_> = mode.rows().collect();
+        for (row, r) in rows.iter().enumerate() {
+            if r.direction != RowDirection::Normal {
+                continue;
+            }
+            let k = r.contact;
+            g.push(Guard::Liftoff { contact: k, row });
+            let Friction::Sticking { mu } = self.model.contacts[k].friction else {
+                continue;
+            };
+            match mode.kind(k) {
+                Some(ContactKind::Stick) if mu.is_finite() => g.push(Guard::Slip {
+                    contact: k,
+                    t_row: row - 1,
+                    n_row: row,
+                    mu,
+                }),
+                Some(ContactKind::Slide) => g.push(Guard::Stick(k)),
+                _ => {}
             }
         }
         if self.opts.stop_at_apex && mode.is_flight() {
@@ -287,14 +359,23 @@ impl<'a> Sim<'a> {
             .collect()
     }
 
-    /// The mode for contact set `set`, dropping tangential rows if they are redundant.
+    /// The mode for contact set `set`: each contact's kind from `prefer` where it is active
+    /// there (a sliding contact keeps sliding), its own default otherwise; tangential rows
+    /// are dropped while they are redundant.
     fn mode_for(
         &mut self,
         set: &[usize],
+        prefer: ContactMode,
         q: &[f64],
         qd: &[f64],
     ) -> Result<Option<ContactMode>, CoreError> {
-        let base = ContactMode::with_defaults(self.model, set)?;
+        self.flow_key = None;
+        let mut base = ContactMode::with_defaults(self.model, set)?;
+        for &k in set {
+            if let Some(kind) = prefer.kind(k) {
+                base = base.with(k, kind);
+            }
+        }
         let mut candidates = vec![base];
         for &k in set {
             let last = *candidates.last().expect("non-empty");
@@ -316,55 +397,99 @@ impl<'a> Sim<'a> {
         Ok(None)
     }
 
-    /// Normal pushes `max(U P, U (P + P_δ))` (impacts) or `U λ` (forces) of each contact of `set`.
+    /// The first sticking contact with finite `μ` whose row vector `v` (force or impulse)
+    /// leaves the Coulomb cone `|v_t| ≤ μ U(v_n)`.
+    fn outside_cone(&self, mode: ContactMode, v: &[f64]) -> Option<usize> {
+        let rows: Vec<_> = mode.rows().collect();
+        (1..rows.len()).find_map(|i| {
+            let (rt, rn) = (rows[i - 1], rows[i]);
+            if rt.direction != RowDirection::Tangential || rn.contact != rt.contact {
+                return None;
+            }
+            let Friction::Sticking { mu } = self.model.contacts[rn.contact].friction else {
+                return None;
+            };
+            let push = -v[i];
+            (mu.is_finite() && push >= 0.0 && v[i - 1].abs() > mu * push * (1.0 + 1e-12) + 1e-12)
+                .then_some(rn.contact)
+        })
+    }
+
+    /// Normal pushes (impacts: `U P` where it holds the contact, `U (P + P_δ)` otherwise,
+    /// (5.40); forces: `U λ`) of each contact of `set`, in the mode that `set` takes: kinds from `prefer`, and a sticking contact whose
+    /// impulse (force) leaves its friction cone slides instead (Assumption 5.9, 5.1.5).
+    #[allow(clippy::type_complexity)]
     fn pushes(
         &mut self,
         t: f64,
         set: &[usize],
+        prefer: ContactMode,
         q: &[f64],
         qd: &[f64],
         impact: bool,
     ) -> Result<Option<(ContactMode, Vec<(usize, f64)>, Vec<f64>, Vec<f64>)>, CoreError> {
-        let Some(mode) = self.mode_for(set, q, qd)? else {
-            return Ok(None);
-        };
-        if impact {
-            let imp = plastic_impact(self.model, &mut self.data, self.terrain, mode, q, qd)?;
-            let p: Vec<f64> = imp.impulse.iter().copied().collect();
-            let mut push = Self::normal_push(mode, &p);
-            let mut pd = Vec::new();
-            if self.opts.delta_t_s > 0.0 {
-                self.tau.resize(self.model.n_joints(), 0.0);
-                self.ctrl.torque(t, q, qd, mode, &mut self.tau);
-                let d = pseudo_impulse(
-                    self.model,
-                    &mut self.data,
-                    self.terrain,
-                    mode,
-                    q,
-                    qd,
-                    &self.tau,
-                    self.opts.delta_t_s,
-                )?;
-                pd = d.iter().copied().collect();
-                let sum: Vec<f64> = p.iter().zip(&pd).map(|(a, b)| a + b).collect();
-                for ((_, u), (_, u2)) in push.iter_mut().zip(Self::normal_push(mode, &sum)) {
-                    *u = u.max(u2);
+        let mut prefer = prefer;
+        for _ in 0..=set.len() {
+            let Some(mode) = self.mode_for(set, prefer, q, qd)? else {
+                return Ok(None);
+            };
+            let (push, p, pd, total) = if impact {
+                let imp = plastic_impact(self.model, &mut self.data, self.terrain, mode, q, qd)?;
+                let p: Vec<f64> = imp.impulse.iter().copied().collect();
+                let mut pd = Vec::new();
+                let mut total = p.clone();
+                if self.opts.delta_t_s > 0.0 {
+                    self.tau.resize(self.model.n_joints(), 0.0);
+                    self.ctrl.torque(t, q, qd, mode, &mut self.tau);
+                    let d = pseudo_impulse(
+                        self.model,
+                        &mut self.data,
+                        self.terrain,
+                        mode,
+                        q,
+                        qd,
+                        &self.tau,
+                        self.opts.delta_t_s,
+                    )?;
+                    pd = d.iter().copied().collect();
+                    // (5.40): a contact whose own impulse holds it (U(P) > 0) stays; any
+                    // other is judged by P + P_δ — including the zero-speed touchdowns whose
+                    // impulse vanishes, where the pseudo-impulse is the force over δt
+                    let rows: Vec<_> = mode.rows().collect();
+                    for (i, r) in rows.iter().enumerate() {
+                        let normal = rows
+                            .iter()
+                            .position(|x| {
+                                x.contact == r.contact && x.direction == RowDirection::Normal
+                            })
+                            .expect("every contact has a normal row");
+                        if -p[normal] <= IMPULSE_TOL_N_S {
+                            total[i] = p[i] + pd[i];
+                        }
+                    }
                 }
+                let push = Self::normal_push(mode, &total);
+                (push, p, pd, total)
+            } else {
+                self.dynamics(t, mode, q, qd)?;
+                let l: Vec<f64> = self.data.lambda.iter().copied().collect();
+                (Self::normal_push(mode, &l), l.clone(), Vec::new(), l)
+            };
+            match self.outside_cone(mode, &total) {
+                Some(k) => prefer = mode.with(k, ContactKind::Slide),
+                None => return Ok(Some((mode, push, p, pd))),
             }
-            Ok(Some((mode, push, p, pd)))
-        } else {
-            self.dynamics(t, mode, q, qd)?;
-            let l: Vec<f64> = self.data.lambda.iter().copied().collect();
-            Ok(Some((mode, Self::normal_push(mode, &l), l, Vec::new())))
         }
+        Ok(None)
     }
 
-    /// Complementarity over the subsets of `candidates` (contacts that must be in: none).
+    /// Complementarity over the subsets of `candidates` (contacts that must be in: none),
+    /// with contact kinds from `prefer`.
     fn select(
         &mut self,
         t: f64,
         candidates: &[usize],
+        prefer: ContactMode,
         q: &[f64],
         qd: &[f64],
         impact: bool,
@@ -380,7 +505,7 @@ impl<'a> Sim<'a> {
                 .filter(|i| bits >> i & 1 == 1)
                 .map(|i| candidates[i])
                 .collect();
-            let Some((mode, push, p, pd)) = self.pushes(t, &set, q, qd, impact)? else {
+            let Some((mode, push, p, pd)) = self.pushes(t, &set, prefer, q, qd, impact)? else {
                 continue;
             };
             if push.iter().any(|&(_, u)| u < -tol) {
@@ -391,18 +516,16 @@ impl<'a> Sim<'a> {
                 let mut with_k = set.clone();
                 with_k.push(candidates[i]);
                 with_k.sort_unstable();
-                match self.pushes(t, &with_k, q, qd, impact)? {
-                    Some((_, pk, _, _)) => {
-                        let uk = pk
-                            .iter()
-                            .find(|(c, _)| *c == candidates[i])
-                            .map(|x| x.1)
-                            .unwrap_or(0.0);
-                        if uk >= -tol {
-                            separates = false;
-                        }
+                // singular with k: k cannot be held, it separates
+                if let Some((_, pk, _, _)) = self.pushes(t, &with_k, prefer, q, qd, impact)? {
+                    let uk = pk
+                        .iter()
+                        .find(|(c, _)| *c == candidates[i])
+                        .map(|x| x.1)
+                        .unwrap_or(0.0);
+                    if uk >= -tol {
+                        separates = false;
                     }
-                    None => {} // singular with k: k cannot be held, it separates
                 }
             }
             if separates {
@@ -418,6 +541,14 @@ impl<'a> Sim<'a> {
             })),
         }
     }
+}
+
+/// Tangential velocity `t · v` of the material point of contact `k` at its contact point
+/// (the sliding velocity; zero while it sticks or rolls).
+fn sliding_velocity(model: &Model, kin: &Kinematics, terrain: &dyn Terrain, k: usize) -> f64 {
+    let geom = contact_geometry(model, kin, terrain, k);
+    kin.material_velocity(geom.part, geom.point)
+        .dot(&geom.plane.tangent())
 }
 
 /// The flow (5.48) of `mode` at `(t, q, q̇)`: the controller's torques and free-joint
@@ -461,6 +592,13 @@ fn kinetic_energy_at(
     Ok(kinetic_energy(data, qd))
 }
 
+/// An impulse this small (N s) is no verdict of its own: the pseudo-impulse decides (5.40).
+const IMPULSE_TOL_N_S: f64 = 1e-12;
+
+/// A contact found this far below its ground at a located touchdown did not reach it
+/// continuously: its ground stepped (m).
+const TERRAIN_STEP_M: f64 = 1e-6;
+
 /// Runs the hybrid system from `(q0, qd0)` in `mode0` until `t_final` or a terminal event.
 #[allow(clippy::too_many_arguments)]
 pub fn simulate(
@@ -501,6 +639,7 @@ pub fn simulate(
         kin: Kinematics::default(),
         tau: vec![0.0; model.n_joints()],
         free: Vec::new(),
+        flow_key: None,
     };
     // the initial state must satisfy its mode's constraints
     sim.data.prepare(model, terrain, mode0, q0, qd0)?;
@@ -531,17 +670,41 @@ pub fn simulate(
     let termination = 'run: loop {
         // ---- flow in `mode` until a guard fires or t_final
         let guards = sim.guards(mode);
-        let mut armed: Vec<bool> = Vec::with_capacity(guards.len());
-        let mut last: Vec<f64> = Vec::with_capacity(guards.len());
-        // how far below zero an unarmed guard must go to fire: `arm_margin` below its start
-        // when it starts at or below zero (a contact released slightly inside the ground)
-        let mut unarmed_shift: Vec<f64> = Vec::with_capacity(guards.len());
-        for &g in &guards {
-            let v = sim.guard_value(g, t, mode, &y)?;
-            armed.push(v > opts.arm_margin);
-            last.push(v);
-            unarmed_shift.push(opts.arm_margin + (-v).max(0.0));
+        let ng = guards.len();
+        // A guard fires when `orient·g + shift` goes from positive to non-positive. Armed
+        // guards fire at zero. An unarmed one (not yet clearly positive, e.g. a contact just
+        // released at zero height) fires only once clearly negative, `arm_margin` below its
+        // start: no chatter at zero, and no tunnelling through the ground when a swing is too
+        // small or too short to arm it. A slip→stick guard takes the sign of its sliding
+        // velocity once that exceeds the margin, and cannot fire before.
+        let mut armed = vec![false; ng];
+        let mut orient = vec![1.0; ng];
+        let mut unarmed_shift = vec![0.0; ng];
+        let mut last = vec![0.0; ng];
+        for (gi, &g) in guards.iter().enumerate() {
+            let raw = sim.guard_value(g, t, mode, &y)?;
+            if matches!(g, Guard::Stick(_)) {
+                if raw.abs() > opts.arm_margin {
+                    orient[gi] = raw.signum();
+                    armed[gi] = true;
+                } else {
+                    orient[gi] = 0.0;
+                    unarmed_shift[gi] = f64::INFINITY;
+                }
+            } else {
+                armed[gi] = raw > opts.arm_margin;
+                unarmed_shift[gi] = opts.arm_margin + (-raw).max(0.0);
+            }
+            last[gi] = orient[gi] * raw;
         }
+        // a sticking contact whose force already lies outside its cone (an inconsistent start,
+        // or a cone that a reset left violated) slips at once
+        let slipping_now: Vec<Guard> = guards
+            .iter()
+            .zip(&last)
+            .filter(|(g, &v)| matches!(g, Guard::Slip { .. }) && v < -opts.arm_margin)
+            .map(|(g, _)| *g)
+            .collect();
         let mut seg = Segment {
             mode,
             t0: t,
@@ -573,6 +736,9 @@ pub fn simulate(
         let mut ode = Dopri5::new(&mut rhs, 2 * nq, opts.step);
         let mut dense = DenseStep::default();
         let fired: Option<(f64, Vec<Guard>)> = loop {
+            if !slipping_now.is_empty() {
+                break Some((t, slipping_now));
+            }
             if t >= t_final {
                 break None;
             }
@@ -589,7 +755,6 @@ pub fn simulate(
             // just released at zero height) fires only once it is clearly negative, at
             // `−arm_margin`: no chatter at zero, and no tunnelling through the ground when a
             // swing is too small or too short to arm it
-            let shift = |armed: bool, gi: usize| if armed { 0.0 } else { unarmed_shift[gi] };
             let mut earliest: Option<(f64, f64, usize, f64)> = None; // (lo, hi, guard, shift)
             for (gi, &g) in guards.iter().enumerate() {
                 let mut prev_t = dense.t0;
@@ -597,8 +762,19 @@ pub fn simulate(
                 for &s in &samples {
                     let ts = dense.t0 + s * dense.h;
                     dense.eval(ts, &mut ydense);
-                    let v = sim.guard_value(g, ts, mode, &ydense)?;
-                    let sh = shift(armed[gi], gi);
+                    let raw = sim.guard_value(g, ts, mode, &ydense)?;
+                    if orient[gi] == 0.0 {
+                        // a slip→stick guard arms once the sliding velocity is clear of zero
+                        if raw.abs() > opts.arm_margin {
+                            orient[gi] = raw.signum();
+                            armed[gi] = true;
+                        }
+                        prev_t = ts;
+                        prev_v = orient[gi] * raw;
+                        continue;
+                    }
+                    let v = orient[gi] * raw;
+                    let sh = if armed[gi] { 0.0 } else { unarmed_shift[gi] };
                     if prev_v + sh > 0.0 && v + sh <= 0.0 {
                         if earliest.is_none_or(|(lo, _, _, _)| prev_t < lo) {
                             earliest = Some((prev_t, ts, gi, sh));
@@ -617,7 +793,7 @@ pub fn simulate(
                 while hi - lo > opts.event_tol_s {
                     let mid = 0.5 * (lo + hi);
                     dense.eval(mid, &mut ydense);
-                    if sim.guard_value(guards[gi], mid, mode, &ydense)? + sh > 0.0 {
+                    if orient[gi] * sim.guard_value(guards[gi], mid, mode, &ydense)? + sh > 0.0 {
                         lo = mid;
                     } else {
                         hi = mid;
@@ -627,9 +803,8 @@ pub fn simulate(
                 dense.eval(hi, &mut ydense);
                 let mut set = Vec::new();
                 for (gj, &g) in guards.iter().enumerate() {
-                    if gj == gi
-                        || sim.guard_value(g, hi, mode, &ydense)? + shift(armed[gj], gj) <= 0.0
-                    {
+                    let sh = if armed[gj] { 0.0 } else { unarmed_shift[gj] };
+                    if gj == gi || orient[gj] * sim.guard_value(g, hi, mode, &ydense)? + sh <= 0.0 {
                         set.push(g);
                     }
                 }
@@ -643,7 +818,7 @@ pub fn simulate(
             t = dense.t1();
             seg.t1 = t;
             for (gi, &g) in guards.iter().enumerate() {
-                last[gi] = sim.guard_value(g, t, mode, &y)?;
+                last[gi] = orient[gi] * sim.guard_value(g, t, mode, &y)?;
             }
         };
         drop(ode);
@@ -669,32 +844,52 @@ pub fn simulate(
             });
             break 'run Termination::Apex;
         }
-        let touched: Vec<usize> = fired
-            .iter()
-            .filter_map(|g| {
-                if let Guard::Touchdown(k) = g {
-                    Some(*k)
-                } else {
-                    None
-                }
-            })
-            .collect();
-        let released: Vec<usize> = fired
-            .iter()
-            .filter_map(|g| {
-                if let Guard::Liftoff { contact, .. } = g {
-                    Some(*contact)
-                } else {
-                    None
-                }
-            })
-            .collect();
+        let fired_contacts = |pick: fn(&Guard) -> Option<usize>| -> Vec<usize> {
+            fired.iter().filter_map(pick).collect()
+        };
+        let touched = fired_contacts(|g| match g {
+            Guard::Touchdown(k) => Some(*k),
+            _ => None,
+        });
+        let released = fired_contacts(|g| match g {
+            Guard::Liftoff { contact, .. } => Some(*contact),
+            _ => None,
+        });
+        let slipped = fired_contacts(|g| match g {
+            Guard::Slip { contact, .. } => Some(*contact),
+            _ => None,
+        });
+        let stuck = fired_contacts(|g| match g {
+            Guard::Stick(k) => Some(*k),
+            _ => None,
+        });
+        // a contact whose height jumped through zero met a step of the terrain
+        sim.kin.compute(model, &q, &qd);
+        for &k in &touched {
+            let gap = contact_geometry(model, &sim.kin, terrain, k).gap_m;
+            if gap < -TERRAIN_STEP_M {
+                break 'run Termination::TerrainDiscontinuity {
+                    t: te,
+                    contact: k,
+                    gap_m: gap,
+                };
+            }
+        }
+        sim.flow_key = None; // the reset below reuses `sim.data` for other modes
         let ke_before = kinetic_energy_at(model, terrain, &mut sim.data, &q, &qd)?;
         let impact = !touched.is_empty();
+        // contacts that reached the cone slide; contacts whose sliding stopped try to stick
+        let mut prefer = mode;
+        for &k in &slipped {
+            prefer = prefer.with(k, ContactKind::Slide);
+        }
+        for &k in &stuck {
+            prefer = prefer.with(k, ContactKind::Stick);
+        }
         let mut candidates: Vec<usize> = mode.active().chain(touched.iter().copied()).collect();
         candidates.sort_unstable();
         candidates.dedup();
-        let (new_mode, p, pd) = match sim.select(te, &candidates, &q, &qd, impact)? {
+        let (new_mode, p, pd) = match sim.select(te, &candidates, prefer, &q, &qd, impact)? {
             Ok(x) => x,
             Err(term) => break 'run term,
         };
@@ -707,27 +902,35 @@ pub fn simulate(
         let mut after_mode = new_mode;
         if impact && !after_mode.is_flight() {
             let kept: Vec<usize> = after_mode.active().collect();
-            match sim.select(te, &kept, &q, &qd_new, false)? {
+            match sim.select(te, &kept, after_mode, &q, &qd_new, false)? {
                 Ok((m, _, _)) => after_mode = m,
                 Err(term) => break 'run term,
             }
         }
         let ke_after = kinetic_energy_at(model, terrain, &mut sim.data, &q, &qd_new)?;
-        events.push(Event {
+        sim.flow_key = None;
+        let (kind, triggered) = if impact {
+            (EventKind::Touchdown, touched)
+        } else if !released.is_empty() {
+            (EventKind::Liftoff, released)
+        } else if !slipped.is_empty() {
+            (EventKind::Slip, slipped)
+        } else {
+            (EventKind::Stick, stuck)
+        };
+        let event = Event {
             t: te,
-            kind: if impact {
-                EventKind::Touchdown
-            } else {
-                EventKind::Liftoff
-            },
+            kind,
             mode_before: mode,
             mode_after: after_mode,
-            triggered: if impact { touched } else { released },
+            triggered,
             impulse: p,
             pseudo_impulse: pd,
             kinetic_before: ke_before,
             kinetic_after: ke_after,
-        });
+        };
+        controller.on_event(&event);
+        events.push(event);
         y[nq..].copy_from_slice(&qd_new);
         mode = after_mode;
         if events.len() >= opts.max_events {
@@ -753,6 +956,83 @@ pub fn simulate(
         q: y[..nq].to_vec(),
         qd: y[nq..].to_vec(),
         mode,
+    })
+}
+
+/// Energy bookkeeping of an execution (J): the total energy `E = T + V` (4.24) at its start
+/// and end, the work of the joint torques along the flow, and the kinetic energy lost in its
+/// impacts. A correct execution balances: `E₁ − E₀ = W − L` (`residual_j` ≈ 0), with `L ≥ 0`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct EnergyReport {
+    pub initial_j: f64,
+    pub final_j: f64,
+    /// `∫ τ·θ̇ dt` over the joints in the dynamics (free massless joints carry no load).
+    pub joint_work_j: f64,
+    /// `Σ (T⁻ − T⁺)` over the touchdown events.
+    pub impact_loss_j: f64,
+}
+
+impl EnergyReport {
+    /// `E₁ − E₀ − W + L`.
+    pub fn residual_j(&self) -> f64 {
+        self.final_j - self.initial_j - self.joint_work_j + self.impact_loss_j
+    }
+}
+
+/// The [`EnergyReport`] of `exec` (which started at `(q0, q̇0)`), re-evaluating the
+/// controller's torques on each step's dense output with 3-point Gauss–Legendre quadrature
+/// (exact to the interpolant's order). The controller must answer as it did during the run
+/// (its torques a function of time, state and mode, or of the events it was told about).
+pub fn energy_report(
+    model: &Model,
+    terrain: &dyn Terrain,
+    controller: &dyn Controller,
+    exec: &Execution,
+    q0: &[f64],
+    qd0: &[f64],
+) -> Result<EnergyReport, HybridError> {
+    let nq = model.nq();
+    let mut data = Data::new(model);
+    let total = |data: &mut Data, q: &[f64], qd: &[f64]| -> Result<f64, CoreError> {
+        let t = kinetic_energy_at(model, terrain, data, q, qd)?;
+        Ok(t + potential_energy(model, &data.kin))
+    };
+    let initial_j = total(&mut data, q0, qd0)?;
+    let final_j = total(&mut data, &exec.q, &exec.qd)?;
+    let nodes = [
+        (0.5 - 0.5 * (0.6f64).sqrt(), 5.0 / 18.0),
+        (0.5, 8.0 / 18.0),
+        (0.5 + 0.5 * (0.6f64).sqrt(), 5.0 / 18.0),
+    ];
+    let (mut tau, mut free) = (vec![0.0; model.n_joints()], Vec::new());
+    let mut y = vec![0.0; 2 * nq];
+    let mut joint_work_j = 0.0;
+    for seg in &exec.segments {
+        for step in &seg.steps {
+            let (a, b) = (step.t0, step.t1().min(seg.t1));
+            if b <= a {
+                continue;
+            }
+            for &(x, w) in &nodes {
+                let t = a + x * (b - a);
+                step.eval(t, &mut y);
+                let (q, qd) = y.split_at(nq);
+                flow(
+                    model, terrain, controller, &mut data, &mut tau, &mut free, t, seg.mode, q, qd,
+                )?;
+                let power: f64 = (0..model.n_joints())
+                    .filter(|j| !data.free_joints.contains(j))
+                    .map(|j| tau[j] * qd[j])
+                    .sum();
+                joint_work_j += w * (b - a) * power;
+            }
+        }
+    }
+    Ok(EnergyReport {
+        initial_j,
+        final_j,
+        joint_work_j,
+        impact_loss_j: exec.impact_losses().iter().sum(),
     })
 }
 

@@ -9,14 +9,15 @@
 //! torques from actuator models (saturated torque, current-limited geared DC motor) through
 //! [`actuated`].
 //!
-//! Status: sticking and frictionless sliding contacts; stick–slip transitions with Coulomb
-//! friction and the RHex leap controllers are not implemented yet (issue 3).
+//! Friction follows section 5.1.5 / Assumption 5.9: Coulomb sticking within `μ`,
+//! frictionless sliding, stick→slip at the cone and slip→stick at zero sliding velocity.
+//! [`energy_report`] balances the energy of an execution (motor work, impact losses).
 pub mod actuated;
 pub mod dopri;
 pub mod execution;
 
 pub use actuated::{Actuated, CommandPolicy};
 pub use execution::{
-    simulate, Controller, Event, EventKind, Execution, HybridError, HybridOptions, Segment,
-    Termination, ZeroTorque,
+    energy_report, simulate, Controller, EnergyReport, Event, EventKind, Execution, HybridError,
+    HybridOptions, Segment, Termination, ZeroTorque,
 };

@@ -1,0 +1,143 @@
+//! Stick–slip (thesis section 5.1.5, Assumption 5.9) against closed forms: a puck sliding
+//! up a frictionless-sliding incline stops at `t* = v₀ / (g sin β)`; there it sticks if
+//! `tan β ≤ μ` and stays at rest, otherwise it keeps sliding (back down) with no stick/slip
+//! cycling at zero velocity; a sticking puck on an incline steeper than `atan μ` slips at
+//! once, and a tangential push reaching the cone makes it slip when `|λ_t| = μ λ_n`.
+use selfmanip_core::{ContactKind, ContactMode, GroundPlane, Model, RobotDescription};
+use selfmanip_hybrid::{simulate, EventKind, HybridOptions, Termination, ZeroTorque};
+
+const G: f64 = 9.81;
+/// The foot at the centre of mass: no toppling moment, so the only dynamics are along the
+/// incline.
+const H: f64 = 0.0;
+
+fn puck(mu: f64) -> Model {
+    let text = format!(
+        r#"
+name = "puck"
+gravity_m_s2 = {G}
+legs = []
+[body]
+mass_kg = 2.0
+inertia_kg_m2 = 0.01
+[[contacts]]
+name = "foot"
+shape = {{ kind = "point", position_m = [0.0, {H}] }}
+friction = {{ kind = "sticking", mu = {mu} }}
+"#
+    );
+    RobotDescription::from_toml_str(&text)
+        .unwrap()
+        .build()
+        .unwrap()
+}
+
+/// A plane through the origin tilted by `beta` (its normal into the ground is
+/// `(sin β, cos β)` in NED x–z), and the puck on it, moving at `v0` along the plane tangent.
+fn on_incline(beta: f64, v0: f64) -> (GroundPlane, [f64; 3], [f64; 3]) {
+    let plane = GroundPlane {
+        point_m: [0.0, 0.0],
+        normal_into_ground: [beta.sin(), beta.cos()],
+    };
+    let (n, t) = (plane.normal(), plane.tangent());
+    let x = -H * n;
+    (plane, [x.x, x.y, beta], [v0 * t.x, v0 * t.y, 0.0])
+}
+
+#[test]
+fn sliding_puck_stops_at_closed_form_time_and_sticks_below_the_cone() {
+    for (beta, mu) in [(0.2_f64, 0.5), (0.35, 0.4)] {
+        let model = puck(mu);
+        // tangential acceleration along t: a = g (t · ẑ_down); slide against it
+        let (plane, q, _) = on_incline(beta, 0.0);
+        let a = G * plane.tangent().y;
+        let v0 = -a.signum() * 0.8;
+        let (_, _, qd) = on_incline(beta, v0);
+        let sliding = ContactMode::FLIGHT.with(0, ContactKind::Slide);
+        let exec = simulate(
+            &model,
+            &plane,
+            &ZeroTorque,
+            sliding,
+            &q,
+            &qd,
+            1.0,
+            HybridOptions::default(),
+        )
+        .unwrap();
+        let stick = &exec.events[0];
+        assert_eq!(stick.kind, EventKind::Stick);
+        let t_star = -v0 / a;
+        assert!((stick.t - t_star).abs() < 1e-9, "{} vs {t_star}", stick.t);
+        // tan β = 0.203 ≤ 0.5 and 0.365 ≤ 0.4: the sticking force lies in the cone
+        assert!(beta.tan() <= mu);
+        assert_eq!(stick.mode_after.kind(0), Some(ContactKind::Stick));
+        assert_eq!(
+            exec.events.len(),
+            1,
+            "at rest, no further events: {:?}",
+            exec.events
+        );
+        assert_eq!(exec.termination, Termination::FinalTime);
+        assert!(exec.qd.iter().all(|v| v.abs() < 1e-9), "{:?}", exec.qd);
+    }
+}
+
+#[test]
+fn puck_steeper_than_the_cone_keeps_sliding_without_cycling() {
+    let (beta, mu) = (0.5_f64, 0.3); // tan β = 0.546 > μ
+    let model = puck(mu);
+    let (plane, q, _) = on_incline(beta, 0.0);
+    let a = G * plane.tangent().y;
+    let v0 = -a.signum() * 0.5;
+    let (_, _, qd) = on_incline(beta, v0);
+    let exec = simulate(
+        &model,
+        &plane,
+        &ZeroTorque,
+        ContactMode::FLIGHT.with(0, ContactKind::Slide),
+        &q,
+        &qd,
+        0.5,
+        HybridOptions::default(),
+    )
+    .unwrap();
+    // one stick attempt at v = 0 that the cone refuses, then sliding back down
+    assert_eq!(exec.events.len(), 1);
+    let e = &exec.events[0];
+    assert_eq!(e.kind, EventKind::Stick);
+    assert!((e.t + v0 / a).abs() < 1e-9);
+    assert_eq!(e.mode_after.kind(0), Some(ContactKind::Slide));
+    // free sliding from rest at t*: v(T) = a (T − t*) along the tangent
+    let t = plane.tangent();
+    let v_t = exec.qd[0] * t.x + exec.qd[1] * t.y;
+    assert!((v_t - a * (0.5 - e.t)).abs() < 1e-8, "{v_t}");
+}
+
+#[test]
+fn sticking_puck_slips_when_the_incline_exceeds_the_cone() {
+    // at rest and sticking on a slope steeper than atan μ: the cone margin is negative at
+    // once, so it must slide from t = 0 (a slip event at the start, then free sliding)
+    let (beta, mu) = (0.5_f64, 0.3);
+    let model = puck(mu);
+    let (plane, q, qd) = on_incline(beta, 0.0);
+    let exec = simulate(
+        &model,
+        &plane,
+        &ZeroTorque,
+        ContactMode::FLIGHT.with(0, ContactKind::Stick),
+        &q,
+        &qd,
+        0.2,
+        HybridOptions::default(),
+    )
+    .unwrap();
+    let e = &exec.events[0];
+    assert_eq!(e.kind, EventKind::Slip);
+    assert!(e.t < 1e-9, "slips at once: {}", e.t);
+    assert_eq!(e.mode_after.kind(0), Some(ContactKind::Slide));
+    let a = G * plane.tangent().y;
+    let t = plane.tangent();
+    let v_t = exec.qd[0] * t.x + exec.qd[1] * t.y;
+    assert!((v_t - a * 0.2).abs() < 1e-8, "{v_t} vs {}", a * 0.2);
+}
