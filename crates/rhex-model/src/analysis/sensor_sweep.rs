@@ -1,0 +1,352 @@
+//! The pitching sensor sweep (thesis 4.3.2): pitch range over all quasi-static contact modes
+//! (Result B.1, eqs. 4.55–4.56), holding torque by leg shape (B.2, eqs. 4.57–4.58), the exact
+//! pitch-rate controller from the free-motion Jacobian `H` (B.3, eq. 4.59), and the largest
+//! leg speed before a contact lifts (Fig. 4.8).
+use super::{bad, check_finite, free_motion_basis, normal_rows, prepare_geometry, selector_rows};
+use crate::quasistatic_map::{quasi_static_pose, QuasiStaticPose, Support};
+use crate::{Rhex, RhexError};
+use nalgebra::{DMatrix, DVector};
+use selfmanip_core::quasistatic::quasi_static;
+use selfmanip_core::{forward_dynamics, ContactMode, Data, FlatGround, Model, Terrain};
+use serde::Serialize;
+use std::f64::consts::PI;
+
+/// Extremes of the quasi-static pitch over the joint torus.
+#[derive(Debug, Clone, Serialize)]
+pub struct SensorPitchRange {
+    /// Largest pitch (rad) over every quasi-static mode.
+    pub max_phi: f64,
+    /// `(θ₁, θ₂)` where it is reached and the contact label there.
+    pub argmax: [f64; 2],
+    pub argmax_label: String,
+    /// Smallest (most nose-down) pitch (rad).
+    pub min_phi: f64,
+    pub argmin: [f64; 2],
+    /// Largest pitch over the grid points where both legs roll (`R–R` of Fig. 4.3).
+    pub rolling_max_phi: f64,
+    /// Grid size used for the search before refinement.
+    pub grid: usize,
+}
+
+fn pose(rhex: &Rhex, t: [f64; 2]) -> Option<QuasiStaticPose> {
+    quasi_static_pose(rhex, t[0], t[1])
+}
+
+/// Pattern search (coordinate steps halving) maximising `sign·φ` from `start`.
+fn refine(rhex: &Rhex, start: [f64; 2], sign: f64) -> ([f64; 2], f64) {
+    let mut best = start;
+    let mut val = pose(rhex, best).map(|p| sign * p.phi).unwrap_or(f64::MIN);
+    let mut step = 0.05;
+    while step > 1e-9 {
+        let mut improved = false;
+        for d in [[step, 0.0], [-step, 0.0], [0.0, step], [0.0, -step]] {
+            let c = [best[0] + d[0], best[1] + d[1]];
+            if let Some(p) = pose(rhex, c) {
+                if sign * p.phi > val {
+                    val = sign * p.phi;
+                    best = c;
+                    improved = true;
+                }
+            }
+        }
+        if !improved {
+            step *= 0.5;
+        }
+    }
+    (best, sign * val)
+}
+
+/// Result B.1: the maximal sensor pitch, found by searching the whole joint torus — every
+/// quasi-static contact mode of Fig. 4.3 — on an `grid × grid` grid and refining the best
+/// points by pattern search. Needs a two-pair model.
+pub fn max_sensor_pitch(rhex: &Rhex, grid: usize) -> Result<SensorPitchRange, RhexError> {
+    if rhex.params.pairs.len() != 2 {
+        return Err(bad("pairs", "the pitch map needs exactly two leg pairs"));
+    }
+    if grid < 8 {
+        return Err(bad("grid", "at least 8 points per joint"));
+    }
+    let map = crate::quasistatic_map::contact_mode_map(rhex, grid);
+    if map.is_empty() {
+        return Err(bad("model", "no quasi-static pose exists"));
+    }
+    let hi = map
+        .iter()
+        .max_by(|a, b| a.phi.total_cmp(&b.phi))
+        .expect("non-empty");
+    let lo = map
+        .iter()
+        .min_by(|a, b| a.phi.total_cmp(&b.phi))
+        .expect("non-empty");
+    let rolling_max_phi = map
+        .iter()
+        .filter(|p| p.front == Support::Rolling && p.rear == Support::Rolling)
+        .map(|p| p.phi)
+        .fold(f64::NAN, f64::max);
+    let (argmax, max_phi) = refine(rhex, [hi.theta1, hi.theta2], 1.0);
+    let (argmin, min_phi) = refine(rhex, [lo.theta1, lo.theta2], -1.0);
+    let argmax_label = pose(rhex, argmax).map(|p| p.label).unwrap_or_default();
+    Ok(SensorPitchRange {
+        max_phi,
+        argmax,
+        argmax_label,
+        min_phi,
+        argmin,
+        rolling_max_phi,
+        grid,
+    })
+}
+
+/// Holding torque at a quasi-static pose (thesis (4.21)–(4.23) with (4.16)): the joint
+/// torques that balance gravity in the pose's own contact mode. With two toes down the
+/// internal force is fixed by `t_dᵀτ = 0` (the difference condition of 4.3.1).
+#[derive(Debug, Clone, Serialize)]
+pub struct HoldingTorque {
+    pub theta1: f64,
+    pub theta2: f64,
+    pub phi: f64,
+    pub label: String,
+    /// Joint torques (N m), front to rear.
+    pub tau: Vec<f64>,
+}
+
+pub fn holding_torque(rhex: &Rhex, theta1: f64, theta2: f64) -> Result<HoldingTorque, RhexError> {
+    check_finite("theta", &[theta1, theta2])?;
+    let p = quasi_static_pose(rhex, theta1, theta2)
+        .ok_or_else(|| bad("theta", "no quasi-static pose at these leg angles"))?;
+    let model = &rhex.model;
+    let n = model.n_joints();
+    let q = [theta1, theta2, 0.0, -p.height_m, p.phi];
+    let c = p.mode.n_rows();
+    let t = match c.checked_sub(3) {
+        Some(0) => DMatrix::zeros(n, 0),
+        Some(1) if n == 2 => DMatrix::from_column_slice(2, 1, &[0.5, -0.5]),
+        _ => return Err(bad("mode", format!("{} rows: not a determinate stance", c))),
+    };
+    let mut data = Data::new(model);
+    let qs = quasi_static(model, &mut data, &FlatGround, p.mode, &q, &t)?;
+    Ok(HoldingTorque {
+        theta1,
+        theta2,
+        phi: p.phi,
+        label: p.label,
+        tau: qs.tau_particular.iter().cloned().collect(),
+    })
+}
+
+/// Velocity parameterization `y = [θ₁, free massless joints…]` of a stance: the joints of
+/// legs without an active contact are free coordinates (they move without affecting the
+/// body, 5.1.1), the front joint is the behaviour's input.
+fn sweep_y(model: &Model, mode: ContactMode, lead_joint: usize) -> DMatrix<f64> {
+    let mut idx = vec![lead_joint];
+    for (li, leg) in model.legs.iter().enumerate() {
+        let touching = mode
+            .active()
+            .any(|k| super::contact_leg(model, k) == Some(li));
+        if !touching {
+            for j in leg.first_joint..leg.first_joint + leg.n_links {
+                if j != lead_joint {
+                    idx.push(j);
+                }
+            }
+        }
+    }
+    selector_rows(model.nq(), &idx)
+}
+
+/// Result B.3 / eq. (4.59): the leg rate per unit pitch rate, `θ̇₁/φ̇ = 1/H_φ`, with
+/// `H_φ = π_φ H` from the free-motion basis (4.20) at the quasi-static pose, `y = θ₁`.
+/// Setting `θ̇₁ = φ̇_d / H_φ` tracks a desired pitch rate exactly.
+pub fn pitch_rate_gain(rhex: &Rhex, theta1: f64, theta2: f64) -> Result<f64, RhexError> {
+    let p = quasi_static_pose(rhex, theta1, theta2)
+        .ok_or_else(|| bad("theta", "no quasi-static pose at these leg angles"))?;
+    let model = &rhex.model;
+    let q = [theta1, theta2, 0.0, -p.height_m, p.phi];
+    let y = sweep_y(model, p.mode, 0);
+    let h = free_motion_basis(model, &FlatGround, p.mode, &q, &y)?;
+    let h_phi = h[(model.ix_phi(), 0)];
+    if h_phi.abs() < 1e-12 {
+        return Err(bad(
+            "theta",
+            "H_φ = 0: the pitch does not move with θ₁ here (extremum)",
+        ));
+    }
+    Ok(1.0 / h_phi)
+}
+
+/// The largest speed along a velocity direction before a contact lifts off.
+#[derive(Debug, Clone, Serialize)]
+pub struct LiftoffSpeed {
+    /// Largest `s ≥ 0` with `Uλ(q, s·v) ≥ 0` (`None`: no contact ever lifts).
+    pub speed: Option<f64>,
+    /// Index into λ of the normal row that reaches zero first.
+    pub binding_row: Option<usize>,
+    /// `Uλ` of every normal row at rest (`a`) and its coefficient of `s²` (`b`):
+    /// `Uλ(s) = a + b s²`.
+    pub a: Vec<f64>,
+    pub b: Vec<f64>,
+    pub normal_rows: Vec<usize>,
+}
+
+/// `max s  s.t. Uλ ≥ 0, λ = λ(q, s v, τ)` (the optimisation under Fig. 4.8). At fixed
+/// torque λ of (5.4) is exactly quadratic in the velocity (`C̄q̇` and `Ȧq̇` are), so
+/// `Uλ = a + b s²` and the problem is a linear program in `σ = s²`, solved with Clarabel.
+pub fn liftoff_speed(
+    model: &Model,
+    terrain: &dyn Terrain,
+    mode: ContactMode,
+    q: &[f64],
+    direction: &[f64],
+    tau: &[f64],
+) -> Result<LiftoffSpeed, RhexError> {
+    check_finite("direction", direction)?;
+    if direction.len() != model.nq() {
+        return Err(bad("direction", format!("expected {} entries", model.nq())));
+    }
+    let mut data = Data::new(model);
+    let mut lam = |s: f64| -> Result<DVector<f64>, RhexError> {
+        let qd: Vec<f64> = direction.iter().map(|v| s * v).collect();
+        forward_dynamics(model, &mut data, terrain, mode, q, &qd, tau, None)?;
+        Ok(data.lambda.clone())
+    };
+    let l0 = lam(0.0)?;
+    let l1 = lam(1.0)?;
+    prepare_geometry(model, &mut data, terrain, mode, q, &vec![0.0; q.len()])?;
+    let rows = normal_rows(&data);
+    // U = −1 on normal rows (4.76)
+    let a: Vec<f64> = rows.iter().map(|&i| -l0[i]).collect();
+    let b: Vec<f64> = rows.iter().map(|&i| -(l1[i] - l0[i])).collect();
+    if let Some(i) = a.iter().position(|&v| v < -1e-9) {
+        return Err(bad(
+            "q",
+            format!(
+                "contact row {} already pulls at rest (Uλ = {:.3e})",
+                rows[i], a[i]
+            ),
+        ));
+    }
+    // LP: min −σ s.t. a_i + b_i σ ≥ 0, 0 ≤ σ ≤ σ_cap
+    use clarabel::algebra::CscMatrix;
+    use clarabel::solver::{
+        DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
+    };
+    let sigma_cap = 1.0e8;
+    let m = rows.len() + 2;
+    let mut acol = Vec::with_capacity(m);
+    let mut bvec = Vec::with_capacity(m);
+    // scale each row to unit coefficient so the LP is well conditioned
+    for (ai, bi) in a.iter().zip(&b) {
+        let s = bi.abs().max(ai.abs()).max(1e-300);
+        acol.push(-bi / s);
+        bvec.push(ai.max(0.0) / s);
+    }
+    acol.push(-1.0);
+    bvec.push(0.0);
+    acol.push(1.0 / sigma_cap);
+    bvec.push(1.0);
+    let amat = CscMatrix::new(m, 1, vec![0, m], (0..m).collect(), acol);
+    let p = CscMatrix::<f64>::zeros((1, 1));
+    let settings = DefaultSettingsBuilder::default()
+        .verbose(false)
+        .tol_gap_abs(1e-12)
+        .tol_gap_rel(1e-12)
+        .tol_feas(1e-12)
+        .build()
+        .expect("valid settings");
+    let cones = [SupportedConeT::NonnegativeConeT(m)];
+    let mut solver = DefaultSolver::new(&p, &[-1.0], &amat, &bvec, &cones, settings)
+        .map_err(|e| bad("lp", format!("{e:?}")))?;
+    solver.solve();
+    if !matches!(
+        solver.solution.status,
+        SolverStatus::Solved | SolverStatus::AlmostSolved
+    ) {
+        return Err(bad("lp", format!("Clarabel: {:?}", solver.solution.status)));
+    }
+    let sigma = solver.solution.x[0].max(0.0);
+    if sigma > 0.5 * sigma_cap {
+        return Ok(LiftoffSpeed {
+            speed: None,
+            binding_row: None,
+            a,
+            b,
+            normal_rows: rows,
+        });
+    }
+    let binding = (0..rows.len())
+        .filter(|&i| b[i] < 0.0)
+        .min_by(|&i, &j| (a[i] / -b[i]).total_cmp(&(a[j] / -b[j])))
+        .map(|i| rows[i]);
+    Ok(LiftoffSpeed {
+        speed: Some(sigma.sqrt()),
+        binding_row: binding,
+        a,
+        b,
+        normal_rows: rows,
+    })
+}
+
+/// One point of Fig. 4.8.
+#[derive(Debug, Clone, Serialize)]
+pub struct Fig48Point {
+    pub theta1: f64,
+    pub theta2: f64,
+    pub phi: f64,
+    pub label: String,
+    /// Largest `|θ̇₁|` (rad/s) before a contact lifts, zero torque; `None` if none lifts.
+    pub max_leg_speed: Option<f64>,
+}
+
+/// Fig. 4.8: the leg speed `ẏ = θ̇₁` at takeoff (no torque) over a grid of the quasi-static
+/// configuration space, each point in its own quasi-static mode, along the free motion with
+/// `y = θ₁` (other free joints at rest).
+pub fn fig_4_8(
+    rhex: &Rhex,
+    theta1_range: [f64; 2],
+    theta2_range: [f64; 2],
+    n: usize,
+) -> Result<Vec<Fig48Point>, RhexError> {
+    if n < 2 {
+        return Err(bad("n", "at least 2 points per axis"));
+    }
+    let model = &rhex.model;
+    let mut out = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            let t1 =
+                theta1_range[0] + (theta1_range[1] - theta1_range[0]) * i as f64 / (n - 1) as f64;
+            let t2 =
+                theta2_range[0] + (theta2_range[1] - theta2_range[0]) * j as f64 / (n - 1) as f64;
+            let Some(p) = quasi_static_pose(rhex, t1, t2) else {
+                continue;
+            };
+            if !p
+                .mode
+                .active()
+                .any(|k| super::contact_leg(model, k) == Some(0))
+            {
+                continue; // the front leg must carry the sweep
+            }
+            let q = [t1, t2, 0.0, -p.height_m, p.phi];
+            let y = sweep_y(model, p.mode, 0);
+            let Ok(h) = free_motion_basis(model, &FlatGround, p.mode, &q, &y) else {
+                continue;
+            };
+            let dir: Vec<f64> = h.column(0).iter().cloned().collect();
+            let speed = liftoff_speed(model, &FlatGround, p.mode, &q, &dir, &[0.0; 2])
+                .ok()
+                .and_then(|l| l.speed);
+            out.push(Fig48Point {
+                theta1: t1,
+                theta2: t2,
+                phi: p.phi,
+                label: p.label,
+                max_leg_speed: speed,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// Default window of Fig. 4.8 (rad): `θ₁ ∈ [−90°, 0°]`, `θ₂ ∈ [−180°, 0°]`.
+pub const FIG_4_8_WINDOW: ([f64; 2], [f64; 2]) = ([-PI / 2.0, 0.0], [-PI, 0.0]);
