@@ -45,6 +45,11 @@ impl Rhex {
         Rhex::new(RhexParams::default()).expect("Table 4.2 is valid")
     }
 
+    /// Contact index of label character `i` (`FB FL RB RL`: 0 = front body, 1 = front leg, …).
+    pub fn site(&self, i: usize) -> usize {
+        self.label_sites[i]
+    }
+
     /// Number of characters in a mode label.
     pub fn label_len(&self) -> usize {
         self.label_sites.len()

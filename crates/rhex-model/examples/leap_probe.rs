@@ -1,0 +1,50 @@
+//! One leap per strategy and coordination time, printed with its word, apex and events.
+//!
+//! ```sh
+//! cargo run --release -p rhex-model --example leap_probe -- "++,-+" -0.1,0,0.1 0.03
+//! ```
+//! Arguments: strategies (comma-separated), t2 values in seconds, δt of the pseudo-impulse.
+//! Set `EVENTS=1` to list every event.
+use rhex_model::leap::{leap_params, simulate_leap, LeapConfig};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let strategies = args.get(1).map_or("++", String::as_str);
+    let t2s = args.get(2).map_or("0", String::as_str);
+    let delta_t_s: f64 = args.get(3).map_or(Ok(0.03), |s| s.parse())?;
+    for strategy in strategies.split(',') {
+        for t2 in t2s.split(',') {
+            let cfg = LeapConfig {
+                strategy: strategy.parse()?,
+                t2_s: t2.parse()?,
+                delta_t_s,
+                ..LeapConfig::default()
+            };
+            let r = simulate_leap(&leap_params(), &cfg)?;
+            print!(
+                "{strategy} t2={:+.3} s  {:<14} word {}",
+                cfg.t2_s,
+                r.status.as_str(),
+                r.word_string()
+            );
+            if let Some(a) = r.apex {
+                print!(
+                    "  apex x {:.3} m, z {:.3} m, pitch {:.1} deg",
+                    a.x_m,
+                    a.z_m,
+                    a.phi_rad.to_degrees()
+                );
+            }
+            println!();
+            if std::env::var("EVENTS").is_ok() {
+                for e in &r.events {
+                    println!(
+                        "    t {:.5} s  {:<9} {} -> {}  {:?}  loss {:.3} J",
+                        e.t_s, e.kind, e.mode_before, e.mode_after, e.contacts, e.energy_loss_j
+                    );
+                }
+            }
+        }
+    }
+    Ok(())
+}

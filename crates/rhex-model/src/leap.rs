@@ -1,0 +1,943 @@
+//! RHex leaps from rest to apex (thesis chapter 3.2 and chapter 5's simulations): the four
+//! open-loop strategies `(±, ±)` with coordination time `t2`, driven through the hybrid
+//! engine of `selfmanip-hybrid`.
+//!
+//! **The leap.** The robot starts at rest sitting on its body (`I_1010`) on the ground, each
+//! leg held [`LeapConfig::wait_clearance_rad`] above its touchdown angle (the angle at which
+//! its lowest point reaches the ground, on the side its strategy pushes from). The front
+//! leg's motor switches on at `t = 0` and the rear leg's at `t = t2` (negative: the rear leg
+//! starts first); a leg swings down and touches the ground shortly after its start.
+//! Execution time starts at `min(0, t2)`; every reported time is shifted so that the front
+//! leg starts at 0. A leg's motor then applies its saturated torque `±τ_s` (or a current-limited geared DC
+//! motor's torque at the leg speed) in the strategy's direction: `+` turns the leg with
+//! increasing θ (the toe sweeps backward, pushing the body forward — RHex's walking direction,
+//! rolling on the half circle), `−` the other way (pushing on the toe point: a flip).
+//!
+//! **Massless legs in the air** (thesis 5.1.1) have no dynamics: their motion is prescribed
+//! with bounded acceleration (the thesis's assumption that keeps executions non-Zeno). A leg
+//! that has not touched down yet swings towards the ground; a leg that has lifted off keeps
+//! turning in its push direction, out of the way, and parks pointing up (the thesis's "once a
+//! leg has lifted off the ground it is slowly rotated upwards out of the way").
+//!
+//! **Words.** The leap word is the sequence of ground-reaction-complex cells visited
+//! (chapter 3.1), sliding toes counted as contact, zero-time cells suppressed.
+use crate::params::{LegPair, RhexParams};
+use crate::terrain::TerrainSpec;
+use crate::{Rhex, RhexError};
+use motor::Actuator;
+use selfmanip_core::kinematics::Kinematics;
+use selfmanip_core::{ContactMode, Terrain};
+use selfmanip_hybrid::execution::{Event, EventKind, Execution, HybridOptions, Termination};
+use selfmanip_hybrid::{simulate, Controller};
+use serde::{Deserialize, Serialize};
+use std::cell::Cell;
+use std::f64::consts::PI;
+use std::str::FromStr;
+
+/// Direction a leg pushes in: `+` increases θ (forward lunge), `−` decreases it (flip).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Push {
+    #[serde(rename = "+")]
+    Plus,
+    #[serde(rename = "-")]
+    Minus,
+}
+
+impl Push {
+    /// `+1` or `−1`.
+    pub fn sign(self) -> f64 {
+        match self {
+            Push::Plus => 1.0,
+            Push::Minus => -1.0,
+        }
+    }
+    pub fn symbol(self) -> char {
+        match self {
+            Push::Plus => '+',
+            Push::Minus => '-',
+        }
+    }
+}
+
+/// A leg strategy `S = (front, rear)` of section 3.2.1.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(try_from = "String", into = "String")]
+pub struct Strategy {
+    pub front: Push,
+    pub rear: Push,
+}
+
+impl Strategy {
+    pub const ALL: [Strategy; 4] = [
+        Strategy::new(Push::Plus, Push::Plus),
+        Strategy::new(Push::Plus, Push::Minus),
+        Strategy::new(Push::Minus, Push::Plus),
+        Strategy::new(Push::Minus, Push::Minus),
+    ];
+    pub const fn new(front: Push, rear: Push) -> Self {
+        Strategy { front, rear }
+    }
+}
+
+impl std::fmt::Display for Strategy {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}{}", self.front.symbol(), self.rear.symbol())
+    }
+}
+
+impl FromStr for Strategy {
+    type Err = RhexError;
+    /// `"++"`, `"+-"`, `"-+"`, `"--"` (also `"(+,+)"`).
+    fn from_str(s: &str) -> Result<Self, RhexError> {
+        let signs: Vec<Push> = s
+            .chars()
+            .filter(|c| !matches!(c, '(' | ')' | ',' | ' '))
+            .map(|c| match c {
+                '+' => Ok(Push::Plus),
+                '-' => Ok(Push::Minus),
+                other => Err(other),
+            })
+            .collect::<Result<_, _>>()
+            .map_err(|c| RhexError::Params {
+                field: "strategy".into(),
+                reason: format!("`{s}`: character `{c}` is not + or -"),
+            })?;
+        match signs[..] {
+            [front, rear] => Ok(Strategy { front, rear }),
+            _ => Err(RhexError::Params {
+                field: "strategy".into(),
+                reason: format!("`{s}`: expected two signs such as ++, +-, -+ or --"),
+            }),
+        }
+    }
+}
+
+impl TryFrom<String> for Strategy {
+    type Error = RhexError;
+    fn try_from(s: String) -> Result<Self, RhexError> {
+        s.parse()
+    }
+}
+
+impl From<Strategy> for String {
+    fn from(s: Strategy) -> String {
+        s.to_string()
+    }
+}
+
+/// What turns a planar leg (a contralateral pair of physical legs).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum LegActuator {
+    /// The constant saturated torque `τ_s` of Table 4.2 (chapter 3's assumption).
+    SaturatedTorque,
+    /// `motors_per_leg` X-RHex motors (thesis Table 2.1, 37 V) behind a gearbox of ratio
+    /// `gear_ratio` and the catalog gearbox efficiency, with the controller current limit
+    /// `current_limit_a` (chapter 5's simulations: 20 A): the linear torque–speed line
+    /// clipped by the current limit (section 2.1.2, Fig. 2.6).
+    GearedMotor {
+        gear_ratio: f64,
+        current_limit_a: f64,
+        motors_per_leg: u32,
+    },
+}
+
+impl Default for LegActuator {
+    fn default() -> Self {
+        LegActuator::GearedMotor {
+            gear_ratio: 28.0,
+            current_limit_a: 20.0,
+            motors_per_leg: 2,
+        }
+    }
+}
+
+/// Everything a leap needs besides the robot's parameters.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LeapConfig {
+    pub strategy: Strategy,
+    /// Start of the rear leg's motor relative to the front leg's (s); negative: rear first.
+    pub t2_s: f64,
+    pub actuator: LegActuator,
+    /// The two leg pairs that push (front-most first). `None`: chapter 3's choice for the
+    /// strategy, the leading leg disabled — middle and rear for `(+,+)`, front and rear for
+    /// `(+,−)` and `(−,+)`, front and middle for `(−,−)` (section 3.3). Overrides the
+    /// parameters' `pairs`.
+    pub pairs: Option<[LegPair; 2]>,
+    /// Pseudo-impulse duration δt of (5.39) (s); 0 disables it. Thesis: 0.03 s.
+    pub delta_t_s: f64,
+    /// Bound on a massless leg's acceleration while it is in the air (rad/s²).
+    pub swing_accel_rad_s2: f64,
+    /// Speed a massless leg in the air is brought to (rad/s).
+    pub swing_speed_rad_s: f64,
+    /// A leg waits for its motor raised this far (rad) above the angle at which it would
+    /// touch the ground from the sitting posture, so that the body can pitch on the other
+    /// leg without driving it into the ground; at its start it swings down (at
+    /// `swing_accel_rad_s2`, `swing_speed_rad_s`) and touches down shortly after.
+    pub wait_clearance_rad: f64,
+    /// Toe stub (Result C.3, section 3.3.1): a pushing leg's torque reverses once its angle
+    /// has turned this far past straight down (rad, measured in its push direction).
+    pub toe_stub_rad: Option<f64>,
+    pub terrain: TerrainSpec,
+    /// Latest time of the execution (s after the front leg starts).
+    pub t_final_s: f64,
+    /// Stop at the first apex of flight (otherwise run to `t_final_s`: landings, ledges).
+    pub stop_at_apex: bool,
+    /// What a pushing leg does once it has lifted off: park out of the way (the thesis's
+    /// "once a leg has lifted off the ground it is slowly rotated upwards out of the way"),
+    /// or keep turning in its push direction at bounded acceleration until the robot is in
+    /// flight (the motor stays on: the setting of Fig. 5.7's chatter).
+    pub keep_pushing_after_liftoff: bool,
+    /// Width of the bracket that locates each event (s).
+    pub event_tol_s: f64,
+    /// Zeno detection: more than `zeno_max_events` events within `zeno_window_s`.
+    pub zeno_window_s: f64,
+    pub zeno_max_events: usize,
+}
+
+impl Default for LeapConfig {
+    fn default() -> Self {
+        LeapConfig {
+            strategy: Strategy::new(Push::Plus, Push::Plus),
+            t2_s: 0.0,
+            actuator: LegActuator::default(),
+            pairs: None,
+            delta_t_s: 0.03,
+            swing_accel_rad_s2: 400.0,
+            swing_speed_rad_s: 12.0,
+            wait_clearance_rad: 0.8,
+            toe_stub_rad: None,
+            terrain: TerrainSpec::Flat,
+            t_final_s: 1.0,
+            stop_at_apex: true,
+            keep_pushing_after_liftoff: false,
+            event_tol_s: 1e-10,
+            zeno_window_s: 0.01,
+            zeno_max_events: 40,
+        }
+    }
+}
+
+/// The parameters of the leaps of chapters 3 and 5: Table 4.2 (massless half-circle legs)
+/// with toe friction μ = 1.8 on the front and middle pairs and 2.5 on the rear (section
+/// 5.1.5). Which pairs push is [`LeapConfig::pairs`].
+pub fn leap_params() -> RhexParams {
+    RhexParams {
+        pairs: vec![LegPair::Middle, LegPair::Rear],
+        mu_front: Some(1.8),
+        mu_middle: Some(1.8),
+        mu_rear: Some(2.5),
+        ..RhexParams::default()
+    }
+}
+
+impl Strategy {
+    /// Chapter 3's pushing pairs for this strategy (the leading leg disabled, section 3.3).
+    pub fn chapter3_pairs(self) -> [LegPair; 2] {
+        match (self.front, self.rear) {
+            (Push::Plus, Push::Plus) => [LegPair::Middle, LegPair::Rear],
+            (Push::Minus, Push::Minus) => [LegPair::Front, LegPair::Middle],
+            _ => [LegPair::Front, LegPair::Rear],
+        }
+    }
+}
+
+/// The body state at the apex of flight, in a z-**up** frame whose origin is the body centre
+/// at the start (x forward): what chapter 3 reports.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Apex {
+    pub t_s: f64,
+    /// Forward displacement of the body centre from the start.
+    pub x_m: f64,
+    /// Height of the body centre above the ground under the start (positive up).
+    pub z_m: f64,
+    /// Pitch, nose-up positive.
+    pub phi_rad: f64,
+    pub xdot_m_s: f64,
+    pub zdot_m_s: f64,
+    pub phidot_rad_s: f64,
+}
+
+/// How a leap ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LeapStatus {
+    /// Reached the apex of flight (or `t_final` after a flight when not stopping at apex).
+    Ok,
+    /// Never reached the apex of a flight (when stopping at apex), or never left the ground
+    /// (otherwise), before `t_final`.
+    NoFlight,
+    Zeno,
+    EventBudget,
+    NoContactSolution,
+    SeveralContactSolutions,
+    /// A contact ran into a vertical face of the terrain (not modelled as a contact).
+    TerrainFace,
+}
+
+impl LeapStatus {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            LeapStatus::Ok => "ok",
+            LeapStatus::NoFlight => "no_flight",
+            LeapStatus::Zeno => "zeno",
+            LeapStatus::EventBudget => "event_budget",
+            LeapStatus::NoContactSolution => "no_contact_solution",
+            LeapStatus::SeveralContactSolutions => "several_contact_solutions",
+            LeapStatus::TerrainFace => "terrain_face",
+        }
+    }
+}
+
+/// The outcome of one leap.
+#[derive(Debug, Clone)]
+pub struct LeapResult {
+    pub status: LeapStatus,
+    pub apex: Option<Apex>,
+    /// Ground-reaction-complex cells visited (labels `FB FL RB RL`), zero-time cells
+    /// suppressed, starting with `1010`.
+    pub word: Vec<String>,
+    /// The execution (times on the simulation clock, which starts at `min(0, t2)`).
+    pub execution: Execution,
+    /// Subtract from execution times to get times relative to the front leg's start.
+    pub time_offset_s: f64,
+    /// Start configuration `q` (thesis coordinates, z down).
+    pub q0: Vec<f64>,
+    /// Events relative to the front leg's start, labelled.
+    pub events: Vec<LeapEvent>,
+}
+
+impl LeapResult {
+    /// The word joined by `-`, e.g. `1010-0110-0101-0001-0000`.
+    pub fn word_string(&self) -> String {
+        self.word.join("-")
+    }
+}
+
+/// One event of a leap, labelled for users.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LeapEvent {
+    /// Time relative to the front leg's start (s).
+    pub t_s: f64,
+    /// `touchdown`, `liftoff`, `slip`, `stick` or `apex`.
+    pub kind: &'static str,
+    pub mode_before: String,
+    pub mode_after: String,
+    /// Names of the contacts that fired the guard.
+    pub contacts: Vec<String>,
+    /// Kinetic energy lost in the event (J; zero for liftoff, slip, stick and apex).
+    pub energy_loss_j: f64,
+}
+
+/// Samples of a leap on a uniform time grid, for logs and plots.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Trajectory {
+    /// Contact names, the column order of `contact_points_m` / `contact_forces_n`.
+    pub contacts: Vec<String>,
+    /// Times relative to the front leg's start (s).
+    pub t_s: Vec<f64>,
+    /// `q = [θ…, x, z, φ]` (thesis coordinates, NED: z down).
+    pub q: Vec<Vec<f64>>,
+    pub qd: Vec<Vec<f64>>,
+    /// Contact-mode label at each sample (`FB FL RB RL`, `s` for a sliding toe).
+    pub mode: Vec<String>,
+    /// World contact point `(x, z)` (NED) of each active contact, `None` when inactive.
+    pub contact_points_m: Vec<Vec<Option<[f64; 2]>>>,
+    /// World force `(f_x, f_z)` (NED) of the ground on the robot at each active contact.
+    pub contact_forces_n: Vec<Vec<Option<[f64; 2]>>>,
+}
+
+impl LeapConfig {
+    /// Checks every field (errors name it).
+    pub fn validate(&self) -> Result<(), RhexError> {
+        let bad = |field: &str, reason: String| {
+            Err(RhexError::Params {
+                field: field.into(),
+                reason,
+            })
+        };
+        let finite = [
+            ("t2_s", self.t2_s),
+            ("delta_t_s", self.delta_t_s),
+            ("swing_accel_rad_s2", self.swing_accel_rad_s2),
+            ("swing_speed_rad_s", self.swing_speed_rad_s),
+            ("wait_clearance_rad", self.wait_clearance_rad),
+            ("t_final_s", self.t_final_s),
+            ("event_tol_s", self.event_tol_s),
+            ("zeno_window_s", self.zeno_window_s),
+        ];
+        for (field, v) in finite {
+            if !v.is_finite() {
+                return bad(field, format!("must be finite, got {v}"));
+            }
+        }
+        for (field, v) in [
+            ("swing_accel_rad_s2", self.swing_accel_rad_s2),
+            ("swing_speed_rad_s", self.swing_speed_rad_s),
+            ("t_final_s", self.t_final_s),
+            ("event_tol_s", self.event_tol_s),
+            ("zeno_window_s", self.zeno_window_s),
+        ] {
+            if v <= 0.0 {
+                return bad(field, format!("must be positive, got {v}"));
+            }
+        }
+        if self.delta_t_s < 0.0 {
+            return bad(
+                "delta_t_s",
+                format!("must be non-negative, got {}", self.delta_t_s),
+            );
+        }
+        if !(0.0..=1.5).contains(&self.wait_clearance_rad) {
+            return bad(
+                "wait_clearance_rad",
+                format!("must lie in [0, 1.5], got {}", self.wait_clearance_rad),
+            );
+        }
+        if self.t2_s.abs() >= self.t_final_s {
+            return bad(
+                "t2_s",
+                format!("|t2| must be below t_final_s = {}", self.t_final_s),
+            );
+        }
+        if let Some(a) = self.toe_stub_rad {
+            if !a.is_finite() || !(0.0..PI).contains(&a) {
+                return bad("toe_stub_rad", format!("must lie in [0, π), got {a}"));
+            }
+        }
+        if let LegActuator::GearedMotor {
+            gear_ratio,
+            current_limit_a,
+            motors_per_leg,
+        } = self.actuator
+        {
+            if !gear_ratio.is_finite() || gear_ratio <= 0.0 {
+                return bad(
+                    "gear_ratio",
+                    format!("must be finite and positive, got {gear_ratio}"),
+                );
+            }
+            if !current_limit_a.is_finite() || current_limit_a <= 0.0 {
+                return bad(
+                    "current_limit_a",
+                    format!("must be finite and positive, got {current_limit_a}"),
+                );
+            }
+            if motors_per_leg == 0 {
+                return bad("motors_per_leg", "must be at least 1".into());
+            }
+        }
+        self.terrain.validate()
+    }
+}
+
+/// A planar leg's actuator: `n` identical drives in parallel (a contralateral pair).
+struct LegDrive {
+    drive: motor::Drive,
+    n: f64,
+}
+
+impl Actuator for LegDrive {
+    fn joint_torque_n_m(&self, command: f64, speed: f64) -> f64 {
+        self.n * self.drive.joint_torque_n_m(command, speed)
+    }
+    fn electrical_power_w(&self, command: f64, speed: f64) -> f64 {
+        self.n * self.drive.electrical_power_w(command, speed)
+    }
+}
+
+fn leg_actuator(params: &RhexParams, a: &LegActuator) -> Result<Box<dyn Actuator>, RhexError> {
+    let motor_err = |e: motor::MotorError| RhexError::Params {
+        field: "actuator".into(),
+        reason: e.to_string(),
+    };
+    Ok(match *a {
+        LegActuator::SaturatedTorque => {
+            Box::new(motor::SaturatedTorque::new(params.tau_s).map_err(motor_err)?)
+        }
+        LegActuator::GearedMotor {
+            gear_ratio,
+            current_limit_a,
+            motors_per_leg,
+        } => {
+            let catalog = motor::catalog::Catalog::thesis();
+            let m = catalog
+                .motor_spec("x-rhex")
+                .and_then(|m| m.motor())
+                .and_then(|m| m.with_current_limit(current_limit_a))
+                .map_err(motor_err)?;
+            let mut gearbox = catalog.gearbox("x-rhex-28").map_err(motor_err)?.clone();
+            gearbox.ratio = gear_ratio;
+            Box::new(LegDrive {
+                drive: motor::Drive::new(m, gearbox).map_err(motor_err)?,
+                n: f64::from(motors_per_leg),
+            })
+        }
+    })
+}
+
+/// What a leg is doing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Phase {
+    /// Motor not yet on: the leg servo holds its start angle.
+    Waiting,
+    /// Motor on: saturated push; in the air, the leg swings on in its push direction.
+    Pushing,
+    /// After takeoff (or past the end of its stroke in the air): parks pointing up.
+    Retracting,
+}
+
+/// The open-loop leap controller of section 3.2 (one per leap: it remembers the events).
+struct LeapController {
+    sign: [f64; 2],
+    start: [f64; 2],
+    hold: [f64; 2],
+    stow: [f64; 2],
+    leg_contact: [usize; 2],
+    actuators: [Box<dyn Actuator>; 2],
+    hold_torque: f64,
+    accel: f64,
+    speed: f64,
+    stub: Option<f64>,
+    keep_pushing: bool,
+    /// Time of the first flight after both legs started (all legs retract from then on).
+    takeoff: Cell<Option<f64>>,
+    /// Time each leg first lifted off after its motor started.
+    lifted: [Cell<Option<f64>>; 2],
+}
+
+/// End of a leg's stroke: once a free pushing leg is this far past straight down in its push
+/// direction it stops pushing and parks.
+const END_OF_STROKE_RAD: f64 = PI / 2.0;
+/// Servo gains of a leg holding its angle (per N m of available torque).
+const HOLD_KP_PER_RAD: f64 = 20.0;
+const HOLD_KD_S: f64 = 0.5;
+
+impl LeapController {
+    fn phase(&self, i: usize, t: f64, q: &[f64]) -> Phase {
+        if t < self.start[i] {
+            Phase::Waiting
+        } else if self.takeoff.get().is_some_and(|t0| t >= t0)
+            || (!self.keep_pushing && self.lifted[i].get().is_some_and(|t0| t >= t0))
+            || self.sign[i] * q[i] > END_OF_STROKE_RAD + 1.0
+        {
+            Phase::Retracting
+        } else {
+            Phase::Pushing
+        }
+    }
+
+    /// Smooth bounded-acceleration tracking of a desired speed: `θ̈ = α sat((v − θ̇)/Δω)`.
+    fn track(&self, v_des: f64, qd: f64) -> f64 {
+        const DW: f64 = 2.0;
+        self.accel * ((v_des - qd) / DW).clamp(-1.0, 1.0)
+    }
+
+    /// Desired speed towards `target`: at most `vmax` (coasting, never braking, while faster
+    /// outside the braking zone), then the braking curve `√(2α|d|)`, and within a few
+    /// hundredths of a radian a linear approach (a well-damped servo, not a stiff one).
+    fn toward(&self, target: f64, q: f64, qd: f64, vmax: f64) -> f64 {
+        const APPROACH_RATE_PER_S: f64 = 20.0;
+        let d = target - q;
+        let brake = (2.0 * self.accel * d.abs()).sqrt();
+        let cruise = vmax.max(qd * d.signum());
+        d.signum() * cruise.min(brake).min(APPROACH_RATE_PER_S * d.abs())
+    }
+}
+
+impl Controller for LeapController {
+    fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]) {
+        for i in 0..2 {
+            let s = self.sign[i];
+            tau[i] = match self.phase(i, t, q) {
+                Phase::Waiting => (-HOLD_KP_PER_RAD * self.hold_torque * (q[i] - self.hold[i])
+                    - HOLD_KD_S * self.hold_torque * qd[i])
+                    .clamp(-self.hold_torque, self.hold_torque),
+                Phase::Pushing => {
+                    let stubbed = self.stub.is_some_and(|a| s * q[i] > a);
+                    let u = if stubbed { -s } else { s };
+                    self.actuators[i].joint_torque_n_m(u, qd[i])
+                }
+                Phase::Retracting => 0.0,
+            };
+            if !mode.contains(self.leg_contact[i]) && self.phase(i, t, q) != Phase::Pushing {
+                tau[i] = 0.0;
+            }
+        }
+    }
+
+    fn free_joint_qdd(&self, t: f64, q: &[f64], qd: &[f64], free: &[usize], out: &mut [f64]) {
+        for (slot, &j) in out.iter_mut().zip(free) {
+            *slot = if j < 2 {
+                let s = self.sign[j];
+                match self.phase(j, t, q) {
+                    Phase::Waiting => {
+                        self.track(self.toward(self.hold[j], q[j], qd[j], 0.0), qd[j])
+                    }
+                    Phase::Pushing => self.track(s * self.speed.max(s * qd[j]), qd[j]),
+                    Phase::Retracting => {
+                        self.track(self.toward(self.stow[j], q[j], qd[j], self.speed), qd[j])
+                    }
+                }
+            } else {
+                0.0
+            };
+        }
+    }
+
+    fn on_event(&self, event: &Event) {
+        let both_started = event.t >= self.start[0].max(self.start[1]);
+        if self.takeoff.get().is_none() && both_started && event.mode_after.is_flight() {
+            self.takeoff.set(Some(event.t));
+        }
+        for i in 0..2 {
+            let c = self.leg_contact[i];
+            let left = event.mode_before.contains(c) && !event.mode_after.contains(c);
+            if left && event.t >= self.start[i] && self.lifted[i].get().is_none() {
+                self.lifted[i].set(Some(event.t));
+            }
+        }
+    }
+}
+
+/// The angle at which leg `i`'s lowest point just reaches the ground with the body at `q`,
+/// on the side that `sign` pushes from (`+`: the leg ahead of its hip; `−`: behind), by
+/// bisection on the engine's own contact geometry (any leg shape).
+fn touchdown_angle(
+    rhex: &Rhex,
+    terrain: &dyn Terrain,
+    q: &[f64],
+    i: usize,
+    contact: usize,
+    sign: f64,
+) -> Result<f64, RhexError> {
+    let mut kin = Kinematics::default();
+    let zero = vec![0.0; q.len()];
+    let mut qq = q.to_vec();
+    let mut gap = |theta: f64| {
+        qq[i] = theta;
+        kin.compute(&rhex.model, &qq, &zero);
+        selfmanip_core::contact::contact_geometry(&rhex.model, &kin, terrain, contact).gap_m
+    };
+    // pointing up (clear) .. pointing down (through the ground)
+    let (mut clear, mut through) = (-sign * (PI - 1e-9), 0.0);
+    if !(gap(clear) > 0.0 && gap(through) < 0.0) {
+        return Err(RhexError::Params {
+            field: "rho_b".into(),
+            reason: "a leg pointing straight down must reach the ground from the sitting posture"
+                .into(),
+        });
+    }
+    for _ in 0..200 {
+        let mid = 0.5 * (clear + through);
+        if gap(mid) > 0.0 {
+            clear = mid;
+        } else {
+            through = mid;
+        }
+        if (clear - through).abs() < 1e-15 {
+            break;
+        }
+    }
+    Ok(clear)
+}
+
+/// The ground-reaction-complex cells visited (sliding toes count as contact), with cells
+/// held for no longer than `min_duration_s` suppressed and repeats merged.
+fn leap_word(rhex: &Rhex, exec: &Execution, min_duration_s: f64) -> Vec<String> {
+    let mut word: Vec<String> = Vec::new();
+    for (n, seg) in exec.segments.iter().enumerate() {
+        let last = n + 1 == exec.segments.len();
+        if seg.t1 - seg.t0 <= min_duration_s && n > 0 && !last {
+            continue;
+        }
+        let cell = rhex.label(seg.mode).replace('s', "1");
+        if word.last() != Some(&cell) {
+            word.push(cell);
+        }
+    }
+    word
+}
+
+/// Everything a leap is built from: the robot with its two pushing pairs, the terrain, the
+/// start state and the controller (fresh, without history).
+struct LeapSetup {
+    rhex: Rhex,
+    terrain: TerrainSpec,
+    q0: Vec<f64>,
+    ctrl: LeapController,
+}
+
+impl LeapSetup {
+    fn new(params: &RhexParams, cfg: &LeapConfig) -> Result<Self, RhexError> {
+        cfg.validate()?;
+        let pairs = cfg.pairs.unwrap_or(cfg.strategy.chapter3_pairs());
+        if pairs[0] == pairs[1] {
+            return Err(RhexError::Params {
+                field: "pairs".into(),
+                reason: "a leap strategy drives two different leg pairs".into(),
+            });
+        }
+        let params = RhexParams {
+            pairs: pairs.to_vec(),
+            ..params.clone()
+        };
+        let rhex = Rhex::new(params.clone())?;
+        let terrain = cfg.terrain;
+        let leg_contact = [rhex.site(1), rhex.site(3)];
+        let sign = [cfg.strategy.front.sign(), cfg.strategy.rear.sign()];
+        // sitting level on both body ends, each leg at its touchdown angle
+        let mut q0 = vec![0.0, 0.0, 0.0, -params.rho_b, 0.0];
+        for i in 0..2 {
+            // waiting legs are held raised above their touchdown angle, clear of the ground
+            // while the body moves on the other leg; each swings down when its motor starts
+            q0[i] = touchdown_angle(&rhex, &terrain, &q0, i, leg_contact[i], sign[i])?
+                - sign[i] * cfg.wait_clearance_rad;
+        }
+        // execution time starts at min(0, t2)
+        let offset = cfg.t2_s.min(0.0);
+        let actuators = [
+            leg_actuator(&params, &cfg.actuator)?,
+            leg_actuator(&params, &cfg.actuator)?,
+        ];
+        let hold_torque = actuators[0].joint_torque_n_m(1.0, 0.0);
+        let ctrl = LeapController {
+            sign,
+            start: [-offset, cfg.t2_s - offset],
+            hold: [q0[0], q0[1]],
+            stow: [sign[0] * STOW_RAD, sign[1] * STOW_RAD],
+            leg_contact,
+            actuators,
+            hold_torque,
+            accel: cfg.swing_accel_rad_s2,
+            speed: cfg.swing_speed_rad_s,
+            stub: cfg.toe_stub_rad,
+            keep_pushing: cfg.keep_pushing_after_liftoff,
+            takeoff: Cell::new(None),
+            lifted: [Cell::new(None), Cell::new(None)],
+        };
+        Ok(LeapSetup {
+            rhex,
+            terrain,
+            q0,
+            ctrl,
+        })
+    }
+}
+
+/// Where a parked leg points: up, a little past vertical in its push direction (rad).
+const STOW_RAD: f64 = 2.6;
+
+/// Runs one leap (see the module documentation) and reports its apex and word.
+///
+/// Errors are bad parameters (typed, naming the field) and failures of the engine that
+/// prevent any answer; a leap that runs but does not reach flight, or ends Zeno, is an `Ok`
+/// result with the corresponding [`LeapStatus`].
+pub fn simulate_leap(params: &RhexParams, cfg: &LeapConfig) -> Result<LeapResult, RhexError> {
+    let setup = LeapSetup::new(params, cfg)?;
+    let (rhex, terrain, ctrl, q0, start) = (
+        &setup.rhex,
+        setup.terrain,
+        &setup.ctrl,
+        &setup.q0,
+        setup.ctrl.start,
+    );
+    let model = &rhex.model;
+    let offset = cfg.t2_s.min(0.0);
+    let qd0 = vec![0.0; q0.len()];
+    let opts = HybridOptions {
+        event_tol_s: cfg.event_tol_s,
+        delta_t_s: cfg.delta_t_s,
+        zeno_window_s: cfg.zeno_window_s,
+        zeno_max_events: cfg.zeno_max_events,
+        stop_at_apex: cfg.stop_at_apex,
+        ..HybridOptions::default()
+    };
+    let mode0 = rhex.mode("1010")?;
+    let exec = simulate(
+        model,
+        &terrain,
+        ctrl,
+        mode0,
+        q0,
+        &qd0,
+        cfg.t_final_s - offset,
+        opts,
+    )?;
+    let flew = exec
+        .segments
+        .iter()
+        .any(|s| s.mode.is_flight() && s.t0 >= start[0].min(start[1]));
+    let status = match exec.termination {
+        Termination::Apex => LeapStatus::Ok,
+        Termination::FinalTime if flew && !cfg.stop_at_apex => LeapStatus::Ok,
+        Termination::FinalTime => LeapStatus::NoFlight,
+        Termination::Zeno { .. } => LeapStatus::Zeno,
+        Termination::EventBudget => LeapStatus::EventBudget,
+        Termination::NoContactSolution { .. } => LeapStatus::NoContactSolution,
+        Termination::SeveralContactSolutions { .. } => LeapStatus::SeveralContactSolutions,
+        Termination::TerrainDiscontinuity { .. } => LeapStatus::TerrainFace,
+    };
+    let apex = match exec.termination {
+        Termination::Apex => Some(Apex {
+            t_s: exec.t - start[0],
+            x_m: exec.q[2] - q0[2],
+            z_m: -exec.q[3],
+            phi_rad: exec.q[4],
+            xdot_m_s: exec.qd[2],
+            zdot_m_s: -exec.qd[3],
+            phidot_rad_s: exec.qd[4],
+        }),
+        _ => None,
+    };
+    let word = leap_word(&rhex, &exec, 1e3 * cfg.event_tol_s);
+    let names = |ks: &[usize]| ks.iter().map(|&k| model.contacts[k].name.clone()).collect();
+    let events = exec
+        .events
+        .iter()
+        .map(|e| LeapEvent {
+            t_s: e.t - start[0],
+            kind: match e.kind {
+                EventKind::Touchdown => "touchdown",
+                EventKind::Liftoff => "liftoff",
+                EventKind::Slip => "slip",
+                EventKind::Stick => "stick",
+                EventKind::Apex => "apex",
+            },
+            mode_before: rhex.label(e.mode_before),
+            mode_after: rhex.label(e.mode_after),
+            contacts: names(&e.triggered),
+            energy_loss_j: if e.kind == EventKind::Touchdown {
+                e.kinetic_before - e.kinetic_after
+            } else {
+                0.0
+            },
+        })
+        .collect();
+    Ok(LeapResult {
+        status,
+        apex,
+        word,
+        execution: exec,
+        time_offset_s: start[0],
+        q0: q0.clone(),
+        events,
+    })
+}
+
+impl LeapResult {
+    /// Energy bookkeeping of the leap (motor work, impact losses, start and end energy),
+    /// re-evaluating the controller through the recorded events.
+    pub fn energy_report(
+        &self,
+        params: &RhexParams,
+        cfg: &LeapConfig,
+    ) -> Result<selfmanip_hybrid::EnergyReport, RhexError> {
+        let setup = LeapSetup::new(params, cfg)?;
+        for e in &self.execution.events {
+            setup.ctrl.on_event(e);
+        }
+        let qd0 = vec![0.0; setup.q0.len()];
+        Ok(selfmanip_hybrid::energy_report(
+            &setup.rhex.model,
+            &setup.terrain,
+            &setup.ctrl,
+            &self.execution,
+            &setup.q0,
+            &qd0,
+        )?)
+    }
+
+    /// Samples the leap every `dt_s` seconds (and at its end): states, modes, contact points
+    /// and contact forces, the forces recomputed from each segment's flow with the leap's
+    /// controller replayed through the recorded events (so the torques are those of the run).
+    pub fn trajectory(
+        &self,
+        params: &RhexParams,
+        cfg: &LeapConfig,
+        dt_s: f64,
+    ) -> Result<Trajectory, RhexError> {
+        if !(dt_s.is_finite() && dt_s > 0.0) {
+            return Err(RhexError::Params {
+                field: "dt_s".into(),
+                reason: format!("must be finite and positive, got {dt_s}"),
+            });
+        }
+        let setup = LeapSetup::new(params, cfg)?;
+        for e in &self.execution.events {
+            setup.ctrl.on_event(e);
+        }
+        let model = &setup.rhex.model;
+        let nq = model.nq();
+        let mut out = Trajectory {
+            contacts: model.contacts.iter().map(|c| c.name.clone()).collect(),
+            t_s: Vec::new(),
+            q: Vec::new(),
+            qd: Vec::new(),
+            mode: Vec::new(),
+            contact_points_m: Vec::new(),
+            contact_forces_n: Vec::new(),
+        };
+        let mut data = selfmanip_core::Data::new(model);
+        let (mut tau, mut y) = (vec![0.0; 2], vec![0.0; 2 * nq]);
+        let (t_begin, t_end) = (0.0, self.execution.t);
+        let n = ((t_end - t_begin) / dt_s).floor() as usize;
+        let times = (0..=n)
+            .map(|k| t_begin + k as f64 * dt_s)
+            .chain((t_end > t_begin + n as f64 * dt_s).then_some(t_end));
+        for t in times {
+            // the last segment that contains t (a reset at t belongs to the segment after it)
+            let Some(seg) = self
+                .execution
+                .segments
+                .iter()
+                .rev()
+                .find(|s| s.t0 <= t && !s.steps.is_empty())
+            else {
+                continue;
+            };
+            seg.eval(t.min(seg.t1), &mut y);
+            let (q, qd) = y.split_at(nq);
+            setup.ctrl.torque(t, q, qd, seg.mode, &mut tau);
+            let mut free = vec![0.0; 0];
+            data.prepare(model, &setup.terrain, seg.mode, q, qd)?;
+            free.resize(data.free_joints.len(), 0.0);
+            setup
+                .ctrl
+                .free_joint_qdd(t, q, qd, &data.free_joints, &mut free);
+            selfmanip_core::forward_dynamics(
+                model,
+                &mut data,
+                &setup.terrain,
+                seg.mode,
+                q,
+                qd,
+                &tau,
+                Some(&free),
+            )?;
+            let mut points = vec![None; model.n_contacts()];
+            let mut forces = vec![None; model.n_contacts()];
+            for (row, r) in seg.mode.rows().enumerate() {
+                let geom = selfmanip_core::contact::contact_geometry(
+                    model,
+                    &data.kin,
+                    &setup.terrain,
+                    r.contact,
+                );
+                let dir = selfmanip_core::contact::row_direction(&geom.plane, r.direction);
+                let f = forces[r.contact].get_or_insert([0.0, 0.0]);
+                f[0] += data.lambda[row] * dir.x;
+                f[1] += data.lambda[row] * dir.y;
+                points[r.contact] = Some([geom.point.x, geom.point.y]);
+            }
+            out.t_s.push(t - self.time_offset_s);
+            out.q.push(q.to_vec());
+            out.qd.push(qd.to_vec());
+            out.mode.push(setup.rhex.label(seg.mode));
+            out.contact_points_m.push(points);
+            out.contact_forces_n.push(forces);
+        }
+        Ok(out)
+    }
+}

@@ -1,0 +1,301 @@
+//! RHex leaps (chapter 3.2 strategies through the chapter-5 hybrid system) checked against
+//! laws that hold whatever the leap does: the energy balance `E₁ − E₀ = W_motor − L` with
+//! impact losses `L ≥ 0` (no reset adds energy), touchdowns located on the ground, post-impact
+//! velocities on the new constraint manifold (5.52), slips exactly on the friction cone
+//! (section 5.1.5), words that start at rest on the body (`1010`) and end in flight
+//! (`0000`), determinism, and typed errors for bad input.
+use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapStatus, Strategy};
+use rhex_model::terrain::TerrainSpec;
+use rhex_model::{Rhex, RhexError, RhexParams};
+use selfmanip_core::contact::contact_geometry;
+use selfmanip_core::model::Friction;
+use selfmanip_core::{forward_dynamics, ContactMode, Data, RowDirection};
+use selfmanip_hybrid::EventKind;
+
+fn cases() -> Vec<LeapConfig> {
+    let mut v = Vec::new();
+    for s in ["++", "--", "+-", "-+"] {
+        for t2 in [-0.1, 0.0, 0.02, 0.1] {
+            v.push(LeapConfig {
+                strategy: s.parse().unwrap(),
+                t2_s: t2,
+                ..LeapConfig::default()
+            });
+        }
+    }
+    v
+}
+
+/// The robot a config leaps with (its pushing pairs).
+fn robot(cfg: &LeapConfig) -> (RhexParams, Rhex) {
+    let mut p = leap_params();
+    p.pairs = cfg.pairs.unwrap_or(cfg.strategy.chapter3_pairs()).to_vec();
+    (p.clone(), Rhex::new(p).unwrap())
+}
+
+#[test]
+fn energy_balances_and_impacts_never_add_energy() {
+    let p = leap_params();
+    let mut checked = 0;
+    for cfg in cases() {
+        let r = simulate_leap(&p, &cfg).unwrap();
+        for e in &r.execution.events {
+            if e.kind == EventKind::Touchdown {
+                assert!(e.kinetic_after <= e.kinetic_before + 1e-9, "{e:?}");
+            } else if e.kind != EventKind::Apex {
+                // liftoff, slip and stick remove constraints or keep the velocity
+                assert!((e.kinetic_after - e.kinetic_before).abs() < 1e-9, "{e:?}");
+            }
+        }
+        let rep = r.energy_report(&p, &cfg).unwrap();
+        let scale = rep.joint_work_j.abs() + rep.final_j.abs() + 1.0;
+        assert!(
+            rep.residual_j().abs() < 1e-6 * scale,
+            "{} t2={}: {rep:?} residual {}",
+            cfg.strategy,
+            cfg.t2_s,
+            rep.residual_j()
+        );
+        if r.status == LeapStatus::Ok {
+            // a leap gains energy only from its motors
+            assert!(rep.final_j > rep.initial_j, "{rep:?}");
+            assert!(rep.impact_loss_j >= -1e-9, "{rep:?}");
+            checked += 1;
+        }
+    }
+    assert!(checked >= 8, "only {checked} leaps reached flight");
+}
+
+#[test]
+fn events_sit_on_their_guards() {
+    let p = leap_params();
+    for cfg in cases() {
+        let (_, rhex) = robot(&cfg);
+        let model = &rhex.model;
+        let r = simulate_leap(&p, &cfg).unwrap();
+        let exec = &r.execution;
+        let mut data = Data::new(model);
+        let mut y = vec![0.0; 10];
+        for (i, e) in exec.events.iter().enumerate() {
+            if e.kind == EventKind::Apex {
+                continue;
+            }
+            // state just before the event: end of the segment that led to it
+            let seg = &exec.segments[i];
+            seg.eval(seg.t1, &mut y);
+            let (q, qd) = y.split_at(5);
+            data.kin.compute(model, q, qd);
+            match e.kind {
+                EventKind::Touchdown => {
+                    for &k in &e.triggered {
+                        let gap = contact_geometry(model, &data.kin, &cfg.terrain, k).gap_m;
+                        assert!(gap.abs() < 1e-7, "touchdown gap {gap} ({e:?})");
+                    }
+                    // (5.52): the post-impact velocity satisfies the new constraints
+                    let Some(next) = exec.segments.get(i + 1) else {
+                        continue;
+                    };
+                    let mut y1 = vec![0.0; 10];
+                    next.eval(next.t0, &mut y1);
+                    data.prepare(model, &cfg.terrain, e.mode_after, &y1[..5], &y1[5..])
+                        .unwrap();
+                    let res = (&data.constraints.a
+                        * nalgebra::DVector::from_column_slice(&y1[5..]))
+                    .amax();
+                    assert!(res < 1e-8, "A q̇⁺ = {res}");
+                }
+                EventKind::Slip => {
+                    // |λ_t| = μ U(λ_n) at the slipping contact, in the mode before
+                    let tau = torques_at(&rhex, &cfg, e.t, q, qd, e.mode_before);
+                    let _ = tau;
+                    check_on_cone(
+                        model,
+                        &cfg,
+                        &mut data,
+                        e.mode_before,
+                        q,
+                        qd,
+                        &e.triggered,
+                        &r,
+                        e.t,
+                    );
+                }
+                _ => {}
+            }
+        }
+    }
+}
+
+fn torques_at(_: &Rhex, _: &LeapConfig, _: f64, _: &[f64], _: &[f64], _: ContactMode) {}
+
+/// Recomputes the flow's forces at a slip event through the trajectory sampler (which
+/// replays the controller) and checks the cone margin there.
+#[allow(clippy::too_many_arguments)]
+fn check_on_cone(
+    model: &selfmanip_core::Model,
+    cfg: &LeapConfig,
+    _data: &mut Data,
+    mode: ContactMode,
+    _q: &[f64],
+    _qd: &[f64],
+    contacts: &[usize],
+    r: &rhex_model::leap::LeapResult,
+    t_event: f64,
+) {
+    let p = leap_params();
+    // a sample just before the event, in the sticking mode
+    let traj = r.trajectory(&p, cfg, 1e-4).unwrap();
+    let i = traj
+        .t_s
+        .iter()
+        .rposition(|&t| t + r.time_offset_s < t_event - 1e-9)
+        .unwrap();
+    let _ = mode;
+    for &k in contacts {
+        let Friction::Sticking { mu } = model.contacts[k].friction else {
+            panic!("only sticking contacts slip")
+        };
+        let f = traj.contact_forces_n[i][k].expect("active before the slip");
+        // level ground: f = (tangential, normal)
+        let margin = mu * (-f[1]) - f[0].abs();
+        assert!(
+            margin >= -1e-6 * (1.0 + f[1].abs()),
+            "inside the cone before slipping: {margin}"
+        );
+        assert!(
+            margin < 0.02 * mu * f[1].abs() + 1.0,
+            "close to the cone 0.1 ms before: {margin} ({f:?})"
+        );
+    }
+}
+
+#[test]
+fn words_start_sitting_and_end_in_flight() {
+    let p = leap_params();
+    for cfg in cases() {
+        let r = simulate_leap(&p, &cfg).unwrap();
+        assert_eq!(r.word.first().map(String::as_str), Some("1010"));
+        if r.status == LeapStatus::Ok {
+            assert_eq!(
+                r.word.last().map(String::as_str),
+                Some("0000"),
+                "{}",
+                r.word_string()
+            );
+            let apex = r.apex.unwrap();
+            // apex above the start (body centre rho_b above the ground), moving level
+            assert!(apex.z_m > p.rho_b, "{apex:?}");
+            assert!(apex.zdot_m_s.abs() < 1e-6);
+        }
+        // no cell repeats twice in a row, every cell is a 4-character label
+        for w in r.word.windows(2) {
+            assert_ne!(w[0], w[1]);
+        }
+        assert!(r
+            .word
+            .iter()
+            .all(|c| c.len() == 4 && c.chars().all(|ch| ch == '0' || ch == '1')));
+    }
+}
+
+#[test]
+fn same_inputs_give_bit_identical_leaps() {
+    let p = leap_params();
+    let cfg = LeapConfig {
+        t2_s: 0.02,
+        ..LeapConfig::default()
+    };
+    let a = simulate_leap(&p, &cfg).unwrap();
+    let b = std::thread::spawn(move || simulate_leap(&leap_params(), &cfg).unwrap())
+        .join()
+        .unwrap();
+    assert_eq!(a.execution.q, b.execution.q);
+    assert_eq!(a.word, b.word);
+    assert_eq!(format!("{:?}", a.apex), format!("{:?}", b.apex));
+}
+
+#[test]
+fn a_ledge_face_in_the_way_is_reported_not_crossed() {
+    // a 30 cm step 30 cm ahead: the forward (+,+) leap cannot clear it; the contact that meets
+    // the face ends the execution with a typed status instead of being moved onto the top
+    let cfg = LeapConfig {
+        terrain: TerrainSpec::Ledge {
+            height_m: 0.3,
+            distance_m: 0.3,
+        },
+        stop_at_apex: false,
+        t_final_s: 1.5,
+        ..LeapConfig::default()
+    };
+    let r = simulate_leap(&leap_params(), &cfg).unwrap();
+    assert_eq!(r.status, LeapStatus::TerrainFace, "{}", r.word_string());
+    let last = r.execution.segments.last().unwrap();
+    assert!(last.t1 < 1.5);
+}
+
+#[test]
+fn bad_input_is_a_typed_error_naming_the_field() {
+    let p = leap_params();
+    let field = |r: Result<_, RhexError>| match r {
+        Err(RhexError::Params { field, .. }) => field,
+        Err(e) => panic!("untyped: {e}"),
+        Ok(_) => panic!("accepted"),
+    };
+    let base = LeapConfig::default();
+    let with = |f: &dyn Fn(&mut LeapConfig)| {
+        let mut c = base.clone();
+        f(&mut c);
+        field(simulate_leap(&p, &c).map(|_| ()))
+    };
+    assert_eq!(with(&|c| c.t2_s = f64::NAN), "t2_s");
+    assert_eq!(with(&|c| c.delta_t_s = -0.1), "delta_t_s");
+    assert_eq!(with(&|c| c.t2_s = 5.0), "t2_s");
+    assert_eq!(
+        with(
+            &|c| c.actuator = rhex_model::leap::LegActuator::GearedMotor {
+                gear_ratio: -3.0,
+                current_limit_a: 20.0,
+                motors_per_leg: 2
+            }
+        ),
+        "gear_ratio"
+    );
+    assert_eq!(
+        with(&|c| c.terrain = TerrainSpec::Ledge {
+            height_m: f64::INFINITY,
+            distance_m: 0.5
+        }),
+        "terrain.height_m"
+    );
+    assert_eq!(
+        with(&|c| c.pairs = Some([rhex_model::LegPair::Rear, rhex_model::LegPair::Rear])),
+        "pairs"
+    );
+    let mut bad = leap_params();
+    bad.m_b = f64::NAN;
+    assert_eq!(field(simulate_leap(&bad, &base).map(|_| ())), "m_b");
+    assert!(matches!(
+        "+x".parse::<Strategy>(),
+        Err(RhexError::Params { ref field, .. }) if field == "strategy"
+    ));
+    assert!("+-+".parse::<Strategy>().is_err());
+}
+
+#[test]
+fn config_round_trips_through_json() {
+    let cfg = LeapConfig {
+        strategy: "-+".parse().unwrap(),
+        t2_s: -0.05,
+        terrain: TerrainSpec::Ledge {
+            height_m: 0.2,
+            distance_m: 0.6,
+        },
+        ..LeapConfig::default()
+    };
+    let text = serde_json::to_string(&cfg).unwrap();
+    assert!(text.contains("\"-+\""));
+    let back: LeapConfig = serde_json::from_str(&text).unwrap();
+    assert_eq!(back, cfg);
+    assert!(serde_json::from_str::<LeapConfig>(r#"{"t2": 0.1}"#).is_err());
+    let _ = RowDirection::Normal;
+}
