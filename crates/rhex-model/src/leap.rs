@@ -27,6 +27,7 @@ use crate::{Rhex, RhexError};
 use motor::Actuator;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{ContactMode, Terrain};
+use selfmanip_hybrid::dopri::StepOptions;
 use selfmanip_hybrid::execution::{Event, EventKind, Execution, HybridOptions, Termination};
 use selfmanip_hybrid::{simulate, Controller};
 use serde::{Deserialize, Serialize};
@@ -191,6 +192,9 @@ pub struct LeapConfig {
     pub keep_pushing_after_liftoff: bool,
     /// Width of the bracket that locates each event (s).
     pub event_tol_s: f64,
+    /// Relative error tolerance of the integrator per step (absolute: 1 % of it, in SI
+    /// units of the state).
+    pub rtol: f64,
     /// Zeno detection: more than `zeno_max_events` events within `zeno_window_s`.
     pub zeno_window_s: f64,
     pub zeno_max_events: usize,
@@ -213,6 +217,7 @@ impl Default for LeapConfig {
             stop_at_apex: true,
             keep_pushing_after_liftoff: false,
             event_tol_s: 1e-10,
+            rtol: 1e-8,
             zeno_window_s: 0.01,
             zeno_max_events: 40,
         }
@@ -366,6 +371,7 @@ impl LeapConfig {
             ("t_final_s", self.t_final_s),
             ("event_tol_s", self.event_tol_s),
             ("zeno_window_s", self.zeno_window_s),
+            ("rtol", self.rtol),
         ];
         for (field, v) in finite {
             if !v.is_finite() {
@@ -378,6 +384,7 @@ impl LeapConfig {
             ("t_final_s", self.t_final_s),
             ("event_tol_s", self.event_tol_s),
             ("zeno_window_s", self.zeno_window_s),
+            ("rtol", self.rtol),
         ] {
             if v <= 0.0 {
                 return bad(field, format!("must be positive, got {v}"));
@@ -752,6 +759,11 @@ pub fn simulate_leap(params: &RhexParams, cfg: &LeapConfig) -> Result<LeapResult
         zeno_window_s: cfg.zeno_window_s,
         zeno_max_events: cfg.zeno_max_events,
         stop_at_apex: cfg.stop_at_apex,
+        step: StepOptions {
+            rtol: cfg.rtol,
+            atol: cfg.rtol * 1e-2,
+            ..StepOptions::default()
+        },
         ..HybridOptions::default()
     };
     let mode0 = rhex.mode("1010")?;

@@ -213,6 +213,19 @@ pub fn forward_dynamics(
 ) -> Result<()> {
     check_vector("tau", tau, model.n_joints())?;
     data.prepare(model, terrain, mode, q, qd)?;
+    forward_dynamics_prepared(model, data, tau, free_joint_qdd)
+}
+
+/// [`forward_dynamics`] at the state of the last [`Data::prepare`] (which must have been at
+/// the same `(mode, q, q̇)`): only the solve, for callers that needed the prepared stages
+/// first (e.g. to learn which joints are free before prescribing their motion).
+pub fn forward_dynamics_prepared(
+    model: &Model,
+    data: &mut Data,
+    tau: &[f64],
+    free_joint_qdd: Option<&[f64]>,
+) -> Result<()> {
+    check_vector("tau", tau, model.n_joints())?;
     if let Some(xf) = free_joint_qdd {
         check_vector("free_joint_qdd", xf, data.free_joints.len())?;
     }

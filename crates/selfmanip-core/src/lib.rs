@@ -32,7 +32,8 @@ pub use contact::{
 };
 pub use description::RobotDescription;
 pub use dynamics::{
-    forward_dynamics, kinetic_energy, plastic_impact, pseudo_impulse, Data, Impact,
+    forward_dynamics, forward_dynamics_prepared, kinetic_energy, plastic_impact, pseudo_impulse,
+    Data, Impact,
 };
 pub use error::{CoreError, Result, SingularityKind};
 pub use kkt::{KktBlocks, KktFactorization, KktInfo};

@@ -32,8 +32,8 @@ use selfmanip_core::inertia::potential_energy;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::model::Friction;
 use selfmanip_core::{
-    forward_dynamics, kinetic_energy, plastic_impact, pseudo_impulse, ContactMode, CoreError, Data,
-    Model, SingularityKind, Terrain,
+    forward_dynamics_prepared, kinetic_energy, plastic_impact, pseudo_impulse, ContactMode,
+    CoreError, Data, Model, SingularityKind, Terrain,
 };
 use thiserror::Error;
 
@@ -572,7 +572,7 @@ fn flow(
     data.prepare(model, terrain, mode, q, qd)?;
     free.resize(data.free_joints.len(), 0.0);
     ctrl.free_joint_qdd(t, q, qd, &data.free_joints, free);
-    forward_dynamics(model, data, terrain, mode, q, qd, tau, Some(free))
+    forward_dynamics_prepared(model, data, tau, Some(free))
 }
 
 /// `T = ½ q̇ᵀ M̄ q̇` at `(q, q̇)`. `M̄` does not depend on the contacts, so the flight mode is
