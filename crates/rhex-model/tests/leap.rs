@@ -299,3 +299,85 @@ fn config_round_trips_through_json() {
     assert!(serde_json::from_str::<LeapConfig>(r#"{"t2": 0.1}"#).is_err());
     let _ = RowDirection::Normal;
 }
+
+/// Fig. 5.7 (section 5.1.4): in the chapter-5 leap (middle and rear legs, 20 A, t2 = 0.01 s)
+/// the rear leg's touchdown impulsively breaks the front (middle) leg's contact when there is
+/// no pseudo-impulse, and the massless front leg then chatters against the ground (caught by
+/// the Zeno detector); with δt = 0.03 s the front leg stays down through the rear touchdown
+/// (0110 → 0101) and the leap reaches its apex.
+#[test]
+fn pseudo_impulse_removes_the_front_leg_chatter_of_fig_5_7() {
+    let p = leap_params();
+    let run = |delta_t_s: f64| {
+        simulate_leap(
+            &p,
+            &LeapConfig {
+                t2_s: 0.01,
+                delta_t_s,
+                ..LeapConfig::default()
+            },
+        )
+        .unwrap()
+    };
+    let front_touchdowns = |r: &rhex_model::leap::LeapResult| {
+        r.events
+            .iter()
+            .filter(|e| e.kind == "touchdown" && e.contacts.iter().any(|c| c == "middle_leg"))
+            .count()
+    };
+    let without = run(0.0);
+    assert_eq!(
+        without.status,
+        LeapStatus::Zeno,
+        "{}",
+        without.word_string()
+    );
+    // the second touchdown (rear leg) removes the front leg: 0110 -> 0001
+    let rear_td = without
+        .events
+        .iter()
+        .find(|e| e.contacts.iter().any(|c| c == "rear_leg"))
+        .unwrap();
+    assert_eq!(
+        (rear_td.mode_before.as_str(), rear_td.mode_after.as_str()),
+        ("0110", "0001")
+    );
+    assert!(front_touchdowns(&without) > 10);
+    let with = run(0.03);
+    assert_eq!(with.status, LeapStatus::Ok);
+    assert_eq!(front_touchdowns(&with), 1);
+    let rear_td = with
+        .events
+        .iter()
+        .find(|e| e.contacts.iter().any(|c| c == "rear_leg"))
+        .unwrap();
+    assert_eq!(rear_td.mode_after.replace('s', "1"), "0101");
+}
+
+/// Chapter 3.2's grammar for (+,+) over t2 ∈ [−0.2, 0.2] s: the words (3.3)
+/// `(0110, 0101, 0001)` (front leg first, both down, front lifts first) and (3.5)
+/// `(1001, 0101, 0001)` (rear leg first) are visited, and (3.4) `(0110, 0101, 0100)` never
+/// (RHex's front leg lifts first). The thesis's end words (3.2) and (3.7) are *not* visited
+/// by this model: its pushing "front" leg is the middle pair, at the centre of mass, which
+/// lifts the whole body (`0100`) rather than letting the front fall back (`0010`) — see the
+/// issue note.
+#[test]
+fn plus_plus_sweep_visits_the_chapter_3_words() {
+    let p = leap_params();
+    let words: Vec<String> = (0..41)
+        .map(|k| {
+            let cfg = LeapConfig {
+                t2_s: -0.2 + 0.01 * k as f64,
+                ..LeapConfig::default()
+            };
+            simulate_leap(&p, &cfg).unwrap().word_string()
+        })
+        .collect();
+    let visits = |inner: &str| words.iter().any(|w| w.contains(inner));
+    assert!(visits("0110-0101-0001"), "(3.3) missing: {words:?}");
+    assert!(visits("1001-0101-0001"), "(3.5) missing: {words:?}");
+    assert!(
+        !visits("0110-0101-0100"),
+        "(3.4) is not realizable for RHex: {words:?}"
+    );
+}
