@@ -279,6 +279,9 @@ pub enum LeapStatus {
     SeveralContactSolutions,
     /// A contact ran into a vertical face of the terrain (not modelled as a contact).
     TerrainFace,
+    /// The contact set met a pose where it no longer determines the motion of a massless
+    /// leg (Lemma 5.1), e.g. a sliding half-circle leg passing upright.
+    SingularContact,
 }
 
 impl LeapStatus {
@@ -291,6 +294,7 @@ impl LeapStatus {
             LeapStatus::NoContactSolution => "no_contact_solution",
             LeapStatus::SeveralContactSolutions => "several_contact_solutions",
             LeapStatus::TerrainFace => "terrain_face",
+            LeapStatus::SingularContact => "singular_contact",
         }
     }
 }
@@ -790,6 +794,7 @@ pub fn simulate_leap(params: &RhexParams, cfg: &LeapConfig) -> Result<LeapResult
         Termination::NoContactSolution { .. } => LeapStatus::NoContactSolution,
         Termination::SeveralContactSolutions { .. } => LeapStatus::SeveralContactSolutions,
         Termination::TerrainDiscontinuity { .. } => LeapStatus::TerrainFace,
+        Termination::SingularFlow { .. } => LeapStatus::SingularContact,
     };
     let apex = match exec.termination {
         Termination::Apex => Some(Apex {

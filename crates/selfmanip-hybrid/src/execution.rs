@@ -187,6 +187,15 @@ pub enum Termination {
         t: f64,
         candidates: Vec<ContactMode>,
     },
+    /// The flow of `mode` reached a state where its KKT matrix is singular (Lemma 5.1), e.g.
+    /// a massless leg whose sliding contact stops pinning it; `t` is the start of the step
+    /// that met it.
+    SingularFlow {
+        t: f64,
+        mode: ContactMode,
+        kind: SingularityKind,
+        condition_estimate: f64,
+    },
     /// A contact's height jumped through zero: the terrain has a step (a vertical face) that
     /// is not a contact surface of the model.
     TerrainDiscontinuity {
@@ -744,6 +753,20 @@ pub fn simulate(
             }
             match ode.step(t, &mut y, t_final, &mut dense) {
                 Ok(()) => {}
+                Err(StepError::Rhs(CoreError::SingularKkt {
+                    kind,
+                    condition_estimate,
+                })) => {
+                    // Lemma 5.1 fails on the way (e.g. a massless leg sliding through the
+                    // pose where its contact no longer pins it): the flow ends here
+                    segments.push(seg);
+                    break 'run Termination::SingularFlow {
+                        t,
+                        mode,
+                        kind,
+                        condition_estimate,
+                    };
+                }
                 Err(StepError::Rhs(e)) => return Err(e.into()),
                 Err(StepError::StepTooSmall(h)) => {
                     return Err(HybridError::StepTooSmall { t_s: t, h_s: h })
