@@ -18,6 +18,9 @@ from __future__ import annotations
 from ._native import SelfmanipError, SingularKktError
 from .robot import Dynamics, Impact, KktBlocks, QuasiStatic, Robot
 from . import motor, rhex
+from . import analysis
+from . import distributed, plots
+from .leap import LeapResult, leap, sweep
 
 __all__ = [
     "Dynamics",
@@ -27,6 +30,12 @@ __all__ = [
     "Robot",
     "SelfmanipError",
     "SingularKktError",
+    "analysis",
+    "distributed",
+    "leap",
+    "LeapResult",
+    "plots",
+    "sweep",
     "motor",
     "rhex",
 ]

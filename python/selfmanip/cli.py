@@ -4,7 +4,10 @@
 and prints a readable report; ``selfmanip dynamics`` evaluates (5.3)-(5.4) at one state;
 ``selfmanip map`` writes the quasi-static contact-mode map (Fig. 4.3/4.6) as CSV;
 ``selfmanip motor`` prints the motor/gearbox table (Tables 2.2-2.3) and a thermal simulation
-(Fig. 2.8).
+(Fig. 2.8); ``selfmanip analysis`` prints the data behind the section-4.3 figures and
+``selfmanip plot fig4.8 --out f.png`` draws one; ``selfmanip leap``, ``selfmanip sweep`` and
+``selfmanip grc`` run one leap, parallel sweeps of leaps and print the ground reaction complex
+(``cli_leap.py``; ``selfmanip plot FILE.csv|.parquet|.json|.mcap`` draws their results).
 """
 
 from __future__ import annotations
@@ -181,7 +184,32 @@ def build_parser() -> argparse.ArgumentParser:
     mo.add_argument("--ambient", type=float, default=25.0, help="ambient temperature (C)")
     mo.add_argument("--case", default="measured", choices=["measured", "listed"])
     mo.add_argument("--current-limit", type=float, default=None, help="controller current limit (A)")
+    from .cli_analysis import add_subcommands
+
+    add_subcommands(sub)
+    from .cli_leap import add_subcommands as add_leap_subcommands
+
+    add_leap_subcommands(sub)
+    pl = sub.add_parser("plot", help="draw a thesis figure as PNG (fig4.3, fig4.6, fig4.8, fig4.10, fig4.11, "
+                        "fig4.12), or a sweep table / leap file")
+    pl.add_argument("target", help="a figure name, a sweep table (.csv/.parquet) or a leap (.json from "
+                    "`selfmanip leap --json`, or .mcap)")
+    pl.add_argument("--out", required=True, help="output PNG path")
     return ap
+
+
+def _plot(args) -> int:
+    from .figures import FIGURE_NAMES, plot_figure
+
+    from .cli_leap import is_data_file, plot_command
+
+    if is_data_file(args.target):
+        return plot_command(args.target, args.out)
+    if args.target in FIGURE_NAMES:
+        print(plot_figure(args.target, args.out))
+        return 0
+    print(f"selfmanip: error: unknown figure {args.target!r} (known: {', '.join(FIGURE_NAMES)})", file=sys.stderr)
+    return 2
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -195,7 +223,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _map(args)
         if args.command == "motor":
             return _motor(args)
-    except (SelfmanipError, ValueError, TypeError) as e:
+        if args.command == "analysis":
+            return args.analysis_handler(args)
+        if args.command == "plot":
+            return _plot(args)
+        if args.command in ("leap", "sweep", "grc"):
+            return args.leap_handler(args)
+    except (SelfmanipError, ValueError, TypeError, OSError) as e:
         print(f"selfmanip: error: {e}", file=sys.stderr)
         return 2
     return 2

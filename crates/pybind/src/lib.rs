@@ -6,6 +6,8 @@
 //! arrays inside plain dicts that the Python package (`python/selfmanip`) wraps in
 //! documented dataclasses. No call can panic across the FFI: errors are values, and
 //! every entry point is additionally guarded by [`guard`].
+mod analysis;
+mod leap;
 mod motor;
 mod robot;
 
@@ -60,5 +62,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SingularKktError", m.py().get_type::<SingularKktError>())?;
     robot::register(m)?;
     motor::register(m)?;
+    analysis::register(m)?;
+    leap::register(m)?;
     Ok(())
 }

@@ -8,10 +8,15 @@
 //!
 //! Coordinates are the thesis's `q = [θ₁, θ₂, x, z, φ]` (joints front to rear, then the body;
 //! z down, φ nose-up, θ clockwise from the body's `+z`).
+pub mod analysis;
 pub mod grc;
+pub mod leap;
+pub mod mcap_log;
 pub mod modes;
 pub mod params;
 pub mod quasistatic_map;
+pub mod sweep;
+pub mod terrain;
 
 pub use modes::Rhex;
 pub use params::{LegPair, LegShape, RhexParams};
@@ -26,4 +31,6 @@ pub enum RhexError {
     ModeLabel { label: String, reason: String },
     #[error(transparent)]
     Core(#[from] selfmanip_core::CoreError),
+    #[error(transparent)]
+    Hybrid(#[from] selfmanip_hybrid::HybridError),
 }

@@ -1,0 +1,411 @@
+//! Batched leaps (issue 5): many independent leaps — strategy × `t2` × gear ratio × any
+//! parameter by name — run on an explicit rayon pool, results in input order.
+//!
+//! **Determinism.** Every point is a pure function of `(base params, base config, point)`:
+//! no state is shared between points and the results are collected in input order, so a
+//! sweep is bit-identical for any thread count.
+//!
+//! **Failure isolation.** A point whose inputs are invalid, whose leap engine returns an
+//! error, or that panics becomes a row with a non-`ok` status and the error message; the
+//! other points are unaffected. Only a malformed sweep (an unknown parameter name, zero
+//! threads) is an error of the whole call.
+//!
+//! **Parameters by name.** An override names a field of [`RhexParams`] (`m_b`, `leg_shape`,
+//! `mu_rear`, …), of [`LeapConfig`] (`delta_t_s`, `swing_accel_rad_s2`, `toe_stub_rad`, …;
+//! not `strategy`, `t2_s` or `actuator`, which have their own columns) or of the geared
+//! motor (`current_limit_a`, `motors_per_leg`). Values are JSON values, deserialized with
+//! the same serde rules as the data files, so a wrong type names its field.
+//!
+//! **Gear ratio.** `Some(G)` runs the point with [`LegActuator::GearedMotor`] of ratio `G`
+//! (current limit and motor count from the base actuator when it is a geared motor, else
+//! the defaults: 20 A, two motors per planar leg); `None` keeps the base actuator. The
+//! reported gear ratio is the one used, NaN for [`LegActuator::SaturatedTorque`].
+use crate::leap::{simulate_leap, LeapConfig, LeapResult, LegActuator, Strategy};
+use crate::{RhexError, RhexParams};
+use rayon::prelude::*;
+use serde_json::{Map, Value};
+
+/// One leap of a sweep.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepPoint {
+    pub strategy: Strategy,
+    /// Rear leg's start relative to the front leg's (s).
+    pub t2_s: f64,
+    /// Geared motors of this ratio, or `None` for the base configuration's actuator.
+    pub gear_ratio: Option<f64>,
+    /// Parameter overrides by name (see the module documentation).
+    pub overrides: Map<String, Value>,
+}
+
+impl SweepPoint {
+    pub fn new(strategy: Strategy, t2_s: f64, gear_ratio: Option<f64>) -> Self {
+        SweepPoint {
+            strategy,
+            t2_s,
+            gear_ratio,
+            overrides: Map::new(),
+        }
+    }
+}
+
+/// The outcome of one point, flattened for a table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepRow {
+    /// `ok`, a [`crate::leap::LeapStatus`] string (`no_flight`, `zeno`, …) or an error kind
+    /// ([`error_kind`]: `invalid_params`, `singular_kkt`, `engine_error`, `panic`, …).
+    pub status: String,
+    /// The error message when the point failed with an error (empty otherwise).
+    pub error: String,
+    /// Gear ratio used (NaN for the saturated-torque actuator or an invalid point).
+    pub gear_ratio: f64,
+    /// Apex (z up, x forward from the start); NaN when the leap has no apex.
+    pub apex_t_s: f64,
+    pub apex_x_m: f64,
+    pub apex_z_m: f64,
+    pub apex_phi_rad: f64,
+    pub apex_xdot_m_s: f64,
+    pub apex_zdot_m_s: f64,
+    pub apex_phidot_rad_s: f64,
+    /// Leap word, cells joined by `-` (empty when the point failed).
+    pub word: String,
+    /// Number of events of the execution.
+    pub n_events: usize,
+}
+
+/// The Cartesian product strategy × gear ratio × `t2` (`t2` varying fastest).
+pub fn grid(strategies: &[Strategy], t2_s: &[f64], gear_ratios: &[Option<f64>]) -> Vec<SweepPoint> {
+    let mut out = Vec::with_capacity(strategies.len() * t2_s.len() * gear_ratios.len());
+    for &s in strategies {
+        for &g in gear_ratios {
+            for &t2 in t2_s {
+                out.push(SweepPoint::new(s, t2, g));
+            }
+        }
+    }
+    out
+}
+
+const OWN_COLUMNS: [&str; 3] = ["strategy", "t2_s", "actuator"];
+const ACTUATOR_FIELDS: [&str; 2] = ["current_limit_a", "motors_per_leg"];
+
+/// Every name an override may use: the fields of [`RhexParams`], of [`LeapConfig`] (except
+/// `strategy`, `t2_s`, `actuator`) and of the geared motor.
+pub fn sweepable_names() -> Vec<String> {
+    let mut names: Vec<String> = Vec::new();
+    if let Ok(Value::Object(p)) = serde_json::to_value(RhexParams::default()) {
+        names.extend(p.keys().cloned());
+    }
+    if let Ok(Value::Object(c)) = serde_json::to_value(LeapConfig::default()) {
+        names.extend(
+            c.keys()
+                .filter(|k| !OWN_COLUMNS.contains(&k.as_str()))
+                .cloned(),
+        );
+    }
+    names.extend(ACTUATOR_FIELDS.iter().map(|s| s.to_string()));
+    names
+}
+
+/// Checks that every name is sweepable; the error names the first unknown one.
+pub fn check_override_names<'a>(names: impl IntoIterator<Item = &'a str>) -> Result<(), RhexError> {
+    let known = sweepable_names();
+    for n in names {
+        if !known.iter().any(|k| k == n) {
+            return Err(RhexError::Params {
+                field: n.into(),
+                reason: format!("unknown parameter (sweepable: {})", known.join(", ")),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Deserializes `base` with `overrides` merged in; a failure names the override at fault.
+fn merged<T: serde::de::DeserializeOwned>(
+    base: &Value,
+    overrides: &[(&String, &Value)],
+) -> Result<T, RhexError> {
+    let with = |set: &[(&String, &Value)]| {
+        let mut v = base.clone();
+        for (k, val) in set {
+            v[k.as_str()] = (*val).clone();
+        }
+        serde_json::from_value::<T>(v)
+    };
+    with(overrides).map_err(|e| {
+        let culprit = overrides.iter().find_map(|o| {
+            with(std::slice::from_ref(o))
+                .err()
+                .map(|e1| (o.0.clone(), e1))
+        });
+        match culprit {
+            Some((field, e1)) => RhexError::Params {
+                field,
+                reason: e1.to_string(),
+            },
+            None => RhexError::Params {
+                field: "overrides".into(),
+                reason: e.to_string(),
+            },
+        }
+    })
+}
+
+/// The robot parameters and leap configuration of one point, validated.
+pub fn point_inputs(
+    base_params: &RhexParams,
+    base_cfg: &LeapConfig,
+    point: &SweepPoint,
+) -> Result<(RhexParams, LeapConfig), RhexError> {
+    let (params, mut cfg) = if point.overrides.is_empty() {
+        (base_params.clone(), base_cfg.clone())
+    } else {
+        let to_value = |r: serde_json::Result<Value>| {
+            r.map_err(|e| RhexError::Params {
+                field: "overrides".into(),
+                reason: e.to_string(),
+            })
+        };
+        let pv = to_value(serde_json::to_value(base_params))?;
+        let cv = to_value(serde_json::to_value(base_cfg))?;
+        let (mut on_p, mut on_c, mut on_a) = (Vec::new(), Vec::new(), Vec::new());
+        for (k, v) in &point.overrides {
+            if pv.get(k).is_some() {
+                on_p.push((k, v));
+            } else if cv.get(k).is_some() && !OWN_COLUMNS.contains(&k.as_str()) {
+                on_c.push((k, v));
+            } else if ACTUATOR_FIELDS.contains(&k.as_str()) {
+                on_a.push((k, v));
+            } else {
+                check_override_names([k.as_str()])?;
+            }
+        }
+        let params: RhexParams = if on_p.is_empty() {
+            base_params.clone()
+        } else {
+            merged(&pv, &on_p)?
+        };
+        let mut cfg: LeapConfig = if on_c.is_empty() {
+            base_cfg.clone()
+        } else {
+            merged(&cv, &on_c)?
+        };
+        if !on_a.is_empty() {
+            let base_act = match &cfg.actuator {
+                a @ LegActuator::GearedMotor { .. } => a.clone(),
+                LegActuator::SaturatedTorque => LegActuator::default(),
+            };
+            let av = to_value(serde_json::to_value(&base_act))?;
+            cfg.actuator = merged(&av, &on_a)?;
+        }
+        (params, cfg)
+    };
+    cfg.strategy = point.strategy;
+    cfg.t2_s = point.t2_s;
+    if let Some(g) = point.gear_ratio {
+        cfg.actuator = match cfg.actuator {
+            LegActuator::GearedMotor {
+                current_limit_a,
+                motors_per_leg,
+                ..
+            } => LegActuator::GearedMotor {
+                gear_ratio: g,
+                current_limit_a,
+                motors_per_leg,
+            },
+            LegActuator::SaturatedTorque => match LegActuator::default() {
+                LegActuator::GearedMotor {
+                    current_limit_a,
+                    motors_per_leg,
+                    ..
+                } => LegActuator::GearedMotor {
+                    gear_ratio: g,
+                    current_limit_a,
+                    motors_per_leg,
+                },
+                other => other,
+            },
+        };
+    }
+    validate_inputs(&params, &cfg)?;
+    Ok((params, cfg))
+}
+
+/// The checks a sweep makes before running a point (the leap makes its own too).
+fn validate_inputs(params: &RhexParams, cfg: &LeapConfig) -> Result<(), RhexError> {
+    params.validate()?;
+    cfg.terrain.validate()?;
+    let bad = |field: &str, reason: String| {
+        Err(RhexError::Params {
+            field: field.into(),
+            reason,
+        })
+    };
+    if !cfg.t2_s.is_finite() {
+        return bad("t2_s", format!("must be finite, got {}", cfg.t2_s));
+    }
+    if let LegActuator::GearedMotor {
+        gear_ratio,
+        current_limit_a,
+        motors_per_leg,
+    } = cfg.actuator
+    {
+        if !(gear_ratio.is_finite() && gear_ratio > 0.0) {
+            return bad(
+                "gear_ratio",
+                format!("must be finite and positive, got {gear_ratio}"),
+            );
+        }
+        if !(current_limit_a.is_finite() && current_limit_a > 0.0) {
+            return bad(
+                "current_limit_a",
+                format!("must be finite and positive, got {current_limit_a}"),
+            );
+        }
+        if motors_per_leg == 0 {
+            return bad("motors_per_leg", "must be at least 1".into());
+        }
+    }
+    Ok(())
+}
+
+/// The status string of an error (see [`SweepRow::status`]).
+pub fn error_kind(e: &RhexError) -> &'static str {
+    use selfmanip_hybrid::HybridError as H;
+    match e {
+        RhexError::Params { .. } => "invalid_params",
+        RhexError::ModeLabel { .. } => "invalid_mode",
+        RhexError::Core(c) => core_kind(c),
+        RhexError::Hybrid(h) => match h {
+            H::Core(c) => core_kind(c),
+            H::OffManifold { .. } => "off_manifold",
+            H::InvalidOption { .. } => "invalid_params",
+            H::StepTooSmall { .. } => "step_too_small",
+            H::TooManyContacts { .. } => "too_many_contacts",
+            #[allow(unreachable_patterns)]
+            _ => "engine_error",
+        },
+    }
+}
+
+fn core_kind(c: &selfmanip_core::CoreError) -> &'static str {
+    use selfmanip_core::CoreError as C;
+    match c {
+        C::SingularKkt { .. } => "singular_kkt",
+        C::NonFinite { .. } => "non_finite",
+        C::IllPosedQuasiStatic { .. } => "ill_posed",
+        C::InvalidDescription { .. } | C::InvalidParameterization { .. } => "invalid_params",
+        _ => "engine_error",
+    }
+}
+
+fn gear_of(cfg: &LeapConfig) -> f64 {
+    match cfg.actuator {
+        LegActuator::GearedMotor { gear_ratio, .. } => gear_ratio,
+        LegActuator::SaturatedTorque => f64::NAN,
+    }
+}
+
+/// Runs one point: its inputs, then the leap.
+pub fn run_point(
+    base_params: &RhexParams,
+    base_cfg: &LeapConfig,
+    point: &SweepPoint,
+) -> Result<LeapResult, RhexError> {
+    let (params, cfg) = point_inputs(base_params, base_cfg, point)?;
+    simulate_leap(&params, &cfg)
+}
+
+fn failed(status: &str, error: String, gear_ratio: f64) -> SweepRow {
+    SweepRow {
+        status: status.into(),
+        error,
+        gear_ratio,
+        apex_t_s: f64::NAN,
+        apex_x_m: f64::NAN,
+        apex_z_m: f64::NAN,
+        apex_phi_rad: f64::NAN,
+        apex_xdot_m_s: f64::NAN,
+        apex_zdot_m_s: f64::NAN,
+        apex_phidot_rad_s: f64::NAN,
+        word: String::new(),
+        n_events: 0,
+    }
+}
+
+/// Runs one point and flattens the outcome; never panics and never fails.
+pub fn run_row(base_params: &RhexParams, base_cfg: &LeapConfig, point: &SweepPoint) -> SweepRow {
+    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        let (params, cfg) = point_inputs(base_params, base_cfg, point)?;
+        let g = gear_of(&cfg);
+        simulate_leap(&params, &cfg).map(|r| (r, g))
+    }));
+    match outcome {
+        Err(p) => {
+            let what = p
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_else(|| "unknown panic".into());
+            failed("panic", what, f64::NAN)
+        }
+        Ok(Err(e)) => failed(error_kind(&e), e.to_string(), f64::NAN),
+        Ok(Ok((r, g))) => {
+            let mut row = failed(r.status.as_str(), String::new(), g);
+            row.word = r.word_string();
+            row.n_events = r.events.len();
+            if let Some(a) = r.apex {
+                row.apex_t_s = a.t_s;
+                row.apex_x_m = a.x_m;
+                row.apex_z_m = a.z_m;
+                row.apex_phi_rad = a.phi_rad;
+                row.apex_xdot_m_s = a.xdot_m_s;
+                row.apex_zdot_m_s = a.zdot_m_s;
+                row.apex_phidot_rad_s = a.phidot_rad_s;
+            }
+            row
+        }
+    }
+}
+
+/// Runs every point on a rayon pool of exactly `threads` threads; rows in input order.
+///
+/// Errors only for `threads == 0` or a pool that cannot start; every per-point failure is a
+/// row (see [`SweepRow::status`]).
+///
+/// ```no_run
+/// use rhex_model::leap::{leap_params, LeapConfig, Strategy};
+/// use rhex_model::sweep::{grid, sweep};
+/// let t2: Vec<f64> = (0..41).map(|i| -0.2 + 0.01 * i as f64).collect();
+/// let points = grid(&Strategy::ALL, &t2, &[Some(28.0)]);
+/// let rows = sweep(&leap_params(), &LeapConfig::default(), &points, 2)?;
+/// assert_eq!(rows.len(), 4 * 41);
+/// # Ok::<(), rhex_model::RhexError>(())
+/// ```
+pub fn sweep(
+    base_params: &RhexParams,
+    base_cfg: &LeapConfig,
+    points: &[SweepPoint],
+    threads: usize,
+) -> Result<Vec<SweepRow>, RhexError> {
+    if threads == 0 {
+        return Err(RhexError::Params {
+            field: "threads".into(),
+            reason: "must be at least 1".into(),
+        });
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| RhexError::Params {
+            field: "threads".into(),
+            reason: format!("cannot start a pool of {threads} threads: {e}"),
+        })?;
+    Ok(pool.install(|| {
+        points
+            .par_iter()
+            .with_min_len(1)
+            .map(|p| run_row(base_params, base_cfg, p))
+            .collect()
+    }))
+}

@@ -1,0 +1,299 @@
+"""``selfmanip leap``, ``selfmanip sweep`` and ``selfmanip grc`` (issue 5), and the file
+half of ``selfmanip plot`` (a sweep table or a leap → PNG).
+
+Ranges: ``A:B:N`` is ``N`` evenly spaced values from ``A`` to ``B`` inclusive
+(``--t2=-0.2:0.2:41``; write ``--t2=`` with an ``=`` when the range starts with a minus
+sign), ``A,B,C`` a list, ``A`` one value. ``--set NAME=RANGE`` sweeps any model parameter by
+name (``--set m_b=7:9:3``, ``--set leg_shape=half_circle,stick``, ``--set mu_rear=none``).
+
+Exit codes: 0 success; 1 ``sweep --strict`` with failed points; 2 bad input (ranges,
+strategies, parameter names or values) with a message on stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import sys
+from typing import Any
+
+import numpy as np
+
+PLOT_SUFFIXES = (".csv", ".parquet", ".json", ".mcap")
+
+
+def parse_range(text: str, field: str, *, integer_count: bool = True) -> list[float]:
+    """``A:B:N`` (inclusive linspace), ``A,B,...`` or ``A`` as floats; ``ValueError``
+    naming the option otherwise."""
+    s = text.strip()
+    if not s:
+        raise ValueError(f"`{field}`: empty range")
+    try:
+        if ":" in s:
+            parts = s.split(":")
+            if len(parts) != 3:
+                raise ValueError("expected START:STOP:COUNT")
+            a, b = float(parts[0]), float(parts[1])
+            n_f = float(parts[2])
+            if not n_f.is_integer() or n_f < 1:
+                raise ValueError(f"COUNT must be a positive integer, got {parts[2]!r}")
+            n = int(n_f)
+            if n == 1 and a != b:
+                raise ValueError("COUNT 1 needs START == STOP")
+            vals = [float(v) for v in np.linspace(a, b, n)]
+        else:
+            vals = [float(v) for v in s.split(",") if v.strip() != ""]
+    except ValueError as e:
+        raise ValueError(f"`{field}`: bad range {text!r}: {e}") from None
+    if not vals:
+        raise ValueError(f"`{field}`: empty range {text!r}")
+    bad = [v for v in vals if not math.isfinite(v)]
+    if bad:
+        raise ValueError(f"`{field}`: values must be finite, got {bad[0]}")
+    return vals
+
+
+def _parse_values(name: str, spec: str) -> list[Any]:
+    """Numbers (a range) when they parse, otherwise strings; ``none`` is ``None``."""
+    try:
+        return parse_range(spec, f"--set {name}")
+    except ValueError:
+        items = [v.strip() for v in spec.split(",") if v.strip()]
+        if not items:
+            raise ValueError(f"`--set {name}`: no value") from None
+        if any(":" in v for v in items):
+            return parse_range(spec, f"--set {name}")  # re-raise the range's message
+        out: list[Any] = []
+        for v in items:
+            if v.lower() in ("none", "null"):
+                out.append(None)
+            elif v.lower() in ("true", "false"):
+                out.append(v.lower() == "true")
+            else:
+                try:
+                    out.append(float(v))
+                except ValueError:
+                    out.append(v)
+        return out
+
+
+def _sets(items: list[str] | None) -> dict[str, list[Any]]:
+    out: dict[str, list[Any]] = {}
+    for item in items or []:
+        if "=" not in item:
+            raise ValueError(f"`--set`: expected NAME=VALUE, got {item!r}")
+        name, spec = item.split("=", 1)
+        out[name.strip()] = _parse_values(name.strip(), spec)
+    return out
+
+
+def _strategies(text: str) -> list[str]:
+    from .leap import _strategy
+
+    items = [s.strip() for s in text.split(",") if s.strip()]
+    if not items:
+        raise ValueError("`--strategy`: no strategy given")
+    return [_strategy(s, "--strategy") for s in items]
+
+
+def add_subcommands(sub) -> None:
+    le = sub.add_parser("leap", help="one leap from rest to apex (chapter 3); --json, --mcap FILE")
+    le.add_argument("--strategy", default="++", help="++, +-, -+ or -- (front, rear push direction)")
+    le.add_argument("--t2", default="0.0", help="rear leg start relative to the front leg (s); negative: rear first")
+    le.add_argument("--gear-ratio", default="28", help="X-RHex gear ratio (geared motors, 20 A limit)")
+    le.add_argument("--saturated", action="store_true", help="chapter 3's saturated torque instead of geared motors")
+    le.add_argument("--set", action="append", metavar="NAME=VALUE", help="set a parameter by name (repeatable)")
+    le.add_argument("--dt", type=float, default=0.002, help="trajectory sample time (s)")
+    le.add_argument("--mcap", help="write the trajectory as an MCAP log (Foxglove)")
+    le.add_argument("--json", action="store_true", help="print the result (with the trajectory) as JSON")
+    le.set_defaults(leap_handler=leap_command)
+
+    sw = sub.add_parser("sweep", help="many leaps in parallel over strategy x t2 x gear ratio x parameters")
+    sw.add_argument("--strategy", default="++", help="comma-separated strategies, e.g. ++,+-")
+    sw.add_argument("--t2", default="-0.2:0.2:41", help="range START:STOP:COUNT, list A,B,C or value (use --t2=...)")
+    sw.add_argument("--gear-ratio", default="28", help="range, list or value")
+    sw.add_argument("--saturated", action="store_true", help="chapter 3's saturated torque instead of geared motors")
+    sw.add_argument("--set", action="append", metavar="NAME=RANGE", help="sweep a parameter by name (repeatable)")
+    sw.add_argument("--threads", type=int, default=None, help="worker threads (default: all CPUs)")
+    sw.add_argument("--out", help="output .csv or .parquet (default: CSV on stdout)")
+    sw.add_argument("--progress", choices=["auto", "always", "never"], default="auto",
+                    help="progress bar on stderr (auto: when stderr is a terminal)")
+    sw.add_argument("--strict", action="store_true", help="exit with status 1 when any point is not ok")
+    sw.set_defaults(leap_handler=sweep_command)
+
+    gr = sub.add_parser("grc", help="the ground reaction complex and the leap grammar (chapter 3)")
+    gr.add_argument("--json", action="store_true", help="print the complex as JSON")
+    gr.set_defaults(leap_handler=grc_command)
+
+
+def _scalar_sets(sets: dict[str, list[Any]]) -> dict[str, Any]:
+    for k, v in sets.items():
+        if len(v) != 1:
+            raise ValueError(f"`--set {k}`: a single leap takes one value, got {len(v)}")
+    return {k: v[0] for k, v in sets.items()}
+
+
+def leap_command(args) -> int:
+    from .leap import leap
+
+    t2s = parse_range(args.t2, "--t2")
+    if len(t2s) != 1:
+        raise ValueError("`--t2`: a single leap takes one value")
+    t2 = t2s[0]
+    gear = None if args.saturated else parse_range(args.gear_ratio, "--gear-ratio")
+    if gear is not None and len(gear) != 1:
+        raise ValueError("`--gear-ratio`: a single leap takes one value")
+    strategies = _strategies(args.strategy)
+    if len(strategies) != 1:
+        raise ValueError("`--strategy`: a single leap takes one strategy")
+    strategy = strategies[0]
+    r = leap(strategy, t2=t2, gear_ratio=None if gear is None else gear[0], dt=args.dt,
+             **_scalar_sets(_sets(args.set)))
+    if args.mcap:
+        r.write_mcap(args.mcap)
+    if args.json:
+        json.dump(r.to_dict(), sys.stdout)
+        sys.stdout.write("\n")
+        return 0
+    print(f"leap {r.strategy} t2={r.t2_s:g} s "
+          f"{'saturated torque' if r.gear_ratio is None else f'gear ratio {r.gear_ratio:g}'}: status {r.status}")
+    print(f"word {r.word}")
+    if r.apex is not None:
+        a = r.apex
+        print(f"apex t={a.t_s:.4f} s  height z={a.z_m:.4f} m  x={a.x_m:.4f} m  pitch={a.phi_rad:.4f} rad  "
+              f"xdot={a.xdot_m_s:.4f} m/s  phidot={a.phidot_rad_s:.4f} rad/s")
+    for e in r.events:
+        print(f"  t={e['t_s']:+.5f} s  {e['kind']:<9} {e['mode_before']} -> {e['mode_after']}  "
+              f"{','.join(e['contacts'])}  dE={e['energy_loss_j']:.4g} J")
+    if args.mcap:
+        print(f"wrote {args.mcap}")
+    return 0
+
+
+def write_table(table: dict[str, np.ndarray], path: str | None, out=None) -> None:
+    """A sweep table as CSV (floats round-trip exactly) or Parquet (pandas + pyarrow)."""
+    if path and path.endswith(".parquet"):
+        import pandas as pd
+
+        tmp = f"{path}.{os.getpid()}.tmp"
+        pd.DataFrame(table).to_parquet(tmp, index=False)
+        os.replace(tmp, path)
+        return
+    if path and not path.endswith(".csv"):
+        raise ValueError(f"`--out`: expected a .csv or .parquet file, got {path!r}")
+    cols = list(table)
+    n = len(table[cols[0]]) if cols else 0
+
+    def fmt(v):
+        if isinstance(v, (float, np.floating)):
+            return repr(float(v))
+        if isinstance(v, (np.integer,)):
+            return str(int(v))
+        return str(v)
+
+    def emit(f):
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(cols)
+        for i in range(n):
+            w.writerow([fmt(table[c][i]) for c in cols])
+
+    if path:
+        tmp = f"{path}.{os.getpid()}.tmp"
+        with open(tmp, "w", encoding="utf-8", newline="") as f:
+            emit(f)
+        os.replace(tmp, path)
+    else:
+        emit(out or sys.stdout)
+
+
+def read_table(path: str) -> dict[str, np.ndarray]:
+    """A sweep table written by :func:`write_table` (or pandas) as numpy columns."""
+    if path.endswith(".parquet"):
+        import pandas as pd
+
+        df = pd.read_parquet(path)
+        return {c: df[c].to_numpy() for c in df.columns}
+    with open(path, encoding="utf-8", newline="") as f:
+        rows = list(csv.reader(f))
+    if not rows:
+        raise ValueError(f"{path}: empty table")
+    header, body = rows[0], rows[1:]
+    out: dict[str, np.ndarray] = {}
+    for j, c in enumerate(header):
+        col = [r[j] for r in body]
+        try:
+            if c in ("strategy", "word", "status", "error"):
+                out[c] = np.asarray(col, dtype=str)
+            elif c == "n_events":
+                out[c] = np.asarray([int(v) for v in col], dtype=np.int64)
+            else:
+                out[c] = np.asarray([float(v) for v in col], dtype=float)
+        except ValueError:
+            out[c] = np.asarray(col, dtype=str)
+    return out
+
+
+def sweep_command(args) -> int:
+    from .leap import run_points, sweep_points
+
+    strategies = _strategies(args.strategy)
+    t2 = parse_range(args.t2, "--t2")
+    gear: Any = None if args.saturated else parse_range(args.gear_ratio, "--gear-ratio")
+    for g in gear or []:
+        if g <= 0:
+            raise ValueError(f"`--gear-ratio`: must be positive, got {g}")
+    sets = _sets(args.set)
+    if args.threads is not None and args.threads < 1:
+        raise ValueError(f"`--threads` must be >= 1, got {args.threads}")
+    if args.out and not args.out.endswith((".csv", ".parquet")):
+        raise ValueError(f"`--out`: expected a .csv or .parquet file, got {args.out!r}")
+    cols = sweep_points(strategies, t2, gear, **sets)
+    show = args.progress == "always" or (args.progress == "auto" and sys.stderr.isatty())
+    table = run_points(cols, threads=args.threads, progress=show)
+    write_table(table, args.out)
+    status = table["status"]
+    n_ok = int(np.sum(status == "ok"))
+    failed = {s: int(np.sum(status == s)) for s in sorted(set(status.tolist())) if s != "ok"}
+    print(f"selfmanip sweep: {len(status)} points, {n_ok} ok"
+          + ("" if not failed else ", " + ", ".join(f"{v} {k}" for k, v in failed.items()))
+          + (f"; wrote {args.out}" if args.out else ""), file=sys.stderr)
+    return 1 if (args.strict and failed) else 0
+
+
+def grc_command(args) -> int:
+    from . import _native
+    from .rhex import ground_reaction_complex
+
+    g = ground_reaction_complex()
+    if args.json:
+        json.dump(g, sys.stdout, indent=1)
+        sys.stdout.write("\n")
+        return 0
+    sites = g["sites"]
+    print(f"Ground reaction complex (chapter 3): {len(g['cells'])} cells over the sites {' '.join(sites)}")
+    print(f"{'cell':<6}{'dof':>4}  contacts")
+    for c in g["cells"]:
+        print(f"{c['label']:<6}{str(c['dof']):>4}  {', '.join(c['contacts']) or '(flight)'}"
+              + ("  fully constrained" if c.get("fully_constrained") else ""))
+    print(f"\nAllowable transitions (Fig. 3.3): {len(g['allowable'])}")
+    for t in g["allowable"]:
+        print(f"  {t['from']} -> {t['to']}  {'touchdown' if t['touchdown'] else 'liftoff'} of "
+              f"{sites[t['site']]}  ({t['category']})")
+    print()
+    print(_native.leap_grammar_text(), end="")
+    print(f"Strategies (front, rear): {', '.join(g['strategies'])}")
+    return 0
+
+
+def is_data_file(target: str) -> bool:
+    return target.lower().endswith(PLOT_SUFFIXES)
+
+
+def plot_command(target: str, out: str) -> int:
+    from .plots import plot_file
+
+    print(plot_file(target, out))
+    return 0

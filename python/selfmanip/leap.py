@@ -1,0 +1,422 @@
+"""RHex leaps from rest to apex (thesis chapter 3.2) and batched sweeps over them (issue 5).
+
+A leap starts with the robot sitting at rest on its body (cell ``1010``), both legs touching
+the ground; the front leg's motor starts at ``t = 0`` and the rear leg's at ``t = t2``
+(negative: the rear leg starts first). A strategy ``"++"``, ``"+-"``, ``"-+"`` or ``"--"``
+gives each leg's push direction (front, rear): ``+`` turns the leg with increasing theta (a
+forward lunge, rolling on the half circle), ``-`` the other way (a flip onto the toe).
+
+The robot is the chapter-5 RHex (Table 4.2 with the middle and rear leg pairs, toe friction
+1.8 / 2.5). ``gear_ratio=G`` drives each planar leg with two X-RHex motors behind a gearbox of
+ratio ``G`` and a 20 A current limit (thesis section 4.3.3 and Table 2.1);
+``gear_ratio=None`` uses chapter 3's constant saturated torque ``tau_s`` instead.
+
+Any parameter is set by name, for a single leap or swept over an array:
+
+* Table 4.2 symbols: ``m_b, I_b, m_l, I_l, l1, l2, rho1, rho2, rho_b, tau_s, g, leg_shape,
+  pairs, mu_front, mu_middle, mu_rear``;
+* the leap configuration: ``delta_t_s`` (pseudo-impulse duration, thesis 0.03 s),
+  ``swing_accel_rad_s2``, ``swing_speed_rad_s``, ``toe_stub_rad``, ``terrain``,
+  ``t_final_s``, ``stop_at_apex``, ``event_tol_s``, ``zeno_window_s``, ``zeno_max_events``;
+* the geared motor: ``current_limit_a``, ``motors_per_leg``.
+
+Results are reported in a z-**up** frame whose origin is the body centre at the start: apex
+height ``apex_z_m`` (of the body centre above the ground, positive up), forward displacement
+``apex_x_m``, pitch ``apex_phi_rad`` (nose-up positive). The leap *word* is the sequence of
+ground-reaction-complex cells visited (labels ``FB FL RB RL``), zero-time cells suppressed,
+joined by ``-``, e.g. ``1010-0110-0101-0001-0000``. Trajectories keep the thesis's NED
+coordinates (``q = [theta..., x, z, phi]``, z down), see ``docs/conventions.md``.
+
+>>> import numpy as np, selfmanip
+>>> table = selfmanip.sweep("++", t2=np.linspace(-0.1, 0.1, 5), gear_ratio=28.0)
+>>> sorted(table)[:3], len(table["t2_s"])
+(['apex_phi_rad', 'apex_phidot_rad_s', 'apex_t_s'], 5)
+>>> same = selfmanip.sweep("++", t2=np.linspace(-0.1, 0.1, 5), gear_ratio=28.0, threads=1)
+>>> all(np.array_equal(table[k], same[k], equal_nan=table[k].dtype.kind == "f") for k in table)
+True
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import numbers
+import os
+import sys
+from dataclasses import dataclass, field
+from typing import Any, Callable, Iterable, Mapping, Sequence
+
+import numpy as np
+
+from . import _native
+
+__all__ = ["Apex", "LeapResult", "Trajectory", "leap", "sweep", "sweep_points", "sweepable_names",
+           "STRATEGIES", "SWEEP_COLUMNS"]
+
+STRATEGIES = ("++", "+-", "-+", "--")
+
+#: The columns every sweep returns, in order (override columns follow ``gear_ratio``).
+SWEEP_COLUMNS = ("strategy", "t2_s", "gear_ratio", "apex_z_m", "apex_x_m", "apex_phi_rad",
+                 "apex_xdot_m_s", "apex_phidot_rad_s", "apex_zdot_m_s", "apex_t_s", "word",
+                 "status", "n_events", "error")
+
+
+def sweepable_names() -> list[str]:
+    """Every parameter name :func:`leap` and :func:`sweep` accept besides strategy, t2 and
+    gear ratio."""
+    return list(_native.leap_sweepable_names())
+
+
+@dataclass(frozen=True)
+class Apex:
+    """Body state at the apex of flight (z up, origin at the body centre at the start)."""
+
+    t_s: float
+    x_m: float
+    z_m: float
+    phi_rad: float
+    xdot_m_s: float
+    zdot_m_s: float
+    phidot_rad_s: float
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A leap sampled on a uniform grid. ``q``/``qd`` are ``(n, nq)`` in thesis coordinates
+    (NED, z down); ``contact_points_m`` and ``contact_forces_n`` are ``(n, n_contacts, 2)``
+    world ``(x, z)`` (NED) points and ground-on-robot forces, NaN where a contact is off."""
+
+    t_s: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    mode: list[str]
+    contacts: list[str]
+    contact_points_m: np.ndarray
+    contact_forces_n: np.ndarray
+
+
+@dataclass(frozen=True)
+class LeapResult:
+    """One leap: ``status`` (``ok``, ``no_flight``, ``zeno``, ...), the ``apex`` (None without
+    flight), the leap ``word`` (cells joined by ``-``), the labelled ``events`` (dicts with
+    ``t_s, kind, mode_before, mode_after, contacts, energy_loss_j``), the start ``q0`` and,
+    unless disabled, the ``trajectory``. ``params``/``config`` are the full inputs used."""
+
+    strategy: str
+    t2_s: float
+    gear_ratio: float | None
+    status: str
+    apex: Apex | None
+    word: str
+    cells: list[str]
+    events: list[dict[str, Any]]
+    q0: np.ndarray
+    q_names: list[str]
+    params: dict[str, Any]
+    config: dict[str, Any]
+    trajectory: Trajectory | None = None
+
+    def to_dict(self, trajectory: bool = True) -> dict[str, Any]:
+        """Plain JSON-ready data (NaN becomes ``None``)."""
+        def clean(v):
+            if isinstance(v, np.ndarray):
+                return clean(v.tolist())
+            if isinstance(v, float):
+                return v if math.isfinite(v) else None
+            if isinstance(v, list):
+                return [clean(x) for x in v]
+            if isinstance(v, dict):
+                return {k: clean(x) for k, x in v.items()}
+            return v
+
+        d: dict[str, Any] = {
+            "strategy": self.strategy, "t2_s": self.t2_s, "gear_ratio": self.gear_ratio,
+            "status": self.status, "word": self.word, "cells": self.cells,
+            "apex": None if self.apex is None else dict(self.apex.__dict__),
+            "events": self.events, "q0": self.q0, "q_names": self.q_names,
+            "params": self.params, "config": self.config,
+        }
+        if trajectory and self.trajectory is not None:
+            d["trajectory"] = dict(self.trajectory.__dict__)
+        return clean(d)
+
+    def write_mcap(self, path: str | os.PathLike, metadata: Mapping[str, str] | None = None) -> None:
+        """Writes the trajectory as an MCAP log for Foxglove (atomically; topics in
+        ``docs/sweeps.md``)."""
+        if self.trajectory is None:
+            raise ValueError("this result has no trajectory: run leap(..., dt=...) to sample one")
+        md = {"strategy": self.strategy, "t2_s": repr(self.t2_s),
+              "gear_ratio": "saturated" if self.gear_ratio is None else repr(self.gear_ratio),
+              "status": self.status, "word": self.word,
+              "params": json.dumps(self.params), "config": json.dumps(self.config)}
+        md.update({str(k): str(v) for k, v in (metadata or {}).items()})
+        write_mcap(path, self.params, self.trajectory, self.events, md)
+
+
+def write_mcap(path: str | os.PathLike, params: Mapping[str, Any], trajectory: Trajectory,
+               events: Sequence[Mapping[str, Any]] = (), metadata: Mapping[str, str] | None = None) -> None:
+    """Writes any leap trajectory (for instance a synthetic one) as an MCAP log."""
+    t = trajectory
+    _native.leap_write_mcap(
+        os.fspath(path), json.dumps(dict(params)), list(t.contacts), [float(v) for v in t.t_s],
+        np.ascontiguousarray(t.q, dtype=float), np.ascontiguousarray(t.qd, dtype=float), list(t.mode),
+        np.ascontiguousarray(t.contact_points_m, dtype=float),
+        np.ascontiguousarray(t.contact_forces_n, dtype=float),
+        json.dumps([dict(e) for e in events]), {str(k): str(v) for k, v in (metadata or {}).items()})
+
+
+# ---------------------------------------------------------------------------------------------
+# input checks (types here; values in Rust, which names the field)
+
+def _strategy(value: Any, field: str = "strategy") -> str:
+    if not isinstance(value, str):
+        raise TypeError(f"`{field}` must be a string such as '++', got {type(value).__name__}")
+    s = value.replace("(", "").replace(")", "").replace(",", "").replace(" ", "")
+    if s not in STRATEGIES:
+        raise ValueError(f"`{field}`: unknown strategy {value!r} (expected one of {', '.join(STRATEGIES)})")
+    return s
+
+
+def _real(field: str, value: Any, *, positive: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"`{field}` must be a real number, got {type(value).__name__}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise ValueError(f"`{field}` must be finite, got {v}")
+    if positive and not v > 0:
+        raise ValueError(f"`{field}` must be positive, got {v}")
+    return v
+
+
+def _json_value(field: str, value: Any) -> Any:
+    """A parameter value as JSON (numbers must be finite)."""
+    if isinstance(value, np.generic):
+        value = value.item()
+    if value is None or isinstance(value, (str, bool)):
+        return value
+    if isinstance(value, numbers.Integral):
+        return int(value)
+    if isinstance(value, numbers.Real):
+        v = float(value)
+        if not math.isfinite(v):
+            raise ValueError(f"RHex parameter `{field}`: must be finite, got {v}")
+        return v
+    if isinstance(value, Mapping):
+        return {str(k): _json_value(f"{field}.{k}", v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_value(field, v) for v in value]
+    raise TypeError(f"RHex parameter `{field}`: unsupported value of type {type(value).__name__}")
+
+
+def _overrides(params: Mapping[str, Any] | None, config: Mapping[str, Any]) -> dict[str, Any]:
+    if params is not None and not isinstance(params, Mapping):
+        raise TypeError(f"`params` must be a dict, got {type(params).__name__}")
+    known = set(sweepable_names())
+    out: dict[str, Any] = {}
+    for source in (params or {}, config):
+        for k, v in source.items():
+            if not isinstance(k, str):
+                raise TypeError(f"parameter names must be strings, got {k!r}")
+            if k not in known:
+                raise ValueError(f"unknown parameter `{k}` (known: {', '.join(sorted(known))})")
+            out[k] = _json_value(k, v)
+    return out
+
+
+def _gear(value: Any) -> float | None:
+    return None if value is None else _real("gear_ratio", value, positive=True)
+
+
+# ---------------------------------------------------------------------------------------------
+
+def leap(strategy: str = "++", t2: float = 0.0, gear_ratio: float | None = 28.0,
+         params: Mapping[str, Any] | None = None, *, dt: float | None = 0.002,
+         **config: Any) -> LeapResult:
+    """One leap from rest to the apex of flight.
+
+    ``strategy``: ``"++"``, ``"+-"``, ``"-+"`` or ``"--"`` (front, rear); ``t2``: the rear
+    leg's start relative to the front leg's (s); ``gear_ratio``: geared X-RHex motors of this
+    ratio, or ``None`` for chapter 3's saturated torque; ``params``: Table 4.2 overrides
+    (``{"m_b": 8.0, "leg_shape": "stick"}``); ``dt``: trajectory sample time (``None``: no
+    trajectory); further keywords set the leap configuration or the motor by name (see the
+    module documentation). Bad input raises ``ValueError`` (:class:`selfmanip.SelfmanipError`)
+    naming the field.
+
+    >>> import selfmanip
+    >>> r = selfmanip.leap("++", t2=0.0, gear_ratio=28.0)
+    >>> r.word.startswith("1010"), r.trajectory.q.shape[1]
+    (True, 5)
+    """
+    s = _strategy(strategy)
+    t2v = _real("t2", t2)
+    g = _gear(gear_ratio)
+    if dt is not None:
+        dt = _real("dt", dt, positive=True)
+    ov = _overrides(params, config)
+    d = _native.leap_run(s, t2v, g, json.dumps(ov), dt)
+    apex = None if d["apex"] is None else Apex(**d["apex"])
+    traj = None
+    if "trajectory" in d:
+        t = d["trajectory"]
+        traj = Trajectory(t_s=np.asarray(t["t_s"]), q=np.asarray(t["q"]), qd=np.asarray(t["qd"]),
+                          mode=list(t["mode"]), contacts=list(t["contacts"]),
+                          contact_points_m=np.asarray(t["contact_points_m"]),
+                          contact_forces_n=np.asarray(t["contact_forces_n"]))
+    return LeapResult(strategy=s, t2_s=t2v, gear_ratio=g, status=d["status"], apex=apex,
+                      word="-".join(d["word"]), cells=list(d["word"]), events=json.loads(d["events_json"]),
+                      q0=np.asarray(d["q0"], dtype=float), q_names=list(d["q_names"]),
+                      params=json.loads(d["params_json"]), config=json.loads(d["config_json"]),
+                      trajectory=traj)
+
+
+def _axis(field: str, value: Any, *, allow_none: bool = False) -> list[Any]:
+    """A swept axis: a scalar or a 1-D sequence/array."""
+    if value is None and allow_none:
+        return [None]
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        return [value]
+    arr = list(np.asarray(value, dtype=object).ravel()) if not isinstance(value, (list, tuple)) else list(value)
+    if np.ndim(np.asarray(value, dtype=object)) > 1:
+        raise ValueError(f"`{field}` must be a scalar or 1-D, got shape {np.shape(value)}")
+    if not arr:
+        raise ValueError(f"`{field}` is empty")
+    return arr
+
+
+def sweep_points(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any = 28.0,
+                 *, grid: bool = True, **overrides: Any) -> dict[str, list[Any]]:
+    """The points of a sweep as columns (what :func:`sweep` runs), checked.
+
+    With ``grid=True`` (default) the Cartesian product strategy x overrides (in the order
+    given) x gear ratio x t2, t2 varying fastest; with ``grid=False`` every axis is a column
+    of the same length (scalars broadcast)."""
+    axes: dict[str, list[Any]] = {}
+    strategies = [strategy] if isinstance(strategy, str) else _axis("strategy", strategy)
+    axes["strategy"] = [_strategy(s) for s in strategies]
+    known = set(sweepable_names())
+    for k, v in overrides.items():
+        if k not in known:
+            raise ValueError(f"unknown parameter `{k}` (known: {', '.join(sorted(known))})")
+        axes[k] = [_json_value(k, x) for x in _axis(k, v)]
+    axes["gear_ratio"] = [_gear(g) for g in _axis("gear_ratio", gear_ratio, allow_none=True)]
+    axes["t2_s"] = [_real("t2", t) for t in _axis("t2", t2)]
+    names = list(axes)
+    if grid:
+        n = int(np.prod([len(a) for a in axes.values()]))
+        cols: dict[str, list[Any]] = {}
+        repeat = n
+        tile = 1
+        for k in names:
+            a = axes[k]
+            repeat //= len(a)
+            cols[k] = [x for x in a for _ in range(repeat)] * tile
+            tile *= len(a)
+        return cols
+    lengths = {len(a) for a in axes.values() if len(a) != 1}
+    if len(lengths) > 1:
+        raise ValueError(f"with grid=False every swept column must have the same length or be a scalar, got "
+                         + ", ".join(f"{k}: {len(a)}" for k, a in axes.items()))
+    n = lengths.pop() if lengths else 1
+    return {k: (a * n if len(a) == 1 else a) for k, a in axes.items()}
+
+
+def _default_threads() -> int:
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+def _progress_bar(total: int, stream=None) -> Callable[[int], None]:
+    stream = stream or sys.stderr
+    width = 30
+
+    def update(done: int) -> None:
+        filled = int(width * done / max(total, 1))
+        stream.write(f"\rsweep [{'#' * filled}{'.' * (width - filled)}] {done}/{total}")
+        if done >= total:
+            stream.write("\n")
+        stream.flush()
+
+    return update
+
+
+def run_points(cols: Mapping[str, Sequence[Any]], params: Mapping[str, Any] | None = None, *,
+               threads: int | None = None, progress: bool | Callable[[int], None] = False,
+               chunk_size: int | None = None, **config: Any) -> dict[str, np.ndarray]:
+    """Runs points given as columns (from :func:`sweep_points`); the engine of :func:`sweep`
+    and of :func:`selfmanip.distributed.sweep`."""
+    if threads is None:
+        threads = _default_threads()
+    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or threads < 1:
+        raise ValueError(f"`threads` must be a positive int, got {threads!r}")
+    base = json.dumps(_overrides(params, config))
+    strategies = list(cols["strategy"])
+    t2 = [float(v) for v in cols["t2_s"]]
+    gear = [math.nan if g is None else float(g) for g in cols["gear_ratio"]]
+    extra = {k: list(v) for k, v in cols.items() if k not in ("strategy", "t2_s", "gear_ratio")}
+    n = len(strategies)
+    if progress is True:
+        progress = _progress_bar(n)
+    if not progress:
+        chunk_size = n
+    elif chunk_size is None:
+        chunk_size = max(int(threads) * 16, n // 50, 1)
+    parts = []
+    for a in range(0, max(n, 1), max(chunk_size, 1)):
+        b = min(n, a + chunk_size)
+        parts.append(_native.leap_sweep(strategies[a:b], t2[a:b], gear[a:b], base,
+                                        json.dumps({k: v[a:b] for k, v in extra.items()}), int(threads)))
+        if progress:
+            progress(b)
+    out: dict[str, np.ndarray] = {
+        "strategy": np.asarray(strategies, dtype=str),
+        "t2_s": np.asarray(t2, dtype=float),
+        "gear_ratio": np.asarray(gear, dtype=float),
+    }
+    for k, v in extra.items():
+        arr = np.asarray(v, dtype=object)
+        if all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
+            arr = np.asarray(v, dtype=float)
+        elif all(isinstance(x, str) for x in v):
+            arr = np.asarray(v, dtype=str)
+        out[k] = arr
+    def cat(key, dtype):
+        if not parts:
+            return np.asarray([], dtype=dtype)
+        return np.concatenate([np.asarray(p[key], dtype=dtype) for p in parts])
+    for k in ("apex_z_m", "apex_x_m", "apex_phi_rad", "apex_xdot_m_s", "apex_phidot_rad_s",
+              "apex_zdot_m_s", "apex_t_s"):
+        out[k] = cat(k, float)
+    out["word"] = cat("word", str) if n else np.asarray([], dtype=str)
+    out["status"] = cat("status", str) if n else np.asarray([], dtype=str)
+    out["n_events"] = cat("n_events", np.int64)
+    out["error"] = cat("error", str) if n else np.asarray([], dtype=str)
+    return out
+
+
+def sweep(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any = 28.0,
+          params: Mapping[str, Any] | None = None, threads: int | None = None,
+          progress: bool | Callable[[int], None] = False, *, grid: bool = True,
+          config: Mapping[str, Any] | None = None, **swept: Any) -> dict[str, np.ndarray]:
+    """Many leaps at once, in parallel on ``threads`` threads (default: the CPUs this process
+    may use), with the GIL released. Returns a dict of equal-length numpy arrays
+    (``pandas.DataFrame(result)`` works): ``strategy, t2_s, gear_ratio``, any swept parameter,
+    ``apex_z_m, apex_x_m, apex_phi_rad, apex_xdot_m_s, apex_phidot_rad_s, apex_zdot_m_s,
+    apex_t_s`` (NaN without an apex), ``word``, ``status`` (``ok``, a leap status such as
+    ``no_flight``, or the error kind of a failed point such as ``invalid_params``),
+    ``n_events`` and ``error`` (the message of a failed point). A failing point never loses
+    the others, and the result is bit-identical for any ``threads``.
+
+    ``strategy``: one strategy or several; ``t2``, ``gear_ratio`` (``None``: saturated
+    torque) and any parameter given by name as a keyword (``m_b=[8, 9]``,
+    ``leg_shape=["half_circle", "stick"]``, ``delta_t_s=...``): scalars or 1-D arrays,
+    combined as a grid (see :func:`sweep_points`; ``grid=False`` zips them instead).
+    ``params`` (Table 4.2) and ``config`` (leap configuration) set fixed values for every
+    point and are checked up front. ``progress=True`` draws a bar on stderr (or pass a
+    callable receiving the number of points done).
+
+    >>> import selfmanip
+    >>> r = selfmanip.sweep(["++", "--"], t2=[0.0, 0.05], gear_ratio=[20.0, 28.0], threads=2)
+    >>> r["strategy"][:4].tolist(), r["gear_ratio"][:4].tolist(), r["t2_s"][:2].tolist()
+    (['++', '++', '++', '++'], [20.0, 20.0, 28.0, 28.0], [0.0, 0.05])
+    """
+    cols = sweep_points(strategy, t2, gear_ratio, grid=grid, **swept)
+    return run_points(cols, params, threads=threads, progress=progress, **dict(config or {}))

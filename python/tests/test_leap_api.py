@@ -1,0 +1,217 @@
+"""selfmanip.leap / selfmanip.sweep: shapes and dtypes, determinism across thread counts,
+per-point failure isolation, agreement between a sweep row and the same leap run alone, the
+grid order against itertools.product, and bad input naming its field."""
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+import selfmanip
+from selfmanip.leap import SWEEP_COLUMNS, sweep_points, sweepable_names
+
+T2 = np.linspace(-0.15, 0.15, 7)
+FLOAT_COLUMNS = ("t2_s", "gear_ratio", "apex_z_m", "apex_x_m", "apex_phi_rad", "apex_xdot_m_s",
+                 "apex_phidot_rad_s", "apex_zdot_m_s", "apex_t_s")
+
+
+@pytest.fixture(scope="module")
+def table():
+    return selfmanip.sweep(["++", "+-", "-+", "--"], t2=T2, gear_ratio=[22.0, 28.0], threads=2)
+
+
+@pytest.fixture(scope="module")
+def one_leap():
+    return selfmanip.leap("++", t2=0.0, gear_ratio=28.0, dt=0.002)
+
+
+def bits(a):
+    a = np.asarray(a)
+    return a.view(np.int64) if a.dtype == np.float64 else a
+
+
+def test_columns_shapes_and_dtypes(table):
+    n = 4 * 2 * len(T2)
+    assert list(table) == list(SWEEP_COLUMNS)
+    for k, v in table.items():
+        assert isinstance(v, np.ndarray) and v.shape == (n,), k
+    for k in FLOAT_COLUMNS:
+        assert table[k].dtype == np.float64, k
+    for k in ("strategy", "word", "status", "error"):
+        assert table[k].dtype.kind == "U", k
+    assert table["n_events"].dtype == np.int64
+
+
+def test_grid_order_matches_itertools_product(table):
+    want = list(itertools.product(["++", "+-", "-+", "--"], [22.0, 28.0], T2))
+    got = list(zip(table["strategy"], table["gear_ratio"], table["t2_s"]))
+    assert got == want
+
+
+def test_bit_identical_for_any_thread_count(table):
+    for threads in (1, 3):
+        other = selfmanip.sweep(["++", "+-", "-+", "--"], t2=T2, gear_ratio=[22.0, 28.0], threads=threads)
+        for k in table:
+            assert np.array_equal(bits(table[k]), bits(other[k])), (threads, k)
+
+
+def test_progress_chunks_do_not_change_results(table):
+    seen = []
+    chunked = selfmanip.sweep(["++", "+-", "-+", "--"], t2=T2, gear_ratio=[22.0, 28.0], threads=2,
+                              progress=seen.append)
+    assert seen[-1] == len(table["t2_s"]) and seen == sorted(seen)
+    for k in table:
+        assert np.array_equal(bits(table[k]), bits(chunked[k])), k
+
+
+def run_alone(strategy, t2, gear_ratio, **kw):
+    """``(status, word, n_events, apex or None, error message)`` of one leap: an engine error
+    of a single leap is an exception, in a sweep the row's status and message."""
+    try:
+        r = selfmanip.leap(strategy, t2=t2, gear_ratio=gear_ratio, dt=None, **kw)
+    except selfmanip.SelfmanipError as e:
+        return None, "", 0, None, str(e)
+    return r.status, r.word, len(r.events), r.apex, ""
+
+
+def assert_row_equals_alone(table, i, **kw):
+    gear = float(table["gear_ratio"][i])
+    status, word, n_events, apex, error = run_alone(str(table["strategy"][i]), float(table["t2_s"][i]),
+                                                    None if math.isnan(gear) else gear, **kw)
+    assert table["error"][i] == error
+    if status is None:
+        assert table["status"][i] not in ("ok", "")
+        return
+    assert (table["status"][i], table["word"][i], table["n_events"][i]) == (status, word, n_events)
+    if apex is None:
+        assert math.isnan(table["apex_z_m"][i])
+    else:
+        assert (apex.z_m, apex.x_m, apex.phi_rad, apex.xdot_m_s, apex.phidot_rad_s) == (
+            table["apex_z_m"][i], table["apex_x_m"][i], table["apex_phi_rad"][i],
+            table["apex_xdot_m_s"][i], table["apex_phidot_rad_s"][i])
+
+
+def test_sweep_row_equals_the_leap_run_alone(table):
+    for i in (0, 9, 20, 33, 50):
+        assert_row_equals_alone(table, i)
+
+
+def test_a_failing_point_never_loses_the_others():
+    good = dict(strategy=["++", "--", "++"], t2=[0.0, 0.05, -0.05], gear_ratio=28.0, m_b=[9.0, 9.0, 9.0])
+    bad = dict(strategy=["++", "--", "-+", "++"], t2=[0.0, 0.05, 0.0, -0.05], gear_ratio=28.0,
+               m_b=[9.0, 9.0, -1.0, 9.0])
+    g = selfmanip.sweep(**good, grid=False, threads=2)
+    b = selfmanip.sweep(**bad, grid=False, threads=2)
+    assert b["status"][2] == "invalid_params" and "m_b" in b["error"][2]
+    assert math.isnan(b["apex_z_m"][2]) and b["word"][2] == ""
+    keep = [0, 1, 3]
+    for k in g:
+        assert np.array_equal(bits(g[k]), bits(b[k][keep])), k
+
+
+def test_pandas_dataframe_just_works(table):
+    pd = pytest.importorskip("pandas")
+    df = pd.DataFrame(table)
+    assert list(df.columns) == list(table) and len(df) == len(table["t2_s"])
+
+
+def test_swept_parameters_become_columns_and_reach_the_model():
+    r = selfmanip.sweep("++", t2=0.0, gear_ratio=28.0, m_b=[8.0, 10.0], leg_shape=["half_circle", "stick"])
+    assert list(r["m_b"]) == [8.0, 8.0, 10.0, 10.0]
+    assert list(r["leg_shape"]) == ["half_circle", "stick", "half_circle", "stick"]
+    for i in range(4):
+        alone = selfmanip.leap("++", 0.0, 28.0, params={"m_b": float(r["m_b"][i]), "leg_shape": str(r["leg_shape"][i])},
+                               dt=None)
+        assert alone.params["m_b"] == r["m_b"][i] and alone.params["leg_shape"] == r["leg_shape"][i]
+        assert (alone.status, alone.word) == (r["status"][i], r["word"][i])
+
+
+def test_saturated_torque_reports_nan_gear_ratio():
+    r = selfmanip.sweep("++", t2=[0.0, 0.1], gear_ratio=None)
+    assert np.isnan(r["gear_ratio"]).all()
+    for i in range(2):
+        assert_row_equals_alone(r, i)
+
+
+def test_leap_result_shapes(one_leap):
+    r = one_leap
+    tr = r.trajectory
+    n, nq = tr.q.shape
+    assert nq == len(r.q_names) == len(r.q0) == 5
+    assert tr.qd.shape == (n, nq) and tr.t_s.shape == (n,) and len(tr.mode) == n
+    assert tr.contact_points_m.shape == tr.contact_forces_n.shape == (n, len(tr.contacts), 2)
+    assert r.cells[0] == "1010" and r.word == "-".join(r.cells)
+    for e in r.events:
+        assert set(e) == {"t_s", "kind", "mode_before", "mode_after", "contacts", "energy_loss_j"}
+    # inactive contacts have NaN points exactly where they have NaN forces
+    assert np.array_equal(np.isnan(tr.contact_points_m), np.isnan(tr.contact_forces_n))
+
+
+def test_apex_agrees_with_the_trajectory(one_leap):
+    r = one_leap
+    if r.status != "ok":
+        pytest.skip(f"leap status {r.status}")
+    tr = r.trajectory
+    ix, iz, iphi = r.q_names.index("x"), r.q_names.index("z"), r.q_names.index("phi")
+    # the last sample is the apex; the apex frame is z up with its origin at the start
+    assert tr.t_s[-1] == pytest.approx(r.apex.t_s, abs=1e-12)
+    assert r.apex.x_m == pytest.approx(tr.q[-1, ix] - r.q0[ix], abs=1e-9)
+    assert r.apex.z_m == pytest.approx(-tr.q[-1, iz], abs=1e-9)
+    assert r.apex.phi_rad == pytest.approx(tr.q[-1, iphi], abs=1e-9)
+    assert r.apex.zdot_m_s == pytest.approx(0.0, abs=1e-6)
+    assert r.cells[-1] == "0000" and tr.mode[-1] == "0000"
+
+
+@pytest.mark.parametrize("kwargs, field", [
+    (dict(strategy="+x"), "strategy"),
+    (dict(strategy="+++"), "strategy"),
+    (dict(t2=float("nan")), "t2"),
+    (dict(gear_ratio=-3.0), "gear_ratio"),
+    (dict(params={"rho2": 0.0}), "rho2"),
+    (dict(params={"m_b": -1.0}), "m_b"),
+    (dict(params={"leg_shape": "triangle"}), "leg_shape"),
+    (dict(params={"mass": 1.0}), "mass"),
+    (dict(delta_t_s="soon"), "delta_t_s"),
+    (dict(current_limit_a=-1.0), "current_limit_a"),
+])
+def test_bad_leap_input_raises_value_error_naming_the_field(kwargs, field):
+    with pytest.raises(ValueError, match=field):
+        selfmanip.leap(**{"dt": None, **kwargs})
+
+
+@pytest.mark.parametrize("kwargs, field", [
+    (dict(strategy=["++", "-x"]), "strategy"),
+    (dict(t2=[0.0, float("inf")]), "t2"),
+    (dict(gear_ratio=[28.0, 0.0]), "gear_ratio"),
+    (dict(params={"m_b": -1.0}), "m_b"),
+    (dict(no_such_parameter=[1.0, 2.0]), "no_such_parameter"),
+    (dict(threads=0), "threads"),
+    (dict(m_b=[1.0, float("nan")]), "m_b"),
+])
+def test_bad_sweep_input_raises_value_error_naming_the_field(kwargs, field):
+    with pytest.raises(ValueError, match=field):
+        selfmanip.sweep(**{"t2": [0.0], **kwargs})
+
+
+def test_zip_mode_requires_equal_lengths():
+    with pytest.raises(ValueError, match="same length"):
+        sweep_points("++", t2=[0.0, 0.1], gear_ratio=[20.0, 25.0, 30.0], grid=False)
+    cols = sweep_points(["++", "--"], t2=[0.0, 0.1], gear_ratio=28.0, grid=False)
+    assert cols["gear_ratio"] == [28.0, 28.0] and cols["strategy"] == ["++", "--"]
+
+
+def test_sweepable_names_cover_the_issue():
+    names = set(sweepable_names())
+    assert {"leg_shape", "m_b", "I_b", "m_l", "delta_t_s", "mu_front", "mu_middle", "mu_rear"} <= names
+    assert not {"strategy", "t2_s", "actuator"} & names
+
+
+def test_docstring_examples():
+    import doctest
+    import sys
+
+    mod = sys.modules["selfmanip.leap"]  # the attribute `selfmanip.leap` is the function
+
+    res = doctest.testmod(mod, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    assert res.failed == 0 and res.attempted > 0
