@@ -147,8 +147,32 @@ impl Default for LegActuator {
     fn default() -> Self {
         LegActuator::GearedMotor {
             gear_ratio: 28.0,
-            current_limit_a: 20.0,
-            motors_per_leg: 2,
+            current_limit_a: DEFAULT_CURRENT_LIMIT_A,
+            motors_per_leg: DEFAULT_MOTORS_PER_LEG,
+        }
+    }
+}
+
+/// Chapter 5's controller current limit (A) and motors per planar leg (a contralateral pair).
+const DEFAULT_CURRENT_LIMIT_A: f64 = 20.0;
+const DEFAULT_MOTORS_PER_LEG: u32 = 2;
+
+impl LegActuator {
+    /// The geared motor with gear ratio `gear_ratio`, keeping this actuator's current limit
+    /// and motor count (chapter 5's when this is the saturated torque).
+    pub fn with_gear_ratio(&self, gear_ratio: f64) -> LegActuator {
+        let (current_limit_a, motors_per_leg) = match *self {
+            LegActuator::GearedMotor {
+                current_limit_a,
+                motors_per_leg,
+                ..
+            } => (current_limit_a, motors_per_leg),
+            LegActuator::SaturatedTorque => (DEFAULT_CURRENT_LIMIT_A, DEFAULT_MOTORS_PER_LEG),
+        };
+        LegActuator::GearedMotor {
+            gear_ratio,
+            current_limit_a,
+            motors_per_leg,
         }
     }
 }

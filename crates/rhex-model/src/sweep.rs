@@ -203,29 +203,7 @@ pub fn point_inputs(
     cfg.strategy = point.strategy;
     cfg.t2_s = point.t2_s;
     if let Some(g) = point.gear_ratio {
-        cfg.actuator = match cfg.actuator {
-            LegActuator::GearedMotor {
-                current_limit_a,
-                motors_per_leg,
-                ..
-            } => LegActuator::GearedMotor {
-                gear_ratio: g,
-                current_limit_a,
-                motors_per_leg,
-            },
-            LegActuator::SaturatedTorque => match LegActuator::default() {
-                LegActuator::GearedMotor {
-                    current_limit_a,
-                    motors_per_leg,
-                    ..
-                } => LegActuator::GearedMotor {
-                    gear_ratio: g,
-                    current_limit_a,
-                    motors_per_leg,
-                },
-                other => other,
-            },
-        };
+        cfg.actuator = cfg.actuator.with_gear_ratio(g);
     }
     validate_inputs(&params, &cfg)?;
     Ok((params, cfg))

@@ -36,13 +36,7 @@ fn check_joints(model: &Model, joints: &[usize]) -> Result<(), RhexError> {
 pub fn effectiveness_at(model: &Model, q: &[f64], joints: &[usize]) -> Result<f64, RhexError> {
     check_joints(model, joints)?;
     let nq = model.nq();
-    if q.len() != nq {
-        return Err(bad(
-            "q",
-            format!("expected {nq} coordinates, got {}", q.len()),
-        ));
-    }
-    check_finite("q", q)?;
+    super::check_configuration(model, q)?;
     let n = model.n_joints();
     let mut data = Data::new(model);
     super::prepare_geometry(

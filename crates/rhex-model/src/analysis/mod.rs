@@ -45,6 +45,18 @@ pub(crate) fn check_finite(field: &str, v: &[f64]) -> Result<(), RhexError> {
     }
 }
 
+/// A configuration `q` of `model`: the right length and finite (errors name `q`).
+pub(crate) fn check_configuration(model: &Model, q: &[f64]) -> Result<(), RhexError> {
+    let nq = model.nq();
+    if q.len() != nq {
+        return Err(bad(
+            "q",
+            format!("expected {nq} coordinates, got {}", q.len()),
+        ));
+    }
+    check_finite("q", q)
+}
+
 /// `data.prepare` that accepts a singular KKT matrix (only the geometry is needed).
 pub(crate) fn prepare_geometry(
     model: &Model,
@@ -69,13 +81,7 @@ pub fn free_motion_basis(
     y_map: &DMatrix<f64>,
 ) -> Result<DMatrix<f64>, RhexError> {
     let nq = model.nq();
-    if q.len() != nq {
-        return Err(bad(
-            "q",
-            format!("expected {nq} coordinates, got {}", q.len()),
-        ));
-    }
-    check_finite("q", q)?;
+    check_configuration(model, q)?;
     let mut data = Data::new(model);
     prepare_geometry(model, &mut data, terrain, mode, q, &vec![0.0; nq])?;
     let a = &data.constraints.a;
