@@ -43,16 +43,10 @@ pub(crate) fn to_py_err(e: impl std::fmt::Display + 'static) -> PyErr {
 pub(crate) fn guard<T>(f: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
     match std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)) {
         Ok(r) => r,
-        Err(p) => {
-            let what = p
-                .downcast_ref::<String>()
-                .cloned()
-                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
-                .unwrap_or_else(|| "unknown panic".into());
-            Err(pyo3::exceptions::PyRuntimeError::new_err(format!(
-                "internal error in selfmanip: {what}"
-            )))
-        }
+        Err(p) => Err(pyo3::exceptions::PyRuntimeError::new_err(format!(
+            "internal error in selfmanip: {}",
+            rhex_model::sweep::panic_message(p.as_ref())
+        ))),
     }
 }
 

@@ -311,6 +311,15 @@ fn failed(status: &str, error: String, gear_ratio: f64) -> SweepRow {
     }
 }
 
+/// The text of a caught panic's payload (`"unknown panic"` when it is not a string).
+pub fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    payload
+        .downcast_ref::<String>()
+        .cloned()
+        .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
+        .unwrap_or_else(|| "unknown panic".into())
+}
+
 /// Runs one point and flattens the outcome; never panics and never fails.
 pub fn run_row(base_params: &RhexParams, base_cfg: &LeapConfig, point: &SweepPoint) -> SweepRow {
     let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
@@ -319,14 +328,7 @@ pub fn run_row(base_params: &RhexParams, base_cfg: &LeapConfig, point: &SweepPoi
         simulate_leap(&params, &cfg).map(|r| (r, g))
     }));
     match outcome {
-        Err(p) => {
-            let what = p
-                .downcast_ref::<String>()
-                .cloned()
-                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
-                .unwrap_or_else(|| "unknown panic".into());
-            failed("panic", what, f64::NAN)
-        }
+        Err(p) => failed("panic", panic_message(p.as_ref()), f64::NAN),
         Ok(Err(e)) => failed(error_kind(&e), e.to_string(), f64::NAN),
         Ok(Ok((r, g))) => {
             let mut row = failed(r.status.as_str(), String::new(), g);

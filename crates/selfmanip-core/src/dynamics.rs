@@ -64,6 +64,23 @@ impl Data {
         }
     }
 
+    /// Every stage of [`Data::prepare`] before the solve — kinematics, `M̄ C̄ N̄`, `A Ȧ` — for
+    /// callers that need only these: a singular KKT matrix (Lemma 5.1) is not an error here,
+    /// since the factorization is the last stage and the others are complete without it.
+    pub fn prepare_geometry(
+        &mut self,
+        model: &Model,
+        terrain: &dyn Terrain,
+        mode: ContactMode,
+        q: &[f64],
+        qd: &[f64],
+    ) -> Result<()> {
+        match self.prepare(model, terrain, mode, q, qd) {
+            Ok(()) | Err(crate::CoreError::SingularKkt { .. }) => Ok(()),
+            Err(e) => Err(e),
+        }
+    }
+
     /// Runs every stage up to and including the KKT factorization.
     pub fn prepare(
         &mut self,

@@ -593,11 +593,7 @@ fn kinetic_energy_at(
     q: &[f64],
     qd: &[f64],
 ) -> Result<f64, CoreError> {
-    data.prepare(model, terrain, ContactMode::FLIGHT, q, qd)
-        .or_else(|e| match e {
-            CoreError::SingularKkt { .. } => Ok(()),
-            e => Err(e),
-        })?;
+    data.prepare_geometry(model, terrain, ContactMode::FLIGHT, q, qd)?;
     Ok(kinetic_energy(data, qd))
 }
 

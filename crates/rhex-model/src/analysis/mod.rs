@@ -28,7 +28,7 @@ use crate::RhexError;
 use nalgebra::DMatrix;
 use selfmanip_core::contact::{contact_geometry, RowDirection};
 use selfmanip_core::kinematics::Kinematics;
-use selfmanip_core::{ContactMode, CoreError, Data, Model, Terrain};
+use selfmanip_core::{ContactMode, Data, Model, Terrain};
 
 pub(crate) fn bad(field: &str, reason: impl Into<String>) -> RhexError {
     RhexError::Params {
@@ -57,7 +57,7 @@ pub(crate) fn check_configuration(model: &Model, q: &[f64]) -> Result<(), RhexEr
     check_finite("q", q)
 }
 
-/// `data.prepare` that accepts a singular KKT matrix (only the geometry is needed).
+/// [`Data::prepare_geometry`] with the crate's error (only the geometry is needed).
 pub(crate) fn prepare_geometry(
     model: &Model,
     data: &mut Data,
@@ -66,10 +66,7 @@ pub(crate) fn prepare_geometry(
     q: &[f64],
     qd: &[f64],
 ) -> Result<(), RhexError> {
-    match data.prepare(model, terrain, mode, q, qd) {
-        Ok(()) | Err(CoreError::SingularKkt { .. }) => Ok(()),
-        Err(e) => Err(e.into()),
-    }
+    Ok(data.prepare_geometry(model, terrain, mode, q, qd)?)
 }
 
 /// The free motions of thesis (4.20): `H = [A; Y]⁻¹ [0; I_e]` at `q` (`Y`: e×q).
