@@ -4,20 +4,37 @@
 //! cargo run --release -p rhex-model --example leap_probe -- "++,-+" -0.1,0,0.1 0.03
 //! ```
 //! Arguments: strategies (comma-separated), t2 values in seconds, δt of the pseudo-impulse.
-//! Set `EVENTS=1` to list every event.
+//! Set `EVENTS=1` to list every event, `PAIRS=front,rear` to choose the pushing pairs.
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig};
+use rhex_model::params::LegPair;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let strategies = args.get(1).map_or("++", String::as_str);
     let t2s = args.get(2).map_or("0", String::as_str);
     let delta_t_s: f64 = args.get(3).map_or(Ok(0.03), |s| s.parse())?;
+    let pairs = match std::env::var("PAIRS").ok().as_deref() {
+        None => None,
+        Some(s) => {
+            let p: Vec<LegPair> = s
+                .split(',')
+                .map(|n| match n {
+                    "front" => Ok(LegPair::Front),
+                    "middle" => Ok(LegPair::Middle),
+                    "rear" => Ok(LegPair::Rear),
+                    other => Err(format!("PAIRS: unknown pair `{other}`")),
+                })
+                .collect::<Result<_, _>>()?;
+            Some([p[0], p[1]])
+        }
+    };
     for strategy in strategies.split(',') {
         for t2 in t2s.split(',') {
             let cfg = LeapConfig {
                 strategy: strategy.parse()?,
                 t2_s: t2.parse()?,
                 delta_t_s,
+                pairs,
                 ..LeapConfig::default()
             };
             let r = simulate_leap(&leap_params(), &cfg)?;

@@ -21,6 +21,7 @@
 //!
 //! **Words.** The leap word is the sequence of ground-reaction-complex cells visited
 //! (chapter 3.1), sliding toes counted as contact, zero-time cells suppressed.
+use crate::leg_motion::LegMotion;
 use crate::params::{LegPair, RhexParams};
 use crate::terrain::TerrainSpec;
 use crate::{Rhex, RhexError};
@@ -31,7 +32,7 @@ use selfmanip_hybrid::dopri::StepOptions;
 use selfmanip_hybrid::execution::{Event, EventKind, Execution, HybridOptions, Termination};
 use selfmanip_hybrid::{simulate, Controller};
 use serde::{Deserialize, Serialize};
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 use std::f64::consts::PI;
 use std::str::FromStr;
 
@@ -519,7 +520,8 @@ enum Phase {
     Waiting,
     /// Motor on: saturated push; in the air, the leg swings on in its push direction.
     Pushing,
-    /// After takeoff (or past the end of its stroke in the air): parks pointing up.
+    /// After takeoff (or, unless it keeps pushing, after its own liftoff): limp on the
+    /// ground, parked pointing up in the air.
     Retracting,
 }
 
@@ -528,7 +530,6 @@ struct LeapController {
     sign: [f64; 2],
     start: [f64; 2],
     hold: [f64; 2],
-    stow: [f64; 2],
     leg_contact: [usize; 2],
     actuators: [Box<dyn Actuator>; 2],
     hold_torque: f64,
@@ -540,22 +541,25 @@ struct LeapController {
     takeoff: Cell<Option<f64>>,
     /// Time each leg first lifted off after its motor started.
     lifted: [Cell<Option<f64>>; 2],
+    /// Each leg's motions in the air, by start time: the swing down from its motor's start,
+    /// then one from every event that released it or made it retract.
+    air: [RefCell<Vec<LegMotion>>; 2],
 }
 
-/// End of a leg's stroke: once a free pushing leg is this far past straight down in its push
-/// direction it stops pushing and parks.
-const END_OF_STROKE_RAD: f64 = PI / 2.0;
 /// Servo gains of a leg holding its angle (per N m of available torque).
 const HOLD_KP_PER_RAD: f64 = 20.0;
 const HOLD_KD_S: f64 = 0.5;
+/// Gains (1/s², 1/s) that keep a free leg on its prescribed motion against round-off: a
+/// critically damped 20 rad/s servo, idle while the leg is on its motion.
+const AIR_KP: f64 = 400.0;
+const AIR_KD: f64 = 40.0;
 
 impl LeapController {
-    fn phase(&self, i: usize, t: f64, q: &[f64]) -> Phase {
+    fn phase(&self, i: usize, t: f64) -> Phase {
         if t < self.start[i] {
             Phase::Waiting
         } else if self.takeoff.get().is_some_and(|t0| t >= t0)
             || (!self.keep_pushing && self.lifted[i].get().is_some_and(|t0| t >= t0))
-            || self.sign[i] * q[i] > END_OF_STROKE_RAD + 1.0
         {
             Phase::Retracting
         } else {
@@ -563,21 +567,27 @@ impl LeapController {
         }
     }
 
-    /// Smooth bounded-acceleration tracking of a desired speed: `θ̈ = α sat((v − θ̇)/Δω)`.
-    fn track(&self, v_des: f64, qd: f64) -> f64 {
-        const DW: f64 = 2.0;
-        self.accel * ((v_des - qd) / DW).clamp(-1.0, 1.0)
+    /// Where a leg parks in the air: pointing up, a little past vertical, on the side of
+    /// straight down that it is on (a leg never sweeps through the ground to park).
+    fn stow(&self, i: usize, theta: f64) -> f64 {
+        let side = if self.sign[i] * theta >= 0.0 {
+            self.sign[i]
+        } else {
+            -self.sign[i]
+        };
+        side * STOW_RAD
     }
 
-    /// Desired speed towards `target`: at most `vmax` (coasting, never braking, while faster
-    /// outside the braking zone), then the braking curve `√(2α|d|)`, and within a few
-    /// hundredths of a radian a linear approach (a well-damped servo, not a stiff one).
-    fn toward(&self, target: f64, q: f64, qd: f64, vmax: f64) -> f64 {
-        const APPROACH_RATE_PER_S: f64 = 20.0;
-        let d = target - q;
-        let brake = (2.0 * self.accel * d.abs()).sqrt();
-        let cruise = vmax.max(qd * d.signum());
-        d.signum() * cruise.min(brake).min(APPROACH_RATE_PER_S * d.abs())
+    /// The motion of leg `i` in the air at `t`: the last one started by then.
+    fn air_motion(&self, i: usize, t: f64) -> (f64, f64, f64) {
+        let motions = self.air[i].borrow();
+        let m = motions
+            .iter()
+            .rev()
+            .find(|m| m.t0() <= t)
+            .or(motions.first())
+            .expect("every leg has its swing down");
+        m.eval(t)
     }
 }
 
@@ -585,7 +595,8 @@ impl Controller for LeapController {
     fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]) {
         for i in 0..2 {
             let s = self.sign[i];
-            tau[i] = match self.phase(i, t, q) {
+            let phase = self.phase(i, t);
+            tau[i] = match phase {
                 Phase::Waiting => (-HOLD_KP_PER_RAD * self.hold_torque * (q[i] - self.hold[i])
                     - HOLD_KD_S * self.hold_torque * qd[i])
                     .clamp(-self.hold_torque, self.hold_torque),
@@ -596,7 +607,7 @@ impl Controller for LeapController {
                 }
                 Phase::Retracting => 0.0,
             };
-            if !mode.contains(self.leg_contact[i]) && self.phase(i, t, q) != Phase::Pushing {
+            if !mode.contains(self.leg_contact[i]) && phase != Phase::Pushing {
                 tau[i] = 0.0;
             }
         }
@@ -605,16 +616,11 @@ impl Controller for LeapController {
     fn free_joint_qdd(&self, t: f64, q: &[f64], qd: &[f64], free: &[usize], out: &mut [f64]) {
         for (slot, &j) in out.iter_mut().zip(free) {
             *slot = if j < 2 {
-                let s = self.sign[j];
-                match self.phase(j, t, q) {
-                    Phase::Waiting => {
-                        self.track(self.toward(self.hold[j], q[j], qd[j], 0.0), qd[j])
-                    }
-                    Phase::Pushing => self.track(s * self.speed.max(s * qd[j]), qd[j]),
-                    Phase::Retracting => {
-                        self.track(self.toward(self.stow[j], q[j], qd[j], self.speed), qd[j])
-                    }
-                }
+                let (theta, omega, alpha) = match self.phase(j, t) {
+                    Phase::Waiting => (self.hold[j], 0.0, 0.0),
+                    Phase::Pushing | Phase::Retracting => self.air_motion(j, t),
+                };
+                alpha + AIR_KP * (theta - q[j]) + AIR_KD * (omega - qd[j])
             } else {
                 0.0
             };
@@ -623,7 +629,8 @@ impl Controller for LeapController {
 
     fn on_event(&self, event: &Event) {
         let both_started = event.t >= self.start[0].max(self.start[1]);
-        if self.takeoff.get().is_none() && both_started && event.mode_after.is_flight() {
+        let took_off = self.takeoff.get().is_none() && both_started && event.mode_after.is_flight();
+        if took_off {
             self.takeoff.set(Some(event.t));
         }
         for i in 0..2 {
@@ -632,6 +639,25 @@ impl Controller for LeapController {
             if left && event.t >= self.start[i] && self.lifted[i].get().is_none() {
                 self.lifted[i].set(Some(event.t));
             }
+            // a leg released here, or made to retract here, starts a new motion in the air
+            if event.mode_after.contains(c) || !(left || took_off) || event.t < self.start[i] {
+                continue;
+            }
+            let (theta, omega) = (event.q[i], event.qd_after[i]);
+            let motion = match self.phase(i, event.t) {
+                Phase::Retracting => {
+                    LegMotion::park(event.t, theta, omega, self.stow(i, theta), self.accel)
+                }
+                _ => LegMotion::swing(
+                    event.t,
+                    theta,
+                    omega,
+                    self.sign[i] * STOW_RAD,
+                    self.speed,
+                    self.accel,
+                ),
+            };
+            self.air[i].borrow_mut().push(motion);
         }
     }
 }
@@ -737,11 +763,11 @@ impl LeapSetup {
             leg_actuator(&params, &cfg.actuator)?,
         ];
         let hold_torque = actuators[0].joint_torque_n_m(1.0, 0.0);
+        let start = [-offset, cfg.t2_s - offset];
         let ctrl = LeapController {
             sign,
-            start: [-offset, cfg.t2_s - offset],
+            start,
             hold: [q0[0], q0[1]],
-            stow: [sign[0] * STOW_RAD, sign[1] * STOW_RAD],
             leg_contact,
             actuators,
             hold_torque,
@@ -751,6 +777,18 @@ impl LeapSetup {
             keep_pushing: cfg.keep_pushing_after_liftoff,
             takeoff: Cell::new(None),
             lifted: [Cell::new(None), Cell::new(None)],
+            // each leg swings down from rest at its hold angle when its motor starts, towards
+            // pointing up in its push direction: it touches the ground on the way
+            air: std::array::from_fn(|i| {
+                RefCell::new(vec![LegMotion::swing(
+                    start[i],
+                    q0[i],
+                    0.0,
+                    sign[i] * STOW_RAD,
+                    cfg.swing_speed_rad_s,
+                    cfg.swing_accel_rad_s2,
+                )])
+            }),
         };
         Ok(LeapSetup {
             rhex,

@@ -11,6 +11,7 @@
 pub mod analysis;
 pub mod grc;
 pub mod leap;
+pub mod leg_motion;
 pub mod mcap_log;
 pub mod modes;
 pub mod params;

@@ -283,7 +283,8 @@ fn config_round_trips_through_json() {
 /// the rear leg's touchdown impulsively breaks the front (middle) leg's contact when there is
 /// no pseudo-impulse, and the massless front leg then chatters against the ground (caught by
 /// the Zeno detector); with δt = 0.03 s the front leg stays down through the rear touchdown
-/// (0110 → 0101) and the leap reaches its apex.
+/// (0110 → 0101) and the leap reaches its apex. As in the thesis the motors stay on until
+/// flight (open loop): a leg lifted off keeps turning in its push direction, into the ground.
 #[test]
 fn pseudo_impulse_removes_the_front_leg_chatter_of_fig_5_7() {
     let p = leap_params();
@@ -293,6 +294,7 @@ fn pseudo_impulse_removes_the_front_leg_chatter_of_fig_5_7() {
             &LeapConfig {
                 t2_s: 0.01,
                 delta_t_s,
+                keep_pushing_after_liftoff: true,
                 ..LeapConfig::default()
             },
         )

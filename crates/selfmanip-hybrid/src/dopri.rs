@@ -112,6 +112,8 @@ pub struct Dopri5<'a, E> {
     ynew: Vec<f64>,
     h: f64,
     fsal_valid: bool,
+    /// Weight of each component in the error norm (1: counted, 0: ignored).
+    weights: Vec<f64>,
 }
 
 impl<'a, E> Dopri5<'a, E> {
@@ -128,6 +130,16 @@ impl<'a, E> Dopri5<'a, E> {
             ynew: vec![0.0; n],
             h: opts.h_initial_s,
             fsal_valid: false,
+            weights: vec![1.0; n],
+        }
+    }
+
+    /// Leaves the components whose weight is 0 out of the step-size control (e.g. the
+    /// prescribed motion of free massless joints, which feeds back into nothing); 1 counts a
+    /// component fully. Wrong length: ignored.
+    pub fn set_error_weights(&mut self, weights: &[f64]) {
+        if weights.len() == self.weights.len() {
+            self.weights.copy_from_slice(weights);
         }
     }
 
@@ -172,12 +184,13 @@ impl<'a, E> Dopri5<'a, E> {
             // the 7th stage point is y_{n+1} (FSAL)
             self.ynew.copy_from_slice(&self.ytmp);
             let mut err = 0.0;
-            for i in 0..n {
+            for i in (0..n).filter(|&i| self.weights[i] != 0.0) {
                 let e: f64 = h * (0..7).map(|j| E[j] * self.k[j][i]).sum::<f64>();
                 let sc = self.opts.atol + self.opts.rtol * y[i].abs().max(self.ynew[i].abs());
-                err += (e / sc).powi(2);
+                err += self.weights[i] * (e / sc).powi(2);
             }
-            let err = (err / n.max(1) as f64).sqrt();
+            let counted: f64 = self.weights.iter().sum();
+            let err = (err / counted.max(1.0)).sqrt();
             if err <= 1.0 || h <= self.opts.h_min_s {
                 dense.t0 = t;
                 dense.h = h;

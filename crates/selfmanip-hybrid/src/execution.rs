@@ -145,6 +145,10 @@ pub struct Event {
     pub pseudo_impulse: Vec<f64>,
     pub kinetic_before: f64,
     pub kinetic_after: f64,
+    /// Configuration at the event.
+    pub q: Vec<f64>,
+    /// Velocity after the reset (before it for liftoff, slip, stick and apex: no jump).
+    pub qd_after: Vec<f64>,
 }
 
 /// A stretch of flow in one mode, with its dense output.
@@ -508,37 +512,37 @@ impl<'a> Sim<'a> {
             return Err(HybridError::TooManyContacts { n });
         }
         let tol = 1e-12;
-        let mut accepted = Vec::new();
+        // every subset is needed, as a candidate and as `J ∪ {k}` of others: solve each once
+        let mut outcomes = Vec::with_capacity(1 << n);
         for bits in 0u32..(1 << n) {
             let set: Vec<usize> = (0..n)
                 .filter(|i| bits >> i & 1 == 1)
                 .map(|i| candidates[i])
                 .collect();
-            let Some((mode, push, p, pd)) = self.pushes(t, &set, prefer, q, qd, impact)? else {
+            outcomes.push(self.pushes(t, &set, prefer, q, qd, impact)?);
+        }
+        let mut accepted = Vec::new();
+        for bits in 0u32..(1 << n) {
+            let Some((mode, push, p, pd)) = &outcomes[bits as usize] else {
                 continue;
             };
             if push.iter().any(|&(_, u)| u < -tol) {
                 continue;
             }
-            let mut separates = true;
-            for i in (0..n).filter(|i| bits >> i & 1 == 0) {
-                let mut with_k = set.clone();
-                with_k.push(candidates[i]);
-                with_k.sort_unstable();
-                // singular with k: k cannot be held, it separates
-                if let Some((_, pk, _, _)) = self.pushes(t, &with_k, prefer, q, qd, impact)? {
-                    let uk = pk
-                        .iter()
-                        .find(|(c, _)| *c == candidates[i])
-                        .map(|x| x.1)
-                        .unwrap_or(0.0);
-                    if uk >= -tol {
-                        separates = false;
-                    }
-                }
-            }
+            // each left-out contact k must separate: singular with k means k cannot be held
+            let separates = (0..n).filter(|i| bits >> i & 1 == 0).all(|i| {
+                outcomes[(bits | 1 << i) as usize]
+                    .as_ref()
+                    .is_none_or(|(_, pk, _, _)| {
+                        let uk = pk
+                            .iter()
+                            .find(|(c, _)| *c == candidates[i])
+                            .map_or(0.0, |x| x.1);
+                        uk < -tol
+                    })
+            });
             if separates {
-                accepted.push((mode, p, pd));
+                accepted.push((*mode, p.clone(), pd.clone()));
             }
         }
         match accepted.len() {
@@ -550,6 +554,47 @@ impl<'a> Sim<'a> {
             })),
         }
     }
+}
+
+/// The bracket `[lo, hi]`, at most `tol` wide, of the first crossing of `f` from positive (at
+/// `lo`) to non-positive (at `hi`), by Illinois regula falsi: superlinear on smooth guards (a
+/// handful of evaluations where bisection needs ~30). Every trial stays `tol/2` inside the
+/// bracket, so once the estimate has converged the next trial lands on its other side and
+/// the bracket closes; after `SECANT_TRIALS` trials it bisects, which always terminates.
+fn locate_crossing<E>(
+    f: &mut dyn FnMut(f64) -> Result<f64, E>,
+    (mut lo, mut f_lo): (f64, f64),
+    (mut hi, mut f_hi): (f64, f64),
+    tol: f64,
+) -> Result<(f64, f64), E> {
+    const SECANT_TRIALS: usize = 16;
+    // which end the last trial moved (Illinois: an end kept twice has its value halved)
+    let mut last_side = 0i8;
+    let mut trials = 0;
+    while hi - lo > tol {
+        trials += 1;
+        let secant = lo + (hi - lo) * f_lo / (f_lo - f_hi);
+        let trial = if trials <= SECANT_TRIALS && secant.is_finite() {
+            secant.clamp(lo + 0.5 * tol, hi - 0.5 * tol)
+        } else {
+            0.5 * (lo + hi)
+        };
+        let v = f(trial)?;
+        if v > 0.0 {
+            (lo, f_lo) = (trial, v);
+            if last_side == 1 {
+                f_hi *= 0.5;
+            }
+            last_side = 1;
+        } else {
+            (hi, f_hi) = (trial, v);
+            if last_side == -1 {
+                f_lo *= 0.5;
+            }
+            last_side = -1;
+        }
+    }
+    Ok((lo, hi))
 }
 
 /// Tangential velocity `t · v` of the material point of contact `k` at its contact point
@@ -686,6 +731,7 @@ pub fn simulate(
         let mut orient = vec![1.0; ng];
         let mut unarmed_shift = vec![0.0; ng];
         let mut last = vec![0.0; ng];
+        let mut end_value = vec![0.0; ng];
         for (gi, &g) in guards.iter().enumerate() {
             let raw = sim.guard_value(g, t, mode, &y)?;
             if matches!(g, Guard::Stick(_)) {
@@ -738,7 +784,19 @@ pub fn simulate(
             dy[nq..].copy_from_slice(rhs_data.qdd.as_slice());
             Ok(())
         };
+        // free massless joints follow the controller's prescribed motion (thesis 5.1.1): it
+        // feeds back into nothing, so it does not set the step size
+        sim.data
+            .prepare_geometry(model, terrain, mode, &y[..nq], &y[nq..])?;
+        let mut weights = vec![1.0; 2 * nq];
+        for &j in &sim.data.free_joints {
+            // joint j is coordinate j (q = [θ…, x, z, φ])
+            weights[j] = 0.0;
+            weights[nq + j] = 0.0;
+        }
+        sim.flow_key = None;
         let mut ode = Dopri5::new(&mut rhs, 2 * nq, opts.step);
+        ode.set_error_weights(&weights);
         let mut dense = DenseStep::default();
         let fired: Option<(f64, Vec<Guard>)> = loop {
             if !slipping_now.is_empty() {
@@ -768,62 +826,76 @@ pub fn simulate(
                     return Err(HybridError::StepTooSmall { t_s: t, h_s: h })
                 }
             }
-            // sample each guard inside the step; find the earliest sign change
-            let samples = [0.25, 0.5, 0.75, 1.0];
-            // an unarmed guard (one that has not yet been clearly positive, e.g. a contact
+            // sample the guards inside the step, all guards at each sample (the force guards
+            // at one sample share one flow evaluation); stop at the first interval in which
+            // any guard crosses.
+            // An unarmed guard (one that has not yet been clearly positive, e.g. a contact
             // just released at zero height) fires only once it is clearly negative, at
             // `−arm_margin`: no chatter at zero, and no tunnelling through the ground when a
-            // swing is too small or too short to arm it
-            let mut earliest: Option<(f64, f64, usize, f64)> = None; // (lo, hi, guard, shift)
-            for (gi, &g) in guards.iter().enumerate() {
-                let mut prev_t = dense.t0;
-                let mut prev_v = last[gi];
-                for &s in &samples {
-                    let ts = dense.t0 + s * dense.h;
-                    dense.eval(ts, &mut ydense);
+            // swing is too small or too short to arm it.
+            let samples = [0.25, 0.5, 0.75, 1.0];
+            let mut prev_t = dense.t0;
+            end_value.copy_from_slice(&last);
+            // (guard, shift, value at prev_t, value at ts) of the guards crossing in [prev_t, ts]
+            let mut crossing: Vec<(usize, f64, f64, f64)> = Vec::new();
+            let mut interval = (dense.t0, dense.t0);
+            for &s in &samples {
+                let ts = dense.t0 + s * dense.h;
+                dense.eval(ts, &mut ydense);
+                for (gi, &g) in guards.iter().enumerate() {
                     let raw = sim.guard_value(g, ts, mode, &ydense)?;
+                    let prev_v = end_value[gi];
                     if orient[gi] == 0.0 {
                         // a slip→stick guard arms once the sliding velocity is clear of zero
                         if raw.abs() > opts.arm_margin {
                             orient[gi] = raw.signum();
                             armed[gi] = true;
                         }
-                        prev_t = ts;
-                        prev_v = orient[gi] * raw;
+                        end_value[gi] = orient[gi] * raw;
                         continue;
                     }
                     let v = orient[gi] * raw;
                     let sh = if armed[gi] { 0.0 } else { unarmed_shift[gi] };
                     if prev_v + sh > 0.0 && v + sh <= 0.0 {
-                        if earliest.is_none_or(|(lo, _, _, _)| prev_t < lo) {
-                            earliest = Some((prev_t, ts, gi, sh));
-                        }
-                        break;
+                        crossing.push((gi, sh, prev_v + sh, v + sh));
                     }
                     if v > opts.arm_margin {
                         armed[gi] = true;
                     }
-                    prev_t = ts;
-                    prev_v = v;
+                    end_value[gi] = v;
                 }
+                if !crossing.is_empty() {
+                    interval = (prev_t, ts);
+                    break;
+                }
+                prev_t = ts;
             }
-            if let Some((mut lo, mut hi, gi, sh)) = earliest {
-                // bisection on the interpolant (robust; ~30 halvings reach 1e-10 s)
-                while hi - lo > opts.event_tol_s {
-                    let mid = 0.5 * (lo + hi);
-                    dense.eval(mid, &mut ydense);
-                    if orient[gi] * sim.guard_value(guards[gi], mid, mode, &ydense)? + sh > 0.0 {
-                        lo = mid;
-                    } else {
-                        hi = mid;
+            if !crossing.is_empty() {
+                // locate each crossing guard; the earliest fires
+                let (lo, hi) = interval;
+                let mut first: Option<(f64, usize)> = None;
+                for &(gi, sh, f_lo, f_hi) in &crossing {
+                    let (g, o) = (guards[gi], orient[gi]);
+                    let mut value = |tt: f64| -> Result<f64, CoreError> {
+                        dense.eval(tt, &mut ydense);
+                        Ok(o * sim.guard_value(g, tt, mode, &ydense)? + sh)
+                    };
+                    let (_, at) =
+                        locate_crossing(&mut value, (lo, f_lo), (hi, f_hi), opts.event_tol_s)?;
+                    if first.is_none_or(|(t_first, _)| at < t_first) {
+                        first = Some((at, gi));
                     }
                 }
-                // every other armed guard that has also crossed by `hi` fires with it
+                let (hi, gi) = first.expect("a crossing guard");
+                // every other guard that has also crossed by `hi` fires with it
                 dense.eval(hi, &mut ydense);
                 let mut set = Vec::new();
                 for (gj, &g) in guards.iter().enumerate() {
                     let sh = if armed[gj] { 0.0 } else { unarmed_shift[gj] };
-                    if gj == gi || orient[gj] * sim.guard_value(g, hi, mode, &ydense)? + sh <= 0.0 {
+                    if gj == gi
+                        || (orient[gj] != 0.0
+                            && orient[gj] * sim.guard_value(g, hi, mode, &ydense)? + sh <= 0.0)
+                    {
                         set.push(g);
                     }
                 }
@@ -836,9 +908,7 @@ pub fn simulate(
             seg.steps.push(dense.clone());
             t = dense.t1();
             seg.t1 = t;
-            for (gi, &g) in guards.iter().enumerate() {
-                last[gi] = orient[gi] * sim.guard_value(g, t, mode, &y)?;
-            }
+            last.copy_from_slice(&end_value);
         };
         drop(ode);
         segments.push(seg);
@@ -860,6 +930,8 @@ pub fn simulate(
                 pseudo_impulse: vec![],
                 kinetic_before: f64::NAN,
                 kinetic_after: f64::NAN,
+                q: q.clone(),
+                qd_after: qd.clone(),
             });
             break 'run Termination::Apex;
         }
@@ -947,6 +1019,8 @@ pub fn simulate(
             pseudo_impulse: pd,
             kinetic_before: ke_before,
             kinetic_after: ke_after,
+            q: q.clone(),
+            qd_after: qd_new.clone(),
         };
         controller.on_event(&event);
         events.push(event);
