@@ -134,6 +134,11 @@ impl<'a, E> Dopri5<'a, E> {
         }
     }
 
+    /// The size the next step will try (s).
+    pub fn next_step_size(&self) -> f64 {
+        self.h
+    }
+
     /// Leaves the components whose weight is 0 out of the step-size control (e.g. the
     /// prescribed motion of free massless joints, which feeds back into nothing); 1 counts a
     /// component fully. Wrong length: ignored.

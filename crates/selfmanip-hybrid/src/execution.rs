@@ -717,6 +717,7 @@ pub fn simulate(
     let mut segments = Vec::new();
     let mut events: Vec<Event> = Vec::new();
     let mut ydense = vec![0.0; 2 * nq];
+    let mut h_carry = opts.step.h_initial_s;
     let termination = 'run: loop {
         // ---- flow in `mode` until a guard fires or t_final
         let guards = sim.guards(mode);
@@ -795,7 +796,13 @@ pub fn simulate(
             weights[nq + j] = 0.0;
         }
         sim.flow_key = None;
-        let mut ode = Dopri5::new(&mut rhs, 2 * nq, opts.step);
+        // a segment starts with the step size the last one reached (a reset changes the
+        // flow, not its time scale; a step too long is rejected and shrunk)
+        let step_opts = StepOptions {
+            h_initial_s: h_carry,
+            ..opts.step
+        };
+        let mut ode = Dopri5::new(&mut rhs, 2 * nq, step_opts);
         ode.set_error_weights(&weights);
         let mut dense = DenseStep::default();
         let fired: Option<(f64, Vec<Guard>)> = loop {
@@ -910,6 +917,7 @@ pub fn simulate(
             seg.t1 = t;
             last.copy_from_slice(&end_value);
         };
+        h_carry = ode.next_step_size().max(opts.step.h_initial_s);
         drop(ode);
         segments.push(seg);
         let Some((te, fired)) = fired else {
