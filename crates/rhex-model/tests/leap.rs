@@ -362,3 +362,39 @@ fn plus_plus_sweep_visits_the_chapter_3_words() {
         "(3.4) is not realizable for RHex: {words:?}"
     );
 }
+
+/// The same grammar on the two-legged robot that chapter 3.2 writes it for (legs at the front
+/// and rear hips, `ℓ₁ = ℓ₂` from the centre of mass): each leap, up to its first flight,
+/// spells one of the words (3.2)–(3.7). Visited: (3.2) `(0110, 0010, 0001)` (the front leg
+/// lifts off before the rear one touches down), (3.3) and (3.5); never (3.4). The thesis's
+/// (3.7) reads `(1001, 1000, 0001)`, which is no path of the complex (`1000 → 0001` swaps two
+/// contacts at once); by symmetry with (3.2) it is `(1001, 1000, 0100)` (see the errata). This
+/// model does not visit it: pushing alone from `1001`, the rear motor's reaction lifts the
+/// front of the body (`1001 → 0001`) before its own leg can lift off.
+#[test]
+fn plus_plus_on_the_two_legged_robot_spells_the_chapter_3_words() {
+    let p = leap_params();
+    let first_leaps: Vec<String> = (0..21)
+        .map(|k| {
+            let cfg = LeapConfig {
+                t2_s: -0.2 + 0.02 * k as f64,
+                pairs: Some([rhex_model::LegPair::Front, rhex_model::LegPair::Rear]),
+                ..LeapConfig::default()
+            };
+            let word = simulate_leap(&p, &cfg).unwrap().word_string();
+            match word.find("0000") {
+                Some(end) => word[..end + 4].to_string(),
+                None => word,
+            }
+        })
+        .collect();
+    let spelled = |w: &str| first_leaps.iter().any(|x| x == w);
+    assert!(spelled("1010-0110-0010-0001-0000"), "(3.2): {first_leaps:?}");
+    assert!(spelled("1010-0110-0101-0001-0000"), "(3.3): {first_leaps:?}");
+    assert!(spelled("1010-1001-0101-0001-0000"), "(3.5): {first_leaps:?}");
+    assert!(!spelled("1010-0110-0101-0100-0000"), "(3.4): {first_leaps:?}");
+    // as (3.2)–(3.5) order them: (3.2) for a rear leg late enough (t2 > t1a*), (3.5) for a
+    // rear leg a little early (t2a* < t2 < 0)
+    assert_eq!(first_leaps[20], "1010-0110-0010-0001-0000", "t2 = 0.2 s");
+    assert_eq!(first_leaps[9], "1010-1001-0101-0001-0000", "t2 = -0.02 s");
+}
