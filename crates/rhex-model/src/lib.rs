@@ -9,6 +9,7 @@
 //! Coordinates are the thesis's `q = [θ₁, θ₂, x, z, φ]` (joints front to rear, then the body;
 //! z down, φ nose-up, θ clockwise from the body's `+z`).
 pub mod analysis;
+pub mod figures;
 pub mod grc;
 pub mod leap;
 pub mod leg_motion;
