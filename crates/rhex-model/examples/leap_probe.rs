@@ -4,8 +4,9 @@
 //! cargo run --release -p rhex-model --example leap_probe -- "++,-+" -0.1,0,0.1 0.03
 //! ```
 //! Arguments: strategies (comma-separated), t2 values in seconds, δt of the pseudo-impulse.
-//! Set `EVENTS=1` to list every event, `PAIRS=front,rear` to choose the pushing pairs.
-use rhex_model::leap::{leap_params, simulate_leap, LeapConfig};
+//! Set `EVENTS=1` to list every event, `PAIRS=front,rear` to choose the pushing pairs,
+//! `SATURATED=1` for chapter 3's saturated-torque legs instead of the geared motors.
+use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator};
 use rhex_model::params::LegPair;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -35,6 +36,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 t2_s: t2.parse()?,
                 delta_t_s,
                 pairs,
+                actuator: if std::env::var("SATURATED").is_ok() {
+                    LegActuator::SaturatedTorque
+                } else {
+                    LegActuator::default()
+                },
                 ..LeapConfig::default()
             };
             let r = simulate_leap(&leap_params(), &cfg)?;
