@@ -260,6 +260,7 @@ pub fn error_kind(e: &RhexError) -> &'static str {
             H::InvalidOption { .. } => "invalid_params",
             H::StepTooSmall { .. } => "step_too_small",
             H::TooManyContacts { .. } => "too_many_contacts",
+            H::ContactQp(_) => "contact_qp",
             #[allow(unreachable_patterns)]
             _ => "engine_error",
         },

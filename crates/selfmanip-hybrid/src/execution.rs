@@ -23,10 +23,13 @@
 //! `U(P_λ + P_δ)` (5.40), and each left-out contact `k` would need a negative one in
 //! `J ∪ {k}` (5.28)–(5.29). The same rule on forces instead of impulses selects the contacts
 //! that persist when a normal force reaches zero (5.19)–(5.20). Exactly one accepted set is
-//! applied; none or several end the execution with a typed [`Termination`]. A contact set
+//! applied; none or several end the execution with a typed [`Termination`]. Beyond
+//! [`ENUMERATION_LIMIT`] candidates (all frictionless) the same problems are solved as a
+//! convex QP with clarabel ([`crate::impact_qp`]). A contact set
 //! whose rows are redundant (two sticking corners on a plane) drops tangential rows, as the
 //! thesis does for the rocking block (footnote 8 of section 5.1.4).
 use crate::dopri::{DenseStep, Dopri5, StepError, StepOptions};
+use crate::impact_qp::{self, ContactQpError, QpOutcome};
 use selfmanip_core::contact::{contact_geometry, ContactKind, RowDirection};
 use selfmanip_core::inertia::potential_energy;
 use selfmanip_core::kinematics::Kinematics;
@@ -111,8 +114,12 @@ pub enum HybridError {
     InvalidOption { field: &'static str, reason: String },
     #[error("step size fell to {h_s:.3e} s at t = {t_s} s")]
     StepTooSmall { t_s: f64, h_s: f64 },
-    #[error("{n} candidate contacts are too many for exact enumeration (at most 10)")]
-    TooManyContacts { n: usize },
+    /// More candidates than [`ENUMERATION_LIMIT`], not all frictionless: the convex QP that
+    /// takes over beyond the limit covers frictionless contacts only.
+    #[error("{n} candidate contacts are too many for exact enumeration (at most {ENUMERATION_LIMIT}) and contact {sticking} can stick: the QP path is frictionless only")]
+    TooManyContacts { n: usize, sticking: usize },
+    #[error(transparent)]
+    ContactQp(#[from] ContactQpError),
 }
 
 /// What kind of guard fired.
@@ -508,8 +515,8 @@ impl<'a> Sim<'a> {
         impact: bool,
     ) -> Result<Result<(ContactMode, Vec<f64>, Vec<f64>), Termination>, HybridError> {
         let n = candidates.len();
-        if n > 10 {
-            return Err(HybridError::TooManyContacts { n });
+        if n > ENUMERATION_LIMIT {
+            return self.select_by_qp(t, candidates, prefer, q, qd, impact);
         }
         let tol = 1e-12;
         // every subset is needed, as a candidate and as `J ∪ {k}` of others: solve each once
@@ -552,6 +559,103 @@ impl<'a> Sim<'a> {
                 t,
                 candidates: accepted.into_iter().map(|a| a.0).collect(),
             })),
+        }
+    }
+
+    /// [`Sim::select`] for more than [`ENUMERATION_LIMIT`] candidates, all frictionless: the
+    /// complementarity problem as a convex QP ([`crate::impact_qp`], clarabel). Differences
+    /// from the enumeration: the pseudo-impulse rule is `U(P + P_δ) ≥ 0` for every contact
+    /// (the enumeration lets a contact that its own impulse holds stay on `U(P)`), and a
+    /// problem whose contact set is not unique (e.g. three points of a rigid body on a
+    /// plane) is reported as several solutions with the one basic set the QP found.
+    fn select_by_qp(
+        &mut self,
+        t: f64,
+        candidates: &[usize],
+        prefer: ContactMode,
+        q: &[f64],
+        qd: &[f64],
+        impact: bool,
+    ) -> Result<Result<(ContactMode, Vec<f64>, Vec<f64>), Termination>, HybridError> {
+        let sliding = |k: usize| {
+            prefer.kind(k) == Some(ContactKind::Slide)
+                || matches!(self.model.contacts[k].friction, Friction::Sliding)
+        };
+        if let Some(&sticking) = candidates.iter().find(|&&k| !sliding(k)) {
+            return Err(HybridError::TooManyContacts {
+                n: candidates.len(),
+                sticking,
+            });
+        }
+        self.flow_key = None;
+        self.tau.resize(self.model.n_joints(), 0.0);
+        self.ctrl.torque(t, q, qd, prefer, &mut self.tau);
+        // the per-candidate values of the contacts in `mode`, in row order
+        let rows = |mode: ContactMode, cands: &[usize], v: &[f64]| -> Vec<f64> {
+            cands
+                .iter()
+                .zip(v)
+                .filter(|(k, _)| mode.contains(**k))
+                .map(|(_, &x)| x)
+                .collect()
+        };
+        let outcome = if impact {
+            let pseudo =
+                (self.opts.delta_t_s > 0.0).then_some((&self.tau[..], self.opts.delta_t_s));
+            impact_qp::frictionless_impact(
+                self.model,
+                &mut self.data,
+                self.terrain,
+                candidates,
+                q,
+                qd,
+                pseudo,
+            )
+            .map(|o| match o {
+                QpOutcome::Unique(s) => Ok((
+                    s.mode,
+                    rows(s.mode, &s.candidates, &s.impulse),
+                    if pseudo.is_some() {
+                        rows(s.mode, &s.candidates, &s.pseudo_impulse)
+                    } else {
+                        Vec::new()
+                    },
+                )),
+                QpOutcome::Ambiguous(s, _) => Err(s.mode),
+            })
+        } else {
+            self.data
+                .prepare_geometry(self.model, self.terrain, ContactMode::FLIGHT, q, qd)?;
+            let free_joints = self.data.free_joints.clone();
+            self.free.resize(free_joints.len(), 0.0);
+            self.ctrl
+                .free_joint_qdd(t, q, qd, &free_joints, &mut self.free);
+            impact_qp::frictionless_liftoff(
+                self.model,
+                &mut self.data,
+                self.terrain,
+                candidates,
+                q,
+                qd,
+                &self.tau,
+                Some(&self.free),
+            )
+            .map(|o| match o {
+                QpOutcome::Unique(s) => {
+                    Ok((s.mode, rows(s.mode, &s.candidates, &s.lambda), Vec::new()))
+                }
+                QpOutcome::Ambiguous(s, _) => Err(s.mode),
+            })
+        };
+        self.flow_key = None;
+        match outcome {
+            Ok(Ok(x)) => Ok(Ok(x)),
+            Ok(Err(mode)) => Ok(Err(Termination::SeveralContactSolutions {
+                t,
+                candidates: vec![mode],
+            })),
+            Err(ContactQpError::NoSolution { .. }) => Ok(Err(Termination::NoContactSolution { t })),
+            Err(e) => Err(e.into()),
         }
     }
 }
@@ -641,6 +745,10 @@ fn kinetic_energy_at(
     data.prepare_geometry(model, terrain, ContactMode::FLIGHT, q, qd)?;
     Ok(kinetic_energy(data, qd))
 }
+
+/// Up to this many candidate contacts the complementarity problems are solved by exact
+/// enumeration of their `2ⁿ` subsets; beyond it by the convex QP of [`crate::impact_qp`].
+pub const ENUMERATION_LIMIT: usize = 10;
 
 /// An impulse this small (N s) is no verdict of its own: the pseudo-impulse decides (5.40).
 const IMPULSE_TOL_N_S: f64 = 1e-12;

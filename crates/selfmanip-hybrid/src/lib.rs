@@ -15,6 +15,7 @@
 pub mod actuated;
 pub mod dopri;
 pub mod execution;
+pub mod impact_qp;
 
 pub use actuated::{Actuated, CommandPolicy};
 pub use execution::{
