@@ -17,7 +17,6 @@ pub struct Constraints {
     pub a: DMatrix<f64>,
     pub a_dot: DMatrix<f64>,
     pub a_dot_qd: DVector<f64>,
-    row: Vec<f64>,
 }
 
 impl Constraints {
@@ -45,7 +44,11 @@ impl Constraints {
             self.a_dot = DMatrix::zeros(c, nq);
             self.a_dot_qd = DVector::zeros(c);
         }
-        self.row.resize(nq, 0.0);
+        // A and Ȧ are c×nq column-major, entry (r, k) at k·c + r; a row is nonzero only on
+        // its contact part's support
+        let (a, a_dot) = (self.a.as_mut_slice(), self.a_dot.as_mut_slice());
+        a.fill(0.0);
+        a_dot.fill(0.0);
         for (r, row) in self.rows.iter().enumerate() {
             let geo = &self
                 .geometry
@@ -54,15 +57,14 @@ impl Constraints {
                 .expect("active contact")
                 .1;
             let d = row_direction(&geo.plane, row.direction);
-            kin.point_jacobian_row(model, geo.part, geo.point, d, &mut self.row);
-            for col in 0..nq {
-                self.a[(r, col)] = -self.row[col];
+            for (k, col) in kin.point_jacobian_columns(model, geo.part, geo.point) {
+                a[k * c + r] = -d.dot(&col);
             }
-            kin.point_jacobian_rate_row(model, geo.part, geo.point_rate, d, &mut self.row);
             let mut acc = 0.0;
-            for col in 0..nq {
-                self.a_dot[(r, col)] = -self.row[col];
-                acc -= self.row[col] * qd[col];
+            for (k, col) in kin.point_jacobian_rate_columns(model, geo.part, geo.point_rate) {
+                let v = d.dot(&col);
+                a_dot[k * c + r] = -v;
+                acc -= v * qd[k];
             }
             self.a_dot_qd[r] = acc;
         }

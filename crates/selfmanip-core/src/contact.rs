@@ -342,18 +342,20 @@ pub fn contact_geometry(
             // direction into the ground in the part frame, and its normal angle α
             let (sb, cb) = kin.part_sin_cos(part);
             let d = rotate_sc((-sb, cb), n);
-            let alpha = d.x.atan2(d.y);
             let inside = match normal_range_rad {
                 None => true,
-                Some(r) => angle_in_range(alpha, *r),
+                Some(r) => angle_in_range(d.x.atan2(d.y), *r),
             };
             if inside {
                 (center_m + *radius_m * d, TouchKind::Rolling)
             } else {
                 // the lower of the two ends acts as a point
                 let r = normal_range_rad.expect("circle is always inside");
-                let e0 = center_m + *radius_m * Vector2::new(r[0].sin(), r[0].cos());
-                let e1 = center_m + *radius_m * Vector2::new(r[1].sin(), r[1].cos());
+                let end = |a: f64| {
+                    let (s, c) = a.sin_cos();
+                    center_m + *radius_m * Vector2::new(s, c)
+                };
+                let (e0, e1) = (end(r[0]), end(r[1]));
                 (
                     if e0.dot(&d) >= e1.dot(&d) { e0 } else { e1 },
                     TouchKind::Point,

@@ -43,13 +43,10 @@ pub struct Data {
     pub qdd: DVector<f64>,
     pub lambda: DVector<f64>,
     scratch: InertiaScratch,
-    m_r: DMatrix<f64>,
-    a_r: DMatrix<f64>,
+    /// The KKT right-hand side and solution on the dynamic coordinates.
     f_r: Vec<f64>,
     g_r: Vec<f64>,
     x_r: Vec<f64>,
-    f_full: Vec<f64>,
-    g_full: Vec<f64>,
 }
 
 impl Data {
@@ -114,6 +111,7 @@ impl Data {
             .assemble(model, &self.kin, terrain, mode, qd);
         // => which joints are free and massless
         self.free_joints.clear();
+        self.dynamic_coords.clear();
         for j in 0..model.n_joints() {
             let distal = model.distal(j);
             let massless = distal.clone().all(|k| model.joints[k].is_massless());
@@ -122,44 +120,38 @@ impl Data {
                 .any(|c| model.contacts[c].link.is_some_and(|l| distal.contains(&l)));
             if massless && !touched {
                 self.free_joints.push(j);
+            } else {
+                self.dynamic_coords.push(j);
             }
         }
-        self.dynamic_coords.clear();
-        self.dynamic_coords
-            .extend((0..nq).filter(|i| !self.free_joints.contains(i)));
-        let m = self.dynamic_coords.len();
-        let c = self.constraints.n_rows();
-        if self.m_r.shape() != (m, m) {
-            self.m_r = DMatrix::zeros(m, m);
-        }
-        if self.a_r.shape() != (c, m) {
-            self.a_r = DMatrix::zeros(c, m);
-        }
-        for (i, &a) in self.dynamic_coords.iter().enumerate() {
-            for (j, &b) in self.dynamic_coords.iter().enumerate() {
-                self.m_r[(i, j)] = self.m_bar[(a, b)];
-            }
-            for r in 0..c {
-                self.a_r[(r, i)] = self.constraints.a[(r, a)];
-            }
-        }
+        self.dynamic_coords.extend(model.n_joints()..nq);
         // => factor [M̄ Aᵀ; A 0] on the dynamic coordinates
-        self.kkt.factor(&self.m_r, &self.a_r)
+        self.kkt
+            .factor_on(&self.m_bar, &self.constraints.a, &self.dynamic_coords)
     }
 
-    /// Solves the prepared KKT system for the generalized force `f` (full q) and constraint
-    /// right-hand side `g` (c), writing full-length `x` (prescribed entries = `x_free`) and `y`.
+    /// Solves the prepared KKT system for the generalized force `f(self, a)` at each dynamic
+    /// coordinate `a` and the constraint right-hand side `g(self, r)` at each row `r`,
+    /// writing full-length `x` (prescribed entries = `x_free`) and `y`.
+    ///
+    /// A free joint's column of `M̄` and of `A` is zero by construction (nothing massive and
+    /// no active contact lies distal to it), so its prescribed acceleration moves nothing
+    /// else and the kept system is just `f`, `g` on the dynamic coordinates.
     fn solve_prepared(
         &mut self,
-        f: &[f64],
-        g: &[f64],
+        f: impl Fn(&Self, usize) -> f64,
+        g: impl Fn(&Self, usize) -> f64,
         x_free: Option<&[f64]>,
         x: &mut DVector<f64>,
         y: &mut DVector<f64>,
     ) {
-        let nq = f.len();
+        let nq = self.m_bar.nrows();
         let m = self.dynamic_coords.len();
-        let c = g.len();
+        let c = self.constraints.n_rows();
+        debug_assert!(self.free_joints.iter().all(|&j| {
+            self.m_bar.column(j).iter().all(|&v| v == 0.0)
+                && self.constraints.a.column(j).iter().all(|&v| v == 0.0)
+        }));
         self.f_r.resize(m, 0.0);
         self.g_r.resize(c, 0.0);
         self.x_r.resize(m, 0.0);
@@ -169,48 +161,35 @@ impl Data {
         if y.len() != c {
             *y = DVector::zeros(c);
         }
-        // prescribed accelerations of free joints move the rest through M̄ and A
-        x.fill(0.0);
-        if let Some(xf) = x_free {
-            for (i, &j) in self.free_joints.iter().enumerate() {
-                x[j] = xf[i];
-            }
-        }
-        for (i, &a) in self.dynamic_coords.iter().enumerate() {
-            let coupling: f64 = self
-                .free_joints
-                .iter()
-                .map(|&j| self.m_bar[(a, j)] * x[j])
-                .sum();
-            self.f_r[i] = f[a] - coupling;
+        for i in 0..m {
+            let fa = f(self, self.dynamic_coords[i]);
+            self.f_r[i] = fa;
         }
         for r in 0..c {
-            let coupling: f64 = self
-                .free_joints
-                .iter()
-                .map(|&j| self.constraints.a[(r, j)] * x[j])
-                .sum();
-            self.g_r[r] = g[r] - coupling;
+            let gr = g(self, r);
+            self.g_r[r] = gr;
         }
         self.kkt
             .solve(&self.f_r, &self.g_r, &mut self.x_r, y.as_mut_slice());
-        for (i, &a) in self.dynamic_coords.iter().enumerate() {
-            x[a] = self.x_r[i];
+        for (&a, &xr) in self.dynamic_coords.iter().zip(&self.x_r) {
+            x[a] = xr;
+        }
+        for (i, &j) in self.free_joints.iter().enumerate() {
+            x[j] = x_free.map_or(0.0, |xf| xf[i]);
         }
     }
 
     /// `Υ − C̄q̇ − N̄` for joint torques `tau`.
     pub fn generalized_force(&self, model: &Model, tau: &[f64]) -> DVector<f64> {
-        let mut f = Vec::new();
-        self.generalized_force_into(model, tau, &mut f);
-        DVector::from_vec(f)
+        DVector::from_fn(model.nq(), |a, _| self.generalized_force_at(model, tau, a))
     }
 
-    fn generalized_force_into(&self, model: &Model, tau: &[f64], f: &mut Vec<f64>) {
-        f.clear();
-        f.extend(self.c_qd.iter().zip(self.n_bar.iter()).map(|(c, n)| -c - n));
-        for (j, t) in tau.iter().enumerate().take(model.n_joints()) {
-            f[j] += t;
+    /// Entry `a` of [`Self::generalized_force`].
+    fn generalized_force_at(&self, model: &Model, tau: &[f64], a: usize) -> f64 {
+        let f = -self.c_qd.as_slice()[a] - self.n_bar.as_slice()[a];
+        match tau.get(a) {
+            Some(t) if a < model.n_joints() => f + t,
+            _ => f,
         }
     }
 }
@@ -246,19 +225,19 @@ pub fn forward_dynamics_prepared(
     if let Some(xf) = free_joint_qdd {
         check_vector("free_joint_qdd", xf, data.free_joints.len())?;
     }
-    let (mut f, mut g) = (
-        std::mem::take(&mut data.f_full),
-        std::mem::take(&mut data.g_full),
-    );
-    data.generalized_force_into(model, tau, &mut f);
-    g.clear();
-    g.extend(data.constraints.a_dot_qd.iter().map(|v| -v));
+    // (Υ − C̄q̇ − N̄, −Ȧq̇) => (q̈, λ)
     let (mut x, mut y) = (
         std::mem::take(&mut data.qdd),
         std::mem::take(&mut data.lambda),
     );
-    data.solve_prepared(&f, &g, free_joint_qdd, &mut x, &mut y);
-    (data.qdd, data.lambda, data.f_full, data.g_full) = (x, y, f, g);
+    data.solve_prepared(
+        |d, a| d.generalized_force_at(model, tau, a),
+        |d, r| -d.constraints.a_dot_qd.as_slice()[r],
+        free_joint_qdd,
+        &mut x,
+        &mut y,
+    );
+    (data.qdd, data.lambda) = (x, y);
     Ok(())
 }
 
@@ -286,9 +265,8 @@ pub fn plastic_impact(
     let c = data.constraints.n_rows();
     // [M̄ Aᵀ; A 0][Δq̇; P] = [0; −A q̇⁻]
     let g = -(&data.constraints.a * DVector::from_column_slice(qd_minus));
-    let f = vec![0.0; nq];
     let (mut dx, mut p) = (DVector::zeros(nq), DVector::zeros(c));
-    data.solve_prepared(&f, g.as_slice(), None, &mut dx, &mut p);
+    data.solve_prepared(|_, _| 0.0, |_, r| g[r], None, &mut dx, &mut p);
     Ok(Impact {
         qd_plus: DVector::from_column_slice(qd_minus) + dx,
         impulse: p,
@@ -309,9 +287,9 @@ pub fn pseudo_impulse(
     check_vector("tau", tau, model.n_joints())?;
     data.prepare(model, terrain, mode, q, qd_minus)?;
     let f = data.generalized_force(model, tau);
-    let g = vec![0.0; data.constraints.n_rows()];
-    let (mut x, mut y) = (DVector::zeros(model.nq()), DVector::zeros(g.len()));
-    data.solve_prepared(f.as_slice(), &g, None, &mut x, &mut y);
+    let c = data.constraints.n_rows();
+    let (mut x, mut y) = (DVector::zeros(model.nq()), DVector::zeros(c));
+    data.solve_prepared(|_, a| f[a], |_, _| 0.0, None, &mut x, &mut y);
     Ok(y * delta_t_s)
 }
 

@@ -37,6 +37,13 @@ pub struct InertiaScratch {
     jw: Vec<f64>,
     jdx: Vec<f64>,
     jdz: Vec<f64>,
+    /// The current part's support — the coordinates that move it — and, indexed by
+    /// coordinate (meaningful on the support only), its Jacobian columns `J e_k`, `J̇ e_k`
+    /// and `J_ω e_k`.
+    support: Vec<usize>,
+    j: Vec<Vector2<f64>>,
+    jd: Vec<Vector2<f64>>,
+    w: Vec<f64>,
 }
 
 impl InertiaScratch {
@@ -47,9 +54,12 @@ impl InertiaScratch {
             &mut self.jw,
             &mut self.jdx,
             &mut self.jdz,
+            &mut self.w,
         ] {
             v.resize(nq, 0.0);
         }
+        self.j.resize(nq, Vector2::zeros());
+        self.jd.resize(nq, Vector2::zeros());
     }
 }
 
@@ -57,6 +67,9 @@ const EX: Vector2<f64> = Vector2::new(1.0, 0.0);
 const EZ: Vector2<f64> = Vector2::new(0.0, 1.0);
 
 /// Writes `M̄`, `C̄ q̇` and `N̄` (the latter two as vectors) for the current kinematics.
+///
+/// A part's Jacobians vanish outside its support (its chain and `x, z, φ`: for RHex's body,
+/// 3 of 5 coordinates), so each part's sums run over its support only.
 pub fn mass_coriolis_gravity(
     model: &Model,
     kin: &Kinematics,
@@ -67,33 +80,53 @@ pub fn mass_coriolis_gravity(
     n_bar: &mut DVector<f64>,
 ) {
     let nq = model.nq();
-    s.resize(nq);
-    m_bar.fill(0.0);
+    if s.w.len() != nq {
+        s.resize(nq);
+    }
+    let (mb, c_qd, n_bar) = (
+        m_bar.as_mut_slice(),
+        c_qd.as_mut_slice(),
+        n_bar.as_mut_slice(),
+    );
+    mb.fill(0.0);
     c_qd.fill(0.0);
     n_bar.fill(0.0);
     let g = model.gravity_m_s2;
     for (part, m, inertia, com) in massive_parts(model) {
         let p = kin.point(part, com);
         let pd = kin.material_velocity(part, p);
-        kin.point_jacobian_row(model, part, p, EX, &mut s.jx);
-        kin.point_jacobian_row(model, part, p, EZ, &mut s.jz);
-        kin.angular_jacobian_row(model, part, &mut s.jw);
-        // M̄ += m Jᵀ J + I J_ωᵀ J_ω
-        for a in 0..nq {
-            for b in 0..nq {
-                m_bar[(a, b)] +=
-                    m * (s.jx[a] * s.jx[b] + s.jz[a] * s.jz[b]) + inertia * s.jw[a] * s.jw[b];
+        s.support.clear();
+        for (k, col) in kin.point_jacobian_columns(model, part, p) {
+            s.support.push(k);
+            (s.j[k], s.jd[k], s.w[k]) = (col, Vector2::zeros(), 0.0);
+        }
+        for (k, col) in kin.point_jacobian_rate_columns(model, part, pd) {
+            s.jd[k] = col;
+        }
+        for (k, w) in kin.angular_jacobian_entries(model, part) {
+            s.w[k] = w;
+        }
+        let (sup, j, jd, w) = (&s.support[..], &s.j[..], &s.jd[..], &s.w[..]);
+        // M̄ += m Jᵀ J + I J_ωᵀ J_ω   (one triangle, mirrored: M̄ is exactly symmetric)
+        for (ib, &b) in sup.iter().enumerate() {
+            for &a in &sup[ib..] {
+                let mab = m * (j[a].x * j[b].x + j[a].y * j[b].y) + inertia * w[a] * w[b];
+                mb[b * nq + a] += mab;
+                if a != b {
+                    mb[a * nq + b] += mab;
+                }
             }
         }
         // C̄ q̇ += m Jᵀ (J̇ q̇)   (planar: J̇_ω = 0)
-        kin.point_jacobian_rate_row(model, part, pd, EX, &mut s.jdx);
-        kin.point_jacobian_rate_row(model, part, pd, EZ, &mut s.jdz);
-        let ax: f64 = s.jdx.iter().zip(qd).map(|(a, b)| a * b).sum();
-        let az: f64 = s.jdz.iter().zip(qd).map(|(a, b)| a * b).sum();
-        for a in 0..nq {
-            c_qd[a] += m * (s.jx[a] * ax + s.jz[a] * az);
+        let (mut ax, mut az) = (0.0, 0.0);
+        for &a in sup {
+            ax += jd[a].x * qd[a];
+            az += jd[a].y * qd[a];
+        }
+        for &a in sup {
+            c_qd[a] += m * (j[a].x * ax + j[a].y * az);
             // N̄ = ∂V/∂q with V = −m g z_com (z down)
-            n_bar[a] -= m * g * s.jz[a];
+            n_bar[a] -= m * g * j[a].y;
         }
     }
 }

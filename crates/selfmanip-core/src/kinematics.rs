@@ -40,11 +40,13 @@ impl Kinematics {
     /// Recomputes every pose and velocity (no allocation after the first call).
     pub fn compute(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
         let n = model.n_joints();
-        self.origin.resize(n, Vector2::zeros());
-        self.origin_vel.resize(n, Vector2::zeros());
-        self.beta.resize(n, 0.0);
-        self.beta_dot.resize(n, 0.0);
-        self.link_sc.resize(n, (0.0, 1.0));
+        if self.link_sc.len() != n {
+            self.origin.resize(n, Vector2::zeros());
+            self.origin_vel.resize(n, Vector2::zeros());
+            self.beta.resize(n, 0.0);
+            self.beta_dot.resize(n, 0.0);
+            self.link_sc.resize(n, (0.0, 1.0));
+        }
         self.body_pos = Vector2::new(q[n], q[n + 1]);
         self.body_vel = Vector2::new(qd[n], qd[n + 1]);
         self.phi = q[n + 2];
@@ -117,6 +119,64 @@ impl Kinematics {
         od + self.part_angle_rate(part) * perp(p - o)
     }
 
+    /// The joints that move `part`: its chain (none for the body). With the body pose
+    /// `x, z, φ` they are the only columns where its Jacobians can be nonzero.
+    fn chain(model: &Model, part: Part) -> std::ops::Range<usize> {
+        match part {
+            Part::Body => 0..0,
+            Part::Link(j) => *model.chain(j).start()..j + 1,
+        }
+    }
+
+    /// The nonzero columns `(k, J_p e_k)` of the 2×nq translational Jacobian of the material
+    /// point of `part` at world position `p`, in ascending `k`: the chain's joints, then
+    /// `x, z, φ`.
+    pub(crate) fn point_jacobian_columns<'a>(
+        &'a self,
+        model: &'a Model,
+        part: Part,
+        p: Vector2<f64>,
+    ) -> impl Iterator<Item = (usize, Vector2<f64>)> + 'a {
+        let n = model.n_joints();
+        Self::chain(model, part)
+            .map(move |k| (k, model.joints[k].axis_sign * perp(p - self.origin[k])))
+            .chain([
+                (n, Vector2::new(1.0, 0.0)),
+                (n + 1, Vector2::new(0.0, 1.0)),
+                (n + 2, perp(p - self.body_pos)),
+            ])
+    }
+
+    /// The nonzero columns `(k, J̇_p e_k)` of the time derivative of the point Jacobian when
+    /// the evaluation point moves with velocity `p_dot`: the chain's joints, then `φ`.
+    pub(crate) fn point_jacobian_rate_columns<'a>(
+        &'a self,
+        model: &'a Model,
+        part: Part,
+        p_dot: Vector2<f64>,
+    ) -> impl Iterator<Item = (usize, Vector2<f64>)> + 'a {
+        let n = model.n_joints();
+        Self::chain(model, part)
+            .map(move |k| {
+                let s = model.joints[k].axis_sign;
+                (k, s * perp(p_dot - self.origin_vel[k]))
+            })
+            .chain([(n + 2, perp(p_dot - self.body_vel))])
+    }
+
+    /// The nonzero entries `(k, J_ω e_k)` of the angular Jacobian row of a part: the chain's
+    /// joints, then `φ`.
+    pub(crate) fn angular_jacobian_entries<'a>(
+        &self,
+        model: &'a Model,
+        part: Part,
+    ) -> impl Iterator<Item = (usize, f64)> + 'a {
+        let n = model.n_joints();
+        Self::chain(model, part)
+            .map(|k| (k, model.joints[k].axis_sign))
+            .chain([(n + 2, 1.0)])
+    }
+
     /// Writes the 2×nq Jacobian of the material point of `part` at world position `p`
     /// (projected on the unit direction `d`) into `row`: `row = dᵀ J_p`.
     pub fn point_jacobian_row(
@@ -127,15 +187,9 @@ impl Kinematics {
         d: Vector2<f64>,
         row: &mut [f64],
     ) {
-        let n = model.n_joints();
-        row.iter_mut().for_each(|x| *x = 0.0);
-        row[n] = d.x;
-        row[n + 1] = d.y;
-        row[n + 2] = d.dot(&perp(p - self.body_pos));
-        if let Part::Link(j) = part {
-            for k in model.chain(j) {
-                row[k] = model.joints[k].axis_sign * d.dot(&perp(p - self.origin[k]));
-            }
+        row.fill(0.0);
+        for (k, col) in self.point_jacobian_columns(model, part, p) {
+            row[k] = d.dot(&col);
         }
     }
 
@@ -149,25 +203,17 @@ impl Kinematics {
         d: Vector2<f64>,
         row: &mut [f64],
     ) {
-        let n = model.n_joints();
-        row.iter_mut().for_each(|x| *x = 0.0);
-        row[n + 2] = d.dot(&perp(p_dot - self.body_vel));
-        if let Part::Link(j) = part {
-            for k in model.chain(j) {
-                row[k] = model.joints[k].axis_sign * d.dot(&perp(p_dot - self.origin_vel[k]));
-            }
+        row.fill(0.0);
+        for (k, col) in self.point_jacobian_rate_columns(model, part, p_dot) {
+            row[k] = d.dot(&col);
         }
     }
 
     /// Angular Jacobian row of a part: `ω = row · q̇`.
     pub fn angular_jacobian_row(&self, model: &Model, part: Part, row: &mut [f64]) {
-        let n = model.n_joints();
-        row.iter_mut().for_each(|x| *x = 0.0);
-        row[n + 2] = 1.0;
-        if let Part::Link(j) = part {
-            for k in model.chain(j) {
-                row[k] = model.joints[k].axis_sign;
-            }
+        row.fill(0.0);
+        for (k, w) in self.angular_jacobian_entries(model, part) {
+            row[k] = w;
         }
     }
 

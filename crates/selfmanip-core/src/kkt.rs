@@ -21,7 +21,8 @@ use serde::Serialize;
 
 /// Relative tolerance on the QR diagonal of `Aᵀ` below which rows are dependent.
 pub const RANK_TOLERANCE: f64 = 1e-10;
-/// Relative tolerance on the Cholesky pivots of `M̃` below which Lemma 5.1 fails.
+/// Relative tolerance on the Cholesky pivots of `M̃` (relative to the largest diagonal entry
+/// of `M̃` or `M̄`) below which Lemma 5.1 fails.
 pub const PIVOT_TOLERANCE: f64 = 1e-11;
 
 /// Non-fatal diagnostics of a successful factorization.
@@ -45,20 +46,77 @@ pub struct KktBlocks {
 }
 
 /// A reusable factorization (allocates only when sizes grow).
+///
+/// Storage is flat and column-major, sized for the current `m` and `c`. At the sizes of a
+/// planar robot (`m ≲ 10`, `c ≲ 6`) loop overhead, not arithmetic, is what costs, so:
+/// every length-`m` operation runs over the whole column (the reflectors carry explicit
+/// zeros above their pivot), the kernels are compiled for each small `m` (see [`Dim`]) so that
+/// those loops unroll, and the factor keeps `Q` explicitly and the reciprocals of the pivots so
+/// that [`Self::solve`] is a few matrix–vector products with no divisions.
 #[derive(Debug, Clone, Default)]
 pub struct KktFactorization {
     m: usize,
     c: usize,
-    q: DMatrix<f64>,
-    r: DMatrix<f64>,
-    mbar: DMatrix<f64>,
-    l: DMatrix<f64>,
-    work: DMatrix<f64>,
+    /// `M̄` (m×m), for the residual `f − M̄x` of the multiplier solve.
+    mbar: Vec<f64>,
+    /// `Aᵀ` (m×c), reduced in place by the QR: `R` is its upper triangle.
+    r: Vec<f64>,
+    /// Householder reflectors `H_k = I − β_k v_k v_kᵀ` (`v_k`: m×c, zero above row `k`;
+    /// `β_k = 0`: `H_k = I`).
     v: Vec<f64>,
-    t1: Vec<f64>,
-    t2: Vec<f64>,
-    t3: Vec<f64>,
+    beta: Vec<f64>,
+    /// `R_kk` and `1/R_kk`.
+    r_diag: Vec<f64>,
+    r_inv: Vec<f64>,
+    /// `Q = H₁ ⋯ H_c = [Q₁ Q₂]` (m×m).
+    q: Vec<f64>,
+    /// `Q₁ᵀ M̄ Q₂` (c×e).
+    g12: Vec<f64>,
+    /// `M̃ = Q₂ᵀ M̄ Q₂` (e×e), overwritten by its Cholesky factor `L` (lower), and `1/L_jj`.
+    l: Vec<f64>,
+    l_inv: Vec<f64>,
+    /// `m` scratch entries.
+    t: Vec<f64>,
     pub info: KktInfo,
+}
+
+/// A dimension known at compile time ([`Fixed`]) or only at run time (`usize`). The KKT
+/// kernels are written once, generic over the number of coordinates `m`, and instantiated
+/// for the small `m` of planar robots, where every length-`m` loop then unrolls.
+trait Dim: Copy {
+    fn get(self) -> usize;
+}
+
+impl Dim for usize {
+    #[inline(always)]
+    fn get(self) -> usize {
+        self
+    }
+}
+
+#[derive(Clone, Copy)]
+struct Fixed<const N: usize>;
+
+impl<const N: usize> Dim for Fixed<N> {
+    #[inline(always)]
+    fn get(self) -> usize {
+        N
+    }
+}
+
+/// Calls `$kernel(dim, …)` with `dim` a [`Fixed`] size for `m` in 3..=8, else `m` itself.
+macro_rules! with_dim {
+    ($m:expr, $kernel:ident($($arg:expr),*)) => {
+        match $m {
+            3 => $kernel(Fixed::<3>, $($arg),*),
+            4 => $kernel(Fixed::<4>, $($arg),*),
+            5 => $kernel(Fixed::<5>, $($arg),*),
+            6 => $kernel(Fixed::<6>, $($arg),*),
+            7 => $kernel(Fixed::<7>, $($arg),*),
+            8 => $kernel(Fixed::<8>, $($arg),*),
+            m => $kernel(m, $($arg),*),
+        }
+    };
 }
 
 impl KktFactorization {
@@ -71,247 +129,71 @@ impl KktFactorization {
 
     /// Factors `[M̄ Aᵀ; A 0]` (`M̄`: m×m symmetric PSD, `A`: c×m).
     pub fn factor(&mut self, mbar: &DMatrix<f64>, a: &DMatrix<f64>) -> Result<()> {
-        let m = mbar.nrows();
-        let c = a.nrows();
-        debug_assert_eq!(a.ncols(), m);
-        self.m = m;
-        self.c = c;
-        if c > m {
-            return Err(self.singular(mbar, a, SingularityKind::RedundantConstraints));
-        }
-        let e = m - c;
-        if self.q.shape() != (m, m) {
-            self.q = DMatrix::zeros(m, m);
-            self.mbar = DMatrix::zeros(m, m);
-        }
-        if self.r.shape() != (c, c) {
-            self.r = DMatrix::zeros(c, c);
-        }
-        if self.work.shape() != (m, c) {
-            self.work = DMatrix::zeros(m, c);
-        }
-        if self.l.shape() != (e, e) {
-            self.l = DMatrix::zeros(e, e);
-        }
-        self.v.resize(m, 0.0);
-        self.t1.resize(m, 0.0);
-        self.t2.resize(m, 0.0);
-        self.t3.resize(m, 0.0);
-        self.mbar.copy_from(mbar);
-
-        // Householder QR of Aᵀ, accumulating Q = H₁ H₂ … H_c. Column-major slices: every
-        // inner loop runs down a contiguous column.
-        self.q.fill_with_identity();
-        for i in 0..m {
-            for k in 0..c {
-                self.work[(i, k)] = a[(k, i)];
-            }
-        }
-        let work = self.work.as_mut_slice();
-        let q = self.q.as_mut_slice();
-        let v = &mut self.v[..m];
-        let w = &mut self.t1[..m];
-        for k in 0..c {
-            let col_k = &work[k * m..(k + 1) * m];
-            let norm = col_k[k..].iter().map(|x| x * x).sum::<f64>().sqrt();
-            if norm == 0.0 {
-                continue;
-            }
-            let x0 = col_k[k];
-            let alpha = if x0 >= 0.0 { -norm } else { norm };
-            v[..k].fill(0.0);
-            v[k..].copy_from_slice(&col_k[k..]);
-            v[k] -= alpha;
-            let vnorm2: f64 = v[k..].iter().map(|x| x * x).sum();
-            if vnorm2 == 0.0 {
-                continue;
-            }
-            let beta = 2.0 / vnorm2;
-            // work ← H work on columns k..c
-            for col in k..c {
-                let wc = &mut work[col * m..(col + 1) * m];
-                let s = beta * (k..m).map(|i| v[i] * wc[i]).sum::<f64>();
-                for i in k..m {
-                    wc[i] -= s * v[i];
-                }
-            }
-            // Q ← Q H = Q − β (Q v) vᵀ
-            w.fill(0.0);
-            for i in k..m {
-                let qi = &q[i * m..(i + 1) * m];
-                for row in 0..m {
-                    w[row] += qi[row] * v[i];
-                }
-            }
-            for i in k..m {
-                let s = beta * v[i];
-                let qi = &mut q[i * m..(i + 1) * m];
-                for row in 0..m {
-                    qi[row] -= s * w[row];
-                }
-            }
-        }
-        for i in 0..c {
-            for j in 0..c {
-                self.r[(i, j)] = if j >= i { self.work[(i, j)] } else { 0.0 };
-            }
-        }
-        let (mut rmin, mut rmax) = (f64::INFINITY, 0.0f64);
-        for i in 0..c {
-            let d = self.r[(i, i)].abs();
-            rmin = rmin.min(d);
-            rmax = rmax.max(d);
-        }
-        if c > 0 && (rmax == 0.0 || rmin <= RANK_TOLERANCE * rmax || !rmin.is_finite()) {
-            return Err(self.singular(mbar, a, SingularityKind::RedundantConstraints));
-        }
-
-        // M̃ = Q₂ᵀ (M̄ Q₂) and its Cholesky factor L (lower).
-        let (q, mb) = (self.q.as_slice(), mbar.as_slice());
-        for j in 0..e {
-            // t2 = M̄ q_{c+j}
-            let qj = &q[(c + j) * m..(c + j + 1) * m];
-            let t = &mut self.t2[..m];
-            t.fill(0.0);
-            for (s, &qs) in qj.iter().enumerate() {
-                if qs != 0.0 {
-                    let col = &mb[s * m..(s + 1) * m];
-                    for p in 0..m {
-                        t[p] += col[p] * qs;
-                    }
-                }
-            }
-            for i in j..e {
-                let qi = &q[(c + i) * m..(c + i + 1) * m];
-                let acc: f64 = qi.iter().zip(t.iter()).map(|(a, b)| a * b).sum();
-                self.l[(i, j)] = acc;
-                self.l[(j, i)] = acc;
-            }
-        }
-        let scale = (0..e).map(|i| self.l[(i, i)].abs()).fold(0.0, f64::max);
-        let (mut dmin, mut dmax) = (f64::INFINITY, 0.0f64);
-        for j in 0..e {
-            let mut d = self.l[(j, j)];
-            for k in 0..j {
-                d -= self.l[(j, k)] * self.l[(j, k)];
-            }
-            if !(d > PIVOT_TOLERANCE * scale) || scale == 0.0 {
-                return Err(self.singular(mbar, a, SingularityKind::UnconstrainedMasslessMotion));
-            }
-            dmin = dmin.min(d);
-            dmax = dmax.max(d);
-            let ljj = d.sqrt();
-            self.l[(j, j)] = ljj;
-            for i in j + 1..e {
-                let mut s = self.l[(i, j)];
-                for k in 0..j {
-                    s -= self.l[(i, k)] * self.l[(j, k)];
-                }
-                self.l[(i, j)] = s / ljj;
-            }
-        }
-        for i in 0..e {
-            for j in i + 1..e {
-                self.l[(i, j)] = 0.0;
-            }
-        }
-        self.info = KktInfo {
-            constraint_condition: if c > 0 { rmax / rmin } else { 1.0 },
-            reduced_mass_condition: if e > 0 { dmax / dmin } else { 1.0 },
-        };
-        Ok(())
+        debug_assert_eq!(a.ncols(), mbar.nrows());
+        self.load(mbar, a, None);
+        with_dim!(self.m, factor_kernel(self))
+            .map_err(|kind| singular(mbar.clone(), a.clone(), kind))
     }
 
-    fn singular(&self, mbar: &DMatrix<f64>, a: &DMatrix<f64>, kind: SingularityKind) -> CoreError {
-        CoreError::SingularKkt {
-            kind,
-            condition_estimate: kkt_condition_number(mbar, a),
+    /// [`Self::factor`] on the coordinates `coords` of a larger system: `M̄[coords, coords]`
+    /// and `A[:, coords]`, gathered straight into the factorization (no reduced copies).
+    pub(crate) fn factor_on(
+        &mut self,
+        mbar: &DMatrix<f64>,
+        a: &DMatrix<f64>,
+        coords: &[usize],
+    ) -> Result<()> {
+        self.load(mbar, a, Some(coords));
+        with_dim!(self.m, factor_kernel(self)).map_err(|kind| {
+            singular(
+                mbar.select_rows(coords).select_columns(coords),
+                a.select_columns(coords),
+                kind,
+            )
+        })
+    }
+
+    /// Sizes the storage and copies `M̄[coords, coords]` and `A[:, coords]ᵀ` in (all
+    /// coordinates when `coords` is `None`).
+    fn load(&mut self, mbar: &DMatrix<f64>, a: &DMatrix<f64>, coords: Option<&[usize]>) {
+        let m = coords.map_or(mbar.nrows(), <[usize]>::len);
+        let c = a.nrows();
+        if (m, c) != (self.m, self.c) || self.q.len() != m * m {
+            let e = m.saturating_sub(c);
+            self.m = m;
+            self.c = c;
+            self.mbar.resize(m * m, 0.0);
+            self.r.resize(m * c, 0.0);
+            self.v.resize(m * c, 0.0);
+            self.beta.resize(c, 0.0);
+            self.r_diag.resize(c, 0.0);
+            self.r_inv.resize(c, 0.0);
+            self.q.resize(m * m, 0.0);
+            self.g12.resize(c * e, 0.0);
+            self.l.resize(e * e, 0.0);
+            self.l_inv.resize(e, 0.0);
+            self.t.resize(m, 0.0);
+        }
+        match coords {
+            None => {
+                self.mbar.copy_from_slice(mbar.as_slice());
+                with_dim!(m, load_at(self, a, |i| i));
+            }
+            Some(coords) => {
+                with_dim!(m, load_mbar(self, mbar, coords));
+                with_dim!(m, load_at(self, a, |i| coords[i]));
+            }
         }
     }
 
     /// Solves `[M̄ Aᵀ; A 0][x; y] = [f; g]` with the current factorization.
+    ///
+    /// With `x = Q x̃` and `A = [Rᵀ 0] Qᵀ`: `x̃₁ = R⁻ᵀ g`, `M̃ x̃₂ = Q₂ᵀ f − (Q₁ᵀM̄Q₂)ᵀ x̃₁`,
+    /// and `y = R⁻¹ Q₁ᵀ (f − M̄ x)`.
     pub fn solve(&mut self, f: &[f64], g: &[f64], x: &mut [f64], y: &mut [f64]) {
         let (m, c) = (self.m, self.c);
-        let e = m - c;
-        debug_assert!(f.len() == m && g.len() == c && x.len() == m && y.len() == c);
-        // x₁ = R⁻ᵀ g  (Rᵀ lower triangular): stored in y temporarily
-        for i in 0..c {
-            let mut s = g[i];
-            for k in 0..i {
-                s -= self.r[(k, i)] * y[k];
-            }
-            y[i] = s / self.r[(i, i)];
-        }
-        let (q, mb) = (self.q.as_slice(), self.mbar.as_slice());
-        let col = |j: usize| j * m..(j + 1) * m;
-        // x = Q₁ x₁
-        x.fill(0.0);
-        for k in 0..c {
-            for (xp, qp) in x.iter_mut().zip(&q[col(k)]) {
-                *xp += qp * y[k];
-            }
-        }
-        // t1 = f − M̄ x   (M̄ symmetric: row p = column p)
-        for p in 0..m {
-            self.t1[p] = f[p]
-                - mb[col(p)]
-                    .iter()
-                    .zip(x.iter())
-                    .map(|(a, b)| a * b)
-                    .sum::<f64>();
-        }
-        // t2 = Q₂ᵀ t1 ; solve L Lᵀ z = t2
-        for i in 0..e {
-            self.t2[i] = q[col(c + i)]
-                .iter()
-                .zip(&self.t1[..m])
-                .map(|(a, b)| a * b)
-                .sum();
-        }
-        for i in 0..e {
-            let mut s = self.t2[i];
-            for k in 0..i {
-                s -= self.l[(i, k)] * self.t2[k];
-            }
-            self.t2[i] = s / self.l[(i, i)];
-        }
-        for i in (0..e).rev() {
-            let mut s = self.t2[i];
-            for k in i + 1..e {
-                s -= self.l[(k, i)] * self.t2[k];
-            }
-            self.t2[i] = s / self.l[(i, i)];
-        }
-        // x += Q₂ z
-        for i in 0..e {
-            let zi = self.t2[i];
-            for (xp, qp) in x.iter_mut().zip(&q[col(c + i)]) {
-                *xp += qp * zi;
-            }
-        }
-        // y = R⁻¹ Q₁ᵀ (f − M̄ x)
-        for p in 0..m {
-            self.t3[p] = f[p]
-                - mb[col(p)]
-                    .iter()
-                    .zip(x.iter())
-                    .map(|(a, b)| a * b)
-                    .sum::<f64>();
-        }
-        for k in 0..c {
-            y[k] = q[col(k)]
-                .iter()
-                .zip(&self.t3[..m])
-                .map(|(a, b)| a * b)
-                .sum();
-        }
-        for i in (0..c).rev() {
-            let mut s = y[i];
-            for k in i + 1..c {
-                s -= self.r[(i, k)] * y[k];
-            }
-            y[i] = s / self.r[(i, i)];
-        }
+        assert!(f.len() == m && g.len() == c && x.len() == m && y.len() == c);
+        with_dim!(m, solve_kernel(self, f, g, x, y));
     }
 
     /// The blocks `M†`, `A†`, `Λ` of the inverse (column by column).
@@ -353,7 +235,250 @@ impl KktFactorization {
 
     /// Basis of the free motions `Q₂` (columns span `ker A`).
     pub fn null_space_basis(&self) -> DMatrix<f64> {
-        self.q.columns(self.c, self.m - self.c).into_owned()
+        let (m, c) = (self.m, self.c);
+        DMatrix::from_column_slice(m, m - c, &self.q[c * m..m * m])
+    }
+}
+
+/// `M̄[coords, coords]` into the factorization, for `m = dim`.
+fn load_mbar<D: Dim>(dim: D, k: &mut KktFactorization, mbar: &DMatrix<f64>, coords: &[usize]) {
+    let (m, nq, mb) = (dim.get(), mbar.nrows(), mbar.as_slice());
+    let coords = &coords[..m];
+    for j in 0..m {
+        let (src, dst) = (&mb[coords[j] * nq..(coords[j] + 1) * nq], &mut k.mbar[j * m..]);
+        for i in 0..m {
+            dst[i] = src[coords[i]];
+        }
+    }
+}
+
+/// `A[:, coord]ᵀ` into the factorization, for `m = dim`.
+fn load_at<D: Dim>(dim: D, k: &mut KktFactorization, a: &DMatrix<f64>, coord: impl Fn(usize) -> usize) {
+    let (m, c, at) = (dim.get(), k.c, a.as_slice());
+    let r = &mut k.r[..m * c];
+    // A is c×nq column-major: column coord(i) of A is row i of Aᵀ
+    for i in 0..m {
+        let src = &at[coord(i) * c..(coord(i) + 1) * c];
+        for (kk, &x) in src.iter().enumerate() {
+            r[kk * m + i] = x;
+        }
+    }
+}
+
+/// The factorization proper, on the loaded `M̄` and `Aᵀ`, for `m = dim`; a Lemma 5.1 failure
+/// is returned as its kind (the caller, which still holds the inputs, adds the condition).
+fn factor_kernel<D: Dim>(
+    dim: D,
+    k: &mut KktFactorization,
+) -> std::result::Result<(), SingularityKind> {
+    let (m, c) = (dim.get(), k.c);
+    if c > m {
+        return Err(SingularityKind::RedundantConstraints);
+    }
+    let e = m - c;
+    let (mbar, r, v, q) = (
+        &k.mbar[..m * m],
+        &mut k.r[..m * c],
+        &mut k.v[..m * c],
+        &mut k.q[..m * m],
+    );
+    let col = |j: usize| j * m..(j + 1) * m;
+
+    // Householder QR of Aᵀ: H_k reflects rows k.. of column k onto α e_k, with
+    // v_k = x − α e_k and β_k = 2/‖v_k‖² = 1/(‖x‖² − α x_k); then H_k acts on the columns
+    // to the right (v_k is zero above row k, so their first k rows, R's, stay).
+    for i in 0..c {
+        let (done, rest) = r.split_at_mut((i + 1) * m);
+        let x = &done[col(i)];
+        let vi = &mut v[col(i)];
+        for p in 0..m {
+            vi[p] = if p >= i { x[p] } else { 0.0 };
+        }
+        let norm2 = dot(dim, vi, vi);
+        let norm = norm2.sqrt();
+        let alpha = if x[i] >= 0.0 { -norm } else { norm };
+        k.r_diag[i] = alpha;
+        if norm2 == 0.0 {
+            k.beta[i] = 0.0;
+            continue;
+        }
+        let beta = 1.0 / (norm2 - alpha * x[i]);
+        k.beta[i] = beta;
+        vi[i] -= alpha;
+        for j in i + 1..c {
+            reflect(dim, vi, beta, &mut rest[col(j - i - 1)]);
+        }
+    }
+    let (mut rmin, mut rmax) = (f64::INFINITY, 0.0f64);
+    for &d in &k.r_diag {
+        rmin = rmin.min(d.abs());
+        rmax = rmax.max(d.abs());
+    }
+    if c > 0 && (rmax == 0.0 || rmin <= RANK_TOLERANCE * rmax || !rmin.is_finite()) {
+        return Err(SingularityKind::RedundantConstraints);
+    }
+    for (ri, &d) in k.r_inv.iter_mut().zip(&k.r_diag) {
+        *ri = 1.0 / d;
+    }
+
+    // Q e_j = H₁ ⋯ H_c e_j, where H_i e_j = e_j for i > j (v_i is zero above row i)
+    for j in 0..m {
+        let qj = &mut q[col(j)];
+        qj.fill(0.0);
+        qj[j] = 1.0;
+        for i in (0..c.min(j + 1)).rev() {
+            if k.beta[i] != 0.0 {
+                reflect(dim, &v[col(i)], k.beta[i], qj);
+            }
+        }
+    }
+
+    // t = M̄ q_{c+j};  Q₁ᵀ M̄ Q₂ and the lower triangle of M̃ = Q₂ᵀ M̄ Q₂
+    let t = &mut k.t[..m];
+    for j in 0..e {
+        t.fill(0.0);
+        for s in 0..m {
+            axpy(dim, q[(c + j) * m + s], &mbar[col(s)], t);
+        }
+        for i in 0..c {
+            k.g12[j * c + i] = dot(dim, &q[col(i)], t);
+        }
+        for i in j..e {
+            k.l[j * e + i] = dot(dim, &q[col(c + i)], t);
+        }
+    }
+
+    // M̃ = L Lᵀ, pivots tested against Lemma 5.1. The pivot scale includes M̄'s own diagonal:
+    // relative to M̃ alone, a 1×1 M̃ that is rounding noise (a massless joint that no contact
+    // pins down) would always pass.
+    let l = &mut k.l[..e * e];
+    let scale = (0..e)
+        .map(|i| l[i * e + i].abs())
+        .chain((0..m).map(|i| mbar[i * m + i].abs()))
+        .fold(0.0, f64::max);
+    let (mut dmin, mut dmax) = (f64::INFINITY, 0.0f64);
+    for j in 0..e {
+        // column j of L: rows j.. of column j of M̃ minus the earlier columns
+        for i in 0..j {
+            let lji = l[i * e + j];
+            let (left, right) = l.split_at_mut(j * e);
+            for (lpj, lpi) in right[j..e].iter_mut().zip(&left[i * e + j..(i + 1) * e]) {
+                *lpj -= lpi * lji;
+            }
+        }
+        let d = l[j * e + j];
+        if !(d > PIVOT_TOLERANCE * scale) || scale == 0.0 {
+            return Err(SingularityKind::UnconstrainedMasslessMotion);
+        }
+        dmin = dmin.min(d);
+        dmax = dmax.max(d);
+        let inv = 1.0 / d.sqrt();
+        k.l_inv[j] = inv;
+        l[j * e + j..(j + 1) * e].iter_mut().for_each(|x| *x *= inv);
+    }
+    k.info = KktInfo {
+        constraint_condition: if c > 0 { rmax / rmin } else { 1.0 },
+        reduced_mass_condition: if e > 0 { dmax / dmin } else { 1.0 },
+    };
+    Ok(())
+}
+
+/// [`KktFactorization::solve`] for `m = dim`.
+fn solve_kernel<D: Dim>(
+    dim: D,
+    k: &mut KktFactorization,
+    f: &[f64],
+    g: &[f64],
+    x: &mut [f64],
+    y: &mut [f64],
+) {
+    let (m, c) = (dim.get(), k.c);
+    let e = m - c;
+    let (mbar, r, q, f, x) = (&k.mbar[..m * m], &k.r[..m * c], &k.q[..m * m], &f[..m], &mut x[..m]);
+    let col = |j: usize| j * m..(j + 1) * m;
+    let xt = &mut k.t[..m];
+    // x̃₁ = R⁻ᵀ g  (Rᵀ lower triangular; row i of Rᵀ is R[..i, i], above the diagonal)
+    for i in 0..c {
+        let ri = &r[i * m..i * m + i];
+        let s = g[i] - ri.iter().zip(&xt[..i]).map(|(a, b)| a * b).sum::<f64>();
+        xt[i] = s * k.r_inv[i];
+    }
+    // x̃₂ = L⁻ᵀ L⁻¹ (Q₂ᵀ f − (Q₁ᵀ M̄ Q₂)ᵀ x̃₁)
+    for j in 0..e {
+        let g12j = &k.g12[j * c..(j + 1) * c];
+        xt[c + j] = dot(dim, &q[col(c + j)], f)
+            - g12j.iter().zip(&xt[..c]).map(|(a, b)| a * b).sum::<f64>();
+    }
+    let (l, z) = (&k.l[..e * e], &mut xt[c..]);
+    for i in 0..e {
+        let mut s = z[i];
+        for p in 0..i {
+            s -= l[p * e + i] * z[p];
+        }
+        z[i] = s * k.l_inv[i];
+    }
+    for i in (0..e).rev() {
+        let mut s = z[i];
+        for p in i + 1..e {
+            s -= l[i * e + p] * z[p];
+        }
+        z[i] = s * k.l_inv[i];
+    }
+    // x = Q x̃
+    x.fill(0.0);
+    for j in 0..m {
+        axpy(dim, xt[j], &q[col(j)], x);
+    }
+    // t = f − M̄ x   (M̄ symmetric: row p = column p);  y = R⁻¹ Q₁ᵀ t
+    if c == 0 {
+        return;
+    }
+    let t = xt;
+    for p in 0..m {
+        t[p] = f[p] - dot(dim, &mbar[col(p)], x);
+    }
+    for i in (0..c).rev() {
+        let mut s = dot(dim, &q[col(i)], t);
+        for p in i + 1..c {
+            s -= r[p * m + i] * y[p];
+        }
+        y[i] = s * k.r_inv[i];
+    }
+}
+
+/// `aᵀ b` over the first `dim` entries.
+#[inline(always)]
+fn dot<D: Dim>(dim: D, a: &[f64], b: &[f64]) -> f64 {
+    let (a, b) = (&a[..dim.get()], &b[..dim.get()]);
+    let mut s = 0.0;
+    for i in 0..dim.get() {
+        s += a[i] * b[i];
+    }
+    s
+}
+
+/// `y ← y + α x` over the first `dim` entries.
+#[inline(always)]
+fn axpy<D: Dim>(dim: D, alpha: f64, x: &[f64], y: &mut [f64]) {
+    let (x, y) = (&x[..dim.get()], &mut y[..dim.get()]);
+    for i in 0..dim.get() {
+        y[i] += alpha * x[i];
+    }
+}
+
+/// `x ← H x = x − β v (vᵀ x)` for one Householder reflector.
+#[inline(always)]
+fn reflect<D: Dim>(dim: D, v: &[f64], beta: f64, x: &mut [f64]) {
+    let s = beta * dot(dim, v, x);
+    axpy(dim, -s, v, x);
+}
+
+/// The typed Lemma 5.1 failure, with the 2-norm condition of the KKT matrix (an SVD: error
+/// path only).
+fn singular(mbar: DMatrix<f64>, a: DMatrix<f64>, kind: SingularityKind) -> CoreError {
+    CoreError::SingularKkt {
+        kind,
+        condition_estimate: kkt_condition_number(&mbar, &a),
     }
 }
 
