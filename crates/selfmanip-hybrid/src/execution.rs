@@ -513,7 +513,7 @@ impl<'a> Sim<'a> {
         q: &[f64],
         qd: &[f64],
         impact: bool,
-    ) -> Result<Result<(ContactMode, Vec<f64>, Vec<f64>), Termination>, HybridError> {
+    ) -> Result<Selection, HybridError> {
         let n = candidates.len();
         if n > ENUMERATION_LIMIT {
             return self.select_by_qp(t, candidates, prefer, q, qd, impact);
@@ -576,7 +576,7 @@ impl<'a> Sim<'a> {
         q: &[f64],
         qd: &[f64],
         impact: bool,
-    ) -> Result<Result<(ContactMode, Vec<f64>, Vec<f64>), Termination>, HybridError> {
+    ) -> Result<Selection, HybridError> {
         let sliding = |k: usize| {
             prefer.kind(k) == Some(ContactKind::Slide)
                 || matches!(self.model.contacts[k].friction, Friction::Sliding)
@@ -745,6 +745,11 @@ fn kinetic_energy_at(
     data.prepare_geometry(model, terrain, ContactMode::FLIGHT, q, qd)?;
     Ok(kinetic_energy(data, qd))
 }
+
+/// What complementarity selects at an event: the mode after it with the contact impulses
+/// (forces at liftoff) and pseudo-impulses in its rows, or the typed end of the execution
+/// when no or several contact sets qualify.
+type Selection = Result<(ContactMode, Vec<f64>, Vec<f64>), Termination>;
 
 /// Up to this many candidate contacts the complementarity problems are solved by exact
 /// enumeration of their `2ⁿ` subsets; beyond it by the convex QP of [`crate::impact_qp`].
