@@ -57,15 +57,15 @@ impl Constraints {
                 .expect("active contact")
                 .1;
             let d = row_direction(&geo.plane, row.direction);
-            for (k, col) in kin.point_jacobian_columns(model, geo.part, geo.point) {
+            kin.point_jacobian_columns(model, geo.part, geo.point, |k, col| {
                 a[k * c + r] = -d.dot(&col);
-            }
+            });
             let mut acc = 0.0;
-            for (k, col) in kin.point_jacobian_rate_columns(model, geo.part, geo.point_rate) {
+            kin.point_jacobian_rate_columns(model, geo.part, geo.point_rate, |k, col| {
                 let v = d.dot(&col);
                 a_dot[k * c + r] = -v;
                 acc -= v * qd[k];
-            }
+            });
             self.a_dot_qd[r] = acc;
         }
     }

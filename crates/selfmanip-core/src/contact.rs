@@ -235,15 +235,23 @@ impl ContactMode {
 
     /// The rows in order: by contact, tangential before normal.
     pub fn rows(self) -> impl Iterator<Item = ConstraintRow> {
-        self.active().flat_map(move |k| {
-            let t = (self.tangential >> k & 1 == 1).then_some(ConstraintRow {
-                contact: k,
-                direction: RowDirection::Tangential,
-            });
-            t.into_iter().chain(std::iter::once(ConstraintRow {
-                contact: k,
-                direction: RowDirection::Normal,
-            }))
+        let mut active = self.active();
+        // the normal row still due after a contact's tangential row
+        let mut normal_due: Option<usize> = None;
+        std::iter::from_fn(move || {
+            let (contact, direction) = match normal_due.take() {
+                Some(k) => (k, RowDirection::Normal),
+                None => {
+                    let k = active.next()?;
+                    if self.tangential >> k & 1 == 1 {
+                        normal_due = Some(k);
+                        (k, RowDirection::Tangential)
+                    } else {
+                        (k, RowDirection::Normal)
+                    }
+                }
+            };
+            Some(ConstraintRow { contact, direction })
         })
     }
 
@@ -296,22 +304,53 @@ pub struct ContactGeometry {
     pub point_rate: Vector2<f64>,
 }
 
-fn angle_in_range(a: f64, range: [f64; 2]) -> bool {
-    // distance counter-clockwise from range start, in [0, 2π)
-    // (a − start) mod 2π without the slow `fmod`: `a` comes from atan2 and the range from a
-    // validated description, so usually within a turn
-    let tau = std::f64::consts::TAU;
-    let mut from_start = a - range[0];
-    if from_start.abs() > 2.0 * tau {
-        from_start = from_start.rem_euclid(tau);
+/// An arc's range of normal angles `[α₀, α₁]` in the form [`contact_geometry`] tests against:
+/// the unit normals `(sin α, cos α)` at its ends and the pseudo-angle of its width `α₁ − α₀`.
+/// A constant of the model, which [`Kinematics`] keeps for each arc (recomputing it only when
+/// the range changes) so that the test in every evaluation needs no `atan2`, `sin` or `cos`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct ArcRange {
+    pub range: [f64; 2],
+    pub ends: [Vector2<f64>; 2],
+    width: f64,
+}
+
+impl ArcRange {
+    pub(crate) fn new(range: [f64; 2]) -> Self {
+        let unit = |a: f64| {
+            let (s, c) = a.sin_cos();
+            Vector2::new(s, c)
+        };
+        let w = range[1] - range[0];
+        ArcRange {
+            range,
+            ends: [unit(range[0]), unit(range[1])],
+            width: if w >= std::f64::consts::TAU {
+                f64::INFINITY
+            } else {
+                pseudo_angle(w.cos(), w.sin())
+            },
+        }
     }
-    while from_start < 0.0 {
-        from_start += tau;
+
+    /// Whether the unit direction `d = (sin α, cos α)` lies on the arc, i.e. the
+    /// counter-clockwise distance `(α − α₀) mod 2π` is at most `α₁ − α₀`.
+    pub(crate) fn contains(&self, d: Vector2<f64>) -> bool {
+        let u0 = self.ends[0];
+        // (cos, sin) of α − α₀
+        pseudo_angle(d.dot(&u0), d.x * u0.y - d.y * u0.x) <= self.width
     }
-    while from_start >= tau {
-        from_start -= tau;
+}
+
+/// A stand-in for the angle `θ ∈ [0, 2π)` of `(cos θ, sin θ)` that is monotone in `θ` and
+/// needs no `atan2`: `1 − cos θ ∈ [0, 2]` on the upper half turn, `3 + cos θ ∈ (2, 4)` on the
+/// lower.
+fn pseudo_angle(c: f64, s: f64) -> f64 {
+    if s >= 0.0 {
+        1.0 - c
+    } else {
+        3.0 + c
     }
-    from_start <= range[1] - range[0]
 }
 
 /// Contact geometry for site `k` at the current kinematics.
@@ -342,24 +381,22 @@ pub fn contact_geometry(
             // direction into the ground in the part frame, and its normal angle α
             let (sb, cb) = kin.part_sin_cos(part);
             let d = rotate_sc((-sb, cb), n);
-            let inside = match normal_range_rad {
-                None => true,
-                Some(r) => angle_in_range(d.x.atan2(d.y), *r),
-            };
-            if inside {
-                (center_m + *radius_m * d, TouchKind::Rolling)
-            } else {
-                // the lower of the two ends acts as a point
-                let r = normal_range_rad.expect("circle is always inside");
-                let end = |a: f64| {
-                    let (s, c) = a.sin_cos();
-                    center_m + *radius_m * Vector2::new(s, c)
-                };
-                let (e0, e1) = (end(r[0]), end(r[1]));
-                (
-                    if e0.dot(&d) >= e1.dot(&d) { e0 } else { e1 },
-                    TouchKind::Point,
-                )
+            // (kept by the kinematics; built here if it was computed for another model)
+            let arc = normal_range_rad.map(|r| {
+                kin.arc_range(k)
+                    .filter(|a| a.range == r)
+                    .unwrap_or_else(|| ArcRange::new(r))
+            });
+            match arc {
+                Some(arc) if !arc.contains(d) => {
+                    // the lower of the two ends acts as a point
+                    let [e0, e1] = arc.ends.map(|u| center_m + *radius_m * u);
+                    (
+                        if e0.dot(&d) >= e1.dot(&d) { e0 } else { e1 },
+                        TouchKind::Point,
+                    )
+                }
+                _ => (center_m + *radius_m * d, TouchKind::Rolling),
             }
         }
     };
@@ -386,5 +423,63 @@ pub fn row_direction(plane: &GroundPlane, dir: RowDirection) -> Vector2<f64> {
     match dir {
         RowDirection::Tangential => plane.tangent(),
         RowDirection::Normal => plane.normal(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// The definition [`ArcRange::contains`] replaces: `(α − α₀) mod 2π ≤ α₁ − α₀` with
+    /// `α = atan2(d_x, d_z)`.
+    fn in_range_by_angle(d: Vector2<f64>, range: [f64; 2]) -> bool {
+        let from_start = (d.x.atan2(d.y) - range[0]).rem_euclid(std::f64::consts::TAU);
+        from_start <= range[1] - range[0]
+    }
+
+    #[test]
+    fn arc_range_agrees_with_the_angle_test() {
+        let mut r = ChaCha8Rng::seed_from_u64(3);
+        let pi = std::f64::consts::PI;
+        let mut ranges = vec![[-pi, 0.0], [0.0, pi], [-0.3, 0.4], [1.0, 1.0 + 2.0 * pi]];
+        ranges.extend((0..200).map(|_| {
+            let a0 = r.gen_range(-4.0..4.0);
+            [a0, a0 + r.gen_range(0.01..2.0 * pi)]
+        }));
+        for range in ranges {
+            let arc = ArcRange::new(range);
+            for _ in 0..200 {
+                let a: f64 = r.gen_range(-pi..pi);
+                // away from the ends, where rounding may decide either way
+                let near_end = range.iter().any(|&e| {
+                    let g = (a - e).rem_euclid(2.0 * pi);
+                    g < 1e-9 || g > 2.0 * pi - 1e-9
+                });
+                if near_end {
+                    continue;
+                }
+                let d = Vector2::new(a.sin(), a.cos());
+                assert_eq!(
+                    arc.contains(d),
+                    in_range_by_angle(d, range),
+                    "{a} in {range:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn rows_are_by_contact_tangential_first() {
+        let mode = ContactMode::FLIGHT
+            .with(3, ContactKind::Stick)
+            .with(0, ContactKind::Stick)
+            .with(2, ContactKind::Slide);
+        let rows: Vec<_> = mode.rows().map(|r| (r.contact, r.direction)).collect();
+        use RowDirection::{Normal as N, Tangential as T};
+        assert_eq!(rows, [(0, T), (0, N), (2, N), (3, T), (3, N)]);
+        assert_eq!(rows.len(), mode.n_rows());
+        assert_eq!(ContactMode::FLIGHT.rows().count(), 0);
     }
 }

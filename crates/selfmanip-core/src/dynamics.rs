@@ -274,6 +274,7 @@ pub fn plastic_impact(
 }
 
 /// Thesis (5.39): the pseudo-impulse `P_δ = A†(Υ − C̄q̇⁻ − N̄) δt` for an impact into `mode`.
+#[allow(clippy::too_many_arguments)]
 pub fn pseudo_impulse(
     model: &Model,
     data: &mut Data,

@@ -37,13 +37,8 @@ pub struct InertiaScratch {
     jw: Vec<f64>,
     jdx: Vec<f64>,
     jdz: Vec<f64>,
-    /// The current part's support — the coordinates that move it — and, indexed by
-    /// coordinate (meaningful on the support only), its Jacobian columns `J e_k`, `J̇ e_k`
-    /// and `J_ω e_k`.
-    support: Vec<usize>,
-    j: Vec<Vector2<f64>>,
-    jd: Vec<Vector2<f64>>,
-    w: Vec<f64>,
+    /// The current part's nonzero Jacobian columns, in ascending coordinate.
+    cols: Vec<PartColumn>,
 }
 
 impl InertiaScratch {
@@ -54,13 +49,19 @@ impl InertiaScratch {
             &mut self.jw,
             &mut self.jdx,
             &mut self.jdz,
-            &mut self.w,
         ] {
             v.resize(nq, 0.0);
         }
-        self.j.resize(nq, Vector2::zeros());
-        self.jd.resize(nq, Vector2::zeros());
     }
+}
+
+/// Column `k` of a part's Jacobians: `J e_k` (its COM), `J̇ e_k` and `J_ω e_k`.
+#[derive(Debug, Clone, Copy)]
+struct PartColumn {
+    k: usize,
+    j: Vector2<f64>,
+    jd: Vector2<f64>,
+    w: f64,
 }
 
 const EX: Vector2<f64> = Vector2::new(1.0, 0.0);
@@ -69,7 +70,7 @@ const EZ: Vector2<f64> = Vector2::new(0.0, 1.0);
 /// Writes `M̄`, `C̄ q̇` and `N̄` (the latter two as vectors) for the current kinematics.
 ///
 /// A part's Jacobians vanish outside its support (its chain and `x, z, φ`: for RHex's body,
-/// 3 of 5 coordinates), so each part's sums run over its support only.
+/// 3 of 5 coordinates), so each part's sums run over its nonzero columns only.
 pub fn mass_coriolis_gravity(
     model: &Model,
     kin: &Kinematics,
@@ -80,9 +81,6 @@ pub fn mass_coriolis_gravity(
     n_bar: &mut DVector<f64>,
 ) {
     let nq = model.nq();
-    if s.w.len() != nq {
-        s.resize(nq);
-    }
     let (mb, c_qd, n_bar) = (
         m_bar.as_mut_slice(),
         c_qd.as_mut_slice(),
@@ -95,38 +93,47 @@ pub fn mass_coriolis_gravity(
     for (part, m, inertia, com) in massive_parts(model) {
         let p = kin.point(part, com);
         let pd = kin.material_velocity(part, p);
-        s.support.clear();
-        for (k, col) in kin.point_jacobian_columns(model, part, p) {
-            s.support.push(k);
-            (s.j[k], s.jd[k], s.w[k]) = (col, Vector2::zeros(), 0.0);
-        }
-        for (k, col) in kin.point_jacobian_rate_columns(model, part, pd) {
-            s.jd[k] = col;
-        }
-        for (k, w) in kin.angular_jacobian_entries(model, part) {
-            s.w[k] = w;
-        }
-        let (sup, j, jd, w) = (&s.support[..], &s.j[..], &s.jd[..], &s.w[..]);
+        // the rate and angular columns are nonzero on subsets of the point's, in the same order
+        let cols = &mut s.cols;
+        cols.clear();
+        kin.point_jacobian_columns(model, part, p, |k, j| {
+            let (jd, w) = (Vector2::zeros(), 0.0);
+            cols.push(PartColumn { k, j, jd, w });
+        });
+        let mut i = 0;
+        kin.point_jacobian_rate_columns(model, part, pd, |k, jd| {
+            while cols[i].k != k {
+                i += 1;
+            }
+            cols[i].jd = jd;
+        });
+        let mut i = 0;
+        kin.angular_jacobian_entries(model, part, |k, w| {
+            while cols[i].k != k {
+                i += 1;
+            }
+            cols[i].w = w;
+        });
         // M̄ += m Jᵀ J + I J_ωᵀ J_ω   (one triangle, mirrored: M̄ is exactly symmetric)
-        for (ib, &b) in sup.iter().enumerate() {
-            for &a in &sup[ib..] {
-                let mab = m * (j[a].x * j[b].x + j[a].y * j[b].y) + inertia * w[a] * w[b];
-                mb[b * nq + a] += mab;
-                if a != b {
-                    mb[a * nq + b] += mab;
+        for (ib, b) in cols.iter().enumerate() {
+            for a in &cols[ib..] {
+                let mab = m * (a.j.x * b.j.x + a.j.y * b.j.y) + inertia * a.w * b.w;
+                mb[b.k * nq + a.k] += mab;
+                if a.k != b.k {
+                    mb[a.k * nq + b.k] += mab;
                 }
             }
         }
         // C̄ q̇ += m Jᵀ (J̇ q̇)   (planar: J̇_ω = 0)
         let (mut ax, mut az) = (0.0, 0.0);
-        for &a in sup {
-            ax += jd[a].x * qd[a];
-            az += jd[a].y * qd[a];
+        for c in cols.iter() {
+            ax += c.jd.x * qd[c.k];
+            az += c.jd.y * qd[c.k];
         }
-        for &a in sup {
-            c_qd[a] += m * (j[a].x * ax + j[a].y * az);
+        for c in cols.iter() {
+            c_qd[c.k] += m * (c.j.x * ax + c.j.y * az);
             // N̄ = ∂V/∂q with V = −m g z_com (z down)
-            n_bar[a] -= m * g * j[a].y;
+            n_bar[c.k] -= m * g * c.j.y;
         }
     }
 }

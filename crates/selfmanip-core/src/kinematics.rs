@@ -6,8 +6,9 @@
 //! point `o` is `s S(p − o)`, and its time derivative is `s S(ṗ − ȯ)` where `ṗ` is the rate of
 //! the point at which the Jacobian is evaluated (the material velocity for a fixed point,
 //! the centre's velocity for a rolling contact on a plane).
+use crate::contact::ArcRange;
 use crate::frames::{perp, rotate_sc};
-use crate::model::Model;
+use crate::model::{ContactShape, Model};
 use nalgebra::{DMatrix, Vector2};
 
 /// The rigid part a point belongs to.
@@ -34,6 +35,9 @@ pub struct Kinematics {
     /// `(sin, cos)` of `φ` and of every `β_j` (each computed once per evaluation).
     body_sc: (f64, f64),
     link_sc: Vec<(f64, f64)>,
+    /// The normal range of every contact arc that has one (by contact), with its end normals:
+    /// constants of the model, recomputed only when the model's ranges change.
+    arcs: Vec<Option<ArcRange>>,
 }
 
 impl Kinematics {
@@ -46,6 +50,18 @@ impl Kinematics {
             self.beta.resize(n, 0.0);
             self.beta_dot.resize(n, 0.0);
             self.link_sc.resize(n, (0.0, 1.0));
+        }
+        self.arcs.resize(model.n_contacts(), None);
+        for (arc, contact) in self.arcs.iter_mut().zip(&model.contacts) {
+            let range = match contact.shape {
+                ContactShape::Arc {
+                    normal_range_rad, ..
+                } => normal_range_rad,
+                ContactShape::Point { .. } => None,
+            };
+            if arc.map(|a| a.range) != range {
+                *arc = range.map(ArcRange::new);
+            }
         }
         self.body_pos = Vector2::new(q[n], q[n + 1]);
         self.body_vel = Vector2::new(qd[n], qd[n + 1]);
@@ -91,6 +107,11 @@ impl Kinematics {
         }
     }
 
+    /// The normal range of contact `k`'s arc, as of the model of the last [`Self::compute`].
+    pub(crate) fn arc_range(&self, k: usize) -> Option<ArcRange> {
+        self.arcs.get(k).copied().flatten()
+    }
+
     pub fn part_angle_rate(&self, part: Part) -> f64 {
         match part {
             Part::Body => self.phi_dot,
@@ -128,53 +149,60 @@ impl Kinematics {
         }
     }
 
-    /// The nonzero columns `(k, J_p e_k)` of the 2×nq translational Jacobian of the material
-    /// point of `part` at world position `p`, in ascending `k`: the chain's joints, then
-    /// `x, z, φ`.
-    pub(crate) fn point_jacobian_columns<'a>(
-        &'a self,
-        model: &'a Model,
+    /// Calls `f(k, J_p e_k)` for the nonzero columns of the 2×nq translational Jacobian of
+    /// the material point of `part` at world position `p`, in ascending `k`: the chain's
+    /// joints, then `x, z, φ`. (Visiting rather than returning an iterator keeps this
+    /// straight-line code in the hot loops.)
+    #[inline]
+    pub(crate) fn point_jacobian_columns(
+        &self,
+        model: &Model,
         part: Part,
         p: Vector2<f64>,
-    ) -> impl Iterator<Item = (usize, Vector2<f64>)> + 'a {
+        mut f: impl FnMut(usize, Vector2<f64>),
+    ) {
+        for k in Self::chain(model, part) {
+            f(k, model.joints[k].axis_sign * perp(p - self.origin[k]));
+        }
         let n = model.n_joints();
-        Self::chain(model, part)
-            .map(move |k| (k, model.joints[k].axis_sign * perp(p - self.origin[k])))
-            .chain([
-                (n, Vector2::new(1.0, 0.0)),
-                (n + 1, Vector2::new(0.0, 1.0)),
-                (n + 2, perp(p - self.body_pos)),
-            ])
+        f(n, Vector2::new(1.0, 0.0));
+        f(n + 1, Vector2::new(0.0, 1.0));
+        f(n + 2, perp(p - self.body_pos));
     }
 
-    /// The nonzero columns `(k, J̇_p e_k)` of the time derivative of the point Jacobian when
-    /// the evaluation point moves with velocity `p_dot`: the chain's joints, then `φ`.
-    pub(crate) fn point_jacobian_rate_columns<'a>(
-        &'a self,
-        model: &'a Model,
+    /// Calls `f(k, J̇_p e_k)` for the nonzero columns of the time derivative of the point
+    /// Jacobian when the evaluation point moves with velocity `p_dot`: the chain's joints,
+    /// then `φ`.
+    #[inline]
+    pub(crate) fn point_jacobian_rate_columns(
+        &self,
+        model: &Model,
         part: Part,
         p_dot: Vector2<f64>,
-    ) -> impl Iterator<Item = (usize, Vector2<f64>)> + 'a {
-        let n = model.n_joints();
-        Self::chain(model, part)
-            .map(move |k| {
-                let s = model.joints[k].axis_sign;
-                (k, s * perp(p_dot - self.origin_vel[k]))
-            })
-            .chain([(n + 2, perp(p_dot - self.body_vel))])
+        mut f: impl FnMut(usize, Vector2<f64>),
+    ) {
+        for k in Self::chain(model, part) {
+            f(
+                k,
+                model.joints[k].axis_sign * perp(p_dot - self.origin_vel[k]),
+            );
+        }
+        f(model.n_joints() + 2, perp(p_dot - self.body_vel));
     }
 
-    /// The nonzero entries `(k, J_ω e_k)` of the angular Jacobian row of a part: the chain's
-    /// joints, then `φ`.
-    pub(crate) fn angular_jacobian_entries<'a>(
+    /// Calls `f(k, J_ω e_k)` for the nonzero entries of the angular Jacobian row of a part:
+    /// the chain's joints, then `φ`.
+    #[inline]
+    pub(crate) fn angular_jacobian_entries(
         &self,
-        model: &'a Model,
+        model: &Model,
         part: Part,
-    ) -> impl Iterator<Item = (usize, f64)> + 'a {
-        let n = model.n_joints();
-        Self::chain(model, part)
-            .map(|k| (k, model.joints[k].axis_sign))
-            .chain([(n + 2, 1.0)])
+        mut f: impl FnMut(usize, f64),
+    ) {
+        for k in Self::chain(model, part) {
+            f(k, model.joints[k].axis_sign);
+        }
+        f(model.n_joints() + 2, 1.0);
     }
 
     /// Writes the 2×nq Jacobian of the material point of `part` at world position `p`
@@ -188,9 +216,7 @@ impl Kinematics {
         row: &mut [f64],
     ) {
         row.fill(0.0);
-        for (k, col) in self.point_jacobian_columns(model, part, p) {
-            row[k] = d.dot(&col);
-        }
+        self.point_jacobian_columns(model, part, p, |k, col| row[k] = d.dot(&col));
     }
 
     /// Time derivative of [`Self::point_jacobian_row`] when the evaluation point moves with
@@ -204,17 +230,13 @@ impl Kinematics {
         row: &mut [f64],
     ) {
         row.fill(0.0);
-        for (k, col) in self.point_jacobian_rate_columns(model, part, p_dot) {
-            row[k] = d.dot(&col);
-        }
+        self.point_jacobian_rate_columns(model, part, p_dot, |k, col| row[k] = d.dot(&col));
     }
 
     /// Angular Jacobian row of a part: `ω = row · q̇`.
     pub fn angular_jacobian_row(&self, model: &Model, part: Part, row: &mut [f64]) {
         row.fill(0.0);
-        for (k, w) in self.angular_jacobian_entries(model, part) {
-            row[k] = w;
-        }
+        self.angular_jacobian_entries(model, part, |k, w| row[k] = w);
     }
 
     /// Full 2×nq translational Jacobian of a material point (rows: world x, z).

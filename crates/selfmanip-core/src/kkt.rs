@@ -18,6 +18,7 @@
 use crate::error::{CoreError, Result, SingularityKind};
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
+use std::cmp::Ordering;
 
 /// Relative tolerance on the QR diagonal of `Aᵀ` below which rows are dependent.
 pub const RANK_TOLERANCE: f64 = 1e-10;
@@ -50,16 +51,17 @@ pub struct KktBlocks {
 /// Storage is flat and column-major, sized for the current `m` and `c`. At the sizes of a
 /// planar robot (`m ≲ 10`, `c ≲ 6`) loop overhead, not arithmetic, is what costs, so:
 /// every length-`m` operation runs over the whole column (the reflectors carry explicit
-/// zeros above their pivot), the kernels are compiled for each small `m` (see [`Dim`]) so that
-/// those loops unroll, and the factor keeps `Q` explicitly and the reciprocals of the pivots so
-/// that [`Self::solve`] is a few matrix–vector products with no divisions.
+/// zeros above their pivot), the kernels are compiled for each small `m` (a `Dim` below) so
+/// that those loops unroll, and the factor keeps `Q` explicitly and the reciprocals of the
+/// pivots so that [`Self::solve`] is a few matrix–vector products with no divisions.
 #[derive(Debug, Clone, Default)]
 pub struct KktFactorization {
     m: usize,
     c: usize,
     /// `M̄` (m×m), for the residual `f − M̄x` of the multiplier solve.
     mbar: Vec<f64>,
-    /// `Aᵀ` (m×c), reduced in place by the QR: `R` is its upper triangle.
+    /// `Aᵀ` (m×c), reduced in place by the QR: `R`'s strict upper triangle (its diagonal is
+    /// `r_diag`).
     r: Vec<f64>,
     /// Householder reflectors `H_k = I − β_k v_k v_kᵀ` (`v_k`: m×c, zero above row `k`;
     /// `β_k = 0`: `H_k = I`).
@@ -241,11 +243,14 @@ impl KktFactorization {
 }
 
 /// `M̄[coords, coords]` into the factorization, for `m = dim`.
-fn load_mbar<D: Dim>(dim: D, k: &mut KktFactorization, mbar: &DMatrix<f64>, coords: &[usize]) {
+fn load_mbar<D: Dim>(dim: D, kkt: &mut KktFactorization, mbar: &DMatrix<f64>, coords: &[usize]) {
     let (m, nq, mb) = (dim.get(), mbar.nrows(), mbar.as_slice());
     let coords = &coords[..m];
     for j in 0..m {
-        let (src, dst) = (&mb[coords[j] * nq..(coords[j] + 1) * nq], &mut k.mbar[j * m..]);
+        let (src, dst) = (
+            &mb[coords[j] * nq..(coords[j] + 1) * nq],
+            &mut kkt.mbar[j * m..],
+        );
         for i in 0..m {
             dst[i] = src[coords[i]];
         }
@@ -253,14 +258,19 @@ fn load_mbar<D: Dim>(dim: D, k: &mut KktFactorization, mbar: &DMatrix<f64>, coor
 }
 
 /// `A[:, coord]ᵀ` into the factorization, for `m = dim`.
-fn load_at<D: Dim>(dim: D, k: &mut KktFactorization, a: &DMatrix<f64>, coord: impl Fn(usize) -> usize) {
-    let (m, c, at) = (dim.get(), k.c, a.as_slice());
-    let r = &mut k.r[..m * c];
+fn load_at<D: Dim>(
+    dim: D,
+    kkt: &mut KktFactorization,
+    a: &DMatrix<f64>,
+    coord: impl Fn(usize) -> usize,
+) {
+    let (m, c, at) = (dim.get(), kkt.c, a.as_slice());
+    let r = &mut kkt.r[..m * c];
     // A is c×nq column-major: column coord(i) of A is row i of Aᵀ
     for i in 0..m {
         let src = &at[coord(i) * c..(coord(i) + 1) * c];
-        for (kk, &x) in src.iter().enumerate() {
-            r[kk * m + i] = x;
+        for (row, &x) in src.iter().enumerate() {
+            r[row * m + i] = x;
         }
     }
 }
@@ -269,22 +279,22 @@ fn load_at<D: Dim>(dim: D, k: &mut KktFactorization, a: &DMatrix<f64>, coord: im
 /// is returned as its kind (the caller, which still holds the inputs, adds the condition).
 fn factor_kernel<D: Dim>(
     dim: D,
-    k: &mut KktFactorization,
+    kkt: &mut KktFactorization,
 ) -> std::result::Result<(), SingularityKind> {
-    let (m, c) = (dim.get(), k.c);
+    let (m, c) = (dim.get(), kkt.c);
     if c > m {
         return Err(SingularityKind::RedundantConstraints);
     }
     let e = m - c;
     let (mbar, r, v, q) = (
-        &k.mbar[..m * m],
-        &mut k.r[..m * c],
-        &mut k.v[..m * c],
-        &mut k.q[..m * m],
+        &kkt.mbar[..m * m],
+        &mut kkt.r[..m * c],
+        &mut kkt.v[..m * c],
+        &mut kkt.q[..m * m],
     );
     let col = |j: usize| j * m..(j + 1) * m;
 
-    // Householder QR of Aᵀ: H_k reflects rows k.. of column k onto α e_k, with
+    // Householder QR of Aᵀ: H_k reflects rows kkt.. of column k onto α e_k, with
     // v_k = x − α e_k and β_k = 2/‖v_k‖² = 1/(‖x‖² − α x_k); then H_k acts on the columns
     // to the right (v_k is zero above row k, so their first k rows, R's, stay).
     for i in 0..c {
@@ -297,27 +307,27 @@ fn factor_kernel<D: Dim>(
         let norm2 = dot(dim, vi, vi);
         let norm = norm2.sqrt();
         let alpha = if x[i] >= 0.0 { -norm } else { norm };
-        k.r_diag[i] = alpha;
+        kkt.r_diag[i] = alpha;
         if norm2 == 0.0 {
-            k.beta[i] = 0.0;
+            kkt.beta[i] = 0.0;
             continue;
         }
         let beta = 1.0 / (norm2 - alpha * x[i]);
-        k.beta[i] = beta;
+        kkt.beta[i] = beta;
         vi[i] -= alpha;
         for j in i + 1..c {
             reflect(dim, vi, beta, &mut rest[col(j - i - 1)]);
         }
     }
     let (mut rmin, mut rmax) = (f64::INFINITY, 0.0f64);
-    for &d in &k.r_diag {
+    for &d in &kkt.r_diag {
         rmin = rmin.min(d.abs());
         rmax = rmax.max(d.abs());
     }
     if c > 0 && (rmax == 0.0 || rmin <= RANK_TOLERANCE * rmax || !rmin.is_finite()) {
         return Err(SingularityKind::RedundantConstraints);
     }
-    for (ri, &d) in k.r_inv.iter_mut().zip(&k.r_diag) {
+    for (ri, &d) in kkt.r_inv.iter_mut().zip(&kkt.r_diag) {
         *ri = 1.0 / d;
     }
 
@@ -327,31 +337,31 @@ fn factor_kernel<D: Dim>(
         qj.fill(0.0);
         qj[j] = 1.0;
         for i in (0..c.min(j + 1)).rev() {
-            if k.beta[i] != 0.0 {
-                reflect(dim, &v[col(i)], k.beta[i], qj);
+            if kkt.beta[i] != 0.0 {
+                reflect(dim, &v[col(i)], kkt.beta[i], qj);
             }
         }
     }
 
     // t = M̄ q_{c+j};  Q₁ᵀ M̄ Q₂ and the lower triangle of M̃ = Q₂ᵀ M̄ Q₂
-    let t = &mut k.t[..m];
+    let t = &mut kkt.t[..m];
     for j in 0..e {
         t.fill(0.0);
         for s in 0..m {
             axpy(dim, q[(c + j) * m + s], &mbar[col(s)], t);
         }
         for i in 0..c {
-            k.g12[j * c + i] = dot(dim, &q[col(i)], t);
+            kkt.g12[j * c + i] = dot(dim, &q[col(i)], t);
         }
         for i in j..e {
-            k.l[j * e + i] = dot(dim, &q[col(c + i)], t);
+            kkt.l[j * e + i] = dot(dim, &q[col(c + i)], t);
         }
     }
 
     // M̃ = L Lᵀ, pivots tested against Lemma 5.1. The pivot scale includes M̄'s own diagonal:
     // relative to M̃ alone, a 1×1 M̃ that is rounding noise (a massless joint that no contact
     // pins down) would always pass.
-    let l = &mut k.l[..e * e];
+    let l = &mut kkt.l[..e * e];
     let scale = (0..e)
         .map(|i| l[i * e + i].abs())
         .chain((0..m).map(|i| mbar[i * m + i].abs()))
@@ -367,16 +377,18 @@ fn factor_kernel<D: Dim>(
             }
         }
         let d = l[j * e + j];
-        if !(d > PIVOT_TOLERANCE * scale) || scale == 0.0 {
+        // (NaN fails too)
+        let positive = d.partial_cmp(&(PIVOT_TOLERANCE * scale)) == Some(Ordering::Greater);
+        if !positive || scale == 0.0 {
             return Err(SingularityKind::UnconstrainedMasslessMotion);
         }
         dmin = dmin.min(d);
         dmax = dmax.max(d);
         let inv = 1.0 / d.sqrt();
-        k.l_inv[j] = inv;
+        kkt.l_inv[j] = inv;
         l[j * e + j..(j + 1) * e].iter_mut().for_each(|x| *x *= inv);
     }
-    k.info = KktInfo {
+    kkt.info = KktInfo {
         constraint_condition: if c > 0 { rmax / rmin } else { 1.0 },
         reduced_mass_condition: if e > 0 { dmax / dmin } else { 1.0 },
     };
@@ -386,43 +398,49 @@ fn factor_kernel<D: Dim>(
 /// [`KktFactorization::solve`] for `m = dim`.
 fn solve_kernel<D: Dim>(
     dim: D,
-    k: &mut KktFactorization,
+    kkt: &mut KktFactorization,
     f: &[f64],
     g: &[f64],
     x: &mut [f64],
     y: &mut [f64],
 ) {
-    let (m, c) = (dim.get(), k.c);
+    let (m, c) = (dim.get(), kkt.c);
     let e = m - c;
-    let (mbar, r, q, f, x) = (&k.mbar[..m * m], &k.r[..m * c], &k.q[..m * m], &f[..m], &mut x[..m]);
+    let (mbar, r, q, f, x) = (
+        &kkt.mbar[..m * m],
+        &kkt.r[..m * c],
+        &kkt.q[..m * m],
+        &f[..m],
+        &mut x[..m],
+    );
     let col = |j: usize| j * m..(j + 1) * m;
-    let xt = &mut k.t[..m];
+    let xt = &mut kkt.t[..m];
     // x̃₁ = R⁻ᵀ g  (Rᵀ lower triangular; row i of Rᵀ is R[..i, i], above the diagonal)
     for i in 0..c {
         let ri = &r[i * m..i * m + i];
         let s = g[i] - ri.iter().zip(&xt[..i]).map(|(a, b)| a * b).sum::<f64>();
-        xt[i] = s * k.r_inv[i];
+        xt[i] = s * kkt.r_inv[i];
     }
     // x̃₂ = L⁻ᵀ L⁻¹ (Q₂ᵀ f − (Q₁ᵀ M̄ Q₂)ᵀ x̃₁)
     for j in 0..e {
-        let g12j = &k.g12[j * c..(j + 1) * c];
+        let g12j = &kkt.g12[j * c..(j + 1) * c];
         xt[c + j] = dot(dim, &q[col(c + j)], f)
             - g12j.iter().zip(&xt[..c]).map(|(a, b)| a * b).sum::<f64>();
     }
-    let (l, z) = (&k.l[..e * e], &mut xt[c..]);
+    let (l, z) = (&kkt.l[..e * e], &mut xt[c..]);
     for i in 0..e {
         let mut s = z[i];
         for p in 0..i {
             s -= l[p * e + i] * z[p];
         }
-        z[i] = s * k.l_inv[i];
+        z[i] = s * kkt.l_inv[i];
     }
     for i in (0..e).rev() {
         let mut s = z[i];
         for p in i + 1..e {
             s -= l[i * e + p] * z[p];
         }
-        z[i] = s * k.l_inv[i];
+        z[i] = s * kkt.l_inv[i];
     }
     // x = Q x̃
     x.fill(0.0);
@@ -442,19 +460,25 @@ fn solve_kernel<D: Dim>(
         for p in i + 1..c {
             s -= r[p * m + i] * y[p];
         }
-        y[i] = s * k.r_inv[i];
+        y[i] = s * kkt.r_inv[i];
     }
 }
 
-/// `aᵀ b` over the first `dim` entries.
+/// `aᵀ b` over the first `dim` entries, in two interleaved partial sums: half the
+/// dependency chain of a running sum (these short dot products are latency-bound).
 #[inline(always)]
 fn dot<D: Dim>(dim: D, a: &[f64], b: &[f64]) -> f64 {
-    let (a, b) = (&a[..dim.get()], &b[..dim.get()]);
-    let mut s = 0.0;
-    for i in 0..dim.get() {
-        s += a[i] * b[i];
+    let n = dim.get();
+    let (a, b) = (&a[..n], &b[..n]);
+    let (mut s0, mut s1) = (0.0, 0.0);
+    for i in 0..n / 2 {
+        s0 += a[2 * i] * b[2 * i];
+        s1 += a[2 * i + 1] * b[2 * i + 1];
     }
-    s
+    if n % 2 == 1 {
+        s0 += a[n - 1] * b[n - 1];
+    }
+    s0 + s1
 }
 
 /// `y ← y + α x` over the first `dim` entries.
@@ -521,4 +545,102 @@ pub fn kkt_solve_dense(
     rhs.rows_mut(m, c).copy_from(g);
     let sol = k.lu().solve(&rhs)?;
     Some((sol.rows(0, m).into_owned(), sol.rows(m, c).into_owned()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// A random `c×m` constraint matrix and a PSD `M̄` whose first `massless` coordinates carry
+    /// no mass (as a massless leg's joint does).
+    fn random_system(
+        m: usize,
+        c: usize,
+        massless: usize,
+        r: &mut ChaCha8Rng,
+    ) -> (DMatrix<f64>, DMatrix<f64>) {
+        let b = DMatrix::from_fn(m, m, |i, _| {
+            if i < massless {
+                0.0
+            } else {
+                r.gen_range(-1.0..1.0)
+            }
+        });
+        let mbar = b.transpose() * &b
+            + DMatrix::from_fn(m, m, |i, j| if i == j && i >= massless { 0.5 } else { 0.0 });
+        let a = DMatrix::from_fn(c, m, |_, _| r.gen_range(-1.0..1.0));
+        (mbar, a)
+    }
+
+    /// Every size the kernels are compiled for and the run-time fallback beyond them: the
+    /// solution satisfies both block rows, agrees with a dense LU of the KKT matrix, and the
+    /// constraint condition is that of the QR of `Aᵀ` (`|R_ii|` are unique).
+    #[test]
+    fn solve_matches_dense_lu_for_every_size() {
+        let mut r = ChaCha8Rng::seed_from_u64(51);
+        let mut k = KktFactorization::default();
+        for m in 1..=11 {
+            for c in 0..=m {
+                for massless in [0, 1.min(c), 2.min(c)] {
+                    let (mbar, a) = random_system(m, c, massless, &mut r);
+                    k.factor(&mbar, &a).unwrap();
+                    let f = DVector::from_fn(m, |_, _| r.gen_range(-1.0..1.0));
+                    let g = DVector::from_fn(c, |_, _| r.gen_range(-1.0..1.0));
+                    let (mut x, mut y) = (vec![0.0; m], vec![0.0; c]);
+                    k.solve(f.as_slice(), g.as_slice(), &mut x, &mut y);
+                    let (x, y) = (DVector::from_vec(x), DVector::from_vec(y));
+                    let (xd, yd) = kkt_solve_dense(&mbar, &a, &f, &g).unwrap();
+                    // both solutions are backward stable: compare to rounding × condition
+                    let scale = 1.0 + xd.norm() + yd.norm();
+                    let tol = 1e-13 * scale * kkt_condition_number(&mbar, &a);
+                    assert!((&x - &xd).norm() < tol, "x, m={m} c={c}");
+                    assert!((&y - &yd).norm() < tol, "y, m={m} c={c}");
+                    assert!((&mbar * &x + a.transpose() * &y - &f).norm() < 1e-10 * scale);
+                    assert!((&a * &x - &g).norm() < 1e-10 * scale);
+                    if c > 0 {
+                        let rd = a.transpose().qr().r().diagonal().map(f64::abs);
+                        let expect = rd.max() / rd.min();
+                        let got = k.info.constraint_condition;
+                        assert!((got - expect).abs() < 1e-9 * expect, "{got} vs {expect}");
+                    }
+                    let q2 = k.null_space_basis();
+                    assert!((&a * &q2).norm() < 1e-12 * (1.0 + a.norm()));
+                    let gram = q2.transpose() * &q2;
+                    assert!((gram - DMatrix::identity(m - c, m - c)).norm() < 1e-13);
+                }
+            }
+        }
+    }
+
+    /// Regression: a massless joint that no constraint row involves is free massless motion
+    /// (Lemma 5.1) although rounding in `Q₂` leaves its reduced mass `M̃` a tiny nonzero
+    /// number: the pivot test was relative to `M̃` alone, and a 1×1 `M̃` always passed it
+    /// (the flow then returned accelerations of 1e30).
+    #[test]
+    fn massless_joint_untouched_by_constraints_is_singular() {
+        // q = [θ, x, z, φ], θ massless; three rows on the body only, mixed so that the
+        // reflectors touch θ's row
+        let mbar = DMatrix::from_diagonal(&DVector::from_vec(vec![0.0, 7.15, 7.15, 0.15]));
+        let a = DMatrix::from_row_slice(
+            3,
+            4,
+            &[0.0, 1.0, 0.3, 0.2, 0.0, -0.4, 1.0, 0.5, 0.0, 0.1, 0.2, 1.0],
+        );
+        let mut k = KktFactorization::default();
+        match k.factor(&mbar, &a) {
+            Err(CoreError::SingularKkt {
+                kind: SingularityKind::UnconstrainedMasslessMotion,
+                condition_estimate,
+            }) => assert!(condition_estimate > 1e12, "{condition_estimate}"),
+            other => panic!("expected a Lemma 5.1 failure, got {other:?}"),
+        }
+        // pinning θ with a fourth row makes it regular
+        let a4 = a.insert_row(3, 0.0);
+        let mut a4 = a4;
+        a4[(3, 0)] = 1.0;
+        a4[(3, 1)] = 0.2;
+        k.factor(&mbar, &a4).unwrap();
+    }
 }
