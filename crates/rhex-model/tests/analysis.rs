@@ -34,6 +34,22 @@ fn quadruped() -> Model {
         .unwrap()
 }
 
+/// The quadruped standing on both feet: the mode, and the pose from a fixed posture with
+/// coordinates 5 and 6 (body height and pitch) solved onto the ground.
+fn double_stance(m: &Model) -> (ContactMode, Vec<f64>) {
+    let mode = ContactMode::parse_names(m, "fore_foot,hind_foot").unwrap();
+    let feet: Vec<usize> = mode.active().collect();
+    let q = solve_contact_pose(
+        m,
+        &FlatGround,
+        &feet,
+        &[5, 6],
+        &[0.4, -0.8, -0.3, 0.7, 0.0, -0.3, 0.0],
+    )
+    .unwrap();
+    (mode, q)
+}
+
 fn deg(x: f64) -> f64 {
     x.to_radians()
 }
@@ -192,16 +208,7 @@ fn torque_split_4_48_4_49() {
 #[test]
 fn standing_controller_runs_on_the_quadruped() {
     let m = quadruped();
-    let mode = ContactMode::parse_names(&m, "fore_foot,hind_foot").unwrap();
-    let feet: Vec<usize> = mode.active().collect();
-    let q0 = solve_contact_pose(
-        &m,
-        &FlatGround,
-        &feet,
-        &[5, 6],
-        &[0.4, -0.8, -0.3, 0.7, 0.0, -0.3, 0.0],
-    )
-    .unwrap();
+    let (mode, q0) = double_stance(&m);
     let split = TorqueSplit::from_free_motion(&m, &FlatGround, mode, &q0).unwrap();
     assert_eq!(split.n_mean, 3);
     // T orthogonal
@@ -836,16 +843,7 @@ fn analyses_run_on_the_quadruped() {
     );
     assert!((mom - sim.delta_phi).abs() < 2e-3 * mom.abs());
     // liftoff LP in double stance, moving along the first free motion
-    let mode = ContactMode::parse_names(&m, "fore_foot,hind_foot").unwrap();
-    let feet: Vec<usize> = mode.active().collect();
-    let q = solve_contact_pose(
-        &m,
-        &FlatGround,
-        &feet,
-        &[5, 6],
-        &[0.4, -0.8, -0.3, 0.7, 0.0, -0.3, 0.0],
-    )
-    .unwrap();
+    let (mode, q) = double_stance(&m);
     let y = rhex_model::analysis::selector_rows(7, &[0, 2, 4]);
     let h = free_motion_basis(&m, &FlatGround, mode, &q, &y).unwrap();
     let dir: Vec<f64> = h.column(0).iter().cloned().collect();

@@ -39,14 +39,7 @@ pub fn effectiveness_at(model: &Model, q: &[f64], joints: &[usize]) -> Result<f6
     super::check_configuration(model, q)?;
     let n = model.n_joints();
     let mut data = Data::new(model);
-    super::prepare_geometry(
-        model,
-        &mut data,
-        &FlatGround,
-        ContactMode::FLIGHT,
-        q,
-        &vec![0.0; nq],
-    )?;
+    data.prepare_geometry(model, &FlatGround, ContactMode::FLIGHT, q, &vec![0.0; nq])?;
     let m = &data.m_bar;
     let mut s = DVector::zeros(n);
     for &j in joints {
@@ -267,9 +260,8 @@ pub fn leg_effectiveness(rhex: &Rhex) -> Result<f64, RhexError> {
 /// `M̄`'s body block must be invertible for the momentum route; exposed for tests.
 pub fn body_inertia_block(model: &Model, q: &[f64]) -> Result<DMatrix<f64>, RhexError> {
     let mut data = Data::new(model);
-    super::prepare_geometry(
+    data.prepare_geometry(
         model,
-        &mut data,
         &FlatGround,
         ContactMode::FLIGHT,
         q,

@@ -57,18 +57,6 @@ pub(crate) fn check_configuration(model: &Model, q: &[f64]) -> Result<(), RhexEr
     check_finite("q", q)
 }
 
-/// [`Data::prepare_geometry`] with the crate's error (only the geometry is needed).
-pub(crate) fn prepare_geometry(
-    model: &Model,
-    data: &mut Data,
-    terrain: &dyn Terrain,
-    mode: ContactMode,
-    q: &[f64],
-    qd: &[f64],
-) -> Result<(), RhexError> {
-    Ok(data.prepare_geometry(model, terrain, mode, q, qd)?)
-}
-
 /// The free motions of thesis (4.20): `H = [A; Y]⁻¹ [0; I_e]` at `q` (`Y`: e×q).
 pub fn free_motion_basis(
     model: &Model,
@@ -80,7 +68,7 @@ pub fn free_motion_basis(
     let nq = model.nq();
     check_configuration(model, q)?;
     let mut data = Data::new(model);
-    prepare_geometry(model, &mut data, terrain, mode, q, &vec![0.0; nq])?;
+    data.prepare_geometry(model, terrain, mode, q, &vec![0.0; nq])?;
     let a = &data.constraints.a;
     let c = a.nrows();
     let e = nq - c;

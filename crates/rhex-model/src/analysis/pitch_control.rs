@@ -8,10 +8,7 @@
 //! quadratic in `θ̇`: its first positive root is the bound (closed form, exact). Maximising
 //! that bound over leg angle or gear ratio (Figs. 4.11/4.12) is not convex: a grid followed by
 //! golden-section refinement.
-use super::{
-    bad, check_finite, free_motion_basis, normal_rows, prepare_geometry, selector_rows,
-    solve_contact_pose,
-};
+use super::{bad, check_finite, free_motion_basis, normal_rows, selector_rows, solve_contact_pose};
 use crate::params::{LegShape, RhexParams};
 use crate::{Rhex, RhexError};
 use selfmanip_core::description::ShapeDescription;
@@ -129,7 +126,7 @@ pub fn takeoff_bound(
     idx.push(model.ix_phi());
     let h = free_motion_basis(model, terrain, mode, q, &selector_rows(nq, &idx))?;
     let mut data = Data::new(model);
-    prepare_geometry(model, &mut data, terrain, mode, q, &vec![0.0; nq])?;
+    data.prepare_geometry(model, terrain, mode, q, &vec![0.0; nq])?;
     let rows = normal_rows(&data);
     let qd_of = |w: f64| -> Vec<f64> {
         let mut yd = nalgebra::DVector::zeros(n + 1);

@@ -2,7 +2,7 @@
 //! (Result B.1, eqs. 4.55–4.56), holding torque by leg shape (B.2, eqs. 4.57–4.58), the exact
 //! pitch-rate controller from the free-motion Jacobian `H` (B.3, eq. 4.59), and the largest
 //! leg speed before a contact lifts (Fig. 4.8).
-use super::{bad, check_finite, free_motion_basis, normal_rows, prepare_geometry, selector_rows};
+use super::{bad, check_finite, free_motion_basis, normal_rows, selector_rows};
 use crate::quasistatic_map::{quasi_static_pose, QuasiStaticPose, Support};
 use crate::{Rhex, RhexError};
 use nalgebra::{DMatrix, DVector};
@@ -211,7 +211,7 @@ pub fn liftoff_speed(
     };
     let l0 = lam(0.0)?;
     let l1 = lam(1.0)?;
-    prepare_geometry(model, &mut data, terrain, mode, q, &vec![0.0; q.len()])?;
+    data.prepare_geometry(model, terrain, mode, q, &vec![0.0; q.len()])?;
     let rows = normal_rows(&data);
     // U = −1 on normal rows (4.76)
     let a: Vec<f64> = rows.iter().map(|&i| -l0[i]).collect();

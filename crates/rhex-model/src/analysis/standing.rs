@@ -76,7 +76,7 @@ impl TorqueSplit {
         let nq = model.nq();
         let n = model.n_joints();
         let mut data = Data::new(model);
-        super::prepare_geometry(model, &mut data, terrain, mode, q, &vec![0.0; nq])?;
+        data.prepare_geometry(model, terrain, mode, q, &vec![0.0; nq])?;
         let a = data.constraints.a.clone();
         // ker A from the full SVD of Aᵀ A
         let eig = nalgebra::SymmetricEigen::new(a.transpose() * &a);
