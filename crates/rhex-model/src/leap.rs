@@ -14,10 +14,12 @@
 //! rolling on the half circle), `−` the other way (pushing on the toe point: a flip).
 //!
 //! **Massless legs in the air** (thesis 5.1.1) have no dynamics: their motion is prescribed
-//! with bounded acceleration (the thesis's assumption that keeps executions non-Zeno). A leg
-//! that has not touched down yet swings towards the ground; a leg that has lifted off keeps
-//! turning in its push direction, out of the way, and parks pointing up (the thesis's "once a
-//! leg has lifted off the ground it is slowly rotated upwards out of the way").
+//! with bounded acceleration (the thesis's assumption that keeps executions non-Zeno), as
+//! smooth functions of time ([`crate::leg_motion`]). A leg that has not touched down yet
+//! swings towards the ground; a leg that has lifted off parks pointing up on the side of
+//! straight down where it is, never sweeping through the ground (the thesis's "once a leg
+//! has lifted off the ground it is slowly rotated upwards out of the way"), unless
+//! [`LeapConfig::keep_pushing_after_liftoff`] keeps it turning in its push direction.
 //!
 //! **Words.** The leap word is the sequence of ground-reaction-complex cells visited
 //! (chapter 3.1), sliding toes counted as contact, zero-time cells suppressed.

@@ -615,11 +615,8 @@ impl<'a> Sim<'a> {
                 QpOutcome::Unique(s) => Ok((
                     s.mode,
                     rows(s.mode, &s.candidates, &s.impulse),
-                    if pseudo.is_some() {
-                        rows(s.mode, &s.candidates, &s.pseudo_impulse)
-                    } else {
-                        Vec::new()
-                    },
+                    // empty without a pseudo-impulse
+                    rows(s.mode, &s.candidates, &s.pseudo_impulse),
                 )),
                 QpOutcome::Ambiguous(s, _) => Err(s.mode),
             })
