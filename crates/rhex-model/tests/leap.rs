@@ -11,6 +11,7 @@ use selfmanip_core::contact::contact_geometry;
 use selfmanip_core::model::Friction;
 use selfmanip_core::Data;
 use selfmanip_hybrid::EventKind;
+use std::f64::consts::FRAC_PI_2;
 
 fn cases() -> Vec<LeapConfig> {
     let mut v = Vec::new();
@@ -490,4 +491,128 @@ fn fig5_8_vertical_leap_slips_and_rises() {
     check_on_cone(&rhex.model, &cfg, &slip.triggered, &r, slip.t);
     let rep = r.energy_report(&p, &cfg).unwrap();
     assert!(p.m_b * p.g * rise <= rep.joint_work_j - rep.impact_loss_j + 1e-6);
+}
+
+/// Mirror symmetry, a second route to every leap: reflecting the planar robot front-to-back
+/// (`x → −x`, `φ → −φ`, front ↔ rear) maps the strategy `(+,+)` with the rear leg starting
+/// `τ` after the front one onto `(−,−)` with it starting `τ` *before* (`t2 = −τ`), on a robot
+/// that is its own mirror image: stick legs (the half circle is not), equal hip distances,
+/// leg lengths and toe friction. The two leaps are then one execution seen in a mirror: the
+/// same clock, apex height and word with `FB FL ↔ RB RL` swapped, the opposite displacement
+/// and pitch. Nothing in the engine knows about the mirror (contact order, row order, the
+/// enumeration over contact subsets all differ), so agreement tests the whole hybrid
+/// pipeline and the leap controller's sign handling at once.
+#[test]
+fn mirrored_strategies_give_mirrored_leaps() {
+    let mut p = leap_params();
+    p.leg_shape = rhex_model::LegShape::Stick;
+    p.l2 = p.l1;
+    p.rho2 = p.rho1;
+    p.mu_rear = p.mu_front;
+    let pairs = Some([rhex_model::LegPair::Front, rhex_model::LegPair::Rear]);
+    let mirror_cell = |c: &str| {
+        let b: Vec<char> = c.chars().collect();
+        [b[2], b[3], b[0], b[1]].iter().collect::<String>()
+    };
+    let mut compared = 0;
+    for tau in [-0.1, -0.03, 0.0, 0.02, 0.1] {
+        let leap = |s: &str, t2: f64| {
+            let cfg = LeapConfig {
+                strategy: s.parse().unwrap(),
+                t2_s: t2,
+                pairs,
+                ..LeapConfig::default()
+            };
+            simulate_leap(&p, &cfg).unwrap()
+        };
+        let (a, b) = (leap("++", tau), leap("--", -tau));
+        assert_eq!(a.status, b.status, "τ = {tau}");
+        let mirrored: Vec<String> = a.word.iter().map(|c| mirror_cell(c)).collect();
+        assert_eq!(mirrored, b.word, "τ = {tau}");
+        let (ea, eb) = (&a.execution, &b.execution);
+        assert_eq!(ea.events.len(), eb.events.len(), "τ = {tau}");
+        for (x, y) in ea.events.iter().zip(&eb.events) {
+            assert!((x.t - y.t).abs() < 1e-8, "τ = {tau}: {} vs {}", x.t, y.t);
+        }
+        assert!((ea.t - eb.t).abs() < 1e-8, "τ = {tau}");
+        let (qa, qb) = (&ea.q, &eb.q);
+        // q = [θ_front, θ_rear, x, z, φ]
+        let expect = [-qa[1], -qa[0], -qa[2], qa[3], -qa[4]];
+        for (i, (e, g)) in expect.iter().zip(qb).enumerate() {
+            assert!((e - g).abs() < 1e-6, "τ = {tau}, q[{i}]: {e} vs {g}");
+        }
+        if let (Some(x), Some(y)) = (a.apex, b.apex) {
+            assert!((x.z_m - y.z_m).abs() < 1e-6 && (x.x_m + y.x_m).abs() < 1e-6);
+            assert!((x.phi_rad + y.phi_rad).abs() < 1e-6);
+            compared += 1;
+        }
+    }
+    assert!(compared >= 3, "only {compared} leaps reached an apex");
+}
+
+/// Section 3.3's qualitative reading of the four strategies, with chapter 3's pushing pairs:
+/// `(+,+)` lunges forward, `(−,−)` flips backwards (travels backwards and turns past
+/// vertical) when the rear leg is not late (`t2 ≤ 0`) and does not complete the flip when
+/// it is (`t2 > 0`: "lands on its nose"), and `(+,−)` goes up more than along, pitched
+/// well short of vertical, with a nearly level leap (under 10°) among them. The thresholds are the words of the text, not fitted values: "past
+/// vertical" is |φ| > 90°, "forward" / "backwards" the sign of the apex displacement.
+#[test]
+fn strategies_lunge_flip_and_leap_level_as_section_3_3_reads() {
+    let p = leap_params();
+    let apex = |s: &str, t2: f64| {
+        let cfg = LeapConfig {
+            strategy: s.parse().unwrap(),
+            t2_s: t2,
+            ..LeapConfig::default()
+        };
+        let r = simulate_leap(&p, &cfg).unwrap();
+        assert_eq!(
+            r.status,
+            LeapStatus::Ok,
+            "{s} t2 = {t2}: {}",
+            r.word_string()
+        );
+        r.apex.unwrap()
+    };
+    for t2 in [-0.1, -0.05, 0.0] {
+        let a = apex("--", t2);
+        assert!(a.x_m < 0.0, "(−,−) t2 = {t2}: x {}", a.x_m);
+        assert!(
+            a.phi_rad.abs() > FRAC_PI_2,
+            "(−,−) t2 = {t2}: φ {}",
+            a.phi_rad
+        );
+    }
+    for t2 in [0.06, 0.1] {
+        let a = apex("--", t2);
+        assert!(
+            a.phi_rad.abs() < FRAC_PI_2,
+            "(−,−) t2 = {t2}: φ {}",
+            a.phi_rad
+        );
+    }
+    for t2 in [0.0, 0.02] {
+        let a = apex("++", t2);
+        assert!(a.x_m > a.z_m, "(+,+) t2 = {t2}: x {} z {}", a.x_m, a.z_m);
+    }
+    let mut least_pitch = f64::INFINITY;
+    for t2 in [-0.2, -0.1, -0.06, -0.04, 0.0, 0.1, 0.2] {
+        let a = apex("+-", t2);
+        assert!(
+            a.x_m.abs() < a.z_m - p.rho_b,
+            "(+,−) t2 = {t2}: x {} z {}",
+            a.x_m,
+            a.z_m
+        );
+        assert!(
+            a.phi_rad.abs() < FRAC_PI_2 * 0.7,
+            "(+,−) t2 = {t2}: φ {}",
+            a.phi_rad
+        );
+        least_pitch = least_pitch.min(a.phi_rad.abs());
+    }
+    assert!(
+        least_pitch < 10f64.to_radians(),
+        "(+,−) least pitch {least_pitch}"
+    );
 }
