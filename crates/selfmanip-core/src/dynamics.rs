@@ -110,21 +110,7 @@ impl Data {
         self.constraints
             .assemble(model, &self.kin, terrain, mode, qd);
         // => which joints are free and massless
-        self.free_joints.clear();
-        self.dynamic_coords.clear();
-        for j in 0..model.n_joints() {
-            let distal = model.distal(j);
-            let massless = distal.clone().all(|k| model.joints[k].is_massless());
-            let touched = mode
-                .active()
-                .any(|c| model.contacts[c].link.is_some_and(|l| distal.contains(&l)));
-            if massless && !touched {
-                self.free_joints.push(j);
-            } else {
-                self.dynamic_coords.push(j);
-            }
-        }
-        self.dynamic_coords.extend(model.n_joints()..nq);
+        free_massless_joints(model, mode, &mut self.free_joints, &mut self.dynamic_coords);
         // => factor [M̄ Aᵀ; A 0] on the dynamic coordinates
         self.kkt
             .factor_on(&self.m_bar, &self.constraints.a, &self.dynamic_coords)
@@ -194,6 +180,33 @@ impl Data {
     }
 }
 
+/// The joints of `mode` that are free massless joints (their whole distal chain massless,
+/// no active contact on it; thesis 5.1.1) into `free`, and the coordinates kept in the KKT
+/// system — every other joint, then `x, z, φ` — into `dynamic`, both ascending. A function
+/// of the model and the mode only.
+pub fn free_massless_joints(
+    model: &Model,
+    mode: ContactMode,
+    free: &mut Vec<usize>,
+    dynamic: &mut Vec<usize>,
+) {
+    free.clear();
+    dynamic.clear();
+    for j in 0..model.n_joints() {
+        let distal = model.distal(j);
+        let massless = distal.clone().all(|k| model.joints[k].is_massless());
+        let touched = mode
+            .active()
+            .any(|c| model.contacts[c].link.is_some_and(|l| distal.contains(&l)));
+        if massless && !touched {
+            free.push(j);
+        } else {
+            dynamic.push(j);
+        }
+    }
+    dynamic.extend(model.n_joints()..model.nq());
+}
+
 /// Thesis (5.3)–(5.4): `q̈ = M†(Υ − C̄q̇ − N̄) − A†ᵀȦq̇`, `λ = A†(Υ − C̄q̇ − N̄) − ΛȦq̇`.
 /// Results land in `data.qdd` and `data.lambda` (rows as in `data.constraints.rows`).
 #[allow(clippy::too_many_arguments)]
@@ -261,6 +274,14 @@ pub fn plastic_impact(
     qd_minus: &[f64],
 ) -> Result<Impact> {
     data.prepare(model, terrain, mode, q, qd_minus)?;
+    plastic_impact_prepared(model, data, qd_minus)
+}
+
+/// [`plastic_impact`] at the state of the last [`Data::prepare`] (which must have been at
+/// the same `(mode, q)`): only the solve, for callers that prepared the mode already (e.g.
+/// to test that its KKT matrix is regular).
+pub fn plastic_impact_prepared(model: &Model, data: &mut Data, qd_minus: &[f64]) -> Result<Impact> {
+    check_vector("qd", qd_minus, model.nq())?;
     let nq = model.nq();
     let c = data.constraints.n_rows();
     // [M̄ Aᵀ; A 0][Δq̇; P] = [0; −A q̇⁻]
@@ -287,6 +308,18 @@ pub fn pseudo_impulse(
 ) -> Result<DVector<f64>> {
     check_vector("tau", tau, model.n_joints())?;
     data.prepare(model, terrain, mode, q, qd_minus)?;
+    pseudo_impulse_prepared(model, data, tau, delta_t_s)
+}
+
+/// [`pseudo_impulse`] at the state of the last [`Data::prepare`] (which must have been at
+/// the same `(mode, q, q̇⁻)`): only the solve.
+pub fn pseudo_impulse_prepared(
+    model: &Model,
+    data: &mut Data,
+    tau: &[f64],
+    delta_t_s: f64,
+) -> Result<DVector<f64>> {
+    check_vector("tau", tau, model.n_joints())?;
     let f = data.generalized_force(model, tau);
     let c = data.constraints.n_rows();
     let (mut x, mut y) = (DVector::zeros(model.nq()), DVector::zeros(c));

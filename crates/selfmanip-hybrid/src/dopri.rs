@@ -84,7 +84,9 @@ impl Default for StepOptions {
 pub struct DenseStep {
     pub t0: f64,
     pub h: f64,
-    r: [Vec<f64>; 5],
+    /// The five coefficient vectors `r₀ … r₄` of the interpolant, one after the other (one
+    /// allocation per stored step).
+    r: Vec<f64>,
 }
 
 impl DenseStep {
@@ -94,18 +96,27 @@ impl DenseStep {
 
     /// `y(t)` for `t` in the step.
     pub fn eval(&self, t: f64, y: &mut [f64]) {
+        let n = y.len();
+        debug_assert_eq!(self.r.len(), 5 * n);
         let s = (t - self.t0) / self.h;
         let s1 = 1.0 - s;
-        for (i, yi) in y.iter_mut().enumerate() {
-            *yi = self.r[0][i]
-                + s * (self.r[1][i] + s1 * (self.r[2][i] + s * (self.r[3][i] + s1 * self.r[4][i])));
+        let (r0, rest) = self.r.split_at(n);
+        let (r1, rest) = rest.split_at(n);
+        let (r2, rest) = rest.split_at(n);
+        let (r3, r4) = rest.split_at(n);
+        for i in 0..n {
+            y[i] = r0[i] + s * (r1[i] + s1 * (r2[i] + s * (r3[i] + s1 * r4[i])));
         }
     }
 }
 
-/// An integrator for `ẏ = f(t, y)` that may fail (the right-hand side returns `Err`).
-pub struct Dopri5<'a, E> {
-    f: &'a mut dyn FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
+/// The right-hand side `ẏ = f(t, y)`, written into its third argument; it may fail.
+pub type Rhs<'f, E> = dyn FnMut(f64, &[f64], &mut [f64]) -> Result<(), E> + 'f;
+
+/// An integrator for `ẏ = f(t, y)`. The right-hand side is passed to every [`Self::step`]
+/// (not stored), so that its owner can use the same workspace between steps, e.g. to
+/// evaluate guards where the last stage left its results.
+pub struct Dopri5 {
     pub opts: StepOptions,
     k: [Vec<f64>; 7],
     ytmp: Vec<f64>,
@@ -114,16 +125,15 @@ pub struct Dopri5<'a, E> {
     fsal_valid: bool,
     /// Weight of each component in the error norm (1: counted, 0: ignored).
     weights: Vec<f64>,
+    /// `Σ weights` (at least 1).
+    counted: f64,
+    /// Size and error norm (at least 1e-2) of the last accepted step since the last reset.
+    last_accepted: Option<(f64, f64)>,
 }
 
-impl<'a, E> Dopri5<'a, E> {
-    pub fn new(
-        f: &'a mut dyn FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
-        n: usize,
-        opts: StepOptions,
-    ) -> Self {
+impl Dopri5 {
+    pub fn new(n: usize, opts: StepOptions) -> Self {
         Dopri5 {
-            f,
             opts,
             k: std::array::from_fn(|_| vec![0.0; n]),
             ytmp: vec![0.0; n],
@@ -131,6 +141,8 @@ impl<'a, E> Dopri5<'a, E> {
             h: opts.h_initial_s,
             fsal_valid: false,
             weights: vec![1.0; n],
+            counted: n.max(1) as f64,
+            last_accepted: None,
         }
     }
 
@@ -145,20 +157,25 @@ impl<'a, E> Dopri5<'a, E> {
     pub fn set_error_weights(&mut self, weights: &[f64]) {
         if weights.len() == self.weights.len() {
             self.weights.copy_from_slice(weights);
+            self.counted = self.weights.iter().sum::<f64>().max(1.0);
         }
     }
 
-    /// Forgets the stored derivative (call after the state jumps).
-    pub fn reset(&mut self) {
+    /// Forgets the stored derivative (call after the state jumps); the next step tries
+    /// `h_s`.
+    pub fn reset(&mut self, h_s: f64) {
         self.fsal_valid = false;
-        self.h = self.opts.h_initial_s;
+        self.h = h_s;
+        self.last_accepted = None;
     }
 
-    /// One accepted step from `(t, y)` not past `t_end`; advances `y` and returns the dense
-    /// output. `Err(Left(e))` if the right-hand side failed, `Err(Right(h))` if the step
-    /// size fell below `h_min`.
-    pub fn step(
+    /// One accepted step of `ẏ = f(t, y)` from `(t, y)` not past `t_end`; advances `y` and
+    /// returns the dense output. The last call of `f` in an accepted step is at its end point,
+    /// `(t + h, y_new)` exactly (FSAL). `Err(Rhs(e))` if the right-hand side failed,
+    /// `Err(StepTooSmall(h))` if the step size fell below `h_min`.
+    pub fn step<E>(
         &mut self,
+        f: &mut Rhs<'_, E>,
         t: f64,
         y: &mut [f64],
         t_end: f64,
@@ -166,9 +183,10 @@ impl<'a, E> Dopri5<'a, E> {
     ) -> Result<(), StepError<E>> {
         let n = y.len();
         if !self.fsal_valid {
-            (self.f)(t, y, &mut self.k[0]).map_err(StepError::Rhs)?;
+            f(t, y, &mut self.k[0]).map_err(StepError::Rhs)?;
             self.fsal_valid = true;
         }
+        let mut rejected = false;
         loop {
             let h = self.h.min(self.opts.h_max_s).min(t_end - t);
             if h < self.opts.h_min_s && t_end - t > self.opts.h_min_s {
@@ -184,7 +202,7 @@ impl<'a, E> Dopri5<'a, E> {
                 }
                 let (head, tail) = self.k.split_at_mut(s);
                 let _ = head;
-                (self.f)(t + C[s] * h, &self.ytmp, &mut tail[0]).map_err(StepError::Rhs)?;
+                f(t + C[s] * h, &self.ytmp, &mut tail[0]).map_err(StepError::Rhs)?;
             }
             // the 7th stage point is y_{n+1} (FSAL)
             self.ynew.copy_from_slice(&self.ytmp);
@@ -194,34 +212,47 @@ impl<'a, E> Dopri5<'a, E> {
                 let sc = self.opts.atol + self.opts.rtol * y[i].abs().max(self.ynew[i].abs());
                 err += self.weights[i] * (e / sc).powi(2);
             }
-            let counted: f64 = self.weights.iter().sum();
-            let err = (err / counted.max(1.0)).sqrt();
+            let err = (err / self.counted).sqrt();
             if err <= 1.0 || h <= self.opts.h_min_s {
                 dense.t0 = t;
                 dense.h = h;
-                for r in dense.r.iter_mut() {
-                    r.resize(n, 0.0);
-                }
+                dense.r.resize(5 * n, 0.0);
                 for i in 0..n {
                     let dy = self.ynew[i] - y[i];
                     let bspl = h * self.k[0][i] - dy;
-                    dense.r[0][i] = y[i];
-                    dense.r[1][i] = dy;
-                    dense.r[2][i] = bspl;
-                    dense.r[3][i] = dy - h * self.k[6][i] - bspl;
-                    dense.r[4][i] = h * (0..7).map(|j| D[j] * self.k[j][i]).sum::<f64>();
+                    dense.r[i] = y[i];
+                    dense.r[n + i] = dy;
+                    dense.r[2 * n + i] = bspl;
+                    dense.r[3 * n + i] = dy - h * self.k[6][i] - bspl;
+                    dense.r[4 * n + i] = h * (0..7).map(|j| D[j] * self.k[j][i]).sum::<f64>();
                 }
                 y.copy_from_slice(&self.ynew);
                 let (first, rest) = self.k.split_at_mut(1);
                 first[0].copy_from_slice(&rest[5]);
-                let fac = if err == 0.0 {
+                // h_new = 0.9 h err^(−1/5), and no larger than Gustafsson's predictive
+                // controller (Hairer & Wanner, *Solving ODEs II*, IV.8, as in RADAU5), which
+                // extrapolates the change of the error between the last two accepted steps:
+                // h_new = 0.9 h (h / h_acc) (err_acc / err²)^(1/5). Where the error grows
+                // from step to step (a flow speeding up towards a liftoff), the plain
+                // controller settles at err ≈ 1 and rejects every other step.
+                let mut fac = if err == 0.0 {
                     5.0
                 } else {
                     (0.9 * err.powf(-0.2)).clamp(0.2, 5.0)
                 };
+                if let (Some((h_acc, err_acc)), true) = (self.last_accepted, err > 0.0) {
+                    let predicted = (h / h_acc) * 0.9 * (err_acc / (err * err)).powf(0.2);
+                    fac = fac.min(predicted.clamp(0.2, 5.0));
+                }
+                if rejected {
+                    // no growth right after a rejection (DOPRI5)
+                    fac = fac.min(1.0);
+                }
+                self.last_accepted = Some((h, err.max(1e-2)));
                 self.h = h * fac;
                 return Ok(());
             }
+            rejected = true;
             self.h = h * (0.9 * err.powf(-0.2)).clamp(0.2, 1.0);
         }
     }
@@ -247,7 +278,6 @@ mod tests {
             Ok(())
         };
         let mut ode = Dopri5::new(
-            &mut f,
             2,
             StepOptions {
                 rtol: 1e-11,
@@ -260,7 +290,7 @@ mod tests {
         let mut worst_dense: f64 = 0.0;
         let mut probe = [0.0; 2];
         while t < 10.0 {
-            ode.step(t, &mut y, 10.0, &mut dense).unwrap();
+            ode.step(&mut f, t, &mut y, 10.0, &mut dense).unwrap();
             for s in [0.25, 0.5, 0.75] {
                 let tm = dense.t0 + s * dense.h;
                 dense.eval(tm, &mut probe);

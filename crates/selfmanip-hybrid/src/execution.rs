@@ -35,8 +35,9 @@ use selfmanip_core::inertia::potential_energy;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::model::Friction;
 use selfmanip_core::{
-    forward_dynamics_prepared, kinetic_energy, plastic_impact, pseudo_impulse, ContactMode,
-    CoreError, Data, Model, SingularityKind, Terrain,
+    forward_dynamics_prepared, free_massless_joints, kinetic_energy, plastic_impact,
+    plastic_impact_prepared, pseudo_impulse_prepared, ContactMode, CoreError, Data, GroundPlane,
+    Model, SingularityKind, Terrain,
 };
 use thiserror::Error;
 
@@ -207,8 +208,10 @@ pub enum Termination {
         kind: SingularityKind,
         condition_estimate: f64,
     },
-    /// A contact's height jumped through zero: the terrain has a step (a vertical face) that
-    /// is not a contact surface of the model.
+    /// A contact met an edge of the terrain that is not a contact surface (e.g. where a
+    /// ledge's face meets its top): an inactive contact's height jumped through zero, or an
+    /// active contact left the surface it was on (located to the event tolerance); `t` is
+    /// when, `gap_m` the contact's height there.
     TerrainDiscontinuity {
         t: f64,
         contact: usize,
@@ -258,6 +261,13 @@ enum Guard {
     Stick(usize),
 }
 
+impl Guard {
+    /// Whether the guard's value needs the flow (the contact forces), not just kinematics.
+    fn needs_flow(self) -> bool {
+        matches!(self, Guard::Liftoff { .. } | Guard::Slip { .. })
+    }
+}
+
 struct Sim<'a> {
     model: &'a Model,
     terrain: &'a dyn Terrain,
@@ -267,9 +277,13 @@ struct Sim<'a> {
     kin: Kinematics,
     tau: Vec<f64>,
     free: Vec<f64>,
-    /// `(t, mode, [q; q̇])` of the flow whose results `data` holds (several force guards are
-    /// evaluated at the same sample).
-    flow_key: Option<(f64, ContactMode, Vec<f64>)>,
+    /// `(t, mode)` of the flow whose results `data` holds, at the state `flow_y`: the
+    /// integrator's stages and the guards share them (the last stage of a step is its end
+    /// point, where the guards are sampled; several force guards share one sample).
+    flow_key: Option<(f64, ContactMode)>,
+    flow_y: Vec<f64>,
+    /// The state `[q; q̇]` at which `kin` was computed, if it is current.
+    kin_y: Option<Vec<f64>>,
 }
 
 impl<'a> Sim<'a> {
@@ -277,6 +291,12 @@ impl<'a> Sim<'a> {
         self.model.nq()
     }
 
+    /// Whether `data` holds the flow (and so the kinematics) at state `(q, q̇)`.
+    fn flow_at(&self, q: &[f64], qd: &[f64]) -> bool {
+        self.flow_key.is_some() && self.flow_y[..q.len()] == *q && self.flow_y[q.len()..] == *qd
+    }
+
+    /// The flow of `mode` at `(t, q, q̇)` into `data`, unless it holds it already.
     fn dynamics(
         &mut self,
         t: f64,
@@ -284,10 +304,8 @@ impl<'a> Sim<'a> {
         q: &[f64],
         qd: &[f64],
     ) -> Result<(), CoreError> {
-        if let Some((t0, m0, y0)) = &self.flow_key {
-            if *t0 == t && *m0 == mode && y0[..q.len()] == *q && y0[q.len()..] == *qd {
-                return Ok(());
-            }
+        if self.flow_key == Some((t, mode)) && self.flow_at(q, qd) {
+            return Ok(());
         }
         self.flow_key = None;
         flow(
@@ -302,8 +320,74 @@ impl<'a> Sim<'a> {
             q,
             qd,
         )?;
-        self.flow_key = Some((t, mode, q.iter().chain(qd).copied().collect()));
+        self.flow_y.clear();
+        self.flow_y.extend_from_slice(q);
+        self.flow_y.extend_from_slice(qd);
+        self.flow_key = Some((t, mode));
         Ok(())
+    }
+
+    /// [`Self::dynamics`] when `data` was just prepared at `(mode, q, q̇)`: the solve only.
+    fn dynamics_prepared(
+        &mut self,
+        t: f64,
+        mode: ContactMode,
+        q: &[f64],
+        qd: &[f64],
+    ) -> Result<(), CoreError> {
+        flow_prepared(
+            self.model,
+            self.ctrl,
+            &mut self.data,
+            &mut self.tau,
+            &mut self.free,
+            t,
+            mode,
+            q,
+            qd,
+        )?;
+        self.flow_y.clear();
+        self.flow_y.extend_from_slice(q);
+        self.flow_y.extend_from_slice(qd);
+        self.flow_key = Some((t, mode));
+        Ok(())
+    }
+
+    /// The integrator's right-hand side `ẏ = [q̇; q̈]` of the flow of `mode`.
+    fn rhs(
+        &mut self,
+        t: f64,
+        mode: ContactMode,
+        y: &[f64],
+        dy: &mut [f64],
+    ) -> Result<(), CoreError> {
+        let nq = self.nq();
+        let (q, qd) = y.split_at(nq);
+        self.dynamics(t, mode, q, qd)?;
+        dy[..nq].copy_from_slice(qd);
+        dy[nq..].copy_from_slice(self.data.qdd.as_slice());
+        Ok(())
+    }
+
+    /// Poses and velocities at `(q, q̇)`: those of the flow if `data` holds it there, else
+    /// computed once per state.
+    fn kinematics(&mut self, q: &[f64], qd: &[f64]) -> &Kinematics {
+        if self.flow_at(q, qd) {
+            return &self.data.kin;
+        }
+        let nq = q.len();
+        let current = self
+            .kin_y
+            .as_ref()
+            .is_some_and(|y| y[..nq] == *q && y[nq..] == *qd);
+        if !current {
+            self.kin.compute(self.model, q, qd);
+            let y = self.kin_y.get_or_insert_with(Vec::new);
+            y.clear();
+            y.extend_from_slice(q);
+            y.extend_from_slice(qd);
+        }
+        &self.kin
     }
 
     fn guard_value(
@@ -315,10 +399,10 @@ impl<'a> Sim<'a> {
     ) -> Result<f64, CoreError> {
         let nq = self.nq();
         let (q, qd) = y.split_at(nq);
+        let (model, terrain) = (self.model, self.terrain);
         Ok(match g {
             Guard::Touchdown(k) => {
-                self.kin.compute(self.model, q, qd);
-                contact_geometry(self.model, &self.kin, self.terrain, k).gap_m
+                contact_geometry(model, self.kinematics(q, qd), terrain, k).gap_m
             }
             Guard::Liftoff { row, .. } => {
                 self.dynamics(t, mode, q, qd)?;
@@ -331,10 +415,36 @@ impl<'a> Sim<'a> {
                 self.dynamics(t, mode, q, qd)?;
                 mu * (-self.data.lambda[n_row]) - self.data.lambda[t_row].abs()
             }
-            Guard::Stick(k) => {
-                self.kin.compute(self.model, q, qd);
-                sliding_velocity(self.model, &self.kin, self.terrain, k)
-            }
+            Guard::Stick(k) => sliding_velocity(model, self.kinematics(q, qd), terrain, k),
+        })
+    }
+
+    /// The surface each active contact of `mode` is on at `y = [q; q̇]`.
+    fn surfaces(&mut self, mode: ContactMode, y: &[f64]) -> Vec<(usize, GroundPlane)> {
+        let (q, qd) = y.split_at(self.nq());
+        let (model, terrain) = (self.model, self.terrain);
+        let kin = self.kinematics(q, qd);
+        mode.active()
+            .map(|k| (k, contact_geometry(model, kin, terrain, k).plane))
+            .collect()
+    }
+
+    /// An active contact that is no longer on the surface it had at the segment's start
+    /// (`surfaces`, from [`Sim::surfaces`]), with its height at `y`: further than
+    /// [`TERRAIN_STEP_M`] from zero (the surface ended under it: it crossed a convex edge),
+    /// or another surface is now nearer (it reached a concave corner, where one site would
+    /// touch two surfaces).
+    fn off_surface(
+        &mut self,
+        surfaces: &[(usize, GroundPlane)],
+        y: &[f64],
+    ) -> Option<(usize, f64)> {
+        let (q, qd) = y.split_at(self.nq());
+        let (model, terrain) = (self.model, self.terrain);
+        let kin = self.kinematics(q, qd);
+        surfaces.iter().find_map(|&(k, plane)| {
+            let g = contact_geometry(model, kin, terrain, k);
+            (g.plane != plane || g.gap_m.abs() > TERRAIN_STEP_M).then_some((k, g.gap_m))
         })
     }
 
@@ -450,24 +560,21 @@ impl<'a> Sim<'a> {
     ) -> Result<Option<(ContactMode, Vec<(usize, f64)>, Vec<f64>, Vec<f64>)>, CoreError> {
         let mut prefer = prefer;
         for _ in 0..=set.len() {
+            // `mode_for` leaves `data` prepared at `(mode, q, q̇)`
             let Some(mode) = self.mode_for(set, prefer, q, qd)? else {
                 return Ok(None);
             };
             let (push, p, pd, total) = if impact {
-                let imp = plastic_impact(self.model, &mut self.data, self.terrain, mode, q, qd)?;
+                let imp = plastic_impact_prepared(self.model, &mut self.data, qd)?;
                 let p: Vec<f64> = imp.impulse.iter().copied().collect();
                 let mut pd = Vec::new();
                 let mut total = p.clone();
                 if self.opts.delta_t_s > 0.0 {
                     self.tau.resize(self.model.n_joints(), 0.0);
                     self.ctrl.torque(t, q, qd, mode, &mut self.tau);
-                    let d = pseudo_impulse(
+                    let d = pseudo_impulse_prepared(
                         self.model,
                         &mut self.data,
-                        self.terrain,
-                        mode,
-                        q,
-                        qd,
                         &self.tau,
                         self.opts.delta_t_s,
                     )?;
@@ -491,7 +598,7 @@ impl<'a> Sim<'a> {
                 let push = Self::normal_push(mode, &total);
                 (push, p, pd, total)
             } else {
-                self.dynamics(t, mode, q, qd)?;
+                self.dynamics_prepared(t, mode, q, qd)?;
                 let l: Vec<f64> = self.data.lambda.iter().copied().collect();
                 (Self::normal_push(mode, &l), l.clone(), Vec::new(), l)
             };
@@ -721,10 +828,26 @@ fn flow(
     q: &[f64],
     qd: &[f64],
 ) -> Result<(), CoreError> {
-    tau.resize(model.n_joints(), 0.0);
-    ctrl.torque(t, q, qd, mode, tau);
     // which joints are free (massless, untouched) is known after `prepare`
     data.prepare(model, terrain, mode, q, qd)?;
+    flow_prepared(model, ctrl, data, tau, free, t, mode, q, qd)
+}
+
+/// [`flow`] when `data` has been prepared at `(mode, q, q̇)`.
+#[allow(clippy::too_many_arguments)]
+fn flow_prepared(
+    model: &Model,
+    ctrl: &dyn Controller,
+    data: &mut Data,
+    tau: &mut Vec<f64>,
+    free: &mut Vec<f64>,
+    t: f64,
+    mode: ContactMode,
+    q: &[f64],
+    qd: &[f64],
+) -> Result<(), CoreError> {
+    tau.resize(model.n_joints(), 0.0);
+    ctrl.torque(t, q, qd, mode, tau);
     free.resize(data.free_joints.len(), 0.0);
     ctrl.free_joint_qdd(t, q, qd, &data.free_joints, free);
     forward_dynamics_prepared(model, data, tau, Some(free))
@@ -747,6 +870,9 @@ fn kinetic_energy_at(
 /// (forces at liftoff) and pseudo-impulses in its rows, or the typed end of the execution
 /// when no or several contact sets qualify.
 type Selection = Result<(ContactMode, Vec<f64>, Vec<f64>), Termination>;
+
+/// Where the guards are sampled in each step (fractions of it; the last is its end point).
+const SAMPLES: [f64; 4] = [0.25, 0.5, 0.75, 1.0];
 
 /// Up to this many candidate contacts the complementarity problems are solved by exact
 /// enumeration of their `2ⁿ` subsets; beyond it by the convex QP of [`crate::impact_qp`].
@@ -800,6 +926,8 @@ pub fn simulate(
         tau: vec![0.0; model.n_joints()],
         free: Vec::new(),
         flow_key: None,
+        flow_y: Vec::with_capacity(2 * nq),
+        kin_y: None,
     };
     // the initial state must satisfy its mode's constraints
     sim.data.prepare(model, terrain, mode0, q0, qd0)?;
@@ -810,9 +938,9 @@ pub fn simulate(
             residual: vres,
         });
     }
-    sim.kin.compute(model, q0, qd0);
+    let kin = sim.kinematics(q0, qd0);
     for k in mode0.active() {
-        let gap = contact_geometry(model, &sim.kin, terrain, k).gap_m;
+        let gap = contact_geometry(model, kin, terrain, k).gap_m;
         if gap.abs() > 1e-8 {
             return Err(HybridError::OffManifold {
                 field: "q",
@@ -828,30 +956,55 @@ pub fn simulate(
     let mut events: Vec<Event> = Vec::new();
     let mut ydense = vec![0.0; 2 * nq];
     let mut h_carry = opts.step.h_initial_s;
+    let mut ode = Dopri5::new(2 * nq, opts.step);
+    let mut weights = vec![1.0; 2 * nq];
+    let mut dense = DenseStep::default();
+    // sliding contacts whose sliding velocity is zero at the start of the next segment up to
+    // drift (they stuck until the last reset, or their stick was just refused)
+    let mut from_rest: Vec<usize> = Vec::new();
+    let (mut free_joints, mut dynamic_coords) = (Vec::new(), Vec::new());
     let termination = 'run: loop {
         // ---- flow in `mode` until a guard fires or t_final
+        // free massless joints follow the controller's prescribed motion (thesis 5.1.1): it
+        // feeds back into nothing, so it does not set the step size
+        mode.validate(model)?;
+        free_massless_joints(model, mode, &mut free_joints, &mut dynamic_coords);
+        weights.fill(1.0);
+        for &j in &free_joints {
+            // joint j is coordinate j (q = [θ…, x, z, φ])
+            weights[j] = 0.0;
+            weights[nq + j] = 0.0;
+        }
         let guards = sim.guards(mode);
         let ng = guards.len();
         // A guard fires when `orient·g + shift` goes from positive to non-positive. Armed
         // guards fire at zero. An unarmed one (not yet clearly positive, e.g. a contact just
         // released at zero height) fires only once clearly negative, `arm_margin` below its
         // start: no chatter at zero, and no tunnelling through the ground when a swing is too
-        // small or too short to arm it. A slip→stick guard takes the sign of its sliding
-        // velocity once that exceeds the margin, and cannot fire before.
+        // small or too short to arm it. A slip→stick guard of a contact sliding clearly
+        // (beyond the margin) is armed with the sign of its velocity; one that starts from
+        // rest — its velocity within the margin, or the contact stuck until the reset, whose
+        // sliding velocity is then only the drift of the sticking constraint, possibly beyond
+        // the margin — cannot fire until the velocity has moved `arm_margin` away from its
+        // start (`stick_ref`), and takes the sign of that motion.
         let mut armed = vec![false; ng];
         let mut orient = vec![1.0; ng];
         let mut unarmed_shift = vec![0.0; ng];
+        let mut stick_ref = vec![0.0; ng];
         let mut last = vec![0.0; ng];
         let mut end_value = vec![0.0; ng];
+        let mut end_t = vec![0.0; ng];
+        let mut sample_raw = vec![0.0; SAMPLES.len() * ng];
         for (gi, &g) in guards.iter().enumerate() {
             let raw = sim.guard_value(g, t, mode, &y)?;
-            if matches!(g, Guard::Stick(_)) {
-                if raw.abs() > opts.arm_margin {
+            if let Guard::Stick(k) = g {
+                if raw.abs() > opts.arm_margin && !from_rest.contains(&k) {
                     orient[gi] = raw.signum();
                     armed[gi] = true;
                 } else {
                     orient[gi] = 0.0;
                     unarmed_shift[gi] = f64::INFINITY;
+                    stick_ref[gi] = raw;
                 }
             } else {
                 armed[gi] = raw > opts.arm_margin;
@@ -867,54 +1020,17 @@ pub fn simulate(
             .filter(|(g, &v)| matches!(g, Guard::Slip { .. }) && v < -opts.arm_margin)
             .map(|(g, _)| *g)
             .collect();
+        let surfaces = sim.surfaces(mode, &y);
         let mut seg = Segment {
             mode,
             t0: t,
             t1: t,
             steps: Vec::new(),
         };
-        let mut rhs_data = Data::new(model);
-        let ctrl = controller;
-        let mut tau = vec![0.0; model.n_joints()];
-        let mut free = Vec::new();
-        let mut rhs = |tt: f64, yy: &[f64], dy: &mut [f64]| -> Result<(), CoreError> {
-            let (q, qd) = yy.split_at(nq);
-            flow(
-                model,
-                terrain,
-                ctrl,
-                &mut rhs_data,
-                &mut tau,
-                &mut free,
-                tt,
-                mode,
-                q,
-                qd,
-            )?;
-            dy[..nq].copy_from_slice(qd);
-            dy[nq..].copy_from_slice(rhs_data.qdd.as_slice());
-            Ok(())
-        };
-        // free massless joints follow the controller's prescribed motion (thesis 5.1.1): it
-        // feeds back into nothing, so it does not set the step size
-        sim.data
-            .prepare_geometry(model, terrain, mode, &y[..nq], &y[nq..])?;
-        let mut weights = vec![1.0; 2 * nq];
-        for &j in &sim.data.free_joints {
-            // joint j is coordinate j (q = [θ…, x, z, φ])
-            weights[j] = 0.0;
-            weights[nq + j] = 0.0;
-        }
-        sim.flow_key = None;
         // a segment starts with the step size the last one reached (a reset changes the
         // flow, not its time scale; a step too long is rejected and shrunk)
-        let step_opts = StepOptions {
-            h_initial_s: h_carry,
-            ..opts.step
-        };
-        let mut ode = Dopri5::new(&mut rhs, 2 * nq, step_opts);
+        ode.reset(h_carry);
         ode.set_error_weights(&weights);
-        let mut dense = DenseStep::default();
         let fired: Option<(f64, Vec<Guard>)> = loop {
             if !slipping_now.is_empty() {
                 break Some((t, slipping_now));
@@ -922,8 +1038,43 @@ pub fn simulate(
             if t >= t_final {
                 break None;
             }
-            match ode.step(t, &mut y, t_final, &mut dense) {
-                Ok(()) => {}
+            let step = ode.step(
+                &mut |tt, yy, dy| sim.rhs(tt, mode, yy, dy),
+                t,
+                &mut y,
+                t_final,
+                &mut dense,
+            );
+            match step {
+                Ok(()) => {
+                    // an active contact stays on its surface (the flow holds a_k = 0); one
+                    // that left it met an edge or a corner of the terrain: locate where
+                    if sim.off_surface(&surfaces, &y).is_some() {
+                        let (mut on, mut off) = (dense.t0, dense.t1());
+                        while off - on > opts.event_tol_s {
+                            let mid = 0.5 * (on + off);
+                            dense.eval(mid, &mut ydense);
+                            if sim.off_surface(&surfaces, &ydense).is_some() {
+                                off = mid;
+                            } else {
+                                on = mid;
+                            }
+                        }
+                        dense.eval(off, &mut y);
+                        let (contact, gap_m) = sim
+                            .off_surface(&surfaces, &y)
+                            .expect("off its surface at `off`");
+                        seg.steps.push(dense.clone());
+                        seg.t1 = off;
+                        t = off;
+                        segments.push(seg);
+                        break 'run Termination::TerrainDiscontinuity {
+                            t: off,
+                            contact,
+                            gap_m,
+                        };
+                    }
+                }
                 Err(StepError::Rhs(CoreError::SingularKkt {
                     kind,
                     condition_estimate,
@@ -950,48 +1101,94 @@ pub fn simulate(
             // just released at zero height) fires only once it is clearly negative, at
             // `−arm_margin`: no chatter at zero, and no tunnelling through the ground when a
             // swing is too small or too short to arm it.
-            let samples = [0.25, 0.5, 0.75, 1.0];
-            let mut prev_t = dense.t0;
-            end_value.copy_from_slice(&last);
-            // (guard, shift, value at prev_t, value at ts) of the guards crossing in [prev_t, ts]
-            let mut crossing: Vec<(usize, f64, f64, f64)> = Vec::new();
-            let mut interval = (dense.t0, dense.t0);
-            for &s in &samples {
-                let ts = dense.t0 + s * dense.h;
-                dense.eval(ts, &mut ydense);
+            // The last sample is the step's end point `(t + h, y_new)` itself, where the
+            // integrator's last stage has just evaluated the flow: its force guards cost
+            // nothing when it is sampled first. Force guards (a flow evaluation each sample)
+            // are sampled at the coarse samples (mid-step and end), and also at a fine sample
+            // where a cheap guard crosses, so that none of them can cross unseen before the
+            // earliest event; the cheap (kinematic) guards at every sample.
+            let coarse = |si: usize| si % 2 == 1;
+            let mut sample_t = [0.0; SAMPLES.len()];
+            for si in [3, 1, 0, 2] {
+                let s = SAMPLES[si];
+                let ts = if s == 1.0 {
+                    ydense.copy_from_slice(&y);
+                    dense.t1()
+                } else {
+                    let ts = dense.t0 + s * dense.h;
+                    dense.eval(ts, &mut ydense);
+                    ts
+                };
+                sample_t[si] = ts;
                 for (gi, &g) in guards.iter().enumerate() {
-                    let raw = sim.guard_value(g, ts, mode, &ydense)?;
-                    let prev_v = end_value[gi];
-                    if orient[gi] == 0.0 {
-                        // a slip→stick guard arms once the sliding velocity is clear of zero
-                        if raw.abs() > opts.arm_margin {
-                            orient[gi] = raw.signum();
+                    if coarse(si) || !g.needs_flow() {
+                        sample_raw[si * ng + gi] = sim.guard_value(g, ts, mode, &ydense)?;
+                    }
+                }
+            }
+            end_value.copy_from_slice(&last);
+            end_t.fill(dense.t0);
+            // (guard, shift, its last sample time, value there, value at ts) of the guards
+            // crossing by ts
+            let mut crossing: Vec<(usize, f64, f64, f64, f64)> = Vec::new();
+            let mut hi = dense.t0;
+            'samples: for (si, &ts) in sample_t.iter().enumerate() {
+                // pass 0: the guards sampled here; pass 1 (a fine sample where a cheap guard
+                // crossed): the force guards too
+                for pass in 0..2 {
+                    if pass == 1 {
+                        if crossing.is_empty() || coarse(si) {
+                            break;
+                        }
+                        dense.eval(ts, &mut ydense);
+                    }
+                    for gi in 0..ng {
+                        let g = guards[gi];
+                        let sampled = coarse(si) || !g.needs_flow();
+                        if sampled != (pass == 0) {
+                            continue;
+                        }
+                        let raw = if pass == 0 {
+                            sample_raw[si * ng + gi]
+                        } else {
+                            sim.guard_value(g, ts, mode, &ydense)?
+                        };
+                        let (prev_t, prev_v) = (end_t[gi], end_value[gi]);
+                        end_t[gi] = ts;
+                        if orient[gi] == 0.0 {
+                            // a slip→stick guard arms once the sliding velocity has moved
+                            // clear of its start
+                            let moved = raw - stick_ref[gi];
+                            if moved.abs() > opts.arm_margin {
+                                orient[gi] = moved.signum();
+                                armed[gi] = true;
+                            }
+                            end_value[gi] = orient[gi] * raw;
+                            continue;
+                        }
+                        let v = orient[gi] * raw;
+                        let sh = if armed[gi] { 0.0 } else { unarmed_shift[gi] };
+                        if prev_v + sh > 0.0 && v + sh <= 0.0 {
+                            crossing.push((gi, sh, prev_t, prev_v + sh, v + sh));
+                        }
+                        if v > opts.arm_margin {
                             armed[gi] = true;
                         }
-                        end_value[gi] = orient[gi] * raw;
-                        continue;
+                        end_value[gi] = v;
                     }
-                    let v = orient[gi] * raw;
-                    let sh = if armed[gi] { 0.0 } else { unarmed_shift[gi] };
-                    if prev_v + sh > 0.0 && v + sh <= 0.0 {
-                        crossing.push((gi, sh, prev_v + sh, v + sh));
-                    }
-                    if v > opts.arm_margin {
-                        armed[gi] = true;
-                    }
-                    end_value[gi] = v;
                 }
                 if !crossing.is_empty() {
-                    interval = (prev_t, ts);
-                    break;
+                    hi = ts;
+                    break 'samples;
                 }
-                prev_t = ts;
             }
             if !crossing.is_empty() {
                 // locate each crossing guard; the earliest fires
-                let (lo, hi) = interval;
                 let mut first: Option<(f64, usize)> = None;
-                for &(gi, sh, f_lo, f_hi) in &crossing {
+                for &(gi, sh, lo, f_lo, f_hi) in &crossing {
+                    if first.is_some_and(|(t_first, _)| lo >= t_first) {
+                        continue; // crosses after the earliest one found so far
+                    }
                     let (g, o) = (guards[gi], orient[gi]);
                     let mut value = |tt: f64| -> Result<f64, CoreError> {
                         dense.eval(tt, &mut ydense);
@@ -1028,7 +1225,6 @@ pub fn simulate(
             last.copy_from_slice(&end_value);
         };
         h_carry = ode.next_step_size().max(opts.step.h_initial_s);
-        drop(ode);
         segments.push(seg);
         let Some((te, fired)) = fired else {
             break 'run Termination::FinalTime;
@@ -1073,9 +1269,9 @@ pub fn simulate(
             _ => None,
         });
         // a contact whose height jumped through zero met a step of the terrain
-        sim.kin.compute(model, &q, &qd);
+        let kin = sim.kinematics(&q, &qd);
         for &k in &touched {
-            let gap = contact_geometry(model, &sim.kin, terrain, k).gap_m;
+            let gap = contact_geometry(model, kin, terrain, k).gap_m;
             if gap < -TERRAIN_STEP_M {
                 break 'run Termination::TerrainDiscontinuity {
                     t: te,
@@ -1118,6 +1314,13 @@ pub fn simulate(
         }
         let ke_after = kinetic_energy_at(model, terrain, &mut sim.data, &q, &qd_new)?;
         sim.flow_key = None;
+        // without a velocity jump, a contact that stuck until now starts sliding from rest;
+        // so does one whose stick the cone refused (its velocity just crossed zero)
+        from_rest.clear();
+        from_rest.extend(after_mode.active().filter(|&k| {
+            after_mode.kind(k) == Some(ContactKind::Slide)
+                && (stuck.contains(&k) || (!impact && mode.kind(k) == Some(ContactKind::Stick)))
+        }));
         let (kind, triggered) = if impact {
             (EventKind::Touchdown, touched)
         } else if !released.is_empty() {

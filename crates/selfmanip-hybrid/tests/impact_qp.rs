@@ -520,41 +520,6 @@ fn tie_is_reported_and_kept_in_the_mode() {
     assert_close(s.qd_plus.as_slice(), &[0.0; 3], 1e-12, "q̇⁺");
 }
 
-/// One 16-contact impact QP, timed (release build; printed with `--nocapture`).
-#[test]
-fn timing_of_a_16_contact_impact_qp() {
-    let (model, _) = flat_bottom(16, 0.4, 0.04, 3.0, 0.05);
-    let cand: Vec<usize> = (0..16).collect();
-    let q = [0.0, -0.04, 0.0];
-    let mut data = Data::new(&model);
-    for (label, qd) in [
-        ("flat landing, ambiguous", [0.7, 1.2, -2.0]),
-        ("pivot, unique", [0.2, 0.5, -20.0]),
-    ] {
-        let reps = 1000;
-        let (mut calls, mut qp) = (Vec::new(), Vec::new());
-        let mut iters = 0;
-        for _ in 0..reps {
-            let t0 = std::time::Instant::now();
-            let out =
-                frictionless_impact(&model, &mut data, &FlatGround, &cand, &q, &qd, None).unwrap();
-            calls.push(t0.elapsed().as_secs_f64() * 1e6);
-            qp.push(out.solution().info.solve_time_s * 1e6);
-            iters = out.solution().info.iterations;
-        }
-        calls.sort_by(f64::total_cmp);
-        qp.sort_by(f64::total_cmp);
-        eprintln!(
-            "16-contact impact QP ({label}): per call min {:.0} µs, median {:.0} µs; \
-             Clarabel's solve min {:.0} µs, median {:.0} µs; {iters} iterations",
-            calls[0],
-            calls[reps / 2],
-            qp[0],
-            qp[reps / 2]
-        );
-    }
-}
-
 /// Liftoff (5.19)–(5.20) at rest: the body stands on points at `x ∈ [0.1, 0.5]` with its
 /// centre of mass at `x = 0`, outside the support, so it tips backwards about the rear point
 /// `r = (x_r, h)`. Closed form: with the push `l` there, `m z̈ = m g − l`, `I φ̈ = l x_r` and the
