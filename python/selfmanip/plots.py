@@ -161,7 +161,8 @@ def leap_strip(params: Mapping[str, Any], trajectory: Trajectory, out_path: str 
         gx = np.linspace(xc - half, xc + half, 50)
         gz = np.zeros_like(gx)
         if terrain and terrain.get("kind") == "ledge":
-            gz = np.where(gx >= terrain["distance_m"], terrain["height_m"], 0.0)
+            d = terrain["distance_m"]  # the face: a ledge ahead (d > 0) or behind (d < 0)
+            gz = np.where(gx >= d if d > 0 else gx <= d, terrain["height_m"], 0.0)
         ax.fill_between(gx, gz, min(-0.05, zs.min() - 0.05), color="0.85", lw=0)
         ax.plot(gx, gz, color="0.3", lw=1)
         for j, l in enumerate(lines):

@@ -174,6 +174,9 @@ def test_apex_agrees_with_the_trajectory(one_leap):
     (dict(params={"mass": 1.0}), "mass"),
     (dict(delta_t_s="soon"), "delta_t_s"),
     (dict(current_limit_a=-1.0), "current_limit_a"),
+    # a ledge's face within the robot's reach at the start (body end 0.255 m ahead)
+    (dict(terrain={"kind": "ledge", "height_m": 0.2, "distance_m": 0.25}), "terrain.distance_m"),
+    (dict(terrain={"kind": "ledge", "height_m": 0.2, "distance_m": 0.0}), "terrain.distance_m"),
 ])
 def test_bad_leap_input_raises_value_error_naming_the_field(kwargs, field):
     with pytest.raises(ValueError, match=field):

@@ -14,7 +14,7 @@ hypothesis = pytest.importorskip("hypothesis")
 from hypothesis import HealthCheck, given, settings, strategies as st  # noqa: E402
 
 STATUSES = {"ok", "no_flight", "zeno", "event_budget", "no_contact_solution", "several_contact_solutions",
-            "terrain_face", "singular_contact"}
+            "terrain_edge", "singular_contact"}
 
 point = st.fixed_dictionaries({
     "strategy": st.sampled_from(["++", "+-", "-+", "--"]),

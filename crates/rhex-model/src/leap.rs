@@ -304,8 +304,10 @@ pub enum LeapStatus {
     EventBudget,
     NoContactSolution,
     SeveralContactSolutions,
-    /// A contact ran into a vertical face of the terrain (not modelled as a contact).
-    TerrainFace,
+    /// A contact met an edge of a ledge that is not a contact surface: the convex edge where
+    /// its face meets its top, or the concave corner where the face meets the ground (one
+    /// contact site touching two surfaces at once).
+    TerrainEdge,
     /// The contact set met a pose where it no longer determines the motion of a massless
     /// leg (Lemma 5.1), e.g. a sliding half-circle leg passing upright.
     SingularContact,
@@ -320,7 +322,7 @@ impl LeapStatus {
             LeapStatus::EventBudget => "event_budget",
             LeapStatus::NoContactSolution => "no_contact_solution",
             LeapStatus::SeveralContactSolutions => "several_contact_solutions",
-            LeapStatus::TerrainFace => "terrain_face",
+            LeapStatus::TerrainEdge => "terrain_edge",
             LeapStatus::SingularContact => "singular_contact",
         }
     }
@@ -748,6 +750,29 @@ impl LeapSetup {
         };
         let rhex = Rhex::new(params.clone())?;
         let terrain = cfg.terrain;
+        if let TerrainSpec::Ledge { distance_m, .. } = terrain {
+            // the face must be clear of everything the robot can reach at the start: a
+            // body end, or a leg turned straight towards it
+            let side = distance_m.signum();
+            let reach = params
+                .ordered_pairs()
+                .iter()
+                .map(|&p| side * params.hip_x(p) + params.rho(p))
+                .fold(
+                    if side > 0.0 { params.l1 } else { params.l2 } + params.rho_b,
+                    f64::max,
+                );
+            if distance_m.abs() <= reach {
+                return Err(RhexError::Params {
+                    field: "terrain.distance_m".into(),
+                    reason: format!(
+                        "the ledge's face must be beyond the robot's reach at the start \
+                         ({reach:.3} m {} the body centre), got {distance_m}",
+                        if side > 0.0 { "ahead of" } else { "behind" }
+                    ),
+                });
+            }
+        }
         let leg_contact = [rhex.site(1), rhex.site(3)];
         let sign = [cfg.strategy.front.sign(), cfg.strategy.rear.sign()];
         // sitting level on both body ends, each leg at its touchdown angle
@@ -857,7 +882,7 @@ pub fn simulate_leap(params: &RhexParams, cfg: &LeapConfig) -> Result<LeapResult
         Termination::EventBudget => LeapStatus::EventBudget,
         Termination::NoContactSolution { .. } => LeapStatus::NoContactSolution,
         Termination::SeveralContactSolutions { .. } => LeapStatus::SeveralContactSolutions,
-        Termination::TerrainDiscontinuity { .. } => LeapStatus::TerrainFace,
+        Termination::TerrainDiscontinuity { .. } => LeapStatus::TerrainEdge,
         Termination::SingularFlow { .. } => LeapStatus::SingularContact,
     };
     let apex = match exec.termination {

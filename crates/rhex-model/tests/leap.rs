@@ -195,23 +195,111 @@ fn same_inputs_give_bit_identical_leaps() {
     assert_eq!(format!("{:?}", a.apex), format!("{:?}", b.apex));
 }
 
+/// A ledge's vertical face is a contact surface: a 30 cm step 30 cm ahead is in the way of
+/// the forward (+,+) leap, whose front body end meets the face. Checked against the face's
+/// geometry alone: the touchdown is on the plane `x = d` below the top (the contact point's
+/// height above it is zero, its normal horizontal), the impact removes energy, and no
+/// contact ever penetrates the ground, the top or the face (every contact's distance to the
+/// nearest of them stays non-negative along the whole execution).
 #[test]
-fn a_ledge_face_in_the_way_is_reported_not_crossed() {
-    // a 30 cm step 30 cm ahead: the forward (+,+) leap cannot clear it; the contact that meets
-    // the face ends the execution with a typed status instead of being moved onto the top
+fn a_ledge_face_is_a_contact_surface() {
+    let (h, d) = (0.3, 0.3);
     let cfg = LeapConfig {
         terrain: TerrainSpec::Ledge {
-            height_m: 0.3,
-            distance_m: 0.3,
+            height_m: h,
+            distance_m: d,
         },
         stop_at_apex: false,
         t_final_s: 1.5,
         ..LeapConfig::default()
     };
     let r = simulate_leap(&leap_params(), &cfg).unwrap();
-    assert_eq!(r.status, LeapStatus::TerrainFace, "{}", r.word_string());
-    let last = r.execution.segments.last().unwrap();
-    assert!(last.t1 < 1.5);
+    let (_, rhex) = robot(&cfg);
+    let model = &rhex.model;
+    let mut kin = selfmanip_core::kinematics::Kinematics::default();
+    let nq = r.q0.len();
+    let on_face = r
+        .execution
+        .events
+        .iter()
+        .filter(|e| e.kind == EventKind::Touchdown)
+        .find_map(|e| {
+            kin.compute(model, &e.q, &vec![0.0; nq]);
+            e.triggered.iter().find_map(|&k| {
+                let g = contact_geometry(model, &kin, &cfg.terrain, k);
+                (g.plane.normal_into_ground == [1.0, 0.0]).then_some((e, g))
+            })
+        })
+        .expect("a contact touches the face");
+    let (e, g) = on_face;
+    assert!(
+        (g.point.x - d).abs() < 1e-9,
+        "on the plane x = d: {}",
+        g.point.x
+    );
+    assert!(
+        -g.point.y < h && -g.point.y > 0.0,
+        "below the top: z = {}",
+        -g.point.y
+    );
+    assert!(e.kinetic_after <= e.kinetic_before + 1e-12);
+    let mut y = vec![0.0; 2 * nq];
+    for seg in &r.execution.segments {
+        for i in 0..=20 {
+            seg.eval(seg.t0 + (seg.t1 - seg.t0) * i as f64 / 20.0, &mut y);
+            kin.compute(model, &y[..nq], &y[nq..]);
+            for k in 0..model.n_contacts() {
+                let gap = contact_geometry(model, &kin, &cfg.terrain, k).gap_m;
+                assert!(
+                    gap > -1e-6,
+                    "contact {k} penetrates by {gap} at t = {}",
+                    seg.t0
+                );
+            }
+        }
+    }
+}
+
+/// The edge where a ledge's face meets its top is not a contact surface: a body end that
+/// slides up the face past the edge ends the leap as `TerrainEdge`, where it is (its centre
+/// level with the top edge, one body radius from the face), instead of being carried on by
+/// a constraint on the wrong surface. The leap: the thesis's Fig. 5.1 strategy (+,+) with the
+/// middle and rear legs (rear started 0.03 s after the middle) at a 20 cm ledge 35 cm ahead;
+/// it pitches up, its rear body end meets the face and slides up it.
+#[test]
+fn a_contact_sliding_over_a_ledge_edge_is_reported_not_carried_on() {
+    let p = leap_params();
+    let (h, d) = (0.2, 0.35);
+    let cfg = LeapConfig {
+        t2_s: 0.03,
+        pairs: Some([rhex_model::LegPair::Middle, rhex_model::LegPair::Rear]),
+        terrain: TerrainSpec::Ledge {
+            height_m: h,
+            distance_m: d,
+        },
+        stop_at_apex: false,
+        t_final_s: 1.5,
+        ..LeapConfig::default()
+    };
+    let r = simulate_leap(&p, &cfg).unwrap();
+    assert_eq!(r.status, LeapStatus::TerrainEdge, "{}", r.word_string());
+    let selfmanip_hybrid::Termination::TerrainDiscontinuity { contact, .. } =
+        r.execution.termination
+    else {
+        panic!("{:?}", r.execution.termination)
+    };
+    let (_, rhex) = robot(&cfg);
+    assert_eq!(rhex.model.contacts[contact].name, "rear_body");
+    // the rear body centre: x − ℓ₂ cos φ, height z − ℓ₂ sin φ (z, φ up / nose-up)
+    let q = &r.execution.q;
+    let (x, z, phi) = (q[2], -q[3], q[4]);
+    let (cx, cz) = (x - p.l2 * phi.cos(), z - p.l2 * phi.sin());
+    assert!(
+        (cx + p.rho_b - d).abs() < 1e-5,
+        "touching the face: {}",
+        cx + p.rho_b
+    );
+    assert!(cz > h && cz - h < 1e-6, "just over the edge: {cz}");
 }
 
 #[test]
@@ -248,6 +336,17 @@ fn bad_input_is_a_typed_error_naming_the_field() {
         }),
         "terrain.height_m"
     );
+    // the face within reach of the start: the front body end reaches ℓ₁ + ρ_b = 0.255 m,
+    // the rear legs (hip at −ℓ₂) ℓ₂ + ρ₂ = 0.375 m behind
+    for d in [0.25, -0.37] {
+        assert_eq!(
+            with(&|c| c.terrain = TerrainSpec::Ledge {
+                height_m: 0.2,
+                distance_m: d
+            }),
+            "terrain.distance_m"
+        );
+    }
     assert_eq!(
         with(&|c| c.pairs = Some([rhex_model::LegPair::Rear, rhex_model::LegPair::Rear])),
         "pairs"
@@ -416,8 +515,8 @@ fn plus_plus_on_the_two_legged_robot_spells_the_chapter_3_words() {
 /// level on the 20 cm ledge — both body ends on its top, so the body centre is at
 /// `h + ρ_b` with zero pitch (the closed form of resting on a level plane), the whole body
 /// past the edge — then slides on the frictionless top (Assumption C.3) with its kinetic
-/// energy conserved. The figure's own settings meet the ledge's face instead (see the
-/// figures module).
+/// energy conserved. With the figure's own settings the rear body end slides up the
+/// ledge's face to its edge instead (see the figures module).
 #[test]
 fn fig5_1_leap_lands_on_the_20_cm_ledge() {
     let p = leap_params();
@@ -452,10 +551,7 @@ fn fig5_1_leap_lands_on_the_20_cm_ledge() {
     );
     // the figure's own settings do not reach the top in this model
     let fig = simulate_leap(&p, &rhex_model::figures::fig5_1_settings()).unwrap();
-    assert_ne!(
-        fig.events.last().map(|e| e.mode_after.as_str()),
-        Some("1010")
-    );
+    assert_eq!(fig.status, LeapStatus::TerrainEdge, "{}", fig.word_string());
 }
 
 /// Fig. 5.8 in this model (`rhex_model::figures::fig5_8_vertical_leap`): a near-vertical

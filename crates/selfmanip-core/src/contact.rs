@@ -48,10 +48,25 @@ impl GroundPlane {
     }
 }
 
-/// What the ground looks like under a point. Implementations must be deterministic.
+/// What the ground looks like near a contact site. Implementations must be deterministic.
+///
+/// A site touches the surface [`Terrain::plane_under`] its reference point (a point contact's
+/// point, an arc's or circle's centre), or — where the terrain has a step — the vertical
+/// face [`Terrain::face_near`] offers, whichever its shape comes nearer to (the smaller gap).
+/// Both are planes, so a site on a face has the same constraint rows as one on the ground,
+/// with the face's normal. The convex edge where a face meets the top above it is not a
+/// surface: a site that crosses it is seen as a jump of its gap through zero, which the
+/// hybrid simulation reports instead of resolving.
 pub trait Terrain: Send + Sync {
     /// The ground plane that a part centred at world `x_m` would touch.
     fn plane_under(&self, x_m: f64) -> GroundPlane;
+
+    /// A vertical face (a step's riser) that a site with reference point `p` (world, z down)
+    /// may touch; `None` (the default) on terrain without steps. Offered only while `p` is
+    /// below the face's top edge and on its open side.
+    fn face_near(&self, _p: Vector2<f64>) -> Option<GroundPlane> {
+        None
+    }
 }
 
 /// Level ground at world `z = 0`.
@@ -369,7 +384,29 @@ pub fn contact_geometry(
         ContactShape::Point { position_m } => *position_m,
         ContactShape::Arc { center_m, .. } => *center_m,
     };
-    let plane = terrain.plane_under(kin.point(part, reference).x);
+    let reference = kin.point(part, reference);
+    let on_ground = geometry_on(site, k, part, kin, terrain.plane_under(reference.x));
+    match terrain.face_near(reference) {
+        Some(face) => {
+            let on_face = geometry_on(site, k, part, kin, face);
+            if on_face.gap_m < on_ground.gap_m {
+                on_face
+            } else {
+                on_ground
+            }
+        }
+        None => on_ground,
+    }
+}
+
+/// [`contact_geometry`] of site `k` (on `part`) against one plane.
+fn geometry_on(
+    site: &crate::model::Contact,
+    k: usize,
+    part: Part,
+    kin: &Kinematics,
+    plane: GroundPlane,
+) -> ContactGeometry {
     let n = plane.normal();
     let (local, touch) = match &site.shape {
         ContactShape::Point { position_m } => (*position_m, TouchKind::Point),
