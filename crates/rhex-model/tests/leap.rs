@@ -712,3 +712,45 @@ fn strategies_lunge_flip_and_leap_level_as_section_3_3_reads() {
         "(+,−) least pitch {least_pitch}"
     );
 }
+
+/// No event fires on round-off: every liftoff and slip changes the contact mode, and a stick
+/// that does not (the cone refuses to hold the contact whose sliding velocity reversed) comes
+/// long after the previous event, not right after a reset. A liftoff whose force root was
+/// located so exactly that the contact could stay with zero force, or a stick right after a
+/// slip whose sliding velocity is round-off, would leave the mode as it was and fire again
+/// moments later. (A touchdown may keep the mode: the impact can decide that the touching
+/// contact separates.) Checked over chapter 3's sweep (all four strategies, t2 from −0.2 to
+/// 0.2 s).
+#[test]
+fn no_event_fires_on_round_off() {
+    let p = leap_params();
+    let mut idle = Vec::new();
+    for s in ["++", "--", "+-", "-+"] {
+        for k in 0..41 {
+            let cfg = LeapConfig {
+                strategy: s.parse().unwrap(),
+                t2_s: -0.2 + 0.01 * k as f64,
+                ..LeapConfig::default()
+            };
+            let r = simulate_leap(&p, &cfg).unwrap();
+            for (i, e) in r.execution.events.iter().enumerate() {
+                let since = i
+                    .checked_sub(1)
+                    .map_or(f64::INFINITY, |j| e.t - r.execution.events[j].t);
+                let round_off = match e.kind {
+                    EventKind::Liftoff | EventKind::Slip => true,
+                    EventKind::Stick => since < 1e-6,
+                    _ => false,
+                };
+                if round_off && e.mode_before == e.mode_after {
+                    idle.push(format!("{s} t2={:.2} t={:.6} {:?}", cfg.t2_s, e.t, e.kind));
+                }
+            }
+        }
+    }
+    assert!(
+        idle.is_empty(),
+        "{} events keep the mode: {idle:#?}",
+        idle.len()
+    );
+}

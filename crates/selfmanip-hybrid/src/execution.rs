@@ -612,10 +612,17 @@ impl<'a> Sim<'a> {
 
     /// Complementarity over the subsets of `candidates` (contacts that must be in: none),
     /// with contact kinds from `prefer`.
+    ///
+    /// `leaving` are contacts whose liftoff guard located the root of their force here: the
+    /// force is zero to round-off and on its way to pulling, so a force at that level counts
+    /// as separating, not as holding (else the contact would stay with zero force and its
+    /// guard fire again moments later, an event that changes nothing).
+    #[allow(clippy::too_many_arguments)]
     fn select(
         &mut self,
         t: f64,
         candidates: &[usize],
+        leaving: &[usize],
         prefer: ContactMode,
         q: &[f64],
         qd: &[f64],
@@ -640,7 +647,15 @@ impl<'a> Sim<'a> {
             let Some((mode, push, p, pd)) = &outcomes[bits as usize] else {
                 continue;
             };
-            if push.iter().any(|&(_, u)| u < -tol) {
+            // the push a contact needs to be held: a leaving one must push clearly
+            let holds = |c: usize, u: f64| {
+                if leaving.contains(&c) {
+                    u > tol
+                } else {
+                    u >= -tol
+                }
+            };
+            if push.iter().any(|&(c, u)| !holds(c, u)) {
                 continue;
             }
             // each left-out contact k must separate: singular with k means k cannot be held
@@ -652,7 +667,7 @@ impl<'a> Sim<'a> {
                             .iter()
                             .find(|(c, _)| *c == candidates[i])
                             .map_or(0.0, |x| x.1);
-                        uk < -tol
+                        !holds(candidates[i], uk)
                     })
             });
             if separates {
@@ -1294,10 +1309,11 @@ pub fn simulate(
         let mut candidates: Vec<usize> = mode.active().chain(touched.iter().copied()).collect();
         candidates.sort_unstable();
         candidates.dedup();
-        let (new_mode, p, pd) = match sim.select(te, &candidates, prefer, &q, &qd, impact)? {
-            Ok(x) => x,
-            Err(term) => break 'run term,
-        };
+        let (new_mode, p, pd) =
+            match sim.select(te, &candidates, &released, prefer, &q, &qd, impact)? {
+                Ok(x) => x,
+                Err(term) => break 'run term,
+            };
         let mut qd_new = qd.clone();
         if impact {
             let imp = plastic_impact(model, &mut sim.data, terrain, new_mode, &q, &qd)?;
@@ -1307,7 +1323,7 @@ pub fn simulate(
         let mut after_mode = new_mode;
         if impact && !after_mode.is_flight() {
             let kept: Vec<usize> = after_mode.active().collect();
-            match sim.select(te, &kept, after_mode, &q, &qd_new, false)? {
+            match sim.select(te, &kept, &[], after_mode, &q, &qd_new, false)? {
                 Ok((m, _, _)) => after_mode = m,
                 Err(term) => break 'run term,
             }
