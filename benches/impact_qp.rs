@@ -19,7 +19,10 @@ fn flat_bottom(n: usize) -> selfmanip::core::Model {
              friction = {{ kind = \"sliding\" }}\n"
         );
     }
-    RobotDescription::from_toml_str(&s).unwrap().build().unwrap()
+    RobotDescription::from_toml_str(&s)
+        .unwrap()
+        .build()
+        .unwrap()
 }
 
 fn impact_qp(c: &mut Criterion) {
