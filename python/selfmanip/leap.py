@@ -14,8 +14,10 @@ ratio ``G`` and a 20 A current limit (thesis section 4.3.3 and Table 2.1);
 Any parameter is set by name, for a single leap or swept over an array:
 
 * Table 4.2 symbols: ``m_b, I_b, m_l, I_l, l1, l2, rho1, rho2, rho_b, tau_s, g, leg_shape,
-  pairs, mu_front, mu_middle, mu_rear``;
-* the leap configuration: ``delta_t_s`` (pseudo-impulse duration, thesis 0.03 s),
+  mu_front, mu_middle, mu_rear``;
+* the leap configuration: ``pairs`` (the two pushing leg pairs, e.g. ``["middle", "rear"]``;
+  default: chapter 3's choice for the strategy, the leading pair disabled — the leap's robot
+  has exactly these two), ``delta_t_s`` (pseudo-impulse duration, thesis 0.03 s),
   ``swing_accel_rad_s2``, ``swing_speed_rad_s``, ``toe_stub_rad``, ``terrain``,
   ``t_final_s``, ``stop_at_apex``, ``event_tol_s``, ``zeno_window_s``, ``zeno_max_events``;
 * the geared motor: ``current_limit_a``, ``motors_per_leg``.

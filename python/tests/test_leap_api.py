@@ -127,6 +127,20 @@ def test_swept_parameters_become_columns_and_reach_the_model():
         assert (alone.status, alone.word) == (r["status"][i], r["word"][i])
 
 
+def test_pairs_choose_the_pushing_legs():
+    # chapter 3's (+,−) pushes with the front and rear pairs; ``pairs`` picks others, and the
+    # leap's robot then has those legs (its contacts are named after them)
+    default = selfmanip.leap("+-", 0.1, 28.0, dt=0.01)
+    chosen = selfmanip.leap("+-", 0.1, 28.0, params={"pairs": ["middle", "rear"]}, dt=0.01)
+    assert {"front_leg", "rear_leg"} <= set(default.trajectory.contacts)
+    assert {"middle_leg", "rear_leg"} <= set(chosen.trajectory.contacts)
+    assert "front_leg" not in chosen.trajectory.contacts
+    assert default.params["pairs"] == ["front", "rear"] and chosen.params["pairs"] == ["middle", "rear"]
+    for pairs, alone in ((["front", "rear"], default), (["middle", "rear"], chosen)):
+        swept = selfmanip.sweep("+-", t2=[0.1], gear_ratio=28.0, params={"pairs": pairs})
+        assert swept["word"][0] == alone.word
+
+
 def test_saturated_torque_reports_nan_gear_ratio():
     r = selfmanip.sweep("++", t2=[0.0, 0.1], gear_ratio=None)
     assert np.isnan(r["gear_ratio"]).all()

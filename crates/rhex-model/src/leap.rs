@@ -190,8 +190,9 @@ pub struct LeapConfig {
     pub actuator: LegActuator,
     /// The two leg pairs that push (front-most first). `None`: chapter 3's choice for the
     /// strategy, the leading leg disabled — middle and rear for `(+,+)`, front and rear for
-    /// `(+,−)` and `(−,+)`, front and middle for `(−,−)` (section 3.3). Overrides the
-    /// parameters' `pairs`.
+    /// `(+,−)` and `(−,+)`, front and middle for `(−,−)` (section 3.3). A leap's robot has
+    /// exactly these two pairs: the parameters' `pairs` are not read (an override named
+    /// `pairs` in a sweep or from Python sets this field).
     pub pairs: Option<[LegPair; 2]>,
     /// Pseudo-impulse duration δt of (5.39) (s); 0 disables it. Thesis: 0.03 s.
     pub delta_t_s: f64,

@@ -86,6 +86,9 @@ pub fn grid(strategies: &[Strategy], t2_s: &[f64], gear_ratios: &[Option<f64>]) 
 }
 
 const OWN_COLUMNS: [&str; 3] = ["strategy", "t2_s", "actuator"];
+/// The override that names the leap's pushing pairs ([`LeapConfig::pairs`]), not the
+/// parameters' `pairs`, which a leap does not read.
+const LEAP_PAIRS: &str = "pairs";
 const ACTUATOR_FIELDS: [&str; 2] = ["current_limit_a", "motors_per_leg"];
 
 /// Every name an override may use: the fields of [`RhexParams`], of [`LeapConfig`] (except
@@ -170,7 +173,11 @@ pub fn point_inputs(
         let cv = to_value(serde_json::to_value(base_cfg))?;
         let (mut on_p, mut on_c, mut on_a) = (Vec::new(), Vec::new(), Vec::new());
         for (k, v) in &point.overrides {
-            if pv.get(k).is_some() {
+            // `pairs` is both the robot's leg pairs and the leap's pushing pairs; a leap's
+            // robot has exactly its pushing pairs, so the name sets those
+            if k == LEAP_PAIRS {
+                on_c.push((k, v));
+            } else if pv.get(k).is_some() {
                 on_p.push((k, v));
             } else if cv.get(k).is_some() && !OWN_COLUMNS.contains(&k.as_str()) {
                 on_c.push((k, v));
@@ -205,6 +212,9 @@ pub fn point_inputs(
     if let Some(g) = point.gear_ratio {
         cfg.actuator = cfg.actuator.with_gear_ratio(g);
     }
+    // the parameters reported with a leap describe its robot: the two pushing pairs
+    let mut params = params;
+    params.pairs = cfg.pairs.unwrap_or(cfg.strategy.chapter3_pairs()).to_vec();
     validate_inputs(&params, &cfg)?;
     Ok((params, cfg))
 }
