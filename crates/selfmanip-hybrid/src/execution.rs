@@ -558,6 +558,8 @@ impl<'a> Sim<'a> {
         qd: &[f64],
         impact: bool,
     ) -> Result<Option<(ContactMode, Vec<(usize, f64)>, Vec<f64>, Vec<f64>)>, CoreError> {
+        // contacts that `prefer` does not hold are the ones touching down now
+        let before = prefer;
         let mut prefer = prefer;
         for _ in 0..=set.len() {
             // `mode_for` leaves `data` prepared at `(mode, q, q̇)`
@@ -602,12 +604,49 @@ impl<'a> Sim<'a> {
                 let l: Vec<f64> = self.data.lambda.iter().copied().collect();
                 (Self::normal_push(mode, &l), l.clone(), Vec::new(), l)
             };
-            match self.outside_cone(mode, &total) {
+            let slides = self.outside_cone(mode, &total).or_else(|| {
+                impact
+                    .then(|| self.massless_pull(mode, before, &push))
+                    .flatten()
+            });
+            match slides {
                 Some(k) => prefer = mode.with(k, ContactKind::Slide),
                 None => return Ok(Some((mode, push, p, pd))),
             }
         }
         Ok(None)
+    }
+
+    /// A contact touching down now (not held by `before`), sticking, on a massless link,
+    /// whose push pulls at the impact: it slides instead of letting go. Released, a massless
+    /// link keeps the motion its controller gives it in the air, which is what brought it
+    /// into the ground: its touchdown would fire again at the same instant, for ever.
+    /// Sliding, it "rotates out of the way" (Assumption 5.9) by following the surface, and
+    /// its normal force is whatever its joint torque makes it — zero for a limp leg; whether
+    /// it is kept is then decided as for any contact, by the sign of that push. Contacts
+    /// already held are released on a pull as the thesis's rule says (Fig. 5.7's chatter).
+    fn massless_pull(
+        &self,
+        mode: ContactMode,
+        before: ContactMode,
+        push: &[(usize, f64)],
+    ) -> Option<usize> {
+        push.iter()
+            .filter(|&&(k, _)| !before.contains(k))
+            .find_map(|&(k, u)| {
+                let c = &self.model.contacts[k];
+                let slidable = matches!(c.friction, Friction::Sticking { mu } if mu.is_finite());
+                let massless = c.link.is_some_and(|j| {
+                    self.model
+                        .distal(j)
+                        .all(|l| self.model.joints[l].is_massless())
+                });
+                (u < -IMPULSE_TOL_N_S
+                    && slidable
+                    && massless
+                    && mode.kind(k) == Some(ContactKind::Stick))
+                .then_some(k)
+            })
     }
 
     /// Complementarity over the subsets of `candidates` (contacts that must be in: none),
