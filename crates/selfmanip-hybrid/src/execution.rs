@@ -28,6 +28,17 @@
 //! convex QP with clarabel ([`crate::impact_qp`]). A contact set
 //! whose rows are redundant (two sticking corners on a plane) drops tangential rows, as the
 //! thesis does for the rocking block (footnote 8 of section 5.1.4).
+//!
+//! Two tie-breaks keep events from repeating on round-off: a contact whose liftoff guard
+//! located its force root is released there (a force at round-off level does not hold it),
+//! and a contact touching down on a massless link whose sticking impulse would pull slides
+//! along the surface instead of letting go (released, the link's prescribed motion would
+//! carry it into the ground again at the same instant).
+//!
+//! Terrain: an active contact must stay on the surface it had at the start of its segment;
+//! one that leaves it (an edge or a corner of the terrain, which are not contact features)
+//! ends the execution with [`Termination::TerrainDiscontinuity`], located to the event
+//! tolerance.
 use crate::dopri::{DenseStep, Dopri5, StepError, StepOptions};
 use crate::impact_qp::{self, ContactQpError, QpOutcome};
 use selfmanip_core::contact::{contact_geometry, ContactKind, RowDirection};
