@@ -1,4 +1,4 @@
-//! The standard linear DC motor model (thesis section 2.1.2, its reference [144]; maxon's
+//! The standard linear DC motor model (thesis section 2.1.2, its reference \[144\]; maxon's
 //! "key information"), a gearbox, their combination ([`Drive`]), and the [`Actuator`]
 //! trait through which the leap simulation asks an actuator for joint torque.
 //!
@@ -268,7 +268,7 @@ impl Drive {
 pub trait Actuator: Send + Sync {
     /// Joint torque [N m] for a command `u ∈ [−1, 1]` at joint speed `ω` [rad/s].
     fn joint_torque_n_m(&self, command: f64, joint_speed_rad_s: f64) -> f64;
-    /// Power drawn from the supply [W] at that command and speed.
+    /// Power drawn from the supply (W) at that command and speed.
     fn electrical_power_w(&self, command: f64, joint_speed_rad_s: f64) -> f64;
 }
 

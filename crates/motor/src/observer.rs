@@ -37,13 +37,13 @@ pub struct ObserverParams {
     pub a_m: f64,
     /// Proportional gain `K_p` (taken from the leg controller, not calibrated).
     pub k_p: f64,
-    /// Derivative gain `K_d` [s].
+    /// Derivative gain `K_d` (s).
     pub k_d: f64,
     /// Gravity magnitude `K_g`.
     pub k_g: f64,
-    /// Gravity angle offset `θ_g` [rad].
+    /// Gravity angle offset `θ_g` (rad).
     pub theta_g_rad: f64,
-    /// Transport delay `T_del` [s].
+    /// Transport delay `T_del` (s).
     pub delay_s: f64,
 }
 
@@ -239,7 +239,7 @@ pub struct Calibration {
     pub evaluations: usize,
 }
 
-/// Weight of the velocity residual in the calibration cost `mean r_θ² + w mean r_ω²` [s²].
+/// Weight of the velocity residual in the calibration cost `mean r_θ² + w mean r_ω²` (s²).
 pub const CALIBRATION_OMEGA_WEIGHT_S2: f64 = 1e-3;
 
 /// Calibrates `(K_m, A_m, K_g, θ_g, K_d, T_del)` on a free-swing log by Nelder–Mead from
@@ -495,7 +495,7 @@ pub struct FaultFsmConfig {
     pub phases: PhasePartition,
     pub low_residual_rad: f64,
     pub high_residual_rad: f64,
-    /// Minimum lingering time in every state before it may be left [s].
+    /// Minimum lingering time in every state before it may be left (s).
     pub min_dwell_s: f64,
     /// False for a leg that is not expected to meet the ground (a free-spin calibration
     /// run): "missing ground" is then never declared.

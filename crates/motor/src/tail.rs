@@ -2,7 +2,7 @@
 //! minimizes the time to turn the body by `θ₀`, in closed form, a numerical cross-check,
 //! and motor selection over a catalog ranked by completion time.
 //!
-//! # Derivation (the thesis defers it to its reference [93])
+//! # Derivation (the thesis defers it to its reference \[93\])
 //! Body (inertia `I_b`) and tail start at rest with zero angular momentum, so a joint torque
 //! `τ` gives the relative joint acceleration `τ (1/I_b + 1/I_t)`, and the body turns by
 //! `θ_rel / (1 + 1/ε)` where `ε = I_t/I_b` is the effectiveness (body rotation per absolute
@@ -201,7 +201,7 @@ pub fn simulated_completion_time_s(
 
 /// Numerical minimum-time optimum: golden-section search over `ln Ω` in
 /// `[Ω_lo, Ω_hi]` of the *simulated* completion time (the thesis's numerical route of
-/// [124], 1,000× slower than eq. (2.1)).
+/// \[124\], 1,000× slower than eq. (2.1)).
 pub fn numerical_optimum(
     task: &TailTask,
     power_w: f64,

@@ -62,7 +62,7 @@ pub struct ThermalModel {
     pub c_core_j_per_k: f64,
     /// `C_th2` [J/K].
     pub c_case_j_per_k: f64,
-    /// `R_c` at `reference_temperature_c` [Ω].
+    /// `R_c` at `reference_temperature_c` (Ω).
     pub winding_resistance_ohm: f64,
     /// Temperature coefficient of `R_c` [1/K]; 0 reproduces the thesis's model.
     pub winding_alpha_per_k: f64,
@@ -430,7 +430,7 @@ impl ThermalModel {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CaseFit {
     pub model: ThermalModel,
-    /// RMS case-temperature error of the fit over the log [K].
+    /// RMS case-temperature error of the fit over the log (K).
     pub rms_error_c: f64,
     pub evaluations: usize,
 }

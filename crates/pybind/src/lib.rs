@@ -5,7 +5,7 @@
 //! `ValueError` subclass whose message names the offending field), outputs are numpy
 //! arrays inside plain dicts that the Python package (`python/selfmanip`) wraps in
 //! documented dataclasses. No call can panic across the FFI: errors are values, and
-//! every entry point is additionally guarded by [`guard`].
+//! every entry point is additionally guarded by `guard`.
 mod analysis;
 mod leap;
 mod motor;

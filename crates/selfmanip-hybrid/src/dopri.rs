@@ -1,6 +1,6 @@
 //! Dormand–Prince 5(4) with its 4th-order-accurate dense output (Hairer, Nørsett & Wanner,
 //! *Solving ODEs I*, II.5 / DOPRI5): adaptive steps, FSAL, and a continuous interpolant on
-//! every accepted step, on which guards are located by root finding ([`crate::events`]).
+//! every accepted step, on which guards are located by root finding ([`crate::execution`]).
 //! Written once here because the maintained Rust ODE crates either lack event location on
 //! the dense output or misplace events (see `shared/ECOSYSTEM.md`).
 

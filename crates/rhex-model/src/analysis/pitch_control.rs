@@ -16,7 +16,7 @@ use selfmanip_core::{forward_dynamics, ContactMode, Data, FlatGround, Model, Ter
 use serde::Serialize;
 
 /// The linear torque–speed limit of a leg, `τ ≤ τ_s (1 − θ̇/ω₀) = κ_P κ_G (1 − κ_G θ̇)` with
-/// `κ_G = 1/ω₀` (∝ gear ratio) and `κ_P = τ_s ω₀` (∝ peak power) ([129], after (4.64)).
+/// `κ_G = 1/ω₀` (∝ gear ratio) and `κ_P = τ_s ω₀` (∝ peak power) (ref. \[129\], after (4.64)).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct TorqueSpeedLine {
     pub stall_torque_n_m: f64,
