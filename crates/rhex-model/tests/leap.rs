@@ -201,10 +201,9 @@ fn same_inputs_give_bit_identical_leaps() {
 /// height above it is zero, its normal horizontal), the impact removes energy, and no
 /// contact ever penetrates the ground, the top or the face (every contact's distance to the
 /// nearest of them stays non-negative along the whole execution).
-#[test]
-fn a_ledge_face_is_a_contact_surface() {
-    let (h, d) = (0.3, 0.3);
-    let cfg = LeapConfig {
+/// A leap run past its apex to 1.5 s at a ledge `h` high whose face is at `x = d`.
+fn at_ledge(h: f64, d: f64) -> LeapConfig {
+    LeapConfig {
         terrain: TerrainSpec::Ledge {
             height_m: h,
             distance_m: d,
@@ -212,7 +211,13 @@ fn a_ledge_face_is_a_contact_surface() {
         stop_at_apex: false,
         t_final_s: 1.5,
         ..LeapConfig::default()
-    };
+    }
+}
+
+#[test]
+fn a_ledge_face_is_a_contact_surface() {
+    let (h, d) = (0.3, 0.3);
+    let cfg = at_ledge(h, d);
     let r = simulate_leap(&leap_params(), &cfg).unwrap();
     let (_, rhex) = robot(&cfg);
     let model = &rhex.model;
@@ -273,13 +278,7 @@ fn a_contact_sliding_over_a_ledge_edge_is_reported_not_carried_on() {
     let cfg = LeapConfig {
         t2_s: 0.03,
         pairs: Some([rhex_model::LegPair::Middle, rhex_model::LegPair::Rear]),
-        terrain: TerrainSpec::Ledge {
-            height_m: h,
-            distance_m: d,
-        },
-        stop_at_apex: false,
-        t_final_s: 1.5,
-        ..LeapConfig::default()
+        ..at_ledge(h, d)
     };
     let r = simulate_leap(&p, &cfg).unwrap();
     assert_eq!(r.status, LeapStatus::TerrainEdge, "{}", r.word_string());

@@ -331,11 +331,16 @@ impl<'a> Sim<'a> {
             q,
             qd,
         )?;
+        self.holds_flow(t, mode, q, qd);
+        Ok(())
+    }
+
+    /// Records that `data` holds the flow of `mode` at `(t, q, q̇)`.
+    fn holds_flow(&mut self, t: f64, mode: ContactMode, q: &[f64], qd: &[f64]) {
         self.flow_y.clear();
         self.flow_y.extend_from_slice(q);
         self.flow_y.extend_from_slice(qd);
         self.flow_key = Some((t, mode));
-        Ok(())
     }
 
     /// [`Self::dynamics`] when `data` was just prepared at `(mode, q, q̇)`: the solve only.
@@ -357,10 +362,7 @@ impl<'a> Sim<'a> {
             q,
             qd,
         )?;
-        self.flow_y.clear();
-        self.flow_y.extend_from_slice(q);
-        self.flow_y.extend_from_slice(qd);
-        self.flow_key = Some((t, mode));
+        self.holds_flow(t, mode, q, qd);
         Ok(())
     }
 
