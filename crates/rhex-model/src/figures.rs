@@ -39,7 +39,7 @@ pub fn fig5_1_settings() -> LeapConfig {
 /// nose-down over the edge, lands on its front body end on the top and sits down level,
 /// sliding on (the body ends are frictionless, Assumption C.3). Found by a sweep over the
 /// strategies, pushing pairs, t2 and the face's distance with the face a contact surface:
-/// it lands for t2 from 0.07 to 0.14 s and faces 0.30–0.40 m ahead.
+/// it lands for t2 from 0.07 to 0.14 s with the face 0.35–0.40 m ahead.
 pub fn fig5_1_ledge_20cm() -> LeapConfig {
     LeapConfig {
         strategy: Strategy::new(Push::Plus, Push::Minus),

@@ -132,7 +132,7 @@ mod tests {
             assert_eq!(fa.is_some(), fb.is_some());
             if let (Some(a), Some(b)) = (fa, fb) {
                 assert_eq!(a.normal_into_ground[0], -b.normal_into_ground[0]);
-                // the face is the plane x = ±0.5: a point at x is 0.5 − |x| from it
+                // the face is the plane x = 0.5 (mirrored: −0.5): a point at x is 0.5 − x from it
                 let p = Vector2::new(x, -0.1);
                 assert!((a.height_of(p) - (0.5 - x)).abs() < 1e-15);
             }

@@ -54,9 +54,9 @@ impl GroundPlane {
 /// point, an arc's or circle's centre), or — where the terrain has a step — the vertical
 /// face [`Terrain::face_near`] offers, whichever its shape comes nearer to (the smaller gap).
 /// Both are planes, so a site on a face has the same constraint rows as one on the ground,
-/// with the face's normal. The convex edge where a face meets the top above it is not a
-/// surface: a site that crosses it is seen as a jump of its gap through zero, which the
-/// hybrid simulation reports instead of resolving.
+/// with the face's normal. Edges and corners are not surfaces: a free site that crosses an
+/// edge shows as a jump of its gap through zero, and a site in contact that reaches one
+/// changes surface; the hybrid simulation reports both instead of resolving them.
 pub trait Terrain: Send + Sync {
     /// The ground plane that a part centred at world `x_m` would touch.
     fn plane_under(&self, x_m: f64) -> GroundPlane;
