@@ -898,7 +898,7 @@ pub fn simulate_leap(params: &RhexParams, cfg: &LeapConfig) -> Result<LeapResult
         }),
         _ => None,
     };
-    let word = leap_word(&rhex, &exec, 1e3 * cfg.event_tol_s);
+    let word = leap_word(rhex, &exec, 1e3 * cfg.event_tol_s);
     let names = |ks: &[usize]| ks.iter().map(|&k| model.contacts[k].name.clone()).collect();
     let events = exec
         .events
