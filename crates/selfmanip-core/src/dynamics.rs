@@ -194,7 +194,7 @@ pub fn free_massless_joints(
     dynamic.clear();
     for j in 0..model.n_joints() {
         let distal = model.distal(j);
-        let massless = distal.clone().all(|k| model.joints[k].is_massless());
+        let massless = model.distal_massless(j);
         let touched = mode
             .active()
             .any(|c| model.contacts[c].link.is_some_and(|l| distal.contains(&l)));

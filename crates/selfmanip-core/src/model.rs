@@ -146,6 +146,11 @@ impl Model {
         j..leg.first_joint + leg.n_links
     }
 
+    /// Whether joint `j` moves only massless links (every joint from `j` to the tip).
+    pub fn distal_massless(&self, j: usize) -> bool {
+        self.distal(j).all(|k| self.joints[k].is_massless())
+    }
+
     /// Total mass including links.
     pub fn total_mass_kg(&self) -> f64 {
         self.body_mass_kg + self.joints.iter().map(|j| j.mass_kg).sum::<f64>()

@@ -319,20 +319,8 @@ impl<'a> Sim<'a> {
             return Ok(());
         }
         self.flow_key = None;
-        flow(
-            self.model,
-            self.terrain,
-            self.ctrl,
-            &mut self.data,
-            &mut self.tau,
-            &mut self.free,
-            t,
-            mode,
-            q,
-            qd,
-        )?;
-        self.holds_flow(t, mode, q, qd);
-        Ok(())
+        self.data.prepare(self.model, self.terrain, mode, q, qd)?;
+        self.dynamics_prepared(t, mode, q, qd)
     }
 
     /// Records that `data` holds the flow of `mode` at `(t, q, q̇)`.
@@ -649,11 +637,7 @@ impl<'a> Sim<'a> {
             .find_map(|&(k, u)| {
                 let c = &self.model.contacts[k];
                 let slidable = matches!(c.friction, Friction::Sticking { mu } if mu.is_finite());
-                let massless = c.link.is_some_and(|j| {
-                    self.model
-                        .distal(j)
-                        .all(|l| self.model.joints[l].is_massless())
-                });
+                let massless = c.link.is_some_and(|j| self.model.distal_massless(j));
                 (u < -IMPULSE_TOL_N_S
                     && slidable
                     && massless
