@@ -5,7 +5,8 @@
 //! ```
 //! Arguments: strategies (comma-separated), t2 values in seconds, δt of the pseudo-impulse.
 //! Set `EVENTS=1` to list every event, `PAIRS=front,rear` to choose the pushing pairs,
-//! `SATURATED=1` for chapter 3's saturated-torque legs instead of the geared motors.
+//! `SATURATED=1` for chapter 3's saturated-torque legs instead of the geared motors, `GEAR` and
+//! `CURRENT` (A) to change the geared motor's ratio and current limit.
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator};
 use rhex_model::params::LegPair;
 
@@ -39,7 +40,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 actuator: if std::env::var("SATURATED").is_ok() {
                     LegActuator::SaturatedTorque
                 } else {
-                    LegActuator::default()
+                    geared_from_env()?
                 },
                 ..LeapConfig::default()
             };
@@ -70,4 +71,27 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     Ok(())
+}
+
+/// The default geared motor, with `GEAR` (gear ratio) and `CURRENT` (A) from the environment.
+fn geared_from_env() -> Result<LegActuator, Box<dyn std::error::Error>> {
+    let LegActuator::GearedMotor {
+        mut gear_ratio,
+        mut current_limit_a,
+        motors_per_leg,
+    } = LegActuator::default()
+    else {
+        unreachable!("the default actuator is geared")
+    };
+    if let Ok(g) = std::env::var("GEAR") {
+        gear_ratio = g.parse()?;
+    }
+    if let Ok(i) = std::env::var("CURRENT") {
+        current_limit_a = i.parse()?;
+    }
+    Ok(LegActuator::GearedMotor {
+        gear_ratio,
+        current_limit_a,
+        motors_per_leg,
+    })
 }

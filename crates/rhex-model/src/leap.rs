@@ -525,8 +525,8 @@ enum Phase {
     Waiting,
     /// Motor on: saturated push; in the air, the leg swings on in its push direction.
     Pushing,
-    /// After takeoff (or, unless it keeps pushing, after its own liftoff): limp on the
-    /// ground, parked pointing up in the air.
+    /// After takeoff (or, unless it keeps pushing, after its own liftoff): parked pointing
+    /// up in the air; on the ground its servo keeps following that motion.
     Retracting,
 }
 
@@ -551,7 +551,7 @@ struct LeapController {
     air: [RefCell<Vec<LegMotion>>; 2],
 }
 
-/// Servo gains of a leg holding its angle (per N m of available torque).
+/// Servo gains of a leg (per N m of stall torque).
 const HOLD_KP_PER_RAD: f64 = 20.0;
 const HOLD_KD_S: f64 = 0.5;
 /// Gains (1/s², 1/s) that keep a free leg on its prescribed motion against round-off: a
@@ -583,6 +583,18 @@ impl LeapController {
         side * STOW_RAD
     }
 
+    /// The leg servo's torque toward angle `theta` and rate `omega`: a PD law saturating at
+    /// the motor's stall torque (an ideal torque source, as for a waiting leg's hold). A
+    /// waiting leg holds its start angle with it; a retracting leg that meets the ground
+    /// keeps following its motion in the air with it, pushing back as a servoed leg does (a
+    /// limp massless leg would be released at once and driven back into the ground by that
+    /// motion, touching down again and again).
+    fn servo(&self, q: f64, qd: f64, theta: f64, omega: f64) -> f64 {
+        (-HOLD_KP_PER_RAD * self.hold_torque * (q - theta)
+            - HOLD_KD_S * self.hold_torque * (qd - omega))
+            .clamp(-self.hold_torque, self.hold_torque)
+    }
+
     /// The motion of leg `i` in the air at `t`: the last one started by then.
     fn air_motion(&self, i: usize, t: f64) -> (f64, f64, f64) {
         let motions = self.air[i].borrow();
@@ -602,15 +614,16 @@ impl Controller for LeapController {
             let s = self.sign[i];
             let phase = self.phase(i, t);
             tau[i] = match phase {
-                Phase::Waiting => (-HOLD_KP_PER_RAD * self.hold_torque * (q[i] - self.hold[i])
-                    - HOLD_KD_S * self.hold_torque * qd[i])
-                    .clamp(-self.hold_torque, self.hold_torque),
+                Phase::Waiting => self.servo(q[i], qd[i], self.hold[i], 0.0),
                 Phase::Pushing => {
                     let stubbed = self.stub.is_some_and(|a| s * q[i] > a);
                     let u = if stubbed { -s } else { s };
                     self.actuators[i].joint_torque_n_m(u, qd[i])
                 }
-                Phase::Retracting => 0.0,
+                Phase::Retracting => {
+                    let (theta, omega, _) = self.air_motion(i, t);
+                    self.servo(q[i], qd[i], theta, omega)
+                }
             };
             if !mode.contains(self.leg_contact[i]) && phase != Phase::Pushing {
                 tau[i] = 0.0;

@@ -443,6 +443,62 @@ fn pseudo_impulse_removes_the_front_leg_chatter_of_fig_5_7() {
     assert_eq!((rear.1.as_str(), rear.2.as_str()), ("0110", "0101"));
 }
 
+/// Landings after the apex: the parked legs meet the ground again. A retracting leg's servo
+/// keeps following its motion in the air while the leg is on the ground, so a leg that the
+/// falling body drives into the ground pushes back and stays down; and the pseudo-impulse
+/// sees the servo at the velocity the impact leaves (its damping resists the jump, see
+/// `tests/actuated_impact.rs`). With the leg limp on the ground, or the servo taken at
+/// q̇⁻, the leg was released at once, driven back into the ground by its motion in the air,
+/// and touched down again at the same instant: each of these landings ended `zeno`. Now
+/// they run to the final time, some landing touchdown of a leg keeps the leg down, and no
+/// contact touches down twice within a microsecond.
+#[test]
+fn parked_legs_that_meet_the_ground_stay_on_it() {
+    let p = leap_params();
+    let mut kept = 0;
+    for t2 in [0.08, 0.10, 0.12, 0.14] {
+        let cfg = LeapConfig {
+            t2_s: t2,
+            stop_at_apex: false,
+            t_final_s: 1.2,
+            ..LeapConfig::default()
+        };
+        let r = simulate_leap(&p, &cfg).unwrap();
+        assert_eq!(r.status, LeapStatus::Ok, "t2 {t2}: {}", r.word_string());
+        let takeoff = r
+            .events
+            .iter()
+            .position(|e| e.mode_after == "0000")
+            .expect("a flight");
+        let touchdowns: Vec<_> = r.events[takeoff..]
+            .iter()
+            .filter(|e| e.kind == "touchdown")
+            .collect();
+        for pair in touchdowns.windows(2) {
+            assert!(
+                pair[1].t_s - pair[0].t_s > 1e-6 || pair[0].contacts != pair[1].contacts,
+                "t2 {t2}: {:?} touched down twice at once",
+                pair[0].contacts
+            );
+        }
+        // cells read (front body, middle leg, rear body, rear leg)
+        kept += touchdowns
+            .iter()
+            .filter(|e| {
+                e.contacts.iter().any(|c| {
+                    let slot = match c.as_str() {
+                        "middle_leg" => 1,
+                        "rear_leg" => 3,
+                        _ => return false,
+                    };
+                    e.mode_after.as_bytes()[slot] != b'0'
+                })
+            })
+            .count();
+    }
+    assert!(kept > 0, "no landing touchdown kept a leg down");
+}
+
 /// Chapter 3.2's grammar for (+,+) over t2 ∈ [−0.2, 0.2] s: the words (3.3)
 /// `(0110, 0101, 0001)` (front leg first, both down, front lifts first) and (3.5)
 /// `(1001, 0101, 0001)` (rear leg first) are visited, and (3.4) `(0110, 0101, 0100)` never
@@ -548,7 +604,7 @@ fn fig5_1_leap_lands_on_the_20_cm_ledge() {
         "rear end over the edge: x = {}",
         q[2]
     );
-    // sliding on, level, with the legs limp: T = ½ m_b ẋ² is what the last impact left
+    // sliding on, level, with the legs parked in the air: T = ½ m_b ẋ² is what the last impact left
     let e = r.execution.events.last().unwrap();
     let t_end = 0.5 * p.m_b * qd[2] * qd[2];
     assert!(qd[3].abs() < 1e-9 && qd[4].abs() < 1e-9);

@@ -294,7 +294,9 @@ pub fn plastic_impact_prepared(model: &Model, data: &mut Data, qd_minus: &[f64])
     })
 }
 
-/// Thesis (5.39): the pseudo-impulse `P_δ = A†(Υ − C̄q̇⁻ − N̄) δt` for an impact into `mode`.
+/// Thesis (5.39): the pseudo-impulse `P_δ = A†(Υ − C̄q̇⁻ − N̄) δt` for an impact into `mode`,
+/// with `Υ = tau` as given (the hybrid simulation passes the actuators' torque at the
+/// post-impact velocity q̇⁺; see the thesis errata).
 #[allow(clippy::too_many_arguments)]
 pub fn pseudo_impulse(
     model: &Model,

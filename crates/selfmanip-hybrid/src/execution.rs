@@ -573,8 +573,12 @@ impl<'a> Sim<'a> {
                 let mut pd = Vec::new();
                 let mut total = p.clone();
                 if self.opts.delta_t_s > 0.0 {
+                    // (5.38) leaves the argument of Υ open: the actuators act through the
+                    // impact's δt at the velocity the impact leaves, q̇⁺ — it matters for a
+                    // torque–speed line, and for a servo, whose damping resists the jump
                     self.tau.resize(self.model.n_joints(), 0.0);
-                    self.ctrl.torque(t, q, qd, mode, &mut self.tau);
+                    self.ctrl
+                        .torque(t, q, imp.qd_plus.as_slice(), mode, &mut self.tau);
                     let d = pseudo_impulse_prepared(
                         self.model,
                         &mut self.data,
@@ -723,7 +727,9 @@ impl<'a> Sim<'a> {
     /// [`Sim::select`] for more than [`ENUMERATION_LIMIT`] candidates, all frictionless: the
     /// complementarity problem as a convex QP ([`crate::impact_qp`], clarabel). Differences
     /// from the enumeration: the pseudo-impulse rule is `U(P + P_δ) ≥ 0` for every contact
-    /// (the enumeration lets a contact that its own impulse holds stay on `U(P)`), and a
+    /// (the enumeration lets a contact that its own impulse holds stay on `U(P)`), the
+    /// actuators' torque in `P_δ` is taken at q̇⁻ (q̇⁺ depends on the contact set, the QP's
+    /// unknown; the enumeration takes it at each candidate's q̇⁺), and a
     /// problem whose contact set is not unique (e.g. three points of a rigid body on a
     /// plane) is reported as several solutions with the one basic set the QP found.
     fn select_by_qp(
