@@ -499,80 +499,187 @@ fn parked_legs_that_meet_the_ground_stay_on_it() {
     assert!(kept > 0, "no landing touchdown kept a leg down");
 }
 
-/// Chapter 3.2's grammar for (+,+) over t2 ∈ [−0.2, 0.2] s: the words (3.3)
-/// `(0110, 0101, 0001)` (front leg first, both down, front lifts first) and (3.5)
-/// `(1001, 0101, 0001)` (rear leg first) are visited, and (3.4) `(0110, 0101, 0100)` never
-/// (RHex's front leg lifts first). The thesis's end words (3.2) and (3.7) are *not* visited
-/// by this model: its pushing "front" leg is the middle pair, at the centre of mass, which
-/// lifts the whole body (`0100`) rather than letting the front fall back (`0010`) — see the
-/// issue note.
-#[test]
-fn plus_plus_sweep_visits_the_chapter_3_words() {
-    let p = leap_params();
-    let words: Vec<String> = (0..41)
-        .map(|k| {
-            let cfg = LeapConfig {
-                t2_s: -0.2 + 0.01 * k as f64,
-                ..LeapConfig::default()
-            };
-            simulate_leap(&p, &cfg).unwrap().word_string()
-        })
-        .collect();
-    let visits = |inner: &str| words.iter().any(|w| w.contains(inner));
-    assert!(visits("0110-0101-0001"), "(3.3) missing: {words:?}");
-    assert!(visits("1001-0101-0001"), "(3.5) missing: {words:?}");
-    assert!(
-        !visits("0110-0101-0100"),
-        "(3.4) is not realizable for RHex: {words:?}"
-    );
+/// X-RHex's current limit in normal operation (section 2.1.3: 9 A per motor, for thermal
+/// safety), against the 20 A peak of chapter 5's simulations.
+fn geared_at(current_limit_a: f64) -> rhex_model::leap::LegActuator {
+    rhex_model::leap::LegActuator::GearedMotor {
+        gear_ratio: 28.0,
+        current_limit_a,
+        motors_per_leg: 2,
+    }
 }
 
-/// The same grammar on the two-legged robot that chapter 3.2 writes it for (legs at the front
-/// and rear hips, `ℓ₁ = ℓ₂` from the centre of mass): each leap, up to its first flight,
-/// spells one of the words (3.2)–(3.7). Visited: (3.2) `(0110, 0010, 0001)` (the front leg
-/// lifts off before the rear one touches down), (3.3) and (3.5); never (3.4). The thesis's
-/// (3.7) reads `(1001, 1000, 0001)`, which is no path of the complex (`1000 → 0001` swaps two
-/// contacts at once); by symmetry with (3.2) it is `(1001, 1000, 0100)` (see the errata). This
-/// model does not visit it: pushing alone from `1001`, the rear motor's reaction lifts the
-/// front of the body (`1001 → 0001`) before its own leg can lift off.
-#[test]
-fn plus_plus_on_the_two_legged_robot_spells_the_chapter_3_words() {
-    let p = leap_params();
-    let first_leaps: Vec<String> = (0..21)
-        .map(|k| {
+/// Each leap's word up to its first flight, over a grid of t2.
+fn first_flight_words(cfg: &LeapConfig, t2s: &[f64]) -> Vec<String> {
+    t2s.iter()
+        .map(|&t2_s| {
             let cfg = LeapConfig {
-                t2_s: -0.2 + 0.02 * k as f64,
-                pairs: Some([rhex_model::LegPair::Front, rhex_model::LegPair::Rear]),
-                ..LeapConfig::default()
+                t2_s,
+                ..cfg.clone()
             };
-            let word = simulate_leap(&p, &cfg).unwrap().word_string();
+            let word = simulate_leap(&leap_params(), &cfg).unwrap().word_string();
             match word.find("0000") {
                 Some(end) => word[..end + 4].to_string(),
                 None => word,
             }
         })
+        .collect()
+}
+
+/// Chapter 3.2's grammar for (+,+) on RHex (the middle and rear pairs) over t2 ∈ [−0.2,
+/// 0.2] s: the words (3.3) `(0110, 0101, 0001)` (front leg first, both down, front lifts
+/// first) and (3.5) `(1001, 0101, 0001)` (rear leg first) are visited, and (3.4) `(0110,
+/// 0101, 0100)` never (RHex's front leg lifts first). At X-RHex's 9 A the rear leg also
+/// lifts off before the front leg lands, (3.7) `(1001, 1000, 0100)`; at chapter 5's 20 A it
+/// does not — the rear motor's push lifts the front body end first (`1001 → 0001`, a
+/// wheelie), and the robot hops. (3.2) `(0110, 0010, 0001)` is not visited by this robot:
+/// its pushing "front" leg is the middle pair, at the centre of mass, which lifts the whole
+/// body (`0100`) rather than letting the front fall back (`0010`); the two-legged robot of
+/// the next test visits it.
+#[test]
+fn plus_plus_sweep_visits_the_chapter_3_words() {
+    let t2s: Vec<f64> = (0..41).map(|k| -0.2 + 0.01 * k as f64).collect();
+    let at_20a = first_flight_words(&LeapConfig::default(), &t2s);
+    let at_9a = first_flight_words(
+        &LeapConfig {
+            actuator: geared_at(9.0),
+            ..LeapConfig::default()
+        },
+        &t2s,
+    );
+    let visits = |words: &[String], inner: &str| words.iter().any(|w| w.contains(inner));
+    for words in [&at_20a, &at_9a] {
+        assert!(visits(words, "0110-0101-0001"), "(3.3) missing: {words:?}");
+        assert!(visits(words, "1001-0101-0001"), "(3.5) missing: {words:?}");
+        assert!(
+            !visits(words, "0110-0101-0100"),
+            "(3.4) is not realizable for RHex: {words:?}"
+        );
+    }
+    assert!(visits(&at_9a, "1001-1000-0100"), "(3.7) missing: {at_9a:?}");
+    assert!(!visits(&at_20a, "1001-1000"), "{at_20a:?}");
+    assert!(
+        at_20a
+            .iter()
+            .filter(|w| w.starts_with("1010-1001"))
+            .all(|w| w.starts_with("1010-1001-0001") || w.starts_with("1010-1001-0101")),
+        "at 20 A a rear-first leap lifts the front body end or lands the front leg next: {at_20a:?}"
+    );
+}
+
+/// Fig. 3.4's trend for (+,+) (RHex, middle and rear pairs, 20 A): over the leaps that
+/// spell (3.5), the simultaneous start, or (3.3) in full — t2 from −0.03 to 0.05 s, leaving
+/// out the degenerate double transitions (`0110 → 0001`: the front leg lifts as the rear one
+/// lands, section 3.2's "double" transitions) — the apex height rises with t2 (to 2 mm), and
+/// its one big step is a near-discontinuous jump of more than 4 cm just after t2 = 0 (within
+/// 20 ms), five times any other step: there the rear leg's touchdown impulse starts the front
+/// toe sliding at once instead of later.
+#[test]
+fn plus_plus_apex_height_jumps_just_after_t2_zero() {
+    let p = leap_params();
+    let mut points = Vec::new();
+    for k in 0..=40 {
+        let t2 = -0.03 + 0.002 * k as f64;
+        let r = simulate_leap(
+            &p,
+            &LeapConfig {
+                t2_s: t2,
+                ..LeapConfig::default()
+            },
+        )
+        .unwrap();
+        let w = r.word_string();
+        let spelled = [
+            "1010-1001-0101-0001-0000",
+            "1010-0101-0001-0000",
+            "1010-0110-0101-0001-0000",
+        ];
+        if spelled.contains(&w.as_str()) {
+            points.push((t2, r.apex.unwrap().z_m));
+        }
+    }
+    assert!(points.len() > 30, "{points:?}");
+    let steps: Vec<(f64, f64)> = points
+        .windows(2)
+        .map(|w| (w[1].0, w[1].1 - w[0].1))
         .collect();
-    let spelled = |w: &str| first_leaps.iter().any(|x| x == w);
+    assert!(steps.iter().all(|s| s.1 > -0.002), "{points:?}");
+    let (t_jump, jump) =
+        steps.iter().copied().fold(
+            (0.0, f64::NEG_INFINITY),
+            |a, s| if s.1 > a.1 { s } else { a },
+        );
+    assert!(jump > 0.04 && t_jump > 0.0 && t_jump <= 0.02, "{points:?}");
     assert!(
-        spelled("1010-0110-0010-0001-0000"),
-        "(3.2): {first_leaps:?}"
+        steps
+            .iter()
+            .filter(|s| s.0 != t_jump)
+            .all(|s| s.1.abs() * 5.0 < jump),
+        "{points:?}"
     );
+    let rear_touchdown = |t2_s: f64| {
+        let r = simulate_leap(
+            &p,
+            &LeapConfig {
+                t2_s,
+                ..LeapConfig::default()
+            },
+        )
+        .unwrap();
+        r.events
+            .into_iter()
+            .find(|e| e.kind == "touchdown" && e.contacts == ["rear_leg"])
+            .unwrap()
+            .mode_after
+    };
+    assert_eq!(rear_touchdown(t_jump - 0.002), "0101");
+    assert_eq!(rear_touchdown(t_jump), "0s01");
+}
+
+/// The same grammar on the two-legged robot that chapter 3.2 writes it for (legs at the front
+/// and rear hips, `ℓ₁ = ℓ₂` from the centre of mass), at X-RHex's 9 A: each leap, up to its
+/// first flight, spells one of the words, and they come in the order of chapter 3.2's timing
+/// conditions as t2 grows — (3.7) `(1001, 1000, 0100)` for `t2 < t2a*` (the rear leg pushes
+/// alone and lifts off before the front one lands), (3.5) `(1001, 0101, 0001)` for
+/// `t2a* < t2 < 0`, (3.3) `(0110, 0101, 0001)` for `0 < t2 < t1a*`, (3.2) `(0110, 0010,
+/// 0001)` for `t1a* < t2` (the front leg lifts off before the rear one lands) — and never
+/// (3.4) or (3.6) (the front leg lifts first whenever both are down). The thesis prints
+/// (3.7) as `(1001, 1000, 0001)`, which is no path of the complex (`1000 → 0001` swaps two
+/// contacts at once; see the errata). At t2 = 0 both legs land together (`1010 → 0101`).
+/// At 20 A the rear-first leaps hop instead of spelling (3.7) (previous test).
+#[test]
+fn plus_plus_on_the_two_legged_robot_spells_the_chapter_3_words_in_order() {
+    let t2s: Vec<f64> = (0..26).map(|k| -0.3 + 0.02 * k as f64).collect();
+    let cfg = LeapConfig {
+        pairs: Some([rhex_model::LegPair::Front, rhex_model::LegPair::Rear]),
+        actuator: geared_at(9.0),
+        ..LeapConfig::default()
+    };
+    let words = first_flight_words(&cfg, &t2s);
+    let order = ["3.7", "3.5", "both", "3.3", "3.2"];
+    let spelled: Vec<&str> = words
+        .iter()
+        .map(|w| match w.as_str() {
+            "1010-1001-1000-0100-0000" => "3.7",
+            "1010-1001-0101-0001-0000" => "3.5",
+            "1010-0101-0001-0000" => "both",
+            "1010-0110-0101-0001-0000" => "3.3",
+            "1010-0110-0010-0001-0000" => "3.2",
+            other => panic!("{other} is none of the expected words: {words:?}"),
+        })
+        .collect();
+    let rank: Vec<usize> = spelled
+        .iter()
+        .map(|w| order.iter().position(|o| o == w).unwrap())
+        .collect();
     assert!(
-        spelled("1010-0110-0101-0001-0000"),
-        "(3.3): {first_leaps:?}"
+        rank.windows(2).all(|r| r[0] <= r[1]),
+        "out of order over t2: {spelled:?}"
     );
-    assert!(
-        spelled("1010-1001-0101-0001-0000"),
-        "(3.5): {first_leaps:?}"
-    );
-    assert!(
-        !spelled("1010-0110-0101-0100-0000"),
-        "(3.4): {first_leaps:?}"
-    );
-    // as (3.2)–(3.5) order them: (3.2) for a rear leg late enough (t2 > t1a*), (3.5) for a
-    // rear leg a little early (t2a* < t2 < 0)
-    assert_eq!(first_leaps[20], "1010-0110-0010-0001-0000", "t2 = 0.2 s");
-    assert_eq!(first_leaps[9], "1010-1001-0101-0001-0000", "t2 = -0.02 s");
+    for w in ["3.7", "3.5", "3.3", "3.2"] {
+        assert!(spelled.contains(&w), "({w}) missing: {spelled:?}");
+    }
+    assert_eq!(spelled[15], "both", "t2 = 0");
 }
 
 /// Fig. 5.1 in this model (`rhex_model::figures::fig5_1_ledge_20cm`): the leap ends sitting
