@@ -1,11 +1,11 @@
 //! Thesis Fig. 5.1: RHex leaps onto a 20 cm ledge.
 //!
-//! Parameters, and why they are not the figure's: [`rhex_model::figures::fig5_1_ledge_20cm`].
+//! The figure's own settings and the ledge: [`rhex_model::figures::fig5_1_ledge_20cm`].
 //!
 //! ```sh
 //! cargo run --release -p rhex-model --example fig5_1_ledge_20cm
 //! ```
-use rhex_model::figures::{fig5_1_ledge_20cm as config, fig5_1_settings};
+use rhex_model::figures::fig5_1_ledge_20cm as config;
 use rhex_model::leap::{leap_params, simulate_leap};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -25,13 +25,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         q[2],
         q[4].to_degrees(),
         qd[2]
-    );
-    // the figure's own settings, for comparison
-    let f = simulate_leap(&p, &fig5_1_settings())?;
-    println!(
-        "Fig. 5.1's settings ((+,+), t2 = 0.01 s): status {}, word {}",
-        f.status.as_str(),
-        f.word_string()
     );
     Ok(())
 }

@@ -305,9 +305,10 @@ pub enum LeapStatus {
     EventBudget,
     NoContactSolution,
     SeveralContactSolutions,
-    /// A contact met an edge of a ledge that is not a contact surface: the convex edge where
-    /// its face meets its top, or the concave corner where the face meets the ground (one
-    /// contact site touching two surfaces at once).
+    /// A contact met a place of a ledge that is not a contact feature for it: the edge where
+    /// its face meets its top, met by a point of the robot (a leg's tip), or the concave
+    /// corner where the face meets the ground (one contact site touching two surfaces at
+    /// once). Body ends and leg arcs rest, roll and slide on the edge.
     TerrainEdge,
     /// The contact set met a pose where it no longer determines the motion of a massless
     /// leg (Lemma 5.1), e.g. a sliding half-circle leg passing upright.

@@ -6,11 +6,13 @@
 //!
 //! A ledge has three surfaces a contact can be on: the lower ground, the ledge's level top,
 //! and its vertical face (the riser between them), all frictionless for the body and with the
-//! legs' toe friction for the legs. Two places are not modelled and end the leap as
+//! legs' toe friction for the legs; and its top edge, the convex corner where the face meets
+//! the top, on which a body end or a leg's arc can rest, roll or slide (a body end sliding up
+//! the face passes over it onto the top). Two places end the leap as
 //! [`crate::leap::LeapStatus::TerrainEdge`] instead of moving a contact onto the wrong
-//! surface: the convex edge where the face meets the top (a contact sliding up the face past
-//! it), and the concave corner where the face meets the lower ground (a contact site touches
-//! one surface at a time, so a body end sliding into the face's foot cannot be held by both).
+//! surface: the edge met by a *point* of the robot (a leg's tip), which has no normal there,
+//! and the concave corner where the face meets the lower ground (a contact site touches one
+//! surface at a time, so a body end sliding into the face's foot cannot be held by both).
 use crate::RhexError;
 use nalgebra::Vector2;
 use selfmanip_core::{GroundPlane, Terrain};
@@ -103,6 +105,20 @@ impl Terrain for TerrainSpec {
                     point_m: [distance_m, 0.0],
                     normal_into_ground: [distance_m.signum(), 0.0],
                 })
+            }
+        }
+    }
+
+    fn corner_near(&self, c: Vector2<f64>) -> Option<Vector2<f64>> {
+        match *self {
+            TerrainSpec::Flat => None,
+            TerrainSpec::Ledge {
+                height_m,
+                distance_m,
+            } => {
+                // above the top (z down) and on the open side of the face
+                (c.y <= -height_m && !Self::beyond(c.x, distance_m))
+                    .then(|| Vector2::new(distance_m, -height_m))
             }
         }
     }

@@ -265,40 +265,111 @@ fn a_ledge_face_is_a_contact_surface() {
     }
 }
 
-/// The edge where a ledge's face meets its top is not a contact surface: a body end that
-/// slides up the face past the edge ends the leap as `TerrainEdge`, where it is (its centre
-/// level with the top edge, one body radius from the face), instead of being carried on by
-/// a constraint on the wrong surface. The leap: the thesis's Fig. 5.1 strategy (+,+) with the
-/// middle and rear legs (rear started 0.03 s after the middle) at a 20 cm ledge 35 cm ahead;
-/// it pitches up, its rear body end meets the face and slides up it.
+/// A ledge's top edge is a contact feature for a body end (a circle): landing on it, the
+/// body end's centre stays one body radius from the edge (the corner's gap is zero, the
+/// contact normal turning with it), and it slides over onto the top where its centre passes
+/// over the edge — a change of feature, not an event, with the normal continuous there. The
+/// leap: (+,+) with the front and rear pairs, the rear motor 0.06 s first, at a 20 cm ledge
+/// 45 cm ahead; it flies nose-up over the edge, its rear body end lands on the edge and
+/// slides onto the top, the front one lands after it, and the robot sits level on the top
+/// (`z = h + ρ_b`, `φ = 0`).
 #[test]
-fn a_contact_sliding_over_a_ledge_edge_is_reported_not_carried_on() {
-    let p = leap_params();
-    let (h, d) = (0.2, 0.35);
+fn a_body_end_landing_on_a_ledge_edge_slides_over_it_onto_the_top() {
+    let (h, d) = (0.2, 0.45);
     let cfg = LeapConfig {
-        t2_s: 0.03,
-        pairs: Some([rhex_model::LegPair::Middle, rhex_model::LegPair::Rear]),
+        t2_s: -0.06,
+        pairs: Some([rhex_model::LegPair::Front, rhex_model::LegPair::Rear]),
         ..at_ledge(h, d)
     };
-    let r = simulate_leap(&p, &cfg).unwrap();
+    let r = simulate_leap(&leap_params(), &cfg).unwrap();
+    assert_eq!(r.status, LeapStatus::Ok, "{}", r.word_string());
+    let (p, rhex) = robot(&cfg);
+    let model = &rhex.model;
+    let rear = model
+        .contacts
+        .iter()
+        .position(|c| c.name == "rear_body")
+        .unwrap();
+    let nq = model.nq();
+    let mut kin = selfmanip_core::kinematics::Kinematics::default();
+    let mut y = vec![0.0; 2 * nq];
+    let mut geometry_at = |seg: &selfmanip_hybrid::Segment, t: f64| {
+        seg.eval(t, &mut y);
+        kin.compute(model, &y[..nq], &y[nq..]);
+        (contact_geometry(model, &kin, &cfg.terrain, rear), y.clone())
+    };
+    let segs = &r.execution.segments;
+    let on_edge: Vec<usize> = (0..segs.len())
+        .filter(|&i| {
+            segs[i].mode.contains(rear)
+                && geometry_at(&segs[i], 0.5 * (segs[i].t0 + segs[i].t1))
+                    .0
+                    .on_corner
+        })
+        .collect();
+    assert_eq!(on_edge.len(), 1, "one stretch on the edge");
+    let (i, seg) = (on_edge[0], &segs[on_edge[0]]);
+    for k in 0..=20 {
+        let t = seg.t0 + (seg.t1 - seg.t0) * k as f64 / 20.0;
+        let (g, y) = geometry_at(seg, t);
+        let (x, z, phi) = (y[nq - 3], y[nq - 2], y[nq - 1]);
+        // the rear body centre (world, z down) at −ℓ₂ along the body axis
+        let c = nalgebra::Vector2::new(x - p.l2 * phi.cos(), z + p.l2 * phi.sin());
+        let from_edge = (c - nalgebra::Vector2::new(d, -h)).norm();
+        assert!((from_edge - p.rho_b).abs() < 1e-8, "{from_edge} at {t}");
+        assert!(g.gap_m.abs() < 1e-8);
+    }
+    // the next stretch is on the top, in the same mode, with no event between
+    let next = &segs[i + 1];
+    assert_eq!(next.mode, seg.mode);
+    assert!(r.execution.events.iter().all(|e| e.t != seg.t1));
+    let (after, y) = geometry_at(next, next.t0);
+    let (before, _) = geometry_at(seg, seg.t1);
+    assert!(!after.on_corner && after.plane.normal_into_ground == [0.0, 1.0]);
+    assert!((after.plane.normal() - before.plane.normal()).norm() < 1e-6);
+    let phi = y[nq - 1];
+    assert!(
+        (y[nq - 3] - p.l2 * phi.cos() - d).abs() < 1e-6,
+        "centre over the edge"
+    );
+    // sitting level on the top
+    let q = &r.execution.q;
+    assert_eq!(r.events.last().unwrap().mode_after, "1010");
+    assert!((-q[nq - 2] - (h + p.rho_b)).abs() < 1e-8 && q[nq - 1].abs() < 1e-8);
+}
+
+/// The concave corner at the foot of a ledge's face is where one site would touch two
+/// surfaces: a body end sliding along the ground into it ends the leap as `TerrainEdge`,
+/// there — its centre one body radius above the ground and one from the face. The leap:
+/// (+,+) on RHex, the rear motor 0.16 s first, at a 20 cm ledge 40 cm ahead; the rear push
+/// lifts the front end, the robot hops and lands on its front body end, which slides into
+/// the foot of the face.
+#[test]
+fn a_body_end_sliding_into_the_foot_of_a_ledge_is_reported_not_carried_on() {
+    let (h, d) = (0.2, 0.4);
+    let cfg = LeapConfig {
+        t2_s: -0.16,
+        ..at_ledge(h, d)
+    };
+    let r = simulate_leap(&leap_params(), &cfg).unwrap();
     assert_eq!(r.status, LeapStatus::TerrainEdge, "{}", r.word_string());
     let selfmanip_hybrid::Termination::TerrainDiscontinuity { contact, .. } =
         r.execution.termination
     else {
         panic!("{:?}", r.execution.termination)
     };
-    let (_, rhex) = robot(&cfg);
-    assert_eq!(rhex.model.contacts[contact].name, "rear_body");
-    // the rear body centre: x − ℓ₂ cos φ, height z − ℓ₂ sin φ (z, φ up / nose-up)
+    let (p, rhex) = robot(&cfg);
+    assert_eq!(rhex.model.contacts[contact].name, "front_body");
+    // the front body centre: x + ℓ₁ cos φ, height z + ℓ₁ sin φ (z, φ up / nose-up)
     let q = &r.execution.q;
     let (x, z, phi) = (q[2], -q[3], q[4]);
-    let (cx, cz) = (x - p.l2 * phi.cos(), z - p.l2 * phi.sin());
+    let (cx, cz) = (x + p.l1 * phi.cos(), z + p.l1 * phi.sin());
     assert!(
-        (cx + p.rho_b - d).abs() < 1e-5,
+        (cx + p.rho_b - d).abs() < 1e-6,
         "touching the face: {}",
         cx + p.rho_b
     );
-    assert!(cz > h && cz - h < 1e-6, "just over the edge: {cz}");
+    assert!((cz - p.rho_b).abs() < 1e-6, "on the ground: {cz}");
 }
 
 #[test]
@@ -682,12 +753,11 @@ fn plus_plus_on_the_two_legged_robot_spells_the_chapter_3_words_in_order() {
     assert_eq!(spelled[15], "both", "t2 = 0");
 }
 
-/// Fig. 5.1 in this model (`rhex_model::figures::fig5_1_ledge_20cm`): the leap ends sitting
-/// level on the 20 cm ledge — both body ends on its top, so the body centre is at
-/// `h + ρ_b` with zero pitch (the closed form of resting on a level plane), the whole body
-/// past the edge — then slides on the frictionless top (Assumption C.3) with its kinetic
-/// energy conserved. With the figure's own settings the rear body end slides up the
-/// ledge's face to its edge instead (see the figures module).
+/// Fig. 5.1 with the figure's own settings (`rhex_model::figures::fig5_1_ledge_20cm`): the
+/// leap ends sitting level on the 20 cm ledge — both body ends on its top, so the body
+/// centre is at `h + ρ_b` with zero pitch (the closed form of resting on a level plane), the
+/// whole body past the edge — then slides on the frictionless top (Assumption C.3) with its
+/// kinetic energy conserved; and the rear body end struck the ledge's edge on the way.
 #[test]
 fn fig5_1_leap_lands_on_the_20_cm_ledge() {
     let p = leap_params();
@@ -720,9 +790,20 @@ fn fig5_1_leap_lands_on_the_20_cm_ledge() {
         "{t_end} vs {}",
         e.kinetic_after
     );
-    // the figure's own settings do not reach the top in this model
-    let fig = simulate_leap(&p, &rhex_model::figures::fig5_1_settings()).unwrap();
-    assert_eq!(fig.status, LeapStatus::TerrainEdge, "{}", fig.word_string());
+    // the edge struck on the way: a touchdown of the rear body end on the corner
+    let (_, rhex) = robot(&cfg);
+    let model = &rhex.model;
+    let mut kin = selfmanip_core::kinematics::Kinematics::default();
+    let struck = r.execution.events.iter().any(|e| {
+        e.kind == EventKind::Touchdown && {
+            kin.compute(model, &e.q, &e.qd_after);
+            e.triggered.iter().any(|&k| {
+                model.contacts[k].name == "rear_body"
+                    && contact_geometry(model, &kin, &cfg.terrain, k).on_corner
+            })
+        }
+    });
+    assert!(struck, "{}", r.word_string());
 }
 
 /// Fig. 5.8 in this model (`rhex_model::figures::fig5_8_vertical_leap`): a near-vertical

@@ -1,8 +1,10 @@
 //! The velocity constraint `A` of thesis (4.11)/(4.17) and its time derivative `Ȧ`, for the
-//! rows of one contact mode: `A_k = −Bᵀ J_p` at the contact point, `Ȧ_k = −Bᵀ J̇_p`
-//! (see [`crate::contact`] for the frame and rolling conventions).
+//! rows of one contact mode: `A_k = −Bᵀ J_p` at the contact point, `Ȧ_k = −Ḃᵀ J_p − Bᵀ J̇_p`
+//! (`Ḃ = 0` on a plane; on a terrain corner the contact frame turns with the site; see
+//! [`crate::contact`] for the frame and rolling conventions).
 use crate::contact::{
-    contact_geometry, row_direction, ConstraintRow, ContactGeometry, ContactMode, Terrain,
+    contact_geometry, row_direction, row_direction_rate, ConstraintRow, ContactGeometry,
+    ContactMode, Terrain,
 };
 use crate::kinematics::Kinematics;
 use crate::model::Model;
@@ -57,13 +59,20 @@ impl Constraints {
                 .expect("active contact")
                 .1;
             let d = row_direction(&geo.plane, row.direction);
+            let d_rate = row_direction_rate(geo.normal_rate, row.direction);
+            let turning = d_rate != nalgebra::Vector2::zeros();
+            let mut acc = 0.0;
             kin.point_jacobian_columns(model, geo.part, geo.point, |k, col| {
                 a[k * c + r] = -d.dot(&col);
+                if turning {
+                    let v = d_rate.dot(&col);
+                    a_dot[k * c + r] -= v;
+                    acc -= v * qd[k];
+                }
             });
-            let mut acc = 0.0;
             kin.point_jacobian_rate_columns(model, geo.part, geo.point_rate, |k, col| {
                 let v = d.dot(&col);
-                a_dot[k * c + r] = -v;
+                a_dot[k * c + r] -= v;
                 acc -= v * qd[k];
             });
             self.a_dot_qd[r] = acc;

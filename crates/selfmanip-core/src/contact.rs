@@ -52,11 +52,18 @@ impl GroundPlane {
 ///
 /// A site touches the surface [`Terrain::plane_under`] its reference point (a point contact's
 /// point, an arc's or circle's centre), or — where the terrain has a step — the vertical
-/// face [`Terrain::face_near`] offers, whichever its shape comes nearer to (the smaller gap).
-/// Both are planes, so a site on a face has the same constraint rows as one on the ground,
-/// with the face's normal. Edges and corners are not surfaces: a free site that crosses an
-/// edge shows as a jump of its gap through zero, and a site in contact that reaches one
-/// changes surface; the hybrid simulation reports both instead of resolving them.
+/// face [`Terrain::face_near`] offers, or the step's convex edge [`Terrain::corner_near`],
+/// whichever its shape comes nearest to (the smallest gap).
+///
+/// Faces are planes, so a site on a face has the same constraint rows as one on the ground,
+/// with the face's normal. A circle or arc on a convex corner `v` touches it along the
+/// normal `n = (v − c)/|v − c|` from its centre `c`: its rows are those of the tangent plane
+/// there, which turns with the site (`ṅ = −(I − n nᵀ) ċ / |v − c|`, carried into `Ȧ`), so a
+/// rolling or sliding site passes from a face over the edge onto the top with its gap and
+/// its normal continuous. A *point* site has no normal on a corner: a free point that
+/// crosses an edge shows as a jump of its gap through zero, and a point in contact that
+/// reaches one leaves its surface; so does any site reaching a concave corner (it would
+/// touch two surfaces). The hybrid simulation reports those instead of resolving them.
 pub trait Terrain: Send + Sync {
     /// The ground plane that a part centred at world `x_m` would touch.
     fn plane_under(&self, x_m: f64) -> GroundPlane;
@@ -65,6 +72,14 @@ pub trait Terrain: Send + Sync {
     /// may touch; `None` (the default) on terrain without steps. Offered only while `p` is
     /// below the face's top edge and on its open side.
     fn face_near(&self, _p: Vector2<f64>) -> Option<GroundPlane> {
+        None
+    }
+
+    /// The convex corner (world point, z down) that a circle or arc centred at `c` may
+    /// touch: offered only while `c` is past the ends of both surfaces that meet there (above
+    /// a step's top and on the open side of its face), where the corner is the nearest point
+    /// of the terrain. `None` (the default) on terrain without convex corners.
+    fn corner_near(&self, _c: Vector2<f64>) -> Option<Vector2<f64>> {
         None
     }
 }
@@ -315,8 +330,27 @@ pub struct ContactGeometry {
     pub gap_m: f64,
     pub touch: TouchKind,
     /// Rate of the evaluation point used in `Ȧ` (material velocity for a point; the centre's
-    /// velocity for rolling).
+    /// velocity for rolling on a plane; on a corner, the rate of the contact point as it
+    /// moves round the arc, `ċ + r ṅ`).
     pub point_rate: Vector2<f64>,
+    /// Rate of the plane's normal `ṅ`: zero on a plane, the turning of the tangent plane on
+    /// a corner.
+    pub normal_rate: Vector2<f64>,
+    /// Whether the site touches a convex corner of the terrain (`plane` is then the tangent
+    /// plane there, through the corner, and turns with the site).
+    pub on_corner: bool,
+}
+
+impl ContactGeometry {
+    /// Whether `self` and `other` are on the same terrain feature: the same plane, or the
+    /// same corner (whose tangent plane turns).
+    pub fn same_feature(&self, other: &ContactGeometry) -> bool {
+        match (self.on_corner, other.on_corner) {
+            (true, true) => self.plane.point_m == other.plane.point_m,
+            (false, false) => self.plane == other.plane,
+            _ => false,
+        }
+    }
 }
 
 /// An arc's range of normal angles `[α₀, α₁]` in the form [`contact_geometry`] tests against:
@@ -385,18 +419,60 @@ pub fn contact_geometry(
         ContactShape::Arc { center_m, .. } => *center_m,
     };
     let reference = kin.point(part, reference);
-    let on_ground = geometry_on(site, k, part, kin, terrain.plane_under(reference.x));
-    match terrain.face_near(reference) {
-        Some(face) => {
-            let on_face = geometry_on(site, k, part, kin, face);
-            if on_face.gap_m < on_ground.gap_m {
-                on_face
-            } else {
-                on_ground
-            }
+    let mut best = geometry_on(site, k, part, kin, terrain.plane_under(reference.x));
+    if let Some(face) = terrain.face_near(reference) {
+        let on_face = geometry_on(site, k, part, kin, face);
+        if on_face.gap_m < best.gap_m {
+            best = on_face;
         }
-        None => on_ground,
     }
+    if let Some(on_corner) = terrain
+        .corner_near(reference)
+        .and_then(|v| geometry_on_corner(site, k, part, kin, reference, v))
+    {
+        if on_corner.gap_m < best.gap_m {
+            best = on_corner;
+        }
+    }
+    best
+}
+
+/// [`contact_geometry`] of a circle or arc site (centre `c`, world) against the convex
+/// corner `v`: the tangent plane at `v` with normal `n = (v − c)/|v − c|`, which turns at
+/// `ṅ = −(I − n nᵀ) ċ / |v − c|` as the centre moves; the contact point `c + r n` moves at
+/// `ċ + r ṅ`. `None` for a point site, or when the arc does not face the corner (its end,
+/// a point, is what would touch), or with the centre on the corner.
+fn geometry_on_corner(
+    site: &crate::model::Contact,
+    k: usize,
+    part: Part,
+    kin: &Kinematics,
+    c: Vector2<f64>,
+    v: Vector2<f64>,
+) -> Option<ContactGeometry> {
+    let ContactShape::Arc { radius_m, .. } = site.shape else {
+        return None;
+    };
+    let to_corner = v - c;
+    let dist = to_corner.norm();
+    if dist <= 0.0 {
+        return None;
+    }
+    let n = to_corner / dist;
+    let plane = GroundPlane {
+        point_m: [v.x, v.y],
+        normal_into_ground: [n.x, n.y],
+    };
+    let mut g = geometry_on(site, k, part, kin, plane);
+    if g.touch != TouchKind::Rolling {
+        return None;
+    }
+    let c_rate = kin.material_velocity(part, c);
+    let n_rate = -(c_rate - n * n.dot(&c_rate)) / dist;
+    g.normal_rate = n_rate;
+    g.point_rate = c_rate + radius_m * n_rate;
+    g.on_corner = true;
+    Some(g)
 }
 
 /// [`contact_geometry`] of site `k` (on `part`) against one plane.
@@ -452,6 +528,8 @@ fn geometry_on(
         gap_m: plane.height_of(point),
         touch,
         point_rate,
+        normal_rate: Vector2::zeros(),
+        on_corner: false,
     }
 }
 
@@ -460,6 +538,15 @@ pub fn row_direction(plane: &GroundPlane, dir: RowDirection) -> Vector2<f64> {
     match dir {
         RowDirection::Tangential => plane.tangent(),
         RowDirection::Normal => plane.normal(),
+    }
+}
+
+/// Rate of [`row_direction`] for a contact whose normal turns at `normal_rate` (the tangent
+/// `S(n)` is linear in `n`).
+pub fn row_direction_rate(normal_rate: Vector2<f64>, dir: RowDirection) -> Vector2<f64> {
+    match dir {
+        RowDirection::Tangential => perp(normal_rate),
+        RowDirection::Normal => normal_rate,
     }
 }
 

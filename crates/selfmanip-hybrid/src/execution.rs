@@ -35,20 +35,23 @@
 //! along the surface instead of letting go (released, the link's prescribed motion would
 //! carry it into the ground again at the same instant).
 //!
-//! Terrain: an active contact must stay on the surface it had at the start of its segment;
-//! one that leaves it (an edge or a corner of the terrain, which are not contact features)
-//! ends the execution with [`Termination::TerrainDiscontinuity`], located to the event
-//! tolerance.
+//! Terrain: an active contact stays on the feature (plane or convex corner) it had at the
+//! start of its segment, or passes onto the next one continuously — a circle from a face
+//! onto the edge at its top, and on over it onto the top, its gap and normal continuous:
+//! the segment ends there (located to the event tolerance, the step taken again up to it,
+//! no event) and the next one starts on the new feature. A contact that leaves its surface
+//! otherwise (a point crossing an edge, any site reaching a concave corner, where it would
+//! touch two surfaces) ends the execution with [`Termination::TerrainDiscontinuity`].
 use crate::dopri::{DenseStep, Dopri5, StepError, StepOptions};
 use crate::impact_qp::{self, ContactQpError, QpOutcome};
-use selfmanip_core::contact::{contact_geometry, ContactKind, RowDirection};
+use selfmanip_core::contact::{contact_geometry, ContactGeometry, ContactKind, RowDirection};
 use selfmanip_core::inertia::potential_energy;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::model::Friction;
 use selfmanip_core::{
     forward_dynamics_prepared, free_massless_joints, kinetic_energy, plastic_impact,
-    plastic_impact_prepared, pseudo_impulse_prepared, ContactMode, CoreError, Data, GroundPlane,
-    Model, SingularityKind, Terrain,
+    plastic_impact_prepared, pseudo_impulse_prepared, ContactMode, CoreError, Data, Model,
+    SingularityKind, Terrain,
 };
 use thiserror::Error;
 
@@ -170,22 +173,30 @@ pub struct Event {
     pub qd_after: Vec<f64>,
 }
 
-/// A stretch of flow in one mode, with its dense output.
+/// A stretch of flow in one mode, with its dense output. A segment ends at an event, or
+/// where a contact passes onto the next feature of the terrain (no event); one of zero
+/// duration (a mode passed through at one instant) has no steps.
 #[derive(Debug, Clone)]
 pub struct Segment {
     pub mode: ContactMode,
     pub t0: f64,
     pub t1: f64,
+    /// State `[q; q̇]` at `t0`.
+    pub y0: Vec<f64>,
     pub steps: Vec<DenseStep>,
 }
 
 impl Segment {
-    /// State `[q; q̇]` at `t` in the segment.
+    /// State `[q; q̇]` at `t` in the segment (its start state if it has no steps).
     pub fn eval(&self, t: f64, y: &mut [f64]) {
+        if self.steps.is_empty() {
+            y.copy_from_slice(&self.y0);
+            return;
+        }
         let i = self
             .steps
             .partition_point(|s| s.t1() < t)
-            .min(self.steps.len().saturating_sub(1));
+            .min(self.steps.len() - 1);
         self.steps[i].eval(t, y);
     }
 }
@@ -219,9 +230,10 @@ pub enum Termination {
         kind: SingularityKind,
         condition_estimate: f64,
     },
-    /// A contact met an edge of the terrain that is not a contact surface (e.g. where a
-    /// ledge's face meets its top): an inactive contact's height jumped through zero, or an
-    /// active contact left the surface it was on (located to the event tolerance); `t` is
+    /// A contact met a place of the terrain that is not a contact feature for it (a point
+    /// at a ledge's edge, any site at the concave foot of its face): an inactive contact's
+    /// height jumped through zero, or an active contact left the surface it was on other
+    /// than onto a continuing feature (located to the event tolerance); `t` is
     /// when, `gap_m` the contact's height there.
     TerrainDiscontinuity {
         t: f64,
@@ -420,32 +432,41 @@ impl<'a> Sim<'a> {
         })
     }
 
-    /// The surface each active contact of `mode` is on at `y = [q; q̇]`.
-    fn surfaces(&mut self, mode: ContactMode, y: &[f64]) -> Vec<(usize, GroundPlane)> {
+    /// The geometry of contact `k` at `y = [q; q̇]`.
+    fn geometry(&mut self, k: usize, y: &[f64]) -> ContactGeometry {
+        let (q, qd) = y.split_at(self.nq());
+        let (model, terrain) = (self.model, self.terrain);
+        contact_geometry(model, self.kinematics(q, qd), terrain, k)
+    }
+
+    /// The terrain feature (plane or corner) each active contact of `mode` is on at
+    /// `y = [q; q̇]`.
+    fn surfaces(&mut self, mode: ContactMode, y: &[f64]) -> Vec<(usize, ContactGeometry)> {
         let (q, qd) = y.split_at(self.nq());
         let (model, terrain) = (self.model, self.terrain);
         let kin = self.kinematics(q, qd);
         mode.active()
-            .map(|k| (k, contact_geometry(model, kin, terrain, k).plane))
+            .map(|k| (k, contact_geometry(model, kin, terrain, k)))
             .collect()
     }
 
-    /// An active contact that is no longer on the surface it had at the segment's start
-    /// (`surfaces`, from [`Sim::surfaces`]), with its height at `y`: further than
-    /// [`TERRAIN_STEP_M`] from zero (the surface ended under it: it crossed a convex edge),
-    /// or another surface is now nearer (it reached a concave corner, where one site would
-    /// touch two surfaces).
+    /// An active contact that is no longer on the feature it had at the segment's start
+    /// (`surfaces`, from [`Sim::surfaces`]), with its geometry at `y`: its height further
+    /// than [`TERRAIN_STEP_M`] from zero (the surface ended under it: a point crossed a
+    /// convex edge), or another feature is now nearer — the next face, the corner between
+    /// two faces, or (at a concave corner, where one site would touch two surfaces) a face
+    /// at an angle.
     fn off_surface(
         &mut self,
-        surfaces: &[(usize, GroundPlane)],
+        surfaces: &[(usize, ContactGeometry)],
         y: &[f64],
-    ) -> Option<(usize, f64)> {
+    ) -> Option<(usize, ContactGeometry)> {
         let (q, qd) = y.split_at(self.nq());
         let (model, terrain) = (self.model, self.terrain);
         let kin = self.kinematics(q, qd);
-        surfaces.iter().find_map(|&(k, plane)| {
-            let g = contact_geometry(model, kin, terrain, k);
-            (g.plane != plane || g.gap_m.abs() > TERRAIN_STEP_M).then_some((k, g.gap_m))
+        surfaces.iter().find_map(|(k, start)| {
+            let g = contact_geometry(model, kin, terrain, *k);
+            (!g.same_feature(start) || g.gap_m.abs() > TERRAIN_STEP_M).then_some((*k, g))
         })
     }
 
@@ -941,6 +962,11 @@ const IMPULSE_TOL_N_S: f64 = 1e-12;
 /// A contact found this far below its ground at a located touchdown did not reach it
 /// continuously: its ground stepped (m).
 const TERRAIN_STEP_M: f64 = 1e-6;
+/// Largest change of a contact's normal (a unit vector) across the event bracket at which
+/// it passes onto the next terrain feature for the two to count as one continuous surface
+/// (a face and its edge: the change is the turning over the bracket, ~1e-9; a concave
+/// corner turns it by a right angle).
+const FEATURE_NORMAL_TOL: f64 = 1e-6;
 
 /// Runs the hybrid system from `(q0, qd0)` in `mode0` until `t_final` or a terminal event.
 #[allow(clippy::too_many_arguments)]
@@ -1011,6 +1037,8 @@ pub fn simulate(
     let mut mode = mode0;
     let mut segments = Vec::new();
     let mut events: Vec<Event> = Vec::new();
+    // times at which a contact passed onto the next feature of the terrain
+    let mut feature_changes: Vec<f64> = Vec::new();
     let mut ydense = vec![0.0; 2 * nq];
     let mut h_carry = opts.step.h_initial_s;
     let mut ode = Dopri5::new(2 * nq, opts.step);
@@ -1078,10 +1106,14 @@ pub fn simulate(
             .map(|(g, _)| *g)
             .collect();
         let surfaces = sim.surfaces(mode, &y);
+        // the time a contact passes continuously onto the next terrain feature in this
+        // segment's last step, once located
+        let mut feature_change: Option<f64> = None;
         let mut seg = Segment {
             mode,
             t0: t,
             t1: t,
+            y0: y.clone(),
             steps: Vec::new(),
         };
         // a segment starts with the step size the last one reached (a reset changes the
@@ -1099,12 +1131,12 @@ pub fn simulate(
                 &mut |tt, yy, dy| sim.rhs(tt, mode, yy, dy),
                 t,
                 &mut y,
-                t_final,
+                feature_change.unwrap_or(t_final),
                 &mut dense,
             );
             match step {
-                Ok(()) => {
-                    // an active contact stays on its surface (the flow holds a_k = 0); one
+                Ok(()) if feature_change.is_none() => {
+                    // an active contact stays on its feature (the flow holds a_k = 0); one
                     // that left it met an edge or a corner of the terrain: locate where
                     if sim.off_surface(&surfaces, &y).is_some() {
                         let (mut on, mut off) = (dense.t0, dense.t1());
@@ -1117,10 +1149,25 @@ pub fn simulate(
                                 on = mid;
                             }
                         }
+                        dense.eval(off, &mut ydense);
+                        let (contact, after) = sim
+                            .off_surface(&surfaces, &ydense)
+                            .expect("off its feature at `off`");
+                        // the next feature continues the surface (a face, its edge, the top:
+                        // height and normal continuous): the flow changes there, so the step
+                        // is taken again up to that instant and the segment ends with it
+                        dense.eval(on, &mut ydense);
+                        let before = sim.geometry(contact, &ydense);
+                        let continuous = after.gap_m.abs() <= TERRAIN_STEP_M
+                            && (after.plane.normal() - before.plane.normal()).norm()
+                                <= FEATURE_NORMAL_TOL;
+                        if continuous {
+                            dense.eval(dense.t0, &mut y);
+                            feature_change = Some(off);
+                            ode.reset(off - dense.t0);
+                            continue;
+                        }
                         dense.eval(off, &mut y);
-                        let (contact, gap_m) = sim
-                            .off_surface(&surfaces, &y)
-                            .expect("off its surface at `off`");
                         seg.steps.push(dense.clone());
                         seg.t1 = off;
                         t = off;
@@ -1128,10 +1175,11 @@ pub fn simulate(
                         break 'run Termination::TerrainDiscontinuity {
                             t: off,
                             contact,
-                            gap_m,
+                            gap_m: after.gap_m,
                         };
                     }
                 }
+                Ok(()) => {}
                 Err(StepError::Rhs(CoreError::SingularKkt {
                     kind,
                     condition_estimate,
@@ -1280,9 +1328,30 @@ pub fn simulate(
             t = dense.t1();
             seg.t1 = t;
             last.copy_from_slice(&end_value);
+            if feature_change.is_some_and(|tc| t >= tc) {
+                break None;
+            }
         };
         h_carry = ode.next_step_size().max(opts.step.h_initial_s);
         segments.push(seg);
+        if fired.is_none() && feature_change.is_some_and(|tc| t >= tc) {
+            // a contact moved on to the next feature of the terrain: a new segment, no event;
+            // these count with the events towards Zeno detection (a site rocking across the
+            // boundary between two features could otherwise split the flow without end)
+            feature_changes.push(t);
+            let in_window = |times: &mut dyn Iterator<Item = f64>| {
+                times.take_while(|&te| te > t - opts.zeno_window_s).count()
+            };
+            let recent = in_window(&mut feature_changes.iter().rev().copied())
+                + in_window(&mut events.iter().rev().map(|e| e.t));
+            if recent > opts.zeno_max_events {
+                break 'run Termination::Zeno {
+                    t,
+                    events_in_window: recent,
+                };
+            }
+            continue 'run;
+        }
         let Some((te, fired)) = fired else {
             break 'run Termination::FinalTime;
         };
