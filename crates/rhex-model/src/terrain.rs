@@ -62,18 +62,20 @@ impl TerrainSpec {
 
     /// Height (up) of the ground surface at world `x_m`.
     pub fn height_at(&self, x_m: f64) -> f64 {
+        match self.ledge() {
+            Some((height_m, distance_m)) if Self::beyond(x_m, distance_m) => height_m,
+            _ => 0.0,
+        }
+    }
+
+    /// `(height_m, distance_m)` of a ledge.
+    fn ledge(&self) -> Option<(f64, f64)> {
         match *self {
-            TerrainSpec::Flat => 0.0,
+            TerrainSpec::Flat => None,
             TerrainSpec::Ledge {
                 height_m,
                 distance_m,
-            } => {
-                if Self::beyond(x_m, distance_m) {
-                    height_m
-                } else {
-                    0.0
-                }
-            }
+            } => Some((height_m, distance_m)),
         }
     }
 
@@ -94,33 +96,19 @@ impl Terrain for TerrainSpec {
     }
 
     fn face_near(&self, p: Vector2<f64>) -> Option<GroundPlane> {
-        match *self {
-            TerrainSpec::Flat => None,
-            TerrainSpec::Ledge {
-                height_m,
-                distance_m,
-            } => {
-                // below the top edge (z down) and on the open side of the face
-                (p.y > -height_m && !Self::beyond(p.x, distance_m)).then(|| GroundPlane {
-                    point_m: [distance_m, 0.0],
-                    normal_into_ground: [distance_m.signum(), 0.0],
-                })
-            }
-        }
+        let (height_m, distance_m) = self.ledge()?;
+        // below the top edge (z down) and on the open side of the face
+        (p.y > -height_m && !Self::beyond(p.x, distance_m)).then(|| GroundPlane {
+            point_m: [distance_m, 0.0],
+            normal_into_ground: [distance_m.signum(), 0.0],
+        })
     }
 
     fn corner_near(&self, c: Vector2<f64>) -> Option<Vector2<f64>> {
-        match *self {
-            TerrainSpec::Flat => None,
-            TerrainSpec::Ledge {
-                height_m,
-                distance_m,
-            } => {
-                // above the top (z down) and on the open side of the face
-                (c.y <= -height_m && !Self::beyond(c.x, distance_m))
-                    .then(|| Vector2::new(distance_m, -height_m))
-            }
-        }
+        let (height_m, distance_m) = self.ledge()?;
+        // above the top (z down) and on the open side of the face
+        (c.y <= -height_m && !Self::beyond(c.x, distance_m))
+            .then(|| Vector2::new(distance_m, -height_m))
     }
 }
 
@@ -153,8 +141,19 @@ mod tests {
                 assert!((a.height_of(p) - (0.5 - x)).abs() < 1e-15);
             }
         }
-        // above the top edge there is no face to touch, only the ground or the top below
+        // above the top edge there is no face to touch, only the edge itself (or the ground
+        // or the top below)
         assert!(ahead.face_near(Vector2::new(0.4, -0.31)).is_none());
+        assert_eq!(
+            ahead.corner_near(Vector2::new(0.4, -0.31)),
+            Some(Vector2::new(0.5, -0.3))
+        );
+        assert_eq!(
+            behind.corner_near(Vector2::new(-0.4, -0.31)),
+            Some(Vector2::new(-0.5, -0.3))
+        );
+        assert!(ahead.corner_near(Vector2::new(0.4, -0.29)).is_none());
+        assert!(ahead.corner_near(Vector2::new(0.6, -0.31)).is_none());
         assert!(behind.validate().is_ok());
         assert!(TerrainSpec::Ledge {
             height_m: 0.3,
