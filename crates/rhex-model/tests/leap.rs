@@ -81,7 +81,9 @@ fn events_sit_on_their_guards() {
             if e.kind == EventKind::Apex {
                 continue;
             }
-            // state just before the event: end of the segment that led to it
+            // state just before the event: end of the segment that led to it (on flat ground
+            // every segment ends at an event; on a ledge a contact passing onto the next
+            // feature also ends one)
             let seg = &exec.segments[i];
             seg.eval(seg.t1, &mut y);
             let (q, qd) = y.split_at(5);
