@@ -613,22 +613,20 @@ impl Controller for LeapController {
     fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]) {
         for i in 0..2 {
             let s = self.sign[i];
-            let phase = self.phase(i, t);
-            tau[i] = match phase {
-                Phase::Waiting => self.servo(q[i], qd[i], self.hold[i], 0.0),
+            tau[i] = match self.phase(i, t) {
                 Phase::Pushing => {
                     let stubbed = self.stub.is_some_and(|a| s * q[i] > a);
                     let u = if stubbed { -s } else { s };
                     self.actuators[i].joint_torque_n_m(u, qd[i])
                 }
+                // a servoed leg in the air follows its prescribed motion: no torque
+                _ if !mode.contains(self.leg_contact[i]) => 0.0,
+                Phase::Waiting => self.servo(q[i], qd[i], self.hold[i], 0.0),
                 Phase::Retracting => {
                     let (theta, omega, _) = self.air_motion(i, t);
                     self.servo(q[i], qd[i], theta, omega)
                 }
             };
-            if !mode.contains(self.leg_contact[i]) && phase != Phase::Pushing {
-                tau[i] = 0.0;
-            }
         }
     }
 

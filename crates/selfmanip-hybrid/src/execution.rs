@@ -442,12 +442,7 @@ impl<'a> Sim<'a> {
     /// The terrain feature (plane or corner) each active contact of `mode` is on at
     /// `y = [q; q̇]`.
     fn surfaces(&mut self, mode: ContactMode, y: &[f64]) -> Vec<(usize, ContactGeometry)> {
-        let (q, qd) = y.split_at(self.nq());
-        let (model, terrain) = (self.model, self.terrain);
-        let kin = self.kinematics(q, qd);
-        mode.active()
-            .map(|k| (k, contact_geometry(model, kin, terrain, k)))
-            .collect()
+        mode.active().map(|k| (k, self.geometry(k, y))).collect()
     }
 
     /// An active contact that is no longer on the feature it had at the segment's start
@@ -461,11 +456,8 @@ impl<'a> Sim<'a> {
         surfaces: &[(usize, ContactGeometry)],
         y: &[f64],
     ) -> Option<(usize, ContactGeometry)> {
-        let (q, qd) = y.split_at(self.nq());
-        let (model, terrain) = (self.model, self.terrain);
-        let kin = self.kinematics(q, qd);
         surfaces.iter().find_map(|(k, start)| {
-            let g = contact_geometry(model, kin, terrain, *k);
+            let g = self.geometry(*k, y);
             (!g.same_feature(start) || g.gap_m.abs() > TERRAIN_STEP_M).then_some((*k, g))
         })
     }
@@ -968,6 +960,12 @@ const TERRAIN_STEP_M: f64 = 1e-6;
 /// corner turns it by a right angle).
 const FEATURE_NORMAL_TOL: f64 = 1e-6;
 
+/// How many of `times_latest_first` (times in decreasing order) are after `since`: the
+/// transitions in the Zeno window.
+fn count_after(times_latest_first: impl Iterator<Item = f64>, since: f64) -> usize {
+    times_latest_first.take_while(|&t| t > since).count()
+}
+
 /// Runs the hybrid system from `(q0, qd0)` in `mode0` until `t_final` or a terminal event.
 #[allow(clippy::too_many_arguments)]
 pub fn simulate(
@@ -1339,11 +1337,9 @@ pub fn simulate(
             // these count with the events towards Zeno detection (a site rocking across the
             // boundary between two features could otherwise split the flow without end)
             feature_changes.push(t);
-            let in_window = |times: &mut dyn Iterator<Item = f64>| {
-                times.take_while(|&te| te > t - opts.zeno_window_s).count()
-            };
-            let recent = in_window(&mut feature_changes.iter().rev().copied())
-                + in_window(&mut events.iter().rev().map(|e| e.t));
+            let since = t - opts.zeno_window_s;
+            let recent = count_after(feature_changes.iter().rev().copied(), since)
+                + count_after(events.iter().rev().map(|e| e.t), since);
             if recent > opts.zeno_max_events {
                 break 'run Termination::Zeno {
                     t,
@@ -1477,11 +1473,7 @@ pub fn simulate(
         if events.len() >= opts.max_events {
             break 'run Termination::EventBudget;
         }
-        let in_window = events
-            .iter()
-            .rev()
-            .take_while(|e| e.t > te - opts.zeno_window_s)
-            .count();
+        let in_window = count_after(events.iter().rev().map(|e| e.t), te - opts.zeno_window_s);
         if in_window > opts.zeno_max_events {
             break 'run Termination::Zeno {
                 t: te,
