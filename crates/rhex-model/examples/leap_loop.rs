@@ -22,13 +22,13 @@ fn main() {
             .execution
             .segments
             .iter()
-            .map(|s| s.steps.len())
+            .map(|s| s.dense.len())
             .sum::<usize>();
         segs = r
             .execution
             .segments
             .iter()
-            .map(|s| (s.steps.len(), s.t1 - s.t0))
+            .map(|s| (s.dense.len(), s.t1 - s.t0))
             .collect();
     }
     println!(

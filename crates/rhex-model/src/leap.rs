@@ -30,9 +30,9 @@ use crate::{Rhex, RhexError};
 use motor::Actuator;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{ContactMode, Terrain};
-use selfmanip_hybrid::dopri::StepOptions;
-use selfmanip_hybrid::execution::{Event, EventKind, Execution, HybridOptions, Termination};
+use selfmanip_hybrid::StepOptions;
 use selfmanip_hybrid::{simulate, Controller};
+use selfmanip_hybrid::{Event, EventKind, Execution, HybridOptions, Termination};
 use serde::{Deserialize, Serialize};
 use std::cell::{Cell, RefCell};
 use std::f64::consts::PI;
@@ -1012,7 +1012,7 @@ impl LeapResult {
                 .segments
                 .iter()
                 .rev()
-                .find(|s| s.t0 <= t && !s.steps.is_empty())
+                .find(|s| s.t0 <= t && !s.dense.is_empty())
             else {
                 continue;
             };

@@ -3,7 +3,7 @@
 //! [`motor::Actuator`] turns it into torque at the joint's current speed — a saturated
 //! torque source (`τ_s` of Table 4.2) or a current-limited geared DC motor (thesis section
 //! 2.1.2, `motor::Drive`). Joint `k` is generalized coordinate `q[k]` (joints come first).
-use crate::execution::Controller;
+use crate::controller::Controller;
 use motor::Actuator;
 use selfmanip_core::ContactMode;
 

@@ -1,24 +1,56 @@
 //! # selfmanip-hybrid
 //!
-//! The hybrid system of thesis Definition 5.2 as an event-accurate simulator: flows (5.48)
-//! in each contact mode from `selfmanip-core`'s KKT dynamics, guards (5.49)–(5.51) located on
-//! the dense output of a Dormand–Prince 5(4) integrator ([`dopri`]) to a time tolerance
-//! (1e-10 s by default), plastic-impact resets (5.10)/(5.52) with impulse–velocity
-//! complementarity and the pseudo-impulse (5.28)–(5.29), (5.39)–(5.40), force–acceleration
-//! complementarity for liftoff (5.19)–(5.20), and Zeno detection ([`execution`]); joint
-//! torques from actuator models (saturated torque, current-limited geared DC motor) through
-//! [`actuated`].
+//! The hybrid system of thesis Definition 5.2 as an event-accurate simulator, one module per
+//! stage, from the bottom up:
+//!
+//! | module | stage |
+//! |---|---|
+//! | [`integrate`] | Dormand–Prince 5(4) with dense output |
+//! | [`controller`] | joint torques `Υ` and the motion of free massless joints |
+//! | [`flow`] | the flow (5.48) of a mode, `(t, q, q̇) ⇒ (q̈, λ)`, with its cache |
+//! | [`guard`] | touchdown, liftoff, stick↔slip and apex guards (5.49)–(5.51): arming and sampling |
+//! | [`locate`] | regula falsi and bisection on the dense output, to `event_tol_s` |
+//! | [`features`] | the terrain feature under each active contact, and passing onto the next |
+//! | [`contact_set`] | the mode a candidate contact set takes, the friction cone, the massless-link tie-break |
+//! | [`impact`] | plastic impact (5.10)/(5.52) with the pseudo-impulse rule (5.39)–(5.40), or forces |
+//! | [`complementarity`] | enumeration (5.28)–(5.29), (5.19)–(5.20), and the QP ([`impact_qp`]) beyond it |
+//! | [`reset`] | the reset at an event: from fired guards to the next mode and `q̇⁺` |
+//! | [`zeno`] | one windowed counter of events and feature passages |
+//! | [`segment`] | one segment: steps, terrain features, guards, until an event |
+//! | [`simulate`](mod@simulate) | the loop: flow ⇒ guards ⇒ locate ⇒ reset ⇒ zeno |
+//! | [`energy`] | the energy balance of an execution |
+//! | [`execution`] | the record: segments, events, termination |
 //!
 //! Friction follows section 5.1.5 / Assumption 5.9: Coulomb sticking within `μ`,
 //! frictionless sliding, stick→slip at the cone and slip→stick at zero sliding velocity.
-//! [`energy_report`] balances the energy of an execution (motor work, impact losses).
+//! Joint torques may come from actuator models (saturated torque, current-limited geared
+//! DC motor) through [`actuated`].
 pub mod actuated;
-pub mod dopri;
+pub mod complementarity;
+pub mod contact_set;
+pub mod controller;
+pub mod energy;
+pub mod error;
 pub mod execution;
+pub mod features;
+pub mod flow;
+pub mod guard;
+pub mod impact;
 pub mod impact_qp;
+pub mod integrate;
+pub mod locate;
+pub mod options;
+pub mod reset;
+pub mod segment;
+pub mod simulate;
+pub mod zeno;
 
 pub use actuated::{Actuated, CommandPolicy};
-pub use execution::{
-    energy_report, simulate, Controller, EnergyReport, Event, EventKind, Execution, HybridError,
-    HybridOptions, Segment, Termination, ZeroTorque,
-};
+pub use complementarity::ENUMERATION_LIMIT;
+pub use controller::{Controller, ZeroTorque};
+pub use energy::{energy_report, EnergyReport};
+pub use error::HybridError;
+pub use execution::{Event, EventKind, Execution, Segment, Termination};
+pub use integrate::StepOptions;
+pub use options::HybridOptions;
+pub use simulate::simulate;

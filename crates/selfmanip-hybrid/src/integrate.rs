@@ -1,8 +1,19 @@
 //! Dormand–Prince 5(4) with its 4th-order-accurate dense output (Hairer, Nørsett & Wanner,
 //! *Solving ODEs I*, II.5 / DOPRI5): adaptive steps, FSAL, and a continuous interpolant on
-//! every accepted step, on which guards are located by root finding ([`crate::execution`]).
-//! Written once here because the maintained Rust ODE crates either lack event location on
-//! the dense output or misplace events (see `shared/ECOSYSTEM.md`).
+//! every accepted step, on which guards are located by root finding ([`crate::guard`],
+//! [`crate::locate`]). Written once here because the maintained Rust ODE crates either lack
+//! event location on the dense output or misplace events (see `shared/ECOSYSTEM.md`).
+//!
+//! One step from $(t, y)$ of size $h$ evaluates the seven stages
+//! $k_s = f(t + c_s h,\ y + h \sum_{j<s} a_{sj} k_j)$ (the last at the step's end point, reused
+//! as the next step's first: FSAL), advances $y_{n+1} = y + h \sum_s b_s k_s$, and estimates
+//! the error by $h \sum_s (b_s - \hat b_s) k_s$. The continuous extension on $[t, t + h]$ is
+//! the quartic in $\theta = (t' - t)/h$
+//! $$ y(t') = r_0 + \theta \big(r_1 + (1-\theta)(r_2 + \theta (r_3 + (1-\theta) r_4))\big), $$
+//! fourth-order accurate (Hairer, Nørsett & Wanner, II.6, eq. (6.12)).
+//!
+//! [`DenseOutput`] keeps a run of accepted steps in one flat buffer that grows by doubling:
+//! recording a step allocates nothing once the buffer has grown to the run's size.
 
 /// Butcher tableau of DOPRI5.
 const C: [f64; 7] = [0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0];
@@ -96,6 +107,35 @@ impl DenseStep {
 
     /// `y(t)` for `t` in the step.
     pub fn eval(&self, t: f64, y: &mut [f64]) {
+        self.as_view().eval(t, y);
+    }
+
+    /// The step as a view, as [`DenseOutput`] hands out its steps.
+    pub fn as_view(&self) -> StepView<'_> {
+        StepView {
+            t0: self.t0,
+            h: self.h,
+            r: &self.r,
+        }
+    }
+}
+
+/// One accepted step's continuous extension, borrowed from a [`DenseStep`] or a
+/// [`DenseOutput`].
+#[derive(Debug, Clone, Copy)]
+pub struct StepView<'a> {
+    pub t0: f64,
+    pub h: f64,
+    r: &'a [f64],
+}
+
+impl StepView<'_> {
+    pub fn t1(&self) -> f64 {
+        self.t0 + self.h
+    }
+
+    /// `y(t)` for `t` in the step: the quartic interpolant of the module docs.
+    pub fn eval(&self, t: f64, y: &mut [f64]) {
         let n = y.len();
         debug_assert_eq!(self.r.len(), 5 * n);
         let s = (t - self.t0) / self.h;
@@ -107,6 +147,66 @@ impl DenseStep {
         for i in 0..n {
             y[i] = r0[i] + s * (r1[i] + s1 * (r2[i] + s * (r3[i] + s1 * r4[i])));
         }
+    }
+}
+
+/// The continuous extensions of consecutive accepted steps, in one flat buffer (no
+/// allocation per recorded step once it has grown).
+#[derive(Debug, Clone, Default)]
+pub struct DenseOutput {
+    /// Start time and size of each step.
+    t0: Vec<f64>,
+    h: Vec<f64>,
+    /// Each step's five coefficient vectors, step after step.
+    r: Vec<f64>,
+}
+
+impl DenseOutput {
+    /// Appends a step (which must start where the last one ended).
+    pub fn push(&mut self, step: &DenseStep) {
+        debug_assert!(self.t0.is_empty() || step.r.len() * self.t0.len() == self.r.len());
+        self.t0.push(step.t0);
+        self.h.push(step.h);
+        self.r.extend_from_slice(&step.r);
+    }
+
+    pub fn len(&self) -> usize {
+        self.t0.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.t0.is_empty()
+    }
+
+    /// Step `i`.
+    pub fn step(&self, i: usize) -> StepView<'_> {
+        let w = self.r.len() / self.t0.len();
+        StepView {
+            t0: self.t0[i],
+            h: self.h[i],
+            r: &self.r[i * w..(i + 1) * w],
+        }
+    }
+
+    /// The steps in time order.
+    pub fn steps(&self) -> impl Iterator<Item = StepView<'_>> {
+        (0..self.len()).map(|i| self.step(i))
+    }
+
+    /// `y(t)` from the step that contains `t` (the first or last step beyond the ends).
+    /// Must not be empty.
+    pub fn eval(&self, t: f64, y: &mut [f64]) {
+        // the first step that ends at or after t (binary search: the ends are increasing)
+        let (mut lo, mut hi) = (0, self.len());
+        while lo < hi {
+            let mid = (lo + hi) / 2;
+            if self.t0[mid] + self.h[mid] < t {
+                lo = mid + 1;
+            } else {
+                hi = mid;
+            }
+        }
+        self.step(lo.min(self.len() - 1)).eval(t, y);
     }
 }
 

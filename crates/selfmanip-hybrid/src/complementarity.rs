@@ -1,0 +1,215 @@
+//! Which contacts an event keeps: impulse–velocity complementarity at an impact (thesis
+//! (5.28)–(5.29)) and force–acceleration complementarity when a force reaches zero
+//! ((5.19)–(5.20)).
+//!
+//! **Enumeration** (up to [`ENUMERATION_LIMIT`] candidates, as the thesis does): every subset
+//! `J` of the candidates is tried ([`ResetWorkspace::outcome`]). `J` is accepted when each of
+//! its contacts pushes, $U_j \ge 0$ (impulses judged by (5.40), or forces), and each
+//! left-out contact `k` would need a pull in `J ∪ {k}`, $U_k < 0$ — or cannot be held there
+//! at all (its KKT matrix singular). Exactly one accepted set is the answer; none or several
+//! end the execution with a typed [`Termination`].
+//!
+//! **Beyond the limit** (all frictionless) the same problems are solved as a convex QP with
+//! clarabel ([`crate::impact_qp`]): the LCP with the Delassus operator, whose KKT conditions
+//! are complementarity itself.
+use crate::contact_set::ResetWorkspace;
+use crate::error::HybridError;
+use crate::execution::Termination;
+use crate::impact::SetOutcome;
+use crate::impact_qp::{self, ContactQpError, QpOutcome};
+use selfmanip_core::contact::ContactKind;
+use selfmanip_core::model::Friction;
+use selfmanip_core::ContactMode;
+
+/// Up to this many candidate contacts the complementarity problems are solved by exact
+/// enumeration of their `2ⁿ` subsets; beyond it by the convex QP of [`crate::impact_qp`].
+pub const ENUMERATION_LIMIT: usize = 10;
+
+/// What complementarity selects at an event: the mode after it with the contact impulses
+/// (forces at a force event) and pseudo-impulses in its rows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Selected {
+    pub mode: ContactMode,
+    pub value: Vec<f64>,
+    pub pseudo_impulse: Vec<f64>,
+}
+
+/// A [`Selected`] mode, or the typed end of the execution when no or several contact sets
+/// qualify.
+pub type Selection = Result<Selected, Termination>;
+
+impl ResetWorkspace<'_> {
+    /// Complementarity over the subsets of `candidates` at `(t, q, q̇)`, with contact kinds
+    /// from `prefer`; an impact when `impact`, else a force event.
+    ///
+    /// `leaving` are contacts whose liftoff guard located the root of their force here: the
+    /// force is zero to round-off and on its way to pulling, so a force at that level counts
+    /// as separating, not as holding (else the contact would stay with zero force and its
+    /// guard fire again moments later, an event that changes nothing).
+    #[allow(clippy::too_many_arguments)]
+    pub fn select(
+        &mut self,
+        t: f64,
+        candidates: &[usize],
+        leaving: &[usize],
+        prefer: ContactMode,
+        q: &[f64],
+        qd: &[f64],
+        impact: bool,
+    ) -> Result<Selection, HybridError> {
+        let n = candidates.len();
+        if n > ENUMERATION_LIMIT {
+            return self.select_by_qp(t, candidates, prefer, q, qd, impact);
+        }
+        let tol = 1e-12;
+        // every subset is needed, as a candidate and as `J ∪ {k}` of others: solve each once
+        let mut outcomes: Vec<Option<SetOutcome>> = Vec::with_capacity(1 << n);
+        for bits in 0u32..(1 << n) {
+            let set: Vec<usize> = (0..n)
+                .filter(|i| bits >> i & 1 == 1)
+                .map(|i| candidates[i])
+                .collect();
+            outcomes.push(self.outcome(t, &set, prefer, q, qd, impact)?);
+        }
+        // the push a contact needs to be held: a leaving one must push clearly
+        let holds = |c: usize, u: f64| {
+            if leaving.contains(&c) {
+                u > tol
+            } else {
+                u >= -tol
+            }
+        };
+        let mut accepted: Vec<&SetOutcome> = Vec::new();
+        for bits in 0u32..(1 << n) {
+            let Some(o) = &outcomes[bits as usize] else {
+                continue;
+            };
+            if o.push.iter().any(|&(c, u)| !holds(c, u)) {
+                continue;
+            }
+            // each left-out contact k must separate: singular with k means k cannot be held
+            let separates = (0..n).filter(|i| bits >> i & 1 == 0).all(|i| {
+                outcomes[(bits | 1 << i) as usize]
+                    .as_ref()
+                    .is_none_or(|ok| {
+                        let uk = ok
+                            .push
+                            .iter()
+                            .find(|(c, _)| *c == candidates[i])
+                            .map_or(0.0, |x| x.1);
+                        !holds(candidates[i], uk)
+                    })
+            });
+            if separates {
+                accepted.push(o);
+            }
+        }
+        Ok(match accepted[..] {
+            [one] => Ok(Selected {
+                mode: one.mode,
+                value: one.value.clone(),
+                pseudo_impulse: one.pseudo_impulse.clone(),
+            }),
+            [] => Err(Termination::NoContactSolution { t }),
+            _ => Err(Termination::SeveralContactSolutions {
+                t,
+                candidates: accepted.iter().map(|a| a.mode).collect(),
+            }),
+        })
+    }
+
+    /// [`Self::select`] for more than [`ENUMERATION_LIMIT`] candidates, all frictionless: the
+    /// complementarity problem as a convex QP ([`crate::impact_qp`], clarabel). Differences
+    /// from the enumeration: the pseudo-impulse rule is `U(P + P_δ) ≥ 0` for every contact
+    /// (the enumeration lets a contact that its own impulse holds stay on `U(P)`), the
+    /// actuators' torque in `P_δ` is taken at q̇⁻ (q̇⁺ depends on the contact set, the QP's
+    /// unknown; the enumeration takes it at each candidate's q̇⁺), and a
+    /// problem whose contact set is not unique (e.g. three points of a rigid body on a
+    /// plane) is reported as several solutions with the one basic set the QP found.
+    fn select_by_qp(
+        &mut self,
+        t: f64,
+        candidates: &[usize],
+        prefer: ContactMode,
+        q: &[f64],
+        qd: &[f64],
+        impact: bool,
+    ) -> Result<Selection, HybridError> {
+        let sliding = |k: usize| {
+            prefer.kind(k) == Some(ContactKind::Slide)
+                || matches!(self.model.contacts[k].friction, Friction::Sliding)
+        };
+        if let Some(&sticking) = candidates.iter().find(|&&k| !sliding(k)) {
+            return Err(HybridError::TooManyContacts {
+                n: candidates.len(),
+                sticking,
+            });
+        }
+        let ws = &mut self.ws;
+        ws.tau.resize(self.model.n_joints(), 0.0);
+        self.ctrl.torque(t, q, qd, prefer, &mut ws.tau);
+        // the per-candidate values of the contacts in `mode`, in row order
+        let rows = |mode: ContactMode, cands: &[usize], v: &[f64]| -> Vec<f64> {
+            cands
+                .iter()
+                .zip(v)
+                .filter(|(k, _)| mode.contains(**k))
+                .map(|(_, &x)| x)
+                .collect()
+        };
+        let outcome = if impact {
+            let pseudo = (self.delta_t_s > 0.0).then_some((&ws.tau[..], self.delta_t_s));
+            impact_qp::frictionless_impact(
+                self.model,
+                &mut ws.data,
+                self.terrain,
+                candidates,
+                q,
+                qd,
+                pseudo,
+            )
+            .map(|o| match o {
+                QpOutcome::Unique(s) => Ok(Selected {
+                    mode: s.mode,
+                    value: rows(s.mode, &s.candidates, &s.impulse),
+                    // empty without a pseudo-impulse
+                    pseudo_impulse: rows(s.mode, &s.candidates, &s.pseudo_impulse),
+                }),
+                QpOutcome::Ambiguous(s, _) => Err(s.mode),
+            })
+        } else {
+            ws.data
+                .prepare_geometry(self.model, self.terrain, ContactMode::FLIGHT, q, qd)?;
+            ws.free.resize(ws.data.free_joints.len(), 0.0);
+            self.ctrl
+                .free_joint_qdd(t, q, qd, &ws.data.free_joints, &mut ws.free);
+            impact_qp::frictionless_liftoff(
+                self.model,
+                &mut ws.data,
+                self.terrain,
+                candidates,
+                q,
+                qd,
+                &ws.tau,
+                Some(&ws.free),
+            )
+            .map(|o| match o {
+                QpOutcome::Unique(s) => Ok(Selected {
+                    mode: s.mode,
+                    value: rows(s.mode, &s.candidates, &s.lambda),
+                    pseudo_impulse: Vec::new(),
+                }),
+                QpOutcome::Ambiguous(s, _) => Err(s.mode),
+            })
+        };
+        match outcome {
+            Ok(Ok(x)) => Ok(Ok(x)),
+            Ok(Err(mode)) => Ok(Err(Termination::SeveralContactSolutions {
+                t,
+                candidates: vec![mode],
+            })),
+            Err(ContactQpError::NoSolution { .. }) => Ok(Err(Termination::NoContactSolution { t })),
+            Err(e) => Err(e.into()),
+        }
+    }
+}

@@ -1,0 +1,136 @@
+//! Candidate contact sets at an event: the contact mode a set takes (each contact's kind,
+//! sticking or sliding, and the rows kept when they are redundant), the Coulomb friction
+//! cone (section 5.1.5, Assumption 5.9), and the tie-break for a massless link touching
+//! down. Evaluated on the [`ResetWorkspace`], the resets' own copy of the core's workspace.
+use crate::controller::Controller;
+use crate::flow::FlowWorkspace;
+use selfmanip_core::contact::{ContactKind, RowDirection};
+use selfmanip_core::model::Friction;
+use selfmanip_core::{ContactMode, CoreError, Model, SingularityKind, Terrain};
+
+/// An impulse this small (N s) is no verdict of its own: the pseudo-impulse decides (5.40).
+pub const IMPULSE_TOL_N_S: f64 = 1e-12;
+
+/// What the resets evaluate candidate contact sets with: the robot, its terrain and
+/// controller, the pseudo-impulse duration, and a workspace of their own (the flow's cache
+/// is never touched by a reset).
+pub struct ResetWorkspace<'a> {
+    pub model: &'a Model,
+    pub terrain: &'a dyn Terrain,
+    pub ctrl: &'a dyn Controller,
+    /// δt of (5.39) (s); 0: no pseudo-impulse.
+    pub delta_t_s: f64,
+    pub ws: FlowWorkspace,
+}
+
+impl<'a> ResetWorkspace<'a> {
+    pub fn new(
+        model: &'a Model,
+        terrain: &'a dyn Terrain,
+        ctrl: &'a dyn Controller,
+        delta_t_s: f64,
+    ) -> Self {
+        ResetWorkspace {
+            model,
+            terrain,
+            ctrl,
+            delta_t_s,
+            ws: FlowWorkspace::new(model),
+        }
+    }
+
+    /// The mode for contact set `set`: each contact's kind from `prefer` where it is active
+    /// there (a sliding contact keeps sliding), its own default otherwise; a sticking
+    /// contact whose tangential row is redundant (two sticking corners on a plane) slides
+    /// instead, as the thesis does for the rocking block (footnote 8 of section 5.1.4).
+    /// Leaves `ws.data` prepared at the mode; `None` if its KKT matrix is singular otherwise
+    /// (Lemma 5.1).
+    pub fn mode_for(
+        &mut self,
+        set: &[usize],
+        prefer: ContactMode,
+        q: &[f64],
+        qd: &[f64],
+    ) -> Result<Option<ContactMode>, CoreError> {
+        let mut base = ContactMode::with_defaults(self.model, set)?;
+        for &k in set {
+            if let Some(kind) = prefer.kind(k) {
+                base = base.with(k, kind);
+            }
+        }
+        let mut candidates = vec![base];
+        for &k in set {
+            let last = *candidates.last().expect("non-empty");
+            if last.kind(k) == Some(ContactKind::Stick) {
+                candidates.push(last.with(k, ContactKind::Slide));
+            }
+        }
+        for m in candidates {
+            match self.ws.data.prepare(self.model, self.terrain, m, q, qd) {
+                Ok(()) => return Ok(Some(m)),
+                Err(CoreError::SingularKkt {
+                    kind: SingularityKind::RedundantConstraints,
+                    ..
+                }) => continue,
+                Err(CoreError::SingularKkt { .. }) => return Ok(None),
+                Err(e) => return Err(e),
+            }
+        }
+        Ok(None)
+    }
+
+    /// The first sticking contact with finite `μ` whose row vector `v` (force or impulse)
+    /// leaves the Coulomb cone $|v_t| \le \mu\, U(v_n)$.
+    pub fn outside_cone(&self, mode: ContactMode, v: &[f64]) -> Option<usize> {
+        let rows: Vec<_> = mode.rows().collect();
+        (1..rows.len()).find_map(|i| {
+            let (rt, rn) = (rows[i - 1], rows[i]);
+            if rt.direction != RowDirection::Tangential || rn.contact != rt.contact {
+                return None;
+            }
+            let Friction::Sticking { mu } = self.model.contacts[rn.contact].friction else {
+                return None;
+            };
+            let push = -v[i];
+            (mu.is_finite() && push >= 0.0 && v[i - 1].abs() > mu * push * (1.0 + 1e-12) + 1e-12)
+                .then_some(rn.contact)
+        })
+    }
+
+    /// A contact touching down now (not held by `before`), sticking, on a massless link,
+    /// whose push pulls at the impact: it slides instead of letting go. Released, a massless
+    /// link keeps the motion its controller gives it in the air, which is what brought it
+    /// into the ground: its touchdown would fire again at the same instant, for ever.
+    /// Sliding, it "rotates out of the way" (Assumption 5.9) by following the surface, and
+    /// its normal force is whatever its joint torque makes it — zero for a limp leg; whether
+    /// it is kept is then decided as for any contact, by the sign of that push. Contacts
+    /// already held are released on a pull as the thesis's rule says (Fig. 5.7's chatter).
+    pub fn massless_pull(
+        &self,
+        mode: ContactMode,
+        before: ContactMode,
+        push: &[(usize, f64)],
+    ) -> Option<usize> {
+        push.iter()
+            .filter(|&&(k, _)| !before.contains(k))
+            .find_map(|&(k, u)| {
+                let c = &self.model.contacts[k];
+                let slidable = matches!(c.friction, Friction::Sticking { mu } if mu.is_finite());
+                let massless = c.link.is_some_and(|j| self.model.distal_massless(j));
+                (u < -IMPULSE_TOL_N_S
+                    && slidable
+                    && massless
+                    && mode.kind(k) == Some(ContactKind::Stick))
+                .then_some(k)
+            })
+    }
+}
+
+/// Normal components `U(·)_n` (pushing positive) of a row vector in `mode`, by contact.
+pub fn normal_push(mode: ContactMode, v: &[f64]) -> Vec<(usize, f64)> {
+    mode.rows()
+        .zip(v)
+        .filter(|(r, _)| r.direction == RowDirection::Normal)
+        .map(|(r, &x)| (r.contact, -x))
+        .collect()
+}

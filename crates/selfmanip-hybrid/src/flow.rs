@@ -1,0 +1,191 @@
+//! The flow of a contact mode (thesis (5.48)): `(t, q, q̇) ⇒ (q̈, λ)` with the controller's
+//! joint torques `Υ` and the prescribed motion of free massless joints, through the core's
+//! constrained dynamics (5.3)–(5.4):
+//!
+//! $$ \ddot q = M^\dagger (\Upsilon - \bar C \dot q - \bar N) - A^{\dagger T} \dot A \dot q,
+//! \qquad \lambda = A^\dagger (\Upsilon - \bar C \dot q - \bar N) - \Lambda \dot A \dot q. $$
+//!
+//! [`Flow`] owns the workspace its results live in and caches the last evaluation: the
+//! integrator's stages and the guards ask for the flow at the same states (the last stage of
+//! a step is its end point, where the guards are sampled; several force guards share one
+//! sample). The cache is keyed by `(t, mode, q, q̇)` and by the controller's *generation*,
+//! which [`Flow::notify`] advances when it tells the controller of an event — the only way an
+//! answer at the same state can change. Nothing else writes the workspace: the resets work on
+//! one of their own ([`crate::contact_set::ResetWorkspace`]), so no reset can leave the
+//! cache stale.
+use crate::controller::Controller;
+use crate::execution::Event;
+use selfmanip_core::contact::{contact_geometry, ContactGeometry};
+use selfmanip_core::kinematics::Kinematics;
+use selfmanip_core::{forward_dynamics_prepared, ContactMode, CoreError, Data, Model, Terrain};
+
+/// The flow of any mode of one robot on one terrain under one controller, with its cache.
+pub struct Flow<'a> {
+    model: &'a Model,
+    terrain: &'a dyn Terrain,
+    ctrl: &'a dyn Controller,
+    ws: FlowWorkspace,
+    /// How many events the controller has been told of.
+    generation: u64,
+    /// `(t, mode, generation)` of the flow that `data` holds, at the state `y`.
+    key: Option<(f64, ContactMode, u64)>,
+    y: Vec<f64>,
+    /// Kinematics at `kin_y`, for states where no flow was evaluated.
+    kin: Kinematics,
+    kin_y: Option<Vec<f64>>,
+}
+
+impl<'a> Flow<'a> {
+    pub fn new(model: &'a Model, terrain: &'a dyn Terrain, ctrl: &'a dyn Controller) -> Self {
+        Flow {
+            model,
+            terrain,
+            ctrl,
+            ws: FlowWorkspace::new(model),
+            generation: 0,
+            key: None,
+            y: Vec::with_capacity(2 * model.nq()),
+            kin: Kinematics::default(),
+            kin_y: None,
+        }
+    }
+
+    pub fn model(&self) -> &'a Model {
+        self.model
+    }
+
+    pub fn terrain(&self) -> &'a dyn Terrain {
+        self.terrain
+    }
+
+    pub fn controller(&self) -> &'a dyn Controller {
+        self.ctrl
+    }
+
+    /// The workspace and the joint torques `Υ` of the last evaluation.
+    pub fn last(&self) -> (&Data, &[f64]) {
+        (&self.ws.data, &self.ws.tau)
+    }
+
+    /// Tells the controller of an event (its torques may change from here on).
+    pub fn notify(&mut self, event: &Event) {
+        self.ctrl.on_event(event);
+        self.generation += 1;
+    }
+
+    /// Whether `data` holds a flow (and so the kinematics) at `(q, q̇)`.
+    fn holds_state(&self, q: &[f64], qd: &[f64]) -> bool {
+        self.key.is_some() && self.y[..q.len()] == *q && self.y[q.len()..] == *qd
+    }
+
+    /// The flow of `mode` at `(t, q, q̇)`: the core's workspace with `q̈` in `qdd` and `λ` in
+    /// `lambda` (rows of `mode`), evaluated unless the cache holds it.
+    pub fn eval(
+        &mut self,
+        t: f64,
+        mode: ContactMode,
+        q: &[f64],
+        qd: &[f64],
+    ) -> Result<&Data, CoreError> {
+        if self.key == Some((t, mode, self.generation)) && self.holds_state(q, qd) {
+            return Ok(&self.ws.data);
+        }
+        self.key = None;
+        self.ws
+            .data
+            .prepare(self.model, self.terrain, mode, q, qd)?;
+        self.ws
+            .solve_prepared(self.model, self.ctrl, t, mode, q, qd)?;
+        self.y.clear();
+        self.y.extend_from_slice(q);
+        self.y.extend_from_slice(qd);
+        self.key = Some((t, mode, self.generation));
+        Ok(&self.ws.data)
+    }
+
+    /// The integrator's right-hand side `ẏ = [q̇; q̈]` of the flow of `mode` at `y = [q; q̇]`.
+    pub fn rhs(
+        &mut self,
+        t: f64,
+        mode: ContactMode,
+        y: &[f64],
+        dy: &mut [f64],
+    ) -> Result<(), CoreError> {
+        let nq = self.model.nq();
+        let (q, qd) = y.split_at(nq);
+        let data = self.eval(t, mode, q, qd)?;
+        dy[..nq].copy_from_slice(qd);
+        dy[nq..].copy_from_slice(data.qdd.as_slice());
+        Ok(())
+    }
+
+    /// Poses and velocities at `(q, q̇)`: those of the flow if the cache holds that state,
+    /// else computed once per state.
+    pub fn kinematics(&mut self, q: &[f64], qd: &[f64]) -> &Kinematics {
+        if self.holds_state(q, qd) {
+            return &self.ws.data.kin;
+        }
+        let nq = q.len();
+        let current = self
+            .kin_y
+            .as_ref()
+            .is_some_and(|y| y[..nq] == *q && y[nq..] == *qd);
+        if !current {
+            self.kin.compute(self.model, q, qd);
+            let y = self.kin_y.get_or_insert_with(Vec::new);
+            y.clear();
+            y.extend_from_slice(q);
+            y.extend_from_slice(qd);
+        }
+        &self.kin
+    }
+
+    /// The geometry of contact `k` at `y = [q; q̇]`.
+    pub fn geometry(&mut self, k: usize, y: &[f64]) -> ContactGeometry {
+        let (q, qd) = y.split_at(self.model.nq());
+        let (model, terrain) = (self.model, self.terrain);
+        contact_geometry(model, self.kinematics(q, qd), terrain, k)
+    }
+}
+
+/// A workspace the flow is evaluated on: the core's, with the controller's joint torques
+/// `Υ` and the prescribed accelerations of the free massless joints.
+#[derive(Debug, Clone)]
+pub struct FlowWorkspace {
+    pub data: Data,
+    pub tau: Vec<f64>,
+    pub free: Vec<f64>,
+}
+
+impl FlowWorkspace {
+    pub fn new(model: &Model) -> Self {
+        FlowWorkspace {
+            data: Data::new(model),
+            tau: vec![0.0; model.n_joints()],
+            free: Vec::new(),
+        }
+    }
+
+    /// The flow (5.48) of `mode` at `(t, q, q̇)`, `data` prepared there: the controller's
+    /// torques `Υ` into `tau` and its free-joint accelerations into `free`, then (5.3)–(5.4)
+    /// into `data.qdd`, `data.lambda`. Shared by [`Flow`] and by the resets, which need the
+    /// forces of candidate modes (5.19)–(5.20) on a workspace of their own.
+    pub fn solve_prepared(
+        &mut self,
+        model: &Model,
+        ctrl: &dyn Controller,
+        t: f64,
+        mode: ContactMode,
+        q: &[f64],
+        qd: &[f64],
+    ) -> Result<(), CoreError> {
+        // (t, q, q̇) => Υ, and the free joints' prescribed q̈ (which joints are free is known
+        // after `prepare`)
+        self.tau.resize(model.n_joints(), 0.0);
+        ctrl.torque(t, q, qd, mode, &mut self.tau);
+        self.free.resize(self.data.free_joints.len(), 0.0);
+        ctrl.free_joint_qdd(t, q, qd, &self.data.free_joints, &mut self.free);
+        // (Υ − C̄q̇ − N̄, −Ȧq̇) => (q̈, λ)
+        forward_dynamics_prepared(model, &mut self.data, &self.tau, Some(&self.free))
+    }
+}

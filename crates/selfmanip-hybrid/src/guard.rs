@@ -1,0 +1,452 @@
+//! Guards (thesis (5.49)–(5.51)): the scalar functions of the state whose crossing of zero
+//! ends the flow of a mode, how they are armed at a segment's start, and how they are
+//! sampled on each accepted step's dense output to find the first interval in which one
+//! crosses ([`crate::locate`] then brackets the crossing to the event tolerance).
+//!
+//! The guards of a mode:
+//! - **touchdown** of an inactive contact `k`: its height $a_k(q)$ above the terrain
+//!   (Definition 5.4), positive then non-positive;
+//! - **liftoff** of an active contact: its pushing normal force $U(\lambda_n) = -\lambda_n$
+//!   (5.51), positive then non-positive;
+//! - **apex** (terminal, optional, in flight): the upward body speed $-\dot z$;
+//! - **stick→slip** of a sticking contact with finite Coulomb $\mu$ (section 5.1.5): the cone
+//!   margin $\mu U(\lambda_n) - |\lambda_t|$;
+//! - **slip→stick** of a sliding contact that can stick: its tangential sliding velocity
+//!   $v_t$, which must cross zero *against* its sign — positive then non-positive for a
+//!   contact sliding forward, negative then non-negative for one sliding backward (Drake's
+//!   `WitnessFunctionDirection`), and not yet known for one that starts from rest.
+//!
+//! **Arming.** A guard fires at zero only once it has been clearly on its starting side
+//! (beyond `arm_margin`): a contact just made or broken sits at zero and must not
+//! re-trigger at once. An unarmed guard fires only once it is clearly past zero,
+//! `arm_margin` beyond its start value: no chatter at zero, and no tunnelling through the
+//! ground when a swing is too small or too short to arm it. A slip→stick guard of a contact
+//! sliding clearly is armed with the direction of its velocity; one that starts from rest —
+//! its velocity within the margin, or the contact stuck until the reset, whose sliding
+//! velocity is then only the drift of the sticking constraint, possibly beyond the margin —
+//! has no direction until its velocity has moved `arm_margin` away from its start, and takes
+//! the direction of that motion.
+//!
+//! **Sampling.** Each step is sampled at a quarter, half, three quarters and its end. The
+//! end point is the integrator's last stage, whose flow is cached, so the force guards
+//! there cost nothing and are sampled first. Force guards (a flow evaluation per sample)
+//! are sampled at the coarse samples (mid-step and end), and also at a fine sample where a
+//! cheap (kinematic) guard crosses, so that none of them can cross unseen before the
+//! earliest event; the kinematic guards at every sample.
+use crate::flow::Flow;
+use crate::integrate::DenseStep;
+use crate::options::HybridOptions;
+use selfmanip_core::contact::contact_geometry;
+use selfmanip_core::contact::{ContactKind, RowDirection};
+use selfmanip_core::kinematics::Kinematics;
+use selfmanip_core::model::Friction;
+use selfmanip_core::{ContactMode, CoreError, Model, Terrain};
+
+/// A guard of a mode.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Guard {
+    /// Height of inactive contact `k` above the terrain.
+    Touchdown(usize),
+    /// Pushing normal force of active contact `contact` (its normal row `row` of the mode).
+    Liftoff { contact: usize, row: usize },
+    /// Upward body speed in flight.
+    Apex,
+    /// Cone margin `μ U(λ_n) − |λ_t|` of a sticking contact (rows of the mode).
+    Slip {
+        contact: usize,
+        t_row: usize,
+        n_row: usize,
+        mu: f64,
+    },
+    /// Tangential sliding velocity of a sliding contact that can stick.
+    Stick(usize),
+}
+
+impl Guard {
+    /// Whether the guard's value needs the flow (the contact forces), not just kinematics.
+    pub fn needs_flow(self) -> bool {
+        matches!(self, Guard::Liftoff { .. } | Guard::Slip { .. })
+    }
+
+    /// The guard's value at `(t, y = [q; q̇])` in the flow of `mode` (unoriented).
+    pub fn value(
+        self,
+        flow: &mut Flow,
+        t: f64,
+        mode: ContactMode,
+        y: &[f64],
+    ) -> Result<f64, CoreError> {
+        let model = flow.model();
+        let terrain = flow.terrain();
+        let (q, qd) = y.split_at(model.nq());
+        Ok(match self {
+            Guard::Touchdown(k) => {
+                contact_geometry(model, flow.kinematics(q, qd), terrain, k).gap_m
+            }
+            Guard::Liftoff { row, .. } => -flow.eval(t, mode, q, qd)?.lambda[row],
+            Guard::Apex => -qd[model.ix_z()],
+            Guard::Slip {
+                t_row, n_row, mu, ..
+            } => {
+                let lambda = &flow.eval(t, mode, q, qd)?.lambda;
+                mu * (-lambda[n_row]) - lambda[t_row].abs()
+            }
+            Guard::Stick(k) => sliding_velocity(model, flow.kinematics(q, qd), terrain, k),
+        })
+    }
+
+    /// The guards of `mode`, in a fixed order: touchdowns by contact, then per active
+    /// contact its liftoff and its stick→slip or slip→stick guard, then the apex.
+    pub fn of_mode(model: &Model, mode: ContactMode, stop_at_apex: bool, out: &mut Vec<Guard>) {
+        out.clear();
+        out.extend(
+            (0..model.n_contacts())
+                .filter(|&k| !mode.contains(k))
+                .map(Guard::Touchdown),
+        );
+        for (row, r) in mode.rows().enumerate() {
+            if r.direction != RowDirection::Normal {
+                continue;
+            }
+            let k = r.contact;
+            out.push(Guard::Liftoff { contact: k, row });
+            let Friction::Sticking { mu } = model.contacts[k].friction else {
+                continue;
+            };
+            match mode.kind(k) {
+                Some(ContactKind::Stick) if mu.is_finite() => out.push(Guard::Slip {
+                    contact: k,
+                    t_row: row - 1,
+                    n_row: row,
+                    mu,
+                }),
+                Some(ContactKind::Slide) => out.push(Guard::Stick(k)),
+                _ => {}
+            }
+        }
+        if stop_at_apex && mode.is_flight() {
+            out.push(Guard::Apex);
+        }
+    }
+}
+
+/// Tangential velocity `t · v` of the material point of contact `k` at its contact point
+/// (the sliding velocity; zero while it sticks or rolls).
+pub fn sliding_velocity(model: &Model, kin: &Kinematics, terrain: &dyn Terrain, k: usize) -> f64 {
+    let geom = contact_geometry(model, kin, terrain, k);
+    kin.material_velocity(geom.part, geom.point)
+        .dot(&geom.plane.tangent())
+}
+
+/// Which way a guard's value must cross zero for it to fire on `t₀ < t* ≤ t₁` (Drake's
+/// `WitnessFunctionDirection`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Direction {
+    /// From positive to non-positive (every guard but slip→stick).
+    PositiveThenNonPositive,
+    /// From negative to non-negative (a contact sliding backward that comes to rest).
+    NegativeThenNonNegative,
+    /// Not known yet: a slip→stick guard starting from rest, whose direction is set by the
+    /// first motion of its value `arm_margin` away from `reference`, its value at the start.
+    Undetermined { reference: f64 },
+}
+
+impl Direction {
+    /// The guard value turned so that the guard fires when it goes from positive to
+    /// non-positive (zero while the direction is undetermined).
+    pub fn orient(self, raw: f64) -> f64 {
+        self.sign() * raw
+    }
+
+    fn sign(self) -> f64 {
+        match self {
+            Direction::PositiveThenNonPositive => 1.0,
+            Direction::NegativeThenNonNegative => -1.0,
+            Direction::Undetermined { .. } => 0.0,
+        }
+    }
+
+    /// The direction of a guard whose value has sign `s` on its starting side: it fires on
+    /// crossing zero against that sign.
+    fn against(s: f64) -> Direction {
+        if s > 0.0 {
+            Direction::PositiveThenNonPositive
+        } else {
+            Direction::NegativeThenNonNegative
+        }
+    }
+}
+
+/// A guard's state through one segment.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GuardState {
+    pub guard: Guard,
+    pub direction: Direction,
+    /// Clearly on its starting side once: fires at zero (unarmed: at `−unarmed_shift`).
+    pub armed: bool,
+    /// How far past zero an unarmed guard must go to fire.
+    pub unarmed_shift: f64,
+    /// Oriented value at the end of the last accepted step (at the segment's start before
+    /// the first step).
+    last: f64,
+    /// Oriented value and time at its latest sample within the step being sampled.
+    value: f64,
+    t: f64,
+}
+
+impl GuardState {
+    /// The shift that the guard's oriented value takes to fire at zero.
+    pub fn shift(&self) -> f64 {
+        if self.armed {
+            0.0
+        } else {
+            self.unarmed_shift
+        }
+    }
+
+    /// Its state at a segment's start, where its value is `raw`; `from_rest`: the contact of
+    /// a slip→stick guard starts sliding from rest (see the module docs).
+    fn arm(guard: Guard, raw: f64, from_rest: bool, margin: f64) -> Self {
+        let (direction, armed, unarmed_shift) = match guard {
+            Guard::Stick(_) if raw.abs() > margin && !from_rest => {
+                (Direction::against(raw.signum()), true, 0.0)
+            }
+            Guard::Stick(_) => (
+                Direction::Undetermined { reference: raw },
+                false,
+                f64::INFINITY,
+            ),
+            _ => (
+                Direction::PositiveThenNonPositive,
+                raw > margin,
+                margin + (-raw).max(0.0),
+            ),
+        };
+        let last = direction.orient(raw);
+        GuardState {
+            guard,
+            direction,
+            armed,
+            unarmed_shift,
+            last,
+            value: last,
+            t: 0.0,
+        }
+    }
+
+    /// Records the raw value at sample time `ts`; the crossing `(guard, shift, its previous
+    /// sample time, shifted values there and at ts)` if it crossed since its last sample.
+    fn sample(&mut self, index: usize, ts: f64, raw: f64, margin: f64) -> Option<Crossing> {
+        let (prev_t, prev_v) = (self.t, self.value);
+        self.t = ts;
+        if let Direction::Undetermined { reference } = self.direction {
+            // a slip→stick guard arms once the sliding velocity has moved clear of its start
+            let moved = raw - reference;
+            if moved.abs() > margin {
+                self.direction = Direction::against(moved.signum());
+                self.armed = true;
+            }
+            self.value = self.direction.orient(raw);
+            return None;
+        }
+        let v = self.direction.orient(raw);
+        let sh = self.shift();
+        let crossing = (prev_v + sh > 0.0 && v + sh <= 0.0).then_some(Crossing {
+            guard: index,
+            shift: sh,
+            lo: prev_t,
+            f_lo: prev_v + sh,
+            f_hi: v + sh,
+        });
+        if v > margin {
+            self.armed = true;
+        }
+        self.value = v;
+        crossing
+    }
+
+    /// Whether it has fired by `(t, y)` (used for the guards that fire together with the
+    /// earliest one).
+    fn fired_at(
+        &self,
+        flow: &mut Flow,
+        t: f64,
+        mode: ContactMode,
+        y: &[f64],
+    ) -> Result<bool, CoreError> {
+        if matches!(self.direction, Direction::Undetermined { .. }) {
+            return Ok(false);
+        }
+        Ok(self.direction.orient(self.guard.value(flow, t, mode, y)?) + self.shift() <= 0.0)
+    }
+}
+
+/// A guard that crossed between two samples: its shifted oriented value is positive at `lo`
+/// and non-positive at the sample that found it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Crossing {
+    /// Index of the guard in the [`GuardSet`].
+    pub guard: usize,
+    pub shift: f64,
+    pub lo: f64,
+    pub f_lo: f64,
+    pub f_hi: f64,
+}
+
+/// Where the guards are sampled in each step (fractions of it; the last is its end point).
+pub const SAMPLES: [f64; 4] = [0.25, 0.5, 0.75, 1.0];
+
+/// The guards of the segment being integrated, with their state and the buffers their
+/// sampling reuses from step to step.
+#[derive(Debug, Default)]
+pub struct GuardSet {
+    guards: Vec<Guard>,
+    pub states: Vec<GuardState>,
+    /// Raw values at each sample, `SAMPLES.len()` rows of one entry per guard.
+    raw: Vec<f64>,
+    crossings: Vec<Crossing>,
+}
+
+impl GuardSet {
+    /// Arms the guards of `mode` at the segment's start `(t, y)`; `from_rest`: sliding
+    /// contacts whose slip→stick guard starts from rest.
+    pub fn arm(
+        &mut self,
+        flow: &mut Flow,
+        mode: ContactMode,
+        t: f64,
+        y: &[f64],
+        from_rest: &[usize],
+        opts: &HybridOptions,
+    ) -> Result<(), CoreError> {
+        Guard::of_mode(flow.model(), mode, opts.stop_at_apex, &mut self.guards);
+        self.states.clear();
+        for &g in &self.guards {
+            let raw = g.value(flow, t, mode, y)?;
+            let rest = matches!(g, Guard::Stick(k) if from_rest.contains(&k));
+            self.states
+                .push(GuardState::arm(g, raw, rest, opts.arm_margin));
+        }
+        self.raw.resize(SAMPLES.len() * self.states.len(), 0.0);
+        Ok(())
+    }
+
+    pub fn len(&self) -> usize {
+        self.states.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.states.is_empty()
+    }
+
+    /// Sticking contacts whose force already lies outside their cone at the segment's start
+    /// (an inconsistent start, or a cone that a reset left violated): they slip at once.
+    pub fn slipping_at_start(&self, margin: f64) -> Vec<Guard> {
+        self.states
+            .iter()
+            .filter(|s| matches!(s.guard, Guard::Slip { .. }) && s.last < -margin)
+            .map(|s| s.guard)
+            .collect()
+    }
+
+    /// Samples every guard on the accepted step `dense`, whose end state is `y_end` (the
+    /// state the integrator advanced to: its flow is cached), with `y` as scratch. Returns
+    /// the time of the first sample by which any guard crossed, with the crossings (in
+    /// [`Self::crossings`]), or `None` when none did (the values at the step's end are then
+    /// kept for the next step).
+    pub fn sample_step(
+        &mut self,
+        flow: &mut Flow,
+        mode: ContactMode,
+        dense: &DenseStep,
+        y_end: &[f64],
+        y: &mut [f64],
+        margin: f64,
+    ) -> Result<Option<f64>, CoreError> {
+        let (t0, h) = (dense.t0, dense.h);
+        let ng = self.states.len();
+        let coarse = |si: usize| si % 2 == 1;
+        // the raw values at every sample, the end point first (its flow is cached)
+        let mut sample_t = [0.0; SAMPLES.len()];
+        for si in [3, 1, 0, 2] {
+            let s = SAMPLES[si];
+            let ts = if s == 1.0 {
+                y.copy_from_slice(y_end);
+                t0 + h
+            } else {
+                let ts = t0 + s * h;
+                dense.eval(ts, y);
+                ts
+            };
+            sample_t[si] = ts;
+            for (gi, st) in self.states.iter().enumerate() {
+                if coarse(si) || !st.guard.needs_flow() {
+                    self.raw[si * ng + gi] = st.guard.value(flow, ts, mode, y)?;
+                }
+            }
+        }
+        // in time order, stop at the first sample by which a guard crossed
+        for st in &mut self.states {
+            st.value = st.last;
+            st.t = t0;
+        }
+        self.crossings.clear();
+        for (si, &ts) in sample_t.iter().enumerate() {
+            // pass 0: the guards sampled here; pass 1 (a fine sample where a kinematic guard
+            // crossed): the force guards too
+            for pass in 0..2 {
+                if pass == 1 {
+                    if self.crossings.is_empty() || coarse(si) {
+                        break;
+                    }
+                    dense.eval(ts, y);
+                }
+                for gi in 0..ng {
+                    let sampled = coarse(si) || !self.states[gi].guard.needs_flow();
+                    if sampled != (pass == 0) {
+                        continue;
+                    }
+                    let raw = if pass == 0 {
+                        self.raw[si * ng + gi]
+                    } else {
+                        self.states[gi].guard.value(flow, ts, mode, y)?
+                    };
+                    if let Some(c) = self.states[gi].sample(gi, ts, raw, margin) {
+                        self.crossings.push(c);
+                    }
+                }
+            }
+            if !self.crossings.is_empty() {
+                return Ok(Some(ts));
+            }
+        }
+        for st in &mut self.states {
+            st.last = st.value;
+        }
+        Ok(None)
+    }
+
+    /// The crossings found by the last [`Self::sample_step`].
+    pub fn crossings(&self) -> &[Crossing] {
+        &self.crossings
+    }
+
+    /// The guards that have fired by `(t, y)`: `first`, which fired there, and every other
+    /// one that has also crossed by then.
+    pub fn fired_with(
+        &self,
+        first: usize,
+        flow: &mut Flow,
+        t: f64,
+        mode: ContactMode,
+        y: &[f64],
+    ) -> Result<Vec<Guard>, CoreError> {
+        let mut fired = Vec::new();
+        for (gi, st) in self.states.iter().enumerate() {
+            if gi == first || st.fired_at(flow, t, mode, y)? {
+                fired.push(st.guard);
+            }
+        }
+        Ok(fired)
+    }
+}

@@ -1,0 +1,125 @@
+//! An execution of the hybrid system (thesis Definition 5.2), read as its stages in order:
+//!
+//! ```text
+//! (q₀, q̇₀, mode₀)  => checked on its constraint manifold
+//! loop:
+//!   flow      the mode's flow (5.48), step by step           [flow, integrate, segment]
+//!   guards    sampled on each step's dense output (5.49)–(5.51) [guard]
+//!   locate    the first crossing, to event_tol_s              [locate, features]
+//!   reset     impact or force complementarity ⇒ (mode, q̇⁺)   [reset, complementarity,
+//!                                                              impact, contact_set]
+//!   zeno      too many transitions in a window ⇒ end          [zeno]
+//! ```
+use crate::contact_set::ResetWorkspace;
+use crate::controller::Controller;
+use crate::error::HybridError;
+use crate::execution::{Execution, Termination};
+use crate::flow::Flow;
+use crate::options::HybridOptions;
+use crate::reset::{reset, Reset};
+use crate::segment::{SegmentEnd, SegmentIntegrator};
+use crate::zeno::ZenoWindow;
+use selfmanip_core::{ContactMode, Model, Terrain};
+
+/// Runs the hybrid system from `(q0, qd0)` in `mode0` until `t_final` or a terminal event.
+#[allow(clippy::too_many_arguments)]
+pub fn simulate(
+    model: &Model,
+    terrain: &dyn Terrain,
+    controller: &dyn Controller,
+    mode0: ContactMode,
+    q0: &[f64],
+    qd0: &[f64],
+    t_final: f64,
+    opts: HybridOptions,
+) -> Result<Execution, HybridError> {
+    opts.validate(t_final)?;
+    let mut flow = Flow::new(model, terrain, controller);
+    let mut resets = ResetWorkspace::new(model, terrain, controller, opts.delta_t_s);
+    check_initial_state(&mut resets, &mut flow, mode0, q0, qd0)?;
+
+    let (mut t, mut mode) = (0.0, mode0);
+    let mut y: Vec<f64> = q0.iter().chain(qd0).copied().collect();
+    let (mut segments, mut events) = (Vec::new(), Vec::new());
+    let mut integrator = SegmentIntegrator::new(model.nq(), &opts);
+    let mut zeno = ZenoWindow::new(opts.zeno_window_s, opts.zeno_max_events);
+    // sliding contacts whose sliding velocity is zero at the start of the next segment up
+    // to drift (they stuck until the last reset, or their stick was just refused)
+    let mut from_rest: Vec<usize> = Vec::new();
+    let termination = loop {
+        // flow ⇒ guards ⇒ locate
+        let (segment, end) =
+            integrator.run(&mut flow, mode, &mut t, &mut y, &from_rest, t_final, &opts)?;
+        segments.push(segment);
+        let fired = match end {
+            SegmentEnd::Event { fired } => fired,
+            SegmentEnd::FeatureChange => match zeno.record(t) {
+                Some(z) => break z,
+                None => continue,
+            },
+            SegmentEnd::FinalTime => break Termination::FinalTime,
+            SegmentEnd::Ended(term) => break term,
+        };
+        // ⇒ reset
+        let (event, rest) = match reset(&mut resets, &mut flow, &fired, mode, t, &y)? {
+            Reset::Continue { event, from_rest } => (event, from_rest),
+            Reset::End { event, termination } => {
+                events.extend(event);
+                break termination;
+            }
+        };
+        flow.notify(&event);
+        y[model.nq()..].copy_from_slice(&event.qd_after);
+        mode = event.mode_after;
+        from_rest = rest;
+        events.push(event);
+        // ⇒ budget and Zeno
+        if events.len() >= opts.max_events {
+            break Termination::EventBudget;
+        }
+        if let Some(z) = zeno.record(t) {
+            break z;
+        }
+    };
+    let (q, qd) = y.split_at(model.nq());
+    Ok(Execution {
+        segments,
+        events,
+        termination,
+        t,
+        q: q.to_vec(),
+        qd: qd.to_vec(),
+        mode,
+    })
+}
+
+/// The initial state must satisfy its mode's constraints: `A q̇ = 0` and every active
+/// contact on its surface.
+fn check_initial_state(
+    resets: &mut ResetWorkspace,
+    flow: &mut Flow,
+    mode: ContactMode,
+    q: &[f64],
+    qd: &[f64],
+) -> Result<(), HybridError> {
+    let data = &mut resets.ws.data;
+    data.prepare(resets.model, resets.terrain, mode, q, qd)?;
+    let vres = (&data.constraints.a * nalgebra::DVector::from_column_slice(qd)).amax();
+    if vres > 1e-8 {
+        return Err(HybridError::OffManifold {
+            field: "qd",
+            residual: vres,
+        });
+    }
+    let y: Vec<f64> = q.iter().chain(qd).copied().collect();
+    for k in mode.active() {
+        let gap = flow.geometry(k, &y).gap_m;
+        if gap.abs() > 1e-8 {
+            return Err(HybridError::OffManifold {
+                field: "q",
+                residual: gap.abs(),
+            });
+        }
+    }
+    Ok(())
+}
