@@ -10,7 +10,9 @@ use selfmanip::core::inertia::potential_energy;
 use selfmanip::core::{forward_dynamics, kinetic_energy, ContactMode, Data, FlatGround};
 use selfmanip::hybrid::{simulate, Actuated, CommandPolicy, HybridOptions, Termination};
 use selfmanip::motor::{Actuator, Catalog};
+use std::sync::Arc;
 
+#[derive(Clone)]
 struct Waves;
 
 impl CommandPolicy for Waves {
@@ -26,8 +28,8 @@ fn motor_work_equals_the_energy_gained_in_flight() {
     let model = common::quadruped();
     let drive = Catalog::thesis().drive("x-rhex-28").unwrap();
     let nj = model.n_joints();
-    let actuators: Vec<Box<dyn Actuator>> = (0..nj)
-        .map(|_| Box::new(drive.clone()) as Box<dyn Actuator>)
+    let actuators: Vec<Arc<dyn Actuator>> = (0..nj)
+        .map(|_| Arc::new(drive.clone()) as Arc<dyn Actuator>)
         .collect();
     let controller = Actuated::new(Waves, actuators);
     let mut q0 = vec![0.0; model.nq()];

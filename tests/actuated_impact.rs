@@ -15,6 +15,7 @@ use selfmanip::core::{pseudo_impulse, ContactMode, Data, FlatGround};
 use selfmanip::hybrid::{simulate, Controller, EventKind, HybridOptions};
 
 /// Joint dampers `τ = −b q̇`.
+#[derive(Clone)]
 struct Dampers {
     b: f64,
 }

@@ -34,7 +34,7 @@ use selfmanip_hybrid::StepOptions;
 use selfmanip_hybrid::{simulate, Controller};
 use selfmanip_hybrid::{Event, EventKind, Execution, HybridOptions, Termination};
 use serde::{Deserialize, Serialize};
-use std::cell::{Cell, RefCell};
+use std::sync::Arc;
 use std::f64::consts::PI;
 use std::str::FromStr;
 
@@ -489,14 +489,14 @@ impl Actuator for LegDrive {
     }
 }
 
-fn leg_actuator(params: &RhexParams, a: &LegActuator) -> Result<Box<dyn Actuator>, RhexError> {
+fn leg_actuator(params: &RhexParams, a: &LegActuator) -> Result<Arc<dyn Actuator>, RhexError> {
     let motor_err = |e: motor::MotorError| RhexError::Params {
         field: "actuator".into(),
         reason: e.to_string(),
     };
     Ok(match *a {
         LegActuator::SaturatedTorque => {
-            Box::new(motor::SaturatedTorque::new(params.tau_s).map_err(motor_err)?)
+            Arc::new(motor::SaturatedTorque::new(params.tau_s).map_err(motor_err)?)
         }
         LegActuator::GearedMotor {
             gear_ratio,
@@ -511,7 +511,7 @@ fn leg_actuator(params: &RhexParams, a: &LegActuator) -> Result<Box<dyn Actuator
                 .map_err(motor_err)?;
             let mut gearbox = catalog.gearbox("x-rhex-28").map_err(motor_err)?.clone();
             gearbox.ratio = gear_ratio;
-            Box::new(LegDrive {
+            Arc::new(LegDrive {
                 drive: motor::Drive::new(m, gearbox).map_err(motor_err)?,
                 n: f64::from(motors_per_leg),
             })
@@ -531,25 +531,26 @@ enum Phase {
     Retracting,
 }
 
-/// The open-loop leap controller of section 3.2 (one per leap: it remembers the events).
+/// The open-loop leap controller of section 3.2 (it remembers the events of its run).
+#[derive(Clone)]
 struct LeapController {
     sign: [f64; 2],
     start: [f64; 2],
     hold: [f64; 2],
     leg_contact: [usize; 2],
-    actuators: [Box<dyn Actuator>; 2],
+    actuators: [Arc<dyn Actuator>; 2],
     hold_torque: f64,
     accel: f64,
     speed: f64,
     stub: Option<f64>,
     keep_pushing: bool,
     /// Time of the first flight after both legs started (all legs retract from then on).
-    takeoff: Cell<Option<f64>>,
+    takeoff: Option<f64>,
     /// Time each leg first lifted off after its motor started.
-    lifted: [Cell<Option<f64>>; 2],
+    lifted: [Option<f64>; 2],
     /// Each leg's motions in the air, by start time: the swing down from its motor's start,
     /// then one from every event that released it or made it retract.
-    air: [RefCell<Vec<LegMotion>>; 2],
+    air: [Vec<LegMotion>; 2],
 }
 
 /// Servo gains of a leg (per N m of stall torque).
@@ -564,8 +565,8 @@ impl LeapController {
     fn phase(&self, i: usize, t: f64) -> Phase {
         if t < self.start[i] {
             Phase::Waiting
-        } else if self.takeoff.get().is_some_and(|t0| t >= t0)
-            || (!self.keep_pushing && self.lifted[i].get().is_some_and(|t0| t >= t0))
+        } else if self.takeoff.is_some_and(|t0| t >= t0)
+            || (!self.keep_pushing && self.lifted[i].is_some_and(|t0| t >= t0))
         {
             Phase::Retracting
         } else {
@@ -598,7 +599,7 @@ impl LeapController {
 
     /// The motion of leg `i` in the air at `t`: the last one started by then.
     fn air_motion(&self, i: usize, t: f64) -> (f64, f64, f64) {
-        let motions = self.air[i].borrow();
+        let motions = &self.air[i];
         let m = motions
             .iter()
             .rev()
@@ -644,17 +645,17 @@ impl Controller for LeapController {
         }
     }
 
-    fn on_event(&self, event: &Event) {
+    fn on_event(&mut self, event: &Event) {
         let both_started = event.t >= self.start[0].max(self.start[1]);
-        let took_off = self.takeoff.get().is_none() && both_started && event.mode_after.is_flight();
+        let took_off = self.takeoff.is_none() && both_started && event.mode_after.is_flight();
         if took_off {
-            self.takeoff.set(Some(event.t));
+            self.takeoff = Some(event.t);
         }
         for i in 0..2 {
             let c = self.leg_contact[i];
             let left = event.mode_before.contains(c) && !event.mode_after.contains(c);
-            if left && event.t >= self.start[i] && self.lifted[i].get().is_none() {
-                self.lifted[i].set(Some(event.t));
+            if left && event.t >= self.start[i] && self.lifted[i].is_none() {
+                self.lifted[i] = Some(event.t);
             }
             // a leg released here, or made to retract here, starts a new motion in the air
             if event.mode_after.contains(c) || !(left || took_off) || event.t < self.start[i] {
@@ -674,7 +675,7 @@ impl Controller for LeapController {
                     self.accel,
                 ),
             };
-            self.air[i].borrow_mut().push(motion);
+            self.air[i].push(motion);
         }
     }
 }
@@ -815,19 +816,19 @@ impl LeapSetup {
             speed: cfg.swing_speed_rad_s,
             stub: cfg.toe_stub_rad,
             keep_pushing: cfg.keep_pushing_after_liftoff,
-            takeoff: Cell::new(None),
-            lifted: [Cell::new(None), Cell::new(None)],
+            takeoff: None,
+            lifted: [None, None],
             // each leg swings down from rest at its hold angle when its motor starts, towards
             // pointing up in its push direction: it touches the ground on the way
             air: std::array::from_fn(|i| {
-                RefCell::new(vec![LegMotion::swing(
+                vec![LegMotion::swing(
                     start[i],
                     q0[i],
                     0.0,
                     sign[i] * STOW_RAD,
                     cfg.swing_speed_rad_s,
                     cfg.swing_accel_rad_s2,
-                )])
+                )]
             }),
         };
         Ok(LeapSetup {
@@ -947,30 +948,23 @@ pub fn simulate_leap(params: &RhexParams, cfg: &LeapConfig) -> Result<LeapResult
 
 impl LeapResult {
     /// Energy bookkeeping of the leap (motor work, impact losses, start and end energy),
-    /// re-evaluating the controller through the recorded events.
+    /// each segment re-evaluated with the controller it ran with.
     pub fn energy_report(
         &self,
         params: &RhexParams,
         cfg: &LeapConfig,
     ) -> Result<selfmanip_hybrid::EnergyReport, RhexError> {
         let setup = LeapSetup::new(params, cfg)?;
-        for e in &self.execution.events {
-            setup.ctrl.on_event(e);
-        }
-        let qd0 = vec![0.0; setup.q0.len()];
         Ok(selfmanip_hybrid::energy_report(
             &setup.rhex.model,
             &setup.terrain,
-            &setup.ctrl,
             &self.execution,
-            &setup.q0,
-            &qd0,
         )?)
     }
 
     /// Samples the leap every `dt_s` seconds (and at its end): states, modes, contact points
-    /// and contact forces, the forces recomputed from each segment's flow with the leap's
-    /// controller replayed through the recorded events (so the torques are those of the run).
+    /// and contact forces, the forces recomputed from each segment's flow with the
+    /// controller it ran with (so the torques are those of the run).
     pub fn trajectory(
         &self,
         params: &RhexParams,
@@ -984,9 +978,6 @@ impl LeapResult {
             });
         }
         let setup = LeapSetup::new(params, cfg)?;
-        for e in &self.execution.events {
-            setup.ctrl.on_event(e);
-        }
         let model = &setup.rhex.model;
         let nq = model.nq();
         let mut out = Trajectory {
@@ -1018,12 +1009,11 @@ impl LeapResult {
             };
             seg.eval(t.min(seg.t1), &mut y);
             let (q, qd) = y.split_at(nq);
-            setup.ctrl.torque(t, q, qd, seg.mode, &mut tau);
+            seg.controller.torque(t, q, qd, seg.mode, &mut tau);
             let mut free = vec![0.0; 0];
             data.prepare(model, &setup.terrain, seg.mode, q, qd)?;
             free.resize(data.free_joints.len(), 0.0);
-            setup
-                .ctrl
+            seg.controller
                 .free_joint_qdd(t, q, qd, &data.free_joints, &mut free);
             selfmanip_core::forward_dynamics(
                 model,

@@ -6,6 +6,7 @@
 use crate::controller::Controller;
 use motor::Actuator;
 use selfmanip_core::ContactMode;
+use std::sync::Arc;
 
 /// Decides the normalized joint commands.
 pub trait CommandPolicy {
@@ -15,14 +16,15 @@ pub trait CommandPolicy {
 }
 
 /// A controller whose torques come from per-joint actuator models.
+#[derive(Clone)]
 pub struct Actuated<P> {
     pub policy: P,
     /// One actuator per joint, in joint order.
-    pub actuators: Vec<Box<dyn Actuator>>,
+    pub actuators: Vec<Arc<dyn Actuator>>,
 }
 
 impl<P: CommandPolicy> Actuated<P> {
-    pub fn new(policy: P, actuators: Vec<Box<dyn Actuator>>) -> Self {
+    pub fn new(policy: P, actuators: Vec<Arc<dyn Actuator>>) -> Self {
         Self { policy, actuators }
     }
 
@@ -40,7 +42,7 @@ impl<P: CommandPolicy> Actuated<P> {
     }
 }
 
-impl<P: CommandPolicy> Controller for Actuated<P> {
+impl<P: CommandPolicy + Clone + Send + Sync + 'static> Controller for Actuated<P> {
     fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]) {
         debug_assert_eq!(tau.len(), self.actuators.len());
         // the commands are written into `tau` first, then replaced by the torques

@@ -11,34 +11,19 @@ use selfmanip_core::{ContactMode, CoreError, Model, SingularityKind, Terrain};
 /// An impulse this small (N s) is no verdict of its own: the pseudo-impulse decides (5.40).
 pub const IMPULSE_TOL_N_S: f64 = 1e-12;
 
-/// What the resets evaluate candidate contact sets with: the robot, its terrain and
-/// controller, the pseudo-impulse duration, and a workspace of their own (the flow's cache
-/// is never touched by a reset).
+/// What a reset evaluates candidate contact sets with: the robot, its terrain, the
+/// controller at the event, the pseudo-impulse duration, and a workspace of the resets' own
+/// (the flow's cache is never touched by a reset).
 pub struct ResetWorkspace<'a> {
     pub model: &'a Model,
     pub terrain: &'a dyn Terrain,
     pub ctrl: &'a dyn Controller,
     /// δt of (5.39) (s); 0: no pseudo-impulse.
     pub delta_t_s: f64,
-    pub ws: FlowWorkspace,
+    pub ws: &'a mut FlowWorkspace,
 }
 
-impl<'a> ResetWorkspace<'a> {
-    pub fn new(
-        model: &'a Model,
-        terrain: &'a dyn Terrain,
-        ctrl: &'a dyn Controller,
-        delta_t_s: f64,
-    ) -> Self {
-        ResetWorkspace {
-            model,
-            terrain,
-            ctrl,
-            delta_t_s,
-            ws: FlowWorkspace::new(model),
-        }
-    }
-
+impl ResetWorkspace<'_> {
     /// The mode for contact set `set`: each contact's kind from `prefer` where it is active
     /// there (a sliding contact keeps sliding), its own default otherwise; a sticking
     /// contact whose tangential row is redundant (two sticking corners on a plane) slides

@@ -1,11 +1,20 @@
 //! What drives the joints: the [`Controller`] an execution asks for joint torques `Υ` along
 //! every flow (5.48) and at every impact's pseudo-impulse (5.39), and for the prescribed
 //! motion of free massless joints (thesis 5.1.1).
+//!
+//! A controller may remember the contact history (a leg that retracts once it has lifted
+//! off): it is told of every event through [`Controller::on_event`]. Its memory is part of
+//! the hybrid state, so the engine treats it as such: a run works on its own copy (the
+//! controller given to [`crate::simulate()`] is left as it was, ready for the next run), and
+//! every segment records the controller it ran with ([`crate::Segment::controller`]), so a
+//! segment can be evaluated again later — trajectories, contact forces, energy — exactly as
+//! it ran, without replaying the execution.
 use crate::execution::Event;
 use selfmanip_core::ContactMode;
 
 /// Joint torques (and the motion of free massless joints) as functions of time and state.
-pub trait Controller {
+/// Implement it for a `Clone` type: [`ControllerClone`] comes with it.
+pub trait Controller: ControllerClone + Send + Sync {
     fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]);
     /// Prescribed accelerations of free massless joints (thesis 5.1.1); default 0.
     fn free_joint_qdd(
@@ -19,8 +28,26 @@ pub trait Controller {
         out.fill(0.0);
     }
     /// Called after every reset with the event just applied (for controllers whose phase
-    /// depends on the contact history, e.g. a leg that retracts once it has lifted off).
-    fn on_event(&self, _event: &Event) {}
+    /// depends on the contact history).
+    fn on_event(&mut self, _event: &Event) {}
+}
+
+/// A boxed copy of a controller in its current state (implemented for every `Clone`
+/// controller).
+pub trait ControllerClone {
+    fn clone_box(&self) -> Box<dyn Controller>;
+}
+
+impl<T: Controller + Clone + 'static> ControllerClone for T {
+    fn clone_box(&self) -> Box<dyn Controller> {
+        Box::new(self.clone())
+    }
+}
+
+impl std::fmt::Debug for dyn Controller {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("dyn Controller")
+    }
 }
 
 /// No actuation.

@@ -2,7 +2,6 @@
 //! start and end, the work of the joint torques along the flow, and the kinetic energy lost
 //! in its impacts. A correct execution balances,
 //! $$ E_1 - E_0 = W - L, \qquad W = \int \tau \cdot \dot\theta \, dt, \qquad L = \sum (T^- - T^+) \ge 0 . $$
-use crate::controller::Controller;
 use crate::error::HybridError;
 use crate::execution::Execution;
 use crate::flow::Flow;
@@ -40,19 +39,16 @@ pub fn kinetic_energy_at(
     Ok(kinetic_energy(data, qd))
 }
 
-/// The [`EnergyReport`] of `exec` (which started at `(q0, q̇0)`), re-evaluating the
-/// controller's torques on each step's dense output with 3-point Gauss–Legendre quadrature
-/// (exact to the interpolant's order). The controller must answer as it did during the run
-/// (its torques a function of time, state and mode, or of the events it was told about).
+/// The [`EnergyReport`] of `exec`, a run of `model` on `terrain`: each segment's torques
+/// re-evaluated with the controller it ran with, on each step's dense output, by 3-point
+/// Gauss–Legendre quadrature (exact to the interpolant's order).
 pub fn energy_report(
     model: &Model,
     terrain: &dyn Terrain,
-    controller: &dyn Controller,
     exec: &Execution,
-    q0: &[f64],
-    qd0: &[f64],
 ) -> Result<EnergyReport, HybridError> {
     let nq = model.nq();
+    let (q0, qd0) = exec.segments[0].y0.split_at(nq);
     let mut data = Data::new(model);
     let total = |data: &mut Data, q: &[f64], qd: &[f64]| -> Result<f64, CoreError> {
         let t = kinetic_energy_at(model, terrain, data, q, qd)?;
@@ -65,10 +61,11 @@ pub fn energy_report(
         (0.5, 8.0 / 18.0),
         (0.5 + 0.5 * (0.6f64).sqrt(), 5.0 / 18.0),
     ];
-    let mut flow = Flow::new(model, terrain, controller);
+    let mut flow = Flow::new(model, terrain, exec.segments[0].controller.clone());
     let mut y = vec![0.0; 2 * nq];
     let mut joint_work_j = 0.0;
     for seg in &exec.segments {
+        flow.set_controller(seg.controller.clone());
         for step in seg.dense.steps() {
             let (a, b) = (step.t0, step.t1().min(seg.t1));
             if b <= a {

@@ -1,6 +1,8 @@
 //! The record of an execution of the hybrid system (thesis Definition 5.2): the segments of
 //! flow with their dense output, the events (resets) between them, and why the run ended.
+use crate::controller::Controller;
 use crate::integrate::DenseOutput;
+use std::sync::Arc;
 use selfmanip_core::{ContactMode, SingularityKind};
 
 /// What kind of guard fired.
@@ -49,6 +51,8 @@ pub struct Segment {
     pub t1: f64,
     /// State `[q; q̇]` at `t0`.
     pub y0: Vec<f64>,
+    /// The controller as it ran in this segment (its memory of the events before it).
+    pub controller: Arc<dyn Controller>,
     /// The accepted steps' continuous extensions (the last may reach past `t1`: the
     /// segment ends inside it, where its event was located).
     pub dense: DenseOutput,
@@ -106,7 +110,7 @@ pub enum Termination {
     },
 }
 
-/// The record of one execution.
+/// The record of one execution (its first segment starts at the initial state).
 #[derive(Debug, Clone)]
 pub struct Execution {
     pub segments: Vec<Segment>,

@@ -9,12 +9,13 @@
 //! integrator's stages and the guards ask for the flow at the same states (the last stage of
 //! a step is its end point, where the guards are sampled; several force guards share one
 //! sample). The cache is keyed by `(t, mode, q, q̇)` and by the controller's *generation*,
-//! which [`Flow::notify`] advances when it tells the controller of an event — the only way an
-//! answer at the same state can change. Nothing else writes the workspace: the resets work on
-//! one of their own ([`crate::contact_set::ResetWorkspace`]), so no reset can leave the
-//! cache stale.
+//! which advances whenever the controller is replaced ([`Flow::set_controller`]) or told of
+//! an event ([`Flow::notify`]) — the only ways an answer at the same state can change.
+//! Nothing else writes the workspace: the resets work on one of their own
+//! ([`crate::contact_set::ResetWorkspace`]), so no reset can leave the cache stale.
 use crate::controller::Controller;
 use crate::execution::Event;
+use std::sync::Arc;
 use selfmanip_core::contact::{contact_geometry, ContactGeometry};
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{forward_dynamics_prepared, ContactMode, CoreError, Data, Model, Terrain};
@@ -23,7 +24,7 @@ use selfmanip_core::{forward_dynamics_prepared, ContactMode, CoreError, Data, Mo
 pub struct Flow<'a> {
     model: &'a Model,
     terrain: &'a dyn Terrain,
-    ctrl: &'a dyn Controller,
+    ctrl: Arc<dyn Controller>,
     ws: FlowWorkspace,
     /// How many events the controller has been told of.
     generation: u64,
@@ -36,7 +37,7 @@ pub struct Flow<'a> {
 }
 
 impl<'a> Flow<'a> {
-    pub fn new(model: &'a Model, terrain: &'a dyn Terrain, ctrl: &'a dyn Controller) -> Self {
+    pub fn new(model: &'a Model, terrain: &'a dyn Terrain, ctrl: Arc<dyn Controller>) -> Self {
         Flow {
             model,
             terrain,
@@ -58,8 +59,15 @@ impl<'a> Flow<'a> {
         self.terrain
     }
 
-    pub fn controller(&self) -> &'a dyn Controller {
-        self.ctrl
+    /// The controller the flow is evaluated with.
+    pub fn controller(&self) -> &Arc<dyn Controller> {
+        &self.ctrl
+    }
+
+    /// Evaluates the flow with `ctrl` from here on.
+    pub fn set_controller(&mut self, ctrl: Arc<dyn Controller>) {
+        self.ctrl = ctrl;
+        self.generation += 1;
     }
 
     /// The workspace and the joint torques `Υ` of the last evaluation.
@@ -67,10 +75,12 @@ impl<'a> Flow<'a> {
         (&self.ws.data, &self.ws.tau)
     }
 
-    /// Tells the controller of an event (its torques may change from here on).
+    /// Tells the controller of an event (its torques may change from here on): a copy of
+    /// it learns of the event and replaces it, so the one that ran before stays as it was.
     pub fn notify(&mut self, event: &Event) {
-        self.ctrl.on_event(event);
-        self.generation += 1;
+        let mut next = self.ctrl.clone_box();
+        next.on_event(event);
+        self.set_controller(Arc::from(next));
     }
 
     /// Whether `data` holds a flow (and so the kinematics) at `(q, q̇)`.
@@ -95,7 +105,7 @@ impl<'a> Flow<'a> {
             .data
             .prepare(self.model, self.terrain, mode, q, qd)?;
         self.ws
-            .solve_prepared(self.model, self.ctrl, t, mode, q, qd)?;
+            .solve_prepared(self.model, &*self.ctrl, t, mode, q, qd)?;
         self.y.clear();
         self.y.extend_from_slice(q);
         self.y.extend_from_slice(qd);

@@ -17,7 +17,7 @@ use crate::energy::kinetic_energy_at;
 use crate::error::HybridError;
 use crate::execution::{Event, EventKind, Termination};
 use crate::features::TERRAIN_STEP_M;
-use crate::flow::Flow;
+use crate::flow::{Flow, FlowWorkspace};
 use crate::guard::Guard;
 use selfmanip_core::contact::ContactKind;
 use selfmanip_core::{plastic_impact, ContactMode};
@@ -35,16 +35,17 @@ pub enum Reset {
     },
 }
 
-/// The reset of the guards `fired` at `(t, y = [q; q̇])` in `mode`.
+/// The reset of the guards `fired` at `(t, y = [q; q̇])` in `mode` of `flow`, evaluated on
+/// the workspace `ws`, with the pseudo-impulse duration `delta_t_s`.
 pub fn reset(
-    cx: &mut ResetWorkspace,
+    ws: &mut FlowWorkspace,
     flow: &mut Flow,
+    delta_t_s: f64,
     fired: &[Guard],
     mode: ContactMode,
-    t: f64,
-    y: &[f64],
+    (t, y): (f64, &[f64]),
 ) -> Result<Reset, HybridError> {
-    let model = cx.model;
+    let model = flow.model();
     let (q, qd) = y.split_at(model.nq());
     if fired.contains(&Guard::Apex) {
         let event = Event {
@@ -101,6 +102,14 @@ pub fn reset(
             });
         }
     }
+    let ctrl = flow.controller().clone();
+    let cx = &mut ResetWorkspace {
+        model,
+        terrain: flow.terrain(),
+        ctrl: &*ctrl,
+        delta_t_s,
+        ws,
+    };
     let ke_before = kinetic_energy_at(model, cx.terrain, &mut cx.ws.data, q, qd)?;
     let impact = !touched.is_empty();
     // contacts that reached the cone slide; contacts whose sliding stopped try to stick

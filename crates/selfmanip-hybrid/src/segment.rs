@@ -103,6 +103,7 @@ impl SegmentIntegrator {
             t0: *t,
             t1: *t,
             y0: y.to_vec(),
+            controller: flow.controller().clone(),
             dense: DenseOutput::default(),
         };
         self.ode.reset(self.h_carry);

@@ -10,11 +10,11 @@
 //!                                                              impact, contact_set]
 //!   zeno      too many transitions in a window ⇒ end          [zeno]
 //! ```
-use crate::contact_set::ResetWorkspace;
 use crate::controller::Controller;
 use crate::error::HybridError;
 use crate::execution::{Execution, Termination};
-use crate::flow::Flow;
+use crate::flow::{Flow, FlowWorkspace};
+use std::sync::Arc;
 use crate::options::HybridOptions;
 use crate::reset::{reset, Reset};
 use crate::segment::{SegmentEnd, SegmentIntegrator};
@@ -34,9 +34,11 @@ pub fn simulate(
     opts: HybridOptions,
 ) -> Result<Execution, HybridError> {
     opts.validate(t_final)?;
-    let mut flow = Flow::new(model, terrain, controller);
-    let mut resets = ResetWorkspace::new(model, terrain, controller, opts.delta_t_s);
-    check_initial_state(&mut resets, &mut flow, mode0, q0, qd0)?;
+    // the run's own copy of the controller: it learns of the events, the caller's does not
+    let mut flow = Flow::new(model, terrain, Arc::from(controller.clone_box()));
+    // the resets' workspace
+    let mut reset_ws = FlowWorkspace::new(model);
+    check_initial_state(&mut reset_ws, &mut flow, mode0, q0, qd0)?;
 
     let (mut t, mut mode) = (0.0, mode0);
     let mut y: Vec<f64> = q0.iter().chain(qd0).copied().collect();
@@ -61,7 +63,8 @@ pub fn simulate(
             SegmentEnd::Ended(term) => break term,
         };
         // ⇒ reset
-        let (event, rest) = match reset(&mut resets, &mut flow, &fired, mode, t, &y)? {
+        let reset = reset(&mut reset_ws, &mut flow, opts.delta_t_s, &fired, mode, (t, &y))?;
+        let (event, rest) = match reset {
             Reset::Continue { event, from_rest } => (event, from_rest),
             Reset::End { event, termination } => {
                 events.extend(event);
@@ -96,14 +99,14 @@ pub fn simulate(
 /// The initial state must satisfy its mode's constraints: `A q̇ = 0` and every active
 /// contact on its surface.
 fn check_initial_state(
-    resets: &mut ResetWorkspace,
+    ws: &mut FlowWorkspace,
     flow: &mut Flow,
     mode: ContactMode,
     q: &[f64],
     qd: &[f64],
 ) -> Result<(), HybridError> {
-    let data = &mut resets.ws.data;
-    data.prepare(resets.model, resets.terrain, mode, q, qd)?;
+    let data = &mut ws.data;
+    data.prepare(flow.model(), flow.terrain(), mode, q, qd)?;
     let vres = (&data.constraints.a * nalgebra::DVector::from_column_slice(qd)).amax();
     if vres > 1e-8 {
         return Err(HybridError::OffManifold {
