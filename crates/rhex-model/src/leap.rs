@@ -34,9 +34,9 @@ use selfmanip_hybrid::StepOptions;
 use selfmanip_hybrid::{simulate, Controller};
 use selfmanip_hybrid::{Event, EventKind, Execution, HybridOptions, Termination};
 use serde::{Deserialize, Serialize};
-use std::sync::Arc;
 use std::f64::consts::PI;
 use std::str::FromStr;
+use std::sync::Arc;
 
 /// Direction a leg pushes in: `+` increases θ (forward lunge), `−` decreases it (flip).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -5,7 +5,7 @@
 //! **Enumeration** (up to [`ENUMERATION_LIMIT`] candidates, as the thesis does): every subset
 //! `J` of the candidates is tried ([`ResetWorkspace::outcome`]). `J` is accepted when each of
 //! its contacts pushes, $U_j \ge 0$ (impulses judged by (5.40), or forces), and each
-//! left-out contact `k` would need a pull in `J ∪ {k}`, $U_k < 0$ — or cannot be held there
+//! left-out contact `k` would need a pull in `J ∪ {k}`, $U_k \lt 0$ — or cannot be held there
 //! at all (its KKT matrix singular). Exactly one accepted set is the answer; none or several
 //! end the execution with a typed [`Termination`].
 //!

@@ -65,7 +65,7 @@ impl ResetWorkspace<'_> {
     }
 
     /// The first sticking contact with finite `μ` whose row vector `v` (force or impulse)
-    /// leaves the Coulomb cone $|v_t| \le \mu\, U(v_n)$.
+    /// leaves the Coulomb cone $|v_t| \le \mu \ U(v_n)$.
     pub fn outside_cone(&self, mode: ContactMode, v: &[f64]) -> Option<usize> {
         let rows: Vec<_> = mode.rows().collect();
         (1..rows.len()).find_map(|i| {

@@ -1,7 +1,7 @@
 //! Energy bookkeeping of an execution: the total energy $E = T + V$ (thesis (4.24)) at its
 //! start and end, the work of the joint torques along the flow, and the kinetic energy lost
 //! in its impacts. A correct execution balances,
-//! $$ E_1 - E_0 = W - L, \qquad W = \int \tau \cdot \dot\theta \, dt, \qquad L = \sum (T^- - T^+) \ge 0 . $$
+//! $$ E_1 - E_0 = W - L, \qquad W = \int \tau \cdot \dot\theta \ dt, \qquad L = \sum (T^- - T^+) \ge 0 . $$
 use crate::error::HybridError;
 use crate::execution::Execution;
 use crate::flow::Flow;

@@ -2,8 +2,8 @@
 //! flow with their dense output, the events (resets) between them, and why the run ended.
 use crate::controller::Controller;
 use crate::integrate::DenseOutput;
-use std::sync::Arc;
 use selfmanip_core::{ContactMode, SingularityKind};
+use std::sync::Arc;
 
 /// What kind of guard fired.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]

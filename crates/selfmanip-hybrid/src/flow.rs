@@ -15,10 +15,10 @@
 //! ([`crate::contact_set::ResetWorkspace`]), so no reset can leave the cache stale.
 use crate::controller::Controller;
 use crate::execution::Event;
-use std::sync::Arc;
 use selfmanip_core::contact::{contact_geometry, ContactGeometry};
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{forward_dynamics_prepared, ContactMode, CoreError, Data, Model, Terrain};
+use std::sync::Arc;
 
 /// The flow of any mode of one robot on one terrain under one controller, with its cache.
 pub struct Flow<'a> {

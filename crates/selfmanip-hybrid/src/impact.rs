@@ -6,7 +6,7 @@
 //! A plastic impact into mode $J$ at $q$ with incoming velocity $\dot q^-$:
 //! $$ \dot q^+ = \dot q^- - A^{\dagger T} A \dot q^-, \qquad P_\lambda = -\Lambda A \dot q^-, $$
 //! and the pseudo-impulse of the actuators acting through the impact's duration δt
-//! $$ P_\delta = A^\dagger (\Upsilon - \bar C \dot q^- - \bar N)\, \delta t, $$
+//! $$ P_\delta = A^\dagger (\Upsilon - \bar C \dot q^- - \bar N) \ \delta t, $$
 //! with $\Upsilon$ taken at $\dot q^+$ (the thesis leaves its argument open; see the errata).
 //! A contact is held when its own impulse pushes, $U(P_\lambda) > 0$; any other — including
 //! a zero-speed touchdown, whose impulse vanishes — is judged by $U(P_\lambda + P_\delta)$

@@ -5,7 +5,7 @@
 //! event location on the dense output or misplace events (see `shared/ECOSYSTEM.md`).
 //!
 //! One step from $(t, y)$ of size $h$ evaluates the seven stages
-//! $k_s = f(t + c_s h,\ y + h \sum_{j<s} a_{sj} k_j)$ (the last at the step's end point, reused
+//! $k_s = f(t + c_s h,\ y + h \sum_{j \lt s} a_{sj} k_j)$ (the last at the step's end point, reused
 //! as the next step's first: FSAL), advances $y_{n+1} = y + h \sum_s b_s k_s$, and estimates
 //! the error by $h \sum_s (b_s - \hat b_s) k_s$. The continuous extension on $[t, t + h]$ is
 //! the quartic in $\theta = (t' - t)/h$

@@ -14,12 +14,12 @@ use crate::controller::Controller;
 use crate::error::HybridError;
 use crate::execution::{Execution, Termination};
 use crate::flow::{Flow, FlowWorkspace};
-use std::sync::Arc;
 use crate::options::HybridOptions;
 use crate::reset::{reset, Reset};
 use crate::segment::{SegmentEnd, SegmentIntegrator};
 use crate::zeno::ZenoWindow;
 use selfmanip_core::{ContactMode, Model, Terrain};
+use std::sync::Arc;
 
 /// Runs the hybrid system from `(q0, qd0)` in `mode0` until `t_final` or a terminal event.
 #[allow(clippy::too_many_arguments)]
@@ -63,7 +63,14 @@ pub fn simulate(
             SegmentEnd::Ended(term) => break term,
         };
         // ⇒ reset
-        let reset = reset(&mut reset_ws, &mut flow, opts.delta_t_s, &fired, mode, (t, &y))?;
+        let reset = reset(
+            &mut reset_ws,
+            &mut flow,
+            opts.delta_t_s,
+            &fired,
+            mode,
+            (t, &y),
+        )?;
         let (event, rest) = match reset {
             Reset::Continue { event, from_rest } => (event, from_rest),
             Reset::End { event, termination } => {

@@ -1,40 +1,17 @@
 //! Executions against closed forms: a falling block's touchdown time, the rocking block of
 //! Figs. 5.4–5.5 (Zeno without the pseudo-impulse, at rest with δt = 0.03 s), and impacts that
 //! never add energy.
-use selfmanip_core::{ContactMode, FlatGround, Model, RobotDescription};
+use selfmanip_core::{ContactMode, FlatGround, Model};
 use selfmanip_hybrid::{simulate, EventKind, HybridError, HybridOptions, Termination, ZeroTorque};
 
-const H: f64 = 0.10;
-const W: f64 = 0.05;
-const G: f64 = 9.81;
+mod systems;
+use systems::{BLOCK, G};
+
+const H: f64 = BLOCK.1;
+const W: f64 = BLOCK.0;
 
 fn block() -> Model {
-    let text = format!(
-        r#"
-name = "block"
-gravity_m_s2 = {G}
-legs = []
-[body]
-mass_kg = 5.0
-inertia_kg_m2 = {i}
-[[contacts]]
-name = "left"
-shape = {{ kind = "point", position_m = [{l}, {hz}] }}
-friction = {{ kind = "sticking" }}
-[[contacts]]
-name = "right"
-shape = {{ kind = "point", position_m = [{r}, {hz}] }}
-friction = {{ kind = "sticking" }}
-"#,
-        i = 5.0 * (W * W + H * H) / 12.0,
-        l = -W / 2.0,
-        r = W / 2.0,
-        hz = H / 2.0
-    );
-    RobotDescription::from_toml_str(&text)
-        .unwrap()
-        .build()
-        .unwrap()
+    systems::block(G)
 }
 
 /// A level block released at rest with its corners `d` above the ground lands at

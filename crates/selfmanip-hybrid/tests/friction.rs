@@ -3,34 +3,14 @@
 //! `tan β ≤ μ` and stays at rest, otherwise it keeps sliding (back down) with no stick/slip
 //! cycling at zero velocity; a sticking puck on an incline steeper than `atan μ` slips at
 //! once, and a tangential push reaching the cone makes it slip when `|λ_t| = μ λ_n`.
-use selfmanip_core::{ContactKind, ContactMode, GroundPlane, Model, RobotDescription};
+use selfmanip_core::{ContactKind, ContactMode, GroundPlane};
 use selfmanip_hybrid::{simulate, EventKind, HybridOptions, Termination, ZeroTorque};
 
-const G: f64 = 9.81;
+mod systems;
+use systems::{puck, G};
 /// The foot at the centre of mass: no toppling moment, so the only dynamics are along the
 /// incline.
 const H: f64 = 0.0;
-
-fn puck(mu: f64) -> Model {
-    let text = format!(
-        r#"
-name = "puck"
-gravity_m_s2 = {G}
-legs = []
-[body]
-mass_kg = 2.0
-inertia_kg_m2 = 0.01
-[[contacts]]
-name = "foot"
-shape = {{ kind = "point", position_m = [0.0, {H}] }}
-friction = {{ kind = "sticking", mu = {mu} }}
-"#
-    );
-    RobotDescription::from_toml_str(&text)
-        .unwrap()
-        .build()
-        .unwrap()
-}
 
 /// A plane through the origin tilted by `beta` (its normal into the ground is
 /// `(sin β, cos β)` in NED x–z), and the puck on it, moving at `v0` along the plane tangent.

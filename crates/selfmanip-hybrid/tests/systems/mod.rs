@@ -1,0 +1,122 @@
+//! Small systems with closed-form answers, shared by the engine's stage tests (as Drake keeps
+//! them in `test_utilities/`): rigid bodies with point contacts (a block, a bar, a puck) and a
+//! body with one leg.
+//!
+//! Frames (docs/conventions.md): NED, z down; `q = [θ…, x, z, φ]`; a body-frame point `p`
+//! is at `X + R(φ) p` with `R(φ) = [[cos φ, sin φ], [−sin φ, cos φ]]` acting on `(x, z)`, so a
+//! point at offset `r = R(φ) p` from the centre moves at `v + φ̇ (r_z, −r_x)` and a force `F`
+//! there has the moment `r_z F_x − r_x F_z` about `+y`.
+#![allow(dead_code)]
+use selfmanip_core::{Model, RobotDescription};
+
+pub const G: f64 = 9.81;
+
+/// How a point contact resists sliding.
+#[derive(Clone, Copy)]
+pub enum Friction {
+    /// Sticking, with a Coulomb coefficient (`None`: never slips).
+    Stick(Option<f64>),
+    Slide,
+}
+
+/// A rigid body without legs and with point contacts `(name, x, z, friction)` in its frame.
+pub fn body(
+    mass_kg: f64,
+    inertia_kg_m2: f64,
+    gravity_m_s2: f64,
+    points: &[(&str, f64, f64, Friction)],
+) -> Model {
+    let mut text = format!(
+        "name = \"body\"\ngravity_m_s2 = {gravity_m_s2}\nlegs = []\n[body]\nmass_kg = {mass_kg}\ninertia_kg_m2 = {inertia_kg_m2}\n"
+    );
+    for (name, x, z, friction) in points {
+        let friction = match friction {
+            Friction::Stick(None) => "{ kind = \"sticking\" }".to_string(),
+            Friction::Stick(Some(mu)) => format!("{{ kind = \"sticking\", mu = {mu} }}"),
+            Friction::Slide => "{ kind = \"sliding\" }".to_string(),
+        };
+        text += &format!(
+            "[[contacts]]\nname = \"{name}\"\nshape = {{ kind = \"point\", position_m = [{x}, {z}] }}\nfriction = {friction}\n"
+        );
+    }
+    RobotDescription::from_toml_str(&text)
+        .unwrap()
+        .build()
+        .unwrap()
+}
+
+/// The block of the thesis's rocking example: width, height, mass.
+pub const BLOCK: (f64, f64, f64) = (0.05, 0.10, 5.0);
+
+/// Centroidal inertia of a uniform `w × h` block of mass `m`.
+pub fn block_inertia(w: f64, h: f64, m: f64) -> f64 {
+    m * (w * w + h * h) / 12.0
+}
+
+/// The block with sticking bottom corners `left` (−w/2, h/2) and `right` (w/2, h/2).
+pub fn block(gravity_m_s2: f64) -> Model {
+    let (w, h, m) = BLOCK;
+    body(
+        m,
+        block_inertia(w, h, m),
+        gravity_m_s2,
+        &[
+            ("left", -w / 2.0, h / 2.0, Friction::Stick(None)),
+            ("right", w / 2.0, h / 2.0, Friction::Stick(None)),
+        ],
+    )
+}
+
+/// A 2 kg puck whose foot is at its centre of mass (no toppling moment).
+pub fn puck(mu: f64) -> Model {
+    body(
+        2.0,
+        0.01,
+        G,
+        &[("foot", 0.0, 0.0, Friction::Stick(Some(mu)))],
+    )
+}
+
+/// `R(φ) p`.
+pub fn rotate(phi: f64, p: [f64; 2]) -> [f64; 2] {
+    let (s, c) = phi.sin_cos();
+    [c * p[0] + s * p[1], -s * p[0] + c * p[1]]
+}
+
+/// A body (mass 3 kg, inertia 0.05) with one leg of one link of `length_m` hanging from the
+/// body's centre, ending in a sticking point toe; the link is massless when `link_mass_kg`
+/// is 0.
+pub fn one_leg(length_m: f64, link_mass_kg: f64, gravity_m_s2: f64) -> Model {
+    let link_inertia = link_mass_kg * length_m * length_m / 12.0;
+    let text = format!(
+        r#"
+name = "one leg"
+gravity_m_s2 = {gravity_m_s2}
+[body]
+mass_kg = 3.0
+inertia_kg_m2 = 0.05
+[[legs]]
+name = "leg"
+hip_m = [0.0, 0.0]
+[[legs.links]]
+length_m = {length_m}
+mass_kg = {link_mass_kg}
+inertia_kg_m2 = {link_inertia}
+com_m = [0.0, {com}]
+[[contacts]]
+name = "toe"
+leg = "leg"
+shape = {{ kind = "point", position_m = [0.0, {length_m}] }}
+friction = {{ kind = "sticking", mu = 1.0 }}
+[[contacts]]
+name = "belly"
+shape = {{ kind = "point", position_m = [0.0, 0.05] }}
+friction = {{ kind = "sliding" }}
+"#,
+        com = length_m / 2.0
+    );
+    RobotDescription::from_toml_str(&text)
+        .unwrap()
+        .build()
+        .unwrap()
+}
