@@ -15,6 +15,7 @@ pub mod analysis;
 pub mod figures;
 pub mod grc;
 pub mod leap;
+pub mod leap_behaviours;
 pub mod mcap_log;
 pub mod modes;
 pub mod params;
