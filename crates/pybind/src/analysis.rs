@@ -4,6 +4,7 @@
 use crate::{guard, to_py_err};
 use pyo3::prelude::*;
 use rhex_model::analysis::{leg_tail, pitch_control as pc, sensor_sweep as ss, standing};
+use selfmanip_sim::analysis::{leg_tail as tail, standing as stand};
 use rhex_model::{LegShape, Rhex, RhexParams};
 use selfmanip_core::RobotDescription;
 
@@ -261,10 +262,9 @@ fn analysis_tail_effect(
         let model = d.build().map_err(to_py_err)?;
         let (mom, sim) = py
             .detach(|| {
-                let mom = leg_tail::revolution_rotation_momentum(&model, &q0, &joints, 128)?;
-                let sim =
-                    leg_tail::revolution_rotation_dynamic(&model, &q0, &joints, period_s, dt_s)?;
-                Ok::<_, rhex_model::RhexError>((mom, sim))
+                let mom = tail::revolution_rotation_momentum(&model, &q0, &joints, 128)?;
+                let sim = tail::revolution_rotation_dynamic(&model, &q0, &joints, period_s, dt_s)?;
+                Ok::<_, selfmanip_sim::SimError>((mom, sim))
             })
             .map_err(to_py_err)?;
         Ok(serde_json::json!({"momentum_delta_phi": mom, "simulated": sim}).to_string())
@@ -299,17 +299,17 @@ fn analysis_standing_rhex(
         let trace = py
             .detach(|| {
                 let (q0, terrain, mode) = standing::random_rhex_stance(&r, seed, max_slope_rad)?;
-                standing::simulate_standing(
+                Ok::<_, rhex_model::RhexError>(stand::simulate_standing(
                     &r.model,
                     &terrain,
                     mode,
                     &q0,
                     &[tau_d0],
-                    &standing::TorqueSplit::rhex(),
-                    &standing::StandingGains::default(),
+                    &stand::TorqueSplit::mean_difference(),
+                    &stand::StandingGains::default(),
                     dt_s,
                     steps,
-                )
+                )?)
             })
             .map_err(to_py_err)?;
         json!(&trace)

@@ -45,7 +45,7 @@ pub(crate) fn guard<T>(f: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
         Ok(r) => r,
         Err(p) => Err(pyo3::exceptions::PyRuntimeError::new_err(format!(
             "internal error in selfmanip: {}",
-            rhex_model::sweep::panic_message(p.as_ref())
+            selfmanip_sim::sweep::panic_message(p.as_ref())
         ))),
     }
 }

@@ -11,7 +11,7 @@
 use rayon::prelude::*;
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator, Strategy};
 use rhex_model::params::{LegShape, RhexParams};
-use rhex_model::terrain::TerrainSpec;
+use selfmanip_sim::terrain::TerrainSpec;
 use serde_json::json;
 use std::time::Instant;
 

@@ -14,7 +14,7 @@
 //! the difference lies in the leaps themselves: none carries a body end or a leg over it.
 use crate::leap::{LeapConfig, Push, Strategy};
 use crate::params::LegPair;
-use crate::terrain::TerrainSpec;
+use selfmanip_sim::terrain::TerrainSpec;
 
 /// Fig. 5.1 with its own settings (the figure's footnote 1): (+,+) with the middle and rear
 /// pairs, 20 A, δt = 0.03 s, the middle legs started 0.01 s before the rear ones, legs

@@ -15,7 +15,7 @@
 //!
 //! **Massless legs in the air** (thesis 5.1.1) have no dynamics: their motion is prescribed
 //! with bounded acceleration (the thesis's assumption that keeps executions non-Zeno), as
-//! smooth functions of time ([`crate::leg_motion`]). A leg that has not touched down yet
+//! smooth functions of time ([`selfmanip_sim::motion`]). A leg that has not touched down yet
 //! swings towards the ground; a leg that has lifted off parks pointing up on the side of
 //! straight down where it is, never sweeping through the ground (the thesis's "once a leg
 //! has lifted off the ground it is slowly rotated upwards out of the way"), unless
@@ -23,9 +23,7 @@
 //!
 //! **Words.** The leap word is the sequence of ground-reaction-complex cells visited
 //! (chapter 3.1), sliding toes counted as contact, zero-time cells suppressed.
-use crate::leg_motion::LegMotion;
 use crate::params::{LegPair, RhexParams};
-use crate::terrain::TerrainSpec;
 use crate::{Rhex, RhexError};
 use motor::Actuator;
 use selfmanip_core::kinematics::Kinematics;
@@ -33,6 +31,8 @@ use selfmanip_core::{ContactMode, Terrain};
 use selfmanip_hybrid::StepOptions;
 use selfmanip_hybrid::{simulate, Controller};
 use selfmanip_hybrid::{Event, EventKind, Execution, HybridOptions, Termination};
+use selfmanip_sim::motion::JointMotion as LegMotion;
+use selfmanip_sim::terrain::TerrainSpec;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 use std::str::FromStr;
@@ -470,7 +470,7 @@ impl LeapConfig {
                 return bad("motors_per_leg", "must be at least 1".into());
             }
         }
-        self.terrain.validate()
+        Ok(self.terrain.validate()?)
     }
 }
 

@@ -22,7 +22,8 @@
 //! reported gear ratio is the one used, NaN for [`LegActuator::SaturatedTorque`].
 use crate::leap::{simulate_leap, LeapConfig, LeapResult, LegActuator, Strategy};
 use crate::{RhexError, RhexParams};
-use rayon::prelude::*;
+use selfmanip_sim::sweep::run_parallel;
+pub use selfmanip_sim::sweep::panic_message;
 use serde_json::{Map, Value};
 
 /// One leap of a sweep.
@@ -263,6 +264,8 @@ pub fn error_kind(e: &RhexError) -> &'static str {
     match e {
         RhexError::Params { .. } => "invalid_params",
         RhexError::ModeLabel { .. } => "invalid_mode",
+        RhexError::Sim(s) if s.is_input_error() => "invalid_params",
+        RhexError::Sim(s) => s.kind(),
         RhexError::Core(c) => core_kind(c),
         RhexError::Hybrid(h) => match h {
             H::Core(c) => core_kind(c),
@@ -322,15 +325,6 @@ fn failed(status: &str, error: String, gear_ratio: f64) -> SweepRow {
     }
 }
 
-/// The text of a caught panic's payload (`"unknown panic"` when it is not a string).
-pub fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
-    payload
-        .downcast_ref::<String>()
-        .cloned()
-        .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
-        .unwrap_or_else(|| "unknown panic".into())
-}
-
 /// Runs one point and flattens the outcome; never panics and never fails.
 pub fn run_row(base_params: &RhexParams, base_cfg: &LeapConfig, point: &SweepPoint) -> SweepRow {
     let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
@@ -379,27 +373,7 @@ pub fn sweep(
     points: &[SweepPoint],
     threads: usize,
 ) -> Result<Vec<SweepRow>, RhexError> {
-    if threads == 0 {
-        return Err(RhexError::Params {
-            field: "threads".into(),
-            reason: "must be at least 1".into(),
-        });
-    }
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| RhexError::Params {
-            field: "threads".into(),
-            reason: format!("cannot start a pool of {threads} threads: {e}"),
-        })?;
-    Ok(pool.install(|| {
-        points
-            .par_iter()
-            // one task per leap: rayon's default splitting hands each thread runs of
-            // neighbouring points, whose costs are correlated (a t2 range of long no-flight
-            // leaps), and loses ~20 % to the imbalance on 2 threads
-            .with_max_len(1)
-            .map(|p| run_row(base_params, base_cfg, p))
-            .collect()
-    }))
+    Ok(run_parallel(points, threads, |p| {
+        run_row(base_params, base_cfg, p)
+    })?)
 }

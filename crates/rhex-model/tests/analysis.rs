@@ -9,7 +9,9 @@ use rhex_model::analysis::leg_tail::*;
 use rhex_model::analysis::pitch_control::*;
 use rhex_model::analysis::sensor_sweep::*;
 use rhex_model::analysis::standing::*;
-use rhex_model::analysis::{contact_gaps, free_motion_basis, solve_contact_pose};
+use selfmanip_sim::analysis::leg_tail::*;
+use selfmanip_sim::analysis::standing::*;
+use selfmanip_sim::analysis::{contact_gaps, free_motion_basis, solve_contact_pose};
 use rhex_model::quasistatic_map::{quasi_static_pose, Support};
 use rhex_model::{LegShape, Rhex, RhexParams};
 use selfmanip_core::kinematics::Kinematics;
@@ -79,7 +81,7 @@ fn results_a1_a2_a3_reactive_standing_on_rough_terrain() {
                 mode,
                 &q0,
                 &tau_d0,
-                &TorqueSplit::rhex(),
+                &TorqueSplit::mean_difference(),
                 &gains,
                 0.01,
                 2000,
@@ -844,7 +846,7 @@ fn analyses_run_on_the_quadruped() {
     assert!((mom - sim.delta_phi).abs() < 2e-3 * mom.abs());
     // liftoff LP in double stance, moving along the first free motion
     let (mode, q) = double_stance(&m);
-    let y = rhex_model::analysis::selector_rows(7, &[0, 2, 4]);
+    let y = selfmanip_sim::analysis::selector_rows(7, &[0, 2, 4]);
     let h = free_motion_basis(&m, &FlatGround, mode, &q, &y).unwrap();
     let dir: Vec<f64> = h.column(0).iter().cloned().collect();
     let ls = liftoff_speed(&m, &FlatGround, mode, &q, &dir, &[0.0; 4]).unwrap();
@@ -899,12 +901,16 @@ fn bad_input_is_rejected() {
     );
     let m = &r.model;
     assert_eq!(
-        field(revolution_rotation_dynamic(m, &[0.0; 5], &[0, 1], 0.3, 1e-3).unwrap_err()),
+        field(
+            revolution_rotation_dynamic(m, &[0.0; 5], &[0, 1], 0.3, 1e-3)
+                .unwrap_err()
+                .into()
+        ),
         "model",
         "massless legs have no tail effect"
     );
     assert_eq!(
-        field(effectiveness_at(m, &[0.0; 5], &[7]).unwrap_err()),
+        field(effectiveness_at(m, &[0.0; 5], &[7]).unwrap_err().into()),
         "joints"
     );
 }

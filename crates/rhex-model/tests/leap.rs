@@ -5,7 +5,7 @@
 //! (section 5.1.5), words that start at rest on the body (`1010`) and end in flight
 //! (`0000`), determinism, and typed errors for bad input.
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapStatus, Strategy};
-use rhex_model::terrain::TerrainSpec;
+use selfmanip_sim::terrain::TerrainSpec;
 use rhex_model::{Rhex, RhexError, RhexParams};
 use selfmanip_core::contact::contact_geometry;
 use selfmanip_core::model::Friction;

@@ -1,9 +1,8 @@
-//! Design-insight analyses of thesis section 4.3, built on the general machinery of
-//! `selfmanip-core` so that they run for any planar robot the core can describe, with RHex
-//! as the worked example:
+//! RHex's design-insight analyses of thesis section 4.3, built on the generic analyses of
+//! `selfmanip-sim` ([`selfmanip_sim::analysis`]: free motions, contact poses, standing,
+//! legs as tails), which run for any planar robot:
 //!
-//! - [`standing`]: reactive standing (4.3.1): the mean/difference torque split (4.45)–(4.49)
-//!   and the quasi-static "generalized damper" controller (4.50)–(4.54) on rough terrain
+//! - [`standing`]: reactive standing (4.3.1) on RHex's random rough-terrain stances
 //!   (Results A.1–A.3);
 //! - [`sensor_sweep`]: the pitching sensor sweep (4.3.2): pitch range over every quasi-static
 //!   mode (Result B.1), holding torque by leg shape (B.2), the exact pitch-rate controller
@@ -11,7 +10,7 @@
 //! - [`pitch_control`]: pitch control in leaping (4.3.3): the splay derivative (4.61, C.2),
 //!   single-leg pitch dynamics (4.63, C.3), the takeoff-speed bound with a torque–speed motor
 //!   (4.64)–(4.66), Result C.4 and Figs. 4.10–4.12;
-//! - [`leg_tail`]: legs as inertial tails in flight (4.67)–(4.68), Result C.5.
+//! - [`leg_tail`]: RHex's legs as inertial tails in flight (4.67)–(4.68), Result C.5.
 //!
 //! Which problems are convex: the liftoff speed of Fig. 4.8 is a linear program in `s = ẏ²`
 //! (λ is exactly quadratic in the velocity at fixed torque) and is solved with Clarabel; the
@@ -25,10 +24,9 @@ pub mod sensor_sweep;
 pub mod standing;
 
 use crate::RhexError;
-use nalgebra::DMatrix;
-use selfmanip_core::contact::{contact_geometry, RowDirection};
-use selfmanip_core::kinematics::Kinematics;
-use selfmanip_core::{ContactMode, Data, Model, Terrain};
+pub(crate) use selfmanip_sim::analysis::{
+    contact_leg, free_motion_basis, normal_rows, selector_rows, solve_contact_pose,
+};
 
 pub(crate) fn bad(field: &str, reason: impl Into<String>) -> RhexError {
     RhexError::Params {
@@ -43,150 +41,4 @@ pub(crate) fn check_finite(field: &str, v: &[f64]) -> Result<(), RhexError> {
     } else {
         Err(bad(field, "must be finite"))
     }
-}
-
-/// A configuration `q` of `model`: the right length and finite (errors name `q`).
-pub(crate) fn check_configuration(model: &Model, q: &[f64]) -> Result<(), RhexError> {
-    let nq = model.nq();
-    if q.len() != nq {
-        return Err(bad(
-            "q",
-            format!("expected {nq} coordinates, got {}", q.len()),
-        ));
-    }
-    check_finite("q", q)
-}
-
-/// The free motions of thesis (4.20): `H = [A; Y]⁻¹ [0; I_e]` at `q` (`Y`: e×q).
-pub fn free_motion_basis(
-    model: &Model,
-    terrain: &dyn Terrain,
-    mode: ContactMode,
-    q: &[f64],
-    y_map: &DMatrix<f64>,
-) -> Result<DMatrix<f64>, RhexError> {
-    let nq = model.nq();
-    check_configuration(model, q)?;
-    let mut data = Data::new(model);
-    data.prepare_geometry(model, terrain, mode, q, &vec![0.0; nq])?;
-    let a = &data.constraints.a;
-    let c = a.nrows();
-    let e = nq - c;
-    if y_map.shape() != (e, nq) {
-        return Err(bad(
-            "Y",
-            format!(
-                "must be {e}×{nq} (e = q − c), got {}×{}",
-                y_map.nrows(),
-                y_map.ncols()
-            ),
-        ));
-    }
-    let mut ay = DMatrix::zeros(nq, nq);
-    ay.view_mut((0, 0), (c, nq)).copy_from(a);
-    ay.view_mut((c, 0), (e, nq)).copy_from(y_map);
-    let sv = ay.clone().svd(false, false).singular_values;
-    if !(sv.min() > 1e-10 * sv.max()) {
-        return Err(bad(
-            "Y",
-            "[A; Y] is singular: y does not parameterize the free motion here",
-        ));
-    }
-    let mut rhs = DMatrix::zeros(nq, e);
-    rhs.view_mut((c, 0), (e, e)).fill_with_identity();
-    Ok(ay.lu().solve(&rhs).expect("checked invertible"))
-}
-
-/// Indices (into λ) of the normal rows of `mode`, in row order.
-pub(crate) fn normal_rows(data: &Data) -> Vec<usize> {
-    data.constraints
-        .rows
-        .iter()
-        .enumerate()
-        .filter(|(_, r)| r.direction == RowDirection::Normal)
-        .map(|(i, _)| i)
-        .collect()
-}
-
-/// Gaps `a_k(q)` of the listed contacts (heights above their ground planes).
-pub fn contact_gaps(
-    model: &Model,
-    terrain: &dyn Terrain,
-    contacts: &[usize],
-    q: &[f64],
-) -> Vec<f64> {
-    let mut kin = Kinematics::default();
-    kin.compute(model, q, &vec![0.0; q.len()]);
-    contacts
-        .iter()
-        .map(|&k| contact_geometry(model, &kin, terrain, k).gap_m)
-        .collect()
-}
-
-/// Puts the listed contacts on the ground by Newton's method on the coordinates `free`
-/// (as many as contacts), starting from `q`: solves the base constraints (4.41)–(4.43)
-/// `a_k(q) = 0` for, e.g., the body height and pitch.
-pub fn solve_contact_pose(
-    model: &Model,
-    terrain: &dyn Terrain,
-    contacts: &[usize],
-    free: &[usize],
-    q: &[f64],
-) -> Result<Vec<f64>, RhexError> {
-    if contacts.len() != free.len() || contacts.is_empty() {
-        return Err(bad("free", "need one free coordinate per contact"));
-    }
-    check_finite("q", q)?;
-    let mut q = q.to_vec();
-    for _ in 0..60 {
-        let g = contact_gaps(model, terrain, contacts, &q);
-        let err = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        if err < 1e-13 {
-            return Ok(q);
-        }
-        let m = contacts.len();
-        let mut jac = DMatrix::zeros(m, m);
-        for (j, &i) in free.iter().enumerate() {
-            let h = 1e-7;
-            let mut qp = q.clone();
-            qp[i] += h;
-            let mut qm = q.clone();
-            qm[i] -= h;
-            let gp = contact_gaps(model, terrain, contacts, &qp);
-            let gm = contact_gaps(model, terrain, contacts, &qm);
-            for r in 0..m {
-                jac[(r, j)] = (gp[r] - gm[r]) / (2.0 * h);
-            }
-        }
-        let step = jac
-            .lu()
-            .solve(&nalgebra::DVector::from_vec(g.clone()))
-            .ok_or_else(|| bad("q", "contact pose: singular constraint Jacobian"))?;
-        for (j, &i) in free.iter().enumerate() {
-            q[i] -= step[j].clamp(-0.2, 0.2);
-        }
-    }
-    let g = contact_gaps(model, terrain, contacts, &q);
-    if g.iter().all(|v| v.abs() < 1e-9) {
-        Ok(q)
-    } else {
-        Err(bad(
-            "q",
-            "contact pose: Newton did not converge (no such stance?)",
-        ))
-    }
-}
-
-/// Selector rows `Y` (k×q) picking the coordinates `idx`.
-pub fn selector_rows(nq: usize, idx: &[usize]) -> DMatrix<f64> {
-    let mut y = DMatrix::zeros(idx.len(), nq);
-    for (r, &i) in idx.iter().enumerate() {
-        y[(r, i)] = 1.0;
-    }
-    y
-}
-
-/// The leg carrying contact `k` (`None` for the body).
-pub(crate) fn contact_leg(model: &Model, k: usize) -> Option<usize> {
-    model.contacts[k].link.map(|j| model.joints[j].leg)
 }

@@ -1,24 +1,25 @@
-//! Prescribed motions of massless legs in the air (thesis 5.1.1: a massless leg out of
-//! contact has no dynamics, so its motion is chosen, with bounded acceleration so that it
-//! cannot teleport).
+//! Prescribed motions of free massless joints (thesis 5.1.1: a massless limb out of contact
+//! has no dynamics, so its motion is chosen, with bounded acceleration so that it cannot
+//! teleport).
 //!
-//! Each motion is a smooth function of time, fixed when it starts (at a motor's start or at
-//! the event that released the leg): its acceleration is continuous and piecewise
+//! Each motion is a smooth function of time, fixed when it starts (at a phase's start or at
+//! the event that released the joint): its acceleration is continuous and piecewise
 //! polynomial, so the integrator takes long steps through it — a feedback law that
 //! saturates (`θ̈ = α sat(…)`) has kinks wherever it switches and costs many short steps.
 //!
-//! - [`LegMotion::swing`]: the velocity ramps smoothly (smoothstep) to a cruise speed, cruises,
-//!   and ramps down to rest at a target angle (a smooth trapezoid);
-//! - [`LegMotion::park`]: a quintic to rest at a target angle (used when the trapezoid does
-//!   not fit, e.g. when the leg is already moving fast or the target is close).
+//! - [`JointMotion::swing`]: the velocity ramps smoothly (smoothstep) to a cruise speed,
+//!   cruises, and ramps down to rest at a target angle (a smooth trapezoid);
+//! - [`JointMotion::park`]: a quintic to rest at a target angle (used when the trapezoid
+//!   does not fit, e.g. when the joint is already moving fast or the target is close);
+//! - [`JointMotion::hold`]: rest at an angle.
 //!
 //! Both respect the acceleration bound `α` exactly: the smoothstep ramp from `ω₀` to `ω₁`
 //! over `T` peaks at `1.5 |ω₁ − ω₀| / T`, and the quintic's duration is searched until its
 //! peak acceleration (exact: the extrema of a cubic) is within `α`.
 
-/// One leg's prescribed angle `θ(t)` (rad), its rate and its acceleration.
+/// One joint's prescribed angle `θ(t)` (rad), its rate and its acceleration.
 #[derive(Debug, Clone, PartialEq)]
-pub struct LegMotion {
+pub struct JointMotion {
     t0: f64,
     kind: Kind,
 }
@@ -66,11 +67,11 @@ impl Ramp {
     }
 }
 
-impl LegMotion {
+impl JointMotion {
     /// From `(θ₀, ω₀)` at `t0`: ramp to the cruise speed `v` (its sign is the direction of
     /// `target − θ₀`), cruise, and come to rest at `target`, never accelerating faster than
     /// `accel`. When there is no room for that (the ramps alone would pass the target, or the
-    /// leg moves away from it), a [`LegMotion::park`] instead.
+    /// leg moves away from it), a [`JointMotion::park`] instead.
     pub fn swing(t0: f64, theta0: f64, omega0: f64, target: f64, speed: f64, accel: f64) -> Self {
         let dir = (target - theta0).signum();
         let v = dir * speed.abs().max(dir * omega0);
@@ -94,7 +95,7 @@ impl LegMotion {
             theta = r.end_angle();
             pieces.push(r);
         }
-        LegMotion {
+        JointMotion {
             t0,
             kind: Kind::Ramps {
                 pieces,
@@ -121,7 +122,7 @@ impl LegMotion {
             duration *= 1.02;
             kind = Self::quintic(theta0, omega0, target, duration);
         }
-        LegMotion { t0, kind }
+        JointMotion { t0, kind }
     }
 
     fn quintic(theta0: f64, omega0: f64, target: f64, duration: f64) -> Kind {
@@ -172,12 +173,25 @@ impl LegMotion {
             .fold(0.0, f64::max)
     }
 
+    /// Rest at `angle` from `t0`.
+    pub fn hold(t0: f64, angle: f64) -> Self {
+        JointMotion {
+            t0,
+            kind: Kind::Ramps {
+                pieces: Vec::new(),
+                end: angle,
+            },
+        }
+    }
+
     /// When the motion started.
+    #[inline]
     pub fn t0(&self) -> f64 {
         self.t0
     }
 
     /// `(θ, θ̇, θ̈)` at `t ≥ t0` (before `t0`: the start, at its start speed).
+    #[inline]
     pub fn eval(&self, t: f64) -> (f64, f64, f64) {
         let mut tau = (t - self.t0).max(0.0);
         match &self.kind {
@@ -217,7 +231,7 @@ mod tests {
 
     /// Rate and acceleration against central differences of the angle and rate, continuity
     /// at every piece boundary, the bound on acceleration, and the end at rest on target.
-    fn check(m: &LegMotion, target: f64, accel: f64, t_end: f64) {
+    fn check(m: &JointMotion, target: f64, accel: f64, t_end: f64) {
         let h = 1e-6;
         let n = 4000;
         let mut prev = m.eval(m.t0());
@@ -247,7 +261,7 @@ mod tests {
 
     #[test]
     fn swing_from_rest_is_a_smooth_trapezoid() {
-        let m = LegMotion::swing(0.2, -0.8, 0.0, 2.6, 12.0, 400.0);
+        let m = JointMotion::swing(0.2, -0.8, 0.0, 2.6, 12.0, 400.0);
         assert!(matches!(m.kind, Kind::Ramps { .. }));
         // cruise speed reached after the ramp 1.5 v/α = 0.045 s
         let (_, w, _) = m.eval(0.2 + 0.05);
@@ -257,7 +271,7 @@ mod tests {
 
     #[test]
     fn swing_keeps_a_faster_start_speed() {
-        let m = LegMotion::swing(0.0, 0.3, 20.0, 2.6, 12.0, 400.0);
+        let m = JointMotion::swing(0.0, 0.3, 20.0, 2.6, 12.0, 400.0);
         // 20 rad/s over 2.3 rad with 0.075 s to brake: the trapezoid fits, cruising at 20
         let (_, w, _) = m.eval(0.03);
         assert!((w - 20.0).abs() < 1e-12);
@@ -267,10 +281,10 @@ mod tests {
     #[test]
     fn park_falls_back_on_a_quintic_and_turns_round() {
         // moving away from the target: a quintic that brakes, turns and arrives at rest
-        let m = LegMotion::swing(1.0, 0.5, -15.0, 2.6, 12.0, 400.0);
+        let m = JointMotion::swing(1.0, 0.5, -15.0, 2.6, 12.0, 400.0);
         assert!(matches!(m.kind, Kind::Quintic { .. }));
         check(&m, 2.6, 400.0, 1.0);
-        let p = LegMotion::park(0.0, -0.2, 3.0, -2.6, 400.0);
+        let p = JointMotion::park(0.0, -0.2, 3.0, -2.6, 400.0);
         check(&p, -2.6, 400.0, 1.0);
     }
 }

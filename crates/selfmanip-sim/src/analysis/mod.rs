@@ -1,0 +1,178 @@
+//! Analyses of thesis section 4.3 that take any robot (`Model`): the free motions of a
+//! contact mode (4.20), contact gaps and contact poses (4.41)–(4.43),
+//!
+//! - [`standing`]: reactive standing (4.3.1): the mean/difference torque split (4.45)–(4.49)
+//!   and the quasi-static "generalized damper" controller (4.50)–(4.54), with contact normals
+//!   that need not be vertical;
+//! - [`leg_tail`]: legs as inertial tails in flight (4.67)–(4.68): the momentum route and the
+//!   flight-dynamics route.
+//!
+//! The RHex instances of these (Results A.1–A.3, C.5) and RHex's own analyses (sensor sweep,
+//! pitch control) are in `rhex-model`.
+#![allow(non_snake_case)]
+pub mod leg_tail;
+pub mod standing;
+
+use crate::error::SimError;
+use nalgebra::DMatrix;
+use selfmanip_core::contact::{contact_geometry, RowDirection};
+use selfmanip_core::kinematics::Kinematics;
+use selfmanip_core::{ContactMode, Data, Model, Terrain};
+
+pub(crate) fn bad(field: &str, reason: impl Into<String>) -> SimError {
+    crate::error::invalid(field, reason)
+}
+
+pub(crate) fn check_finite(field: &str, v: &[f64]) -> Result<(), SimError> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(bad(field, "must be finite"))
+    }
+}
+
+/// A configuration `q` of `model`: the right length and finite (errors name `q`).
+pub(crate) fn check_configuration(model: &Model, q: &[f64]) -> Result<(), SimError> {
+    let nq = model.nq();
+    if q.len() != nq {
+        return Err(bad(
+            "q",
+            format!("expected {nq} coordinates, got {}", q.len()),
+        ));
+    }
+    check_finite("q", q)
+}
+
+/// The free motions of thesis (4.20): `H = [A; Y]⁻¹ [0; I_e]` at `q` (`Y`: e×q).
+pub fn free_motion_basis(
+    model: &Model,
+    terrain: &dyn Terrain,
+    mode: ContactMode,
+    q: &[f64],
+    y_map: &DMatrix<f64>,
+) -> Result<DMatrix<f64>, SimError> {
+    let nq = model.nq();
+    check_configuration(model, q)?;
+    let mut data = Data::new(model);
+    data.prepare_geometry(model, terrain, mode, q, &vec![0.0; nq])?;
+    let a = &data.constraints.a;
+    let c = a.nrows();
+    let e = nq - c;
+    if y_map.shape() != (e, nq) {
+        return Err(bad(
+            "Y",
+            format!(
+                "must be {e}×{nq} (e = q − c), got {}×{}",
+                y_map.nrows(),
+                y_map.ncols()
+            ),
+        ));
+    }
+    let mut ay = DMatrix::zeros(nq, nq);
+    ay.view_mut((0, 0), (c, nq)).copy_from(a);
+    ay.view_mut((c, 0), (e, nq)).copy_from(y_map);
+    let sv = ay.clone().svd(false, false).singular_values;
+    if !(sv.min() > 1e-10 * sv.max()) {
+        return Err(bad(
+            "Y",
+            "[A; Y] is singular: y does not parameterize the free motion here",
+        ));
+    }
+    let mut rhs = DMatrix::zeros(nq, e);
+    rhs.view_mut((c, 0), (e, e)).fill_with_identity();
+    Ok(ay.lu().solve(&rhs).expect("checked invertible"))
+}
+
+/// Indices (into λ) of the normal rows of `mode`, in row order.
+pub fn normal_rows(data: &Data) -> Vec<usize> {
+    data.constraints
+        .rows
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.direction == RowDirection::Normal)
+        .map(|(i, _)| i)
+        .collect()
+}
+
+/// Gaps `a_k(q)` of the listed contacts (heights above their ground planes).
+pub fn contact_gaps(
+    model: &Model,
+    terrain: &dyn Terrain,
+    contacts: &[usize],
+    q: &[f64],
+) -> Vec<f64> {
+    let mut kin = Kinematics::default();
+    kin.compute(model, q, &vec![0.0; q.len()]);
+    contacts
+        .iter()
+        .map(|&k| contact_geometry(model, &kin, terrain, k).gap_m)
+        .collect()
+}
+
+/// Puts the listed contacts on the ground by Newton's method on the coordinates `free`
+/// (as many as contacts), starting from `q`: solves the base constraints (4.41)–(4.43)
+/// `a_k(q) = 0` for, e.g., the body height and pitch.
+pub fn solve_contact_pose(
+    model: &Model,
+    terrain: &dyn Terrain,
+    contacts: &[usize],
+    free: &[usize],
+    q: &[f64],
+) -> Result<Vec<f64>, SimError> {
+    if contacts.len() != free.len() || contacts.is_empty() {
+        return Err(bad("free", "need one free coordinate per contact"));
+    }
+    check_finite("q", q)?;
+    let mut q = q.to_vec();
+    for _ in 0..60 {
+        let g = contact_gaps(model, terrain, contacts, &q);
+        let err = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        if err < 1e-13 {
+            return Ok(q);
+        }
+        let m = contacts.len();
+        let mut jac = DMatrix::zeros(m, m);
+        for (j, &i) in free.iter().enumerate() {
+            let h = 1e-7;
+            let mut qp = q.clone();
+            qp[i] += h;
+            let mut qm = q.clone();
+            qm[i] -= h;
+            let gp = contact_gaps(model, terrain, contacts, &qp);
+            let gm = contact_gaps(model, terrain, contacts, &qm);
+            for r in 0..m {
+                jac[(r, j)] = (gp[r] - gm[r]) / (2.0 * h);
+            }
+        }
+        let step = jac
+            .lu()
+            .solve(&nalgebra::DVector::from_vec(g.clone()))
+            .ok_or_else(|| bad("q", "contact pose: singular constraint Jacobian"))?;
+        for (j, &i) in free.iter().enumerate() {
+            q[i] -= step[j].clamp(-0.2, 0.2);
+        }
+    }
+    let g = contact_gaps(model, terrain, contacts, &q);
+    if g.iter().all(|v| v.abs() < 1e-9) {
+        Ok(q)
+    } else {
+        Err(bad(
+            "q",
+            "contact pose: Newton did not converge (no such stance?)",
+        ))
+    }
+}
+
+/// Selector rows `Y` (k×q) picking the coordinates `idx`.
+pub fn selector_rows(nq: usize, idx: &[usize]) -> DMatrix<f64> {
+    let mut y = DMatrix::zeros(idx.len(), nq);
+    for (r, &i) in idx.iter().enumerate() {
+        y[(r, i)] = 1.0;
+    }
+    y
+}
+
+/// The leg carrying contact `k` (`None` for the body).
+pub fn contact_leg(model: &Model, k: usize) -> Option<usize> {
+    model.contacts[k].link.map(|j| model.joints[j].leg)
+}

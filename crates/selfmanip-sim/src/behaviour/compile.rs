@@ -1,0 +1,998 @@
+//! Checking a behaviour against a robot and compiling it into a [`BehaviourController`]:
+//! names resolved to indices, parameters and formulas evaluated, every value checked. Each
+//! error names the field at fault (`joints[1].phases[2].torque.kp_n_m_per_rad`).
+use super::interpreter::{
+    BehaviourController, EventMatch, Level, MatchKind, MotionLaw, NamedPlan, PhasePlan, Plan,
+    Program, Start, TorqueLaw, Value,
+};
+use super::spec::{
+    ActuatorSpec, Behaviour, Interpolation, Motion, NamedEvent, On, Torque, Trigger,
+};
+use crate::error::{finite, invalid, non_negative, positive, SimError};
+use crate::labels::{joint_contacts, joint_index, joint_name};
+use crate::expr::{Expr, Scalar};
+use motor::Actuator;
+use selfmanip_core::Model;
+use selfmanip_hybrid::EventKind;
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+fn known_joints(model: &Model) -> String {
+    (0..model.n_joints())
+        .map(|j| joint_name(model, j))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Evaluates parameters and formulas.
+struct Context<'a> {
+    model: &'a Model,
+    /// Parameters and actuator constants by name.
+    values: BTreeMap<String, f64>,
+}
+
+impl Context<'_> {
+    /// A number known now: `scalar` with the parameters (and `q0`, the joint's start angle,
+    /// when given).
+    fn number(&self, field: &str, s: &Scalar, q0: Option<f64>) -> Result<f64, SimError> {
+        let e = s.parse(field)?;
+        let v = self.eval(field, s, &e, q0, false)?;
+        finite(field, v)
+    }
+
+    fn eval(
+        &self,
+        field: &str,
+        s: &Scalar,
+        e: &Expr,
+        q0: Option<f64>,
+        at_start: bool,
+    ) -> Result<f64, SimError> {
+        let mut vars = Vec::new();
+        e.variables(&mut vars);
+        for v in &vars {
+            let ok = self.values.contains_key(v)
+                || v == "q0" && q0.is_some()
+                || at_start && (v == "theta" || v == "omega");
+            if !ok {
+                let extra = if v == "theta" || v == "omega" {
+                    " (`theta` and `omega` exist only in the targets of motions)"
+                } else {
+                    ""
+                };
+                return Err(SimError::UnknownReference {
+                    field: field.into(),
+                    kind: "parameter",
+                    name: v.clone(),
+                    known: format!(
+                        "{}{extra}",
+                        self.values.keys().cloned().collect::<Vec<_>>().join(", ")
+                    ),
+                });
+            }
+        }
+        e.eval(&|n| match n {
+            "q0" => q0,
+            "theta" | "omega" => Some(0.0),
+            _ => self.values.get(n).copied(),
+        })
+        .map_err(|reason| SimError::Expression {
+            field: field.into(),
+            expr: format!("{s:?}"),
+            reason,
+        })
+    }
+
+    /// A number of a motion: known now unless it uses `theta` or `omega`.
+    fn motion_value(&self, field: &str, s: &Scalar, q0: f64) -> Result<Value, SimError> {
+        let e = s.parse(field)?;
+        // checks names and evaluates once (at θ = ω = 0) to catch errors now
+        let v = self.eval(field, s, &e, Some(q0), true)?;
+        let mut vars = Vec::new();
+        e.variables(&mut vars);
+        if vars.iter().any(|v| v == "theta" || v == "omega") {
+            let mut consts: Vec<(String, f64)> =
+                self.values.iter().map(|(k, v)| (k.clone(), *v)).collect();
+            consts.push(("q0".into(), q0));
+            Ok(Value::AtStart(e, Arc::new(consts)))
+        } else {
+            Ok(Value::Const(finite(field, v)?))
+        }
+    }
+
+    fn contacts(&self, field: &str, names: &[String]) -> Result<u32, SimError> {
+        let mut mask = 0u32;
+        for (i, n) in names.iter().enumerate() {
+            let k = self
+                .model
+                .contacts
+                .iter()
+                .position(|c| &c.name == n)
+                .ok_or_else(|| SimError::UnknownContact {
+                    field: format!("{field}[{i}]"),
+                    name: n.clone(),
+                    known: self
+                        .model
+                        .contacts
+                        .iter()
+                        .map(|c| c.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                })?;
+            mask |= 1 << k;
+        }
+        Ok(mask)
+    }
+}
+
+/// Evaluates the parameters in dependency order (a formula may use other parameters).
+fn parameters(b: &Behaviour) -> Result<BTreeMap<String, f64>, SimError> {
+    let mut exprs = BTreeMap::new();
+    for (name, s) in &b.parameters {
+        let field = format!("parameters.{name}");
+        if name.is_empty()
+            || !name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_')
+            || name.starts_with(|c: char| c.is_ascii_digit())
+            || matches!(name.as_str(), "theta" | "omega" | "q0")
+        {
+            return Err(invalid(
+                field,
+                "a parameter name is letters, digits and `_`, not starting with a digit, and not \
+                 `theta`, `omega` or `q0`",
+            ));
+        }
+        exprs.insert(name.clone(), (field.clone(), s.parse(&field)?));
+    }
+    let mut values = BTreeMap::new();
+    // depth-first, with the path so far to report a cycle
+    fn visit(
+        name: &str,
+        exprs: &BTreeMap<String, (String, Expr)>,
+        values: &mut BTreeMap<String, f64>,
+        path: &mut Vec<String>,
+    ) -> Result<f64, SimError> {
+        if let Some(v) = values.get(name) {
+            return Ok(*v);
+        }
+        let (field, e) = &exprs[name];
+        if let Some(i) = path.iter().position(|p| p == name) {
+            let mut cycle = path[i..].to_vec();
+            cycle.push(name.to_string());
+            return Err(SimError::Cycle {
+                field: format!("parameters.{}", path[i]),
+                cycle,
+            });
+        }
+        path.push(name.to_string());
+        let mut vars = Vec::new();
+        e.variables(&mut vars);
+        let mut local = BTreeMap::new();
+        for v in &vars {
+            if !exprs.contains_key(v) {
+                return Err(SimError::UnknownReference {
+                    field: field.clone(),
+                    kind: "parameter",
+                    name: v.clone(),
+                    known: exprs.keys().cloned().collect::<Vec<_>>().join(", "),
+                });
+            }
+            local.insert(v.clone(), visit(v, exprs, values, path)?);
+        }
+        path.pop();
+        let v = e
+            .eval(&|n| local.get(n).copied())
+            .map_err(|reason| SimError::Expression {
+                field: field.clone(),
+                expr: format!("{e:?}"),
+                reason,
+            })?;
+        let v = finite(field, v)?;
+        values.insert(name.to_string(), v);
+        Ok(v)
+    }
+    for name in exprs.keys() {
+        visit(name, &exprs, &mut values, &mut Vec::new())?;
+    }
+    Ok(values)
+}
+
+/// An actuator of the spec, and its stall torque `τ(u = 1, ω = 0)`.
+fn actuator(
+    cx: &Context<'_>,
+    field: &str,
+    spec: &ActuatorSpec,
+) -> Result<Arc<dyn Actuator>, SimError> {
+    let motor_err = |f: &str| {
+        let f = format!("{field}.{f}");
+        move |e: motor::MotorError| SimError::Motor {
+            field: f.clone(),
+            source: e,
+        }
+    };
+    Ok(match spec {
+        ActuatorSpec::Saturated { max_torque_n_m } => {
+            let f = format!("{field}.max_torque_n_m");
+            let tau = positive(&f, cx.number(&f, max_torque_n_m, None)?)?;
+            Arc::new(motor::SaturatedTorque::new(tau).map_err(motor_err("max_torque_n_m"))?)
+        }
+        ActuatorSpec::DcMotor {
+            motor: motor_name,
+            gearbox,
+            gear_ratio,
+            current_limit_a,
+            supply_voltage_v,
+            count,
+            catalog,
+        } => {
+            let catalog = match catalog {
+                None => motor::Catalog::thesis(),
+                Some(path) => {
+                    let text = super::spec::read_text(std::path::Path::new(path))?;
+                    motor::Catalog::from_toml_str(&text).map_err(motor_err("catalog"))?
+                }
+            };
+            let mut m = catalog
+                .motor_spec(motor_name)
+                .and_then(|m| m.motor())
+                .map_err(motor_err("motor"))?;
+            if let Some(v) = supply_voltage_v {
+                let f = format!("{field}.supply_voltage_v");
+                let v = positive(&f, cx.number(&f, v, None)?)?;
+                m = m.at_voltage(v).map_err(motor_err("supply_voltage_v"))?;
+            }
+            if let Some(i) = current_limit_a {
+                let f = format!("{field}.current_limit_a");
+                let i = positive(&f, cx.number(&f, i, None)?)?;
+                m = m.with_current_limit(i).map_err(motor_err("current_limit_a"))?;
+            }
+            let mut g = catalog.gearbox(gearbox).map_err(motor_err("gearbox"))?.clone();
+            if let Some(r) = gear_ratio {
+                let f = format!("{field}.gear_ratio");
+                g.ratio = positive(&f, cx.number(&f, r, None)?)?;
+            }
+            let f = format!("{field}.count");
+            let n = cx.number(&f, count, None)?;
+            if !(n >= 1.0 && n.fract() == 0.0) {
+                return Err(invalid(f, format!("must be a whole number ≥ 1, got {n}")));
+            }
+            Arc::new(Drives {
+                drive: motor::Drive::new(m, g).map_err(motor_err("gearbox"))?,
+                n,
+            })
+        }
+    })
+}
+
+/// `n` identical drives in parallel on one joint.
+struct Drives {
+    drive: motor::Drive,
+    n: f64,
+}
+
+impl Actuator for Drives {
+    fn joint_torque_n_m(&self, command: f64, speed: f64) -> f64 {
+        self.n * self.drive.joint_torque_n_m(command, speed)
+    }
+    fn electrical_power_w(&self, command: f64, speed: f64) -> f64 {
+        self.n * self.drive.electrical_power_w(command, speed)
+    }
+}
+
+/// A trigger's kind of event, or an error if it is not an event.
+fn event_kind(field: &str, on: On) -> Result<MatchKind, SimError> {
+    Ok(match on {
+        On::Touchdown => MatchKind::Kind(EventKind::Touchdown),
+        On::Liftoff => MatchKind::Kind(EventKind::Liftoff),
+        On::Slip => MatchKind::Kind(EventKind::Slip),
+        On::Stick => MatchKind::Kind(EventKind::Stick),
+        On::Apex => MatchKind::Kind(EventKind::Apex),
+        On::Release => MatchKind::Release,
+        On::Touch => MatchKind::Touch,
+        On::Flight => MatchKind::Flight,
+        On::Any => MatchKind::Any,
+        On::JointAngle | On::Phase => {
+            return Err(invalid(
+                format!("{field}.on"),
+                "`joint_angle` and `phase` are not events: use them to start a phase",
+            ))
+        }
+    })
+}
+
+/// Where a phase reference points: `(program, phase)`.
+type PhaseRef = (usize, usize);
+
+struct Compiler<'a> {
+    cx: Context<'a>,
+    named: Vec<String>,
+    /// `(joint name, phase names)` of every program, for phase references.
+    programs: Vec<(String, Vec<String>)>,
+}
+
+impl Compiler<'_> {
+    fn event_match(
+        &self,
+        field: &str,
+        on: On,
+        contacts: &Option<Vec<String>>,
+        not_before_s: &Option<Scalar>,
+        own: u32,
+        q0: Option<f64>,
+    ) -> Result<EventMatch, SimError> {
+        let kind = event_kind(field, on)?;
+        let contacts = match contacts {
+            Some(names) => self.cx.contacts(&format!("{field}.contacts"), names)?,
+            None => own,
+        };
+        let not_before_s = match not_before_s {
+            Some(s) => {
+                let f = format!("{field}.not_before_s");
+                self.cx.number(&f, s, q0)?
+            }
+            None => f64::NEG_INFINITY,
+        };
+        Ok(EventMatch {
+            kind,
+            contacts,
+            not_before_s,
+        })
+    }
+
+    fn named_index(&self, field: &str, name: &str) -> Result<usize, SimError> {
+        self.named
+            .iter()
+            .position(|n| n == name)
+            .ok_or_else(|| SimError::UnknownReference {
+                field: field.into(),
+                kind: "event",
+                name: name.into(),
+                known: self.named.join(", "),
+            })
+    }
+
+    fn phase_ref(&self, field: &str, name: &str) -> Result<PhaseRef, SimError> {
+        let unknown = || SimError::UnknownReference {
+            field: field.into(),
+            kind: "phase",
+            name: name.into(),
+            known: self
+                .programs
+                .iter()
+                .flat_map(|(j, ps)| ps.iter().map(move |p| format!("{j}.{p}")))
+                .collect::<Vec<_>>()
+                .join(", "),
+        };
+        let (joint, phase) = name.rsplit_once('.').ok_or_else(unknown)?;
+        let p = self
+            .programs
+            .iter()
+            .position(|(j, _)| j == joint)
+            .ok_or_else(unknown)?;
+        let k = self.programs[p]
+            .1
+            .iter()
+            .position(|n| n == phase)
+            .ok_or_else(unknown)?;
+        Ok((p, k))
+    }
+
+    /// Adds the alternatives of `t` to `start`; `phase_refs` collects the phase references.
+    #[allow(clippy::too_many_arguments)]
+    fn start(
+        &self,
+        field: &str,
+        t: &Trigger,
+        start: &mut Start,
+        own_joint: usize,
+        own: u32,
+        q0: f64,
+        nested: bool,
+    ) -> Result<(), SimError> {
+        let set = [
+            t.at_s.is_some(),
+            t.on.is_some(),
+            t.event.is_some(),
+            t.any.is_some(),
+        ];
+        if set.iter().filter(|&&b| b).count() != 1 {
+            return Err(invalid(
+                field,
+                "give exactly one of `at_s`, `on`, `event`, `any`",
+            ));
+        }
+        let only = |names: &[(&str, bool)]| -> Result<(), SimError> {
+            for (n, given) in names {
+                if *given {
+                    return Err(invalid(
+                        format!("{field}.{n}"),
+                        "does not apply to this kind of trigger",
+                    ));
+                }
+            }
+            Ok(())
+        };
+        if let Some(at) = &t.at_s {
+            only(&[
+                ("contacts", t.contacts.is_some()),
+                ("not_before_s", t.not_before_s.is_some()),
+                ("joint", t.joint.is_some()),
+                ("angle_rad", t.angle_rad.is_some()),
+                ("direction", t.direction.is_some()),
+                ("phase", t.phase.is_some()),
+                ("delay_s", t.delay_s.is_some()),
+            ])?;
+            let f = format!("{field}.at_s");
+            start.times.push(self.cx.number(&f, at, Some(q0))?);
+        } else if let Some(name) = &t.event {
+            only(&[
+                ("contacts", t.contacts.is_some()),
+                ("not_before_s", t.not_before_s.is_some()),
+                ("joint", t.joint.is_some()),
+                ("angle_rad", t.angle_rad.is_some()),
+                ("direction", t.direction.is_some()),
+                ("phase", t.phase.is_some()),
+                ("delay_s", t.delay_s.is_some()),
+            ])?;
+            start
+                .named
+                .push(self.named_index(&format!("{field}.event"), name)?);
+        } else if let Some(list) = &t.any {
+            if list.is_empty() {
+                return Err(invalid(format!("{field}.any"), "must not be empty"));
+            }
+            for (i, sub) in list.iter().enumerate() {
+                self.start(
+                    &format!("{field}.any[{i}]"),
+                    sub,
+                    start,
+                    own_joint,
+                    own,
+                    q0,
+                    true,
+                )?;
+            }
+        } else if let Some(on) = t.on {
+            match on {
+                On::JointAngle => {
+                    if nested {
+                        return Err(invalid(
+                            format!("{field}.on"),
+                            "a joint-angle level cannot be one of several alternatives",
+                        ));
+                    }
+                    only(&[
+                        ("contacts", t.contacts.is_some()),
+                        ("not_before_s", t.not_before_s.is_some()),
+                        ("phase", t.phase.is_some()),
+                        ("delay_s", t.delay_s.is_some()),
+                    ])?;
+                    let joint = match &t.joint {
+                        None => own_joint,
+                        Some(name) => {
+                            joint_index(self.cx.model, name).ok_or_else(|| {
+                                SimError::UnknownJoint {
+                                    field: format!("{field}.joint"),
+                                    name: name.clone(),
+                                    known: known_joints(self.cx.model),
+                                }
+                            })?
+                        }
+                    };
+                    let f = format!("{field}.angle_rad");
+                    let angle = match &t.angle_rad {
+                        Some(a) => self.cx.number(&f, a, Some(q0))?,
+                        None => return Err(invalid(f, "is required for `joint_angle`")),
+                    };
+                    let f = format!("{field}.direction");
+                    let direction = match &t.direction {
+                        Some(d) => self.cx.number(&f, d, Some(q0))?,
+                        None => 1.0,
+                    };
+                    if direction != 1.0 && direction != -1.0 {
+                        return Err(invalid(f, format!("must be +1 or -1, got {direction}")));
+                    }
+                    start.level = Some(Level {
+                        joint,
+                        direction,
+                        angle,
+                    });
+                }
+                On::Phase => {
+                    only(&[
+                        ("contacts", t.contacts.is_some()),
+                        ("not_before_s", t.not_before_s.is_some()),
+                        ("joint", t.joint.is_some()),
+                        ("angle_rad", t.angle_rad.is_some()),
+                        ("direction", t.direction.is_some()),
+                    ])?;
+                    let f = format!("{field}.phase");
+                    let name = t
+                        .phase
+                        .as_ref()
+                        .ok_or_else(|| invalid(f.clone(), "is required for `phase`"))?;
+                    let (p, k) = self.phase_ref(&f, name)?;
+                    let f = format!("{field}.delay_s");
+                    let delay = match &t.delay_s {
+                        Some(d) => non_negative(&f, self.cx.number(&f, d, Some(q0))?)?,
+                        None => 0.0,
+                    };
+                    start.phases.push((p, k, delay));
+                }
+                _ => {
+                    only(&[
+                        ("joint", t.joint.is_some()),
+                        ("angle_rad", t.angle_rad.is_some()),
+                        ("direction", t.direction.is_some()),
+                        ("phase", t.phase.is_some()),
+                        ("delay_s", t.delay_s.is_some()),
+                    ])?;
+                    start.events.push(self.event_match(
+                        field,
+                        on,
+                        &t.contacts,
+                        &t.not_before_s,
+                        own,
+                        Some(q0),
+                    )?);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn torque(
+        &self,
+        field: &str,
+        t: &Torque,
+        q0: f64,
+        actuators: &[String],
+    ) -> Result<TorqueLaw, SimError> {
+        let num = |f: &str, s: &Scalar| self.cx.number(&format!("{field}.{f}"), s, Some(q0));
+        Ok(match t {
+            Torque::Zero => TorqueLaw::Zero,
+            Torque::Constant { torque_n_m } => TorqueLaw::Constant(num("torque_n_m", torque_n_m)?),
+            Torque::Schedule {
+                times_s,
+                torques_n_m,
+                interpolation,
+            } => {
+                if times_s.is_empty() || times_s.len() != torques_n_m.len() {
+                    return Err(invalid(
+                        format!("{field}.torques_n_m"),
+                        format!(
+                            "needs one torque per time and at least one ({} times, {} torques)",
+                            times_s.len(),
+                            torques_n_m.len()
+                        ),
+                    ));
+                }
+                let times = times_s
+                    .iter()
+                    .enumerate()
+                    .map(|(i, s)| num(&format!("times_s[{i}]"), s))
+                    .collect::<Result<Vec<_>, _>>()?;
+                if times.windows(2).any(|w| w[1] <= w[0]) {
+                    return Err(invalid(
+                        format!("{field}.times_s"),
+                        "times must increase strictly",
+                    ));
+                }
+                let torques = torques_n_m
+                    .iter()
+                    .enumerate()
+                    .map(|(i, s)| num(&format!("torques_n_m[{i}]"), s))
+                    .collect::<Result<Vec<_>, _>>()?;
+                TorqueLaw::Schedule {
+                    times,
+                    torques,
+                    hold: *interpolation == Interpolation::Hold,
+                }
+            }
+            Torque::Servo {
+                target_rad,
+                kp_n_m_per_rad,
+                kd_n_m_s_per_rad,
+                torque_limit_n_m,
+                only_in_contact,
+            } => {
+                let nn = |f: &str, s: &Scalar| -> Result<f64, SimError> {
+                    non_negative(&format!("{field}.{f}"), num(f, s)?)
+                };
+                TorqueLaw::Servo {
+                    target: target_rad
+                        .as_ref()
+                        .map(|s| num("target_rad", s))
+                        .transpose()?,
+                    kp: nn("kp_n_m_per_rad", kp_n_m_per_rad)?,
+                    kd: nn("kd_n_m_s_per_rad", kd_n_m_s_per_rad)?,
+                    limit: match torque_limit_n_m {
+                        Some(s) => nn("torque_limit_n_m", s)?,
+                        None => f64::INFINITY,
+                    },
+                    only_in_contact: *only_in_contact,
+                }
+            }
+            Torque::Motor {
+                actuator,
+                command,
+                reverse_beyond_rad,
+            } => {
+                let a = actuators.iter().position(|n| n == actuator).ok_or_else(|| {
+                    SimError::UnknownReference {
+                        field: format!("{field}.actuator"),
+                        kind: "actuator",
+                        name: actuator.clone(),
+                        known: actuators.join(", "),
+                    }
+                })?;
+                let u = num("command", command)?;
+                if !(-1.0..=1.0).contains(&u) {
+                    return Err(invalid(
+                        format!("{field}.command"),
+                        format!("must lie in [-1, 1], got {u}"),
+                    ));
+                }
+                TorqueLaw::Motor {
+                    actuator: a,
+                    command: u,
+                    reverse_beyond: reverse_beyond_rad
+                        .as_ref()
+                        .map(|s| num("reverse_beyond_rad", s))
+                        .transpose()?,
+                }
+            }
+        })
+    }
+
+    fn motion(&self, field: &str, m: &Motion, q0: f64) -> Result<MotionLaw, SimError> {
+        let v = |f: &str, s: &Scalar| self.cx.motion_value(&format!("{field}.{f}"), s, q0);
+        let pos = |f: &str, s: &Scalar| -> Result<Value, SimError> {
+            let val = v(f, s)?;
+            if let Value::Const(x) = val {
+                positive(&format!("{field}.{f}"), x)?;
+            }
+            Ok(val)
+        };
+        Ok(match m {
+            Motion::Hold { angle_rad } => MotionLaw::Hold {
+                angle: v("angle_rad", angle_rad)?,
+            },
+            Motion::Swing {
+                target_rad,
+                speed_rad_s,
+                accel_rad_s2,
+            } => MotionLaw::Swing {
+                target: v("target_rad", target_rad)?,
+                speed: pos("speed_rad_s", speed_rad_s)?,
+                accel: pos("accel_rad_s2", accel_rad_s2)?,
+            },
+            Motion::Park {
+                target_rad,
+                accel_rad_s2,
+            } => MotionLaw::Park {
+                target: v("target_rad", target_rad)?,
+                accel: pos("accel_rad_s2", accel_rad_s2)?,
+            },
+        })
+    }
+
+    fn named_event(&self, name: &str, ev: &NamedEvent) -> Result<NamedPlan, SimError> {
+        let field = format!("events.{name}");
+        let trigger = self.event_match(
+            &field,
+            ev.on,
+            &ev.contacts,
+            &ev.not_before_s,
+            u32::MAX,
+            None,
+        )?;
+        let after = ev
+            .after_event
+            .as_ref()
+            .map(|a| self.named_index(&format!("{field}.after_event"), a))
+            .transpose()?;
+        Ok(NamedPlan {
+            name: name.into(),
+            trigger,
+            after,
+        })
+    }
+}
+
+/// The order in which named events are checked (each after the one it waits for), or the
+/// cycle.
+fn named_order(b: &Behaviour, names: &[String]) -> Result<Vec<usize>, SimError> {
+    let after: Vec<Option<usize>> = names
+        .iter()
+        .map(|n| {
+            b.events[n]
+                .after_event
+                .as_ref()
+                .and_then(|a| names.iter().position(|x| x == a))
+        })
+        .collect();
+    let mut order = Vec::new();
+    for start in 0..names.len() {
+        let mut path: Vec<usize> = Vec::new();
+        let mut n = start;
+        loop {
+            if order.contains(&n) {
+                break;
+            }
+            if let Some(i) = path.iter().position(|&p| p == n) {
+                let mut cycle: Vec<String> = path[i..].iter().map(|&p: &usize| names[p].clone()).collect();
+                cycle.push(names[n].clone());
+                return Err(SimError::Cycle {
+                    field: format!("events.{}.after_event", names[n]),
+                    cycle,
+                });
+            }
+            path.push(n);
+            match after[n] {
+                Some(a) => n = a,
+                None => break,
+            }
+        }
+        for &p in path.iter().rev() {
+            if !order.contains(&p) {
+                order.push(p);
+            }
+        }
+    }
+    Ok(order)
+}
+
+/// Refuses phases that can only start after phases that can only start after them (a
+/// deadlock): an edge `X → Y` when `X` starts on nothing but phase references, one of them
+/// to `Y`.
+fn check_phase_cycles(
+    programs: &[Program],
+    names: &[(String, Vec<String>)],
+) -> Result<(), SimError> {
+    let only_refs = |(p, k): PhaseRef| -> Vec<PhaseRef> {
+        let s = &programs[p].phases[k].start;
+        if s.times.is_empty() && s.events.is_empty() && s.named.is_empty() && s.level.is_none()
+        {
+            s.phases.iter().map(|&(p2, k2, _)| (p2, k2)).collect()
+        } else {
+            Vec::new()
+        }
+    };
+    let label = |(p, k): PhaseRef| format!("{}.{}", names[p].0, names[p].1[k]);
+    for p in 0..programs.len() {
+        for k in 1..programs[p].phases.len() {
+            // depth-first from (p, k) along phase-only waits, looking for (p, k) again
+            let mut stack = vec![vec![(p, k)]];
+            let mut seen = vec![(p, k)];
+            while let Some(path) = stack.pop() {
+                for d in only_refs(*path.last().expect("non-empty")) {
+                    if d == (p, k) {
+                        let mut cycle: Vec<String> = path.iter().map(|&x| label(x)).collect();
+                        cycle.push(label(d));
+                        return Err(SimError::Cycle {
+                            field: format!("joints[{p}].phases[{k}].start"),
+                            cycle,
+                        });
+                    }
+                    if !seen.contains(&d) {
+                        seen.push(d);
+                        let mut next = path.clone();
+                        next.push(d);
+                        stack.push(next);
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Checks `b` against `model` and compiles it into the interpreter, starting from
+/// `(q0, qd0)` (the joints' start angles are the expression variable `q0`); phases that
+/// start at known times are planned up to `horizon_s` (the run's final time).
+pub fn compile(
+    b: &Behaviour,
+    model: &Model,
+    q0: &[f64],
+    qd0: &[f64],
+    horizon_s: f64,
+) -> Result<BehaviourController, SimError> {
+    let nq = model.nq();
+    for (field, v) in [("q0", q0), ("qd0", qd0)] {
+        if v.len() != nq {
+            return Err(invalid(
+                field,
+                format!("expected {nq} coordinates, got {}", v.len()),
+            ));
+        }
+        if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+            return Err(invalid(format!("{field}[{i}]"), "must be finite"));
+        }
+    }
+    let mut values = parameters(b)?;
+    // actuators, and their stall torques as parameters `<name>.stall_torque_n_m`
+    let mut actuators = Vec::new();
+    let actuator_names: Vec<String> = b.actuators.keys().cloned().collect();
+    {
+        let cx = Context {
+            model,
+            values: values.clone(),
+        };
+        for (name, spec) in &b.actuators {
+            let a = actuator(&cx, &format!("actuators.{name}"), spec)?;
+            values.insert(
+                format!("{name}.stall_torque_n_m"),
+                a.joint_torque_n_m(1.0, 0.0),
+            );
+            actuators.push(a);
+        }
+    }
+    let named: Vec<String> = b.events.keys().cloned().collect();
+    let mut programs_names = Vec::new();
+    let mut program_of_joint = vec![None; model.n_joints()];
+    for (i, prog) in b.joints.iter().enumerate() {
+        let field = format!("joints[{i}].joint");
+        let j = joint_index(model, &prog.joint).ok_or_else(|| SimError::UnknownJoint {
+            field: field.clone(),
+            name: prog.joint.clone(),
+            known: known_joints(model),
+        })?;
+        if program_of_joint[j].is_some() {
+            return Err(invalid(field, format!("joint `{}` has two programs", prog.joint)));
+        }
+        program_of_joint[j] = Some(i);
+        let mut phase_names: Vec<String> = Vec::new();
+        for (k, ph) in prog.phases.iter().enumerate() {
+            if phase_names.contains(&ph.name) || ph.name.is_empty() {
+                return Err(invalid(
+                    format!("joints[{i}].phases[{k}].name"),
+                    "phase names must be non-empty and distinct",
+                ));
+            }
+            phase_names.push(ph.name.clone());
+        }
+        if prog.phases.is_empty() {
+            return Err(invalid(format!("joints[{i}].phases"), "needs at least one phase"));
+        }
+        programs_names.push((prog.joint.clone(), phase_names));
+    }
+    let c = Compiler {
+        cx: Context { model, values },
+        named: named.clone(),
+        programs: programs_names.clone(),
+    };
+    let order = named_order(b, &named)?;
+    let mut named_plans: Vec<NamedPlan> = Vec::new();
+    // indices in `named` are re-mapped to check order
+    let remap: Vec<usize> = (0..named.len())
+        .map(|n| order.iter().position(|&o| o == n).expect("a permutation"))
+        .collect();
+    for &n in &order {
+        let mut plan = c.named_event(&named[n], &b.events[&named[n]])?;
+        plan.after = plan.after.map(|a| remap[a]);
+        named_plans.push(plan);
+    }
+    let free = &b.free_joints;
+    let kp_free = non_negative(
+        "free_joints.kp_per_s2",
+        c.cx.number("free_joints.kp_per_s2", &free.kp_per_s2, None)?,
+    )?;
+    let kd_free = non_negative(
+        "free_joints.kd_per_s",
+        c.cx.number("free_joints.kd_per_s", &free.kd_per_s, None)?,
+    )?;
+    let mut programs = Vec::new();
+    for (i, prog) in b.joints.iter().enumerate() {
+        let j = joint_index(model, &prog.joint).expect("checked above");
+        let own = joint_contacts(model, j);
+        let mut phases: Vec<PhasePlan> = Vec::new();
+        for (k, ph) in prog.phases.iter().enumerate() {
+            let field = format!("joints[{i}].phases[{k}]");
+            let mut start = Start::default();
+            match (&ph.start, k) {
+                (Some(_), 0) => {
+                    return Err(invalid(
+                        format!("{field}.start"),
+                        "the first phase holds from the start: it has no `start`",
+                    ))
+                }
+                (None, 0) => {}
+                (None, _) => {
+                    return Err(invalid(format!("{field}.start"), "is required after the first phase"))
+                }
+                (Some(t), _) => c.start(&format!("{field}.start"), t, &mut start, j, own, q0[j], false)?,
+            }
+            for n in &mut start.named {
+                *n = remap[*n];
+            }
+            let torque = c.torque(&format!("{field}.torque"), &ph.torque, q0[j], &actuator_names)?;
+            let (motion, own_motion) = match (&ph.motion, phases.last()) {
+                (Some(m), _) => (c.motion(&format!("{field}.motion"), m, q0[j])?, true),
+                (None, Some(prev)) => (prev.motion.clone(), false),
+                (None, None) => (
+                    MotionLaw::Hold {
+                        angle: Value::Const(q0[j]),
+                    },
+                    true,
+                ),
+            };
+            let (restart_on, restart_named) = match (&ph.restart_on, phases.last()) {
+                (Some(list), _) => {
+                    let mut events = Vec::new();
+                    let mut names = Vec::new();
+                    for (r, t) in list.iter().enumerate() {
+                        let f = format!("{field}.restart_on[{r}]");
+                        let mut s = Start::default();
+                        c.start(&f, t, &mut s, j, own, q0[j], true)?;
+                        if !s.times.is_empty() || !s.phases.is_empty() {
+                            return Err(invalid(
+                                f,
+                                "a motion restarts at events (`on`, `event`, `any`), not at times or phases",
+                            ));
+                        }
+                        events.extend(s.events);
+                        names.extend(s.named.iter().map(|&n| remap[n]));
+                    }
+                    (events, names)
+                }
+                (None, Some(prev)) => (prev.restart_on.clone(), prev.restart_named.clone()),
+                (None, None) => (Vec::new(), Vec::new()),
+            };
+            phases.push(PhasePlan {
+                name: ph.name.clone(),
+                start,
+                torque,
+                motion,
+                own_motion,
+                restart_on,
+                restart_named,
+            });
+        }
+        let repeat_from = match &prog.repeat_from {
+            None => None,
+            Some(name) => {
+                let f = format!("joints[{i}].repeat_from");
+                let r = phases.iter().position(|ph| &ph.name == name).ok_or_else(|| {
+                    SimError::UnknownReference {
+                        field: f.clone(),
+                        kind: "phase",
+                        name: name.clone(),
+                        known: phases.iter().map(|ph| ph.name.clone()).collect::<Vec<_>>().join(", "),
+                    }
+                })?;
+                if r == 0 || phases[r].start.level.is_some() {
+                    return Err(invalid(
+                        f,
+                        "a program repeats from a phase after the first that is not a joint-angle level",
+                    ));
+                }
+                Some(r)
+            }
+        };
+        programs.push(Program {
+            joint: j,
+            contacts: own,
+            phases,
+            repeat_from,
+        });
+    }
+    check_phase_cycles(&programs, &programs_names)?;
+    let plan = Plan {
+        programs,
+        actuators,
+        named: named_plans,
+        program_of_joint,
+        kp_free,
+        kd_free,
+        horizon_s: if horizon_s.is_nan() { f64::INFINITY } else { horizon_s },
+    };
+    BehaviourController::new(plan, q0, qd0).map_err(|p| {
+        invalid(
+            format!("joints[{p}]"),
+            "plans more than 10000 phases ahead: a repeating program needs an event or a \
+             positive delay in its cycle",
+        )
+    })
+}

@@ -1,0 +1,552 @@
+//! The behaviour interpreter: a [`Controller`] that runs a compiled behaviour.
+//!
+//! Its immutable plan (programs, actuators, constants) is shared behind an `Arc`; its memory
+//! — the named events that have happened, each phase's start time once known, each joint's
+//! prescribed motions — lives in plain fields that only [`Controller::on_event`] changes, so
+//! the engine's copy per segment is the behaviour exactly as it ran there.
+//!
+//! ```text
+//! torque(t, q, q̇, mode):  per program: phase = last phase started by t (a joint-angle phase
+//!                          overlays while its level holds) => its torque law
+//! free_joint_qdd:          α_ref + kp (θ_ref − q) + kd (ω_ref − q̇), the reference being the
+//!                          joint's last motion started by t
+//! on_event(e):             named events => phase latches => start times resolved =>
+//!                          motions (re)started at e, and those of later timed phases
+//! ```
+use crate::expr::Expr;
+use crate::motion::JointMotion;
+use motor::Actuator;
+use selfmanip_core::ContactMode;
+use selfmanip_hybrid::{Controller, Event, EventKind};
+use std::sync::Arc;
+
+/// A number known when the behaviour is compiled, or one that depends on the joint's angle
+/// and rate where a motion starts (`theta`, `omega`).
+#[derive(Debug, Clone)]
+pub(crate) enum Value {
+    Const(f64),
+    AtStart(Expr, Arc<Vec<(String, f64)>>),
+}
+
+impl Value {
+    fn at(&self, theta: f64, omega: f64) -> f64 {
+        match self {
+            Value::Const(x) => *x,
+            Value::AtStart(e, consts) => e
+                .eval(&|n| match n {
+                    "theta" => Some(theta),
+                    "omega" => Some(omega),
+                    _ => consts.iter().find(|(k, _)| k == n).map(|(_, v)| *v),
+                })
+                .unwrap_or(f64::NAN),
+        }
+    }
+}
+
+/// Which events a trigger matches.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum MatchKind {
+    Kind(EventKind),
+    Release,
+    Touch,
+    Flight,
+    Any,
+}
+
+/// A trigger on the events of the execution.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct EventMatch {
+    pub kind: MatchKind,
+    /// Contacts (bit k = contact k) the event must concern.
+    pub contacts: u32,
+    pub not_before_s: f64,
+}
+
+impl EventMatch {
+    pub(crate) fn matches(&self, e: &Event) -> bool {
+        if e.t < self.not_before_s {
+            return false;
+        }
+        let (before, after) = (e.mode_before.normal_bits(), e.mode_after.normal_bits());
+        match self.kind {
+            MatchKind::Kind(k) => {
+                e.kind == k && e.triggered.iter().any(|&c| self.contacts >> c & 1 == 1)
+            }
+            MatchKind::Release => before & !after & self.contacts != 0,
+            MatchKind::Touch => after & !before & self.contacts != 0,
+            MatchKind::Flight => e.mode_after.is_flight(),
+            MatchKind::Any => true,
+        }
+    }
+}
+
+/// `direction · q_joint > direction · angle`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Level {
+    pub joint: usize,
+    pub direction: f64,
+    pub angle: f64,
+}
+
+impl Level {
+    #[inline]
+    fn holds(&self, q: &[f64]) -> bool {
+        self.direction * q[self.joint] > self.direction * self.angle
+    }
+}
+
+/// How a phase starts: the first of its alternatives.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Start {
+    /// At these times (s).
+    pub times: Vec<f64>,
+    /// At the first matching event once armed.
+    pub events: Vec<EventMatch>,
+    /// When these named events have happened.
+    pub named: Vec<usize>,
+    /// This long after these phases `(program, phase, delay)` started.
+    pub phases: Vec<(usize, usize, f64)>,
+    /// A level (a joint-angle phase; no other alternative).
+    pub level: Option<Level>,
+}
+
+#[derive(Debug, Clone)]
+pub(crate) enum TorqueLaw {
+    Zero,
+    Constant(f64),
+    Schedule {
+        times: Vec<f64>,
+        torques: Vec<f64>,
+        hold: bool,
+    },
+    Servo {
+        /// `None`: the joint's motion.
+        target: Option<f64>,
+        kp: f64,
+        kd: f64,
+        limit: f64,
+        only_in_contact: bool,
+    },
+    Motor {
+        actuator: usize,
+        command: f64,
+        reverse_beyond: Option<f64>,
+    },
+}
+
+#[derive(Debug, Clone)]
+pub(crate) enum MotionLaw {
+    Hold {
+        angle: Value,
+    },
+    Swing {
+        target: Value,
+        speed: Value,
+        accel: Value,
+    },
+    Park {
+        target: Value,
+        accel: Value,
+    },
+}
+
+impl MotionLaw {
+    fn start(&self, t0: f64, theta: f64, omega: f64) -> JointMotion {
+        match self {
+            MotionLaw::Hold { angle } => JointMotion::hold(t0, angle.at(theta, omega)),
+            MotionLaw::Swing {
+                target,
+                speed,
+                accel,
+            } => JointMotion::swing(
+                t0,
+                theta,
+                omega,
+                target.at(theta, omega),
+                speed.at(theta, omega),
+                accel.at(theta, omega),
+            ),
+            MotionLaw::Park { target, accel } => JointMotion::park(
+                t0,
+                theta,
+                omega,
+                target.at(theta, omega),
+                accel.at(theta, omega),
+            ),
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+pub(crate) struct PhasePlan {
+    pub name: String,
+    pub start: Start,
+    pub torque: TorqueLaw,
+    pub motion: MotionLaw,
+    /// Whether the phase has a motion of its own (one that starts with the phase).
+    pub own_motion: bool,
+    pub restart_on: Vec<EventMatch>,
+    pub restart_named: Vec<usize>,
+}
+
+#[derive(Debug, Clone)]
+pub(crate) struct Program {
+    pub joint: usize,
+    /// The joint's contacts (carried by its link or the links beyond it).
+    pub contacts: u32,
+    pub phases: Vec<PhasePlan>,
+    /// The phase that follows the last one (a repeating program), if any.
+    pub repeat_from: Option<usize>,
+}
+
+/// A named event: its trigger and the named event it waits for.
+#[derive(Debug, Clone)]
+pub(crate) struct NamedPlan {
+    pub name: String,
+    pub trigger: EventMatch,
+    pub after: Option<usize>,
+}
+
+/// What a compiled behaviour runs: immutable, shared by every copy of the controller.
+pub(crate) struct Plan {
+    pub programs: Vec<Program>,
+    pub actuators: Vec<Arc<dyn Actuator>>,
+    /// Named events in an order where each comes after the one it waits for.
+    pub named: Vec<NamedPlan>,
+    pub program_of_joint: Vec<Option<usize>>,
+    pub kp_free: f64,
+    pub kd_free: f64,
+    /// Phases that start at known times are planned up to here (the run's final time).
+    pub horizon_s: f64,
+}
+
+/// Most phase starts planned ahead per program and pass (a loop of timed phases with no
+/// delay would otherwise plan forever).
+pub(crate) const PLAN_CAP: usize = 10_000;
+
+/// The memory of one joint program.
+#[derive(Debug, Clone)]
+struct ProgramMemory {
+    /// `(start time, phase)` of every phase the program has entered or will enter at a time
+    /// already known, in order (the first: phase 0 from the start).
+    timeline: Vec<(f64, usize)>,
+    /// The joint's prescribed motions by start time; the reference at `t` is the last one
+    /// started by `t`.
+    motions: Vec<JointMotion>,
+}
+
+/// The behaviour interpreter (see the module documentation).
+#[derive(Clone)]
+pub struct BehaviourController {
+    plan: Arc<Plan>,
+    named: Vec<Option<f64>>,
+    programs: Vec<ProgramMemory>,
+}
+
+impl std::fmt::Debug for BehaviourController {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("BehaviourController")
+            .field("named", &self.named)
+            .finish_non_exhaustive()
+    }
+}
+
+const NEVER: f64 = f64::NEG_INFINITY;
+
+impl BehaviourController {
+    /// A fresh controller: phase 0 everywhere, each joint on its phase-0 motion from
+    /// `(q0, qd0)`, and the phases (and their motions) that start at known times planned.
+    /// `Err(program)` when a program plans more than [`PLAN_CAP`] phases ahead.
+    pub(crate) fn new(plan: Plan, q0: &[f64], qd0: &[f64]) -> Result<Self, usize> {
+        let programs = plan
+            .programs
+            .iter()
+            .map(|p| ProgramMemory {
+                timeline: vec![(NEVER, 0)],
+                motions: vec![p.phases[0].motion.start(0.0, q0[p.joint], qd0[p.joint])],
+            })
+            .collect();
+        let mut c = BehaviourController {
+            named: vec![None; plan.named.len()],
+            plan: Arc::new(plan),
+            programs,
+        };
+        c.resolve(NEVER);
+        if let Some(p) = c.programs.iter().position(|m| m.timeline.len() > PLAN_CAP) {
+            return Err(p);
+        }
+        c.plan_timed_motions(NEVER);
+        Ok(c)
+    }
+
+    /// The name of the phase the program of `joint` is in at `(t, q)`.
+    pub fn phase_name(&self, joint: usize, t: f64, q: &[f64]) -> Option<&str> {
+        let p = self.plan.program_of_joint.get(joint).copied().flatten()?;
+        Some(&self.plan.programs[p].phases[self.current(p, t, q)].name)
+    }
+
+    /// When each named event happened.
+    pub fn named_events(&self) -> Vec<(String, Option<f64>)> {
+        self.plan
+            .named
+            .iter()
+            .zip(&self.named)
+            .map(|(n, t)| (n.name.clone(), *t))
+            .collect()
+    }
+
+    /// The phase that follows phase `k` of program `p` (joint-angle phases are overlays,
+    /// not steps): the next one in order, or the one the program repeats from.
+    fn successor(&self, p: usize, k: usize) -> Option<usize> {
+        let prog = &self.plan.programs[p];
+        (k + 1..prog.phases.len())
+            .find(|&i| prog.phases[i].start.level.is_none())
+            .or(prog.repeat_from)
+    }
+
+    /// The last timeline entry of program `p` started by `t`.
+    #[inline]
+    fn entry(&self, p: usize, t: f64) -> (f64, usize) {
+        let tl = &self.programs[p].timeline;
+        tl[tl.partition_point(|e| e.0 <= t).max(1) - 1]
+    }
+
+    /// The phase of program `p` at `(t, q)`: that of the last timeline entry started by `t`,
+    /// or a joint-angle phase right after it while its level holds.
+    #[inline]
+    fn current(&self, p: usize, t: f64, q: &[f64]) -> usize {
+        let k = self.entry(p, t).1;
+        let phases = &self.plan.programs[p].phases;
+        let mut j = k + 1;
+        while j < phases.len() {
+            match &phases[j].start.level {
+                Some(level) if level.holds(q) => return j,
+                Some(_) => j += 1,
+                None => break,
+            }
+        }
+        k
+    }
+
+    /// The reference `(θ, ω, α)` of program `p` at `t`.
+    #[inline]
+    fn reference(&self, p: usize, t: f64) -> (f64, f64, f64) {
+        let motions = &self.programs[p].motions;
+        motions
+            .iter()
+            .rev()
+            .find(|m| m.t0() <= t)
+            .unwrap_or(&motions[0])
+            .eval(t)
+    }
+
+    /// When phase `j` of program `p`, armed at `armed`, starts without waiting for an event
+    /// of the execution: at a time, after a named event that has happened, or after another
+    /// phase's start that is known; `None` if it has to wait for an event.
+    fn known_start(&self, p: usize, j: usize, armed: f64) -> Option<f64> {
+        let s = &self.plan.programs[p].phases[j].start;
+        let mut best: Option<f64> = None;
+        let mut offer = |c: f64| {
+            let c = c.max(armed);
+            best = Some(best.map_or(c, |b: f64| b.min(c)));
+        };
+        s.times.iter().for_each(|&t| offer(t));
+        for &n in &s.named {
+            if let Some(t) = self.named[n] {
+                offer(t);
+            }
+        }
+        for &(p2, k2, delay) in &s.phases {
+            let starts = self.programs[p2].timeline.iter().filter(|e| e.1 == k2);
+            if let Some(t) = starts.map(|e| e.0 + delay).find(|&t| t >= armed) {
+                offer(t);
+            }
+        }
+        best
+    }
+
+    /// Plans again, after `now`, the phases whose starts are known (to the horizon), for
+    /// every program, to a fixed point (phases may wait for other programs' phases).
+    fn resolve(&mut self, now: f64) {
+        let passes = self.plan.programs.len() + 2;
+        for _ in 0..passes {
+            let mut changed = false;
+            for p in 0..self.plan.programs.len() {
+                let keep = self.programs[p].timeline.partition_point(|e| e.0 <= now).max(1);
+                let (mut s, mut k) = self.programs[p].timeline[keep - 1];
+                let mut planned = Vec::new();
+                while planned.len() <= PLAN_CAP {
+                    let Some(j) = self.successor(p, k) else { break };
+                    let Some(start) = self.known_start(p, j, s) else { break };
+                    planned.push((start, j));
+                    (s, k) = (start, j);
+                    if start > self.plan.horizon_s {
+                        break;
+                    }
+                }
+                let tl = &mut self.programs[p].timeline;
+                if tl[keep..] != planned[..] {
+                    tl.truncate(keep);
+                    tl.extend(planned);
+                    changed = true;
+                }
+            }
+            if !changed {
+                break;
+            }
+        }
+    }
+
+    /// Drops the motions planned after `now` and plans again those of the phases that start
+    /// at known times after it, each from the reference where it starts.
+    fn plan_timed_motions(&mut self, now: f64) {
+        let plan = Arc::clone(&self.plan);
+        for (p, prog) in plan.programs.iter().enumerate() {
+            let mem = &mut self.programs[p];
+            if now > NEVER {
+                mem.motions.retain(|m| m.t0() <= now);
+            }
+            let first = mem.timeline.partition_point(|e| e.0 <= now);
+            for &(s, k) in &mem.timeline[first..] {
+                let phase = &prog.phases[k];
+                if !phase.own_motion {
+                    continue;
+                }
+                let (theta, omega, _) = {
+                    let m = mem.motions.iter().rev().find(|m| m.t0() <= s);
+                    m.unwrap_or(&mem.motions[0]).eval(s)
+                };
+                mem.motions.push(phase.motion.start(s, theta, omega));
+            }
+        }
+    }
+}
+
+impl Controller for BehaviourController {
+    fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]) {
+        tau.fill(0.0);
+        let plan = &*self.plan;
+        for (p, prog) in plan.programs.iter().enumerate() {
+            let j = prog.joint;
+            let phase = &prog.phases[self.current(p, t, q)];
+            tau[j] = match &phase.torque {
+                TorqueLaw::Zero => 0.0,
+                TorqueLaw::Constant(c) => *c,
+                TorqueLaw::Schedule {
+                    times,
+                    torques,
+                    hold,
+                } => schedule(times, torques, *hold, t),
+                TorqueLaw::Servo {
+                    target,
+                    kp,
+                    kd,
+                    limit,
+                    only_in_contact,
+                } => {
+                    if *only_in_contact && mode.normal_bits() & prog.contacts == 0 {
+                        0.0
+                    } else {
+                        let (theta, omega) = match target {
+                            Some(a) => (*a, 0.0),
+                            None => {
+                                let (th, om, _) = self.reference(p, t);
+                                (th, om)
+                            }
+                        };
+                        (-kp * (q[j] - theta) - kd * (qd[j] - omega)).clamp(-limit, *limit)
+                    }
+                }
+                TorqueLaw::Motor {
+                    actuator,
+                    command,
+                    reverse_beyond,
+                } => {
+                    let reversed = reverse_beyond.is_some_and(|a| command.signum() * q[j] > a);
+                    let u = if reversed { -command } else { *command };
+                    plan.actuators[*actuator].joint_torque_n_m(u, qd[j])
+                }
+            };
+        }
+    }
+
+    fn free_joint_qdd(&self, t: f64, q: &[f64], qd: &[f64], free: &[usize], out: &mut [f64]) {
+        let plan = &*self.plan;
+        for (slot, &j) in out.iter_mut().zip(free) {
+            *slot = match plan.program_of_joint.get(j).copied().flatten() {
+                Some(p) => {
+                    let (theta, omega, alpha) = self.reference(p, t);
+                    alpha + plan.kp_free * (theta - q[j]) + plan.kd_free * (omega - qd[j])
+                }
+                None => 0.0,
+            };
+        }
+    }
+
+    fn on_event(&mut self, e: &Event) {
+        let plan = Arc::clone(&self.plan);
+        // => named events (in an order where each comes after the one it waits for)
+        let mut fired_now = vec![false; plan.named.len()];
+        for (n, named) in plan.named.iter().enumerate() {
+            let ready = named.after.is_none_or(|a| self.named[a].is_some());
+            if self.named[n].is_none() && ready && named.trigger.matches(e) {
+                self.named[n] = Some(e.t);
+                fired_now[n] = true;
+            }
+        }
+        // => the phases the event starts: the successor of each program's phase, armed
+        let entries_before: Vec<usize> = self
+            .programs
+            .iter()
+            .map(|m| m.timeline.partition_point(|x| x.0 <= e.t))
+            .collect();
+        for (p, prog) in plan.programs.iter().enumerate() {
+            let len = entries_before[p];
+            self.programs[p].timeline.truncate(len);
+            for _ in 0..prog.phases.len() {
+                let k = self.entry(p, e.t).1;
+                let Some(j) = self.successor(p, k) else { break };
+                if !prog.phases[j].start.events.iter().any(|m| m.matches(e)) {
+                    break;
+                }
+                self.programs[p].timeline.push((e.t, j));
+            }
+        }
+        // => the starts this makes known, and those of the phases after them
+        self.resolve(e.t);
+        // => motions started by the event, or restarted at it, for joints it leaves free
+        for (p, prog) in plan.programs.iter().enumerate() {
+            if e.mode_after.normal_bits() & prog.contacts != 0 {
+                continue;
+            }
+            let mem = &self.programs[p];
+            let started_now = mem.timeline.partition_point(|x| x.0 <= e.t) > entries_before[p];
+            let k = self.current(p, e.t, &e.q);
+            let phase = &prog.phases[k];
+            let restart = phase.restart_on.iter().any(|m| m.matches(e))
+                || phase.restart_named.iter().any(|&n| fired_now[n]);
+            if started_now || restart {
+                let j = prog.joint;
+                let mem = &mut self.programs[p];
+                mem.motions.retain(|m| m.t0() <= e.t);
+                mem.motions
+                    .push(phase.motion.start(e.t, e.q[j], e.qd_after[j]));
+            }
+        }
+        self.plan_timed_motions(e.t);
+    }
+}
+
+/// The torque of a schedule at `t` (constant beyond its ends).
+fn schedule(times: &[f64], torques: &[f64], hold: bool, t: f64) -> f64 {
+    let i = times.partition_point(|&x| x <= t);
+    if i == 0 {
+        return torques[0];
+    }
+    if i == times.len() || hold {
+        return torques[i - 1];
+    }
+    let (t0, t1) = (times[i - 1], times[i]);
+    let s = (t - t0) / (t1 - t0);
+    torques[i - 1] + s * (torques[i] - torques[i - 1])
+}

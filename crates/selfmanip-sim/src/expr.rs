@@ -1,0 +1,363 @@
+//! Arithmetic expressions in data files: a number field of a behaviour may hold a number or
+//! a formula of named parameters, e.g. `"max(0, -t2)"` or `"20 * leg.stall_torque_n_m"`.
+//!
+//! Grammar (f64 arithmetic, IEEE semantics, evaluated left to right):
+//!
+//! ```text
+//! expr    := compare
+//! compare := sum (('<' | '<=' | '>' | '>=' | '==' | '!=') sum)?     (1 if true, 0 if false)
+//! sum     := product (('+' | '-') product)*
+//! product := unary (('*' | '/') unary)*
+//! unary   := '-' unary | atom
+//! atom    := number | name | name '(' expr (',' expr)* ')' | '(' expr ')'
+//! ```
+//!
+//! Names are letters, digits, `_` and `.` (`leg.stall_torque_n_m`). Functions: `min(a, b)`,
+//! `max(a, b)`, `abs(a)`, `sqrt(a)`, `sin(a)`, `cos(a)`, `if(c, a, b)` (`a` where `c ≠ 0`,
+//! else `b`). A hand-written parser of ~200 lines rather than a dependency: the expression
+//! crates we looked at mix integer and float arithmetic (`7 / 2 = 3`), which a physical
+//! parameter must never see.
+use crate::error::SimError;
+
+/// A parsed expression.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Expr {
+    Num(f64),
+    Var(String),
+    Neg(Box<Expr>),
+    Bin(Op, Box<Expr>, Box<Expr>),
+    Call(Func, Vec<Expr>),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Op {
+    Add,
+    Sub,
+    Mul,
+    Div,
+    Lt,
+    Le,
+    Gt,
+    Ge,
+    Eq,
+    Ne,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Func {
+    Min,
+    Max,
+    Abs,
+    Sqrt,
+    Sin,
+    Cos,
+    If,
+}
+
+impl Func {
+    fn parse(name: &str) -> Option<(Func, usize)> {
+        Some(match name {
+            "min" => (Func::Min, 2),
+            "max" => (Func::Max, 2),
+            "abs" => (Func::Abs, 1),
+            "sqrt" => (Func::Sqrt, 1),
+            "sin" => (Func::Sin, 1),
+            "cos" => (Func::Cos, 1),
+            "if" => (Func::If, 3),
+            _ => return None,
+        })
+    }
+}
+
+impl Expr {
+    /// Parses `text`; errors name `field`.
+    pub fn parse(field: &str, text: &str) -> Result<Expr, SimError> {
+        let mut p = Parser {
+            s: text.as_bytes(),
+            i: 0,
+        };
+        let err = |reason: String| SimError::Expression {
+            field: field.to_string(),
+            expr: text.to_string(),
+            reason,
+        };
+        let e = p.compare().map_err(err)?;
+        p.ws();
+        if p.i != p.s.len() {
+            return Err(err(format!("unexpected `{}`", &text[p.i..])));
+        }
+        Ok(e)
+    }
+
+    /// The names the expression reads, in order of appearance.
+    pub fn variables(&self, out: &mut Vec<String>) {
+        match self {
+            Expr::Num(_) => {}
+            Expr::Var(v) => {
+                if !out.contains(v) {
+                    out.push(v.clone())
+                }
+            }
+            Expr::Neg(a) => a.variables(out),
+            Expr::Bin(_, a, b) => {
+                a.variables(out);
+                b.variables(out);
+            }
+            Expr::Call(_, args) => args.iter().for_each(|a| a.variables(out)),
+        }
+    }
+
+    /// Evaluates with `lookup` for the variables (`None`: unknown name).
+    pub fn eval(&self, lookup: &dyn Fn(&str) -> Option<f64>) -> Result<f64, String> {
+        Ok(match self {
+            Expr::Num(x) => *x,
+            Expr::Var(v) => lookup(v).ok_or_else(|| format!("unknown name `{v}`"))?,
+            Expr::Neg(a) => -a.eval(lookup)?,
+            Expr::Bin(op, a, b) => {
+                let (x, y) = (a.eval(lookup)?, b.eval(lookup)?);
+                let truth = |c: bool| if c { 1.0 } else { 0.0 };
+                match op {
+                    Op::Add => x + y,
+                    Op::Sub => x - y,
+                    Op::Mul => x * y,
+                    Op::Div => x / y,
+                    Op::Lt => truth(x < y),
+                    Op::Le => truth(x <= y),
+                    Op::Gt => truth(x > y),
+                    Op::Ge => truth(x >= y),
+                    Op::Eq => truth(x == y),
+                    Op::Ne => truth(x != y),
+                }
+            }
+            Expr::Call(f, args) => {
+                let v = |i: usize| args[i].eval(lookup);
+                match f {
+                    Func::Min => v(0)?.min(v(1)?),
+                    Func::Max => v(0)?.max(v(1)?),
+                    Func::Abs => v(0)?.abs(),
+                    Func::Sqrt => v(0)?.sqrt(),
+                    Func::Sin => v(0)?.sin(),
+                    Func::Cos => v(0)?.cos(),
+                    Func::If => {
+                        if v(0)? != 0.0 {
+                            v(1)?
+                        } else {
+                            v(2)?
+                        }
+                    }
+                }
+            }
+        })
+    }
+}
+
+struct Parser<'a> {
+    s: &'a [u8],
+    i: usize,
+}
+
+impl Parser<'_> {
+    fn ws(&mut self) {
+        while self.i < self.s.len() && self.s[self.i].is_ascii_whitespace() {
+            self.i += 1;
+        }
+    }
+
+    fn peek(&mut self) -> Option<u8> {
+        self.ws();
+        self.s.get(self.i).copied()
+    }
+
+    fn eat(&mut self, tok: &str) -> bool {
+        self.ws();
+        if self.s[self.i..].starts_with(tok.as_bytes()) {
+            self.i += tok.len();
+            true
+        } else {
+            false
+        }
+    }
+
+    fn compare(&mut self) -> Result<Expr, String> {
+        let a = self.sum()?;
+        // two-character operators first
+        for (tok, op) in [
+            ("<=", Op::Le),
+            (">=", Op::Ge),
+            ("==", Op::Eq),
+            ("!=", Op::Ne),
+            ("<", Op::Lt),
+            (">", Op::Gt),
+        ] {
+            if self.eat(tok) {
+                let b = self.sum()?;
+                return Ok(Expr::Bin(op, Box::new(a), Box::new(b)));
+            }
+        }
+        Ok(a)
+    }
+
+    fn sum(&mut self) -> Result<Expr, String> {
+        let mut a = self.product()?;
+        loop {
+            let op = match self.peek() {
+                Some(b'+') => Op::Add,
+                Some(b'-') => Op::Sub,
+                _ => return Ok(a),
+            };
+            self.i += 1;
+            let b = self.product()?;
+            a = Expr::Bin(op, Box::new(a), Box::new(b));
+        }
+    }
+
+    fn product(&mut self) -> Result<Expr, String> {
+        let mut a = self.unary()?;
+        loop {
+            let op = match self.peek() {
+                Some(b'*') => Op::Mul,
+                Some(b'/') => Op::Div,
+                _ => return Ok(a),
+            };
+            self.i += 1;
+            let b = self.unary()?;
+            a = Expr::Bin(op, Box::new(a), Box::new(b));
+        }
+    }
+
+    fn unary(&mut self) -> Result<Expr, String> {
+        if self.peek() == Some(b'-') {
+            self.i += 1;
+            return Ok(Expr::Neg(Box::new(self.unary()?)));
+        }
+        self.atom()
+    }
+
+    fn atom(&mut self) -> Result<Expr, String> {
+        match self.peek() {
+            None => Err("unexpected end".into()),
+            Some(b'(') => {
+                self.i += 1;
+                let e = self.compare()?;
+                if !self.eat(")") {
+                    return Err("missing `)`".into());
+                }
+                Ok(e)
+            }
+            Some(c) if c.is_ascii_digit() || c == b'.' => {
+                let start = self.i;
+                while self.i < self.s.len() {
+                    let c = self.s[self.i];
+                    let exp_sign = (c == b'+' || c == b'-')
+                        && matches!(self.s[self.i - 1], b'e' | b'E');
+                    if c.is_ascii_digit() || c == b'.' || c == b'e' || c == b'E' || exp_sign {
+                        self.i += 1;
+                    } else {
+                        break;
+                    }
+                }
+                let text = std::str::from_utf8(&self.s[start..self.i]).expect("ascii");
+                text.parse::<f64>()
+                    .map(Expr::Num)
+                    .map_err(|_| format!("bad number `{text}`"))
+            }
+            Some(c) if c.is_ascii_alphabetic() || c == b'_' => {
+                let start = self.i;
+                while self.i < self.s.len()
+                    && (self.s[self.i].is_ascii_alphanumeric()
+                        || self.s[self.i] == b'_'
+                        || self.s[self.i] == b'.')
+                {
+                    self.i += 1;
+                }
+                let name = std::str::from_utf8(&self.s[start..self.i]).expect("ascii");
+                if self.peek() != Some(b'(') {
+                    return Ok(Expr::Var(name.to_string()));
+                }
+                let (f, arity) =
+                    Func::parse(name).ok_or_else(|| format!("unknown function `{name}`"))?;
+                self.i += 1;
+                let mut args = vec![self.compare()?];
+                while self.eat(",") {
+                    args.push(self.compare()?);
+                }
+                if !self.eat(")") {
+                    return Err(format!("missing `)` after the arguments of `{name}`"));
+                }
+                if args.len() != arity {
+                    return Err(format!(
+                        "`{name}` takes {arity} argument(s), got {}",
+                        args.len()
+                    ));
+                }
+                Ok(Expr::Call(f, args))
+            }
+            Some(c) => Err(format!("unexpected `{}`", c as char)),
+        }
+    }
+}
+
+/// A number field: a number, or an expression of named parameters.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(untagged)]
+pub enum Scalar {
+    Number(f64),
+    Expr(String),
+}
+
+impl From<f64> for Scalar {
+    fn from(x: f64) -> Self {
+        Scalar::Number(x)
+    }
+}
+
+impl From<&str> for Scalar {
+    fn from(s: &str) -> Self {
+        Scalar::Expr(s.to_string())
+    }
+}
+
+impl Scalar {
+    /// The parsed expression (a number is a constant).
+    pub fn parse(&self, field: &str) -> Result<Expr, SimError> {
+        match self {
+            Scalar::Number(x) => Ok(Expr::Num(*x)),
+            Scalar::Expr(s) => Expr::parse(field, s),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ev(s: &str, vars: &[(&str, f64)]) -> f64 {
+        let e = Expr::parse("x", s).unwrap();
+        e.eval(&|n| vars.iter().find(|v| v.0 == n).map(|v| v.1))
+            .unwrap()
+    }
+
+    #[test]
+    fn precedence_and_functions_follow_the_grammar() {
+        // each against the same arithmetic written in Rust
+        let t2 = -0.07;
+        assert_eq!(ev("max(0, -t2)", &[("t2", t2)]), 0f64.max(-t2));
+        assert_eq!(ev("1 - 2 * 3 + 4 / 8", &[]), 1.0 - 2.0 * 3.0 + 4.0 / 8.0);
+        assert_eq!(ev("-2 * -3", &[]), 6.0);
+        assert_eq!(ev("(1 + 2) * 3", &[]), 9.0);
+        assert_eq!(ev("2.5e-3 * a.b", &[("a.b", 4.0)]), 2.5e-3 * 4.0);
+        assert_eq!(ev("if(s * x >= 0, s, -s) * 2.6", &[("s", -1.0), ("x", 0.0)]), -2.6);
+        assert_eq!(ev("if(s * x >= 0, s, -s) * 2.6", &[("s", -1.0), ("x", 0.3)]), 2.6);
+        assert_eq!(ev("abs(t2) < 0.1", &[("t2", t2)]), 1.0);
+    }
+
+    #[test]
+    fn bad_expressions_name_their_field() {
+        for bad in ["1 +", "max(1)", "foo(2)", "(1", "2 $ 3", "1..2"] {
+            match Expr::parse("phases[1].start.at_s", bad) {
+                Err(SimError::Expression { field, .. }) => assert_eq!(field, "phases[1].start.at_s"),
+                other => panic!("{bad}: {other:?}"),
+            }
+        }
+    }
+}

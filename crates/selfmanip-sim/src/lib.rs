@@ -1,0 +1,45 @@
+//! # selfmanip-sim
+//!
+//! Simulation of *any* planar robot through the hybrid engine of `selfmanip-hybrid`, and the
+//! machinery around it that knows no particular robot (RHex lives in `rhex-model`, on top):
+//!
+//! | module | what |
+//! |---|---|
+//! | [`scenario`] | robot + terrain + initial state + behaviour + options ⇒ a run: outcome, events, trajectory, energy, MCAP |
+//! | [`behaviour`] | behaviours as data: phases, triggers, torques, motions, actuators; the interpreter |
+//! | [`path`] | parameters by name: any field of a scenario, by path |
+//! | [`outcome`] | what a run amounts to: status, word, apex, landing, end state |
+//! | [`expr`] | formulas in number fields |
+//! | [`terrain`] | flat ground, an incline, a ledge, stairs: faces, edges and corners |
+//! | [`motion`] | smooth prescribed motions of free massless joints |
+//! | [`labels`] | contact-mode labels in the robot's own contact names, contact-cell words |
+//! | [`events`] | the events of an execution in those names |
+//! | [`trajectory`] | samples of an execution from its own dense output |
+//! | [`mcap`] | MCAP logs that open in Foxglove: a frame per body and link, contacts, forces, modes, events |
+//! | [`sweep`] | batched runs on an explicit pool: deterministic, per-point status |
+//! | [`analysis`] | section 4.3's analyses for any `Model`: free motions, contact poses, standing, legs as tails |
+//! | [`error`] | the crate's typed errors |
+pub mod analysis;
+pub mod behaviour;
+pub mod error;
+pub mod events;
+pub mod expr;
+pub mod labels;
+pub mod mcap;
+pub mod motion;
+pub mod outcome;
+pub mod path;
+pub mod scenario;
+pub mod sweep;
+pub mod terrain;
+pub mod trajectory;
+
+pub use behaviour::{Behaviour, BehaviourController};
+pub use error::SimError;
+pub use events::EventRecord;
+pub use outcome::{Outcome, RunStatus};
+pub use scenario::{simulate, InitialState, Run, Scenario, SimOptions, Simulation};
+pub use labels::{contact_word, ContactLabels};
+pub use motion::JointMotion;
+pub use terrain::TerrainSpec;
+pub use trajectory::Trajectory;

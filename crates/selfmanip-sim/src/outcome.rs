@@ -1,0 +1,244 @@
+//! What an execution amounts to, for tables and sweeps: how it ended, the contact-cell word,
+//! the apex of its first flight, its first landing, its end state. Times are on the
+//! execution clock; states in the world frame of `q` (NED: z down, φ nose-up).
+use crate::labels::{contact_word, ContactLabels};
+use selfmanip_core::Model;
+use selfmanip_hybrid::{EventKind, Execution, Segment, Termination};
+use serde::Serialize;
+
+/// How an execution ended ([`Termination`] without its payload).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RunStatus {
+    FinalTime,
+    Apex,
+    Zeno,
+    EventBudget,
+    NoContactSolution,
+    SeveralContactSolutions,
+    TerrainDiscontinuity,
+    SingularFlow,
+}
+
+impl RunStatus {
+    pub fn of(t: &Termination) -> Self {
+        match t {
+            Termination::FinalTime => RunStatus::FinalTime,
+            Termination::Apex => RunStatus::Apex,
+            Termination::Zeno { .. } => RunStatus::Zeno,
+            Termination::EventBudget => RunStatus::EventBudget,
+            Termination::NoContactSolution { .. } => RunStatus::NoContactSolution,
+            Termination::SeveralContactSolutions { .. } => RunStatus::SeveralContactSolutions,
+            Termination::TerrainDiscontinuity { .. } => RunStatus::TerrainDiscontinuity,
+            Termination::SingularFlow { .. } => RunStatus::SingularFlow,
+        }
+    }
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RunStatus::FinalTime => "final_time",
+            RunStatus::Apex => "apex",
+            RunStatus::Zeno => "zeno",
+            RunStatus::EventBudget => "event_budget",
+            RunStatus::NoContactSolution => "no_contact_solution",
+            RunStatus::SeveralContactSolutions => "several_contact_solutions",
+            RunStatus::TerrainDiscontinuity => "terrain_discontinuity",
+            RunStatus::SingularFlow => "singular_flow",
+        }
+    }
+
+    /// Whether the run reached its final time or its apex (not stopped by the engine).
+    pub fn is_complete(self) -> bool {
+        matches!(self, RunStatus::FinalTime | RunStatus::Apex)
+    }
+}
+
+/// The body's pose and velocity at one instant (world frame, NED: `z` down).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct BodyState {
+    pub t_s: f64,
+    pub x_m: f64,
+    pub z_m: f64,
+    pub phi_rad: f64,
+    pub xdot_m_s: f64,
+    pub zdot_m_s: f64,
+    pub phidot_rad_s: f64,
+}
+
+impl BodyState {
+    /// From a full state `[q; q̇]` of `model`.
+    pub fn from_state(model: &Model, t: f64, q: &[f64], qd: &[f64]) -> Self {
+        let (ix, iz, ip) = (model.ix_x(), model.ix_z(), model.ix_phi());
+        BodyState {
+            t_s: t,
+            x_m: q[ix],
+            z_m: q[iz],
+            phi_rad: q[ip],
+            xdot_m_s: qd[ix],
+            zdot_m_s: qd[iz],
+            phidot_rad_s: qd[ip],
+        }
+    }
+}
+
+/// The first touchdown after the first flight.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Landing {
+    /// The body just before the impact.
+    pub before: BodyState,
+    /// Contacts that touched down.
+    pub contacts: Vec<String>,
+    /// Mode label after the impact.
+    pub mode_after: String,
+    /// Kinetic energy lost in the impact (J).
+    pub energy_loss_j: f64,
+}
+
+/// The metrics of one execution.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Outcome {
+    pub status: RunStatus,
+    pub t_end_s: f64,
+    pub q_end: Vec<f64>,
+    pub qd_end: Vec<f64>,
+    pub mode_end: String,
+    /// Contact cells visited (see [`contact_word`]).
+    pub word: Vec<String>,
+    pub n_events: usize,
+    /// The highest point of the first flight that has one (where the body's upward speed
+    /// `−ż` falls through zero), located on the dense output; or the engine's apex when the
+    /// run stopped there.
+    pub apex: Option<BodyState>,
+    pub landing: Option<Landing>,
+    /// Total time with no contact active (s).
+    pub flight_time_s: f64,
+    /// Kinetic energy lost in all impacts (J).
+    pub impact_loss_j: f64,
+}
+
+impl Outcome {
+    /// The word joined by `-`.
+    pub fn word_string(&self) -> String {
+        self.word.join("-")
+    }
+}
+
+/// How the word is formed.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct WordOptions {
+    /// Cells held no longer than this are left out (s).
+    pub min_duration_s: f64,
+    /// Show a sliding contact as `1` (in contact) instead of `s`.
+    pub sliding_as_contact: bool,
+}
+
+impl Default for WordOptions {
+    fn default() -> Self {
+        WordOptions {
+            min_duration_s: 1e-7,
+            sliding_as_contact: false,
+        }
+    }
+}
+
+/// The [`Outcome`] of `exec`, a run of `model`.
+pub fn outcome(
+    model: &Model,
+    exec: &Execution,
+    labels: &ContactLabels,
+    word: WordOptions,
+) -> Outcome {
+    let apex = match exec.termination {
+        Termination::Apex => Some(BodyState::from_state(model, exec.t, &exec.q, &exec.qd)),
+        _ => exec
+            .segments
+            .iter()
+            .filter(|s| s.mode.is_flight() && s.t1 > s.t0)
+            .find_map(|s| flight_apex(model, s)),
+    };
+    let first_flight = exec
+        .segments
+        .iter()
+        .find(|s| s.mode.is_flight() && s.t1 > s.t0)
+        .map(|s| s.t0);
+    let landing = first_flight.and_then(|t_fly| {
+        let e = exec
+            .events
+            .iter()
+            .find(|e| e.kind == EventKind::Touchdown && e.t > t_fly)?;
+        let seg = exec.segments.iter().rev().find(|s| s.t0 < e.t)?;
+        let mut y = vec![0.0; 2 * model.nq()];
+        seg.eval(e.t, &mut y);
+        let (q, qd) = y.split_at(model.nq());
+        Some(Landing {
+            before: BodyState::from_state(model, e.t, q, qd),
+            contacts: e
+                .triggered
+                .iter()
+                .map(|&k| model.contacts[k].name.clone())
+                .collect(),
+            mode_after: labels.label(e.mode_after),
+            energy_loss_j: e.kinetic_before - e.kinetic_after,
+        })
+    });
+    Outcome {
+        status: RunStatus::of(&exec.termination),
+        t_end_s: exec.t,
+        q_end: exec.q.clone(),
+        qd_end: exec.qd.clone(),
+        mode_end: labels.label(exec.mode),
+        word: contact_word(exec, labels, word.min_duration_s, word.sliding_as_contact),
+        n_events: exec.events.len(),
+        apex,
+        landing,
+        flight_time_s: exec
+            .segments
+            .iter()
+            .filter(|s| s.mode.is_flight())
+            .map(|s| s.t1 - s.t0)
+            .sum(),
+        impact_loss_j: exec.impact_losses().iter().sum(),
+    }
+}
+
+/// Where the body's upward speed `−ż` falls from positive to non-positive in a flight
+/// segment: bracketed step by step on the dense output, then bisected to 1e-13 s.
+fn flight_apex(model: &Model, seg: &Segment) -> Option<BodyState> {
+    let nq = model.nq();
+    let iz = nq + model.ix_z();
+    let mut y = vec![0.0; 2 * nq];
+    let up = |t: f64, y: &mut Vec<f64>| {
+        seg.eval(t, y);
+        -y[iz]
+    };
+    let mut t_prev = seg.t0;
+    if up(t_prev, &mut y) <= 0.0 {
+        return None;
+    }
+    for step in seg.dense.steps() {
+        let t1 = step.t1().min(seg.t1);
+        if t1 <= t_prev {
+            continue;
+        }
+        if up(t1, &mut y) <= 0.0 {
+            let (mut a, mut b) = (t_prev, t1);
+            for _ in 0..200 {
+                let m = 0.5 * (a + b);
+                if up(m, &mut y) > 0.0 {
+                    a = m;
+                } else {
+                    b = m;
+                }
+                if b - a <= 1e-13 {
+                    break;
+                }
+            }
+            seg.eval(b, &mut y);
+            let (q, qd) = y.split_at(nq);
+            return Some(BodyState::from_state(model, b, q, qd));
+        }
+        t_prev = t1;
+    }
+    None
+}

@@ -1,0 +1,210 @@
+//! Named parameters: any field of a scenario — a behaviour parameter (`t2`), a field of the
+//! robot description (`legs.front.links[0].length_m`), of the behaviour
+//! (`behaviour.actuators.knee.gear_ratio`), of the terrain or of the options — set by a
+//! *path*.
+//!
+//! **Syntax.** Keys separated by `.`, list elements by `[index]`; a key applied to a list
+//! picks the element whose `name` (or, for joint programs, `joint`) is that key:
+//! `robot.legs.front.links[0].length_m`, `behaviour.joints.front.phases.push.torque.command`.
+//!
+//! **Resolution.** A path starting with `robot`, `terrain`, `initial`, `behaviour` or
+//! `options` is taken as it is. A bare name of a behaviour parameter is that parameter.
+//! Otherwise the path is looked up under each of those roots: found under exactly one, it
+//! names that field; under several, it is ambiguous; under none, unknown. Either is a
+//! [`SimError::UnknownParameter`] naming the path.
+use crate::error::SimError;
+use serde_json::Value;
+
+/// The roots of a scenario, in the order a bare path is looked up under them.
+pub const ROOTS: [&str; 5] = ["robot", "behaviour", "options", "terrain", "initial"];
+
+#[derive(Debug, Clone, PartialEq)]
+enum Seg {
+    Key(String),
+    Index(usize),
+}
+
+fn parse(path: &str) -> Result<Vec<Seg>, String> {
+    let mut segs = Vec::new();
+    if path.is_empty() {
+        return Err("empty path".into());
+    }
+    for part in path.split('.') {
+        let (key, mut rest) = match part.find('[') {
+            Some(i) => (&part[..i], &part[i..]),
+            None => (part, ""),
+        };
+        if key.is_empty() && rest.is_empty() {
+            return Err("empty key".into());
+        }
+        if !key.is_empty() {
+            segs.push(Seg::Key(key.to_string()));
+        }
+        while !rest.is_empty() {
+            let close = rest.find(']').ok_or("missing `]`")?;
+            let idx: usize = rest[1..close]
+                .trim()
+                .parse()
+                .map_err(|_| format!("bad index `{}`", &rest[1..close]))?;
+            segs.push(Seg::Index(idx));
+            rest = &rest[close + 1..];
+            if !rest.is_empty() && !rest.starts_with('[') {
+                return Err(format!("unexpected `{rest}`"));
+            }
+        }
+    }
+    Ok(segs)
+}
+
+fn element_named<'a>(list: &'a mut [Value], key: &str) -> Option<&'a mut Value> {
+    list.iter_mut().find(|v| {
+        ["name", "joint"]
+            .iter()
+            .any(|f| v.get(f).and_then(Value::as_str) == Some(key))
+    })
+}
+
+fn lookup<'a>(mut v: &'a mut Value, segs: &[Seg]) -> Option<&'a mut Value> {
+    for s in segs {
+        v = match (s, v) {
+            (Seg::Key(k), Value::Object(m)) => m.get_mut(k)?,
+            (Seg::Key(k), Value::Array(a)) => element_named(a, k)?,
+            (Seg::Index(i), Value::Array(a)) => a.get_mut(*i)?,
+            _ => return None,
+        };
+    }
+    Some(v)
+}
+
+/// The full path (under a root) that `name` resolves to in `scenario` (a scenario as a JSON
+/// tree).
+pub fn resolve(scenario: &Value, name: &str) -> Result<String, SimError> {
+    let unknown = |reason: String| SimError::UnknownParameter {
+        path: name.to_string(),
+        reason,
+    };
+    let segs = parse(name).map_err(unknown)?;
+    let mut tree = scenario.clone();
+    if let Some(Seg::Key(first)) = segs.first() {
+        if ROOTS.contains(&first.as_str()) {
+            return match lookup(&mut tree, &segs) {
+                Some(_) => Ok(name.to_string()),
+                None => Err(unknown("no such field".into())),
+            };
+        }
+    }
+    if segs.len() == 1 {
+        if let Some(Seg::Key(k)) = segs.first() {
+            if scenario
+                .get("behaviour")
+                .and_then(|b| b.get("parameters"))
+                .and_then(|p| p.get(k))
+                .is_some()
+            {
+                return Ok(format!("behaviour.parameters.{k}"));
+            }
+        }
+    }
+    let found: Vec<String> = ROOTS
+        .iter()
+        .filter(|r| {
+            let mut full = vec![Seg::Key(r.to_string())];
+            full.extend(segs.iter().cloned());
+            lookup(&mut tree, &full).is_some()
+        })
+        .map(|r| format!("{r}.{name}"))
+        .collect();
+    match found.len() {
+        1 => Ok(found.into_iter().next().expect("one")),
+        0 => Err(unknown(
+            "not a behaviour parameter, nor a field of the robot, behaviour, options, terrain or \
+             initial state"
+                .into(),
+        )),
+        _ => Err(unknown(format!("ambiguous: {}", found.join(", ")))),
+    }
+}
+
+/// Sets the field `name` resolves to (see [`resolve`]) to `value`.
+pub fn set(scenario: &mut Value, name: &str, value: Value) -> Result<String, SimError> {
+    let full = resolve(scenario, name)?;
+    let segs = parse(&full).expect("resolved paths parse");
+    let slot = lookup(scenario, &segs).expect("resolved paths exist");
+    *slot = value;
+    Ok(full)
+}
+
+/// Every settable leaf of `tree` (numbers, strings, booleans, nulls), as full paths with
+/// list elements by name where they have one.
+pub fn leaves(tree: &Value) -> Vec<String> {
+    fn walk(v: &Value, prefix: String, out: &mut Vec<String>) {
+        match v {
+            Value::Object(m) => {
+                for (k, x) in m {
+                    let p = if prefix.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{prefix}.{k}")
+                    };
+                    walk(x, p, out);
+                }
+            }
+            Value::Array(a) => {
+                let numeric = a.iter().all(|x| x.is_number() || x.is_string());
+                if numeric {
+                    out.push(prefix);
+                    return;
+                }
+                for (i, x) in a.iter().enumerate() {
+                    let name = ["name", "joint"]
+                        .iter()
+                        .find_map(|f| x.get(f).and_then(Value::as_str));
+                    let p = match name {
+                        Some(n) if !n.contains('.') && !n.contains('[') => format!("{prefix}.{n}"),
+                        _ => format!("{prefix}[{i}]"),
+                    };
+                    walk(x, p, out);
+                }
+            }
+            _ => out.push(prefix),
+        }
+    }
+    let mut out = Vec::new();
+    walk(tree, String::new(), &mut out);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn paths_pick_fields_and_named_elements() {
+        let mut s = json!({
+            "robot": {"legs": [{"name": "front", "links": [{"length_m": 0.1}]},
+                               {"name": "rear", "links": [{"length_m": 0.2}]}]},
+            "behaviour": {"parameters": {"t2": 0.0}, "joints": [{"joint": "front", "phases": [{"name": "wait"}]}]},
+            "options": {"t_final_s": 1.0},
+        });
+        assert_eq!(set(&mut s, "t2", json!(0.05)).unwrap(), "behaviour.parameters.t2");
+        assert_eq!(s["behaviour"]["parameters"]["t2"], json!(0.05));
+        assert_eq!(
+            set(&mut s, "legs.rear.links[0].length_m", json!(0.3)).unwrap(),
+            "robot.legs.rear.links[0].length_m"
+        );
+        assert_eq!(s["robot"]["legs"][1]["links"][0]["length_m"], json!(0.3));
+        assert_eq!(
+            resolve(&s, "behaviour.joints.front.phases.wait.name").unwrap(),
+            "behaviour.joints.front.phases.wait.name"
+        );
+        assert_eq!(resolve(&s, "t_final_s").unwrap(), "options.t_final_s");
+        for bad in ["legs.middle.links[0].length_m", "robot.legs[5]", "nope", "a..b", "x[1"] {
+            match resolve(&s, bad) {
+                Err(SimError::UnknownParameter { path, .. }) => assert_eq!(path, bad),
+                other => panic!("{bad}: {other:?}"),
+            }
+        }
+        assert!(leaves(&s).contains(&"robot.legs.front.links[0].length_m".to_string()));
+    }
+}

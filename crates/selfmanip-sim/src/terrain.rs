@@ -1,0 +1,318 @@
+//! Terrains: level ground, an incline, a ledge, a flight of stairs (thesis Figs. 5.1 and
+//! 5.9, section 3.4.3, for a ledge).
+//!
+//! Heights are given positive **up**; internally the ground planes are in the NED world frame
+//! (z down) of `selfmanip-core`. Horizontal positions are world `x`.
+//!
+//! A step has three surfaces a contact can be on: the ground before it, its level top, and
+//! its vertical face (the riser between them); and its top edge, the convex corner where the
+//! face meets the top, on which a circle or an arc of the robot can rest, roll or slide (a
+//! body end sliding up the face passes over it onto the top). Two places end an execution
+//! ([`selfmanip_hybrid::Termination::TerrainDiscontinuity`]) instead of moving a contact onto
+//! the wrong surface: the edge met by a *point* of the robot (a leg's tip), which has no
+//! normal there, and the concave corner where the face meets the ground below it (a contact
+//! site touches one surface at a time). Surfaces take each contact's own friction.
+use crate::error::SimError;
+use nalgebra::Vector2;
+use selfmanip_core::{GroundPlane, Terrain};
+use serde::{Deserialize, Serialize};
+
+/// The ground an execution runs on.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum TerrainSpec {
+    /// Level ground at world `z = 0`.
+    #[default]
+    Flat,
+    /// A plane through the world origin rising by `slope_rad` towards `+x`.
+    Incline { slope_rad: f64 },
+    /// Level ground, and a raised level top `height_m` higher beyond a vertical face at
+    /// world `x = distance_m`: ahead (`x ≥ distance_m`) when `distance_m > 0`, behind
+    /// (`x ≤ distance_m`) when `distance_m < 0`.
+    Ledge { height_m: f64, distance_m: f64 },
+    /// `count` steps up, each `rise_m` high and `run_m` deep, the first face at world
+    /// `x = distance_m` (ahead when positive, behind when negative, the next faces further
+    /// on); the last top is level to infinity.
+    Stairs {
+        rise_m: f64,
+        run_m: f64,
+        count: u32,
+        distance_m: f64,
+    },
+}
+
+fn bad(field: &str, reason: String) -> SimError {
+    SimError::InvalidValue {
+        field: field.into(),
+        reason,
+    }
+}
+
+impl TerrainSpec {
+    pub fn validate(&self) -> Result<(), SimError> {
+        let positive = |field: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(bad(field, format!("must be finite and positive, got {v}")))
+            }
+        };
+        let face = |v: f64| {
+            if v.is_finite() && v != 0.0 {
+                Ok(())
+            } else {
+                Err(bad(
+                    "terrain.distance_m",
+                    format!(
+                        "must be finite and non-zero (positive: ahead, negative: behind), got {v}"
+                    ),
+                ))
+            }
+        };
+        match *self {
+            TerrainSpec::Flat => Ok(()),
+            TerrainSpec::Incline { slope_rad } => {
+                if slope_rad.is_finite() && slope_rad.abs() < std::f64::consts::FRAC_PI_2 {
+                    Ok(())
+                } else {
+                    Err(bad(
+                        "terrain.slope_rad",
+                        format!("must lie in (−π/2, π/2), got {slope_rad}"),
+                    ))
+                }
+            }
+            TerrainSpec::Ledge {
+                height_m,
+                distance_m,
+            } => {
+                positive("terrain.height_m", height_m)?;
+                face(distance_m)
+            }
+            TerrainSpec::Stairs {
+                rise_m,
+                run_m,
+                count,
+                distance_m,
+            } => {
+                positive("terrain.rise_m", rise_m)?;
+                positive("terrain.run_m", run_m)?;
+                if count == 0 {
+                    return Err(bad("terrain.count", "must be at least 1".into()));
+                }
+                face(distance_m)
+            }
+        }
+    }
+
+    /// Height (up) of the ground surface at world `x_m`.
+    pub fn height_at(&self, x_m: f64) -> f64 {
+        match *self {
+            TerrainSpec::Incline { slope_rad } => x_m * slope_rad.tan(),
+            _ => match self.next_step(x_m) {
+                (0, _) => 0.0,
+                (passed, _) => self.rise() * passed as f64,
+            },
+        }
+    }
+
+    /// The rise of each step (0 without steps).
+    fn rise(&self) -> f64 {
+        match *self {
+            TerrainSpec::Ledge { height_m, .. } => height_m,
+            TerrainSpec::Stairs { rise_m, .. } => rise_m,
+            _ => 0.0,
+        }
+    }
+
+    /// The steps already passed at `x_m` (faces on whose far side `x_m` is), and the face
+    /// still ahead, `(x of the face, height of its top)`.
+    fn next_step(&self, x_m: f64) -> (u32, Option<(f64, f64)>) {
+        match *self {
+            TerrainSpec::Flat | TerrainSpec::Incline { .. } => (0, None),
+            TerrainSpec::Ledge {
+                height_m,
+                distance_m,
+            } => {
+                if Self::beyond(x_m, distance_m) {
+                    (1, None)
+                } else {
+                    (0, Some((distance_m, height_m)))
+                }
+            }
+            TerrainSpec::Stairs {
+                rise_m,
+                run_m,
+                count,
+                distance_m,
+            } => {
+                let dir = distance_m.signum();
+                for k in 0..count {
+                    let face = distance_m + dir * run_m * f64::from(k);
+                    if !Self::beyond(x_m, face) {
+                        return (k, Some((face, rise_m * f64::from(k + 1))));
+                    }
+                }
+                (count, None)
+            }
+        }
+    }
+
+    /// Whether world `x_m` is on the far side (from the origin) of a face at `face_m`.
+    fn beyond(x_m: f64, face_m: f64) -> bool {
+        if face_m > 0.0 {
+            x_m >= face_m
+        } else {
+            x_m <= face_m
+        }
+    }
+}
+
+impl Terrain for TerrainSpec {
+    fn plane_under(&self, x_m: f64) -> GroundPlane {
+        match *self {
+            // tangent (cos s, −sin s) (z down: rising ahead); normal into the ground ⟂ it
+            TerrainSpec::Incline { slope_rad } => GroundPlane {
+                point_m: [0.0, 0.0],
+                normal_into_ground: [slope_rad.sin(), slope_rad.cos()],
+            },
+            _ => GroundPlane::level(-self.height_at(x_m)),
+        }
+    }
+
+    fn face_near(&self, p: Vector2<f64>) -> Option<GroundPlane> {
+        let (_, Some((face, top))) = self.next_step(p.x) else {
+            return None;
+        };
+        // below the top edge (z down) and on the open side of the face
+        (p.y > -top).then(|| GroundPlane {
+            point_m: [face, 0.0],
+            normal_into_ground: [face.signum(), 0.0],
+        })
+    }
+
+    fn corner_near(&self, c: Vector2<f64>) -> Option<Vector2<f64>> {
+        let (_, Some((face, top))) = self.next_step(c.x) else {
+            return None;
+        };
+        // above the top (z down) and on the open side of the face
+        (c.y <= -top).then(|| Vector2::new(face, -top))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_ledge_behind_mirrors_a_ledge_ahead() {
+        let ahead = TerrainSpec::Ledge {
+            height_m: 0.3,
+            distance_m: 0.5,
+        };
+        let behind = TerrainSpec::Ledge {
+            height_m: 0.3,
+            distance_m: -0.5,
+        };
+        for x in [-0.8, -0.5, -0.2, 0.2, 0.5, 0.8] {
+            assert_eq!(ahead.height_at(x), behind.height_at(-x));
+            let (fa, fb) = (
+                ahead.face_near(Vector2::new(x, -0.1)),
+                behind.face_near(Vector2::new(-x, -0.1)),
+            );
+            assert_eq!(fa.is_some(), x < 0.5);
+            assert_eq!(fa.is_some(), fb.is_some());
+            if let (Some(a), Some(b)) = (fa, fb) {
+                assert_eq!(a.normal_into_ground[0], -b.normal_into_ground[0]);
+                // the face is the plane x = 0.5 (mirrored: −0.5): a point at x is 0.5 − x from it
+                let p = Vector2::new(x, -0.1);
+                assert!((a.height_of(p) - (0.5 - x)).abs() < 1e-15);
+            }
+        }
+        // above the top edge there is no face to touch, only the edge itself (or the ground
+        // or the top below)
+        assert!(ahead.face_near(Vector2::new(0.4, -0.31)).is_none());
+        assert_eq!(
+            ahead.corner_near(Vector2::new(0.4, -0.31)),
+            Some(Vector2::new(0.5, -0.3))
+        );
+        assert_eq!(
+            behind.corner_near(Vector2::new(-0.4, -0.31)),
+            Some(Vector2::new(-0.5, -0.3))
+        );
+        assert!(ahead.corner_near(Vector2::new(0.4, -0.29)).is_none());
+        assert!(ahead.corner_near(Vector2::new(0.6, -0.31)).is_none());
+        assert!(behind.validate().is_ok());
+        assert!(TerrainSpec::Ledge {
+            height_m: 0.3,
+            distance_m: 0.0
+        }
+        .validate()
+        .is_err());
+    }
+
+    /// One stair of a flight is a ledge: the same surfaces, faces and corners; and each
+    /// next step repeats the first, `run` further and `rise` higher.
+    #[test]
+    fn a_flight_of_stairs_repeats_its_first_step() {
+        let (rise, run) = (0.1, 0.3);
+        let stairs = TerrainSpec::Stairs {
+            rise_m: rise,
+            run_m: run,
+            count: 3,
+            distance_m: 0.5,
+        };
+        let ledge = TerrainSpec::Ledge {
+            height_m: rise,
+            distance_m: 0.5,
+        };
+        // before the second face the first step is the ledge: the same ground and top;
+        // before the first face, the same face and edge too
+        for x in [-0.3, 0.1, 0.45, 0.5, 0.7] {
+            assert_eq!(stairs.plane_under(x), ledge.plane_under(x), "x {x}");
+            for y in [-0.05, -0.15] {
+                let p = Vector2::new(x, y);
+                if x < 0.5 {
+                    assert_eq!(stairs.face_near(p), ledge.face_near(p), "{p:?}");
+                    assert_eq!(stairs.corner_near(p), ledge.corner_near(p), "{p:?}");
+                }
+            }
+        }
+        for k in 0..3u32 {
+            let face = 0.5 + run * f64::from(k);
+            let top = rise * f64::from(k + 1);
+            // just before the face: the tread below, the face, the edge above it
+            let p = Vector2::new(face - 0.01, -(top - rise) - 0.02);
+            assert!((stairs.height_at(p.x) - (top - rise)).abs() < 1e-15);
+            assert_eq!(stairs.face_near(p).unwrap().point_m, [face, 0.0]);
+            let c = Vector2::new(face - 0.01, -top - 0.01);
+            assert_eq!(stairs.corner_near(c), Some(Vector2::new(face, -top)));
+            assert!((stairs.height_at(face + 0.01) - top).abs() < 1e-15);
+        }
+        // beyond the last step: level, no faces
+        assert!(stairs.face_near(Vector2::new(2.0, -0.5)).is_none());
+        assert!((stairs.height_at(5.0) - 3.0 * rise).abs() < 1e-15);
+        assert!(TerrainSpec::Stairs {
+            rise_m: rise,
+            run_m: run,
+            count: 0,
+            distance_m: 0.5
+        }
+        .validate()
+        .is_err());
+    }
+
+    /// The incline's plane: a point on the surface at `x` is at height `x tan s` and has
+    /// zero gap; its normal is perpendicular to the rising tangent.
+    #[test]
+    fn the_incline_rises_at_its_slope() {
+        let s = 0.2f64;
+        let t = TerrainSpec::Incline { slope_rad: s };
+        for x in [-1.0, 0.0, 0.7] {
+            let on = Vector2::new(x, -x * s.tan());
+            assert!(t.plane_under(x).height_of(on).abs() < 1e-15);
+            let above = Vector2::new(x, on.y - 0.1);
+            assert!((t.plane_under(x).height_of(above) - 0.1 * s.cos()).abs() < 1e-15);
+        }
+        assert!(TerrainSpec::Incline { slope_rad: 2.0 }.validate().is_err());
+    }
+}

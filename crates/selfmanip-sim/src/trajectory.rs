@@ -1,0 +1,120 @@
+//! Samples of an execution on a uniform time grid, from its own dense output: each sample
+//! evaluates the segment that contains it with the controller that segment ran with
+//! ([`selfmanip_hybrid::Segment::controller`]), so the torques and contact forces are those
+//! of the run — no replay of the execution.
+//!
+//! ```text
+//! t  => the last segment with t0 ≤ t => y = [q; q̇] on its dense output
+//!    => τ = controller(t, q, q̇, mode), free joints' q̈ => (q̈, λ) of the mode's flow (5.48)
+//!    => contact points and world forces (λ along each active row's direction)
+//! ```
+use crate::error::{positive, SimError};
+use crate::labels::ContactLabels;
+use selfmanip_core::contact::{contact_geometry, row_direction};
+use selfmanip_core::{forward_dynamics, Data, Model, Terrain};
+use selfmanip_hybrid::Execution;
+use serde::Serialize;
+
+/// Samples of an execution, for logs and plots.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Trajectory {
+    /// Names of the coordinates of `q` (joints, then `x`, `z`, `phi`).
+    pub q_names: Vec<String>,
+    /// Contact names, the column order of `contact_points_m` / `contact_forces_n`.
+    pub contacts: Vec<String>,
+    /// Sample times (s; the execution clock minus the caller's offset).
+    pub t_s: Vec<f64>,
+    /// `q = [θ…, x, z, φ]` (NED: z down).
+    pub q: Vec<Vec<f64>>,
+    pub qd: Vec<Vec<f64>>,
+    /// Joint torques `Υ` (N m), or empty when not sampled.
+    pub tau: Vec<Vec<f64>>,
+    /// Contact-mode label at each sample.
+    pub mode: Vec<String>,
+    /// World contact point `(x, z)` (NED) of each active contact, `None` when inactive.
+    pub contact_points_m: Vec<Vec<Option<[f64; 2]>>>,
+    /// World force `(f_x, f_z)` (NED) of the ground on the robot at each active contact.
+    pub contact_forces_n: Vec<Vec<Option<[f64; 2]>>>,
+}
+
+/// Names of the coordinates of `model`'s `q`: `<joint>_theta` per joint (joint names as in
+/// [`crate::labels::joint_name`]), then `x`, `z`, `phi`.
+pub fn q_names(model: &Model) -> Vec<String> {
+    let mut v: Vec<String> = (0..model.n_joints())
+        .map(|j| format!("{}_theta", crate::labels::joint_name(model, j)))
+        .collect();
+    v.extend(["x", "z", "phi"].map(String::from));
+    v
+}
+
+/// Samples `exec` every `dt_s` seconds of its clock from 0 (and at its end); reported times
+/// are `t − time_offset_s`.
+pub fn sample(
+    model: &Model,
+    terrain: &dyn Terrain,
+    exec: &Execution,
+    labels: &ContactLabels,
+    dt_s: f64,
+    time_offset_s: f64,
+) -> Result<Trajectory, SimError> {
+    positive("dt_s", dt_s)?;
+    let nq = model.nq();
+    let nc = model.n_contacts();
+    let mut out = Trajectory {
+        q_names: q_names(model),
+        contacts: model.contacts.iter().map(|c| c.name.clone()).collect(),
+        t_s: Vec::new(),
+        q: Vec::new(),
+        qd: Vec::new(),
+        tau: Vec::new(),
+        mode: Vec::new(),
+        contact_points_m: Vec::new(),
+        contact_forces_n: Vec::new(),
+    };
+    let mut data = Data::new(model);
+    let (mut tau, mut y, mut free) = (vec![0.0; model.n_joints()], vec![0.0; 2 * nq], Vec::new());
+    let t_end = exec.t;
+    let n = (t_end / dt_s).floor().max(0.0) as usize;
+    let times = (0..=n)
+        .map(|k| k as f64 * dt_s)
+        .chain((t_end > n as f64 * dt_s).then_some(t_end));
+    for t in times {
+        // the last segment that contains t (a reset at t belongs to the segment after it)
+        let Some(seg) = exec
+            .segments
+            .iter()
+            .rev()
+            .find(|s| s.t0 <= t && !s.dense.is_empty())
+        else {
+            continue;
+        };
+        seg.eval(t.min(seg.t1), &mut y);
+        let (q, qd) = y.split_at(nq);
+        // (t, q, q̇) => Υ and the free joints' q̈, with the controller of the segment
+        seg.controller.torque(t, q, qd, seg.mode, &mut tau);
+        data.prepare(model, terrain, seg.mode, q, qd)?;
+        free.resize(data.free_joints.len(), 0.0);
+        seg.controller
+            .free_joint_qdd(t, q, qd, &data.free_joints, &mut free);
+        // => (q̈, λ)
+        forward_dynamics(model, &mut data, terrain, seg.mode, q, qd, &tau, Some(&free))?;
+        let mut points = vec![None; nc];
+        let mut forces = vec![None; nc];
+        for (row, r) in seg.mode.rows().enumerate() {
+            let geom = contact_geometry(model, &data.kin, terrain, r.contact);
+            let dir = row_direction(&geom.plane, r.direction);
+            let f = forces[r.contact].get_or_insert([0.0, 0.0]);
+            f[0] += data.lambda[row] * dir.x;
+            f[1] += data.lambda[row] * dir.y;
+            points[r.contact] = Some([geom.point.x, geom.point.y]);
+        }
+        out.t_s.push(t - time_offset_s);
+        out.q.push(q.to_vec());
+        out.qd.push(qd.to_vec());
+        out.tau.push(tau.clone());
+        out.mode.push(labels.label(seg.mode));
+        out.contact_points_m.push(points);
+        out.contact_forces_n.push(forces);
+    }
+    Ok(out)
+}
