@@ -531,9 +531,11 @@ impl Controller for BehaviourController {
                 continue;
             }
             let mem = &self.programs[p];
-            let started_now = mem.timeline.partition_point(|x| x.0 <= e.t) > entries_before[p];
+            let entered = mem.timeline.partition_point(|x| x.0 <= e.t) > entries_before[p];
             let k = self.current(p, e.t, &e.q);
             let phase = &prog.phases[k];
+            // a phase without a motion of its own keeps the one running
+            let started_now = entered && phase.own_motion;
             let restart = phase.restart_on.iter().any(|m| m.matches(e))
                 || phase.restart_named.iter().any(|&n| fired_now[n]);
             if started_now || restart {
