@@ -1,8 +1,15 @@
 //! One RHex (+,+) leap from rest to apex (thesis chapter 3.2 through the chapter-5 hybrid
 //! system): touchdowns, slips and liftoffs located to 1e-10 s on the DOPRI5 dense output,
 //! plastic-impact and force complementarity at every event. Target: ≤ 1 ms on one core.
+//!
+//! The same leaps through the behaviour interpreter of `selfmanip-sim` (the shipped file
+//! `leap_pp.toml`, bit-identical executions): `behaviour_run` compiles nothing per
+//! iteration (a `Simulation` built once), `behaviour_build_and_run` also checks and compiles
+//! the scenario each time, as the controller path builds its robot and start pose each time.
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use selfmanip::rhex::leap::{leap_params, simulate_leap, LeapConfig};
+use selfmanip::rhex::leap_behaviours::leap_scenario;
+use selfmanip::sim::Simulation;
 use std::hint::black_box;
 
 fn leap(c: &mut Criterion) {
@@ -17,6 +24,17 @@ fn leap(c: &mut Criterion) {
         group.bench_with_input(BenchmarkId::new("++", t2), &cfg, |b, cfg| {
             b.iter(|| simulate_leap(black_box(&params), cfg).unwrap())
         });
+        let q0 = simulate_leap(&params, &cfg).unwrap().q0;
+        let scenario = leap_scenario(&params, &cfg, &q0).unwrap().scenario;
+        let sim = Simulation::new(&scenario).unwrap();
+        group.bench_with_input(BenchmarkId::new("++ behaviour_run", t2), &sim, |b, sim| {
+            b.iter(|| black_box(sim).run().unwrap())
+        });
+        group.bench_with_input(
+            BenchmarkId::new("++ behaviour_build_and_run", t2),
+            &scenario,
+            |b, s| b.iter(|| Simulation::new(black_box(s)).unwrap().run().unwrap()),
+        );
     }
     group.finish();
 }

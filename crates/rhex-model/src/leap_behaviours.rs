@@ -26,15 +26,19 @@ pub const LEAP_BEHAVIOURS: [(&str, &str); 4] = [
     ("--", include_str!("../data/behaviours/leap_mm.toml")),
 ];
 
-/// The shipped behaviour of a strategy.
+/// The shipped behaviour of a strategy (each file parsed once per process).
 pub fn leap_behaviour(strategy: Strategy) -> Behaviour {
+    static PARSED: [std::sync::OnceLock<Behaviour>; 4] = [const { std::sync::OnceLock::new() }; 4];
     let key = strategy.to_string();
-    let text = LEAP_BEHAVIOURS
+    let i = LEAP_BEHAVIOURS
         .iter()
-        .find(|(k, _)| *k == key)
-        .expect("four strategies, four files")
-        .1;
-    Behaviour::from_toml_str(text).expect("the shipped behaviours parse")
+        .position(|(k, _)| *k == key)
+        .expect("four strategies, four files");
+    PARSED[i]
+        .get_or_init(|| {
+            Behaviour::from_toml_str(LEAP_BEHAVIOURS[i].1).expect("the shipped behaviours parse")
+        })
+        .clone()
 }
 
 /// A leap as a scenario.

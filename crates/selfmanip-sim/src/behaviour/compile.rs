@@ -974,12 +974,17 @@ pub fn compile(
         programs.push(Program {
             joint: j,
             contacts: own,
+            has_levels: phases.iter().any(|ph| ph.start.level.is_some()),
             phases,
             repeat_from,
         });
     }
     check_phase_cycles(&programs, &programs_names)?;
+    let idle_joints = (0..model.n_joints())
+        .filter(|&j| program_of_joint[j].is_none())
+        .collect();
     let plan = Plan {
+        idle_joints,
         programs,
         actuators,
         named: named_plans,

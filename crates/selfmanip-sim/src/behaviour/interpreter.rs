@@ -197,6 +197,8 @@ pub(crate) struct Program {
     pub phases: Vec<PhasePlan>,
     /// The phase that follows the last one (a repeating program), if any.
     pub repeat_from: Option<usize>,
+    /// Whether any phase is a joint-angle level.
+    pub has_levels: bool,
 }
 
 /// A named event: its trigger and the named event it waits for.
@@ -216,6 +218,8 @@ pub(crate) struct Plan {
     pub program_of_joint: Vec<Option<usize>>,
     pub kp_free: f64,
     pub kd_free: f64,
+    /// Joints without a program (zero torque).
+    pub idle_joints: Vec<usize>,
     /// Phases that start at known times are planned up to here (the run's final time).
     pub horizon_s: f64,
 }
@@ -304,11 +308,12 @@ impl BehaviourController {
             .or(prog.repeat_from)
     }
 
-    /// The last timeline entry of program `p` started by `t`.
+    /// The last timeline entry of program `p` started by `t` (searched from the end: the
+    /// engine asks about the present, near the end of the planned timeline).
     #[inline]
     fn entry(&self, p: usize, t: f64) -> (f64, usize) {
         let tl = &self.programs[p].timeline;
-        tl[tl.partition_point(|e| e.0 <= t).max(1) - 1]
+        *tl.iter().rev().find(|e| e.0 <= t).unwrap_or(&tl[0])
     }
 
     /// The phase of program `p` at `(t, q)`: that of the last timeline entry started by `t`,
@@ -316,7 +321,11 @@ impl BehaviourController {
     #[inline]
     fn current(&self, p: usize, t: f64, q: &[f64]) -> usize {
         let k = self.entry(p, t).1;
-        let phases = &self.plan.programs[p].phases;
+        let prog = &self.plan.programs[p];
+        if !prog.has_levels {
+            return k;
+        }
+        let phases = &prog.phases;
         let mut j = k + 1;
         while j < phases.len() {
             match &phases[j].start.level {
@@ -424,8 +433,10 @@ impl BehaviourController {
 
 impl Controller for BehaviourController {
     fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]) {
-        tau.fill(0.0);
         let plan = &*self.plan;
+        for &j in &plan.idle_joints {
+            tau[j] = 0.0;
+        }
         for (p, prog) in plan.programs.iter().enumerate() {
             let j = prog.joint;
             let phase = &prog.phases[self.current(p, t, q)];
@@ -520,9 +531,11 @@ impl Controller for BehaviourController {
                 continue;
             }
             let mem = &self.programs[p];
-            let started_now = mem.timeline.partition_point(|x| x.0 <= e.t) > entries_before[p];
+            let entered = mem.timeline.partition_point(|x| x.0 <= e.t) > entries_before[p];
             let k = self.current(p, e.t, &e.q);
             let phase = &prog.phases[k];
+            // a phase without a motion of its own keeps the one running
+            let started_now = entered && phase.own_motion;
             let restart = phase.restart_on.iter().any(|m| m.matches(e))
                 || phase.restart_named.iter().any(|&n| fired_now[n]);
             if started_now || restart {
