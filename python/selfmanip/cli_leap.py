@@ -21,7 +21,7 @@ import json
 import math
 import os
 import sys
-from typing import Any
+from typing import Any, Mapping, TextIO
 
 import numpy as np
 
@@ -110,7 +110,7 @@ def _strategies(text: str) -> list[str]:
     return [_strategy(s, "--strategy") for s in items]
 
 
-def add_subcommands(sub) -> None:
+def add_subcommands(sub: "argparse._SubParsersAction") -> None:
     le = sub.add_parser("leap", help="one leap from rest to apex (chapter 3); --json, --mcap FILE")
     le.add_argument("--strategy", default="++", help="++, +-, -+ or -- (front, rear push direction)")
     le.add_argument("--t2", default="0.0", help="rear leg start relative to the front leg (s); negative: rear first")
@@ -151,7 +151,7 @@ def _scalar_sets(sets: dict[str, list[Any]]) -> dict[str, Any]:
     return {k: v[0] for k, v in sets.items()}
 
 
-def _gear_arg(args) -> Any:
+def _gear_arg(args: argparse.Namespace) -> Any:
     """``--saturated`` → ``None``; ``--gear-ratio`` → its values; neither → the default."""
     from .leap import DEFAULT
 
@@ -168,7 +168,7 @@ def _gear_arg(args) -> Any:
     return gears
 
 
-def leap_command(args) -> int:
+def leap_command(args: argparse.Namespace) -> int:
     from .leap import leap
 
     t2s = parse_range(args.t2, "--t2")
@@ -208,7 +208,7 @@ def leap_command(args) -> int:
     return 0
 
 
-def write_table(table: dict[str, np.ndarray], path: str | None, out=None) -> None:
+def write_table(table: Mapping[str, np.ndarray], path: str | None, out: TextIO | None = None) -> None:
     """A sweep table as CSV (floats round-trip exactly) or Parquet (pandas + pyarrow)."""
     if path and path.endswith(".parquet"):
         import pandas as pd
@@ -283,7 +283,7 @@ def read_table(path: str) -> dict[str, np.ndarray]:
     return out
 
 
-def sweep_command(args) -> int:
+def sweep_command(args: argparse.Namespace) -> int:
     from .leap import failure_summary, run_points, sweep_points
 
     strategies = _strategies(args.strategy)
@@ -311,7 +311,7 @@ def sweep_command(args) -> int:
     return 1 if (args.strict and failed) else 0
 
 
-def grc_command(args) -> int:
+def grc_command(args: argparse.Namespace) -> int:
     from . import _native
     from .rhex import ground_reaction_complex
 

@@ -20,9 +20,12 @@ The workers need ``selfmanip`` installed (same version). Bring your own client::
 
 from __future__ import annotations
 
-from typing import Any, Iterable, Mapping
+from typing import TYPE_CHECKING, Any, Iterable, Mapping
 
 import numpy as np
+
+if TYPE_CHECKING:
+    import distributed
 
 from .errors import InvalidInputError
 from .leap import DEFAULT, _warn_if_all_failed, run_points, sweep_points
@@ -47,7 +50,7 @@ def merge(tables: Iterable[Mapping[str, np.ndarray]]) -> dict[str, np.ndarray]:
     return {k: np.concatenate([np.asarray(t[k]) for t in tables]) for k in keys}
 
 
-def sweep(client, strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any = DEFAULT,
+def sweep(client: "distributed.Client", strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any = DEFAULT,
           params: Mapping[str, Any] | None = None, *, chunk_size: int = 1000, threads_per_task: int = 1,
           grid: bool = True, config: Mapping[str, Any] | None = None, **swept: Any) -> dict[str, np.ndarray]:
     """:func:`selfmanip.sweep` on the Dask cluster behind ``client``: the same arguments and

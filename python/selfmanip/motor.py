@@ -20,6 +20,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from . import _native
 from ._checks import integer, real, text, vector
@@ -96,7 +97,7 @@ def torque_speed_curve(drive: str, points: int = 50, current_limit_a: float | No
         None if current_limit_a is None else real("current_limit_a", current_limit_a), catalog_toml))
 
 
-def thermal_simulation(drive: str, torque_n_m, dt_s: float = 1.0, ambient_c: float = 25.0,
+def thermal_simulation(drive: str, torque_n_m: npt.ArrayLike, dt_s: float = 1.0, ambient_c: float = 25.0,
                        case: str = "measured", catalog_toml: str | None = None) -> dict[str, Any]:
     """Fig. 2.8: core and case temperature for an output-torque profile (one value per
     ``dt_s``; a scalar is not accepted -- pass ``np.full(n, torque)``). ``case`` selects
@@ -126,13 +127,15 @@ def _observer_params(field: str, params: Any) -> dict[str, float]:
     return {k: real(f"{field}.{k}", v) for k, v in params.items()}
 
 
-def _log(dt_s, theta_d, omega_d, theta, omega):
+def _log(dt_s: float, theta_d: npt.ArrayLike, omega_d: npt.ArrayLike, theta: npt.ArrayLike,
+         omega: npt.ArrayLike) -> tuple:
     arrays = [np.asarray(vector(n, v), dtype=np.float64) for n, v in
               (("theta_d_rad", theta_d), ("omega_d_rad_s", omega_d), ("theta_rad", theta), ("omega_rad_s", omega))]
     return (real("dt_s", dt_s), *arrays)
 
 
-def observe(params: dict, dt_s: float, theta_d_rad, omega_d_rad_s, theta_rad, omega_rad_s) -> dict[str, np.ndarray]:
+def observe(params: dict, dt_s: float, theta_d_rad: npt.ArrayLike, omega_d_rad_s: npt.ArrayLike,
+            theta_rad: npt.ArrayLike, omega_rad_s: npt.ArrayLike) -> dict[str, np.ndarray]:
     """Runs the leg observer (2.2)-(2.4) over a log and returns its delayed estimates and the
     residuals ``r_theta_rad``, ``r_omega_rad_s`` (2.5). ``params`` has keys ``k_m, a_m, k_p,
     k_d, k_g, theta_g_rad, delay_s``."""
@@ -140,8 +143,9 @@ def observe(params: dict, dt_s: float, theta_d_rad, omega_d_rad_s, theta_rad, om
                                       *_log(dt_s, theta_d_rad, omega_d_rad_s, theta_rad, omega_rad_s)))
 
 
-def calibrate_observer(initial_params: dict, dt_s: float, theta_d_rad, omega_d_rad_s, theta_rad,
-                       omega_rad_s) -> dict[str, Any]:
+def calibrate_observer(initial_params: dict, dt_s: float, theta_d_rad: npt.ArrayLike,
+                       omega_d_rad_s: npt.ArrayLike, theta_rad: npt.ArrayLike,
+                       omega_rad_s: npt.ArrayLike) -> dict[str, Any]:
     """Nelder-Mead calibration of ``(k_m, a_m, k_g, theta_g_rad, k_d, delay_s)`` on a free-swing
     log (``k_p`` kept). Returns ``{"params", "rms_r_theta_rad", "rms_r_omega_rad_s",
     "evaluations"}``."""
@@ -150,8 +154,9 @@ def calibrate_observer(initial_params: dict, dt_s: float, theta_d_rad, omega_d_r
         *_log(dt_s, theta_d_rad, omega_d_rad_s, theta_rad, omega_rad_s)))
 
 
-def identify_faults(params: dict, config: dict, dt_s: float, theta_d_rad, omega_d_rad_s, theta_rad,
-                    omega_rad_s) -> list[dict[str, Any]]:
+def identify_faults(params: dict, config: dict, dt_s: float, theta_d_rad: npt.ArrayLike,
+                    omega_d_rad_s: npt.ArrayLike, theta_rad: npt.ArrayLike,
+                    omega_rad_s: npt.ArrayLike) -> list[dict[str, Any]]:
     """Observer plus the fault machine of Fig. 2.13 over a log; returns the state changes
     ``{"time_s", "from", "to"}``. ``config`` has ``phases`` (``landing_start_rad,
     ground_start_rad, takeoff_start_rad, air_start_rad``), ``low_residual_rad``,

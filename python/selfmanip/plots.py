@@ -21,13 +21,16 @@ from __future__ import annotations
 import json
 import math
 import os
-from typing import Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
 
 from . import _native
 from .errors import InvalidInputError
 from .leap import LeapResult, Trajectory
+
+if TYPE_CHECKING:
+    import matplotlib.figure
 
 __all__ = ["sweep_figure", "build_sweep_figure", "word_label", "fold_word", "leap_strip", "plot_file", "load_leap"]
 
@@ -53,7 +56,11 @@ def _pyplot():
 def fold_word(cells: Sequence[str], max_items: int = 8) -> str:
     """A word's cells joined by ``-`` with repeated runs folded: a block of one to four cells
     repeated ``k >= 2`` times in a row becomes ``(a-b)xk``; if more than ``max_items`` items
-    remain, the middle is elided (``…+n…``), keeping the first four and the last three."""
+    remain, the middle is elided (``…+n…``), keeping the first four and the last three.
+
+    >>> fold_word(["1010", "0110"] + ["0101", "0111"] * 6 + ["0001", "0000"])
+    '1010-0110-(0101-0111)x6-0001-0000'
+    """
     cells = list(cells)
     items: list[str] = []
     i = 0
@@ -84,7 +91,11 @@ def fold_word(cells: Sequence[str], max_items: int = 8) -> str:
 def word_label(word: str, max_items: int = 8) -> str:
     """A leap word for a legend: ``"(3.3) 1010-0110-0101-0001-0000"`` when the word is chapter
     3's (3.2)-(3.7) (matched on its cells as the ground reaction complex prints them), the
-    word folded by :func:`fold_word` otherwise."""
+    word folded by :func:`fold_word` otherwise.
+
+    >>> word_label("1010-0110-0101-0001-0000")
+    '(3.3) 1010-0110-0101-0001-0000'
+    """
     cells = [c for c in str(word).split("-") if c]
     if not cells:
         return "(no word)"
@@ -141,7 +152,7 @@ def sweep_figure(table: Mapping[str, Any], out_path: str | os.PathLike, title: s
     return os.fspath(out_path)
 
 
-def build_sweep_figure(table: Mapping[str, Any], title: str | None = None):
+def build_sweep_figure(table: Mapping[str, Any], title: str | None = None) -> "matplotlib.figure.Figure":
     """The matplotlib figure of a sweep table: one row of panels per strategy; heat maps over
     ``t2`` x gear ratio when the sweep is such a grid (at least 4 values of each, nothing else
     swept), otherwise one series per combination of the other swept values against ``t2`` (or
@@ -174,20 +185,22 @@ def build_sweep_figure(table: Mapping[str, Any], title: str | None = None):
     n_t2 = len(np.unique(cols["t2_s"]))
     n_g = len(np.unique(cols["gear_ratio"][finite_g]))
     heat = n_t2 >= 4 and n_g >= 4 and not extra
-    if heat:
-        fig = _heat_maps(plt, cols, strategies, labels, shown, colour, finite_g)
-    else:
-        fig = _series_figure(plt, cols, strategies, labels, colour, extra)
     handles = [plt.Line2D([], [], marker="o", ls="", color=colour[w], label=w) for w in shown]
     if other:
         handles.append(plt.Line2D([], [], marker="o", ls="", color=colour[other[0]],
                                   label=f"{len(other)} other words"))
     handles.append(plt.Line2D([], [], marker="x", ls="", color="0.4", label="no apex (status not ok)"))
+    legend_in = 0.3 + 0.2 * math.ceil(len(handles) / 3)  # the word legend's height (inches)
+    if heat:
+        fig = _heat_maps(plt, cols, strategies, labels, shown, colour, finite_g, legend_in)
+    else:
+        fig = _series_figure(plt, cols, strategies, labels, colour, extra, legend_in)
     fig.legend(handles=handles, loc="lower center", ncol=min(3, len(handles)), fontsize=8,
                title="leap word ((3.2)-(3.7): thesis chapter 3)")
     fig.suptitle(title or ("Leap sweep: apex height, displacement and pitch over t2 and the gear ratio"
                            if heat else "Leap sweep: apex height, displacement and pitch (cf. thesis Figs. 3.4-3.5)"))
-    fig.tight_layout(rect=(0, 0.03 + 0.025 * math.ceil(len(handles) / 3), 1, 0.97))
+    height = fig.get_figheight()
+    fig.tight_layout(rect=(0, (legend_in + 0.15) / height, 1, 1 - 0.45 / height))
     return fig
 
 
@@ -197,15 +210,15 @@ _STYLES = ["-", "--", ":", "-."]
 _MARKERS = ["o", "s", "^", "D", "v", "P", "X", "*"]
 
 
-def _series_figure(plt, cols, strategies, labels, colour, extra):
+def _series_figure(plt, cols, strategies, labels, colour, extra, legend_in):
     by_gear = not _varying(cols, "t2_s") and _varying(cols, "gear_ratio")
     xkey, xlabel = ("gear_ratio", "gear ratio G") if by_gear else ("t2_s", "t2 (s)")
     panels = list(_PANELS)
     if by_gear:
         panels[2] = ("apex_xdot_m_s", "forward speed at apex (m/s)", 1.0)
     series_keys = [k for k in ("gear_ratio", "t2_s") if k != xkey and _varying(cols, k)] + extra
-    fig, axes = plt.subplots(len(strategies), 3, figsize=(13, 2.8 * len(strategies) + 1.2), squeeze=False,
-                             sharex=True)
+    fig, axes = plt.subplots(len(strategies), 3, figsize=(13, 2.8 * len(strategies) + 0.6 + legend_in),
+                             squeeze=False, sharex=True)
     ok_all = cols["status"].astype(str) == "ok"
     series_handles: dict[str, Any] = {}
     for i, s in enumerate(strategies):
@@ -246,16 +259,16 @@ def _series_figure(plt, cols, strategies, labels, colour, extra):
     return fig
 
 
-def _heat_maps(plt, cols, strategies, labels, shown, colour, finite_g):
+def _heat_maps(plt, cols, strategies, labels, shown, colour, finite_g, legend_in):
     from matplotlib.colors import ListedColormap
 
     t2 = np.unique(cols["t2_s"])
     gears = np.unique(cols["gear_ratio"][finite_g])
-    fig, axes = plt.subplots(len(strategies), 4, figsize=(16, 3.2 * len(strategies) + 1.4), squeeze=False)
+    fig, axes = plt.subplots(len(strategies), 4, figsize=(16, 3.2 * len(strategies) + 0.6 + legend_in),
+                             squeeze=False)
     ok_all = cols["status"].astype(str) == "ok"
     word_index = {w: k for k, w in enumerate(shown)}
-    word_cmap = ListedColormap([colour[w] for w in shown] + [(0.6, 0.6, 0.6, 1.0)])
-    word_cmap.set_bad("white")
+    word_cmap = ListedColormap([colour[w] for w in shown] + [(0.6, 0.6, 0.6, 1.0)]).with_extremes(bad="white")
     for i, s in enumerate(strategies):
         sel = (cols["strategy"].astype(str) == s) & finite_g
         ti = np.searchsorted(t2, cols["t2_s"][sel])
@@ -265,8 +278,7 @@ def _heat_maps(plt, cols, strategies, labels, shown, colour, finite_g):
             v = np.where(ok_all[sel], cols[key][sel].astype(float) * scale, np.nan)
             grid[gi, ti] = v
             ax = axes[i, j]
-            cmap = plt.get_cmap("viridis").copy()
-            cmap.set_bad("0.85")
+            cmap = plt.get_cmap("viridis").with_extremes(bad="0.85")
             im = ax.pcolormesh(t2, gears, np.ma.masked_invalid(grid), shading="nearest", cmap=cmap)
             fig.colorbar(im, ax=ax, label=label)
             ax.set_xlabel("t2 (s)")

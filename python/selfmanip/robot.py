@@ -263,7 +263,14 @@ class Robot:
         by name, ``"fore_1"``, or index; the point in that part's frame: body frame ``(x
         forward, z down)``, a link's frame with its tip at ``(0, length)``) at ``q``: its world
         position and its ``3 x nq`` Jacobian (world ``xdot``, ``zdot``, the part's angular
-        rate)."""
+        rate).
+
+        >>> import selfmanip
+        >>> m = selfmanip.rhex.Model({"leg_shape": "stick"})
+        >>> toe = m.jacobian([0.0, 0.0, 0.0, -0.17, 0.0], "front_0", (0.0, 0.17))
+        >>> toe.position_m.round(3).tolist(), toe.jacobian.shape
+        ([0.205, 0.0], (3, 5))
+        """
         pt = _checks.vector("point_m", point_m)
         if len(pt) != 2:
             raise InvalidInputError(f"`point_m` must have 2 entries, got {len(pt)}", "point_m")
