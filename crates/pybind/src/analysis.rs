@@ -61,8 +61,17 @@ type Params<'a, 'py> = Option<&'a Bound<'py, PyDict>>;
 
 #[pyfunction]
 #[pyo3(signature = (params, grid))]
-fn analysis_sensor_pitch_range<'py>(py: Python<'py>, params: Params<'_, 'py>, grid: usize) -> Obj<'py> {
-    guard(|| to_py(py, &ss::max_sensor_pitch(&rhex(params)?, grid).map_err(err)?))
+fn analysis_sensor_pitch_range<'py>(
+    py: Python<'py>,
+    params: Params<'_, 'py>,
+    grid: usize,
+) -> Obj<'py> {
+    guard(|| {
+        to_py(
+            py,
+            &ss::max_sensor_pitch(&rhex(params)?, grid).map_err(err)?,
+        )
+    })
 }
 
 #[pyfunction]
@@ -73,7 +82,12 @@ fn analysis_holding_torque<'py>(
     theta1: f64,
     theta2: f64,
 ) -> Obj<'py> {
-    guard(|| to_py(py, &ss::holding_torque(&rhex(params)?, theta1, theta2).map_err(err)?))
+    guard(|| {
+        to_py(
+            py,
+            &ss::holding_torque(&rhex(params)?, theta1, theta2).map_err(err)?,
+        )
+    })
 }
 
 #[pyfunction]
@@ -187,8 +201,8 @@ fn analysis_optimal_gear_ratio(
     ratio_range: [f64; 2],
 ) -> PyResult<(f64, f64)> {
     guard(|| {
-        let model = pc::takeoff_model(Some(self::params(params)?), pc::TakeoffLeg::Rolling)
-            .map_err(err)?;
+        let model =
+            pc::takeoff_model(Some(self::params(params)?), pc::TakeoffLeg::Rolling).map_err(err)?;
         pc::optimal_gear_ratio(
             &model,
             phi,

@@ -27,7 +27,10 @@ pub(crate) fn to_value(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<Value> {
         if let Ok(u) = obj.extract::<u64>() {
             return Ok(Value::from(u));
         }
-        return Err(invalid(field, format!("`{field}`: integer {obj} is out of range")));
+        return Err(invalid(
+            field,
+            format!("`{field}`: integer {obj} is out of range"),
+        ));
     }
     if obj.is_instance_of::<PyFloat>() {
         let v: f64 = obj.extract()?;

@@ -71,18 +71,50 @@ impl Kind {
     }
 }
 
+/// What a Rust error becomes in Python, worked out without the GIL (a sweep's worker threads
+/// use the message of a failed point).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Mapped {
+    pub kind: Kind,
+    pub message: String,
+    pub field: Option<String>,
+    /// `SingularKktError`'s `kind` and `condition_estimate`.
+    pub singular: Option<(String, f64)>,
+}
+
+impl Mapped {
+    fn new(kind: Kind, message: impl Into<String>, field: Option<&str>) -> Self {
+        Mapped {
+            kind,
+            message: message.into(),
+            field: field.map(str::to_owned),
+            singular: None,
+        }
+    }
+
+    /// The Python exception.
+    pub(crate) fn into_pyerr(self) -> PyErr {
+        Python::attach(|py| {
+            let made = self.kind.class(py).and_then(|cls| match &self.singular {
+                Some((kind, cond)) => cls.call1((
+                    self.message.as_str(),
+                    self.field.as_deref(),
+                    kind.as_str(),
+                    *cond,
+                )),
+                None => cls.call1((self.message.as_str(), self.field.as_deref())),
+            });
+            match made {
+                Ok(exc) => PyErr::from_value(exc),
+                Err(e) => e,
+            }
+        })
+    }
+}
+
 /// An exception of `kind` with `message`, naming `field` when there is one.
 pub(crate) fn raise(kind: Kind, message: impl Into<String>, field: Option<&str>) -> PyErr {
-    let message = message.into();
-    Python::attach(|py| {
-        let made = kind
-            .class(py)
-            .and_then(|cls| cls.call1((message.as_str(), field)));
-        match made {
-            Ok(exc) => PyErr::from_value(exc),
-            Err(e) => e,
-        }
-    })
+    Mapped::new(kind, message, field).into_pyerr()
 }
 
 /// `InvalidInputError` naming `field`.
@@ -100,50 +132,6 @@ pub(crate) fn engine(message: impl Into<String>) -> PyErr {
     raise(Kind::Engine, message, None)
 }
 
-/// A core error.
-pub(crate) fn core(e: CoreError, source: Source) -> PyErr {
-    let msg = e.to_string();
-    match e {
-        CoreError::InvalidDescription { field, .. } => invalid(&field, msg),
-        CoreError::InvalidParameterization { field, .. } => invalid(field, msg),
-        CoreError::Parse { .. } => invalid("description", msg),
-        CoreError::WrongLength { field, .. } => match source {
-            Source::Caller => invalid(field, msg),
-            Source::Engine => engine(format!("internal error in selfmanip: {msg}")),
-        },
-        CoreError::NonFinite {
-            field,
-            index,
-            value,
-        } => match source {
-            Source::Caller => invalid(field, msg),
-            // not the caller's `q`/`qd`: the engine's own state went non-finite
-            Source::Engine => engine(non_finite_state(field, index, value)),
-        },
-        CoreError::UnknownContact { .. } | CoreError::InvalidMode { .. } => invalid("mode", msg),
-        CoreError::SingularKkt {
-            kind,
-            condition_estimate,
-        } => Python::attach(|py| {
-            let made = Kind::SingularKkt.class(py).and_then(|cls| {
-                cls.call1((
-                    msg.as_str(),
-                    py.None(),
-                    format!("{kind:?}"),
-                    condition_estimate,
-                ))
-            });
-            match made {
-                Ok(exc) => PyErr::from_value(exc),
-                Err(e) => e,
-            }
-        }),
-        CoreError::IllPosedQuasiStatic { .. } => raise(Kind::IllPosed, msg, None),
-        #[allow(unreachable_patterns)]
-        _ => engine(msg),
-    }
-}
-
 /// The message of a non-finite value the engine produced itself.
 pub(crate) fn non_finite_state(field: &str, index: usize, value: f64) -> String {
     format!(
@@ -152,32 +140,87 @@ pub(crate) fn non_finite_state(field: &str, index: usize, value: f64) -> String 
     )
 }
 
-/// A hybrid-engine error.
-pub(crate) fn hybrid(e: HybridError, source: Source) -> PyErr {
+/// How a core error maps.
+pub(crate) fn map_core(e: &CoreError, source: Source) -> Mapped {
     let msg = e.to_string();
+    let input = |field: &str| Mapped::new(Kind::InvalidInput, msg.clone(), Some(field));
     match e {
-        // whatever the caller passed in, the core was called with the engine's own state
-        HybridError::Core(c) => core(c, Source::Engine),
-        HybridError::InvalidOption { field, .. } => invalid(field, msg),
-        HybridError::OffManifold { field, .. } => match source {
-            Source::Caller => invalid(field, msg),
-            Source::Engine => engine(msg),
+        CoreError::InvalidDescription { field, .. } => input(field),
+        CoreError::InvalidParameterization { field, .. } => input(field),
+        CoreError::Parse { .. } => input("description"),
+        CoreError::WrongLength { field, .. } => match source {
+            Source::Caller => input(field),
+            Source::Engine => Mapped::new(
+                Kind::Engine,
+                format!("internal error in selfmanip: {msg}"),
+                None,
+            ),
         },
+        CoreError::NonFinite {
+            field,
+            index,
+            value,
+        } => match source {
+            Source::Caller => input(field),
+            // not the caller's `q`/`qd`: the engine's own state went non-finite
+            Source::Engine => {
+                Mapped::new(Kind::Engine, non_finite_state(field, *index, *value), None)
+            }
+        },
+        CoreError::UnknownContact { .. } | CoreError::InvalidMode { .. } => input("mode"),
+        CoreError::SingularKkt {
+            kind,
+            condition_estimate,
+        } => Mapped {
+            singular: Some((format!("{kind:?}"), *condition_estimate)),
+            ..Mapped::new(Kind::SingularKkt, msg, None)
+        },
+        CoreError::IllPosedQuasiStatic { .. } => Mapped::new(Kind::IllPosed, msg, None),
         #[allow(unreachable_patterns)]
-        _ => engine(msg),
+        _ => Mapped::new(Kind::Engine, msg, None),
     }
 }
 
-/// An RHex-model error; `source` says whose vectors a core error talks about.
-pub(crate) fn rhex(e: RhexError, source: Source) -> PyErr {
+/// How a hybrid-engine error maps.
+pub(crate) fn map_hybrid(e: &HybridError, source: Source) -> Mapped {
+    let msg = e.to_string();
     match e {
-        RhexError::Params { ref field, .. } => invalid(field, e.to_string()),
-        RhexError::ModeLabel { .. } => invalid("mode", e.to_string()),
-        RhexError::Core(c) => core(c, source),
-        RhexError::Hybrid(h) => hybrid(h, source),
+        // whatever the caller passed in, the core was called with the engine's own state
+        HybridError::Core(c) => map_core(c, Source::Engine),
+        HybridError::InvalidOption { field, .. } => {
+            Mapped::new(Kind::InvalidInput, msg, Some(field))
+        }
+        HybridError::OffManifold { field, .. } => match source {
+            Source::Caller => Mapped::new(Kind::InvalidInput, msg, Some(field)),
+            Source::Engine => Mapped::new(Kind::Engine, msg, None),
+        },
         #[allow(unreachable_patterns)]
-        _ => engine(e.to_string()),
+        _ => Mapped::new(Kind::Engine, msg, None),
     }
+}
+
+/// How an RHex-model error maps; `source` says whose vectors a core error talks about.
+pub(crate) fn map_rhex(e: &RhexError, source: Source) -> Mapped {
+    match e {
+        RhexError::Params { field, .. } => {
+            Mapped::new(Kind::InvalidInput, e.to_string(), Some(field))
+        }
+        RhexError::ModeLabel { .. } => Mapped::new(Kind::InvalidInput, e.to_string(), Some("mode")),
+        RhexError::Core(c) => map_core(c, source),
+        RhexError::Hybrid(h) => map_hybrid(h, source),
+        #[allow(unreachable_patterns)]
+        _ => Mapped::new(Kind::Engine, e.to_string(), None),
+    }
+}
+
+/// A core error as a Python exception.
+pub(crate) fn core(e: CoreError, source: Source) -> PyErr {
+    map_core(&e, source).into_pyerr()
+}
+
+/// An RHex-model error as a Python exception.
+pub(crate) fn rhex(e: RhexError, source: Source) -> PyErr {
+    map_rhex(&e, source).into_pyerr()
 }
 
 /// A motor-crate error.

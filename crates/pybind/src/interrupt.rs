@@ -60,7 +60,9 @@ pub(crate) fn run<T: Send + 'static>(
     loop {
         // the receiver is `Send` but not `Sync`: it travels into the GIL-free wait and back
         let (back, got) = py.detach(move || {
-            let r = rx.take().expect("the receiver is returned after every wait");
+            let r = rx
+                .take()
+                .expect("the receiver is returned after every wait");
             let got = r.recv_timeout(POLL);
             (r, got)
         });

@@ -251,8 +251,8 @@ fn leap_run<'py>(
             }
         }
         let (p, c) = (params.clone(), cfg.clone());
-        let (res, traj) =
-            interrupt::run(py, None, move |_: &Shared| run_leap(&p, &c, dt_s))?.map_err(rhex_err)?;
+        let (res, traj) = interrupt::run(py, None, move |_: &Shared| run_leap(&p, &c, dt_s))?
+            .map_err(rhex_err)?;
         let d = PyDict::new(py);
         d.set_item("status", res.status.as_str())?;
         d.set_item("reason", reason(&res, &params, &cfg))?;
@@ -315,10 +315,9 @@ fn failed_row(status: &str, error: String, gear_ratio: f64) -> SweepRow {
     }
 }
 
-/// The message of a point's error as the single leap would raise it.
-fn error_message(e: RhexError) -> String {
-    let err = rhex_err(e);
-    Python::attach(|py| err.value(py).to_string())
+/// The message of a point's error as the single leap would raise it (no GIL needed).
+fn error_message(e: &RhexError) -> String {
+    errors::map_rhex(e, Source::Engine).message
 }
 
 /// One point of a sweep as a row: never fails, never panics. Unlike a single leap, a point
@@ -339,7 +338,7 @@ fn sweep_row(base: &(RhexParams, LeapConfig), point: &SweepPoint) -> SweepRow {
             ),
             f64::NAN,
         ),
-        Ok(Err(e)) => failed_row(error_kind(&e), error_message(e), f64::NAN),
+        Ok(Err(e)) => failed_row(error_kind(&e), error_message(&e), f64::NAN),
         Ok(Ok((r, why, g))) => {
             let mut row = failed_row(r.status.as_str(), why, g);
             row.word = r.word_string();
@@ -592,21 +591,32 @@ fn event_from(e: &Bound<'_, PyAny>, i: usize) -> PyResult<LeapEvent> {
     let text = |k: &str| -> PyResult<String> {
         match get(k)? {
             None => Ok(String::new()),
-            Some(v) => v
-                .extract()
-                .map_err(|_| errors::invalid_type(&field(k), format!("`{}` must be a string", field(k)))),
+            Some(v) => v.extract().map_err(|_| {
+                errors::invalid_type(&field(k), format!("`{}` must be a string", field(k)))
+            }),
         }
     };
     let t_s = match get("t_s")? {
-        Some(v) => typed("t_s", v)?
-            .as_f64()
-            .ok_or_else(|| errors::invalid_type(&field("t_s"), format!("`{}` must be a number", field("t_s"))))?,
-        None => return Err(invalid(&field("t_s"), format!("`{}` is missing", field("t_s")))),
+        Some(v) => typed("t_s", v)?.as_f64().ok_or_else(|| {
+            errors::invalid_type(
+                &field("t_s"),
+                format!("`{}` must be a number", field("t_s")),
+            )
+        })?,
+        None => {
+            return Err(invalid(
+                &field("t_s"),
+                format!("`{}` is missing", field("t_s")),
+            ))
+        }
     };
     let contacts = match get("contacts")? {
         None => Vec::new(),
         Some(v) => v.extract().map_err(|_| {
-            errors::invalid_type(&field("contacts"), format!("`{}` must be a list of names", field("contacts")))
+            errors::invalid_type(
+                &field("contacts"),
+                format!("`{}` must be a list of names", field("contacts")),
+            )
         })?,
     };
     let energy_loss_j = match get("energy_loss_j")? {

@@ -488,7 +488,10 @@ impl Robot {
                 })
                 .collect();
             let d = PyDict::new(py);
-            d.set_item("body_position_m", vec![kin.body_pos.x, kin.body_pos.y].into_pyarray(py))?;
+            d.set_item(
+                "body_position_m",
+                vec![kin.body_pos.x, kin.body_pos.y].into_pyarray(py),
+            )?;
             d.set_item("body_angle_rad", kin.phi)?;
             d.set_item("joint_positions_m", xy(&kin.origin).into_pyarray(py))?;
             d.set_item("link_angles_rad", kin.beta.clone().into_pyarray(py))?;
@@ -561,12 +564,25 @@ impl Robot {
                 .map(|g| kin.point_jacobian(&self.model, g.part, g.point))
                 .collect();
             let d = PyDict::new(py);
-            d.set_item("names", self.model.contacts.iter().map(|c| c.name.clone()).collect::<Vec<_>>())?;
+            d.set_item(
+                "names",
+                self.model
+                    .contacts
+                    .iter()
+                    .map(|c| c.name.clone())
+                    .collect::<Vec<_>>(),
+            )?;
             d.set_item(
                 "points_m",
                 Array2::from_shape_fn((nc, 2), |(k, i)| geom[k].point[i]).into_pyarray(py),
             )?;
-            d.set_item("gaps_m", geom.iter().map(|g| g.gap_m).collect::<Vec<_>>().into_pyarray(py))?;
+            d.set_item(
+                "gaps_m",
+                geom.iter()
+                    .map(|g| g.gap_m)
+                    .collect::<Vec<_>>()
+                    .into_pyarray(py),
+            )?;
             d.set_item(
                 "normals",
                 Array2::from_shape_fn((nc, 2), |(k, i)| geom[k].plane.normal()[i]).into_pyarray(py),
@@ -638,7 +654,11 @@ impl Robot {
     ) -> PyResult<Option<Bound<'py, PyDict>>> {
         guard(|| {
             if !theta1.is_finite() || !theta2.is_finite() {
-                let field = if theta1.is_finite() { "theta2" } else { "theta1" };
+                let field = if theta1.is_finite() {
+                    "theta2"
+                } else {
+                    "theta1"
+                };
                 return Err(invalid(field, format!("`{field}` must be finite")));
             }
             quasi_static_pose(self.rhex()?, theta1, theta2)
