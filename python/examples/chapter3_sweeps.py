@@ -20,17 +20,18 @@ import numpy as np
 
 import selfmanip
 from selfmanip.cli_leap import write_table
-from selfmanip.plots import sweep_figure
+from selfmanip.plots import sweep_figure, word_label
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out-dir", default=".")
     ap.add_argument("--n", type=int, default=41, help="t2 samples in [-0.2, 0.2] s")
-    ap.add_argument("--saturated", action="store_true", help="chapter 3's saturated torque (default: G = 28 motors)")
+    ap.add_argument("--saturated", action="store_true",
+                    help="chapter 3's saturated torque (default: the engine's default actuator, the geared motor)")
     args = ap.parse_args(argv)
     t2 = np.linspace(-0.2, 0.2, args.n)
-    table = selfmanip.sweep(["++", "+-", "-+", "--"], t2=t2, gear_ratio=None if args.saturated else 28.0)
+    table = selfmanip.sweep(["++", "+-", "-+", "--"], t2=t2, gear_ratio=None if args.saturated else selfmanip.DEFAULT)
     os.makedirs(args.out_dir, exist_ok=True)
     csv_path = os.path.join(args.out_dir, "chapter3_sweep.csv")
     png_path = os.path.join(args.out_dir, "chapter3_sweep.png")
@@ -46,7 +47,7 @@ def main(argv=None) -> int:
                      f"longest {table['apex_x_m'][far]:+.3f} m at t2 = {table['t2_s'][far]:+.3f} s")
         print(line)
         for word, count in Counter(table["word"][m]).most_common(4):
-            print(f"    {count:3d} x {word}")
+            print(f"    {count:3d} x {word_label(word)}")
     print(f"wrote {csv_path} and {png_path}")
     return 0
 

@@ -41,10 +41,16 @@ def main(argv=None) -> int:
             if not m.any():
                 print(f"({s[0]}, {s[1]}) t2={t:+.2f}: no leap reaches an apex")
                 continue
-            speed = np.where(m, table["apex_xdot_m_s"], -np.inf)
+            # the take-off speed is the magnitude |x_dot| (Fig. 4.11), whichever way the leap goes:
+            # maximizing the signed speed picks the grid's edge for a backward leap
+            speed = np.where(m, np.abs(table["apex_xdot_m_s"]), -np.inf)
             i = int(np.argmax(speed))
+            edge = table["gear_ratio"][i] in (gears[0], gears[-1])
             print(f"({s[0]}, {s[1]}) t2={t:+.2f}: best G = {table['gear_ratio'][i]:.0f} "
-                  f"(take-off speed {speed[i]:.3f} m/s, apex {table['apex_z_m'][i]:.3f} m)")
+                  f"(take-off speed |x_dot| = {speed[i]:.3f} m/s, "
+                  f"{'forward' if table['apex_xdot_m_s'][i] >= 0 else 'backward'}, "
+                  f"apex {table['apex_z_m'][i]:.3f} m)"
+                  + ("  [at the edge of the grid: widen --gears]" if edge else ""))
     print(f"wrote {csv_path} and {png_path}")
     return 0
 

@@ -7,36 +7,59 @@ in the thesis (x forward, **z down**, pitch ``phi`` nose-up positive); generaliz
 in each contact frame (normal axis into the ground, so a pushing normal force is negative),
 rows ordered by contact, tangential before normal.
 
-Modules: :mod:`selfmanip.robot` (any planar robot from a description file),
-:mod:`selfmanip.rhex` (the RHex of thesis section 4.2),
-:mod:`selfmanip.motor` (motors, gearboxes, thermal model, tail optimum, leg observer), :mod:`selfmanip.cli` (the
-``selfmanip`` command).
+Modules: :mod:`selfmanip.robot` (any planar robot from a description file: dynamics,
+kinematics, Jacobians, contacts), :mod:`selfmanip.rhex` (the RHex of thesis section 4.2),
+:mod:`selfmanip.leap` (RHex leaps and sweeps; the module is also callable as
+:func:`selfmanip.leap.leap`), :mod:`selfmanip.analysis` (section 4.3),
+:mod:`selfmanip.motor` (motors, gearboxes, thermal model, tail optimum, leg observer),
+:mod:`selfmanip.plots`, :mod:`selfmanip.distributed`, :mod:`selfmanip.errors` (the exception
+hierarchy under :class:`SelfmanipError`) and :mod:`selfmanip.cli` (the ``selfmanip`` command).
 """
 
 from __future__ import annotations
 
-from ._native import SelfmanipError, SingularKktError
-from .robot import Dynamics, Impact, KktBlocks, QuasiStatic, Robot
-from . import motor, rhex
+from typing import TYPE_CHECKING
+
+from .errors import (AllPointsFailedWarning, EngineError, IllPosedError, InvalidInputError, InvalidTypeError,
+                     SelfmanipError, SingularKktError)
+from .robot import ContactPoints, Dynamics, Impact, Kinematics, KktBlocks, PointJacobian, QuasiStatic, Robot
+from . import errors, motor, rhex
 from . import analysis
 from . import distributed, plots
-from .leap import LeapResult, leap, sweep
+from .leap import DEFAULT, LeapResult, sweep
+
+if TYPE_CHECKING:
+    from .leap import leap as leap
+else:
+    # the module itself, callable: ``selfmanip.leap(...)`` runs a leap, ``import selfmanip.leap``
+    # and ``from selfmanip.leap import sweep_points`` reach the module
+    from . import leap
 
 __all__ = [
+    "AllPointsFailedWarning",
+    "ContactPoints",
+    "DEFAULT",
     "Dynamics",
+    "EngineError",
+    "IllPosedError",
     "Impact",
+    "InvalidInputError",
+    "InvalidTypeError",
+    "Kinematics",
     "KktBlocks",
+    "LeapResult",
+    "PointJacobian",
     "QuasiStatic",
     "Robot",
     "SelfmanipError",
     "SingularKktError",
     "analysis",
     "distributed",
+    "errors",
     "leap",
-    "LeapResult",
-    "plots",
-    "sweep",
     "motor",
+    "plots",
     "rhex",
+    "sweep",
 ]
 __version__ = "0.1.0"

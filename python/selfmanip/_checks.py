@@ -1,6 +1,7 @@
-"""Input checks at the Python edge: wrong *types* become ``TypeError`` naming the field here;
-wrong *values* (length, NaN, negative mass, unknown labels) are checked by the Rust engine and
-raised as :class:`selfmanip.SelfmanipError` (a ``ValueError``) naming the field there."""
+"""Input checks at the Python edge: wrong *types* become :class:`InvalidTypeError` (a
+``TypeError``) naming the field here; wrong *values* (length, NaN, negative mass, unknown
+labels) are checked by the Rust engine and raised as :class:`InvalidInputError` (a
+``ValueError``) naming the field there. Both are :class:`selfmanip.SelfmanipError`."""
 
 from __future__ import annotations
 
@@ -9,32 +10,43 @@ from typing import Any
 
 import numpy as np
 
+from .errors import InvalidInputError, InvalidTypeError
+
 
 def vector(field: str, value: Any) -> list[float]:
     """A 1-D sequence of real numbers as a list of floats."""
     if isinstance(value, (str, bytes, dict)) or value is None:
-        raise TypeError(f"`{field}` must be a 1-D sequence of numbers, got {type(value).__name__}")
+        raise InvalidTypeError(f"`{field}` must be a 1-D sequence of numbers, got {type(value).__name__}", field)
     try:
         arr = np.asarray(value)
     except Exception as e:  # pragma: no cover - numpy accepts almost anything
-        raise TypeError(f"`{field}` must be a 1-D sequence of numbers: {e}") from e
+        raise InvalidTypeError(f"`{field}` must be a 1-D sequence of numbers: {e}", field) from e
     if arr.dtype == bool or not (np.issubdtype(arr.dtype, np.number)):
-        raise TypeError(f"`{field}` must hold real numbers, got dtype {arr.dtype}")
+        raise InvalidTypeError(f"`{field}` must hold real numbers, got dtype {arr.dtype}", field)
     if np.iscomplexobj(arr):
-        raise TypeError(f"`{field}` must hold real numbers, got complex")
+        raise InvalidTypeError(f"`{field}` must hold real numbers, got complex", field)
     if arr.ndim != 1:
-        raise ValueError(f"`{field}` must be 1-D, got shape {arr.shape}")
+        raise InvalidInputError(f"`{field}` must be 1-D, got shape {arr.shape}", field)
     return [float(v) for v in arr]
 
 
 def real(field: str, value: Any) -> float:
     """A real scalar (``bool`` is rejected: ``True`` is not a mass)."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(f"`{field}` must be a real number, got {type(value).__name__}")
+        raise InvalidTypeError(f"`{field}` must be a real number, got {type(value).__name__}", field)
     return float(value)
+
+
+def integer(field: str, value: Any, lo: int | None = None) -> int:
+    """An int (``bool`` rejected), at least ``lo`` when given."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise InvalidTypeError(f"`{field}` must be an int, got {type(value).__name__}", field)
+    if lo is not None and value < lo:
+        raise InvalidInputError(f"`{field}` must be >= {lo}, got {value}", field)
+    return int(value)
 
 
 def text(field: str, value: Any) -> str:
     if not isinstance(value, str):
-        raise TypeError(f"`{field}` must be a string, got {type(value).__name__}")
+        raise InvalidTypeError(f"`{field}` must be a string, got {type(value).__name__}", field)
     return value

@@ -1,47 +1,319 @@
-"""Type stubs for the native module ``selfmanip._native`` (pyo3). The leap/sweep functions are
-typed in full; the rest of the module (robot, motor, analysis bindings) is typed loosely via
-``__getattr__`` — use the documented Python wrappers in ``selfmanip.*``."""
+"""Type stubs for the native module ``selfmanip._native`` (pyo3; ``crates/pybind``).
+
+Everything here is private: use the documented wrappers in ``selfmanip.*``. Structured values
+cross as plain Python objects (``dict``/``list``/``float``/``str``) and numpy arrays. Errors are
+the classes of :mod:`selfmanip.errors` (mapped from the Rust error variants); long calls release
+the GIL and raise ``KeyboardInterrupt`` on Ctrl-C.
+"""
 
 from os import PathLike
-from typing import Any
+from typing import Any, Callable, Literal, TypedDict, final
 
 import numpy as np
 import numpy.typing as npt
 
-class SelfmanipError(ValueError): ...
-class SingularKktError(SelfmanipError): ...
+_F64 = npt.NDArray[np.float64]
+_I64 = npt.NDArray[np.int64]
+
+# --------------------------------------------------------------------------------------- robot
+
+class _Dynamics(TypedDict):
+    qdd: _F64
+    lam: _F64
+    rows: list[tuple[str, str]]
+    free_joints: list[int]
+    mode: str
+
+class _Kkt(TypedDict):
+    m_dagger: _F64
+    a_dagger: _F64
+    Lambda: _F64
+    A: _F64
+    M: _F64
+    rows: list[tuple[str, str]]
+    dynamic_coords: list[int]
+    constraint_condition: float
+    reduced_mass_condition: float
+
+class _Impact(TypedDict):
+    qd_plus: _F64
+    impulse: _F64
+    rows: list[tuple[str, str]]
+
+class _QuasiStatic(TypedDict):
+    G_s: _F64
+    J_h: _F64
+    internal_basis: _F64
+    internal_torques: _F64
+    f_particular: _F64
+    lam_particular: _F64
+    tau_particular: _F64
+    gravity_wrench: list[float]
+
+class _Pose(TypedDict):
+    theta1: float
+    theta2: float
+    phi: float
+    front: str
+    rear: str
+    height_m: float
+    label: str
+
+class _Kinematics(TypedDict, total=False):
+    body_position_m: _F64
+    body_angle_rad: float
+    joint_positions_m: _F64
+    link_angles_rad: _F64
+    link_tips_m: _F64
+    body_velocity_m_s: _F64
+    body_rate_rad_s: float
+    joint_velocities_m_s: _F64
+    link_rates_rad_s: _F64
+    link_tip_velocities_m_s: _F64
+
+class _PointJacobian(TypedDict):
+    position_m: _F64
+    angle_rad: float
+    jacobian: _F64
+
+class _ContactPoints(TypedDict, total=False):
+    names: list[str]
+    points_m: _F64
+    gaps_m: _F64
+    normals: _F64
+    jacobians: _F64
+    velocities_m_s: _F64
+
+@final
+class Robot:
+    @staticmethod
+    def rhex_from_params(params: dict[str, Any]) -> Robot: ...
+    @staticmethod
+    def from_description(text: str, format: Literal["toml", "json"]) -> Robot: ...
+    @property
+    def name(self) -> str: ...
+    @property
+    def nq(self) -> int: ...
+    @property
+    def n_joints(self) -> int: ...
+    @property
+    def contact_names(self) -> list[str]: ...
+    @property
+    def coordinate_names(self) -> list[str]: ...
+    @property
+    def is_rhex(self) -> bool: ...
+    def params(self) -> dict[str, Any]: ...
+    def description_toml(self) -> str: ...
+    def labels(self) -> list[str] | None: ...
+    def mode_spec(self, mode: str) -> str: ...
+    def dynamics(
+        self,
+        mode: str,
+        q: list[float],
+        qd: list[float],
+        tau: list[float],
+        free_joint_qdd: list[float] | None = None,
+    ) -> _Dynamics: ...
+    def kkt(self, mode: str, q: list[float]) -> _Kkt: ...
+    def impact(self, mode: str, q: list[float], qd_minus: list[float]) -> _Impact: ...
+    def energy(self, q: list[float], qd: list[float]) -> tuple[float, float]: ...
+    def contact_gaps(self, q: list[float]) -> list[tuple[str, float]]: ...
+    def forward_kinematics(self, q: list[float], qd: list[float] | None = None) -> _Kinematics: ...
+    def jacobian(
+        self, q: list[float], part: int | None = None, point_m: tuple[float, float] | list[float] = ...
+    ) -> _PointJacobian: ...
+    def contact_points(self, q: list[float], qd: list[float] | None = None) -> _ContactPoints: ...
+    def quasi_static(
+        self, mode: str, q: list[float], torque_constraints: list[list[float]] = ...
+    ) -> _QuasiStatic: ...
+    def quasi_static_pose(self, theta1: float, theta2: float) -> _Pose | None: ...
+    def contact_mode_map(self, n: int) -> list[_Pose]: ...
+
+def rhex_default_params() -> dict[str, Any]: ...
+def ground_reaction_complex() -> dict[str, Any]: ...
+
+# ---------------------------------------------------------------------------------------- leap
+
+class _Apex(TypedDict):
+    t_s: float
+    x_m: float
+    z_m: float
+    phi_rad: float
+    xdot_m_s: float
+    zdot_m_s: float
+    phidot_rad_s: float
+
+class _Event(TypedDict):
+    t_s: float
+    kind: str
+    mode_before: str
+    mode_after: str
+    contacts: list[str]
+    energy_loss_j: float
+
+class _LeapTrajectory(TypedDict):
+    contacts: list[str]
+    t_s: _F64
+    q: _F64
+    qd: _F64
+    mode: list[str]
+    contact_points_m: _F64
+    contact_forces_n: _F64
+
+class _Leap(TypedDict, total=False):
+    status: str
+    reason: str
+    apex: _Apex | None
+    word: list[str]
+    events: list[_Event]
+    q0: _F64
+    q_names: list[str]
+    time_offset_s: float
+    params: dict[str, Any]
+    config: dict[str, Any]
+    trajectory: _LeapTrajectory
+
+class _SweepColumns(TypedDict):
+    gear_ratio: _F64
+    apex_t_s: _F64
+    apex_x_m: _F64
+    apex_z_m: _F64
+    apex_phi_rad: _F64
+    apex_xdot_m_s: _F64
+    apex_zdot_m_s: _F64
+    apex_phidot_rad_s: _F64
+    n_events: _I64
+    word: list[str]
+    status: list[str]
+    error: list[str]
+
+class _Defaults(TypedDict):
+    params: dict[str, Any]
+    config: dict[str, Any]
 
 def leap_sweepable_names() -> list[str]: ...
-def leap_defaults_json() -> str: ...
+def leap_defaults() -> _Defaults: ...
 def leap_grammar_text() -> str: ...
+def leap_word_equation(cells: list[str]) -> str | None: ...
 def leap_run(
     strategy: str,
     t2_s: float,
     gear_ratio: float | None,
-    overrides_json: str,
+    overrides: dict[str, Any],
     dt_s: float | None = None,
-) -> dict[str, Any]: ...
+) -> _Leap:
+    """``gear_ratio``: ``None`` the engine's default actuator, a number the geared motor of
+    that ratio, NaN the saturated torque."""
+
 def leap_sweep(
     strategies: list[str],
     t2_s: list[float],
-    gear_ratio: list[float],
-    base_overrides_json: str,
-    point_overrides_json: str,
+    gear_ratio: list[float | None],
+    base_overrides: dict[str, Any],
+    columns: dict[str, list[Any]],
     threads: int,
-) -> dict[str, npt.NDArray[np.float64] | npt.NDArray[np.int64] | list[str]]: ...
+    progress: Callable[[int], object] | None = None,
+) -> _SweepColumns: ...
 def leap_write_mcap(
     path: str | PathLike[str],
-    params_json: str,
+    params: dict[str, Any],
     contacts: list[str],
     t_s: list[float],
-    q: npt.NDArray[np.float64],
-    qd: npt.NDArray[np.float64],
+    q: _F64,
+    qd: _F64,
     mode: list[str],
-    contact_points_m: npt.NDArray[np.float64],
-    contact_forces_n: npt.NDArray[np.float64],
-    events_json: str,
+    contact_points_m: _F64,
+    contact_forces_n: _F64,
+    events: list[dict[str, Any]],
     metadata: dict[str, str],
 ) -> None: ...
-def ground_reaction_complex_json() -> str: ...
-def rhex_default_params_json() -> str: ...
-def __getattr__(name: str) -> Any: ...
+
+# ------------------------------------------------------------------------------------ analysis
+
+_Params = dict[str, Any] | None
+
+def analysis_sensor_pitch_range(params: _Params, grid: int) -> dict[str, Any]: ...
+def analysis_holding_torque(params: _Params, theta1: float, theta2: float) -> dict[str, Any]: ...
+def analysis_pitch_rate_gain(params: _Params, theta1: float, theta2: float) -> float: ...
+def analysis_fig_4_8(
+    params: _Params, theta1_range: list[float], theta2_range: list[float], n: int
+) -> list[dict[str, Any]]: ...
+def analysis_fig_4_10(
+    params: _Params, theta2_range: list[float], phi_range: list[float], n: int, gear_ratio: float
+) -> list[dict[str, Any]]: ...
+def analysis_fig_4_11(
+    params: _Params, ratios: list[float], phis: list[float], theta2_range: list[float]
+) -> list[dict[str, Any]]: ...
+def analysis_fig_4_12(
+    params: _Params, phi_dots: list[float], phis: list[float], theta2_range: list[float], gear_ratio: float
+) -> list[dict[str, Any]]: ...
+def analysis_takeoff_speed(
+    params: _Params, leg_kind: str, theta2: float, phi: float, phi_dot: float, gear_ratio: float
+) -> dict[str, Any] | None: ...
+def analysis_optimal_gear_ratio(
+    params: _Params, phi: float, phi_dot: float, theta2_range: list[float], ratio_range: list[float]
+) -> tuple[float, float]: ...
+def analysis_splay_derivative(params: _Params, theta_m: float, theta_m_dot: float, tau: float) -> float: ...
+def analysis_single_leg_pitch_accel(
+    params: _Params, leg_kind: str, theta2: float, phi: float, theta2_dot: float, phi_dot: float, tau2: float
+) -> float: ...
+def analysis_leg_effectiveness(params: _Params, pairs: int) -> float: ...
+def analysis_tail_effect(
+    robot: Robot, q0: list[float], joints: list[int], period_s: float, dt_s: float
+) -> dict[str, Any]: ...
+def analysis_standing_rhex(
+    params: _Params, leg_shape: str, seed: int, max_slope_rad: float, tau_d0: float, dt_s: float, steps: int
+) -> dict[str, Any]: ...
+
+# --------------------------------------------------------------------------------------- motor
+
+def motor_tail_optimum(
+    theta0_rad: float, power_w: float, body_inertia_kg_m2: float, effectiveness: float
+) -> dict[str, float]: ...
+def motor_tail_constants() -> dict[str, float]: ...
+def motor_rank_tail_motors(
+    theta0_rad: float,
+    body_inertia_kg_m2: float,
+    effectiveness: float,
+    max_length_m: float,
+    max_mass_kg: float,
+    max_completion_time_s: float,
+    catalog_toml: str | None = None,
+    synthetic_count: int = 1546,
+    seed: int = 7,
+) -> dict[str, Any]: ...
+def motor_thesis_catalog_toml() -> str: ...
+def motor_drive_table(catalog_toml: str | None = None, current_limit_a: float | None = None) -> list[dict[str, Any]]: ...
+def motor_torque_speed_curve(
+    drive: str, points: int = 50, current_limit_a: float | None = None, catalog_toml: str | None = None
+) -> dict[str, _F64]: ...
+def motor_thermal_simulation(
+    drive: str,
+    torque_n_m: _F64,
+    dt_s: float,
+    ambient_c: float = 25.0,
+    case: str = "measured",
+    catalog_toml: str | None = None,
+) -> dict[str, Any]: ...
+def motor_continuous_output_torque(
+    drive: str,
+    max_winding_c: float = 125.0,
+    ambient_c: float = 25.0,
+    case: str = "measured",
+    catalog_toml: str | None = None,
+) -> float: ...
+def motor_observe(
+    params: dict[str, float], dt_s: float, theta_d: _F64, omega_d: _F64, theta: _F64, omega: _F64
+) -> dict[str, _F64]: ...
+def motor_calibrate_observer(
+    initial_params: dict[str, float], dt_s: float, theta_d: _F64, omega_d: _F64, theta: _F64, omega: _F64
+) -> dict[str, Any]: ...
+def motor_identify_faults(
+    params: dict[str, float],
+    config: dict[str, Any],
+    dt_s: float,
+    theta_d: _F64,
+    omega_d: _F64,
+    theta: _F64,
+    omega: _F64,
+) -> list[dict[str, Any]]: ...

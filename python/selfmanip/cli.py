@@ -14,13 +14,14 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import time
 from typing import Sequence
 
 import numpy as np
 
-from . import SelfmanipError
+from .errors import InvalidInputError, SelfmanipError
 from .rhex import Model
 
 _SUPPORT_GLYPH = {("B", "B"): ".", ("B", "R"): "r", ("B", "T"): "t", ("R", "B"): "R", ("T", "B"): "T",
@@ -126,10 +127,10 @@ def _motor(args) -> int:
 
     for name in ("dt", "every"):
         if not getattr(args, name) > 0:
-            raise ValueError(f"`--{name}` must be > 0, got {getattr(args, name)}")
+            raise InvalidInputError(f"`--{name}` must be > 0, got {getattr(args, name)}", f"--{name}")
     for name in ("duration", "cooling"):
         if not getattr(args, name) >= 0:
-            raise ValueError(f"`--{name}` must be >= 0, got {getattr(args, name)}")
+            raise InvalidInputError(f"`--{name}` must be >= 0, got {getattr(args, name)}", f"--{name}")
     n_on = int(round(args.duration / args.dt))
     n_off = int(round(args.cooling / args.dt))
     profile = np.concatenate([np.full(n_on, args.torque), np.zeros(n_off)])
@@ -212,24 +213,88 @@ def _plot(args) -> int:
     return 2
 
 
+def _value_options(parser: argparse.ArgumentParser) -> tuple[set[str], set[str]]:
+    """``(options that take one value, every option string)`` of ``parser`` and its
+    subcommands."""
+    takes, every = set(), set()
+    for action in parser._actions:
+        every.update(action.option_strings)
+        if action.option_strings and action.nargs is None and action.const is None:
+            takes.update(action.option_strings)
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                t, e = _value_options(sub)
+                takes |= t
+                every |= e
+    return takes, every
+
+
+def attach_dash_values(argv: Sequence[str], parser: argparse.ArgumentParser) -> list[str]:
+    """Joins ``--option VALUE`` into ``--option=VALUE`` when the value starts with a dash
+    (``--strategy -+``, ``--strategy --``, ``--t2 -0.2:0.2:41``), which argparse would
+    otherwise take for an option of its own (or, for ``--``, the end of the options)."""
+    takes, every = _value_options(parser)
+    out: list[str] = []
+    # argparse drops a value that is exactly "--" (its end-of-options marker), even after "=":
+    # the strategy (-, -) is passed in its other spelling
+    args = ["--strategy=- -" if a == "--strategy=--" else a for a in argv]
+    i = 0
+    while i < len(args):
+        a = args[i]
+        nxt = args[i + 1] if i + 1 < len(args) else None
+        if a == "--strategy" and nxt == "--":
+            nxt = "- -"
+        if a in takes and nxt is not None and nxt.startswith("-") and nxt.split("=", 1)[0] not in every:
+            out.append(f"{a}={nxt}")
+            i += 2
+            continue
+        out.append(a)
+        i += 1
+    return out
+
+
+def _run(args) -> int:
+    if args.command in (None, "demo"):
+        return demo()
+    if args.command == "dynamics":
+        return _dynamics(args)
+    if args.command == "map":
+        return _map(args)
+    if args.command == "motor":
+        return _motor(args)
+    if args.command == "analysis":
+        return args.analysis_handler(args)
+    if args.command == "plot":
+        return _plot(args)
+    if args.command in ("leap", "sweep", "grc"):
+        return args.leap_handler(args)
+    return 2
+
+
+#: Exit status when the reader of stdout went away (``selfmanip sweep | head``): 128 + SIGPIPE,
+#: what a shell reports for a command killed by a broken pipe.
+EXIT_BROKEN_PIPE = 141
+#: Exit status on Ctrl-C (128 + SIGINT).
+EXIT_INTERRUPTED = 130
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(attach_dash_values(sys.argv[1:] if argv is None else list(argv), parser))
     try:
-        if args.command in (None, "demo"):
-            return demo()
-        if args.command == "dynamics":
-            return _dynamics(args)
-        if args.command == "map":
-            return _map(args)
-        if args.command == "motor":
-            return _motor(args)
-        if args.command == "analysis":
-            return args.analysis_handler(args)
-        if args.command == "plot":
-            return _plot(args)
-        if args.command in ("leap", "sweep", "grc"):
-            return args.leap_handler(args)
+        return _run(args)
+    except BrokenPipeError:
+        # the reader closed the pipe: nothing is wrong, and nothing more can be written; point
+        # stdout at /dev/null so that the interpreter's final flush stays quiet
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, sys.stdout.fileno())
+        except (OSError, ValueError):
+            pass
+        return EXIT_BROKEN_PIPE
+    except KeyboardInterrupt:
+        print("selfmanip: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except (SelfmanipError, ValueError, TypeError, OSError) as e:
         print(f"selfmanip: error: {e}", file=sys.stderr)
         return 2
-    return 2

@@ -2,12 +2,15 @@
 half of ``selfmanip plot`` (a sweep table or a leap → PNG).
 
 Ranges: ``A:B:N`` is ``N`` evenly spaced values from ``A`` to ``B`` inclusive
-(``--t2=-0.2:0.2:41``; write ``--t2=`` with an ``=`` when the range starts with a minus
-sign), ``A,B,C`` a list, ``A`` one value. ``--set NAME=RANGE`` sweeps any model parameter by
-name (``--set m_b=7:9:3``, ``--set leg_shape=half_circle,stick``, ``--set mu_rear=none``).
+(``--t2 -0.2:0.2:41``), ``A,B,C`` a list, ``A`` one value; values may start with a minus
+sign (``--strategy -+``). ``--set NAME=RANGE`` sweeps any model parameter by name
+(``--set m_b=7:9:3``, ``--set leg_shape=half_circle,stick``, ``--set mu_rear=none``); a value
+that starts with ``{`` or ``[`` is one JSON value (``--set 'terrain={"kind": "ledge",
+"height_m": 0.2, "distance_m": 0.4}'``, ``--set 'pairs=["middle", "rear"]'``).
 
-Exit codes: 0 success; 1 ``sweep --strict`` with failed points; 2 bad input (ranges,
-strategies, parameter names or values) with a message on stderr.
+Exit codes: 0 success; 1 ``sweep`` whose points all failed, or ``sweep --strict`` with any
+failed point; 2 bad input (ranges, strategies, parameter names or values, unreadable files)
+with a message on stderr; 130 Ctrl-C; 141 the reader of stdout went away (``| head``).
 """
 
 from __future__ import annotations
@@ -18,9 +21,11 @@ import json
 import math
 import os
 import sys
-from typing import Any
+from typing import Any, Mapping, TextIO
 
 import numpy as np
+
+from .errors import InvalidInputError
 
 PLOT_SUFFIXES = (".csv", ".parquet", ".json", ".mcap")
 
@@ -30,7 +35,7 @@ def parse_range(text: str, field: str, *, integer_count: bool = True) -> list[fl
     naming the option otherwise."""
     s = text.strip()
     if not s:
-        raise ValueError(f"`{field}`: empty range")
+        raise InvalidInputError(f"`{field}`: empty range", field)
     try:
         if ":" in s:
             parts = s.split(":")
@@ -47,23 +52,29 @@ def parse_range(text: str, field: str, *, integer_count: bool = True) -> list[fl
         else:
             vals = [float(v) for v in s.split(",") if v.strip() != ""]
     except ValueError as e:
-        raise ValueError(f"`{field}`: bad range {text!r}: {e}") from None
+        raise InvalidInputError(f"`{field}`: bad range {text!r}: {e}", field) from None
     if not vals:
-        raise ValueError(f"`{field}`: empty range {text!r}")
+        raise InvalidInputError(f"`{field}`: empty range {text!r}", field)
     bad = [v for v in vals if not math.isfinite(v)]
     if bad:
-        raise ValueError(f"`{field}`: values must be finite, got {bad[0]}")
+        raise InvalidInputError(f"`{field}`: values must be finite, got {bad[0]}", field)
     return vals
 
 
 def _parse_values(name: str, spec: str) -> list[Any]:
-    """Numbers (a range) when they parse, otherwise strings; ``none`` is ``None``."""
+    """One JSON value when ``spec`` starts with ``{`` or ``[``; otherwise numbers (a range) when
+    they parse, else strings; ``none`` is ``None``."""
+    if spec.lstrip().startswith(("{", "[")):
+        try:
+            return [json.loads(spec)]
+        except json.JSONDecodeError as e:
+            raise InvalidInputError(f"`--set {name}`: not a JSON value: {e}", f"--set {name}") from None
     try:
         return parse_range(spec, f"--set {name}")
     except ValueError:
         items = [v.strip() for v in spec.split(",") if v.strip()]
         if not items:
-            raise ValueError(f"`--set {name}`: no value") from None
+            raise InvalidInputError(f"`--set {name}`: no value", f"--set {name}") from None
         if any(":" in v for v in items):
             return parse_range(spec, f"--set {name}")  # re-raise the range's message
         out: list[Any] = []
@@ -84,7 +95,7 @@ def _sets(items: list[str] | None) -> dict[str, list[Any]]:
     out: dict[str, list[Any]] = {}
     for item in items or []:
         if "=" not in item:
-            raise ValueError(f"`--set`: expected NAME=VALUE, got {item!r}")
+            raise InvalidInputError(f"`--set`: expected NAME=VALUE, got {item!r}", "--set")
         name, spec = item.split("=", 1)
         out[name.strip()] = _parse_values(name.strip(), spec)
     return out
@@ -95,15 +106,17 @@ def _strategies(text: str) -> list[str]:
 
     items = [s.strip() for s in text.split(",") if s.strip()]
     if not items:
-        raise ValueError("`--strategy`: no strategy given")
+        raise InvalidInputError("`--strategy`: no strategy given", "--strategy")
     return [_strategy(s, "--strategy") for s in items]
 
 
-def add_subcommands(sub) -> None:
+def add_subcommands(sub: "argparse._SubParsersAction") -> None:
     le = sub.add_parser("leap", help="one leap from rest to apex (chapter 3); --json, --mcap FILE")
     le.add_argument("--strategy", default="++", help="++, +-, -+ or -- (front, rear push direction)")
     le.add_argument("--t2", default="0.0", help="rear leg start relative to the front leg (s); negative: rear first")
-    le.add_argument("--gear-ratio", default="28", help="X-RHex gear ratio (geared motors, 20 A limit)")
+    le.add_argument("--gear-ratio", default=None,
+                    help="gear ratio of the X-RHex motors (default: the engine's default actuator, "
+                         "the geared motor with G = 28 and a 20 A limit)")
     le.add_argument("--saturated", action="store_true", help="chapter 3's saturated torque instead of geared motors")
     le.add_argument("--set", action="append", metavar="NAME=VALUE", help="set a parameter by name (repeatable)")
     le.add_argument("--dt", type=float, default=0.002, help="trajectory sample time (s)")
@@ -113,15 +126,17 @@ def add_subcommands(sub) -> None:
 
     sw = sub.add_parser("sweep", help="many leaps in parallel over strategy x t2 x gear ratio x parameters")
     sw.add_argument("--strategy", default="++", help="comma-separated strategies, e.g. ++,+-")
-    sw.add_argument("--t2", default="-0.2:0.2:41", help="range START:STOP:COUNT, list A,B,C or value (use --t2=...)")
-    sw.add_argument("--gear-ratio", default="28", help="range, list or value")
+    sw.add_argument("--t2", default="-0.2:0.2:41", help="range START:STOP:COUNT, list A,B,C or value")
+    sw.add_argument("--gear-ratio", default=None,
+                    help="range, list or value (default: the engine's default actuator)")
     sw.add_argument("--saturated", action="store_true", help="chapter 3's saturated torque instead of geared motors")
     sw.add_argument("--set", action="append", metavar="NAME=RANGE", help="sweep a parameter by name (repeatable)")
     sw.add_argument("--threads", type=int, default=None, help="worker threads (default: all CPUs)")
     sw.add_argument("--out", help="output .csv or .parquet (default: CSV on stdout)")
     sw.add_argument("--progress", choices=["auto", "always", "never"], default="auto",
                     help="progress bar on stderr (auto: when stderr is a terminal)")
-    sw.add_argument("--strict", action="store_true", help="exit with status 1 when any point is not ok")
+    sw.add_argument("--strict", action="store_true",
+                    help="exit with status 1 when any point is not ok (without it: when every point failed)")
     sw.set_defaults(leap_handler=sweep_command)
 
     gr = sub.add_parser("grc", help="the ground reaction complex and the leap grammar (chapter 3)")
@@ -132,26 +147,44 @@ def add_subcommands(sub) -> None:
 def _scalar_sets(sets: dict[str, list[Any]]) -> dict[str, Any]:
     for k, v in sets.items():
         if len(v) != 1:
-            raise ValueError(f"`--set {k}`: a single leap takes one value, got {len(v)}")
+            raise InvalidInputError(f"`--set {k}`: a single leap takes one value, got {len(v)}", f"--set {k}")
     return {k: v[0] for k, v in sets.items()}
 
 
-def leap_command(args) -> int:
+def _gear_arg(args: argparse.Namespace) -> Any:
+    """``--saturated`` → ``None``; ``--gear-ratio`` → its values; neither → the default."""
+    from .leap import DEFAULT
+
+    if args.saturated:
+        if args.gear_ratio is not None:
+            raise InvalidInputError("`--gear-ratio` and `--saturated` exclude each other", "--gear-ratio")
+        return None
+    if args.gear_ratio is None:
+        return DEFAULT
+    gears = parse_range(args.gear_ratio, "--gear-ratio")
+    for g in gears:
+        if g <= 0:
+            raise InvalidInputError(f"`--gear-ratio`: must be positive, got {g}", "--gear-ratio")
+    return gears
+
+
+def leap_command(args: argparse.Namespace) -> int:
     from .leap import leap
 
     t2s = parse_range(args.t2, "--t2")
     if len(t2s) != 1:
-        raise ValueError("`--t2`: a single leap takes one value")
+        raise InvalidInputError("`--t2`: a single leap takes one value", "--t2")
     t2 = t2s[0]
-    gear = None if args.saturated else parse_range(args.gear_ratio, "--gear-ratio")
-    if gear is not None and len(gear) != 1:
-        raise ValueError("`--gear-ratio`: a single leap takes one value")
+    gear = _gear_arg(args)
+    if isinstance(gear, list):
+        if len(gear) != 1:
+            raise InvalidInputError("`--gear-ratio`: a single leap takes one value", "--gear-ratio")
+        gear = gear[0]
     strategies = _strategies(args.strategy)
     if len(strategies) != 1:
-        raise ValueError("`--strategy`: a single leap takes one strategy")
+        raise InvalidInputError("`--strategy`: a single leap takes one strategy", "--strategy")
     strategy = strategies[0]
-    r = leap(strategy, t2=t2, gear_ratio=None if gear is None else gear[0], dt=args.dt,
-             **_scalar_sets(_sets(args.set)))
+    r = leap(strategy, t2=t2, gear_ratio=gear, dt=args.dt, **_scalar_sets(_sets(args.set)))
     if args.mcap:
         r.write_mcap(args.mcap)
     if args.json:
@@ -160,6 +193,8 @@ def leap_command(args) -> int:
         return 0
     print(f"leap {r.strategy} t2={r.t2_s:g} s "
           f"{'saturated torque' if r.gear_ratio is None else f'gear ratio {r.gear_ratio:g}'}: status {r.status}")
+    if r.reason:
+        print(f"reason {r.reason}")
     print(f"word {r.word}")
     if r.apex is not None:
         a = r.apex
@@ -173,7 +208,7 @@ def leap_command(args) -> int:
     return 0
 
 
-def write_table(table: dict[str, np.ndarray], path: str | None, out=None) -> None:
+def write_table(table: Mapping[str, np.ndarray], path: str | None, out: TextIO | None = None) -> None:
     """A sweep table as CSV (floats round-trip exactly) or Parquet (pandas + pyarrow)."""
     if path and path.endswith(".parquet"):
         import pandas as pd
@@ -183,7 +218,7 @@ def write_table(table: dict[str, np.ndarray], path: str | None, out=None) -> Non
         os.replace(tmp, path)
         return
     if path and not path.endswith(".csv"):
-        raise ValueError(f"`--out`: expected a .csv or .parquet file, got {path!r}")
+        raise InvalidInputError(f"`--out`: expected a .csv or .parquet file, got {path!r}", "--out")
     cols = list(table)
     n = len(table[cols[0]]) if cols else 0
 
@@ -209,21 +244,33 @@ def write_table(table: dict[str, np.ndarray], path: str | None, out=None) -> Non
         emit(out or sys.stdout)
 
 
+def _check_not_empty(path: str, what: str) -> None:
+    if os.path.getsize(path) == 0:
+        raise InvalidInputError(f"{path}: the file is empty (expected {what})", "path")
+
+
 def read_table(path: str) -> dict[str, np.ndarray]:
     """A sweep table written by :func:`write_table` (or pandas) as numpy columns."""
+    what = "a sweep table from `selfmanip sweep --out`"
+    _check_not_empty(path, what)
     if path.endswith(".parquet"):
         import pandas as pd
 
-        df = pd.read_parquet(path)
+        try:
+            df = pd.read_parquet(path)
+        except Exception as e:  # pyarrow raises its own types for a file that is not Parquet
+            raise InvalidInputError(f"{path}: not a Parquet table ({e})", "path") from None
         return {c: df[c].to_numpy() for c in df.columns}
     with open(path, encoding="utf-8", newline="") as f:
         rows = list(csv.reader(f))
     if not rows:
-        raise ValueError(f"{path}: empty table")
+        raise InvalidInputError(f"{path}: the file is empty (expected {what})", "path")
     header, body = rows[0], rows[1:]
+    if not body:
+        raise InvalidInputError(f"{path}: the table has a header but no rows", "path")
     out: dict[str, np.ndarray] = {}
     for j, c in enumerate(header):
-        col = [r[j] for r in body]
+        col = [r[j] if j < len(r) else "" for r in body]
         try:
             if c in ("strategy", "word", "status", "error"):
                 out[c] = np.asarray(col, dtype=str)
@@ -236,20 +283,17 @@ def read_table(path: str) -> dict[str, np.ndarray]:
     return out
 
 
-def sweep_command(args) -> int:
-    from .leap import run_points, sweep_points
+def sweep_command(args: argparse.Namespace) -> int:
+    from .leap import failure_summary, run_points, sweep_points
 
     strategies = _strategies(args.strategy)
     t2 = parse_range(args.t2, "--t2")
-    gear: Any = None if args.saturated else parse_range(args.gear_ratio, "--gear-ratio")
-    for g in gear or []:
-        if g <= 0:
-            raise ValueError(f"`--gear-ratio`: must be positive, got {g}")
+    gear = _gear_arg(args)
     sets = _sets(args.set)
     if args.threads is not None and args.threads < 1:
-        raise ValueError(f"`--threads` must be >= 1, got {args.threads}")
+        raise InvalidInputError(f"`--threads` must be >= 1, got {args.threads}", "--threads")
     if args.out and not args.out.endswith((".csv", ".parquet")):
-        raise ValueError(f"`--out`: expected a .csv or .parquet file, got {args.out!r}")
+        raise InvalidInputError(f"`--out`: expected a .csv or .parquet file, got {args.out!r}", "--out")
     cols = sweep_points(strategies, t2, gear, **sets)
     show = args.progress == "always" or (args.progress == "auto" and sys.stderr.isatty())
     table = run_points(cols, threads=args.threads, progress=show)
@@ -260,10 +304,14 @@ def sweep_command(args) -> int:
     print(f"selfmanip sweep: {len(status)} points, {n_ok} ok"
           + ("" if not failed else ", " + ", ".join(f"{v} {k}" for k, v in failed.items()))
           + (f"; wrote {args.out}" if args.out else ""), file=sys.stderr)
+    all_failed = failure_summary(table)
+    if all_failed is not None:
+        print(f"selfmanip sweep: error: {all_failed}", file=sys.stderr)
+        return 1
     return 1 if (args.strict and failed) else 0
 
 
-def grc_command(args) -> int:
+def grc_command(args: argparse.Namespace) -> int:
     from . import _native
     from .rhex import ground_reaction_complex
 

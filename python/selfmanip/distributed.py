@@ -20,11 +20,15 @@ The workers need ``selfmanip`` installed (same version). Bring your own client::
 
 from __future__ import annotations
 
-from typing import Any, Iterable, Mapping
+from typing import TYPE_CHECKING, Any, Iterable, Mapping
 
 import numpy as np
 
-from .leap import run_points, sweep_points
+if TYPE_CHECKING:
+    import distributed
+
+from .errors import InvalidInputError
+from .leap import DEFAULT, _warn_if_all_failed, run_points, sweep_points
 
 __all__ = ["sweep", "merge"]
 
@@ -38,15 +42,15 @@ def merge(tables: Iterable[Mapping[str, np.ndarray]]) -> dict[str, np.ndarray]:
     """Concatenates sweep tables column by column, in the order given."""
     tables = list(tables)
     if not tables:
-        raise ValueError("no tables to merge")
+        raise InvalidInputError("no tables to merge", "tables")
     keys = list(tables[0])
     for t in tables[1:]:
         if list(t) != keys:
-            raise ValueError(f"tables have different columns: {keys} vs {list(t)}")
+            raise InvalidInputError(f"tables have different columns: {keys} vs {list(t)}", "tables")
     return {k: np.concatenate([np.asarray(t[k]) for t in tables]) for k in keys}
 
 
-def sweep(client, strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any = 28.0,
+def sweep(client: "distributed.Client", strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any = DEFAULT,
           params: Mapping[str, Any] | None = None, *, chunk_size: int = 1000, threads_per_task: int = 1,
           grid: bool = True, config: Mapping[str, Any] | None = None, **swept: Any) -> dict[str, np.ndarray]:
     """:func:`selfmanip.sweep` on the Dask cluster behind ``client``: the same arguments and
@@ -54,9 +58,10 @@ def sweep(client, strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_rati
     ``threads_per_task`` rayon threads (match it to the workers' ``threads_per_worker``).
     Inputs are checked here, before anything is sent."""
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
-        raise ValueError(f"`chunk_size` must be a positive int, got {chunk_size!r}")
+        raise InvalidInputError(f"`chunk_size` must be a positive int, got {chunk_size!r}", "chunk_size")
     if isinstance(threads_per_task, bool) or not isinstance(threads_per_task, int) or threads_per_task < 1:
-        raise ValueError(f"`threads_per_task` must be a positive int, got {threads_per_task!r}")
+        raise InvalidInputError(f"`threads_per_task` must be a positive int, got {threads_per_task!r}",
+                                "threads_per_task")
     cols = sweep_points(strategy, t2, gear_ratio, grid=grid, **swept)
     config = dict(config or {})
     # check the base parameters locally (one point), so a bad base fails before submitting
@@ -66,4 +71,6 @@ def sweep(client, strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_rati
     chunks = [{k: v[a:a + chunk_size] for k, v in cols.items()} for a in range(0, n, chunk_size)]
     futures = client.map(_run_chunk, chunks, params=params, config=config, threads=threads_per_task,
                          pure=False)
-    return merge(client.gather(futures))
+    table = merge(client.gather(futures))
+    _warn_if_all_failed(table)
+    return table

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from . import analysis
+from .errors import InvalidInputError, InvalidTypeError
 
 FIGURE_NAMES = ("fig4.3", "fig4.6", "fig4.8", "fig4.10", "fig4.11", "fig4.12")
 _DEG = 180.0 / math.pi
@@ -18,9 +19,9 @@ _DEG = 180.0 / math.pi
 
 def _check(name: Any) -> str:
     if not isinstance(name, str):
-        raise TypeError(f"`name` must be a string, got {type(name).__name__}")
+        raise InvalidTypeError(f"`name` must be a string, got {type(name).__name__}", "name")
     if name not in FIGURE_NAMES:
-        raise ValueError(f"unknown figure {name!r} (known: {', '.join(FIGURE_NAMES)})")
+        raise InvalidInputError(f"unknown figure {name!r} (known: {', '.join(FIGURE_NAMES)})", "name")
     return name
 
 

@@ -7,9 +7,12 @@ gives each leg's push direction (front, rear): ``+`` turns the leg with increasi
 forward lunge, rolling on the half circle), ``-`` the other way (a flip onto the toe).
 
 The robot is the chapter-5 RHex (Table 4.2 with the middle and rear leg pairs, toe friction
-1.8 / 2.5). ``gear_ratio=G`` drives each planar leg with two X-RHex motors behind a gearbox of
-ratio ``G`` and a 20 A current limit (thesis section 4.3.3 and Table 2.1);
+1.8 / 2.5). Left out, ``gear_ratio`` is the engine's default actuator (:func:`defaults`: two
+X-RHex motors per planar leg behind a gearbox of ratio 28 and a 20 A current limit, thesis
+section 4.3.3 and Table 2.1); ``gear_ratio=G`` sets the gear ratio of that motor;
 ``gear_ratio=None`` uses chapter 3's constant saturated torque ``tau_s`` instead.
+
+``selfmanip.leap`` is both this module and, called, :func:`leap`.
 
 Any parameter is set by name, for a single leap or swept over an array:
 
@@ -40,20 +43,25 @@ True
 
 from __future__ import annotations
 
-import json
+import copy
+import functools
+import inspect
 import math
 import numbers
 import os
 import sys
-from dataclasses import dataclass, field
+import types
+import warnings
+from dataclasses import dataclass
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
 from . import _native
+from .errors import AllPointsFailedWarning, InvalidInputError, InvalidTypeError
 
-__all__ = ["Apex", "LeapResult", "Trajectory", "leap", "sweep", "sweep_points", "sweepable_names",
-           "STRATEGIES", "SWEEP_COLUMNS"]
+__all__ = ["Apex", "DEFAULT", "LeapResult", "Trajectory", "defaults", "leap", "sweep", "sweep_points",
+           "sweepable_names", "failure_summary", "STRATEGIES", "SWEEP_COLUMNS"]
 
 STRATEGIES = ("++", "+-", "-+", "--")
 
@@ -63,10 +71,91 @@ SWEEP_COLUMNS = ("strategy", "t2_s", "gear_ratio", "apex_z_m", "apex_x_m", "apex
                  "status", "n_events", "error")
 
 
+class _Default:
+    """The engine's default actuator (see :func:`defaults`)."""
+
+    _instance: "_Default | None" = None
+
+    def __new__(cls) -> "_Default":
+        if cls._instance is None:
+            cls._instance = super().__new__(cls)
+        return cls._instance
+
+    def __repr__(self) -> str:
+        return "DEFAULT"
+
+    def __reduce__(self):
+        return (_Default, ())
+
+
+#: ``gear_ratio=DEFAULT`` (the default of :func:`leap` and :func:`sweep`): the actuator of the
+#: engine's default configuration, ``defaults()["config"]["actuator"]`` (chosen in Rust, once).
+DEFAULT = _Default()
+
+
+@functools.lru_cache(maxsize=1)
+def _defaults() -> dict[str, Any]:
+    return dict(_native.leap_defaults())
+
+
+def defaults() -> dict[str, Any]:
+    """The engine's defaults: ``{"params": ..., "config": ...}`` — the chapter-5 parameters
+    (Table 4.2 with toe friction) and ``LeapConfig::default()``, including the default
+    ``actuator``. Every argument of :func:`leap` that is not given takes its value from here."""
+    return copy.deepcopy(_defaults())
+
+
+@functools.lru_cache(maxsize=1)
+def _sweepable_names() -> tuple[str, ...]:
+    return tuple(_native.leap_sweepable_names())
+
+
 def sweepable_names() -> list[str]:
     """Every parameter name :func:`leap` and :func:`sweep` accept besides strategy, t2 and
-    gear ratio."""
-    return list(_native.leap_sweepable_names())
+    gear ratio, each once."""
+    return list(_sweepable_names())
+
+
+def _actuator_fields() -> set[str]:
+    """The names that set the geared motor (not parameters, not configuration fields)."""
+    d = _defaults()
+    return set(_sweepable_names()) - set(d["params"]) - set(d["config"])
+
+
+@functools.lru_cache(maxsize=1)
+def _default_values() -> dict[str, Any]:
+    """Each sweepable name's default value (the geared motor's for its fields), for the type
+    check at the Python edge."""
+    d = _defaults()
+    out: dict[str, Any] = {}
+    out.update(d["params"])
+    out.update(d["config"])
+    actuator = d["config"].get("actuator", {})
+    out.update({k: v for k, v in actuator.items() if k != "kind"})
+    return out
+
+
+def _check_type(name: str, value: Any) -> None:
+    """A value of the wrong kind for its name (``delta_t_s="soon"``) is an
+    :class:`InvalidTypeError` here; ranges and the rest are checked in Rust."""
+    default = _default_values().get(name)
+    if default is None or value is None:
+        return  # optional fields (friction, toe stub) and unknown defaults: the engine decides
+    if isinstance(default, bool):
+        ok = isinstance(value, (bool, np.bool_))
+    elif isinstance(default, (int, float)):
+        ok = isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+    elif isinstance(default, str):
+        ok = isinstance(value, str)
+    elif isinstance(default, Mapping):
+        ok = isinstance(value, Mapping)
+    elif isinstance(default, list):
+        ok = isinstance(value, (list, tuple, np.ndarray))
+    else:
+        ok = True
+    if not ok:
+        raise InvalidTypeError(f"RHex parameter `{name}`: expected {type(default).__name__}, got "
+                               f"{type(value).__name__} {value!r}", name)
 
 
 @dataclass(frozen=True)
@@ -99,10 +188,13 @@ class Trajectory:
 
 @dataclass(frozen=True)
 class LeapResult:
-    """One leap: ``status`` (``ok``, ``no_flight``, ``zeno``, ...), the ``apex`` (None without
-    flight), the leap ``word`` (cells joined by ``-``), the labelled ``events`` (dicts with
-    ``t_s, kind, mode_before, mode_after, contacts, energy_loss_j``), the start ``q0`` and,
-    unless disabled, the ``trajectory``. ``params``/``config`` are the full inputs used."""
+    """One leap: ``status`` (``ok``, ``no_flight``, ``zeno``, ...) and, when it is not ``ok``,
+    the ``reason`` in words; the ``apex`` (the first apex of flight, also when the leap ran on
+    past it with ``stop_at_apex=False``; None without one), the leap ``word`` (cells joined by
+    ``-``), the labelled ``events`` (dicts with ``t_s, kind, mode_before, mode_after,
+    contacts, energy_loss_j``), the start ``q0`` and, unless disabled, the ``trajectory``.
+    ``params``/``config`` are the full inputs used; ``gear_ratio`` is the one the leap ran with
+    (``None``: the saturated torque), read from ``config["actuator"]``."""
 
     strategy: str
     t2_s: float
@@ -117,6 +209,7 @@ class LeapResult:
     params: dict[str, Any]
     config: dict[str, Any]
     trajectory: Trajectory | None = None
+    reason: str = ""
 
     def to_dict(self, trajectory: bool = True) -> dict[str, Any]:
         """Plain JSON-ready data (NaN becomes ``None``)."""
@@ -133,7 +226,7 @@ class LeapResult:
 
         d: dict[str, Any] = {
             "strategy": self.strategy, "t2_s": self.t2_s, "gear_ratio": self.gear_ratio,
-            "status": self.status, "word": self.word, "cells": self.cells,
+            "status": self.status, "reason": self.reason, "word": self.word, "cells": self.cells,
             "apex": None if self.apex is None else dict(self.apex.__dict__),
             "events": self.events, "q0": self.q0, "q_names": self.q_names,
             "params": self.params, "config": self.config,
@@ -145,8 +238,10 @@ class LeapResult:
     def write_mcap(self, path: str | os.PathLike, metadata: Mapping[str, str] | None = None) -> None:
         """Writes the trajectory as an MCAP log for Foxglove (atomically; topics in
         ``docs/sweeps.md``)."""
+        import json
+
         if self.trajectory is None:
-            raise ValueError("this result has no trajectory: run leap(..., dt=...) to sample one")
+            raise InvalidInputError("this result has no trajectory: run leap(..., dt=...) to sample one", "dt")
         md = {"strategy": self.strategy, "t2_s": repr(self.t2_s),
               "gear_ratio": "saturated" if self.gear_ratio is None else repr(self.gear_ratio),
               "status": self.status, "word": self.word,
@@ -159,12 +254,15 @@ def write_mcap(path: str | os.PathLike, params: Mapping[str, Any], trajectory: T
                events: Sequence[Mapping[str, Any]] = (), metadata: Mapping[str, str] | None = None) -> None:
     """Writes any leap trajectory (for instance a synthetic one) as an MCAP log."""
     t = trajectory
+    if not isinstance(params, Mapping):
+        raise InvalidTypeError(f"`params` must be a dict, got {type(params).__name__}", "params")
     _native.leap_write_mcap(
-        os.fspath(path), json.dumps(dict(params)), list(t.contacts), [float(v) for v in t.t_s],
+        os.fspath(path), {str(k): _plain_value(str(k), v) for k, v in params.items()}, list(t.contacts),
+        [float(v) for v in t.t_s],
         np.ascontiguousarray(t.q, dtype=float), np.ascontiguousarray(t.qd, dtype=float), list(t.mode),
         np.ascontiguousarray(t.contact_points_m, dtype=float),
         np.ascontiguousarray(t.contact_forces_n, dtype=float),
-        json.dumps([dict(e) for e in events]), {str(k): str(v) for k, v in (metadata or {}).items()})
+        [dict(e) for e in events], {str(k): str(v) for k, v in (metadata or {}).items()})
 
 
 # ---------------------------------------------------------------------------------------------
@@ -172,26 +270,27 @@ def write_mcap(path: str | os.PathLike, params: Mapping[str, Any], trajectory: T
 
 def _strategy(value: Any, field: str = "strategy") -> str:
     if not isinstance(value, str):
-        raise TypeError(f"`{field}` must be a string such as '++', got {type(value).__name__}")
+        raise InvalidTypeError(f"`{field}` must be a string such as '++', got {type(value).__name__}", field)
     s = value.replace("(", "").replace(")", "").replace(",", "").replace(" ", "")
     if s not in STRATEGIES:
-        raise ValueError(f"`{field}`: unknown strategy {value!r} (expected one of {', '.join(STRATEGIES)})")
+        raise InvalidInputError(f"`{field}`: unknown strategy {value!r} (expected one of {', '.join(STRATEGIES)})",
+                                field)
     return s
 
 
 def _real(field: str, value: Any, *, positive: bool = False) -> float:
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(f"`{field}` must be a real number, got {type(value).__name__}")
+        raise InvalidTypeError(f"`{field}` must be a real number, got {type(value).__name__}", field)
     v = float(value)
     if not math.isfinite(v):
-        raise ValueError(f"`{field}` must be finite, got {v}")
+        raise InvalidInputError(f"`{field}` must be finite, got {v}", field)
     if positive and not v > 0:
-        raise ValueError(f"`{field}` must be positive, got {v}")
+        raise InvalidInputError(f"`{field}` must be positive, got {v}", field)
     return v
 
 
-def _json_value(field: str, value: Any) -> Any:
-    """A parameter value as JSON (numbers must be finite)."""
+def _plain_value(field: str, value: Any) -> Any:
+    """A parameter value as plain Python data (numbers must be finite)."""
     if isinstance(value, np.generic):
         value = value.item()
     if value is None or isinstance(value, (str, bool)):
@@ -201,48 +300,70 @@ def _json_value(field: str, value: Any) -> Any:
     if isinstance(value, numbers.Real):
         v = float(value)
         if not math.isfinite(v):
-            raise ValueError(f"RHex parameter `{field}`: must be finite, got {v}")
+            raise InvalidInputError(f"RHex parameter `{field}`: must be finite, got {v}", field)
         return v
     if isinstance(value, Mapping):
-        return {str(k): _json_value(f"{field}.{k}", v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_value(field, v) for v in value]
-    raise TypeError(f"RHex parameter `{field}`: unsupported value of type {type(value).__name__}")
+        return {str(k): _plain_value(f"{field}.{k}", v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_plain_value(field, v) for v in value]
+    raise InvalidTypeError(f"RHex parameter `{field}`: unsupported value of type {type(value).__name__}", field)
 
 
 def _overrides(params: Mapping[str, Any] | None, config: Mapping[str, Any]) -> dict[str, Any]:
     if params is not None and not isinstance(params, Mapping):
-        raise TypeError(f"`params` must be a dict, got {type(params).__name__}")
+        raise InvalidTypeError(f"`params` must be a dict, got {type(params).__name__}", "params")
     known = set(sweepable_names())
     out: dict[str, Any] = {}
     for source in (params or {}, config):
         for k, v in source.items():
             if not isinstance(k, str):
-                raise TypeError(f"parameter names must be strings, got {k!r}")
+                raise InvalidTypeError(f"parameter names must be strings, got {k!r}", "params")
             if k not in known:
-                raise ValueError(f"unknown parameter `{k}` (known: {', '.join(sorted(known))})")
-            out[k] = _json_value(k, v)
+                raise InvalidInputError(f"unknown parameter `{k}` (known: {', '.join(sorted(known))})", k)
+            _check_type(k, v)
+            out[k] = _plain_value(k, v)
     return out
 
 
-def _gear(value: Any) -> float | None:
+def _gear(value: Any) -> float | None | _Default:
+    if value is DEFAULT:
+        return DEFAULT
     return None if value is None else _real("gear_ratio", value, positive=True)
+
+
+def _native_gear(g: float | None | _Default) -> float | None:
+    """The binding's encoding: ``None`` the default actuator, NaN the saturated torque."""
+    if g is DEFAULT:
+        return None
+    return math.nan if g is None else float(g)
+
+
+def _check_actuator(gears: Iterable[Any], names: Iterable[str]) -> None:
+    """``gear_ratio=None`` (the saturated torque) with a geared motor's field is a contradiction:
+    refuse it instead of silently running the geared motor."""
+    motor = sorted(set(names) & _actuator_fields())
+    if motor and any(g is None for g in gears):
+        raise InvalidInputError(
+            f"`{motor[0]}` sets the geared motor, but gear_ratio=None selects chapter 3's saturated "
+            "torque: give a gear ratio (or leave gear_ratio out for the default motor)", motor[0])
 
 
 # ---------------------------------------------------------------------------------------------
 
-def leap(strategy: str = "++", t2: float = 0.0, gear_ratio: float | None = 28.0,
+def leap(strategy: str = "++", t2: float = 0.0, gear_ratio: float | None | _Default = DEFAULT,
          params: Mapping[str, Any] | None = None, *, dt: float | None = 0.002,
          **config: Any) -> LeapResult:
     """One leap from rest to the apex of flight.
 
     ``strategy``: ``"++"``, ``"+-"``, ``"-+"`` or ``"--"`` (front, rear); ``t2``: the rear
-    leg's start relative to the front leg's (s); ``gear_ratio``: geared X-RHex motors of this
-    ratio, or ``None`` for chapter 3's saturated torque; ``params``: Table 4.2 overrides
-    (``{"m_b": 8.0, "leg_shape": "stick"}``); ``dt``: trajectory sample time (``None``: no
-    trajectory); further keywords set the leap configuration or the motor by name (see the
-    module documentation). Bad input raises ``ValueError`` (:class:`selfmanip.SelfmanipError`)
-    naming the field.
+    leg's start relative to the front leg's (s); ``gear_ratio``: left out, the engine's default
+    actuator (``defaults()["config"]["actuator"]``: the geared X-RHex motor); a number, geared
+    X-RHex motors of this ratio; ``None``, chapter 3's saturated torque. ``params``: Table 4.2
+    overrides (``{"m_b": 8.0, "leg_shape": "stick"}``); ``dt``: trajectory sample time
+    (``None``: no trajectory); further keywords set the leap configuration or the motor by name
+    (see the module documentation). Bad input raises
+    :class:`selfmanip.InvalidInputError` (a ``ValueError``) or
+    :class:`selfmanip.InvalidTypeError` (a ``TypeError``) naming the field; Ctrl-C interrupts.
 
     >>> import selfmanip
     >>> r = selfmanip.leap("++", t2=0.0, gear_ratio=28.0)
@@ -255,7 +376,8 @@ def leap(strategy: str = "++", t2: float = 0.0, gear_ratio: float | None = 28.0,
     if dt is not None:
         dt = _real("dt", dt, positive=True)
     ov = _overrides(params, config)
-    d = _native.leap_run(s, t2v, g, json.dumps(ov), dt)
+    _check_actuator([g], ov)
+    d = _native.leap_run(s, t2v, _native_gear(g), ov, dt)
     apex = None if d["apex"] is None else Apex(**d["apex"])
     traj = None
     if "trajectory" in d:
@@ -264,43 +386,50 @@ def leap(strategy: str = "++", t2: float = 0.0, gear_ratio: float | None = 28.0,
                           mode=list(t["mode"]), contacts=list(t["contacts"]),
                           contact_points_m=np.asarray(t["contact_points_m"]),
                           contact_forces_n=np.asarray(t["contact_forces_n"]))
-    return LeapResult(strategy=s, t2_s=t2v, gear_ratio=g, status=d["status"], apex=apex,
-                      word="-".join(d["word"]), cells=list(d["word"]), events=json.loads(d["events_json"]),
+    actuator = d["config"]["actuator"]
+    used = float(actuator["gear_ratio"]) if actuator.get("kind") == "geared_motor" else None
+    return LeapResult(strategy=s, t2_s=t2v, gear_ratio=used, status=d["status"], apex=apex,
+                      word="-".join(d["word"]), cells=list(d["word"]), events=list(d["events"]),
                       q0=np.asarray(d["q0"], dtype=float), q_names=list(d["q_names"]),
-                      params=json.loads(d["params_json"]), config=json.loads(d["config_json"]),
-                      trajectory=traj)
+                      params=d["params"], config=d["config"], trajectory=traj, reason=d["reason"])
 
 
 def _axis(field: str, value: Any, *, allow_none: bool = False) -> list[Any]:
     """A swept axis: a scalar or a 1-D sequence/array."""
-    if value is None and allow_none:
-        return [None]
-    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+    if value is DEFAULT or (value is None and allow_none):
         return [value]
-    arr = list(np.asarray(value, dtype=object).ravel()) if not isinstance(value, (list, tuple)) else list(value)
+    if isinstance(value, (str, bytes, Mapping)) or not hasattr(value, "__iter__"):
+        return [value]
     if np.ndim(np.asarray(value, dtype=object)) > 1:
-        raise ValueError(f"`{field}` must be a scalar or 1-D, got shape {np.shape(value)}")
+        raise InvalidInputError(f"`{field}` must be a scalar or 1-D, got shape {np.shape(value)}", field)
+    arr = list(value) if isinstance(value, (list, tuple)) else list(np.asarray(value, dtype=object).ravel())
     if not arr:
-        raise ValueError(f"`{field}` is empty")
+        raise InvalidInputError(f"`{field}` is empty", field)
     return arr
 
 
-def sweep_points(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any = 28.0,
+def sweep_points(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any = DEFAULT,
                  *, grid: bool = True, **overrides: Any) -> dict[str, list[Any]]:
     """The points of a sweep as columns (what :func:`sweep` runs), checked.
 
     With ``grid=True`` (default) the Cartesian product strategy x overrides (in the order
     given) x gear ratio x t2, t2 varying fastest; with ``grid=False`` every axis is a column
-    of the same length (scalars broadcast)."""
+    of the same length (scalars broadcast). A swept value that is itself a dict (``terrain``)
+    is one value."""
     axes: dict[str, list[Any]] = {}
     strategies = [strategy] if isinstance(strategy, str) else _axis("strategy", strategy)
     axes["strategy"] = [_strategy(s) for s in strategies]
     known = set(sweepable_names())
     for k, v in overrides.items():
         if k not in known:
-            raise ValueError(f"unknown parameter `{k}` (known: {', '.join(sorted(known))})")
-        axes[k] = [_json_value(k, x) for x in _axis(k, v)]
+            raise InvalidInputError(f"unknown parameter `{k}` (known: {', '.join(sorted(known))})", k)
+        values = _axis(k, v)
+        for x in values:
+            _check_type(k, x)
+        axes[k] = [_plain_value(k, x) for x in values]
     axes["gear_ratio"] = [_gear(g) for g in _axis("gear_ratio", gear_ratio, allow_none=True)]
+    if any(g is DEFAULT for g in axes["gear_ratio"]) and len(axes["gear_ratio"]) > 1:
+        raise InvalidInputError("`gear_ratio`: DEFAULT cannot be mixed with other values", "gear_ratio")
     axes["t2_s"] = [_real("t2", t) for t in _axis("t2", t2)]
     names = list(axes)
     if grid:
@@ -316,8 +445,8 @@ def sweep_points(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio
         return cols
     lengths = {len(a) for a in axes.values() if len(a) != 1}
     if len(lengths) > 1:
-        raise ValueError(f"with grid=False every swept column must have the same length or be a scalar, got "
-                         + ", ".join(f"{k}: {len(a)}" for k, a in axes.items()))
+        raise InvalidInputError("with grid=False every swept column must have the same length or be a scalar, got "
+                                + ", ".join(f"{k}: {len(a)}" for k, a in axes.items()), "grid")
     n = lengths.pop() if lengths else 1
     return {k: (a * n if len(a) == 1 else a) for k, a in axes.items()}
 
@@ -342,36 +471,32 @@ def _progress_bar(total: int, stream=None) -> Callable[[int], None]:
 
 def run_points(cols: Mapping[str, Sequence[Any]], params: Mapping[str, Any] | None = None, *,
                threads: int | None = None, progress: bool | Callable[[int], None] = False,
-               chunk_size: int | None = None, **config: Any) -> dict[str, np.ndarray]:
+               **config: Any) -> dict[str, np.ndarray]:
     """Runs points given as columns (from :func:`sweep_points`); the engine of :func:`sweep`
-    and of :func:`selfmanip.distributed.sweep`."""
+    and of :func:`selfmanip.distributed.sweep`. ``progress`` (a callable) receives the number
+    of points done as they finish; Ctrl-C stops the sweep promptly with ``KeyboardInterrupt``."""
     if threads is None:
         threads = _default_threads()
     if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or threads < 1:
-        raise ValueError(f"`threads` must be a positive int, got {threads!r}")
-    base = json.dumps(_overrides(params, config))
+        raise InvalidInputError(f"`threads` must be a positive int, got {threads!r}", "threads")
+    base = _overrides(params, config)
     strategies = list(cols["strategy"])
     t2 = [float(v) for v in cols["t2_s"]]
-    gear = [math.nan if g is None else float(g) for g in cols["gear_ratio"]]
-    extra = {k: list(v) for k, v in cols.items() if k not in ("strategy", "t2_s", "gear_ratio")}
+    gears = list(cols["gear_ratio"])
+    extra = {k: [_plain_value(k, x) for x in v] for k, v in cols.items() if k not in ("strategy", "t2_s", "gear_ratio")}
+    _check_actuator(gears, list(base) + list(extra))
     n = len(strategies)
     if progress is True:
         progress = _progress_bar(n)
-    if not progress:
-        chunk_size = n
-    elif chunk_size is None:
-        chunk_size = max(int(threads) * 16, n // 50, 1)
-    parts = []
-    for a in range(0, max(n, 1), max(chunk_size, 1)):
-        b = min(n, a + chunk_size)
-        parts.append(_native.leap_sweep(strategies[a:b], t2[a:b], gear[a:b], base,
-                                        json.dumps({k: v[a:b] for k, v in extra.items()}), int(threads)))
-        if progress:
-            progress(b)
+    part = _native.leap_sweep(strategies, t2, [_native_gear(g) for g in gears], base, extra, int(threads),
+                              progress or None)
+    asked = np.asarray([math.nan if g is None or g is DEFAULT else float(g) for g in gears], dtype=float)
+    ran = np.asarray(part["gear_ratio"], dtype=float)
     out: dict[str, np.ndarray] = {
         "strategy": np.asarray(strategies, dtype=str),
         "t2_s": np.asarray(t2, dtype=float),
-        "gear_ratio": np.asarray(gear, dtype=float),
+        # the gear ratio a point ran with; the one asked for when it failed before running
+        "gear_ratio": np.where(np.isnan(ran), asked, ran) if n else np.asarray([], dtype=float),
     }
     for k, v in extra.items():
         arr = np.asarray(v, dtype=object)
@@ -380,39 +505,55 @@ def run_points(cols: Mapping[str, Sequence[Any]], params: Mapping[str, Any] | No
         elif all(isinstance(x, str) for x in v):
             arr = np.asarray(v, dtype=str)
         out[k] = arr
-    def cat(key, dtype):
-        if not parts:
-            return np.asarray([], dtype=dtype)
-        return np.concatenate([np.asarray(p[key], dtype=dtype) for p in parts])
     for k in ("apex_z_m", "apex_x_m", "apex_phi_rad", "apex_xdot_m_s", "apex_phidot_rad_s",
               "apex_zdot_m_s", "apex_t_s"):
-        out[k] = cat(k, float)
-    out["word"] = cat("word", str) if n else np.asarray([], dtype=str)
-    out["status"] = cat("status", str) if n else np.asarray([], dtype=str)
-    out["n_events"] = cat("n_events", np.int64)
-    out["error"] = cat("error", str) if n else np.asarray([], dtype=str)
+        out[k] = np.asarray(part[k], dtype=float)
+    out["word"] = np.asarray(part["word"], dtype=str) if n else np.asarray([], dtype=str)
+    out["status"] = np.asarray(part["status"], dtype=str) if n else np.asarray([], dtype=str)
+    out["n_events"] = np.asarray(part["n_events"], dtype=np.int64)
+    out["error"] = np.asarray(part["error"], dtype=str) if n else np.asarray([], dtype=str)
     return out
 
 
-def sweep(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any = 28.0,
+def failure_summary(table: Mapping[str, Any]) -> str | None:
+    """``None`` when some point of a sweep table reached ``ok``; otherwise a one-line account
+    of the failure: the count of each status and the first reason."""
+    status = np.asarray(table["status"]).astype(str)
+    if len(status) == 0 or bool(np.any(status == "ok")):
+        return None
+    counts = ", ".join(f"{int(np.sum(status == s))} {s}" for s in sorted(set(status.tolist())))
+    errors = [e for e in np.asarray(table.get("error", [])).astype(str) if e]
+    first = f"; first reason: {errors[0]}" if errors else ""
+    return f"all {len(status)} points of the sweep failed ({counts}){first}"
+
+
+def _warn_if_all_failed(table: Mapping[str, Any], stacklevel: int = 3) -> None:
+    msg = failure_summary(table)
+    if msg is not None:
+        warnings.warn(msg, AllPointsFailedWarning, stacklevel=stacklevel)
+
+
+def sweep(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any = DEFAULT,
           params: Mapping[str, Any] | None = None, threads: int | None = None,
           progress: bool | Callable[[int], None] = False, *, grid: bool = True,
           config: Mapping[str, Any] | None = None, **swept: Any) -> dict[str, np.ndarray]:
     """Many leaps at once, in parallel on ``threads`` threads (default: the CPUs this process
     may use), with the GIL released. Returns a dict of equal-length numpy arrays
-    (``pandas.DataFrame(result)`` works): ``strategy, t2_s, gear_ratio``, any swept parameter,
-    ``apex_z_m, apex_x_m, apex_phi_rad, apex_xdot_m_s, apex_phidot_rad_s, apex_zdot_m_s,
-    apex_t_s`` (NaN without an apex), ``word``, ``status`` (``ok``, a leap status such as
-    ``no_flight``, or the error kind of a failed point such as ``invalid_params``),
-    ``n_events`` and ``error`` (the message of a failed point). A failing point never loses
-    the others, and the result is bit-identical for any ``threads``.
+    (``pandas.DataFrame(result)`` works): ``strategy, t2_s, gear_ratio`` (the ratio each point
+    ran with, NaN for the saturated torque), any swept parameter, ``apex_z_m, apex_x_m,
+    apex_phi_rad, apex_xdot_m_s, apex_phidot_rad_s, apex_zdot_m_s, apex_t_s`` (NaN without an
+    apex), ``word``, ``status`` (``ok``, a leap status such as ``no_flight``, or the error kind
+    of a failed point such as ``invalid_params``), ``n_events`` and ``error`` (why a point is
+    not ``ok``: the error's message, or the reason the leap ended). A failing point never loses
+    the others, and the result is bit-identical for any ``threads``. When no point reaches
+    ``ok`` an :class:`selfmanip.errors.AllPointsFailedWarning` says so. Ctrl-C interrupts.
 
-    ``strategy``: one strategy or several; ``t2``, ``gear_ratio`` (``None``: saturated
-    torque) and any parameter given by name as a keyword (``m_b=[8, 9]``,
-    ``leg_shape=["half_circle", "stick"]``, ``delta_t_s=...``): scalars or 1-D arrays,
-    combined as a grid (see :func:`sweep_points`; ``grid=False`` zips them instead).
-    ``params`` (Table 4.2) and ``config`` (leap configuration) set fixed values for every
-    point and are checked up front. ``progress=True`` draws a bar on stderr (or pass a
+    ``strategy``: one strategy or several; ``t2``, ``gear_ratio`` (left out: the engine's
+    default actuator; ``None``: saturated torque) and any parameter given by name as a keyword
+    (``m_b=[8, 9]``, ``leg_shape=["half_circle", "stick"]``, ``delta_t_s=...``): scalars or
+    1-D arrays, combined as a grid (see :func:`sweep_points`; ``grid=False`` zips them
+    instead). ``params`` (Table 4.2) and ``config`` (leap configuration) set fixed values for
+    every point and are checked up front. ``progress=True`` draws a bar on stderr (or pass a
     callable receiving the number of points done).
 
     >>> import selfmanip
@@ -421,4 +562,19 @@ def sweep(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any =
     (['++', '++', '++', '++'], [20.0, 20.0, 28.0, 28.0], [0.0, 0.05])
     """
     cols = sweep_points(strategy, t2, gear_ratio, grid=grid, **swept)
-    return run_points(cols, params, threads=threads, progress=progress, **dict(config or {}))
+    table = run_points(cols, params, threads=threads, progress=progress, **dict(config or {}))
+    _warn_if_all_failed(table)
+    return table
+
+
+class _LeapModule(types.ModuleType):
+    """``selfmanip.leap`` is this module *and* runs a leap when called: ``selfmanip.leap("++")``
+    is :func:`leap`, while ``import selfmanip.leap`` and ``from selfmanip.leap import
+    sweep_points`` reach the module."""
+
+    def __call__(self, *args: Any, **kwargs: Any) -> LeapResult:
+        return leap(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _LeapModule
+__signature__ = inspect.signature(leap)

@@ -17,13 +17,14 @@ own.
 
 from __future__ import annotations
 
-import json
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from . import _native
-from ._checks import real, text, vector
+from ._checks import integer, real, text, vector
+from .errors import InvalidTypeError
 
 __all__ = [
     "calibrate_observer",
@@ -70,7 +71,7 @@ def rank_tail_motors(theta0_rad: float, body_inertia_kg_m2: float, effectiveness
         real("effectiveness", effectiveness), real("max_length_m", max_length_m),
         real("max_mass_kg", max_mass_kg), real("max_completion_time_s", max_completion_time_s),
         None if catalog_toml is None else text("catalog_toml", catalog_toml),
-        int(synthetic_count), int(seed)))
+        integer("synthetic_count", synthetic_count, 0), integer("seed", seed, 0)))
 
 
 def thesis_catalog_toml() -> str:
@@ -92,11 +93,11 @@ def torque_speed_curve(drive: str, points: int = 50, current_limit_a: float | No
                        catalog_toml: str | None = None) -> dict[str, np.ndarray]:
     """Fig. 2.6: output torque and power against output speed at full command."""
     return dict(_native.motor_torque_speed_curve(
-        text("drive", drive), int(points),
+        text("drive", drive), integer("points", points, 0),
         None if current_limit_a is None else real("current_limit_a", current_limit_a), catalog_toml))
 
 
-def thermal_simulation(drive: str, torque_n_m, dt_s: float = 1.0, ambient_c: float = 25.0,
+def thermal_simulation(drive: str, torque_n_m: npt.ArrayLike, dt_s: float = 1.0, ambient_c: float = 25.0,
                        case: str = "measured", catalog_toml: str | None = None) -> dict[str, Any]:
     """Fig. 2.8: core and case temperature for an output-torque profile (one value per
     ``dt_s``; a scalar is not accepted -- pass ``np.full(n, torque)``). ``case`` selects
@@ -119,44 +120,49 @@ def continuous_output_torque(drive: str, max_winding_c: float = 125.0, ambient_c
 _OBSERVER_KEYS = ("k_m", "a_m", "k_p", "k_d", "k_g", "theta_g_rad", "delay_s")
 
 
-def _params_json(field: str, params: Any) -> str:
+def _observer_params(field: str, params: Any) -> dict[str, float]:
     if not isinstance(params, dict):
-        raise TypeError(f"`{field}` must be a dict with keys {_OBSERVER_KEYS}, got {type(params).__name__}")
-    return json.dumps({k: real(f"{field}.{k}", v) for k, v in params.items()})
+        raise InvalidTypeError(f"`{field}` must be a dict with keys {_OBSERVER_KEYS}, got {type(params).__name__}",
+                               field)
+    return {k: real(f"{field}.{k}", v) for k, v in params.items()}
 
 
-def _log(dt_s, theta_d, omega_d, theta, omega):
+def _log(dt_s: float, theta_d: npt.ArrayLike, omega_d: npt.ArrayLike, theta: npt.ArrayLike,
+         omega: npt.ArrayLike) -> tuple:
     arrays = [np.asarray(vector(n, v), dtype=np.float64) for n, v in
               (("theta_d_rad", theta_d), ("omega_d_rad_s", omega_d), ("theta_rad", theta), ("omega_rad_s", omega))]
     return (real("dt_s", dt_s), *arrays)
 
 
-def observe(params: dict, dt_s: float, theta_d_rad, omega_d_rad_s, theta_rad, omega_rad_s) -> dict[str, np.ndarray]:
+def observe(params: dict, dt_s: float, theta_d_rad: npt.ArrayLike, omega_d_rad_s: npt.ArrayLike,
+            theta_rad: npt.ArrayLike, omega_rad_s: npt.ArrayLike) -> dict[str, np.ndarray]:
     """Runs the leg observer (2.2)-(2.4) over a log and returns its delayed estimates and the
     residuals ``r_theta_rad``, ``r_omega_rad_s`` (2.5). ``params`` has keys ``k_m, a_m, k_p,
     k_d, k_g, theta_g_rad, delay_s``."""
-    return dict(_native.motor_observe(_params_json("params", params),
+    return dict(_native.motor_observe(_observer_params("params", params),
                                       *_log(dt_s, theta_d_rad, omega_d_rad_s, theta_rad, omega_rad_s)))
 
 
-def calibrate_observer(initial_params: dict, dt_s: float, theta_d_rad, omega_d_rad_s, theta_rad,
-                       omega_rad_s) -> dict[str, Any]:
+def calibrate_observer(initial_params: dict, dt_s: float, theta_d_rad: npt.ArrayLike,
+                       omega_d_rad_s: npt.ArrayLike, theta_rad: npt.ArrayLike,
+                       omega_rad_s: npt.ArrayLike) -> dict[str, Any]:
     """Nelder-Mead calibration of ``(k_m, a_m, k_g, theta_g_rad, k_d, delay_s)`` on a free-swing
     log (``k_p`` kept). Returns ``{"params", "rms_r_theta_rad", "rms_r_omega_rad_s",
     "evaluations"}``."""
-    return json.loads(_native.motor_calibrate_observer(
-        _params_json("initial_params", initial_params),
+    return dict(_native.motor_calibrate_observer(
+        _observer_params("initial_params", initial_params),
         *_log(dt_s, theta_d_rad, omega_d_rad_s, theta_rad, omega_rad_s)))
 
 
-def identify_faults(params: dict, config: dict, dt_s: float, theta_d_rad, omega_d_rad_s, theta_rad,
-                    omega_rad_s) -> list[dict[str, Any]]:
+def identify_faults(params: dict, config: dict, dt_s: float, theta_d_rad: npt.ArrayLike,
+                    omega_d_rad_s: npt.ArrayLike, theta_rad: npt.ArrayLike,
+                    omega_rad_s: npt.ArrayLike) -> list[dict[str, Any]]:
     """Observer plus the fault machine of Fig. 2.13 over a log; returns the state changes
     ``{"time_s", "from", "to"}``. ``config`` has ``phases`` (``landing_start_rad,
     ground_start_rad, takeoff_start_rad, air_start_rad``), ``low_residual_rad``,
     ``high_residual_rad``, ``min_dwell_s``, ``expect_ground``."""
     if not isinstance(config, dict):
-        raise TypeError(f"`config` must be a dict, got {type(config).__name__}")
-    return json.loads(_native.motor_identify_faults(
-        _params_json("params", params), json.dumps(config),
+        raise InvalidTypeError(f"`config` must be a dict, got {type(config).__name__}", "config")
+    return list(_native.motor_identify_faults(
+        _observer_params("params", params), config,
         *_log(dt_s, theta_d_rad, omega_d_rad_s, theta_rad, omega_rad_s)))

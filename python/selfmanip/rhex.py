@@ -25,7 +25,6 @@ rows of ``lam`` follow chapter 4's order k = front leg, rear leg, front body, re
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from typing import Any, Mapping
@@ -34,7 +33,8 @@ import numpy as np
 
 from . import _checks
 from ._native import Robot as _NativeRobot
-from ._native import ground_reaction_complex_json, rhex_default_params_json
+from ._native import ground_reaction_complex as _grc, rhex_default_params
+from .errors import InvalidInputError, InvalidTypeError
 from .robot import Robot
 
 _REAL_KEYS = ("m_b", "I_b", "m_l", "I_l", "l1", "l2", "rho1", "rho2", "rho_b", "tau_s", "g")
@@ -43,7 +43,7 @@ _MU_KEYS = ("mu_front", "mu_middle", "mu_rear")
 
 def default_params() -> dict[str, Any]:
     """Table 4.2 as shipped (``crates/rhex-model/data/table_4_2.toml``)."""
-    return json.loads(rhex_default_params_json())
+    return dict(rhex_default_params())
 
 
 def ground_reaction_complex() -> dict[str, Any]:
@@ -52,31 +52,31 @@ def ground_reaction_complex() -> dict[str, Any]:
     category), ``allowable`` (the 18 of Fig. 3.3), ``leap_words`` ((3.2)-(3.7): printed form,
     full path from rest ``1010`` to flight ``0000``, and the timing condition) and the four
     leg ``strategies``. Labels are bits ``FB FL RB RL``."""
-    return json.loads(ground_reaction_complex_json())
+    return dict(_grc())
 
 
 def _check_params(params: Mapping[str, Any]) -> dict[str, Any]:
     if not isinstance(params, Mapping):
-        raise TypeError(f"`params` must be a dict, got {type(params).__name__}")
+        raise InvalidTypeError(f"`params` must be a dict, got {type(params).__name__}", "params")
     out: dict[str, Any] = {}
     for key, value in params.items():
         if not isinstance(key, str):
-            raise TypeError(f"parameter names must be strings, got {key!r}")
+            raise InvalidTypeError(f"parameter names must be strings, got {key!r}", "params")
         if key in _REAL_KEYS or (key in _MU_KEYS and value is not None):
             out[key] = _checks.real(key, value)
             if not math.isfinite(out[key]):
-                raise ValueError(f"RHex parameter `{key}`: must be finite, got {value}")
+                raise InvalidInputError(f"RHex parameter `{key}`: must be finite, got {value}", key)
         elif key in _MU_KEYS:
             out[key] = None
         elif key == "leg_shape":
             out[key] = _checks.text(key, value)
         elif key == "pairs":
             if isinstance(value, str) or not hasattr(value, "__iter__"):
-                raise TypeError("`pairs` must be a list of strings")
+                raise InvalidTypeError("`pairs` must be a list of strings", "pairs")
             out[key] = [_checks.text("pairs[]", p) for p in value]
         else:
             known = ", ".join(_REAL_KEYS + _MU_KEYS + ("leg_shape", "pairs"))
-            raise ValueError(f"unknown RHex parameter `{key}` (known: {known})")
+            raise InvalidInputError(f"unknown RHex parameter `{key}` (known: {known})", key)
     return out
 
 
@@ -100,12 +100,12 @@ class Model(Robot):
 
     def __init__(self, params: Mapping[str, Any] | None = None):
         checked = _check_params(params or {})
-        super().__init__(_NativeRobot.rhex_from_params_json(json.dumps(checked)))
+        super().__init__(_NativeRobot.rhex_from_params(checked))
 
     @property
     def params(self) -> dict[str, Any]:
         """The full parameter set in use."""
-        return json.loads(self._native.params_json())
+        return dict(self._native.params())
 
     def labels(self) -> list[str]:
         """Every 0/1 contact label (16 for two pairs)."""
@@ -121,9 +121,8 @@ class Model(Robot):
         return self._native.quasi_static_pose(_checks.real("theta1", theta1), _checks.real("theta2", theta2))
 
     def contact_mode_map(self, n: int = 64) -> ContactModeMap:
-        """Fig. 4.3/4.6 on an ``n x n`` grid (n >= 1)."""
-        if isinstance(n, bool) or not isinstance(n, int):
-            raise TypeError(f"`n` must be an int, got {type(n).__name__}")
+        """Fig. 4.3/4.6 on an ``n x n`` grid (``1 <= n <= 4096``)."""
+        n = _checks.integer("n", n)
         poses = self._native.contact_mode_map(n)
         grid = -np.pi + 2 * np.pi * np.arange(n) / n
         t1, t2 = np.meshgrid(grid, grid, indexing="ij")

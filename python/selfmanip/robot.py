@@ -18,6 +18,7 @@ import numpy as np
 
 from . import _checks
 from ._native import Robot as _NativeRobot
+from .errors import InvalidInputError, InvalidTypeError
 
 
 @dataclass(frozen=True)
@@ -87,12 +88,62 @@ class QuasiStatic:
     gravity_wrench: list[float]
 
 
+@dataclass(frozen=True)
+class Kinematics:
+    """Forward kinematics at one ``q`` (world frame, NED: x forward, z down; angles about +y,
+    nose-up positive). Per joint ``j`` (the order of ``q``): ``joint_positions_m[j]`` is the
+    joint's world position (the origin of the link it drives), ``link_angles_rad[j]`` the
+    link's world angle (``phi`` plus the joint angles of its chain, with their axis signs) and
+    ``link_tips_m[j]`` the far end of the link (the next joint, or the leg's end). The
+    velocities are ``None`` unless ``qd`` was given."""
+
+    body_position_m: np.ndarray
+    body_angle_rad: float
+    joint_positions_m: np.ndarray
+    link_angles_rad: np.ndarray
+    link_tips_m: np.ndarray
+    body_velocity_m_s: np.ndarray | None = None
+    body_rate_rad_s: float | None = None
+    joint_velocities_m_s: np.ndarray | None = None
+    link_rates_rad_s: np.ndarray | None = None
+    link_tip_velocities_m_s: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class PointJacobian:
+    """A material point of the body or a link: its world ``position_m`` (NED), the part's
+    world ``angle_rad`` and the ``3 x nq`` ``jacobian``: ``jacobian[:2] @ qd`` is the point's
+    world velocity ``(xdot, zdot)``, ``jacobian[2] @ qd`` the part's angular rate."""
+
+    position_m: np.ndarray
+    angle_rad: float
+    jacobian: np.ndarray
+
+
+@dataclass(frozen=True)
+class ContactPoints:
+    """Every contact site against flat ground at one ``q``, in the order of ``names``: the
+    contact point (the lowest point of the site's shape; the tip for a point site) in world
+    NED ``points_m (c, 2)``, its height above the ground ``gaps_m`` (negative: penetration;
+    the touchdown guards), the ground normal into the ground ``normals (c, 2)``, the ``2 x nq``
+    Jacobian of the material point there ``jacobians (c, 2, nq)`` (the rows of the constraint
+    matrix ``A`` are its projections) and, with ``qd``, that point's velocity
+    ``velocities_m_s (c, 2)`` (zero for a sticking contact)."""
+
+    names: list[str]
+    points_m: np.ndarray
+    gaps_m: np.ndarray
+    normals: np.ndarray
+    jacobians: np.ndarray
+    velocities_m_s: np.ndarray | None = None
+
+
 class Robot:
     """A planar robot: ``Robot.from_file("robot.toml")``."""
 
     def __init__(self, native: _NativeRobot):
         if not isinstance(native, _NativeRobot):
-            raise TypeError("use Robot.from_file / from_toml / from_json, or selfmanip.rhex.Model")
+            raise InvalidTypeError("use Robot.from_file / from_toml / from_json, or selfmanip.rhex.Model", "native")
         self._native = native
 
     # -- construction -------------------------------------------------------------------
@@ -186,6 +237,51 @@ class Robot:
         rows = [_checks.vector(f"torque_constraints[{i}]", t) for i, t in enumerate(torque_constraints)]
         d = self._native.quasi_static(_checks.text("mode", mode), _checks.vector("q", q), rows)
         return QuasiStatic(**d)
+
+    # -- kinematics ---------------------------------------------------------------------
+    def forward_kinematics(self, q: Sequence[float], qd: Sequence[float] | None = None) -> Kinematics:
+        """World poses of the body, every joint and every link at ``q`` (and their velocities
+        at ``qd`` when given)."""
+        d = self._native.forward_kinematics(_checks.vector("q", q), None if qd is None else _checks.vector("qd", qd))
+        return Kinematics(**d)
+
+    def _part(self, part: str | int | None) -> int | None:
+        """``"body"``/``None`` or a joint given by index or by its coordinate name
+        (``"fore_0"``): the part whose frame a point is given in."""
+        if part is None or part == "body":
+            return None
+        if isinstance(part, str):
+            names = self.coordinate_names[: self.n_joints]
+            if part not in names:
+                raise InvalidInputError(f"`part`: unknown part {part!r} (known: body, {', '.join(names)})", "part")
+            return names.index(part)
+        return _checks.integer("part", part, 0)
+
+    def jacobian(self, q: Sequence[float], part: str | int | None = "body",
+                 point_m: Sequence[float] = (0.0, 0.0)) -> PointJacobian:
+        """The point ``point_m`` of ``part`` (``"body"``, or the link driven by a joint given
+        by name, ``"fore_1"``, or index; the point in that part's frame: body frame ``(x
+        forward, z down)``, a link's frame with its tip at ``(0, length)``) at ``q``: its world
+        position and its ``3 x nq`` Jacobian (world ``xdot``, ``zdot``, the part's angular
+        rate).
+
+        >>> import selfmanip
+        >>> m = selfmanip.rhex.Model({"leg_shape": "stick"})
+        >>> toe = m.jacobian([0.0, 0.0, 0.0, -0.17, 0.0], "front_0", (0.0, 0.17))
+        >>> toe.position_m.round(3).tolist(), toe.jacobian.shape
+        ([0.205, 0.0], (3, 5))
+        """
+        pt = _checks.vector("point_m", point_m)
+        if len(pt) != 2:
+            raise InvalidInputError(f"`point_m` must have 2 entries, got {len(pt)}", "point_m")
+        d = self._native.jacobian(_checks.vector("q", q), self._part(part), pt)
+        return PointJacobian(np.asarray(d["position_m"]), float(d["angle_rad"]), np.asarray(d["jacobian"]))
+
+    def contact_points(self, q: Sequence[float], qd: Sequence[float] | None = None) -> ContactPoints:
+        """Every contact site's point, height, normal and Jacobian against flat ground at
+        ``q`` (and the point's velocity at ``qd`` when given)."""
+        d = self._native.contact_points(_checks.vector("q", q), None if qd is None else _checks.vector("qd", qd))
+        return ContactPoints(**d)
 
     def mode_spec(self, mode: str) -> str:
         """Validates a mode and returns its normal form."""

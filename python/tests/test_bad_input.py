@@ -5,14 +5,19 @@ import math
 import pytest
 
 import selfmanip
-from selfmanip import SelfmanipError, SingularKktError
+from selfmanip import (EngineError, IllPosedError, InvalidInputError, InvalidTypeError, SelfmanipError,
+                       SingularKktError)
 
 Q = [0.3, 0.3, 0.0, -0.17 * math.cos(0.3), 0.0]
 
 
-def test_errors_are_value_errors():
-    assert issubclass(SelfmanipError, ValueError)
-    assert issubclass(SingularKktError, SelfmanipError)
+def test_error_hierarchy_has_one_base_and_builtin_semantics():
+    # input errors are ValueError / TypeError, engine failures RuntimeError, all SelfmanipError
+    for cls, builtin in ((InvalidInputError, ValueError), (InvalidTypeError, TypeError),
+                         (SingularKktError, ValueError), (IllPosedError, ValueError), (EngineError, RuntimeError)):
+        assert issubclass(cls, SelfmanipError) and issubclass(cls, builtin), cls
+    assert not issubclass(EngineError, ValueError)
+    assert not issubclass(SelfmanipError, ValueError)
 
 
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])

@@ -67,12 +67,14 @@ def test_progress_chunks_do_not_change_results(table):
 
 def run_alone(strategy, t2, gear_ratio, **kw):
     """``(status, word, n_events, apex or None, error message)`` of one leap: an engine error
-    of a single leap is an exception, in a sweep the row's status and message."""
+    of a single leap is an exception, in a sweep the row's status and message; a leap that
+    ends short of ``ok`` has its reason, in a sweep the row's ``error``."""
     try:
         r = selfmanip.leap(strategy, t2=t2, gear_ratio=gear_ratio, dt=None, **kw)
     except selfmanip.SelfmanipError as e:
         return None, "", 0, None, str(e)
-    return r.status, r.word, len(r.events), r.apex, ""
+    assert (r.reason == "") == (r.status == "ok")
+    return r.status, r.word, len(r.events), r.apex, r.reason
 
 
 def assert_row_equals_alone(table, i, **kw):
@@ -141,6 +143,7 @@ def test_pairs_choose_the_pushing_legs():
         assert swept["word"][0] == alone.word
 
 
+@pytest.mark.filterwarnings("ignore::selfmanip.AllPointsFailedWarning")
 def test_saturated_torque_reports_nan_gear_ratio():
     r = selfmanip.sweep("++", t2=[0.0, 0.1], gear_ratio=None)
     assert np.isnan(r["gear_ratio"]).all()
@@ -186,15 +189,28 @@ def test_apex_agrees_with_the_trajectory(one_leap):
     (dict(params={"m_b": -1.0}), "m_b"),
     (dict(params={"leg_shape": "triangle"}), "leg_shape"),
     (dict(params={"mass": 1.0}), "mass"),
-    (dict(delta_t_s="soon"), "delta_t_s"),
     (dict(current_limit_a=-1.0), "current_limit_a"),
     # a ledge's face within the robot's reach at the start (body end 0.255 m ahead)
     (dict(terrain={"kind": "ledge", "height_m": 0.2, "distance_m": 0.25}), "terrain.distance_m"),
     (dict(terrain={"kind": "ledge", "height_m": 0.2, "distance_m": 0.0}), "terrain.distance_m"),
 ])
 def test_bad_leap_input_raises_value_error_naming_the_field(kwargs, field):
-    with pytest.raises(ValueError, match=field):
+    with pytest.raises(ValueError, match=field) as e:
         selfmanip.leap(**{"dt": None, **kwargs})
+    assert isinstance(e.value, selfmanip.SelfmanipError) and e.value.field == field
+
+
+@pytest.mark.parametrize("kwargs, field", [
+    (dict(delta_t_s="soon"), "delta_t_s"),
+    (dict(stop_at_apex=1.0), "stop_at_apex"),
+    (dict(terrain="ledge"), "terrain"),
+    (dict(params={"m_b": "heavy"}), "m_b"),
+    (dict(strategy=3), "strategy"),
+])
+def test_wrongly_typed_leap_input_raises_type_error_naming_the_field(kwargs, field):
+    with pytest.raises(TypeError, match=field) as e:
+        selfmanip.leap(**{"dt": None, **kwargs})
+    assert isinstance(e.value, selfmanip.InvalidTypeError) and e.value.field == field
 
 
 @pytest.mark.parametrize("kwargs, field", [

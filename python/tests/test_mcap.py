@@ -47,7 +47,7 @@ def read(path):
 
 def test_synthetic_trajectory_round_trips(tmp_path):
     tr, events = synthetic()
-    params = json.loads(selfmanip._native.leap_defaults_json())["params"]
+    params = selfmanip.leap.defaults()["params"]
     path = tmp_path / "synthetic.mcap"
     write_mcap(path, params, tr, events, {"note": "synthetic"})
     msgs, meta = read(path)
@@ -86,7 +86,7 @@ def test_synthetic_trajectory_round_trips(tmp_path):
 
 def test_failed_writes_are_atomic(tmp_path):
     tr, events = synthetic()
-    params = json.loads(selfmanip._native.leap_defaults_json())["params"]
+    params = selfmanip.leap.defaults()["params"]
     target = tmp_path / "leap.mcap"
     target.write_bytes(b"old")
     bad = Trajectory(tr.t_s, tr.q[:-1], tr.qd, tr.mode, tr.contacts, tr.contact_points_m, tr.contact_forces_n)
@@ -95,7 +95,7 @@ def test_failed_writes_are_atomic(tmp_path):
     with pytest.raises(ValueError, match="kind"):
         write_mcap(target, params, tr, [dict(events[0], kind="explosion")])
     assert target.read_bytes() == b"old" and [p.name for p in tmp_path.iterdir()] == ["leap.mcap"]
-    with pytest.raises(ValueError):
+    with pytest.raises(FileNotFoundError, match="no_such_dir"):
         write_mcap(tmp_path / "no_such_dir" / "x.mcap", params, tr, events)
     assert [p.name for p in tmp_path.iterdir()] == ["leap.mcap"]
     write_mcap(target, params, tr, events)

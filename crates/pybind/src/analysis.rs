@@ -1,12 +1,14 @@
-//! `selfmanip.analysis`'s native half: conversions only. RHex parameters arrive as the full
-//! Table 4.2 JSON (`selfmanip.rhex.Model().params`), results leave as JSON text that the Python
-//! layer turns into numpy arrays and dicts.
-use crate::{guard, to_py_err};
+//! `selfmanip.analysis`'s native half: conversions only. RHex parameters arrive as a dict of
+//! Table 4.2 values (`selfmanip.rhex.Model().params`; `None`: the shipped table), results
+//! leave as plain Python dicts and lists that the Python layer turns into numpy arrays.
+use crate::convert::{to_map, to_py};
+use crate::errors::{self, guard, invalid, Source};
+use crate::robot::Robot;
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 use rhex_model::analysis::{leg_tail, pitch_control as pc, sensor_sweep as ss, standing};
+use rhex_model::{LegShape, Rhex, RhexError, RhexParams};
 use selfmanip_sim::analysis::{leg_tail as tail, standing as stand};
-use rhex_model::{LegShape, Rhex, RhexParams};
-use selfmanip_core::RobotDescription;
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(analysis_sensor_pitch_range, m)?)?;
@@ -26,21 +28,21 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     Ok(())
 }
 
-fn params(params_json: Option<&str>) -> PyResult<RhexParams> {
-    match params_json {
+/// An analysis error: its vectors are the analysis's own.
+fn err(e: RhexError) -> PyErr {
+    errors::rhex(e, Source::Engine)
+}
+
+fn params(params: Option<&Bound<'_, PyDict>>) -> PyResult<RhexParams> {
+    match params {
         None => Ok(RhexParams::default()),
-        Some(s) => serde_json::from_str(s).map_err(to_py_err),
+        Some(d) => serde_json::from_value(serde_json::Value::Object(to_map(d, "params")?))
+            .map_err(|e| invalid("params", format!("RHex parameters: {e}"))),
     }
 }
 
-fn rhex(params_json: Option<&str>) -> PyResult<Rhex> {
-    Rhex::new(params(params_json)?).map_err(to_py_err)
-}
-
-macro_rules! json {
-    ($v:expr) => {
-        serde_json::to_string($v).map_err(to_py_err)
-    };
+fn rhex(p: Option<&Bound<'_, PyDict>>) -> PyResult<Rhex> {
+    Rhex::new(params(p)?).map_err(err)
 }
 
 fn leg(name: &str) -> PyResult<pc::TakeoffLeg> {
@@ -48,138 +50,160 @@ fn leg(name: &str) -> PyResult<pc::TakeoffLeg> {
         "stick" => Ok(pc::TakeoffLeg::Stick),
         "half_circle" => Ok(pc::TakeoffLeg::HalfCircle),
         "rolling" => Ok(pc::TakeoffLeg::Rolling),
-        other => Err(crate::SelfmanipError::new_err(format!(
-            "`leg` must be \"stick\", \"half_circle\" or \"rolling\", got {other:?}"
-        ))),
+        other => Err(invalid(
+            "leg",
+            format!("`leg` must be \"stick\", \"half_circle\" or \"rolling\", got {other:?}"),
+        )),
     }
 }
 
-#[pyfunction]
-#[pyo3(signature = (params_json, grid))]
-fn analysis_sensor_pitch_range(params_json: Option<&str>, grid: usize) -> PyResult<String> {
-    guard(|| json!(&ss::max_sensor_pitch(&rhex(params_json)?, grid).map_err(to_py_err)?))
-}
+type Obj<'py> = PyResult<Bound<'py, PyAny>>;
+type Params<'a, 'py> = Option<&'a Bound<'py, PyDict>>;
 
 #[pyfunction]
-#[pyo3(signature = (params_json, theta1, theta2))]
-fn analysis_holding_torque(
-    params_json: Option<&str>,
-    theta1: f64,
-    theta2: f64,
-) -> PyResult<String> {
-    guard(|| json!(&ss::holding_torque(&rhex(params_json)?, theta1, theta2).map_err(to_py_err)?))
-}
-
-#[pyfunction]
-#[pyo3(signature = (params_json, theta1, theta2))]
-fn analysis_pitch_rate_gain(params_json: Option<&str>, theta1: f64, theta2: f64) -> PyResult<f64> {
-    guard(|| ss::pitch_rate_gain(&rhex(params_json)?, theta1, theta2).map_err(to_py_err))
-}
-
-#[pyfunction]
-#[pyo3(signature = (params_json, theta1_range, theta2_range, n))]
-fn analysis_fig_4_8(
-    py: Python<'_>,
-    params_json: Option<&str>,
-    theta1_range: [f64; 2],
-    theta2_range: [f64; 2],
-    n: usize,
-) -> PyResult<String> {
+#[pyo3(signature = (params, grid))]
+fn analysis_sensor_pitch_range<'py>(
+    py: Python<'py>,
+    params: Params<'_, 'py>,
+    grid: usize,
+) -> Obj<'py> {
     guard(|| {
-        let r = rhex(params_json)?;
-        let pts = py
-            .detach(|| ss::fig_4_8(&r, theta1_range, theta2_range, n))
-            .map_err(to_py_err)?;
-        json!(&pts)
+        to_py(
+            py,
+            &ss::max_sensor_pitch(&rhex(params)?, grid).map_err(err)?,
+        )
     })
 }
 
 #[pyfunction]
-#[pyo3(signature = (params_json, theta2_range, phi_range, n, gear_ratio))]
-fn analysis_fig_4_10(
-    py: Python<'_>,
-    params_json: Option<&str>,
+#[pyo3(signature = (params, theta1, theta2))]
+fn analysis_holding_torque<'py>(
+    py: Python<'py>,
+    params: Params<'_, 'py>,
+    theta1: f64,
+    theta2: f64,
+) -> Obj<'py> {
+    guard(|| {
+        to_py(
+            py,
+            &ss::holding_torque(&rhex(params)?, theta1, theta2).map_err(err)?,
+        )
+    })
+}
+
+#[pyfunction]
+#[pyo3(signature = (params, theta1, theta2))]
+fn analysis_pitch_rate_gain(params: Params<'_, '_>, theta1: f64, theta2: f64) -> PyResult<f64> {
+    guard(|| ss::pitch_rate_gain(&rhex(params)?, theta1, theta2).map_err(err))
+}
+
+#[pyfunction]
+#[pyo3(signature = (params, theta1_range, theta2_range, n))]
+fn analysis_fig_4_8<'py>(
+    py: Python<'py>,
+    params: Params<'_, 'py>,
+    theta1_range: [f64; 2],
+    theta2_range: [f64; 2],
+    n: usize,
+) -> Obj<'py> {
+    guard(|| {
+        let r = rhex(params)?;
+        let pts = py
+            .detach(|| ss::fig_4_8(&r, theta1_range, theta2_range, n))
+            .map_err(err)?;
+        to_py(py, &pts)
+    })
+}
+
+#[pyfunction]
+#[pyo3(signature = (params, theta2_range, phi_range, n, gear_ratio))]
+fn analysis_fig_4_10<'py>(
+    py: Python<'py>,
+    params: Params<'_, 'py>,
     theta2_range: [f64; 2],
     phi_range: [f64; 2],
     n: usize,
     gear_ratio: f64,
-) -> PyResult<String> {
+) -> Obj<'py> {
     guard(|| {
-        let p = params(params_json)?;
+        let p = self::params(params)?;
         let pts = py
             .detach(|| pc::fig_4_10(Some(p), theta2_range, phi_range, n, gear_ratio))
-            .map_err(to_py_err)?;
-        json!(&pts)
+            .map_err(err)?;
+        to_py(py, &pts)
     })
 }
 
 #[pyfunction]
-#[pyo3(signature = (params_json, ratios, phis, theta2_range))]
-fn analysis_fig_4_11(
-    py: Python<'_>,
-    params_json: Option<&str>,
+#[pyo3(signature = (params, ratios, phis, theta2_range))]
+fn analysis_fig_4_11<'py>(
+    py: Python<'py>,
+    params: Params<'_, 'py>,
     ratios: Vec<f64>,
     phis: Vec<f64>,
     theta2_range: [f64; 2],
-) -> PyResult<String> {
+) -> Obj<'py> {
     guard(|| {
-        let p = params(params_json)?;
+        let p = self::params(params)?;
         let pts = py
             .detach(|| pc::fig_4_11(Some(p), &ratios, &phis, theta2_range))
-            .map_err(to_py_err)?;
-        json!(&pts)
+            .map_err(err)?;
+        to_py(py, &pts)
     })
 }
 
 #[pyfunction]
-#[pyo3(signature = (params_json, phi_dots, phis, theta2_range, gear_ratio))]
-fn analysis_fig_4_12(
-    py: Python<'_>,
-    params_json: Option<&str>,
+#[pyo3(signature = (params, phi_dots, phis, theta2_range, gear_ratio))]
+fn analysis_fig_4_12<'py>(
+    py: Python<'py>,
+    params: Params<'_, 'py>,
     phi_dots: Vec<f64>,
     phis: Vec<f64>,
     theta2_range: [f64; 2],
     gear_ratio: f64,
-) -> PyResult<String> {
+) -> Obj<'py> {
     guard(|| {
-        let p = params(params_json)?;
+        let p = self::params(params)?;
         let pts = py
             .detach(|| pc::fig_4_12(Some(p), &phi_dots, &phis, theta2_range, gear_ratio))
-            .map_err(to_py_err)?;
-        json!(&pts)
+            .map_err(err)?;
+        to_py(py, &pts)
     })
 }
 
 #[pyfunction]
-#[pyo3(signature = (params_json, leg_kind, theta2, phi, phi_dot, gear_ratio))]
-fn analysis_takeoff_speed(
-    params_json: Option<&str>,
+#[pyo3(signature = (params, leg_kind, theta2, phi, phi_dot, gear_ratio))]
+fn analysis_takeoff_speed<'py>(
+    py: Python<'py>,
+    params: Params<'_, 'py>,
     leg_kind: &str,
     theta2: f64,
     phi: f64,
     phi_dot: f64,
     gear_ratio: f64,
-) -> PyResult<String> {
+) -> Obj<'py> {
     guard(|| {
-        let model =
-            pc::takeoff_model(Some(params(params_json)?), leg(leg_kind)?).map_err(to_py_err)?;
-        let line = pc::TorqueSpeedLine::xrhex(gear_ratio).map_err(to_py_err)?;
-        json!(&pc::rear_takeoff_speed(&model, theta2, phi, phi_dot, &line).map_err(to_py_err)?)
+        let model = pc::takeoff_model(Some(self::params(params)?), leg(leg_kind)?).map_err(err)?;
+        let line = pc::TorqueSpeedLine::xrhex(gear_ratio).map_err(err)?;
+        to_py(
+            py,
+            &pc::rear_takeoff_speed(&model, theta2, phi, phi_dot, &line).map_err(err)?,
+        )
     })
 }
 
 #[pyfunction]
-#[pyo3(signature = (params_json, phi, phi_dot, theta2_range, ratio_range))]
+#[pyo3(signature = (params, phi, phi_dot, theta2_range, ratio_range))]
 fn analysis_optimal_gear_ratio(
-    params_json: Option<&str>,
+    params: Params<'_, '_>,
     phi: f64,
     phi_dot: f64,
     theta2_range: [f64; 2],
     ratio_range: [f64; 2],
 ) -> PyResult<(f64, f64)> {
     guard(|| {
-        let model = pc::takeoff_model(Some(params(params_json)?), pc::TakeoffLeg::Rolling)
-            .map_err(to_py_err)?;
+        let model =
+            pc::takeoff_model(Some(self::params(params)?), pc::TakeoffLeg::Rolling).map_err(err)?;
         pc::optimal_gear_ratio(
             &model,
             phi,
@@ -188,27 +212,25 @@ fn analysis_optimal_gear_ratio(
             ratio_range,
             &pc::TorqueSpeedLine::xrhex,
         )
-        .map_err(to_py_err)
+        .map_err(err)
     })
 }
 
 #[pyfunction]
-#[pyo3(signature = (params_json, theta_m, theta_m_dot, tau))]
+#[pyo3(signature = (params, theta_m, theta_m_dot, tau))]
 fn analysis_splay_derivative(
-    params_json: Option<&str>,
+    params: Params<'_, '_>,
     theta_m: f64,
     theta_m_dot: f64,
     tau: f64,
 ) -> PyResult<f64> {
-    guard(|| {
-        pc::splay_derivative(&rhex(params_json)?, theta_m, theta_m_dot, tau).map_err(to_py_err)
-    })
+    guard(|| pc::splay_derivative(&rhex(params)?, theta_m, theta_m_dot, tau).map_err(err))
 }
 
 #[pyfunction]
-#[pyo3(signature = (params_json, leg_kind, theta2, phi, theta2_dot, phi_dot, tau2))]
+#[pyo3(signature = (params, leg_kind, theta2, phi, theta2_dot, phi_dot, tau2))]
 fn analysis_single_leg_pitch_accel(
-    params_json: Option<&str>,
+    params: Params<'_, '_>,
     leg_kind: &str,
     theta2: f64,
     phi: f64,
@@ -217,89 +239,82 @@ fn analysis_single_leg_pitch_accel(
     tau2: f64,
 ) -> PyResult<f64> {
     guard(|| {
-        let model =
-            pc::takeoff_model(Some(params(params_json)?), leg(leg_kind)?).map_err(to_py_err)?;
-        pc::single_leg_pitch_accel(&model, theta2, phi, theta2_dot, phi_dot, tau2)
-            .map_err(to_py_err)
+        let model = pc::takeoff_model(Some(self::params(params)?), leg(leg_kind)?).map_err(err)?;
+        pc::single_leg_pitch_accel(&model, theta2, phi, theta2_dot, phi_dot, tau2).map_err(err)
     })
 }
 
 #[pyfunction]
-#[pyo3(signature = (params_json, pairs))]
-fn analysis_leg_effectiveness(params_json: Option<&str>, pairs: usize) -> PyResult<f64> {
+#[pyo3(signature = (params, pairs))]
+fn analysis_leg_effectiveness(params: Params<'_, '_>, pairs: usize) -> PyResult<f64> {
     guard(|| {
-        let base = match params_json {
+        let base = match params {
             None => None,
-            Some(s) => Some(params(Some(s))?),
+            Some(d) => Some(self::params(Some(d))?),
         };
-        let r = leg_tail::tail_rhex(base, pairs).map_err(to_py_err)?;
-        leg_tail::leg_effectiveness(&r).map_err(to_py_err)
+        let r = leg_tail::tail_rhex(base, pairs).map_err(err)?;
+        leg_tail::leg_effectiveness(&r).map_err(err)
     })
 }
 
+/// Any robot: body rotation for one revolution of `joints` in flight, by the zero-momentum
+/// integral and by simulation. `q0` is the caller's: its errors name it.
 #[pyfunction]
-#[pyo3(signature = (description, format, q0, joints, period_s, dt_s))]
-fn analysis_tail_effect(
-    py: Python<'_>,
-    description: &str,
-    format: &str,
+#[pyo3(signature = (robot, q0, joints, period_s, dt_s))]
+fn analysis_tail_effect<'py>(
+    py: Python<'py>,
+    robot: PyRef<'py, Robot>,
     q0: Vec<f64>,
     joints: Vec<usize>,
     period_s: f64,
     dt_s: f64,
-) -> PyResult<String> {
+) -> Obj<'py> {
     guard(|| {
-        let d = match format {
-            "toml" => RobotDescription::from_toml_str(description),
-            "json" => RobotDescription::from_json_str(description),
-            other => {
-                return Err(crate::SelfmanipError::new_err(format!(
-                    "format `{other}`: expected \"toml\" or \"json\""
-                )))
-            }
-        }
-        .map_err(to_py_err)?;
-        let model = d.build().map_err(to_py_err)?;
+        let model = robot.model().clone();
         let (mom, sim) = py
             .detach(|| {
                 let mom = tail::revolution_rotation_momentum(&model, &q0, &joints, 128)?;
                 let sim = tail::revolution_rotation_dynamic(&model, &q0, &joints, period_s, dt_s)?;
-                Ok::<_, selfmanip_sim::SimError>((mom, sim))
+                Ok::<_, RhexError>((mom, sim))
             })
-            .map_err(to_py_err)?;
-        Ok(serde_json::json!({"momentum_delta_phi": mom, "simulated": sim}).to_string())
+            .map_err(|e| errors::rhex(e, Source::Caller))?;
+        let d = PyDict::new(py);
+        d.set_item("momentum_delta_phi", mom)?;
+        d.set_item("simulated", to_py(py, &sim)?)?;
+        Ok(d.into_any())
     })
 }
 
 #[pyfunction]
-#[pyo3(signature = (params_json, leg_shape, seed, max_slope_rad, tau_d0, dt_s, steps))]
+#[pyo3(signature = (params, leg_shape, seed, max_slope_rad, tau_d0, dt_s, steps))]
 #[allow(clippy::too_many_arguments)]
-fn analysis_standing_rhex(
-    py: Python<'_>,
-    params_json: Option<&str>,
+fn analysis_standing_rhex<'py>(
+    py: Python<'py>,
+    params: Params<'_, 'py>,
     leg_shape: &str,
     seed: u64,
     max_slope_rad: f64,
     tau_d0: f64,
     dt_s: f64,
     steps: usize,
-) -> PyResult<String> {
+) -> Obj<'py> {
     guard(|| {
-        let mut p = params(params_json)?;
+        let mut p = self::params(params)?;
         p.leg_shape = match leg_shape {
             "stick" => LegShape::Stick,
             "half_circle" => LegShape::HalfCircle,
             other => {
-                return Err(crate::SelfmanipError::new_err(format!(
-                    "`leg_shape` must be \"stick\" or \"half_circle\", got {other:?}"
-                )))
+                return Err(invalid(
+                    "leg_shape",
+                    format!("`leg_shape` must be \"stick\" or \"half_circle\", got {other:?}"),
+                ))
             }
         };
-        let r = Rhex::new(p).map_err(to_py_err)?;
+        let r = Rhex::new(p).map_err(err)?;
         let trace = py
             .detach(|| {
                 let (q0, terrain, mode) = standing::random_rhex_stance(&r, seed, max_slope_rad)?;
-                Ok::<_, rhex_model::RhexError>(stand::simulate_standing(
+                Ok::<_, RhexError>(stand::simulate_standing(
                     &r.model,
                     &terrain,
                     mode,
@@ -311,7 +326,7 @@ fn analysis_standing_rhex(
                     steps,
                 )?)
             })
-            .map_err(to_py_err)?;
-        json!(&trace)
+            .map_err(err)?;
+        to_py(py, &trace)
     })
 }

@@ -1,20 +1,37 @@
-//! `selfmanip.leap` / `selfmanip.sweep`'s native half: one leap, a batched sweep on an
-//! explicit rayon pool (GIL released), MCAP logs. Conversions only; the semantics live in
-//! `rhex_model::{leap, sweep, mcap_log}`.
+//! `selfmanip.leap` / `selfmanip.sweep`'s native half: one leap, a sweep on an explicit rayon
+//! pool, MCAP logs. Conversions only; the semantics live in `rhex_model::{leap, sweep,
+//! mcap_log}`.
 //!
-//! Inputs by name: a JSON object of overrides (Table 4.2 symbols, `LeapConfig` fields, the
-//! geared motor's `current_limit_a` / `motors_per_leg`) applied to `leap_params()` and
-//! `LeapConfig::default()` with the saturated-torque actuator; a gear ratio selects the
-//! geared motor.
-use crate::{guard, to_py_err};
+//! **Inputs** arrive as Python objects: a `dict` of overrides by name (Table 4.2 symbols,
+//! `LeapConfig` fields, the geared motor's `current_limit_a` / `motors_per_leg`), applied by
+//! `rhex_model::sweep::point_inputs` to `leap_params()` and `LeapConfig::default()` — the
+//! engine's defaults, whatever they are. The actuator of a point is `gear_ratio`: `None`
+//! keeps the default actuator, a number selects the geared motor of that ratio, NaN the
+//! saturated torque `τ_s` (chapter 3: the caller's explicit choice).
+//!
+//! **Work** runs on a worker thread with the GIL released and is interruptible by Ctrl-C
+//! ([`crate::interrupt`]); a sweep checks the cancellation flag before every point.
+use crate::convert::{to_map, to_py, to_value};
+use crate::errors::{self, invalid, Source};
+use crate::interrupt::{self, Shared};
 use numpy::ndarray::{Array2, Array3};
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use rhex_model::leap::{leap_params, LeapConfig, LeapEvent, LegActuator, Strategy, Trajectory};
+use rayon::prelude::*;
+use rhex_model::grc::{match_leap_word, Cell};
+use rhex_model::leap::{
+    leap_params, simulate_leap, LeapConfig, LeapEvent, LeapResult, LegActuator, Strategy,
+    Trajectory,
+};
 use rhex_model::mcap_log::{q_names, write_leap_mcap, LeapLog};
-use rhex_model::sweep::{check_override_names, point_inputs, sweep, sweepable_names, SweepPoint};
-use rhex_model::RhexParams;
+use rhex_model::sweep::{
+    check_override_names, error_kind, panic_message, point_inputs, sweepable_names, SweepPoint,
+    SweepRow,
+};
+use rhex_model::{Rhex, RhexError, RhexParams};
+use selfmanip_hybrid::Termination;
+use selfmanip_sim::SimError;
 use serde_json::{Map, Value};
 use std::collections::BTreeMap;
 
@@ -23,69 +40,88 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(leap_sweep, m)?)?;
     m.add_function(wrap_pyfunction!(leap_write_mcap, m)?)?;
     m.add_function(wrap_pyfunction!(leap_sweepable_names, m)?)?;
-    m.add_function(wrap_pyfunction!(leap_defaults_json, m)?)?;
+    m.add_function(wrap_pyfunction!(leap_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(leap_grammar_text, m)?)?;
+    m.add_function(wrap_pyfunction!(leap_word_equation, m)?)?;
     Ok(())
 }
 
-fn err(msg: String) -> PyErr {
-    crate::SelfmanipError::new_err(msg)
+fn rhex_err(e: RhexError) -> PyErr {
+    // a leap's vectors are the engine's own: the caller passes none
+    errors::rhex(e, Source::Engine)
 }
 
-/// The base of every leap: chapter 5's parameters, the default configuration with the
-/// saturated torque (a gear ratio switches to the geared motor).
-fn base() -> (RhexParams, LeapConfig) {
-    (
-        leap_params(),
-        LeapConfig {
-            actuator: LegActuator::SaturatedTorque,
-            ..LeapConfig::default()
-        },
-    )
+/// The base of a point: chapter 5's parameters and the engine's default configuration, with
+/// the saturated torque when the caller chose it.
+fn base(saturated: bool) -> (RhexParams, LeapConfig) {
+    let mut cfg = LeapConfig::default();
+    if saturated {
+        cfg.actuator = LegActuator::SaturatedTorque;
+    }
+    (leap_params(), cfg)
 }
 
-fn parse_overrides(json: &str) -> PyResult<Map<String, Value>> {
-    match serde_json::from_str::<Value>(json).map_err(|e| err(format!("overrides: {e}")))? {
-        Value::Object(m) => Ok(m),
-        _ => Err(err("overrides must be a mapping of parameter names".into())),
+/// `gear_ratio` as (`saturated`, the point's gear ratio).
+fn actuator_choice(gear_ratio: Option<f64>) -> (bool, Option<f64>) {
+    match gear_ratio {
+        Some(g) if g.is_nan() => (true, None),
+        g => (false, g),
     }
 }
 
-fn gear(g: f64) -> Option<f64> {
-    (!g.is_nan()).then_some(g)
-}
-
-/// Resolves the inputs of one leap (errors name the field).
+/// The inputs of one leap (errors name the field).
 fn resolve(
     strategy: &str,
     t2_s: f64,
     gear_ratio: Option<f64>,
-    overrides_json: &str,
+    overrides: Map<String, Value>,
 ) -> PyResult<(RhexParams, LeapConfig)> {
-    let strategy: Strategy = strategy.parse().map_err(to_py_err)?;
-    let mut pt = SweepPoint::new(strategy, t2_s, gear_ratio);
-    pt.overrides = parse_overrides(overrides_json)?;
-    let (p, c) = base();
-    point_inputs(&p, &c, &pt).map_err(to_py_err)
+    let strategy: Strategy = strategy.parse().map_err(rhex_err)?;
+    let (saturated, gear) = actuator_choice(gear_ratio);
+    let mut pt = SweepPoint::new(strategy, t2_s, gear);
+    pt.overrides = overrides;
+    let (p, c) = base(saturated);
+    point_inputs(&p, &c, &pt).map_err(rhex_err)
 }
 
-/// Every parameter name a sweep or a leap accepts.
+/// Every parameter name a sweep or a leap accepts, each once.
 #[pyfunction]
 fn leap_sweepable_names() -> Vec<String> {
-    sweepable_names()
+    let mut out: Vec<String> = Vec::new();
+    for n in sweepable_names() {
+        // `pairs` is both a robot parameter and the leap's pushing pairs: one name
+        if !out.contains(&n) {
+            out.push(n);
+        }
+    }
+    out
 }
 
-/// `{"params": leap_params(), "config": LeapConfig::default()}` as JSON.
+/// `{"params": leap_params(), "config": LeapConfig::default()}`: the engine's defaults.
 #[pyfunction]
-fn leap_defaults_json() -> PyResult<String> {
-    let (p, c) = base();
-    serde_json::to_string(&serde_json::json!({"params": p, "config": c})).map_err(to_py_err)
+fn leap_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("params", to_py(py, &leap_params())?)?;
+    d.set_item("config", to_py(py, &LeapConfig::default())?)?;
+    Ok(d)
 }
 
 /// The leap grammar of chapter 3 as readable text.
 #[pyfunction]
 fn leap_grammar_text() -> String {
     rhex_model::grc::leap_grammar_text()
+}
+
+/// The thesis equation, `"3.2"` … `"3.7"`, of the leap word made of `cells` (labels
+/// `FB FL RB RL`, sliding toes as `1`), or `None` when it is none of them.
+#[pyfunction]
+fn leap_word_equation(cells: Vec<String>) -> PyResult<Option<&'static str>> {
+    let cells = cells
+        .iter()
+        .map(|c| Cell::from_label(&c.replace('s', "1")))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| invalid("word", e.to_string()))?;
+    Ok(match_leap_word(&cells))
 }
 
 fn opt_pairs(rows: &[Vec<Option<[f64; 2]>>], nc: usize) -> Array3<f64> {
@@ -98,68 +134,140 @@ fn rows2(rows: &[Vec<f64>], ncols: usize) -> Array2<f64> {
     Array2::from_shape_fn((rows.len(), ncols), |(k, j)| rows[k][j])
 }
 
-/// One leap. Returns a dict: `status`, `apex` (dict or None), `word` (list of cells),
-/// `events`, `q0`, `q_names`, `params_json`, `config_json`, and, when `dt_s` is given,
-/// `trajectory` (numpy arrays).
+/// Why a leap ended short of `ok`, in words (empty for `ok`).
+fn reason(r: &LeapResult, params: &RhexParams, cfg: &LeapConfig) -> String {
+    use rhex_model::leap::LeapStatus;
+    if r.status == LeapStatus::Ok {
+        return String::new();
+    }
+    let at = |t: f64| format!("t = {:.6} s", t - r.time_offset_s);
+    // the mode that was flowing: the last event's, or the start's
+    let mode = r
+        .events
+        .last()
+        .map_or_else(|| "1010".to_string(), |e| e.mode_after.clone());
+    #[allow(unreachable_patterns)]
+    match &r.execution.termination {
+        Termination::Apex => String::new(),
+        Termination::FinalTime => format!(
+            "no flight reached{} before t_final_s = {} s",
+            if cfg.stop_at_apex { " its apex" } else { "" },
+            cfg.t_final_s
+        ),
+        Termination::Zeno {
+            t,
+            events_in_window,
+        } => format!(
+            "Zeno: {events_in_window} events within zeno_window_s = {} s at {}",
+            cfg.zeno_window_s,
+            at(*t)
+        ),
+        Termination::EventBudget => "the execution used up its event budget".into(),
+        Termination::NoContactSolution { t } => format!(
+            "no contact set satisfies the complementarity conditions at {} (mode {mode})",
+            at(*t)
+        ),
+        Termination::SeveralContactSolutions { t, candidates } => format!(
+            "{} contact sets satisfy the complementarity conditions at {} (mode {mode})",
+            candidates.len(),
+            at(*t)
+        ),
+        Termination::SingularFlow {
+            t,
+            kind,
+            condition_estimate,
+            ..
+        } => format!(
+            "the KKT matrix of mode {mode} became singular (Lemma 5.1, {kind:?}, condition \
+             estimate {condition_estimate:.3e}) at {}",
+            at(*t)
+        ),
+        Termination::TerrainDiscontinuity { t, contact, gap_m } => {
+            let name = Rhex::new(params.clone())
+                .ok()
+                .and_then(|x| x.model.contacts.get(*contact).map(|c| c.name.clone()))
+                .unwrap_or_else(|| format!("#{contact}"));
+            format!(
+                "contact `{name}` met a terrain edge or corner that is not a contact feature \
+                 for it at {} (gap {gap_m:.3e} m)",
+                at(*t)
+            )
+        }
+        other => format!("{other:?}"),
+    }
+}
+
+/// One leap and, when `dt_s` is given, its trajectory: the work of [`leap_run`].
+fn run_leap(
+    params: &RhexParams,
+    cfg: &LeapConfig,
+    dt_s: Option<f64>,
+) -> Result<(LeapResult, Option<Trajectory>), RhexError> {
+    let res = simulate_leap(params, cfg)?;
+    let traj = match dt_s {
+        Some(dt) => Some(res.trajectory(params, cfg, dt)?),
+        None => None,
+    };
+    Ok((res, traj))
+}
+
+fn events_list<'py>(py: Python<'py>, events: &[LeapEvent]) -> PyResult<Bound<'py, PyList>> {
+    let list = PyList::empty(py);
+    for e in events {
+        let d = PyDict::new(py);
+        d.set_item("t_s", e.t_s)?;
+        d.set_item("kind", e.kind)?;
+        d.set_item("mode_before", &e.mode_before)?;
+        d.set_item("mode_after", &e.mode_after)?;
+        d.set_item("contacts", &e.contacts)?;
+        d.set_item("energy_loss_j", e.energy_loss_j)?;
+        list.append(d)?;
+    }
+    Ok(list)
+}
+
+/// One leap. `gear_ratio`: `None` the engine's default actuator, a number the geared motor of
+/// that ratio, NaN the saturated torque. Returns a dict: `status`, `reason` (why it is not
+/// `ok`; empty when it is), `apex` (dict or None), `word` (list of cells), `events` (list of
+/// dicts), `q0`, `q_names`, `time_offset_s`, `params`, `config` (the full inputs used, as
+/// dicts) and, when `dt_s` is given, `trajectory` (numpy arrays).
 #[pyfunction]
-#[pyo3(signature = (strategy, t2_s, gear_ratio, overrides_json, dt_s=None))]
+#[pyo3(signature = (strategy, t2_s, gear_ratio, overrides, dt_s=None))]
 fn leap_run<'py>(
     py: Python<'py>,
     strategy: &str,
     t2_s: f64,
     gear_ratio: Option<f64>,
-    overrides_json: &str,
+    overrides: &Bound<'py, PyDict>,
     dt_s: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    guard(|| {
-        let (params, cfg) = resolve(strategy, t2_s, gear_ratio, overrides_json)?;
+    errors::guard(|| {
+        let (params, cfg) = resolve(strategy, t2_s, gear_ratio, to_map(overrides, "")?)?;
         if let Some(dt) = dt_s {
             if !(dt.is_finite() && dt > 0.0) {
-                return Err(err(format!("`dt` must be finite and positive, got {dt}")));
+                return Err(invalid(
+                    "dt",
+                    format!("`dt` must be finite and positive, got {dt}"),
+                ));
             }
         }
-        let (res, traj) = py
-            .detach(|| {
-                let res = rhex_model::leap::simulate_leap(&params, &cfg)?;
-                let traj = match dt_s {
-                    Some(dt) => Some(res.trajectory(&params, &cfg, dt)?),
-                    None => None,
-                };
-                Ok::<_, rhex_model::RhexError>((res, traj))
-            })
-            .map_err(to_py_err)?;
+        let (p, c) = (params.clone(), cfg.clone());
+        let (res, traj) = interrupt::run(py, None, move |_: &Shared| run_leap(&p, &c, dt_s))?
+            .map_err(rhex_err)?;
         let d = PyDict::new(py);
         d.set_item("status", res.status.as_str())?;
+        d.set_item("reason", reason(&res, &params, &cfg))?;
         match res.apex {
-            Some(a) => {
-                let ad = PyDict::new(py);
-                ad.set_item("t_s", a.t_s)?;
-                ad.set_item("x_m", a.x_m)?;
-                ad.set_item("z_m", a.z_m)?;
-                ad.set_item("phi_rad", a.phi_rad)?;
-                ad.set_item("xdot_m_s", a.xdot_m_s)?;
-                ad.set_item("zdot_m_s", a.zdot_m_s)?;
-                ad.set_item("phidot_rad_s", a.phidot_rad_s)?;
-                d.set_item("apex", ad)?;
-            }
+            Some(a) => d.set_item("apex", to_py(py, &a)?)?,
             None => d.set_item("apex", py.None())?,
         }
         d.set_item("word", res.word.clone())?;
-        d.set_item(
-            "events_json",
-            serde_json::to_string(&res.events).map_err(to_py_err)?,
-        )?;
-        d.set_item("q0", res.q0.clone())?;
+        d.set_item("events", events_list(py, &res.events)?)?;
+        d.set_item("q0", res.q0.clone().into_pyarray(py))?;
         d.set_item("q_names", q_names(&params))?;
         d.set_item("time_offset_s", res.time_offset_s)?;
-        d.set_item(
-            "params_json",
-            serde_json::to_string(&params).map_err(to_py_err)?,
-        )?;
-        d.set_item(
-            "config_json",
-            serde_json::to_string(&cfg).map_err(to_py_err)?,
-        )?;
+        d.set_item("params", to_py(py, &params)?)?;
+        d.set_item("config", to_py(py, &cfg)?)?;
         if let Some(tr) = traj {
             let nq = tr.q.first().map_or(params.pairs.len() + 3, |r| r.len());
             let nc = tr.contacts.len();
@@ -183,70 +291,193 @@ fn leap_run<'py>(
     })
 }
 
-/// A sweep. Per point: `strategies[i]`, `t2_s[i]`, `gear_ratio[i]` (NaN: saturated torque),
-/// and the columns of `point_overrides_json` (`{"name": [v0, v1, …]}`); `base_overrides_json`
-/// applies to every point and is checked up front. Returns a dict of columns (numpy arrays
-/// for numbers, lists for strings).
+/// The gear ratio a point ran with (NaN: the saturated torque).
+fn gear_of(cfg: &LeapConfig) -> f64 {
+    match cfg.actuator {
+        LegActuator::GearedMotor { gear_ratio, .. } => gear_ratio,
+        LegActuator::SaturatedTorque => f64::NAN,
+    }
+}
+
+fn failed_row(status: &str, error: String, gear_ratio: f64) -> SweepRow {
+    SweepRow {
+        status: status.into(),
+        error,
+        gear_ratio,
+        apex_t_s: f64::NAN,
+        apex_x_m: f64::NAN,
+        apex_z_m: f64::NAN,
+        apex_phi_rad: f64::NAN,
+        apex_xdot_m_s: f64::NAN,
+        apex_zdot_m_s: f64::NAN,
+        apex_phidot_rad_s: f64::NAN,
+        word: String::new(),
+        n_events: 0,
+    }
+}
+
+/// The message of a point's error as the single leap would raise it (no GIL needed).
+fn error_message(e: &RhexError) -> String {
+    errors::map_rhex(e, Source::Engine).message
+}
+
+/// One point of a sweep as a row: never fails, never panics. Unlike a single leap, a point
+/// that does not reach `ok` carries the reason in `error`.
+fn sweep_row(base: &(RhexParams, LeapConfig), point: &SweepPoint) -> SweepRow {
+    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        let (params, cfg) = point_inputs(&base.0, &base.1, point)?;
+        let r = simulate_leap(&params, &cfg)?;
+        let why = reason(&r, &params, &cfg);
+        Ok::<_, RhexError>((r, why, gear_of(&cfg)))
+    }));
+    match outcome {
+        Err(p) => failed_row(
+            "panic",
+            format!(
+                "internal error in selfmanip (a bug, please report it): {}",
+                panic_message(p.as_ref())
+            ),
+            f64::NAN,
+        ),
+        Ok(Err(e)) => failed_row(error_kind(&e), error_message(&e), f64::NAN),
+        Ok(Ok((r, why, g))) => {
+            let mut row = failed_row(r.status.as_str(), why, g);
+            row.word = r.word_string();
+            row.n_events = r.events.len();
+            if let Some(a) = r.apex {
+                row.apex_t_s = a.t_s;
+                row.apex_x_m = a.x_m;
+                row.apex_z_m = a.z_m;
+                row.apex_phi_rad = a.phi_rad;
+                row.apex_xdot_m_s = a.xdot_m_s;
+                row.apex_zdot_m_s = a.zdot_m_s;
+                row.apex_phidot_rad_s = a.phidot_rad_s;
+            }
+            row
+        }
+    }
+}
+
+/// Runs the points on a pool of exactly `threads` threads, one task per point, rows in input
+/// order (bit-identical for any thread count). A point skipped because the sweep was
+/// interrupted is `None`. `bases[saturated]` is each point's base.
+fn sweep_rows(
+    bases: &[(RhexParams, LeapConfig); 2],
+    points: &[(bool, SweepPoint)],
+    threads: usize,
+    shared: &Shared,
+) -> Result<Vec<Option<SweepRow>>, String> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| format!("cannot start a pool of {threads} threads: {e}"))?;
+    Ok(pool.install(|| {
+        points
+            .par_iter()
+            // one task per leap: neighbouring points have correlated costs (see
+            // `rhex_model::sweep::sweep`)
+            .with_max_len(1)
+            .map(|(saturated, p)| {
+                if shared.cancelled() {
+                    return None;
+                }
+                let row = sweep_row(&bases[usize::from(*saturated)], p);
+                shared.tick();
+                Some(row)
+            })
+            .collect()
+    }))
+}
+
+/// A sweep. Per point: `strategies[i]`, `t2_s[i]`, `gear_ratio[i]` (as for [`leap_run`]) and
+/// the values of `columns` (`{"name": [v0, v1, …]}`); `base_overrides` applies to every point
+/// and is checked up front. `progress(done)` is called as points finish. Returns a dict of
+/// columns (numpy arrays for numbers, lists for strings); a point that is not `ok` has the
+/// reason in `error`.
 #[pyfunction]
-#[pyo3(signature = (strategies, t2_s, gear_ratio, base_overrides_json, point_overrides_json, threads))]
+#[pyo3(signature = (strategies, t2_s, gear_ratio, base_overrides, columns, threads, progress=None))]
+#[allow(clippy::too_many_arguments)]
 fn leap_sweep<'py>(
     py: Python<'py>,
     strategies: Vec<String>,
     t2_s: Vec<f64>,
-    gear_ratio: Vec<f64>,
-    base_overrides_json: &str,
-    point_overrides_json: &str,
+    gear_ratio: Vec<Option<f64>>,
+    base_overrides: &Bound<'py, PyDict>,
+    columns: &Bound<'py, PyDict>,
     threads: usize,
+    progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    guard(|| {
+    errors::guard(|| {
         let n = strategies.len();
         if t2_s.len() != n || gear_ratio.len() != n {
-            return Err(err(format!(
-                "strategy, t2 and gear_ratio must have one entry per point: {n}, {}, {}",
-                t2_s.len(),
-                gear_ratio.len()
-            )));
+            return Err(invalid(
+                "t2",
+                format!(
+                    "strategy, t2 and gear_ratio must have one entry per point: {n}, {}, {}",
+                    t2_s.len(),
+                    gear_ratio.len()
+                ),
+            ));
+        }
+        if threads == 0 {
+            return Err(invalid("threads", "`threads` must be at least 1"));
         }
         // the base, checked once (a bad base is an error of the call, not of every point)
         let first = strategies.first().map_or("++", |s| s.as_str());
-        let (bp, bc) = resolve(first, 0.0, None, base_overrides_json)?;
-        let columns = parse_overrides(point_overrides_json)?;
-        check_override_names(columns.keys().map(|k| k.as_str())).map_err(to_py_err)?;
-        let mut cols: Vec<(&String, &Vec<Value>)> = Vec::new();
-        for (k, v) in &columns {
-            match v {
-                Value::Array(a) if a.len() == n => cols.push((k, a)),
-                _ => {
-                    return Err(err(format!(
-                        "RHex parameter `{k}`: the swept column must have one value per point ({n})"
-                    )))
-                }
+        let (bp, bc) = resolve(first, 0.0, None, to_map(base_overrides, "")?)?;
+        let saturated_cfg = LeapConfig {
+            actuator: LegActuator::SaturatedTorque,
+            ..bc.clone()
+        };
+        let bases = [(bp.clone(), bc), (bp, saturated_cfg)];
+        let mut cols: Vec<(String, Vec<Value>)> = Vec::new();
+        for (k, v) in columns.iter() {
+            let name: String = k.extract()?;
+            let values: Vec<Bound<'py, PyAny>> = v.extract().map_err(|_| {
+                errors::invalid_type(&name, format!("`{name}`: the swept column must be a list"))
+            })?;
+            if values.len() != n {
+                return Err(invalid(
+                    &name,
+                    format!("`{name}`: the swept column must have one value per point ({n})"),
+                ));
             }
+            let values = values
+                .iter()
+                .enumerate()
+                .map(|(i, x)| to_value(x, &format!("{name}[{i}]")))
+                .collect::<PyResult<Vec<_>>>()?;
+            cols.push((name, values));
         }
+        check_override_names(cols.iter().map(|(k, _)| k.as_str())).map_err(rhex_err)?;
         let mut parsed: Vec<(String, Strategy)> = Vec::new();
         let mut points = Vec::with_capacity(n);
         for i in 0..n {
             let s = match parsed.iter().find(|(k, _)| *k == strategies[i]) {
                 Some((_, s)) => *s,
                 None => {
-                    let s: Strategy = strategies[i].parse().map_err(to_py_err)?;
+                    let s: Strategy = strategies[i].parse().map_err(rhex_err)?;
                     parsed.push((strategies[i].clone(), s));
                     s
                 }
             };
-            let mut pt = SweepPoint::new(s, t2_s[i], gear(gear_ratio[i]));
+            let (saturated, gear) = actuator_choice(gear_ratio[i]);
+            let mut pt = SweepPoint::new(s, t2_s[i], gear);
             for (k, a) in &cols {
-                pt.overrides.insert((*k).clone(), a[i].clone());
+                pt.overrides.insert(k.clone(), a[i].clone());
             }
-            points.push(pt);
+            points.push((saturated, pt));
         }
-        let rows = py
-            .detach(|| sweep(&bp, &bc, &points, threads))
-            .map_err(to_py_err)?;
+        let rows = interrupt::run(py, progress, move |shared: &Shared| {
+            sweep_rows(&bases, &points, threads, shared)
+        })?
+        .map_err(|e| invalid("threads", e))?;
+        let rows: Vec<SweepRow> = rows
+            .into_iter()
+            .collect::<Option<Vec<_>>>()
+            .ok_or_else(|| errors::engine("the sweep was cancelled"))?;
         let d = PyDict::new(py);
-        let f = |g: fn(&rhex_model::sweep::SweepRow) -> f64| -> Vec<f64> {
-            rows.iter().map(g).collect()
-        };
+        let f = |g: fn(&SweepRow) -> f64| -> Vec<f64> { rows.iter().map(g).collect() };
         d.set_item("gear_ratio", f(|r| r.gear_ratio).into_pyarray(py))?;
         d.set_item("apex_t_s", f(|r| r.apex_t_s).into_pyarray(py))?;
         d.set_item("apex_x_m", f(|r| r.apex_x_m).into_pyarray(py))?;
@@ -281,7 +512,7 @@ fn leap_sweep<'py>(
     })
 }
 
-fn event_kind(k: &str) -> PyResult<&'static str> {
+fn event_kind(k: &str, field: &str) -> PyResult<&'static str> {
     Ok(match k {
         "touchdown" => "touchdown",
         "liftoff" => "liftoff",
@@ -290,9 +521,13 @@ fn event_kind(k: &str) -> PyResult<&'static str> {
         "apex" => "apex",
         "end" => "end",
         other => {
-            return Err(err(format!(
-                "event kind `{other}` is not one of touchdown, liftoff, slip, stick, apex"
-            )))
+            return Err(invalid(
+                field,
+                format!(
+                    "`{field}`: event kind `{other}` is not one of touchdown, liftoff, slip, \
+                     stick, apex"
+                ),
+            ))
         }
     })
 }
@@ -305,10 +540,13 @@ fn pairs_from(
 ) -> PyResult<Vec<Vec<Option<[f64; 2]>>>> {
     let v = a.as_array();
     if v.shape() != [n, nc, 2] {
-        return Err(err(format!(
-            "`{field}` has shape {:?}, expected ({n}, {nc}, 2)",
-            v.shape()
-        )));
+        return Err(invalid(
+            field,
+            format!(
+                "`{field}` has shape {:?}, expected ({n}, {nc}, 2)",
+                v.shape()
+            ),
+        ));
     }
     Ok((0..n)
         .map(|k| {
@@ -329,23 +567,83 @@ fn rows_from(
 ) -> PyResult<Vec<Vec<f64>>> {
     let v = a.as_array();
     if v.nrows() != n {
-        return Err(err(format!(
-            "`{field}` has {} rows, expected {n}",
-            v.nrows()
-        )));
+        return Err(invalid(
+            field,
+            format!("`{field}` has {} rows, expected {n}", v.nrows()),
+        ));
     }
     Ok(v.rows().into_iter().map(|r| r.to_vec()).collect())
 }
 
+/// One event from a dict `{t_s, kind, mode_before, mode_after, contacts, energy_loss_j}`.
+fn event_from(e: &Bound<'_, PyAny>, i: usize) -> PyResult<LeapEvent> {
+    let field = |k: &str| format!("events[{i}].{k}");
+    let get = |k: &str| -> PyResult<Option<Bound<'_, PyAny>>> {
+        match e.get_item(k) {
+            Ok(v) => Ok(Some(v)),
+            Err(err) if err.is_instance_of::<pyo3::exceptions::PyKeyError>(e.py()) => Ok(None),
+            Err(_) => Err(errors::invalid_type(
+                &format!("events[{i}]"),
+                format!("`events[{i}]` must be a dict"),
+            )),
+        }
+    };
+    let typed = |k: &str, v: Bound<'_, PyAny>| -> PyResult<Value> { to_value(&v, &field(k)) };
+    let text = |k: &str| -> PyResult<String> {
+        match get(k)? {
+            None => Ok(String::new()),
+            Some(v) => v.extract().map_err(|_| {
+                errors::invalid_type(&field(k), format!("`{}` must be a string", field(k)))
+            }),
+        }
+    };
+    let t_s = match get("t_s")? {
+        Some(v) => typed("t_s", v)?.as_f64().ok_or_else(|| {
+            errors::invalid_type(
+                &field("t_s"),
+                format!("`{}` must be a number", field("t_s")),
+            )
+        })?,
+        None => {
+            return Err(invalid(
+                &field("t_s"),
+                format!("`{}` is missing", field("t_s")),
+            ))
+        }
+    };
+    let contacts = match get("contacts")? {
+        None => Vec::new(),
+        Some(v) => v.extract().map_err(|_| {
+            errors::invalid_type(
+                &field("contacts"),
+                format!("`{}` must be a list of names", field("contacts")),
+            )
+        })?,
+    };
+    let energy_loss_j = match get("energy_loss_j")? {
+        None => 0.0,
+        Some(v) => typed("energy_loss_j", v)?.as_f64().unwrap_or(0.0),
+    };
+    Ok(LeapEvent {
+        t_s,
+        kind: event_kind(&text("kind")?, &field("kind"))?,
+        mode_before: text("mode_before")?,
+        mode_after: text("mode_after")?,
+        contacts,
+        energy_loss_j,
+    })
+}
+
 /// Writes a leap's MCAP log atomically (see `rhex_model::mcap_log` for the topics).
-/// `events_json` is a list of `{t_s, kind, mode_before, mode_after, contacts, energy_loss_j}`.
+/// `params` is a dict of Table 4.2 values; `events` a list of dicts with the keys of
+/// `LeapResult.events`.
 #[pyfunction]
-#[pyo3(signature = (path, params_json, contacts, t_s, q, qd, mode, contact_points_m, contact_forces_n, events_json, metadata))]
+#[pyo3(signature = (path, params, contacts, t_s, q, qd, mode, contact_points_m, contact_forces_n, events, metadata))]
 #[allow(clippy::too_many_arguments)]
 fn leap_write_mcap(
     py: Python<'_>,
     path: std::path::PathBuf,
-    params_json: &str,
+    params: &Bound<'_, PyDict>,
     contacts: Vec<String>,
     t_s: Vec<f64>,
     q: numpy::PyReadonlyArray2<'_, f64>,
@@ -353,13 +651,15 @@ fn leap_write_mcap(
     mode: Vec<String>,
     contact_points_m: numpy::PyReadonlyArray3<'_, f64>,
     contact_forces_n: numpy::PyReadonlyArray3<'_, f64>,
-    events_json: &str,
+    events: &Bound<'_, PyList>,
     metadata: BTreeMap<String, String>,
 ) -> PyResult<()> {
-    guard(|| {
-        let params: RhexParams =
-            serde_json::from_str(params_json).map_err(|e| err(format!("params: {e}")))?;
-        params.validate().map_err(to_py_err)?;
+    errors::guard(|| {
+        let params: RhexParams = serde_json::from_value(Value::Object(to_map(params, "params")?))
+            .map_err(|e| invalid("params", format!("params: {e}")))?;
+        params
+            .validate()
+            .map_err(|e| errors::rhex(e, Source::Caller))?;
         let n = t_s.len();
         let nc = contacts.len();
         let tr = Trajectory {
@@ -371,34 +671,11 @@ fn leap_write_mcap(
             t_s,
             mode,
         };
-        let raw: Vec<Value> =
-            serde_json::from_str(events_json).map_err(|e| err(format!("events: {e}")))?;
-        let mut events = Vec::with_capacity(raw.len());
-        for e in &raw {
-            let s = |k: &str| e.get(k).and_then(|v| v.as_str()).unwrap_or("").to_string();
-            events.push(LeapEvent {
-                t_s: e
-                    .get("t_s")
-                    .and_then(|v| v.as_f64())
-                    .ok_or_else(|| err("events: `t_s` missing".into()))?,
-                kind: event_kind(&s("kind"))?,
-                mode_before: s("mode_before"),
-                mode_after: s("mode_after"),
-                contacts: e
-                    .get("contacts")
-                    .and_then(|v| v.as_array())
-                    .map(|a| {
-                        a.iter()
-                            .filter_map(|c| c.as_str().map(String::from))
-                            .collect()
-                    })
-                    .unwrap_or_default(),
-                energy_loss_j: e
-                    .get("energy_loss_j")
-                    .and_then(|v| v.as_f64())
-                    .unwrap_or(0.0),
-            });
-        }
+        let events = events
+            .iter()
+            .enumerate()
+            .map(|(i, e)| event_from(&e, i))
+            .collect::<PyResult<Vec<_>>>()?;
         py.detach(|| {
             write_leap_mcap(
                 &path,
@@ -410,6 +687,13 @@ fn leap_write_mcap(
                 },
             )
         })
-        .map_err(to_py_err)
+        .map_err(|e| match e {
+            // the OSError subclass of the kind (FileNotFoundError, PermissionError, …)
+            RhexError::Sim(SimError::Io { message, kind, .. }) => PyErr::from(std::io::Error::new(
+                kind,
+                format!("MCAP log I/O: {message} (writing {})", path.display()),
+            )),
+            e => errors::rhex(e, errors::Source::Caller),
+        })
     })
 }

@@ -1,7 +1,8 @@
 //! `selfmanip.motor`'s native half: conversions only. Results are plain dicts (numpy
 //! arrays for series); structured inputs (observer parameters, machine configuration)
-//! arrive as JSON so that serde names any missing or mistyped field.
-use crate::{guard, to_py_err};
+//! arrive as dicts, deserialized with serde so that it names any missing or mistyped field.
+use crate::convert::{to_map, to_py};
+use crate::errors::{self, guard, invalid};
 use motor::catalog::{synthetic_motors, CaseParameters, Catalog};
 use motor::observer::{self, FaultFsmConfig, LegLog, ObserverParams};
 use motor::tail::{self, SelectionConstraints, TailTask};
@@ -40,7 +41,7 @@ fn column<'py, T, V: numpy::Element>(
 
 fn catalog(catalog_toml: Option<&str>) -> PyResult<Catalog> {
     match catalog_toml {
-        Some(text) => Catalog::from_toml_str(text).map_err(to_py_err),
+        Some(text) => Catalog::from_toml_str(text).map_err(errors::motor),
         None => Ok(Catalog::thesis()),
     }
 }
@@ -49,20 +50,21 @@ fn case_parameters(case: &str) -> PyResult<CaseParameters> {
     match case {
         "measured" => Ok(CaseParameters::Measured),
         "listed" => Ok(CaseParameters::Listed),
-        other => Err(crate::SelfmanipError::new_err(format!(
-            "`case` must be \"measured\" or \"listed\", got {other:?}"
-        ))),
+        other => Err(invalid(
+            "case",
+            format!("`case` must be \"measured\" or \"listed\", got {other:?}"),
+        )),
     }
 }
 
 fn drive_with_limit(cat: &Catalog, drive: &str, current_limit_a: Option<f64>) -> PyResult<Drive> {
-    let d = cat.drive(drive).map_err(to_py_err)?;
+    let d = cat.drive(drive).map_err(errors::motor)?;
     match current_limit_a {
         Some(limit) => Drive::new(
-            d.motor.with_current_limit(limit).map_err(to_py_err)?,
+            d.motor.with_current_limit(limit).map_err(errors::motor)?,
             d.gearbox,
         )
-        .map_err(to_py_err),
+        .map_err(errors::motor),
         None => Ok(d),
     }
 }
@@ -77,8 +79,8 @@ fn motor_tail_optimum<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     guard(|| {
         let task =
-            TailTask::new(theta0_rad, body_inertia_kg_m2, effectiveness).map_err(to_py_err)?;
-        let opt = tail::tail_optimum(&task, power_w).map_err(to_py_err)?;
+            TailTask::new(theta0_rad, body_inertia_kg_m2, effectiveness).map_err(errors::motor)?;
+        let opt = tail::tail_optimum(&task, power_w).map_err(errors::motor)?;
         let d = PyDict::new(py);
         d.set_item("no_load_speed_rad_s", opt.no_load_speed_rad_s)?;
         d.set_item("completion_time_s", opt.completion_time_s)?;
@@ -113,9 +115,9 @@ fn motor_rank_tail_motors<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     guard(|| {
         let task =
-            TailTask::new(theta0_rad, body_inertia_kg_m2, effectiveness).map_err(to_py_err)?;
+            TailTask::new(theta0_rad, body_inertia_kg_m2, effectiveness).map_err(errors::motor)?;
         let motors = match catalog_toml {
-            Some(text) => Catalog::from_toml_str(text).map_err(to_py_err)?.motor,
+            Some(text) => Catalog::from_toml_str(text).map_err(errors::motor)?.motor,
             None => synthetic_motors(synthetic_count, seed),
         };
         let constraints = SelectionConstraints {
@@ -125,7 +127,7 @@ fn motor_rank_tail_motors<'py>(
         };
         let selection = py
             .detach(|| tail::rank_tail_motors(&motors, &task, &constraints))
-            .map_err(to_py_err)?;
+            .map_err(errors::motor)?;
         let d = PyDict::new(py);
         let r = &selection.ranked;
         d.set_item("name", PyList::new(py, r.iter().map(|m| m.name.clone()))?)?;
@@ -161,7 +163,7 @@ fn motor_drive_table<'py>(
         let rows = PyList::empty(py);
         for spec in &cat.drive {
             let drive = drive_with_limit(&cat, &spec.name, current_limit_a)?;
-            let motor_spec = cat.motor_spec(&spec.motor).map_err(to_py_err)?;
+            let motor_spec = cat.motor_spec(&spec.motor).map_err(errors::motor)?;
             let d = PyDict::new(py);
             d.set_item("name", &spec.name)?;
             d.set_item("motor", &spec.motor)?;
@@ -213,7 +215,7 @@ fn motor_torque_speed_curve<'py>(
     guard(|| {
         let cat = catalog(catalog_toml)?;
         let d = drive_with_limit(&cat, drive, current_limit_a)?;
-        let curve = d.torque_speed_curve(points).map_err(to_py_err)?;
+        let curve = d.torque_speed_curve(points).map_err(errors::motor)?;
         let out = PyDict::new(py);
         out.set_item("speed_rad_s", column(py, &curve, |p| p.speed_rad_s))?;
         out.set_item("torque_n_m", column(py, &curve, |p| p.torque_n_m))?;
@@ -235,10 +237,10 @@ fn motor_thermal_simulation<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     guard(|| {
         let cat = catalog(catalog_toml)?;
-        let d = cat.drive(drive).map_err(to_py_err)?;
+        let d = cat.drive(drive).map_err(errors::motor)?;
         let thermal = cat
             .drive_thermal(drive, case_parameters(case)?)
-            .map_err(to_py_err)?;
+            .map_err(errors::motor)?;
         let torque = torque_n_m.as_slice()?.to_vec();
         let trace = py
             .detach(|| {
@@ -250,7 +252,7 @@ fn motor_thermal_simulation<'py>(
                     &torque,
                 )
             })
-            .map_err(to_py_err)?;
+            .map_err(errors::motor)?;
         let mean_torque_sq = torque.iter().map(|t| t * t).sum::<f64>() / torque.len().max(1) as f64;
         let steady = thermal.steady_state_for_current(
             d.current_for_output_torque_a(mean_torque_sq.sqrt()),
@@ -279,20 +281,25 @@ fn motor_continuous_output_torque(
 ) -> PyResult<f64> {
     guard(|| {
         let cat = catalog(catalog_toml)?;
-        let d = cat.drive(drive).map_err(to_py_err)?;
+        let d = cat.drive(drive).map_err(errors::motor)?;
         let thermal = cat
             .drive_thermal(drive, case_parameters(case)?)
-            .map_err(to_py_err)?;
+            .map_err(errors::motor)?;
         thermal
             .continuous_output_torque_n_m(&d, max_winding_c, ambient_c)
-            .map_err(to_py_err)
+            .map_err(errors::motor)
     })
 }
 
-fn params_from_json(params_json: &str) -> PyResult<ObserverParams> {
-    let p: ObserverParams = serde_json::from_str(params_json)
-        .map_err(|e| crate::SelfmanipError::new_err(format!("observer params: {e}")))?;
-    p.validate().map_err(to_py_err)?;
+/// A dict deserialized into `T`; serde's message names the missing or mistyped key.
+fn from_dict<T: serde::de::DeserializeOwned>(d: &Bound<'_, PyDict>, field: &str) -> PyResult<T> {
+    serde_json::from_value(serde_json::Value::Object(to_map(d, field)?))
+        .map_err(|e| invalid(field, format!("{field}: {e}")))
+}
+
+fn observer_params(params: &Bound<'_, PyDict>) -> PyResult<ObserverParams> {
+    let p: ObserverParams = from_dict(params, "params")?;
+    p.validate().map_err(errors::motor)?;
     Ok(p)
 }
 
@@ -315,7 +322,7 @@ fn leg_log(
 #[pyfunction]
 fn motor_observe<'py>(
     py: Python<'py>,
-    params_json: &str,
+    params: &Bound<'py, PyDict>,
     dt_s: f64,
     theta_d: PyReadonlyArray1<'py, f64>,
     omega_d: PyReadonlyArray1<'py, f64>,
@@ -323,11 +330,11 @@ fn motor_observe<'py>(
     omega: PyReadonlyArray1<'py, f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     guard(|| {
-        let params = params_from_json(params_json)?;
+        let params = observer_params(params)?;
         let log = leg_log(dt_s, theta_d, omega_d, theta, omega)?;
         let samples = py
             .detach(|| observer::observe(&params, &log))
-            .map_err(to_py_err)?;
+            .map_err(errors::motor)?;
         let out = PyDict::new(py);
         out.set_item("theta_hat_rad", column(py, &samples, |s| s.theta_hat_rad))?;
         out.set_item(
@@ -343,20 +350,20 @@ fn motor_observe<'py>(
 #[pyfunction]
 fn motor_calibrate_observer<'py>(
     py: Python<'py>,
-    initial_params_json: &str,
+    initial_params: &Bound<'py, PyDict>,
     dt_s: f64,
     theta_d: PyReadonlyArray1<'py, f64>,
     omega_d: PyReadonlyArray1<'py, f64>,
     theta: PyReadonlyArray1<'py, f64>,
     omega: PyReadonlyArray1<'py, f64>,
-) -> PyResult<String> {
+) -> PyResult<Bound<'py, PyAny>> {
     guard(|| {
-        let initial = params_from_json(initial_params_json)?;
+        let initial = observer_params(initial_params)?;
         let log = leg_log(dt_s, theta_d, omega_d, theta, omega)?;
         let calibration = py
             .detach(|| observer::calibrate(&log, &initial))
-            .map_err(to_py_err)?;
-        serde_json::to_string(&calibration).map_err(to_py_err)
+            .map_err(errors::motor)?;
+        to_py(py, &calibration)
     })
 }
 
@@ -364,22 +371,21 @@ fn motor_calibrate_observer<'py>(
 #[allow(clippy::too_many_arguments)]
 fn motor_identify_faults<'py>(
     py: Python<'py>,
-    params_json: &str,
-    config_json: &str,
+    params: &Bound<'py, PyDict>,
+    config: &Bound<'py, PyDict>,
     dt_s: f64,
     theta_d: PyReadonlyArray1<'py, f64>,
     omega_d: PyReadonlyArray1<'py, f64>,
     theta: PyReadonlyArray1<'py, f64>,
     omega: PyReadonlyArray1<'py, f64>,
-) -> PyResult<String> {
+) -> PyResult<Bound<'py, PyAny>> {
     guard(|| {
-        let params = params_from_json(params_json)?;
-        let config: FaultFsmConfig = serde_json::from_str(config_json)
-            .map_err(|e| crate::SelfmanipError::new_err(format!("fault machine config: {e}")))?;
+        let params = observer_params(params)?;
+        let config: FaultFsmConfig = from_dict(config, "config")?;
         let log = leg_log(dt_s, theta_d, omega_d, theta, omega)?;
         let changes = py
             .detach(|| observer::identify(&params, &config, &log))
-            .map_err(to_py_err)?;
-        serde_json::to_string(&changes).map_err(to_py_err)
+            .map_err(errors::motor)?;
+        to_py(py, &changes)
     })
 }

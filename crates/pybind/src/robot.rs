@@ -1,9 +1,10 @@
 //! `Robot`: any planar robot (from a description) or the RHex instance (from Table 4.2
 //! parameters), with contact modes given as RHex labels (`"0101"`) or as contact names
 //! (`"front_leg,rear_body"`, `"front_leg:slide"`).
-use crate::{guard, to_py_err};
-use nalgebra::{DMatrix, DVector};
-use numpy::ndarray::Array2;
+use crate::convert::{to_map, to_py};
+use crate::errors::{self, guard, invalid, Source};
+use nalgebra::{DMatrix, DVector, Vector2};
+use numpy::ndarray::{Array2, Array3};
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -11,31 +12,70 @@ use rhex_model::quasistatic_map::{contact_mode_map, quasi_static_pose, QuasiStat
 use rhex_model::{Rhex, RhexParams};
 use selfmanip_core::contact::contact_geometry;
 use selfmanip_core::inertia::potential_energy;
-use selfmanip_core::kinematics::Kinematics;
+use selfmanip_core::kinematics::{Kinematics, Part};
 use selfmanip_core::quasistatic::quasi_static;
 use selfmanip_core::{
-    forward_dynamics, kinetic_energy, plastic_impact, ContactMode, Data, FlatGround, Model,
-    RobotDescription, RowDirection,
+    forward_dynamics, kinetic_energy, plastic_impact, ContactMode, CoreError, Data, FlatGround,
+    Model, RobotDescription, RowDirection,
 };
+
+/// Refuses a result with a non-finite entry: finite but extreme inputs (a mass of 1e308) can
+/// overflow inside the engine, and a NaN must not be handed back as if it were an answer.
+fn finite_result(field: &'static str, v: &[f64]) -> PyResult<()> {
+    match v.iter().position(|x| !x.is_finite()) {
+        Some(i) => Err(errors::engine(errors::non_finite_state(field, i, v[i]))),
+        None => Ok(()),
+    }
+}
+
+/// A core error about the caller's own inputs.
+fn core_err(e: CoreError) -> PyErr {
+    errors::core(e, Source::Caller)
+}
+
+/// An RHex error about the caller's own inputs.
+fn rhex_err(e: rhex_model::RhexError) -> PyErr {
+    errors::rhex(e, Source::Caller)
+}
+
+/// Checks a state vector the caller passed: its length and finite entries (as the core does
+/// in its own entry points).
+fn check_vector(field: &'static str, v: &[f64], expected: usize) -> PyResult<()> {
+    if v.len() != expected {
+        return Err(core_err(CoreError::WrongLength {
+            field,
+            expected,
+            actual: v.len(),
+        }));
+    }
+    match v.iter().position(|x| !x.is_finite()) {
+        Some(index) => Err(core_err(CoreError::NonFinite {
+            field,
+            index,
+            value: v[index],
+        })),
+        None => Ok(()),
+    }
+}
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Robot>()?;
-    m.add_function(wrap_pyfunction!(rhex_default_params_json, m)?)?;
-    m.add_function(wrap_pyfunction!(ground_reaction_complex_json, m)?)?;
+    m.add_function(wrap_pyfunction!(rhex_default_params, m)?)?;
+    m.add_function(wrap_pyfunction!(ground_reaction_complex, m)?)?;
     Ok(())
 }
 
 /// The ground reaction complex of chapter 3 (cells, Hasse edges, allowable edges with their
-/// categories, leap words, strategies) as JSON.
+/// categories, leap words, strategies) as a dict.
 #[pyfunction]
-fn ground_reaction_complex_json() -> String {
-    rhex_model::grc::grc_json().to_string()
+fn ground_reaction_complex(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
+    crate::convert::from_value(py, &rhex_model::grc::grc_json())
 }
 
-/// The shipped Table 4.2 parameters as JSON (the defaults of `selfmanip.rhex.Model`).
+/// The shipped Table 4.2 parameters (the defaults of `selfmanip.rhex.Model`) as a dict.
 #[pyfunction]
-fn rhex_default_params_json() -> PyResult<String> {
-    serde_json::to_string(&RhexParams::default()).map_err(to_py_err)
+fn rhex_default_params(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
+    to_py(py, &RhexParams::default())
 }
 
 fn vec1<'py>(py: Python<'py>, v: &DVector<f64>) -> Bound<'py, PyArray1<f64>> {
@@ -71,10 +111,15 @@ pub struct Robot {
 }
 
 impl Robot {
+    /// The model (for the other bindings).
+    pub(crate) fn model(&self) -> &Model {
+        &self.model
+    }
+
     fn mode(&self, spec: &str) -> PyResult<ContactMode> {
         match &self.rhex {
-            Some(r) => r.mode(spec).map_err(to_py_err),
-            None => ContactMode::parse_names(&self.model, spec).map_err(to_py_err),
+            Some(r) => r.mode(spec).map_err(rhex_err),
+            None => ContactMode::parse_names(&self.model, spec).map_err(core_err),
         }
     }
 
@@ -91,7 +136,13 @@ impl Robot {
 
     fn rhex(&self) -> PyResult<&Rhex> {
         self.rhex.as_ref().ok_or_else(|| {
-            crate::SelfmanipError::new_err("this call needs an RHex model (selfmanip.rhex.Model)")
+            errors::invalid_type(
+                "model",
+                format!(
+                    "this call needs the RHex model (selfmanip.rhex.Model), not the robot `{}`",
+                    self.model.name
+                ),
+            )
         })
     }
 
@@ -112,6 +163,38 @@ impl Robot {
         PyList::new(py, rows)
     }
 
+    /// Forward kinematics at the caller's `(q, qd)` (`qd` zero when not given), checked.
+    fn kinematics_at(&self, q: &[f64], qd: Option<&[f64]>) -> PyResult<Kinematics> {
+        let nq = self.model.nq();
+        check_vector("q", q, nq)?;
+        let zero = vec![0.0; nq];
+        let qd = match qd {
+            Some(v) => {
+                check_vector("qd", v, nq)?;
+                v
+            }
+            None => &zero,
+        };
+        let mut kin = Kinematics::default();
+        kin.compute(&self.model, q, qd);
+        Ok(kin)
+    }
+
+    /// The part `None` (body) or `Some(j)` (the link of joint `j`), checked.
+    fn part(&self, part: Option<i64>) -> PyResult<Part> {
+        match part {
+            None => Ok(Part::Body),
+            Some(j) if (0..self.model.n_joints() as i64).contains(&j) => Ok(Part::Link(j as usize)),
+            Some(j) => Err(invalid(
+                "part",
+                format!(
+                    "`part`: joint index {j} is not in 0..{}",
+                    self.model.n_joints()
+                ),
+            )),
+        }
+    }
+
     fn pose_dict<'py>(py: Python<'py>, p: &QuasiStaticPose) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
         d.set_item("theta1", p.theta1)?;
@@ -127,28 +210,31 @@ impl Robot {
 
 #[pymethods]
 impl Robot {
-    /// The RHex model from Table 4.2 parameters given as JSON (missing keys keep defaults).
+    /// The RHex model from Table 4.2 parameters given as a dict (missing keys keep the
+    /// shipped values).
     #[staticmethod]
-    fn rhex_from_params_json(params_json: &str) -> PyResult<Self> {
+    fn rhex_from_params(params: &Bound<'_, PyDict>) -> PyResult<Self> {
         guard(|| {
-            let mut base = serde_json::to_value(RhexParams::default()).map_err(to_py_err)?;
-            let user: serde_json::Value = serde_json::from_str(params_json).map_err(to_py_err)?;
-            let (Some(b), Some(u)) = (base.as_object_mut(), user.as_object()) else {
-                return Err(crate::SelfmanipError::new_err("params must be a mapping"));
-            };
-            for (k, v) in u {
+            let user = to_map(params, "")?;
+            let defaults = serde_json::to_value(RhexParams::default())
+                .map_err(|e| errors::engine(e.to_string()))?;
+            let mut base = defaults.clone();
+            let b = base
+                .as_object_mut()
+                .ok_or_else(|| errors::engine("RHex parameters are not a mapping"))?;
+            for (k, v) in &user {
                 if !b.contains_key(k) {
                     let known: Vec<&String> = b.keys().collect();
-                    return Err(crate::SelfmanipError::new_err(format!(
-                        "RHex parameter `{k}`: unknown key (known: {known:?})"
-                    )));
+                    return Err(invalid(
+                        k,
+                        format!("RHex parameter `{k}`: unknown key (known: {known:?})"),
+                    ));
                 }
                 b.insert(k.clone(), v.clone());
             }
-            let params: RhexParams = serde_json::from_value(base.clone()).map_err(|e| {
+            let params: RhexParams = serde_json::from_value(base).map_err(|e| {
                 // name the offending key: the first one that fails on its own
-                let defaults = serde_json::to_value(RhexParams::default()).unwrap_or_default();
-                let culprit = u.iter().find_map(|(k, v)| {
+                let culprit = user.iter().find_map(|(k, v)| {
                     let mut one = defaults.clone();
                     one[k.as_str()] = v.clone();
                     serde_json::from_value::<RhexParams>(one)
@@ -156,13 +242,11 @@ impl Robot {
                         .map(|e| (k.clone(), e))
                 });
                 match culprit {
-                    Some((k, e1)) => {
-                        crate::SelfmanipError::new_err(format!("RHex parameter `{k}`: {e1}"))
-                    }
-                    None => crate::SelfmanipError::new_err(format!("RHex parameters: {e}")),
+                    Some((k, e1)) => invalid(&k, format!("RHex parameter `{k}`: {e1}")),
+                    None => invalid("params", format!("RHex parameters: {e}")),
                 }
             })?;
-            let rhex = Rhex::new(params).map_err(to_py_err)?;
+            let rhex = Rhex::new(params).map_err(rhex_err)?;
             Ok(Robot {
                 model: rhex.model.clone(),
                 rhex: Some(rhex),
@@ -178,14 +262,15 @@ impl Robot {
                 "toml" => RobotDescription::from_toml_str(text),
                 "json" => RobotDescription::from_json_str(text),
                 other => {
-                    return Err(crate::SelfmanipError::new_err(format!(
-                        "format `{other}`: expected \"toml\" or \"json\""
-                    )))
+                    return Err(invalid(
+                        "format",
+                        format!("format `{other}`: expected \"toml\" or \"json\""),
+                    ))
                 }
             }
-            .map_err(to_py_err)?;
+            .map_err(core_err)?;
             Ok(Robot {
-                model: d.build().map_err(to_py_err)?,
+                model: d.build().map_err(core_err)?,
                 rhex: None,
             })
         })
@@ -229,9 +314,9 @@ impl Robot {
         self.rhex.is_some()
     }
 
-    /// The RHex parameters as JSON (RHex models only).
-    fn params_json(&self) -> PyResult<String> {
-        serde_json::to_string(&self.rhex()?.params).map_err(to_py_err)
+    /// The RHex parameters as a dict (RHex models only).
+    fn params<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.rhex()?.params)
     }
 
     /// The generic robot description as TOML (for RHex: the one built from the parameters).
@@ -279,7 +364,9 @@ impl Robot {
                 &tau,
                 free_joint_qdd.as_deref(),
             )
-            .map_err(to_py_err)?;
+            .map_err(core_err)?;
+            finite_result("qdd", data.qdd.as_slice())?;
+            finite_result("lam", data.lambda.as_slice())?;
             let d = PyDict::new(py);
             d.set_item("qdd", vec1(py, &data.qdd))?;
             d.set_item("lam", vec1(py, &data.lambda))?;
@@ -298,7 +385,7 @@ impl Robot {
             let nq = self.model.nq();
             let mut data = Data::new(&self.model);
             data.prepare(&self.model, &FlatGround, mode, &q, &vec![0.0; nq])
-                .map_err(to_py_err)?;
+                .map_err(core_err)?;
             let b = data.kkt.blocks();
             let c = data.constraints.n_rows();
             let rows: Vec<usize> = (0..c).collect();
@@ -332,7 +419,9 @@ impl Robot {
             let mode = self.mode(mode)?;
             let mut data = Data::new(&self.model);
             let imp = plastic_impact(&self.model, &mut data, &FlatGround, mode, &q, &qd_minus)
-                .map_err(to_py_err)?;
+                .map_err(core_err)?;
+            finite_result("qd_plus", imp.qd_plus.as_slice())?;
+            finite_result("impulse", imp.impulse.as_slice())?;
             let d = PyDict::new(py);
             d.set_item("qd_plus", vec1(py, &imp.qd_plus))?;
             d.set_item("impulse", vec1(py, &imp.impulse))?;
@@ -351,31 +440,20 @@ impl Robot {
                     selfmanip_core::CoreError::SingularKkt { .. } => Ok(()),
                     e => Err(e),
                 })
-                .map_err(to_py_err)?;
-            Ok((
+                .map_err(core_err)?;
+            let energy = (
                 kinetic_energy(&data, &qd),
                 potential_energy(&self.model, &data.kin),
-            ))
+            );
+            finite_result("energy", &[energy.0, energy.1])?;
+            Ok(energy)
         })
     }
 
     /// Height of every contact site above flat ground, `{name: gap_m}` (negative = penetration).
     fn contact_gaps(&self, q: Vec<f64>) -> PyResult<Vec<(String, f64)>> {
         guard(|| {
-            let nq = self.model.nq();
-            if q.len() != nq {
-                return Err(crate::SelfmanipError::new_err(format!(
-                    "`q` has length {}, expected {nq}",
-                    q.len()
-                )));
-            }
-            if let Some(i) = q.iter().position(|v| !v.is_finite()) {
-                return Err(crate::SelfmanipError::new_err(format!(
-                    "`q` has a non-finite entry at index {i}"
-                )));
-            }
-            let mut kin = Kinematics::default();
-            kin.compute(&self.model, &q, &vec![0.0; nq]);
+            let kin = self.kinematics_at(&q, None)?;
             Ok((0..self.model.n_contacts())
                 .map(|k| {
                     (
@@ -384,6 +462,145 @@ impl Robot {
                     )
                 })
                 .collect())
+        })
+    }
+
+    /// Forward kinematics at `q` (and velocities at `qd` when given): the body's position
+    /// and pitch, every joint's world position (the origin of its link), every link's world
+    /// angle and tip, in NED world coordinates.
+    #[pyo3(signature = (q, qd=None))]
+    fn forward_kinematics<'py>(
+        &self,
+        py: Python<'py>,
+        q: Vec<f64>,
+        qd: Option<Vec<f64>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        guard(|| {
+            let kin = self.kinematics_at(&q, qd.as_deref())?;
+            let n = self.model.n_joints();
+            let xy = |v: &[Vector2<f64>]| Array2::from_shape_fn((v.len(), 2), |(i, k)| v[i][k]);
+            let tips: Vec<Vector2<f64>> = (0..n)
+                .map(|j| {
+                    kin.point(
+                        Part::Link(j),
+                        Vector2::new(0.0, self.model.joints[j].length_m),
+                    )
+                })
+                .collect();
+            let d = PyDict::new(py);
+            d.set_item(
+                "body_position_m",
+                vec![kin.body_pos.x, kin.body_pos.y].into_pyarray(py),
+            )?;
+            d.set_item("body_angle_rad", kin.phi)?;
+            d.set_item("joint_positions_m", xy(&kin.origin).into_pyarray(py))?;
+            d.set_item("link_angles_rad", kin.beta.clone().into_pyarray(py))?;
+            d.set_item("link_tips_m", xy(&tips).into_pyarray(py))?;
+            if qd.is_some() {
+                let tip_vel: Vec<Vector2<f64>> = (0..n)
+                    .map(|j| kin.material_velocity(Part::Link(j), tips[j]))
+                    .collect();
+                d.set_item(
+                    "body_velocity_m_s",
+                    vec![kin.body_vel.x, kin.body_vel.y].into_pyarray(py),
+                )?;
+                d.set_item("body_rate_rad_s", kin.phi_dot)?;
+                d.set_item("joint_velocities_m_s", xy(&kin.origin_vel).into_pyarray(py))?;
+                d.set_item("link_rates_rad_s", kin.beta_dot.clone().into_pyarray(py))?;
+                d.set_item("link_tip_velocities_m_s", xy(&tip_vel).into_pyarray(py))?;
+            }
+            Ok(d)
+        })
+    }
+
+    /// The Jacobian of the material point `point_m` (in the frame of `part`: `None` the body,
+    /// `j` the link of joint `j`) at `q`: its world position and the 3×nq matrix whose rows
+    /// give the point's world velocity `(ẋ, ż)` and the part's angular rate (about +y,
+    /// nose-up positive) from `q̇`.
+    #[pyo3(signature = (q, part=None, point_m=[0.0, 0.0]))]
+    fn jacobian<'py>(
+        &self,
+        py: Python<'py>,
+        q: Vec<f64>,
+        part: Option<i64>,
+        point_m: [f64; 2],
+    ) -> PyResult<Bound<'py, PyDict>> {
+        guard(|| {
+            let kin = self.kinematics_at(&q, None)?;
+            check_vector("point_m", &point_m, 2)?;
+            let part = self.part(part)?;
+            let p = kin.point(part, Vector2::new(point_m[0], point_m[1]));
+            let nq = self.model.nq();
+            let jp = kin.point_jacobian(&self.model, part, p);
+            let mut w = vec![0.0; nq];
+            kin.angular_jacobian_row(&self.model, part, &mut w);
+            let j = Array2::from_shape_fn((3, nq), |(r, c)| if r < 2 { jp[(r, c)] } else { w[c] });
+            let d = PyDict::new(py);
+            d.set_item("position_m", vec![p.x, p.y].into_pyarray(py))?;
+            d.set_item("angle_rad", kin.part_angle(part))?;
+            d.set_item("jacobian", j.into_pyarray(py))?;
+            Ok(d)
+        })
+    }
+
+    /// Every contact site against flat ground at `q`: the contact point (the lowest point of
+    /// its shape), its height above the ground, the ground's normal (into the ground), the
+    /// 2×nq Jacobian of the material point there and, with `qd`, that point's velocity.
+    #[pyo3(signature = (q, qd=None))]
+    fn contact_points<'py>(
+        &self,
+        py: Python<'py>,
+        q: Vec<f64>,
+        qd: Option<Vec<f64>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        guard(|| {
+            let kin = self.kinematics_at(&q, qd.as_deref())?;
+            let (nc, nq) = (self.model.n_contacts(), self.model.nq());
+            let geom: Vec<_> = (0..nc)
+                .map(|k| contact_geometry(&self.model, &kin, &FlatGround, k))
+                .collect();
+            let jac: Vec<DMatrix<f64>> = geom
+                .iter()
+                .map(|g| kin.point_jacobian(&self.model, g.part, g.point))
+                .collect();
+            let d = PyDict::new(py);
+            d.set_item(
+                "names",
+                self.model
+                    .contacts
+                    .iter()
+                    .map(|c| c.name.clone())
+                    .collect::<Vec<_>>(),
+            )?;
+            d.set_item(
+                "points_m",
+                Array2::from_shape_fn((nc, 2), |(k, i)| geom[k].point[i]).into_pyarray(py),
+            )?;
+            d.set_item(
+                "gaps_m",
+                geom.iter()
+                    .map(|g| g.gap_m)
+                    .collect::<Vec<_>>()
+                    .into_pyarray(py),
+            )?;
+            d.set_item(
+                "normals",
+                Array2::from_shape_fn((nc, 2), |(k, i)| geom[k].plane.normal()[i]).into_pyarray(py),
+            )?;
+            d.set_item(
+                "jacobians",
+                Array3::from_shape_fn((nc, 2, nq), |(k, r, c)| jac[k][(r, c)]).into_pyarray(py),
+            )?;
+            if qd.is_some() {
+                d.set_item(
+                    "velocities_m_s",
+                    Array2::from_shape_fn((nc, 2), |(k, i)| {
+                        kin.material_velocity(geom[k].part, geom[k].point)[i]
+                    })
+                    .into_pyarray(py),
+                )?;
+            }
+            Ok(d)
         })
     }
 
@@ -402,16 +619,19 @@ impl Robot {
             let n = self.model.n_joints();
             for (i, c) in torque_constraints.iter().enumerate() {
                 if c.len() != n {
-                    return Err(crate::SelfmanipError::new_err(format!(
-                        "`torque_constraints[{i}]` has length {}, expected {n}",
-                        c.len()
-                    )));
+                    return Err(invalid(
+                        &format!("torque_constraints[{i}]"),
+                        format!(
+                            "`torque_constraints[{i}]` has length {}, expected {n}",
+                            c.len()
+                        ),
+                    ));
                 }
             }
             let t = DMatrix::from_fn(n, torque_constraints.len(), |i, j| torque_constraints[j][i]);
             let mut data = Data::new(&self.model);
             let qs = quasi_static(&self.model, &mut data, &FlatGround, mode, &q, &t)
-                .map_err(to_py_err)?;
+                .map_err(core_err)?;
             let d = PyDict::new(py);
             d.set_item("G_s", mat(py, &qs.g_s))?;
             d.set_item("J_h", mat(py, &qs.j_h))?;
@@ -434,9 +654,12 @@ impl Robot {
     ) -> PyResult<Option<Bound<'py, PyDict>>> {
         guard(|| {
             if !theta1.is_finite() || !theta2.is_finite() {
-                return Err(crate::SelfmanipError::new_err(
-                    "`theta1`/`theta2` must be finite",
-                ));
+                let field = if theta1.is_finite() {
+                    "theta2"
+                } else {
+                    "theta1"
+                };
+                return Err(invalid(field, format!("`{field}` must be finite")));
             }
             quasi_static_pose(self.rhex()?, theta1, theta2)
                 .map(|p| Self::pose_dict(py, &p))
@@ -445,12 +668,12 @@ impl Robot {
     }
 
     /// RHex: Fig. 4.3/4.6 as data on an `n × n` grid over the joint torus.
-    fn contact_mode_map<'py>(&self, py: Python<'py>, n: usize) -> PyResult<Bound<'py, PyList>> {
+    fn contact_mode_map<'py>(&self, py: Python<'py>, n: i64) -> PyResult<Bound<'py, PyList>> {
         guard(|| {
-            if n == 0 || n > 4096 {
-                return Err(crate::SelfmanipError::new_err("`n` must be in 1..=4096"));
+            if !(1..=4096).contains(&n) {
+                return Err(invalid("n", format!("`n` must be in 1..=4096, got {n}")));
             }
-            let poses = contact_mode_map(self.rhex()?, n);
+            let poses = contact_mode_map(self.rhex()?, n as usize);
             let items = poses
                 .iter()
                 .map(|p| Self::pose_dict(py, p))

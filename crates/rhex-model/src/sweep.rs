@@ -22,8 +22,8 @@
 //! reported gear ratio is the one used, NaN for [`LegActuator::SaturatedTorque`].
 use crate::leap::{simulate_leap, LeapConfig, LeapResult, LegActuator, Strategy};
 use crate::{RhexError, RhexParams};
-use selfmanip_sim::sweep::run_parallel;
 pub use selfmanip_sim::sweep::panic_message;
+use selfmanip_sim::sweep::run_parallel;
 use serde_json::{Map, Value};
 
 /// One leap of a sweep.

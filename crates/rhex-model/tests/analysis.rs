@@ -9,14 +9,14 @@ use rhex_model::analysis::leg_tail::*;
 use rhex_model::analysis::pitch_control::*;
 use rhex_model::analysis::sensor_sweep::*;
 use rhex_model::analysis::standing::*;
-use selfmanip_sim::analysis::leg_tail::*;
-use selfmanip_sim::analysis::standing::*;
-use selfmanip_sim::analysis::{contact_gaps, free_motion_basis, solve_contact_pose};
 use rhex_model::quasistatic_map::{quasi_static_pose, Support};
 use rhex_model::{LegShape, Rhex, RhexParams};
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::reduced::reduced_dynamics;
 use selfmanip_core::{forward_dynamics, ContactMode, Data, FlatGround, Model, RobotDescription};
+use selfmanip_sim::analysis::leg_tail::*;
+use selfmanip_sim::analysis::standing::*;
+use selfmanip_sim::analysis::{contact_gaps, free_motion_basis, solve_contact_pose};
 use std::f64::consts::PI;
 
 fn rhex(shape: LegShape) -> Rhex {

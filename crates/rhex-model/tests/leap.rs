@@ -5,12 +5,12 @@
 //! (section 5.1.5), words that start at rest on the body (`1010`) and end in flight
 //! (`0000`), determinism, and typed errors for bad input.
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapStatus, Strategy};
-use selfmanip_sim::terrain::TerrainSpec;
 use rhex_model::{Rhex, RhexError, RhexParams};
 use selfmanip_core::contact::contact_geometry;
 use selfmanip_core::model::Friction;
 use selfmanip_core::Data;
 use selfmanip_hybrid::EventKind;
+use selfmanip_sim::terrain::TerrainSpec;
 use std::f64::consts::FRAC_PI_2;
 
 fn cases() -> Vec<LeapConfig> {

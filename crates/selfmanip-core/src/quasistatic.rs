@@ -77,6 +77,16 @@ pub fn quasi_static(
     let nb = Vector3::new(data.n_bar[n], data.n_bar[n + 1], data.n_bar[n + 2]);
     let f_g = -(rot3(q[n + 2]).transpose() * nb);
     let c = maps.rows.len();
+    // (4.21) has three equations: with fewer contact rows (flight, a single sliding contact)
+    // gravity cannot be balanced, and `ker G_s` of an empty `G_s` is not defined
+    if c < 3 {
+        return Err(CoreError::IllPosedQuasiStatic {
+            reason: format!(
+                "the mode has {c} contact row(s); balancing the body's three equations (4.21) \
+                 needs at least 3"
+            ),
+        });
+    }
 
     // ker G_s from the eigenvectors of G_sᵀ G_s with (relatively) zero eigenvalue
     let gtg = maps.g_s.transpose() * &maps.g_s;
@@ -143,4 +153,59 @@ pub fn quasi_static(
         f_particular: f_p,
         tau_particular: tau_p,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contact::FlatGround;
+    use crate::RobotDescription;
+
+    fn model(contacts: &str) -> Model {
+        let text = format!(
+            r#"
+name = "one leg"
+gravity_m_s2 = 9.81
+[body]
+mass_kg = 2.0
+inertia_kg_m2 = 0.1
+[[legs]]
+name = "leg"
+hip_m = [0.0, 0.0]
+[[legs.links]]
+length_m = 0.2
+mass_kg = 0.0
+inertia_kg_m2 = 0.0
+{contacts}
+"#
+        );
+        RobotDescription::from_toml_str(&text)
+            .and_then(|d| d.build())
+            .expect("valid description")
+    }
+
+    /// Fewer than three contact rows cannot balance the body's three equations (4.21): a
+    /// typed error, not a panic in the eigen-solver of an empty `G_sᵀ G_s` (flight, or a robot
+    /// with no contacts at all) nor a request for a negative number of torque constraints.
+    #[test]
+    fn fewer_than_three_contact_rows_are_ill_posed() {
+        let toe = r#"
+[[contacts]]
+name = "toe"
+leg = "leg"
+shape = { kind = "point", position_m = [0.0, 0.2] }
+friction = { kind = "sliding" }
+"#;
+        let q = [0.0, 0.0, -0.2, 0.0];
+        let none = DMatrix::zeros(1, 0);
+        for (m, spec) in [(model(""), ""), (model(toe), ""), (model(toe), "toe")] {
+            let mode = ContactMode::parse_names(&m, spec).unwrap();
+            let mut data = Data::new(&m);
+            let e = quasi_static(&m, &mut data, &FlatGround, mode, &q, &none).unwrap_err();
+            assert!(
+                matches!(e, CoreError::IllPosedQuasiStatic { .. }),
+                "{spec:?}: {e}"
+            );
+        }
+    }
 }

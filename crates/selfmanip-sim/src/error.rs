@@ -52,9 +52,14 @@ pub enum SimError {
         format: &'static str,
         message: String,
     },
-    /// A file that cannot be read or written.
+    /// A file that cannot be read or written (`kind`: the operating system's reason, so a
+    /// binding can raise its own error for it — not found, permission denied, …).
     #[error("{path}: {message}")]
-    Io { path: String, message: String },
+    Io {
+        path: String,
+        message: String,
+        kind: std::io::ErrorKind,
+    },
     /// The MCAP writer failed.
     #[error("MCAP log: {message}")]
     Mcap { message: String },
@@ -91,9 +96,7 @@ impl SimError {
                 C::SingularKkt { .. } => "singular_kkt",
                 C::NonFinite { .. } => "non_finite",
                 C::IllPosedQuasiStatic { .. } => "ill_posed",
-                C::InvalidDescription { .. } | C::InvalidParameterization { .. } => {
-                    "invalid_value"
-                }
+                C::InvalidDescription { .. } | C::InvalidParameterization { .. } => "invalid_value",
                 C::Parse { .. } => "parse",
                 C::UnknownContact { .. } => "unknown_contact",
                 _ => "engine_error",
@@ -147,7 +150,10 @@ pub(crate) fn non_negative(field: &str, v: f64) -> Result<f64, SimError> {
     if v.is_finite() && v >= 0.0 {
         Ok(v)
     } else {
-        Err(invalid(field, format!("must be finite and non-negative, got {v}")))
+        Err(invalid(
+            field,
+            format!("must be finite and non-negative, got {v}"),
+        ))
     }
 }
 
@@ -156,6 +162,9 @@ pub(crate) fn positive(field: &str, v: f64) -> Result<f64, SimError> {
     if v.is_finite() && v > 0.0 {
         Ok(v)
     } else {
-        Err(invalid(field, format!("must be finite and positive, got {v}")))
+        Err(invalid(
+            field,
+            format!("must be finite and positive, got {v}"),
+        ))
     }
 }

@@ -6,8 +6,8 @@
 //! description's): `0` (no contact), `1` (contact with the site's own friction: a sticking
 //! site sticks, a frictionless one slides) or `s` (a site that could stick, sliding).
 use crate::error::SimError;
-use selfmanip_core::{ContactKind, ContactMode, Model};
 use selfmanip_core::model::Friction;
+use selfmanip_core::{ContactKind, ContactMode, Model};
 use selfmanip_hybrid::Execution;
 
 /// The order of a label's characters and what each can show.
@@ -106,7 +106,12 @@ impl ContactLabels {
                 '0' => mode,
                 '1' => mode.union(ContactMode::with_defaults(model, &[k])?),
                 's' if stick => mode.with(k, ContactKind::Slide),
-                's' => return Err(bad(format!("contact `{}` cannot stick, so it cannot slip", model.contacts[k].name))),
+                's' => {
+                    return Err(bad(format!(
+                        "contact `{}` cannot stick, so it cannot slip",
+                        model.contacts[k].name
+                    )))
+                }
                 other => return Err(bad(format!("character `{other}` is not 0, 1 or s"))),
             };
         }
@@ -180,4 +185,3 @@ pub fn joint_contacts(model: &Model, j: usize) -> u32 {
         .filter(|(_, c)| c.link.is_some_and(|l| distal.contains(&l)))
         .fold(0, |m, (k, _)| m | 1 << k)
 }
-

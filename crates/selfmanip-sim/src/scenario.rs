@@ -274,7 +274,11 @@ impl Simulation {
             if v.len() != nq {
                 return Err(invalid(
                     field,
-                    format!("expected {nq} coordinates ({}), got {}", q_names(&model).join(", "), v.len()),
+                    format!(
+                        "expected {nq} coordinates ({}), got {}",
+                        q_names(&model).join(", "),
+                        v.len()
+                    ),
                 ));
             }
             if let Some(i) = v.iter().position(|x| !x.is_finite()) {
@@ -289,17 +293,22 @@ impl Simulation {
                 Some((n, "slide")) => (n, Some(ContactKind::Slide)),
                 Some((n, "stick")) => (n, Some(ContactKind::Stick)),
                 Some((_, other)) => {
-                    return Err(invalid(field, format!("unknown contact kind `{other}` (slide or stick)")))
+                    return Err(invalid(
+                        field,
+                        format!("unknown contact kind `{other}` (slide or stick)"),
+                    ))
                 }
                 None => (item.as_str(), None),
             };
-            let k = model.contacts.iter().position(|c| c.name == name).ok_or_else(|| {
-                SimError::UnknownContact {
+            let k = model
+                .contacts
+                .iter()
+                .position(|c| c.name == name)
+                .ok_or_else(|| SimError::UnknownContact {
                     field: field.clone(),
                     name: name.into(),
                     known: crate::labels::contact_names(&model),
-                }
-            })?;
+                })?;
             mode0 = match kind {
                 Some(kind) => mode0.with(k, kind),
                 None => mode0.union(ContactMode::with_defaults(&model, &[k])?),
@@ -386,7 +395,14 @@ impl Run {
 
     /// Samples every `dt_s` (see [`crate::trajectory`]).
     pub fn trajectory(&self, dt_s: f64) -> Result<Trajectory, SimError> {
-        sample(&self.model, &self.terrain, &self.execution, &self.labels, dt_s, 0.0)
+        sample(
+            &self.model,
+            &self.terrain,
+            &self.execution,
+            &self.labels,
+            dt_s,
+            0.0,
+        )
     }
 
     /// `E₁ − E₀ = W − L` bookkeeping ([`selfmanip_hybrid::energy_report`]).

@@ -234,7 +234,9 @@ pub struct Phase {
 pub enum Torque {
     #[default]
     Zero,
-    Constant { torque_n_m: Scalar },
+    Constant {
+        torque_n_m: Scalar,
+    },
     /// Piecewise-linear (or held) torque over the execution clock; constant beyond the ends.
     Schedule {
         times_s: Vec<Scalar>,
@@ -327,11 +329,13 @@ pub(crate) fn read_text(path: &std::path::Path) -> Result<String, SimError> {
     let text = std::fs::read_to_string(path).map_err(|e| SimError::Io {
         path: path.display().to_string(),
         message: e.to_string(),
+        kind: e.kind(),
     })?;
     if text.trim().is_empty() {
         return Err(SimError::Io {
             path: path.display().to_string(),
             message: "the file is empty".into(),
+            kind: std::io::ErrorKind::InvalidData,
         });
     }
     Ok(text)
