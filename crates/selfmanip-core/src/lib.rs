@@ -24,6 +24,7 @@ pub mod inertia;
 pub mod kinematics;
 pub mod kkt;
 pub mod model;
+pub mod poses;
 pub mod quasistatic;
 pub mod reduced;
 
@@ -38,3 +39,4 @@ pub use dynamics::{
 pub use error::{CoreError, Result, SingularityKind};
 pub use kkt::{KktBlocks, KktFactorization, KktInfo};
 pub use model::Model;
+pub use poses::{contact_points, forward_kinematics, point_jacobian, ContactPoint, PartState, Poses};

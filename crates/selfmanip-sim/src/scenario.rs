@@ -331,6 +331,20 @@ impl Simulation {
             }
             q0 = crate::analysis::solve_contact_pose(&model, &terrain, &active, &free, &q0)?;
         }
+        // no inactive contact may start below the ground (the first step would meet it as a
+        // discontinuity of the terrain, not as a touchdown)
+        let inactive: Vec<usize> = (0..model.n_contacts()).filter(|k| !active.contains(k)).collect();
+        let gaps = crate::analysis::contact_gaps(&model, &terrain, &inactive, &q0);
+        if let Some((k, gap)) = inactive.iter().zip(&gaps).find(|(_, g)| **g < -1e-9) {
+            return Err(invalid(
+                "initial.q",
+                format!(
+                    "contact `{}` starts {:.3e} m below the ground (list it in `initial.contacts` \
+                     to start on it)",
+                    model.contacts[*k].name, -gap
+                ),
+            ));
+        }
         let labels = match &s.options.labels {
             Some(names) => ContactLabels::from_names(&model, names, "options.labels")?,
             None => ContactLabels::all(&model),
