@@ -330,3 +330,25 @@ def test_non_stopping_leap_that_flew_reports_its_apex():
     r = selfmanip.leap("++", 0.0, dt=None, stop_at_apex=False, t_final_s=1.0)
     assert r.status == "ok" and any(c == "0000" for c in r.cells)
     assert r.apex is not None and r.apex.z_m > -r.q0[r.q_names.index("z")]
+
+
+# ------------------------------------------------------------------------------ analysis
+
+
+def test_analysis_functions_accept_a_robot(quadruped):
+    """``selfmanip.analysis`` raised ``TypeError ... got Robot`` and ``tail_effect`` wanted a
+    path. Now: any analysis takes an RHex model as a Robot, ``tail_effect`` any robot, and an
+    RHex analysis given another robot says why it cannot run."""
+    from conftest import QUADRUPED
+
+    q0, joints = [0.4, -0.8, -0.3, 0.7, 0, 0, 0], [0, 2]
+    by_robot = selfmanip.analysis.tail_effect(quadruped, q0, joints, period_s=0.5, dt_s=5e-4)
+    by_path = selfmanip.analysis.tail_effect(QUADRUPED, q0, joints, period_s=0.5, dt_s=5e-4)
+    assert by_robot == by_path
+    heavy = selfmanip.rhex.Model({"m_b": 8.0})
+    robot: selfmanip.Robot = heavy
+    assert selfmanip.analysis.pitch_rate_gain(0.3, model=robot) == selfmanip.analysis.pitch_rate_gain(
+        0.3, model={"m_b": 8.0})
+    with pytest.raises(selfmanip.InvalidTypeError, match="rhex.Model") as e:
+        selfmanip.analysis.max_sensor_pitch(quadruped)
+    assert e.value.field == "model"
