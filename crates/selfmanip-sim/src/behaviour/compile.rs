@@ -761,8 +761,8 @@ fn check_phase_cycles(
         }
     };
     let label = |(p, k): PhaseRef| format!("{}.{}", names[p].0, names[p].1[k]);
-    for p in 0..programs.len() {
-        for k in 1..programs[p].phases.len() {
+    for (p, prog) in programs.iter().enumerate() {
+        for k in 1..prog.phases.len() {
             // depth-first from (p, k) along phase-only waits, looking for (p, k) again
             let mut stack = vec![vec![(p, k)]];
             let mut seen = vec![(p, k)];
