@@ -108,9 +108,12 @@ pub fn leap_scenario(
     for prog in &mut b.joints {
         for phase in &mut prog.phases {
             match (phase.name.as_str(), &mut phase.torque) {
-                ("push", Torque::Motor {
-                    reverse_beyond_rad, ..
-                }) => *reverse_beyond_rad = cfg.toe_stub_rad.map(num),
+                (
+                    "push",
+                    Torque::Motor {
+                        reverse_beyond_rad, ..
+                    },
+                ) => *reverse_beyond_rad = cfg.toe_stub_rad.map(num),
                 ("retract", _) if cfg.keep_pushing_after_liftoff => {
                     phase.start = Some(Trigger::event("takeoff"));
                 }

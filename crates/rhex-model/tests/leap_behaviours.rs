@@ -24,7 +24,10 @@ fn same_leap(cfg: &LeapConfig) -> String {
             let q0 = start_pose(cfg);
             let ls = leap_scenario(&params, cfg, &q0).unwrap();
             let err = Simulation::new(&ls.scenario).unwrap().run().unwrap_err();
-            assert_eq!(format!("{e:?}"), format!("{:?}", rhex_model::RhexError::from(err)));
+            assert_eq!(
+                format!("{e:?}"),
+                format!("{:?}", rhex_model::RhexError::from(err))
+            );
             return format!("error: {e}");
         }
     };
@@ -35,13 +38,21 @@ fn same_leap(cfg: &LeapConfig) -> String {
     assert_eq!(a.termination, b.termination, "{what}");
     // bit for bit (`{:?}` prints each float's shortest round-trip form: equal text, equal
     // bits, NaN included — the kinetic energy of an apex event is NaN)
-    assert_eq!(format!("{:?}", a.events), format!("{:?}", b.events), "{what}: events");
+    assert_eq!(
+        format!("{:?}", a.events),
+        format!("{:?}", b.events),
+        "{what}: events"
+    );
     assert_eq!(a.segments.len(), b.segments.len(), "{what}: segments");
     for (sa, sb) in a.segments.iter().zip(&b.segments) {
         assert_eq!((sa.mode, sa.t0, sa.t1), (sb.mode, sb.t0, sb.t1), "{what}");
         assert_eq!(sa.y0, sb.y0, "{what}");
     }
-    assert_eq!((a.t, &a.q, &a.qd, a.mode), (b.t, &b.q, &b.qd, b.mode), "{what}");
+    assert_eq!(
+        (a.t, &a.q, &a.qd, a.mode),
+        (b.t, &b.q, &b.qd, b.mode),
+        "{what}"
+    );
     assert_eq!(r.word, run.outcome.word, "{what}: word");
     // the apex as the leap reports it (z up, from the start, front leg's clock)
     let apex_sim = run.outcome.apex.filter(|_| cfg.stop_at_apex).map(|s| {
@@ -55,7 +66,17 @@ fn same_leap(cfg: &LeapConfig) -> String {
             s.phidot_rad_s,
         )
     });
-    let apex_leap = r.apex.map(|a| (a.t_s, a.x_m, a.z_m, a.phi_rad, a.xdot_m_s, a.zdot_m_s, a.phidot_rad_s));
+    let apex_leap = r.apex.map(|a| {
+        (
+            a.t_s,
+            a.x_m,
+            a.z_m,
+            a.phi_rad,
+            a.xdot_m_s,
+            a.zdot_m_s,
+            a.phidot_rad_s,
+        )
+    });
     assert_eq!(apex_leap, apex_sim, "{what}: apex");
     assert_eq!(ls.time_offset_s, r.time_offset_s);
     r.word_string()
@@ -145,6 +166,9 @@ fn each_file_is_its_strategy() {
             selfmanip_sim::expr::Scalar::Number(x) => *x,
             other => panic!("{other:?}"),
         };
-        assert_eq!((sign("s_front"), sign("s_rear")), (s.front.sign(), s.rear.sign()));
+        assert_eq!(
+            (sign("s_front"), sign("s_rear")),
+            (s.front.sign(), s.rear.sign())
+        );
     }
 }

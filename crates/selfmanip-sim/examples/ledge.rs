@@ -22,7 +22,11 @@ fn data(name: &str) -> PathBuf {
 
 /// The hopper dropped 5 cm at `speed` forward, towards a ledge `height_m` high whose face is
 /// `distance_m` ahead.
-pub fn scenario(speed: f64, height_m: f64, distance_m: f64) -> Result<Scenario, Box<dyn std::error::Error>> {
+pub fn scenario(
+    speed: f64,
+    height_m: f64,
+    distance_m: f64,
+) -> Result<Scenario, Box<dyn std::error::Error>> {
     let robot = RobotDescription::from_file(&data("hopper.toml"))?;
     let a: f64 = 0.5;
     let q0 = vec![a, -2.0 * a, 0.0, -(0.05 + 0.4 * a.cos()), 0.0];
@@ -44,7 +48,9 @@ pub fn scenario(speed: f64, height_m: f64, distance_m: f64) -> Result<Scenario, 
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let out = std::env::args().nth(1).unwrap_or_else(|| "ledge.mcap".into());
+    let out = std::env::args()
+        .nth(1)
+        .unwrap_or_else(|| "ledge.mcap".into());
     let s = scenario(0.6, 0.04, 0.55)?;
     let run = Simulation::new(&s)?.run()?;
     let o = &run.outcome;
@@ -61,7 +67,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             e.kind,
             e.mode_before,
             e.mode_after,
-            raw.q[2] + 0.2 * (raw.q[0] + raw.q[4]).sin() + 0.2 * (raw.q[0] + raw.q[1] + raw.q[4]).sin()
+            raw.q[2]
+                + 0.2 * (raw.q[0] + raw.q[4]).sin()
+                + 0.2 * (raw.q[0] + raw.q[1] + raw.q[4]).sin()
         );
     }
     let x = o.q_end[2];

@@ -20,10 +20,23 @@ fn data(name: &str) -> PathBuf {
 
 /// The quadruped dropped from `drop_m` (feet above the ground) at pitch `phi`, legs at their
 /// landing pose (hip a, knee −2a: each foot under its hip).
-pub fn scenario(behaviour: &str, massless: bool, drop_m: f64, phi: f64) -> Result<Scenario, Box<dyn std::error::Error>> {
+pub fn scenario(
+    behaviour: &str,
+    massless: bool,
+    drop_m: f64,
+    phi: f64,
+) -> Result<Scenario, Box<dyn std::error::Error>> {
     let robot = RobotDescription::from_file(&data("quadruped.toml"))?;
     let a: f64 = 0.5;
-    let q0 = vec![a, -2.0 * a, a, -2.0 * a, 0.0, -(drop_m + 0.4 * a.cos()), phi];
+    let q0 = vec![
+        a,
+        -2.0 * a,
+        a,
+        -2.0 * a,
+        0.0,
+        -(drop_m + 0.4 * a.cos()),
+        phi,
+    ];
     let mut s = Scenario::new(robot, q0);
     s.behaviour = Behaviour::from_file(&data(behaviour))?;
     s.options.t_final_s = 1.5;

@@ -91,9 +91,7 @@ impl SimError {
                 C::SingularKkt { .. } => "singular_kkt",
                 C::NonFinite { .. } => "non_finite",
                 C::IllPosedQuasiStatic { .. } => "ill_posed",
-                C::InvalidDescription { .. } | C::InvalidParameterization { .. } => {
-                    "invalid_value"
-                }
+                C::InvalidDescription { .. } | C::InvalidParameterization { .. } => "invalid_value",
                 C::Parse { .. } => "parse",
                 C::UnknownContact { .. } => "unknown_contact",
                 _ => "engine_error",
@@ -147,7 +145,10 @@ pub(crate) fn non_negative(field: &str, v: f64) -> Result<f64, SimError> {
     if v.is_finite() && v >= 0.0 {
         Ok(v)
     } else {
-        Err(invalid(field, format!("must be finite and non-negative, got {v}")))
+        Err(invalid(
+            field,
+            format!("must be finite and non-negative, got {v}"),
+        ))
     }
 }
 
@@ -156,6 +157,9 @@ pub(crate) fn positive(field: &str, v: f64) -> Result<f64, SimError> {
     if v.is_finite() && v > 0.0 {
         Ok(v)
     } else {
-        Err(invalid(field, format!("must be finite and positive, got {v}")))
+        Err(invalid(
+            field,
+            format!("must be finite and positive, got {v}"),
+        ))
     }
 }

@@ -59,4 +59,3 @@ pub fn event_records(
         })
         .collect()
 }
-

@@ -248,8 +248,8 @@ impl Parser<'_> {
                 let start = self.i;
                 while self.i < self.s.len() {
                     let c = self.s[self.i];
-                    let exp_sign = (c == b'+' || c == b'-')
-                        && matches!(self.s[self.i - 1], b'e' | b'E');
+                    let exp_sign =
+                        (c == b'+' || c == b'-') && matches!(self.s[self.i - 1], b'e' | b'E');
                     if c.is_ascii_digit() || c == b'.' || c == b'e' || c == b'E' || exp_sign {
                         self.i += 1;
                     } else {
@@ -346,8 +346,14 @@ mod tests {
         assert_eq!(ev("-2 * -3", &[]), 6.0);
         assert_eq!(ev("(1 + 2) * 3", &[]), 9.0);
         assert_eq!(ev("2.5e-3 * a.b", &[("a.b", 4.0)]), 2.5e-3 * 4.0);
-        assert_eq!(ev("if(s * x >= 0, s, -s) * 2.6", &[("s", -1.0), ("x", 0.0)]), -2.6);
-        assert_eq!(ev("if(s * x >= 0, s, -s) * 2.6", &[("s", -1.0), ("x", 0.3)]), 2.6);
+        assert_eq!(
+            ev("if(s * x >= 0, s, -s) * 2.6", &[("s", -1.0), ("x", 0.0)]),
+            -2.6
+        );
+        assert_eq!(
+            ev("if(s * x >= 0, s, -s) * 2.6", &[("s", -1.0), ("x", 0.3)]),
+            2.6
+        );
         assert_eq!(ev("abs(t2) < 0.1", &[("t2", t2)]), 1.0);
     }
 
@@ -355,7 +361,9 @@ mod tests {
     fn bad_expressions_name_their_field() {
         for bad in ["1 +", "max(1)", "foo(2)", "(1", "2 $ 3", "1..2"] {
             match Expr::parse("phases[1].start.at_s", bad) {
-                Err(SimError::Expression { field, .. }) => assert_eq!(field, "phases[1].start.at_s"),
+                Err(SimError::Expression { field, .. }) => {
+                    assert_eq!(field, "phases[1].start.at_s")
+                }
                 other => panic!("{bad}: {other:?}"),
             }
         }

@@ -6,8 +6,8 @@
 //! description's): `0` (no contact), `1` (contact with the site's own friction: a sticking
 //! site sticks, a frictionless one slides) or `s` (a site that could stick, sliding).
 use crate::error::SimError;
-use selfmanip_core::{ContactKind, ContactMode, Model};
 use selfmanip_core::model::Friction;
+use selfmanip_core::{ContactKind, ContactMode, Model};
 use selfmanip_hybrid::Execution;
 
 /// The order of a label's characters and what each can show.
@@ -47,15 +47,7 @@ impl ContactLabels {
     pub fn from_names(model: &Model, names: &[String], field: &str) -> Result<Self, SimError> {
         let mut order = Vec::with_capacity(names.len());
         for (i, n) in names.iter().enumerate() {
-            let k = model
-                .contacts
-                .iter()
-                .position(|c| &c.name == n)
-                .ok_or_else(|| SimError::UnknownContact {
-                    field: format!("{field}[{i}]"),
-                    name: n.clone(),
-                    known: contact_names(model),
-                })?;
+            let k = contact_by_name(model, n, &format!("{field}[{i}]"))?;
             if order.contains(&k) {
                 return Err(SimError::InvalidValue {
                     field: format!("{field}[{i}]"),
@@ -106,12 +98,30 @@ impl ContactLabels {
                 '0' => mode,
                 '1' => mode.union(ContactMode::with_defaults(model, &[k])?),
                 's' if stick => mode.with(k, ContactKind::Slide),
-                's' => return Err(bad(format!("contact `{}` cannot stick, so it cannot slip", model.contacts[k].name))),
+                's' => {
+                    return Err(bad(format!(
+                        "contact `{}` cannot stick, so it cannot slip",
+                        model.contacts[k].name
+                    )))
+                }
                 other => return Err(bad(format!("character `{other}` is not 0, 1 or s"))),
             };
         }
         Ok(mode)
     }
+}
+
+/// The contact called `name`, or an error naming `field`.
+pub fn contact_by_name(model: &Model, name: &str, field: &str) -> Result<usize, SimError> {
+    model
+        .contacts
+        .iter()
+        .position(|c| c.name == name)
+        .ok_or_else(|| SimError::UnknownContact {
+            field: field.into(),
+            name: name.into(),
+            known: contact_names(model),
+        })
 }
 
 pub(crate) fn contact_names(model: &Model) -> String {
@@ -180,4 +190,3 @@ pub fn joint_contacts(model: &Model, j: usize) -> u32 {
         .filter(|(_, c)| c.link.is_some_and(|l| distal.contains(&l)))
         .fold(0, |m, (k, _)| m | 1 << k)
 }
-

@@ -133,7 +133,10 @@ fn check(log: &McapLog<'_>) -> Result<usize, SimError> {
         }
     }
     if !tr.tau.is_empty() && tr.tau.len() != n {
-        return Err(invalid("tau", format!("{} samples, but t_s has {n}", tr.tau.len())));
+        return Err(invalid(
+            "tau",
+            format!("{} samples, but t_s has {n}", tr.tau.len()),
+        ));
     }
     for k in 0..n {
         if !tr.t_s[k].is_finite() || (k > 0 && tr.t_s[k] < tr.t_s[k - 1]) {
@@ -143,7 +146,10 @@ fn check(log: &McapLog<'_>) -> Result<usize, SimError> {
             ));
         }
         if tr.q[k].len() != nq || tr.qd[k].len() != nq {
-            return Err(invalid("q", format!("sample {k}: expected {nq} coordinates")));
+            return Err(invalid(
+                "q",
+                format!("sample {k}: expected {nq} coordinates"),
+            ));
         }
         let nc = tr.contacts.len();
         if tr.contact_points_m[k].len() != nc || tr.contact_forces_n[k].len() != nc {
@@ -155,7 +161,10 @@ fn check(log: &McapLog<'_>) -> Result<usize, SimError> {
     }
     for (i, e) in log.events.iter().enumerate() {
         if !e.t_s.is_finite() {
-            return Err(invalid(&format!("events[{i}].t_s"), "must be finite".into()));
+            return Err(invalid(
+                &format!("events[{i}].t_s"),
+                "must be finite".into(),
+            ));
         }
     }
     Ok(n)
@@ -231,7 +240,10 @@ fn shape_entity(ent: &mut serde_json::Map<String, Value>, shape: &ContactShape) 
             let pts = (0..=32)
                 .map(|i| {
                     let a = a0 + (a1 - a0) * i as f64 / 32.0;
-                    p(center_m.x + radius_m * a.sin(), center_m.y + radius_m * a.cos())
+                    p(
+                        center_m.x + radius_m * a.sin(),
+                        center_m.y + radius_m * a.cos(),
+                    )
                 })
                 .collect();
             ent["lines"] = json!([line(pts, [0.1, 0.1, 0.1])]);
@@ -406,7 +418,8 @@ pub fn write_mcap_to<W: Write + Seek>(w: W, log: &McapLog<'_>) -> Result<W, SimE
             &json!({"deletions": [], "entities": ents}),
         )?;
 
-        let mut state = json!({"t_s": t, "mode": tr.mode[k], "q_names": tr.q_names, "q": q, "qd": qd});
+        let mut state =
+            json!({"t_s": t, "mode": tr.mode[k], "q_names": tr.q_names, "q": q, "qd": qd});
         if let Some(tau) = tr.tau.get(k) {
             state["tau"] = json!(tau);
         }
@@ -453,9 +466,7 @@ pub fn write_mcap(path: &Path, log: &McapLog<'_>) -> Result<(), SimError> {
         let f = std::fs::File::create(&tmp).map_err(io_err(&tmp))?;
         let mut w = write_mcap_to(BufWriter::new(f), log)?;
         w.flush().map_err(io_err(&tmp))?;
-        let f = w
-            .into_inner()
-            .map_err(|e| io_err(&tmp)(e.into_error()))?;
+        let f = w.into_inner().map_err(|e| io_err(&tmp)(e.into_error()))?;
         f.sync_all().map_err(io_err(&tmp))?;
         std::fs::rename(&tmp, path).map_err(io_err(path))?;
         Ok(())

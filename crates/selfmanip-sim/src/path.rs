@@ -187,7 +187,10 @@ mod tests {
             "behaviour": {"parameters": {"t2": 0.0}, "joints": [{"joint": "front", "phases": [{"name": "wait"}]}]},
             "options": {"t_final_s": 1.0},
         });
-        assert_eq!(set(&mut s, "t2", json!(0.05)).unwrap(), "behaviour.parameters.t2");
+        assert_eq!(
+            set(&mut s, "t2", json!(0.05)).unwrap(),
+            "behaviour.parameters.t2"
+        );
         assert_eq!(s["behaviour"]["parameters"]["t2"], json!(0.05));
         assert_eq!(
             set(&mut s, "legs.rear.links[0].length_m", json!(0.3)).unwrap(),
@@ -199,7 +202,13 @@ mod tests {
             "behaviour.joints.front.phases.wait.name"
         );
         assert_eq!(resolve(&s, "t_final_s").unwrap(), "options.t_final_s");
-        for bad in ["legs.middle.links[0].length_m", "robot.legs[5]", "nope", "a..b", "x[1"] {
+        for bad in [
+            "legs.middle.links[0].length_m",
+            "robot.legs[5]",
+            "nope",
+            "a..b",
+            "x[1",
+        ] {
             match resolve(&s, bad) {
                 Err(SimError::UnknownParameter { path, .. }) => assert_eq!(path, bad),
                 other => panic!("{bad}: {other:?}"),

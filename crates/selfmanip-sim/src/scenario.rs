@@ -274,7 +274,11 @@ impl Simulation {
             if v.len() != nq {
                 return Err(invalid(
                     field,
-                    format!("expected {nq} coordinates ({}), got {}", q_names(&model).join(", "), v.len()),
+                    format!(
+                        "expected {nq} coordinates ({}), got {}",
+                        q_names(&model).join(", "),
+                        v.len()
+                    ),
                 ));
             }
             if let Some(i) = v.iter().position(|x| !x.is_finite()) {
@@ -289,17 +293,14 @@ impl Simulation {
                 Some((n, "slide")) => (n, Some(ContactKind::Slide)),
                 Some((n, "stick")) => (n, Some(ContactKind::Stick)),
                 Some((_, other)) => {
-                    return Err(invalid(field, format!("unknown contact kind `{other}` (slide or stick)")))
+                    return Err(invalid(
+                        field,
+                        format!("unknown contact kind `{other}` (slide or stick)"),
+                    ))
                 }
                 None => (item.as_str(), None),
             };
-            let k = model.contacts.iter().position(|c| c.name == name).ok_or_else(|| {
-                SimError::UnknownContact {
-                    field: field.clone(),
-                    name: name.into(),
-                    known: crate::labels::contact_names(&model),
-                }
-            })?;
+            let k = crate::labels::contact_by_name(&model, name, &field)?;
             mode0 = match kind {
                 Some(kind) => mode0.with(k, kind),
                 None => mode0.union(ContactMode::with_defaults(&model, &[k])?),
@@ -324,7 +325,9 @@ impl Simulation {
         }
         // no inactive contact may start below the ground (the first step would meet it as a
         // discontinuity of the terrain, not as a touchdown)
-        let inactive: Vec<usize> = (0..model.n_contacts()).filter(|k| !active.contains(k)).collect();
+        let inactive: Vec<usize> = (0..model.n_contacts())
+            .filter(|k| !active.contains(k))
+            .collect();
         let gaps = crate::analysis::contact_gaps(&model, &terrain, &inactive, &q0);
         if let Some((k, gap)) = inactive.iter().zip(&gaps).find(|(_, g)| **g < -1e-9) {
             return Err(invalid(
@@ -400,7 +403,14 @@ impl Run {
 
     /// Samples every `dt_s` (see [`crate::trajectory`]).
     pub fn trajectory(&self, dt_s: f64) -> Result<Trajectory, SimError> {
-        sample(&self.model, &self.terrain, &self.execution, &self.labels, dt_s, 0.0)
+        sample(
+            &self.model,
+            &self.terrain,
+            &self.execution,
+            &self.labels,
+            dt_s,
+            0.0,
+        )
     }
 
     /// `E₁ − E₀ = W − L` bookkeeping ([`selfmanip_hybrid::energy_report`]).

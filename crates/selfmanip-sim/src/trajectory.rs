@@ -97,7 +97,16 @@ pub fn sample(
         seg.controller
             .free_joint_qdd(t, q, qd, &data.free_joints, &mut free);
         // => (q̈, λ)
-        forward_dynamics(model, &mut data, terrain, seg.mode, q, qd, &tau, Some(&free))?;
+        forward_dynamics(
+            model,
+            &mut data,
+            terrain,
+            seg.mode,
+            q,
+            qd,
+            &tau,
+            Some(&free),
+        )?;
         let mut points = vec![None; nc];
         let mut forces = vec![None; nc];
         for (row, r) in seg.mode.rows().enumerate() {

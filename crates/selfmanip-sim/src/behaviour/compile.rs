@@ -9,8 +9,8 @@ use super::spec::{
     ActuatorSpec, Behaviour, Interpolation, Motion, NamedEvent, On, Torque, Trigger,
 };
 use crate::error::{finite, invalid, non_negative, positive, SimError};
-use crate::labels::{joint_contacts, joint_index, joint_name};
 use crate::expr::{Expr, Scalar};
+use crate::labels::{contact_by_name, joint_contacts, joint_index, joint_name};
 use motor::Actuator;
 use selfmanip_core::Model;
 use selfmanip_hybrid::EventKind;
@@ -103,23 +103,7 @@ impl Context<'_> {
     fn contacts(&self, field: &str, names: &[String]) -> Result<u32, SimError> {
         let mut mask = 0u32;
         for (i, n) in names.iter().enumerate() {
-            let k = self
-                .model
-                .contacts
-                .iter()
-                .position(|c| &c.name == n)
-                .ok_or_else(|| SimError::UnknownContact {
-                    field: format!("{field}[{i}]"),
-                    name: n.clone(),
-                    known: self
-                        .model
-                        .contacts
-                        .iter()
-                        .map(|c| c.name.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                })?;
-            mask |= 1 << k;
+            mask |= 1 << contact_by_name(self.model, n, &format!("{field}[{i}]"))?;
         }
         Ok(mask)
     }
@@ -131,9 +115,7 @@ fn parameters(b: &Behaviour) -> Result<BTreeMap<String, f64>, SimError> {
     for (name, s) in &b.parameters {
         let field = format!("parameters.{name}");
         if name.is_empty()
-            || !name
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || c == '_')
+            || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
             || name.starts_with(|c: char| c.is_ascii_digit())
             || matches!(name.as_str(), "theta" | "omega" | "q0")
         {
@@ -245,9 +227,14 @@ fn actuator(
             if let Some(i) = current_limit_a {
                 let f = format!("{field}.current_limit_a");
                 let i = positive(&f, cx.number(&f, i, None)?)?;
-                m = m.with_current_limit(i).map_err(motor_err("current_limit_a"))?;
+                m = m
+                    .with_current_limit(i)
+                    .map_err(motor_err("current_limit_a"))?;
             }
-            let mut g = catalog.gearbox(gearbox).map_err(motor_err("gearbox"))?.clone();
+            let mut g = catalog
+                .gearbox(gearbox)
+                .map_err(motor_err("gearbox"))?
+                .clone();
             if let Some(r) = gear_ratio {
                 let f = format!("{field}.gear_ratio");
                 g.ratio = positive(&f, cx.number(&f, r, None)?)?;
@@ -402,19 +389,9 @@ impl Compiler<'_> {
                 "give exactly one of `at_s`, `on`, `event`, `any`",
             ));
         }
-        let only = |names: &[(&str, bool)]| -> Result<(), SimError> {
-            for (n, given) in names {
-                if *given {
-                    return Err(invalid(
-                        format!("{field}.{n}"),
-                        "does not apply to this kind of trigger",
-                    ));
-                }
-            }
-            Ok(())
-        };
-        if let Some(at) = &t.at_s {
-            only(&[
+        // the fields a kind of trigger reads; any other one given is an error naming it
+        let only = |allowed: &[&str]| -> Result<(), SimError> {
+            let given = [
                 ("contacts", t.contacts.is_some()),
                 ("not_before_s", t.not_before_s.is_some()),
                 ("joint", t.joint.is_some()),
@@ -422,19 +399,21 @@ impl Compiler<'_> {
                 ("direction", t.direction.is_some()),
                 ("phase", t.phase.is_some()),
                 ("delay_s", t.delay_s.is_some()),
-            ])?;
+            ];
+            match given.iter().find(|(n, g)| *g && !allowed.contains(n)) {
+                Some((n, _)) => Err(invalid(
+                    format!("{field}.{n}"),
+                    "does not apply to this kind of trigger",
+                )),
+                None => Ok(()),
+            }
+        };
+        if let Some(at) = &t.at_s {
+            only(&[])?;
             let f = format!("{field}.at_s");
             start.times.push(self.cx.number(&f, at, Some(q0))?);
         } else if let Some(name) = &t.event {
-            only(&[
-                ("contacts", t.contacts.is_some()),
-                ("not_before_s", t.not_before_s.is_some()),
-                ("joint", t.joint.is_some()),
-                ("angle_rad", t.angle_rad.is_some()),
-                ("direction", t.direction.is_some()),
-                ("phase", t.phase.is_some()),
-                ("delay_s", t.delay_s.is_some()),
-            ])?;
+            only(&[])?;
             start
                 .named
                 .push(self.named_index(&format!("{field}.event"), name)?);
@@ -462,23 +441,16 @@ impl Compiler<'_> {
                             "a joint-angle level cannot be one of several alternatives",
                         ));
                     }
-                    only(&[
-                        ("contacts", t.contacts.is_some()),
-                        ("not_before_s", t.not_before_s.is_some()),
-                        ("phase", t.phase.is_some()),
-                        ("delay_s", t.delay_s.is_some()),
-                    ])?;
+                    only(&["joint", "angle_rad", "direction"])?;
                     let joint = match &t.joint {
                         None => own_joint,
-                        Some(name) => {
-                            joint_index(self.cx.model, name).ok_or_else(|| {
-                                SimError::UnknownJoint {
-                                    field: format!("{field}.joint"),
-                                    name: name.clone(),
-                                    known: known_joints(self.cx.model),
-                                }
-                            })?
-                        }
+                        Some(name) => joint_index(self.cx.model, name).ok_or_else(|| {
+                            SimError::UnknownJoint {
+                                field: format!("{field}.joint"),
+                                name: name.clone(),
+                                known: known_joints(self.cx.model),
+                            }
+                        })?,
                     };
                     let f = format!("{field}.angle_rad");
                     let angle = match &t.angle_rad {
@@ -500,13 +472,7 @@ impl Compiler<'_> {
                     });
                 }
                 On::Phase => {
-                    only(&[
-                        ("contacts", t.contacts.is_some()),
-                        ("not_before_s", t.not_before_s.is_some()),
-                        ("joint", t.joint.is_some()),
-                        ("angle_rad", t.angle_rad.is_some()),
-                        ("direction", t.direction.is_some()),
-                    ])?;
+                    only(&["phase", "delay_s"])?;
                     let f = format!("{field}.phase");
                     let name = t
                         .phase
@@ -521,13 +487,7 @@ impl Compiler<'_> {
                     start.phases.push((p, k, delay));
                 }
                 _ => {
-                    only(&[
-                        ("joint", t.joint.is_some()),
-                        ("angle_rad", t.angle_rad.is_some()),
-                        ("direction", t.direction.is_some()),
-                        ("phase", t.phase.is_some()),
-                        ("delay_s", t.delay_s.is_some()),
-                    ])?;
+                    only(&["contacts", "not_before_s"])?;
                     start.events.push(self.event_match(
                         field,
                         on,
@@ -619,14 +579,15 @@ impl Compiler<'_> {
                 command,
                 reverse_beyond_rad,
             } => {
-                let a = actuators.iter().position(|n| n == actuator).ok_or_else(|| {
-                    SimError::UnknownReference {
+                let a = actuators
+                    .iter()
+                    .position(|n| n == actuator)
+                    .ok_or_else(|| SimError::UnknownReference {
                         field: format!("{field}.actuator"),
                         kind: "actuator",
                         name: actuator.clone(),
                         known: actuators.join(", "),
-                    }
-                })?;
+                    })?;
                 let u = num("command", command)?;
                 if !(-1.0..=1.0).contains(&u) {
                     return Err(invalid(
@@ -722,7 +683,10 @@ fn named_order(b: &Behaviour, names: &[String]) -> Result<Vec<usize>, SimError> 
                 break;
             }
             if let Some(i) = path.iter().position(|&p| p == n) {
-                let mut cycle: Vec<String> = path[i..].iter().map(|&p: &usize| names[p].clone()).collect();
+                let mut cycle: Vec<String> = path[i..]
+                    .iter()
+                    .map(|&p: &usize| names[p].clone())
+                    .collect();
                 cycle.push(names[n].clone());
                 return Err(SimError::Cycle {
                     field: format!("events.{}.after_event", names[n]),
@@ -753,8 +717,7 @@ fn check_phase_cycles(
 ) -> Result<(), SimError> {
     let only_refs = |(p, k): PhaseRef| -> Vec<PhaseRef> {
         let s = &programs[p].phases[k].start;
-        if s.times.is_empty() && s.events.is_empty() && s.named.is_empty() && s.level.is_none()
-        {
+        if s.times.is_empty() && s.events.is_empty() && s.named.is_empty() && s.level.is_none() {
             s.phases.iter().map(|&(p2, k2, _)| (p2, k2)).collect()
         } else {
             Vec::new()
@@ -840,7 +803,10 @@ pub fn compile(
             known: known_joints(model),
         })?;
         if program_of_joint[j].is_some() {
-            return Err(invalid(field, format!("joint `{}` has two programs", prog.joint)));
+            return Err(invalid(
+                field,
+                format!("joint `{}` has two programs", prog.joint),
+            ));
         }
         program_of_joint[j] = Some(i);
         let mut phase_names: Vec<String> = Vec::new();
@@ -854,7 +820,10 @@ pub fn compile(
             phase_names.push(ph.name.clone());
         }
         if prog.phases.is_empty() {
-            return Err(invalid(format!("joints[{i}].phases"), "needs at least one phase"));
+            return Err(invalid(
+                format!("joints[{i}].phases"),
+                "needs at least one phase",
+            ));
         }
         programs_names.push((prog.joint.clone(), phase_names));
     }
@@ -900,14 +869,30 @@ pub fn compile(
                 }
                 (None, 0) => {}
                 (None, _) => {
-                    return Err(invalid(format!("{field}.start"), "is required after the first phase"))
+                    return Err(invalid(
+                        format!("{field}.start"),
+                        "is required after the first phase",
+                    ))
                 }
-                (Some(t), _) => c.start(&format!("{field}.start"), t, &mut start, j, own, q0[j], false)?,
+                (Some(t), _) => c.start(
+                    &format!("{field}.start"),
+                    t,
+                    &mut start,
+                    j,
+                    own,
+                    q0[j],
+                    false,
+                )?,
             }
             for n in &mut start.named {
                 *n = remap[*n];
             }
-            let torque = c.torque(&format!("{field}.torque"), &ph.torque, q0[j], &actuator_names)?;
+            let torque = c.torque(
+                &format!("{field}.torque"),
+                &ph.torque,
+                q0[j],
+                &actuator_names,
+            )?;
             let (motion, own_motion) = match (&ph.motion, phases.last()) {
                 (Some(m), _) => (c.motion(&format!("{field}.motion"), m, q0[j])?, true),
                 (None, Some(prev)) => (prev.motion.clone(), false),
@@ -954,14 +939,19 @@ pub fn compile(
             None => None,
             Some(name) => {
                 let f = format!("joints[{i}].repeat_from");
-                let r = phases.iter().position(|ph| &ph.name == name).ok_or_else(|| {
-                    SimError::UnknownReference {
+                let r = phases
+                    .iter()
+                    .position(|ph| &ph.name == name)
+                    .ok_or_else(|| SimError::UnknownReference {
                         field: f.clone(),
                         kind: "phase",
                         name: name.clone(),
-                        known: phases.iter().map(|ph| ph.name.clone()).collect::<Vec<_>>().join(", "),
-                    }
-                })?;
+                        known: phases
+                            .iter()
+                            .map(|ph| ph.name.clone())
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                    })?;
                 if r == 0 || phases[r].start.level.is_some() {
                     return Err(invalid(
                         f,
@@ -991,7 +981,11 @@ pub fn compile(
         program_of_joint,
         kp_free,
         kd_free,
-        horizon_s: if horizon_s.is_nan() { f64::INFINITY } else { horizon_s },
+        horizon_s: if horizon_s.is_nan() {
+            f64::INFINITY
+        } else {
+            horizon_s
+        },
     };
     BehaviourController::new(plan, q0, qd0).map_err(|p| {
         invalid(

@@ -381,12 +381,17 @@ impl BehaviourController {
         for _ in 0..passes {
             let mut changed = false;
             for p in 0..self.plan.programs.len() {
-                let keep = self.programs[p].timeline.partition_point(|e| e.0 <= now).max(1);
+                let keep = self.programs[p]
+                    .timeline
+                    .partition_point(|e| e.0 <= now)
+                    .max(1);
                 let (mut s, mut k) = self.programs[p].timeline[keep - 1];
                 let mut planned = Vec::new();
                 while planned.len() <= PLAN_CAP {
                     let Some(j) = self.successor(p, k) else { break };
-                    let Some(start) = self.known_start(p, j, s) else { break };
+                    let Some(start) = self.known_start(p, j, s) else {
+                        break;
+                    };
                     planned.push((start, j));
                     (s, k) = (start, j);
                     if start > self.plan.horizon_s {

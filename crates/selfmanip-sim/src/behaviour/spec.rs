@@ -234,7 +234,9 @@ pub struct Phase {
 pub enum Torque {
     #[default]
     Zero,
-    Constant { torque_n_m: Scalar },
+    Constant {
+        torque_n_m: Scalar,
+    },
     /// Piecewise-linear (or held) torque over the execution clock; constant beyond the ends.
     Schedule {
         times_s: Vec<Scalar>,
