@@ -56,14 +56,11 @@ pub fn forward_kinematics(model: &Model, q: &[f64], qd: &[f64]) -> Result<Poses>
     };
     Ok(Poses {
         body: state(Part::Body),
-        links: (0..model.n_joints()).map(|j| state(Part::Link(j))).collect(),
+        links: (0..model.n_joints())
+            .map(|j| state(Part::Link(j)))
+            .collect(),
         link_ends_m: (0..model.n_joints())
-            .map(|j| {
-                arr(kin.point(
-                    Part::Link(j),
-                    Vector2::new(0.0, model.joints[j].length_m),
-                ))
-            })
+            .map(|j| arr(kin.point(Part::Link(j), Vector2::new(0.0, model.joints[j].length_m))))
             .collect(),
     })
 }
@@ -183,7 +180,10 @@ mod tests {
         let m = robot();
         let p = forward_kinematics(&m, &Q, &QD).unwrap();
         assert_eq!(p.body.position_m, [Q[3], Q[4]]);
-        assert_eq!((p.body.angle_rad, p.body.angular_velocity_rad_s), (Q[5], QD[5]));
+        assert_eq!(
+            (p.body.angle_rad, p.body.angular_velocity_rad_s),
+            (Q[5], QD[5])
+        );
         assert!((p.links[1].position_m[0] - p.link_ends_m[0][0]).abs() < 1e-15);
         let (s, c) = Q[5].sin_cos();
         let hip = [Q[3] + c * 0.2 + s * 0.03, Q[4] - s * 0.2 + c * 0.03];
@@ -205,10 +205,17 @@ mod tests {
             let (mut qp, mut qm) = (Q, Q);
             qp[k] += h;
             qm[k] -= h;
-            let pp = point_jacobian(&m, &qp, Part::Link(1), [0.02, 0.1]).unwrap().1;
-            let pm = point_jacobian(&m, &qm, Part::Link(1), [0.02, 0.1]).unwrap().1;
+            let pp = point_jacobian(&m, &qp, Part::Link(1), [0.02, 0.1])
+                .unwrap()
+                .1;
+            let pm = point_jacobian(&m, &qm, Part::Link(1), [0.02, 0.1])
+                .unwrap()
+                .1;
             for r in 0..2 {
-                assert!((j[(r, k)] - (pp[r] - pm[r]) / (2.0 * h)).abs() < 1e-8, "({r}, {k})");
+                assert!(
+                    (j[(r, k)] - (pp[r] - pm[r]) / (2.0 * h)).abs() < 1e-8,
+                    "({r}, {k})"
+                );
             }
         }
         let cps = contact_points(&m, &FlatGround, &Q, &QD).unwrap();

@@ -47,15 +47,7 @@ impl ContactLabels {
     pub fn from_names(model: &Model, names: &[String], field: &str) -> Result<Self, SimError> {
         let mut order = Vec::with_capacity(names.len());
         for (i, n) in names.iter().enumerate() {
-            let k = model
-                .contacts
-                .iter()
-                .position(|c| &c.name == n)
-                .ok_or_else(|| SimError::UnknownContact {
-                    field: format!("{field}[{i}]"),
-                    name: n.clone(),
-                    known: contact_names(model),
-                })?;
+            let k = contact_by_name(model, n, &format!("{field}[{i}]"))?;
             if order.contains(&k) {
                 return Err(SimError::InvalidValue {
                     field: format!("{field}[{i}]"),
@@ -117,6 +109,19 @@ impl ContactLabels {
         }
         Ok(mode)
     }
+}
+
+/// The contact called `name`, or an error naming `field`.
+pub fn contact_by_name(model: &Model, name: &str, field: &str) -> Result<usize, SimError> {
+    model
+        .contacts
+        .iter()
+        .position(|c| c.name == name)
+        .ok_or_else(|| SimError::UnknownContact {
+            field: field.into(),
+            name: name.into(),
+            known: contact_names(model),
+        })
 }
 
 pub(crate) fn contact_names(model: &Model) -> String {

@@ -300,15 +300,7 @@ impl Simulation {
                 }
                 None => (item.as_str(), None),
             };
-            let k = model
-                .contacts
-                .iter()
-                .position(|c| c.name == name)
-                .ok_or_else(|| SimError::UnknownContact {
-                    field: field.clone(),
-                    name: name.into(),
-                    known: crate::labels::contact_names(&model),
-                })?;
+            let k = crate::labels::contact_by_name(&model, name, &field)?;
             mode0 = match kind {
                 Some(kind) => mode0.with(k, kind),
                 None => mode0.union(ContactMode::with_defaults(&model, &[k])?),
@@ -333,7 +325,9 @@ impl Simulation {
         }
         // no inactive contact may start below the ground (the first step would meet it as a
         // discontinuity of the terrain, not as a touchdown)
-        let inactive: Vec<usize> = (0..model.n_contacts()).filter(|k| !active.contains(k)).collect();
+        let inactive: Vec<usize> = (0..model.n_contacts())
+            .filter(|k| !active.contains(k))
+            .collect();
         let gaps = crate::analysis::contact_gaps(&model, &terrain, &inactive, &q0);
         if let Some((k, gap)) = inactive.iter().zip(&gaps).find(|(_, g)| **g < -1e-9) {
             return Err(invalid(

@@ -46,7 +46,10 @@ fn unknown_names_are_typed_errors_naming_the_field() {
     .unwrap_err();
     match err {
         SimError::UnknownJoint { field, name, known } => {
-            assert_eq!((field.as_str(), name.as_str()), ("joints[0].joint", "arm[0]"));
+            assert_eq!(
+                (field.as_str(), name.as_str()),
+                ("joints[0].joint", "arm[0]")
+            );
             assert!(known.contains("leg[1]"));
         }
         other => panic!("{other:?}"),
@@ -96,11 +99,15 @@ fn unknown_names_are_typed_errors_naming_the_field() {
     );
     // an event kind that does not exist, and a misspelt field, are parse errors
     assert!(matches!(
-        check(&format!("{KNEE}[[joints.phases]]\nname = \"b\"\nstart = {{ on = \"landing\" }}")),
+        check(&format!(
+            "{KNEE}[[joints.phases]]\nname = \"b\"\nstart = {{ on = \"landing\" }}"
+        )),
         Err(SimError::Parse { .. })
     ));
     assert!(matches!(
-        check(&format!("{KNEE}torque = {{ kind = \"servo\", kp = 1.0, kd_n_m_s_per_rad = 1.0 }}")),
+        check(&format!(
+            "{KNEE}torque = {{ kind = \"servo\", kp = 1.0, kd_n_m_s_per_rad = 1.0 }}"
+        )),
         Err(SimError::Parse { .. })
     ));
     // a motor or gearbox the catalog does not have
@@ -150,7 +157,10 @@ fn cycles_are_refused_with_the_cycle() {
     }
     // parameters
     let err = check("[parameters]\na = \"b + 1\"\nb = \"2 * a\"").unwrap_err();
-    assert!(matches!(&err, SimError::Cycle { cycle, .. } if cycle.len() == 3), "{err:?}");
+    assert!(
+        matches!(&err, SimError::Cycle { cycle, .. } if cycle.len() == 3),
+        "{err:?}"
+    );
     // named events
     let err = check(
         r#"
@@ -163,7 +173,10 @@ fn cycles_are_refused_with_the_cycle() {
         "#,
     )
     .unwrap_err();
-    assert!(matches!(&err, SimError::Cycle { field, .. } if field.starts_with("events.")), "{err:?}");
+    assert!(
+        matches!(&err, SimError::Cycle { field, .. } if field.starts_with("events.")),
+        "{err:?}"
+    );
     // a timed loop that never advances
     let err = check(
         r#"
@@ -181,7 +194,10 @@ fn cycles_are_refused_with_the_cycle() {
         "#,
     )
     .unwrap_err();
-    assert!(matches!(&err, SimError::InvalidValue { field, .. } if field == "joints[0]"), "{err:?}");
+    assert!(
+        matches!(&err, SimError::InvalidValue { field, .. } if field == "joints[0]"),
+        "{err:?}"
+    );
 }
 
 #[test]
@@ -244,7 +260,9 @@ fn bad_values_are_refused_naming_the_field() {
     std::fs::create_dir_all(&dir).unwrap();
     let empty = dir.join("empty.toml");
     std::fs::write(&empty, "").unwrap();
-    assert!(matches!(Behaviour::from_file(&empty), Err(SimError::Io { message, .. }) if message.contains("empty")));
+    assert!(
+        matches!(Behaviour::from_file(&empty), Err(SimError::Io { message, .. }) if message.contains("empty"))
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -316,5 +334,8 @@ fn levels_and_schedules_do_what_the_schema_says() {
         };
         assert!((tr.tau[i][0] - ramp).abs() < 1e-12, "t {t}");
     }
-    assert!(past > 10 && before > 10, "{past} past, {before} before: the knee crossed");
+    assert!(
+        past > 10 && before > 10,
+        "{past} past, {before} before: the knee crossed"
+    );
 }

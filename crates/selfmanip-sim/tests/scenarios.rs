@@ -35,7 +35,15 @@ fn hopper(drop_m: f64, t_final_s: f64) -> Scenario {
 fn quadruped(drop_m: f64, t_final_s: f64) -> Scenario {
     let robot = RobotDescription::from_file(&data("quadruped.toml")).unwrap();
     let a: f64 = 0.5;
-    let q0 = vec![a, -2.0 * a, a, -2.0 * a, 0.0, -(drop_m + 0.4 * a.cos()), 0.0];
+    let q0 = vec![
+        a,
+        -2.0 * a,
+        a,
+        -2.0 * a,
+        0.0,
+        -(drop_m + 0.4 * a.cos()),
+        0.0,
+    ];
     let mut s = Scenario::new(robot, q0);
     s.behaviour = Behaviour::from_file(&data("pronk.toml")).unwrap();
     s.options.t_final_s = t_final_s;
@@ -100,7 +108,10 @@ fn energy_balances_over_a_landing_and_a_hop() {
         let run = Simulation::new(&s).unwrap().run().unwrap();
         let w = &run.outcome.word;
         // flight, stance, flight: a landing and a hop
-        let flights = w.iter().filter(|c| !c.contains('1') && !c.contains('s')).count();
+        let flights = w
+            .iter()
+            .filter(|c| !c.contains('1') && !c.contains('s'))
+            .count();
         assert!(flights >= 2, "{name}: {w:?}");
         let r = run.energy_report().unwrap();
         let scale = r.initial_j.abs() + r.joint_work_j.abs() + r.impact_loss_j;
@@ -110,7 +121,12 @@ fn energy_balances_over_a_landing_and_a_hop() {
             r.residual_j()
         );
         assert!(r.joint_work_j.abs() > 0.1, "{name}: the legs work");
-        assert_eq!(r.impact_loss_j > 1e-3, lossy, "{name}: losses {}", r.impact_loss_j);
+        assert_eq!(
+            r.impact_loss_j > 1e-3,
+            lossy,
+            "{name}: losses {}",
+            r.impact_loss_j
+        );
     }
 }
 
@@ -147,7 +163,11 @@ fn sampled_torques_follow_the_behaviour_laws() {
         // skip samples within a step of the switch (which phase a sample at the switch is
         // in is a matter of rounding)
         if (t - td - 0.05).abs() > 1e-6 {
-            assert!((tr.tau[i][1] - expected).abs() < 1e-9, "t {t}: {} vs {expected}", tr.tau[i][1]);
+            assert!(
+                (tr.tau[i][1] - expected).abs() < 1e-9,
+                "t {t}: {} vs {expected}",
+                tr.tau[i][1]
+            );
             checked += 1;
         }
         assert_eq!(tr.tau[i][0], 0.0, "a limp hip");
@@ -161,7 +181,10 @@ fn sampled_torques_follow_the_behaviour_laws() {
 fn sweeps_are_deterministic_across_thread_counts() {
     let base = hopper(0.1, 0.5);
     let points = grid(&[
-        ("kp_push".into(), vec![json!(35.0), json!(45.0), json!(55.0)]),
+        (
+            "kp_push".into(),
+            vec![json!(35.0), json!(45.0), json!(55.0)],
+        ),
         ("t_compress".into(), vec![json!(0.04), json!(0.06)]),
     ]);
     assert_eq!(points.len(), 6);
@@ -176,10 +199,16 @@ fn sweeps_are_deterministic_across_thread_counts() {
             .run()
             .unwrap()
             .outcome;
-        assert_eq!(format!("{:?}", row.outcome().unwrap()), format!("{alone:?}"));
+        assert_eq!(
+            format!("{:?}", row.outcome().unwrap()),
+            format!("{alone:?}")
+        );
     }
     // different parameters, different hops
-    let apexes: Vec<f64> = rows.iter().map(|r| r.outcome().unwrap().apex.unwrap().z_m).collect();
+    let apexes: Vec<f64> = rows
+        .iter()
+        .map(|r| r.outcome().unwrap().apex.unwrap().z_m)
+        .collect();
     assert!(apexes.windows(2).any(|w| w[0] != w[1]));
 }
 
@@ -208,7 +237,10 @@ fn sweep_points_fail_alone_with_typed_statuses() {
     let statuses: Vec<&str> = rows.iter().map(|r| r.status()).collect();
     assert_eq!(statuses[0], "final_time");
     assert_eq!(statuses[1], "invalid_value", "a negative gain");
-    assert_eq!(statuses[2], "unknown_reference", "a word where a number is due: no such parameter");
+    assert_eq!(
+        statuses[2], "unknown_reference",
+        "a word where a number is due: no such parameter"
+    );
     // the foot starts below the ground
     assert!(
         matches!(&rows[3].result, Err(PointFailure::Error(SimError::InvalidValue { field, .. })) if field == "initial.q"),
@@ -325,7 +357,10 @@ fn mcap_logs_read_back() {
     // the shank's frame sits at the end of the thigh
     assert_eq!(tf0[3]["translation"]["z"], json!(0.2));
     let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
-    assert!(summary.metadata_indexes.iter().any(|m| m.name == "selfmanip"));
+    assert!(summary
+        .metadata_indexes
+        .iter()
+        .any(|m| m.name == "selfmanip"));
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -10,7 +10,7 @@ use super::spec::{
 };
 use crate::error::{finite, invalid, non_negative, positive, SimError};
 use crate::expr::{Expr, Scalar};
-use crate::labels::{joint_contacts, joint_index, joint_name};
+use crate::labels::{contact_by_name, joint_contacts, joint_index, joint_name};
 use motor::Actuator;
 use selfmanip_core::Model;
 use selfmanip_hybrid::EventKind;
@@ -103,23 +103,7 @@ impl Context<'_> {
     fn contacts(&self, field: &str, names: &[String]) -> Result<u32, SimError> {
         let mut mask = 0u32;
         for (i, n) in names.iter().enumerate() {
-            let k = self
-                .model
-                .contacts
-                .iter()
-                .position(|c| &c.name == n)
-                .ok_or_else(|| SimError::UnknownContact {
-                    field: format!("{field}[{i}]"),
-                    name: n.clone(),
-                    known: self
-                        .model
-                        .contacts
-                        .iter()
-                        .map(|c| c.name.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                })?;
-            mask |= 1 << k;
+            mask |= 1 << contact_by_name(self.model, n, &format!("{field}[{i}]"))?;
         }
         Ok(mask)
     }
@@ -405,19 +389,9 @@ impl Compiler<'_> {
                 "give exactly one of `at_s`, `on`, `event`, `any`",
             ));
         }
-        let only = |names: &[(&str, bool)]| -> Result<(), SimError> {
-            for (n, given) in names {
-                if *given {
-                    return Err(invalid(
-                        format!("{field}.{n}"),
-                        "does not apply to this kind of trigger",
-                    ));
-                }
-            }
-            Ok(())
-        };
-        if let Some(at) = &t.at_s {
-            only(&[
+        // the fields a kind of trigger reads; any other one given is an error naming it
+        let only = |allowed: &[&str]| -> Result<(), SimError> {
+            let given = [
                 ("contacts", t.contacts.is_some()),
                 ("not_before_s", t.not_before_s.is_some()),
                 ("joint", t.joint.is_some()),
@@ -425,19 +399,21 @@ impl Compiler<'_> {
                 ("direction", t.direction.is_some()),
                 ("phase", t.phase.is_some()),
                 ("delay_s", t.delay_s.is_some()),
-            ])?;
+            ];
+            match given.iter().find(|(n, g)| *g && !allowed.contains(n)) {
+                Some((n, _)) => Err(invalid(
+                    format!("{field}.{n}"),
+                    "does not apply to this kind of trigger",
+                )),
+                None => Ok(()),
+            }
+        };
+        if let Some(at) = &t.at_s {
+            only(&[])?;
             let f = format!("{field}.at_s");
             start.times.push(self.cx.number(&f, at, Some(q0))?);
         } else if let Some(name) = &t.event {
-            only(&[
-                ("contacts", t.contacts.is_some()),
-                ("not_before_s", t.not_before_s.is_some()),
-                ("joint", t.joint.is_some()),
-                ("angle_rad", t.angle_rad.is_some()),
-                ("direction", t.direction.is_some()),
-                ("phase", t.phase.is_some()),
-                ("delay_s", t.delay_s.is_some()),
-            ])?;
+            only(&[])?;
             start
                 .named
                 .push(self.named_index(&format!("{field}.event"), name)?);
@@ -465,12 +441,7 @@ impl Compiler<'_> {
                             "a joint-angle level cannot be one of several alternatives",
                         ));
                     }
-                    only(&[
-                        ("contacts", t.contacts.is_some()),
-                        ("not_before_s", t.not_before_s.is_some()),
-                        ("phase", t.phase.is_some()),
-                        ("delay_s", t.delay_s.is_some()),
-                    ])?;
+                    only(&["joint", "angle_rad", "direction"])?;
                     let joint = match &t.joint {
                         None => own_joint,
                         Some(name) => joint_index(self.cx.model, name).ok_or_else(|| {
@@ -501,13 +472,7 @@ impl Compiler<'_> {
                     });
                 }
                 On::Phase => {
-                    only(&[
-                        ("contacts", t.contacts.is_some()),
-                        ("not_before_s", t.not_before_s.is_some()),
-                        ("joint", t.joint.is_some()),
-                        ("angle_rad", t.angle_rad.is_some()),
-                        ("direction", t.direction.is_some()),
-                    ])?;
+                    only(&["phase", "delay_s"])?;
                     let f = format!("{field}.phase");
                     let name = t
                         .phase
@@ -522,13 +487,7 @@ impl Compiler<'_> {
                     start.phases.push((p, k, delay));
                 }
                 _ => {
-                    only(&[
-                        ("joint", t.joint.is_some()),
-                        ("angle_rad", t.angle_rad.is_some()),
-                        ("direction", t.direction.is_some()),
-                        ("phase", t.phase.is_some()),
-                        ("delay_s", t.delay_s.is_some()),
-                    ])?;
+                    only(&["contacts", "not_before_s"])?;
                     start.events.push(self.event_match(
                         field,
                         on,
@@ -765,8 +724,8 @@ fn check_phase_cycles(
         }
     };
     let label = |(p, k): PhaseRef| format!("{}.{}", names[p].0, names[p].1[k]);
-    for p in 0..programs.len() {
-        for k in 1..programs[p].phases.len() {
+    for (p, prog) in programs.iter().enumerate() {
+        for k in 1..prog.phases.len() {
             // depth-first from (p, k) along phase-only waits, looking for (p, k) again
             let mut stack = vec![vec![(p, k)]];
             let mut seen = vec![(p, k)];

@@ -1,5 +1,5 @@
 //! Behaviours as data: a schema ([`spec`]) that a user writes in TOML or JSON, checked and
-//! compiled against a robot ([`compile`]) into an interpreter ([`BehaviourController`]) that
+//! compiled against a robot ([`compile()`]) into an interpreter ([`BehaviourController`]) that
 //! the hybrid engine runs as any other [`selfmanip_hybrid::Controller`].
 //!
 //! A behaviour gives each driven joint a *program*: phases in order, each with a torque law

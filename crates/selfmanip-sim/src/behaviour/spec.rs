@@ -1,6 +1,6 @@
 //! The behaviour file (TOML or JSON): what drives each joint, phase by phase. The schema is
 //! documented for users in `docs/behaviours.md`; every type here is plain serde data that
-//! [`super::compile`] checks against a robot and turns into a [`super::BehaviourController`].
+//! [`super::compile()`] checks against a robot and turns into a [`super::BehaviourController`].
 use crate::error::SimError;
 use crate::expr::Scalar;
 use serde::{Deserialize, Serialize};
