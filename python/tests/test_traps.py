@@ -230,6 +230,31 @@ def test_ctrl_c_interrupts_a_leap_and_a_sweep(what, tmp_path):
     assert lines[1].startswith("after ") and "Error" not in p.stderr, p.stderr
 
 
+FORK_SCRIPT = textwrap.dedent("""
+    import os, sys
+    import selfmanip
+    selfmanip.leap("++", 0.0, dt=None)  # the parent's worker thread exists now
+    pid = os.fork()
+    if pid == 0:
+        r = selfmanip.leap("++", 0.0, dt=None)  # the child has no such thread: it starts its own
+        print("child", r.status, flush=True)
+        os._exit(0)
+    os.waitpid(pid, 0)
+    print("parent", selfmanip.leap("++", 0.0, dt=None).status, flush=True)
+""")
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="no fork")
+def test_a_forked_child_runs_leaps(tmp_path):
+    """Leaps run on a reused worker thread; a forked child (multiprocessing, Dask) inherits
+    the record of it but not the thread, and must not wait for it forever."""
+    script = tmp_path / "fork.py"
+    script.write_text(FORK_SCRIPT)
+    p = subprocess.run([sys.executable, "-W", "ignore::DeprecationWarning", str(script)], capture_output=True,
+                       text=True, timeout=120)
+    assert sorted(p.stdout.split("\n")[:2]) == ["child ok", "parent ok"], (p.stdout, p.stderr)
+
+
 # ------------------------------------------------------------------------------ the CLI
 
 

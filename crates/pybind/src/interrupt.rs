@@ -2,18 +2,65 @@
 //!
 //! Python runs its signal handlers only on the main thread and only between bytecodes, so a
 //! call that sits in Rust for seconds cannot be interrupted, and the `KeyboardInterrupt`
-//! surfaces later, somewhere else. [`run`] moves the work to a worker thread (which owns its
-//! inputs) and keeps the calling thread free: it waits with the GIL released, and every
+//! surfaces later, somewhere else. [`run`] moves the work to a worker thread (the work owns
+//! its inputs) and keeps the calling thread free: it waits with the GIL released, and every
 //! [`POLL`] it checks Python's signals and reports progress. On an exception from a signal
 //! handler (`KeyboardInterrupt`) it raises the shared cancellation flag and returns the
 //! exception at once; the worker sees the flag (a sweep checks it before every point; the
 //! engine's own interrupt hook, once it has one, within a leap), finishes what it cannot stop
 //! and exits on its own, its result discarded.
+//!
+//! **Workers.** Starting a thread costs tens of microseconds on an idle machine and more than
+//! a hundred under load, a sizeable part of a 0.6 ms leap; a worker therefore stays, blocked
+//! on its job channel, once its job is done, and the next call reuses it. There is one per call
+//! in flight (normally one in all; one more for each call abandoned to Ctrl-C while it still
+//! runs). A forked child does not inherit threads, so it starts its own.
 use pyo3::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc::{self, RecvTimeoutError};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
+
+/// A job; it calls its argument once its work is done and before it delivers the result, so
+/// that its worker is idle again by the time the caller can ask for the next job.
+type Job = Box<dyn FnOnce(&dyn Fn()) + Send>;
+
+/// Idle workers: the job channel of each, with the process that started it.
+static IDLE: Mutex<Vec<(u32, mpsc::Sender<Job>)>> = Mutex::new(Vec::new());
+
+fn idle() -> std::sync::MutexGuard<'static, Vec<(u32, mpsc::Sender<Job>)>> {
+    IDLE.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Hands `job` to an idle worker of this process, or to a new one.
+fn submit(job: Job) -> PyResult<()> {
+    let pid = std::process::id();
+    let mut job = job;
+    loop {
+        let found = {
+            let mut list = idle();
+            list.retain(|(p, _)| *p == pid); // a forked child's inherited list names no thread
+            list.pop()
+        };
+        let Some((_, tx)) = found else { break };
+        match tx.send(job) {
+            Ok(()) => return Ok(()),
+            Err(mpsc::SendError(back)) => job = back, // that worker is gone: try another
+        }
+    }
+    let (tx, rx) = mpsc::channel::<Job>();
+    let me = tx.clone();
+    std::thread::Builder::new()
+        .name("selfmanip-work".into())
+        .spawn(move || {
+            for job in rx {
+                job(&|| idle().push((pid, me.clone())));
+            }
+        })
+        .map_err(|e| crate::errors::engine(format!("cannot start a worker thread: {e}")))?;
+    tx.send(job)
+        .map_err(|_| crate::errors::engine("the new worker thread is gone"))
+}
 
 /// How often the waiting thread checks for signals and reports progress.
 pub(crate) const POLL: Duration = Duration::from_millis(25);
@@ -47,14 +94,12 @@ pub(crate) fn run<T: Send + 'static>(
     let shared = Arc::new(Shared::default());
     let (tx, rx) = mpsc::sync_channel(1);
     let theirs = Arc::clone(&shared);
-    std::thread::Builder::new()
-        .name("selfmanip-work".into())
-        .spawn(move || {
-            let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| work(&theirs)));
-            // the receiver is gone when the call was interrupted: nothing to deliver
-            let _ = tx.send(out);
-        })
-        .map_err(|e| crate::errors::engine(format!("cannot start a worker thread: {e}")))?;
+    submit(Box::new(move |done: &dyn Fn()| {
+        let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| work(&theirs)));
+        done();
+        // the receiver is gone when the call was interrupted: nothing to deliver
+        let _ = tx.send(out);
+    }))?;
     let mut reported = usize::MAX;
     let mut rx = Some(rx);
     loop {
