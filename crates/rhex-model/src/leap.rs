@@ -1034,8 +1034,8 @@ impl LeapResult {
             contact_points_m: Vec::new(),
             contact_forces_n: Vec::new(),
         };
-        let mut data = selfmanip_core::Data::new(model);
-        let (mut tau, mut y) = (vec![0.0; 2], vec![0.0; 2 * nq]);
+        let mut ws = selfmanip_hybrid::flow::FlowWorkspace::new(model);
+        let mut y = vec![0.0; 2 * nq];
         let (t_begin, t_end) = (0.0, self.execution.t);
         let n = ((t_end - t_begin) / dt_s).floor() as usize;
         let times = (0..=n)
@@ -1054,22 +1054,11 @@ impl LeapResult {
             };
             seg.eval(t.min(seg.t1), &mut y);
             let (q, qd) = y.split_at(nq);
-            seg.controller.torque(t, q, qd, seg.mode, &mut tau);
-            let mut free = vec![0.0; 0];
-            data.prepare(model, &setup.terrain, seg.mode, q, qd)?;
-            free.resize(data.free_joints.len(), 0.0);
-            seg.controller
-                .free_joint_qdd(t, q, qd, &data.free_joints, &mut free);
-            selfmanip_core::forward_dynamics(
-                model,
-                &mut data,
-                &setup.terrain,
-                seg.mode,
-                q,
-                qd,
-                &tau,
-                Some(&free),
-            )?;
+            // the segment's flow as it ran: its controller, its joints locked for a passage
+            ws.data.locked.clone_from(&seg.locked);
+            ws.data.prepare(model, &setup.terrain, seg.mode, q, qd)?;
+            ws.solve_prepared(model, &*seg.controller, t, seg.mode, q, qd)?;
+            let data = &ws.data;
             let mut points = vec![None; model.n_contacts()];
             let mut forces = vec![None; model.n_contacts()];
             for (row, r) in seg.mode.rows().enumerate() {

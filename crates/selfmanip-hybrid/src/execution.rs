@@ -146,11 +146,14 @@ pub struct Execution {
 }
 
 impl Execution {
-    /// Kinetic energy lost in each impact (never negative for a correct reset).
+    /// Kinetic energy lost in each impulsive event: touchdowns and folds. Never negative for
+    /// a plastic impact (a touchdown, an impulsive stick); a fold passage's entry, the leg's
+    /// fast relaxation to its torque-free speed, may also gain energy from the joint torque
+    /// that drives it ([`crate::fold`]).
     pub fn impact_losses(&self) -> Vec<f64> {
         self.events
             .iter()
-            .filter(|e| e.kind == EventKind::Touchdown)
+            .filter(|e| matches!(e.kind, EventKind::Touchdown | EventKind::Fold))
             .map(|e| e.kinetic_before - e.kinetic_after)
             .collect()
     }

@@ -20,7 +20,8 @@
 //!   `2 asin ε_p / ω₀`); for `L ω₀² > g` the toe lifts off where `cos β = g / (L ω₀²)`.
 use selfmanip_core::{ContactKind, ContactMode, FlatGround, Model, RobotDescription};
 use selfmanip_hybrid::{
-    simulate, Controller, EventKind, Execution, HybridOptions, StepOptions, Termination,
+    energy_report, simulate, Controller, EventKind, Execution, HybridOptions, StepOptions,
+    Termination,
 };
 
 const M: f64 = 1.0;
@@ -160,6 +161,8 @@ fn constant_torque_leg_is_released_at_its_fold_to_the_energy_apex() {
         );
         // nothing pushes the body sideways
         assert!(exec.qd[1].abs() < 1e-9 && exec.q[1].abs() < 1e-9);
+        let report = energy_report(&model, &FlatGround, &exec).unwrap();
+        assert!(report.residual_j().abs() < 1e-7, "{report:?}");
     }
 }
 
@@ -253,6 +256,15 @@ fn leg_on_a_torque_speed_line_passes_its_fold_at_the_torque_free_speed() {
         .find(|s| s.t0 == entry.t)
         .expect("the passage's segment");
     assert_eq!(passage.locked, vec![0]);
+    // energy balances through the passage: the lock's work is that of the torque holding it,
+    // and the entry's jump (the leg's fast relaxation to ω₀, in which the motor works too)
+    // is booked with the impulsive events
+    let report = energy_report(&model, &FlatGround, &exec).unwrap();
+    assert!(
+        report.residual_j().abs() < 1e-7,
+        "energy residual {:e} ({report:?})",
+        report.residual_j()
+    );
 }
 
 /// A torque–speed line with `L ω₀² > g`: turning at `ω₀`, the leg lowers the hip faster than
