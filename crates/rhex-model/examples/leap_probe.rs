@@ -4,9 +4,11 @@
 //! cargo run --release -p rhex-model --example leap_probe -- "++,-+" -0.1,0,0.1 0.03
 //! ```
 //! Arguments: strategies (comma-separated), t2 values in seconds, δt of the pseudo-impulse.
-//! Set `EVENTS=1` to list every event, `PAIRS=front,rear` to choose the pushing pairs,
+//! Set `EVENTS=1` to list every event (and `SEGS=1` every segment with its steps), `PAIRS=front,rear` to choose the pushing pairs,
 //! `SATURATED=1` for chapter 3's saturated-torque legs instead of the geared motors, `GEAR` and
-//! `CURRENT` (A) to change the geared motor's ratio and current limit.
+//! `CURRENT` (A) to change the geared motor's ratio and current limit, `M_B` (kg) and `I_B`
+//! (kg m²) to change the body's mass and inertia, `LEDGE=height,distance` (m) for a ledge,
+//! `LANDINGS=1` to run past the apex to `t_final`.
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator};
 use rhex_model::params::LegPair;
 
@@ -42,9 +44,27 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 } else {
                     geared_from_env()?
                 },
+                terrain: match std::env::var("LEDGE").ok() {
+                    None => selfmanip_sim::terrain::TerrainSpec::Flat,
+                    Some(s) => {
+                        let v: Vec<f64> = s.split(',').map(str::parse).collect::<Result<_, _>>()?;
+                        selfmanip_sim::terrain::TerrainSpec::Ledge {
+                            height_m: v[0],
+                            distance_m: v[1],
+                        }
+                    }
+                },
+                stop_at_apex: std::env::var("LANDINGS").is_err(),
                 ..LeapConfig::default()
             };
-            let r = simulate_leap(&leap_params(), &cfg)?;
+            let mut params = leap_params();
+            if let Ok(v) = std::env::var("M_B") {
+                params.m_b = v.parse()?;
+            }
+            if let Ok(v) = std::env::var("I_B") {
+                params.I_b = v.parse()?;
+            }
+            let r = simulate_leap(&params, &cfg)?;
             print!(
                 "{strategy} t2={:+.3} s  {:<14} word {}",
                 cfg.t2_s,
@@ -61,6 +81,28 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             println!();
             if std::env::var("EVENTS").is_ok() {
+                println!(
+                    "    termination {:?}, {} steps, {} segments",
+                    r.execution.termination,
+                    r.execution.steps,
+                    r.execution.segments.len()
+                );
+                if std::env::var("SEGS").is_ok() {
+                    for sg in &r.execution.segments {
+                        println!(
+                            "      segment {:.6}..{:.6} {:<6} {:>6} steps{}",
+                            sg.t0,
+                            sg.t1,
+                            format!("{:b}", sg.mode.normal_bits()),
+                            sg.dense.len(),
+                            if sg.locked.is_empty() {
+                                ""
+                            } else {
+                                " (locked)"
+                            }
+                        );
+                    }
+                }
                 for e in &r.events {
                     println!(
                         "    t {:.5} s  {:<9} {} -> {}  {:?}  loss {:.3} J",

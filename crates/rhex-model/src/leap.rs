@@ -29,13 +29,14 @@ use motor::Actuator;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{ContactMode, Terrain};
 use selfmanip_hybrid::StepOptions;
-use selfmanip_hybrid::{simulate, Controller};
+use selfmanip_hybrid::{simulate_with, Controller};
 use selfmanip_hybrid::{Event, EventKind, Execution, HybridOptions, Termination};
 use selfmanip_sim::motion::JointMotion as LegMotion;
 use selfmanip_sim::terrain::TerrainSpec;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 use std::str::FromStr;
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 /// Direction a leg pushes in: `+` increases θ (forward lunge), `−` decreases it (flip).
@@ -226,6 +227,10 @@ pub struct LeapConfig {
     /// Zeno detection: more than `zeno_max_events` events within `zeno_window_s`.
     pub zeno_window_s: f64,
     pub zeno_max_events: usize,
+    /// Budget of accepted integration steps: a leap that needs more ends `step_budget`.
+    pub max_steps: usize,
+    /// Budget of events: a leap that makes more ends `event_budget`.
+    pub max_events: usize,
 }
 
 impl Default for LeapConfig {
@@ -248,9 +253,14 @@ impl Default for LeapConfig {
             rtol: 1e-8,
             zeno_window_s: 0.01,
             zeno_max_events: 40,
+            max_steps: selfmanip_hybrid::DEFAULT_MAX_STEPS,
+            max_events: DEFAULT_MAX_EVENTS,
         }
     }
 }
+
+/// A leap's default event budget (a leap makes a few tens of events).
+const DEFAULT_MAX_EVENTS: usize = 1_000;
 
 /// The parameters of the leaps of chapters 3 and 5: Table 4.2 (massless half-circle legs)
 /// with toe friction μ = 1.8 on the front and middle pairs and 2.5 on the rear (section
@@ -311,8 +321,13 @@ pub enum LeapStatus {
     /// once). Body ends and leg arcs rest, roll and slide on the edge.
     TerrainEdge,
     /// The contact set met a pose where it no longer determines the motion of a massless
-    /// leg (Lemma 5.1), e.g. a sliding half-circle leg passing upright.
+    /// leg (Lemma 5.1) and the fold guard could not resolve it (rare: such poses are
+    /// normally resolved as transitions, see `selfmanip_hybrid::fold`).
     SingularContact,
+    /// The run used up its budget of integration steps ([`LeapConfig::max_steps`]).
+    StepBudget,
+    /// The caller stopped the run ([`simulate_leap_with`]).
+    Interrupted,
 }
 
 impl LeapStatus {
@@ -326,6 +341,8 @@ impl LeapStatus {
             LeapStatus::SeveralContactSolutions => "several_contact_solutions",
             LeapStatus::TerrainEdge => "terrain_edge",
             LeapStatus::SingularContact => "singular_contact",
+            LeapStatus::StepBudget => "step_budget",
+            LeapStatus::Interrupted => "interrupted",
         }
     }
 }
@@ -360,7 +377,9 @@ impl LeapResult {
 pub struct LeapEvent {
     /// Time relative to the front leg's start (s).
     pub t_s: f64,
-    /// `touchdown`, `liftoff`, `slip`, `stick` or `apex`.
+    /// `touchdown`, `liftoff`, `slip`, `stick`, `fold` (a leg reached the pose where its
+    /// contact stops pinning it: an impulsive stick, a release, or the start of its passage
+    /// through that pose), `fold_passed` (the passage's end) or `apex`.
     pub kind: &'static str,
     pub mode_before: String,
     pub mode_after: String,
@@ -423,6 +442,15 @@ impl LeapConfig {
         ] {
             if v <= 0.0 {
                 return bad(field, format!("must be positive, got {v}"));
+            }
+        }
+        for (field, n) in [
+            ("max_steps", self.max_steps),
+            ("max_events", self.max_events),
+            ("zeno_max_events", self.zeno_max_events),
+        ] {
+            if n == 0 {
+                return bad(field, "must be at least 1".into());
             }
         }
         if self.delta_t_s < 0.0 {
@@ -849,6 +877,16 @@ const STOW_RAD: f64 = 2.6;
 /// prevent any answer; a leap that runs but does not reach flight, or ends Zeno, is an `Ok`
 /// result with the corresponding [`LeapStatus`].
 pub fn simulate_leap(params: &RhexParams, cfg: &LeapConfig) -> Result<LeapResult, RhexError> {
+    simulate_leap_with(params, cfg, &selfmanip_hybrid::budget::NEVER)
+}
+
+/// [`simulate_leap`] that another thread can stop: once `stop` is raised the leap ends
+/// within one integration step with status [`LeapStatus::Interrupted`].
+pub fn simulate_leap_with(
+    params: &RhexParams,
+    cfg: &LeapConfig,
+    stop: &AtomicBool,
+) -> Result<LeapResult, RhexError> {
     let setup = LeapSetup::new(params, cfg)?;
     let (rhex, terrain, ctrl, q0, start) = (
         &setup.rhex,
@@ -865,6 +903,8 @@ pub fn simulate_leap(params: &RhexParams, cfg: &LeapConfig) -> Result<LeapResult
         delta_t_s: cfg.delta_t_s,
         zeno_window_s: cfg.zeno_window_s,
         zeno_max_events: cfg.zeno_max_events,
+        max_steps: cfg.max_steps,
+        max_events: cfg.max_events,
         stop_at_apex: cfg.stop_at_apex,
         step: StepOptions {
             rtol: cfg.rtol,
@@ -874,7 +914,7 @@ pub fn simulate_leap(params: &RhexParams, cfg: &LeapConfig) -> Result<LeapResult
         ..HybridOptions::default()
     };
     let mode0 = rhex.mode("1010")?;
-    let exec = simulate(
+    let exec = simulate_with(
         model,
         &terrain,
         ctrl,
@@ -883,6 +923,7 @@ pub fn simulate_leap(params: &RhexParams, cfg: &LeapConfig) -> Result<LeapResult
         &qd0,
         cfg.t_final_s - offset,
         opts,
+        stop,
     )?;
     let flew = exec
         .segments
@@ -898,6 +939,8 @@ pub fn simulate_leap(params: &RhexParams, cfg: &LeapConfig) -> Result<LeapResult
         Termination::SeveralContactSolutions { .. } => LeapStatus::SeveralContactSolutions,
         Termination::TerrainDiscontinuity { .. } => LeapStatus::TerrainEdge,
         Termination::SingularFlow { .. } => LeapStatus::SingularContact,
+        Termination::StepBudget { .. } => LeapStatus::StepBudget,
+        Termination::Interrupted { .. } => LeapStatus::Interrupted,
     };
     let apex = match exec.termination {
         Termination::Apex => Some(Apex {
@@ -924,11 +967,13 @@ pub fn simulate_leap(params: &RhexParams, cfg: &LeapConfig) -> Result<LeapResult
                 EventKind::Slip => "slip",
                 EventKind::Stick => "stick",
                 EventKind::Apex => "apex",
+                EventKind::Fold => "fold",
+                EventKind::FoldPassed => "fold_passed",
             },
             mode_before: rhex.label(e.mode_before),
             mode_after: rhex.label(e.mode_after),
             contacts: names(&e.triggered),
-            energy_loss_j: if e.kind == EventKind::Touchdown {
+            energy_loss_j: if matches!(e.kind, EventKind::Touchdown | EventKind::Fold) {
                 e.kinetic_before - e.kinetic_after
             } else {
                 0.0
@@ -989,8 +1034,8 @@ impl LeapResult {
             contact_points_m: Vec::new(),
             contact_forces_n: Vec::new(),
         };
-        let mut data = selfmanip_core::Data::new(model);
-        let (mut tau, mut y) = (vec![0.0; 2], vec![0.0; 2 * nq]);
+        let mut ws = selfmanip_hybrid::flow::FlowWorkspace::new(model);
+        let mut y = vec![0.0; 2 * nq];
         let (t_begin, t_end) = (0.0, self.execution.t);
         let n = ((t_end - t_begin) / dt_s).floor() as usize;
         let times = (0..=n)
@@ -1009,22 +1054,11 @@ impl LeapResult {
             };
             seg.eval(t.min(seg.t1), &mut y);
             let (q, qd) = y.split_at(nq);
-            seg.controller.torque(t, q, qd, seg.mode, &mut tau);
-            let mut free = vec![0.0; 0];
-            data.prepare(model, &setup.terrain, seg.mode, q, qd)?;
-            free.resize(data.free_joints.len(), 0.0);
-            seg.controller
-                .free_joint_qdd(t, q, qd, &data.free_joints, &mut free);
-            selfmanip_core::forward_dynamics(
-                model,
-                &mut data,
-                &setup.terrain,
-                seg.mode,
-                q,
-                qd,
-                &tau,
-                Some(&free),
-            )?;
+            // the segment's flow as it ran: its controller, its joints locked for a passage
+            ws.data.locked.clone_from(&seg.locked);
+            ws.data.prepare(model, &setup.terrain, seg.mode, q, qd)?;
+            ws.solve_prepared(model, &*seg.controller, t, seg.mode, q, qd)?;
+            let data = &ws.data;
             let mut points = vec![None; model.n_contacts()];
             let mut forces = vec![None; model.n_contacts()];
             for (row, r) in seg.mode.rows().enumerate() {

@@ -20,11 +20,15 @@
 //! (current limit and motor count from the base actuator when it is a geared motor, else
 //! the defaults: 20 A, two motors per planar leg); `None` keeps the base actuator. The
 //! reported gear ratio is the one used, NaN for [`LegActuator::SaturatedTorque`].
-use crate::leap::{simulate_leap, LeapConfig, LeapResult, LegActuator, Strategy};
+use crate::leap::{
+    simulate_leap, simulate_leap_with, LeapConfig, LeapResult, LeapStatus, LegActuator, Strategy,
+};
 use crate::{RhexError, RhexParams};
+use selfmanip_hybrid::budget::NEVER;
 pub use selfmanip_sim::sweep::panic_message;
 use selfmanip_sim::sweep::run_parallel;
 use serde_json::{Map, Value};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// One leap of a sweep.
 #[derive(Debug, Clone, PartialEq)]
@@ -327,10 +331,24 @@ fn failed(status: &str, error: String, gear_ratio: f64) -> SweepRow {
 
 /// Runs one point and flattens the outcome; never panics and never fails.
 pub fn run_row(base_params: &RhexParams, base_cfg: &LeapConfig, point: &SweepPoint) -> SweepRow {
+    run_row_with(base_params, base_cfg, point, &NEVER)
+}
+
+/// [`run_row`] that another thread can stop ([`simulate_leap_with`]): a point not started
+/// before `stop` was raised is not run, its status `interrupted`.
+pub fn run_row_with(
+    base_params: &RhexParams,
+    base_cfg: &LeapConfig,
+    point: &SweepPoint,
+    stop: &AtomicBool,
+) -> SweepRow {
+    if stop.load(Ordering::Relaxed) {
+        return failed(LeapStatus::Interrupted.as_str(), String::new(), f64::NAN);
+    }
     let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         let (params, cfg) = point_inputs(base_params, base_cfg, point)?;
         let g = gear_of(&cfg);
-        simulate_leap(&params, &cfg).map(|r| (r, g))
+        simulate_leap_with(&params, &cfg, stop).map(|r| (r, g))
     }));
     match outcome {
         Err(p) => failed("panic", panic_message(p.as_ref()), f64::NAN),
@@ -373,7 +391,44 @@ pub fn sweep(
     points: &[SweepPoint],
     threads: usize,
 ) -> Result<Vec<SweepRow>, RhexError> {
+    sweep_with(base_params, base_cfg, points, threads, &NEVER)
+}
+
+/// [`sweep`] that another thread can stop: once `stop` is raised, running leaps end within
+/// one integration step and the points not yet started are not run; all of them get the
+/// status `interrupted` (the rows of finished points are kept). Every point is still a row,
+/// in input order.
+///
+/// How a caller stops it on Ctrl-C: run the sweep on a thread of its own and, on the
+/// calling thread, poll for the signal and raise the flag.
+///
+/// ```no_run
+/// use rhex_model::leap::{leap_params, LeapConfig, Strategy};
+/// use rhex_model::sweep::{grid, sweep_with};
+/// use std::sync::atomic::{AtomicBool, Ordering};
+/// let points = grid(&Strategy::ALL, &[0.0, 0.1], &[None]);
+/// let stop = AtomicBool::new(false);
+/// let rows = std::thread::scope(|s| {
+///     let job = s.spawn(|| sweep_with(&leap_params(), &LeapConfig::default(), &points, 2, &stop));
+///     while !job.is_finished() {
+///         std::thread::sleep(std::time::Duration::from_millis(50));
+///         let interrupted = false; // e.g. pyo3's `py.check_signals().is_err()`
+///         if interrupted {
+///             stop.store(true, Ordering::Relaxed);
+///         }
+///     }
+///     job.join().expect("the sweep thread does not panic")
+/// })?;
+/// # Ok::<(), rhex_model::RhexError>(())
+/// ```
+pub fn sweep_with(
+    base_params: &RhexParams,
+    base_cfg: &LeapConfig,
+    points: &[SweepPoint],
+    threads: usize,
+    stop: &AtomicBool,
+) -> Result<Vec<SweepRow>, RhexError> {
     Ok(run_parallel(points, threads, |p| {
-        run_row(base_params, base_cfg, p)
+        run_row_with(base_params, base_cfg, p, stop)
     })?)
 }

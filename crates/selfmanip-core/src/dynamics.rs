@@ -14,6 +14,12 @@
 //! carries no active contact has no dynamics (thesis 5.1.1, footnote 3): its motion is
 //! prescribed, not computed. Such joints are removed from the KKT system; their `q̈` is the
 //! prescribed acceleration (`free_joint_qdd`, default 0) and their torque does no work.
+//!
+//! **Locked massless joints.** A caller may also prescribe the motion of massless joints
+//! that *are* in contact ([`Data::locked`]; the hybrid engine does so while a leg passes the
+//! fold of its contact, where its contact cannot pin it). They are removed from the KKT
+//! system like free joints, but their constraint columns stay: their prescribed velocity and
+//! acceleration enter the constraint's right-hand side, `A_d q̈_d = −Ȧq̇ − A_ℓ q̈_ℓ`.
 use crate::constraint::Constraints;
 use crate::contact::{ContactMode, Terrain};
 use crate::error::{check_vector, Result};
@@ -37,8 +43,11 @@ pub struct Data {
     pub kkt: KktFactorization,
     /// Coordinates kept in the KKT system, ascending.
     pub dynamic_coords: Vec<usize>,
-    /// Joints removed as free massless joints, ascending.
+    /// Joints removed as free massless joints, ascending (with the [`Self::locked`] ones).
     pub free_joints: Vec<usize>,
+    /// Massless joints in contact whose motion is prescribed, not solved for (set by the
+    /// caller before [`Data::prepare`]; joints not in contact in the mode are free anyway).
+    pub locked: Vec<usize>,
     /// Outputs: `q̈` (q) and `λ` (c), in the row order of `constraints.rows`.
     pub qdd: DVector<f64>,
     pub lambda: DVector<f64>,
@@ -111,6 +120,19 @@ impl Data {
             .assemble(model, &self.kin, terrain, mode, qd);
         // => which joints are free and massless
         free_massless_joints(model, mode, &mut self.free_joints, &mut self.dynamic_coords);
+        // => locked joints prescribed as well
+        for &j in &self.locked {
+            if let Some(p) = self.dynamic_coords.iter().position(|&d| d == j) {
+                if !model.distal_massless(j) {
+                    return Err(crate::CoreError::InvalidMode {
+                        reason: format!("joint {j} moves a massive link: it cannot be locked"),
+                    });
+                }
+                self.dynamic_coords.remove(p);
+                let at = self.free_joints.partition_point(|&f| f < j);
+                self.free_joints.insert(at, j);
+            }
+        }
         // => factor [M̄ Aᵀ; A 0] on the dynamic coordinates
         self.kkt
             .factor_on(&self.m_bar, &self.constraints.a, &self.dynamic_coords)
@@ -122,7 +144,9 @@ impl Data {
     ///
     /// A free joint's column of `M̄` and of `A` is zero by construction (nothing massive and
     /// no active contact lies distal to it), so its prescribed acceleration moves nothing
-    /// else and the kept system is just `f`, `g` on the dynamic coordinates.
+    /// else and the kept system is just `f`, `g` on the dynamic coordinates. A locked joint's
+    /// column of `M̄` is zero too (it is massless), but its column of `A` is not: its
+    /// prescribed `x` enters `g`.
     fn solve_prepared(
         &mut self,
         f: impl Fn(&Self, usize) -> f64,
@@ -136,7 +160,8 @@ impl Data {
         let c = self.constraints.n_rows();
         debug_assert!(self.free_joints.iter().all(|&j| {
             self.m_bar.column(j).iter().all(|&v| v == 0.0)
-                && self.constraints.a.column(j).iter().all(|&v| v == 0.0)
+                && (self.locked.contains(&j)
+                    || self.constraints.a.column(j).iter().all(|&v| v == 0.0))
         }));
         self.f_r.resize(m, 0.0);
         self.g_r.resize(c, 0.0);
@@ -154,6 +179,16 @@ impl Data {
         for r in 0..c {
             let gr = g(self, r);
             self.g_r[r] = gr;
+        }
+        if let (false, Some(xf)) = (self.locked.is_empty(), x_free) {
+            let a = &self.constraints.a;
+            for (i, &j) in self.free_joints.iter().enumerate() {
+                if self.locked.contains(&j) {
+                    for r in 0..c {
+                        self.g_r[r] -= a[(r, j)] * xf[i];
+                    }
+                }
+            }
         }
         self.kkt
             .solve(&self.f_r, &self.g_r, &mut self.x_r, y.as_mut_slice());

@@ -39,4 +39,6 @@ pub use dynamics::{
 pub use error::{CoreError, Result, SingularityKind};
 pub use kkt::{KktBlocks, KktFactorization, KktInfo};
 pub use model::Model;
-pub use poses::{contact_points, forward_kinematics, point_jacobian, ContactPoint, PartState, Poses};
+pub use poses::{
+    contact_points, forward_kinematics, point_jacobian, ContactPoint, PartState, Poses,
+};

@@ -4,6 +4,7 @@
 //! down. Evaluated on the [`ResetWorkspace`], the resets' own copy of the core's workspace.
 use crate::controller::Controller;
 use crate::flow::FlowWorkspace;
+use crate::fold;
 use selfmanip_core::contact::{ContactKind, RowDirection};
 use selfmanip_core::model::Friction;
 use selfmanip_core::{ContactMode, CoreError, Model, SingularityKind, Terrain};
@@ -21,6 +22,11 @@ pub struct ResetWorkspace<'a> {
     /// δt of (5.39) (s); 0: no pseudo-impulse.
     pub delta_t_s: f64,
     pub ws: &'a mut FlowWorkspace,
+    /// Contacts that may not take a kind at this reset: a contact at its fold may not keep
+    /// the kind whose mode is singular there ([`crate::fold`]).
+    pub barred: &'a [(usize, ContactKind)],
+    /// The pin `ε` within which a mode counts as singular ([`crate::fold`]).
+    pub fold_threshold: f64,
 }
 
 impl ResetWorkspace<'_> {
@@ -29,7 +35,9 @@ impl ResetWorkspace<'_> {
     /// contact whose tangential row is redundant (two sticking corners on a plane) slides
     /// instead, as the thesis does for the rocking block (footnote 8 of section 5.1.4).
     /// Leaves `ws.data` prepared at the mode; `None` if its KKT matrix is singular otherwise
-    /// (Lemma 5.1).
+    /// (Lemma 5.1) — or within the fold threshold of it: a contact whose pin is at most
+    /// `ε` ([`crate::fold`]) — or if the set would need a contact in a kind
+    /// [`Self::barred`] bars.
     pub fn mode_for(
         &mut self,
         set: &[usize],
@@ -51,7 +59,11 @@ impl ResetWorkspace<'_> {
             }
         }
         for m in candidates {
+            if self.barred.iter().any(|&(k, kind)| m.kind(k) == Some(kind)) {
+                continue;
+            }
             match self.ws.data.prepare(self.model, self.terrain, m, q, qd) {
+                Ok(()) if self.within_fold(m) => return Ok(None),
                 Ok(()) => return Ok(Some(m)),
                 Err(CoreError::SingularKkt {
                     kind: SingularityKind::RedundantConstraints,
@@ -62,6 +74,18 @@ impl ResetWorkspace<'_> {
             }
         }
         Ok(None)
+    }
+
+    /// Whether a contact of `mode` (prepared in `ws.data`) is within the fold threshold of
+    /// its fold: the mode counts as singular there, as at the fold itself.
+    fn within_fold(&self, mode: ContactMode) -> bool {
+        let locked = &self.ws.data.locked;
+        mode.active().any(|k| {
+            // a chain passing its fold (locked) is within it by design
+            !fold::massless_chain(self.model, k).any(|j| locked.contains(&j))
+                && fold::pin(self.model, &self.ws.data.kin, self.terrain, mode, k)
+                    .is_some_and(|p| p <= self.fold_threshold)
+        })
     }
 
     /// The first sticking contact with finite `μ` whose row vector `v` (force or impulse)

@@ -13,9 +13,10 @@ use selfmanip_core::{kinetic_energy, ContactMode, CoreError, Data, Model, Terrai
 pub struct EnergyReport {
     pub initial_j: f64,
     pub final_j: f64,
-    /// `∫ τ·θ̇ dt` over the joints in the dynamics (free massless joints carry no load).
+    /// `∫ τ·θ̇ dt` over the joints in the dynamics (free massless joints carry no load; a
+    /// joint locked for a fold passage does the work of the torque that holds it).
     pub joint_work_j: f64,
-    /// `Σ (T⁻ − T⁺)` over the touchdown events.
+    /// `Σ (T⁻ − T⁺)` over the impulsive events (touchdowns and folds).
     pub impact_loss_j: f64,
 }
 
@@ -66,6 +67,7 @@ pub fn energy_report(
     let mut joint_work_j = 0.0;
     for seg in &exec.segments {
         flow.set_controller(seg.controller.clone());
+        flow.set_lock(&seg.locked);
         for step in seg.dense.steps() {
             let (a, b) = (step.t0, step.t1().min(seg.t1));
             if b <= a {
@@ -78,8 +80,16 @@ pub fn energy_report(
                 flow.eval(t, seg.mode, q, qd)?;
                 let (data, tau) = flow.last();
                 let power: f64 = (0..model.n_joints())
-                    .filter(|j| !data.free_joints.contains(j))
-                    .map(|j| tau[j] * qd[j])
+                    .map(
+                        |j| match (data.free_joints.contains(&j), data.locked.contains(&j)) {
+                            // locked for a fold passage: held by the torque that balances its
+                            // contact, (Aᵀλ)_j (its row of (5.3), M̄_j = 0)
+                            (true, true) => data.constraints.a.column(j).dot(&data.lambda) * qd[j],
+                            // free: carries no load
+                            (true, false) => 0.0,
+                            _ => tau[j] * qd[j],
+                        },
+                    )
                     .sum();
                 joint_work_j += w * (b - a) * power;
             }

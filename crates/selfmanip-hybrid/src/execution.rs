@@ -18,6 +18,12 @@ pub enum EventKind {
     Slip,
     /// Sliding contacts reached zero sliding velocity (and stuck, if `mode_after` says so).
     Stick,
+    /// A contact's massless chain reached its fold (Lemma 5.1, [`crate::fold`]): the contact
+    /// stuck impulsively or was released, as `mode_after` says, or (mode unchanged) it
+    /// passes the fold sliding, its joint locked at the speed where its torque vanishes.
+    Fold,
+    /// A fold passage ended on the far side of the fold: the joint is unlocked.
+    FoldPassed,
 }
 
 /// One reset of the execution.
@@ -53,6 +59,9 @@ pub struct Segment {
     pub y0: Vec<f64>,
     /// The controller as it ran in this segment (its memory of the events before it).
     pub controller: Arc<dyn Controller>,
+    /// Massless joints locked at their speed in this segment: a leg passing the fold of its
+    /// sliding contact ([`crate::fold`]); empty otherwise.
+    pub locked: Vec<usize>,
     /// The accepted steps' continuous extensions (the last may reach past `t1`: the
     /// segment ends inside it, where its event was located).
     pub dense: DenseOutput,
@@ -79,7 +88,18 @@ pub enum Termination {
         t: f64,
         events_in_window: usize,
     },
+    /// The run made [`crate::HybridOptions::max_events`] events.
     EventBudget,
+    /// The run took [`crate::HybridOptions::max_steps`] accepted steps (`steps`), ending at
+    /// `t`: a flow that crawls (step sizes collapsing) cannot hold a caller for long.
+    StepBudget {
+        t: f64,
+        steps: usize,
+    },
+    /// The caller raised the stop flag ([`crate::simulate_with`]); the run ended at `t`.
+    Interrupted {
+        t: f64,
+    },
     /// No contact set satisfies complementarity.
     NoContactSolution {
         t: f64,
@@ -120,14 +140,20 @@ pub struct Execution {
     pub q: Vec<f64>,
     pub qd: Vec<f64>,
     pub mode: ContactMode,
+    /// Accepted integration steps of the run (what [`crate::HybridOptions::max_steps`]
+    /// bounds).
+    pub steps: usize,
 }
 
 impl Execution {
-    /// Kinetic energy lost in each impact (never negative for a correct reset).
+    /// Kinetic energy lost in each impulsive event: touchdowns and folds. Never negative for
+    /// a plastic impact (a touchdown, an impulsive stick); a fold passage's entry, the leg's
+    /// fast relaxation to its torque-free speed, may also gain energy from the joint torque
+    /// that drives it ([`crate::fold`]).
     pub fn impact_losses(&self) -> Vec<f64> {
         self.events
             .iter()
-            .filter(|e| e.kind == EventKind::Touchdown)
+            .filter(|e| matches!(e.kind, EventKind::Touchdown | EventKind::Fold))
             .map(|e| e.kinetic_before - e.kinetic_after)
             .collect()
     }

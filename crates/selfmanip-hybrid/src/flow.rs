@@ -8,9 +8,15 @@
 //! [`Flow`] owns the workspace its results live in and caches the last evaluation: the
 //! integrator's stages and the guards ask for the flow at the same states (the last stage of
 //! a step is its end point, where the guards are sampled; several force guards share one
-//! sample). The cache is keyed by `(t, mode, q, q̇)` and by the controller's *generation*,
-//! which advances whenever the controller is replaced ([`Flow::set_controller`]) or told of
-//! an event ([`Flow::notify`]) — the only ways an answer at the same state can change.
+//! sample). The cache is keyed by `(t, mode, q, q̇)` and by the *generation*, which advances
+//! whenever the controller is replaced ([`Flow::set_controller`]) or told of an event
+//! ([`Flow::notify`]), or the joints locked for a fold passage change ([`Flow::set_lock`]) —
+//! the only ways an answer at the same state can change.
+//!
+//! **Locked joints.** While a massless leg passes the fold of its sliding contact
+//! ([`crate::fold`]) its joint turns at a constant speed (the speed at which its torque
+//! vanishes): the flow prescribes `q̈ = 0` for it, and the core keeps its constraint column
+//! ([`selfmanip_core::Data::locked`]).
 //! Nothing else writes the workspace: the resets work on one of their own
 //! ([`crate::contact_set::ResetWorkspace`]), so no reset can leave the cache stale.
 use crate::controller::Controller;
@@ -26,7 +32,7 @@ pub struct Flow<'a> {
     terrain: &'a dyn Terrain,
     ctrl: Arc<dyn Controller>,
     ws: FlowWorkspace,
-    /// How many events the controller has been told of.
+    /// Changes of the controller and of the lock so far.
     generation: u64,
     /// `(t, mode, generation)` of the flow that `data` holds, at the state `y`.
     key: Option<(f64, ContactMode, u64)>,
@@ -68,6 +74,21 @@ impl<'a> Flow<'a> {
     pub fn set_controller(&mut self, ctrl: Arc<dyn Controller>) {
         self.ctrl = ctrl;
         self.generation += 1;
+    }
+
+    /// Evaluates the flow with the massless joints `joints` locked at their speed (a fold
+    /// passage; empty: none) from here on.
+    pub fn set_lock(&mut self, joints: &[usize]) {
+        if self.ws.data.locked != joints {
+            self.ws.data.locked.clear();
+            self.ws.data.locked.extend_from_slice(joints);
+            self.generation += 1;
+        }
+    }
+
+    /// The joints locked at their speed ([`Self::set_lock`]).
+    pub fn lock(&self) -> &[usize] {
+        &self.ws.data.locked
     }
 
     /// The workspace and the joint torques `Υ` of the last evaluation.
@@ -179,7 +200,8 @@ impl FlowWorkspace {
     /// The flow (5.48) of `mode` at `(t, q, q̇)`, `data` prepared there: the controller's
     /// torques `Υ` into `tau` and its free-joint accelerations into `free`, then (5.3)–(5.4)
     /// into `data.qdd`, `data.lambda`. Shared by [`Flow`] and by the resets, which need the
-    /// forces of candidate modes (5.19)–(5.20) on a workspace of their own.
+    /// forces of candidate modes (5.19)–(5.20) on a workspace of their own. Joints locked in
+    /// `data` ([`selfmanip_core::Data::locked`]) get `q̈ = 0`.
     pub fn solve_prepared(
         &mut self,
         model: &Model,
@@ -195,6 +217,14 @@ impl FlowWorkspace {
         ctrl.torque(t, q, qd, mode, &mut self.tau);
         self.free.resize(self.data.free_joints.len(), 0.0);
         ctrl.free_joint_qdd(t, q, qd, &self.data.free_joints, &mut self.free);
+        // locked joints turn at constant speed
+        if !self.data.locked.is_empty() {
+            for (x, j) in self.free.iter_mut().zip(&self.data.free_joints) {
+                if self.data.locked.contains(j) {
+                    *x = 0.0;
+                }
+            }
+        }
         // (Υ − C̄q̇ − N̄, −Ȧq̇) => (q̈, λ)
         forward_dynamics_prepared(model, &mut self.data, &self.tau, Some(&self.free))
     }

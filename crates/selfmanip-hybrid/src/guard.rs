@@ -11,6 +11,9 @@
 //! - **apex** (terminal, optional, in flight): the upward body speed $-\dot z$;
 //! - **stick→slip** of a sticking contact with finite Coulomb $\mu$ (section 5.1.5): the cone
 //!   margin $\mu U(\lambda_n) - |\lambda_t|$;
+//! - **fold** of an active contact that pins a massless chain with a square block of rows
+//!   (Lemma 5.1; [`crate::fold`]): its pin $\pi_k(q) - \varepsilon$, positive then
+//!   non-positive — the flow stops before the pose where the contact stops pinning the chain;
 //! - **slip→stick** of a sliding contact that can stick: its tangential sliding velocity
 //!   $v_t$, which must cross zero *against* its sign — positive then non-positive for a
 //!   contact sliding forward, negative then non-negative for one sliding backward (Drake's
@@ -34,6 +37,7 @@
 //! cheap (kinematic) guard crosses, so that none of them can cross unseen before the
 //! earliest event; the kinematic guards at every sample.
 use crate::flow::Flow;
+use crate::fold;
 use crate::integrate::DenseStep;
 use crate::options::HybridOptions;
 use selfmanip_core::contact::contact_geometry;
@@ -60,6 +64,11 @@ pub enum Guard {
     },
     /// Tangential sliding velocity of a sliding contact that can stick.
     Stick(usize),
+    /// Pin `π_k − ε` of an active contact's massless chain ([`crate::fold`]).
+    Fold { contact: usize, threshold: f64 },
+    /// `ε − π_k` of a contact whose chain is passing its fold, locked
+    /// ([`crate::fold`]): it fires once the chain is `ε` past the fold.
+    FoldPassed { contact: usize, threshold: f64 },
 }
 
 impl Guard {
@@ -92,12 +101,29 @@ impl Guard {
                 mu * (-lambda[n_row]) - lambda[t_row].abs()
             }
             Guard::Stick(k) => sliding_velocity(model, flow.kinematics(q, qd), terrain, k),
+            Guard::Fold { contact, threshold } => {
+                fold::pin(model, flow.kinematics(q, qd), terrain, mode, contact)
+                    .expect("a fold guard's contact has a fold")
+                    - threshold
+            }
+            Guard::FoldPassed { contact, threshold } => {
+                threshold
+                    - fold::pin(model, flow.kinematics(q, qd), terrain, mode, contact)
+                        .expect("a fold guard's contact has a fold")
+            }
         })
     }
 
     /// The guards of `mode`, in a fixed order: touchdowns by contact, then per active
-    /// contact its liftoff and its stick→slip or slip→stick guard, then the apex.
-    pub fn of_mode(model: &Model, mode: ContactMode, stop_at_apex: bool, out: &mut Vec<Guard>) {
+    /// contact its liftoff, its stick→slip or slip→stick guard and its fold (its passage's
+    /// end when its chain is in `locked`), then the apex.
+    pub fn of_mode(
+        model: &Model,
+        mode: ContactMode,
+        locked: &[usize],
+        opts: &HybridOptions,
+        out: &mut Vec<Guard>,
+    ) {
         out.clear();
         out.extend(
             (0..model.n_contacts())
@@ -110,21 +136,36 @@ impl Guard {
             }
             let k = r.contact;
             out.push(Guard::Liftoff { contact: k, row });
-            let Friction::Sticking { mu } = model.contacts[k].friction else {
-                continue;
-            };
-            match mode.kind(k) {
-                Some(ContactKind::Stick) if mu.is_finite() => out.push(Guard::Slip {
-                    contact: k,
-                    t_row: row - 1,
-                    n_row: row,
-                    mu,
-                }),
-                Some(ContactKind::Slide) => out.push(Guard::Stick(k)),
-                _ => {}
+            if let Friction::Sticking { mu } = model.contacts[k].friction {
+                match mode.kind(k) {
+                    Some(ContactKind::Stick) if mu.is_finite() => out.push(Guard::Slip {
+                        contact: k,
+                        t_row: row - 1,
+                        n_row: row,
+                        mu,
+                    }),
+                    Some(ContactKind::Slide) => out.push(Guard::Stick(k)),
+                    _ => {}
+                }
+            }
+            if fold::has_fold(model, mode, k) {
+                // the passage threshold is set when the guard is armed (fold::guard_threshold)
+                let contact = k;
+                let passing = fold::massless_chain(model, k).any(|j| locked.contains(&j));
+                out.push(if passing {
+                    Guard::FoldPassed {
+                        contact,
+                        threshold: opts.passage_threshold,
+                    }
+                } else {
+                    Guard::Fold {
+                        contact,
+                        threshold: opts.fold_threshold,
+                    }
+                });
             }
         }
-        if stop_at_apex && mode.is_flight() {
+        if opts.stop_at_apex && mode.is_flight() {
             out.push(Guard::Apex);
         }
     }
@@ -305,6 +346,8 @@ pub struct GuardSet {
     /// Raw values at each sample, `SAMPLES.len()` rows of one entry per guard.
     raw: Vec<f64>,
     crossings: Vec<Crossing>,
+    /// Scratch torques for the fold thresholds.
+    scratch_tau: Vec<f64>,
 }
 
 impl GuardSet {
@@ -319,7 +362,23 @@ impl GuardSet {
         from_rest: &[usize],
         opts: &HybridOptions,
     ) -> Result<(), CoreError> {
-        Guard::of_mode(flow.model(), mode, opts.stop_at_apex, &mut self.guards);
+        Guard::of_mode(flow.model(), mode, flow.lock(), opts, &mut self.guards);
+        // a leg whose torque falls with speed meets its fold at the passage threshold
+        let (q, qd) = y.split_at(flow.model().nq());
+        self.scratch_tau.resize(flow.model().n_joints(), 0.0);
+        for g in &mut self.guards {
+            if let Guard::Fold { contact, threshold } = g {
+                *threshold = fold::guard_threshold(
+                    flow.model(),
+                    &**flow.controller(),
+                    (t, q, qd),
+                    mode,
+                    *contact,
+                    opts,
+                    &mut self.scratch_tau,
+                );
+            }
+        }
         self.states.clear();
         for &g in &self.guards {
             let raw = g.value(flow, t, mode, y)?;

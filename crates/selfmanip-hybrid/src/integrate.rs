@@ -229,6 +229,9 @@ pub struct Dopri5 {
     counted: f64,
     /// Size and error norm (at least 1e-2) of the last accepted step since the last reset.
     last_accepted: Option<(f64, f64)>,
+    /// Size of the last trial step (0 before the first trial of a step: a failure of the
+    /// right-hand side at the step's start, which no smaller step avoids).
+    trial_h: f64,
 }
 
 impl Dopri5 {
@@ -243,6 +246,7 @@ impl Dopri5 {
             weights: vec![1.0; n],
             counted: n.max(1) as f64,
             last_accepted: None,
+            trial_h: 0.0,
         }
     }
 
@@ -259,6 +263,19 @@ impl Dopri5 {
             self.weights.copy_from_slice(weights);
             self.counted = self.weights.iter().sum::<f64>().max(1.0);
         }
+    }
+
+    /// After a step failed in its right-hand side at a trial stage (`Err(Rhs)`): the next
+    /// step tries `factor` times the failed trial's size, keeping the stored derivative at
+    /// the start. `false` (nothing changed) when the failure was at the start itself or the
+    /// smaller step would fall below `h_min`.
+    pub fn retry_smaller(&mut self, factor: f64) -> bool {
+        let h = self.trial_h * factor;
+        if self.trial_h == 0.0 || h < self.opts.h_min_s {
+            return false;
+        }
+        self.h = h;
+        true
     }
 
     /// Forgets the stored derivative (call after the state jumps); the next step tries
@@ -282,6 +299,7 @@ impl Dopri5 {
         dense: &mut DenseStep,
     ) -> Result<(), StepError<E>> {
         let n = y.len();
+        self.trial_h = 0.0;
         if !self.fsal_valid {
             f(t, y, &mut self.k[0]).map_err(StepError::Rhs)?;
             self.fsal_valid = true;
@@ -292,6 +310,7 @@ impl Dopri5 {
             if h < self.opts.h_min_s && t_end - t > self.opts.h_min_s {
                 return Err(StepError::StepTooSmall(h));
             }
+            self.trial_h = h;
             for s in 1..7 {
                 for i in 0..n {
                     let mut acc = 0.0;

@@ -8,7 +8,8 @@
 //! | [`integrate`] | Dormand–Prince 5(4) with dense output |
 //! | [`controller`] | joint torques `Υ` and the motion of free massless joints |
 //! | [`flow`] | the flow (5.48) of a mode, `(t, q, q̇) ⇒ (q̈, λ)`, with its cache |
-//! | [`guard`] | touchdown, liftoff, stick↔slip and apex guards (5.49)–(5.51): arming and sampling |
+//! | [`guard`] | touchdown, liftoff, stick↔slip, fold and apex guards (5.49)–(5.51): arming and sampling |
+//! | [`fold`] | Lemma 5.1 singularities as transitions: the pin of a massless chain, its fold guard and its reset's rules |
 //! | [`locate`] | regula falsi and bisection on the dense output, to `event_tol_s` |
 //! | [`features`] | the terrain feature under each active contact, and passing onto the next |
 //! | [`contact_set`] | the mode a candidate contact set takes, the friction cone, the massless-link tie-break |
@@ -16,6 +17,7 @@
 //! | [`complementarity`] | enumeration (5.28)–(5.29), (5.19)–(5.20), and the QP ([`impact_qp`]) beyond it |
 //! | [`reset`] | the reset at an event: from fired guards to the next mode and `q̇⁺` |
 //! | [`zeno`] | one windowed counter of events and feature passages |
+//! | [`budget`] | bounded work per run: step and event budgets, the stop flag |
 //! | [`segment`] | one segment: steps, terrain features, guards, until an event |
 //! | [`simulate`](mod@simulate) | the loop: flow ⇒ guards ⇒ locate ⇒ reset ⇒ zeno |
 //! | [`energy`] | the energy balance of an execution |
@@ -26,6 +28,7 @@
 //! Joint torques may come from actuator models (saturated torque, current-limited geared
 //! DC motor) through [`actuated`].
 pub mod actuated;
+pub mod budget;
 pub mod complementarity;
 pub mod contact_set;
 pub mod controller;
@@ -34,6 +37,7 @@ pub mod error;
 pub mod execution;
 pub mod features;
 pub mod flow;
+pub mod fold;
 pub mod guard;
 pub mod impact;
 pub mod impact_qp;
@@ -53,4 +57,5 @@ pub use error::HybridError;
 pub use execution::{Event, EventKind, Execution, Segment, Termination};
 pub use integrate::StepOptions;
 pub use options::HybridOptions;
-pub use simulate::simulate;
+pub use options::DEFAULT_MAX_STEPS;
+pub use simulate::{simulate, simulate_with};

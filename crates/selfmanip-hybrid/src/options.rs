@@ -1,6 +1,12 @@
 //! The options of an execution, checked once before it starts.
 use crate::error::HybridError;
+use crate::fold::{DEFAULT_FOLD_THRESHOLD, DEFAULT_PASSAGE_THRESHOLD};
 use crate::integrate::StepOptions;
+
+/// The default step budget of a run: a leap takes a few hundred accepted steps, a
+/// thousand-step run of the robots in this repository is rare; this bounds a run that
+/// crawls to a few tens of milliseconds and a few megabytes of dense output.
+pub const DEFAULT_MAX_STEPS: usize = 20_000;
 
 /// Options of an execution.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -13,12 +19,23 @@ pub struct HybridOptions {
     /// Zeno detection: more than `zeno_max_events` events within `zeno_window_s` stops the run.
     pub zeno_window_s: f64,
     pub zeno_max_events: usize,
-    /// Total event budget.
+    /// Total event budget: the run ends with [`crate::Termination::EventBudget`] at this
+    /// many events.
     pub max_events: usize,
+    /// Total budget of accepted integration steps: the run ends with
+    /// [`crate::Termination::StepBudget`] at this many (see [`crate::budget`]).
+    pub max_steps: usize,
     /// Stop at the first apex of a flight phase.
     pub stop_at_apex: bool,
     /// A guard arms once it exceeds this margin (m for heights, N for forces).
     pub arm_margin: f64,
+    /// The pin `ε` at which a contact's massless chain meets its fold guard, before the
+    /// Lemma 5.1 singularity ([`crate::fold`]); in (0, 1).
+    pub fold_threshold: f64,
+    /// The pin at which a sliding leg whose torque falls with speed meets its fold guard and
+    /// at which its passage through the fold ends ([`crate::fold`]); in
+    /// [`Self::fold_threshold`], 1).
+    pub passage_threshold: f64,
 }
 
 impl Default for HybridOptions {
@@ -30,8 +47,11 @@ impl Default for HybridOptions {
             zeno_window_s: 0.01,
             zeno_max_events: 50,
             max_events: 10_000,
+            max_steps: DEFAULT_MAX_STEPS,
             stop_at_apex: false,
             arm_margin: 1e-9,
+            fold_threshold: DEFAULT_FOLD_THRESHOLD,
+            passage_threshold: DEFAULT_PASSAGE_THRESHOLD,
         }
     }
 }
@@ -49,6 +69,32 @@ impl HybridOptions {
             return Err(HybridError::InvalidOption {
                 field: "delta_t_s",
                 reason: "must be finite and non-negative".into(),
+            });
+        }
+        for (field, n) in [
+            ("max_steps", self.max_steps),
+            ("max_events", self.max_events),
+        ] {
+            if n == 0 {
+                return Err(HybridError::InvalidOption {
+                    field,
+                    reason: "must be at least 1".into(),
+                });
+            }
+        }
+        if !(self.fold_threshold > 0.0 && self.fold_threshold < 1.0) {
+            return Err(HybridError::InvalidOption {
+                field: "fold_threshold",
+                reason: format!("must lie in (0, 1), got {}", self.fold_threshold),
+            });
+        }
+        if !(self.passage_threshold >= self.fold_threshold && self.passage_threshold < 1.0) {
+            return Err(HybridError::InvalidOption {
+                field: "passage_threshold",
+                reason: format!(
+                    "must lie in [fold_threshold, 1), got {}",
+                    self.passage_threshold
+                ),
             });
         }
         if !t_final.is_finite() {

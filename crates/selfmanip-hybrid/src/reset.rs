@@ -5,6 +5,9 @@
 //! fired guards      => touched, released, slipped, stuck contacts
 //! touched           => a plastic impact: complementarity on impulses (5.28)–(5.29), (5.40)
 //!                      => q̇⁺ (5.52) => the kept contacts must also hold in force (5.19)–(5.20)
+//! folded            => the same impact problem, each folded contact barred from the kind
+//!                      that is singular at its fold: a sliding one offered the stick (an
+//!                      impulsive stick), else released ([`crate::fold`])
 //! otherwise         => complementarity on forces (5.19)–(5.20), no velocity jump
 //! ```
 //!
@@ -18,16 +21,23 @@ use crate::error::HybridError;
 use crate::execution::{Event, EventKind, Termination};
 use crate::features::TERRAIN_STEP_M;
 use crate::flow::{Flow, FlowWorkspace};
+use crate::fold;
 use crate::guard::Guard;
+use crate::options::HybridOptions;
 use selfmanip_core::contact::ContactKind;
 use selfmanip_core::{plastic_impact, ContactMode};
 
 /// What a reset leads to.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Reset {
-    /// The run goes on in `event.mode_after` from `event.qd_after`; `from_rest` are the
-    /// sliding contacts whose sliding velocity starts from zero (up to drift).
-    Continue { event: Event, from_rest: Vec<usize> },
+    /// The run goes on in `event.mode_after` from `event.qd_after`, with the joints `lock`
+    /// locked for a fold passage ([`crate::fold`]); `from_rest` are the sliding contacts whose
+    /// sliding velocity starts from zero (up to drift).
+    Continue {
+        event: Event,
+        from_rest: Vec<usize>,
+        lock: Vec<usize>,
+    },
     /// The run ends here, with the event that ended it (the apex) if any.
     End {
         event: Option<Event>,
@@ -36,11 +46,11 @@ pub enum Reset {
 }
 
 /// The reset of the guards `fired` at `(t, y = [q; q̇])` in `mode` of `flow`, evaluated on
-/// the workspace `ws`, with the pseudo-impulse duration `delta_t_s`.
+/// the workspace `ws`, with the pseudo-impulse duration and the fold threshold of `opts`.
 pub fn reset(
     ws: &mut FlowWorkspace,
     flow: &mut Flow,
-    delta_t_s: f64,
+    opts: &HybridOptions,
     fired: &[Guard],
     mode: ContactMode,
     (t, y): (f64, &[f64]),
@@ -85,6 +95,41 @@ pub fn reset(
         Guard::Stick(k) => Some(*k),
         _ => None,
     });
+    let folded = fired_contacts(|g| match g {
+        Guard::Fold { contact, .. } => Some(*contact),
+        _ => None,
+    });
+    let passed = fired_contacts(|g| match g {
+        Guard::FoldPassed { contact, .. } => Some(*contact),
+        _ => None,
+    });
+    // a chain that is ε past its fold is unlocked
+    let mut lock = flow.lock().to_vec();
+    lock.retain(|j| {
+        !passed
+            .iter()
+            .any(|&k| fold::massless_chain(model, k).contains(j))
+    });
+    let unchanged = |kind, triggered: Vec<usize>, qd_after: &[f64]| Event {
+        t,
+        kind,
+        mode_before: mode,
+        mode_after: mode,
+        triggered,
+        impulse: vec![],
+        pseudo_impulse: vec![],
+        kinetic_before: f64::NAN,
+        kinetic_after: f64::NAN,
+        q: q.to_vec(),
+        qd_after: qd_after.to_vec(),
+    };
+    if passed.len() == fired.len() {
+        return Ok(Reset::Continue {
+            event: unchanged(EventKind::FoldPassed, passed, qd),
+            from_rest: vec![],
+            lock,
+        });
+    }
     let end = |termination| {
         Ok(Reset::End {
             event: None,
@@ -102,18 +147,65 @@ pub fn reset(
             });
         }
     }
+    // where each folded contact is judged: its pin
+    let pins: Vec<f64> = {
+        let terrain = flow.terrain();
+        folded
+            .iter()
+            .map(|&k| fold::pin(model, flow.kinematics(q, qd), terrain, mode, k).unwrap_or(0.0))
+            .collect()
+    };
+    // a contact at its fold may not keep its kind; a sliding one is offered the stick
+    let mut prefer = mode;
+    let mut barred = Vec::with_capacity(folded.len());
+    for &k in &folded {
+        let (bar, offered) = fold::fold_options(model, mode, k);
+        barred.push((k, bar));
+        if let Some(kind) = offered {
+            prefer = prefer.with(k, kind);
+        }
+    }
+    // … unless it passes the fold sliding, locked: then it may not stick
+    let passing_bar: Vec<(usize, ContactKind)> =
+        folded.iter().map(|&k| (k, ContactKind::Stick)).collect();
     let ctrl = flow.controller().clone();
+    ws.data.locked.clone_from(&lock);
     let cx = &mut ResetWorkspace {
         model,
         terrain: flow.terrain(),
         ctrl: &*ctrl,
-        delta_t_s,
+        delta_t_s: opts.delta_t_s,
         ws,
+        barred: &barred,
+        fold_threshold: opts.fold_threshold,
     };
     let ke_before = kinetic_energy_at(model, cx.terrain, &mut cx.ws.data, q, qd)?;
-    let impact = !touched.is_empty();
+    // sliding legs whose speed is slaved at their folds pass them locked (fold::passage)
+    let mut qd_in = qd.to_vec();
+    let mut passing = false;
+    if !folded.is_empty() && folded.len() == fired.len() {
+        let (mut v, mut l) = (qd.to_vec(), lock.clone());
+        passing = true;
+        for (&k, &pin) in folded.iter().zip(&pins) {
+            match cx.passage(t, mode, &l, (k, pin), (q, &v))? {
+                Some((v1, l1)) => (v, l) = (v1, l1),
+                None => {
+                    passing = false;
+                    break;
+                }
+            }
+        }
+        if passing {
+            (qd_in, lock) = (v, l);
+            cx.barred = &passing_bar;
+            prefer = mode;
+        }
+        cx.ws.data.locked.clone_from(&lock);
+    }
+    // a fold is resolved as an impact: the stick it offers must stop the sliding at once; a
+    // passage has its velocity already (the lock's), and its contacts are judged by forces
+    let impact = !touched.is_empty() || (!folded.is_empty() && !passing);
     // contacts that reached the cone slide; contacts whose sliding stopped try to stick
-    let mut prefer = mode;
     for &k in &slipped {
         prefer = prefer.with(k, ContactKind::Slide);
     }
@@ -127,14 +219,14 @@ pub fn reset(
         mode: new_mode,
         value: impulse,
         pseudo_impulse,
-    } = match cx.select(t, &candidates, &released, prefer, q, qd, impact)? {
+    } = match cx.select(t, &candidates, &released, prefer, q, &qd_in, impact)? {
         Ok(s) => s,
         Err(term) => return end(term),
     };
     // q̇⁺ of the impact into the selected mode (5.52)
-    let mut qd_after = qd.to_vec();
+    let mut qd_after = qd_in.clone();
     if impact {
-        let imp = plastic_impact(model, &mut cx.ws.data, cx.terrain, new_mode, q, qd)?;
+        let imp = plastic_impact(model, &mut cx.ws.data, cx.terrain, new_mode, q, &qd_in)?;
         qd_after.copy_from_slice(imp.qd_plus.as_slice());
     }
     // contacts kept by the impact must also hold in force (5.19)–(5.20)
@@ -146,7 +238,22 @@ pub fn reset(
             Err(term) => return end(term),
         }
     }
+    // a chain released at its fold is left at rest relative to its parent (fold module
+    // docs); one released on its passage turns on at its torque-free speed
+    if !passing {
+        for &k in folded.iter().filter(|&&k| !mode_after.contains(k)) {
+            for j in fold::massless_chain(model, k) {
+                qd_after[j] = 0.0;
+            }
+        }
+    }
     let ke_after = kinetic_energy_at(model, cx.terrain, &mut cx.ws.data, q, &qd_after)?;
+    // a locked chain stays locked while its contact holds
+    lock.retain(|&j| {
+        mode_after
+            .active()
+            .any(|k| fold::massless_chain(model, k).contains(&j))
+    });
     // without a velocity jump, a contact that stuck until now starts sliding from rest;
     // so does one whose stick the cone refused (its velocity just crossed zero)
     let from_rest = mode_after
@@ -156,14 +263,21 @@ pub fn reset(
                 && (stuck.contains(&k) || (!impact && mode.kind(k) == Some(ContactKind::Stick)))
         })
         .collect();
-    let (kind, triggered) = if impact {
-        (EventKind::Touchdown, touched)
+    let (kind, triggered) = if !touched.is_empty() {
+        (
+            EventKind::Touchdown,
+            touched.into_iter().chain(folded).collect(),
+        )
+    } else if !folded.is_empty() {
+        (EventKind::Fold, folded)
     } else if !released.is_empty() {
         (EventKind::Liftoff, released)
     } else if !slipped.is_empty() {
         (EventKind::Slip, slipped)
-    } else {
+    } else if !stuck.is_empty() {
         (EventKind::Stick, stuck)
+    } else {
+        (EventKind::FoldPassed, passed)
     };
     Ok(Reset::Continue {
         event: Event {
@@ -180,5 +294,6 @@ pub fn reset(
             qd_after,
         },
         from_rest,
+        lock,
     })
 }

@@ -11,6 +11,7 @@
 //!
 //! Free massless joints follow the controller's prescribed motion (thesis 5.1.1): it feeds
 //! back into nothing, so it is left out of the step-size control.
+use crate::budget::Budget;
 use crate::error::HybridError;
 use crate::execution::{Segment, Termination};
 use crate::features::{FeatureChange, Surfaces};
@@ -21,6 +22,9 @@ use crate::locate::first_event;
 use crate::options::HybridOptions;
 use selfmanip_core::{free_massless_joints, ContactMode, CoreError};
 
+/// The factor a trial step shrinks by when one of its stages met a singular KKT matrix.
+const SINGULAR_RETRY_FACTOR: f64 = 0.25;
+
 /// How a segment ended.
 #[derive(Debug, Clone, PartialEq)]
 pub enum SegmentEnd {
@@ -30,7 +34,8 @@ pub enum SegmentEnd {
     FeatureChange,
     /// The final time was reached.
     FinalTime,
-    /// The flow ended the run (a singular KKT matrix, a discontinuity of the terrain).
+    /// The flow ended the run (a singular KKT matrix, a discontinuity of the terrain, the
+    /// step budget or the stop flag).
     Ended(Termination),
 }
 
@@ -70,7 +75,8 @@ impl SegmentIntegrator {
     /// Integrates the flow of `mode` from `(t, y)` until a guard fires, a contact passes onto
     /// the next terrain feature, `t_final`, or the flow ends the run; advances `(t, y)` to
     /// the segment's end and returns the segment and how it ended. `from_rest`: sliding
-    /// contacts whose slip→stick guard starts from rest.
+    /// contacts whose slip→stick guard starts from rest. Every accepted step is counted
+    /// against `budget`, which may end the run there.
     #[allow(clippy::too_many_arguments)]
     pub fn run(
         &mut self,
@@ -81,13 +87,15 @@ impl SegmentIntegrator {
         from_rest: &[usize],
         t_final: f64,
         opts: &HybridOptions,
+        budget: &mut Budget,
     ) -> Result<(Segment, SegmentEnd), HybridError> {
         let model = flow.model();
         let nq = model.nq();
         mode.validate(model)?;
         free_massless_joints(model, mode, &mut self.free_joints, &mut self.dynamic_coords);
         self.weights.fill(1.0);
-        for &j in &self.free_joints {
+        // locked joints turn at constant speed: prescribed, like free ones
+        for &j in self.free_joints.iter().chain(flow.lock()) {
             // joint j is coordinate j (q = [θ…, x, z, φ])
             self.weights[j] = 0.0;
             self.weights[nq + j] = 0.0;
@@ -104,6 +112,7 @@ impl SegmentIntegrator {
             t1: *t,
             y0: y.to_vec(),
             controller: flow.controller().clone(),
+            locked: flow.lock().to_vec(),
             dense: DenseOutput::default(),
         };
         self.ode.reset(self.h_carry);
@@ -153,6 +162,7 @@ impl SegmentIntegrator {
                             } => {
                                 dense.eval(off, y);
                                 seg.dense.push(dense);
+                                budget.count();
                                 seg.t1 = off;
                                 *t = off;
                                 break SegmentEnd::Ended(Termination::TerrainDiscontinuity {
@@ -169,8 +179,12 @@ impl SegmentIntegrator {
                     kind,
                     condition_estimate,
                 })) => {
-                    // Lemma 5.1 fails on the way (e.g. a massless leg sliding through the
-                    // pose where its contact no longer pins it): the flow ends here
+                    // a trial stage beyond a fold (a step too long for the guards to see
+                    // the pin fall): try a shorter step, so that the fold guard fires first
+                    if self.ode.retry_smaller(SINGULAR_RETRY_FACTOR) {
+                        continue;
+                    }
+                    // Lemma 5.1 fails at the state itself: the flow ends here
                     break SegmentEnd::Ended(Termination::SingularFlow {
                         t: *t,
                         mode,
@@ -202,6 +216,7 @@ impl SegmentIntegrator {
                     opts.event_tol_s,
                 )?;
                 seg.dense.push(dense);
+                budget.count();
                 seg.t1 = te;
                 *t = te;
                 y.copy_from_slice(&self.y_probe);
@@ -212,6 +227,9 @@ impl SegmentIntegrator {
             seg.t1 = *t;
             if feature_change.is_some_and(|tc| *t >= tc) {
                 break SegmentEnd::FeatureChange;
+            }
+            if let Some(term) = budget.step(*t) {
+                break SegmentEnd::Ended(term);
             }
         };
         self.h_carry = self.ode.next_step_size().max(opts.step.h_initial_s);

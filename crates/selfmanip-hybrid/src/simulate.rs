@@ -9,7 +9,9 @@
 //!   reset     impact or force complementarity ⇒ (mode, q̇⁺)   [reset, complementarity,
 //!                                                              impact, contact_set]
 //!   zeno      too many transitions in a window ⇒ end          [zeno]
+//!   budget    out of steps or events, or stopped from outside ⇒ end  [budget]
 //! ```
+use crate::budget::{Budget, NEVER};
 use crate::controller::Controller;
 use crate::error::HybridError;
 use crate::execution::{Execution, Termination};
@@ -19,6 +21,7 @@ use crate::reset::{reset, Reset};
 use crate::segment::{SegmentEnd, SegmentIntegrator};
 use crate::zeno::ZenoWindow;
 use selfmanip_core::{ContactMode, Model, Terrain};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 /// Runs the hybrid system from `(q0, qd0)` in `mode0` until `t_final` or a terminal event.
@@ -33,7 +36,45 @@ pub fn simulate(
     t_final: f64,
     opts: HybridOptions,
 ) -> Result<Execution, HybridError> {
+    simulate_with(
+        model, terrain, controller, mode0, q0, qd0, t_final, opts, &NEVER,
+    )
+}
+
+/// [`simulate`] that another thread can stop: once `stop` is raised the run ends within one
+/// integration step with [`Termination::Interrupted`], returning what it has computed.
+///
+/// ```no_run
+/// # use selfmanip_hybrid::{simulate_with, HybridOptions, ZeroTorque};
+/// # use selfmanip_core::{ContactMode, FlatGround, Model};
+/// # fn run(model: &Model, q0: &[f64], qd0: &[f64]) {
+/// use std::sync::atomic::{AtomicBool, Ordering};
+/// let stop = AtomicBool::new(false);
+/// std::thread::scope(|s| {
+///     let run = s.spawn(|| {
+///         simulate_with(model, &FlatGround, &ZeroTorque, ContactMode::FLIGHT, q0, qd0,
+///                       1e3, HybridOptions::default(), &stop)
+///     });
+///     // … on Ctrl-C (or a deadline):
+///     stop.store(true, Ordering::Relaxed);
+///     let exec = run.join().unwrap();
+/// });
+/// # }
+/// ```
+#[allow(clippy::too_many_arguments)]
+pub fn simulate_with(
+    model: &Model,
+    terrain: &dyn Terrain,
+    controller: &dyn Controller,
+    mode0: ContactMode,
+    q0: &[f64],
+    qd0: &[f64],
+    t_final: f64,
+    opts: HybridOptions,
+    stop: &AtomicBool,
+) -> Result<Execution, HybridError> {
     opts.validate(t_final)?;
+    let mut budget = Budget::new(opts.max_steps, stop);
     // the run's own copy of the controller: it learns of the events, the caller's does not
     let mut flow = Flow::new(model, terrain, Arc::from(controller.clone_box()));
     // the resets' workspace
@@ -50,8 +91,16 @@ pub fn simulate(
     let mut from_rest: Vec<usize> = Vec::new();
     let termination = loop {
         // flow ⇒ guards ⇒ locate
-        let (segment, end) =
-            integrator.run(&mut flow, mode, &mut t, &mut y, &from_rest, t_final, &opts)?;
+        let (segment, end) = integrator.run(
+            &mut flow,
+            mode,
+            &mut t,
+            &mut y,
+            &from_rest,
+            t_final,
+            &opts,
+            &mut budget,
+        )?;
         segments.push(segment);
         let fired = match end {
             SegmentEnd::Event { fired } => fired,
@@ -63,16 +112,16 @@ pub fn simulate(
             SegmentEnd::Ended(term) => break term,
         };
         // ⇒ reset
-        let reset = reset(
-            &mut reset_ws,
-            &mut flow,
-            opts.delta_t_s,
-            &fired,
-            mode,
-            (t, &y),
-        )?;
+        let reset = reset(&mut reset_ws, &mut flow, &opts, &fired, mode, (t, &y))?;
         let (event, rest) = match reset {
-            Reset::Continue { event, from_rest } => (event, from_rest),
+            Reset::Continue {
+                event,
+                from_rest,
+                lock,
+            } => {
+                flow.set_lock(&lock);
+                (event, from_rest)
+            }
             Reset::End { event, termination } => {
                 events.extend(event);
                 break termination;
@@ -87,6 +136,9 @@ pub fn simulate(
         if events.len() >= opts.max_events {
             break Termination::EventBudget;
         }
+        if budget.stopped() {
+            break Termination::Interrupted { t };
+        }
         if let Some(z) = zeno.record(t) {
             break z;
         }
@@ -100,6 +152,7 @@ pub fn simulate(
         q: q.to_vec(),
         qd: qd.to_vec(),
         mode,
+        steps: budget.steps(),
     })
 }
 

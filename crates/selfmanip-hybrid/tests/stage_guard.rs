@@ -42,7 +42,7 @@ fn guard_values_are_heights_forces_and_speeds() {
     let mode = ContactMode::parse_names(&model, "left,right:slide").unwrap();
     let standing = [0.0, -h / 2.0, 0.0, 0.0, 0.0, 0.0];
     let mut guards = Vec::new();
-    Guard::of_mode(&model, mode, false, &mut guards);
+    Guard::of_mode(&model, mode, &[], &HybridOptions::default(), &mut guards);
     assert_eq!(
         guards,
         vec![

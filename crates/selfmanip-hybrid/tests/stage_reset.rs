@@ -9,7 +9,7 @@ use selfmanip_hybrid::contact_set::ResetWorkspace;
 use selfmanip_hybrid::flow::{Flow, FlowWorkspace};
 use selfmanip_hybrid::guard::Guard;
 use selfmanip_hybrid::reset::{reset, Reset};
-use selfmanip_hybrid::{Termination, ZeroTorque};
+use selfmanip_hybrid::{HybridOptions, Termination, ZeroTorque};
 use std::sync::Arc;
 use systems::{block, block_inertia, body, one_leg, puck, rotate, Friction, BLOCK, G};
 
@@ -18,7 +18,11 @@ fn reset_block(mode: ContactMode, fired: &[Guard], y: &[f64], delta_t_s: f64) ->
     let model = block(G);
     let mut flow = Flow::new(&model, &FlatGround, Arc::new(ZeroTorque));
     let mut ws = FlowWorkspace::new(&model);
-    reset(&mut ws, &mut flow, delta_t_s, fired, mode, (0.0, y)).unwrap()
+    let opts = HybridOptions {
+        delta_t_s,
+        ..HybridOptions::default()
+    };
+    reset(&mut ws, &mut flow, &opts, fired, mode, (0.0, y)).unwrap()
 }
 
 /// A tilted block falling at `v` lands on its left corner, which sticks. The impulse `P`
@@ -138,6 +142,8 @@ fn puck_on_an_incline_sticks_inside_the_cone_and_slides_outside() {
             ctrl: &ZeroTorque,
             delta_t_s: 0.0,
             ws: &mut ws,
+            barred: &[],
+            fold_threshold: HybridOptions::default().fold_threshold,
         };
         let q = [0.0, 0.0, beta];
         let selected = cx
@@ -181,7 +187,7 @@ fn three_point_landing_has_several_contact_solutions() {
     let out = reset(
         &mut ws,
         &mut flow,
-        0.0,
+        &HybridOptions::default(),
         &fired,
         ContactMode::FLIGHT,
         (0.2, &y),
@@ -213,6 +219,8 @@ fn massless_link_touching_down_slides_instead_of_pulling() {
             ctrl: &ZeroTorque,
             delta_t_s: 0.0,
             ws: &mut ws,
+            barred: &[],
+            fold_threshold: HybridOptions::default().fold_threshold,
         };
         let toe = ContactMode::parse_names(&model, "toe").unwrap();
         let toe_sliding = ContactMode::parse_names(&model, "toe:slide").unwrap();

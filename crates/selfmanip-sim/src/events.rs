@@ -28,6 +28,8 @@ pub fn event_kind_name(k: EventKind) -> &'static str {
         EventKind::Slip => "slip",
         EventKind::Stick => "stick",
         EventKind::Apex => "apex",
+        EventKind::Fold => "fold",
+        EventKind::FoldPassed => "fold_passed",
     }
 }
 

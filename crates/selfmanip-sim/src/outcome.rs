@@ -18,6 +18,8 @@ pub enum RunStatus {
     SeveralContactSolutions,
     TerrainDiscontinuity,
     SingularFlow,
+    StepBudget,
+    Interrupted,
 }
 
 impl RunStatus {
@@ -31,6 +33,8 @@ impl RunStatus {
             Termination::SeveralContactSolutions { .. } => RunStatus::SeveralContactSolutions,
             Termination::TerrainDiscontinuity { .. } => RunStatus::TerrainDiscontinuity,
             Termination::SingularFlow { .. } => RunStatus::SingularFlow,
+            Termination::StepBudget { .. } => RunStatus::StepBudget,
+            Termination::Interrupted { .. } => RunStatus::Interrupted,
         }
     }
 
@@ -44,6 +48,8 @@ impl RunStatus {
             RunStatus::SeveralContactSolutions => "several_contact_solutions",
             RunStatus::TerrainDiscontinuity => "terrain_discontinuity",
             RunStatus::SingularFlow => "singular_flow",
+            RunStatus::StepBudget => "step_budget",
+            RunStatus::Interrupted => "interrupted",
         }
     }
 
