@@ -1,7 +1,9 @@
 """The ``selfmanip`` command (also ``python -m selfmanip``).
 
-``selfmanip demo`` (the default) runs the chapter-4 RHex model end to end on built-in defaults
-and prints a readable report; ``selfmanip dynamics`` evaluates (5.3)-(5.4) at one state;
+``selfmanip chapter3`` (the default: the main job) runs chapter 3's leap sweep — four
+strategies over the coordination time t2 — and writes it as a table and a figure
+(``chapter3.py``); ``selfmanip demo`` runs the chapter-4 RHex model end to end on built-in
+defaults and prints a readable report; ``selfmanip dynamics`` evaluates (5.3)-(5.4) at one state;
 ``selfmanip map`` writes the quasi-static contact-mode map (Fig. 4.3/4.6) as CSV;
 ``selfmanip motor`` prints the motor/gearbox table (Tables 2.2-2.3) and a thermal simulation
 (Fig. 2.8); ``selfmanip analysis`` prints the data behind the section-4.3 figures and
@@ -162,10 +164,27 @@ def _motor(args) -> int:
     return 0
 
 
+def _chapter3(args) -> int:
+    from .chapter3 import run
+
+    if args is None:
+        run()
+    else:
+        run(args.out_dir, n=args.n, saturated=args.saturated, threads=args.threads)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="selfmanip", description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="command")
-    sub.add_parser("demo", help="the chapter-4 RHex end to end on built-in defaults (default)")
+    c3 = sub.add_parser("chapter3", help="the main job (default): chapter 3's leap sweep, four strategies over t2, "
+                        "as a table and a figure (Figs. 3.4-3.5)")
+    c3.add_argument("--out-dir", default=".", help="where chapter3_sweep.csv and chapter3_sweep.png go")
+    c3.add_argument("--n", type=int, default=41, help="values of t2 in [-0.2, 0.2] s (default 41)")
+    c3.add_argument("--saturated", action="store_true",
+                    help="chapter 3's saturated torque (default: the engine's default actuator, the geared motor)")
+    c3.add_argument("--threads", type=int, default=None, help="worker threads (default: all cores)")
+    sub.add_parser("demo", help="the chapter-4 RHex end to end: dynamics, KKT blocks, an impact, Fig. 4.3's map")
     dy = sub.add_parser("dynamics", help="evaluate (5.3)-(5.4) for the default RHex at one state")
     dy.add_argument("--mode", default="0101", help="chapter-3 label, bits FB FL RB RL (default 0101)")
     dy.add_argument("--q", type=_floats, default=[0.3, 0.3, 0.0, -0.17 * math.cos(0.3), 0.0],
@@ -254,7 +273,11 @@ def attach_dash_values(argv: Sequence[str], parser: argparse.ArgumentParser) -> 
 
 
 def _run(args) -> int:
-    if args.command in (None, "demo"):
+    if args.command is None:
+        return _chapter3(None)
+    if args.command == "chapter3":
+        return _chapter3(args)
+    if args.command == "demo":
         return demo()
     if args.command == "dynamics":
         return _dynamics(args)

@@ -36,3 +36,27 @@ def test_map_command_writes_grid(tmp_path):
 def test_bad_mode_exits_with_message(capsys):
     assert cli.main(["dynamics", "--mode", "2222"]) == 2
     assert "label" in capsys.readouterr().err
+
+
+def test_chapter3_main_job_writes_the_sweep_and_its_figure(tmp_path, capsys):
+    """The default command's job (README's first command): the four strategies over t2, as a
+    CSV whose rows are the leaps `selfmanip.leap` computes one by one (a second route through
+    the API), and a PNG figure."""
+    import csv
+
+    import selfmanip
+
+    assert cli.main(["chapter3", "--out-dir", str(tmp_path), "--n", "3", "--threads", "2"]) == 0
+    out = capsys.readouterr().out
+    rows = list(csv.DictReader(open(tmp_path / "chapter3_sweep.csv")))
+    assert sorted({r["strategy"] for r in rows}) == sorted(["++", "+-", "-+", "--"])
+    assert len(rows) == 4 * 3
+    assert (tmp_path / "chapter3_sweep.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    for r in rows:
+        one = selfmanip.leap(r["strategy"], t2=float(r["t2_s"]))
+        assert r["status"] == one.status and r["word"] == one.word
+        if one.status == "ok":
+            assert float(r["apex_z_m"]) == pytest.approx(one.apex.z_m, rel=1e-12)
+    for s in ("++", "+-", "-+", "--"):
+        ok = sum(r["status"] == "ok" for r in rows if r["strategy"] == s)
+        assert f"({s[0]}, {s[1]}): {ok}/3 leaps reach an apex" in out
