@@ -35,7 +35,7 @@ import numbers
 import os
 import warnings
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, Sequence, Union
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, Sequence, Union, overload
 
 import numpy as np
 
@@ -399,6 +399,23 @@ def _is_robot(x: Any) -> bool:
     if isinstance(x, (Robot, os.PathLike, Mapping)):
         return True
     return isinstance(x, str) and x.lower().endswith((".toml", ".json"))
+
+
+@overload
+def sweep(robot: RobotLike, behaviour: BehaviourLike = None,
+          over: Mapping[str, Any] | Iterable[tuple[str, Any]] | None = None, *, q0: Sequence[float],
+          qd0: Sequence[float] | None = None, terrain: TerrainLike = None, t_final: float | _Default = DEFAULT,
+          stop_at: str | None | _Default = DEFAULT, threads: int | None = None,
+          progress: bool | Callable[[int], None] = False, contacts: Sequence[str] | str | None = None,
+          solve: Sequence[str] | str | None = None, params: Mapping[str, Any] | None = None,
+          **options: Any) -> dict[str, np.ndarray]: ...
+
+
+@overload
+def sweep(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any = DEFAULT,
+          params: Mapping[str, Any] | None = None, threads: int | None = None,
+          progress: bool | Callable[[int], None] = False, *, grid: bool = True,
+          config: Mapping[str, Any] | None = None, **swept: Any) -> dict[str, np.ndarray]: ...
 
 
 def sweep(*args: Any, **kwargs: Any) -> dict[str, np.ndarray]:
