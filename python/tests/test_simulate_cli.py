@@ -183,3 +183,27 @@ def test_sweep_robot_broken_pipe_is_quiet():
     p.wait(timeout=120)
     assert p.returncode == 141, err
     assert "Broken pipe" not in err and "Traceback" not in err
+
+
+def test_the_documented_python_and_commands_run(tmp_path, monkeypatch, capsys):
+    """docs/python-simulate.md runs as written (data paths made absolute, outputs in a scratch
+    directory): the Python blocks run, every `selfmanip ...` line exits 0 with its files."""
+    pytest.importorskip("matplotlib")
+    import re
+    import shlex
+
+    doc = (pathlib.Path(__file__).resolve().parents[2] / "docs" / "python-simulate.md").read_text()
+    doc = doc.replace("crates/selfmanip-sim/examples/data/", str(DATA) + "/")
+    monkeypatch.chdir(tmp_path)
+    py = re.findall(r"```python\n(.*?)```", doc, flags=re.S)
+    assert len(py) == 2
+    for b in py:
+        exec(compile(b, "python-simulate.md", "exec"), {})
+    assert (tmp_path / "hopper.mcap").stat().st_size > 0
+    lines = [l for b in re.findall(r"```sh\n(.*?)```", doc, flags=re.S) for l in b.splitlines()
+             if l.startswith("selfmanip ")]
+    assert len(lines) == 4
+    for line in lines:
+        assert main(shlex.split(line)[1:]) == 0, line
+    for f in ("hopper.png", "hop_sweep.csv", "hop_sweep.png"):
+        assert (tmp_path / f).stat().st_size > 0, f
