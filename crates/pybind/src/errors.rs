@@ -243,9 +243,11 @@ pub(crate) fn map_sim(e: &SimError, source: Source) -> Mapped {
 /// (`SimError::Io`) is the `OSError` subclass of its kind (`FileNotFoundError`, …).
 pub(crate) fn sim(e: SimError, source: Source) -> PyErr {
     match e {
-        SimError::Io { path, message, kind } => {
-            PyErr::from(std::io::Error::new(kind, format!("{path}: {message}")))
-        }
+        SimError::Io {
+            path,
+            message,
+            kind,
+        } => PyErr::from(std::io::Error::new(kind, format!("{path}: {message}"))),
         e => map_sim(&e, source).into_pyerr(),
     }
 }

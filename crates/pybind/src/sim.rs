@@ -129,7 +129,9 @@ fn options_of(o: Option<&Bound<'_, PyDict>>) -> PyResult<SimOptions> {
     serde_json::from_value(Value::Object(map.clone())).map_err(|e| {
         let culprit = map.iter().find_map(|(k, v)| {
             let one = serde_json::json!({ k.as_str(): v });
-            serde_json::from_value::<SimOptions>(one).err().map(|e| (k, e))
+            serde_json::from_value::<SimOptions>(one)
+                .err()
+                .map(|e| (k, e))
         });
         match culprit {
             Some((k, e1)) => invalid(&format!("options.{k}"), format!("`options.{k}`: {e1}")),
@@ -236,8 +238,7 @@ impl PyScenario {
                             "`controller` must be callable as controller(t, q, qd, mode) -> tau",
                         ));
                     }
-                    let mut sim =
-                        Simulation::without_behaviour(&self.inner).map_err(caller_err)?;
+                    let mut sim = Simulation::without_behaviour(&self.inner).map_err(caller_err)?;
                     sim.controller = Arc::new(PyController {
                         f: Arc::new(f.unbind()),
                         labels: sim.labels.clone(),
@@ -432,7 +433,14 @@ impl PyController {
             .is_some()
     }
 
-    fn call(&self, py: Python<'_>, t: f64, q: &[f64], qd: &[f64], mode: ContactMode) -> PyResult<Vec<f64>> {
+    fn call(
+        &self,
+        py: Python<'_>,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        mode: ContactMode,
+    ) -> PyResult<Vec<f64>> {
         let out = self
             .f
             .bind(py)

@@ -131,7 +131,13 @@ pub fn sweep(
     threads: usize,
 ) -> Result<Vec<PointResult>, SimError> {
     // never stopped: every point has its result
-    let rows = sweep_with(base, points, threads, &selfmanip_hybrid::budget::NEVER, &|| {})?;
+    let rows = sweep_with(
+        base,
+        points,
+        threads,
+        &selfmanip_hybrid::budget::NEVER,
+        &|| {},
+    )?;
     Ok(rows.into_iter().flatten().collect())
 }
 
