@@ -10,7 +10,9 @@ rows ordered by contact, tangential before normal.
 Modules: :mod:`selfmanip.robot` (any planar robot from a description file: dynamics,
 kinematics, Jacobians, contacts), :mod:`selfmanip.rhex` (the RHex of thesis section 4.2),
 :mod:`selfmanip.leap` (RHex leaps and sweeps; the module is also callable as
-:func:`selfmanip.leap.leap`), :mod:`selfmanip.analysis` (section 4.3),
+:func:`selfmanip.leap.leap`), :mod:`selfmanip.simulation` (any robot, any behaviour:
+:func:`simulate`, and :func:`sweep` for any robot or, given a strategy, the RHex leap sweep),
+:mod:`selfmanip.analysis` (section 4.3),
 :mod:`selfmanip.motor` (motors, gearboxes, thermal model, tail optimum, leg observer),
 :mod:`selfmanip.plots`, :mod:`selfmanip.distributed`, :mod:`selfmanip.errors` (the exception
 hierarchy under :class:`SelfmanipError`) and :mod:`selfmanip.cli` (the ``selfmanip`` command).
@@ -20,13 +22,15 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from .errors import (AllPointsFailedWarning, EngineError, IllPosedError, InvalidInputError, InvalidTypeError,
-                     SelfmanipError, SingularKktError)
+from .errors import (AllPointsFailedWarning, ControllerError, EngineError, IllPosedError, InvalidInputError,
+                     InvalidTypeError, SelfmanipError, SingularKktError)
 from .robot import ContactPoints, Dynamics, Impact, Kinematics, KktBlocks, PointJacobian, QuasiStatic, Robot
 from . import errors, motor, rhex
 from . import analysis
 from . import distributed, plots
-from .leap import DEFAULT, LeapResult, sweep
+from .leap import DEFAULT, LeapResult
+from . import simulation
+from .simulation import EnergyReport, Execution, SimTrajectory, simulate, sweep
 
 if TYPE_CHECKING:
     from .leap import leap as leap
@@ -38,9 +42,12 @@ else:
 __all__ = [
     "AllPointsFailedWarning",
     "ContactPoints",
+    "ControllerError",
     "DEFAULT",
     "Dynamics",
+    "EnergyReport",
     "EngineError",
+    "Execution",
     "IllPosedError",
     "Impact",
     "InvalidInputError",
@@ -52,6 +59,7 @@ __all__ = [
     "QuasiStatic",
     "Robot",
     "SelfmanipError",
+    "SimTrajectory",
     "SingularKktError",
     "analysis",
     "distributed",
@@ -60,6 +68,8 @@ __all__ = [
     "motor",
     "plots",
     "rhex",
+    "simulate",
+    "simulation",
     "sweep",
 ]
 __version__ = "0.1.0"

@@ -317,3 +317,90 @@ def motor_identify_faults(
     theta: _F64,
     omega: _F64,
 ) -> list[dict[str, Any]]: ...
+
+# ------------------------------------------------------------------------ simulation (any robot)
+
+class _SimEvent(TypedDict):
+    t_s: float
+    kind: str
+    mode_before: str
+    mode_after: str
+    contacts: list[str]
+    energy_loss_j: float
+    impulse: list[float]
+
+class _SimSegment(TypedDict):
+    t0_s: float
+    t1_s: float
+    mode: str
+
+class _SimTrajectory(TypedDict):
+    q_names: list[str]
+    contacts: list[str]
+    t_s: _F64
+    q: _F64
+    qd: _F64
+    tau: _F64
+    mode: list[str]
+    contact_points_m: _F64
+    contact_forces_n: _F64
+
+class _SimEnergy(TypedDict):
+    initial_j: float
+    final_j: float
+    joint_work_j: float
+    impact_loss_j: float
+    residual_j: float
+
+class _SimDefaults(TypedDict):
+    t_final_s: float
+    sample_dt_s: float
+    options: dict[str, Any]
+
+def sim_defaults() -> _SimDefaults: ...
+
+@final
+class Scenario:
+    def __init__(
+        self,
+        robot: Robot | str | PathLike[str] | dict[str, Any],
+        behaviour: str | PathLike[str] | dict[str, Any] | None,
+        q0: list[float],
+        qd0: list[float] | None = None,
+        terrain: str | dict[str, Any] | None = None,
+        contacts: list[str] | None = None,
+        solve: list[str] | None = None,
+        options: dict[str, Any] | None = None,
+    ) -> None: ...
+    @staticmethod
+    def from_file(path: str | PathLike[str]) -> Scenario: ...
+    def set(self, name: str, value: Any) -> None: ...
+    def settable_names(self) -> list[str]: ...
+    def to_dict(self) -> dict[str, Any]: ...
+    def q_names(self) -> list[str]: ...
+    def run(self, controller: Callable[[float, _F64, _F64, str], Any] | None = None) -> Run: ...
+    def sweep(
+        self,
+        over: list[tuple[str, list[Any]]],
+        threads: int,
+        progress: Callable[[int], object] | None = None,
+    ) -> dict[str, Any]: ...
+
+@final
+class Run:
+    @property
+    def status(self) -> str: ...
+    @property
+    def word(self) -> list[str]: ...
+    @property
+    def q_names(self) -> list[str]: ...
+    @property
+    def labels(self) -> list[str]: ...
+    def outcome(self) -> dict[str, Any]: ...
+    def events(self) -> list[_SimEvent]: ...
+    def segments(self) -> list[_SimSegment]: ...
+    def trajectory(self, dt_s: float | None = None) -> _SimTrajectory: ...
+    def energy_report(self) -> _SimEnergy: ...
+    def write_mcap(
+        self, path: str | PathLike[str], dt_s: float | None = None, metadata: dict[str, str] | None = None
+    ) -> None: ...

@@ -9,7 +9,9 @@ defaults and prints a readable report; ``selfmanip dynamics`` evaluates (5.3)-(5
 (Fig. 2.8); ``selfmanip analysis`` prints the data behind the section-4.3 figures and
 ``selfmanip plot fig4.8 --out f.png`` draws one; ``selfmanip leap``, ``selfmanip sweep`` and
 ``selfmanip grc`` run one leap, parallel sweeps of leaps and print the ground reaction complex
-(``cli_leap.py``; ``selfmanip plot FILE.csv|.parquet|.json|.mcap`` draws their results).
+(``cli_leap.py``; ``selfmanip plot FILE.csv|.parquet|.json|.mcap`` draws their results);
+``selfmanip simulate ROBOT BEHAVIOUR`` and ``selfmanip sweep --robot ROBOT …`` run any robot
+(``cli_sim.py``).
 """
 
 from __future__ import annotations
@@ -210,6 +212,9 @@ def build_parser() -> argparse.ArgumentParser:
     from .cli_leap import add_subcommands as add_leap_subcommands
 
     add_leap_subcommands(sub)
+    from .cli_sim import add_subcommands as add_sim_subcommands
+
+    add_sim_subcommands(sub)
     pl = sub.add_parser("plot", help="draw a thesis figure as PNG (fig4.3, fig4.6, fig4.8, fig4.10, fig4.11, "
                         "fig4.12), or a sweep table / leap file")
     pl.add_argument("target", help="a figure name, a sweep table (.csv/.parquet) or a leap (.json from "
@@ -289,7 +294,7 @@ def _run(args) -> int:
         return args.analysis_handler(args)
     if args.command == "plot":
         return _plot(args)
-    if args.command in ("leap", "sweep", "grc"):
+    if args.command in ("leap", "sweep", "grc", "simulate"):
         return args.leap_handler(args)
     return 2
 

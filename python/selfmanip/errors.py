@@ -21,6 +21,10 @@ class                             also a                         raised when
                                                                  value it produced that is not
                                                                  finite, a solver that did not
                                                                  converge, an internal error
+:class:`ControllerError`          ``RuntimeError``               a Python controller given to
+                                                                 :func:`selfmanip.simulate`
+                                                                 raised; the original exception
+                                                                 is its ``__cause__``
 ================================  =============================  ===============================
 
 The Rust engine's error enums (``CoreError``, ``HybridError``, ``RhexError``, ``MotorError``)
@@ -35,6 +39,7 @@ from __future__ import annotations
 
 __all__ = [
     "AllPointsFailedWarning",
+    "ControllerError",
     "EngineError",
     "IllPosedError",
     "InvalidInputError",
@@ -90,6 +95,12 @@ class EngineError(SelfmanipError, RuntimeError):
     """The engine could not go on (the inputs were valid): an integration step that fell below
     its floor, a non-finite value the engine itself produced (extreme but finite parameters can
     do this), a solver that did not converge, or an internal error (a bug: please report it)."""
+
+
+class ControllerError(SelfmanipError, RuntimeError):
+    """A Python controller (``selfmanip.simulate(..., controller=f)``) raised: the run was
+    stopped at once and the original exception is ``__cause__``; ``field`` is
+    ``"controller"``."""
 
 
 class AllPointsFailedWarning(UserWarning):

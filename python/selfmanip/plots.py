@@ -9,6 +9,12 @@ figures of :mod:`selfmanip.figures`); tables and results keep radians.
   has a single ``t2``; a ``t2`` x gear-ratio grid as heat maps (with a map of the words);
 * :func:`word_label` — a leap word for a legend: the thesis's equation (3.2)-(3.7) when it is
   one of chapter 3's words, long chattering words folded (``(0101-0111)x6``);
+* :func:`execution_figure` — one execution of any robot (:func:`selfmanip.simulate`): body
+  height and forward position, pitch and joint angles, contact normal forces and joint
+  torques against time, events marked;
+* :func:`simulation_sweep_figure` — a sweep of any robot (:func:`selfmanip.sweep` with a
+  robot): apex height, end position and impact losses against the first swept parameter, one
+  series per value of the others, points coloured by status;
 * :func:`leap_strip` — a keyframe strip in the style of Fig. 5.1: the body, the legs and the
   contact forces (ground on robot, arrows) at evenly spaced times.
 
@@ -32,7 +38,8 @@ from .leap import LeapResult, Trajectory
 if TYPE_CHECKING:
     import matplotlib.figure
 
-__all__ = ["sweep_figure", "build_sweep_figure", "word_label", "fold_word", "leap_strip", "plot_file", "load_leap"]
+__all__ = ["sweep_figure", "build_sweep_figure", "word_label", "fold_word", "leap_strip", "plot_file", "load_leap",
+           "execution_figure", "simulation_sweep_figure"]
 
 #: Length of a force arrow (m per N) in :func:`leap_strip`.
 FORCE_SCALE_M_PER_N = 0.004
@@ -462,10 +469,116 @@ def plot_file(path: str | os.PathLike, out_path: str | os.PathLike) -> str:
     if p.endswith((".csv", ".parquet")):
         from .cli_leap import read_table
 
-        return sweep_figure(read_table(p), out_path)
+        table = read_table(p)
+        if "strategy" not in table and "status" in table:
+            return simulation_sweep_figure(table, out_path)  # a sweep of any robot
+        return sweep_figure(table, out_path)
     params, traj, info = load_leap(p)
     title = None
     if info.get("strategy"):
         title = f"leap {info['strategy']} t2={info.get('t2_s')} s: {info.get('word')} ({info.get('status')})"
     cfg = info.get("config") or {}
     return leap_strip(params, traj, out_path, title=title, terrain=cfg.get("terrain"))
+
+
+_EVENT_COLOURS = {"touchdown": "tab:red", "liftoff": "tab:green", "slip": "tab:orange", "stick": "tab:purple",
+                  "apex": "tab:blue"}
+
+
+def execution_figure(execution: Any, out_path: str | os.PathLike | None = None, dt: Any = None,
+                     title: str | None = None) -> "matplotlib.figure.Figure":
+    """One execution of any robot (a :class:`selfmanip.simulation.Execution`) against time:
+    body height ``-z`` and forward position ``x``; pitch and joint angles (degrees); the
+    normal force of the ground at each contact (``-lam_n``, positive when it pushes) and the
+    joint torques. Events are vertical lines coloured by kind. Saved as PNG when ``out_path``
+    is given (the figure is returned either way)."""
+    from .leap import DEFAULT
+
+    plt = _pyplot()
+    tr = execution.trajectory(DEFAULT if dt is None else dt)
+    names = tr.q_names
+    ix, iz, ip = names.index("x"), names.index("z"), names.index("phi")
+    nj = ip - 2 if ip >= 2 else 0
+    fig, axes = plt.subplots(3, 1, figsize=(8, 8.5), sharex=True)
+    ax = axes[0]
+    ax.plot(tr.t_s, -tr.q[:, iz], label="height -z (m)")
+    ax.plot(tr.t_s, tr.q[:, ix], label="forward x (m)")
+    ax.set_ylabel("m")
+    ax.legend(loc="best", fontsize=8)
+    ax = axes[1]
+    ax.plot(tr.t_s, tr.q[:, ip] * _DEG, label="pitch phi", color="k")
+    for j in range(min(nj, len(names))):
+        ax.plot(tr.t_s, tr.q[:, j] * _DEG, label=names[j], lw=1)
+    ax.set_ylabel("angle (deg)")
+    ax.legend(loc="best", fontsize=8, ncol=2)
+    ax = axes[2]
+    for c, name in enumerate(tr.contacts):
+        pts = tr.contact_points_m[:, c, 0]
+        if np.all(np.isnan(pts)):
+            continue
+        f = tr.contact_forces_n[:, c, 1]
+        ax.plot(tr.t_s, np.where(np.isnan(f), 0.0, -f), label=f"{name} normal (N)")
+    if tr.tau.size:
+        ax2 = ax.twinx()
+        for j in range(tr.tau.shape[1]):
+            ax2.plot(tr.t_s, tr.tau[:, j], ls=":", lw=1, label=f"tau {names[j]}")
+        ax2.set_ylabel("joint torque (N m)")
+        ax2.legend(loc="upper right", fontsize=7)
+    ax.set_ylabel("ground force (N)")
+    ax.set_xlabel("t (s)")
+    ax.legend(loc="upper left", fontsize=8)
+    for e in execution.events:
+        for a in axes:
+            a.axvline(e["t_s"], color=_EVENT_COLOURS.get(e["kind"], "0.6"), lw=0.6, alpha=0.6)
+    fig.suptitle(title or f"{execution.robot_name or 'robot'}: {execution.status}, word "
+                 f"{fold_word(execution.word)}", fontsize=10)
+    fig.tight_layout()
+    if out_path is not None:
+        fig.savefig(os.fspath(out_path), dpi=110)
+        plt.close(fig)
+    return fig
+
+
+#: Result columns of a sweep of any robot (the rest are swept parameters).
+_SIM_RESULT_PREFIXES = ("apex_", "landing_", "end_")
+_SIM_RESULT_COLUMNS = {"status", "error", "word", "mode_end", "n_events", "t_end_s", "flight_time_s",
+                       "impact_loss_j"}
+
+
+def simulation_sweep_figure(table: Mapping[str, Any], out_path: str | os.PathLike,
+                            title: str | None = None) -> str:
+    """A sweep of any robot: apex height ``-apex_z_m``, forward end position and impact losses
+    against the first swept parameter; one series per combination of the other swept values
+    (never joined to another); failed points marked ``x`` at the bottom of each panel."""
+    plt = _pyplot()
+    cols = {k: np.asarray(v) for k, v in table.items()}
+    swept = [k for k in cols if k not in _SIM_RESULT_COLUMNS and not k.startswith(_SIM_RESULT_PREFIXES)]
+    if not swept:
+        raise InvalidInputError("the table has no swept parameter column", "table")
+    xk, others = swept[0], swept[1:]
+    x = cols[xk].astype(float)
+    ok = np.isin(cols["status"].astype(str), ("final_time", "apex"))
+    panels = [("apex height -z (m)", -cols["apex_z_m"].astype(float))]
+    if "end_x" in cols:
+        panels.append(("end x (m)", cols["end_x"].astype(float)))
+    panels.append(("impact losses (J)", cols["impact_loss_j"].astype(float)))
+    fig, axes = plt.subplots(len(panels), 1, figsize=(7, 2.6 * len(panels)), sharex=True)
+    keys = [tuple(str(cols[k][i]) for k in others) for i in range(len(x))]
+    for ax, (label, y) in zip(axes, panels):
+        for key in dict.fromkeys(keys):
+            sel = np.array([k == key for k in keys]) & ok
+            order = np.argsort(x[sel])
+            name = ", ".join(f"{k}={v}" for k, v in zip(others, key)) or None
+            ax.plot(x[sel][order], y[sel][order], marker="o", ms=3, label=name)
+        if (~ok).any():
+            lo = np.nanmin(y[ok]) if ok.any() and np.isfinite(y[ok]).any() else 0.0
+            ax.plot(x[~ok], np.full(int((~ok).sum()), lo), "x", color="tab:red", label="failed")
+        ax.set_ylabel(label)
+        if others or (~ok).any():
+            ax.legend(fontsize=7)
+    axes[-1].set_xlabel(xk)
+    fig.suptitle(title or f"sweep over {', '.join(swept)}", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(os.fspath(out_path), dpi=110)
+    plt.close(fig)
+    return os.fspath(out_path)

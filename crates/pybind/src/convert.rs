@@ -111,3 +111,18 @@ pub(crate) fn to_py<'py>(py: Python<'py>, v: &impl Serialize) -> PyResult<Bound<
         .map_err(|e| crate::errors::engine(format!("could not convert a result: {e}")))?;
     from_value(py, &value)
 }
+
+/// Rows of equal length as an `(n, ncols)` array.
+pub(crate) fn rows_array(rows: &[Vec<f64>], ncols: usize) -> numpy::ndarray::Array2<f64> {
+    numpy::ndarray::Array2::from_shape_fn((rows.len(), ncols), |(k, j)| rows[k][j])
+}
+
+/// Per-sample, per-contact optional `(x, z)` pairs as an `(n, nc, 2)` array, NaN where absent.
+pub(crate) fn pairs_array(
+    rows: &[Vec<Option<[f64; 2]>>],
+    nc: usize,
+) -> numpy::ndarray::Array3<f64> {
+    numpy::ndarray::Array3::from_shape_fn((rows.len(), nc, 2), |(k, c, i)| {
+        rows[k][c].map_or(f64::NAN, |v| v[i])
+    })
+}

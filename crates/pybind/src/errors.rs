@@ -13,6 +13,8 @@
 //! | `CoreError::IllPosedQuasiStatic` | `IllPosedError` | — |
 //! | `RhexError::Params`, `HybridError::InvalidOption`, `MotorError` input variants | `InvalidInputError` | the field |
 //! | `HybridError::OffManifold` | `InvalidInputError` (caller's state) / `EngineError` | the field |
+//! | `SimError::{InvalidValue, UnknownJoint, UnknownContact, UnknownReference, Cycle, Expression, UnknownParameter, Motor, Parse}` | `InvalidInputError` | the field, path, or what was parsed |
+//! | `SimError::Io` | the `OSError` subclass of its kind | — |
 //! | `HybridError::{StepTooSmall, TooManyContacts, ContactQp}`, `MotorError::NoConvergence`, a caught panic | `EngineError` | — |
 //!
 //! Variants added later fall through to `EngineError` until they are mapped here.
@@ -229,8 +231,24 @@ pub(crate) fn map_sim(e: &SimError, source: Source) -> Mapped {
         | SimError::Cycle { field, .. }
         | SimError::Expression { field, .. } => Mapped::new(Kind::InvalidInput, msg, Some(field)),
         SimError::UnknownParameter { path, .. } => Mapped::new(Kind::InvalidInput, msg, Some(path)),
+        SimError::Motor { field, .. } => Mapped::new(Kind::InvalidInput, msg, Some(field)),
+        // a data file or a value of the wrong shape: `what` is `behaviour`, `scenario`, …
+        SimError::Parse { what, .. } => Mapped::new(Kind::InvalidInput, msg, Some(what)),
         #[allow(unreachable_patterns)]
         _ => Mapped::new(Kind::Engine, msg, None),
+    }
+}
+
+/// A simulation-crate error as a Python exception; a file that cannot be read or written
+/// (`SimError::Io`) is the `OSError` subclass of its kind (`FileNotFoundError`, …).
+pub(crate) fn sim(e: SimError, source: Source) -> PyErr {
+    match e {
+        SimError::Io {
+            path,
+            message,
+            kind,
+        } => PyErr::from(std::io::Error::new(kind, format!("{path}: {message}"))),
+        e => map_sim(&e, source).into_pyerr(),
     }
 }
 

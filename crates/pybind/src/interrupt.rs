@@ -91,7 +91,17 @@ pub(crate) fn run<T: Send + 'static>(
     progress: Option<&Bound<'_, PyAny>>,
     work: impl FnOnce(&Shared) -> T + Send + 'static,
 ) -> PyResult<T> {
-    let shared = Arc::new(Shared::default());
+    run_shared(py, progress, Arc::new(Shared::default()), work)
+}
+
+/// [`run`] with a [`Shared`] the caller made, so that something else it hands to the work
+/// (a Python controller that failed) can raise the same cancellation flag.
+pub(crate) fn run_shared<T: Send + 'static>(
+    py: Python<'_>,
+    progress: Option<&Bound<'_, PyAny>>,
+    shared: Arc<Shared>,
+    work: impl FnOnce(&Shared) -> T + Send + 'static,
+) -> PyResult<T> {
     let (tx, rx) = mpsc::sync_channel(1);
     let theirs = Arc::clone(&shared);
     submit(Box::new(move |done: &dyn Fn()| {

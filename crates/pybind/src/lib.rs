@@ -14,6 +14,7 @@ mod interrupt;
 mod leap;
 mod motor;
 mod robot;
+mod sim;
 
 use pyo3::prelude::*;
 
@@ -23,5 +24,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     motor::register(m)?;
     analysis::register(m)?;
     leap::register(m)?;
+    sim::register(m)?;
     Ok(())
 }

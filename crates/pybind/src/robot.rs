@@ -108,12 +108,19 @@ fn embed(
 pub struct Robot {
     model: Model,
     rhex: Option<Rhex>,
+    /// The description the model was built from (for `selfmanip.simulate`).
+    description: RobotDescription,
 }
 
 impl Robot {
     /// The model (for the other bindings).
     pub(crate) fn model(&self) -> &Model {
         &self.model
+    }
+
+    /// The description the model was built from (for the simulation bindings).
+    pub(crate) fn description(&self) -> &RobotDescription {
+        &self.description
     }
 
     fn mode(&self, spec: &str) -> PyResult<ContactMode> {
@@ -249,6 +256,7 @@ impl Robot {
             let rhex = Rhex::new(params).map_err(rhex_err)?;
             Ok(Robot {
                 model: rhex.model.clone(),
+                description: rhex.params.description(),
                 rhex: Some(rhex),
             })
         })
@@ -272,6 +280,7 @@ impl Robot {
             Ok(Robot {
                 model: d.build().map_err(core_err)?,
                 rhex: None,
+                description: d,
             })
         })
     }

@@ -22,6 +22,7 @@ use selfmanip_hybrid::{
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 /// Everything one execution needs. TOML or JSON; every field can be set by name
@@ -359,7 +360,14 @@ impl Simulation {
 
     /// Runs the execution.
     pub fn run(&self) -> Result<Run, SimError> {
-        let exec = selfmanip_hybrid::simulate(
+        self.run_with(&selfmanip_hybrid::budget::NEVER)
+    }
+
+    /// [`Self::run`] that another thread can stop: once `stop` is raised the run ends within
+    /// one integration step with [`crate::RunStatus::Interrupted`]
+    /// ([`selfmanip_hybrid::simulate_with`]).
+    pub fn run_with(&self, stop: &AtomicBool) -> Result<Run, SimError> {
+        let exec = selfmanip_hybrid::simulate_with(
             &self.model,
             &self.terrain,
             &*self.controller,
@@ -368,6 +376,7 @@ impl Simulation {
             &self.qd0,
             self.t_final_s,
             self.options,
+            stop,
         )?;
         let outcome = outcome(&self.model, &exec, &self.labels, self.word);
         Ok(Run {

@@ -17,6 +17,7 @@ use crate::outcome::Outcome;
 use crate::scenario::{Scenario, Simulation};
 use rayon::prelude::*;
 use serde_json::Value;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Runs `f` on every item on a pool of exactly `threads` threads; results in input order.
 pub fn run_parallel<T: Sync, R: Send>(
@@ -129,6 +130,28 @@ pub fn sweep(
     points: &[SweepPoint],
     threads: usize,
 ) -> Result<Vec<PointResult>, SimError> {
+    // never stopped: every point has its result
+    let rows = sweep_with(
+        base,
+        points,
+        threads,
+        &selfmanip_hybrid::budget::NEVER,
+        &|| {},
+    )?;
+    Ok(rows.into_iter().flatten().collect())
+}
+
+/// [`sweep`] that another thread can stop, and that reports each finished point: once
+/// `stop` is raised, points not yet started are skipped (`None`) and a point running ends
+/// within one integration step with the status `interrupted`; `done` is called after each
+/// point (from the worker threads; for a progress count).
+pub fn sweep_with(
+    base: &Scenario,
+    points: &[SweepPoint],
+    threads: usize,
+    stop: &AtomicBool,
+    done: &(dyn Fn() + Sync),
+) -> Result<Vec<Option<PointResult>>, SimError> {
     let tree = base.to_value()?;
     for p in points {
         for (name, _) in &p.values {
@@ -136,15 +159,19 @@ pub fn sweep(
         }
     }
     run_parallel(points, threads, |p| {
+        if stop.load(Ordering::Relaxed) {
+            return None;
+        }
         let result = match catch_panic(|| {
             let mut t = tree.clone();
             let s = Scenario::set_all(&mut t, &p.values)?;
-            Ok::<_, SimError>(Simulation::new(&s)?.run()?.outcome)
+            Ok::<_, SimError>(Simulation::new(&s)?.run_with(stop)?.outcome)
         }) {
             Ok(Ok(o)) => Ok(o),
             Ok(Err(e)) => Err(PointFailure::Error(e)),
             Err(m) => Err(PointFailure::Panic(m)),
         };
-        PointResult { result }
+        done();
+        Some(PointResult { result })
     })
 }

@@ -15,6 +15,10 @@ use selfmanip_core::{forward_dynamics, Data, Model, Terrain};
 use selfmanip_hybrid::Execution;
 use serde::Serialize;
 
+/// The sample interval of logs and plots when the caller gives none (s): 200 samples a
+/// second, finer than a stance of a few tens of milliseconds needs to show its shape.
+pub const DEFAULT_DT_S: f64 = 0.005;
+
 /// Samples of an execution, for logs and plots.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Trajectory {

@@ -1,0 +1,645 @@
+//! `selfmanip.simulate` / `selfmanip.sweep`'s native half for any robot: a [`Scenario`] (the
+//! Rust `selfmanip_sim::Scenario`) built from Python objects, its [`Run`], and sweeps over
+//! named parameters. Conversions only; the semantics (defaults, checks, the word, the sweep's
+//! determinism and per-point statuses) live in `selfmanip_sim`.
+//!
+//! **Inputs** arrive as Python objects: the robot as a `selfmanip._native.Robot`, a
+//! description dict or a file path; the behaviour as a dict, a file path or `None` (no
+//! actuation); the terrain as a dict (`{"kind": "ledge", …}`), a kind name or `None`;
+//! options as a dict of `SimOptions` fields. Every absent field keeps the Rust default.
+//!
+//! **Work** runs on a worker thread with the GIL released and is interruptible by Ctrl-C
+//! ([`crate::interrupt`]): the cancellation flag is the engine's stop flag, so a long run ends
+//! within one integration step.
+//!
+//! **A Python controller** (`controller(t, q, qd, mode) -> tau`) is a Rust
+//! [`selfmanip_hybrid::Controller`] that takes the GIL for every evaluation (the slow escape
+//! hatch). An exception it raises, or a result of the wrong length or with a non-finite
+//! entry, is stored, raises the stop flag (the run ends within one step) and is re-raised as a
+//! typed error (`ControllerError` with the original as its cause, or `InvalidInputError` /
+//! `InvalidTypeError` naming `controller`): never a panic across the FFI.
+use crate::convert::{pairs_array, rows_array, to_map, to_py, to_value};
+use crate::errors::{self, guard, invalid, invalid_type, Source};
+use crate::interrupt::{self, Shared};
+use numpy::{IntoPyArray, PyArray1};
+use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
+use pyo3::types::{PyDict, PyList, PyString, PyType};
+use selfmanip_core::{ContactMode, RobotDescription};
+use selfmanip_hybrid::Controller;
+use selfmanip_sim::behaviour::Behaviour;
+use selfmanip_sim::labels::ContactLabels;
+use selfmanip_sim::sweep::{grid, sweep_with, PointResult};
+use selfmanip_sim::trajectory::{q_names, DEFAULT_DT_S};
+use selfmanip_sim::{InitialState, Scenario, SimError, SimOptions, Simulation, TerrainSpec};
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+use std::sync::{Arc, Mutex};
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyScenario>()?;
+    m.add_class::<PyRun>()?;
+    m.add_function(wrap_pyfunction!(sim_defaults, m)?)?;
+    Ok(())
+}
+
+fn caller_err(e: SimError) -> PyErr {
+    errors::sim(e, Source::Caller)
+}
+
+fn engine_err(e: SimError) -> PyErr {
+    errors::sim(e, Source::Engine)
+}
+
+/// A JSON value as `T`, or an error of `what` (`behaviour`, `terrain`, `robot`).
+fn from_json<T: serde::de::DeserializeOwned>(v: Value, what: &str) -> PyResult<T> {
+    serde_json::from_value(v).map_err(|e| {
+        caller_err(SimError::Parse {
+            what: what.into(),
+            format: "python",
+            message: e.to_string(),
+        })
+    })
+}
+
+/// `{"t_final_s": …, "sample_dt_s": …, "options": {…}}`: the Rust defaults.
+#[pyfunction]
+fn sim_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let d = PyDict::new(py);
+    let o = SimOptions::default();
+    d.set_item("t_final_s", o.t_final_s)?;
+    d.set_item("sample_dt_s", DEFAULT_DT_S)?;
+    d.set_item("options", to_py(py, &o)?)?;
+    Ok(d)
+}
+
+fn robot_description(robot: &Bound<'_, PyAny>) -> PyResult<RobotDescription> {
+    if let Ok(r) = robot.cast::<crate::robot::Robot>() {
+        return Ok(r.get().description().clone());
+    }
+    if robot.is_instance_of::<PyDict>() {
+        return from_json(to_value(robot, "robot")?, "robot");
+    }
+    let path: PathBuf = robot.extract().map_err(|_| {
+        invalid_type(
+            "robot",
+            "`robot` must be a selfmanip.Robot, a description dict or a file path",
+        )
+    })?;
+    RobotDescription::from_file(&path).map_err(|e| errors::core(e, Source::Caller))
+}
+
+fn behaviour_of(b: Option<&Bound<'_, PyAny>>) -> PyResult<Behaviour> {
+    let Some(b) = b.filter(|b| !b.is_none()) else {
+        return Ok(Behaviour::default());
+    };
+    if b.is_instance_of::<PyDict>() {
+        return from_json(to_value(b, "behaviour")?, "behaviour");
+    }
+    let path: PathBuf = b.extract().map_err(|_| {
+        invalid_type(
+            "behaviour",
+            "`behaviour` must be a dict, a file path or None",
+        )
+    })?;
+    Behaviour::from_file(&path).map_err(caller_err)
+}
+
+fn terrain_of(t: Option<&Bound<'_, PyAny>>) -> PyResult<TerrainSpec> {
+    let Some(t) = t.filter(|t| !t.is_none()) else {
+        return Ok(TerrainSpec::default());
+    };
+    let v = if let Ok(s) = t.cast::<PyString>() {
+        serde_json::json!({ "kind": s.to_str()? })
+    } else {
+        to_value(t, "terrain")?
+    };
+    from_json(v, "terrain")
+}
+
+/// The options: the fields given over the Rust defaults; an unknown or mistyped field names
+/// itself (`options.<field>`).
+fn options_of(o: Option<&Bound<'_, PyDict>>) -> PyResult<SimOptions> {
+    let Some(o) = o else {
+        return Ok(SimOptions::default());
+    };
+    let map = to_map(o, "options")?;
+    serde_json::from_value(Value::Object(map.clone())).map_err(|e| {
+        let culprit = map.iter().find_map(|(k, v)| {
+            let one = serde_json::json!({ k.as_str(): v });
+            serde_json::from_value::<SimOptions>(one)
+                .err()
+                .map(|e| (k, e))
+        });
+        match culprit {
+            Some((k, e1)) => invalid(&format!("options.{k}"), format!("`options.{k}`: {e1}")),
+            None => invalid("options", format!("options: {e}")),
+        }
+    })
+}
+
+/// A scenario: robot description, terrain, initial state, behaviour and options
+/// (`selfmanip_sim::Scenario`).
+#[pyclass(module = "selfmanip._native", name = "Scenario")]
+#[derive(Clone)]
+pub struct PyScenario {
+    inner: Scenario,
+}
+
+#[pymethods]
+impl PyScenario {
+    /// Builds a scenario from its parts (see the module documentation); nothing is checked
+    /// against the robot until it runs.
+    #[new]
+    #[pyo3(signature = (robot, behaviour, q0, qd0=None, terrain=None, contacts=None, solve=None, options=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        robot: &Bound<'_, PyAny>,
+        behaviour: Option<&Bound<'_, PyAny>>,
+        q0: Vec<f64>,
+        qd0: Option<Vec<f64>>,
+        terrain: Option<&Bound<'_, PyAny>>,
+        contacts: Option<Vec<String>>,
+        solve: Option<Vec<String>>,
+        options: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Self> {
+        guard(|| {
+            Ok(PyScenario {
+                inner: Scenario {
+                    robot: robot_description(robot)?,
+                    terrain: terrain_of(terrain)?,
+                    initial: InitialState {
+                        q: q0,
+                        qd: qd0,
+                        contacts: contacts.unwrap_or_default(),
+                        solve: solve.unwrap_or_default(),
+                    },
+                    behaviour: behaviour_of(behaviour)?,
+                    options: options_of(options)?,
+                },
+            })
+        })
+    }
+
+    /// A scenario file (`.toml` or `.json`).
+    #[staticmethod]
+    fn from_file(path: PathBuf) -> PyResult<Self> {
+        guard(|| {
+            Ok(PyScenario {
+                inner: Scenario::from_file(&path).map_err(caller_err)?,
+            })
+        })
+    }
+
+    /// Sets one field by name (a behaviour parameter such as `kp_push`, or a path such as
+    /// `legs.leg.links[1].length_m`, `terrain.height_m`, `options.rtol`).
+    fn set(&mut self, name: &str, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        guard(|| {
+            let v = to_value(value, name)?;
+            self.inner.set(name, v).map_err(caller_err)
+        })
+    }
+
+    /// Every name a parameter can be set by.
+    fn settable_names(&self) -> PyResult<Vec<String>> {
+        self.inner.settable_names().map_err(caller_err)
+    }
+
+    /// The scenario as plain Python data (the form parameter paths address).
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.inner)
+    }
+
+    /// Names of the coordinates of `q` (`<joint>_theta`…, `x`, `z`, `phi`).
+    fn q_names(&self) -> PyResult<Vec<String>> {
+        let model = self
+            .inner
+            .robot
+            .build()
+            .map_err(|e| errors::core(e, Source::Caller))?;
+        Ok(q_names(&model))
+    }
+
+    /// Runs the scenario: with its behaviour, or, when `controller` is given, with that Python
+    /// callable `controller(t, q, qd, mode) -> tau` (the behaviour is then not read).
+    #[pyo3(signature = (controller=None))]
+    fn run(&self, py: Python<'_>, controller: Option<Bound<'_, PyAny>>) -> PyResult<PyRun> {
+        guard(|| {
+            let shared = Arc::new(Shared::default());
+            let failure: Failure = Arc::new(Mutex::new(None));
+            let sim = match controller {
+                None => Simulation::new(&self.inner).map_err(caller_err)?,
+                Some(f) => {
+                    if !f.is_callable() {
+                        return Err(invalid_type(
+                            "controller",
+                            "`controller` must be callable as controller(t, q, qd, mode) -> tau",
+                        ));
+                    }
+                    let mut sim = Simulation::without_behaviour(&self.inner).map_err(caller_err)?;
+                    sim.controller = Arc::new(PyController {
+                        f: Arc::new(f.unbind()),
+                        labels: sim.labels.clone(),
+                        n_joints: sim.model.n_joints(),
+                        failure: Arc::clone(&failure),
+                        shared: Arc::clone(&shared),
+                    });
+                    sim
+                }
+            };
+            let run = interrupt::run_shared(py, None, shared, move |sh: &Shared| {
+                sim.run_with(&sh.cancel)
+            })?;
+            take_failure(&failure)?;
+            Ok(PyRun {
+                inner: run.map_err(engine_err)?,
+                failure,
+            })
+        })
+    }
+
+    /// A sweep: the grid of `over` (`[(name, [v0, v1, …]), …]`, the last name varying
+    /// fastest) run on `threads` threads; `progress(done)` is called as points finish.
+    /// Returns a dict of columns, one row per point (see `selfmanip.simulation.sweep`).
+    #[pyo3(signature = (over, threads, progress=None))]
+    fn sweep<'py>(
+        &self,
+        py: Python<'py>,
+        over: Vec<(String, Bound<'py, PyAny>)>,
+        threads: usize,
+        progress: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        guard(|| {
+            let mut axes: Vec<(String, Vec<Value>)> = Vec::new();
+            for (name, values) in &over {
+                let list: Vec<Bound<'py, PyAny>> = values.extract().map_err(|_| {
+                    invalid_type(name, format!("`{name}`: the swept values must be a list"))
+                })?;
+                let vals = list
+                    .iter()
+                    .enumerate()
+                    .map(|(i, x)| to_value(x, &format!("{name}[{i}]")))
+                    .collect::<PyResult<Vec<_>>>()?;
+                axes.push((name.clone(), vals));
+            }
+            let points = grid(&axes);
+            let base = self.inner.clone();
+            let names: Vec<String> = axes.iter().map(|(n, _)| n.clone()).collect();
+            let pts = points.clone();
+            let rows = interrupt::run(py, progress, move |sh: &Shared| {
+                sweep_with(&base, &pts, threads, &sh.cancel, &|| sh.tick())
+            })?
+            .map_err(caller_err)?;
+            let rows: Vec<PointResult> = rows
+                .into_iter()
+                .collect::<Option<Vec<_>>>()
+                .ok_or_else(|| errors::engine("the sweep was cancelled"))?;
+            let coords = self.inner.robot.build().ok().map(|m| q_names(&m));
+            let d = PyDict::new(py);
+            for (j, name) in names.iter().enumerate() {
+                let col = points
+                    .iter()
+                    .map(|p| crate::convert::from_value(py, &p.values[j].1))
+                    .collect::<PyResult<Vec<_>>>()?;
+                d.set_item(name, PyList::new(py, col)?)?;
+            }
+            sweep_columns(py, &d, &rows, coords.as_deref())?;
+            Ok(d)
+        })
+    }
+}
+
+/// The columns of a sweep's rows (NaN / empty where a point has no value).
+fn sweep_columns(
+    py: Python<'_>,
+    d: &Bound<'_, PyDict>,
+    rows: &[PointResult],
+    coords: Option<&[String]>,
+) -> PyResult<()> {
+    let nan = f64::NAN;
+    let num = |f: &dyn Fn(&selfmanip_sim::Outcome) -> f64| -> Vec<f64> {
+        rows.iter().map(|r| r.outcome().map_or(nan, f)).collect()
+    };
+    let text = |f: &dyn Fn(&PointResult) -> String| -> Vec<String> { rows.iter().map(f).collect() };
+    d.set_item("status", text(&|r| r.status().to_string()))?;
+    d.set_item("error", text(&|r| r.error().unwrap_or_default()))?;
+    d.set_item(
+        "word",
+        text(&|r| r.outcome().map_or(String::new(), |o| o.word_string())),
+    )?;
+    d.set_item(
+        "mode_end",
+        text(&|r| r.outcome().map_or(String::new(), |o| o.mode_end.clone())),
+    )?;
+    d.set_item(
+        "n_events",
+        rows.iter()
+            .map(|r| r.outcome().map_or(0, |o| o.n_events as i64))
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    d.set_item("t_end_s", num(&|o| o.t_end_s).into_pyarray(py))?;
+    d.set_item("flight_time_s", num(&|o| o.flight_time_s).into_pyarray(py))?;
+    d.set_item("impact_loss_j", num(&|o| o.impact_loss_j).into_pyarray(py))?;
+    type Get = fn(&selfmanip_sim::outcome::BodyState) -> f64;
+    let body: [(&str, Get); 7] = [
+        ("t_s", |b| b.t_s),
+        ("x_m", |b| b.x_m),
+        ("z_m", |b| b.z_m),
+        ("phi_rad", |b| b.phi_rad),
+        ("xdot_m_s", |b| b.xdot_m_s),
+        ("zdot_m_s", |b| b.zdot_m_s),
+        ("phidot_rad_s", |b| b.phidot_rad_s),
+    ];
+    for (k, g) in body {
+        d.set_item(
+            format!("apex_{k}"),
+            num(&|o| o.apex.map_or(nan, |a| g(&a))).into_pyarray(py),
+        )?;
+    }
+    for (k, g) in body {
+        d.set_item(
+            format!("landing_{k}"),
+            num(&|o| o.landing.as_ref().map_or(nan, |l| g(&l.before))).into_pyarray(py),
+        )?;
+    }
+    d.set_item(
+        "landing_energy_loss_j",
+        num(&|o| o.landing.as_ref().map_or(nan, |l| l.energy_loss_j)).into_pyarray(py),
+    )?;
+    if let Some(names) = coords {
+        for (i, n) in names.iter().enumerate() {
+            d.set_item(
+                format!("end_{n}"),
+                num(&|o| o.q_end.get(i).copied().unwrap_or(nan)).into_pyarray(py),
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// The first error of a Python controller, shared by every copy of it.
+type Failure = Arc<Mutex<Option<PyErr>>>;
+
+/// Re-raises the stored failure of a Python controller, if any.
+fn take_failure(failure: &Failure) -> PyResult<()> {
+    match failure.lock().unwrap_or_else(|e| e.into_inner()).take() {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+/// `selfmanip.errors.ControllerError`.
+fn controller_error(py: Python<'_>, message: String, cause: PyErr) -> PyErr {
+    static CELL: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+    let made = CELL
+        .import(py, "selfmanip.errors", "ControllerError")
+        .and_then(|cls| cls.call1((message, "controller")));
+    match made {
+        Ok(exc) => {
+            let err = PyErr::from_value(exc);
+            err.set_cause(py, Some(cause));
+            err
+        }
+        Err(e) => e,
+    }
+}
+
+/// A Python callable as a controller (see the module documentation).
+#[derive(Clone)]
+struct PyController {
+    f: Arc<Py<PyAny>>,
+    labels: ContactLabels,
+    n_joints: usize,
+    failure: Failure,
+    shared: Arc<Shared>,
+}
+
+impl PyController {
+    fn fail(&self, e: PyErr) {
+        let mut slot = self.failure.lock().unwrap_or_else(|e| e.into_inner());
+        if slot.is_none() {
+            *slot = Some(e);
+        }
+        self.shared.cancel.store(true, Ordering::Relaxed);
+    }
+
+    fn failed(&self) -> bool {
+        self.failure
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .is_some()
+    }
+
+    fn call(
+        &self,
+        py: Python<'_>,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        mode: ContactMode,
+    ) -> PyResult<Vec<f64>> {
+        let out = self
+            .f
+            .bind(py)
+            .call1((
+                t,
+                PyArray1::from_slice(py, q),
+                PyArray1::from_slice(py, qd),
+                self.labels.label(mode),
+            ))
+            .map_err(|e| {
+                controller_error(
+                    py,
+                    format!("the controller raised {} at t = {t} s", describe(py, &e)),
+                    e,
+                )
+            })?;
+        let tau: Vec<f64> = out.extract().map_err(|_| {
+            invalid_type(
+                "controller",
+                format!(
+                    "`controller` must return {} joint torques (a sequence of numbers), got {}",
+                    self.n_joints,
+                    out.get_type().name().map_or("?".into(), |n| n.to_string())
+                ),
+            )
+        })?;
+        if tau.len() != self.n_joints {
+            return Err(invalid(
+                "controller",
+                format!(
+                    "`controller` returned {} torques at t = {t} s, the robot has {} joints",
+                    tau.len(),
+                    self.n_joints
+                ),
+            ));
+        }
+        if let Some(i) = tau.iter().position(|x| !x.is_finite()) {
+            return Err(invalid(
+                "controller",
+                format!(
+                    "`controller` returned a non-finite torque ({}) for joint {i} at t = {t} s",
+                    tau[i]
+                ),
+            ));
+        }
+        Ok(tau)
+    }
+}
+
+fn describe(py: Python<'_>, e: &PyErr) -> String {
+    let name = e
+        .get_type(py)
+        .name()
+        .map_or_else(|_| "an exception".to_string(), |n| n.to_string());
+    format!("{name}: {}", e.value(py))
+}
+
+impl Controller for PyController {
+    fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]) {
+        tau.fill(0.0);
+        if self.failed() {
+            return;
+        }
+        match Python::attach(|py| self.call(py, t, q, qd, mode)) {
+            Ok(v) => tau.copy_from_slice(&v),
+            Err(e) => self.fail(e),
+        }
+    }
+}
+
+/// One execution (`selfmanip_sim::Run`).
+#[pyclass(module = "selfmanip._native", name = "Run", frozen)]
+pub struct PyRun {
+    inner: selfmanip_sim::Run,
+    /// The Python controller's failure slot (sampling evaluates it again).
+    failure: Failure,
+}
+
+#[pymethods]
+impl PyRun {
+    /// How the run ended (`final_time`, `apex`, `zeno`, …).
+    #[getter]
+    fn status(&self) -> &'static str {
+        self.inner.outcome.status.as_str()
+    }
+
+    /// The contact cells visited, in the robot's own contact order.
+    #[getter]
+    fn word(&self) -> Vec<String> {
+        self.inner.outcome.word.clone()
+    }
+
+    /// The outcome as a dict (status, word, apex, landing, end state, …).
+    fn outcome<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.inner.outcome)
+    }
+
+    /// The events as dicts: `t_s`, `kind`, `mode_before`, `mode_after`, `contacts`,
+    /// `energy_loss_j`, `impulse`.
+    fn events<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.inner.events())
+    }
+
+    /// The segments as dicts: `t0_s`, `t1_s`, `mode`.
+    fn segments<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        let list = PyList::empty(py);
+        for s in &self.inner.execution.segments {
+            let d = PyDict::new(py);
+            d.set_item("t0_s", s.t0)?;
+            d.set_item("t1_s", s.t1)?;
+            d.set_item("mode", self.inner.labels.label(s.mode))?;
+            list.append(d)?;
+        }
+        Ok(list)
+    }
+
+    /// Coordinate names of `q`.
+    #[getter]
+    fn q_names(&self) -> Vec<String> {
+        q_names(&self.inner.model)
+    }
+
+    /// The contacts shown in mode labels and words, in order.
+    #[getter]
+    fn labels(&self) -> Vec<String> {
+        self.inner.labels.names().to_vec()
+    }
+
+    /// Samples every `dt_s` (default: the crate's sample interval) as numpy arrays.
+    #[pyo3(signature = (dt_s=None))]
+    fn trajectory<'py>(&self, py: Python<'py>, dt_s: Option<f64>) -> PyResult<Bound<'py, PyDict>> {
+        guard(|| {
+            let tr = self
+                .inner
+                .trajectory(dt_s.unwrap_or(DEFAULT_DT_S))
+                .map_err(|e| match e {
+                    SimError::InvalidValue { .. } => caller_err(e),
+                    e => engine_err(e),
+                })?;
+            take_failure(&self.failure)?;
+            let nq = self.inner.model.nq();
+            let nj = self.inner.model.n_joints();
+            let nc = tr.contacts.len();
+            let d = PyDict::new(py);
+            d.set_item("q_names", tr.q_names.clone())?;
+            d.set_item("contacts", tr.contacts.clone())?;
+            d.set_item("t_s", tr.t_s.clone().into_pyarray(py))?;
+            d.set_item("q", rows_array(&tr.q, nq).into_pyarray(py))?;
+            d.set_item("qd", rows_array(&tr.qd, nq).into_pyarray(py))?;
+            d.set_item("tau", rows_array(&tr.tau, nj).into_pyarray(py))?;
+            d.set_item("mode", tr.mode.clone())?;
+            d.set_item(
+                "contact_points_m",
+                pairs_array(&tr.contact_points_m, nc).into_pyarray(py),
+            )?;
+            d.set_item(
+                "contact_forces_n",
+                pairs_array(&tr.contact_forces_n, nc).into_pyarray(py),
+            )?;
+            Ok(d)
+        })
+    }
+
+    /// `E₁ − E₀ = W − L`: `initial_j`, `final_j`, `joint_work_j`, `impact_loss_j`,
+    /// `residual_j`.
+    fn energy_report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        guard(|| {
+            let r = self.inner.energy_report().map_err(engine_err)?;
+            take_failure(&self.failure)?;
+            let d = PyDict::new(py);
+            d.set_item("initial_j", r.initial_j)?;
+            d.set_item("final_j", r.final_j)?;
+            d.set_item("joint_work_j", r.joint_work_j)?;
+            d.set_item("impact_loss_j", r.impact_loss_j)?;
+            d.set_item("residual_j", r.residual_j())?;
+            Ok(d)
+        })
+    }
+
+    /// Writes an MCAP log sampled every `dt_s` (default: the crate's sample interval),
+    /// atomically; `metadata` goes into its `selfmanip` metadata record.
+    #[pyo3(signature = (path, dt_s=None, metadata=None))]
+    fn write_mcap(
+        &self,
+        py: Python<'_>,
+        path: PathBuf,
+        dt_s: Option<f64>,
+        metadata: Option<BTreeMap<String, String>>,
+    ) -> PyResult<()> {
+        guard(|| {
+            let dt = dt_s.unwrap_or(DEFAULT_DT_S);
+            let md = metadata.unwrap_or_default();
+            // the sampling may call a Python controller: keep the GIL reachable
+            let r = py.detach(|| self.inner.write_mcap(&path, dt, md));
+            take_failure(&self.failure)?;
+            r.map_err(|e| match e {
+                SimError::InvalidValue { .. } => caller_err(e),
+                e => engine_err(e),
+            })
+        })
+    }
+}

@@ -1,0 +1,54 @@
+"""A one-legged hopper dropped from a height, hopping in place: the Python twin of
+``crates/selfmanip-sim/examples/hopper.rs``. The robot and the behaviour are data files
+(``crates/selfmanip-sim/examples/data/hopper.toml``, ``hop.toml``); the run is logged to MCAP
+(open it in Foxglove) and plotted.
+
+    python3 python/examples/hopper.py [--out-dir .] [--t-final 1.0]
+
+The CLI equivalent: ``selfmanip simulate crates/selfmanip-sim/examples/data/hopper.toml
+crates/selfmanip-sim/examples/data/hop.toml --q0 0.5,-1,0,-0.451,0 --mcap hopper.mcap
+--plot hopper.png``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import pathlib
+
+import selfmanip
+
+DATA = pathlib.Path(__file__).resolve().parents[2] / "crates" / "selfmanip-sim" / "examples" / "data"
+
+
+def q0(drop_m: float = 0.1, a: float = 0.5) -> list[float]:
+    """Dropped level, the foot ``drop_m`` above the ground, the leg at its landing pose (hip
+    ``a``, knee ``-2a``: the foot under the hip, ``2 L cos a`` below it)."""
+    return [a, -2.0 * a, 0.0, -(drop_m + 0.4 * math.cos(a)), 0.0]
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out-dir", default=".")
+    ap.add_argument("--t-final", type=float, default=1.0)
+    args = ap.parse_args(argv)
+    e = selfmanip.simulate(DATA / "hopper.toml", DATA / "hop.toml", q0(), t_final=args.t_final)
+    print(f"status {e.status}  word {e.word_string}")
+    for ev in e.events:
+        print(f"  t {ev['t_s']:.4f} s  {ev['kind']:<9} {ev['mode_before']} -> {ev['mode_after']}  "
+              f"{ev['contacts']}  loss {ev['energy_loss_j']:.3f} J")
+    if e.apex is not None:
+        print(f"first apex: t {e.apex['t_s']:.3f} s, height {-e.apex['z_m']:.3f} m")
+    r = e.energy_report()
+    print(f"energy: E0 {r.initial_j:.3f} J, E1 {r.final_j:.3f} J, joint work {r.joint_work_j:.3f} J, "
+          f"impact loss {r.impact_loss_j:.3f} J, residual {r.residual_j:.2e} J")
+    out = pathlib.Path(args.out_dir)
+    print("wrote", e.to_mcap(out / "hopper.mcap", metadata={"example": "hopper"}))
+    e.plot(out / "hopper.png")
+    print("wrote", os.fspath(out / "hopper.png"))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

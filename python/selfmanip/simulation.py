@@ -1,0 +1,439 @@
+"""Any robot, any behaviour: hybrid simulations, sweeps, MCAP logs and plots for a robot of
+your own (issue 17), through the Rust crate ``selfmanip-sim``.
+
+* :func:`simulate` — one execution of a robot (a :class:`selfmanip.Robot` or a description
+  file) driven by a behaviour (a TOML/JSON file or a dict of the schema in
+  ``docs/behaviours.md``; ``None``: no actuation) from ``q0`` → an :class:`Execution` with its
+  status, word, events, segments, ``trajectory(dt)``, ``energy_report()``, ``to_mcap(path)``
+  and ``plot(path)``.
+* :func:`sweep` — a grid over named parameters (behaviour parameters such as ``kp_push``, any
+  description, terrain, initial-state or option field by path such as
+  ``legs.leg.links[1].length_m``) on a pool of threads → DataFrame-ready columns with a status
+  and an error per point. Called with a strategy (``selfmanip.sweep("++", t2=...)``) or with
+  no robot, it is the RHex leap sweep of :mod:`selfmanip.leap`, unchanged.
+* A Python callable as controller, ``controller=lambda t, q, qd, mode: tau``: the slow escape
+  hatch. Each evaluation takes the GIL and crosses the FFI (seven per integration step), so a
+  run is one to two orders of magnitude slower than the same law as a behaviour file; the
+  callable must be a pure function of its arguments (the engine evaluates it at trial states
+  and again when sampling the trajectory). ``mode`` is the contact-mode label in the robot's
+  contact order (``"10"``: the first contact down). An exception it raises stops the run and
+  surfaces as :class:`selfmanip.errors.ControllerError` (the original is ``__cause__``); a
+  result of the wrong length or with a NaN as :class:`selfmanip.errors.InvalidInputError`
+  naming ``controller``. Free massless joints have no dynamics: a Python controller leaves
+  them unaccelerated (prescribe their motion with a behaviour instead).
+
+Every default (final time, tolerances, event and step budgets, the sample interval of logs)
+is the Rust crate's: arguments left at :data:`DEFAULT` are not sent. Runs release the GIL and
+stop on Ctrl-C (``KeyboardInterrupt``) within one integration step.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import numbers
+import os
+import warnings
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, Sequence, Union, overload
+
+import numpy as np
+
+from . import _checks, _native
+from .errors import AllPointsFailedWarning, InvalidInputError, InvalidTypeError
+from .leap import DEFAULT, _Default
+from .robot import Robot
+
+if TYPE_CHECKING:
+    import matplotlib.figure
+
+__all__ = ["Execution", "EnergyReport", "SimTrajectory", "simulate", "sweep", "simulation_sweep", "scenario",
+           "defaults", "settable_names", "COMPLETE_STATUSES", "failure_summary"]
+
+#: Statuses of a run that reached its end (the final time, or the apex it was asked to stop
+#: at); every other status is the engine stopping it (Zeno, a budget, no contact solution, …)
+#: or, in a sweep, the error kind of a point that could not run.
+COMPLETE_STATUSES = ("final_time", "apex")
+
+RobotLike = Union[Robot, str, "os.PathLike[str]", Mapping[str, Any]]
+BehaviourLike = Union[str, "os.PathLike[str]", Mapping[str, Any], None]
+TerrainLike = Union[str, Mapping[str, Any], None]
+Controller = Callable[[float, np.ndarray, np.ndarray, str], Sequence[float]]
+
+
+@functools.lru_cache(maxsize=1)
+def _defaults() -> dict[str, Any]:
+    return dict(_native.sim_defaults())
+
+
+def defaults() -> dict[str, Any]:
+    """The Rust defaults: ``t_final_s``, ``sample_dt_s`` (logs and plots) and ``options`` (every
+    field of ``SimOptions``, the names ``**options`` of :func:`simulate` accepts)."""
+    import copy
+
+    return copy.deepcopy(_defaults())
+
+
+@dataclass(frozen=True)
+class EnergyReport:
+    """``E1 - E0 = W - L`` over an execution: kinetic plus potential energy at the start and
+    the end, the joint torques' work ``W = int tau . thetadot dt`` (free massless joints carry
+    no load) and the impact losses ``L`` (sum of ``T- - T+`` over the touchdowns);
+    ``residual_j = E1 - E0 - W + L`` (zero up to the integration tolerance)."""
+
+    initial_j: float
+    final_j: float
+    joint_work_j: float
+    impact_loss_j: float
+    residual_j: float
+
+
+@dataclass(frozen=True)
+class SimTrajectory:
+    """Samples of an execution from its own dense output: ``t_s`` (n), ``q``/``qd`` (n x nq,
+    columns ``q_names``), ``tau`` (n x joints: the torques the behaviour or controller applied),
+    ``mode`` (labels), ``contact_points_m``/``contact_forces_n`` (n x contacts x 2, world
+    ``(x, z)`` NED; force of the ground on the robot; NaN where a contact is not active)."""
+
+    q_names: list[str]
+    contacts: list[str]
+    t_s: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    tau: np.ndarray
+    mode: list[str]
+    contact_points_m: np.ndarray
+    contact_forces_n: np.ndarray
+
+
+class Execution:
+    """One execution of :func:`simulate`.
+
+    ``status`` (``final_time``, ``apex``, ``zeno``, ``step_budget``, …), ``word`` (the contact
+    cells visited, in the robot's own contact order), ``events`` (dicts: ``t_s``, ``kind`` —
+    ``touchdown``, ``liftoff``, ``slip``, ``stick``, ``apex``, ``fold``, … —, ``mode_before``,
+    ``mode_after``, ``contacts`` that fired, ``energy_loss_j`` and ``impulse``, the contact
+    impulse into ``mode_after`` in N s), ``segments`` (dicts ``t0_s``, ``t1_s``, ``mode``),
+    ``outcome`` (apex, landing, end state, flight time, impact losses)."""
+
+    def __init__(self, native: Any, robot_name: str = ""):
+        self._native = native
+        self.robot_name = robot_name
+        self.outcome: dict[str, Any] = dict(native.outcome())
+        self.events: list[dict[str, Any]] = list(native.events())
+        self.segments: list[dict[str, Any]] = list(native.segments())
+
+    @property
+    def status(self) -> str:
+        return str(self._native.status)
+
+    @property
+    def word(self) -> list[str]:
+        return list(self._native.word)
+
+    @property
+    def word_string(self) -> str:
+        """The word joined by ``-``."""
+        return "-".join(self.word)
+
+    @property
+    def q_names(self) -> list[str]:
+        return list(self._native.q_names)
+
+    @property
+    def labels(self) -> list[str]:
+        """The contacts of the mode labels, in order."""
+        return list(self._native.labels)
+
+    @property
+    def t_end_s(self) -> float:
+        return float(self.outcome["t_end_s"])
+
+    @property
+    def q_end(self) -> np.ndarray:
+        return np.asarray(self.outcome["q_end"], dtype=float)
+
+    @property
+    def qd_end(self) -> np.ndarray:
+        return np.asarray(self.outcome["qd_end"], dtype=float)
+
+    @property
+    def apex(self) -> dict[str, float] | None:
+        """The highest point of the first flight (``t_s, x_m, z_m, phi_rad, xdot_m_s, …``)."""
+        return self.outcome.get("apex")
+
+    @property
+    def landing(self) -> dict[str, Any] | None:
+        """The first touchdown after the first flight: ``before`` (body state), ``contacts``,
+        ``mode_after``, ``energy_loss_j``."""
+        return self.outcome.get("landing")
+
+    @property
+    def complete(self) -> bool:
+        """Whether the run reached its final time or its apex."""
+        return self.status in COMPLETE_STATUSES
+
+    def __repr__(self) -> str:
+        return (f"Execution({self.robot_name!r}: {self.status} at t={self.t_end_s:.4g} s, "
+                f"{len(self.events)} events, word {self.word_string})")
+
+    def trajectory(self, dt: float | _Default = DEFAULT) -> SimTrajectory:
+        """Samples every ``dt`` seconds (default: ``defaults()["sample_dt_s"]``) and at the end."""
+        d = self._native.trajectory(None if dt is DEFAULT else _checks.real("dt", dt))
+        return SimTrajectory(q_names=list(d["q_names"]), contacts=list(d["contacts"]), t_s=d["t_s"], q=d["q"],
+                             qd=d["qd"], tau=d["tau"], mode=list(d["mode"]),
+                             contact_points_m=d["contact_points_m"], contact_forces_n=d["contact_forces_n"])
+
+    def energy_report(self) -> EnergyReport:
+        """``E1 - E0 = W - L`` (see :class:`EnergyReport`)."""
+        return EnergyReport(**{k: float(v) for k, v in self._native.energy_report().items()})
+
+    def to_mcap(self, path: str | os.PathLike[str], dt: float | _Default = DEFAULT,
+                metadata: Mapping[str, str] | None = None) -> str:
+        """Writes an MCAP log that opens in Foxglove (a frame per body and link, contact points
+        and forces, modes, events; topics in ``crates/selfmanip-sim/src/mcap.rs``), sampled
+        every ``dt``; returns the path."""
+        md = {str(k): str(v) for k, v in (metadata or {}).items()}
+        if self.robot_name:
+            md.setdefault("robot", self.robot_name)
+        self._native.write_mcap(os.fspath(path), None if dt is DEFAULT else _checks.real("dt", dt), md)
+        return os.fspath(path)
+
+    def plot(self, path: str | os.PathLike[str] | None = None, dt: float | _Default = DEFAULT,
+             title: str | None = None) -> "matplotlib.figure.Figure":
+        """Height, pitch and joint angles, and contact forces against time, events marked
+        (:func:`selfmanip.plots.execution_figure`); saved as PNG when ``path`` is given."""
+        from .plots import execution_figure
+
+        return execution_figure(self, path, dt=dt, title=title)
+
+
+def _robot(robot: Any) -> tuple[Any, str]:
+    if isinstance(robot, Robot):
+        return robot._native, robot.name
+    if isinstance(robot, (str, os.PathLike)):
+        p = os.fspath(robot)
+        if not os.path.exists(p):
+            raise FileNotFoundError(f"robot description not found: {p}")
+        return p, os.path.splitext(os.path.basename(p))[0]
+    if isinstance(robot, Mapping):
+        return dict(robot), str(robot.get("name", ""))
+    raise InvalidTypeError(f"`robot` must be a selfmanip.Robot, a description file or a dict, got "
+                           f"{type(robot).__name__}", "robot")
+
+
+def _behaviour(behaviour: Any) -> Any:
+    if behaviour is None or isinstance(behaviour, Mapping):
+        return None if behaviour is None else dict(behaviour)
+    if isinstance(behaviour, (str, os.PathLike)):
+        p = os.fspath(behaviour)
+        if not os.path.exists(p):
+            raise FileNotFoundError(f"behaviour file not found: {p}")
+        return p
+    raise InvalidTypeError(f"`behaviour` must be a file path, a dict or None, got {type(behaviour).__name__}",
+                           "behaviour")
+
+
+def _names(field: str, value: Any) -> list[str] | None:
+    if value is None:
+        return None
+    if isinstance(value, str):
+        return [v.strip() for v in value.split(",") if v.strip()]
+    if not all(isinstance(v, str) for v in value):
+        raise InvalidTypeError(f"`{field}` must be contact or coordinate names", field)
+    return list(value)
+
+
+def scenario(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[float], qd0: Sequence[float] | None = None,
+             terrain: TerrainLike = None, t_final: float | _Default = DEFAULT, stop_at: str | None | _Default = DEFAULT,
+             *, contacts: Sequence[str] | str | None = None, solve: Sequence[str] | str | None = None,
+             params: Mapping[str, Any] | None = None, **options: Any) -> Any:
+    """The native scenario :func:`simulate` and :func:`sweep` run (arguments as there)."""
+    native_robot, _ = _robot(robot)
+    opts = dict(options)
+    if t_final is not DEFAULT:
+        opts["t_final_s"] = _checks.real("t_final", t_final)
+    if stop_at is not DEFAULT:
+        if stop_at not in (None, "apex"):
+            raise InvalidInputError(f"`stop_at`: expected None or \"apex\", got {stop_at!r}", "stop_at")
+        opts["stop_at_apex"] = stop_at == "apex"
+    s = _native.Scenario(native_robot, _behaviour(behaviour), _checks.vector("q0", q0),
+                         None if qd0 is None else _checks.vector("qd0", qd0), terrain,
+                         _names("contacts", contacts), _names("solve", solve), opts)
+    for name, value in (params or {}).items():
+        s.set(name, _plain(name, value))
+    return s
+
+
+def _plain(name: str, value: Any) -> Any:
+    """numpy scalars as Python numbers (the FFI takes plain Python objects)."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return value
+
+
+def simulate(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[float], qd0: Sequence[float] | None = None,
+             terrain: TerrainLike = None, t_final: float | _Default = DEFAULT, stop_at: str | None | _Default = DEFAULT,
+             *, controller: Controller | None = None, contacts: Sequence[str] | str | None = None,
+             solve: Sequence[str] | str | None = None, params: Mapping[str, Any] | None = None,
+             **options: Any) -> Execution:
+    """One execution of ``robot`` driven by ``behaviour`` from ``q0`` (``[joint angles..., x, z,
+    phi]``, NED: z down) and ``qd0`` (default: at rest), on ``terrain`` (``None``: flat ground;
+    ``"flat"``, or a dict such as ``{"kind": "ledge", "height_m": 0.04, "distance_m": 0.5}``;
+    kinds ``flat``, ``incline``, ``ledge``, ``stairs``).
+
+    ``robot``: a :class:`selfmanip.Robot`, a description file or a description dict.
+    ``behaviour``: a behaviour file (TOML/JSON), a dict of the same schema
+    (``docs/behaviours.md``) or ``None`` (no actuation: zero joint torques). ``t_final`` (s)
+    and ``stop_at="apex"`` (stop at the first apex of a flight); ``contacts``: the contacts
+    active at the start (``"foot"``, ``"foot:slide"``); ``solve``: coordinates to solve so that
+    they touch exactly; ``params``: values set by name before the run (``{"kp_push": 50,
+    "legs.leg.links[1].length_m": 0.25}``); ``controller``: a Python callable instead of the
+    behaviour (see the module documentation); ``**options``: any field of the Rust
+    ``SimOptions`` (``rtol``, ``atol``, ``h_max_s``, ``event_tol_s``, ``delta_t_s``,
+    ``zeno_window_s``, ``zeno_max_events``, ``max_events``, ``labels``, ``word``).
+
+    Bad input raises :class:`selfmanip.errors.InvalidInputError` (a ``ValueError``) or
+    :class:`~selfmanip.errors.InvalidTypeError` (a ``TypeError``) whose ``field`` names it
+    (``behaviour.joints[0].joint``, ``initial.q``, ``options.rtol``); a missing file
+    ``FileNotFoundError``.
+    """
+    if controller is not None and behaviour is not None:
+        raise InvalidInputError("give a behaviour or a controller, not both", "controller")
+    s = scenario(robot, behaviour, q0, qd0, terrain, t_final, stop_at, contacts=contacts, solve=solve,
+                 params=params, **options)
+    return Execution(s.run(controller), _robot(robot)[1])
+
+
+def settable_names(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[float], **kwargs: Any) -> list[str]:
+    """Every name :func:`sweep` and ``simulate(params=...)`` accept for this robot and
+    behaviour: the behaviour's parameters, then every field's full path."""
+    return list(scenario(robot, behaviour, q0, **kwargs).settable_names())
+
+
+def failure_summary(table: Mapping[str, Any]) -> str | None:
+    """``None`` when some point of a sweep table reached its end (``final_time`` or ``apex``);
+    otherwise a one-line account: the count of each status and the first error."""
+    status = np.asarray(table["status"]).astype(str)
+    if len(status) == 0 or bool(np.isin(status, COMPLETE_STATUSES).any()):
+        return None
+    counts = ", ".join(f"{int(np.sum(status == s))} {s}" for s in sorted(set(status.tolist())))
+    errs = [e for e in np.asarray(table.get("error", [])).astype(str) if e]
+    first = f"; first error: {errs[0]}" if errs else ""
+    return f"all {len(status)} points of the sweep failed ({counts}){first}"
+
+
+def _default_threads() -> int:
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+def _column(values: list[Any]) -> np.ndarray:
+    if values and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
+        return np.asarray(values, dtype=float)
+    if values and all(isinstance(v, str) for v in values):
+        return np.asarray(values, dtype=str)
+    return np.asarray(values, dtype=object)
+
+
+def simulation_sweep(robot: RobotLike, behaviour: BehaviourLike = None,
+                     over: Mapping[str, Any] | Iterable[tuple[str, Any]] | None = None, *,
+                     q0: Sequence[float], qd0: Sequence[float] | None = None, terrain: TerrainLike = None,
+                     t_final: float | _Default = DEFAULT, stop_at: str | None | _Default = DEFAULT,
+                     threads: int | None = None, progress: bool | Callable[[int], None] = False,
+                     contacts: Sequence[str] | str | None = None, solve: Sequence[str] | str | None = None,
+                     params: Mapping[str, Any] | None = None, **options: Any) -> dict[str, np.ndarray]:
+    """The sweep of :func:`sweep` for any robot (arguments as in :func:`simulate`).
+
+    ``over``: ``{name: values}`` — each a scalar or a 1-D array, combined as a grid (the last
+    name varying fastest). Returns a dict of equal-length columns (``pandas.DataFrame(r)``
+    works): the swept values, ``status`` (``final_time``/``apex``, an engine stop such as
+    ``zeno``, or the error kind of a point that could not run: ``invalid_value``,
+    ``unknown_reference``, …), ``error`` (its message; empty for a run), ``word``,
+    ``mode_end``, ``n_events``, ``t_end_s``, ``flight_time_s``, ``impact_loss_j``,
+    ``apex_{t_s,x_m,z_m,phi_rad,xdot_m_s,zdot_m_s,phidot_rad_s}``, ``landing_…`` (the body just
+    before the first landing) and ``landing_energy_loss_j`` (NaN where there is none), and
+    ``end_<coordinate>`` for every coordinate of ``q``. A failing point never loses the
+    others; the columns are bit-identical for any ``threads``; a name that names nothing
+    raises :class:`~selfmanip.errors.InvalidInputError` before anything runs. When no point
+    reaches its end an :class:`~selfmanip.errors.AllPointsFailedWarning` says so.
+    """
+    if threads is None:
+        threads = _default_threads()
+    threads = _checks.integer("threads", threads, 1)
+    items = list(over.items()) if isinstance(over, Mapping) else list(over or [])
+    axes: list[tuple[str, list[Any]]] = []
+    for name, values in items:
+        if not isinstance(name, str):
+            raise InvalidTypeError(f"`over`: names must be strings, got {name!r}", "over")
+        if isinstance(values, (str, bytes, numbers.Number, Mapping)) or values is None:
+            vals = [values]
+        else:
+            vals = list(np.asarray(values, dtype=object).ravel()) if isinstance(values, np.ndarray) else list(values)
+        if not vals:
+            raise InvalidInputError(f"`over[{name!r}]`: no values", name)
+        axes.append((name, [_plain(name, v) for v in vals]))
+    s = scenario(robot, behaviour, q0, qd0, terrain, t_final, stop_at, contacts=contacts, solve=solve,
+                 params=params, **options)
+    n = math.prod(len(v) for _, v in axes) if axes else 1
+    if progress is True:
+        from .leap import _progress_bar
+
+        progress = _progress_bar(n)
+    part = s.sweep(axes, threads, progress or None)
+    out: dict[str, np.ndarray] = {}
+    for name, _ in axes:
+        out[name] = _column(list(part[name]))
+    for k, v in part.items():
+        if k in out:
+            continue
+        out[k] = np.asarray(v, dtype=str) if isinstance(v, list) else np.asarray(v)
+    msg = failure_summary(out)
+    if msg is not None:
+        warnings.warn(msg, AllPointsFailedWarning, stacklevel=3)
+    return out
+
+
+def _is_robot(x: Any) -> bool:
+    if isinstance(x, (Robot, os.PathLike, Mapping)):
+        return True
+    return isinstance(x, str) and x.lower().endswith((".toml", ".json"))
+
+
+@overload
+def sweep(robot: RobotLike, behaviour: BehaviourLike = None,
+          over: Mapping[str, Any] | Iterable[tuple[str, Any]] | None = None, *, q0: Sequence[float],
+          qd0: Sequence[float] | None = None, terrain: TerrainLike = None, t_final: float | _Default = DEFAULT,
+          stop_at: str | None | _Default = DEFAULT, threads: int | None = None,
+          progress: bool | Callable[[int], None] = False, contacts: Sequence[str] | str | None = None,
+          solve: Sequence[str] | str | None = None, params: Mapping[str, Any] | None = None,
+          **options: Any) -> dict[str, np.ndarray]: ...
+
+
+@overload
+def sweep(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any = DEFAULT,
+          params: Mapping[str, Any] | None = None, threads: int | None = None,
+          progress: bool | Callable[[int], None] = False, *, grid: bool = True,
+          config: Mapping[str, Any] | None = None, **swept: Any) -> dict[str, np.ndarray]: ...
+
+
+def sweep(*args: Any, **kwargs: Any) -> dict[str, np.ndarray]:
+    """Sweeps: for any robot, or the RHex leap preset.
+
+    ``sweep(robot, behaviour, over={name: values, ...}, q0=..., threads=..., progress=...)``
+    (``robot`` a :class:`selfmanip.Robot`, a description file or dict, or given as
+    ``robot=``) is :func:`simulation_sweep`. Anything else — ``sweep("++", t2=...)``,
+    ``sweep(["++", "--"], t2=..., gear_ratio=...)``, ``sweep()`` — is the RHex leap sweep
+    :func:`selfmanip.leap.sweep`, unchanged.
+
+    >>> import selfmanip
+    >>> r = selfmanip.sweep(["++", "--"], t2=[0.0, 0.05], gear_ratio=[20.0, 28.0], threads=2)
+    >>> r["strategy"][:4].tolist(), r["gear_ratio"][:4].tolist(), r["t2_s"][:2].tolist()
+    (['++', '++', '++', '++'], [20.0, 20.0, 28.0, 28.0], [0.0, 0.05])
+    """
+    if "robot" in kwargs or "over" in kwargs or "behaviour" in kwargs or (args and _is_robot(args[0])):
+        return simulation_sweep(*args, **kwargs)
+    from . import leap as _leap
+
+    return _leap.sweep(*args, **kwargs)
