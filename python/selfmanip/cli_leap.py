@@ -21,7 +21,7 @@ import json
 import math
 import os
 import sys
-from typing import Any, Mapping, TextIO
+from typing import Any, Mapping, Sequence, TextIO
 
 import numpy as np
 
@@ -284,7 +284,7 @@ def read_table(path: str) -> dict[str, np.ndarray]:
 
 
 def sweep_command(args: argparse.Namespace) -> int:
-    from .leap import failure_summary, run_points, sweep_points
+    from .leap import run_points, sweep_points
 
     strategies = _strategies(args.strategy)
     t2 = parse_range(args.t2, "--t2")
@@ -297,18 +297,28 @@ def sweep_command(args: argparse.Namespace) -> int:
     cols = sweep_points(strategies, t2, gear, **sets)
     show = args.progress == "always" or (args.progress == "auto" and sys.stderr.isatty())
     table = run_points(cols, threads=args.threads, progress=show)
-    write_table(table, args.out)
-    status = table["status"]
-    n_ok = int(np.sum(status == "ok"))
-    failed = {s: int(np.sum(status == s)) for s in sorted(set(status.tolist())) if s != "ok"}
-    print(f"selfmanip sweep: {len(status)} points, {n_ok} ok"
+    return finish_sweep(table, args.out, args.strict, done=("ok",), done_word="ok")
+
+
+def finish_sweep(table: Mapping[str, Any], out: str | None, strict: bool, done: Sequence[str],
+                 done_word: str) -> int:
+    """Writes a sweep table (``out``, or stdout), reports its statuses on stderr (``N points, M
+    <done_word>, k <status>…``) and returns the exit code: 1 when no point reached one of the
+    ``done`` statuses (saying why) or, with ``strict``, when any point did not; else 0."""
+    write_table(table, out)
+    status = np.asarray(table["status"]).astype(str)
+    n_done = int(np.isin(status, list(done)).sum())
+    failed = {s: int(np.sum(status == s)) for s in sorted(set(status.tolist())) if s not in done}
+    print(f"selfmanip sweep: {len(status)} points, {n_done} {done_word}"
           + ("" if not failed else ", " + ", ".join(f"{v} {k}" for k, v in failed.items()))
-          + (f"; wrote {args.out}" if args.out else ""), file=sys.stderr)
-    all_failed = failure_summary(table)
+          + (f"; wrote {out}" if out else ""), file=sys.stderr)
+    from ._sweep_report import failure_summary
+
+    all_failed = failure_summary(table, done)
     if all_failed is not None:
         print(f"selfmanip sweep: error: {all_failed}", file=sys.stderr)
         return 1
-    return 1 if (args.strict and failed) else 0
+    return 1 if (strict and failed) else 0
 
 
 def grc_command(args: argparse.Namespace) -> int:

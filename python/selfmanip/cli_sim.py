@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from .cli_leap import _parse_values, _sets, write_table
+from .cli_leap import _parse_values, _sets, finish_sweep, write_table
 from .errors import InvalidInputError
 
 
@@ -193,7 +193,7 @@ def _over(items: list[str] | None) -> dict[str, list[Any]]:
 
 
 def sweep_command(args: argparse.Namespace) -> int:
-    from .simulation import failure_summary, simulation_sweep
+    from .simulation import simulation_sweep
 
     if args.q0 is None:
         raise InvalidInputError("`--q0` is required with `--robot`", "--q0")
@@ -216,18 +216,7 @@ def sweep_command(args: argparse.Namespace) -> int:
         table = simulation_sweep(args.robot, _behaviour(args.behaviour), over, q0=_vector(args.q0, "--q0"),
                                  threads=args.threads, progress=show,
                                  **_scenario_kwargs(args))
-    write_table(table, args.out)
-    status = np.asarray(table["status"]).astype(str)
-    done = int(np.isin(status, ("final_time", "apex")).sum())
-    failed = {s: int(np.sum(status == s)) for s in sorted(set(status.tolist())) if s not in ("final_time", "apex")}
-    print(f"selfmanip sweep: {len(status)} points, {done} complete"
-          + ("" if not failed else ", " + ", ".join(f"{v} {k}" for k, v in failed.items()))
-          + (f"; wrote {args.out}" if args.out else ""), file=sys.stderr)
-    all_failed = failure_summary(table)
-    if all_failed is not None:
-        print(f"selfmanip sweep: error: {all_failed}", file=sys.stderr)
-        return 1
-    return 1 if (args.strict and failed) else 0
+    return finish_sweep(table, args.out, args.strict, done=("final_time", "apex"), done_word="complete")
 
 
 __all__ = ["add_subcommands", "parse_terrain", "simulate_command", "sweep_command"]

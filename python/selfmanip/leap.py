@@ -518,13 +518,9 @@ def run_points(cols: Mapping[str, Sequence[Any]], params: Mapping[str, Any] | No
 def failure_summary(table: Mapping[str, Any]) -> str | None:
     """``None`` when some point of a sweep table reached ``ok``; otherwise a one-line account
     of the failure: the count of each status and the first reason."""
-    status = np.asarray(table["status"]).astype(str)
-    if len(status) == 0 or bool(np.any(status == "ok")):
-        return None
-    counts = ", ".join(f"{int(np.sum(status == s))} {s}" for s in sorted(set(status.tolist())))
-    errors = [e for e in np.asarray(table.get("error", [])).astype(str) if e]
-    first = f"; first reason: {errors[0]}" if errors else ""
-    return f"all {len(status)} points of the sweep failed ({counts}){first}"
+    from ._sweep_report import failure_summary as summary
+
+    return summary(table, ("ok",))
 
 
 def _warn_if_all_failed(table: Mapping[str, Any], stacklevel: int = 3) -> None:

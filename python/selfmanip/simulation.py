@@ -316,13 +316,9 @@ def settable_names(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[floa
 def failure_summary(table: Mapping[str, Any]) -> str | None:
     """``None`` when some point of a sweep table reached its end (``final_time`` or ``apex``);
     otherwise a one-line account: the count of each status and the first error."""
-    status = np.asarray(table["status"]).astype(str)
-    if len(status) == 0 or bool(np.isin(status, COMPLETE_STATUSES).any()):
-        return None
-    counts = ", ".join(f"{int(np.sum(status == s))} {s}" for s in sorted(set(status.tolist())))
-    errs = [e for e in np.asarray(table.get("error", [])).astype(str) if e]
-    first = f"; first error: {errs[0]}" if errs else ""
-    return f"all {len(status)} points of the sweep failed ({counts}){first}"
+    from ._sweep_report import failure_summary as summary
+
+    return summary(table, COMPLETE_STATUSES)
 
 
 def _default_threads() -> int:
