@@ -431,3 +431,31 @@ pub fn height_gradient(model: &Model, kin: &Kinematics, geo: &ContactGeometry) -
     kin.point_jacobian_row(model, geo.part, geo.point, geo.plane.normal(), &mut row);
     DVector::from_iterator(row.len(), row.into_iter().map(|v| -v))
 }
+
+/// The gradient over `(q, q̇)` of contact `k`'s sliding velocity `t · v` (the material
+/// velocity of its part at the contact point along the plane's tangent; the stick guard):
+/// `∂/∂q̇ = t · J_c` and `∂/∂q [v] = t · D²c[q̇, v]` with `c` the material point, or the
+/// centre of a rolling arc (the contact point's offset from it is constant on a plane).
+pub fn sliding_velocity_gradient(
+    model: &Model,
+    kin: &Kinematics,
+    geo: &ContactGeometry,
+    k: usize,
+    qd: &[f64],
+) -> Result<(DVector<f64>, DVector<f64>), TangentError> {
+    let nq = model.nq();
+    let t = geo.plane.tangent();
+    let mut row = vec![0.0; nq];
+    kin.point_jacobian_row(model, geo.part, geo.point, t, &mut row);
+    let c = differentiable_point(model, kin, k, geo)?;
+    let lever = Lever::new(model, kin, geo.part, c);
+    let w_qd = lever.omegas(qd);
+    let mut e = vec![0.0; nq];
+    let mut dq = DVector::zeros(nq);
+    for i in 0..nq {
+        e[i] = 1.0;
+        dq[i] = t.dot(&lever.d2(&w_qd, &lever.omegas(&e)));
+        e[i] = 0.0;
+    }
+    Ok((dq, DVector::from_vec(row)))
+}

@@ -1,0 +1,504 @@
+//! Sensitivities of an execution to its initial state: the variational equations along each
+//! flow, the saltation matrix at each event, and their chain rule
+//! `dx(t_f)/dx(0) = Φ_k Ξ_k ⋯ Φ_1 Ξ_1 Φ_0` over the state `x = (q, q̇)` (dimension `2 nq`).
+//!
+//! **Variational equations.** Along a segment in mode `J`, `ẋ = f(t, x) = (q̇, q̈)` with
+//! `q̈` from (5.3)–(5.4) at the controller's `Υ(t, q, q̇)`; its Jacobian
+//! `F = [[0, I], [∂q̈/∂q, ∂q̈/∂q̇]]` comes from the exact derivatives of
+//! [`selfmanip_core::tangent`] and the controller's own ([`Controller::partials`]), and
+//! `Φ̇ = F Φ`. Free massless joints (thesis 5.1.1) are states like any other: their `q̈` is
+//! the controller's prescription, so their rows of `F` are its partials (zero for the
+//! default prescription `q̈ = 0`); locked joints (a fold passage) have `q̈ = 0`.
+//!
+//! `Φ` is integrated *on the execution's own DOPRI5 steps*: for every accepted step of the
+//! record, from its start state, the same Butcher tableau gives the state's stages and, with
+//! `F` at those stages, the stages of `Φ` (internal differentiation: `Φ` is the derivative of
+//! the step map the engine applied, the step sizes held fixed). The last step of a segment,
+//! which the engine cut at its event by dense output, is taken from its start to the event.
+//! The sensitivity states are **excluded from step-size control**, for three reasons: the
+//! execution is then bit-identical with or without sensitivities (it is computed first,
+//! unchanged); `Φ` solves a linear equation whose coefficients are as smooth as the state's
+//! flow, so the state's steps resolve it to the same order; and the derivative of the step
+//! map with the step sequence frozen is the quantity a finite difference of whole executions
+//! converges to when perturbations do not change the step sequence's smoothness.
+//!
+//! **Saltation.** At an event with guard `g` and reset `R`:
+//! `Ξ = D_xR + (f⁺ − D_xR f⁻) D_xg / (D_xg f⁻)`, with `f⁻`, `f⁺` the flows before and after
+//! (each with its segment's controller and locked joints). Touchdown: `g` the contact's height
+//! (5.49), `R` the plastic impact (5.10)/(5.52) into the mode the event took (its Jacobian from
+//! [`selfmanip_core::tangent::plastic_impact_jacobian`]; the pseudo-impulse (5.39) only
+//! selects that mode, it does not change `q̇⁺`). Liftoff: `g = −λ_n` (5.50), `R = I`. Slip:
+//! `g = μ(−λ_n) − |λ_t|`, `R = I`. Stick: `g` the sliding velocity, `R = I`. Apex (terminal):
+//! `g = −ż`, and the end state is the state at the apex, `Ξ = I − f⁻ D_xg / (D_xg f⁻)`.
+//! Each event also gives its time's gradient `dt_e/dx(0) = −D_xg X⁻ / (D_xg f⁻)`.
+//!
+//! **Where Ξ is not defined** the event says so ([`SaltationStatus`]) instead of carrying a
+//! number: grazing (`|D_xg f⁻|` below [`GRAZING_TOL`] relative to `|D_xg| |f⁻|`), several
+//! guards at once or a mode held for zero time (two orders of simultaneous events may give
+//! different outcomes: the Bouligand derivative is not formed yet), and events not covered
+//! yet (folds, a fold passage's end, a segment that ended on a terrain feature change).
+//! [`Sensitivity::state_jacobian`] is then `None`.
+use crate::controller::{Controller, ControllerPartials};
+use crate::error::HybridError;
+use crate::execution::{Event, EventKind, Execution, Segment, Termination};
+use crate::integrate::{A as RK_A, C as RK_C};
+use crate::options::HybridOptions;
+use crate::simulate::simulate;
+use nalgebra::{DMatrix, DVector, RowDVector};
+use selfmanip_core::contact::{contact_geometry, RowDirection};
+use selfmanip_core::kinematics::Kinematics;
+use selfmanip_core::model::Friction;
+use selfmanip_core::tangent::{
+    dynamics_jacobian, height_gradient, plastic_impact_jacobian, sliding_velocity_gradient,
+    TangentError,
+};
+use selfmanip_core::{ContactMode, Data, Model, Terrain};
+
+/// Relative transversality `|D_xg f⁻| / (|D_xg| |f⁻|)` below which an event is grazing.
+pub const GRAZING_TOL: f64 = 1e-8;
+
+/// Why sensitivities could not be computed at all.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SensitivityError {
+    #[error(transparent)]
+    Hybrid(#[from] HybridError),
+    #[error(transparent)]
+    Tangent(#[from] TangentError),
+    /// A segment's controller does not give its partial derivatives.
+    #[error("the controller of the segment starting at t = {t} s gives no partial derivatives")]
+    ControllerWithoutPartials { t: f64 },
+}
+
+/// Whether an event's saltation matrix is defined.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SaltationStatus {
+    Defined,
+    /// The flow meets the guard tangentially: `D_xg f⁻ ≈ 0` (relative value given).
+    Grazing { transversality: f64 },
+    /// Several guards fired at once, or the event's neighbouring mode lasted zero time: the
+    /// outcome may depend on the order (one-sided and Bouligand derivatives not formed yet).
+    Simultaneous,
+    /// An event kind or situation not differentiated yet.
+    Unsupported { reason: String },
+}
+
+/// The sensitivity of one event.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EventSensitivity {
+    pub t: f64,
+    pub kind: EventKind,
+    pub status: SaltationStatus,
+    /// `Ξ` (`2nq × 2nq`) when defined.
+    pub saltation: Option<DMatrix<f64>>,
+    /// `D_xg` of the guard that fired (when a single guard fired).
+    pub guard_gradient: Option<RowDVector<f64>>,
+    /// `dt_e / dx(0)` when defined.
+    pub time_gradient: Option<RowDVector<f64>>,
+}
+
+/// Sensitivities of an execution to its initial state `x(0) = (q0, q̇0)`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sensitivity {
+    /// `Φ` of each segment (`2nq × 2nq`; the identity for a segment of zero duration).
+    pub segment_flows: Vec<DMatrix<f64>>,
+    /// One entry per event of the execution, in order.
+    pub events: Vec<EventSensitivity>,
+    /// Segment ends without an event (terrain feature changes), by segment index: not
+    /// differentiated yet.
+    pub feature_changes: Vec<usize>,
+    /// `dx(t_end)/dx(0)`, `None` unless every event's saltation is defined and the run ended
+    /// at its final time, at the apex or at its event budget.
+    pub state_jacobian: Option<DMatrix<f64>>,
+}
+
+/// Runs [`simulate`] and then [`execution_sensitivity`] on its result. The execution is
+/// the one [`simulate`] returns, bit for bit.
+#[allow(clippy::too_many_arguments)]
+pub fn simulate_with_sensitivity(
+    model: &Model,
+    terrain: &dyn Terrain,
+    controller: &dyn Controller,
+    mode0: ContactMode,
+    q0: &[f64],
+    qd0: &[f64],
+    t_final: f64,
+    opts: HybridOptions,
+) -> Result<(Execution, Sensitivity), SensitivityError> {
+    let exec = simulate(model, terrain, controller, mode0, q0, qd0, t_final, opts)?;
+    let s = execution_sensitivity(model, terrain, &exec)?;
+    Ok((exec, s))
+}
+
+/// The flow and its Jacobian at one state.
+struct FlowJacobian {
+    /// `f = (q̇, q̈)`.
+    f: DVector<f64>,
+    /// `F = ∂f/∂x`.
+    jac: DMatrix<f64>,
+    /// `∂λ/∂x` (rows of the mode) and `λ`.
+    dlambda: DMatrix<f64>,
+    lambda: DVector<f64>,
+}
+
+/// Evaluates flows and their Jacobians on a workspace of its own.
+struct Evaluator<'a> {
+    model: &'a Model,
+    terrain: &'a dyn Terrain,
+    data: Data,
+    tau: Vec<f64>,
+    free: Vec<f64>,
+}
+
+impl<'a> Evaluator<'a> {
+    fn new(model: &'a Model, terrain: &'a dyn Terrain) -> Self {
+        Evaluator {
+            model,
+            terrain,
+            data: Data::new(model),
+            tau: vec![0.0; model.n_joints()],
+            free: Vec::new(),
+        }
+    }
+
+    /// The flow of `mode` at `(t, y)` under `ctrl` with `locked` joints, and its Jacobian.
+    fn eval(
+        &mut self,
+        ctrl: &dyn Controller,
+        locked: &[usize],
+        t: f64,
+        mode: ContactMode,
+        y: &[f64],
+    ) -> Result<FlowJacobian, SensitivityError> {
+        let (model, nq, n) = (self.model, self.model.nq(), self.model.n_joints());
+        let (q, qd) = y.split_at(nq);
+        self.data.locked.clear();
+        self.data.locked.extend_from_slice(locked);
+        self.data
+            .prepare_geometry(model, self.terrain, mode, q, qd)
+            .map_err(TangentError::from)?;
+        let free_joints = self.data.free_joints.clone();
+        ctrl.torque(t, q, qd, mode, &mut self.tau);
+        self.free.resize(free_joints.len(), 0.0);
+        ctrl.free_joint_qdd(t, q, qd, &free_joints, &mut self.free);
+        for (x, j) in self.free.iter_mut().zip(&free_joints) {
+            if locked.contains(j) {
+                *x = 0.0;
+            }
+        }
+        let mut p = ControllerPartials::zeros(n, nq, free_joints.len());
+        if !ctrl.partials(t, q, qd, mode, &free_joints, &mut p) {
+            return Err(SensitivityError::ControllerWithoutPartials { t });
+        }
+        let dj = dynamics_jacobian(
+            model,
+            &mut self.data,
+            self.terrain,
+            mode,
+            q,
+            qd,
+            &self.tau,
+            Some(&self.free),
+        )?;
+        let mut dqdd_dq = &dj.dqdd_dq + &dj.dqdd_dtau * &p.dtau_dq;
+        let mut dqdd_dqd = &dj.dqdd_dqd + &dj.dqdd_dtau * &p.dtau_dqd;
+        for (i, &j) in free_joints.iter().enumerate() {
+            if !locked.contains(&j) {
+                dqdd_dq.set_row(j, &p.dfree_dq.row(i));
+                dqdd_dqd.set_row(j, &p.dfree_dqd.row(i));
+            }
+        }
+        let mut jac = DMatrix::zeros(2 * nq, 2 * nq);
+        jac.view_mut((0, nq), (nq, nq))
+            .copy_from(&DMatrix::identity(nq, nq));
+        jac.view_mut((nq, 0), (nq, nq)).copy_from(&dqdd_dq);
+        jac.view_mut((nq, nq), (nq, nq)).copy_from(&dqdd_dqd);
+        let c = dj.dlambda_dq.nrows();
+        let mut dlambda = DMatrix::zeros(c, 2 * nq);
+        dlambda
+            .view_mut((0, 0), (c, nq))
+            .copy_from(&(&dj.dlambda_dq + &dj.dlambda_dtau * &p.dtau_dq));
+        dlambda
+            .view_mut((0, nq), (c, nq))
+            .copy_from(&(&dj.dlambda_dqd + &dj.dlambda_dtau * &p.dtau_dqd));
+        let mut f = DVector::zeros(2 * nq);
+        f.rows_mut(0, nq).copy_from_slice(qd);
+        f.rows_mut(nq, nq).copy_from(&self.data.qdd);
+        Ok(FlowJacobian {
+            f,
+            jac,
+            dlambda,
+            lambda: self.data.lambda.clone(),
+        })
+    }
+}
+
+/// `Φ` of one segment on its own steps (see the module docs).
+fn segment_flow(ev: &mut Evaluator, seg: &Segment) -> Result<DMatrix<f64>, SensitivityError> {
+    let n2 = seg.y0.len();
+    let mut phi = DMatrix::identity(n2, n2);
+    let ctrl = &*seg.controller;
+    let mut y0 = vec![0.0; n2];
+    for step in seg.dense.steps() {
+        if step.t0 >= seg.t1 {
+            break;
+        }
+        let h = step.h.min(seg.t1 - step.t0);
+        step.eval(step.t0, &mut y0);
+        // the six stages that enter the 5th-order solution (the 7th is FSAL's)
+        let mut k: Vec<DVector<f64>> = Vec::with_capacity(6);
+        let mut kphi: Vec<DMatrix<f64>> = Vec::with_capacity(6);
+        for s in 0..6 {
+            let mut ys = DVector::from_column_slice(&y0);
+            let mut ps = phi.clone();
+            for j in 0..s {
+                ys.axpy(h * RK_A[s][j], &k[j], 1.0);
+                ps += h * RK_A[s][j] * &kphi[j];
+            }
+            let fj = ev.eval(ctrl, &seg.locked, step.t0 + RK_C[s] * h, seg.mode, ys.as_slice())?;
+            kphi.push(&fj.jac * ps);
+            k.push(fj.f);
+        }
+        for s in 0..6 {
+            phi += h * RK_A[6][s] * &kphi[s];
+        }
+    }
+    Ok(phi)
+}
+
+/// The sensitivities of a recorded execution to its initial state (see the module docs).
+/// Each segment is re-evaluated with the controller it ran with.
+pub fn execution_sensitivity(
+    model: &Model,
+    terrain: &dyn Terrain,
+    exec: &Execution,
+) -> Result<Sensitivity, SensitivityError> {
+    let n2 = 2 * model.nq();
+    let mut ev = Evaluator::new(model, terrain);
+    let mut out = Sensitivity {
+        segment_flows: Vec::new(),
+        events: Vec::new(),
+        feature_changes: Vec::new(),
+        state_jacobian: None,
+    };
+    let mut total = DMatrix::identity(n2, n2);
+    let mut defined = true;
+    let mut next_event = 0;
+    let nseg = exec.segments.len();
+    for (si, seg) in exec.segments.iter().enumerate() {
+        let phi = segment_flow(&mut ev, seg)?;
+        total = &phi * total;
+        out.segment_flows.push(phi);
+        let event = exec
+            .events
+            .get(next_event)
+            .filter(|e| {
+                e.t == seg.t1
+                    && (si + 1 < nseg
+                        || e.kind == EventKind::Apex
+                        || exec.termination == Termination::EventBudget)
+            });
+        let Some(event) = event else {
+            if si + 1 < nseg {
+                out.feature_changes.push(si);
+                defined = false;
+            }
+            continue;
+        };
+        next_event += 1;
+        let after = exec.segments.get(si + 1);
+        let zero_time = seg.t1 == seg.t0 || after.is_some_and(|a| a.t1 == a.t0);
+        let mut es = event_sensitivity(&mut ev, model, terrain, seg, after, event)?;
+        if zero_time && es.status == SaltationStatus::Defined {
+            es.status = SaltationStatus::Simultaneous;
+            es.saltation = None;
+        }
+        if let (Some(dg), true) = (&es.guard_gradient, es.saltation.is_some()) {
+            let mut y = vec![0.0; n2];
+            seg.eval(seg.t1, &mut y);
+            let f = ev
+                .eval(&*seg.controller, &seg.locked, seg.t1, seg.mode, &y)?
+                .f;
+            let den = (dg * &f)[0];
+            es.time_gradient = Some(-(dg * &total) / den);
+        }
+        match &es.saltation {
+            Some(x) => total = x * total,
+            None => defined = false,
+        }
+        out.events.push(es);
+    }
+    // events not matched to a segment end
+    if next_event != exec.events.len() {
+        defined = false;
+    }
+    let ends_cleanly = matches!(
+        exec.termination,
+        Termination::FinalTime | Termination::Apex | Termination::EventBudget
+    );
+    if defined && ends_cleanly {
+        out.state_jacobian = Some(total);
+    }
+    Ok(out)
+}
+
+/// Row indices, in the rows of `mode`, of contact `k`'s tangential and normal rows.
+fn rows_of(mode: ContactMode, k: usize) -> (Option<usize>, Option<usize>) {
+    let (mut t, mut n) = (None, None);
+    for (i, r) in mode.rows().enumerate() {
+        if r.contact == k {
+            match r.direction {
+                RowDirection::Tangential => t = Some(i),
+                RowDirection::Normal => n = Some(i),
+            }
+        }
+    }
+    (t, n)
+}
+
+fn unsupported(event: &Event, reason: impl Into<String>) -> EventSensitivity {
+    EventSensitivity {
+        t: event.t,
+        kind: event.kind,
+        status: SaltationStatus::Unsupported {
+            reason: reason.into(),
+        },
+        saltation: None,
+        guard_gradient: None,
+        time_gradient: None,
+    }
+}
+
+/// The saltation matrix of `event`, which ended `before` (and started `after`, if any).
+fn event_sensitivity(
+    ev: &mut Evaluator,
+    model: &Model,
+    terrain: &dyn Terrain,
+    before: &Segment,
+    after: Option<&Segment>,
+    event: &Event,
+) -> Result<EventSensitivity, SensitivityError> {
+    let nq = model.nq();
+    let n2 = 2 * nq;
+    let t = event.t;
+    let mut y = vec![0.0; n2];
+    before.eval(t, &mut y);
+    let (q, qd_minus) = y.split_at(nq);
+    let fm = ev.eval(&*before.controller, &before.locked, t, before.mode, &y)?;
+    let single = event.triggered.len() <= 1;
+    let mut simultaneous = !single;
+    // the guard's gradient and the reset's Jacobian
+    let mut dr = DMatrix::identity(n2, n2);
+    let mut y_plus = y.clone();
+    let mut kin = Kinematics::default();
+    kin.compute(model, q, qd_minus);
+    let dg: RowDVector<f64> = match event.kind {
+        EventKind::Touchdown => {
+            let k = event.triggered[0];
+            let geo = contact_geometry(model, &kin, terrain, k);
+            let mut dg = RowDVector::zeros(n2);
+            dg.columns_mut(0, nq)
+                .copy_from(&height_gradient(model, &kin, &geo).transpose());
+            let mut data = Data::new(model);
+            let ij = plastic_impact_jacobian(model, &mut data, terrain, event.mode_after, q, qd_minus)?;
+            let mismatch = ij
+                .impact
+                .qd_plus
+                .iter()
+                .zip(&event.qd_after)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            let scale = 1.0 + event.qd_after.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+            if mismatch > 1e-9 * scale {
+                return Ok(unsupported(
+                    event,
+                    format!("q̇⁺ is not the plastic impact into the mode after ({mismatch:.2e})"),
+                ));
+            }
+            dr.view_mut((nq, 0), (nq, nq)).copy_from(&ij.dqd_plus_dq);
+            dr.view_mut((nq, nq), (nq, nq))
+                .copy_from(&ij.dqd_plus_dqd_minus);
+            y_plus[nq..].copy_from_slice(ij.impact.qd_plus.as_slice());
+            dg
+        }
+        EventKind::Liftoff | EventKind::Slip => {
+            let k = event.triggered[0];
+            let (rt, rn) = rows_of(before.mode, k);
+            let Some(rn) = rn else {
+                return Ok(unsupported(event, "no normal row"));
+            };
+            if event.kind == EventKind::Liftoff {
+                -fm.dlambda.row(rn)
+            } else {
+                let (Some(rt), Friction::Sticking { mu }) = (rt, model.contacts[k].friction) else {
+                    return Ok(unsupported(event, "slip of a contact without a tangential row"));
+                };
+                -mu * fm.dlambda.row(rn) - fm.lambda[rt].signum() * fm.dlambda.row(rt)
+            }
+        }
+        EventKind::Stick => {
+            let k = event.triggered[0];
+            let geo = contact_geometry(model, &kin, terrain, k);
+            let (dq, dqd) = sliding_velocity_gradient(model, &kin, &geo, k, qd_minus)?;
+            let mut dg = RowDVector::zeros(n2);
+            dg.columns_mut(0, nq).copy_from(&dq.transpose());
+            dg.columns_mut(nq, nq).copy_from(&dqd.transpose());
+            dg
+        }
+        EventKind::Apex => {
+            let mut dg = RowDVector::zeros(n2);
+            dg[nq + model.ix_z()] = -1.0;
+            dg
+        }
+        EventKind::Fold | EventKind::FoldPassed => {
+            return Ok(unsupported(event, "fold events are not differentiated yet"));
+        }
+    };
+    if event.kind != EventKind::Touchdown {
+        // no velocity jump: the reset is the identity in state
+        let jump = qd_minus
+            .iter()
+            .zip(&event.qd_after)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        if jump > 0.0 {
+            return Ok(unsupported(event, format!("velocity jump {jump:.2e} at a non-impact event")));
+        }
+    }
+    if event.kind == EventKind::Touchdown && event.triggered.is_empty() {
+        simultaneous = true;
+    }
+    let den = (&dg * &fm.f)[0];
+    let rel = den.abs() / (dg.norm() * fm.f.norm()).max(f64::MIN_POSITIVE);
+    let mut es = EventSensitivity {
+        t,
+        kind: event.kind,
+        status: SaltationStatus::Defined,
+        saltation: None,
+        guard_gradient: Some(dg.clone()),
+        time_gradient: None,
+    };
+    if rel < GRAZING_TOL {
+        es.status = SaltationStatus::Grazing {
+            transversality: rel,
+        };
+        return Ok(es);
+    }
+    if simultaneous {
+        es.status = SaltationStatus::Simultaneous;
+        return Ok(es);
+    }
+    let f_plus = match (event.kind, after) {
+        (EventKind::Apex, _) => DVector::zeros(n2),
+        (_, Some(a)) => ev.eval(&*a.controller, &a.locked, t, event.mode_after, &y_plus)?.f,
+        (_, None) => {
+            // the run ended at this event (its event budget): no flow after it to salt with
+            es.status = SaltationStatus::Unsupported {
+                reason: "no flow after the run's last event".into(),
+            };
+            return Ok(es);
+        }
+    };
+    let xi = &dr + (f_plus - &dr * &fm.f) * &dg / den;
+    es.saltation = Some(xi);
+    Ok(es)
+}
