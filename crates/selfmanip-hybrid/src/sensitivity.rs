@@ -25,9 +25,11 @@
 //! **Saltation.** At an event with guard `g` and reset `R`:
 //! `Ξ = D_xR + (f⁺ − D_xR f⁻) D_xg / (D_xg f⁻)`, with `f⁻`, `f⁺` the flows before and after
 //! (each with its segment's controller and locked joints). Touchdown: `g` the contact's height
-//! (5.49), `R` the plastic impact (5.10)/(5.52) into the mode the event took (its Jacobian from
-//! [`selfmanip_core::tangent::plastic_impact_jacobian`]; the pseudo-impulse (5.39) only
-//! selects that mode, it does not change `q̇⁺`). Liftoff: `g = −λ_n` (5.50), `R = I`. Slip:
+//! (5.49), `R` the plastic impact (5.10)/(5.52) into the mode the event took — or into the
+//! larger set whose extra contacts force complementarity (5.19)–(5.20) released at once,
+//! whichever reproduces the recorded `q̇⁺` (else the event is flagged) — with its Jacobian
+//! from [`selfmanip_core::tangent::plastic_impact_jacobian`]; the pseudo-impulse (5.39) only
+//! selects that mode, it does not change `q̇⁺`. Liftoff: `g = −λ_n` (5.50), `R = I`. Slip:
 //! `g = μ(−λ_n) − |λ_t|`, `R = I`. Stick: `g` the sliding velocity, `R = I`. Apex (terminal):
 //! `g = −ż`, and the end state is the state at the apex, `Ξ = I − f⁻ D_xg / (D_xg f⁻)`.
 //! Each event also gives its time's gradient `dt_e/dx(0) = −D_xg X⁻ / (D_xg f⁻)`.
@@ -45,7 +47,7 @@ use crate::integrate::{A as RK_A, C as RK_C};
 use crate::options::HybridOptions;
 use crate::simulate::simulate;
 use nalgebra::{DMatrix, DVector, RowDVector};
-use selfmanip_core::contact::{contact_geometry, RowDirection};
+use selfmanip_core::contact::{contact_geometry, ContactKind, RowDirection};
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::model::Friction;
 use selfmanip_core::tangent::{
@@ -94,6 +96,9 @@ pub struct EventSensitivity {
     pub guard_gradient: Option<RowDVector<f64>>,
     /// `dt_e / dx(0)` when defined.
     pub time_gradient: Option<RowDVector<f64>>,
+    /// For a touchdown, the mode of the plastic impact the reset applied: the mode after,
+    /// or a larger set whose extra contacts force complementarity released at once.
+    pub impact_mode: Option<ContactMode>,
 }
 
 /// Sensitivities of an execution to its initial state `x(0) = (q0, q̇0)`.
@@ -365,6 +370,7 @@ fn unsupported(event: &Event, reason: impl Into<String>) -> EventSensitivity {
         saltation: None,
         guard_gradient: None,
         time_gradient: None,
+        impact_mode: None,
     }
 }
 
@@ -391,6 +397,7 @@ fn event_sensitivity(
     let mut y_plus = y.clone();
     let mut kin = Kinematics::default();
     kin.compute(model, q, qd_minus);
+    let mut impact_mode = None;
     let dg: RowDVector<f64> = match event.kind {
         EventKind::Touchdown => {
             let k = event.triggered[0];
@@ -398,22 +405,52 @@ fn event_sensitivity(
             let mut dg = RowDVector::zeros(n2);
             dg.columns_mut(0, nq)
                 .copy_from(&height_gradient(model, &kin, &geo).transpose());
+            // the impact the reset applied: into the mode after, or into a larger set whose
+            // extra contacts the force complementarity then released (5.19)–(5.20)
+            let released: Vec<usize> = before
+                .mode
+                .active()
+                .filter(|&c| !event.mode_after.contains(c))
+                .collect();
+            let mut candidates = vec![event.mode_after];
+            for kind in [None, Some(ContactKind::Slide)] {
+                let mut m = event.mode_after;
+                for &c in &released {
+                    let kc = kind.or(before.mode.kind(c)).expect("active contact");
+                    m = m.with(c, kc);
+                }
+                if !candidates.contains(&m) {
+                    candidates.push(m);
+                }
+            }
             let mut data = Data::new(model);
-            let ij = plastic_impact_jacobian(model, &mut data, terrain, event.mode_after, q, qd_minus)?;
-            let mismatch = ij
-                .impact
-                .qd_plus
-                .iter()
-                .zip(&event.qd_after)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max);
             let scale = 1.0 + event.qd_after.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-            if mismatch > 1e-9 * scale {
+            let mut found = None;
+            let mut worst = f64::INFINITY;
+            for m in candidates {
+                let Ok(ij) = plastic_impact_jacobian(model, &mut data, terrain, m, q, qd_minus) else {
+                    continue;
+                };
+                let mismatch = ij
+                    .impact
+                    .qd_plus
+                    .iter()
+                    .zip(&event.qd_after)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max);
+                worst = worst.min(mismatch);
+                if mismatch <= 1e-9 * scale {
+                    found = Some((m, ij));
+                    break;
+                }
+            }
+            let Some((m, ij)) = found else {
                 return Ok(unsupported(
                     event,
-                    format!("q̇⁺ is not the plastic impact into the mode after ({mismatch:.2e})"),
+                    format!("q̇⁺ is not a plastic impact into the mode after or a superset ({worst:.2e})"),
                 ));
-            }
+            };
+            impact_mode = Some(m);
             dr.view_mut((nq, 0), (nq, nq)).copy_from(&ij.dqd_plus_dq);
             dr.view_mut((nq, nq), (nq, nq))
                 .copy_from(&ij.dqd_plus_dqd_minus);
@@ -476,6 +513,7 @@ fn event_sensitivity(
         saltation: None,
         guard_gradient: Some(dg.clone()),
         time_gradient: None,
+        impact_mode,
     };
     if rel < GRAZING_TOL {
         es.status = SaltationStatus::Grazing {

@@ -265,3 +265,105 @@ fn rocking_block_whole_execution_jacobian_through_several_events() {
     eprintln!("rocking block, {} events: whole-run Jacobian vs central differences {e:e}", exec.events.len());
     assert!(e < 1e-5, "{e:e}\n{jac}\n{fd}");
 }
+
+/// A hip servo `Υ = −k (θ − θ*) − c θ̇` whose partials the engine chains through
+/// `∂q̈/∂Υ` (`∂Υ/∂θ = −k`, `∂Υ/∂θ̇ = −c`).
+#[derive(Debug, Clone, Copy)]
+struct Servo {
+    k: f64,
+    c: f64,
+    target: f64,
+}
+
+impl selfmanip_hybrid::Controller for Servo {
+    fn torque(&self, _t: f64, q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
+        tau[0] = -self.k * (q[0] - self.target) - self.c * qd[0];
+    }
+    fn partials(
+        &self,
+        _t: f64,
+        _q: &[f64],
+        _qd: &[f64],
+        _mode: ContactMode,
+        _free_joints: &[usize],
+        out: &mut selfmanip_hybrid::ControllerPartials,
+    ) -> bool {
+        out.dtau_dq[(0, 0)] = -self.k;
+        out.dtau_dqd[(0, 0)] = -self.c;
+        true
+    }
+}
+
+/// A body with one **massless** leg (singular `M̄`; the leg is a free joint in flight and
+/// pinned by its toe in stance, Lemma 5.1) under a hip servo: it falls, lands on its toe,
+/// leans over it until the toe slips, and lands on its belly, which releases the toe (three
+/// events: a touchdown, a slip, a touchdown whose impact set is larger than the mode after).
+/// The whole-run Jacobian (the servo's partials chained through `∂q̈/∂Υ`)
+/// against central differences of whole executions in all eight directions.
+#[test]
+fn massless_leg_with_servo_whole_execution_jacobian() {
+    let model = systems::one_leg(0.2, 0.0, G);
+    let servo = Servo {
+        k: 20.0,
+        c: 0.5,
+        target: -0.3,
+    };
+    let y0 = [0.2, 0.0, -0.23, 0.1, -0.5, 0.4, 0.3, 0.2];
+    let opts = tight(0.0);
+    let tf = 1.5;
+    let run_with = |y: &[f64]| {
+        simulate(&model, &FlatGround, &servo, ContactMode::FLIGHT, &y[..4], &y[4..], tf, opts).unwrap()
+    };
+    let (exec, sens) = simulate_with_sensitivity(&model, &FlatGround, &servo, ContactMode::FLIGHT, &y0[..4], &y0[4..], tf, opts).unwrap();
+    let seq = |e: &Execution| e.events.iter().map(|e| (e.kind, e.mode_after)).collect::<Vec<_>>();
+    eprintln!(
+        "one massless leg: {:?} at {:?}, {:?}",
+        seq(&exec),
+        exec.events.iter().map(|e| e.t).collect::<Vec<_>>(),
+        exec.termination
+    );
+    assert!(!exec.events.is_empty());
+    for es in &sens.events {
+        assert_eq!(es.status, SaltationStatus::Defined, "{es:?}");
+    }
+    let jac = sens.state_jacobian.as_ref().expect("defined");
+    const H: f64 = 1e-6;
+    let mut fd = DMatrix::zeros(8, 8);
+    for k in 0..8 {
+        let (mut yp, mut ym) = (y0.to_vec(), y0.to_vec());
+        yp[k] += H;
+        ym[k] -= H;
+        let (ep, em) = (run_with(&yp), run_with(&ym));
+        assert_eq!(seq(&ep), seq(&exec), "direction {k}");
+        assert_eq!(seq(&em), seq(&exec), "direction {k}");
+        let (xp, xm) = (final_state(&ep), final_state(&em));
+        for i in 0..8 {
+            fd[(i, k)] = (xp[i] - xm[i]) / (2.0 * H);
+        }
+    }
+    let e = rel(jac, &fd);
+    eprintln!("one massless leg: whole-run Jacobian vs central differences {e:e}");
+    assert!(e < 1e-5, "{e:e}\n{jac}\n{fd}");
+}
+
+/// A ball thrown up, stopped at its apex (`ż = 0`, the terminal apex event): `t_a = −ż₀/g`,
+/// so `∂t_a/∂ż₀ = −1/g`, and `x(t_a) = x₀ + ẋ₀ t_a`, `z(t_a) = z₀ − ż₀²/(2g)`: `∂x_a/∂ż₀ =
+/// −ẋ₀/g`, `∂z_a/∂ż₀ = −ż₀/g`, `∂ż_a/∂· = 0` (the apex projection `I − f D_xg/(D_xg f)`).
+#[test]
+fn apex_projection_and_time_gradient() {
+    let model = body(1.0, 0.01, G, &[("c", 0.0, 0.0, Friction::Stick(None))]);
+    let (xd, zd) = (0.7, -2.0);
+    let opts = HybridOptions {
+        stop_at_apex: true,
+        ..tight(0.0)
+    };
+    let (exec, sens) = simulate_with_sensitivity(&model, &FlatGround, &ZeroTorque, ContactMode::FLIGHT, &[0.0, -1.0, 0.0], &[xd, zd, 0.0], 2.0, opts).unwrap();
+    assert_eq!(exec.events.last().map(|e| e.kind), Some(EventKind::Apex));
+    let es = sens.events.last().unwrap();
+    let tg = es.time_gradient.as_ref().unwrap();
+    assert!((tg[4] + 1.0 / G).abs() < 1e-12, "{tg}");
+    let j = sens.state_jacobian.as_ref().unwrap();
+    assert!((j[(0, 4)] + xd / G).abs() < 1e-9, "{j}");
+    assert!((j[(1, 4)] + zd / G).abs() < 1e-9, "{j}");
+    assert!(j.row(4).amax() < 1e-12, "{j}");
+}
