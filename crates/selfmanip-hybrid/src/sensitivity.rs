@@ -47,7 +47,7 @@ use crate::integrate::{A as RK_A, C as RK_C};
 use crate::options::HybridOptions;
 use crate::simulate::simulate;
 use nalgebra::{DMatrix, DVector, RowDVector};
-use selfmanip_core::contact::{contact_geometry, ContactKind, RowDirection};
+use selfmanip_core::contact::{contact_geometry, ContactKind, RowDirection, TouchKind};
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::model::Friction;
 use selfmanip_core::tangent::{
@@ -108,6 +108,9 @@ pub struct Sensitivity {
     pub segment_flows: Vec<DMatrix<f64>>,
     /// One entry per event of the execution, in order.
     pub events: Vec<EventSensitivity>,
+    /// Switches between an arc's rolling and its end's point touch inside segments, in
+    /// order ([`TouchSwitch`]); their saltation matrices are part of `segment_flows`.
+    pub touch_switches: Vec<TouchSwitch>,
     /// Segment ends without an event (terrain feature changes), by segment index: not
     /// differentiated yet.
     pub feature_changes: Vec<usize>,
@@ -152,6 +155,7 @@ struct Evaluator<'a> {
     data: Data,
     tau: Vec<f64>,
     free: Vec<f64>,
+    kin: Kinematics,
 }
 
 impl<'a> Evaluator<'a> {
@@ -162,7 +166,17 @@ impl<'a> Evaluator<'a> {
             data: Data::new(model),
             tau: vec![0.0; model.n_joints()],
             free: Vec::new(),
+            kin: Kinematics::default(),
         }
+    }
+
+    /// The touch kind of every active contact of `mode` at `y`.
+    fn touches(&mut self, mode: ContactMode, y: &[f64]) -> Vec<(usize, TouchKind)> {
+        let nq = self.model.nq();
+        self.kin.compute(self.model, &y[..nq], &y[nq..]);
+        mode.active()
+            .map(|k| (k, contact_geometry(self.model, &self.kin, self.terrain, k).touch))
+            .collect()
     }
 
     /// The flow of `mode` at `(t, y)` under `ctrl` with `locked` joints, and its Jacobian.
@@ -237,37 +251,154 @@ impl<'a> Evaluator<'a> {
     }
 }
 
-/// `Φ` of one segment on its own steps (see the module docs).
-fn segment_flow(ev: &mut Evaluator, seg: &Segment) -> Result<DMatrix<f64>, SensitivityError> {
+/// One step of `Φ` from `(t0, y0)` of size `h` with the DOPRI5 tableau (its six stages that
+/// enter the 5th-order solution; the 7th is FSAL's).
+#[allow(clippy::too_many_arguments)]
+fn phi_step(
+    ev: &mut Evaluator,
+    seg: &Segment,
+    t0: f64,
+    h: f64,
+    y0: &[f64],
+    phi: &mut DMatrix<f64>,
+) -> Result<(), SensitivityError> {
+    if h <= 0.0 {
+        return Ok(());
+    }
+    let mut k: Vec<DVector<f64>> = Vec::with_capacity(6);
+    let mut kphi: Vec<DMatrix<f64>> = Vec::with_capacity(6);
+    for s in 0..6 {
+        let mut ys = DVector::from_column_slice(y0);
+        let mut ps = phi.clone();
+        for j in 0..s {
+            ys.axpy(h * RK_A[s][j], &k[j], 1.0);
+            ps += h * RK_A[s][j] * &kphi[j];
+        }
+        let fj = ev.eval(&*seg.controller, &seg.locked, t0 + RK_C[s] * h, seg.mode, ys.as_slice())?;
+        kphi.push(&fj.jac * ps);
+        k.push(fj.f);
+    }
+    for s in 0..6 {
+        *phi += h * RK_A[6][s] * &kphi[s];
+    }
+    Ok(())
+}
+
+/// A switch inside a segment between an active arc's rolling and its end's point touch:
+/// no event (the contact stays), but the flow's constraint rate `Ȧ` changes form there, so
+/// `q̈` jumps and the crossing has a saltation `Ξ = I + (f⁺ − f⁻) D_xg / (D_xg f⁻)` (the reset
+/// is the identity), `g` the angle between the ground's normal and the arc's end in the
+/// part's frame (`D_qg = −∂β/∂q` of the part's angle). `f⁻`, `f⁺` are the flows at the two
+/// ends of the bracket the crossing is located in by bisection on the dense output (a few
+/// ulps apart).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TouchSwitch {
+    pub t: f64,
+    pub contact: usize,
+    pub status: SaltationStatus,
+    pub saltation: Option<DMatrix<f64>>,
+}
+
+/// `Φ` of one segment on its own steps (see the module docs), with the saltation of every
+/// rolling/point switch inside it (appended to `switches`).
+fn segment_flow(
+    ev: &mut Evaluator,
+    seg: &Segment,
+    switches: &mut Vec<TouchSwitch>,
+) -> Result<DMatrix<f64>, SensitivityError> {
     let n2 = seg.y0.len();
     let mut phi = DMatrix::identity(n2, n2);
-    let ctrl = &*seg.controller;
-    let mut y0 = vec![0.0; n2];
+    let (mut ya, mut yb, mut ym) = (vec![0.0; n2], vec![0.0; n2], vec![0.0; n2]);
     for step in seg.dense.steps() {
         if step.t0 >= seg.t1 {
             break;
         }
-        let h = step.h.min(seg.t1 - step.t0);
-        step.eval(step.t0, &mut y0);
-        // the six stages that enter the 5th-order solution (the 7th is FSAL's)
-        let mut k: Vec<DVector<f64>> = Vec::with_capacity(6);
-        let mut kphi: Vec<DMatrix<f64>> = Vec::with_capacity(6);
-        for s in 0..6 {
-            let mut ys = DVector::from_column_slice(&y0);
-            let mut ps = phi.clone();
-            for j in 0..s {
-                ys.axpy(h * RK_A[s][j], &k[j], 1.0);
-                ps += h * RK_A[s][j] * &kphi[j];
+        let t_end = step.t1().min(seg.t1);
+        let mut ta = step.t0;
+        step.eval(ta, &mut ya);
+        step.eval(t_end, &mut yb);
+        let end_touches = ev.touches(seg.mode, &yb);
+        loop {
+            let start_touches = ev.touches(seg.mode, &ya);
+            if start_touches == end_touches {
+                phi_step(ev, seg, ta, t_end - ta, &ya, &mut phi)?;
+                break;
             }
-            let fj = ev.eval(ctrl, &seg.locked, step.t0 + RK_C[s] * h, seg.mode, ys.as_slice())?;
-            kphi.push(&fj.jac * ps);
-            k.push(fj.f);
-        }
-        for s in 0..6 {
-            phi += h * RK_A[6][s] * &kphi[s];
+            // the first change of touch kinds after ta, bracketed to a few ulps
+            let (mut lo, mut hi) = (ta, t_end);
+            loop {
+                let mid = 0.5 * (lo + hi);
+                if mid <= lo || mid >= hi {
+                    break;
+                }
+                step.eval(mid, &mut ym);
+                if ev.touches(seg.mode, &ym) == start_touches {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            phi_step(ev, seg, ta, lo - ta, &ya, &mut phi)?;
+            step.eval(lo, &mut ym);
+            step.eval(hi, &mut ya);
+            let sw = touch_switch(ev, seg, (lo, &ym), (hi, &ya), &start_touches)?;
+            if let Some(x) = &sw.saltation {
+                phi = x * phi;
+            }
+            switches.push(sw);
+            ta = hi;
         }
     }
     Ok(phi)
+}
+
+/// The saltation of a rolling/point switch bracketed by `(t⁻, y⁻)`, `(t⁺, y⁺)`.
+fn touch_switch(
+    ev: &mut Evaluator,
+    seg: &Segment,
+    (tm, ym): (f64, &[f64]),
+    (tp, yp): (f64, &[f64]),
+    before: &[(usize, TouchKind)],
+) -> Result<TouchSwitch, SensitivityError> {
+    let model = ev.model;
+    let n2 = ym.len();
+    let after = ev.touches(seg.mode, yp);
+    let changed: Vec<usize> = before
+        .iter()
+        .zip(&after)
+        .filter(|(a, b)| a != b)
+        .map(|(a, _)| a.0)
+        .collect();
+    let mut sw = TouchSwitch {
+        t: tp,
+        contact: changed.first().copied().unwrap_or(usize::MAX),
+        status: SaltationStatus::Defined,
+        saltation: None,
+    };
+    if changed.len() != 1 {
+        sw.status = SaltationStatus::Simultaneous;
+        return Ok(sw);
+    }
+    let fm = ev.eval(&*seg.controller, &seg.locked, tm, seg.mode, ym)?.f;
+    let fp = ev.eval(&*seg.controller, &seg.locked, tp, seg.mode, yp)?.f;
+    // g = α_n − β_part(q) − α_end: D_qg = −∂β/∂q
+    let mut dg = RowDVector::zeros(n2);
+    dg[model.ix_phi()] = -1.0;
+    if let Some(j) = model.contacts[sw.contact].link {
+        for k in model.chain(j) {
+            dg[k] = -model.joints[k].axis_sign;
+        }
+    }
+    let den = (&dg * &fm)[0];
+    let rel = den.abs() / (dg.norm() * fm.norm()).max(f64::MIN_POSITIVE);
+    if rel < GRAZING_TOL {
+        sw.status = SaltationStatus::Grazing {
+            transversality: rel,
+        };
+        return Ok(sw);
+    }
+    sw.saltation = Some(DMatrix::identity(n2, n2) + (fp - &fm) * &dg / den);
+    Ok(sw)
 }
 
 /// The sensitivities of a recorded execution to its initial state (see the module docs).
@@ -282,6 +413,7 @@ pub fn execution_sensitivity(
     let mut out = Sensitivity {
         segment_flows: Vec::new(),
         events: Vec::new(),
+        touch_switches: Vec::new(),
         feature_changes: Vec::new(),
         state_jacobian: None,
     };
@@ -290,7 +422,7 @@ pub fn execution_sensitivity(
     let mut next_event = 0;
     let nseg = exec.segments.len();
     for (si, seg) in exec.segments.iter().enumerate() {
-        let phi = segment_flow(&mut ev, seg)?;
+        let phi = segment_flow(&mut ev, seg, &mut out.touch_switches)?;
         total = &phi * total;
         out.segment_flows.push(phi);
         let event = exec
@@ -332,8 +464,13 @@ pub fn execution_sensitivity(
         }
         out.events.push(es);
     }
-    // events not matched to a segment end
-    if next_event != exec.events.len() {
+    // events not matched to a segment end, switches not differentiated
+    if next_event != exec.events.len()
+        || out
+            .touch_switches
+            .iter()
+            .any(|s| s.status != SaltationStatus::Defined)
+    {
         defined = false;
     }
     let ends_cleanly = matches!(
