@@ -66,8 +66,11 @@ pub enum TangentError {
 #[derive(Debug, Clone)]
 struct Lever {
     n: usize,
-    segs: Vec<(Vec<(usize, f64)>, Vector2<f64>)>,
+    segs: Vec<Segment>,
 }
+
+/// One part of a lever: the coefficients `(coordinate, factor)` of its `ω_Q` and its `r_Q`.
+type Segment = (Vec<(usize, f64)>, Vector2<f64>);
 
 impl Lever {
     fn new(model: &Model, kin: &Kinematics, part: Part, p: Vector2<f64>) -> Self {

@@ -21,6 +21,7 @@
 //! | [`segment`] | one segment: steps, terrain features, guards, until an event |
 //! | [`simulate`](mod@simulate) | the loop: flow ⇒ guards ⇒ locate ⇒ reset ⇒ zeno |
 //! | [`energy`] | the energy balance of an execution |
+//! | [`sensitivity`] | variational equations, saltation matrices, `dx(t_f)/dx(0)` of an execution |
 //! | [`execution`] | the record: segments, events, termination |
 //!
 //! Friction follows section 5.1.5 / Assumption 5.9: Coulomb sticking within `μ`,
