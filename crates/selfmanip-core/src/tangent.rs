@@ -138,6 +138,9 @@ struct Point {
     /// `ω(q̇)` and `D²p[q̇, q̇]`.
     w_qd: Vec<f64>,
     acc0: Vector2<f64>,
+    /// `ω(x)` and `Dp[x]` of the vector `x` the derivatives act on ([`Assembly::set_x`]).
+    w_x: Vec<f64>,
+    px: Vector2<f64>,
 }
 
 impl Point {
@@ -156,6 +159,8 @@ impl Point {
         let w_qd = lever.omegas(qd);
         let acc0 = lever.d2(&w_qd, &w_qd);
         Point {
+            w_x: vec![0.0; lever.segs.len()],
+            px: Vector2::zeros(),
             lever,
             w_e,
             j_e,
@@ -210,28 +215,29 @@ impl Assembly {
         })
     }
 
-    /// `(D_q M̄[v] x + D_q(C̄q̇)[v] + D_q N̄[v], D_q A[v] x + D_q(Ȧq̇)[v])` plus `D_q A[v]ᵀ y`
-    /// into the first, for `x`, `y` given (the `C̄q̇`, `N̄`, `Ȧq̇` terms only when
+    /// Sets the vector `x` that [`Self::dq_terms`] differentiates `M̄ x`, `A x` along.
+    fn set_x(&mut self, x: &[f64]) {
+        let masses = self.masses.iter_mut().map(|(_, p)| p);
+        for p in masses.chain(self.rows.iter_mut().map(|(_, p)| p)) {
+            p.w_x = p.lever.omegas(x);
+            p.px = p.lever.d1(&p.w_x, x);
+        }
+    }
+
+    /// Along the coordinate `q_k`: `(D_q M̄ x + D_q(C̄q̇) + D_q N̄ + D_q Aᵀ y, D_q A x + D_q(Ȧq̇))`
+    /// for the `x` of [`Self::set_x`] and `y` given (the `C̄q̇`, `N̄`, `Ȧq̇` terms only when
     /// `with_velocity`: an impact has none).
-    fn dq_terms(
-        &self,
-        v: &[f64],
-        x: &[f64],
-        y: &[f64],
-        with_velocity: bool,
-    ) -> (DVector<f64>, DVector<f64>) {
+    fn dq_terms(&self, k: usize, y: &[f64], with_velocity: bool) -> (DVector<f64>, DVector<f64>) {
         let nq = self.nq;
         let mut f = DVector::zeros(nq);
         for (m, p) in &self.masses {
             let lv = &p.lever;
-            let wv = lv.omegas(v);
-            let wx = lv.omegas(x);
-            let px = lv.d1(&wx, x);
-            let pxv = lv.d2(&wx, &wv);
-            let d3 = with_velocity.then(|| lv.d3(&p.w_qd, &p.w_qd, &wv));
+            let wv = &p.w_e[k];
+            let pxv = lv.d2(&p.w_x, wv);
+            let d3 = with_velocity.then(|| lv.d3(&p.w_qd, &p.w_qd, wv));
             for i in 0..nq {
-                let pie = lv.d2(&p.w_e[i], &wv);
-                let mut s = pie.dot(&px) + p.j_e[i].dot(&pxv);
+                let pie = lv.d2(&p.w_e[i], wv);
+                let mut s = pie.dot(&p.px) + p.j_e[i].dot(&pxv);
                 if let Some(d3) = d3 {
                     s += pie.dot(&p.acc0) + p.j_e[i].dot(&d3) - self.gravity * pie.y;
                 }
@@ -241,39 +247,36 @@ impl Assembly {
         let mut g = DVector::zeros(self.rows.len());
         for (r, (d, p)) in self.rows.iter().enumerate() {
             let lv = &p.lever;
-            let wv = lv.omegas(v);
-            let wx = lv.omegas(x);
-            let mut s = -d.dot(&lv.d2(&wx, &wv));
+            let wv = &p.w_e[k];
+            let mut s = -d.dot(&lv.d2(&p.w_x, wv));
             if with_velocity {
-                s -= d.dot(&lv.d3(&p.w_qd, &p.w_qd, &wv));
+                s -= d.dot(&lv.d3(&p.w_qd, &p.w_qd, wv));
             }
             g[r] = s;
             if y[r] != 0.0 {
                 for i in 0..nq {
-                    f[i] -= y[r] * d.dot(&lv.d2(&p.w_e[i], &wv));
+                    f[i] -= y[r] * d.dot(&lv.d2(&p.w_e[i], wv));
                 }
             }
         }
         (f, g)
     }
 
-    /// `(D_q̇(C̄q̇)[w], D_q̇(Ȧq̇)[w])`.
-    fn dqd_terms(&self, w: &[f64]) -> (DVector<f64>, DVector<f64>) {
+    /// Along the velocity `q̇_k`: `(D_q̇(C̄q̇), D_q̇(Ȧq̇))`.
+    fn dqd_terms(&self, k: usize) -> (DVector<f64>, DVector<f64>) {
         let nq = self.nq;
         let mut f = DVector::zeros(nq);
         for (m, p) in &self.masses {
-            let lv = &p.lever;
-            let a = 2.0 * lv.d2(&p.w_qd, &lv.omegas(w));
+            let a = 2.0 * p.lever.d2(&p.w_qd, &p.w_e[k]);
             for i in 0..nq {
                 f[i] += m * p.j_e[i].dot(&a);
             }
         }
         let g = DVector::from_iterator(
             self.rows.len(),
-            self.rows.iter().map(|(d, p)| {
-                let lv = &p.lever;
-                -2.0 * d.dot(&lv.d2(&p.w_qd, &lv.omegas(w)))
-            }),
+            self.rows
+                .iter()
+                .map(|(d, p)| -2.0 * d.dot(&p.lever.d2(&p.w_qd, &p.w_e[k]))),
         );
         (f, g)
     }
@@ -339,9 +342,19 @@ pub fn dynamics_jacobian(
     free_joint_qdd: Option<&[f64]>,
 ) -> Result<DynamicsJacobian, TangentError> {
     forward_dynamics(model, data, terrain, mode, q, qd, tau, free_joint_qdd)?;
-    let asm = Assembly::new(model, data, qd)?;
+    dynamics_jacobian_solved(model, data, qd)
+}
+
+/// [`dynamics_jacobian`] after [`forward_dynamics`] (or [`crate::forward_dynamics_prepared`])
+/// at the same state, whose `q̇` is given again: `data` holds the factorization, `q̈` and `λ`.
+pub fn dynamics_jacobian_solved(
+    model: &Model,
+    data: &mut Data,
+    qd: &[f64],
+) -> Result<DynamicsJacobian, TangentError> {
+    let mut asm = Assembly::new(model, data, qd)?;
     let (nq, n, c) = (model.nq(), model.n_joints(), data.constraints.n_rows());
-    let qdd: Vec<f64> = data.qdd.iter().copied().collect();
+    asm.set_x(data.qdd.as_slice());
     let lambda: Vec<f64> = data.lambda.iter().copied().collect();
     let mut out = DynamicsJacobian {
         dqdd_dq: DMatrix::zeros(nq, nq),
@@ -351,18 +364,15 @@ pub fn dynamics_jacobian(
         dlambda_dqd: DMatrix::zeros(c, nq),
         dlambda_dtau: DMatrix::zeros(c, n),
     };
-    let mut e = vec![0.0; nq];
     for k in 0..nq {
-        e[k] = 1.0;
-        let (f, g) = asm.dq_terms(&e, &qdd, &lambda, true);
+        let (f, g) = asm.dq_terms(k, &lambda, true);
         let (x, y) = solve_direction(data, &(-f), &(-g));
         out.dqdd_dq.set_column(k, &x);
         out.dlambda_dq.set_column(k, &y);
-        let (f, g) = asm.dqd_terms(&e);
+        let (f, g) = asm.dqd_terms(k);
         let (x, y) = solve_direction(data, &(-f), &(-g));
         out.dqdd_dqd.set_column(k, &x);
         out.dlambda_dqd.set_column(k, &y);
-        e[k] = 0.0;
     }
     for j in 0..n {
         let mut f = DVector::zeros(nq);
@@ -397,7 +407,7 @@ pub fn plastic_impact_jacobian(
     qd_minus: &[f64],
 ) -> Result<ImpactJacobian, TangentError> {
     let impact = plastic_impact(model, data, terrain, mode, q, qd_minus)?;
-    let asm = Assembly::new(model, data, qd_minus)?;
+    let mut asm = Assembly::new(model, data, qd_minus)?;
     let nq = model.nq();
     let c = data.constraints.n_rows();
     let dx: Vec<f64> = (0..nq).map(|i| impact.qd_plus[i] - qd_minus[i]).collect();
@@ -408,12 +418,13 @@ pub fn plastic_impact_jacobian(
         dqd_plus_dq: DMatrix::zeros(nq, nq),
         dqd_plus_dqd_minus: DMatrix::identity(nq, nq),
     };
-    let mut e = vec![0.0; nq];
-    for k in 0..nq {
-        e[k] = 1.0;
-        // −dM̄ Δ − dAᵀ P  and  −dA Δ − dA q̇⁻ = −dA q̇⁺ (by linearity in the vector)
-        let (f1, _) = asm.dq_terms(&e, &dx, &p, false);
-        let (_, g1) = asm.dq_terms(&e, &qd_plus, &vec![0.0; c], false);
+    // −dM̄ Δ − dAᵀ P  and  −dA Δ − dA q̇⁻ = −dA q̇⁺ (by linearity in the vector)
+    asm.set_x(&dx);
+    let f1: Vec<DVector<f64>> = (0..nq).map(|k| asm.dq_terms(k, &p, false).0).collect();
+    asm.set_x(&qd_plus);
+    let zeros = vec![0.0; c];
+    for (k, f1) in f1.into_iter().enumerate() {
+        let (_, g1) = asm.dq_terms(k, &zeros, false);
         let (x, _) = solve_direction(data, &(-f1), &(-g1));
         out.dqd_plus_dq.set_column(k, &x);
         let g = -data.constraints.a.column(k).clone_owned();
@@ -421,7 +432,6 @@ pub fn plastic_impact_jacobian(
         for i in 0..nq {
             out.dqd_plus_dqd_minus[(i, k)] += x[i];
         }
-        e[k] = 0.0;
     }
     Ok(out)
 }

@@ -51,10 +51,10 @@ use selfmanip_core::contact::{contact_geometry, ContactKind, RowDirection, Touch
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::model::Friction;
 use selfmanip_core::tangent::{
-    dynamics_jacobian, height_gradient, plastic_impact_jacobian, sliding_velocity_gradient,
+    dynamics_jacobian_solved, height_gradient, plastic_impact_jacobian, sliding_velocity_gradient,
     TangentError,
 };
-use selfmanip_core::{ContactMode, Data, Model, Terrain};
+use selfmanip_core::{forward_dynamics_prepared, ContactMode, Data, Model, Terrain};
 
 /// Relative transversality `|D_xg f⁻| / (|D_xg| |f⁻|)` below which an event is grazing.
 pub const GRAZING_TOL: f64 = 1e-8;
@@ -193,7 +193,7 @@ impl<'a> Evaluator<'a> {
         self.data.locked.clear();
         self.data.locked.extend_from_slice(locked);
         self.data
-            .prepare_geometry(model, self.terrain, mode, q, qd)
+            .prepare(model, self.terrain, mode, q, qd)
             .map_err(TangentError::from)?;
         let free_joints = self.data.free_joints.clone();
         ctrl.torque(t, q, qd, mode, &mut self.tau);
@@ -208,16 +208,9 @@ impl<'a> Evaluator<'a> {
         if !ctrl.partials(t, q, qd, mode, &free_joints, &mut p) {
             return Err(SensitivityError::ControllerWithoutPartials { t });
         }
-        let dj = dynamics_jacobian(
-            model,
-            &mut self.data,
-            self.terrain,
-            mode,
-            q,
-            qd,
-            &self.tau,
-            Some(&self.free),
-        )?;
+        forward_dynamics_prepared(model, &mut self.data, &self.tau, Some(&self.free))
+            .map_err(TangentError::from)?;
+        let dj = dynamics_jacobian_solved(model, &mut self.data, qd)?;
         let mut dqdd_dq = &dj.dqdd_dq + &dj.dqdd_dtau * &p.dtau_dq;
         let mut dqdd_dqd = &dj.dqdd_dqd + &dj.dqdd_dtau * &p.dtau_dqd;
         for (i, &j) in free_joints.iter().enumerate() {
