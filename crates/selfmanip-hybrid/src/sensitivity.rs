@@ -382,16 +382,31 @@ fn touch_switch(
             dg[k] = -model.joints[k].axis_sign;
         }
     }
-    let den = (&dg * &fm)[0];
-    let rel = den.abs() / (dg.norm() * fm.norm()).max(f64::MIN_POSITIVE);
-    if rel < GRAZING_TOL {
-        sw.status = SaltationStatus::Grazing {
-            transversality: rel,
-        };
-        return Ok(sw);
+    match saltation(&DMatrix::identity(n2, n2), &fm, &fp, &dg) {
+        Ok(x) => sw.saltation = Some(x),
+        Err(status) => sw.status = status,
     }
-    sw.saltation = Some(DMatrix::identity(n2, n2) + (fp - &fm) * &dg / den);
     Ok(sw)
+}
+
+/// The saltation matrix `Ξ = D_xR + (f⁺ − D_xR f⁻) D_xg / (D_xg f⁻)` of a reset with
+/// Jacobian `dr` and a guard with gradient `dg`, between the flows `f⁻` and `f⁺`; or
+/// [`SaltationStatus::Grazing`] when `|D_xg f⁻| < GRAZING_TOL |D_xg| |f⁻|` (the flow meets the
+/// guard tangentially, where `Ξ` is not defined).
+pub fn saltation(
+    dr: &DMatrix<f64>,
+    f_minus: &DVector<f64>,
+    f_plus: &DVector<f64>,
+    dg: &RowDVector<f64>,
+) -> Result<DMatrix<f64>, SaltationStatus> {
+    let den = (dg * f_minus)[0];
+    let rel = den.abs() / (dg.norm() * f_minus.norm()).max(f64::MIN_POSITIVE);
+    if rel.is_nan() || rel < GRAZING_TOL {
+        return Err(SaltationStatus::Grazing {
+            transversality: rel,
+        });
+    }
+    Ok(dr + (f_plus - dr * f_minus) * dg / den)
 }
 
 /// The sensitivities of a recorded execution to its initial state (see the module docs).
@@ -634,8 +649,6 @@ fn event_sensitivity(
     if event.kind == EventKind::Touchdown && event.triggered.is_empty() {
         simultaneous = true;
     }
-    let den = (&dg * &fm.f)[0];
-    let rel = den.abs() / (dg.norm() * fm.f.norm()).max(f64::MIN_POSITIVE);
     let mut es = EventSensitivity {
         t,
         kind: event.kind,
@@ -645,10 +658,8 @@ fn event_sensitivity(
         time_gradient: None,
         impact_mode,
     };
-    if rel < GRAZING_TOL {
-        es.status = SaltationStatus::Grazing {
-            transversality: rel,
-        };
+    if let Err(status) = saltation(&dr, &fm.f, &fm.f, &dg) {
+        es.status = status;
         return Ok(es);
     }
     if simultaneous {
@@ -666,7 +677,38 @@ fn event_sensitivity(
             return Ok(es);
         }
     };
-    let xi = &dr + (f_plus - &dr * &fm.f) * &dg / den;
-    es.saltation = Some(xi);
+    match saltation(&dr, &fm.f, &f_plus, &dg) {
+        Ok(x) => es.saltation = Some(x),
+        Err(status) => es.status = status,
+    }
     Ok(es)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A guard met tangentially is flagged, not divided by: `D_xg f⁻ = 0` exactly and at
+    /// 1e-12 of `|D_xg| |f⁻|`; at 1e-6 the formula applies (a closed form: with `D_xR = I`,
+    /// `Ξ e_0 = e_0 + (f⁺ − f⁻)/(D_xg f⁻)` for `D_xg = e_0ᵀ`).
+    #[test]
+    fn grazing_is_flagged() {
+        let dr = DMatrix::identity(2, 2);
+        let dg = RowDVector::from_vec(vec![1.0, 0.0]);
+        let fp = DVector::from_vec(vec![0.0, 3.0]);
+        for (eps, grazing) in [(0.0, true), (1e-12, true), (1e-6, false)] {
+            let fm = DVector::from_vec(vec![eps, 1.0]);
+            match saltation(&dr, &fm, &fp, &dg) {
+                Err(SaltationStatus::Grazing { transversality }) => {
+                    assert!(grazing && transversality <= eps, "{eps}")
+                }
+                Ok(x) => {
+                    assert!(!grazing, "{eps}");
+                    assert!((x[(0, 0)] - (1.0 + (0.0 - eps) / eps)).abs() < 1e-9);
+                    assert!((x[(1, 0)] - (3.0 - 1.0) / eps).abs() < 1e-9 * 2.0 / eps);
+                }
+                Err(other) => panic!("{other:?}"),
+            }
+        }
+    }
 }

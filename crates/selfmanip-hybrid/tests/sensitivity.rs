@@ -52,19 +52,22 @@ fn final_state(e: &Execution) -> Vec<f64> {
 /// Central differences of `x(t_f)` along each direction `dirs[k]` of the initial state
 /// (step `h` along the direction), each with the unperturbed run's event sequence.
 fn fd_columns(model: &Model, mode: ContactMode, y0: &[f64], tf: f64, opts: HybridOptions, dirs: &[DVector<f64>]) -> DMatrix<f64> {
-    const H: f64 = 1e-6;
+    fd_columns_h(model, mode, y0, tf, opts, dirs, 1e-6)
+}
+
+fn fd_columns_h(model: &Model, mode: ContactMode, y0: &[f64], tf: f64, opts: HybridOptions, dirs: &[DVector<f64>], h: f64) -> DMatrix<f64> {
     let (_, seq) = run(model, mode, y0, tf, opts);
     let n2 = y0.len();
     let mut out = DMatrix::zeros(n2, dirs.len());
     for (k, d) in dirs.iter().enumerate() {
-        let yp: Vec<f64> = y0.iter().zip(d.iter()).map(|(a, b)| a + H * b).collect();
-        let ym: Vec<f64> = y0.iter().zip(d.iter()).map(|(a, b)| a - H * b).collect();
+        let yp: Vec<f64> = y0.iter().zip(d.iter()).map(|(a, b)| a + h * b).collect();
+        let ym: Vec<f64> = y0.iter().zip(d.iter()).map(|(a, b)| a - h * b).collect();
         let (xp, sp) = run(model, mode, &yp, tf, opts);
         let (xm, sm) = run(model, mode, &ym, tf, opts);
         assert_eq!(sp, seq, "the mode sequence changed along direction {k}");
         assert_eq!(sm, seq, "the mode sequence changed along direction {k}");
         for i in 0..n2 {
-            out[(i, k)] = (xp[i] - xm[i]) / (2.0 * H);
+            out[(i, k)] = (xp[i] - xm[i]) / (2.0 * h);
         }
     }
     out
@@ -264,6 +267,14 @@ fn rocking_block_whole_execution_jacobian_through_several_events() {
     let e = rel(jac, &fd);
     eprintln!("rocking block, {} events: whole-run Jacobian vs central differences {e:e}", exec.events.len());
     assert!(e < 1e-5, "{e:e}\n{jac}\n{fd}");
+    // the default tolerances (rtol 1e-9, events to 1e-10 s), which finite differences resolve
+    // only with a larger step (h = 1e-4: truncation ~1e-8, noise ~1e-9/1e-4)
+    let opts = HybridOptions::default();
+    let (_, sens) = simulate_with_sensitivity(&model, &FlatGround, &ZeroTorque, ContactMode::FLIGHT, &y0[..3], &y0[3..], tf, opts).unwrap();
+    let fd = fd_columns_h(&model, ContactMode::FLIGHT, &y0, tf, opts, &dirs, 1e-4);
+    let e = rel(sens.state_jacobian.as_ref().expect("defined"), &fd);
+    eprintln!("rocking block, default tolerances: whole-run Jacobian vs central differences {e:e}");
+    assert!(e < 1e-4, "{e:e}");
 }
 
 /// A hip servo `Υ = −k (θ − θ*) − c θ̇` whose partials the engine chains through
