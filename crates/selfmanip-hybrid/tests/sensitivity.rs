@@ -378,3 +378,69 @@ fn apex_projection_and_time_gradient() {
     assert!((j[(1, 4)] + zd / G).abs() < 1e-9, "{j}");
     assert!(j.row(4).amax() < 1e-12, "{j}");
 }
+
+/// A body with one massive leg standing on its sliding toe (leg vertical, at rest) kicks
+/// with a stiff hip servo: the toe's normal force reaches zero and it lifts off (5.50, `D_xg
+/// = −∂λ_n/∂x`), the robot lands on its toe again (touchdown, (5.49)), which sticks until
+/// its cone is reached (slip, (5.51): `D_xg = −μ ∂λ_n/∂x − sgn(λ_t) ∂λ_t/∂x`), and its belly
+/// lands (touchdown). The initial state is on the manifold of the sliding toe (its height
+/// and normal velocity zero); at the leg's vertical and at rest, `x, θ, φ` and any velocity
+/// with `ż = 0` are tangent to it (the toe's height is stationary in `θ, φ` there, and its
+/// normal velocity is `ż`). A velocity that starts the toe sliding ends in a stick event
+/// instead (the run starts on that guard: another mode sequence), so the velocity directions
+/// keep the sliding velocity `ẋ + β̇ L` zero: `(ẋ, θ̇) = (1, −s/L)`, `(φ̇, θ̇) = (1, −s)`.
+#[test]
+fn kicking_leg_liftoff_touchdown_slip_whole_execution_jacobian() {
+    let len = 0.2;
+    let model = systems::one_leg(len, 0.2, G);
+    let servo = Servo {
+        k: 5.0,
+        c: 0.5,
+        target: -1.0,
+    };
+    let y0 = [0.0, 0.0, -len, 0.0, 0.0, 0.0, 0.0, 0.0];
+    let toe = ContactMode::FLIGHT.with(0, ContactKind::Slide);
+    let tf = 0.3;
+    let opts = tight(0.0);
+    let run_with = |y: &[f64]| simulate(&model, &FlatGround, &servo, toe, &y[..4], &y[4..], tf, opts).unwrap();
+    let (exec, sens) = simulate_with_sensitivity(&model, &FlatGround, &servo, toe, &y0[..4], &y0[4..], tf, opts).unwrap();
+    let seq = |e: &Execution| e.events.iter().map(|e| (e.kind, e.mode_after)).collect::<Vec<_>>();
+    let kinds: Vec<_> = exec.events.iter().map(|e| e.kind).collect();
+    eprintln!("kicking leg: {kinds:?} at {:?}", exec.events.iter().map(|e| e.t).collect::<Vec<_>>());
+    assert_eq!(
+        kinds,
+        [EventKind::Liftoff, EventKind::Touchdown, EventKind::Slip, EventKind::Touchdown]
+    );
+    for es in &sens.events {
+        assert_eq!(es.status, SaltationStatus::Defined, "{es:?}");
+    }
+    let jac = sens.state_jacobian.as_ref().expect("defined");
+    const H: f64 = 1e-6;
+    let sgn = model.joints[0].axis_sign;
+    let unit = |k: usize| DVector::from_fn(8, |i, _| if i == k { 1.0 } else { 0.0 });
+    // the toe's sliding velocity is ẋ + β̇ L (β = φ + s θ): velocity directions that keep it
+    // zero, since a sliding velocity off zero would end in a stick event (another sequence)
+    let dirs = [
+        unit(0),
+        unit(1),
+        unit(3),
+        unit(5) - (sgn / len) * unit(4),
+        unit(7) - sgn * unit(4),
+    ];
+    let (mut fd, mut ex) = (DMatrix::zeros(8, dirs.len()), DMatrix::zeros(8, dirs.len()));
+    for (c, d) in dirs.iter().enumerate() {
+        let yp: Vec<f64> = y0.iter().zip(d.iter()).map(|(a, b)| a + H * b).collect();
+        let ym: Vec<f64> = y0.iter().zip(d.iter()).map(|(a, b)| a - H * b).collect();
+        let (ep, em) = (run_with(&yp), run_with(&ym));
+        assert_eq!(seq(&ep), seq(&exec), "direction {c}");
+        assert_eq!(seq(&em), seq(&exec), "direction {c}");
+        let (xp, xm) = (final_state(&ep), final_state(&em));
+        for i in 0..8 {
+            fd[(i, c)] = (xp[i] - xm[i]) / (2.0 * H);
+        }
+        ex.set_column(c, &(jac * d));
+    }
+    let e = rel(&ex, &fd);
+    eprintln!("kicking leg: whole-run Jacobian vs central differences {e:e}");
+    assert!(e < 1e-5, "{e:e}\n{ex}\n{fd}");
+}
