@@ -444,3 +444,52 @@ fn kicking_leg_liftoff_touchdown_slip_whole_execution_jacobian() {
     eprintln!("kicking leg: whole-run Jacobian vs central differences {e:e}");
     assert!(e < 1e-5, "{e:e}\n{ex}\n{fd}");
 }
+
+/// The same robot with a soft servo, its toe sliding forward at 0.3 m/s: the sliding stops
+/// and the toe sticks (stick, `g` the sliding velocity `t·v`, `D_xg = (t·D²c[q̇, ·], t·J_c)`),
+/// later slips (5.51) and the belly lands (touchdown). Its initial state is off every
+/// guard, and `x, θ, φ, ẋ, θ̇, φ̇` are tangent to the sliding toe's manifold there (leg
+/// vertical, `β̇ = 0`): the whole-run Jacobian in those six columns.
+#[test]
+fn sliding_toe_stick_slip_touchdown_whole_execution_jacobian() {
+    let len = 0.2;
+    let model = systems::one_leg(len, 0.2, G);
+    let servo = Servo {
+        k: 1.0,
+        c: 0.5,
+        target: -1.0,
+    };
+    let y0 = [0.0, 0.0, -len, 0.0, 0.0, 0.3, 0.0, 0.0];
+    let toe = ContactMode::FLIGHT.with(0, ContactKind::Slide);
+    let tf = 0.4;
+    let opts = tight(0.0);
+    let run_with = |y: &[f64]| simulate(&model, &FlatGround, &servo, toe, &y[..4], &y[4..], tf, opts).unwrap();
+    let (exec, sens) = simulate_with_sensitivity(&model, &FlatGround, &servo, toe, &y0[..4], &y0[4..], tf, opts).unwrap();
+    let seq = |e: &Execution| e.events.iter().map(|e| (e.kind, e.mode_after)).collect::<Vec<_>>();
+    let kinds: Vec<_> = exec.events.iter().map(|e| e.kind).collect();
+    eprintln!("sliding toe: {kinds:?} at {:?}", exec.events.iter().map(|e| e.t).collect::<Vec<_>>());
+    assert_eq!(kinds, [EventKind::Stick, EventKind::Slip, EventKind::Touchdown]);
+    for es in &sens.events {
+        assert_eq!(es.status, SaltationStatus::Defined, "{es:?}");
+    }
+    let jac = sens.state_jacobian.as_ref().expect("defined");
+    const H: f64 = 1e-6;
+    let cols = [0, 1, 3, 4, 5, 7];
+    let (mut fd, mut ex) = (DMatrix::zeros(8, cols.len()), DMatrix::zeros(8, cols.len()));
+    for (c, &k) in cols.iter().enumerate() {
+        let (mut yp, mut ym) = (y0.to_vec(), y0.to_vec());
+        yp[k] += H;
+        ym[k] -= H;
+        let (ep, em) = (run_with(&yp), run_with(&ym));
+        assert_eq!(seq(&ep), seq(&exec), "direction {k}");
+        assert_eq!(seq(&em), seq(&exec), "direction {k}");
+        let (xp, xm) = (final_state(&ep), final_state(&em));
+        for i in 0..8 {
+            fd[(i, c)] = (xp[i] - xm[i]) / (2.0 * H);
+        }
+        ex.set_column(c, &jac.column(k));
+    }
+    let e = rel(&ex, &fd);
+    eprintln!("sliding toe: whole-run Jacobian vs central differences {e:e}");
+    assert!(e < 1e-5, "{e:e}\n{ex}\n{fd}");
+}
