@@ -9,9 +9,7 @@ use selfmanip::core::contact::contact_geometry;
 use selfmanip::core::kinematics::Kinematics;
 use selfmanip::core::{ContactMode, FlatGround, Model, RobotDescription};
 use selfmanip::hybrid::sensitivity::simulate_with_sensitivity;
-use selfmanip::hybrid::{
-    simulate, Controller, ControllerPartials, HybridOptions, ZeroTorque,
-};
+use selfmanip::hybrid::{simulate, Controller, ControllerPartials, HybridOptions, ZeroTorque};
 use selfmanip::rhex::{LegShape, Rhex, RhexParams};
 use std::hint::black_box;
 
@@ -44,7 +42,8 @@ impl Controller for Servos {
 }
 
 fn block() -> Model {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/rocking_block.toml");
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/rocking_block.toml");
     RobotDescription::from_file(&path).unwrap().build().unwrap()
 }
 
@@ -65,7 +64,13 @@ fn rhex_drop() -> (Model, Vec<f64>, Servos) {
     q[model.ix_z()] += lowest - 0.01;
     let mut y = q.clone();
     y.extend([0.0, 0.0, 0.4, 0.3, 0.8]);
-    (model, y, Servos { target: vec![0.3, -0.2] })
+    (
+        model,
+        y,
+        Servos {
+            target: vec![0.3, -0.2],
+        },
+    )
 }
 
 fn sensitivity(c: &mut Criterion) {
@@ -79,14 +84,35 @@ fn sensitivity(c: &mut Criterion) {
     let left_z = -s * (-w / 2.0) + co * h / 2.0;
     let q0 = [0.0, -0.02 - left_z, phi0];
     let qd0 = [0.05, 0.1, -0.5];
-    let run = || simulate(&model, &FlatGround, &ZeroTorque, ContactMode::FLIGHT, &q0, &qd0, 0.464, opts).unwrap();
+    let run = || {
+        simulate(
+            &model,
+            &FlatGround,
+            &ZeroTorque,
+            ContactMode::FLIGHT,
+            &q0,
+            &qd0,
+            0.464,
+            opts,
+        )
+        .unwrap()
+    };
     eprintln!("rocking block: {} events", run().events.len());
     group.bench_function("rocking_block/simulate", |b| b.iter(|| black_box(run())));
     group.bench_function("rocking_block/with_sensitivity", |b| {
         b.iter(|| {
             black_box(
-                simulate_with_sensitivity(&model, &FlatGround, &ZeroTorque, ContactMode::FLIGHT, &q0, &qd0, 0.464, opts)
-                    .unwrap(),
+                simulate_with_sensitivity(
+                    &model,
+                    &FlatGround,
+                    &ZeroTorque,
+                    ContactMode::FLIGHT,
+                    &q0,
+                    &qd0,
+                    0.464,
+                    opts,
+                )
+                .unwrap(),
             )
         })
     });
@@ -94,13 +120,36 @@ fn sensitivity(c: &mut Criterion) {
     let nq = rhex.nq();
     let (q0, qd0) = y0.split_at(nq);
     group.bench_function("rhex_drop/simulate", |b| {
-        b.iter(|| black_box(simulate(&rhex, &FlatGround, &servo, ContactMode::FLIGHT, q0, qd0, 0.25, opts).unwrap()))
+        b.iter(|| {
+            black_box(
+                simulate(
+                    &rhex,
+                    &FlatGround,
+                    &servo,
+                    ContactMode::FLIGHT,
+                    q0,
+                    qd0,
+                    0.25,
+                    opts,
+                )
+                .unwrap(),
+            )
+        })
     });
     group.bench_function("rhex_drop/with_sensitivity", |b| {
         b.iter(|| {
             black_box(
-                simulate_with_sensitivity(&rhex, &FlatGround, &servo, ContactMode::FLIGHT, q0, qd0, 0.25, opts)
-                    .unwrap(),
+                simulate_with_sensitivity(
+                    &rhex,
+                    &FlatGround,
+                    &servo,
+                    ContactMode::FLIGHT,
+                    q0,
+                    qd0,
+                    0.25,
+                    opts,
+                )
+                .unwrap(),
             )
         })
     });

@@ -31,18 +31,38 @@ fn rel_err(exact: &DMatrix<f64>, fd: &DMatrix<f64>) -> f64 {
 }
 
 /// `(q̈, λ)` at a state, or `None` if the KKT matrix is singular there.
-fn eval(model: &Model, mode: ContactMode, q: &[f64], qd: &[f64], tau: &[f64]) -> Option<(Vec<f64>, Vec<f64>)> {
+fn eval(
+    model: &Model,
+    mode: ContactMode,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+) -> Option<(Vec<f64>, Vec<f64>)> {
     let mut data = Data::new(model);
     forward_dynamics(model, &mut data, &FlatGround, mode, q, qd, tau, None).ok()?;
-    Some((data.qdd.iter().copied().collect(), data.lambda.iter().copied().collect()))
+    Some((
+        data.qdd.iter().copied().collect(),
+        data.lambda.iter().copied().collect(),
+    ))
 }
 
 /// Checks one state; returns the worst relative error, or `None` when a perturbed state's
 /// KKT matrix is singular (or the geometry switches between rolling and a point touch).
-fn check_state(model: &Model, mode: ContactMode, q: &[f64], qd: &[f64], tau: &[f64]) -> Option<f64> {
+fn check_state(
+    model: &Model,
+    mode: ContactMode,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+) -> Option<f64> {
     let mut data = Data::new(model);
     let jac = dynamics_jacobian(model, &mut data, &FlatGround, mode, q, qd, tau, None).ok()?;
-    let touches: Vec<_> = data.constraints.geometry.iter().map(|(_, g)| g.touch).collect();
+    let touches: Vec<_> = data
+        .constraints
+        .geometry
+        .iter()
+        .map(|(_, g)| g.touch)
+        .collect();
     let nq = model.nq();
     let c = mode.n_rows();
     let mut worst: f64 = 0.0;
@@ -65,7 +85,12 @@ fn check_state(model: &Model, mode: ContactMode, q: &[f64], qd: &[f64], tau: &[f
             for x in [&plus, &minus] {
                 let mut d = Data::new(model);
                 d.prepare(model, &FlatGround, mode, &x[0], &x[1]).ok()?;
-                let t: Vec<_> = d.constraints.geometry.iter().map(|(_, g)| g.touch).collect();
+                let t: Vec<_> = d
+                    .constraints
+                    .geometry
+                    .iter()
+                    .map(|(_, g)| g.touch)
+                    .collect();
                 if t != touches {
                     return None;
                 }
@@ -128,8 +153,15 @@ fn dynamics_jacobian_equals_finite_differences_rhex_every_mode() {
                 .collect();
             let (n, e) = check_modes(&rhex.model, &modes, 2, 3);
             // most random states have a regular KKT matrix
-            assert!(n >= modes.len(), "{shape:?}: only {n} of {} states", 2 * modes.len());
-            eprintln!("RHex {shape:?} {}: {n} states, worst {e:e}", rhex.model.name);
+            assert!(
+                n >= modes.len(),
+                "{shape:?}: only {n} of {} states",
+                2 * modes.len()
+            );
+            eprintln!(
+                "RHex {shape:?} {}: {n} states, worst {e:e}",
+                rhex.model.name
+            );
         }
     }
 }
@@ -140,20 +172,26 @@ fn dynamics_jacobian_equals_finite_differences_rhex_every_mode() {
 fn impact_jacobian_equals_finite_differences() {
     let mut r = rng(7);
     let mut checked = 0;
-    for rhex in [rhex_massless(LegShape::HalfCircle), rhex_massive(LegShape::Stick)] {
+    for rhex in [
+        rhex_massless(LegShape::HalfCircle),
+        rhex_massive(LegShape::Stick),
+    ] {
         let model = &rhex.model;
         for label in feasible_labels(&rhex) {
             let mode = rhex.mode(&label).unwrap();
             let q = random_q(model, &mut r);
             let qd = random_vec(model.nq(), 2.0, &mut r);
             let mut data = Data::new(model);
-            let Ok(jac) = plastic_impact_jacobian(model, &mut data, &FlatGround, mode, &q, &qd) else {
+            let Ok(jac) = plastic_impact_jacobian(model, &mut data, &FlatGround, mode, &q, &qd)
+            else {
                 continue;
             };
             let nq = model.nq();
             let imp = |q: &[f64], qd: &[f64]| {
                 let mut d = Data::new(model);
-                plastic_impact(model, &mut d, &FlatGround, mode, q, qd).ok().map(|i| i.qd_plus)
+                plastic_impact(model, &mut d, &FlatGround, mode, q, qd)
+                    .ok()
+                    .map(|i| i.qd_plus)
             };
             let (mut fq, mut fv) = (DMatrix::zeros(nq, nq), DMatrix::zeros(nq, nq));
             let mut ok = true;

@@ -109,13 +109,26 @@ fn check_drop(model: &Model, y0: &[f64], tf: f64) -> (f64, usize) {
     eprintln!(
         "{}: {:?} at {:?}, {:?}",
         model.name,
-        exec.events.iter().map(|e| (e.kind, e.mode_after.normal_bits(), e.mode_after.tangential_bits())).collect::<Vec<_>>(),
+        exec.events
+            .iter()
+            .map(|e| (
+                e.kind,
+                e.mode_after.normal_bits(),
+                e.mode_after.tangential_bits()
+            ))
+            .collect::<Vec<_>>(),
         exec.events.iter().map(|e| e.t).collect::<Vec<_>>(),
         exec.termination
     );
     // the rear leg's rolling contact reaches its arc's end inside a segment: a switch
     // without an event, with its own saltation
-    eprintln!("touch switches: {:?}", sens.touch_switches.iter().map(|s| (s.t, s.contact, &s.status)).collect::<Vec<_>>());
+    eprintln!(
+        "touch switches: {:?}",
+        sens.touch_switches
+            .iter()
+            .map(|s| (s.t, s.contact, &s.status))
+            .collect::<Vec<_>>()
+    );
     assert!(!sens.touch_switches.is_empty());
     for es in &sens.events {
         assert_eq!(es.status, SaltationStatus::Defined, "{es:?}");
@@ -123,7 +136,17 @@ fn check_drop(model: &Model, y0: &[f64], tf: f64) -> (f64, usize) {
     let jac = sens.state_jacobian.as_ref().expect("defined");
     const H: f64 = 1e-6;
     let run = |y: &[f64]| {
-        simulate(model, &FlatGround, &ctrl, ContactMode::FLIGHT, &y[..nq], &y[nq..], tf, opts).unwrap()
+        simulate(
+            model,
+            &FlatGround,
+            &ctrl,
+            ContactMode::FLIGHT,
+            &y[..nq],
+            &y[nq..],
+            tf,
+            opts,
+        )
+        .unwrap()
     };
     let mut fd = DMatrix::zeros(2 * nq, 2 * nq);
     for k in 0..2 * nq {

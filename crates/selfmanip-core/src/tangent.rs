@@ -301,7 +301,11 @@ fn differentiable_point(
 }
 
 /// Solves `K [x; y] = [f; g]` with `data`'s factorization; prescribed joints get `x = 0`.
-fn solve_direction(data: &mut Data, f: &DVector<f64>, g: &DVector<f64>) -> (DVector<f64>, DVector<f64>) {
+fn solve_direction(
+    data: &mut Data,
+    f: &DVector<f64>,
+    g: &DVector<f64>,
+) -> (DVector<f64>, DVector<f64>) {
     let fr: Vec<f64> = data.dynamic_coords.iter().map(|&a| f[a]).collect();
     let mut xr = vec![0.0; fr.len()];
     let mut y = DVector::zeros(g.len());

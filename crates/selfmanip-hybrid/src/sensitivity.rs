@@ -76,12 +76,16 @@ pub enum SensitivityError {
 pub enum SaltationStatus {
     Defined,
     /// The flow meets the guard tangentially: `D_xg f⁻ ≈ 0` (relative value given).
-    Grazing { transversality: f64 },
+    Grazing {
+        transversality: f64,
+    },
     /// Several guards fired at once, or the event's neighbouring mode lasted zero time: the
     /// outcome may depend on the order (one-sided and Bouligand derivatives not formed yet).
     Simultaneous,
     /// An event kind or situation not differentiated yet.
-    Unsupported { reason: String },
+    Unsupported {
+        reason: String,
+    },
 }
 
 /// The sensitivity of one event.
@@ -175,7 +179,12 @@ impl<'a> Evaluator<'a> {
         let nq = self.model.nq();
         self.kin.compute(self.model, &y[..nq], &y[nq..]);
         mode.active()
-            .map(|k| (k, contact_geometry(self.model, &self.kin, self.terrain, k).touch))
+            .map(|k| {
+                (
+                    k,
+                    contact_geometry(self.model, &self.kin, self.terrain, k).touch,
+                )
+            })
             .collect()
     }
 
@@ -267,7 +276,13 @@ fn phi_step(
             ys.axpy(h * RK_A[s][j], &k[j], 1.0);
             ps += h * RK_A[s][j] * &kphi[j];
         }
-        let fj = ev.eval(&*seg.controller, &seg.locked, t0 + RK_C[s] * h, seg.mode, ys.as_slice())?;
+        let fj = ev.eval(
+            &*seg.controller,
+            &seg.locked,
+            t0 + RK_C[s] * h,
+            seg.mode,
+            ys.as_slice(),
+        )?;
         kphi.push(&fj.jac * ps);
         k.push(fj.f);
     }
@@ -433,15 +448,12 @@ pub fn execution_sensitivity(
         let phi = segment_flow(&mut ev, seg, &mut out.touch_switches)?;
         total = &phi * total;
         out.segment_flows.push(phi);
-        let event = exec
-            .events
-            .get(next_event)
-            .filter(|e| {
-                e.t == seg.t1
-                    && (si + 1 < nseg
-                        || e.kind == EventKind::Apex
-                        || exec.termination == Termination::EventBudget)
-            });
+        let event = exec.events.get(next_event).filter(|e| {
+            e.t == seg.t1
+                && (si + 1 < nseg
+                    || e.kind == EventKind::Apex
+                    || exec.termination == Termination::EventBudget)
+        });
         let Some(event) = event else {
             if si + 1 < nseg {
                 out.feature_changes.push(si);
@@ -573,7 +585,8 @@ fn event_sensitivity(
             let mut found = None;
             let mut worst = f64::INFINITY;
             for m in candidates {
-                let Ok(ij) = plastic_impact_jacobian(model, &mut data, terrain, m, q, qd_minus) else {
+                let Ok(ij) = plastic_impact_jacobian(model, &mut data, terrain, m, q, qd_minus)
+                else {
                     continue;
                 };
                 let mismatch = ij
@@ -612,7 +625,10 @@ fn event_sensitivity(
                 -fm.dlambda.row(rn)
             } else {
                 let (Some(rt), Friction::Sticking { mu }) = (rt, model.contacts[k].friction) else {
-                    return Ok(unsupported(event, "slip of a contact without a tangential row"));
+                    return Ok(unsupported(
+                        event,
+                        "slip of a contact without a tangential row",
+                    ));
                 };
                 -mu * fm.dlambda.row(rn) - fm.lambda[rt].signum() * fm.dlambda.row(rt)
             }
@@ -643,7 +659,10 @@ fn event_sensitivity(
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
         if jump > 0.0 {
-            return Ok(unsupported(event, format!("velocity jump {jump:.2e} at a non-impact event")));
+            return Ok(unsupported(
+                event,
+                format!("velocity jump {jump:.2e} at a non-impact event"),
+            ));
         }
     }
     if event.kind == EventKind::Touchdown && event.triggered.is_empty() {
@@ -668,7 +687,10 @@ fn event_sensitivity(
     }
     let f_plus = match (event.kind, after) {
         (EventKind::Apex, _) => DVector::zeros(n2),
-        (_, Some(a)) => ev.eval(&*a.controller, &a.locked, t, event.mode_after, &y_plus)?.f,
+        (_, Some(a)) => {
+            ev.eval(&*a.controller, &a.locked, t, event.mode_after, &y_plus)?
+                .f
+        }
         (_, None) => {
             // the run ended at this event (its event budget): no flow after it to salt with
             es.status = SaltationStatus::Unsupported {

@@ -39,10 +39,29 @@ fn tight(delta_t_s: f64) -> HybridOptions {
 }
 
 /// `x(t_f)` and the event sequence of a run.
-fn run(model: &Model, mode: ContactMode, y0: &[f64], tf: f64, opts: HybridOptions) -> (Vec<f64>, Vec<(EventKind, ContactMode)>) {
+fn run(
+    model: &Model,
+    mode: ContactMode,
+    y0: &[f64],
+    tf: f64,
+    opts: HybridOptions,
+) -> (Vec<f64>, Vec<(EventKind, ContactMode)>) {
     let nq = model.nq();
-    let e = simulate(model, &FlatGround, &ZeroTorque, mode, &y0[..nq], &y0[nq..], tf, opts).unwrap();
-    (final_state(&e), e.events.iter().map(|e| (e.kind, e.mode_after)).collect())
+    let e = simulate(
+        model,
+        &FlatGround,
+        &ZeroTorque,
+        mode,
+        &y0[..nq],
+        &y0[nq..],
+        tf,
+        opts,
+    )
+    .unwrap();
+    (
+        final_state(&e),
+        e.events.iter().map(|e| (e.kind, e.mode_after)).collect(),
+    )
 }
 
 fn final_state(e: &Execution) -> Vec<f64> {
@@ -51,11 +70,26 @@ fn final_state(e: &Execution) -> Vec<f64> {
 
 /// Central differences of `x(t_f)` along each direction `dirs[k]` of the initial state
 /// (step `h` along the direction), each with the unperturbed run's event sequence.
-fn fd_columns(model: &Model, mode: ContactMode, y0: &[f64], tf: f64, opts: HybridOptions, dirs: &[DVector<f64>]) -> DMatrix<f64> {
+fn fd_columns(
+    model: &Model,
+    mode: ContactMode,
+    y0: &[f64],
+    tf: f64,
+    opts: HybridOptions,
+    dirs: &[DVector<f64>],
+) -> DMatrix<f64> {
     fd_columns_h(model, mode, y0, tf, opts, dirs, 1e-6)
 }
 
-fn fd_columns_h(model: &Model, mode: ContactMode, y0: &[f64], tf: f64, opts: HybridOptions, dirs: &[DVector<f64>], h: f64) -> DMatrix<f64> {
+fn fd_columns_h(
+    model: &Model,
+    mode: ContactMode,
+    y0: &[f64],
+    tf: f64,
+    opts: HybridOptions,
+    dirs: &[DVector<f64>],
+    h: f64,
+) -> DMatrix<f64> {
     let (_, seq) = run(model, mode, y0, tf, opts);
     let n2 = y0.len();
     let mut out = DMatrix::zeros(n2, dirs.len());
@@ -131,7 +165,12 @@ fn height_gradient(l: [f64; 2]) -> DMatrix<f64> {
     DMatrix::from_row_slice(1, 6, &[0.0, -1.0, l[0], 0.0, 0.0, 0.0])
 }
 
-fn saltation(dr: &DMatrix<f64>, fm: &DVector<f64>, fp: &DVector<f64>, dg: &DMatrix<f64>) -> DMatrix<f64> {
+fn saltation(
+    dr: &DMatrix<f64>,
+    fm: &DVector<f64>,
+    fp: &DVector<f64>,
+    dg: &DMatrix<f64>,
+) -> DMatrix<f64> {
     let den = (dg * fm)[0];
     dr + (fp - dr * fm) * dg / den
 }
@@ -149,11 +188,22 @@ fn plastic_ball_saltation_and_run() {
     let (h0, xd, phid) = (0.5, 1.0, 0.3);
     let y0 = [0.0, -h0, 0.0, xd, 0.0, phid];
     let opts = tight(0.0);
-    let (exec, sens) = simulate_with_sensitivity(&model, &FlatGround, &ZeroTorque, ContactMode::FLIGHT, &y0[..3], &y0[3..], 0.4, opts).unwrap();
+    let (exec, sens) = simulate_with_sensitivity(
+        &model,
+        &FlatGround,
+        &ZeroTorque,
+        ContactMode::FLIGHT,
+        &y0[..3],
+        &y0[3..],
+        0.4,
+        opts,
+    )
+    .unwrap();
     assert_eq!(exec.events.len(), 1);
     assert_eq!(exec.events[0].kind, EventKind::Touchdown);
     let zd = (2.0 * G * h0).sqrt();
-    let mut expected = DMatrix::from_diagonal(&DVector::from_vec(vec![1.0, 0.0, 1.0, 0.0, 0.0, 1.0]));
+    let mut expected =
+        DMatrix::from_diagonal(&DVector::from_vec(vec![1.0, 0.0, 1.0, 0.0, 0.0, 1.0]));
     expected[(0, 1)] = -xd / zd;
     let es = &sens.events[0];
     assert_eq!(es.status, SaltationStatus::Defined);
@@ -162,7 +212,9 @@ fn plastic_ball_saltation_and_run() {
     // the landing time t = √(2 h0/g) − …: dt/dz0 = −1/ż⁻ (z down: a larger z0 is lower)
     let tg = es.time_gradient.as_ref().unwrap();
     assert!((tg[1] + 1.0 / zd).abs() < 1e-9, "{tg}");
-    let dirs: Vec<_> = (0..6).map(|k| DVector::from_fn(6, |i, _| if i == k { 1.0 } else { 0.0 })).collect();
+    let dirs: Vec<_> = (0..6)
+        .map(|k| DVector::from_fn(6, |i, _| if i == k { 1.0 } else { 0.0 }))
+        .collect();
     let fd = fd_columns(&model, ContactMode::FLIGHT, &y0, 0.4, opts, &dirs);
     let e = rel(sens.state_jacobian.as_ref().unwrap(), &fd);
     eprintln!("ball: whole-run Jacobian vs central differences {e:e}");
@@ -175,11 +227,26 @@ fn plastic_ball_saltation_and_run() {
 fn rod_landing_on_one_end_saltation() {
     let (len, m) = (0.4, 1.0);
     let inertia = m * len * len / 12.0;
-    let model = body(m, inertia, G, &[("end", -len / 2.0, 0.0, Friction::Stick(None))]);
+    let model = body(
+        m,
+        inertia,
+        G,
+        &[("end", -len / 2.0, 0.0, Friction::Stick(None))],
+    );
     let phi0 = 0.5_f64;
     let l0 = rotate(phi0, [-len / 2.0, 0.0]);
     let y0 = [0.0, -0.05 - l0[1], phi0, 0.3, 0.2, 0.5];
-    let (exec, sens) = simulate_with_sensitivity(&model, &FlatGround, &ZeroTorque, ContactMode::FLIGHT, &y0[..3], &y0[3..], 0.15, tight(0.0)).unwrap();
+    let (exec, sens) = simulate_with_sensitivity(
+        &model,
+        &FlatGround,
+        &ZeroTorque,
+        ContactMode::FLIGHT,
+        &y0[..3],
+        &y0[3..],
+        0.15,
+        tight(0.0),
+    )
+    .unwrap();
     assert_eq!(exec.events[0].kind, EventKind::Touchdown);
     let t = exec.events[0].t;
     let mut y = [0.0; 6];
@@ -214,10 +281,25 @@ fn rocking_block_saltation_with_and_without_pseudo_impulse() {
     let r0 = [-l_left[0], -l_left[1]];
     let y0 = [r0[0], r0[1], phi0, omega0 * r0[1], -omega0 * r0[0], omega0];
     for delta_t in [0.0, 0.03] {
-        let (exec, sens) = simulate_with_sensitivity(&model, &FlatGround, &ZeroTorque, left, &y0[..3], &y0[3..], 0.05, tight(delta_t)).unwrap();
+        let (exec, sens) = simulate_with_sensitivity(
+            &model,
+            &FlatGround,
+            &ZeroTorque,
+            left,
+            &y0[..3],
+            &y0[3..],
+            0.05,
+            tight(delta_t),
+        )
+        .unwrap();
         let ev = &exec.events[0];
         assert_eq!(ev.kind, EventKind::Touchdown);
-        assert_eq!(ev.mode_after.contains(0), delta_t > 0.0, "δt {delta_t}: {:?}", ev.mode_after);
+        assert_eq!(
+            ev.mode_after.contains(0),
+            delta_t > 0.0,
+            "δt {delta_t}: {:?}",
+            ev.mode_after
+        );
         let mut y = [0.0; 6];
         exec.segments[0].eval(ev.t, &mut y);
         let qd = &y[3..];
@@ -228,7 +310,12 @@ fn rocking_block_saltation_with_and_without_pseudo_impulse() {
         let dg = height_gradient(lr);
         let expected = if delta_t == 0.0 {
             let pin_r = Pinned::new(m, inertia, [-lr[0], -lr[1]]);
-            saltation(&pin_r.reset_jacobian(qd), &fm, &pin_r.flow(pin_r.phidot_plus(qd)), &dg)
+            saltation(
+                &pin_r.reset_jacobian(qd),
+                &fm,
+                &pin_r.flow(pin_r.phidot_plus(qd)),
+                &dg,
+            )
         } else {
             let mut dr = DMatrix::zeros(6, 6);
             dr.view_mut((0, 0), (3, 3)).fill_with_identity();
@@ -254,23 +341,52 @@ fn rocking_block_whole_execution_jacobian_through_several_events() {
     let y0 = [0.0, -0.02 - l_left[1], phi0, 0.05, 0.1, -0.5];
     let tf = 0.464;
     let opts = tight(0.0);
-    let (exec, sens) = simulate_with_sensitivity(&model, &FlatGround, &ZeroTorque, ContactMode::FLIGHT, &y0[..3], &y0[3..], tf, opts).unwrap();
+    let (exec, sens) = simulate_with_sensitivity(
+        &model,
+        &FlatGround,
+        &ZeroTorque,
+        ContactMode::FLIGHT,
+        &y0[..3],
+        &y0[3..],
+        tf,
+        opts,
+    )
+    .unwrap();
     let kinds: Vec<_> = exec.events.iter().map(|e| e.kind).collect();
-    eprintln!("events: {kinds:?} at {:?}, termination {:?}", exec.events.iter().map(|e| e.t).collect::<Vec<_>>(), exec.termination);
+    eprintln!(
+        "events: {kinds:?} at {:?}, termination {:?}",
+        exec.events.iter().map(|e| e.t).collect::<Vec<_>>(),
+        exec.termination
+    );
     assert!(exec.events.len() >= 6, "{kinds:?}");
     for es in &sens.events {
         assert_eq!(es.status, SaltationStatus::Defined, "{es:?}");
     }
-    let dirs: Vec<_> = (0..6).map(|k| DVector::from_fn(6, |i, _| if i == k { 1.0 } else { 0.0 })).collect();
+    let dirs: Vec<_> = (0..6)
+        .map(|k| DVector::from_fn(6, |i, _| if i == k { 1.0 } else { 0.0 }))
+        .collect();
     let fd = fd_columns(&model, ContactMode::FLIGHT, &y0, tf, opts, &dirs);
     let jac = sens.state_jacobian.as_ref().expect("defined");
     let e = rel(jac, &fd);
-    eprintln!("rocking block, {} events: whole-run Jacobian vs central differences {e:e}", exec.events.len());
+    eprintln!(
+        "rocking block, {} events: whole-run Jacobian vs central differences {e:e}",
+        exec.events.len()
+    );
     assert!(e < 1e-5, "{e:e}\n{jac}\n{fd}");
     // the default tolerances (rtol 1e-9, events to 1e-10 s), which finite differences resolve
     // only with a larger step (h = 1e-4: truncation ~1e-8, noise ~1e-9/1e-4)
     let opts = HybridOptions::default();
-    let (_, sens) = simulate_with_sensitivity(&model, &FlatGround, &ZeroTorque, ContactMode::FLIGHT, &y0[..3], &y0[3..], tf, opts).unwrap();
+    let (_, sens) = simulate_with_sensitivity(
+        &model,
+        &FlatGround,
+        &ZeroTorque,
+        ContactMode::FLIGHT,
+        &y0[..3],
+        &y0[3..],
+        tf,
+        opts,
+    )
+    .unwrap();
     let fd = fd_columns_h(&model, ContactMode::FLIGHT, &y0, tf, opts, &dirs, 1e-4);
     let e = rel(sens.state_jacobian.as_ref().expect("defined"), &fd);
     eprintln!("rocking block, default tolerances: whole-run Jacobian vs central differences {e:e}");
@@ -323,10 +439,35 @@ fn massless_leg_with_servo_whole_execution_jacobian() {
     let opts = tight(0.0);
     let tf = 1.5;
     let run_with = |y: &[f64]| {
-        simulate(&model, &FlatGround, &servo, ContactMode::FLIGHT, &y[..4], &y[4..], tf, opts).unwrap()
+        simulate(
+            &model,
+            &FlatGround,
+            &servo,
+            ContactMode::FLIGHT,
+            &y[..4],
+            &y[4..],
+            tf,
+            opts,
+        )
+        .unwrap()
     };
-    let (exec, sens) = simulate_with_sensitivity(&model, &FlatGround, &servo, ContactMode::FLIGHT, &y0[..4], &y0[4..], tf, opts).unwrap();
-    let seq = |e: &Execution| e.events.iter().map(|e| (e.kind, e.mode_after)).collect::<Vec<_>>();
+    let (exec, sens) = simulate_with_sensitivity(
+        &model,
+        &FlatGround,
+        &servo,
+        ContactMode::FLIGHT,
+        &y0[..4],
+        &y0[4..],
+        tf,
+        opts,
+    )
+    .unwrap();
+    let seq = |e: &Execution| {
+        e.events
+            .iter()
+            .map(|e| (e.kind, e.mode_after))
+            .collect::<Vec<_>>()
+    };
     eprintln!(
         "one massless leg: {:?} at {:?}, {:?}",
         seq(&exec),
@@ -368,7 +509,17 @@ fn apex_projection_and_time_gradient() {
         stop_at_apex: true,
         ..tight(0.0)
     };
-    let (exec, sens) = simulate_with_sensitivity(&model, &FlatGround, &ZeroTorque, ContactMode::FLIGHT, &[0.0, -1.0, 0.0], &[xd, zd, 0.0], 2.0, opts).unwrap();
+    let (exec, sens) = simulate_with_sensitivity(
+        &model,
+        &FlatGround,
+        &ZeroTorque,
+        ContactMode::FLIGHT,
+        &[0.0, -1.0, 0.0],
+        &[xd, zd, 0.0],
+        2.0,
+        opts,
+    )
+    .unwrap();
     assert_eq!(exec.events.last().map(|e| e.kind), Some(EventKind::Apex));
     let es = sens.events.last().unwrap();
     let tg = es.time_gradient.as_ref().unwrap();
@@ -402,14 +553,38 @@ fn kicking_leg_liftoff_touchdown_slip_whole_execution_jacobian() {
     let toe = ContactMode::FLIGHT.with(0, ContactKind::Slide);
     let tf = 0.3;
     let opts = tight(0.0);
-    let run_with = |y: &[f64]| simulate(&model, &FlatGround, &servo, toe, &y[..4], &y[4..], tf, opts).unwrap();
-    let (exec, sens) = simulate_with_sensitivity(&model, &FlatGround, &servo, toe, &y0[..4], &y0[4..], tf, opts).unwrap();
-    let seq = |e: &Execution| e.events.iter().map(|e| (e.kind, e.mode_after)).collect::<Vec<_>>();
+    let run_with =
+        |y: &[f64]| simulate(&model, &FlatGround, &servo, toe, &y[..4], &y[4..], tf, opts).unwrap();
+    let (exec, sens) = simulate_with_sensitivity(
+        &model,
+        &FlatGround,
+        &servo,
+        toe,
+        &y0[..4],
+        &y0[4..],
+        tf,
+        opts,
+    )
+    .unwrap();
+    let seq = |e: &Execution| {
+        e.events
+            .iter()
+            .map(|e| (e.kind, e.mode_after))
+            .collect::<Vec<_>>()
+    };
     let kinds: Vec<_> = exec.events.iter().map(|e| e.kind).collect();
-    eprintln!("kicking leg: {kinds:?} at {:?}", exec.events.iter().map(|e| e.t).collect::<Vec<_>>());
+    eprintln!(
+        "kicking leg: {kinds:?} at {:?}",
+        exec.events.iter().map(|e| e.t).collect::<Vec<_>>()
+    );
     assert_eq!(
         kinds,
-        [EventKind::Liftoff, EventKind::Touchdown, EventKind::Slip, EventKind::Touchdown]
+        [
+            EventKind::Liftoff,
+            EventKind::Touchdown,
+            EventKind::Slip,
+            EventKind::Touchdown
+        ]
     );
     for es in &sens.events {
         assert_eq!(es.status, SaltationStatus::Defined, "{es:?}");
@@ -463,12 +638,34 @@ fn sliding_toe_stick_slip_touchdown_whole_execution_jacobian() {
     let toe = ContactMode::FLIGHT.with(0, ContactKind::Slide);
     let tf = 0.4;
     let opts = tight(0.0);
-    let run_with = |y: &[f64]| simulate(&model, &FlatGround, &servo, toe, &y[..4], &y[4..], tf, opts).unwrap();
-    let (exec, sens) = simulate_with_sensitivity(&model, &FlatGround, &servo, toe, &y0[..4], &y0[4..], tf, opts).unwrap();
-    let seq = |e: &Execution| e.events.iter().map(|e| (e.kind, e.mode_after)).collect::<Vec<_>>();
+    let run_with =
+        |y: &[f64]| simulate(&model, &FlatGround, &servo, toe, &y[..4], &y[4..], tf, opts).unwrap();
+    let (exec, sens) = simulate_with_sensitivity(
+        &model,
+        &FlatGround,
+        &servo,
+        toe,
+        &y0[..4],
+        &y0[4..],
+        tf,
+        opts,
+    )
+    .unwrap();
+    let seq = |e: &Execution| {
+        e.events
+            .iter()
+            .map(|e| (e.kind, e.mode_after))
+            .collect::<Vec<_>>()
+    };
     let kinds: Vec<_> = exec.events.iter().map(|e| e.kind).collect();
-    eprintln!("sliding toe: {kinds:?} at {:?}", exec.events.iter().map(|e| e.t).collect::<Vec<_>>());
-    assert_eq!(kinds, [EventKind::Stick, EventKind::Slip, EventKind::Touchdown]);
+    eprintln!(
+        "sliding toe: {kinds:?} at {:?}",
+        exec.events.iter().map(|e| e.t).collect::<Vec<_>>()
+    );
+    assert_eq!(
+        kinds,
+        [EventKind::Stick, EventKind::Slip, EventKind::Touchdown]
+    );
     for es in &sens.events {
         assert_eq!(es.status, SaltationStatus::Defined, "{es:?}");
     }
