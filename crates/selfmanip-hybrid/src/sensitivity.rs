@@ -119,7 +119,8 @@ pub struct Sensitivity {
     /// differentiated yet.
     pub feature_changes: Vec<usize>,
     /// `dx(t_end)/dx(0)`, `None` unless every event's saltation is defined and the run ended
-    /// at its final time, at the apex or at its event budget.
+    /// at its final time or at the apex (a run cut by its event budget ends on an event
+    /// with no flow after it, whose saltation is not formed).
     pub state_jacobian: Option<DMatrix<f64>>,
 }
 
@@ -495,7 +496,7 @@ pub fn execution_sensitivity(
     }
     let ends_cleanly = matches!(
         exec.termination,
-        Termination::FinalTime | Termination::Apex | Termination::EventBudget
+        Termination::FinalTime | Termination::Apex
     );
     if defined && ends_cleanly {
         out.state_jacobian = Some(total);
