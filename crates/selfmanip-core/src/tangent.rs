@@ -132,8 +132,8 @@ impl Lever {
 #[derive(Debug, Clone)]
 struct Point {
     lever: Lever,
-    /// `ω(e_i)` and `Dp[e_i]` for every coordinate `i`.
-    w_e: Vec<Vec<f64>>,
+    /// `ω(e_i)` for every coordinate `i` (one run of the lever's length each) and `Dp[e_i]`.
+    w_e: Vec<f64>,
     j_e: Vec<Vector2<f64>>,
     /// `ω(q̇)` and `D²p[q̇, q̇]`.
     w_qd: Vec<f64>,
@@ -147,15 +147,27 @@ impl Point {
     fn new(model: &Model, kin: &Kinematics, part: Part, p: Vector2<f64>, qd: &[f64]) -> Self {
         let lever = Lever::new(model, kin, part, p);
         let nq = model.nq();
-        let mut e = vec![0.0; nq];
-        let (mut w_e, mut j_e) = (Vec::with_capacity(nq), Vec::with_capacity(nq));
-        for i in 0..nq {
-            e[i] = 1.0;
-            let w = lever.omegas(&e);
-            j_e.push(lever.d1(&w, &e));
-            w_e.push(w);
-            e[i] = 0.0;
+        let ns = lever.segs.len();
+        let mut w_e = vec![0.0; nq * ns];
+        for (s, (coef, _)) in lever.segs.iter().enumerate() {
+            for &(k, f) in coef {
+                w_e[k * ns + s] += f;
+            }
         }
+        let j_e = (0..nq)
+            .map(|i| {
+                let mut v = Vector2::zeros();
+                if i == lever.n {
+                    v.x = 1.0;
+                } else if i == lever.n + 1 {
+                    v.y = 1.0;
+                }
+                for ((_, r), w) in lever.segs.iter().zip(&w_e[i * ns..(i + 1) * ns]) {
+                    v += *w * perp(*r);
+                }
+                v
+            })
+            .collect();
         let w_qd = lever.omegas(qd);
         let acc0 = lever.d2(&w_qd, &w_qd);
         Point {
@@ -167,6 +179,12 @@ impl Point {
             w_qd,
             acc0,
         }
+    }
+
+    /// `ω(e_i)`.
+    fn we(&self, i: usize) -> &[f64] {
+        let ns = self.lever.segs.len();
+        &self.w_e[i * ns..(i + 1) * ns]
     }
 }
 
@@ -232,11 +250,11 @@ impl Assembly {
         let mut f = DVector::zeros(nq);
         for (m, p) in &self.masses {
             let lv = &p.lever;
-            let wv = &p.w_e[k];
+            let wv = p.we(k);
             let pxv = lv.d2(&p.w_x, wv);
             let d3 = with_velocity.then(|| lv.d3(&p.w_qd, &p.w_qd, wv));
             for i in 0..nq {
-                let pie = lv.d2(&p.w_e[i], wv);
+                let pie = lv.d2(p.we(i), wv);
                 let mut s = pie.dot(&p.px) + p.j_e[i].dot(&pxv);
                 if let Some(d3) = d3 {
                     s += pie.dot(&p.acc0) + p.j_e[i].dot(&d3) - self.gravity * pie.y;
@@ -247,7 +265,7 @@ impl Assembly {
         let mut g = DVector::zeros(self.rows.len());
         for (r, (d, p)) in self.rows.iter().enumerate() {
             let lv = &p.lever;
-            let wv = &p.w_e[k];
+            let wv = p.we(k);
             let mut s = -d.dot(&lv.d2(&p.w_x, wv));
             if with_velocity {
                 s -= d.dot(&lv.d3(&p.w_qd, &p.w_qd, wv));
@@ -255,7 +273,7 @@ impl Assembly {
             g[r] = s;
             if y[r] != 0.0 {
                 for i in 0..nq {
-                    f[i] -= y[r] * d.dot(&lv.d2(&p.w_e[i], wv));
+                    f[i] -= y[r] * d.dot(&lv.d2(p.we(i), wv));
                 }
             }
         }
@@ -267,7 +285,7 @@ impl Assembly {
         let nq = self.nq;
         let mut f = DVector::zeros(nq);
         for (m, p) in &self.masses {
-            let a = 2.0 * p.lever.d2(&p.w_qd, &p.w_e[k]);
+            let a = 2.0 * p.lever.d2(&p.w_qd, p.we(k));
             for i in 0..nq {
                 f[i] += m * p.j_e[i].dot(&a);
             }
@@ -276,7 +294,7 @@ impl Assembly {
             self.rows.len(),
             self.rows
                 .iter()
-                .map(|(d, p)| -2.0 * d.dot(&p.lever.d2(&p.w_qd, &p.w_e[k]))),
+                .map(|(d, p)| -2.0 * d.dot(&p.lever.d2(&p.w_qd, p.we(k)))),
         );
         (f, g)
     }
@@ -300,21 +318,46 @@ fn differentiable_point(
     })
 }
 
-/// Solves `K [x; y] = [f; g]` with `data`'s factorization; prescribed joints get `x = 0`.
-fn solve_direction(
-    data: &mut Data,
-    f: &DVector<f64>,
-    g: &DVector<f64>,
-) -> (DVector<f64>, DVector<f64>) {
-    let fr: Vec<f64> = data.dynamic_coords.iter().map(|&a| f[a]).collect();
-    let mut xr = vec![0.0; fr.len()];
-    let mut y = DVector::zeros(g.len());
-    data.kkt.solve(&fr, g.as_slice(), &mut xr, y.as_mut_slice());
-    let mut x = DVector::zeros(f.len());
-    for (&a, v) in data.dynamic_coords.iter().zip(xr) {
-        x[a] = v;
+/// Solves `K [x; y] = [σf; σg]` with `data`'s factorization into column `k` of `x_out`
+/// (prescribed joints get 0) and of `y_out` (if given), on reusable buffers.
+#[derive(Debug, Default)]
+struct Solver {
+    fr: Vec<f64>,
+    gr: Vec<f64>,
+    xr: Vec<f64>,
+    y: Vec<f64>,
+}
+
+impl Solver {
+    #[allow(clippy::too_many_arguments)]
+    fn solve(
+        &mut self,
+        data: &mut Data,
+        sigma: f64,
+        f: &DVector<f64>,
+        g: &DVector<f64>,
+        k: usize,
+        x_out: &mut DMatrix<f64>,
+        y_out: Option<&mut DMatrix<f64>>,
+    ) {
+        self.fr.clear();
+        self.fr
+            .extend(data.dynamic_coords.iter().map(|&a| sigma * f[a]));
+        self.gr.clear();
+        self.gr.extend(g.iter().map(|v| sigma * v));
+        self.xr.resize(self.fr.len(), 0.0);
+        self.y.resize(g.len(), 0.0);
+        data.kkt
+            .solve(&self.fr, &self.gr, &mut self.xr, &mut self.y);
+        let mut col = x_out.column_mut(k);
+        col.fill(0.0);
+        for (&a, v) in data.dynamic_coords.iter().zip(&self.xr) {
+            col[a] = *v;
+        }
+        if let Some(y_out) = y_out {
+            y_out.column_mut(k).copy_from_slice(&self.y);
+        }
     }
-    (x, y)
 }
 
 /// `∂(q̈, λ)/∂(q, q̇, Υ)` of the flow (5.3)–(5.4) at one state (rows of `λ` as in
@@ -368,22 +411,22 @@ pub fn dynamics_jacobian_solved(
         dlambda_dqd: DMatrix::zeros(c, nq),
         dlambda_dtau: DMatrix::zeros(c, n),
     };
+    let mut solver = Solver::default();
     for k in 0..nq {
         let (f, g) = asm.dq_terms(k, &lambda, true);
-        let (x, y) = solve_direction(data, &(-f), &(-g));
-        out.dqdd_dq.set_column(k, &x);
-        out.dlambda_dq.set_column(k, &y);
+        let (x, y) = (&mut out.dqdd_dq, &mut out.dlambda_dq);
+        solver.solve(data, -1.0, &f, &g, k, x, Some(y));
         let (f, g) = asm.dqd_terms(k);
-        let (x, y) = solve_direction(data, &(-f), &(-g));
-        out.dqdd_dqd.set_column(k, &x);
-        out.dlambda_dqd.set_column(k, &y);
+        let (x, y) = (&mut out.dqdd_dqd, &mut out.dlambda_dqd);
+        solver.solve(data, -1.0, &f, &g, k, x, Some(y));
     }
+    let zeros = DVector::zeros(c);
+    let mut f = DVector::zeros(nq);
     for j in 0..n {
-        let mut f = DVector::zeros(nq);
+        f.fill(0.0);
         f[j] = 1.0;
-        let (x, y) = solve_direction(data, &f, &DVector::zeros(c));
-        out.dqdd_dtau.set_column(j, &x);
-        out.dlambda_dtau.set_column(j, &y);
+        let (x, y) = (&mut out.dqdd_dtau, &mut out.dlambda_dtau);
+        solver.solve(data, 1.0, &f, &zeros, j, x, Some(y));
     }
     Ok(out)
 }
@@ -427,12 +470,14 @@ pub fn plastic_impact_jacobian(
     let f1: Vec<DVector<f64>> = (0..nq).map(|k| asm.dq_terms(k, &p, false).0).collect();
     asm.set_x(&qd_plus);
     let zeros = vec![0.0; c];
+    let mut solver = Solver::default();
+    let mut x = DMatrix::zeros(nq, 1);
+    let zero_f = DVector::zeros(nq);
     for (k, f1) in f1.into_iter().enumerate() {
         let (_, g1) = asm.dq_terms(k, &zeros, false);
-        let (x, _) = solve_direction(data, &(-f1), &(-g1));
-        out.dqd_plus_dq.set_column(k, &x);
-        let g = -data.constraints.a.column(k).clone_owned();
-        let (x, _) = solve_direction(data, &DVector::zeros(nq), &g);
+        solver.solve(data, -1.0, &f1, &g1, k, &mut out.dqd_plus_dq, None);
+        let g = data.constraints.a.column(k).clone_owned();
+        solver.solve(data, -1.0, &zero_f, &g, 0, &mut x, None);
         for i in 0..nq {
             out.dqd_plus_dqd_minus[(i, k)] += x[i];
         }
