@@ -32,7 +32,9 @@
 //! selects that mode, it does not change `q̇⁺`. Liftoff: `g = −λ_n` (5.50), `R = I`. Slip:
 //! `g = μ(−λ_n) − |λ_t|`, `R = I`. Stick: `g` the sliding velocity, `R = I`. Apex (terminal):
 //! `g = −ż`, and the end state is the state at the apex, `Ξ = I − f⁻ D_xg / (D_xg f⁻)`.
-//! Each event also gives its time's gradient `dt_e/dx(0) = −D_xg X⁻ / (D_xg f⁻)`.
+//! Each event also gives its time's gradient `dt_e/dx(0) = −D_xg X⁻ / (D_xg f⁻)`. An
+//! active arc whose rolling contact reaches the arc's end inside a segment (no event, but
+//! `Ȧ`, hence `q̈`, changes form there) gets a saltation of its own ([`TouchSwitch`]).
 //!
 //! **Where Ξ is not defined** the event says so ([`SaltationStatus`]) instead of carrying a
 //! number: grazing (`|D_xg f⁻|` below [`GRAZING_TOL`] relative to `|D_xg| |f⁻|`), several
@@ -40,6 +42,13 @@
 //! different outcomes: the Bouligand derivative is not formed yet), and events not covered
 //! yet (folds, a fold passage's end, a segment that ended on a terrain feature change).
 //! [`Sensitivity::state_jacobian`] is then `None`.
+//!
+//! **Not covered yet.** A run whose state sits on a guard that does not fire — a contact set
+//! chosen at a complementarity boundary, e.g. a sliding contact started at zero sliding
+//! velocity — gets the one-sided derivative of the sequence it realised, unflagged;
+//! sensitivities to named parameters (masses, lengths, gear ratio, δt, …) and controllers
+//! without [`Controller::partials`] (the actuator models, the RHex leap controller) are for
+//! later.
 use crate::controller::{Controller, ControllerPartials};
 use crate::error::HybridError;
 use crate::execution::{Event, EventKind, Execution, Segment, Termination};
