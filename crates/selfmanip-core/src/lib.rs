@@ -27,6 +27,7 @@ pub mod model;
 pub mod poses;
 pub mod quasistatic;
 pub mod reduced;
+pub mod tangent;
 
 pub use contact::{
     ConstraintRow, ContactKind, ContactMode, FlatGround, GroundPlane, RowDirection, Terrain,

@@ -10,6 +10,7 @@
 //! segment can be evaluated again later — trajectories, contact forces, energy — exactly as
 //! it ran, without replaying the execution.
 use crate::execution::Event;
+use nalgebra::DMatrix;
 use selfmanip_core::ContactMode;
 
 /// Joint torques (and the motion of free massless joints) as functions of time and state.
@@ -30,6 +31,44 @@ pub trait Controller: ControllerClone + Send + Sync {
     /// Called after every reset with the event just applied (for controllers whose phase
     /// depends on the contact history).
     fn on_event(&mut self, _event: &Event) {}
+    /// The partial derivatives of [`Self::torque`] and [`Self::free_joint_qdd`] at the same
+    /// arguments, written into `out` (which arrives zeroed and sized), for the sensitivities
+    /// of [`crate::sensitivity`]. Returns whether the controller provides them: the default
+    /// does not, and a sensitivity run then stops with a typed error rather than guess.
+    fn partials(
+        &self,
+        _t: f64,
+        _q: &[f64],
+        _qd: &[f64],
+        _mode: ContactMode,
+        _free_joints: &[usize],
+        _out: &mut ControllerPartials,
+    ) -> bool {
+        false
+    }
+}
+
+/// Partial derivatives of a controller's outputs over the state ([`Controller::partials`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ControllerPartials {
+    /// `∂Υ/∂q`, `∂Υ/∂q̇` (`n × nq`).
+    pub dtau_dq: DMatrix<f64>,
+    pub dtau_dqd: DMatrix<f64>,
+    /// `∂q̈_free/∂q`, `∂q̈_free/∂q̇` (one row per free joint, in the order given).
+    pub dfree_dq: DMatrix<f64>,
+    pub dfree_dqd: DMatrix<f64>,
+}
+
+impl ControllerPartials {
+    /// Zero partials for `n` joints, `nq` coordinates and `n_free` free joints.
+    pub fn zeros(n: usize, nq: usize, n_free: usize) -> Self {
+        ControllerPartials {
+            dtau_dq: DMatrix::zeros(n, nq),
+            dtau_dqd: DMatrix::zeros(n, nq),
+            dfree_dq: DMatrix::zeros(n_free, nq),
+            dfree_dqd: DMatrix::zeros(n_free, nq),
+        }
+    }
 }
 
 /// A boxed copy of a controller in its current state (implemented for every `Clone`
@@ -57,5 +96,16 @@ pub struct ZeroTorque;
 impl Controller for ZeroTorque {
     fn torque(&self, _t: f64, _q: &[f64], _qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
         tau.fill(0.0);
+    }
+    fn partials(
+        &self,
+        _t: f64,
+        _q: &[f64],
+        _qd: &[f64],
+        _mode: ContactMode,
+        _free_joints: &[usize],
+        _out: &mut ControllerPartials,
+    ) -> bool {
+        true
     }
 }

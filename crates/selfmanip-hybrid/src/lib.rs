@@ -21,6 +21,7 @@
 //! | [`segment`] | one segment: steps, terrain features, guards, until an event |
 //! | [`simulate`](mod@simulate) | the loop: flow ⇒ guards ⇒ locate ⇒ reset ⇒ zeno |
 //! | [`energy`] | the energy balance of an execution |
+//! | [`sensitivity`] | variational equations, saltation matrices, `dx(t_f)/dx(0)` of an execution |
 //! | [`execution`] | the record: segments, events, termination |
 //!
 //! Friction follows section 5.1.5 / Assumption 5.9: Coulomb sticking within `μ`,
@@ -46,16 +47,18 @@ pub mod locate;
 pub mod options;
 pub mod reset;
 pub mod segment;
+pub mod sensitivity;
 pub mod simulate;
 pub mod zeno;
 
 pub use actuated::{Actuated, CommandPolicy};
 pub use complementarity::ENUMERATION_LIMIT;
-pub use controller::{Controller, ZeroTorque};
+pub use controller::{Controller, ControllerPartials, ZeroTorque};
 pub use energy::{energy_report, EnergyReport};
 pub use error::HybridError;
 pub use execution::{Event, EventKind, Execution, Segment, Termination};
 pub use integrate::StepOptions;
 pub use options::HybridOptions;
 pub use options::DEFAULT_MAX_STEPS;
+pub use sensitivity::{execution_sensitivity, simulate_with_sensitivity, Sensitivity};
 pub use simulate::{simulate, simulate_with};

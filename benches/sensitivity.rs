@@ -1,0 +1,164 @@
+//! The cost of sensitivities: one execution with `simulate` against the same execution with
+//! `simulate_with_sensitivity` (the execution, then `dx(t_f)/dx(0)` over the full state: the
+//! variational equations on its own steps, `2 nq + n` KKT solves per stage, and a saltation
+//! matrix per event), at the engine's default tolerances. Systems: the rocking block dropped
+//! tilted (7 touchdowns, 6 states) and RHex with massless half-circle legs dropped onto them
+//! under hip servos (2 touchdowns and a rolling/point switch, 10 states).
+use criterion::{criterion_group, criterion_main, Criterion};
+use selfmanip::core::contact::contact_geometry;
+use selfmanip::core::kinematics::Kinematics;
+use selfmanip::core::{ContactMode, FlatGround, Model, RobotDescription};
+use selfmanip::hybrid::sensitivity::simulate_with_sensitivity;
+use selfmanip::hybrid::{simulate, Controller, ControllerPartials, HybridOptions, ZeroTorque};
+use selfmanip::rhex::{LegShape, Rhex, RhexParams};
+use std::hint::black_box;
+
+#[derive(Debug, Clone)]
+struct Servos {
+    target: Vec<f64>,
+}
+
+impl Controller for Servos {
+    fn torque(&self, _t: f64, q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
+        for (i, t) in tau.iter_mut().enumerate() {
+            *t = -5.0 * (q[i] - self.target[i]) - 0.05 * qd[i];
+        }
+    }
+    fn partials(
+        &self,
+        _t: f64,
+        _q: &[f64],
+        _qd: &[f64],
+        _mode: ContactMode,
+        _free: &[usize],
+        out: &mut ControllerPartials,
+    ) -> bool {
+        for i in 0..self.target.len() {
+            out.dtau_dq[(i, i)] = -5.0;
+            out.dtau_dqd[(i, i)] = -0.05;
+        }
+        true
+    }
+}
+
+fn block() -> Model {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/rocking_block.toml");
+    RobotDescription::from_file(&path).unwrap().build().unwrap()
+}
+
+fn rhex_drop() -> (Model, Vec<f64>, Servos) {
+    let model = Rhex::new(RhexParams {
+        leg_shape: LegShape::HalfCircle,
+        ..RhexParams::default()
+    })
+    .unwrap()
+    .model;
+    let nq = model.nq();
+    let mut q = vec![0.3, -0.2, 0.0, 0.0, 0.1];
+    let mut kin = Kinematics::default();
+    kin.compute(&model, &q, &vec![0.0; nq]);
+    let lowest = (0..model.n_contacts())
+        .map(|k| contact_geometry(&model, &kin, &FlatGround, k).gap_m)
+        .fold(f64::INFINITY, f64::min);
+    q[model.ix_z()] += lowest - 0.01;
+    let mut y = q.clone();
+    y.extend([0.0, 0.0, 0.4, 0.3, 0.8]);
+    (
+        model,
+        y,
+        Servos {
+            target: vec![0.3, -0.2],
+        },
+    )
+}
+
+fn sensitivity(c: &mut Criterion) {
+    let opts = HybridOptions::default();
+    let mut group = c.benchmark_group("sensitivity");
+    // the rocking block: left corner 2 cm above ground, tilted 0.15 rad
+    let model = block();
+    let (w, h) = (0.05_f64, 0.10_f64);
+    let phi0 = 0.15_f64;
+    let (s, co) = phi0.sin_cos();
+    let left_z = -s * (-w / 2.0) + co * h / 2.0;
+    let q0 = [0.0, -0.02 - left_z, phi0];
+    let qd0 = [0.05, 0.1, -0.5];
+    let run = || {
+        simulate(
+            &model,
+            &FlatGround,
+            &ZeroTorque,
+            ContactMode::FLIGHT,
+            &q0,
+            &qd0,
+            0.464,
+            opts,
+        )
+        .unwrap()
+    };
+    eprintln!("rocking block: {} events", run().events.len());
+    group.bench_function("rocking_block/simulate", |b| b.iter(|| black_box(run())));
+    group.bench_function("rocking_block/with_sensitivity", |b| {
+        b.iter(|| {
+            black_box(
+                simulate_with_sensitivity(
+                    &model,
+                    &FlatGround,
+                    &ZeroTorque,
+                    ContactMode::FLIGHT,
+                    &q0,
+                    &qd0,
+                    0.464,
+                    opts,
+                )
+                .unwrap(),
+            )
+        })
+    });
+    let (rhex, y0, servo) = rhex_drop();
+    let nq = rhex.nq();
+    let (q0, qd0) = y0.split_at(nq);
+    group.bench_function("rhex_drop/simulate", |b| {
+        b.iter(|| {
+            black_box(
+                simulate(
+                    &rhex,
+                    &FlatGround,
+                    &servo,
+                    ContactMode::FLIGHT,
+                    q0,
+                    qd0,
+                    0.25,
+                    opts,
+                )
+                .unwrap(),
+            )
+        })
+    });
+    group.bench_function("rhex_drop/with_sensitivity", |b| {
+        b.iter(|| {
+            black_box(
+                simulate_with_sensitivity(
+                    &rhex,
+                    &FlatGround,
+                    &servo,
+                    ContactMode::FLIGHT,
+                    q0,
+                    qd0,
+                    0.25,
+                    opts,
+                )
+                .unwrap(),
+            )
+        })
+    });
+    group.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().sample_size(20).measurement_time(std::time::Duration::from_secs(3));
+    targets = sensitivity
+}
+criterion_main!(benches);

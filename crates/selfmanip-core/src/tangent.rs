@@ -1,0 +1,523 @@
+//! Exact first derivatives of the constrained dynamics (5.3)–(5.4) and of the plastic impact
+//! (5.10)/(5.52) with respect to the state `(q, q̇)` and the joint torques `Υ`: the engine-level
+//! derivatives behind the variational equations and saltation matrices of
+//! `selfmanip_hybrid::sensitivity`.
+//!
+//! **Assembly, by closed forms.** Every angle of a planar tree is linear in `q`
+//! (`β_Q = φ + Σ_{k ≤ Q} s_k θ_k`), so a material point `p` of part `P` is
+//! `p = X + Σ_Q R(β_Q) l_Q` over the parts `Q` from the body to `P` (with `r_Q = R(β_Q) l_Q` the
+//! world lever from `Q`'s origin to the next origin, or to `p`). Writing `ω_Q(a) = ∂β_Q · a`
+//! (constant in `q`) and `S = perp` (`S r = (r_z, −r_x)`, `S² = −I`):
+//!
+//! ```text
+//! Dp[a]       = (a_x, a_z) + Σ_Q ω_Q(a) S r_Q                  (= J_p a)
+//! D²p[a,b]    = −Σ_Q ω_Q(a) ω_Q(b) r_Q                          (J̇_p q̇ = D²p[q̇,q̇])
+//! D³p[a,b,c]  = −Σ_Q ω_Q(a) ω_Q(b) ω_Q(c) S r_Q
+//! ```
+//!
+//! From these, with the core's own assembly `M̄ = Σ m JᵀJ + I J_ωᵀJ_ω`, `C̄q̇ = Σ m Jᵀ D²p[q̇,q̇]`,
+//! `N̄ = −Σ m g J_zᵀ` and the rows `A_r x = −d_r · J_c x`, `Ȧq̇_r = −d_r · D²c[q̇,q̇]` (where `c` is
+//! the contact's material point, or the centre of a rolling arc, whose contact point is the
+//! centre plus a constant offset on a plane):
+//!
+//! ```text
+//! (D_q M̄[v] x)_i   = Σ m (D²p[e_i,v]·Dp[x] + Dp[e_i]·D²p[x,v])      (J_ω is constant)
+//! D_q(C̄q̇)[v]_i   = Σ m (D²p[e_i,v]·D²p[q̇,q̇] + Dp[e_i]·D³p[q̇,q̇,v])
+//! D_q̇(C̄q̇)[w]_i   = Σ m Dp[e_i]·2D²p[q̇,w]
+//! D_q N̄[v]_i      = −Σ m g D²p[e_i,v]_z
+//! (D_q A[v] x)_r   = −d_r·D²c[x,v]          D_q(Ȧq̇)[v]_r = −d_r·D³c[q̇,q̇,v]
+//!                                           D_q̇(Ȧq̇)[w]_r = −2 d_r·D²c[q̇,w]
+//! ```
+//!
+//! **The KKT solution, by implicit differentiation** with the factorization the forward
+//! solve already made: `K z = b ⇒ K dz = db − dK z`, i.e.
+//! `K [dq̈; dλ] = [dΥ − d(C̄q̇) − dN̄ − dM̄ q̈ − dAᵀλ; −d(Ȧq̇) − dA q̈]`. The factorization is the
+//! null-space one of Lemma 5.1 ([`crate::kkt`]), so a singular `M̄` (massless limbs in contact)
+//! is covered as long as `K` is regular. Free massless joints (thesis 5.1.1) have prescribed
+//! accelerations: their rows of the Jacobians are zero here (a caller whose prescription
+//! depends on the state adds its own derivative), and their columns of `M̄` and `A` vanish
+//! identically, so they do not enter the other rows. Locked joints' prescribed `q̈ = 0`
+//! enters through `dA q̈` with its own column.
+//!
+//! Not covered: a contact on a terrain corner (its frame turns with the site; a typed
+//! [`TangentError::TurningFrame`]).
+use crate::contact::{row_direction, ContactGeometry, ContactMode, TouchKind};
+use crate::dynamics::{forward_dynamics, plastic_impact, Data, Impact};
+use crate::error::CoreError;
+use crate::frames::perp;
+use crate::kinematics::{Kinematics, Part};
+use crate::model::{ContactShape, Model};
+use crate::Terrain;
+use nalgebra::{DMatrix, DVector, Vector2};
+
+/// Why a derivative could not be formed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TangentError {
+    #[error(transparent)]
+    Core(#[from] CoreError),
+    /// The contact's frame turns with the site (a terrain corner): `Ḃ ≠ 0` terms are not
+    /// differentiated yet.
+    #[error("contact {contact} is on a terrain corner; its turning frame is not differentiated")]
+    TurningFrame { contact: usize },
+}
+
+/// The levers of one material point: per part `Q` from the body out to the point's part,
+/// the coefficients of `ω_Q` (coordinate, factor) and the world lever `r_Q`.
+#[derive(Debug, Clone)]
+struct Lever {
+    n: usize,
+    segs: Vec<Segment>,
+}
+
+/// One part of a lever: the coefficients `(coordinate, factor)` of its `ω_Q` and its `r_Q`.
+type Segment = (Vec<(usize, f64)>, Vector2<f64>);
+
+impl Lever {
+    fn new(model: &Model, kin: &Kinematics, part: Part, p: Vector2<f64>) -> Self {
+        let n = model.n_joints();
+        let mut coef = vec![(n + 2, 1.0)];
+        let mut segs = Vec::new();
+        match part {
+            Part::Body => segs.push((coef, p - kin.body_pos)),
+            Part::Link(j) => {
+                let first = *model.chain(j).start();
+                segs.push((coef.clone(), kin.origin[first] - kin.body_pos));
+                for k in first..=j {
+                    coef.push((k, model.joints[k].axis_sign));
+                    let end = if k == j { p } else { kin.origin[k + 1] };
+                    segs.push((coef.clone(), end - kin.origin[k]));
+                }
+            }
+        }
+        Lever { n, segs }
+    }
+
+    /// `ω_Q(a)` for every part `Q` of the lever.
+    fn omegas(&self, a: &[f64]) -> Vec<f64> {
+        self.segs
+            .iter()
+            .map(|(c, _)| c.iter().map(|&(k, s)| s * a[k]).sum())
+            .collect()
+    }
+
+    /// `Dp[a]`.
+    fn d1(&self, wa: &[f64], a: &[f64]) -> Vector2<f64> {
+        let mut v = Vector2::new(a[self.n], a[self.n + 1]);
+        for ((_, r), w) in self.segs.iter().zip(wa) {
+            v += *w * perp(*r);
+        }
+        v
+    }
+
+    /// `D²p[a, b]`.
+    fn d2(&self, wa: &[f64], wb: &[f64]) -> Vector2<f64> {
+        let mut v = Vector2::zeros();
+        for (((_, r), x), y) in self.segs.iter().zip(wa).zip(wb) {
+            v -= (x * y) * r;
+        }
+        v
+    }
+
+    /// `D³p[a, b, c]`.
+    fn d3(&self, wa: &[f64], wb: &[f64], wc: &[f64]) -> Vector2<f64> {
+        let mut v = Vector2::zeros();
+        for ((((_, r), x), y), z) in self.segs.iter().zip(wa).zip(wb).zip(wc) {
+            v -= (x * y * z) * perp(*r);
+        }
+        v
+    }
+}
+
+/// A lever with its values along the unit coordinates and the velocity.
+#[derive(Debug, Clone)]
+struct Point {
+    lever: Lever,
+    /// `ω(e_i)` for every coordinate `i` (one run of the lever's length each) and `Dp[e_i]`.
+    w_e: Vec<f64>,
+    j_e: Vec<Vector2<f64>>,
+    /// `ω(q̇)` and `D²p[q̇, q̇]`.
+    w_qd: Vec<f64>,
+    acc0: Vector2<f64>,
+    /// `ω(x)` and `Dp[x]` of the vector `x` the derivatives act on ([`Assembly::set_x`]).
+    w_x: Vec<f64>,
+    px: Vector2<f64>,
+}
+
+impl Point {
+    fn new(model: &Model, kin: &Kinematics, part: Part, p: Vector2<f64>, qd: &[f64]) -> Self {
+        let lever = Lever::new(model, kin, part, p);
+        let nq = model.nq();
+        let ns = lever.segs.len();
+        let mut w_e = vec![0.0; nq * ns];
+        for (s, (coef, _)) in lever.segs.iter().enumerate() {
+            for &(k, f) in coef {
+                w_e[k * ns + s] += f;
+            }
+        }
+        let j_e = (0..nq)
+            .map(|i| {
+                let mut v = Vector2::zeros();
+                if i == lever.n {
+                    v.x = 1.0;
+                } else if i == lever.n + 1 {
+                    v.y = 1.0;
+                }
+                for ((_, r), w) in lever.segs.iter().zip(&w_e[i * ns..(i + 1) * ns]) {
+                    v += *w * perp(*r);
+                }
+                v
+            })
+            .collect();
+        let w_qd = lever.omegas(qd);
+        let acc0 = lever.d2(&w_qd, &w_qd);
+        Point {
+            w_x: vec![0.0; lever.segs.len()],
+            px: Vector2::zeros(),
+            lever,
+            w_e,
+            j_e,
+            w_qd,
+            acc0,
+        }
+    }
+
+    /// `ω(e_i)`.
+    fn we(&self, i: usize) -> &[f64] {
+        let ns = self.lever.segs.len();
+        &self.w_e[i * ns..(i + 1) * ns]
+    }
+}
+
+/// The assembly's directional derivatives at one state (see the module docs).
+#[derive(Debug, Clone)]
+struct Assembly {
+    nq: usize,
+    gravity: f64,
+    /// Massive parts: mass and centre of mass.
+    masses: Vec<(f64, Point)>,
+    /// Constraint rows: direction `d_r` and the contact's material point (or rolling centre).
+    rows: Vec<(Vector2<f64>, Point)>,
+}
+
+impl Assembly {
+    fn new(model: &Model, data: &Data, qd: &[f64]) -> Result<Self, TangentError> {
+        let kin = &data.kin;
+        let mut masses = vec![(
+            model.body_mass_kg,
+            Point::new(model, kin, Part::Body, kin.body_pos, qd),
+        )];
+        for (i, j) in model.joints.iter().enumerate() {
+            if !j.is_massless() {
+                let p = kin.point(Part::Link(i), j.com_m);
+                masses.push((j.mass_kg, Point::new(model, kin, Part::Link(i), p, qd)));
+            }
+        }
+        let cons = &data.constraints;
+        let mut rows = Vec::with_capacity(cons.rows.len());
+        for row in &cons.rows {
+            let geo = &cons
+                .geometry
+                .iter()
+                .find(|(k, _)| *k == row.contact)
+                .expect("active contact")
+                .1;
+            let c = differentiable_point(model, kin, row.contact, geo)?;
+            let d = row_direction(&geo.plane, row.direction);
+            rows.push((d, Point::new(model, kin, geo.part, c, qd)));
+        }
+        Ok(Assembly {
+            nq: model.nq(),
+            gravity: model.gravity_m_s2,
+            masses,
+            rows,
+        })
+    }
+
+    /// Sets the vector `x` that [`Self::dq_terms`] differentiates `M̄ x`, `A x` along.
+    fn set_x(&mut self, x: &[f64]) {
+        let masses = self.masses.iter_mut().map(|(_, p)| p);
+        for p in masses.chain(self.rows.iter_mut().map(|(_, p)| p)) {
+            p.w_x = p.lever.omegas(x);
+            p.px = p.lever.d1(&p.w_x, x);
+        }
+    }
+
+    /// Along the coordinate `q_k`: `(D_q M̄ x + D_q(C̄q̇) + D_q N̄ + D_q Aᵀ y, D_q A x + D_q(Ȧq̇))`
+    /// for the `x` of [`Self::set_x`] and `y` given (the `C̄q̇`, `N̄`, `Ȧq̇` terms only when
+    /// `with_velocity`: an impact has none).
+    fn dq_terms(&self, k: usize, y: &[f64], with_velocity: bool) -> (DVector<f64>, DVector<f64>) {
+        let nq = self.nq;
+        let mut f = DVector::zeros(nq);
+        for (m, p) in &self.masses {
+            let lv = &p.lever;
+            let wv = p.we(k);
+            let pxv = lv.d2(&p.w_x, wv);
+            let d3 = with_velocity.then(|| lv.d3(&p.w_qd, &p.w_qd, wv));
+            for i in 0..nq {
+                let pie = lv.d2(p.we(i), wv);
+                let mut s = pie.dot(&p.px) + p.j_e[i].dot(&pxv);
+                if let Some(d3) = d3 {
+                    s += pie.dot(&p.acc0) + p.j_e[i].dot(&d3) - self.gravity * pie.y;
+                }
+                f[i] += m * s;
+            }
+        }
+        let mut g = DVector::zeros(self.rows.len());
+        for (r, (d, p)) in self.rows.iter().enumerate() {
+            let lv = &p.lever;
+            let wv = p.we(k);
+            let mut s = -d.dot(&lv.d2(&p.w_x, wv));
+            if with_velocity {
+                s -= d.dot(&lv.d3(&p.w_qd, &p.w_qd, wv));
+            }
+            g[r] = s;
+            if y[r] != 0.0 {
+                for i in 0..nq {
+                    f[i] -= y[r] * d.dot(&lv.d2(p.we(i), wv));
+                }
+            }
+        }
+        (f, g)
+    }
+
+    /// Along the velocity `q̇_k`: `(D_q̇(C̄q̇), D_q̇(Ȧq̇))`.
+    fn dqd_terms(&self, k: usize) -> (DVector<f64>, DVector<f64>) {
+        let nq = self.nq;
+        let mut f = DVector::zeros(nq);
+        for (m, p) in &self.masses {
+            let a = 2.0 * p.lever.d2(&p.w_qd, p.we(k));
+            for i in 0..nq {
+                f[i] += m * p.j_e[i].dot(&a);
+            }
+        }
+        let g = DVector::from_iterator(
+            self.rows.len(),
+            self.rows
+                .iter()
+                .map(|(d, p)| -2.0 * d.dot(&p.lever.d2(&p.w_qd, p.we(k)))),
+        );
+        (f, g)
+    }
+}
+
+/// The material point whose second and third derivatives give a contact row's: the contact
+/// point itself for a point touch, the centre of a rolling arc on a plane (the contact point
+/// is the centre plus a constant offset there).
+fn differentiable_point(
+    model: &Model,
+    kin: &Kinematics,
+    contact: usize,
+    geo: &ContactGeometry,
+) -> Result<Vector2<f64>, TangentError> {
+    if geo.on_corner || geo.normal_rate != Vector2::zeros() {
+        return Err(TangentError::TurningFrame { contact });
+    }
+    Ok(match (geo.touch, &model.contacts[contact].shape) {
+        (TouchKind::Rolling, ContactShape::Arc { center_m, .. }) => kin.point(geo.part, *center_m),
+        _ => geo.point,
+    })
+}
+
+/// Solves `K [x; y] = [σf; σg]` with `data`'s factorization into column `k` of `x_out`
+/// (prescribed joints get 0) and of `y_out` (if given), on reusable buffers.
+#[derive(Debug, Default)]
+struct Solver {
+    fr: Vec<f64>,
+    gr: Vec<f64>,
+    xr: Vec<f64>,
+    y: Vec<f64>,
+}
+
+impl Solver {
+    #[allow(clippy::too_many_arguments)]
+    fn solve(
+        &mut self,
+        data: &mut Data,
+        sigma: f64,
+        f: &DVector<f64>,
+        g: &DVector<f64>,
+        k: usize,
+        x_out: &mut DMatrix<f64>,
+        y_out: Option<&mut DMatrix<f64>>,
+    ) {
+        self.fr.clear();
+        self.fr
+            .extend(data.dynamic_coords.iter().map(|&a| sigma * f[a]));
+        self.gr.clear();
+        self.gr.extend(g.iter().map(|v| sigma * v));
+        self.xr.resize(self.fr.len(), 0.0);
+        self.y.resize(g.len(), 0.0);
+        data.kkt
+            .solve(&self.fr, &self.gr, &mut self.xr, &mut self.y);
+        let mut col = x_out.column_mut(k);
+        col.fill(0.0);
+        for (&a, v) in data.dynamic_coords.iter().zip(&self.xr) {
+            col[a] = *v;
+        }
+        if let Some(y_out) = y_out {
+            y_out.column_mut(k).copy_from_slice(&self.y);
+        }
+    }
+}
+
+/// `∂(q̈, λ)/∂(q, q̇, Υ)` of the flow (5.3)–(5.4) at one state (rows of `λ` as in
+/// `data.constraints.rows`). Rows of free and locked massless joints are zero: their `q̈` is
+/// prescribed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DynamicsJacobian {
+    pub dqdd_dq: DMatrix<f64>,
+    pub dqdd_dqd: DMatrix<f64>,
+    /// `nq × n`: one column per joint torque.
+    pub dqdd_dtau: DMatrix<f64>,
+    pub dlambda_dq: DMatrix<f64>,
+    pub dlambda_dqd: DMatrix<f64>,
+    pub dlambda_dtau: DMatrix<f64>,
+}
+
+/// [`forward_dynamics`] at `(mode, q, q̇, Υ)` (results in `data` as usual) and its exact
+/// Jacobian: closed-form assembly derivatives and one solve with the KKT factorization per
+/// direction (`2 nq + n` solves).
+#[allow(clippy::too_many_arguments)]
+pub fn dynamics_jacobian(
+    model: &Model,
+    data: &mut Data,
+    terrain: &dyn Terrain,
+    mode: ContactMode,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+    free_joint_qdd: Option<&[f64]>,
+) -> Result<DynamicsJacobian, TangentError> {
+    forward_dynamics(model, data, terrain, mode, q, qd, tau, free_joint_qdd)?;
+    dynamics_jacobian_solved(model, data, qd)
+}
+
+/// [`dynamics_jacobian`] after [`forward_dynamics`] (or [`crate::forward_dynamics_prepared`])
+/// at the same state, whose `q̇` is given again: `data` holds the factorization, `q̈` and `λ`.
+pub fn dynamics_jacobian_solved(
+    model: &Model,
+    data: &mut Data,
+    qd: &[f64],
+) -> Result<DynamicsJacobian, TangentError> {
+    let mut asm = Assembly::new(model, data, qd)?;
+    let (nq, n, c) = (model.nq(), model.n_joints(), data.constraints.n_rows());
+    asm.set_x(data.qdd.as_slice());
+    let lambda: Vec<f64> = data.lambda.iter().copied().collect();
+    let mut out = DynamicsJacobian {
+        dqdd_dq: DMatrix::zeros(nq, nq),
+        dqdd_dqd: DMatrix::zeros(nq, nq),
+        dqdd_dtau: DMatrix::zeros(nq, n),
+        dlambda_dq: DMatrix::zeros(c, nq),
+        dlambda_dqd: DMatrix::zeros(c, nq),
+        dlambda_dtau: DMatrix::zeros(c, n),
+    };
+    let mut solver = Solver::default();
+    for k in 0..nq {
+        let (f, g) = asm.dq_terms(k, &lambda, true);
+        let (x, y) = (&mut out.dqdd_dq, &mut out.dlambda_dq);
+        solver.solve(data, -1.0, &f, &g, k, x, Some(y));
+        let (f, g) = asm.dqd_terms(k);
+        let (x, y) = (&mut out.dqdd_dqd, &mut out.dlambda_dqd);
+        solver.solve(data, -1.0, &f, &g, k, x, Some(y));
+    }
+    let zeros = DVector::zeros(c);
+    let mut f = DVector::zeros(nq);
+    for j in 0..n {
+        f.fill(0.0);
+        f[j] = 1.0;
+        let (x, y) = (&mut out.dqdd_dtau, &mut out.dlambda_dtau);
+        solver.solve(data, 1.0, &f, &zeros, j, x, Some(y));
+    }
+    Ok(out)
+}
+
+/// The plastic impact (5.10)/(5.52) into a mode and the Jacobian of its velocity map
+/// `q̇⁺(q, q̇⁻)`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImpactJacobian {
+    pub impact: Impact,
+    pub dqd_plus_dq: DMatrix<f64>,
+    pub dqd_plus_dqd_minus: DMatrix<f64>,
+}
+
+/// [`plastic_impact`] into `mode` at `(q, q̇⁻)` and its exact Jacobian. With
+/// `K [Δq̇; P] = [0; −A q̇⁻]` and `q̇⁺ = q̇⁻ + Δq̇`:
+/// `K [dΔ; dP] = [−dM̄ Δq̇ − dAᵀ P; −dA q̇⁺]` along `q` and `[0; −A w]` along `q̇⁻ = w`
+/// (so `∂q̇⁺/∂q̇⁻ = I − A†ᵀA`, the projection of (5.52)). Free massless joints keep their
+/// velocity, as in the impact itself.
+pub fn plastic_impact_jacobian(
+    model: &Model,
+    data: &mut Data,
+    terrain: &dyn Terrain,
+    mode: ContactMode,
+    q: &[f64],
+    qd_minus: &[f64],
+) -> Result<ImpactJacobian, TangentError> {
+    let impact = plastic_impact(model, data, terrain, mode, q, qd_minus)?;
+    let mut asm = Assembly::new(model, data, qd_minus)?;
+    let nq = model.nq();
+    let c = data.constraints.n_rows();
+    let dx: Vec<f64> = (0..nq).map(|i| impact.qd_plus[i] - qd_minus[i]).collect();
+    let p: Vec<f64> = impact.impulse.iter().copied().collect();
+    let qd_plus: Vec<f64> = impact.qd_plus.iter().copied().collect();
+    let mut out = ImpactJacobian {
+        impact,
+        dqd_plus_dq: DMatrix::zeros(nq, nq),
+        dqd_plus_dqd_minus: DMatrix::identity(nq, nq),
+    };
+    // −dM̄ Δ − dAᵀ P  and  −dA Δ − dA q̇⁻ = −dA q̇⁺ (by linearity in the vector)
+    asm.set_x(&dx);
+    let f1: Vec<DVector<f64>> = (0..nq).map(|k| asm.dq_terms(k, &p, false).0).collect();
+    asm.set_x(&qd_plus);
+    let zeros = vec![0.0; c];
+    let mut solver = Solver::default();
+    let mut x = DMatrix::zeros(nq, 1);
+    let zero_f = DVector::zeros(nq);
+    for (k, f1) in f1.into_iter().enumerate() {
+        let (_, g1) = asm.dq_terms(k, &zeros, false);
+        solver.solve(data, -1.0, &f1, &g1, k, &mut out.dqd_plus_dq, None);
+        let g = data.constraints.a.column(k).clone_owned();
+        solver.solve(data, -1.0, &zero_f, &g, 0, &mut x, None);
+        for i in 0..nq {
+            out.dqd_plus_dqd_minus[(i, k)] += x[i];
+        }
+    }
+    Ok(out)
+}
+
+/// The gradient over `q` of contact `k`'s height above its plane (the touchdown guard
+/// (5.49)), `−n · J_c`: at a rolling arc the offset from the centre is along `n`, so its
+/// turning adds nothing.
+pub fn height_gradient(model: &Model, kin: &Kinematics, geo: &ContactGeometry) -> DVector<f64> {
+    let mut row = vec![0.0; model.nq()];
+    kin.point_jacobian_row(model, geo.part, geo.point, geo.plane.normal(), &mut row);
+    DVector::from_iterator(row.len(), row.into_iter().map(|v| -v))
+}
+
+/// The gradient over `(q, q̇)` of contact `k`'s sliding velocity `t · v` (the material
+/// velocity of its part at the contact point along the plane's tangent; the stick guard):
+/// `∂/∂q̇ = t · J_c` and `∂/∂q [v] = t · D²c[q̇, v]` with `c` the material point, or the
+/// centre of a rolling arc (the contact point's offset from it is constant on a plane).
+pub fn sliding_velocity_gradient(
+    model: &Model,
+    kin: &Kinematics,
+    geo: &ContactGeometry,
+    k: usize,
+    qd: &[f64],
+) -> Result<(DVector<f64>, DVector<f64>), TangentError> {
+    let nq = model.nq();
+    let t = geo.plane.tangent();
+    let mut row = vec![0.0; nq];
+    kin.point_jacobian_row(model, geo.part, geo.point, t, &mut row);
+    let c = differentiable_point(model, kin, k, geo)?;
+    let lever = Lever::new(model, kin, geo.part, c);
+    let w_qd = lever.omegas(qd);
+    let mut e = vec![0.0; nq];
+    let mut dq = DVector::zeros(nq);
+    for i in 0..nq {
+        e[i] = 1.0;
+        dq[i] = t.dot(&lever.d2(&w_qd, &lever.omegas(&e)));
+        e[i] = 0.0;
+    }
+    Ok((dq, DVector::from_vec(row)))
+}
