@@ -148,7 +148,13 @@ fn main() {
         if let Ok(show) = std::env::var("SHOW") {
             for (p, (r, dt)) in points.iter().zip(&out) {
                 if r.status == show || (show == "slow" && *dt > 0.05) {
-                    println!("    {} {:.1} ms: {} ({})", r.status, 1e3 * dt, describe(p), r.word);
+                    println!(
+                        "    {} {:.1} ms: {} ({})",
+                        r.status,
+                        1e3 * dt,
+                        describe(p),
+                        r.word
+                    );
                 }
             }
         }

@@ -80,14 +80,16 @@ pub fn energy_report(
                 flow.eval(t, seg.mode, q, qd)?;
                 let (data, tau) = flow.last();
                 let power: f64 = (0..model.n_joints())
-                    .map(|j| match (data.free_joints.contains(&j), data.locked.contains(&j)) {
-                        // locked for a fold passage: held by the torque that balances its
-                        // contact, (Aᵀλ)_j (its row of (5.3), M̄_j = 0)
-                        (true, true) => data.constraints.a.column(j).dot(&data.lambda) * qd[j],
-                        // free: carries no load
-                        (true, false) => 0.0,
-                        _ => tau[j] * qd[j],
-                    })
+                    .map(
+                        |j| match (data.free_joints.contains(&j), data.locked.contains(&j)) {
+                            // locked for a fold passage: held by the torque that balances its
+                            // contact, (Aᵀλ)_j (its row of (5.3), M̄_j = 0)
+                            (true, true) => data.constraints.a.column(j).dot(&data.lambda) * qd[j],
+                            // free: carries no load
+                            (true, false) => 0.0,
+                            _ => tau[j] * qd[j],
+                        },
+                    )
                     .sum();
                 joint_work_j += w * (b - a) * power;
             }

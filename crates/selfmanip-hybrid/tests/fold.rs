@@ -223,8 +223,16 @@ fn leg_on_a_torque_speed_line_passes_its_fold_at_the_torque_free_speed() {
     let eps_p = o.passage_threshold;
     assert_eq!(entry.mode_after, sliding(), "passes sliding");
     // located to event_tol_s = 1e-10 s at ~3 rad/s
-    assert!((entry.q[0] + eps_p.asin()).abs() < 1e-8, "entry {}", entry.q[0]);
-    assert!((exit.q[0] - eps_p.asin()).abs() < 1e-8, "exit {}", exit.q[0]);
+    assert!(
+        (entry.q[0] + eps_p.asin()).abs() < 1e-8,
+        "entry {}",
+        entry.q[0]
+    );
+    assert!(
+        (exit.q[0] - eps_p.asin()).abs() < 1e-8,
+        "exit {}",
+        exit.q[0]
+    );
     assert!(
         (entry.qd_after[0] - ctrl.omega0).abs() < 1e-9,
         "locked at the torque-free speed: {}",
@@ -283,7 +291,11 @@ fn leg_turning_faster_than_the_body_falls_lifts_off_in_its_passage() {
     };
     let exec = simulate(&model, &FlatGround, &ctrl, sliding(), &q, &qd, 0.1, o).unwrap();
     let kinds: Vec<EventKind> = exec.events.iter().map(|e| e.kind).collect();
-    assert_eq!(kinds[..2], [EventKind::Fold, EventKind::Liftoff], "{kinds:?}");
+    assert_eq!(
+        kinds[..2],
+        [EventKind::Fold, EventKind::Liftoff],
+        "{kinds:?}"
+    );
     let off = &exec.events[1];
     assert!(off.mode_after.is_flight());
     assert!(
