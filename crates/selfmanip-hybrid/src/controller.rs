@@ -28,7 +28,8 @@ pub trait Controller: ControllerClone + Send + Sync {
         out.fill(0.0);
     }
     /// Called after every reset with the event just applied (for controllers whose phase
-    /// depends on the contact history).
+    /// depends on the contact history); not for an apex recorded on the way (a run that does
+    /// not stop there), which changes nothing.
     fn on_event(&mut self, _event: &Event) {}
 }
 
