@@ -2,9 +2,10 @@
 mod common;
 use common::*;
 use proptest::prelude::*;
+use selfmanip::core::quasistatic::quasi_static;
 use selfmanip::core::{
-    forward_dynamics, plastic_impact, ContactMode, CoreError, Data, FlatGround, RobotDescription,
-    SingularityKind,
+    energy, forward_dynamics, plastic_impact, ContactMode, CoreError, Data, FlatGround,
+    RobotDescription, SingularityKind,
 };
 use selfmanip::rhex::{LegShape, Rhex, RhexError, RhexParams};
 
@@ -228,6 +229,140 @@ fn bad_descriptions_and_labels() {
         Err(CoreError::UnknownContact { .. })
     ));
     assert!(ContactMode::from_bits(0b01, 0b10).is_err());
+}
+
+/// Velocities or torques of 1e200–1e308 are finite but overflow the dynamics (`C̄q̇ ∝ q̇²`,
+/// `½ q̇ᵀM̄q̇`, `P = −ΛAq̇`): a typed error naming what overflowed — never inf or NaN, and
+/// never blamed on the inputs, which are finite.
+#[test]
+fn huge_velocities_and_torques_are_typed_overflow_errors() {
+    let rhex = rhex_massless(LegShape::HalfCircle);
+    let m = &rhex.model;
+    let mut d = Data::new(m);
+    let q = [0.1, 0.1, 0.0, -0.17, 0.0];
+    let mode = rhex.mode("0101").unwrap();
+    let overflow = |r: Result<(), CoreError>| {
+        matches!(r, Err(CoreError::NonFiniteResult { .. })) || {
+            // a finite answer is fine too, if it is finite
+            r.is_ok()
+        }
+    };
+    for v in [1e200, 1e250, 1e308] {
+        let qd = [v, -v, v, v, -v];
+        let e = forward_dynamics(m, &mut d, &FlatGround, mode, &q, &qd, &[0.0; 2], None);
+        assert!(
+            matches!(e, Err(CoreError::NonFiniteResult { .. })),
+            "q̇ = {v}: {e:?}"
+        );
+        assert!(!format!("{}", e.unwrap_err()).contains("`qd`"));
+        let e = plastic_impact(m, &mut d, &FlatGround, mode, &q, &qd);
+        assert!(
+            matches!(e, Err(CoreError::NonFiniteResult { .. })),
+            "impact at q̇ = {v}: {e:?}"
+        );
+        let e = energy(m, &mut d, &q, &qd);
+        assert!(
+            matches!(e, Err(CoreError::NonFiniteResult { .. })),
+            "energy at q̇ = {v}: {e:?}"
+        );
+        let r = forward_dynamics(m, &mut d, &FlatGround, mode, &q, &[0.0; 5], &[v, -v], None);
+        assert!(overflow(r.clone()), "τ = {v}: {r:?}");
+        if r.is_ok() {
+            assert!(d.qdd.iter().chain(d.lambda.iter()).all(|x| x.is_finite()));
+        }
+    }
+    // ordinary values still work, and the checked energy is the one by hand
+    let qd = [1.0, -2.0, 0.3, 0.2, 0.5];
+    let (t, _) = energy(m, &mut d, &q, &qd).unwrap();
+    let p = &rhex.params;
+    let by_hand = 0.5 * p.m_b * (0.3f64.powi(2) + 0.2f64.powi(2)) + 0.5 * p.I_b * 0.25;
+    assert!((t - by_hand).abs() < 1e-12, "{t} vs {by_hand}");
+}
+
+/// A body mass of 1e308 is finite, but its weight `m g` is not: a typed error, not a
+/// non-finite `q̈` or `λ`.
+#[test]
+fn body_mass_of_1e308_is_a_typed_error_not_a_nan() {
+    let rhex = Rhex::new(RhexParams {
+        m_b: 1e308,
+        ..RhexParams::default()
+    })
+    .unwrap();
+    let m = &rhex.model;
+    let mut d = Data::new(m);
+    let e = forward_dynamics(
+        m,
+        &mut d,
+        &FlatGround,
+        rhex.mode("0101").unwrap(),
+        &[0.1, 0.1, 0.0, -0.17, 0.0],
+        &[0.0; 5],
+        &[0.0; 2],
+        None,
+    );
+    assert!(matches!(e, Err(CoreError::NonFiniteResult { .. })), "{e:?}");
+}
+
+/// Quasi-static forces need something to hold the robot: in flight (`0000`), or on a robot
+/// with no contact sites at all, a typed error — not a panic.
+#[test]
+fn quasi_static_without_contacts_is_a_typed_error() {
+    let rhex = rhex_massless(LegShape::HalfCircle);
+    let m = &rhex.model;
+    let mut d = Data::new(m);
+    let q = [0.1, 0.1, 0.0, -0.17, 0.0];
+    let t = nalgebra::DMatrix::zeros(2, 0);
+    let e = quasi_static(m, &mut d, &FlatGround, rhex.mode("0000").unwrap(), &q, &t);
+    assert!(
+        matches!(e, Err(CoreError::IllPosedQuasiStatic { .. })),
+        "{e:?}"
+    );
+    let bare = RobotDescription::from_toml_str(
+        "name = \"bare\"\n[body]\nmass_kg = 1.0\ninertia_kg_m2 = 0.1\n",
+    )
+    .unwrap()
+    .build()
+    .unwrap();
+    let mut d = Data::new(&bare);
+    let e = quasi_static(
+        &bare,
+        &mut d,
+        &FlatGround,
+        ContactMode::FLIGHT,
+        &[0.0, -1.0, 0.0],
+        &nalgebra::DMatrix::zeros(0, 0),
+    );
+    assert!(
+        matches!(e, Err(CoreError::IllPosedQuasiStatic { .. })),
+        "{e:?}"
+    );
+}
+
+/// A planar vector is exactly two numbers: `hip_m = [0.2, 0.0, 99.0]` is a parse error that
+/// names the field, not a hip at `[0.2, 0.0]` with the 99 dropped.
+#[test]
+fn toml_vector_with_three_entries_is_an_error_naming_its_field() {
+    let with = |hip: &str, toe: &str| {
+        format!(
+            "name = \"one leg\"\n[body]\nmass_kg = 1.0\ninertia_kg_m2 = 0.1\n\
+             [[legs]]\nname = \"leg\"\nhip_m = {hip}\n[[legs.links]]\nlength_m = 0.2\n\
+             [[contacts]]\nname = \"toe\"\nleg = \"leg\"\n\
+             shape = {{ kind = \"point\", position_m = {toe} }}\nfriction = {{ kind = \"sliding\" }}\n"
+        )
+    };
+    assert!(RobotDescription::from_toml_str(&with("[0.2, 0.0]", "[0.0, 0.2]")).is_ok());
+    for (hip, toe, field) in [
+        ("[0.2, 0.0, 99.0]", "[0.0, 0.2]", "hip_m"),
+        ("[0.2]", "[0.0, 0.2]", "hip_m"),
+        ("[0.2, 0.0]", "[0.0, 0.2, 1.0]", "position_m"),
+    ] {
+        match RobotDescription::from_toml_str(&with(hip, toe)) {
+            Err(CoreError::Parse { message, .. }) => {
+                assert!(message.contains(field), "{hip} {toe}: {message}")
+            }
+            other => panic!("{hip} {toe}: {other:?}"),
+        }
+    }
 }
 
 proptest! {

@@ -8,7 +8,7 @@
 //! `SATURATED=1` for chapter 3's saturated-torque legs instead of the geared motors, `GEAR` and
 //! `CURRENT` (A) to change the geared motor's ratio and current limit, `M_B` (kg) and `I_B`
 //! (kg m²) to change the body's mass and inertia, `LEDGE=height,distance` (m) for a ledge,
-//! `LANDINGS=1` to run past the apex to `t_final`.
+//! `LANDINGS=1` to run past the apex to `t_final`, `EVENT_TOL` (s) and `RTOL` the tolerances.
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator};
 use rhex_model::params::LegPair;
 
@@ -55,6 +55,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     }
                 },
                 stop_at_apex: std::env::var("LANDINGS").is_err(),
+                event_tol_s: std::env::var("EVENT_TOL").map_or(Ok(1e-10), |v| v.parse())?,
+                rtol: std::env::var("RTOL").map_or(Ok(1e-8), |v| v.parse())?,
                 ..LeapConfig::default()
             };
             let mut params = leap_params();

@@ -351,6 +351,8 @@ impl LeapStatus {
 #[derive(Debug, Clone)]
 pub struct LeapResult {
     pub status: LeapStatus,
+    /// The apex of the leap's first flight (when not stopping there, also after it: the run
+    /// records it and goes on).
     pub apex: Option<Apex>,
     /// Ground-reaction-complex cells visited (labels `FB FL RB RL`), zero-time cells
     /// suppressed, starting with `1010`.
@@ -385,7 +387,9 @@ pub struct LeapEvent {
     pub mode_after: String,
     /// Names of the contacts that fired the guard.
     pub contacts: Vec<String>,
-    /// Kinetic energy lost in the event (J; zero for liftoff, slip, stick and apex).
+    /// Kinetic energy lost in the event (J; zero for liftoff, slip, stick and apex; round-off,
+    /// within [`ENERGY_ROUND_OFF`] `· (T⁻ + 1 J)`, reported as zero). Never negative for a
+    /// touchdown; a `fold` that starts a passage may gain energy from the motor.
     pub energy_loss_j: f64,
 }
 
@@ -871,6 +875,23 @@ impl LeapSetup {
 /// Where a parked leg points: up, a little past vertical in its push direction (rad).
 const STOW_RAD: f64 = 2.6;
 
+/// Round-off of a kinetic energy evaluated twice (`½ q̇ᵀ M̄ q̇` at the two velocities of one
+/// projection), relative to the energy, and its floor (J): an event's loss within
+/// `ENERGY_ROUND_OFF · (T⁻ + 1 J)` is reported as zero.
+pub const ENERGY_ROUND_OFF: f64 = 1e-12;
+
+/// The kinetic energy an event lost, `T⁻ − T⁺`, with round-off ([`ENERGY_ROUND_OFF`])
+/// reported as zero: a zero-speed touchdown loses nothing, and its computed loss is a few
+/// 1e-13 J of either sign.
+fn energy_loss(before: f64, after: f64) -> f64 {
+    let loss = before - after;
+    if loss.abs() <= ENERGY_ROUND_OFF * (before.abs() + 1.0) {
+        0.0
+    } else {
+        loss
+    }
+}
+
 /// Runs one leap (see the module documentation) and reports its apex and word.
 ///
 /// Errors are bad parameters (typed, naming the field) and failures of the engine that
@@ -942,19 +963,28 @@ pub fn simulate_leap_with(
         Termination::StepBudget { .. } => LeapStatus::StepBudget,
         Termination::Interrupted { .. } => LeapStatus::Interrupted,
     };
-    let apex = match exec.termination {
-        Termination::Apex => Some(Apex {
-            t_s: exec.t - start[0],
-            x_m: exec.q[2] - q0[2],
-            z_m: -exec.q[3],
-            phi_rad: exec.q[4],
-            xdot_m_s: exec.qd[2],
-            zdot_m_s: -exec.qd[3],
-            phidot_rad_s: exec.qd[4],
-        }),
+    // the apex that ended the run, or (run on past it) that of its first flight after a
+    // motor started
+    let apex_event = match exec.termination {
+        Termination::Apex => exec.events.last(),
+        _ if !cfg.stop_at_apex => exec
+            .events
+            .iter()
+            .find(|e| e.kind == EventKind::Apex && e.t >= start[0].min(start[1])),
         _ => None,
     };
-    let word = leap_word(rhex, &exec, 1e3 * cfg.event_tol_s);
+    let apex = apex_event.map(|e| Apex {
+        t_s: e.t - start[0],
+        x_m: e.q[2] - q0[2],
+        z_m: -e.q[3],
+        phi_rad: e.q[4],
+        xdot_m_s: e.qd_after[2],
+        zdot_m_s: -e.qd_after[3],
+        phidot_rad_s: e.qd_after[4],
+    });
+    // cells that last no longer than the events' location can resolve are zero-time cells;
+    // never more than 0.1 ms (a coarse event tolerance does not hide real cells)
+    let word = leap_word(rhex, &exec, (1e3 * cfg.event_tol_s).min(1e-4));
     let names = |ks: &[usize]| ks.iter().map(|&k| model.contacts[k].name.clone()).collect();
     let events = exec
         .events
@@ -974,7 +1004,7 @@ pub fn simulate_leap_with(
             mode_after: rhex.label(e.mode_after),
             contacts: names(&e.triggered),
             energy_loss_j: if matches!(e.kind, EventKind::Touchdown | EventKind::Fold) {
-                e.kinetic_before - e.kinetic_after
+                energy_loss(e.kinetic_before, e.kinetic_after)
             } else {
                 0.0
             },

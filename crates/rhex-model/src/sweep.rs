@@ -57,7 +57,8 @@ impl SweepPoint {
 #[derive(Debug, Clone, PartialEq)]
 pub struct SweepRow {
     /// `ok`, a [`crate::leap::LeapStatus`] string (`no_flight`, `zeno`, …) or an error kind
-    /// ([`error_kind`]: `invalid_params`, `singular_kkt`, `engine_error`, `panic`, …).
+    /// ([`error_kind`]: `invalid_params`, `singular_kkt`, `overflow`, `engine_error`,
+    /// `panic`, …).
     pub status: String,
     /// The error message when the point failed with an error (empty otherwise).
     pub error: String,
@@ -289,6 +290,7 @@ fn core_kind(c: &selfmanip_core::CoreError) -> &'static str {
     match c {
         C::SingularKkt { .. } => "singular_kkt",
         C::NonFinite { .. } => "non_finite",
+        C::NonFiniteResult { .. } => "overflow",
         C::IllPosedQuasiStatic { .. } => "ill_posed",
         C::InvalidDescription { .. } | C::InvalidParameterization { .. } => "invalid_params",
         _ => "engine_error",

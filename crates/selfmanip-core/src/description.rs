@@ -29,6 +29,38 @@ use crate::model::{Contact, ContactShape, Friction, Joint, Leg, Model};
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 
+/// A planar vector `[a, b]` read as exactly two numbers: a longer or shorter list is an error
+/// (serde's fixed-size arrays let some formats drop extra entries silently, so that
+/// `hip_m = [0.2, 0.0, 99.0]` read as `[0.2, 0.0]`).
+mod pair {
+    use serde::{de::Error, Deserialize, Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &[f64; 2], s: S) -> Result<S::Ok, S::Error> {
+        v.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 2], D::Error> {
+        let v = Vec::<f64>::deserialize(d)?;
+        <[f64; 2]>::try_from(v.as_slice())
+            .map_err(|_| D::Error::invalid_length(v.len(), &"a planar vector of exactly 2 numbers"))
+    }
+}
+
+/// [`pair`] for an optional field.
+mod optional_pair {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &Option<[f64; 2]>, s: S) -> Result<S::Ok, S::Error> {
+        v.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<[f64; 2]>, D::Error> {
+        #[derive(Deserialize)]
+        struct Pair(#[serde(with = "super::pair")] [f64; 2]);
+        Ok(Option::<Pair>::deserialize(d)?.map(|p| p.0))
+    }
+}
+
 fn default_gravity() -> f64 {
     9.81
 }
@@ -60,6 +92,7 @@ pub struct BodyDescription {
 pub struct LegDescription {
     pub name: String,
     /// Hip (first joint) position in the body frame.
+    #[serde(with = "pair")]
     pub hip_m: [f64; 2],
     pub links: Vec<LinkDescription>,
 }
@@ -95,7 +128,7 @@ pub struct LinkDescription {
     #[serde(default)]
     pub inertia_kg_m2: f64,
     /// Centre of mass in the link frame; defaults to the middle of the link `[0, length/2]`.
-    #[serde(default)]
+    #[serde(default, with = "optional_pair")]
     pub com_m: Option<[f64; 2]>,
     #[serde(default)]
     pub axis: JointAxis,
@@ -106,16 +139,25 @@ pub struct LinkDescription {
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum ShapeDescription {
     /// A point (a toe).
-    Point { position_m: [f64; 2] },
+    Point {
+        #[serde(with = "pair")]
+        position_m: [f64; 2],
+    },
     /// A full circle that rolls (e.g. RHex's rounded body ends).
-    Circle { center_m: [f64; 2], radius_m: f64 },
+    Circle {
+        #[serde(with = "pair")]
+        center_m: [f64; 2],
+        radius_m: f64,
+    },
     /// A circular arc that rolls on its interior and acts as a point at its two ends. The
     /// range holds the angles `α` of the outward normals `(sin α, cos α)` in the part's frame
     /// (`α = 0` points along the link, `+z`), from `normal_range_rad[0]` to `[1]`
     /// counter-clockwise. RHex's half-circle leg is `[-π, 0]`.
     Arc {
+        #[serde(with = "pair")]
         center_m: [f64; 2],
         radius_m: f64,
+        #[serde(with = "pair")]
         normal_range_rad: [f64; 2],
     },
 }

@@ -22,7 +22,7 @@
 //! acceleration enter the constraint's right-hand side, `A_d q̈_d = −Ȧq̇ − A_ℓ q̈_ℓ`.
 use crate::constraint::Constraints;
 use crate::contact::{ContactMode, Terrain};
-use crate::error::{check_vector, Result};
+use crate::error::{check_result, check_vector, Result};
 use crate::inertia::{mass_coriolis_gravity, InertiaScratch};
 use crate::kinematics::Kinematics;
 use crate::kkt::KktFactorization;
@@ -118,6 +118,13 @@ impl Data {
         // => A, Ȧ, Ȧq̇
         self.constraints
             .assemble(model, &self.kin, terrain, mode, qd);
+        // finite inputs too large for double precision overflow here, not as a singular
+        // KKT matrix further on
+        check_result("M̄", self.m_bar.as_slice())?;
+        check_result("C̄q̇", self.c_qd.as_slice())?;
+        check_result("N̄", self.n_bar.as_slice())?;
+        check_result("A", self.constraints.a.as_slice())?;
+        check_result("Ȧq̇", self.constraints.a_dot_qd.as_slice())?;
         // => which joints are free and massless
         free_massless_joints(model, mode, &mut self.free_joints, &mut self.dynamic_coords);
         // => locked joints prescribed as well
@@ -286,7 +293,8 @@ pub fn forward_dynamics_prepared(
         &mut y,
     );
     (data.qdd, data.lambda) = (x, y);
-    Ok(())
+    check_result("q̈", data.qdd.as_slice())?;
+    check_result("λ", data.lambda.as_slice())
 }
 
 /// Result of a plastic impact into a mode.
@@ -323,8 +331,11 @@ pub fn plastic_impact_prepared(model: &Model, data: &mut Data, qd_minus: &[f64])
     let g = -(&data.constraints.a * DVector::from_column_slice(qd_minus));
     let (mut dx, mut p) = (DVector::zeros(nq), DVector::zeros(c));
     data.solve_prepared(|_, _| 0.0, |_, r| g[r], None, &mut dx, &mut p);
+    let qd_plus = DVector::from_column_slice(qd_minus) + dx;
+    check_result("q̇⁺", qd_plus.as_slice())?;
+    check_result("P_λ", p.as_slice())?;
     Ok(Impact {
-        qd_plus: DVector::from_column_slice(qd_minus) + dx,
+        qd_plus,
         impulse: p,
     })
 }
@@ -361,11 +372,26 @@ pub fn pseudo_impulse_prepared(
     let c = data.constraints.n_rows();
     let (mut x, mut y) = (DVector::zeros(model.nq()), DVector::zeros(c));
     data.solve_prepared(|_, a| f[a], |_, _| 0.0, None, &mut x, &mut y);
-    Ok(y * delta_t_s)
+    let p = y * delta_t_s;
+    check_result("P_δ", p.as_slice())?;
+    Ok(p)
 }
 
 /// Kinetic energy `½ q̇ᵀ M̄ q̇` (4.24) at the state of the last `prepare`.
 pub fn kinetic_energy(data: &Data, qd: &[f64]) -> f64 {
     let v = DVector::from_column_slice(qd);
     0.5 * v.dot(&(&data.m_bar * &v))
+}
+
+/// Kinetic (4.24) and potential energy `(T, V)` of `model` at `(q, q̇)`: the checked entry
+/// point (typed errors for bad or overflowing inputs, never inf or NaN). Only `M̄` and the
+/// poses are needed, so the flight mode is prepared and its KKT matrix (singular with free
+/// massless legs) does not matter.
+pub fn energy(model: &Model, data: &mut Data, q: &[f64], qd: &[f64]) -> Result<(f64, f64)> {
+    data.prepare_geometry(model, &crate::FlatGround, ContactMode::FLIGHT, q, qd)?;
+    let t = kinetic_energy(data, qd);
+    let v = crate::inertia::potential_energy(model, &data.kin);
+    check_result("T", &[t])?;
+    check_result("V", &[v])?;
+    Ok((t, v))
 }

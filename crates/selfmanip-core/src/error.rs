@@ -35,6 +35,11 @@ pub enum CoreError {
         index: usize,
         value: f64,
     },
+    /// A computation on finite inputs overflowed: an input too large for double precision
+    /// (a mass, length, velocity or torque of ~1e150 and beyond). Names what went
+    /// non-finite, which is not an input.
+    #[error("the dynamics produced a non-finite `{quantity}`: an input (mass, length, velocity or torque) is too large for double precision")]
+    NonFiniteResult { quantity: &'static str },
     #[error("unknown contact `{name}`")]
     UnknownContact { name: String },
     #[error("invalid contact mode: {reason}")]
@@ -62,6 +67,15 @@ pub(crate) fn check_vector(field: &'static str, v: &[f64], expected: usize) -> R
         });
     }
     check_finite(field, v)
+}
+
+/// Checks that a computed quantity is finite ([`CoreError::NonFiniteResult`] naming it).
+pub(crate) fn check_result(quantity: &'static str, v: &[f64]) -> Result<()> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(CoreError::NonFiniteResult { quantity })
+    }
 }
 
 pub(crate) fn check_finite(field: &'static str, v: &[f64]) -> Result<()> {

@@ -34,7 +34,7 @@ pub use contact::{
 };
 pub use description::RobotDescription;
 pub use dynamics::{
-    forward_dynamics, forward_dynamics_prepared, free_massless_joints, kinetic_energy,
+    energy, forward_dynamics, forward_dynamics_prepared, free_massless_joints, kinetic_energy,
     plastic_impact, plastic_impact_prepared, pseudo_impulse, pseudo_impulse_prepared, Data, Impact,
 };
 pub use error::{CoreError, Result, SingularityKind};

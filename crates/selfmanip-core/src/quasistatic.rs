@@ -7,7 +7,7 @@
 //! Results are returned in both conventions: `f_c` (thesis chapter 4) and `λ = −f_c`.
 #![allow(non_snake_case)]
 use crate::contact::{ConstraintRow, ContactMode, Terrain};
-use crate::error::{check_finite, check_vector, CoreError, Result};
+use crate::error::{check_finite, check_result, check_vector, CoreError, Result};
 use crate::frames::rot3;
 use crate::grasp::grasp_maps;
 use crate::kinematics::Kinematics;
@@ -59,6 +59,15 @@ pub fn quasi_static(
         });
     }
     check_finite("torque_constraints", t.as_slice())?;
+    if mode.is_flight() {
+        return Err(CoreError::IllPosedQuasiStatic {
+            reason: if model.n_contacts() == 0 {
+                "the robot has no contact sites: nothing can hold it at rest".into()
+            } else {
+                "the mode has no active contact (flight): nothing holds the robot at rest".into()
+            },
+        });
+    }
     let zero = vec![0.0; nq];
     let mut kin = Kinematics::default();
     kin.compute(model, q, &zero);
@@ -142,6 +151,8 @@ pub fn quasi_static(
             reason: "the augmented grasp map is singular".into(),
         })?;
     let tau_p = &n_theta + maps.j_h.transpose() * &f_p;
+    check_result("f_p", f_p.as_slice())?;
+    check_result("τ_p", tau_p.as_slice())?;
     Ok(QuasiStatic {
         rows: maps.rows,
         g_s: maps.g_s,

@@ -29,7 +29,8 @@ pub trait Controller: ControllerClone + Send + Sync {
         out.fill(0.0);
     }
     /// Called after every reset with the event just applied (for controllers whose phase
-    /// depends on the contact history).
+    /// depends on the contact history); not for an apex recorded on the way (a run that does
+    /// not stop there), which changes nothing.
     fn on_event(&mut self, _event: &Event) {}
     /// The partial derivatives of [`Self::torque`] and [`Self::free_joint_qdd`] at the same
     /// arguments, written into `out` (which arrives zeroed and sized), for the sensitivities

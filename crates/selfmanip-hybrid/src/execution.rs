@@ -12,7 +12,8 @@ pub enum EventKind {
     Touchdown,
     /// Normal forces reached zero: contacts released without impact.
     Liftoff,
-    /// The body reached its highest point in flight (terminal).
+    /// The body reached its highest point in flight (terminal when the run stops at the
+    /// apex; otherwise recorded, changing nothing).
     Apex,
     /// Sticking contacts reached the friction cone and started to slide.
     Slip,

@@ -60,6 +60,16 @@ impl Surfaces {
         })
     }
 
+    /// Whether every active contact that [`Self::left_by`] would report at `y` has only
+    /// drifted off its surface ([`crate::drift`]), none left it.
+    pub fn only_drifted(&self, flow: &mut Flow, y: &[f64]) -> bool {
+        self.on.iter().all(|(k, start)| {
+            let g = flow.geometry(*k, y);
+            let off = !g.same_feature(start) || g.gap_m.abs() > TERRAIN_STEP_M;
+            !off || crate::drift::drifted(start, &g)
+        })
+    }
+
     /// Where, in the step `dense` at whose end some contact is off its feature, the first
     /// contact leaves it (bisection to `tol` on the dense output, `y` as scratch), and
     /// whether it passes onto a continuing feature there.

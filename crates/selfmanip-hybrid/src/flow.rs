@@ -122,6 +122,12 @@ impl<'a> Flow<'a> {
             return Ok(&self.ws.data);
         }
         self.key = None;
+        // the run's initial state was checked: a non-finite state here is the integrator's
+        if !q.iter().chain(qd).all(|v| v.is_finite()) {
+            return Err(CoreError::NonFiniteResult {
+                quantity: "state (q, q̇) of the integration",
+            });
+        }
         self.ws
             .data
             .prepare(self.model, self.terrain, mode, q, qd)?;

@@ -8,7 +8,8 @@
 //!   (Definition 5.4), positive then non-positive;
 //! - **liftoff** of an active contact: its pushing normal force $U(\lambda_n) = -\lambda_n$
 //!   (5.51), positive then non-positive;
-//! - **apex** (terminal, optional, in flight): the upward body speed $-\dot z$;
+//! - **apex** (in flight; terminal with [`HybridOptions::stop_at_apex`], else recorded as an
+//!   event that changes nothing): the upward body speed $-\dot z$;
 //! - **stick→slip** of a sticking contact with finite Coulomb $\mu$ (section 5.1.5): the cone
 //!   margin $\mu U(\lambda_n) - |\lambda_t|$;
 //! - **fold** of an active contact that pins a massless chain with a square block of rows
@@ -116,7 +117,7 @@ impl Guard {
 
     /// The guards of `mode`, in a fixed order: touchdowns by contact, then per active
     /// contact its liftoff, its stick→slip or slip→stick guard and its fold (its passage's
-    /// end when its chain is in `locked`), then the apex.
+    /// end when its chain is in `locked`), then the apex in flight.
     pub fn of_mode(
         model: &Model,
         mode: ContactMode,
@@ -165,7 +166,7 @@ impl Guard {
                 });
             }
         }
-        if opts.stop_at_apex && mode.is_flight() {
+        if mode.is_flight() {
             out.push(Guard::Apex);
         }
     }
@@ -255,6 +256,13 @@ impl GuardState {
             Guard::Stick(_) => (
                 Direction::Undetermined { reference: raw },
                 false,
+                f64::INFINITY,
+            ),
+            // an apex needs a rise first: a flight that starts falling (or at an apex just
+            // recorded) has none until it rises again
+            Guard::Apex => (
+                Direction::PositiveThenNonPositive,
+                raw > margin,
                 f64::INFINITY,
             ),
             _ => (

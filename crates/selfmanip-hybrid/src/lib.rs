@@ -12,6 +12,7 @@
 //! | [`fold`] | Lemma 5.1 singularities as transitions: the pin of a massless chain, its fold guard and its reset's rules |
 //! | [`locate`] | regula falsi and bisection on the dense output, to `event_tol_s` |
 //! | [`features`] | the terrain feature under each active contact, and passing onto the next |
+//! | [`drift`] | constraint drift of the active contacts, projected away |
 //! | [`contact_set`] | the mode a candidate contact set takes, the friction cone, the massless-link tie-break |
 //! | [`impact`] | plastic impact (5.10)/(5.52) with the pseudo-impulse rule (5.39)–(5.40), or forces |
 //! | [`complementarity`] | enumeration (5.28)–(5.29), (5.19)–(5.20), and the QP ([`impact_qp`]) beyond it |
@@ -33,6 +34,7 @@ pub mod budget;
 pub mod complementarity;
 pub mod contact_set;
 pub mod controller;
+pub mod drift;
 pub mod energy;
 pub mod error;
 pub mod execution;

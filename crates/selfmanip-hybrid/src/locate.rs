@@ -12,7 +12,9 @@ use selfmanip_core::{ContactMode, CoreError};
 /// `lo`) to non-positive (at `hi`), by Illinois regula falsi: superlinear on smooth guards (a
 /// handful of evaluations where bisection needs ~30). Every trial stays `tol/2` inside the
 /// bracket, so once the estimate has converged the next trial lands on its other side and
-/// the bracket closes; after `SECANT_TRIALS` trials it bisects, which always terminates.
+/// the bracket closes; after `SECANT_TRIALS` trials it bisects, which always terminates —
+/// also for a tolerance below the resolution of time near `t` (e.g. `1e-308`): the search
+/// stops when the bracket's ends are adjacent floating-point numbers.
 ///
 /// The secant trial through the bracket's ends is
 /// $$ t = t_{lo} + (t_{hi} - t_{lo}) \frac{f_{lo}}{f_{lo} - f_{hi}}, $$
@@ -27,13 +29,19 @@ pub fn locate_crossing<E>(
     // which end the last trial moved (Illinois: an end kept twice has its value halved)
     let mut last_side = 0i8;
     let mut trials = 0;
-    while hi - lo > tol {
+    while hi - lo > tol && !adjacent(lo, hi) {
         trials += 1;
         let secant = lo + (hi - lo) * f_lo / (f_lo - f_hi);
         let trial = if trials <= SECANT_TRIALS && secant.is_finite() {
             secant.clamp(lo + 0.5 * tol, hi - 0.5 * tol)
         } else {
             0.5 * (lo + hi)
+        };
+        // (the clamp leaves a bracket narrower than `tol` at its middle, strictly inside)
+        let trial = if trial > lo && trial < hi {
+            trial
+        } else {
+            lo + 0.5 * (hi - lo)
         };
         let v = f(trial)?;
         if v > 0.0 {
@@ -53,6 +61,13 @@ pub fn locate_crossing<E>(
     Ok((lo, hi))
 }
 
+/// Whether `b` is the next floating-point number after `a` (or not after it): a bracket that
+/// cannot be split any more.
+fn adjacent(a: f64, b: f64) -> bool {
+    let mid = a + 0.5 * (b - a);
+    mid <= a || mid >= b
+}
+
 /// The bracket `[on, off]`, at most `tol` wide, of the first instant in `[lo, hi]` at which
 /// `holds` becomes true, by bisection; `holds(hi)` must be true and `holds(lo)` false.
 pub fn bisect_first(
@@ -60,7 +75,7 @@ pub fn bisect_first(
     (mut on, mut off): (f64, f64),
     tol: f64,
 ) -> (f64, f64) {
-    while off - on > tol {
+    while off - on > tol && !adjacent(on, off) {
         let mid = 0.5 * (on + off);
         if holds(mid) {
             off = mid;

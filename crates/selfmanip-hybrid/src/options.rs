@@ -25,7 +25,8 @@ pub struct HybridOptions {
     /// Total budget of accepted integration steps: the run ends with
     /// [`crate::Termination::StepBudget`] at this many (see [`crate::budget`]).
     pub max_steps: usize,
-    /// Stop at the first apex of a flight phase.
+    /// Stop at the first apex of a flight phase (otherwise every apex of a flight is recorded
+    /// as an event, [`crate::EventKind::Apex`], and the run goes on).
     pub stop_at_apex: bool,
     /// A guard arms once it exceeds this margin (m for heights, N for forces).
     pub arm_margin: f64,

@@ -57,7 +57,10 @@ pub fn reset(
 ) -> Result<Reset, HybridError> {
     let model = flow.model();
     let (q, qd) = y.split_at(model.nq());
-    if fired.contains(&Guard::Apex) {
+    // the apex: the end of the run, or (not stopping there) an event that changes nothing
+    // unless other guards fired with it
+    let apex_only = fired == [Guard::Apex];
+    if fired.contains(&Guard::Apex) && (opts.stop_at_apex || apex_only) {
         let event = Event {
             t,
             kind: EventKind::Apex,
@@ -71,11 +74,24 @@ pub fn reset(
             q: q.to_vec(),
             qd_after: qd.to_vec(),
         };
+        if !opts.stop_at_apex {
+            return Ok(Reset::Continue {
+                event,
+                from_rest: vec![],
+                lock: flow.lock().to_vec(),
+            });
+        }
         return Ok(Reset::End {
             event: Some(event),
             termination: Termination::Apex,
         });
     }
+    let fired: Vec<Guard> = fired
+        .iter()
+        .copied()
+        .filter(|&g| g != Guard::Apex)
+        .collect();
+    let fired = &fired[..];
     let fired_contacts = |pick: fn(&Guard) -> Option<usize>| -> Vec<usize> {
         fired.iter().filter_map(pick).collect()
     };
@@ -136,10 +152,18 @@ pub fn reset(
             termination,
         })
     };
-    // a contact whose height jumped through zero met a step of the terrain
+    // a contact whose height jumped through zero met a step of the terrain: located to
+    // event_tol_s, a smooth crossing is at most |ȧ_k| event_tol_s below the ground
     for &k in &touched {
-        let gap = flow.geometry(k, y).gap_m;
-        if gap < -TERRAIN_STEP_M {
+        let geom = flow.geometry(k, y);
+        let (q_, qd_) = y.split_at(model.nq());
+        let approach = flow
+            .kinematics(q_, qd_)
+            .material_velocity(geom.part, geom.point)
+            .dot(&geom.plane.normal())
+            .abs();
+        let gap = geom.gap_m;
+        if gap < -(TERRAIN_STEP_M + 2.0 * approach * opts.event_tol_s) {
             return end(Termination::TerrainDiscontinuity {
                 t,
                 contact: k,

@@ -12,15 +12,16 @@
 //! Free massless joints follow the controller's prescribed motion (thesis 5.1.1): it feeds
 //! back into nothing, so it is left out of the step-size control.
 use crate::budget::Budget;
+use crate::drift;
 use crate::error::HybridError;
 use crate::execution::{Segment, Termination};
 use crate::features::{FeatureChange, Surfaces};
-use crate::flow::Flow;
+use crate::flow::{Flow, FlowWorkspace};
 use crate::guard::{Guard, GuardSet};
 use crate::integrate::{DenseOutput, DenseStep, Dopri5, StepError};
 use crate::locate::first_event;
 use crate::options::HybridOptions;
-use selfmanip_core::{free_massless_joints, ContactMode, CoreError};
+use selfmanip_core::{free_massless_joints, ContactMode, CoreError, Model};
 
 /// The factor a trial step shrinks by when one of its stages met a singular KKT matrix.
 const SINGULAR_RETRY_FACTOR: f64 = 0.25;
@@ -53,12 +54,15 @@ pub struct SegmentIntegrator {
     h_carry: f64,
     guards: GuardSet,
     surfaces: Surfaces,
+    /// The workspace of drift projections ([`crate::drift`]).
+    drift_ws: FlowWorkspace,
     free_joints: Vec<usize>,
     dynamic_coords: Vec<usize>,
 }
 
 impl SegmentIntegrator {
-    pub fn new(nq: usize, opts: &HybridOptions) -> Self {
+    pub fn new(model: &Model, opts: &HybridOptions) -> Self {
+        let nq = model.nq();
         SegmentIntegrator {
             ode: Dopri5::new(2 * nq, opts.step),
             dense: DenseStep::default(),
@@ -67,6 +71,7 @@ impl SegmentIntegrator {
             h_carry: opts.step.h_initial_s,
             guards: GuardSet::default(),
             surfaces: Surfaces::default(),
+            drift_ws: FlowWorkspace::new(model),
             free_joints: Vec::new(),
             dynamic_coords: Vec::new(),
         }
@@ -137,9 +142,14 @@ impl SegmentIntegrator {
             let dense = &self.dense;
             match step {
                 Ok(()) if feature_change.is_none() => {
-                    // an active contact stays on its feature (the flow holds a_k = 0); one
-                    // that left it met an edge or a corner of the terrain: locate where
-                    if self.surfaces.left_by(flow, y).is_some() {
+                    // an active contact stays on its feature (the flow holds a_k = 0) up to
+                    // drift, which is projected away; one that left it met an edge or a
+                    // corner of the terrain: locate where
+                    let off = self.surfaces.left_by(flow, y).is_some();
+                    if off && self.surfaces.only_drifted(flow, y) {
+                        drift::project(flow, &mut self.drift_ws, mode, y)?;
+                        self.ode.reset(self.ode.next_step_size());
+                    } else if off {
                         match self.surfaces.locate_change(
                             flow,
                             dense,

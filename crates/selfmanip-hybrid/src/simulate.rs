@@ -14,7 +14,7 @@
 use crate::budget::{Budget, NEVER};
 use crate::controller::Controller;
 use crate::error::HybridError;
-use crate::execution::{Execution, Termination};
+use crate::execution::{EventKind, Execution, Termination};
 use crate::flow::{Flow, FlowWorkspace};
 use crate::options::HybridOptions;
 use crate::reset::{reset, Reset};
@@ -84,7 +84,7 @@ pub fn simulate_with(
     let (mut t, mut mode) = (0.0, mode0);
     let mut y: Vec<f64> = q0.iter().chain(qd0).copied().collect();
     let (mut segments, mut events) = (Vec::new(), Vec::new());
-    let mut integrator = SegmentIntegrator::new(model.nq(), &opts);
+    let mut integrator = SegmentIntegrator::new(model, &opts);
     let mut zeno = ZenoWindow::new(opts.zeno_window_s, opts.zeno_max_events);
     // sliding contacts whose sliding velocity is zero at the start of the next segment up
     // to drift (they stuck until the last reset, or their stick was just refused)
@@ -127,7 +127,10 @@ pub fn simulate_with(
                 break termination;
             }
         };
-        flow.notify(&event);
+        // an apex recorded on the way changes nothing: the controller is not told of it
+        if event.kind != EventKind::Apex {
+            flow.notify(&event);
+        }
         y[model.nq()..].copy_from_slice(&event.qd_after);
         mode = event.mode_after;
         from_rest = rest;

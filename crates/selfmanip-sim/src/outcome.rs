@@ -3,7 +3,7 @@
 //! execution clock; states in the world frame of `q` (NED: z down, φ nose-up).
 use crate::labels::{contact_word, ContactLabels};
 use selfmanip_core::Model;
-use selfmanip_hybrid::{EventKind, Execution, Segment, Termination};
+use selfmanip_hybrid::{EventKind, Execution, Termination};
 use serde::Serialize;
 
 /// How an execution ended ([`Termination`] without its payload).
@@ -112,8 +112,8 @@ pub struct Outcome {
     pub word: Vec<String>,
     pub n_events: usize,
     /// The highest point of the first flight that has one (where the body's upward speed
-    /// `−ż` falls through zero), located on the dense output; or the engine's apex when the
-    /// run stopped there.
+    /// `−ż` falls through zero): the engine's first apex event, terminal or recorded on the
+    /// way (`selfmanip_hybrid::guard`).
     pub apex: Option<BodyState>,
     pub landing: Option<Landing>,
     /// Total time with no contact active (s).
@@ -155,14 +155,12 @@ pub fn outcome(
     labels: &ContactLabels,
     word: WordOptions,
 ) -> Outcome {
-    let apex = match exec.termination {
-        Termination::Apex => Some(BodyState::from_state(model, exec.t, &exec.q, &exec.qd)),
-        _ => exec
-            .segments
-            .iter()
-            .filter(|s| s.mode.is_flight() && s.t1 > s.t0)
-            .find_map(|s| flight_apex(model, s)),
-    };
+    // the engine locates every apex of a flight as an event (terminal when stopping there)
+    let apex = exec
+        .events
+        .iter()
+        .find(|e| e.kind == EventKind::Apex)
+        .map(|e| BodyState::from_state(model, e.t, &e.q, &e.qd_after));
     let first_flight = exec
         .segments
         .iter()
@@ -208,43 +206,3 @@ pub fn outcome(
     }
 }
 
-/// Where the body's upward speed `−ż` falls from positive to non-positive in a flight
-/// segment: bracketed step by step on the dense output, then bisected to 1e-13 s.
-fn flight_apex(model: &Model, seg: &Segment) -> Option<BodyState> {
-    let nq = model.nq();
-    let iz = nq + model.ix_z();
-    let mut y = vec![0.0; 2 * nq];
-    let up = |t: f64, y: &mut Vec<f64>| {
-        seg.eval(t, y);
-        -y[iz]
-    };
-    let mut t_prev = seg.t0;
-    if up(t_prev, &mut y) <= 0.0 {
-        return None;
-    }
-    for step in seg.dense.steps() {
-        let t1 = step.t1().min(seg.t1);
-        if t1 <= t_prev {
-            continue;
-        }
-        if up(t1, &mut y) <= 0.0 {
-            let (mut a, mut b) = (t_prev, t1);
-            for _ in 0..200 {
-                let m = 0.5 * (a + b);
-                if up(m, &mut y) > 0.0 {
-                    a = m;
-                } else {
-                    b = m;
-                }
-                if b - a <= 1e-13 {
-                    break;
-                }
-            }
-            seg.eval(b, &mut y);
-            let (q, qd) = y.split_at(nq);
-            return Some(BodyState::from_state(model, b, q, qd));
-        }
-        t_prev = t1;
-    }
-    None
-}

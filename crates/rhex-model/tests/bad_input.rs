@@ -1,0 +1,202 @@
+//! Leaps and sweeps with absurd inputs (issue 16): each ends in a typed error, a budget status
+//! or a fix — never a hang, a silent inf or a lost sweep — and a leap or a sweep can be
+//! stopped from outside.
+use rhex_model::leap::{
+    leap_params, simulate_leap, simulate_leap_with, LeapConfig, LeapStatus, Strategy,
+};
+use rhex_model::sweep::{grid, sweep, sweep_with, SweepPoint};
+use rhex_model::{RhexError, RhexParams};
+use selfmanip_core::CoreError;
+use selfmanip_hybrid::{HybridError, Termination};
+use serde_json::json;
+use std::sync::atomic::AtomicBool;
+
+fn leap(cfg: &LeapConfig) -> rhex_model::leap::LeapResult {
+    simulate_leap(&leap_params(), cfg).unwrap()
+}
+
+/// `event_tol_s = 1e-308` (below the resolution of time): the leap locates its events to
+/// adjacent floating-point times and reaches the apex of the default leap (1e-10 s).
+#[test]
+fn event_tol_of_1e_minus_308_leaps_like_the_default() {
+    let fine = leap(&LeapConfig::default());
+    let r = leap(&LeapConfig {
+        event_tol_s: 1e-308,
+        ..LeapConfig::default()
+    });
+    assert_eq!(r.status, LeapStatus::Ok);
+    let (a, b) = (r.apex.unwrap(), fine.apex.unwrap());
+    assert!((a.z_m - b.z_m).abs() < 1e-6 && (a.phi_rad - b.phi_rad).abs() < 1e-6);
+    assert_eq!(r.word, fine.word);
+}
+
+/// `m_l = 1e308`: finite, but the leg's weight overflows — a typed error naming what
+/// overflowed (not a non-finite `qd`, which the caller never gave), at the first evaluation.
+#[test]
+fn leg_mass_of_1e308_is_a_typed_overflow_error() {
+    let params = RhexParams {
+        m_l: 1e308,
+        ..leap_params()
+    };
+    match simulate_leap(&params, &LeapConfig::default()) {
+        Err(e @ RhexError::Hybrid(HybridError::Core(CoreError::NonFiniteResult { .. }))) => {
+            assert!(!e.to_string().contains("`qd`"), "{e}")
+        }
+        other => panic!("{other:?}"),
+    }
+    // in a sweep: a row of its own, the others untouched
+    let mut bad = SweepPoint::new(Strategy::ALL[0], 0.0, None);
+    bad.overrides.insert("m_l".into(), json!(1e308));
+    let good = SweepPoint::new(Strategy::ALL[0], 0.0, None);
+    let rows = sweep(
+        &leap_params(),
+        &LeapConfig::default(),
+        &[good.clone(), bad, good],
+        2,
+    )
+    .unwrap();
+    assert_eq!(rows[1].status, "overflow");
+    assert_eq!(rows[0].status, "ok");
+    assert_eq!(rows[0], rows[2]);
+}
+
+/// `t_final_s = 1e6` without stopping at the apex: the robot lands and rests, and the run
+/// ends at its step budget (`step_budget`) instead of integrating 1e6 s; the apex of its
+/// flight is reported all the same.
+#[test]
+fn t_final_of_1e6_without_stopping_at_apex_ends_at_its_step_budget() {
+    let cfg = LeapConfig {
+        t_final_s: 1e6,
+        stop_at_apex: false,
+        ..LeapConfig::default()
+    };
+    let r = leap(&cfg);
+    assert_eq!(r.status, LeapStatus::StepBudget);
+    assert!(matches!(
+        r.execution.termination,
+        Termination::StepBudget { .. }
+    ));
+    assert_eq!(r.execution.steps, cfg.max_steps);
+    assert!(r.apex.is_some());
+    // the budget is a parameter: a smaller one ends sooner
+    let r = leap(&LeapConfig {
+        max_steps: 100,
+        ..cfg.clone()
+    });
+    assert_eq!((r.status, r.execution.steps), (LeapStatus::StepBudget, 100));
+    assert!(matches!(
+        simulate_leap(&leap_params(), &LeapConfig { max_steps: 0, ..cfg }),
+        Err(RhexError::Params { field, .. }) if field == "max_steps"
+    ));
+}
+
+/// Not stopping at the apex, a leap records the apex of its first flight as an event and
+/// reports it: the same apex as the leap that stops there (the flows agree up to it).
+#[test]
+fn stop_at_apex_false_reports_the_apex_of_the_first_flight() {
+    for s in Strategy::ALL {
+        let cfg = LeapConfig {
+            strategy: s,
+            ..LeapConfig::default()
+        };
+        let stopped = leap(&cfg);
+        let on = leap(&LeapConfig {
+            stop_at_apex: false,
+            ..cfg
+        });
+        assert_eq!(stopped.status, LeapStatus::Ok, "{s}");
+        assert_ne!(on.status, LeapStatus::NoFlight, "{s}");
+        assert_eq!(on.apex, stopped.apex, "{s}");
+        assert!(on.events.iter().any(|e| e.kind == "apex"));
+    }
+}
+
+/// `event_tol_s = 1e-3` or `rtol = 1e-3` on flat ground: a touchdown located coarsely is up
+/// to `|ȧ| event_tol_s` below the ground and an active contact drifts off it by the
+/// integration error — neither is a step of the terrain. The leaps reach the apex of the
+/// default leap to a few millimetres and degrees.
+#[test]
+fn coarse_event_tolerance_and_rtol_still_leap_on_flat_ground() {
+    for s in Strategy::ALL {
+        let base = LeapConfig {
+            strategy: s,
+            ..LeapConfig::default()
+        };
+        let fine = leap(&base).apex.unwrap();
+        for cfg in [
+            LeapConfig {
+                event_tol_s: 1e-3,
+                ..base.clone()
+            },
+            LeapConfig {
+                rtol: 1e-3,
+                ..base.clone()
+            },
+        ] {
+            let r = leap(&cfg);
+            assert_eq!(r.status, LeapStatus::Ok, "{s} {r:?}", r = r.word_string());
+            let a = r.apex.unwrap();
+            assert!(
+                (a.z_m - fine.z_m).abs() < 5e-3,
+                "{s}: {} vs {}",
+                a.z_m,
+                fine.z_m
+            );
+            assert!((a.phi_rad - fine.phi_rad).abs() < 0.05, "{s}");
+        }
+    }
+}
+
+/// Round-off of a kinetic energy evaluated twice is reported as no loss: over a `t2` sweep of
+/// every strategy no touchdown reports a negative loss, and the zero-speed touchdown of a leg
+/// placed on the ground from rest reports exactly zero.
+#[test]
+fn touchdown_energy_loss_is_never_negative_round_off() {
+    for s in Strategy::ALL {
+        for k in 0..9 {
+            let r = leap(&LeapConfig {
+                strategy: s,
+                t2_s: -0.2 + 0.05 * k as f64,
+                ..LeapConfig::default()
+            });
+            for e in r.events.iter().filter(|e| e.kind == "touchdown") {
+                assert!(e.energy_loss_j >= 0.0, "{s} {:?}", e);
+            }
+        }
+    }
+}
+
+/// A raised stop flag ends a leap within one step (`interrupted`), and a sweep whose flag is
+/// raised returns every point, each `interrupted` (none lost, none run).
+#[test]
+fn stop_flag_interrupts_leaps_and_sweeps() {
+    let raised = AtomicBool::new(true);
+    let r = simulate_leap_with(&leap_params(), &LeapConfig::default(), &raised).unwrap();
+    assert_eq!(r.status, LeapStatus::Interrupted);
+    assert!(r.execution.steps <= 1);
+    let points = grid(&Strategy::ALL, &[0.0, 0.1], &[None]);
+    let rows = sweep_with(&leap_params(), &LeapConfig::default(), &points, 2, &raised).unwrap();
+    assert_eq!(rows.len(), points.len());
+    assert!(rows.iter().all(|r| r.status == "interrupted"), "{rows:?}");
+    let lowered = AtomicBool::new(false);
+    let rows = sweep_with(&leap_params(), &LeapConfig::default(), &points, 2, &lowered).unwrap();
+    assert_eq!(
+        rows,
+        sweep(&leap_params(), &LeapConfig::default(), &points, 2).unwrap()
+    );
+}
+
+/// A point whose step budget runs out is a `step_budget` row of its own; the sweep keeps
+/// every other point as it is alone.
+#[test]
+fn a_sweep_reports_step_budget_per_point_and_keeps_the_good_points() {
+    let mut starved = SweepPoint::new(Strategy::ALL[1], 0.05, Some(40.0));
+    starved.overrides.insert("max_steps".into(), json!(30));
+    let good = grid(&Strategy::ALL, &[0.0], &[Some(28.0)]);
+    let mut points = good.clone();
+    points.insert(2, starved);
+    let rows = sweep(&leap_params(), &LeapConfig::default(), &points, 2).unwrap();
+    assert_eq!(rows[2].status, "step_budget");
+    let alone = sweep(&leap_params(), &LeapConfig::default(), &good, 1).unwrap();
+    assert_eq!([&rows[..2], &rows[3..]].concat(), alone);
+}
