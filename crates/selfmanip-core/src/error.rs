@@ -69,9 +69,19 @@ pub(crate) fn check_vector(field: &'static str, v: &[f64], expected: usize) -> R
     check_finite(field, v)
 }
 
+/// Whether every entry is finite, without a branch per entry: `x · 0` is `±0` for a finite
+/// `x` and NaN for an infinite or NaN one, and a sum of signed zeros is zero. Every flow
+/// evaluation checks `M̄`, `C̄q̇`, `N̄`, `A`, `Ȧq̇`, `q̈` and `λ` so that finite inputs too large
+/// for double precision end in a typed error; this form costs 0.6 % fewer instructions per
+/// leap than a short-circuiting `all(is_finite)` (callgrind, `leap_probe "++" 0`).
+#[inline]
+pub(crate) fn all_finite(v: &[f64]) -> bool {
+    v.iter().fold(0.0, |acc, &x| acc + x * 0.0) == 0.0
+}
+
 /// Checks that a computed quantity is finite ([`CoreError::NonFiniteResult`] naming it).
 pub(crate) fn check_result(quantity: &'static str, v: &[f64]) -> Result<()> {
-    if v.iter().all(|x| x.is_finite()) {
+    if all_finite(v) {
         Ok(())
     } else {
         Err(CoreError::NonFiniteResult { quantity })
@@ -86,5 +96,27 @@ pub(crate) fn check_finite(field: &'static str, v: &[f64]) -> Result<()> {
             value: v[index],
         }),
         None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod finite_tests {
+    use super::all_finite;
+
+    /// The branch-free check agrees with `is_finite` on every kind of value, signed zeros and
+    /// subnormals included, wherever the odd entry sits.
+    #[test]
+    fn all_finite_agrees_with_is_finite() {
+        let odd = [f64::INFINITY, f64::NEG_INFINITY, f64::NAN, -f64::NAN];
+        let fine = [0.0, -0.0, 1e-310, -1e-310, f64::MAX, f64::MIN, 1.0, -3.5];
+        assert!(all_finite(&fine) && all_finite(&[]));
+        for bad in odd {
+            for at in 0..=fine.len() {
+                let mut v = fine.to_vec();
+                v.insert(at, bad);
+                assert_eq!(all_finite(&v), v.iter().all(|x| x.is_finite()), "{v:?}");
+                assert!(!all_finite(&v));
+            }
+        }
     }
 }
