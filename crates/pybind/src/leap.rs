@@ -14,11 +14,9 @@
 use crate::convert::{to_map, to_py, to_value};
 use crate::errors::{self, invalid, Source};
 use crate::interrupt::{self, Shared};
-use numpy::ndarray::{Array2, Array3};
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use rayon::prelude::*;
 use rhex_model::grc::{match_leap_word, Cell};
 use rhex_model::leap::{
     leap_params, simulate_leap, LeapConfig, LeapEvent, LeapResult, LegActuator, Strategy,
@@ -31,6 +29,7 @@ use rhex_model::sweep::{
 };
 use rhex_model::{Rhex, RhexError, RhexParams};
 use selfmanip_hybrid::Termination;
+use selfmanip_sim::sweep::run_parallel;
 use selfmanip_sim::SimError;
 use serde_json::{Map, Value};
 use std::collections::BTreeMap;
@@ -122,16 +121,6 @@ fn leap_word_equation(cells: Vec<String>) -> PyResult<Option<&'static str>> {
         .collect::<Result<Vec<_>, _>>()
         .map_err(|e| invalid("word", e.to_string()))?;
     Ok(match_leap_word(&cells))
-}
-
-fn opt_pairs(rows: &[Vec<Option<[f64; 2]>>], nc: usize) -> Array3<f64> {
-    Array3::from_shape_fn((rows.len(), nc, 2), |(k, c, i)| {
-        rows[k][c].map_or(f64::NAN, |v| v[i])
-    })
-}
-
-fn rows2(rows: &[Vec<f64>], ncols: usize) -> Array2<f64> {
-    Array2::from_shape_fn((rows.len(), ncols), |(k, j)| rows[k][j])
 }
 
 /// Why a leap ended short of `ok`, in words (empty for `ok`).
@@ -274,16 +263,16 @@ fn leap_run<'py>(
             let td = PyDict::new(py);
             td.set_item("contacts", tr.contacts.clone())?;
             td.set_item("t_s", tr.t_s.clone().into_pyarray(py))?;
-            td.set_item("q", rows2(&tr.q, nq).into_pyarray(py))?;
-            td.set_item("qd", rows2(&tr.qd, nq).into_pyarray(py))?;
+            td.set_item("q", crate::convert::rows_array(&tr.q, nq).into_pyarray(py))?;
+            td.set_item("qd", crate::convert::rows_array(&tr.qd, nq).into_pyarray(py))?;
             td.set_item("mode", tr.mode.clone())?;
             td.set_item(
                 "contact_points_m",
-                opt_pairs(&tr.contact_points_m, nc).into_pyarray(py),
+                crate::convert::pairs_array(&tr.contact_points_m, nc).into_pyarray(py),
             )?;
             td.set_item(
                 "contact_forces_n",
-                opt_pairs(&tr.contact_forces_n, nc).into_pyarray(py),
+                crate::convert::pairs_array(&tr.contact_forces_n, nc).into_pyarray(py),
             )?;
             d.set_item("trajectory", td)?;
         }
@@ -367,26 +356,20 @@ fn sweep_rows(
     threads: usize,
     shared: &Shared,
 ) -> Result<Vec<Option<SweepRow>>, String> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| format!("cannot start a pool of {threads} threads: {e}"))?;
-    Ok(pool.install(|| {
-        points
-            .par_iter()
-            // one task per leap: neighbouring points have correlated costs (see
-            // `rhex_model::sweep::sweep`)
-            .with_max_len(1)
-            .map(|(saturated, p)| {
-                if shared.cancelled() {
-                    return None;
-                }
-                let row = sweep_row(&bases[usize::from(*saturated)], p);
-                shared.tick();
-                Some(row)
-            })
-            .collect()
-    }))
+    // one task per leap on a pool of its own (neighbouring points have correlated costs:
+    // `rhex_model::sweep::sweep`)
+    run_parallel(points, threads, |(saturated, p)| {
+        if shared.cancelled() {
+            return None;
+        }
+        let row = sweep_row(&bases[usize::from(*saturated)], p);
+        shared.tick();
+        Some(row)
+    })
+    .map_err(|e| match e {
+        SimError::InvalidValue { reason, .. } => reason,
+        e => e.to_string(),
+    })
 }
 
 /// A sweep. Per point: `strategies[i]`, `t2_s[i]`, `gear_ratio[i]` (as for [`leap_run`]) and
