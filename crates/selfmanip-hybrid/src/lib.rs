@@ -22,6 +22,7 @@
 //! | [`segment`] | one segment: steps, terrain features, guards, until an event |
 //! | [`simulate`](mod@simulate) | the loop: flow ⇒ guards ⇒ locate ⇒ reset ⇒ zeno |
 //! | [`energy`] | the energy balance of an execution |
+//! | [`periodic`] | periodic orbits: apex return map, Newton shooting, monodromy, Floquet multipliers |
 //! | [`sensitivity`] | variational equations, saltation matrices, `dx(t_f)/dx(0)` of an execution |
 //! | [`execution`] | the record: segments, events, termination |
 //!
@@ -47,6 +48,7 @@ pub mod impact_qp;
 pub mod integrate;
 pub mod locate;
 pub mod options;
+pub mod periodic;
 pub mod reset;
 pub mod segment;
 pub mod sensitivity;

@@ -205,4 +205,3 @@ pub fn outcome(
         impact_loss_j: exec.impact_losses().iter().sum(),
     }
 }
-

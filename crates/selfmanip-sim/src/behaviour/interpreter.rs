@@ -17,7 +17,7 @@ use crate::expr::Expr;
 use crate::motion::JointMotion;
 use motor::Actuator;
 use selfmanip_core::ContactMode;
-use selfmanip_hybrid::{Controller, Event, EventKind};
+use selfmanip_hybrid::{Controller, ControllerPartials, Event, EventKind};
 use std::sync::Arc;
 
 /// A number known when the behaviour is compiled, or one that depends on the joint's angle
@@ -497,6 +497,71 @@ impl Controller for BehaviourController {
                 None => 0.0,
             };
         }
+    }
+
+    /// `∂Υ/∂(q, q̇)` and `∂q̈_free/∂(q, q̇)` of the laws in force at `(t, q, q̇, mode)`, over the
+    /// state only (a motion's reference and a schedule are functions of time):
+    ///
+    /// - `zero`, `constant`, `schedule`: 0;
+    /// - `servo` `τ = sat(−kp (q_j − θ*) − kd (q̇_j − ω*), ±limit)`: `−kp`, `−kd` on joint `j`'s
+    ///   own row and column inside the limit, 0 on the saturated branch (the side the clamp
+    ///   returns: a value exactly at the limit counts as saturated), 0 out of contact with
+    ///   `only_in_contact`;
+    /// - a free joint `q̈ = α_ref + kp_f (θ_ref − q_j) + kd_f (ω_ref − q̇_j)`: `−kp_f`, `−kd_f`.
+    ///
+    /// No partials (`false`) for a `motor` torque (the actuator models give no derivative
+    /// yet) or for a program with a `joint_angle` level (its torque switches inside a flow at
+    /// a crossing the engine does not locate, where no saltation matrix could be formed).
+    fn partials(
+        &self,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        mode: ContactMode,
+        free_joints: &[usize],
+        out: &mut ControllerPartials,
+    ) -> bool {
+        let plan = &*self.plan;
+        for (p, prog) in plan.programs.iter().enumerate() {
+            if prog.has_levels {
+                return false;
+            }
+            let j = prog.joint;
+            match &prog.phases[self.current(p, t, q)].torque {
+                TorqueLaw::Zero | TorqueLaw::Constant(_) | TorqueLaw::Schedule { .. } => {}
+                TorqueLaw::Motor { .. } => return false,
+                TorqueLaw::Servo {
+                    target,
+                    kp,
+                    kd,
+                    limit,
+                    only_in_contact,
+                } => {
+                    if *only_in_contact && mode.normal_bits() & prog.contacts == 0 {
+                        continue;
+                    }
+                    let (theta, omega) = match target {
+                        Some(a) => (*a, 0.0),
+                        None => {
+                            let (th, om, _) = self.reference(p, t);
+                            (th, om)
+                        }
+                    };
+                    let u = -kp * (q[j] - theta) - kd * (qd[j] - omega);
+                    if u.abs() < *limit {
+                        out.dtau_dq[(j, j)] = -kp;
+                        out.dtau_dqd[(j, j)] = -kd;
+                    }
+                }
+            }
+        }
+        for (i, &j) in free_joints.iter().enumerate() {
+            if plan.program_of_joint.get(j).copied().flatten().is_some() {
+                out.dfree_dq[(i, j)] = -plan.kp_free;
+                out.dfree_dqd[(i, j)] = -plan.kd_free;
+            }
+        }
+        true
     }
 
     fn on_event(&mut self, e: &Event) {

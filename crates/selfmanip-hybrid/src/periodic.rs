@@ -1,0 +1,528 @@
+//! Periodic hybrid orbits: the return map of a Poincaré section, its Jacobian from the
+//! engine's sensitivities ([`crate::sensitivity`]), Newton shooting for its fixed point, the
+//! monodromy matrix and the Floquet multipliers. Generic over any [`Model`], terrain and
+//! [`Controller`]; the derivation is in `docs/periodic-orbits.md`.
+//!
+//! **Section and return map.** The section is the apex of a flight, `Σ = {ż = 0, z̈ > 0}`
+//! (z down: the body's centre stops rising). From `x₀ ∈ Σ` in flight, a run with
+//! [`HybridOptions::stop_at_apex`] goes through its events (touchdown, stance, liftoff, …)
+//! and stops at the next apex: `P(x₀) = x(τ(x₀))`, `τ` the return time. Its Jacobian over the
+//! whole state is what the engine's chain gives for such a run,
+//! `DP = Ξ_apex Φ_k Ξ_k ⋯ Ξ_1 Φ_0` with the terminal apex projection
+//! `Ξ_apex = I − f D_xg / (D_xg f)`, `g = −ż`. `P` is constant along the flow
+//! (`P(φ_s(x)) = P(x)`), so `DP f(x₀) = 0`: **one multiplier of `DP` is 0**, with the flow as
+//! its eigenvector; and the row of `ż` is zero (`P` lands on `Σ`). The other multipliers are
+//! those of the map restricted to the section.
+//!
+//! **Phase and symmetries.** Newton works on the *section coordinates*: the state without
+//! `ż` (fixed at 0 by the section: this is the phase condition) and without the *cyclic*
+//! coordinates, those the dynamics do not depend on (on flat ground the body's `x`: a
+//! gait may advance by a stride per period; its advance is reported as
+//! [`PeriodicOrbit::drift`]). With `u` those coordinates, `r(u) = S P(E u) − u` and
+//! `∂r/∂u = S DP E − I`, `E` the embedding (`ż = 0`, cyclic coordinates at the guess's) and
+//! `S` the selection. A conserved quantity the user did not declare (e.g. a body's angular
+//! momentum when no force has a moment about its centre of mass) leaves `∂r/∂u` singular: the
+//! step is the least-squares one of minimum norm (singular values below
+//! [`PeriodicOptions::rank_rtol`] of the largest dropped), and [`PeriodicOrbit::rank_deficiency`]
+//! says how many directions the fixed point is free along (a family of orbits).
+//!
+//! **Newton.** `u ← u + λ δ`, `δ = −(∂r/∂u)⁺ r`, `λ` halved from 1 until `|r|∞` decreases
+//! (at most [`PeriodicOptions::max_halvings`] times; a trial run that does not return counts
+//! as no decrease), at most [`PeriodicOptions::max_iterations`] iterations. Every run is
+//! bounded by the engine's budgets and [`PeriodicOptions::max_period_s`]; what does not
+//! converge ends with a typed [`PeriodicError`].
+//!
+//! **Monodromy.** At the fixed point `x*`, [`PeriodicOrbit::monodromy`] is `DP` (multipliers
+//! `{0} ∪ λ_Σ`), and [`PeriodicOrbit::period_monodromy`] the Jacobian of the time-`T` flow
+//! map, `M_T = ∂x(T)/∂x₀ = DP − f(x*) ∇τ` (since `DP = M_T + f ∇τ`, `∇τ = −D_xg M_T / (D_xg f)`
+//! the apex time's gradient), whose multipliers are `{1} ∪ λ_Σ`: the trivial 1 is the flow
+//! direction (`M_T f = f`). The orbit is stable when every section multiplier lies inside the
+//! unit circle ([`Stability`]).
+//!
+//! **Controllers.** Each run starts a fresh copy of the controller at `t = 0`, so the map is
+//! that of the periodic orbit only if the controller is autonomous: a function of the state
+//! and of the phase its events select, the same at every apex (no clock, nothing remembered
+//! from the initial state). The multi-period tests check this by running several periods in
+//! one execution.
+use crate::controller::Controller;
+use crate::error::HybridError;
+use crate::execution::{EventKind, Execution, Termination};
+use crate::flow::Flow;
+use crate::options::HybridOptions;
+use crate::sensitivity::{execution_sensitivity, SensitivityError};
+use crate::simulate::simulate;
+use crate::StepOptions;
+use nalgebra::{Complex, DMatrix, DVector, RowDVector};
+use selfmanip_core::{ContactMode, Model, Terrain};
+use std::sync::Arc;
+
+/// Options of a periodic-orbit search.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PeriodicOptions {
+    /// Options of every return run (`stop_at_apex` is set by the search).
+    pub hybrid: HybridOptions,
+    /// A return run that has not reached the section by this time fails (s).
+    pub max_period_s: f64,
+    /// Coordinates (indices into `q`) the dynamics do not depend on: left out of the
+    /// fixed-point condition, their advance per period reported. `None`: the body's `x`
+    /// (horizontal translation, right on flat ground; pass `Some(vec![])` on a terrain that
+    /// changes along `x`).
+    pub cyclic: Option<Vec<usize>>,
+    /// Convergence: `|P(x) − x|∞` over the section coordinates (SI units: m, rad, m/s, rad/s).
+    pub tol: f64,
+    pub max_iterations: usize,
+    /// Step halvings of the line search per iteration.
+    pub max_halvings: usize,
+    /// Singular values of `∂r/∂u` below this fraction of the largest are dropped.
+    pub rank_rtol: f64,
+    /// Multipliers within this distance of the unit circle count as neutral.
+    pub unit_circle_tol: f64,
+}
+
+impl Default for PeriodicOptions {
+    /// Tolerances tight enough that the return map is smooth to ~1e-10 (a fixed point to
+    /// 1e-9): DOPRI5 at `rtol = 1e-11`, events located to 1e-13 s.
+    fn default() -> Self {
+        PeriodicOptions {
+            hybrid: HybridOptions {
+                step: StepOptions {
+                    rtol: 1e-11,
+                    atol: 1e-13,
+                    ..StepOptions::default()
+                },
+                event_tol_s: 1e-13,
+                ..HybridOptions::default()
+            },
+            max_period_s: 10.0,
+            cyclic: None,
+            tol: 1e-9,
+            max_iterations: 30,
+            max_halvings: 12,
+            rank_rtol: 1e-8,
+            unit_circle_tol: 1e-6,
+        }
+    }
+}
+
+/// Why a periodic-orbit computation failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PeriodicError {
+    /// A bad argument (the field is named).
+    #[error("invalid {field}: {reason}")]
+    InvalidInput { field: &'static str, reason: String },
+    #[error(transparent)]
+    Hybrid(#[from] HybridError),
+    #[error(transparent)]
+    Sensitivity(#[from] SensitivityError),
+    /// The run from a state did not reach the section: it ended otherwise (a fall, a
+    /// budget, [`PeriodicOptions::max_period_s`]).
+    #[error(
+        "the run from the section did not return to it: it ended with {termination:?} at t = {t} s"
+    )]
+    NoReturn { termination: Termination, t: f64 },
+    /// The return map has no Jacobian at this state (an event whose saltation matrix is not
+    /// defined: grazing, simultaneous, not covered; see [`crate::sensitivity`]).
+    #[error("the return map is not differentiable here: {reason}")]
+    NotDifferentiable { reason: String },
+    /// The iteration budget ran out.
+    #[error("Newton did not converge in {iterations} iterations (residual {residual:e})")]
+    NotConverged {
+        iterations: usize,
+        residual: f64,
+        /// The best state found (on the section).
+        best: Vec<f64>,
+    },
+    /// No step along the Newton direction decreased the residual.
+    #[error("the line search failed at iteration {iteration} (residual {residual:e})")]
+    LineSearchFailed {
+        iteration: usize,
+        residual: f64,
+        best: Vec<f64>,
+    },
+}
+
+/// One application of the return map.
+#[derive(Debug, Clone)]
+pub struct ReturnMap {
+    /// The state on the section the run started from (`ż = 0`).
+    pub x0: Vec<f64>,
+    /// `P(x0)`: the state at the next apex.
+    pub x1: Vec<f64>,
+    /// The return time `τ(x0)` (s).
+    pub period_s: f64,
+    /// `DP` over the whole state (`2nq × 2nq`), when asked for.
+    pub jacobian: Option<DMatrix<f64>>,
+    /// `∇τ = dτ/dx0`, when the Jacobian was asked for.
+    pub time_gradient: Option<RowDVector<f64>>,
+    /// The run.
+    pub execution: Execution,
+}
+
+/// The stability of a periodic orbit, from its section multipliers `λ_Σ`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Stability {
+    /// Every `|λ_Σ| < 1 − tol`: perturbations decay.
+    Stable,
+    /// The largest `|λ_Σ|` is within `tol` of 1 (a conserved quantity or a family of orbits).
+    Neutral,
+    /// Some `|λ_Σ| > 1 + tol`: perturbations along it grow.
+    Unstable,
+}
+
+/// A periodic orbit through the apex section.
+#[derive(Debug, Clone)]
+pub struct PeriodicOrbit {
+    /// The fixed point `x*` (full state, `ż = 0`).
+    pub x: Vec<f64>,
+    /// The period `T = τ(x*)` (s).
+    pub period_s: f64,
+    /// Cyclic coordinates (indices into `q`) and their advance per period.
+    pub cyclic: Vec<usize>,
+    pub drift: Vec<f64>,
+    /// The events of one period, the terminal apex last.
+    pub events: Vec<(EventKind, ContactMode)>,
+    /// `DP` at `x*` (`2nq × 2nq`).
+    pub monodromy: DMatrix<f64>,
+    /// `M_T = DP − f(x*) ∇τ`, the time-`T` flow map's Jacobian.
+    pub period_monodromy: DMatrix<f64>,
+    /// Eigenvalues of `monodromy`, by decreasing modulus.
+    pub multipliers: Vec<Complex<f64>>,
+    /// The section coordinates (indices into the state `(q, q̇)`).
+    pub section_coordinates: Vec<usize>,
+    /// `S DP E`: the return map's Jacobian in section coordinates.
+    pub section_jacobian: DMatrix<f64>,
+    /// Its eigenvalues, by decreasing modulus.
+    pub section_multipliers: Vec<Complex<f64>>,
+    pub stability: Stability,
+    /// Newton iterations used and the final residual `|P(x*) − x*|∞`.
+    pub iterations: usize,
+    pub residual: f64,
+    /// Dimensions of the family the fixed point lies on (singular values dropped).
+    pub rank_deficiency: usize,
+}
+
+/// Eigenvalues of a square matrix by decreasing modulus (ties: by real part, then
+/// imaginary part, decreasing), from nalgebra's real Schur form.
+pub fn floquet_multipliers(m: &DMatrix<f64>) -> Vec<Complex<f64>> {
+    let mut ev: Vec<Complex<f64>> = m.clone().complex_eigenvalues().iter().copied().collect();
+    ev.sort_by(|a, b| {
+        b.norm()
+            .total_cmp(&a.norm())
+            .then(b.re.total_cmp(&a.re))
+            .then(b.im.total_cmp(&a.im))
+    });
+    ev
+}
+
+/// The verdict from section multipliers (see [`Stability`]).
+pub fn stability(section_multipliers: &[Complex<f64>], tol: f64) -> Stability {
+    let rho = section_multipliers
+        .iter()
+        .map(|l| l.norm())
+        .fold(0.0, f64::max);
+    if rho > 1.0 + tol {
+        Stability::Unstable
+    } else if rho < 1.0 - tol {
+        Stability::Stable
+    } else {
+        Stability::Neutral
+    }
+}
+
+fn check_state(model: &Model, x: &[f64], field: &'static str) -> Result<(), PeriodicError> {
+    let n2 = 2 * model.nq();
+    if x.len() != n2 {
+        return Err(PeriodicError::InvalidInput {
+            field,
+            reason: format!("expected {n2} entries (q, q̇), got {}", x.len()),
+        });
+    }
+    if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+        return Err(PeriodicError::InvalidInput {
+            field,
+            reason: format!("entry {i} is not finite"),
+        });
+    }
+    Ok(())
+}
+
+fn check_options(model: &Model, opts: &PeriodicOptions) -> Result<Vec<usize>, PeriodicError> {
+    let bad = |field, reason: &str| PeriodicError::InvalidInput {
+        field,
+        reason: reason.into(),
+    };
+    if !(opts.max_period_s.is_finite() && opts.max_period_s > 0.0) {
+        return Err(bad("max_period_s", "must be finite and positive"));
+    }
+    if !(opts.tol.is_finite() && opts.tol > 0.0) {
+        return Err(bad("tol", "must be finite and positive"));
+    }
+    if !(opts.rank_rtol.is_finite() && (0.0..1.0).contains(&opts.rank_rtol)) {
+        return Err(bad("rank_rtol", "must lie in [0, 1)"));
+    }
+    if !(opts.unit_circle_tol.is_finite() && opts.unit_circle_tol >= 0.0) {
+        return Err(bad("unit_circle_tol", "must be finite and non-negative"));
+    }
+    if opts.max_iterations == 0 {
+        return Err(bad("max_iterations", "must be at least 1"));
+    }
+    opts.hybrid.validate(opts.max_period_s)?;
+    let cyclic = opts.cyclic.clone().unwrap_or_else(|| vec![model.ix_x()]);
+    for &c in &cyclic {
+        if c >= model.nq() {
+            return Err(PeriodicError::InvalidInput {
+                field: "cyclic",
+                reason: format!("coordinate {c} is not below nq = {}", model.nq()),
+            });
+        }
+        if c == model.ix_z() {
+            return Err(bad("cyclic", "z cannot be cyclic (gravity depends on it)"));
+        }
+    }
+    Ok(cyclic)
+}
+
+/// The return map of the apex section at `x0` (its `ż` is set to 0: the section fixes it),
+/// starting in flight with a fresh copy of `controller`; with its Jacobian if `jacobian`.
+pub fn return_map(
+    model: &Model,
+    terrain: &dyn Terrain,
+    controller: &dyn Controller,
+    x0: &[f64],
+    jacobian: bool,
+    opts: &PeriodicOptions,
+) -> Result<ReturnMap, PeriodicError> {
+    check_state(model, x0, "x0")?;
+    check_options(model, opts)?;
+    apex_return(model, terrain, controller, x0, jacobian, opts)
+}
+
+fn apex_return(
+    model: &Model,
+    terrain: &dyn Terrain,
+    controller: &dyn Controller,
+    x0: &[f64],
+    jacobian: bool,
+    opts: &PeriodicOptions,
+) -> Result<ReturnMap, PeriodicError> {
+    let nq = model.nq();
+    let mut x0 = x0.to_vec();
+    x0[nq + model.ix_z()] = 0.0;
+    let hybrid = HybridOptions {
+        stop_at_apex: true,
+        ..opts.hybrid
+    };
+    let exec = simulate(
+        model,
+        terrain,
+        controller,
+        ContactMode::FLIGHT,
+        &x0[..nq],
+        &x0[nq..],
+        opts.max_period_s,
+        hybrid,
+    )?;
+    if exec.termination != Termination::Apex {
+        return Err(PeriodicError::NoReturn {
+            termination: exec.termination.clone(),
+            t: exec.t,
+        });
+    }
+    let x1: Vec<f64> = exec.q.iter().chain(&exec.qd).copied().collect();
+    let (mut jac, mut tg) = (None, None);
+    if jacobian {
+        let s = execution_sensitivity(model, terrain, &exec)?;
+        let Some(j) = s.state_jacobian else {
+            let reason = s
+                .events
+                .iter()
+                .find(|e| e.saltation.is_none())
+                .map(|e| format!("{:?} at t = {} s: {:?}", e.kind, e.t, e.status))
+                .unwrap_or_else(|| "a segment end without an event".into());
+            return Err(PeriodicError::NotDifferentiable { reason });
+        };
+        jac = Some(j);
+        tg = s.events.last().and_then(|e| e.time_gradient.clone());
+    }
+    Ok(ReturnMap {
+        x0,
+        x1,
+        period_s: exec.t,
+        jacobian: jac,
+        time_gradient: tg,
+        execution: exec,
+    })
+}
+
+/// The section coordinates: every state index but `ż` and the cyclic positions.
+fn section_coordinates(model: &Model, cyclic: &[usize]) -> Vec<usize> {
+    let zd = model.nq() + model.ix_z();
+    (0..2 * model.nq())
+        .filter(|&i| i != zd && !cyclic.contains(&i))
+        .collect()
+}
+
+fn residual(rm: &ReturnMap, idx: &[usize]) -> DVector<f64> {
+    DVector::from_iterator(idx.len(), idx.iter().map(|&i| rm.x1[i] - rm.x0[i]))
+}
+
+/// Finds the periodic orbit through the apex section near `guess` (full state; its `ż` is
+/// ignored) by damped Newton shooting on the section coordinates (module docs).
+pub fn find_periodic_orbit(
+    model: &Model,
+    terrain: &dyn Terrain,
+    controller: &dyn Controller,
+    guess: &[f64],
+    opts: &PeriodicOptions,
+) -> Result<PeriodicOrbit, PeriodicError> {
+    check_state(model, guess, "guess")?;
+    let cyclic = check_options(model, opts)?;
+    let idx = section_coordinates(model, &cyclic);
+    let n2 = 2 * model.nq();
+    let mut x = guess.to_vec();
+    x[model.nq() + model.ix_z()] = 0.0;
+    let mut rm = apex_return(model, terrain, controller, &x, true, opts)?;
+    let mut r = residual(&rm, &idx);
+    for it in 0..opts.max_iterations {
+        let jac = rm.jacobian.as_ref().expect("asked for");
+        let rnorm = r.amax();
+        let mut a = DMatrix::zeros(idx.len(), idx.len());
+        for (i, &ri) in idx.iter().enumerate() {
+            for (j, &cj) in idx.iter().enumerate() {
+                a[(i, j)] = jac[(ri, cj)];
+            }
+        }
+        let dr = &a - DMatrix::identity(idx.len(), idx.len());
+        let svd = dr.clone().svd(true, true);
+        let smax = svd.singular_values.amax();
+        let cut = opts.rank_rtol * smax;
+        let rank_deficiency = svd.singular_values.iter().filter(|&&s| s <= cut).count();
+        if rnorm <= opts.tol {
+            return Ok(orbit(
+                model,
+                terrain,
+                rm,
+                a,
+                cyclic,
+                idx,
+                it,
+                rnorm,
+                rank_deficiency,
+                opts,
+            ));
+        }
+        let delta = -svd
+            .pseudo_inverse(cut.max(f64::MIN_POSITIVE))
+            .expect("U and V were computed")
+            * &r;
+        // damped step: halve until the residual decreases
+        let mut lambda = 1.0;
+        let mut accepted = None;
+        for _ in 0..=opts.max_halvings {
+            let mut trial = x.clone();
+            for (k, &i) in idx.iter().enumerate() {
+                trial[i] += lambda * delta[k];
+            }
+            if let Ok(t) = apex_return(model, terrain, controller, &trial, true, opts) {
+                let rt = residual(&t, &idx);
+                if rt.amax() < rnorm {
+                    accepted = Some((trial, t, rt));
+                    break;
+                }
+            }
+            lambda *= 0.5;
+        }
+        let Some((xt, rmt, rt)) = accepted else {
+            return Err(PeriodicError::LineSearchFailed {
+                iteration: it,
+                residual: rnorm,
+                best: x,
+            });
+        };
+        debug_assert_eq!(xt.len(), n2);
+        (x, rm, r) = (xt, rmt, rt);
+    }
+    Err(PeriodicError::NotConverged {
+        iterations: opts.max_iterations,
+        residual: r.amax(),
+        best: x,
+    })
+}
+
+/// The orbit's data at a converged return map.
+#[allow(clippy::too_many_arguments)]
+fn orbit(
+    model: &Model,
+    terrain: &dyn Terrain,
+    rm: ReturnMap,
+    section_jacobian: DMatrix<f64>,
+    cyclic: Vec<usize>,
+    idx: Vec<usize>,
+    iterations: usize,
+    residual: f64,
+    rank_deficiency: usize,
+    opts: &PeriodicOptions,
+) -> PeriodicOrbit {
+    let dp = rm.jacobian.clone().expect("asked for");
+    let tg = rm
+        .time_gradient
+        .clone()
+        .expect("a defined Jacobian has the apex time's gradient");
+    // f(x*) at the apex, with the controller the last segment ran with
+    let last = rm.execution.segments.last().expect("a run has a segment");
+    let mut flow = Flow::new(model, terrain, Arc::clone(&last.controller));
+    let mut f = DVector::zeros(rm.x1.len());
+    let period_monodromy = match flow.rhs(rm.period_s, last.mode, &rm.x1, f.as_mut_slice()) {
+        Ok(()) => &dp - &f * &tg,
+        Err(_) => DMatrix::from_element(dp.nrows(), dp.ncols(), f64::NAN),
+    };
+    let multipliers = floquet_multipliers(&dp);
+    let section_multipliers = floquet_multipliers(&section_jacobian);
+    let drift = cyclic.iter().map(|&c| rm.x1[c] - rm.x0[c]).collect();
+    PeriodicOrbit {
+        x: rm.x0.clone(),
+        period_s: rm.period_s,
+        drift,
+        cyclic,
+        events: rm
+            .execution
+            .events
+            .iter()
+            .map(|e| (e.kind, e.mode_after))
+            .collect(),
+        monodromy: dp,
+        period_monodromy,
+        multipliers,
+        section_coordinates: idx,
+        stability: stability(&section_multipliers, opts.unit_circle_tol),
+        section_jacobian,
+        section_multipliers,
+        iterations,
+        residual,
+        rank_deficiency,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Multipliers of a matrix with known eigenvalues (a rotation by 0.3 scaled by 0.5, and
+    /// 2): sorted by modulus, the complex pair with conjugate parts.
+    #[test]
+    fn multipliers_of_a_known_matrix() {
+        let (c, s) = (0.5 * 0.3f64.cos(), 0.5 * 0.3f64.sin());
+        let m = DMatrix::from_row_slice(3, 3, &[c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 2.0]);
+        let ev = floquet_multipliers(&m);
+        assert!((ev[0] - Complex::new(2.0, 0.0)).norm() < 1e-14);
+        assert!((ev[1] - Complex::new(c, s)).norm() < 1e-14, "{ev:?}");
+        assert!((ev[2] - Complex::new(c, -s)).norm() < 1e-14, "{ev:?}");
+        assert_eq!(stability(&ev, 1e-6), Stability::Unstable);
+        assert_eq!(stability(&ev[1..], 1e-6), Stability::Stable);
+        assert_eq!(
+            stability(&[Complex::new(1.0 - 1e-9, 0.0)], 1e-6),
+            Stability::Neutral
+        );
+    }
+}

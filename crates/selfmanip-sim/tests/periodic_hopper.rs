@@ -1,0 +1,459 @@
+//! A periodic hybrid orbit of a non-RHex robot — the one-legged hopper of
+//! `examples/data/hopper.toml` (massless two-link leg, hip at the body's centre of mass)
+//! hopping in place under `examples/data/hop_periodic.toml` — found by Newton shooting on the
+//! apex section ([`selfmanip_hybrid::periodic`]), against independent routes:
+//!
+//! - the engine's section Jacobian and its multipliers against central finite differences of
+//!   whole apex-to-apex runs, and the time-`T` monodromy against finite differences of
+//!   fixed-time runs in every direction of the state (`docs/periodic-orbits.md`);
+//! - the fixed point against one execution of several periods from it (the map is the same at
+//!   every hop: the behaviour is autonomous);
+//! - closed forms from conservation laws: with the hip limp on the ground and at the body's
+//!   centre of mass, no force has a moment about the centre of mass and the massless leg
+//!   carries no momentum, so `φ̇` is conserved through flight, touchdown and stance and
+//!   `φ(τ) = φ₀ + φ̇₀ τ`: the rows of `φ, φ̇` in `DP` are `e_φ + τ e_φ̇` and `e_φ̇` exactly (two
+//!   multipliers 1, a Jordan block), and a horizontal shift changes nothing (`∂·/∂x = e_x`);
+//! - the trivial multipliers of the section (0, eigenvector `f(x*)`) and of the period map
+//!   (1, eigenvector `f(x*)`);
+//! - the behaviour's partial derivatives (`Controller::partials`) against finite differences
+//!   of its torque and free-joint accelerations.
+use nalgebra::{Complex, DMatrix, DVector};
+use selfmanip_core::{ContactMode, RobotDescription};
+use selfmanip_hybrid::periodic::{
+    find_periodic_orbit, floquet_multipliers, return_map, PeriodicOptions, PeriodicOrbit,
+};
+use selfmanip_hybrid::{simulate, Controller, ControllerPartials, EventKind};
+use selfmanip_sim::behaviour::Behaviour;
+use selfmanip_sim::{Scenario, Simulation};
+use std::path::{Path, PathBuf};
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("examples/data")
+        .join(name)
+}
+
+/// The hopper at an apex: leg in its landing pose (hip a, knee −2a), body `h` above ground.
+fn guess(h: f64) -> Vec<f64> {
+    let a = 0.5;
+    vec![a, -2.0 * a, 0.0, -h, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+}
+
+fn simulation(q0: &[f64]) -> Simulation {
+    let robot = RobotDescription::from_file(&data("hopper.toml")).unwrap();
+    let mut s = Scenario::new(robot, q0.to_vec());
+    s.behaviour = Behaviour::from_file(&data("hop_periodic.toml")).unwrap();
+    s.options.t_final_s = 10.0;
+    Simulation::new(&s).unwrap()
+}
+
+fn find() -> (Simulation, PeriodicOrbit) {
+    let g = guess(0.45);
+    let sim = simulation(&g[..5]);
+    let orbit = find_periodic_orbit(
+        &sim.model,
+        &sim.terrain,
+        &*sim.controller,
+        &g,
+        &PeriodicOptions::default(),
+    )
+    .unwrap();
+    (sim, orbit)
+}
+
+fn opts() -> PeriodicOptions {
+    PeriodicOptions::default()
+}
+
+/// `x1` of the return map from `x0`, with its event kinds.
+fn map(sim: &Simulation, x0: &[f64]) -> (Vec<f64>, Vec<EventKind>) {
+    let rm = return_map(
+        &sim.model,
+        &sim.terrain,
+        &*sim.controller,
+        x0,
+        false,
+        &opts(),
+    )
+    .unwrap();
+    let kinds = rm.execution.events.iter().map(|e| e.kind).collect();
+    (rm.x1, kinds)
+}
+
+/// `f(x*) = (q̇, q̈)` of the flight flow at the fixed point, under the behaviour.
+fn flow_at(sim: &Simulation, x: &[f64]) -> DVector<f64> {
+    let mut flow = selfmanip_hybrid::flow::Flow::new(
+        &sim.model,
+        &sim.terrain,
+        std::sync::Arc::clone(&sim.controller),
+    );
+    let mut f = DVector::zeros(x.len());
+    flow.rhs(0.0, ContactMode::FLIGHT, x, f.as_mut_slice())
+        .unwrap();
+    f
+}
+
+fn rel(a: &DMatrix<f64>, b: &DMatrix<f64>) -> f64 {
+    (a - b).amax() / b.amax().max(1.0)
+}
+
+/// The multipliers of `a` off the unit circle's neighbourhood (`|λ − 1| > 1e-3`), each
+/// matched to the nearest of `b`'s: the worst distance. (Multipliers at 1 here come in
+/// Jordan blocks — the conserved `φ̇` — whose eigenvalues are ill-conditioned, `O(ε^{1/k})`:
+/// those are checked through their rows, against the closed form.)
+fn multiplier_error(a: &[Complex<f64>], b: &[Complex<f64>]) -> f64 {
+    a.iter()
+        .filter(|l| (*l - Complex::new(1.0, 0.0)).norm() > 1e-3)
+        .map(|l| {
+            b.iter()
+                .map(|m| (l - m).norm())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max)
+}
+
+/// The hopper's orbit: found from a guess 10 cm off in apex height and with the leg at
+/// rest; three events a period (touchdown, liftoff, apex); the engine's section Jacobian and
+/// its multipliers against central differences (h = 1e-6) of whole apex-to-apex runs in every
+/// section coordinate, each with the orbit's event sequence, to 1e-5.
+#[test]
+fn hopper_section_multipliers_match_finite_differences() {
+    let (sim, o) = find();
+    eprintln!(
+        "x* {:?}\nT {} s, {:?}, {} iterations, residual {:e}, rank deficiency {}",
+        o.x, o.period_s, o.events, o.iterations, o.residual, o.rank_deficiency
+    );
+    eprintln!("DP multipliers {:?}", o.multipliers);
+    eprintln!(
+        "section multipliers {:?} ({:?})",
+        o.section_multipliers, o.stability
+    );
+    let kinds: Vec<_> = o.events.iter().map(|e| e.0).collect();
+    assert_eq!(
+        kinds,
+        [EventKind::Touchdown, EventKind::Liftoff, EventKind::Apex]
+    );
+    assert!(o.residual <= 1e-9);
+    let idx = &o.section_coordinates;
+    let h = 1e-6;
+    let mut fd = DMatrix::zeros(idx.len(), idx.len());
+    for (k, &c) in idx.iter().enumerate() {
+        let (mut xp, mut xm) = (o.x.clone(), o.x.clone());
+        xp[c] += h;
+        xm[c] -= h;
+        let ((yp, sp), (ym, sm)) = (map(&sim, &xp), map(&sim, &xm));
+        assert_eq!(sp, kinds, "direction {c}");
+        assert_eq!(sm, kinds, "direction {c}");
+        for (i, &r) in idx.iter().enumerate() {
+            fd[(i, k)] = (yp[r] - ym[r]) / (2.0 * h);
+        }
+    }
+    let e = rel(&o.section_jacobian, &fd);
+    let fd_mult = floquet_multipliers(&fd);
+    let em = multiplier_error(&o.section_multipliers, &fd_mult)
+        .max(multiplier_error(&fd_mult, &o.section_multipliers));
+    eprintln!("section Jacobian vs central differences {e:e}; multipliers {em:e}");
+    eprintln!("FD multipliers {fd_mult:?}");
+    assert!(e < 1e-5, "{e:e}");
+    assert!(em < 1e-5, "{em:e}");
+    // the hop's own multipliers: one unstable (the horizontal speed: a vertical leg at
+    // touchdown tips the body further each stance), the height's and the leg's stable
+    let moduli: Vec<f64> = o.section_multipliers.iter().map(|l| l.norm()).collect();
+    assert!(moduli[0] > 1.1, "{moduli:?}");
+    assert_eq!(o.stability, selfmanip_hybrid::periodic::Stability::Unstable);
+}
+
+/// `M_T = DP − f ∇τ` against central differences of fixed-time runs (`T` from `x*`, no stop
+/// at the apex) in all ten state directions, including `ż` (off the section); and the
+/// trivial multipliers: `DP f = 0` (`P` is constant along the flow) and `M_T f = f`.
+#[test]
+fn hopper_period_monodromy_matches_fixed_time_differences() {
+    let (sim, o) = find();
+    let nq = sim.model.nq();
+    let run = |x: &[f64]| {
+        let e = simulate(
+            &sim.model,
+            &sim.terrain,
+            &*sim.controller,
+            ContactMode::FLIGHT,
+            &x[..nq],
+            &x[nq..],
+            o.period_s,
+            opts().hybrid,
+        )
+        .unwrap();
+        e.q.iter().chain(&e.qd).copied().collect::<Vec<f64>>()
+    };
+    let h = 1e-6;
+    let n2 = 2 * nq;
+    let mut fd = DMatrix::zeros(n2, n2);
+    for c in 0..n2 {
+        let (mut xp, mut xm) = (o.x.clone(), o.x.clone());
+        xp[c] += h;
+        xm[c] -= h;
+        let (yp, ym) = (run(&xp), run(&xm));
+        for i in 0..n2 {
+            fd[(i, c)] = (yp[i] - ym[i]) / (2.0 * h);
+        }
+    }
+    let e = rel(&o.period_monodromy, &fd);
+    eprintln!("period monodromy vs fixed-time central differences {e:e}");
+    assert!(e < 1e-5, "{e:e}\n{}\n{fd}", o.period_monodromy);
+    let f = flow_at(&sim, &o.x);
+    let dpf = (&o.monodromy * &f).amax() / f.amax();
+    let mtf = (&o.period_monodromy * &f - &f).amax() / f.amax();
+    eprintln!("|DP f|/|f| {dpf:e}, |M_T f − f|/|f| {mtf:e}");
+    assert!(dpf < 1e-6 && mtf < 1e-6, "{dpf:e} {mtf:e}");
+}
+
+/// Closed forms of the conservation laws (module docs): `φ̇` conserved, `φ(τ) = φ₀ + φ̇₀ τ`,
+/// nothing depends on `x`: the rows of `φ` and `φ̇` and the column of `x` in `DP`.
+#[test]
+fn hopper_conserved_pitch_rate_gives_exact_unit_multipliers() {
+    let (sim, o) = find();
+    let m = &sim.model;
+    let nq = m.nq();
+    let (phi, phid, x) = (m.ix_phi(), nq + m.ix_phi(), m.ix_x());
+    let n2 = 2 * nq;
+    let e = |k: usize| DVector::from_fn(n2, |i, _| if i == k { 1.0 } else { 0.0 });
+    let row_phi = e(phi) + o.period_s * e(phid);
+    let err_phi = (o.monodromy.row(phi).transpose() - row_phi).amax();
+    let err_phid = (o.monodromy.row(phid).transpose() - e(phid)).amax();
+    let err_x = (o.monodromy.column(x) - e(x)).amax();
+    eprintln!("rows φ {err_phi:e}, φ̇ {err_phid:e}, column x {err_x:e}");
+    assert!(err_phi < 1e-9 && err_phid < 1e-9 && err_x < 1e-9);
+    // the Newton step is the minimum-norm one: the conserved φ̇ leaves one direction free
+    assert_eq!(o.rank_deficiency, 1);
+    assert_eq!(o.drift.len(), 1);
+    // one orbit of a family (the body's tilt φ sets the leg's touchdown angle and so a
+    // horizontal speed): the minimum-norm steps from a level guess end within a few mrad of
+    // level, hopping nearly in place
+    eprintln!("φ* {}, ẋ* {}, drift {:?}", o.x[phi], o.x[nq + x], o.drift);
+    assert!(
+        o.x[phi].abs() < 1e-2 && o.drift[0].abs() < 1e-3,
+        "{:?}",
+        o.drift
+    );
+}
+
+/// The fixed point against one execution of five periods from it: every apex of the run
+/// (recorded on the way) is `x*` again, `T` apart — the return map of a fresh run is the
+/// hop of a long run, the behaviour being autonomous. The largest multiplier 1.25 grows the
+/// residual 1e-9 to ~3e-9 in five periods.
+#[test]
+fn hopper_fixed_point_returns_over_five_periods() {
+    let (sim, o) = find();
+    let nq = sim.model.nq();
+    let e = simulate(
+        &sim.model,
+        &sim.terrain,
+        &*sim.controller,
+        ContactMode::FLIGHT,
+        &o.x[..nq],
+        &o.x[nq..],
+        5.0 * o.period_s + 0.05,
+        opts().hybrid,
+    )
+    .unwrap();
+    let apexes: Vec<_> = e
+        .events
+        .iter()
+        .filter(|e| e.kind == EventKind::Apex)
+        .collect();
+    assert_eq!(
+        apexes.len(),
+        5,
+        "{:?}",
+        e.events.iter().map(|e| e.kind).collect::<Vec<_>>()
+    );
+    let mut worst: f64 = 0.0;
+    for (k, a) in apexes.iter().enumerate() {
+        let dt = a.t - (k as f64 + 1.0) * o.period_s;
+        // x* again, its x advanced by k + 1 strides
+        let mut expected = o.x.clone();
+        expected[o.cyclic[0]] += (k as f64 + 1.0) * o.drift[0];
+        let dx =
+            a.q.iter()
+                .chain(&a.qd_after)
+                .zip(&expected)
+                .enumerate()
+                .filter(|(i, _)| *i != nq + sim.model.ix_z())
+                .map(|(_, (u, v))| (u - v).abs())
+                .fold(0.0, f64::max);
+        worst = worst.max(dx).max(dt.abs());
+    }
+    eprintln!("five periods: worst apex-state / period error {worst:e}");
+    assert!(worst < 1e-7, "{worst:e}");
+}
+
+/// Two searches give bit-identical orbits.
+#[test]
+fn hopper_orbit_is_deterministic() {
+    let (_, a) = find();
+    let (_, b) = find();
+    assert_eq!(a.x, b.x);
+    assert_eq!(a.period_s, b.period_s);
+    assert_eq!(a.monodromy, b.monodromy);
+    assert_eq!(a.multipliers, b.multipliers);
+}
+
+/// Budgets and bad input end with typed errors: one iteration from a guess 10 cm off is not
+/// enough; a state of the wrong length names its field.
+#[test]
+fn hopper_search_errors_are_typed() {
+    use selfmanip_hybrid::periodic::PeriodicError;
+    let g = guess(0.45);
+    let sim = simulation(&g[..5]);
+    let one = PeriodicOptions {
+        max_iterations: 1,
+        ..opts()
+    };
+    match find_periodic_orbit(&sim.model, &sim.terrain, &*sim.controller, &g, &one) {
+        Err(PeriodicError::NotConverged {
+            iterations: 1,
+            residual,
+            best,
+        }) => assert!(residual > 1e-9 && best.len() == 10),
+        other => panic!("{other:?}"),
+    }
+    match find_periodic_orbit(&sim.model, &sim.terrain, &*sim.controller, &g[..9], &opts()) {
+        Err(PeriodicError::InvalidInput { field: "guess", .. }) => {}
+        other => panic!("{other:?}"),
+    }
+    let bad = PeriodicOptions {
+        max_period_s: f64::NAN,
+        ..opts()
+    };
+    match find_periodic_orbit(&sim.model, &sim.terrain, &*sim.controller, &g, &bad) {
+        Err(PeriodicError::InvalidInput {
+            field: "max_period_s",
+            ..
+        }) => {}
+        other => panic!("{other:?}"),
+    }
+    // too short a budget to come back: NoReturn with the run's termination
+    let short = PeriodicOptions {
+        max_period_s: 0.1,
+        ..opts()
+    };
+    match find_periodic_orbit(&sim.model, &sim.terrain, &*sim.controller, &g, &short) {
+        Err(PeriodicError::NoReturn { t, .. }) => assert!((t - 0.1).abs() < 1e-12),
+        other => panic!("{other:?}"),
+    }
+}
+
+/// Central differences of a controller's torque and free-joint accelerations in every state
+/// direction, against its `partials`.
+fn check_partials(
+    ctrl: &dyn Controller,
+    t: f64,
+    y: &[f64],
+    mode: ContactMode,
+    free: &[usize],
+) -> f64 {
+    let nq = y.len() / 2;
+    let n = nq - 3;
+    let mut p = ControllerPartials::zeros(n, nq, free.len());
+    assert!(ctrl.partials(t, &y[..nq], &y[nq..], mode, free, &mut p));
+    let eval = |y: &[f64]| {
+        let mut tau = vec![0.0; n];
+        let mut fr = vec![0.0; free.len()];
+        ctrl.torque(t, &y[..nq], &y[nq..], mode, &mut tau);
+        ctrl.free_joint_qdd(t, &y[..nq], &y[nq..], free, &mut fr);
+        (tau, fr)
+    };
+    let h = 1e-6;
+    let mut worst: f64 = 0.0;
+    for c in 0..2 * nq {
+        let (mut yp, mut ym) = (y.to_vec(), y.to_vec());
+        yp[c] += h;
+        ym[c] -= h;
+        let ((tp, fp), (tm, fm)) = (eval(&yp), eval(&ym));
+        let (dt, df) = if c < nq {
+            (&p.dtau_dq, &p.dfree_dq)
+        } else {
+            (&p.dtau_dqd, &p.dfree_dqd)
+        };
+        let cc = c % nq;
+        for i in 0..n {
+            worst = worst.max(((tp[i] - tm[i]) / (2.0 * h) - dt[(i, cc)]).abs());
+        }
+        for i in 0..free.len() {
+            worst = worst.max(((fp[i] - fm[i]) / (2.0 * h) - df[(i, cc)]).abs());
+        }
+    }
+    worst
+}
+
+/// `BehaviourController::partials` against central differences of `torque` and
+/// `free_joint_qdd`: the knee servo in stance (the controller of the orbit's stance segment),
+/// the free joints' tracking laws in flight; then a servo on its saturated branch and inside
+/// it, a schedule and a constant torque (zero partials).
+#[test]
+fn behaviour_partials_match_finite_differences() {
+    let (sim, o) = find();
+    let nq = sim.model.nq();
+    let rm = return_map(
+        &sim.model,
+        &sim.terrain,
+        &*sim.controller,
+        &o.x,
+        false,
+        &opts(),
+    )
+    .unwrap();
+    let stance = &rm.execution.segments[1];
+    assert!(!stance.mode.is_flight());
+    let mut y = vec![0.0; 2 * nq];
+    stance.eval(0.5 * (stance.t0 + stance.t1), &mut y);
+    let e1 = check_partials(
+        &*stance.controller,
+        0.5 * (stance.t0 + stance.t1),
+        &y,
+        stance.mode,
+        &[],
+    );
+    let flight = &rm.execution.segments[2];
+    flight.eval(0.5 * (flight.t0 + flight.t1), &mut y);
+    let e2 = check_partials(
+        &*flight.controller,
+        0.5 * (flight.t0 + flight.t1),
+        &y,
+        flight.mode,
+        &[0, 1],
+    );
+    eprintln!("partials vs central differences: stance {e1:e}, flight {e2:e}");
+    assert!(e1 < 1e-6 && e2 < 1e-6, "{e1:e} {e2:e}");
+    // a saturating servo, a schedule, a constant
+    let text = r#"
+        [[joints]]
+        joint = "leg[0]"
+        [[joints.phases]]
+        name = "servo"
+        torque = { kind = "servo", target_rad = 0.2, kp_n_m_per_rad = 10.0, kd_n_m_s_per_rad = 0.5, torque_limit_n_m = 1.0 }
+        motion = { kind = "hold", angle_rad = 0.0 }
+        [[joints]]
+        joint = "leg[1]"
+        [[joints.phases]]
+        name = "sched"
+        torque = { kind = "schedule", times_s = [0.0, 1.0], torques_n_m = [0.0, 2.0] }
+        [[joints.phases]]
+        name = "const"
+        start = { at_s = 0.5 }
+        torque = { kind = "constant", torque_n_m = 0.7 }
+    "#;
+    let b = Behaviour::from_toml_str(text).unwrap();
+    let q0 = guess(0.5);
+    let ctrl = selfmanip_sim::behaviour::compile(&b, &sim.model, &q0[..5], &[0.0; 5], 1.0).unwrap();
+    let stance_mode = ContactMode::FLIGHT.with(0, selfmanip_core::ContactKind::Stick);
+    for (t, hip, saturated) in [(0.2, 0.25, false), (0.7, 0.5, true), (0.2, -0.3, true)] {
+        let mut y = q0.clone();
+        y[0] = hip;
+        y[5] = 0.1;
+        let mut p = ControllerPartials::zeros(2, nq, 0);
+        assert!(ctrl.partials(t, &y[..nq], &y[nq..], stance_mode, &[], &mut p));
+        assert_eq!(p.dtau_dq[(0, 0)] == 0.0, saturated, "hip {hip}");
+        let e = check_partials(&ctrl, t, &y, stance_mode, &[]);
+        assert!(e < 1e-6, "t {t}, hip {hip}: {e:e}");
+    }
+}
