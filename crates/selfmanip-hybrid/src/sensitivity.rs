@@ -503,7 +503,10 @@ pub fn execution_sensitivity(
     {
         defined = false;
     }
-    let ends_cleanly = matches!(exec.termination, Termination::FinalTime | Termination::Apex);
+    let ends_cleanly = matches!(
+        exec.termination,
+        Termination::FinalTime | Termination::Apex
+    );
     if defined && ends_cleanly {
         out.state_jacobian = Some(total);
     }

@@ -205,3 +205,4 @@ pub fn outcome(
         impact_loss_j: exec.impact_losses().iter().sum(),
     }
 }
+
