@@ -30,7 +30,7 @@ from . import analysis
 from . import distributed, plots
 from .leap import DEFAULT, LeapResult
 from . import simulation
-from .simulation import EnergyReport, Execution, SimTrajectory, simulate, sweep
+from .simulation import EnergyReport, Execution, PeriodicOrbit, SimTrajectory, periodic_orbit, simulate, sweep
 
 if TYPE_CHECKING:
     from .leap import leap as leap
@@ -55,6 +55,7 @@ __all__ = [
     "Kinematics",
     "KktBlocks",
     "LeapResult",
+    "PeriodicOrbit",
     "PointJacobian",
     "QuasiStatic",
     "Robot",
@@ -66,6 +67,7 @@ __all__ = [
     "errors",
     "leap",
     "motor",
+    "periodic_orbit",
     "plots",
     "rhex",
     "simulate",

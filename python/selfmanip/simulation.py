@@ -11,6 +11,13 @@ your own (issue 17), through the Rust crate ``selfmanip-sim``.
   ``legs.leg.links[1].length_m``) on a pool of threads → DataFrame-ready columns with a status
   and an error per point. Called with a strategy (``selfmanip.sweep("++", t2=...)``) or with
   no robot, it is the RHex leap sweep of :mod:`selfmanip.leap`, unchanged.
+* :func:`periodic_orbit` — the periodic orbit of a gait through the apex section, found by
+  Newton shooting on the engine's own derivatives: fixed point, period, monodromy matrix,
+  Floquet multipliers and a stability verdict (``docs/periodic-orbits.md``).
+* ``simulate(..., sensitivity=True)``: the execution's state Jacobian ``dx(t_end)/dx(0)``
+  (``Execution.state_jacobian``) and each event's saltation matrix
+  (``execution.events[i]["saltation"]``, ``None`` with ``"saltation_reason"`` where the
+  engine flags it).
 * A Python callable as controller, ``controller=lambda t, q, qd, mode: tau``: the slow escape
   hatch. Each evaluation takes the GIL and crosses the FFI (seven per integration step), so a
   run is one to two orders of magnitude slower than the same law as a behaviour file; the
@@ -48,7 +55,7 @@ if TYPE_CHECKING:
     import matplotlib.figure
 
 __all__ = ["Execution", "EnergyReport", "SimTrajectory", "simulate", "sweep", "simulation_sweep", "scenario",
-           "defaults", "settable_names", "COMPLETE_STATUSES", "failure_summary"]
+           "defaults", "settable_names", "COMPLETE_STATUSES", "failure_summary", "PeriodicOrbit", "periodic_orbit"]
 
 #: Statuses of a run that reached its end (the final time, or the apex it was asked to stop
 #: at); every other status is the engine stopping it (Zeno, a budget, no contact solution, …)
@@ -116,12 +123,31 @@ class Execution:
     impulse into ``mode_after`` in N s), ``segments`` (dicts ``t0_s``, ``t1_s``, ``mode``),
     ``outcome`` (apex, landing, end state, flight time, impact losses)."""
 
-    def __init__(self, native: Any, robot_name: str = ""):
+    def __init__(self, native: Any, robot_name: str = "", sensitivity: bool = False):
         self._native = native
         self.robot_name = robot_name
         self.outcome: dict[str, Any] = dict(native.outcome())
         self.events: list[dict[str, Any]] = list(native.events())
         self.segments: list[dict[str, Any]] = list(native.segments())
+        #: ``dx(t_end)/dx(0)`` over the state ``(q, qd)`` (``2 nq x 2 nq``) when run with
+        #: ``sensitivity=True`` and every event's saltation matrix is defined; else ``None``.
+        self.state_jacobian: np.ndarray | None = None
+        if sensitivity:
+            self._attach_sensitivity(native.sensitivity())
+
+    def _attach_sensitivity(self, s: Mapping[str, Any]) -> None:
+        """Each event gets ``saltation`` (``2 nq x 2 nq`` or ``None``), ``saltation_status``
+        (``defined``, ``grazing``, ``simultaneous``, ``unsupported``), ``saltation_reason``
+        and ``time_gradient`` (``dt_event/dx(0)``)."""
+        self.state_jacobian = s["state_jacobian"]
+        sens = list(s["events"])
+        for ev in self.events:
+            match = next((e for e in sens if e["t_s"] == ev["t_s"] and e["kind"] == ev["kind"]), None)
+            ev["saltation"] = None if match is None else match["saltation"]
+            ev["saltation_status"] = "unsupported" if match is None else match["status"]
+            ev["saltation_reason"] = ("no sensitivity was formed for this event" if match is None
+                                      else match["reason"])
+            ev["time_gradient"] = None if match is None else match["time_gradient"]
 
     @property
     def status(self) -> str:
@@ -278,7 +304,7 @@ def simulate(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[float], qd
              terrain: TerrainLike = None, t_final: float | _Default = DEFAULT, stop_at: str | None | _Default = DEFAULT,
              *, controller: Controller | None = None, contacts: Sequence[str] | str | None = None,
              solve: Sequence[str] | str | None = None, params: Mapping[str, Any] | None = None,
-             **options: Any) -> Execution:
+             sensitivity: bool = False, **options: Any) -> Execution:
     """One execution of ``robot`` driven by ``behaviour`` from ``q0`` (``[joint angles..., x, z,
     phi]``, NED: z down) and ``qd0`` (default: at rest), on ``terrain`` (``None``: flat ground;
     ``"flat"``, or a dict such as ``{"kind": "ledge", "height_m": 0.04, "distance_m": 0.5}``;
@@ -299,12 +325,122 @@ def simulate(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[float], qd
     :class:`~selfmanip.errors.InvalidTypeError` (a ``TypeError``) whose ``field`` names it
     (``behaviour.joints[0].joint``, ``initial.q``, ``options.rtol``); a missing file
     ``FileNotFoundError``.
+
+    ``sensitivity=True`` also computes the execution's derivatives to its initial state (the
+    engine's variational equations and saltation matrices, ``docs/periodic-orbits.md``):
+    ``Execution.state_jacobian`` and, on every event, ``saltation`` (an ``(n, n)`` array over
+    ``(q, qd)``, ``None`` where undefined), ``saltation_status``, ``saltation_reason`` and
+    ``time_gradient``. A behaviour with a ``motor`` torque or a ``joint_angle`` level has no
+    partial derivatives yet: :class:`~selfmanip.errors.InvalidInputError` naming
+    ``behaviour``; so does a Python ``controller``.
     """
     if controller is not None and behaviour is not None:
         raise InvalidInputError("give a behaviour or a controller, not both", "controller")
+    if not isinstance(sensitivity, bool):
+        raise InvalidTypeError(f"`sensitivity` must be True or False, got {type(sensitivity).__name__}",
+                               "sensitivity")
     s = scenario(robot, behaviour, q0, qd0, terrain, t_final, stop_at, contacts=contacts, solve=solve,
                  params=params, **options)
-    return Execution(s.run(controller), _robot(robot)[1])
+    return Execution(s.run(controller), _robot(robot)[1], sensitivity)
+
+
+@dataclass(frozen=True)
+class PeriodicOrbit:
+    """A periodic orbit through the apex section (:func:`periodic_orbit`).
+
+    ``x`` the fixed point ``(q, qd)`` at the apex (``qd`` of ``z`` zero), ``state_names`` its
+    coordinates; ``period_s``; ``cyclic`` the coordinates left free (default ``["x"]``) and
+    their ``drift`` per period (a stride); ``events`` of one period (``kind``, ``mode_after``;
+    the apex last); ``monodromy`` the Jacobian ``DP`` of the apex-to-apex map over the whole
+    state, whose ``multipliers`` include a trivial 0 (the section's direction: the flow);
+    ``period_monodromy`` the Jacobian of the time-``T`` flow map, ``DP - f grad(tau)``, whose
+    multipliers are the same with a trivial 1 instead; ``section_coordinates`` (every state
+    coordinate but ``z_dot`` and the cyclic ones), ``section_jacobian`` and
+    ``section_multipliers`` (the nontrivial ones, by decreasing modulus); ``stability``
+    (``stable``: all inside the unit circle; ``unstable``: one outside; ``neutral``: the
+    largest on it); ``iterations``, ``residual`` (``|P(x) - x|`` at the end),
+    ``rank_deficiency`` (directions along which the orbit is one of a family, e.g. a
+    conserved momentum)."""
+
+    x: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    state_names: list[str]
+    period_s: float
+    cyclic: list[str]
+    drift: np.ndarray
+    events: list[dict[str, str]]
+    monodromy: np.ndarray
+    period_monodromy: np.ndarray
+    multipliers: np.ndarray
+    section_coordinates: list[str]
+    section_jacobian: np.ndarray
+    section_multipliers: np.ndarray
+    stability: str
+    iterations: int
+    residual: float
+    rank_deficiency: int
+
+    @property
+    def stable(self) -> bool:
+        return self.stability == "stable"
+
+
+_PERIODIC_REALS = ("tol", "rank_rtol", "unit_circle_tol", "max_period_s", "rtol", "atol", "event_tol_s",
+                   "delta_t_s")
+_PERIODIC_INTS = ("max_iterations", "max_halvings")
+
+
+def periodic_orbit(robot: RobotLike, behaviour: BehaviourLike, guess_q0: Sequence[float],
+                   guess_qd0: Sequence[float] | None = None, section: str = "apex", terrain: TerrainLike = None,
+                   *, cyclic: Sequence[str] | str | None | _Default = DEFAULT,
+                   params: Mapping[str, Any] | None = None, **options: Any) -> PeriodicOrbit:
+    """The periodic orbit of ``robot`` under ``behaviour`` through the apex section (the body's
+    centre stops rising in flight), near the guess ``(guess_q0, guess_qd0)`` (in flight; its
+    ``z`` rate is ignored: the section fixes it), found by damped Newton shooting on the
+    engine's derivatives of the apex-to-apex return map (``docs/periodic-orbits.md``).
+
+    ``section``: only ``"apex"`` for now. ``cyclic``: coordinates the dynamics do not depend
+    on, left out of the fixed-point condition (default ``["x"]``, right on flat ground; ``[]``
+    on a terrain that changes along ``x``). ``params``: values set by name first (as in
+    :func:`simulate`). ``**options``: ``tol`` (``|P(x) - x|`` at convergence, SI units),
+    ``max_iterations``, ``max_halvings`` (line-search halvings per iteration), ``rank_rtol``,
+    ``unit_circle_tol``, ``max_period_s`` (a return run longer than this fails), ``rtol``,
+    ``atol``, ``event_tol_s``, ``delta_t_s``; every one left out keeps the Rust default.
+
+    The behaviour must be autonomous (laws of the state and of the phase its contact events
+    select: no ``at_s`` or ``delay_s`` clocks, no motion from ``theta`` or ``q0``), or the
+    map of one hop is not that of the next; and it must have partial derivatives (no
+    ``motor`` torque, no ``joint_angle`` level).
+
+    Bad input raises :class:`~selfmanip.errors.InvalidInputError` /
+    :class:`~selfmanip.errors.InvalidTypeError` naming the field; a search that does not
+    converge, or a run that does not come back to the section, raises
+    :class:`~selfmanip.errors.EngineError` with the reason.
+    """
+    if section != "apex":
+        raise InvalidInputError(f"`section`: only \"apex\" is supported, got {section!r}", "section")
+    opts: dict[str, Any] = {}
+    for k, v in options.items():
+        if k in _PERIODIC_REALS:
+            opts[k] = _checks.real(k, v)
+        elif k in _PERIODIC_INTS:
+            opts[k] = _checks.integer(k, v, 0)
+        else:
+            raise InvalidInputError(f"unknown option `{k}` (options: {', '.join(_PERIODIC_REALS + _PERIODIC_INTS)})",
+                                    k)
+    if cyclic is not DEFAULT:
+        opts["cyclic"] = _names("cyclic", cyclic) or []
+    s = scenario(robot, behaviour, guess_q0, guess_qd0, terrain, params=params)
+    d = s.periodic_orbit(opts)
+    return PeriodicOrbit(
+        x=d["x"], q=d["q"], qd=d["qd"], state_names=list(d["state_names"]), period_s=float(d["period_s"]),
+        cyclic=list(d["cyclic"]), drift=d["drift"], events=[dict(e) for e in d["events"]],
+        monodromy=d["monodromy"], period_monodromy=d["period_monodromy"], multipliers=d["multipliers"],
+        section_coordinates=list(d["section_coordinates"]), section_jacobian=d["section_jacobian"],
+        section_multipliers=d["section_multipliers"], stability=str(d["stability"]),
+        iterations=int(d["iterations"]), residual=float(d["residual"]),
+        rank_deficiency=int(d["rank_deficiency"]))
 
 
 def settable_names(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[float], **kwargs: Any) -> list[str]:

@@ -18,17 +18,27 @@
 //! entry, is stored, raises the stop flag (the run ends within one step) and is re-raised as a
 //! typed error (`ControllerError` with the original as its cause, or `InvalidInputError` /
 //! `InvalidTypeError` naming `controller`): never a panic across the FFI.
+//!
+//! **Sensitivities and periodic orbits** ([`PyRun::sensitivity`],
+//! [`PyScenario::periodic_orbit`]) convert `selfmanip_hybrid::sensitivity` and
+//! `selfmanip_sim::periodic` results: matrices as 2-D numpy arrays, multipliers as complex
+//! arrays, a saltation matrix `None` with the reason where the engine flags it.
 use crate::convert::{pairs_array, rows_array, to_map, to_py, to_value};
 use crate::errors::{self, guard, invalid, invalid_type, Source};
 use crate::interrupt::{self, Shared};
+use nalgebra::DMatrix;
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyDict, PyList, PyString, PyType};
 use selfmanip_core::{ContactMode, RobotDescription};
+use selfmanip_hybrid::periodic::{PeriodicError, Stability};
+use selfmanip_hybrid::sensitivity::{execution_sensitivity, SaltationStatus, SensitivityError};
 use selfmanip_hybrid::Controller;
 use selfmanip_sim::behaviour::Behaviour;
+use selfmanip_sim::events::event_kind_name;
 use selfmanip_sim::labels::ContactLabels;
+use selfmanip_sim::periodic::{periodic_orbit, PeriodicRunError, PeriodicSpec};
 use selfmanip_sim::sweep::{grid, sweep_with, PointResult};
 use selfmanip_sim::trajectory::{q_names, DEFAULT_DT_S};
 use selfmanip_sim::{InitialState, Scenario, SimError, SimOptions, Simulation, TerrainSpec};
@@ -257,6 +267,89 @@ impl PyScenario {
                 inner: run.map_err(engine_err)?,
                 failure,
             })
+        })
+    }
+
+    /// The periodic orbit through the apex section near this scenario's initial state (the
+    /// guess), found by Newton shooting (`selfmanip_sim::periodic`); `options`: fields of
+    /// `PeriodicSpec` (`tol`, `max_iterations`, `cyclic`, `rtol`, …). Returns a dict (see
+    /// `selfmanip.periodic_orbit`).
+    #[pyo3(signature = (options=None))]
+    fn periodic_orbit<'py>(
+        &self,
+        py: Python<'py>,
+        options: Option<&Bound<'py, PyDict>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        guard(|| {
+            let spec: PeriodicSpec = match options {
+                None => PeriodicSpec::default(),
+                Some(o) => spec_of(o)?,
+            };
+            let scenario = self.inner.clone();
+            let found = py.detach(move || periodic_orbit(&scenario, &spec));
+            let (sim, o) = found.map_err(periodic_err)?;
+            let names = q_names(&sim.model);
+            let state_names: Vec<String> = names
+                .iter()
+                .cloned()
+                .chain(names.iter().map(|n| format!("{n}_dot")))
+                .collect();
+            let nq = sim.model.nq();
+            let d = PyDict::new(py);
+            d.set_item("x", o.x.clone().into_pyarray(py))?;
+            d.set_item("q", o.x[..nq].to_vec().into_pyarray(py))?;
+            d.set_item("qd", o.x[nq..].to_vec().into_pyarray(py))?;
+            d.set_item("state_names", state_names.clone())?;
+            d.set_item("period_s", o.period_s)?;
+            d.set_item(
+                "cyclic",
+                o.cyclic
+                    .iter()
+                    .map(|&c| names[c].clone())
+                    .collect::<Vec<_>>(),
+            )?;
+            d.set_item("drift", o.drift.clone().into_pyarray(py))?;
+            let events = PyList::empty(py);
+            for (kind, mode) in &o.events {
+                let e = PyDict::new(py);
+                e.set_item("kind", event_kind_name(*kind))?;
+                e.set_item("mode_after", sim.labels.label(*mode))?;
+                events.append(e)?;
+            }
+            d.set_item("events", events)?;
+            d.set_item("monodromy", matrix(&o.monodromy).into_pyarray(py))?;
+            d.set_item(
+                "period_monodromy",
+                matrix(&o.period_monodromy).into_pyarray(py),
+            )?;
+            d.set_item("multipliers", o.multipliers.clone().into_pyarray(py))?;
+            d.set_item(
+                "section_coordinates",
+                o.section_coordinates
+                    .iter()
+                    .map(|&i| state_names[i].clone())
+                    .collect::<Vec<_>>(),
+            )?;
+            d.set_item(
+                "section_jacobian",
+                matrix(&o.section_jacobian).into_pyarray(py),
+            )?;
+            d.set_item(
+                "section_multipliers",
+                o.section_multipliers.clone().into_pyarray(py),
+            )?;
+            d.set_item(
+                "stability",
+                match o.stability {
+                    Stability::Stable => "stable",
+                    Stability::Neutral => "neutral",
+                    Stability::Unstable => "unstable",
+                },
+            )?;
+            d.set_item("iterations", o.iterations)?;
+            d.set_item("residual", o.residual)?;
+            d.set_item("rank_deficiency", o.rank_deficiency)?;
+            Ok(d)
         })
     }
 
@@ -604,6 +697,61 @@ impl PyRun {
         })
     }
 
+    /// The execution's sensitivities to its initial state
+    /// (`selfmanip_hybrid::sensitivity::execution_sensitivity`): `state_jacobian` (`2nq × 2nq`
+    /// numpy array, `None` where some event's saltation is not defined) and `events`, one dict
+    /// per event of the run in order: `t_s`, `kind`, `status` (`defined`, `grazing`,
+    /// `simultaneous`, `unsupported`), `reason` (`None` when defined), `saltation` (`2nq × 2nq`
+    /// or `None`), `time_gradient` (`dt_e/dx(0)`, or `None`).
+    fn sensitivity<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        guard(|| {
+            let run = &self.inner;
+            let s = py
+                .detach(|| execution_sensitivity(&run.model, &run.terrain, &run.execution))
+                .map_err(sensitivity_err)?;
+            take_failure(&self.failure)?;
+            let d = PyDict::new(py);
+            match &s.state_jacobian {
+                Some(j) => d.set_item("state_jacobian", matrix(j).into_pyarray(py))?,
+                None => d.set_item("state_jacobian", py.None())?,
+            }
+            let events = PyList::empty(py);
+            for e in &s.events {
+                let ed = PyDict::new(py);
+                ed.set_item("t_s", e.t)?;
+                ed.set_item("kind", event_kind_name(e.kind))?;
+                let (status, reason) = match &e.status {
+                    SaltationStatus::Defined => ("defined", None),
+                    SaltationStatus::Grazing { transversality } => (
+                        "grazing",
+                        Some(format!("the flow meets the guard tangentially (|D_xg f| / (|D_xg| |f|) = {transversality:e})")),
+                    ),
+                    SaltationStatus::Simultaneous => (
+                        "simultaneous",
+                        Some("several guards at once, or a mode held for zero time".to_string()),
+                    ),
+                    SaltationStatus::Unsupported { reason } => ("unsupported", Some(reason.clone())),
+                };
+                ed.set_item("status", status)?;
+                ed.set_item("reason", reason)?;
+                match &e.saltation {
+                    Some(x) => ed.set_item("saltation", matrix(x).into_pyarray(py))?,
+                    None => ed.set_item("saltation", py.None())?,
+                }
+                match &e.time_gradient {
+                    Some(g) => ed.set_item(
+                        "time_gradient",
+                        g.iter().copied().collect::<Vec<f64>>().into_pyarray(py),
+                    )?,
+                    None => ed.set_item("time_gradient", py.None())?,
+                }
+                events.append(ed)?;
+            }
+            d.set_item("events", events)?;
+            Ok(d)
+        })
+    }
+
     /// `E₁ − E₀ = W − L`: `initial_j`, `final_j`, `joint_work_j`, `impact_loss_j`,
     /// `residual_j`.
     fn energy_report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
@@ -641,5 +789,56 @@ impl PyRun {
                 e => engine_err(e),
             })
         })
+    }
+}
+
+/// A matrix as a 2-D array.
+fn matrix(m: &DMatrix<f64>) -> numpy::ndarray::Array2<f64> {
+    numpy::ndarray::Array2::from_shape_fn((m.nrows(), m.ncols()), |(i, j)| m[(i, j)])
+}
+
+/// The periodic-orbit options; an unknown or mistyped field names itself.
+fn spec_of(o: &Bound<'_, PyDict>) -> PyResult<PeriodicSpec> {
+    let map = to_map(o, "options")?;
+    serde_json::from_value(Value::Object(map.clone())).map_err(|e| {
+        let culprit = map.iter().find_map(|(k, v)| {
+            let one = serde_json::json!({ k.as_str(): v });
+            serde_json::from_value::<PeriodicSpec>(one)
+                .err()
+                .map(|e| (k, e))
+        });
+        match culprit {
+            Some((k, e1)) => invalid(k, format!("`{k}`: {e1}")),
+            None => invalid("options", format!("options: {e}")),
+        }
+    })
+}
+
+/// A sensitivity error: a controller without partial derivatives is the caller's behaviour
+/// (`InvalidInputError` naming `behaviour`); the engine's own failures are `EngineError`.
+fn sensitivity_err(e: SensitivityError) -> PyErr {
+    match e {
+        SensitivityError::Hybrid(h) => errors::map_hybrid(&h, Source::Engine).into_pyerr(),
+        SensitivityError::ControllerWithoutPartials { .. } => invalid(
+            "behaviour",
+            format!("{e} (motor torques and joint-angle levels have none yet)"),
+        ),
+        e => errors::engine(e.to_string()),
+    }
+}
+
+/// A periodic-orbit error: bad input names its field; a search that does not converge, a
+/// run that does not return, a map without a Jacobian are `EngineError`s with the reason.
+fn periodic_err(e: PeriodicRunError) -> PyErr {
+    match e {
+        PeriodicRunError::Sim(s) => caller_err(s),
+        PeriodicRunError::Periodic(p) => match p {
+            PeriodicError::InvalidInput { field, reason } => {
+                invalid(field, format!("`{field}`: {reason}"))
+            }
+            PeriodicError::Hybrid(h) => errors::map_hybrid(&h, Source::Caller).into_pyerr(),
+            PeriodicError::Sensitivity(s) => sensitivity_err(s),
+            other => errors::engine(other.to_string()),
+        },
     }
 }

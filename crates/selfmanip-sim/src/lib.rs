@@ -16,6 +16,7 @@
 //! | [`events`] | the events of an execution in those names |
 //! | [`trajectory`] | samples of an execution from its own dense output |
 //! | [`mcap`] | MCAP logs that open in Foxglove: a frame per body and link, contacts, forces, modes, events |
+//! | [`periodic`] | periodic orbits of a scenario: Newton shooting on the apex section, Floquet multipliers |
 //! | [`sweep`] | batched runs on an explicit pool: deterministic, per-point status |
 //! | [`analysis`] | section 4.3's analyses for any `Model`: free motions, contact poses, standing, legs as tails |
 //! | [`error`] | the crate's typed errors |
@@ -29,6 +30,7 @@ pub mod mcap;
 pub mod motion;
 pub mod outcome;
 pub mod path;
+pub mod periodic;
 pub mod scenario;
 pub mod sweep;
 pub mod terrain;

@@ -1,0 +1,114 @@
+//! Periodic orbits of a scenario: [`selfmanip_hybrid::periodic`] run with the scenario's
+//! robot, terrain and behaviour, its initial state the guess, and the search's options by
+//! name ([`PeriodicSpec`], what `selfmanip.periodic_orbit` forwards).
+//!
+//! ```text
+//! Scenario (guess = initial q, q̇; behaviour compiled there) + PeriodicSpec
+//!   => Simulation::new => find_periodic_orbit(model, terrain, behaviour, guess, options)
+//! ```
+use crate::error::{invalid, non_negative, positive, SimError};
+use crate::scenario::{Scenario, Simulation};
+use crate::trajectory::q_names;
+use selfmanip_core::Model;
+use selfmanip_hybrid::periodic::{
+    find_periodic_orbit, PeriodicError, PeriodicOptions, PeriodicOrbit,
+};
+use serde::{Deserialize, Serialize};
+
+/// The options of a periodic-orbit search by name; every field absent keeps
+/// [`PeriodicOptions::default`]'s value.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(default, deny_unknown_fields)]
+pub struct PeriodicSpec {
+    /// `|P(x) − x|∞` at convergence.
+    pub tol: Option<f64>,
+    pub max_iterations: Option<usize>,
+    pub max_halvings: Option<usize>,
+    pub rank_rtol: Option<f64>,
+    pub unit_circle_tol: Option<f64>,
+    /// A return run longer than this fails (s).
+    pub max_period_s: Option<f64>,
+    /// Cyclic coordinates by name (`x`, `phi`, `leg[0]_theta`…; default `["x"]`).
+    pub cyclic: Option<Vec<String>>,
+    /// Integration and event tolerances of the return runs.
+    pub rtol: Option<f64>,
+    pub atol: Option<f64>,
+    pub event_tol_s: Option<f64>,
+    /// Pseudo-impulse duration δt of (5.39) (s).
+    pub delta_t_s: Option<f64>,
+}
+
+impl PeriodicSpec {
+    /// The engine's options for `model` (cyclic names resolved; errors name the field).
+    pub fn options(&self, model: &Model) -> Result<PeriodicOptions, SimError> {
+        let mut o = PeriodicOptions::default();
+        macro_rules! set {
+            ($($f:ident),*) => { $( if let Some(v) = self.$f { o.$f = v; } )* };
+        }
+        set!(
+            tol,
+            max_iterations,
+            max_halvings,
+            rank_rtol,
+            unit_circle_tol,
+            max_period_s
+        );
+        if let Some(v) = self.rtol {
+            o.hybrid.step.rtol = positive("rtol", v)?;
+        }
+        if let Some(v) = self.atol {
+            o.hybrid.step.atol = positive("atol", v)?;
+        }
+        if let Some(v) = self.event_tol_s {
+            o.hybrid.event_tol_s = positive("event_tol_s", v)?;
+        }
+        if let Some(v) = self.delta_t_s {
+            o.hybrid.delta_t_s = non_negative("delta_t_s", v)?;
+        }
+        if let Some(names) = &self.cyclic {
+            let all = q_names(model);
+            let mut idx = Vec::new();
+            for (i, n) in names.iter().enumerate() {
+                let k = all.iter().position(|a| a == n).ok_or_else(|| {
+                    invalid(
+                        format!("cyclic[{i}]"),
+                        format!("no coordinate `{n}` (coordinates: {})", all.join(", ")),
+                    )
+                })?;
+                idx.push(k);
+            }
+            o.cyclic = Some(idx);
+        }
+        Ok(o)
+    }
+}
+
+/// Why a scenario's periodic orbit was not found.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PeriodicRunError {
+    /// The scenario or the options (the field is named).
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    #[error(transparent)]
+    Periodic(#[from] PeriodicError),
+}
+
+/// The periodic orbit through the apex section near the scenario's initial state (which must
+/// be in flight: no initial contacts), with the simulation it was searched with.
+pub fn periodic_orbit(
+    scenario: &Scenario,
+    spec: &PeriodicSpec,
+) -> Result<(Simulation, PeriodicOrbit), PeriodicRunError> {
+    if !scenario.initial.contacts.is_empty() {
+        return Err(invalid(
+            "initial.contacts",
+            "the apex section is in flight: the guess has no active contacts",
+        )
+        .into());
+    }
+    let sim = Simulation::new(scenario)?;
+    let opts = spec.options(&sim.model)?;
+    let guess: Vec<f64> = sim.q0.iter().chain(&sim.qd0).copied().collect();
+    let orbit = find_periodic_orbit(&sim.model, &sim.terrain, &*sim.controller, &guess, &opts)?;
+    Ok((sim, orbit))
+}
