@@ -33,12 +33,12 @@ use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyDict, PyList, PyString, PyType};
 use selfmanip_core::{ContactMode, RobotDescription};
 use selfmanip_hybrid::periodic::{PeriodicError, Stability};
-use selfmanip_hybrid::sensitivity::{execution_sensitivity, SaltationStatus, SensitivityError};
+use selfmanip_hybrid::sensitivity::{SaltationStatus, SensitivityError};
 use selfmanip_hybrid::Controller;
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::events::event_kind_name;
 use selfmanip_sim::labels::ContactLabels;
-use selfmanip_sim::periodic::{periodic_orbit, PeriodicRunError, PeriodicSpec};
+use selfmanip_sim::periodic::{periodic_orbit, run_sensitivity, PeriodicRunError, PeriodicSpec};
 use selfmanip_sim::sweep::{grid, sweep_with, PointResult};
 use selfmanip_sim::trajectory::{q_names, DEFAULT_DT_S};
 use selfmanip_sim::{InitialState, Scenario, SimError, SimOptions, Simulation, TerrainSpec};
@@ -698,7 +698,7 @@ impl PyRun {
     }
 
     /// The execution's sensitivities to its initial state
-    /// (`selfmanip_hybrid::sensitivity::execution_sensitivity`): `state_jacobian` (`2nq × 2nq`
+    /// (`selfmanip_sim::periodic::run_sensitivity`): `state_jacobian` (`2nq × 2nq`
     /// numpy array, `None` where some event's saltation is not defined) and `events`, one dict
     /// per event of the run in order: `t_s`, `kind`, `status` (`defined`, `grazing`,
     /// `simultaneous`, `unsupported`), `reason` (`None` when defined), `saltation` (`2nq × 2nq`
@@ -707,7 +707,7 @@ impl PyRun {
         guard(|| {
             let run = &self.inner;
             let s = py
-                .detach(|| execution_sensitivity(&run.model, &run.terrain, &run.execution))
+                .detach(|| run_sensitivity(run))
                 .map_err(sensitivity_err)?;
             take_failure(&self.failure)?;
             let d = PyDict::new(py);

@@ -1,6 +1,7 @@
 //! Periodic orbits of a scenario: [`selfmanip_hybrid::periodic`] run with the scenario's
 //! robot, terrain and behaviour, its initial state the guess, and the search's options by
-//! name ([`PeriodicSpec`], what `selfmanip.periodic_orbit` forwards).
+//! name ([`PeriodicSpec`], what `selfmanip.periodic_orbit` forwards); and the sensitivities
+//! of a scenario's run ([`run_sensitivity`], what `simulate(..., sensitivity=True)` shows).
 //!
 //! ```text
 //! Scenario (guess = initial q, q̇; behaviour compiled there) + PeriodicSpec
@@ -13,6 +14,10 @@ use selfmanip_core::Model;
 use selfmanip_hybrid::periodic::{
     find_periodic_orbit, PeriodicError, PeriodicOptions, PeriodicOrbit,
 };
+use selfmanip_hybrid::sensitivity::{
+    execution_sensitivity, SaltationStatus, Sensitivity, SensitivityError,
+};
+use selfmanip_hybrid::{EventKind, Termination};
 use serde::{Deserialize, Serialize};
 
 /// The options of a periodic-orbit search by name; every field absent keeps
@@ -111,4 +116,30 @@ pub fn periodic_orbit(
     let guess: Vec<f64> = sim.q0.iter().chain(&sim.qd0).copied().collect();
     let orbit = find_periodic_orbit(&sim.model, &sim.terrain, &*sim.controller, &guess, &opts)?;
     Ok((sim, orbit))
+}
+
+/// The sensitivities of a run to its initial state
+/// ([`selfmanip_hybrid::sensitivity::execution_sensitivity`]), with an apex recorded on the
+/// way (a run that does not stop there) flagged [`SaltationStatus::Unsupported`] and the
+/// state Jacobian withheld: the engine salts every apex as a terminal one (`I − f D_xg /
+/// (D_xg f)`, which zeroes `ż`'s row), while the flow goes on unchanged through it (its
+/// saltation is the identity) — a wrong number, not returned.
+pub fn run_sensitivity(run: &crate::Run) -> Result<Sensitivity, SensitivityError> {
+    let exec = &run.execution;
+    let mut s = execution_sensitivity(&run.model, &run.terrain, exec)?;
+    let terminal = exec.termination == Termination::Apex;
+    let n = s.events.len();
+    for (i, e) in s.events.iter_mut().enumerate() {
+        if e.kind == EventKind::Apex && !(terminal && i + 1 == n) {
+            e.status = SaltationStatus::Unsupported {
+                reason: "an apex recorded on the way is salted as a terminal one by the engine \
+                         (docs/periodic-orbits.md, known limits)"
+                    .into(),
+            };
+            e.saltation = None;
+            e.time_gradient = None;
+            s.state_jacobian = None;
+        }
+    }
+    Ok(s)
 }

@@ -457,3 +457,99 @@ fn behaviour_partials_match_finite_differences() {
         assert!(e < 1e-6, "t {t}, hip {hip}: {e:e}");
     }
 }
+
+/// `run_sensitivity` withholds the state Jacobian of a run through an apex recorded on the
+/// way (the engine salts it as terminal: docs/periodic-orbits.md) and keeps it for a run that
+/// stops at the apex, where it equals the return map's Jacobian.
+#[test]
+fn run_sensitivity_flags_an_apex_on_the_way() {
+    use selfmanip_hybrid::sensitivity::SaltationStatus;
+    let (_, o) = find();
+    let mut s = Scenario::new(
+        RobotDescription::from_file(&data("hopper.toml")).unwrap(),
+        o.x[..5].to_vec(),
+    );
+    s.initial.qd = Some(o.x[5..].to_vec());
+    s.behaviour = Behaviour::from_file(&data("hop_periodic.toml")).unwrap();
+    let h = opts().hybrid;
+    (s.options.rtol, s.options.atol, s.options.event_tol_s) =
+        (h.step.rtol, Some(h.step.atol), h.event_tol_s);
+    s.options.t_final_s = o.period_s + 0.1;
+    let run = Simulation::new(&s).unwrap().run().unwrap();
+    let sens = selfmanip_sim::periodic::run_sensitivity(&run).unwrap();
+    let last = sens.events.last().unwrap();
+    assert_eq!(last.kind, EventKind::Apex);
+    assert!(matches!(last.status, SaltationStatus::Unsupported { .. }));
+    assert!(sens.state_jacobian.is_none());
+    s.options.stop_at_apex = true;
+    let run = Simulation::new(&s).unwrap().run().unwrap();
+    let sens = selfmanip_sim::periodic::run_sensitivity(&run).unwrap();
+    let j = sens
+        .state_jacobian
+        .expect("a terminal apex is differentiated");
+    let e = (&j - &o.monodromy).amax();
+    eprintln!("stopped at the apex: state Jacobian vs the orbit's DP {e:e}");
+    assert!(e < 1e-9, "{e:e}");
+}
+
+/// A closed form of the vertical return map. Without the knee's damping (`kd = 0`) the stance
+/// is conservative — body weight and the knee spring `½ kp (k − k*)²`, the massless leg
+/// carrying no energy — the touchdown of a massless leg takes no impulse (no loss), and the
+/// liftoff comes where the spring's force, hence `λ_n`, vanishes: `k = k*` exactly. The hop
+/// from an apex at rest, level, with the leg at rest in its landing pose (`k_land`, held in
+/// the air: it does not move) therefore gains the spring's pre-load,
+/// `m g (h₁ − h₀) = ½ kp (k_land − k*)²`: `h₁ − h₀ = 60 · 0.5² / (2 · 4 · 9.81) = 0.19113 m`,
+/// whatever `h₀`, so `∂z₁/∂z₀ = 1` exactly (a multiplier 1: every height hops, higher each
+/// time). Against the engine's value and Jacobian of the return map.
+#[test]
+fn undamped_hop_gains_the_spring_preload_in_closed_form() {
+    // a point foot: the round foot rolls as the shank turns in stance, which moves the
+    // contact off the line under the hip and lends the hop a little horizontal speed
+    // (measured: the rise 1.8e-7 m short, ∂z₁/∂z₀ = 0.99998)
+    let text = std::fs::read_to_string(data("hopper.toml")).unwrap();
+    let round = r#"shape = { kind = "circle", center_m = [0.0, 0.2], radius_m = 0.02 }"#;
+    assert!(text.contains(round));
+    let text = text.replace(
+        round,
+        r#"shape = { kind = "point", position_m = [0.0, 0.2] }"#,
+    );
+    let robot = RobotDescription::from_toml_str(&text).unwrap();
+    let g = guess(0.45);
+    let mut s = Scenario::new(robot, g[..5].to_vec());
+    s.behaviour = Behaviour::from_file(&data("hop_periodic.toml")).unwrap();
+    s.behaviour
+        .parameters
+        .insert("kd_knee".into(), selfmanip_sim::expr::Scalar::Number(0.0));
+    let sim = Simulation::new(&s).unwrap();
+    let rm = return_map(
+        &sim.model,
+        &sim.terrain,
+        &*sim.controller,
+        &g,
+        true,
+        &opts(),
+    )
+    .unwrap();
+    let kinds: Vec<_> = rm.execution.events.iter().map(|e| e.kind).collect();
+    assert_eq!(
+        kinds,
+        [EventKind::Touchdown, EventKind::Liftoff, EventKind::Apex]
+    );
+    let (m, grav, kp, k_land, k_star) = (4.0, 9.81, 60.0, -1.0, -0.5);
+    let k_td = rm.execution.events[0].q[1];
+    let k_lo = rm.execution.events[1].q[1];
+    assert!((k_td - k_land).abs() < 1e-12, "{k_td}");
+    assert!(
+        (k_lo - k_star).abs() < 1e-9,
+        "liftoff at the spring's rest angle: {k_lo}"
+    );
+    let gain = kp * (k_td - k_star).powi(2) / (2.0 * m * grav);
+    let rise = -(rm.x1[3] - rm.x0[3]);
+    let j = rm.jacobian.as_ref().unwrap();
+    eprintln!(
+        "undamped hop: rise {rise} m vs closed form {gain} m; ∂z₁/∂z₀ = {}",
+        j[(3, 3)]
+    );
+    assert!((rise - gain).abs() < 1e-8, "{rise} vs {gain}");
+    assert!((j[(3, 3)] - 1.0).abs() < 1e-8, "{}", j[(3, 3)]);
+}
