@@ -132,19 +132,23 @@ fn terrain_of(t: Option<&Bound<'_, PyAny>>) -> PyResult<TerrainSpec> {
 /// The options: the fields given over the Rust defaults; an unknown or mistyped field names
 /// itself (`options.<field>`).
 fn options_of(o: Option<&Bound<'_, PyDict>>) -> PyResult<SimOptions> {
-    let Some(o) = o else {
-        return Ok(SimOptions::default());
-    };
+    match o {
+        None => Ok(SimOptions::default()),
+        Some(o) => fields_of(o, "options."),
+    }
+}
+
+/// A struct of optional fields from a dict; an unknown or mistyped field names itself
+/// (`<prefix><field>`).
+fn fields_of<T: serde::de::DeserializeOwned>(o: &Bound<'_, PyDict>, prefix: &str) -> PyResult<T> {
     let map = to_map(o, "options")?;
     serde_json::from_value(Value::Object(map.clone())).map_err(|e| {
         let culprit = map.iter().find_map(|(k, v)| {
             let one = serde_json::json!({ k.as_str(): v });
-            serde_json::from_value::<SimOptions>(one)
-                .err()
-                .map(|e| (k, e))
+            serde_json::from_value::<T>(one).err().map(|e| (k, e))
         });
         match culprit {
-            Some((k, e1)) => invalid(&format!("options.{k}"), format!("`options.{k}`: {e1}")),
+            Some((k, e1)) => invalid(&format!("{prefix}{k}"), format!("`{prefix}{k}`: {e1}")),
             None => invalid("options", format!("options: {e}")),
         }
     })
@@ -283,7 +287,7 @@ impl PyScenario {
         guard(|| {
             let spec: PeriodicSpec = match options {
                 None => PeriodicSpec::default(),
-                Some(o) => spec_of(o)?,
+                Some(o) => fields_of(o, "")?,
             };
             let scenario = self.inner.clone();
             let found = py.detach(move || periodic_orbit(&scenario, &spec));
@@ -795,23 +799,6 @@ impl PyRun {
 /// A matrix as a 2-D array.
 fn matrix(m: &DMatrix<f64>) -> numpy::ndarray::Array2<f64> {
     numpy::ndarray::Array2::from_shape_fn((m.nrows(), m.ncols()), |(i, j)| m[(i, j)])
-}
-
-/// The periodic-orbit options; an unknown or mistyped field names itself.
-fn spec_of(o: &Bound<'_, PyDict>) -> PyResult<PeriodicSpec> {
-    let map = to_map(o, "options")?;
-    serde_json::from_value(Value::Object(map.clone())).map_err(|e| {
-        let culprit = map.iter().find_map(|(k, v)| {
-            let one = serde_json::json!({ k.as_str(): v });
-            serde_json::from_value::<PeriodicSpec>(one)
-                .err()
-                .map(|e| (k, e))
-        });
-        match culprit {
-            Some((k, e1)) => invalid(k, format!("`{k}`: {e1}")),
-            None => invalid("options", format!("options: {e}")),
-        }
-    })
 }
 
 /// A sensitivity error: a controller without partial derivatives is the caller's behaviour

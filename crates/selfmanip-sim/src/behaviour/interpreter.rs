@@ -349,6 +349,28 @@ impl BehaviourController {
             .eval(t)
     }
 
+    /// The unsaturated servo command `−kp (q − θ*) − kd (q̇ − ω*)` of program `p` at `t`: the
+    /// target at rest, or (`None`) the joint's motion `(θ_ref, ω_ref)`.
+    #[inline]
+    fn servo_command(
+        &self,
+        p: usize,
+        t: f64,
+        target: Option<f64>,
+        (kp, kd): (f64, f64),
+        q: f64,
+        qd: f64,
+    ) -> f64 {
+        let (theta, omega) = match target {
+            Some(a) => (a, 0.0),
+            None => {
+                let (th, om, _) = self.reference(p, t);
+                (th, om)
+            }
+        };
+        -kp * (q - theta) - kd * (qd - omega)
+    }
+
     /// When phase `j` of program `p`, armed at `armed`, starts without waiting for an event
     /// of the execution: at a time, after a named event that has happened, or after another
     /// phase's start that is known; `None` if it has to wait for an event.
@@ -463,14 +485,8 @@ impl Controller for BehaviourController {
                     if *only_in_contact && mode.normal_bits() & prog.contacts == 0 {
                         0.0
                     } else {
-                        let (theta, omega) = match target {
-                            Some(a) => (*a, 0.0),
-                            None => {
-                                let (th, om, _) = self.reference(p, t);
-                                (th, om)
-                            }
-                        };
-                        (-kp * (q[j] - theta) - kd * (qd[j] - omega)).clamp(-limit, *limit)
+                        let u = self.servo_command(p, t, *target, (*kp, *kd), q[j], qd[j]);
+                        u.clamp(-limit, *limit)
                     }
                 }
                 TorqueLaw::Motor {
@@ -540,14 +556,7 @@ impl Controller for BehaviourController {
                     if *only_in_contact && mode.normal_bits() & prog.contacts == 0 {
                         continue;
                     }
-                    let (theta, omega) = match target {
-                        Some(a) => (*a, 0.0),
-                        None => {
-                            let (th, om, _) = self.reference(p, t);
-                            (th, om)
-                        }
-                    };
-                    let u = -kp * (q[j] - theta) - kd * (qd[j] - omega);
+                    let u = self.servo_command(p, t, *target, (*kp, *kd), q[j], qd[j]);
                     if u.abs() < *limit {
                         out.dtau_dq[(j, j)] = -kp;
                         out.dtau_dqd[(j, j)] = -kd;
