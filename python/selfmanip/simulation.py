@@ -388,7 +388,7 @@ class PeriodicOrbit:
 
 _PERIODIC_REALS = ("tol", "rank_rtol", "unit_circle_tol", "max_period_s", "rtol", "atol", "event_tol_s",
                    "delta_t_s")
-_PERIODIC_INTS = ("max_iterations", "max_halvings")
+_PERIODIC_INTS = ("max_iterations", "max_halvings", "max_runs")
 
 
 def periodic_orbit(robot: RobotLike, behaviour: BehaviourLike, guess_q0: Sequence[float],
@@ -404,7 +404,8 @@ def periodic_orbit(robot: RobotLike, behaviour: BehaviourLike, guess_q0: Sequenc
     on, left out of the fixed-point condition (default ``["x"]``, right on flat ground; ``[]``
     on a terrain that changes along ``x``). ``params``: values set by name first (as in
     :func:`simulate`). ``**options``: ``tol`` (``|P(x) - x|`` at convergence, SI units),
-    ``max_iterations``, ``max_halvings`` (line-search halvings per iteration), ``rank_rtol``,
+    ``max_iterations``, ``max_halvings`` (line-search halvings per iteration), ``max_runs``
+    (return runs of the whole search: what bounds its cost), ``rank_rtol``,
     ``unit_circle_tol``, ``max_period_s`` (a return run longer than this fails), ``rtol``,
     ``atol``, ``event_tol_s``, ``delta_t_s``; every one left out keeps the Rust default.
 

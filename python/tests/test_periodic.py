@@ -201,6 +201,11 @@ def test_bad_input_names_the_field() -> None:
     # the iteration budget: a typed engine error, not a hang
     with pytest.raises(EngineError, match="did not converge"):
         selfmanip.periodic_orbit(HOPPER, HOP, GUESS, max_iterations=1)
+    with pytest.raises(EngineError, match="return runs"):
+        selfmanip.periodic_orbit(HOPPER, HOP, GUESS, max_runs=2)
+    with pytest.raises(InvalidInputError) as ei:
+        selfmanip.periodic_orbit(HOPPER, HOP, GUESS, max_runs=0)
+    assert ei.value.field == "max_runs"
 
 
 def test_sensitivity_of_a_motor_behaviour_is_refused() -> None:

@@ -28,9 +28,10 @@
 //!
 //! **Newton.** `u ← u + λ δ`, `δ = −(∂r/∂u)⁺ r`, `λ` halved from 1 until `|r|∞` decreases
 //! (at most [`PeriodicOptions::max_halvings`] times; a trial run that does not return counts
-//! as no decrease), at most [`PeriodicOptions::max_iterations`] iterations. Every run is
-//! bounded by the engine's budgets and [`PeriodicOptions::max_period_s`]; what does not
-//! converge ends with a typed [`PeriodicError`].
+//! as no decrease), at most [`PeriodicOptions::max_iterations`] iterations and
+//! [`PeriodicOptions::max_runs`] return runs in all. Every run is bounded by the engine's
+//! budgets and [`PeriodicOptions::max_period_s`]; what does not converge ends with a typed
+//! [`PeriodicError`].
 //!
 //! **Monodromy.** At the fixed point `x*`, [`PeriodicOrbit::monodromy`] is `DP` (multipliers
 //! `{0} ∪ λ_Σ`), and [`PeriodicOrbit::period_monodromy`] the Jacobian of the time-`T` flow
@@ -73,6 +74,9 @@ pub struct PeriodicOptions {
     pub max_iterations: usize,
     /// Step halvings of the line search per iteration.
     pub max_halvings: usize,
+    /// Return runs of the whole search (each a simulation, the Jacobian's with its
+    /// sensitivities): what bounds its cost.
+    pub max_runs: usize,
     /// Singular values of `∂r/∂u` below this fraction of the largest are dropped.
     pub rank_rtol: f64,
     /// Multipliers within this distance of the unit circle count as neutral.
@@ -98,6 +102,7 @@ impl Default for PeriodicOptions {
             tol: 1e-9,
             max_iterations: 30,
             max_halvings: 12,
+            max_runs: 100,
             rank_rtol: 1e-8,
             unit_circle_tol: 1e-6,
         }
@@ -130,6 +135,13 @@ pub enum PeriodicError {
         iterations: usize,
         residual: f64,
         /// The best state found (on the section).
+        best: Vec<f64>,
+    },
+    /// The search used [`PeriodicOptions::max_runs`] return runs.
+    #[error("the search used its {runs} return runs (residual {residual:e})")]
+    RunBudget {
+        runs: usize,
+        residual: f64,
         best: Vec<f64>,
     },
     /// No step along the Newton direction decreased the residual.
@@ -267,6 +279,9 @@ fn check_options(model: &Model, opts: &PeriodicOptions) -> Result<Vec<usize>, Pe
     if opts.max_iterations == 0 {
         return Err(bad("max_iterations", "must be at least 1"));
     }
+    if opts.max_runs == 0 {
+        return Err(bad("max_runs", "must be at least 1"));
+    }
     opts.hybrid.validate(opts.max_period_s)?;
     let cyclic = opts.cyclic.clone().unwrap_or_else(|| vec![model.ix_x()]);
     for &c in &cyclic {
@@ -383,6 +398,7 @@ pub fn find_periodic_orbit(
     let mut x = guess.to_vec();
     x[model.nq() + model.ix_z()] = 0.0;
     let mut rm = apex_return(model, terrain, controller, &x, true, opts)?;
+    let mut runs = 1;
     let mut r = residual(&rm, &idx);
     for it in 0..opts.max_iterations {
         let jac = rm.jacobian.as_ref().expect("asked for");
@@ -416,15 +432,24 @@ pub fn find_periodic_orbit(
             .pseudo_inverse(cut.max(f64::MIN_POSITIVE))
             .expect("U and V were computed")
             * &r;
-        // damped step: halve until the residual decreases
+        // damped step: halve until the residual decreases (the full step with its Jacobian,
+        // which Newton accepts near the orbit; shorter ones without, the Jacobian after)
         let mut lambda = 1.0;
         let mut accepted = None;
-        for _ in 0..=opts.max_halvings {
+        for h in 0..=opts.max_halvings {
+            if runs >= opts.max_runs {
+                return Err(PeriodicError::RunBudget {
+                    runs,
+                    residual: rnorm,
+                    best: x,
+                });
+            }
             let mut trial = x.clone();
             for (k, &i) in idx.iter().enumerate() {
                 trial[i] += lambda * delta[k];
             }
-            if let Ok(t) = apex_return(model, terrain, controller, &trial, true, opts) {
+            runs += 1;
+            if let Ok(t) = apex_return(model, terrain, controller, &trial, h == 0, opts) {
                 let rt = residual(&t, &idx);
                 if rt.amax() < rnorm {
                     accepted = Some((trial, t, rt));
@@ -433,6 +458,14 @@ pub fn find_periodic_orbit(
             }
             lambda *= 0.5;
         }
+        let accepted = match accepted {
+            Some((xt, t, rt)) if t.jacobian.is_none() => {
+                runs += 1;
+                let t = apex_return(model, terrain, controller, &xt, true, opts)?;
+                Some((xt, t, rt))
+            }
+            other => other,
+        };
         let Some((xt, rmt, rt)) = accepted else {
             return Err(PeriodicError::LineSearchFailed {
                 iteration: it,

@@ -29,6 +29,8 @@ pub struct PeriodicSpec {
     pub tol: Option<f64>,
     pub max_iterations: Option<usize>,
     pub max_halvings: Option<usize>,
+    /// Return runs of the whole search.
+    pub max_runs: Option<usize>,
     pub rank_rtol: Option<f64>,
     pub unit_circle_tol: Option<f64>,
     /// A return run longer than this fails (s).

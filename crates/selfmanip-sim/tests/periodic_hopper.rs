@@ -298,7 +298,7 @@ fn hopper_orbit_is_deterministic() {
 }
 
 /// Budgets and bad input end with typed errors: one iteration from a guess 10 cm off is not
-/// enough; a state of the wrong length names its field.
+/// enough, nor two return runs; a state of the wrong length names its field.
 #[test]
 fn hopper_search_errors_are_typed() {
     use selfmanip_hybrid::periodic::PeriodicError;
@@ -314,6 +314,15 @@ fn hopper_search_errors_are_typed() {
             residual,
             best,
         }) => assert!(residual > 1e-9 && best.len() == 10),
+        other => panic!("{other:?}"),
+    }
+    // the run budget: the first run and one trial, then the second iteration stops
+    let two = PeriodicOptions {
+        max_runs: 2,
+        ..opts()
+    };
+    match find_periodic_orbit(&sim.model, &sim.terrain, &*sim.controller, &g, &two) {
+        Err(PeriodicError::RunBudget { runs: 2, .. }) => {}
         other => panic!("{other:?}"),
     }
     match find_periodic_orbit(&sim.model, &sim.terrain, &*sim.controller, &g[..9], &opts()) {
