@@ -56,6 +56,7 @@ impl PeriodicSpec {
             tol,
             max_iterations,
             max_halvings,
+            max_runs,
             rank_rtol,
             unit_circle_tol,
             max_period_s
@@ -144,4 +145,73 @@ pub fn run_sensitivity(run: &crate::Run) -> Result<Sensitivity, SensitivityError
         }
     }
     Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use selfmanip_core::RobotDescription;
+
+    fn hopper() -> Model {
+        let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/data/hopper.toml");
+        RobotDescription::from_file(&p).unwrap().build().unwrap()
+    }
+
+    /// Every field of the spec reaches the engine's options (each set to a value unlike its
+    /// default), cyclic names resolve to their coordinates, and a bad one names its field.
+    #[test]
+    fn every_spec_field_reaches_the_options() {
+        let m = hopper();
+        let spec = PeriodicSpec {
+            tol: Some(2e-8),
+            max_iterations: Some(7),
+            max_halvings: Some(3),
+            max_runs: Some(11),
+            rank_rtol: Some(1e-6),
+            unit_circle_tol: Some(1e-3),
+            max_period_s: Some(2.5),
+            cyclic: Some(vec!["x".into(), "phi".into()]),
+            rtol: Some(1e-9),
+            atol: Some(1e-12),
+            event_tol_s: Some(1e-12),
+            delta_t_s: Some(0.01),
+        };
+        let o = spec.options(&m).unwrap();
+        let d = PeriodicOptions::default();
+        assert_eq!(
+            (o.tol, o.max_iterations, o.max_halvings, o.max_runs),
+            (2e-8, 7, 3, 11)
+        );
+        assert_eq!(
+            (o.rank_rtol, o.unit_circle_tol, o.max_period_s),
+            (1e-6, 1e-3, 2.5)
+        );
+        assert_eq!(o.cyclic, Some(vec![m.ix_x(), m.ix_phi()]));
+        assert_eq!(
+            (
+                o.hybrid.step.rtol,
+                o.hybrid.step.atol,
+                o.hybrid.event_tol_s,
+                o.hybrid.delta_t_s
+            ),
+            (1e-9, 1e-12, 1e-12, 0.01)
+        );
+        assert_ne!(o, d);
+        assert_eq!(PeriodicSpec::default().options(&m).unwrap(), d);
+        let bad = PeriodicSpec {
+            cyclic: Some(vec!["x".into(), "y".into()]),
+            ..PeriodicSpec::default()
+        };
+        match bad.options(&m) {
+            Err(SimError::InvalidValue { field, .. }) => assert_eq!(field, "cyclic[1]"),
+            other => panic!("{other:?}"),
+        }
+        let bad = PeriodicSpec {
+            rtol: Some(-1.0),
+            ..PeriodicSpec::default()
+        };
+        assert!(
+            matches!(bad.options(&m), Err(SimError::InvalidValue { field, .. }) if field == "rtol")
+        );
+    }
 }
