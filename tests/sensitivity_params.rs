@@ -105,8 +105,17 @@ fn seq(e: &Execution) -> Vec<(EventKind, ContactMode)> {
 
 fn run(model: &Model, ctrl: &Servos, y0: &[f64], tf: f64) -> Execution {
     let nq = model.nq();
-    simulate(model, &FlatGround, ctrl, ContactMode::FLIGHT, &y0[..nq], &y0[nq..], tf, tight())
-        .unwrap()
+    simulate(
+        model,
+        &FlatGround,
+        ctrl,
+        ContactMode::FLIGHT,
+        &y0[..nq],
+        &y0[nq..],
+        tf,
+        tight(),
+    )
+    .unwrap()
 }
 
 fn end_state(e: &Execution) -> Vec<f64> {
@@ -157,7 +166,10 @@ fn parameter_columns_match_central_differences() {
             let full = execution_sensitivity(model, &FlatGround, &exec).unwrap();
             let jac = full.state_jacobian.expect("defined");
             let e_state = (x.columns(0, 2 * nq) - &jac).amax() / jac.amax().max(1.0);
-            eprintln!("{shape} tf={tf}: {} events, state columns vs full {e_state:.1e}", exec.events.len());
+            eprintln!(
+                "{shape} tf={tf}: {} events, state columns vs full {e_state:.1e}",
+                exec.events.len()
+            );
             assert!(e_state < 1e-9, "{e_state}");
             for (k, h) in [(0, 1e-5), (1, 1e-7), (2, 1e-5)] {
                 let (mut mp, mut mm) = (model.clone(), model.clone());
@@ -180,11 +192,24 @@ fn parameter_columns_match_central_differences() {
                 assert_eq!(seq(&ep), seq(&exec));
                 assert_eq!(seq(&em), seq(&exec));
                 let (yp, ym) = (end_state(&ep), end_state(&em));
-                let fd: Vec<f64> = yp.iter().zip(&ym).map(|(a, b)| (a - b) / (2.0 * h)).collect();
+                let fd: Vec<f64> = yp
+                    .iter()
+                    .zip(&ym)
+                    .map(|(a, b)| (a - b) / (2.0 * h))
+                    .collect();
                 let col = x.column(2 * nq + k);
                 let scale = fd.iter().fold(0.0_f64, |m, v| m.max(v.abs())).max(1e-9);
-                let err = col.iter().zip(&fd).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / scale;
-                eprintln!("  param {k}: {err:.1e}  d {:?}\n           fd {:?}", col.as_slice(), fd);
+                let err = col
+                    .iter()
+                    .zip(&fd)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max)
+                    / scale;
+                eprintln!(
+                    "  param {k}: {err:.1e}  d {:?}\n           fd {:?}",
+                    col.as_slice(),
+                    fd
+                );
                 worst = worst.max(err);
             }
         }

@@ -99,8 +99,14 @@ impl SegmentIntegrator {
         mode.validate(model)?;
         free_massless_joints(model, mode, &mut self.free_joints, &mut self.dynamic_coords);
         self.weights.fill(1.0);
-        // locked joints turn at constant speed: prescribed, like free ones
-        for &j in self.free_joints.iter().chain(flow.lock()) {
+        // locked joints turn at constant speed: prescribed, like free ones (unless these
+        // are to be controlled: HybridOptions::control_free_joints)
+        let free: &[usize] = if opts.control_free_joints {
+            &[]
+        } else {
+            &self.free_joints
+        };
+        for &j in free.iter().chain(flow.lock()) {
             // joint j is coordinate j (q = [θ…, x, z, φ])
             self.weights[j] = 0.0;
             self.weights[nq + j] = 0.0;

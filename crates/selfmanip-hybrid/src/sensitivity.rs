@@ -489,47 +489,55 @@ fn segment_flow(
         if step.t0 >= seg.t1 {
             break;
         }
-        let t_end = step.t1().min(seg.t1);
-        // the controller's time events in [step.t0, t_end): a jump at the step's start moves
-        // with its instant; one inside a step the engine stepped over is flagged
-        while let Some(te) = pending.first().filter(|e| e.t < t_end).cloned() {
-            pending.remove(0);
-            step.eval(te.t, &mut ym);
-            time_events.push(time_event(ev, seg, tangent, &te, &ym, te.t == step.t0)?);
-        }
+        let step_end = step.t1().min(seg.t1);
+        // the step is split at the controller's time events inside it: `∂f/∂p` (and `f`,
+        // where the flow jumps) changes there, so the tangent is integrated up to the instant
+        // from the dense output's state, jumps there, and goes on
         let mut ta = step.t0;
-        step.eval(ta, &mut ya);
-        step.eval(t_end, &mut yb);
-        let end_touches = ev.touches(seg.mode, &yb);
         loop {
-            let start_touches = ev.touches(seg.mode, &ya);
-            if start_touches == end_touches {
-                tangent.step(ev, seg, ta, t_end - ta, &ya)?;
-                break;
+            while let Some(te) = pending.first().filter(|e| e.t <= ta).cloned() {
+                pending.remove(0);
+                step.eval(ta, &mut ym);
+                time_events.push(time_event(ev, seg, tangent, &te, &ym)?);
             }
-            // the first change of touch kinds after ta, bracketed to a few ulps
-            let (mut lo, mut hi) = (ta, t_end);
+            let t_end = pending.first().map_or(step_end, |e| e.t.min(step_end));
+            step.eval(ta, &mut ya);
+            step.eval(t_end, &mut yb);
+            let end_touches = ev.touches(seg.mode, &yb);
             loop {
-                let mid = 0.5 * (lo + hi);
-                if mid <= lo || mid >= hi {
+                let start_touches = ev.touches(seg.mode, &ya);
+                if start_touches == end_touches {
+                    tangent.step(ev, seg, ta, t_end - ta, &ya)?;
                     break;
                 }
-                step.eval(mid, &mut ym);
-                if ev.touches(seg.mode, &ym) == start_touches {
-                    lo = mid;
-                } else {
-                    hi = mid;
+                // the first change of touch kinds after ta, bracketed to a few ulps
+                let (mut lo, mut hi) = (ta, t_end);
+                loop {
+                    let mid = 0.5 * (lo + hi);
+                    if mid <= lo || mid >= hi {
+                        break;
+                    }
+                    step.eval(mid, &mut ym);
+                    if ev.touches(seg.mode, &ym) == start_touches {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
                 }
+                tangent.step(ev, seg, ta, lo - ta, &ya)?;
+                step.eval(lo, &mut ym);
+                step.eval(hi, &mut ya);
+                let sw = touch_switch(ev, seg, (lo, &ym), (hi, &ya), &start_touches)?;
+                if let Some(x) = &sw.saltation {
+                    tangent.salt(x);
+                }
+                switches.push(sw);
+                ta = hi;
             }
-            tangent.step(ev, seg, ta, lo - ta, &ya)?;
-            step.eval(lo, &mut ym);
-            step.eval(hi, &mut ya);
-            let sw = touch_switch(ev, seg, (lo, &ym), (hi, &ya), &start_touches)?;
-            if let Some(x) = &sw.saltation {
-                tangent.salt(x);
+            if t_end >= step_end {
+                break;
             }
-            switches.push(sw);
-            ta = hi;
+            ta = t_end;
         }
     }
     Ok(())
@@ -547,38 +555,29 @@ fn controller_names(params: &[Parameter]) -> Vec<&str> {
 }
 
 /// A controller's time event at `(te.t, y)` inside a segment: the jump `f⁺ − f⁻` of the flow
-/// there (`f⁻` evaluated at the previous float, the same state), and, when the flow jumps
-/// and the instant is a step boundary (`at_step_start`), `X_p += (f⁻ − f⁺) dt_b/dp` on the
-/// parameter columns (the state columns have `dt_b/dx = 0`). A jump inside a step (the
-/// engine integrated across it) is flagged: its step's derivative does not move it.
+/// there (`f⁻` evaluated at the previous float, the same state) moves with the instant,
+/// `X_p += (f⁻ − f⁺) dt_b/dp` on the parameter columns (the state columns have
+/// `dt_b/dx = 0`). The execution itself steps across the instant under step-size control
+/// (a jump makes the error estimate reject the straddling steps until their local error is
+/// within the tolerances); the tangent is split there (see [`segment_flow`]).
 fn time_event(
     ev: &mut Evaluator,
     seg: &Segment,
     tangent: &mut Tangent,
     te: &TimeEvent,
     y: &[f64],
-    at_step_start: bool,
 ) -> Result<TimeEventSensitivity, SensitivityError> {
     let ctrl = &*seg.controller;
     let fm = ev.eval(ctrl, &seg.locked, te.t.next_down(), seg.mode, y)?.f;
     let fp = ev.eval(ctrl, &seg.locked, te.t, seg.mode, y)?.f;
     let jump = (&fp - &fm).amax();
     let scale = 1.0 + fm.amax().max(fp.amax());
-    let mut out = TimeEventSensitivity {
+    let out = TimeEventSensitivity {
         t: te.t,
         jump,
         status: SaltationStatus::Defined,
     };
     if jump <= TIME_EVENT_TOL * scale {
-        return Ok(out);
-    }
-    if !at_step_start {
-        out.status = SaltationStatus::Unsupported {
-            reason: format!(
-                "the flow jumps by {jump:.2e} at the controller's time event t = {} s inside an integration step",
-                te.t
-            ),
-        };
         return Ok(out);
     }
     if let Tangent::Columns { x, params } = tangent {
@@ -608,8 +607,7 @@ pub struct TimeEventSensitivity {
     pub t: f64,
     /// `max |f⁺ − f⁻|` there.
     pub jump: f64,
-    /// `Defined` when the flow is continuous there or the jump was differentiated; flagged
-    /// when it jumps inside an integration step.
+    /// Always `Defined` today (kept for time events that cannot be differentiated).
     pub status: SaltationStatus,
 }
 

@@ -221,6 +221,21 @@ impl JointMotion {
         }
     }
 
+    /// The instants (absolute times, after `t0`) where the motion's pieces meet: its
+    /// acceleration is continuous there, its jerk is not.
+    pub fn knots(&self) -> Vec<f64> {
+        match &self.kind {
+            Kind::Ramps { pieces, .. } => pieces
+                .iter()
+                .scan(self.t0, |t, r| {
+                    *t += r.duration;
+                    Some(*t)
+                })
+                .collect(),
+            Kind::Quintic { duration, .. } => vec![self.t0 + duration],
+        }
+    }
+
     /// `(θ, θ̇, θ̈)` at `t ≥ t0` (before `t0`: the start, at its start speed).
     #[inline]
     pub fn eval(&self, t: f64) -> (f64, f64, f64) {
@@ -277,7 +292,10 @@ mod tests {
                 if (m.jerk(t + h) - m.jerk(t - h)).abs() > 1e-3 * (1.0 + j.abs()) {
                     continue;
                 }
-                assert!((fd - j).abs() <= 1e-5 * (1.0 + j.abs()), "t {t}: {fd} vs {j}");
+                assert!(
+                    (fd - j).abs() <= 1e-5 * (1.0 + j.abs()),
+                    "t {t}: {fd} vs {j}"
+                );
             }
         }
     }
