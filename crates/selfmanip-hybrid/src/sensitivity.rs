@@ -1,5 +1,6 @@
-//! Sensitivities of an execution to its initial state: the variational equations along each
-//! flow, the saltation matrix at each event, and their chain rule
+//! Sensitivities of an execution to its initial state and to named parameters: the
+//! variational equations along each flow, the saltation matrix at each event, and their
+//! chain rule
 //! `dx(t_f)/dx(0) = Φ_k Ξ_k ⋯ Φ_1 Ξ_1 Φ_0` over the state `x = (q, q̇)` (dimension `2 nq`).
 //!
 //! **Variational equations.** Along a segment in mode `J`, `ẋ = f(t, x) = (q̇, q̈)` with
@@ -43,12 +44,27 @@
 //! yet (folds, a fold passage's end, a segment that ended on a terrain feature change).
 //! [`Sensitivity::state_jacobian`] is then `None`.
 //!
+//! **Parameters and selected columns** ([`execution_sensitivity_columns`]): named parameters
+//! `p` are constant states (`x̃ = (x, p)`, `ṗ = 0`), so the same variational equations and
+//! saltation matrices carry `X_p = dx/dp`: along a flow `Ẋ_p = F X_p + ∂f/∂p`; at an event
+//! `X_p⁺ = Ξ X_p + D_pR + (f⁺ − D_xR f⁻) D_pg / (D_xg f⁻)` and
+//! `dt_e/dp = −(D_xg X_p + D_pg)/(D_xg f⁻)`. `∂f/∂p` comes from the controller
+//! ([`Controller::parameter_partials`], through `∂q̈/∂Υ`) or, for the body's mass and
+//! inertia, from `∂M̄/∂p`, `∂N̄/∂p` by implicit differentiation of the KKT system; `D_pg` of
+//! a force guard from `∂λ/∂p`; `D_pR` of a plastic impact from `∂M̄/∂p`. A controller's
+//! **time events** ([`Controller::time_events`], e.g. a motor switched on at `t2`) add
+//! `(f⁻ − f⁺) dt_b/dp` where the flow jumps; the tangent is split at them (and `∂f/∂p` may
+//! jump there even when `f` does not). Only the columns asked for are propagated, by
+//! Jacobian-times-matrix products ([`selfmanip_core::tangent::dynamics_jvp`]): never the
+//! full `2nq × 2nq` matrices along the flows.
+//!
 //! **Not covered yet.** A run whose state sits on a guard that does not fire — a contact set
 //! chosen at a complementarity boundary, e.g. a sliding contact started at zero sliding
 //! velocity — gets the one-sided derivative of the sequence it realised, unflagged;
-//! sensitivities to named parameters (masses, lengths, gear ratio, δt, …) and controllers
-//! without [`Controller::partials`] (the actuator models, the RHex leap controller) are for
-//! later.
+//! controllers without [`Controller::partials`] (the generic actuator models of
+//! [`crate::Actuated`]) stop with a typed error; a controller whose memory depends on the
+//! state at an event (a motion started from the event's state) is differentiated with that
+//! memory held fixed (the RHex leap flags the cases where it matters).
 use crate::controller::{Controller, ControllerPartials, TimeEvent};
 use crate::error::HybridError;
 use crate::execution::{Event, EventKind, Execution, Segment, Termination};
