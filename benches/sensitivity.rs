@@ -10,13 +10,13 @@
 //! parameters (`t2`, `gear_ratio`: two columns propagated by Jacobian-times-matrix products,
 //! issue 18's criterion: at most 5×).
 use criterion::{criterion_group, criterion_main, Criterion};
-use selfmanip::rhex::leap::{leap_params, simulate_leap, LeapConfig};
-use selfmanip::rhex::leap_sensitivity::leap_with_sensitivity;
 use selfmanip::core::contact::contact_geometry;
 use selfmanip::core::kinematics::Kinematics;
 use selfmanip::core::{ContactMode, FlatGround, Model, RobotDescription};
 use selfmanip::hybrid::sensitivity::simulate_with_sensitivity;
 use selfmanip::hybrid::{simulate, Controller, ControllerPartials, HybridOptions, ZeroTorque};
+use selfmanip::rhex::leap::{leap_params, simulate_leap, LeapConfig};
+use selfmanip::rhex::leap_sensitivity::leap_with_sensitivity;
 use selfmanip::rhex::{LegShape, Rhex, RhexParams};
 use std::hint::black_box;
 
@@ -171,9 +171,7 @@ fn sensitivity(c: &mut Criterion) {
         b.iter(|| black_box(simulate_leap(&params, &cfg).unwrap()))
     });
     group.bench_function("leap_d_t2_gear_ratio", |b| {
-        b.iter(|| {
-            black_box(leap_with_sensitivity(&params, &cfg, &["t2", "gear_ratio"]).unwrap())
-        })
+        b.iter(|| black_box(leap_with_sensitivity(&params, &cfg, &["t2", "gear_ratio"]).unwrap()))
     });
     group.finish();
 }

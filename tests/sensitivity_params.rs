@@ -67,8 +67,8 @@ impl Controller for Servos {
             if *n != "k" {
                 return false;
             }
-            for i in 0..self.target.len() {
-                out.dtau_dp[(i, col)] = -(q[i] - self.target[i]);
+            for (i, (qi, ti)) in q.iter().zip(&self.target).enumerate() {
+                out.dtau_dp[(i, col)] = -(qi - ti);
             }
         }
         true

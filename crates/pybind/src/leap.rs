@@ -229,7 +229,8 @@ fn sensitivity_dict<'py>(py: Python<'py>, s: &LeapSensitivity) -> PyResult<Bound
     for e in &s.events {
         match &e.saltation {
             Some(x) => {
-                let rows: Vec<Vec<f64>> = x.row_iter().map(|r| r.iter().copied().collect()).collect();
+                let rows: Vec<Vec<f64>> =
+                    x.row_iter().map(|r| r.iter().copied().collect()).collect();
                 sal.append(crate::convert::rows_array(&rows, x.ncols()).into_pyarray(py))?
             }
             None => sal.append(py.None())?,
@@ -313,7 +314,10 @@ fn leap_run<'py>(
             td.set_item("contacts", tr.contacts.clone())?;
             td.set_item("t_s", tr.t_s.clone().into_pyarray(py))?;
             td.set_item("q", crate::convert::rows_array(&tr.q, nq).into_pyarray(py))?;
-            td.set_item("qd", crate::convert::rows_array(&tr.qd, nq).into_pyarray(py))?;
+            td.set_item(
+                "qd",
+                crate::convert::rows_array(&tr.qd, nq).into_pyarray(py),
+            )?;
             td.set_item("mode", tr.mode.clone())?;
             td.set_item(
                 "contact_points_m",
@@ -388,9 +392,8 @@ fn sweep_row(
     (row, sens.or(failed_sens))
 }
 
-type PointOutcome = std::thread::Result<
-    Result<(LeapResult, String, f64, Option<(bool, Vec<f64>)>), RhexError>,
->;
+type PointOutcome =
+    std::thread::Result<Result<(LeapResult, String, f64, Option<(bool, Vec<f64>)>), RhexError>>;
 
 fn sweep_row_of(outcome: PointOutcome) -> (SweepRow, Option<(bool, Vec<f64>)>) {
     match outcome {
@@ -405,7 +408,10 @@ fn sweep_row_of(outcome: PointOutcome) -> (SweepRow, Option<(bool, Vec<f64>)>) {
             ),
             None,
         ),
-        Ok(Err(e)) => (failed_row(error_kind(&e), error_message(&e), f64::NAN), None),
+        Ok(Err(e)) => (
+            failed_row(error_kind(&e), error_message(&e), f64::NAN),
+            None,
+        ),
         Ok(Ok((r, why, g, sens))) => {
             let mut row = failed_row(r.status.as_str(), why, g);
             row.word = r.word_string();
@@ -558,7 +564,10 @@ fn leap_sweep<'py>(
                     d.set_item(format!("d_{col}/d_{name}"), v.into_pyarray(py))?;
                 }
             }
-            let ok: Vec<bool> = sens.iter().map(|s| s.as_ref().is_some_and(|x| x.0)).collect();
+            let ok: Vec<bool> = sens
+                .iter()
+                .map(|s| s.as_ref().is_some_and(|x| x.0))
+                .collect();
             d.set_item("sensitivity_ok", ok.into_pyarray(py))?;
         }
         let f = |g: fn(&SweepRow) -> f64| -> Vec<f64> { rows.iter().map(g).collect() };

@@ -725,13 +725,7 @@ pub fn execution_sensitivity(
         };
         total = &phi * total;
         out.segment_flows.push(phi);
-        let event = exec.events.get(next_event).filter(|e| {
-            e.t == seg.t1
-                && (si + 1 < nseg
-                    || e.kind == EventKind::Apex
-                    || exec.termination == Termination::EventBudget)
-        });
-        let Some(event) = event else {
+        let Some(event) = event_ending(exec, si, next_event) else {
             if si + 1 < nseg {
                 out.feature_changes.push(si);
                 defined = false;
@@ -739,13 +733,7 @@ pub fn execution_sensitivity(
             continue;
         };
         next_event += 1;
-        let after = exec.segments.get(si + 1);
-        let zero_time = seg.t1 == seg.t0 || after.is_some_and(|a| a.t1 == a.t0);
-        let (mut es, _) = event_sensitivity(&mut ev, model, terrain, seg, after, event, &[])?;
-        if zero_time && es.status == SaltationStatus::Defined {
-            es.status = SaltationStatus::Simultaneous;
-            es.saltation = None;
-        }
+        let (mut es, _) = segment_event(&mut ev, model, terrain, exec, si, event, &[])?;
         if let (Some(dg), true) = (&es.guard_gradient, es.saltation.is_some()) {
             let mut y = vec![0.0; n2];
             seg.eval(seg.t1, &mut y);
@@ -864,13 +852,7 @@ pub fn execution_sensitivity_columns(
             &mut out.touch_switches,
             &mut out.time_events,
         )?;
-        let event = exec.events.get(next_event).filter(|e| {
-            e.t == seg.t1
-                && (si + 1 < nseg
-                    || e.kind == EventKind::Apex
-                    || exec.termination == Termination::EventBudget)
-        });
-        let Some(event) = event else {
+        let Some(event) = event_ending(exec, si, next_event) else {
             if si + 1 < nseg {
                 out.feature_changes.push(si);
                 defined = false;
@@ -878,13 +860,7 @@ pub fn execution_sensitivity_columns(
             continue;
         };
         next_event += 1;
-        let after = exec.segments.get(si + 1);
-        let zero_time = seg.t1 == seg.t0 || after.is_some_and(|a| a.t1 == a.t0);
-        let (mut es, parts) = event_sensitivity(&mut ev, model, terrain, seg, after, event, &body)?;
-        if zero_time && es.status == SaltationStatus::Defined {
-            es.status = SaltationStatus::Simultaneous;
-            es.saltation = None;
-        }
+        let (es, parts) = segment_event(&mut ev, model, terrain, exec, si, event, &body)?;
         let (Some(xi), Some(parts), Some(dg)) = (&es.saltation, parts, &es.guard_gradient) else {
             defined = false;
             out.event_time_columns.push(None);
@@ -954,6 +930,42 @@ pub fn execution_sensitivity_columns(
         out.columns = Some(x);
     }
     Ok(out)
+}
+
+/// The event that ended segment `si`, if it is the next one not matched yet (`next_event`):
+/// a segment ends on an event unless it ended on a terrain feature change; the last one only
+/// on the apex or when the event budget ran out.
+fn event_ending(exec: &Execution, si: usize, next_event: usize) -> Option<&Event> {
+    let seg = &exec.segments[si];
+    let last = si + 1 == exec.segments.len();
+    exec.events.get(next_event).filter(|e| {
+        e.t == seg.t1
+            && (!last || e.kind == EventKind::Apex || exec.termination == Termination::EventBudget)
+    })
+}
+
+/// [`event_sensitivity`] of the event that ended segment `si`, flagged simultaneous (without
+/// parts) when a neighbouring mode lasted zero time.
+#[allow(clippy::too_many_arguments)]
+fn segment_event(
+    ev: &mut Evaluator,
+    model: &Model,
+    terrain: &dyn Terrain,
+    exec: &Execution,
+    si: usize,
+    event: &Event,
+    body: &[BodyParameter],
+) -> Result<(EventSensitivity, Option<EventParts>), SensitivityError> {
+    let seg = &exec.segments[si];
+    let after = exec.segments.get(si + 1);
+    let zero_time = seg.t1 == seg.t0 || after.is_some_and(|a| a.t1 == a.t0);
+    let (mut es, parts) = event_sensitivity(ev, model, terrain, seg, after, event, body)?;
+    if zero_time && es.status == SaltationStatus::Defined {
+        es.status = SaltationStatus::Simultaneous;
+        es.saltation = None;
+        return Ok((es, None));
+    }
+    Ok((es, parts))
 }
 
 /// Row indices, in the rows of `mode`, of contact `k`'s tangential and normal rows.
