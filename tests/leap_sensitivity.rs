@@ -289,3 +289,58 @@ fn bad_parameter_names_are_typed_errors() {
     let e = leap_with_sensitivity(&params, &stub, &["t2"]).unwrap_err();
     assert!(e.to_string().contains("toe_stub_rad"), "{e}");
 }
+
+/// A time event where the flow jumps: with the legs held only 0.02 rad above their
+/// touchdown angles, the `(+,−)` leap's flow jumps at the rear motor's start (measured
+/// `max |f⁺ − f⁻|` ≈ 6e2 at `t2 = 0.05 s`, 1.3e3 at 0.1 s), so `d apex / d t2` includes the
+/// moved jump `(f⁻ − f⁺) dt2/dt2` — against central differences as above.
+#[test]
+fn time_event_with_a_jump_matches_central_differences() {
+    let params = leap_params();
+    let mut w = 0.0_f64;
+    for t2 in [0.05, 0.1] {
+        let cfg = LeapConfig {
+            wait_clearance_rad: 0.02,
+            ..tight("+-", t2)
+        };
+        let s = leap_with_sensitivity(&params, &cfg, &["t2"]).unwrap();
+        assert!(s.ok, "{:?}", s.reason);
+        let jump = s
+            .time_events
+            .iter()
+            .find(|e| (e.0 - t2).abs() < 1e-12)
+            .map(|e| e.1)
+            .unwrap();
+        assert!(jump > 100.0, "{jump}");
+        let d: Vec<f64> = (0..7).map(|c| s.d_apex[c][0]).collect();
+        let errs: Vec<f64> = [1e-7, 1e-6, 1e-5]
+            .iter()
+            .map(|h| {
+                let (ap, am) = (
+                    apex_of(
+                        &params,
+                        &LeapConfig {
+                            t2_s: t2 + h,
+                            ..cfg.clone()
+                        },
+                        None,
+                    ),
+                    apex_of(
+                        &params,
+                        &LeapConfig {
+                            t2_s: t2 - h,
+                            ..cfg.clone()
+                        },
+                        None,
+                    ),
+                );
+                let fd: Vec<f64> = (0..7).map(|c| (ap[c] - am[c]) / (2.0 * h)).collect();
+                worst(&d, &fd, 0.01)
+            })
+            .collect();
+        let e = errs.iter().copied().fold(f64::INFINITY, f64::min);
+        eprintln!("+- t2={t2} jump {jump:.1}: {e:.2e} ({errs:?})");
+        w = w.max(e);
+    }
+    assert!(w < 1e-5, "{w}");
+}

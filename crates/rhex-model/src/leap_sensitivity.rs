@@ -16,10 +16,8 @@
 //! **Undefined derivatives** make [`LeapSensitivity::ok`] false, with every derivative NaN
 //! and the reason given: a leap without an apex; any event whose saltation is not defined
 //! (grazing, simultaneous touchdowns such as both legs at `t2 = 0`, a mode held for zero
-//! time, folds); a controller time event where the flow jumps inside an integration step
-//! (a leg already on the ground when its motor starts: the engine steps over that instant);
-//! and a leg that meets the ground again after a motion in the air that started at an
-//! event (the controller's memory of that event's state is not differentiated; in the air
+//! time, folds); and a leg that meets the ground again after a motion in the air that
+//! started at an event (the controller's memory of that event's state is not differentiated; in the air
 //! a massless leg does not act on the body, so apex derivatives are exact otherwise).
 use crate::leap::{run_leap, LeapConfig, LeapResult, LeapSetup, LegActuator};
 use crate::{RhexError, RhexParams};
@@ -71,6 +69,9 @@ pub struct LeapSensitivity {
     pub reason: Option<String>,
     /// One entry per event of the execution (the events of [`LeapResult::events`]).
     pub events: Vec<EventSaltation>,
+    /// The leap controller's time events met (motor starts, knots of the swing down):
+    /// `(t_s, max |f⁺ − f⁻|)`, the jump of the flow there (0 where it is continuous).
+    pub time_events: Vec<(f64, f64)>,
 }
 
 impl LeapSensitivity {
@@ -163,6 +164,7 @@ pub fn leap_with_sensitivity_from(
         ok: false,
         reason: None,
         events: Vec::new(),
+        time_events: Vec::new(),
         result,
     };
     let exec = &out.result.execution;
@@ -181,6 +183,11 @@ pub fn leap_with_sensitivity_from(
             status: e.status.clone(),
             saltation: e.saltation.clone(),
         })
+        .collect();
+    out.time_events = s
+        .time_events
+        .iter()
+        .map(|e| (e.t - out.result.time_offset_s, e.jump))
         .collect();
     let reason = if exec.termination != Termination::Apex || out.result.apex.is_none() {
         Some(
