@@ -344,3 +344,40 @@ fn time_event_with_a_jump_matches_central_differences() {
     }
     assert!(w < 1e-5, "{w}");
 }
+
+/// The path a user runs: `leap_with_sensitivity` at the leap's default options (rtol 1e-8,
+/// free legs outside step-size control, the motor start's jump of the flow stepped over).
+/// Its derivatives are those of the same flow as the converged ones above (which central
+/// differences confirm), integrated less accurately. **Measured:** they agree with the
+/// converged ones to 2.6e-2 relative for `t2` and 4.5e-3 for G, `m_b`, `I_b` (with the free
+/// legs under step control: 4.3e-3 for `t2`, 1.5e-5 for the others); the bound asserted is
+/// that accuracy with a margin of 2, so a derivative that goes wrong fails it.
+/// Central differences of *default* executions are not a usable reference: the free legs'
+/// uncontrolled tracking error (~1e-5 rad) moves touchdown times with the step sequence.
+/// Closing this gap needs the controller's time events as breakpoints of the engine and the
+/// free legs under step control on the sensitivity path (issue 18, open).
+#[test]
+fn default_option_sensitivities_agree_with_converged_ones() {
+    let params = leap_params();
+    let names: Vec<&str> = PARAMS.iter().map(|p| p.0).collect();
+    let mut w = 0.0_f64;
+    for (s, t2) in [("++", 0.05), ("+-", 0.1), ("--", 0.05), ("-+", 0.05), ("--", -0.1)] {
+        let cfg = LeapConfig {
+            strategy: s.parse().unwrap(),
+            t2_s: t2,
+            ..LeapConfig::default()
+        };
+        let user = leap_with_sensitivity(&params, &cfg, &names).unwrap();
+        let conv = leap_with_sensitivity(&params, &tight(s, t2), &names).unwrap();
+        assert!(user.ok && conv.ok, "{s} {t2}: {:?} {:?}", user.reason, conv.reason);
+        for (k, (name, scale)) in PARAMS.iter().enumerate() {
+            let d: Vec<f64> = (0..7).map(|c| user.d_apex[c][k]).collect();
+            let r: Vec<f64> = (0..7).map(|c| conv.d_apex[c][k]).collect();
+            let e = worst(&d, &r, *scale);
+            eprintln!("{s} t2={t2:+} {name}: default vs converged {e:.2e}");
+            w = w.max(e);
+        }
+    }
+    eprintln!("worst: {w:.2e}");
+    assert!(w < 5e-2, "{w}");
+}
