@@ -13,6 +13,15 @@
 //!   saturated-torque actuator (a typed error).
 //! - `m_b`, `I_b`: the body's mass and inertia (`M̄`, `N̄` and the plastic impacts).
 //!
+//! **Free legs under step control.** The leap with sensitivities always runs with
+//! [`LeapConfig::control_free_joints`] on (whatever the configuration says): a massless leg's
+//! prescribed motion in the air feeds back into nothing, but its angle decides when it
+//! touches down, and left out of the step-size control its tracking error (~1e-5 rad at the
+//! default `rtol`) makes the derivatives of touchdown-dependent outcomes off by ~1e-3. The
+//! execution is therefore the one [`crate::leap::simulate_leap`] returns with
+//! `control_free_joints = true` (bit for bit), which can differ from the default leap's by
+//! the tolerances; it costs ~3× the default leap's integration.
+//!
 //! **Undefined derivatives** make [`LeapSensitivity::ok`] false, with every derivative NaN
 //! and the reason given: a leap without an apex; any event whose saltation is not defined
 //! (grazing, simultaneous touchdowns such as both legs at `t2 = 0`, a mode held for zero
@@ -115,8 +124,9 @@ fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<Parameter>, RhexError
         .collect()
 }
 
-/// Runs one leap ([`crate::leap::simulate_leap`], the same execution bit for bit) and
-/// differentiates its apex with respect to the named parameters (see the module docs).
+/// Runs one leap ([`crate::leap::simulate_leap`] with `control_free_joints = true`, the same
+/// execution bit for bit: see the module docs) and differentiates its apex with respect to
+/// the named parameters.
 pub fn leap_with_sensitivity(
     params: &RhexParams,
     cfg: &LeapConfig,
@@ -137,6 +147,11 @@ pub fn leap_with_sensitivity_from(
     directions: Option<&DMatrix<f64>>,
 ) -> Result<LeapSensitivity, RhexError> {
     let ps = resolve(cfg, names)?;
+    // the free legs' touchdowns are resolved to the tolerances (see the module docs)
+    let cfg = &LeapConfig {
+        control_free_joints: true,
+        ..cfg.clone()
+    };
     if cfg.toe_stub_rad.is_some() {
         return Err(RhexError::Params {
             field: "toe_stub_rad".into(),

@@ -410,13 +410,14 @@ impl Tangent<'_> {
     }
 
     /// One step of the tangent from `(t0, y0)` of size `h` with the DOPRI5 tableau (its six
-    /// stages that enter the 5th-order solution; the 7th is FSAL's).
+    /// stages that enter the 5th-order solution; the 7th is FSAL's); stage times are capped
+    /// at `t_cap` (one ulp before a time event the step ends on: the flow's left limit, as
+    /// the execution's step took it).
     fn step(
         &mut self,
         ev: &mut Evaluator,
         seg: &Segment,
-        t0: f64,
-        h: f64,
+        (t0, h, t_cap): (f64, f64, f64),
         y0: &[f64],
     ) -> Result<(), SensitivityError> {
         if h <= 0.0 {
@@ -435,7 +436,7 @@ impl Tangent<'_> {
                 ys.axpy(h * RK_A[s][j], &k[j], 1.0);
                 ps += h * RK_A[s][j] * &kphi[j];
             }
-            let ts = t0 + RK_C[s] * h;
+            let ts = (t0 + RK_C[s] * h).min(t_cap);
             let (f, kp) = match params {
                 None => {
                     let fj = ev.eval(&*seg.controller, &seg.locked, ts, seg.mode, ys.as_slice())?;
@@ -517,13 +518,15 @@ fn segment_flow(
                 time_events.push(time_event(ev, seg, tangent, &te, &ym)?);
             }
             let t_end = pending.first().map_or(step_end, |e| e.t.min(step_end));
+            // stages at the next time event take the flow's left limit
+            let t_cap = pending.first().map_or(f64::INFINITY, |e| e.t.next_down());
             step.eval(ta, &mut ya);
             step.eval(t_end, &mut yb);
             let end_touches = ev.touches(seg.mode, &yb);
             loop {
                 let start_touches = ev.touches(seg.mode, &ya);
                 if start_touches == end_touches {
-                    tangent.step(ev, seg, ta, t_end - ta, &ya)?;
+                    tangent.step(ev, seg, (ta, t_end - ta, t_cap), &ya)?;
                     break;
                 }
                 // the first change of touch kinds after ta, bracketed to a few ulps
@@ -540,7 +543,7 @@ fn segment_flow(
                         hi = mid;
                     }
                 }
-                tangent.step(ev, seg, ta, lo - ta, &ya)?;
+                tangent.step(ev, seg, (ta, lo - ta, t_cap), &ya)?;
                 step.eval(lo, &mut ym);
                 step.eval(hi, &mut ya);
                 let sw = touch_switch(ev, seg, (lo, &ym), (hi, &ya), &start_touches)?;
@@ -573,9 +576,10 @@ fn controller_names(params: &[Parameter]) -> Vec<&str> {
 /// A controller's time event at `(te.t, y)` inside a segment: the jump `f⁺ − f⁻` of the flow
 /// there (`f⁻` evaluated at the previous float, the same state) moves with the instant,
 /// `X_p += (f⁻ − f⁺) dt_b/dp` on the parameter columns (the state columns have
-/// `dt_b/dx = 0`). The execution itself steps across the instant under step-size control
-/// (a jump makes the error estimate reject the straddling steps until their local error is
-/// within the tolerances); the tangent is split there (see [`segment_flow`]).
+/// `dt_b/dx = 0`). The execution's steps land on the instant (a step stop of
+/// [`crate::segment`], its stages there at the left limit), and so do the tangent's; a
+/// step of a record that straddles one (a controller whose events are not all known at the
+/// segment's start) is split there (see [`segment_flow`]).
 fn time_event(
     ev: &mut Evaluator,
     seg: &Segment,
