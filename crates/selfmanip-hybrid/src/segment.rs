@@ -13,7 +13,7 @@
 //! the knots of a prescribed motion) are step stops, as an ODE solver's `tstop`s: a step that
 //! would pass one is cut to end on it exactly, its stages at the instant take the flow's
 //! left limit (the time one ulp before), and the next step starts afresh there (the stored
-//! derivative is recomputed on the right). No step straddles a jump of the flow or of its
+//! derivative is recomputed, at the right limit: one ulp after). No step straddles a jump of the flow or of its
 //! time derivatives, so both the execution and its sensitivities keep their order there.
 //!
 //! Free massless joints follow the controller's prescribed motion (thesis 5.1.1): it feeds
@@ -67,6 +67,9 @@ pub struct SegmentIntegrator {
     dynamic_coords: Vec<usize>,
     /// The controller's time events ahead in the current segment, ascending: step stops.
     stops: Vec<f64>,
+    /// One ulp after the last time event a step landed on (stages there take the flow's
+    /// right limit).
+    t_right: f64,
 }
 
 impl SegmentIntegrator {
@@ -84,6 +87,7 @@ impl SegmentIntegrator {
             free_joints: Vec::new(),
             dynamic_coords: Vec::new(),
             stops: Vec::new(),
+            t_right: f64::NEG_INFINITY,
         }
     }
 
@@ -123,6 +127,7 @@ impl SegmentIntegrator {
         }
         // the controller holds its memory over a segment: its time events are known here
         self.stops.clear();
+        self.t_right = f64::NEG_INFINITY;
         self.stops.extend(
             flow.controller()
                 .time_events(&[])
@@ -164,9 +169,10 @@ impl SegmentIntegrator {
             let stop = self.stops.iter().copied().find(|&s| s > *t && s < t_end);
             let t_end = stop.unwrap_or(t_end);
             let t_left = stop.map_or(f64::INFINITY, f64::next_down);
+            let t_right = self.t_right;
             let (t_start, h_proposed) = (*t, self.ode.next_step_size());
             let step = self.ode.step(
-                &mut |tt, yy, dy| flow.rhs(tt.min(t_left), mode, yy, dy),
+                &mut |tt, yy, dy| flow.rhs(tt.max(t_right).min(t_left), mode, yy, dy),
                 *t,
                 y,
                 t_end,
@@ -274,6 +280,7 @@ impl SegmentIntegrator {
                 // the next step tries what this one would have without the stop (a step cut
                 // short, down to an ulp, says nothing about the flow's time scale)
                 *t = s;
+                self.t_right = s.next_up();
                 self.ode
                     .reset(self.ode.next_step_size().max(h_proposed));
             }

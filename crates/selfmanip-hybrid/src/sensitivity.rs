@@ -410,14 +410,16 @@ impl Tangent<'_> {
     }
 
     /// One step of the tangent from `(t0, y0)` of size `h` with the DOPRI5 tableau (its six
-    /// stages that enter the 5th-order solution; the 7th is FSAL's); stage times are capped
-    /// at `t_cap` (one ulp before a time event the step ends on: the flow's left limit, as
-    /// the execution's step took it).
+    /// stages that enter the 5th-order solution; the 7th is FSAL's); stage times are kept
+    /// within `[t_floor, t_cap]`: one ulp after a time event the step starts on and one
+    /// before one it ends on, so that each stage takes the one-sided limit of the flow and
+    /// of its partials (`∂f/∂p` may jump there even where `f` does not, e.g. a jerk at a
+    /// knot), whatever side a controller gives the instant itself.
     fn step(
         &mut self,
         ev: &mut Evaluator,
         seg: &Segment,
-        (t0, h, t_cap): (f64, f64, f64),
+        (t0, h, t_floor, t_cap): (f64, f64, f64, f64),
         y0: &[f64],
     ) -> Result<(), SensitivityError> {
         if h <= 0.0 {
@@ -436,7 +438,7 @@ impl Tangent<'_> {
                 ys.axpy(h * RK_A[s][j], &k[j], 1.0);
                 ps += h * RK_A[s][j] * &kphi[j];
             }
-            let ts = (t0 + RK_C[s] * h).min(t_cap);
+            let ts = (t0 + RK_C[s] * h).max(t_floor).min(t_cap);
             let (f, kp) = match params {
                 None => {
                     let fj = ev.eval(&*seg.controller, &seg.locked, ts, seg.mode, ys.as_slice())?;
@@ -502,6 +504,8 @@ fn segment_flow(
         }
         _ => Vec::new(),
     };
+    // stages after the last time event passed take the right-hand limit there
+    let mut t_floor = f64::NEG_INFINITY;
     for step in seg.dense.steps() {
         if step.t0 >= seg.t1 {
             break;
@@ -514,6 +518,7 @@ fn segment_flow(
         loop {
             while let Some(te) = pending.first().filter(|e| e.t <= ta).cloned() {
                 pending.remove(0);
+                t_floor = te.t.next_up();
                 step.eval(ta, &mut ym);
                 time_events.push(time_event(ev, seg, tangent, &te, &ym)?);
             }
@@ -526,7 +531,7 @@ fn segment_flow(
             loop {
                 let start_touches = ev.touches(seg.mode, &ya);
                 if start_touches == end_touches {
-                    tangent.step(ev, seg, (ta, t_end - ta, t_cap), &ya)?;
+                    tangent.step(ev, seg, (ta, t_end - ta, t_floor, t_cap), &ya)?;
                     break;
                 }
                 // the first change of touch kinds after ta, bracketed to a few ulps
@@ -543,7 +548,7 @@ fn segment_flow(
                         hi = mid;
                     }
                 }
-                tangent.step(ev, seg, (ta, lo - ta, t_cap), &ya)?;
+                tangent.step(ev, seg, (ta, lo - ta, t_floor, t_cap), &ya)?;
                 step.eval(lo, &mut ym);
                 step.eval(hi, &mut ya);
                 let sw = touch_switch(ev, seg, (lo, &ym), (hi, &ya), &start_touches)?;
