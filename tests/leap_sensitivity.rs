@@ -361,22 +361,30 @@ fn time_event_with_a_jump_matches_central_differences() {
 }
 
 /// The path a user runs: `leap_with_sensitivity` at the leap's default options (rtol 1e-8,
-/// free legs outside step-size control, the motor start's jump of the flow stepped over).
-/// Its derivatives are those of the same flow as the converged ones above (which central
-/// differences confirm), integrated less accurately. **Measured:** they agree with the
-/// converged ones to 2.6e-2 relative for `t2` and 4.5e-3 for G, `m_b`, `I_b` (with the free
-/// legs under step control: 4.3e-3 for `t2`, 1.5e-5 for the others); the bound asserted is
-/// that accuracy with a margin of 2, so a derivative that goes wrong fails it.
-/// Central differences of *default* executions are not a usable reference: the free legs'
-/// uncontrolled tracking error (~1e-5 rad) moves touchdown times with the step sequence.
-/// Closing this gap needs the controller's time events as breakpoints of the engine and the
-/// free legs under step control on the sensitivity path (issue 18, open).
+/// event_tol 1e-10; the sensitivity path puts the free legs under step control itself, and
+/// the engine's steps land on the controller's time events — the motor starts, where the
+/// flow jumps, and the swing's knots, where `∂f/∂t2` does). Its derivatives are those of the
+/// same flow as the converged ones above (rtol 1e-12, which central differences of whole
+/// leaps confirm), integrated less accurately. **Measured** worst over the five leaps:
+/// 1.1e-5 relative for `t2` (`+-`, t2 = 0.1 s), 1.8e-6 for G, 2.4e-6 for `m_b`, 1.6e-6 for
+/// `I_b` — the issue's 1e-5 bar, met by G, `m_b`, `I_b` and reached by `t2`; asserted with a
+/// margin of 2. Before the time events were step stops and the free legs controlled:
+/// 2.6e-2 for `t2` and 4.5e-3 for G, `m_b`, `I_b`.
+/// Central differences of *default* executions are not the reference here: two executions
+/// at rtol 1e-8 differ by their step sequences (~1e-8 relative), which a difference over a
+/// step of 1e-5 of the scale turns into ~1e-3.
 #[test]
 fn default_option_sensitivities_agree_with_converged_ones() {
     let params = leap_params();
     let names: Vec<&str> = PARAMS.iter().map(|p| p.0).collect();
-    let mut w = 0.0_f64;
-    for (s, t2) in [("++", 0.05), ("+-", 0.1), ("--", 0.05), ("-+", 0.05), ("--", -0.1)] {
+    let mut per = [0.0_f64; PARAMS.len()];
+    for (s, t2) in [
+        ("++", 0.05),
+        ("+-", 0.1),
+        ("--", 0.05),
+        ("-+", 0.05),
+        ("--", -0.1),
+    ] {
         let cfg = LeapConfig {
             strategy: s.parse().unwrap(),
             t2_s: t2,
@@ -384,15 +392,26 @@ fn default_option_sensitivities_agree_with_converged_ones() {
         };
         let user = leap_with_sensitivity(&params, &cfg, &names).unwrap();
         let conv = leap_with_sensitivity(&params, &tight(s, t2), &names).unwrap();
-        assert!(user.ok && conv.ok, "{s} {t2}: {:?} {:?}", user.reason, conv.reason);
+        assert!(
+            user.ok && conv.ok,
+            "{s} {t2}: {:?} {:?}",
+            user.reason,
+            conv.reason
+        );
         for (k, (name, scale)) in PARAMS.iter().enumerate() {
             let d: Vec<f64> = (0..7).map(|c| user.d_apex[c][k]).collect();
             let r: Vec<f64> = (0..7).map(|c| conv.d_apex[c][k]).collect();
             let e = worst(&d, &r, *scale);
             eprintln!("{s} t2={t2:+} {name}: default vs converged {e:.2e}");
-            w = w.max(e);
+            per[k] = per[k].max(e);
         }
     }
-    eprintln!("worst: {w:.2e}");
-    assert!(w < 5e-2, "{w}");
+    // the measured worst with a margin of 2 (t2: 1.1e-5 at `+-`, t2 = 0.1; the others 2.4e-6)
+    for ((name, _), (e, bound)) in PARAMS
+        .iter()
+        .zip(per.into_iter().zip([2.5e-5, 5e-6, 5e-6, 5e-6]))
+    {
+        eprintln!("worst for {name}: {e:.2e}");
+        assert!(e < bound, "{name}: {e}");
+    }
 }

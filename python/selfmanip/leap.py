@@ -397,7 +397,11 @@ def leap(strategy: str = "++", t2: float = 0.0, gear_ratio: float | None | _Defa
     and saltation matrices, not finite differences), NaN with ``sensitivity_ok`` False where
     undefined (e.g. at a change of the leap's mode sequence); each event then also carries
     ``"saltation"``, its saltation matrix over ``(q, q̇)`` (an ``(n, n)`` array; None where
-    undefined). Bad input raises
+    undefined). With ``sensitivities`` the leap always runs with ``control_free_joints=True``
+    (the legs' prescribed motions in the air under step-size control, so that their
+    touchdowns are resolved to the tolerances; about 3× the integration of the default leap):
+    the result is identical to ``leap(..., control_free_joints=True)`` without them, and may
+    differ from the default leap by the tolerances. Bad input raises
     :class:`selfmanip.InvalidInputError` (a ``ValueError``) or
     :class:`selfmanip.InvalidTypeError` (a ``TypeError``) naming the field; Ctrl-C interrupts.
 
@@ -608,7 +612,9 @@ def sweep(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any =
     callable receiving the number of points done). ``sensitivities=["t2", "gear_ratio"]``
     adds a float column ``"d_<apex column>/d_<name>"`` (e.g. ``d_apex_z_m/d_t2``) for every
     apex column and name — the derivatives of :func:`leap`'s ``sensitivity``, NaN where
-    undefined — and a boolean column ``sensitivity_ok``.
+    undefined — and a boolean column ``sensitivity_ok``; every point then runs with
+    ``control_free_joints=True`` (as :func:`leap` with ``sensitivities``), and so do the
+    table's other columns.
 
     >>> import selfmanip
     >>> r = selfmanip.sweep(["++", "--"], t2=[0.0, 0.05], gear_ratio=[20.0, 28.0], threads=2)

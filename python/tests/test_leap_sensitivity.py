@@ -29,10 +29,13 @@ def test_leap_sensitivity_mapping_and_saltations():
     n = 2 * len(r.q0)
     for e in r.events:
         assert e["saltation"].shape == (n, n), e
-    # without sensitivities: no saltations, no mapping
-    plain = selfmanip.leap("++", t2=0.05, dt=None)
+    # without sensitivities: no saltations, no mapping; the leap with sensitivities is the
+    # one run with the free legs under step control (the engine sets it on that path)
+    plain = selfmanip.leap("++", t2=0.05, dt=None, control_free_joints=True)
     assert plain.sensitivity is None and "saltation" not in plain.events[0]
     assert plain.apex == r.apex and plain.word == r.word
+    assert selfmanip.leap("++", t2=0.05, dt=None, control_free_joints=True,
+                          sensitivities=["t2"]).apex == r.apex
     assert "d_apex_z_m/d_t2" in r.to_dict()["sensitivity"]
 
 
@@ -78,8 +81,8 @@ def test_sweep_columns_equal_single_leaps_and_are_deterministic():
     assert not a["sensitivity_ok"][i0].any()
     assert np.isnan(a["d_apex_z_m/d_t2"][i0]).all()
     assert a["sensitivity_ok"].any()
-    # the sweep's other columns are unchanged by the sensitivities
-    plain = selfmanip.sweep(["++", "-+"], t2=t2, threads=2)
+    # the sweep's other columns are those of the leaps with the free legs under step control
+    plain = selfmanip.sweep(["++", "-+"], t2=t2, threads=2, config={"control_free_joints": True})
     for k in plain:
         assert np.array_equal(plain[k], a[k]) if plain[k].dtype.kind in "US" else \
             np.array_equal(plain[k], a[k], equal_nan=True), k

@@ -281,8 +281,7 @@ impl SegmentIntegrator {
                 // short, down to an ulp, says nothing about the flow's time scale)
                 *t = s;
                 self.t_right = s.next_up();
-                self.ode
-                    .reset(self.ode.next_step_size().max(h_proposed));
+                self.ode.reset(self.ode.next_step_size().max(h_proposed));
             }
             seg.t1 = *t;
             if feature_change.is_some_and(|tc| *t >= tc) {
