@@ -907,7 +907,9 @@ impl Controller for LeapController {
     }
 
     /// Each motor's start, and the knots of the swing down that starts with it (its jerk
-    /// jumps there, and so does `∂q̈/∂t2`): all move with the start.
+    /// jumps there, and so does `∂q̈/∂t2`): all move with the start. Then the starts and knots
+    /// of the motions started at events (fixed: the controller's memory is not
+    /// differentiated). The engine's steps land on all of them.
     fn time_events(&self, names: &[&str]) -> Vec<TimeEvent> {
         let mut out = Vec::new();
         for i in 0..2 {
@@ -930,6 +932,15 @@ impl Controller for LeapController {
                     t,
                     dt_dp: dt_dp.clone(),
                 });
+            }
+            // the motions started at events (held fixed in the partials: `dt_b/dp = 0`)
+            for m in self.air[i].iter().skip(1) {
+                for t in std::iter::once(m.t0()).chain(m.knots()) {
+                    out.push(TimeEvent {
+                        t,
+                        dt_dp: vec![0.0; names.len()],
+                    });
+                }
             }
         }
         out
