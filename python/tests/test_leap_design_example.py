@@ -30,7 +30,10 @@ def test_leap_design_small_budget(capsys):
     t = selfmanip.sweep("-+", t2=np.linspace(-0.2, 0.2, 5), gear_ratio=np.linspace(15.0, 44.0, 3), threads=1)
     ok = (t["status"] == "ok") & (np.abs(t["apex_phi_rad"]) <= math.radians(20.0))
     assert grid["apex_z_m"] == np.max(t["apex_z_m"][ok])
-    r = selfmanip.leap("-+", t2=grad["t2_s"], gear_ratio=grad["gear_ratio"], dt=None)
+    # the gradient path's leaps run with the free legs under step control (as every leap with
+    # sensitivities): the same leap re-run without them
+    r = selfmanip.leap("-+", t2=grad["t2_s"], gear_ratio=grad["gear_ratio"], dt=None,
+                       control_free_joints=True)
     assert r.apex.z_m == grad["apex_z_m"]
     assert mod.feasible(grad) and abs(math.degrees(r.apex.phi_rad)) <= 20.0 + 1e-6
     assert grad["leaps"] > 15
