@@ -8,7 +8,8 @@
 //! And the default RHex leap (`LeapConfig::default()`, strategy `++`, `t2 = 0.05 s`: seven
 //! events) plain against the same leap with its apex differentiated with respect to two
 //! parameters (`t2`, `gear_ratio`: two columns propagated by Jacobian-times-matrix products,
-//! issue 18's criterion: at most 5×).
+//! issue 18's criterion: at most 5×), and the leap the sensitivity path runs — with its free
+//! legs under step control — alone.
 use criterion::{criterion_group, criterion_main, Criterion};
 use selfmanip::core::contact::contact_geometry;
 use selfmanip::core::kinematics::Kinematics;
@@ -169,6 +170,14 @@ fn sensitivity(c: &mut Criterion) {
     };
     group.bench_function("leap", |b| {
         b.iter(|| black_box(simulate_leap(&params, &cfg).unwrap()))
+    });
+    // the execution the sensitivity path runs (its free legs under step control), alone
+    let controlled = LeapConfig {
+        control_free_joints: true,
+        ..cfg.clone()
+    };
+    group.bench_function("leap_control_free_joints", |b| {
+        b.iter(|| black_box(simulate_leap(&params, &controlled).unwrap()))
     });
     group.bench_function("leap_d_t2_gear_ratio", |b| {
         b.iter(|| black_box(leap_with_sensitivity(&params, &cfg, &["t2", "gear_ratio"]).unwrap()))
