@@ -4,12 +4,20 @@
 //! matrix per event), at the engine's default tolerances. Systems: the rocking block dropped
 //! tilted (7 touchdowns, 6 states) and RHex with massless half-circle legs dropped onto them
 //! under hip servos (2 touchdowns and a rolling/point switch, 10 states).
+//!
+//! And the default RHex leap (`LeapConfig::default()`, strategy `++`, `t2 = 0.05 s`: seven
+//! events) plain against the same leap with its apex differentiated with respect to two
+//! parameters (`t2`, `gear_ratio`: two columns propagated by Jacobian-times-matrix products,
+//! issue 18's criterion: at most 5×), and the leap the sensitivity path runs — with its free
+//! legs under step control — alone.
 use criterion::{criterion_group, criterion_main, Criterion};
 use selfmanip::core::contact::contact_geometry;
 use selfmanip::core::kinematics::Kinematics;
 use selfmanip::core::{ContactMode, FlatGround, Model, RobotDescription};
 use selfmanip::hybrid::sensitivity::simulate_with_sensitivity;
 use selfmanip::hybrid::{simulate, Controller, ControllerPartials, HybridOptions, ZeroTorque};
+use selfmanip::rhex::leap::{leap_params, simulate_leap, LeapConfig};
+use selfmanip::rhex::leap_sensitivity::leap_with_sensitivity;
 use selfmanip::rhex::{LegShape, Rhex, RhexParams};
 use std::hint::black_box;
 
@@ -152,6 +160,27 @@ fn sensitivity(c: &mut Criterion) {
                 .unwrap(),
             )
         })
+    });
+    group.finish();
+    let mut group = c.benchmark_group("leap_sensitivity");
+    let params = leap_params();
+    let cfg = LeapConfig {
+        t2_s: 0.05,
+        ..LeapConfig::default()
+    };
+    group.bench_function("leap", |b| {
+        b.iter(|| black_box(simulate_leap(&params, &cfg).unwrap()))
+    });
+    // the execution the sensitivity path runs (its free legs under step control), alone
+    let controlled = LeapConfig {
+        control_free_joints: true,
+        ..cfg.clone()
+    };
+    group.bench_function("leap_control_free_joints", |b| {
+        b.iter(|| black_box(simulate_leap(&params, &controlled).unwrap()))
+    });
+    group.bench_function("leap_d_t2_gear_ratio", |b| {
+        b.iter(|| black_box(leap_with_sensitivity(&params, &cfg, &["t2", "gear_ratio"]).unwrap()))
     });
     group.finish();
 }

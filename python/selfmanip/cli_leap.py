@@ -131,6 +131,9 @@ def add_subcommands(sub: "argparse._SubParsersAction") -> None:
                     help="range, list or value (default: the engine's default actuator)")
     sw.add_argument("--saturated", action="store_true", help="chapter 3's saturated torque instead of geared motors")
     sw.add_argument("--set", action="append", metavar="NAME=RANGE", help="sweep a parameter by name (repeatable)")
+    sw.add_argument("--sensitivities", default=None, metavar="NAMES",
+                    help="comma-separated parameters (t2, gear_ratio, m_b, I_b): adds the columns "
+                         "d_<apex column>/d_<name> and sensitivity_ok")
     sw.add_argument("--threads", type=int, default=None, help="worker threads (default: all CPUs)")
     sw.add_argument("--out", help="output .csv or .parquet (default: CSV on stdout)")
     sw.add_argument("--progress", choices=["auto", "always", "never"], default="auto",
@@ -296,7 +299,8 @@ def sweep_command(args: argparse.Namespace) -> int:
         raise InvalidInputError(f"`--out`: expected a .csv or .parquet file, got {args.out!r}", "--out")
     cols = sweep_points(strategies, t2, gear, **sets)
     show = args.progress == "always" or (args.progress == "auto" and sys.stderr.isatty())
-    table = run_points(cols, threads=args.threads, progress=show)
+    names = None if args.sensitivities is None else [n.strip() for n in args.sensitivities.split(",") if n.strip()]
+    table = run_points(cols, threads=args.threads, progress=show, sensitivities=names)
     return finish_sweep(table, args.out, args.strict, done=("ok",), done_word="ok")
 
 

@@ -210,6 +210,13 @@ class LeapResult:
     config: dict[str, Any]
     trajectory: Trajectory | None = None
     reason: str = ""
+    #: With ``sensitivities=[...]``: ``{(apex column, parameter): d column / d parameter}``
+    #: for every apex column (``apex_t_s, apex_x_m, apex_z_m, apex_phi_rad, apex_xdot_m_s,
+    #: apex_zdot_m_s, apex_phidot_rad_s``) and parameter name as given; NaN where the
+    #: derivative is undefined (``sensitivity_ok`` False, ``sensitivity_reason`` says why).
+    sensitivity: dict[tuple[str, str], float] | None = None
+    sensitivity_ok: bool | None = None
+    sensitivity_reason: str = ""
 
     def to_dict(self, trajectory: bool = True) -> dict[str, Any]:
         """Plain JSON-ready data (NaN becomes ``None``)."""
@@ -233,6 +240,11 @@ class LeapResult:
         }
         if trajectory and self.trajectory is not None:
             d["trajectory"] = dict(self.trajectory.__dict__)
+        if self.sensitivity is not None:
+            # JSON keys are strings: "d_<column>/d_<parameter>", as in a sweep's columns
+            d["sensitivity"] = {f"d_{c}/d_{p}": v for (c, p), v in self.sensitivity.items()}
+            d["sensitivity_ok"] = self.sensitivity_ok
+            d["sensitivity_reason"] = self.sensitivity_reason
         return clean(d)
 
     def write_mcap(self, path: str | os.PathLike, metadata: Mapping[str, str] | None = None) -> None:
@@ -350,9 +362,27 @@ def _check_actuator(gears: Iterable[Any], names: Iterable[str]) -> None:
 
 # ---------------------------------------------------------------------------------------------
 
+#: The parameter names of ``sensitivities=[...]`` (``t2`` and ``t2_s`` are one).
+SENSITIVITY_PARAMETERS = ("t2", "t2_s", "gear_ratio", "m_b", "I_b")
+
+
+def _sensitivity_names(value: Any) -> list[str] | None:
+    if value is None:
+        return None
+    if isinstance(value, str) or not isinstance(value, Iterable):
+        raise InvalidTypeError(
+            f"`sensitivities` must be a list of parameter names, got {value!r}", "sensitivities")
+    names = list(value)
+    for n in names:
+        if not isinstance(n, str):
+            raise InvalidTypeError(
+                f"`sensitivities`: parameter names are strings, got {n!r}", "sensitivities")
+    return names
+
+
 def leap(strategy: str = "++", t2: float = 0.0, gear_ratio: float | None | _Default = DEFAULT,
          params: Mapping[str, Any] | None = None, *, dt: float | None = 0.002,
-         **config: Any) -> LeapResult:
+         sensitivities: Iterable[str] | None = None, **config: Any) -> LeapResult:
     """One leap from rest to the apex of flight.
 
     ``strategy``: ``"++"``, ``"+-"``, ``"-+"`` or ``"--"`` (front, rear); ``t2``: the rear
@@ -361,7 +391,17 @@ def leap(strategy: str = "++", t2: float = 0.0, gear_ratio: float | None | _Defa
     X-RHex motors of this ratio; ``None``, chapter 3's saturated torque. ``params``: Table 4.2
     overrides (``{"m_b": 8.0, "leg_shape": "stick"}``); ``dt``: trajectory sample time
     (``None``: no trajectory); further keywords set the leap configuration or the motor by name
-    (see the module documentation). Bad input raises
+    (see the module documentation). ``sensitivities``: parameter names (``"t2"``,
+    ``"gear_ratio"``, ``"m_b"``, ``"I_b"``) whose derivatives of every apex column are
+    returned in ``result.sensitivity[("apex_z_m", "t2")]``, exact (variational equations
+    and saltation matrices, not finite differences), NaN with ``sensitivity_ok`` False where
+    undefined (e.g. at a change of the leap's mode sequence); each event then also carries
+    ``"saltation"``, its saltation matrix over ``(q, q̇)`` (an ``(n, n)`` array; None where
+    undefined). With ``sensitivities`` the leap always runs with ``control_free_joints=True``
+    (the legs' prescribed motions in the air under step-size control, so that their
+    touchdowns are resolved to the tolerances; about 3× the integration of the default leap):
+    the result is identical to ``leap(..., control_free_joints=True)`` without them, and may
+    differ from the default leap by the tolerances. Bad input raises
     :class:`selfmanip.InvalidInputError` (a ``ValueError``) or
     :class:`selfmanip.InvalidTypeError` (a ``TypeError``) naming the field; Ctrl-C interrupts.
 
@@ -377,8 +417,19 @@ def leap(strategy: str = "++", t2: float = 0.0, gear_ratio: float | None | _Defa
         dt = _real("dt", dt, positive=True)
     ov = _overrides(params, config)
     _check_actuator([g], ov)
-    d = _native.leap_run(s, t2v, _native_gear(g), ov, dt)
+    names = _sensitivity_names(sensitivities)
+    d = _native.leap_run(s, t2v, _native_gear(g), ov, dt, names)
     apex = None if d["apex"] is None else Apex(**d["apex"])
+    events = [dict(e) for e in d["events"]]
+    sens, sens_ok, sens_reason = None, None, ""
+    if "sensitivity" in d:
+        sd = d["sensitivity"]
+        values = np.asarray(sd["values"], dtype=float)
+        sens = {(c, p): float(values[i, j]) for i, c in enumerate(sd["columns"])
+                for j, p in enumerate(sd["parameters"])}
+        sens_ok, sens_reason = bool(sd["ok"]), str(sd["reason"])
+        for e, x in zip(events, sd["saltations"]):
+            e["saltation"] = None if x is None else np.asarray(x, dtype=float)
     traj = None
     if "trajectory" in d:
         t = d["trajectory"]
@@ -389,9 +440,10 @@ def leap(strategy: str = "++", t2: float = 0.0, gear_ratio: float | None | _Defa
     actuator = d["config"]["actuator"]
     used = float(actuator["gear_ratio"]) if actuator.get("kind") == "geared_motor" else None
     return LeapResult(strategy=s, t2_s=t2v, gear_ratio=used, status=d["status"], apex=apex,
-                      word="-".join(d["word"]), cells=list(d["word"]), events=list(d["events"]),
+                      word="-".join(d["word"]), cells=list(d["word"]), events=events,
                       q0=np.asarray(d["q0"], dtype=float), q_names=list(d["q_names"]),
-                      params=d["params"], config=d["config"], trajectory=traj, reason=d["reason"])
+                      params=d["params"], config=d["config"], trajectory=traj, reason=d["reason"],
+                      sensitivity=sens, sensitivity_ok=sens_ok, sensitivity_reason=sens_reason)
 
 
 def _axis(field: str, value: Any, *, allow_none: bool = False) -> list[Any]:
@@ -471,7 +523,7 @@ def _progress_bar(total: int, stream=None) -> Callable[[int], None]:
 
 def run_points(cols: Mapping[str, Sequence[Any]], params: Mapping[str, Any] | None = None, *,
                threads: int | None = None, progress: bool | Callable[[int], None] = False,
-               **config: Any) -> dict[str, np.ndarray]:
+               sensitivities: Iterable[str] | None = None, **config: Any) -> dict[str, np.ndarray]:
     """Runs points given as columns (from :func:`sweep_points`); the engine of :func:`sweep`
     and of :func:`selfmanip.distributed.sweep`. ``progress`` (a callable) receives the number
     of points done as they finish; Ctrl-C stops the sweep promptly with ``KeyboardInterrupt``."""
@@ -488,8 +540,9 @@ def run_points(cols: Mapping[str, Sequence[Any]], params: Mapping[str, Any] | No
     n = len(strategies)
     if progress is True:
         progress = _progress_bar(n)
+    names = _sensitivity_names(sensitivities)
     part = _native.leap_sweep(strategies, t2, [_native_gear(g) for g in gears], base, extra, int(threads),
-                              progress or None)
+                              progress or None, names)
     asked = np.asarray([math.nan if g is None or g is DEFAULT else float(g) for g in gears], dtype=float)
     ran = np.asarray(part["gear_ratio"], dtype=float)
     out: dict[str, np.ndarray] = {
@@ -512,6 +565,11 @@ def run_points(cols: Mapping[str, Sequence[Any]], params: Mapping[str, Any] | No
     out["status"] = np.asarray(part["status"], dtype=str) if n else np.asarray([], dtype=str)
     out["n_events"] = np.asarray(part["n_events"], dtype=np.int64)
     out["error"] = np.asarray(part["error"], dtype=str) if n else np.asarray([], dtype=str)
+    if names is not None:
+        for k, v in part.items():
+            if k.startswith("d_"):
+                out[k] = np.asarray(v, dtype=float)
+        out["sensitivity_ok"] = np.asarray(part["sensitivity_ok"], dtype=bool)
     return out
 
 
@@ -532,7 +590,8 @@ def _warn_if_all_failed(table: Mapping[str, Any], stacklevel: int = 3) -> None:
 def sweep(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any = DEFAULT,
           params: Mapping[str, Any] | None = None, threads: int | None = None,
           progress: bool | Callable[[int], None] = False, *, grid: bool = True,
-          config: Mapping[str, Any] | None = None, **swept: Any) -> dict[str, np.ndarray]:
+          config: Mapping[str, Any] | None = None, sensitivities: Iterable[str] | None = None,
+          **swept: Any) -> dict[str, np.ndarray]:
     """Many leaps at once, in parallel on ``threads`` threads (default: the CPUs this process
     may use), with the GIL released. Returns a dict of equal-length numpy arrays
     (``pandas.DataFrame(result)`` works): ``strategy, t2_s, gear_ratio`` (the ratio each point
@@ -550,7 +609,12 @@ def sweep(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any =
     1-D arrays, combined as a grid (see :func:`sweep_points`; ``grid=False`` zips them
     instead). ``params`` (Table 4.2) and ``config`` (leap configuration) set fixed values for
     every point and are checked up front. ``progress=True`` draws a bar on stderr (or pass a
-    callable receiving the number of points done).
+    callable receiving the number of points done). ``sensitivities=["t2", "gear_ratio"]``
+    adds a float column ``"d_<apex column>/d_<name>"`` (e.g. ``d_apex_z_m/d_t2``) for every
+    apex column and name — the derivatives of :func:`leap`'s ``sensitivity``, NaN where
+    undefined — and a boolean column ``sensitivity_ok``; every point then runs with
+    ``control_free_joints=True`` (as :func:`leap` with ``sensitivities``), and so do the
+    table's other columns.
 
     >>> import selfmanip
     >>> r = selfmanip.sweep(["++", "--"], t2=[0.0, 0.05], gear_ratio=[20.0, 28.0], threads=2)
@@ -558,7 +622,8 @@ def sweep(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any =
     (['++', '++', '++', '++'], [20.0, 20.0, 28.0, 28.0], [0.0, 0.05])
     """
     cols = sweep_points(strategy, t2, gear_ratio, grid=grid, **swept)
-    table = run_points(cols, params, threads=threads, progress=progress, **dict(config or {}))
+    table = run_points(cols, params, threads=threads, progress=progress,
+                       sensitivities=sensitivities, **dict(config or {}))
     _warn_if_all_failed(table)
     return table
 

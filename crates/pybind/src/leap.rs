@@ -22,6 +22,9 @@ use rhex_model::leap::{
     leap_params, simulate_leap, LeapConfig, LeapEvent, LeapResult, LegActuator, Strategy,
     Trajectory,
 };
+use rhex_model::leap_sensitivity::{
+    check_sensitivity_names, leap_with_sensitivity, LeapSensitivity, APEX_COLUMNS,
+};
 use rhex_model::mcap_log::{q_names, write_leap_mcap, LeapLog};
 use rhex_model::sweep::{
     check_override_names, error_kind, panic_message, point_inputs, sweepable_names, SweepPoint,
@@ -191,13 +194,50 @@ fn run_leap(
     params: &RhexParams,
     cfg: &LeapConfig,
     dt_s: Option<f64>,
-) -> Result<(LeapResult, Option<Trajectory>), RhexError> {
-    let res = simulate_leap(params, cfg)?;
+    names: Option<&[String]>,
+) -> Result<(LeapResult, Option<Trajectory>, Option<LeapSensitivity>), RhexError> {
+    let (res, sens) = match names {
+        None => (simulate_leap(params, cfg)?, None),
+        Some(names) => {
+            let refs: Vec<&str> = names.iter().map(String::as_str).collect();
+            let s = leap_with_sensitivity(params, cfg, &refs)?;
+            (s.result.clone(), Some(s))
+        }
+    };
     let traj = match dt_s {
         Some(dt) => Some(res.trajectory(params, cfg, dt)?),
         None => None,
     };
-    Ok((res, traj))
+    Ok((res, traj, sens))
+}
+
+/// The sensitivities of a leap as a dict: `parameters`, `columns` (the apex columns),
+/// `values` (`len(columns) × len(parameters)`, NaN unless `ok`), `ok`, `reason` and
+/// `saltations` (one per event: an `(n, n)` array over `(q, q̇)`, or None where undefined).
+fn sensitivity_dict<'py>(py: Python<'py>, s: &LeapSensitivity) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("parameters", s.parameters.clone())?;
+    d.set_item("columns", APEX_COLUMNS.to_vec())?;
+    let k = s.parameters.len();
+    d.set_item(
+        "values",
+        crate::convert::rows_array(&s.d_apex, k).into_pyarray(py),
+    )?;
+    d.set_item("ok", s.ok)?;
+    d.set_item("reason", s.reason.clone().unwrap_or_default())?;
+    let sal = PyList::empty(py);
+    for e in &s.events {
+        match &e.saltation {
+            Some(x) => {
+                let rows: Vec<Vec<f64>> =
+                    x.row_iter().map(|r| r.iter().copied().collect()).collect();
+                sal.append(crate::convert::rows_array(&rows, x.ncols()).into_pyarray(py))?
+            }
+            None => sal.append(py.None())?,
+        }
+    }
+    d.set_item("saltations", sal)?;
+    Ok(d)
 }
 
 fn events_list<'py>(py: Python<'py>, events: &[LeapEvent]) -> PyResult<Bound<'py, PyList>> {
@@ -221,7 +261,7 @@ fn events_list<'py>(py: Python<'py>, events: &[LeapEvent]) -> PyResult<Bound<'py
 /// dicts), `q0`, `q_names`, `time_offset_s`, `params`, `config` (the full inputs used, as
 /// dicts) and, when `dt_s` is given, `trajectory` (numpy arrays).
 #[pyfunction]
-#[pyo3(signature = (strategy, t2_s, gear_ratio, overrides, dt_s=None))]
+#[pyo3(signature = (strategy, t2_s, gear_ratio, overrides, dt_s=None, sensitivities=None))]
 fn leap_run<'py>(
     py: Python<'py>,
     strategy: &str,
@@ -229,6 +269,7 @@ fn leap_run<'py>(
     gear_ratio: Option<f64>,
     overrides: &Bound<'py, PyDict>,
     dt_s: Option<f64>,
+    sensitivities: Option<Vec<String>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     errors::guard(|| {
         let (params, cfg) = resolve(strategy, t2_s, gear_ratio, to_map(overrides, "")?)?;
@@ -240,9 +281,15 @@ fn leap_run<'py>(
                 ));
             }
         }
+        if let Some(names) = &sensitivities {
+            let refs: Vec<&str> = names.iter().map(String::as_str).collect();
+            check_sensitivity_names(&cfg, &refs).map_err(rhex_err)?;
+        }
         let (p, c) = (params.clone(), cfg.clone());
-        let (res, traj) = interrupt::run(py, None, move |_: &Shared| run_leap(&p, &c, dt_s))?
-            .map_err(rhex_err)?;
+        let (res, traj, sens) = interrupt::run(py, None, move |_: &Shared| {
+            run_leap(&p, &c, dt_s, sensitivities.as_deref())
+        })?
+        .map_err(rhex_err)?;
         let d = PyDict::new(py);
         d.set_item("status", res.status.as_str())?;
         d.set_item("reason", reason(&res, &params, &cfg))?;
@@ -257,6 +304,9 @@ fn leap_run<'py>(
         d.set_item("time_offset_s", res.time_offset_s)?;
         d.set_item("params", to_py(py, &params)?)?;
         d.set_item("config", to_py(py, &cfg)?)?;
+        if let Some(s) = &sens {
+            d.set_item("sensitivity", sensitivity_dict(py, s)?)?;
+        }
         if let Some(tr) = traj {
             let nq = tr.q.first().map_or(params.pairs.len() + 3, |r| r.len());
             let nc = tr.contacts.len();
@@ -264,7 +314,10 @@ fn leap_run<'py>(
             td.set_item("contacts", tr.contacts.clone())?;
             td.set_item("t_s", tr.t_s.clone().into_pyarray(py))?;
             td.set_item("q", crate::convert::rows_array(&tr.q, nq).into_pyarray(py))?;
-            td.set_item("qd", crate::convert::rows_array(&tr.qd, nq).into_pyarray(py))?;
+            td.set_item(
+                "qd",
+                crate::convert::rows_array(&tr.qd, nq).into_pyarray(py),
+            )?;
             td.set_item("mode", tr.mode.clone())?;
             td.set_item(
                 "contact_points_m",
@@ -312,24 +365,54 @@ fn error_message(e: &RhexError) -> String {
 
 /// One point of a sweep as a row: never fails, never panics. Unlike a single leap, a point
 /// that does not reach `ok` carries the reason in `error`.
-fn sweep_row(base: &(RhexParams, LeapConfig), point: &SweepPoint) -> SweepRow {
+/// With `names`, the leap's apex sensitivities too: `(ok, d APEX_COLUMNS[c] / d names[k]`
+/// at `c * names.len() + k`, NaN where undefined or when the point failed).
+fn sweep_row(
+    base: &(RhexParams, LeapConfig),
+    point: &SweepPoint,
+    names: Option<&[String]>,
+) -> (SweepRow, Option<(bool, Vec<f64>)>) {
+    let k = names.map_or(0, <[String]>::len);
+    let failed_sens = names.map(|_| (false, vec![f64::NAN; APEX_COLUMNS.len() * k]));
     let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         let (params, cfg) = point_inputs(&base.0, &base.1, point)?;
-        let r = simulate_leap(&params, &cfg)?;
+        let (r, sens) = match names {
+            None => (simulate_leap(&params, &cfg)?, None),
+            Some(names) => {
+                let refs: Vec<&str> = names.iter().map(String::as_str).collect();
+                let s = leap_with_sensitivity(&params, &cfg, &refs)?;
+                let values = s.d_apex.iter().flatten().copied().collect();
+                (s.result, Some((s.ok, values)))
+            }
+        };
         let why = reason(&r, &params, &cfg);
-        Ok::<_, RhexError>((r, why, gear_of(&cfg)))
+        Ok::<_, RhexError>((r, why, gear_of(&cfg), sens))
     }));
+    let (row, sens) = sweep_row_of(outcome);
+    (row, sens.or(failed_sens))
+}
+
+type PointOutcome =
+    std::thread::Result<Result<(LeapResult, String, f64, Option<(bool, Vec<f64>)>), RhexError>>;
+
+fn sweep_row_of(outcome: PointOutcome) -> (SweepRow, Option<(bool, Vec<f64>)>) {
     match outcome {
-        Err(p) => failed_row(
-            "panic",
-            format!(
-                "internal error in selfmanip (a bug, please report it): {}",
-                panic_message(p.as_ref())
+        Err(p) => (
+            failed_row(
+                "panic",
+                format!(
+                    "internal error in selfmanip (a bug, please report it): {}",
+                    panic_message(p.as_ref())
+                ),
+                f64::NAN,
             ),
-            f64::NAN,
+            None,
         ),
-        Ok(Err(e)) => failed_row(error_kind(&e), error_message(&e), f64::NAN),
-        Ok(Ok((r, why, g))) => {
+        Ok(Err(e)) => (
+            failed_row(error_kind(&e), error_message(&e), f64::NAN),
+            None,
+        ),
+        Ok(Ok((r, why, g, sens))) => {
             let mut row = failed_row(r.status.as_str(), why, g);
             row.word = r.word_string();
             row.n_events = r.events.len();
@@ -342,7 +425,7 @@ fn sweep_row(base: &(RhexParams, LeapConfig), point: &SweepPoint) -> SweepRow {
                 row.apex_zdot_m_s = a.zdot_m_s;
                 row.apex_phidot_rad_s = a.phidot_rad_s;
             }
-            row
+            (row, sens)
         }
     }
 }
@@ -350,19 +433,22 @@ fn sweep_row(base: &(RhexParams, LeapConfig), point: &SweepPoint) -> SweepRow {
 /// Runs the points on a pool of exactly `threads` threads, one task per point, rows in input
 /// order (bit-identical for any thread count). A point skipped because the sweep was
 /// interrupted is `None`. `bases[saturated]` is each point's base.
+type Row = (SweepRow, Option<(bool, Vec<f64>)>);
+
 fn sweep_rows(
     bases: &[(RhexParams, LeapConfig); 2],
     points: &[(bool, SweepPoint)],
     threads: usize,
+    names: Option<&[String]>,
     shared: &Shared,
-) -> Result<Vec<Option<SweepRow>>, String> {
+) -> Result<Vec<Option<Row>>, String> {
     // one task per leap on a pool of its own (neighbouring points have correlated costs:
     // `rhex_model::sweep::sweep`)
     run_parallel(points, threads, |(saturated, p)| {
         if shared.cancelled() {
             return None;
         }
-        let row = sweep_row(&bases[usize::from(*saturated)], p);
+        let row = sweep_row(&bases[usize::from(*saturated)], p, names);
         shared.tick();
         Some(row)
     })
@@ -378,7 +464,7 @@ fn sweep_rows(
 /// columns (numpy arrays for numbers, lists for strings); a point that is not `ok` has the
 /// reason in `error`.
 #[pyfunction]
-#[pyo3(signature = (strategies, t2_s, gear_ratio, base_overrides, columns, threads, progress=None))]
+#[pyo3(signature = (strategies, t2_s, gear_ratio, base_overrides, columns, threads, progress=None, sensitivities=None))]
 #[allow(clippy::too_many_arguments)]
 fn leap_sweep<'py>(
     py: Python<'py>,
@@ -389,6 +475,7 @@ fn leap_sweep<'py>(
     columns: &Bound<'py, PyDict>,
     threads: usize,
     progress: Option<&Bound<'py, PyAny>>,
+    sensitivities: Option<Vec<String>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     errors::guard(|| {
         let n = strategies.len();
@@ -412,6 +499,10 @@ fn leap_sweep<'py>(
             actuator: LegActuator::SaturatedTorque,
             ..bc.clone()
         };
+        if let Some(names) = &sensitivities {
+            let refs: Vec<&str> = names.iter().map(String::as_str).collect();
+            check_sensitivity_names(&bc, &refs).map_err(rhex_err)?;
+        }
         let bases = [(bp.clone(), bc), (bp, saturated_cfg)];
         let mut cols: Vec<(String, Vec<Value>)> = Vec::new();
         for (k, v) in columns.iter() {
@@ -451,15 +542,34 @@ fn leap_sweep<'py>(
             }
             points.push((saturated, pt));
         }
+        let names = sensitivities.clone();
         let rows = interrupt::run(py, progress, move |shared: &Shared| {
-            sweep_rows(&bases, &points, threads, shared)
+            sweep_rows(&bases, &points, threads, names.as_deref(), shared)
         })?
         .map_err(|e| invalid("threads", e))?;
-        let rows: Vec<SweepRow> = rows
+        let rows: Vec<Row> = rows
             .into_iter()
             .collect::<Option<Vec<_>>>()
             .ok_or_else(|| errors::engine("the sweep was cancelled"))?;
+        let (rows, sens): (Vec<SweepRow>, Vec<Option<(bool, Vec<f64>)>>) = rows.into_iter().unzip();
         let d = PyDict::new(py);
+        if let Some(names) = &sensitivities {
+            let k = names.len();
+            for (c, col) in APEX_COLUMNS.iter().enumerate() {
+                for (j, name) in names.iter().enumerate() {
+                    let v: Vec<f64> = sens
+                        .iter()
+                        .map(|s| s.as_ref().map_or(f64::NAN, |(_, v)| v[c * k + j]))
+                        .collect();
+                    d.set_item(format!("d_{col}/d_{name}"), v.into_pyarray(py))?;
+                }
+            }
+            let ok: Vec<bool> = sens
+                .iter()
+                .map(|s| s.as_ref().is_some_and(|x| x.0))
+                .collect();
+            d.set_item("sensitivity_ok", ok.into_pyarray(py))?;
+        }
         let f = |g: fn(&SweepRow) -> f64| -> Vec<f64> { rows.iter().map(g).collect() };
         d.set_item("gear_ratio", f(|r| r.gear_ratio).into_pyarray(py))?;
         d.set_item("apex_t_s", f(|r| r.apex_t_s).into_pyarray(py))?;

@@ -29,7 +29,7 @@ use motor::Actuator;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{ContactMode, Terrain};
 use selfmanip_hybrid::StepOptions;
-use selfmanip_hybrid::{simulate_with, Controller};
+use selfmanip_hybrid::{simulate_with, Controller, ControllerPartials, TimeEvent};
 use selfmanip_hybrid::{Event, EventKind, Execution, HybridOptions, Termination};
 use selfmanip_sim::motion::JointMotion as LegMotion;
 use selfmanip_sim::terrain::TerrainSpec;
@@ -231,6 +231,9 @@ pub struct LeapConfig {
     pub max_steps: usize,
     /// Budget of events: a leap that makes more ends `event_budget`.
     pub max_events: usize,
+    /// Integrate the legs' prescribed motions in the air to the tolerances too
+    /// ([`HybridOptions::control_free_joints`]; off by default: ~3× cheaper leaps).
+    pub control_free_joints: bool,
 }
 
 impl Default for LeapConfig {
@@ -255,6 +258,7 @@ impl Default for LeapConfig {
             zeno_max_events: 40,
             max_steps: selfmanip_hybrid::DEFAULT_MAX_STEPS,
             max_events: DEFAULT_MAX_EVENTS,
+            control_free_joints: false,
         }
     }
 }
@@ -521,15 +525,85 @@ impl Actuator for LegDrive {
     }
 }
 
+/// What a leg motor's torque depends on, for its partial derivatives: the saturated torque
+/// (`τ = u τ_s`, independent of speed and gear ratio) or `n` geared DC motors,
+/// `τ = n G η clamp(τ_st (u − G ω/ω₀), ±k_M I_max)` (motor stall torque `τ_st`, no-load
+/// speed `ω₀`, current-limited torque `k_M I_max`, gearbox ratio `G` and efficiency `η`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum MotorLaw {
+    Saturated,
+    Geared {
+        n: f64,
+        ratio: f64,
+        efficiency: f64,
+        stall_n_m: f64,
+        no_load_rad_s: f64,
+        limit_n_m: f64,
+    },
+}
+
+impl MotorLaw {
+    fn new(a: &LegActuator, drive: Option<&motor::Drive>) -> Self {
+        match (a, drive) {
+            (LegActuator::GearedMotor { motors_per_leg, .. }, Some(d)) => MotorLaw::Geared {
+                n: f64::from(*motors_per_leg),
+                ratio: d.gearbox.ratio,
+                efficiency: d.gearbox.efficiency,
+                stall_n_m: d.motor.stall_torque_n_m,
+                no_load_rad_s: d.motor.no_load_speed_rad_s,
+                limit_n_m: d.motor.current_limited_torque_n_m(),
+            },
+            _ => MotorLaw::Saturated,
+        }
+    }
+
+    /// `(∂τ/∂ω, ∂τ/∂G)` at command `u` and joint speed `ω`: the derivative of the active
+    /// branch (on the torque–speed line, or at the current limit). `None` for `∂τ/∂G` of
+    /// the saturated torque (no gear ratio).
+    fn partials(&self, u: f64, speed: f64) -> (f64, Option<f64>) {
+        match *self {
+            MotorLaw::Saturated => (0.0, None),
+            MotorLaw::Geared {
+                n,
+                ratio,
+                efficiency,
+                stall_n_m,
+                no_load_rad_s,
+                limit_n_m,
+            } => {
+                let a = stall_n_m * (u.clamp(-1.0, 1.0) - speed * ratio / no_load_rad_s);
+                if a.abs() < limit_n_m {
+                    let c = n * ratio * efficiency;
+                    (
+                        -c * stall_n_m * ratio / no_load_rad_s,
+                        Some(n * efficiency * a - c * stall_n_m * speed / no_load_rad_s),
+                    )
+                } else {
+                    (0.0, Some(n * efficiency * a.clamp(-limit_n_m, limit_n_m)))
+                }
+            }
+        }
+    }
+}
+
 fn leg_actuator(params: &RhexParams, a: &LegActuator) -> Result<Arc<dyn Actuator>, RhexError> {
+    Ok(leg_motor(params, a)?.0)
+}
+
+/// The leg actuator and the law of its torque.
+fn leg_motor(
+    params: &RhexParams,
+    a: &LegActuator,
+) -> Result<(Arc<dyn Actuator>, MotorLaw), RhexError> {
     let motor_err = |e: motor::MotorError| RhexError::Params {
         field: "actuator".into(),
         reason: e.to_string(),
     };
     Ok(match *a {
-        LegActuator::SaturatedTorque => {
-            Arc::new(motor::SaturatedTorque::new(params.tau_s).map_err(motor_err)?)
-        }
+        LegActuator::SaturatedTorque => (
+            Arc::new(motor::SaturatedTorque::new(params.tau_s).map_err(motor_err)?),
+            MotorLaw::Saturated,
+        ),
         LegActuator::GearedMotor {
             gear_ratio,
             current_limit_a,
@@ -543,10 +617,15 @@ fn leg_actuator(params: &RhexParams, a: &LegActuator) -> Result<Arc<dyn Actuator
                 .map_err(motor_err)?;
             let mut gearbox = catalog.gearbox("x-rhex-28").map_err(motor_err)?.clone();
             gearbox.ratio = gear_ratio;
-            Arc::new(LegDrive {
-                drive: motor::Drive::new(m, gearbox).map_err(motor_err)?,
-                n: f64::from(motors_per_leg),
-            })
+            let drive = motor::Drive::new(m, gearbox).map_err(motor_err)?;
+            let law = MotorLaw::new(a, Some(&drive));
+            (
+                Arc::new(LegDrive {
+                    drive,
+                    n: f64::from(motors_per_leg),
+                }),
+                law,
+            )
         }
     })
 }
@@ -565,13 +644,18 @@ enum Phase {
 
 /// The open-loop leap controller of section 3.2 (it remembers the events of its run).
 #[derive(Clone)]
-struct LeapController {
+pub(crate) struct LeapController {
     sign: [f64; 2],
-    start: [f64; 2],
+    pub(crate) start: [f64; 2],
     hold: [f64; 2],
-    leg_contact: [usize; 2],
+    pub(crate) leg_contact: [usize; 2],
     actuators: [Arc<dyn Actuator>; 2],
+    /// The law of the actuators' torque, for the partials.
+    law: MotorLaw,
     hold_torque: f64,
+    /// `d start / d t2` of each leg (the execution starts at `min(0, t2)`): `(0, 1)` for
+    /// `t2 ≥ 0`, `(−1, 0)` below.
+    pub(crate) dstart_dt2: [f64; 2],
     accel: f64,
     speed: f64,
     stub: Option<f64>,
@@ -631,14 +715,67 @@ impl LeapController {
 
     /// The motion of leg `i` in the air at `t`: the last one started by then.
     fn air_motion(&self, i: usize, t: f64) -> (f64, f64, f64) {
+        self.air_motion_at(i, t).1.eval(t)
+    }
+
+    /// [`Self::air_motion`]'s motion and its index (0: the swing down that starts with the
+    /// leg's motor).
+    fn air_motion_at(&self, i: usize, t: f64) -> (usize, &LegMotion) {
         let motions = &self.air[i];
-        let m = motions
+        motions
             .iter()
+            .enumerate()
             .rev()
-            .find(|m| m.t0() <= t)
-            .or(motions.first())
-            .expect("every leg has its swing down");
-        m.eval(t)
+            .find(|(_, m)| m.t0() <= t)
+            .or(motions.first().map(|m| (0, m)))
+            .expect("every leg has its swing down")
+    }
+
+    /// `∂(θ, θ̇, θ̈)/∂t2` of leg `i`'s motion in the air at `t`: the swing down starts with
+    /// the motor, `∂/∂t0 = −(θ̇, θ̈, d³θ/dt³)`; a motion started at an event is held fixed (its
+    /// dependence on the event's state is the controller's memory, not differentiated:
+    /// [`crate::leap_sensitivity`] flags a leap whose leg meets the ground again under one).
+    fn air_motion_dt2(&self, i: usize, t: f64) -> (f64, f64, f64) {
+        let (k, m) = self.air_motion_at(i, t);
+        if k != 0 || self.dstart_dt2[i] == 0.0 || t < m.t0() {
+            return (0.0, 0.0, 0.0);
+        }
+        let (_, w, a) = m.eval(t);
+        let d = self.dstart_dt2[i];
+        (-w * d, -a * d, -m.jerk(t) * d)
+    }
+
+    /// The servo's partials `(∂/∂q, ∂/∂q̇, ∂/∂θ, ∂/∂ω, ∂/∂H)` at its arguments: the active
+    /// branch of the clamp (zero inside the saturation but for `±∂/∂H`).
+    fn servo_partials(&self, q: f64, qd: f64, theta: f64, omega: f64) -> [f64; 5] {
+        let h = self.hold_torque;
+        let raw = -HOLD_KP_PER_RAD * (q - theta) - HOLD_KD_S * (qd - omega);
+        if (raw * h).abs() < h {
+            let (kp, kd) = (HOLD_KP_PER_RAD * h, HOLD_KD_S * h);
+            [-kp, -kd, kp, kd, raw]
+        } else {
+            [0.0, 0.0, 0.0, 0.0, raw.signum()]
+        }
+    }
+
+    /// `dH/dG` of the hold torque `H = n G η min(τ_st, k_M I_max)` (0 for the saturated
+    /// torque).
+    fn dhold_dgear(&self) -> f64 {
+        match self.law {
+            MotorLaw::Geared { ratio, .. } => self.hold_torque / ratio,
+            MotorLaw::Saturated => 0.0,
+        }
+    }
+
+    /// The servo target of leg `i` at `t` in `phase` (waiting: its hold angle).
+    fn servo_target(&self, i: usize, t: f64, phase: Phase) -> (f64, f64) {
+        match phase {
+            Phase::Waiting => (self.hold[i], 0.0),
+            _ => {
+                let (theta, omega, _) = self.air_motion(i, t);
+                (theta, omega)
+            }
+        }
     }
 }
 
@@ -675,6 +812,138 @@ impl Controller for LeapController {
                 0.0
             };
         }
+    }
+
+    fn partials(
+        &self,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        mode: ContactMode,
+        free: &[usize],
+        out: &mut ControllerPartials,
+    ) -> bool {
+        if self.stub.is_some() {
+            // the toe stub reverses the torque at an angle without an event: not covered
+            return false;
+        }
+        for i in 0..2 {
+            let phase = self.phase(i, t);
+            match phase {
+                Phase::Pushing => {
+                    let u = self.sign[i];
+                    out.dtau_dqd[(i, i)] = self.law.partials(u, qd[i]).0;
+                }
+                _ if !mode.contains(self.leg_contact[i]) => {}
+                _ => {
+                    let (theta, omega) = self.servo_target(i, t, phase);
+                    let d = self.servo_partials(q[i], qd[i], theta, omega);
+                    out.dtau_dq[(i, i)] = d[0];
+                    out.dtau_dqd[(i, i)] = d[1];
+                }
+            }
+        }
+        for (r, &j) in free.iter().enumerate() {
+            if j < 2 {
+                out.dfree_dq[(r, j)] = -AIR_KP;
+                out.dfree_dqd[(r, j)] = -AIR_KD;
+            }
+        }
+        true
+    }
+
+    fn parameter_partials(
+        &self,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        mode: ContactMode,
+        free: &[usize],
+        names: &[&str],
+        out: &mut ControllerPartials,
+    ) -> bool {
+        for (col, name) in names.iter().enumerate() {
+            match *name {
+                "t2_s" => {
+                    for i in 0..2 {
+                        let phase = self.phase(i, t);
+                        if phase == Phase::Waiting {
+                            continue;
+                        }
+                        let (dth, dw, da) = self.air_motion_dt2(i, t);
+                        if phase == Phase::Retracting && mode.contains(self.leg_contact[i]) {
+                            let (theta, omega) = self.servo_target(i, t, phase);
+                            let d = self.servo_partials(q[i], qd[i], theta, omega);
+                            out.dtau_dp[(i, col)] = d[2] * dth + d[3] * dw;
+                        }
+                        if let Some(r) = free.iter().position(|&j| j == i) {
+                            out.dfree_dp[(r, col)] = da + AIR_KP * dth + AIR_KD * dw;
+                        }
+                    }
+                }
+                "gear_ratio" => {
+                    if self.law == MotorLaw::Saturated {
+                        return false;
+                    }
+                    let dh = self.dhold_dgear();
+                    for i in 0..2 {
+                        let phase = self.phase(i, t);
+                        out.dtau_dp[(i, col)] = match phase {
+                            Phase::Pushing => {
+                                self.law.partials(self.sign[i], qd[i]).1.unwrap_or(0.0)
+                            }
+                            _ if !mode.contains(self.leg_contact[i]) => 0.0,
+                            _ => {
+                                let (theta, omega) = self.servo_target(i, t, phase);
+                                self.servo_partials(q[i], qd[i], theta, omega)[4] * dh
+                            }
+                        };
+                    }
+                }
+                _ => return false,
+            }
+        }
+        true
+    }
+
+    /// Each motor's start, and the knots of the swing down that starts with it (its jerk
+    /// jumps there, and so does `∂q̈/∂t2`): all move with the start. Then the starts and knots
+    /// of the motions started at events (fixed: the controller's memory is not
+    /// differentiated). The engine's steps land on all of them.
+    fn time_events(&self, names: &[&str]) -> Vec<TimeEvent> {
+        let mut out = Vec::new();
+        for i in 0..2 {
+            let dt_dp: Vec<f64> = names
+                .iter()
+                .map(|n| {
+                    if *n == "t2_s" {
+                        self.dstart_dt2[i]
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            let knots = self.air[i]
+                .first()
+                .map(LegMotion::knots)
+                .unwrap_or_default();
+            for t in std::iter::once(self.start[i]).chain(knots) {
+                out.push(TimeEvent {
+                    t,
+                    dt_dp: dt_dp.clone(),
+                });
+            }
+            // the motions started at events (held fixed in the partials: `dt_b/dp = 0`)
+            for m in self.air[i].iter().skip(1) {
+                for t in std::iter::once(m.t0()).chain(m.knots()) {
+                    out.push(TimeEvent {
+                        t,
+                        dt_dp: vec![0.0; names.len()],
+                    });
+                }
+            }
+        }
+        out
     }
 
     fn on_event(&mut self, event: &Event) {
@@ -773,15 +1042,15 @@ fn leap_word(rhex: &Rhex, exec: &Execution, min_duration_s: f64) -> Vec<String> 
 
 /// Everything a leap is built from: the robot with its two pushing pairs, the terrain, the
 /// start state and the controller (fresh, without history).
-struct LeapSetup {
-    rhex: Rhex,
-    terrain: TerrainSpec,
-    q0: Vec<f64>,
-    ctrl: LeapController,
+pub(crate) struct LeapSetup {
+    pub(crate) rhex: Rhex,
+    pub(crate) terrain: TerrainSpec,
+    pub(crate) q0: Vec<f64>,
+    pub(crate) ctrl: LeapController,
 }
 
 impl LeapSetup {
-    fn new(params: &RhexParams, cfg: &LeapConfig) -> Result<Self, RhexError> {
+    pub(crate) fn new(params: &RhexParams, cfg: &LeapConfig) -> Result<Self, RhexError> {
         cfg.validate()?;
         let pairs = cfg.pairs.unwrap_or(cfg.strategy.chapter3_pairs());
         if pairs[0] == pairs[1] {
@@ -831,10 +1100,8 @@ impl LeapSetup {
         }
         // execution time starts at min(0, t2)
         let offset = cfg.t2_s.min(0.0);
-        let actuators = [
-            leg_actuator(&params, &cfg.actuator)?,
-            leg_actuator(&params, &cfg.actuator)?,
-        ];
+        let (front, law) = leg_motor(&params, &cfg.actuator)?;
+        let actuators = [front, leg_actuator(&params, &cfg.actuator)?];
         let hold_torque = actuators[0].joint_torque_n_m(1.0, 0.0);
         let start = [-offset, cfg.t2_s - offset];
         let ctrl = LeapController {
@@ -843,7 +1110,13 @@ impl LeapSetup {
             hold: [q0[0], q0[1]],
             leg_contact,
             actuators,
+            law,
             hold_torque,
+            dstart_dt2: if cfg.t2_s >= 0.0 {
+                [0.0, 1.0]
+            } else {
+                [-1.0, 0.0]
+            },
             accel: cfg.swing_accel_rad_s2,
             speed: cfg.swing_speed_rad_s,
             stub: cfg.toe_stub_rad,
@@ -909,6 +1182,17 @@ pub fn simulate_leap_with(
     stop: &AtomicBool,
 ) -> Result<LeapResult, RhexError> {
     let setup = LeapSetup::new(params, cfg)?;
+    run_leap(&setup, cfg, stop, None)
+}
+
+/// Runs the leap `setup` describes, from its start state or (`start_offset`, `2nq` entries)
+/// from that state plus an offset (which must keep the start on its contact constraints).
+pub(crate) fn run_leap(
+    setup: &LeapSetup,
+    cfg: &LeapConfig,
+    stop: &AtomicBool,
+    start_offset: Option<&[f64]>,
+) -> Result<LeapResult, RhexError> {
     let (rhex, terrain, ctrl, q0, start) = (
         &setup.rhex,
         setup.terrain,
@@ -918,7 +1202,21 @@ pub fn simulate_leap_with(
     );
     let model = &rhex.model;
     let offset = cfg.t2_s.min(0.0);
-    let qd0 = vec![0.0; q0.len()];
+    let mut qd0 = vec![0.0; q0.len()];
+    let mut q_start = q0.clone();
+    if let Some(dx) = start_offset {
+        let nq = q0.len();
+        if dx.len() != 2 * nq {
+            return Err(RhexError::Params {
+                field: "start_offset".into(),
+                reason: format!("expected {} entries, got {}", 2 * nq, dx.len()),
+            });
+        }
+        for i in 0..nq {
+            q_start[i] += dx[i];
+            qd0[i] += dx[nq + i];
+        }
+    }
     let opts = HybridOptions {
         event_tol_s: cfg.event_tol_s,
         delta_t_s: cfg.delta_t_s,
@@ -927,6 +1225,7 @@ pub fn simulate_leap_with(
         max_steps: cfg.max_steps,
         max_events: cfg.max_events,
         stop_at_apex: cfg.stop_at_apex,
+        control_free_joints: cfg.control_free_joints,
         step: StepOptions {
             rtol: cfg.rtol,
             atol: cfg.rtol * 1e-2,
@@ -940,7 +1239,7 @@ pub fn simulate_leap_with(
         &terrain,
         ctrl,
         mode0,
-        q0,
+        &q_start,
         &qd0,
         cfg.t_final_s - offset,
         opts,

@@ -246,15 +246,28 @@ impl Assembly {
     /// for the `x` of [`Self::set_x`] and `y` given (the `C̄q̇`, `N̄`, `Ȧq̇` terms only when
     /// `with_velocity`: an impact has none).
     fn dq_terms(&self, k: usize, y: &[f64], with_velocity: bool) -> (DVector<f64>, DVector<f64>) {
+        let mut e = vec![0.0; self.nq];
+        e[k] = 1.0;
+        self.dq_terms_along(&e, y, with_velocity)
+    }
+
+    /// [`Self::dq_terms`] along an arbitrary direction `v` of `q` (the terms are linear in
+    /// the direction: `ω(e_k)` becomes `ω(v)`).
+    fn dq_terms_along(
+        &self,
+        v: &[f64],
+        y: &[f64],
+        with_velocity: bool,
+    ) -> (DVector<f64>, DVector<f64>) {
         let nq = self.nq;
         let mut f = DVector::zeros(nq);
         for (m, p) in &self.masses {
             let lv = &p.lever;
-            let wv = p.we(k);
-            let pxv = lv.d2(&p.w_x, wv);
-            let d3 = with_velocity.then(|| lv.d3(&p.w_qd, &p.w_qd, wv));
+            let wv = lv.omegas(v);
+            let pxv = lv.d2(&p.w_x, &wv);
+            let d3 = with_velocity.then(|| lv.d3(&p.w_qd, &p.w_qd, &wv));
             for i in 0..nq {
-                let pie = lv.d2(p.we(i), wv);
+                let pie = lv.d2(p.we(i), &wv);
                 let mut s = pie.dot(&p.px) + p.j_e[i].dot(&pxv);
                 if let Some(d3) = d3 {
                     s += pie.dot(&p.acc0) + p.j_e[i].dot(&d3) - self.gravity * pie.y;
@@ -265,27 +278,27 @@ impl Assembly {
         let mut g = DVector::zeros(self.rows.len());
         for (r, (d, p)) in self.rows.iter().enumerate() {
             let lv = &p.lever;
-            let wv = p.we(k);
-            let mut s = -d.dot(&lv.d2(&p.w_x, wv));
+            let wv = lv.omegas(v);
+            let mut s = -d.dot(&lv.d2(&p.w_x, &wv));
             if with_velocity {
-                s -= d.dot(&lv.d3(&p.w_qd, &p.w_qd, wv));
+                s -= d.dot(&lv.d3(&p.w_qd, &p.w_qd, &wv));
             }
             g[r] = s;
             if y[r] != 0.0 {
                 for i in 0..nq {
-                    f[i] -= y[r] * d.dot(&lv.d2(p.we(i), wv));
+                    f[i] -= y[r] * d.dot(&lv.d2(p.we(i), &wv));
                 }
             }
         }
         (f, g)
     }
 
-    /// Along the velocity `q̇_k`: `(D_q̇(C̄q̇), D_q̇(Ȧq̇))`.
-    fn dqd_terms(&self, k: usize) -> (DVector<f64>, DVector<f64>) {
+    /// [`Self::dqd_terms`] along an arbitrary direction `w` of `q̇`.
+    fn dqd_terms_along(&self, w: &[f64]) -> (DVector<f64>, DVector<f64>) {
         let nq = self.nq;
         let mut f = DVector::zeros(nq);
         for (m, p) in &self.masses {
-            let a = 2.0 * p.lever.d2(&p.w_qd, p.we(k));
+            let a = 2.0 * p.lever.d2(&p.w_qd, &p.lever.omegas(w));
             for i in 0..nq {
                 f[i] += m * p.j_e[i].dot(&a);
             }
@@ -294,9 +307,16 @@ impl Assembly {
             self.rows.len(),
             self.rows
                 .iter()
-                .map(|(d, p)| -2.0 * d.dot(&p.lever.d2(&p.w_qd, p.we(k)))),
+                .map(|(d, p)| -2.0 * d.dot(&p.lever.d2(&p.w_qd, &p.lever.omegas(w)))),
         );
         (f, g)
+    }
+
+    /// Along the velocity `q̇_k`: `(D_q̇(C̄q̇), D_q̇(Ȧq̇))`.
+    fn dqd_terms(&self, k: usize) -> (DVector<f64>, DVector<f64>) {
+        let mut e = vec![0.0; self.nq];
+        e[k] = 1.0;
+        self.dqd_terms_along(&e)
     }
 }
 
@@ -520,4 +540,117 @@ pub fn sliding_velocity_gradient(
         e[i] = 0.0;
     }
     Ok((dq, DVector::from_vec(row)))
+}
+
+/// A body inertia parameter: `M̄` and `N̄` are linear in it at fixed geometry (the body's
+/// centre of mass is its frame's origin, so `J = [e_x; e_z]`, `J_ω = e_φ`, `J̇ = 0`):
+/// `∂M̄/∂m_b = e_x e_xᵀ + e_z e_zᵀ`, `∂N̄/∂m_b = −g e_z`, `∂M̄/∂I_b = e_φ e_φᵀ`, and `C̄q̇`,
+/// `A`, `Ȧq̇` do not depend on either.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum BodyParameter {
+    /// `m_b` (kg).
+    Mass,
+    /// `I_b` (kg m²).
+    Inertia,
+}
+
+impl BodyParameter {
+    /// `∂M̄/∂p · x + ∂N̄/∂p` (the latter only `with_gravity`).
+    fn dm_x(self, model: &Model, x: &[f64], with_gravity: bool) -> DVector<f64> {
+        let mut f = DVector::zeros(model.nq());
+        match self {
+            BodyParameter::Mass => {
+                f[model.ix_x()] = x[model.ix_x()];
+                f[model.ix_z()] = x[model.ix_z()];
+                if with_gravity {
+                    f[model.ix_z()] -= model.gravity_m_s2;
+                }
+            }
+            BodyParameter::Inertia => f[model.ix_phi()] = x[model.ix_phi()],
+        }
+        f
+    }
+}
+
+/// The directions of a Jacobian-times-matrix product of the flow ([`dynamics_jvp`]): `m`
+/// columns, each a direction `(δq, δq̇)` of the state (`nq × m` each), a direction `δΥ` of the
+/// joint torques (`n × m`), and optionally one body parameter per column (its unit
+/// direction added to the column).
+#[derive(Debug, Clone)]
+pub struct FlowDirections<'a> {
+    pub dq: &'a DMatrix<f64>,
+    pub dqd: &'a DMatrix<f64>,
+    pub dtau: &'a DMatrix<f64>,
+    pub body: &'a [Option<BodyParameter>],
+}
+
+/// `(δq̈, δλ)` along each column of `dirs` (`nq × m`, `c × m`), after [`forward_dynamics`] (or
+/// [`crate::forward_dynamics_prepared`]) at the same state, whose `q̇` is given again: the
+/// product of the exact Jacobian of [`dynamics_jacobian_solved`] with the directions, formed
+/// without the Jacobian (the assembly's derivatives are linear in the direction, so each
+/// column costs one set of directional terms and one solve with the KKT factorization,
+/// instead of `2 nq + n` solves for the full Jacobian). A body parameter adds
+/// `K [δq̈; δλ] = [−∂M̄/∂p q̈ − ∂N̄/∂p; 0]` to its column. Rows of free and locked massless
+/// joints are zero, as in [`DynamicsJacobian`].
+pub fn dynamics_jvp(
+    model: &Model,
+    data: &mut Data,
+    qd: &[f64],
+    dirs: &FlowDirections,
+) -> Result<(DMatrix<f64>, DMatrix<f64>), TangentError> {
+    let mut asm = Assembly::new(model, data, qd)?;
+    let (nq, c, m) = (model.nq(), data.constraints.n_rows(), dirs.dq.ncols());
+    let qdd: Vec<f64> = data.qdd.iter().copied().collect();
+    asm.set_x(&qdd);
+    let lambda: Vec<f64> = data.lambda.iter().copied().collect();
+    let mut dqdd = DMatrix::zeros(nq, m);
+    let mut dlambda = DMatrix::zeros(c, m);
+    let mut solver = Solver::default();
+    for col in 0..m {
+        let v: Vec<f64> = dirs.dq.column(col).iter().copied().collect();
+        let w: Vec<f64> = dirs.dqd.column(col).iter().copied().collect();
+        let (mut f, mut g) = (DVector::zeros(nq), DVector::zeros(c));
+        if v.iter().any(|x| *x != 0.0) {
+            let (fv, gv) = asm.dq_terms_along(&v, &lambda, true);
+            f += fv;
+            g += gv;
+        }
+        if w.iter().any(|x| *x != 0.0) {
+            let (fw, gw) = asm.dqd_terms_along(&w);
+            f += fw;
+            g += gw;
+        }
+        for j in 0..dirs.dtau.nrows() {
+            f[j] -= dirs.dtau[(j, col)];
+        }
+        if let Some(p) = dirs.body.get(col).copied().flatten() {
+            f += p.dm_x(model, &qdd, true);
+        }
+        solver.solve(data, -1.0, &f, &g, col, &mut dqdd, Some(&mut dlambda));
+    }
+    Ok((dqdd, dlambda))
+}
+
+/// `∂q̇⁺/∂p` of the plastic impact for body parameters `ps`, right after
+/// [`plastic_impact_jacobian`] (or [`plastic_impact`]) returned `impact` from `q̇⁻`: `data`
+/// still holds the impact's factorization, and `K [δΔ; δP] = [−∂M̄/∂p Δq̇; 0]` (`A` does not
+/// depend on masses; free massless joints keep their velocity). One column per parameter.
+pub fn plastic_impact_body_derivatives(
+    model: &Model,
+    data: &mut Data,
+    impact: &Impact,
+    qd_minus: &[f64],
+    ps: &[BodyParameter],
+) -> DMatrix<f64> {
+    let nq = model.nq();
+    let c = data.constraints.n_rows();
+    let dx: Vec<f64> = (0..nq).map(|i| impact.qd_plus[i] - qd_minus[i]).collect();
+    let mut out = DMatrix::zeros(nq, ps.len());
+    let zeros = DVector::zeros(c);
+    let mut solver = Solver::default();
+    for (k, p) in ps.iter().enumerate() {
+        let f = p.dm_x(model, &dx, false);
+        solver.solve(data, -1.0, &f, &zeros, k, &mut out, None);
+    }
+    out
 }

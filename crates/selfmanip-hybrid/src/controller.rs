@@ -47,6 +47,39 @@ pub trait Controller: ControllerClone + Send + Sync {
     ) -> bool {
         false
     }
+    /// The partial derivatives of [`Self::torque`] and [`Self::free_joint_qdd`] with respect
+    /// to the controller's named parameters `names` (e.g. a motor's start time or gear
+    /// ratio), written into column `k` of `out.dtau_dp` / `out.dfree_dp` for `names[k]` (they
+    /// arrive zeroed, sized `n × names.len()` and `n_free × names.len()`). Returns whether
+    /// the controller knows every name: the default knows none (and accepts an empty list).
+    #[allow(clippy::too_many_arguments)]
+    fn parameter_partials(
+        &self,
+        _t: f64,
+        _q: &[f64],
+        _qd: &[f64],
+        _mode: ContactMode,
+        _free_joints: &[usize],
+        names: &[&str],
+        _out: &mut ControllerPartials,
+    ) -> bool {
+        names.is_empty()
+    }
+    /// The controller's **time events**: instants at which its outputs may jump as a function
+    /// of time alone (a motor that switches on at `t2`), each with `dt_b/dp` for every name of
+    /// `names` (0 for a parameter the instant does not depend on). The sensitivities add
+    /// `(f⁻ − f⁺) dt_b/dp` there; the default has none.
+    fn time_events(&self, _names: &[&str]) -> Vec<TimeEvent> {
+        Vec::new()
+    }
+}
+
+/// An instant at which a controller's outputs may jump in time ([`Controller::time_events`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TimeEvent {
+    pub t: f64,
+    /// `dt_b/dp`, one entry per parameter name asked for.
+    pub dt_dp: Vec<f64>,
 }
 
 /// Partial derivatives of a controller's outputs over the state ([`Controller::partials`]).
@@ -58,6 +91,10 @@ pub struct ControllerPartials {
     /// `∂q̈_free/∂q`, `∂q̈_free/∂q̇` (one row per free joint, in the order given).
     pub dfree_dq: DMatrix<f64>,
     pub dfree_dqd: DMatrix<f64>,
+    /// `∂Υ/∂p` (`n × k`) and `∂q̈_free/∂p` (`n_free × k`) over the named parameters of
+    /// [`Controller::parameter_partials`]; no columns unless [`Self::with_parameters`].
+    pub dtau_dp: DMatrix<f64>,
+    pub dfree_dp: DMatrix<f64>,
 }
 
 impl ControllerPartials {
@@ -68,6 +105,17 @@ impl ControllerPartials {
             dtau_dqd: DMatrix::zeros(n, nq),
             dfree_dq: DMatrix::zeros(n_free, nq),
             dfree_dqd: DMatrix::zeros(n_free, nq),
+            dtau_dp: DMatrix::zeros(n, 0),
+            dfree_dp: DMatrix::zeros(n_free, 0),
+        }
+    }
+
+    /// [`Self::zeros`] with `k` zero parameter columns.
+    pub fn with_parameters(n: usize, nq: usize, n_free: usize, k: usize) -> Self {
+        ControllerPartials {
+            dtau_dp: DMatrix::zeros(n, k),
+            dfree_dp: DMatrix::zeros(n_free, k),
+            ..Self::zeros(n, nq, n_free)
         }
     }
 }

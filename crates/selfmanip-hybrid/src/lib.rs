@@ -57,12 +57,15 @@ pub mod zeno;
 
 pub use actuated::{Actuated, CommandPolicy};
 pub use complementarity::ENUMERATION_LIMIT;
-pub use controller::{Controller, ControllerPartials, ZeroTorque};
+pub use controller::{Controller, ControllerPartials, TimeEvent, ZeroTorque};
 pub use energy::{energy_report, EnergyReport};
 pub use error::HybridError;
 pub use execution::{Event, EventKind, Execution, Segment, Termination};
 pub use integrate::StepOptions;
 pub use options::HybridOptions;
 pub use options::DEFAULT_MAX_STEPS;
-pub use sensitivity::{execution_sensitivity, simulate_with_sensitivity, Sensitivity};
+pub use sensitivity::{
+    execution_sensitivity, execution_sensitivity_columns, simulate_with_sensitivity,
+    ColumnSensitivity, Parameter, Sensitivity,
+};
 pub use simulate::{simulate, simulate_with};

@@ -37,6 +37,14 @@ pub struct HybridOptions {
     /// at which its passage through the fold ends ([`crate::fold`]); in
     /// [`Self::fold_threshold`], 1).
     pub passage_threshold: f64,
+    /// Count free massless joints in the step-size control. Off by default: their smooth
+    /// prescribed motions are followed with the steps the rest of the state needs (leaps are
+    /// ~3× cheaper), at a tracking error of order 1e-5 rad in RHex's legs that moves with
+    /// the step sequence. On, every coordinate is integrated to the tolerances — what
+    /// finite differences of whole executions need to resolve 1e-5 of a derivative through
+    /// a later touchdown of such a joint.
+    #[serde(default)]
+    pub control_free_joints: bool,
 }
 
 impl Default for HybridOptions {
@@ -53,6 +61,7 @@ impl Default for HybridOptions {
             arm_margin: 1e-9,
             fold_threshold: DEFAULT_FOLD_THRESHOLD,
             passage_threshold: DEFAULT_PASSAGE_THRESHOLD,
+            control_free_joints: false,
         }
     }
 }

@@ -9,6 +9,13 @@
 //!                                            located: the event)
 //! ```
 //!
+//! The controller's **time events** ([`crate::Controller::time_events`]: a motor switched on,
+//! the knots of a prescribed motion) are step stops, as an ODE solver's `tstop`s: a step that
+//! would pass one is cut to end on it exactly, its stages at the instant take the flow's
+//! left limit (the time one ulp before), and the next step starts afresh there (the stored
+//! derivative is recomputed, at the right limit: one ulp after). No step straddles a jump of the flow or of its
+//! time derivatives, so both the execution and its sensitivities keep their order there.
+//!
 //! Free massless joints follow the controller's prescribed motion (thesis 5.1.1): it feeds
 //! back into nothing, so it is left out of the step-size control.
 use crate::budget::Budget;
@@ -58,6 +65,11 @@ pub struct SegmentIntegrator {
     drift_ws: FlowWorkspace,
     free_joints: Vec<usize>,
     dynamic_coords: Vec<usize>,
+    /// The controller's time events ahead in the current segment, ascending: step stops.
+    stops: Vec<f64>,
+    /// One ulp after the last time event a step landed on (stages there take the flow's
+    /// right limit).
+    t_right: f64,
 }
 
 impl SegmentIntegrator {
@@ -74,6 +86,8 @@ impl SegmentIntegrator {
             drift_ws: FlowWorkspace::new(model),
             free_joints: Vec::new(),
             dynamic_coords: Vec::new(),
+            stops: Vec::new(),
+            t_right: f64::NEG_INFINITY,
         }
     }
 
@@ -99,12 +113,30 @@ impl SegmentIntegrator {
         mode.validate(model)?;
         free_massless_joints(model, mode, &mut self.free_joints, &mut self.dynamic_coords);
         self.weights.fill(1.0);
-        // locked joints turn at constant speed: prescribed, like free ones
-        for &j in self.free_joints.iter().chain(flow.lock()) {
+        // locked joints turn at constant speed: prescribed, like free ones (unless these
+        // are to be controlled: HybridOptions::control_free_joints)
+        let free: &[usize] = if opts.control_free_joints {
+            &[]
+        } else {
+            &self.free_joints
+        };
+        for &j in free.iter().chain(flow.lock()) {
             // joint j is coordinate j (q = [θ…, x, z, φ])
             self.weights[j] = 0.0;
             self.weights[nq + j] = 0.0;
         }
+        // the controller holds its memory over a segment: its time events are known here
+        self.stops.clear();
+        self.t_right = f64::NEG_INFINITY;
+        self.stops.extend(
+            flow.controller()
+                .time_events(&[])
+                .into_iter()
+                .map(|e| e.t)
+                .filter(|&s| s > *t && s < t_final),
+        );
+        self.stops.sort_by(f64::total_cmp);
+        self.stops.dedup();
         self.guards.arm(flow, mode, *t, y, from_rest, opts)?;
         let slipping_now = self.guards.slipping_at_start(opts.arm_margin);
         self.surfaces.at_start(flow, mode, y);
@@ -131,14 +163,23 @@ impl SegmentIntegrator {
             if *t >= t_final {
                 break SegmentEnd::FinalTime;
             }
-            // (t, y) => one accepted step of the flow, its dense output in `dense`
+            // (t, y) => one accepted step of the flow, its dense output in `dense`, not past
+            // the next time event (whose stages take the flow's left limit there)
+            let t_end = feature_change.unwrap_or(t_final);
+            let stop = self.stops.iter().copied().find(|&s| s > *t && s < t_end);
+            let t_end = stop.unwrap_or(t_end);
+            let t_left = stop.map_or(f64::INFINITY, f64::next_down);
+            let t_right = self.t_right;
+            let (t_start, h_proposed) = (*t, self.ode.next_step_size());
             let step = self.ode.step(
-                &mut |tt, yy, dy| flow.rhs(tt, mode, yy, dy),
+                &mut |tt, yy, dy| flow.rhs(tt.max(t_right).min(t_left), mode, yy, dy),
                 *t,
                 y,
-                feature_change.unwrap_or(t_final),
+                t_end,
                 &mut self.dense,
             );
+            // whether the step landed on the time event
+            let landed = stop.filter(|&s| step.is_ok() && self.dense.h == s - t_start);
             let dense = &self.dense;
             match step {
                 Ok(()) if feature_change.is_none() => {
@@ -234,6 +275,14 @@ impl SegmentIntegrator {
             }
             seg.dense.push(dense);
             *t = dense.t1();
+            if let Some(s) = landed {
+                // exactly on the instant; the flow's derivative there is taken afresh, and
+                // the next step tries what this one would have without the stop (a step cut
+                // short, down to an ulp, says nothing about the flow's time scale)
+                *t = s;
+                self.t_right = s.next_up();
+                self.ode.reset(self.ode.next_step_size().max(h_proposed));
+            }
             seg.t1 = *t;
             if feature_change.is_some_and(|tc| *t >= tc) {
                 break SegmentEnd::FeatureChange;

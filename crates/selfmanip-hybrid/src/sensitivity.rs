@@ -1,5 +1,6 @@
-//! Sensitivities of an execution to its initial state: the variational equations along each
-//! flow, the saltation matrix at each event, and their chain rule
+//! Sensitivities of an execution to its initial state and to named parameters: the
+//! variational equations along each flow, the saltation matrix at each event, and their
+//! chain rule
 //! `dx(t_f)/dx(0) = Φ_k Ξ_k ⋯ Φ_1 Ξ_1 Φ_0` over the state `x = (q, q̇)` (dimension `2 nq`).
 //!
 //! **Variational equations.** Along a segment in mode `J`, `ẋ = f(t, x) = (q̇, q̈)` with
@@ -43,13 +44,28 @@
 //! yet (folds, a fold passage's end, a segment that ended on a terrain feature change).
 //! [`Sensitivity::state_jacobian`] is then `None`.
 //!
+//! **Parameters and selected columns** ([`execution_sensitivity_columns`]): named parameters
+//! `p` are constant states (`x̃ = (x, p)`, `ṗ = 0`), so the same variational equations and
+//! saltation matrices carry `X_p = dx/dp`: along a flow `Ẋ_p = F X_p + ∂f/∂p`; at an event
+//! `X_p⁺ = Ξ X_p + D_pR + (f⁺ − D_xR f⁻) D_pg / (D_xg f⁻)` and
+//! `dt_e/dp = −(D_xg X_p + D_pg)/(D_xg f⁻)`. `∂f/∂p` comes from the controller
+//! ([`Controller::parameter_partials`], through `∂q̈/∂Υ`) or, for the body's mass and
+//! inertia, from `∂M̄/∂p`, `∂N̄/∂p` by implicit differentiation of the KKT system; `D_pg` of
+//! a force guard from `∂λ/∂p`; `D_pR` of a plastic impact from `∂M̄/∂p`. A controller's
+//! **time events** ([`Controller::time_events`], e.g. a motor switched on at `t2`) add
+//! `(f⁻ − f⁺) dt_b/dp` where the flow jumps; the tangent is split at them (and `∂f/∂p` may
+//! jump there even when `f` does not). Only the columns asked for are propagated, by
+//! Jacobian-times-matrix products ([`selfmanip_core::tangent::dynamics_jvp`]): never the
+//! full `2nq × 2nq` matrices along the flows.
+//!
 //! **Not covered yet.** A run whose state sits on a guard that does not fire — a contact set
 //! chosen at a complementarity boundary, e.g. a sliding contact started at zero sliding
 //! velocity — gets the one-sided derivative of the sequence it realised, unflagged;
-//! sensitivities to named parameters (masses, lengths, gear ratio, δt, …) and controllers
-//! without [`Controller::partials`] (the actuator models, the RHex leap controller) are for
-//! later.
-use crate::controller::{Controller, ControllerPartials};
+//! controllers without [`Controller::partials`] (the generic actuator models of
+//! [`crate::Actuated`]) stop with a typed error; a controller whose memory depends on the
+//! state at an event (a motion started from the event's state) is differentiated with that
+//! memory held fixed (the RHex leap flags the cases where it matters).
+use crate::controller::{Controller, ControllerPartials, TimeEvent};
 use crate::error::HybridError;
 use crate::execution::{Event, EventKind, Execution, Segment, Termination};
 use crate::integrate::{A as RK_A, C as RK_C};
@@ -60,7 +76,8 @@ use selfmanip_core::contact::{contact_geometry, ContactKind, RowDirection, Touch
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::model::Friction;
 use selfmanip_core::tangent::{
-    dynamics_jacobian_solved, height_gradient, plastic_impact_jacobian, sliding_velocity_gradient,
+    dynamics_jacobian_solved, dynamics_jvp, height_gradient, plastic_impact_body_derivatives,
+    plastic_impact_jacobian, sliding_velocity_gradient, BodyParameter, FlowDirections,
     TangentError,
 };
 use selfmanip_core::{forward_dynamics_prepared, ContactMode, Data, Model, Terrain};
@@ -78,6 +95,11 @@ pub enum SensitivityError {
     /// A segment's controller does not give its partial derivatives.
     #[error("the controller of the segment starting at t = {t} s gives no partial derivatives")]
     ControllerWithoutPartials { t: f64 },
+    /// A parameter name that the segment's controller does not know.
+    #[error(
+        "parameter `{name}` is not a parameter of the controller (segment starting at t = {t} s)"
+    )]
+    UnknownParameter { name: String, t: f64 },
 }
 
 /// Whether an event's saltation matrix is defined.
@@ -263,43 +285,186 @@ impl<'a> Evaluator<'a> {
     }
 }
 
-/// One step of `Φ` from `(t0, y0)` of size `h` with the DOPRI5 tableau (its six stages that
-/// enter the 5th-order solution; the 7th is FSAL's).
-#[allow(clippy::too_many_arguments)]
-fn phi_step(
-    ev: &mut Evaluator,
-    seg: &Segment,
-    t0: f64,
-    h: f64,
-    y0: &[f64],
-    phi: &mut DMatrix<f64>,
-) -> Result<(), SensitivityError> {
-    if h <= 0.0 {
-        return Ok(());
-    }
-    let mut k: Vec<DVector<f64>> = Vec::with_capacity(6);
-    let mut kphi: Vec<DMatrix<f64>> = Vec::with_capacity(6);
-    for s in 0..6 {
-        let mut ys = DVector::from_column_slice(y0);
-        let mut ps = phi.clone();
-        for j in 0..s {
-            ys.axpy(h * RK_A[s][j], &k[j], 1.0);
-            ps += h * RK_A[s][j] * &kphi[j];
+/// The flow at one state and its tangent along selected columns.
+struct FlowColumns {
+    f: DVector<f64>,
+    /// `F X + ∂f/∂p` (the forcing on the parameter columns only), `2nq × m`.
+    dx: DMatrix<f64>,
+    /// `∂λ/∂x X + ∂λ/∂p`, `c × m`.
+    dlambda: DMatrix<f64>,
+    lambda: DVector<f64>,
+}
+
+impl Evaluator<'_> {
+    /// The flow of `mode` at `(t, y)` and its tangent along the columns of `x` (`2nq × m`),
+    /// whose last `params.len()` columns are the parameters' (see [`Tangent`]): a
+    /// Jacobian-times-matrix product ([`dynamics_jvp`]), never the full Jacobian.
+    #[allow(clippy::too_many_arguments)]
+    fn eval_columns(
+        &mut self,
+        ctrl: &dyn Controller,
+        locked: &[usize],
+        t: f64,
+        mode: ContactMode,
+        y: &[f64],
+        x: &DMatrix<f64>,
+        params: &[Parameter],
+    ) -> Result<FlowColumns, SensitivityError> {
+        let (model, nq, n) = (self.model, self.model.nq(), self.model.n_joints());
+        let (q, qd) = y.split_at(nq);
+        self.data.locked.clear();
+        self.data.locked.extend_from_slice(locked);
+        self.data
+            .prepare(model, self.terrain, mode, q, qd)
+            .map_err(TangentError::from)?;
+        let free_joints = self.data.free_joints.clone();
+        ctrl.torque(t, q, qd, mode, &mut self.tau);
+        self.free.resize(free_joints.len(), 0.0);
+        ctrl.free_joint_qdd(t, q, qd, &free_joints, &mut self.free);
+        for (v, j) in self.free.iter_mut().zip(&free_joints) {
+            if locked.contains(j) {
+                *v = 0.0;
+            }
         }
-        let fj = ev.eval(
-            &*seg.controller,
-            &seg.locked,
-            t0 + RK_C[s] * h,
-            seg.mode,
-            ys.as_slice(),
-        )?;
-        kphi.push(&fj.jac * ps);
-        k.push(fj.f);
+        let names = controller_names(params);
+        let mut p = ControllerPartials::with_parameters(n, nq, free_joints.len(), names.len());
+        if !ctrl.partials(t, q, qd, mode, &free_joints, &mut p) {
+            return Err(SensitivityError::ControllerWithoutPartials { t });
+        }
+        if !ctrl.parameter_partials(t, q, qd, mode, &free_joints, &names, &mut p) {
+            return Err(SensitivityError::UnknownParameter {
+                name: names.join(", "),
+                t,
+            });
+        }
+        forward_dynamics_prepared(model, &mut self.data, &self.tau, Some(&self.free))
+            .map_err(TangentError::from)?;
+        let m = x.ncols();
+        let nd = m - params.len();
+        let dq = x.rows(0, nq).clone_owned();
+        let dqd = x.rows(nq, nq).clone_owned();
+        let mut dtau = &p.dtau_dq * &dq + &p.dtau_dqd * &dqd;
+        let mut dfree = &p.dfree_dq * &dq + &p.dfree_dqd * &dqd;
+        let mut body = vec![None; m];
+        let mut ci = 0;
+        for (k, par) in params.iter().enumerate() {
+            match par {
+                Parameter::Body(b) => body[nd + k] = Some(*b),
+                Parameter::Controller(_) => {
+                    dtau.column_mut(nd + k)
+                        .axpy(1.0, &p.dtau_dp.column(ci), 1.0);
+                    dfree
+                        .column_mut(nd + k)
+                        .axpy(1.0, &p.dfree_dp.column(ci), 1.0);
+                    ci += 1;
+                }
+            }
+        }
+        let dirs = FlowDirections {
+            dq: &dq,
+            dqd: &dqd,
+            dtau: &dtau,
+            body: &body,
+        };
+        let (mut dqdd, dlambda) = dynamics_jvp(model, &mut self.data, qd, &dirs)?;
+        for (i, &j) in free_joints.iter().enumerate() {
+            if !locked.contains(&j) {
+                dqdd.set_row(j, &dfree.row(i));
+            }
+        }
+        let mut dx = DMatrix::zeros(2 * nq, m);
+        dx.rows_mut(0, nq).copy_from(&dqd);
+        dx.rows_mut(nq, nq).copy_from(&dqdd);
+        let mut f = DVector::zeros(2 * nq);
+        f.rows_mut(0, nq).copy_from_slice(qd);
+        f.rows_mut(nq, nq).copy_from(&self.data.qdd);
+        Ok(FlowColumns {
+            f,
+            dx,
+            dlambda,
+            lambda: self.data.lambda.clone(),
+        })
     }
-    for s in 0..6 {
-        *phi += h * RK_A[6][s] * &kphi[s];
+}
+
+/// What the variational equations carry along a segment: the full `Φ` (`2nq × 2nq`) of
+/// [`execution_sensitivity`], or the selected columns `X` (`2nq × m`) of
+/// [`execution_sensitivity_columns`], whose last `params.len()` columns are forced by
+/// `∂f/∂p` (the parameters are constant states: `ṗ = 0`).
+enum Tangent<'p> {
+    Full(DMatrix<f64>),
+    Columns {
+        x: DMatrix<f64>,
+        params: &'p [Parameter],
+    },
+}
+
+impl Tangent<'_> {
+    /// Left-multiplies by a saltation matrix over the state (a reset that does not depend on
+    /// the parameters, at a guard that does not either).
+    fn salt(&mut self, xi: &DMatrix<f64>) {
+        match self {
+            Tangent::Full(phi) => *phi = xi * &*phi,
+            Tangent::Columns { x, .. } => *x = xi * &*x,
+        }
     }
-    Ok(())
+
+    /// One step of the tangent from `(t0, y0)` of size `h` with the DOPRI5 tableau (its six
+    /// stages that enter the 5th-order solution; the 7th is FSAL's); stage times are kept
+    /// within `[t_floor, t_cap]`: one ulp after a time event the step starts on and one
+    /// before one it ends on, so that each stage takes the one-sided limit of the flow and
+    /// of its partials (`∂f/∂p` may jump there even where `f` does not, e.g. a jerk at a
+    /// knot), whatever side a controller gives the instant itself.
+    fn step(
+        &mut self,
+        ev: &mut Evaluator,
+        seg: &Segment,
+        (t0, h, t_floor, t_cap): (f64, f64, f64, f64),
+        y0: &[f64],
+    ) -> Result<(), SensitivityError> {
+        if h <= 0.0 {
+            return Ok(());
+        }
+        let (phi, params) = match self {
+            Tangent::Full(phi) => (phi, None),
+            Tangent::Columns { x, params } => (x, Some(*params)),
+        };
+        let mut k: Vec<DVector<f64>> = Vec::with_capacity(6);
+        let mut kphi: Vec<DMatrix<f64>> = Vec::with_capacity(6);
+        for s in 0..6 {
+            let mut ys = DVector::from_column_slice(y0);
+            let mut ps = phi.clone();
+            for j in 0..s {
+                ys.axpy(h * RK_A[s][j], &k[j], 1.0);
+                ps += h * RK_A[s][j] * &kphi[j];
+            }
+            let ts = (t0 + RK_C[s] * h).max(t_floor).min(t_cap);
+            let (f, kp) = match params {
+                None => {
+                    let fj = ev.eval(&*seg.controller, &seg.locked, ts, seg.mode, ys.as_slice())?;
+                    (fj.f, &fj.jac * ps)
+                }
+                Some(params) => {
+                    let c = ev.eval_columns(
+                        &*seg.controller,
+                        &seg.locked,
+                        ts,
+                        seg.mode,
+                        ys.as_slice(),
+                        &ps,
+                        params,
+                    )?;
+                    (c.f, c.dx)
+                }
+            };
+            kphi.push(kp);
+            k.push(f);
+        }
+        for s in 0..6 {
+            *phi += h * RK_A[6][s] * &kphi[s];
+        }
+        Ok(())
+    }
 }
 
 /// A switch inside a segment between an active arc's rolling and its end's point touch:
@@ -317,57 +482,158 @@ pub struct TouchSwitch {
     pub saltation: Option<DMatrix<f64>>,
 }
 
-/// `Φ` of one segment on its own steps (see the module docs), with the saltation of every
-/// rolling/point switch inside it (appended to `switches`).
+/// The tangent of one segment on its own steps (see the module docs), with the saltation of
+/// every rolling/point switch inside it (appended to `switches`) and, for columns with
+/// parameters, the controller's time events inside it (appended to `time_events`).
 fn segment_flow(
     ev: &mut Evaluator,
     seg: &Segment,
+    tangent: &mut Tangent,
     switches: &mut Vec<TouchSwitch>,
-) -> Result<DMatrix<f64>, SensitivityError> {
+    time_events: &mut Vec<TimeEventSensitivity>,
+) -> Result<(), SensitivityError> {
     let n2 = seg.y0.len();
-    let mut phi = DMatrix::identity(n2, n2);
     let (mut ya, mut yb, mut ym) = (vec![0.0; n2], vec![0.0; n2], vec![0.0; n2]);
+    let mut pending: Vec<TimeEvent> = match tangent {
+        Tangent::Columns { params, .. } if !params.is_empty() => {
+            let names = controller_names(params);
+            let mut v = seg.controller.time_events(&names);
+            v.retain(|e| e.t >= seg.t0 && e.t < seg.t1);
+            v.sort_by(|a, b| a.t.total_cmp(&b.t));
+            v
+        }
+        _ => Vec::new(),
+    };
+    // stages after the last time event passed take the right-hand limit there
+    let mut t_floor = f64::NEG_INFINITY;
     for step in seg.dense.steps() {
         if step.t0 >= seg.t1 {
             break;
         }
-        let t_end = step.t1().min(seg.t1);
+        let step_end = step.t1().min(seg.t1);
+        // the step is split at the controller's time events inside it: `∂f/∂p` (and `f`,
+        // where the flow jumps) changes there, so the tangent is integrated up to the instant
+        // from the dense output's state, jumps there, and goes on
         let mut ta = step.t0;
-        step.eval(ta, &mut ya);
-        step.eval(t_end, &mut yb);
-        let end_touches = ev.touches(seg.mode, &yb);
         loop {
-            let start_touches = ev.touches(seg.mode, &ya);
-            if start_touches == end_touches {
-                phi_step(ev, seg, ta, t_end - ta, &ya, &mut phi)?;
-                break;
+            while let Some(te) = pending.first().filter(|e| e.t <= ta).cloned() {
+                pending.remove(0);
+                t_floor = te.t.next_up();
+                step.eval(ta, &mut ym);
+                time_events.push(time_event(ev, seg, tangent, &te, &ym)?);
             }
-            // the first change of touch kinds after ta, bracketed to a few ulps
-            let (mut lo, mut hi) = (ta, t_end);
+            let t_end = pending.first().map_or(step_end, |e| e.t.min(step_end));
+            // stages at the next time event take the flow's left limit
+            let t_cap = pending.first().map_or(f64::INFINITY, |e| e.t.next_down());
+            step.eval(ta, &mut ya);
+            step.eval(t_end, &mut yb);
+            let end_touches = ev.touches(seg.mode, &yb);
             loop {
-                let mid = 0.5 * (lo + hi);
-                if mid <= lo || mid >= hi {
+                let start_touches = ev.touches(seg.mode, &ya);
+                if start_touches == end_touches {
+                    tangent.step(ev, seg, (ta, t_end - ta, t_floor, t_cap), &ya)?;
                     break;
                 }
-                step.eval(mid, &mut ym);
-                if ev.touches(seg.mode, &ym) == start_touches {
-                    lo = mid;
-                } else {
-                    hi = mid;
+                // the first change of touch kinds after ta, bracketed to a few ulps
+                let (mut lo, mut hi) = (ta, t_end);
+                loop {
+                    let mid = 0.5 * (lo + hi);
+                    if mid <= lo || mid >= hi {
+                        break;
+                    }
+                    step.eval(mid, &mut ym);
+                    if ev.touches(seg.mode, &ym) == start_touches {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
                 }
+                tangent.step(ev, seg, (ta, lo - ta, t_floor, t_cap), &ya)?;
+                step.eval(lo, &mut ym);
+                step.eval(hi, &mut ya);
+                let sw = touch_switch(ev, seg, (lo, &ym), (hi, &ya), &start_touches)?;
+                if let Some(x) = &sw.saltation {
+                    tangent.salt(x);
+                }
+                switches.push(sw);
+                ta = hi;
             }
-            phi_step(ev, seg, ta, lo - ta, &ya, &mut phi)?;
-            step.eval(lo, &mut ym);
-            step.eval(hi, &mut ya);
-            let sw = touch_switch(ev, seg, (lo, &ym), (hi, &ya), &start_touches)?;
-            if let Some(x) = &sw.saltation {
-                phi = x * phi;
+            if t_end >= step_end {
+                break;
             }
-            switches.push(sw);
-            ta = hi;
+            ta = t_end;
         }
     }
-    Ok(phi)
+    Ok(())
+}
+
+/// The names of the controller parameters among `params`, in order.
+fn controller_names(params: &[Parameter]) -> Vec<&str> {
+    params
+        .iter()
+        .filter_map(|p| match p {
+            Parameter::Controller(n) => Some(n.as_str()),
+            Parameter::Body(_) => None,
+        })
+        .collect()
+}
+
+/// A controller's time event at `(te.t, y)` inside a segment: the jump `f⁺ − f⁻` of the flow
+/// there (`f⁻` evaluated at the previous float, the same state) moves with the instant,
+/// `X_p += (f⁻ − f⁺) dt_b/dp` on the parameter columns (the state columns have
+/// `dt_b/dx = 0`). The execution's steps land on the instant (a step stop of
+/// [`crate::segment`], its stages there at the left limit), and so do the tangent's; a
+/// step of a record that straddles one (a controller whose events are not all known at the
+/// segment's start) is split there (see [`segment_flow`]).
+fn time_event(
+    ev: &mut Evaluator,
+    seg: &Segment,
+    tangent: &mut Tangent,
+    te: &TimeEvent,
+    y: &[f64],
+) -> Result<TimeEventSensitivity, SensitivityError> {
+    let ctrl = &*seg.controller;
+    let fm = ev.eval(ctrl, &seg.locked, te.t.next_down(), seg.mode, y)?.f;
+    let fp = ev.eval(ctrl, &seg.locked, te.t, seg.mode, y)?.f;
+    let jump = (&fp - &fm).amax();
+    let scale = 1.0 + fm.amax().max(fp.amax());
+    let out = TimeEventSensitivity {
+        t: te.t,
+        jump,
+        status: SaltationStatus::Defined,
+    };
+    if jump <= TIME_EVENT_TOL * scale {
+        return Ok(out);
+    }
+    if let Tangent::Columns { x, params } = tangent {
+        let nd = x.ncols() - params.len();
+        let mut ci = 0;
+        for (k, p) in params.iter().enumerate() {
+            if let Parameter::Controller(_) = p {
+                let d = te.dt_dp[ci];
+                ci += 1;
+                if d != 0.0 {
+                    let mut col = x.column_mut(nd + k);
+                    col.axpy(d, &(&fm - &fp), 1.0);
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Relative jump `|f⁺ − f⁻| / (1 + |f|)` (max norms) below which a controller's time event is
+/// continuous (no contribution to the parameter columns).
+pub const TIME_EVENT_TOL: f64 = 1e-12;
+
+/// A controller's time event met by an execution ([`Controller::time_events`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TimeEventSensitivity {
+    pub t: f64,
+    /// `max |f⁺ − f⁻|` there.
+    pub jump: f64,
+    /// Always `Defined` today (kept for time events that cannot be differentiated).
+    pub status: SaltationStatus,
 }
 
 /// The saltation of a rolling/point switch bracketed by `(t⁻, y⁻)`, `(t⁺, y⁺)`.
@@ -455,16 +721,20 @@ pub fn execution_sensitivity(
     let mut next_event = 0;
     let nseg = exec.segments.len();
     for (si, seg) in exec.segments.iter().enumerate() {
-        let phi = segment_flow(&mut ev, seg, &mut out.touch_switches)?;
+        let mut tangent = Tangent::Full(DMatrix::identity(n2, n2));
+        segment_flow(
+            &mut ev,
+            seg,
+            &mut tangent,
+            &mut out.touch_switches,
+            &mut Vec::new(),
+        )?;
+        let Tangent::Full(phi) = tangent else {
+            unreachable!("a full tangent stays full")
+        };
         total = &phi * total;
         out.segment_flows.push(phi);
-        let event = exec.events.get(next_event).filter(|e| {
-            e.t == seg.t1
-                && (si + 1 < nseg
-                    || e.kind == EventKind::Apex
-                    || exec.termination == Termination::EventBudget)
-        });
-        let Some(event) = event else {
+        let Some(event) = event_ending(exec, si, next_event) else {
             if si + 1 < nseg {
                 out.feature_changes.push(si);
                 defined = false;
@@ -472,13 +742,7 @@ pub fn execution_sensitivity(
             continue;
         };
         next_event += 1;
-        let after = exec.segments.get(si + 1);
-        let zero_time = seg.t1 == seg.t0 || after.is_some_and(|a| a.t1 == a.t0);
-        let mut es = event_sensitivity(&mut ev, model, terrain, seg, after, event)?;
-        if zero_time && es.status == SaltationStatus::Defined {
-            es.status = SaltationStatus::Simultaneous;
-            es.saltation = None;
-        }
+        let (mut es, _) = segment_event(&mut ev, model, terrain, exec, si, event, &[])?;
         if let (Some(dg), true) = (&es.guard_gradient, es.saltation.is_some()) {
             let mut y = vec![0.0; n2];
             seg.eval(seg.t1, &mut y);
@@ -503,14 +767,214 @@ pub fn execution_sensitivity(
     {
         defined = false;
     }
-    let ends_cleanly = matches!(
-        exec.termination,
-        Termination::FinalTime | Termination::Apex
-    );
+    let ends_cleanly = matches!(exec.termination, Termination::FinalTime | Termination::Apex);
     if defined && ends_cleanly {
         out.state_jacobian = Some(total);
     }
     Ok(out)
+}
+
+/// A named parameter of an execution's sensitivities ([`execution_sensitivity_columns`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Parameter {
+    /// The body's mass or inertia (`M̄`, `N̄` and the impacts depend on it).
+    Body(BodyParameter),
+    /// A parameter the segments' controllers know by this name
+    /// ([`Controller::parameter_partials`], [`Controller::time_events`]).
+    Controller(String),
+}
+
+/// Sensitivities of an execution along selected columns: directions of the initial state
+/// and named parameters ([`execution_sensitivity_columns`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColumnSensitivity {
+    /// How many leading columns are initial-state directions (the rest are parameters).
+    pub n_directions: usize,
+    pub parameters: Vec<Parameter>,
+    /// One entry per event of the execution, in order, as in [`Sensitivity::events`]
+    /// (`time_gradient` is left `None`: see [`Self::event_time_columns`]).
+    pub events: Vec<EventSensitivity>,
+    /// `dt_e/d(columns)` of each event (`1 × m`), `None` where its saltation is undefined.
+    pub event_time_columns: Vec<Option<RowDVector<f64>>>,
+    pub touch_switches: Vec<TouchSwitch>,
+    /// The controllers' time events met (see [`Controller::time_events`]).
+    pub time_events: Vec<TimeEventSensitivity>,
+    pub feature_changes: Vec<usize>,
+    /// `dx(t_end)/d(columns)` (`2nq × m`), `None` under the conditions of
+    /// [`Sensitivity::state_jacobian`] or when a time event was flagged.
+    pub columns: Option<DMatrix<f64>>,
+}
+
+/// The sensitivities of a recorded execution along the columns of `directions` (`2nq × d`,
+/// directions of the initial state; `d` may be 0) and to the named `params`, propagated
+/// without forming the full `2nq × 2nq` matrices along the flows (see the module docs). With
+/// the augmented state `x̃ = (x, p)`, `ṗ = 0`:
+///
+/// - along a flow `Ẋ_p = F X_p + ∂f/∂p` (`∂f/∂p` from the controller's
+///   [`Controller::parameter_partials`] through `∂q̈/∂Υ`, or from `∂M̄/∂p`, `∂N̄/∂p` for body
+///   parameters, by implicit differentiation of the KKT system);
+/// - at an event, `X⁺ = Ξ X + [0 | D_pR + (f⁺ − D_xR f⁻) D_pg / (D_xg f⁻)]`, and
+///   `dt_e/d(columns) = −(D_xg X⁻ + [0 | D_pg]) / (D_xg f⁻)` (`D_pg` of a force guard from
+///   `∂λ/∂p`; `D_pR` of a plastic impact from `∂M̄/∂p`);
+/// - at a controller's time event `t_b(p)` where the flow jumps, `X_p += (f⁻ − f⁺) dt_b/dp`.
+pub fn execution_sensitivity_columns(
+    model: &Model,
+    terrain: &dyn Terrain,
+    exec: &Execution,
+    directions: &DMatrix<f64>,
+    params: &[Parameter],
+) -> Result<ColumnSensitivity, SensitivityError> {
+    let n2 = 2 * model.nq();
+    let nd = directions.ncols();
+    let m = nd + params.len();
+    let body: Vec<BodyParameter> = params
+        .iter()
+        .filter_map(|p| match p {
+            Parameter::Body(b) => Some(*b),
+            Parameter::Controller(_) => None,
+        })
+        .collect();
+    let mut ev = Evaluator::new(model, terrain);
+    let mut out = ColumnSensitivity {
+        n_directions: nd,
+        parameters: params.to_vec(),
+        events: Vec::new(),
+        event_time_columns: Vec::new(),
+        touch_switches: Vec::new(),
+        time_events: Vec::new(),
+        feature_changes: Vec::new(),
+        columns: None,
+    };
+    let mut x0 = DMatrix::zeros(n2, m);
+    if nd > 0 {
+        x0.columns_mut(0, nd).copy_from(directions);
+    }
+    let mut tangent = Tangent::Columns { x: x0, params };
+    let mut defined = true;
+    let mut next_event = 0;
+    let nseg = exec.segments.len();
+    for (si, seg) in exec.segments.iter().enumerate() {
+        segment_flow(
+            &mut ev,
+            seg,
+            &mut tangent,
+            &mut out.touch_switches,
+            &mut out.time_events,
+        )?;
+        let Some(event) = event_ending(exec, si, next_event) else {
+            if si + 1 < nseg {
+                out.feature_changes.push(si);
+                defined = false;
+            }
+            continue;
+        };
+        next_event += 1;
+        let (es, parts) = segment_event(&mut ev, model, terrain, exec, si, event, &body)?;
+        let (Some(xi), Some(parts), Some(dg)) = (&es.saltation, parts, &es.guard_gradient) else {
+            defined = false;
+            out.event_time_columns.push(None);
+            out.events.push(es);
+            continue;
+        };
+        let Tangent::Columns { x, .. } = &mut tangent else {
+            unreachable!("columns stay columns")
+        };
+        // D_pg: a force guard's from ∂λ/∂p at the state before; geometric guards have none
+        let mut dpg = RowDVector::zeros(m);
+        if matches!(event.kind, EventKind::Liftoff | EventKind::Slip) && !params.is_empty() {
+            let k = event.triggered[0];
+            let (rt, rn) = rows_of(seg.mode, k);
+            let zero = DMatrix::zeros(n2, m);
+            let c = ev.eval_columns(
+                &*seg.controller,
+                &seg.locked,
+                event.t,
+                seg.mode,
+                &parts.y_minus,
+                &zero,
+                params,
+            )?;
+            if let Some(g) = rn.and_then(|rn| {
+                force_guard_gradient(model, event.kind, k, (rt, rn), &c.lambda, &c.dlambda)
+            }) {
+                dpg = g;
+            }
+        }
+        let dgx = dg * &*x;
+        let time = -(&dgx + &dpg) / parts.den;
+        let jump = &parts.f_plus - &parts.dr * &parts.f_minus;
+        let mut xn = xi * &*x;
+        let mut bi = 0;
+        for (k, p) in params.iter().enumerate() {
+            let col = nd + k;
+            if let Parameter::Body(_) = p {
+                xn.column_mut(col).axpy(1.0, &parts.dr_p.column(bi), 1.0);
+                bi += 1;
+            }
+            if dpg[col] != 0.0 {
+                xn.column_mut(col).axpy(dpg[col] / parts.den, &jump, 1.0);
+            }
+        }
+        *x = xn;
+        out.event_time_columns.push(Some(time));
+        out.events.push(es);
+    }
+    if next_event != exec.events.len()
+        || out
+            .touch_switches
+            .iter()
+            .any(|s| s.status != SaltationStatus::Defined)
+        || out
+            .time_events
+            .iter()
+            .any(|e| e.status != SaltationStatus::Defined)
+    {
+        defined = false;
+    }
+    let ends_cleanly = matches!(exec.termination, Termination::FinalTime | Termination::Apex);
+    if defined && ends_cleanly {
+        let Tangent::Columns { x, .. } = tangent else {
+            unreachable!("columns stay columns")
+        };
+        out.columns = Some(x);
+    }
+    Ok(out)
+}
+
+/// The event that ended segment `si`, if it is the next one not matched yet (`next_event`):
+/// a segment ends on an event unless it ended on a terrain feature change; the last one only
+/// on the apex or when the event budget ran out.
+fn event_ending(exec: &Execution, si: usize, next_event: usize) -> Option<&Event> {
+    let seg = &exec.segments[si];
+    let last = si + 1 == exec.segments.len();
+    exec.events.get(next_event).filter(|e| {
+        e.t == seg.t1
+            && (!last || e.kind == EventKind::Apex || exec.termination == Termination::EventBudget)
+    })
+}
+
+/// [`event_sensitivity`] of the event that ended segment `si`, flagged simultaneous (without
+/// parts) when a neighbouring mode lasted zero time.
+#[allow(clippy::too_many_arguments)]
+fn segment_event(
+    ev: &mut Evaluator,
+    model: &Model,
+    terrain: &dyn Terrain,
+    exec: &Execution,
+    si: usize,
+    event: &Event,
+    body: &[BodyParameter],
+) -> Result<(EventSensitivity, Option<EventParts>), SensitivityError> {
+    let seg = &exec.segments[si];
+    let after = exec.segments.get(si + 1);
+    let zero_time = seg.t1 == seg.t0 || after.is_some_and(|a| a.t1 == a.t0);
+    let (mut es, parts) = event_sensitivity(ev, model, terrain, seg, after, event, body)?;
+    if zero_time && es.status == SaltationStatus::Defined {
+        es.status = SaltationStatus::Simultaneous;
+        es.saltation = None;
+        return Ok((es, None));
+    }
+    Ok((es, parts))
 }
 
 /// Row indices, in the rows of `mode`, of contact `k`'s tangential and normal rows.
@@ -549,7 +1013,8 @@ fn event_sensitivity(
     before: &Segment,
     after: Option<&Segment>,
     event: &Event,
-) -> Result<EventSensitivity, SensitivityError> {
+    body: &[BodyParameter],
+) -> Result<(EventSensitivity, Option<EventParts>), SensitivityError> {
     let nq = model.nq();
     let n2 = 2 * nq;
     let t = event.t;
@@ -561,6 +1026,7 @@ fn event_sensitivity(
     let mut simultaneous = !single;
     // the guard's gradient and the reset's Jacobian
     let mut dr = DMatrix::identity(n2, n2);
+    let mut dr_p = DMatrix::zeros(n2, body.len());
     let mut y_plus = y.clone();
     let mut kin = Kinematics::default();
     kin.compute(model, q, qd_minus);
@@ -613,12 +1079,16 @@ fn event_sensitivity(
                 }
             }
             let Some((m, ij)) = found else {
-                return Ok(unsupported(
+                return Ok((unsupported(
                     event,
                     format!("q̇⁺ is not a plastic impact into the mode after or a superset ({worst:.2e})"),
-                ));
+                ), None));
             };
             impact_mode = Some(m);
+            // data holds the factorization of the impact just found
+            let dqd_dp =
+                plastic_impact_body_derivatives(model, &mut data, &ij.impact, qd_minus, body);
+            dr_p.view_mut((nq, 0), (nq, body.len())).copy_from(&dqd_dp);
             dr.view_mut((nq, 0), (nq, nq)).copy_from(&ij.dqd_plus_dq);
             dr.view_mut((nq, nq), (nq, nq))
                 .copy_from(&ij.dqd_plus_dqd_minus);
@@ -629,18 +1099,16 @@ fn event_sensitivity(
             let k = event.triggered[0];
             let (rt, rn) = rows_of(before.mode, k);
             let Some(rn) = rn else {
-                return Ok(unsupported(event, "no normal row"));
+                return Ok((unsupported(event, "no normal row"), None));
             };
-            if event.kind == EventKind::Liftoff {
-                -fm.dlambda.row(rn)
-            } else {
-                let (Some(rt), Friction::Sticking { mu }) = (rt, model.contacts[k].friction) else {
-                    return Ok(unsupported(
-                        event,
-                        "slip of a contact without a tangential row",
-                    ));
-                };
-                -mu * fm.dlambda.row(rn) - fm.lambda[rt].signum() * fm.dlambda.row(rt)
+            match force_guard_gradient(model, event.kind, k, (rt, rn), &fm.lambda, &fm.dlambda) {
+                Some(dg) => dg,
+                None => {
+                    return Ok((
+                        unsupported(event, "slip of a contact without a tangential row"),
+                        None,
+                    ))
+                }
             }
         }
         EventKind::Stick => {
@@ -658,7 +1126,10 @@ fn event_sensitivity(
             dg
         }
         EventKind::Fold | EventKind::FoldPassed => {
-            return Ok(unsupported(event, "fold events are not differentiated yet"));
+            return Ok((
+                unsupported(event, "fold events are not differentiated yet"),
+                None,
+            ));
         }
     };
     if event.kind != EventKind::Touchdown {
@@ -669,9 +1140,12 @@ fn event_sensitivity(
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
         if jump > 0.0 {
-            return Ok(unsupported(
-                event,
-                format!("velocity jump {jump:.2e} at a non-impact event"),
+            return Ok((
+                unsupported(
+                    event,
+                    format!("velocity jump {jump:.2e} at a non-impact event"),
+                ),
+                None,
             ));
         }
     }
@@ -689,11 +1163,11 @@ fn event_sensitivity(
     };
     if let Err(status) = saltation(&dr, &fm.f, &fm.f, &dg) {
         es.status = status;
-        return Ok(es);
+        return Ok((es, None));
     }
     if simultaneous {
         es.status = SaltationStatus::Simultaneous;
-        return Ok(es);
+        return Ok((es, None));
     }
     let f_plus = match (event.kind, after) {
         (EventKind::Apex, _) => DVector::zeros(n2),
@@ -706,14 +1180,59 @@ fn event_sensitivity(
             es.status = SaltationStatus::Unsupported {
                 reason: "no flow after the run's last event".into(),
             };
-            return Ok(es);
+            return Ok((es, None));
         }
     };
-    match saltation(&dr, &fm.f, &f_plus, &dg) {
-        Ok(x) => es.saltation = Some(x),
-        Err(status) => es.status = status,
+    let parts = match saltation(&dr, &fm.f, &f_plus, &dg) {
+        Ok(x) => {
+            es.saltation = Some(x);
+            Some(EventParts {
+                den: (&dg * &fm.f)[0],
+                f_minus: fm.f,
+                f_plus,
+                dr,
+                dr_p,
+                y_minus: y,
+            })
+        }
+        Err(status) => {
+            es.status = status;
+            None
+        }
+    };
+    Ok((es, parts))
+}
+
+/// What the parameter columns need of an event whose saltation is defined.
+struct EventParts {
+    f_minus: DVector<f64>,
+    f_plus: DVector<f64>,
+    /// `D_xR` and `D_pR` (body parameters' columns) of the reset.
+    dr: DMatrix<f64>,
+    dr_p: DMatrix<f64>,
+    /// `D_xg f⁻`.
+    den: f64,
+    y_minus: Vec<f64>,
+}
+
+/// The gradient of a force guard (liftoff `g = −λ_n` (5.50), slip `g = μ(−λ_n) − |λ_t|`) of
+/// contact `k` with rows `(tangential, normal)` from `∂λ` along any columns; `None` for a
+/// slip without a tangential row or friction coefficient.
+fn force_guard_gradient(
+    model: &Model,
+    kind: EventKind,
+    k: usize,
+    (rt, rn): (Option<usize>, usize),
+    lambda: &DVector<f64>,
+    dlambda: &DMatrix<f64>,
+) -> Option<RowDVector<f64>> {
+    if kind == EventKind::Liftoff {
+        return Some(-dlambda.row(rn));
     }
-    Ok(es)
+    let (Some(rt), Friction::Sticking { mu }) = (rt, model.contacts[k].friction) else {
+        return None;
+    };
+    Some(-mu * dlambda.row(rn) - lambda[rt].signum() * dlambda.row(rt))
 }
 
 #[cfg(test)]

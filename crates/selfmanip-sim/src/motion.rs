@@ -190,6 +190,52 @@ impl JointMotion {
         self.t0
     }
 
+    /// The jerk `d³θ/dt³` at `t` (0 before `t0` and at rest after the end; on a boundary
+    /// between pieces, the earlier piece's): with [`Self::eval`] it gives the motion's
+    /// derivatives with respect to its start time, `∂(θ, θ̇, θ̈)/∂t0 = −(θ̇, θ̈, d³θ/dt³)`.
+    pub fn jerk(&self, t: f64) -> f64 {
+        if t < self.t0 {
+            return 0.0;
+        }
+        let mut tau = t - self.t0;
+        match &self.kind {
+            Kind::Ramps { pieces, .. } => {
+                for r in pieces {
+                    if tau <= r.duration {
+                        if r.duration <= 0.0 {
+                            return 0.0;
+                        }
+                        let s = tau / r.duration;
+                        return (r.w1 - r.w0) / (r.duration * r.duration) * 6.0 * (1.0 - 2.0 * s);
+                    }
+                    tau -= r.duration;
+                }
+                0.0
+            }
+            Kind::Quintic { c, duration, .. } => {
+                if tau > *duration {
+                    return 0.0;
+                }
+                6.0 * c[0] + 24.0 * c[1] * tau + 60.0 * c[2] * tau * tau
+            }
+        }
+    }
+
+    /// The instants (absolute times, after `t0`) where the motion's pieces meet: its
+    /// acceleration is continuous there, its jerk is not.
+    pub fn knots(&self) -> Vec<f64> {
+        match &self.kind {
+            Kind::Ramps { pieces, .. } => pieces
+                .iter()
+                .scan(self.t0, |t, r| {
+                    *t += r.duration;
+                    Some(*t)
+                })
+                .collect(),
+            Kind::Quintic { duration, .. } => vec![self.t0 + duration],
+        }
+    }
+
     /// `(θ, θ̇, θ̈)` at `t ≥ t0` (before `t0`: the start, at its start speed).
     #[inline]
     pub fn eval(&self, t: f64) -> (f64, f64, f64) {
@@ -228,6 +274,31 @@ impl JointMotion {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The jerk against central differences of the acceleration (away from piece
+    /// boundaries, where the jerk jumps), for a swing and a park.
+    #[test]
+    fn jerk_is_the_rate_of_acceleration() {
+        for m in [
+            JointMotion::swing(0.1, 0.2, 0.0, 2.6, 12.0, 400.0),
+            JointMotion::park(0.1, 0.2, 3.0, -2.6, 400.0),
+        ] {
+            let h = 1e-7;
+            for k in 1..200 {
+                let t = 0.1 + 0.5 * f64::from(k) / 200.0;
+                let fd = (m.eval(t + h).2 - m.eval(t - h).2) / (2.0 * h);
+                let j = m.jerk(t);
+                // a boundary within h: the jerk jumps there (skip it)
+                if (m.jerk(t + h) - m.jerk(t - h)).abs() > 1e-3 * (1.0 + j.abs()) {
+                    continue;
+                }
+                assert!(
+                    (fd - j).abs() <= 1e-5 * (1.0 + j.abs()),
+                    "t {t}: {fd} vs {j}"
+                );
+            }
+        }
+    }
 
     /// Rate and acceleration against central differences of the angle and rate, continuity
     /// at every piece boundary, the bound on acceleration, and the end at rest on target.

@@ -17,7 +17,7 @@ use crate::expr::Expr;
 use crate::motion::JointMotion;
 use motor::Actuator;
 use selfmanip_core::ContactMode;
-use selfmanip_hybrid::{Controller, ControllerPartials, Event, EventKind};
+use selfmanip_hybrid::{Controller, ControllerPartials, Event, EventKind, TimeEvent};
 use std::sync::Arc;
 
 /// A number known when the behaviour is compiled, or one that depends on the joint's angle
@@ -571,6 +571,35 @@ impl Controller for BehaviourController {
             }
         }
         true
+    }
+
+    /// The instants where the outputs may jump in time alone: each phase start already known,
+    /// each prescribed motion's start and knots (its jerk jumps there), and the breakpoints
+    /// of torque schedules. The behaviour has no named parameters (`dt_dp` empty for no
+    /// names, zeros otherwise); the engine's steps land on these instants.
+    fn time_events(&self, names: &[&str]) -> Vec<TimeEvent> {
+        let mut times = Vec::new();
+        for (p, prog) in self.plan.programs.iter().enumerate() {
+            let mem = &self.programs[p];
+            times.extend(mem.timeline.iter().map(|e| e.0));
+            for m in &mem.motions {
+                times.push(m.t0());
+                times.extend(m.knots());
+            }
+            for phase in &prog.phases {
+                if let TorqueLaw::Schedule { times: ts, .. } = &phase.torque {
+                    times.extend_from_slice(ts);
+                }
+            }
+        }
+        times
+            .into_iter()
+            .filter(|t| t.is_finite())
+            .map(|t| TimeEvent {
+                t,
+                dt_dp: vec![0.0; names.len()],
+            })
+            .collect()
     }
 
     fn on_event(&mut self, e: &Event) {

@@ -1,0 +1,330 @@
+//! Sensitivities of RHex leaps to named parameters and to the start state: the apex the
+//! leap reports, differentiated through every event of its execution
+//! ([`selfmanip_hybrid::sensitivity::execution_sensitivity_columns`]).
+//!
+//! **Parameters** (by the names a leap already uses):
+//! - `t2_s` (alias `t2`): the rear motor's start relative to the front's. The execution
+//!   starts at `min(0, t2)`, so for `t2 ≥ 0` it moves the rear motor's start, below 0 the
+//!   front's (and the reported times' origin); at `t2 = 0` the derivative is the right-hand
+//!   one. The leap controller gives `∂q̈/∂t2` of the leg's swing down (which starts with its
+//!   motor: `∂(θ, θ̇, θ̈)/∂t0 = −(θ̇, θ̈, d³θ/dt³)`) and the motor start as a time event.
+//! - `gear_ratio`: the geared motors' `G` (the torque–speed line's slope and the current
+//!   limit's torque scale with it; the servo's hold torque too). Not a parameter of the
+//!   saturated-torque actuator (a typed error).
+//! - `m_b`, `I_b`: the body's mass and inertia (`M̄`, `N̄` and the plastic impacts).
+//!
+//! **Free legs under step control.** The leap with sensitivities always runs with
+//! [`LeapConfig::control_free_joints`] on (whatever the configuration says): a massless leg's
+//! prescribed motion in the air feeds back into nothing, but its angle decides when it
+//! touches down, and left out of the step-size control its tracking error (~1e-5 rad at the
+//! default `rtol`) makes the derivatives of touchdown-dependent outcomes off by ~1e-3. The
+//! execution is therefore the one [`crate::leap::simulate_leap`] returns with
+//! `control_free_joints = true` (bit for bit), which can differ from the default leap's by
+//! the tolerances; it costs ~3× the default leap's integration.
+//!
+//! **Undefined derivatives** make [`LeapSensitivity::ok`] false, with every derivative NaN
+//! and the reason given: a leap without an apex; any event whose saltation is not defined
+//! (grazing, simultaneous touchdowns such as both legs at `t2 = 0`, a mode held for zero
+//! time, folds); and a leg that meets the ground again after a motion in the air that
+//! started at an event (the controller's memory of that event's state is not differentiated; in the air
+//! a massless leg does not act on the body, so apex derivatives are exact otherwise).
+use crate::leap::{run_leap, LeapConfig, LeapResult, LeapSetup, LegActuator};
+use crate::{RhexError, RhexParams};
+use nalgebra::DMatrix;
+use selfmanip_core::tangent::BodyParameter;
+use selfmanip_hybrid::budget::NEVER;
+use selfmanip_hybrid::sensitivity::{execution_sensitivity_columns, Parameter, SaltationStatus};
+use selfmanip_hybrid::{EventKind, Termination};
+
+/// The apex columns a leap reports, in order (the sweep's column names).
+pub const APEX_COLUMNS: [&str; 7] = [
+    "apex_t_s",
+    "apex_x_m",
+    "apex_z_m",
+    "apex_phi_rad",
+    "apex_xdot_m_s",
+    "apex_zdot_m_s",
+    "apex_phidot_rad_s",
+];
+
+/// The parameter names [`leap_with_sensitivity`] knows.
+pub const SENSITIVITY_PARAMETERS: [&str; 5] = ["t2", "t2_s", "gear_ratio", "m_b", "I_b"];
+
+/// One event's saltation matrix over `(q, q̇)`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EventSaltation {
+    /// Time relative to the front leg's start (s), as in [`crate::leap::LeapEvent`].
+    pub t_s: f64,
+    /// `Defined`, or why the saltation is not.
+    pub status: SaltationStatus,
+    /// `Ξ` (`2nq × 2nq`) when defined.
+    pub saltation: Option<DMatrix<f64>>,
+}
+
+/// A leap with the derivatives of its apex.
+#[derive(Debug, Clone)]
+pub struct LeapSensitivity {
+    pub result: LeapResult,
+    /// The parameter names, as given.
+    pub parameters: Vec<String>,
+    /// `d_apex[c][k] = d APEX_COLUMNS[c] / d parameters[k]`; NaN unless [`Self::ok`].
+    pub d_apex: Vec<Vec<f64>>,
+    /// `d APEX_COLUMNS[c] / d (start-state direction j)` for the directions given to
+    /// [`leap_with_sensitivity_from`]; NaN unless [`Self::ok`].
+    pub d_apex_d_start: Vec<Vec<f64>>,
+    /// Whether every derivative is defined (see the module docs).
+    pub ok: bool,
+    /// Why not, when not ok.
+    pub reason: Option<String>,
+    /// One entry per event of the execution (the events of [`LeapResult::events`]).
+    pub events: Vec<EventSaltation>,
+    /// The leap controller's time events met (motor starts, knots of the swing down):
+    /// `(t_s, max |f⁺ − f⁻|)`, the jump of the flow there (0 where it is continuous).
+    pub time_events: Vec<(f64, f64)>,
+}
+
+impl LeapSensitivity {
+    /// `d column / d parameter` by names (`None` for a name not asked for).
+    pub fn get(&self, column: &str, parameter: &str) -> Option<f64> {
+        let c = APEX_COLUMNS.iter().position(|n| *n == column)?;
+        let k = self.parameters.iter().position(|n| n == parameter)?;
+        Some(self.d_apex[c][k])
+    }
+}
+
+/// Checks the parameter names of a sensitivity request against a leap configuration; the
+/// error names the first unknown (or inapplicable) one.
+pub fn check_sensitivity_names(cfg: &LeapConfig, names: &[&str]) -> Result<(), RhexError> {
+    resolve(cfg, names).map(|_| ())
+}
+
+fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<Parameter>, RhexError> {
+    names
+        .iter()
+        .map(|&n| match n {
+            "t2" | "t2_s" => Ok(Parameter::Controller("t2_s".into())),
+            "gear_ratio" => match cfg.actuator {
+                LegActuator::GearedMotor { .. } => Ok(Parameter::Controller("gear_ratio".into())),
+                LegActuator::SaturatedTorque => Err(RhexError::Params {
+                    field: "gear_ratio".into(),
+                    reason: "the saturated-torque actuator has no gear ratio to differentiate"
+                        .into(),
+                }),
+            },
+            "m_b" => Ok(Parameter::Body(BodyParameter::Mass)),
+            "I_b" => Ok(Parameter::Body(BodyParameter::Inertia)),
+            other => Err(RhexError::Params {
+                field: other.into(),
+                reason: format!(
+                    "unknown sensitivity parameter (known: {})",
+                    SENSITIVITY_PARAMETERS.join(", ")
+                ),
+            }),
+        })
+        .collect()
+}
+
+/// Runs one leap ([`crate::leap::simulate_leap`] with `control_free_joints = true`, the same
+/// execution bit for bit: see the module docs) and differentiates its apex with respect to
+/// the named parameters.
+pub fn leap_with_sensitivity(
+    params: &RhexParams,
+    cfg: &LeapConfig,
+    names: &[&str],
+) -> Result<LeapSensitivity, RhexError> {
+    leap_with_sensitivity_from(params, cfg, names, None, None)
+}
+
+/// [`leap_with_sensitivity`] from the leap's start state plus `start_offset` (`2nq` entries
+/// over `(q, q̇)`; it must keep the start on its contacts: the leg angles, the forward
+/// position and the legs' rates are free), also differentiating the apex along the
+/// start-state `directions` (`2nq × d`).
+pub fn leap_with_sensitivity_from(
+    params: &RhexParams,
+    cfg: &LeapConfig,
+    names: &[&str],
+    start_offset: Option<&[f64]>,
+    directions: Option<&DMatrix<f64>>,
+) -> Result<LeapSensitivity, RhexError> {
+    let ps = resolve(cfg, names)?;
+    // the free legs' touchdowns are resolved to the tolerances (see the module docs)
+    let cfg = &LeapConfig {
+        control_free_joints: true,
+        ..cfg.clone()
+    };
+    if cfg.toe_stub_rad.is_some() {
+        return Err(RhexError::Params {
+            field: "toe_stub_rad".into(),
+            reason: "the toe stub reverses the torque without an event: leaps with it have no \
+                     sensitivities"
+                .into(),
+        });
+    }
+    let setup = LeapSetup::new(params, cfg)?;
+    let model = &setup.rhex.model;
+    let n2 = 2 * model.nq();
+    let dirs = directions.cloned().unwrap_or_else(|| DMatrix::zeros(n2, 0));
+    if dirs.nrows() != n2 {
+        return Err(RhexError::Params {
+            field: "directions".into(),
+            reason: format!("expected {n2} rows, got {}", dirs.nrows()),
+        });
+    }
+    let result = run_leap(&setup, cfg, &NEVER, start_offset)?;
+    let nan = || vec![vec![f64::NAN; ps.len()]; APEX_COLUMNS.len()];
+    let mut out = LeapSensitivity {
+        parameters: names.iter().map(|s| s.to_string()).collect(),
+        d_apex: nan(),
+        d_apex_d_start: vec![vec![f64::NAN; dirs.ncols()]; APEX_COLUMNS.len()],
+        ok: false,
+        reason: None,
+        events: Vec::new(),
+        time_events: Vec::new(),
+        result,
+    };
+    let exec = &out.result.execution;
+    let s = match execution_sensitivity_columns(model, &setup.terrain, exec, &dirs, &ps) {
+        Ok(s) => s,
+        Err(e) => {
+            out.reason = Some(e.to_string());
+            return Ok(out);
+        }
+    };
+    out.events = s
+        .events
+        .iter()
+        .map(|e| EventSaltation {
+            t_s: e.t - out.result.time_offset_s,
+            status: e.status.clone(),
+            saltation: e.saltation.clone(),
+        })
+        .collect();
+    out.time_events = s
+        .time_events
+        .iter()
+        .map(|e| (e.t - out.result.time_offset_s, e.jump))
+        .collect();
+    let reason = if exec.termination != Termination::Apex || out.result.apex.is_none() {
+        Some(
+            "the leap did not end at an apex (sensitivities are taken at the apex that ends a run)"
+                .to_string(),
+        )
+    } else if let Some(e) = s
+        .events
+        .iter()
+        .find(|e| e.status != SaltationStatus::Defined)
+    {
+        Some(format!(
+            "{:?} at t = {} s: {:?}",
+            e.kind,
+            e.t - out.result.time_offset_s,
+            e.status
+        ))
+    } else if let Some(e) = s
+        .time_events
+        .iter()
+        .find(|e| e.status != SaltationStatus::Defined)
+    {
+        Some(format!(
+            "time event at t = {} s: {:?}",
+            e.t - out.result.time_offset_s,
+            e.status
+        ))
+    } else if let Some(sw) = s
+        .touch_switches
+        .iter()
+        .find(|w| w.status != SaltationStatus::Defined)
+    {
+        Some(format!(
+            "rolling/point switch at t = {} s: {:?}",
+            sw.t, sw.status
+        ))
+    } else if s.columns.is_none() {
+        Some("the execution's sensitivities are not defined (a terrain feature change)".into())
+    } else {
+        memory_recontact(&setup, exec)
+    };
+    if let Some(r) = reason {
+        out.reason = Some(r);
+        return Ok(out);
+    }
+    let x = s.columns.as_ref().expect("checked above");
+    let dt = s
+        .event_time_columns
+        .last()
+        .and_then(|t| t.clone())
+        .filter(|_| {
+            exec.events
+                .last()
+                .is_some_and(|e| e.kind == EventKind::Apex)
+        });
+    let Some(dt) = dt else {
+        out.reason = Some("the apex event has no time gradient".into());
+        return Ok(out);
+    };
+    let nq = model.nq();
+    let (ix, iz, ip) = (model.ix_x(), model.ix_z(), model.ix_phi());
+    let nd = dirs.ncols();
+    let column = |j: usize, dstart0: f64| -> [f64; 7] {
+        [
+            dt[j] - dstart0,
+            x[(ix, j)],
+            -x[(iz, j)],
+            x[(ip, j)],
+            x[(nq + ix, j)],
+            -x[(nq + iz, j)],
+            x[(nq + ip, j)],
+        ]
+    };
+    for (k, p) in ps.iter().enumerate() {
+        // apex t_s is measured from the front leg's start, which t2 < 0 moves
+        let dstart0 = match p {
+            Parameter::Controller(n) if n == "t2_s" => setup.ctrl.dstart_dt2[0],
+            _ => 0.0,
+        };
+        for (c, v) in column(nd + k, dstart0).into_iter().enumerate() {
+            out.d_apex[c][k] = v;
+        }
+    }
+    for j in 0..nd {
+        for (c, v) in column(j, 0.0).into_iter().enumerate() {
+            out.d_apex_d_start[c][j] = v;
+        }
+    }
+    out.ok = true;
+    Ok(out)
+}
+
+/// Whether a leg meets the ground again after a motion in the air that started at an event
+/// (the leap controller's `on_event`: its liftoff after its motor started, or the takeoff):
+/// that motion depends on the event's state, which the controller's partials hold fixed.
+fn memory_recontact(setup: &LeapSetup, exec: &selfmanip_hybrid::Execution) -> Option<String> {
+    let start = setup.ctrl.start;
+    let contacts = setup.ctrl.leg_contact;
+    let mut takeoff = false;
+    for e in &exec.events {
+        let both = e.t >= start[0].max(start[1]);
+        let took_off = !takeoff && both && e.mode_after.is_flight();
+        takeoff |= took_off;
+        for i in 0..2 {
+            let c = contacts[i];
+            let left = e.mode_before.contains(c) && !e.mode_after.contains(c);
+            if e.mode_after.contains(c) || !(left || took_off) || e.t < start[i] {
+                continue;
+            }
+            if let Some(seg) = exec
+                .segments
+                .iter()
+                .find(|s| s.t0 >= e.t && s.mode.contains(c))
+            {
+                return Some(format!(
+                    "leg {i} meets the ground again at t = {} s after a motion that started at \
+                     the event at t = {} s (the controller's memory is not differentiated)",
+                    seg.t0 - start[0],
+                    e.t - start[0]
+                ));
+            }
+        }
+    }
+    None
+}
