@@ -362,10 +362,6 @@ def _check_actuator(gears: Iterable[Any], names: Iterable[str]) -> None:
 
 # ---------------------------------------------------------------------------------------------
 
-#: The parameter names of ``sensitivities=[...]`` (``t2`` and ``t2_s`` are one).
-SENSITIVITY_PARAMETERS = ("t2", "t2_s", "gear_ratio", "m_b", "I_b")
-
-
 def _sensitivity_names(value: Any) -> list[str] | None:
     if value is None:
         return None
