@@ -62,42 +62,64 @@ pub enum TangentError {
 }
 
 /// The levers of one material point: per part `Q` from the body out to the point's part,
-/// the coefficients of `ω_Q` (coordinate, factor) and the world lever `r_Q`.
-#[derive(Debug, Clone)]
+/// the coefficients of `ω_Q` (coordinate, factor) and the world lever `r_Q`. The
+/// coefficients of each part's `ω_Q` are a prefix of those of the next part out, so they are
+/// kept once (`coef`), each segment holding its prefix's length; the buffers are reused by
+/// [`Self::reset`].
+#[derive(Debug, Clone, Default)]
 struct Lever {
     n: usize,
+    coef: Vec<(usize, f64)>,
     segs: Vec<Segment>,
 }
 
-/// One part of a lever: the coefficients `(coordinate, factor)` of its `ω_Q` and its `r_Q`.
-type Segment = (Vec<(usize, f64)>, Vector2<f64>);
+/// One part of a lever: the length of its prefix of [`Lever::coef`] (the coefficients
+/// `(coordinate, factor)` of its `ω_Q`) and its `r_Q`.
+type Segment = (usize, Vector2<f64>);
 
 impl Lever {
     fn new(model: &Model, kin: &Kinematics, part: Part, p: Vector2<f64>) -> Self {
+        let mut lever = Lever::default();
+        lever.reset(model, kin, part, p);
+        lever
+    }
+
+    /// Re-forms the lever in place (no allocation once its buffers are large enough).
+    fn reset(&mut self, model: &Model, kin: &Kinematics, part: Part, p: Vector2<f64>) {
         let n = model.n_joints();
-        let mut coef = vec![(n + 2, 1.0)];
-        let mut segs = Vec::new();
+        self.n = n;
+        self.coef.clear();
+        self.coef.push((n + 2, 1.0));
+        self.segs.clear();
         match part {
-            Part::Body => segs.push((coef, p - kin.body_pos)),
+            Part::Body => self.segs.push((1, p - kin.body_pos)),
             Part::Link(j) => {
                 let first = *model.chain(j).start();
-                segs.push((coef.clone(), kin.origin[first] - kin.body_pos));
+                self.segs.push((1, kin.origin[first] - kin.body_pos));
                 for k in first..=j {
-                    coef.push((k, model.joints[k].axis_sign));
+                    self.coef.push((k, model.joints[k].axis_sign));
                     let end = if k == j { p } else { kin.origin[k + 1] };
-                    segs.push((coef.clone(), end - kin.origin[k]));
+                    self.segs.push((self.coef.len(), end - kin.origin[k]));
                 }
             }
         }
-        Lever { n, segs }
     }
 
     /// `ω_Q(a)` for every part `Q` of the lever.
     fn omegas(&self, a: &[f64]) -> Vec<f64> {
-        self.segs
-            .iter()
-            .map(|(c, _)| c.iter().map(|&(k, s)| s * a[k]).sum())
-            .collect()
+        let mut out = Vec::with_capacity(self.segs.len());
+        self.omegas_into(a, &mut out);
+        out
+    }
+
+    /// [`Self::omegas`] into `out` (cleared first).
+    fn omegas_into(&self, a: &[f64], out: &mut Vec<f64>) {
+        out.clear();
+        out.extend(
+            self.segs
+                .iter()
+                .map(|&(len, _)| self.coef[..len].iter().map(|&(k, s)| s * a[k]).sum::<f64>()),
+        );
     }
 
     /// `Dp[a]`.
@@ -129,7 +151,7 @@ impl Lever {
 }
 
 /// A lever with its values along the unit coordinates and the velocity.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 struct Point {
     lever: Lever,
     /// `ω(e_i)` for every coordinate `i` (one run of the lever's length each) and `Dp[e_i]`.
@@ -144,41 +166,38 @@ struct Point {
 }
 
 impl Point {
-    fn new(model: &Model, kin: &Kinematics, part: Part, p: Vector2<f64>, qd: &[f64]) -> Self {
-        let lever = Lever::new(model, kin, part, p);
+    /// Re-forms the point in place (no allocation once its buffers are large enough).
+    fn reset(&mut self, model: &Model, kin: &Kinematics, part: Part, p: Vector2<f64>, qd: &[f64]) {
+        self.lever.reset(model, kin, part, p);
+        let lever = &self.lever;
         let nq = model.nq();
         let ns = lever.segs.len();
-        let mut w_e = vec![0.0; nq * ns];
-        for (s, (coef, _)) in lever.segs.iter().enumerate() {
-            for &(k, f) in coef {
-                w_e[k * ns + s] += f;
+        self.w_e.clear();
+        self.w_e.resize(nq * ns, 0.0);
+        for (s, &(len, _)) in lever.segs.iter().enumerate() {
+            for &(k, f) in &lever.coef[..len] {
+                self.w_e[k * ns + s] += f;
             }
         }
-        let j_e = (0..nq)
-            .map(|i| {
-                let mut v = Vector2::zeros();
-                if i == lever.n {
-                    v.x = 1.0;
-                } else if i == lever.n + 1 {
-                    v.y = 1.0;
-                }
-                for ((_, r), w) in lever.segs.iter().zip(&w_e[i * ns..(i + 1) * ns]) {
-                    v += *w * perp(*r);
-                }
-                v
-            })
-            .collect();
-        let w_qd = lever.omegas(qd);
-        let acc0 = lever.d2(&w_qd, &w_qd);
-        Point {
-            w_x: vec![0.0; lever.segs.len()],
-            px: Vector2::zeros(),
-            lever,
-            w_e,
-            j_e,
-            w_qd,
-            acc0,
-        }
+        let w_e = &self.w_e;
+        self.j_e.clear();
+        self.j_e.extend((0..nq).map(|i| {
+            let mut v = Vector2::zeros();
+            if i == lever.n {
+                v.x = 1.0;
+            } else if i == lever.n + 1 {
+                v.y = 1.0;
+            }
+            for ((_, r), w) in lever.segs.iter().zip(&w_e[i * ns..(i + 1) * ns]) {
+                v += *w * perp(*r);
+            }
+            v
+        }));
+        lever.omegas_into(qd, &mut self.w_qd);
+        self.acc0 = lever.d2(&self.w_qd, &self.w_qd);
+        self.w_x.clear();
+        self.w_x.resize(ns, 0.0);
+        self.px = Vector2::zeros();
     }
 
     /// `ω(e_i)`.
@@ -188,32 +207,58 @@ impl Point {
     }
 }
 
-/// The assembly's directional derivatives at one state (see the module docs).
-#[derive(Debug, Clone)]
+/// The assembly's directional derivatives at one state (see the module docs). Its buffers
+/// are kept across states ([`Self::reset`]): only the first `n_masses` masses and `n_rows`
+/// rows are the current state's.
+#[derive(Debug, Clone, Default)]
 struct Assembly {
     nq: usize,
     gravity: f64,
     /// Massive parts: mass and centre of mass.
     masses: Vec<(f64, Point)>,
+    n_masses: usize,
     /// Constraint rows: direction `d_r` and the contact's material point (or rolling centre).
     rows: Vec<(Vector2<f64>, Point)>,
+    n_rows: usize,
+}
+
+/// The next slot of `v` (a new one only when all are in use).
+fn next_slot<T: Default>(v: &mut Vec<T>, used: &mut usize) -> usize {
+    if *used == v.len() {
+        v.push(T::default());
+    }
+    *used += 1;
+    *used - 1
 }
 
 impl Assembly {
     fn new(model: &Model, data: &Data, qd: &[f64]) -> Result<Self, TangentError> {
+        let mut asm = Assembly::default();
+        asm.reset(model, data, qd)?;
+        Ok(asm)
+    }
+
+    /// Re-forms the assembly at `data`'s state in place.
+    fn reset(&mut self, model: &Model, data: &Data, qd: &[f64]) -> Result<(), TangentError> {
         let kin = &data.kin;
-        let mut masses = vec![(
-            model.body_mass_kg,
-            Point::new(model, kin, Part::Body, kin.body_pos, qd),
-        )];
+        self.nq = model.nq();
+        self.gravity = model.gravity_m_s2;
+        self.n_masses = 0;
+        self.n_rows = 0;
+        let s = next_slot(&mut self.masses, &mut self.n_masses);
+        self.masses[s].0 = model.body_mass_kg;
+        self.masses[s]
+            .1
+            .reset(model, kin, Part::Body, kin.body_pos, qd);
         for (i, j) in model.joints.iter().enumerate() {
             if !j.is_massless() {
                 let p = kin.point(Part::Link(i), j.com_m);
-                masses.push((j.mass_kg, Point::new(model, kin, Part::Link(i), p, qd)));
+                let s = next_slot(&mut self.masses, &mut self.n_masses);
+                self.masses[s].0 = j.mass_kg;
+                self.masses[s].1.reset(model, kin, Part::Link(i), p, qd);
             }
         }
         let cons = &data.constraints;
-        let mut rows = Vec::with_capacity(cons.rows.len());
         for row in &cons.rows {
             let geo = &cons
                 .geometry
@@ -223,21 +268,28 @@ impl Assembly {
                 .1;
             let c = differentiable_point(model, kin, row.contact, geo)?;
             let d = row_direction(&geo.plane, row.direction);
-            rows.push((d, Point::new(model, kin, geo.part, c, qd)));
+            let s = next_slot(&mut self.rows, &mut self.n_rows);
+            self.rows[s].0 = d;
+            self.rows[s].1.reset(model, kin, geo.part, c, qd);
         }
-        Ok(Assembly {
-            nq: model.nq(),
-            gravity: model.gravity_m_s2,
-            masses,
-            rows,
-        })
+        Ok(())
+    }
+
+    /// The current state's masses.
+    fn masses(&self) -> &[(f64, Point)] {
+        &self.masses[..self.n_masses]
+    }
+
+    /// The current state's rows.
+    fn rows(&self) -> &[(Vector2<f64>, Point)] {
+        &self.rows[..self.n_rows]
     }
 
     /// Sets the vector `x` that [`Self::dq_terms`] differentiates `M̄ x`, `A x` along.
     fn set_x(&mut self, x: &[f64]) {
-        let masses = self.masses.iter_mut().map(|(_, p)| p);
-        for p in masses.chain(self.rows.iter_mut().map(|(_, p)| p)) {
-            p.w_x = p.lever.omegas(x);
+        let masses = self.masses[..self.n_masses].iter_mut().map(|(_, p)| p);
+        for p in masses.chain(self.rows[..self.n_rows].iter_mut().map(|(_, p)| p)) {
+            p.lever.omegas_into(x, &mut p.w_x);
             p.px = p.lever.d1(&p.w_x, x);
         }
     }
@@ -248,26 +300,33 @@ impl Assembly {
     fn dq_terms(&self, k: usize, y: &[f64], with_velocity: bool) -> (DVector<f64>, DVector<f64>) {
         let mut e = vec![0.0; self.nq];
         e[k] = 1.0;
-        self.dq_terms_along(&e, y, with_velocity)
+        let (mut f, mut g) = (DVector::zeros(0), DVector::zeros(0));
+        self.dq_terms_along(&e, y, with_velocity, &mut Vec::new(), &mut f, &mut g);
+        (f, g)
     }
 
     /// [`Self::dq_terms`] along an arbitrary direction `v` of `q` (the terms are linear in
-    /// the direction: `ω(e_k)` becomes `ω(v)`).
+    /// the direction: `ω(e_k)` becomes `ω(v)`), into `f`, `g` (zeroed and sized here), with
+    /// `wv` a scratch buffer.
     fn dq_terms_along(
         &self,
         v: &[f64],
         y: &[f64],
         with_velocity: bool,
-    ) -> (DVector<f64>, DVector<f64>) {
+        wv: &mut Vec<f64>,
+        f: &mut DVector<f64>,
+        g: &mut DVector<f64>,
+    ) {
         let nq = self.nq;
-        let mut f = DVector::zeros(nq);
-        for (m, p) in &self.masses {
+        zero_sized(f, nq);
+        for (m, p) in self.masses() {
             let lv = &p.lever;
-            let wv = lv.omegas(v);
-            let pxv = lv.d2(&p.w_x, &wv);
-            let d3 = with_velocity.then(|| lv.d3(&p.w_qd, &p.w_qd, &wv));
+            lv.omegas_into(v, wv);
+            let wv = &wv[..];
+            let pxv = lv.d2(&p.w_x, wv);
+            let d3 = with_velocity.then(|| lv.d3(&p.w_qd, &p.w_qd, wv));
             for i in 0..nq {
-                let pie = lv.d2(p.we(i), &wv);
+                let pie = lv.d2(p.we(i), wv);
                 let mut s = pie.dot(&p.px) + p.j_e[i].dot(&pxv);
                 if let Some(d3) = d3 {
                     s += pie.dot(&p.acc0) + p.j_e[i].dot(&d3) - self.gravity * pie.y;
@@ -275,48 +334,74 @@ impl Assembly {
                 f[i] += m * s;
             }
         }
-        let mut g = DVector::zeros(self.rows.len());
-        for (r, (d, p)) in self.rows.iter().enumerate() {
+        zero_sized(g, self.n_rows);
+        for (r, (d, p)) in self.rows().iter().enumerate() {
             let lv = &p.lever;
-            let wv = lv.omegas(v);
-            let mut s = -d.dot(&lv.d2(&p.w_x, &wv));
+            lv.omegas_into(v, wv);
+            let wv = &wv[..];
+            let mut s = -d.dot(&lv.d2(&p.w_x, wv));
             if with_velocity {
-                s -= d.dot(&lv.d3(&p.w_qd, &p.w_qd, &wv));
+                s -= d.dot(&lv.d3(&p.w_qd, &p.w_qd, wv));
             }
             g[r] = s;
             if y[r] != 0.0 {
                 for i in 0..nq {
-                    f[i] -= y[r] * d.dot(&lv.d2(p.we(i), &wv));
+                    f[i] -= y[r] * d.dot(&lv.d2(p.we(i), wv));
                 }
             }
         }
-        (f, g)
     }
 
-    /// [`Self::dqd_terms`] along an arbitrary direction `w` of `q̇`.
-    fn dqd_terms_along(&self, w: &[f64]) -> (DVector<f64>, DVector<f64>) {
+    /// [`Self::dqd_terms`] along an arbitrary direction `w` of `q̇`, into `f`, `g` (zeroed and
+    /// sized here), with `ww` a scratch buffer.
+    fn dqd_terms_along(
+        &self,
+        w: &[f64],
+        ww: &mut Vec<f64>,
+        f: &mut DVector<f64>,
+        g: &mut DVector<f64>,
+    ) {
         let nq = self.nq;
-        let mut f = DVector::zeros(nq);
-        for (m, p) in &self.masses {
-            let a = 2.0 * p.lever.d2(&p.w_qd, &p.lever.omegas(w));
+        zero_sized(f, nq);
+        for (m, p) in self.masses() {
+            p.lever.omegas_into(w, ww);
+            let a = 2.0 * p.lever.d2(&p.w_qd, ww);
             for i in 0..nq {
                 f[i] += m * p.j_e[i].dot(&a);
             }
         }
-        let g = DVector::from_iterator(
-            self.rows.len(),
-            self.rows
-                .iter()
-                .map(|(d, p)| -2.0 * d.dot(&p.lever.d2(&p.w_qd, &p.lever.omegas(w)))),
-        );
-        (f, g)
+        zero_sized(g, self.n_rows);
+        for (r, (d, p)) in self.rows().iter().enumerate() {
+            p.lever.omegas_into(w, ww);
+            g[r] = -2.0 * d.dot(&p.lever.d2(&p.w_qd, ww));
+        }
     }
 
     /// Along the velocity `q̇_k`: `(D_q̇(C̄q̇), D_q̇(Ȧq̇))`.
     fn dqd_terms(&self, k: usize) -> (DVector<f64>, DVector<f64>) {
         let mut e = vec![0.0; self.nq];
         e[k] = 1.0;
-        self.dqd_terms_along(&e)
+        let (mut f, mut g) = (DVector::zeros(0), DVector::zeros(0));
+        self.dqd_terms_along(&e, &mut Vec::new(), &mut f, &mut g);
+        (f, g)
+    }
+}
+
+/// Sets `v` to `n` zeros, allocating only when its length changes.
+fn zero_sized(v: &mut DVector<f64>, n: usize) {
+    if v.len() == n {
+        v.fill(0.0);
+    } else {
+        *v = DVector::zeros(n);
+    }
+}
+
+/// Sets `a` to `r × c` zeros, allocating only when its shape changes.
+fn zero_shaped(a: &mut DMatrix<f64>, r: usize, c: usize) {
+    if a.shape() == (r, c) {
+        a.fill(0.0);
+    } else {
+        *a = DMatrix::zeros(r, c);
     }
 }
 
@@ -558,6 +643,13 @@ impl BodyParameter {
     /// `∂M̄/∂p · x + ∂N̄/∂p` (the latter only `with_gravity`).
     fn dm_x(self, model: &Model, x: &[f64], with_gravity: bool) -> DVector<f64> {
         let mut f = DVector::zeros(model.nq());
+        self.dm_x_into(model, x, with_gravity, &mut f);
+        f
+    }
+
+    /// [`Self::dm_x`] into `f` (zeroed and sized here).
+    fn dm_x_into(self, model: &Model, x: &[f64], with_gravity: bool, f: &mut DVector<f64>) {
+        zero_sized(f, model.nq());
         match self {
             BodyParameter::Mass => {
                 f[model.ix_x()] = x[model.ix_x()];
@@ -568,7 +660,6 @@ impl BodyParameter {
             }
             BodyParameter::Inertia => f[model.ix_phi()] = x[model.ix_phi()],
         }
-        f
     }
 }
 
@@ -598,37 +689,94 @@ pub fn dynamics_jvp(
     qd: &[f64],
     dirs: &FlowDirections,
 ) -> Result<(DMatrix<f64>, DMatrix<f64>), TangentError> {
-    let mut asm = Assembly::new(model, data, qd)?;
+    let mut ws = JvpWorkspace::default();
+    let (mut dqdd, mut dlambda) = (DMatrix::zeros(0, 0), DMatrix::zeros(0, 0));
+    dynamics_jvp_into(model, data, qd, dirs, &mut ws, &mut dqdd, &mut dlambda)?;
+    Ok((dqdd, dlambda))
+}
+
+/// The reusable buffers of [`dynamics_jvp_into`]: the assembly at the current state, copies of
+/// `q̈` and `λ`, the right-hand sides of each column and the KKT solve's. Kept by a caller that
+/// evaluates many products (an integrator's stages), so that after the first call of a given
+/// size no call allocates.
+#[derive(Debug, Default)]
+pub struct JvpWorkspace {
+    asm: Assembly,
+    qdd: Vec<f64>,
+    lambda: Vec<f64>,
+    scratch: Vec<f64>,
+    f: DVector<f64>,
+    g: DVector<f64>,
+    fv: DVector<f64>,
+    gv: DVector<f64>,
+    fw: DVector<f64>,
+    gw: DVector<f64>,
+    fb: DVector<f64>,
+    solver: Solver,
+}
+
+/// [`dynamics_jvp`] on the buffers of `ws`, into `dqdd` (`nq × m`) and `dlambda` (`c × m`),
+/// which are resized only when their shapes change: the same arithmetic, in the same order,
+/// so the results are bit-identical to [`dynamics_jvp`]'s.
+#[allow(clippy::too_many_arguments)]
+pub fn dynamics_jvp_into(
+    model: &Model,
+    data: &mut Data,
+    qd: &[f64],
+    dirs: &FlowDirections,
+    ws: &mut JvpWorkspace,
+    dqdd: &mut DMatrix<f64>,
+    dlambda: &mut DMatrix<f64>,
+) -> Result<(), TangentError> {
+    let JvpWorkspace {
+        asm,
+        qdd,
+        lambda,
+        scratch,
+        f,
+        g,
+        fv,
+        gv,
+        fw,
+        gw,
+        fb,
+        solver,
+    } = ws;
+    asm.reset(model, data, qd)?;
     let (nq, c, m) = (model.nq(), data.constraints.n_rows(), dirs.dq.ncols());
-    let qdd: Vec<f64> = data.qdd.iter().copied().collect();
-    asm.set_x(&qdd);
-    let lambda: Vec<f64> = data.lambda.iter().copied().collect();
-    let mut dqdd = DMatrix::zeros(nq, m);
-    let mut dlambda = DMatrix::zeros(c, m);
-    let mut solver = Solver::default();
+    qdd.clear();
+    qdd.extend(data.qdd.iter().copied());
+    asm.set_x(qdd);
+    lambda.clear();
+    lambda.extend(data.lambda.iter().copied());
+    zero_shaped(dqdd, nq, m);
+    zero_shaped(dlambda, c, m);
+    let (dq, dqd) = (dirs.dq.as_slice(), dirs.dqd.as_slice());
     for col in 0..m {
-        let v: Vec<f64> = dirs.dq.column(col).iter().copied().collect();
-        let w: Vec<f64> = dirs.dqd.column(col).iter().copied().collect();
-        let (mut f, mut g) = (DVector::zeros(nq), DVector::zeros(c));
+        let v = &dq[col * nq..(col + 1) * nq];
+        let w = &dqd[col * nq..(col + 1) * nq];
+        zero_sized(f, nq);
+        zero_sized(g, c);
         if v.iter().any(|x| *x != 0.0) {
-            let (fv, gv) = asm.dq_terms_along(&v, &lambda, true);
-            f += fv;
-            g += gv;
+            asm.dq_terms_along(v, lambda, true, scratch, fv, gv);
+            *f += &*fv;
+            *g += &*gv;
         }
         if w.iter().any(|x| *x != 0.0) {
-            let (fw, gw) = asm.dqd_terms_along(&w);
-            f += fw;
-            g += gw;
+            asm.dqd_terms_along(w, scratch, fw, gw);
+            *f += &*fw;
+            *g += &*gw;
         }
         for j in 0..dirs.dtau.nrows() {
             f[j] -= dirs.dtau[(j, col)];
         }
         if let Some(p) = dirs.body.get(col).copied().flatten() {
-            f += p.dm_x(model, &qdd, true);
+            p.dm_x_into(model, qdd, true, fb);
+            *f += &*fb;
         }
-        solver.solve(data, -1.0, &f, &g, col, &mut dqdd, Some(&mut dlambda));
+        solver.solve(data, -1.0, f, g, col, dqdd, Some(dlambda));
     }
-    Ok((dqdd, dlambda))
+    Ok(())
 }
 
 /// `∂q̇⁺/∂p` of the plastic impact for body parameters `ps`, right after

@@ -76,9 +76,9 @@ use selfmanip_core::contact::{contact_geometry, ContactKind, RowDirection, Touch
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::model::Friction;
 use selfmanip_core::tangent::{
-    dynamics_jacobian_solved, dynamics_jvp, height_gradient, plastic_impact_body_derivatives,
+    dynamics_jacobian_solved, dynamics_jvp_into, height_gradient, plastic_impact_body_derivatives,
     plastic_impact_jacobian, sliding_velocity_gradient, BodyParameter, FlowDirections,
-    TangentError,
+    JvpWorkspace, TangentError,
 };
 use selfmanip_core::{forward_dynamics_prepared, ContactMode, Data, Model, Terrain};
 
@@ -192,6 +192,85 @@ struct Evaluator<'a> {
     tau: Vec<f64>,
     free: Vec<f64>,
     kin: Kinematics,
+    /// The buffers of [`Self::eval_columns_into`] and of [`Tangent::step`]'s stages, kept
+    /// across evaluations so that a step allocates nothing once they are sized.
+    cols: ColumnBuffers,
+    stages: StageBuffers,
+}
+
+/// The reusable buffers of one [`Evaluator::eval_columns_into`].
+#[derive(Default)]
+struct ColumnBuffers {
+    partials: Option<ControllerPartials>,
+    free_joints: Vec<usize>,
+    dq: DMatrix<f64>,
+    dqd: DMatrix<f64>,
+    dtau: DMatrix<f64>,
+    dtau2: DMatrix<f64>,
+    dfree: DMatrix<f64>,
+    dfree2: DMatrix<f64>,
+    body: Vec<Option<BodyParameter>>,
+    dqdd: DMatrix<f64>,
+    /// `∂λ/∂x X + ∂λ/∂p` of the last evaluation, `c × m`.
+    dlambda: DMatrix<f64>,
+    jvp: JvpWorkspace,
+}
+
+/// The stages of one [`Tangent::step`]: their flows, their tangents, and the stage state.
+#[derive(Default)]
+struct StageBuffers {
+    k: Vec<DVector<f64>>,
+    kphi: Vec<DMatrix<f64>>,
+    ys: DVector<f64>,
+    ps: DMatrix<f64>,
+}
+
+/// `a` shaped `r × c`, reallocated only when its shape changes (its entries are to be
+/// overwritten).
+fn fit(a: &mut DMatrix<f64>, r: usize, c: usize) {
+    if a.shape() != (r, c) {
+        *a = DMatrix::zeros(r, c);
+    }
+}
+
+/// `v` of length `n`, reallocated only when its length changes (its entries are to be
+/// overwritten).
+fn fit_vec(v: &mut DVector<f64>, n: usize) {
+    if v.len() != n {
+        *v = DVector::zeros(n);
+    }
+}
+
+/// Zero controller partials of the given sizes in `slot`, reusing its matrices when they
+/// have those shapes (the same as [`ControllerPartials::with_parameters`]).
+fn zero_partials(
+    slot: &mut Option<ControllerPartials>,
+    n: usize,
+    nq: usize,
+    n_free: usize,
+    k: usize,
+) -> &mut ControllerPartials {
+    let fits = slot.as_ref().is_some_and(|p| {
+        p.dtau_dq.shape() == (n, nq)
+            && p.dfree_dq.shape() == (n_free, nq)
+            && p.dtau_dp.shape() == (n, k)
+    });
+    if fits {
+        let p = slot.as_mut().expect("checked");
+        for a in [
+            &mut p.dtau_dq,
+            &mut p.dtau_dqd,
+            &mut p.dfree_dq,
+            &mut p.dfree_dqd,
+            &mut p.dtau_dp,
+            &mut p.dfree_dp,
+        ] {
+            a.fill(0.0);
+        }
+    } else {
+        *slot = Some(ControllerPartials::with_parameters(n, nq, n_free, k));
+    }
+    slot.as_mut().expect("set")
 }
 
 impl<'a> Evaluator<'a> {
@@ -203,6 +282,8 @@ impl<'a> Evaluator<'a> {
             tau: vec![0.0; model.n_joints()],
             free: Vec::new(),
             kin: Kinematics::default(),
+            cols: ColumnBuffers::default(),
+            stages: StageBuffers::default(),
         }
     }
 
@@ -285,20 +366,18 @@ impl<'a> Evaluator<'a> {
     }
 }
 
-/// The flow at one state and its tangent along selected columns.
+/// The multipliers at one state and their tangent along selected columns (what an event's
+/// force guard needs of [`Evaluator::eval_columns`]).
 struct FlowColumns {
-    f: DVector<f64>,
-    /// `F X + ∂f/∂p` (the forcing on the parameter columns only), `2nq × m`.
-    dx: DMatrix<f64>,
     /// `∂λ/∂x X + ∂λ/∂p`, `c × m`.
     dlambda: DMatrix<f64>,
     lambda: DVector<f64>,
 }
 
 impl Evaluator<'_> {
-    /// The flow of `mode` at `(t, y)` and its tangent along the columns of `x` (`2nq × m`),
-    /// whose last `params.len()` columns are the parameters' (see [`Tangent`]): a
-    /// Jacobian-times-matrix product ([`dynamics_jvp`]), never the full Jacobian.
+    /// The multipliers of `mode` at `(t, y)` and their tangent along the columns of `x`
+    /// (`2nq × m`), whose last `params.len()` columns are the parameters' (see [`Tangent`]),
+    /// by [`Self::eval_columns_into`].
     #[allow(clippy::too_many_arguments)]
     fn eval_columns(
         &mut self,
@@ -310,6 +389,33 @@ impl Evaluator<'_> {
         x: &DMatrix<f64>,
         params: &[Parameter],
     ) -> Result<FlowColumns, SensitivityError> {
+        let names = controller_names(params);
+        let (mut f, mut dx) = (DVector::zeros(0), DMatrix::zeros(0, 0));
+        self.eval_columns_into(ctrl, locked, t, mode, y, x, params, &names, &mut f, &mut dx)?;
+        Ok(FlowColumns {
+            dlambda: self.cols.dlambda.clone(),
+            lambda: self.data.lambda.clone(),
+        })
+    }
+
+    /// [`Self::eval_columns`] into `f` and `dx` (resized only when their shapes change) on the
+    /// evaluator's buffers, with `names` the controller parameters' names of `params`
+    /// ([`controller_names`]); `∂λ/∂x X + ∂λ/∂p` is left in `self.cols.dlambda` and `λ` in
+    /// `self.data`. Allocates nothing once the buffers are sized.
+    #[allow(clippy::too_many_arguments)]
+    fn eval_columns_into(
+        &mut self,
+        ctrl: &dyn Controller,
+        locked: &[usize],
+        t: f64,
+        mode: ContactMode,
+        y: &[f64],
+        x: &DMatrix<f64>,
+        params: &[Parameter],
+        names: &[&str],
+        f: &mut DVector<f64>,
+        dx: &mut DMatrix<f64>,
+    ) -> Result<(), SensitivityError> {
         let (model, nq, n) = (self.model, self.model.nq(), self.model.n_joints());
         let (q, qd) = y.split_at(nq);
         self.data.locked.clear();
@@ -317,21 +423,23 @@ impl Evaluator<'_> {
         self.data
             .prepare(model, self.terrain, mode, q, qd)
             .map_err(TangentError::from)?;
-        let free_joints = self.data.free_joints.clone();
+        let cb = &mut self.cols;
+        cb.free_joints.clear();
+        cb.free_joints.extend_from_slice(&self.data.free_joints);
+        let free_joints = &cb.free_joints;
         ctrl.torque(t, q, qd, mode, &mut self.tau);
         self.free.resize(free_joints.len(), 0.0);
-        ctrl.free_joint_qdd(t, q, qd, &free_joints, &mut self.free);
-        for (v, j) in self.free.iter_mut().zip(&free_joints) {
+        ctrl.free_joint_qdd(t, q, qd, free_joints, &mut self.free);
+        for (v, j) in self.free.iter_mut().zip(free_joints) {
             if locked.contains(j) {
                 *v = 0.0;
             }
         }
-        let names = controller_names(params);
-        let mut p = ControllerPartials::with_parameters(n, nq, free_joints.len(), names.len());
-        if !ctrl.partials(t, q, qd, mode, &free_joints, &mut p) {
+        let p = zero_partials(&mut cb.partials, n, nq, free_joints.len(), names.len());
+        if !ctrl.partials(t, q, qd, mode, free_joints, p) {
             return Err(SensitivityError::ControllerWithoutPartials { t });
         }
-        if !ctrl.parameter_partials(t, q, qd, mode, &free_joints, &names, &mut p) {
+        if !ctrl.parameter_partials(t, q, qd, mode, free_joints, names, p) {
             return Err(SensitivityError::UnknownParameter {
                 name: names.join(", "),
                 t,
@@ -341,19 +449,33 @@ impl Evaluator<'_> {
             .map_err(TangentError::from)?;
         let m = x.ncols();
         let nd = m - params.len();
-        let dq = x.rows(0, nq).clone_owned();
-        let dqd = x.rows(nq, nq).clone_owned();
-        let mut dtau = &p.dtau_dq * &dq + &p.dtau_dqd * &dqd;
-        let mut dfree = &p.dfree_dq * &dq + &p.dfree_dqd * &dqd;
-        let mut body = vec![None; m];
+        fit(&mut cb.dq, nq, m);
+        cb.dq.copy_from(&x.rows(0, nq));
+        fit(&mut cb.dqd, nq, m);
+        cb.dqd.copy_from(&x.rows(nq, nq));
+        // the same products and sums as `∂Υ/∂q δq + ∂Υ/∂q̇ δq̇` formed by value
+        fit(&mut cb.dtau, n, m);
+        fit(&mut cb.dtau2, n, m);
+        cb.dtau.gemm(1.0, &p.dtau_dq, &cb.dq, 0.0);
+        cb.dtau2.gemm(1.0, &p.dtau_dqd, &cb.dqd, 0.0);
+        cb.dtau += &cb.dtau2;
+        let nf = free_joints.len();
+        fit(&mut cb.dfree, nf, m);
+        fit(&mut cb.dfree2, nf, m);
+        cb.dfree.gemm(1.0, &p.dfree_dq, &cb.dq, 0.0);
+        cb.dfree2.gemm(1.0, &p.dfree_dqd, &cb.dqd, 0.0);
+        cb.dfree += &cb.dfree2;
+        cb.body.clear();
+        cb.body.resize(m, None);
         let mut ci = 0;
         for (k, par) in params.iter().enumerate() {
             match par {
-                Parameter::Body(b) => body[nd + k] = Some(*b),
+                Parameter::Body(b) => cb.body[nd + k] = Some(*b),
                 Parameter::Controller(_) => {
-                    dtau.column_mut(nd + k)
+                    cb.dtau
+                        .column_mut(nd + k)
                         .axpy(1.0, &p.dtau_dp.column(ci), 1.0);
-                    dfree
+                    cb.dfree
                         .column_mut(nd + k)
                         .axpy(1.0, &p.dfree_dp.column(ci), 1.0);
                     ci += 1;
@@ -361,29 +483,32 @@ impl Evaluator<'_> {
             }
         }
         let dirs = FlowDirections {
-            dq: &dq,
-            dqd: &dqd,
-            dtau: &dtau,
-            body: &body,
+            dq: &cb.dq,
+            dqd: &cb.dqd,
+            dtau: &cb.dtau,
+            body: &cb.body,
         };
-        let (mut dqdd, dlambda) = dynamics_jvp(model, &mut self.data, qd, &dirs)?;
+        dynamics_jvp_into(
+            model,
+            &mut self.data,
+            qd,
+            &dirs,
+            &mut cb.jvp,
+            &mut cb.dqdd,
+            &mut cb.dlambda,
+        )?;
         for (i, &j) in free_joints.iter().enumerate() {
             if !locked.contains(&j) {
-                dqdd.set_row(j, &dfree.row(i));
+                cb.dqdd.set_row(j, &cb.dfree.row(i));
             }
         }
-        let mut dx = DMatrix::zeros(2 * nq, m);
-        dx.rows_mut(0, nq).copy_from(&dqd);
-        dx.rows_mut(nq, nq).copy_from(&dqdd);
-        let mut f = DVector::zeros(2 * nq);
+        fit(dx, 2 * nq, m);
+        dx.rows_mut(0, nq).copy_from(&cb.dqd);
+        dx.rows_mut(nq, nq).copy_from(&cb.dqdd);
+        fit_vec(f, 2 * nq);
         f.rows_mut(0, nq).copy_from_slice(qd);
         f.rows_mut(nq, nq).copy_from(&self.data.qdd);
-        Ok(FlowColumns {
-            f,
-            dx,
-            dlambda,
-            lambda: self.data.lambda.clone(),
-        })
+        Ok(())
     }
 }
 
@@ -396,6 +521,8 @@ enum Tangent<'p> {
     Columns {
         x: DMatrix<f64>,
         params: &'p [Parameter],
+        /// [`controller_names`] of `params`.
+        names: Vec<&'p str>,
     },
 }
 
@@ -425,43 +552,65 @@ impl Tangent<'_> {
         if h <= 0.0 {
             return Ok(());
         }
+        let mut st = std::mem::take(&mut ev.stages);
+        let r = self.step_on(ev, &mut st, seg, (t0, h, t_floor, t_cap), y0);
+        ev.stages = st;
+        r
+    }
+
+    /// [`Self::step`] on the stage buffers `st` (taken out of `ev` for the step).
+    fn step_on(
+        &mut self,
+        ev: &mut Evaluator,
+        st: &mut StageBuffers,
+        seg: &Segment,
+        (t0, h, t_floor, t_cap): (f64, f64, f64, f64),
+        y0: &[f64],
+    ) -> Result<(), SensitivityError> {
         let (phi, params) = match self {
             Tangent::Full(phi) => (phi, None),
-            Tangent::Columns { x, params } => (x, Some(*params)),
+            Tangent::Columns { x, params, names } => (x, Some((*params, &names[..]))),
         };
-        let mut k: Vec<DVector<f64>> = Vec::with_capacity(6);
-        let mut kphi: Vec<DMatrix<f64>> = Vec::with_capacity(6);
+        st.k.resize_with(6, || DVector::zeros(0));
+        st.kphi.resize_with(6, || DMatrix::zeros(0, 0));
+        let StageBuffers { k, kphi, ys, ps } = st;
         for s in 0..6 {
-            let mut ys = DVector::from_column_slice(y0);
-            let mut ps = phi.clone();
+            fit_vec(ys, y0.len());
+            ys.copy_from_slice(y0);
+            fit(ps, phi.nrows(), phi.ncols());
+            ps.copy_from(phi);
             for j in 0..s {
                 ys.axpy(h * RK_A[s][j], &k[j], 1.0);
-                ps += h * RK_A[s][j] * &kphi[j];
+                // `ps += (h a_sj) kphi_j`, in place
+                let c = h * RK_A[s][j];
+                ps.zip_apply(&kphi[j], |p, v| *p += c * v);
             }
             let ts = (t0 + RK_C[s] * h).max(t_floor).min(t_cap);
-            let (f, kp) = match params {
+            match params {
                 None => {
                     let fj = ev.eval(&*seg.controller, &seg.locked, ts, seg.mode, ys.as_slice())?;
-                    (fj.f, &fj.jac * ps)
+                    kphi[s] = &fj.jac * &*ps;
+                    k[s] = fj.f;
                 }
-                Some(params) => {
-                    let c = ev.eval_columns(
+                Some((params, names)) => {
+                    ev.eval_columns_into(
                         &*seg.controller,
                         &seg.locked,
                         ts,
                         seg.mode,
                         ys.as_slice(),
-                        &ps,
+                        ps,
                         params,
+                        names,
+                        &mut k[s],
+                        &mut kphi[s],
                     )?;
-                    (c.f, c.dx)
                 }
-            };
-            kphi.push(kp);
-            k.push(f);
+            }
         }
-        for s in 0..6 {
-            *phi += h * RK_A[6][s] * &kphi[s];
+        for (s, kp) in kphi.iter().enumerate() {
+            let c = h * RK_A[6][s];
+            phi.zip_apply(kp, |p, v| *p += c * v);
         }
         Ok(())
     }
@@ -605,7 +754,7 @@ fn time_event(
     if jump <= TIME_EVENT_TOL * scale {
         return Ok(out);
     }
-    if let Tangent::Columns { x, params } = tangent {
+    if let Tangent::Columns { x, params, .. } = tangent {
         let nd = x.ncols() - params.len();
         let mut ci = 0;
         for (k, p) in params.iter().enumerate() {
@@ -849,7 +998,11 @@ pub fn execution_sensitivity_columns(
     if nd > 0 {
         x0.columns_mut(0, nd).copy_from(directions);
     }
-    let mut tangent = Tangent::Columns { x: x0, params };
+    let mut tangent = Tangent::Columns {
+        x: x0,
+        params,
+        names: controller_names(params),
+    };
     let mut defined = true;
     let mut next_event = 0;
     let nseg = exec.segments.len();
