@@ -289,16 +289,22 @@ impl<'a> Evaluator<'a> {
 
     /// The touch kind of every active contact of `mode` at `y`.
     fn touches(&mut self, mode: ContactMode, y: &[f64]) -> Vec<(usize, TouchKind)> {
+        let mut out = Vec::new();
+        self.touches_into(mode, y, &mut out);
+        out
+    }
+
+    /// [`Self::touches`] into `out` (cleared first; no allocation once it is large enough).
+    fn touches_into(&mut self, mode: ContactMode, y: &[f64], out: &mut Vec<(usize, TouchKind)>) {
         let nq = self.model.nq();
         self.kin.compute(self.model, &y[..nq], &y[nq..]);
-        mode.active()
-            .map(|k| {
-                (
-                    k,
-                    contact_geometry(self.model, &self.kin, self.terrain, k).touch,
-                )
-            })
-            .collect()
+        out.clear();
+        out.extend(mode.active().map(|k| {
+            (
+                k,
+                contact_geometry(self.model, &self.kin, self.terrain, k).touch,
+            )
+        }));
     }
 
     /// The flow of `mode` at `(t, y)` under `ctrl` with `locked` joints, and its Jacobian.
@@ -655,6 +661,8 @@ fn segment_flow(
     };
     // stages after the last time event passed take the right-hand limit there
     let mut t_floor = f64::NEG_INFINITY;
+    let (mut start_touches, mut end_touches, mut mid_touches) =
+        (Vec::new(), Vec::new(), Vec::new());
     for step in seg.dense.steps() {
         if step.t0 >= seg.t1 {
             break;
@@ -676,9 +684,9 @@ fn segment_flow(
             let t_cap = pending.first().map_or(f64::INFINITY, |e| e.t.next_down());
             step.eval(ta, &mut ya);
             step.eval(t_end, &mut yb);
-            let end_touches = ev.touches(seg.mode, &yb);
+            ev.touches_into(seg.mode, &yb, &mut end_touches);
             loop {
-                let start_touches = ev.touches(seg.mode, &ya);
+                ev.touches_into(seg.mode, &ya, &mut start_touches);
                 if start_touches == end_touches {
                     tangent.step(ev, seg, (ta, t_end - ta, t_floor, t_cap), &ya)?;
                     break;
@@ -691,7 +699,8 @@ fn segment_flow(
                         break;
                     }
                     step.eval(mid, &mut ym);
-                    if ev.touches(seg.mode, &ym) == start_touches {
+                    ev.touches_into(seg.mode, &ym, &mut mid_touches);
+                    if mid_touches == start_touches {
                         lo = mid;
                     } else {
                         hi = mid;

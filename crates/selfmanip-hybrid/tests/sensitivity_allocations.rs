@@ -1,0 +1,97 @@
+//! The tangent's stages allocate nothing: the column tangent of
+//! [`execution_sensitivity_columns`] keeps its stage, column and Jacobian-product buffers in
+//! its evaluator, so doubling the number of steps of a segment adds no allocations beyond a
+//! fixed few (the per-segment and per-event work), not one (or dozens) per stage. Counted with
+//! a per-thread counting allocator, as in `stage_allocations.rs`.
+mod systems;
+use nalgebra::DMatrix;
+use selfmanip_core::tangent::BodyParameter;
+use selfmanip_core::{ContactMode, FlatGround};
+use selfmanip_hybrid::sensitivity::{execution_sensitivity_columns, Parameter};
+use selfmanip_hybrid::{simulate, HybridOptions, StepOptions, Termination, ZeroTorque};
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use systems::{block, BLOCK, G};
+
+struct Counting;
+
+thread_local! {
+    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
+}
+
+fn count() {
+    let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        count();
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        count();
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static COUNTING: Counting = Counting;
+
+/// Steps of the single segment of a run to `t_final` and the allocations of its column
+/// tangent (two state directions and the body mass).
+fn steps_and_tangent_allocations(mode: &str, q: [f64; 3], t_final: f64) -> (usize, usize) {
+    let model = block(G);
+    let mode = ContactMode::parse_names(&model, mode).unwrap();
+    let opts = HybridOptions {
+        step: StepOptions {
+            h_max_s: 1e-3,
+            ..StepOptions::default()
+        },
+        ..HybridOptions::default()
+    };
+    let exec = simulate(
+        &model,
+        &FlatGround,
+        &ZeroTorque,
+        mode,
+        &q,
+        &[0.0; 3],
+        t_final,
+        opts,
+    )
+    .unwrap();
+    assert_eq!(exec.termination, Termination::FinalTime);
+    assert_eq!(exec.segments.len(), 1);
+    let n2 = 2 * model.nq();
+    let mut dirs = DMatrix::zeros(n2, 2);
+    dirs[(1, 0)] = 1.0;
+    dirs[(n2 - 1, 1)] = 1.0;
+    let params = [Parameter::Body(BodyParameter::Mass)];
+    let before = ALLOCATIONS.with(Cell::get);
+    let s = execution_sensitivity_columns(&model, &FlatGround, &exec, &dirs, &params).unwrap();
+    let allocations = ALLOCATIONS.with(Cell::get) - before;
+    drop(s);
+    (exec.segments[0].dense.len(), allocations)
+}
+
+#[test]
+fn tangent_stages_allocate_nothing() {
+    let (_, h, _) = BLOCK;
+    // a free fall (no rows), and a block sliding on its corners (two contacts' rows)
+    for (mode, q) in [
+        ("", [0.0, -100.0, 0.0]),
+        ("left,right:slide", [0.0, -h / 2.0, 0.0]),
+    ] {
+        let (n1, a1) = steps_and_tangent_allocations(mode, q, 1.0);
+        let (n2, a2) = steps_and_tangent_allocations(mode, q, 2.0);
+        eprintln!("mode `{mode}`: {a1} allocations for {n1} steps, {a2} for {n2}");
+        assert!(n2 >= n1 + 900, "mode `{mode}`: {n1} and {n2} steps");
+        assert!(
+            a2 <= a1 + 12,
+            "mode `{mode}`: {a1} allocations for {n1} steps, {a2} for {n2}"
+        );
+    }
+}
