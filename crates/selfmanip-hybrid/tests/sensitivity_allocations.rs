@@ -3,42 +3,14 @@
 //! its evaluator, so doubling the number of steps of a segment adds no allocations beyond a
 //! fixed few (the per-segment and per-event work), not one (or dozens) per stage. Counted with
 //! a per-thread counting allocator, as in `stage_allocations.rs`.
+mod counting;
 mod systems;
 use nalgebra::DMatrix;
 use selfmanip_core::tangent::BodyParameter;
 use selfmanip_core::{ContactMode, FlatGround};
 use selfmanip_hybrid::sensitivity::{execution_sensitivity_columns, Parameter};
 use selfmanip_hybrid::{simulate, HybridOptions, StepOptions, Termination, ZeroTorque};
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use systems::{block, BLOCK, G};
-
-struct Counting;
-
-thread_local! {
-    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
-}
-
-fn count() {
-    let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count();
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        count();
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-#[global_allocator]
-static COUNTING: Counting = Counting;
 
 /// Steps of the single segment of a run to `t_final` and the allocations of its column
 /// tangent (two state directions and the body mass).
@@ -70,9 +42,9 @@ fn steps_and_tangent_allocations(mode: &str, q: [f64; 3], t_final: f64) -> (usiz
     dirs[(1, 0)] = 1.0;
     dirs[(n2 - 1, 1)] = 1.0;
     let params = [Parameter::Body(BodyParameter::Mass)];
-    let before = ALLOCATIONS.with(Cell::get);
+    let before = counting::allocations();
     let s = execution_sensitivity_columns(&model, &FlatGround, &exec, &dirs, &params).unwrap();
-    let allocations = ALLOCATIONS.with(Cell::get) - before;
+    let allocations = counting::allocations() - before;
     drop(s);
     (exec.segments[0].dense.len(), allocations)
 }

@@ -2,39 +2,11 @@
 //! guard states and their sample buffers are reused, and a segment's dense output grows by
 //! doubling. Counted with a per-thread counting allocator: doubling the number of steps of
 //! a segment adds only the few allocations of the buffers' growth, not one per step.
+mod counting;
 mod systems;
 use selfmanip_core::{ContactMode, FlatGround};
 use selfmanip_hybrid::{simulate, HybridOptions, StepOptions, Termination, ZeroTorque};
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use systems::{block, BLOCK, G};
-
-struct Counting;
-
-thread_local! {
-    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
-}
-
-fn count() {
-    let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count();
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        count();
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-#[global_allocator]
-static COUNTING: Counting = Counting;
 
 /// Steps of the first segment and allocations of a run to `t_final` from `(q, q̇)` in `mode`.
 fn steps_and_allocations(mode: &str, q: [f64; 3], t_final: f64) -> (usize, usize) {
@@ -47,7 +19,7 @@ fn steps_and_allocations(mode: &str, q: [f64; 3], t_final: f64) -> (usize, usize
         },
         ..HybridOptions::default()
     };
-    let before = ALLOCATIONS.with(Cell::get);
+    let before = counting::allocations();
     let exec = simulate(
         &model,
         &FlatGround,
@@ -59,7 +31,7 @@ fn steps_and_allocations(mode: &str, q: [f64; 3], t_final: f64) -> (usize, usize
         opts,
     )
     .unwrap();
-    let allocations = ALLOCATIONS.with(Cell::get) - before;
+    let allocations = counting::allocations() - before;
     assert_eq!(exec.termination, Termination::FinalTime);
     assert_eq!(exec.segments.len(), 1);
     (exec.segments[0].dense.len(), allocations)
