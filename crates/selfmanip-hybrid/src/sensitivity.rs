@@ -917,19 +917,22 @@ pub fn execution_sensitivity(
         out.events.push(es);
     }
     // events not matched to a segment end, switches not differentiated
-    if next_event != exec.events.len()
-        || out
-            .touch_switches
-            .iter()
-            .any(|s| s.status != SaltationStatus::Defined)
-    {
-        defined = false;
-    }
-    let ends_cleanly = matches!(exec.termination, Termination::FinalTime | Termination::Apex);
-    if defined && ends_cleanly {
+    if defined && chain_complete(exec, next_event, &out.touch_switches) {
         out.state_jacobian = Some(total);
     }
     Ok(out)
+}
+
+/// Whether the chain of an execution's derivative reaches its end: every event was matched
+/// to a segment end, every rolling/point switch inside a segment was differentiated, and the
+/// run ended at its final time or at the apex (a run cut by a budget ends on an event with
+/// no flow after it).
+fn chain_complete(exec: &Execution, next_event: usize, touch_switches: &[TouchSwitch]) -> bool {
+    next_event == exec.events.len()
+        && touch_switches
+            .iter()
+            .all(|s| s.status == SaltationStatus::Defined)
+        && matches!(exec.termination, Termination::FinalTime | Termination::Apex)
 }
 
 /// A named parameter of an execution's sensitivities ([`execution_sensitivity_columns`]).
@@ -1081,20 +1084,13 @@ pub fn execution_sensitivity_columns(
         out.event_time_columns.push(Some(time));
         out.events.push(es);
     }
-    if next_event != exec.events.len()
-        || out
-            .touch_switches
-            .iter()
-            .any(|s| s.status != SaltationStatus::Defined)
-        || out
-            .time_events
-            .iter()
-            .any(|e| e.status != SaltationStatus::Defined)
-    {
-        defined = false;
-    }
-    let ends_cleanly = matches!(exec.termination, Termination::FinalTime | Termination::Apex);
-    if defined && ends_cleanly {
+    // a controller's time event moves the parameter columns only (its instant does not
+    // depend on the state), so only this path needs its statuses
+    let time_events_defined = out
+        .time_events
+        .iter()
+        .all(|e| e.status == SaltationStatus::Defined);
+    if defined && time_events_defined && chain_complete(exec, next_event, &out.touch_switches) {
         let Tangent::Columns { x, .. } = tangent else {
             unreachable!("columns stay columns")
         };
