@@ -180,7 +180,7 @@ impl Data {
     }
 
     /// Entry `a` of [`Self::generalized_force`].
-    fn generalized_force_at(&self, model: &Model, tau: &[f64], a: usize) -> f64 {
+    pub(crate) fn generalized_force_at(&self, model: &Model, tau: &[f64], a: usize) -> f64 {
         let f = -self.c_qd.as_slice()[a] - self.n_bar.as_slice()[a] + self.friction[a];
         match tau.get(a) {
             Some(t) if a < model.n_joints() => f + t,

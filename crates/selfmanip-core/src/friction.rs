@@ -50,17 +50,24 @@
 //! $\sigma$ is not defined by $v_t$. Coulomb's law then asks for the force that keeps the
 //! site at rest if the cone allows it, and otherwise for the cone edge on the side of that
 //! force: with $(\lambda_n^s, \lambda_t^s)$ the site's force when it sticks for the instant
-//! (its tangential row added to the prepared rows: one more KKT solve), the
-//! site is held by $\lambda^s_t$ itself when $|\lambda^s_t| \le \mu_k|\lambda^s_n|$ (a known
+//! (its tangential row added to the prepared rows, those of every other site at rest too:
+//! one more KKT solve), the site is held by $\lambda^s_t$ itself when $|\lambda^s_t| \le \mu_k|\lambda^s_n|$ (a known
 //! tangential force, $f^{fr} = -A_t^{\mathsf T}\lambda^s_t$, and the normal row then returns
 //! $\lambda^s_n$), and otherwise takes the cone edge on the side of $\lambda^s_t$,
 //! $\mu_k\sigma = -\mu_k\operatorname{sign}\lambda^s_t$ in the formula above. At a slip the
 //! sticking force lies on the cone edge, so the force is continuous through it; a site that
 //! has come to rest with its force inside the cone is held (the flow is that of sticking)
 //! without the chatter of a sign that flips at $v_t = 0$, and without the $0/0$ of the
-//! statics formula for a leg whose torque vanishes.
-//! "Zero" is $|v_t| \le$ [`SLIDING_SPEED_EPS_M_S`], well above the drift of a sticking
-//! constraint at a slip event and well below any sliding that matters.
+//! statics formula for a leg whose torque vanishes. "Zero" is the band
+//! $|v_t| \le \varepsilon$ = [`SLIDING_SPEED_EPS_M_S`] (10 µm/s: above the drift of a
+//! sticking constraint at a slip event, far below any sliding that matters). Within it,
+//! "sticking" asks for $\dot v_t = -v_t/\tau_r$ ($\tau_r$ = [`REST_RELAXATION_S`]) rather
+//! than $\dot v_t = 0$, so that a held site stays at rest instead of drifting out of the band
+//! (where the kinetic force would push it back: chatter). The edge taken when the cone does
+//! not hold the site must also start it sliding *against* the edge force; where the side of
+//! the sticking force does not (the slip is degenerate there, `v̇_t = 0` to first order, or a
+//! massless toe's Painlevé-type conflict), the other edge is taken if it does, else no
+//! friction for the instant (the thesis's Assumption 5.9) — two trial solves, only then.
 use crate::contact::{row_direction, row_direction_rate, RowDirection};
 use crate::dynamics::Data;
 use crate::error::{CoreError, Result, SingularityKind};
@@ -68,7 +75,9 @@ use crate::model::Model;
 use nalgebra::Vector2;
 
 /// Sliding speed at or below which a site counts as at rest (m/s).
-pub const SLIDING_SPEED_EPS_M_S: f64 = 1e-6;
+pub const SLIDING_SPEED_EPS_M_S: f64 = 1e-7;
+/// Time constant with which a site within the rest band is brought to rest (s).
+pub const REST_RELAXATION_S: f64 = 1e-3;
 /// Relative size of `(A_n)_j + μ_k σ (A_t)_j` below which a sliding site is wedged.
 pub const WEDGE_TOL: f64 = 1e-3;
 
@@ -96,6 +105,8 @@ pub struct SlidingSite {
     /// Whether `|v_t| ≤` [`SLIDING_SPEED_EPS_M_S`] (or the site slides into a wedge), so
     /// that its force comes from sticking ([`resolve`]).
     pub at_rest: bool,
+    /// Whether it slides into a wedge (the cone edge against its sliding through the hip).
+    pub wedged: bool,
     /// The friction force on the robot along the site's tangent `t̂` (the row direction of a
     /// tangential row), `μ_k σ λ_n` (N), at the last assembly.
     pub force_t: f64,
@@ -167,6 +178,7 @@ pub(crate) fn collect(model: &Model, data: &mut Data, qd: &[f64]) -> Result<()> 
         site.at_rest = v_t.abs() <= SLIDING_SPEED_EPS_M_S;
         site.coef = if site.at_rest { 0.0 } else { mu_k * v_t.signum() };
         site.held = None;
+        site.wedged = false;
         // sliding into a wedge (the cone edge through the hip): the statics cannot balance
         // the joint torque with a sliding force, so the site jams — it is resolved as at rest
         if !site.at_rest {
@@ -174,7 +186,8 @@ pub(crate) fn collect(model: &Model, data: &mut Data, qd: &[f64]) -> Result<()> 
             let a_n = data.constraints.a.as_slice()[joint * c + r];
             let a_t = site.a_t.iter().find(|(k, _)| *k == joint).map_or(0.0, |e| e.1);
             let den = a_n + site.coef * a_t;
-            site.at_rest = den.abs() <= WEDGE_TOL * (a_n.abs() + mu_k * a_t.abs());
+            site.wedged = den.abs() <= WEDGE_TOL * (a_n.abs() + mu_k * a_t.abs());
+            site.at_rest = site.wedged;
         }
         data.sliding.push(site);
     }
@@ -226,54 +239,111 @@ pub(crate) fn assemble(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()
 /// Sets `coef` of every collected site at rest from its sticking force (module docs), then
 /// assembles `data.friction` for the joint torques `tau`.
 pub(crate) fn resolve(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()> {
-    for i in 0..data.sliding.len() {
-        if !data.sliding[i].at_rest {
-            continue;
-        }
-        // f = Υ − C̄q̇ − N̄ + the friction of the other sites
+    let rest: Vec<usize> = (0..data.sliding.len())
+        .filter(|&i| data.sliding[i].at_rest)
+        .collect();
+    if rest.is_empty() {
+        return assemble(model, data, tau);
+    }
+    // f = Υ − C̄q̇ − N̄ + the kinetic friction of the sites that slide
+    for &i in &rest {
         data.sliding[i].coef = 0.0;
         data.sliding[i].held = None;
-        assemble(model, data, tau)?;
-        let f_full: Vec<f64> = (0..model.nq())
-            .map(|a| {
-                let t = if a < model.n_joints() { tau[a] } else { 0.0 };
-                t - data.c_qd[a] - data.n_bar[a] + data.friction[a]
-            })
-            .collect();
-        // sticking for the instant: [A; A_t] and [−Ȧq̇; −Ȧ_t q̇]
-        let c = data.constraints.n_rows();
+    }
+    assemble(model, data, tau)?;
+    let f_full: Vec<f64> = (0..model.nq())
+        .map(|a| {
+            let t = if a < model.n_joints() { tau[a] } else { 0.0 };
+            t - data.c_qd[a] - data.n_bar[a] + data.friction[a]
+        })
+        .collect();
+    // every site at rest sticks for the instant, together: [A; A_t…] and [−Ȧq̇; −Ȧ_t q̇…],
+    // with the band's residual sliding brought to rest (v̇_t = −v_t/τ_r)
+    let c = data.constraints.n_rows();
+    let mut a = data.constraints.a.clone().resize_vertically(c + rest.len(), 0.0);
+    let mut g: Vec<f64> = data.constraints.a_dot_qd.iter().map(|v| -v).collect();
+    for (m, &i) in rest.iter().enumerate() {
         let s = &data.sliding[i];
-        let mut a = data.constraints.a.clone().insert_row(c, 0.0);
         for &(k, v) in &s.a_t {
-            a[(c, k)] = v;
+            a[(c + m, k)] = v;
         }
-        let mut g: Vec<f64> = data.constraints.a_dot_qd.iter().map(|v| -v).collect();
-        g.push(-s.a_t_dot_qd);
-        let (row, mu_k) = (s.row, s.mu_k);
-        let coords = &data.dynamic_coords;
-        let mut kkt = crate::kkt::KktFactorization::default();
-        let (coef, held) = match kkt.factor_on(&data.m_bar, &a, coords) {
-            Ok(()) => {
-                let f: Vec<f64> = coords.iter().map(|&k| f_full[k]).collect();
-                let (mut x, mut y) = (vec![0.0; coords.len()], vec![0.0; c + 1]);
-                kkt.solve(&f, &g, &mut x, &mut y);
-                let (lambda_n, lambda_t) = (y[row], y[c]);
-                if !(lambda_n.is_finite() && lambda_t.is_finite()) {
-                    (0.0, None)
-                } else if lambda_t.abs() <= -mu_k * lambda_n {
+        g.push(-s.a_t_dot_qd + s.v_t / REST_RELAXATION_S);
+    }
+    let coords = &data.dynamic_coords;
+    let mut kkt = crate::kkt::KktFactorization::default();
+    let y = match kkt.factor_on(&data.m_bar, &a, coords) {
+        Ok(()) => {
+            let f: Vec<f64> = coords.iter().map(|&k| f_full[k]).collect();
+            let (mut x, mut y) = (vec![0.0; coords.len()], vec![0.0; c + rest.len()]);
+            kkt.solve(&f, &g, &mut x, &mut y);
+            Some(y)
+        }
+        // sticking is itself singular here
+        Err(_) => None,
+    };
+    let forces: Vec<Option<(f64, f64)>> = rest
+        .iter()
+        .enumerate()
+        .map(|(m, &i)| y.as_ref().map(|y| (y[data.sliding[i].row], y[c + m])))
+        .collect();
+    for (m, &i) in rest.iter().enumerate() {
+        let mu_k = data.sliding[i].mu_k;
+        let held = match forces[m] {
+            Some((lambda_n, lambda_t)) if lambda_n.is_finite() && lambda_t.is_finite() => {
+                if lambda_t.abs() <= -mu_k * lambda_n {
                     // the cone holds it: the sticking force itself
-                    (0.0, Some(lambda_t))
+                    Some(lambda_t)
                 } else {
-                    // the cone edge on the side of the sticking force (a pushing λ_n < 0
-                    // turns λ_t = coef λ_n the same way as λ_t)
-                    (-mu_k * lambda_t.signum(), None)
+                    // it slides: the cone edge on the side of the sticking force (continuity;
+                    // a pushing λ_n < 0 turns λ_t = coef λ_n the same way as λ_t), if the
+                    // site then starts sliding against that force; else the other edge, if
+                    // consistent; else (a Painlevé-type conflict) no friction for the instant
+                    let side = lambda_t.signum();
+                    [side, -side].into_iter().find_map(|side| {
+                        let f = edge_force(data, i, tau, -mu_k * side)?;
+                        data.sliding[i].held = Some(f);
+                        let vdot = sliding_acceleration(model, data, tau, i).ok()?;
+                        (vdot * side <= 1e-9 * (1.0 + vdot.abs())).then_some(f)
+                    })
                 }
             }
-            // sticking is itself singular here: slide without friction for the instant
-            Err(_) => (0.0, None),
+            _ => None,
         };
-        data.sliding[i].coef = coef;
-        data.sliding[i].held = held;
+        // no force to hold it with (sticking singular, or a wedge): none for the instant
+        data.sliding[i].held = Some(held.unwrap_or(0.0));
     }
     assemble(model, data, tau)
+}
+
+/// `v̇_t` of site `i` under the forces currently set on every site (one KKT solve).
+fn sliding_acceleration(model: &Model, data: &mut Data, tau: &[f64], i: usize) -> Result<f64> {
+    assemble(model, data, tau)?;
+    let (mut x, mut y) = (
+        std::mem::take(&mut data.qdd),
+        std::mem::take(&mut data.lambda),
+    );
+    data.solve_prepared(
+        |d, a| d.generalized_force_at(model, tau, a),
+        |d, r| -d.constraints.a_dot_qd.as_slice()[r],
+        None,
+        &mut x,
+        &mut y,
+    );
+    (data.qdd, data.lambda) = (x, y);
+    let s = &data.sliding[i];
+    let a_t_qdd: f64 = s.a_t.iter().map(|&(k, a)| a * data.qdd[k]).sum();
+    Ok(-(a_t_qdd + s.a_t_dot_qd))
+}
+
+/// The tangential force `coef λ_n` of site `i` with `λ_n` from its leg's statics (module
+/// docs); `None` at a wedge.
+fn edge_force(data: &Data, i: usize, tau: &[f64], coef: f64) -> Option<f64> {
+    let s = &data.sliding[i];
+    let c = data.constraints.n_rows();
+    let j = s.joint;
+    let a_n = data.constraints.a.as_slice()[j * c + s.row];
+    let a_t = s.a_t.iter().find(|(k, _)| *k == j).map_or(0.0, |e| e.1);
+    let f_j = tau.get(j).copied().unwrap_or(0.0) - data.c_qd[j] - data.n_bar[j];
+    let den = a_n + coef * a_t;
+    (den.abs() > WEDGE_TOL * (a_n.abs() + coef.abs() * a_t.abs())).then(|| coef * f_j / den)
 }
