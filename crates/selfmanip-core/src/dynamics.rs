@@ -336,7 +336,8 @@ pub fn pseudo_impulse_prepared(
     delta_t_s: f64,
 ) -> Result<DVector<f64>> {
     check_vector("tau", tau, model.n_joints())?;
-    crate::friction::assemble(model, data, tau)?;
+    // Υ is the applied force (actuators, springs, gravity); friction is a contact force
+    data.friction.fill(0.0);
     let f = data.generalized_force(model, tau);
     let c = data.constraints.n_rows();
     let (mut x, mut y) = (DVector::zeros(model.nq()), DVector::zeros(c));

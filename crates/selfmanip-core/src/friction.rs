@@ -63,7 +63,10 @@
 //! sticking constraint at a slip event, far below any sliding that matters). Within it,
 //! "sticking" asks for $\dot v_t = -v_t/\tau_r$ ($\tau_r$ = [`REST_RELAXATION_S`]) rather
 //! than $\dot v_t = 0$, so that a held site stays at rest instead of drifting out of the band
-//! (where the kinetic force would push it back: chatter). The edge taken when the cone does
+//! (where the kinetic force would push it back: chatter). Only a site at the drift level
+//! ([`HELD_SPEED_M_S`]) is held; one that is still coming to rest keeps its kinetic force
+//! until its velocity crosses zero, where the engine's slip→stick event takes over — held at
+//! the band's edge instead, it would hover there between the two forces. The edge taken when the cone does
 //! not hold the site must also start it sliding *against* the edge force; where the side of
 //! the sticking force does not (the slip is degenerate there, `v̇_t = 0` to first order, or a
 //! massless toe's Painlevé-type conflict), the other edge is taken if it does, else no
@@ -75,7 +78,14 @@ use crate::model::Model;
 use nalgebra::Vector2;
 
 /// Sliding speed at or below which a site counts as at rest (m/s).
-pub const SLIDING_SPEED_EPS_M_S: f64 = 1e-7;
+pub const SLIDING_SPEED_EPS_M_S: f64 = 1e-6;
+/// Sliding speed at or below which a site whose force the cone holds is held at rest (m/s):
+/// the drift of a sticking constraint. Faster, it is coming to rest under kinetic friction,
+/// and the engine's slip→stick event stops it when its velocity crosses zero.
+pub const HELD_SPEED_M_S: f64 = 1e-6;
+/// A sliding acceleration this large along the edge force (m/s²) makes that edge clearly
+/// inconsistent; smaller ones are the degenerate first-order start of a slip.
+pub const INCONSISTENT_ACCEL_M_S2: f64 = 1e-3;
 /// Time constant with which a site within the rest band is brought to rest (s).
 pub const REST_RELAXATION_S: f64 = 1e-3;
 /// Relative size of `(A_n)_j + μ_k σ (A_t)_j` below which a sliding site is wedged.
@@ -290,9 +300,16 @@ pub(crate) fn resolve(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()>
         let mu_k = data.sliding[i].mu_k;
         let held = match forces[m] {
             Some((lambda_n, lambda_t)) if lambda_n.is_finite() && lambda_t.is_finite() => {
+                let (v_t, wedged) = (data.sliding[i].v_t, data.sliding[i].wedged);
                 if lambda_t.abs() <= -mu_k * lambda_n {
-                    // the cone holds it: the sticking force itself
-                    Some(lambda_t)
+                    if v_t.abs() <= HELD_SPEED_M_S || wedged {
+                        // the cone holds it: the sticking force itself
+                        Some(lambda_t)
+                    } else {
+                        // still sliding, coming to rest: the kinetic force, until the sliding
+                        // velocity crosses zero (the engine's slip→stick event)
+                        edge_force(data, i, tau, mu_k * v_t.signum())
+                    }
                 } else {
                     // it slides: the cone edge on the side of the sticking force (continuity;
                     // a pushing λ_n < 0 turns λ_t = coef λ_n the same way as λ_t), if the
@@ -303,7 +320,7 @@ pub(crate) fn resolve(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()>
                         let f = edge_force(data, i, tau, -mu_k * side)?;
                         data.sliding[i].held = Some(f);
                         let vdot = sliding_acceleration(model, data, tau, i).ok()?;
-                        (vdot * side <= 1e-9 * (1.0 + vdot.abs())).then_some(f)
+                        (vdot * side <= INCONSISTENT_ACCEL_M_S2).then_some(f)
                     })
                 }
             }
