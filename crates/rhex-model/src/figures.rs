@@ -44,9 +44,9 @@ pub fn fig5_1_ledge_20cm() -> LeapConfig {
 /// rear leg backward, toes pushing against each other until they slip (μ = 1.8 front, 2.5
 /// rear, sliding with Coulomb friction) — with the front and rear pairs (chapter 3's choice
 /// for (+,−)), 20 A, δt = 0.03 s, and the rear motor started 0.02 s before the front one.
-/// The thesis gives no timing; this is the highest near-level apex (pitch under 10°) of the
-/// default (+,−) sweep over t2 (10 ms steps from −0.2 to 0.2 s;
-/// `crates/rhex-model/examples/fidelity.rs` reruns it).
+/// The thesis gives no timing; this is among the highest near-level apexes (pitch under 10°)
+/// of the default (+,−) sweep over t2 (10 ms steps from −0.2 to 0.2 s; t2 = −0.01 s is
+/// within a millimetre of it; `crates/rhex-model/examples/fidelity.rs` reruns the sweep).
 /// The body centre rises about 21 cm (to 26 cm above the ground) at 2° of pitch; the
 /// thesis's figure, simulated with frictionless sliding toes, shows 37 cm.
 pub fn fig5_8_vertical_leap() -> LeapConfig {
