@@ -19,12 +19,14 @@ pub mod description;
 pub mod dynamics;
 pub mod error;
 pub mod frames;
+pub mod friction;
 pub mod grasp;
 pub mod inertia;
 pub mod kinematics;
 pub mod kkt;
 pub mod model;
 pub mod poses;
+pub mod passive;
 pub mod quasistatic;
 pub mod reduced;
 

@@ -21,6 +21,7 @@ use crate::error::HybridError;
 use crate::execution::{Event, EventKind, Termination};
 use crate::features::TERRAIN_STEP_M;
 use crate::flow::{Flow, FlowWorkspace};
+use crate::drift::MAX_DRIFT_M;
 use crate::fold;
 use crate::guard::Guard;
 use crate::options::HybridOptions;
@@ -163,7 +164,10 @@ pub fn reset(
             .dot(&geom.plane.normal())
             .abs();
         let gap = geom.gap_m;
-        if gap < -(TERRAIN_STEP_M + 2.0 * approach * opts.event_tol_s) {
+        // (nor is a gap within the drift band: a contact released below the ground by a
+        // coarsely located touchdown comes back from there, crate::drift)
+        let allowed = (TERRAIN_STEP_M + 2.0 * approach * opts.event_tol_s).max(MAX_DRIFT_M);
+        if gap < -allowed {
             return end(Termination::TerrainDiscontinuity {
                 t,
                 contact: k,
