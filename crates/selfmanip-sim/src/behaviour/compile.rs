@@ -180,6 +180,9 @@ fn parameters(b: &Behaviour) -> Result<BTreeMap<String, f64>, SimError> {
     Ok(values)
 }
 
+/// `(quantity, value)` pairs an actuator's data give besides its stall torque ([`actuator`]).
+type DerivedQuantities = Vec<(&'static str, f64)>;
+
 /// An actuator of the spec, and the quantities derived from its data that expressions may
 /// read as `<name>.<quantity>` besides its stall torque: for DC motors their no-load output
 /// speed `no_load_speed_rad_s` (`ω₀ / G`) and, when the catalog prints the motor's mechanical
@@ -190,7 +193,7 @@ fn actuator(
     cx: &Context<'_>,
     field: &str,
     spec: &ActuatorSpec,
-) -> Result<(Arc<dyn Actuator>, Vec<(&'static str, f64)>), SimError> {
+) -> Result<(Arc<dyn Actuator>, DerivedQuantities), SimError> {
     let motor_err = |f: &str| {
         let f = format!("{field}.{f}");
         move |e: motor::MotorError| SimError::Motor {
