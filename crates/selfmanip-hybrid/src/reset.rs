@@ -233,6 +233,21 @@ pub fn reset(
     // a fold is resolved as an impact: the stick it offers must stop the sliding at once; a
     // passage has its velocity already (the lock's), and its contacts are judged by forces
     let impact = !touched.is_empty() || (!folded.is_empty() && !passing);
+    // at a force event the velocity is continuous and satisfies the constraints of the mode
+    // before, `A q̇ = 0`, up to the integrator's drift: project that drift away (a plastic
+    // impact into the mode before, (5.52), as crate::drift does), so that a contact that
+    // stuck until now starts sliding from zero sliding speed exactly. Its sliding direction
+    // is then chosen by the forces at rest (selfmanip_core::friction), not by the sign of a
+    // drift whose size scales with the tolerance (at rtol = 1e-6 a middle leg stuck until its
+    // slip had |v_t| = 1.3 µm/s of the wrong sign, outside the rest band: the wrong cone edge,
+    // a pulling normal force, a liftoff instead of a slip — a different leap)
+    // Only at a slip: elsewhere the projection would move a leaving contact's force root
+    // (a massless leg's rate, slaved to its contact, sets its motor torque) and its liftoff
+    // guard would fire again at once, an event that changes nothing.
+    if !impact && folded.is_empty() && !slipped.is_empty() {
+        let imp = plastic_impact(model, &mut cx.ws.data, cx.terrain, mode, q, &qd_in)?;
+        qd_in.copy_from_slice(imp.qd_plus.as_slice());
+    }
     // contacts that reached the cone slide; contacts whose sliding stopped try to stick
     for &k in &slipped {
         prefer = prefer.with(k, ContactKind::Slide);
