@@ -9,7 +9,7 @@
 //! sticking constraint's drift left the toe a sliding speed of +1.26 µm/s at rtol 1e-6, just
 //! outside the 1 µm/s rest band of `selfmanip_core::friction`: the kinetic force took the
 //! sign of that drift, the wrong cone edge, the toe's normal force came out pulling
-//! (−677 N against +105 N on the right edge), and complementarity let the leg go (word
+//! (push −677 N, against +105 N on the right edge), and complementarity let the leg go (word
 //! `0101 → 0001` instead of `0101 → 0s01`). The reset at a slip now projects the velocity
 //! onto the constraints of the mode before (`A q̇ = 0`), so the slipping toe starts from
 //! zero sliding speed and its edge is chosen by the forces at rest.

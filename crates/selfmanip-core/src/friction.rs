@@ -61,7 +61,7 @@
 //! has come to rest with its force inside the cone is held (the flow is that of sticking)
 //! without the chatter of a sign that flips at $v_t = 0$, and without the $0/0$ of the
 //! statics formula for a leg whose torque vanishes. "Zero" is the band
-//! $|v_t| \le \varepsilon$ = [`SLIDING_SPEED_EPS_M_S`] (10 µm/s: above the drift of a
+//! $|v_t| \le \varepsilon$ = [`SLIDING_SPEED_EPS_M_S`] (1 µm/s: above the drift of a
 //! sticking constraint at a slip event, far below any sliding that matters). Within it,
 //! "sticking" asks for $\dot v_t = -v_t/\tau_r$ ($\tau_r$ = [`REST_RELAXATION_S`]) rather
 //! than $\dot v_t = 0$, so that a held site stays at rest instead of drifting out of the band
