@@ -10,16 +10,18 @@
 //!   central differences of the kinematics;
 //! - Newton on the whole robot: `m ẍ = F_t` (the skids push only vertically);
 //! - the body, decelerating at the constant `|F_t|/m`, stops at `t* = m v₀ / |F_t|`, having
-//!   lost its kinetic energy to the friction work `|F_t| v₀ t*/2`.
+//!   lost its kinetic energy to the friction work `|F_t| v₀ t*/2`; the engine's slip→stick
+//!   event is that stop, and its reset sticks the toe where the cone holds it.
 //!
 //! And at zero sliding speed the site is sticking for the instant: the sliding mode's force
 //! reproduces the sticking mode's when the cone holds it, and is the cone edge on the same
-//! side when it does not — the force is continuous through a slip.
+//! side when it does not — the force is continuous through a slip. An integrating caller's
+//! law (`Data::slide_at_rest`) never holds a site in a sliding mode: where the cone holds it,
+//! it takes no edge and reports that the cone holds it (the engine then sticks it).
 use selfmanip::core::{
     forward_dynamics, ContactKind, ContactMode, Data, FlatGround, Model, RobotDescription,
 };
-use selfmanip::hybrid::{simulate, Controller, HybridOptions};
-
+use selfmanip::hybrid::{simulate, Controller, EventKind, HybridOptions};
 
 const G: f64 = 9.81;
 const M: f64 = 3.0;
@@ -104,8 +106,17 @@ fn sliding_toe_force_is_on_the_cone_edge_against_sliding_and_balances_the_leg() 
     for xdot in [0.7, -0.4] {
         let (q, qd) = state(xdot);
         let mut data = Data::new(&model);
-        forward_dynamics(&model, &mut data, &FlatGround, all_sliding(), &q, &qd, &[tau], None)
-            .unwrap();
+        forward_dynamics(
+            &model,
+            &mut data,
+            &FlatGround,
+            all_sliding(),
+            &q,
+            &qd,
+            &[tau],
+            None,
+        )
+        .unwrap();
         // rows: toe normal, front skid, rear skid
         let lambda_n = data.lambda[0];
         assert!(lambda_n < 0.0, "the toe pushes: {lambda_n}");
@@ -127,7 +138,10 @@ fn sliding_toe_force_is_on_the_cone_edge_against_sliding_and_balances_the_leg() 
         // ground force on the robot, world (x, z down): normal row points into the ground
         let force = [site.force_t, lambda_n];
         let virtual_work = tau + jac[0] * force[0] + jac[1] * force[1];
-        assert!(virtual_work.abs() < 1e-6 * tau.abs(), "τ + Jᵀ F = {virtual_work}");
+        assert!(
+            virtual_work.abs() < 1e-6 * tau.abs(),
+            "τ + Jᵀ F = {virtual_work}"
+        );
     }
 }
 
@@ -149,8 +163,17 @@ fn sled_on_a_pressed_toe_stops_at_the_closed_form_time() {
     let (q, qd) = state(v0);
     // the friction force, constant along the slide (fixed geometry, constant torque)
     let mut data = Data::new(&model);
-    forward_dynamics(&model, &mut data, &FlatGround, all_sliding(), &q, &qd, &[tau], None)
-        .unwrap();
+    forward_dynamics(
+        &model,
+        &mut data,
+        &FlatGround,
+        all_sliding(),
+        &q,
+        &qd,
+        &[tau],
+        None,
+    )
+    .unwrap();
     let f_t = data.sliding[0].force_t.abs();
     let t_star = M * v0 / f_t;
     let opts = HybridOptions {
@@ -172,34 +195,76 @@ fn sled_on_a_pressed_toe_stops_at_the_closed_form_time() {
         opts,
     )
     .unwrap();
-    // it stops at t*: the sliding velocity reaches the rest band |ẋ| ≤ ε there (found by
-    // bisection on the first segment's dense output), having travelled v0 t*/2 — the kinetic
-    // energy gone into friction work — and is held at rest from then on
-    let eps = selfmanip::core::friction::SLIDING_SPEED_EPS_M_S;
+    // it stops at t*: the first segment ends with the slip→stick event where the sliding
+    // velocity crosses zero (no rest band: the friction force keeps its side through the
+    // segment, so the crossing is a transversal zero of a smooth flow, located to event_tol),
+    // having travelled v0 t*/2 — the kinetic energy gone into friction work
+    let stop = &exec.events[0];
+    assert_eq!(stop.kind, EventKind::Stick, "{:?}", exec.events);
+    assert!((stop.t - t_star).abs() < 1e-7, "{} vs {t_star}", stop.t);
     let seg = &exec.segments[0];
+    assert_eq!(seg.t1, stop.t);
     let mut y = vec![0.0; 8];
-    let mut speed = |t: f64| {
-        seg.eval(t, &mut y);
-        (y[5], y[1])
-    };
-    let (mut lo, mut hi) = (seg.t0, seg.t1);
-    assert!(speed(hi).0.abs() <= eps, "still sliding at the segment's end");
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if speed(mid).0 > eps {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    let t_stop = hi;
-    assert!((t_stop - t_star).abs() < 1e-7, "{t_stop} vs {t_star}");
-    let travelled = speed(t_stop).1 - q[1];
+    seg.eval(stop.t, &mut y);
+    assert!(y[5].abs() < 1e-7 * v0, "speed at the event {}", y[5]);
+    let travelled = y[1] - q[1];
     assert!((travelled - 0.5 * v0 * t_star).abs() < 1e-8, "{travelled}");
     assert!((0.5 * M * v0 * v0 - f_t * travelled).abs() < 1e-8 * f_t);
-    // held: no further sliding before the contact is declared stuck
-    let (v_end, x_end) = speed(seg.t1);
-    assert!(v_end.abs() <= eps && (x_end - q[1] - travelled).abs() < 1e-8);
+    // at rest the reset decides by the cone (second route: the sticking mode's force at the
+    // stop, by the core's KKT at zero speed): held, the toe sticks in a mode with its
+    // tangential row, and the sled stays where it stopped to the end of the run
+    let stick_mode = all_sliding().with(0, ContactKind::Stick);
+    let mut stick = Data::new(&model);
+    let (qs, qds) = ([y[0], y[1], y[2], y[3]], [0.0; 4]);
+    forward_dynamics(
+        &model,
+        &mut stick,
+        &FlatGround,
+        stick_mode,
+        &qs,
+        &qds,
+        &[tau],
+        None,
+    )
+    .unwrap();
+    let (lt, ln) = (stick.lambda[0], stick.lambda[1]);
+    assert!(
+        lt.abs() <= MU * -ln,
+        "this sled's toe is held at rest: {lt} vs {ln}"
+    );
+    assert_eq!(
+        stop.mode_after.kind(0),
+        Some(ContactKind::Stick),
+        "{:?}",
+        stop.mode_after
+    );
+    // (the skids are judged by complementarity as ever: one that the stuck toe's torque
+    // unloads lifts off) — and the toe stays where it stopped through the next segment
+    let next = &exec.segments[1];
+    assert_eq!(next.mode.kind(0), Some(ContactKind::Stick));
+    let toe_at = |y: &[f64]| {
+        let mut kin = selfmanip::core::kinematics::Kinematics::default();
+        kin.compute(&model, &y[..4], &y[4..]);
+        kin.point(
+            selfmanip::core::kinematics::Part::Link(0),
+            nalgebra::Vector2::new(0.0, LEG),
+        )
+    };
+    let p_stop = toe_at(&y);
+    let mut y1 = vec![0.0; 8];
+    next.eval(next.t1, &mut y1);
+    assert!(
+        (toe_at(&y1) - p_stop).norm() < 1e-9,
+        "the toe moved: {:?}",
+        toe_at(&y1) - p_stop
+    );
+    // the sliding segment takes the steps of a smooth flow, not those of a velocity band
+    // (the rest band of the earlier law kept the sled hovering at its edge)
+    assert!(
+        seg.dense.len() < 50,
+        "{} steps to the stop",
+        seg.dense.len()
+    );
 }
 
 #[test]
@@ -221,24 +286,66 @@ fn at_zero_sliding_speed_the_toe_sticks_for_the_instant() {
         let qd = [0.0; 4];
         let stick_mode = all_sliding().with(0, ContactKind::Stick);
         let mut stick = Data::new(&model);
-        forward_dynamics(&model, &mut stick, &plane, stick_mode, &q, &qd, &[tau], None).unwrap();
+        forward_dynamics(
+            &model,
+            &mut stick,
+            &plane,
+            stick_mode,
+            &q,
+            &qd,
+            &[tau],
+            None,
+        )
+        .unwrap();
         // the sticking mode holds everything: nothing moves
         assert!(stick.qdd.iter().all(|a| a.abs() < 1e-9), "{:?}", stick.qdd);
         let (lt, ln) = (stick.lambda[0], stick.lambda[1]);
         assert!(ln < 0.0 && (lt.abs() - M * G * beta.sin()).abs() < 1e-9 * M * G);
         let mut slide = Data::new(&model);
-        forward_dynamics(&model, &mut slide, &plane, all_sliding(), &q, &qd, &[tau], None)
-            .unwrap();
+        forward_dynamics(
+            &model,
+            &mut slide,
+            &plane,
+            all_sliding(),
+            &q,
+            &qd,
+            &[tau],
+            None,
+        )
+        .unwrap();
         let site = &slide.sliding[0];
         assert!(site.at_rest);
+        // the integrating caller's law at rest: never held
+        let mut integ = Data::new(&model);
+        integ.slide_at_rest = true;
+        forward_dynamics(
+            &model,
+            &mut integ,
+            &plane,
+            all_sliding(),
+            &q,
+            &qd,
+            &[tau],
+            None,
+        )
+        .unwrap();
+        let isite = &integ.sliding[0];
+        assert_eq!(isite.cone_holds, lt.abs() <= MU * ln.abs());
         if lt.abs() <= MU * ln.abs() {
             seen[0] = true;
+            // neither edge starts it sliding against its force: no friction, and the
+            // caller is told the cone holds it
+            assert_eq!(isite.sigma, 0.0);
+            assert_eq!(isite.force_t, 0.0);
             // the cone holds it: the sliding mode's flow is the sticking one
             assert!((site.force_t - lt).abs() < 1e-9 * lt.abs());
             assert!((slide.lambda[0] - ln).abs() < 1e-9 * ln.abs());
             assert!(slide.qdd.iter().all(|a| a.abs() < 1e-9), "{:?}", slide.qdd);
         } else {
             seen[1] = true;
+            // the same edge for the integrating caller, σ against the sticking force
+            assert_eq!(isite.sigma, -lt.signum());
+            assert!((isite.force_t - site.force_t).abs() < 1e-9 * lt.abs());
             // it slips: the cone edge on the side of the sticking force, and the sled
             // accelerates down the slope
             assert_eq!(site.force_t.signum(), lt.signum());

@@ -1289,6 +1289,7 @@ impl LeapResult {
             let (q, qd) = y.split_at(nq);
             // the segment's flow as it ran: its controller, its joints locked for a passage
             ws.data.locked.clone_from(&seg.locked);
+            ws.data.slide_directions.clone_from(&seg.slide_directions);
             ws.data.prepare(model, &setup.terrain, seg.mode, q, qd)?;
             ws.solve_prepared(model, &*seg.controller, t, seg.mode, q, qd)?;
             let data = &ws.data;

@@ -55,6 +55,15 @@ pub struct Data {
     /// friction force `f^fr` (q) at the last solve ([`crate::friction`]).
     pub sliding: Vec<crate::friction::SlidingSite>,
     pub friction: DVector<f64>,
+    /// Sliding directions fixed by the caller for a stretch of flow, by contact (set before
+    /// [`Data::prepare`], kept by it); a sliding site not listed follows the instantaneous
+    /// law, `σ = sign v_t` ([`crate::friction`]).
+    pub slide_directions: Vec<(usize, crate::friction::SlideDirection)>,
+    /// Whether a sliding site at rest without a fixed direction takes a cone edge even where
+    /// the cone would hold it (as [`crate::friction::SlideDirection::FromRest`] does): what a
+    /// caller that integrates the flow needs, where a site the cone holds must stick in a
+    /// mode of its own; `false` (the instantaneous law): it is held for the instant.
+    pub slide_at_rest: bool,
     scratch: InertiaScratch,
     /// The KKT right-hand side and solution on the dynamic coordinates.
     f_r: Vec<f64>,
@@ -121,7 +130,7 @@ impl Data {
             &mut self.n_bar,
         );
         crate::passive::add_passive_bias(model, q, qd, &mut self.n_bar); // springs, dampers
-        // => A, Ȧ, Ȧq̇
+                                                                         // => A, Ȧ, Ȧq̇
         self.constraints
             .assemble(model, &self.kin, terrain, mode, qd);
         // finite inputs too large for double precision overflow here, not as a singular

@@ -48,56 +48,77 @@
 //! $\Upsilon - \bar C\dot q - \bar N$. Energy: $f^{fr\,\mathsf T}\dot q = F_t v_t \le 0$ is the
 //! friction's dissipation, which an energy balance must count.
 //!
-//! **At zero sliding speed** — the instant of slip, or a site whose sliding has died away —
-//! $\sigma$ is not defined by $v_t$. Coulomb's law then asks for the force that keeps the
-//! site at rest if the cone allows it, and otherwise for the cone edge on the side of that
-//! force: with $(\lambda_n^s, \lambda_t^s)$ the site's force when it sticks for the instant
-//! (its tangential row added to the prepared rows, those of every other site at rest too:
-//! one more KKT solve), the site is held by $\lambda^s_t$ itself when $|\lambda^s_t| \le \mu_k|\lambda^s_n|$ (a known
-//! tangential force, $f^{fr} = -A_t^{\mathsf T}\lambda^s_t$, and the normal row then returns
-//! $\lambda^s_n$), and otherwise takes the cone edge on the side of $\lambda^s_t$,
-//! $\mu_k\sigma = -\mu_k\operatorname{sign}\lambda^s_t$ in the formula above. At a slip the
-//! sticking force lies on the cone edge, so the force is continuous through it; a site that
-//! has come to rest with its force inside the cone is held (the flow is that of sticking)
-//! without the chatter of a sign that flips at $v_t = 0$, and without the $0/0$ of the
-//! statics formula for a leg whose torque vanishes. "Zero" is the band
-//! $|v_t| \le \varepsilon$ = [`SLIDING_SPEED_EPS_M_S`] (1 µm/s: above the drift of a
-//! sticking constraint at a slip event, far below any sliding that matters). Within it,
-//! "sticking" asks for $\dot v_t = -v_t/\tau_r$ ($\tau_r$ = [`REST_RELAXATION_S`]) rather
-//! than $\dot v_t = 0$, so that a held site stays at rest instead of drifting out of the band
-//! (where the kinetic force would push it back: chatter). Only a site at the drift level
-//! ([`HELD_SPEED_M_S`]) is held; one that is still coming to rest keeps its kinetic force
-//! until its velocity crosses zero, where the engine's slip→stick event takes over — held at
-//! the band's edge instead, it would hover there between the two forces. The edge taken when the cone does
-//! not hold the site must also start it sliding *against* the edge force; where the side of
-//! the sticking force does not (the slip is degenerate there, `v̇_t = 0` to first order, or a
-//! massless toe's Painlevé-type conflict), the other edge is taken if it does, else no
-//! friction for the instant (the thesis's Assumption 5.9) — two trial solves, only then.
+//! **The sliding direction is a discrete state.** $\sigma$ is constant along a stretch of
+//! sliding: the friction force changes side only where $v_t$ passes through zero, and there
+//! Coulomb's law must be decided afresh (stick, or slide on one edge). A right-hand side with
+//! $\operatorname{sign} v_t$ inside it is discontinuous at $v_t = 0$, and one with a rest band
+//! ($|v_t| \le \varepsilon$ held, the kinetic force outside) is discontinuous at the band's
+//! edge, where trajectories hover: step counts and stick times then scale with the
+//! integration tolerance. So a caller that integrates the flow (the hybrid engine) fixes
+//! $\sigma$ for each segment in [`Data::slide_directions`]
+//! ([`SlideDirection::Fixed`]): the force is the smooth $\mu_k\sigma\lambda_n$ on
+//! both sides of $v_t = 0$, the engine's slip→stick guard locates the zero crossing of $v_t$
+//! as an event, and its reset decides there by complementarity — the site sticks (a mode
+//! with its tangential row) if the cone holds its sticking force, else it slides on. The
+//! friction law itself never holds a site in a sliding mode.
+//!
+//! **At zero sliding speed** — a segment that starts at a slip, or at a stick the cone
+//! refused ([`SlideDirection::FromRest`]) — $\sigma$ is not defined by $v_t$, and Coulomb's
+//! law asks for the cone edge on the side of the force that would keep the site at rest:
+//! with $(\lambda_n^s, \lambda_t^s)$ the site's force when it sticks for the instant (its
+//! tangential row added to the prepared rows, those of every other site at rest too: one more
+//! KKT solve, with $\dot v_t = 0$), the edge $\mu_k\sigma = -\mu_k\operatorname{sign}\lambda^s_t$
+//! in the formula above. At a slip the sticking force lies on the cone edge, so the force is
+//! continuous through it. The edge must also start the site sliding *against* its force,
+//! $\sigma\dot v_t \ge 0$; where the side of the sticking force does not (the slip is
+//! degenerate there, `v̇_t = 0` to first order, or a massless toe's Painlevé-type conflict),
+//! the other edge is taken if it does, else no friction (the thesis's Assumption 5.9) — two
+//! trial solves, only then. The engine reads the edge taken ([`SlidingSite::sigma`]) at the
+//! segment's start and fixes it for the segment. This is the only place where the law looks
+//! at rest, and only for that instant: a site whose sticking force the cone holds is given
+//! no edge (both are inconsistent), so the reset must not leave it sliding.
+//!
+//! **Without fixed directions** (a single evaluation, e.g. `Model::dynamics` of a sliding
+//! mode) the law is the instantaneous one: $\sigma = \operatorname{sign} v_t$ outside
+//! $|v_t| \le$ [`SLIDING_SPEED_EPS_M_S`] (1 µm/s, above the drift of a sticking constraint
+//! at an event located to 1e-10 s, far below any sliding that matters); within it the site
+//! is at rest: held by its sticking force $\lambda^s_t$ if $|\lambda^s_t| \le
+//! \mu_k|\lambda^s_n|$ (a known tangential force, $f^{fr} = -A_t^{\mathsf T}\lambda^s_t$, and
+//! the normal row then returns $\lambda^s_n$), else the edge as above. The engine's resets
+//! evaluate candidate modes this way, at one instant.
 use crate::contact::{row_direction, row_direction_rate, RowDirection};
 use crate::dynamics::Data;
 use crate::error::{CoreError, Result, SingularityKind};
 use crate::model::Model;
 use nalgebra::Vector2;
 
-/// Sliding speed at or below which a site counts as at rest (m/s).
+/// Sliding speed at or below which a site without a fixed direction counts as at rest
+/// (m/s): the instantaneous law only (module docs).
 pub const SLIDING_SPEED_EPS_M_S: f64 = 1e-6;
-/// Sliding speed at or below which a site whose force the cone holds is held at rest (m/s):
-/// the drift of a sticking constraint. Faster, it is coming to rest under kinetic friction,
-/// and the engine's slip→stick event stops it when its velocity crosses zero.
-pub const HELD_SPEED_M_S: f64 = 1e-6;
 /// A sliding acceleration this large along the edge force (m/s²) makes that edge clearly
 /// inconsistent; smaller ones are the degenerate first-order start of a slip.
 pub const INCONSISTENT_ACCEL_M_S2: f64 = 1e-3;
-/// Time constant with which a site within the rest band is brought to rest (s).
-pub const REST_RELAXATION_S: f64 = 1e-3;
 /// Relative size of `(A_n)_j + μ_k σ (A_t)_j` below which a sliding site is wedged.
 pub const WEDGE_TOL: f64 = 1e-3;
+
+/// How the sliding direction `σ` of a site with kinetic friction is set while a caller
+/// integrates a stretch of flow ([`Data::slide_directions`], module docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SlideDirection {
+    /// `σ ∈ {−1, 0, 1}` whatever `v_t` is (0: no friction).
+    Fixed(f64),
+    /// The site starts from rest: the cone edge on the side of its sticking force (never
+    /// held); the edge taken is left in [`SlidingSite::sigma`].
+    FromRest,
+}
 
 /// One sliding site with kinetic friction at the prepared state.
 #[derive(Debug, Clone, Default)]
 pub struct SlidingSite {
     /// Its normal row in `data.constraints.rows`.
     pub row: usize,
+    /// Its contact.
+    pub contact: usize,
     /// The joint of the massless leg that carries it.
     pub joint: usize,
     pub mu_k: f64,
@@ -107,15 +128,23 @@ pub struct SlidingSite {
     pub a_t_dot_qd: f64,
     /// Sliding velocity `v_t = −A_t q̇` (m/s).
     pub v_t: f64,
-    /// The ratio `λ_t/λ_n` of the site's force: `μ_k σ` while it slides with `σ = sign v_t`,
-    /// `±μ_k` on the side of its sticking force at zero sliding speed when that force leaves
-    /// the cone ([`resolve`]); 0 when `held` applies.
+    /// The ratio `λ_t/λ_n` of the site's force, `μ_k σ` while it slides (0 at rest until
+    /// [`resolve`] sets `held`).
     pub coef: f64,
+    /// The sliding direction `σ` of its force: fixed, `sign v_t`, or at rest the edge
+    /// [`resolve`] took (`−sign λ^s_t`; 0: none, or held).
+    pub sigma: f64,
+    /// At rest, whether the cone holds its sticking force (then it takes no edge unless
+    /// the instantaneous law holds it: the caller must let it stick).
+    pub cone_holds: bool,
+    /// Its [`Data::slide_directions`] entry, if any.
+    pub preset: Option<SlideDirection>,
     /// At zero sliding speed with its sticking force inside the cone: that tangential force
     /// (N, along `t̂`), which holds the site at rest.
     pub held: Option<f64>,
-    /// Whether `|v_t| ≤` [`SLIDING_SPEED_EPS_M_S`] (or the site slides into a wedge), so
-    /// that its force comes from sticking ([`resolve`]).
+    /// Whether its force comes from sticking ([`resolve`]): [`SlideDirection::FromRest`],
+    /// or without a fixed direction `|v_t| ≤` [`SLIDING_SPEED_EPS_M_S`], or it slides into
+    /// a wedge.
     pub at_rest: bool,
     /// Whether it slides into a wedge (the cone edge against its sliding through the hip).
     pub wedged: bool,
@@ -166,8 +195,15 @@ pub(crate) fn collect(model: &Model, data: &mut Data, qd: &[f64]) -> Result<()> 
             .1;
         let d = row_direction(&geo.plane, RowDirection::Tangential);
         let d_rate = row_direction_rate(geo.normal_rate, RowDirection::Tangential);
+        let preset = data
+            .slide_directions
+            .iter()
+            .find(|(c, _)| *c == k)
+            .map(|&(_, d)| d);
         let mut site = SlidingSite {
             row: r,
+            contact: k,
+            preset,
             joint,
             mu_k,
             ..Default::default()
@@ -187,16 +223,26 @@ pub(crate) fn collect(model: &Model, data: &mut Data, qd: &[f64]) -> Result<()> 
         });
         site.v_t = v_t;
         site.a_t_dot_qd = acc;
-        site.at_rest = v_t.abs() <= SLIDING_SPEED_EPS_M_S;
-        site.coef = if site.at_rest { 0.0 } else { mu_k * v_t.signum() };
+        (site.at_rest, site.sigma) = match preset {
+            Some(SlideDirection::Fixed(sigma)) => (false, sigma),
+            Some(SlideDirection::FromRest) => (true, 0.0),
+            None if v_t.abs() <= SLIDING_SPEED_EPS_M_S => (true, 0.0),
+            None => (false, v_t.signum()),
+        };
+        site.coef = mu_k * site.sigma;
         site.held = None;
+        site.cone_holds = false;
         site.wedged = false;
         // sliding into a wedge (the cone edge through the hip): the statics cannot balance
         // the joint torque with a sliding force, so the site jams — it is resolved as at rest
-        if !site.at_rest {
+        if !site.at_rest && site.coef != 0.0 {
             let c = data.constraints.n_rows();
             let a_n = data.constraints.a.as_slice()[joint * c + r];
-            let a_t = site.a_t.iter().find(|(k, _)| *k == joint).map_or(0.0, |e| e.1);
+            let a_t = site
+                .a_t
+                .iter()
+                .find(|(k, _)| *k == joint)
+                .map_or(0.0, |e| e.1);
             let den = a_n + site.coef * a_t;
             site.wedged = den.abs() <= WEDGE_TOL * (a_n.abs() + mu_k * a_t.abs());
             site.at_rest = site.wedged;
@@ -269,17 +315,20 @@ pub(crate) fn resolve(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()>
             t - data.c_qd[a] - data.n_bar[a] + data.friction[a]
         })
         .collect();
-    // every site at rest sticks for the instant, together: [A; A_t…] and [−Ȧq̇; −Ȧ_t q̇…],
-    // with the band's residual sliding brought to rest (v̇_t = −v_t/τ_r)
+    // every site at rest sticks for the instant, together: [A; A_t…] and [−Ȧq̇; −Ȧ_t q̇…]
     let c = data.constraints.n_rows();
-    let mut a = data.constraints.a.clone().resize_vertically(c + rest.len(), 0.0);
+    let mut a = data
+        .constraints
+        .a
+        .clone()
+        .resize_vertically(c + rest.len(), 0.0);
     let mut g: Vec<f64> = data.constraints.a_dot_qd.iter().map(|v| -v).collect();
     for (m, &i) in rest.iter().enumerate() {
         let s = &data.sliding[i];
         for &(k, v) in &s.a_t {
             a[(c + m, k)] = v;
         }
-        g.push(-s.a_t_dot_qd + s.v_t / REST_RELAXATION_S);
+        g.push(-s.a_t_dot_qd);
     }
     let coords = &data.dynamic_coords;
     let mut kkt = crate::kkt::KktFactorization::default();
@@ -300,38 +349,123 @@ pub(crate) fn resolve(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()>
         .collect();
     for (m, &i) in rest.iter().enumerate() {
         let mu_k = data.sliding[i].mu_k;
-        let held = match forces[m] {
+        let (held, sigma) = match forces[m] {
             Some((lambda_n, lambda_t)) if lambda_n.is_finite() && lambda_t.is_finite() => {
-                let (v_t, wedged) = (data.sliding[i].v_t, data.sliding[i].wedged);
-                if lambda_t.abs() <= -mu_k * lambda_n {
-                    if v_t.abs() <= HELD_SPEED_M_S || wedged {
-                        // the cone holds it: the sticking force itself
-                        Some(lambda_t)
-                    } else {
-                        // still sliding, coming to rest: the kinetic force, until the sliding
-                        // velocity crosses zero (the engine's slip→stick event)
-                        edge_force(data, i, tau, mu_k * v_t.signum())
-                    }
+                let s = &data.sliding[i];
+                let slides =
+                    (data.slide_at_rest || s.preset == Some(SlideDirection::FromRest)) && !s.wedged;
+                // the cone test of the engine's resets (contact_set::outside_cone)
+                let push = -lambda_n;
+                let holds = push >= 0.0 && lambda_t.abs() <= mu_k * push * (1.0 + 1e-12) + 1e-12;
+                data.sliding[i].cone_holds = holds;
+                if holds && !slides {
+                    // the cone holds it for the instant: the sticking force itself
+                    (Some(lambda_t), 0.0)
                 } else {
                     // it slides: the cone edge on the side of the sticking force (continuity;
                     // a pushing λ_n < 0 turns λ_t = coef λ_n the same way as λ_t), if the
                     // site then starts sliding against that force; else the other edge, if
-                    // consistent; else (a Painlevé-type conflict) no friction for the instant
+                    // consistent; else (a Painlevé-type conflict) no friction
+                    // — preferring an edge whose leg statics push (on one that pulls, the
+                    // contact is let go by complementarity: where both edges are
+                    // consistent, the law does not choose between them, the contact does)
                     let side = lambda_t.signum();
-                    [side, -side].into_iter().find_map(|side| {
-                        let f = edge_force(data, i, tau, -mu_k * side)?;
+                    let mut consistent = Vec::with_capacity(2);
+                    for side in [side, -side] {
+                        let Some(f) = edge_force(data, i, tau, -mu_k * side) else {
+                            continue;
+                        };
                         data.sliding[i].held = Some(f);
-                        let vdot = sliding_acceleration(model, data, tau, i).ok()?;
-                        (vdot * side <= INCONSISTENT_ACCEL_M_S2).then_some(f)
-                    })
+                        let Ok(vdot) = sliding_acceleration(model, data, tau, i) else {
+                            continue;
+                        };
+                        if vdot * side <= INCONSISTENT_ACCEL_M_S2 {
+                            // λ_n = f / coef, pushing when negative
+                            let pushes = f * side >= 0.0;
+                            consistent.push((Some(f), -side, pushes));
+                        }
+                    }
+                    consistent
+                        .iter()
+                        .find(|c| c.2)
+                        .or(consistent.first())
+                        .map_or((None, 0.0), |c| (c.0, c.1))
                 }
             }
-            _ => None,
+            _ => {
+                data.sliding[i].cone_holds = false;
+                (None, 0.0)
+            }
         };
-        // no force to hold it with (sticking singular, or a wedge): none for the instant
+        // no force to hold it with (sticking singular, or a wedge): none
         data.sliding[i].held = Some(held.unwrap_or(0.0));
+        data.sliding[i].sigma = sigma;
+    }
+    // several sites leaving rest: each edge was checked with the sites after it still free
+    // of friction; together they must each start sliding against their force too, else the
+    // edge combinations are searched (2ⁿ, n the sites leaving rest on an edge: two for a
+    // pair of toes) for one that does, the sticking forces' sides first
+    let edged: Vec<usize> = rest
+        .iter()
+        .copied()
+        .filter(|&i| data.sliding[i].sigma != 0.0)
+        .collect();
+    if edged.len() >= 2 && !jointly_consistent(model, data, tau, &edged)? {
+        let chosen: Vec<(Option<f64>, f64)> = edged
+            .iter()
+            .map(|&i| (data.sliding[i].held, data.sliding[i].sigma))
+            .collect();
+        let mut found = false;
+        for flips in 1u32..(1 << edged.len()) {
+            let mut valid = true;
+            for (b, &i) in edged.iter().enumerate() {
+                let sigma = if flips >> b & 1 == 1 {
+                    -chosen[b].1
+                } else {
+                    chosen[b].1
+                };
+                let mu_k = data.sliding[i].mu_k;
+                match edge_force(data, i, tau, mu_k * sigma) {
+                    Some(f) => {
+                        data.sliding[i].held = Some(f);
+                        data.sliding[i].sigma = sigma;
+                    }
+                    None => valid = false,
+                }
+            }
+            if valid && jointly_consistent(model, data, tau, &edged)? {
+                found = true;
+                break;
+            }
+        }
+        if !found {
+            for (b, &i) in edged.iter().enumerate() {
+                (data.sliding[i].held, data.sliding[i].sigma) = chosen[b];
+            }
+        }
     }
     assemble(model, data, tau)
+}
+
+/// Whether every site of `sites`, each on the edge `σ` set on it, starts sliding against
+/// its force, `σ v̇_t ≥ −`[`INCONSISTENT_ACCEL_M_S2`], under the forces set on every site (one
+/// KKT solve).
+fn jointly_consistent(
+    model: &Model,
+    data: &mut Data,
+    tau: &[f64],
+    sites: &[usize],
+) -> Result<bool> {
+    let i0 = sites[0];
+    sliding_acceleration(model, data, tau, i0)?;
+    Ok(sites.iter().all(|&i| {
+        let s = &data.sliding[i];
+        let a_t_qdd: f64 = s.a_t.iter().map(|&(k, a)| a * data.qdd[k]).sum();
+        let vdot = -(a_t_qdd + s.a_t_dot_qd);
+        // and pushes: λ_n = held / (μ_k σ) ≤ 0
+        let pushes = s.held.is_none_or(|f| f * s.sigma <= 0.0);
+        s.sigma * vdot >= -INCONSISTENT_ACCEL_M_S2 && pushes
+    }))
 }
 
 /// `v̇_t` of site `i` under the forces currently set on every site (one KKT solve).

@@ -106,6 +106,50 @@ impl ResetWorkspace<'_> {
         })
     }
 
+    /// The sticking contact with finite `μ` whose force `v` (a force event's) pulls the most
+    /// with a tangential component: it is outside the cone too (`U < 0`), so sticking is not
+    /// its solution in the set; sliding may be, and the set is judged by its push either way
+    /// (a contact that pulls sliding too is let go by complementarity). The largest pull, not
+    /// the first, so that the choice does not depend on the contacts' order (mirror images).
+    pub fn pulling_sticking(&self, mode: ContactMode, v: &[f64]) -> Option<usize> {
+        let rows: Vec<_> = mode.rows().collect();
+        (1..rows.len())
+            .filter_map(|i| {
+                let (rt, rn) = (rows[i - 1], rows[i]);
+                if rt.direction != RowDirection::Tangential || rn.contact != rt.contact {
+                    return None;
+                }
+                let Friction::Sticking { mu } = self.model.contacts[rn.contact].friction else {
+                    return None;
+                };
+                let push = -v[i];
+                (mu.is_finite() && push < -1e-12 && v[i - 1].abs() > 1e-12)
+                    .then_some((rn.contact, push))
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(k, _)| k)
+    }
+
+    /// A sliding contact of `mode` (solved in `ws.data`) at rest whose sticking force its
+    /// cone holds, and which may stick: it must stick, since neither cone edge starts it
+    /// sliding against its force ([`selfmanip_core::friction`]).
+    pub fn held_at_rest(&self, mode: ContactMode) -> Option<usize> {
+        self.ws
+            .data
+            .sliding
+            .iter()
+            .filter(|s| s.at_rest && s.cone_holds && !s.wedged)
+            .map(|s| s.contact)
+            .find(|&k| {
+                matches!(self.model.contacts[k].friction, Friction::Sticking { mu } if mu.is_finite())
+                    && !self
+                        .barred
+                        .iter()
+                        .any(|&(b, kind)| b == k && kind == ContactKind::Stick)
+                    && mode.kind(k) == Some(ContactKind::Slide)
+            })
+    }
+
     /// A contact touching down now (not held by `before`), sticking, on a massless link,
     /// whose push pulls at the impact: it slides instead of letting go. Released, a massless
     /// link keeps the motion its controller gives it in the air, which is what brought it

@@ -63,6 +63,9 @@ pub struct Segment {
     /// Massless joints locked at their speed in this segment: a leg passing the fold of its
     /// sliding contact ([`crate::fold`]); empty otherwise.
     pub locked: Vec<usize>,
+    /// The sliding direction of each sliding contact with kinetic friction in this segment
+    /// ([`crate::flow::Flow::fix_slide_directions`]); empty otherwise.
+    pub slide_directions: Vec<(usize, selfmanip_core::friction::SlideDirection)>,
     /// The accepted steps' continuous extensions (the last may reach past `t1`: the
     /// segment ends inside it, where its event was located).
     pub dense: DenseOutput,

@@ -16,12 +16,12 @@
 //! terrain.
 use crate::complementarity::Selected;
 use crate::contact_set::ResetWorkspace;
+use crate::drift::MAX_DRIFT_M;
 use crate::energy::kinetic_energy_at;
 use crate::error::HybridError;
 use crate::execution::{Event, EventKind, Termination};
 use crate::features::TERRAIN_STEP_M;
 use crate::flow::{Flow, FlowWorkspace};
-use crate::drift::MAX_DRIFT_M;
 use crate::fold;
 use crate::guard::Guard;
 use crate::options::HybridOptions;
@@ -193,6 +193,11 @@ pub fn reset(
             prefer = prefer.with(k, kind);
         }
     }
+    // a contact whose cone margin has just reached zero may not stick again at once: its
+    // slip guard has decided (the cone test at rest of a force event, ResetWorkspace::
+    // held_at_rest, would otherwise keep it on the cone's edge by round-off of the drift
+    // projection below, and the guard would fire again: an event that changes nothing)
+    barred.extend(slipped.iter().map(|&k| (k, ContactKind::Stick)));
     // … unless it passes the fold sliding, locked: then it may not stick
     let passing_bar: Vec<(usize, ContactKind)> =
         folded.iter().map(|&k| (k, ContactKind::Stick)).collect();
@@ -298,12 +303,16 @@ pub fn reset(
             .any(|k| fold::massless_chain(model, k).contains(&j))
     });
     // without a velocity jump, a contact that stuck until now starts sliding from rest;
-    // so does one whose stick the cone refused (its velocity just crossed zero)
+    // so does one whose stick the cone refused (its velocity just crossed zero). After an
+    // impact a sliding contact slides with the velocity the impact leaves it — even one
+    // whose slip→stick guard fired with the touchdown: the flow takes it from rest only if
+    // that velocity is within the rest band (Flow::fix_slide_directions), as the resets do
     let from_rest = mode_after
         .active()
         .filter(|&k| {
-            mode_after.kind(k) == Some(ContactKind::Slide)
-                && (stuck.contains(&k) || (!impact && mode.kind(k) == Some(ContactKind::Stick)))
+            !impact
+                && mode_after.kind(k) == Some(ContactKind::Slide)
+                && (stuck.contains(&k) || mode.kind(k) == Some(ContactKind::Stick))
         })
         .collect();
     let (kind, triggered) = if !touched.is_empty() {
