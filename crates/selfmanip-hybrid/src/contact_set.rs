@@ -88,22 +88,34 @@ impl ResetWorkspace<'_> {
         })
     }
 
-    /// The first sticking contact with finite `μ` whose row vector `v` (force or impulse)
-    /// leaves the Coulomb cone $|v_t| \le \mu \ U(v_n)$.
-    pub fn outside_cone(&self, mode: ContactMode, v: &[f64]) -> Option<usize> {
+    /// The sticking contacts of `mode` with finite `μ`, each with `μ`, its tangential
+    /// component and its push `U = −v_n` in the row vector `v`, in row order.
+    fn sticking_rows<'v>(
+        &'v self,
+        mode: ContactMode,
+        v: &'v [f64],
+    ) -> impl Iterator<Item = (usize, f64, f64, f64)> + 'v {
         let rows: Vec<_> = mode.rows().collect();
-        (1..rows.len()).find_map(|i| {
+        (1..rows.len()).filter_map(move |i| {
             let (rt, rn) = (rows[i - 1], rows[i]);
             if rt.direction != RowDirection::Tangential || rn.contact != rt.contact {
                 return None;
             }
-            let Friction::Sticking { mu } = self.model.contacts[rn.contact].friction else {
-                return None;
-            };
-            let push = -v[i];
-            (mu.is_finite() && push >= 0.0 && v[i - 1].abs() > mu * push * (1.0 + 1e-12) + 1e-12)
-                .then_some(rn.contact)
+            match self.model.contacts[rn.contact].friction {
+                Friction::Sticking { mu } if mu.is_finite() => {
+                    Some((rn.contact, mu, v[i - 1], -v[i]))
+                }
+                _ => None,
+            }
         })
+    }
+
+    /// The first sticking contact with finite `μ` whose row vector `v` (force or impulse)
+    /// leaves the Coulomb cone $|v_t| \le \mu \ U(v_n)$.
+    pub fn outside_cone(&self, mode: ContactMode, v: &[f64]) -> Option<usize> {
+        self.sticking_rows(mode, v)
+            .find(|&(_, mu, t, push)| push >= 0.0 && t.abs() > mu * push * (1.0 + 1e-12) + 1e-12)
+            .map(|(k, ..)| k)
     }
 
     /// The sticking contact with finite `μ` whose force `v` (a force event's) pulls the most
@@ -112,22 +124,10 @@ impl ResetWorkspace<'_> {
     /// (a contact that pulls sliding too is let go by complementarity). The largest pull, not
     /// the first, so that the choice does not depend on the contacts' order (mirror images).
     pub fn pulling_sticking(&self, mode: ContactMode, v: &[f64]) -> Option<usize> {
-        let rows: Vec<_> = mode.rows().collect();
-        (1..rows.len())
-            .filter_map(|i| {
-                let (rt, rn) = (rows[i - 1], rows[i]);
-                if rt.direction != RowDirection::Tangential || rn.contact != rt.contact {
-                    return None;
-                }
-                let Friction::Sticking { mu } = self.model.contacts[rn.contact].friction else {
-                    return None;
-                };
-                let push = -v[i];
-                (mu.is_finite() && push < -1e-12 && v[i - 1].abs() > 1e-12)
-                    .then_some((rn.contact, push))
-            })
-            .min_by(|a, b| a.1.total_cmp(&b.1))
-            .map(|(k, _)| k)
+        self.sticking_rows(mode, v)
+            .filter(|&(_, _, t, push)| push < -1e-12 && t.abs() > 1e-12)
+            .min_by(|a, b| a.3.total_cmp(&b.3))
+            .map(|(k, ..)| k)
     }
 
     /// A sliding contact of `mode` (solved in `ws.data`) at rest whose sticking force its
