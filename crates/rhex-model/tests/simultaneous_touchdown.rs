@@ -7,9 +7,11 @@
 //! edge with the toes after it still free of friction. Together, the front toe's edge was one
 //! on which its leg's statics *pull* (λ_n = +2,453 N, against a push of 184 N alone), so the
 //! set was rejected and the front leg let go — a massless leg whose motor drives it into the
-//! ground: its touchdown fired again 3 µs later, and on (8 null touchdowns `100s → 100s` with
-//! the rest band of the earlier law; a 0.4 ms touchdown–liftoff chatter to `zeno` at rtol
-//! 1e-8, a repeated liftoff at one instant at 1e-6, `no_flight` or `zeno` by tolerance).
+//! ground: its touchdown fired again 3 µs later, and on — with the rest band of the earlier
+//! law, 8 null touchdowns `100s → 100s` and `no_flight` or `zeno` by tolerance; with rest
+//! decided by events but edges still chosen one toe at a time, a 0.4 ms touchdown–liftoff
+//! chatter of the front leg to `zeno` at rtol 1e-8 (and, before a contact's velocity after
+//! an impact was its own, a liftoff repeated at one instant at 1e-6).
 //! **The fix** (`selfmanip_core::friction::resolve`): toes leaving rest together take their
 //! edges jointly — each must start sliding against its force under the others' forces, and
 //! an edge on which the leg's statics push is preferred (on one that pulls, the contact is
