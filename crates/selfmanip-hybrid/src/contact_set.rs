@@ -83,7 +83,8 @@ impl ResetWorkspace<'_> {
         mode.active().any(|k| {
             // a chain passing its fold (locked) is within it by design
             !fold::massless_chain(self.model, k).any(|j| locked.contains(&j))
-                && fold::pin(self.model, &self.ws.data.kin, self.terrain, mode, k)
+                // a candidate's sliding direction is not fixed before its segment starts
+                && fold::pin(self.model, &self.ws.data.kin, self.terrain, mode, k, &[])
                     .is_some_and(|p| p <= self.fold_threshold)
         })
     }

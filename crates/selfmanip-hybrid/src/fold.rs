@@ -69,6 +69,7 @@ use crate::locate::locate_crossing;
 use crate::options::HybridOptions;
 use selfmanip_core::contact::{contact_geometry, ContactKind, RowDirection};
 use selfmanip_core::frames::perp;
+use selfmanip_core::friction::SlideDirection;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{plastic_impact, ContactMode, CoreError, Model, Terrain};
 
@@ -106,13 +107,18 @@ pub fn has_fold(model: &Model, mode: ContactMode, k: usize) -> bool {
 }
 
 /// The pin `π_k(q)` of active contact `k` of `mode` at the kinematics `kin` (see the module
-/// docs); `None` when the contact has no fold ([`has_fold`]).
+/// docs); `None` when the contact has no fold ([`has_fold`]). A sliding contact's cone edge
+/// takes its direction `σ` from `slide_directions` (the segment's fixed directions,
+/// [`selfmanip_core::Data::slide_directions`]) when it has one there, so that the fold
+/// guard sees the force law the flow integrates; without one (a candidate mode at a reset,
+/// whose direction is not fixed yet) from `sign v_t` outside the rest band.
 pub fn pin(
     model: &Model,
     kin: &Kinematics,
     terrain: &dyn Terrain,
     mode: ContactMode,
     k: usize,
+    slide_directions: &[(usize, SlideDirection)],
 ) -> Option<f64> {
     if !has_fold(model, mode, k) {
         return None;
@@ -135,7 +141,7 @@ pub fn pin(
         1 => {
             let c = col(chain.start);
             let kinematic = n.dot(&c).abs();
-            match sliding_edge(model, kin, &geom, k) {
+            match sliding_edge(model, kin, &geom, k, slide_directions) {
                 Some(e) => kinematic.min(e.dot(&c).abs() / e.norm()),
                 None => kinematic,
             }
@@ -151,25 +157,52 @@ pub fn pin(
 }
 
 /// The direction `e = n + μ_k σ t` of the ground force on a sliding site with kinetic
-/// friction (`σ` the sign of its sliding velocity `v_t` along the tangent `t`; pushing
-/// normal forces are negative, so the force `λ_n e` opposes the sliding), or `None` when the
-/// site has no kinetic friction or is at rest (`|v_t|` within
-/// [`selfmanip_core::friction::SLIDING_SPEED_EPS_M_S`], where the friction module takes the
-/// sticking force or a cone edge chosen by it, and no statics denominator is formed).
+/// friction (pushing normal forces are negative, so the force `λ_n e` opposes the sliding
+/// along `σ t`), or `None` when the site has no kinetic friction or no edge.
+///
+/// `σ` is the site's fixed direction in `slide_directions` (the segment's, set by
+/// [`crate::flow::Flow::fix_slide_directions`]; `σ = 0`: no edge). A site without a fixed
+/// direction there takes `σ = sign v_t` along the tangent `t`, and has no edge at rest
+/// (`|v_t|` within [`selfmanip_core::friction::SLIDING_SPEED_EPS_M_S`], where the friction
+/// module takes the sticking force or a cone edge chosen by it, and no statics denominator
+/// is formed).
 fn sliding_edge(
     model: &Model,
     kin: &Kinematics,
     geom: &selfmanip_core::contact::ContactGeometry,
     k: usize,
+    slide_directions: &[(usize, SlideDirection)],
 ) -> Option<nalgebra::Vector2<f64>> {
     let mu_k = model.contacts[k].kinetic_mu;
     if mu_k == 0.0 {
         return None;
     }
     let t = geom.plane.tangent();
-    let v_t = kin.material_velocity(geom.part, geom.point).dot(&t);
-    (v_t.abs() > selfmanip_core::friction::SLIDING_SPEED_EPS_M_S)
-        .then(|| geom.plane.normal() + mu_k * v_t.signum() * t)
+    let fixed = slide_directions.iter().find_map(|&(c, d)| match d {
+        SlideDirection::Fixed(s) if c == k => Some(s),
+        _ => None,
+    });
+    let sigma = match fixed {
+        Some(s) => s,
+        None => {
+            let v_t = kin.material_velocity(geom.part, geom.point).dot(&t);
+            if v_t.abs() > selfmanip_core::friction::SLIDING_SPEED_EPS_M_S {
+                v_t.signum()
+            } else {
+                0.0
+            }
+        }
+    };
+    (sigma != 0.0).then(|| geom.plane.normal() + mu_k * sigma * t)
+}
+
+/// Contact `k`'s entry of a segment's `slide_directions`, if any (what [`pin`] needs of
+/// them, without borrowing the flow).
+pub fn own_direction(
+    slide_directions: &[(usize, SlideDirection)],
+    k: usize,
+) -> Option<(usize, SlideDirection)> {
+    slide_directions.iter().find(|d| d.0 == k).copied()
 }
 
 /// The kind a contact at its fold may no longer take (the singular one), and the kind the

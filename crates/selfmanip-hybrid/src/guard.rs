@@ -108,13 +108,18 @@ impl Guard {
             }
             Guard::Stick(k) => sliding_velocity(model, flow.kinematics(q, qd), terrain, k),
             Guard::Fold { contact, threshold } => {
-                fold::pin(model, flow.kinematics(q, qd), terrain, mode, contact)
+                // the segment's fixed σ of this contact (fold::pin)
+                let own = fold::own_direction(flow.slide_directions(), contact);
+                let dirs = own.as_slice();
+                fold::pin(model, flow.kinematics(q, qd), terrain, mode, contact, dirs)
                     .expect("a fold guard's contact has a fold")
                     - threshold
             }
             Guard::FoldPassed { contact, threshold } => {
+                let own = fold::own_direction(flow.slide_directions(), contact);
+                let dirs = own.as_slice();
                 threshold
-                    - fold::pin(model, flow.kinematics(q, qd), terrain, mode, contact)
+                    - fold::pin(model, flow.kinematics(q, qd), terrain, mode, contact, dirs)
                         .expect("a fold guard's contact has a fold")
             }
         })

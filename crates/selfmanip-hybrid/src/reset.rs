@@ -180,7 +180,11 @@ pub fn reset(
         let terrain = flow.terrain();
         folded
             .iter()
-            .map(|&k| fold::pin(model, flow.kinematics(q, qd), terrain, mode, k).unwrap_or(0.0))
+            .map(|&k| {
+                let own = fold::own_direction(flow.slide_directions(), k);
+                fold::pin(model, flow.kinematics(q, qd), terrain, mode, k, own.as_slice())
+                    .unwrap_or(0.0)
+            })
             .collect()
     };
     // a contact at its fold may not keep its kind; a sliding one is offered the stick

@@ -182,3 +182,58 @@ fn sliding_leg_with_friction_meets_its_fold_where_the_statics_denominator_vanish
         );
     }
 }
+
+/// The fold guard's pin takes the sliding direction `σ` of the segment
+/// (`Data::slide_directions`, fixed when the segment starts), not `sign v_t` with the rest
+/// band: the flow integrates the force `λ_n (n̂ + μσ t̂)` with that `σ` whatever `v_t` does,
+/// so its singular configuration (the wedge) is where that edge passes through the hip.
+///
+/// Closed forms at `β = −0.5`, `|r| = L`: the normal's pin is `|sin β|`; the edge at
+/// `atan μ` from the normal makes the angle `|β| ∓ atan μ` with `r`, so the two directions'
+/// pins are `min(|sin β|, |sin(|β| − atan μ)|)` and `min(|sin β|, |sin(|β| + atan μ)|)
+/// = |sin β|`. Checked: (1) at rest (`v_t = 0`) with `σ = ±1` fixed the pin is one of the two
+/// closed forms each, and they differ; without a fixed direction (a candidate mode at a
+/// reset) and with `σ = 0` it is the normal's; (2) with the toe sliding fast one way
+/// (`|v_t| = 10 m/s`) and the opposite `σ` fixed, the pin is the fixed `σ`'s, not the
+/// velocity's.
+#[test]
+fn fold_pin_takes_the_segments_fixed_sliding_direction() {
+    use selfmanip_core::friction::SlideDirection;
+    use selfmanip_hybrid::fold::pin;
+    let model = leg_robot(MU);
+    let beta: f64 = -0.5;
+    let q = [beta, 0.0, -L * beta.cos(), 0.0];
+    let pin_at = |xdot: f64, dirs: &[(usize, SlideDirection)]| {
+        let mut data = Data::new(&model);
+        data.prepare(&model, &FlatGround, sliding(), &q, &[0.0, xdot, 0.0, 0.0])
+            .unwrap();
+        pin(&model, &data.kin, &FlatGround, sliding(), 0, dirs).unwrap()
+    };
+    let normal = beta.sin().abs();
+    let wedge_side = (beta.abs() - MU.atan()).sin().abs();
+    let fixed = |s: f64| [(0usize, SlideDirection::Fixed(s))];
+    let (plus, minus) = (pin_at(0.0, &fixed(1.0)), pin_at(0.0, &fixed(-1.0)));
+    let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
+    assert!(
+        (close(plus, wedge_side) && close(minus, normal))
+            || (close(plus, normal) && close(minus, wedge_side)),
+        "σ = +1: {plus}, σ = −1: {minus}; closed forms {wedge_side}, {normal}"
+    );
+    assert!(close(pin_at(0.0, &[]), normal), "{}", pin_at(0.0, &[]));
+    assert!(close(pin_at(0.0, &fixed(0.0)), normal));
+    // sliding fast either way, the fixed σ decides
+    for xdot in [10.0, -10.0] {
+        for s in [1.0, -1.0] {
+            let p = pin_at(xdot, &fixed(s));
+            let at_rest = pin_at(0.0, &fixed(s));
+            assert!(close(p, at_rest), "ẋ = {xdot}, σ = {s}: {p} vs {at_rest}");
+        }
+    }
+    // and without a fixed direction the velocity's sign is the edge: the two velocities
+    // give the two closed forms
+    let (a, b) = (pin_at(10.0, &[]), pin_at(-10.0, &[]));
+    assert!(
+        (close(a, wedge_side) && close(b, normal)) || (close(a, normal) && close(b, wedge_side)),
+        "{a}, {b}"
+    );
+}
