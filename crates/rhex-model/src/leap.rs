@@ -342,6 +342,8 @@ pub enum LeapStatus {
     /// Never reached the apex of a flight (when stopping at apex), or never left the ground
     /// (otherwise), before `t_final`.
     NoFlight,
+    /// A Zeno execution (too many events in the Zeno window), or a chatter: one cycle of
+    /// events repeated with the robot staying where it is (`selfmanip_hybrid::zeno`).
     Zeno,
     EventBudget,
     NoContactSolution,
@@ -1098,7 +1100,7 @@ fn run_leap(
         Termination::Apex => LeapStatus::Ok,
         Termination::FinalTime if flew && !cfg.stop_at_apex => LeapStatus::Ok,
         Termination::FinalTime => LeapStatus::NoFlight,
-        Termination::Zeno { .. } => LeapStatus::Zeno,
+        Termination::Zeno { .. } | Termination::Chatter { .. } => LeapStatus::Zeno,
         Termination::EventBudget => LeapStatus::EventBudget,
         Termination::NoContactSolution { .. } => LeapStatus::NoContactSolution,
         Termination::SeveralContactSolutions { .. } => LeapStatus::SeveralContactSolutions,

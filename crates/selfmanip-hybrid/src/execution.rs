@@ -92,6 +92,15 @@ pub enum Termination {
         t: f64,
         events_in_window: usize,
     },
+    /// A chattering execution ([`crate::zeno::ChatterDetector`]): the same cycle of
+    /// `period` events ran `cycles` times in a row, over `duration_s` ending at `t`, while
+    /// the configuration stayed where it was.
+    Chatter {
+        t: f64,
+        period: usize,
+        cycles: usize,
+        duration_s: f64,
+    },
     /// The run made [`crate::HybridOptions::max_events`] events.
     EventBudget,
     /// The run took [`crate::HybridOptions::max_steps`] accepted steps (`steps`), ending at
