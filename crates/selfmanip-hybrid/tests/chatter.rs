@@ -5,7 +5,8 @@
 //! (a gait), a cycle broken by one different event, a cycle of unchanged modes.
 use selfmanip_core::{ContactKind, ContactMode};
 use selfmanip_hybrid::zeno::{
-    ChatterDetector, CHATTER_CYCLES, CHATTER_MAX_PERIOD, CHATTER_Q_PER_CYCLE,
+    ChatterDetector, CHATTER_CYCLES, CHATTER_MAX_PERIOD, CHATTER_MIN_DURATION_RATIO,
+    CHATTER_Q_PER_CYCLE,
 };
 use selfmanip_hybrid::{Event, EventKind, Termination};
 
@@ -28,15 +29,24 @@ fn event(t: f64, kind: EventKind, before: ContactMode, after: ContactMode, q0: f
 /// The (+,−) cycle of the broad sweep: stick → slip → release → touchdown, `cycles` times,
 /// the leg angle creeping by `step` per cycle, one cycle every 2.2 ms.
 fn cycle_events(cycles: usize, step: f64) -> Vec<Event> {
+    cycle_events_shrinking(cycles, step, 1.0)
+}
+
+/// [`cycle_events`] with each cycle `ratio` times as long as the one before (the first
+/// 2.2 ms).
+fn cycle_events_shrinking(cycles: usize, step: f64, ratio: f64) -> Vec<Event> {
     let body = ContactMode::FLIGHT.with(3, ContactKind::Slide);
     let stick = body.with(1, ContactKind::Stick);
     let slide = body.with(1, ContactKind::Slide);
     let mut ev = Vec::new();
+    let (mut t, mut period) = (0.0, 2.2e-3);
     for c in 0..cycles {
-        let (t, q0) = (c as f64 * 2.2e-3, c as f64 * step);
+        let q0 = c as f64 * step;
         ev.push(event(t, EventKind::Slip, stick, slide, q0));
         ev.push(event(t + 1e-7, EventKind::Stick, slide, body, q0));
-        ev.push(event(t + 1e-5, EventKind::Touchdown, body, stick, q0));
+        ev.push(event(t + 1e-5 * period / 2.2e-3, EventKind::Touchdown, body, stick, q0));
+        t += period;
+        period *= ratio;
     }
     ev
 }
@@ -82,6 +92,21 @@ fn a_cycle_that_moves_the_robot_is_no_chatter() {
     // a leg turning a revolution per cycle
     let ev = cycle_events(2 * CHATTER_CYCLES, std::f64::consts::TAU);
     assert_eq!(d.check(&ev), None);
+}
+
+/// Cycles that shrink accumulate (a Zeno execution proper, the window's): the last of 30
+/// cycles shrinking by `r` each lasts `r²⁹` of the first.
+#[test]
+fn shrinking_cycles_are_zeno_not_chatter() {
+    let d = ChatterDetector;
+    let n = (CHATTER_CYCLES - 2) as f64;
+    // the last cycle measured is cycle CHATTER_CYCLES − 2 (the span ends at the last one's
+    // start): ratio r^n against the bound
+    let r_at = |x: f64| x.powf(1.0 / n);
+    let ev = cycle_events_shrinking(CHATTER_CYCLES, 0.0, r_at(0.9 * CHATTER_MIN_DURATION_RATIO));
+    assert_eq!(d.check(&ev), None);
+    let ev = cycle_events_shrinking(CHATTER_CYCLES, 0.0, r_at(1.1 * CHATTER_MIN_DURATION_RATIO));
+    assert!(d.check(&ev).is_some());
 }
 
 #[test]
