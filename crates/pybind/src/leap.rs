@@ -154,6 +154,17 @@ fn reason(r: &LeapResult, params: &RhexParams, cfg: &LeapConfig) -> String {
             cfg.zeno_window_s,
             at(*t)
         ),
+        Termination::Chatter {
+            t,
+            period,
+            cycles,
+            duration_s,
+        } => format!(
+            "chatter (a generalized Zeno execution): the same cycle of {period} events ran \
+             {cycles} times over {duration_s:.6} s with the robot staying where it was, \
+             ending at {}",
+            at(*t)
+        ),
         Termination::EventBudget => "the execution used up its event budget".into(),
         Termination::NoContactSolution { t } => format!(
             "no contact set satisfies the complementarity conditions at {} (mode {mode})",

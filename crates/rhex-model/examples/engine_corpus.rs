@@ -29,9 +29,12 @@ fn variants() -> Vec<(&'static str, RhexParams)> {
         ),
         (
             "massive_legs",
+            // a massive leg's toe slides without friction (Coulomb sliding needs massless
+            // legs: `selfmanip_core::friction`)
             RhexParams {
                 m_l: 0.126,
                 I_l: 0.00092,
+                toe_sliding: rhex_model::params::ToeSliding::Frictionless,
                 ..base.clone()
             },
         ),

@@ -32,7 +32,9 @@ fn start_pose(params: &RhexParams, cfg: &LeapConfig) -> Result<Vec<f64>, rhex_mo
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let path = std::env::args().nth(1).unwrap_or_else(|| "controller".into());
+    let path = std::env::args()
+        .nth(1)
+        .unwrap_or_else(|| "controller".into());
     let params = leap_params();
     for s in ["++", "+-", "-+", "--"] {
         for t2 in [-0.1, -0.02, 0.0, 0.02, 0.1] {
@@ -44,7 +46,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             match path.as_str() {
                 "controller" => {
                     let r = simulate_leap(&params, &cfg)?;
-                    println!("{s} {t2:+.2} {} {:?}", r.word_string(), r.apex.map(|a| a.z_m));
+                    println!(
+                        "{s} {t2:+.2} {} {:?}",
+                        r.word_string(),
+                        r.apex.map(|a| a.z_m)
+                    );
                 }
                 "start" => {
                     let q0 = start_pose(&params, &cfg)?;

@@ -8,7 +8,7 @@
 //! `SATURATED=1` for chapter 3's saturated-torque legs instead of the geared motors, `GEAR` and
 //! `CURRENT` (A) to change the geared motor's ratio and current limit, `M_B` (kg) and `I_B`
 //! (kg m²) to change the body's mass and inertia, `LEDGE=height,distance` (m) for a ledge,
-//! `LANDINGS=1` to run past the apex to `t_final`, `EVENT_TOL` (s) and `RTOL` the tolerances.
+//! `QD=1` (with `EVENTS`) to print each event's q and q̇ after it, `LANDINGS=1` to run past the apex to `t_final`, `EVENT_TOL` (s) and `RTOL` the tolerances.
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator};
 use rhex_model::params::LegPair;
 
@@ -102,6 +102,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                             } else {
                                 " (locked)"
                             }
+                        );
+                    }
+                }
+                if std::env::var("QD").is_ok() {
+                    for e in &r.execution.events {
+                        println!(
+                            "    t {:.5} s  {:?}: q {:.4?}, q̇ after {:.4?}",
+                            e.t, e.kind, e.q, e.qd_after
                         );
                     }
                 }

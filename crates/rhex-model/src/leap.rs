@@ -181,6 +181,29 @@ impl LegActuator {
     }
 }
 
+/// What the coordination time `t2` times (the two readings of the thesis; see
+/// `docs/errata/ch3-leaping.md`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum T2Reference {
+    /// The rear leg's motor starts `t2` after the front leg's (chapter 5, footnote 1: "the
+    /// middle legs are started 0.01 s before the rear legs"): what a controller commands,
+    /// and what the thesis's own simulation of chapter 3's leaps used. The default.
+    #[default]
+    MotorStart,
+    /// The rear leg touches down `t2` after the front leg does (section 3.2.2: "choose as a
+    /// reference time the touchdown of the front leg … the second leg will touch down at
+    /// `t2`"). The rear motor's start is adjusted, leap by leap, by a secant search (at
+    /// most [`TOUCHDOWN_SEARCH_RUNS`] runs of the leap); a leap whose legs do not both touch
+    /// down keeps the motor-start offset `t2`.
+    Touchdown,
+}
+
+/// Runs of a leap at most in a [`T2Reference::Touchdown`] search.
+pub const TOUCHDOWN_SEARCH_RUNS: usize = 12;
+/// Agreement of the touchdown offset with `t2` at which that search stops (s).
+pub const TOUCHDOWN_SEARCH_TOL_S: f64 = 1e-7;
+
 /// Everything a leap needs besides the robot's parameters.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -197,10 +220,17 @@ pub struct LeapConfig {
     pub pairs: Option<[LegPair; 2]>,
     /// Pseudo-impulse duration δt of (5.39) (s); 0 disables it. Thesis: 0.03 s.
     pub delta_t_s: f64,
-    /// Bound on a massless leg's acceleration while it is in the air (rad/s²).
-    pub swing_accel_rad_s2: f64,
-    /// Speed a massless leg in the air is brought to (rad/s).
-    pub swing_speed_rad_s: f64,
+    /// Bound on a massless leg's acceleration while it is in the air (rad/s²). `None`: set by
+    /// the motor that turns it — its stall torque over its rotor's reflected inertia
+    /// ([`leg_swing`]).
+    pub swing_accel_rad_s2: Option<f64>,
+    /// Speed a massless leg in the air is brought to (rad/s). `None`: its motor's no-load
+    /// output speed ([`leg_swing`]).
+    pub swing_speed_rad_s: Option<f64>,
+    /// What `t2_s` times: the rear motor's start relative to the front one's (chapter 5,
+    /// footnote 1; the default), or the rear leg's touchdown relative to the front leg's
+    /// (section 3.2.2), found by adjusting the motor start.
+    pub t2_reference: T2Reference,
     /// A leg waits for its motor raised this far (rad) above the angle at which it would
     /// touch the ground from the sitting posture, so that the body can pitch on the other
     /// leg without driving it into the ground; at its start it swings down (at
@@ -244,8 +274,9 @@ impl Default for LeapConfig {
             actuator: LegActuator::default(),
             pairs: None,
             delta_t_s: 0.03,
-            swing_accel_rad_s2: 400.0,
-            swing_speed_rad_s: 12.0,
+            swing_accel_rad_s2: None,
+            swing_speed_rad_s: None,
+            t2_reference: T2Reference::MotorStart,
             wait_clearance_rad: 0.8,
             toe_stub_rad: None,
             terrain: TerrainSpec::Flat,
@@ -315,6 +346,8 @@ pub enum LeapStatus {
     /// Never reached the apex of a flight (when stopping at apex), or never left the ground
     /// (otherwise), before `t_final`.
     NoFlight,
+    /// A Zeno execution (too many events in the Zeno window), or a chatter: one cycle of
+    /// events repeated with the robot staying where it is (`selfmanip_hybrid::zeno`).
     Zeno,
     EventBudget,
     NoContactSolution,
@@ -369,6 +402,12 @@ pub struct LeapResult {
     pub q0: Vec<f64>,
     /// Events relative to the front leg's start, labelled.
     pub events: Vec<LeapEvent>,
+    /// The rear motor's start relative to the front one's in this run (s): `t2` itself, or
+    /// what the [`T2Reference::Touchdown`] search found.
+    pub motor_t2_s: f64,
+    /// The rear leg's first touchdown relative to the front leg's (s), each after its motor
+    /// started (section 3.2.2's `t2`); `None` if one of them never touched down.
+    pub touchdown_t2_s: Option<f64>,
 }
 
 impl LeapResult {
@@ -427,8 +466,8 @@ impl LeapConfig {
         let finite = [
             ("t2_s", self.t2_s),
             ("delta_t_s", self.delta_t_s),
-            ("swing_accel_rad_s2", self.swing_accel_rad_s2),
-            ("swing_speed_rad_s", self.swing_speed_rad_s),
+            ("swing_accel_rad_s2", self.swing_accel_rad_s2.unwrap_or(1.0)),
+            ("swing_speed_rad_s", self.swing_speed_rad_s.unwrap_or(1.0)),
             ("wait_clearance_rad", self.wait_clearance_rad),
             ("t_final_s", self.t_final_s),
             ("event_tol_s", self.event_tol_s),
@@ -441,8 +480,8 @@ impl LeapConfig {
             }
         }
         for (field, v) in [
-            ("swing_accel_rad_s2", self.swing_accel_rad_s2),
-            ("swing_speed_rad_s", self.swing_speed_rad_s),
+            ("swing_accel_rad_s2", self.swing_accel_rad_s2.unwrap_or(1.0)),
+            ("swing_speed_rad_s", self.swing_speed_rad_s.unwrap_or(1.0)),
             ("t_final_s", self.t_final_s),
             ("event_tol_s", self.event_tol_s),
             ("zeno_window_s", self.zeno_window_s),
@@ -628,6 +667,67 @@ fn leg_motor(
             )
         }
     })
+}
+
+/// A leg's own inertia about its hip, `I_l + m_l (ρ₁/2)²` (kg m²; zero for Table 4.2's
+/// massless legs): what the motor accelerates besides its rotors ([`leg_swing`]).
+pub fn leg_inertia_about_hip(params: &RhexParams) -> f64 {
+    params.I_l + params.m_l * (0.5 * params.rho1).powi(2)
+}
+
+/// How a massless leg swings in the air while its motor is on: `(speed, acceleration
+/// bound)`. The model's legs have no inertia, so the motion is prescribed (thesis 5.1.1);
+/// its bounds are those of the physical leg, which its motor drives: it runs up to the
+/// motor's no-load output speed `ω₀/G` (Table 2.1: 10314 rpm at 37 V; 38.6 rad/s at 28:1),
+/// accelerating at most at the stall torque over the reflected rotor inertia
+/// `n J G² (+ the leg's own inertia about the hip)`. The rotor inertia is not printed; it is
+/// `J = τ_m k_M² / R` from Table 2.1's mechanical time constant `τ_m = 11.8 ms` and the
+/// motor model's `k_M` and `R` (7.2·10⁻⁶ kg m², within the range of maxon's 45 mm flat motors).
+/// The saturated-torque idealization keeps X-RHex's legs and motors: `τ_s` over the same
+/// inertia, and the 28:1 drive's no-load speed. Explicit values in the configuration win.
+pub fn leg_swing(params: &RhexParams, cfg: &LeapConfig) -> Result<(f64, f64), RhexError> {
+    let motor_err = |e: motor::MotorError| RhexError::Params {
+        field: "actuator".into(),
+        reason: e.to_string(),
+    };
+    let catalog = motor::catalog::Catalog::thesis();
+    let spec = catalog.motor_spec("x-rhex").map_err(motor_err)?;
+    let (ratio, n, stall) = match cfg.actuator {
+        LegActuator::GearedMotor {
+            gear_ratio,
+            motors_per_leg,
+            ..
+        } => {
+            let drive = leg_actuator(params, &cfg.actuator)?;
+            (
+                gear_ratio,
+                f64::from(motors_per_leg),
+                drive.joint_torque_n_m(1.0, 0.0),
+            )
+        }
+        LegActuator::SaturatedTorque => (
+            catalog.gearbox("x-rhex-28").map_err(motor_err)?.ratio,
+            f64::from(DEFAULT_MOTORS_PER_LEG),
+            params.tau_s,
+        ),
+    };
+    let m = spec.motor().map_err(motor_err)?;
+    let tau_m = spec
+        .mechanical_time_constant_s
+        .ok_or_else(|| RhexError::Params {
+            field: "actuator".into(),
+            reason: "the motor's mechanical time constant is needed for the leg swing".into(),
+        })?;
+    let k = m.torque_constant_n_m_per_a;
+    let rotor = tau_m * k * k / m.terminal_resistance_ohm();
+    let leg = leg_inertia_about_hip(params);
+    let speed = cfg
+        .swing_speed_rad_s
+        .unwrap_or(m.no_load_speed_rad_s / ratio);
+    let accel = cfg
+        .swing_accel_rad_s2
+        .unwrap_or(stall / (n * rotor * ratio * ratio + leg));
+    Ok((speed, accel))
 }
 
 /// What a leg is doing.
@@ -1047,10 +1147,17 @@ pub(crate) struct LeapSetup {
     pub(crate) terrain: TerrainSpec,
     pub(crate) q0: Vec<f64>,
     pub(crate) ctrl: LeapController,
+    /// The rear motor's start after the front one's (s).
+    pub(crate) motor_t2_s: f64,
 }
 
 impl LeapSetup {
-    pub(crate) fn new(params: &RhexParams, cfg: &LeapConfig) -> Result<Self, RhexError> {
+    /// The leap of `cfg` with the rear motor starting `motor_t2_s` after the front one.
+    pub(crate) fn new(
+        params: &RhexParams,
+        cfg: &LeapConfig,
+        motor_t2_s: f64,
+    ) -> Result<Self, RhexError> {
         cfg.validate()?;
         let pairs = cfg.pairs.unwrap_or(cfg.strategy.chapter3_pairs());
         if pairs[0] == pairs[1] {
@@ -1099,11 +1206,12 @@ impl LeapSetup {
                 - sign[i] * cfg.wait_clearance_rad;
         }
         // execution time starts at min(0, t2)
-        let offset = cfg.t2_s.min(0.0);
+        let offset = motor_t2_s.min(0.0);
         let (front, law) = leg_motor(&params, &cfg.actuator)?;
         let actuators = [front, leg_actuator(&params, &cfg.actuator)?];
         let hold_torque = actuators[0].joint_torque_n_m(1.0, 0.0);
-        let start = [-offset, cfg.t2_s - offset];
+        let start = [-offset, motor_t2_s - offset];
+        let (speed, accel) = leg_swing(&params, cfg)?;
         let ctrl = LeapController {
             sign,
             start,
@@ -1112,13 +1220,13 @@ impl LeapSetup {
             actuators,
             law,
             hold_torque,
-            dstart_dt2: if cfg.t2_s >= 0.0 {
+            dstart_dt2: if motor_t2_s >= 0.0 {
                 [0.0, 1.0]
             } else {
                 [-1.0, 0.0]
             },
-            accel: cfg.swing_accel_rad_s2,
-            speed: cfg.swing_speed_rad_s,
+            accel,
+            speed,
             stub: cfg.toe_stub_rad,
             keep_pushing: cfg.keep_pushing_after_liftoff,
             takeoff: None,
@@ -1131,8 +1239,8 @@ impl LeapSetup {
                     q0[i],
                     0.0,
                     sign[i] * STOW_RAD,
-                    cfg.swing_speed_rad_s,
-                    cfg.swing_accel_rad_s2,
+                    speed,
+                    accel,
                 )]
             }),
         };
@@ -1141,6 +1249,7 @@ impl LeapSetup {
             terrain,
             q0,
             ctrl,
+            motor_t2_s,
         })
     }
 }
@@ -1181,13 +1290,65 @@ pub fn simulate_leap_with(
     cfg: &LeapConfig,
     stop: &AtomicBool,
 ) -> Result<LeapResult, RhexError> {
-    let setup = LeapSetup::new(params, cfg)?;
-    run_leap(&setup, cfg, stop, None)
+    match cfg.t2_reference {
+        T2Reference::MotorStart => run_leap(params, cfg, cfg.t2_s, stop),
+        T2Reference::Touchdown => touchdown_timed_leap(params, cfg, stop),
+    }
+}
+
+/// [`T2Reference::Touchdown`]: a secant search on the rear motor's start `s` for the
+/// touchdown offset `T(s) = t2` (`T(s) = s` while the body is at rest between the two
+/// touchdowns, so the search starts there and usually ends after one or two more runs).
+fn touchdown_timed_leap(
+    params: &RhexParams,
+    cfg: &LeapConfig,
+    stop: &AtomicBool,
+) -> Result<LeapResult, RhexError> {
+    let target = cfg.t2_s;
+    let mut s0 = target;
+    let mut r0 = run_leap(params, cfg, s0, stop)?;
+    let Some(mut d0) = r0.touchdown_t2_s.map(|t| t - target) else {
+        return Ok(r0);
+    };
+    let mut s1 = s0 - d0;
+    for _ in 1..TOUCHDOWN_SEARCH_RUNS {
+        if d0.abs() <= TOUCHDOWN_SEARCH_TOL_S || s1.abs() >= cfg.t_final_s {
+            break;
+        }
+        let r1 = run_leap(params, cfg, s1, stop)?;
+        let Some(d1) = r1.touchdown_t2_s.map(|t| t - target) else {
+            break;
+        };
+        let better = d1.abs() < d0.abs();
+        let slope = (d1 - d0) / (s1 - s0);
+        let next = if slope.is_finite() && slope.abs() > 1e-6 {
+            s1 - d1 / slope
+        } else {
+            s1 - d1
+        };
+        (s0, d0) = (s1, d1);
+        if better {
+            r0 = r1;
+        }
+        s1 = next;
+    }
+    Ok(r0)
+}
+
+/// One leap with the rear motor starting `motor_t2_s` after the front one.
+fn run_leap(
+    params: &RhexParams,
+    cfg: &LeapConfig,
+    motor_t2_s: f64,
+    stop: &AtomicBool,
+) -> Result<LeapResult, RhexError> {
+    let setup = LeapSetup::new(params, cfg, motor_t2_s)?;
+    run_leap_setup(&setup, cfg, stop, None)
 }
 
 /// Runs the leap `setup` describes, from its start state or (`start_offset`, `2nq` entries)
 /// from that state plus an offset (which must keep the start on its contact constraints).
-pub(crate) fn run_leap(
+pub(crate) fn run_leap_setup(
     setup: &LeapSetup,
     cfg: &LeapConfig,
     stop: &AtomicBool,
@@ -1201,7 +1362,7 @@ pub(crate) fn run_leap(
         setup.ctrl.start,
     );
     let model = &rhex.model;
-    let offset = cfg.t2_s.min(0.0);
+    let offset = -setup.ctrl.start[0];
     let mut qd0 = vec![0.0; q0.len()];
     let mut q_start = q0.clone();
     if let Some(dx) = start_offset {
@@ -1253,7 +1414,7 @@ pub(crate) fn run_leap(
         Termination::Apex => LeapStatus::Ok,
         Termination::FinalTime if flew && !cfg.stop_at_apex => LeapStatus::Ok,
         Termination::FinalTime => LeapStatus::NoFlight,
-        Termination::Zeno { .. } => LeapStatus::Zeno,
+        Termination::Zeno { .. } | Termination::Chatter { .. } => LeapStatus::Zeno,
         Termination::EventBudget => LeapStatus::EventBudget,
         Termination::NoContactSolution { .. } => LeapStatus::NoContactSolution,
         Termination::SeveralContactSolutions { .. } => LeapStatus::SeveralContactSolutions,
@@ -1309,6 +1470,20 @@ pub(crate) fn run_leap(
             },
         })
         .collect();
+    // the touchdown offset: each pushing leg's first touchdown after its motor started
+    let first_touchdown = |i: usize| {
+        exec.events
+            .iter()
+            .find(|e| {
+                e.kind == EventKind::Touchdown
+                    && e.t >= start[i]
+                    && e.triggered.contains(&ctrl.leg_contact[i])
+            })
+            .map(|e| e.t)
+    };
+    let touchdown_t2_s = first_touchdown(0)
+        .zip(first_touchdown(1))
+        .map(|(front, rear)| rear - front);
     Ok(LeapResult {
         status,
         apex,
@@ -1317,6 +1492,8 @@ pub(crate) fn run_leap(
         time_offset_s: start[0],
         q0: q0.clone(),
         events,
+        motor_t2_s: setup.motor_t2_s,
+        touchdown_t2_s,
     })
 }
 
@@ -1328,12 +1505,55 @@ impl LeapResult {
         params: &RhexParams,
         cfg: &LeapConfig,
     ) -> Result<selfmanip_hybrid::EnergyReport, RhexError> {
-        let setup = LeapSetup::new(params, cfg)?;
+        let setup = LeapSetup::new(params, cfg, self.motor_t2_s)?;
         Ok(selfmanip_hybrid::energy_report(
             &setup.rhex.model,
             &setup.terrain,
             &self.execution,
         )?)
+    }
+
+    /// Work of the toes' kinetic friction along the leap (J, never positive):
+    /// `∫ f^frᵀ q̇ dt` with `f^fr` the generalized friction force of the sliding toes
+    /// (`selfmanip_core::friction`), each segment re-evaluated with the controller it ran
+    /// with by 3-point Gauss–Legendre quadrature on every step's dense output, as the engine's
+    /// energy report integrates the joint work. With it the energy balances:
+    /// `E₁ − E₀ = W + W_fr − L` ([`Self::energy_report`] counts `W` and `L`).
+    pub fn friction_work_j(&self, params: &RhexParams, cfg: &LeapConfig) -> Result<f64, RhexError> {
+        let setup = LeapSetup::new(params, cfg, self.motor_t2_s)?;
+        let model = &setup.rhex.model;
+        let nq = model.nq();
+        let nodes = [
+            (0.5 - 0.5 * (0.6f64).sqrt(), 5.0 / 18.0),
+            (0.5, 8.0 / 18.0),
+            (0.5 + 0.5 * (0.6f64).sqrt(), 5.0 / 18.0),
+        ];
+        let Some(first) = self.execution.segments.first() else {
+            return Ok(0.0);
+        };
+        let mut flow =
+            selfmanip_hybrid::flow::Flow::new(model, &setup.terrain, first.controller.clone());
+        let mut y = vec![0.0; 2 * nq];
+        let mut work = 0.0;
+        for seg in &self.execution.segments {
+            flow.set_controller(seg.controller.clone());
+            for step in seg.dense.steps() {
+                let (a, b) = (step.t0, step.t1().min(seg.t1));
+                if b <= a {
+                    continue;
+                }
+                for &(x, w) in &nodes {
+                    let t = a + x * (b - a);
+                    step.eval(t, &mut y);
+                    let (q, qd) = y.split_at(nq);
+                    flow.eval(t, seg.mode, q, qd)?;
+                    let (data, _) = flow.last();
+                    let power: f64 = data.friction.iter().zip(qd).map(|(f, v)| f * v).sum();
+                    work += w * (b - a) * power;
+                }
+            }
+        }
+        Ok(work)
     }
 
     /// Samples the leap every `dt_s` seconds (and at its end): states, modes, contact points
@@ -1351,7 +1571,7 @@ impl LeapResult {
                 reason: format!("must be finite and positive, got {dt_s}"),
             });
         }
-        let setup = LeapSetup::new(params, cfg)?;
+        let setup = LeapSetup::new(params, cfg, self.motor_t2_s)?;
         let model = &setup.rhex.model;
         let nq = model.nq();
         let mut out = Trajectory {
@@ -1385,6 +1605,7 @@ impl LeapResult {
             let (q, qd) = y.split_at(nq);
             // the segment's flow as it ran: its controller, its joints locked for a passage
             ws.data.locked.clone_from(&seg.locked);
+            ws.data.slide_directions.clone_from(&seg.slide_directions);
             ws.data.prepare(model, &setup.terrain, seg.mode, q, qd)?;
             ws.solve_prepared(model, &*seg.controller, t, seg.mode, q, qd)?;
             let data = &ws.data;
@@ -1402,6 +1623,20 @@ impl LeapResult {
                 f[0] += data.lambda[row] * dir.x;
                 f[1] += data.lambda[row] * dir.y;
                 points[r.contact] = Some([geom.point.x, geom.point.y]);
+            }
+            // kinetic friction of sliding toes acts along their tangent, outside the rows
+            for site in &data.sliding {
+                let k = data.constraints.rows[site.row].contact;
+                let geom =
+                    selfmanip_core::contact::contact_geometry(model, &data.kin, &setup.terrain, k);
+                let t = selfmanip_core::contact::row_direction(
+                    &geom.plane,
+                    selfmanip_core::RowDirection::Tangential,
+                );
+                if let Some(f) = forces[k].as_mut() {
+                    f[0] += site.force_t * t.x;
+                    f[1] += site.force_t * t.y;
+                }
             }
             out.t_s.push(t - self.time_offset_s);
             out.q.push(q.to_vec());

@@ -6,14 +6,21 @@
 //!
 //! The [`LeapConfig`] fields map onto the behaviour by name: `t2_s` → `t2`, the geared
 //! motor → `gear_ratio`, `current_limit_a`, `motors_per_leg` (the saturated torque replaces
-//! the actuator `leg`), `swing_speed_rad_s` / `swing_accel_rad_s2` → `swing_speed` /
-//! `swing_accel`, `toe_stub_rad` → each push's `reverse_beyond_rad`,
-//! `keep_pushing_after_liftoff` → the retract phase waits for `takeoff` only; the pushing
-//! pairs name the two programs' joints.
+//! the actuator `leg`), the legs' inertia about their hips → `leg_inertia_kg_m2`,
+//! `toe_stub_rad` → each push's `reverse_beyond_rad`, `keep_pushing_after_liftoff` → the
+//! retract phase waits for `takeoff` only; the pushing pairs name the two programs' joints.
+//! The files swing a leg in the air as its motor does ([`crate::leap::leg_swing`]: the
+//! no-load output speed `leg.no_load_speed_rad_s`, the stall torque over the rotors'
+//! reflected inertia `leg.reflected_inertia_kg_m2` plus the leg's own); with the saturated
+//! torque, or explicit `swing_speed_rad_s` / `swing_accel_rad_s2`, the swing motions get
+//! [`crate::leap::leg_swing`]'s numbers. The toes' friction (Coulomb sliding or not,
+//! `RhexParams::toe_sliding`) is the robot's, in its description. `t2_s` is the motor-start
+//! offset ([`crate::leap::T2Reference::MotorStart`]); for a touchdown-timed leap pass the
+//! motor start its search found (`LeapResult::motor_t2_s`) with `MotorStart`.
 use crate::leap::{LeapConfig, LegActuator, Push, Strategy};
 use crate::params::RhexParams;
 use crate::{Rhex, RhexError};
-use selfmanip_sim::behaviour::{ActuatorSpec, Behaviour, Torque, Trigger};
+use selfmanip_sim::behaviour::{ActuatorSpec, Behaviour, Motion, Torque, Trigger};
 use selfmanip_sim::expr::Scalar;
 use selfmanip_sim::outcome::WordOptions;
 use selfmanip_sim::{InitialState, Scenario, SimOptions};
@@ -63,6 +70,14 @@ pub fn leap_scenario(
     q0: &[f64],
 ) -> Result<LeapScenario, RhexError> {
     cfg.validate()?;
+    if cfg.t2_reference != crate::leap::T2Reference::MotorStart {
+        return Err(RhexError::Params {
+            field: "t2_reference".into(),
+            reason: "a leap scenario times its legs by motor start: pass the motor start of \
+                     the touchdown-timed leap (`LeapResult::motor_t2_s`) as `t2_s`"
+                .into(),
+        });
+    }
     let pairs = cfg.pairs.unwrap_or(cfg.strategy.chapter3_pairs());
     if pairs[0] == pairs[1] {
         return Err(RhexError::Params {
@@ -81,8 +96,10 @@ pub fn leap_scenario(
     }
     let p = &mut b.parameters;
     p.insert("t2".into(), num(cfg.t2_s));
-    p.insert("swing_speed".into(), num(cfg.swing_speed_rad_s));
-    p.insert("swing_accel".into(), num(cfg.swing_accel_rad_s2));
+    p.insert(
+        "leg_inertia_kg_m2".into(),
+        num(crate::leap::leg_inertia_about_hip(&rhex.params)),
+    );
     let sign = |s: Push| num(s.sign());
     p.insert("s_front".into(), sign(cfg.strategy.front));
     p.insert("s_rear".into(), sign(cfg.strategy.rear));
@@ -105,8 +122,36 @@ pub fn leap_scenario(
             p.insert("motors_per_leg".into(), num(f64::from(motors_per_leg)));
         }
     }
+    // the files swing the legs as their motors do (`leg.no_load_speed_rad_s`, the stall
+    // torque over the reflected rotor inertia); a saturated torque has no motor data, and
+    // explicit values win: then the swing is set as numbers, those of `leg_swing`
+    let motor_set = matches!(cfg.actuator, LegActuator::GearedMotor { .. })
+        && cfg.swing_speed_rad_s.is_none()
+        && cfg.swing_accel_rad_s2.is_none();
+    let swing = if motor_set {
+        None
+    } else {
+        Some(crate::leap::leg_swing(params, cfg)?)
+    };
     for prog in &mut b.joints {
         for phase in &mut prog.phases {
+            match (phase.motion.as_mut(), swing) {
+                (
+                    Some(Motion::Swing {
+                        speed_rad_s,
+                        accel_rad_s2,
+                        ..
+                    }),
+                    Some((speed, accel)),
+                ) => {
+                    *speed_rad_s = num(speed);
+                    *accel_rad_s2 = num(accel);
+                }
+                (Some(Motion::Park { accel_rad_s2, .. }), Some((_, accel))) => {
+                    *accel_rad_s2 = num(accel);
+                }
+                _ => {}
+            }
             match (phase.name.as_str(), &mut phase.torque) {
                 (
                     "push",

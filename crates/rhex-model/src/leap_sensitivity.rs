@@ -28,7 +28,7 @@
 //! time, folds); and a leg that meets the ground again after a motion in the air that
 //! started at an event (the controller's memory of that event's state is not differentiated; in the air
 //! a massless leg does not act on the body, so apex derivatives are exact otherwise).
-use crate::leap::{run_leap, LeapConfig, LeapResult, LeapSetup, LegActuator};
+use crate::leap::{run_leap_setup, LeapConfig, LeapResult, LeapSetup, LegActuator, T2Reference};
 use crate::{RhexError, RhexParams};
 use nalgebra::DMatrix;
 use selfmanip_core::tangent::BodyParameter;
@@ -160,7 +160,16 @@ pub fn leap_with_sensitivity_from(
                 .into(),
         });
     }
-    let setup = LeapSetup::new(params, cfg)?;
+    if cfg.t2_reference != T2Reference::MotorStart {
+        return Err(RhexError::Params {
+            field: "t2_reference".into(),
+            reason: "sensitivities are taken at a fixed motor start: use t2_reference = \
+                     motor_start (a touchdown-timed leap reports the start it found as \
+                     motor_t2_s)"
+                .into(),
+        });
+    }
+    let setup = LeapSetup::new(params, cfg, cfg.t2_s)?;
     let model = &setup.rhex.model;
     let n2 = 2 * model.nq();
     let dirs = directions.cloned().unwrap_or_else(|| DMatrix::zeros(n2, 0));
@@ -170,7 +179,7 @@ pub fn leap_with_sensitivity_from(
             reason: format!("expected {n2} rows, got {}", dirs.nrows()),
         });
     }
-    let result = run_leap(&setup, cfg, &NEVER, start_offset)?;
+    let result = run_leap_setup(&setup, cfg, &NEVER, start_offset)?;
     let nan = || vec![vec![f64::NAN; ps.len()]; APEX_COLUMNS.len()];
     let mut out = LeapSensitivity {
         parameters: names.iter().map(|s| s.to_string()).collect(),

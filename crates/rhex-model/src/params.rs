@@ -22,6 +22,18 @@ pub enum LegShape {
     Stick,
 }
 
+/// How a toe that has slipped slides (section 5.1.5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ToeSliding {
+    /// Coulomb's law with one coefficient: a sliding toe's force stays on the edge of its
+    /// friction cone (`μ_k = μ`), so the ground force is continuous through a slip.
+    #[default]
+    Coulomb,
+    /// The thesis's Assumption 5.9: a sliding toe carries no tangential force (`μ_k = 0`).
+    Frictionless,
+}
+
 /// A hip position along the body.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, PartialOrd, Ord)]
 #[serde(rename_all = "snake_case")]
@@ -66,6 +78,9 @@ pub struct RhexParams {
     pub mu_middle: Option<f64>,
     #[serde(default)]
     pub mu_rear: Option<f64>,
+    /// How a toe slides once it has slipped.
+    #[serde(default)]
+    pub toe_sliding: ToeSliding,
 }
 
 /// The shipped Table 4.2 file.
@@ -189,6 +204,7 @@ impl RhexParams {
                     inertia_kg_m2: self.I_l,
                     com_m: Some([0.0, 0.5 * self.rho(p)]),
                     axis: JointAxis::MinusY,
+                    spring: None,
                 }],
             })
             .collect();
@@ -211,7 +227,13 @@ impl RhexParams {
                     leg: Some(p.name().into()),
                     link: None,
                     shape,
-                    friction: FrictionDescription::Sticking { mu: self.mu(p) },
+                    friction: FrictionDescription::Sticking {
+                        mu: self.mu(p),
+                        mu_kinetic: match self.toe_sliding {
+                            ToeSliding::Coulomb => self.mu(p),
+                            ToeSliding::Frictionless => None,
+                        },
+                    },
                 }
             })
             .collect();

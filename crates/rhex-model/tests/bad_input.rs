@@ -4,6 +4,7 @@
 use rhex_model::leap::{
     leap_params, simulate_leap, simulate_leap_with, LeapConfig, LeapStatus, Strategy,
 };
+use rhex_model::params::ToeSliding;
 use rhex_model::sweep::{grid, sweep, sweep_with, SweepPoint};
 use rhex_model::{RhexError, RhexParams};
 use selfmanip_core::CoreError;
@@ -34,8 +35,11 @@ fn event_tol_of_1e_minus_308_leaps_like_the_default() {
 /// overflowed (not a non-finite `qd`, which the caller never gave), at the first evaluation.
 #[test]
 fn leg_mass_of_1e308_is_a_typed_overflow_error() {
+    // a massive leg slides without friction (Coulomb sliding needs massless legs, a typed
+    // error of its own)
     let params = RhexParams {
         m_l: 1e308,
+        toe_sliding: ToeSliding::Frictionless,
         ..leap_params()
     };
     match simulate_leap(&params, &LeapConfig::default()) {
@@ -47,6 +51,8 @@ fn leg_mass_of_1e308_is_a_typed_overflow_error() {
     // in a sweep: a row of its own, the others untouched
     let mut bad = SweepPoint::new(Strategy::ALL[0], 0.0, None);
     bad.overrides.insert("m_l".into(), json!(1e308));
+    bad.overrides
+        .insert("toe_sliding".into(), json!("frictionless"));
     let good = SweepPoint::new(Strategy::ALL[0], 0.0, None);
     let rows = sweep(
         &leap_params(),
@@ -91,12 +97,14 @@ fn t_final_of_1e6_without_stopping_at_apex_ends_at_its_step_budget() {
 }
 
 /// Not stopping at the apex, a leap records the apex of its first flight as an event and
-/// reports it: the same apex as the leap that stops there (the flows agree up to it).
+/// reports it: the same apex as the leap that stops there (the flows agree up to it). At
+/// t2 = −0.02 s (Fig. 5.8's timing) every strategy's default leap flies.
 #[test]
 fn stop_at_apex_false_reports_the_apex_of_the_first_flight() {
     for s in Strategy::ALL {
         let cfg = LeapConfig {
             strategy: s,
+            t2_s: -0.02,
             ..LeapConfig::default()
         };
         let stopped = leap(&cfg);
@@ -113,13 +121,20 @@ fn stop_at_apex_false_reports_the_apex_of_the_first_flight() {
 
 /// `event_tol_s = 1e-3` or `rtol = 1e-3` on flat ground: a touchdown located coarsely is up
 /// to `|ȧ| event_tol_s` below the ground and an active contact drifts off it by the
-/// integration error — neither is a step of the terrain. The leaps reach the apex of the
-/// default leap to a few millimetres and degrees.
+/// integration error — neither is a step of the terrain (nor is a contact released a little
+/// below the ground by such a touchdown, which comes back from there). The leaps reach the
+/// apex of the default leap to a few millimetres (2 cm at the coarse rtol) and degrees, at
+/// t2 = −0.02 s (every
+/// strategy flies there) — except (+,+) at `rtol = 1e-3`: with Coulomb toes its leap has
+/// two outcomes, 34 cm and 24 cm, and which one a tolerance gives is not monotone in it
+/// (1e-8, 1e-7, 1e-4: 34 cm; 1e-6, 1e-5, 1e-3: 24 cm; `docs/leap-physics.md`), so only its
+/// status is checked there.
 #[test]
 fn coarse_event_tolerance_and_rtol_still_leap_on_flat_ground() {
     for s in Strategy::ALL {
         let base = LeapConfig {
             strategy: s,
+            t2_s: -0.02,
             ..LeapConfig::default()
         };
         let fine = leap(&base).apex.unwrap();
@@ -136,8 +151,14 @@ fn coarse_event_tolerance_and_rtol_still_leap_on_flat_ground() {
             let r = leap(&cfg);
             assert_eq!(r.status, LeapStatus::Ok, "{s} {r:?}", r = r.word_string());
             let a = r.apex.unwrap();
+            if s == Strategy::ALL[0] && cfg.rtol == 1e-3 {
+                continue; // the two-outcome leap (doc comment)
+            }
+            // an apex within a few millimetres at the coarse event tolerance, within 2 cm at
+            // the coarse rtol (its relative error over a leap of half a metre and more)
+            let tol = if cfg.rtol == 1e-3 { 2e-2 } else { 5e-3 };
             assert!(
-                (a.z_m - fine.z_m).abs() < 5e-3,
+                (a.z_m - fine.z_m).abs() < tol,
                 "{s}: {} vs {}",
                 a.z_m,
                 fine.z_m
@@ -174,7 +195,8 @@ fn stop_flag_interrupts_leaps_and_sweeps() {
     let r = simulate_leap_with(&leap_params(), &LeapConfig::default(), &raised).unwrap();
     assert_eq!(r.status, LeapStatus::Interrupted);
     assert!(r.execution.steps <= 1);
-    let points = grid(&Strategy::ALL, &[0.0, 0.1], &[None]);
+    // timings at which every strategy flies: rows without an apex hold NaN, never equal
+    let points = grid(&Strategy::ALL, &[-0.02, 0.1], &[None]);
     let rows = sweep_with(&leap_params(), &LeapConfig::default(), &points, 2, &raised).unwrap();
     assert_eq!(rows.len(), points.len());
     assert!(rows.iter().all(|r| r.status == "interrupted"), "{rows:?}");
@@ -192,7 +214,7 @@ fn stop_flag_interrupts_leaps_and_sweeps() {
 fn a_sweep_reports_step_budget_per_point_and_keeps_the_good_points() {
     let mut starved = SweepPoint::new(Strategy::ALL[1], 0.05, Some(40.0));
     starved.overrides.insert("max_steps".into(), json!(30));
-    let good = grid(&Strategy::ALL, &[0.0], &[Some(28.0)]);
+    let good = grid(&Strategy::ALL, &[-0.02], &[Some(28.0)]);
     let mut points = good.clone();
     points.insert(2, starved);
     let rows = sweep(&leap_params(), &LeapConfig::default(), &points, 2).unwrap();

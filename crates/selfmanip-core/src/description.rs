@@ -25,7 +25,7 @@
 //! friction = { kind = "sticking", mu = 1.8 }
 //! ```
 use crate::error::{CoreError, Result};
-use crate::model::{Contact, ContactShape, Friction, Joint, Leg, Model};
+use crate::model::{Contact, ContactShape, Friction, Joint, JointSpring, Leg, Model};
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 
@@ -132,6 +132,27 @@ pub struct LinkDescription {
     pub com_m: Option<[f64; 2]>,
     #[serde(default)]
     pub axis: JointAxis,
+    /// A passive spring–damper across this link's joint (omit for none).
+    #[serde(default)]
+    pub spring: Option<SpringDescription>,
+}
+
+/// A passive torsional spring–damper across a joint: `τ = −k d − k₃ d³ − c θ̇` with
+/// `d = θ − rest_angle_rad` (see [`crate::passive`]). Omitted terms are zero.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpringDescription {
+    /// `k ≥ 0` (N·m/rad).
+    pub stiffness_n_m_per_rad: f64,
+    /// `k₃ ≥ 0` (N·m/rad³): a hardening cubic term.
+    #[serde(default)]
+    pub cubic_stiffness_n_m_per_rad3: f64,
+    /// `c ≥ 0` (N·m·s/rad).
+    #[serde(default)]
+    pub damping_n_m_s_per_rad: f64,
+    /// The joint angle at which the spring is relaxed (rad).
+    #[serde(default)]
+    pub rest_angle_rad: f64,
 }
 
 /// Contact shape, in the frame of the part it is attached to (body or link).
@@ -166,10 +187,14 @@ pub enum ShapeDescription {
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum FrictionDescription {
     /// Resists sliding: a normal and a tangential constraint row, Coulomb coefficient `mu`
-    /// (omit for "never slips").
+    /// (omit for "never slips"). Once it slips it slides with kinetic coefficient
+    /// `mu_kinetic` (omit for 0, the thesis's Assumption 5.9; a positive value needs the
+    /// site on a single-joint massless leg, see [`crate::friction`]).
     Sticking {
         #[serde(default)]
         mu: Option<f64>,
+        #[serde(default)]
+        mu_kinetic: Option<f64>,
     },
     /// Never resists sliding: a normal row only (kinetic friction zero, thesis assumption 5.9).
     Sliding,
@@ -278,6 +303,30 @@ impl RobotDescription {
                     Some(c) => finite2(g("com_m"), c)?,
                     None => Vector2::new(0.0, 0.5 * link.length_m),
                 };
+                let spring = match link.spring {
+                    None => None,
+                    Some(sp) => {
+                        for (name, v) in [
+                            ("spring.stiffness_n_m_per_rad", sp.stiffness_n_m_per_rad),
+                            (
+                                "spring.cubic_stiffness_n_m_per_rad3",
+                                sp.cubic_stiffness_n_m_per_rad3,
+                            ),
+                            ("spring.damping_n_m_s_per_rad", sp.damping_n_m_s_per_rad),
+                        ] {
+                            finite_nonneg(g(name), v)?;
+                        }
+                        if !sp.rest_angle_rad.is_finite() {
+                            return Err(bad(g("spring.rest_angle_rad"), "must be finite"));
+                        }
+                        Some(JointSpring {
+                            stiffness_n_m_per_rad: sp.stiffness_n_m_per_rad,
+                            cubic_stiffness_n_m_per_rad3: sp.cubic_stiffness_n_m_per_rad3,
+                            damping_n_m_s_per_rad: sp.damping_n_m_s_per_rad,
+                            rest_angle_rad: sp.rest_angle_rad,
+                        })
+                    }
+                };
                 joints.push(Joint {
                     leg: li,
                     index_in_leg: k,
@@ -286,6 +335,7 @@ impl RobotDescription {
                     mass_kg: link.mass_kg,
                     inertia_kg_m2: link.inertia_kg_m2,
                     com_m: com,
+                    spring,
                 });
             }
             legs.push(Leg {
@@ -366,14 +416,37 @@ impl RobotDescription {
                     }
                 }
             };
-            let friction = match c.friction {
-                FrictionDescription::Sliding => Friction::Sliding,
-                FrictionDescription::Sticking { mu } => {
+            let (friction, kinetic_mu) = match c.friction {
+                FrictionDescription::Sliding => (Friction::Sliding, 0.0),
+                FrictionDescription::Sticking { mu, mu_kinetic } => {
                     let mu = mu.unwrap_or(f64::INFINITY);
                     if mu.is_nan() || mu < 0.0 {
                         return Err(bad(f("friction.mu"), "must be non-negative"));
                     }
-                    Friction::Sticking { mu }
+                    let mu_k = mu_kinetic.unwrap_or(0.0);
+                    if !mu_k.is_finite() || mu_k < 0.0 {
+                        return Err(bad(
+                            f("friction.mu_kinetic"),
+                            "must be finite and non-negative",
+                        ));
+                    }
+                    if mu_k > 0.0 {
+                        // Coulomb sliding friction is resolved by the statics of the massless
+                        // leg that carries the site (crate::friction)
+                        let single_massless = link.is_some_and(|j| {
+                            let leg = &legs[joints[j].leg];
+                            leg.n_links == 1
+                                && joints[j].mass_kg == 0.0
+                                && joints[j].inertia_kg_m2 == 0.0
+                        });
+                        if !single_massless {
+                            return Err(bad(
+                                f("friction.mu_kinetic"),
+                                "kinetic friction needs the site on a single-joint massless leg",
+                            ));
+                        }
+                    }
+                    (Friction::Sticking { mu }, mu_k)
                 }
             };
             contacts.push(Contact {
@@ -381,6 +454,7 @@ impl RobotDescription {
                 link,
                 shape,
                 friction,
+                kinetic_mu,
             });
         }
 

@@ -51,6 +51,19 @@ pub struct Data {
     /// Outputs: `q̈` (q) and `λ` (c), in the row order of `constraints.rows`.
     pub qdd: DVector<f64>,
     pub lambda: DVector<f64>,
+    /// Sliding sites with kinetic friction in the prepared mode, and their generalized
+    /// friction force `f^fr` (q) at the last solve ([`crate::friction`]).
+    pub sliding: Vec<crate::friction::SlidingSite>,
+    pub friction: DVector<f64>,
+    /// Sliding directions fixed by the caller for a stretch of flow, by contact (set before
+    /// [`Data::prepare`], kept by it); a sliding site not listed follows the instantaneous
+    /// law, `σ = sign v_t` ([`crate::friction`]).
+    pub slide_directions: Vec<(usize, crate::friction::SlideDirection)>,
+    /// Whether a sliding site at rest without a fixed direction takes a cone edge even where
+    /// the cone would hold it (as [`crate::friction::SlideDirection::FromRest`] does): what a
+    /// caller that integrates the flow needs, where a site the cone holds must stick in a
+    /// mode of its own; `false` (the instantaneous law): it is held for the instant.
+    pub slide_at_rest: bool,
     scratch: InertiaScratch,
     /// The KKT right-hand side and solution on the dynamic coordinates.
     f_r: Vec<f64>,
@@ -66,6 +79,7 @@ impl Data {
             c_qd: DVector::zeros(nq),
             n_bar: DVector::zeros(nq),
             qdd: DVector::zeros(nq),
+            friction: DVector::zeros(nq),
             ..Default::default()
         }
     }
@@ -115,7 +129,8 @@ impl Data {
             &mut self.c_qd,
             &mut self.n_bar,
         );
-        // => A, Ȧ, Ȧq̇
+        crate::passive::add_passive_bias(model, q, qd, &mut self.n_bar); // springs, dampers
+                                                                         // => A, Ȧ, Ȧq̇
         self.constraints
             .assemble(model, &self.kin, terrain, mode, qd);
         // finite inputs too large for double precision overflow here, not as a singular
@@ -125,6 +140,8 @@ impl Data {
         check_result("N̄", self.n_bar.as_slice())?;
         check_result("A", self.constraints.a.as_slice())?;
         check_result("Ȧq̇", self.constraints.a_dot_qd.as_slice())?;
+        // => sliding sites with kinetic friction
+        crate::friction::collect(model, self, qd)?;
         // => which joints are free and massless
         free_massless_joints(model, mode, &mut self.free_joints, &mut self.dynamic_coords);
         // => locked joints prescribed as well
@@ -154,7 +171,7 @@ impl Data {
     /// else and the kept system is just `f`, `g` on the dynamic coordinates. A locked joint's
     /// column of `M̄` is zero too (it is massless), but its column of `A` is not: its
     /// prescribed `x` enters `g`.
-    fn solve_prepared(
+    pub(crate) fn solve_prepared(
         &mut self,
         f: impl Fn(&Self, usize) -> f64,
         g: impl Fn(&Self, usize) -> f64,
@@ -207,14 +224,15 @@ impl Data {
         }
     }
 
-    /// `Υ − C̄q̇ − N̄` for joint torques `tau`.
+    /// `Υ − C̄q̇ − N̄` for joint torques `tau` (`N̄` includes the passive joint torques; plus
+    /// the kinetic friction of sliding sites as last assembled by a solve at this state).
     pub fn generalized_force(&self, model: &Model, tau: &[f64]) -> DVector<f64> {
         DVector::from_fn(model.nq(), |a, _| self.generalized_force_at(model, tau, a))
     }
 
     /// Entry `a` of [`Self::generalized_force`].
-    fn generalized_force_at(&self, model: &Model, tau: &[f64], a: usize) -> f64 {
-        let f = -self.c_qd.as_slice()[a] - self.n_bar.as_slice()[a];
+    pub(crate) fn generalized_force_at(&self, model: &Model, tau: &[f64], a: usize) -> f64 {
+        let f = -self.c_qd.as_slice()[a] - self.n_bar.as_slice()[a] + self.friction[a];
         match tau.get(a) {
             Some(t) if a < model.n_joints() => f + t,
             _ => f,
@@ -280,19 +298,24 @@ pub fn forward_dynamics_prepared(
     if let Some(xf) = free_joint_qdd {
         check_vector("free_joint_qdd", xf, data.free_joints.len())?;
     }
-    // (Υ − C̄q̇ − N̄, −Ȧq̇) => (q̈, λ)
-    let (mut x, mut y) = (
-        std::mem::take(&mut data.qdd),
-        std::mem::take(&mut data.lambda),
-    );
-    data.solve_prepared(
-        |d, a| d.generalized_force_at(model, tau, a),
-        |d, r| -d.constraints.a_dot_qd.as_slice()[r],
-        free_joint_qdd,
-        &mut x,
-        &mut y,
-    );
-    (data.qdd, data.lambda) = (x, y);
+    // (τ) => kinetic friction f^fr of the sliding sites
+    // (Υ − C̄q̇ − N̄ + f^fr, −Ȧq̇) => (q̈, λ)
+    let solve = |data: &mut Data| {
+        let (mut x, mut y) = (
+            std::mem::take(&mut data.qdd),
+            std::mem::take(&mut data.lambda),
+        );
+        data.solve_prepared(
+            |d, a| d.generalized_force_at(model, tau, a),
+            |d, r| -d.constraints.a_dot_qd.as_slice()[r],
+            free_joint_qdd,
+            &mut x,
+            &mut y,
+        );
+        (data.qdd, data.lambda) = (x, y);
+    };
+    crate::friction::resolve(model, data, tau)?;
+    solve(data);
     check_result("q̈", data.qdd.as_slice())?;
     check_result("λ", data.lambda.as_slice())
 }
@@ -368,6 +391,8 @@ pub fn pseudo_impulse_prepared(
     delta_t_s: f64,
 ) -> Result<DVector<f64>> {
     check_vector("tau", tau, model.n_joints())?;
+    // Υ is the applied force (actuators, springs, gravity); friction is a contact force
+    data.friction.fill(0.0);
     let f = data.generalized_force(model, tau);
     let c = data.constraints.n_rows();
     let (mut x, mut y) = (DVector::zeros(model.nq()), DVector::zeros(c));

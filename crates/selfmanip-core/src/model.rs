@@ -28,6 +28,23 @@ pub struct Joint {
     pub inertia_kg_m2: f64,
     /// Centre of mass in the link frame.
     pub com_m: Vector2<f64>,
+    /// A passive spring–damper acting across the joint, if any ([`crate::passive`]).
+    pub spring: Option<JointSpring>,
+}
+
+/// A passive torsional spring–damper across a joint (thesis footnote 2 of chapter 3:
+/// "compliance can easily be added back"): with `d = q_j − rest_angle_rad`, it applies
+/// `τ = −k d − k₃ d³ − c q̇_j` to the joint ([`crate::passive::spring_torque`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointSpring {
+    /// `k` (N·m/rad), linear stiffness.
+    pub stiffness_n_m_per_rad: f64,
+    /// `k₃` (N·m/rad³), cubic (hardening) stiffness.
+    pub cubic_stiffness_n_m_per_rad3: f64,
+    /// `c` (N·m·s/rad), viscous damping.
+    pub damping_n_m_s_per_rad: f64,
+    /// Joint angle at which the spring is relaxed (rad).
+    pub rest_angle_rad: f64,
 }
 
 impl Joint {
@@ -66,6 +83,11 @@ pub struct Contact {
     pub link: Option<usize>,
     pub shape: ContactShape,
     pub friction: Friction,
+    /// Coefficient of kinetic (Coulomb) friction while the site slides, `μ_k ≥ 0`. Zero is
+    /// the thesis's Assumption 5.9 ("all contact points that are sliding have no kinetic
+    /// coefficient of friction"); a positive value is supported on a site carried by a
+    /// single-joint massless leg ([`crate::friction`]).
+    pub kinetic_mu: f64,
 }
 
 /// The validated robot. Cheap to share between threads (`Send + Sync`, no interior mutability).

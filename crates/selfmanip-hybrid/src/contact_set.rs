@@ -83,27 +83,72 @@ impl ResetWorkspace<'_> {
         mode.active().any(|k| {
             // a chain passing its fold (locked) is within it by design
             !fold::massless_chain(self.model, k).any(|j| locked.contains(&j))
-                && fold::pin(self.model, &self.ws.data.kin, self.terrain, mode, k)
+                // a candidate's sliding direction is not fixed before its segment starts
+                && fold::pin(self.model, &self.ws.data.kin, self.terrain, mode, k, &[])
                     .is_some_and(|p| p <= self.fold_threshold)
+        })
+    }
+
+    /// The sticking contacts of `mode` with finite `μ`, each with `μ`, its tangential
+    /// component and its push `U = −v_n` in the row vector `v`, in row order.
+    fn sticking_rows<'v>(
+        &'v self,
+        mode: ContactMode,
+        v: &'v [f64],
+    ) -> impl Iterator<Item = (usize, f64, f64, f64)> + 'v {
+        let rows: Vec<_> = mode.rows().collect();
+        (1..rows.len()).filter_map(move |i| {
+            let (rt, rn) = (rows[i - 1], rows[i]);
+            if rt.direction != RowDirection::Tangential || rn.contact != rt.contact {
+                return None;
+            }
+            match self.model.contacts[rn.contact].friction {
+                Friction::Sticking { mu } if mu.is_finite() => {
+                    Some((rn.contact, mu, v[i - 1], -v[i]))
+                }
+                _ => None,
+            }
         })
     }
 
     /// The first sticking contact with finite `μ` whose row vector `v` (force or impulse)
     /// leaves the Coulomb cone $|v_t| \le \mu \ U(v_n)$.
     pub fn outside_cone(&self, mode: ContactMode, v: &[f64]) -> Option<usize> {
-        let rows: Vec<_> = mode.rows().collect();
-        (1..rows.len()).find_map(|i| {
-            let (rt, rn) = (rows[i - 1], rows[i]);
-            if rt.direction != RowDirection::Tangential || rn.contact != rt.contact {
-                return None;
-            }
-            let Friction::Sticking { mu } = self.model.contacts[rn.contact].friction else {
-                return None;
-            };
-            let push = -v[i];
-            (mu.is_finite() && push >= 0.0 && v[i - 1].abs() > mu * push * (1.0 + 1e-12) + 1e-12)
-                .then_some(rn.contact)
-        })
+        self.sticking_rows(mode, v)
+            .find(|&(_, mu, t, push)| push >= 0.0 && t.abs() > mu * push * (1.0 + 1e-12) + 1e-12)
+            .map(|(k, ..)| k)
+    }
+
+    /// The sticking contact with finite `μ` whose force `v` (a force event's) pulls the most
+    /// with a tangential component: it is outside the cone too (`U < 0`), so sticking is not
+    /// its solution in the set; sliding may be, and the set is judged by its push either way
+    /// (a contact that pulls sliding too is let go by complementarity). The largest pull, not
+    /// the first, so that the choice does not depend on the contacts' order (mirror images).
+    pub fn pulling_sticking(&self, mode: ContactMode, v: &[f64]) -> Option<usize> {
+        self.sticking_rows(mode, v)
+            .filter(|&(_, _, t, push)| push < -1e-12 && t.abs() > 1e-12)
+            .min_by(|a, b| a.3.total_cmp(&b.3))
+            .map(|(k, ..)| k)
+    }
+
+    /// A sliding contact of `mode` (solved in `ws.data`) at rest whose sticking force its
+    /// cone holds, and which may stick: it must stick, since neither cone edge starts it
+    /// sliding against its force ([`selfmanip_core::friction`]).
+    pub fn held_at_rest(&self, mode: ContactMode) -> Option<usize> {
+        self.ws
+            .data
+            .sliding
+            .iter()
+            .filter(|s| s.at_rest && s.cone_holds && !s.wedged)
+            .map(|s| s.contact)
+            .find(|&k| {
+                matches!(self.model.contacts[k].friction, Friction::Sticking { mu } if mu.is_finite())
+                    && !self
+                        .barred
+                        .iter()
+                        .any(|&(b, kind)| b == k && kind == ContactKind::Stick)
+                    && mode.kind(k) == Some(ContactKind::Slide)
+            })
     }
 
     /// A contact touching down now (not held by `before`), sticking, on a massless link,

@@ -28,10 +28,14 @@ pub const MAX_DRIFT_M: f64 = 1e-3;
 const NEWTON_STEPS: usize = 3;
 
 /// Whether active contact `k`, whose geometry at the segment's start was `start` and is
-/// `now`, has drifted (same feature, off by at most [`MAX_DRIFT_M`]) rather than left its
-/// surface.
+/// `now`, has drifted (same feature, off by at most [`MAX_DRIFT_M`], or by at most that
+/// much more than at the start) rather than left its surface. A touchdown located to
+/// `event_tol_s` starts its segment up to `|ȧ_k| event_tol_s` below the ground (the reset
+/// accepts that much, `crate::reset`): at a coarse tolerance and a fast leg that is more
+/// than `MAX_DRIFT_M`, and it is the location's error, not a step of the terrain.
 pub fn drifted(start: &ContactGeometry, now: &ContactGeometry) -> bool {
-    now.same_feature(start) && now.gap_m.abs() <= MAX_DRIFT_M
+    now.same_feature(start)
+        && (now.gap_m.abs() <= MAX_DRIFT_M || (now.gap_m - start.gap_m).abs() <= MAX_DRIFT_M)
 }
 
 /// Projects `y = [q; q̇]` onto the constraints of `mode` at time `t` (see the module docs),

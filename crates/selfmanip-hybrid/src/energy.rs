@@ -68,6 +68,7 @@ pub fn energy_report(
     for seg in &exec.segments {
         flow.set_controller(seg.controller.clone());
         flow.set_lock(&seg.locked);
+        flow.set_slide_directions(&seg.slide_directions);
         for step in seg.dense.steps() {
             let (a, b) = (step.t0, step.t1().min(seg.t1));
             if b <= a {

@@ -63,6 +63,9 @@ pub struct Segment {
     /// Massless joints locked at their speed in this segment: a leg passing the fold of its
     /// sliding contact ([`crate::fold`]); empty otherwise.
     pub locked: Vec<usize>,
+    /// The sliding direction of each sliding contact with kinetic friction in this segment
+    /// ([`crate::flow::Flow::fix_slide_directions`]); empty otherwise.
+    pub slide_directions: Vec<(usize, selfmanip_core::friction::SlideDirection)>,
     /// The accepted steps' continuous extensions (the last may reach past `t1`: the
     /// segment ends inside it, where its event was located).
     pub dense: DenseOutput,
@@ -88,6 +91,15 @@ pub enum Termination {
     Zeno {
         t: f64,
         events_in_window: usize,
+    },
+    /// A chattering execution ([`crate::zeno::ChatterDetector`]): the same cycle of
+    /// `period` events ran `cycles` times in a row, over `duration_s` ending at `t`, while
+    /// the configuration stayed where it was.
+    Chatter {
+        t: f64,
+        period: usize,
+        cycles: usize,
+        duration_s: f64,
     },
     /// The run made [`crate::HybridOptions::max_events`] events.
     EventBudget,

@@ -92,7 +92,12 @@ impl Surfaces {
         let (contact, after) = self.left_by(flow, y).expect("off its feature at `off`");
         dense.eval(on, y);
         let before = flow.geometry(contact, y);
-        let continuous = after.gap_m.abs() <= TERRAIN_STEP_M
+        // the gap does not jump: on the ground, or (a contact that had drifted, e.g. started
+        // below the ground by a coarsely located touchdown) as far off it as just before
+        let gap_continuous = after.gap_m.abs() <= TERRAIN_STEP_M
+            || ((after.gap_m - before.gap_m).abs() <= TERRAIN_STEP_M
+                && after.gap_m.abs() <= crate::drift::MAX_DRIFT_M);
+        let continuous = gap_continuous
             && (after.plane.normal() - before.plane.normal()).norm() <= FEATURE_NORMAL_TOL;
         if continuous {
             FeatureChange::Continuous { t: off }

@@ -10,18 +10,24 @@
 //! a step is its end point, where the guards are sampled; several force guards share one
 //! sample). The cache is keyed by `(t, mode, q, q̇)` and by the *generation*, which advances
 //! whenever the controller is replaced ([`Flow::set_controller`]) or told of an event
-//! ([`Flow::notify`]), or the joints locked for a fold passage change ([`Flow::set_lock`]) —
+//! ([`Flow::notify`]), the joints locked for a fold passage change ([`Flow::set_lock`]), or
+//! the sliding directions do ([`Flow::set_slide_directions`]) —
 //! the only ways an answer at the same state can change.
 //!
 //! **Locked joints.** While a massless leg passes the fold of its sliding contact
 //! ([`crate::fold`]) its joint turns at a constant speed (the speed at which its torque
 //! vanishes): the flow prescribes `q̈ = 0` for it, and the core keeps its constraint column
 //! ([`selfmanip_core::Data::locked`]).
+//!
+//! **Sliding directions.** A sliding contact with kinetic friction keeps the side of its
+//! friction force through a segment ([`Flow::fix_slide_directions`]): the flow is smooth
+//! where its sliding velocity passes zero, and the slip→stick guard makes that an event.
 //! Nothing else writes the workspace: the resets work on one of their own
 //! ([`crate::contact_set::ResetWorkspace`]), so no reset can leave the cache stale.
 use crate::controller::Controller;
 use crate::execution::Event;
-use selfmanip_core::contact::{contact_geometry, ContactGeometry};
+use selfmanip_core::contact::{contact_geometry, ContactGeometry, ContactKind};
+use selfmanip_core::friction::{SlideDirection, SLIDING_SPEED_EPS_M_S};
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{forward_dynamics_prepared, ContactMode, CoreError, Data, Model, Terrain};
 use std::sync::Arc;
@@ -89,6 +95,82 @@ impl<'a> Flow<'a> {
     /// The joints locked at their speed ([`Self::set_lock`]).
     pub fn lock(&self) -> &[usize] {
         &self.ws.data.locked
+    }
+
+    /// Evaluates the flow with the sliding directions `dirs` of the sites with kinetic
+    /// friction fixed (by contact; empty: the instantaneous law) from here on
+    /// ([`selfmanip_core::Data::slide_directions`]).
+    pub fn set_slide_directions(&mut self, dirs: &[(usize, SlideDirection)]) {
+        if self.ws.data.slide_directions != dirs {
+            self.ws.data.slide_directions.clear();
+            self.ws.data.slide_directions.extend_from_slice(dirs);
+            self.generation += 1;
+        }
+    }
+
+    /// The sliding directions the flow is evaluated with ([`Self::set_slide_directions`]).
+    pub fn slide_directions(&self) -> &[(usize, SlideDirection)] {
+        &self.ws.data.slide_directions
+    }
+
+    /// Fixes the sliding direction `σ` of every sliding contact of `mode` with kinetic
+    /// friction for a segment that starts at `(t, y)`: `sign v_t` for one that slides, and
+    /// for one that starts from rest (`from_rest`, or within
+    /// [`selfmanip_core::friction::SLIDING_SPEED_EPS_M_S`], as the resets judge it) the cone
+    /// edge that the friction law takes at rest, on the side of its sticking force (one flow
+    /// evaluation; [`selfmanip_core::friction`]). Within the segment the force keeps that
+    /// side; the slip→stick guard ends the segment where `v_t` crosses zero. Returns the
+    /// contacts that start from rest.
+    pub fn fix_slide_directions(
+        &mut self,
+        t: f64,
+        mode: ContactMode,
+        y: &[f64],
+        from_rest: &[usize],
+    ) -> Result<Vec<usize>, CoreError> {
+        let (model, terrain) = (self.model, self.terrain);
+        let mut dirs: Vec<(usize, SlideDirection)> = Vec::new();
+        for k in mode.active() {
+            if mode.kind(k) != Some(ContactKind::Slide) || model.contacts[k].kinetic_mu == 0.0 {
+                continue;
+            }
+            let v_t = crate::guard::sliding_velocity(model, self.kinematics_at(y), terrain, k);
+            dirs.push((
+                k,
+                if from_rest.contains(&k) || v_t.abs() <= SLIDING_SPEED_EPS_M_S {
+                    SlideDirection::FromRest
+                } else {
+                    SlideDirection::Fixed(v_t.signum())
+                },
+            ));
+        }
+        let rest: Vec<usize> = dirs
+            .iter()
+            .filter(|d| d.1 == SlideDirection::FromRest)
+            .map(|d| d.0)
+            .collect();
+        if !rest.is_empty() {
+            self.set_slide_directions(&dirs);
+            let (q, qd) = y.split_at(model.nq());
+            let data = self.eval(t, mode, q, qd)?;
+            for d in &mut dirs {
+                if d.1 == SlideDirection::FromRest {
+                    let sigma = data
+                        .sliding
+                        .iter()
+                        .find(|s| s.contact == d.0)
+                        .map_or(0.0, |s| s.sigma);
+                    d.1 = SlideDirection::Fixed(sigma);
+                }
+            }
+        }
+        self.set_slide_directions(&dirs);
+        Ok(rest)
+    }
+
+    fn kinematics_at(&mut self, y: &[f64]) -> &Kinematics {
+        let (q, qd) = y.split_at(self.model.nq());
+        self.kinematics(q, qd)
     }
 
     /// The workspace and the joint torques `Υ` of the last evaluation.
@@ -196,8 +278,12 @@ pub struct FlowWorkspace {
 
 impl FlowWorkspace {
     pub fn new(model: &Model) -> Self {
+        // a sliding toe at rest takes a cone edge: one that the cone holds sticks, in a mode
+        // of its own (the resets' complementarity), never held inside a sliding mode
+        let mut data = Data::new(model);
+        data.slide_at_rest = true;
         FlowWorkspace {
-            data: Data::new(model),
+            data,
             tau: vec![0.0; model.n_joints()],
             free: Vec::new(),
         }

@@ -23,6 +23,23 @@
 //! exactly where $B_k$ loses rank — it is zero there linearly (transversally) at a generic
 //! fold, so it crosses any small threshold with a definite sign on the way in.
 //!
+//! **With kinetic friction** (a sliding site with $\mu_k > 0$, `selfmanip_core::friction`)
+//! the force on the robot lies on the cone edge $e = n + \mu_k\sigma t$ against the
+//! sliding, and the massless joint's row of the system becomes the leg's statics
+//! $\tilde A_j \lambda_n = f_j$, $\tilde A_j = (A_n)_j + \mu_k\sigma(A_t)_j = -e\cdot S(r)$.
+//! With the friction folded in, the system is $[\bar M\ \tilde A^{\mathsf T};\ A\ 0]$, and
+//! expanding along the massless joint's column (whose only entry is $(A_n)_j$) gives its
+//! determinant as $\pm(A_n)_j\,\tilde A_j \det \bar M_{mm}$: it is singular where the normal
+//! passes through the joint (the fold above: the leg's rate is unbounded there) **and** where
+//! the cone edge does (a *wedge*: $\lambda_n = f_j / \tilde A_j$ is unbounded there). The pin
+//! of such a contact is the smaller of the two, $\min(|\sin\psi|, |\sin\psi_e|)$, $\psi_e$
+//! the angle between $e$ and $r$ ($\sigma$ from the sliding velocity; a site at rest forms no
+//! denominator). The passage below needs the force's moment arm to vanish at the fold;
+//! with friction it is $\mu_k\sigma(A_t)_j \ne 0$ at the normal's fold and the leg's rate is
+//! set by the contact at the wedge, so a contact with kinetic friction is not passed: its
+//! fold or wedge is resolved by complementarity (the impulsive stick — the unbounded
+//! friction of a wedge stops the sliding — or the release).
+//!
 //! **The guard** ([`crate::guard::Guard::Fold`]) is $\pi_k - \varepsilon$, positive then
 //! non-positive, with $\varepsilon$ = [`crate::HybridOptions::fold_threshold`]. It fires
 //! *before* the singularity, where the flow is still regular, because the flow degenerates
@@ -52,6 +69,7 @@ use crate::locate::locate_crossing;
 use crate::options::HybridOptions;
 use selfmanip_core::contact::{contact_geometry, ContactKind, RowDirection};
 use selfmanip_core::frames::perp;
+use selfmanip_core::friction::SlideDirection;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{plastic_impact, ContactMode, CoreError, Model, Terrain};
 
@@ -89,13 +107,18 @@ pub fn has_fold(model: &Model, mode: ContactMode, k: usize) -> bool {
 }
 
 /// The pin `π_k(q)` of active contact `k` of `mode` at the kinematics `kin` (see the module
-/// docs); `None` when the contact has no fold ([`has_fold`]).
+/// docs); `None` when the contact has no fold ([`has_fold`]). A sliding contact's cone edge
+/// takes its direction `σ` from `slide_directions` (the segment's fixed directions,
+/// [`selfmanip_core::Data::slide_directions`]) when it has one there, so that the fold
+/// guard sees the force law the flow integrates; without one (a candidate mode at a reset,
+/// whose direction is not fixed yet) from `sign v_t` outside the rest band.
 pub fn pin(
     model: &Model,
     kin: &Kinematics,
     terrain: &dyn Terrain,
     mode: ContactMode,
     k: usize,
+    slide_directions: &[(usize, SlideDirection)],
 ) -> Option<f64> {
     if !has_fold(model, mode, k) {
         return None;
@@ -113,8 +136,16 @@ pub fn pin(
         return Some(0.0);
     }
     let measure = match chain.len() {
-        // one joint, the normal row: |n · S(r)|
-        1 => n.dot(&col(chain.start)).abs(),
+        // one joint, the normal row: |n · S(r)|, and with kinetic friction the cone edge
+        // e = n + μ_k σ t along which the sliding force acts: |e · S(r)| / |e|
+        1 => {
+            let c = col(chain.start);
+            let kinematic = n.dot(&c).abs();
+            match sliding_edge(model, kin, &geom, k, slide_directions) {
+                Some(e) => kinematic.min(e.dot(&c).abs() / e.norm()),
+                None => kinematic,
+            }
+        }
         // two joints, both rows: |det [t; n][c₁ c₂]| = |det [c₁ c₂]| (t, n orthonormal)
         2 => {
             let (c1, c2) = (col(chain.start), col(chain.start + 1));
@@ -123,6 +154,55 @@ pub fn pin(
         _ => unreachable!("a contact has at most two rows"),
     };
     Some(measure / reach)
+}
+
+/// The direction `e = n + μ_k σ t` of the ground force on a sliding site with kinetic
+/// friction (pushing normal forces are negative, so the force `λ_n e` opposes the sliding
+/// along `σ t`), or `None` when the site has no kinetic friction or no edge.
+///
+/// `σ` is the site's fixed direction in `slide_directions` (the segment's, set by
+/// [`crate::flow::Flow::fix_slide_directions`]; `σ = 0`: no edge). A site without a fixed
+/// direction there takes `σ = sign v_t` along the tangent `t`, and has no edge at rest
+/// (`|v_t|` within [`selfmanip_core::friction::SLIDING_SPEED_EPS_M_S`], where the friction
+/// module takes the sticking force or a cone edge chosen by it, and no statics denominator
+/// is formed).
+fn sliding_edge(
+    model: &Model,
+    kin: &Kinematics,
+    geom: &selfmanip_core::contact::ContactGeometry,
+    k: usize,
+    slide_directions: &[(usize, SlideDirection)],
+) -> Option<nalgebra::Vector2<f64>> {
+    let mu_k = model.contacts[k].kinetic_mu;
+    if mu_k == 0.0 {
+        return None;
+    }
+    let t = geom.plane.tangent();
+    let fixed = slide_directions.iter().find_map(|&(c, d)| match d {
+        SlideDirection::Fixed(s) if c == k => Some(s),
+        _ => None,
+    });
+    let sigma = match fixed {
+        Some(s) => s,
+        None => {
+            let v_t = kin.material_velocity(geom.part, geom.point).dot(&t);
+            if v_t.abs() > selfmanip_core::friction::SLIDING_SPEED_EPS_M_S {
+                v_t.signum()
+            } else {
+                0.0
+            }
+        }
+    };
+    (sigma != 0.0).then(|| geom.plane.normal() + mu_k * sigma * t)
+}
+
+/// Contact `k`'s entry of a segment's `slide_directions`, if any (what [`pin`] needs of
+/// them, without borrowing the flow).
+pub fn own_direction(
+    slide_directions: &[(usize, SlideDirection)],
+    k: usize,
+) -> Option<(usize, SlideDirection)> {
+    slide_directions.iter().find(|d| d.0 == k).copied()
 }
 
 /// The kind a contact at its fold may no longer take (the singular one), and the kind the
@@ -213,6 +293,7 @@ pub fn guard_threshold(
     let slides = mode.kind(k) == Some(ContactKind::Slide);
     if slides
         && chain.len() == 1
+        && model.contacts[k].kinetic_mu == 0.0
         && torque_free_speed(ctrl, (t, q, qd), mode, chain.start, tau).is_some()
     {
         opts.passage_threshold
@@ -246,7 +327,12 @@ impl ResetWorkspace<'_> {
         (q, qd): (&[f64], &[f64]),
     ) -> Result<Option<(Vec<f64>, Vec<usize>)>, CoreError> {
         let chain = massless_chain(self.model, k);
-        if chain.len() != 1 || mode.kind(k) != Some(ContactKind::Slide) {
+        // the slaving needs the force's moment arm to vanish at the fold: with kinetic
+        // friction it is μ_k σ (A_t)_j there, not zero (module docs)
+        if chain.len() != 1
+            || mode.kind(k) != Some(ContactKind::Slide)
+            || self.model.contacts[k].kinetic_mu > 0.0
+        {
             return Ok(None);
         }
         let j = chain.start;

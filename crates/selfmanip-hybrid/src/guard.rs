@@ -28,8 +28,12 @@
 //! sliding clearly is armed with the direction of its velocity; one that starts from rest —
 //! its velocity within the margin, or the contact stuck until the reset, whose sliding
 //! velocity is then only the drift of the sticking constraint, possibly beyond the margin —
-//! has no direction until its velocity has moved `arm_margin` away from its start, and takes
-//! the direction of that motion.
+//! has the direction fixed for its sliding force in the segment
+//! ([`crate::flow::Flow::fix_slide_directions`]): armed once its velocity has moved
+//! `arm_margin` along it, and firing unarmed if it moves `arm_margin` against it (the force
+//! would then push it along). Without a fixed direction (no kinetic friction, or none
+//! for the instant) it has none until its velocity has moved `arm_margin` away from its
+//! start, and takes the direction of that motion.
 //!
 //! **Sampling.** Each step is sampled at a quarter, half, three quarters and its end. The
 //! end point is the integrator's last stage, whose flow is cached, so the force guards
@@ -43,6 +47,7 @@ use crate::integrate::DenseStep;
 use crate::options::HybridOptions;
 use selfmanip_core::contact::contact_geometry;
 use selfmanip_core::contact::{ContactKind, RowDirection};
+use selfmanip_core::friction::SlideDirection;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::model::Friction;
 use selfmanip_core::{ContactMode, CoreError, Model, Terrain};
@@ -103,13 +108,18 @@ impl Guard {
             }
             Guard::Stick(k) => sliding_velocity(model, flow.kinematics(q, qd), terrain, k),
             Guard::Fold { contact, threshold } => {
-                fold::pin(model, flow.kinematics(q, qd), terrain, mode, contact)
+                // the segment's fixed σ of this contact (fold::pin)
+                let own = fold::own_direction(flow.slide_directions(), contact);
+                let dirs = own.as_slice();
+                fold::pin(model, flow.kinematics(q, qd), terrain, mode, contact, dirs)
                     .expect("a fold guard's contact has a fold")
                     - threshold
             }
             Guard::FoldPassed { contact, threshold } => {
+                let own = fold::own_direction(flow.slide_directions(), contact);
+                let dirs = own.as_slice();
                 threshold
-                    - fold::pin(model, flow.kinematics(q, qd), terrain, mode, contact)
+                    - fold::pin(model, flow.kinematics(q, qd), terrain, mode, contact, dirs)
                         .expect("a fold guard's contact has a fold")
             }
         })
@@ -248,11 +258,20 @@ impl GuardState {
 
     /// Its state at a segment's start, where its value is `raw`; `from_rest`: the contact of
     /// a slip→stick guard starts sliding from rest (see the module docs).
-    fn arm(guard: Guard, raw: f64, from_rest: bool, margin: f64) -> Self {
+    /// `sigma`: the sliding direction fixed for the segment, if any (non-zero).
+    fn arm(guard: Guard, raw: f64, from_rest: bool, sigma: Option<f64>, margin: f64) -> Self {
         let (direction, armed, unarmed_shift) = match guard {
             Guard::Stick(_) if raw.abs() > margin && !from_rest => {
                 (Direction::against(raw.signum()), true, 0.0)
             }
+            // from rest with a fixed sliding direction: it fires when the velocity, having
+            // moved along σ, comes back to zero, or at once if it moves clearly against σ
+            // (the friction force would then push it along: Coulomb's law is violated)
+            Guard::Stick(_) if sigma.is_some() => (
+                Direction::against(sigma.unwrap_or(1.0)),
+                false,
+                margin + (-sigma.unwrap_or(1.0) * raw).max(0.0),
+            ),
             Guard::Stick(_) => (
                 Direction::Undetermined { reference: raw },
                 false,
@@ -391,8 +410,15 @@ impl GuardSet {
         for &g in &self.guards {
             let raw = g.value(flow, t, mode, y)?;
             let rest = matches!(g, Guard::Stick(k) if from_rest.contains(&k));
+            let sigma = match g {
+                Guard::Stick(k) => flow.slide_directions().iter().find_map(|&(c, d)| match d {
+                    SlideDirection::Fixed(s) if c == k && s != 0.0 => Some(s),
+                    _ => None,
+                }),
+                _ => None,
+            };
             self.states
-                .push(GuardState::arm(g, raw, rest, opts.arm_margin));
+                .push(GuardState::arm(g, raw, rest, sigma, opts.arm_margin));
         }
         self.raw.resize(SAMPLES.len() * self.states.len(), 0.0);
         Ok(())

@@ -45,7 +45,11 @@ impl ResetWorkspace<'_> {
     /// force event), in the mode that `set` takes: kinds from `prefer`, and a sticking
     /// contact whose impulse (force) leaves its friction cone slides instead (Assumption
     /// 5.9, 5.1.5), as does a massless link touching down whose impulse would pull
-    /// ([`ResetWorkspace::massless_pull`]). `None` when the set's KKT matrix is singular.
+    /// ([`ResetWorkspace::massless_pull`]); at a force event a sticking contact whose force
+    /// pulls slides instead ([`ResetWorkspace::pulling_sticking`]), and a sliding contact at
+    /// rest whose sticking force the cone holds sticks instead
+    /// ([`ResetWorkspace::held_at_rest`]).
+    /// `None` when the set's KKT matrix is singular.
     pub fn outcome(
         &mut self,
         t: f64,
@@ -58,7 +62,9 @@ impl ResetWorkspace<'_> {
         // contacts that `prefer` does not hold are the ones touching down now
         let before = prefer;
         let mut prefer = prefer;
-        for _ in 0..=set.len() {
+        // contacts offered the stick because the cone holds them at rest (once each)
+        let mut offered: Vec<usize> = Vec::new();
+        for _ in 0..=2 * set.len() {
             // `mode_for` leaves `ws.data` prepared at `(mode, q, q̇)`
             let Some(mode) = self.mode_for(set, prefer, q, qd)? else {
                 return Ok(None);
@@ -72,12 +78,28 @@ impl ResetWorkspace<'_> {
                 SetOutcome::new(mode, l.clone(), Vec::new(), l)
             };
             let slides = self.outside_cone(mode, &outcome.judged).or_else(|| {
-                impact
-                    .then(|| self.massless_pull(mode, before, &outcome.push))
-                    .flatten()
+                if impact {
+                    self.massless_pull(mode, before, &outcome.push)
+                } else {
+                    self.pulling_sticking(mode, &outcome.judged)
+                }
             });
-            match slides {
-                Some(k) => prefer = mode.with(k, ContactKind::Slide),
+            if let Some(k) = slides {
+                prefer = mode.with(k, ContactKind::Slide);
+                continue;
+            }
+            // a sliding contact at rest whose sticking force the cone holds sticks
+            // (complementarity at rest: it may not slide on a cone edge that would push it
+            // along, selfmanip_core::friction)
+            let sticks = (!impact)
+                .then(|| self.held_at_rest(mode))
+                .flatten()
+                .filter(|k| !offered.contains(k));
+            match sticks {
+                Some(k) => {
+                    offered.push(k);
+                    prefer = mode.with(k, ContactKind::Stick);
+                }
                 None => return Ok(Some(outcome)),
             }
         }

@@ -16,6 +16,7 @@
 //! terrain.
 use crate::complementarity::Selected;
 use crate::contact_set::ResetWorkspace;
+use crate::drift::MAX_DRIFT_M;
 use crate::energy::kinetic_energy_at;
 use crate::error::HybridError;
 use crate::execution::{Event, EventKind, Termination};
@@ -163,7 +164,10 @@ pub fn reset(
             .dot(&geom.plane.normal())
             .abs();
         let gap = geom.gap_m;
-        if gap < -(TERRAIN_STEP_M + 2.0 * approach * opts.event_tol_s) {
+        // (nor is a gap within the drift band: a contact released below the ground by a
+        // coarsely located touchdown comes back from there, crate::drift)
+        let allowed = (TERRAIN_STEP_M + 2.0 * approach * opts.event_tol_s).max(MAX_DRIFT_M);
+        if gap < -allowed {
             return end(Termination::TerrainDiscontinuity {
                 t,
                 contact: k,
@@ -176,7 +180,18 @@ pub fn reset(
         let terrain = flow.terrain();
         folded
             .iter()
-            .map(|&k| fold::pin(model, flow.kinematics(q, qd), terrain, mode, k).unwrap_or(0.0))
+            .map(|&k| {
+                let own = fold::own_direction(flow.slide_directions(), k);
+                fold::pin(
+                    model,
+                    flow.kinematics(q, qd),
+                    terrain,
+                    mode,
+                    k,
+                    own.as_slice(),
+                )
+                .unwrap_or(0.0)
+            })
             .collect()
     };
     // a contact at its fold may not keep its kind; a sliding one is offered the stick
@@ -189,6 +204,11 @@ pub fn reset(
             prefer = prefer.with(k, kind);
         }
     }
+    // a contact whose cone margin has just reached zero may not stick again at once: its
+    // slip guard has decided (the cone test at rest of a force event, ResetWorkspace::
+    // held_at_rest, would otherwise keep it on the cone's edge by round-off of the drift
+    // projection below, and the guard would fire again: an event that changes nothing)
+    barred.extend(slipped.iter().map(|&k| (k, ContactKind::Stick)));
     // … unless it passes the fold sliding, locked: then it may not stick
     let passing_bar: Vec<(usize, ContactKind)> =
         folded.iter().map(|&k| (k, ContactKind::Stick)).collect();
@@ -229,6 +249,21 @@ pub fn reset(
     // a fold is resolved as an impact: the stick it offers must stop the sliding at once; a
     // passage has its velocity already (the lock's), and its contacts are judged by forces
     let impact = !touched.is_empty() || (!folded.is_empty() && !passing);
+    // at a force event the velocity is continuous and satisfies the constraints of the mode
+    // before, `A q̇ = 0`, up to the integrator's drift: project that drift away (a plastic
+    // impact into the mode before, (5.52), as crate::drift does), so that a contact that
+    // stuck until now starts sliding from zero sliding speed exactly. Its sliding direction
+    // is then chosen by the forces at rest (selfmanip_core::friction), not by the sign of a
+    // drift whose size scales with the tolerance (at rtol = 1e-6 a middle leg stuck until its
+    // slip had |v_t| = 1.3 µm/s of the wrong sign, outside the rest band: the wrong cone edge,
+    // a pulling normal force, a liftoff instead of a slip — a different leap)
+    // Only at a slip: elsewhere the projection would move a leaving contact's force root
+    // (a massless leg's rate, slaved to its contact, sets its motor torque) and its liftoff
+    // guard would fire again at once, an event that changes nothing.
+    if !impact && folded.is_empty() && !slipped.is_empty() {
+        let imp = plastic_impact(model, &mut cx.ws.data, cx.terrain, mode, q, &qd_in)?;
+        qd_in.copy_from_slice(imp.qd_plus.as_slice());
+    }
     // contacts that reached the cone slide; contacts whose sliding stopped try to stick
     for &k in &slipped {
         prefer = prefer.with(k, ContactKind::Slide);
@@ -279,12 +314,16 @@ pub fn reset(
             .any(|k| fold::massless_chain(model, k).contains(&j))
     });
     // without a velocity jump, a contact that stuck until now starts sliding from rest;
-    // so does one whose stick the cone refused (its velocity just crossed zero)
+    // so does one whose stick the cone refused (its velocity just crossed zero). After an
+    // impact a sliding contact slides with the velocity the impact leaves it — even one
+    // whose slip→stick guard fired with the touchdown: the flow takes it from rest only if
+    // that velocity is within the rest band (Flow::fix_slide_directions), as the resets do
     let from_rest = mode_after
         .active()
         .filter(|&k| {
-            mode_after.kind(k) == Some(ContactKind::Slide)
-                && (stuck.contains(&k) || (!impact && mode.kind(k) == Some(ContactKind::Stick)))
+            !impact
+                && mode_after.kind(k) == Some(ContactKind::Slide)
+                && (stuck.contains(&k) || mode.kind(k) == Some(ContactKind::Stick))
         })
         .collect();
     let (kind, triggered) = if !touched.is_empty() {

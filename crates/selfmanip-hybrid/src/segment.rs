@@ -137,7 +137,9 @@ impl SegmentIntegrator {
         );
         self.stops.sort_by(f64::total_cmp);
         self.stops.dedup();
-        self.guards.arm(flow, mode, *t, y, from_rest, opts)?;
+        // the side of each sliding toe's friction force, for the whole segment
+        let from_rest = flow.fix_slide_directions(*t, mode, y, from_rest)?;
+        self.guards.arm(flow, mode, *t, y, &from_rest, opts)?;
         let slipping_now = self.guards.slipping_at_start(opts.arm_margin);
         self.surfaces.at_start(flow, mode, y);
         // the time a contact passes continuously onto the next terrain feature in this
@@ -150,6 +152,7 @@ impl SegmentIntegrator {
             y0: y.to_vec(),
             controller: flow.controller().clone(),
             locked: flow.lock().to_vec(),
+            slide_directions: flow.slide_directions().to_vec(),
             dense: DenseOutput::default(),
         };
         self.ode.reset(self.h_carry);

@@ -8,7 +8,8 @@
 //!   locate    the first crossing, to event_tol_s              [locate, features]
 //!   reset     impact or force complementarity ⇒ (mode, q̇⁺)   [reset, complementarity,
 //!                                                              impact, contact_set]
-//!   zeno      too many transitions in a window ⇒ end          [zeno]
+//!   zeno      too many transitions in a window, or one cycle of transitions
+//!             repeated with the robot staying where it is ⇒ end   [zeno]
 //!   budget    out of steps or events, or stopped from outside ⇒ end  [budget]
 //! ```
 use crate::budget::{Budget, NEVER};
@@ -19,7 +20,7 @@ use crate::flow::{Flow, FlowWorkspace};
 use crate::options::HybridOptions;
 use crate::reset::{reset, Reset};
 use crate::segment::{SegmentEnd, SegmentIntegrator};
-use crate::zeno::ZenoWindow;
+use crate::zeno::{ChatterDetector, ZenoWindow};
 use selfmanip_core::{ContactMode, Model, Terrain};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
@@ -86,6 +87,7 @@ pub fn simulate_with(
     let (mut segments, mut events) = (Vec::new(), Vec::new());
     let mut integrator = SegmentIntegrator::new(model, &opts);
     let mut zeno = ZenoWindow::new(opts.zeno_window_s, opts.zeno_max_events);
+    let chatter = ChatterDetector;
     // sliding contacts whose sliding velocity is zero at the start of the next segment up
     // to drift (they stuck until the last reset, or their stick was just refused)
     let mut from_rest: Vec<usize> = Vec::new();
@@ -144,6 +146,9 @@ pub fn simulate_with(
         }
         if let Some(z) = zeno.record(t) {
             break z;
+        }
+        if let Some(c) = chatter.check(&events) {
+            break c;
         }
     };
     let (q, qd) = y.split_at(model.nq());

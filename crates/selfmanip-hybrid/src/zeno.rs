@@ -37,3 +37,88 @@ impl ZenoWindow {
         })
     }
 }
+
+/// The longest cycle of events (in events) that [`ChatterDetector`] looks for.
+pub const CHATTER_MAX_PERIOD: usize = 4;
+/// How many repetitions of one cycle in a row make a chatter.
+pub const CHATTER_CYCLES: usize = 30;
+/// The largest change of any coordinate of `q` (rad or m) per cycle, on average over the
+/// repetitions, that still counts as the robot staying where it is.
+pub const CHATTER_Q_PER_CYCLE: f64 = 1e-2;
+
+/// The shortest last cycle, as a fraction of the first, of a chatter: shorter, the cycles
+/// accumulate (a Zeno execution, for [`ZenoWindow`]).
+pub const CHATTER_MIN_DURATION_RATIO: f64 = 0.5;
+
+/// Generalized Zeno detection: a chattering execution (thesis Fig. 5.7 and section 5.1.6,
+/// "not quite a Zeno execution, as the finite acceleration of the leg in the air results in
+/// only finitely many transitions in a finite time").
+///
+/// **Criterion.** A Zeno execution's transition times converge, and with them its state;
+/// [`ZenoWindow`] sees the first by the density of events. A chatter has the same
+/// signature on the hybrid state without the density: the discrete state runs through one
+/// cycle of transitions again and again — the same `p` events (kind, contacts, mode before
+/// and after), `p ≤` [`CHATTER_MAX_PERIOD`] — while the continuous configuration stays
+/// where it is and the cycles do not shrink: over [`CHATTER_CYCLES`] repetitions no coordinate of `q` at the cycle's
+/// events moves more than [`CHATTER_Q_PER_CYCLE`] per cycle on average. Such a run makes
+/// events in proportion to its horizon and nothing else: its continuation is more of the
+/// same cycle, so it ends with [`Termination::Chatter`]. A gait that repeats a cycle of
+/// modes moves the robot (its legs turn by a revolution per cycle, its body advances) and
+/// is not caught. Nor is an execution whose cycles shrink — the last lasting less than
+/// [`CHATTER_MIN_DURATION_RATIO`] of the first —: its transition times accumulate, a Zeno
+/// execution proper (a rocking block without the pseudo-impulse), which the window ends.
+///
+/// Cost: `O(CHATTER_MAX_PERIOD · CHATTER_CYCLES)` comparisons per event, on the last
+/// `CHATTER_MAX_PERIOD · CHATTER_CYCLES` events only.
+#[derive(Debug, Clone, Default)]
+pub struct ChatterDetector;
+
+impl ChatterDetector {
+    /// `Some(Chatter)` if `events` (latest last) end with a chatter.
+    pub fn check(&self, events: &[crate::execution::Event]) -> Option<Termination> {
+        for p in 1..=CHATTER_MAX_PERIOD {
+            let span = p * CHATTER_CYCLES;
+            if events.len() < span {
+                break;
+            }
+            let tail = &events[events.len() - span..];
+            let same = |a: &crate::execution::Event, b: &crate::execution::Event| {
+                a.kind == b.kind
+                    && a.mode_before == b.mode_before
+                    && a.mode_after == b.mode_after
+                    && a.triggered == b.triggered
+            };
+            // every event equals the one a period later
+            if !(0..span - p).all(|i| same(&tail[i], &tail[i + p])) {
+                continue;
+            }
+            // the cycle changes the mode (a cycle of unchanged modes is no chatter)
+            if tail[..p].iter().all(|e| e.mode_before == e.mode_after) {
+                continue;
+            }
+            // not accumulating: the last cycle lasts at least half as long as the first (a
+            // Zeno execution's cycles shrink towards its accumulation time: the window's)
+            let first_cycle = tail[p].t - tail[0].t;
+            let last_cycle = tail[span - p].t - tail[span - 2 * p].t;
+            if last_cycle < CHATTER_MIN_DURATION_RATIO * first_cycle {
+                continue;
+            }
+            let (first, last) = (&tail[0].q, &tail[span - p].q);
+            let moved = first
+                .iter()
+                .zip(last)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            if moved <= CHATTER_Q_PER_CYCLE * (CHATTER_CYCLES - 1) as f64 {
+                let t = events.last().map_or(0.0, |e| e.t);
+                return Some(Termination::Chatter {
+                    t,
+                    period: p,
+                    cycles: CHATTER_CYCLES,
+                    duration_s: t - tail[0].t,
+                });
+            }
+        }
+        None
+    }
+}

@@ -27,7 +27,7 @@ impl RunStatus {
         match t {
             Termination::FinalTime => RunStatus::FinalTime,
             Termination::Apex => RunStatus::Apex,
-            Termination::Zeno { .. } => RunStatus::Zeno,
+            Termination::Zeno { .. } | Termination::Chatter { .. } => RunStatus::Zeno,
             Termination::EventBudget => RunStatus::EventBudget,
             Termination::NoContactSolution { .. } => RunStatus::NoContactSolution,
             Termination::SeveralContactSolutions { .. } => RunStatus::SeveralContactSolutions,
@@ -205,4 +205,3 @@ pub fn outcome(
         impact_loss_j: exec.impact_losses().iter().sum(),
     }
 }
-

@@ -180,12 +180,20 @@ fn parameters(b: &Behaviour) -> Result<BTreeMap<String, f64>, SimError> {
     Ok(values)
 }
 
-/// An actuator of the spec, and its stall torque `τ(u = 1, ω = 0)`.
+/// `(quantity, value)` pairs an actuator's data give besides its stall torque ([`actuator`]).
+type DerivedQuantities = Vec<(&'static str, f64)>;
+
+/// An actuator of the spec, and the quantities derived from its data that expressions may
+/// read as `<name>.<quantity>` besides its stall torque: for DC motors their no-load output
+/// speed `no_load_speed_rad_s` (`ω₀ / G`) and, when the catalog prints the motor's mechanical
+/// time constant `τ_m`, the rotors' inertia reflected to the joint,
+/// `reflected_inertia_kg_m2 = n J G²` with `J = τ_m k_M² / R` (the rotor inertia the time
+/// constant implies, from the catalog's motor at its rated voltage).
 fn actuator(
     cx: &Context<'_>,
     field: &str,
     spec: &ActuatorSpec,
-) -> Result<Arc<dyn Actuator>, SimError> {
+) -> Result<(Arc<dyn Actuator>, DerivedQuantities), SimError> {
     let motor_err = |f: &str| {
         let f = format!("{field}.{f}");
         move |e: motor::MotorError| SimError::Motor {
@@ -197,7 +205,9 @@ fn actuator(
         ActuatorSpec::Saturated { max_torque_n_m } => {
             let f = format!("{field}.max_torque_n_m");
             let tau = positive(&f, cx.number(&f, max_torque_n_m, None)?)?;
-            Arc::new(motor::SaturatedTorque::new(tau).map_err(motor_err("max_torque_n_m"))?)
+            let a: Arc<dyn Actuator> =
+                Arc::new(motor::SaturatedTorque::new(tau).map_err(motor_err("max_torque_n_m"))?);
+            (a, Vec::new())
         }
         ActuatorSpec::DcMotor {
             motor: motor_name,
@@ -215,10 +225,9 @@ fn actuator(
                     motor::Catalog::from_toml_str(&text).map_err(motor_err("catalog"))?
                 }
             };
-            let mut m = catalog
-                .motor_spec(motor_name)
-                .and_then(|m| m.motor())
-                .map_err(motor_err("motor"))?;
+            let motor_spec = catalog.motor_spec(motor_name).map_err(motor_err("motor"))?;
+            let rated = motor_spec.motor().map_err(motor_err("motor"))?;
+            let mut m = rated.clone();
             if let Some(v) = supply_voltage_v {
                 let f = format!("{field}.supply_voltage_v");
                 let v = positive(&f, cx.number(&f, v, None)?)?;
@@ -244,10 +253,18 @@ fn actuator(
             if !(n >= 1.0 && n.fract() == 0.0) {
                 return Err(invalid(f, format!("must be a whole number ≥ 1, got {n}")));
             }
-            Arc::new(Drives {
+            let ratio = g.ratio;
+            let mut derived = vec![("no_load_speed_rad_s", m.no_load_speed_rad_s / ratio)];
+            if let Some(tau_m) = motor_spec.mechanical_time_constant_s {
+                let k = rated.torque_constant_n_m_per_a;
+                let rotor = tau_m * k * k / rated.terminal_resistance_ohm();
+                derived.push(("reflected_inertia_kg_m2", n * rotor * ratio * ratio));
+            }
+            let a: Arc<dyn Actuator> = Arc::new(Drives {
                 drive: motor::Drive::new(m, g).map_err(motor_err("gearbox"))?,
                 n,
-            })
+            });
+            (a, derived)
         }
     })
 }
@@ -775,7 +792,8 @@ pub fn compile(
         }
     }
     let mut values = parameters(b)?;
-    // actuators, and their stall torques as parameters `<name>.stall_torque_n_m`
+    // actuators, and their stall torques as parameters `<name>.stall_torque_n_m` (with what
+    // else their data give, `actuator`)
     let mut actuators = Vec::new();
     let actuator_names: Vec<String> = b.actuators.keys().cloned().collect();
     {
@@ -784,11 +802,14 @@ pub fn compile(
             values: values.clone(),
         };
         for (name, spec) in &b.actuators {
-            let a = actuator(&cx, &format!("actuators.{name}"), spec)?;
+            let (a, derived) = actuator(&cx, &format!("actuators.{name}"), spec)?;
             values.insert(
                 format!("{name}.stall_torque_n_m"),
                 a.joint_torque_n_m(1.0, 0.0),
             );
+            for (quantity, v) in derived {
+                values.insert(format!("{name}.{quantity}"), v);
+            }
             actuators.push(a);
         }
     }

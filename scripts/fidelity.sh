@@ -1,0 +1,6 @@
+#!/usr/bin/env bash
+# Regenerates docs/fidelity.md: each leap claim of the thesis's chapters 3 and 5, the default
+# model's value and its verdict (crates/rhex-model/examples/fidelity.rs; release build, ~1 min).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+cargo run --quiet --release -p rhex-model --example fidelity -- docs/fidelity.md
