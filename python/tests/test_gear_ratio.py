@@ -55,8 +55,8 @@ def test_fig_4_11_optimum_runs_the_motor_at_half_its_no_load_speed(phi):
     b = analysis.takeoff_speed(theta2, phi, 0.0, g, leg="rolling")
     assert not b["holds_to_no_load"]
     assert b["x_dot"] == pytest.approx(v, rel=1e-4)
-    assert g * b["leg_rate"] / OMEGA_NL == pytest.approx(0.5, abs=2e-3)
-    assert g == pytest.approx(OMEGA_NL / (2.0 * b["leg_rate"]), rel=4e-3)
+    assert g * b["leg_rate"] / OMEGA_NL == pytest.approx(0.5, abs=1e-4)
+    assert g == pytest.approx(OMEGA_NL / (2.0 * b["leg_rate"]), rel=2e-4)
     # the analysis's torque is the leap's drive (catalog x-rhex-28, two motors) at that rate,
     # scaled to G: the two routes share the motor line
     c = motor.torque_speed_curve("x-rhex-28", points=201)
