@@ -127,6 +127,10 @@ def analysis_optimum(phi: float = 0.0, phi_dot: float = 0.0) -> dict[str, float]
             "speed_fraction": g * b["leg_rate"] / no_load_speed_rad_s()}
 
 
+def _edge(row: Mapping[str, Any]) -> str:
+    return "  [at the edge of the grid: widen --gears]" if row["at_edge"] else ""
+
+
 def _range(text: str) -> np.ndarray:
     a, b, n = text.split(":")
     return np.linspace(float(a), float(b), int(n))
@@ -174,11 +178,10 @@ def main(argv=None) -> int:
             continue
         r = selfmanip.leap(s, t2=t, gear_ratio=h["gear_ratio"], dt=5e-4)
         gw = stance_work_optimal_ratio(r)
-        edge = lambda row: "  [at the edge of the grid: widen --gears]" if row["at_edge"] else ""  # noqa: E731
         print(f"({s[0]}, {s[1]}) t2={t:+.2f} ({h['n_ok']}/{h['n']} reach an apex): "
               f"apex height best at G = {h['gear_ratio']:.1f} ({h['value']:.3f} m; within 2 %: "
-              f"G {h['near_best'][0]:.0f}-{h['near_best'][1]:.0f}; stance work-optimal G_w = {gw:.1f}){edge(h)} | "
-              f"take-off speed |x_dot| best at G = {v['gear_ratio']:.1f} ({v['value']:.2f} m/s){edge(v)}")
+              f"G {h['near_best'][0]:.0f}-{h['near_best'][1]:.0f}; stance work-optimal G_w = {gw:.1f}){_edge(h)} | "
+              f"take-off speed |x_dot| best at G = {v['gear_ratio']:.1f} ({v['value']:.2f} m/s){_edge(v)}")
     print(f"wrote {csv_path} and {png_path}")
     return 0
 
