@@ -10,7 +10,10 @@
 //! moment over every segment (trapezoid on a 20 µs grid), prints the moment's
 //! normal and tangential parts, and the jump of `I_b φ̇` at each event (impulses), and
 //! checks that the sum reproduces `I_b φ̇` at the apex. `PAIRS=front,rear` chooses the
-//! pushing pairs, `M_L=kg` gives the legs Table 4.2's mass (with frictionless sliding).
+//! pushing pairs, `M_L=kg` gives the legs Table 4.2's mass (with frictionless sliding),
+//! `STICK=1` point-toe legs, `PINNED=1` toes that never slip, `MU`, `FRICTIONLESS`,
+//! `SATURATED`, `CURRENT` (A) and `WAIT` (rad) the other candidates; `SWEEP=1` runs the four
+//! 41-point sweeps with these settings instead.
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator};
 use rhex_model::params::{LegPair, ToeSliding};
 
@@ -59,6 +62,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         params.mu_front = Some(mu);
         params.mu_middle = Some(mu);
         params.mu_rear = Some(mu);
+    }
+    if std::env::var("STICK").is_ok() {
+        params.leg_shape = rhex_model::params::LegShape::Stick;
+    }
+    if std::env::var("PINNED").is_ok() {
+        params.mu_front = None;
+        params.mu_middle = None;
+        params.mu_rear = None;
     }
     if let Ok(v) = std::env::var("M_L") {
         // Table 4.2's pair values; Coulomb sliding needs massless legs
