@@ -625,7 +625,10 @@ impl MotorLaw {
     }
 }
 
-fn leg_actuator(params: &RhexParams, a: &LegActuator) -> Result<Arc<dyn Actuator>, RhexError> {
+/// The actuator that turns one planar leg (a contralateral pair): chapter 3's saturated
+/// torque `τ_s`, or the current-limited geared X-RHex motors (the leap's own drive, for
+/// tools that build their own leap controller).
+pub fn leg_actuator(params: &RhexParams, a: &LegActuator) -> Result<Arc<dyn Actuator>, RhexError> {
     Ok(leg_motor(params, a)?.0)
 }
 
