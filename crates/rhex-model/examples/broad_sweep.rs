@@ -11,6 +11,8 @@
 //! cargo run --release -p rhex-model --example broad_sweep -- 500     # a 500-point broad sweep
 //! SHOW=zeno cargo run --release -p rhex-model --example broad_sweep  # and its zeno points
 //! ```
+//! The `zeno` points are also counted by kind (`zeno by kind`: a two-mode cycle of one
+//! contact, or events that change no mode; `docs/leap-physics.md` classifies them).
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
@@ -71,6 +73,23 @@ fn describe(p: &SweepPoint) -> String {
         s += &format!(" {k}={v}");
     }
     s
+}
+
+/// The kind of a `zeno` point, from its word (the modes it ran through): `cycle A↔B` when
+/// its last eight modes alternate between two (a touchdown–liftoff or stick–slip cycle of one
+/// contact), else `null events` (the run ended on events that changed no mode: a contact
+/// touching down again and again at one instant).
+fn zeno_kind(word: &str) -> String {
+    let modes: Vec<&str> = word.split('-').collect();
+    let tail = &modes[modes.len().saturating_sub(8)..];
+    let mut distinct: Vec<&str> = tail.to_vec();
+    distinct.sort_unstable();
+    distinct.dedup();
+    if modes.len() >= 8 && distinct.len() == 2 {
+        format!("cycle {}<->{}", distinct[0], distinct[1])
+    } else {
+        "null events".to_string()
+    }
 }
 
 fn report(name: &str, points: &[SweepPoint], out: &[(SweepRow, f64)]) {
@@ -144,12 +163,27 @@ fn main() {
             let c: Vec<String> = c.iter().map(|(k, v)| format!("{k} {v}")).collect();
             println!("    {s}: {}", c.join(", "));
         }
+        let mut kinds: BTreeMap<String, usize> = BTreeMap::new();
+        for (p, (r, _)) in points.iter().zip(&out) {
+            if r.status == "zeno" {
+                *kinds
+                    .entry(format!("{} {}", p.strategy, zeno_kind(&r.word)))
+                    .or_default() += 1;
+            }
+        }
+        let kinds: Vec<String> = kinds.iter().map(|(k, v)| format!("{k} {v}")).collect();
+        println!("    zeno by kind: {}", kinds.join(", "));
         // SHOW=zeno (a status) lists the points that ended so, SHOW=slow those over 50 ms
         if let Ok(show) = std::env::var("SHOW") {
             for (p, (r, dt)) in points.iter().zip(&out) {
                 if r.status == show || (show == "slow" && *dt > 0.05) {
+                    let kind = if r.status == "zeno" {
+                        format!(" [{}]", zeno_kind(&r.word))
+                    } else {
+                        String::new()
+                    };
                     println!(
-                        "    {} {:.1} ms: {} ({})",
+                        "    {} {:.1} ms: {}{kind} ({})",
                         r.status,
                         1e3 * dt,
                         describe(p),
