@@ -1233,6 +1233,33 @@ fn event_sensitivity(
                     candidates.push(m);
                 }
             }
+            // … or into a set in which a contact that slides after the event stuck for the
+            // impact: the impact's sticking force outside the cone, the contact slides on
+            // from the velocity the impact left it (crate::reset: the kept contacts must
+            // also hold in force)
+            let n0 = candidates.len();
+            for i in 0..n0 {
+                let base = candidates[i];
+                let sliding: Vec<usize> = base
+                    .active()
+                    .filter(|&c| {
+                        base.kind(c) == Some(ContactKind::Slide)
+                            && matches!(model.contacts[c].friction, Friction::Sticking { .. })
+                    })
+                    .collect();
+                for &c in &sliding {
+                    let m = base.with(c, ContactKind::Stick);
+                    if !candidates.contains(&m) {
+                        candidates.push(m);
+                    }
+                }
+                let all = sliding
+                    .iter()
+                    .fold(base, |m, &c| m.with(c, ContactKind::Stick));
+                if !candidates.contains(&all) {
+                    candidates.push(all);
+                }
+            }
             let mut data = Data::new(model);
             let scale = 1.0 + event.qd_after.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
             let mut found = None;
