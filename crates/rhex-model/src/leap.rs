@@ -734,7 +734,13 @@ pub fn leg_swing(params: &RhexParams, cfg: &LeapConfig) -> Result<(f64, f64), Rh
 /// for the saturated torque): `speed = ω₀/G` gives `−speed/G`; `accel = τ_st(G)/(nJG² + I)`
 /// with `nJG² + I = τ_st/accel` gives `(dτ_st/dG − accel · 2nJG)/(nJG² + I)`, `dτ_st/dG`
 /// from the motor law at stall.
-fn swing_dgear(params: &RhexParams, cfg: &LeapConfig, law: &MotorLaw, speed: f64, accel: f64) -> [f64; 2] {
+fn swing_dgear(
+    params: &RhexParams,
+    cfg: &LeapConfig,
+    law: &MotorLaw,
+    speed: f64,
+    accel: f64,
+) -> [f64; 2] {
     let MotorLaw::Geared { ratio, .. } = *law else {
         return [0.0; 2];
     };

@@ -61,7 +61,9 @@ pub enum TangentError {
     TurningFrame { contact: usize },
     /// A sliding site with kinetic friction whose force comes from sticking (a site at
     /// rest, or jammed at a wedge, `selfmanip_core::friction`): not differentiated.
-    #[error("the friction force of contact {contact} is a sticking force at rest; not differentiated")]
+    #[error(
+        "the friction force of contact {contact} is a sticking force at rest; not differentiated"
+    )]
     FrictionAtRest { contact: usize },
 }
 
@@ -385,9 +387,7 @@ impl Assembly {
             self.springs
                 .iter()
                 .filter(|s| s.0 == j)
-                .map(|&(_, kq, kqd)| {
-                    v.map_or(0.0, |v| kq * v[j]) + w.map_or(0.0, |w| kqd * w[j])
-                })
+                .map(|&(_, kq, kqd)| v.map_or(0.0, |v| kq * v[j]) + w.map_or(0.0, |w| kqd * w[j]))
                 .sum()
         };
         for &(j, _, _) in &self.springs {
@@ -677,7 +677,13 @@ pub fn dynamics_jacobian_solved(
     for j in 0..n {
         // δ(Υ + f^fr) along the unit torque of joint j (the friction's through f_j)
         f.fill(0.0);
-        asm.applied_terms_along(None, None, &|i| if i == j { 1.0 } else { 0.0 }, &mut wv, &mut f);
+        asm.applied_terms_along(
+            None,
+            None,
+            &|i| if i == j { 1.0 } else { 0.0 },
+            &mut wv,
+            &mut f,
+        );
         f.neg_mut();
         f[j] += 1.0;
         let (x, y) = (&mut out.dqdd_dtau, &mut out.dlambda_dtau);
@@ -924,13 +930,7 @@ pub fn dynamics_jvp_into(
         if !asm.springs.is_empty() || !asm.sliding.is_empty() {
             let dtau = |j: usize| dirs.dtau.get((j, col)).copied().unwrap_or(0.0);
             let nz = |x: &[f64]| x.iter().any(|v| *v != 0.0);
-            asm.applied_terms_along(
-                nz(v).then_some(v),
-                nz(w).then_some(w),
-                &dtau,
-                scratch,
-                f,
-            );
+            asm.applied_terms_along(nz(v).then_some(v), nz(w).then_some(w), &dtau, scratch, f);
         }
         if let Some(p) = dirs.body.get(col).copied().flatten() {
             p.dm_x_into(model, qdd, true, fb);

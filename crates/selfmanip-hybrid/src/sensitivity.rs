@@ -73,8 +73,8 @@ use crate::options::HybridOptions;
 use crate::simulate::simulate;
 use nalgebra::{DMatrix, DVector, RowDVector};
 use selfmanip_core::contact::{contact_geometry, ContactKind, RowDirection, TouchKind};
-use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::friction::SlideDirection;
+use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::model::Friction;
 use selfmanip_core::tangent::{
     dynamics_jacobian_solved, dynamics_jvp_into, height_gradient, plastic_impact_body_derivatives,
@@ -613,14 +613,22 @@ impl Tangent<'_> {
             let ts = (t0 + RK_C[s] * h).max(t_floor).min(t_cap);
             match params {
                 None => {
-                    let fj = ev.eval(&*seg.controller, &seg.locked, &seg.slide_directions, ts, seg.mode, ys.as_slice())?;
+                    let fj = ev.eval(
+                        &*seg.controller,
+                        &seg.locked,
+                        &seg.slide_directions,
+                        ts,
+                        seg.mode,
+                        ys.as_slice(),
+                    )?;
                     kphi[s] = &fj.jac * &*ps;
                     k[s] = fj.f;
                 }
                 Some((params, names)) => {
                     ev.eval_columns_into(
                         &*seg.controller,
-                        &seg.locked, &seg.slide_directions,
+                        &seg.locked,
+                        &seg.slide_directions,
                         ts,
                         seg.mode,
                         ys.as_slice(),
@@ -770,8 +778,19 @@ fn time_event(
     y: &[f64],
 ) -> Result<TimeEventSensitivity, SensitivityError> {
     let ctrl = &*seg.controller;
-    let fm = ev.eval(ctrl, &seg.locked, &seg.slide_directions, te.t.next_down(), seg.mode, y)?.f;
-    let fp = ev.eval(ctrl, &seg.locked, &seg.slide_directions, te.t, seg.mode, y)?.f;
+    let fm = ev
+        .eval(
+            ctrl,
+            &seg.locked,
+            &seg.slide_directions,
+            te.t.next_down(),
+            seg.mode,
+            y,
+        )?
+        .f;
+    let fp = ev
+        .eval(ctrl, &seg.locked, &seg.slide_directions, te.t, seg.mode, y)?
+        .f;
     let jump = (&fp - &fm).amax();
     let scale = 1.0 + fm.amax().max(fp.amax());
     let out = TimeEventSensitivity {
@@ -840,8 +859,26 @@ fn touch_switch(
         sw.status = SaltationStatus::Simultaneous;
         return Ok(sw);
     }
-    let fm = ev.eval(&*seg.controller, &seg.locked, &seg.slide_directions, tm, seg.mode, ym)?.f;
-    let fp = ev.eval(&*seg.controller, &seg.locked, &seg.slide_directions, tp, seg.mode, yp)?.f;
+    let fm = ev
+        .eval(
+            &*seg.controller,
+            &seg.locked,
+            &seg.slide_directions,
+            tm,
+            seg.mode,
+            ym,
+        )?
+        .f;
+    let fp = ev
+        .eval(
+            &*seg.controller,
+            &seg.locked,
+            &seg.slide_directions,
+            tp,
+            seg.mode,
+            yp,
+        )?
+        .f;
     // g = α_n − β_part(q) − α_end: D_qg = −∂β/∂q
     let mut dg = RowDVector::zeros(n2);
     dg[model.ix_phi()] = -1.0;
@@ -924,7 +961,14 @@ pub fn execution_sensitivity(
             let mut y = vec![0.0; n2];
             seg.eval(seg.t1, &mut y);
             let f = ev
-                .eval(&*seg.controller, &seg.locked, &seg.slide_directions, seg.t1, seg.mode, &y)?
+                .eval(
+                    &*seg.controller,
+                    &seg.locked,
+                    &seg.slide_directions,
+                    seg.t1,
+                    seg.mode,
+                    &y,
+                )?
                 .f;
             let den = (dg * &f)[0];
             es.time_gradient = Some(-(dg * &total) / den);
@@ -1071,7 +1115,8 @@ pub fn execution_sensitivity_columns(
             let zero = DMatrix::zeros(n2, m);
             let c = ev.eval_columns(
                 &*seg.controller,
-                &seg.locked, &seg.slide_directions,
+                &seg.locked,
+                &seg.slide_directions,
                 event.t,
                 seg.mode,
                 &parts.y_minus,
@@ -1198,7 +1243,14 @@ fn event_sensitivity(
     let mut y = vec![0.0; n2];
     before.eval(t, &mut y);
     let (q, qd_minus) = y.split_at(nq);
-    let fm = ev.eval(&*before.controller, &before.locked, &before.slide_directions, t, before.mode, &y)?;
+    let fm = ev.eval(
+        &*before.controller,
+        &before.locked,
+        &before.slide_directions,
+        t,
+        before.mode,
+        &y,
+    )?;
     let single = event.triggered.len() <= 1;
     let mut simultaneous = !single;
     // the guard's gradient and the reset's Jacobian
@@ -1384,8 +1436,15 @@ fn event_sensitivity(
     let f_plus = match (event.kind, after) {
         (EventKind::Apex, _) => DVector::zeros(n2),
         (_, Some(a)) => {
-            ev.eval(&*a.controller, &a.locked, &a.slide_directions, t, event.mode_after, &y_plus)?
-                .f
+            ev.eval(
+                &*a.controller,
+                &a.locked,
+                &a.slide_directions,
+                t,
+                event.mode_after,
+                &y_plus,
+            )?
+            .f
         }
         (_, None) => {
             // the run ended at this event (its event budget): no flow after it to salt with
