@@ -229,8 +229,12 @@ fn parameter_columns_match_central_differences() {
 /// sensitivities route through the friction force's derivative in the flow (`∂f^fr/∂Υ` via
 /// `f_j`, `∂f^fr/∂(q, q̇)`), the stick guard's gradient and the stick's saltation.
 mod sled {
-    use nalgebra::DMatrix;
-    use selfmanip::core::{ContactKind, ContactMode, FlatGround, Model, RobotDescription};
+    use nalgebra::{DMatrix, DVector};
+    use selfmanip::core::friction::SlideDirection;
+    use selfmanip::core::tangent::{dynamics_jacobian, dynamics_jvp, FlowDirections};
+    use selfmanip::core::{
+        forward_dynamics, ContactKind, ContactMode, Data, FlatGround, Model, RobotDescription,
+    };
     use selfmanip::hybrid::sensitivity::{execution_sensitivity_columns, Parameter};
     use selfmanip::hybrid::{
         simulate, Controller, ControllerPartials, EventKind, HybridOptions, StepOptions,
@@ -243,6 +247,11 @@ mod sled {
     const MU: f64 = 0.8;
 
     fn sled() -> Model {
+        sled_with("")
+    }
+
+    /// The sled, with `spring` (a TOML inline table or "") on the leg's joint.
+    fn sled_with(spring: &str) -> Model {
         let text = format!(
             r#"
 name = "sled"
@@ -256,6 +265,7 @@ hip_m = [0.0, 0.0]
 [[legs.links]]
 length_m = {LEG}
 axis = "-y"
+{spring}
 [[contacts]]
 name = "toe"
 leg = "leg"
@@ -414,5 +424,154 @@ friction = {{ kind = "sliding" }}
             eprintln!("{name}: {got:.12e} (closed form {want:.12e}): {e:.1e}");
             assert!(e < 1e-8, "{name}: {got} vs {want}");
         }
+    }
+
+    /// Central differences of the flow `(q̈, λ)` of `mode` (sliding directions `dirs`) over
+    /// `q`, `q̇`, `Υ` against [`dynamics_jacobian`] and, along a mixed direction, against
+    /// [`dynamics_jvp`]; returns the worst relative error.
+    fn flow_jacobian_error(
+        model: &Model,
+        mode: ContactMode,
+        dirs: &[(usize, SlideDirection)],
+        q: &[f64],
+        qd: &[f64],
+        tau: &[f64],
+    ) -> f64 {
+        let nq = model.nq();
+        let eval = |q: &[f64], qd: &[f64], tau: &[f64]| {
+            let mut d = Data::new(model);
+            d.slide_at_rest = true;
+            d.slide_directions = dirs.to_vec();
+            forward_dynamics(model, &mut d, &FlatGround, mode, q, qd, tau, None).unwrap();
+            let mut v: Vec<f64> = d.qdd.iter().copied().collect();
+            v.extend(d.lambda.iter());
+            DVector::from_vec(v)
+        };
+        let mut data = Data::new(model);
+        data.slide_at_rest = true;
+        data.slide_directions = dirs.to_vec();
+        let j = dynamics_jacobian(model, &mut data, &FlatGround, mode, q, qd, tau, None).unwrap();
+        let stack = |a: &DMatrix<f64>, b: &DMatrix<f64>, k: usize| -> DVector<f64> {
+            let mut v: Vec<f64> = a.column(k).iter().copied().collect();
+            v.extend(b.column(k).iter());
+            DVector::from_vec(v)
+        };
+        let mut worst = 0.0_f64;
+        let h = 1e-6;
+        let mut cmp = |an: DVector<f64>, fd: DVector<f64>| {
+            let e = (&an - &fd).amax() / fd.amax().max(1.0);
+            worst = worst.max(e);
+        };
+        for k in 0..nq {
+            let (mut qp, mut qm) = (q.to_vec(), q.to_vec());
+            qp[k] += h;
+            qm[k] -= h;
+            cmp(
+                stack(&j.dqdd_dq, &j.dlambda_dq, k),
+                (eval(&qp, qd, tau) - eval(&qm, qd, tau)) / (2.0 * h),
+            );
+            let (mut vp, mut vm) = (qd.to_vec(), qd.to_vec());
+            vp[k] += h;
+            vm[k] -= h;
+            cmp(
+                stack(&j.dqdd_dqd, &j.dlambda_dqd, k),
+                (eval(q, &vp, tau) - eval(q, &vm, tau)) / (2.0 * h),
+            );
+        }
+        for k in 0..tau.len() {
+            let (mut tp, mut tm) = (tau.to_vec(), tau.to_vec());
+            tp[k] += h;
+            tm[k] -= h;
+            cmp(
+                stack(&j.dqdd_dtau, &j.dlambda_dtau, k),
+                (eval(q, qd, &tp) - eval(q, qd, &tm)) / (2.0 * h),
+            );
+        }
+        // the column product along one mixed direction equals the full Jacobian's
+        let dq = DMatrix::from_fn(nq, 1, |i, _| 0.3 + 0.1 * i as f64);
+        let dqd = DMatrix::from_fn(nq, 1, |i, _| -0.2 + 0.05 * i as f64);
+        let dtau = DMatrix::from_element(tau.len(), 1, 0.7);
+        forward_dynamics(model, &mut data, &FlatGround, mode, q, qd, tau, None).unwrap();
+        let fd = FlowDirections {
+            dq: &dq,
+            dqd: &dqd,
+            dtau: &dtau,
+            body: &[None],
+        };
+        let (x, y) = dynamics_jvp(model, &mut data, qd, &fd).unwrap();
+        let xf = &j.dqdd_dq * &dq + &j.dqdd_dqd * &dqd + &j.dqdd_dtau * &dtau;
+        let yf = &j.dlambda_dq * &dq + &j.dlambda_dqd * &dqd + &j.dlambda_dtau * &dtau;
+        let scale = xf.amax().max(yf.amax()).max(1.0);
+        worst = worst
+            .max((&x - &xf).amax() / scale)
+            .max((&y - &yf).amax() / scale);
+        worst
+    }
+
+    /// The flow's derivatives with a Coulomb-sliding toe and a spring–damper (linear, cubic,
+    /// viscous) on its massless leg's joint — the friction force through `f_j = Υ_j + τ^p_j`
+    /// and its `A_t`, `den` — against central differences of the flow (the independent
+    /// route; their error at `h = 1e-6` is ~1e-9 relative), off the rest state (sliding,
+    /// pitching, the leg turning), on both friction edges; and the same for a massive leg with
+    /// a spring in flight (`τ^p` in `N̄` alone).
+    #[test]
+    fn flow_jacobian_with_coulomb_sliding_and_springs_matches_central_differences() {
+        let spring = "spring = { stiffness_n_m_per_rad = 3.0, cubic_stiffness_n_m_per_rad3 = 5.0, \
+                      damping_n_m_s_per_rad = 0.4, rest_angle_rad = -0.9 }";
+        let mode = ContactMode::FLIGHT
+            .with(0, ContactKind::Slide)
+            .with(1, ContactKind::Slide);
+        let theta = -(HIP_HEIGHT / LEG).acos();
+        let q = [theta + 0.02, 0.01, -HIP_HEIGHT + 0.003, 0.04];
+        let qd = [0.7, 0.5, -0.1, 0.3];
+        let mut worst = 0.0_f64;
+        for model in [sled(), sled_with(spring)] {
+            for sigma in [-1.0, 1.0] {
+                let e = flow_jacobian_error(
+                    &model,
+                    mode,
+                    &[(0, SlideDirection::Fixed(sigma))],
+                    &q,
+                    &qd,
+                    &[4.0],
+                );
+                eprintln!("sliding toe, σ = {sigma}: {e:.1e}");
+                worst = worst.max(e);
+            }
+        }
+        // a massive leg with its spring, in flight
+        let text = format!(
+            r#"
+name = "swinging leg"
+gravity_m_s2 = {G}
+[body]
+mass_kg = {M}
+inertia_kg_m2 = 0.05
+[[legs]]
+name = "leg"
+hip_m = [0.1, 0.0]
+[[legs.links]]
+length_m = 0.2
+mass_kg = 0.3
+inertia_kg_m2 = 0.002
+axis = "-y"
+{spring}
+"#
+        );
+        let model = RobotDescription::from_toml_str(&text)
+            .unwrap()
+            .build()
+            .unwrap();
+        let e = flow_jacobian_error(
+            &model,
+            ContactMode::FLIGHT,
+            &[],
+            &[0.3, 0.1, -0.4, 0.2],
+            &[1.5, 0.2, -0.3, 0.7],
+            &[0.5],
+        );
+        eprintln!("massive sprung leg in flight: {e:.1e}");
+        worst = worst.max(e);
+        assert!(worst < 1e-7, "{worst}");
     }
 }

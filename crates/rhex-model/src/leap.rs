@@ -625,6 +625,34 @@ impl MotorLaw {
     }
 }
 
+impl MotorLaw {
+    /// [`Self::partials`] of the branch the leg moves into where the state sits on the kink
+    /// between the current limit and the torque–speed line (within round-off: `|a|` at most
+    /// 1e-9 above the limit). With the X-RHex drive the limit equals the stall torque, so the
+    /// kink is at standstill: a leg that starts from rest in contact (after a touchdown into
+    /// a sticking toe, its rate is 0 up to round-off of either sign) runs on the line for
+    /// every `t > t₀`, and the partial at its first instant must be the line's. The side
+    /// taken is the motor's push direction (a leg its motor accelerates from the kink);
+    /// elsewhere the active branch, as [`Self::partials`].
+    fn partials_one_sided(&self, u: f64, speed: f64) -> (f64, Option<f64>) {
+        if let MotorLaw::Geared {
+            ratio,
+            stall_n_m,
+            no_load_rad_s,
+            limit_n_m,
+            ..
+        } = *self
+        {
+            let a = stall_n_m * (u.clamp(-1.0, 1.0) - speed * ratio / no_load_rad_s);
+            if a.abs() >= limit_n_m && a.abs() <= limit_n_m * (1.0 + 1e-9) && u != 0.0 {
+                let nudged = speed + u.signum() * 2e-9 * no_load_rad_s / ratio;
+                return self.partials(u, nudged);
+            }
+        }
+        self.partials(u, speed)
+    }
+}
+
 fn leg_actuator(params: &RhexParams, a: &LegActuator) -> Result<Arc<dyn Actuator>, RhexError> {
     Ok(leg_motor(params, a)?.0)
 }
@@ -1002,7 +1030,7 @@ impl Controller for LeapController {
             match phase {
                 Phase::Pushing => {
                     let u = self.sign[i];
-                    out.dtau_dqd[(i, i)] = self.law.partials(u, qd[i]).0;
+                    out.dtau_dqd[(i, i)] = self.law.partials_one_sided(u, qd[i]).0;
                 }
                 _ if !mode.contains(self.leg_contact[i]) => {}
                 _ => {
@@ -1062,7 +1090,8 @@ impl Controller for LeapController {
                         let (dth, dw, da) = self.air_motion_dgear(i, t);
                         out.dtau_dp[(i, col)] = match phase {
                             Phase::Pushing => {
-                                self.law.partials(self.sign[i], qd[i]).1.unwrap_or(0.0)
+                                let u = self.sign[i];
+                                self.law.partials_one_sided(u, qd[i]).1.unwrap_or(0.0)
                             }
                             _ if !mode.contains(self.leg_contact[i]) => 0.0,
                             _ => {

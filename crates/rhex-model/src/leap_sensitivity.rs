@@ -476,7 +476,7 @@ pub(crate) fn swing_partials(
     let down = Dual::c(1.5) * v.abs() / accel_d;
     let ramps = Dual::c(0.5) * (w0 + v) * up + Dual::c(0.5) * v * down;
     let cruise = (Dual::c(target) - th0 - ramps) / v;
-    if dir * omega0 < 0.0 || !(cruise.v >= 0.0) || !cruise.v.is_finite() {
+    if dir * omega0 < 0.0 || cruise.v.is_nan() || cruise.v < 0.0 || !cruise.v.is_finite() {
         return None;
     }
     let ramp = |dur: Dual, th: Dual, a: Dual, b: Dual, tau: Dual| -> (Dual, Dual, Dual) {
@@ -521,4 +521,49 @@ pub(crate) struct Dual3 {
     pub theta: (f64, [f64; 2]),
     pub omega: (f64, [f64; 2]),
     pub alpha: (f64, [f64; 2]),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use selfmanip_sim::motion::JointMotion;
+
+    /// [`swing_partials`] reproduces `JointMotion::swing` (the same branches: its value to
+    /// the last bits) and its derivatives over speed and acceleration match central
+    /// differences of the motion (a second route; `h` 1e-6 relative, away from the knots,
+    /// which move with both), at instants in every piece and at rest after it.
+    #[test]
+    fn swing_partials_match_the_motion_and_its_central_differences() {
+        let (t0, th0, target, speed, accel) = (0.1, -1.2, 2.6, 38.0, 900.0);
+        let m = JointMotion::swing(t0, th0, 0.0, target, speed, accel);
+        let knots = m.knots();
+        let mut ts: Vec<f64> = vec![t0 + 1e-3, 0.5 * (t0 + knots[0]), knots[0] + 0.01];
+        ts.push(0.5 * (knots[1] + knots[2]));
+        ts.push(knots[2] + 0.05);
+        for t in ts {
+            let d = swing_partials(t0, th0, 0.0, target, speed, accel, t).expect("ramps");
+            let (th, w, a) = m.eval(t);
+            for (x, y) in [(d.theta.0, th), (d.omega.0, w), (d.alpha.0, a)] {
+                assert!((x - y).abs() <= 1e-14 * (1.0 + y.abs()), "{t}: {x} vs {y}");
+            }
+            for (k, (ds, da)) in [(1e-6 * speed, 0.0), (0.0, 1e-6 * accel)]
+                .into_iter()
+                .enumerate()
+            {
+                let p = JointMotion::swing(t0, th0, 0.0, target, speed + ds, accel + da).eval(t);
+                let q = JointMotion::swing(t0, th0, 0.0, target, speed - ds, accel - da).eval(t);
+                let h = 2.0 * (ds + da);
+                let fd = [(p.0 - q.0) / h, (p.1 - q.1) / h, (p.2 - q.2) / h];
+                let an = [d.theta.1[k], d.omega.1[k], d.alpha.1[k]];
+                for (x, y) in an.iter().zip(fd) {
+                    assert!(
+                        (x - y).abs() <= 1e-6 * (1.0 + y.abs()),
+                        "{t} {k}: {x} vs {y}"
+                    );
+                }
+            }
+        }
+        // no room for the ramps: a quintic park, not differentiated
+        assert!(swing_partials(t0, 0.0, 0.0, 0.01, speed, accel, 0.2).is_none());
+    }
 }
