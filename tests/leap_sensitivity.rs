@@ -135,7 +135,7 @@ fn check_params(strategy: &str, t2: f64) -> [f64; PARAMS.len()] {
 }
 
 /// The leaps of the parameter test below.
-const LEAPS: [(&str, f64); 7] = [
+const LEAPS: [(&str, f64); 8] = [
     ("++", 0.05),
     ("++", 0.1),
     ("+-", 0.05),
@@ -143,6 +143,9 @@ const LEAPS: [(&str, f64); 7] = [
     ("--", 0.05),
     ("-+", 0.05),
     ("--", -0.1),
+    // a body end that touches down and bounces off at once (its impact holds it, its force
+    // releases it): the reset's impact is into a mode larger than the one after
+    ("-+", -0.08),
 ];
 
 /// Default leaps of every strategy, both signs of `t2` (below 0 the front motor's start

@@ -1285,6 +1285,27 @@ fn event_sensitivity(
                     candidates.push(m);
                 }
             }
+            // … or into one that also holds the contact that touched down, released at once by
+            // the forces (a body end that bounces off: its impulse stops it, its force pulls)
+            let n0 = candidates.len();
+            for i in 0..n0 {
+                for &k in &event.triggered {
+                    if candidates[i].contains(k) {
+                        continue;
+                    }
+                    for kind in [ContactKind::Slide, ContactKind::Stick] {
+                        if kind == ContactKind::Stick
+                            && !matches!(model.contacts[k].friction, Friction::Sticking { .. })
+                        {
+                            continue;
+                        }
+                        let m = candidates[i].with(k, kind);
+                        if !candidates.contains(&m) {
+                            candidates.push(m);
+                        }
+                    }
+                }
+            }
             // … or into a set in which a contact that slides after the event stuck for the
             // impact: the impact's sticking force outside the cone, the contact slides on
             // from the velocity the impact left it (crate::reset: the kept contacts must
