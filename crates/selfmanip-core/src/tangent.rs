@@ -228,8 +228,10 @@ struct Assembly {
     n_rows: usize,
     /// Passive joint springs: `(joint, ∂τ^p/∂q_j, ∂τ^p/∂q̇_j)` at the current state.
     springs: Vec<(usize, f64, f64)>,
-    /// Sliding sites with kinetic friction at the current state ([`SlidingTerm`]).
+    /// Sliding sites with kinetic friction at the current state ([`SlidingTerm`]): the first
+    /// `n_sliding` (buffers kept across states).
     sliding: Vec<SlidingTerm>,
+    n_sliding: usize,
     /// A sliding site whose friction force is a sticking force at rest (its contact).
     at_rest: Option<usize>,
 }
@@ -329,7 +331,7 @@ impl Assembly {
                 ));
             }
         }
-        self.sliding.clear();
+        self.n_sliding = 0;
         self.at_rest = None;
         for site in &data.sliding {
             if site.held.is_some() || site.at_rest || site.wedged {
@@ -348,22 +350,21 @@ impl Assembly {
                 .find(|(k, _)| *k == site.contact)
                 .expect("active contact")
                 .1;
-            let mut a_t = vec![0.0; self.nq];
+            let slot = next_slot(&mut self.sliding, &mut self.n_sliding);
+            let term = &mut self.sliding[slot];
+            term.a_t.clear();
+            term.a_t.resize(self.nq, 0.0);
             for &(k, v) in &site.a_t {
-                a_t[k] += v;
+                term.a_t[k] += v;
             }
             let c = cons.n_rows();
             let a_nj = cons.a.as_slice()[site.joint * c + site.row];
-            let den = a_nj + site.coef * a_t[site.joint];
-            self.sliding.push(SlidingTerm {
-                row: site.row,
-                joint: site.joint,
-                coef: site.coef,
-                d_t: row_direction(&geo.plane, RowDirection::Tangential),
-                a_t,
-                den,
-                lambda_n: site.force_t / site.coef,
-            });
+            term.den = a_nj + site.coef * term.a_t[site.joint];
+            term.row = site.row;
+            term.joint = site.joint;
+            term.coef = site.coef;
+            term.d_t = row_direction(&geo.plane, RowDirection::Tangential);
+            term.lambda_n = site.force_t / site.coef;
         }
         Ok(())
     }
@@ -393,7 +394,7 @@ impl Assembly {
         for &(j, _, _) in &self.springs {
             f[j] -= spring(j);
         }
-        for s in &self.sliding {
+        for s in &self.sliding[..self.n_sliding] {
             let (d_n, p) = &self.rows[s.row];
             let lv = &p.lever;
             let j = s.joint;
@@ -927,7 +928,7 @@ pub fn dynamics_jvp_into(
         for j in 0..dirs.dtau.nrows() {
             f[j] -= dirs.dtau[(j, col)];
         }
-        if !asm.springs.is_empty() || !asm.sliding.is_empty() {
+        if !asm.springs.is_empty() || asm.n_sliding > 0 {
             let dtau = |j: usize| dirs.dtau.get((j, col)).copied().unwrap_or(0.0);
             let nz = |x: &[f64]| x.iter().any(|v| *v != 0.0);
             asm.applied_terms_along(nz(v).then_some(v), nz(w).then_some(w), &dtau, scratch, f);
