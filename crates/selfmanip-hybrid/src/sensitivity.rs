@@ -25,13 +25,20 @@
 //!
 //! **Saltation.** At an event with guard `g` and reset `R`:
 //! `Ξ = D_xR + (f⁺ − D_xR f⁻) D_xg / (D_xg f⁻)`, with `f⁻`, `f⁺` the flows before and after
-//! (each with its segment's controller and locked joints). Touchdown: `g` the contact's height
-//! (5.49), `R` the plastic impact (5.10)/(5.52) into the mode the event took — or into the
-//! larger set whose extra contacts force complementarity (5.19)–(5.20) released at once,
-//! whichever reproduces the recorded `q̇⁺` (else the event is flagged) — with its Jacobian
-//! from [`selfmanip_core::tangent::plastic_impact_jacobian`]; the pseudo-impulse (5.39) only
-//! selects that mode, it does not change `q̇⁺`. Liftoff: `g = −λ_n` (5.50), `R = I`. Slip:
-//! `g = μ(−λ_n) − |λ_t|`, `R = I`. Stick: `g` the sliding velocity, `R = I`. Apex (terminal):
+//! (each with its segment's controller, locked joints and fixed sliding directions of its
+//! Coulomb-sliding sites: the flow and its Jacobian include the kinetic friction force and
+//! the passive springs, [`selfmanip_core::tangent`]). Touchdown: `g` the contact's height
+//! (5.49), `R` the plastic impact (5.10)/(5.52) into the mode the event took — or into a
+//! larger set whose extra contacts force complementarity (5.19)–(5.20) released at once (a
+//! contact of the mode before, the contact that touched down, or a sliding toe that the
+//! impact stuck), whichever reproduces the recorded `q̇⁺` (else the event is flagged) — with
+//! its Jacobian from [`selfmanip_core::tangent::plastic_impact_jacobian`]; the pseudo-impulse
+//! (5.39) only selects that mode, it does not change `q̇⁺`. Liftoff: `g = −λ_n` (5.50),
+//! `R = I`. Slip: `g = μ(−λ_n) − |λ_t|`, `R = I`. Stick: `g` the sliding velocity, `R = I`.
+//! Where a force event's reset projected the integrator's drift away (`crate::reset`: at a
+//! slip, or a liftoff whose contact's slip guard fired with it as its cone shrank to a
+//! point), `R` is that plastic impact into the mode before and `D_xR` its Jacobian
+//! ([`DRIFT_JUMP_TOL`]); any other velocity jump at a force event is flagged. Apex (terminal):
 //! `g = −ż`, and the end state is the state at the apex, `Ξ = I − f⁻ D_xg / (D_xg f⁻)`.
 //! Each event also gives its time's gradient `dt_e/dx(0) = −D_xg X⁻ / (D_xg f⁻)`. An
 //! active arc whose rolling contact reaches the arc's end inside a segment (no event, but
@@ -1415,8 +1422,23 @@ fn event_sensitivity(
         // plastic impact into the mode before (5.52)
         let jump = max_diff(qd_minus, &event.qd_after);
         if jump > 0.0 {
-            match drift_projection(model, terrain, before.mode, q, qd_minus, &event.qd_after) {
+            let mut data = Data::new(model);
+            let proj = drift_projection(
+                model,
+                terrain,
+                &mut data,
+                before.mode,
+                q,
+                qd_minus,
+                &event.qd_after,
+            );
+            match proj {
                 Some(ij) => {
+                    // its body parameters' `D_pR` (of the order of the drift)
+                    let dqd_dp = plastic_impact_body_derivatives(
+                        model, &mut data, &ij.impact, qd_minus, body,
+                    );
+                    dr_p.view_mut((nq, 0), (nq, body.len())).copy_from(&dqd_dp);
                     dr.view_mut((nq, 0), (nq, nq)).copy_from(&ij.dqd_plus_dq);
                     dr.view_mut((nq, nq), (nq, nq))
                         .copy_from(&ij.dqd_plus_dqd_minus);
@@ -1511,7 +1533,8 @@ pub const DRIFT_JUMP_TOL: f64 = 1e-6;
 
 /// The drift projection a force event's reset applied (`crate::reset`): the plastic impact
 /// (5.52) into `mode` (the mode before) from `q̇⁻`, with its Jacobian, if it reproduces the
-/// recorded `q̇⁺` and the jump is within [`DRIFT_JUMP_TOL`]; `None` for any other jump.
+/// recorded `q̇⁺` and the jump is within [`DRIFT_JUMP_TOL`]; `None` for any other jump. `data`
+/// is left with the impact's factorization (for [`plastic_impact_body_derivatives`]).
 ///
 /// Its Jacobian is the reset's `D_xR` exactly. On a tangent that satisfies the linearized
 /// constraints of the mode, `D_qA[δq] q̇ + A δq̇ = 0`, it is the identity up to the drift:
@@ -1521,6 +1544,7 @@ pub const DRIFT_JUMP_TOL: f64 = 1e-6;
 fn drift_projection(
     model: &Model,
     terrain: &dyn Terrain,
+    data: &mut Data,
     mode: ContactMode,
     q: &[f64],
     qd_minus: &[f64],
@@ -1530,8 +1554,7 @@ fn drift_projection(
     if max_diff(qd_minus, qd_after) > DRIFT_JUMP_TOL * scale {
         return None;
     }
-    let mut data = Data::new(model);
-    let ij = plastic_impact_jacobian(model, &mut data, terrain, mode, q, qd_minus).ok()?;
+    let ij = plastic_impact_jacobian(model, data, terrain, mode, q, qd_minus).ok()?;
     (max_diff(ij.impact.qd_plus.as_slice(), qd_after) <= 1e-12 * scale).then_some(ij)
 }
 
