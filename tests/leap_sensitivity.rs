@@ -435,3 +435,23 @@ fn default_option_sensitivities_agree_with_converged_ones() {
         assert!(e < bound, "{name}: {e}");
     }
 }
+
+/// A swing down that is a quintic park (a cruise speed too high for the ramps to fit) is not
+/// differentiated in G: the leap says so instead of reporting NaN derivatives as ok; its
+/// derivatives in `t2` alone are unaffected.
+#[test]
+fn a_parked_swing_is_flagged_for_the_gear_ratio() {
+    let params = leap_params();
+    let cfg = LeapConfig {
+        t2_s: 0.05,
+        swing_speed_rad_s: Some(1e4),
+        ..LeapConfig::default()
+    };
+    let s = leap_with_sensitivity(&params, &cfg, &["t2", "gear_ratio"]).unwrap();
+    assert!(!s.ok);
+    let reason = s.reason.as_deref().unwrap();
+    assert!(reason.contains("quintic park"), "{reason}");
+    assert!(s.d_apex.iter().flatten().all(|v| v.is_nan()));
+    let t2 = leap_with_sensitivity(&params, &cfg, &["t2"]).unwrap();
+    assert!(t2.ok, "{:?}", t2.reason);
+}

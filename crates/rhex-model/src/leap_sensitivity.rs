@@ -325,6 +325,17 @@ pub fn leap_with_sensitivity_from(
             out.d_apex_d_start[c][j] = v;
         }
     }
+    // a derivative that is not differentiated in a controller's partials comes out NaN (the
+    // gear ratio through a swing down that is a quintic park: `swing_partials`)
+    if let Some(k) = (0..ps.len()).find(|&k| out.d_apex.iter().any(|c| !c[k].is_finite())) {
+        out.reason = Some(format!(
+            "d/d{} is not finite (a leg swing that is a quintic park is not differentiated in G)",
+            names[k]
+        ));
+        out.d_apex = nan();
+        out.d_apex_d_start = vec![vec![f64::NAN; nd]; APEX_COLUMNS.len()];
+        return Ok(out);
+    }
     out.ok = true;
     Ok(out)
 }
