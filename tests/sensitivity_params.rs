@@ -216,3 +216,362 @@ fn parameter_columns_match_central_differences() {
     }
     assert!(worst < 1e-5, "{worst}");
 }
+
+/// A sled on two frictionless skids whose massless leg presses its toe on the ground with a
+/// constant torque `τ` (the sled of `kinetic_friction.rs`): Coulomb sliding in the flow.
+/// The geometry is fixed (the skids hold height and pitch; the toe's height fixes the leg
+/// angle), so only `x` moves, decelerated by the constant `|F_t| = μ_k |λ_n|` with
+/// `λ_n = τ / den` from the leg's statics (`selfmanip_core::friction`): `|F_t| ∝ τ`. The sled
+/// stops (the slip→stick event) at `t* = m v₀ / |F_t|` having travelled `x* = v₀ t* / 2`,
+/// then sticks. Closed forms:
+/// `dt*/dv₀ = t*/v₀`, `dt*/dτ = −t*/τ`, `dx*/dv₀ = t*`, `dx*/dτ = −v₀ t* / (2τ)`, and a
+/// shift of the start position only shifts the end (`dx*/dx₀ = 1`, `dt*/dx₀ = 0`). The
+/// sensitivities route through the friction force's derivative in the flow (`∂f^fr/∂Υ` via
+/// `f_j`, `∂f^fr/∂(q, q̇)`), the stick guard's gradient and the stick's saltation.
+mod sled {
+    use nalgebra::{DMatrix, DVector};
+    use selfmanip::core::friction::SlideDirection;
+    use selfmanip::core::tangent::{dynamics_jacobian, dynamics_jvp, FlowDirections};
+    use selfmanip::core::{
+        forward_dynamics, ContactKind, ContactMode, Data, FlatGround, Model, RobotDescription,
+    };
+    use selfmanip::hybrid::sensitivity::{execution_sensitivity_columns, Parameter};
+    use selfmanip::hybrid::{
+        simulate, Controller, ControllerPartials, EventKind, HybridOptions, StepOptions,
+    };
+
+    const G: f64 = 9.81;
+    const M: f64 = 3.0;
+    const LEG: f64 = 0.12;
+    const HIP_HEIGHT: f64 = 0.05;
+    const MU: f64 = 0.8;
+
+    fn sled() -> Model {
+        sled_with("")
+    }
+
+    /// The sled, with `spring` (a TOML inline table or "") on the leg's joint.
+    fn sled_with(spring: &str) -> Model {
+        let text = format!(
+            r#"
+name = "sled"
+gravity_m_s2 = {G}
+[body]
+mass_kg = {M}
+inertia_kg_m2 = 0.05
+[[legs]]
+name = "leg"
+hip_m = [0.0, 0.0]
+[[legs.links]]
+length_m = {LEG}
+axis = "-y"
+{spring}
+[[contacts]]
+name = "toe"
+leg = "leg"
+shape = {{ kind = "point", position_m = [0.0, {LEG}] }}
+friction = {{ kind = "sticking", mu = {MU}, mu_kinetic = {MU} }}
+[[contacts]]
+name = "front_skid"
+shape = {{ kind = "point", position_m = [0.2, {HIP_HEIGHT}] }}
+friction = {{ kind = "sliding" }}
+[[contacts]]
+name = "rear_skid"
+shape = {{ kind = "point", position_m = [-0.2, {HIP_HEIGHT}] }}
+friction = {{ kind = "sliding" }}
+"#
+        );
+        RobotDescription::from_toml_str(&text)
+            .unwrap()
+            .build()
+            .unwrap()
+    }
+
+    /// A constant torque, the named parameter `tau`.
+    #[derive(Debug, Clone)]
+    struct Press(f64);
+
+    impl Controller for Press {
+        fn torque(&self, _t: f64, _q: &[f64], _qd: &[f64], _m: ContactMode, tau: &mut [f64]) {
+            tau[0] = self.0;
+        }
+        fn partials(
+            &self,
+            _t: f64,
+            _q: &[f64],
+            _qd: &[f64],
+            _m: ContactMode,
+            _free: &[usize],
+            _out: &mut ControllerPartials,
+        ) -> bool {
+            true
+        }
+        fn parameter_partials(
+            &self,
+            _t: f64,
+            _q: &[f64],
+            _qd: &[f64],
+            _m: ContactMode,
+            _free: &[usize],
+            names: &[&str],
+            out: &mut ControllerPartials,
+        ) -> bool {
+            for (k, n) in names.iter().enumerate() {
+                if *n != "tau" {
+                    return false;
+                }
+                out.dtau_dp[(0, k)] = 1.0;
+            }
+            true
+        }
+    }
+
+    /// `ẍ` at `t` on the first segment (the constant deceleration).
+    fn y_acc(exec: &selfmanip::hybrid::Execution, t: f64) -> f64 {
+        let (mut a, mut b) = (vec![0.0; 8], vec![0.0; 8]);
+        exec.segments[0].eval(t - 1e-4, &mut a);
+        exec.segments[0].eval(t - 2e-4, &mut b);
+        (a[5] - b[5]) / 1e-4
+    }
+
+    #[test]
+    fn coulomb_sliding_stop_time_and_place_derivatives_match_closed_forms() {
+        let model = sled();
+        // the toe ahead of the hip on the ground; the torque that presses it (θ about −y:
+        // the toe's height grows with θ here, so a positive torque pushes it down)
+        let theta = -(HIP_HEIGHT / LEG).acos();
+        let tau = 4.0;
+        let v0 = 0.6;
+        let q = [theta, 0.0, -HIP_HEIGHT, 0.0];
+        let qd = [0.0, v0, 0.0, 0.0];
+        let mode = ContactMode::FLIGHT
+            .with(0, ContactKind::Slide)
+            .with(1, ContactKind::Slide)
+            .with(2, ContactKind::Slide);
+        let opts = HybridOptions {
+            step: StepOptions {
+                rtol: 1e-12,
+                atol: 1e-14,
+                ..Default::default()
+            },
+            event_tol_s: 1e-14,
+            ..HybridOptions::default()
+        };
+        // to 0.06 s: it stops at ≈ 0.039 s and sticks (the torque later lifts the sled and
+        // the toe slips again, at ≈ 0.13 s)
+        let exec = simulate(&model, &FlatGround, &Press(tau), mode, &q, &qd, 0.06, opts).unwrap();
+        let stop = &exec.events[0];
+        assert_eq!(stop.kind, EventKind::Stick, "{:?}", exec.events);
+        let t_star = stop.t;
+        assert!(exec.events.len() == 1, "{:?}", exec.events);
+        // at rest after the stop (the place x* is the end state's)
+        // directions: x₀ and ẋ₀ (index nq + 1), then the torque
+        let mut dirs = DMatrix::zeros(8, 2);
+        dirs[(1, 0)] = 1.0;
+        dirs[(5, 1)] = 1.0;
+        let cs = execution_sensitivity_columns(
+            &model,
+            &FlatGround,
+            &exec,
+            &dirs,
+            &[Parameter::Controller("tau".into())],
+        )
+        .unwrap();
+        let dt = cs.event_time_columns[0].clone().expect("stick defined");
+        assert!(cs.columns.is_some());
+        // the place where it stopped: the columns of the run cut at the stop (its first
+        // segment, ending at t*; `ẋ(t*) = 0`, so the columns at t*⁻ are those of x*). After
+        // the stop the sticking toe turns with its torque and moves the sled on.
+        let mut cut = exec.clone();
+        cut.segments.truncate(1);
+        cut.events.clear();
+        cut.termination = selfmanip::hybrid::Termination::FinalTime;
+        let x = execution_sensitivity_columns(
+            &model,
+            &FlatGround,
+            &cut,
+            &dirs,
+            &[Parameter::Controller("tau".into())],
+        )
+        .unwrap()
+        .columns
+        .expect("defined");
+        let mut y = vec![0.0; 8];
+        exec.segments[0].eval(t_star, &mut y);
+        let x_star = y[1] - q[1];
+        assert!((x_star - 0.5 * v0 * t_star).abs() < 1e-10, "{x_star}");
+        let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(1e-300);
+        let checks = [
+            ("dt*/dx0", dt[0], 0.0),
+            ("dt*/dv0", dt[1], t_star / v0),
+            ("dt*/dtau", dt[2], -t_star / tau),
+            ("dx*/dx0", x[(1, 0)], 1.0),
+            ("dx*/dv0", x[(1, 1)], t_star),
+            ("dx*/dtau", x[(1, 2)], -v0 * t_star / (2.0 * tau)),
+            // the speed at the stop stays 0: ẋ(t*⁻) moves by ẍ dt*/dv₀ + ∂ẋ/∂v₀ = 0
+            (
+                "dxdot/dv0 + xddot dt*/dv0",
+                x[(5, 1)] + y_acc(&exec, t_star) * dt[1],
+                0.0,
+            ),
+        ];
+        for (name, got, want) in checks {
+            let e = if want == 0.0 {
+                got.abs()
+            } else {
+                rel(got, want)
+            };
+            eprintln!("{name}: {got:.12e} (closed form {want:.12e}): {e:.1e}");
+            assert!(e < 1e-8, "{name}: {got} vs {want}");
+        }
+    }
+
+    /// Central differences of the flow `(q̈, λ)` of `mode` (sliding directions `dirs`) over
+    /// `q`, `q̇`, `Υ` against [`dynamics_jacobian`] and, along a mixed direction, against
+    /// [`dynamics_jvp`]; returns the worst relative error.
+    fn flow_jacobian_error(
+        model: &Model,
+        mode: ContactMode,
+        dirs: &[(usize, SlideDirection)],
+        q: &[f64],
+        qd: &[f64],
+        tau: &[f64],
+    ) -> f64 {
+        let nq = model.nq();
+        let eval = |q: &[f64], qd: &[f64], tau: &[f64]| {
+            let mut d = Data::new(model);
+            d.slide_at_rest = true;
+            d.slide_directions = dirs.to_vec();
+            forward_dynamics(model, &mut d, &FlatGround, mode, q, qd, tau, None).unwrap();
+            let mut v: Vec<f64> = d.qdd.iter().copied().collect();
+            v.extend(d.lambda.iter());
+            DVector::from_vec(v)
+        };
+        let mut data = Data::new(model);
+        data.slide_at_rest = true;
+        data.slide_directions = dirs.to_vec();
+        let j = dynamics_jacobian(model, &mut data, &FlatGround, mode, q, qd, tau, None).unwrap();
+        let stack = |a: &DMatrix<f64>, b: &DMatrix<f64>, k: usize| -> DVector<f64> {
+            let mut v: Vec<f64> = a.column(k).iter().copied().collect();
+            v.extend(b.column(k).iter());
+            DVector::from_vec(v)
+        };
+        let mut worst = 0.0_f64;
+        let h = 1e-6;
+        let mut cmp = |an: DVector<f64>, fd: DVector<f64>| {
+            let e = (&an - &fd).amax() / fd.amax().max(1.0);
+            worst = worst.max(e);
+        };
+        for k in 0..nq {
+            let (mut qp, mut qm) = (q.to_vec(), q.to_vec());
+            qp[k] += h;
+            qm[k] -= h;
+            cmp(
+                stack(&j.dqdd_dq, &j.dlambda_dq, k),
+                (eval(&qp, qd, tau) - eval(&qm, qd, tau)) / (2.0 * h),
+            );
+            let (mut vp, mut vm) = (qd.to_vec(), qd.to_vec());
+            vp[k] += h;
+            vm[k] -= h;
+            cmp(
+                stack(&j.dqdd_dqd, &j.dlambda_dqd, k),
+                (eval(q, &vp, tau) - eval(q, &vm, tau)) / (2.0 * h),
+            );
+        }
+        for k in 0..tau.len() {
+            let (mut tp, mut tm) = (tau.to_vec(), tau.to_vec());
+            tp[k] += h;
+            tm[k] -= h;
+            cmp(
+                stack(&j.dqdd_dtau, &j.dlambda_dtau, k),
+                (eval(q, qd, &tp) - eval(q, qd, &tm)) / (2.0 * h),
+            );
+        }
+        // the column product along one mixed direction equals the full Jacobian's
+        let dq = DMatrix::from_fn(nq, 1, |i, _| 0.3 + 0.1 * i as f64);
+        let dqd = DMatrix::from_fn(nq, 1, |i, _| -0.2 + 0.05 * i as f64);
+        let dtau = DMatrix::from_element(tau.len(), 1, 0.7);
+        forward_dynamics(model, &mut data, &FlatGround, mode, q, qd, tau, None).unwrap();
+        let fd = FlowDirections {
+            dq: &dq,
+            dqd: &dqd,
+            dtau: &dtau,
+            body: &[None],
+        };
+        let (x, y) = dynamics_jvp(model, &mut data, qd, &fd).unwrap();
+        let xf = &j.dqdd_dq * &dq + &j.dqdd_dqd * &dqd + &j.dqdd_dtau * &dtau;
+        let yf = &j.dlambda_dq * &dq + &j.dlambda_dqd * &dqd + &j.dlambda_dtau * &dtau;
+        let scale = xf.amax().max(yf.amax()).max(1.0);
+        worst = worst
+            .max((&x - &xf).amax() / scale)
+            .max((&y - &yf).amax() / scale);
+        worst
+    }
+
+    /// The flow's derivatives with a Coulomb-sliding toe and a spring–damper (linear, cubic,
+    /// viscous) on its massless leg's joint — the friction force through `f_j = Υ_j + τ^p_j`
+    /// and its `A_t`, `den` — against central differences of the flow (the independent
+    /// route; their error at `h = 1e-6` is ~1e-9 relative), off the rest state (sliding,
+    /// pitching, the leg turning), on both friction edges; and the same for a massive leg with
+    /// a spring in flight (`τ^p` in `N̄` alone).
+    #[test]
+    fn flow_jacobian_with_coulomb_sliding_and_springs_matches_central_differences() {
+        let spring = "spring = { stiffness_n_m_per_rad = 3.0, cubic_stiffness_n_m_per_rad3 = 5.0, \
+                      damping_n_m_s_per_rad = 0.4, rest_angle_rad = -0.9 }";
+        let mode = ContactMode::FLIGHT
+            .with(0, ContactKind::Slide)
+            .with(1, ContactKind::Slide);
+        let theta = -(HIP_HEIGHT / LEG).acos();
+        let q = [theta + 0.02, 0.01, -HIP_HEIGHT + 0.003, 0.04];
+        let qd = [0.7, 0.5, -0.1, 0.3];
+        let mut worst = 0.0_f64;
+        for model in [sled(), sled_with(spring)] {
+            for sigma in [-1.0, 1.0] {
+                let e = flow_jacobian_error(
+                    &model,
+                    mode,
+                    &[(0, SlideDirection::Fixed(sigma))],
+                    &q,
+                    &qd,
+                    &[4.0],
+                );
+                eprintln!("sliding toe, σ = {sigma}: {e:.1e}");
+                worst = worst.max(e);
+            }
+        }
+        // a massive leg with its spring, in flight
+        let text = format!(
+            r#"
+name = "swinging leg"
+gravity_m_s2 = {G}
+[body]
+mass_kg = {M}
+inertia_kg_m2 = 0.05
+[[legs]]
+name = "leg"
+hip_m = [0.1, 0.0]
+[[legs.links]]
+length_m = 0.2
+mass_kg = 0.3
+inertia_kg_m2 = 0.002
+axis = "-y"
+{spring}
+"#
+        );
+        let model = RobotDescription::from_toml_str(&text)
+            .unwrap()
+            .build()
+            .unwrap();
+        let e = flow_jacobian_error(
+            &model,
+            ContactMode::FLIGHT,
+            &[],
+            &[0.3, 0.1, -0.4, 0.2],
+            &[1.5, 0.2, -0.3, 0.7],
+            &[0.5],
+        );
+        eprintln!("massive sprung leg in flight: {e:.1e}");
+        worst = worst.max(e);
+        assert!(worst < 1e-7, "{worst}");
+    }
+}

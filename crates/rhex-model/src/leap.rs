@@ -625,6 +625,34 @@ impl MotorLaw {
     }
 }
 
+impl MotorLaw {
+    /// [`Self::partials`] of the branch the leg moves into where the state sits on the kink
+    /// between the current limit and the torque–speed line (within round-off: `|a|` at most
+    /// 1e-9 above the limit). With the X-RHex drive the limit equals the stall torque, so the
+    /// kink is at standstill: a leg that starts from rest in contact (after a touchdown into
+    /// a sticking toe, its rate is 0 up to round-off of either sign) runs on the line for
+    /// every `t > t₀`, and the partial at its first instant must be the line's. The side
+    /// taken is the motor's push direction (a leg its motor accelerates from the kink);
+    /// elsewhere the active branch, as [`Self::partials`].
+    fn partials_one_sided(&self, u: f64, speed: f64) -> (f64, Option<f64>) {
+        if let MotorLaw::Geared {
+            ratio,
+            stall_n_m,
+            no_load_rad_s,
+            limit_n_m,
+            ..
+        } = *self
+        {
+            let a = stall_n_m * (u.clamp(-1.0, 1.0) - speed * ratio / no_load_rad_s);
+            if a.abs() >= limit_n_m && a.abs() <= limit_n_m * (1.0 + 1e-9) && u != 0.0 {
+                let nudged = speed + u.signum() * 2e-9 * no_load_rad_s / ratio;
+                return self.partials(u, nudged);
+            }
+        }
+        self.partials(u, speed)
+    }
+}
+
 /// The actuator that turns one planar leg (a contralateral pair): chapter 3's saturated
 /// torque `τ_s`, or the current-limited geared X-RHex motors (the leap's own drive, for
 /// tools that build their own leap controller).
@@ -733,6 +761,47 @@ pub fn leg_swing(params: &RhexParams, cfg: &LeapConfig) -> Result<(f64, f64), Rh
     Ok((speed, accel))
 }
 
+/// `d(speed, accel)/dG` of [`leg_swing`] (zero for a value the configuration gives, and
+/// for the saturated torque): `speed = ω₀/G` gives `−speed/G`; `accel = τ_st(G)/(nJG² + I)`
+/// with `nJG² + I = τ_st/accel` gives `(dτ_st/dG − accel · 2nJG)/(nJG² + I)`, `dτ_st/dG`
+/// from the motor law at stall.
+fn swing_dgear(
+    params: &RhexParams,
+    cfg: &LeapConfig,
+    law: &MotorLaw,
+    speed: f64,
+    accel: f64,
+) -> [f64; 2] {
+    let MotorLaw::Geared { ratio, .. } = *law else {
+        return [0.0; 2];
+    };
+    let dspeed = if cfg.swing_speed_rad_s.is_some() {
+        0.0
+    } else {
+        -speed / ratio
+    };
+    let daccel = match (cfg.swing_accel_rad_s2, law.partials(1.0, 0.0)) {
+        (None, (_, Some(dstall))) => {
+            // τ_st = n G η min(τ_stall, τ_limit) (the law at u = 1, ω = 0)
+            let stall = match *law {
+                MotorLaw::Geared {
+                    n,
+                    efficiency,
+                    stall_n_m,
+                    limit_n_m,
+                    ..
+                } => n * ratio * efficiency * stall_n_m.min(limit_n_m),
+                MotorLaw::Saturated => 0.0,
+            };
+            let total = stall / accel; // nJG² + I
+            let n_j_g2 = total - leg_inertia_about_hip(params);
+            (dstall - accel * 2.0 * n_j_g2 / ratio) / total
+        }
+        _ => 0.0,
+    };
+    [dspeed, daccel]
+}
+
 /// What a leg is doing.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Phase {
@@ -761,6 +830,8 @@ pub(crate) struct LeapController {
     pub(crate) dstart_dt2: [f64; 2],
     accel: f64,
     speed: f64,
+    /// `d(speed, accel)/dG` of the swing ([`leg_swing`], [`swing_dgear`]).
+    pub(crate) dswing_dgear: [f64; 2],
     stub: Option<f64>,
     keep_pushing: bool,
     /// Time of the first flight after both legs started (all legs retract from then on).
@@ -846,6 +917,33 @@ impl LeapController {
         let (_, w, a) = m.eval(t);
         let d = self.dstart_dt2[i];
         (-w * d, -a * d, -m.jerk(t) * d)
+    }
+
+    /// `∂(θ, θ̇, θ̈)/∂G` of leg `i`'s motion in the air at `t`: the swing down's speed and
+    /// acceleration depend on the gear ratio ([`leg_swing`]); differentiated exactly by
+    /// [`crate::leap_sensitivity::swing_partials`]. A motion started at an event is held
+    /// fixed, as for `t2`; a swing down that is a quintic park gives NaN (not differentiated:
+    /// the leap with sensitivities flags it).
+    fn air_motion_dgear(&self, i: usize, t: f64) -> (f64, f64, f64) {
+        let (k, m) = self.air_motion_at(i, t);
+        if k != 0 || t < m.t0() || self.dswing_dgear == [0.0; 2] {
+            return (0.0, 0.0, 0.0);
+        }
+        let target = self.sign[i] * STOW_RAD;
+        let Some(d) = crate::leap_sensitivity::swing_partials(
+            m.t0(),
+            self.hold[i],
+            0.0,
+            target,
+            self.speed,
+            self.accel,
+            t,
+        ) else {
+            return (f64::NAN, f64::NAN, f64::NAN);
+        };
+        let [ds, da] = self.dswing_dgear;
+        let along = |x: [f64; 2]| x[0] * ds + x[1] * da;
+        (along(d.theta.1), along(d.omega.1), along(d.alpha.1))
     }
 
     /// The servo's partials `(∂/∂q, ∂/∂q̇, ∂/∂θ, ∂/∂ω, ∂/∂H)` at its arguments: the active
@@ -935,7 +1033,7 @@ impl Controller for LeapController {
             match phase {
                 Phase::Pushing => {
                     let u = self.sign[i];
-                    out.dtau_dqd[(i, i)] = self.law.partials(u, qd[i]).0;
+                    out.dtau_dqd[(i, i)] = self.law.partials_one_sided(u, qd[i]).0;
                 }
                 _ if !mode.contains(self.leg_contact[i]) => {}
                 _ => {
@@ -991,16 +1089,26 @@ impl Controller for LeapController {
                     let dh = self.dhold_dgear();
                     for i in 0..2 {
                         let phase = self.phase(i, t);
+                        // the swing down's dependence on G (its speed and acceleration)
+                        let (dth, dw, da) = self.air_motion_dgear(i, t);
                         out.dtau_dp[(i, col)] = match phase {
                             Phase::Pushing => {
-                                self.law.partials(self.sign[i], qd[i]).1.unwrap_or(0.0)
+                                let u = self.sign[i];
+                                self.law.partials_one_sided(u, qd[i]).1.unwrap_or(0.0)
                             }
                             _ if !mode.contains(self.leg_contact[i]) => 0.0,
                             _ => {
                                 let (theta, omega) = self.servo_target(i, t, phase);
-                                self.servo_partials(q[i], qd[i], theta, omega)[4] * dh
+                                let d = self.servo_partials(q[i], qd[i], theta, omega);
+                                let moving = phase == Phase::Retracting;
+                                d[4] * dh + if moving { d[2] * dth + d[3] * dw } else { 0.0 }
                             }
                         };
+                        if phase != Phase::Waiting {
+                            if let Some(r) = free.iter().position(|&j| j == i) {
+                                out.dfree_dp[(r, col)] = da + AIR_KP * dth + AIR_KD * dw;
+                            }
+                        }
                     }
                 }
                 _ => return false,
@@ -1230,6 +1338,7 @@ impl LeapSetup {
             },
             accel,
             speed,
+            dswing_dgear: swing_dgear(&params, cfg, &law, speed, accel),
             stub: cfg.toe_stub_rad,
             keep_pushing: cfg.keep_pushing_after_liftoff,
             takeoff: None,

@@ -81,6 +81,10 @@ pub struct LeapSensitivity {
     /// The leap controller's time events met (motor starts, knots of the swing down):
     /// `(t_s, max |f⁺ − f⁻|)`, the jump of the flow there (0 where it is continuous).
     pub time_events: Vec<(f64, f64)>,
+    /// `d t_e / d (directions, parameters)` of each event (its time from the front leg's
+    /// start, `t_s`), in the order of [`Self::events`]; `None` where its saltation is not
+    /// defined. Defined along the execution whether or not the apex's derivatives are.
+    pub event_times: Vec<Option<Vec<f64>>>,
 }
 
 impl LeapSensitivity {
@@ -189,6 +193,7 @@ pub fn leap_with_sensitivity_from(
         reason: None,
         events: Vec::new(),
         time_events: Vec::new(),
+        event_times: Vec::new(),
         result,
     };
     let exec = &out.result.execution;
@@ -206,6 +211,26 @@ pub fn leap_with_sensitivity_from(
             t_s: e.t - out.result.time_offset_s,
             status: e.status.clone(),
             saltation: e.saltation.clone(),
+        })
+        .collect();
+    let nd_ = dirs.ncols();
+    out.event_times = s
+        .event_time_columns
+        .iter()
+        .map(|c| {
+            c.as_ref().map(|c| {
+                (0..c.len())
+                    .map(|j| {
+                        let d0 = match (j >= nd_).then(|| &ps[j - nd_]) {
+                            Some(Parameter::Controller(n)) if n == "t2_s" => {
+                                setup.ctrl.dstart_dt2[0]
+                            }
+                            _ => 0.0,
+                        };
+                        c[j] - d0
+                    })
+                    .collect()
+            })
         })
         .collect();
     out.time_events = s
@@ -300,6 +325,17 @@ pub fn leap_with_sensitivity_from(
             out.d_apex_d_start[c][j] = v;
         }
     }
+    // a derivative that is not differentiated in a controller's partials comes out NaN (the
+    // gear ratio through a swing down that is a quintic park: `swing_partials`)
+    if let Some(k) = (0..ps.len()).find(|&k| out.d_apex.iter().any(|c| !c[k].is_finite())) {
+        out.reason = Some(format!(
+            "d/d{} is not finite (a leg swing that is a quintic park is not differentiated in G)",
+            names[k]
+        ));
+        out.d_apex = nan();
+        out.d_apex_d_start = vec![vec![f64::NAN; nd]; APEX_COLUMNS.len()];
+        return Ok(out);
+    }
     out.ok = true;
     Ok(out)
 }
@@ -336,4 +372,209 @@ fn memory_recontact(setup: &LeapSetup, exec: &selfmanip_hybrid::Execution) -> Op
         }
     }
     None
+}
+
+/// A number with its derivatives along two directions (forward-mode differentiation of the
+/// swing's closed form, [`swing_partials`]).
+#[derive(Debug, Clone, Copy)]
+struct Dual {
+    v: f64,
+    d: [f64; 2],
+}
+
+impl Dual {
+    fn c(v: f64) -> Self {
+        Dual { v, d: [0.0; 2] }
+    }
+    fn var(v: f64, k: usize) -> Self {
+        let mut d = [0.0; 2];
+        d[k] = 1.0;
+        Dual { v, d }
+    }
+    fn abs(self) -> Self {
+        if self.v < 0.0 {
+            -self
+        } else {
+            self
+        }
+    }
+}
+
+impl std::ops::Add for Dual {
+    type Output = Dual;
+    fn add(self, o: Dual) -> Dual {
+        Dual {
+            v: self.v + o.v,
+            d: [self.d[0] + o.d[0], self.d[1] + o.d[1]],
+        }
+    }
+}
+
+impl std::ops::Sub for Dual {
+    type Output = Dual;
+    fn sub(self, o: Dual) -> Dual {
+        Dual {
+            v: self.v - o.v,
+            d: [self.d[0] - o.d[0], self.d[1] - o.d[1]],
+        }
+    }
+}
+
+impl std::ops::Neg for Dual {
+    type Output = Dual;
+    fn neg(self) -> Dual {
+        Dual {
+            v: -self.v,
+            d: [-self.d[0], -self.d[1]],
+        }
+    }
+}
+
+impl std::ops::Mul for Dual {
+    type Output = Dual;
+    fn mul(self, o: Dual) -> Dual {
+        Dual {
+            v: self.v * o.v,
+            d: [
+                self.d[0] * o.v + self.v * o.d[0],
+                self.d[1] * o.v + self.v * o.d[1],
+            ],
+        }
+    }
+}
+
+impl std::ops::Div for Dual {
+    type Output = Dual;
+    fn div(self, o: Dual) -> Dual {
+        let v = self.v / o.v;
+        Dual {
+            v,
+            d: [
+                (self.d[0] - v * o.d[0]) / o.v,
+                (self.d[1] - v * o.d[1]) / o.v,
+            ],
+        }
+    }
+}
+
+/// `∂(θ, θ̇, θ̈)/∂(speed, accel)` at `t` of the swing
+/// `selfmanip_sim::motion::JointMotion::swing(t0, θ₀, ω₀, target, speed, accel)` (smoothstep
+/// velocity ramps and a cruise: the ramps last `1.5 |Δω| / accel`, the cruise covers the
+/// rest of the distance at `speed`), by forward-mode differentiation of the same closed
+/// form with the same branches — exact, no finite differences. Also its value, for the
+/// check against the motion itself. `None` when the swing is a quintic park instead (no
+/// room for the ramps): not differentiated.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn swing_partials(
+    t0: f64,
+    theta0: f64,
+    omega0: f64,
+    target: f64,
+    speed: f64,
+    accel: f64,
+    t: f64,
+) -> Option<Dual3> {
+    let (speed_d, accel_d) = (Dual::var(speed, 0), Dual::var(accel, 1));
+    let (th0, w0) = (Dual::c(theta0), Dual::c(omega0));
+    let dir = (target - theta0).signum();
+    // v = dir · max(|speed|, dir ω₀)
+    let v = if speed.abs() >= dir * omega0 {
+        Dual::c(dir) * speed_d.abs()
+    } else {
+        Dual::c(dir) * Dual::c(dir * omega0)
+    };
+    let up = Dual::c(1.5) * (v - w0).abs() / accel_d;
+    let down = Dual::c(1.5) * v.abs() / accel_d;
+    let ramps = Dual::c(0.5) * (w0 + v) * up + Dual::c(0.5) * v * down;
+    let cruise = (Dual::c(target) - th0 - ramps) / v;
+    if dir * omega0 < 0.0 || cruise.v.is_nan() || cruise.v < 0.0 || !cruise.v.is_finite() {
+        return None;
+    }
+    let ramp = |dur: Dual, th: Dual, a: Dual, b: Dual, tau: Dual| -> (Dual, Dual, Dual) {
+        if dur.v <= 0.0 {
+            return (th + a * tau, a, Dual::c(0.0));
+        }
+        let s = tau / dur;
+        let dw = b - a;
+        (
+            th + a * tau + dw * dur * (s * s * s - Dual::c(0.5) * s * s * s * s),
+            a + dw * s * s * (Dual::c(3.0) - Dual::c(2.0) * s),
+            dw / dur * Dual::c(6.0) * s * (Dual::c(1.0) - s),
+        )
+    };
+    let pieces = [(up, w0, v), (cruise, v, v), (down, v, Dual::c(0.0))];
+    let mut tau = Dual::c((t - t0).max(0.0));
+    let mut th = th0;
+    for (dur, a, b) in pieces {
+        if tau.v <= dur.v {
+            let (x, w, al) = ramp(dur, th, a, b, tau);
+            return Some(Dual3 {
+                theta: (x.v, x.d),
+                omega: (w.v, w.d),
+                alpha: (al.v, al.d),
+            });
+        }
+        th = ramp(dur, th, a, b, dur).0;
+        // the time into the next piece moves back as this one lengthens
+        tau = tau - dur;
+    }
+    // at rest at the target
+    Some(Dual3 {
+        theta: (target, [0.0; 2]),
+        omega: (0.0, [0.0; 2]),
+        alpha: (0.0, [0.0; 2]),
+    })
+}
+
+/// A motion's `(value, [∂/∂speed, ∂/∂accel])` of `θ`, `θ̇`, `θ̈` at one instant.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Dual3 {
+    pub theta: (f64, [f64; 2]),
+    pub omega: (f64, [f64; 2]),
+    pub alpha: (f64, [f64; 2]),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use selfmanip_sim::motion::JointMotion;
+
+    /// [`swing_partials`] reproduces `JointMotion::swing` (the same branches: its value to
+    /// the last bits) and its derivatives over speed and acceleration match central
+    /// differences of the motion (a second route; `h` 1e-6 relative, away from the knots,
+    /// which move with both), at instants in every piece and at rest after it.
+    #[test]
+    fn swing_partials_match_the_motion_and_its_central_differences() {
+        let (t0, th0, target, speed, accel) = (0.1, -1.2, 2.6, 38.0, 900.0);
+        let m = JointMotion::swing(t0, th0, 0.0, target, speed, accel);
+        let knots = m.knots();
+        let mut ts: Vec<f64> = vec![t0 + 1e-3, 0.5 * (t0 + knots[0]), knots[0] + 0.01];
+        ts.push(0.5 * (knots[1] + knots[2]));
+        ts.push(knots[2] + 0.05);
+        for t in ts {
+            let d = swing_partials(t0, th0, 0.0, target, speed, accel, t).expect("ramps");
+            let (th, w, a) = m.eval(t);
+            for (x, y) in [(d.theta.0, th), (d.omega.0, w), (d.alpha.0, a)] {
+                assert!((x - y).abs() <= 1e-14 * (1.0 + y.abs()), "{t}: {x} vs {y}");
+            }
+            for (k, (ds, da)) in [(1e-6 * speed, 0.0), (0.0, 1e-6 * accel)]
+                .into_iter()
+                .enumerate()
+            {
+                let p = JointMotion::swing(t0, th0, 0.0, target, speed + ds, accel + da).eval(t);
+                let q = JointMotion::swing(t0, th0, 0.0, target, speed - ds, accel - da).eval(t);
+                let h = 2.0 * (ds + da);
+                let fd = [(p.0 - q.0) / h, (p.1 - q.1) / h, (p.2 - q.2) / h];
+                let an = [d.theta.1[k], d.omega.1[k], d.alpha.1[k]];
+                for (x, y) in an.iter().zip(fd) {
+                    assert!(
+                        (x - y).abs() <= 1e-6 * (1.0 + y.abs()),
+                        "{t} {k}: {x} vs {y}"
+                    );
+                }
+            }
+        }
+        // no room for the ramps: a quintic park, not differentiated
+        assert!(swing_partials(t0, 0.0, 0.0, 0.01, speed, accel, 0.2).is_none());
+    }
 }

@@ -41,7 +41,7 @@
 //!
 //! Not covered: a contact on a terrain corner (its frame turns with the site; a typed
 //! [`TangentError::TurningFrame`]).
-use crate::contact::{row_direction, ContactGeometry, ContactMode, TouchKind};
+use crate::contact::{row_direction, ContactGeometry, ContactMode, RowDirection, TouchKind};
 use crate::dynamics::{forward_dynamics, plastic_impact, Data, Impact};
 use crate::error::CoreError;
 use crate::frames::perp;
@@ -59,6 +59,12 @@ pub enum TangentError {
     /// differentiated yet.
     #[error("contact {contact} is on a terrain corner; its turning frame is not differentiated")]
     TurningFrame { contact: usize },
+    /// A sliding site with kinetic friction whose force comes from sticking (a site at
+    /// rest, or jammed at a wedge, `selfmanip_core::friction`): not differentiated.
+    #[error(
+        "the friction force of contact {contact} is a sticking force at rest; not differentiated"
+    )]
+    FrictionAtRest { contact: usize },
 }
 
 /// The levers of one material point: per part `Q` from the body out to the point's part,
@@ -220,6 +226,41 @@ struct Assembly {
     /// Constraint rows: direction `d_r` and the contact's material point (or rolling centre).
     rows: Vec<(Vector2<f64>, Point)>,
     n_rows: usize,
+    /// Passive joint springs: `(joint, ∂τ^p/∂q_j, ∂τ^p/∂q̇_j)` at the current state.
+    springs: Vec<(usize, f64, f64)>,
+    /// Sliding sites with kinetic friction at the current state ([`SlidingTerm`]): the first
+    /// `n_sliding` (buffers kept across states).
+    sliding: Vec<SlidingTerm>,
+    n_sliding: usize,
+    /// A sliding site whose friction force is a sticking force at rest (its contact).
+    at_rest: Option<usize>,
+}
+
+impl Assembly {
+    /// Whether the flow's friction forces are differentiated here (none at rest).
+    fn check_flow(&self) -> Result<(), TangentError> {
+        match self.at_rest {
+            Some(contact) => Err(TangentError::FrictionAtRest { contact }),
+            None => Ok(()),
+        }
+    }
+}
+
+/// A sliding site with kinetic friction at one state, as its derivative needs it: the
+/// friction force `f^fr = −μ_k σ λ_n A_tᵀ` with `λ_n = f_j / den`,
+/// `den = (A_n)_j + μ_k σ (A_t)_j` ([`crate::friction`], the statics of its massless leg).
+#[derive(Debug, Clone, Default)]
+struct SlidingTerm {
+    /// Its normal row (an index of [`Assembly::rows`], whose point it shares).
+    row: usize,
+    joint: usize,
+    /// `μ_k σ`.
+    coef: f64,
+    /// The tangential row's direction `t̂` and the row `A_t` (dense, `nq`).
+    d_t: Vector2<f64>,
+    a_t: Vec<f64>,
+    den: f64,
+    lambda_n: f64,
 }
 
 /// The next slot of `v` (a new one only when all are in use).
@@ -272,7 +313,107 @@ impl Assembly {
             self.rows[s].0 = d;
             self.rows[s].1.reset(model, kin, geo.part, c, qd);
         }
+        self.springs.clear();
+        for (j, joint) in model.joints.iter().enumerate() {
+            if let Some(sp) = &joint.spring {
+                // θ_j from the link angles (β_j = β_parent + s_j θ_j)
+                let parent = if j == *model.chain(j).start() {
+                    kin.phi
+                } else {
+                    kin.beta[j - 1]
+                };
+                let theta = model.joints[j].axis_sign * (kin.beta[j] - parent);
+                let d = theta - sp.rest_angle_rad;
+                self.springs.push((
+                    j,
+                    -sp.stiffness_n_m_per_rad - 3.0 * sp.cubic_stiffness_n_m_per_rad3 * d * d,
+                    -sp.damping_n_m_s_per_rad,
+                ));
+            }
+        }
+        self.n_sliding = 0;
+        self.at_rest = None;
+        for site in &data.sliding {
+            if site.held.is_some() || site.at_rest || site.wedged {
+                // a force from sticking (a site at rest, or jammed at a wedge): its
+                // derivative is that of a sticking row, not formed here (an error of the
+                // flow's derivatives only: an impact involves no force)
+                self.at_rest.get_or_insert(site.contact);
+                continue;
+            }
+            if site.coef == 0.0 {
+                continue;
+            }
+            let geo = &cons
+                .geometry
+                .iter()
+                .find(|(k, _)| *k == site.contact)
+                .expect("active contact")
+                .1;
+            let slot = next_slot(&mut self.sliding, &mut self.n_sliding);
+            let term = &mut self.sliding[slot];
+            term.a_t.clear();
+            term.a_t.resize(self.nq, 0.0);
+            for &(k, v) in &site.a_t {
+                term.a_t[k] += v;
+            }
+            let c = cons.n_rows();
+            let a_nj = cons.a.as_slice()[site.joint * c + site.row];
+            term.den = a_nj + site.coef * term.a_t[site.joint];
+            term.row = site.row;
+            term.joint = site.joint;
+            term.coef = site.coef;
+            term.d_t = row_direction(&geo.plane, RowDirection::Tangential);
+            term.lambda_n = site.force_t / site.coef;
+        }
         Ok(())
+    }
+
+    /// `f −= d(τ^p) + d(f^fr)`: the passive springs' and the kinetic friction's derivatives
+    /// along a direction `v` of `q`, `w` of `q̇` and `δΥ` of the torques (`dtau(j)`), added
+    /// to a right-hand side `f` of [`Self::dq_terms_along`]'s sign (`K δz = −f`), with `wv` a
+    /// scratch buffer. With `λ_n = f_j/den` and `f^fr = −μ_kσ λ_n A_tᵀ`:
+    /// `δλ_n = (δf_j − λ_n δden)/den`, `δf_j = δΥ_j + δτ^p_j`,
+    /// `δden = (D_qA_n[v])_j + μ_kσ (D_qA_t[v])_j`, `(D_qA_r[v])_i = −d_r·D²c[e_i, v]`, and
+    /// `δf^fr = −μ_kσ (δλ_n A_tᵀ + λ_n D_qA_t[v]ᵀ)`.
+    fn applied_terms_along(
+        &self,
+        v: Option<&[f64]>,
+        w: Option<&[f64]>,
+        dtau: &dyn Fn(usize) -> f64,
+        wv: &mut Vec<f64>,
+        f: &mut DVector<f64>,
+    ) {
+        let spring = |j: usize| -> f64 {
+            self.springs
+                .iter()
+                .filter(|s| s.0 == j)
+                .map(|&(_, kq, kqd)| v.map_or(0.0, |v| kq * v[j]) + w.map_or(0.0, |w| kqd * w[j]))
+                .sum()
+        };
+        for &(j, _, _) in &self.springs {
+            f[j] -= spring(j);
+        }
+        for s in &self.sliding[..self.n_sliding] {
+            let (d_n, p) = &self.rows[s.row];
+            let lv = &p.lever;
+            let j = s.joint;
+            let df_j = dtau(j) + spring(j);
+            let mut dden = 0.0;
+            if let Some(v) = v {
+                lv.omegas_into(v, wv);
+                let d2 = lv.d2(p.we(j), wv);
+                dden = -d_n.dot(&d2) - s.coef * s.d_t.dot(&d2);
+            }
+            let dlam = (df_j - s.lambda_n * dden) / s.den;
+            for i in 0..self.nq {
+                let mut di = dlam * s.a_t[i];
+                if v.is_some() {
+                    di -= s.lambda_n * s.d_t.dot(&lv.d2(p.we(i), wv));
+                }
+                f[i] += s.coef * di;
+            }
+        }
     }
 
     /// The current state's masses.
@@ -505,6 +646,7 @@ pub fn dynamics_jacobian_solved(
     qd: &[f64],
 ) -> Result<DynamicsJacobian, TangentError> {
     let mut asm = Assembly::new(model, data, qd)?;
+    asm.check_flow()?;
     let (nq, n, c) = (model.nq(), model.n_joints(), data.constraints.n_rows());
     asm.set_x(data.qdd.as_slice());
     let lambda: Vec<f64> = data.lambda.iter().copied().collect();
@@ -517,19 +659,34 @@ pub fn dynamics_jacobian_solved(
         dlambda_dtau: DMatrix::zeros(c, n),
     };
     let mut solver = Solver::default();
+    let (mut e, mut wv) = (vec![0.0; nq], Vec::new());
+    let no_tau = |_: usize| 0.0;
     for k in 0..nq {
-        let (f, g) = asm.dq_terms(k, &lambda, true);
+        e[k] = 1.0;
+        let (mut f, g) = asm.dq_terms(k, &lambda, true);
+        asm.applied_terms_along(Some(&e), None, &no_tau, &mut wv, &mut f);
         let (x, y) = (&mut out.dqdd_dq, &mut out.dlambda_dq);
         solver.solve(data, -1.0, &f, &g, k, x, Some(y));
-        let (f, g) = asm.dqd_terms(k);
+        let (mut f, g) = asm.dqd_terms(k);
+        asm.applied_terms_along(None, Some(&e), &no_tau, &mut wv, &mut f);
         let (x, y) = (&mut out.dqdd_dqd, &mut out.dlambda_dqd);
         solver.solve(data, -1.0, &f, &g, k, x, Some(y));
+        e[k] = 0.0;
     }
     let zeros = DVector::zeros(c);
     let mut f = DVector::zeros(nq);
     for j in 0..n {
+        // δ(Υ + f^fr) along the unit torque of joint j (the friction's through f_j)
         f.fill(0.0);
-        f[j] = 1.0;
+        asm.applied_terms_along(
+            None,
+            None,
+            &|i| if i == j { 1.0 } else { 0.0 },
+            &mut wv,
+            &mut f,
+        );
+        f.neg_mut();
+        f[j] += 1.0;
         let (x, y) = (&mut out.dqdd_dtau, &mut out.dlambda_dtau);
         solver.solve(data, 1.0, &f, &zeros, j, x, Some(y));
     }
@@ -743,6 +900,7 @@ pub fn dynamics_jvp_into(
         solver,
     } = ws;
     asm.reset(model, data, qd)?;
+    asm.check_flow()?;
     let (nq, c, m) = (model.nq(), data.constraints.n_rows(), dirs.dq.ncols());
     qdd.clear();
     qdd.extend(data.qdd.iter().copied());
@@ -769,6 +927,11 @@ pub fn dynamics_jvp_into(
         }
         for j in 0..dirs.dtau.nrows() {
             f[j] -= dirs.dtau[(j, col)];
+        }
+        if !asm.springs.is_empty() || asm.n_sliding > 0 {
+            let dtau = |j: usize| dirs.dtau.get((j, col)).copied().unwrap_or(0.0);
+            let nz = |x: &[f64]| x.iter().any(|v| *v != 0.0);
+            asm.applied_terms_along(nz(v).then_some(v), nz(w).then_some(w), &dtau, scratch, f);
         }
         if let Some(p) = dirs.body.get(col).copied().flatten() {
             p.dm_x_into(model, qdd, true, fb);

@@ -25,13 +25,20 @@
 //!
 //! **Saltation.** At an event with guard `g` and reset `R`:
 //! `Ξ = D_xR + (f⁺ − D_xR f⁻) D_xg / (D_xg f⁻)`, with `f⁻`, `f⁺` the flows before and after
-//! (each with its segment's controller and locked joints). Touchdown: `g` the contact's height
-//! (5.49), `R` the plastic impact (5.10)/(5.52) into the mode the event took — or into the
-//! larger set whose extra contacts force complementarity (5.19)–(5.20) released at once,
-//! whichever reproduces the recorded `q̇⁺` (else the event is flagged) — with its Jacobian
-//! from [`selfmanip_core::tangent::plastic_impact_jacobian`]; the pseudo-impulse (5.39) only
-//! selects that mode, it does not change `q̇⁺`. Liftoff: `g = −λ_n` (5.50), `R = I`. Slip:
-//! `g = μ(−λ_n) − |λ_t|`, `R = I`. Stick: `g` the sliding velocity, `R = I`. Apex (terminal):
+//! (each with its segment's controller, locked joints and fixed sliding directions of its
+//! Coulomb-sliding sites: the flow and its Jacobian include the kinetic friction force and
+//! the passive springs, [`selfmanip_core::tangent`]). Touchdown: `g` the contact's height
+//! (5.49), `R` the plastic impact (5.10)/(5.52) into the mode the event took — or into a
+//! larger set whose extra contacts force complementarity (5.19)–(5.20) released at once (a
+//! contact of the mode before, the contact that touched down, or a sliding toe that the
+//! impact stuck), whichever reproduces the recorded `q̇⁺` (else the event is flagged) — with
+//! its Jacobian from [`selfmanip_core::tangent::plastic_impact_jacobian`]; the pseudo-impulse
+//! (5.39) only selects that mode, it does not change `q̇⁺`. Liftoff: `g = −λ_n` (5.50),
+//! `R = I`. Slip: `g = μ(−λ_n) − |λ_t|`, `R = I`. Stick: `g` the sliding velocity, `R = I`.
+//! Where a force event's reset projected the integrator's drift away (`crate::reset`: at a
+//! slip, or a liftoff whose contact's slip guard fired with it as its cone shrank to a
+//! point), `R` is that plastic impact into the mode before and `D_xR` its Jacobian
+//! ([`DRIFT_JUMP_TOL`]); any other velocity jump at a force event is flagged. Apex (terminal):
 //! `g = −ż`, and the end state is the state at the apex, `Ξ = I − f⁻ D_xg / (D_xg f⁻)`.
 //! Each event also gives its time's gradient `dt_e/dx(0) = −D_xg X⁻ / (D_xg f⁻)`. An
 //! active arc whose rolling contact reaches the arc's end inside a segment (no event, but
@@ -73,6 +80,7 @@ use crate::options::HybridOptions;
 use crate::simulate::simulate;
 use nalgebra::{DMatrix, DVector, RowDVector};
 use selfmanip_core::contact::{contact_geometry, ContactKind, RowDirection, TouchKind};
+use selfmanip_core::friction::SlideDirection;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::model::Friction;
 use selfmanip_core::tangent::{
@@ -275,10 +283,13 @@ fn zero_partials(
 
 impl<'a> Evaluator<'a> {
     fn new(model: &'a Model, terrain: &'a dyn Terrain) -> Self {
+        // as the flow's workspace (crate::flow::FlowWorkspace): a site at rest takes an edge
+        let mut data = Data::new(model);
+        data.slide_at_rest = true;
         Evaluator {
             model,
             terrain,
-            data: Data::new(model),
+            data,
             tau: vec![0.0; model.n_joints()],
             free: Vec::new(),
             kin: Kinematics::default(),
@@ -312,6 +323,7 @@ impl<'a> Evaluator<'a> {
         &mut self,
         ctrl: &dyn Controller,
         locked: &[usize],
+        dirs: &[(usize, SlideDirection)],
         t: f64,
         mode: ContactMode,
         y: &[f64],
@@ -320,6 +332,11 @@ impl<'a> Evaluator<'a> {
         let (q, qd) = y.split_at(nq);
         self.data.locked.clear();
         self.data.locked.extend_from_slice(locked);
+        // the segment's sliding directions, as its flow had them (crate::flow)
+        if self.data.slide_directions != dirs {
+            self.data.slide_directions.clear();
+            self.data.slide_directions.extend_from_slice(dirs);
+        }
         self.data
             .prepare(model, self.terrain, mode, q, qd)
             .map_err(TangentError::from)?;
@@ -389,6 +406,7 @@ impl Evaluator<'_> {
         &mut self,
         ctrl: &dyn Controller,
         locked: &[usize],
+        dirs: &[(usize, SlideDirection)],
         t: f64,
         mode: ContactMode,
         y: &[f64],
@@ -397,7 +415,9 @@ impl Evaluator<'_> {
     ) -> Result<FlowColumns, SensitivityError> {
         let names = controller_names(params);
         let (mut f, mut dx) = (DVector::zeros(0), DMatrix::zeros(0, 0));
-        self.eval_columns_into(ctrl, locked, t, mode, y, x, params, &names, &mut f, &mut dx)?;
+        self.eval_columns_into(
+            ctrl, locked, dirs, t, mode, y, x, params, &names, &mut f, &mut dx,
+        )?;
         Ok(FlowColumns {
             dlambda: self.cols.dlambda.clone(),
             lambda: self.data.lambda.clone(),
@@ -413,6 +433,7 @@ impl Evaluator<'_> {
         &mut self,
         ctrl: &dyn Controller,
         locked: &[usize],
+        dirs: &[(usize, SlideDirection)],
         t: f64,
         mode: ContactMode,
         y: &[f64],
@@ -426,6 +447,11 @@ impl Evaluator<'_> {
         let (q, qd) = y.split_at(nq);
         self.data.locked.clear();
         self.data.locked.extend_from_slice(locked);
+        // the segment's sliding directions, as its flow had them (crate::flow)
+        if self.data.slide_directions != dirs {
+            self.data.slide_directions.clear();
+            self.data.slide_directions.extend_from_slice(dirs);
+        }
         self.data
             .prepare(model, self.terrain, mode, q, qd)
             .map_err(TangentError::from)?;
@@ -594,7 +620,14 @@ impl Tangent<'_> {
             let ts = (t0 + RK_C[s] * h).max(t_floor).min(t_cap);
             match params {
                 None => {
-                    let fj = ev.eval(&*seg.controller, &seg.locked, ts, seg.mode, ys.as_slice())?;
+                    let fj = ev.eval(
+                        &*seg.controller,
+                        &seg.locked,
+                        &seg.slide_directions,
+                        ts,
+                        seg.mode,
+                        ys.as_slice(),
+                    )?;
                     kphi[s] = &fj.jac * &*ps;
                     k[s] = fj.f;
                 }
@@ -602,6 +635,7 @@ impl Tangent<'_> {
                     ev.eval_columns_into(
                         &*seg.controller,
                         &seg.locked,
+                        &seg.slide_directions,
                         ts,
                         seg.mode,
                         ys.as_slice(),
@@ -751,8 +785,19 @@ fn time_event(
     y: &[f64],
 ) -> Result<TimeEventSensitivity, SensitivityError> {
     let ctrl = &*seg.controller;
-    let fm = ev.eval(ctrl, &seg.locked, te.t.next_down(), seg.mode, y)?.f;
-    let fp = ev.eval(ctrl, &seg.locked, te.t, seg.mode, y)?.f;
+    let fm = ev
+        .eval(
+            ctrl,
+            &seg.locked,
+            &seg.slide_directions,
+            te.t.next_down(),
+            seg.mode,
+            y,
+        )?
+        .f;
+    let fp = ev
+        .eval(ctrl, &seg.locked, &seg.slide_directions, te.t, seg.mode, y)?
+        .f;
     let jump = (&fp - &fm).amax();
     let scale = 1.0 + fm.amax().max(fp.amax());
     let out = TimeEventSensitivity {
@@ -821,8 +866,26 @@ fn touch_switch(
         sw.status = SaltationStatus::Simultaneous;
         return Ok(sw);
     }
-    let fm = ev.eval(&*seg.controller, &seg.locked, tm, seg.mode, ym)?.f;
-    let fp = ev.eval(&*seg.controller, &seg.locked, tp, seg.mode, yp)?.f;
+    let fm = ev
+        .eval(
+            &*seg.controller,
+            &seg.locked,
+            &seg.slide_directions,
+            tm,
+            seg.mode,
+            ym,
+        )?
+        .f;
+    let fp = ev
+        .eval(
+            &*seg.controller,
+            &seg.locked,
+            &seg.slide_directions,
+            tp,
+            seg.mode,
+            yp,
+        )?
+        .f;
     // g = α_n − β_part(q) − α_end: D_qg = −∂β/∂q
     let mut dg = RowDVector::zeros(n2);
     dg[model.ix_phi()] = -1.0;
@@ -905,7 +968,14 @@ pub fn execution_sensitivity(
             let mut y = vec![0.0; n2];
             seg.eval(seg.t1, &mut y);
             let f = ev
-                .eval(&*seg.controller, &seg.locked, seg.t1, seg.mode, &y)?
+                .eval(
+                    &*seg.controller,
+                    &seg.locked,
+                    &seg.slide_directions,
+                    seg.t1,
+                    seg.mode,
+                    &y,
+                )?
                 .f;
             let den = (dg * &f)[0];
             es.time_gradient = Some(-(dg * &total) / den);
@@ -1053,6 +1123,7 @@ pub fn execution_sensitivity_columns(
             let c = ev.eval_columns(
                 &*seg.controller,
                 &seg.locked,
+                &seg.slide_directions,
                 event.t,
                 seg.mode,
                 &parts.y_minus,
@@ -1179,7 +1250,14 @@ fn event_sensitivity(
     let mut y = vec![0.0; n2];
     before.eval(t, &mut y);
     let (q, qd_minus) = y.split_at(nq);
-    let fm = ev.eval(&*before.controller, &before.locked, t, before.mode, &y)?;
+    let fm = ev.eval(
+        &*before.controller,
+        &before.locked,
+        &before.slide_directions,
+        t,
+        before.mode,
+        &y,
+    )?;
     let single = event.triggered.len() <= 1;
     let mut simultaneous = !single;
     // the guard's gradient and the reset's Jacobian
@@ -1212,6 +1290,54 @@ fn event_sensitivity(
                 }
                 if !candidates.contains(&m) {
                     candidates.push(m);
+                }
+            }
+            // … or into one that also holds the contact that touched down, released at once by
+            // the forces (a body end that bounces off: its impulse stops it, its force pulls)
+            let n0 = candidates.len();
+            for i in 0..n0 {
+                for &k in &event.triggered {
+                    if candidates[i].contains(k) {
+                        continue;
+                    }
+                    for kind in [ContactKind::Slide, ContactKind::Stick] {
+                        if kind == ContactKind::Stick
+                            && !matches!(model.contacts[k].friction, Friction::Sticking { .. })
+                        {
+                            continue;
+                        }
+                        let m = candidates[i].with(k, kind);
+                        if !candidates.contains(&m) {
+                            candidates.push(m);
+                        }
+                    }
+                }
+            }
+            // … or into a set in which a contact that slides after the event stuck for the
+            // impact: the impact's sticking force outside the cone, the contact slides on
+            // from the velocity the impact left it (crate::reset: the kept contacts must
+            // also hold in force)
+            let n0 = candidates.len();
+            for i in 0..n0 {
+                let base = candidates[i];
+                let sliding: Vec<usize> = base
+                    .active()
+                    .filter(|&c| {
+                        base.kind(c) == Some(ContactKind::Slide)
+                            && matches!(model.contacts[c].friction, Friction::Sticking { .. })
+                    })
+                    .collect();
+                for &c in &sliding {
+                    let m = base.with(c, ContactKind::Stick);
+                    if !candidates.contains(&m) {
+                        candidates.push(m);
+                    }
+                }
+                let all = sliding
+                    .iter()
+                    .fold(base, |m, &c| m.with(c, ContactKind::Stick));
+                if !candidates.contains(&all) {
+                    candidates.push(all);
                 }
             }
             let mut data = Data::new(model);
@@ -1291,20 +1417,43 @@ fn event_sensitivity(
         }
     };
     if event.kind != EventKind::Touchdown {
-        // no velocity jump: the reset is the identity in state
-        let jump = qd_minus
-            .iter()
-            .zip(&event.qd_after)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
+        // no velocity jump but the drift's: the reset is the identity in state, or (at a
+        // slip, crate::reset) the projection of the integrator's drift `A q̇ ≠ 0` away, a
+        // plastic impact into the mode before (5.52)
+        let jump = max_diff(qd_minus, &event.qd_after);
         if jump > 0.0 {
-            return Ok((
-                unsupported(
-                    event,
-                    format!("velocity jump {jump:.2e} at a non-impact event"),
-                ),
-                None,
-            ));
+            let mut data = Data::new(model);
+            let proj = drift_projection(
+                model,
+                terrain,
+                &mut data,
+                before.mode,
+                q,
+                qd_minus,
+                &event.qd_after,
+            );
+            match proj {
+                Some(ij) => {
+                    // its body parameters' `D_pR` (of the order of the drift)
+                    let dqd_dp = plastic_impact_body_derivatives(
+                        model, &mut data, &ij.impact, qd_minus, body,
+                    );
+                    dr_p.view_mut((nq, 0), (nq, body.len())).copy_from(&dqd_dp);
+                    dr.view_mut((nq, 0), (nq, nq)).copy_from(&ij.dqd_plus_dq);
+                    dr.view_mut((nq, nq), (nq, nq))
+                        .copy_from(&ij.dqd_plus_dqd_minus);
+                    y_plus[nq..].copy_from_slice(&event.qd_after);
+                }
+                None => {
+                    return Ok((
+                        unsupported(
+                            event,
+                            format!("velocity jump {jump:.2e} at a non-impact event"),
+                        ),
+                        None,
+                    ))
+                }
+            }
         }
     }
     if event.kind == EventKind::Touchdown && event.triggered.is_empty() {
@@ -1330,8 +1479,15 @@ fn event_sensitivity(
     let f_plus = match (event.kind, after) {
         (EventKind::Apex, _) => DVector::zeros(n2),
         (_, Some(a)) => {
-            ev.eval(&*a.controller, &a.locked, t, event.mode_after, &y_plus)?
-                .f
+            ev.eval(
+                &*a.controller,
+                &a.locked,
+                &a.slide_directions,
+                t,
+                event.mode_after,
+                &y_plus,
+            )?
+            .f
         }
         (_, None) => {
             // the run ended at this event (its event budget): no flow after it to salt with
@@ -1359,6 +1515,47 @@ fn event_sensitivity(
         }
     };
     Ok((es, parts))
+}
+
+/// `max |a − b|`.
+fn max_diff(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max)
+}
+
+/// Relative size `|q̇⁺ − q̇⁻| / (1 + |q̇⁻|)` (max norms) up to which a velocity jump at a
+/// force event is the projection of the integrator's drift (the constraint velocity `A q̇`
+/// of a located event is of the order of the tolerances; a sliding speed this small counts
+/// as rest, `selfmanip_core::friction::SLIDING_SPEED_EPS_M_S`).
+pub const DRIFT_JUMP_TOL: f64 = 1e-6;
+
+/// The drift projection a force event's reset applied (`crate::reset`): the plastic impact
+/// (5.52) into `mode` (the mode before) from `q̇⁻`, with its Jacobian, if it reproduces the
+/// recorded `q̇⁺` and the jump is within [`DRIFT_JUMP_TOL`]; `None` for any other jump. `data`
+/// is left with the impact's factorization (for [`plastic_impact_body_derivatives`]).
+///
+/// Its Jacobian is the reset's `D_xR` exactly. On a tangent that satisfies the linearized
+/// constraints of the mode, `D_qA[δq] q̇ + A δq̇ = 0`, it is the identity up to the drift:
+/// `q̇⁺ = q̇ − M̄⁻¹Aᵀ(AM̄⁻¹Aᵀ)⁻¹A q̇` gives
+/// `δq̇⁺ = δq̇ − M̄⁻¹Aᵀ(AM̄⁻¹Aᵀ)⁻¹(A δq̇ + D_qA[δq] q̇) + O(|A q̇|)`; on one that drifted off
+/// them it projects that drift away too, as the reset does to the state.
+fn drift_projection(
+    model: &Model,
+    terrain: &dyn Terrain,
+    data: &mut Data,
+    mode: ContactMode,
+    q: &[f64],
+    qd_minus: &[f64],
+    qd_after: &[f64],
+) -> Option<selfmanip_core::tangent::ImpactJacobian> {
+    let scale = 1.0 + qd_minus.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    if max_diff(qd_minus, qd_after) > DRIFT_JUMP_TOL * scale {
+        return None;
+    }
+    let ij = plastic_impact_jacobian(model, data, terrain, mode, q, qd_minus).ok()?;
+    (max_diff(ij.impact.qd_plus.as_slice(), qd_after) <= 1e-12 * scale).then_some(ij)
 }
 
 /// What the parameter columns need of an event whose saltation is defined.
