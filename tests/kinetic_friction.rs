@@ -18,51 +18,11 @@
 //! side when it does not — the force is continuous through a slip. An integrating caller's
 //! law (`Data::slide_at_rest`) never holds a site in a sliding mode: where the cone holds it,
 //! it takes no edge and reports that the cone holds it (the engine then sticks it).
-use selfmanip::core::{
-    forward_dynamics, ContactKind, ContactMode, Data, FlatGround, Model, RobotDescription,
-};
+use selfmanip::core::{forward_dynamics, ContactKind, ContactMode, Data, FlatGround, Model};
 use selfmanip::hybrid::{simulate, Controller, EventKind, HybridOptions};
 
-const G: f64 = 9.81;
-const M: f64 = 3.0;
-const LEG: f64 = 0.12;
-const HIP_HEIGHT: f64 = 0.05;
-const MU: f64 = 0.8;
-
-fn sled() -> Model {
-    let text = format!(
-        r#"
-name = "sled"
-gravity_m_s2 = {G}
-[body]
-mass_kg = {M}
-inertia_kg_m2 = 0.05
-[[legs]]
-name = "leg"
-hip_m = [0.0, 0.0]
-[[legs.links]]
-length_m = {LEG}
-axis = "-y"
-[[contacts]]
-name = "toe"
-leg = "leg"
-shape = {{ kind = "point", position_m = [0.0, {LEG}] }}
-friction = {{ kind = "sticking", mu = {MU}, mu_kinetic = {MU} }}
-[[contacts]]
-name = "front_skid"
-shape = {{ kind = "point", position_m = [0.2, {HIP_HEIGHT}] }}
-friction = {{ kind = "sliding" }}
-[[contacts]]
-name = "rear_skid"
-shape = {{ kind = "point", position_m = [-0.2, {HIP_HEIGHT}] }}
-friction = {{ kind = "sliding" }}
-"#
-    );
-    RobotDescription::from_toml_str(&text)
-        .unwrap()
-        .build()
-        .unwrap()
-}
+mod sled;
+use sled::{sled, G, HIP_HEIGHT, LEG, M, MU};
 
 /// The leg angle that puts the toe on the ground, ahead of the hip (`θ < 0` about −y).
 fn leg_angle() -> f64 {

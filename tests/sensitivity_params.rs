@@ -11,6 +11,8 @@
 //! (0.1 kg m²): 1e-6 relative, where the truncation error (`O(h²)`) and the round-off of two
 //! executions at `rtol = 1e-12` (`≈ 1e-12/h`) are both below 1e-6 of the derivative.
 mod common;
+#[path = "sled/mod.rs"]
+mod sled_model;
 
 use common::{rhex_massive, rhex_massless};
 use nalgebra::DMatrix;
@@ -240,52 +242,7 @@ mod sled {
         simulate, Controller, ControllerPartials, EventKind, HybridOptions, StepOptions,
     };
 
-    const G: f64 = 9.81;
-    const M: f64 = 3.0;
-    const LEG: f64 = 0.12;
-    const HIP_HEIGHT: f64 = 0.05;
-    const MU: f64 = 0.8;
-
-    fn sled() -> Model {
-        sled_with("")
-    }
-
-    /// The sled, with `spring` (a TOML inline table or "") on the leg's joint.
-    fn sled_with(spring: &str) -> Model {
-        let text = format!(
-            r#"
-name = "sled"
-gravity_m_s2 = {G}
-[body]
-mass_kg = {M}
-inertia_kg_m2 = 0.05
-[[legs]]
-name = "leg"
-hip_m = [0.0, 0.0]
-[[legs.links]]
-length_m = {LEG}
-axis = "-y"
-{spring}
-[[contacts]]
-name = "toe"
-leg = "leg"
-shape = {{ kind = "point", position_m = [0.0, {LEG}] }}
-friction = {{ kind = "sticking", mu = {MU}, mu_kinetic = {MU} }}
-[[contacts]]
-name = "front_skid"
-shape = {{ kind = "point", position_m = [0.2, {HIP_HEIGHT}] }}
-friction = {{ kind = "sliding" }}
-[[contacts]]
-name = "rear_skid"
-shape = {{ kind = "point", position_m = [-0.2, {HIP_HEIGHT}] }}
-friction = {{ kind = "sliding" }}
-"#
-        );
-        RobotDescription::from_toml_str(&text)
-            .unwrap()
-            .build()
-            .unwrap()
-    }
+    use super::sled_model::{sled, sled_with, G, HIP_HEIGHT, LEG, M};
 
     /// A constant torque, the named parameter `tau`.
     #[derive(Debug, Clone)]
