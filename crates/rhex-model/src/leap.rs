@@ -770,6 +770,11 @@ pub(crate) struct LeapController {
     /// Each leg's motions in the air, by start time: the swing down from its motor's start,
     /// then one from every event that released it or made it retract.
     air: [Vec<LegMotion>; 2],
+    /// Whether each leg's retraction has its motion in the air: planned once, at the event
+    /// that made the leg retract in the air or first released it while retracting; a leg
+    /// the ground releases later returns to it (the open-loop controller plans its motions
+    /// from its own clock and events, not from contacts it does not sense).
+    parked: [bool; 2],
 }
 
 /// Servo gains of a leg (per N m of stall torque).
@@ -1067,7 +1072,13 @@ impl Controller for LeapController {
             }
             let (theta, omega) = (event.q[i], event.qd_after[i]);
             let motion = match self.phase(i, event.t) {
+                // a leg that has its retraction keeps it: released by the ground (or at
+                // takeoff), it returns to that motion; planned anew from the release, the
+                // park would start at rest in acceleration, not at the acceleration the
+                // ground imposed, and carry the toe back into the ground (docs/leap-physics.md)
+                Phase::Retracting if self.parked[i] => continue,
                 Phase::Retracting => {
+                    self.parked[i] = true;
                     LegMotion::park(event.t, theta, omega, self.stow(i, theta), self.accel)
                 }
                 _ => LegMotion::swing(
@@ -1234,6 +1245,7 @@ impl LeapSetup {
             keep_pushing: cfg.keep_pushing_after_liftoff,
             takeoff: None,
             lifted: [None, None],
+            parked: [false, false],
             // each leg swings down from rest at its hold angle when its motor starts, towards
             // pointing up in its push direction: it touches the ground on the way
             air: std::array::from_fn(|i| {
