@@ -8,7 +8,7 @@
 //! torque reaches zero; released, it returns to the same motion. Before, the park was planned
 //! anew from each release, at rest in acceleration: not the acceleration the contact had
 //! imposed, so the toe went back into the ground 10–20 µs later, pushed again and let go again
-//! (16 of the broad sweep's 28 `zeno` points: 1,800 cycles/s at (−,+) t2 = 0.1385 s, G = 32.7).
+//! (15 of the broad sweep's 28 `zeno` points: 1,800 cycles/s at (−,+) t2 = 0.1385 s, G = 32.7).
 //!
 //! Checked by routes other than the controller:
 //! - after a release the leg's angle is the closed form of its air law about the one motion:
