@@ -19,7 +19,9 @@
 //! swings towards the ground; a leg that has lifted off parks pointing up on the side of
 //! straight down where it is, never sweeping through the ground (the thesis's "once a leg
 //! has lifted off the ground it is slowly rotated upwards out of the way"), unless
-//! [`LeapConfig::keep_pushing_after_liftoff`] keeps it turning in its push direction.
+//! [`LeapConfig::keep_pushing_after_liftoff`] keeps it turning in its push direction. The
+//! park is planned once; a parked leg that the ground meets and lets go again returns to it
+//! (`docs/leap-physics.md`, "One retraction per leg").
 //!
 //! **Words.** The leap word is the sequence of ground-reaction-complex cells visited
 //! (chapter 3.1), sliding toes counted as contact, zero-time cells suppressed.
@@ -768,7 +770,7 @@ pub(crate) struct LeapController {
     /// Time each leg first lifted off after its motor started.
     lifted: [Option<f64>; 2],
     /// Each leg's motions in the air, by start time: the swing down from its motor's start,
-    /// then one from every event that released it or made it retract.
+    /// then a swing from every event that released it while pushing, and its one park.
     air: [Vec<LegMotion>; 2],
     /// Whether each leg's retraction has its motion in the air: planned once, at the event
     /// that made the leg retract in the air or first released it while retracting; a leg
