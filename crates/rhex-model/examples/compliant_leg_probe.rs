@@ -131,6 +131,8 @@ struct Ctrl {
     air: [Vec<JointMotion>; 2],
     lifted: [bool; 2],
     takeoff: bool,
+    /// Whether each leg's retraction has its motion (planned once).
+    parked: [bool; 2],
 }
 
 impl Ctrl {
@@ -219,7 +221,14 @@ impl Controller for Ctrl {
             if left && e.t >= self.start[i] {
                 self.lifted[i] = true;
             }
-            if (left || self.takeoff) && e.t >= self.start[i] && !e.mode_after.contains(c) {
+            // a leg retracts along one motion, planned when it first retracts in the air; a
+            // leg the ground releases later returns to it (as `leap::LeapController` does)
+            if (left || self.takeoff)
+                && e.t >= self.start[i]
+                && !e.mode_after.contains(c)
+                && !self.parked[i]
+            {
+                self.parked[i] = true;
                 let h = self.hip[i];
                 // parks pointing up on the side of straight down where its line is
                 let off = |d: f64| line_offset(self.geom.0, self.geom.1, d);
@@ -318,6 +327,7 @@ pub fn leap(strategy: &str, t2: f64, k_r: Option<f64>, knee_side: f64, zeta: f64
         }),
         lifted: [false; 2],
         takeoff: false,
+        parked: [false, false],
     };
     let opts = HybridOptions {
         step: StepOptions {

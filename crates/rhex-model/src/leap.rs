@@ -19,7 +19,9 @@
 //! swings towards the ground; a leg that has lifted off parks pointing up on the side of
 //! straight down where it is, never sweeping through the ground (the thesis's "once a leg
 //! has lifted off the ground it is slowly rotated upwards out of the way"), unless
-//! [`LeapConfig::keep_pushing_after_liftoff`] keeps it turning in its push direction.
+//! [`LeapConfig::keep_pushing_after_liftoff`] keeps it turning in its push direction. The
+//! park is planned once; a parked leg that the ground meets and lets go again returns to it
+//! (`docs/leap-physics.md`, "One retraction per leg").
 //!
 //! **Words.** The leap word is the sequence of ground-reaction-complex cells visited
 //! (chapter 3.1), sliding toes counted as contact, zero-time cells suppressed.
@@ -839,8 +841,13 @@ pub(crate) struct LeapController {
     /// Time each leg first lifted off after its motor started.
     lifted: [Option<f64>; 2],
     /// Each leg's motions in the air, by start time: the swing down from its motor's start,
-    /// then one from every event that released it or made it retract.
+    /// then a swing from every event that released it while pushing, and its one park.
     air: [Vec<LegMotion>; 2],
+    /// Whether each leg's retraction has its motion in the air: planned once, at the event
+    /// that made the leg retract in the air or first released it while retracting; a leg
+    /// the ground releases later returns to it (the open-loop controller plans its motions
+    /// from its own clock and events, not from contacts it does not sense).
+    parked: [bool; 2],
 }
 
 /// Servo gains of a leg (per N m of stall torque).
@@ -1175,7 +1182,13 @@ impl Controller for LeapController {
             }
             let (theta, omega) = (event.q[i], event.qd_after[i]);
             let motion = match self.phase(i, event.t) {
+                // a leg that has its retraction keeps it: released by the ground (or at
+                // takeoff), it returns to that motion; planned anew from the release, the
+                // park would start at rest in acceleration, not at the acceleration the
+                // ground imposed, and carry the toe back into the ground (docs/leap-physics.md)
+                Phase::Retracting if self.parked[i] => continue,
                 Phase::Retracting => {
+                    self.parked[i] = true;
                     LegMotion::park(event.t, theta, omega, self.stow(i, theta), self.accel)
                 }
                 _ => LegMotion::swing(
@@ -1343,6 +1356,7 @@ impl LeapSetup {
             keep_pushing: cfg.keep_pushing_after_liftoff,
             takeoff: None,
             lifted: [None, None],
+            parked: [false, false],
             // each leg swings down from rest at its hold angle when its motor starts, towards
             // pointing up in its push direction: it touches the ground on the way
             air: std::array::from_fn(|i| {

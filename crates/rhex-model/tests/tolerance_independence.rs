@@ -37,6 +37,15 @@ fn transitions(r: &LeapResult) -> Vec<String> {
         .collect()
 }
 
+/// The changes of contact mode, in order (events that change no mode left out).
+fn mode_changes(r: &LeapResult) -> Vec<String> {
+    r.events
+        .iter()
+        .filter(|e| e.mode_before != e.mode_after)
+        .map(|e| format!("{}->{}", e.mode_before, e.mode_after))
+        .collect()
+}
+
 /// The (+,+) leap at t2 = 0 (the leap of issue 16's report) and neighbours of other
 /// strategies with sliding toes in their contact phase, among them the (−,−) leap at
 /// t2 = 0.01 whose toes come to rest while sliding and the (+,−) leap at t2 = 0 whose legs
@@ -46,6 +55,18 @@ fn transitions(r: &LeapResult) -> Vec<String> {
 /// that the wrong edge cost. (At 1e-3 the (+,−) t2 = 0.01 leap's last liftoff is found as a
 /// touchdown into flight: a body end's gap and the leg's force reach zero within the
 /// coarse run's error of each other; the modes are the same.)
+///
+/// A two-outcome knife-edge, by evidence (issue 16): in the (+,−) t2 = 0.01 leap the front
+/// toe lets go at its motor's no-load speed at 0.145022 s and the rear toe 3.5 µs later;
+/// between the two the front toe's gap from the kinematics stays within −0.25 … +0.55 nm
+/// (at rtol 1e-8, 1e-10 and 1e-12 alike: it separates at about 80 m/s², which opens half a
+/// nanometre in 3.5 µs). Whether a run sees that toe touch the ground again in between is
+/// decided below its integration error: at rtol 1e-5 … 1e-7 it does (a touchdown that
+/// changes no mode, `000s → 000s`, then the rear toe's release found as the front toe's
+/// touchdown into flight, `000s → 0000`), at 1e-8 … 1e-12 it does not. For this leap the
+/// test compares the changes of mode (the same at every tolerance) and bounds the extra
+/// events to the 20 µs after the front toe's release; word and apex are compared as for
+/// the others.
 ///
 /// Regression (issue 16, the rest band): with a band |v_t| ≤ 1 µm/s held in the flow and
 /// the kinetic force outside it, the (−,−) leap at t2 = 0.01 hovered at the band's edge
@@ -72,7 +93,22 @@ fn default_leaps_have_one_outcome_across_integration_tolerances() {
             let r = leap(strategy, t2, rtol);
             assert_eq!(r.status, reference.status, "{what}");
             assert_eq!(r.word_string(), reference.word_string(), "{what}");
-            if rtol <= 1e-4 {
+            if rtol <= 1e-4 && (strategy, t2) == ("+-", 0.01) {
+                // the grazing pair of releases (doc comment): the same changes of mode, the
+                // extra events change none and come within 20 µs of the front toe's release
+                assert_eq!(mode_changes(&r), mode_changes(&reference), "{what}");
+                let release = r
+                    .events
+                    .iter()
+                    .find(|e| e.kind == "liftoff")
+                    .map(|e| e.t_s)
+                    .unwrap();
+                for e in r.events.iter().filter(|e| e.mode_before == e.mode_after) {
+                    if e.kind != "apex" {
+                        assert!(e.t_s - release < 2e-5, "{what}: {} at {}", e.kind, e.t_s);
+                    }
+                }
+            } else if rtol <= 1e-4 {
                 assert_eq!(transitions(&r), transitions(&reference), "{what}");
             }
             let a = r.apex.expect("an apex");
