@@ -1294,8 +1294,19 @@ impl LeapSetup {
             pairs: pairs.to_vec(),
             ..params.clone()
         };
-        let rhex = Rhex::new(params.clone())?;
         let terrain = cfg.terrain;
+        let sign = [cfg.strategy.front.sign(), cfg.strategy.rear.sign()];
+        // the robot and its start posture depend only on these (a sweep over t2 builds the
+        // same ones for every leap): built once, then cloned (`StartCache`)
+        let key = format!(
+            "{params:?}|{terrain:?}|{sign:?}|{:?}",
+            cfg.wait_clearance_rad
+        );
+        let cached = START_CACHE.get(&key);
+        let rhex = match &cached {
+            Some(start) => start.0.clone(),
+            None => Rhex::new(params.clone())?,
+        };
         if let TerrainSpec::Ledge { distance_m, .. } = terrain {
             // the face must be clear of everything the robot can reach at the start: a
             // body end, or a leg turned straight towards it
@@ -1320,15 +1331,22 @@ impl LeapSetup {
             }
         }
         let leg_contact = [rhex.site(1), rhex.site(3)];
-        let sign = [cfg.strategy.front.sign(), cfg.strategy.rear.sign()];
-        // sitting level on both body ends, each leg at its touchdown angle
-        let mut q0 = vec![0.0, 0.0, 0.0, -params.rho_b, 0.0];
-        for i in 0..2 {
-            // waiting legs are held raised above their touchdown angle, clear of the ground
-            // while the body moves on the other leg; each swings down when its motor starts
-            q0[i] = touchdown_angle(&rhex, &terrain, &q0, i, leg_contact[i], sign[i])?
-                - sign[i] * cfg.wait_clearance_rad;
-        }
+        let q0 = match cached {
+            Some(start) => start.1.clone(),
+            None => {
+                // sitting level on both body ends, each leg at its touchdown angle
+                let mut q0 = vec![0.0, 0.0, 0.0, -params.rho_b, 0.0];
+                for i in 0..2 {
+                    // waiting legs are held raised above their touchdown angle, clear of the
+                    // ground while the body moves on the other leg; each swings down when its
+                    // motor starts
+                    q0[i] = touchdown_angle(&rhex, &terrain, &q0, i, leg_contact[i], sign[i])?
+                        - sign[i] * cfg.wait_clearance_rad;
+                }
+                START_CACHE.insert(key, Arc::new((rhex.clone(), q0.clone())));
+                q0
+            }
+        };
         // execution time starts at min(0, t2)
         let offset = motor_t2_s.min(0.0);
         let (front, law) = leg_motor(&params, &cfg.actuator)?;
@@ -1377,6 +1395,42 @@ impl LeapSetup {
             ctrl,
             motor_t2_s,
         })
+    }
+}
+
+/// The robots and start postures [`LeapSetup::new`] built last, keyed by the `Debug` text of
+/// everything they depend on (the parameters with the pushing pairs, the terrain, the push
+/// signs and the wait clearance; `Debug` writes every `f64` so that it reads back to the
+/// same bits, `-0.0` included, so equal keys mean bit-equal inputs). A cached value is what
+/// a fresh build would give, so results do not depend on what other leaps, on any thread,
+/// ran before; builds that fail are not cached.
+struct StartCache(std::sync::Mutex<Vec<(String, Arc<(Rhex, Vec<f64>)>)>>);
+
+/// The entries [`StartCache`] keeps (the oldest is dropped first).
+const START_CACHE_ENTRIES: usize = 16;
+
+static START_CACHE: StartCache = StartCache(std::sync::Mutex::new(Vec::new()));
+
+impl StartCache {
+    fn get(&self, key: &str) -> Option<Arc<(Rhex, Vec<f64>)>> {
+        let entries = self.0.lock().ok()?;
+        entries
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| Arc::clone(v))
+    }
+
+    fn insert(&self, key: String, value: Arc<(Rhex, Vec<f64>)>) {
+        let Ok(mut entries) = self.0.lock() else {
+            return;
+        };
+        if entries.iter().any(|(k, _)| *k == key) {
+            return;
+        }
+        if entries.len() >= START_CACHE_ENTRIES {
+            entries.remove(0);
+        }
+        entries.push((key, value));
     }
 }
 

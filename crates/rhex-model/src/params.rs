@@ -86,9 +86,16 @@ pub struct RhexParams {
 /// The shipped Table 4.2 file.
 pub const TABLE_4_2_TOML: &str = include_str!("../data/table_4_2.toml");
 
+/// The shipped Table 4.2, parsed once per process ([`RhexParams::default`] clones it): the
+/// text is a compile-time constant, so every parse gives the same value, and a leap builds
+/// its parameters from it each time.
+static TABLE_4_2: std::sync::OnceLock<RhexParams> = std::sync::OnceLock::new();
+
 impl Default for RhexParams {
     fn default() -> Self {
-        toml::from_str(TABLE_4_2_TOML).expect("the shipped Table 4.2 parses")
+        TABLE_4_2
+            .get_or_init(|| toml::from_str(TABLE_4_2_TOML).expect("the shipped Table 4.2 parses"))
+            .clone()
     }
 }
 

@@ -156,8 +156,17 @@ pub struct SlidingSite {
 /// Collects the sliding sites with kinetic friction of the prepared mode into
 /// `data.sliding` (empty — the common case — costs one pass over the rows).
 pub(crate) fn collect(model: &Model, data: &mut Data, qd: &[f64]) -> Result<()> {
-    data.sliding.clear();
-    data.friction.fill(0.0);
+    // the sites are rewritten in place (their `a_t` buffers kept) and the list cut to the
+    // sites found: a mode's sites are collected at every evaluation of its flow
+    let mut n = 0;
+    let result = collect_into(model, data, qd, &mut n);
+    data.sliding.truncate(n);
+    result
+}
+
+/// [`collect`]'s pass, with `n` the sites written so far.
+fn collect_into(model: &Model, data: &mut Data, qd: &[f64], n: &mut usize) -> Result<()> {
+    data.friction.as_mut_slice().fill(0.0);
     for (r, row) in data.constraints.rows.iter().enumerate() {
         let k = row.contact;
         let mu_k = model.contacts[k].kinetic_mu;
@@ -200,12 +209,20 @@ pub(crate) fn collect(model: &Model, data: &mut Data, qd: &[f64]) -> Result<()> 
             .iter()
             .find(|(c, _)| *c == k)
             .map(|&(_, d)| d);
-        let mut site = SlidingSite {
+        if *n == data.sliding.len() {
+            data.sliding.push(SlidingSite::default());
+        }
+        let site = &mut data.sliding[*n];
+        *n += 1;
+        let mut a_t = std::mem::take(&mut site.a_t);
+        a_t.clear();
+        *site = SlidingSite {
             row: r,
             contact: k,
             preset,
             joint,
             mu_k,
+            a_t,
             ..Default::default()
         };
         let (mut v_t, mut acc) = (0.0, 0.0);
@@ -247,7 +264,6 @@ pub(crate) fn collect(model: &Model, data: &mut Data, qd: &[f64]) -> Result<()> 
             site.wedged = den.abs() <= WEDGE_TOL * (a_n.abs() + mu_k * a_t.abs());
             site.at_rest = site.wedged;
         }
-        data.sliding.push(site);
     }
     Ok(())
 }
@@ -259,15 +275,16 @@ pub(crate) fn assemble(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()
     if data.friction.len() != nq {
         data.friction = nalgebra::DVector::zeros(nq);
     }
-    data.friction.fill(0.0);
+    data.friction.as_mut_slice().fill(0.0);
     let c = data.constraints.n_rows();
     for s in data.sliding.iter_mut() {
         s.force_t = 0.0;
         if let Some(f_t) = s.held {
             // f^fr = J_pᵀ t̂ λ_t = −A_tᵀ λ_t
             s.force_t = f_t;
+            let friction = data.friction.as_mut_slice();
             for &(k, a_tk) in &s.a_t {
-                data.friction[k] -= f_t * a_tk;
+                friction[k] -= f_t * a_tk;
             }
             continue;
         }
@@ -277,7 +294,9 @@ pub(crate) fn assemble(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()
         let j = s.joint;
         let a_n = data.constraints.a.as_slice()[j * c + s.row];
         let a_t = s.a_t.iter().find(|(k, _)| *k == j).map_or(0.0, |e| e.1);
-        let f_j = tau.get(j).copied().unwrap_or(0.0) - data.c_qd[j] - data.n_bar[j];
+        let f_j = tau.get(j).copied().unwrap_or(0.0)
+            - data.c_qd.as_slice()[j]
+            - data.n_bar.as_slice()[j];
         let den = a_n + s.coef * a_t;
         if den.abs() <= 1e-12 * (a_n.abs() + s.coef.abs() * a_t.abs()) {
             return Err(CoreError::SingularKkt {
@@ -287,8 +306,9 @@ pub(crate) fn assemble(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()
         }
         let lambda_n = f_j / den;
         s.force_t = s.coef * lambda_n;
+        let friction = data.friction.as_mut_slice();
         for &(k, a_tk) in &s.a_t {
-            data.friction[k] -= s.coef * lambda_n * a_tk;
+            friction[k] -= s.coef * lambda_n * a_tk;
         }
     }
     Ok(())
@@ -297,12 +317,13 @@ pub(crate) fn assemble(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()
 /// Sets `coef` of every collected site at rest from its sticking force (module docs), then
 /// assembles `data.friction` for the joint torques `tau`.
 pub(crate) fn resolve(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()> {
+    if !data.sliding.iter().any(|s| s.at_rest) {
+        // the common case: every site slides
+        return assemble(model, data, tau);
+    }
     let rest: Vec<usize> = (0..data.sliding.len())
         .filter(|&i| data.sliding[i].at_rest)
         .collect();
-    if rest.is_empty() {
-        return assemble(model, data, tau);
-    }
     // f = Υ − C̄q̇ − N̄ + the kinetic friction of the sites that slide
     for &i in &rest {
         data.sliding[i].coef = 0.0;
