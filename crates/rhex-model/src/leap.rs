@@ -1404,7 +1404,10 @@ impl LeapSetup {
 /// same bits, `-0.0` included, so equal keys mean bit-equal inputs). A cached value is what
 /// a fresh build would give, so results do not depend on what other leaps, on any thread,
 /// ran before; builds that fail are not cached.
-struct StartCache(std::sync::Mutex<Vec<(String, Arc<(Rhex, Vec<f64>)>)>>);
+struct StartCache(std::sync::Mutex<Vec<(String, Start)>>);
+
+/// A [`StartCache`] entry: the robot and its start posture `q0`.
+type Start = Arc<(Rhex, Vec<f64>)>;
 
 /// The entries [`StartCache`] keeps (the oldest is dropped first).
 const START_CACHE_ENTRIES: usize = 16;
@@ -1412,7 +1415,7 @@ const START_CACHE_ENTRIES: usize = 16;
 static START_CACHE: StartCache = StartCache(std::sync::Mutex::new(Vec::new()));
 
 impl StartCache {
-    fn get(&self, key: &str) -> Option<Arc<(Rhex, Vec<f64>)>> {
+    fn get(&self, key: &str) -> Option<Start> {
         let entries = self.0.lock().ok()?;
         entries
             .iter()
@@ -1420,7 +1423,7 @@ impl StartCache {
             .map(|(_, v)| Arc::clone(v))
     }
 
-    fn insert(&self, key: String, value: Arc<(Rhex, Vec<f64>)>) {
+    fn insert(&self, key: String, value: Start) {
         let Ok(mut entries) = self.0.lock() else {
             return;
         };
@@ -1826,5 +1829,73 @@ impl LeapResult {
             out.contact_forces_n.push(forces);
         }
         Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod start_cache_tests {
+    use super::*;
+
+    /// The gap of leg `i`'s toe with that leg turned to `theta` from `q0` (m).
+    fn gap(setup: &LeapSetup, i: usize, theta: f64) -> f64 {
+        let mut q = setup.q0.clone();
+        q[i] = theta;
+        let mut kin = Kinematics::default();
+        kin.compute(&setup.rhex.model, &q, &vec![0.0; q.len()]);
+        let contact = setup.ctrl.leg_contact[i];
+        selfmanip_core::contact::contact_geometry(&setup.rhex.model, &kin, &setup.terrain, contact)
+            .gap_m
+    }
+
+    /// A setup built from the cache is bit-identical to the first build, its waiting legs
+    /// are held the clearance above the angle where the toe touches the ground (gap zero,
+    /// checked on the kinematics directly), and a different clearance or terrain is not
+    /// served the cached posture.
+    #[test]
+    fn cached_start_is_the_fresh_one_and_keys_tell_inputs_apart() {
+        let params = leap_params();
+        // a clearance no other test uses: the first build is a miss
+        let cfg = LeapConfig {
+            wait_clearance_rad: 0.731_234,
+            ..LeapConfig::default()
+        };
+        let first = LeapSetup::new(&params, &cfg, 0.0).unwrap();
+        let second = LeapSetup::new(&params, &cfg, 0.0).unwrap();
+        let bits = |q: &[f64]| q.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&first.q0), bits(&second.q0));
+        assert_eq!(first.rhex.params, second.rhex.params);
+        assert_eq!(first.rhex.model, second.rhex.model);
+        for (i, sign) in first.ctrl.sign.iter().enumerate() {
+            let touchdown = first.q0[i] + sign * cfg.wait_clearance_rad;
+            assert!(gap(&first, i, touchdown).abs() < 1e-12, "leg {i}");
+            assert!(gap(&first, i, first.q0[i]) > 1e-3, "leg {i} waits clear");
+        }
+        // another clearance: the same touchdown angles, held differently
+        let other = LeapConfig {
+            wait_clearance_rad: 0.5,
+            ..cfg.clone()
+        };
+        let moved = LeapSetup::new(&params, &other, 0.0).unwrap();
+        for (i, sign) in first.ctrl.sign.iter().enumerate() {
+            let shift = moved.q0[i] - first.q0[i];
+            assert!(
+                (shift - sign * (0.731_234 - 0.5)).abs() < 1e-14,
+                "leg {i}: {shift}"
+            );
+        }
+        // another terrain: a 0.05 rad incline under the robot changes the touchdown angles
+        let lower = LeapConfig {
+            terrain: TerrainSpec::Incline { slope_rad: 0.05 },
+            ..cfg.clone()
+        };
+        let low = LeapSetup::new(&params, &lower, 0.0).unwrap();
+        assert!(low.q0.iter().zip(&first.q0).any(|(a, b)| a != b));
+        for (i, sign) in low.ctrl.sign.iter().enumerate() {
+            let touchdown = low.q0[i] + sign * cfg.wait_clearance_rad;
+            assert!(
+                gap(&low, i, touchdown).abs() < 1e-12,
+                "leg {i} on the incline"
+            );
+        }
     }
 }

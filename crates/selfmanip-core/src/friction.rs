@@ -294,9 +294,8 @@ pub(crate) fn assemble(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()
         let j = s.joint;
         let a_n = data.constraints.a.as_slice()[j * c + s.row];
         let a_t = s.a_t.iter().find(|(k, _)| *k == j).map_or(0.0, |e| e.1);
-        let f_j = tau.get(j).copied().unwrap_or(0.0)
-            - data.c_qd.as_slice()[j]
-            - data.n_bar.as_slice()[j];
+        let f_j =
+            tau.get(j).copied().unwrap_or(0.0) - data.c_qd.as_slice()[j] - data.n_bar.as_slice()[j];
         let den = a_n + s.coef * a_t;
         if den.abs() <= 1e-12 * (a_n.abs() + s.coef.abs() * a_t.abs()) {
             return Err(CoreError::SingularKkt {
