@@ -1412,6 +1412,7 @@ type Start = Arc<(Rhex, Vec<f64>)>;
 /// The entries [`StartCache`] keeps (the oldest is dropped first).
 const START_CACHE_ENTRIES: usize = 16;
 
+/// The process-wide [`StartCache`] (shared by every thread of a sweep).
 static START_CACHE: StartCache = StartCache(std::sync::Mutex::new(Vec::new()));
 
 impl StartCache {
