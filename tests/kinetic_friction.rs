@@ -170,6 +170,16 @@ fn sled_on_a_pressed_toe_stops_at_the_closed_form_time() {
     let travelled = y[1] - q[1];
     assert!((travelled - 0.5 * v0 * t_star).abs() < 1e-8, "{travelled}");
     assert!((0.5 * M * v0 * v0 - f_t * travelled).abs() < 1e-8 * f_t);
+    // the engine's energy balance counts that work (E₁ − E₀ = W + W_fr − L): the friction
+    // took all of the sled's kinetic energy (the toe sticks after the stop, the skids slide
+    // without friction), and the balance closes over the whole run
+    let rep = selfmanip::hybrid::energy_report(&model, &FlatGround, &exec).unwrap();
+    let t0 = 0.5 * M * v0 * v0;
+    assert!(
+        (rep.friction_work_j + t0).abs() < 1e-6 * t0,
+        "{rep:?} vs -{t0}"
+    );
+    assert!(rep.residual_j().abs() < 1e-6 * t0, "{rep:?}");
     // at rest the reset decides by the cone (second route: the sticking mode's force at the
     // stop, by the core's KKT at zero speed): held, the toe sticks in a mode with its
     // tangential row, and the sled stays where it stopped to the end of the run

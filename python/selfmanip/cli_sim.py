@@ -166,6 +166,7 @@ def simulate_command(args: argparse.Namespace) -> int:
             print(f"apex t={e.apex['t_s']:.4f} s  height -z={-e.apex['z_m']:.4f} m  x={e.apex['x_m']:.4f} m")
         er = e.energy_report()
         print(f"energy E0={er.initial_j:.6g} J  E1={er.final_j:.6g} J  work W={er.joint_work_j:.6g} J  "
+              f"friction W_fr={er.friction_work_j:.6g} J  "
               f"impact loss L={er.impact_loss_j:.6g} J  residual {er.residual_j:.2e} J")
         for f in (args.mcap, args.plot):
             if f:

@@ -1697,47 +1697,13 @@ impl LeapResult {
         )?)
     }
 
-    /// Work of the toes' kinetic friction along the leap (J, never positive):
-    /// `∫ f^frᵀ q̇ dt` with `f^fr` the generalized friction force of the sliding toes
-    /// (`selfmanip_core::friction`), each segment re-evaluated with the controller it ran
-    /// with by 3-point Gauss–Legendre quadrature on every step's dense output, as the engine's
-    /// energy report integrates the joint work. With it the energy balances:
-    /// `E₁ − E₀ = W + W_fr − L` ([`Self::energy_report`] counts `W` and `L`).
+    /// Work of the toes' kinetic friction along the leap (J, never positive): the engine's
+    /// [`EnergyReport::friction_work_j`](selfmanip_hybrid::EnergyReport), `∫ f^frᵀ q̇ dt`
+    /// with `f^fr` the generalized friction force of the sliding toes
+    /// (`selfmanip_core::friction`), each segment re-evaluated as it ran. The energy
+    /// balances: `E₁ − E₀ = W + W_fr − L` ([`Self::energy_report`]).
     pub fn friction_work_j(&self, params: &RhexParams, cfg: &LeapConfig) -> Result<f64, RhexError> {
-        let setup = LeapSetup::new(params, cfg, self.motor_t2_s)?;
-        let model = &setup.rhex.model;
-        let nq = model.nq();
-        let nodes = [
-            (0.5 - 0.5 * (0.6f64).sqrt(), 5.0 / 18.0),
-            (0.5, 8.0 / 18.0),
-            (0.5 + 0.5 * (0.6f64).sqrt(), 5.0 / 18.0),
-        ];
-        let Some(first) = self.execution.segments.first() else {
-            return Ok(0.0);
-        };
-        let mut flow =
-            selfmanip_hybrid::flow::Flow::new(model, &setup.terrain, first.controller.clone());
-        let mut y = vec![0.0; 2 * nq];
-        let mut work = 0.0;
-        for seg in &self.execution.segments {
-            flow.set_controller(seg.controller.clone());
-            for step in seg.dense.steps() {
-                let (a, b) = (step.t0, step.t1().min(seg.t1));
-                if b <= a {
-                    continue;
-                }
-                for &(x, w) in &nodes {
-                    let t = a + x * (b - a);
-                    step.eval(t, &mut y);
-                    let (q, qd) = y.split_at(nq);
-                    flow.eval(t, seg.mode, q, qd)?;
-                    let (data, _) = flow.last();
-                    let power: f64 = data.friction.iter().zip(qd).map(|(f, v)| f * v).sum();
-                    work += w * (b - a) * power;
-                }
-            }
-        }
-        Ok(work)
+        Ok(self.energy_report(params, cfg)?.friction_work_j)
     }
 
     /// Samples the leap every `dt_s` seconds (and at its end): states, modes, contact points

@@ -56,7 +56,9 @@ fn energy_balances_and_impacts_never_add_energy() {
         assert!(w_fr <= 1e-9, "friction work {w_fr}");
         dissipated -= w_fr;
         let scale = rep.joint_work_j.abs() + rep.final_j.abs() + 1.0;
-        let residual = rep.residual_j() - w_fr;
+        // the engine's balance counts it: E₁ − E₀ = W + W_fr − L
+        assert_eq!(w_fr, rep.friction_work_j);
+        let residual = rep.residual_j();
         assert!(
             residual.abs() < 1e-6 * scale,
             "{} t2={}: {rep:?} friction {w_fr} residual {residual}",

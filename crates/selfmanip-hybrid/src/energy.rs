@@ -1,7 +1,9 @@
 //! Energy bookkeeping of an execution: the total energy $E = T + V$ (thesis (4.24)) at its
-//! start and end, the work of the joint torques along the flow, and the kinetic energy lost
-//! in its impacts. A correct execution balances,
-//! $$ E_1 - E_0 = W - L, \qquad W = \int \tau \cdot \dot\theta \ dt, \qquad L = \sum (T^- - T^+) \ge 0 . $$
+//! start and end, the work of the joint torques along the flow, the work of the kinetic
+//! friction of sliding sites (`selfmanip_core::friction`, never positive), and the kinetic
+//! energy lost in its impacts. A correct execution balances,
+//! $$ E_1 - E_0 = W + W_{fr} - L, \qquad W = \int \tau \cdot \dot\theta \ dt, \qquad
+//!    W_{fr} = \int f^{fr} \cdot \dot q \ dt \le 0, \qquad L = \sum (T^- - T^+) \ge 0 . $$
 use crate::error::HybridError;
 use crate::execution::Execution;
 use crate::flow::Flow;
@@ -16,14 +18,17 @@ pub struct EnergyReport {
     /// `∫ τ·θ̇ dt` over the joints in the dynamics (free massless joints carry no load; a
     /// joint locked for a fold passage does the work of the torque that holds it).
     pub joint_work_j: f64,
+    /// `∫ f^fr·q̇ dt`, the work of the sliding sites' kinetic friction (never positive).
+    pub friction_work_j: f64,
     /// `Σ (T⁻ − T⁺)` over the impulsive events (touchdowns and folds).
     pub impact_loss_j: f64,
 }
 
 impl EnergyReport {
-    /// `E₁ − E₀ − W + L`.
+    /// `E₁ − E₀ − W − W_fr + L`.
     pub fn residual_j(&self) -> f64 {
-        self.final_j - self.initial_j - self.joint_work_j + self.impact_loss_j
+        self.final_j - self.initial_j - self.joint_work_j - self.friction_work_j
+            + self.impact_loss_j
     }
 }
 
@@ -40,9 +45,10 @@ pub fn kinetic_energy_at(
     Ok(kinetic_energy(data, qd))
 }
 
-/// The [`EnergyReport`] of `exec`, a run of `model` on `terrain`: each segment's torques
-/// re-evaluated with the controller it ran with, on each step's dense output, by 3-point
-/// Gauss–Legendre quadrature (exact to the interpolant's order).
+/// The [`EnergyReport`] of `exec`, a run of `model` on `terrain`: each segment's torques and
+/// friction forces re-evaluated with the controller, locks and sliding directions it ran
+/// with, on each step's dense output, by 3-point Gauss–Legendre quadrature (exact to the
+/// interpolant's order).
 pub fn energy_report(
     model: &Model,
     terrain: &dyn Terrain,
@@ -65,6 +71,7 @@ pub fn energy_report(
     let mut flow = Flow::new(model, terrain, exec.segments[0].controller.clone());
     let mut y = vec![0.0; 2 * nq];
     let mut joint_work_j = 0.0;
+    let mut friction_work_j = 0.0;
     for seg in &exec.segments {
         flow.set_controller(seg.controller.clone());
         flow.set_lock(&seg.locked);
@@ -93,6 +100,8 @@ pub fn energy_report(
                     )
                     .sum();
                 joint_work_j += w * (b - a) * power;
+                let friction: f64 = data.friction.iter().zip(qd).map(|(f, v)| f * v).sum();
+                friction_work_j += w * (b - a) * friction;
             }
         }
     }
@@ -100,6 +109,7 @@ pub fn energy_report(
         initial_j,
         final_j,
         joint_work_j,
+        friction_work_j,
         impact_loss_j: exec.impact_losses().iter().sum(),
     })
 }

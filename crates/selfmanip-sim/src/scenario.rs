@@ -422,7 +422,7 @@ impl Run {
         )
     }
 
-    /// `E₁ − E₀ = W − L` bookkeeping ([`selfmanip_hybrid::energy_report`]).
+    /// `E₁ − E₀ = W + W_fr − L` bookkeeping ([`selfmanip_hybrid::energy_report`]).
     pub fn energy_report(&self) -> Result<EnergyReport, SimError> {
         Ok(energy_report(&self.model, &self.terrain, &self.execution)?)
     }
