@@ -224,6 +224,42 @@ impl Data {
         }
     }
 
+    /// Sets [`Self::slide_directions`] to `dirs` (before [`Self::prepare`]); whether they
+    /// changed.
+    pub fn set_slide_directions(
+        &mut self,
+        dirs: &[(usize, crate::friction::SlideDirection)],
+    ) -> bool {
+        if self.slide_directions == dirs {
+            return false;
+        }
+        self.slide_directions.clear();
+        self.slide_directions.extend_from_slice(dirs);
+        true
+    }
+
+    /// `(Υ − C̄q̇ − N̄ + f^fr, −Ȧq̇) ⇒ (q̈, λ)` into `self.qdd`, `self.lambda` at the prepared
+    /// state, with the friction force as last assembled ([`crate::friction`]).
+    pub(crate) fn solve_dynamics(
+        &mut self,
+        model: &Model,
+        tau: &[f64],
+        free_joint_qdd: Option<&[f64]>,
+    ) {
+        let (mut x, mut y) = (
+            std::mem::take(&mut self.qdd),
+            std::mem::take(&mut self.lambda),
+        );
+        self.solve_prepared(
+            |d, a| d.generalized_force_at(model, tau, a),
+            |d, r| -d.constraints.a_dot_qd.as_slice()[r],
+            free_joint_qdd,
+            &mut x,
+            &mut y,
+        );
+        (self.qdd, self.lambda) = (x, y);
+    }
+
     /// `Υ − C̄q̇ − N̄` for joint torques `tau` (`N̄` includes the passive joint torques; plus
     /// the kinetic friction of sliding sites as last assembled by a solve at this state).
     pub fn generalized_force(&self, model: &Model, tau: &[f64]) -> DVector<f64> {
@@ -299,23 +335,8 @@ pub fn forward_dynamics_prepared(
         check_vector("free_joint_qdd", xf, data.free_joints.len())?;
     }
     // (τ) => kinetic friction f^fr of the sliding sites
-    // (Υ − C̄q̇ − N̄ + f^fr, −Ȧq̇) => (q̈, λ)
-    let solve = |data: &mut Data| {
-        let (mut x, mut y) = (
-            std::mem::take(&mut data.qdd),
-            std::mem::take(&mut data.lambda),
-        );
-        data.solve_prepared(
-            |d, a| d.generalized_force_at(model, tau, a),
-            |d, r| -d.constraints.a_dot_qd.as_slice()[r],
-            free_joint_qdd,
-            &mut x,
-            &mut y,
-        );
-        (data.qdd, data.lambda) = (x, y);
-    };
     crate::friction::resolve(model, data, tau)?;
-    solve(data);
+    data.solve_dynamics(model, tau, free_joint_qdd);
     check_result("q̈", data.qdd.as_slice())?;
     check_result("λ", data.lambda.as_slice())
 }

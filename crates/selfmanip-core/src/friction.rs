@@ -491,18 +491,7 @@ fn jointly_consistent(
 /// `v̇_t` of site `i` under the forces currently set on every site (one KKT solve).
 fn sliding_acceleration(model: &Model, data: &mut Data, tau: &[f64], i: usize) -> Result<f64> {
     assemble(model, data, tau)?;
-    let (mut x, mut y) = (
-        std::mem::take(&mut data.qdd),
-        std::mem::take(&mut data.lambda),
-    );
-    data.solve_prepared(
-        |d, a| d.generalized_force_at(model, tau, a),
-        |d, r| -d.constraints.a_dot_qd.as_slice()[r],
-        None,
-        &mut x,
-        &mut y,
-    );
-    (data.qdd, data.lambda) = (x, y);
+    data.solve_dynamics(model, tau, None);
     let s = &data.sliding[i];
     let a_t_qdd: f64 = s.a_t.iter().map(|&(k, a)| a * data.qdd[k]).sum();
     Ok(-(a_t_qdd + s.a_t_dot_qd))

@@ -101,9 +101,7 @@ impl<'a> Flow<'a> {
     /// friction fixed (by contact; empty: the instantaneous law) from here on
     /// ([`selfmanip_core::Data::slide_directions`]).
     pub fn set_slide_directions(&mut self, dirs: &[(usize, SlideDirection)]) {
-        if self.ws.data.slide_directions != dirs {
-            self.ws.data.slide_directions.clear();
-            self.ws.data.slide_directions.extend_from_slice(dirs);
+        if self.ws.data.set_slide_directions(dirs) {
             self.generation += 1;
         }
     }

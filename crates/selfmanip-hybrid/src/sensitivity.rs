@@ -333,10 +333,7 @@ impl<'a> Evaluator<'a> {
         self.data.locked.clear();
         self.data.locked.extend_from_slice(locked);
         // the segment's sliding directions, as its flow had them (crate::flow)
-        if self.data.slide_directions != dirs {
-            self.data.slide_directions.clear();
-            self.data.slide_directions.extend_from_slice(dirs);
-        }
+        self.data.set_slide_directions(dirs);
         self.data
             .prepare(model, self.terrain, mode, q, qd)
             .map_err(TangentError::from)?;
@@ -448,10 +445,7 @@ impl Evaluator<'_> {
         self.data.locked.clear();
         self.data.locked.extend_from_slice(locked);
         // the segment's sliding directions, as its flow had them (crate::flow)
-        if self.data.slide_directions != dirs {
-            self.data.slide_directions.clear();
-            self.data.slide_directions.extend_from_slice(dirs);
-        }
+        self.data.set_slide_directions(dirs);
         self.data
             .prepare(model, self.terrain, mode, q, qd)
             .map_err(TangentError::from)?;
