@@ -188,8 +188,8 @@ pub enum ShapeDescription {
 pub enum FrictionDescription {
     /// Resists sliding: a normal and a tangential constraint row, Coulomb coefficient `mu`
     /// (omit for "never slips"). Once it slips it slides with kinetic coefficient
-    /// `mu_kinetic` (omit for 0, the thesis's Assumption 5.9; a positive value needs the
-    /// site on a single-joint massless leg, see [`crate::friction`]).
+    /// `mu_kinetic` (omit for 0, the thesis's Assumption 5.9; any site, see
+    /// [`crate::friction`]).
     Sticking {
         #[serde(default)]
         mu: Option<f64>,
@@ -429,22 +429,6 @@ impl RobotDescription {
                             f("friction.mu_kinetic"),
                             "must be finite and non-negative",
                         ));
-                    }
-                    if mu_k > 0.0 {
-                        // Coulomb sliding friction is resolved by the statics of the massless
-                        // leg that carries the site (crate::friction)
-                        let single_massless = link.is_some_and(|j| {
-                            let leg = &legs[joints[j].leg];
-                            leg.n_links == 1
-                                && joints[j].mass_kg == 0.0
-                                && joints[j].inertia_kg_m2 == 0.0
-                        });
-                        if !single_massless {
-                            return Err(bad(
-                                f("friction.mu_kinetic"),
-                                "kinetic friction needs the site on a single-joint massless leg",
-                            ));
-                        }
                     }
                     (Friction::Sticking { mu }, mu_k)
                 }

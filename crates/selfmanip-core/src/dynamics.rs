@@ -239,13 +239,15 @@ impl Data {
     }
 
     /// `(Υ − C̄q̇ − N̄ + f^fr, −Ȧq̇) ⇒ (q̈, λ)` into `self.qdd`, `self.lambda` at the prepared
-    /// state, with the friction force as last assembled ([`crate::friction`]).
+    /// state, with the friction force as last assembled ([`crate::friction`]), and the
+    /// friction of the general sliding sites folded in (a typed error where that system is
+    /// singular or inconsistent).
     pub(crate) fn solve_dynamics(
         &mut self,
         model: &Model,
         tau: &[f64],
         free_joint_qdd: Option<&[f64]>,
-    ) {
+    ) -> Result<()> {
         let (mut x, mut y) = (
             std::mem::take(&mut self.qdd),
             std::mem::take(&mut self.lambda),
@@ -258,6 +260,8 @@ impl Data {
             &mut y,
         );
         (self.qdd, self.lambda) = (x, y);
+        // general sliding sites: their friction, linear in their λ_n, folded in
+        crate::friction::fold_general(model, self)
     }
 
     /// `Υ − C̄q̇ − N̄` for joint torques `tau` (`N̄` includes the passive joint torques; plus
@@ -336,7 +340,7 @@ pub fn forward_dynamics_prepared(
     }
     // (τ) => kinetic friction f^fr of the sliding sites
     crate::friction::resolve(model, data, tau)?;
-    data.solve_dynamics(model, tau, free_joint_qdd);
+    data.solve_dynamics(model, tau, free_joint_qdd)?;
     check_result("q̈", data.qdd.as_slice())?;
     check_result("λ", data.lambda.as_slice())
 }

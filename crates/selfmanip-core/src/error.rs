@@ -51,6 +51,12 @@ pub enum CoreError {
     },
     #[error("parameterization `{field}` is invalid: {reason}")]
     InvalidParameterization { field: &'static str, reason: String },
+    /// A sliding contact with Coulomb friction whose normal response has the wrong sign
+    /// (Painlevé's paradox, `crate::friction`): a pushing force would not prevent
+    /// penetration, so the sliding mode has no solution or several. `response` is the
+    /// offending principal minor of the sliding sites' normal response `W⁻¹`.
+    #[error("sliding contact `{contact}` is inconsistent with Coulomb friction (Painlevé): its normal response has the wrong sign ({response:.3e}); the sliding mode has no or several solutions")]
+    PainleveInconsistent { contact: String, response: f64 },
     #[error("quasi-static problem is ill-posed: {reason}")]
     IllPosedQuasiStatic { reason: String },
 }

@@ -1,4 +1,6 @@
-//! Kinetic (Coulomb) friction of a sliding site carried by a single-joint massless leg.
+//! Kinetic (Coulomb) friction of a sliding site: on a single-joint massless leg by the leg's
+//! statics, anywhere else (a body end, a massive or multi-joint leg, a leg with a second
+//! contact) folded into the dynamics solve.
 //!
 //! The thesis slides every slipping contact without friction (Assumption 5.9, "all contact
 //! points that are sliding have no kinetic coefficient of friction"), so that the impact
@@ -40,13 +42,63 @@
 //! (`selfmanip_hybrid::fold`); within a relative [`WEDGE_TOL`] of the wedge — inside that
 //! guard — a site is resolved as at rest (below), i.e. it jams.
 //!
-//! **Where it applies.** Only sites with $\mu_k > 0$ in a sliding mode (no tangential row) on
-//! a single-joint massless leg, as the leg's only active contact (the description rejects
-//! $\mu_k > 0$ elsewhere; [`collect`] rejects a second contact on the leg). Impacts are
+//! **Where the statics apply.** Sites with $\mu_k > 0$ in a sliding mode (no tangential row)
+//! on a single-joint massless leg, as the leg's only active contact. Impacts are
 //! unaffected: a sliding site on a massless leg carries no impulse ($((A_n)_j + \mu_k\sigma
 //! (A_t)_j) P_n = 0$). The pseudo-impulse (5.39) includes $f^{fr}$ through
 //! $\Upsilon - \bar C\dot q - \bar N$. Energy: $f^{fr\,\mathsf T}\dot q = F_t v_t \le 0$ is the
 //! friction's dissipation, which an energy balance must count.
+//!
+//! **The general sliding site.** Every other sliding site `k ∈ S` with $\mu_k > 0$ (its
+//! [`SlidingSite::general`]) has no statics to give its $\lambda_{n,k}$ ahead of the solve,
+//! but its friction is linear in it, $f^{fr} = -\sum_{k\in S}\mu_k\sigma_k\lambda_{n,k}
+//! A_{t,k}^{\mathsf T} = -B^{\mathsf T}\lambda$ ($B$: $\mu_k\sigma_k A_{t,k}$ in the rows of
+//! the sliding normals, zero elsewhere), so (5.2) becomes the square **nonsymmetric** system
+//!
+//! $$ \begin{bmatrix}\bar M & (A+B)^{\mathsf T}\\ A & 0\end{bmatrix}
+//!    \begin{bmatrix}\ddot q\\ \lambda\end{bmatrix} =
+//!    \begin{bmatrix}f\\ -\dot A\dot q\end{bmatrix}. $$
+//!
+//! It is solved by folding, not by a new factorization: the symmetric KKT matrix of (5.2) is
+//! factored as always (Lemma 5.1 on it), and its solution is linear in the friction's
+//! right-hand side. With $(x_0, y_0)$ the solution without the general sites' friction and
+//! $(x_k, y_k)$ the response to $f = -\mu_k\sigma_k A_{t,k}^{\mathsf T}$, $g = 0$ (a unit normal
+//! force's friction), $\lambda_S$ solves the small dense system
+//! $(I - Y_{SS})\lambda_S = y_{0,S}$, $Y_{SS}[a,b] = (y_b)_{\text{row}(a)}$ (nalgebra's LU), and
+//! $\ddot q = x_0 + \sum_k\lambda_{n,k}x_k$, $\lambda = y_0 + \sum_k\lambda_{n,k}y_k$ — the
+//! block elimination of the nonsymmetric system, exact. `I − Y_SS` is its Schur complement:
+//! the folded system is regular iff the symmetric one is and `det(I − Y_SS) ≠ 0`
+//! ([`FOLD_SINGULAR_TOL`] on its singular values, else [`CoreError::SingularKkt`]). A massless
+//! coordinate is determined by the symmetric system exactly when it is by the folded one
+//! unless `I − Y_SS` is singular, so Lemma 5.1 for the folded system is these two checks (a
+//! massless chain whose only pin is a sliding row the symmetric system already rejects; a
+//! folded system that would be regular where the symmetric one is not — only a site whose
+//! cone edge, not its normal, pins a massless leg with a second contact — is reported
+//! singular). The default RHex leap has no general site: its path is unchanged, bit for bit.
+//!
+//! **Consistency (Painlevé).** The normal accelerations `a_S = A_S q̈ + Ȧ_S q̇` of the sliding
+//! sites (separation positive) respond to their forces as `a_S = W(λ_S⁰ − λ_S)`: with
+//! $H_{SS} = \partial\lambda_S/\partial g_S$ of the symmetric system ($= -\Lambda_{SS}$, the
+//! inverse of the frictionless Delassus Schur complement $W_0$, for a massive system) the
+//! folded response is $W^{-1} = -(I - Y_{SS})^{-1}H_{SS}$, i.e. $W = W_0 (I - Y_{SS})$; for one
+//! site $W = A_nM^{-1}(A_n + \mu_k\sigma A_t)^{\mathsf T}$ with the other rows held. Contact
+//! complementarity ($a \ge 0$, $-\lambda \ge 0$, $a\lambda = 0$) has a unique solution for
+//! every right-hand side iff $W$ is a P-matrix; where it is not, a pushing force *draws the
+//! site into the ground* and the sliding mode has no solution (a penetrating free
+//! acceleration) or two (a separating one) — Painlevé's paradox. So every principal minor of
+//! $W^{-1}$ must be `≥ 0` (P₀: a massless pin gives `W⁻¹ = 0`, infinitely stiff, which is
+//! fine; [`PAINLEVE_TOL`] relative); else [`CoreError::PainleveInconsistent`] names the site.
+//! Painlevé's rod (a uniform rod of half-length `l`, one end sliding at angle θ to the
+//! ground) gives $W \propto 1 + 3\cos^2\theta - 3\mu\sigma'\sin\theta\cos\theta$ (σ' = +1
+//! for the end sliding away from the rod's centre): inconsistent iff
+//! $\mu > (1 + 3\cos^2\theta)/(3\sin\theta\cos\theta)$, at least 4/3 (test
+//! `painleve_rod`).
+//!
+//! **Impacts** keep Assumption 5.9 for sliding sites: the plastic impact (5.10) and the
+//! pseudo-impulse (5.39) carry no kinetic friction (a Coulomb impact law with sliding
+//! sites is not unique in general — the impulse analogue of Painlevé's paradox — so no rule
+//! is taken here). **Derivatives** of a general site's friction are not formed:
+//! `tangent::TangentError::GeneralFriction`.
 //!
 //! **The sliding direction is a discrete state.** $\sigma$ is constant along a stretch of
 //! sliding: the friction force changes side only where $v_t$ passes through zero, and there
@@ -119,8 +171,12 @@ pub struct SlidingSite {
     pub row: usize,
     /// Its contact.
     pub contact: usize,
-    /// The joint of the massless leg that carries it.
+    /// The joint of the massless leg that carries it ([`usize::MAX`] for a general site).
     pub joint: usize,
+    /// Whether its friction is folded into the dynamics solve (a site not resolved by the
+    /// statics of a single-joint massless leg: a body site, a massive or multi-joint leg,
+    /// or a leg with another active contact; module docs, "The general sliding site").
+    pub general: bool,
     pub mu_k: f64,
     /// `(coordinate, A_t entry)` over the coordinates the site's point depends on.
     pub a_t: Vec<(usize, f64)>,
@@ -181,20 +237,17 @@ fn collect_into(model: &Model, data: &mut Data, qd: &[f64], n: &mut usize) -> Re
         if tangential_row_active {
             continue; // sticking: the cone, not kinetic friction
         }
-        let joint = model.contacts[k]
-            .link
-            .expect("validated: kinetic friction only on leg sites");
-        // the leg's statics resolve the force only if this is the leg's only row
+        // the leg's statics resolve the force only on a single-joint massless leg whose only
+        // row this is; every other site is folded into the dynamics solve (`fold_general`)
         let c = data.constraints.n_rows();
         let a = data.constraints.a.as_slice();
-        if (0..c).any(|o| o != r && a[joint * c + o] != 0.0) {
-            return Err(CoreError::InvalidMode {
-                reason: format!(
-                    "kinetic friction at `{}` needs it to be its leg's only active contact",
-                    model.contacts[k].name
-                ),
-            });
-        }
+        let statics_joint = model.contacts[k].link.filter(|&j| {
+            model.legs[model.joints[j].leg].n_links == 1
+                && model.distal_massless(j)
+                && (0..c).all(|o| o == r || a[j * c + o] == 0.0)
+        });
+        let general = statics_joint.is_none();
+        let joint = statics_joint.unwrap_or(usize::MAX);
         let geo = data
             .constraints
             .geometry
@@ -221,6 +274,7 @@ fn collect_into(model: &Model, data: &mut Data, qd: &[f64], n: &mut usize) -> Re
             contact: k,
             preset,
             joint,
+            general,
             mu_k,
             a_t,
             ..Default::default()
@@ -252,7 +306,7 @@ fn collect_into(model: &Model, data: &mut Data, qd: &[f64], n: &mut usize) -> Re
         site.wedged = false;
         // sliding into a wedge (the cone edge through the hip): the statics cannot balance
         // the joint torque with a sliding force, so the site jams — it is resolved as at rest
-        if !site.at_rest && site.coef != 0.0 {
+        if !site.at_rest && site.coef != 0.0 && !general {
             let c = data.constraints.n_rows();
             let a_n = data.constraints.a.as_slice()[joint * c + r];
             let a_t = site
@@ -288,7 +342,8 @@ pub(crate) fn assemble(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()
             }
             continue;
         }
-        if s.coef == 0.0 {
+        if s.coef == 0.0 || s.general {
+            // a general site's force is folded into the dynamics solve (`fold_general`)
             continue;
         }
         let j = s.joint;
@@ -357,7 +412,25 @@ pub(crate) fn resolve(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()>
             let f: Vec<f64> = coords.iter().map(|&k| f_full[k]).collect();
             let (mut x, mut y) = (vec![0.0; coords.len()], vec![0.0; c + rest.len()]);
             kkt.solve(&f, &g, &mut x, &mut y);
-            Some(y)
+            // the general sites that slide meanwhile: their friction folded in
+            let folded: Vec<usize> = (0..data.sliding.len())
+                .filter(|&i| folds(&data.sliding[i]))
+                .collect();
+            if folded.is_empty() {
+                Some(y)
+            } else {
+                fold_into(
+                    model,
+                    &mut kkt,
+                    coords,
+                    &data.sliding,
+                    &folded,
+                    &mut x,
+                    &mut y,
+                )
+                .ok()
+                .map(|_| y)
+            }
         }
         // sticking is itself singular here
         Err(_) => None,
@@ -392,6 +465,18 @@ pub(crate) fn resolve(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()>
                     let side = lambda_t.signum();
                     let mut consistent = Vec::with_capacity(2);
                     for side in [side, -side] {
+                        if data.sliding[i].general {
+                            // its edge folded into the solve: λ_n from the solution
+                            set_edge(data, i, tau, -side);
+                            let Ok(vdot) = sliding_acceleration(model, data, tau, i) else {
+                                continue;
+                            };
+                            if vdot * side <= INCONSISTENT_ACCEL_M_S2 {
+                                let pushes = data.lambda[data.sliding[i].row] <= 0.0;
+                                consistent.push((None, -side, pushes));
+                            }
+                            continue;
+                        }
                         let Some(f) = edge_force(data, i, tau, -mu_k * side) else {
                             continue;
                         };
@@ -417,9 +502,18 @@ pub(crate) fn resolve(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()>
                 (None, 0.0)
             }
         };
-        // no force to hold it with (sticking singular, or a wedge): none
-        data.sliding[i].held = Some(held.unwrap_or(0.0));
-        data.sliding[i].sigma = sigma;
+        let s = &mut data.sliding[i];
+        if s.general && sigma != 0.0 {
+            // on a cone edge, its force folded into the solve
+            (s.held, s.coef) = (None, s.mu_k * sigma);
+        } else {
+            // no force to hold it with (sticking singular, or a wedge): none
+            s.held = Some(held.unwrap_or(0.0));
+            if s.general {
+                s.coef = 0.0;
+            }
+        }
+        s.sigma = sigma;
     }
     // several sites leaving rest: each edge was checked with the sites after it still free
     // of friction; together they must each start sliding against their force too, else the
@@ -444,14 +538,7 @@ pub(crate) fn resolve(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()>
                 } else {
                     chosen[b].1
                 };
-                let mu_k = data.sliding[i].mu_k;
-                match edge_force(data, i, tau, mu_k * sigma) {
-                    Some(f) => {
-                        data.sliding[i].held = Some(f);
-                        data.sliding[i].sigma = sigma;
-                    }
-                    None => valid = false,
-                }
+                valid &= set_edge(data, i, tau, sigma);
             }
             if valid && jointly_consistent(model, data, tau, &edged)? {
                 found = true;
@@ -460,7 +547,11 @@ pub(crate) fn resolve(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()>
         }
         if !found {
             for (b, &i) in edged.iter().enumerate() {
-                (data.sliding[i].held, data.sliding[i].sigma) = chosen[b];
+                let s = &mut data.sliding[i];
+                (s.held, s.sigma) = chosen[b];
+                if s.general {
+                    s.coef = s.mu_k * s.sigma;
+                }
             }
         }
     }
@@ -477,13 +568,19 @@ fn jointly_consistent(
     sites: &[usize],
 ) -> Result<bool> {
     let i0 = sites[0];
-    sliding_acceleration(model, data, tau, i0)?;
+    match sliding_acceleration(model, data, tau, i0) {
+        Err(CoreError::PainleveInconsistent { .. }) => return Ok(false),
+        r => r?,
+    };
     Ok(sites.iter().all(|&i| {
         let s = &data.sliding[i];
         let a_t_qdd: f64 = s.a_t.iter().map(|&(k, a)| a * data.qdd[k]).sum();
         let vdot = -(a_t_qdd + s.a_t_dot_qd);
-        // and pushes: λ_n = held / (μ_k σ) ≤ 0
-        let pushes = s.held.is_none_or(|f| f * s.sigma <= 0.0);
+        // and pushes: λ_n = held / (μ_k σ) ≤ 0 (a folded site: its own λ_n)
+        let pushes = match s.held {
+            Some(f) => f * s.sigma <= 0.0,
+            None => !s.general || data.lambda[s.row] <= 0.0,
+        };
         s.sigma * vdot >= -INCONSISTENT_ACCEL_M_S2 && pushes
     }))
 }
@@ -491,7 +588,7 @@ fn jointly_consistent(
 /// `v̇_t` of site `i` under the forces currently set on every site (one KKT solve).
 fn sliding_acceleration(model: &Model, data: &mut Data, tau: &[f64], i: usize) -> Result<f64> {
     assemble(model, data, tau)?;
-    data.solve_dynamics(model, tau, None);
+    data.solve_dynamics(model, tau, None)?;
     let s = &data.sliding[i];
     let a_t_qdd: f64 = s.a_t.iter().map(|&(k, a)| a * data.qdd[k]).sum();
     Ok(-(a_t_qdd + s.a_t_dot_qd))
@@ -508,4 +605,182 @@ fn edge_force(data: &Data, i: usize, tau: &[f64], coef: f64) -> Option<f64> {
     let f_j = tau.get(j).copied().unwrap_or(0.0) - data.c_qd[j] - data.n_bar[j];
     let den = a_n + coef * a_t;
     (den.abs() > WEDGE_TOL * (a_n.abs() + coef.abs() * a_t.abs())).then(|| coef * f_j / den)
+}
+
+/// Puts site `i` on the cone edge `σ` (`sigma`): a statics site with its force from its
+/// leg's statics (`false` at a wedge), a general one with `coef = μ_k σ` to be folded in.
+fn set_edge(data: &mut Data, i: usize, tau: &[f64], sigma: f64) -> bool {
+    let mu_k = data.sliding[i].mu_k;
+    if data.sliding[i].general {
+        let s = &mut data.sliding[i];
+        (s.held, s.coef, s.sigma) = (None, mu_k * sigma, sigma);
+        return true;
+    }
+    match edge_force(data, i, tau, mu_k * sigma) {
+        Some(f) => {
+            data.sliding[i].held = Some(f);
+            data.sliding[i].sigma = sigma;
+            true
+        }
+        None => false,
+    }
+}
+
+/// Whether a site's friction is folded into the dynamics solve now: a general site on a
+/// cone edge whose force is not a known (held) one.
+fn folds(s: &SlidingSite) -> bool {
+    s.general && s.held.is_none() && s.coef != 0.0
+}
+
+/// Relative size of the smallest singular value of the folded system's `I − Y` below which
+/// the normal forces of the general sliding sites are not determined (module docs).
+pub const FOLD_SINGULAR_TOL: f64 = 1e-10;
+/// Relative size of a principal minor of `W⁻¹` below which a sliding mode is inconsistent
+/// (Painlevé, module docs): round-off of a minor that is zero is not flagged.
+pub const PAINLEVE_TOL: f64 = 1e-9;
+
+/// Folds the friction of the general sliding sites into the solved dynamics at the prepared
+/// state: `data.qdd`, `data.lambda` become the solution of the nonsymmetric system
+/// `[M̄ (A + B)ᵀ; A 0]`, `data.friction` gains their force and each site's `force_t` is set
+/// (module docs, "The general sliding site").
+pub(crate) fn fold_general(model: &Model, data: &mut Data) -> Result<()> {
+    let idx: Vec<usize> = (0..data.sliding.len())
+        .filter(|&i| folds(&data.sliding[i]))
+        .collect();
+    if idx.is_empty() {
+        return Ok(());
+    }
+    let coords = std::mem::take(&mut data.dynamic_coords);
+    let mut x: Vec<f64> = coords.iter().map(|&k| data.qdd[k]).collect();
+    let mut y: Vec<f64> = data.lambda.as_slice().to_vec();
+    let folded = fold_into(
+        model,
+        &mut data.kkt,
+        &coords,
+        &data.sliding,
+        &idx,
+        &mut x,
+        &mut y,
+    );
+    for (p, &k) in coords.iter().enumerate() {
+        data.qdd[k] = x[p];
+    }
+    data.dynamic_coords = coords;
+    let lambda_n = folded?;
+    data.lambda.as_mut_slice().copy_from_slice(&y);
+    for (&i, &l) in idx.iter().zip(&lambda_n) {
+        let s = &mut data.sliding[i];
+        s.force_t = s.coef * l;
+        let friction = data.friction.as_mut_slice();
+        for &(k, a_tk) in &s.a_t {
+            friction[k] -= s.coef * l * a_tk;
+        }
+    }
+    Ok(())
+}
+
+/// The fold itself on a factored symmetric KKT system (`kkt` on `coords`, with the solution
+/// `x` (on `coords`), `y` (rows) for the force without the friction of `sites`): the
+/// solution of the system with it, and each site's `λ_n` (module docs). A typed error where
+/// `I − Y` is singular (Lemma 5.1 for the folded system) or the mode is inconsistent
+/// (Painlevé).
+fn fold_into(
+    model: &Model,
+    kkt: &mut crate::kkt::KktFactorization,
+    coords: &[usize],
+    sliding: &[SlidingSite],
+    sites: &[usize],
+    x: &mut [f64],
+    y: &mut [f64],
+) -> Result<Vec<f64>> {
+    use nalgebra::{DMatrix, DVector};
+    let (m, c, n) = (coords.len(), y.len(), sites.len());
+    let mut pos = vec![usize::MAX; model.nq()];
+    for (p, &k) in coords.iter().enumerate() {
+        pos[k] = p;
+    }
+    // the response (x_b, y_b) to a unit normal force's friction −μ_kσ A_tᵀ at each site b
+    let mut xs = DMatrix::<f64>::zeros(m, n);
+    let mut ys = DMatrix::<f64>::zeros(c, n);
+    let (mut f, g) = (vec![0.0; m], vec![0.0; c]);
+    let (mut xb, mut yb) = (vec![0.0; m], vec![0.0; c]);
+    for (b, &i) in sites.iter().enumerate() {
+        let s = &sliding[i];
+        f.fill(0.0);
+        for &(k, a_tk) in &s.a_t {
+            if pos[k] != usize::MAX {
+                f[pos[k]] -= s.coef * a_tk;
+            }
+        }
+        kkt.solve(&f, &g, &mut xb, &mut yb);
+        xs.column_mut(b).copy_from_slice(&xb);
+        ys.column_mut(b).copy_from_slice(&yb);
+    }
+    // (I − Y_SS) λ_S = y_S
+    let z = DMatrix::from_fn(n, n, |a, b| {
+        f64::from(u8::from(a == b)) - ys[(sliding[sites[a]].row, b)]
+    });
+    let rhs = DVector::from_fn(n, |a, _| y[sliding[sites[a]].row]);
+    let sv = z.singular_values();
+    let (s_max, s_min) = (sv.max(), sv.min());
+    if !(s_min > FOLD_SINGULAR_TOL * s_max) {
+        return Err(CoreError::SingularKkt {
+            kind: SingularityKind::UnconstrainedMasslessMotion,
+            condition_estimate: s_max / s_min,
+        });
+    }
+    let lu = z.clone().lu();
+    let lambda = lu.solve(&rhs).ok_or(CoreError::SingularKkt {
+        kind: SingularityKind::UnconstrainedMasslessMotion,
+        condition_estimate: f64::INFINITY,
+    })?;
+    // Painlevé: W⁻¹ = −(I − Y_SS)⁻¹ H_SS, H = ∂λ/∂g the symmetric system's response to the
+    // sites' normal accelerations, must be a P₀-matrix
+    let mut h = DMatrix::<f64>::zeros(n, n);
+    let (fz, mut gz) = (vec![0.0; m], vec![0.0; c]);
+    for a in 0..n {
+        gz.fill(0.0);
+        gz[sliding[sites[a]].row] = 1.0;
+        kkt.solve(&fz, &gz, &mut xb, &mut yb);
+        for b in 0..n {
+            h[(b, a)] = yb[sliding[sites[b]].row];
+        }
+    }
+    let w_inv = -lu.solve(&h).expect("regular: checked above");
+    if let Some((a, minor)) = painleve_violation(&w_inv) {
+        return Err(CoreError::PainleveInconsistent {
+            contact: model.contacts[sliding[sites[a]].contact].name.clone(),
+            response: minor,
+        });
+    }
+    for b in 0..n {
+        let l = lambda[b];
+        for p in 0..m {
+            x[p] += l * xs[(p, b)];
+        }
+        for r in 0..c {
+            y[r] += l * ys[(r, b)];
+        }
+    }
+    Ok(lambda.iter().copied().collect())
+}
+
+/// The first principal minor of `w` that is clearly negative (P₀ fails), as the index of
+/// the first site in it and the minor's value; `None` when every principal minor is `≥ −`
+/// [`PAINLEVE_TOL`] relative to the product of its rows' sizes.
+fn painleve_violation(w: &nalgebra::DMatrix<f64>) -> Option<(usize, f64)> {
+    let n = w.nrows();
+    for subset in 1u32..(1 << n) {
+        let idx: Vec<usize> = (0..n).filter(|&b| subset >> b & 1 == 1).collect();
+        let sub = w.select_rows(&idx).select_columns(&idx);
+        let det = sub.determinant();
+        let scale: f64 = idx
+            .iter()
+            .map(|&a| w.row(a).iter().fold(0.0f64, |acc, v| acc.max(v.abs())))
+            .product();
+        if det < -PAINLEVE_TOL * scale {
+            return Some((idx[0], det));
+        }
+    }
+    None
 }

@@ -65,6 +65,13 @@ pub enum TangentError {
         "the friction force of contact {contact} is a sticking force at rest; not differentiated"
     )]
     FrictionAtRest { contact: usize },
+    /// A sliding site with kinetic friction folded into the dynamics solve (a body site, a
+    /// massive or multi-joint leg, or a leg with another contact: `selfmanip_core::friction`,
+    /// "The general sliding site"): its force's derivative is not formed yet.
+    #[error(
+        "the kinetic friction of contact {contact} is not on a single-joint massless leg; its derivative is not formed"
+    )]
+    GeneralFriction { contact: usize },
 }
 
 /// The levers of one material point: per part `Q` from the body out to the point's part,
@@ -343,6 +350,11 @@ impl Assembly {
             }
             if site.coef == 0.0 {
                 continue;
+            }
+            if site.general {
+                return Err(TangentError::GeneralFriction {
+                    contact: site.contact,
+                });
             }
             let geo = &cons
                 .geometry
