@@ -723,7 +723,7 @@ fn fold_into(
     let rhs = DVector::from_fn(n, |a, _| y[sliding[sites[a]].row]);
     let sv = z.singular_values();
     let (s_max, s_min) = (sv.max(), sv.min());
-    if !(s_min > FOLD_SINGULAR_TOL * s_max) {
+    if s_min.is_nan() || s_min <= FOLD_SINGULAR_TOL * s_max {
         return Err(CoreError::SingularKkt {
             kind: SingularityKind::UnconstrainedMasslessMotion,
             condition_estimate: s_max / s_min,

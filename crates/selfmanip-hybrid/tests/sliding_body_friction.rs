@@ -1,0 +1,156 @@
+//! The hybrid engine with Coulomb sliding friction at body sites (the general sliding sites
+//! of `selfmanip_core::friction`, folded into the dynamics solve) against closed forms:
+//! a puck or a block sliding on level ground stops at `t* = v₀/(μ g)` after
+//! `v₀²/(2 μ g)`, where the engine's slip→stick event sticks it (thesis section 5.1.5 with a
+//! kinetic coefficient instead of Assumption 5.9); on an incline it slides on with
+//! `g (sin α − μ cos α)` when `μ < tan α` and stops and sticks when `μ > tan α`; the energy
+//! balance closes with the friction's work equal to the kinetic energy lost (a conservation
+//! law).
+use selfmanip_core::{ContactKind, ContactMode, GroundPlane, Model, RobotDescription};
+use selfmanip_hybrid::{
+    energy_report, simulate, EventKind, HybridOptions, Termination, ZeroTorque,
+};
+
+const G: f64 = 9.81;
+
+/// A rigid body with point contacts `(name, x, z)` in its frame, sticking with `mu` and
+/// sliding with the same kinetic coefficient.
+fn body(mass: f64, inertia: f64, points: &[(&str, f64, f64)], mu: f64) -> Model {
+    let mut text = format!(
+        "name = \"body\"\ngravity_m_s2 = {G}\nlegs = []\n[body]\nmass_kg = {mass}\ninertia_kg_m2 = {inertia}\n"
+    );
+    for (name, x, z) in points {
+        text += &format!(
+            "[[contacts]]\nname = \"{name}\"\nshape = {{ kind = \"point\", position_m = [{x}, {z}] }}\nfriction = {{ kind = \"sticking\", mu = {mu}, mu_kinetic = {mu} }}\n"
+        );
+    }
+    RobotDescription::from_toml_str(&text)
+        .unwrap()
+        .build()
+        .unwrap()
+}
+
+fn sliding(contacts: &[usize]) -> ContactMode {
+    contacts
+        .iter()
+        .fold(ContactMode::FLIGHT, |m, &k| m.with(k, ContactKind::Slide))
+}
+
+/// A puck (foot at its centre of mass) and a `w × h` block on its two bottom corners, each
+/// launched along the level ground at `v₀`: one slip→stick event at `t* = v₀/(μ g)` (the
+/// engine's guard on `v_t = 0`, located to the event tolerance), `x(t*) − x₀ = v₀²/(2μg)`,
+/// a site sticking after it and the body at rest to the end; the friction's work is
+/// `−½ m v₀²` and the engine's energy balance closes.
+#[test]
+fn body_sliding_on_level_ground_stops_at_v0_over_mu_g_and_sticks() {
+    let (w, h) = (0.1, 0.05);
+    let cases: [(Model, Vec<usize>, f64, f64); 2] = [
+        (
+            body(2.0, 0.01, &[("foot", 0.0, 0.0)], 0.4),
+            vec![0],
+            0.4,
+            0.0,
+        ),
+        (
+            body(
+                2.0,
+                2.0 * (w * w + h * h) / 12.0,
+                &[("left", -w / 2.0, h / 2.0), ("right", w / 2.0, h / 2.0)],
+                0.3,
+            ),
+            vec![0, 1],
+            0.3,
+            -h / 2.0,
+        ),
+    ];
+    let plane = GroundPlane::level(0.0);
+    for (model, contacts, mu, z0) in &cases {
+        for v0 in [0.8, -1.1] {
+            let q = [0.1, *z0, 0.0];
+            let qd = [v0, 0.0, 0.0];
+            let exec = simulate(
+                model,
+                &plane,
+                &ZeroTorque,
+                sliding(contacts),
+                &q,
+                &qd,
+                1.0,
+                HybridOptions::default(),
+            )
+            .unwrap();
+            let t_star = f64::abs(v0) / (mu * G);
+            let stick = &exec.events[0];
+            assert_eq!(stick.kind, EventKind::Stick, "{:?}", exec.events);
+            assert!((stick.t - t_star).abs() < 1e-8, "{} vs {t_star}", stick.t);
+            // a puck sticks; a block's two sticking corners would be redundant rows
+            // (four on three coordinates), so one sticks and the other stays on in its
+            // sliding mode, at rest (its cone holds: no edge)
+            let stuck = contacts
+                .iter()
+                .filter(|&&k| stick.mode_after.kind(k) == Some(ContactKind::Stick))
+                .count();
+            assert_eq!(stuck, 1, "{:?}", stick.mode_after);
+            assert!(contacts.iter().all(|&k| stick.mode_after.kind(k).is_some()));
+            let d = v0 * f64::abs(v0) / (2.0 * mu * G);
+            let x_stop = exec.q[0];
+            assert!((x_stop - 0.1 - d).abs() < 1e-7, "{} vs {}", x_stop - 0.1, d);
+            assert!(exec.events.iter().all(|e| e.kind == EventKind::Stick));
+            assert_eq!(exec.termination, Termination::FinalTime);
+            assert!(exec.qd.iter().all(|v| v.abs() < 1e-9), "{:?}", exec.qd);
+            let e = energy_report(model, &plane, &exec).unwrap();
+            let ke = 0.5 * 2.0 * v0 * v0;
+            assert!((e.friction_work_j + ke).abs() < 1e-6 * ke, "{e:?}");
+            assert!(e.residual_j().abs() < 1e-6 * ke, "{e:?}");
+        }
+    }
+}
+
+/// A puck launched downhill on a plane tilted by `α`: with `μ < tan α` no event, and the
+/// distance down the slope after `T` is `v₀T + ½ g (sin α − μ cos α) T²`; with `μ > tan α`
+/// it decelerates at `g (μ cos α − sin α)`, sticks at `t* = v₀ / (g (μ cos α − sin α))` and
+/// stays (the cone holds `tan α ≤ μ`). Energy: `ΔE = W_fr`.
+#[test]
+fn puck_on_incline_slides_on_below_the_cone_and_sticks_above_it() {
+    let (alpha, v0, t_end) = (0.4_f64, 0.6, 0.5);
+    let plane = GroundPlane {
+        point_m: [0.0, 0.0],
+        normal_into_ground: [alpha.sin(), alpha.cos()],
+    };
+    let t = plane.tangent();
+    let down = if t.y > 0.0 { t } else { -t };
+    for mu in [0.25, 0.6] {
+        let model = body(2.0, 0.01, &[("foot", 0.0, 0.0)], mu);
+        let q = [0.0, 0.0, alpha];
+        let qd = [v0 * down.x, v0 * down.y, 0.0];
+        let exec = simulate(
+            &model,
+            &plane,
+            &ZeroTorque,
+            sliding(&[0]),
+            &q,
+            &qd,
+            t_end,
+            HybridOptions::default(),
+        )
+        .unwrap();
+        let a = G * (alpha.sin() - mu * alpha.cos());
+        let s = exec.q[0] * down.x + exec.q[1] * down.y;
+        if mu < alpha.tan() {
+            assert!(exec.events.is_empty(), "{:?}", exec.events);
+            let want = v0 * t_end + 0.5 * a * t_end * t_end;
+            assert!((s - want).abs() < 1e-7, "{s} vs {want}");
+        } else {
+            let t_star = v0 / -a;
+            assert_eq!(exec.events.len(), 1, "{:?}", exec.events);
+            assert_eq!(exec.events[0].kind, EventKind::Stick);
+            assert!((exec.events[0].t - t_star).abs() < 1e-8);
+            let want = v0 * t_star + 0.5 * a * t_star * t_star;
+            assert!((s - want).abs() < 1e-7, "{s} vs {want}");
+            assert!(exec.qd.iter().all(|v| v.abs() < 1e-9));
+        }
+        let e = energy_report(&model, &plane, &exec).unwrap();
+        assert!(e.friction_work_j < 0.0);
+        assert!(e.residual_j().abs() < 1e-6, "{e:?}");
+    }
+}
