@@ -10,7 +10,8 @@
 //! moment over every segment (trapezoid on a 20 µs grid), prints the moment's
 //! normal and tangential parts, and the jump of `I_b φ̇` at each event (impulses), and
 //! checks that the sum reproduces `I_b φ̇` at the apex. `PAIRS=front,rear` chooses the
-//! pushing pairs, `M_L=kg` gives the legs Table 4.2's mass (with frictionless sliding),
+//! pushing pairs, `M_L=kg` gives the legs Table 4.2's mass (their toes Coulomb unless
+//! `FRICTIONLESS`),
 //! `STICK=1` point-toe legs, `PINNED=1` toes that never slip, `MU`, `FRICTIONLESS`,
 //! `SATURATED`, `CURRENT` (A) and `WAIT` (rad) the other candidates; `SWEEP=1` runs the four
 //! 41-point sweeps with these settings instead.
@@ -72,10 +73,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         params.mu_rear = None;
     }
     if let Ok(v) = std::env::var("M_L") {
-        // Table 4.2's pair values; Coulomb sliding needs massless legs
+        // Table 4.2's pair values (m_l = 0.126 kg, I_l = 0.00092 kg m² per pair), the
+        // inertia scaled with the mass; the toes keep their sliding law (Coulomb unless
+        // FRICTIONLESS: a massive leg's Coulomb toe is folded into the dynamics solve)
         params.m_l = v.parse()?;
         params.I_l = 0.00092 * params.m_l / 0.126;
-        params.toe_sliding = ToeSliding::Frictionless;
     }
     if std::env::var("SWEEP").is_ok() {
         // the 41-point default sweep of each strategy with these settings: apex share and
@@ -83,6 +85,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for strategy in rhex_model::leap::Strategy::ALL {
             let mut ok = 0;
             let mut show = String::new();
+            // the slowest leap (wall time) and the most level apex
+            let mut slowest = (0.0f64, 0.0);
+            let mut level: Option<(f64, f64, f64)> = None;
+            let mut statuses = std::collections::BTreeMap::<String, usize>::new();
             for k in 0..41 {
                 let t2_s = -0.2 + 0.01 * f64::from(k);
                 let c = LeapConfig {
@@ -90,8 +96,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     t2_s,
                     ..cfg.clone()
                 };
+                let clock = std::time::Instant::now();
                 let r = simulate_leap(&params, &c)?;
+                let ms = 1e3 * clock.elapsed().as_secs_f64();
+                if ms > slowest.0 {
+                    slowest = (ms, t2_s);
+                }
+                *statuses.entry(r.status.as_str().to_string()).or_default() += 1;
                 if let Some(a) = r.apex {
+                    if level.is_none_or(|l| a.phi_rad.abs() < l.2.abs()) {
+                        level = Some((t2_s, a.z_m, a.phi_rad));
+                    }
                     ok += 1;
                     if [-0.1, -0.02, 0.0, 0.1]
                         .iter()
@@ -107,6 +122,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 }
             }
             println!("  {strategy}: {ok}/41 reach an apex;{show}");
+            if let Some((t2, z, phi)) = level {
+                println!(
+                    "    most level apex: t2 {t2:+.2}: {:.1} cm {:+.1} deg",
+                    100.0 * z,
+                    phi.to_degrees()
+                );
+            }
+            println!(
+                "    statuses {statuses:?}; slowest leap {:.1} ms (t2 {:+.2})",
+                slowest.0, slowest.1
+            );
         }
         return Ok(());
     }

@@ -1603,7 +1603,9 @@ pub(crate) fn run_leap_setup(
         Termination::NoContactSolution { .. } => LeapStatus::NoContactSolution,
         Termination::SeveralContactSolutions { .. } => LeapStatus::SeveralContactSolutions,
         Termination::TerrainDiscontinuity { .. } => LeapStatus::TerrainEdge,
-        Termination::SingularFlow { .. } => LeapStatus::SingularContact,
+        Termination::SingularFlow { .. } | Termination::Painleve { .. } => {
+            LeapStatus::SingularContact
+        }
         Termination::StepBudget { .. } => LeapStatus::StepBudget,
         Termination::Interrupted { .. } => LeapStatus::Interrupted,
     };

@@ -131,6 +131,15 @@ pub enum Termination {
         kind: SingularityKind,
         condition_estimate: f64,
     },
+    /// The flow of `mode` (or the mode a reset chose) is inconsistent with Coulomb friction
+    /// at the sliding contact `contact` (Painlevé's paradox, `selfmanip_core::friction`):
+    /// a pushing force would draw it into the ground, so the sliding mode has no solution or
+    /// several; `t` is the start of the step that met it.
+    Painleve {
+        t: f64,
+        mode: ContactMode,
+        contact: String,
+    },
     /// A contact met a place of the terrain that is not a contact feature for it (a point
     /// at a ledge's edge, any site at the concave foot of its face): an inactive contact's
     /// height jumped through zero, or an active contact left the surface it was on other

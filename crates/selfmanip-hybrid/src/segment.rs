@@ -246,6 +246,17 @@ impl SegmentIntegrator {
                         condition_estimate,
                     });
                 }
+                Err(StepError::Rhs(CoreError::PainleveInconsistent { contact, .. })) => {
+                    // a trial stage past the threshold: a shorter step first, as above
+                    if self.ode.retry_smaller(SINGULAR_RETRY_FACTOR) {
+                        continue;
+                    }
+                    break SegmentEnd::Ended(Termination::Painleve {
+                        t: *t,
+                        mode,
+                        contact,
+                    });
+                }
                 Err(StepError::Rhs(e)) => return Err(e.into()),
                 Err(StepError::StepTooSmall(h)) => {
                     return Err(HybridError::StepTooSmall { t_s: *t, h_s: h })

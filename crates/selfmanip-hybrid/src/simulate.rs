@@ -21,7 +21,7 @@ use crate::options::HybridOptions;
 use crate::reset::{reset, Reset};
 use crate::segment::{SegmentEnd, SegmentIntegrator};
 use crate::zeno::{ChatterDetector, ZenoWindow};
-use selfmanip_core::{ContactMode, Model, Terrain};
+use selfmanip_core::{ContactMode, CoreError, Model, Terrain};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
@@ -93,7 +93,7 @@ pub fn simulate_with(
     let mut from_rest: Vec<usize> = Vec::new();
     let termination = loop {
         // flow ⇒ guards ⇒ locate
-        let (segment, end) = integrator.run(
+        let run = integrator.run(
             &mut flow,
             mode,
             &mut t,
@@ -102,7 +102,15 @@ pub fn simulate_with(
             t_final,
             &opts,
             &mut budget,
-        )?;
+        );
+        // a sliding mode inconsistent with Coulomb friction met at a segment's start (its
+        // sliding directions from rest): a typed end, as in the flow
+        let (segment, end) = match run {
+            Err(HybridError::Core(CoreError::PainleveInconsistent { contact, .. })) => {
+                break Termination::Painleve { t, mode, contact }
+            }
+            r => r?,
+        };
         segments.push(segment);
         let fired = match end {
             SegmentEnd::Event { fired } => fired,
@@ -114,7 +122,13 @@ pub fn simulate_with(
             SegmentEnd::Ended(term) => break term,
         };
         // ⇒ reset
-        let reset = reset(&mut reset_ws, &mut flow, &opts, &fired, mode, (t, &y))?;
+        let reset = match reset(&mut reset_ws, &mut flow, &opts, &fired, mode, (t, &y)) {
+            // the reset's candidate mode is inconsistent with Coulomb friction
+            Err(HybridError::Core(CoreError::PainleveInconsistent { contact, .. })) => {
+                break Termination::Painleve { t, mode, contact }
+            }
+            r => r?,
+        };
         let (event, rest) = match reset {
             Reset::Continue {
                 event,

@@ -154,3 +154,72 @@ fn puck_on_incline_slides_on_below_the_cone_and_sticks_above_it() {
         assert!(e.residual_j().abs() < 1e-6, "{e:?}");
     }
 }
+
+/// Painlevé's rod in the engine: a uniform rod (half-length `l`, `I = m l²/3`) whose end
+/// slides away from its centre at angle `θ` has the normal response
+/// `1 + 3cos²θ − 3μ sinθ cosθ` (derived by hand in the core's `tests/sliding_friction.rs`);
+/// above `μ* = (1 + 3cos²θ)/(3 sinθ cosθ)` the run ends with the typed
+/// [`Termination::Painleve`] naming the end at once, never a number; below it it slides.
+#[test]
+fn painleve_rod_run_ends_typed_beyond_the_threshold_and_slides_below_it() {
+    let (m, l, theta) = (1.5, 0.4, 0.8_f64);
+    let (s, c) = theta.sin_cos();
+    let mu_star = (1.0 + 3.0 * c * c) / (3.0 * s * c);
+    for (factor, painleve) in [(1.05, true), (0.95, false)] {
+        let mu = mu_star * factor;
+        let model = body(m, m * l * l / 3.0, &[("end", -l, 0.0)], mu);
+        // the end on the ground, sliding at −0.3 m/s (away from the centre), not turning
+        let q = [0.0, -l * s, theta];
+        let qd = [-0.3, 0.0, 0.0];
+        let exec = simulate(
+            &model,
+            &GroundPlane::level(0.0),
+            &ZeroTorque,
+            sliding(&[0]),
+            &q,
+            &qd,
+            0.05,
+            HybridOptions::default(),
+        )
+        .unwrap();
+        match &exec.termination {
+            Termination::Painleve { t, contact, .. } => {
+                assert!(painleve, "μ {mu} below μ* {mu_star}");
+                assert_eq!(contact, "end");
+                assert_eq!(*t, 0.0);
+            }
+            other => {
+                assert!(!painleve, "μ {mu} above μ* {mu_star}: {other:?}");
+                assert!(exec.t > 0.0);
+            }
+        }
+    }
+}
+
+/// The derivatives of a general sliding site's friction are not formed: sensitivities of a
+/// run with one end in a typed error naming the contact, not numbers.
+#[test]
+fn sensitivity_through_a_general_sliding_site_is_a_typed_error() {
+    use selfmanip_core::tangent::TangentError;
+    use selfmanip_hybrid::sensitivity::SensitivityError;
+    let model = body(2.0, 0.01, &[("foot", 0.0, 0.0)], 0.4);
+    let r = selfmanip_hybrid::simulate_with_sensitivity(
+        &model,
+        &GroundPlane::level(0.0),
+        &ZeroTorque,
+        sliding(&[0]),
+        &[0.0, 0.0, 0.0],
+        &[0.5, 0.0, 0.0],
+        0.05,
+        HybridOptions::default(),
+    );
+    assert!(
+        matches!(
+            r,
+            Err(SensitivityError::Tangent(TangentError::GeneralFriction {
+                contact: 0
+            }))
+        ),
+        "{r:?}"
+    );
+}

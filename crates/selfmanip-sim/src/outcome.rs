@@ -32,7 +32,9 @@ impl RunStatus {
             Termination::NoContactSolution { .. } => RunStatus::NoContactSolution,
             Termination::SeveralContactSolutions { .. } => RunStatus::SeveralContactSolutions,
             Termination::TerrainDiscontinuity { .. } => RunStatus::TerrainDiscontinuity,
-            Termination::SingularFlow { .. } => RunStatus::SingularFlow,
+            Termination::SingularFlow { .. } | Termination::Painleve { .. } => {
+                RunStatus::SingularFlow
+            }
             Termination::StepBudget { .. } => RunStatus::StepBudget,
             Termination::Interrupted { .. } => RunStatus::Interrupted,
         }
