@@ -64,6 +64,9 @@ pub struct Data {
     /// caller that integrates the flow needs, where a site the cone holds must stick in a
     /// mode of its own; `false` (the instantaneous law): it is held for the instant.
     pub slide_at_rest: bool,
+    /// Whether a site of [`Self::sliding`] is general (folded into the solve), so that a
+    /// solve without one does not look.
+    pub(crate) has_general: bool,
     scratch: InertiaScratch,
     /// The KKT right-hand side and solution on the dynamic coordinates.
     f_r: Vec<f64>,
@@ -261,7 +264,10 @@ impl Data {
         );
         (self.qdd, self.lambda) = (x, y);
         // general sliding sites: their friction, linear in their λ_n, folded in
-        crate::friction::fold_general(model, self)
+        if self.has_general {
+            crate::friction::fold_general(model, self)?;
+        }
+        Ok(())
     }
 
     /// `Υ − C̄q̇ − N̄` for joint torques `tau` (`N̄` includes the passive joint torques; plus

@@ -215,6 +215,7 @@ pub(crate) fn collect(model: &Model, data: &mut Data, qd: &[f64]) -> Result<()> 
     // the sites are rewritten in place (their `a_t` buffers kept) and the list cut to the
     // sites found: a mode's sites are collected at every evaluation of its flow
     let mut n = 0;
+    data.has_general = false;
     let result = collect_into(model, data, qd, &mut n);
     data.sliding.truncate(n);
     result
@@ -242,11 +243,13 @@ fn collect_into(model: &Model, data: &mut Data, qd: &[f64], n: &mut usize) -> Re
         let c = data.constraints.n_rows();
         let a = data.constraints.a.as_slice();
         let statics_joint = model.contacts[k].link.filter(|&j| {
-            model.legs[model.joints[j].leg].n_links == 1
-                && model.distal_massless(j)
+            let joint = &model.joints[j];
+            joint.is_massless()
+                && model.legs[joint.leg].n_links == 1
                 && (0..c).all(|o| o == r || a[j * c + o] == 0.0)
         });
         let general = statics_joint.is_none();
+        data.has_general |= general;
         let joint = statics_joint.unwrap_or(usize::MAX);
         let geo = data
             .constraints
