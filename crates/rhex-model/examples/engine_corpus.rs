@@ -29,8 +29,9 @@ fn variants() -> Vec<(&'static str, RhexParams)> {
         ),
         (
             "massive_legs",
-            // a massive leg's toe slides without friction (Coulomb sliding needs massless
-            // legs: `selfmanip_core::friction`)
+            // a massive leg's toe slides without friction (the variant as it was when Coulomb
+            // sliding needed massless legs, kept so that corpora stay comparable; massive
+            // legs with Coulomb toes: docs/leap-physics.md)
             RhexParams {
                 m_l: 0.126,
                 I_l: 0.00092,

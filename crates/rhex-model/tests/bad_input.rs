@@ -35,8 +35,8 @@ fn event_tol_of_1e_minus_308_leaps_like_the_default() {
 /// overflowed (not a non-finite `qd`, which the caller never gave), at the first evaluation.
 #[test]
 fn leg_mass_of_1e308_is_a_typed_overflow_error() {
-    // a massive leg slides without friction (Coulomb sliding needs massless legs, a typed
-    // error of its own)
+    // a massive leg, its toes sliding without friction (the folded Coulomb friction of a
+    // massive leg's toe would meet the same overflow)
     let params = RhexParams {
         m_l: 1e308,
         toe_sliding: ToeSliding::Frictionless,

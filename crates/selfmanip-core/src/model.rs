@@ -85,8 +85,9 @@ pub struct Contact {
     pub friction: Friction,
     /// Coefficient of kinetic (Coulomb) friction while the site slides, `μ_k ≥ 0`. Zero is
     /// the thesis's Assumption 5.9 ("all contact points that are sliding have no kinetic
-    /// coefficient of friction"); a positive value is supported on a site carried by a
-    /// single-joint massless leg ([`crate::friction`]).
+    /// coefficient of friction"); a positive value is supported at any site: by the leg's
+    /// statics on a single-joint massless leg, folded into the dynamics solve elsewhere
+    /// ([`crate::friction`]).
     pub kinetic_mu: f64,
 }
 
