@@ -142,6 +142,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         r.status.as_str(),
         r.word_string()
     );
+    if r.apex.is_none() {
+        println!("  termination {:?}", r.execution.termination);
+    }
     if let Some(a) = r.apex {
         println!(
             "  apex t {:.4} s: z {:.3} m, x {:.3} m, pitch {:.1} deg, pitch rate {:.1} deg/s",
