@@ -6,28 +6,22 @@
 //! `g (sin α − μ cos α)` when `μ < tan α` and stops and sticks when `μ > tan α`; the energy
 //! balance closes with the friction's work equal to the kinetic energy lost (a conservation
 //! law).
-use selfmanip_core::{ContactKind, ContactMode, GroundPlane, Model, RobotDescription};
+use selfmanip_core::{ContactKind, ContactMode, GroundPlane, Model};
 use selfmanip_hybrid::{
     energy_report, simulate, EventKind, HybridOptions, Termination, ZeroTorque,
 };
 
-const G: f64 = 9.81;
+mod systems;
+use systems::{Friction, G};
 
 /// A rigid body with point contacts `(name, x, z)` in its frame, sticking with `mu` and
 /// sliding with the same kinetic coefficient.
 fn body(mass: f64, inertia: f64, points: &[(&str, f64, f64)], mu: f64) -> Model {
-    let mut text = format!(
-        "name = \"body\"\ngravity_m_s2 = {G}\nlegs = []\n[body]\nmass_kg = {mass}\ninertia_kg_m2 = {inertia}\n"
-    );
-    for (name, x, z) in points {
-        text += &format!(
-            "[[contacts]]\nname = \"{name}\"\nshape = {{ kind = \"point\", position_m = [{x}, {z}] }}\nfriction = {{ kind = \"sticking\", mu = {mu}, mu_kinetic = {mu} }}\n"
-        );
-    }
-    RobotDescription::from_toml_str(&text)
-        .unwrap()
-        .build()
-        .unwrap()
+    let points: Vec<_> = points
+        .iter()
+        .map(|&(n, x, z)| (n, x, z, Friction::Coulomb(mu)))
+        .collect();
+    systems::body(mass, inertia, G, &points)
 }
 
 fn sliding(contacts: &[usize]) -> ContactMode {

@@ -17,6 +17,8 @@ pub enum Friction {
     /// Sticking, with a Coulomb coefficient (`None`: never slips).
     Stick(Option<f64>),
     Slide,
+    /// Sticking with Coulomb's `μ`, sliding with the same kinetic coefficient.
+    Coulomb(f64),
 }
 
 /// A rigid body without legs and with point contacts `(name, x, z, friction)` in its frame.
@@ -34,6 +36,9 @@ pub fn body(
             Friction::Stick(None) => "{ kind = \"sticking\" }".to_string(),
             Friction::Stick(Some(mu)) => format!("{{ kind = \"sticking\", mu = {mu} }}"),
             Friction::Slide => "{ kind = \"sliding\" }".to_string(),
+            Friction::Coulomb(mu) => {
+                format!("{{ kind = \"sticking\", mu = {mu}, mu_kinetic = {mu} }}")
+            }
         };
         text += &format!(
             "[[contacts]]\nname = \"{name}\"\nshape = {{ kind = \"point\", position_m = [{x}, {z}] }}\nfriction = {friction}\n"
