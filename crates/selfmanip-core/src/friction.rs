@@ -68,7 +68,8 @@
 //! $\ddot q = x_0 + \sum_k\lambda_{n,k}x_k$, $\lambda = y_0 + \sum_k\lambda_{n,k}y_k$ — the
 //! block elimination of the nonsymmetric system, exact. `I − Y_SS` is its Schur complement:
 //! the folded system is regular iff the symmetric one is and `det(I − Y_SS) ≠ 0`
-//! ([`FOLD_SINGULAR_TOL`] on its singular values, else [`CoreError::SingularKkt`]). A massless
+//! ([`FOLD_SINGULAR_TOL`] on its smallest singular value relative to `1 + max|Y_SS|`, else
+//! [`CoreError::SingularKkt`]; at Painlevé's threshold `W = 0` it is singular). A massless
 //! coordinate is determined by the symmetric system exactly when it is by the folded one
 //! unless `I − Y_SS` is singular, so Lemma 5.1 for the folded system is these two checks (a
 //! massless chain whose only pin is a sliding row the symmetric system already rejects; a
@@ -635,8 +636,9 @@ fn folds(s: &SlidingSite) -> bool {
     s.general && s.held.is_none() && s.coef != 0.0
 }
 
-/// Relative size of the smallest singular value of the folded system's `I − Y` below which
-/// the normal forces of the general sliding sites are not determined (module docs).
+/// Size of the smallest singular value of the folded system's `I − Y_SS`, relative to
+/// `1 + max|Y_SS|`, below which the normal forces of the general sliding sites are not
+/// determined (module docs).
 pub const FOLD_SINGULAR_TOL: f64 = 1e-10;
 /// Relative size of a principal minor of `W⁻¹` below which a sliding mode is inconsistent
 /// (Painlevé, module docs): round-off of a minor that is zero is not flagged.
@@ -724,12 +726,19 @@ fn fold_into(
         f64::from(u8::from(a == b)) - ys[(sliding[sites[a]].row, b)]
     });
     let rhs = DVector::from_fn(n, |a, _| y[sliding[sites[a]].row]);
+    // relative to the size of `I` and `Y_SS` it is formed from: cancellation, not scale
+    let scale = 1.0
+        + (0..n)
+            .flat_map(|a| (0..n).map(move |b| (a, b)))
+            .fold(0.0f64, |m, (a, b)| {
+                m.max(ys[(sliding[sites[a]].row, b)].abs())
+            });
     let sv = z.singular_values();
-    let (s_max, s_min) = (sv.max(), sv.min());
-    if s_min.is_nan() || s_min <= FOLD_SINGULAR_TOL * s_max {
+    let s_min = sv.min();
+    if s_min.is_nan() || s_min <= FOLD_SINGULAR_TOL * scale {
         return Err(CoreError::SingularKkt {
             kind: SingularityKind::UnconstrainedMasslessMotion,
-            condition_estimate: s_max / s_min,
+            condition_estimate: scale / s_min,
         });
     }
     let lu = z.clone().lu();

@@ -471,3 +471,38 @@ fn light_leg_dragged_with_mu_above_tan_theta_is_a_painleve_case() {
         assert_eq!(bad, expect_bad, "θ {theta}");
     }
 }
+
+/// At Painlevé's threshold itself, `μ = μ*(θ)`, the rod's normal response vanishes: the
+/// folded system `[M̄ (A+B)ᵀ; A 0]` is singular (its `I − Y` is `W/W₀ = 0`) and `N` would be
+/// infinite; a hair beyond the threshold the mode is inconsistent. Both are typed errors,
+/// never a number.
+#[test]
+fn painleve_threshold_itself_is_a_typed_singularity_not_a_number() {
+    let (m, l, theta) = (1.5, 0.4, 0.8_f64);
+    let (s, c) = theta.sin_cos();
+    let mu_star = (1.0 + 3.0 * c * c) / (3.0 * s * c);
+    let q = [0.0, -l * s, theta];
+    let qd = [-0.3, 0.0, 0.0];
+    for factor in [1.0, 1.0 + 1e-13, 1.0 - 1e-13] {
+        let mu = mu_star * factor;
+        let model = body(m, m * l * l / 3.0, &[("end", -l, 0.0)], mu, mu);
+        let mut data = Data::new(&model);
+        let r = forward_dynamics(
+            &model,
+            &mut data,
+            &FlatGround,
+            sliding(&[0]),
+            &q,
+            &qd,
+            &[],
+            None,
+        );
+        assert!(
+            matches!(
+                r,
+                Err(CoreError::SingularKkt { .. } | CoreError::PainleveInconsistent { .. })
+            ),
+            "μ/μ* = {factor}: {r:?}"
+        );
+    }
+}

@@ -217,3 +217,47 @@ fn sensitivity_through_a_general_sliding_site_is_a_typed_error() {
         "{r:?}"
     );
 }
+
+/// A puck put down sticking at rest on an incline steeper than its cone (`tan α > μ`) slips
+/// at once (the cone cannot hold `m g sin α` with `μ m g cos α`), and from rest its friction
+/// takes the cone edge against the coming slide (`SlideDirection::FromRest`): it slides down
+/// with `g (sin α − μ cos α)`, `s(T) = ½ g (sin α − μ cos α) T²`, the force continuous
+/// through the slip (the edge is where the sticking force left the cone).
+#[test]
+fn sticking_puck_on_a_steep_incline_slips_at_once_and_slides_with_coulomb_deceleration() {
+    let (alpha, mu, t_end) = (0.5_f64, 0.3, 0.4);
+    assert!(alpha.tan() > mu);
+    let plane = GroundPlane {
+        point_m: [0.0, 0.0],
+        normal_into_ground: [alpha.sin(), alpha.cos()],
+    };
+    let t = plane.tangent();
+    let down = if t.y > 0.0 { t } else { -t };
+    let model = body(2.0, 0.01, &[("foot", 0.0, 0.0)], mu);
+    let exec = simulate(
+        &model,
+        &plane,
+        &ZeroTorque,
+        ContactMode::FLIGHT.with(0, ContactKind::Stick),
+        &[0.0, 0.0, alpha],
+        &[0.0; 3],
+        t_end,
+        HybridOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(exec.events.len(), 1, "{:?}", exec.events);
+    assert_eq!(exec.events[0].kind, EventKind::Slip);
+    assert!(exec.events[0].t.abs() < 1e-12);
+    let a = G * (alpha.sin() - mu * alpha.cos());
+    let s = exec.q[0] * down.x + exec.q[1] * down.y;
+    let want = 0.5 * a * t_end * t_end;
+    assert!((s - want).abs() < 1e-7, "{s} vs {want}");
+    let e = energy_report(&model, &plane, &exec).unwrap();
+    // the friction's work is μ m g cos α along the distance
+    let w = -mu * 2.0 * G * alpha.cos() * want;
+    assert!(
+        (e.friction_work_j - w).abs() < 1e-6 * w.abs(),
+        "{e:?} vs {w}"
+    );
+    assert!(e.residual_j().abs() < 1e-6, "{e:?}");
+}
