@@ -64,7 +64,7 @@
 //! right-hand side. With $(x_0, y_0)$ the solution without the general sites' friction and
 //! $(x_k, y_k)$ the response to $f = -\mu_k\sigma_k A_{t,k}^{\mathsf T}$, $g = 0$ (a unit normal
 //! force's friction), $\lambda_S$ solves the small dense system
-//! $(I - Y_{SS})\lambda_S = y_{0,S}$, $Y_{SS}[a,b] = (y_b)_{\text{row}(a)}$ (nalgebra's LU), and
+//! $(I - Y_{SS})\lambda_S = y_{0,S}$, $Y_{SS,ab} = (y_b)_{\text{row}(a)}$ (nalgebra's LU), and
 //! $\ddot q = x_0 + \sum_k\lambda_{n,k}x_k$, $\lambda = y_0 + \sum_k\lambda_{n,k}y_k$ — the
 //! block elimination of the nonsymmetric system, exact. `I − Y_SS` is its Schur complement:
 //! the folded system is regular iff the symmetric one is and `det(I − Y_SS) ≠ 0`
