@@ -35,7 +35,10 @@ fn broad_points(n: usize) -> Vec<SweepPoint> {
             let mut overrides = Map::new();
             overrides.insert("m_b".into(), json!(base.m_b * rng.gen_range(0.5..1.5)));
             overrides.insert("I_b".into(), json!(base.I_b * rng.gen_range(0.5..1.5)));
-            if let Some(m_l) = std::env::var("M_L").ok().and_then(|v| v.parse::<f64>().ok()) {
+            if let Some(m_l) = std::env::var("M_L")
+                .ok()
+                .and_then(|v| v.parse::<f64>().ok())
+            {
                 // massive legs (Table 4.2's pair: 0.126 kg, 0.00092 kg m²), toes as given
                 overrides.insert("m_l".into(), json!(m_l));
                 overrides.insert("I_l".into(), json!(0.00092 * m_l / 0.126));

@@ -12,7 +12,7 @@
 //! checks that the sum reproduces `I_b φ̇` at the apex. `PAIRS=front,rear` chooses the
 //! pushing pairs, `M_L=kg` gives the legs Table 4.2's mass (their toes Coulomb unless
 //! `FRICTIONLESS`),
-//! `STICK=1` point-toe legs, `PINNED=1` toes that never slip, `MU`, `FRICTIONLESS`,
+//! `BODY_MU` Coulomb friction at the body ends, `STICK=1` point-toe legs, `PINNED=1` toes that never slip, `MU`, `FRICTIONLESS`,
 //! `SATURATED`, `CURRENT` (A) and `WAIT` (rad) the other candidates; `SWEEP=1` runs the four
 //! 41-point sweeps with these settings instead.
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator};
@@ -63,6 +63,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         params.mu_front = Some(mu);
         params.mu_middle = Some(mu);
         params.mu_rear = Some(mu);
+    }
+    if let Ok(v) = std::env::var("BODY_MU") {
+        // Coulomb friction at the body ends (static = kinetic)
+        params.mu_body = Some(v.parse()?);
     }
     if std::env::var("STICK").is_ok() {
         params.leg_shape = rhex_model::params::LegShape::Stick;

@@ -1578,7 +1578,18 @@ pub(crate) fn run_leap_setup(
         },
         ..HybridOptions::default()
     };
-    let mode0 = rhex.mode("1010")?;
+    let mut mode0 = rhex.mode("1010")?;
+    let body_friction = model
+        .contacts
+        .iter()
+        .any(|c| c.link.is_none() && c.kinetic_mu > 0.0);
+    if let (true, Ok(rear)) = (body_friction, model.contact_index("rear_body")) {
+        if mode0.kind(rear) == Some(selfmanip_core::ContactKind::Stick) {
+            // Coulomb body ends (`RhexParams::mu_body`): the rear one starts sliding (both
+            // sticking is statically indeterminate)
+            mode0 = mode0.with(rear, selfmanip_core::ContactKind::Slide);
+        }
+    }
     let exec = simulate_with(
         model,
         &terrain,

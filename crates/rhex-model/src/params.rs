@@ -81,6 +81,14 @@ pub struct RhexParams {
     /// How a toe slides once it has slipped.
     #[serde(default)]
     pub toe_sliding: ToeSliding,
+    /// Coulomb friction of the body ends (one coefficient, static = kinetic): they stick
+    /// while the cone holds and slide on its edge (`selfmanip_core::friction`, the general
+    /// sliding site). `None` (the default): they slide without friction, the thesis's
+    /// Assumption 5.9 and section C.3 (the shell's friction is low). A leap starts with the
+    /// front end sticking and the rear one sliding (both sticking would be statically
+    /// indeterminate: four rows on the body's three coordinates).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mu_body: Option<f64>,
 }
 
 /// The shipped Table 4.2 file.
@@ -159,6 +167,12 @@ impl RhexParams {
                 if !(m >= 0.0) {
                     return bad(name, "must be non-negative");
                 }
+            }
+        }
+        if let Some(m) = self.mu_body {
+            // also the kinetic coefficient: finite
+            if !(m.is_finite() && m >= 0.0) {
+                return bad("mu_body", "must be finite and non-negative");
             }
         }
         Ok(())
@@ -253,7 +267,13 @@ impl RhexParams {
                     center_m: [x, 0.0],
                     radius_m: self.rho_b,
                 },
-                friction: FrictionDescription::Sliding,
+                friction: match self.mu_body {
+                    None => FrictionDescription::Sliding,
+                    Some(mu) => FrictionDescription::Sticking {
+                        mu: Some(mu),
+                        mu_kinetic: Some(mu),
+                    },
+                },
             });
         }
         RobotDescription {

@@ -648,6 +648,8 @@ pub const PAINLEVE_TOL: f64 = 1e-9;
 /// state: `data.qdd`, `data.lambda` become the solution of the nonsymmetric system
 /// `[M̄ (A + B)ᵀ; A 0]`, `data.friction` gains their force and each site's `force_t` is set
 /// (module docs, "The general sliding site").
+#[cold]
+#[inline(never)]
 pub(crate) fn fold_general(model: &Model, data: &mut Data) -> Result<()> {
     let idx: Vec<usize> = (0..data.sliding.len())
         .filter(|&i| folds(&data.sliding[i]))
