@@ -648,6 +648,7 @@ pub const PAINLEVE_TOL: f64 = 1e-9;
 /// state: `data.qdd`, `data.lambda` become the solution of the nonsymmetric system
 /// `[M̄ (A + B)ᵀ; A 0]`, `data.friction` gains their force and each site's `force_t` is set
 /// (module docs, "The general sliding site").
+// cold: the default leap has no general site, and its solve stays as small as before
 #[cold]
 #[inline(never)]
 pub(crate) fn fold_general(model: &Model, data: &mut Data) -> Result<()> {
