@@ -62,10 +62,39 @@ fn line_offset(c: f64, e: f64, delta: f64) -> f64 {
     (e * delta.sin()).atan2(c + e * delta.cos())
 }
 
+/// How the toes meet the ground and what the legs weigh ([`robot`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Toes {
+    /// Coulomb-sliding toes (the default leap's law: `μ_k = μ`, Fig. 5.1's μ per pair)
+    /// instead of pinned ones.
+    pub sliding: bool,
+    /// Table 4.2's leg-pair mass and inertia (0.126 kg, 0.00092 kg m²) on the hip's link —
+    /// the hip–knee link of a sprung leg, whose knee–toe link stays massless — instead of
+    /// massless legs. A sprung leg with a sliding toe needs it: two massless joints and one
+    /// normal row leave the folded KKT system singular (Lemma 5.1), while a massless knee
+    /// under a massive hip link is resolved by the knee's statics, the spring setting the
+    /// toe's force.
+    pub leg_mass: bool,
+}
+
+/// Table 4.2's leg-pair mass and inertia about its centre (kg, kg m²).
+const LEG_PAIR_MASS: (f64, f64) = (0.126, 0.00092);
+
 /// The robot: body of Table 4.2 with its rounded ends, two leg pairs (`pairs`), each a
 /// point-toe leg of length ρ, rigid (`k_r = None`) or a sprung two-link chain.
-pub fn robot(pairs: [LegPair; 2], k_r: Option<f64>, knee_side: f64, zeta: f64) -> Model {
+pub fn robot(
+    pairs: [LegPair; 2],
+    k_r: Option<f64>,
+    knee_side: f64,
+    zeta: f64,
+    toes: Toes,
+) -> Model {
     let p = leap_params();
+    let (m, i) = if toes.leg_mass {
+        LEG_PAIR_MASS
+    } else {
+        (0.0, 0.0)
+    };
     let rho = p.rho1;
     let mut text = format!(
         "name = \"compliant-leg RHex\"\ngravity_m_s2 = {}\n[body]\nmass_kg = {}\ninertia_kg_m2 = {}\n",
@@ -79,7 +108,9 @@ pub fn robot(pairs: [LegPair; 2], k_r: Option<f64>, knee_side: f64, zeta: f64) -
         );
         match k_r {
             None => {
-                text += &format!("[[legs.links]]\nlength_m = {rho}\naxis = \"-y\"\n");
+                text += &format!(
+                    "[[legs.links]]\nlength_m = {rho}\nmass_kg = {m}\ninertia_kg_m2 = {i}\naxis = \"-y\"\n"
+                );
             }
             Some(k) => {
                 let (c, e, d0) = geometry(rho, knee_side);
@@ -88,7 +119,7 @@ pub fn robot(pairs: [LegPair; 2], k_r: Option<f64>, knee_side: f64, zeta: f64) -
                 // mass): c_r = 2 ζ √(k_r m_b/2), at the knee c_r e²
                 let c_theta = 2.0 * zeta * (k * 0.5 * p.m_b).sqrt() * e * e;
                 text += &format!(
-                    "[[legs.links]]\nlength_m = {c}\naxis = \"-y\"\n[[legs.links]]\nlength_m = {e}\naxis = \"-y\"\nspring = {{ stiffness_n_m_per_rad = {k_theta}, rest_angle_rad = {d0}, damping_n_m_s_per_rad = {c_theta} }}\n"
+                    "[[legs.links]]\nlength_m = {c}\nmass_kg = {m}\ninertia_kg_m2 = {i}\naxis = \"-y\"\n[[legs.links]]\nlength_m = {e}\naxis = \"-y\"\nspring = {{ stiffness_n_m_per_rad = {k_theta}, rest_angle_rad = {d0}, damping_n_m_s_per_rad = {c_theta} }}\n"
                 );
             }
         }
@@ -98,8 +129,19 @@ pub fn robot(pairs: [LegPair; 2], k_r: Option<f64>, knee_side: f64, zeta: f64) -
             None => rho,
             Some(_) => geometry(rho, knee_side).1,
         };
+        let friction = if toes.sliding {
+            let mu = match pair {
+                LegPair::Front => p.mu_front,
+                LegPair::Middle => p.mu_middle,
+                LegPair::Rear => p.mu_rear,
+            }
+            .expect("the default leap gives every toe its μ");
+            format!("{{ kind = \"sticking\", mu = {mu}, mu_kinetic = {mu} }}")
+        } else {
+            "{ kind = \"sticking\" }".to_string()
+        };
         text += &format!(
-            "[[contacts]]\nname = \"{0}_leg\"\nleg = \"{0}\"\nshape = {{ kind = \"point\", position_m = [0.0, {len}] }}\nfriction = {{ kind = \"sticking\" }}\n",
+            "[[contacts]]\nname = \"{0}_leg\"\nleg = \"{0}\"\nshape = {{ kind = \"point\", position_m = [0.0, {len}] }}\nfriction = {friction}\n",
             pair.name()
         );
     }
@@ -133,6 +175,9 @@ struct Ctrl {
     takeoff: bool,
     /// Whether each leg's retraction has its motion (planned once).
     parked: [bool; 2],
+    /// Whether the hips carry the legs' mass: then a hip in the air is no free massless
+    /// joint and follows its motion by the servo instead of a prescribed acceleration.
+    massive_hips: bool,
 }
 
 impl Ctrl {
@@ -159,9 +204,10 @@ impl Controller for Ctrl {
             let h = self.hip[i];
             if self.pushing(i, t) {
                 tau[h] = self.actuator.joint_torque_n_m(self.sign[i], qd[h]);
-            } else if mode.contains(i) {
-                // a retracting leg on the ground follows its motion in the air with the
-                // leap's servo (stall-torque-limited PD), as `leap::LeapController` does
+            } else if mode.contains(i) || self.massive_hips {
+                // a retracting leg on the ground — and a massive one in the air — follows
+                // its motion in the air with the leap's servo (stall-torque-limited PD), as
+                // `leap::LeapController` does on the ground
                 let stall = self.actuator.joint_torque_n_m(1.0, 0.0);
                 let (th, om, _) = self.motion(i, t);
                 tau[h] =
@@ -266,7 +312,14 @@ pub struct Outcome {
 
 /// Runs one leap with pinned toes: rigid legs (`k_r = None`) or sprung ones of radial
 /// stiffness `k_r` (N/m per pair) and damping ratio `zeta`.
-pub fn leap(strategy: &str, t2: f64, k_r: Option<f64>, knee_side: f64, zeta: f64) -> Outcome {
+pub fn leap(
+    strategy: &str,
+    t2: f64,
+    k_r: Option<f64>,
+    knee_side: f64,
+    zeta: f64,
+    toes: Toes,
+) -> Outcome {
     let p = leap_params();
     let cfg = LeapConfig {
         strategy: strategy.parse().unwrap(),
@@ -274,7 +327,7 @@ pub fn leap(strategy: &str, t2: f64, k_r: Option<f64>, knee_side: f64, zeta: f64
         ..LeapConfig::default()
     };
     let pairs = cfg.strategy.chapter3_pairs();
-    let model = robot(pairs, k_r, knee_side, zeta);
+    let model = robot(pairs, k_r, knee_side, zeta, toes);
     let nq = model.nq();
     let sign = [cfg.strategy.front.sign(), cfg.strategy.rear.sign()];
     let (hip, knee) = match k_r {
@@ -328,6 +381,7 @@ pub fn leap(strategy: &str, t2: f64, k_r: Option<f64>, knee_side: f64, zeta: f64
         lifted: [false; 2],
         takeoff: false,
         parked: [false, false],
+        massive_hips: toes.leg_mass,
     };
     let opts = HybridOptions {
         step: StepOptions {
@@ -408,9 +462,13 @@ fn main() {
         .map_or("rigid,2000,4000,8000,1e6", String::as_str);
     let side: f64 = std::env::var("KNEE").map_or(1.0, |s| s.parse().unwrap());
     let zeta: f64 = std::env::var("ZETA").map_or(0.2, |s| s.parse().unwrap());
+    let toes = Toes {
+        sliding: std::env::var("SLIDE").is_ok(),
+        leg_mass: std::env::var("MASS").is_ok(),
+    };
     for k in ks.split(',') {
         let k_r = (k != "rigid").then(|| k.parse::<f64>().unwrap());
-        let o = leap(strategy, t2, k_r, side, zeta);
+        let o = leap(strategy, t2, k_r, side, zeta, toes);
         match o.apex {
             Some(a) => println!(
                 "{strategy} t2 {t2:+.3} k_r {k:>8}: apex z {:.3} m, x {:.3} m, pitch {:+.1} deg, rate {:+.1} deg/s, {} steps; contacts {}",

@@ -40,7 +40,9 @@ fn the_rigid_leg_reproduces_simulate_leap_with_stick_legs_and_pinned_toes() {
             ..LeapConfig::default()
         };
         let a = simulate_leap(&params, &cfg).unwrap().apex.unwrap();
-        let b = probe::leap(s, t2, None, 1.0, 0.0).apex.unwrap();
+        let b = probe::leap(s, t2, None, 1.0, 0.0, probe::Toes::default())
+            .apex
+            .unwrap();
         assert!(
             (a.z_m - b[0]).abs() < 1e-6 && (a.phi_rad - b[2]).abs() < 1e-5,
             "{s} t2 {t2}: simulate_leap z {} φ {}, probe z {} φ {}",
@@ -59,7 +61,13 @@ fn the_rigid_leg_reproduces_simulate_leap_with_stick_legs_and_pinned_toes() {
 fn the_knee_moves_the_toe_along_the_leg_by_its_offset() {
     let p = leap_params();
     for side in [1.0, -1.0] {
-        let model = probe::robot([LegPair::Front, LegPair::Rear], Some(4000.0), side, 0.0);
+        let model = probe::robot(
+            [LegPair::Front, LegPair::Rear],
+            Some(4000.0),
+            side,
+            0.0,
+            probe::Toes::default(),
+        );
         let (c, e, d0) = probe::geometry(p.rho1, side);
         assert!((c * c - p.rho1 * p.rho1 - e * e).abs() < 1e-15);
         let toe = |knee: f64| {
@@ -94,7 +102,13 @@ fn the_knee_moves_the_toe_along_the_leg_by_its_offset() {
 fn two_compliant_legs_bounce_as_two_linear_springs() {
     let p = leap_params();
     let k_r = 2.0e4;
-    let model = probe::robot([LegPair::Front, LegPair::Rear], Some(k_r), 1.0, 0.0);
+    let model = probe::robot(
+        [LegPair::Front, LegPair::Rear],
+        Some(k_r),
+        1.0,
+        0.0,
+        probe::Toes::default(),
+    );
     let (c, e, d0) = probe::geometry(p.rho1, 1.0);
     let off = (e * d0.sin()).atan2(c + e * d0.cos());
     let nq = model.nq();
@@ -165,10 +179,12 @@ fn two_compliant_legs_bounce_as_two_linear_springs() {
 /// (+,+) t2 = 0 leap more than rigid legs do (rigid 53°; measured 131–175°).
 #[test]
 fn pinned_compliant_legs_do_not_reduce_the_plus_plus_pitch() {
-    let rigid = probe::leap("++", 0.0, None, 1.0, 0.0).apex.unwrap()[2];
+    let rigid = probe::leap("++", 0.0, None, 1.0, 0.0, probe::Toes::default())
+        .apex
+        .unwrap()[2];
     for zeta in [0.2, 1.0] {
         for k in [2000.0, 4000.0, 8000.0] {
-            let o = probe::leap("++", 0.0, Some(k), 1.0, zeta);
+            let o = probe::leap("++", 0.0, Some(k), 1.0, zeta, probe::Toes::default());
             let a = o
                 .apex
                 .unwrap_or_else(|| panic!("k {k} ζ {zeta}: {}", o.ended));
