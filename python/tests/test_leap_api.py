@@ -248,3 +248,16 @@ def test_docstring_examples():
 
     res = doctest.testmod(mod, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
     assert res.failed == 0 and res.attempted > 0
+
+
+def test_massive_legs_run_with_coulomb_toes_and_a_painleve_end_is_typed():
+    """Table 4.2's leg-pair mass with the default Coulomb toes (once a typed error: the core
+    resolved kinetic friction only on massless legs). A massive leg alone on a slipping toe can
+    meet Painlevé's paradox (its sliding mode has no or several solutions): the leap ends
+    ``singular_contact`` with a reason that names the contact, never a number or a panic."""
+    legs = {"m_l": 0.126, "I_l": 0.00092}
+    r = selfmanip.leap("++", t2=0.0, params=legs)
+    assert r.status == "ok" and r.apex is not None
+    r = selfmanip.leap("-+", t2=0.0, params=legs)
+    assert r.status == "singular_contact"
+    assert "Painlevé" in r.reason and "`rear_leg`" in r.reason

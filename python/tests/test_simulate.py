@@ -97,6 +97,29 @@ def test_dropped_block_lands_flat_at_the_free_fall_time(block_file):
     assert same.events == e.events
 
 
+def test_block_sliding_on_coulomb_corners_stops_at_v0_over_mu_g():
+    """Coulomb friction at body sites (not legs): a level block sliding on both corners with
+    mu_k = mu decelerates at mu g (the corners' normal forces sum to m g, each friction force
+    mu |N| against the sliding), so it sticks at t = v0 / (mu g) after x = v0^2 / (2 mu g), and
+    the friction takes all its kinetic energy: W_fr = -m v0^2 / 2 with the energy balance
+    closed (E1 - E0 = W + W_fr - L)."""
+    m, mu, v0 = 2.0, 0.3, 0.9
+    robot = selfmanip.Robot.from_toml(BLOCK.replace('{ kind = "sliding" }',
+                                                    f'{{ kind = "sticking", mu = {mu}, mu_kinetic = {mu} }}'))
+    e = selfmanip.simulate(robot, None, [0.0, -0.05, 0.0], [v0, 0.0, 0.0], t_final=0.5,
+                           contacts="front_corner:slide,rear_corner:slide")
+    t_stop = v0 / (mu * G)
+    stick = [ev for ev in e.events if ev["kind"] == "stick"]
+    assert stick and stick[0]["t_s"] == pytest.approx(t_stop, abs=1e-8)
+    assert e.status == "final_time"
+    tr = e.trajectory(0.01)
+    ix = tr.q_names.index("x")
+    assert tr.q[-1, ix] == pytest.approx(v0**2 / (2 * mu * G), abs=1e-8)
+    er = e.energy_report()
+    assert er.friction_work_j == pytest.approx(-0.5 * m * v0**2, rel=1e-7)
+    assert abs(er.residual_j) < 1e-7
+
+
 def _joint_work(e: simulation.Execution, robot: selfmanip.Robot, dt: float, free_in_flight: bool) -> float:
     """W = sum over segments of the trapezoid of tau . thetadot on samples inside each segment
     (a torque on a massless joint out of contact does no work: left out when
