@@ -1,9 +1,11 @@
 //! Candidate (a) of issue 16's pitch question, measured where the core can represent it:
 //! compliant legs with **pinned toes** (chapter 3's own assumption for the same-sign
-//! strategies, section 3.1.2 footnote 5). A compliant massless leg cannot slide on this core
-//! (two massless coordinates, one row: Lemma 5.1; `selfmanip_core::passive` module docs), so
-//! the default's Coulomb toes are out of reach; this compares pinned rigid legs with pinned
-//! compliant ones, everything else as in the default leap.
+//! strategies, section 3.1.2 footnote 5). A compliant *massless* leg cannot slide (two
+//! massless coordinates, one row: Lemma 5.1; `selfmanip_core::passive` module docs); with
+//! `MASS=1` the legs carry Table 4.2's pair mass on the hip's link, the massless knee is
+//! pinned by the toe alone, and `SLIDE=1` gives the toes the default leap's Coulomb law
+//! (`docs/leap-physics.md`, "(a) Compliant C-legs"). By default this compares pinned rigid
+//! legs with pinned compliant ones, everything else as in the default leap.
 //!
 //! ```sh
 //! cargo run --release -p rhex-model --example compliant_leg_probe -- ++ 0 2000,4000,8000,1e6
@@ -11,7 +13,7 @@
 //! Arguments: strategy, t2 (s, the rear motor's start after the front one's), radial
 //! stiffnesses of a leg pair (N/m, at the leg's rest shape; `rigid` for the one-joint rigid
 //! leg of the same length). `ZETA` is the damping ratio (default 0.2), `KNEE=-1` bends the
-//! knee the other way, `EVENTS=1` lists the first events.
+//! knee the other way, `EVENTS=1` lists the first events, `SLIDE=1` and `MASS=1` as above.
 //!
 //! **The leg.** A point-toe leg of length `ρ = 0.17 m` (a stick leg: the half-circle's
 //! rolling contact would need the arc on a bending link) made of two massless links: hip to
