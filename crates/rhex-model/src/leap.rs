@@ -823,6 +823,11 @@ pub(crate) struct LeapController {
     pub(crate) start: [f64; 2],
     hold: [f64; 2],
     pub(crate) leg_contact: [usize; 2],
+    /// Whether each leg's joint moves only massless links: such a leg in the air is a free
+    /// joint whose motion the controller prescribes ([`Controller::free_joint_qdd`]) and
+    /// gets no torque; a massive leg in the air is a joint like any other, and its servo
+    /// drives it along the same motion with the torque it uses on the ground.
+    free_in_air: [bool; 2],
     actuators: [Arc<dyn Actuator>; 2],
     /// The law of the actuators' torque, for the partials.
     law: MotorLaw,
@@ -859,6 +864,13 @@ const AIR_KP: f64 = 400.0;
 const AIR_KD: f64 = 40.0;
 
 impl LeapController {
+    /// Whether leg `i`, when not pushing, is driven by its servo in `mode`: on the ground
+    /// always, in the air when it is massive (a massless leg in the air is a free joint
+    /// whose motion is prescribed instead).
+    fn servoed(&self, i: usize, mode: ContactMode) -> bool {
+        !self.free_in_air[i] || mode.contains(self.leg_contact[i])
+    }
+
     fn phase(&self, i: usize, t: f64) -> Phase {
         if t < self.start[i] {
             Phase::Waiting
@@ -997,8 +1009,8 @@ impl Controller for LeapController {
                     let u = if stubbed { -s } else { s };
                     self.actuators[i].joint_torque_n_m(u, qd[i])
                 }
-                // a servoed leg in the air follows its prescribed motion: no torque
-                _ if !mode.contains(self.leg_contact[i]) => 0.0,
+                // a massless leg in the air follows its prescribed motion: no torque
+                _ if !self.servoed(i, mode) => 0.0,
                 Phase::Waiting => self.servo(q[i], qd[i], self.hold[i], 0.0),
                 Phase::Retracting => {
                     let (theta, omega, _) = self.air_motion(i, t);
@@ -1042,7 +1054,7 @@ impl Controller for LeapController {
                     let u = self.sign[i];
                     out.dtau_dqd[(i, i)] = self.law.partials_one_sided(u, qd[i]).0;
                 }
-                _ if !mode.contains(self.leg_contact[i]) => {}
+                _ if !self.servoed(i, mode) => {}
                 _ => {
                     let (theta, omega) = self.servo_target(i, t, phase);
                     let d = self.servo_partials(q[i], qd[i], theta, omega);
@@ -1079,7 +1091,7 @@ impl Controller for LeapController {
                             continue;
                         }
                         let (dth, dw, da) = self.air_motion_dt2(i, t);
-                        if phase == Phase::Retracting && mode.contains(self.leg_contact[i]) {
+                        if phase == Phase::Retracting && self.servoed(i, mode) {
                             let (theta, omega) = self.servo_target(i, t, phase);
                             let d = self.servo_partials(q[i], qd[i], theta, omega);
                             out.dtau_dp[(i, col)] = d[2] * dth + d[3] * dw;
@@ -1103,7 +1115,7 @@ impl Controller for LeapController {
                                 let u = self.sign[i];
                                 self.law.partials_one_sided(u, qd[i]).1.unwrap_or(0.0)
                             }
-                            _ if !mode.contains(self.leg_contact[i]) => 0.0,
+                            _ if !self.servoed(i, mode) => 0.0,
                             _ => {
                                 let (theta, omega) = self.servo_target(i, t, phase);
                                 let d = self.servo_partials(q[i], qd[i], theta, omega);
@@ -1359,6 +1371,7 @@ impl LeapSetup {
             start,
             hold: [q0[0], q0[1]],
             leg_contact,
+            free_in_air: [0, 1].map(|i| rhex.model.distal_massless(i)),
             actuators,
             law,
             hold_torque,
