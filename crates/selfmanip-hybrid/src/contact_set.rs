@@ -151,15 +151,20 @@ impl ResetWorkspace<'_> {
             })
     }
 
-    /// A contact touching down now (not held by `before`), sticking, on a massless link,
-    /// whose push pulls at the impact: it slides instead of letting go. Released, a massless
-    /// link keeps the motion its controller gives it in the air, which is what brought it
-    /// into the ground: its touchdown would fire again at the same instant, for ever.
+    /// A contact touching down now (not held by `before`), sticking, whose push pulls at the
+    /// impact: it slides instead of letting go (a pulling impulse is outside its friction
+    /// cone, 5.1.5). Released, a massless link keeps the motion its controller gives it in
+    /// the air, which is what brought it into the ground: its touchdown would fire again at
+    /// the same instant, for ever. So would a massive leg's toe whose sticking impulse pulls
+    /// while it approaches the ground (issue 16: a flipped robot's parked front toe met the
+    /// ground at 1.0 m/s; stuck, the impact pulled, 7.0 N s along and −2.0 N s normal;
+    /// sliding, it pushes 0.07 N s and swings the light leg about its hip) — the slide is
+    /// tried for any link.
     /// Sliding, it "rotates out of the way" (Assumption 5.9) by following the surface, and
     /// its normal force is whatever its joint torque makes it — zero for a limp leg; whether
     /// it is kept is then decided as for any contact, by the sign of that push. Contacts
     /// already held are released on a pull as the thesis's rule says (Fig. 5.7's chatter).
-    pub fn massless_pull(
+    pub fn touchdown_pull(
         &self,
         mode: ContactMode,
         before: ContactMode,
@@ -170,12 +175,8 @@ impl ResetWorkspace<'_> {
             .find_map(|&(k, u)| {
                 let c = &self.model.contacts[k];
                 let slidable = matches!(c.friction, Friction::Sticking { mu } if mu.is_finite());
-                let massless = c.link.is_some_and(|j| self.model.distal_massless(j));
-                (u < -IMPULSE_TOL_N_S
-                    && slidable
-                    && massless
-                    && mode.kind(k) == Some(ContactKind::Stick))
-                .then_some(k)
+                (u < -IMPULSE_TOL_N_S && slidable && mode.kind(k) == Some(ContactKind::Stick))
+                    .then_some(k)
             })
     }
 }

@@ -44,8 +44,8 @@ impl ResetWorkspace<'_> {
     /// The outcome of contact set `set` at `(t, q, q̇)` (an impact when `impact`, else a
     /// force event), in the mode that `set` takes: kinds from `prefer`, and a sticking
     /// contact whose impulse (force) leaves its friction cone slides instead (Assumption
-    /// 5.9, 5.1.5), as does a massless link touching down whose impulse would pull
-    /// ([`ResetWorkspace::massless_pull`]); at a force event a sticking contact whose force
+    /// 5.9, 5.1.5), as does a sticking toe touching down whose impulse would pull
+    /// ([`ResetWorkspace::touchdown_pull`]); at a force event a sticking contact whose force
     /// pulls slides instead ([`ResetWorkspace::pulling_sticking`]), and a sliding contact at
     /// rest whose sticking force the cone holds sticks instead
     /// ([`ResetWorkspace::held_at_rest`]).
@@ -79,7 +79,7 @@ impl ResetWorkspace<'_> {
             };
             let slides = self.outside_cone(mode, &outcome.judged).or_else(|| {
                 if impact {
-                    self.massless_pull(mode, before, &outcome.push)
+                    self.touchdown_pull(mode, before, &outcome.push)
                 } else {
                     self.pulling_sticking(mode, &outcome.judged)
                 }

@@ -206,11 +206,13 @@ fn three_point_landing_has_several_contact_solutions() {
     );
 }
 
-/// A sticking toe on a massless link that touches down now and would pull slides instead;
-/// a contact held before, a pushing one, a sliding one and a toe on a massive link do not.
+/// A sticking toe that touches down now and would pull slides instead, on a massless link
+/// and (issue 16: a pulling impulse is outside the friction cone whatever the link's mass;
+/// released, a massive toe kept its approach speed and touched down again at once) on a
+/// massive one; a contact held before, a pushing one and a sliding one do not.
 #[test]
-fn massless_link_touching_down_slides_instead_of_pulling() {
-    for (link_mass, expected) in [(0.0, Some(0)), (0.4, None)] {
+fn toe_touching_down_slides_instead_of_pulling() {
+    for (link_mass, expected) in [(0.0, Some(0)), (0.4, Some(0))] {
         let model = one_leg(0.2, link_mass, G);
         let mut ws = FlowWorkspace::new(&model);
         let cx = ResetWorkspace {
@@ -225,14 +227,14 @@ fn massless_link_touching_down_slides_instead_of_pulling() {
         let toe = ContactMode::parse_names(&model, "toe").unwrap();
         let toe_sliding = ContactMode::parse_names(&model, "toe:slide").unwrap();
         let pull = [(0, -1.0)];
-        assert_eq!(cx.massless_pull(toe, ContactMode::FLIGHT, &pull), expected);
-        assert_eq!(cx.massless_pull(toe, toe, &pull), None, "held before");
+        assert_eq!(cx.touchdown_pull(toe, ContactMode::FLIGHT, &pull), expected);
+        assert_eq!(cx.touchdown_pull(toe, toe, &pull), None, "held before");
         assert_eq!(
-            cx.massless_pull(toe, ContactMode::FLIGHT, &[(0, 1.0)]),
+            cx.touchdown_pull(toe, ContactMode::FLIGHT, &[(0, 1.0)]),
             None
         );
         assert_eq!(
-            cx.massless_pull(toe_sliding, ContactMode::FLIGHT, &pull),
+            cx.touchdown_pull(toe_sliding, ContactMode::FLIGHT, &pull),
             None
         );
     }
