@@ -19,10 +19,11 @@
 //! follows, written by hand at the acceleration level: a toe the reset releases has a
 //! separating gap rate, or (at zero gap rate, a plastic impact's (5.52)) a gap acceleration
 //! that does not close it, and a toe it keeps a gap acceleration that would close it if
-//! released (the refused branch is inconsistent), both by central differences of the toe's gap from the kinematics
-//! along `q + q̇ h + ½ q̈ h²`, with `q̈` from the forward dynamics (5.2) of the branch without
-//! the toe under the controller's torque (the leap's one toe touchdown: the front toe at
-//! 23 ms, kept, −2.7e3 m/s² free). No touchdown leaves the mode unchanged.
+//! released (the refused branch is inconsistent), both by central differences of the toe's
+//! gap from the kinematics along `q + q̇ h + ½ q̈ h²`, with `q̈` from the forward dynamics
+//! (5.2) of the branch without the toe under the controller's torque (the (+,−) leap's one
+//! toe touchdown: the rear toe at 23 ms, kept, −2.7e3 m/s² free). No touchdown leaves the
+//! mode unchanged.
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig};
 use rhex_model::{Rhex, RhexParams};
 use selfmanip_core::contact::contact_geometry;
@@ -43,8 +44,8 @@ fn massive_leg_touchdown_that_changes_no_mode() {
     touchdowns_agree_with_the_flow(&massive(), "+-", -0.1);
 }
 
-/// The second cycle (issue 16): the (+,+) t2 = 0.16 leap flips the robot onto its rear toe;
-/// its parked front toe meets the ground at 1.0 m/s. Stuck, the impact pulls (7.0 N s along
+/// The second cycle (issue 16): the (+,+) t2 = 0.16 leap flips the robot (138° pitch) onto
+/// a body end; a parked toe meets the ground at 1.0 m/s. Stuck, the impact pulls (7.0 N s along
 /// the ground, 2.0 N s up); the reset tried the slide only for a massless link, so it let
 /// the toe go with its approach speed and the guard fired again at the same instant, 41
 /// times. A touched toe left out must not approach the ground after the impact ((5.29)).
