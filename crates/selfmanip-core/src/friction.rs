@@ -417,24 +417,9 @@ pub(crate) fn resolve(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()>
             let (mut x, mut y) = (vec![0.0; coords.len()], vec![0.0; c + rest.len()]);
             kkt.solve(&f, &g, &mut x, &mut y);
             // the general sites that slide meanwhile: their friction folded in
-            let folded: Vec<usize> = (0..data.sliding.len())
-                .filter(|&i| folds(&data.sliding[i]))
-                .collect();
-            if folded.is_empty() {
-                Some(y)
-            } else {
-                fold_into(
-                    model,
-                    &mut kkt,
-                    coords,
-                    &data.sliding,
-                    &folded,
-                    &mut x,
-                    &mut y,
-                )
+            fold_into(model, &mut kkt, coords, &data.sliding, &mut x, &mut y)
                 .ok()
                 .map(|_| y)
-            }
         }
         // sticking is itself singular here
         Err(_) => None,
@@ -652,31 +637,20 @@ pub const PAINLEVE_TOL: f64 = 1e-9;
 #[cold]
 #[inline(never)]
 pub(crate) fn fold_general(model: &Model, data: &mut Data) -> Result<()> {
-    let idx: Vec<usize> = (0..data.sliding.len())
-        .filter(|&i| folds(&data.sliding[i]))
-        .collect();
-    if idx.is_empty() {
+    if !data.sliding.iter().any(folds) {
         return Ok(());
     }
     let coords = std::mem::take(&mut data.dynamic_coords);
     let mut x: Vec<f64> = coords.iter().map(|&k| data.qdd[k]).collect();
     let mut y: Vec<f64> = data.lambda.as_slice().to_vec();
-    let folded = fold_into(
-        model,
-        &mut data.kkt,
-        &coords,
-        &data.sliding,
-        &idx,
-        &mut x,
-        &mut y,
-    );
+    let folded = fold_into(model, &mut data.kkt, &coords, &data.sliding, &mut x, &mut y);
     for (p, &k) in coords.iter().enumerate() {
         data.qdd[k] = x[p];
     }
     data.dynamic_coords = coords;
     let lambda_n = folded?;
     data.lambda.as_mut_slice().copy_from_slice(&y);
-    for (&i, &l) in idx.iter().zip(&lambda_n) {
+    for (i, l) in lambda_n {
         let s = &mut data.sliding[i];
         s.force_t = s.coef * l;
         let friction = data.friction.as_mut_slice();
@@ -688,20 +662,24 @@ pub(crate) fn fold_general(model: &Model, data: &mut Data) -> Result<()> {
 }
 
 /// The fold itself on a factored symmetric KKT system (`kkt` on `coords`, with the solution
-/// `x` (on `coords`), `y` (rows) for the force without the friction of `sites`): the
-/// solution of the system with it, and each site's `λ_n` (module docs). A typed error where
-/// `I − Y` is singular (Lemma 5.1 for the folded system) or the mode is inconsistent
-/// (Painlevé).
+/// `x` (on `coords`), `y` (rows) for the force without the friction of the sites that fold,
+/// [`folds`]): the solution of the system with it, and each such site's index in `sliding`
+/// with its `λ_n` (module docs; none, and `x`, `y` untouched, when no site folds). A typed
+/// error where `I − Y` is singular (Lemma 5.1 for the folded system) or the mode is
+/// inconsistent (Painlevé).
 fn fold_into(
     model: &Model,
     kkt: &mut crate::kkt::KktFactorization,
     coords: &[usize],
     sliding: &[SlidingSite],
-    sites: &[usize],
     x: &mut [f64],
     y: &mut [f64],
-) -> Result<Vec<f64>> {
+) -> Result<Vec<(usize, f64)>> {
     use nalgebra::{DMatrix, DVector};
+    let sites: Vec<usize> = (0..sliding.len()).filter(|&i| folds(&sliding[i])).collect();
+    if sites.is_empty() {
+        return Ok(Vec::new());
+    }
     let (m, c, n) = (coords.len(), y.len(), sites.len());
     let mut pos = vec![usize::MAX; model.nq()];
     for (p, &k) in coords.iter().enumerate() {
@@ -777,7 +755,7 @@ fn fold_into(
             y[r] += l * ys[(r, b)];
         }
     }
-    Ok(lambda.iter().copied().collect())
+    Ok(sites.into_iter().zip(lambda.iter().copied()).collect())
 }
 
 /// The first principal minor of `w` that is clearly negative (P₀ fails), as the index of

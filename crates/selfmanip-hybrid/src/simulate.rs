@@ -103,13 +103,9 @@ pub fn simulate_with(
             &opts,
             &mut budget,
         );
-        // a sliding mode inconsistent with Coulomb friction met at a segment's start (its
-        // sliding directions from rest): a typed end, as in the flow
         let (segment, end) = match run {
-            Err(HybridError::Core(CoreError::PainleveInconsistent { contact, .. })) => {
-                break Termination::Painleve { t, mode, contact }
-            }
-            r => r?,
+            Ok(r) => r,
+            Err(e) => break painleve_end(e, t, mode)?,
         };
         segments.push(segment);
         let fired = match end {
@@ -123,11 +119,8 @@ pub fn simulate_with(
         };
         // ⇒ reset
         let reset = match reset(&mut reset_ws, &mut flow, &opts, &fired, mode, (t, &y)) {
-            // the reset's candidate mode is inconsistent with Coulomb friction
-            Err(HybridError::Core(CoreError::PainleveInconsistent { contact, .. })) => {
-                break Termination::Painleve { t, mode, contact }
-            }
-            r => r?,
+            Ok(r) => r,
+            Err(e) => break painleve_end(e, t, mode)?,
         };
         let (event, rest) = match reset {
             Reset::Continue {
@@ -207,4 +200,16 @@ fn check_initial_state(
         }
     }
     Ok(())
+}
+
+/// A sliding mode inconsistent with Coulomb friction (Painlevé) met at a segment's start
+/// (its sliding directions from rest) or in the mode a reset chose ends the run typed, as in
+/// the flow ([`Termination::Painleve`]); any other error is the run's error.
+fn painleve_end(e: HybridError, t: f64, mode: ContactMode) -> Result<Termination, HybridError> {
+    match e {
+        HybridError::Core(CoreError::PainleveInconsistent { contact, .. }) => {
+            Ok(Termination::Painleve { t, mode, contact })
+        }
+        e => Err(e),
+    }
 }
