@@ -9,19 +9,19 @@
 //! the hips (`X + R(φ) h`, `docs/conventions.md`) and the toes (`contact_points`), the
 //! velocities by central differences along `q̇`, each piece's `ω` from a vector fixed in it —
 //! is zero along the engine's flight from rest; and, with the two legs locked in parallel,
-//! the body's rate per relative leg rate is the closed form of (4.68), derived again here:
-//!
-//! `ε = −(2 I_l + m_r a²) / (I_b + 2 I_l + 2 m_l ℓ² + m_r a²)`, `a = ρ/2`,
-//! `m_r = m_b 2m_l / (m_b + 2m_l)`.
+//! the body's rate per relative leg rate is the closed form of (4.68) as derived in
+//! [`selfmanip_sim::analysis::leg_tail::effectiveness_closed_form`] (the body turns against
+//! the legs: `ε < 0` in this sign convention).
 //!
 //! The converted thesis prints the denominator as `I_b + 2I_l + 2m_lℓ₁ + m_r2 ρ₁/2` — two terms
 //! of the wrong unit (kg m); with Table 4.2's values that reads ε = −0.0161 instead of −0.0219
-//! (`docs/thesis-errata.md`).
+//! (`docs/errata/ch4-analysis.md`).
 use rhex_model::leap::leap_params;
 use rhex_model::modes::Rhex;
 use rhex_model::params::{LegPair, LegShape};
 use selfmanip_core::{contact_points, ContactMode, FlatGround, Model};
 use selfmanip_hybrid::{simulate, Controller, HybridOptions};
+use selfmanip_sim::analysis::leg_tail::effectiveness_closed_form;
 
 /// Equal drive on both legs, and an internal spring–damper between them that locks them in
 /// parallel (its torques cancel: no external moment).
@@ -108,8 +108,8 @@ fn legs_turning_in_flight_turn_the_body_back_by_result_c5() {
     assert!(exec.events.is_empty(), "a flight: {:?}", exec.events);
     let seg = exec.segments.last().unwrap();
 
+    let eps = -effectiveness_closed_form(mb, ib, ml, il, a, &[l, -l]).unwrap();
     let r_mr = mb * 2.0 * ml / (mb + 2.0 * ml);
-    let eps = -(2.0 * il + r_mr * a * a) / (ib + 2.0 * il + 2.0 * ml * l * l + r_mr * a * a);
     let eps_printed = -(2.0 * il + r_mr * a * a) / (ib + 2.0 * il + 2.0 * ml * l + r_mr * a);
     let mut turned = 0.0;
     for t in [0.03, 0.06, 0.09, 0.12] {
