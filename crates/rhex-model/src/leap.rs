@@ -708,24 +708,29 @@ pub fn leg_inertia_about_hip(params: &RhexParams) -> f64 {
     params.I_l + params.m_l * (0.5 * params.rho1).powi(2)
 }
 
-/// How a massless leg swings in the air while its motor is on: `(speed, acceleration
-/// bound)`. The model's legs have no inertia, so the motion is prescribed (thesis 5.1.1);
-/// its bounds are those of the physical leg, which its motor drives: it runs up to the
-/// motor's no-load output speed `ω₀/G` (Table 2.1: 10314 rpm at 37 V; 38.6 rad/s at 28:1),
-/// accelerating at most at the stall torque over the reflected rotor inertia
-/// `n J G² (+ the leg's own inertia about the hip)`. The rotor inertia is not printed; it is
-/// `J = τ_m k_M² / R` from Table 2.1's mechanical time constant `τ_m = 11.8 ms` and the
-/// motor model's `k_M` and `R` (7.2·10⁻⁶ kg m², within the range of maxon's 45 mm flat motors).
-/// The saturated-torque idealization keeps X-RHex's legs and motors: `τ_s` over the same
-/// inertia, and the 28:1 drive's no-load speed. Explicit values in the configuration win.
-pub fn leg_swing(params: &RhexParams, cfg: &LeapConfig) -> Result<(f64, f64), RhexError> {
+/// The drive that turns a leg: its gear ratio `G`, motors per leg `n`, stall torque at the
+/// joint (N m), the motor's no-load speed `ω₀` (rad/s) and one rotor's inertia `J` (kg m²).
+/// The geared motor's own; the saturated-torque idealization keeps X-RHex's legs and motors
+/// (Table 2.1's motor behind the 28:1 gearbox, two per planar leg) with `τ_s` as its stall
+/// torque. The rotor inertia is not printed; it is `J = τ_m k_M² / R` from Table 2.1's
+/// mechanical time constant `τ_m = 11.8 ms` and the motor model's `k_M` and `R`
+/// (7.2·10⁻⁶ kg m², within the range of maxon's 45 mm flat motors).
+struct LegMotorData {
+    ratio: f64,
+    n: f64,
+    stall_n_m: f64,
+    no_load_speed_rad_s: f64,
+    rotor_kg_m2: f64,
+}
+
+fn leg_motor_data(params: &RhexParams, cfg: &LeapConfig) -> Result<LegMotorData, RhexError> {
     let motor_err = |e: motor::MotorError| RhexError::Params {
         field: "actuator".into(),
         reason: e.to_string(),
     };
     let catalog = motor::catalog::Catalog::thesis();
     let spec = catalog.motor_spec("x-rhex").map_err(motor_err)?;
-    let (ratio, n, stall) = match cfg.actuator {
+    let (ratio, n, stall_n_m) = match cfg.actuator {
         LegActuator::GearedMotor {
             gear_ratio,
             motors_per_leg,
@@ -749,17 +754,90 @@ pub fn leg_swing(params: &RhexParams, cfg: &LeapConfig) -> Result<(f64, f64), Rh
         .mechanical_time_constant_s
         .ok_or_else(|| RhexError::Params {
             field: "actuator".into(),
-            reason: "the motor's mechanical time constant is needed for the leg swing".into(),
+            reason: "the motor's mechanical time constant is needed for the rotor inertia".into(),
         })?;
     let k = m.torque_constant_n_m_per_a;
-    let rotor = tau_m * k * k / m.terminal_resistance_ohm();
+    Ok(LegMotorData {
+        ratio,
+        n,
+        stall_n_m,
+        no_load_speed_rad_s: m.no_load_speed_rad_s,
+        rotor_kg_m2: tau_m * k * k / m.terminal_resistance_ohm(),
+    })
+}
+
+impl LegMotorData {
+    /// `n J G²`.
+    fn reflected_inertia(&self) -> f64 {
+        self.n * self.rotor_kg_m2 * self.ratio * self.ratio
+    }
+}
+
+/// The inertia of a leg's motors' rotors seen at the leg's joint through the gearbox,
+/// `n J G²` (kg m²; 0.0113 for X-RHex's two motors per planar leg at 28:1): `n` rotors of
+/// inertia `J` turning `G` times as fast as the leg. One value for both uses: the swing
+/// bound of a massless leg ([`leg_swing`]) and the armature of a massive leg's joint
+/// ([`leg_armature`]).
+pub fn rotor_reflected_inertia(params: &RhexParams, cfg: &LeapConfig) -> Result<f64, RhexError> {
+    Ok(leg_motor_data(params, cfg)?.reflected_inertia())
+}
+
+/// The armature a leap gives each leg joint (kg m²): `params.leg_armature_kg_m2` when set;
+/// otherwise its rotors' reflected inertia ([`rotor_reflected_inertia`]) on massive legs
+/// (the physical leg's motors turn with it) and none on massless legs, which stay massless
+/// (Assumption C.6: their motion is prescribed, bounded by the same rotors in
+/// [`leg_swing`]).
+pub fn leg_armature(params: &RhexParams, cfg: &LeapConfig) -> Result<f64, RhexError> {
+    Ok(leap_leg_armature(params, cfg)?.unwrap_or(0.0))
+}
+
+/// [`leg_armature`], `None` for massless legs without an explicit armature.
+fn leap_leg_armature(params: &RhexParams, cfg: &LeapConfig) -> Result<Option<f64>, RhexError> {
+    Ok(match params.leg_armature_kg_m2 {
+        Some(a) => Some(a),
+        None if params.massive_legs() => Some(rotor_reflected_inertia(params, cfg)?),
+        None => None,
+    })
+}
+
+/// Whether a leap's leg armature is the actuator's reflected rotor inertia, which moves with
+/// the gear ratio (`∂a/∂G = 2 n J G`): massive legs without an explicit armature.
+pub(crate) fn armature_follows_gear(params: &RhexParams) -> bool {
+    params.leg_armature_kg_m2.is_none() && params.massive_legs()
+}
+
+/// The robot of a leap: `params` with the leap's two pushing pairs (`pairs`) and its legs'
+/// armature ([`leg_armature`]) set.
+pub(crate) fn leap_robot_params(
+    params: &RhexParams,
+    cfg: &LeapConfig,
+    pairs: [LegPair; 2],
+) -> Result<RhexParams, RhexError> {
+    Ok(RhexParams {
+        pairs: pairs.to_vec(),
+        leg_armature_kg_m2: leap_leg_armature(params, cfg)?,
+        ..params.clone()
+    })
+}
+
+/// How a massless leg swings in the air while its motor is on: `(speed, acceleration
+/// bound)`. The model's legs have no inertia, so the motion is prescribed (thesis 5.1.1);
+/// its bounds are those of the physical leg, which its motor drives: it runs up to the
+/// motor's no-load output speed `ω₀/G` (Table 2.1: 10314 rpm at 37 V; 38.6 rad/s at 28:1),
+/// accelerating at most at the stall torque over the reflected rotor inertia
+/// `n J G²` ([`rotor_reflected_inertia`]) plus the leg's own inertia about the hip. The
+/// saturated-torque idealization keeps X-RHex's legs and motors: `τ_s` over the same
+/// inertia, and the 28:1 drive's no-load speed ([`LegMotorData`]). A massive leg's servo follows
+/// the same motion. Explicit values in the configuration win.
+pub fn leg_swing(params: &RhexParams, cfg: &LeapConfig) -> Result<(f64, f64), RhexError> {
+    let d = leg_motor_data(params, cfg)?;
     let leg = leg_inertia_about_hip(params);
     let speed = cfg
         .swing_speed_rad_s
-        .unwrap_or(m.no_load_speed_rad_s / ratio);
+        .unwrap_or(d.no_load_speed_rad_s / d.ratio);
     let accel = cfg
         .swing_accel_rad_s2
-        .unwrap_or(stall / (n * rotor * ratio * ratio + leg));
+        .unwrap_or(d.stall_n_m / (d.reflected_inertia() + leg));
     Ok((speed, accel))
 }
 
@@ -1302,10 +1380,8 @@ impl LeapSetup {
                 reason: "a leap strategy drives two different leg pairs".into(),
             });
         }
-        let params = RhexParams {
-            pairs: pairs.to_vec(),
-            ..params.clone()
-        };
+        // the leap's two pairs, and the rotors of massive legs as their joints' armature
+        let params = leap_robot_params(params, cfg, pairs)?;
         let terrain = cfg.terrain;
         let sign = [cfg.strategy.front.sign(), cfg.strategy.rear.sign()];
         // the robot and its start posture depend only on these (a sweep over t2 builds the
