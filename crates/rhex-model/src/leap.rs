@@ -910,6 +910,13 @@ pub(crate) struct LeapController {
     /// The law of the actuators' torque, for the partials.
     law: MotorLaw,
     hold_torque: f64,
+    /// The servo's damping per N m of stall torque (s/rad): [`HOLD_KD_S`] on massless legs;
+    /// on legs with inertia `I` about the hip (their own and their rotors' armature),
+    /// `2 √(k_p I / H)`, which makes the servo `k_p = HOLD_KP_PER_RAD · H` critically damped
+    /// on the leg ([`servo_damping`]).
+    servo_kd_s: f64,
+    /// Whether [`Self::servo_kd_s`] is the critical damping of a leg with inertia.
+    servo_critical: bool,
     /// `d start / d t2` of each leg (the execution starts at `min(0, t2)`): `(0, 1)` for
     /// `t2 ≥ 0`, `(−1, 0)` below.
     pub(crate) dstart_dt2: [f64; 2],
@@ -940,6 +947,27 @@ const HOLD_KD_S: f64 = 0.5;
 /// critically damped 20 rad/s servo, idle while the leg is on its motion.
 const AIR_KP: f64 = 400.0;
 const AIR_KD: f64 = 40.0;
+
+/// The leg servo's damping per N m of stall torque `H` (s/rad), and whether it is the
+/// critical damping of a leg with inertia. A leg with inertia `I` about its hip
+/// (`I_l + m_l (ρ/2)²` plus its joint's armature, the leg's `M̄_jj`) gets critical damping
+/// for the servo's stiffness `k_p = HOLD_KP_PER_RAD · H`: `k_d = 2 √(k_p I)`, i.e.
+/// `2 √(k_p I / H)` per N m, so that the servo tracks with one double pole at `√(k_p / I)`
+/// (217 rad/s for Table 4.2's leg with its rotors at 28:1 and 20 A): the textbook design of a
+/// position servo for the inertia it moves. [`HOLD_KD_S`] per N m was chosen for massless
+/// legs, whose servo acts only through the contact's statics (no inertia to damp); on a leg
+/// with inertia it is an overdamped servo (`ζ = 2.7` with the rotors, poles at 41 and
+/// 1140 /s; `ζ = 7.2` on the bare leg, pole at 8400 /s) whose fast pole only makes the
+/// flow stiff. The stiffness, which sets the angle error at which the servo saturates
+/// (`1/HOLD_KP_PER_RAD` rad), is the same for every leg. Massless legs keep [`HOLD_KD_S`].
+fn servo_damping(params: &RhexParams, hold_torque: f64) -> (f64, bool) {
+    let inertia = leg_inertia_about_hip(params) + params.leg_armature_kg_m2.unwrap_or(0.0);
+    if inertia > 0.0 && hold_torque > 0.0 {
+        (2.0 * (HOLD_KP_PER_RAD * inertia / hold_torque).sqrt(), true)
+    } else {
+        (HOLD_KD_S, false)
+    }
+}
 
 impl LeapController {
     /// Whether leg `i`, when not pushing, is driven by its servo in `mode`: on the ground
@@ -980,7 +1008,7 @@ impl LeapController {
     /// motion, touching down again and again).
     fn servo(&self, q: f64, qd: f64, theta: f64, omega: f64) -> f64 {
         (-HOLD_KP_PER_RAD * self.hold_torque * (q - theta)
-            - HOLD_KD_S * self.hold_torque * (qd - omega))
+            - self.servo_kd_s * self.hold_torque * (qd - omega))
             .clamp(-self.hold_torque, self.hold_torque)
     }
 
@@ -1047,10 +1075,17 @@ impl LeapController {
     /// branch of the clamp (zero inside the saturation but for `±∂/∂H`).
     fn servo_partials(&self, q: f64, qd: f64, theta: f64, omega: f64) -> [f64; 5] {
         let h = self.hold_torque;
-        let raw = -HOLD_KP_PER_RAD * (q - theta) - HOLD_KD_S * (qd - omega);
+        let raw = -HOLD_KP_PER_RAD * (q - theta) - self.servo_kd_s * (qd - omega);
         if (raw * h).abs() < h {
-            let (kp, kd) = (HOLD_KP_PER_RAD * h, HOLD_KD_S * h);
-            [-kp, -kd, kp, kd, raw]
+            let (kp, kd) = (HOLD_KP_PER_RAD * h, self.servo_kd_s * h);
+            // d(kd H)/dH: kd H = 2 √(k_p H I) on a leg with inertia (half of kd), kd H = 0.5 H
+            // on a massless one
+            let dkd_dh = if self.servo_critical {
+                0.5 * self.servo_kd_s
+            } else {
+                self.servo_kd_s
+            };
+            [-kp, -kd, kp, kd, -HOLD_KP_PER_RAD * (q - theta) - dkd_dh * (qd - omega)]
         } else {
             [0.0, 0.0, 0.0, 0.0, raw.signum()]
         }
@@ -1442,6 +1477,7 @@ impl LeapSetup {
         let hold_torque = actuators[0].joint_torque_n_m(1.0, 0.0);
         let start = [-offset, motor_t2_s - offset];
         let (speed, accel) = leg_swing(&params, cfg)?;
+        let (servo_kd_s, servo_critical) = servo_damping(&params, hold_torque);
         let ctrl = LeapController {
             sign,
             start,
@@ -1451,6 +1487,8 @@ impl LeapSetup {
             actuators,
             law,
             hold_torque,
+            servo_kd_s,
+            servo_critical,
             dstart_dt2: if motor_t2_s >= 0.0 {
                 [0.0, 1.0]
             } else {
@@ -1965,6 +2003,77 @@ mod start_cache_tests {
                 gap(&low, i, touchdown).abs() < 1e-12,
                 "leg {i} on the incline"
             );
+        }
+    }
+}
+
+#[cfg(test)]
+mod servo_tests {
+    use super::*;
+
+    fn massive() -> RhexParams {
+        RhexParams {
+            m_l: 0.126,
+            I_l: 0.00092,
+            ..leap_params()
+        }
+    }
+
+    /// A massive leg's servo is critically damped on the leg's inertia about its hip as the
+    /// core's `M̄` has it (the joint's diagonal entry: the leg's own inertia about the hip
+    /// plus its rotors' armature, `n J G²`), at the same stiffness per N m as a massless
+    /// leg's, which keeps [`HOLD_KD_S`].
+    #[test]
+    fn a_massive_legs_servo_is_critically_damped_on_its_mass_matrix_entry() {
+        let cfg = LeapConfig::default();
+        let setup = LeapSetup::new(&massive(), &cfg, 0.0).unwrap();
+        let model = &setup.rhex.model;
+        let mut data = selfmanip_core::Data::new(model);
+        let zeros = vec![0.0; model.nq()];
+        selfmanip_core::energy(model, &mut data, &setup.q0, &zeros).unwrap();
+        let a = rotor_reflected_inertia(&massive(), &cfg).unwrap();
+        for i in 0..2 {
+            assert_eq!(model.joints[i].armature_kg_m2, a);
+            let inertia = data.m_bar[(i, i)];
+            let h = setup.ctrl.hold_torque;
+            let (kp, kd) = (HOLD_KP_PER_RAD * h, setup.ctrl.servo_kd_s * h);
+            let zeta = kd / (2.0 * (kp * inertia).sqrt());
+            assert!((zeta - 1.0).abs() < 1e-12, "leg {i}: ζ = {zeta}");
+        }
+        assert!(setup.ctrl.servo_critical);
+        let massless = LeapSetup::new(&leap_params(), &cfg, 0.0).unwrap();
+        assert!(!massless.ctrl.servo_critical);
+        assert_eq!(massless.ctrl.servo_kd_s, HOLD_KD_S);
+    }
+
+    /// The servo's partials against central differences of its torque, `∂/∂H` through both
+    /// gains (the critical damping `2 √(k_p I)` moves with `H` as `√H`), inside the clamp.
+    #[test]
+    fn servo_partials_match_central_differences() {
+        for params in [leap_params(), massive()] {
+            let setup = LeapSetup::new(&params, &LeapConfig::default(), 0.0).unwrap();
+            let ctrl = &setup.ctrl;
+            let (q, qd, theta, omega) = (0.31, -0.4, 0.3, 0.2);
+            let d = ctrl.servo_partials(q, qd, theta, omega);
+            let raw = ctrl.servo(q, qd, theta, omega);
+            assert!(raw.abs() < ctrl.hold_torque, "inside the clamp: {raw}");
+            let e = 1e-6;
+            let fd = |f: &dyn Fn(f64) -> f64| (f(e) - f(-e)) / (2.0 * e);
+            let num = [
+                fd(&|s| ctrl.servo(q + s, qd, theta, omega)),
+                fd(&|s| ctrl.servo(q, qd + s, theta, omega)),
+                fd(&|s| ctrl.servo(q, qd, theta + s, omega)),
+                fd(&|s| ctrl.servo(q, qd, theta, omega + s)),
+                fd(&|s| {
+                    let mut c = ctrl.clone();
+                    c.hold_torque += s;
+                    c.servo_kd_s = servo_damping(&setup.rhex.params, c.hold_torque).0;
+                    c.servo(q, qd, theta, omega)
+                }),
+            ];
+            for (k, (a, b)) in d.iter().zip(num).enumerate() {
+                assert!((a - b).abs() < 1e-6 * b.abs().max(1.0), "partial {k}: {a} against {b}");
+            }
         }
     }
 }
