@@ -1085,7 +1085,13 @@ impl LeapController {
             } else {
                 self.servo_kd_s
             };
-            [-kp, -kd, kp, kd, -HOLD_KP_PER_RAD * (q - theta) - dkd_dh * (qd - omega)]
+            [
+                -kp,
+                -kd,
+                kp,
+                kd,
+                -HOLD_KP_PER_RAD * (q - theta) - dkd_dh * (qd - omega),
+            ]
         } else {
             [0.0, 0.0, 0.0, 0.0, raw.signum()]
         }
@@ -2072,7 +2078,10 @@ mod servo_tests {
                 }),
             ];
             for (k, (a, b)) in d.iter().zip(num).enumerate() {
-                assert!((a - b).abs() < 1e-6 * b.abs().max(1.0), "partial {k}: {a} against {b}");
+                assert!(
+                    (a - b).abs() < 1e-6 * b.abs().max(1.0),
+                    "partial {k}: {a} against {b}"
+                );
             }
         }
     }

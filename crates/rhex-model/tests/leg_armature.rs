@@ -62,7 +62,10 @@ fn rotor_armature_scales_as_n_g_squared_and_is_the_swing_bounds_inertia() {
         let a = rotor_reflected_inertia(&massless, &cfg).unwrap();
         let (_, accel) = leg_swing(&massless, &cfg).unwrap();
         let expected = stall / (a + leg_inertia_about_hip(&massless));
-        assert!((accel - expected).abs() < 1e-12 * expected, "{accel} against {expected}");
+        assert!(
+            (accel - expected).abs() < 1e-12 * expected,
+            "{accel} against {expected}"
+        );
     }
 }
 
@@ -79,7 +82,10 @@ fn a_massive_leaps_legs_carry_the_armature_and_massless_legs_stay_massless() {
         assert!(!model.distal_massless(j));
     }
     let model = built(&leap_params());
-    assert!(model.joints.iter().all(|j| j.is_massless() && j.armature_kg_m2 == 0.0));
+    assert!(model
+        .joints
+        .iter()
+        .all(|j| j.is_massless() && j.armature_kg_m2 == 0.0));
     assert_eq!(leg_armature(&leap_params(), &cfg).unwrap(), 0.0);
     // an explicit armature wins, whatever the legs
     let bare = RhexParams {

@@ -89,7 +89,11 @@ fn pinned_qdd(model: &Model, data: &mut Data, theta: f64, theta_dot: f64) -> f64
     forward_dynamics(model, data, &FlatGround, mode, &q, &qd, &[0.0], None).unwrap();
     // the body stays pinned
     for k in 1..4 {
-        assert!(data.qdd[k].abs() < 1e-12, "body coordinate {k}: {}", data.qdd[k]);
+        assert!(
+            data.qdd[k].abs() < 1e-12,
+            "body coordinate {k}: {}",
+            data.qdd[k]
+        );
     }
     data.qdd[0]
 }
@@ -122,8 +126,14 @@ fn armature_slows_a_pinned_pendulum_by_its_closed_form() {
         while crossings.len() < 3 {
             let mut f = |th: f64, w: f64| pinned_qdd(&model, &mut data, th, w);
             let (k1x, k1v) = (w, f(th, w));
-            let (k2x, k2v) = (w + 0.5 * dt * k1v, f(th + 0.5 * dt * k1x, w + 0.5 * dt * k1v));
-            let (k3x, k3v) = (w + 0.5 * dt * k2v, f(th + 0.5 * dt * k2x, w + 0.5 * dt * k2v));
+            let (k2x, k2v) = (
+                w + 0.5 * dt * k1v,
+                f(th + 0.5 * dt * k1x, w + 0.5 * dt * k1v),
+            );
+            let (k3x, k3v) = (
+                w + 0.5 * dt * k2v,
+                f(th + 0.5 * dt * k2x, w + 0.5 * dt * k2v),
+            );
             let (k4x, k4v) = (w + dt * k3v, f(th + dt * k3x, w + dt * k3v));
             let th1 = th + dt / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
             let w1 = w + dt / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
@@ -139,7 +149,10 @@ fn armature_slows_a_pinned_pendulum_by_its_closed_form() {
         );
         if a > 0.0 {
             let bare = t0 * ((inertia - a) / inertia).sqrt();
-            assert!(period > bare * (1.0 + 0.5 * a / inertia), "{period} against {bare}");
+            assert!(
+                period > bare * (1.0 + 0.5 * a / inertia),
+                "{period} against {bare}"
+            );
         }
     }
 }
@@ -157,7 +170,13 @@ const ARM: f64 = 0.015;
 
 /// A body with one link (axis `−y`, `s = −1`) and a point site at the link's centre of mass
 /// (never active: it reads the engine's kinematics for the cross-check).
-fn floating(armature: f64, link_mass: f64, link_inertia: f64, hip: [f64; 2], com: [f64; 2]) -> Model {
+fn floating(
+    armature: f64,
+    link_mass: f64,
+    link_inertia: f64,
+    hip: [f64; 2],
+    com: [f64; 2],
+) -> Model {
     RobotDescription::from_toml_str(&format!(
         r#"
 name = "floating link"
@@ -202,7 +221,12 @@ fn by_hand(
     // link COM: p = X + R(φ) h + R(β) c
     let dc = drot(beta, com);
     let dh = drot(phi, hip);
-    let cols = [s * dc, Vector2::new(1.0, 0.0), Vector2::new(0.0, 1.0), dh + dc];
+    let cols = [
+        s * dc,
+        Vector2::new(1.0, 0.0),
+        Vector2::new(0.0, 1.0),
+        dh + dc,
+    ];
     let jw = [s, 0.0, 0.0, 1.0];
     // J̇q̇ = −β̇² R(β) c − φ̇² R(φ) h
     let jdqd = -betad * betad * rot(beta, com) - phid * phid * rot(phi, hip);
@@ -227,7 +251,17 @@ fn by_hand(
 }
 
 fn flight_qdd(model: &Model, data: &mut Data, q: &[f64], qd: &[f64], tau: f64) -> DVector<f64> {
-    forward_dynamics(model, data, &FlatGround, ContactMode::FLIGHT, q, qd, &[tau], None).unwrap();
+    forward_dynamics(
+        model,
+        data,
+        &FlatGround,
+        ContactMode::FLIGHT,
+        q,
+        qd,
+        &[tau],
+        None,
+    )
+    .unwrap();
     data.qdd.clone()
 }
 
@@ -249,7 +283,11 @@ fn flight_accelerations_are_the_hand_assembled_mass_matrix_with_armature_solved(
         assert!((site - p).norm() < 1e-14, "{site:?} against {p:?}");
         let qdd = flight_qdd(&model, &mut data, &q, &qd, tau);
         let (m, f) = by_hand(ARM, shape, &q, &qd, tau);
-        assert!((&data.m_bar - &m).amax() < 1e-14, "M̄ {} against {m}", data.m_bar);
+        assert!(
+            (&data.m_bar - &m).amax() < 1e-14,
+            "M̄ {} against {m}",
+            data.m_bar
+        );
         let expected = m.clone().lu().solve(&f).unwrap();
         assert!(
             (&qdd - &expected).amax() < 1e-10 * expected.amax().max(1.0),
@@ -284,7 +322,10 @@ fn a_rotor_on_its_joint_axis_and_a_massless_link_with_armature_have_closed_forms
     let qdd = flight_qdd(&model, &mut data, &q, &qd, tau);
     assert!(data.free_joints.is_empty(), "{:?}", data.free_joints);
     assert!((qdd[0] - tau / ARM).abs() < 1e-12 * tau / ARM, "{qdd}");
-    assert!(qdd[1].abs() + (qdd[2] - G).abs() + qdd[3].abs() < 1e-13, "{qdd}");
+    assert!(
+        qdd[1].abs() + (qdd[2] - G).abs() + qdd[3].abs() < 1e-13,
+        "{qdd}"
+    );
     // and without armature the same link is free: its θ̈ is prescribed (0), not τ / a
     let model = floating(0.0, 0.0, 0.0, HIP, COM);
     let mut data = Data::new(&model);
@@ -364,7 +405,10 @@ fn flight_with_armature_conserves_energy_and_momentum_and_keeps_the_bare_links_c
         let (t, v) = energy(&model, &mut data, q, qd).unwrap();
         let work = tau * (q[0] - y0[0]);
         let de = t + v - (t0 + v0);
-        assert!((de - work).abs() < 1e-10 * (t.abs() + v0.abs()), "{de} against {work}");
+        assert!(
+            (de - work).abs() < 1e-10 * (t.abs() + v0.abs()),
+            "{de} against {work}"
+        );
         // (the rotors' share of the torque's work: what the armature takes from the link)
         let arm_ke = 0.5 * ARM * qd[0] * qd[0];
         seen = seen.max(arm_ke / work.abs().max(1e-300));
@@ -372,7 +416,10 @@ fn flight_with_armature_conserves_energy_and_momentum_and_keeps_the_bare_links_c
         let (h, scale) = momentum_about_com(q, qd);
         assert!(h.abs() < 1e-9 * scale.max(1e-9), "H = {h:e} of {scale:e}");
     }
-    assert!(seen > 0.3, "the rotors hold a good share of the torque's work: {seen}");
+    assert!(
+        seen > 0.3,
+        "the rotors hold a good share of the torque's work: {seen}"
+    );
     // the bare link (same torque): faster, but the body pitch as a function of the leg angle
     // is the same (the armature adds no coupling with the body's rotation)
     let bare = floating(0.0, ML, IL, HIP, COM);
@@ -382,7 +429,10 @@ fn flight_with_armature_conserves_energy_and_momentum_and_keeps_the_bare_links_c
         .iter()
         .position(|(_, y)| (y[0] - y0[0]) >= (theta_a - y0[0]))
         .expect("the bare link turns further in the same time");
-    assert!(run0[k].0 < 0.6 * run.last().unwrap().0, "the bare link is faster");
+    assert!(
+        run0[k].0 < 0.6 * run.last().unwrap().0,
+        "the bare link is faster"
+    );
     // cubic Hermite of φ in time at θ = θ_a (θ linear in t over one step)
     let (ya, yb) = (&run0[k - 1].1, &run0[k].1);
     let h = run0[k].0 - run0[k - 1].0;
@@ -440,6 +490,12 @@ friction = {{ kind = "sticking", mu = 5.0 }}
     .unwrap()
 }
 
+/// `x` with entry `k` moved by `s`.
+fn nudged<const N: usize>(mut x: [f64; N], k: usize, s: f64) -> [f64; N] {
+    x[k] += s;
+    x
+}
+
 #[test]
 fn tangent_with_armature_matches_central_differences() {
     let model = two_link();
@@ -454,8 +510,8 @@ fn tangent_with_armature_matches_central_differences() {
     let stance = ContactMode::with_defaults(&model, &[0]).unwrap();
     let h = 1e-6;
     for mode in [ContactMode::FLIGHT, stance] {
-        let jac = dynamics_jacobian(&model, &mut data, &FlatGround, mode, &q, &qd, &tau, None)
-            .unwrap();
+        let jac =
+            dynamics_jacobian(&model, &mut data, &FlatGround, mode, &q, &qd, &tau, None).unwrap();
         let mut eval = |q: &[f64], qd: &[f64], tau: &[f64]| {
             forward_dynamics(&model, &mut data, &FlatGround, mode, q, qd, tau, None).unwrap();
             (data.qdd.clone(), data.lambda.clone())
@@ -475,27 +531,18 @@ fn tangent_with_armature_matches_central_differences() {
         let c = jac.dlambda_dq.nrows();
         let (mut lq, mut lqd) = (DMatrix::zeros(c, 5), DMatrix::zeros(c, 5));
         for k in 0..5 {
-            let mut p = q;
-            let mut m = q;
-            p[k] += h;
-            m[k] -= h;
-            let ((a, la), (b, lb)) = (eval(&p, &qd, &tau), eval(&m, &qd, &tau));
+            let (a, la) = eval(&nudged(q, k, h), &qd, &tau);
+            let (b, lb) = eval(&nudged(q, k, -h), &qd, &tau);
             fq.set_column(k, &((a - b) / (2.0 * h)));
             lq.set_column(k, &((la - lb) / (2.0 * h)));
-            let mut p = qd;
-            let mut m = qd;
-            p[k] += h;
-            m[k] -= h;
-            let ((a, la), (b, lb)) = (eval(&q, &p, &tau), eval(&q, &m, &tau));
+            let (a, la) = eval(&q, &nudged(qd, k, h), &tau);
+            let (b, lb) = eval(&q, &nudged(qd, k, -h), &tau);
             fqd.set_column(k, &((a - b) / (2.0 * h)));
             lqd.set_column(k, &((la - lb) / (2.0 * h)));
         }
         for j in 0..2 {
-            let mut p = tau;
-            let mut m = tau;
-            p[j] += h;
-            m[j] -= h;
-            let (a, b) = (eval(&q, &qd, &p).0, eval(&q, &qd, &m).0);
+            let a = eval(&q, &qd, &nudged(tau, j, h)).0;
+            let b = eval(&q, &qd, &nudged(tau, j, -h)).0;
             ft.set_column(j, &((a - b) / (2.0 * h)));
         }
         check("∂q̈/∂q", &jac.dqdd_dq, &fq);
@@ -508,8 +555,8 @@ fn tangent_with_armature_matches_central_differences() {
     }
     // the plastic impact into stance
     let qd_minus = [1.2, -0.8, 0.3, 0.9, 0.5];
-    let jac = plastic_impact_jacobian(&model, &mut data, &FlatGround, stance, &q, &qd_minus)
-        .unwrap();
+    let jac =
+        plastic_impact_jacobian(&model, &mut data, &FlatGround, stance, &q, &qd_minus).unwrap();
     let mut fq = DMatrix::zeros(5, 5);
     let mut fqd = DMatrix::zeros(5, 5);
     for k in 0..5 {
@@ -518,16 +565,18 @@ fn tangent_with_armature_matches_central_differences() {
                 .unwrap()
                 .qd_plus
         };
-        let (mut p, mut m) = (q, q);
-        p[k] += h;
-        m[k] -= h;
-        fq.set_column(k, &((eval(&p, &qd_minus) - eval(&m, &qd_minus)) / (2.0 * h)));
-        let (mut p, mut m) = (qd_minus, qd_minus);
-        p[k] += h;
-        m[k] -= h;
+        let (p, m) = (nudged(q, k, h), nudged(q, k, -h));
+        fq.set_column(
+            k,
+            &((eval(&p, &qd_minus) - eval(&m, &qd_minus)) / (2.0 * h)),
+        );
+        let (p, m) = (nudged(qd_minus, k, h), nudged(qd_minus, k, -h));
         fqd.set_column(k, &((eval(&q, &p) - eval(&q, &m)) / (2.0 * h)));
     }
-    assert!((&jac.dqd_plus_dq - &fq).amax() < 1e-6 * fq.amax().max(1.0), "{fq}");
+    assert!(
+        (&jac.dqd_plus_dq - &fq).amax() < 1e-6 * fq.amax().max(1.0),
+        "{fq}"
+    );
     assert!((&jac.dqd_plus_dqd_minus - &fqd).amax() < 1e-6, "{fqd}");
     // the impact's energy loss: the armature's kinetic energy is in ½ q̇ᵀM̄q̇ (the toe stops)
     let plus = jac.impact.qd_plus.as_slice().to_vec();
