@@ -827,8 +827,8 @@ pub(crate) fn leap_robot_params(
 /// accelerating at most at the stall torque over the reflected rotor inertia
 /// `n J G²` ([`rotor_reflected_inertia`]) plus the leg's own inertia about the hip. The
 /// saturated-torque idealization keeps X-RHex's legs and motors: `τ_s` over the same
-/// inertia, and the 28:1 drive's no-load speed ([`LegMotorData`]). A massive leg's servo follows
-/// the same motion. Explicit values in the configuration win.
+/// inertia, and the 28:1 drive's no-load speed. A massive leg's servo follows the same
+/// motion. Explicit values in the configuration win.
 pub fn leg_swing(params: &RhexParams, cfg: &LeapConfig) -> Result<(f64, f64), RhexError> {
     let d = leg_motor_data(params, cfg)?;
     let leg = leg_inertia_about_hip(params);
