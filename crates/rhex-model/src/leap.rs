@@ -708,24 +708,29 @@ pub fn leg_inertia_about_hip(params: &RhexParams) -> f64 {
     params.I_l + params.m_l * (0.5 * params.rho1).powi(2)
 }
 
-/// How a massless leg swings in the air while its motor is on: `(speed, acceleration
-/// bound)`. The model's legs have no inertia, so the motion is prescribed (thesis 5.1.1);
-/// its bounds are those of the physical leg, which its motor drives: it runs up to the
-/// motor's no-load output speed `ω₀/G` (Table 2.1: 10314 rpm at 37 V; 38.6 rad/s at 28:1),
-/// accelerating at most at the stall torque over the reflected rotor inertia
-/// `n J G² (+ the leg's own inertia about the hip)`. The rotor inertia is not printed; it is
-/// `J = τ_m k_M² / R` from Table 2.1's mechanical time constant `τ_m = 11.8 ms` and the
-/// motor model's `k_M` and `R` (7.2·10⁻⁶ kg m², within the range of maxon's 45 mm flat motors).
-/// The saturated-torque idealization keeps X-RHex's legs and motors: `τ_s` over the same
-/// inertia, and the 28:1 drive's no-load speed. Explicit values in the configuration win.
-pub fn leg_swing(params: &RhexParams, cfg: &LeapConfig) -> Result<(f64, f64), RhexError> {
+/// The drive that turns a leg: its gear ratio `G`, motors per leg `n`, stall torque at the
+/// joint (N m), the motor's no-load speed `ω₀` (rad/s) and one rotor's inertia `J` (kg m²).
+/// The geared motor's own; the saturated-torque idealization keeps X-RHex's legs and motors
+/// (Table 2.1's motor behind the 28:1 gearbox, two per planar leg) with `τ_s` as its stall
+/// torque. The rotor inertia is not printed; it is `J = τ_m k_M² / R` from Table 2.1's
+/// mechanical time constant `τ_m = 11.8 ms` and the motor model's `k_M` and `R`
+/// (7.2·10⁻⁶ kg m², within the range of maxon's 45 mm flat motors).
+struct LegMotorData {
+    ratio: f64,
+    n: f64,
+    stall_n_m: f64,
+    no_load_speed_rad_s: f64,
+    rotor_kg_m2: f64,
+}
+
+fn leg_motor_data(params: &RhexParams, cfg: &LeapConfig) -> Result<LegMotorData, RhexError> {
     let motor_err = |e: motor::MotorError| RhexError::Params {
         field: "actuator".into(),
         reason: e.to_string(),
     };
     let catalog = motor::catalog::Catalog::thesis();
     let spec = catalog.motor_spec("x-rhex").map_err(motor_err)?;
-    let (ratio, n, stall) = match cfg.actuator {
+    let (ratio, n, stall_n_m) = match cfg.actuator {
         LegActuator::GearedMotor {
             gear_ratio,
             motors_per_leg,
@@ -749,17 +754,90 @@ pub fn leg_swing(params: &RhexParams, cfg: &LeapConfig) -> Result<(f64, f64), Rh
         .mechanical_time_constant_s
         .ok_or_else(|| RhexError::Params {
             field: "actuator".into(),
-            reason: "the motor's mechanical time constant is needed for the leg swing".into(),
+            reason: "the motor's mechanical time constant is needed for the rotor inertia".into(),
         })?;
     let k = m.torque_constant_n_m_per_a;
-    let rotor = tau_m * k * k / m.terminal_resistance_ohm();
+    Ok(LegMotorData {
+        ratio,
+        n,
+        stall_n_m,
+        no_load_speed_rad_s: m.no_load_speed_rad_s,
+        rotor_kg_m2: tau_m * k * k / m.terminal_resistance_ohm(),
+    })
+}
+
+impl LegMotorData {
+    /// `n J G²`.
+    fn reflected_inertia(&self) -> f64 {
+        self.n * self.rotor_kg_m2 * self.ratio * self.ratio
+    }
+}
+
+/// The inertia of a leg's motors' rotors seen at the leg's joint through the gearbox,
+/// `n J G²` (kg m²; 0.0113 for X-RHex's two motors per planar leg at 28:1): `n` rotors of
+/// inertia `J` turning `G` times as fast as the leg. One value for both uses: the swing
+/// bound of a massless leg ([`leg_swing`]) and the armature of a massive leg's joint
+/// ([`leg_armature`]).
+pub fn rotor_reflected_inertia(params: &RhexParams, cfg: &LeapConfig) -> Result<f64, RhexError> {
+    Ok(leg_motor_data(params, cfg)?.reflected_inertia())
+}
+
+/// The armature a leap gives each leg joint (kg m²): `params.leg_armature_kg_m2` when set;
+/// otherwise its rotors' reflected inertia ([`rotor_reflected_inertia`]) on massive legs
+/// (the physical leg's motors turn with it) and none on massless legs, which stay massless
+/// (Assumption C.6: their motion is prescribed, bounded by the same rotors in
+/// [`leg_swing`]).
+pub fn leg_armature(params: &RhexParams, cfg: &LeapConfig) -> Result<f64, RhexError> {
+    Ok(leap_leg_armature(params, cfg)?.unwrap_or(0.0))
+}
+
+/// [`leg_armature`], `None` for massless legs without an explicit armature.
+fn leap_leg_armature(params: &RhexParams, cfg: &LeapConfig) -> Result<Option<f64>, RhexError> {
+    Ok(match params.leg_armature_kg_m2 {
+        Some(a) => Some(a),
+        None if params.massive_legs() => Some(rotor_reflected_inertia(params, cfg)?),
+        None => None,
+    })
+}
+
+/// Whether a leap's leg armature is the actuator's reflected rotor inertia, which moves with
+/// the gear ratio (`∂a/∂G = 2 n J G`): massive legs without an explicit armature.
+pub(crate) fn armature_follows_gear(params: &RhexParams) -> bool {
+    params.leg_armature_kg_m2.is_none() && params.massive_legs()
+}
+
+/// The robot of a leap: `params` with the leap's two pushing pairs (`pairs`) and its legs'
+/// armature ([`leg_armature`]) set.
+pub(crate) fn leap_robot_params(
+    params: &RhexParams,
+    cfg: &LeapConfig,
+    pairs: [LegPair; 2],
+) -> Result<RhexParams, RhexError> {
+    Ok(RhexParams {
+        pairs: pairs.to_vec(),
+        leg_armature_kg_m2: leap_leg_armature(params, cfg)?,
+        ..params.clone()
+    })
+}
+
+/// How a massless leg swings in the air while its motor is on: `(speed, acceleration
+/// bound)`. The model's legs have no inertia, so the motion is prescribed (thesis 5.1.1);
+/// its bounds are those of the physical leg, which its motor drives: it runs up to the
+/// motor's no-load output speed `ω₀/G` (Table 2.1: 10314 rpm at 37 V; 38.6 rad/s at 28:1),
+/// accelerating at most at the stall torque over the reflected rotor inertia
+/// `n J G²` ([`rotor_reflected_inertia`]) plus the leg's own inertia about the hip. The
+/// saturated-torque idealization keeps X-RHex's legs and motors: `τ_s` over the same
+/// inertia, and the 28:1 drive's no-load speed. A massive leg's servo follows the same
+/// motion. Explicit values in the configuration win.
+pub fn leg_swing(params: &RhexParams, cfg: &LeapConfig) -> Result<(f64, f64), RhexError> {
+    let d = leg_motor_data(params, cfg)?;
     let leg = leg_inertia_about_hip(params);
     let speed = cfg
         .swing_speed_rad_s
-        .unwrap_or(m.no_load_speed_rad_s / ratio);
+        .unwrap_or(d.no_load_speed_rad_s / d.ratio);
     let accel = cfg
         .swing_accel_rad_s2
-        .unwrap_or(stall / (n * rotor * ratio * ratio + leg));
+        .unwrap_or(d.stall_n_m / (d.reflected_inertia() + leg));
     Ok((speed, accel))
 }
 
@@ -832,6 +910,13 @@ pub(crate) struct LeapController {
     /// The law of the actuators' torque, for the partials.
     law: MotorLaw,
     hold_torque: f64,
+    /// The servo's damping per N m of stall torque (s/rad): [`HOLD_KD_S`] on massless legs;
+    /// on legs with inertia `I` about the hip (their own and their rotors' armature),
+    /// `2 √(k_p I / H)`, which makes the servo `k_p = HOLD_KP_PER_RAD · H` critically damped
+    /// on the leg ([`servo_damping`]).
+    servo_kd_s: f64,
+    /// Whether [`Self::servo_kd_s`] is the critical damping of a leg with inertia.
+    servo_critical: bool,
     /// `d start / d t2` of each leg (the execution starts at `min(0, t2)`): `(0, 1)` for
     /// `t2 ≥ 0`, `(−1, 0)` below.
     pub(crate) dstart_dt2: [f64; 2],
@@ -862,6 +947,27 @@ const HOLD_KD_S: f64 = 0.5;
 /// critically damped 20 rad/s servo, idle while the leg is on its motion.
 const AIR_KP: f64 = 400.0;
 const AIR_KD: f64 = 40.0;
+
+/// The leg servo's damping per N m of stall torque `H` (s/rad), and whether it is the
+/// critical damping of a leg with inertia. A leg with inertia `I` about its hip
+/// (`I_l + m_l (ρ/2)²` plus its joint's armature, the leg's `M̄_jj`) gets critical damping
+/// for the servo's stiffness `k_p = HOLD_KP_PER_RAD · H`: `k_d = 2 √(k_p I)`, i.e.
+/// `2 √(k_p I / H)` per N m, so that the servo tracks with one double pole at `√(k_p / I)`
+/// (217 rad/s for Table 4.2's leg with its rotors at 28:1 and 20 A): the textbook design of a
+/// position servo for the inertia it moves. [`HOLD_KD_S`] per N m was chosen for massless
+/// legs, whose servo acts only through the contact's statics (no inertia to damp); on a leg
+/// with inertia it is an overdamped servo (`ζ = 2.7` with the rotors, poles at 41 and
+/// 1140 /s; `ζ = 7.2` on the bare leg, pole at 8400 /s) whose fast pole only makes the
+/// flow stiff. The stiffness, which sets the angle error at which the servo saturates
+/// (`1/HOLD_KP_PER_RAD` rad), is the same for every leg. Massless legs keep [`HOLD_KD_S`].
+fn servo_damping(params: &RhexParams, hold_torque: f64) -> (f64, bool) {
+    let inertia = leg_inertia_about_hip(params) + params.leg_armature_kg_m2.unwrap_or(0.0);
+    if inertia > 0.0 && hold_torque > 0.0 {
+        (2.0 * (HOLD_KP_PER_RAD * inertia / hold_torque).sqrt(), true)
+    } else {
+        (HOLD_KD_S, false)
+    }
+}
 
 impl LeapController {
     /// Whether leg `i`, when not pushing, is driven by its servo in `mode`: on the ground
@@ -902,7 +1008,7 @@ impl LeapController {
     /// motion, touching down again and again).
     fn servo(&self, q: f64, qd: f64, theta: f64, omega: f64) -> f64 {
         (-HOLD_KP_PER_RAD * self.hold_torque * (q - theta)
-            - HOLD_KD_S * self.hold_torque * (qd - omega))
+            - self.servo_kd_s * self.hold_torque * (qd - omega))
             .clamp(-self.hold_torque, self.hold_torque)
     }
 
@@ -969,10 +1075,23 @@ impl LeapController {
     /// branch of the clamp (zero inside the saturation but for `±∂/∂H`).
     fn servo_partials(&self, q: f64, qd: f64, theta: f64, omega: f64) -> [f64; 5] {
         let h = self.hold_torque;
-        let raw = -HOLD_KP_PER_RAD * (q - theta) - HOLD_KD_S * (qd - omega);
+        let raw = -HOLD_KP_PER_RAD * (q - theta) - self.servo_kd_s * (qd - omega);
         if (raw * h).abs() < h {
-            let (kp, kd) = (HOLD_KP_PER_RAD * h, HOLD_KD_S * h);
-            [-kp, -kd, kp, kd, raw]
+            let (kp, kd) = (HOLD_KP_PER_RAD * h, self.servo_kd_s * h);
+            // d(kd H)/dH: kd H = 2 √(k_p H I) on a leg with inertia (half of kd), kd H = 0.5 H
+            // on a massless one
+            let dkd_dh = if self.servo_critical {
+                0.5 * self.servo_kd_s
+            } else {
+                self.servo_kd_s
+            };
+            [
+                -kp,
+                -kd,
+                kp,
+                kd,
+                -HOLD_KP_PER_RAD * (q - theta) - dkd_dh * (qd - omega),
+            ]
         } else {
             [0.0, 0.0, 0.0, 0.0, raw.signum()]
         }
@@ -1302,10 +1421,8 @@ impl LeapSetup {
                 reason: "a leap strategy drives two different leg pairs".into(),
             });
         }
-        let params = RhexParams {
-            pairs: pairs.to_vec(),
-            ..params.clone()
-        };
+        // the leap's two pairs, and the rotors of massive legs as their joints' armature
+        let params = leap_robot_params(params, cfg, pairs)?;
         let terrain = cfg.terrain;
         let sign = [cfg.strategy.front.sign(), cfg.strategy.rear.sign()];
         // the robot and its start posture depend only on these (a sweep over t2 builds the
@@ -1366,6 +1483,7 @@ impl LeapSetup {
         let hold_torque = actuators[0].joint_torque_n_m(1.0, 0.0);
         let start = [-offset, motor_t2_s - offset];
         let (speed, accel) = leg_swing(&params, cfg)?;
+        let (servo_kd_s, servo_critical) = servo_damping(&params, hold_torque);
         let ctrl = LeapController {
             sign,
             start,
@@ -1375,6 +1493,8 @@ impl LeapSetup {
             actuators,
             law,
             hold_torque,
+            servo_kd_s,
+            servo_critical,
             dstart_dt2: if motor_t2_s >= 0.0 {
                 [0.0, 1.0]
             } else {
@@ -1889,6 +2009,80 @@ mod start_cache_tests {
                 gap(&low, i, touchdown).abs() < 1e-12,
                 "leg {i} on the incline"
             );
+        }
+    }
+}
+
+#[cfg(test)]
+mod servo_tests {
+    use super::*;
+
+    fn massive() -> RhexParams {
+        RhexParams {
+            m_l: 0.126,
+            I_l: 0.00092,
+            ..leap_params()
+        }
+    }
+
+    /// A massive leg's servo is critically damped on the leg's inertia about its hip as the
+    /// core's `M̄` has it (the joint's diagonal entry: the leg's own inertia about the hip
+    /// plus its rotors' armature, `n J G²`), at the same stiffness per N m as a massless
+    /// leg's, which keeps [`HOLD_KD_S`].
+    #[test]
+    fn a_massive_legs_servo_is_critically_damped_on_its_mass_matrix_entry() {
+        let cfg = LeapConfig::default();
+        let setup = LeapSetup::new(&massive(), &cfg, 0.0).unwrap();
+        let model = &setup.rhex.model;
+        let mut data = selfmanip_core::Data::new(model);
+        let zeros = vec![0.0; model.nq()];
+        selfmanip_core::energy(model, &mut data, &setup.q0, &zeros).unwrap();
+        let a = rotor_reflected_inertia(&massive(), &cfg).unwrap();
+        for i in 0..2 {
+            assert_eq!(model.joints[i].armature_kg_m2, a);
+            let inertia = data.m_bar[(i, i)];
+            let h = setup.ctrl.hold_torque;
+            let (kp, kd) = (HOLD_KP_PER_RAD * h, setup.ctrl.servo_kd_s * h);
+            let zeta = kd / (2.0 * (kp * inertia).sqrt());
+            assert!((zeta - 1.0).abs() < 1e-12, "leg {i}: ζ = {zeta}");
+        }
+        assert!(setup.ctrl.servo_critical);
+        let massless = LeapSetup::new(&leap_params(), &cfg, 0.0).unwrap();
+        assert!(!massless.ctrl.servo_critical);
+        assert_eq!(massless.ctrl.servo_kd_s, HOLD_KD_S);
+    }
+
+    /// The servo's partials against central differences of its torque, `∂/∂H` through both
+    /// gains (the critical damping `2 √(k_p I)` moves with `H` as `√H`), inside the clamp.
+    #[test]
+    fn servo_partials_match_central_differences() {
+        for params in [leap_params(), massive()] {
+            let setup = LeapSetup::new(&params, &LeapConfig::default(), 0.0).unwrap();
+            let ctrl = &setup.ctrl;
+            let (q, qd, theta, omega) = (0.31, -0.4, 0.3, 0.2);
+            let d = ctrl.servo_partials(q, qd, theta, omega);
+            let raw = ctrl.servo(q, qd, theta, omega);
+            assert!(raw.abs() < ctrl.hold_torque, "inside the clamp: {raw}");
+            let e = 1e-6;
+            let fd = |f: &dyn Fn(f64) -> f64| (f(e) - f(-e)) / (2.0 * e);
+            let num = [
+                fd(&|s| ctrl.servo(q + s, qd, theta, omega)),
+                fd(&|s| ctrl.servo(q, qd + s, theta, omega)),
+                fd(&|s| ctrl.servo(q, qd, theta + s, omega)),
+                fd(&|s| ctrl.servo(q, qd, theta, omega + s)),
+                fd(&|s| {
+                    let mut c = ctrl.clone();
+                    c.hold_torque += s;
+                    c.servo_kd_s = servo_damping(&setup.rhex.params, c.hold_torque).0;
+                    c.servo(q, qd, theta, omega)
+                }),
+            ];
+            for (k, (a, b)) in d.iter().zip(num).enumerate() {
+                assert!(
+                    (a - b).abs() < 1e-6 * b.abs().max(1.0),
+                    "partial {k}: {a} against {b}"
+                );
+            }
         }
     }
 }

@@ -85,10 +85,7 @@ pub fn leap_scenario(
             reason: "a leap strategy drives two different leg pairs".into(),
         });
     }
-    let rhex = Rhex::new(RhexParams {
-        pairs: pairs.to_vec(),
-        ..params.clone()
-    })?;
+    let rhex = Rhex::new(crate::leap::leap_robot_params(params, cfg, pairs)?)?;
     let mut b = leap_behaviour(cfg.strategy);
     // the front-most pushing pair drives joint 0, the rear-most joint 1
     for (prog, pair) in b.joints.iter_mut().zip(rhex.params.ordered_pairs()) {

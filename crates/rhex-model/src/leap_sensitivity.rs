@@ -10,7 +10,9 @@
 //!   motor: `∂(θ, θ̇, θ̈)/∂t0 = −(θ̇, θ̈, d³θ/dt³)`) and the motor start as a time event.
 //! - `gear_ratio`: the geared motors' `G` (the torque–speed line's slope and the current
 //!   limit's torque scale with it; the servo's hold torque too). Not a parameter of the
-//!   saturated-torque actuator (a typed error).
+//!   saturated-torque actuator (a typed error), nor of a leap with massive legs whose
+//!   armature is their rotors' `n J G²` (`RhexParams::leg_armature_kg_m2` unset: `M̄` moves
+//!   with `G`, not differentiated; a typed error).
 //! - `m_b`, `I_b`: the body's mass and inertia (`M̄`, `N̄` and the plastic impacts).
 //!
 //! **Free legs under step control.** The leap with sensitivities always runs with
@@ -151,6 +153,15 @@ pub fn leap_with_sensitivity_from(
     directions: Option<&DMatrix<f64>>,
 ) -> Result<LeapSensitivity, RhexError> {
     let ps = resolve(cfg, names)?;
+    if names.contains(&"gear_ratio") && crate::leap::armature_follows_gear(params) {
+        return Err(RhexError::Params {
+            field: "gear_ratio".into(),
+            reason: "massive legs carry their motors' rotors as joint armature n J G², which \
+                     moves with G; its ∂M̄/∂G is not differentiated (set leg_armature_kg_m2 to \
+                     hold the armature fixed)"
+                .into(),
+        });
+    }
     // the free legs' touchdowns are resolved to the tolerances (see the module docs)
     let cfg = &LeapConfig {
         control_free_joints: true,

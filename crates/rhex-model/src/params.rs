@@ -89,6 +89,17 @@ pub struct RhexParams {
     /// indeterminate: four rows on the body's three coordinates).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mu_body: Option<f64>,
+    /// Armature of every leg joint (kg m²): the inertia of the leg's motors' rotors seen
+    /// through the gearbox, `n J G²`, on `M̄`'s diagonal at the leg's angle
+    /// ([`selfmanip_core::model::Joint::armature_kg_m2`]). `None` (the default): a leap gives
+    /// massive legs (`m_l` or `I_l` > 0) their actuator's
+    /// ([`crate::leap::rotor_reflected_inertia`], the same rotors that bound a massless
+    /// leg's swing) and massless legs none (they stay massless, Assumption C.6); a robot
+    /// built from the parameters alone ([`crate::Rhex::new`]), which has no actuator, has
+    /// none. `Some(a)`: `a` on every leg joint, whatever the actuator (`Some(0.0)`: bare
+    /// legs without rotors).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub leg_armature_kg_m2: Option<f64>,
 }
 
 /// The shipped Table 4.2 file.
@@ -169,6 +180,14 @@ impl RhexParams {
                 }
             }
         }
+        if let Some(a) = self.leg_armature_kg_m2 {
+            if !a.is_finite() {
+                return bad("leg_armature_kg_m2", "must be finite");
+            }
+            if a < 0.0 {
+                return bad("leg_armature_kg_m2", "must be non-negative");
+            }
+        }
         if let Some(m) = self.mu_body {
             // also the kinetic coefficient: finite
             if !(m.is_finite() && m >= 0.0) {
@@ -176,6 +195,12 @@ impl RhexParams {
             }
         }
         Ok(())
+    }
+
+    /// Whether the legs have mass or inertia of their own (Table 4.2's pair; the default
+    /// model's legs are massless, Assumption C.6).
+    pub fn massive_legs(&self) -> bool {
+        self.m_l != 0.0 || self.I_l != 0.0
     }
 
     /// Leg pairs in body order (front to rear).
@@ -226,6 +251,7 @@ impl RhexParams {
                     com_m: Some([0.0, 0.5 * self.rho(p)]),
                     axis: JointAxis::MinusY,
                     spring: None,
+                    armature_kg_m2: self.leg_armature_kg_m2.unwrap_or(0.0),
                 }],
             })
             .collect();

@@ -18,6 +18,7 @@
 //! [[legs.links]]
 //! length_m = 0.17
 //! axis = "-y"              # thesis θ is clockwise: rotation about −y
+//! # armature_kg_m2 = 0.011 # the motors' rotors reflected to the joint, n J G² (omit: 0)
 //! [[contacts]]
 //! name = "front_leg"
 //! leg = "front"            # omit for a body contact
@@ -135,6 +136,18 @@ pub struct LinkDescription {
     /// A passive spring–damper across this link's joint (omit for none).
     #[serde(default)]
     pub spring: Option<SpringDescription>,
+    /// Armature of this link's joint (kg·m², `≥ 0`, omit for 0): the inertia of the drive's
+    /// rotors reflected to the joint, `n J G²`, added to `M̄`'s diagonal at the joint's
+    /// coordinate only ([`crate::model::Joint::armature_kg_m2`]). A joint with armature is
+    /// not massless, whatever its link's mass.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub armature_kg_m2: f64,
+}
+
+/// Whether an optional number is at its default (so that descriptions without it serialize
+/// as before).
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// A passive torsional spring–damper across a joint: `τ = −k d − k₃ d³ − c θ̇` with
@@ -299,6 +312,7 @@ impl RobotDescription {
                 finite_nonneg(g("length_m"), link.length_m)?;
                 finite_nonneg(g("mass_kg"), link.mass_kg)?;
                 finite_nonneg(g("inertia_kg_m2"), link.inertia_kg_m2)?;
+                finite_nonneg(g("armature_kg_m2"), link.armature_kg_m2)?;
                 let com = match link.com_m {
                     Some(c) => finite2(g("com_m"), c)?,
                     None => Vector2::new(0.0, 0.5 * link.length_m),
@@ -336,6 +350,7 @@ impl RobotDescription {
                     inertia_kg_m2: link.inertia_kg_m2,
                     com_m: com,
                     spring,
+                    armature_kg_m2: link.armature_kg_m2,
                 });
             }
             legs.push(Leg {

@@ -7,6 +7,12 @@
 //! The Coriolis matrix used on the hot path is `C̄ = Σ_i J_iᵀ M_i J̇_i`. It differs from the
 //! Christoffel form (4.30) as a matrix but gives the same vector `C̄ q̇`, and keeps
 //! `dM̄/dt − 2C̄` skew-symmetric. [`coriolis_christoffel`] builds (4.30) itself.
+//!
+//! **Armature.** A joint's armature `a_j` ([`crate::model::Joint::armature_kg_m2`], the
+//! reflected inertia `n J G²` of its drive's rotors) adds the constant `a_j` to `M̄_jj`, and
+//! `½ a_j θ̇_j²` to the kinetic energy `½ q̇ᵀM̄q̇`; being constant it adds nothing to `∂M̄/∂q`,
+//! `C̄` or `N̄` (MuJoCo's `armature`: the rotor's coupling with the parent's rotation is
+//! dropped).
 use crate::kinematics::{Kinematics, Part};
 use crate::model::Model;
 use nalgebra::{DMatrix, DVector, Vector2};
@@ -24,7 +30,9 @@ fn massive_parts(model: &Model) -> impl Iterator<Item = (Part, f64, f64, Vector2
             .joints
             .iter()
             .enumerate()
-            .filter(|(_, j)| !j.is_massless())
+            // a link with neither mass nor inertia adds nothing (its joint's armature, if
+            // any, is added on its own)
+            .filter(|(_, j)| j.mass_kg != 0.0 || j.inertia_kg_m2 != 0.0)
             .map(|(i, j)| (Part::Link(i), j.mass_kg, j.inertia_kg_m2, j.com_m)),
     )
 }
@@ -67,7 +75,8 @@ struct PartColumn {
 const EX: Vector2<f64> = Vector2::new(1.0, 0.0);
 const EZ: Vector2<f64> = Vector2::new(0.0, 1.0);
 
-/// Writes `M̄`, `C̄ q̇` and `N̄` (the latter two as vectors) for the current kinematics.
+/// Writes `M̄`, `C̄ q̇` and `N̄` (the latter two as vectors) for the current kinematics, the
+/// joints' armature on `M̄`'s diagonal.
 ///
 /// A part's Jacobians vanish outside its support (its chain and `x, z, φ`: for RHex's body,
 /// 3 of 5 coordinates), so each part's sums run over its nonzero columns only.
@@ -136,6 +145,12 @@ pub fn mass_coriolis_gravity(
             n_bar[c.k] -= m * g * c.j.y;
         }
     }
+    // M̄_jj += a_j   (armature: the drive's rotors reflected to the joint)
+    for (j, joint) in model.joints.iter().enumerate() {
+        if joint.armature_kg_m2 != 0.0 {
+            mb[j * nq + j] += joint.armature_kg_m2;
+        }
+    }
 }
 
 /// The matrix `C̄ = Σ m J_pᵀ J̇_p` (same `C̄ q̇` as (4.30)).
@@ -160,7 +175,8 @@ pub fn coriolis_matrix(model: &Model, kin: &Kinematics) -> DMatrix<f64> {
     c
 }
 
-/// `∂M̄/∂q_k` for every `k`, exactly: `J̇` evaluated at `q̇ = e_k` is `∂J/∂q_k`.
+/// `∂M̄/∂q_k` for every `k`, exactly: `J̇` evaluated at `q̇ = e_k` is `∂J/∂q_k` (the
+/// joints' armature is constant and does not appear).
 pub fn mass_matrix_partials(model: &Model, q: &[f64]) -> Vec<DMatrix<f64>> {
     let nq = model.nq();
     let mut kin = Kinematics::default();

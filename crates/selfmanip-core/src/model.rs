@@ -30,6 +30,17 @@ pub struct Joint {
     pub com_m: Vector2<f64>,
     /// A passive spring–damper acting across the joint, if any ([`crate::passive`]).
     pub spring: Option<JointSpring>,
+    /// Armature `a_j ≥ 0` (kg·m²): a constant added to `M̄`'s diagonal at this joint's
+    /// coordinate, `M̄_jj += a_j` (MuJoCo's `armature`, Drake's `reflected_inertia`). It is
+    /// the inertia of a drive's rotors seen through its gearbox, `n J G²` for `n` rotors of
+    /// inertia `J` behind a ratio `G`: a rotor turning at `G θ̇_j` relative to the link's
+    /// parent has kinetic energy `½ J (G θ̇_j + ω_parent)²`, of which the armature keeps only
+    /// `½ J G² θ̇_j²`. The dropped terms — the rotor's coupling `J G θ̇_j ω_parent` with the
+    /// parent's rotation and its own `½ J ω_parent²` — are small beside `J G²` for `G ≫ 1`
+    /// (a factor `1/G` and `1/G²`), so the rotor adds inertia to the joint's own coordinate
+    /// only: no coupling with the body's rotation, no gyroscopic term, nothing in `C̄` or
+    /// `N̄`, and no change to the robot's mass or centre of mass.
+    pub armature_kg_m2: f64,
 }
 
 /// A passive torsional spring–damper across a joint (thesis footnote 2 of chapter 3:
@@ -48,8 +59,12 @@ pub struct JointSpring {
 }
 
 impl Joint {
+    /// Whether the joint's coordinate carries no inertia of its own: its link has neither
+    /// mass nor inertia and the joint has no armature. A joint with armature is not
+    /// massless even on a massless link (its coordinate has inertia `a_j`), so it is never
+    /// a free massless joint (thesis 5.1.1) and its leg's statics do not resolve its forces.
     pub fn is_massless(&self) -> bool {
-        self.mass_kg == 0.0 && self.inertia_kg_m2 == 0.0
+        self.mass_kg == 0.0 && self.inertia_kg_m2 == 0.0 && self.armature_kg_m2 == 0.0
     }
 }
 
@@ -169,7 +184,8 @@ impl Model {
         j..leg.first_joint + leg.n_links
     }
 
-    /// Whether joint `j` moves only massless links (every joint from `j` to the tip).
+    /// Whether joint `j` moves only massless links, with no armature at any joint from `j`
+    /// to the tip ([`Joint::is_massless`]).
     pub fn distal_massless(&self, j: usize) -> bool {
         self.distal(j).all(|k| self.joints[k].is_massless())
     }

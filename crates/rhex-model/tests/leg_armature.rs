@@ -1,0 +1,198 @@
+//! Massive legs carry their motors' rotors: a leap with Table 4.2's leg mass gives each leg
+//! joint the armature `n J G²` of its actuator (`rhex_model::leap::rotor_reflected_inertia`,
+//! the same value that bounds a massless leg's swing), and massless legs stay massless.
+//!
+//! Independent routes: the armature's scaling with the gear ratio (`G²`) and the motor count
+//! (`n`) from its definition, and the saturated-torque idealization's X-RHex drive (28:1, two
+//! motors); the massless swing's bound `stall / (n J G² + I_leg)` rebuilt from the stall
+//! torque; the power balance `E(t) − E(0) = Σ τ_i (θ_i(t) − θ_i(0))` of the hybrid engine's
+//! flight under constant leg torques, with the energy `½ q̇ᵀM̄q̇ + V` that carries the rotors'
+//! `½ a θ̇²`; the default (massless) leap bit-identical whether or not a zero armature is
+//! given explicitly.
+use rhex_model::leap::{
+    leap_params, leg_actuator, leg_armature, leg_inertia_about_hip, leg_swing,
+    rotor_reflected_inertia, simulate_leap, LeapConfig, LegActuator,
+};
+use rhex_model::leap_behaviours::leap_scenario;
+use rhex_model::leap_sensitivity::leap_with_sensitivity;
+use rhex_model::{LegPair, Rhex, RhexError, RhexParams};
+use selfmanip_core::{energy, ContactMode, Data, FlatGround};
+use selfmanip_hybrid::{simulate, Controller, HybridOptions};
+
+fn massive() -> RhexParams {
+    RhexParams {
+        m_l: 0.126,
+        I_l: 0.00092,
+        ..leap_params()
+    }
+}
+
+fn geared(gear_ratio: f64, motors_per_leg: u32) -> LeapConfig {
+    LeapConfig {
+        actuator: LegActuator::GearedMotor {
+            gear_ratio,
+            current_limit_a: 20.0,
+            motors_per_leg,
+        },
+        ..LeapConfig::default()
+    }
+}
+
+#[test]
+fn rotor_armature_scales_as_n_g_squared_and_is_the_swing_bounds_inertia() {
+    let p = massive();
+    let a28 = rotor_reflected_inertia(&p, &geared(28.0, 2)).unwrap();
+    // Table 2.1's rotor (J = τ_m k_M²/R ≈ 7.2e-6 kg m²), two per planar leg, at 28:1
+    assert!((a28 - 0.0112).abs() < 2e-4, "{a28}");
+    let a40 = rotor_reflected_inertia(&p, &geared(40.0, 2)).unwrap();
+    assert!((a40 / a28 - (40.0f64 / 28.0).powi(2)).abs() < 1e-13);
+    let one = rotor_reflected_inertia(&p, &geared(28.0, 1)).unwrap();
+    assert!((2.0 * one - a28).abs() < 1e-16);
+    let saturated = LeapConfig {
+        actuator: LegActuator::SaturatedTorque,
+        ..LeapConfig::default()
+    };
+    assert_eq!(rotor_reflected_inertia(&p, &saturated).unwrap(), a28);
+    // the massless leg's swing bound uses the same rotors: stall / (n J G² + I_leg)
+    for cfg in [geared(28.0, 2), geared(40.0, 1)] {
+        let massless = leap_params();
+        let stall = leg_actuator(&massless, &cfg.actuator)
+            .unwrap()
+            .joint_torque_n_m(1.0, 0.0);
+        let a = rotor_reflected_inertia(&massless, &cfg).unwrap();
+        let (_, accel) = leg_swing(&massless, &cfg).unwrap();
+        let expected = stall / (a + leg_inertia_about_hip(&massless));
+        assert!(
+            (accel - expected).abs() < 1e-12 * expected,
+            "{accel} against {expected}"
+        );
+    }
+}
+
+#[test]
+fn a_massive_leaps_legs_carry_the_armature_and_massless_legs_stay_massless() {
+    let cfg = geared(35.0, 2);
+    let q0 = simulate_leap(&leap_params(), &cfg).unwrap().q0;
+    let built = |p: &RhexParams| leap_scenario(p, &cfg, &q0).unwrap().rhex.model;
+    let a = rotor_reflected_inertia(&massive(), &cfg).unwrap();
+    assert_eq!(leg_armature(&massive(), &cfg).unwrap(), a);
+    let model = built(&massive());
+    for j in 0..2 {
+        assert_eq!(model.joints[j].armature_kg_m2, a);
+        assert!(!model.distal_massless(j));
+    }
+    let model = built(&leap_params());
+    assert!(model
+        .joints
+        .iter()
+        .all(|j| j.is_massless() && j.armature_kg_m2 == 0.0));
+    assert_eq!(leg_armature(&leap_params(), &cfg).unwrap(), 0.0);
+    // an explicit armature wins, whatever the legs
+    let bare = RhexParams {
+        leg_armature_kg_m2: Some(0.0),
+        ..massive()
+    };
+    assert!(built(&bare).joints.iter().all(|j| j.armature_kg_m2 == 0.0));
+    // and a bad one is a typed error naming the field
+    for bad in [-1e-3, f64::NAN, f64::INFINITY] {
+        let p = RhexParams {
+            leg_armature_kg_m2: Some(bad),
+            ..massive()
+        };
+        match simulate_leap(&p, &cfg) {
+            Err(RhexError::Params { field, .. }) => assert_eq!(field, "leg_armature_kg_m2"),
+            other => panic!("{bad}: {:?}", other.map(|r| r.status)),
+        }
+    }
+}
+
+#[test]
+fn the_default_leap_is_the_same_with_an_explicit_zero_armature() {
+    let cfg = LeapConfig::default();
+    let a = simulate_leap(&leap_params(), &cfg).unwrap();
+    let zero = RhexParams {
+        leg_armature_kg_m2: Some(0.0),
+        ..leap_params()
+    };
+    let b = simulate_leap(&zero, &cfg).unwrap();
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(a.word, b.word);
+    assert_eq!(bits(&a.execution.q), bits(&b.execution.q));
+    assert_eq!(bits(&a.execution.qd), bits(&b.execution.qd));
+}
+
+/// Constant torques on the two legs.
+#[derive(Clone)]
+struct Constant([f64; 2]);
+
+impl Controller for Constant {
+    fn torque(&self, _t: f64, _q: &[f64], _qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
+        tau.copy_from_slice(&self.0);
+    }
+}
+
+#[test]
+fn flight_with_rotor_armature_balances_the_torques_work_in_the_engine() {
+    let cfg = LeapConfig::default();
+    let a = rotor_reflected_inertia(&massive(), &cfg).unwrap();
+    let params = RhexParams {
+        pairs: vec![LegPair::Front, LegPair::Rear],
+        leg_armature_kg_m2: Some(a),
+        ..massive()
+    };
+    let rhex = Rhex::new(params).unwrap();
+    let model = &rhex.model;
+    assert!(model.joints.iter().all(|j| j.armature_kg_m2 == a));
+    let tau = [0.8, -0.5];
+    let q0 = [0.4, -0.2, 0.0, -2.0, 0.05];
+    let exec = simulate(
+        model,
+        &FlatGround,
+        &Constant(tau),
+        ContactMode::FLIGHT,
+        &q0,
+        &[0.0; 5],
+        0.2,
+        HybridOptions::default(),
+    )
+    .unwrap();
+    assert!(exec.events.is_empty(), "a flight: {:?}", exec.events);
+    let seg = exec.segments.last().unwrap();
+    let mut data = Data::new(model);
+    let (t0, v0) = energy(model, &mut data, &q0, &[0.0; 5]).unwrap();
+    let mut rotor_share = 0.0f64;
+    for t in [0.05, 0.1, 0.15, 0.2] {
+        let mut y = vec![0.0; 10];
+        seg.eval(t, &mut y);
+        let (q, qd) = y.split_at(5);
+        let (tk, v) = energy(model, &mut data, q, qd).unwrap();
+        let work = tau[0] * (q[0] - q0[0]) + tau[1] * (q[1] - q0[1]);
+        let de = tk + v - (t0 + v0);
+        assert!(
+            (de - work).abs() < 1e-6 * work.abs(),
+            "t = {t}: ΔE = {de}, work {work}"
+        );
+        let rotors = 0.5 * a * (qd[0] * qd[0] + qd[1] * qd[1]);
+        rotor_share = rotor_share.max(rotors / work);
+    }
+    // the rotors take most of the torques' work: they are ~6× the legs' own inertia
+    assert!(rotor_share > 0.5, "{rotor_share}");
+}
+
+#[test]
+fn gear_ratio_sensitivity_of_a_leap_whose_armature_follows_the_gear_is_a_typed_error() {
+    let cfg = LeapConfig::default();
+    match leap_with_sensitivity(&massive(), &cfg, &["gear_ratio"]) {
+        Err(RhexError::Params { field, .. }) => assert_eq!(field, "gear_ratio"),
+        other => panic!("{:?}", other.map(|s| s.reason)),
+    }
+    // a fixed armature, or another parameter, is not refused
+    let fixed = RhexParams {
+        leg_armature_kg_m2: Some(0.01),
+        ..massive()
+    };
+    assert!(leap_with_sensitivity(&fixed, &cfg, &["gear_ratio"]).is_ok());
+    assert!(leap_with_sensitivity(&massive(), &cfg, &["t2"]).is_ok());
+    // massless legs: as before
+    assert!(leap_with_sensitivity(&leap_params(), &cfg, &["gear_ratio"]).is_ok());
+}
