@@ -64,8 +64,8 @@
 use crate::contact::{row_direction, ContactGeometry, ContactMode, RowDirection, TouchKind};
 use crate::dynamics::{forward_dynamics, plastic_impact, Data, Impact};
 use crate::error::CoreError;
-use crate::friction::Fold;
 use crate::frames::perp;
+use crate::friction::Fold;
 use crate::kinematics::{Kinematics, Part};
 use crate::model::{ContactShape, Model};
 use crate::Terrain;

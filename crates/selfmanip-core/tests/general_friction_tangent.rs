@@ -178,8 +178,21 @@ impl Case<'_> {
     fn eval(&self, q: &[f64], qd: &[f64], tau: &[f64]) -> Option<(Vec<f64>, Vec<f64>)> {
         let mut data = Data::new(self.model);
         data.set_slide_directions(&self.dirs);
-        forward_dynamics(self.model, &mut data, self.terrain, self.mode, q, qd, tau, None).ok()?;
-        Some((data.qdd.as_slice().to_vec(), data.lambda.as_slice().to_vec()))
+        forward_dynamics(
+            self.model,
+            &mut data,
+            self.terrain,
+            self.mode,
+            q,
+            qd,
+            tau,
+            None,
+        )
+        .ok()?;
+        Some((
+            data.qdd.as_slice().to_vec(),
+            data.lambda.as_slice().to_vec(),
+        ))
     }
 
     /// The worst relative error of the exact Jacobian against central differences at one
@@ -418,7 +431,10 @@ fn jvp_and_body_mass_derivative_through_the_fold() {
     .unwrap();
     let along = |h: f64, col: usize| {
         let x = |v: &[f64], d: &DMatrix<f64>| -> Vec<f64> {
-            v.iter().enumerate().map(|(i, a)| a + h * d[(i, col)]).collect()
+            v.iter()
+                .enumerate()
+                .map(|(i, a)| a + h * d[(i, col)])
+                .collect()
         };
         solve(&model, &x(&q, &dq), &x(&qd, &dqd), &x(&tau, &dtau)).qdd
     };
@@ -431,7 +447,11 @@ fn jvp_and_body_mass_derivative_through_the_fold() {
             want += &d_mass;
         }
         let err = (dqdd.column(col) - &want).amax() / want.amax().max(1.0);
-        assert!(err < TOL, "column {col}: {err:e}\n{}\n{want}", dqdd.column(col));
+        assert!(
+            err < TOL,
+            "column {col}: {err:e}\n{}\n{want}",
+            dqdd.column(col)
+        );
     }
 }
 

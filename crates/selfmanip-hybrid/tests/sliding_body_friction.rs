@@ -229,7 +229,7 @@ fn sensitivity_through_general_sliding_sites_equals_closed_forms_and_differences
             q,
             qd,
             t,
-            opts.clone(),
+            opts,
         )
         .unwrap()
     };
@@ -240,7 +240,11 @@ fn sensitivity_through_general_sliding_sites_equals_closed_forms_and_differences
     ] {
         for v0 in [0.8, -1.1] {
             let t_star = f64::abs(v0) / (mu * G);
-            let t_end = if past_stop { 1.5 * t_star } else { 0.6 * t_star };
+            let t_end = if past_stop {
+                1.5 * t_star
+            } else {
+                0.6 * t_star
+            };
             let q = [0.1, z0, 0.0];
             let qd = [v0, 0.0, 0.0];
             let (exec, sens) = selfmanip_hybrid::simulate_with_sensitivity(
@@ -251,7 +255,7 @@ fn sensitivity_through_general_sliding_sites_equals_closed_forms_and_differences
                 &q,
                 &qd,
                 t_end,
-                opts.clone(),
+                opts,
             )
             .unwrap();
             let kinds: Vec<_> = exec.events.iter().map(|e| e.kind).collect();
@@ -276,12 +280,20 @@ fn sensitivity_through_general_sliding_sites_equals_closed_forms_and_differences
                 "∂x/∂v₀ {} vs {dx_dv0} (σ {sigma})",
                 jac[(0, 3)]
             );
-            assert!((jac[(3, 3)] - dxd_dv0).abs() < 1e-7, "∂ẋ/∂v₀ {}", jac[(3, 3)]);
+            assert!(
+                (jac[(3, 3)] - dxd_dv0).abs() < 1e-7,
+                "∂ẋ/∂v₀ {}",
+                jac[(3, 3)]
+            );
             assert!((jac[(0, 0)] - 1.0).abs() < 1e-9, "∂x/∂x₀ {}", jac[(0, 0)]);
             if past_stop {
                 let st = sens.events[0].time_gradient.as_ref().expect("stop time");
                 let want = sigma / (mu * G);
-                assert!((st[3] - want).abs() < 1e-7 * want.abs(), "∂t*/∂v₀ {}", st[3]);
+                assert!(
+                    (st[3] - want).abs() < 1e-7 * want.abs(),
+                    "∂t*/∂v₀ {}",
+                    st[3]
+                );
             }
             // the x₀ and ẋ₀ columns of the whole state's Jacobian against differences
             let mut diff = DMatrix::zeros(6, 2);
