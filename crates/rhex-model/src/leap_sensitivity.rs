@@ -29,7 +29,10 @@
 //! (grazing, simultaneous touchdowns such as both legs at `t2 = 0`, a mode held for zero
 //! time, folds); and a leg that meets the ground again after a motion in the air that
 //! started at an event (the controller's memory of that event's state is not differentiated; in the air
-//! a massless leg does not act on the body, so apex derivatives are exact otherwise).
+//! a massless leg does not act on the body, so apex derivatives are exact otherwise); a
+//! massive leg whose motion in the air started at an event before the apex (its servo
+//! follows that motion and turns the body in flight, Result C.5: the memory matters); an
+//! event at a motor's start (fired by the torque's jump, not by a crossing).
 use crate::leap::{run_leap_setup, LeapConfig, LeapResult, LeapSetup, LegActuator, T2Reference};
 use crate::{RhexError, RhexParams};
 use nalgebra::DMatrix;
@@ -288,6 +291,8 @@ pub fn leap_with_sensitivity_from(
         Some("the execution's sensitivities are not defined (a terrain feature change)".into())
     } else {
         memory_recontact(&setup, exec)
+            .or_else(|| event_at_motor_start(&setup, exec))
+            .or_else(|| massive_leg_memory(&setup, exec))
     };
     if let Some(r) = reason {
         out.reason = Some(r);
@@ -351,38 +356,89 @@ pub fn leap_with_sensitivity_from(
     Ok(out)
 }
 
-/// Whether a leg meets the ground again after a motion in the air that started at an event
-/// (the leap controller's `on_event`: its liftoff after its motor started, or the takeoff):
-/// that motion depends on the event's state, which the controller's partials hold fixed.
-fn memory_recontact(setup: &LeapSetup, exec: &selfmanip_hybrid::Execution) -> Option<String> {
+/// The events at which the leap controller starts a leg's motion in the air from the
+/// event's state (its `on_event`: the leg's liftoff after its motor started, or the
+/// takeoff), as `(event index, leg)` in order: the controller's memory, which its partials
+/// hold fixed.
+fn air_motion_starts(setup: &LeapSetup, exec: &selfmanip_hybrid::Execution) -> Vec<(usize, usize)> {
     let start = setup.ctrl.start;
     let contacts = setup.ctrl.leg_contact;
     let mut takeoff = false;
-    for e in &exec.events {
+    let mut out = Vec::new();
+    for (k, e) in exec.events.iter().enumerate() {
         let both = e.t >= start[0].max(start[1]);
         let took_off = !takeoff && both && e.mode_after.is_flight();
         takeoff |= took_off;
         for i in 0..2 {
             let c = contacts[i];
             let left = e.mode_before.contains(c) && !e.mode_after.contains(c);
-            if e.mode_after.contains(c) || !(left || took_off) || e.t < start[i] {
-                continue;
-            }
-            if let Some(seg) = exec
-                .segments
-                .iter()
-                .find(|s| s.t0 >= e.t && s.mode.contains(c))
-            {
-                return Some(format!(
-                    "leg {i} meets the ground again at t = {} s after a motion that started at \
-                     the event at t = {} s (the controller's memory is not differentiated)",
-                    seg.t0 - start[0],
-                    e.t - start[0]
-                ));
+            if !(e.mode_after.contains(c) || !(left || took_off) || e.t < start[i]) {
+                out.push((k, i));
             }
         }
     }
-    None
+    out
+}
+
+/// Whether a leg meets the ground again after a motion in the air that started at an event
+/// ([`air_motion_starts`]): that motion depends on the event's state, which the
+/// controller's partials hold fixed.
+fn memory_recontact(setup: &LeapSetup, exec: &selfmanip_hybrid::Execution) -> Option<String> {
+    let start = setup.ctrl.start;
+    air_motion_starts(setup, exec)
+        .into_iter()
+        .find_map(|(k, i)| {
+            let (e, c) = (&exec.events[k], setup.ctrl.leg_contact[i]);
+            let seg = exec
+                .segments
+                .iter()
+                .find(|s| s.t0 >= e.t && s.mode.contains(c))?;
+            Some(format!(
+                "leg {i} meets the ground again at t = {} s after a motion that started at \
+             the event at t = {} s (the controller's memory is not differentiated)",
+                seg.t0 - start[0],
+                e.t - start[0]
+            ))
+        })
+}
+
+/// An event (before the apex) at a motor's start: the torque's jump there fires a guard (a
+/// waiting toe on the ground slips as its motor starts) without a crossing, so the event's
+/// time follows the motor start (`dt_e/dt2 = dt_b/dt2`), not `−D_xg X / D_xg f⁻` as the
+/// saltation of a state event has it; not differentiated (`None` when no event is there).
+fn event_at_motor_start(setup: &LeapSetup, exec: &selfmanip_hybrid::Execution) -> Option<String> {
+    let start = setup.ctrl.start;
+    let events = &exec.events[..exec.events.len().saturating_sub(1)];
+    events.iter().find_map(|e| {
+        let i = (0..2).find(|&i| (e.t - start[i]).abs() <= 1e-12 * (1.0 + start[i].abs()))?;
+        Some(format!(
+            "{:?} at t = {} s, the start of leg {i}'s motor (an event fired by the torque's \
+             jump is not differentiated)",
+            e.kind,
+            e.t - start[0]
+        ))
+    })
+}
+
+/// A massive leg whose motion in the air started at an event before the apex
+/// ([`air_motion_starts`]): its servo follows that motion and, the leg having mass, turns
+/// the body in flight (Result C.5), so the apex depends on the event's state through the
+/// controller's memory, which its partials hold fixed — the derivatives would be off (by
+/// 7 % of d pitch/d t2 in the (+,+) t2 = 0.03 leap with Table 4.2's leg mass, against
+/// central differences of whole leaps). A massless leg in the air acts on nothing until it
+/// touches down ([`memory_recontact`]).
+fn massive_leg_memory(setup: &LeapSetup, exec: &selfmanip_hybrid::Execution) -> Option<String> {
+    let model = &setup.rhex.model;
+    let apex = exec.events.len().saturating_sub(1);
+    let (k, i) = air_motion_starts(setup, exec)
+        .into_iter()
+        .find(|&(k, i)| k < apex && !model.distal_massless(i))?;
+    Some(format!(
+        "leg {i} has mass and its motion in the air started at the event at t = {} s (the \
+         controller's memory of that state, which turns the body in flight, is not \
+         differentiated)",
+        exec.events[k].t - setup.ctrl.start[0]
+    ))
 }
 
 /// A number with its derivatives along two directions (forward-mode differentiation of the

@@ -98,8 +98,12 @@
 //! **Impacts** keep Assumption 5.9 for sliding sites: the plastic impact (5.10) and the
 //! pseudo-impulse (5.39) carry no kinetic friction (a Coulomb impact law with sliding
 //! sites is not unique in general — the impulse analogue of Painlevé's paradox — so no rule
-//! is taken here). **Derivatives** of a general site's friction are not formed:
-//! `tangent::TangentError::GeneralFriction`.
+//! is taken here). **Derivatives** of a general site's friction (`crate::tangent`) are the
+//! implicit differentiation of the folded system, `K' dz = db − dK' z` with
+//! `dK' z = [dM̄ q̈ + dAᵀλ + dBᵀλ; dA q̈]`, `dB = μ_kσ_k dA_t` (`σ_k` and `μ_k` constant along
+//! a sliding arc), solved by the same block elimination (`Fold`, formed once per state
+//! and applied to every right-hand side). A site whose force comes from sticking (at rest)
+//! is not differentiated (`tangent::TangentError::FrictionAtRest`).
 //!
 //! **The sliding direction is a discrete state.** $\sigma$ is constant along a stretch of
 //! sliding: the friction force changes side only where $v_t$ passes through zero, and there
@@ -675,87 +679,150 @@ fn fold_into(
     x: &mut [f64],
     y: &mut [f64],
 ) -> Result<Vec<(usize, f64)>> {
-    use nalgebra::{DMatrix, DVector};
-    let sites: Vec<usize> = (0..sliding.len()).filter(|&i| folds(&sliding[i])).collect();
-    if sites.is_empty() {
+    let Some(fold) = Fold::new(model, kkt, coords, sliding)? else {
         return Ok(Vec::new());
+    };
+    let lambda = fold.lambda(y)?;
+    fold.check_painleve(model, kkt, coords.len(), sliding)?;
+    fold.add(&lambda, x, y);
+    Ok(fold.sites.into_iter().zip(lambda.iter().copied()).collect())
+}
+
+/// The block elimination of the folded system `[M̄ (A + B)ᵀ; A 0]` on a factored symmetric
+/// KKT system (module docs, "The general sliding site"): the responses `(x_b, y_b)` of the
+/// symmetric system to each folding site's unit normal force's friction and the LU of the
+/// Schur complement `I − Y_SS`. Formed once at a state, it turns the symmetric system's
+/// solution `(x₀, y₀)` of any right-hand side into the folded system's
+/// ([`Self::lambda`], [`Self::add`]): the forward solve ([`fold_general`]) and the implicit
+/// differentiation of it (`crate::tangent`, `K' dz = db − dK' z` with the same `K'`) use it
+/// alike.
+#[derive(Debug, Clone)]
+pub(crate) struct Fold {
+    /// The folding sites' indices in `sliding`, and their normal rows.
+    sites: Vec<usize>,
+    rows: Vec<usize>,
+    /// `x_b` (on the dynamic coordinates) and `y_b` (rows), one column per site.
+    xs: nalgebra::DMatrix<f64>,
+    ys: nalgebra::DMatrix<f64>,
+    /// LU of `I − Y_SS`.
+    lu: nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>,
+}
+
+impl Fold {
+    /// The fold at a factored symmetric system (`kkt` on `coords`) for the sites of
+    /// `sliding` that fold; `None` when none does. A typed error where `I − Y_SS` is singular
+    /// (Lemma 5.1 for the folded system, [`FOLD_SINGULAR_TOL`]).
+    pub(crate) fn new(
+        model: &Model,
+        kkt: &mut crate::kkt::KktFactorization,
+        coords: &[usize],
+        sliding: &[SlidingSite],
+    ) -> Result<Option<Self>> {
+        use nalgebra::DMatrix;
+        let sites: Vec<usize> = (0..sliding.len()).filter(|&i| folds(&sliding[i])).collect();
+        if sites.is_empty() {
+            return Ok(None);
+        }
+        let rows: Vec<usize> = sites.iter().map(|&i| sliding[i].row).collect();
+        let (m, c, n) = (coords.len(), kkt.n_rows(), sites.len());
+        let mut pos = vec![usize::MAX; model.nq()];
+        for (p, &k) in coords.iter().enumerate() {
+            pos[k] = p;
+        }
+        // the response (x_b, y_b) to a unit normal force's friction −μ_kσ A_tᵀ at each site b
+        let mut xs = DMatrix::<f64>::zeros(m, n);
+        let mut ys = DMatrix::<f64>::zeros(c, n);
+        let (mut f, g) = (vec![0.0; m], vec![0.0; c]);
+        let (mut xb, mut yb) = (vec![0.0; m], vec![0.0; c]);
+        for (b, &i) in sites.iter().enumerate() {
+            let s = &sliding[i];
+            f.fill(0.0);
+            for &(k, a_tk) in &s.a_t {
+                if pos[k] != usize::MAX {
+                    f[pos[k]] -= s.coef * a_tk;
+                }
+            }
+            kkt.solve(&f, &g, &mut xb, &mut yb);
+            xs.column_mut(b).copy_from_slice(&xb);
+            ys.column_mut(b).copy_from_slice(&yb);
+        }
+        // (I − Y_SS) λ_S = y_S
+        let z = DMatrix::from_fn(n, n, |a, b| f64::from(u8::from(a == b)) - ys[(rows[a], b)]);
+        // relative to the size of `I` and `Y_SS` it is formed from: cancellation, not scale
+        let scale = 1.0
+            + (0..n)
+                .flat_map(|a| (0..n).map(move |b| (a, b)))
+                .fold(0.0f64, |m, (a, b)| m.max(ys[(rows[a], b)].abs()));
+        let sv = z.singular_values();
+        let s_min = sv.min();
+        if s_min.is_nan() || s_min <= FOLD_SINGULAR_TOL * scale {
+            return Err(CoreError::SingularKkt {
+                kind: SingularityKind::UnconstrainedMasslessMotion,
+                condition_estimate: scale / s_min,
+            });
+        }
+        Ok(Some(Fold {
+            sites,
+            rows,
+            xs,
+            ys,
+            lu: z.lu(),
+        }))
     }
-    let (m, c, n) = (coords.len(), y.len(), sites.len());
-    let mut pos = vec![usize::MAX; model.nq()];
-    for (p, &k) in coords.iter().enumerate() {
-        pos[k] = p;
+
+    /// The folding sites' normal forces `λ_S = (I − Y_SS)⁻¹ y_S` for the symmetric system's
+    /// solution rows `y`.
+    pub(crate) fn lambda(&self, y: &[f64]) -> Result<nalgebra::DVector<f64>> {
+        let rhs = nalgebra::DVector::from_fn(self.rows.len(), |a, _| y[self.rows[a]]);
+        self.lu.solve(&rhs).ok_or(CoreError::SingularKkt {
+            kind: SingularityKind::UnconstrainedMasslessMotion,
+            condition_estimate: f64::INFINITY,
+        })
     }
-    // the response (x_b, y_b) to a unit normal force's friction −μ_kσ A_tᵀ at each site b
-    let mut xs = DMatrix::<f64>::zeros(m, n);
-    let mut ys = DMatrix::<f64>::zeros(c, n);
-    let (mut f, g) = (vec![0.0; m], vec![0.0; c]);
-    let (mut xb, mut yb) = (vec![0.0; m], vec![0.0; c]);
-    for (b, &i) in sites.iter().enumerate() {
-        let s = &sliding[i];
-        f.fill(0.0);
-        for &(k, a_tk) in &s.a_t {
-            if pos[k] != usize::MAX {
-                f[pos[k]] -= s.coef * a_tk;
+
+    /// `x += Σ_b λ_b x_b`, `y += Σ_b λ_b y_b`: the symmetric system's solution `(x, y)` made
+    /// the folded system's, with `lambda` from [`Self::lambda`] of that `y`.
+    pub(crate) fn add(&self, lambda: &nalgebra::DVector<f64>, x: &mut [f64], y: &mut [f64]) {
+        for (b, &l) in lambda.iter().enumerate() {
+            for (p, xp) in x.iter_mut().enumerate() {
+                *xp += l * self.xs[(p, b)];
+            }
+            for (r, yr) in y.iter_mut().enumerate() {
+                *yr += l * self.ys[(r, b)];
             }
         }
-        kkt.solve(&f, &g, &mut xb, &mut yb);
-        xs.column_mut(b).copy_from_slice(&xb);
-        ys.column_mut(b).copy_from_slice(&yb);
     }
-    // (I − Y_SS) λ_S = y_S
-    let z = DMatrix::from_fn(n, n, |a, b| {
-        f64::from(u8::from(a == b)) - ys[(sliding[sites[a]].row, b)]
-    });
-    let rhs = DVector::from_fn(n, |a, _| y[sliding[sites[a]].row]);
-    // relative to the size of `I` and `Y_SS` it is formed from: cancellation, not scale
-    let scale = 1.0
-        + (0..n)
-            .flat_map(|a| (0..n).map(move |b| (a, b)))
-            .fold(0.0f64, |m, (a, b)| {
-                m.max(ys[(sliding[sites[a]].row, b)].abs())
+
+    /// Painlevé: `W⁻¹ = −(I − Y_SS)⁻¹ H_SS`, `H = ∂λ/∂g` the symmetric system's response to
+    /// the sites' normal accelerations, must be a P₀-matrix (module docs).
+    fn check_painleve(
+        &self,
+        model: &Model,
+        kkt: &mut crate::kkt::KktFactorization,
+        m: usize,
+        sliding: &[SlidingSite],
+    ) -> Result<()> {
+        let (c, n) = (self.ys.nrows(), self.rows.len());
+        let mut h = nalgebra::DMatrix::<f64>::zeros(n, n);
+        let (fz, mut gz) = (vec![0.0; m], vec![0.0; c]);
+        let (mut xb, mut yb) = (vec![0.0; m], vec![0.0; c]);
+        for a in 0..n {
+            gz.fill(0.0);
+            gz[self.rows[a]] = 1.0;
+            kkt.solve(&fz, &gz, &mut xb, &mut yb);
+            for b in 0..n {
+                h[(b, a)] = yb[self.rows[b]];
+            }
+        }
+        let w_inv = -self.lu.solve(&h).expect("regular: checked above");
+        if let Some((a, minor)) = painleve_violation(&w_inv, model.total_mass_kg()) {
+            return Err(CoreError::PainleveInconsistent {
+                contact: model.contacts[sliding[self.sites[a]].contact].name.clone(),
+                response: minor,
             });
-    let sv = z.singular_values();
-    let s_min = sv.min();
-    if s_min.is_nan() || s_min <= FOLD_SINGULAR_TOL * scale {
-        return Err(CoreError::SingularKkt {
-            kind: SingularityKind::UnconstrainedMasslessMotion,
-            condition_estimate: scale / s_min,
-        });
-    }
-    let lu = z.clone().lu();
-    let lambda = lu.solve(&rhs).ok_or(CoreError::SingularKkt {
-        kind: SingularityKind::UnconstrainedMasslessMotion,
-        condition_estimate: f64::INFINITY,
-    })?;
-    // Painlevé: W⁻¹ = −(I − Y_SS)⁻¹ H_SS, H = ∂λ/∂g the symmetric system's response to the
-    // sites' normal accelerations, must be a P₀-matrix
-    let mut h = DMatrix::<f64>::zeros(n, n);
-    let (fz, mut gz) = (vec![0.0; m], vec![0.0; c]);
-    for a in 0..n {
-        gz.fill(0.0);
-        gz[sliding[sites[a]].row] = 1.0;
-        kkt.solve(&fz, &gz, &mut xb, &mut yb);
-        for b in 0..n {
-            h[(b, a)] = yb[sliding[sites[b]].row];
         }
+        Ok(())
     }
-    let w_inv = -lu.solve(&h).expect("regular: checked above");
-    if let Some((a, minor)) = painleve_violation(&w_inv, model.total_mass_kg()) {
-        return Err(CoreError::PainleveInconsistent {
-            contact: model.contacts[sliding[sites[a]].contact].name.clone(),
-            response: minor,
-        });
-    }
-    for b in 0..n {
-        let l = lambda[b];
-        for p in 0..m {
-            x[p] += l * xs[(p, b)];
-        }
-        for r in 0..c {
-            y[r] += l * ys[(r, b)];
-        }
-    }
-    Ok(sites.into_iter().zip(lambda.iter().copied()).collect())
 }
 
 /// The first principal minor of `w` that is clearly negative (P₀ fails), as the index of

@@ -39,12 +39,33 @@
 //! identically, so they do not enter the other rows. Locked joints' prescribed `q̈ = 0`
 //! enters through `dA q̈` with its own column.
 //!
+//! **Kinetic (Coulomb) friction** of a sliding site ([`crate::friction`]), with its sliding
+//! direction `σ` and `μ_k` constant along the arc:
+//! - on a single-joint massless leg, its force `f^fr = −μ_kσ λ_n A_tᵀ` has `λ_n = f_j/den`
+//!   from the leg's statics, a known generalized force: `δf^fr` enters the right-hand side
+//!   (`applied_terms_along`);
+//! - at a general site (a body end, a massive or multi-joint leg, a leg with another contact)
+//!   the forward solve is the folded nonsymmetric system `K' = [M̄ (A + B)ᵀ; A 0]`, `B`'s
+//!   row of the site's normal `μ_kσ A_t`. Its derivative is `K' dz = db − dK' z` with the
+//!   extra `dBᵀλ`, `(D_q B_k[v])_i = −μ_kσ_k t̂_k·D²c[e_i, v]` (the tangential row's
+//!   derivative, the normal row's formula with `t̂` for `d_r`; `B` does not depend on `q̇`,
+//!   `Υ` or the body's inertia), solved with `K'` by the forward solve's own block
+//!   elimination on the symmetric factorization (`friction::Fold`). Massless joints
+//!   in contact inside the fold are covered as the forward solve covers them: `K` is the
+//!   same null-space factorization, and the fold is exact on it.
+//!
+//! The plastic impact carries no kinetic friction (Assumption 5.9, kept for sliding sites):
+//! its derivative involves none, and a mode with general sliding sites is differentiated as
+//! any other.
+//!
 //! Not covered: a contact on a terrain corner (its frame turns with the site; a typed
-//! [`TangentError::TurningFrame`]).
+//! [`TangentError::TurningFrame`]); a sliding site whose friction is a sticking force at
+//! rest ([`TangentError::FrictionAtRest`]).
 use crate::contact::{row_direction, ContactGeometry, ContactMode, RowDirection, TouchKind};
 use crate::dynamics::{forward_dynamics, plastic_impact, Data, Impact};
 use crate::error::CoreError;
 use crate::frames::perp;
+use crate::friction::Fold;
 use crate::kinematics::{Kinematics, Part};
 use crate::model::{ContactShape, Model};
 use crate::Terrain;
@@ -65,13 +86,6 @@ pub enum TangentError {
         "the friction force of contact {contact} is a sticking force at rest; not differentiated"
     )]
     FrictionAtRest { contact: usize },
-    /// A sliding site with kinetic friction folded into the dynamics solve (a body site, a
-    /// massive or multi-joint leg, or a leg with another contact: `selfmanip_core::friction`,
-    /// "The general sliding site"): its force's derivative is not formed yet.
-    #[error(
-        "the kinetic friction of contact {contact} is not on a single-joint massless leg; its derivative is not formed"
-    )]
-    GeneralFriction { contact: usize },
 }
 
 /// The levers of one material point: per part `Q` from the body out to the point's part,
@@ -239,6 +253,11 @@ struct Assembly {
     /// `n_sliding` (buffers kept across states).
     sliding: Vec<SlidingTerm>,
     n_sliding: usize,
+    /// General sliding sites whose friction is folded into the dynamics solve
+    /// (`crate::friction`, "The general sliding site"): `(row, μ_k σ, t̂)` with `row` its
+    /// normal row (an index of [`Self::rows`], whose point it shares) and `t̂` its tangential
+    /// row's direction, so that its row of `B` is `μ_k σ A_t`, `A_t x = −t̂ · J_c x`.
+    general: Vec<(usize, f64, Vector2<f64>)>,
     /// A sliding site whose friction force is a sticking force at rest (its contact).
     at_rest: Option<usize>,
 }
@@ -340,6 +359,7 @@ impl Assembly {
         }
         self.n_sliding = 0;
         self.at_rest = None;
+        self.general.clear();
         for site in &data.sliding {
             if site.held.is_some() || site.at_rest || site.wedged {
                 // a force from sticking (a site at rest, or jammed at a wedge): its
@@ -351,17 +371,18 @@ impl Assembly {
             if site.coef == 0.0 {
                 continue;
             }
-            if site.general {
-                return Err(TangentError::GeneralFriction {
-                    contact: site.contact,
-                });
-            }
             let geo = &cons
                 .geometry
                 .iter()
                 .find(|(k, _)| *k == site.contact)
                 .expect("active contact")
                 .1;
+            if site.general {
+                // folded into the solve (`crate::friction::fold_general`): a row of `B`
+                let d_t = row_direction(&geo.plane, RowDirection::Tangential);
+                self.general.push((site.row, site.coef, d_t));
+                continue;
+            }
             let slot = next_slot(&mut self.sliding, &mut self.n_sliding);
             let term = &mut self.sliding[slot];
             term.a_t.clear();
@@ -426,6 +447,44 @@ impl Assembly {
                 f[i] += s.coef * di;
             }
         }
+    }
+
+    /// `f += D_q B[v]ᵀ y`: the folded friction's part of `dK' z` along a direction `v` of
+    /// `q` (`K' = [M̄ (A + B)ᵀ; A 0]`, `z = (q̈, λ)`, module docs), added to a right-hand side
+    /// `f` of [`Self::dq_terms_along`]'s sign, with `wv` a scratch buffer. Row `k` of `B` is
+    /// `μ_k σ_k A_t,k` with `σ_k`, `μ_k` constant along a sliding arc, so
+    /// `(D_q B_k[v])_i = −μ_k σ_k t̂_k · D²c[e_i, v]` — the tangential row's derivative, of the
+    /// same form as a normal row's with `t̂` for `d_r` — and its weight is the site's normal
+    /// force `y_row(k)`. The flow only: an impact carries no kinetic friction
+    /// (Assumption 5.9).
+    fn general_terms_along(&self, v: &[f64], y: &[f64], wv: &mut Vec<f64>, f: &mut DVector<f64>) {
+        for &(row, coef, d_t) in &self.general {
+            let l = coef * y[row];
+            if l == 0.0 {
+                continue;
+            }
+            let p = &self.rows[row].1;
+            let lv = &p.lever;
+            lv.omegas_into(v, wv);
+            for i in 0..self.nq {
+                f[i] -= l * d_t.dot(&lv.d2(p.we(i), wv));
+            }
+        }
+    }
+
+    /// The fold of the general sliding sites' friction at the prepared state
+    /// (`friction::Fold`: the solve with `K'` from the symmetric factorization), if
+    /// any site folds.
+    fn fold(&self, model: &Model, data: &mut Data) -> Result<Option<Fold>, TangentError> {
+        if self.general.is_empty() {
+            return Ok(None);
+        }
+        Ok(Fold::new(
+            model,
+            &mut data.kkt,
+            &data.dynamic_coords,
+            &data.sliding,
+        )?)
     }
 
     /// The current state's masses.
@@ -577,7 +636,9 @@ fn differentiable_point(
 }
 
 /// Solves `K [x; y] = [σf; σg]` with `data`'s factorization into column `k` of `x_out`
-/// (prescribed joints get 0) and of `y_out` (if given), on reusable buffers.
+/// (prescribed joints get 0) and of `y_out` (if given), on reusable buffers; with a
+/// [`Fold`], the folded system `K' = [M̄ (A + B)ᵀ; A 0]` of the general sliding sites
+/// instead ([`Self::solve_folded`]).
 #[derive(Debug, Default)]
 struct Solver {
     fr: Vec<f64>,
@@ -598,6 +659,35 @@ impl Solver {
         x_out: &mut DMatrix<f64>,
         y_out: Option<&mut DMatrix<f64>>,
     ) {
+        self.solve_reduced(data, sigma, f, g);
+        self.scatter(data, k, x_out, y_out);
+    }
+
+    /// [`Self::solve`] with the system `K'` of `fold` when given (the flow with general
+    /// sliding sites), `K` otherwise.
+    #[allow(clippy::too_many_arguments)]
+    fn solve_folded(
+        &mut self,
+        data: &mut Data,
+        fold: Option<&Fold>,
+        sigma: f64,
+        f: &DVector<f64>,
+        g: &DVector<f64>,
+        k: usize,
+        x_out: &mut DMatrix<f64>,
+        y_out: Option<&mut DMatrix<f64>>,
+    ) -> Result<(), TangentError> {
+        self.solve_reduced(data, sigma, f, g);
+        if let Some(fold) = fold {
+            let lambda = fold.lambda(&self.y)?;
+            fold.add(&lambda, &mut self.xr, &mut self.y);
+        }
+        self.scatter(data, k, x_out, y_out);
+        Ok(())
+    }
+
+    /// `K [x; y] = [σf; σg]` on the dynamic coordinates into `xr`, `y`.
+    fn solve_reduced(&mut self, data: &mut Data, sigma: f64, f: &DVector<f64>, g: &DVector<f64>) {
         self.fr.clear();
         self.fr
             .extend(data.dynamic_coords.iter().map(|&a| sigma * f[a]));
@@ -607,6 +697,16 @@ impl Solver {
         self.y.resize(g.len(), 0.0);
         data.kkt
             .solve(&self.fr, &self.gr, &mut self.xr, &mut self.y);
+    }
+
+    /// `xr`, `y` into column `k` of `x_out` (prescribed joints 0) and of `y_out`.
+    fn scatter(
+        &self,
+        data: &Data,
+        k: usize,
+        x_out: &mut DMatrix<f64>,
+        y_out: Option<&mut DMatrix<f64>>,
+    ) {
         let mut col = x_out.column_mut(k);
         col.fill(0.0);
         for (&a, v) in data.dynamic_coords.iter().zip(&self.xr) {
@@ -659,6 +759,8 @@ pub fn dynamics_jacobian_solved(
 ) -> Result<DynamicsJacobian, TangentError> {
     let mut asm = Assembly::new(model, data, qd)?;
     asm.check_flow()?;
+    let fold = asm.fold(model, data)?;
+    let fold = fold.as_ref();
     let (nq, n, c) = (model.nq(), model.n_joints(), data.constraints.n_rows());
     asm.set_x(data.qdd.as_slice());
     let lambda: Vec<f64> = data.lambda.iter().copied().collect();
@@ -677,12 +779,13 @@ pub fn dynamics_jacobian_solved(
         e[k] = 1.0;
         let (mut f, g) = asm.dq_terms(k, &lambda, true);
         asm.applied_terms_along(Some(&e), None, &no_tau, &mut wv, &mut f);
+        asm.general_terms_along(&e, &lambda, &mut wv, &mut f);
         let (x, y) = (&mut out.dqdd_dq, &mut out.dlambda_dq);
-        solver.solve(data, -1.0, &f, &g, k, x, Some(y));
+        solver.solve_folded(data, fold, -1.0, &f, &g, k, x, Some(y))?;
         let (mut f, g) = asm.dqd_terms(k);
         asm.applied_terms_along(None, Some(&e), &no_tau, &mut wv, &mut f);
         let (x, y) = (&mut out.dqdd_dqd, &mut out.dlambda_dqd);
-        solver.solve(data, -1.0, &f, &g, k, x, Some(y));
+        solver.solve_folded(data, fold, -1.0, &f, &g, k, x, Some(y))?;
         e[k] = 0.0;
     }
     let zeros = DVector::zeros(c);
@@ -700,7 +803,7 @@ pub fn dynamics_jacobian_solved(
         f.neg_mut();
         f[j] += 1.0;
         let (x, y) = (&mut out.dqdd_dtau, &mut out.dlambda_dtau);
-        solver.solve(data, 1.0, &f, &zeros, j, x, Some(y));
+        solver.solve_folded(data, fold, 1.0, &f, &zeros, j, x, Some(y))?;
     }
     Ok(out)
 }
@@ -913,6 +1016,7 @@ pub fn dynamics_jvp_into(
     } = ws;
     asm.reset(model, data, qd)?;
     asm.check_flow()?;
+    let fold = asm.fold(model, data)?;
     let (nq, c, m) = (model.nq(), data.constraints.n_rows(), dirs.dq.ncols());
     qdd.clear();
     qdd.extend(data.qdd.iter().copied());
@@ -931,6 +1035,7 @@ pub fn dynamics_jvp_into(
             asm.dq_terms_along(v, lambda, true, scratch, fv, gv);
             *f += &*fv;
             *g += &*gv;
+            asm.general_terms_along(v, lambda, scratch, f);
         }
         if w.iter().any(|x| *x != 0.0) {
             asm.dqd_terms_along(w, scratch, fw, gw);
@@ -949,7 +1054,7 @@ pub fn dynamics_jvp_into(
             p.dm_x_into(model, qdd, true, fb);
             *f += &*fb;
         }
-        solver.solve(data, -1.0, f, g, col, dqdd, Some(dlambda));
+        solver.solve_folded(data, fold.as_ref(), -1.0, f, g, col, dqdd, Some(dlambda))?;
     }
     Ok(())
 }

@@ -190,32 +190,208 @@ fn painleve_rod_run_ends_typed_beyond_the_threshold_and_slides_below_it() {
     }
 }
 
-/// The derivatives of a general sliding site's friction are not formed: sensitivities of a
-/// run with one end in a typed error naming the contact, not numbers.
+/// Sensitivities through general sliding sites (the friction folded into the solve,
+/// differentiated through the folded system: `selfmanip_core::tangent`), against the closed
+/// forms and against central differences of whole simulations (`h = 1e-5` on the initial
+/// velocity and position; `x(T)` is quadratic in both, so only round-off remains):
+/// - a block sliding on its two corners for `T` short of its stop, `σ` fixed:
+///   `x(T) = x₀ + v₀T − ½ μ g σ T²`, `ẋ(T) = v₀ − μ g σ T`, so `∂x(T)/∂v₀ = T`,
+///   `∂ẋ(T)/∂v₀ = 1`, `∂x(T)/∂x₀ = 1`, and the rest of those columns against the
+///   differences;
+/// - a puck sliding to its stop and past it: `x_final = x₀ + v₀|v₀|/(2μg)`, so
+///   `∂x_final/∂v₀ = |v₀|/(μ g)` — through the slip→stick event's saltation (the stop time
+///   `t* = |v₀|/(μg)` moves with `v₀`, `∂t*/∂v₀ = σ/(μ g)`).
 #[test]
-fn sensitivity_through_a_general_sliding_site_is_a_typed_error() {
-    use selfmanip_core::tangent::TangentError;
-    use selfmanip_hybrid::sensitivity::SensitivityError;
-    let model = body(2.0, 0.01, &[("foot", 0.0, 0.0)], 0.4);
-    let r = selfmanip_hybrid::simulate_with_sensitivity(
-        &model,
-        &GroundPlane::level(0.0),
-        &ZeroTorque,
-        sliding(&[0]),
-        &[0.0, 0.0, 0.0],
-        &[0.5, 0.0, 0.0],
-        0.05,
-        HybridOptions::default(),
+fn sensitivity_through_general_sliding_sites_equals_closed_forms_and_differences() {
+    use nalgebra::DMatrix;
+    let (w, h) = (0.1, 0.05);
+    let mu = 0.3;
+    let block = body(
+        2.0,
+        2.0 * (w * w + h * h) / 12.0,
+        &[("left", -w / 2.0, h / 2.0), ("right", w / 2.0, h / 2.0)],
+        mu,
     );
-    assert!(
-        matches!(
-            r,
-            Err(SensitivityError::Tangent(TangentError::GeneralFriction {
-                contact: 0
-            }))
-        ),
-        "{r:?}"
-    );
+    let puck = body(2.0, 0.01, &[("foot", 0.0, 0.0)], mu);
+    let plane = GroundPlane::level(0.0);
+    // the stop located to 1e-13 s: its location's round-off, `μ g δt / 2h` in a difference,
+    // stays below 1e-8
+    let opts = HybridOptions {
+        event_tol_s: 1e-13,
+        ..HybridOptions::default()
+    };
+    let run = |model: &Model, contacts: &[usize], q: &[f64], qd: &[f64], t: f64| {
+        simulate(
+            model,
+            &plane,
+            &ZeroTorque,
+            sliding(contacts),
+            q,
+            qd,
+            t,
+            opts,
+        )
+        .unwrap()
+    };
+    let fd = 1e-5;
+    for (model, contacts, z0, past_stop) in [
+        (&block, vec![0, 1], -h / 2.0, false),
+        (&puck, vec![0], 0.0, true),
+    ] {
+        for v0 in [0.8, -1.1] {
+            let t_star = f64::abs(v0) / (mu * G);
+            let t_end = if past_stop {
+                1.5 * t_star
+            } else {
+                0.6 * t_star
+            };
+            let q = [0.1, z0, 0.0];
+            let qd = [v0, 0.0, 0.0];
+            let (exec, sens) = selfmanip_hybrid::simulate_with_sensitivity(
+                model,
+                &plane,
+                &ZeroTorque,
+                sliding(&contacts),
+                &q,
+                &qd,
+                t_end,
+                opts,
+            )
+            .unwrap();
+            let kinds: Vec<_> = exec.events.iter().map(|e| e.kind).collect();
+            assert_eq!(
+                kinds,
+                if past_stop {
+                    vec![EventKind::Stick]
+                } else {
+                    vec![]
+                }
+            );
+            let jac = sens.state_jacobian.expect("every saltation defined");
+            // x = (q, q̇) = (x, z, φ, ẋ, ż, φ̇): columns ẋ₀ (3) and x₀ (0)
+            let sigma = v0.signum();
+            let (dx_dv0, dxd_dv0) = if past_stop {
+                (f64::abs(v0) / (mu * G), 0.0)
+            } else {
+                (t_end, 1.0)
+            };
+            assert!(
+                (jac[(0, 3)] - dx_dv0).abs() < 1e-7 * dx_dv0,
+                "∂x/∂v₀ {} vs {dx_dv0} (σ {sigma})",
+                jac[(0, 3)]
+            );
+            assert!(
+                (jac[(3, 3)] - dxd_dv0).abs() < 1e-7,
+                "∂ẋ/∂v₀ {}",
+                jac[(3, 3)]
+            );
+            assert!((jac[(0, 0)] - 1.0).abs() < 1e-9, "∂x/∂x₀ {}", jac[(0, 0)]);
+            if past_stop {
+                let st = sens.events[0].time_gradient.as_ref().expect("stop time");
+                let want = sigma / (mu * G);
+                assert!(
+                    (st[3] - want).abs() < 1e-7 * want.abs(),
+                    "∂t*/∂v₀ {}",
+                    st[3]
+                );
+            }
+            // the x₀ and ẋ₀ columns of the whole state's Jacobian against differences
+            let mut diff = DMatrix::zeros(6, 2);
+            for (c, k) in [0, 3].into_iter().enumerate() {
+                let (mut xp, mut xm) = ([q, qd].concat(), [q, qd].concat());
+                xp[k] += fd;
+                xm[k] -= fd;
+                let (ep, em) = (
+                    run(model, &contacts, &xp[..3], &xp[3..], t_end),
+                    run(model, &contacts, &xm[..3], &xm[3..], t_end),
+                );
+                assert_eq!(ep.events.len(), exec.events.len());
+                assert_eq!(em.events.len(), exec.events.len());
+                for i in 0..3 {
+                    diff[(i, c)] = (ep.q[i] - em.q[i]) / (2.0 * fd);
+                    diff[(3 + i, c)] = (ep.qd[i] - em.qd[i]) / (2.0 * fd);
+                }
+            }
+            let exact = DMatrix::from_fn(6, 2, |i, c| jac[(i, [0, 3][c])]);
+            let err = (&exact - &diff).amax() / diff.amax().max(1.0);
+            assert!(err < 1e-6, "{}: {err:e}\n{exact}\n{diff}", model.name);
+        }
+    }
+}
+
+/// A rod (half-length `l`, `I = m l²/3`) sliding on one end, turning and falling as it goes:
+/// the friction's derivative through the changing geometry (`dBᵀλ`, the folded system's
+/// `K'`) carried by the variational equations. The state Jacobian times directions that keep
+/// the end on the ground and its normal velocity zero — `ẋ₀`; `(ż₀, φ̇₀) ∝ (−l cos θ, 1)`;
+/// `x₀`; `(z₀, φ₀, ż₀) ∝ (−l cos θ, 1, φ̇ l sin θ)` — equals central differences of whole runs (`h = 1e-6`), with the end sliding toward and
+/// away from the centre (`σ = ±1`).
+#[test]
+fn sliding_rod_sensitivity_equals_differences_of_whole_runs() {
+    use nalgebra::DVector;
+    let (m, l, theta, mu) = (1.5, 0.4, 0.8_f64, 0.5);
+    let model = body(m, m * l * l / 3.0, &[("end", -l, 0.0)], mu);
+    let plane = GroundPlane::level(0.0);
+    let (s, c) = theta.sin_cos();
+    let t_end = 0.05;
+    let run = |x: &[f64]| {
+        simulate(
+            &model,
+            &plane,
+            &ZeroTorque,
+            sliding(&[0]),
+            &x[..3],
+            &x[3..],
+            t_end,
+            HybridOptions::default(),
+        )
+        .unwrap()
+    };
+    for v_end in [0.8, -0.8] {
+        // the end on the ground, sliding at v_end, the rod
+        // turning at φ̇ (ż_P = ż + φ̇ l cos θ = 0)
+        let phidot = 0.5;
+        let x0 = [
+            0.0,
+            -l * s,
+            theta,
+            v_end - phidot * l * s,
+            -phidot * l * c,
+            phidot,
+        ];
+        let (exec, sens) = selfmanip_hybrid::simulate_with_sensitivity(
+            &model,
+            &plane,
+            &ZeroTorque,
+            sliding(&[0]),
+            &x0[..3],
+            &x0[3..],
+            t_end,
+            HybridOptions::default(),
+        )
+        .unwrap();
+        assert!(exec.events.is_empty(), "{:?}", exec.events);
+        assert_eq!(exec.termination, Termination::FinalTime);
+        let jac = sens.state_jacobian.expect("no event");
+        let dirs: [[f64; 6]; 4] = [
+            [0.0, 0.0, 0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 0.0, 0.0, -l * c, 1.0],
+            [1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            [0.0, -l * c, 1.0, 0.0, phidot * l * s, 0.0],
+        ];
+        let h = 1e-6;
+        for d in dirs {
+            let d = DVector::from_row_slice(&d);
+            let x = DVector::from_row_slice(&x0);
+            let (ep, em) = (run((&x + h * &d).as_slice()), run((&x - h * &d).as_slice()));
+            let end = |e: &selfmanip_hybrid::Execution| {
+                DVector::from_iterator(6, e.q.iter().chain(e.qd.iter()).copied())
+            };
+            let diff = (end(&ep) - end(&em)) / (2.0 * h);
+            let exact = &jac * &d;
+            let err = (&exact - &diff).amax() / diff.amax().max(1.0);
+            assert!(err < 1e-6, "v_end {v_end}, d {d}: {err:e}\n{exact}\n{diff}");
+        }
+    }
 }
 
 /// A puck put down sticking at rest on an incline steeper than its cone (`tan α > μ`) slips

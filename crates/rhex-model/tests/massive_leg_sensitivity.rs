@@ -1,0 +1,228 @@
+//! Derivatives of RHex leaps with massive legs (Table 4.2's leg pair: 0.126 kg, 0.00092 kg m²)
+//! and Coulomb toes, whose sliding toes are general sliding sites of
+//! `selfmanip_core::friction` (folded into the dynamics solve; differentiated through the
+//! folded system, `selfmanip_core::tangent`).
+//!
+//! What holds, each against central differences (the independent route):
+//! - the flow's exact Jacobian `∂(q̈, λ)/∂(q, q̇, Υ)` at the states of every sliding segment
+//!   of three massive-leg leaps, in the segment's own mode, sliding directions and locked
+//!   joints (the rolling half-circle legs of the model, the leap's torques), against
+//!   Richardson-extrapolated central differences of `forward_dynamics`;
+//! - along a whole leap, `d t_e / d t2` of every event up to the first one after which the
+//!   controller's memory acts (below), through a massive toe's sliding stretch, against
+//!   central differences of whole leaps.
+//!
+//! What does not, and is reported instead of a number: the apex derivatives of these leaps.
+//! The leap controller plans a leg's motion in the air from the state at the event that
+//! released it (its liftoff, the takeoff) and its partials hold that memory fixed; a
+//! massless leg in the air acts on nothing, but a massive one is servoed along that motion
+//! and turns the body in flight (Result C.5), so the apex depends on the memory. Measured:
+//! the (+,+) t2 = 0.03 leap's d pitch / d t2 came out 11.63 against 12.42 by differences
+//! (7 %), d z / d G 4.25e-4 against 4.22e-4; with frictionless toes (no sliding friction
+//! at all, nothing of it differentiated) gaps of the same kind (d z / d t2 2.88 against
+//! 0.59). And a waiting toe on the ground that slips at its motor's start
+//! (fired by the torque's jump, not by a crossing) gets a state event's time gradient (0)
+//! where the motor start's (1) is right. `leap_with_sensitivity` flags both
+//! (`LeapSensitivity::ok` false, with the reason).
+use nalgebra::DMatrix;
+use rhex_model::leap::{leap_params, simulate_leap, LeapConfig};
+use rhex_model::leap_sensitivity::leap_with_sensitivity;
+use rhex_model::{Rhex, RhexParams};
+use selfmanip_core::friction::SlideDirection;
+use selfmanip_core::tangent::dynamics_jacobian;
+use selfmanip_core::{forward_dynamics, Data, FlatGround, Model};
+use selfmanip_hybrid::execution::Segment;
+
+/// Table 4.2's leg-pair mass and inertia on the default leap's parameters (Coulomb toes).
+fn massive() -> RhexParams {
+    let mut p = leap_params();
+    p.m_l = 0.126;
+    p.I_l = 0.00092;
+    p
+}
+
+/// Tight tolerances, so that differences of whole leaps resolve 1e-6 (as
+/// `tests/leap_sensitivity.rs` of the workspace).
+fn tight(strategy: &str, t2: f64) -> LeapConfig {
+    LeapConfig {
+        strategy: strategy.parse().unwrap(),
+        t2_s: t2,
+        rtol: 1e-12,
+        event_tol_s: 1e-14,
+        control_free_joints: true,
+        ..LeapConfig::default()
+    }
+}
+
+/// Whether a segment slides a site with kinetic friction on a fixed edge, for a while.
+fn slides(seg: &Segment) -> bool {
+    seg.t1 > seg.t0
+        && seg
+            .slide_directions
+            .iter()
+            .any(|(_, d)| matches!(d, SlideDirection::Fixed(s) if *s != 0.0))
+}
+
+/// `(q̈, λ)` of the segment's mode at `(q, q̇)` with torques `tau`, or `None`.
+fn eval(
+    model: &Model,
+    seg: &Segment,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+) -> Option<(Vec<f64>, Vec<f64>)> {
+    let mut data = Data::new(model);
+    data.locked = seg.locked.clone();
+    data.set_slide_directions(&seg.slide_directions);
+    forward_dynamics(model, &mut data, &FlatGround, seg.mode, q, qd, tau, None).ok()?;
+    Some((
+        data.qdd.as_slice().to_vec(),
+        data.lambda.as_slice().to_vec(),
+    ))
+}
+
+/// The worst relative error (to the largest entry of each block, or 1) of the exact flow
+/// Jacobian at `(q, q̇)` of `seg` against central differences extrapolated from `h` and
+/// `h/2` (truncation `O(h⁴)`), and the number of general sites folded there.
+fn flow_jacobian_error(model: &Model, seg: &Segment, t: f64, y: &[f64]) -> (f64, usize) {
+    let nq = model.nq();
+    let (q, qd) = (&y[..nq], &y[nq..]);
+    let mut tau = vec![0.0; model.n_joints()];
+    seg.controller.torque(t, q, qd, seg.mode, &mut tau);
+    let mut data = Data::new(model);
+    data.locked = seg.locked.clone();
+    data.set_slide_directions(&seg.slide_directions);
+    let jac = dynamics_jacobian(model, &mut data, &FlatGround, seg.mode, q, qd, &tau, None)
+        .unwrap_or_else(|e| panic!("segment at {}: {e}", seg.t0));
+    let general = data
+        .sliding
+        .iter()
+        .filter(|s| s.general && s.coef != 0.0 && s.held.is_none())
+        .count();
+    let c = seg.mode.n_rows();
+    let h = 1e-5;
+    let mut worst: f64 = 0.0;
+    for (which, n) in [(0, nq), (1, nq), (2, model.n_joints())] {
+        let (mut fq, mut fl) = (DMatrix::zeros(nq, n), DMatrix::zeros(c, n));
+        for k in 0..n {
+            for (h, w) in [(h, -1.0 / 3.0), (h / 2.0, 4.0 / 3.0)] {
+                let mut plus = [q.to_vec(), qd.to_vec(), tau.clone()];
+                let mut minus = plus.clone();
+                plus[which][k] += h;
+                minus[which][k] -= h;
+                let (qp, lp) = eval(model, seg, &plus[0], &plus[1], &plus[2]).unwrap();
+                let (qm, lm) = eval(model, seg, &minus[0], &minus[1], &minus[2]).unwrap();
+                for i in 0..nq {
+                    fq[(i, k)] += w * (qp[i] - qm[i]) / (2.0 * h);
+                }
+                for r in 0..c {
+                    fl[(r, k)] += w * (lp[r] - lm[r]) / (2.0 * h);
+                }
+            }
+        }
+        let (eq, el) = match which {
+            0 => (&jac.dqdd_dq, &jac.dlambda_dq),
+            1 => (&jac.dqdd_dqd, &jac.dlambda_dqd),
+            _ => (&jac.dqdd_dtau, &jac.dlambda_dtau),
+        };
+        let rel = |a: &DMatrix<f64>, b: &DMatrix<f64>| (a - b).amax() / b.amax().max(1.0);
+        worst = worst.max(rel(eq, &fq)).max(rel(el, &fl));
+    }
+    (worst, general)
+}
+
+/// The flow Jacobian through the massive legs' sliding toes at the start and the middle of
+/// every sliding segment of three massive-leg leaps (the rear toe, the front toe, both).
+#[test]
+fn flow_jacobian_through_massive_legs_sliding_toes_equals_finite_differences() {
+    let p = massive();
+    let (mut checked, mut worst, mut folded) = (0, 0.0_f64, 0);
+    for (strategy, t2) in [("--", -0.1), ("++", 0.05), ("+-", 0.05)] {
+        let cfg = LeapConfig {
+            strategy: strategy.parse().unwrap(),
+            t2_s: t2,
+            ..LeapConfig::default()
+        };
+        let r = simulate_leap(&p, &cfg).unwrap();
+        let mut pp = p.clone();
+        pp.pairs = cfg.strategy.chapter3_pairs().to_vec();
+        let rhex = Rhex::new(pp).unwrap();
+        let model = &rhex.model;
+        assert!(
+            (0..2).all(|j| !model.distal_massless(j)),
+            "the legs have mass"
+        );
+        let segs: Vec<&Segment> = r.execution.segments.iter().filter(|s| slides(s)).collect();
+        assert!(!segs.is_empty(), "{strategy} {t2}: no sliding segment");
+        let mut y = vec![0.0; 2 * model.nq()];
+        for seg in segs {
+            for t in [seg.t0, 0.5 * (seg.t0 + seg.t1)] {
+                seg.eval(t, &mut y);
+                let (e, g) = flow_jacobian_error(model, seg, t, &y);
+                assert!(e < 1e-6, "{strategy} {t2}, segment at {t}: {e:e}");
+                checked += 1;
+                worst = worst.max(e);
+                folded = folded.max(g);
+            }
+        }
+    }
+    eprintln!("{checked} states, worst {worst:e}, up to {folded} general sites folded");
+    assert!(folded >= 1, "a massive toe's friction folded");
+}
+
+/// Along the (−,−) t2 = −0.1 leap (events: a touchdown, the rear toe's slip, its sliding
+/// stretch of 48 ms, the front leg's touchdown, the rear leg's liftoff, …) `d t_e / d t2` of
+/// every event up to and including that liftoff — the first event after which a massive
+/// leg's motion in the air acts — equals central differences of whole leaps (steps 1e-7,
+/// 1e-6, 1e-5 s; the best-converged of the three). The apex derivatives of massive-leg
+/// leaps are flagged, with the reason, and the default massless leap's are not.
+#[test]
+fn event_times_through_a_massive_toes_slide_equal_central_differences() {
+    let p = massive();
+    let cfg = tight("--", -0.1);
+    let s = leap_with_sensitivity(&p, &cfg, &["t2"]).unwrap();
+    assert!(!s.ok);
+    let reason = s.reason.as_deref().unwrap_or_default();
+    assert!(reason.contains("has mass"), "{reason}");
+    let events = &s.result.events;
+    let kinds: Vec<&str> = events.iter().map(|e| e.kind).collect();
+    assert_eq!(
+        kinds[..4],
+        ["touchdown", "slip", "touchdown", "liftoff"],
+        "{kinds:?}"
+    );
+    // the rear toe slides between the slip and the touchdown, on a fixed edge
+    let off = s.result.time_offset_s;
+    let exec = &s.result.execution;
+    assert!(exec.segments.iter().any(|g| slides(g)
+        && g.t0 - off >= events[1].t_s - 1e-9
+        && g.t1 - off <= events[2].t_s + 1e-9));
+    let times = |d: f64| {
+        let mut c = cfg.clone();
+        c.t2_s += d;
+        simulate_leap(&p, &c).unwrap().events
+    };
+    let mut worst = 0.0_f64;
+    for k in 0..4 {
+        let exact = s.event_times[k].as_ref().expect("defined")[0];
+        let err = [1e-7, 1e-6, 1e-5]
+            .iter()
+            .map(|&h| {
+                let (a, b) = (times(h), times(-h));
+                assert_eq!(a[k].kind, events[k].kind);
+                assert_eq!(b[k].kind, events[k].kind);
+                let fd = (a[k].t_s - b[k].t_s) / (2.0 * h);
+                (exact - fd).abs() / fd.abs().max(1e-2)
+            })
+            .fold(f64::INFINITY, f64::min);
+        eprintln!(
+            "event {k} {}: d t/d t2 = {exact:.9}, error {err:.1e}",
+            events[k].kind
+        );
+        worst = worst.max(err);
+    }
+    assert!(worst < 1e-5, "{worst:e}");
+    // the massless default leap is not flagged
+    let s = leap_with_sensitivity(&leap_params(), &tight("++", 0.05), &["t2"]).unwrap();
+    assert!(s.ok, "{:?}", s.reason);
+}
