@@ -170,11 +170,11 @@ fn flow_jacobian_through_massive_legs_sliding_toes_equals_finite_differences() {
     assert!(folded >= 1, "a massive toe's friction folded");
 }
 
-/// Along the (−,−) t2 = −0.1 leap (events: a touchdown, the rear toe's slip, its sliding
-/// stretch of 48 ms, the front leg's touchdown, the rear leg's liftoff, …) `d t_e / d t2` of
-/// every event up to and including that liftoff — the first event after which a massive
-/// leg's motion in the air acts — equals central differences of whole leaps (steps 1e-7,
-/// 1e-6, 1e-5 s; the best-converged of the three). The apex derivatives of massive-leg
+/// Along the (−,−) t2 = −0.1 leap (legs with Table 4.2's mass and their rotors' armature;
+/// events: a touchdown, the rear toe's slip, its sliding stretch, the rear leg's liftoff,
+/// …) `d t_e / d t2` of every event up to and including that liftoff — the first event
+/// after which a massive leg's motion in the air acts — equals central differences of whole
+/// leaps (steps 1e-7, 1e-6, 1e-5 s; the best-converged of the three). The apex derivatives of massive-leg
 /// leaps are flagged, with the reason, and the default massless leap's are not.
 #[test]
 fn event_times_through_a_massive_toes_slide_equal_central_differences() {
@@ -186,12 +186,8 @@ fn event_times_through_a_massive_toes_slide_equal_central_differences() {
     assert!(reason.contains("has mass"), "{reason}");
     let events = &s.result.events;
     let kinds: Vec<&str> = events.iter().map(|e| e.kind).collect();
-    assert_eq!(
-        kinds[..4],
-        ["touchdown", "slip", "touchdown", "liftoff"],
-        "{kinds:?}"
-    );
-    // the rear toe slides between the slip and the touchdown, on a fixed edge
+    assert_eq!(kinds[..3], ["touchdown", "slip", "liftoff"], "{kinds:?}");
+    // the rear toe slides between the slip and the liftoff, on a fixed edge
     let off = s.result.time_offset_s;
     let exec = &s.result.execution;
     assert!(exec.segments.iter().any(|g| slides(g)
@@ -203,7 +199,7 @@ fn event_times_through_a_massive_toes_slide_equal_central_differences() {
         simulate_leap(&p, &c).unwrap().events
     };
     let mut worst = 0.0_f64;
-    for k in 0..4 {
+    for k in 0..3 {
         let exact = s.event_times[k].as_ref().expect("defined")[0];
         let err = [1e-7, 1e-6, 1e-5]
             .iter()
