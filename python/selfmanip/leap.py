@@ -17,7 +17,10 @@ section 4.3.3 and Table 2.1); ``gear_ratio=G`` sets the gear ratio of that motor
 Any parameter is set by name, for a single leap or swept over an array:
 
 * Table 4.2 symbols: ``m_b, I_b, m_l, I_l, l1, l2, rho1, rho2, rho_b, tau_s, g, leg_shape,
-  mu_front, mu_middle, mu_rear``;
+  mu_front, mu_middle, mu_rear``; the toes' law once they slip, ``toe_sliding``
+  (``"coulomb"``, the default, or ``"frictionless"``: Assumption 5.9); Coulomb friction of
+  the body ends, ``mu_body``; the legs' joint armature ``leg_armature_kg_m2`` (default: the
+  motors' rotors ``n J G^2`` on legs with mass, none on massless legs);
 * the leap configuration: ``pairs`` (the two pushing leg pairs, e.g. ``["middle", "rear"]``;
   default: chapter 3's choice for the strategy, the leading pair disabled — the leap's robot
   has exactly these two), ``delta_t_s`` (pseudo-impulse duration, thesis 0.03 s),

@@ -240,6 +240,19 @@ def test_sweepable_names_cover_the_issue():
     assert not {"strategy", "t2_s", "actuator"} & names
 
 
+def test_optional_parameters_reach_the_leap():
+    """Fields that are unset by default (``mu_body``, ``leg_armature_kg_m2``) are parameters
+    too, and a value given reaches the robot: a massless leg with armature is no longer a
+    free massless joint, so the leap changes; a bad value names its field."""
+    assert {"mu_body", "leg_armature_kg_m2", "toe_sliding"} <= set(sweepable_names())
+    base = selfmanip.leap("--", t2=-0.02)
+    rotors = selfmanip.leap("--", t2=-0.02, params={"leg_armature_kg_m2": 0.0112})
+    assert rotors.params["leg_armature_kg_m2"] == 0.0112
+    assert rotors.word != base.word
+    with pytest.raises(ValueError, match="leg_armature_kg_m2"):
+        selfmanip.leap("++", params={"leg_armature_kg_m2": -1.0})
+
+
 def test_docstring_examples():
     import doctest
     import sys

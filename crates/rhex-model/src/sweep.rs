@@ -98,21 +98,63 @@ const LEAP_PAIRS: &str = "pairs";
 const ACTUATOR_FIELDS: [&str; 2] = ["current_limit_a", "motors_per_leg"];
 
 /// Every name an override may use: the fields of [`RhexParams`], of [`LeapConfig`] (except
-/// `strategy`, `t2_s`, `actuator`) and of the geared motor.
+/// `strategy`, `t2_s`, `actuator`) and of the geared motor — every field serde reads,
+/// including optional ones a default value leaves out of its serialization (`mu_body`,
+/// `leg_armature_kg_m2`).
 pub fn sweepable_names() -> Vec<String> {
     let mut names: Vec<String> = Vec::new();
-    if let Ok(Value::Object(p)) = serde_json::to_value(RhexParams::default()) {
-        names.extend(p.keys().cloned());
-    }
-    if let Ok(Value::Object(c)) = serde_json::to_value(LeapConfig::default()) {
-        names.extend(
-            c.keys()
-                .filter(|k| !OWN_COLUMNS.contains(&k.as_str()))
-                .cloned(),
-        );
-    }
+    names.extend(serde_fields::<RhexParams>().iter().map(|s| s.to_string()));
+    names.extend(
+        serde_fields::<LeapConfig>()
+            .iter()
+            .filter(|k| !OWN_COLUMNS.contains(k))
+            .map(|s| s.to_string()),
+    );
     names.extend(ACTUATOR_FIELDS.iter().map(|s| s.to_string()));
     names
+}
+
+/// The field names a struct's derived `Deserialize` reads, as it hands them to
+/// `deserialize_struct` (serde's own list: nothing to keep in step by hand).
+fn serde_fields<T: serde::de::DeserializeOwned>() -> &'static [&'static str] {
+    use serde::de::{self, Visitor};
+    #[derive(Debug)]
+    struct Caught(Option<&'static [&'static str]>);
+    impl std::fmt::Display for Caught {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str("field names caught")
+        }
+    }
+    impl std::error::Error for Caught {}
+    impl de::Error for Caught {
+        fn custom<M: std::fmt::Display>(_: M) -> Self {
+            Caught(None)
+        }
+    }
+    struct Probe;
+    impl<'de> de::Deserializer<'de> for Probe {
+        type Error = Caught;
+        fn deserialize_any<V: Visitor<'de>>(self, _: V) -> Result<V::Value, Caught> {
+            Err(Caught(None))
+        }
+        fn deserialize_struct<V: Visitor<'de>>(
+            self,
+            _: &'static str,
+            fields: &'static [&'static str],
+            _: V,
+        ) -> Result<V::Value, Caught> {
+            Err(Caught(Some(fields)))
+        }
+        serde::forward_to_deserialize_any! {
+            bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string bytes
+            byte_buf option unit unit_struct newtype_struct seq tuple tuple_struct map enum
+            identifier ignored_any
+        }
+    }
+    match T::deserialize(Probe) {
+        Err(Caught(Some(fields))) => fields,
+        _ => &[],
+    }
 }
 
 /// Checks that every name is sweepable; the error names the first unknown one.
@@ -183,9 +225,11 @@ pub fn point_inputs(
             // robot has exactly its pushing pairs, so the name sets those
             if k == LEAP_PAIRS {
                 on_c.push((k, v));
-            } else if pv.get(k).is_some() {
+            } else if serde_fields::<RhexParams>().contains(&k.as_str()) {
                 on_p.push((k, v));
-            } else if cv.get(k).is_some() && !OWN_COLUMNS.contains(&k.as_str()) {
+            } else if serde_fields::<LeapConfig>().contains(&k.as_str())
+                && !OWN_COLUMNS.contains(&k.as_str())
+            {
                 on_c.push((k, v));
             } else if ACTUATOR_FIELDS.contains(&k.as_str()) {
                 on_a.push((k, v));

@@ -5,7 +5,7 @@ use rhex_model::leap::{
 };
 use rhex_model::mcap_log::{write_leap_mcap, write_leap_mcap_to, LeapLog};
 use rhex_model::sweep::{
-    check_override_names, grid, point_inputs, run_row, sweep, SweepPoint, SweepRow,
+    check_override_names, grid, point_inputs, run_row, sweep, sweepable_names, SweepPoint, SweepRow,
 };
 use rhex_model::RhexError;
 use serde_json::json;
@@ -146,6 +146,31 @@ fn overrides_reach_params_config_and_actuator_by_name() {
     };
     let (_, cc) = point_inputs(&p, &sat, &SweepPoint::new(Strategy::ALL[0], 0.0, None)).unwrap();
     assert_eq!(cc.actuator, LegActuator::SaturatedTorque);
+}
+
+/// Every field the parameters and the configuration read is an override by name — also
+/// the optional ones that a default value leaves out of its serialization. Second route:
+/// the keys of a serialization with every such option set.
+#[test]
+fn optional_fields_are_overrides_too() {
+    let names = sweepable_names();
+    let full = rhex_model::RhexParams {
+        mu_body: Some(0.3),
+        leg_armature_kg_m2: Some(0.01),
+        ..leap_params()
+    };
+    let serde_json::Value::Object(keys) = serde_json::to_value(&full).unwrap() else {
+        panic!("parameters serialize as an object")
+    };
+    for k in keys.keys() {
+        assert!(names.contains(k), "{k} is not sweepable");
+    }
+    let mut pt = SweepPoint::new(Strategy::ALL[0], 0.0, Some(28.0));
+    pt.overrides
+        .insert("leg_armature_kg_m2".into(), json!(0.01));
+    pt.overrides.insert("mu_body".into(), json!(0.3));
+    let (pp, _) = point_inputs(&leap_params(), &LeapConfig::default(), &pt).unwrap();
+    assert_eq!((pp.leg_armature_kg_m2, pp.mu_body), (Some(0.01), Some(0.3)));
 }
 
 #[test]
