@@ -11,13 +11,15 @@
 //! cargo run --release -p rhex-model --example broad_sweep -- 500     # a 500-point broad sweep
 //! SHOW=zeno cargo run --release -p rhex-model --example broad_sweep  # and its zeno points
 //! M_L=0.126 cargo run --release -p rhex-model --example broad_sweep   # with massive legs
+//! ROTORS=1 cargo run --release -p rhex-model --example broad_sweep    # massless links that
+//!                                                  # carry their motors' rotors, n J G²
 //! ```
 //! The `zeno` points are also counted by kind (`zeno by kind`: a two-mode cycle of one
 //! contact, or events that change no mode; `docs/leap-physics.md` classifies them).
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
-use rhex_model::leap::{leap_params, LeapConfig, LegActuator, Strategy};
+use rhex_model::leap::{leap_params, rotor_reflected_inertia, LeapConfig, LegActuator, Strategy};
 use rhex_model::sweep::{run_row, SweepPoint, SweepRow};
 use serde_json::{json, Map};
 use std::collections::BTreeMap;
@@ -43,6 +45,10 @@ fn broad_points(n: usize) -> Vec<SweepPoint> {
                 overrides.insert("m_l".into(), json!(m_l));
                 overrides.insert("I_l".into(), json!(0.00092 * m_l / 0.126));
             }
+            rotors(
+                &mut overrides,
+                &LegActuator::default().with_gear_ratio(gear),
+            );
             SweepPoint {
                 strategy,
                 t2_s: t2,
@@ -51,6 +57,20 @@ fn broad_points(n: usize) -> Vec<SweepPoint> {
             }
         })
         .collect()
+}
+
+/// With `ROTORS` set, the legs' joints carry their drive's rotors (`n J G²` of `actuator`) as
+/// armature whatever the legs' mass: the rotor inertia the massless model's swing already
+/// uses, in the dynamics.
+fn rotors(overrides: &mut Map<String, serde_json::Value>, actuator: &LegActuator) {
+    if std::env::var("ROTORS").is_ok() {
+        let cfg = LeapConfig {
+            actuator: actuator.clone(),
+            ..LeapConfig::default()
+        };
+        let a = rotor_reflected_inertia(&leap_params(), &cfg).expect("the shipped motor");
+        overrides.insert("leg_armature_kg_m2".into(), json!(a));
+    }
 }
 
 /// Runs `points` on a pool of two threads, each leap timed; rows and times in input order.
@@ -148,7 +168,14 @@ fn main() {
             ..LeapConfig::default()
         };
         for s in Strategy::ALL {
-            let points: Vec<SweepPoint> = t2.iter().map(|&t| SweepPoint::new(s, t, None)).collect();
+            let points: Vec<SweepPoint> = t2
+                .iter()
+                .map(|&t| {
+                    let mut p = SweepPoint::new(s, t, None);
+                    rotors(&mut p.overrides, &cfg.actuator);
+                    p
+                })
+                .collect();
             let out = run(&cfg, &points);
             report(&format!("t2 sweep {s}, {aname}"), &points, &out);
         }
