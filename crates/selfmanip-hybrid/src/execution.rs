@@ -94,6 +94,13 @@ pub enum PainleveReason {
     /// Painlevé's singular point where `W → 0` and the normal force grows without bound
     /// ("dynamic jam"): the rigid-body theory leaves it ambiguous.
     JamOutsideCone,
+    /// The contact is at rest (a sticking contact at its cone's edge, or a slide from rest):
+    /// sticking leaves its cone, sliding is inconsistent, and letting it go would draw it
+    /// into the ground — Painlevé's inconsistent case from rest. The rigid-body theory's
+    /// answer is an impact without collision *that slips* (a Coulomb impact, Darboux–Keller
+    /// in the normal impulse, ending in a jump of the normal velocity), which the engine's
+    /// frictionless impact law (Assumption 5.9) does not carry.
+    AtRest,
     /// Complementarity has no or several outcomes for the jam (or for the forces after it),
     /// or the contact it lets go would be drawn into the ground.
     NoJamOutcome,
@@ -119,6 +126,11 @@ impl PainleveReason {
             }
             PainleveReason::NoJamOutcome => {
                 "complementarity has no single consistent outcome for its jam"
+            }
+            PainleveReason::AtRest => {
+                "it is at rest, its stick leaves the cone and its liftoff would draw it into the \
+                 ground: an impact without collision that slips, which the frictionless impact \
+                 law (Assumption 5.9) does not carry"
             }
             PainleveReason::Repeated => "its jam led straight back into the inconsistency",
             PainleveReason::InsideStep => "met inside an integration step",

@@ -36,6 +36,7 @@ use crate::options::HybridOptions;
 use crate::reset::Reset;
 use crate::contact_set::IMPULSE_TOL_N_S;
 use selfmanip_core::contact::{ContactKind, RowDirection};
+use selfmanip_core::friction::SLIDING_SPEED_EPS_M_S;
 use selfmanip_core::model::Friction;
 use selfmanip_core::{plastic_impact, ContactMode, Model};
 
@@ -63,6 +64,14 @@ pub fn jam(
         return Ok(Err(PainleveReason::Inactive));
     };
     let (q, qd) = y.split_at(model.nq());
+    // the contact's sliding speed: a contact at rest (a sticking one at its cone's edge, or
+    // a slide that starts from rest) gives a jam no velocity to take
+    let at_rest = {
+        let geom = flow.geometry(k, y);
+        let v = flow.kinematics(q, qd).material_velocity(geom.part, geom.point);
+        let n = geom.plane.normal();
+        (v - n * v.dot(&n)).norm() <= SLIDING_SPEED_EPS_M_S
+    };
     // k may stick or leave; sliding is what has no consistent continuation. A sticking k
     // (its force at the cone's edge) cannot stick on either: it may only leave
     let barred_slide = [(k, ContactKind::Slide)];
@@ -100,7 +109,11 @@ pub fn jam(
         if sel.mode.kind(k) != Some(ContactKind::Stick)
             || !own_impulse_in_cone(model, sel.mode, k, &sel.value)
         {
-            return Ok(Err(PainleveReason::JamOutsideCone));
+            return Ok(Err(if at_rest {
+                PainleveReason::AtRest
+            } else {
+                PainleveReason::JamOutsideCone
+            }));
         }
         let imp = plastic_impact(model, &mut cx.ws.data, cx.terrain, sel.mode, q, qd)?;
         let v: Vec<f64> = imp.qd_plus.iter().copied().collect();
@@ -130,7 +143,11 @@ pub fn jam(
     y_after[model.nq()..].copy_from_slice(&qd_after);
     for c in mode.active().filter(|&c| !mode_after.contains(c)) {
         if !separates(flow, mode_after, c, t, &y_after)? {
-            return Ok(Err(PainleveReason::NoJamOutcome));
+            return Ok(Err(if at_rest {
+                PainleveReason::AtRest
+            } else {
+                PainleveReason::NoJamOutcome
+            }));
         }
     }
     let mut lock = lock;

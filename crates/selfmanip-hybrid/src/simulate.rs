@@ -19,7 +19,9 @@ use crate::execution::{Event, EventKind, Execution, PainleveReason, Termination}
 use crate::jam::jam;
 use crate::flow::{Flow, FlowWorkspace};
 use crate::options::HybridOptions;
-use crate::reset::{reset, Reset};
+use crate::guard::Guard;
+use crate::reset::{reset, reset_jamming, Reset};
+use selfmanip_core::contact::ContactKind;
 use crate::segment::{SegmentEnd, SegmentIntegrator};
 use crate::zeno::{ChatterDetector, ZenoWindow};
 use selfmanip_core::{ContactMode, CoreError, Model, Terrain};
@@ -136,7 +138,12 @@ pub fn simulate_with(
             };
             match reset(&mut reset_ws, &mut flow, &opts, &fired, mode, (t, &y)) {
                 Ok(r) => r,
-                // at the reset (a slip onto an inconsistent slide, an impact choosing one)
+                // an impact that chose an inconsistent slide: the same impact with that
+                // contact sticking (its jam)
+                Err(e) if fired.iter().any(|g| matches!(g, Guard::Touchdown(_))) => {
+                    jammed_impact(e, &mut reset_ws, &mut flow, &opts, &fired, mode, (t, &y))?
+                }
+                // at a force event (a slip onto an inconsistent slide)
                 Err(e) => painleve(e, true, &mut reset_ws, &mut flow, &opts, mode, (t, &y), events.last())?,
             }
         };
@@ -263,4 +270,70 @@ fn painleve(
             reason,
         },
     })
+}
+
+/// A touchdown's reset that failed with a Painlevé inconsistency (`e`) at a contact the
+/// impact left sliding, taken again with that contact barred from sliding
+/// ([`crate::reset::reset_jamming`]): accepted as a [`EventKind::Jam`] when the contact
+/// sticks after it (the impulse in its cone, pushing); else the run ends typed.
+#[allow(clippy::too_many_arguments)]
+fn jammed_impact(
+    e: HybridError,
+    ws: &mut FlowWorkspace,
+    flow: &mut Flow,
+    opts: &HybridOptions,
+    fired: &[Guard],
+    mode: ContactMode,
+    (t, y): (f64, &[f64]),
+) -> Result<Reset, HybridError> {
+    let HybridError::Core(CoreError::PainleveInconsistent { contact, .. }) = e else {
+        return Err(e);
+    };
+    let end = |reason| Reset::End {
+        event: None,
+        termination: Termination::Painleve {
+            t,
+            mode,
+            contact: contact.clone(),
+            reason,
+        },
+    };
+    let Some(k) = flow.model().contacts.iter().position(|c| c.name == contact) else {
+        return Ok(end(PainleveReason::Inactive));
+    };
+    let r = match reset_jamming(ws, flow, opts, fired, mode, (t, y), &[k]) {
+        Ok(r) => r,
+        Err(HybridError::Core(CoreError::PainleveInconsistent { .. })) => {
+            return Ok(end(PainleveReason::NoJamOutcome))
+        }
+        Err(e) => return Err(e),
+    };
+    match r {
+        Reset::Continue {
+            mut event,
+            from_rest,
+            lock,
+        } => {
+            let stuck = event.mode_after.kind(k) == Some(ContactKind::Stick);
+            let in_cone = crate::jam::own_impulse_in_cone(
+                flow.model(),
+                event.mode_after,
+                k,
+                &event.impulse,
+            );
+            if !(stuck && in_cone) {
+                return Ok(end(PainleveReason::JamOutsideCone));
+            }
+            event.kind = EventKind::Jam;
+            if !event.triggered.contains(&k) {
+                event.triggered.push(k);
+            }
+            Ok(Reset::Continue {
+                event,
+                from_rest,
+                lock,
+            })
+        }
+        Reset::End { .. } => Ok(end(PainleveReason::NoJamOutcome)),
+    }
 }
