@@ -237,7 +237,12 @@ impl Execution {
     pub fn impact_losses(&self) -> Vec<f64> {
         self.events
             .iter()
-            .filter(|e| matches!(e.kind, EventKind::Touchdown | EventKind::Fold | EventKind::Jam))
+            .filter(|e| {
+                matches!(
+                    e.kind,
+                    EventKind::Touchdown | EventKind::Fold | EventKind::Jam
+                )
+            })
             .map(|e| e.kinetic_before - e.kinetic_after)
             .collect()
     }

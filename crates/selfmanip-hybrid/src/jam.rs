@@ -28,13 +28,13 @@
 //! `M̄`-orthogonal projection of q̇ — it never adds kinetic energy; the event records what it
 //! takes ([`crate::Execution::impact_losses`]).
 use crate::contact_set::ResetWorkspace;
+use crate::contact_set::IMPULSE_TOL_N_S;
 use crate::energy::kinetic_energy_at;
 use crate::error::HybridError;
 use crate::execution::{Event, EventKind, PainleveReason};
 use crate::flow::{Flow, FlowWorkspace};
 use crate::options::HybridOptions;
 use crate::reset::Reset;
-use crate::contact_set::IMPULSE_TOL_N_S;
 use selfmanip_core::contact::{ContactKind, RowDirection};
 use selfmanip_core::friction::SLIDING_SPEED_EPS_M_S;
 use selfmanip_core::model::Friction;
@@ -68,7 +68,9 @@ pub fn jam(
     // a slide that starts from rest) gives a jam no velocity to take
     let at_rest = {
         let geom = flow.geometry(k, y);
-        let v = flow.kinematics(q, qd).material_velocity(geom.part, geom.point);
+        let v = flow
+            .kinematics(q, qd)
+            .material_velocity(geom.part, geom.point);
         let n = geom.plane.normal();
         (v - n * v.dot(&n)).norm() <= SLIDING_SPEED_EPS_M_S
     };

@@ -16,14 +16,14 @@ use crate::budget::{Budget, NEVER};
 use crate::controller::Controller;
 use crate::error::HybridError;
 use crate::execution::{Event, EventKind, Execution, PainleveReason, Termination};
-use crate::jam::jam;
 use crate::flow::{Flow, FlowWorkspace};
-use crate::options::HybridOptions;
 use crate::guard::Guard;
+use crate::jam::jam;
+use crate::options::HybridOptions;
 use crate::reset::{reset, reset_jamming, Reset};
-use selfmanip_core::contact::ContactKind;
 use crate::segment::{SegmentEnd, SegmentIntegrator};
 use crate::zeno::{ChatterDetector, ZenoWindow};
+use selfmanip_core::contact::ContactKind;
 use selfmanip_core::{ContactMode, CoreError, Model, Terrain};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
@@ -115,7 +115,16 @@ pub fn simulate_with(
                 // there; met later (a guard's evaluation) the run ends typed, as before
                 Err(e) => {
                     let at_start = t == t_start;
-                    break 'reset painleve(e, at_start, &mut reset_ws, &mut flow, &opts, mode, (t, &y), events.last())?;
+                    break 'reset painleve(
+                        e,
+                        at_start,
+                        &mut reset_ws,
+                        &mut flow,
+                        &opts,
+                        mode,
+                        (t, &y),
+                        events.last(),
+                    )?;
                 }
             };
             segments.push(segment);
@@ -132,7 +141,16 @@ pub fn simulate_with(
                         contact,
                         response: f64::NAN,
                     });
-                    break 'reset painleve(e, true, &mut reset_ws, &mut flow, &opts, mode, (t, &y), events.last())?;
+                    break 'reset painleve(
+                        e,
+                        true,
+                        &mut reset_ws,
+                        &mut flow,
+                        &opts,
+                        mode,
+                        (t, &y),
+                        events.last(),
+                    )?;
                 }
                 SegmentEnd::Ended(term) => break 'run term,
             };
@@ -144,7 +162,16 @@ pub fn simulate_with(
                     jammed_impact(e, &mut reset_ws, &mut flow, &opts, &fired, mode, (t, &y))?
                 }
                 // at a force event (a slip onto an inconsistent slide)
-                Err(e) => painleve(e, true, &mut reset_ws, &mut flow, &opts, mode, (t, &y), events.last())?,
+                Err(e) => painleve(
+                    e,
+                    true,
+                    &mut reset_ws,
+                    &mut flow,
+                    &opts,
+                    mode,
+                    (t, &y),
+                    events.last(),
+                )?,
             }
         };
         let (event, rest) = match reset {
@@ -249,7 +276,10 @@ fn painleve(
     let again = last.is_some_and(|ev| {
         ev.kind == EventKind::Jam
             && ev.t == t
-            && ev.triggered.iter().any(|&k| flow.model().contacts[k].name == contact)
+            && ev
+                .triggered
+                .iter()
+                .any(|&k| flow.model().contacts[k].name == contact)
     });
     let reason = if !may_jam {
         PainleveReason::InsideStep
@@ -315,12 +345,8 @@ fn jammed_impact(
             lock,
         } => {
             let stuck = event.mode_after.kind(k) == Some(ContactKind::Stick);
-            let in_cone = crate::jam::own_impulse_in_cone(
-                flow.model(),
-                event.mode_after,
-                k,
-                &event.impulse,
-            );
+            let in_cone =
+                crate::jam::own_impulse_in_cone(flow.model(), event.mode_after, k, &event.impulse);
             if !(stuck && in_cone) {
                 return Ok(end(PainleveReason::JamOutsideCone));
             }

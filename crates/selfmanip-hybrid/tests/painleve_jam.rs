@@ -94,7 +94,10 @@ fn painleve_rod_jams_with_the_closed_form_plastic_impulse() {
     let stuck = ContactMode::FLIGHT.with(0, ContactKind::Stick);
     assert_eq!(e.mode_after, stuck);
     // rows of the stick: tangential, then normal
-    let want = [-(M * V / 4.0) * (1.0 + 3.0 * c * c), (M * V / 4.0) * 3.0 * s * c];
+    let want = [
+        -(M * V / 4.0) * (1.0 + 3.0 * c * c),
+        (M * V / 4.0) * 3.0 * s * c,
+    ];
     assert_eq!(e.impulse.len(), 2, "{:?}", e.impulse);
     for (got, want) in e.impulse.iter().zip(want) {
         assert!((got - want).abs() < 1e-12, "{:?} vs {want:?}", e.impulse);
@@ -201,12 +204,15 @@ fn jams_never_add_energy_and_lose_the_closed_form() {
             let e = &exec.events[0];
             assert_eq!(e.kind, EventKind::Jam, "θ {theta} ×{factor}: {e:?}");
             let v = &e.qd_after;
-            let by_hand = 0.5 * M * (v[0] * v[0] + v[1] * v[1])
-                + 0.5 * (M * L * L / 3.0) * v[2] * v[2];
+            let by_hand =
+                0.5 * M * (v[0] * v[0] + v[1] * v[1]) + 0.5 * (M * L * L / 3.0) * v[2] * v[2];
             assert!((e.kinetic_after - by_hand).abs() < 1e-12);
             let lost = e.kinetic_before - e.kinetic_after;
             let want = M * V * V * (1.0 + 3.0 * c * c) / 8.0;
-            assert!(lost > 0.0 && (lost - want).abs() < 1e-12, "{lost} vs {want}");
+            assert!(
+                lost > 0.0 && (lost - want).abs() < 1e-12,
+                "{lost} vs {want}"
+            );
         }
     }
 }

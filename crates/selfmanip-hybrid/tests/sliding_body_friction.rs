@@ -178,7 +178,10 @@ fn painleve_rod_run_jams_beyond_the_threshold_and_slides_below_it() {
         )
         .unwrap();
         assert!(exec.t > 0.0, "{:?}", exec.termination);
-        let jammed = exec.events.first().is_some_and(|e| e.kind == EventKind::Jam);
+        let jammed = exec
+            .events
+            .first()
+            .is_some_and(|e| e.kind == EventKind::Jam);
         assert_eq!(jammed, painleve, "μ {mu}, μ* {mu_star}: {:?}", exec.events);
         if jammed {
             assert_eq!(exec.events[0].t, 0.0);
