@@ -136,7 +136,7 @@ pub fn jam(
         qd_after.copy_from_slice(qd);
     }
     let ke_after = kinetic_energy_at(model, cx.terrain, &mut cx.ws.data, q, &qd_after)?;
-    if !(ke_after <= ke_before * (1.0 + ENERGY_TOL) + 1e-12) {
+    if ke_after.is_nan() || ke_after > ke_before * (1.0 + ENERGY_TOL) + 1e-12 {
         return Ok(Err(PainleveReason::EnergyGain));
     }
     // a contact let go without an impulse must separate: its free normal acceleration in

@@ -331,12 +331,9 @@ fn jammed_impact(
     let Some(k) = flow.model().contacts.iter().position(|c| c.name == contact) else {
         return Ok(end(PainleveReason::Inactive));
     };
-    let r = match reset_jamming(ws, flow, opts, fired, mode, (t, y), &[k]) {
-        Ok(r) => r,
-        Err(HybridError::Core(CoreError::PainleveInconsistent { .. })) => {
-            return Ok(end(PainleveReason::NoJamOutcome))
-        }
-        Err(e) => return Err(e),
+    // any failure of the retry leaves the end as it was without it: typed
+    let Ok(r) = reset_jamming(ws, flow, opts, fired, mode, (t, y), &[k]) else {
+        return Ok(end(PainleveReason::NoJamOutcome));
     };
     match r {
         Reset::Continue {
