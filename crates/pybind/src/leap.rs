@@ -185,11 +185,14 @@ fn reason(r: &LeapResult, params: &RhexParams, cfg: &LeapConfig) -> String {
              estimate {condition_estimate:.3e}) at {}",
             at(*t)
         ),
-        Termination::Painleve { t, contact, .. } => format!(
+        Termination::Painleve {
+            t, contact, reason, ..
+        } => format!(
             "the sliding contact `{contact}` is inconsistent with Coulomb friction in or after \
              mode {mode} (Painlevé's paradox: a pushing force would draw it into the ground) \
-             at {}",
-            at(*t)
+             at {}; not resolved as a jam: {}",
+            at(*t),
+            reason.describe()
         ),
         Termination::TerrainDiscontinuity { t, contact, gap_m } => {
             let name = Rhex::new(params.clone())

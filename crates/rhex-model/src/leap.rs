@@ -426,7 +426,8 @@ pub struct LeapEvent {
     pub t_s: f64,
     /// `touchdown`, `liftoff`, `slip`, `stick`, `fold` (a leg reached the pose where its
     /// contact stops pinning it: an impulsive stick, a release, or the start of its passage
-    /// through that pose), `fold_passed` (the passage's end) or `apex`.
+    /// through that pose), `fold_passed` (the passage's end), `jam` (a Painlevé slide
+    /// stopped by an impact without collision, `selfmanip_hybrid::jam`) or `apex`.
     pub kind: &'static str,
     pub mode_before: String,
     pub mode_after: String,
@@ -1789,11 +1790,15 @@ pub(crate) fn run_leap_setup(
                 EventKind::Apex => "apex",
                 EventKind::Fold => "fold",
                 EventKind::FoldPassed => "fold_passed",
+                EventKind::Jam => "jam",
             },
             mode_before: rhex.label(e.mode_before),
             mode_after: rhex.label(e.mode_after),
             contacts: names(&e.triggered),
-            energy_loss_j: if matches!(e.kind, EventKind::Touchdown | EventKind::Fold) {
+            energy_loss_j: if matches!(
+                e.kind,
+                EventKind::Touchdown | EventKind::Fold | EventKind::Jam
+            ) {
                 energy_loss(e.kinetic_before, e.kinetic_after)
             } else {
                 0.0

@@ -25,6 +25,10 @@ pub enum EventKind {
     Fold,
     /// A fold passage ended on the far side of the fold: the joint is unlocked.
     FoldPassed,
+    /// A sliding contact whose slide had no consistent continuation (Painlevé) jammed: a
+    /// plastic impact into the mode with it sticking, an impact without collision
+    /// ([`crate::jam`]); or, no impulse acting, it stuck or left by force complementarity.
+    Jam,
 }
 
 /// One reset of the execution.
@@ -82,6 +86,60 @@ impl Segment {
     }
 }
 
+/// Why a Painlevé inconsistency was not resolved as a jam ([`crate::jam`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PainleveReason {
+    /// The tangential impact into the contact's stick needs an impulse that pulls or leaves
+    /// its friction cone — the sliding mode was still (barely) consistent, the approach to
+    /// Painlevé's singular point where `W → 0` and the normal force grows without bound
+    /// ("dynamic jam"): the rigid-body theory leaves it ambiguous.
+    JamOutsideCone,
+    /// The contact is at rest (a sticking contact at its cone's edge, or a slide from rest):
+    /// sticking leaves its cone, sliding is inconsistent, and letting it go would draw it
+    /// into the ground — Painlevé's inconsistent case from rest. The rigid-body theory's
+    /// answer is an impact without collision *that slips* (a Coulomb impact, Darboux–Keller
+    /// in the normal impulse, ending in a jump of the normal velocity), which the engine's
+    /// frictionless impact law (Assumption 5.9) does not carry.
+    AtRest,
+    /// Complementarity has no or several outcomes for the jam (or for the forces after it),
+    /// or the contact it lets go would be drawn into the ground.
+    NoJamOutcome,
+    /// The jam taken at this instant led straight back into the same inconsistency.
+    Repeated,
+    /// Met while a guard was evaluated inside a step (not at a state the run reached): not
+    /// resolved, the step's work would be lost.
+    InsideStep,
+    /// The jam would have added kinetic energy (a failed solve; never a plastic impact's).
+    EnergyGain,
+    /// The contact is not active in the mode (no jam can act on it).
+    Inactive,
+}
+
+impl PainleveReason {
+    /// A short description, for status messages.
+    pub fn describe(self) -> &'static str {
+        match self {
+            PainleveReason::JamOutsideCone => {
+                "its jam (an impact without collision) would need an impulse that pulls or \
+                 leaves its friction cone: the approach to Painlevé's singular point, which the \
+                 rigid-body theory leaves ambiguous"
+            }
+            PainleveReason::NoJamOutcome => {
+                "complementarity has no single consistent outcome for its jam"
+            }
+            PainleveReason::AtRest => {
+                "it is at rest, its stick leaves the cone and its liftoff would draw it into the \
+                 ground: an impact without collision that slips, which the frictionless impact \
+                 law (Assumption 5.9) does not carry"
+            }
+            PainleveReason::Repeated => "its jam led straight back into the inconsistency",
+            PainleveReason::InsideStep => "met inside an integration step",
+            PainleveReason::EnergyGain => "its jam would have added kinetic energy",
+            PainleveReason::Inactive => "the contact is not active",
+        }
+    }
+}
+
 /// Why an execution ended.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Termination {
@@ -135,10 +193,14 @@ pub enum Termination {
     /// at the sliding contact `contact` (Painlevé's paradox, `selfmanip_core::friction`):
     /// a pushing force would draw it into the ground, so the sliding mode has no solution or
     /// several; `t` is the start of the step that met it.
+    ///
+    /// Such an end is first resolved as a jam ([`crate::jam`]); `reason` says why that
+    /// could not be done here.
     Painleve {
         t: f64,
         mode: ContactMode,
         contact: String,
+        reason: PainleveReason,
     },
     /// A contact met a place of the terrain that is not a contact feature for it (a point
     /// at a ledge's edge, any site at the concave foot of its face): an inactive contact's
@@ -168,14 +230,19 @@ pub struct Execution {
 }
 
 impl Execution {
-    /// Kinetic energy lost in each impulsive event: touchdowns and folds. Never negative for
-    /// a plastic impact (a touchdown, an impulsive stick); a fold passage's entry, the leg's
+    /// Kinetic energy lost in each impulsive event: touchdowns, folds and jams. Never
+    /// negative for a plastic impact (a touchdown, an impulsive stick, a jam); a fold passage's entry, the leg's
     /// fast relaxation to its torque-free speed, may also gain energy from the joint torque
     /// that drives it ([`crate::fold`]).
     pub fn impact_losses(&self) -> Vec<f64> {
         self.events
             .iter()
-            .filter(|e| matches!(e.kind, EventKind::Touchdown | EventKind::Fold))
+            .filter(|e| {
+                matches!(
+                    e.kind,
+                    EventKind::Touchdown | EventKind::Fold | EventKind::Jam
+                )
+            })
             .map(|e| e.kinetic_before - e.kinetic_after)
             .collect()
     }

@@ -56,6 +56,21 @@ pub fn reset(
     mode: ContactMode,
     (t, y): (f64, &[f64]),
 ) -> Result<Reset, HybridError> {
+    reset_jamming(ws, flow, opts, fired, mode, (t, y), &[])
+}
+
+/// [`reset`] in which the contacts `jammed` may not slide: an impact that left one of them
+/// on a slide inconsistent with Coulomb friction (Painlevé) is taken again with it offered
+/// the stick — the impact's tangential part, an impact without collision ([`crate::jam`]).
+pub fn reset_jamming(
+    ws: &mut FlowWorkspace,
+    flow: &mut Flow,
+    opts: &HybridOptions,
+    fired: &[Guard],
+    mode: ContactMode,
+    (t, y): (f64, &[f64]),
+    jammed: &[usize],
+) -> Result<Reset, HybridError> {
     let model = flow.model();
     let (q, qd) = y.split_at(model.nq());
     // the apex: the end of the run, or (not stopping there) an event that changes nothing
@@ -209,6 +224,10 @@ pub fn reset(
     // held_at_rest, would otherwise keep it on the cone's edge by round-off of the drift
     // projection below, and the guard would fire again: an event that changes nothing)
     barred.extend(slipped.iter().map(|&k| (k, ContactKind::Stick)));
+    barred.extend(jammed.iter().map(|&k| (k, ContactKind::Slide)));
+    for &k in jammed {
+        prefer = prefer.with(k, ContactKind::Stick);
+    }
     // … unless it passes the fold sliding, locked: then it may not stick
     let passing_bar: Vec<(usize, ContactKind)> =
         folded.iter().map(|&k| (k, ContactKind::Stick)).collect();

@@ -21,7 +21,7 @@
 use crate::budget::Budget;
 use crate::drift;
 use crate::error::HybridError;
-use crate::execution::{Segment, Termination};
+use crate::execution::{PainleveReason, Segment, Termination};
 use crate::features::{FeatureChange, Surfaces};
 use crate::flow::{Flow, FlowWorkspace};
 use crate::guard::{Guard, GuardSet};
@@ -251,10 +251,12 @@ impl SegmentIntegrator {
                     if self.ode.retry_smaller(SINGULAR_RETRY_FACTOR) {
                         continue;
                     }
+                    // (the reason is the run's to give: it tries a jam here first)
                     break SegmentEnd::Ended(Termination::Painleve {
                         t: *t,
                         mode,
                         contact,
+                        reason: PainleveReason::NoJamOutcome,
                     });
                 }
                 Err(StepError::Rhs(e)) => return Err(e.into()),

@@ -1403,6 +1403,9 @@ fn event_sensitivity(
             dg[nq + model.ix_z()] = -1.0;
             dg
         }
+        EventKind::Jam => {
+            return Ok((unsupported(event, "jams are not differentiated"), None));
+        }
         EventKind::Fold | EventKind::FoldPassed => {
             return Ok((
                 unsupported(event, "fold events are not differentiated yet"),

@@ -15,12 +15,15 @@
 use crate::budget::{Budget, NEVER};
 use crate::controller::Controller;
 use crate::error::HybridError;
-use crate::execution::{EventKind, Execution, Termination};
+use crate::execution::{Event, EventKind, Execution, PainleveReason, Termination};
 use crate::flow::{Flow, FlowWorkspace};
+use crate::guard::Guard;
+use crate::jam::jam;
 use crate::options::HybridOptions;
-use crate::reset::{reset, Reset};
+use crate::reset::{reset, reset_jamming, Reset};
 use crate::segment::{SegmentEnd, SegmentIntegrator};
 use crate::zeno::{ChatterDetector, ZenoWindow};
+use selfmanip_core::contact::ContactKind;
 use selfmanip_core::{ContactMode, CoreError, Model, Terrain};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
@@ -91,36 +94,85 @@ pub fn simulate_with(
     // sliding contacts whose sliding velocity is zero at the start of the next segment up
     // to drift (they stuck until the last reset, or their stick was just refused)
     let mut from_rest: Vec<usize> = Vec::new();
-    let termination = loop {
-        // flow ⇒ guards ⇒ locate
-        let run = integrator.run(
-            &mut flow,
-            mode,
-            &mut t,
-            &mut y,
-            &from_rest,
-            t_final,
-            &opts,
-            &mut budget,
-        );
-        let (segment, end) = match run {
-            Ok(r) => r,
-            Err(e) => break painleve_end(e, t, mode)?,
-        };
-        segments.push(segment);
-        let fired = match end {
-            SegmentEnd::Event { fired } => fired,
-            SegmentEnd::FeatureChange => match zeno.record(t) {
-                Some(z) => break z,
-                None => continue,
-            },
-            SegmentEnd::FinalTime => break Termination::FinalTime,
-            SegmentEnd::Ended(term) => break term,
-        };
-        // ⇒ reset
-        let reset = match reset(&mut reset_ws, &mut flow, &opts, &fired, mode, (t, &y)) {
-            Ok(r) => r,
-            Err(e) => break painleve_end(e, t, mode)?,
+    let termination = 'run: loop {
+        // flow ⇒ guards ⇒ locate ⇒ reset (or a jam where a slide has no consistent
+        // continuation: crate::jam)
+        let t_start = t;
+        let reset = 'reset: {
+            let run = integrator.run(
+                &mut flow,
+                mode,
+                &mut t,
+                &mut y,
+                &from_rest,
+                t_final,
+                &opts,
+                &mut budget,
+            );
+            let (segment, end) = match run {
+                Ok(r) => r,
+                // met at the segment's start (nothing integrated yet, nothing lost): a jam
+                // there; met later (a guard's evaluation) the run ends typed, as before
+                Err(e) => {
+                    let at_start = t == t_start;
+                    break 'reset painleve(
+                        e,
+                        at_start,
+                        &mut reset_ws,
+                        &mut flow,
+                        &opts,
+                        mode,
+                        (t, &y),
+                        events.last(),
+                    )?;
+                }
+            };
+            segments.push(segment);
+            let fired = match end {
+                SegmentEnd::Event { fired } => fired,
+                SegmentEnd::FeatureChange => match zeno.record(t) {
+                    Some(z) => break 'run z,
+                    None => continue 'run,
+                },
+                SegmentEnd::FinalTime => break 'run Termination::FinalTime,
+                // mid-flow: the segment is recorded up to `t`, where the slide ended
+                SegmentEnd::Ended(Termination::Painleve { contact, .. }) => {
+                    let e = HybridError::Core(CoreError::PainleveInconsistent {
+                        contact,
+                        response: f64::NAN,
+                    });
+                    break 'reset painleve(
+                        e,
+                        true,
+                        &mut reset_ws,
+                        &mut flow,
+                        &opts,
+                        mode,
+                        (t, &y),
+                        events.last(),
+                    )?;
+                }
+                SegmentEnd::Ended(term) => break 'run term,
+            };
+            match reset(&mut reset_ws, &mut flow, &opts, &fired, mode, (t, &y)) {
+                Ok(r) => r,
+                // an impact that chose an inconsistent slide: the same impact with that
+                // contact sticking (its jam)
+                Err(e) if fired.iter().any(|g| matches!(g, Guard::Touchdown(_))) => {
+                    jammed_impact(e, &mut reset_ws, &mut flow, &opts, &fired, mode, (t, &y))?
+                }
+                // at a force event (a slip onto an inconsistent slide)
+                Err(e) => painleve(
+                    e,
+                    true,
+                    &mut reset_ws,
+                    &mut flow,
+                    &opts,
+                    mode,
+                    (t, &y),
+                    events.last(),
+                )?,
+            }
         };
         let (event, rest) = match reset {
             Reset::Continue {
@@ -202,14 +254,109 @@ fn check_initial_state(
     Ok(())
 }
 
-/// A sliding mode inconsistent with Coulomb friction (Painlevé) met at a segment's start
-/// (its sliding directions from rest) or in the mode a reset chose ends the run typed, as in
-/// the flow ([`Termination::Painleve`]); any other error is the run's error.
-fn painleve_end(e: HybridError, t: f64, mode: ContactMode) -> Result<Termination, HybridError> {
-    match e {
-        HybridError::Core(CoreError::PainleveInconsistent { contact, .. }) => {
-            Ok(Termination::Painleve { t, mode, contact })
+/// A slide inconsistent with Coulomb friction (Painlevé) met in the flow, at a segment's
+/// start (its sliding directions from rest) or in the mode a reset chose: resolved as a jam
+/// ([`crate::jam`]) when `may_jam` and it is not the jam just taken at this instant (a jam
+/// that leads straight back into the same inconsistency resolves nothing); else the run
+/// ends typed ([`Termination::Painleve`]). Any other error is the run's error.
+#[allow(clippy::too_many_arguments)]
+fn painleve(
+    e: HybridError,
+    may_jam: bool,
+    ws: &mut FlowWorkspace,
+    flow: &mut Flow,
+    opts: &HybridOptions,
+    mode: ContactMode,
+    (t, y): (f64, &[f64]),
+    last: Option<&Event>,
+) -> Result<Reset, HybridError> {
+    let HybridError::Core(CoreError::PainleveInconsistent { contact, .. }) = e else {
+        return Err(e);
+    };
+    let again = last.is_some_and(|ev| {
+        ev.kind == EventKind::Jam
+            && ev.t == t
+            && ev
+                .triggered
+                .iter()
+                .any(|&k| flow.model().contacts[k].name == contact)
+    });
+    let reason = if !may_jam {
+        PainleveReason::InsideStep
+    } else if again {
+        PainleveReason::Repeated
+    } else {
+        match jam(ws, flow, opts, mode, &contact, (t, y))? {
+            Ok(r) => return Ok(r),
+            Err(reason) => reason,
         }
-        e => Err(e),
+    };
+    Ok(Reset::End {
+        event: None,
+        termination: Termination::Painleve {
+            t,
+            mode,
+            contact,
+            reason,
+        },
+    })
+}
+
+/// A touchdown's reset that failed with a Painlevé inconsistency (`e`) at a contact the
+/// impact left sliding, taken again with that contact barred from sliding
+/// ([`crate::reset::reset_jamming`]): accepted as a [`EventKind::Jam`] when the contact
+/// sticks after it (the impulse in its cone, pushing); else the run ends typed.
+#[allow(clippy::too_many_arguments)]
+fn jammed_impact(
+    e: HybridError,
+    ws: &mut FlowWorkspace,
+    flow: &mut Flow,
+    opts: &HybridOptions,
+    fired: &[Guard],
+    mode: ContactMode,
+    (t, y): (f64, &[f64]),
+) -> Result<Reset, HybridError> {
+    let HybridError::Core(CoreError::PainleveInconsistent { contact, .. }) = e else {
+        return Err(e);
+    };
+    let end = |reason| Reset::End {
+        event: None,
+        termination: Termination::Painleve {
+            t,
+            mode,
+            contact: contact.clone(),
+            reason,
+        },
+    };
+    let Some(k) = flow.model().contacts.iter().position(|c| c.name == contact) else {
+        return Ok(end(PainleveReason::Inactive));
+    };
+    // any failure of the retry leaves the end as it was without it: typed
+    let Ok(r) = reset_jamming(ws, flow, opts, fired, mode, (t, y), &[k]) else {
+        return Ok(end(PainleveReason::NoJamOutcome));
+    };
+    match r {
+        Reset::Continue {
+            mut event,
+            from_rest,
+            lock,
+        } => {
+            let stuck = event.mode_after.kind(k) == Some(ContactKind::Stick);
+            let in_cone =
+                crate::jam::own_impulse_in_cone(flow.model(), event.mode_after, k, &event.impulse);
+            if !(stuck && in_cone) {
+                return Ok(end(PainleveReason::JamOutsideCone));
+            }
+            event.kind = EventKind::Jam;
+            if !event.triggered.contains(&k) {
+                event.triggered.push(k);
+            }
+            Ok(Reset::Continue {
+                event,
+                from_rest,
+                lock,
+            })
+        }
+        Reset::End { .. } => Ok(end(PainleveReason::NoJamOutcome)),
     }
 }

@@ -30,6 +30,7 @@ pub fn event_kind_name(k: EventKind) -> &'static str {
         EventKind::Apex => "apex",
         EventKind::Fold => "fold",
         EventKind::FoldPassed => "fold_passed",
+        EventKind::Jam => "jam",
     }
 }
 
