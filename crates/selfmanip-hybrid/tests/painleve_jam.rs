@@ -206,3 +206,31 @@ fn jams_never_add_energy_and_lose_the_closed_form() {
         }
     }
 }
+
+/// Derivatives never pass through a jam (its saltation is not formed): the rod's run,
+/// which jams at its start before any segment, gets no state Jacobian — no number that
+/// would be wrong — while the same rod below the threshold, sliding on without a jam, gets
+/// one.
+#[test]
+fn sensitivities_do_not_pass_through_a_jam() {
+    let (q, qd) = state();
+    let run = |mu: f64| {
+        selfmanip_hybrid::sensitivity::simulate_with_sensitivity(
+            &rod(mu),
+            &GroundPlane::level(0.0),
+            &ZeroTorque,
+            sliding(),
+            &q,
+            &qd,
+            0.05,
+            HybridOptions::default(),
+        )
+        .unwrap()
+    };
+    let (exec, sens) = run(1.05 * mu_star());
+    assert_eq!(exec.events[0].kind, EventKind::Jam);
+    assert!(sens.state_jacobian.is_none());
+    let (exec, sens) = run(0.95 * mu_star());
+    assert!(exec.events.iter().all(|e| e.kind != EventKind::Jam));
+    assert!(sens.state_jacobian.is_some(), "{:?}", exec.termination);
+}
