@@ -95,10 +95,10 @@ pub fn simulate_with(
     // to drift (they stuck until the last reset, or their stick was just refused)
     let mut from_rest: Vec<usize> = Vec::new();
     let termination = 'run: loop {
-        // flow ⇒ guards ⇒ locate ⇒ reset (or a jam where a slide has no consistent
-        // continuation: crate::jam)
+        // flow ⇒ guards ⇒ locate ⇒ reset; a slide with no consistent continuation
+        // (Painlevé) met on the way comes out as `Err((error, may_jam))`
         let t_start = t;
-        let reset = 'reset: {
+        let outcome: Result<Reset, (HybridError, bool)> = 'stages: {
             let run = integrator.run(
                 &mut flow,
                 mode,
@@ -111,21 +111,9 @@ pub fn simulate_with(
             );
             let (segment, end) = match run {
                 Ok(r) => r,
-                // met at the segment's start (nothing integrated yet, nothing lost): a jam
-                // there; met later (a guard's evaluation) the run ends typed, as before
-                Err(e) => {
-                    let at_start = t == t_start;
-                    break 'reset painleve(
-                        e,
-                        at_start,
-                        &mut reset_ws,
-                        &mut flow,
-                        &opts,
-                        mode,
-                        (t, &y),
-                        events.last(),
-                    )?;
-                }
+                // at the segment's start nothing was integrated: a jam may take it there;
+                // later (inside a guard's evaluation) the run ends typed
+                Err(e) => break 'stages Err((e, t == t_start)),
             };
             segments.push(segment);
             let fired = match end {
@@ -137,42 +125,38 @@ pub fn simulate_with(
                 SegmentEnd::FinalTime => break 'run Termination::FinalTime,
                 // mid-flow: the segment is recorded up to `t`, where the slide ended
                 SegmentEnd::Ended(Termination::Painleve { contact, .. }) => {
-                    let e = HybridError::Core(CoreError::PainleveInconsistent {
+                    let e = CoreError::PainleveInconsistent {
                         contact,
                         response: f64::NAN,
-                    });
-                    break 'reset painleve(
-                        e,
-                        true,
-                        &mut reset_ws,
-                        &mut flow,
-                        &opts,
-                        mode,
-                        (t, &y),
-                        events.last(),
-                    )?;
+                    };
+                    break 'stages Err((e.into(), true));
                 }
                 SegmentEnd::Ended(term) => break 'run term,
             };
             match reset(&mut reset_ws, &mut flow, &opts, &fired, mode, (t, &y)) {
-                Ok(r) => r,
+                Ok(r) => Ok(r),
                 // an impact that chose an inconsistent slide: the same impact with that
                 // contact sticking (its jam)
-                Err(e) if fired.iter().any(|g| matches!(g, Guard::Touchdown(_))) => {
-                    jammed_impact(e, &mut reset_ws, &mut flow, &opts, &fired, mode, (t, &y))?
-                }
+                Err(e) if fired.iter().any(|g| matches!(g, Guard::Touchdown(_))) => Ok(
+                    jammed_impact(e, &mut reset_ws, &mut flow, &opts, &fired, mode, (t, &y))?,
+                ),
                 // at a force event (a slip onto an inconsistent slide)
-                Err(e) => painleve(
-                    e,
-                    true,
-                    &mut reset_ws,
-                    &mut flow,
-                    &opts,
-                    mode,
-                    (t, &y),
-                    events.last(),
-                )?,
+                Err(e) => Err((e, true)),
             }
+        };
+        // ⇒ a jam, or the typed end (crate::jam)
+        let reset = match outcome {
+            Ok(r) => r,
+            Err((e, may_jam)) => painleve(
+                e,
+                may_jam,
+                &mut reset_ws,
+                &mut flow,
+                &opts,
+                mode,
+                (t, &y),
+                events.last(),
+            )?,
         };
         let (event, rest) = match reset {
             Reset::Continue {
