@@ -42,6 +42,20 @@ pub struct MotorSpec {
 }
 
 impl MotorSpec {
+    /// One rotor's inertia (kg m²), `J = τ_m k_M² / R`, from the mechanical time constant
+    /// `τ_m` (Table 2.1's 11.8 ms for X-RHex's motor: 7.2·10⁻⁶ kg m²) and the rated motor's
+    /// torque constant and terminal resistance; `None` when the catalog gives no `τ_m`.
+    /// Seen through a gearbox of ratio `G`, `n` such rotors are the joint's armature
+    /// `n J G²`.
+    pub fn rotor_inertia_kg_m2(&self) -> Result<Option<f64>> {
+        let Some(tau_m) = self.mechanical_time_constant_s else {
+            return Ok(None);
+        };
+        let m = self.motor()?;
+        let k = m.torque_constant_n_m_per_a;
+        Ok(Some(tau_m * k * k / m.terminal_resistance_ohm()))
+    }
+
     /// The linear model at the catalog voltage.
     pub fn motor(&self) -> Result<DcMotor> {
         let current_limit = match self.current_limit_a {

@@ -715,7 +715,8 @@ pub fn leg_inertia_about_hip(params: &RhexParams) -> f64 {
 /// (Table 2.1's motor behind the 28:1 gearbox, two per planar leg) with `τ_s` as its stall
 /// torque. The rotor inertia is not printed; it is `J = τ_m k_M² / R` from Table 2.1's
 /// mechanical time constant `τ_m = 11.8 ms` and the motor model's `k_M` and `R`
-/// (7.2·10⁻⁶ kg m², within the range of maxon's 45 mm flat motors).
+/// ([`motor::catalog::MotorSpec::rotor_inertia_kg_m2`]: 7.2·10⁻⁶ kg m², within the range of
+/// maxon's 45 mm flat motors).
 struct LegMotorData {
     ratio: f64,
     n: f64,
@@ -751,19 +752,19 @@ fn leg_motor_data(params: &RhexParams, cfg: &LeapConfig) -> Result<LegMotorData,
         ),
     };
     let m = spec.motor().map_err(motor_err)?;
-    let tau_m = spec
-        .mechanical_time_constant_s
+    let rotor_kg_m2 = spec
+        .rotor_inertia_kg_m2()
+        .map_err(motor_err)?
         .ok_or_else(|| RhexError::Params {
             field: "actuator".into(),
             reason: "the motor's mechanical time constant is needed for the rotor inertia".into(),
         })?;
-    let k = m.torque_constant_n_m_per_a;
     Ok(LegMotorData {
         ratio,
         n,
         stall_n_m,
         no_load_speed_rad_s: m.no_load_speed_rad_s,
-        rotor_kg_m2: tau_m * k * k / m.terminal_resistance_ohm(),
+        rotor_kg_m2,
     })
 }
 

@@ -226,8 +226,7 @@ fn actuator(
                 }
             };
             let motor_spec = catalog.motor_spec(motor_name).map_err(motor_err("motor"))?;
-            let rated = motor_spec.motor().map_err(motor_err("motor"))?;
-            let mut m = rated.clone();
+            let mut m = motor_spec.motor().map_err(motor_err("motor"))?;
             if let Some(v) = supply_voltage_v {
                 let f = format!("{field}.supply_voltage_v");
                 let v = positive(&f, cx.number(&f, v, None)?)?;
@@ -255,9 +254,10 @@ fn actuator(
             }
             let ratio = g.ratio;
             let mut derived = vec![("no_load_speed_rad_s", m.no_load_speed_rad_s / ratio)];
-            if let Some(tau_m) = motor_spec.mechanical_time_constant_s {
-                let k = rated.torque_constant_n_m_per_a;
-                let rotor = tau_m * k * k / rated.terminal_resistance_ohm();
+            if let Some(rotor) = motor_spec
+                .rotor_inertia_kg_m2()
+                .map_err(motor_err("motor"))?
+            {
                 derived.push(("reflected_inertia_kg_m2", n * rotor * ratio * ratio));
             }
             let a: Arc<dyn Actuator> = Arc::new(Drives {
