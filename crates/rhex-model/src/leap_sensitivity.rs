@@ -32,7 +32,8 @@
 //! a massless leg does not act on the body, so apex derivatives are exact otherwise); a
 //! massive leg whose motion in the air started at an event before the apex (its servo
 //! follows that motion and turns the body in flight, Result C.5: the memory matters); an
-//! event at a motor's start (fired by the torque's jump, not by a crossing).
+//! event at a motor's start (fired by the torque's jump, not by a crossing: flagged by the
+//! hybrid sensitivities as an event at a controller's time event).
 use crate::leap::{run_leap_setup, LeapConfig, LeapResult, LeapSetup, LegActuator, T2Reference};
 use crate::{RhexError, RhexParams};
 use nalgebra::DMatrix;
@@ -290,9 +291,7 @@ pub fn leap_with_sensitivity_from(
     } else if s.columns.is_none() {
         Some("the execution's sensitivities are not defined (a terrain feature change)".into())
     } else {
-        memory_recontact(&setup, exec)
-            .or_else(|| event_at_motor_start(&setup, exec))
-            .or_else(|| massive_leg_memory(&setup, exec))
+        memory_recontact(&setup, exec).or_else(|| massive_leg_memory(&setup, exec))
     };
     if let Some(r) = reason {
         out.reason = Some(r);
@@ -400,24 +399,6 @@ fn memory_recontact(setup: &LeapSetup, exec: &selfmanip_hybrid::Execution) -> Op
                 e.t - start[0]
             ))
         })
-}
-
-/// An event (before the apex) at a motor's start: the torque's jump there fires a guard (a
-/// waiting toe on the ground slips as its motor starts) without a crossing, so the event's
-/// time follows the motor start (`dt_e/dt2 = dt_b/dt2`), not `−D_xg X / D_xg f⁻` as the
-/// saltation of a state event has it; not differentiated (`None` when no event is there).
-fn event_at_motor_start(setup: &LeapSetup, exec: &selfmanip_hybrid::Execution) -> Option<String> {
-    let start = setup.ctrl.start;
-    let events = &exec.events[..exec.events.len().saturating_sub(1)];
-    events.iter().find_map(|e| {
-        let i = (0..2).find(|&i| (e.t - start[i]).abs() <= 1e-12 * (1.0 + start[i].abs()))?;
-        Some(format!(
-            "{:?} at t = {} s, the start of leg {i}'s motor (an event fired by the torque's \
-             jump is not differentiated)",
-            e.kind,
-            e.t - start[0]
-        ))
-    })
 }
 
 /// A massive leg whose motion in the air started at an event before the apex

@@ -222,3 +222,42 @@ fn event_times_through_a_massive_toes_slide_equal_central_differences() {
     let s = leap_with_sensitivity(&leap_params(), &tight("++", 0.05), &["t2"]).unwrap();
     assert!(s.ok, "{:?}", s.reason);
 }
+
+/// A toe that slips the instant its motor starts (massive legs, (−,+) with the rear motor
+/// 0.14 s after the front one): the slip is fired by the torque's jump, not by a crossing,
+/// so its time follows the motor start — `d t_slip / d t2 = 1` by central differences of
+/// whole leaps — where the state event's formula `−D_xg X / D_xg f⁻` would not give it. The
+/// hybrid sensitivities flag it (an event at a controller's time event) and the leap reports
+/// no derivatives, with that reason.
+#[test]
+fn a_slip_fired_by_a_motor_start_is_flagged_not_differentiated() {
+    let p = massive();
+    let cfg = LeapConfig {
+        strategy: "-+".parse().unwrap(),
+        t2_s: 0.14,
+        ..LeapConfig::default()
+    };
+    let s = leap_with_sensitivity(&p, &cfg, &["t2"]).unwrap();
+    assert!(!s.ok);
+    let reason = s.reason.as_deref().unwrap_or_default();
+    assert!(reason.contains("time event"), "{reason}");
+    let slip_at = |t2: f64| {
+        let r = simulate_leap(
+            &p,
+            &LeapConfig {
+                t2_s: t2,
+                ..cfg.clone()
+            },
+        )
+        .unwrap();
+        r.events
+            .iter()
+            .find(|e| e.kind == "slip")
+            .map(|e| e.t_s)
+            .expect("a slip")
+    };
+    assert!((slip_at(0.14) - 0.14).abs() < 1e-12, "{}", slip_at(0.14));
+    let h = 1e-6;
+    let d = (slip_at(0.14 + h) - slip_at(0.14 - h)) / (2.0 * h);
+    assert!((d - 1.0).abs() < 1e-6, "d t_slip / d t2 = {d}");
+}

@@ -1192,6 +1192,26 @@ fn segment_event(
     let after = exec.segments.get(si + 1);
     let zero_time = seg.t1 == seg.t0 || after.is_some_and(|a| a.t1 == a.t0);
     let (mut es, parts) = event_sensitivity(ev, model, terrain, seg, after, event, body)?;
+    // an event at a time event of the controller that ran up to it was fired by the flow's
+    // jump there (a torque switched on pushes a force to its cone at once), not by a
+    // crossing: its instant follows the time event's, which the state event's
+    // `−D_xg X / D_xg f⁻` does not give (the controller after it may start motions at the
+    // event itself: those follow the event, they do not fire it)
+    let at_time_event = seg
+        .controller
+        .time_events(&[])
+        .iter()
+        .any(|te| (te.t - event.t).abs() <= 1e-12 * (1.0 + event.t.abs()));
+    if es.status == SaltationStatus::Defined && event.kind != EventKind::Apex && at_time_event {
+        return Ok((
+            unsupported(
+                event,
+                "fired at a controller's time event (the flow's jump there), not by a \
+                 crossing: not differentiated",
+            ),
+            None,
+        ));
+    }
     if zero_time && es.status == SaltationStatus::Defined {
         es.status = SaltationStatus::Simultaneous;
         es.saltation = None;
