@@ -95,6 +95,12 @@ pub fn massless_chain(model: &Model, k: usize) -> std::ops::Range<usize> {
     first..j + 1
 }
 
+/// Keeps in `lock` the joints whose massless chain is still pinned by a contact of `mode`:
+/// a locked chain stays locked while its contact holds.
+pub(crate) fn retain_held_locks(model: &Model, mode: ContactMode, lock: &mut Vec<usize>) {
+    lock.retain(|&j| mode.active().any(|k| massless_chain(model, k).contains(&j)));
+}
+
 /// Whether active contact `k` of `mode` can reach a fold: it pins a massless chain with as
 /// many rows as the chain has joints (a square block `B_k`).
 pub fn has_fold(model: &Model, mode: ContactMode, k: usize) -> bool {

@@ -66,14 +66,9 @@ pub fn jam(
     let (q, qd) = y.split_at(model.nq());
     // the contact's sliding speed: a contact at rest (a sticking one at its cone's edge, or
     // a slide that starts from rest) gives a jam no velocity to take
-    let at_rest = {
-        let geom = flow.geometry(k, y);
-        let v = flow
-            .kinematics(q, qd)
-            .material_velocity(geom.part, geom.point);
-        let n = geom.plane.normal();
-        (v - n * v.dot(&n)).norm() <= SLIDING_SPEED_EPS_M_S
-    };
+    let terrain = flow.terrain();
+    let at_rest = crate::guard::sliding_velocity(model, flow.kinematics(q, qd), terrain, k).abs()
+        <= SLIDING_SPEED_EPS_M_S;
     // k may stick or leave; sliding is what has no consistent continuation. A sticking k
     // (its force at the cone's edge) cannot stick on either: it may only leave
     let barred_slide = [(k, ContactKind::Slide)];
@@ -153,11 +148,7 @@ pub fn jam(
         }
     }
     let mut lock = lock;
-    lock.retain(|&j| {
-        mode_after
-            .active()
-            .any(|c| crate::fold::massless_chain(model, c).contains(&j))
-    });
+    crate::fold::retain_held_locks(model, mode_after, &mut lock);
     // without a velocity jump a contact that stuck until now and slides after starts from
     // rest (as at a reset); after the impact every slide has the velocity it leaves
     let from_rest = mode_after

@@ -326,12 +326,7 @@ pub fn reset_jamming(
         }
     }
     let ke_after = kinetic_energy_at(model, cx.terrain, &mut cx.ws.data, q, &qd_after)?;
-    // a locked chain stays locked while its contact holds
-    lock.retain(|&j| {
-        mode_after
-            .active()
-            .any(|k| fold::massless_chain(model, k).contains(&j))
-    });
+    fold::retain_held_locks(model, mode_after, &mut lock);
     // without a velocity jump, a contact that stuck until now starts sliding from rest;
     // so does one whose stick the cone refused (its velocity just crossed zero). After an
     // impact a sliding contact slides with the velocity the impact leaves it — even one
