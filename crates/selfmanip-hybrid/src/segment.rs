@@ -21,7 +21,7 @@
 use crate::budget::Budget;
 use crate::drift;
 use crate::error::HybridError;
-use crate::execution::{PainleveReason, Segment, Termination};
+use crate::execution::{Segment, Termination};
 use crate::features::{FeatureChange, Surfaces};
 use crate::flow::{Flow, FlowWorkspace};
 use crate::guard::{Guard, GuardSet};
@@ -42,6 +42,9 @@ pub enum SegmentEnd {
     FeatureChange,
     /// The final time was reached.
     FinalTime,
+    /// A slide lost its consistent continuation (Painlevé) at the segment's end, after the
+    /// last accepted step: the run resolves it (a jam, [`crate::jam`]) or ends typed.
+    Painleve { contact: String },
     /// The flow ended the run (a singular KKT matrix, a discontinuity of the terrain, the
     /// step budget or the stop flag).
     Ended(Termination),
@@ -251,13 +254,7 @@ impl SegmentIntegrator {
                     if self.ode.retry_smaller(SINGULAR_RETRY_FACTOR) {
                         continue;
                     }
-                    // (the reason is the run's to give: it tries a jam here first)
-                    break SegmentEnd::Ended(Termination::Painleve {
-                        t: *t,
-                        mode,
-                        contact,
-                        reason: PainleveReason::NoJamOutcome,
-                    });
+                    break SegmentEnd::Painleve { contact };
                 }
                 Err(StepError::Rhs(e)) => return Err(e.into()),
                 Err(StepError::StepTooSmall(h)) => {

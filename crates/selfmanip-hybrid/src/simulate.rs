@@ -124,7 +124,7 @@ pub fn simulate_with(
                 },
                 SegmentEnd::FinalTime => break 'run Termination::FinalTime,
                 // mid-flow: the segment is recorded up to `t`, where the slide ended
-                SegmentEnd::Ended(Termination::Painleve { contact, .. }) => {
+                SegmentEnd::Painleve { contact } => {
                     let e = CoreError::PainleveInconsistent {
                         contact,
                         response: f64::NAN,
