@@ -19,8 +19,10 @@ Any parameter is set by name, for a single leap or swept over an array:
 * Table 4.2 symbols: ``m_b, I_b, m_l, I_l, l1, l2, rho1, rho2, rho_b, tau_s, g, leg_shape,
   mu_front, mu_middle, mu_rear``; the toes' law once they slip, ``toe_sliding``
   (``"coulomb"``, the default, or ``"frictionless"``: Assumption 5.9); Coulomb friction of
-  the body ends, ``mu_body``; the legs' joint armature ``leg_armature_kg_m2`` (default: the
-  motors' rotors ``n J G^2`` on legs with mass, none on massless legs);
+  the body ends, ``mu_body``; whether the legs carry their motors' rotors as joint armature,
+  ``leg_rotors`` (``n J G^2`` of the leap's motor; default: legs with mass do, massless legs
+  do not; ``True`` puts them on massless links too), or that armature set by hand,
+  ``leg_armature_kg_m2`` (not both);
 * the leap configuration: ``pairs`` (the two pushing leg pairs, e.g. ``["middle", "rear"]``;
   default: chapter 3's choice for the strategy, the leading pair disabled — the leap's robot
   has exactly these two), ``delta_t_s`` (pseudo-impulse duration, thesis 0.03 s),

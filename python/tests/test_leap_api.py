@@ -253,6 +253,29 @@ def test_optional_parameters_reach_the_leap():
         selfmanip.leap("++", params={"leg_armature_kg_m2": -1.0})
 
 
+def test_leg_rotors_follow_the_gear_ratio():
+    """``leg_rotors=True`` gives massless links their motors' rotors, ``n J G^2`` of the
+    leap's own gear ratio: the leap is bit-identical to one with that armature set by hand,
+    the value scaled by ``G^2`` from 28:1 (the armature's definition); with both set, a
+    ValueError names ``leg_rotors``."""
+    assert "leg_rotors" in set(sweepable_names())
+    # Table 2.1's X-RHex motor: J = tau_m k^2 / R with R = V / I_max (the 20 A limit binding at
+    # stall), two motors per planar leg
+    tau_m, k, r = 0.0118, 0.670 / 20.0, 37.0 / 20.0
+    n_j = 2 * tau_m * k * k / r
+    a28 = selfmanip.leap("--", t2=-0.02, params={"leg_rotors": True})
+    for g in (28.0, 40.0):
+        by_rotors = selfmanip.leap("--", t2=-0.02, gear_ratio=g, params={"leg_rotors": True})
+        by_hand = selfmanip.leap("--", t2=-0.02, gear_ratio=g,
+                                 params={"leg_armature_kg_m2": n_j * g * g})
+        assert by_rotors.word == by_hand.word
+        assert by_rotors.apex.z_m == pytest.approx(by_hand.apex.z_m, rel=1e-6, abs=0.0)
+        assert by_rotors.apex.phi_rad == pytest.approx(by_hand.apex.phi_rad, rel=1e-6, abs=0.0)
+    assert a28.word != selfmanip.leap("--", t2=-0.02).word
+    with pytest.raises(ValueError, match="leg_rotors"):
+        selfmanip.leap("++", params={"leg_rotors": True, "leg_armature_kg_m2": 0.01})
+
+
 def test_docstring_examples():
     import doctest
     import sys

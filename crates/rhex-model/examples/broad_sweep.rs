@@ -19,7 +19,7 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
-use rhex_model::leap::{leap_params, rotor_reflected_inertia, LeapConfig, LegActuator, Strategy};
+use rhex_model::leap::{leap_params, LeapConfig, LegActuator, Strategy};
 use rhex_model::sweep::{run_row, SweepPoint, SweepRow};
 use serde_json::{json, Map};
 use std::collections::BTreeMap;
@@ -45,10 +45,7 @@ fn broad_points(n: usize) -> Vec<SweepPoint> {
                 overrides.insert("m_l".into(), json!(m_l));
                 overrides.insert("I_l".into(), json!(0.00092 * m_l / 0.126));
             }
-            rotors(
-                &mut overrides,
-                &LegActuator::default().with_gear_ratio(gear),
-            );
+            rotors(&mut overrides);
             SweepPoint {
                 strategy,
                 t2_s: t2,
@@ -59,17 +56,12 @@ fn broad_points(n: usize) -> Vec<SweepPoint> {
         .collect()
 }
 
-/// With `ROTORS` set, the legs' joints carry their drive's rotors (`n J G²` of `actuator`) as
-/// armature whatever the legs' mass: the rotor inertia the massless model's swing already
-/// uses, in the dynamics.
-fn rotors(overrides: &mut Map<String, serde_json::Value>, actuator: &LegActuator) {
+/// With `ROTORS` set, every leg carries its motors' rotors as joint armature
+/// (`RhexParams::leg_rotors`: `n J G²` of each point's actuator) whatever its mass: the rotor
+/// inertia the massless model's swing already uses, in the dynamics.
+fn rotors(overrides: &mut Map<String, serde_json::Value>) {
     if std::env::var("ROTORS").is_ok() {
-        let cfg = LeapConfig {
-            actuator: actuator.clone(),
-            ..LeapConfig::default()
-        };
-        let a = rotor_reflected_inertia(&leap_params(), &cfg).expect("the shipped motor");
-        overrides.insert("leg_armature_kg_m2".into(), json!(a));
+        overrides.insert("leg_rotors".into(), json!(true));
     }
 }
 
@@ -172,7 +164,7 @@ fn main() {
                 .iter()
                 .map(|&t| {
                     let mut p = SweepPoint::new(s, t, None);
-                    rotors(&mut p.overrides, &cfg.actuator);
+                    rotors(&mut p.overrides);
                     p
                 })
                 .collect();

@@ -785,39 +785,43 @@ pub fn rotor_reflected_inertia(params: &RhexParams, cfg: &LeapConfig) -> Result<
 }
 
 /// The armature a leap gives each leg joint (kg m²): `params.leg_armature_kg_m2` when set;
-/// otherwise its rotors' reflected inertia ([`rotor_reflected_inertia`]) on massive legs
-/// (the physical leg's motors turn with it) and none on massless legs, which stay massless
+/// otherwise its rotors' reflected inertia ([`rotor_reflected_inertia`]) on legs that carry
+/// them ([`RhexParams::legs_carry_rotors`]: by default massive legs, whose physical motors
+/// turn with them) and none on the others — by default massless legs, which stay massless
 /// (Assumption C.6: their motion is prescribed, bounded by the same rotors in
 /// [`leg_swing`]).
 pub fn leg_armature(params: &RhexParams, cfg: &LeapConfig) -> Result<f64, RhexError> {
     Ok(leap_leg_armature(params, cfg)?.unwrap_or(0.0))
 }
 
-/// [`leg_armature`], `None` for massless legs without an explicit armature.
+/// [`leg_armature`], `None` for legs without rotors or an explicit armature.
 fn leap_leg_armature(params: &RhexParams, cfg: &LeapConfig) -> Result<Option<f64>, RhexError> {
     Ok(match params.leg_armature_kg_m2 {
         Some(a) => Some(a),
-        None if params.massive_legs() => Some(rotor_reflected_inertia(params, cfg)?),
+        None if params.legs_carry_rotors() => Some(rotor_reflected_inertia(params, cfg)?),
         None => None,
     })
 }
 
 /// Whether a leap's leg armature is the actuator's reflected rotor inertia, which moves with
-/// the gear ratio (`∂a/∂G = 2 n J G`): massive legs without an explicit armature.
+/// the gear ratio (`∂a/∂G = 2 n J G`): legs that carry their rotors, without an explicit
+/// armature.
 pub(crate) fn armature_follows_gear(params: &RhexParams) -> bool {
-    params.leg_armature_kg_m2.is_none() && params.massive_legs()
+    params.leg_armature_kg_m2.is_none() && params.legs_carry_rotors()
 }
 
-/// The robot of a leap: `params` with the leap's two pushing pairs (`pairs`) and its legs'
-/// armature ([`leg_armature`]) set.
+/// The robot of a leap: `params` (checked as the user gave them, [`RhexParams::validate`])
+/// with the leap's two pushing pairs (`pairs`) and its legs' armature ([`leg_armature`]) set.
 pub(crate) fn leap_robot_params(
     params: &RhexParams,
     cfg: &LeapConfig,
     pairs: [LegPair; 2],
 ) -> Result<RhexParams, RhexError> {
+    params.validate()?;
     Ok(RhexParams {
         pairs: pairs.to_vec(),
         leg_armature_kg_m2: leap_leg_armature(params, cfg)?,
+        leg_rotors: None,
         ..params.clone()
     })
 }

@@ -100,6 +100,15 @@ pub struct RhexParams {
     /// legs without rotors).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub leg_armature_kg_m2: Option<f64>,
+    /// Whether a leap's legs carry their motors' rotors as joint armature, the leap's
+    /// actuator's `n J G²` ([`crate::leap::rotor_reflected_inertia`], following its gear
+    /// ratio). `None` (the default): massive legs do, massless legs do not (Assumption C.6).
+    /// `Some(true)`: every leg does, massless links too (a link whose joint has armature is
+    /// not massless: it stays in the dynamics in the air and on the ground,
+    /// `docs/leap-physics.md`, "Massless links that carry their rotors"). `Some(false)`: no
+    /// leg does. Exclusive with [`Self::leg_armature_kg_m2`], which sets the armature by hand.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub leg_rotors: Option<bool>,
 }
 
 /// The shipped Table 4.2 file.
@@ -180,6 +189,13 @@ impl RhexParams {
                 }
             }
         }
+        if self.leg_rotors.is_some() && self.leg_armature_kg_m2.is_some() {
+            return bad(
+                "leg_rotors",
+                "set either leg_rotors (the actuator's rotors) or leg_armature_kg_m2 (by hand), \
+                 not both",
+            );
+        }
         if let Some(a) = self.leg_armature_kg_m2 {
             if !a.is_finite() {
                 return bad("leg_armature_kg_m2", "must be finite");
@@ -201,6 +217,12 @@ impl RhexParams {
     /// model's legs are massless, Assumption C.6).
     pub fn massive_legs(&self) -> bool {
         self.m_l != 0.0 || self.I_l != 0.0
+    }
+
+    /// Whether a leap gives the legs their motors' rotors as armature
+    /// ([`Self::leg_rotors`]; by default, massive legs).
+    pub fn legs_carry_rotors(&self) -> bool {
+        self.leg_rotors.unwrap_or(self.massive_legs())
     }
 
     /// Leg pairs in body order (front to rear).

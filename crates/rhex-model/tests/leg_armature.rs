@@ -196,3 +196,58 @@ fn gear_ratio_sensitivity_of_a_leap_whose_armature_follows_the_gear_is_a_typed_e
     // massless legs: as before
     assert!(leap_with_sensitivity(&leap_params(), &cfg, &["gear_ratio"]).is_ok());
 }
+
+/// `leg_rotors` chooses who carries the rotors: `Some(true)` gives massless links the
+/// armature `n J G²` of the leap's actuator (following its gear ratio, as `G²`), which makes
+/// them links with inertia; `Some(false)` takes it from massive legs; together with a
+/// hand-set armature it is a typed error naming the field.
+#[test]
+fn leg_rotors_puts_the_actuators_rotors_on_any_leg_or_none() {
+    let with = |p: RhexParams, rotors: Option<bool>| RhexParams {
+        leg_rotors: rotors,
+        ..p
+    };
+    let q0 = simulate_leap(&leap_params(), &LeapConfig::default()).unwrap().q0;
+    for g in [20.0, 28.0, 45.0] {
+        let cfg = geared(g, 2);
+        let built = |p: &RhexParams| leap_scenario(p, &cfg, &q0).unwrap().rhex.model;
+        // the armature's own definition: n J G² with the catalog's rotor
+        let n_j = rotor_reflected_inertia(&leap_params(), &geared(1.0, 2)).unwrap();
+        let a = n_j * g * g;
+        let rotors = with(leap_params(), Some(true));
+        assert!((leg_armature(&rotors, &cfg).unwrap() - a).abs() < 1e-15 * a.max(1.0));
+        let model = built(&rotors);
+        for j in 0..2 {
+            assert_eq!(model.joints[j].armature_kg_m2, leg_armature(&rotors, &cfg).unwrap());
+            assert!(!model.distal_massless(j), "a massless link with rotors has inertia");
+            assert_eq!(model.joints[j].mass_kg, 0.0);
+        }
+        // massive legs without them: bare links
+        let bare = with(massive(), Some(false));
+        assert_eq!(leg_armature(&bare, &cfg).unwrap(), 0.0);
+        assert!(built(&bare).joints.iter().all(|j| j.armature_kg_m2 == 0.0));
+        // None: the default's choice, massive legs carry them and massless legs do not
+        assert_eq!(
+            leg_armature(&massive(), &cfg).unwrap(),
+            leg_armature(&with(massive(), Some(true)), &cfg).unwrap()
+        );
+        assert_eq!(leg_armature(&leap_params(), &cfg).unwrap(), 0.0);
+    }
+    // a leap with massless links and rotors runs, and its gear-ratio derivative is refused
+    // like a massive leg's (the armature moves with G)
+    let rotors = with(leap_params(), Some(true));
+    let r = simulate_leap(&rotors, &LeapConfig::default()).unwrap();
+    assert!(r.apex.is_some(), "{:?}", r.status);
+    match leap_with_sensitivity(&rotors, &LeapConfig::default(), &["gear_ratio"]) {
+        Err(RhexError::Params { field, .. }) => assert_eq!(field, "gear_ratio"),
+        other => panic!("{:?}", other.map(|s| s.reason)),
+    }
+    let both = RhexParams {
+        leg_armature_kg_m2: Some(0.01),
+        ..with(leap_params(), Some(true))
+    };
+    match simulate_leap(&both, &LeapConfig::default()) {
+        Err(RhexError::Params { field, .. }) => assert_eq!(field, "leg_rotors"),
+        other => panic!("{:?}", other.map(|r| r.status)),
+    }
+}
