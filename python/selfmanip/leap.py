@@ -393,7 +393,8 @@ def leap(strategy: str = "++", t2: float = 0.0, gear_ratio: float | None | _Defa
     overrides (``{"m_b": 8.0, "leg_shape": "stick"}``); ``dt``: trajectory sample time
     (``None``: no trajectory); further keywords set the leap configuration or the motor by name
     (see the module documentation). ``sensitivities``: parameter names (``"t2"``,
-    ``"gear_ratio"``, ``"m_b"``, ``"I_b"``) whose derivatives of every apex column are
+    ``"gear_ratio"``, ``"m_b"``, ``"I_b"``, and ``"leg_armature_kg_m2"`` for legs that have
+    armature) whose derivatives of every apex column are
     returned in ``result.sensitivity[("apex_z_m", "t2")]``, exact (variational equations
     and saltation matrices, not finite differences), NaN with ``sensitivity_ok`` False where
     undefined (e.g. at a change of the leap's mode sequence); each event then also carries

@@ -923,6 +923,11 @@ pub(crate) struct LeapController {
     servo_kd_s: f64,
     /// Whether [`Self::servo_kd_s`] is the critical damping of a leg with inertia.
     servo_critical: bool,
+    /// The inertia `I` that damping is critical for (kg m², [`leg_servo_inertia`]) and
+    /// `dI/dG`: `2a/G` where the armature `a` is the rotors' `n J G²`
+    /// ([`armature_follows_gear`]), else 0.
+    servo_inertia: f64,
+    dservo_inertia_dgear: f64,
     /// `d start / d t2` of each leg (the execution starts at `min(0, t2)`): `(0, 1)` for
     /// `t2 ≥ 0`, `(−1, 0)` below.
     pub(crate) dstart_dt2: [f64; 2],
@@ -967,12 +972,18 @@ const AIR_KD: f64 = 40.0;
 /// flow stiff. The stiffness, which sets the angle error at which the servo saturates
 /// (`1/HOLD_KP_PER_RAD` rad), is the same for every leg. Massless legs keep [`HOLD_KD_S`].
 fn servo_damping(params: &RhexParams, hold_torque: f64) -> (f64, bool) {
-    let inertia = leg_inertia_about_hip(params) + params.leg_armature_kg_m2.unwrap_or(0.0);
+    let inertia = leg_servo_inertia(params);
     if inertia > 0.0 && hold_torque > 0.0 {
         (2.0 * (HOLD_KP_PER_RAD * inertia / hold_torque).sqrt(), true)
     } else {
         (HOLD_KD_S, false)
     }
+}
+
+/// A leg's inertia about its hip with its joint's armature (the leg's `M̄_jj`), which the
+/// servo is critically damped for ([`servo_damping`]).
+fn leg_servo_inertia(params: &RhexParams) -> f64 {
+    leg_inertia_about_hip(params) + params.leg_armature_kg_m2.unwrap_or(0.0)
 }
 
 impl LeapController {
@@ -1077,9 +1088,10 @@ impl LeapController {
         (along(d.theta.1), along(d.omega.1), along(d.alpha.1))
     }
 
-    /// The servo's partials `(∂/∂q, ∂/∂q̇, ∂/∂θ, ∂/∂ω, ∂/∂H)` at its arguments: the active
-    /// branch of the clamp (zero inside the saturation but for `±∂/∂H`).
-    fn servo_partials(&self, q: f64, qd: f64, theta: f64, omega: f64) -> [f64; 5] {
+    /// The servo's partials `(∂/∂q, ∂/∂q̇, ∂/∂θ, ∂/∂ω, ∂/∂H, ∂/∂I)` at its arguments, `I`
+    /// the inertia its damping is critical for: the active branch of the clamp (zero inside
+    /// the saturation but for `±∂/∂H`).
+    fn servo_partials(&self, q: f64, qd: f64, theta: f64, omega: f64) -> [f64; 6] {
         let h = self.hold_torque;
         let raw = -HOLD_KP_PER_RAD * (q - theta) - self.servo_kd_s * (qd - omega);
         if (raw * h).abs() < h {
@@ -1091,15 +1103,22 @@ impl LeapController {
             } else {
                 self.servo_kd_s
             };
+            // d(kd H)/dI = kd H / (2 I) on a leg with inertia; a massless leg's kd is fixed
+            let dkd_di = if self.servo_critical {
+                0.5 * kd / self.servo_inertia
+            } else {
+                0.0
+            };
             [
                 -kp,
                 -kd,
                 kp,
                 kd,
                 -HOLD_KP_PER_RAD * (q - theta) - dkd_dh * (qd - omega),
+                -dkd_di * (qd - omega),
             ]
         } else {
-            [0.0, 0.0, 0.0, 0.0, raw.signum()]
+            [0.0, 0.0, 0.0, 0.0, raw.signum(), 0.0]
         }
     }
 
@@ -1245,13 +1264,28 @@ impl Controller for LeapController {
                                 let (theta, omega) = self.servo_target(i, t, phase);
                                 let d = self.servo_partials(q[i], qd[i], theta, omega);
                                 let moving = phase == Phase::Retracting;
-                                d[4] * dh + if moving { d[2] * dth + d[3] * dw } else { 0.0 }
+                                d[4] * dh
+                                    + d[5] * self.dservo_inertia_dgear
+                                    + if moving { d[2] * dth + d[3] * dw } else { 0.0 }
                             }
                         };
                         if phase != Phase::Waiting {
                             if let Some(r) = free.iter().position(|&j| j == i) {
                                 out.dfree_dp[(r, col)] = da + AIR_KP * dth + AIR_KD * dw;
                             }
+                        }
+                    }
+                }
+                // the legs' armature, through the servo's damping (critical for the leg's
+                // inertia with it); the swing's bounds are the rotors' (`leg_swing`), whatever
+                // armature is set by hand
+                "leg_armature_kg_m2" => {
+                    for i in 0..2 {
+                        let phase = self.phase(i, t);
+                        if phase != Phase::Pushing && self.servoed(i, mode) {
+                            let (theta, omega) = self.servo_target(i, t, phase);
+                            let d = self.servo_partials(q[i], qd[i], theta, omega);
+                            out.dtau_dp[(i, col)] = d[5];
                         }
                     }
                 }
@@ -1427,6 +1461,13 @@ impl LeapSetup {
                 reason: "a leap strategy drives two different leg pairs".into(),
             });
         }
+        // dI/dG of the legs' inertia: their armature's where it is their rotors' n J G²
+        let dservo_inertia_dgear = match cfg.actuator {
+            LegActuator::GearedMotor { gear_ratio, .. } if armature_follows_gear(params) => {
+                2.0 * leg_armature(params, cfg)? / gear_ratio
+            }
+            _ => 0.0,
+        };
         // the leap's two pairs, and the rotors of massive legs as their joints' armature
         let params = leap_robot_params(params, cfg, pairs)?;
         let terrain = cfg.terrain;
@@ -1501,6 +1542,8 @@ impl LeapSetup {
             hold_torque,
             servo_kd_s,
             servo_critical,
+            servo_inertia: leg_servo_inertia(&params),
+            dservo_inertia_dgear,
             dstart_dt2: if motor_t2_s >= 0.0 {
                 [0.0, 1.0]
             } else {
@@ -2063,7 +2106,8 @@ mod servo_tests {
     }
 
     /// The servo's partials against central differences of its torque, `∂/∂H` through both
-    /// gains (the critical damping `2 √(k_p I)` moves with `H` as `√H`), inside the clamp.
+    /// gains (the critical damping `2 √(k_p I)` moves with `H` as `√H`) and `∂/∂I` through the
+    /// damping (as `√I`; none on a massless leg, whose damping is fixed), inside the clamp.
     #[test]
     fn servo_partials_match_central_differences() {
         for params in [leap_params(), massive()] {
@@ -2086,6 +2130,17 @@ mod servo_tests {
                     c.servo_kd_s = servo_damping(&setup.rhex.params, c.hold_torque).0;
                     c.servo(q, qd, theta, omega)
                 }),
+                if ctrl.servo_critical {
+                    fd(&|s| {
+                        let mut p = setup.rhex.params.clone();
+                        p.leg_armature_kg_m2 = Some(p.leg_armature_kg_m2.unwrap_or(0.0) + s);
+                        let mut c = ctrl.clone();
+                        c.servo_kd_s = servo_damping(&p, c.hold_torque).0;
+                        c.servo(q, qd, theta, omega)
+                    })
+                } else {
+                    0.0
+                },
             ];
             for (k, (a, b)) in d.iter().zip(num).enumerate() {
                 assert!(

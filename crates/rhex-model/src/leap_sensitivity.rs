@@ -9,11 +9,14 @@
 //!   one. The leap controller gives `∂q̈/∂t2` of the leg's swing down (which starts with its
 //!   motor: `∂(θ, θ̇, θ̈)/∂t0 = −(θ̇, θ̈, d³θ/dt³)`) and the motor start as a time event.
 //! - `gear_ratio`: the geared motors' `G` (the torque–speed line's slope and the current
-//!   limit's torque scale with it; the servo's hold torque too). Not a parameter of the
-//!   saturated-torque actuator (a typed error), nor of a leap with massive legs whose
-//!   armature is their rotors' `n J G²` (`RhexParams::leg_armature_kg_m2` unset: `M̄` moves
-//!   with `G`, not differentiated; a typed error).
+//!   limit's torque scale with it; the servo's hold torque too), and on legs that carry their
+//!   rotors (`RhexParams::legs_carry_rotors` without a hand-set armature) each leg joint's
+//!   armature `a = n J G²` with it: `d/dG = ∂/∂G + Σ_j (2a/G) ∂/∂a_j`. Not a parameter of the
+//!   saturated-torque actuator (a typed error).
 //! - `m_b`, `I_b`: the body's mass and inertia (`M̄`, `N̄` and the plastic impacts).
+//! - `leg_armature_kg_m2`: every leg joint's armature at once (`M̄`'s diagonal and the
+//!   impacts); only of legs that have one (a typed error otherwise: at zero a massless leg
+//!   leaves the dynamics).
 //!
 //! **Free legs under step control.** The leap with sensitivities always runs with
 //! [`LeapConfig::control_free_joints`] on (whatever the configuration says): a massless leg's
@@ -54,7 +57,8 @@ pub const APEX_COLUMNS: [&str; 7] = [
 ];
 
 /// The parameter names [`leap_with_sensitivity`] knows.
-pub const SENSITIVITY_PARAMETERS: [&str; 5] = ["t2", "t2_s", "gear_ratio", "m_b", "I_b"];
+pub const SENSITIVITY_PARAMETERS: [&str; 6] =
+    ["t2", "t2_s", "gear_ratio", "m_b", "I_b", "leg_armature_kg_m2"];
 
 /// One event's saltation matrix over `(q, q̇)`.
 #[derive(Debug, Clone, PartialEq)]
@@ -108,21 +112,33 @@ pub fn check_sensitivity_names(cfg: &LeapConfig, names: &[&str]) -> Result<(), R
     resolve(cfg, names).map(|_| ())
 }
 
-fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<Parameter>, RhexError> {
+/// A parameter of a leap, by the name it was asked for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum LeapParameter {
+    T2,
+    GearRatio,
+    BodyMass,
+    BodyInertia,
+    /// The armature of every leg joint at once.
+    LegArmature,
+}
+
+fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<LeapParameter>, RhexError> {
     names
         .iter()
         .map(|&n| match n {
-            "t2" | "t2_s" => Ok(Parameter::Controller("t2_s".into())),
+            "t2" | "t2_s" => Ok(LeapParameter::T2),
             "gear_ratio" => match cfg.actuator {
-                LegActuator::GearedMotor { .. } => Ok(Parameter::Controller("gear_ratio".into())),
+                LegActuator::GearedMotor { .. } => Ok(LeapParameter::GearRatio),
                 LegActuator::SaturatedTorque => Err(RhexError::Params {
                     field: "gear_ratio".into(),
                     reason: "the saturated-torque actuator has no gear ratio to differentiate"
                         .into(),
                 }),
             },
-            "m_b" => Ok(Parameter::Body(BodyParameter::Mass)),
-            "I_b" => Ok(Parameter::Body(BodyParameter::Inertia)),
+            "m_b" => Ok(LeapParameter::BodyMass),
+            "I_b" => Ok(LeapParameter::BodyInertia),
+            "leg_armature_kg_m2" => Ok(LeapParameter::LegArmature),
             other => Err(RhexError::Params {
                 field: other.into(),
                 reason: format!(
@@ -132,6 +148,58 @@ fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<Parameter>, RhexError
             }),
         })
         .collect()
+}
+
+/// The engine's parameters behind a leap's, with the weights that make its derivative the
+/// sum of theirs. The gear ratio moves the motors' torque line and the servo (a controller
+/// parameter) and, on legs that carry their rotors ([`crate::leap::armature_follows_gear`]),
+/// each leg joint's armature `a = n J G²`: `d/dG = ∂/∂G + Σ_j (2 a_j / G) ∂/∂a_j` (the
+/// controller's `∂/∂G` has the servo's damping, critical for the leg's inertia with `a`, move
+/// with it). The legs' armature is every leg joint's at once, `Σ_j ∂/∂a_j` plus the
+/// controller's (the same damping), a parameter only of legs that have one.
+fn engine_terms(
+    p: LeapParameter,
+    params: &RhexParams,
+    cfg: &LeapConfig,
+    model: &selfmanip_core::Model,
+) -> Result<Vec<(Parameter, f64)>, RhexError> {
+    let legs_armature = |w: f64| -> Vec<(Parameter, f64)> {
+        (0..model.joints.len())
+            .map(|j| (Parameter::Body(BodyParameter::Armature(j)), w))
+            .collect()
+    };
+    Ok(match p {
+        LeapParameter::T2 => vec![(Parameter::Controller("t2_s".into()), 1.0)],
+        LeapParameter::BodyMass => vec![(Parameter::Body(BodyParameter::Mass), 1.0)],
+        LeapParameter::BodyInertia => vec![(Parameter::Body(BodyParameter::Inertia), 1.0)],
+        LeapParameter::GearRatio => {
+            let mut t = vec![(Parameter::Controller("gear_ratio".into()), 1.0)];
+            if crate::leap::armature_follows_gear(params) {
+                let g = match cfg.actuator {
+                    LegActuator::GearedMotor { gear_ratio, .. } => gear_ratio,
+                    LegActuator::SaturatedTorque => unreachable!("refused by `resolve`"),
+                };
+                let a = crate::leap::leg_armature(params, cfg)?;
+                t.extend(legs_armature(2.0 * a / g));
+            }
+            t
+        }
+        LeapParameter::LegArmature => {
+            if crate::leap::leg_armature(params, cfg)? <= 0.0 {
+                return Err(RhexError::Params {
+                    field: "leg_armature_kg_m2".into(),
+                    reason: "the legs have no armature (massless legs without their rotors): \
+                             at zero a massless leg leaves the dynamics, so the armature is \
+                             not a parameter of this leap"
+                        .into(),
+                });
+            }
+            let mut t = legs_armature(1.0);
+            // the servo is critically damped for the leg's inertia with its armature
+            t.push((Parameter::Controller("leg_armature_kg_m2".into()), 1.0));
+            t
+        }
+    })
 }
 
 /// Runs one leap ([`crate::leap::simulate_leap`] with `control_free_joints = true`, the same
@@ -157,15 +225,6 @@ pub fn leap_with_sensitivity_from(
     directions: Option<&DMatrix<f64>>,
 ) -> Result<LeapSensitivity, RhexError> {
     let ps = resolve(cfg, names)?;
-    if names.contains(&"gear_ratio") && crate::leap::armature_follows_gear(params) {
-        return Err(RhexError::Params {
-            field: "gear_ratio".into(),
-            reason: "massive legs carry their motors' rotors as joint armature n J G², which \
-                     moves with G; its ∂M̄/∂G is not differentiated (set leg_armature_kg_m2 to \
-                     hold the armature fixed)"
-                .into(),
-        });
-    }
     // the free legs' touchdowns are resolved to the tolerances (see the module docs)
     let cfg = &LeapConfig {
         control_free_joints: true,
@@ -212,8 +271,34 @@ pub fn leap_with_sensitivity_from(
         result,
     };
     let exec = &out.result.execution;
-    let s = match execution_sensitivity_columns(model, &setup.terrain, exec, &dirs, &ps) {
-        Ok(s) => s,
+    // the engine's parameters, and the weights that sum them into the leap's
+    let mut engine: Vec<Parameter> = Vec::new();
+    let mut weights: Vec<(usize, usize, f64)> = Vec::new();
+    for (k, &p) in ps.iter().enumerate() {
+        for (e, w) in engine_terms(p, params, cfg, model)? {
+            let i = engine.iter().position(|x| *x == e).unwrap_or_else(|| {
+                engine.push(e);
+                engine.len() - 1
+            });
+            weights.push((i, k, w));
+        }
+    }
+    let nd0 = dirs.ncols();
+    let mut w = DMatrix::zeros(nd0 + engine.len(), nd0 + ps.len());
+    for j in 0..nd0 {
+        w[(j, j)] = 1.0;
+    }
+    for &(i, k, wt) in &weights {
+        w[(nd0 + i, nd0 + k)] += wt;
+    }
+    let s = match execution_sensitivity_columns(model, &setup.terrain, exec, &dirs, &engine) {
+        Ok(mut s) => {
+            s.columns = s.columns.map(|c| c * &w);
+            for c in s.event_time_columns.iter_mut().flatten() {
+                *c = &*c * &w;
+            }
+            s
+        }
         Err(e) => {
             out.reason = Some(e.to_string());
             return Ok(out);
@@ -236,10 +321,8 @@ pub fn leap_with_sensitivity_from(
             c.as_ref().map(|c| {
                 (0..c.len())
                     .map(|j| {
-                        let d0 = match (j >= nd_).then(|| &ps[j - nd_]) {
-                            Some(Parameter::Controller(n)) if n == "t2_s" => {
-                                setup.ctrl.dstart_dt2[0]
-                            }
+                        let d0 = match (j >= nd_).then(|| ps[j - nd_]) {
+                            Some(LeapParameter::T2) => setup.ctrl.dstart_dt2[0],
                             _ => 0.0,
                         };
                         c[j] - d0
@@ -328,7 +411,7 @@ pub fn leap_with_sensitivity_from(
     for (k, p) in ps.iter().enumerate() {
         // apex t_s is measured from the front leg's start, which t2 < 0 moves
         let dstart0 = match p {
-            Parameter::Controller(n) if n == "t2_s" => setup.ctrl.dstart_dt2[0],
+            LeapParameter::T2 => setup.ctrl.dstart_dt2[0],
             _ => 0.0,
         };
         for (c, v) in column(nd + k, dstart0).into_iter().enumerate() {

@@ -16,6 +16,7 @@ use rhex_model::leap::{
 use rhex_model::leap_behaviours::leap_scenario;
 use rhex_model::leap_sensitivity::leap_with_sensitivity;
 use rhex_model::{LegPair, Rhex, RhexError, RhexParams};
+use selfmanip_core::tangent::{BodyParameter, TangentError};
 use selfmanip_core::{energy, ContactMode, Data, FlatGround};
 use selfmanip_hybrid::{simulate, Controller, HybridOptions};
 
@@ -179,22 +180,112 @@ fn flight_with_rotor_armature_balances_the_torques_work_in_the_engine() {
     assert!(rotor_share > 0.5, "{rotor_share}");
 }
 
-#[test]
-fn gear_ratio_sensitivity_of_a_leap_whose_armature_follows_the_gear_is_a_typed_error() {
-    let cfg = LeapConfig::default();
-    match leap_with_sensitivity(&massive(), &cfg, &["gear_ratio"]) {
-        Err(RhexError::Params { field, .. }) => assert_eq!(field, "gear_ratio"),
-        other => panic!("{:?}", other.map(|s| s.reason)),
+/// Tight tolerances, so that differences of whole leaps resolve 1e-6
+/// (`tests/massive_leg_sensitivity.rs`).
+fn tight(strategy: &str, t2: f64) -> LeapConfig {
+    LeapConfig {
+        strategy: strategy.parse().unwrap(),
+        t2_s: t2,
+        rtol: 1e-12,
+        event_tol_s: 1e-14,
+        control_free_joints: true,
+        ..LeapConfig::default()
     }
-    // a fixed armature, or another parameter, is not refused
+}
+
+/// The best agreement over three steps of `d t_e / d p` with central differences of whole
+/// leaps, for the first `n` events (relative to `max(|fd|, floor)`).
+fn worst_event_time_error(
+    exact: &[f64],
+    n: usize,
+    floor: f64,
+    steps: [f64; 3],
+    leap: impl Fn(f64) -> Vec<rhex_model::leap::LeapEvent>,
+) -> f64 {
+    let base = leap(0.0);
+    (0..n)
+        .map(|k| {
+            steps
+                .iter()
+                .map(|&h| {
+                    let (a, b) = (leap(h), leap(-h));
+                    assert_eq!((a[k].kind, b[k].kind), (base[k].kind, base[k].kind));
+                    let fd = (a[k].t_s - b[k].t_s) / (2.0 * h);
+                    eprintln!("event {k} {}: exact {:.9}, fd {fd:.9} (h {h:e})", base[k].kind, exact[k]);
+                    (exact[k] - fd).abs() / fd.abs().max(floor)
+                })
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max)
+}
+
+/// On legs that carry their rotors the gear ratio moves the armature too, `a = n J G²`:
+/// `d/dG` sums the torque line's and `(2a/G) ∂/∂a_j` of each leg joint, and the servo's
+/// damping, critical for the leg's inertia with its armature, moves with both. Checked on a massive
+/// (−,−) leap through its touchdown, a toe's slip and slide, and its liftoff (the events
+/// before a leg's motion in the air, which the controller's memory would enter): `d t_e / dG`
+/// and `d t_e / d a` (the legs' armature set by hand) against central differences of whole
+/// leaps. The apex's derivatives stay flagged (that memory), and the armature of legs
+/// without one is not a parameter (typed errors, here and in the core).
+#[test]
+fn gear_ratio_and_armature_derivatives_through_the_rotors_equal_central_differences() {
+    let cfg = tight("--", -0.1);
+    let g = 28.0;
+    let s = leap_with_sensitivity(&massive(), &cfg, &["gear_ratio", "leg_armature_kg_m2"]).unwrap();
+    assert!(!s.ok, "apex derivatives of massive legs stay flagged");
+    let kinds: Vec<&str> = s.result.events.iter().map(|e| e.kind).collect();
+    assert_eq!(kinds[..3], ["touchdown", "slip", "liftoff"], "{kinds:?}");
+    let col = |c: usize| -> Vec<f64> {
+        (0..3).map(|k| s.event_times[k].as_ref().expect("defined")[c]).collect()
+    };
+    let with_g = |dg: f64| {
+        let c = LeapConfig {
+            actuator: LegActuator::GearedMotor {
+                gear_ratio: g + dg,
+                current_limit_a: 20.0,
+                motors_per_leg: 2,
+            },
+            ..cfg.clone()
+        };
+        simulate_leap(&massive(), &c).unwrap().events
+    };
+    let err_g = worst_event_time_error(&col(0), 3, 1e-5, [1e-4, 1e-3, 1e-2], with_g);
+    let a = leg_armature(&massive(), &cfg).unwrap();
+    let with_a = |da: f64| {
+        let p = RhexParams {
+            leg_armature_kg_m2: Some(a + da),
+            ..massive()
+        };
+        simulate_leap(&p, &cfg).unwrap().events
+    };
+    let err_a = worst_event_time_error(&col(1), 3, 1e-2, [1e-7, 1e-6, 1e-5], with_a);
+    assert!(err_g < 1e-5 && err_a < 1e-5, "d/dG {err_g:e}, d/da {err_a:e}");
+    // the rotors' share of d/dG is not small: without it (the armature held) it differs
     let fixed = RhexParams {
-        leg_armature_kg_m2: Some(0.01),
+        leg_armature_kg_m2: Some(a),
         ..massive()
     };
-    assert!(leap_with_sensitivity(&fixed, &cfg, &["gear_ratio"]).is_ok());
-    assert!(leap_with_sensitivity(&massive(), &cfg, &["t2"]).is_ok());
-    // massless legs: as before
-    assert!(leap_with_sensitivity(&leap_params(), &cfg, &["gear_ratio"]).is_ok());
+    let held = leap_with_sensitivity(&fixed, &cfg, &["gear_ratio"]).unwrap();
+    let d_held = held.event_times[0].as_ref().unwrap()[0];
+    assert!((d_held - col(0)[0]).abs() > 1e-3 * col(0)[0].abs(), "{d_held} {}", col(0)[0]);
+    // legs without armature: not a parameter
+    match leap_with_sensitivity(&leap_params(), &cfg, &["leg_armature_kg_m2"]) {
+        Err(RhexError::Params { field, .. }) => assert_eq!(field, "leg_armature_kg_m2"),
+        other => panic!("{:?}", other.map(|s| s.reason)),
+    }
+    let bare = Rhex::new(RhexParams {
+        pairs: vec![LegPair::Front, LegPair::Rear],
+        ..leap_params()
+    })
+    .unwrap();
+    for p in [BodyParameter::Armature(0), BodyParameter::Armature(7)] {
+        assert!(matches!(
+            p.check(&bare.model),
+            Err(TangentError::NotAParameter { .. })
+        ));
+    }
+    // massless legs: the gear ratio is the torque line's alone, as before
+    assert!(leap_with_sensitivity(&leap_params(), &LeapConfig::default(), &["gear_ratio"]).is_ok());
 }
 
 /// `leg_rotors` chooses who carries the rotors: `Some(true)` gives massless links the
@@ -233,15 +324,10 @@ fn leg_rotors_puts_the_actuators_rotors_on_any_leg_or_none() {
         );
         assert_eq!(leg_armature(&leap_params(), &cfg).unwrap(), 0.0);
     }
-    // a leap with massless links and rotors runs, and its gear-ratio derivative is refused
-    // like a massive leg's (the armature moves with G)
+    // a leap with massless links and rotors runs
     let rotors = with(leap_params(), Some(true));
     let r = simulate_leap(&rotors, &LeapConfig::default()).unwrap();
     assert!(r.apex.is_some(), "{:?}", r.status);
-    match leap_with_sensitivity(&rotors, &LeapConfig::default(), &["gear_ratio"]) {
-        Err(RhexError::Params { field, .. }) => assert_eq!(field, "gear_ratio"),
-        other => panic!("{:?}", other.map(|s| s.reason)),
-    }
     let both = RhexParams {
         leg_armature_kg_m2: Some(0.01),
         ..with(leap_params(), Some(true))

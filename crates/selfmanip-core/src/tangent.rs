@@ -86,6 +86,14 @@ pub enum TangentError {
         "the friction force of contact {contact} is a sticking force at rest; not differentiated"
     )]
     FrictionAtRest { contact: usize },
+    /// A parameter that is not one of this model's: a joint index out of range, or the
+    /// armature of a joint without it (a free massless joint's armature is not a parameter
+    /// of its dynamics: any armature takes the joint out of the massless ones).
+    #[error("{parameter:?} is not a parameter of this model: {reason}")]
+    NotAParameter {
+        parameter: BodyParameter,
+        reason: &'static str,
+    },
 }
 
 /// The levers of one material point: per part `Q` from the body out to the point's part,
@@ -899,19 +907,42 @@ pub fn sliding_velocity_gradient(
     Ok((dq, DVector::from_vec(row)))
 }
 
-/// A body inertia parameter: `M̄` and `N̄` are linear in it at fixed geometry (the body's
-/// centre of mass is its frame's origin, so `J = [e_x; e_z]`, `J_ω = e_φ`, `J̇ = 0`):
-/// `∂M̄/∂m_b = e_x e_xᵀ + e_z e_zᵀ`, `∂N̄/∂m_b = −g e_z`, `∂M̄/∂I_b = e_φ e_φᵀ`, and `C̄q̇`,
-/// `A`, `Ȧq̇` do not depend on either.
+/// An inertia parameter that `M̄` and `N̄` are linear in at fixed geometry: the body's mass
+/// and inertia (its centre of mass is its frame's origin, so `J = [e_x; e_z]`, `J_ω = e_φ`,
+/// `J̇ = 0`): `∂M̄/∂m_b = e_x e_xᵀ + e_z e_zᵀ`, `∂N̄/∂m_b = −g e_z`, `∂M̄/∂I_b = e_φ e_φᵀ`;
+/// and a joint's armature ([`crate::model::Joint::armature_kg_m2`]), `∂M̄/∂a_j = e_j e_jᵀ`.
+/// `C̄q̇`, `A`, `Ȧq̇` depend on none of them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum BodyParameter {
     /// `m_b` (kg).
     Mass,
     /// `I_b` (kg m²).
     Inertia,
+    /// The armature `a_j` of joint `j` (kg m²), a joint that has armature: at `a_j = 0` a
+    /// joint on massless links is removed from the dynamics, so the derivative there is not
+    /// the limit of this one ([`Self::check`]).
+    Armature(usize),
 }
 
 impl BodyParameter {
+    /// Whether `self` is a parameter of `model`'s dynamics: an armature of a joint that has
+    /// one ([`TangentError::NotAParameter`] otherwise).
+    pub fn check(self, model: &Model) -> Result<(), TangentError> {
+        let bad = |reason| {
+            Err(TangentError::NotAParameter {
+                parameter: self,
+                reason,
+            })
+        };
+        match self {
+            BodyParameter::Armature(j) if j >= model.joints.len() => bad("no such joint"),
+            BodyParameter::Armature(j) if model.joints[j].armature_kg_m2 <= 0.0 => {
+                bad("the joint has no armature")
+            }
+            _ => Ok(()),
+        }
+    }
+
     /// `∂M̄/∂p · x + ∂N̄/∂p` (the latter only `with_gravity`).
     fn dm_x(self, model: &Model, x: &[f64], with_gravity: bool) -> DVector<f64> {
         let mut f = DVector::zeros(model.nq());
@@ -931,6 +962,7 @@ impl BodyParameter {
                 }
             }
             BodyParameter::Inertia => f[model.ix_phi()] = x[model.ix_phi()],
+            BodyParameter::Armature(j) => f[j] = x[j],
         }
     }
 }

@@ -1002,7 +1002,8 @@ fn chain_complete(exec: &Execution, next_event: usize, touch_switches: &[TouchSw
 /// A named parameter of an execution's sensitivities ([`execution_sensitivity_columns`]).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Parameter {
-    /// The body's mass or inertia (`M̄`, `N̄` and the impacts depend on it).
+    /// The body's mass or inertia, or a joint's armature (`M̄`, `N̄` and the impacts depend
+    /// on it).
     Body(BodyParameter),
     /// A parameter the segments' controllers know by this name
     /// ([`Controller::parameter_partials`], [`Controller::time_events`]).
@@ -1059,6 +1060,9 @@ pub fn execution_sensitivity_columns(
             Parameter::Controller(_) => None,
         })
         .collect();
+    for b in &body {
+        b.check(model)?;
+    }
     let mut ev = Evaluator::new(model, terrain);
     let mut out = ColumnSensitivity {
         n_directions: nd,
