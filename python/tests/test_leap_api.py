@@ -299,3 +299,18 @@ def test_massive_legs_run_with_coulomb_toes_and_a_painleve_end_is_typed():
     r = selfmanip.leap("+-", t2=-0.03, params=legs)
     assert r.status == "singular_contact"
     assert "Painlevé" in r.reason and "`rear_leg`" in r.reason
+
+
+def test_leg_armature_is_a_sensitivity_parameter_of_legs_that_have_it():
+    """``leg_armature_kg_m2`` is a sensitivity parameter of legs with armature (its values are
+    checked against central differences in ``crates/rhex-model/tests/leg_armature.rs``): asked
+    of legs with inertia, the apex derivatives are refused with the air servo's memory as the
+    reason, never a number; for massless legs without armature it is a ValueError naming the
+    field, as is ``gear_ratio`` for the saturated torque."""
+    res = selfmanip.leap("--", t2=-0.1, params={"leg_rotors": True},
+                         sensitivities=["leg_armature_kg_m2", "gear_ratio"])
+    assert res.sensitivity_ok is False
+    assert "memory" in res.sensitivity_reason
+    assert all(np.isnan(v) for v in res.sensitivity.values())
+    with pytest.raises(ValueError, match="leg_armature_kg_m2"):
+        selfmanip.leap("++", sensitivities=["leg_armature_kg_m2"])
