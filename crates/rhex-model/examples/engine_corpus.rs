@@ -33,10 +33,8 @@ fn variants() -> Vec<(&'static str, RhexParams)> {
             // sliding needed massless legs, kept so that corpora stay comparable; massive
             // legs with Coulomb toes: docs/leap-physics.md)
             RhexParams {
-                m_l: 0.126,
-                I_l: 0.00092,
                 toe_sliding: rhex_model::params::ToeSliding::Frictionless,
-                ..base.clone()
+                ..base.clone().with_table_4_2_legs()
             },
         ),
         (

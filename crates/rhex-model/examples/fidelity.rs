@@ -37,10 +37,7 @@ static LEGS: OnceLock<Legs> = OnceLock::new();
 fn with_legs(mut p: RhexParams) -> RhexParams {
     match LEGS.get().copied().unwrap_or(Legs::Massless) {
         Legs::Massless => {}
-        Legs::Table42 => {
-            p.m_l = 0.126;
-            p.I_l = 0.00092;
-        }
+        Legs::Table42 => p = p.with_table_4_2_legs(),
         Legs::Rotors => p.leg_rotors = Some(true),
     }
     p

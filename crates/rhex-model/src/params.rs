@@ -219,6 +219,17 @@ impl RhexParams {
         self.m_l != 0.0 || self.I_l != 0.0
     }
 
+    /// `self` with Table 4.2's legs: one planar leg is a contralateral pair, twice the table's
+    /// single leg (mass 2 × 0.063 kg, inertia about its centre of mass 2 × 0.00046 kg m²).
+    /// The default model's legs are massless (Assumption C.6).
+    pub fn with_table_4_2_legs(self) -> Self {
+        RhexParams {
+            m_l: 2.0 * 0.063,
+            I_l: 2.0 * 0.00046,
+            ..self
+        }
+    }
+
     /// Whether a leap gives the legs their motors' rotors as armature
     /// ([`Self::leg_rotors`]; by default, massive legs).
     pub fn legs_carry_rotors(&self) -> bool {

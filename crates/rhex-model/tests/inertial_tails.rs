@@ -70,11 +70,9 @@ fn pieces(model: &Model, l: f64, q: &[f64]) -> [([f64; 2], [f64; 2]); 3] {
 
 #[test]
 fn legs_turning_in_flight_turn_the_body_back_by_result_c5() {
-    let mut params = leap_params();
+    let mut params = leap_params().with_table_4_2_legs();
     params.pairs = vec![LegPair::Front, LegPair::Rear]; // hips at ±ℓ, as (4.68) takes them
     params.leg_shape = LegShape::Stick; // the leg's centre on its line, as (4.67)–(4.68) take it
-    params.m_l = 0.126;
-    params.I_l = 0.00092;
     let rhex = Rhex::new(params.clone()).unwrap();
     let model = &rhex.model;
     assert_eq!(model.nq(), 5);

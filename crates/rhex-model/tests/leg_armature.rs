@@ -21,11 +21,7 @@ use selfmanip_core::{energy, ContactMode, Data, FlatGround};
 use selfmanip_hybrid::{simulate, Controller, HybridOptions};
 
 fn massive() -> RhexParams {
-    RhexParams {
-        m_l: 0.126,
-        I_l: 0.00092,
-        ..leap_params()
-    }
+    leap_params().with_table_4_2_legs()
 }
 
 fn geared(gear_ratio: f64, motors_per_leg: u32) -> LeapConfig {

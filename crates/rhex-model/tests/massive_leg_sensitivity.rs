@@ -35,10 +35,7 @@ use selfmanip_hybrid::execution::Segment;
 
 /// Table 4.2's leg-pair mass and inertia on the default leap's parameters (Coulomb toes).
 fn massive() -> RhexParams {
-    let mut p = leap_params();
-    p.m_l = 0.126;
-    p.I_l = 0.00092;
-    p
+    leap_params().with_table_4_2_legs()
 }
 
 /// Tight tolerances, so that differences of whole leaps resolve 1e-6 (as

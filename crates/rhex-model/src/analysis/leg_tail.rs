@@ -10,11 +10,7 @@ use selfmanip_sim::analysis::leg_tail::revolution_rotation_momentum;
 /// contralateral pair (0.126 kg, 0.00092 kg m²) and `pairs` planar legs (1: middle;
 /// 2: front and rear; 3: front, middle, rear at `+ℓ, 0, −ℓ`).
 pub fn tail_rhex(base: Option<RhexParams>, pairs: usize) -> Result<Rhex, RhexError> {
-    let mut p = base.unwrap_or_else(|| RhexParams {
-        m_l: 2.0 * 0.063,
-        I_l: 2.0 * 0.00046,
-        ..Default::default()
-    });
+    let mut p = base.unwrap_or_else(|| RhexParams::default().with_table_4_2_legs());
     p.pairs = match pairs {
         1 => vec![LegPair::Middle],
         2 => vec![LegPair::Front, LegPair::Rear],
