@@ -14,9 +14,9 @@
 //! or massless links that carry their rotors (`RhexParams::leg_rotors`).
 use rhex_model::figures::{fig5_1_ledge_20cm, fig5_8_vertical_leap};
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapResult, LeapStatus};
+use rhex_model::RhexParams;
 use selfmanip_hybrid::EventKind;
 use selfmanip_sim::terrain::TerrainSpec;
-use rhex_model::RhexParams;
 use std::fmt::Write as _;
 use std::sync::OnceLock;
 
@@ -112,9 +112,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some("table-4.2") => Legs::Table42,
         Some("rotors") => Legs::Rotors,
         Some(other) => {
-            return Err(
-                format!("legs: `massless`, `table-4.2` or `rotors`, not `{other}`").into(),
-            )
+            return Err(format!("legs: `massless`, `table-4.2` or `rotors`, not `{other}`").into())
         }
     };
     LEGS.set(legs).expect("set once");

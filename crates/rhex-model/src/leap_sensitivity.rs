@@ -57,8 +57,14 @@ pub const APEX_COLUMNS: [&str; 7] = [
 ];
 
 /// The parameter names [`leap_with_sensitivity`] knows.
-pub const SENSITIVITY_PARAMETERS: [&str; 6] =
-    ["t2", "t2_s", "gear_ratio", "m_b", "I_b", "leg_armature_kg_m2"];
+pub const SENSITIVITY_PARAMETERS: [&str; 6] = [
+    "t2",
+    "t2_s",
+    "gear_ratio",
+    "m_b",
+    "I_b",
+    "leg_armature_kg_m2",
+];
 
 /// One event's saltation matrix over `(q, q̇)`.
 #[derive(Debug, Clone, PartialEq)]

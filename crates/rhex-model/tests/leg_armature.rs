@@ -9,6 +9,8 @@
 //! flight under constant leg torques, with the energy `½ q̇ᵀM̄q̇ + V` that carries the rotors'
 //! `½ a θ̇²`; the default (massless) leap bit-identical whether or not a zero armature is
 //! given explicitly.
+mod common;
+use common::tight;
 use rhex_model::leap::{
     leap_params, leg_actuator, leg_armature, leg_inertia_about_hip, leg_swing,
     rotor_reflected_inertia, simulate_leap, LeapConfig, LegActuator,
@@ -176,19 +178,6 @@ fn flight_with_rotor_armature_balances_the_torques_work_in_the_engine() {
     assert!(rotor_share > 0.5, "{rotor_share}");
 }
 
-/// Tight tolerances, so that differences of whole leaps resolve 1e-6
-/// (`tests/massive_leg_sensitivity.rs`).
-fn tight(strategy: &str, t2: f64) -> LeapConfig {
-    LeapConfig {
-        strategy: strategy.parse().unwrap(),
-        t2_s: t2,
-        rtol: 1e-12,
-        event_tol_s: 1e-14,
-        control_free_joints: true,
-        ..LeapConfig::default()
-    }
-}
-
 /// The best agreement over three steps of `d t_e / d p` with central differences of whole
 /// leaps, for the first `n` events (relative to `max(|fd|, floor)`).
 fn worst_event_time_error(
@@ -207,7 +196,10 @@ fn worst_event_time_error(
                     let (a, b) = (leap(h), leap(-h));
                     assert_eq!((a[k].kind, b[k].kind), (base[k].kind, base[k].kind));
                     let fd = (a[k].t_s - b[k].t_s) / (2.0 * h);
-                    eprintln!("event {k} {}: exact {:.9}, fd {fd:.9} (h {h:e})", base[k].kind, exact[k]);
+                    eprintln!(
+                        "event {k} {}: exact {:.9}, fd {fd:.9} (h {h:e})",
+                        base[k].kind, exact[k]
+                    );
                     (exact[k] - fd).abs() / fd.abs().max(floor)
                 })
                 .fold(f64::INFINITY, f64::min)
@@ -232,7 +224,9 @@ fn gear_ratio_and_armature_derivatives_through_the_rotors_equal_central_differen
     let kinds: Vec<&str> = s.result.events.iter().map(|e| e.kind).collect();
     assert_eq!(kinds[..3], ["touchdown", "slip", "liftoff"], "{kinds:?}");
     let col = |c: usize| -> Vec<f64> {
-        (0..3).map(|k| s.event_times[k].as_ref().expect("defined")[c]).collect()
+        (0..3)
+            .map(|k| s.event_times[k].as_ref().expect("defined")[c])
+            .collect()
     };
     let with_g = |dg: f64| {
         let c = LeapConfig {
@@ -255,7 +249,10 @@ fn gear_ratio_and_armature_derivatives_through_the_rotors_equal_central_differen
         simulate_leap(&p, &cfg).unwrap().events
     };
     let err_a = worst_event_time_error(&col(1), 3, 1e-2, [1e-7, 1e-6, 1e-5], with_a);
-    assert!(err_g < 1e-5 && err_a < 1e-5, "d/dG {err_g:e}, d/da {err_a:e}");
+    assert!(
+        err_g < 1e-5 && err_a < 1e-5,
+        "d/dG {err_g:e}, d/da {err_a:e}"
+    );
     // the rotors' share of d/dG is not small: without it (the armature held) it differs
     let fixed = RhexParams {
         leg_armature_kg_m2: Some(a),
@@ -263,7 +260,11 @@ fn gear_ratio_and_armature_derivatives_through_the_rotors_equal_central_differen
     };
     let held = leap_with_sensitivity(&fixed, &cfg, &["gear_ratio"]).unwrap();
     let d_held = held.event_times[0].as_ref().unwrap()[0];
-    assert!((d_held - col(0)[0]).abs() > 1e-3 * col(0)[0].abs(), "{d_held} {}", col(0)[0]);
+    assert!(
+        (d_held - col(0)[0]).abs() > 1e-3 * col(0)[0].abs(),
+        "{d_held} {}",
+        col(0)[0]
+    );
     // legs without armature: not a parameter
     match leap_with_sensitivity(&leap_params(), &cfg, &["leg_armature_kg_m2"]) {
         Err(RhexError::Params { field, .. }) => assert_eq!(field, "leg_armature_kg_m2"),
@@ -294,7 +295,9 @@ fn leg_rotors_puts_the_actuators_rotors_on_any_leg_or_none() {
         leg_rotors: rotors,
         ..p
     };
-    let q0 = simulate_leap(&leap_params(), &LeapConfig::default()).unwrap().q0;
+    let q0 = simulate_leap(&leap_params(), &LeapConfig::default())
+        .unwrap()
+        .q0;
     for g in [20.0, 28.0, 45.0] {
         let cfg = geared(g, 2);
         let built = |p: &RhexParams| leap_scenario(p, &cfg, &q0).unwrap().rhex.model;
@@ -305,8 +308,14 @@ fn leg_rotors_puts_the_actuators_rotors_on_any_leg_or_none() {
         assert!((leg_armature(&rotors, &cfg).unwrap() - a).abs() < 1e-15 * a.max(1.0));
         let model = built(&rotors);
         for j in 0..2 {
-            assert_eq!(model.joints[j].armature_kg_m2, leg_armature(&rotors, &cfg).unwrap());
-            assert!(!model.distal_massless(j), "a massless link with rotors has inertia");
+            assert_eq!(
+                model.joints[j].armature_kg_m2,
+                leg_armature(&rotors, &cfg).unwrap()
+            );
+            assert!(
+                !model.distal_massless(j),
+                "a massless link with rotors has inertia"
+            );
             assert_eq!(model.joints[j].mass_kg, 0.0);
         }
         // massive legs without them: bare links

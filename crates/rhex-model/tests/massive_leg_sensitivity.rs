@@ -24,6 +24,8 @@
 //! (fired by the torque's jump, not by a crossing) gets a state event's time gradient (0)
 //! where the motor start's (1) is right. `leap_with_sensitivity` flags both
 //! (`LeapSensitivity::ok` false, with the reason).
+mod common;
+use common::tight;
 use nalgebra::DMatrix;
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig};
 use rhex_model::leap_sensitivity::leap_with_sensitivity;
@@ -36,19 +38,6 @@ use selfmanip_hybrid::execution::Segment;
 /// Table 4.2's leg-pair mass and inertia on the default leap's parameters (Coulomb toes).
 fn massive() -> RhexParams {
     leap_params().with_table_4_2_legs()
-}
-
-/// Tight tolerances, so that differences of whole leaps resolve 1e-6 (as
-/// `tests/leap_sensitivity.rs` of the workspace).
-fn tight(strategy: &str, t2: f64) -> LeapConfig {
-    LeapConfig {
-        strategy: strategy.parse().unwrap(),
-        t2_s: t2,
-        rtol: 1e-12,
-        event_tol_s: 1e-14,
-        control_free_joints: true,
-        ..LeapConfig::default()
-    }
 }
 
 /// Whether a segment slides a site with kinetic friction on a fixed edge, for a while.
