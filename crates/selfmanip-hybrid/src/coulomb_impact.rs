@@ -48,7 +48,8 @@ pub enum ContactImpact {
     /// Its velocity after is zero; its impulse pushes and lies in its cone.
     Stick,
     /// Its normal velocity after is zero and its impulse lies on the cone edge that opposes
-    /// its sliding velocity after, of sign `sigma` (frictionless contacts: `sigma = 0`).
+    /// its sliding velocity after; `sigma` is the sign of that velocity in the tangential
+    /// row, `A_t q̇⁺` (frictionless contacts: `sigma = 0`).
     Slip { sigma: f64 },
 }
 
@@ -60,8 +61,15 @@ pub struct CoulombImpact {
     /// The mode after: sticking contacts stick, slipping ones slide, separating ones leave.
     pub mode: ContactMode,
     /// The contact impulse in the rows of [`Self::mode`], in the core's convention
-    /// (`P = −p`: a pushing normal impulse is negative, `docs/conventions.md`).
+    /// (`P = −p`: a pushing normal impulse is negative, `docs/conventions.md`). A slipping
+    /// contact has only its normal row there (its friction is no row of the mode, as a
+    /// sliding contact's kinetic friction is none in the flow): its whole impulse is in
+    /// [`Self::contact_impulses`].
     pub impulse: Vec<f64>,
+    /// Each candidate's impulse `(contact, P_t, P_n)` in the rows' convention: the world
+    /// impulse on the robot is `P_t t̂ + P_n n̂` (`n̂` into the ground, `t̂` the plane's tangent,
+    /// [`selfmanip_core::contact::row_direction`]).
+    pub contact_impulses: Vec<(usize, f64, f64)>,
     /// `q̇⁺`.
     pub qd_plus: Vec<f64>,
     /// Row velocities after the impact of every candidate, `(contact, v_t⁺, v_n⁺)` (`v_t⁺`
@@ -274,12 +282,14 @@ fn solve_combo(
     let tol_p = 1e-9 * scale_p;
     let mut states = Vec::with_capacity(cand.len());
     let mut velocity_after = Vec::with_capacity(cand.len());
+    let mut contact_impulses = Vec::with_capacity(cand.len());
     for (i, &k) in cand.iter().enumerate() {
         let (rn, rt) = idx[i];
         let mu = mu_of(model, k);
         let (pn, pt) = (p[rn], rt.map_or(0.0, |r| p[r]));
         let (vn, vt) = (v[rn], rt.map_or(0.0, |r| v[r]));
         velocity_after.push((k, vt, vn));
+        contact_impulses.push((k, -pt, -pn));
         let ok = match code[i] {
             0 => vn >= -tol_v,
             1 => pn >= -tol_p && pt.abs() <= mu * pn + tol_p,
@@ -342,6 +352,7 @@ fn solve_combo(
         states,
         mode,
         impulse,
+        contact_impulses,
         qd_plus: qd_plus.iter().copied().collect(),
         velocity_after,
         kinetic_change,
