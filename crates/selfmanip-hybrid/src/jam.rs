@@ -14,7 +14,10 @@
 //! a sticking contact k at its cone's edge whose slide is inconsistent (at a slip's reset)
 //!     => no impulse can act (A q̇⁻ = 0 in k's rows): force complementarity with k
 //!        sticking or leaving, not sliding
-//! no accepted outcome, or the same jam again at the same instant
+//! no accepted outcome (here, or for a touchdown's impact retried with k sticking)
+//!     => the plastic impact with Coulomb friction at every contact ([`coulomb_jam`],
+//!        crate::coulomb_impact): its single outcome that also holds in force
+//! none or several of those, or the same jam again at the same instant
 //!     => the typed end, Termination::Painleve, as before
 //! ```
 //!
