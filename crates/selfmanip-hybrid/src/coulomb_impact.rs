@@ -15,7 +15,7 @@
 //!   separate   p_k = 0,                         v_n⁺ ≥ 0
 //!   stick      v_n⁺ = 0, v_t⁺ = 0,              p_n ≥ 0, |p_t| ≤ μ p_n
 //!   slip σ     v_n⁺ = 0, p_t = −μ σ p_n,         p_n ≥ 0, σ v_t⁺ ≥ 0       (σ = ±1)
-//!   (frictionless: separate, or slide: v_n⁺ = 0, p_n ≥ 0)
+//!   (frictionless: separate, or slide: v_n⁺ = 0, p_n ≥ 0; μ = ∞: separate or stick)
 //! every combination of states is one square linear solve; the solutions are all the
 //! complementarity problem's solutions (4^|C| combinations, |C| ≤ 4 on a planar robot)
 //! ```
@@ -178,10 +178,13 @@ pub fn coulomb_impacts(
         // next combination
         for (i, c) in code.iter_mut().enumerate() {
             let frictionless = idx[i].1.is_none();
-            *c = match (*c, frictionless) {
-                (0, true) => 2,
-                (2, true) => 4,
-                (x, _) => x + 1,
+            // a contact that never slips (μ = ∞) separates or sticks
+            let never_slips = !mu_of(model, cand[i]).is_finite();
+            *c = match (*c, frictionless, never_slips) {
+                (0, true, _) => 2,
+                (2, true, _) => 4,
+                (1, _, true) => 4,
+                (x, _, _) => x + 1,
             };
             if *c < 4 {
                 continue 'combos;
@@ -268,13 +271,18 @@ fn solve_combo(
         let wg = w * &g;
         let mat = DMatrix::from_fn(m, m, |r, c| wg[(eqs[r], c)]);
         let rhs = DVector::from_fn(m, |r, _| -v0[eqs[r]]);
-        // a singular system (dependent rows) is no basic solution of its own
-        let svd = mat.clone().svd(false, false);
+        // dependent rows (two sticking ends of a flat bar: their tangential rows are one):
+        // the impulse's split among them is not determined, q̇⁺ is; take the least-norm
+        // split, provided the equations are consistent
+        let svd = mat.clone().svd(true, true);
         let smax = svd.singular_values.max();
-        if smax.is_nan() || smax <= 0.0 || svd.singular_values.min() <= 1e-12 * smax {
+        if smax.is_nan() || smax <= 0.0 {
             return None;
         }
-        let x = mat.lu().solve(&rhs)?;
+        let x = svd.solve(&rhs, 1e-10 * smax).ok()?;
+        if (&mat * &x - &rhs).amax() > 1e-9 * (rhs.amax() + 1e-12) {
+            return None;
+        }
         &g * x
     };
     let v = v0 + w * &p;
@@ -292,7 +300,7 @@ fn solve_combo(
         contact_impulses.push((k, -pt, -pn));
         let ok = match code[i] {
             0 => vn >= -tol_v,
-            1 => pn >= -tol_p && pt.abs() <= mu * pn + tol_p,
+            1 => pn >= -tol_p && (mu == f64::INFINITY || pt.abs() <= mu * pn + tol_p),
             s => {
                 let sigma = if rt.is_none() {
                     0.0

@@ -344,3 +344,24 @@ fn painleve_rod_has_two_velocity_solutions_and_the_force_check_keeps_the_jam() {
     let lost = event.kinetic_before - event.kinetic_after;
     assert!((lost - m * v * v * (1.0 + 3.0 * c * c) / 8.0).abs() < 1e-12);
 }
+
+/// Ends that never slip (`μ = ∞`): the bar landing flat stops dead whatever its speed
+/// along the ground (the closed form's stick with an unbounded cone), all its energy lost.
+#[test]
+fn bar_on_ends_that_never_slip_stops_dead() {
+    let model = systems::body(
+        M,
+        inertia(),
+        G,
+        &[
+            ("left", -L, 0.0, Friction::Stick(None)),
+            ("right", L, 0.0, Friction::Stick(None)),
+        ],
+    );
+    for u in [0.05, 3.0, -7.0] {
+        let out = impacts(&model, &[u, 0.5, 0.0]);
+        assert_eq!(out.len(), 1, "{out:?}");
+        assert!(out[0].qd_plus.iter().all(|v| v.abs() < 1e-12), "{out:?}");
+        assert!((out[0].kinetic_change + kinetic(&[u, 0.5, 0.0])).abs() < 1e-12);
+    }
+}
