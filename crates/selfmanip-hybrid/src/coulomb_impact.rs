@@ -211,6 +211,18 @@ fn rank(s: &CoulombImpact) -> (usize, usize) {
     (held, stuck)
 }
 
+/// The state of enumeration code `code` (0 separate, 1 stick, 2 slip +, 3 slip −) of a
+/// contact with (`frictional`) or without a tangential row (whose slip has `σ = 0`).
+fn state_of(code: usize, frictional: bool) -> ContactImpact {
+    match code {
+        0 => ContactImpact::Separate,
+        1 => ContactImpact::Stick,
+        _ if !frictional => ContactImpact::Slip { sigma: 0.0 },
+        2 => ContactImpact::Slip { sigma: 1.0 },
+        _ => ContactImpact::Slip { sigma: -1.0 },
+    }
+}
+
 /// The solution for one combination of states (`code`: 0 separate, 1 stick, 2 slip +,
 /// 3 slip −), if its linear system is regular and every inequality holds.
 #[allow(clippy::too_many_arguments)]
@@ -246,12 +258,8 @@ fn solve_combo(
                 eqs.push(rn);
             }
             s => {
-                let sigma = if rt.is_none() {
-                    0.0
-                } else if s == 2 {
-                    1.0
-                } else {
-                    -1.0
+                let ContactImpact::Slip { sigma } = state_of(s, rt.is_some()) else {
+                    unreachable!("codes 2 and 3 are slips")
                 };
                 let mut c = DVector::zeros(nr);
                 c[rn] = 1.0;
@@ -302,12 +310,8 @@ fn solve_combo(
             0 => vn >= -tol_v,
             1 => pn >= -tol_p && (mu == f64::INFINITY || pt.abs() <= mu * pn + tol_p),
             s => {
-                let sigma = if rt.is_none() {
-                    0.0
-                } else if s == 2 {
-                    1.0
-                } else {
-                    -1.0
+                let ContactImpact::Slip { sigma } = state_of(s, rt.is_some()) else {
+                    unreachable!("codes 2 and 3 are slips")
                 };
                 pn >= -tol_p && sigma * vt >= -tol_v
             }
@@ -315,16 +319,7 @@ fn solve_combo(
         if !ok {
             return None;
         }
-        states.push((
-            k,
-            match code[i] {
-                0 => ContactImpact::Separate,
-                1 => ContactImpact::Stick,
-                2 if rt.is_some() => ContactImpact::Slip { sigma: 1.0 },
-                2 => ContactImpact::Slip { sigma: 0.0 },
-                _ => ContactImpact::Slip { sigma: -1.0 },
-            },
-        ));
+        states.push((k, state_of(code[i], rt.is_some())));
     }
     // ΔT = (v⁺)ᵀp − ½ pᵀWp ≤ 0 by the states (module docs); round-off relative to its terms
     let (work, quad) = (v.dot(&p), 0.5 * p.dot(&(w * &p)));
