@@ -295,10 +295,15 @@ def test_massive_legs_run_with_coulomb_toes_and_a_painleve_end_is_typed():
     r = selfmanip.leap("++", t2=0.0, params=legs)
     assert r.status == "ok" and r.apex is not None
     # (the legs carry their rotors' reflected inertia: "-+" at t2 = 0, this test's case
-    # before, now flies; "+-" at t2 = -0.03 ends at the rear toe)
+    # before, now flies; so does "+-" at t2 = -0.03, its case after, through a Coulomb
+    # impact at the front toe's touchdown (docs/singular-transitions.md, section 8))
     r = selfmanip.leap("+-", t2=-0.03, params=legs)
+    assert r.status == "ok" and any(e["kind"] == "jam" for e in r.events)
+    # chapter 3's saturated torque, (-,-) at t2 = 0.05: the middle toe touching down while
+    # the front toe holds alone has two Coulomb-impact outcomes; the end stays typed
+    r = selfmanip.leap("--", t2=0.05, gear_ratio=None, params={"m_l": 0.126})
     assert r.status == "singular_contact"
-    assert "Painlevé" in r.reason and "`rear_leg`" in r.reason
+    assert "Painlevé" in r.reason and "`front_leg`" in r.reason
 
 
 def test_leg_armature_is_a_sensitivity_parameter_of_legs_that_have_it():

@@ -14,7 +14,10 @@
 //! a sticking contact k at its cone's edge whose slide is inconsistent (at a slip's reset)
 //!     => no impulse can act (A q̇⁻ = 0 in k's rows): force complementarity with k
 //!        sticking or leaving, not sliding
-//! no accepted outcome, or the same jam again at the same instant
+//! no accepted outcome (here, or for a touchdown's impact retried with k sticking)
+//!     => the plastic impact with Coulomb friction at every contact ([`coulomb_jam`],
+//!        crate::coulomb_impact): its single outcome that also holds in force
+//! none or several of those, or the same jam again at the same instant
 //!     => the typed end, Termination::Painleve, as before
 //! ```
 //!
@@ -207,7 +210,7 @@ const SEPARATION_TOL_M_S2: f64 = 1e-2;
 /// Whether contact `c`, not active in `mode`, separates from `(t, y)` in the flow of `mode`:
 /// the second derivative of its gap along the flow, `g̈ ≥ −`[`SEPARATION_TOL_M_S2`] (a
 /// central second difference on `q ± h q̇ + ½ h² q̈`).
-fn separates(
+pub(crate) fn separates(
     flow: &mut Flow,
     mode: ContactMode,
     c: usize,
@@ -233,4 +236,120 @@ fn separates(
     };
     let g_dd = (gap_at(h) - 2.0 * gap_at(0.0) + gap_at(-h)) / (h * h);
     Ok(g_dd >= -SEPARATION_TOL_M_S2)
+}
+
+/// A Painlevé end at `(t, y)` in `mode` — the slide of contact `k` inconsistent after the
+/// reset the engine's own impact law chose, and the stick of [`jam`] refused — resolved by
+/// the plastic impact with Coulomb friction at every one of `candidates` (the contacts held
+/// and those touching down, [`crate::coulomb_impact`]): each of its solutions after which the
+/// contacts kept hold in force (5.19)–(5.20), and those let go with no impulse separate, is
+/// an outcome; a single outcome is the reset ([`EventKind::Jam`], triggered by `touched` and
+/// `k`), none or several leave the end typed with `reason`.
+#[allow(clippy::too_many_arguments)]
+pub fn coulomb_jam(
+    ws: &mut FlowWorkspace,
+    flow: &mut Flow,
+    opts: &HybridOptions,
+    mode: ContactMode,
+    candidates: &[usize],
+    (touched, k): (&[usize], usize),
+    (t, y): (f64, &[f64]),
+    reason: PainleveReason,
+) -> Result<Result<Reset, PainleveReason>, HybridError> {
+    let model = flow.model();
+    let (q, qd) = y.split_at(model.nq());
+    if !flow.lock().is_empty() {
+        return Ok(Err(reason));
+    }
+    ws.data.locked.clear();
+    let terrain = flow.terrain();
+    let outcomes = match crate::coulomb_impact::coulomb_impacts(
+        model,
+        &mut ws.data,
+        terrain,
+        candidates,
+        q,
+        qd,
+    )? {
+        Ok(o) => o,
+        Err(_) => return Ok(Err(reason)),
+    };
+    let ke_before = kinetic_energy_at(model, terrain, &mut ws.data, q, qd)?;
+    let ctrl = flow.controller().clone();
+    let mut survivors: Vec<(ContactMode, crate::coulomb_impact::CoulombImpact)> = Vec::new();
+    for o in outcomes {
+        let mut mode_after = o.mode;
+        if !mode_after.is_flight() {
+            let cx = &mut ResetWorkspace {
+                model,
+                terrain,
+                ctrl: &*ctrl,
+                delta_t_s: opts.delta_t_s,
+                ws,
+                barred: &[],
+                fold_threshold: opts.fold_threshold,
+            };
+            let kept: Vec<usize> = mode_after.active().collect();
+            match cx.select(t, &kept, &[], mode_after, q, &o.qd_plus, false) {
+                Ok(Ok(s)) => mode_after = s.mode,
+                _ => continue,
+            }
+            // the forces after must not be Painlevé-inconsistent either
+            let mut dy = vec![0.0; y.len()];
+            let mut y_after = y.to_vec();
+            y_after[model.nq()..].copy_from_slice(&o.qd_plus);
+            if flow.rhs(t, mode_after, &y_after, &mut dy).is_err() {
+                continue;
+            }
+        }
+        let mut y_after = y.to_vec();
+        y_after[model.nq()..].copy_from_slice(&o.qd_plus);
+        let mut all_separate = true;
+        for c in candidates
+            .iter()
+            .copied()
+            .filter(|&c| !mode_after.contains(c))
+        {
+            let grazing = o
+                .velocity_after
+                .iter()
+                .find(|v| v.0 == c)
+                .is_some_and(|v| v.2 <= 1e-9);
+            if grazing && !separates(flow, mode_after, c, t, &y_after)? {
+                all_separate = false;
+                break;
+            }
+        }
+        if all_separate {
+            survivors.push((mode_after, o));
+        }
+    }
+    let [(mode_after, o)] = &survivors[..] else {
+        return Ok(Err(reason));
+    };
+    let ke_after = kinetic_energy_at(model, terrain, &mut ws.data, q, &o.qd_plus)?;
+    if ke_after.is_nan() || ke_after > ke_before * (1.0 + ENERGY_TOL) + 1e-12 {
+        return Ok(Err(PainleveReason::EnergyGain));
+    }
+    let mut triggered: Vec<usize> = touched.to_vec();
+    if !triggered.contains(&k) {
+        triggered.push(k);
+    }
+    Ok(Ok(Reset::Continue {
+        event: Event {
+            t,
+            kind: EventKind::Jam,
+            mode_before: mode,
+            mode_after: *mode_after,
+            triggered,
+            impulse: o.impulse.clone(),
+            pseudo_impulse: Vec::new(),
+            kinetic_before: ke_before,
+            kinetic_after: ke_after,
+            q: q.to_vec(),
+            qd_after: o.qd_plus.clone(),
+        },
+        from_rest: Vec::new(),
+        lock: Vec::new(),
+    }))
 }

@@ -35,6 +35,7 @@ pub mod budget;
 pub mod complementarity;
 pub mod contact_set;
 pub mod controller;
+pub mod coulomb_impact;
 pub mod drift;
 pub mod energy;
 pub mod error;

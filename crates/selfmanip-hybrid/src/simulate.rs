@@ -18,7 +18,7 @@ use crate::error::HybridError;
 use crate::execution::{Event, EventKind, Execution, PainleveReason, Termination};
 use crate::flow::{Flow, FlowWorkspace};
 use crate::guard::Guard;
-use crate::jam::jam;
+use crate::jam::{coulomb_jam, jam};
 use crate::options::HybridOptions;
 use crate::reset::{reset, reset_jamming, Reset};
 use crate::segment::{SegmentEnd, SegmentIntegrator};
@@ -272,7 +272,28 @@ fn painleve(
     } else {
         match jam(ws, flow, opts, mode, &contact, (t, y))? {
             Ok(r) => return Ok(r),
-            Err(reason) => reason,
+            Err(reason) => {
+                let k = flow.model().contacts.iter().position(|c| c.name == contact);
+                let candidates: Vec<usize> = mode.active().collect();
+                match k {
+                    Some(k) if mode.contains(k) => {
+                        match coulomb_jam(
+                            ws,
+                            flow,
+                            opts,
+                            mode,
+                            &candidates,
+                            (&[], k),
+                            (t, y),
+                            reason,
+                        )? {
+                            Ok(r) => return Ok(r),
+                            Err(reason) => reason,
+                        }
+                    }
+                    _ => reason,
+                }
+            }
         }
     };
     Ok(Reset::End {
@@ -316,31 +337,55 @@ fn jammed_impact(
         return Ok(end(PainleveReason::Inactive));
     };
     // any failure of the retry leaves the end as it was without it: typed
-    let Ok(r) = reset_jamming(ws, flow, opts, fired, mode, (t, y), &[k]) else {
-        return Ok(end(PainleveReason::NoJamOutcome));
-    };
-    match r {
-        Reset::Continue {
+    let rj = reset_jamming(ws, flow, opts, fired, mode, (t, y), &[k]);
+    let reason = match rj {
+        Ok(Reset::Continue {
             mut event,
             from_rest,
             lock,
-        } => {
+        }) => {
             let stuck = event.mode_after.kind(k) == Some(ContactKind::Stick);
             let in_cone =
                 crate::jam::own_impulse_in_cone(flow.model(), event.mode_after, k, &event.impulse);
-            if !(stuck && in_cone) {
-                return Ok(end(PainleveReason::JamOutsideCone));
+            if stuck && in_cone {
+                event.kind = EventKind::Jam;
+                if !event.triggered.contains(&k) {
+                    event.triggered.push(k);
+                }
+                return Ok(Reset::Continue {
+                    event,
+                    from_rest,
+                    lock,
+                });
             }
-            event.kind = EventKind::Jam;
-            if !event.triggered.contains(&k) {
-                event.triggered.push(k);
-            }
-            Ok(Reset::Continue {
-                event,
-                from_rest,
-                lock,
-            })
+            PainleveReason::JamOutsideCone
         }
-        Reset::End { .. } => Ok(end(PainleveReason::NoJamOutcome)),
-    }
+        Ok(Reset::End { .. }) | Err(_) => PainleveReason::NoJamOutcome,
+    };
+    // the stick refused: the impact with Coulomb friction at every contact
+    let touched: Vec<usize> = fired
+        .iter()
+        .filter_map(|g| match g {
+            Guard::Touchdown(c) => Some(*c),
+            _ => None,
+        })
+        .collect();
+    let mut candidates: Vec<usize> = mode.active().chain(touched.iter().copied()).collect();
+    candidates.sort_unstable();
+    candidates.dedup();
+    Ok(
+        match coulomb_jam(
+            ws,
+            flow,
+            opts,
+            mode,
+            &candidates,
+            (&touched, k),
+            (t, y),
+            reason,
+        )? {
+            Ok(r) => r,
+            Err(reason) => end(reason),
+        },
+    )
 }
