@@ -72,7 +72,7 @@
 //! [`crate::Actuated`]) stop with a typed error; a controller whose memory depends on the
 //! state at an event (a motion started from the event's state) is differentiated with that
 //! memory held fixed (the RHex leap flags the cases where it matters).
-use crate::controller::{Controller, ControllerPartials, TimeEvent};
+use crate::controller::{Controller, ControllerPartials, EventMemoryPartials, TimeEvent};
 use crate::error::HybridError;
 use crate::execution::{Event, EventKind, Execution, Segment, Termination};
 use crate::integrate::{A as RK_A, C as RK_C};
@@ -108,6 +108,15 @@ pub enum SensitivityError {
         "parameter `{name}` is not a parameter of the controller (segment starting at t = {t} s)"
     )]
     UnknownParameter { name: String, t: f64 },
+    /// A segment's controller remembers the time or state of an event
+    /// ([`Controller::has_event_memory`]) but does not give the partial derivatives of its
+    /// outputs with respect to them ([`Controller::memory_partials`]), or refers to an event
+    /// the execution did not record: holding that memory fixed would give a wrong derivative.
+    #[error(
+        "the controller at t = {t} s remembers events' times or states but gives no partial \
+         derivatives with respect to them ({reason})"
+    )]
+    EventMemoryWithoutPartials { t: f64, reason: String },
 }
 
 /// Whether an event's saltation matrix is defined.
@@ -204,6 +213,12 @@ struct Evaluator<'a> {
     /// across evaluations so that a step allocates nothing once they are sized.
     cols: ColumnBuffers,
     stages: StageBuffers,
+    /// Whether the controllers' event memory is differentiated (some segment's controller
+    /// has it, [`Controller::has_event_memory`]); then `memory[k]` holds
+    /// `d(t_k, q_k, q̇_k⁺)/d(columns)` (`(1 + 2nq) × m`) of the `k`-th event the controllers
+    /// were told of.
+    memory_mode: bool,
+    memory: Vec<DMatrix<f64>>,
 }
 
 /// The reusable buffers of one [`Evaluator::eval_columns_into`].
@@ -222,6 +237,8 @@ struct ColumnBuffers {
     /// `∂λ/∂x X + ∂λ/∂p` of the last evaluation, `c × m`.
     dlambda: DMatrix<f64>,
     jvp: JvpWorkspace,
+    /// The controller's memory partials of the last evaluation.
+    mem: Vec<EventMemoryPartials>,
 }
 
 /// The stages of one [`Tangent::step`]: their flows, their tangents, and the stage state.
@@ -295,6 +312,8 @@ impl<'a> Evaluator<'a> {
             kin: Kinematics::default(),
             cols: ColumnBuffers::default(),
             stages: StageBuffers::default(),
+            memory_mode: false,
+            memory: Vec::new(),
         }
     }
 
@@ -491,6 +510,26 @@ impl Evaluator<'_> {
         cb.dfree.gemm(1.0, &p.dfree_dq, &cb.dq, 0.0);
         cb.dfree2.gemm(1.0, &p.dfree_dqd, &cb.dqd, 0.0);
         cb.dfree += &cb.dfree2;
+        if self.memory_mode {
+            // the remembered events' tangents force every column: `∂Υ/∂m_k Dm_k`
+            cb.mem.clear();
+            if !ctrl.memory_partials(t, q, qd, mode, free_joints, &mut cb.mem) {
+                return Err(SensitivityError::EventMemoryWithoutPartials {
+                    t,
+                    reason: "the controller gives no memory partials".into(),
+                });
+            }
+            for mp in &cb.mem {
+                let Some(d) = self.memory.get(mp.event) else {
+                    return Err(SensitivityError::EventMemoryWithoutPartials {
+                        t,
+                        reason: format!("event {} is not one the run recorded", mp.event),
+                    });
+                };
+                cb.dtau.gemm(1.0, &mp.dtau, d, 1.0);
+                cb.dfree.gemm(1.0, &mp.dfree, d, 1.0);
+            }
+        }
         cb.body.clear();
         cb.body.resize(m, None);
         let mut ci = 0;
@@ -678,7 +717,7 @@ fn segment_flow(
     let n2 = seg.y0.len();
     let (mut ya, mut yb, mut ym) = (vec![0.0; n2], vec![0.0; n2], vec![0.0; n2]);
     let mut pending: Vec<TimeEvent> = match tangent {
-        Tangent::Columns { params, .. } if !params.is_empty() => {
+        Tangent::Columns { params, .. } if !params.is_empty() || ev.memory_mode => {
             let names = controller_names(params);
             let mut v = seg.controller.time_events(&names);
             v.retain(|e| e.t >= seg.t0 && e.t < seg.t1);
@@ -813,6 +852,19 @@ fn time_event(
                     let mut col = x.column_mut(nd + k);
                     col.axpy(d, &(&fm - &fp), 1.0);
                 }
+            }
+        }
+        if ev.memory_mode {
+            // an instant that moves with a remembered event: `X += (f⁻ − f⁺) dt_b/dm_k Dm_k`
+            for me in ctrl.memory_time_events().iter().filter(|e| e.t == te.t) {
+                let Some(d) = ev.memory.get(me.event) else {
+                    return Err(SensitivityError::EventMemoryWithoutPartials {
+                        t: te.t,
+                        reason: format!("event {} is not one the run recorded", me.event),
+                    });
+                };
+                let row = RowDVector::from_row_slice(&me.dt_dm) * d;
+                *x += (&fm - &fp) * row;
             }
         }
     }
@@ -984,7 +1036,30 @@ pub fn execution_sensitivity(
     if defined && chain_complete(exec, next_event, &out.touch_switches) {
         out.state_jacobian = Some(total);
     }
+    if has_event_memory(exec) {
+        // the memory couples the segments: the chain is no longer the product of the
+        // segments' flows and saltations (which hold it fixed); the columns carry it
+        let cols = execution_sensitivity_columns(
+            model,
+            terrain,
+            exec,
+            &DMatrix::identity(n2, n2),
+            &[],
+        )?;
+        for (e, tc) in out.events.iter_mut().zip(cols.event_time_columns) {
+            if e.time_gradient.is_some() {
+                e.time_gradient = tc;
+            }
+        }
+        out.state_jacobian = out.state_jacobian.and(cols.columns);
+    }
     Ok(out)
+}
+
+/// Whether any segment's controller remembers events' times or states
+/// ([`Controller::has_event_memory`]).
+fn has_event_memory(exec: &Execution) -> bool {
+    exec.segments.iter().any(|s| s.controller.has_event_memory())
 }
 
 /// Whether the chain of an execution's derivative reaches its end: every event was matched
@@ -1060,6 +1135,7 @@ pub fn execution_sensitivity_columns(
         })
         .collect();
     let mut ev = Evaluator::new(model, terrain);
+    ev.memory_mode = has_event_memory(exec);
     let mut out = ColumnSensitivity {
         n_directions: nd,
         parameters: params.to_vec(),
@@ -1101,6 +1177,10 @@ pub fn execution_sensitivity_columns(
         let (es, parts) = segment_event(&mut ev, model, terrain, exec, si, event, &body)?;
         let (Some(xi), Some(parts), Some(dg)) = (&es.saltation, parts, &es.guard_gradient) else {
             defined = false;
+            if ev.memory_mode && event.kind != EventKind::Apex {
+                // the event's memory has no derivative: the run's columns are not returned
+                ev.memory.push(DMatrix::from_element(1 + n2, m, f64::NAN));
+            }
             out.event_time_columns.push(None);
             out.events.push(es);
             continue;
@@ -1110,7 +1190,9 @@ pub fn execution_sensitivity_columns(
         };
         // D_pg: a force guard's from ∂λ/∂p at the state before; geometric guards have none
         let mut dpg = RowDVector::zeros(m);
-        if matches!(event.kind, EventKind::Liftoff | EventKind::Slip) && !params.is_empty() {
+        if matches!(event.kind, EventKind::Liftoff | EventKind::Slip)
+            && (!params.is_empty() || ev.memory_mode)
+        {
             let k = event.triggered[0];
             let (rt, rn) = rows_of(seg.mode, k);
             let zero = DMatrix::zeros(n2, m);
@@ -1143,6 +1225,24 @@ pub fn execution_sensitivity_columns(
             }
             if dpg[col] != 0.0 {
                 xn.column_mut(col).axpy(dpg[col] / parts.den, &jump, 1.0);
+            }
+        }
+        if ev.memory_mode {
+            // the guard moves with the memory too (a force guard's `∂λ/∂m Dm`), in the
+            // directions' columns as in the parameters'
+            for col in 0..nd {
+                if dpg[col] != 0.0 {
+                    xn.column_mut(col).axpy(dpg[col] / parts.den, &jump, 1.0);
+                }
+            }
+            if event.kind != EventKind::Apex {
+                // the event as the controller remembers it: `(t_e, x⁺)` with
+                // `Dx⁺ = X⁺ + f⁺ Dt_e` (X⁺ is the tangent at a fixed time just after it)
+                let mut d = DMatrix::zeros(1 + n2, m);
+                d.row_mut(0).copy_from(&time);
+                let moved = &xn + &parts.f_plus * &time;
+                d.rows_mut(1, n2).copy_from(&moved);
+                ev.memory.push(d);
             }
         }
         *x = xn;

@@ -1,0 +1,238 @@
+//! Sensitivities of runs whose behaviour remembers events — phases that start a delay after
+//! a touchdown, motions started from an event's state (`docs/sensitivity.md`, "A
+//! controller's memory of events") — against independent routes:
+//!
+//! - central differences (Richardson-extrapolated) of whole runs for the state Jacobian of
+//!   the hopper under `examples/data/hop.toml` (a push phase `t_compress` after the
+//!   touchdown, swings started at the liftoff from the leg's state there);
+//! - a closed form: an arm swinging at constant speed `ω*` from a touchdown at `t_k` is at
+//!   `θ(T) = Θ(T − t_k)`, so `∂θ(T)/∂x₀ = −ω* ∂t_k/∂x₀`, with `∂t_k/∂z₀ = −1/ż_k` and
+//!   `∂t_k/∂ż₀ = −t_k/ż_k` of a free fall;
+//! - a memory the behaviour does not differentiate is a typed error, not a number.
+use nalgebra::DMatrix;
+use selfmanip_core::RobotDescription;
+use selfmanip_hybrid::sensitivity::SensitivityError;
+use selfmanip_hybrid::{simulate, EventKind};
+use selfmanip_sim::behaviour::Behaviour;
+use selfmanip_sim::periodic::run_sensitivity;
+use selfmanip_sim::{Scenario, Simulation};
+use std::path::{Path, PathBuf};
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("examples/data")
+        .join(name)
+}
+
+/// The hopper of `examples/hopper.rs` (dropped 10 cm, leg at its landing pose) moving
+/// forward at 0.3 m/s and falling at 0.5 m/s, under `hop.toml`, with every coordinate in the
+/// step-size control (what finite differences of whole runs need).
+fn hop_sim(t_final: f64) -> Simulation {
+    let robot = RobotDescription::from_file(&data("hopper.toml")).unwrap();
+    let a: f64 = 0.5;
+    let q0 = vec![a, -2.0 * a, 0.0, -(0.1 + 0.4 * a.cos()), 0.0];
+    let mut s = Scenario::new(robot, q0);
+    s.initial.qd = Some(vec![0.0, 0.0, 0.3, 0.5, 0.0]);
+    s.behaviour = Behaviour::from_file(&data("hop.toml")).unwrap();
+    s.options.t_final_s = t_final;
+    s.options.rtol = 1e-12;
+    s.options.event_tol_s = 1e-14;
+    let mut sim = Simulation::new(&s).unwrap();
+    sim.options.control_free_joints = true;
+    sim
+}
+
+/// The end state of a run from `x` with the simulation's controller (its memory at the
+/// start — the initial motions from the scenario's `q0` — is an input, held), and its
+/// event kinds.
+fn end_state(sim: &Simulation, x: &[f64]) -> (Vec<f64>, Vec<EventKind>) {
+    let nq = sim.model.nq();
+    let e = simulate(
+        &sim.model,
+        &sim.terrain,
+        &*sim.controller,
+        sim.mode0,
+        &x[..nq],
+        &x[nq..],
+        sim.t_final_s,
+        sim.options,
+    )
+    .unwrap();
+    (
+        e.q.iter().chain(&e.qd).copied().collect(),
+        e.events.iter().map(|e| e.kind).collect(),
+    )
+}
+
+/// `dx(T)/dx₀` by central differences of whole runs, Richardson-extrapolated from steps `h`
+/// and `h/2`, in the directions `cols`; every run keeps the reference's event sequence.
+fn central_differences(sim: &Simulation, cols: &[usize], h: f64) -> DMatrix<f64> {
+    let x0: Vec<f64> = sim.q0.iter().chain(&sim.qd0).copied().collect();
+    let n2 = x0.len();
+    let (_, k0) = end_state(sim, &x0);
+    let mut fd = DMatrix::zeros(n2, n2);
+    for &c in cols {
+        let d = |h: f64| {
+            let (mut xp, mut xm) = (x0.clone(), x0.clone());
+            xp[c] += h;
+            xm[c] -= h;
+            let ((yp, kp), (ym, km)) = (end_state(sim, &xp), end_state(sim, &xm));
+            assert_eq!(kp, k0, "direction {c}");
+            assert_eq!(km, k0, "direction {c}");
+            yp.iter()
+                .zip(&ym)
+                .map(|(a, b)| (a - b) / (2.0 * h))
+                .collect::<Vec<f64>>()
+        };
+        let (d1, d2) = (d(h), d(h / 2.0));
+        for i in 0..n2 {
+            fd[(i, c)] = (4.0 * d2[i] - d1[i]) / 3.0;
+        }
+    }
+    fd
+}
+
+/// The hopper's touchdown, stance (the push phase starts `t_compress = 0.05 s` after the
+/// touchdown: the knee's servo target jumps there) and liftoff (both joints start swings
+/// from their angles and rates at the liftoff), to 0.25 s (mid-swing) and 0.28 s (swings
+/// done): the state Jacobian of `run_sensitivity` (the path `simulate(...,
+/// sensitivity=True)` takes) against central differences in all ten directions. Before the
+/// controller's memory entered the tangent (held fixed): 1.30 and 3.46 relative (max norm);
+/// with it: 1.4e-7 and 4.3e-8.
+#[test]
+fn hop_state_jacobian_matches_central_differences() {
+    for t_final in [0.25, 0.28] {
+        let sim = hop_sim(t_final);
+        let run = sim.run().unwrap();
+        let kinds: Vec<_> = run.execution.events.iter().map(|e| e.kind).collect();
+        assert_eq!(kinds, [EventKind::Touchdown, EventKind::Liftoff]);
+        // the memory: the push phase's start after the touchdown, the swings from the liftoff
+        let last = &run.execution.segments.last().unwrap().controller;
+        assert!(last.has_event_memory());
+        assert!(!last.memory_time_events().is_empty());
+        let s = run_sensitivity(&run).unwrap();
+        let jac = s.state_jacobian.expect("every event differentiated");
+        let fd = central_differences(&sim, &(0..10).collect::<Vec<_>>(), 1e-6);
+        let err = (&jac - &fd).amax() / fd.amax();
+        eprintln!("T = {t_final}: |J − FD| / |FD| = {err:e}");
+        assert!(err < 1e-6, "{err:e}");
+    }
+}
+
+/// A body dropped on a sticking point under its centre of mass, carrying a massless arm that
+/// holds 2.6 rad in the air and, from the touchdown on, runs `landed` (a motion started at
+/// the event, from the arm's state there).
+fn dropped_arm(landed: &str, t_final: f64) -> Simulation {
+    let robot = RobotDescription::from_toml_str(
+        r#"
+        name = "arm-on-a-block"
+        [body]
+        mass_kg = 2.0
+        inertia_kg_m2 = 0.05
+        [[legs]]
+        name = "arm"
+        hip_m = [0.1, 0.0]
+        [[legs.links]]
+        length_m = 0.1
+        [[contacts]]
+        name = "belly"
+        shape = { kind = "point", position_m = [0.0, 0.05] }
+        friction = { kind = "sticking", mu = 1.0 }
+        "#,
+    )
+    .unwrap();
+    let behaviour = Behaviour::from_toml_str(&format!(
+        r#"
+        name = "swing-at-touchdown"
+        [[joints]]
+        joint = "arm[0]"
+        [[joints.phases]]
+        name = "air"
+        motion = {{ kind = "hold", angle_rad = 2.6 }}
+        [[joints.phases]]
+        name = "landed"
+        start = {{ on = "touch", contacts = ["belly"] }}
+        motion = {landed}
+        "#
+    ))
+    .unwrap();
+    // the belly 15 cm above the ground, falling at 0.5 m/s
+    let mut s = Scenario::new(robot, vec![2.6, 0.0, -0.2, 0.0]);
+    s.initial.qd = Some(vec![0.0, 0.0, 0.5, 0.0]);
+    s.behaviour = behaviour;
+    s.options.t_final_s = t_final;
+    s.options.rtol = 1e-12;
+    s.options.event_tol_s = 1e-14;
+    let mut sim = Simulation::new(&s).unwrap();
+    sim.options.control_free_joints = true;
+    sim
+}
+
+/// The closed form: the touchdown is at `t_k = (√(v₀² + 2gh) − v₀)/g` (free fall through
+/// `h = 0.15` m from `v₀ = 0.5` m/s), where the body stops (plastic impact on a point under
+/// its centre of mass); the arm, on its hold there, starts a swing to 3.4 rad at 2 rad/s
+/// (50 rad/s² ramps of 0.06 s), and is tracked exactly (it starts on its reference). At
+/// `T = 0.4 s` it cruises, so `θ(T) = Θ(T − t_k)` moves with the touchdown only:
+/// `∂θ/∂z₀ = −ω* ∂t_k/∂z₀ = ω*/ż_k`, `∂θ/∂ż₀ = ω* t_k/ż_k`, `∂θ̇/∂(z₀, ż₀) = 0` (α* = 0),
+/// and the body at rest: `∂(z, ż)(T)/∂(z₀, ż₀) = 0`. With the memory held fixed the arm's
+/// columns were 0.
+#[test]
+fn arm_swung_from_a_touchdown_follows_its_time_in_closed_form() {
+    let landed = r#"{ kind = "swing", target_rad = 3.4, speed_rad_s = 2.0, accel_rad_s2 = 50.0 }"#;
+    let sim = dropped_arm(landed, 0.4);
+    let run = sim.run().unwrap();
+    assert_eq!(run.execution.events.len(), 1);
+    let (g, h, v0): (f64, f64, f64) = (9.81, 0.15, 0.5);
+    let tk = ((v0 * v0 + 2.0 * g * h).sqrt() - v0) / g;
+    assert!((run.execution.events[0].t - tk).abs() < 1e-10);
+    let zd_k = v0 + g * tk;
+    let s = run_sensitivity(&run).unwrap();
+    let j = s.state_jacobian.unwrap();
+    let (iz, izd, ith, ithd) = (2, 6, 0, 4);
+    let w = 2.0;
+    let expect = [
+        ((ith, iz), w / zd_k),
+        ((ith, izd), w * tk / zd_k),
+        ((ithd, iz), 0.0),
+        ((ithd, izd), 0.0),
+        ((iz, iz), 0.0),
+        ((iz, izd), 0.0),
+        ((izd, izd), 0.0),
+    ];
+    for ((r, c), v) in expect {
+        eprintln!("J[{r},{c}] = {:e}, closed form {v:e}", j[(r, c)]);
+        assert!((j[(r, c)] - v).abs() < 1e-9 * (1.0 + v.abs()), "({r},{c})");
+    }
+    // the event's time gradient is the free fall's
+    let tg = s.events[0].time_gradient.as_ref().unwrap();
+    assert!((tg[iz] + 1.0 / zd_k).abs() < 1e-12 && (tg[izd] + tk / zd_k).abs() < 1e-12);
+    // and those columns whole against central differences of whole runs (not the arm's own
+    // directions: a swing from rest sits on `JointMotion::swing`'s switch to a park at
+    // `ω₀ < 0`, where the motion, hence the run, jumps — no derivative to compare)
+    let fd = central_differences(&sim, &[2, 6], 1e-6);
+    for c in [2, 6] {
+        let e = (j.column(c) - fd.column(c)).amax();
+        assert!(e < 1e-7, "column {c}: {e:e}");
+    }
+}
+
+/// A motion whose numbers depend on the state where it starts (`theta`) is memory the
+/// behaviour does not differentiate: the sensitivities stop with a typed error naming the
+/// time, rather than hold it fixed; a hold at a constant angle started at the same event is
+/// no memory at all (its reference does not depend on the event).
+#[test]
+fn memory_not_differentiated_is_a_typed_error() {
+    let sim = dropped_arm(r#"{ kind = "hold", angle_rad = "theta + 0.1" }"#, 0.4);
+    let run = sim.run().unwrap();
+    assert!(run.execution.segments.last().unwrap().controller.has_event_memory());
+    match run_sensitivity(&run) {
+        Err(SensitivityError::EventMemoryWithoutPartials { t, .. }) => {
+            assert!(t >= run.execution.events[0].t)
+        }
+        other => panic!("{other:?}"),
+    }
+    let sim = dropped_arm(r#"{ kind = "hold", angle_rad = 3.0 }"#, 0.4);
+    let run = sim.run().unwrap();
+    assert!(!run.execution.segments.last().unwrap().controller.has_event_memory());
+    assert!(run_sensitivity(&run).unwrap().state_jacobian.is_some());
+}
