@@ -72,6 +72,22 @@ pub trait Controller: ControllerClone + Send + Sync {
     fn time_events(&self, _names: &[&str]) -> Vec<TimeEvent> {
         Vec::new()
     }
+    /// `∂Υ/∂t` at a fixed state — the explicit time dependence of [`Self::torque`] (a servo
+    /// that tracks a motion, a torque schedule's ramp) — written into `dtau_dt` (zeroed, one
+    /// entry per joint). Returns whether the controller provides it; the default does not,
+    /// and the sensitivities then take `∂Υ/∂t = 0`. It enters where a guard depends on the
+    /// torques: a force event's (liftoff, slip) rate along the flow is
+    /// `ġ = D_xg f⁻ + ∂g/∂t`, with `∂g/∂t` from `∂λ/∂Υ ∂Υ/∂t`.
+    fn time_partials(
+        &self,
+        _t: f64,
+        _q: &[f64],
+        _qd: &[f64],
+        _mode: ContactMode,
+        _dtau_dt: &mut [f64],
+    ) -> bool {
+        false
+    }
     /// Whether the controller's outputs depend on the time or the state of an event it was
     /// told of ([`Self::on_event`]) beyond the event itself — a motion started from the
     /// event's state, a phase that starts a delay after the event: **event memory**. Default

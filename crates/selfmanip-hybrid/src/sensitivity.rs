@@ -199,6 +199,9 @@ struct FlowJacobian {
     /// `∂λ/∂x` (rows of the mode) and `λ`.
     dlambda: DMatrix<f64>,
     lambda: DVector<f64>,
+    /// `∂λ/∂t` at a fixed state (`∂λ/∂Υ ∂Υ/∂t`, [`Controller::time_partials`]; zero when the
+    /// controller does not give `∂Υ/∂t`).
+    dlambda_dt: DVector<f64>,
 }
 
 /// Evaluates flows and their Jacobians on a workspace of its own.
@@ -396,11 +399,18 @@ impl<'a> Evaluator<'a> {
         let mut f = DVector::zeros(2 * nq);
         f.rows_mut(0, nq).copy_from_slice(qd);
         f.rows_mut(nq, nq).copy_from(&self.data.qdd);
+        let mut dtau_dt = DVector::zeros(n);
+        let dlambda_dt = if ctrl.time_partials(t, q, qd, mode, dtau_dt.as_mut_slice()) {
+            &dj.dlambda_dtau * dtau_dt
+        } else {
+            DVector::zeros(c)
+        };
         Ok(FlowJacobian {
             f,
             jac,
             dlambda,
             lambda: self.data.lambda.clone(),
+            dlambda_dt,
         })
     }
 }
@@ -520,6 +530,20 @@ impl Evaluator<'_> {
                 });
             }
             for mp in &cb.mem {
+                let cols = 1 + 2 * nq;
+                if mp.dtau.shape() != (n, cols) || mp.dfree.shape() != (free_joints.len(), cols) {
+                    return Err(SensitivityError::EventMemoryWithoutPartials {
+                        t,
+                        reason: format!(
+                            "memory partials of event {} sized {:?} and {:?}, not {:?} and {:?}",
+                            mp.event,
+                            mp.dtau.shape(),
+                            mp.dfree.shape(),
+                            (n, cols),
+                            (free_joints.len(), cols)
+                        ),
+                    });
+                }
                 let Some(d) = self.memory.get(mp.event) else {
                     return Err(SensitivityError::EventMemoryWithoutPartials {
                         t,
@@ -957,7 +981,20 @@ pub fn saltation(
     f_plus: &DVector<f64>,
     dg: &RowDVector<f64>,
 ) -> Result<DMatrix<f64>, SaltationStatus> {
-    let den = (dg * f_minus)[0];
+    saltation_with_rate(dr, f_minus, f_plus, dg, 0.0)
+}
+
+/// [`saltation`] of a guard that also depends on time: `ġ = D_xg f⁻ + dg_dt` in place of
+/// `D_xg f⁻` (the time is a state with `ṫ = 1`), e.g. a force guard under a controller
+/// whose torques change with time at a fixed state.
+fn saltation_with_rate(
+    dr: &DMatrix<f64>,
+    f_minus: &DVector<f64>,
+    f_plus: &DVector<f64>,
+    dg: &RowDVector<f64>,
+    dg_dt: f64,
+) -> Result<DMatrix<f64>, SaltationStatus> {
+    let den = (dg * f_minus)[0] + dg_dt;
     let rel = den.abs() / (dg.norm() * f_minus.norm()).max(f64::MIN_POSITIVE);
     if rel.is_nan() || rel < GRAZING_TOL {
         return Err(SaltationStatus::Grazing {
@@ -1009,22 +1046,10 @@ pub fn execution_sensitivity(
             continue;
         };
         next_event += 1;
-        let (mut es, _) = segment_event(&mut ev, model, terrain, exec, si, event, &[])?;
-        if let (Some(dg), true) = (&es.guard_gradient, es.saltation.is_some()) {
-            let mut y = vec![0.0; n2];
-            seg.eval(seg.t1, &mut y);
-            let f = ev
-                .eval(
-                    &*seg.controller,
-                    &seg.locked,
-                    &seg.slide_directions,
-                    seg.t1,
-                    seg.mode,
-                    &y,
-                )?
-                .f;
-            let den = (dg * &f)[0];
-            es.time_gradient = Some(-(dg * &total) / den);
+        let (mut es, parts) = segment_event(&mut ev, model, terrain, exec, si, event, &[])?;
+        if let (Some(dg), Some(parts)) = (&es.guard_gradient, &parts) {
+            // `ġ = D_xg f⁻ (+ ∂g/∂t)` at the event, as its saltation had it
+            es.time_gradient = Some(-(dg * &total) / parts.den);
         }
         match &es.saltation {
             Some(x) => total = x * total,
@@ -1039,13 +1064,8 @@ pub fn execution_sensitivity(
     if has_event_memory(exec) {
         // the memory couples the segments: the chain is no longer the product of the
         // segments' flows and saltations (which hold it fixed); the columns carry it
-        let cols = execution_sensitivity_columns(
-            model,
-            terrain,
-            exec,
-            &DMatrix::identity(n2, n2),
-            &[],
-        )?;
+        let cols =
+            execution_sensitivity_columns(model, terrain, exec, &DMatrix::identity(n2, n2), &[])?;
         for (e, tc) in out.events.iter_mut().zip(cols.event_time_columns) {
             if e.time_gradient.is_some() {
                 e.time_gradient = tc;
@@ -1059,7 +1079,9 @@ pub fn execution_sensitivity(
 /// Whether any segment's controller remembers events' times or states
 /// ([`Controller::has_event_memory`]).
 fn has_event_memory(exec: &Execution) -> bool {
-    exec.segments.iter().any(|s| s.controller.has_event_memory())
+    exec.segments
+        .iter()
+        .any(|s| s.controller.has_event_memory())
 }
 
 /// Whether the chain of an execution's derivative reaches its end: every event was matched
@@ -1381,6 +1403,7 @@ fn event_sensitivity(
     let mut kin = Kinematics::default();
     kin.compute(model, q, qd_minus);
     let mut impact_mode = None;
+    let mut dg_dt = 0.0;
     let dg: RowDVector<f64> = match event.kind {
         EventKind::Touchdown => {
             let k = event.triggered[0];
@@ -1500,7 +1523,20 @@ fn event_sensitivity(
                 return Ok((unsupported(event, "no normal row"), None));
             };
             match force_guard_gradient(model, event.kind, k, (rt, rn), &fm.lambda, &fm.dlambda) {
-                Some(dg) => dg,
+                Some(dg) => {
+                    // the guard's explicit time dependence through the torques
+                    let dt = DMatrix::from_column_slice(
+                        fm.dlambda_dt.len(),
+                        1,
+                        fm.dlambda_dt.as_slice(),
+                    );
+                    if let Some(r) =
+                        force_guard_gradient(model, event.kind, k, (rt, rn), &fm.lambda, &dt)
+                    {
+                        dg_dt = r[0];
+                    }
+                    dg
+                }
                 None => {
                     return Ok((
                         unsupported(event, "slip of a contact without a tangential row"),
@@ -1585,7 +1621,7 @@ fn event_sensitivity(
         time_gradient: None,
         impact_mode,
     };
-    if let Err(status) = saltation(&dr, &fm.f, &fm.f, &dg) {
+    if let Err(status) = saltation_with_rate(&dr, &fm.f, &fm.f, &dg, dg_dt) {
         es.status = status;
         return Ok((es, None));
     }
@@ -1614,11 +1650,11 @@ fn event_sensitivity(
             return Ok((es, None));
         }
     };
-    let parts = match saltation(&dr, &fm.f, &f_plus, &dg) {
+    let parts = match saltation_with_rate(&dr, &fm.f, &f_plus, &dg, dg_dt) {
         Ok(x) => {
             es.saltation = Some(x);
             Some(EventParts {
-                den: (&dg * &fm.f)[0],
+                den: (&dg * &fm.f)[0] + dg_dt,
                 f_minus: fm.f,
                 f_plus,
                 dr,

@@ -224,7 +224,13 @@ fn arm_swung_from_a_touchdown_follows_its_time_in_closed_form() {
 fn memory_not_differentiated_is_a_typed_error() {
     let sim = dropped_arm(r#"{ kind = "hold", angle_rad = "theta + 0.1" }"#, 0.4);
     let run = sim.run().unwrap();
-    assert!(run.execution.segments.last().unwrap().controller.has_event_memory());
+    assert!(run
+        .execution
+        .segments
+        .last()
+        .unwrap()
+        .controller
+        .has_event_memory());
     match run_sensitivity(&run) {
         Err(SensitivityError::EventMemoryWithoutPartials { t, .. }) => {
             assert!(t >= run.execution.events[0].t)
@@ -233,6 +239,86 @@ fn memory_not_differentiated_is_a_typed_error() {
     }
     let sim = dropped_arm(r#"{ kind = "hold", angle_rad = 3.0 }"#, 0.4);
     let run = sim.run().unwrap();
-    assert!(!run.execution.segments.last().unwrap().controller.has_event_memory());
+    assert!(!run
+        .execution
+        .segments
+        .last()
+        .unwrap()
+        .controller
+        .has_event_memory());
     assert!(run_sensitivity(&run).unwrap().state_jacobian.is_some());
+}
+
+/// The behaviour's `∂Υ/∂t` (`Controller::time_partials`, the guard's time dependence at
+/// force events) against central differences of its torque in time at a fixed state: a
+/// servo that tracks a swing (inside its limit, and saturated: 0) and an interpolated
+/// torque schedule, away from the motion's knots and the schedule's breakpoints.
+#[test]
+fn time_partials_match_central_differences_of_the_torque() {
+    let robot = RobotDescription::from_toml_str(
+        r#"
+        name = "two arms"
+        [body]
+        mass_kg = 2.0
+        inertia_kg_m2 = 0.05
+        [[legs]]
+        name = "a"
+        hip_m = [0.1, 0.0]
+        [[legs.links]]
+        length_m = 0.1
+        mass_kg = 0.1
+        inertia_kg_m2 = 1e-4
+        com_m = [0.0, 0.05]
+        [[legs]]
+        name = "b"
+        hip_m = [-0.1, 0.0]
+        [[legs.links]]
+        length_m = 0.1
+        mass_kg = 0.1
+        inertia_kg_m2 = 1e-4
+        com_m = [0.0, 0.05]
+        "#,
+    )
+    .unwrap();
+    for limit in [50.0, 0.5] {
+        let behaviour = Behaviour::from_toml_str(&format!(
+            r#"
+            name = "tracking"
+            [[joints]]
+            joint = "a[0]"
+            [[joints.phases]]
+            name = "go"
+            motion = {{ kind = "swing", target_rad = 1.5, speed_rad_s = 3.0, accel_rad_s2 = 40.0 }}
+            torque = {{ kind = "servo", kp_n_m_per_rad = 8.0, kd_n_m_s_per_rad = 0.4, torque_limit_n_m = {limit} }}
+            [[joints]]
+            joint = "b[0]"
+            [[joints.phases]]
+            name = "push"
+            torque = {{ kind = "schedule", times_s = [0.0, 0.2, 0.5], torques_n_m = [0.0, 1.5, -0.5] }}
+            "#
+        ))
+        .unwrap();
+        let mut s = Scenario::new(robot.clone(), vec![0.2, -0.1, 0.0, -1.0, 0.0]);
+        s.behaviour = behaviour;
+        let sim = Simulation::new(&s).unwrap();
+        let c = &*sim.controller;
+        let (q, qd) = ([0.25, -0.1, 0.0, -1.0, 0.0], [0.5, 0.0, 0.0, 0.0, 0.0]);
+        let mode = selfmanip_core::ContactMode::FLIGHT;
+        for t in [0.03, 0.11, 0.27, 0.41] {
+            let mut d = [0.0; 2];
+            assert!(c.time_partials(t, &q, &qd, mode, &mut d));
+            let h = 1e-6;
+            let (mut tp, mut tm) = ([0.0; 2], [0.0; 2]);
+            c.torque(t + h, &q, &qd, mode, &mut tp);
+            c.torque(t - h, &q, &qd, mode, &mut tm);
+            for j in 0..2 {
+                let fd = (tp[j] - tm[j]) / (2.0 * h);
+                assert!(
+                    (d[j] - fd).abs() < 1e-6 * (1.0 + fd.abs()),
+                    "limit {limit} t {t} joint {j}: {} vs {fd}",
+                    d[j]
+                );
+            }
+        }
+    }
 }

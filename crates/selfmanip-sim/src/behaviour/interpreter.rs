@@ -17,8 +17,8 @@ use super::memory::StartedLaw;
 use crate::expr::Expr;
 use crate::motion::JointMotion;
 use motor::Actuator;
-use selfmanip_core::ContactMode;
 use nalgebra::DMatrix;
+use selfmanip_core::ContactMode;
 use selfmanip_hybrid::{
     Controller, ControllerPartials, Event, EventKind, EventMemoryPartials, MemoryTimeEvent,
     TimeEvent,
@@ -176,13 +176,14 @@ impl MotionLaw {
                 target,
                 speed,
                 accel,
-            } => c(target).zip(c(speed)).zip(c(accel)).map(|((target, speed), accel)| {
-                StartedLaw::Swing {
+            } => c(target)
+                .zip(c(speed))
+                .zip(c(accel))
+                .map(|((target, speed), accel)| StartedLaw::Swing {
                     target,
                     speed,
                     accel,
-                }
-            }),
+                }),
             MotionLaw::Park { target, accel } => c(target)
                 .zip(c(accel))
                 .map(|(target, accel)| StartedLaw::Park { target, accel }),
@@ -294,9 +295,11 @@ impl ProgramMemory {
     fn keep_motions_started_by(&mut self, now: f64) {
         let keep: Vec<bool> = self.motions.iter().map(|m| m.t0() <= now).collect();
         let mut k = keep.iter();
-        self.motions.retain(|_| *k.next().expect("one flag per motion"));
+        self.motions
+            .retain(|_| *k.next().expect("one flag per motion"));
         let mut k = keep.iter();
-        self.origins.retain(|_| *k.next().expect("one flag per motion"));
+        self.origins
+            .retain(|_| *k.next().expect("one flag per motion"));
     }
 }
 
@@ -512,7 +515,11 @@ impl BehaviourController {
         let s = &self.plan.programs[p].phases[j].start;
         let mut best: Option<(f64, TimeOrigin)> = None;
         let mut offer = |c: f64, from: TimeOrigin| {
-            let c = if armed > c { (armed, armed_from) } else { (c, from) };
+            let c = if armed > c {
+                (armed, armed_from)
+            } else {
+                (c, from)
+            };
             if best.is_none_or(|b| c.0 < b.0) {
                 best = Some(c);
             }
@@ -743,12 +750,62 @@ impl Controller for BehaviourController {
             .collect()
     }
 
+    /// `∂Υ/∂t` at a fixed state: a `servo` that tracks the joint's motion (inside its limit)
+    /// `kp ω* + kd α*`; a `schedule` between breakpoints (interpolated) its slope; every other
+    /// law 0 (`motor`: its command is constant, a function of the state only).
+    fn time_partials(
+        &self,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        mode: ContactMode,
+        dtau_dt: &mut [f64],
+    ) -> bool {
+        let plan = &*self.plan;
+        for (p, prog) in plan.programs.iter().enumerate() {
+            let j = prog.joint;
+            dtau_dt[j] = match &prog.phases[self.current(p, t, q)].torque {
+                TorqueLaw::Servo {
+                    target: None,
+                    kp,
+                    kd,
+                    limit,
+                    only_in_contact,
+                } if !(*only_in_contact && mode.normal_bits() & prog.contacts == 0) => {
+                    let u = self.servo_command(p, t, None, (*kp, *kd), q[j], qd[j]);
+                    if u.abs() < *limit {
+                        let (_, w, a) = self.reference(p, t);
+                        kp * w + kd * a
+                    } else {
+                        0.0
+                    }
+                }
+                TorqueLaw::Schedule {
+                    times,
+                    torques,
+                    hold: false,
+                } => {
+                    let i = times.partition_point(|&x| x <= t);
+                    if i == 0 || i == times.len() {
+                        0.0
+                    } else {
+                        (torques[i] - torques[i - 1]) / (times[i] - times[i - 1])
+                    }
+                }
+                _ => 0.0,
+            };
+        }
+        true
+    }
+
     /// Whether a motion depends on an event's start (or in a way not differentiated), or a
     /// phase starts a delay after an event (a named event's, or another phase's start).
     fn has_event_memory(&self) -> bool {
         self.programs.iter().any(|m| {
             m.origins.iter().any(|o| *o != MotionOrigin::Fixed)
-                || m.timeline.iter().any(|e| e.2.is_some_and(|(_, tk)| e.0 != tk))
+                || m.timeline
+                    .iter()
+                    .any(|e| e.2.is_some_and(|(_, tk)| e.0 != tk))
         })
     }
 
@@ -824,11 +881,7 @@ impl Controller for BehaviourController {
                 let nq = self.nq.unwrap_or(0);
                 let mut dt_dm = vec![0.0; 1 + 2 * nq];
                 dt_dm[0] = 1.0;
-                out.push(MemoryTimeEvent {
-                    t,
-                    event: k,
-                    dt_dm,
-                });
+                out.push(MemoryTimeEvent { t, event: k, dt_dm });
             }
         }
         out

@@ -145,7 +145,10 @@ impl StartedLaw {
         let jerk = motion.jerk(t);
         let r = self.reference_dual(motion, theta0, omega0, t);
         let mut out = [[0.0; 3]; 3];
-        for (i, (dt, x)) in [(-w, r[0]), (-a, r[1]), (-jerk, r[2])].into_iter().enumerate() {
+        for (i, (dt, x)) in [(-w, r[0]), (-a, r[1]), (-jerk, r[2])]
+            .into_iter()
+            .enumerate()
+        {
             // before the start the motion is its start (at its start speed): no t₀ term
             out[i] = [if t < t0 { 0.0 } else { dt }, x.d[0], x.d[1]];
         }
@@ -251,11 +254,50 @@ mod tests {
     #[test]
     fn motion_partials_match_central_differences() {
         let laws = [
-            (StartedLaw::Swing { target: 1.2, speed: 15.0, accel: 600.0 }, 0.3, -2.0),
-            (StartedLaw::Swing { target: -1.0, speed: 15.0, accel: 600.0 }, 0.4, -20.0),
-            (StartedLaw::Swing { target: 1.0, speed: 12.0, accel: 400.0 }, 0.9, 3.0),
-            (StartedLaw::Park { target: -0.6, accel: 400.0 }, 0.2, 3.0),
-            (StartedLaw::Swing { target: 0.5, speed: 15.0, accel: 600.0 }, 0.45, -4.0),
+            (
+                StartedLaw::Swing {
+                    target: 1.2,
+                    speed: 15.0,
+                    accel: 600.0,
+                },
+                0.3,
+                -2.0,
+            ),
+            (
+                StartedLaw::Swing {
+                    target: -1.0,
+                    speed: 15.0,
+                    accel: 600.0,
+                },
+                0.4,
+                -20.0,
+            ),
+            (
+                StartedLaw::Swing {
+                    target: 1.0,
+                    speed: 12.0,
+                    accel: 400.0,
+                },
+                0.9,
+                3.0,
+            ),
+            (
+                StartedLaw::Park {
+                    target: -0.6,
+                    accel: 400.0,
+                },
+                0.2,
+                3.0,
+            ),
+            (
+                StartedLaw::Swing {
+                    target: 0.5,
+                    speed: 15.0,
+                    accel: 600.0,
+                },
+                0.45,
+                -4.0,
+            ),
         ];
         let t0 = 0.1;
         let mut worst: f64 = 0.0;
@@ -270,7 +312,11 @@ mod tests {
                 let r = law.reference_dual(&m, th, w, t);
                 let e = m.eval(t);
                 for (x, y) in r.iter().zip([e.0, e.1, e.2]) {
-                    assert!((x.v - y).abs() <= 1e-11 * (1.0 + y.abs()), "{law:?} {t}: {} {y}", x.v);
+                    assert!(
+                        (x.v - y).abs() <= 1e-11 * (1.0 + y.abs()),
+                        "{law:?} {t}: {} {y}",
+                        x.v
+                    );
                 }
                 let p = law.partials(&m, th, w, t);
                 let h = 1e-6;
@@ -291,7 +337,12 @@ mod tests {
                     for row in 0..3 {
                         let err = (p[row][c] - fd[row]).abs() / (1.0 + fd[row].abs());
                         worst = worst.max(err);
-                        assert!(err < 1e-5, "{law:?} t {t} row {row} col {c}: {} vs {}", p[row][c], fd[row]);
+                        assert!(
+                            err < 1e-5,
+                            "{law:?} t {t} row {row} col {c}: {} vs {}",
+                            p[row][c],
+                            fd[row]
+                        );
                     }
                 }
             }
