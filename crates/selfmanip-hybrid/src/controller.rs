@@ -8,7 +8,11 @@
 //! controller given to [`crate::simulate()`] is left as it was, ready for the next run), and
 //! every segment records the controller it ran with ([`crate::Segment::controller`]), so a
 //! segment can be evaluated again later — trajectories, contact forces, energy — exactly as
-//! it ran, without replaying the execution.
+//! it ran, without replaying the execution. For the sensitivities
+//! ([`crate::sensitivity`]), a controller whose outputs depend on the time or state of an
+//! event beyond the event itself says so ([`Controller::has_event_memory`]) and gives the
+//! partials of its outputs with respect to them ([`Controller::memory_partials`],
+//! [`Controller::memory_time_events`]).
 use crate::execution::Event;
 use nalgebra::DMatrix;
 use selfmanip_core::ContactMode;

@@ -65,13 +65,27 @@
 //! Jacobian-times-matrix products ([`selfmanip_core::tangent::dynamics_jvp`]): never the
 //! full `2nq × 2nq` matrices along the flows.
 //!
+//! **A controller's memory of events** ([`Controller::has_event_memory`]: a motion started
+//! from an event's state, a phase that starts a delay after an event) is part of the tangent:
+//! the memory is the remembered events' `(t_k, x_k⁺)`, whose tangents
+//! `M_k = (Dt_k, X⁺ + f⁺ Dt_k)` the columns carry; along a flow `Ẋ = F X + ∂f/∂m M`
+//! ([`Controller::memory_partials`]), at an event `Dt_e = −(D_xg X + D_mg M)/ġ` and
+//! `X⁺ = Ξ X + (f⁺ − D_xR f⁻) D_mg M / ġ`, at a time event whose instant moves with the memory
+//! `X += (f⁻ − f⁺) dt_b/dm M` ([`Controller::memory_time_events`]). A force guard's rate
+//! `ġ = D_xg f⁻ + ∂g/∂t` includes the torques' explicit time dependence
+//! ([`Controller::time_partials`], 0 when not given). [`execution_sensitivity`] takes its
+//! state Jacobian and event time gradients from the columns when a controller has memory;
+//! a controller with memory and no memory partials is a typed error
+//! ([`SensitivityError::EventMemoryWithoutPartials`]). `docs/sensitivity.md` derives it.
+//!
 //! **Not covered yet.** A run whose state sits on a guard that does not fire — a contact set
 //! chosen at a complementarity boundary, e.g. a sliding contact started at zero sliding
 //! velocity — gets the one-sided derivative of the sequence it realised, unflagged;
 //! controllers without [`Controller::partials`] (the generic actuator models of
-//! [`crate::Actuated`]) stop with a typed error; a controller whose memory depends on the
-//! state at an event (a motion started from the event's state) is differentiated with that
-//! memory held fixed (the RHex leap flags the cases where it matters).
+//! [`crate::Actuated`]) stop with a typed error; a controller with event memory that does not
+//! say so ([`Controller::has_event_memory`] false, the default — the RHex leap controller,
+//! which flags the cases where it matters itself) is differentiated with that memory held
+//! fixed.
 use crate::controller::{Controller, ControllerPartials, EventMemoryPartials, TimeEvent};
 use crate::error::HybridError;
 use crate::execution::{Event, EventKind, Execution, Segment, Termination};
@@ -156,7 +170,9 @@ pub struct EventSensitivity {
 /// Sensitivities of an execution to its initial state `x(0) = (q0, q̇0)`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Sensitivity {
-    /// `Φ` of each segment (`2nq × 2nq`; the identity for a segment of zero duration).
+    /// `Φ` of each segment (`2nq × 2nq`; the identity for a segment of zero duration), with
+    /// the controller's event memory held fixed (when a controller has memory, the state
+    /// Jacobian is not their product with the saltations: see the module docs).
     pub segment_flows: Vec<DMatrix<f64>>,
     /// One entry per event of the execution, in order.
     pub events: Vec<EventSensitivity>,

@@ -10,9 +10,10 @@
 //!   `∂t_k/∂ż₀ = −t_k/ż_k` of a free fall;
 //! - a memory the behaviour does not differentiate is a typed error, not a number.
 use nalgebra::DMatrix;
+use selfmanip_core::ContactMode;
 use selfmanip_core::RobotDescription;
 use selfmanip_hybrid::sensitivity::SensitivityError;
-use selfmanip_hybrid::{simulate, EventKind};
+use selfmanip_hybrid::{simulate, Controller, ControllerPartials, EventKind};
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::periodic::run_sensitivity;
 use selfmanip_sim::{Scenario, Simulation};
@@ -114,14 +115,36 @@ fn hop_state_jacobian_matches_central_differences() {
         let jac = s.state_jacobian.expect("every event differentiated");
         let fd = central_differences(&sim, &(0..10).collect::<Vec<_>>(), 1e-6);
         let err = (&jac - &fd).amax() / fd.amax();
-        eprintln!("T = {t_final}: |J − FD| / |FD| = {err:e}");
+        // held fixed (the same run, its controller not saying it remembers events)
+        let forgetful = Forgetful(sim.controller.clone_box());
+        let nq = sim.model.nq();
+        let exec = simulate(
+            &sim.model,
+            &sim.terrain,
+            &forgetful,
+            sim.mode0,
+            &sim.q0,
+            &sim.qd0,
+            t_final,
+            sim.options,
+        )
+        .unwrap();
+        assert_eq!(exec.q[..nq], run.execution.q[..nq]);
+        let held = selfmanip_hybrid::execution_sensitivity(&sim.model, &sim.terrain, &exec)
+            .unwrap()
+            .state_jacobian
+            .unwrap();
+        let err_held = (&held - &fd).amax() / fd.amax();
+        eprintln!("T = {t_final}: |J − FD| / |FD| = {err:e} (held fixed: {err_held:e})");
         assert!(err < 1e-6, "{err:e}");
+        assert!(err_held > 0.5, "{err_held:e}");
     }
 }
 
 /// A body dropped on a sticking point under its centre of mass, carrying a massless arm that
-/// holds 2.6 rad in the air and, from the touchdown on, runs `landed` (a motion started at
-/// the event, from the arm's state there).
+/// holds 2.6 rad in the air and, from the touchdown on, runs `landed` (the rest of the
+/// touchdown's phase and any phases after it: a motion started at the event from the arm's
+/// state there, or a delay after it).
 fn dropped_arm(landed: &str, t_final: f64) -> Simulation {
     let robot = RobotDescription::from_toml_str(
         r#"
@@ -152,7 +175,7 @@ fn dropped_arm(landed: &str, t_final: f64) -> Simulation {
         [[joints.phases]]
         name = "landed"
         start = {{ on = "touch", contacts = ["belly"] }}
-        motion = {landed}
+        {landed}
         "#
     ))
     .unwrap();
@@ -173,12 +196,36 @@ fn dropped_arm(landed: &str, t_final: f64) -> Simulation {
 /// its centre of mass); the arm, on its hold there, starts a swing to 3.4 rad at 2 rad/s
 /// (50 rad/s² ramps of 0.06 s), and is tracked exactly (it starts on its reference). At
 /// `T = 0.4 s` it cruises, so `θ(T) = Θ(T − t_k)` moves with the touchdown only:
-/// `∂θ/∂z₀ = −ω* ∂t_k/∂z₀ = ω*/ż_k`, `∂θ/∂ż₀ = ω* t_k/ż_k`, `∂θ̇/∂(z₀, ż₀) = 0` (α* = 0),
-/// and the body at rest: `∂(z, ż)(T)/∂(z₀, ż₀) = 0`. With the memory held fixed the arm's
-/// columns were 0.
+/// `∂θ/∂z₀ = −ω* ∂t_k/∂z₀ = ω*/ż_k`, `∂θ/∂ż₀ = ω* t_k/ż_k` (ω* = θ̇(T)), and the body at
+/// rest: `∂(z, ż)(T)/∂(z₀, ż₀) = 0`. The same — every motion is timed from `t_k`, so
+/// `θ(T) = F(T − t_k)` — when the swing is a phase of its own that starts `δ = 0.05 s` after
+/// the touchdown's phase (a timed phase's motion started from the hold's reference at
+/// `t_k + δ`), and when a park to 3.0 rad follows the swing 0.1 s after the touchdown (a
+/// timed phase's motion started from the swing's reference, itself from the event: the
+/// chain of both). With the memory held fixed the arm's columns were 0.
 #[test]
 fn arm_swung_from_a_touchdown_follows_its_time_in_closed_form() {
-    let landed = r#"{ kind = "swing", target_rad = 3.4, speed_rad_s = 2.0, accel_rad_s2 = 50.0 }"#;
+    let swing = r#"{ kind = "swing", target_rad = 3.4, speed_rad_s = 2.0, accel_rad_s2 = 50.0 }"#;
+    let at_touchdown = format!("motion = {swing}");
+    let delayed = format!(
+        r#"[[joints.phases]]
+        name = "swing"
+        start = {{ on = "phase", phase = "arm[0].landed", delay_s = 0.05 }}
+        motion = {swing}"#
+    );
+    let chained = format!(
+        r#"motion = {swing}
+        [[joints.phases]]
+        name = "slow"
+        start = {{ on = "phase", phase = "arm[0].landed", delay_s = 0.1 }}
+        motion = {{ kind = "park", target_rad = 3.0, accel_rad_s2 = 20.0 }}"#
+    );
+    for landed in [at_touchdown, delayed, chained] {
+        arm_closed_form(&landed);
+    }
+}
+
+fn arm_closed_form(landed: &str) {
     let sim = dropped_arm(landed, 0.4);
     let run = sim.run().unwrap();
     assert_eq!(run.execution.events.len(), 1);
@@ -188,13 +235,12 @@ fn arm_swung_from_a_touchdown_follows_its_time_in_closed_form() {
     let zd_k = v0 + g * tk;
     let s = run_sensitivity(&run).unwrap();
     let j = s.state_jacobian.unwrap();
-    let (iz, izd, ith, ithd) = (2, 6, 0, 4);
-    let w = 2.0;
+    let (iz, izd, ith) = (2, 6, 0);
+    // the arm is on its reference (tracked exactly from rest on the hold): θ(T) = F(T − t_k)
+    let w = run.execution.qd[0];
     let expect = [
         ((ith, iz), w / zd_k),
         ((ith, izd), w * tk / zd_k),
-        ((ithd, iz), 0.0),
-        ((ithd, izd), 0.0),
         ((iz, iz), 0.0),
         ((iz, izd), 0.0),
         ((izd, izd), 0.0),
@@ -222,7 +268,10 @@ fn arm_swung_from_a_touchdown_follows_its_time_in_closed_form() {
 /// no memory at all (its reference does not depend on the event).
 #[test]
 fn memory_not_differentiated_is_a_typed_error() {
-    let sim = dropped_arm(r#"{ kind = "hold", angle_rad = "theta + 0.1" }"#, 0.4);
+    let sim = dropped_arm(
+        r#"motion = { kind = "hold", angle_rad = "theta + 0.1" }"#,
+        0.4,
+    );
     let run = sim.run().unwrap();
     assert!(run
         .execution
@@ -237,7 +286,7 @@ fn memory_not_differentiated_is_a_typed_error() {
         }
         other => panic!("{other:?}"),
     }
-    let sim = dropped_arm(r#"{ kind = "hold", angle_rad = 3.0 }"#, 0.4);
+    let sim = dropped_arm(r#"motion = { kind = "hold", angle_rad = 3.0 }"#, 0.4);
     let run = sim.run().unwrap();
     assert!(!run
         .execution
@@ -321,4 +370,171 @@ fn time_partials_match_central_differences_of_the_torque() {
             }
         }
     }
+}
+
+/// A controller that runs `inner` but does not say it remembers events: the sensitivities
+/// then hold its memory fixed, as the engine did before the memory entered the tangent.
+struct Forgetful(Box<dyn Controller>);
+
+impl Clone for Forgetful {
+    fn clone(&self) -> Self {
+        Forgetful(self.0.clone_box())
+    }
+}
+
+impl Controller for Forgetful {
+    fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]) {
+        self.0.torque(t, q, qd, mode, tau)
+    }
+    fn free_joint_qdd(&self, t: f64, q: &[f64], qd: &[f64], free: &[usize], out: &mut [f64]) {
+        self.0.free_joint_qdd(t, q, qd, free, out)
+    }
+    fn on_event(&mut self, e: &selfmanip_hybrid::Event) {
+        self.0.on_event(e)
+    }
+    fn partials(
+        &self,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        mode: ContactMode,
+        free: &[usize],
+        out: &mut ControllerPartials,
+    ) -> bool {
+        self.0.partials(t, q, qd, mode, free, out)
+    }
+    fn time_partials(
+        &self,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        mode: ContactMode,
+        out: &mut [f64],
+    ) -> bool {
+        self.0.time_partials(t, q, qd, mode, out)
+    }
+    fn time_events(&self, names: &[&str]) -> Vec<selfmanip_hybrid::TimeEvent> {
+        self.0.time_events(names)
+    }
+}
+
+/// The hopper in place with `hop_periodic.toml`'s laws but a knee that pushes only
+/// `delay` after the touchdown (a phase started on the stance phase with a delay: event
+/// memory), as a periodic orbit through the apex section: the engine's section Jacobian and
+/// its multipliers against central differences of whole apex-to-apex runs (the route of
+/// `periodic_hopper.rs`), and the same with the memory held fixed (`Forgetful`), which is
+/// what the monodromy was before.
+fn delayed_push_hopper() -> Simulation {
+    let robot = RobotDescription::from_file(&data("hopper.toml")).unwrap();
+    let behaviour = Behaviour::from_toml_str(
+        r#"
+        name = "hop-periodic-delayed-push"
+        [parameters]
+        a_land = 0.5
+        k_land = "-2 * a_land"
+        [free_joints]
+        kp_per_s2 = 2500.0
+        kd_per_s = 100.0
+        [[joints]]
+        joint = "leg[0]"
+        [[joints.phases]]
+        name = "limp"
+        motion = { kind = "hold", angle_rad = "a_land" }
+        [[joints]]
+        joint = "leg[1]"
+        repeat_from = "stance"
+        [[joints.phases]]
+        name = "air"
+        motion = { kind = "hold", angle_rad = "k_land" }
+        [[joints.phases]]
+        name = "stance"
+        start = { on = "touch" }
+        torque = { kind = "servo", target_rad = "k_land", kp_n_m_per_rad = 60.0, kd_n_m_s_per_rad = 0.6 }
+        [[joints.phases]]
+        name = "push"
+        start = { on = "phase", phase = "leg[1].stance", delay_s = 0.04 }
+        torque = { kind = "servo", target_rad = -0.5, kp_n_m_per_rad = 60.0, kd_n_m_s_per_rad = 0.6 }
+        [[joints.phases]]
+        name = "flight"
+        start = { on = "release" }
+        motion = { kind = "hold", angle_rad = "k_land" }
+        "#,
+    )
+    .unwrap();
+    let a = 0.5;
+    let mut s = Scenario::new(robot, vec![a, -2.0 * a, 0.0, -0.95, 0.0]);
+    s.behaviour = behaviour;
+    s.options.t_final_s = 10.0;
+    Simulation::new(&s).unwrap()
+}
+
+/// The orbit (touchdown, liftoff, apex; 0.89 s): section Jacobian against central
+/// differences (h = 1e-6) of whole apex-to-apex runs 2.5e-8 (held fixed: 6.2e-2, and the
+/// height's multiplier −0.255 instead of 0.669); its multipliers away from 1 (2.7023,
+/// 0.6690) to 5e-8.
+#[test]
+fn periodic_orbit_with_a_delayed_push_matches_central_differences() {
+    use selfmanip_hybrid::periodic::{
+        find_periodic_orbit, floquet_multipliers, return_map, PeriodicOptions,
+    };
+    let sim = delayed_push_hopper();
+    let opts = PeriodicOptions::default();
+    let guess: Vec<f64> = sim.q0.iter().chain(&sim.qd0).copied().collect();
+    let o = find_periodic_orbit(&sim.model, &sim.terrain, &*sim.controller, &guess, &opts).unwrap();
+    eprintln!(
+        "x* {:?}, T {} s, events {:?}, residual {:e}",
+        o.x, o.period_s, o.events, o.residual
+    );
+    let idx = &o.section_coordinates;
+    let map = |ctrl: &dyn Controller, x: &[f64]| {
+        let rm = return_map(&sim.model, &sim.terrain, ctrl, x, false, &opts).unwrap();
+        let kinds: Vec<EventKind> = rm.execution.events.iter().map(|e| e.kind).collect();
+        (rm.x1, kinds)
+    };
+    let (_, kinds) = map(&*sim.controller, &o.x);
+    let h = 1e-6;
+    let mut fd = DMatrix::zeros(idx.len(), idx.len());
+    for (k, &c) in idx.iter().enumerate() {
+        let (mut xp, mut xm) = (o.x.clone(), o.x.clone());
+        xp[c] += h;
+        xm[c] -= h;
+        let ((yp, sp), (ym, sm)) = (map(&*sim.controller, &xp), map(&*sim.controller, &xm));
+        assert_eq!(sp, kinds);
+        assert_eq!(sm, kinds);
+        for (i, &r) in idx.iter().enumerate() {
+            fd[(i, k)] = (yp[r] - ym[r]) / (2.0 * h);
+        }
+    }
+    let rel = |a: &DMatrix<f64>| (a - &fd).amax() / fd.amax().max(1.0);
+    let e = rel(&o.section_jacobian);
+    let fd_mult = floquet_multipliers(&fd);
+    eprintln!("section Jacobian vs central differences {e:e}");
+    eprintln!("multipliers {:?}\nFD {:?}", o.section_multipliers, fd_mult);
+    // held fixed: the same search's Jacobian at the same point with a forgetful controller
+    let forgetful = Forgetful(sim.controller.clone_box());
+    let rm = return_map(&sim.model, &sim.terrain, &forgetful, &o.x, true, &opts).unwrap();
+    let dp = rm.jacobian.expect("defined");
+    let held = DMatrix::from_fn(idx.len(), idx.len(), |i, j| dp[(idx[i], idx[j])]);
+    let e_held = rel(&held);
+    eprintln!(
+        "held fixed: {e_held:e}, multipliers {:?}",
+        floquet_multipliers(&held)
+    );
+    assert!(e < 1e-6, "{e:e}");
+    assert!(e_held > 1e-2, "{e_held:e}");
+    // the multipliers away from 1 (those at 1 form a Jordan block: ill-conditioned), each
+    // against the nearest of the differences'
+    let worst = o
+        .section_multipliers
+        .iter()
+        .filter(|l| (*l - nalgebra::Complex::new(1.0, 0.0)).norm() > 1e-3)
+        .map(|l| {
+            fd_mult
+                .iter()
+                .map(|m| (l - m).norm())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max);
+    eprintln!("multipliers vs central differences {worst:e}");
+    assert!(worst < 1e-6, "{worst:e}");
 }

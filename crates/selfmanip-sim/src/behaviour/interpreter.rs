@@ -161,6 +161,22 @@ impl MotionLaw {
     /// a park with constant numbers), or in a way not differentiated (numbers that depend
     /// on `theta`, `omega`).
     fn origin_at_event(&self, event: usize, joint: usize, nq: usize) -> MotionOrigin {
+        match self.constant_law() {
+            Ok(Some(law)) => MotionOrigin::Event {
+                event,
+                joint,
+                nq,
+                law,
+            },
+            Ok(None) => MotionOrigin::Fixed,
+            Err(()) => MotionOrigin::Unsupported,
+        }
+    }
+
+    /// The law with its numbers, when they are constants: `Ok(None)` for a hold at a
+    /// constant angle (its reference depends on nothing), `Err(())` when a number depends on
+    /// `theta`/`omega`.
+    fn constant_law(&self) -> Result<Option<StartedLaw>, ()> {
         let c = |v: &Value| match v {
             Value::Const(x) => Some(*x),
             Value::AtStart(..) => None,
@@ -168,8 +184,8 @@ impl MotionLaw {
         let law = match self {
             MotionLaw::Hold { angle } => {
                 return match c(angle) {
-                    Some(_) => MotionOrigin::Fixed,
-                    None => MotionOrigin::Unsupported,
+                    Some(_) => Ok(None),
+                    None => Err(()),
                 }
             }
             MotionLaw::Swing {
@@ -188,15 +204,7 @@ impl MotionLaw {
                 .zip(c(accel))
                 .map(|(target, accel)| StartedLaw::Park { target, accel }),
         };
-        match law {
-            Some(law) => MotionOrigin::Event {
-                event,
-                joint,
-                nq,
-                law,
-            },
-            None => MotionOrigin::Unsupported,
-        }
+        law.map(Some).ok_or(())
     }
 
     fn start(&self, t0: f64, theta: f64, omega: f64) -> JointMotion {
@@ -319,8 +327,18 @@ enum MotionOrigin {
         nq: usize,
         law: StartedLaw,
     },
+    /// A timed phase's own motion started at `s` — `t_k + δ` when `event` is the event `k`
+    /// whose time it is offset from, else a known time — from the reference of motion
+    /// `prev` (an earlier motion of the program) at `s`: it moves with `s` and with that
+    /// reference where either depends on an event.
+    Timed {
+        event: Option<usize>,
+        prev: usize,
+        nq: usize,
+        law: StartedLaw,
+    },
     /// Depends on an event in a way not differentiated (numbers of `theta`/`omega`; a timed
-    /// phase's motion started from a remembered motion or at a remembered time).
+    /// phase's motion whose start and whose previous motion depend on different events).
     Unsupported,
 }
 
@@ -450,9 +468,57 @@ impl BehaviourController {
     /// `θ*, ω*, α*`) and the event `k` it depends on; `None` when it depends on no event,
     /// `Err(())` when it depends on one in a way not differentiated.
     fn reference_memory(&self, p: usize, t: f64) -> Result<Option<(usize, DMatrix<f64>)>, ()> {
+        self.motion_memory(p, self.motion_index(p, t), t)
+    }
+
+    /// [`Self::reference_memory`] of program `p`'s motion `i` at `t`.
+    fn motion_memory(
+        &self,
+        p: usize,
+        i: usize,
+        t: f64,
+    ) -> Result<Option<(usize, DMatrix<f64>)>, ()> {
         let mem = &self.programs[p];
-        let i = self.motion_index(p, t);
         match mem.origins[i] {
+            MotionOrigin::Timed {
+                event,
+                prev,
+                nq,
+                law,
+            } => {
+                // θ₀ = θ_prev(s), ω₀ = ω_prev(s) at s = t_k + δ (or a known time): with
+                // D the derivative over m_k, Ds = e_t (or 0),
+                // Dθ₀ = Dθ_prev(s) + ω_prev(s) Ds, Dω₀ = Dω_prev(s) + α_prev(s) Ds
+                let m = &mem.motions[i];
+                let s = m.t0();
+                let before = self.motion_memory(p, prev, s)?;
+                let k = match (event, &before) {
+                    (Some(a), Some((b, _))) if a != *b => return Err(()),
+                    (Some(a), _) => a,
+                    (None, Some((b, _))) => *b,
+                    (None, None) => return Ok(None),
+                };
+                let cols = 1 + 2 * nq;
+                let mut ds = DMatrix::zeros(1, cols);
+                if event.is_some() {
+                    ds[(0, 0)] = 1.0;
+                }
+                let (_, w_prev, a_prev) = mem.motions[prev].eval(s);
+                let mut d0 = DMatrix::zeros(2, cols);
+                if let Some((_, d)) = &before {
+                    d0.copy_from(&d.rows(0, 2));
+                }
+                let dth0 = d0.row(0) + w_prev * ds.row(0);
+                let dw0 = d0.row(1) + a_prev * ds.row(0);
+                let (theta0, omega0, _) = m.eval(s);
+                let d = law.partials(m, theta0, omega0, t);
+                let mut out = DMatrix::zeros(3, cols);
+                for (r, row) in d.iter().enumerate() {
+                    let v = row[0] * ds.row(0) + row[1] * &dth0 + row[2] * &dw0;
+                    out.row_mut(r).copy_from(&v);
+                }
+                Ok(Some((k, out)))
+            }
             MotionOrigin::Fixed => Ok(None),
             MotionOrigin::Unsupported => Err(()),
             MotionOrigin::Event {
@@ -580,6 +646,7 @@ impl BehaviourController {
     /// at known times after it, each from the reference where it starts.
     fn plan_timed_motions(&mut self, now: f64) {
         let plan = Arc::clone(&self.plan);
+        let nq = self.nq.unwrap_or(0);
         for (p, prog) in plan.programs.iter().enumerate() {
             let mem = &mut self.programs[p];
             if now > NEVER {
@@ -593,11 +660,20 @@ impl BehaviourController {
                 }
                 let i = mem.motions.iter().rposition(|m| m.t0() <= s).unwrap_or(0);
                 let (theta, omega, _) = mem.motions[i].eval(s);
-                // from a reference or at a time that depends on an event: not differentiated
+                // at a time or from a reference that depends on an event: it moves with them
                 let origin = if from.is_none() && mem.origins[i] == MotionOrigin::Fixed {
                     MotionOrigin::Fixed
                 } else {
-                    MotionOrigin::Unsupported
+                    match phase.motion.constant_law() {
+                        Ok(Some(law)) => MotionOrigin::Timed {
+                            event: from.map(|f| f.0),
+                            prev: i,
+                            nq,
+                            law,
+                        },
+                        Ok(None) => MotionOrigin::Fixed,
+                        Err(()) => MotionOrigin::Unsupported,
+                    }
                 };
                 mem.motions.push(phase.motion.start(s, theta, omega));
                 mem.origins.push(origin);
