@@ -545,6 +545,36 @@ impl BehaviourController {
         }
     }
 
+    /// `(kp, kd)` of program `p`'s `torque` when it is a servo that tracks the joint's motion,
+    /// acts (in contact, if it must be) and is inside its limit at `(t, q, q̇)`: where the
+    /// torque moves with the motion's reference.
+    fn tracking_servo(
+        &self,
+        p: usize,
+        torque: &TorqueLaw,
+        t: f64,
+        (q, qd): (&[f64], &[f64]),
+        mode: ContactMode,
+    ) -> Option<(f64, f64)> {
+        let prog = &self.plan.programs[p];
+        let TorqueLaw::Servo {
+            target: None,
+            kp,
+            kd,
+            limit,
+            only_in_contact,
+        } = torque
+        else {
+            return None;
+        };
+        if *only_in_contact && mode.normal_bits() & prog.contacts == 0 {
+            return None;
+        }
+        let j = prog.joint;
+        let u = self.servo_command(p, t, None, (*kp, *kd), q[j], qd[j]);
+        (u.abs() < *limit).then_some((*kp, *kd))
+    }
+
     /// The unsaturated servo command `−kp (q − θ*) − kd (q̇ − ω*)` of program `p` at `t`: the
     /// target at rest, or (`None`) the joint's motion `(θ_ref, ω_ref)`.
     #[inline]
@@ -840,22 +870,13 @@ impl Controller for BehaviourController {
         let plan = &*self.plan;
         for (p, prog) in plan.programs.iter().enumerate() {
             let j = prog.joint;
-            dtau_dt[j] = match &prog.phases[self.current(p, t, q)].torque {
-                TorqueLaw::Servo {
-                    target: None,
-                    kp,
-                    kd,
-                    limit,
-                    only_in_contact,
-                } if !(*only_in_contact && mode.normal_bits() & prog.contacts == 0) => {
-                    let u = self.servo_command(p, t, None, (*kp, *kd), q[j], qd[j]);
-                    if u.abs() < *limit {
-                        let (_, w, a) = self.reference(p, t);
-                        kp * w + kd * a
-                    } else {
-                        0.0
-                    }
-                }
+            let torque = &prog.phases[self.current(p, t, q)].torque;
+            if let Some((kp, kd)) = self.tracking_servo(p, torque, t, (q, qd), mode) {
+                let (_, w, a) = self.reference(p, t);
+                dtau_dt[j] = kp * w + kd * a;
+                continue;
+            }
+            dtau_dt[j] = match torque {
                 TorqueLaw::Schedule {
                     times,
                     torques,
@@ -906,20 +927,11 @@ impl Controller for BehaviourController {
         for (p, prog) in plan.programs.iter().enumerate() {
             let j = prog.joint;
             let free = free_joints.iter().position(|&f| f == j);
-            let servo = match &prog.phases[self.current(p, t, q)].torque {
-                TorqueLaw::Servo {
-                    target: None,
-                    kp,
-                    kd,
-                    limit,
-                    only_in_contact,
-                } if !(*only_in_contact && mode.normal_bits() & prog.contacts == 0) => {
-                    let u = self.servo_command(p, t, None, (*kp, *kd), q[j], qd[j]);
-                    (u.abs() < *limit).then_some((*kp, *kd))
-                }
-                TorqueLaw::Motor { .. } => return false,
-                _ => None,
-            };
+            let torque = &prog.phases[self.current(p, t, q)].torque;
+            if matches!(torque, TorqueLaw::Motor { .. }) {
+                return false;
+            }
+            let servo = self.tracking_servo(p, torque, t, (q, qd), mode);
             if servo.is_none() && free.is_none() {
                 continue;
             }
