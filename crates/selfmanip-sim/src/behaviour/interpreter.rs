@@ -907,12 +907,13 @@ impl Controller for BehaviourController {
     }
 
     /// `∂Υ/∂m_k`, `∂q̈_free/∂m_k` of the motion in force of each program, where it started
-    /// at event `k` from the event's state (`memory.rs`): a `servo` that tracks the motion
+    /// at event `k` from the event's state, or (a timed phase's own motion) at a time or
+    /// from a reference that depends on it (`memory.rs`): a `servo` that tracks the motion
     /// (inside its limit) `kp ∂θ*/∂m_k + kd ∂ω*/∂m_k` on its joint's row, a free joint
     /// `∂α*/∂m_k + kp_f ∂θ*/∂m_k + kd_f ∂ω*/∂m_k`. `false` where the motion in force depends on
-    /// an event in a way not differentiated ([`MotionOrigin::Unsupported`]: numbers of
-    /// `theta`/`omega`; a timed phase's motion started from a remembered motion or at a
-    /// remembered time), or where [`Controller::partials`] gives none.
+    /// an event in a way not differentiated (numbers of `theta`/`omega`; a timed phase's
+    /// motion whose start and whose previous motion depend on two different events), or
+    /// where [`Controller::partials`] gives none (a `motor`).
     fn memory_partials(
         &self,
         t: f64,
