@@ -8,7 +8,11 @@
 //! controller given to [`crate::simulate()`] is left as it was, ready for the next run), and
 //! every segment records the controller it ran with ([`crate::Segment::controller`]), so a
 //! segment can be evaluated again later — trajectories, contact forces, energy — exactly as
-//! it ran, without replaying the execution.
+//! it ran, without replaying the execution. For the sensitivities
+//! ([`crate::sensitivity`]), a controller whose outputs depend on the time or state of an
+//! event beyond the event itself says so ([`Controller::has_event_memory`]) and gives the
+//! partials of its outputs with respect to them ([`Controller::memory_partials`],
+//! [`Controller::memory_time_events`]).
 use crate::execution::Event;
 use nalgebra::DMatrix;
 use selfmanip_core::ContactMode;
@@ -72,6 +76,82 @@ pub trait Controller: ControllerClone + Send + Sync {
     fn time_events(&self, _names: &[&str]) -> Vec<TimeEvent> {
         Vec::new()
     }
+    /// `∂Υ/∂t` at a fixed state — the explicit time dependence of [`Self::torque`] (a servo
+    /// that tracks a motion, a torque schedule's ramp) — written into `dtau_dt` (zeroed, one
+    /// entry per joint). Returns whether the controller provides it; the default does not,
+    /// and the sensitivities then take `∂Υ/∂t = 0`. It enters where a guard depends on the
+    /// torques: a force event's (liftoff, slip) rate along the flow is
+    /// `ġ = D_xg f⁻ + ∂g/∂t`, with `∂g/∂t` from `∂λ/∂Υ ∂Υ/∂t`.
+    fn time_partials(
+        &self,
+        _t: f64,
+        _q: &[f64],
+        _qd: &[f64],
+        _mode: ContactMode,
+        _dtau_dt: &mut [f64],
+    ) -> bool {
+        false
+    }
+    /// Whether the controller's outputs depend on the time or the state of an event it was
+    /// told of ([`Self::on_event`]) beyond the event itself — a motion started from the
+    /// event's state, a phase that starts a delay after the event: **event memory**. Default
+    /// `false` (outputs that depend on the state and on which events happened only). The
+    /// sensitivities of [`crate::sensitivity`] then carry the remembered events' tangents
+    /// and need [`Self::memory_partials`] and [`Self::memory_time_events`]; a controller that
+    /// says it has event memory but gives no partials stops them with a typed error
+    /// (`SensitivityError::EventMemoryWithoutPartials`) rather than hold the memory fixed.
+    fn has_event_memory(&self) -> bool {
+        false
+    }
+    /// The partial derivatives of [`Self::torque`] and [`Self::free_joint_qdd`] at the same
+    /// arguments with respect to the events the controller remembers, one
+    /// [`EventMemoryPartials`] per remembered event that they depend on, appended to `out`
+    /// (which arrives empty). Events are numbered by the order the controller was told of
+    /// them (0: the first [`Self::on_event`]); each event's memory is `(t_k, q_k, q̇_k⁺)`, the
+    /// event's time and the state after its reset (the arguments of [`Self::on_event`]).
+    /// Returns whether the controller provides them: the default does when it has no event
+    /// memory ([`Self::has_event_memory`]).
+    #[allow(clippy::too_many_arguments)]
+    fn memory_partials(
+        &self,
+        _t: f64,
+        _q: &[f64],
+        _qd: &[f64],
+        _mode: ContactMode,
+        _free_joints: &[usize],
+        _out: &mut Vec<EventMemoryPartials>,
+    ) -> bool {
+        !self.has_event_memory()
+    }
+    /// The time events ([`Self::time_events`]) whose instants depend on remembered events
+    /// (a phase that starts `δ` after the touchdown that started another: `t_b = t_k + δ`),
+    /// each with `dt_b/d(t_k, q_k, q̇_k⁺)`; an instant that coincides with its event's own
+    /// time is the event (its saltation accounts for it) and is not listed. Default none.
+    fn memory_time_events(&self) -> Vec<MemoryTimeEvent> {
+        Vec::new()
+    }
+}
+
+/// `∂Υ/∂m_k` and `∂q̈_free/∂m_k` of one remembered event `k`, `m_k = (t_k, q_k, q̇_k⁺)`
+/// ([`Controller::memory_partials`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct EventMemoryPartials {
+    /// The event's number among those the controller was told of (0: the first).
+    pub event: usize,
+    /// `∂Υ/∂m_k`, `n × (1 + 2nq)` (column 0 the event's time, then `q_k`, then `q̇_k⁺`).
+    pub dtau: DMatrix<f64>,
+    /// `∂q̈_free/∂m_k`, `n_free × (1 + 2nq)` (free joints in the order given).
+    pub dfree: DMatrix<f64>,
+}
+
+/// A time event whose instant depends on a remembered event ([`Controller::memory_time_events`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MemoryTimeEvent {
+    pub t: f64,
+    /// The event's number among those the controller was told of.
+    pub event: usize,
+    /// `dt_b/d(t_k, q_k, q̇_k⁺)`, `1 + 2nq` entries.
+    pub dt_dm: Vec<f64>,
 }
 
 /// An instant at which a controller's outputs may jump in time ([`Controller::time_events`]).

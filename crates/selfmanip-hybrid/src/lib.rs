@@ -59,7 +59,9 @@ pub mod zeno;
 
 pub use actuated::{Actuated, CommandPolicy};
 pub use complementarity::ENUMERATION_LIMIT;
-pub use controller::{Controller, ControllerPartials, TimeEvent, ZeroTorque};
+pub use controller::{
+    Controller, ControllerPartials, EventMemoryPartials, MemoryTimeEvent, TimeEvent, ZeroTorque,
+};
 pub use energy::{energy_report, EnergyReport};
 pub use error::HybridError;
 pub use execution::{Event, EventKind, Execution, PainleveReason, Segment, Termination};

@@ -65,14 +65,28 @@
 //! Jacobian-times-matrix products ([`selfmanip_core::tangent::dynamics_jvp`]): never the
 //! full `2nq × 2nq` matrices along the flows.
 //!
+//! **A controller's memory of events** ([`Controller::has_event_memory`]: a motion started
+//! from an event's state, a phase that starts a delay after an event) is part of the tangent:
+//! the memory is the remembered events' `(t_k, x_k⁺)`, whose tangents
+//! `M_k = (Dt_k, X⁺ + f⁺ Dt_k)` the columns carry; along a flow `Ẋ = F X + ∂f/∂m M`
+//! ([`Controller::memory_partials`]), at an event `Dt_e = −(D_xg X + D_mg M)/ġ` and
+//! `X⁺ = Ξ X + (f⁺ − D_xR f⁻) D_mg M / ġ`, at a time event whose instant moves with the memory
+//! `X += (f⁻ − f⁺) dt_b/dm M` ([`Controller::memory_time_events`]). A force guard's rate
+//! `ġ = D_xg f⁻ + ∂g/∂t` includes the torques' explicit time dependence
+//! ([`Controller::time_partials`], 0 when not given). [`execution_sensitivity`] takes its
+//! state Jacobian and event time gradients from the columns when a controller has memory;
+//! a controller with memory and no memory partials is a typed error
+//! ([`SensitivityError::EventMemoryWithoutPartials`]). `docs/sensitivity.md` derives it.
+//!
 //! **Not covered yet.** A run whose state sits on a guard that does not fire — a contact set
 //! chosen at a complementarity boundary, e.g. a sliding contact started at zero sliding
 //! velocity — gets the one-sided derivative of the sequence it realised, unflagged;
 //! controllers without [`Controller::partials`] (the generic actuator models of
-//! [`crate::Actuated`]) stop with a typed error; a controller whose memory depends on the
-//! state at an event (a motion started from the event's state) is differentiated with that
-//! memory held fixed (the RHex leap flags the cases where it matters).
-use crate::controller::{Controller, ControllerPartials, TimeEvent};
+//! [`crate::Actuated`]) stop with a typed error; a controller with event memory that does not
+//! say so ([`Controller::has_event_memory`] false, the default — the RHex leap controller,
+//! which flags the cases where it matters itself) is differentiated with that memory held
+//! fixed.
+use crate::controller::{Controller, ControllerPartials, EventMemoryPartials, TimeEvent};
 use crate::error::HybridError;
 use crate::execution::{Event, EventKind, Execution, Segment, Termination};
 use crate::integrate::{A as RK_A, C as RK_C};
@@ -108,6 +122,15 @@ pub enum SensitivityError {
         "parameter `{name}` is not a parameter of the controller (segment starting at t = {t} s)"
     )]
     UnknownParameter { name: String, t: f64 },
+    /// A segment's controller remembers the time or state of an event
+    /// ([`Controller::has_event_memory`]) but does not give the partial derivatives of its
+    /// outputs with respect to them ([`Controller::memory_partials`]), or refers to an event
+    /// the execution did not record: holding that memory fixed would give a wrong derivative.
+    #[error(
+        "the controller at t = {t} s remembers events' times or states but gives no partial \
+         derivatives with respect to them ({reason})"
+    )]
+    EventMemoryWithoutPartials { t: f64, reason: String },
 }
 
 /// Whether an event's saltation matrix is defined.
@@ -147,7 +170,9 @@ pub struct EventSensitivity {
 /// Sensitivities of an execution to its initial state `x(0) = (q0, q̇0)`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Sensitivity {
-    /// `Φ` of each segment (`2nq × 2nq`; the identity for a segment of zero duration).
+    /// `Φ` of each segment (`2nq × 2nq`; the identity for a segment of zero duration), with
+    /// the controller's event memory held fixed (when a controller has memory, the state
+    /// Jacobian is not their product with the saltations: see the module docs).
     pub segment_flows: Vec<DMatrix<f64>>,
     /// One entry per event of the execution, in order.
     pub events: Vec<EventSensitivity>,
@@ -190,6 +215,9 @@ struct FlowJacobian {
     /// `∂λ/∂x` (rows of the mode) and `λ`.
     dlambda: DMatrix<f64>,
     lambda: DVector<f64>,
+    /// `∂λ/∂t` at a fixed state (`∂λ/∂Υ ∂Υ/∂t`, [`Controller::time_partials`]; zero when the
+    /// controller does not give `∂Υ/∂t`).
+    dlambda_dt: DVector<f64>,
 }
 
 /// Evaluates flows and their Jacobians on a workspace of its own.
@@ -204,6 +232,12 @@ struct Evaluator<'a> {
     /// across evaluations so that a step allocates nothing once they are sized.
     cols: ColumnBuffers,
     stages: StageBuffers,
+    /// Whether the controllers' event memory is differentiated (some segment's controller
+    /// has it, [`Controller::has_event_memory`]); then `memory[k]` holds
+    /// `d(t_k, q_k, q̇_k⁺)/d(columns)` (`(1 + 2nq) × m`) of the `k`-th event the controllers
+    /// were told of.
+    memory_mode: bool,
+    memory: Vec<DMatrix<f64>>,
 }
 
 /// The reusable buffers of one [`Evaluator::eval_columns_into`].
@@ -222,6 +256,8 @@ struct ColumnBuffers {
     /// `∂λ/∂x X + ∂λ/∂p` of the last evaluation, `c × m`.
     dlambda: DMatrix<f64>,
     jvp: JvpWorkspace,
+    /// The controller's memory partials of the last evaluation.
+    mem: Vec<EventMemoryPartials>,
 }
 
 /// The stages of one [`Tangent::step`]: their flows, their tangents, and the stage state.
@@ -295,6 +331,8 @@ impl<'a> Evaluator<'a> {
             kin: Kinematics::default(),
             cols: ColumnBuffers::default(),
             stages: StageBuffers::default(),
+            memory_mode: false,
+            memory: Vec::new(),
         }
     }
 
@@ -377,11 +415,18 @@ impl<'a> Evaluator<'a> {
         let mut f = DVector::zeros(2 * nq);
         f.rows_mut(0, nq).copy_from_slice(qd);
         f.rows_mut(nq, nq).copy_from(&self.data.qdd);
+        let mut dtau_dt = DVector::zeros(n);
+        let dlambda_dt = if ctrl.time_partials(t, q, qd, mode, dtau_dt.as_mut_slice()) {
+            &dj.dlambda_dtau * dtau_dt
+        } else {
+            DVector::zeros(c)
+        };
         Ok(FlowJacobian {
             f,
             jac,
             dlambda,
             lambda: self.data.lambda.clone(),
+            dlambda_dt,
         })
     }
 }
@@ -491,6 +536,40 @@ impl Evaluator<'_> {
         cb.dfree.gemm(1.0, &p.dfree_dq, &cb.dq, 0.0);
         cb.dfree2.gemm(1.0, &p.dfree_dqd, &cb.dqd, 0.0);
         cb.dfree += &cb.dfree2;
+        if self.memory_mode {
+            // the remembered events' tangents force every column: `∂Υ/∂m_k Dm_k`
+            cb.mem.clear();
+            if !ctrl.memory_partials(t, q, qd, mode, free_joints, &mut cb.mem) {
+                return Err(SensitivityError::EventMemoryWithoutPartials {
+                    t,
+                    reason: "the controller gives no memory partials".into(),
+                });
+            }
+            for mp in &cb.mem {
+                let cols = 1 + 2 * nq;
+                if mp.dtau.shape() != (n, cols) || mp.dfree.shape() != (free_joints.len(), cols) {
+                    return Err(SensitivityError::EventMemoryWithoutPartials {
+                        t,
+                        reason: format!(
+                            "memory partials of event {} sized {:?} and {:?}, not {:?} and {:?}",
+                            mp.event,
+                            mp.dtau.shape(),
+                            mp.dfree.shape(),
+                            (n, cols),
+                            (free_joints.len(), cols)
+                        ),
+                    });
+                }
+                let Some(d) = self.memory.get(mp.event) else {
+                    return Err(SensitivityError::EventMemoryWithoutPartials {
+                        t,
+                        reason: format!("event {} is not one the run recorded", mp.event),
+                    });
+                };
+                cb.dtau.gemm(1.0, &mp.dtau, d, 1.0);
+                cb.dfree.gemm(1.0, &mp.dfree, d, 1.0);
+            }
+        }
         cb.body.clear();
         cb.body.resize(m, None);
         let mut ci = 0;
@@ -678,7 +757,7 @@ fn segment_flow(
     let n2 = seg.y0.len();
     let (mut ya, mut yb, mut ym) = (vec![0.0; n2], vec![0.0; n2], vec![0.0; n2]);
     let mut pending: Vec<TimeEvent> = match tangent {
-        Tangent::Columns { params, .. } if !params.is_empty() => {
+        Tangent::Columns { params, .. } if !params.is_empty() || ev.memory_mode => {
             let names = controller_names(params);
             let mut v = seg.controller.time_events(&names);
             v.retain(|e| e.t >= seg.t0 && e.t < seg.t1);
@@ -815,6 +894,19 @@ fn time_event(
                 }
             }
         }
+        if ev.memory_mode {
+            // an instant that moves with a remembered event: `X += (f⁻ − f⁺) dt_b/dm_k Dm_k`
+            for me in ctrl.memory_time_events().iter().filter(|e| e.t == te.t) {
+                let Some(d) = ev.memory.get(me.event) else {
+                    return Err(SensitivityError::EventMemoryWithoutPartials {
+                        t: te.t,
+                        reason: format!("event {} is not one the run recorded", me.event),
+                    });
+                };
+                let row = RowDVector::from_row_slice(&me.dt_dm) * d;
+                *x += (&fm - &fp) * row;
+            }
+        }
     }
     Ok(out)
 }
@@ -905,7 +997,20 @@ pub fn saltation(
     f_plus: &DVector<f64>,
     dg: &RowDVector<f64>,
 ) -> Result<DMatrix<f64>, SaltationStatus> {
-    let den = (dg * f_minus)[0];
+    saltation_with_rate(dr, f_minus, f_plus, dg, 0.0)
+}
+
+/// [`saltation`] of a guard that also depends on time: `ġ = D_xg f⁻ + dg_dt` in place of
+/// `D_xg f⁻` (the time is a state with `ṫ = 1`), e.g. a force guard under a controller
+/// whose torques change with time at a fixed state.
+fn saltation_with_rate(
+    dr: &DMatrix<f64>,
+    f_minus: &DVector<f64>,
+    f_plus: &DVector<f64>,
+    dg: &RowDVector<f64>,
+    dg_dt: f64,
+) -> Result<DMatrix<f64>, SaltationStatus> {
+    let den = (dg * f_minus)[0] + dg_dt;
     let rel = den.abs() / (dg.norm() * f_minus.norm()).max(f64::MIN_POSITIVE);
     if rel.is_nan() || rel < GRAZING_TOL {
         return Err(SaltationStatus::Grazing {
@@ -957,22 +1062,10 @@ pub fn execution_sensitivity(
             continue;
         };
         next_event += 1;
-        let (mut es, _) = segment_event(&mut ev, model, terrain, exec, si, event, &[])?;
-        if let (Some(dg), true) = (&es.guard_gradient, es.saltation.is_some()) {
-            let mut y = vec![0.0; n2];
-            seg.eval(seg.t1, &mut y);
-            let f = ev
-                .eval(
-                    &*seg.controller,
-                    &seg.locked,
-                    &seg.slide_directions,
-                    seg.t1,
-                    seg.mode,
-                    &y,
-                )?
-                .f;
-            let den = (dg * &f)[0];
-            es.time_gradient = Some(-(dg * &total) / den);
+        let (mut es, parts) = segment_event(&mut ev, model, terrain, exec, si, event, &[])?;
+        if let (Some(dg), Some(parts)) = (&es.guard_gradient, &parts) {
+            // `ġ = D_xg f⁻ (+ ∂g/∂t)` at the event, as its saltation had it
+            es.time_gradient = Some(-(dg * &total) / parts.den);
         }
         match &es.saltation {
             Some(x) => total = x * total,
@@ -984,7 +1077,27 @@ pub fn execution_sensitivity(
     if defined && chain_complete(exec, next_event, &out.touch_switches) {
         out.state_jacobian = Some(total);
     }
+    if has_event_memory(exec) {
+        // the memory couples the segments: the chain is no longer the product of the
+        // segments' flows and saltations (which hold it fixed); the columns carry it
+        let cols =
+            execution_sensitivity_columns(model, terrain, exec, &DMatrix::identity(n2, n2), &[])?;
+        for (e, tc) in out.events.iter_mut().zip(cols.event_time_columns) {
+            if e.time_gradient.is_some() {
+                e.time_gradient = tc;
+            }
+        }
+        out.state_jacobian = out.state_jacobian.and(cols.columns);
+    }
     Ok(out)
+}
+
+/// Whether any segment's controller remembers events' times or states
+/// ([`Controller::has_event_memory`]).
+fn has_event_memory(exec: &Execution) -> bool {
+    exec.segments
+        .iter()
+        .any(|s| s.controller.has_event_memory())
 }
 
 /// Whether the chain of an execution's derivative reaches its end: every event was matched
@@ -1064,6 +1177,7 @@ pub fn execution_sensitivity_columns(
         b.check(model)?;
     }
     let mut ev = Evaluator::new(model, terrain);
+    ev.memory_mode = has_event_memory(exec);
     let mut out = ColumnSensitivity {
         n_directions: nd,
         parameters: params.to_vec(),
@@ -1105,6 +1219,10 @@ pub fn execution_sensitivity_columns(
         let (es, parts) = segment_event(&mut ev, model, terrain, exec, si, event, &body)?;
         let (Some(xi), Some(parts), Some(dg)) = (&es.saltation, parts, &es.guard_gradient) else {
             defined = false;
+            if ev.memory_mode && event.kind != EventKind::Apex {
+                // the event's memory has no derivative: the run's columns are not returned
+                ev.memory.push(DMatrix::from_element(1 + n2, m, f64::NAN));
+            }
             out.event_time_columns.push(None);
             out.events.push(es);
             continue;
@@ -1114,7 +1232,9 @@ pub fn execution_sensitivity_columns(
         };
         // D_pg: a force guard's from ∂λ/∂p at the state before; geometric guards have none
         let mut dpg = RowDVector::zeros(m);
-        if matches!(event.kind, EventKind::Liftoff | EventKind::Slip) && !params.is_empty() {
+        if matches!(event.kind, EventKind::Liftoff | EventKind::Slip)
+            && (!params.is_empty() || ev.memory_mode)
+        {
             let k = event.triggered[0];
             let (rt, rn) = rows_of(seg.mode, k);
             let zero = DMatrix::zeros(n2, m);
@@ -1147,6 +1267,24 @@ pub fn execution_sensitivity_columns(
             }
             if dpg[col] != 0.0 {
                 xn.column_mut(col).axpy(dpg[col] / parts.den, &jump, 1.0);
+            }
+        }
+        if ev.memory_mode {
+            // the guard moves with the memory too (a force guard's `∂λ/∂m Dm`), in the
+            // directions' columns as in the parameters'
+            for col in 0..nd {
+                if dpg[col] != 0.0 {
+                    xn.column_mut(col).axpy(dpg[col] / parts.den, &jump, 1.0);
+                }
+            }
+            if event.kind != EventKind::Apex {
+                // the event as the controller remembers it: `(t_e, x⁺)` with
+                // `Dx⁺ = X⁺ + f⁺ Dt_e` (X⁺ is the tangent at a fixed time just after it)
+                let mut d = DMatrix::zeros(1 + n2, m);
+                d.row_mut(0).copy_from(&time);
+                let moved = &xn + &parts.f_plus * &time;
+                d.rows_mut(1, n2).copy_from(&moved);
+                ev.memory.push(d);
             }
         }
         *x = xn;
@@ -1285,6 +1423,7 @@ fn event_sensitivity(
     let mut kin = Kinematics::default();
     kin.compute(model, q, qd_minus);
     let mut impact_mode = None;
+    let mut dg_dt = 0.0;
     let dg: RowDVector<f64> = match event.kind {
         EventKind::Touchdown => {
             let k = event.triggered[0];
@@ -1404,7 +1543,20 @@ fn event_sensitivity(
                 return Ok((unsupported(event, "no normal row"), None));
             };
             match force_guard_gradient(model, event.kind, k, (rt, rn), &fm.lambda, &fm.dlambda) {
-                Some(dg) => dg,
+                Some(dg) => {
+                    // the guard's explicit time dependence through the torques
+                    let dt = DMatrix::from_column_slice(
+                        fm.dlambda_dt.len(),
+                        1,
+                        fm.dlambda_dt.as_slice(),
+                    );
+                    if let Some(r) =
+                        force_guard_gradient(model, event.kind, k, (rt, rn), &fm.lambda, &dt)
+                    {
+                        dg_dt = r[0];
+                    }
+                    dg
+                }
                 None => {
                     return Ok((
                         unsupported(event, "slip of a contact without a tangential row"),
@@ -1489,7 +1641,7 @@ fn event_sensitivity(
         time_gradient: None,
         impact_mode,
     };
-    if let Err(status) = saltation(&dr, &fm.f, &fm.f, &dg) {
+    if let Err(status) = saltation_with_rate(&dr, &fm.f, &fm.f, &dg, dg_dt) {
         es.status = status;
         return Ok((es, None));
     }
@@ -1518,11 +1670,11 @@ fn event_sensitivity(
             return Ok((es, None));
         }
     };
-    let parts = match saltation(&dr, &fm.f, &f_plus, &dg) {
+    let parts = match saltation_with_rate(&dr, &fm.f, &f_plus, &dg, dg_dt) {
         Ok(x) => {
             es.saltation = Some(x);
             Some(EventParts {
-                den: (&dg * &fm.f)[0],
+                den: (&dg * &fm.f)[0] + dg_dt,
                 f_minus: fm.f,
                 f_plus,
                 dr,

@@ -126,7 +126,11 @@ pub fn periodic_orbit(
 /// way (a run that does not stop there) flagged [`SaltationStatus::Unsupported`] and the
 /// state Jacobian withheld: the engine salts every apex as a terminal one (`I − f D_xg /
 /// (D_xg f)`, which zeroes `ż`'s row), while the flow goes on unchanged through it (its
-/// saltation is the identity) — a wrong number, not returned.
+/// saltation is the identity) — a wrong number, not returned. A behaviour that remembers
+/// events (motions started at them, phases a delay after them) has that memory
+/// differentiated (`docs/sensitivity.md`, "A controller's memory of events"); one whose
+/// memory is not differentiated is a typed error
+/// ([`SensitivityError::EventMemoryWithoutPartials`]).
 pub fn run_sensitivity(run: &crate::Run) -> Result<Sensitivity, SensitivityError> {
     let exec = &run.execution;
     let mut s = execution_sensitivity(&run.model, &run.terrain, exec)?;

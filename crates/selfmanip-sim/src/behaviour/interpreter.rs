@@ -13,11 +13,16 @@
 //! on_event(e):             named events => phase latches => start times resolved =>
 //!                          motions (re)started at e, and those of later timed phases
 //! ```
+use super::memory::StartedLaw;
 use crate::expr::Expr;
 use crate::motion::JointMotion;
 use motor::Actuator;
+use nalgebra::DMatrix;
 use selfmanip_core::ContactMode;
-use selfmanip_hybrid::{Controller, ControllerPartials, Event, EventKind, TimeEvent};
+use selfmanip_hybrid::{
+    Controller, ControllerPartials, Event, EventKind, EventMemoryPartials, MemoryTimeEvent,
+    TimeEvent,
+};
 use std::sync::Arc;
 
 /// A number known when the behaviour is compiled, or one that depends on the joint's angle
@@ -151,6 +156,57 @@ pub(crate) enum MotionLaw {
 }
 
 impl MotionLaw {
+    /// How a motion of this law started at an event depends on the event (its memory):
+    /// not at all (a hold at a constant angle), through its start `(t₀, θ₀, ω₀)` (a swing or
+    /// a park with constant numbers), or in a way not differentiated (numbers that depend
+    /// on `theta`, `omega`).
+    fn origin_at_event(&self, event: usize, joint: usize, nq: usize) -> MotionOrigin {
+        match self.constant_law() {
+            Ok(Some(law)) => MotionOrigin::Event {
+                event,
+                joint,
+                nq,
+                law,
+            },
+            Ok(None) => MotionOrigin::Fixed,
+            Err(()) => MotionOrigin::Unsupported,
+        }
+    }
+
+    /// The law with its numbers, when they are constants: `Ok(None)` for a hold at a
+    /// constant angle (its reference depends on nothing), `Err(())` when a number depends on
+    /// `theta`/`omega`.
+    fn constant_law(&self) -> Result<Option<StartedLaw>, ()> {
+        let c = |v: &Value| match v {
+            Value::Const(x) => Some(*x),
+            Value::AtStart(..) => None,
+        };
+        let law = match self {
+            MotionLaw::Hold { angle } => {
+                return match c(angle) {
+                    Some(_) => Ok(None),
+                    None => Err(()),
+                }
+            }
+            MotionLaw::Swing {
+                target,
+                speed,
+                accel,
+            } => c(target)
+                .zip(c(speed))
+                .zip(c(accel))
+                .map(|((target, speed), accel)| StartedLaw::Swing {
+                    target,
+                    speed,
+                    accel,
+                }),
+            MotionLaw::Park { target, accel } => c(target)
+                .zip(c(accel))
+                .map(|(target, accel)| StartedLaw::Park { target, accel }),
+        };
+        law.map(Some).ok_or(())
+    }
+
     fn start(&self, t0: f64, theta: f64, omega: f64) -> JointMotion {
         match self {
             MotionLaw::Hold { angle } => JointMotion::hold(t0, angle.at(theta, omega)),
@@ -231,12 +287,59 @@ pub(crate) const PLAN_CAP: usize = 10_000;
 /// The memory of one joint program.
 #[derive(Debug, Clone)]
 struct ProgramMemory {
-    /// `(start time, phase)` of every phase the program has entered or will enter at a time
-    /// already known, in order (the first: phase 0 from the start).
-    timeline: Vec<(f64, usize)>,
+    /// `(start time, phase, origin)` of every phase the program has entered or will enter at
+    /// a time already known, in order (the first: phase 0 from the start); the origin is the
+    /// event `(number, time)` whose time the start is (a delay after), if any.
+    timeline: Vec<(f64, usize, TimeOrigin)>,
     /// The joint's prescribed motions by start time; the reference at `t` is the last one
     /// started by `t`.
     motions: Vec<JointMotion>,
+    /// How each motion depends on the events (its memory), one per motion.
+    origins: Vec<MotionOrigin>,
+}
+
+impl ProgramMemory {
+    /// Drops the motions (and their origins) that start after `now`.
+    fn keep_motions_started_by(&mut self, now: f64) {
+        let keep: Vec<bool> = self.motions.iter().map(|m| m.t0() <= now).collect();
+        let mut k = keep.iter();
+        self.motions
+            .retain(|_| *k.next().expect("one flag per motion"));
+        let mut k = keep.iter();
+        self.origins
+            .retain(|_| *k.next().expect("one flag per motion"));
+    }
+}
+
+/// The event (its number among those told, its time) a start time is offset from.
+type TimeOrigin = Option<(usize, f64)>;
+
+/// How a prescribed motion depends on the events the controller was told of.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum MotionOrigin {
+    /// Not at all (the initial motion from the run's `q0`, an input; a hold at a constant
+    /// angle; a timed phase's motion from a reference that does not depend on events).
+    Fixed,
+    /// Started at event `event` from `(t_k, q_k[joint], q̇_k⁺[joint])` by `law`.
+    Event {
+        event: usize,
+        joint: usize,
+        nq: usize,
+        law: StartedLaw,
+    },
+    /// A timed phase's own motion started at `s` — `t_k + δ` when `event` is the event `k`
+    /// whose time it is offset from, else a known time — from the reference of motion
+    /// `prev` (an earlier motion of the program) at `s`: it moves with `s` and with that
+    /// reference where either depends on an event.
+    Timed {
+        event: Option<usize>,
+        prev: usize,
+        nq: usize,
+        law: StartedLaw,
+    },
+    /// Depends on an event in a way not differentiated (numbers of `theta`/`omega`; a timed
+    /// phase's motion whose start and whose previous motion depend on different events).
+    Unsupported,
 }
 
 /// The behaviour interpreter (see the module documentation).
@@ -244,7 +347,13 @@ struct ProgramMemory {
 pub struct BehaviourController {
     plan: Arc<Plan>,
     named: Vec<Option<f64>>,
+    /// The event each named event happened at (its number among those told).
+    named_from: Vec<Option<usize>>,
     programs: Vec<ProgramMemory>,
+    /// How many events the controller was told of.
+    events_seen: usize,
+    /// The number of coordinates, once an event told it.
+    nq: Option<usize>,
 }
 
 impl std::fmt::Debug for BehaviourController {
@@ -266,14 +375,18 @@ impl BehaviourController {
             .programs
             .iter()
             .map(|p| ProgramMemory {
-                timeline: vec![(NEVER, 0)],
+                timeline: vec![(NEVER, 0, None)],
                 motions: vec![p.phases[0].motion.start(0.0, q0[p.joint], qd0[p.joint])],
+                origins: vec![MotionOrigin::Fixed],
             })
             .collect();
         let mut c = BehaviourController {
             named: vec![None; plan.named.len()],
+            named_from: vec![None; plan.named.len()],
             plan: Arc::new(plan),
             programs,
+            events_seen: 0,
+            nq: None,
         };
         c.resolve(NEVER);
         if let Some(p) = c.programs.iter().position(|m| m.timeline.len() > PLAN_CAP) {
@@ -313,7 +426,8 @@ impl BehaviourController {
     #[inline]
     fn entry(&self, p: usize, t: f64) -> (f64, usize) {
         let tl = &self.programs[p].timeline;
-        *tl.iter().rev().find(|e| e.0 <= t).unwrap_or(&tl[0])
+        let e = tl.iter().rev().find(|e| e.0 <= t).unwrap_or(&tl[0]);
+        (e.0, e.1)
     }
 
     /// The phase of program `p` at `(t, q)`: that of the last timeline entry started by `t`,
@@ -340,13 +454,125 @@ impl BehaviourController {
     /// The reference `(θ, ω, α)` of program `p` at `t`.
     #[inline]
     fn reference(&self, p: usize, t: f64) -> (f64, f64, f64) {
+        self.programs[p].motions[self.motion_index(p, t)].eval(t)
+    }
+
+    /// The index of program `p`'s motion in force at `t`: the last one started by `t`.
+    #[inline]
+    fn motion_index(&self, p: usize, t: f64) -> usize {
         let motions = &self.programs[p].motions;
-        motions
-            .iter()
-            .rev()
-            .find(|m| m.t0() <= t)
-            .unwrap_or(&motions[0])
-            .eval(t)
+        motions.iter().rposition(|m| m.t0() <= t).unwrap_or(0)
+    }
+
+    /// `∂(θ*, ω*, α*)/∂m_k` of program `p`'s reference at `t` (`1 + 2nq` columns, rows
+    /// `θ*, ω*, α*`) and the event `k` it depends on; `None` when it depends on no event,
+    /// `Err(())` when it depends on one in a way not differentiated.
+    fn reference_memory(&self, p: usize, t: f64) -> Result<Option<(usize, DMatrix<f64>)>, ()> {
+        self.motion_memory(p, self.motion_index(p, t), t)
+    }
+
+    /// [`Self::reference_memory`] of program `p`'s motion `i` at `t`.
+    fn motion_memory(
+        &self,
+        p: usize,
+        i: usize,
+        t: f64,
+    ) -> Result<Option<(usize, DMatrix<f64>)>, ()> {
+        let mem = &self.programs[p];
+        match mem.origins[i] {
+            MotionOrigin::Timed {
+                event,
+                prev,
+                nq,
+                law,
+            } => {
+                // θ₀ = θ_prev(s), ω₀ = ω_prev(s) at s = t_k + δ (or a known time): with
+                // D the derivative over m_k, Ds = e_t (or 0),
+                // Dθ₀ = Dθ_prev(s) + ω_prev(s) Ds, Dω₀ = Dω_prev(s) + α_prev(s) Ds
+                let m = &mem.motions[i];
+                let s = m.t0();
+                let before = self.motion_memory(p, prev, s)?;
+                let k = match (event, &before) {
+                    (Some(a), Some((b, _))) if a != *b => return Err(()),
+                    (Some(a), _) => a,
+                    (None, Some((b, _))) => *b,
+                    (None, None) => return Ok(None),
+                };
+                let cols = 1 + 2 * nq;
+                let mut ds = DMatrix::zeros(1, cols);
+                if event.is_some() {
+                    ds[(0, 0)] = 1.0;
+                }
+                let (_, w_prev, a_prev) = mem.motions[prev].eval(s);
+                let mut d0 = DMatrix::zeros(2, cols);
+                if let Some((_, d)) = &before {
+                    d0.copy_from(&d.rows(0, 2));
+                }
+                let dth0 = d0.row(0) + w_prev * ds.row(0);
+                let dw0 = d0.row(1) + a_prev * ds.row(0);
+                let (theta0, omega0, _) = m.eval(s);
+                let d = law.partials(m, theta0, omega0, t);
+                let mut out = DMatrix::zeros(3, cols);
+                for (r, row) in d.iter().enumerate() {
+                    let v = row[0] * ds.row(0) + row[1] * &dth0 + row[2] * &dw0;
+                    out.row_mut(r).copy_from(&v);
+                }
+                Ok(Some((k, out)))
+            }
+            MotionOrigin::Fixed => Ok(None),
+            MotionOrigin::Unsupported => Err(()),
+            MotionOrigin::Event {
+                event,
+                joint,
+                nq,
+                law,
+            } => {
+                let m = &mem.motions[i];
+                let (theta0, omega0, _) = {
+                    // the start the motion was built from: its own value at t₀ (a swing or a
+                    // park starts exactly at (θ₀, ω₀))
+                    m.eval(m.t0())
+                };
+                let d = law.partials(m, theta0, omega0, t);
+                let mut out = DMatrix::zeros(3, 1 + 2 * nq);
+                for (r, row) in d.iter().enumerate() {
+                    out[(r, 0)] = row[0];
+                    out[(r, 1 + joint)] = row[1];
+                    out[(r, 1 + nq + joint)] = row[2];
+                }
+                Ok(Some((event, out)))
+            }
+        }
+    }
+
+    /// `(kp, kd)` of program `p`'s `torque` when it is a servo that tracks the joint's motion,
+    /// acts (in contact, if it must be) and is inside its limit at `(t, q, q̇)`: where the
+    /// torque moves with the motion's reference.
+    fn tracking_servo(
+        &self,
+        p: usize,
+        torque: &TorqueLaw,
+        t: f64,
+        (q, qd): (&[f64], &[f64]),
+        mode: ContactMode,
+    ) -> Option<(f64, f64)> {
+        let prog = &self.plan.programs[p];
+        let TorqueLaw::Servo {
+            target: None,
+            kp,
+            kd,
+            limit,
+            only_in_contact,
+        } = torque
+        else {
+            return None;
+        };
+        if *only_in_contact && mode.normal_bits() & prog.contacts == 0 {
+            return None;
+        }
+        let j = prog.joint;
+        let u = self.servo_command(p, t, None, (*kp, *kd), q[j], qd[j]);
+        (u.abs() < *limit).then_some((*kp, *kd))
     }
 
     /// The unsaturated servo command `−kp (q − θ*) − kd (q̇ − ω*)` of program `p` at `t`: the
@@ -374,23 +600,36 @@ impl BehaviourController {
     /// When phase `j` of program `p`, armed at `armed`, starts without waiting for an event
     /// of the execution: at a time, after a named event that has happened, or after another
     /// phase's start that is known; `None` if it has to wait for an event.
-    fn known_start(&self, p: usize, j: usize, armed: f64) -> Option<f64> {
+    /// With the start, the event its time is offset from (see [`TimeOrigin`]): the
+    /// alternative that wins, or the arming start when it is later.
+    fn known_start(
+        &self,
+        p: usize,
+        j: usize,
+        (armed, armed_from): (f64, TimeOrigin),
+    ) -> Option<(f64, TimeOrigin)> {
         let s = &self.plan.programs[p].phases[j].start;
-        let mut best: Option<f64> = None;
-        let mut offer = |c: f64| {
-            let c = c.max(armed);
-            best = Some(best.map_or(c, |b: f64| b.min(c)));
+        let mut best: Option<(f64, TimeOrigin)> = None;
+        let mut offer = |c: f64, from: TimeOrigin| {
+            let c = if armed > c {
+                (armed, armed_from)
+            } else {
+                (c, from)
+            };
+            if best.is_none_or(|b| c.0 < b.0) {
+                best = Some(c);
+            }
         };
-        s.times.iter().for_each(|&t| offer(t));
+        s.times.iter().for_each(|&t| offer(t, None));
         for &n in &s.named {
             if let Some(t) = self.named[n] {
-                offer(t);
+                offer(t, self.named_from[n].map(|k| (k, t)));
             }
         }
         for &(p2, k2, delay) in &s.phases {
             let starts = self.programs[p2].timeline.iter().filter(|e| e.1 == k2);
-            if let Some(t) = starts.map(|e| e.0 + delay).find(|&t| t >= armed) {
-                offer(t);
+            if let Some((t, from)) = starts.map(|e| (e.0 + delay, e.2)).find(|e| e.0 >= armed) {
+                offer(t, from);
             }
         }
         best
@@ -407,15 +646,15 @@ impl BehaviourController {
                     .timeline
                     .partition_point(|e| e.0 <= now)
                     .max(1);
-                let (mut s, mut k) = self.programs[p].timeline[keep - 1];
+                let (mut s, mut k, mut from) = self.programs[p].timeline[keep - 1];
                 let mut planned = Vec::new();
                 while planned.len() <= PLAN_CAP {
                     let Some(j) = self.successor(p, k) else { break };
-                    let Some(start) = self.known_start(p, j, s) else {
+                    let Some((start, origin)) = self.known_start(p, j, (s, from)) else {
                         break;
                     };
-                    planned.push((start, j));
-                    (s, k) = (start, j);
+                    planned.push((start, j, origin));
+                    (s, k, from) = (start, j, origin);
                     if start > self.plan.horizon_s {
                         break;
                     }
@@ -437,22 +676,37 @@ impl BehaviourController {
     /// at known times after it, each from the reference where it starts.
     fn plan_timed_motions(&mut self, now: f64) {
         let plan = Arc::clone(&self.plan);
+        let nq = self.nq.unwrap_or(0);
         for (p, prog) in plan.programs.iter().enumerate() {
             let mem = &mut self.programs[p];
             if now > NEVER {
-                mem.motions.retain(|m| m.t0() <= now);
+                mem.keep_motions_started_by(now);
             }
             let first = mem.timeline.partition_point(|e| e.0 <= now);
-            for &(s, k) in &mem.timeline[first..] {
+            for &(s, k, from) in &mem.timeline[first..] {
                 let phase = &prog.phases[k];
                 if !phase.own_motion {
                     continue;
                 }
-                let (theta, omega, _) = {
-                    let m = mem.motions.iter().rev().find(|m| m.t0() <= s);
-                    m.unwrap_or(&mem.motions[0]).eval(s)
+                let i = mem.motions.iter().rposition(|m| m.t0() <= s).unwrap_or(0);
+                let (theta, omega, _) = mem.motions[i].eval(s);
+                // at a time or from a reference that depends on an event: it moves with them
+                let origin = if from.is_none() && mem.origins[i] == MotionOrigin::Fixed {
+                    MotionOrigin::Fixed
+                } else {
+                    match phase.motion.constant_law() {
+                        Ok(Some(law)) => MotionOrigin::Timed {
+                            event: from.map(|f| f.0),
+                            prev: i,
+                            nq,
+                            law,
+                        },
+                        Ok(None) => MotionOrigin::Fixed,
+                        Err(()) => MotionOrigin::Unsupported,
+                    }
                 };
                 mem.motions.push(phase.motion.start(s, theta, omega));
+                mem.origins.push(origin);
             }
         }
     }
@@ -602,14 +856,138 @@ impl Controller for BehaviourController {
             .collect()
     }
 
+    /// `∂Υ/∂t` at a fixed state: a `servo` that tracks the joint's motion (inside its limit)
+    /// `kp ω* + kd α*`; a `schedule` between breakpoints (interpolated) its slope; every other
+    /// law 0 (`motor`: its command is constant, a function of the state only).
+    fn time_partials(
+        &self,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        mode: ContactMode,
+        dtau_dt: &mut [f64],
+    ) -> bool {
+        let plan = &*self.plan;
+        for (p, prog) in plan.programs.iter().enumerate() {
+            let j = prog.joint;
+            let torque = &prog.phases[self.current(p, t, q)].torque;
+            if let Some((kp, kd)) = self.tracking_servo(p, torque, t, (q, qd), mode) {
+                let (_, w, a) = self.reference(p, t);
+                dtau_dt[j] = kp * w + kd * a;
+                continue;
+            }
+            dtau_dt[j] = match torque {
+                TorqueLaw::Schedule {
+                    times,
+                    torques,
+                    hold: false,
+                } => {
+                    let i = times.partition_point(|&x| x <= t);
+                    if i == 0 || i == times.len() {
+                        0.0
+                    } else {
+                        (torques[i] - torques[i - 1]) / (times[i] - times[i - 1])
+                    }
+                }
+                _ => 0.0,
+            };
+        }
+        true
+    }
+
+    /// Whether a motion depends on an event's start (or in a way not differentiated), or a
+    /// phase starts a delay after an event (a named event's, or another phase's start).
+    fn has_event_memory(&self) -> bool {
+        self.programs.iter().any(|m| {
+            m.origins.iter().any(|o| *o != MotionOrigin::Fixed)
+                || m.timeline
+                    .iter()
+                    .any(|e| e.2.is_some_and(|(_, tk)| e.0 != tk))
+        })
+    }
+
+    /// `∂Υ/∂m_k`, `∂q̈_free/∂m_k` of the motion in force of each program, where it started
+    /// at event `k` from the event's state, or (a timed phase's own motion) at a time or
+    /// from a reference that depends on it (`memory.rs`): a `servo` that tracks the motion
+    /// (inside its limit) `kp ∂θ*/∂m_k + kd ∂ω*/∂m_k` on its joint's row, a free joint
+    /// `∂α*/∂m_k + kp_f ∂θ*/∂m_k + kd_f ∂ω*/∂m_k`. `false` where the motion in force depends on
+    /// an event in a way not differentiated (numbers of `theta`/`omega`; a timed phase's
+    /// motion whose start and whose previous motion depend on two different events), or
+    /// where [`Controller::partials`] gives none (a `motor`).
+    fn memory_partials(
+        &self,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        mode: ContactMode,
+        free_joints: &[usize],
+        out: &mut Vec<EventMemoryPartials>,
+    ) -> bool {
+        let plan = &*self.plan;
+        let n = plan.program_of_joint.len();
+        for (p, prog) in plan.programs.iter().enumerate() {
+            let j = prog.joint;
+            let free = free_joints.iter().position(|&f| f == j);
+            let torque = &prog.phases[self.current(p, t, q)].torque;
+            if matches!(torque, TorqueLaw::Motor { .. }) {
+                return false;
+            }
+            let servo = self.tracking_servo(p, torque, t, (q, qd), mode);
+            if servo.is_none() && free.is_none() {
+                continue;
+            }
+            let (event, d) = match self.reference_memory(p, t) {
+                Ok(Some(x)) => x,
+                Ok(None) => continue,
+                Err(()) => return false,
+            };
+            let cols = d.ncols();
+            let mut dtau = DMatrix::zeros(n, cols);
+            let mut dfree = DMatrix::zeros(free_joints.len(), cols);
+            if let Some((kp, kd)) = servo {
+                let row = kp * d.row(0) + kd * d.row(1);
+                dtau.row_mut(j).copy_from(&row);
+            }
+            if let Some(i) = free {
+                let row = d.row(2) + plan.kp_free * d.row(0) + plan.kd_free * d.row(1);
+                dfree.row_mut(i).copy_from(&row);
+            }
+            out.push(EventMemoryPartials { event, dtau, dfree });
+        }
+        true
+    }
+
+    /// The phase starts offset from an event's time by a delay (`t_b = t_k + δ`, so
+    /// `dt_b/dt_k = 1`); a phase the event itself started is the event.
+    fn memory_time_events(&self) -> Vec<MemoryTimeEvent> {
+        let mut out = Vec::new();
+        for m in &self.programs {
+            for &(t, _, from) in &m.timeline {
+                let Some((k, tk)) = from else { continue };
+                if t == tk || !t.is_finite() {
+                    continue;
+                }
+                let nq = self.nq.unwrap_or(0);
+                let mut dt_dm = vec![0.0; 1 + 2 * nq];
+                dt_dm[0] = 1.0;
+                out.push(MemoryTimeEvent { t, event: k, dt_dm });
+            }
+        }
+        out
+    }
+
     fn on_event(&mut self, e: &Event) {
         let plan = Arc::clone(&self.plan);
+        let ev_k = self.events_seen;
+        self.events_seen += 1;
+        self.nq = Some(e.q.len());
         // => named events (in an order where each comes after the one it waits for)
         let mut fired_now = vec![false; plan.named.len()];
         for (n, named) in plan.named.iter().enumerate() {
             let ready = named.after.is_none_or(|a| self.named[a].is_some());
             if self.named[n].is_none() && ready && named.trigger.matches(e) {
                 self.named[n] = Some(e.t);
+                self.named_from[n] = Some(ev_k);
                 fired_now[n] = true;
             }
         }
@@ -628,7 +1006,7 @@ impl Controller for BehaviourController {
                 if !prog.phases[j].start.events.iter().any(|m| m.matches(e)) {
                     break;
                 }
-                self.programs[p].timeline.push((e.t, j));
+                self.programs[p].timeline.push((e.t, j, Some((ev_k, e.t))));
             }
         }
         // => the starts this makes known, and those of the phases after them
@@ -648,10 +1026,12 @@ impl Controller for BehaviourController {
                 || phase.restart_named.iter().any(|&n| fired_now[n]);
             if started_now || restart {
                 let j = prog.joint;
+                let origin = phase.motion.origin_at_event(ev_k, j, e.q.len());
                 let mem = &mut self.programs[p];
-                mem.motions.retain(|m| m.t0() <= e.t);
+                mem.keep_motions_started_by(e.t);
                 mem.motions
                     .push(phase.motion.start(e.t, e.q[j], e.qd_after[j]));
+                mem.origins.push(origin);
             }
         }
         self.plan_timed_motions(e.t);

@@ -1,0 +1,238 @@
+//! A controller's memory of events in the sensitivities ([`selfmanip_hybrid::Controller::
+//! memory_partials`], `docs/sensitivity.md`), on the engine alone: a hip servo whose
+//! reference ramps from the angle and the time of the toe's touchdown. Its torque in
+//! stance — hence the stance forces and the slip guard that ends it — depends on
+//! `(t_k, θ_k)`; the whole-run Jacobian against central differences of whole executions,
+//! and a controller that says it remembers events but gives no partials is a typed error.
+mod systems;
+use nalgebra::DMatrix;
+use selfmanip_core::{ContactMode, FlatGround, Model};
+use selfmanip_hybrid::sensitivity::{
+    execution_sensitivity_columns, simulate_with_sensitivity, Parameter, SensitivityError,
+};
+use selfmanip_hybrid::{
+    simulate, Controller, ControllerPartials, Event, EventKind, EventMemoryPartials, HybridOptions,
+    StepOptions,
+};
+use systems::G;
+
+/// After the first touchdown (event `k` at `t_k`, hip at `θ_k`), a servo to the ramp
+/// `θ*(t) = θ_k + ω_r (t − t_k)`: `τ = −K (θ − θ*) − C (θ̇ − ω_r)`; before it, a servo to
+/// `target` at rest. Memory partials: `∂τ/∂t_k = −K ω_r`, `∂τ/∂θ_k = K`.
+#[derive(Clone)]
+struct RampFromTouchdown {
+    k: f64,
+    c: f64,
+    target: f64,
+    ramp: f64,
+    /// `(event number, t_k, θ_k)` once the toe has touched down.
+    started: Option<(usize, f64, f64)>,
+    seen: usize,
+    /// Whether it gives its memory partials (a controller that does not is flagged).
+    gives_partials: bool,
+}
+
+impl RampFromTouchdown {
+    fn reference(&self, t: f64) -> (f64, f64) {
+        match self.started {
+            Some((_, tk, th)) => (th + self.ramp * (t - tk), self.ramp),
+            None => (self.target, 0.0),
+        }
+    }
+}
+
+impl Controller for RampFromTouchdown {
+    fn torque(&self, t: f64, q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
+        let (th, w) = self.reference(t);
+        tau[0] = -self.k * (q[0] - th) - self.c * (qd[0] - w);
+    }
+    fn partials(
+        &self,
+        _t: f64,
+        _q: &[f64],
+        _qd: &[f64],
+        _mode: ContactMode,
+        _free_joints: &[usize],
+        out: &mut ControllerPartials,
+    ) -> bool {
+        out.dtau_dq[(0, 0)] = -self.k;
+        out.dtau_dqd[(0, 0)] = -self.c;
+        true
+    }
+    /// `∂τ/∂t = K ω*` (the ramp moves the reference at a fixed state).
+    fn time_partials(
+        &self,
+        t: f64,
+        _q: &[f64],
+        _qd: &[f64],
+        _mode: ContactMode,
+        dtau_dt: &mut [f64],
+    ) -> bool {
+        dtau_dt[0] = self.k * self.reference(t).1;
+        true
+    }
+    fn on_event(&mut self, e: &Event) {
+        if self.started.is_none() && e.kind == EventKind::Touchdown {
+            self.started = Some((self.seen, e.t, e.q[0]));
+        }
+        self.seen += 1;
+    }
+    fn has_event_memory(&self) -> bool {
+        self.started.is_some()
+    }
+    fn memory_partials(
+        &self,
+        _t: f64,
+        q: &[f64],
+        _qd: &[f64],
+        _mode: ContactMode,
+        free_joints: &[usize],
+        out: &mut Vec<EventMemoryPartials>,
+    ) -> bool {
+        if !self.gives_partials {
+            return !self.has_event_memory();
+        }
+        if let Some((event, _, _)) = self.started {
+            let mut dtau = DMatrix::zeros(1, 1 + 2 * q.len());
+            dtau[(0, 0)] = -self.k * self.ramp;
+            dtau[(0, 1)] = self.k;
+            out.push(EventMemoryPartials {
+                event,
+                dtau,
+                dfree: DMatrix::zeros(free_joints.len(), 1 + 2 * q.len()),
+            });
+        }
+        true
+    }
+}
+
+fn tight() -> HybridOptions {
+    HybridOptions {
+        step: StepOptions {
+            rtol: 1e-12,
+            atol: 1e-14,
+            ..StepOptions::default()
+        },
+        event_tol_s: 1e-14,
+        control_free_joints: true,
+        ..HybridOptions::default()
+    }
+}
+
+fn run(model: &Model, ctrl: &dyn Controller, y0: &[f64], tf: f64) -> (Vec<f64>, Vec<EventKind>) {
+    let nq = model.nq();
+    let e = simulate(
+        model,
+        &FlatGround,
+        ctrl,
+        ContactMode::FLIGHT,
+        &y0[..nq],
+        &y0[nq..],
+        tf,
+        tight(),
+    )
+    .unwrap();
+    (
+        e.q.iter().chain(&e.qd).copied().collect(),
+        e.events.iter().map(|e| e.kind).collect(),
+    )
+}
+
+fn servo(gives_partials: bool) -> RampFromTouchdown {
+    RampFromTouchdown {
+        k: 20.0,
+        c: 0.5,
+        target: -0.3,
+        ramp: 1.5,
+        started: None,
+        seen: 0,
+        gives_partials,
+    }
+}
+
+/// The massless one-legged body of `tests/sensitivity.rs` (falls, lands on its toe, leans
+/// over it until the toe slips, lands on its belly) under the ramp servo: the whole-run
+/// Jacobian of `execution_sensitivity` and the columns of `execution_sensitivity_columns`
+/// against central differences (Richardson from h = 1e-6, 5e-7) of whole executions in all
+/// eight directions (1.9e-9 relative). The memory reaches the slip guard (`∂λ/∂m_k`
+/// through the stance torque) and the flows after the touchdown; the ramp makes the slip
+/// guard depend on time at a fixed state (`Controller::time_partials`: without that term in
+/// `ġ = D_xg f⁻ + ∂g/∂t` the slip's time gradient was off by 12 %, the Jacobian by 2e-2).
+/// The same controller without memory partials is a typed error.
+#[test]
+fn ramp_servo_from_a_touchdown_whole_execution_jacobian() {
+    let model = systems::one_leg(0.2, 0.0, G);
+    let y0 = [0.2, 0.0, -0.23, 0.1, -0.5, 0.4, 0.3, 0.2];
+    let tf = 0.42;
+    let ctrl = servo(true);
+    let (exec, sens) = simulate_with_sensitivity(
+        &model,
+        &FlatGround,
+        &ctrl,
+        ContactMode::FLIGHT,
+        &y0[..4],
+        &y0[4..],
+        tf,
+        tight(),
+    )
+    .unwrap();
+    let (_, seq) = run(&model, &ctrl, &y0, tf);
+    eprintln!(
+        "events {seq:?} at {:?}",
+        exec.events.iter().map(|e| e.t).collect::<Vec<_>>()
+    );
+    assert_eq!(seq[0], EventKind::Touchdown);
+    let jac = sens.state_jacobian.expect("defined");
+    let n2 = 8;
+    let mut fd = DMatrix::zeros(n2, n2);
+    for c in 0..n2 {
+        let d = |h: f64| {
+            let (mut yp, mut ym) = (y0.to_vec(), y0.to_vec());
+            yp[c] += h;
+            ym[c] -= h;
+            let ((xp, sp), (xm, sm)) = (run(&model, &ctrl, &yp, tf), run(&model, &ctrl, &ym, tf));
+            assert_eq!(sp, seq, "direction {c}");
+            assert_eq!(sm, seq, "direction {c}");
+            xp.iter()
+                .zip(&xm)
+                .map(|(a, b)| (a - b) / (2.0 * h))
+                .collect::<Vec<_>>()
+        };
+        let (d1, d2) = (d(1e-6), d(5e-7));
+        for i in 0..n2 {
+            fd[(i, c)] = (4.0 * d2[i] - d1[i]) / 3.0;
+        }
+    }
+    let err = (&jac - &fd).amax() / fd.amax();
+    eprintln!("ramp servo: |J − FD| / |FD| = {err:e}");
+    assert!(err < 1e-6, "{err:e}");
+    // the columns path (what parameters use) gives the same Jacobian
+    let cols = execution_sensitivity_columns(
+        &model,
+        &FlatGround,
+        &exec,
+        &DMatrix::identity(n2, n2),
+        &[] as &[Parameter],
+    )
+    .unwrap();
+    assert_eq!(cols.columns.as_ref(), Some(&jac));
+    // held fixed, the derivative is wrong: a controller without memory partials is flagged
+    let mut blind = servo(false);
+    blind.gives_partials = false;
+    let r = simulate_with_sensitivity(
+        &model,
+        &FlatGround,
+        &blind,
+        ContactMode::FLIGHT,
+        &y0[..4],
+        &y0[4..],
+        tf,
+        tight(),
+    );
+    match r {
+        Err(SensitivityError::EventMemoryWithoutPartials { t, .. }) => {
+            assert!(t >= exec.events[0].t, "{t}")
+        }
+        other => panic!("{other:?}"),
+    }
+}

@@ -1,0 +1,352 @@
+//! The derivatives of a prescribed motion with respect to the state it started from, for
+//! the sensitivities of a behaviour that starts motions at events (its **event memory**,
+//! `selfmanip_hybrid::Controller::memory_partials`).
+//!
+//! A motion started at an event `k` from `(θ₀, ω₀) = (q_k[j], q̇_k⁺[j])` at `t₀ = t_k` is
+//! `θ*(t) = Θ(t − t₀; θ₀, ω₀)`, so
+//!
+//! ```text
+//! ∂(θ*, ω*, α*)/∂t_k = −(ω*, α*, d³θ*/dt³)          (JointMotion::jerk)
+//! ∂(θ*, ω*, α*)/∂(θ₀, ω₀)                           (forward-mode derivative of the construction)
+//! ```
+//!
+//! The second line differentiates [`JointMotion::swing`] / [`JointMotion::park`] as built
+//! (the same branches: ramps or the quintic, the cruise speed `max(speed, |ω₀|)`, the
+//! quintic's duration `T₀ 1.02ⁿ` with `n` the search's count held fixed) by dual numbers:
+//! each quantity carries its value and its partials over `(θ₀, ω₀)`. The branches are those
+//! of the motion at the values given; at a branch switch the derivative is one-sided.
+use crate::motion::JointMotion;
+
+/// A value with its partials over `(θ₀, ω₀)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct D {
+    v: f64,
+    d: [f64; 2],
+}
+
+impl D {
+    fn c(v: f64) -> D {
+        D { v, d: [0.0; 2] }
+    }
+    fn var(v: f64, i: usize) -> D {
+        let mut d = [0.0; 2];
+        d[i] = 1.0;
+        D { v, d }
+    }
+    fn map(self, f: f64, df: f64) -> D {
+        D {
+            v: f,
+            d: [df * self.d[0], df * self.d[1]],
+        }
+    }
+    fn abs(self) -> D {
+        if self.v < 0.0 {
+            -self
+        } else {
+            self
+        }
+    }
+    fn sqrt(self) -> D {
+        let s = self.v.sqrt();
+        self.map(s, 0.5 / s)
+    }
+}
+
+impl std::ops::Add for D {
+    type Output = D;
+    fn add(self, o: D) -> D {
+        D {
+            v: self.v + o.v,
+            d: [self.d[0] + o.d[0], self.d[1] + o.d[1]],
+        }
+    }
+}
+impl std::ops::Sub for D {
+    type Output = D;
+    fn sub(self, o: D) -> D {
+        self + (-o)
+    }
+}
+impl std::ops::Neg for D {
+    type Output = D;
+    fn neg(self) -> D {
+        D {
+            v: -self.v,
+            d: [-self.d[0], -self.d[1]],
+        }
+    }
+}
+impl std::ops::Mul for D {
+    type Output = D;
+    fn mul(self, o: D) -> D {
+        D {
+            v: self.v * o.v,
+            d: [
+                self.d[0] * o.v + self.v * o.d[0],
+                self.d[1] * o.v + self.v * o.d[1],
+            ],
+        }
+    }
+}
+impl std::ops::Div for D {
+    type Output = D;
+    fn div(self, o: D) -> D {
+        let v = self.v / o.v;
+        D {
+            v,
+            d: [
+                (self.d[0] - v * o.d[0]) / o.v,
+                (self.d[1] - v * o.d[1]) / o.v,
+            ],
+        }
+    }
+}
+impl std::ops::Mul<D> for f64 {
+    type Output = D;
+    fn mul(self, o: D) -> D {
+        D::c(self) * o
+    }
+}
+
+/// The law of a motion started at an event, its numbers known (constants of the behaviour).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum StartedLaw {
+    Swing { target: f64, speed: f64, accel: f64 },
+    Park { target: f64, accel: f64 },
+}
+
+impl StartedLaw {
+    /// The motion itself (as `MotionLaw::start` builds it from constant numbers).
+    #[cfg(test)]
+    pub(crate) fn motion(&self, t0: f64, theta0: f64, omega0: f64) -> JointMotion {
+        match *self {
+            StartedLaw::Swing {
+                target,
+                speed,
+                accel,
+            } => JointMotion::swing(t0, theta0, omega0, target, speed, accel),
+            StartedLaw::Park { target, accel } => {
+                JointMotion::park(t0, theta0, omega0, target, accel)
+            }
+        }
+    }
+
+    /// `∂(θ*, ω*, α*)/∂(t₀, θ₀, ω₀)` at `t` of `motion` (built by [`Self::motion`] from
+    /// `(t₀, θ₀, ω₀)`), rows `θ*, ω*, α*`.
+    pub(crate) fn partials(
+        &self,
+        motion: &JointMotion,
+        theta0: f64,
+        omega0: f64,
+        t: f64,
+    ) -> [[f64; 3]; 3] {
+        let t0 = motion.t0();
+        let (_, w, a) = motion.eval(t);
+        let jerk = motion.jerk(t);
+        let r = self.reference_dual(motion, theta0, omega0, t);
+        let mut out = [[0.0; 3]; 3];
+        for (i, (dt, x)) in [(-w, r[0]), (-a, r[1]), (-jerk, r[2])]
+            .into_iter()
+            .enumerate()
+        {
+            // before the start the motion is its start (at its start speed): no t₀ term
+            out[i] = [if t < t0 { 0.0 } else { dt }, x.d[0], x.d[1]];
+        }
+        out
+    }
+
+    /// `(θ*, ω*, α*)` at `t` with their partials over `(θ₀, ω₀)`, on the branches `motion`
+    /// took.
+    fn reference_dual(&self, motion: &JointMotion, theta0: f64, omega0: f64, t: f64) -> [D; 3] {
+        let (th0, w0) = (D::var(theta0, 0), D::var(omega0, 1));
+        let tau = (t - motion.t0()).max(0.0);
+        let knots = motion.knots();
+        match *self {
+            StartedLaw::Swing {
+                target,
+                speed,
+                accel,
+            } if knots.len() == 3 => {
+                // the ramps of JointMotion::swing
+                let dir = (target - theta0).signum();
+                let v = if speed.abs() >= dir * omega0 {
+                    D::c(dir * speed.abs())
+                } else {
+                    w0
+                };
+                let up = (1.5 / accel) * (v - w0).abs();
+                let down = (1.5 / accel) * v.abs();
+                let ramps = 0.5 * ((w0 + v) * up) + 0.5 * (v * down);
+                let cruise = (D::c(target) - th0 - ramps) / v;
+                let mut theta = th0;
+                let mut tau = D::c(tau);
+                for (dur, a, b) in [(up, w0, v), (cruise, v, v), (down, v, D::c(0.0))] {
+                    if tau.v <= dur.v {
+                        return ramp(dur, theta, a, b, tau);
+                    }
+                    theta = ramp(dur, theta, a, b, dur)[0];
+                    tau = tau - dur;
+                }
+                [D::c(target), D::c(0.0), D::c(0.0)]
+            }
+            StartedLaw::Swing { target, accel, .. } | StartedLaw::Park { target, accel } => {
+                // the quintic of JointMotion::park: T = T₀ 1.02ⁿ
+                let distance = (D::c(target) - th0).abs();
+                let mut dur = (5.77 * distance / D::c(accel)).sqrt();
+                let by_speed = w0.abs() / D::c(accel);
+                if by_speed.v > dur.v {
+                    dur = by_speed;
+                }
+                if 1e-6 > dur.v {
+                    dur = D::c(1e-6);
+                }
+                let total = knots.first().map_or(0.0, |k| k - motion.t0());
+                while dur.v * 1.02 <= total * (1.0 + 1e-9) && dur.v < total {
+                    dur = 1.02 * dur;
+                }
+                if tau > dur.v {
+                    return [D::c(target), D::c(0.0), D::c(0.0)];
+                }
+                let d = D::c(target) - th0 - w0 * dur;
+                let wt = w0 * dur;
+                let t3 = dur * dur * dur;
+                let c3 = (10.0 * d + 4.0 * wt) / t3;
+                let c4 = (-15.0 * d - 7.0 * wt) / (t3 * dur);
+                let c5 = (6.0 * d + 3.0 * wt) / (t3 * dur * dur);
+                let tau = D::c(tau);
+                let (s2, s3) = (tau * tau, tau * tau * tau);
+                [
+                    th0 + w0 * tau + c3 * s3 + c4 * s3 * tau + c5 * s3 * s2,
+                    w0 + 3.0 * c3 * s2 + 4.0 * c4 * s3 + 5.0 * c5 * s2 * s2,
+                    6.0 * c3 * tau + 12.0 * c4 * s2 + 20.0 * c5 * s3,
+                ]
+            }
+        }
+    }
+}
+
+/// A smoothstep velocity ramp from `w0` to `w1` over `dur` from `theta0`, at `tau`
+/// (`JointMotion`'s ramps).
+fn ramp(dur: D, theta0: D, w0: D, w1: D, tau: D) -> [D; 3] {
+    if dur.v <= 0.0 {
+        return [theta0 + w0 * tau, w0, D::c(0.0)];
+    }
+    let s = tau / dur;
+    let dw = w1 - w0;
+    let (s2, s3) = (s * s, s * s * s);
+    [
+        theta0 + w0 * tau + dw * dur * (s3 - 0.5 * (s3 * s)),
+        w0 + dw * s2 * (D::c(3.0) - 2.0 * s),
+        dw / dur * (6.0 * (s * (D::c(1.0) - s))),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The dual-number construction reproduces the motion (its values agree with
+    /// `JointMotion::eval` to round-off), and its partials over `(t₀, θ₀, ω₀)` agree with
+    /// central differences of whole motions built from perturbed starts (an independent
+    /// route: the production constructor, not the dual one), for swings (ramps, a cruise at
+    /// the start speed) and parks (a quintic after the duration search), at times inside
+    /// every piece.
+    #[test]
+    fn motion_partials_match_central_differences() {
+        let laws = [
+            (
+                StartedLaw::Swing {
+                    target: 1.2,
+                    speed: 15.0,
+                    accel: 600.0,
+                },
+                0.3,
+                -2.0,
+            ),
+            (
+                StartedLaw::Swing {
+                    target: -1.0,
+                    speed: 15.0,
+                    accel: 600.0,
+                },
+                0.4,
+                -20.0,
+            ),
+            (
+                StartedLaw::Swing {
+                    target: 1.0,
+                    speed: 12.0,
+                    accel: 400.0,
+                },
+                0.9,
+                3.0,
+            ),
+            (
+                StartedLaw::Park {
+                    target: -0.6,
+                    accel: 400.0,
+                },
+                0.2,
+                3.0,
+            ),
+            (
+                StartedLaw::Swing {
+                    target: 0.5,
+                    speed: 15.0,
+                    accel: 600.0,
+                },
+                0.45,
+                -4.0,
+            ),
+        ];
+        let t0 = 0.1;
+        let mut worst: f64 = 0.0;
+        for (law, th, w) in laws {
+            let m = law.motion(t0, th, w);
+            let end = m.knots().last().copied().unwrap_or(t0) + 0.01;
+            for i in 1..40 {
+                let t = t0 + (end - t0) * i as f64 / 40.0;
+                if m.knots().iter().any(|k| (k - t).abs() < 1e-4) {
+                    continue;
+                }
+                let r = law.reference_dual(&m, th, w, t);
+                let e = m.eval(t);
+                for (x, y) in r.iter().zip([e.0, e.1, e.2]) {
+                    assert!(
+                        (x.v - y).abs() <= 1e-11 * (1.0 + y.abs()),
+                        "{law:?} {t}: {} {y}",
+                        x.v
+                    );
+                }
+                let p = law.partials(&m, th, w, t);
+                let h = 1e-6;
+                for c in 0..3 {
+                    let mut a = [t0, th, w];
+                    let mut b = a;
+                    a[c] += h;
+                    b[c] -= h;
+                    let (ea, eb) = (
+                        law.motion(a[0], a[1], a[2]).eval(t),
+                        law.motion(b[0], b[1], b[2]).eval(t),
+                    );
+                    let fd = [
+                        (ea.0 - eb.0) / (2.0 * h),
+                        (ea.1 - eb.1) / (2.0 * h),
+                        (ea.2 - eb.2) / (2.0 * h),
+                    ];
+                    for row in 0..3 {
+                        let err = (p[row][c] - fd[row]).abs() / (1.0 + fd[row].abs());
+                        worst = worst.max(err);
+                        assert!(
+                            err < 1e-5,
+                            "{law:?} t {t} row {row} col {c}: {} vs {}",
+                            p[row][c],
+                            fd[row]
+                        );
+                    }
+                }
+            }
+        }
+        eprintln!("worst relative error of the motion partials: {worst:e}");
+    }
+}
