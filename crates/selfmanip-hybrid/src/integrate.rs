@@ -284,6 +284,7 @@ impl Dopri5 {
         self.fsal_valid = false;
         self.h = h_s;
         self.last_accepted = None;
+        bump(|w| w.restarts[phase()] += 1);
     }
 
     /// One accepted step of `ẏ = f(t, y)` from `(t, y)` not past `t_end`; advances `y` and
@@ -369,12 +370,95 @@ impl Dopri5 {
                 }
                 self.last_accepted = Some((h, err.max(1e-2)));
                 self.h = h * fac;
+                bump(|w| w.accepted[phase()] += 1);
                 return Ok(());
             }
             rejected = true;
+            bump(|w| w.rejected[phase()] += 1);
             self.h = h * (0.9 * err.powf(-0.2)).clamp(0.2, 1.0);
         }
     }
+}
+
+/// Counters of the integration's work on the calling thread, split by phase: index 0 for a
+/// contact mode with at least one active contact (stance), 1 for a mode with none (flight),
+/// by the mode of the last flow evaluation ([`crate::flow::Flow::rhs`]). A diagnostic for
+/// profiling (what a run's cost is made of); nothing in the engine reads them, so they
+/// change no result. Read and cleared with [`work_counters`] and [`reset_work_counters`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct WorkCounters {
+    /// Accepted steps.
+    pub accepted: [u64; 2],
+    /// Trial steps rejected by the error test.
+    pub rejected: [u64; 2],
+    /// Restarts of the integrator (its stored derivative forgotten: a new segment, a
+    /// projection, a time event).
+    pub restarts: [u64; 2],
+    /// Calls of the flow's right-hand side.
+    pub rhs_calls: [u64; 2],
+    /// Of those, the ones that solved the dynamics (the cache did not hold the state).
+    pub solves: [u64; 2],
+}
+
+impl WorkCounters {
+    /// `self − earlier`, component by component (the work between two readings).
+    pub fn since(&self, earlier: &WorkCounters) -> WorkCounters {
+        let d = |a: [u64; 2], b: [u64; 2]| [a[0] - b[0], a[1] - b[1]];
+        WorkCounters {
+            accepted: d(self.accepted, earlier.accepted),
+            rejected: d(self.rejected, earlier.rejected),
+            restarts: d(self.restarts, earlier.restarts),
+            rhs_calls: d(self.rhs_calls, earlier.rhs_calls),
+            solves: d(self.solves, earlier.solves),
+        }
+    }
+}
+
+thread_local! {
+    static WORK: std::cell::Cell<WorkCounters> = const {
+        std::cell::Cell::new(WorkCounters {
+            accepted: [0; 2],
+            rejected: [0; 2],
+            restarts: [0; 2],
+            rhs_calls: [0; 2],
+            solves: [0; 2],
+        })
+    };
+    /// The phase of the last flow evaluation (0 stance, 1 flight).
+    static PHASE: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+/// The work counters of this thread so far.
+pub fn work_counters() -> WorkCounters {
+    WORK.with(std::cell::Cell::get)
+}
+
+/// Sets this thread's work counters to zero.
+pub fn reset_work_counters() {
+    WORK.with(|w| w.set(WorkCounters::default()));
+}
+
+/// Counts one evaluation of the flow in a mode with (`flight == false`) or without active
+/// contacts; `solved`: the dynamics were solved (not taken from the cache).
+pub(crate) fn count_rhs(flight: bool, solved: bool) {
+    let p = usize::from(flight);
+    PHASE.with(|c| c.set(p));
+    bump(|w| {
+        w.rhs_calls[p] += 1;
+        w.solves[p] += u64::from(solved);
+    });
+}
+
+fn bump(f: impl FnOnce(&mut WorkCounters)) {
+    WORK.with(|c| {
+        let mut w = c.get();
+        f(&mut w);
+        c.set(w);
+    });
+}
+
+fn phase() -> usize {
+    PHASE.with(std::cell::Cell::get)
 }
 
 /// Why a step failed.
