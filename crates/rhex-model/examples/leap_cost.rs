@@ -16,7 +16,6 @@
 //! machine's load shows in it).
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator, Strategy};
 use selfmanip_hybrid::integrate::{reset_work_counters, work_counters, WorkCounters};
-use selfmanip_hybrid::Controller as _;
 use std::collections::BTreeMap;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

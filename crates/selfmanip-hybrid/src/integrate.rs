@@ -284,7 +284,7 @@ impl Dopri5 {
         self.fsal_valid = false;
         self.h = h_s;
         self.last_accepted = None;
-        bump(|w| w.restarts[phase()] += 1);
+        bump(RESTARTS);
     }
 
     /// One accepted step of `ẏ = f(t, y)` from `(t, y)` not past `t_end`; advances `y` and
@@ -370,11 +370,11 @@ impl Dopri5 {
                 }
                 self.last_accepted = Some((h, err.max(1e-2)));
                 self.h = h * fac;
-                bump(|w| w.accepted[phase()] += 1);
+                bump(ACCEPTED);
                 return Ok(());
             }
             rejected = true;
-            bump(|w| w.rejected[phase()] += 1);
+            bump(REJECTED);
             self.h = h * (0.9 * err.powf(-0.2)).clamp(0.2, 1.0);
         }
     }
@@ -396,7 +396,8 @@ pub struct WorkCounters {
     pub restarts: [u64; 2],
     /// Calls of the flow's right-hand side.
     pub rhs_calls: [u64; 2],
-    /// Of those, the ones that solved the dynamics (the cache did not hold the state).
+    /// Solves of the dynamics by the flow, for the right-hand side or anyone else (the
+    /// guards, the set-up of a segment); an evaluation the flow's cache held is not one.
     pub solves: [u64; 2],
 }
 
@@ -414,51 +415,78 @@ impl WorkCounters {
     }
 }
 
+/// The counters' slots: each counter's two phases are `2 k` and `2 k + 1`.
+const ACCEPTED: usize = 0;
+const REJECTED: usize = 2;
+const RESTARTS: usize = 4;
+const RHS_CALLS: usize = 6;
+const SOLVES: usize = 8;
+
+/// The counters of one thread: one cell per counter and phase, and the phase of the last
+/// flow evaluation (0 stance, 1 flight). One thread-local access and one cell's increment per
+/// count: the counters must cost nothing measurable in a leap.
+struct WorkCells {
+    counts: [std::cell::Cell<u64>; 10],
+    phase: std::cell::Cell<usize>,
+}
+
 thread_local! {
-    static WORK: std::cell::Cell<WorkCounters> = const {
-        std::cell::Cell::new(WorkCounters {
-            accepted: [0; 2],
-            rejected: [0; 2],
-            restarts: [0; 2],
-            rhs_calls: [0; 2],
-            solves: [0; 2],
-        })
+    static WORK: WorkCells = const {
+        WorkCells {
+            counts: [const { std::cell::Cell::new(0) }; 10],
+            phase: std::cell::Cell::new(0),
+        }
     };
-    /// The phase of the last flow evaluation (0 stance, 1 flight).
-    static PHASE: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
 }
 
 /// The work counters of this thread so far.
 pub fn work_counters() -> WorkCounters {
-    WORK.with(std::cell::Cell::get)
+    WORK.with(|w| {
+        let pair = |k: usize| [w.counts[k].get(), w.counts[k + 1].get()];
+        WorkCounters {
+            accepted: pair(ACCEPTED),
+            rejected: pair(REJECTED),
+            restarts: pair(RESTARTS),
+            rhs_calls: pair(RHS_CALLS),
+            solves: pair(SOLVES),
+        }
+    })
 }
 
 /// Sets this thread's work counters to zero.
 pub fn reset_work_counters() {
-    WORK.with(|w| w.set(WorkCounters::default()));
+    WORK.with(|w| w.counts.iter().for_each(|c| c.set(0)));
 }
 
-/// Counts one evaluation of the flow in a mode with (`flight == false`) or without active
-/// contacts; `solved`: the dynamics were solved (not taken from the cache).
-pub(crate) fn count_rhs(flight: bool, solved: bool) {
+/// Counts one call of the flow's right-hand side in a mode with (`flight == false`) or
+/// without active contacts, and makes that the phase of the integrator's counts.
+#[inline]
+pub(crate) fn count_rhs(flight: bool) {
     let p = usize::from(flight);
-    PHASE.with(|c| c.set(p));
-    bump(|w| {
-        w.rhs_calls[p] += 1;
-        w.solves[p] += u64::from(solved);
+    WORK.with(|w| {
+        w.phase.set(p);
+        let c = &w.counts[RHS_CALLS + p];
+        c.set(c.get() + 1);
     });
 }
 
-fn bump(f: impl FnOnce(&mut WorkCounters)) {
-    WORK.with(|c| {
-        let mut w = c.get();
-        f(&mut w);
-        c.set(w);
+/// Counts one solve of the dynamics by the flow (any caller: the integrator's stages, the
+/// guards, the segment's set-up) in a mode with or without active contacts.
+#[inline]
+pub(crate) fn count_solve(flight: bool) {
+    WORK.with(|w| {
+        let c = &w.counts[SOLVES + usize::from(flight)];
+        c.set(c.get() + 1);
     });
 }
 
-fn phase() -> usize {
-    PHASE.with(std::cell::Cell::get)
+/// Adds one to `counter` in the phase of the last flow evaluation.
+#[inline]
+fn bump(counter: usize) {
+    WORK.with(|w| {
+        let c = &w.counts[counter + w.phase.get()];
+        c.set(c.get() + 1);
+    });
 }
 
 /// Why a step failed.

@@ -94,6 +94,6 @@ fn flow_counters_split_a_falling_block_into_flight_and_stance() {
             w.rhs_calls[p] <= trials + w.restarts[p] + exec.segments.len() as u64,
             "phase {p}: {w:?}"
         );
-        assert!(w.solves[p] <= w.rhs_calls[p]);
+        assert!(w.solves[p] > 0);
     }
 }
