@@ -109,7 +109,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             );
             if let Some(a) = r.apex {
                 print!(
-                    "  apex z {:.4} m, pitch {:.2} deg",
+                    "  apex z {:.7} m, pitch {:.5} deg",
                     a.z_m,
                     a.phi_rad.to_degrees()
                 );
