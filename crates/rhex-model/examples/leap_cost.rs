@@ -11,21 +11,23 @@
 //! carry their rotors' `n J G²`, as every massive leg does); `GEAR`, `M_B` (kg) and `I_B`
 //! (kg m²) change the gear ratio and the body's mass and inertia; `SEGS=1` lists each leap's
 //! segments with their accepted steps (`STEPS=1` every tenth step's size, `TORQUE=1` the
-//! controller's torques along them); `RTOL` sets the leap's tolerance. With `SWEEP` the counts are summed over the four
-//! 41-point sweeps `t2 = −0.2 … 0.2` s and the wall time of the whole sweep is printed (the
-//! machine's load shows in it).
+//! controller's torques along them); `RTOL` sets the leap's tolerance. With `SWEEP` the
+//! counts are summed over the four 41-point sweeps `t2 = −0.2 … 0.2` s and the wall time of
+//! the whole sweep is printed (the machine's load shows in it).
 //!
 //! What it showed (main 74e1521, the four 41-point sweeps, per leap): the massless default
 //! takes 98 accepted steps (82 stance, 16 flight), legs with Table 4.2's mass and their
 //! rotors 498 (314, 183), with few rejections (28 per leap, 5 %), one dynamics solve per
-//! right-hand side call, and as many events (6). The steps are accuracy-limited, not
+//! right-hand side call (and a few for the guards and segment starts: no factorization is
+//! repeated), and as many events (6). The steps are accuracy-limited, not
 //! stability-limited: their number scales as `rtol^(−1/5)` (rtol 1e-7: 324), the error
 //! norm is led by the legs' velocities, and the flow's Jacobian has the legs' servo poles at
 //! −205 … −232 /s (the critically damped 217 rad/s servo) wherever the servo is in its
 //! linear range — steps of 0.4–0.6 ms there (h λ ≈ 0.1, far inside DOPRI5's stability
 //! region), 2–4 ms where it saturates or the motor's own law drives the leg. Every event,
 //! motor start and takeoff excites the servo's transient, which decays as `(1 + λt) e^{−λt}`
-//! and is resolved to the tolerance for about 0.1 s: the flight is spent on it.
+//! and is resolved to the tolerance for about 0.1 s: with the legs' own swings to their
+//! park, that is where the flight's steps go.
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator, Strategy};
 use selfmanip_hybrid::integrate::{reset_work_counters, work_counters, WorkCounters};
 use std::collections::BTreeMap;
