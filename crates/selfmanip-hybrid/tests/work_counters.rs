@@ -49,7 +49,10 @@ fn dopri5_counts_match_its_stage_structure() {
     let accepted = w.accepted[0];
     let rejected = w.rejected[0];
     assert_eq!(accepted, ok_steps);
-    assert!(rejected >= 1, "the 0.2 s first trial (h λ = 10) is rejected");
+    assert!(
+        rejected >= 1,
+        "the 0.2 s first trial (h λ = 10) is rejected"
+    );
     assert_eq!(calls, 1 + 6 * (accepted + rejected));
     assert_eq!(w.accepted[1] + w.rejected[1], 0);
     assert!((y[0] - (-25.0f64).exp()).abs() < 1e-8 * (-25.0f64).exp() + 1e-12);
