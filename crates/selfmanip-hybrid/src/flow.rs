@@ -202,6 +202,7 @@ impl<'a> Flow<'a> {
             return Ok(&self.ws.data);
         }
         self.key = None;
+        crate::integrate::count_solve(mode.is_flight());
         // the run's initial state was checked: a non-finite state here is the integrator's
         if !q.iter().chain(qd).all(|v| v.is_finite()) {
             return Err(CoreError::NonFiniteResult {
@@ -230,6 +231,7 @@ impl<'a> Flow<'a> {
     ) -> Result<(), CoreError> {
         let nq = self.model.nq();
         let (q, qd) = y.split_at(nq);
+        crate::integrate::count_rhs(mode.is_flight());
         let data = self.eval(t, mode, q, qd)?;
         dy[..nq].copy_from_slice(qd);
         dy[nq..].copy_from_slice(data.qdd.as_slice());

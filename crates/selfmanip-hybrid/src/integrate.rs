@@ -284,6 +284,7 @@ impl Dopri5 {
         self.fsal_valid = false;
         self.h = h_s;
         self.last_accepted = None;
+        bump(RESTARTS);
     }
 
     /// One accepted step of `ẏ = f(t, y)` from `(t, y)` not past `t_end`; advances `y` and
@@ -369,12 +370,123 @@ impl Dopri5 {
                 }
                 self.last_accepted = Some((h, err.max(1e-2)));
                 self.h = h * fac;
+                bump(ACCEPTED);
                 return Ok(());
             }
             rejected = true;
+            bump(REJECTED);
             self.h = h * (0.9 * err.powf(-0.2)).clamp(0.2, 1.0);
         }
     }
+}
+
+/// Counters of the integration's work on the calling thread, split by phase: index 0 for a
+/// contact mode with at least one active contact (stance), 1 for a mode with none (flight),
+/// by the mode of the last flow evaluation ([`crate::flow::Flow::rhs`]). A diagnostic for
+/// profiling (what a run's cost is made of); nothing in the engine reads them, so they
+/// change no result. Read and cleared with [`work_counters`] and [`reset_work_counters`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct WorkCounters {
+    /// Accepted steps.
+    pub accepted: [u64; 2],
+    /// Trial steps rejected by the error test.
+    pub rejected: [u64; 2],
+    /// Restarts of the integrator (its stored derivative forgotten: a new segment, a
+    /// projection, a time event).
+    pub restarts: [u64; 2],
+    /// Calls of the flow's right-hand side.
+    pub rhs_calls: [u64; 2],
+    /// Solves of the dynamics by the flow, for the right-hand side or anyone else (the
+    /// guards, the set-up of a segment); an evaluation the flow's cache held is not one.
+    pub solves: [u64; 2],
+}
+
+impl WorkCounters {
+    /// `self − earlier`, component by component (the work between two readings).
+    pub fn since(&self, earlier: &WorkCounters) -> WorkCounters {
+        let d = |a: [u64; 2], b: [u64; 2]| [a[0] - b[0], a[1] - b[1]];
+        WorkCounters {
+            accepted: d(self.accepted, earlier.accepted),
+            rejected: d(self.rejected, earlier.rejected),
+            restarts: d(self.restarts, earlier.restarts),
+            rhs_calls: d(self.rhs_calls, earlier.rhs_calls),
+            solves: d(self.solves, earlier.solves),
+        }
+    }
+}
+
+/// The counters' slots: each counter's two phases are `2 k` and `2 k + 1`.
+const ACCEPTED: usize = 0;
+const REJECTED: usize = 2;
+const RESTARTS: usize = 4;
+const RHS_CALLS: usize = 6;
+const SOLVES: usize = 8;
+
+/// The counters of one thread: one cell per counter and phase, and the phase of the last
+/// flow evaluation (0 stance, 1 flight). One thread-local access and one cell's increment per
+/// count: the counters must cost nothing measurable in a leap.
+struct WorkCells {
+    counts: [std::cell::Cell<u64>; 10],
+    phase: std::cell::Cell<usize>,
+}
+
+thread_local! {
+    static WORK: WorkCells = const {
+        WorkCells {
+            counts: [const { std::cell::Cell::new(0) }; 10],
+            phase: std::cell::Cell::new(0),
+        }
+    };
+}
+
+/// The work counters of this thread so far.
+pub fn work_counters() -> WorkCounters {
+    WORK.with(|w| {
+        let pair = |k: usize| [w.counts[k].get(), w.counts[k + 1].get()];
+        WorkCounters {
+            accepted: pair(ACCEPTED),
+            rejected: pair(REJECTED),
+            restarts: pair(RESTARTS),
+            rhs_calls: pair(RHS_CALLS),
+            solves: pair(SOLVES),
+        }
+    })
+}
+
+/// Sets this thread's work counters to zero.
+pub fn reset_work_counters() {
+    WORK.with(|w| w.counts.iter().for_each(|c| c.set(0)));
+}
+
+/// Counts one call of the flow's right-hand side in a mode with (`flight == false`) or
+/// without active contacts, and makes that the phase of the integrator's counts.
+#[inline]
+pub(crate) fn count_rhs(flight: bool) {
+    let p = usize::from(flight);
+    WORK.with(|w| {
+        w.phase.set(p);
+        let c = &w.counts[RHS_CALLS + p];
+        c.set(c.get() + 1);
+    });
+}
+
+/// Counts one solve of the dynamics by the flow (any caller: the integrator's stages, the
+/// guards, the segment's set-up) in a mode with or without active contacts.
+#[inline]
+pub(crate) fn count_solve(flight: bool) {
+    WORK.with(|w| {
+        let c = &w.counts[SOLVES + usize::from(flight)];
+        c.set(c.get() + 1);
+    });
+}
+
+/// Adds one to `counter` in the phase of the last flow evaluation.
+#[inline]
+fn bump(counter: usize) {
+    WORK.with(|w| {
+        let c = &w.counts[counter + w.phase.get()];
+        c.set(c.get() + 1);
+    });
 }
 
 /// Why a step failed.
