@@ -79,7 +79,8 @@ pub trait Controller: ControllerClone + Send + Sync {
     /// `∂Υ/∂t` at a fixed state — the explicit time dependence of [`Self::torque`] (a servo
     /// that tracks a motion, a torque schedule's ramp) — written into `dtau_dt` (zeroed, one
     /// entry per joint). Returns whether the controller provides it; the default does not,
-    /// and the sensitivities then take `∂Υ/∂t = 0`. It enters where a guard depends on the
+    /// and the sensitivities then take it by a central difference of [`Self::torque`] in
+    /// time at the fixed state. It enters where a guard depends on the
     /// torques: a force event's (liftoff, slip) rate along the flow is
     /// `ġ = D_xg f⁻ + ∂g/∂t`, with `∂g/∂t` from `∂λ/∂Υ ∂Υ/∂t`.
     fn time_partials(

@@ -73,7 +73,8 @@
 //! `X⁺ = Ξ X + (f⁺ − D_xR f⁻) D_mg M / ġ`, at a time event whose instant moves with the memory
 //! `X += (f⁻ − f⁺) dt_b/dm M` ([`Controller::memory_time_events`]). A force guard's rate
 //! `ġ = D_xg f⁻ + ∂g/∂t` includes the torques' explicit time dependence
-//! ([`Controller::time_partials`], 0 when not given). [`execution_sensitivity`] takes its
+//! ([`Controller::time_partials`], or a central difference of the torques in time when not
+//! given). [`execution_sensitivity`] takes its
 //! state Jacobian and event time gradients from the columns when a controller has memory;
 //! a controller with memory and no memory partials is a typed error
 //! ([`SensitivityError::EventMemoryWithoutPartials`]). `docs/sensitivity.md` derives it.
@@ -215,7 +216,8 @@ struct FlowJacobian {
     /// `∂λ/∂x` (rows of the mode) and `λ`.
     dlambda: DMatrix<f64>,
     lambda: DVector<f64>,
-    /// `∂λ/∂t` at a fixed state (`∂λ/∂Υ ∂Υ/∂t`, [`Controller::time_partials`]; zero when the
+    /// `∂λ/∂t` at a fixed state (`∂λ/∂Υ ∂Υ/∂t`, [`Controller::time_partials`]; by a central
+    /// difference of the torques in time ([`torque_time_difference`]) when the
     /// controller does not give `∂Υ/∂t`).
     dlambda_dt: DVector<f64>,
 }
@@ -416,11 +418,10 @@ impl<'a> Evaluator<'a> {
         f.rows_mut(0, nq).copy_from_slice(qd);
         f.rows_mut(nq, nq).copy_from(&self.data.qdd);
         let mut dtau_dt = DVector::zeros(n);
-        let dlambda_dt = if ctrl.time_partials(t, q, qd, mode, dtau_dt.as_mut_slice()) {
-            &dj.dlambda_dtau * dtau_dt
-        } else {
-            DVector::zeros(c)
-        };
+        if !ctrl.time_partials(t, q, qd, mode, dtau_dt.as_mut_slice()) {
+            torque_time_difference(ctrl, t, q, qd, mode, dtau_dt.as_mut_slice());
+        }
+        let dlambda_dt = &dj.dlambda_dtau * dtau_dt;
         Ok(FlowJacobian {
             f,
             jac,
@@ -428,6 +429,28 @@ impl<'a> Evaluator<'a> {
             lambda: self.data.lambda.clone(),
             dlambda_dt,
         })
+    }
+}
+
+/// `∂Υ/∂t` at a fixed state by a central difference of [`Controller::torque`] in time, for a
+/// controller that does not give [`Controller::time_partials`]: the torques are smooth in
+/// time between the controller's time events, where a guard's crossing generically is not,
+/// so the difference (step `1e-6 max(1, |t|)` s) has a relative error of about 1e-9 where
+/// taking it as 0 would drop the term.
+fn torque_time_difference(
+    ctrl: &dyn Controller,
+    t: f64,
+    q: &[f64],
+    qd: &[f64],
+    mode: ContactMode,
+    out: &mut [f64],
+) {
+    let h = 1e-6 * t.abs().max(1.0);
+    let mut up = vec![0.0; out.len()];
+    ctrl.torque(t + h, q, qd, mode, &mut up);
+    ctrl.torque(t - h, q, qd, mode, out);
+    for (o, u) in out.iter_mut().zip(&up) {
+        *o = (u - *o) / (2.0 * h);
     }
 }
 

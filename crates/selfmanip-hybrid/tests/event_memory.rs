@@ -30,6 +30,8 @@ struct RampFromTouchdown {
     seen: usize,
     /// Whether it gives its memory partials (a controller that does not is flagged).
     gives_partials: bool,
+    /// Whether it gives `∂τ/∂t` (the sensitivities difference its torque in time if not).
+    gives_time_partials: bool,
 }
 
 impl RampFromTouchdown {
@@ -69,7 +71,7 @@ impl Controller for RampFromTouchdown {
         dtau_dt: &mut [f64],
     ) -> bool {
         dtau_dt[0] = self.k * self.reference(t).1;
-        true
+        self.gives_time_partials
     }
     fn on_event(&mut self, e: &Event) {
         if self.started.is_none() && e.kind == EventKind::Touchdown {
@@ -147,6 +149,7 @@ fn servo(gives_partials: bool) -> RampFromTouchdown {
         started: None,
         seen: 0,
         gives_partials,
+        gives_time_partials: true,
     }
 }
 
@@ -157,8 +160,9 @@ fn servo(gives_partials: bool) -> RampFromTouchdown {
 /// eight directions (1.9e-9 relative). The memory reaches the slip guard (`∂λ/∂m_k`
 /// through the stance torque) and the flows after the touchdown; the ramp makes the slip
 /// guard depend on time at a fixed state (`Controller::time_partials`: without that term in
-/// `ġ = D_xg f⁻ + ∂g/∂t` the slip's time gradient was off by 12 %, the Jacobian by 2e-2).
-/// The same controller without memory partials is a typed error.
+/// `ġ = D_xg f⁻ + ∂g/∂t` the slip's time gradient was off by 12 %, the Jacobian by 2e-2;
+/// without `time_partials` the sensitivities difference the torque in time, to the same
+/// Jacobian). The same controller without memory partials is a typed error.
 #[test]
 fn ramp_servo_from_a_touchdown_whole_execution_jacobian() {
     let model = systems::one_leg(0.2, 0.0, G);
@@ -216,6 +220,23 @@ fn ramp_servo_from_a_touchdown_whole_execution_jacobian() {
     )
     .unwrap();
     assert_eq!(cols.columns.as_ref(), Some(&jac));
+    // without its ∂τ/∂t the sensitivities difference the torque in time: the same Jacobian
+    let mut timeless = servo(true);
+    timeless.gives_time_partials = false;
+    let (_, s) = simulate_with_sensitivity(
+        &model,
+        &FlatGround,
+        &timeless,
+        ContactMode::FLIGHT,
+        &y0[..4],
+        &y0[4..],
+        tf,
+        tight(),
+    )
+    .unwrap();
+    let err_fd = (&s.state_jacobian.expect("defined") - &fd).amax() / fd.amax();
+    eprintln!("ramp servo, ∂τ/∂t by differences: |J − FD| / |FD| = {err_fd:e}");
+    assert!(err_fd < 1e-6, "{err_fd:e}");
     // held fixed, the derivative is wrong: a controller without memory partials is flagged
     let mut blind = servo(false);
     blind.gives_partials = false;
