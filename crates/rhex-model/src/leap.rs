@@ -30,10 +30,12 @@ use crate::{Rhex, RhexError};
 use motor::Actuator;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{ContactMode, Terrain};
+use selfmanip_hybrid::EventMemoryPartials;
 use selfmanip_hybrid::StepOptions;
 use selfmanip_hybrid::{simulate_with, Controller, ControllerPartials, TimeEvent};
 use selfmanip_hybrid::{Event, EventKind, Execution, HybridOptions, Termination};
 use selfmanip_sim::motion::JointMotion as LegMotion;
+use selfmanip_sim::motion::StartedLaw;
 use selfmanip_sim::terrain::TerrainSpec;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
@@ -944,11 +946,27 @@ pub(crate) struct LeapController {
     /// Each leg's motions in the air, by start time: the swing down from its motor's start,
     /// then a swing from every event that released it while pushing, and its one park.
     air: [Vec<LegMotion>; 2],
+    /// For each motion of [`Self::air`], the event it started at, if any: the controller's
+    /// memory of that event (the motion's law and the leg's angle and rate there), which
+    /// the sensitivities differentiate ([`Controller::memory_partials`]).
+    air_start: [Vec<Option<AirStart>>; 2],
+    /// How many events the controller has been told of (the number of the next one).
+    seen: usize,
     /// Whether each leg's retraction has its motion in the air: planned once, at the event
     /// that made the leg retract in the air or first released it while retracting; a leg
     /// the ground releases later returns to it (the open-loop controller plans its motions
     /// from its own clock and events, not from contacts it does not sense).
     parked: [bool; 2],
+}
+
+/// A leg's motion in the air started at an event: the event's number among those the
+/// controller was told of, the motion's law, and the leg's angle and rate after the event.
+#[derive(Debug, Clone, Copy)]
+struct AirStart {
+    event: usize,
+    law: StartedLaw,
+    theta0: f64,
+    omega0: f64,
 }
 
 /// Servo gains of a leg (per N m of stall torque).
@@ -1061,15 +1079,25 @@ impl LeapController {
         (-w * d, -a * d, -m.jerk(t) * d)
     }
 
-    /// `∂(θ, θ̇, θ̈)/∂G` of leg `i`'s motion in the air at `t`: the swing down's speed and
-    /// acceleration depend on the gear ratio ([`leg_swing`]); differentiated exactly by
-    /// [`crate::leap_sensitivity::swing_partials`]. A motion started at an event is held
-    /// fixed, as for `t2`; a swing down that is a quintic park gives NaN (not differentiated:
-    /// the leap with sensitivities flags it).
+    /// `∂(θ, θ̇, θ̈)/∂G` of leg `i`'s motion in the air at `t`: every motion's speed and
+    /// acceleration bounds depend on the gear ratio ([`leg_swing`]); the swing down's are
+    /// differentiated exactly by [`crate::leap_sensitivity::swing_partials`], a motion
+    /// started at an event's by its law's ([`StartedLaw::partials_with_bounds`]; its
+    /// dependence on the event's state is the controller's memory,
+    /// [`Controller::memory_partials`]). A swing down that is a quintic park gives NaN (not
+    /// differentiated: the leap with sensitivities flags it).
     fn air_motion_dgear(&self, i: usize, t: f64) -> (f64, f64, f64) {
         let (k, m) = self.air_motion_at(i, t);
-        if k != 0 || t < m.t0() || self.dswing_dgear == [0.0; 2] {
+        if t < m.t0() || self.dswing_dgear == [0.0; 2] {
             return (0.0, 0.0, 0.0);
+        }
+        let [ds, da] = self.dswing_dgear;
+        if let Some(start) = self.air_start[i][k] {
+            let p = start
+                .law
+                .partials_with_bounds(m, start.theta0, start.omega0, t);
+            let along = |row: [f64; 5]| row[3] * ds + row[4] * da;
+            return (along(p[0]), along(p[1]), along(p[2]));
         }
         let target = self.sign[i] * STOW_RAD;
         let Some(d) = crate::leap_sensitivity::swing_partials(
@@ -1083,7 +1111,6 @@ impl LeapController {
         ) else {
             return (f64::NAN, f64::NAN, f64::NAN);
         };
-        let [ds, da] = self.dswing_dgear;
         let along = |x: [f64; 2]| x[0] * ds + x[1] * da;
         (along(d.theta.1), along(d.omega.1), along(d.alpha.1))
     }
@@ -1352,7 +1379,7 @@ impl Controller for LeapController {
                 continue;
             }
             let (theta, omega) = (event.q[i], event.qd_after[i]);
-            let motion = match self.phase(i, event.t) {
+            let law = match self.phase(i, event.t) {
                 // a leg that has its retraction keeps it: released by the ground (or at
                 // takeoff), it returns to that motion; planned anew from the release, the
                 // park would start at rest in acceleration, not at the acceleration the
@@ -1360,19 +1387,104 @@ impl Controller for LeapController {
                 Phase::Retracting if self.parked[i] => continue,
                 Phase::Retracting => {
                     self.parked[i] = true;
-                    LegMotion::park(event.t, theta, omega, self.stow(i, theta), self.accel)
+                    StartedLaw::Park {
+                        target: self.stow(i, theta),
+                        accel: self.accel,
+                    }
                 }
-                _ => LegMotion::swing(
-                    event.t,
-                    theta,
-                    omega,
-                    self.sign[i] * STOW_RAD,
-                    self.speed,
-                    self.accel,
-                ),
+                _ => StartedLaw::Swing {
+                    target: self.sign[i] * STOW_RAD,
+                    speed: self.speed,
+                    accel: self.accel,
+                },
+            };
+            let motion = match law {
+                StartedLaw::Park { target, accel } => {
+                    LegMotion::park(event.t, theta, omega, target, accel)
+                }
+                StartedLaw::Swing {
+                    target,
+                    speed,
+                    accel,
+                } => LegMotion::swing(event.t, theta, omega, target, speed, accel),
             };
             self.air[i].push(motion);
+            self.air_start[i].push(Some(AirStart {
+                event: self.seen,
+                law,
+                theta0: theta,
+                omega0: omega,
+            }));
         }
+        self.seen += 1;
+    }
+
+    /// A motion in the air started at an event makes the outputs depend on that event's
+    /// time and state.
+    fn has_event_memory(&self) -> bool {
+        self.air_start.iter().flatten().any(Option::is_some)
+    }
+
+    /// `∂Υ/∂m_k`, `∂q̈_free/∂m_k` of the events whose motions the legs follow at `t`: a free
+    /// leg's `q̈ = α* + k_p (θ* − q) + k_d (ω* − q̇)` and a servoed retracting leg's servo
+    /// toward `(θ*, ω*)`, with `∂(θ*, ω*, α*)/∂(t_k, θ_k, ω_k)` of the motion's law
+    /// ([`StartedLaw::partials`]; `θ_k`, `ω_k` the leg's own entries of `q_k`, `q̇_k⁺`).
+    fn memory_partials(
+        &self,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        mode: ContactMode,
+        free: &[usize],
+        out: &mut Vec<EventMemoryPartials>,
+    ) -> bool {
+        if self.stub.is_some() {
+            return false;
+        }
+        let nq = q.len();
+        for i in 0..2 {
+            let phase = self.phase(i, t);
+            if phase == Phase::Waiting {
+                continue;
+            }
+            let (k, m) = self.air_motion_at(i, t);
+            let Some(start) = self.air_start[i][k] else {
+                continue;
+            };
+            let d = start.law.partials(m, start.theta0, start.omega0, t);
+            // the columns of m_k: t_k, then q_k, then q̇_k⁺
+            let cols = [0, 1 + i, 1 + nq + i];
+            let free_row = free.iter().position(|&j| j == i);
+            let servo = phase == Phase::Retracting && self.servoed(i, mode);
+            if free_row.is_none() && !servo {
+                continue;
+            }
+            // one entry per event (both legs' motions may start at the same one)
+            let e = match out.iter().position(|e| e.event == start.event) {
+                Some(e) => e,
+                None => {
+                    out.push(EventMemoryPartials {
+                        event: start.event,
+                        dtau: nalgebra::DMatrix::zeros(2, 1 + 2 * nq),
+                        dfree: nalgebra::DMatrix::zeros(free.len(), 1 + 2 * nq),
+                    });
+                    out.len() - 1
+                }
+            };
+            let entry = &mut out[e];
+            if let Some(r) = free_row {
+                for (c, &col) in cols.iter().enumerate() {
+                    entry.dfree[(r, col)] += d[2][c] + AIR_KP * d[0][c] + AIR_KD * d[1][c];
+                }
+            } else {
+                let (theta, omega) = self.servo_target(i, t, phase);
+                let s = self.servo_partials(q[i], qd[i], theta, omega);
+                for (c, &col) in cols.iter().enumerate() {
+                    entry.dtau[(i, col)] += s[2] * d[0][c] + s[3] * d[1][c];
+                }
+            }
+        }
+        true
     }
 }
 
@@ -1569,6 +1681,9 @@ impl LeapSetup {
                     accel,
                 )]
             }),
+            // the swing down starts with the motor, not at an event
+            air_start: [vec![None], vec![None]],
+            seen: 0,
         };
         Ok(LeapSetup {
             rhex,

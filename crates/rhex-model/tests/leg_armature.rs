@@ -10,7 +10,7 @@
 //! `½ a θ̇²`; the default (massless) leap bit-identical whether or not a zero armature is
 //! given explicitly.
 mod common;
-use common::tight;
+use common::{apex_error, tight};
 use rhex_model::leap::{
     leap_params, leg_actuator, leg_armature, leg_inertia_about_hip, leg_swing,
     rotor_reflected_inertia, simulate_leap, LeapConfig, LegActuator,
@@ -211,16 +211,16 @@ fn worst_event_time_error(
 /// `d/dG` sums the torque line's and `(2a/G) ∂/∂a_j` of each leg joint, and the servo's
 /// damping, critical for the leg's inertia with its armature, moves with both. Checked on a massive
 /// (−,−) leap through its touchdown, a toe's slip and slide, and its liftoff (the events
-/// before a leg's motion in the air, which the controller's memory would enter): `d t_e / dG`
-/// and `d t_e / d a` (the legs' armature set by hand) against central differences of whole
-/// leaps. The apex's derivatives stay flagged (that memory), and the armature of legs
-/// without one is not a parameter (typed errors, here and in the core).
+/// before a leg's motion in the air started from its liftoff's state): `d t_e / dG` and
+/// `d t_e / d a` (the legs' armature set by hand), and the apex's, against central
+/// differences of whole leaps; the armature of legs without one is not a parameter (typed
+/// errors, here and in the core).
 #[test]
 fn gear_ratio_and_armature_derivatives_through_the_rotors_equal_central_differences() {
     let cfg = tight("--", -0.1);
     let g = 28.0;
     let s = leap_with_sensitivity(&massive(), &cfg, &["gear_ratio", "leg_armature_kg_m2"]).unwrap();
-    assert!(!s.ok, "apex derivatives of massive legs stay flagged");
+    assert!(s.ok, "{:?}", s.reason);
     let kinds: Vec<&str> = s.result.events.iter().map(|e| e.kind).collect();
     assert_eq!(kinds[..3], ["touchdown", "slip", "liftoff"], "{kinds:?}");
     let col = |c: usize| -> Vec<f64> {
@@ -252,6 +252,30 @@ fn gear_ratio_and_armature_derivatives_through_the_rotors_equal_central_differen
     assert!(
         err_g < 1e-5 && err_a < 1e-5,
         "d/dG {err_g:e}, d/da {err_a:e}"
+    );
+    // and the apex, through the legs' motions in the air started at their liftoffs
+    let apex = |k: usize| [s.d_apex[2][k], s.d_apex[3][k], s.d_apex[1][k]];
+    let apex_g = apex_error(apex(0), &[1e-4, 1e-3], 1e-4, |dg| {
+        let c = LeapConfig {
+            actuator: LegActuator::GearedMotor {
+                gear_ratio: g + dg,
+                current_limit_a: 20.0,
+                motors_per_leg: 2,
+            },
+            ..cfg.clone()
+        };
+        simulate_leap(&massive(), &c).unwrap().apex.unwrap()
+    });
+    let apex_a = apex_error(apex(1), &[1e-7, 1e-6], 1e-2, |da| {
+        let p = RhexParams {
+            leg_armature_kg_m2: Some(a + da),
+            ..massive()
+        };
+        simulate_leap(&p, &cfg).unwrap().apex.unwrap()
+    });
+    assert!(
+        apex_g < 1e-4 && apex_a < 1e-4,
+        "apex: d/dG {apex_g:e}, d/da {apex_a:e}"
     );
     // the rotors' share of d/dG is not small: without it (the armature held) it differs
     let fixed = RhexParams {

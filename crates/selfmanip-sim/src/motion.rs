@@ -16,6 +16,11 @@
 //! Both respect the acceleration bound `α` exactly: the smoothstep ramp from `ω₀` to `ω₁`
 //! over `T` peaks at `1.5 |ω₁ − ω₀| / T`, and the quintic's duration is searched until its
 //! peak acceleration (exact: the extrema of a cubic) is within `α`.
+//!
+//! A motion started from a state (an event's) has derivatives with respect to that start,
+//! `∂(θ, θ̇, θ̈)/∂(t₀, θ₀, ω₀)`: [`StartedLaw::partials`], for a controller's event memory.
+
+pub use crate::behaviour::memory::StartedLaw;
 
 /// One joint's prescribed angle `θ(t)` (rad), its rate and its acceleration.
 #[derive(Debug, Clone, PartialEq)]

@@ -14,3 +14,34 @@ pub fn tight(strategy: &str, t2: f64) -> LeapConfig {
         ..LeapConfig::default()
     }
 }
+
+/// The worst relative disagreement of `exact` (`d apex_z`, `d apex_φ`, `d apex_x` over one
+/// parameter) with central differences of whole leaps `leap(±h)`, taking for each column the
+/// best of `steps` (relative to `max(|fd|, floor)`).
+#[allow(dead_code)]
+pub fn apex_error(
+    exact: [f64; 3],
+    steps: &[f64],
+    floor: f64,
+    leap: impl Fn(f64) -> rhex_model::leap::Apex,
+) -> f64 {
+    let at = |h: f64| {
+        let (a, b) = (leap(h), leap(-h));
+        [
+            (a.z_m - b.z_m) / (2.0 * h),
+            (a.phi_rad - b.phi_rad) / (2.0 * h),
+            (a.x_m - b.x_m) / (2.0 * h),
+        ]
+    };
+    let fds: Vec<[f64; 3]> = steps.iter().map(|&h| at(h)).collect();
+    (0..3)
+        .map(|c| {
+            fds.iter()
+                .map(|fd| {
+                    eprintln!("  exact {:.9e}, fd {:.9e}", exact[c], fd[c]);
+                    (exact[c] - fd[c]).abs() / fd[c].abs().max(floor)
+                })
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max)
+}

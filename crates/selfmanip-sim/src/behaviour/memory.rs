@@ -17,26 +17,29 @@
 //! of the motion at the values given; at a branch switch the derivative is one-sided.
 use crate::motion::JointMotion;
 
-/// A value with its partials over `(θ₀, ω₀)`.
+/// How many partials a [`D`] carries: over `(θ₀, ω₀, speed, accel)`.
+const N: usize = 4;
+
+/// A value with its partials over `(θ₀, ω₀)` and the motion's bounds `(speed, accel)`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct D {
     v: f64,
-    d: [f64; 2],
+    d: [f64; N],
 }
 
 impl D {
     fn c(v: f64) -> D {
-        D { v, d: [0.0; 2] }
+        D { v, d: [0.0; N] }
     }
     fn var(v: f64, i: usize) -> D {
-        let mut d = [0.0; 2];
+        let mut d = [0.0; N];
         d[i] = 1.0;
         D { v, d }
     }
     fn map(self, f: f64, df: f64) -> D {
         D {
             v: f,
-            d: [df * self.d[0], df * self.d[1]],
+            d: self.d.map(|x| df * x),
         }
     }
     fn abs(self) -> D {
@@ -57,7 +60,7 @@ impl std::ops::Add for D {
     fn add(self, o: D) -> D {
         D {
             v: self.v + o.v,
-            d: [self.d[0] + o.d[0], self.d[1] + o.d[1]],
+            d: std::array::from_fn(|k| self.d[k] + o.d[k]),
         }
     }
 }
@@ -72,7 +75,7 @@ impl std::ops::Neg for D {
     fn neg(self) -> D {
         D {
             v: -self.v,
-            d: [-self.d[0], -self.d[1]],
+            d: self.d.map(|x| -x),
         }
     }
 }
@@ -81,10 +84,7 @@ impl std::ops::Mul for D {
     fn mul(self, o: D) -> D {
         D {
             v: self.v * o.v,
-            d: [
-                self.d[0] * o.v + self.v * o.d[0],
-                self.d[1] * o.v + self.v * o.d[1],
-            ],
+            d: std::array::from_fn(|k| self.d[k] * o.v + self.v * o.d[k]),
         }
     }
 }
@@ -94,10 +94,7 @@ impl std::ops::Div for D {
         let v = self.v / o.v;
         D {
             v,
-            d: [
-                (self.d[0] - v * o.d[0]) / o.v,
-                (self.d[1] - v * o.d[1]) / o.v,
-            ],
+            d: std::array::from_fn(|k| (self.d[k] - v * o.d[k]) / o.v),
         }
     }
 }
@@ -110,7 +107,7 @@ impl std::ops::Mul<D> for f64 {
 
 /// The law of a motion started at an event, its numbers known (constants of the behaviour).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) enum StartedLaw {
+pub enum StartedLaw {
     Swing { target: f64, speed: f64, accel: f64 },
     Park { target: f64, accel: f64 },
 }
@@ -133,32 +130,52 @@ impl StartedLaw {
 
     /// `∂(θ*, ω*, α*)/∂(t₀, θ₀, ω₀)` at `t` of `motion` (built by [`Self::motion`] from
     /// `(t₀, θ₀, ω₀)`), rows `θ*, ω*, α*`.
-    pub(crate) fn partials(
+    pub fn partials(
         &self,
         motion: &JointMotion,
         theta0: f64,
         omega0: f64,
         t: f64,
     ) -> [[f64; 3]; 3] {
+        self.partials_with_bounds(motion, theta0, omega0, t)
+            .map(|row| [row[0], row[1], row[2]])
+    }
+
+    /// [`Self::partials`] and the partials over the law's bounds: columns `t₀, θ₀, ω₀`, the
+    /// swing's `speed` (0 for a park) and `accel`.
+    pub fn partials_with_bounds(
+        &self,
+        motion: &JointMotion,
+        theta0: f64,
+        omega0: f64,
+        t: f64,
+    ) -> [[f64; 5]; 3] {
         let t0 = motion.t0();
         let (_, w, a) = motion.eval(t);
         let jerk = motion.jerk(t);
         let r = self.reference_dual(motion, theta0, omega0, t);
-        let mut out = [[0.0; 3]; 3];
+        let mut out = [[0.0; 5]; 3];
         for (i, (dt, x)) in [(-w, r[0]), (-a, r[1]), (-jerk, r[2])]
             .into_iter()
             .enumerate()
         {
             // before the start the motion is its start (at its start speed): no t₀ term
-            out[i] = [if t < t0 { 0.0 } else { dt }, x.d[0], x.d[1]];
+            out[i] = [
+                if t < t0 { 0.0 } else { dt },
+                x.d[0],
+                x.d[1],
+                x.d[2],
+                x.d[3],
+            ];
         }
         out
     }
 
-    /// `(θ*, ω*, α*)` at `t` with their partials over `(θ₀, ω₀)`, on the branches `motion`
-    /// took.
+    /// `(θ*, ω*, α*)` at `t` with their partials over `(θ₀, ω₀, speed, accel)`, on the
+    /// branches `motion` took.
     fn reference_dual(&self, motion: &JointMotion, theta0: f64, omega0: f64, t: f64) -> [D; 3] {
         let (th0, w0) = (D::var(theta0, 0), D::var(omega0, 1));
+        let accel_of = |a: f64| D::var(a, 3);
         let tau = (t - motion.t0()).max(0.0);
         let knots = motion.knots();
         match *self {
@@ -170,12 +187,13 @@ impl StartedLaw {
                 // the ramps of JointMotion::swing
                 let dir = (target - theta0).signum();
                 let v = if speed.abs() >= dir * omega0 {
-                    D::c(dir * speed.abs())
+                    dir * D::var(speed, 2).abs()
                 } else {
                     w0
                 };
-                let up = (1.5 / accel) * (v - w0).abs();
-                let down = (1.5 / accel) * v.abs();
+                let accel = accel_of(accel);
+                let up = (D::c(1.5) / accel) * (v - w0).abs();
+                let down = (D::c(1.5) / accel) * v.abs();
                 let ramps = 0.5 * ((w0 + v) * up) + 0.5 * (v * down);
                 let cruise = (D::c(target) - th0 - ramps) / v;
                 let mut theta = th0;
@@ -192,8 +210,9 @@ impl StartedLaw {
             StartedLaw::Swing { target, accel, .. } | StartedLaw::Park { target, accel } => {
                 // the quintic of JointMotion::park: T = T₀ 1.02ⁿ
                 let distance = (D::c(target) - th0).abs();
-                let mut dur = (5.77 * distance / D::c(accel)).sqrt();
-                let by_speed = w0.abs() / D::c(accel);
+                let accel = accel_of(accel);
+                let mut dur = (5.77 * distance / accel).sqrt();
+                let by_speed = w0.abs() / accel;
                 if by_speed.v > dur.v {
                     dur = by_speed;
                 }
@@ -348,5 +367,54 @@ mod tests {
             }
         }
         eprintln!("worst relative error of the motion partials: {worst:e}");
+        // the bounds: speed and acceleration, against motions built with them perturbed
+        let mut worst: f64 = 0.0;
+        for (law, th, w) in laws {
+            let m = law.motion(t0, th, w);
+            let end = m.knots().last().copied().unwrap_or(t0) + 0.01;
+            let with = |ds: f64, da: f64| match law {
+                StartedLaw::Swing {
+                    target,
+                    speed,
+                    accel,
+                } => StartedLaw::Swing {
+                    target,
+                    speed: speed + ds,
+                    accel: accel + da,
+                },
+                StartedLaw::Park { target, accel } => StartedLaw::Park {
+                    target,
+                    accel: accel + da,
+                },
+            };
+            for i in 1..40 {
+                let t = t0 + (end - t0) * i as f64 / 40.0;
+                if m.knots().iter().any(|k| (k - t).abs() < 1e-4) {
+                    continue;
+                }
+                let p = law.partials_with_bounds(&m, th, w, t);
+                for (c, (ds, da)) in [(3, (1e-6, 0.0)), (4, (0.0, 1e-4))] {
+                    let h = ds + da;
+                    let ea = with(ds, da).motion(t0, th, w).eval(t);
+                    let eb = with(-ds, -da).motion(t0, th, w).eval(t);
+                    let fd = [
+                        (ea.0 - eb.0) / (2.0 * h),
+                        (ea.1 - eb.1) / (2.0 * h),
+                        (ea.2 - eb.2) / (2.0 * h),
+                    ];
+                    for row in 0..3 {
+                        let err = (p[row][c] - fd[row]).abs() / (1e-3 + fd[row].abs());
+                        worst = worst.max(err);
+                        assert!(
+                            err < 1e-4,
+                            "{law:?} t {t} row {row} col {c}: {} vs {}",
+                            p[row][c],
+                            fd[row]
+                        );
+                    }
+                }
+            }
+        }
+        eprintln!("worst relative error of the bounds' partials: {worst:e}");
     }
 }

@@ -10,7 +10,7 @@
 //! past an angle. The file format is documented in `docs/behaviours.md`.
 pub mod compile;
 pub mod interpreter;
-mod memory;
+pub(crate) mod memory;
 pub mod spec;
 
 pub use compile::compile;
