@@ -1080,39 +1080,32 @@ impl LeapController {
     }
 
     /// `∂(θ, θ̇, θ̈)/∂G` of leg `i`'s motion in the air at `t`: every motion's speed and
-    /// acceleration bounds depend on the gear ratio ([`leg_swing`]); the swing down's are
-    /// differentiated exactly by [`crate::leap_sensitivity::swing_partials`], a motion
-    /// started at an event's by its law's ([`StartedLaw::partials_with_bounds`]; its
-    /// dependence on the event's state is the controller's memory,
-    /// [`Controller::memory_partials`]). A swing down that is a quintic park gives NaN (not
-    /// differentiated: the leap with sensitivities flags it).
+    /// acceleration bounds depend on the gear ratio ([`leg_swing`]), differentiated by the
+    /// motion's law ([`StartedLaw::partials_with_bounds`], the same branches: ramps or a
+    /// quintic park) — the swing down's from rest at the hold angle, a motion started at an
+    /// event's from the leg's state there (whose dependence on that state is the
+    /// controller's memory, [`Controller::memory_partials`]).
     fn air_motion_dgear(&self, i: usize, t: f64) -> (f64, f64, f64) {
         let (k, m) = self.air_motion_at(i, t);
         if t < m.t0() || self.dswing_dgear == [0.0; 2] {
             return (0.0, 0.0, 0.0);
         }
-        let [ds, da] = self.dswing_dgear;
-        if let Some(start) = self.air_start[i][k] {
-            let p = start
-                .law
-                .partials_with_bounds(m, start.theta0, start.omega0, t);
-            let along = |row: [f64; 5]| row[3] * ds + row[4] * da;
-            return (along(p[0]), along(p[1]), along(p[2]));
-        }
-        let target = self.sign[i] * STOW_RAD;
-        let Some(d) = crate::leap_sensitivity::swing_partials(
-            m.t0(),
-            self.hold[i],
-            0.0,
-            target,
-            self.speed,
-            self.accel,
-            t,
-        ) else {
-            return (f64::NAN, f64::NAN, f64::NAN);
+        let (law, theta0, omega0) = match self.air_start[i][k] {
+            Some(start) => (start.law, start.theta0, start.omega0),
+            None => (
+                StartedLaw::Swing {
+                    target: self.sign[i] * STOW_RAD,
+                    speed: self.speed,
+                    accel: self.accel,
+                },
+                self.hold[i],
+                0.0,
+            ),
         };
-        let along = |x: [f64; 2]| x[0] * ds + x[1] * da;
-        (along(d.theta.1), along(d.omega.1), along(d.alpha.1))
+        let p = law.partials_with_bounds(m, theta0, omega0, t);
+        let [ds, da] = self.dswing_dgear;
+        let along = |row: [f64; 5]| row[3] * ds + row[4] * da;
+        (along(p[0]), along(p[1]), along(p[2]))
     }
 
     /// The servo's partials `(∂/∂q, ∂/∂q̇, ∂/∂θ, ∂/∂ω, ∂/∂H, ∂/∂I)` at its arguments, `I`

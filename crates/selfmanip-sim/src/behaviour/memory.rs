@@ -81,6 +81,7 @@ impl std::ops::Neg for D {
 }
 impl std::ops::Mul for D {
     type Output = D;
+    #[allow(clippy::suspicious_arithmetic_impl)] // the product rule
     fn mul(self, o: D) -> D {
         D {
             v: self.v * o.v,
@@ -90,6 +91,7 @@ impl std::ops::Mul for D {
 }
 impl std::ops::Div for D {
     type Output = D;
+    #[allow(clippy::suspicious_arithmetic_impl)] // the quotient rule
     fn div(self, o: D) -> D {
         let v = self.v / o.v;
         D {
