@@ -1066,9 +1066,9 @@ impl LeapController {
     }
 
     /// `∂(θ, θ̇, θ̈)/∂t2` of leg `i`'s motion in the air at `t`: the swing down starts with
-    /// the motor, `∂/∂t0 = −(θ̇, θ̈, d³θ/dt³)`; a motion started at an event is held fixed (its
-    /// dependence on the event's state is the controller's memory, not differentiated:
-    /// [`crate::leap_sensitivity`] flags a leap whose leg meets the ground again under one).
+    /// the motor, `∂/∂t0 = −(θ̇, θ̈, d³θ/dt³)`; a motion started at an event depends on `t2`
+    /// only through that event's time and state, the controller's memory
+    /// ([`Controller::memory_partials`]): no partial here.
     fn air_motion_dt2(&self, i: usize, t: f64) -> (f64, f64, f64) {
         let (k, m) = self.air_motion_at(i, t);
         if k != 0 || self.dstart_dt2[i] == 0.0 || t < m.t0() {
@@ -1342,7 +1342,8 @@ impl Controller for LeapController {
                     dt_dp: dt_dp.clone(),
                 });
             }
-            // the motions started at events (held fixed in the partials: `dt_b/dp = 0`)
+            // the motions started at events (they move with the event, the controller's
+            // memory, not with a parameter: `dt_b/dp = 0`; their knots do not jump the flow)
             for m in self.air[i].iter().skip(1) {
                 for t in std::iter::once(m.t0()).chain(m.knots()) {
                     out.push(TimeEvent {
