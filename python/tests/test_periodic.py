@@ -229,3 +229,30 @@ def test_example_runs(tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch,
     out = capsys.readouterr().out
     assert "touchdown -> liftoff -> apex" in out and "stability: unstable" in out
     assert (tmp_path / "floquet_hopper.png").stat().st_size > 0
+
+
+def test_a_behaviour_memory_without_partials_is_a_value_error_naming_the_behaviour():
+    """A motion whose numbers use the state where it starts (``theta``) is a memory of that
+    event the behaviour does not differentiate: ``sensitivity=True`` raises a ValueError
+    naming ``behaviour`` rather than hold it fixed; a hold at a constant angle started at the
+    same event is no memory, and its Jacobian comes out."""
+    robot = {
+        "name": "arm-on-a-block",
+        "body": {"mass_kg": 2.0, "inertia_kg_m2": 0.05},
+        "legs": [{"name": "arm", "hip_m": [0.1, 0.0], "links": [{"length_m": 0.1}]}],
+        "contacts": [{"name": "belly", "shape": {"kind": "point", "position_m": [0.0, 0.05]},
+                      "friction": {"kind": "sticking", "mu": 1.0}}],
+    }
+
+    def behaviour(angle):
+        return {"name": "swing-at-touchdown", "joints": [{"joint": "arm[0]", "phases": [
+            {"name": "air", "motion": {"kind": "hold", "angle_rad": 2.6}},
+            {"name": "landed", "start": {"on": "touch", "contacts": ["belly"]},
+             "motion": {"kind": "hold", "angle_rad": angle}}]}]}
+
+    q0, qd0 = [2.6, 0.0, -0.2, 0.0], [0.0, 0.0, 0.5, 0.0]
+    with pytest.raises(ValueError, match="remembers events") as err:
+        selfmanip.simulate(robot, behaviour("theta + 0.1"), q0, qd0, t_final=0.4, sensitivity=True)
+    assert err.value.field == "behaviour"
+    e = selfmanip.simulate(robot, behaviour(3.0), q0, qd0, t_final=0.4, sensitivity=True)
+    assert e.state_jacobian is not None

@@ -811,6 +811,9 @@ fn sensitivity_err(e: SensitivityError) -> PyErr {
             "behaviour",
             format!("{e} (motor torques and joint-angle levels have none yet)"),
         ),
+        // a behaviour whose memory of an event (a motion whose numbers use the state) is not
+        // differentiated: the caller's behaviour, as above
+        SensitivityError::EventMemoryWithoutPartials { .. } => invalid("behaviour", e.to_string()),
         e => errors::engine(e.to_string()),
     }
 }
