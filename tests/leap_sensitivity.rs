@@ -168,12 +168,12 @@ fn apex_parameter_sensitivities_match_central_differences() {
     }
 }
 
-/// Leaps in which a leg meets the ground again under the motion it started in the air from
-/// its state at liftoff: the controller now differentiates that memory, and the apex
-/// derivatives move from several per cent off (the memory held fixed) to 1e-5 … 1e-4 of
-/// central differences of whole leaps, consistently over three steps — short of the 1e-6 of
-/// every other leap, so a term is still missing: the leap flags them, with the reason, and
-/// never reports the number.
+/// Leaps in which a massless leg meets the ground again under the motion it started in the
+/// air from its state at liftoff: that memory, carried, moved the apex derivatives from
+/// several per cent off (held fixed) to 1e-5 … 1e-4 of central differences of whole leaps,
+/// consistently over three steps — short of the 1e-6 of every other leap, so a term is still
+/// missing; the controller carries the memory for legs with inertia only, and the leap flags
+/// these, with the reason, never reporting the number.
 #[test]
 fn a_leg_landing_again_under_a_motion_from_its_liftoff_is_flagged() {
     for (s, t2) in [("--", -0.17), ("++", -0.12)] {

@@ -33,9 +33,10 @@
 //! ([`selfmanip_hybrid::Controller::memory_partials`], through
 //! [`selfmanip_sim::motion::StartedLaw`]) and, for the gear ratio, over the motion's speed
 //! and acceleration bounds, so a leg with inertia whose servo turns the body in flight
-//! (Result C.5) is differentiated (to 1e-6 of central differences). A leg that meets the
-//! ground again under such a motion is still flagged: its derivatives come out 1e-5 … 1e-4
-//! off, a term not found yet.
+//! (Result C.5) is differentiated (to 1e-6 of central differences). A massless leg's motion
+//! acts on nothing until the leg meets the ground again, so the controller carries its memory
+//! only for legs with inertia; a massless leg that meets the ground again under such a motion
+//! is flagged (carried, that memory gave derivatives 1e-5 … 1e-4 off: a term not found).
 //!
 //! **Undefined derivatives** make [`LeapSensitivity::ok`] false, with every derivative NaN
 //! and the reason given: a leap without an apex; any event whose saltation is not defined
@@ -471,11 +472,10 @@ fn air_motion_starts(setup: &LeapSetup, exec: &selfmanip_hybrid::Execution) -> V
 }
 
 /// Whether a leg meets the ground again after a motion in the air that started at an event
-/// ([`air_motion_starts`]). The controller gives the partials of that motion over the
-/// event's time and state, but against central differences of whole leaps the apex
-/// derivatives of such leaps come out 1e-5 … 1e-4 off (the (+,+) t2 = −0.12 and (−,−)
-/// t2 = −0.17 leaps, `tests/leap_sensitivity.rs`), where every other leap agrees to 1e-6 —
-/// a term not found yet: flagged.
+/// ([`air_motion_starts`]). The controller does not carry the memory of a massless leg's
+/// motions (in the air they act on nothing); when it did, the apex derivatives of such leaps
+/// came out 1e-5 … 1e-4 off against central differences (the (+,+) t2 = −0.12 and (−,−)
+/// t2 = −0.17 leaps), where every other leap agrees to 1e-6 — a term not found: flagged.
 fn memory_recontact(setup: &LeapSetup, exec: &selfmanip_hybrid::Execution) -> Option<String> {
     let start = setup.ctrl.start;
     air_motion_starts(setup, exec)
