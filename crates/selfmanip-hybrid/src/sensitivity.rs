@@ -216,10 +216,9 @@ struct FlowJacobian {
     /// `∂λ/∂x` (rows of the mode) and `λ`.
     dlambda: DMatrix<f64>,
     lambda: DVector<f64>,
-    /// `∂λ/∂t` at a fixed state (`∂λ/∂Υ ∂Υ/∂t`, [`Controller::time_partials`]; by a central
-    /// difference of the torques in time ([`torque_time_difference`]) when the
-    /// controller does not give `∂Υ/∂t`).
-    dlambda_dt: DVector<f64>,
+    /// `∂λ/∂Υ`: a force event's rate takes `∂λ/∂t = ∂λ/∂Υ ∂Υ/∂t` from it
+    /// ([`torque_time_derivative`]), formed at the event only.
+    dlambda_dtau: DMatrix<f64>,
 }
 
 /// Evaluates flows and their Jacobians on a workspace of its own.
@@ -417,41 +416,40 @@ impl<'a> Evaluator<'a> {
         let mut f = DVector::zeros(2 * nq);
         f.rows_mut(0, nq).copy_from_slice(qd);
         f.rows_mut(nq, nq).copy_from(&self.data.qdd);
-        let mut dtau_dt = DVector::zeros(n);
-        if !ctrl.time_partials(t, q, qd, mode, dtau_dt.as_mut_slice()) {
-            torque_time_difference(ctrl, t, q, qd, mode, dtau_dt.as_mut_slice());
-        }
-        let dlambda_dt = &dj.dlambda_dtau * dtau_dt;
         Ok(FlowJacobian {
             f,
             jac,
             dlambda,
             lambda: self.data.lambda.clone(),
-            dlambda_dt,
+            dlambda_dtau: dj.dlambda_dtau.clone(),
         })
     }
 }
 
-/// `∂Υ/∂t` at a fixed state by a central difference of [`Controller::torque`] in time, for a
-/// controller that does not give [`Controller::time_partials`]: the torques are smooth in
-/// time between the controller's time events, where a guard's crossing generically is not,
-/// so the difference (step `1e-6 max(1, |t|)` s) has a relative error of about 1e-9 where
-/// taking it as 0 would drop the term.
-fn torque_time_difference(
+/// `∂Υ/∂t` at a fixed state ([`Controller::time_partials`]), or for a controller that does
+/// not give it a central difference of [`Controller::torque`] in time: the torques are smooth
+/// in time between the controller's time events, where a guard's crossing generically is
+/// not, so the difference (step `1e-6 max(1, |t|)` s) has a relative error of about 1e-9
+/// where taking it as 0 would drop the term.
+fn torque_time_derivative(
     ctrl: &dyn Controller,
+    n: usize,
     t: f64,
-    q: &[f64],
-    qd: &[f64],
+    (q, qd): (&[f64], &[f64]),
     mode: ContactMode,
-    out: &mut [f64],
-) {
+) -> DVector<f64> {
+    let mut out = DVector::zeros(n);
+    if ctrl.time_partials(t, q, qd, mode, out.as_mut_slice()) {
+        return out;
+    }
     let h = 1e-6 * t.abs().max(1.0);
-    let mut up = vec![0.0; out.len()];
+    let mut up = vec![0.0; n];
     ctrl.torque(t + h, q, qd, mode, &mut up);
-    ctrl.torque(t - h, q, qd, mode, out);
+    ctrl.torque(t - h, q, qd, mode, out.as_mut_slice());
     for (o, u) in out.iter_mut().zip(&up) {
         *o = (u - *o) / (2.0 * h);
     }
+    out
 }
 
 /// The multipliers at one state and their tangent along selected columns (what an event's
@@ -1568,11 +1566,15 @@ fn event_sensitivity(
             match force_guard_gradient(model, event.kind, k, (rt, rn), &fm.lambda, &fm.dlambda) {
                 Some(dg) => {
                     // the guard's explicit time dependence through the torques
-                    let dt = DMatrix::from_column_slice(
-                        fm.dlambda_dt.len(),
-                        1,
-                        fm.dlambda_dt.as_slice(),
+                    let dtau_dt = torque_time_derivative(
+                        &*before.controller,
+                        model.n_joints(),
+                        t,
+                        (q, qd_minus),
+                        before.mode,
                     );
+                    let dt = &fm.dlambda_dtau
+                        * DMatrix::from_column_slice(model.n_joints(), 1, dtau_dt.as_slice());
                     if let Some(r) =
                         force_guard_gradient(model, event.kind, k, (rt, rn), &fm.lambda, &dt)
                     {
