@@ -240,22 +240,24 @@ pub(crate) fn separates(
 
 /// A Painlevé end at `(t, y)` in `mode` — the slide of contact `k` inconsistent after the
 /// reset the engine's own impact law chose, and the stick of [`jam`] refused — resolved by
-/// the plastic impact with Coulomb friction at every one of `candidates` (the contacts held
-/// and those touching down, [`crate::coulomb_impact`]): each of its solutions after which the
+/// the plastic impact with Coulomb friction at every candidate, the contacts of `mode` and
+/// those `touched` down ([`crate::coulomb_impact`]): each of its solutions after which the
 /// contacts kept hold in force (5.19)–(5.20), and those let go with no impulse separate, is
 /// an outcome; a single outcome is the reset ([`EventKind::Jam`], triggered by `touched` and
 /// `k`), none or several leave the end typed with `reason`.
-#[allow(clippy::too_many_arguments)]
 pub fn coulomb_jam(
     ws: &mut FlowWorkspace,
     flow: &mut Flow,
     opts: &HybridOptions,
     mode: ContactMode,
-    candidates: &[usize],
     (touched, k): (&[usize], usize),
     (t, y): (f64, &[f64]),
     reason: PainleveReason,
 ) -> Result<Result<Reset, PainleveReason>, HybridError> {
+    let mut candidates: Vec<usize> = mode.active().chain(touched.iter().copied()).collect();
+    candidates.sort_unstable();
+    candidates.dedup();
+    let candidates = &candidates[..];
     let model = flow.model();
     let (q, qd) = y.split_at(model.nq());
     if !flow.lock().is_empty() {

@@ -272,28 +272,20 @@ fn painleve(
     } else {
         match jam(ws, flow, opts, mode, &contact, (t, y))? {
             Ok(r) => return Ok(r),
-            Err(reason) => {
-                let k = flow.model().contacts.iter().position(|c| c.name == contact);
-                let candidates: Vec<usize> = mode.active().collect();
-                match k {
-                    Some(k) if mode.contains(k) => {
-                        match coulomb_jam(
-                            ws,
-                            flow,
-                            opts,
-                            mode,
-                            &candidates,
-                            (&[], k),
-                            (t, y),
-                            reason,
-                        )? {
-                            Ok(r) => return Ok(r),
-                            Err(reason) => reason,
-                        }
-                    }
-                    _ => reason,
-                }
-            }
+            // the stick refused: the impact with Coulomb friction at every contact
+            Err(reason) => match flow
+                .model()
+                .contacts
+                .iter()
+                .position(|c| c.name == contact)
+                .filter(|&k| mode.contains(k))
+            {
+                Some(k) => match coulomb_jam(ws, flow, opts, mode, (&[], k), (t, y), reason)? {
+                    Ok(r) => return Ok(r),
+                    Err(reason) => reason,
+                },
+                None => reason,
+            },
         }
     };
     Ok(Reset::End {
@@ -370,20 +362,8 @@ fn jammed_impact(
             _ => None,
         })
         .collect();
-    let mut candidates: Vec<usize> = mode.active().chain(touched.iter().copied()).collect();
-    candidates.sort_unstable();
-    candidates.dedup();
     Ok(
-        match coulomb_jam(
-            ws,
-            flow,
-            opts,
-            mode,
-            &candidates,
-            (&touched, k),
-            (t, y),
-            reason,
-        )? {
+        match coulomb_jam(ws, flow, opts, mode, (&touched, k), (t, y), reason)? {
             Ok(r) => r,
             Err(reason) => end(reason),
         },
