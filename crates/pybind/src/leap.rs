@@ -27,8 +27,8 @@ use rhex_model::leap_sensitivity::{
 };
 use rhex_model::mcap_log::{q_names, write_leap_mcap, LeapLog};
 use rhex_model::sweep::{
-    check_override_names, error_kind, panic_message, point_inputs, sweepable_names, SweepPoint,
-    SweepRow,
+    check_override_names, error_kind, gear_ratio_of, panic_message, point_inputs, sweepable_names,
+    SweepPoint, SweepRow,
 };
 use rhex_model::{Rhex, RhexError, RhexParams};
 use selfmanip_hybrid::Termination;
@@ -353,31 +353,6 @@ fn leap_run<'py>(
     })
 }
 
-/// The gear ratio a point ran with (NaN: the saturated torque).
-fn gear_of(cfg: &LeapConfig) -> f64 {
-    match cfg.actuator {
-        LegActuator::GearedMotor { gear_ratio, .. } => gear_ratio,
-        LegActuator::SaturatedTorque => f64::NAN,
-    }
-}
-
-fn failed_row(status: &str, error: String, gear_ratio: f64) -> SweepRow {
-    SweepRow {
-        status: status.into(),
-        error,
-        gear_ratio,
-        apex_t_s: f64::NAN,
-        apex_x_m: f64::NAN,
-        apex_z_m: f64::NAN,
-        apex_phi_rad: f64::NAN,
-        apex_xdot_m_s: f64::NAN,
-        apex_zdot_m_s: f64::NAN,
-        apex_phidot_rad_s: f64::NAN,
-        word: String::new(),
-        n_events: 0,
-    }
-}
-
 /// The message of a point's error as the single leap would raise it (no GIL needed).
 fn error_message(e: &RhexError) -> String {
     errors::map_rhex(e, Source::Engine).message
@@ -406,7 +381,7 @@ fn sweep_row(
             }
         };
         let why = reason(&r, &params, &cfg);
-        Ok::<_, RhexError>((r, why, gear_of(&cfg), sens))
+        Ok::<_, RhexError>((r, why, gear_ratio_of(&cfg), sens))
     }));
     let (row, sens) = sweep_row_of(outcome);
     (row, sens.or(failed_sens))
@@ -418,7 +393,7 @@ type PointOutcome =
 fn sweep_row_of(outcome: PointOutcome) -> (SweepRow, Option<(bool, Vec<f64>)>) {
     match outcome {
         Err(p) => (
-            failed_row(
+            SweepRow::failed(
                 "panic",
                 format!(
                     "internal error in selfmanip (a bug, please report it): {}",
@@ -429,24 +404,10 @@ fn sweep_row_of(outcome: PointOutcome) -> (SweepRow, Option<(bool, Vec<f64>)>) {
             None,
         ),
         Ok(Err(e)) => (
-            failed_row(error_kind(&e), error_message(&e), f64::NAN),
+            SweepRow::failed(error_kind(&e), error_message(&e), f64::NAN),
             None,
         ),
-        Ok(Ok((r, why, g, sens))) => {
-            let mut row = failed_row(r.status.as_str(), why, g);
-            row.word = r.word_string();
-            row.n_events = r.events.len();
-            if let Some(a) = r.apex {
-                row.apex_t_s = a.t_s;
-                row.apex_x_m = a.x_m;
-                row.apex_z_m = a.z_m;
-                row.apex_phi_rad = a.phi_rad;
-                row.apex_xdot_m_s = a.xdot_m_s;
-                row.apex_zdot_m_s = a.zdot_m_s;
-                row.apex_phidot_rad_s = a.phidot_rad_s;
-            }
-            (row, sens)
-        }
+        Ok(Ok((r, why, g, sens))) => (SweepRow::of_leap(&r, why, g), sens),
     }
 }
 

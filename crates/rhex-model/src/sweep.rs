@@ -78,6 +78,44 @@ pub struct SweepRow {
     pub n_events: usize,
 }
 
+impl SweepRow {
+    /// A row without an apex: `status`, the error message (empty for a leap that ran) and the
+    /// gear ratio.
+    pub fn failed(status: &str, error: String, gear_ratio: f64) -> Self {
+        Self {
+            status: status.into(),
+            error,
+            gear_ratio,
+            apex_t_s: f64::NAN,
+            apex_x_m: f64::NAN,
+            apex_z_m: f64::NAN,
+            apex_phi_rad: f64::NAN,
+            apex_xdot_m_s: f64::NAN,
+            apex_zdot_m_s: f64::NAN,
+            apex_phidot_rad_s: f64::NAN,
+            word: String::new(),
+            n_events: 0,
+        }
+    }
+
+    /// The row of a leap that ran (`why`: the reason it did not reach `ok`, or empty).
+    pub fn of_leap(r: &LeapResult, why: String, gear_ratio: f64) -> Self {
+        let mut row = Self::failed(r.status.as_str(), why, gear_ratio);
+        row.word = r.word_string();
+        row.n_events = r.events.len();
+        if let Some(a) = r.apex {
+            row.apex_t_s = a.t_s;
+            row.apex_x_m = a.x_m;
+            row.apex_z_m = a.z_m;
+            row.apex_phi_rad = a.phi_rad;
+            row.apex_xdot_m_s = a.xdot_m_s;
+            row.apex_zdot_m_s = a.zdot_m_s;
+            row.apex_phidot_rad_s = a.phidot_rad_s;
+        }
+        row
+    }
+}
+
 /// The Cartesian product strategy × gear ratio × `t2` (`t2` varying fastest).
 pub fn grid(strategies: &[Strategy], t2_s: &[f64], gear_ratios: &[Option<f64>]) -> Vec<SweepPoint> {
     let mut out = Vec::with_capacity(strategies.len() * t2_s.len() * gear_ratios.len());
@@ -341,7 +379,8 @@ fn core_kind(c: &selfmanip_core::CoreError) -> &'static str {
     }
 }
 
-fn gear_of(cfg: &LeapConfig) -> f64 {
+/// The gear ratio a point ran with (NaN: the saturated torque).
+pub fn gear_ratio_of(cfg: &LeapConfig) -> f64 {
     match cfg.actuator {
         LegActuator::GearedMotor { gear_ratio, .. } => gear_ratio,
         LegActuator::SaturatedTorque => f64::NAN,
@@ -358,23 +397,6 @@ pub fn run_point(
     simulate_leap(&params, &cfg)
 }
 
-fn failed(status: &str, error: String, gear_ratio: f64) -> SweepRow {
-    SweepRow {
-        status: status.into(),
-        error,
-        gear_ratio,
-        apex_t_s: f64::NAN,
-        apex_x_m: f64::NAN,
-        apex_z_m: f64::NAN,
-        apex_phi_rad: f64::NAN,
-        apex_xdot_m_s: f64::NAN,
-        apex_zdot_m_s: f64::NAN,
-        apex_phidot_rad_s: f64::NAN,
-        word: String::new(),
-        n_events: 0,
-    }
-}
-
 /// Runs one point and flattens the outcome; never panics and never fails.
 pub fn run_row(base_params: &RhexParams, base_cfg: &LeapConfig, point: &SweepPoint) -> SweepRow {
     run_row_with(base_params, base_cfg, point, &NEVER)
@@ -389,31 +411,17 @@ pub fn run_row_with(
     stop: &AtomicBool,
 ) -> SweepRow {
     if stop.load(Ordering::Relaxed) {
-        return failed(LeapStatus::Interrupted.as_str(), String::new(), f64::NAN);
+        return SweepRow::failed(LeapStatus::Interrupted.as_str(), String::new(), f64::NAN);
     }
     let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         let (params, cfg) = point_inputs(base_params, base_cfg, point)?;
-        let g = gear_of(&cfg);
+        let g = gear_ratio_of(&cfg);
         simulate_leap_with(&params, &cfg, stop).map(|r| (r, g))
     }));
     match outcome {
-        Err(p) => failed("panic", panic_message(p.as_ref()), f64::NAN),
-        Ok(Err(e)) => failed(error_kind(&e), e.to_string(), f64::NAN),
-        Ok(Ok((r, g))) => {
-            let mut row = failed(r.status.as_str(), String::new(), g);
-            row.word = r.word_string();
-            row.n_events = r.events.len();
-            if let Some(a) = r.apex {
-                row.apex_t_s = a.t_s;
-                row.apex_x_m = a.x_m;
-                row.apex_z_m = a.z_m;
-                row.apex_phi_rad = a.phi_rad;
-                row.apex_xdot_m_s = a.xdot_m_s;
-                row.apex_zdot_m_s = a.zdot_m_s;
-                row.apex_phidot_rad_s = a.phidot_rad_s;
-            }
-            row
-        }
+        Err(p) => SweepRow::failed("panic", panic_message(p.as_ref()), f64::NAN),
+        Ok(Err(e)) => SweepRow::failed(error_kind(&e), e.to_string(), f64::NAN),
+        Ok(Ok((r, g))) => SweepRow::of_leap(&r, String::new(), g),
     }
 }
 
