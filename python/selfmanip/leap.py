@@ -121,10 +121,10 @@ def sweepable_names() -> list[str]:
     return list(_sweepable_names())
 
 
-def _actuator_fields() -> set[str]:
+@functools.lru_cache(maxsize=1)
+def _actuator_fields() -> frozenset[str]:
     """The names that set the geared motor (not parameters, not configuration fields)."""
-    d = _defaults()
-    return set(_sweepable_names()) - set(d["params"]) - set(d["config"])
+    return frozenset(_native.leap_actuator_fields())
 
 
 @functools.lru_cache(maxsize=1)

@@ -69,6 +69,29 @@ def test_saturated_torque_with_a_current_limit_is_refused_not_misreported():
     assert geared.config["actuator"]["gear_ratio"] == 20.0 and geared.config["actuator"]["current_limit_a"] == 9.0
 
 
+def test_parameters_a_default_leaves_unset_are_not_taken_for_the_geared_motors_fields():
+    """``mu_body``, ``leg_rotors`` and ``leg_armature_kg_m2`` (parameters the defaults leave
+    unset, so absent from their serialization) were refused with ``gear_ratio=None`` as if they
+    set the geared motor. The names that do are the engine's own list."""
+    assert set(selfmanip.leap._actuator_fields()) == {"current_limit_a", "motors_per_leg"}
+    # body-end friction with the saturated torque; μ = 0 is the frictionless default (its
+    # limit: it raised SingularKktError, the start's two sticking ends being indeterminate)
+    base = selfmanip.leap("++", 0.01, None, dt=None)
+    mu0 = selfmanip.leap("++", 0.01, None, dt=None, mu_body=0.0)
+    assert (mu0.word, mu0.apex.z_m, mu0.apex.phi_rad) == (base.word, base.apex.z_m, base.apex.phi_rad)
+    near = selfmanip.leap("++", 0.01, None, dt=None, mu_body=1e-9)
+    assert near.word == base.word
+    assert near.apex.z_m == pytest.approx(base.apex.z_m, abs=1e-6)
+    # the rotors with the saturated torque are X-RHex's at 28:1 (Table 2.1: J = tau_m k^2 / R,
+    # two motors per planar leg): the same leap as that armature set by hand
+    tau_m, k, r = 0.0118, 0.670 / 20.0, 37.0 / 20.0
+    rot = selfmanip.leap("--", -0.02, None, dt=None, leg_rotors=True)
+    hand = selfmanip.leap("--", -0.02, None, dt=None, leg_armature_kg_m2=2 * tau_m * k * k / r * 28.0**2)
+    assert rot.word == hand.word
+    assert rot.apex.z_m == pytest.approx(hand.apex.z_m, rel=1e-6, abs=0.0)
+    assert rot.word != selfmanip.leap("--", -0.02, None, dt=None).word
+
+
 # ------------------------------------------------------------------------- FFI hygiene
 
 

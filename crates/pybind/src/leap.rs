@@ -27,8 +27,8 @@ use rhex_model::leap_sensitivity::{
 };
 use rhex_model::mcap_log::{q_names, write_leap_mcap, LeapLog};
 use rhex_model::sweep::{
-    check_override_names, error_kind, gear_ratio_of, panic_message, point_inputs, sweepable_names,
-    SweepPoint, SweepRow,
+    actuator_field_names, check_override_names, error_kind, gear_ratio_of, panic_message,
+    point_inputs, sweepable_names, SweepPoint, SweepRow,
 };
 use rhex_model::{Rhex, RhexError, RhexParams};
 use selfmanip_hybrid::Termination;
@@ -42,6 +42,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(leap_sweep, m)?)?;
     m.add_function(wrap_pyfunction!(leap_write_mcap, m)?)?;
     m.add_function(wrap_pyfunction!(leap_sweepable_names, m)?)?;
+    m.add_function(wrap_pyfunction!(leap_actuator_fields, m)?)?;
     m.add_function(wrap_pyfunction!(leap_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(leap_grammar_text, m)?)?;
     m.add_function(wrap_pyfunction!(leap_word_equation, m)?)?;
@@ -84,6 +85,15 @@ fn resolve(
     pt.overrides = overrides;
     let (p, c) = base(saturated);
     point_inputs(&p, &c, &pt).map_err(rhex_err)
+}
+
+/// The names among [`leap_sweepable_names`] that set the geared motor.
+#[pyfunction]
+fn leap_actuator_fields() -> Vec<String> {
+    actuator_field_names()
+        .iter()
+        .map(|s| s.to_string())
+        .collect()
 }
 
 /// Every parameter name a sweep or a leap accepts, each once.

@@ -86,7 +86,8 @@ pub struct RhexParams {
     /// sliding site). `None` (the default): they slide without friction, the thesis's
     /// Assumption 5.9 and section C.3 (the shell's friction is low). A leap starts with the
     /// front end sticking and the rear one sliding (both sticking would be statically
-    /// indeterminate: four rows on the body's three coordinates).
+    /// indeterminate: four rows on the body's three coordinates). `Some(0.0)` is the
+    /// default's frictionless sliding.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mu_body: Option<f64>,
     /// Armature of every leg joint (kg m²): the inertia of the leg's motors' rotors seen
@@ -326,8 +327,10 @@ impl RhexParams {
                     center_m: [x, 0.0],
                     radius_m: self.rho_b,
                 },
+                // μ = 0 is the frictionless default, its limit (a sticking end that can
+                // hold no tangential force would only make the start indeterminate)
                 friction: match self.mu_body {
-                    None => FrictionDescription::Sliding,
+                    None | Some(0.0) => FrictionDescription::Sliding,
                     Some(mu) => FrictionDescription::Sticking {
                         mu: Some(mu),
                         mu_kinetic: Some(mu),

@@ -135,6 +135,12 @@ const OWN_COLUMNS: [&str; 3] = ["strategy", "t2_s", "actuator"];
 const LEAP_PAIRS: &str = "pairs";
 const ACTUATOR_FIELDS: [&str; 2] = ["current_limit_a", "motors_per_leg"];
 
+/// The names that set the geared motor's fields ([`LegActuator::GearedMotor`]) rather than a
+/// parameter or the configuration: an override of one of them runs the geared motor.
+pub fn actuator_field_names() -> &'static [&'static str] {
+    &ACTUATOR_FIELDS
+}
+
 /// Every name an override may use: the fields of [`RhexParams`], of [`LeapConfig`] (except
 /// `strategy`, `t2_s`, `actuator`) and of the geared motor — every field serde reads,
 /// including optional ones a default value leaves out of its serialization (`mu_body`,
