@@ -227,6 +227,8 @@ pub struct Dopri5 {
     weights: Vec<f64>,
     /// `Σ weights` (at least 1).
     counted: f64,
+    /// Largest step the components left out of the error norm stay stable at (s).
+    h_stable: f64,
     /// Size and error norm (at least 1e-2) of the last accepted step since the last reset.
     last_accepted: Option<(f64, f64)>,
     /// Size of the last trial step (0 before the first trial of a step: a failure of the
@@ -245,6 +247,7 @@ impl Dopri5 {
             fsal_valid: false,
             weights: vec![1.0; n],
             counted: n.max(1) as f64,
+            h_stable: f64::INFINITY,
             last_accepted: None,
             trial_h: 0.0,
         }
@@ -263,6 +266,13 @@ impl Dopri5 {
             self.weights.copy_from_slice(weights);
             self.counted = self.weights.iter().sum::<f64>().max(1.0);
         }
+    }
+
+    /// Caps every step at `h_s` (s; `f64::INFINITY`: no cap): the components out of the error
+    /// norm ([`Self::set_error_weights`]) are integrated stably only where `h |λ|` is inside
+    /// the method's stability region, which nothing else checks for them.
+    pub fn set_stability_cap(&mut self, h_s: f64) {
+        self.h_stable = h_s;
     }
 
     /// After a step failed in its right-hand side at a trial stage (`Err(Rhs)`): the next
@@ -307,7 +317,11 @@ impl Dopri5 {
         }
         let mut rejected = false;
         loop {
-            let h = self.h.min(self.opts.h_max_s).min(t_end - t);
+            let h = self
+                .h
+                .min(self.opts.h_max_s)
+                .min(self.h_stable)
+                .min(t_end - t);
             if h < self.opts.h_min_s && t_end - t > self.opts.h_min_s {
                 return Err(StepError::StepTooSmall(h));
             }

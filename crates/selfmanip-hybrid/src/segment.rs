@@ -17,8 +17,12 @@
 //! time derivatives, so both the execution and its sensitivities keep their order there.
 //!
 //! Free massless joints follow the controller's prescribed motion (thesis 5.1.1): it feeds
-//! back into nothing, so it is left out of the step-size control.
+//! back into nothing, so it is left out of the step-size control — and so the steps are
+//! capped where their tracking law stays stable ([`free_joint_step_cap`]): a law stiffer
+//! than the steps (a user's `h_max_s` of 65 ms, or gains of 10⁶ /s² at the default 10 ms)
+//! once grew without bound, unseen by the error norm, until a foot landed at 10²⁵ m/s.
 use crate::budget::Budget;
+use crate::controller::Controller;
 use crate::drift;
 use crate::error::HybridError;
 use crate::execution::{Segment, Termination};
@@ -29,6 +33,54 @@ use crate::integrate::{DenseOutput, DenseStep, Dopri5, StepError};
 use crate::locate::first_event;
 use crate::options::HybridOptions;
 use selfmanip_core::{free_massless_joints, ContactMode, CoreError, Model};
+
+/// `h |λ|` at which the free joints' tracking law is integrated, at most: inside DOPRI5's
+/// stability region with a margin (it reaches −3.3 on the negative real axis).
+pub const FREE_JOINT_STABLE_HZ: f64 = 2.0;
+
+/// The largest step at which the free massless joints' law `q̈_F = g(t, q, q̇)`
+/// ([`Controller::free_joint_qdd`]) is integrated stably, `FREE_JOINT_STABLE_HZ / ρ`, with `ρ`
+/// the spectral radius of `∂(q̇_F, q̈_F)/∂(q_F, q̇_F)` at the segment's start, by differences
+/// (exact for the linear tracking laws of the behaviours and the RHex leap; a law whose
+/// stiffness grows along the segment is not covered). Infinite without free joints.
+fn free_joint_step_cap(ctrl: &dyn Controller, t: f64, y: &[f64], nq: usize, free: &[usize]) -> f64 {
+    let nf = free.len();
+    if nf == 0 {
+        return f64::INFINITY;
+    }
+    let (q, qd) = y.split_at(nq);
+    let (mut f0, mut f1) = (vec![0.0; nf], vec![0.0; nf]);
+    ctrl.free_joint_qdd(t, q, qd, free, &mut f0);
+    let mut jac = nalgebra::DMatrix::<f64>::zeros(2 * nf, 2 * nf);
+    let (mut qp, mut qdp) = (q.to_vec(), qd.to_vec());
+    for (c, &j) in free.iter().enumerate() {
+        jac[(c, nf + c)] = 1.0;
+        let dq = 1e-6 * q[j].abs().max(1.0);
+        qp[j] = q[j] + dq;
+        ctrl.free_joint_qdd(t, &qp, qd, free, &mut f1);
+        qp[j] = q[j];
+        for r in 0..nf {
+            jac[(nf + r, c)] = (f1[r] - f0[r]) / dq;
+        }
+        let dv = 1e-6 * qd[j].abs().max(1.0);
+        qdp[j] = qd[j] + dv;
+        ctrl.free_joint_qdd(t, q, &qdp, free, &mut f1);
+        qdp[j] = qd[j];
+        for r in 0..nf {
+            jac[(nf + r, nf + c)] = (f1[r] - f0[r]) / dv;
+        }
+    }
+    let rho = jac
+        .complex_eigenvalues()
+        .iter()
+        .map(|l| l.norm())
+        .fold(0.0, f64::max);
+    if rho.is_finite() && rho > 0.0 {
+        FREE_JOINT_STABLE_HZ / rho
+    } else {
+        f64::INFINITY
+    }
+}
 
 /// The factor a trial step shrinks by when one of its stages met a singular KKT matrix.
 const SINGULAR_RETRY_FACTOR: f64 = 0.25;
@@ -128,6 +180,7 @@ impl SegmentIntegrator {
             self.weights[j] = 0.0;
             self.weights[nq + j] = 0.0;
         }
+        let cap = free_joint_step_cap(flow.controller().as_ref(), *t, y, nq, free);
         // the controller holds its memory over a segment: its time events are known here
         self.stops.clear();
         self.t_right = f64::NEG_INFINITY;
@@ -160,6 +213,7 @@ impl SegmentIntegrator {
         };
         self.ode.reset(self.h_carry);
         self.ode.set_error_weights(&self.weights);
+        self.ode.set_stability_cap(cap);
         let end = loop {
             if !slipping_now.is_empty() {
                 break SegmentEnd::Event {
