@@ -21,6 +21,7 @@ import pytest
 import selfmanip
 from selfmanip import cli
 from selfmanip.cli_leap import _sets
+from conftest import QUADRUPED
 
 Q = [0.3, 0.3, 0.0, -0.17 * math.cos(0.3), 0.0]
 
@@ -157,6 +158,19 @@ def test_quasi_static_in_flight_is_ill_posed_not_an_internal_error(rhex, quadrup
     """))
     with pytest.raises(selfmanip.IllPosedError):
         no_contacts.quasi_static("", [0.0] * 4)
+
+
+def test_a_relative_tolerance_of_one_or_more_is_refused_naming_rtol():
+    """``leap(..., rtol=1000)`` ended in a ``SingularKktError`` (the steps' error as large as the
+    state drove a leg through the ground); ``simulate`` took it too. A relative tolerance lies
+    in (0, 1)."""
+    for rtol in (1.0, 1000.0):
+        with pytest.raises(selfmanip.InvalidInputError, match="rtol") as e:
+            selfmanip.leap("++", -0.11, None, dt=None, rtol=rtol)
+        assert e.value.field == "rtol"
+        with pytest.raises(selfmanip.InvalidInputError, match="rtol"):
+            selfmanip.simulate(QUADRUPED.parent / "rocking_block.toml", None, [0.0, -0.1, 0.3], t_final=0.1, rtol=rtol)
+    assert selfmanip.leap("++", -0.11, None, dt=None, rtol=1e-6).status == "ok"
 
 
 def test_contact_mode_map_with_negative_n_is_a_value_error_naming_n(rhex):

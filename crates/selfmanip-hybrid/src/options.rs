@@ -107,6 +107,13 @@ impl HybridOptions {
                 ),
             });
         }
+        // a relative tolerance of 1 lets a step's error be as large as the state itself
+        if !(self.step.rtol > 0.0 && self.step.rtol < 1.0) {
+            return Err(HybridError::InvalidOption {
+                field: "rtol",
+                reason: format!("must lie in (0, 1), got {}", self.step.rtol),
+            });
+        }
         if !t_final.is_finite() {
             return Err(HybridError::InvalidOption {
                 field: "t_final",
