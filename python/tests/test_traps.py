@@ -21,7 +21,7 @@ import pytest
 import selfmanip
 from selfmanip import cli
 from selfmanip.cli_leap import _sets
-from conftest import QUADRUPED
+from conftest import QUADRUPED, REPO
 
 Q = [0.3, 0.3, 0.0, -0.17 * math.cos(0.3), 0.0]
 
@@ -171,6 +171,24 @@ def test_a_relative_tolerance_of_one_or_more_is_refused_naming_rtol():
         with pytest.raises(selfmanip.InvalidInputError, match="rtol"):
             selfmanip.simulate(QUADRUPED.parent / "rocking_block.toml", None, [0.0, -0.1, 0.3], t_final=0.1, rtol=rtol)
     assert selfmanip.leap("++", -0.11, None, dt=None, rtol=1e-6).status == "ok"
+
+
+def test_a_run_cut_by_its_step_budget_carries_no_tangent():
+    """``simulate(..., sensitivity=True)`` with steps bounded at 35 µs ran to its step budget and
+    then carried the tangent over those 20,000 steps: two seconds for a run of a fifth of one
+    (found by fuzzing). Such a run ends where its work ran out, not at a time of the model: its
+    events say so and there is no state Jacobian; a run that ends at its final time keeps them."""
+    data = REPO / "crates" / "selfmanip-sim" / "examples" / "data"
+    q0 = [0.5, -1.0, 0.0, -(0.1 + 0.4 * math.cos(0.5)), 0.0]
+    cut = selfmanip.simulate(data / "hopper.toml", data / "hop.toml", q0, t_final=3.0, h_max_s=3.5e-5,
+                             sensitivity=True)
+    assert cut.status == "step_budget" and cut.events and cut.state_jacobian is None
+    for ev in cut.events:
+        assert ev["saltation_status"] == "unsupported" and "step budget" in ev["saltation_reason"]
+        assert ev["saltation"] is None and ev["time_gradient"] is None
+    whole = selfmanip.simulate(data / "hopper.toml", data / "hop.toml", q0, t_final=0.5, sensitivity=True)
+    assert whole.status == "final_time"
+    assert any(ev["saltation_status"] == "defined" for ev in whole.events)
 
 
 def test_contact_mode_map_with_negative_n_is_a_value_error_naming_n(rhex):
@@ -399,7 +417,7 @@ def test_analysis_functions_accept_a_robot(quadruped):
     """``selfmanip.analysis`` raised ``TypeError ... got Robot`` and ``tail_effect`` wanted a
     path. Now: any analysis takes an RHex model as a Robot, ``tail_effect`` any robot, and an
     RHex analysis given another robot says why it cannot run."""
-    from conftest import QUADRUPED
+    from conftest import QUADRUPED, REPO
 
     q0, joints = [0.4, -0.8, -0.3, 0.7, 0, 0, 0], [0, 2]
     by_robot = selfmanip.analysis.tail_effect(quadruped, q0, joints, period_s=0.5, dt_s=5e-4)

@@ -15,7 +15,7 @@ use selfmanip_hybrid::periodic::{
     find_periodic_orbit, PeriodicError, PeriodicOptions, PeriodicOrbit,
 };
 use selfmanip_hybrid::sensitivity::{
-    execution_sensitivity, SaltationStatus, Sensitivity, SensitivityError,
+    execution_sensitivity, EventSensitivity, SaltationStatus, Sensitivity, SensitivityError,
 };
 use selfmanip_hybrid::{EventKind, Termination};
 use serde::{Deserialize, Serialize};
@@ -130,9 +130,42 @@ pub fn periodic_orbit(
 /// events (motions started at them, phases a delay after them) has that memory
 /// differentiated (`docs/sensitivity.md`, "A controller's memory of events"); one whose
 /// memory is not differentiated is a typed error
-/// ([`SensitivityError::EventMemoryWithoutPartials`]).
+/// ([`SensitivityError::EventMemoryWithoutPartials`]). A run cut by its step budget or
+/// stopped from outside has none: it ends where its work ran out, not at a time of the model,
+/// and carrying the tangent over its budget's steps would cost some ten times the run (every
+/// event [`SaltationStatus::Unsupported`] with the reason, no state Jacobian).
 pub fn run_sensitivity(run: &crate::Run) -> Result<Sensitivity, SensitivityError> {
     let exec = &run.execution;
+    let cut = match exec.termination {
+        Termination::StepBudget { t, steps } => Some(format!(
+            "the run ended on its step budget ({steps} steps, at t = {t} s)"
+        )),
+        Termination::Interrupted { t } => Some(format!("the run was stopped at t = {t} s")),
+        _ => None,
+    };
+    if let Some(reason) = cut {
+        return Ok(Sensitivity {
+            segment_flows: Vec::new(),
+            events: exec
+                .events
+                .iter()
+                .map(|e| EventSensitivity {
+                    t: e.t,
+                    kind: e.kind,
+                    status: SaltationStatus::Unsupported {
+                        reason: reason.clone(),
+                    },
+                    saltation: None,
+                    guard_gradient: None,
+                    time_gradient: None,
+                    impact_mode: None,
+                })
+                .collect(),
+            touch_switches: Vec::new(),
+            feature_changes: Vec::new(),
+            state_jacobian: None,
+        });
+    }
     let mut s = execution_sensitivity(&run.model, &run.terrain, exec)?;
     let terminal = exec.termination == Termination::Apex;
     let n = s.events.len();
