@@ -191,6 +191,22 @@ def test_a_run_cut_by_its_step_budget_carries_no_tangent():
     assert any(ev["saltation_status"] == "defined" for ev in whole.events)
 
 
+def test_sensitivities_not_covered_on_a_terrain_corner_keep_the_run():
+    """``simulate(..., sensitivity=True)`` of a hopper whose foot rolls over a stair's edge raised
+    ``EngineError`` ("its turning frame is not differentiated") and lost the run (found by
+    fuzzing). The run comes back as without sensitivities, each event saying why it has none."""
+    data = REPO / "crates" / "selfmanip-sim" / "examples" / "data"
+    args = (data / "hopper.toml", data / "hop_up.toml", [0.5, -1.0, 0.0, -0.5555, -0.0708])
+    stairs = {"kind": "stairs", "rise_m": 0.0468, "run_m": 0.0842, "count": 2, "distance_m": 0.0086}
+    with_s = selfmanip.simulate(*args, terrain=stairs, t_final=1.0, sensitivity=True)
+    without = selfmanip.simulate(*args, terrain=stairs, t_final=1.0)
+    assert with_s.word == without.word and len(with_s.events) == len(without.events) > 0
+    assert [e["t_s"] for e in with_s.events] == [e["t_s"] for e in without.events]
+    assert with_s.state_jacobian is None
+    for ev in with_s.events:
+        assert ev["saltation_status"] == "unsupported" and "terrain corner" in ev["saltation_reason"]
+
+
 def test_contact_mode_map_with_negative_n_is_a_value_error_naming_n(rhex):
     """``contact_mode_map(-1)`` raised ``OverflowError``."""
     for n in (-1, 0, 5000):

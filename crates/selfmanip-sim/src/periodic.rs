@@ -10,6 +10,7 @@
 use crate::error::{invalid, non_negative, positive, SimError};
 use crate::scenario::{Scenario, Simulation};
 use crate::trajectory::q_names;
+use selfmanip_core::tangent::TangentError;
 use selfmanip_core::Model;
 use selfmanip_hybrid::periodic::{
     find_periodic_orbit, PeriodicError, PeriodicOptions, PeriodicOrbit,
@@ -133,7 +134,10 @@ pub fn periodic_orbit(
 /// ([`SensitivityError::EventMemoryWithoutPartials`]). A run cut by its step budget or
 /// stopped from outside has none: it ends where its work ran out, not at a time of the model,
 /// and carrying the tangent over its budget's steps would cost some ten times the run (every
-/// event [`SaltationStatus::Unsupported`] with the reason, no state Jacobian).
+/// event [`SaltationStatus::Unsupported`] with the reason, no state Jacobian). So has a run
+/// along which the tangent meets a situation it does not cover yet (a contact on a terrain
+/// corner, a sliding contact's friction at rest: [`TangentError`]); it was an error that
+/// took the run with it.
 pub fn run_sensitivity(run: &crate::Run) -> Result<Sensitivity, SensitivityError> {
     let exec = &run.execution;
     let cut = match exec.termination {
@@ -144,29 +148,17 @@ pub fn run_sensitivity(run: &crate::Run) -> Result<Sensitivity, SensitivityError
         _ => None,
     };
     if let Some(reason) = cut {
-        return Ok(Sensitivity {
-            segment_flows: Vec::new(),
-            events: exec
-                .events
-                .iter()
-                .map(|e| EventSensitivity {
-                    t: e.t,
-                    kind: e.kind,
-                    status: SaltationStatus::Unsupported {
-                        reason: reason.clone(),
-                    },
-                    saltation: None,
-                    guard_gradient: None,
-                    time_gradient: None,
-                    impact_mode: None,
-                })
-                .collect(),
-            touch_switches: Vec::new(),
-            feature_changes: Vec::new(),
-            state_jacobian: None,
-        });
+        return Ok(not_formed(exec, &reason));
     }
-    let mut s = execution_sensitivity(&run.model, &run.terrain, exec)?;
+    let mut s = match execution_sensitivity(&run.model, &run.terrain, exec) {
+        Ok(s) => s,
+        // a situation the tangent does not cover yet, somewhere along the run: said on every
+        // event, the run itself kept
+        Err(SensitivityError::Tangent(
+            e @ (TangentError::TurningFrame { .. } | TangentError::FrictionAtRest { .. }),
+        )) => return Ok(not_formed(exec, &e.to_string())),
+        Err(e) => return Err(e),
+    };
     let terminal = exec.termination == Termination::Apex;
     let n = s.events.len();
     for (i, e) in s.events.iter_mut().enumerate() {
@@ -182,6 +174,31 @@ pub fn run_sensitivity(run: &crate::Run) -> Result<Sensitivity, SensitivityError
         }
     }
     Ok(s)
+}
+
+/// The sensitivities of `exec` when none are formed: every event unsupported for `reason`.
+fn not_formed(exec: &selfmanip_hybrid::Execution, reason: &str) -> Sensitivity {
+    Sensitivity {
+        segment_flows: Vec::new(),
+        events: exec
+            .events
+            .iter()
+            .map(|e| EventSensitivity {
+                t: e.t,
+                kind: e.kind,
+                status: SaltationStatus::Unsupported {
+                    reason: reason.to_string(),
+                },
+                saltation: None,
+                guard_gradient: None,
+                time_gradient: None,
+                impact_mode: None,
+            })
+            .collect(),
+        touch_switches: Vec::new(),
+        feature_changes: Vec::new(),
+        state_jacobian: None,
+    }
 }
 
 #[cfg(test)]
