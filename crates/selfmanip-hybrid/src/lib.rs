@@ -10,6 +10,7 @@
 //! | [`flow`] | the flow (5.48) of a mode, `(t, q, q̇) ⇒ (q̈, λ)`, with its cache |
 //! | [`guard`] | touchdown, liftoff, stick↔slip, fold and apex guards (5.49)–(5.51): arming and sampling |
 //! | [`fold`] | Lemma 5.1 singularities as transitions: the pin of a massless chain, its fold guard and its reset's rules |
+//! | [`free_joints`] | the step bound at which free massless joints' tracking law (out of the error norm) stays stable |
 //! | [`locate`] | regula falsi and bisection on the dense output, to `event_tol_s` |
 //! | [`features`] | the terrain feature under each active contact, and passing onto the next |
 //! | [`drift`] | constraint drift of the active contacts, projected away |
@@ -43,6 +44,7 @@ pub mod execution;
 pub mod features;
 pub mod flow;
 pub mod fold;
+pub mod free_joints;
 pub mod guard;
 pub mod impact;
 pub mod impact_qp;

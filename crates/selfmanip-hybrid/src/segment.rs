@@ -18,69 +18,21 @@
 //!
 //! Free massless joints follow the controller's prescribed motion (thesis 5.1.1): it feeds
 //! back into nothing, so it is left out of the step-size control — and so the steps are
-//! capped where their tracking law stays stable ([`free_joint_step_cap`]): a law stiffer
+//! capped where their tracking law stays stable ([`crate::free_joints`]): a law stiffer
 //! than the steps (a user's `h_max_s` of 65 ms, or gains of 10⁶ /s² at the default 10 ms)
 //! once grew without bound, unseen by the error norm, until a foot landed at 10²⁵ m/s.
 use crate::budget::Budget;
-use crate::controller::Controller;
 use crate::drift;
 use crate::error::HybridError;
 use crate::execution::{Segment, Termination};
 use crate::features::{FeatureChange, Surfaces};
 use crate::flow::{Flow, FlowWorkspace};
+use crate::free_joints::FreeJointStability;
 use crate::guard::{Guard, GuardSet};
 use crate::integrate::{DenseOutput, DenseStep, Dopri5, StepError};
 use crate::locate::first_event;
 use crate::options::HybridOptions;
 use selfmanip_core::{free_massless_joints, ContactMode, CoreError, Model};
-
-/// `h |λ|` at which the free joints' tracking law is integrated, at most: inside DOPRI5's
-/// stability region with a margin (it reaches −3.3 on the negative real axis).
-pub const FREE_JOINT_STABLE_HZ: f64 = 2.0;
-
-/// The largest step at which the free massless joints' law `q̈_F = g(t, q, q̇)`
-/// ([`Controller::free_joint_qdd`]) is integrated stably, `FREE_JOINT_STABLE_HZ / ρ`, with `ρ`
-/// the spectral radius of `∂(q̇_F, q̈_F)/∂(q_F, q̇_F)` at the segment's start, by differences
-/// (exact for the linear tracking laws of the behaviours and the RHex leap; a law whose
-/// stiffness grows along the segment is not covered). Infinite without free joints.
-fn free_joint_step_cap(ctrl: &dyn Controller, t: f64, y: &[f64], nq: usize, free: &[usize]) -> f64 {
-    let nf = free.len();
-    if nf == 0 {
-        return f64::INFINITY;
-    }
-    let (q, qd) = y.split_at(nq);
-    let (mut f0, mut f1) = (vec![0.0; nf], vec![0.0; nf]);
-    ctrl.free_joint_qdd(t, q, qd, free, &mut f0);
-    let mut jac = nalgebra::DMatrix::<f64>::zeros(2 * nf, 2 * nf);
-    let (mut qp, mut qdp) = (q.to_vec(), qd.to_vec());
-    for (c, &j) in free.iter().enumerate() {
-        jac[(c, nf + c)] = 1.0;
-        let dq = 1e-6 * q[j].abs().max(1.0);
-        qp[j] = q[j] + dq;
-        ctrl.free_joint_qdd(t, &qp, qd, free, &mut f1);
-        qp[j] = q[j];
-        for r in 0..nf {
-            jac[(nf + r, c)] = (f1[r] - f0[r]) / dq;
-        }
-        let dv = 1e-6 * qd[j].abs().max(1.0);
-        qdp[j] = qd[j] + dv;
-        ctrl.free_joint_qdd(t, q, &qdp, free, &mut f1);
-        qdp[j] = qd[j];
-        for r in 0..nf {
-            jac[(nf + r, nf + c)] = (f1[r] - f0[r]) / dv;
-        }
-    }
-    let rho = jac
-        .complex_eigenvalues()
-        .iter()
-        .map(|l| l.norm())
-        .fold(0.0, f64::max);
-    if rho.is_finite() && rho > 0.0 {
-        FREE_JOINT_STABLE_HZ / rho
-    } else {
-        f64::INFINITY
-    }
-}
 
 /// The factor a trial step shrinks by when one of its stages met a singular KKT matrix.
 const SINGULAR_RETRY_FACTOR: f64 = 0.25;
@@ -111,6 +63,8 @@ pub struct SegmentIntegrator {
     /// The state at sample and trial times.
     y_probe: Vec<f64>,
     weights: Vec<f64>,
+    /// The step bound of the free joints' law (out of the error norm).
+    free_stability: FreeJointStability,
     /// The step size the next segment starts with: the one the last segment reached (a
     /// reset changes the flow, not its time scale; a step too long is rejected and shrunk).
     h_carry: f64,
@@ -134,6 +88,7 @@ impl SegmentIntegrator {
             ode: Dopri5::new(2 * nq, opts.step),
             dense: DenseStep::default(),
             y_probe: vec![0.0; 2 * nq],
+            free_stability: FreeJointStability::default(),
             weights: vec![1.0; 2 * nq],
             h_carry: opts.step.h_initial_s,
             guards: GuardSet::default(),
@@ -180,7 +135,9 @@ impl SegmentIntegrator {
             self.weights[j] = 0.0;
             self.weights[nq + j] = 0.0;
         }
-        let cap = free_joint_step_cap(flow.controller().as_ref(), *t, y, nq, free);
+        let cap = self
+            .free_stability
+            .step_cap(flow.controller().as_ref(), *t, y, nq, free);
         // the controller holds its memory over a segment: its time events are known here
         self.stops.clear();
         self.t_right = f64::NEG_INFINITY;
