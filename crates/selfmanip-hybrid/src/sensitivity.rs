@@ -668,18 +668,25 @@ impl Tangent<'_> {
     /// before one it ends on, so that each stage takes the one-sided limit of the flow and
     /// of its partials (`∂f/∂p` may jump there even where `f` does not, e.g. a jerk at a
     /// knot), whatever side a controller gives the instant itself.
+    ///
+    /// With `hold = Some((piece, record))` the step lies on one smooth piece of the
+    /// controller's law ([`Controller::partials_piece`]) and ends or starts at a kink: a
+    /// stage whose state the tableau put past the kink by the step's local error (the kink
+    /// is bracketed to a few ulps in time, the stage states are not that close) takes the
+    /// record's state at its time instead, so that every stage has the piece's partials.
     fn step(
         &mut self,
         ev: &mut Evaluator,
         seg: &Segment,
         (t0, h, t_floor, t_cap): (f64, f64, f64, f64),
         y0: &[f64],
+        hold: Option<(u64, &dyn Fn(f64, &mut [f64]))>,
     ) -> Result<(), SensitivityError> {
         if h <= 0.0 {
             return Ok(());
         }
         let mut st = std::mem::take(&mut ev.stages);
-        let r = self.step_on(ev, &mut st, seg, (t0, h, t_floor, t_cap), y0);
+        let r = self.step_on(ev, &mut st, seg, (t0, h, t_floor, t_cap), y0, hold);
         ev.stages = st;
         r
     }
@@ -692,6 +699,7 @@ impl Tangent<'_> {
         seg: &Segment,
         (t0, h, t_floor, t_cap): (f64, f64, f64, f64),
         y0: &[f64],
+        hold: Option<(u64, &dyn Fn(f64, &mut [f64]))>,
     ) -> Result<(), SensitivityError> {
         let (phi, params) = match self {
             Tangent::Full(phi) => (phi, None),
@@ -712,6 +720,12 @@ impl Tangent<'_> {
                 ps.zip_apply(&kphi[j], |p, v| *p += c * v);
             }
             let ts = (t0 + RK_C[s] * h).max(t_floor).min(t_cap);
+            if let Some((piece, record)) = hold {
+                let (q, qd) = ys.as_slice().split_at(y0.len() / 2);
+                if seg.controller.partials_piece(ts, q, qd, seg.mode) != piece {
+                    record(ts, ys.as_mut_slice());
+                }
+            }
             match params {
                 None => {
                     let fj = ev.eval(
@@ -813,13 +827,27 @@ fn segment_flow(
             step.eval(ta, &mut ya);
             step.eval(t_end, &mut yb);
             ev.touches_into(seg.mode, &yb, &mut end_touches);
+            // the controller's smooth piece, at the times its stages take
+            let piece = move |t: f64, y: &[f64]| {
+                let t = t.max(t_floor).min(t_cap);
+                let (q, qd) = y.split_at(n2 / 2);
+                seg.controller.partials_piece(t, q, qd, seg.mode)
+            };
+            let end_piece = piece(t_end, &yb);
+            let record = |t: f64, y: &mut [f64]| step.eval(t, y);
+            // whether the last sub-step ended at a kink (the next one starts there)
+            let mut at_kink = false;
             loop {
                 ev.touches_into(seg.mode, &ya, &mut start_touches);
-                if start_touches == end_touches {
-                    tangent.step(ev, seg, (ta, t_end - ta, t_floor, t_cap), &ya)?;
+                let start_piece = piece(ta, &ya);
+                if start_touches == end_touches && start_piece == end_piece {
+                    let hold =
+                        at_kink.then_some((start_piece, &record as &dyn Fn(f64, &mut [f64])));
+                    tangent.step(ev, seg, (ta, t_end - ta, t_floor, t_cap), &ya, hold)?;
                     break;
                 }
-                // the first change of touch kinds after ta, bracketed to a few ulps
+                // the first change of touch kinds or of the controller's piece after ta,
+                // bracketed to a few ulps
                 let (mut lo, mut hi) = (ta, t_end);
                 loop {
                     let mid = 0.5 * (lo + hi);
@@ -828,20 +856,27 @@ fn segment_flow(
                     }
                     step.eval(mid, &mut ym);
                     ev.touches_into(seg.mode, &ym, &mut mid_touches);
-                    if mid_touches == start_touches {
+                    if mid_touches == start_touches && piece(mid, &ym) == start_piece {
                         lo = mid;
                     } else {
                         hi = mid;
                     }
                 }
-                tangent.step(ev, seg, (ta, lo - ta, t_floor, t_cap), &ya)?;
+                let hold = (start_piece, &record as &dyn Fn(f64, &mut [f64]));
+                tangent.step(ev, seg, (ta, lo - ta, t_floor, t_cap), &ya, Some(hold))?;
                 step.eval(lo, &mut ym);
                 step.eval(hi, &mut ya);
-                let sw = touch_switch(ev, seg, (lo, &ym), (hi, &ya), &start_touches)?;
-                if let Some(x) = &sw.saltation {
-                    tangent.salt(x);
+                at_kink = true;
+                ev.touches_into(seg.mode, &ya, &mut mid_touches);
+                if mid_touches != start_touches {
+                    let sw = touch_switch(ev, seg, (lo, &ym), (hi, &ya), &start_touches)?;
+                    if let Some(x) = &sw.saltation {
+                        tangent.salt(x);
+                    }
+                    switches.push(sw);
                 }
-                switches.push(sw);
+                // a kink of the controller's law alone (its outputs continuous, their
+                // partials not): the tangent goes on from it, each side on its own steps
                 ta = hi;
             }
             if t_end >= step_end {
