@@ -35,14 +35,16 @@
 //! and acceleration bounds, so a leg with inertia whose servo turns the body in flight
 //! (Result C.5) is differentiated (to 1e-6 of central differences). A massless leg's motion
 //! acts on nothing until the leg meets the ground again, so the controller carries its memory
-//! only for legs with inertia; a massless leg that meets the ground again under such a motion
-//! is flagged (carried, that memory gave derivatives 1e-5 … 1e-4 off: a term not found).
+//! for a massless leg only in a run in which that leg lands again under such a motion (its
+//! touchdown's time and its servo in stance then follow the motion). In stance that servo
+//! may leave its saturation inside an engine step, a kink of the flow that the sensitivities
+//! split their steps at ([`selfmanip_hybrid::Controller::partials_piece`]): those leaps agree
+//! with central differences to 1e-7 (`tests/relanding_sensitivity.rs`).
 //!
 //! **Undefined derivatives** make [`LeapSensitivity::ok`] false, with every derivative NaN
 //! and the reason given: a leap without an apex; any event whose saltation is not defined
 //! (grazing, simultaneous touchdowns such as both legs at `t2 = 0`, a mode held for zero
-//! time, folds, jams and impacts with Coulomb friction); a leg that meets the ground again
-//! under a motion started at an event (above); an event at a motor's start (fired
+//! time, folds, jams and impacts with Coulomb friction); an event at a motor's start (fired
 //! by the torque's jump, not by a crossing: flagged by the hybrid sensitivities as an event
 //! at a controller's time event).
 use crate::leap::{run_leap_setup, LeapConfig, LeapResult, LeapSetup, LegActuator, T2Reference};

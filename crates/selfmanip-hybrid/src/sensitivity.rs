@@ -44,6 +44,15 @@
 //! active arc whose rolling contact reaches the arc's end inside a segment (no event, but
 //! `Ȧ`, hence `q̈`, changes form there) gets a saltation of its own ([`TouchSwitch`]).
 //!
+//! **Kinks of the controller's law** (a servo's saturation, a motor's current limit: the
+//! outputs continuous, their partials not; [`Controller::partials_piece`]) need no saltation
+//! (`f⁺ = f⁻`), but a step that straddles one integrates `Ẋ = F X` only to first order in the
+//! step (the quadrature weights the jump of `F` by the tableau's `b_i`, not by the kink's
+//! place). The tangent's steps are split there as at a touch switch — the change bracketed
+//! on the dense output to a few ulps — and a stage of the two sub-steps that the tableau put
+//! past the kink takes the record's state at its time, so that every stage has its side's
+//! partials (`docs/sensitivity.md`, "Kinks of a controller's law").
+//!
 //! **Where Ξ is not defined** the event says so ([`SaltationStatus`]) instead of carrying a
 //! number: grazing (`|D_xg f⁻|` below [`GRAZING_TOL`] relative to `|D_xg| |f⁻|`), several
 //! guards at once or a mode held for zero time (two orders of simultaneous events may give
@@ -84,9 +93,9 @@
 //! velocity — gets the one-sided derivative of the sequence it realised, unflagged;
 //! controllers without [`Controller::partials`] (the generic actuator models of
 //! [`crate::Actuated`]) stop with a typed error; a controller with event memory that does not
-//! say so ([`Controller::has_event_memory`] false, the default — the RHex leap controller,
-//! which flags the cases where it matters itself) is differentiated with that memory held
-//! fixed.
+//! say so ([`Controller::has_event_memory`] false, the default — the RHex leap controller
+//! for a massless leg whose motion ends in the air, where it acts on nothing) is
+//! differentiated with that memory held fixed.
 use crate::controller::{Controller, ControllerPartials, EventMemoryPartials, TimeEvent};
 use crate::error::HybridError;
 use crate::execution::{Event, EventKind, Execution, Segment, Termination};
