@@ -647,6 +647,10 @@ impl Evaluator<'_> {
     }
 }
 
+/// A tangent step's smooth piece of the controller's law and the record's state at a time
+/// (see [`Tangent::step`]).
+type Hold<'a> = Option<(u64, &'a dyn Fn(f64, &mut [f64]))>;
+
 /// What the variational equations carry along a segment: the full `Φ` (`2nq × 2nq`) of
 /// [`execution_sensitivity`], or the selected columns `X` (`2nq × m`) of
 /// [`execution_sensitivity_columns`], whose last `params.len()` columns are forced by
@@ -689,7 +693,7 @@ impl Tangent<'_> {
         seg: &Segment,
         (t0, h, t_floor, t_cap): (f64, f64, f64, f64),
         y0: &[f64],
-        hold: Option<(u64, &dyn Fn(f64, &mut [f64]))>,
+        hold: Hold<'_>,
     ) -> Result<(), SensitivityError> {
         if h <= 0.0 {
             return Ok(());
@@ -708,7 +712,7 @@ impl Tangent<'_> {
         seg: &Segment,
         (t0, h, t_floor, t_cap): (f64, f64, f64, f64),
         y0: &[f64],
-        hold: Option<(u64, &dyn Fn(f64, &mut [f64]))>,
+        hold: Hold<'_>,
     ) -> Result<(), SensitivityError> {
         let (phi, params) = match self {
             Tangent::Full(phi) => (phi, None),
