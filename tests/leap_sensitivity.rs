@@ -168,22 +168,9 @@ fn apex_parameter_sensitivities_match_central_differences() {
     }
 }
 
-/// Leaps in which a massless leg meets the ground again under the motion it started in the
-/// air from its state at liftoff: that memory, carried, moved the apex derivatives from
-/// several per cent off (held fixed) to 1e-5 … 1e-4 of central differences of whole leaps,
-/// consistently over three steps — short of the 1e-6 of every other leap, so a term is still
-/// missing; the controller carries the memory for legs with inertia only, and the leap flags
-/// these, with the reason, never reporting the number.
-#[test]
-fn a_leg_landing_again_under_a_motion_from_its_liftoff_is_flagged() {
-    for (s, t2) in [("--", -0.17), ("++", -0.12)] {
-        let r = leap_with_sensitivity(&leap_params(), &tight(s, t2), &["t2"]).unwrap();
-        assert!(!r.ok, "{s} {t2}");
-        let reason = r.reason.as_deref().unwrap_or_default();
-        assert!(reason.contains("meets the ground again"), "{reason}");
-        assert!(r.d_apex.iter().flatten().all(|v| v.is_nan()));
-    }
-}
+// Leaps in which a massless leg meets the ground again under the motion it started in the
+// air at an event (the controller's memory, and its servo's kink in stance): checked against
+// central differences in `crates/rhex-model/tests/relanding_sensitivity.rs`.
 
 /// `d apex / d x0` along the start-state directions that keep the sitting start on its
 /// contacts (each leg's angle and rate, the forward position), against central differences
@@ -402,11 +389,15 @@ fn time_event_with_a_jump_matches_central_differences() {
 /// flow jumps, and the swing's knots, where `∂f/∂t2` does). Its derivatives are those of the
 /// same flow as the converged ones above (rtol 1e-12, which central differences of whole
 /// leaps confirm), integrated less accurately. **Measured** with the merged leap physics
-/// (Coulomb toes, rest by events), worst over the five leaps: 2.5e-5 relative for `t2`
-/// (`+-`, t2 = 0.1 s), 5.0e-6 for G (`+-`, t2 = 0.1 s), 2.0e-5 for `m_b` (`--`, t2 = −0.1 s),
-/// 4.6e-6 for `I_b`; asserted with a margin of 2. The 1e-5 bar is met by G and `I_b`
-/// at the default tolerances, not by `t2` and `m_b` (before the merge: 1.1e-5, 1.8e-6,
-/// 2.4e-6, 1.6e-6).
+/// (Coulomb toes, rest by events) and the tangent's steps split at the controller's kinks
+/// (`Controller::partials_piece`), worst over the five leaps: 2.2e-5 relative for `t2`
+/// (`++`, t2 = 0.05 s), 4.3e-7 for G (`--`, t2 = 0.05 s), 2.0e-5 for `m_b` (`--`,
+/// t2 = −0.1 s), 2.0e-7 for `I_b` (`--`, t2 = 0.05 s); asserted with a margin of 2 to 2.5.
+/// The 1e-5 bar is met by G and `I_b` at the default tolerances, not by `t2` and
+/// `m_b`. Before the kinks were split the `+-` leap at t2 = 0.1 s was the worst in three
+/// columns (2.5e-5, 5.0e-6, 3.4e-6, 4.6e-6; now 2.2e-7, 5.7e-8, 1.3e-7, 8.6e-8: its servo's
+/// saturation was straddled by a default-tolerance step); before the merge: 1.1e-5, 1.8e-6,
+/// 2.4e-6, 1.6e-6.
 /// Central differences of *default* executions are not the reference here: two executions
 /// at rtol 1e-8 differ by their step sequences (~1e-8 relative), which a difference over a
 /// step of 1e-5 of the scale turns into ~1e-3.
@@ -446,7 +437,7 @@ fn default_option_sensitivities_agree_with_converged_ones() {
     // the measured worst with a margin of 2 (see above)
     for ((name, _), (e, bound)) in PARAMS
         .iter()
-        .zip(per.into_iter().zip([5e-5, 1e-5, 4e-5, 1e-5]))
+        .zip(per.into_iter().zip([5e-5, 1e-6, 4e-5, 5e-7]))
     {
         eprintln!("worst for {name}: {e:.2e}");
         assert!(e < bound, "{name}: {e}");

@@ -656,6 +656,30 @@ impl MotorLaw {
         }
         self.partials(u, speed)
     }
+
+    /// Whether [`Self::partials_one_sided`] takes the current limit's branch (not the
+    /// torque–speed line's) at command `u` and joint speed `ω`: the motor's piece of its law
+    /// ([`Controller::partials_piece`]).
+    fn on_limit(&self, u: f64, speed: f64) -> bool {
+        let MotorLaw::Geared {
+            ratio,
+            stall_n_m,
+            no_load_rad_s,
+            limit_n_m,
+            ..
+        } = *self
+        else {
+            return false;
+        };
+        let line = |w: f64| stall_n_m * (u.clamp(-1.0, 1.0) - w * ratio / no_load_rad_s);
+        let a = line(speed);
+        if a.abs() >= limit_n_m && a.abs() <= limit_n_m * (1.0 + 1e-9) && u != 0.0 {
+            // on the kink within round-off: the branch the leg moves into, as
+            // `partials_one_sided` takes it
+            return line(speed + u.signum() * 2e-9 * no_load_rad_s / ratio).abs() >= limit_n_m;
+        }
+        a.abs() >= limit_n_m
+    }
 }
 
 /// The actuator that turns one planar leg (a contralateral pair): chapter 3's saturated
@@ -952,6 +976,9 @@ pub(crate) struct LeapController {
     air_start: [Vec<Option<AirStart>>; 2],
     /// How many events the controller has been told of (the number of the next one).
     seen: usize,
+    /// Whether each leg touched down again after a motion in the air that started at an
+    /// event: from then on a massless leg's memory acts ([`Controller::has_event_memory`]).
+    relanded: [bool; 2],
     /// Whether each leg's retraction has its motion in the air: planned once, at the event
     /// that made the leg retract in the air or first released it while retracting; a leg
     /// the ground releases later returns to it (the open-loop controller plans its motions
@@ -1364,6 +1391,12 @@ impl Controller for LeapController {
         }
         for i in 0..2 {
             let c = self.leg_contact[i];
+            if event.mode_after.contains(c)
+                && !event.mode_before.contains(c)
+                && self.air_start[i].iter().any(Option::is_some)
+            {
+                self.relanded[i] = true;
+            }
             let left = event.mode_before.contains(c) && !event.mode_after.contains(c);
             if left && event.t >= self.start[i] && self.lifted[i].is_none() {
                 self.lifted[i] = Some(event.t);
@@ -1414,12 +1447,18 @@ impl Controller for LeapController {
     }
 
     /// A motion in the air started at an event makes the outputs depend on that event's
-    /// time and state — on a body that feels them only through a leg with inertia, which its
-    /// servo drives along the motion. A massless leg's motion acts on nothing until the leg
-    /// meets the ground again, which [`crate::leap_sensitivity`] flags: the memory of its
-    /// motions is not carried (the sensitivities of a massless leap cost 13 % less).
+    /// time and state — on a body that feels them through a leg with inertia, which its servo
+    /// drives along the motion, or through a massless leg once it meets the ground again
+    /// under the motion (its touchdown's time and its servo in stance follow the motion). A
+    /// massless leg's motion that ends in the air acts on nothing, so its memory is carried
+    /// only in a run in which such a leg lands again (the sensitivities of the other massless
+    /// leaps do not pay for it). The memory is then carried over the whole run (the
+    /// sensitivities ask every segment's controller, and the last one knows the landing).
     fn has_event_memory(&self) -> bool {
-        (0..2).any(|i| !self.free_in_air[i] && self.air_start[i].iter().any(Option::is_some))
+        (0..2).any(|i| {
+            (!self.free_in_air[i] || self.relanded[i])
+                && self.air_start[i].iter().any(Option::is_some)
+        })
     }
 
     /// `∂Υ/∂m_k`, `∂q̈_free/∂m_k` of the events whose motions the legs follow at `t`: a free
@@ -1482,6 +1521,35 @@ impl Controller for LeapController {
             }
         }
         true
+    }
+
+    /// Per leg, two bits: a pushing leg's motor on its torque–speed line (0) or at its
+    /// current limit (1); a servoed leg's PD law in its linear range (0) or saturated at
+    /// `+H` (1) or `−H` (2); a massless leg in the air (no torque) 0. Its partials switch
+    /// exactly there ([`Self::partials`]).
+    fn partials_piece(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode) -> u64 {
+        let mut out = 0;
+        for i in 0..2 {
+            let phase = self.phase(i, t);
+            let code = match phase {
+                Phase::Pushing => u64::from(self.law.on_limit(self.sign[i], qd[i])),
+                _ if !self.servoed(i, mode) => 0,
+                _ => {
+                    let (theta, omega) = self.servo_target(i, t, phase);
+                    let raw = -HOLD_KP_PER_RAD * (q[i] - theta) - self.servo_kd_s * (qd[i] - omega);
+                    // the branch test of `servo_partials`
+                    if (raw * self.hold_torque).abs() < self.hold_torque {
+                        0
+                    } else if raw > 0.0 {
+                        1
+                    } else {
+                        2
+                    }
+                }
+            };
+            out |= code << (2 * i);
+        }
+        out
     }
 }
 
@@ -1681,6 +1749,7 @@ impl LeapSetup {
             // the swing down starts with the motor, not at an event
             air_start: [vec![None], vec![None]],
             seen: 0,
+            relanded: [false; 2],
         };
         Ok(LeapSetup {
             rhex,

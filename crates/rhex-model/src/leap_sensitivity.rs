@@ -35,14 +35,16 @@
 //! and acceleration bounds, so a leg with inertia whose servo turns the body in flight
 //! (Result C.5) is differentiated (to 1e-6 of central differences). A massless leg's motion
 //! acts on nothing until the leg meets the ground again, so the controller carries its memory
-//! only for legs with inertia; a massless leg that meets the ground again under such a motion
-//! is flagged (carried, that memory gave derivatives 1e-5 … 1e-4 off: a term not found).
+//! for a massless leg only in a run in which that leg lands again under such a motion (its
+//! touchdown's time and its servo in stance then follow the motion). In stance that servo
+//! may leave its saturation inside an engine step, a kink of the flow that the sensitivities
+//! split their steps at ([`selfmanip_hybrid::Controller::partials_piece`]): those leaps agree
+//! with central differences to 1e-7 (`tests/relanding_sensitivity.rs`).
 //!
 //! **Undefined derivatives** make [`LeapSensitivity::ok`] false, with every derivative NaN
 //! and the reason given: a leap without an apex; any event whose saltation is not defined
 //! (grazing, simultaneous touchdowns such as both legs at `t2 = 0`, a mode held for zero
-//! time, folds, jams and impacts with Coulomb friction); a leg that meets the ground again
-//! under a motion started at an event (above); an event at a motor's start (fired
+//! time, folds, jams and impacts with Coulomb friction); an event at a motor's start (fired
 //! by the torque's jump, not by a crossing: flagged by the hybrid sensitivities as an event
 //! at a controller's time event).
 use crate::leap::{run_leap_setup, LeapConfig, LeapResult, LeapSetup, LegActuator, T2Reference};
@@ -388,7 +390,7 @@ pub fn leap_with_sensitivity_from(
     } else if s.columns.is_none() {
         Some("the execution's sensitivities are not defined (a terrain feature change)".into())
     } else {
-        memory_recontact(&setup, exec)
+        None
     };
     if let Some(r) = reason {
         out.reason = Some(r);
@@ -446,51 +448,4 @@ pub fn leap_with_sensitivity_from(
     }
     out.ok = true;
     Ok(out)
-}
-
-/// The events at which the leap controller starts a leg's motion in the air from the
-/// event's state (its `on_event`: the leg's liftoff after its motor started, or the
-/// takeoff), as `(event index, leg)` in order: the controller's memory.
-fn air_motion_starts(setup: &LeapSetup, exec: &selfmanip_hybrid::Execution) -> Vec<(usize, usize)> {
-    let start = setup.ctrl.start;
-    let contacts = setup.ctrl.leg_contact;
-    let mut takeoff = false;
-    let mut out = Vec::new();
-    for (k, e) in exec.events.iter().enumerate() {
-        let both = e.t >= start[0].max(start[1]);
-        let took_off = !takeoff && both && e.mode_after.is_flight();
-        takeoff |= took_off;
-        for i in 0..2 {
-            let c = contacts[i];
-            let left = e.mode_before.contains(c) && !e.mode_after.contains(c);
-            if !(e.mode_after.contains(c) || !(left || took_off) || e.t < start[i]) {
-                out.push((k, i));
-            }
-        }
-    }
-    out
-}
-
-/// Whether a leg meets the ground again after a motion in the air that started at an event
-/// ([`air_motion_starts`]). The controller does not carry the memory of a massless leg's
-/// motions (in the air they act on nothing); when it did, the apex derivatives of such leaps
-/// came out 1e-5 … 1e-4 off against central differences (the (+,+) t2 = −0.12 and (−,−)
-/// t2 = −0.17 leaps), where every other leap agrees to 1e-6 — a term not found: flagged.
-fn memory_recontact(setup: &LeapSetup, exec: &selfmanip_hybrid::Execution) -> Option<String> {
-    let start = setup.ctrl.start;
-    air_motion_starts(setup, exec)
-        .into_iter()
-        .find_map(|(k, i)| {
-            let (e, c) = (&exec.events[k], setup.ctrl.leg_contact[i]);
-            let seg = exec
-                .segments
-                .iter()
-                .find(|s| s.t0 >= e.t && s.mode.contains(c))?;
-            Some(format!(
-                "leg {i} meets the ground again at t = {} s after a motion that started at \
-             the event at t = {} s (its derivatives are not trusted yet)",
-                seg.t0 - start[0],
-                e.t - start[0]
-            ))
-        })
 }

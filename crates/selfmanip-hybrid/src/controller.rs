@@ -124,6 +124,19 @@ pub trait Controller: ControllerClone + Send + Sync {
     ) -> bool {
         !self.has_event_memory()
     }
+    /// Which smooth piece of its law the outputs lie on at `(t, q, q̇)` in `mode` — a
+    /// servo's linear range or either side of its saturation, a motor's torque–speed line or
+    /// its current limit — as a number that changes exactly where [`Self::partials`]
+    /// switch branch. The outputs are continuous there (a **kink**), their partials are not.
+    /// The sensitivities split the tangent's steps at every change
+    /// ([`crate::sensitivity`]): a step that straddles a kink integrates the variational
+    /// equation only to first order in the step (the kink's place in the step moves with the
+    /// initial state), which left the derivatives of leaps whose servo leaves its saturation
+    /// in stance 1e-5 … 1e-4 off. Default 0: one smooth piece (a controller whose partials
+    /// switch without saying so is differentiated across the switch to that accuracy).
+    fn partials_piece(&self, _t: f64, _q: &[f64], _qd: &[f64], _mode: ContactMode) -> u64 {
+        0
+    }
     /// The time events ([`Self::time_events`]) whose instants depend on remembered events
     /// (a phase that starts `δ` after the touchdown that started another: `t_b = t_k + δ`),
     /// each with `dt_b/d(t_k, q_k, q̇_k⁺)`; an instant that coincides with its event's own

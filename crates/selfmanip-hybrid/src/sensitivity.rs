@@ -44,6 +44,15 @@
 //! active arc whose rolling contact reaches the arc's end inside a segment (no event, but
 //! `Ȧ`, hence `q̈`, changes form there) gets a saltation of its own ([`TouchSwitch`]).
 //!
+//! **Kinks of the controller's law** (a servo's saturation, a motor's current limit: the
+//! outputs continuous, their partials not; [`Controller::partials_piece`]) need no saltation
+//! (`f⁺ = f⁻`), but a step that straddles one integrates `Ẋ = F X` only to first order in the
+//! step (the quadrature weights the jump of `F` by the tableau's `b_i`, not by the kink's
+//! place). The tangent's steps are split there as at a touch switch — the change bracketed
+//! on the dense output to a few ulps — and a stage of the two sub-steps that the tableau put
+//! past the kink takes the record's state at its time, so that every stage has its side's
+//! partials (`docs/sensitivity.md`, "Kinks of a controller's law").
+//!
 //! **Where Ξ is not defined** the event says so ([`SaltationStatus`]) instead of carrying a
 //! number: grazing (`|D_xg f⁻|` below [`GRAZING_TOL`] relative to `|D_xg| |f⁻|`), several
 //! guards at once or a mode held for zero time (two orders of simultaneous events may give
@@ -84,9 +93,9 @@
 //! velocity — gets the one-sided derivative of the sequence it realised, unflagged;
 //! controllers without [`Controller::partials`] (the generic actuator models of
 //! [`crate::Actuated`]) stop with a typed error; a controller with event memory that does not
-//! say so ([`Controller::has_event_memory`] false, the default — the RHex leap controller,
-//! which flags the cases where it matters itself) is differentiated with that memory held
-//! fixed.
+//! say so ([`Controller::has_event_memory`] false, the default — the RHex leap controller
+//! for a massless leg whose motion ends in the air, where it acts on nothing) is
+//! differentiated with that memory held fixed.
 use crate::controller::{Controller, ControllerPartials, EventMemoryPartials, TimeEvent};
 use crate::error::HybridError;
 use crate::execution::{Event, EventKind, Execution, Segment, Termination};
@@ -638,6 +647,10 @@ impl Evaluator<'_> {
     }
 }
 
+/// A tangent step's smooth piece of the controller's law and the record's state at a time
+/// (see [`Tangent::step`]).
+type Hold<'a> = Option<(u64, &'a dyn Fn(f64, &mut [f64]))>;
+
 /// What the variational equations carry along a segment: the full `Φ` (`2nq × 2nq`) of
 /// [`execution_sensitivity`], or the selected columns `X` (`2nq × m`) of
 /// [`execution_sensitivity_columns`], whose last `params.len()` columns are forced by
@@ -668,18 +681,25 @@ impl Tangent<'_> {
     /// before one it ends on, so that each stage takes the one-sided limit of the flow and
     /// of its partials (`∂f/∂p` may jump there even where `f` does not, e.g. a jerk at a
     /// knot), whatever side a controller gives the instant itself.
+    ///
+    /// With `hold = Some((piece, record))` the step lies on one smooth piece of the
+    /// controller's law ([`Controller::partials_piece`]) and ends or starts at a kink: a
+    /// stage whose state the tableau put past the kink by the step's local error (the kink
+    /// is bracketed to a few ulps in time, the stage states are not that close) takes the
+    /// record's state at its time instead, so that every stage has the piece's partials.
     fn step(
         &mut self,
         ev: &mut Evaluator,
         seg: &Segment,
         (t0, h, t_floor, t_cap): (f64, f64, f64, f64),
         y0: &[f64],
+        hold: Hold<'_>,
     ) -> Result<(), SensitivityError> {
         if h <= 0.0 {
             return Ok(());
         }
         let mut st = std::mem::take(&mut ev.stages);
-        let r = self.step_on(ev, &mut st, seg, (t0, h, t_floor, t_cap), y0);
+        let r = self.step_on(ev, &mut st, seg, (t0, h, t_floor, t_cap), y0, hold);
         ev.stages = st;
         r
     }
@@ -692,6 +712,7 @@ impl Tangent<'_> {
         seg: &Segment,
         (t0, h, t_floor, t_cap): (f64, f64, f64, f64),
         y0: &[f64],
+        hold: Hold<'_>,
     ) -> Result<(), SensitivityError> {
         let (phi, params) = match self {
             Tangent::Full(phi) => (phi, None),
@@ -712,6 +733,12 @@ impl Tangent<'_> {
                 ps.zip_apply(&kphi[j], |p, v| *p += c * v);
             }
             let ts = (t0 + RK_C[s] * h).max(t_floor).min(t_cap);
+            if let Some((piece, record)) = hold {
+                let (q, qd) = ys.as_slice().split_at(y0.len() / 2);
+                if seg.controller.partials_piece(ts, q, qd, seg.mode) != piece {
+                    record(ts, ys.as_mut_slice());
+                }
+            }
             match params {
                 None => {
                     let fj = ev.eval(
@@ -813,13 +840,27 @@ fn segment_flow(
             step.eval(ta, &mut ya);
             step.eval(t_end, &mut yb);
             ev.touches_into(seg.mode, &yb, &mut end_touches);
+            // the controller's smooth piece, at the times its stages take
+            let piece = move |t: f64, y: &[f64]| {
+                let t = t.max(t_floor).min(t_cap);
+                let (q, qd) = y.split_at(n2 / 2);
+                seg.controller.partials_piece(t, q, qd, seg.mode)
+            };
+            let end_piece = piece(t_end, &yb);
+            let record = |t: f64, y: &mut [f64]| step.eval(t, y);
+            // whether the last sub-step ended at a kink (the next one starts there)
+            let mut at_kink = false;
             loop {
                 ev.touches_into(seg.mode, &ya, &mut start_touches);
-                if start_touches == end_touches {
-                    tangent.step(ev, seg, (ta, t_end - ta, t_floor, t_cap), &ya)?;
+                let start_piece = piece(ta, &ya);
+                if start_touches == end_touches && start_piece == end_piece {
+                    let hold =
+                        at_kink.then_some((start_piece, &record as &dyn Fn(f64, &mut [f64])));
+                    tangent.step(ev, seg, (ta, t_end - ta, t_floor, t_cap), &ya, hold)?;
                     break;
                 }
-                // the first change of touch kinds after ta, bracketed to a few ulps
+                // the first change of touch kinds or of the controller's piece after ta,
+                // bracketed to a few ulps
                 let (mut lo, mut hi) = (ta, t_end);
                 loop {
                     let mid = 0.5 * (lo + hi);
@@ -828,20 +869,27 @@ fn segment_flow(
                     }
                     step.eval(mid, &mut ym);
                     ev.touches_into(seg.mode, &ym, &mut mid_touches);
-                    if mid_touches == start_touches {
+                    if mid_touches == start_touches && piece(mid, &ym) == start_piece {
                         lo = mid;
                     } else {
                         hi = mid;
                     }
                 }
-                tangent.step(ev, seg, (ta, lo - ta, t_floor, t_cap), &ya)?;
+                let hold = (start_piece, &record as &dyn Fn(f64, &mut [f64]));
+                tangent.step(ev, seg, (ta, lo - ta, t_floor, t_cap), &ya, Some(hold))?;
                 step.eval(lo, &mut ym);
                 step.eval(hi, &mut ya);
-                let sw = touch_switch(ev, seg, (lo, &ym), (hi, &ya), &start_touches)?;
-                if let Some(x) = &sw.saltation {
-                    tangent.salt(x);
+                at_kink = true;
+                ev.touches_into(seg.mode, &ya, &mut mid_touches);
+                if mid_touches != start_touches {
+                    let sw = touch_switch(ev, seg, (lo, &ym), (hi, &ya), &start_touches)?;
+                    if let Some(x) = &sw.saltation {
+                        tangent.salt(x);
+                    }
+                    switches.push(sw);
                 }
-                switches.push(sw);
+                // a kink of the controller's law alone (its outputs continuous, their
+                // partials not): the tangent goes on from it, each side on its own steps
                 ta = hi;
             }
             if t_end >= step_end {
