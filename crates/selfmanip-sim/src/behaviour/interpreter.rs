@@ -827,6 +827,41 @@ impl Controller for BehaviourController {
         true
     }
 
+    /// Per program, two bits: a servo in its linear range (0) or saturated at `+limit` (1)
+    /// or `−limit` (2) — where [`Self::partials`] switch branch (the tangent's steps are
+    /// split there); the other laws 0. Programs past the 32nd fold into the same bits.
+    fn partials_piece(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode) -> u64 {
+        let plan = &*self.plan;
+        let mut out = 0u64;
+        for (p, prog) in plan.programs.iter().enumerate() {
+            let TorqueLaw::Servo {
+                target,
+                kp,
+                kd,
+                limit,
+                only_in_contact,
+            } = &prog.phases[self.current(p, t, q)].torque
+            else {
+                continue;
+            };
+            if *only_in_contact && mode.normal_bits() & prog.contacts == 0 {
+                continue;
+            }
+            let j = prog.joint;
+            let u = self.servo_command(p, t, *target, (*kp, *kd), q[j], qd[j]);
+            // the branch test of `partials`
+            let code: u64 = if u.abs() < *limit {
+                0
+            } else if u > 0.0 {
+                1
+            } else {
+                2
+            };
+            out ^= code << (2 * (p % 32));
+        }
+        out
+    }
+
     /// The instants where the outputs may jump in time alone: each phase start already known,
     /// each prescribed motion's start and knots (its jerk jumps there), and the breakpoints
     /// of torque schedules. The behaviour has no named parameters (`dt_dp` empty for no
