@@ -17,10 +17,8 @@
 //! time derivatives, so both the execution and its sensitivities keep their order there.
 //!
 //! Free massless joints follow the controller's prescribed motion (thesis 5.1.1): it feeds
-//! back into nothing, so it is left out of the step-size control — and so the steps are
-//! capped where their tracking law stays stable ([`crate::free_joints`]): a law stiffer
-//! than the steps (a user's `h_max_s` of 65 ms, or gains of 10⁶ /s² at the default 10 ms)
-//! once grew without bound, unseen by the error norm, until a foot landed at 10²⁵ m/s.
+//! back into nothing, so it is left out of the step-size control, and the steps are capped
+//! where its tracking law stays stable instead ([`crate::free_joints`]).
 use crate::budget::Budget;
 use crate::drift;
 use crate::error::HybridError;
