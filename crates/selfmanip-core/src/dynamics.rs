@@ -298,6 +298,34 @@ pub fn free_massless_joints(
 ) {
     free.clear();
     dynamic.clear();
+    let n = model.n_joints();
+    if n <= 64 {
+        // bit sets over the joints: the links an active contact touches, and the joints
+        // that are not massless; joint j is free iff neither meets its distal chain
+        let (mut touched, mut massive) = (0u64, 0u64);
+        for c in mode.active() {
+            if let Some(l) = model.contacts[c].link {
+                touched |= 1 << l;
+            }
+        }
+        for (j, joint) in model.joints.iter().enumerate() {
+            if !joint.is_massless() {
+                massive |= 1 << j;
+            }
+        }
+        for j in 0..n {
+            let end = model.distal(j).end;
+            // bits j..end
+            let chain = (u64::MAX >> (64 - end)) & (u64::MAX << j);
+            if (touched | massive) & chain == 0 {
+                free.push(j);
+            } else {
+                dynamic.push(j);
+            }
+        }
+        dynamic.extend(n..model.nq());
+        return;
+    }
     for j in 0..model.n_joints() {
         let distal = model.distal(j);
         let massless = model.distal_massless(j);
