@@ -616,6 +616,37 @@ mod tests {
         (mbar, a)
     }
 
+    /// The kernels compiled for fixed `(m, c)` give the run-time-size kernels' factor and
+    /// solution bit for bit (the same operations in the same order): every pair `with_dims!`
+    /// fixes, and its neighbours beyond.
+    #[test]
+    fn fixed_size_kernels_are_bit_identical_to_run_time_ones() {
+        let mut r = ChaCha8Rng::seed_from_u64(7);
+        let (mut fixed, mut dynamic) = (KktFactorization::default(), KktFactorization::default());
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for m in 1..=9 {
+            for c in 0..=m {
+                for massless in [0, 1.min(c), 2.min(c)] {
+                    let (mbar, a) = random_system(m, c, massless, &mut r);
+                    fixed.factor(&mbar, &a).unwrap();
+                    dynamic.load(&mbar, &a, None);
+                    factor_kernel(m, c, &mut dynamic).unwrap();
+                    assert_eq!(bits(&fixed.q), bits(&dynamic.q), "Q, m={m} c={c}");
+                    assert_eq!(bits(&fixed.l), bits(&dynamic.l), "L, m={m} c={c}");
+                    assert_eq!(bits(&fixed.r_diag), bits(&dynamic.r_diag), "R, m={m} c={c}");
+                    let f: Vec<f64> = (0..m).map(|_| r.gen_range(-1.0..1.0)).collect();
+                    let g: Vec<f64> = (0..c).map(|_| r.gen_range(-1.0..1.0)).collect();
+                    let (mut x1, mut y1) = (vec![0.0; m], vec![0.0; c]);
+                    let (mut x2, mut y2) = (vec![0.0; m], vec![0.0; c]);
+                    fixed.solve(&f, &g, &mut x1, &mut y1);
+                    solve_kernel(m, c, &mut dynamic, &f, &g, &mut x2, &mut y2);
+                    assert_eq!(bits(&x1), bits(&x2), "x, m={m} c={c}");
+                    assert_eq!(bits(&y1), bits(&y2), "y, m={m} c={c}");
+                }
+            }
+        }
+    }
+
     /// Every size the kernels are compiled for and the run-time fallback beyond them: the
     /// solution satisfies both block rows, agrees with a dense LU of the KKT matrix, and the
     /// constraint condition is that of the QR of `Aᵀ` (`|R_ii|` are unique).
