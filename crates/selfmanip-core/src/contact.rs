@@ -402,13 +402,13 @@ fn pseudo_angle(c: f64, s: f64) -> f64 {
     }
 }
 
-/// Contact geometry for site `k` at the current kinematics.
-pub fn contact_geometry(
-    model: &Model,
+/// Site `k`, the part it is on, and the world position of its reference point (a point
+/// site's point, an arc's centre), near which the terrain's features are looked up.
+fn site_reference<'m>(
+    model: &'m Model,
     kin: &Kinematics,
-    terrain: &dyn Terrain,
     k: usize,
-) -> ContactGeometry {
+) -> (&'m crate::model::Contact, Part, Vector2<f64>) {
     let site = &model.contacts[k];
     let part = match site.link {
         None => Part::Body,
@@ -418,7 +418,17 @@ pub fn contact_geometry(
         ContactShape::Point { position_m } => *position_m,
         ContactShape::Arc { center_m, .. } => *center_m,
     };
-    let reference = kin.point(part, reference);
+    (site, part, kin.point(part, reference))
+}
+
+/// Contact geometry for site `k` at the current kinematics.
+pub fn contact_geometry(
+    model: &Model,
+    kin: &Kinematics,
+    terrain: &dyn Terrain,
+    k: usize,
+) -> ContactGeometry {
+    let (site, part, reference) = site_reference(model, kin, k);
     let mut best = geometry_on(site, k, part, kin, terrain.plane_under(reference.x));
     if let Some(face) = terrain.face_near(reference) {
         let on_face = geometry_on(site, k, part, kin, face);
@@ -508,16 +518,7 @@ fn geometry_on(
 /// by the same comparisons), without the rates and frames: what a touchdown guard samples
 /// several times per step.
 pub fn contact_gap(model: &Model, kin: &Kinematics, terrain: &dyn Terrain, k: usize) -> f64 {
-    let site = &model.contacts[k];
-    let part = match site.link {
-        None => Part::Body,
-        Some(j) => Part::Link(j),
-    };
-    let reference = match &site.shape {
-        ContactShape::Point { position_m } => *position_m,
-        ContactShape::Arc { center_m, .. } => *center_m,
-    };
-    let reference = kin.point(part, reference);
+    let (site, part, reference) = site_reference(model, kin, k);
     let gap_on = |plane: GroundPlane| {
         let (local, touch) = touch_point(site, k, part, kin, &plane);
         (plane.height_of(kin.point(part, local)), touch)
