@@ -42,9 +42,21 @@ impl Constraints {
                 .map(|k| (k, contact_geometry(model, kin, terrain, k))),
         );
         if self.a.shape() != (c, nq) {
-            self.a = DMatrix::zeros(c, nq);
-            self.a_dot = DMatrix::zeros(c, nq);
-            self.a_dot_qd = DVector::zeros(c);
+            // resized in their own buffers (every entry is written below): a workspace
+            // that moves between modes of different sizes allocates only to grow
+            let reshape = |m: &mut DMatrix<f64>| {
+                let mut buf: Vec<f64> = std::mem::replace(m, DMatrix::zeros(0, 0)).data.into();
+                buf.clear();
+                buf.resize(c * nq, 0.0);
+                *m = DMatrix::from_vec(c, nq, buf);
+            };
+            reshape(&mut self.a);
+            reshape(&mut self.a_dot);
+            let mut buf: Vec<f64> =
+                std::mem::replace(&mut self.a_dot_qd, DVector::zeros(0)).data.into();
+            buf.clear();
+            buf.resize(c, 0.0);
+            self.a_dot_qd = DVector::from_vec(buf);
         }
         // A and Ȧ are c×nq column-major, entry (r, k) at k·c + r; a row is nonzero only on
         // its contact part's support

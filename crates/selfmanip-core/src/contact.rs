@@ -402,13 +402,13 @@ fn pseudo_angle(c: f64, s: f64) -> f64 {
     }
 }
 
-/// Contact geometry for site `k` at the current kinematics.
-pub fn contact_geometry(
-    model: &Model,
+/// Site `k`, the part it is on, and the world position of its reference point (a point
+/// site's point, an arc's centre), near which the terrain's features are looked up.
+fn site_reference<'m>(
+    model: &'m Model,
     kin: &Kinematics,
-    terrain: &dyn Terrain,
     k: usize,
-) -> ContactGeometry {
+) -> (&'m crate::model::Contact, Part, Vector2<f64>) {
     let site = &model.contacts[k];
     let part = match site.link {
         None => Part::Body,
@@ -418,7 +418,17 @@ pub fn contact_geometry(
         ContactShape::Point { position_m } => *position_m,
         ContactShape::Arc { center_m, .. } => *center_m,
     };
-    let reference = kin.point(part, reference);
+    (site, part, kin.point(part, reference))
+}
+
+/// Contact geometry for site `k` at the current kinematics.
+pub fn contact_geometry(
+    model: &Model,
+    kin: &Kinematics,
+    terrain: &dyn Terrain,
+    k: usize,
+) -> ContactGeometry {
+    let (site, part, reference) = site_reference(model, kin, k);
     let mut best = geometry_on(site, k, part, kin, terrain.plane_under(reference.x));
     if let Some(face) = terrain.face_near(reference) {
         let on_face = geometry_on(site, k, part, kin, face);
@@ -483,8 +493,73 @@ fn geometry_on(
     kin: &Kinematics,
     plane: GroundPlane,
 ) -> ContactGeometry {
+    let (local, touch) = touch_point(site, k, part, kin, &plane);
+    let point = kin.point(part, local);
+    let point_rate = match (touch, &site.shape) {
+        (TouchKind::Rolling, ContactShape::Arc { center_m, .. }) => {
+            let c = kin.point(part, *center_m);
+            kin.material_velocity(part, c)
+        }
+        _ => kin.material_velocity(part, point),
+    };
+    ContactGeometry {
+        part,
+        plane,
+        point,
+        gap_m: plane.height_of(point),
+        touch,
+        point_rate,
+        normal_rate: Vector2::zeros(),
+        on_corner: false,
+    }
+}
+
+/// The gap `a_k(q)` of [`contact_geometry`] alone, bit for bit (the same feature chosen
+/// by the same comparisons), without the rates and frames: what a touchdown guard samples
+/// several times per step.
+pub fn contact_gap(model: &Model, kin: &Kinematics, terrain: &dyn Terrain, k: usize) -> f64 {
+    let (site, part, reference) = site_reference(model, kin, k);
+    let gap_on = |plane: GroundPlane| {
+        let (local, touch) = touch_point(site, k, part, kin, &plane);
+        (plane.height_of(kin.point(part, local)), touch)
+    };
+    let mut best = gap_on(terrain.plane_under(reference.x)).0;
+    if let Some(face) = terrain.face_near(reference) {
+        let on_face = gap_on(face).0;
+        if on_face < best {
+            best = on_face;
+        }
+    }
+    // as geometry_on_corner: an arc facing the corner, touching it in its interior
+    if let (Some(v), ContactShape::Arc { .. }) = (terrain.corner_near(reference), &site.shape) {
+        let to_corner = v - reference;
+        let dist = to_corner.norm();
+        if dist > 0.0 {
+            let n = to_corner / dist;
+            let (on_corner, touch) = gap_on(GroundPlane {
+                point_m: [v.x, v.y],
+                normal_into_ground: [n.x, n.y],
+            });
+            if touch == TouchKind::Rolling && on_corner < best {
+                best = on_corner;
+            }
+        }
+    }
+    best
+}
+
+/// The point of site `k` (on `part`, in the part's frame) that touches or would touch
+/// `plane`, and how it touches.
+#[inline]
+fn touch_point(
+    site: &crate::model::Contact,
+    k: usize,
+    part: Part,
+    kin: &Kinematics,
+    plane: &GroundPlane,
+) -> (Vector2<f64>, TouchKind) {
     let n = plane.normal();
-    let (local, touch) = match &site.shape {
+    match &site.shape {
         ContactShape::Point { position_m } => (*position_m, TouchKind::Point),
         ContactShape::Arc {
             center_m,
@@ -512,24 +587,6 @@ fn geometry_on(
                 _ => (center_m + *radius_m * d, TouchKind::Rolling),
             }
         }
-    };
-    let point = kin.point(part, local);
-    let point_rate = match (touch, &site.shape) {
-        (TouchKind::Rolling, ContactShape::Arc { center_m, .. }) => {
-            let c = kin.point(part, *center_m);
-            kin.material_velocity(part, c)
-        }
-        _ => kin.material_velocity(part, point),
-    };
-    ContactGeometry {
-        part,
-        plane,
-        point,
-        gap_m: plane.height_of(point),
-        touch,
-        point_rate,
-        normal_rate: Vector2::zeros(),
-        on_corner: false,
     }
 }
 

@@ -298,6 +298,34 @@ pub fn free_massless_joints(
 ) {
     free.clear();
     dynamic.clear();
+    let n = model.n_joints();
+    if n <= 64 {
+        // bit sets over the joints: the links an active contact touches, and the joints
+        // that are not massless; joint j is free iff neither meets its distal chain
+        let (mut touched, mut massive) = (0u64, 0u64);
+        for c in mode.active() {
+            if let Some(l) = model.contacts[c].link {
+                touched |= 1 << l;
+            }
+        }
+        for (j, joint) in model.joints.iter().enumerate() {
+            if !joint.is_massless() {
+                massive |= 1 << j;
+            }
+        }
+        for j in 0..n {
+            let end = model.distal(j).end;
+            // bits j..end
+            let chain = (u64::MAX >> (64 - end)) & (u64::MAX << j);
+            if (touched | massive) & chain == 0 {
+                free.push(j);
+            } else {
+                dynamic.push(j);
+            }
+        }
+        dynamic.extend(n..model.nq());
+        return;
+    }
     for j in 0..model.n_joints() {
         let distal = model.distal(j);
         let massless = model.distal_massless(j);
@@ -450,4 +478,106 @@ pub fn energy(model: &Model, data: &mut Data, q: &[f64], qd: &[f64]) -> Result<(
     check_result("T", &[t])?;
     check_result("V", &[v])?;
     Ok((t, v))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contact::ContactKind;
+    use crate::RobotDescription;
+
+    /// [`free_massless_joints`]' bit sets give the joints of its definition (thesis 5.1.1:
+    /// the whole distal chain massless — no mass, inertia or armature — and no active contact
+    /// on it), for every mode of a robot with a massless two-link leg, a leg whose distal link
+    /// has mass, one whose joint has armature only, and a one-link leg, with contacts on
+    /// proximal and distal links and on the body.
+    #[test]
+    fn free_massless_joints_follow_their_definition() {
+        let model = RobotDescription::from_toml_str(
+            r#"
+            name = "mixed"
+            [body]
+            mass_kg = 2.0
+            inertia_kg_m2 = 0.02
+            [[legs]]
+            name = "a"
+            hip_m = [0.2, 0.0]
+            links = [{ length_m = 0.1 }, { length_m = 0.1 }]
+            [[legs]]
+            name = "b"
+            hip_m = [0.0, 0.0]
+            links = [{ length_m = 0.1 }, { length_m = 0.1, mass_kg = 0.1 }]
+            [[legs]]
+            name = "c"
+            hip_m = [-0.2, 0.0]
+            links = [{ length_m = 0.1, armature_kg_m2 = 0.01 }, { length_m = 0.1 }]
+            [[legs]]
+            name = "d"
+            hip_m = [-0.3, 0.0]
+            links = [{ length_m = 0.1 }]
+            [[contacts]]
+            name = "a_toe"
+            leg = "a"
+            shape = { kind = "point", position_m = [0.0, 0.1] }
+            friction = { kind = "sticking", mu = 1.0 }
+            [[contacts]]
+            name = "a_knee"
+            leg = "a"
+            link = 0
+            shape = { kind = "point", position_m = [0.0, 0.1] }
+            friction = { kind = "sliding" }
+            [[contacts]]
+            name = "b_toe"
+            leg = "b"
+            shape = { kind = "point", position_m = [0.0, 0.1] }
+            friction = { kind = "sliding" }
+            [[contacts]]
+            name = "c_toe"
+            leg = "c"
+            shape = { kind = "point", position_m = [0.0, 0.1] }
+            friction = { kind = "sliding" }
+            [[contacts]]
+            name = "d_toe"
+            leg = "d"
+            shape = { kind = "point", position_m = [0.0, 0.1] }
+            friction = { kind = "sliding" }
+            [[contacts]]
+            name = "nose"
+            shape = { kind = "point", position_m = [0.3, 0.0] }
+            friction = { kind = "sliding" }
+            "#,
+        )
+        .unwrap()
+        .build()
+        .unwrap();
+        let nc = model.n_contacts();
+        let (mut free, mut dynamic) = (Vec::new(), Vec::new());
+        let mut n_free = 0;
+        for bits in 0u32..1 << nc {
+            let mode = (0..nc)
+                .filter(|k| bits >> k & 1 == 1)
+                .fold(ContactMode::FLIGHT, |m, k| m.with(k, ContactKind::Slide));
+            free_massless_joints(&model, mode, &mut free, &mut dynamic);
+            let expected: Vec<usize> = (0..model.n_joints())
+                .filter(|&j| {
+                    let chain = model.distal(j);
+                    chain.clone().all(|i| {
+                        let joint = &model.joints[i];
+                        joint.mass_kg == 0.0
+                            && joint.inertia_kg_m2 == 0.0
+                            && joint.armature_kg_m2 == 0.0
+                    }) && !mode
+                        .active()
+                        .any(|c| model.contacts[c].link.is_some_and(|l| chain.contains(&l)))
+                })
+                .collect();
+            assert_eq!(free, expected, "mode bits {bits:b}");
+            let mut all: Vec<usize> = free.iter().chain(&dynamic).copied().collect();
+            all.sort_unstable();
+            assert_eq!(all, (0..model.nq()).collect::<Vec<_>>());
+            n_free += free.len();
+        }
+        // (a sanity check of the robot: some joints are free in some modes, not all in all)
+        assert!(n_free > 0 && n_free < (1 << nc) * model.n_joints());
+    }
 }

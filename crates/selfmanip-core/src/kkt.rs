@@ -121,6 +121,43 @@ macro_rules! with_dim {
     };
 }
 
+/// Runs `$body` with `$md`, `$cd` bound to the sizes `m` and `c`: both [`Fixed`] for the
+/// systems of planar robots (`m` in 3..=6, any `c ≤ m`), where the factorization's and
+/// solve's loops over the rows and the free motions then unroll as well; `m` alone fixed
+/// for `m` of 7 and 8; else both at run time. The same operations in the same order for
+/// every binding: the results are bit-identical.
+macro_rules! with_dims {
+    ($m:expr, $c:expr, |$md:ident, $cd:ident| $body:expr) => {
+        with_dims!(@go ($m, $c), $md, $cd, $body;
+            3 0, 3 1, 3 2, 3 3,
+            4 0, 4 1, 4 2, 4 3, 4 4,
+            5 0, 5 1, 5 2, 5 3, 5 4, 5 5,
+            6 0, 6 1, 6 2, 6 3, 6 4, 6 5, 6 6)
+    };
+    (@go $mc:expr, $md:ident, $cd:ident, $body:expr; $($mm:literal $cc:literal),*) => {
+        match $mc {
+            $(($mm, $cc) => {
+                let ($md, $cd) = (Fixed::<$mm>, Fixed::<$cc>);
+                $body
+            })*
+            (m, c) => match m {
+                7 => {
+                    let ($md, $cd) = (Fixed::<7>, c);
+                    $body
+                }
+                8 => {
+                    let ($md, $cd) = (Fixed::<8>, c);
+                    $body
+                }
+                _ => {
+                    let ($md, $cd) = (m, c);
+                    $body
+                }
+            },
+        }
+    };
+}
+
 impl KktFactorization {
     pub fn n_coords(&self) -> usize {
         self.m
@@ -133,7 +170,7 @@ impl KktFactorization {
     pub fn factor(&mut self, mbar: &DMatrix<f64>, a: &DMatrix<f64>) -> Result<()> {
         debug_assert_eq!(a.ncols(), mbar.nrows());
         self.load(mbar, a, None);
-        with_dim!(self.m, factor_kernel(self))
+        with_dims!(self.m, self.c, |md, cd| factor_kernel(md, cd, self))
             .map_err(|kind| singular(mbar.clone(), a.clone(), kind))
     }
 
@@ -146,7 +183,7 @@ impl KktFactorization {
         coords: &[usize],
     ) -> Result<()> {
         self.load(mbar, a, Some(coords));
-        with_dim!(self.m, factor_kernel(self)).map_err(|kind| {
+        with_dims!(self.m, self.c, |md, cd| factor_kernel(md, cd, self)).map_err(|kind| {
             singular(
                 mbar.select_rows(coords).select_columns(coords),
                 a.select_columns(coords),
@@ -179,11 +216,11 @@ impl KktFactorization {
         match coords {
             None => {
                 self.mbar.copy_from_slice(mbar.as_slice());
-                with_dim!(m, load_at(self, a, |i| i));
+                with_dims!(m, c, |md, cd| load_at(md, cd, self, a, |i| i));
             }
             Some(coords) => {
                 with_dim!(m, load_mbar(self, mbar, coords));
-                with_dim!(m, load_at(self, a, |i| coords[i]));
+                with_dims!(m, c, |md, cd| load_at(md, cd, self, a, |i| coords[i]));
             }
         }
     }
@@ -195,7 +232,7 @@ impl KktFactorization {
     pub fn solve(&mut self, f: &[f64], g: &[f64], x: &mut [f64], y: &mut [f64]) {
         let (m, c) = (self.m, self.c);
         assert!(f.len() == m && g.len() == c && x.len() == m && y.len() == c);
-        with_dim!(m, solve_kernel(self, f, g, x, y));
+        with_dims!(m, c, |md, cd| solve_kernel(md, cd, self, f, g, x, y));
     }
 
     /// The blocks `M†`, `A†`, `Λ` of the inverse (column by column).
@@ -257,14 +294,15 @@ fn load_mbar<D: Dim>(dim: D, kkt: &mut KktFactorization, mbar: &DMatrix<f64>, co
     }
 }
 
-/// `A[:, coord]ᵀ` into the factorization, for `m = dim`.
-fn load_at<D: Dim>(
+/// `A[:, coord]ᵀ` into the factorization, for `m = dim` and `c = cdim`.
+fn load_at<D: Dim, C: Dim>(
     dim: D,
+    cdim: C,
     kkt: &mut KktFactorization,
     a: &DMatrix<f64>,
     coord: impl Fn(usize) -> usize,
 ) {
-    let (m, c, at) = (dim.get(), kkt.c, a.as_slice());
+    let (m, c, at) = (dim.get(), cdim.get(), a.as_slice());
     let r = &mut kkt.r[..m * c];
     // A is c×nq column-major: column coord(i) of A is row i of Aᵀ
     for i in 0..m {
@@ -275,13 +313,15 @@ fn load_at<D: Dim>(
     }
 }
 
-/// The factorization proper, on the loaded `M̄` and `Aᵀ`, for `m = dim`; a Lemma 5.1 failure
+/// The factorization proper, on the loaded `M̄` and `Aᵀ`, for `m = dim` and `c = cdim`; a Lemma 5.1 failure
 /// is returned as its kind (the caller, which still holds the inputs, adds the condition).
-fn factor_kernel<D: Dim>(
+fn factor_kernel<D: Dim, C: Dim>(
     dim: D,
+    cdim: C,
     kkt: &mut KktFactorization,
 ) -> std::result::Result<(), SingularityKind> {
-    let (m, c) = (dim.get(), kkt.c);
+    let (m, c) = (dim.get(), cdim.get());
+    debug_assert_eq!(c, kkt.c);
     if c > m {
         return Err(SingularityKind::RedundantConstraints);
     }
@@ -320,14 +360,14 @@ fn factor_kernel<D: Dim>(
         }
     }
     let (mut rmin, mut rmax) = (f64::INFINITY, 0.0f64);
-    for &d in &kkt.r_diag {
+    for &d in &kkt.r_diag[..c] {
         rmin = rmin.min(d.abs());
         rmax = rmax.max(d.abs());
     }
     if c > 0 && (rmax == 0.0 || rmin <= RANK_TOLERANCE * rmax || !rmin.is_finite()) {
         return Err(SingularityKind::RedundantConstraints);
     }
-    for (ri, &d) in kkt.r_inv.iter_mut().zip(&kkt.r_diag) {
+    for (ri, &d) in kkt.r_inv[..c].iter_mut().zip(&kkt.r_diag[..c]) {
         *ri = 1.0 / d;
     }
 
@@ -395,16 +435,18 @@ fn factor_kernel<D: Dim>(
     Ok(())
 }
 
-/// [`KktFactorization::solve`] for `m = dim`.
-fn solve_kernel<D: Dim>(
+/// [`KktFactorization::solve`] for `m = dim` and `c = cdim`.
+fn solve_kernel<D: Dim, C: Dim>(
     dim: D,
+    cdim: C,
     kkt: &mut KktFactorization,
     f: &[f64],
     g: &[f64],
     x: &mut [f64],
     y: &mut [f64],
 ) {
-    let (m, c) = (dim.get(), kkt.c);
+    let (m, c) = (dim.get(), cdim.get());
+    debug_assert_eq!(c, kkt.c);
     let e = m - c;
     let (mbar, r, q, f, x) = (
         &kkt.mbar[..m * m],
@@ -572,6 +614,37 @@ mod tests {
             + DMatrix::from_fn(m, m, |i, j| if i == j && i >= massless { 0.5 } else { 0.0 });
         let a = DMatrix::from_fn(c, m, |_, _| r.gen_range(-1.0..1.0));
         (mbar, a)
+    }
+
+    /// The kernels compiled for fixed `(m, c)` give the run-time-size kernels' factor and
+    /// solution bit for bit (the same operations in the same order): every pair `with_dims!`
+    /// fixes, and its neighbours beyond.
+    #[test]
+    fn fixed_size_kernels_are_bit_identical_to_run_time_ones() {
+        let mut r = ChaCha8Rng::seed_from_u64(7);
+        let (mut fixed, mut dynamic) = (KktFactorization::default(), KktFactorization::default());
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for m in 1..=9 {
+            for c in 0..=m {
+                for massless in [0, 1.min(c), 2.min(c)] {
+                    let (mbar, a) = random_system(m, c, massless, &mut r);
+                    fixed.factor(&mbar, &a).unwrap();
+                    dynamic.load(&mbar, &a, None);
+                    factor_kernel(m, c, &mut dynamic).unwrap();
+                    assert_eq!(bits(&fixed.q), bits(&dynamic.q), "Q, m={m} c={c}");
+                    assert_eq!(bits(&fixed.l), bits(&dynamic.l), "L, m={m} c={c}");
+                    assert_eq!(bits(&fixed.r_diag), bits(&dynamic.r_diag), "R, m={m} c={c}");
+                    let f: Vec<f64> = (0..m).map(|_| r.gen_range(-1.0..1.0)).collect();
+                    let g: Vec<f64> = (0..c).map(|_| r.gen_range(-1.0..1.0)).collect();
+                    let (mut x1, mut y1) = (vec![0.0; m], vec![0.0; c]);
+                    let (mut x2, mut y2) = (vec![0.0; m], vec![0.0; c]);
+                    fixed.solve(&f, &g, &mut x1, &mut y1);
+                    solve_kernel(m, c, &mut dynamic, &f, &g, &mut x2, &mut y2);
+                    assert_eq!(bits(&x1), bits(&x2), "x, m={m} c={c}");
+                    assert_eq!(bits(&y1), bits(&y2), "y, m={m} c={c}");
+                }
+            }
+        }
     }
 
     /// Every size the kernels are compiled for and the run-time fallback beyond them: the

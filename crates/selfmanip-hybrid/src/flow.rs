@@ -241,8 +241,33 @@ impl<'a> Flow<'a> {
     /// Poses and velocities at `(q, q̇)`: those of the flow if the cache holds that state,
     /// else computed once per state.
     pub fn kinematics(&mut self, q: &[f64], qd: &[f64]) -> &Kinematics {
+        if self.refresh_kinematics(q, qd) {
+            &self.ws.data.kin
+        } else {
+            &self.kin
+        }
+    }
+
+    /// [`Self::kinematics`] at `(q, q̇)` together with the sliding directions the flow is
+    /// evaluated with ([`Self::slide_directions`]): what a kinematic guard needs.
+    pub fn kinematics_and_directions(
+        &mut self,
+        q: &[f64],
+        qd: &[f64],
+    ) -> (&Kinematics, &[(usize, SlideDirection)]) {
+        let kin = if self.refresh_kinematics(q, qd) {
+            &self.ws.data.kin
+        } else {
+            &self.kin
+        };
+        (kin, &self.ws.data.slide_directions)
+    }
+
+    /// Whether the flow's workspace holds the kinematics at `(q, q̇)`; if not, they are made
+    /// current in `self.kin` (computed unless they are already).
+    fn refresh_kinematics(&mut self, q: &[f64], qd: &[f64]) -> bool {
         if self.holds_state(q, qd) {
-            return &self.ws.data.kin;
+            return true;
         }
         let nq = q.len();
         let current = self
@@ -256,7 +281,7 @@ impl<'a> Flow<'a> {
             y.extend_from_slice(q);
             y.extend_from_slice(qd);
         }
-        &self.kin
+        false
     }
 
     /// The geometry of contact `k` at `y = [q; q̇]`.

@@ -45,7 +45,7 @@ use crate::flow::Flow;
 use crate::fold;
 use crate::integrate::DenseStep;
 use crate::options::HybridOptions;
-use selfmanip_core::contact::contact_geometry;
+use selfmanip_core::contact::{contact_gap, contact_geometry};
 use selfmanip_core::contact::{ContactKind, RowDirection};
 use selfmanip_core::friction::SlideDirection;
 use selfmanip_core::kinematics::Kinematics;
@@ -92,37 +92,59 @@ impl Guard {
         y: &[f64],
     ) -> Result<f64, CoreError> {
         let model = flow.model();
-        let terrain = flow.terrain();
         let (q, qd) = y.split_at(model.nq());
         Ok(match self {
-            Guard::Touchdown(k) => {
-                contact_geometry(model, flow.kinematics(q, qd), terrain, k).gap_m
-            }
             Guard::Liftoff { row, .. } => -flow.eval(t, mode, q, qd)?.lambda[row],
-            Guard::Apex => -qd[model.ix_z()],
             Guard::Slip {
                 t_row, n_row, mu, ..
             } => {
                 let lambda = &flow.eval(t, mode, q, qd)?.lambda;
                 mu * (-lambda[n_row]) - lambda[t_row].abs()
             }
-            Guard::Stick(k) => sliding_velocity(model, flow.kinematics(q, qd), terrain, k),
+            Guard::Apex => -qd[model.ix_z()],
+            _ => {
+                let terrain = flow.terrain();
+                let (kin, dirs) = flow.kinematics_and_directions(q, qd);
+                self.kinematic_value(model, terrain, kin, dirs, mode, qd)
+            }
+        })
+    }
+
+    /// The value of a guard that needs no flow ([`Self::needs_flow`] false) from the
+    /// kinematics at `(q, q̇)` and the segment's sliding directions: what [`Self::value`]
+    /// returns for it, for callers that sample several such guards at one state.
+    fn kinematic_value(
+        self,
+        model: &Model,
+        terrain: &dyn Terrain,
+        kin: &Kinematics,
+        slide_directions: &[(usize, SlideDirection)],
+        mode: ContactMode,
+        qd: &[f64],
+    ) -> f64 {
+        match self {
+            Guard::Touchdown(k) => contact_gap(model, kin, terrain, k),
+            Guard::Apex => -qd[model.ix_z()],
+            Guard::Stick(k) => sliding_velocity(model, kin, terrain, k),
             Guard::Fold { contact, threshold } => {
                 // the segment's fixed σ of this contact (fold::pin)
-                let own = fold::own_direction(flow.slide_directions(), contact);
+                let own = fold::own_direction(slide_directions, contact);
                 let dirs = own.as_slice();
-                fold::pin(model, flow.kinematics(q, qd), terrain, mode, contact, dirs)
+                fold::pin(model, kin, terrain, mode, contact, dirs)
                     .expect("a fold guard's contact has a fold")
                     - threshold
             }
             Guard::FoldPassed { contact, threshold } => {
-                let own = fold::own_direction(flow.slide_directions(), contact);
+                let own = fold::own_direction(slide_directions, contact);
                 let dirs = own.as_slice();
                 threshold
-                    - fold::pin(model, flow.kinematics(q, qd), terrain, mode, contact, dirs)
+                    - fold::pin(model, kin, terrain, mode, contact, dirs)
                         .expect("a fold guard's contact has a fold")
             }
-        })
+            Guard::Liftoff { .. } | Guard::Slip { .. } => {
+                unreachable!("a force guard's value needs the flow")
+            }
+        }
     }
 
     /// The guards of `mode`, in a fixed order: touchdowns by contact, then per active
@@ -472,9 +494,24 @@ impl GuardSet {
                 ts
             };
             sample_t[si] = ts;
+            // at a coarse sample the force guards first: their flow evaluation computes the
+            // kinematics there, which the kinematic guards then reuse (the other order
+            // computed them twice); every value is a function of the state alone
+            if coarse(si) {
+                for (gi, st) in self.states.iter().enumerate() {
+                    if st.guard.needs_flow() {
+                        self.raw[si * ng + gi] = st.guard.value(flow, ts, mode, y)?;
+                    }
+                }
+            }
+            // the kinematic guards from one look-up of the kinematics at this sample
+            let (model, terrain) = (flow.model(), flow.terrain());
+            let (q, qd) = y.split_at(model.nq());
+            let (kin, dirs) = flow.kinematics_and_directions(q, qd);
             for (gi, st) in self.states.iter().enumerate() {
-                if coarse(si) || !st.guard.needs_flow() {
-                    self.raw[si * ng + gi] = st.guard.value(flow, ts, mode, y)?;
+                if !st.guard.needs_flow() {
+                    self.raw[si * ng + gi] =
+                        st.guard.kinematic_value(model, terrain, kin, dirs, mode, qd);
                 }
             }
         }

@@ -250,6 +250,101 @@ mod tests {
         .is_err());
     }
 
+    /// The touchdown guards' gap ([`selfmanip_core::contact::contact_gap`]) is the gap of
+    /// the full contact geometry ([`selfmanip_core::contact::contact_geometry`]) bit for
+    /// bit, by its own route (no rates, no frames): for a toe, a rolling foot and an arc
+    /// body end, over random poses near a ledge's face and corner, on stairs, an incline
+    /// and flat ground. The poses reach every feature (plane, face, corner) and both kinds
+    /// of touch of the arc (interior and end).
+    #[test]
+    fn contact_gap_is_the_geometry_gap_bit_for_bit() {
+        use selfmanip_core::contact::{contact_gap, contact_geometry, TouchKind};
+        use selfmanip_core::kinematics::Kinematics;
+        use selfmanip_core::RobotDescription;
+        let model = RobotDescription::from_toml_str(
+            r#"
+            name = "probe"
+            [body]
+            mass_kg = 4.0
+            inertia_kg_m2 = 0.04
+            [[legs]]
+            name = "leg"
+            hip_m = [0.1, 0.0]
+            [[legs.links]]
+            length_m = 0.2
+            [[legs.links]]
+            length_m = 0.2
+            [[contacts]]
+            name = "foot"
+            leg = "leg"
+            shape = { kind = "circle", center_m = [0.0, 0.2], radius_m = 0.03 }
+            friction = { kind = "sticking", mu = 1.0 }
+            [[contacts]]
+            name = "knee"
+            leg = "leg"
+            link = 0
+            shape = { kind = "point", position_m = [0.0, 0.2] }
+            friction = { kind = "sliding" }
+            [[contacts]]
+            name = "tail"
+            shape = { kind = "arc", center_m = [-0.2, 0.0], radius_m = 0.05, normal_range_rad = [-3.0, -0.2] }
+            friction = { kind = "sticking", mu = 0.8 }
+            "#,
+        )
+        .unwrap()
+        .build()
+        .unwrap();
+        let terrains = [
+            TerrainSpec::Flat,
+            TerrainSpec::Incline { slope_rad: 0.2 },
+            TerrainSpec::Ledge {
+                height_m: 0.1,
+                distance_m: 0.3,
+            },
+            TerrainSpec::Ledge {
+                height_m: 0.1,
+                distance_m: -0.3,
+            },
+            TerrainSpec::Stairs {
+                rise_m: 0.05,
+                run_m: 0.1,
+                count: 4,
+                distance_m: 0.2,
+            },
+        ];
+        // xorshift64: a fixed sequence of uniform numbers in [0, 1)
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut u = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut kin = Kinematics::default();
+        let (mut corners, mut faces, mut arc_ends, mut rolling) = (0, 0, 0, 0);
+        for terrain in &terrains {
+            for _ in 0..4000 {
+                let (a0, a1) = (u() * 6.4 - 3.2, u() * 6.4 - 3.2);
+                let q = [a0, a1, u() * 1.4 - 0.7, u() * 0.5 - 0.4, u() * 6.4 - 3.2];
+                let qd = [u() - 0.5, u() - 0.5, u() - 0.5, u() - 0.5, u() - 0.5];
+                kin.compute(&model, &q, &qd);
+                for k in 0..model.n_contacts() {
+                    let geo = contact_geometry(&model, &kin, terrain, k);
+                    let gap = contact_gap(&model, &kin, terrain, k);
+                    assert_eq!(gap.to_bits(), geo.gap_m.to_bits(), "{terrain:?} {q:?} {k}");
+                    corners += usize::from(geo.on_corner);
+                    faces += usize::from(geo.plane.normal_into_ground[1] == 0.0 && !geo.on_corner);
+                    if k == 2 {
+                        arc_ends += usize::from(geo.touch == TouchKind::Point);
+                        rolling += usize::from(geo.touch == TouchKind::Rolling);
+                    }
+                }
+            }
+        }
+        assert!(corners > 20 && faces > 20, "corners {corners}, faces {faces}");
+        assert!(arc_ends > 20 && rolling > 20, "ends {arc_ends}, rolling {rolling}");
+    }
+
     /// One stair of a flight is a ledge: the same surfaces, faces and corners; and each
     /// next step repeats the first, `run` further and `rise` higher.
     #[test]
