@@ -430,7 +430,7 @@ impl<'a> Evaluator<'a> {
             jac,
             dlambda,
             lambda: self.data.lambda.clone(),
-            dlambda_dtau: dj.dlambda_dtau.clone(),
+            dlambda_dtau: dj.dlambda_dtau,
         })
     }
 }
