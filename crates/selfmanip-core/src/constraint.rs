@@ -52,8 +52,9 @@ impl Constraints {
             };
             reshape(&mut self.a);
             reshape(&mut self.a_dot);
-            let mut buf: Vec<f64> =
-                std::mem::replace(&mut self.a_dot_qd, DVector::zeros(0)).data.into();
+            let mut buf: Vec<f64> = std::mem::replace(&mut self.a_dot_qd, DVector::zeros(0))
+                .data
+                .into();
             buf.clear();
             buf.resize(c, 0.0);
             self.a_dot_qd = DVector::from_vec(buf);

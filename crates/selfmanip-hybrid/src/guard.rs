@@ -510,8 +510,9 @@ impl GuardSet {
             let (kin, dirs) = flow.kinematics_and_directions(q, qd);
             for (gi, st) in self.states.iter().enumerate() {
                 if !st.guard.needs_flow() {
-                    self.raw[si * ng + gi] =
-                        st.guard.kinematic_value(model, terrain, kin, dirs, mode, qd);
+                    self.raw[si * ng + gi] = st
+                        .guard
+                        .kinematic_value(model, terrain, kin, dirs, mode, qd);
                 }
             }
         }

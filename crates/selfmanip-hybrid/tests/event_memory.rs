@@ -6,15 +6,12 @@
 //! and a controller that says it remembers events but gives no partials is a typed error.
 mod systems;
 use nalgebra::DMatrix;
-use selfmanip_core::{ContactMode, FlatGround, Model};
+use selfmanip_core::{ContactMode, FlatGround};
 use selfmanip_hybrid::sensitivity::{
     execution_sensitivity_columns, simulate_with_sensitivity, Parameter, SensitivityError,
 };
-use selfmanip_hybrid::{
-    simulate, Controller, ControllerPartials, Event, EventKind, EventMemoryPartials, HybridOptions,
-    StepOptions,
-};
-use systems::G;
+use selfmanip_hybrid::{Controller, ControllerPartials, Event, EventKind, EventMemoryPartials};
+use systems::{run_from_flight, G};
 
 /// After the first touchdown (event `k` at `t_k`, hip at `θ_k`), a servo to the ramp
 /// `θ*(t) = θ_k + ω_r (t − t_k)`: `τ = −K (θ − θ*) − C (θ̇ − ω_r)`; before it, a servo to
@@ -108,38 +105,6 @@ impl Controller for RampFromTouchdown {
     }
 }
 
-fn tight() -> HybridOptions {
-    HybridOptions {
-        step: StepOptions {
-            rtol: 1e-12,
-            atol: 1e-14,
-            ..StepOptions::default()
-        },
-        event_tol_s: 1e-14,
-        control_free_joints: true,
-        ..HybridOptions::default()
-    }
-}
-
-fn run(model: &Model, ctrl: &dyn Controller, y0: &[f64], tf: f64) -> (Vec<f64>, Vec<EventKind>) {
-    let nq = model.nq();
-    let e = simulate(
-        model,
-        &FlatGround,
-        ctrl,
-        ContactMode::FLIGHT,
-        &y0[..nq],
-        &y0[nq..],
-        tf,
-        tight(),
-    )
-    .unwrap();
-    (
-        e.q.iter().chain(&e.qd).copied().collect(),
-        e.events.iter().map(|e| e.kind).collect(),
-    )
-}
-
 fn servo(gives_partials: bool) -> RampFromTouchdown {
     RampFromTouchdown {
         k: 20.0,
@@ -177,10 +142,10 @@ fn ramp_servo_from_a_touchdown_whole_execution_jacobian() {
         &y0[..4],
         &y0[4..],
         tf,
-        tight(),
+        systems::tight(),
     )
     .unwrap();
-    let (_, seq) = run(&model, &ctrl, &y0, tf);
+    let (_, seq) = run_from_flight(&model, &ctrl, &y0, tf);
     eprintln!(
         "events {seq:?} at {:?}",
         exec.events.iter().map(|e| e.t).collect::<Vec<_>>()
@@ -194,7 +159,10 @@ fn ramp_servo_from_a_touchdown_whole_execution_jacobian() {
             let (mut yp, mut ym) = (y0.to_vec(), y0.to_vec());
             yp[c] += h;
             ym[c] -= h;
-            let ((xp, sp), (xm, sm)) = (run(&model, &ctrl, &yp, tf), run(&model, &ctrl, &ym, tf));
+            let ((xp, sp), (xm, sm)) = (
+                run_from_flight(&model, &ctrl, &yp, tf),
+                run_from_flight(&model, &ctrl, &ym, tf),
+            );
             assert_eq!(sp, seq, "direction {c}");
             assert_eq!(sm, seq, "direction {c}");
             xp.iter()
@@ -231,7 +199,7 @@ fn ramp_servo_from_a_touchdown_whole_execution_jacobian() {
         &y0[..4],
         &y0[4..],
         tf,
-        tight(),
+        systems::tight(),
     )
     .unwrap();
     let err_fd = (&s.state_jacobian.expect("defined") - &fd).amax() / fd.amax();
@@ -248,7 +216,7 @@ fn ramp_servo_from_a_touchdown_whole_execution_jacobian() {
         &y0[..4],
         &y0[4..],
         tf,
-        tight(),
+        systems::tight(),
     );
     match r {
         Err(SensitivityError::EventMemoryWithoutPartials { t, .. }) => {

@@ -8,10 +8,8 @@ mod systems;
 use nalgebra::DMatrix;
 use selfmanip_core::{ContactMode, FlatGround, Model};
 use selfmanip_hybrid::sensitivity::simulate_with_sensitivity;
-use selfmanip_hybrid::{
-    simulate, Controller, ControllerPartials, EventKind, HybridOptions, StepOptions,
-};
-use systems::G;
+use selfmanip_hybrid::{Controller, ControllerPartials};
+use systems::{run_from_flight, G};
 
 /// A hip servo to `target` at rest, saturating at `±limit`; it reports its pieces
 /// (0 linear, 1 at `+limit`, 2 at `−limit`) when `pieces`.
@@ -59,38 +57,6 @@ impl Controller for Saturating {
     }
 }
 
-fn tight() -> HybridOptions {
-    HybridOptions {
-        step: StepOptions {
-            rtol: 1e-12,
-            atol: 1e-14,
-            ..StepOptions::default()
-        },
-        event_tol_s: 1e-14,
-        control_free_joints: true,
-        ..HybridOptions::default()
-    }
-}
-
-fn run(model: &Model, ctrl: &dyn Controller, y0: &[f64], tf: f64) -> (Vec<f64>, Vec<EventKind>) {
-    let nq = model.nq();
-    let e = simulate(
-        model,
-        &FlatGround,
-        ctrl,
-        ContactMode::FLIGHT,
-        &y0[..nq],
-        &y0[nq..],
-        tf,
-        tight(),
-    )
-    .unwrap();
-    (
-        e.q.iter().chain(&e.qd).copied().collect(),
-        e.events.iter().map(|e| e.kind).collect(),
-    )
-}
-
 /// The whole-run Jacobian's worst error relative to central differences (Richardson from
 /// h = 1e-3, 5e-4) in all eight directions, and how many times the servo's piece changes
 /// inside a segment. The steps are large for central differences: the executions' states
@@ -106,10 +72,10 @@ fn jacobian_error(model: &Model, ctrl: &Saturating, y0: &[f64], tf: f64) -> (f64
         &y0[..4],
         &y0[4..],
         tf,
-        tight(),
+        systems::tight(),
     )
     .unwrap();
-    let (_, seq) = run(model, ctrl, y0, tf);
+    let (_, seq) = run_from_flight(model, ctrl, y0, tf);
     let probe = Saturating {
         pieces: true,
         ..ctrl.clone()
@@ -133,7 +99,10 @@ fn jacobian_error(model: &Model, ctrl: &Saturating, y0: &[f64], tf: f64) -> (f64
             let (mut yp, mut ym) = (y0.to_vec(), y0.to_vec());
             yp[c] += h;
             ym[c] -= h;
-            let ((xp, sp), (xm, sm)) = (run(model, ctrl, &yp, tf), run(model, ctrl, &ym, tf));
+            let ((xp, sp), (xm, sm)) = (
+                run_from_flight(model, ctrl, &yp, tf),
+                run_from_flight(model, ctrl, &ym, tf),
+            );
             assert_eq!(sp, seq, "direction {c}");
             assert_eq!(sm, seq, "direction {c}");
             xp.iter()

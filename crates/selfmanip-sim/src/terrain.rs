@@ -341,8 +341,14 @@ mod tests {
                 }
             }
         }
-        assert!(corners > 20 && faces > 20, "corners {corners}, faces {faces}");
-        assert!(arc_ends > 20 && rolling > 20, "ends {arc_ends}, rolling {rolling}");
+        assert!(
+            corners > 20 && faces > 20,
+            "corners {corners}, faces {faces}"
+        );
+        assert!(
+            arc_ends > 20 && rolling > 20,
+            "ends {arc_ends}, rolling {rolling}"
+        );
     }
 
     /// One stair of a flight is a ledge: the same surfaces, faces and corners; and each

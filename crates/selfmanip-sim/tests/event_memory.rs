@@ -166,7 +166,9 @@ fn a_saturating_servo_state_jacobian_matches_central_differences() {
         let t = stance.t0 + (stance.t1 - stance.t0) * k as f64 / 200.0;
         let mut y = vec![0.0; 10];
         stance.dense.eval(t, &mut y);
-        let p = stance.controller.partials_piece(t, &y[..5], &y[5..], stance.mode);
+        let p = stance
+            .controller
+            .partials_piece(t, &y[..5], &y[5..], stance.mode);
         if pieces.last() != Some(&p) {
             pieces.push(p);
         }

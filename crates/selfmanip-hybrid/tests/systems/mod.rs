@@ -7,7 +7,9 @@
 //! point at offset `r = R(φ) p` from the centre moves at `v + φ̇ (r_z, −r_x)` and a force `F`
 //! there has the moment `r_z F_x − r_x F_z` about `+y`.
 #![allow(dead_code)]
-use selfmanip_core::{Model, RobotDescription};
+use selfmanip_core::{ContactMode, FlatGround, Model, RobotDescription};
+use selfmanip_hybrid::integrate::StepOptions;
+use selfmanip_hybrid::{simulate, Controller, EventKind, HybridOptions};
 
 pub const G: f64 = 9.81;
 
@@ -124,4 +126,45 @@ friction = {{ kind = "sliding" }}
         .unwrap()
         .build()
         .unwrap()
+}
+
+/// Tolerances for derivatives against central differences of whole runs (rtol 1e-12,
+/// events to 1e-14 s, free joints in the step-size control).
+pub fn tight() -> HybridOptions {
+    HybridOptions {
+        step: StepOptions {
+            rtol: 1e-12,
+            atol: 1e-14,
+            ..StepOptions::default()
+        },
+        event_tol_s: 1e-14,
+        control_free_joints: true,
+        ..HybridOptions::default()
+    }
+}
+
+/// A run from `y0 = (q, q̇)` in flight on flat ground to `tf` with [`tight`] options: its end
+/// state and its event kinds.
+pub fn run_from_flight(
+    model: &Model,
+    ctrl: &dyn Controller,
+    y0: &[f64],
+    tf: f64,
+) -> (Vec<f64>, Vec<EventKind>) {
+    let nq = model.nq();
+    let e = simulate(
+        model,
+        &FlatGround,
+        ctrl,
+        ContactMode::FLIGHT,
+        &y0[..nq],
+        &y0[nq..],
+        tf,
+        tight(),
+    )
+    .unwrap();
+    (
+        e.q.iter().chain(&e.qd).copied().collect(),
+        e.events.iter().map(|e| e.kind).collect(),
+    )
 }
