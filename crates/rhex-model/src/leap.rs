@@ -640,6 +640,13 @@ impl MotorLaw {
     /// taken is the motor's push direction (a leg its motor accelerates from the kink);
     /// elsewhere the active branch, as [`Self::partials`].
     fn partials_one_sided(&self, u: f64, speed: f64) -> (f64, Option<f64>) {
+        self.partials(u, self.branch_speed(u, speed))
+    }
+
+    /// The joint speed at which the branch of the law is read: `speed`, or, where the state
+    /// sits on the kink between the current limit and the torque–speed line (within
+    /// round-off), nudged into the branch the leg moves into.
+    fn branch_speed(&self, u: f64, speed: f64) -> f64 {
         if let MotorLaw::Geared {
             ratio,
             stall_n_m,
@@ -650,11 +657,10 @@ impl MotorLaw {
         {
             let a = stall_n_m * (u.clamp(-1.0, 1.0) - speed * ratio / no_load_rad_s);
             if a.abs() >= limit_n_m && a.abs() <= limit_n_m * (1.0 + 1e-9) && u != 0.0 {
-                let nudged = speed + u.signum() * 2e-9 * no_load_rad_s / ratio;
-                return self.partials(u, nudged);
+                return speed + u.signum() * 2e-9 * no_load_rad_s / ratio;
             }
         }
-        self.partials(u, speed)
+        speed
     }
 
     /// Whether [`Self::partials_one_sided`] takes the current limit's branch (not the
@@ -671,14 +677,8 @@ impl MotorLaw {
         else {
             return false;
         };
-        let line = |w: f64| stall_n_m * (u.clamp(-1.0, 1.0) - w * ratio / no_load_rad_s);
-        let a = line(speed);
-        if a.abs() >= limit_n_m && a.abs() <= limit_n_m * (1.0 + 1e-9) && u != 0.0 {
-            // on the kink within round-off: the branch the leg moves into, as
-            // `partials_one_sided` takes it
-            return line(speed + u.signum() * 2e-9 * no_load_rad_s / ratio).abs() >= limit_n_m;
-        }
-        a.abs() >= limit_n_m
+        let w = self.branch_speed(u, speed);
+        (stall_n_m * (u.clamp(-1.0, 1.0) - w * ratio / no_load_rad_s)).abs() >= limit_n_m
     }
 }
 
@@ -1135,13 +1135,26 @@ impl LeapController {
         (along(p[0]), along(p[1]), along(p[2]))
     }
 
+    /// The servo's command per N m of its saturation torque `H` ([`Self::servo`] is `H` times
+    /// it, clamped to `±H`).
+    fn servo_raw(&self, q: f64, qd: f64, theta: f64, omega: f64) -> f64 {
+        -HOLD_KP_PER_RAD * (q - theta) - self.servo_kd_s * (qd - omega)
+    }
+
+    /// Whether the servo is in its linear range at command `raw` ([`Self::servo_raw`]): the
+    /// branch of its partials and its piece (a value exactly at the limit counts as
+    /// saturated).
+    fn servo_linear(&self, raw: f64) -> bool {
+        (raw * self.hold_torque).abs() < self.hold_torque
+    }
+
     /// The servo's partials `(∂/∂q, ∂/∂q̇, ∂/∂θ, ∂/∂ω, ∂/∂H, ∂/∂I)` at its arguments, `I`
     /// the inertia its damping is critical for: the active branch of the clamp (zero inside
     /// the saturation but for `±∂/∂H`).
     fn servo_partials(&self, q: f64, qd: f64, theta: f64, omega: f64) -> [f64; 6] {
         let h = self.hold_torque;
-        let raw = -HOLD_KP_PER_RAD * (q - theta) - self.servo_kd_s * (qd - omega);
-        if (raw * h).abs() < h {
+        let raw = self.servo_raw(q, qd, theta, omega);
+        if self.servo_linear(raw) {
             let (kp, kd) = (HOLD_KP_PER_RAD * h, self.servo_kd_s * h);
             // d(kd H)/dH: kd H = 2 √(k_p H I) on a leg with inertia (half of kd), kd H = 0.5 H
             // on a massless one
@@ -1536,9 +1549,8 @@ impl Controller for LeapController {
                 _ if !self.servoed(i, mode) => 0,
                 _ => {
                     let (theta, omega) = self.servo_target(i, t, phase);
-                    let raw = -HOLD_KP_PER_RAD * (q[i] - theta) - self.servo_kd_s * (qd[i] - omega);
-                    // the branch test of `servo_partials`
-                    if (raw * self.hold_torque).abs() < self.hold_torque {
+                    let raw = self.servo_raw(q[i], qd[i], theta, omega);
+                    if self.servo_linear(raw) {
                         0
                     } else if raw > 0.0 {
                         1

@@ -712,6 +712,19 @@ impl BehaviourController {
     }
 }
 
+/// The piece of a servo's law `sat(u, ±limit)` at command `u`: linear (0), saturated at
+/// `+limit` (1) or `−limit` (2); a value exactly at the limit counts as saturated (the side
+/// the clamp returns). Its partials switch exactly there.
+fn servo_piece(u: f64, limit: f64) -> u64 {
+    if u.abs() < limit {
+        0
+    } else if u > 0.0 {
+        1
+    } else {
+        2
+    }
+}
+
 impl Controller for BehaviourController {
     fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]) {
         let plan = &*self.plan;
@@ -811,7 +824,7 @@ impl Controller for BehaviourController {
                         continue;
                     }
                     let u = self.servo_command(p, t, *target, (*kp, *kd), q[j], qd[j]);
-                    if u.abs() < *limit {
+                    if servo_piece(u, *limit) == 0 {
                         out.dtau_dq[(j, j)] = -kp;
                         out.dtau_dqd[(j, j)] = -kd;
                     }
@@ -849,15 +862,7 @@ impl Controller for BehaviourController {
             }
             let j = prog.joint;
             let u = self.servo_command(p, t, *target, (*kp, *kd), q[j], qd[j]);
-            // the branch test of `partials`
-            let code: u64 = if u.abs() < *limit {
-                0
-            } else if u > 0.0 {
-                1
-            } else {
-                2
-            };
-            out ^= code << (2 * (p % 32));
+            out ^= servo_piece(u, *limit) << (2 * (p % 32));
         }
         out
     }
