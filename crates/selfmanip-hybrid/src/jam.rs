@@ -48,6 +48,12 @@ use selfmanip_core::{plastic_impact, ContactMode, Model};
 /// projection is far below it; anything above it would be an error of the solve).
 const ENERGY_TOL: f64 = 1e-9;
 
+/// Whether a jam's reset from kinetic energy `before` to `after` (J) gains energy beyond
+/// round-off ([`ENERGY_TOL`] relative, 1e-12 J absolute), or came out NaN: refused.
+fn gains_energy(before: f64, after: f64) -> bool {
+    after.is_nan() || after > before * (1.0 + ENERGY_TOL) + 1e-12
+}
+
 /// The jam of contact `contact` (named as in [`selfmanip_core::CoreError::PainleveInconsistent`])
 /// at `(t, y = [q; q̇])` in `mode`: the reset the execution continues with, or why no
 /// consistent outcome was found here (the run then ends [`crate::Termination::Painleve`]).
@@ -134,7 +140,7 @@ pub fn jam(
         qd_after.copy_from_slice(qd);
     }
     let ke_after = kinetic_energy_at(model, cx.terrain, &mut cx.ws.data, q, &qd_after)?;
-    if ke_after.is_nan() || ke_after > ke_before * (1.0 + ENERGY_TOL) + 1e-12 {
+    if gains_energy(ke_before, ke_after) {
         return Ok(Err(PainleveReason::EnergyGain));
     }
     // a contact let go without an impulse must separate: its free normal acceleration in
@@ -281,6 +287,8 @@ pub fn coulomb_jam(
     let mut survivors: Vec<(ContactMode, crate::coulomb_impact::CoulombImpact)> = Vec::new();
     for o in outcomes {
         let mut mode_after = o.mode;
+        let mut y_after = y.to_vec();
+        y_after[model.nq()..].copy_from_slice(&o.qd_plus);
         if !mode_after.is_flight() {
             let cx = &mut ResetWorkspace {
                 model,
@@ -298,14 +306,10 @@ pub fn coulomb_jam(
             }
             // the forces after must not be Painlevé-inconsistent either
             let mut dy = vec![0.0; y.len()];
-            let mut y_after = y.to_vec();
-            y_after[model.nq()..].copy_from_slice(&o.qd_plus);
             if flow.rhs(t, mode_after, &y_after, &mut dy).is_err() {
                 continue;
             }
         }
-        let mut y_after = y.to_vec();
-        y_after[model.nq()..].copy_from_slice(&o.qd_plus);
         let mut all_separate = true;
         for c in candidates
             .iter()
@@ -330,7 +334,7 @@ pub fn coulomb_jam(
         return Ok(Err(reason));
     };
     let ke_after = kinetic_energy_at(model, terrain, &mut ws.data, q, &o.qd_plus)?;
-    if ke_after.is_nan() || ke_after > ke_before * (1.0 + ENERGY_TOL) + 1e-12 {
+    if gains_energy(ke_before, ke_after) {
         return Ok(Err(PainleveReason::EnergyGain));
     }
     let mut triggered: Vec<usize> = touched.to_vec();
