@@ -39,6 +39,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         params.m_l = v.parse()?;
         params.I_l = 0.00092 * params.m_l / 0.126;
     }
+    // ROTORS=1: legs that carry their rotors (RhexParams::leg_rotors)
+    if std::env::var("ROTORS").is_ok() {
+        params.leg_rotors = Some(true);
+    }
     if let Ok(v) = std::env::var("M_B") {
         params.m_b = v.parse()?;
     }

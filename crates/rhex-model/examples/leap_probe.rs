@@ -57,9 +57,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 stop_at_apex: std::env::var("LANDINGS").is_err(),
                 event_tol_s: std::env::var("EVENT_TOL").map_or(Ok(1e-10), |v| v.parse())?,
                 rtol: std::env::var("RTOL").map_or(Ok(1e-8), |v| v.parse())?,
+                // CONTROL=1: every coordinate in the step-size control
+                control_free_joints: std::env::var("CONTROL").is_ok(),
                 ..LeapConfig::default()
             };
             let mut params = leap_params();
+            // ROTORS=1: legs that carry their rotors (RhexParams::leg_rotors)
+            if std::env::var("ROTORS").is_ok() {
+                params.leg_rotors = Some(true);
+            }
             if let Ok(v) = std::env::var("M_B") {
                 params.m_b = v.parse()?;
             }
