@@ -156,6 +156,11 @@ class Execution:
         return str(self._native.status)
 
     @property
+    def reason(self) -> str:
+        """Why the run ended short of its final time or apex, in words ("" if it did not)."""
+        return str(self._native.reason)
+
+    @property
     def word(self) -> list[str]:
         return list(self._native.word)
 

@@ -189,6 +189,10 @@ def test_a_run_cut_by_its_step_budget_carries_no_tangent():
     whole = selfmanip.simulate(data / "hopper.toml", data / "hop.toml", q0, t_final=0.5, sensitivity=True)
     assert whole.status == "final_time"
     assert any(ev["saltation_status"] == "defined" for ev in whole.events)
+    # the run says why it ended, in words with its budget and instant (a complete one: nothing)
+    assert "step budget (max_steps: 20000 accepted steps)" in cut.reason, cut.reason
+    assert f"t = {cut.outcome['t_end_s']:.6f} s" in cut.reason and "{" not in cut.reason, cut.reason
+    assert whole.reason == ""
 
 
 def test_sensitivities_not_covered_on_a_terrain_corner_keep_the_run():

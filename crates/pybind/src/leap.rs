@@ -30,8 +30,7 @@ use rhex_model::sweep::{
     actuator_field_names, check_override_names, error_kind, gear_ratio_of, panic_message,
     point_inputs, sweepable_names, SweepPoint, SweepRow,
 };
-use rhex_model::{Rhex, RhexError, RhexParams};
-use selfmanip_hybrid::Termination;
+use rhex_model::{RhexError, RhexParams};
 use selfmanip_sim::sweep::run_parallel;
 use selfmanip_sim::SimError;
 use serde_json::{Map, Value};
@@ -134,89 +133,6 @@ fn leap_word_equation(cells: Vec<String>) -> PyResult<Option<&'static str>> {
         .collect::<Result<Vec<_>, _>>()
         .map_err(|e| invalid("word", e.to_string()))?;
     Ok(match_leap_word(&cells))
-}
-
-/// Why a leap ended short of `ok`, in words (empty for `ok`).
-fn reason(r: &LeapResult, params: &RhexParams, cfg: &LeapConfig) -> String {
-    use rhex_model::leap::LeapStatus;
-    if r.status == LeapStatus::Ok {
-        return String::new();
-    }
-    let at = |t: f64| format!("t = {:.6} s", t - r.time_offset_s);
-    // the mode that was flowing: the last event's, or the start's
-    let mode = r
-        .events
-        .last()
-        .map_or_else(|| "1010".to_string(), |e| e.mode_after.clone());
-    #[allow(unreachable_patterns)]
-    match &r.execution.termination {
-        Termination::Apex => String::new(),
-        Termination::FinalTime => format!(
-            "no flight reached{} before t_final_s = {} s",
-            if cfg.stop_at_apex { " its apex" } else { "" },
-            cfg.t_final_s
-        ),
-        Termination::Zeno {
-            t,
-            events_in_window,
-        } => format!(
-            "Zeno: {events_in_window} events within zeno_window_s = {} s at {}",
-            cfg.zeno_window_s,
-            at(*t)
-        ),
-        Termination::Chatter {
-            t,
-            period,
-            cycles,
-            duration_s,
-        } => format!(
-            "chatter (a generalized Zeno execution): the same cycle of {period} events ran \
-             {cycles} times over {duration_s:.6} s with the robot staying where it was, \
-             ending at {}",
-            at(*t)
-        ),
-        Termination::EventBudget => "the execution used up its event budget".into(),
-        Termination::NoContactSolution { t } => format!(
-            "no contact set satisfies the complementarity conditions at {} (mode {mode})",
-            at(*t)
-        ),
-        Termination::SeveralContactSolutions { t, candidates } => format!(
-            "{} contact sets satisfy the complementarity conditions at {} (mode {mode})",
-            candidates.len(),
-            at(*t)
-        ),
-        Termination::SingularFlow {
-            t,
-            kind,
-            condition_estimate,
-            ..
-        } => format!(
-            "the KKT matrix of mode {mode} became singular (Lemma 5.1, {kind:?}, condition \
-             estimate {condition_estimate:.3e}) at {}",
-            at(*t)
-        ),
-        Termination::Painleve {
-            t, contact, reason, ..
-        } => format!(
-            "the sliding contact `{contact}` is inconsistent with Coulomb friction in or after \
-             mode {mode} (Painlevé's paradox: a pushing force would draw it into the ground) \
-             at {}; not resolved as a jam: {}",
-            at(*t),
-            reason.describe()
-        ),
-        Termination::TerrainDiscontinuity { t, contact, gap_m } => {
-            let name = Rhex::new(params.clone())
-                .ok()
-                .and_then(|x| x.model.contacts.get(*contact).map(|c| c.name.clone()))
-                .unwrap_or_else(|| format!("#{contact}"));
-            format!(
-                "contact `{name}` met a terrain edge or corner that is not a contact feature \
-                 for it at {} (gap {gap_m:.3e} m)",
-                at(*t)
-            )
-        }
-        other => format!("{other:?}"),
-    }
 }
 
 /// One leap and, when `dt_s` is given, its trajectory: the work of [`leap_run`].
@@ -322,7 +238,7 @@ fn leap_run<'py>(
         .map_err(rhex_err)?;
         let d = PyDict::new(py);
         d.set_item("status", res.status.as_str())?;
-        d.set_item("reason", reason(&res, &params, &cfg))?;
+        d.set_item("reason", res.reason(&params, &cfg))?;
         match res.apex {
             Some(a) => d.set_item("apex", to_py(py, &a)?)?,
             None => d.set_item("apex", py.None())?,
@@ -390,7 +306,7 @@ fn sweep_row(
                 (s.result, Some((s.ok, values)))
             }
         };
-        let why = reason(&r, &params, &cfg);
+        let why = r.reason(&params, &cfg);
         Ok::<_, RhexError>((r, why, gear_ratio_of(&cfg), sens))
     }));
     let (row, sens) = sweep_row_of(outcome);

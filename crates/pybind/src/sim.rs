@@ -624,6 +624,12 @@ impl PyRun {
         self.inner.outcome.status.as_str()
     }
 
+    /// Why the run ended short of its final time or apex, in words (empty if it did not).
+    #[getter]
+    fn reason(&self) -> String {
+        self.inner.outcome.reason.clone()
+    }
+
     /// The contact cells visited, in the robot's own contact order.
     #[getter]
     fn word(&self) -> Vec<String> {

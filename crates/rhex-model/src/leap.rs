@@ -2074,6 +2074,36 @@ pub(crate) fn run_leap_setup(
 }
 
 impl LeapResult {
+    /// Why the leap ended short of `ok`, in words (empty for `ok`): the engine's
+    /// [`Termination::describe`] on the leap's clock (t = 0 at the first motor's start) with
+    /// the leap's contact names and the flowing mode's label (`s` for a sliding toe); a run
+    /// that ended at its final time says it found no flight (or no apex).
+    pub fn reason(&self, params: &RhexParams, cfg: &LeapConfig) -> String {
+        if self.status == LeapStatus::Ok {
+            return String::new();
+        }
+        if self.execution.termination == Termination::FinalTime {
+            return format!(
+                "no flight reached{} before t_final_s = {} s",
+                if cfg.stop_at_apex { " its apex" } else { "" },
+                cfg.t_final_s
+            );
+        }
+        // the mode that was flowing: the last event's, or the start's
+        let mode = self
+            .events
+            .last()
+            .map_or_else(|| "1010".to_string(), |e| e.mode_after.clone());
+        let names: Vec<String> = Rhex::new(params.clone())
+            .map(|r| r.model.contacts.iter().map(|c| c.name.clone()).collect())
+            .unwrap_or_default();
+        self.execution.termination.describe(
+            &|t| format!("t = {:.6} s", t - self.time_offset_s),
+            &|k| names.get(k).cloned().unwrap_or_else(|| format!("#{k}")),
+            Some(&mode),
+        )
+    }
+
     /// Energy bookkeeping of the leap (motor work, impact losses, start and end energy),
     /// each segment re-evaluated with the controller it ran with.
     pub fn energy_report(

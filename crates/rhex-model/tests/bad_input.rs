@@ -90,6 +90,21 @@ fn t_final_of_1e6_without_stopping_at_apex_ends_at_its_step_budget() {
         ..cfg.clone()
     });
     assert_eq!((r.status, r.execution.steps), (LeapStatus::StepBudget, 100));
+    // and says so in words, with the budget and the instant on the leap's clock (it read
+    // `StepBudget { t: …, steps: 100 }`, the enum's debug form)
+    let Termination::StepBudget { t, .. } = r.execution.termination else {
+        unreachable!()
+    };
+    let why = r.reason(&leap_params(), &cfg);
+    assert!(
+        why.contains("step budget (max_steps: 100 accepted steps)"),
+        "{why}"
+    );
+    assert!(
+        why.contains(&format!("t = {:.6} s", t - r.time_offset_s)),
+        "{why}"
+    );
+    assert!(!why.contains('{'), "{why}");
     assert!(matches!(
         simulate_leap(&leap_params(), &LeapConfig { max_steps: 0, ..cfg }),
         Err(RhexError::Params { field, .. }) if field == "max_steps"

@@ -214,6 +214,111 @@ pub enum Termination {
     },
 }
 
+impl Termination {
+    /// How a run ended, in words, for status messages: `at(t)` writes an instant of the run
+    /// (e.g. on the caller's own clock), `contact(k)` names contact `k`, and `mode` labels
+    /// the mode that was flowing (e.g. with its sliding contacts marked); without it, the
+    /// mode a termination carries is written by its normal bits, and none where it carries
+    /// none.
+    pub fn describe(
+        &self,
+        at: &dyn Fn(f64) -> String,
+        contact: &dyn Fn(usize) -> String,
+        mode: Option<&str>,
+    ) -> String {
+        let own =
+            |m: &ContactMode| mode.map_or_else(|| format!("{:b}", m.normal_bits()), Into::into);
+        let flowing = mode.map_or_else(String::new, |m| format!(" (mode {m})"));
+        match self {
+            Termination::FinalTime => "the run reached its final time".into(),
+            Termination::Apex => "the run reached its apex".into(),
+            Termination::Zeno {
+                t,
+                events_in_window,
+            } => format!(
+                "Zeno: {events_in_window} events within the Zeno window (zeno_window_s) at {}",
+                at(*t)
+            ),
+            Termination::Chatter {
+                t,
+                period,
+                cycles,
+                duration_s,
+            } => format!(
+                "chatter (a generalized Zeno execution): the same cycle of {period} events ran \
+                 {cycles} times over {duration_s:.6} s with the robot staying where it was, \
+                 ending at {}",
+                at(*t)
+            ),
+            Termination::EventBudget => {
+                "the execution used up its event budget (max_events)".into()
+            }
+            Termination::StepBudget { t, steps } => format!(
+                "the execution used up its step budget (max_steps: {steps} accepted steps) at {}",
+                at(*t)
+            ),
+            Termination::Interrupted { t } => format!("interrupted at {}", at(*t)),
+            Termination::NoContactSolution { t } => format!(
+                "no contact set satisfies the complementarity conditions at {}{flowing}",
+                at(*t)
+            ),
+            Termination::SeveralContactSolutions { t, candidates } => format!(
+                "{} contact sets satisfy the complementarity conditions at {}{flowing}",
+                candidates.len(),
+                at(*t)
+            ),
+            Termination::SingularFlow {
+                t,
+                mode: m,
+                kind,
+                condition_estimate,
+            } => format!(
+                "the KKT matrix of mode {} became singular (Lemma 5.1: {}; condition \
+                 estimate {condition_estimate:.3e}) at {}",
+                own(m),
+                match kind {
+                    SingularityKind::RedundantConstraints => "redundant constraints",
+                    SingularityKind::UnconstrainedMasslessMotion => {
+                        "a massless motion no contact pins down"
+                    }
+                },
+                at(*t)
+            ),
+            Termination::Painleve {
+                t,
+                mode: m,
+                contact: name,
+                reason,
+            } => format!(
+                "the sliding contact `{name}` is inconsistent with Coulomb friction in or after \
+                 mode {} (Painlevé's paradox: a pushing force would draw it into the ground) \
+                 at {}; not resolved as a jam: {}",
+                own(m),
+                at(*t),
+                reason.describe()
+            ),
+            Termination::TerrainDiscontinuity {
+                t,
+                contact: k,
+                gap_m,
+            } => format!(
+                "contact `{}` met a terrain edge or corner that is not a contact feature for it \
+                 at {} (gap {gap_m:.3e} m)",
+                contact(*k),
+                at(*t)
+            ),
+        }
+    }
+}
+
+/// [`Termination::describe`] on the run's own clock, contacts by number.
+impl std::fmt::Display for Termination {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let text = self.describe(&|t| format!("t = {t} s"), &|k| format!("#{k}"), None);
+        f.write_str(&text)
+    }
+}
+
 /// The record of one execution (its first segment starts at the initial state).
 #[derive(Debug, Clone)]
 pub struct Execution {
@@ -245,5 +350,113 @@ impl Execution {
             })
             .map(|e| e.kinetic_before - e.kinetic_after)
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every way a run ends reads as words with its own numbers in it — the instant, the
+    /// counts, the contact's name — never as the enum's debug form (`StepBudget { t: … }`
+    /// reached users of the leap and of `periodic_orbit`).
+    #[test]
+    fn every_termination_is_described_in_words_with_its_numbers() {
+        let mode = ContactMode::FLIGHT.with(1, selfmanip_core::ContactKind::Slide);
+        let cases = [
+            (Termination::FinalTime, vec!["final time"]),
+            (Termination::Apex, vec!["apex"]),
+            (
+                Termination::Zeno {
+                    t: 0.25,
+                    events_in_window: 41,
+                },
+                vec!["41 events", "t = 0.25 s"],
+            ),
+            (
+                Termination::Chatter {
+                    t: 0.5,
+                    period: 2,
+                    cycles: 7,
+                    duration_s: 0.001,
+                },
+                vec!["2 events", "7 times", "t = 0.5 s"],
+            ),
+            (Termination::EventBudget, vec!["event budget"]),
+            (
+                Termination::StepBudget {
+                    t: 0.75,
+                    steps: 300,
+                },
+                vec!["300", "t = 0.75 s"],
+            ),
+            (
+                Termination::Interrupted { t: 1.5 },
+                vec!["interrupted", "t = 1.5 s"],
+            ),
+            (
+                Termination::NoContactSolution { t: 0.125 },
+                vec!["no contact set", "t = 0.125 s"],
+            ),
+            (
+                Termination::SeveralContactSolutions {
+                    t: 2.0,
+                    candidates: vec![mode, mode],
+                },
+                vec!["2 contact sets", "t = 2 s"],
+            ),
+            (
+                Termination::SingularFlow {
+                    t: 3.0,
+                    mode,
+                    kind: SingularityKind::UnconstrainedMasslessMotion,
+                    condition_estimate: 1e17,
+                },
+                vec!["mode 10 ", "massless", "1.000e17", "t = 3 s"],
+            ),
+            (
+                Termination::Painleve {
+                    t: 4.0,
+                    mode,
+                    contact: "toe".into(),
+                    reason: PainleveReason::AtRest,
+                },
+                vec!["`toe`", "mode 10 ", "t = 4 s"],
+            ),
+            (
+                Termination::TerrainDiscontinuity {
+                    t: 5.0,
+                    contact: 3,
+                    gap_m: -0.01,
+                },
+                vec!["`#3`", "-1.000e-2 m", "t = 5 s"],
+            ),
+        ];
+        for (term, parts) in cases {
+            let text = term.to_string();
+            assert!(!text.contains('{') && !text.contains("::"), "{text}");
+            for p in parts {
+                assert!(text.contains(p), "`{p}` not in: {text}");
+            }
+        }
+        // a caller's clock, names and mode label
+        let t = Termination::TerrainDiscontinuity {
+            t: 5.0,
+            contact: 3,
+            gap_m: -0.01,
+        };
+        let text = t.describe(
+            &|t| format!("{:.1} s in", t - 1.0),
+            &|_| "front_leg".into(),
+            Some("0s01"),
+        );
+        assert!(
+            text.contains("`front_leg`") && text.contains("4.0 s in"),
+            "{text}"
+        );
+        let t = Termination::NoContactSolution { t: 0.0 };
+        assert!(t
+            .describe(&|_| "now".into(), &|_| String::new(), Some("0s01"))
+            .contains("(mode 0s01)"));
     }
 }

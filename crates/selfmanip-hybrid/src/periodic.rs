@@ -50,7 +50,7 @@ use crate::error::HybridError;
 use crate::execution::{EventKind, Execution, Termination};
 use crate::flow::Flow;
 use crate::options::HybridOptions;
-use crate::sensitivity::{execution_sensitivity, SensitivityError};
+use crate::sensitivity::{execution_sensitivity, SaltationStatus, SensitivityError};
 use crate::simulate::simulate;
 use crate::StepOptions;
 use nalgebra::{Complex, DMatrix, DVector, RowDVector};
@@ -121,9 +121,7 @@ pub enum PeriodicError {
     Sensitivity(#[from] SensitivityError),
     /// The run from a state did not reach the section: it ended otherwise (a fall, a
     /// budget, [`PeriodicOptions::max_period_s`]).
-    #[error(
-        "the run from the section did not return to it: it ended with {termination:?} at t = {t} s"
-    )]
+    #[error("the run from the section did not return to it: it ended at t = {t} s: {termination}")]
     NoReturn { termination: Termination, t: f64 },
     /// The return map has no Jacobian at this state (an event whose saltation matrix is not
     /// defined: grazing, simultaneous, not covered; see [`crate::sensitivity`]).
@@ -353,7 +351,24 @@ fn apex_return(
                 .events
                 .iter()
                 .find(|e| e.saltation.is_none())
-                .map(|e| format!("{:?} at t = {} s: {:?}", e.kind, e.t, e.status))
+                .map(|e| {
+                    let why = match &e.status {
+                        SaltationStatus::Grazing { transversality } => format!(
+                            "the flow meets the guard tangentially (transversality \
+                             {transversality:.1e})"
+                        ),
+                        SaltationStatus::Simultaneous => "several guards fired at once, or \
+                             a mode lasted no time: the outcome may depend on their order"
+                            .into(),
+                        SaltationStatus::Unsupported { reason } => reason.clone(),
+                        SaltationStatus::Defined => "defined".into(),
+                    };
+                    format!(
+                        "{} at t = {} s: {why}",
+                        format!("{:?}", e.kind).to_lowercase(),
+                        e.t
+                    )
+                })
                 .unwrap_or_else(|| "a segment end without an event".into());
             return Err(PeriodicError::NotDifferentiable { reason });
         };

@@ -106,6 +106,9 @@ pub struct Landing {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Outcome {
     pub status: RunStatus,
+    /// Why the run ended short of its final time or apex, in words (empty if it did not):
+    /// [`Termination::describe`] with the robot's contact names and the flowing mode's label.
+    pub reason: String,
     pub t_end_s: f64,
     pub q_end: Vec<f64>,
     pub qd_end: Vec<f64>,
@@ -188,8 +191,24 @@ pub fn outcome(
             energy_loss_j: e.kinetic_before - e.kinetic_after,
         })
     });
+    let status = RunStatus::of(&exec.termination);
+    let reason = if status.is_complete() {
+        String::new()
+    } else {
+        exec.termination.describe(
+            &|t| format!("t = {t:.6} s"),
+            &|k| {
+                model
+                    .contacts
+                    .get(k)
+                    .map_or_else(|| format!("#{k}"), |c| c.name.clone())
+            },
+            Some(&labels.label(exec.mode)),
+        )
+    };
     Outcome {
-        status: RunStatus::of(&exec.termination),
+        status,
+        reason,
         t_end_s: exec.t,
         q_end: exec.q.clone(),
         qd_end: exec.qd.clone(),
