@@ -363,11 +363,8 @@ fn apex_return(
                         SaltationStatus::Unsupported { reason } => reason.clone(),
                         SaltationStatus::Defined => "defined".into(),
                     };
-                    format!(
-                        "{} at t = {} s: {why}",
-                        format!("{:?}", e.kind).to_lowercase(),
-                        e.t
-                    )
+                    let kind = format!("{:?}", e.kind).to_lowercase();
+                    format!("{kind} at t = {} s: {why}", e.t)
                 })
                 .unwrap_or_else(|| "a segment end without an event".into());
             return Err(PeriodicError::NotDifferentiable { reason });
