@@ -596,15 +596,6 @@ impl Assembly {
             g[r] = -2.0 * d.dot(&p.lever.d2(&p.w_qd, ww));
         }
     }
-
-    /// Along the velocity `q̇_k`: `(D_q̇(C̄q̇), D_q̇(Ȧq̇))`.
-    fn dqd_terms(&self, k: usize) -> (DVector<f64>, DVector<f64>) {
-        let mut e = vec![0.0; self.nq];
-        e[k] = 1.0;
-        let (mut f, mut g) = (DVector::zeros(0), DVector::zeros(0));
-        self.dqd_terms_along(&e, &mut Vec::new(), &mut f, &mut g);
-        (f, g)
-    }
 }
 
 /// Sets `v` to `n` zeros, allocating only when its length changes.
@@ -765,55 +756,109 @@ pub fn dynamics_jacobian_solved(
     data: &mut Data,
     qd: &[f64],
 ) -> Result<DynamicsJacobian, TangentError> {
-    let mut asm = Assembly::new(model, data, qd)?;
+    let mut ws = JacobianWorkspace::default();
+    let mut out = DynamicsJacobian::default();
+    dynamics_jacobian_solved_into(model, data, qd, &mut ws, &mut out)?;
+    Ok(out)
+}
+
+impl Default for DynamicsJacobian {
+    /// Empty (`0 × 0`) blocks, to be sized by [`dynamics_jacobian_solved_into`].
+    fn default() -> Self {
+        DynamicsJacobian {
+            dqdd_dq: DMatrix::zeros(0, 0),
+            dqdd_dqd: DMatrix::zeros(0, 0),
+            dqdd_dtau: DMatrix::zeros(0, 0),
+            dlambda_dq: DMatrix::zeros(0, 0),
+            dlambda_dqd: DMatrix::zeros(0, 0),
+            dlambda_dtau: DMatrix::zeros(0, 0),
+        }
+    }
+}
+
+/// The reusable buffers of [`dynamics_jacobian_solved_into`]: the assembly at the current
+/// state, a copy of `λ`, the unit direction, the right-hand sides and the KKT solve's. Kept
+/// by a caller that forms many Jacobians (an integrator's stages), so that after the first
+/// call of a given size no call allocates.
+#[derive(Debug, Default)]
+pub struct JacobianWorkspace {
+    asm: Assembly,
+    lambda: Vec<f64>,
+    e: Vec<f64>,
+    scratch: Vec<f64>,
+    f: DVector<f64>,
+    g: DVector<f64>,
+    zeros: DVector<f64>,
+    solver: Solver,
+}
+
+/// [`dynamics_jacobian_solved`] on the buffers of `ws`, into `out` (whose blocks are resized
+/// only when their shapes change): the same arithmetic, in the same order, so the results
+/// are bit-identical to [`dynamics_jacobian_solved`]'s.
+pub fn dynamics_jacobian_solved_into(
+    model: &Model,
+    data: &mut Data,
+    qd: &[f64],
+    ws: &mut JacobianWorkspace,
+    out: &mut DynamicsJacobian,
+) -> Result<(), TangentError> {
+    let JacobianWorkspace {
+        asm,
+        lambda,
+        e,
+        scratch,
+        f,
+        g,
+        zeros,
+        solver,
+    } = ws;
+    asm.reset(model, data, qd)?;
     asm.check_flow()?;
     let fold = asm.fold(model, data)?;
     let fold = fold.as_ref();
     let (nq, n, c) = (model.nq(), model.n_joints(), data.constraints.n_rows());
     asm.set_x(data.qdd.as_slice());
-    let lambda: Vec<f64> = data.lambda.iter().copied().collect();
-    let mut out = DynamicsJacobian {
-        dqdd_dq: DMatrix::zeros(nq, nq),
-        dqdd_dqd: DMatrix::zeros(nq, nq),
-        dqdd_dtau: DMatrix::zeros(nq, n),
-        dlambda_dq: DMatrix::zeros(c, nq),
-        dlambda_dqd: DMatrix::zeros(c, nq),
-        dlambda_dtau: DMatrix::zeros(c, n),
-    };
-    let mut solver = Solver::default();
-    let (mut e, mut wv) = (vec![0.0; nq], Vec::new());
+    lambda.clear();
+    lambda.extend(data.lambda.iter().copied());
+    zero_shaped(&mut out.dqdd_dq, nq, nq);
+    zero_shaped(&mut out.dqdd_dqd, nq, nq);
+    zero_shaped(&mut out.dqdd_dtau, nq, n);
+    zero_shaped(&mut out.dlambda_dq, c, nq);
+    zero_shaped(&mut out.dlambda_dqd, c, nq);
+    zero_shaped(&mut out.dlambda_dtau, c, n);
+    e.clear();
+    e.resize(nq, 0.0);
     let no_tau = |_: usize| 0.0;
     for k in 0..nq {
         e[k] = 1.0;
-        let (mut f, g) = asm.dq_terms(k, &lambda, true);
-        asm.applied_terms_along(Some(&e), None, &no_tau, &mut wv, &mut f);
-        asm.general_terms_along(&e, &lambda, &mut wv, &mut f);
+        asm.dq_terms_along(e, lambda, true, scratch, f, g);
+        asm.applied_terms_along(Some(e), None, &no_tau, scratch, f);
+        asm.general_terms_along(e, lambda, scratch, f);
         let (x, y) = (&mut out.dqdd_dq, &mut out.dlambda_dq);
-        solver.solve_folded(data, fold, -1.0, &f, &g, k, x, Some(y))?;
-        let (mut f, g) = asm.dqd_terms(k);
-        asm.applied_terms_along(None, Some(&e), &no_tau, &mut wv, &mut f);
+        solver.solve_folded(data, fold, -1.0, f, g, k, x, Some(y))?;
+        asm.dqd_terms_along(e, scratch, f, g);
+        asm.applied_terms_along(None, Some(e), &no_tau, scratch, f);
         let (x, y) = (&mut out.dqdd_dqd, &mut out.dlambda_dqd);
-        solver.solve_folded(data, fold, -1.0, &f, &g, k, x, Some(y))?;
+        solver.solve_folded(data, fold, -1.0, f, g, k, x, Some(y))?;
         e[k] = 0.0;
     }
-    let zeros = DVector::zeros(c);
-    let mut f = DVector::zeros(nq);
+    zero_sized(zeros, c);
     for j in 0..n {
         // δ(Υ + f^fr) along the unit torque of joint j (the friction's through f_j)
-        f.fill(0.0);
+        zero_sized(f, nq);
         asm.applied_terms_along(
             None,
             None,
             &|i| if i == j { 1.0 } else { 0.0 },
-            &mut wv,
-            &mut f,
+            scratch,
+            f,
         );
         f.neg_mut();
         f[j] += 1.0;
         let (x, y) = (&mut out.dqdd_dtau, &mut out.dlambda_dtau);
-        solver.solve_folded(data, fold, 1.0, &f, &zeros, j, x, Some(y))?;
+        solver.solve_folded(data, fold, 1.0, f, zeros, j, x, Some(y))?;
     }
-    Ok(out)
+    Ok(())
 }
 
 /// The plastic impact (5.10)/(5.52) into a mode and the Jacobian of its velocity map

@@ -108,9 +108,10 @@ use selfmanip_core::friction::SlideDirection;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::model::Friction;
 use selfmanip_core::tangent::{
-    dynamics_jacobian_solved, dynamics_jvp_into, height_gradient, plastic_impact_body_derivatives,
-    plastic_impact_jacobian, sliding_velocity_gradient, BodyParameter, FlowDirections,
-    JvpWorkspace, TangentError,
+    dynamics_jacobian_solved_into, dynamics_jvp_into, height_gradient,
+    plastic_impact_body_derivatives, plastic_impact_jacobian, sliding_velocity_gradient,
+    BodyParameter, DynamicsJacobian, FlowDirections, JacobianWorkspace, JvpWorkspace,
+    TangentError,
 };
 use selfmanip_core::{forward_dynamics_prepared, ContactMode, Data, Model, Terrain};
 
@@ -217,6 +218,7 @@ pub fn simulate_with_sensitivity(
 }
 
 /// The flow and its Jacobian at one state.
+#[derive(Clone, Default)]
 struct FlowJacobian {
     /// `f = (q̇, q̈)`.
     f: DVector<f64>,
@@ -242,12 +244,30 @@ struct Evaluator<'a> {
     /// across evaluations so that a step allocates nothing once they are sized.
     cols: ColumnBuffers,
     stages: StageBuffers,
+    /// The buffers of [`Self::eval_into`] and its result.
+    full: FullBuffers,
     /// Whether the controllers' event memory is differentiated (some segment's controller
     /// has it, [`Controller::has_event_memory`]); then `memory[k]` holds
     /// `d(t_k, q_k, q̇_k⁺)/d(columns)` (`(1 + 2nq) × m`) of the `k`-th event the controllers
     /// were told of.
     memory_mode: bool,
     memory: Vec<DMatrix<f64>>,
+}
+
+/// The reusable buffers of one [`Evaluator::eval_into`] (the full Jacobian), and its result.
+#[derive(Default)]
+struct FullBuffers {
+    partials: Option<ControllerPartials>,
+    free_joints: Vec<usize>,
+    ws: JacobianWorkspace,
+    dj: DynamicsJacobian,
+    dqdd_dq: DMatrix<f64>,
+    dqdd_dqd: DMatrix<f64>,
+    /// `∂λ/∂Υ ∂Υ/∂q` and `∂λ/∂Υ ∂Υ/∂q̇`.
+    dl_q: DMatrix<f64>,
+    dl_qd: DMatrix<f64>,
+    /// The flow and its Jacobian at the last state evaluated.
+    out: FlowJacobian,
 }
 
 /// The reusable buffers of one [`Evaluator::eval_columns_into`].
@@ -341,6 +361,7 @@ impl<'a> Evaluator<'a> {
             kin: Kinematics::default(),
             cols: ColumnBuffers::default(),
             stages: StageBuffers::default(),
+            full: FullBuffers::default(),
             memory_mode: false,
             memory: Vec::new(),
         }
@@ -366,7 +387,8 @@ impl<'a> Evaluator<'a> {
         }));
     }
 
-    /// The flow of `mode` at `(t, y)` under `ctrl` with `locked` joints, and its Jacobian.
+    /// The flow of `mode` at `(t, y)` under `ctrl` with `locked` joints, and its Jacobian
+    /// (a copy of [`Self::eval_into`]'s result).
     fn eval(
         &mut self,
         ctrl: &dyn Controller,
@@ -376,6 +398,28 @@ impl<'a> Evaluator<'a> {
         mode: ContactMode,
         y: &[f64],
     ) -> Result<FlowJacobian, SensitivityError> {
+        self.eval_into(ctrl, locked, dirs, t, mode, y)?;
+        Ok(self.full.out.clone())
+    }
+
+    /// Prepares `self.data` at `(mode, y)` with `locked` joints and the sliding directions
+    /// `dirs`, and evaluates the controller's torques and free joints' accelerations there
+    /// (into `self.tau`, `self.free`) and its state partials (into `slot`, `k` parameter
+    /// columns zeroed); the free joints are left in `free_joints`. What every evaluation
+    /// starts with.
+    #[allow(clippy::too_many_arguments)]
+    fn prepare_controller(
+        &mut self,
+        ctrl: &dyn Controller,
+        locked: &[usize],
+        dirs: &[(usize, SlideDirection)],
+        t: f64,
+        mode: ContactMode,
+        y: &[f64],
+        slot: &mut Option<ControllerPartials>,
+        free_joints: &mut Vec<usize>,
+        k: usize,
+    ) -> Result<(), SensitivityError> {
         let (model, nq, n) = (self.model, self.model.nq(), self.model.n_joints());
         let (q, qd) = y.split_at(nq);
         self.data.locked.clear();
@@ -385,53 +429,143 @@ impl<'a> Evaluator<'a> {
         self.data
             .prepare(model, self.terrain, mode, q, qd)
             .map_err(TangentError::from)?;
-        let free_joints = self.data.free_joints.clone();
+        free_joints.clear();
+        free_joints.extend_from_slice(&self.data.free_joints);
         ctrl.torque(t, q, qd, mode, &mut self.tau);
         self.free.resize(free_joints.len(), 0.0);
-        ctrl.free_joint_qdd(t, q, qd, &free_joints, &mut self.free);
-        for (x, j) in self.free.iter_mut().zip(&free_joints) {
+        ctrl.free_joint_qdd(t, q, qd, free_joints, &mut self.free);
+        for (x, j) in self.free.iter_mut().zip(free_joints.iter()) {
             if locked.contains(j) {
                 *x = 0.0;
             }
         }
-        let mut p = ControllerPartials::zeros(n, nq, free_joints.len());
-        if !ctrl.partials(t, q, qd, mode, &free_joints, &mut p) {
+        let p = zero_partials(slot, n, nq, free_joints.len(), k);
+        if !ctrl.partials(t, q, qd, mode, free_joints, p) {
             return Err(SensitivityError::ControllerWithoutPartials { t });
         }
+        Ok(())
+    }
+
+    /// The flow `f = (q̇, q̈)` of `mode` at `(t, y)` alone: [`Self::eval`]'s `f`, bit for bit,
+    /// without the Jacobian (a time event's or a switch's jump, the flow after an event).
+    fn flow(
+        &mut self,
+        ctrl: &dyn Controller,
+        locked: &[usize],
+        dirs: &[(usize, SlideDirection)],
+        t: f64,
+        mode: ContactMode,
+        y: &[f64],
+    ) -> Result<DVector<f64>, SensitivityError> {
+        let nq = self.model.nq();
+        let mut fb = std::mem::take(&mut self.full);
+        let r = self.prepare_controller(
+            ctrl,
+            locked,
+            dirs,
+            t,
+            mode,
+            y,
+            &mut fb.partials,
+            &mut fb.free_joints,
+            0,
+        );
+        self.full = fb;
+        r?;
+        forward_dynamics_prepared(self.model, &mut self.data, &self.tau, Some(&self.free))
+            .map_err(TangentError::from)?;
+        let mut f = DVector::zeros(2 * nq);
+        f.rows_mut(0, nq).copy_from_slice(&y[nq..]);
+        f.rows_mut(nq, nq).copy_from(&self.data.qdd);
+        Ok(f)
+    }
+
+    /// The flow of `mode` at `(t, y)` under `ctrl` with `locked` joints, and its Jacobian,
+    /// into `self.full.out` (on the evaluator's buffers: no allocation once they are sized).
+    fn eval_into(
+        &mut self,
+        ctrl: &dyn Controller,
+        locked: &[usize],
+        dirs: &[(usize, SlideDirection)],
+        t: f64,
+        mode: ContactMode,
+        y: &[f64],
+    ) -> Result<(), SensitivityError> {
+        let mut fb = std::mem::take(&mut self.full);
+        let r = self.eval_on(&mut fb, ctrl, locked, dirs, t, mode, y);
+        self.full = fb;
+        r
+    }
+
+    /// [`Self::eval_into`] on the buffers `fb` (taken out of `self` for the evaluation).
+    #[allow(clippy::too_many_arguments)]
+    fn eval_on(
+        &mut self,
+        fb: &mut FullBuffers,
+        ctrl: &dyn Controller,
+        locked: &[usize],
+        dirs: &[(usize, SlideDirection)],
+        t: f64,
+        mode: ContactMode,
+        y: &[f64],
+    ) -> Result<(), SensitivityError> {
+        let (model, nq) = (self.model, self.model.nq());
+        let qd = &y[nq..];
+        self.prepare_controller(
+            ctrl,
+            locked,
+            dirs,
+            t,
+            mode,
+            y,
+            &mut fb.partials,
+            &mut fb.free_joints,
+            0,
+        )?;
+        let p = fb.partials.as_ref().expect("set by prepare_controller");
         forward_dynamics_prepared(model, &mut self.data, &self.tau, Some(&self.free))
             .map_err(TangentError::from)?;
-        let dj = dynamics_jacobian_solved(model, &mut self.data, qd)?;
-        let mut dqdd_dq = &dj.dqdd_dq + &dj.dqdd_dtau * &p.dtau_dq;
-        let mut dqdd_dqd = &dj.dqdd_dqd + &dj.dqdd_dtau * &p.dtau_dqd;
-        for (i, &j) in free_joints.iter().enumerate() {
+        dynamics_jacobian_solved_into(model, &mut self.data, qd, &mut fb.ws, &mut fb.dj)?;
+        let dj = &fb.dj;
+        // the same products and sums as `∂q̈/∂q + ∂q̈/∂Υ ∂Υ/∂q` formed by value
+        let c = dj.dlambda_dq.nrows();
+        fit(&mut fb.dqdd_dq, nq, nq);
+        fb.dqdd_dq.gemm(1.0, &dj.dqdd_dtau, &p.dtau_dq, 0.0);
+        fb.dqdd_dq += &dj.dqdd_dq;
+        fit(&mut fb.dqdd_dqd, nq, nq);
+        fb.dqdd_dqd.gemm(1.0, &dj.dqdd_dtau, &p.dtau_dqd, 0.0);
+        fb.dqdd_dqd += &dj.dqdd_dqd;
+        for (i, &j) in fb.free_joints.iter().enumerate() {
             if !locked.contains(&j) {
-                dqdd_dq.set_row(j, &p.dfree_dq.row(i));
-                dqdd_dqd.set_row(j, &p.dfree_dqd.row(i));
+                fb.dqdd_dq.set_row(j, &p.dfree_dq.row(i));
+                fb.dqdd_dqd.set_row(j, &p.dfree_dqd.row(i));
             }
         }
-        let mut jac = DMatrix::zeros(2 * nq, 2 * nq);
-        jac.view_mut((0, nq), (nq, nq))
-            .copy_from(&DMatrix::identity(nq, nq));
-        jac.view_mut((nq, 0), (nq, nq)).copy_from(&dqdd_dq);
-        jac.view_mut((nq, nq), (nq, nq)).copy_from(&dqdd_dqd);
-        let c = dj.dlambda_dq.nrows();
-        let mut dlambda = DMatrix::zeros(c, 2 * nq);
-        dlambda
-            .view_mut((0, 0), (c, nq))
-            .copy_from(&(&dj.dlambda_dq + &dj.dlambda_dtau * &p.dtau_dq));
-        dlambda
-            .view_mut((0, nq), (c, nq))
-            .copy_from(&(&dj.dlambda_dqd + &dj.dlambda_dtau * &p.dtau_dqd));
-        let mut f = DVector::zeros(2 * nq);
-        f.rows_mut(0, nq).copy_from_slice(qd);
-        f.rows_mut(nq, nq).copy_from(&self.data.qdd);
-        Ok(FlowJacobian {
-            f,
-            jac,
-            dlambda,
-            lambda: self.data.lambda.clone(),
-            dlambda_dtau: dj.dlambda_dtau,
-        })
+        let out = &mut fb.out;
+        fit(&mut out.jac, 2 * nq, 2 * nq);
+        out.jac.fill(0.0);
+        for i in 0..nq {
+            out.jac[(i, nq + i)] = 1.0;
+        }
+        out.jac.view_mut((nq, 0), (nq, nq)).copy_from(&fb.dqdd_dq);
+        out.jac.view_mut((nq, nq), (nq, nq)).copy_from(&fb.dqdd_dqd);
+        fit(&mut fb.dl_q, c, nq);
+        fb.dl_q.gemm(1.0, &dj.dlambda_dtau, &p.dtau_dq, 0.0);
+        fb.dl_q += &dj.dlambda_dq;
+        fit(&mut fb.dl_qd, c, nq);
+        fb.dl_qd.gemm(1.0, &dj.dlambda_dtau, &p.dtau_dqd, 0.0);
+        fb.dl_qd += &dj.dlambda_dqd;
+        fit(&mut out.dlambda, c, 2 * nq);
+        out.dlambda.view_mut((0, 0), (c, nq)).copy_from(&fb.dl_q);
+        out.dlambda.view_mut((0, nq), (c, nq)).copy_from(&fb.dl_qd);
+        fit_vec(&mut out.f, 2 * nq);
+        out.f.rows_mut(0, nq).copy_from_slice(qd);
+        out.f.rows_mut(nq, nq).copy_from(&self.data.qdd);
+        fit_vec(&mut out.lambda, c);
+        out.lambda.copy_from(&self.data.lambda);
+        fit(&mut out.dlambda_dtau, c, dj.dlambda_dtau.ncols());
+        out.dlambda_dtau.copy_from(&dj.dlambda_dtau);
+        Ok(())
     }
 }
 
@@ -741,7 +875,7 @@ impl Tangent<'_> {
             }
             match params {
                 None => {
-                    let fj = ev.eval(
+                    ev.eval_into(
                         &*seg.controller,
                         &seg.locked,
                         &seg.slide_directions,
@@ -749,8 +883,12 @@ impl Tangent<'_> {
                         seg.mode,
                         ys.as_slice(),
                     )?;
-                    kphi[s] = &fj.jac * &*ps;
-                    k[s] = fj.f;
+                    let fj = &ev.full.out;
+                    // `F Φ` into the stage's buffer (the product `&F * &Φ` forms)
+                    fit(&mut kphi[s], fj.jac.nrows(), ps.ncols());
+                    kphi[s].gemm(1.0, &fj.jac, &*ps, 0.0);
+                    fit_vec(&mut k[s], fj.f.len());
+                    k[s].copy_from(&fj.f);
                 }
                 Some((params, names)) => {
                     ev.eval_columns_into(
@@ -927,19 +1065,15 @@ fn time_event(
     y: &[f64],
 ) -> Result<TimeEventSensitivity, SensitivityError> {
     let ctrl = &*seg.controller;
-    let fm = ev
-        .eval(
-            ctrl,
-            &seg.locked,
-            &seg.slide_directions,
-            te.t.next_down(),
-            seg.mode,
-            y,
-        )?
-        .f;
-    let fp = ev
-        .eval(ctrl, &seg.locked, &seg.slide_directions, te.t, seg.mode, y)?
-        .f;
+    let fm = ev.flow(
+        ctrl,
+        &seg.locked,
+        &seg.slide_directions,
+        te.t.next_down(),
+        seg.mode,
+        y,
+    )?;
+    let fp = ev.flow(ctrl, &seg.locked, &seg.slide_directions, te.t, seg.mode, y)?;
     let jump = (&fp - &fm).amax();
     let scale = 1.0 + fm.amax().max(fp.amax());
     let out = TimeEventSensitivity {
@@ -1021,26 +1155,22 @@ fn touch_switch(
         sw.status = SaltationStatus::Simultaneous;
         return Ok(sw);
     }
-    let fm = ev
-        .eval(
-            &*seg.controller,
-            &seg.locked,
-            &seg.slide_directions,
-            tm,
-            seg.mode,
-            ym,
-        )?
-        .f;
-    let fp = ev
-        .eval(
-            &*seg.controller,
-            &seg.locked,
-            &seg.slide_directions,
-            tp,
-            seg.mode,
-            yp,
-        )?
-        .f;
+    let fm = ev.flow(
+        &*seg.controller,
+        &seg.locked,
+        &seg.slide_directions,
+        tm,
+        seg.mode,
+        ym,
+    )?;
+    let fp = ev.flow(
+        &*seg.controller,
+        &seg.locked,
+        &seg.slide_directions,
+        tp,
+        seg.mode,
+        yp,
+    )?;
     // g = α_n − β_part(q) − α_end: D_qg = −∂β/∂q
     let mut dg = RowDVector::zeros(n2);
     dg[model.ix_phi()] = -1.0;
@@ -1724,17 +1854,14 @@ fn event_sensitivity(
     }
     let f_plus = match (event.kind, after) {
         (EventKind::Apex, _) => DVector::zeros(n2),
-        (_, Some(a)) => {
-            ev.eval(
-                &*a.controller,
-                &a.locked,
-                &a.slide_directions,
-                t,
-                event.mode_after,
-                &y_plus,
-            )?
-            .f
-        }
+        (_, Some(a)) => ev.flow(
+            &*a.controller,
+            &a.locked,
+            &a.slide_directions,
+            t,
+            event.mode_after,
+            &y_plus,
+        )?,
         (_, None) => {
             // the run ended at this event (its event budget): no flow after it to salt with
             es.status = SaltationStatus::Unsupported {
