@@ -235,6 +235,19 @@ impl Point {
         self.px = Vector2::zeros();
     }
 
+    /// Becomes a copy of `other` (no allocation once its buffers are large enough).
+    fn copy_from(&mut self, other: &Point) {
+        self.lever.n = other.lever.n;
+        self.lever.coef.clone_from(&other.lever.coef);
+        self.lever.segs.clone_from(&other.lever.segs);
+        self.w_e.clone_from(&other.w_e);
+        self.j_e.clone_from(&other.j_e);
+        self.w_qd.clone_from(&other.w_qd);
+        self.acc0 = other.acc0;
+        self.w_x.clone_from(&other.w_x);
+        self.px = other.px;
+    }
+
     /// `ω(e_i)`.
     fn we(&self, i: usize) -> &[f64] {
         let ns = self.lever.segs.len();
@@ -255,6 +268,10 @@ struct Assembly {
     /// Constraint rows: direction `d_r` and the contact's material point (or rolling centre).
     rows: Vec<(Vector2<f64>, Point)>,
     n_rows: usize,
+    /// Per row of the current state: whether its point is the previous row's (the normal
+    /// and tangential rows of one contact), so that the directional terms formed for the
+    /// one serve the other.
+    shared: Vec<bool>,
     /// Passive joint springs: `(joint, ∂τ^p/∂q_j, ∂τ^p/∂q̇_j)` at the current state.
     springs: Vec<(usize, f64, f64)>,
     /// Sliding sites with kinetic friction at the current state ([`SlidingTerm`]): the first
@@ -334,6 +351,8 @@ impl Assembly {
             }
         }
         let cons = &data.constraints;
+        self.shared.clear();
+        let mut prev = None;
         for row in &cons.rows {
             let geo = &cons
                 .geometry
@@ -341,11 +360,25 @@ impl Assembly {
                 .find(|(k, _)| *k == row.contact)
                 .expect("active contact")
                 .1;
-            let c = differentiable_point(model, kin, row.contact, geo)?;
+            let shared = prev == Some(row.contact);
+            let c = if shared {
+                None
+            } else {
+                Some(differentiable_point(model, kin, row.contact, geo)?)
+            };
             let d = row_direction(&geo.plane, row.direction);
             let s = next_slot(&mut self.rows, &mut self.n_rows);
             self.rows[s].0 = d;
-            self.rows[s].1.reset(model, kin, geo.part, c, qd);
+            match c {
+                // the same contact's point as the row before: the same numbers
+                None => {
+                    let (done, this) = self.rows.split_at_mut(s);
+                    this[0].1.copy_from(&done[s - 1].1);
+                }
+                Some(c) => self.rows[s].1.reset(model, kin, geo.part, c, qd),
+            }
+            self.shared.push(shared);
+            prev = Some(row.contact);
         }
         self.springs.clear();
         for (j, joint) in model.joints.iter().enumerate() {
@@ -521,24 +554,28 @@ impl Assembly {
         let mut e = vec![0.0; self.nq];
         e[k] = 1.0;
         let (mut f, mut g) = (DVector::zeros(0), DVector::zeros(0));
-        self.dq_terms_along(&e, y, with_velocity, &mut Vec::new(), &mut f, &mut g);
+        let mut scratch = Scratch::default();
+        self.dq_terms_along(&e, y, with_velocity, &mut scratch, &mut f, &mut g);
         (f, g)
     }
 
     /// [`Self::dq_terms`] along an arbitrary direction `v` of `q` (the terms are linear in
     /// the direction: `ω(e_k)` becomes `ω(v)`), into `f`, `g` (zeroed and sized here), with
-    /// `wv` a scratch buffer.
+    /// `scratch` buffers. A row whose point is the previous row's ([`Self::shared`]) reuses
+    /// the previous row's `ω(v)`, `D²c[x, v]`, `D³c[q̇, q̇, v]` and `D²c[e_i, v]` (the same
+    /// numbers: the same point and direction).
     fn dq_terms_along(
         &self,
         v: &[f64],
         y: &[f64],
         with_velocity: bool,
-        wv: &mut Vec<f64>,
+        scratch: &mut Scratch,
         f: &mut DVector<f64>,
         g: &mut DVector<f64>,
     ) {
         let nq = self.nq;
         zero_sized(f, nq);
+        let Scratch { w: wv, d2: d2s } = scratch;
         for (m, p) in self.masses() {
             let lv = &p.lever;
             lv.omegas_into(v, wv);
@@ -555,18 +592,32 @@ impl Assembly {
             }
         }
         zero_sized(g, self.n_rows);
+        // `D²c[x, v]`, `D³c[q̇, q̇, v]` of the last point, and whether `d2s` holds its
+        // `D²c[e_i, v]`
+        let (mut dxv, mut d3v, mut have_e) = (Vector2::zeros(), Vector2::zeros(), false);
         for (r, (d, p)) in self.rows().iter().enumerate() {
             let lv = &p.lever;
-            lv.omegas_into(v, wv);
-            let wv = &wv[..];
-            let mut s = -d.dot(&lv.d2(&p.w_x, wv));
+            if !self.shared[r] {
+                lv.omegas_into(v, wv);
+                dxv = lv.d2(&p.w_x, wv);
+                if with_velocity {
+                    d3v = lv.d3(&p.w_qd, &p.w_qd, wv);
+                }
+                have_e = false;
+            }
+            let mut s = -d.dot(&dxv);
             if with_velocity {
-                s -= d.dot(&lv.d3(&p.w_qd, &p.w_qd, wv));
+                s -= d.dot(&d3v);
             }
             g[r] = s;
             if y[r] != 0.0 {
+                if !have_e {
+                    d2s.clear();
+                    d2s.extend((0..nq).map(|i| lv.d2(p.we(i), wv)));
+                    have_e = true;
+                }
                 for i in 0..nq {
-                    f[i] -= y[r] * d.dot(&lv.d2(p.we(i), wv));
+                    f[i] -= y[r] * d.dot(&d2s[i]);
                 }
             }
         }
@@ -591,17 +642,30 @@ impl Assembly {
             }
         }
         zero_sized(g, self.n_rows);
+        let mut a = Vector2::zeros();
         for (r, (d, p)) in self.rows().iter().enumerate() {
-            p.lever.omegas_into(w, ww);
-            g[r] = -2.0 * d.dot(&p.lever.d2(&p.w_qd, ww));
+            // a row whose point is the previous row's: the same `D²c[q̇, w]`
+            if !self.shared[r] {
+                p.lever.omegas_into(w, ww);
+                a = p.lever.d2(&p.w_qd, ww);
+            }
+            g[r] = -2.0 * d.dot(&a);
         }
     }
+}
+
+/// Scratch buffers of the directional terms: `ω` along a direction, and `D²c[e_i, v]` of a
+/// point for every coordinate `i` ([`Assembly::dq_terms_along`]).
+#[derive(Debug, Clone, Default)]
+struct Scratch {
+    w: Vec<f64>,
+    d2: Vec<Vector2<f64>>,
 }
 
 /// Sets `v` to `n` zeros, allocating only when its length changes.
 fn zero_sized(v: &mut DVector<f64>, n: usize) {
     if v.len() == n {
-        v.fill(0.0);
+        v.as_mut_slice().fill(0.0);
     } else {
         *v = DVector::zeros(n);
     }
@@ -610,7 +674,7 @@ fn zero_sized(v: &mut DVector<f64>, n: usize) {
 /// Sets `a` to `r × c` zeros, allocating only when its shape changes.
 fn zero_shaped(a: &mut DMatrix<f64>, r: usize, c: usize) {
     if a.shape() == (r, c) {
-        a.fill(0.0);
+        a.as_mut_slice().fill(0.0);
     } else {
         *a = DMatrix::zeros(r, c);
     }
@@ -785,7 +849,7 @@ pub struct JacobianWorkspace {
     asm: Assembly,
     lambda: Vec<f64>,
     e: Vec<f64>,
-    scratch: Vec<f64>,
+    scratch: Scratch,
     f: DVector<f64>,
     g: DVector<f64>,
     zeros: DVector<f64>,
@@ -832,12 +896,13 @@ pub fn dynamics_jacobian_solved_into(
     for k in 0..nq {
         e[k] = 1.0;
         asm.dq_terms_along(e, lambda, true, scratch, f, g);
-        asm.applied_terms_along(Some(e), None, &no_tau, scratch, f);
-        asm.general_terms_along(e, lambda, scratch, f);
+        let wv = &mut scratch.w;
+        asm.applied_terms_along(Some(e), None, &no_tau, wv, f);
+        asm.general_terms_along(e, lambda, wv, f);
         let (x, y) = (&mut out.dqdd_dq, &mut out.dlambda_dq);
         solver.solve_folded(data, fold, -1.0, f, g, k, x, Some(y))?;
-        asm.dqd_terms_along(e, scratch, f, g);
-        asm.applied_terms_along(None, Some(e), &no_tau, scratch, f);
+        asm.dqd_terms_along(e, wv, f, g);
+        asm.applied_terms_along(None, Some(e), &no_tau, wv, f);
         let (x, y) = (&mut out.dqdd_dqd, &mut out.dlambda_dqd);
         solver.solve_folded(data, fold, -1.0, f, g, k, x, Some(y))?;
         e[k] = 0.0;
@@ -850,7 +915,7 @@ pub fn dynamics_jacobian_solved_into(
             None,
             None,
             &|i| if i == j { 1.0 } else { 0.0 },
-            scratch,
+            &mut scratch.w,
             f,
         );
         f.neg_mut();
@@ -1053,7 +1118,7 @@ pub struct JvpWorkspace {
     asm: Assembly,
     qdd: Vec<f64>,
     lambda: Vec<f64>,
-    scratch: Vec<f64>,
+    scratch: Scratch,
     f: DVector<f64>,
     g: DVector<f64>,
     fv: DVector<f64>,
@@ -1112,10 +1177,10 @@ pub fn dynamics_jvp_into(
             asm.dq_terms_along(v, lambda, true, scratch, fv, gv);
             *f += &*fv;
             *g += &*gv;
-            asm.general_terms_along(v, lambda, scratch, f);
+            asm.general_terms_along(v, lambda, &mut scratch.w, f);
         }
         if w.iter().any(|x| *x != 0.0) {
-            asm.dqd_terms_along(w, scratch, fw, gw);
+            asm.dqd_terms_along(w, &mut scratch.w, fw, gw);
             *f += &*fw;
             *g += &*gw;
         }
@@ -1125,7 +1190,13 @@ pub fn dynamics_jvp_into(
         if !asm.springs.is_empty() || asm.n_sliding > 0 {
             let dtau = |j: usize| dirs.dtau.get((j, col)).copied().unwrap_or(0.0);
             let nz = |x: &[f64]| x.iter().any(|v| *v != 0.0);
-            asm.applied_terms_along(nz(v).then_some(v), nz(w).then_some(w), &dtau, scratch, f);
+            asm.applied_terms_along(
+                nz(v).then_some(v),
+                nz(w).then_some(w),
+                &dtau,
+                &mut scratch.w,
+                f,
+            );
         }
         if let Some(p) = dirs.body.get(col).copied().flatten() {
             p.dm_x_into(model, qdd, true, fb);

@@ -110,8 +110,7 @@ use selfmanip_core::model::Friction;
 use selfmanip_core::tangent::{
     dynamics_jacobian_solved_into, dynamics_jvp_into, height_gradient,
     plastic_impact_body_derivatives, plastic_impact_jacobian, sliding_velocity_gradient,
-    BodyParameter, DynamicsJacobian, FlowDirections, JacobianWorkspace, JvpWorkspace,
-    TangentError,
+    BodyParameter, DynamicsJacobian, FlowDirections, JacobianWorkspace, JvpWorkspace, TangentError,
 };
 use selfmanip_core::{forward_dynamics_prepared, ContactMode, Data, Model, Terrain};
 
@@ -685,21 +684,30 @@ impl Evaluator<'_> {
         let m = x.ncols();
         let nd = m - params.len();
         fit(&mut cb.dq, nq, m);
-        cb.dq.copy_from(&x.rows(0, nq));
         fit(&mut cb.dqd, nq, m);
-        cb.dqd.copy_from(&x.rows(nq, nq));
-        // the same products and sums as `∂Υ/∂q δq + ∂Υ/∂q̇ δq̇` formed by value
+        for j in 0..m {
+            let xj = &x.as_slice()[j * 2 * nq..(j + 1) * 2 * nq];
+            cb.dq.as_mut_slice()[j * nq..(j + 1) * nq].copy_from_slice(&xj[..nq]);
+            cb.dqd.as_mut_slice()[j * nq..(j + 1) * nq].copy_from_slice(&xj[nq..]);
+        }
+        // `∂Υ/∂q δq + ∂Υ/∂q̇ δq̇`, the products and their sum as nalgebra forms them
         fit(&mut cb.dtau, n, m);
         fit(&mut cb.dtau2, n, m);
-        cb.dtau.gemm(1.0, &p.dtau_dq, &cb.dq, 0.0);
-        cb.dtau2.gemm(1.0, &p.dtau_dqd, &cb.dqd, 0.0);
-        cb.dtau += &cb.dtau2;
+        gemm_pair(
+            &mut cb.dtau,
+            &mut cb.dtau2,
+            (&p.dtau_dq, &cb.dq),
+            (&p.dtau_dqd, &cb.dqd),
+        );
         let nf = free_joints.len();
         fit(&mut cb.dfree, nf, m);
         fit(&mut cb.dfree2, nf, m);
-        cb.dfree.gemm(1.0, &p.dfree_dq, &cb.dq, 0.0);
-        cb.dfree2.gemm(1.0, &p.dfree_dqd, &cb.dqd, 0.0);
-        cb.dfree += &cb.dfree2;
+        gemm_pair(
+            &mut cb.dfree,
+            &mut cb.dfree2,
+            (&p.dfree_dq, &cb.dq),
+            (&p.dfree_dqd, &cb.dqd),
+        );
         if self.memory_mode {
             // the remembered events' tangents force every column: `∂Υ/∂m_k Dm_k`
             cb.mem.clear();
@@ -778,6 +786,50 @@ impl Evaluator<'_> {
         f.rows_mut(0, nq).copy_from_slice(qd);
         f.rows_mut(nq, nq).copy_from(&self.data.qdd);
         Ok(())
+    }
+}
+
+/// `out = a₁ b₁ + a₂ b₂` with `tmp` a buffer of `out`'s shape: bit for bit what
+/// `out.gemm(1, a₁, b₁, 0); tmp.gemm(1, a₂, b₂, 0); out += tmp` gives, without nalgebra's
+/// generic loops for the small products the stages form (nalgebra's small-size `gemm` sums
+/// `a_ik b_kj` over `k` in order, starting from the first product; for larger ones, which
+/// it hands to `matrixmultiply`, its own `gemm` is called).
+fn gemm_pair(
+    out: &mut DMatrix<f64>,
+    tmp: &mut DMatrix<f64>,
+    (a1, b1): (&DMatrix<f64>, &DMatrix<f64>),
+    (a2, b2): (&DMatrix<f64>, &DMatrix<f64>),
+) {
+    const SMALL_DIM: usize = 5;
+    let big = |a: &DMatrix<f64>| {
+        out.nrows() > SMALL_DIM
+            && out.ncols() > SMALL_DIM
+            && a.nrows() > SMALL_DIM
+            && a.ncols() > SMALL_DIM
+    };
+    if big(a1) || big(a2) || a1.ncols() == 0 || a2.ncols() == 0 {
+        out.gemm(1.0, a1, b1, 0.0);
+        tmp.gemm(1.0, a2, b2, 0.0);
+        *out += &*tmp;
+        return;
+    }
+    let (r, c) = out.shape();
+    let (k1, k2) = (a1.ncols(), a2.ncols());
+    let (a1, b1, a2, b2) = (a1.as_slice(), b1.as_slice(), a2.as_slice(), b2.as_slice());
+    let o = out.as_mut_slice();
+    for j in 0..c {
+        let (b1j, b2j) = (&b1[j * k1..(j + 1) * k1], &b2[j * k2..(j + 1) * k2]);
+        for i in 0..r {
+            let mut s1 = a1[i] * b1j[0];
+            for k in 1..k1 {
+                s1 = a1[k * r + i] * b1j[k] + s1;
+            }
+            let mut s2 = a2[i] * b2j[0];
+            for k in 1..k2 {
+                s2 = a2[k * r + i] * b2j[k] + s2;
+            }
+            o[j * r + i] = s1 + s2;
+        }
     }
 }
 
@@ -861,10 +913,15 @@ impl Tangent<'_> {
             fit(ps, phi.nrows(), phi.ncols());
             ps.copy_from(phi);
             for j in 0..s {
-                ys.axpy(h * RK_A[s][j], &k[j], 1.0);
-                // `ps += (h a_sj) kphi_j`, in place
+                // `ys += (h a_sj) k_j` and `ps += (h a_sj) kphi_j`, in place (as `axpy`
+                // forms them: `a x + y`)
                 let c = h * RK_A[s][j];
-                ps.zip_apply(&kphi[j], |p, v| *p += c * v);
+                for (y, v) in ys.as_mut_slice().iter_mut().zip(k[j].as_slice()) {
+                    *y += c * v;
+                }
+                for (p, v) in ps.as_mut_slice().iter_mut().zip(kphi[j].as_slice()) {
+                    *p += c * v;
+                }
             }
             let ts = (t0 + RK_C[s] * h).max(t_floor).min(t_cap);
             if let Some((piece, record)) = hold {
@@ -909,7 +966,9 @@ impl Tangent<'_> {
         }
         for (s, kp) in kphi.iter().enumerate() {
             let c = h * RK_A[6][s];
-            phi.zip_apply(kp, |p, v| *p += c * v);
+            for (p, v) in phi.as_mut_slice().iter_mut().zip(kp.as_slice()) {
+                *p += c * v;
+            }
         }
         Ok(())
     }
