@@ -662,6 +662,14 @@ struct Scratch {
     d2: Vec<Vector2<f64>>,
 }
 
+/// `a += b` (as nalgebra's `+=` forms it, entry by entry, on the slices).
+fn add_to(a: &mut DVector<f64>, b: &DVector<f64>) {
+    assert_eq!(a.len(), b.len(), "add_to: mismatched lengths");
+    for (x, y) in a.as_mut_slice().iter_mut().zip(b.as_slice()) {
+        *x += y;
+    }
+}
+
 /// Sets `v` to `n` zeros, allocating only when its length changes.
 fn zero_sized(v: &mut DVector<f64>, n: usize) {
     if v.len() == n {
@@ -770,13 +778,15 @@ impl Solver {
         x_out: &mut DMatrix<f64>,
         y_out: Option<&mut DMatrix<f64>>,
     ) {
-        let mut col = x_out.column_mut(k);
+        let nr = x_out.nrows();
+        let col = &mut x_out.as_mut_slice()[k * nr..(k + 1) * nr];
         col.fill(0.0);
         for (&a, v) in data.dynamic_coords.iter().zip(&self.xr) {
             col[a] = *v;
         }
         if let Some(y_out) = y_out {
-            y_out.column_mut(k).copy_from_slice(&self.y);
+            let nr = y_out.nrows();
+            y_out.as_mut_slice()[k * nr..(k + 1) * nr].copy_from_slice(&self.y);
         }
     }
 }
@@ -1175,17 +1185,19 @@ pub fn dynamics_jvp_into(
         zero_sized(g, c);
         if v.iter().any(|x| *x != 0.0) {
             asm.dq_terms_along(v, lambda, true, scratch, fv, gv);
-            *f += &*fv;
-            *g += &*gv;
+            add_to(f, fv);
+            add_to(g, gv);
             asm.general_terms_along(v, lambda, &mut scratch.w, f);
         }
         if w.iter().any(|x| *x != 0.0) {
             asm.dqd_terms_along(w, &mut scratch.w, fw, gw);
-            *f += &*fw;
-            *g += &*gw;
+            add_to(f, fw);
+            add_to(g, gw);
         }
-        for j in 0..dirs.dtau.nrows() {
-            f[j] -= dirs.dtau[(j, col)];
+        let nt = dirs.dtau.nrows();
+        let dtau_col = &dirs.dtau.as_slice()[col * nt..(col + 1) * nt];
+        for (fj, t) in f.as_mut_slice().iter_mut().zip(dtau_col) {
+            *fj -= t;
         }
         if !asm.springs.is_empty() || asm.n_sliding > 0 {
             let dtau = |j: usize| dirs.dtau.get((j, col)).copied().unwrap_or(0.0);

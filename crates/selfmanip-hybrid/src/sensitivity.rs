@@ -338,7 +338,7 @@ fn zero_partials(
             &mut p.dtau_dp,
             &mut p.dfree_dp,
         ] {
-            a.fill(0.0);
+            a.as_mut_slice().fill(0.0);
         }
     } else {
         *slot = Some(ControllerPartials::with_parameters(n, nq, n_free, k));
@@ -813,22 +813,28 @@ fn gemm_pair(
         *out += &*tmp;
         return;
     }
-    let (r, c) = out.shape();
+    let r = out.nrows();
     let (k1, k2) = (a1.ncols(), a2.ncols());
     let (a1, b1, a2, b2) = (a1.as_slice(), b1.as_slice(), a2.as_slice(), b2.as_slice());
-    let o = out.as_mut_slice();
-    for j in 0..c {
-        let (b1j, b2j) = (&b1[j * k1..(j + 1) * k1], &b2[j * k2..(j + 1) * k2]);
-        for i in 0..r {
-            let mut s1 = a1[i] * b1j[0];
-            for k in 1..k1 {
-                s1 = a1[k * r + i] * b1j[k] + s1;
-            }
-            let mut s2 = a2[i] * b2j[0];
-            for k in 1..k2 {
-                s2 = a2[k * r + i] * b2j[k] + s2;
-            }
-            o[j * r + i] = s1 + s2;
+    if r == 0 {
+        return;
+    }
+    // `Σ_k a_ik b_kj`, the first product first
+    let dot = |a: &[f64], bj: &[f64], i: usize| {
+        let mut s = a[i] * bj[0];
+        for (ak, bk) in a[i..].iter().step_by(r).zip(bj).skip(1) {
+            s = ak * bk + s;
+        }
+        s
+    };
+    for ((oj, b1j), b2j) in out
+        .as_mut_slice()
+        .chunks_exact_mut(r)
+        .zip(b1.chunks_exact(k1))
+        .zip(b2.chunks_exact(k2))
+    {
+        for (i, o) in oj.iter_mut().enumerate() {
+            *o = dot(a1, b1j, i) + dot(a2, b2j, i);
         }
     }
 }
