@@ -198,13 +198,33 @@ struct Point {
     /// `ω(x)` and `Dp[x]` of the vector `x` the derivatives act on ([`Assembly::set_x`]).
     w_x: Vec<f64>,
     px: Vector2<f64>,
+    /// Whether every lever `r_Q` is the zero vector (the body's centre of mass, its frame's
+    /// origin): then `D²p` and `D³p` vanish, and its terms in [`Assembly::dq_terms_along`]
+    /// and [`Assembly::dqd_terms_along`] are zeros (of either sign) added to sums that start
+    /// at `+0`, which leaves them as they are; they are not formed.
+    zero_lever: bool,
 }
 
 impl Point {
-    /// Re-forms the point in place (no allocation once its buffers are large enough).
-    fn reset(&mut self, model: &Model, kin: &Kinematics, part: Part, p: Vector2<f64>, qd: &[f64]) {
+    /// Re-forms the point in place (no allocation once its buffers are large enough). Only a
+    /// `mass`'s point carries `Dp[e_i]` and `D²p[q̇, q̇]` (a constraint row's terms do not
+    /// use them), and a mass's point with a zero lever nothing beyond its lever (its terms
+    /// are not formed: [`Self::zero_lever`]).
+    fn reset(
+        &mut self,
+        model: &Model,
+        kin: &Kinematics,
+        part: Part,
+        p: Vector2<f64>,
+        qd: &[f64],
+        mass: bool,
+    ) {
         self.lever.reset(model, kin, part, p);
         let lever = &self.lever;
+        self.zero_lever = lever.segs.iter().all(|(_, r)| r.x == 0.0 && r.y == 0.0);
+        if mass && self.zero_lever {
+            return;
+        }
         let nq = model.nq();
         let ns = lever.segs.len();
         self.w_e.clear();
@@ -216,7 +236,7 @@ impl Point {
         }
         let w_e = &self.w_e;
         self.j_e.clear();
-        self.j_e.extend((0..nq).map(|i| {
+        self.j_e.extend((0..if mass { nq } else { 0 }).map(|i| {
             let mut v = Vector2::zeros();
             if i == lever.n {
                 v.x = 1.0;
@@ -229,7 +249,9 @@ impl Point {
             v
         }));
         lever.omegas_into(qd, &mut self.w_qd);
-        self.acc0 = lever.d2(&self.w_qd, &self.w_qd);
+        if mass {
+            self.acc0 = lever.d2(&self.w_qd, &self.w_qd);
+        }
         self.w_x.clear();
         self.w_x.resize(ns, 0.0);
         self.px = Vector2::zeros();
@@ -246,6 +268,7 @@ impl Point {
         self.acc0 = other.acc0;
         self.w_x.clone_from(&other.w_x);
         self.px = other.px;
+        self.zero_lever = other.zero_lever;
     }
 
     /// `ω(e_i)`.
@@ -341,13 +364,15 @@ impl Assembly {
         self.masses[s].0 = model.body_mass_kg;
         self.masses[s]
             .1
-            .reset(model, kin, Part::Body, kin.body_pos, qd);
+            .reset(model, kin, Part::Body, kin.body_pos, qd, true);
         for (i, j) in model.joints.iter().enumerate() {
             if !j.is_massless() {
                 let p = kin.point(Part::Link(i), j.com_m);
                 let s = next_slot(&mut self.masses, &mut self.n_masses);
                 self.masses[s].0 = j.mass_kg;
-                self.masses[s].1.reset(model, kin, Part::Link(i), p, qd);
+                self.masses[s]
+                    .1
+                    .reset(model, kin, Part::Link(i), p, qd, true);
             }
         }
         let cons = &data.constraints;
@@ -375,7 +400,7 @@ impl Assembly {
                     let (done, this) = self.rows.split_at_mut(s);
                     this[0].1.copy_from(&done[s - 1].1);
                 }
-                Some(c) => self.rows[s].1.reset(model, kin, geo.part, c, qd),
+                Some(c) => self.rows[s].1.reset(model, kin, geo.part, c, qd, false),
             }
             self.shared.push(shared);
             prev = Some(row.contact);
@@ -540,10 +565,15 @@ impl Assembly {
 
     /// Sets the vector `x` that [`Self::dq_terms`] differentiates `M̄ x`, `A x` along.
     fn set_x(&mut self, x: &[f64]) {
-        let masses = self.masses[..self.n_masses].iter_mut().map(|(_, p)| p);
-        for p in masses.chain(self.rows[..self.n_rows].iter_mut().map(|(_, p)| p)) {
+        // `Dp[x]` enters the masses' terms only (none for a zero lever)
+        for (_, p) in self.masses[..self.n_masses].iter_mut() {
+            if !p.zero_lever {
+                p.lever.omegas_into(x, &mut p.w_x);
+                p.px = p.lever.d1(&p.w_x, x);
+            }
+        }
+        for (_, p) in self.rows[..self.n_rows].iter_mut() {
             p.lever.omegas_into(x, &mut p.w_x);
-            p.px = p.lever.d1(&p.w_x, x);
         }
     }
 
@@ -576,7 +606,7 @@ impl Assembly {
         let nq = self.nq;
         zero_sized(f, nq);
         let Scratch { w: wv, d2: d2s } = scratch;
-        for (m, p) in self.masses() {
+        for (m, p) in self.masses().iter().filter(|(_, p)| !p.zero_lever) {
             let lv = &p.lever;
             lv.omegas_into(v, wv);
             let wv = &wv[..];
@@ -634,7 +664,7 @@ impl Assembly {
     ) {
         let nq = self.nq;
         zero_sized(f, nq);
-        for (m, p) in self.masses() {
+        for (m, p) in self.masses().iter().filter(|(_, p)| !p.zero_lever) {
             p.lever.omegas_into(w, ww);
             let a = 2.0 * p.lever.d2(&p.w_qd, ww);
             for i in 0..nq {

@@ -819,22 +819,26 @@ fn gemm_pair(
     if r == 0 {
         return;
     }
-    // `Σ_k a_ik b_kj`, the first product first
-    let dot = |a: &[f64], bj: &[f64], i: usize| {
-        let mut s = a[i] * bj[0];
-        for (ak, bk) in a[i..].iter().step_by(r).zip(bj).skip(1) {
-            s = ak * bk + s;
+    // column by column, as nalgebra's `gemv`: `o = a_0 b_0j`, then `o = a_k b_kj + o`
+    let col = |o: &mut [f64], a: &[f64], bj: &[f64]| {
+        for (x, ak) in o.iter_mut().zip(&a[..r]) {
+            *x = ak * bj[0];
         }
-        s
+        for (ak, bk) in a.chunks_exact(r).zip(bj).skip(1) {
+            for (x, aik) in o.iter_mut().zip(ak) {
+                *x = aik * bk + *x;
+            }
+        }
     };
-    for ((oj, b1j), b2j) in out
+    let cols = out
         .as_mut_slice()
         .chunks_exact_mut(r)
-        .zip(b1.chunks_exact(k1))
-        .zip(b2.chunks_exact(k2))
-    {
-        for (i, o) in oj.iter_mut().enumerate() {
-            *o = dot(a1, b1j, i) + dot(a2, b2j, i);
+        .zip(tmp.as_mut_slice().chunks_exact_mut(r));
+    for ((oj, tj), (b1j, b2j)) in cols.zip(b1.chunks_exact(k1).zip(b2.chunks_exact(k2))) {
+        col(oj, a1, b1j);
+        col(tj, a2, b2j);
+        for (x, t) in oj.iter_mut().zip(tj.iter()) {
+            *x += t;
         }
     }
 }
