@@ -819,26 +819,25 @@ fn gemm_pair(
     if r == 0 {
         return;
     }
-    // column by column, as nalgebra's `gemv`: `o = a_0 b_0j`, then `o = a_k b_kj + o`
-    let col = |o: &mut [f64], a: &[f64], bj: &[f64]| {
-        for (x, ak) in o.iter_mut().zip(&a[..r]) {
-            *x = ak * bj[0];
+    // entry by entry, in the order of nalgebra's `gemv`: `s = a_i0 b_0j`, then
+    // `s = a_ik b_kj + s` for k = 1, 2, …; then `o = s₁ + s₂`
+    let dot = |a: &[f64], bj: &[f64], i: usize| {
+        let mut s = a[i] * bj[0];
+        let mut idx = i;
+        for &bk in &bj[1..] {
+            idx += r;
+            s = a[idx] * bk + s;
         }
-        for (ak, bk) in a.chunks_exact(r).zip(bj).skip(1) {
-            for (x, aik) in o.iter_mut().zip(ak) {
-                *x = aik * bk + *x;
-            }
-        }
+        s
     };
-    let cols = out
+    for ((oj, b1j), b2j) in out
         .as_mut_slice()
         .chunks_exact_mut(r)
-        .zip(tmp.as_mut_slice().chunks_exact_mut(r));
-    for ((oj, tj), (b1j, b2j)) in cols.zip(b1.chunks_exact(k1).zip(b2.chunks_exact(k2))) {
-        col(oj, a1, b1j);
-        col(tj, a2, b2j);
-        for (x, t) in oj.iter_mut().zip(tj.iter()) {
-            *x += t;
+        .zip(b1.chunks_exact(k1))
+        .zip(b2.chunks_exact(k2))
+    {
+        for (i, o) in oj.iter_mut().enumerate() {
+            *o = dot(a1, b1j, i) + dot(a2, b2j, i);
         }
     }
 }
