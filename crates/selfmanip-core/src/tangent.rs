@@ -1201,10 +1201,10 @@ pub fn dynamics_jvp_into(
     let fold = asm.fold(model, data)?;
     let (nq, c, m) = (model.nq(), data.constraints.n_rows(), dirs.dq.ncols());
     qdd.clear();
-    qdd.extend(data.qdd.iter().copied());
+    qdd.extend_from_slice(data.qdd.as_slice());
     asm.set_x(qdd);
     lambda.clear();
-    lambda.extend(data.lambda.iter().copied());
+    lambda.extend_from_slice(data.lambda.as_slice());
     zero_shaped(dqdd, nq, m);
     zero_shaped(dlambda, c, m);
     let (dq, dqd) = (dirs.dq.as_slice(), dirs.dqd.as_slice());

@@ -780,11 +780,18 @@ impl Evaluator<'_> {
             }
         }
         fit(dx, 2 * nq, m);
-        dx.rows_mut(0, nq).copy_from(&cb.dqd);
-        dx.rows_mut(nq, nq).copy_from(&cb.dqdd);
+        for ((dxj, dqdj), dqddj) in dx
+            .as_mut_slice()
+            .chunks_exact_mut(2 * nq)
+            .zip(cb.dqd.as_slice().chunks_exact(nq))
+            .zip(cb.dqdd.as_slice().chunks_exact(nq))
+        {
+            dxj[..nq].copy_from_slice(dqdj);
+            dxj[nq..].copy_from_slice(dqddj);
+        }
         fit_vec(f, 2 * nq);
-        f.rows_mut(0, nq).copy_from_slice(qd);
-        f.rows_mut(nq, nq).copy_from(&self.data.qdd);
+        f.as_mut_slice()[..nq].copy_from_slice(qd);
+        f.as_mut_slice()[nq..].copy_from_slice(self.data.qdd.as_slice());
         Ok(())
     }
 }
@@ -920,7 +927,7 @@ impl Tangent<'_> {
             fit_vec(ys, y0.len());
             ys.copy_from_slice(y0);
             fit(ps, phi.nrows(), phi.ncols());
-            ps.copy_from(phi);
+            ps.as_mut_slice().copy_from_slice(phi.as_slice());
             for j in 0..s {
                 // `ys += (h a_sj) k_j` and `ps += (h a_sj) kphi_j`, in place (as `axpy`
                 // forms them: `a x + y`)
