@@ -833,7 +833,7 @@ fn gemm_pair(
         let mut idx = i;
         for &bk in &bj[1..] {
             idx += r;
-            s = a[idx] * bk + s;
+            s += a[idx] * bk;
         }
         s
     };
