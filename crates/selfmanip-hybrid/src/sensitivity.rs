@@ -458,21 +458,9 @@ impl<'a> Evaluator<'a> {
     ) -> Result<DVector<f64>, SensitivityError> {
         let nq = self.model.nq();
         let mut fb = std::mem::take(&mut self.full);
-        let r = self.prepare_controller(
-            ctrl,
-            locked,
-            dirs,
-            t,
-            mode,
-            y,
-            &mut fb.partials,
-            &mut fb.free_joints,
-            0,
-        );
+        let r = self.solve_flow(&mut fb, ctrl, locked, dirs, t, mode, y);
         self.full = fb;
         r?;
-        forward_dynamics_prepared(self.model, &mut self.data, &self.tau, Some(&self.free))
-            .map_err(TangentError::from)?;
         let mut f = DVector::zeros(2 * nq);
         f.rows_mut(0, nq).copy_from_slice(&y[nq..]);
         f.rows_mut(nq, nq).copy_from(&self.data.qdd);
@@ -496,6 +484,26 @@ impl<'a> Evaluator<'a> {
         r
     }
 
+    /// [`Self::prepare_controller`] on the buffers `fb` and the forward dynamics (`q̈` and
+    /// `λ` in `self.data`), with the controller's state partials in `fb.partials`.
+    #[allow(clippy::too_many_arguments)]
+    fn solve_flow(
+        &mut self,
+        fb: &mut FullBuffers,
+        ctrl: &dyn Controller,
+        locked: &[usize],
+        dirs: &[(usize, SlideDirection)],
+        t: f64,
+        mode: ContactMode,
+        y: &[f64],
+    ) -> Result<(), SensitivityError> {
+        let (slot, free_joints) = (&mut fb.partials, &mut fb.free_joints);
+        self.prepare_controller(ctrl, locked, dirs, t, mode, y, slot, free_joints, 0)?;
+        forward_dynamics_prepared(self.model, &mut self.data, &self.tau, Some(&self.free))
+            .map_err(TangentError::from)?;
+        Ok(())
+    }
+
     /// [`Self::eval_into`] on the buffers `fb` (taken out of `self` for the evaluation).
     #[allow(clippy::too_many_arguments)]
     fn eval_on(
@@ -510,20 +518,8 @@ impl<'a> Evaluator<'a> {
     ) -> Result<(), SensitivityError> {
         let (model, nq) = (self.model, self.model.nq());
         let qd = &y[nq..];
-        self.prepare_controller(
-            ctrl,
-            locked,
-            dirs,
-            t,
-            mode,
-            y,
-            &mut fb.partials,
-            &mut fb.free_joints,
-            0,
-        )?;
+        self.solve_flow(fb, ctrl, locked, dirs, t, mode, y)?;
         let p = fb.partials.as_ref().expect("set by prepare_controller");
-        forward_dynamics_prepared(model, &mut self.data, &self.tau, Some(&self.free))
-            .map_err(TangentError::from)?;
         dynamics_jacobian_solved_into(model, &mut self.data, qd, &mut fb.ws, &mut fb.dj)?;
         let dj = &fb.dj;
         // the same products and sums as `∂q̈/∂q + ∂q̈/∂Υ ∂Υ/∂q` formed by value
@@ -650,29 +646,25 @@ impl Evaluator<'_> {
     ) -> Result<(), SensitivityError> {
         let (model, nq, n) = (self.model, self.model.nq(), self.model.n_joints());
         let (q, qd) = y.split_at(nq);
-        self.data.locked.clear();
-        self.data.locked.extend_from_slice(locked);
-        // the segment's sliding directions, as its flow had them (crate::flow)
-        self.data.set_slide_directions(dirs);
-        self.data
-            .prepare(model, self.terrain, mode, q, qd)
-            .map_err(TangentError::from)?;
+        let mut slot = std::mem::take(&mut self.cols.partials);
+        let mut free_joints = std::mem::take(&mut self.cols.free_joints);
+        let k = names.len();
+        let r = self.prepare_controller(
+            ctrl,
+            locked,
+            dirs,
+            t,
+            mode,
+            y,
+            &mut slot,
+            &mut free_joints,
+            k,
+        );
         let cb = &mut self.cols;
-        cb.free_joints.clear();
-        cb.free_joints.extend_from_slice(&self.data.free_joints);
+        (cb.partials, cb.free_joints) = (slot, free_joints);
+        r?;
         let free_joints = &cb.free_joints;
-        ctrl.torque(t, q, qd, mode, &mut self.tau);
-        self.free.resize(free_joints.len(), 0.0);
-        ctrl.free_joint_qdd(t, q, qd, free_joints, &mut self.free);
-        for (v, j) in self.free.iter_mut().zip(free_joints) {
-            if locked.contains(j) {
-                *v = 0.0;
-            }
-        }
-        let p = zero_partials(&mut cb.partials, n, nq, free_joints.len(), names.len());
-        if !ctrl.partials(t, q, qd, mode, free_joints, p) {
-            return Err(SensitivityError::ControllerWithoutPartials { t });
-        }
+        let p = cb.partials.as_mut().expect("set by prepare_controller");
         if !ctrl.parameter_partials(t, q, qd, mode, free_joints, names, p) {
             return Err(SensitivityError::UnknownParameter {
                 name: names.join(", "),
