@@ -198,13 +198,33 @@ struct Point {
     /// `ω(x)` and `Dp[x]` of the vector `x` the derivatives act on ([`Assembly::set_x`]).
     w_x: Vec<f64>,
     px: Vector2<f64>,
+    /// Whether every lever `r_Q` is the zero vector (the body's centre of mass, its frame's
+    /// origin): then `D²p` and `D³p` vanish, and its terms in [`Assembly::dq_terms_along`]
+    /// and [`Assembly::dqd_terms_along`] are zeros (of either sign) added to sums that start
+    /// at `+0`, which leaves them as they are; they are not formed.
+    zero_lever: bool,
 }
 
 impl Point {
-    /// Re-forms the point in place (no allocation once its buffers are large enough).
-    fn reset(&mut self, model: &Model, kin: &Kinematics, part: Part, p: Vector2<f64>, qd: &[f64]) {
+    /// Re-forms the point in place (no allocation once its buffers are large enough). Only a
+    /// `mass`'s point carries `Dp[e_i]` and `D²p[q̇, q̇]` (a constraint row's terms do not
+    /// use them), and a mass's point with a zero lever nothing beyond its lever (its terms
+    /// are not formed: [`Self::zero_lever`]).
+    fn reset(
+        &mut self,
+        model: &Model,
+        kin: &Kinematics,
+        part: Part,
+        p: Vector2<f64>,
+        qd: &[f64],
+        mass: bool,
+    ) {
         self.lever.reset(model, kin, part, p);
         let lever = &self.lever;
+        self.zero_lever = lever.segs.iter().all(|(_, r)| r.x == 0.0 && r.y == 0.0);
+        if mass && self.zero_lever {
+            return;
+        }
         let nq = model.nq();
         let ns = lever.segs.len();
         self.w_e.clear();
@@ -216,7 +236,7 @@ impl Point {
         }
         let w_e = &self.w_e;
         self.j_e.clear();
-        self.j_e.extend((0..nq).map(|i| {
+        self.j_e.extend((0..if mass { nq } else { 0 }).map(|i| {
             let mut v = Vector2::zeros();
             if i == lever.n {
                 v.x = 1.0;
@@ -229,10 +249,26 @@ impl Point {
             v
         }));
         lever.omegas_into(qd, &mut self.w_qd);
-        self.acc0 = lever.d2(&self.w_qd, &self.w_qd);
+        if mass {
+            self.acc0 = lever.d2(&self.w_qd, &self.w_qd);
+        }
         self.w_x.clear();
         self.w_x.resize(ns, 0.0);
         self.px = Vector2::zeros();
+    }
+
+    /// Becomes a copy of `other` (no allocation once its buffers are large enough).
+    fn copy_from(&mut self, other: &Point) {
+        self.lever.n = other.lever.n;
+        self.lever.coef.clone_from(&other.lever.coef);
+        self.lever.segs.clone_from(&other.lever.segs);
+        self.w_e.clone_from(&other.w_e);
+        self.j_e.clone_from(&other.j_e);
+        self.w_qd.clone_from(&other.w_qd);
+        self.acc0 = other.acc0;
+        self.w_x.clone_from(&other.w_x);
+        self.px = other.px;
+        self.zero_lever = other.zero_lever;
     }
 
     /// `ω(e_i)`.
@@ -255,6 +291,10 @@ struct Assembly {
     /// Constraint rows: direction `d_r` and the contact's material point (or rolling centre).
     rows: Vec<(Vector2<f64>, Point)>,
     n_rows: usize,
+    /// Per row of the current state: whether its point is the previous row's (the normal
+    /// and tangential rows of one contact), so that the directional terms formed for the
+    /// one serve the other.
+    shared: Vec<bool>,
     /// Passive joint springs: `(joint, ∂τ^p/∂q_j, ∂τ^p/∂q̇_j)` at the current state.
     springs: Vec<(usize, f64, f64)>,
     /// Sliding sites with kinetic friction at the current state ([`SlidingTerm`]): the first
@@ -324,16 +364,20 @@ impl Assembly {
         self.masses[s].0 = model.body_mass_kg;
         self.masses[s]
             .1
-            .reset(model, kin, Part::Body, kin.body_pos, qd);
+            .reset(model, kin, Part::Body, kin.body_pos, qd, true);
         for (i, j) in model.joints.iter().enumerate() {
             if !j.is_massless() {
                 let p = kin.point(Part::Link(i), j.com_m);
                 let s = next_slot(&mut self.masses, &mut self.n_masses);
                 self.masses[s].0 = j.mass_kg;
-                self.masses[s].1.reset(model, kin, Part::Link(i), p, qd);
+                self.masses[s]
+                    .1
+                    .reset(model, kin, Part::Link(i), p, qd, true);
             }
         }
         let cons = &data.constraints;
+        self.shared.clear();
+        let mut prev = None;
         for row in &cons.rows {
             let geo = &cons
                 .geometry
@@ -341,11 +385,25 @@ impl Assembly {
                 .find(|(k, _)| *k == row.contact)
                 .expect("active contact")
                 .1;
-            let c = differentiable_point(model, kin, row.contact, geo)?;
+            let shared = prev == Some(row.contact);
+            let c = if shared {
+                None
+            } else {
+                Some(differentiable_point(model, kin, row.contact, geo)?)
+            };
             let d = row_direction(&geo.plane, row.direction);
             let s = next_slot(&mut self.rows, &mut self.n_rows);
             self.rows[s].0 = d;
-            self.rows[s].1.reset(model, kin, geo.part, c, qd);
+            match c {
+                // the same contact's point as the row before: the same numbers
+                None => {
+                    let (done, this) = self.rows.split_at_mut(s);
+                    this[0].1.copy_from(&done[s - 1].1);
+                }
+                Some(c) => self.rows[s].1.reset(model, kin, geo.part, c, qd, false),
+            }
+            self.shared.push(shared);
+            prev = Some(row.contact);
         }
         self.springs.clear();
         for (j, joint) in model.joints.iter().enumerate() {
@@ -507,10 +565,15 @@ impl Assembly {
 
     /// Sets the vector `x` that [`Self::dq_terms`] differentiates `M̄ x`, `A x` along.
     fn set_x(&mut self, x: &[f64]) {
-        let masses = self.masses[..self.n_masses].iter_mut().map(|(_, p)| p);
-        for p in masses.chain(self.rows[..self.n_rows].iter_mut().map(|(_, p)| p)) {
+        // `Dp[x]` enters the masses' terms only (none for a zero lever)
+        for (_, p) in self.masses[..self.n_masses].iter_mut() {
+            if !p.zero_lever {
+                p.lever.omegas_into(x, &mut p.w_x);
+                p.px = p.lever.d1(&p.w_x, x);
+            }
+        }
+        for (_, p) in self.rows[..self.n_rows].iter_mut() {
             p.lever.omegas_into(x, &mut p.w_x);
-            p.px = p.lever.d1(&p.w_x, x);
         }
     }
 
@@ -521,25 +584,29 @@ impl Assembly {
         let mut e = vec![0.0; self.nq];
         e[k] = 1.0;
         let (mut f, mut g) = (DVector::zeros(0), DVector::zeros(0));
-        self.dq_terms_along(&e, y, with_velocity, &mut Vec::new(), &mut f, &mut g);
+        let mut scratch = Scratch::default();
+        self.dq_terms_along(&e, y, with_velocity, &mut scratch, &mut f, &mut g);
         (f, g)
     }
 
     /// [`Self::dq_terms`] along an arbitrary direction `v` of `q` (the terms are linear in
     /// the direction: `ω(e_k)` becomes `ω(v)`), into `f`, `g` (zeroed and sized here), with
-    /// `wv` a scratch buffer.
+    /// `scratch` buffers. A row whose point is the previous row's ([`Self::shared`]) reuses
+    /// the previous row's `ω(v)`, `D²c[x, v]`, `D³c[q̇, q̇, v]` and `D²c[e_i, v]` (the same
+    /// numbers: the same point and direction).
     fn dq_terms_along(
         &self,
         v: &[f64],
         y: &[f64],
         with_velocity: bool,
-        wv: &mut Vec<f64>,
+        scratch: &mut Scratch,
         f: &mut DVector<f64>,
         g: &mut DVector<f64>,
     ) {
         let nq = self.nq;
         zero_sized(f, nq);
-        for (m, p) in self.masses() {
+        let Scratch { w: wv, d2: d2s } = scratch;
+        for (m, p) in self.masses().iter().filter(|(_, p)| !p.zero_lever) {
             let lv = &p.lever;
             lv.omegas_into(v, wv);
             let wv = &wv[..];
@@ -555,18 +622,32 @@ impl Assembly {
             }
         }
         zero_sized(g, self.n_rows);
+        // `D²c[x, v]`, `D³c[q̇, q̇, v]` of the last point, and whether `d2s` holds its
+        // `D²c[e_i, v]`
+        let (mut dxv, mut d3v, mut have_e) = (Vector2::zeros(), Vector2::zeros(), false);
         for (r, (d, p)) in self.rows().iter().enumerate() {
             let lv = &p.lever;
-            lv.omegas_into(v, wv);
-            let wv = &wv[..];
-            let mut s = -d.dot(&lv.d2(&p.w_x, wv));
+            if !self.shared[r] {
+                lv.omegas_into(v, wv);
+                dxv = lv.d2(&p.w_x, wv);
+                if with_velocity {
+                    d3v = lv.d3(&p.w_qd, &p.w_qd, wv);
+                }
+                have_e = false;
+            }
+            let mut s = -d.dot(&dxv);
             if with_velocity {
-                s -= d.dot(&lv.d3(&p.w_qd, &p.w_qd, wv));
+                s -= d.dot(&d3v);
             }
             g[r] = s;
             if y[r] != 0.0 {
+                if !have_e {
+                    d2s.clear();
+                    d2s.extend((0..nq).map(|i| lv.d2(p.we(i), wv)));
+                    have_e = true;
+                }
                 for i in 0..nq {
-                    f[i] -= y[r] * d.dot(&lv.d2(p.we(i), wv));
+                    f[i] -= y[r] * d.dot(&d2s[i]);
                 }
             }
         }
@@ -583,7 +664,7 @@ impl Assembly {
     ) {
         let nq = self.nq;
         zero_sized(f, nq);
-        for (m, p) in self.masses() {
+        for (m, p) in self.masses().iter().filter(|(_, p)| !p.zero_lever) {
             p.lever.omegas_into(w, ww);
             let a = 2.0 * p.lever.d2(&p.w_qd, ww);
             for i in 0..nq {
@@ -591,26 +672,38 @@ impl Assembly {
             }
         }
         zero_sized(g, self.n_rows);
+        let mut a = Vector2::zeros();
         for (r, (d, p)) in self.rows().iter().enumerate() {
-            p.lever.omegas_into(w, ww);
-            g[r] = -2.0 * d.dot(&p.lever.d2(&p.w_qd, ww));
+            // a row whose point is the previous row's: the same `D²c[q̇, w]`
+            if !self.shared[r] {
+                p.lever.omegas_into(w, ww);
+                a = p.lever.d2(&p.w_qd, ww);
+            }
+            g[r] = -2.0 * d.dot(&a);
         }
     }
+}
 
-    /// Along the velocity `q̇_k`: `(D_q̇(C̄q̇), D_q̇(Ȧq̇))`.
-    fn dqd_terms(&self, k: usize) -> (DVector<f64>, DVector<f64>) {
-        let mut e = vec![0.0; self.nq];
-        e[k] = 1.0;
-        let (mut f, mut g) = (DVector::zeros(0), DVector::zeros(0));
-        self.dqd_terms_along(&e, &mut Vec::new(), &mut f, &mut g);
-        (f, g)
+/// Scratch buffers of the directional terms: `ω` along a direction, and `D²c[e_i, v]` of a
+/// point for every coordinate `i` ([`Assembly::dq_terms_along`]).
+#[derive(Debug, Clone, Default)]
+struct Scratch {
+    w: Vec<f64>,
+    d2: Vec<Vector2<f64>>,
+}
+
+/// `a += b` (as nalgebra's `+=` forms it, entry by entry, on the slices).
+fn add_to(a: &mut DVector<f64>, b: &DVector<f64>) {
+    assert_eq!(a.len(), b.len(), "add_to: mismatched lengths");
+    for (x, y) in a.as_mut_slice().iter_mut().zip(b.as_slice()) {
+        *x += y;
     }
 }
 
 /// Sets `v` to `n` zeros, allocating only when its length changes.
 fn zero_sized(v: &mut DVector<f64>, n: usize) {
     if v.len() == n {
-        v.fill(0.0);
+        v.as_mut_slice().fill(0.0);
     } else {
         *v = DVector::zeros(n);
     }
@@ -619,7 +712,7 @@ fn zero_sized(v: &mut DVector<f64>, n: usize) {
 /// Sets `a` to `r × c` zeros, allocating only when its shape changes.
 fn zero_shaped(a: &mut DMatrix<f64>, r: usize, c: usize) {
     if a.shape() == (r, c) {
-        a.fill(0.0);
+        a.as_mut_slice().fill(0.0);
     } else {
         *a = DMatrix::zeros(r, c);
     }
@@ -715,13 +808,15 @@ impl Solver {
         x_out: &mut DMatrix<f64>,
         y_out: Option<&mut DMatrix<f64>>,
     ) {
-        let mut col = x_out.column_mut(k);
+        let nr = x_out.nrows();
+        let col = &mut x_out.as_mut_slice()[k * nr..(k + 1) * nr];
         col.fill(0.0);
         for (&a, v) in data.dynamic_coords.iter().zip(&self.xr) {
             col[a] = *v;
         }
         if let Some(y_out) = y_out {
-            y_out.column_mut(k).copy_from_slice(&self.y);
+            let nr = y_out.nrows();
+            y_out.as_mut_slice()[k * nr..(k + 1) * nr].copy_from_slice(&self.y);
         }
     }
 }
@@ -765,55 +860,110 @@ pub fn dynamics_jacobian_solved(
     data: &mut Data,
     qd: &[f64],
 ) -> Result<DynamicsJacobian, TangentError> {
-    let mut asm = Assembly::new(model, data, qd)?;
+    let mut ws = JacobianWorkspace::default();
+    let mut out = DynamicsJacobian::default();
+    dynamics_jacobian_solved_into(model, data, qd, &mut ws, &mut out)?;
+    Ok(out)
+}
+
+impl Default for DynamicsJacobian {
+    /// Empty (`0 × 0`) blocks, to be sized by [`dynamics_jacobian_solved_into`].
+    fn default() -> Self {
+        DynamicsJacobian {
+            dqdd_dq: DMatrix::zeros(0, 0),
+            dqdd_dqd: DMatrix::zeros(0, 0),
+            dqdd_dtau: DMatrix::zeros(0, 0),
+            dlambda_dq: DMatrix::zeros(0, 0),
+            dlambda_dqd: DMatrix::zeros(0, 0),
+            dlambda_dtau: DMatrix::zeros(0, 0),
+        }
+    }
+}
+
+/// The reusable buffers of [`dynamics_jacobian_solved_into`]: the assembly at the current
+/// state, a copy of `λ`, the unit direction, the right-hand sides and the KKT solve's. Kept
+/// by a caller that forms many Jacobians (an integrator's stages), so that after the first
+/// call of a given size no call allocates.
+#[derive(Debug, Default)]
+pub struct JacobianWorkspace {
+    asm: Assembly,
+    lambda: Vec<f64>,
+    e: Vec<f64>,
+    scratch: Scratch,
+    f: DVector<f64>,
+    g: DVector<f64>,
+    zeros: DVector<f64>,
+    solver: Solver,
+}
+
+/// [`dynamics_jacobian_solved`] on the buffers of `ws`, into `out` (whose blocks are resized
+/// only when their shapes change): the same arithmetic, in the same order, so the results
+/// are bit-identical to [`dynamics_jacobian_solved`]'s.
+pub fn dynamics_jacobian_solved_into(
+    model: &Model,
+    data: &mut Data,
+    qd: &[f64],
+    ws: &mut JacobianWorkspace,
+    out: &mut DynamicsJacobian,
+) -> Result<(), TangentError> {
+    let JacobianWorkspace {
+        asm,
+        lambda,
+        e,
+        scratch,
+        f,
+        g,
+        zeros,
+        solver,
+    } = ws;
+    asm.reset(model, data, qd)?;
     asm.check_flow()?;
     let fold = asm.fold(model, data)?;
     let fold = fold.as_ref();
     let (nq, n, c) = (model.nq(), model.n_joints(), data.constraints.n_rows());
     asm.set_x(data.qdd.as_slice());
-    let lambda: Vec<f64> = data.lambda.iter().copied().collect();
-    let mut out = DynamicsJacobian {
-        dqdd_dq: DMatrix::zeros(nq, nq),
-        dqdd_dqd: DMatrix::zeros(nq, nq),
-        dqdd_dtau: DMatrix::zeros(nq, n),
-        dlambda_dq: DMatrix::zeros(c, nq),
-        dlambda_dqd: DMatrix::zeros(c, nq),
-        dlambda_dtau: DMatrix::zeros(c, n),
-    };
-    let mut solver = Solver::default();
-    let (mut e, mut wv) = (vec![0.0; nq], Vec::new());
+    lambda.clear();
+    lambda.extend(data.lambda.iter().copied());
+    zero_shaped(&mut out.dqdd_dq, nq, nq);
+    zero_shaped(&mut out.dqdd_dqd, nq, nq);
+    zero_shaped(&mut out.dqdd_dtau, nq, n);
+    zero_shaped(&mut out.dlambda_dq, c, nq);
+    zero_shaped(&mut out.dlambda_dqd, c, nq);
+    zero_shaped(&mut out.dlambda_dtau, c, n);
+    e.clear();
+    e.resize(nq, 0.0);
     let no_tau = |_: usize| 0.0;
     for k in 0..nq {
         e[k] = 1.0;
-        let (mut f, g) = asm.dq_terms(k, &lambda, true);
-        asm.applied_terms_along(Some(&e), None, &no_tau, &mut wv, &mut f);
-        asm.general_terms_along(&e, &lambda, &mut wv, &mut f);
+        asm.dq_terms_along(e, lambda, true, scratch, f, g);
+        let wv = &mut scratch.w;
+        asm.applied_terms_along(Some(e), None, &no_tau, wv, f);
+        asm.general_terms_along(e, lambda, wv, f);
         let (x, y) = (&mut out.dqdd_dq, &mut out.dlambda_dq);
-        solver.solve_folded(data, fold, -1.0, &f, &g, k, x, Some(y))?;
-        let (mut f, g) = asm.dqd_terms(k);
-        asm.applied_terms_along(None, Some(&e), &no_tau, &mut wv, &mut f);
+        solver.solve_folded(data, fold, -1.0, f, g, k, x, Some(y))?;
+        asm.dqd_terms_along(e, wv, f, g);
+        asm.applied_terms_along(None, Some(e), &no_tau, wv, f);
         let (x, y) = (&mut out.dqdd_dqd, &mut out.dlambda_dqd);
-        solver.solve_folded(data, fold, -1.0, &f, &g, k, x, Some(y))?;
+        solver.solve_folded(data, fold, -1.0, f, g, k, x, Some(y))?;
         e[k] = 0.0;
     }
-    let zeros = DVector::zeros(c);
-    let mut f = DVector::zeros(nq);
+    zero_sized(zeros, c);
     for j in 0..n {
         // δ(Υ + f^fr) along the unit torque of joint j (the friction's through f_j)
-        f.fill(0.0);
+        zero_sized(f, nq);
         asm.applied_terms_along(
             None,
             None,
             &|i| if i == j { 1.0 } else { 0.0 },
-            &mut wv,
-            &mut f,
+            &mut scratch.w,
+            f,
         );
         f.neg_mut();
         f[j] += 1.0;
         let (x, y) = (&mut out.dqdd_dtau, &mut out.dlambda_dtau);
-        solver.solve_folded(data, fold, 1.0, &f, &zeros, j, x, Some(y))?;
+        solver.solve_folded(data, fold, 1.0, f, zeros, j, x, Some(y))?;
     }
-    Ok(out)
+    Ok(())
 }
 
 /// The plastic impact (5.10)/(5.52) into a mode and the Jacobian of its velocity map
@@ -1008,7 +1158,7 @@ pub struct JvpWorkspace {
     asm: Assembly,
     qdd: Vec<f64>,
     lambda: Vec<f64>,
-    scratch: Vec<f64>,
+    scratch: Scratch,
     f: DVector<f64>,
     g: DVector<f64>,
     fv: DVector<f64>,
@@ -1051,10 +1201,10 @@ pub fn dynamics_jvp_into(
     let fold = asm.fold(model, data)?;
     let (nq, c, m) = (model.nq(), data.constraints.n_rows(), dirs.dq.ncols());
     qdd.clear();
-    qdd.extend(data.qdd.iter().copied());
+    qdd.extend_from_slice(data.qdd.as_slice());
     asm.set_x(qdd);
     lambda.clear();
-    lambda.extend(data.lambda.iter().copied());
+    lambda.extend_from_slice(data.lambda.as_slice());
     zero_shaped(dqdd, nq, m);
     zero_shaped(dlambda, c, m);
     let (dq, dqd) = (dirs.dq.as_slice(), dirs.dqd.as_slice());
@@ -1065,22 +1215,30 @@ pub fn dynamics_jvp_into(
         zero_sized(g, c);
         if v.iter().any(|x| *x != 0.0) {
             asm.dq_terms_along(v, lambda, true, scratch, fv, gv);
-            *f += &*fv;
-            *g += &*gv;
-            asm.general_terms_along(v, lambda, scratch, f);
+            add_to(f, fv);
+            add_to(g, gv);
+            asm.general_terms_along(v, lambda, &mut scratch.w, f);
         }
         if w.iter().any(|x| *x != 0.0) {
-            asm.dqd_terms_along(w, scratch, fw, gw);
-            *f += &*fw;
-            *g += &*gw;
+            asm.dqd_terms_along(w, &mut scratch.w, fw, gw);
+            add_to(f, fw);
+            add_to(g, gw);
         }
-        for j in 0..dirs.dtau.nrows() {
-            f[j] -= dirs.dtau[(j, col)];
+        let nt = dirs.dtau.nrows();
+        let dtau_col = &dirs.dtau.as_slice()[col * nt..(col + 1) * nt];
+        for (fj, t) in f.as_mut_slice().iter_mut().zip(dtau_col) {
+            *fj -= t;
         }
         if !asm.springs.is_empty() || asm.n_sliding > 0 {
             let dtau = |j: usize| dirs.dtau.get((j, col)).copied().unwrap_or(0.0);
             let nz = |x: &[f64]| x.iter().any(|v| *v != 0.0);
-            asm.applied_terms_along(nz(v).then_some(v), nz(w).then_some(w), &dtau, scratch, f);
+            asm.applied_terms_along(
+                nz(v).then_some(v),
+                nz(w).then_some(w),
+                &dtau,
+                &mut scratch.w,
+                f,
+            );
         }
         if let Some(p) = dirs.body.get(col).copied().flatten() {
             p.dm_x_into(model, qdd, true, fb);

@@ -108,9 +108,9 @@ use selfmanip_core::friction::SlideDirection;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::model::Friction;
 use selfmanip_core::tangent::{
-    dynamics_jacobian_solved, dynamics_jvp_into, height_gradient, plastic_impact_body_derivatives,
-    plastic_impact_jacobian, sliding_velocity_gradient, BodyParameter, FlowDirections,
-    JvpWorkspace, TangentError,
+    dynamics_jacobian_solved_into, dynamics_jvp_into, height_gradient,
+    plastic_impact_body_derivatives, plastic_impact_jacobian, sliding_velocity_gradient,
+    BodyParameter, DynamicsJacobian, FlowDirections, JacobianWorkspace, JvpWorkspace, TangentError,
 };
 use selfmanip_core::{forward_dynamics_prepared, ContactMode, Data, Model, Terrain};
 
@@ -217,6 +217,7 @@ pub fn simulate_with_sensitivity(
 }
 
 /// The flow and its Jacobian at one state.
+#[derive(Clone, Default)]
 struct FlowJacobian {
     /// `f = (q̇, q̈)`.
     f: DVector<f64>,
@@ -242,12 +243,30 @@ struct Evaluator<'a> {
     /// across evaluations so that a step allocates nothing once they are sized.
     cols: ColumnBuffers,
     stages: StageBuffers,
+    /// The buffers of [`Self::eval_into`] and its result.
+    full: FullBuffers,
     /// Whether the controllers' event memory is differentiated (some segment's controller
     /// has it, [`Controller::has_event_memory`]); then `memory[k]` holds
     /// `d(t_k, q_k, q̇_k⁺)/d(columns)` (`(1 + 2nq) × m`) of the `k`-th event the controllers
     /// were told of.
     memory_mode: bool,
     memory: Vec<DMatrix<f64>>,
+}
+
+/// The reusable buffers of one [`Evaluator::eval_into`] (the full Jacobian), and its result.
+#[derive(Default)]
+struct FullBuffers {
+    partials: Option<ControllerPartials>,
+    free_joints: Vec<usize>,
+    ws: JacobianWorkspace,
+    dj: DynamicsJacobian,
+    dqdd_dq: DMatrix<f64>,
+    dqdd_dqd: DMatrix<f64>,
+    /// `∂λ/∂Υ ∂Υ/∂q` and `∂λ/∂Υ ∂Υ/∂q̇`.
+    dl_q: DMatrix<f64>,
+    dl_qd: DMatrix<f64>,
+    /// The flow and its Jacobian at the last state evaluated.
+    out: FlowJacobian,
 }
 
 /// The reusable buffers of one [`Evaluator::eval_columns_into`].
@@ -319,7 +338,7 @@ fn zero_partials(
             &mut p.dtau_dp,
             &mut p.dfree_dp,
         ] {
-            a.fill(0.0);
+            a.as_mut_slice().fill(0.0);
         }
     } else {
         *slot = Some(ControllerPartials::with_parameters(n, nq, n_free, k));
@@ -341,6 +360,7 @@ impl<'a> Evaluator<'a> {
             kin: Kinematics::default(),
             cols: ColumnBuffers::default(),
             stages: StageBuffers::default(),
+            full: FullBuffers::default(),
             memory_mode: false,
             memory: Vec::new(),
         }
@@ -366,7 +386,8 @@ impl<'a> Evaluator<'a> {
         }));
     }
 
-    /// The flow of `mode` at `(t, y)` under `ctrl` with `locked` joints, and its Jacobian.
+    /// The flow of `mode` at `(t, y)` under `ctrl` with `locked` joints, and its Jacobian
+    /// (a copy of [`Self::eval_into`]'s result).
     fn eval(
         &mut self,
         ctrl: &dyn Controller,
@@ -376,6 +397,28 @@ impl<'a> Evaluator<'a> {
         mode: ContactMode,
         y: &[f64],
     ) -> Result<FlowJacobian, SensitivityError> {
+        self.eval_into(ctrl, locked, dirs, t, mode, y)?;
+        Ok(self.full.out.clone())
+    }
+
+    /// Prepares `self.data` at `(mode, y)` with `locked` joints and the sliding directions
+    /// `dirs`, and evaluates the controller's torques and free joints' accelerations there
+    /// (into `self.tau`, `self.free`) and its state partials (into `slot`, `k` parameter
+    /// columns zeroed); the free joints are left in `free_joints`. What every evaluation
+    /// starts with.
+    #[allow(clippy::too_many_arguments)]
+    fn prepare_controller(
+        &mut self,
+        ctrl: &dyn Controller,
+        locked: &[usize],
+        dirs: &[(usize, SlideDirection)],
+        t: f64,
+        mode: ContactMode,
+        y: &[f64],
+        slot: &mut Option<ControllerPartials>,
+        free_joints: &mut Vec<usize>,
+        k: usize,
+    ) -> Result<(), SensitivityError> {
         let (model, nq, n) = (self.model, self.model.nq(), self.model.n_joints());
         let (q, qd) = y.split_at(nq);
         self.data.locked.clear();
@@ -385,53 +428,139 @@ impl<'a> Evaluator<'a> {
         self.data
             .prepare(model, self.terrain, mode, q, qd)
             .map_err(TangentError::from)?;
-        let free_joints = self.data.free_joints.clone();
+        free_joints.clear();
+        free_joints.extend_from_slice(&self.data.free_joints);
         ctrl.torque(t, q, qd, mode, &mut self.tau);
         self.free.resize(free_joints.len(), 0.0);
-        ctrl.free_joint_qdd(t, q, qd, &free_joints, &mut self.free);
-        for (x, j) in self.free.iter_mut().zip(&free_joints) {
+        ctrl.free_joint_qdd(t, q, qd, free_joints, &mut self.free);
+        for (x, j) in self.free.iter_mut().zip(free_joints.iter()) {
             if locked.contains(j) {
                 *x = 0.0;
             }
         }
-        let mut p = ControllerPartials::zeros(n, nq, free_joints.len());
-        if !ctrl.partials(t, q, qd, mode, &free_joints, &mut p) {
+        let p = zero_partials(slot, n, nq, free_joints.len(), k);
+        if !ctrl.partials(t, q, qd, mode, free_joints, p) {
             return Err(SensitivityError::ControllerWithoutPartials { t });
         }
-        forward_dynamics_prepared(model, &mut self.data, &self.tau, Some(&self.free))
+        Ok(())
+    }
+
+    /// The flow `f = (q̇, q̈)` of `mode` at `(t, y)` alone: [`Self::eval`]'s `f`, bit for bit,
+    /// without the Jacobian (a time event's or a switch's jump, the flow after an event).
+    fn flow(
+        &mut self,
+        ctrl: &dyn Controller,
+        locked: &[usize],
+        dirs: &[(usize, SlideDirection)],
+        t: f64,
+        mode: ContactMode,
+        y: &[f64],
+    ) -> Result<DVector<f64>, SensitivityError> {
+        let nq = self.model.nq();
+        let mut fb = std::mem::take(&mut self.full);
+        let r = self.solve_flow(&mut fb, ctrl, locked, dirs, t, mode, y);
+        self.full = fb;
+        r?;
+        let mut f = DVector::zeros(2 * nq);
+        f.rows_mut(0, nq).copy_from_slice(&y[nq..]);
+        f.rows_mut(nq, nq).copy_from(&self.data.qdd);
+        Ok(f)
+    }
+
+    /// The flow of `mode` at `(t, y)` under `ctrl` with `locked` joints, and its Jacobian,
+    /// into `self.full.out` (on the evaluator's buffers: no allocation once they are sized).
+    fn eval_into(
+        &mut self,
+        ctrl: &dyn Controller,
+        locked: &[usize],
+        dirs: &[(usize, SlideDirection)],
+        t: f64,
+        mode: ContactMode,
+        y: &[f64],
+    ) -> Result<(), SensitivityError> {
+        let mut fb = std::mem::take(&mut self.full);
+        let r = self.eval_on(&mut fb, ctrl, locked, dirs, t, mode, y);
+        self.full = fb;
+        r
+    }
+
+    /// [`Self::prepare_controller`] on the buffers `fb` and the forward dynamics (`q̈` and
+    /// `λ` in `self.data`), with the controller's state partials in `fb.partials`.
+    #[allow(clippy::too_many_arguments)]
+    fn solve_flow(
+        &mut self,
+        fb: &mut FullBuffers,
+        ctrl: &dyn Controller,
+        locked: &[usize],
+        dirs: &[(usize, SlideDirection)],
+        t: f64,
+        mode: ContactMode,
+        y: &[f64],
+    ) -> Result<(), SensitivityError> {
+        let (slot, free_joints) = (&mut fb.partials, &mut fb.free_joints);
+        self.prepare_controller(ctrl, locked, dirs, t, mode, y, slot, free_joints, 0)?;
+        forward_dynamics_prepared(self.model, &mut self.data, &self.tau, Some(&self.free))
             .map_err(TangentError::from)?;
-        let dj = dynamics_jacobian_solved(model, &mut self.data, qd)?;
-        let mut dqdd_dq = &dj.dqdd_dq + &dj.dqdd_dtau * &p.dtau_dq;
-        let mut dqdd_dqd = &dj.dqdd_dqd + &dj.dqdd_dtau * &p.dtau_dqd;
-        for (i, &j) in free_joints.iter().enumerate() {
+        Ok(())
+    }
+
+    /// [`Self::eval_into`] on the buffers `fb` (taken out of `self` for the evaluation).
+    #[allow(clippy::too_many_arguments)]
+    fn eval_on(
+        &mut self,
+        fb: &mut FullBuffers,
+        ctrl: &dyn Controller,
+        locked: &[usize],
+        dirs: &[(usize, SlideDirection)],
+        t: f64,
+        mode: ContactMode,
+        y: &[f64],
+    ) -> Result<(), SensitivityError> {
+        let (model, nq) = (self.model, self.model.nq());
+        let qd = &y[nq..];
+        self.solve_flow(fb, ctrl, locked, dirs, t, mode, y)?;
+        let p = fb.partials.as_ref().expect("set by prepare_controller");
+        dynamics_jacobian_solved_into(model, &mut self.data, qd, &mut fb.ws, &mut fb.dj)?;
+        let dj = &fb.dj;
+        // the same products and sums as `∂q̈/∂q + ∂q̈/∂Υ ∂Υ/∂q` formed by value
+        let c = dj.dlambda_dq.nrows();
+        fit(&mut fb.dqdd_dq, nq, nq);
+        fb.dqdd_dq.gemm(1.0, &dj.dqdd_dtau, &p.dtau_dq, 0.0);
+        fb.dqdd_dq += &dj.dqdd_dq;
+        fit(&mut fb.dqdd_dqd, nq, nq);
+        fb.dqdd_dqd.gemm(1.0, &dj.dqdd_dtau, &p.dtau_dqd, 0.0);
+        fb.dqdd_dqd += &dj.dqdd_dqd;
+        for (i, &j) in fb.free_joints.iter().enumerate() {
             if !locked.contains(&j) {
-                dqdd_dq.set_row(j, &p.dfree_dq.row(i));
-                dqdd_dqd.set_row(j, &p.dfree_dqd.row(i));
+                fb.dqdd_dq.set_row(j, &p.dfree_dq.row(i));
+                fb.dqdd_dqd.set_row(j, &p.dfree_dqd.row(i));
             }
         }
-        let mut jac = DMatrix::zeros(2 * nq, 2 * nq);
-        jac.view_mut((0, nq), (nq, nq))
-            .copy_from(&DMatrix::identity(nq, nq));
-        jac.view_mut((nq, 0), (nq, nq)).copy_from(&dqdd_dq);
-        jac.view_mut((nq, nq), (nq, nq)).copy_from(&dqdd_dqd);
-        let c = dj.dlambda_dq.nrows();
-        let mut dlambda = DMatrix::zeros(c, 2 * nq);
-        dlambda
-            .view_mut((0, 0), (c, nq))
-            .copy_from(&(&dj.dlambda_dq + &dj.dlambda_dtau * &p.dtau_dq));
-        dlambda
-            .view_mut((0, nq), (c, nq))
-            .copy_from(&(&dj.dlambda_dqd + &dj.dlambda_dtau * &p.dtau_dqd));
-        let mut f = DVector::zeros(2 * nq);
-        f.rows_mut(0, nq).copy_from_slice(qd);
-        f.rows_mut(nq, nq).copy_from(&self.data.qdd);
-        Ok(FlowJacobian {
-            f,
-            jac,
-            dlambda,
-            lambda: self.data.lambda.clone(),
-            dlambda_dtau: dj.dlambda_dtau,
-        })
+        let out = &mut fb.out;
+        fit(&mut out.jac, 2 * nq, 2 * nq);
+        out.jac.fill(0.0);
+        for i in 0..nq {
+            out.jac[(i, nq + i)] = 1.0;
+        }
+        out.jac.view_mut((nq, 0), (nq, nq)).copy_from(&fb.dqdd_dq);
+        out.jac.view_mut((nq, nq), (nq, nq)).copy_from(&fb.dqdd_dqd);
+        fit(&mut fb.dl_q, c, nq);
+        fb.dl_q.gemm(1.0, &dj.dlambda_dtau, &p.dtau_dq, 0.0);
+        fb.dl_q += &dj.dlambda_dq;
+        fit(&mut fb.dl_qd, c, nq);
+        fb.dl_qd.gemm(1.0, &dj.dlambda_dtau, &p.dtau_dqd, 0.0);
+        fb.dl_qd += &dj.dlambda_dqd;
+        fit(&mut out.dlambda, c, 2 * nq);
+        out.dlambda.view_mut((0, 0), (c, nq)).copy_from(&fb.dl_q);
+        out.dlambda.view_mut((0, nq), (c, nq)).copy_from(&fb.dl_qd);
+        fit_vec(&mut out.f, 2 * nq);
+        out.f.rows_mut(0, nq).copy_from_slice(qd);
+        out.f.rows_mut(nq, nq).copy_from(&self.data.qdd);
+        fit_vec(&mut out.lambda, c);
+        out.lambda.copy_from(&self.data.lambda);
+        fit(&mut out.dlambda_dtau, c, dj.dlambda_dtau.ncols());
+        out.dlambda_dtau.copy_from(&dj.dlambda_dtau);
+        Ok(())
     }
 }
 
@@ -517,29 +646,25 @@ impl Evaluator<'_> {
     ) -> Result<(), SensitivityError> {
         let (model, nq, n) = (self.model, self.model.nq(), self.model.n_joints());
         let (q, qd) = y.split_at(nq);
-        self.data.locked.clear();
-        self.data.locked.extend_from_slice(locked);
-        // the segment's sliding directions, as its flow had them (crate::flow)
-        self.data.set_slide_directions(dirs);
-        self.data
-            .prepare(model, self.terrain, mode, q, qd)
-            .map_err(TangentError::from)?;
+        let mut slot = std::mem::take(&mut self.cols.partials);
+        let mut free_joints = std::mem::take(&mut self.cols.free_joints);
+        let k = names.len();
+        let r = self.prepare_controller(
+            ctrl,
+            locked,
+            dirs,
+            t,
+            mode,
+            y,
+            &mut slot,
+            &mut free_joints,
+            k,
+        );
         let cb = &mut self.cols;
-        cb.free_joints.clear();
-        cb.free_joints.extend_from_slice(&self.data.free_joints);
+        (cb.partials, cb.free_joints) = (slot, free_joints);
+        r?;
         let free_joints = &cb.free_joints;
-        ctrl.torque(t, q, qd, mode, &mut self.tau);
-        self.free.resize(free_joints.len(), 0.0);
-        ctrl.free_joint_qdd(t, q, qd, free_joints, &mut self.free);
-        for (v, j) in self.free.iter_mut().zip(free_joints) {
-            if locked.contains(j) {
-                *v = 0.0;
-            }
-        }
-        let p = zero_partials(&mut cb.partials, n, nq, free_joints.len(), names.len());
-        if !ctrl.partials(t, q, qd, mode, free_joints, p) {
-            return Err(SensitivityError::ControllerWithoutPartials { t });
-        }
+        let p = cb.partials.as_mut().expect("set by prepare_controller");
         if !ctrl.parameter_partials(t, q, qd, mode, free_joints, names, p) {
             return Err(SensitivityError::UnknownParameter {
                 name: names.join(", "),
@@ -551,21 +676,30 @@ impl Evaluator<'_> {
         let m = x.ncols();
         let nd = m - params.len();
         fit(&mut cb.dq, nq, m);
-        cb.dq.copy_from(&x.rows(0, nq));
         fit(&mut cb.dqd, nq, m);
-        cb.dqd.copy_from(&x.rows(nq, nq));
-        // the same products and sums as `∂Υ/∂q δq + ∂Υ/∂q̇ δq̇` formed by value
+        for j in 0..m {
+            let xj = &x.as_slice()[j * 2 * nq..(j + 1) * 2 * nq];
+            cb.dq.as_mut_slice()[j * nq..(j + 1) * nq].copy_from_slice(&xj[..nq]);
+            cb.dqd.as_mut_slice()[j * nq..(j + 1) * nq].copy_from_slice(&xj[nq..]);
+        }
+        // `∂Υ/∂q δq + ∂Υ/∂q̇ δq̇`, the products and their sum as nalgebra forms them
         fit(&mut cb.dtau, n, m);
         fit(&mut cb.dtau2, n, m);
-        cb.dtau.gemm(1.0, &p.dtau_dq, &cb.dq, 0.0);
-        cb.dtau2.gemm(1.0, &p.dtau_dqd, &cb.dqd, 0.0);
-        cb.dtau += &cb.dtau2;
+        gemm_pair(
+            &mut cb.dtau,
+            &mut cb.dtau2,
+            (&p.dtau_dq, &cb.dq),
+            (&p.dtau_dqd, &cb.dqd),
+        );
         let nf = free_joints.len();
         fit(&mut cb.dfree, nf, m);
         fit(&mut cb.dfree2, nf, m);
-        cb.dfree.gemm(1.0, &p.dfree_dq, &cb.dq, 0.0);
-        cb.dfree2.gemm(1.0, &p.dfree_dqd, &cb.dqd, 0.0);
-        cb.dfree += &cb.dfree2;
+        gemm_pair(
+            &mut cb.dfree,
+            &mut cb.dfree2,
+            (&p.dfree_dq, &cb.dq),
+            (&p.dfree_dqd, &cb.dqd),
+        );
         if self.memory_mode {
             // the remembered events' tangents force every column: `∂Υ/∂m_k Dm_k`
             cb.mem.clear();
@@ -638,12 +772,72 @@ impl Evaluator<'_> {
             }
         }
         fit(dx, 2 * nq, m);
-        dx.rows_mut(0, nq).copy_from(&cb.dqd);
-        dx.rows_mut(nq, nq).copy_from(&cb.dqdd);
+        for ((dxj, dqdj), dqddj) in dx
+            .as_mut_slice()
+            .chunks_exact_mut(2 * nq)
+            .zip(cb.dqd.as_slice().chunks_exact(nq))
+            .zip(cb.dqdd.as_slice().chunks_exact(nq))
+        {
+            dxj[..nq].copy_from_slice(dqdj);
+            dxj[nq..].copy_from_slice(dqddj);
+        }
         fit_vec(f, 2 * nq);
-        f.rows_mut(0, nq).copy_from_slice(qd);
-        f.rows_mut(nq, nq).copy_from(&self.data.qdd);
+        f.as_mut_slice()[..nq].copy_from_slice(qd);
+        f.as_mut_slice()[nq..].copy_from_slice(self.data.qdd.as_slice());
         Ok(())
+    }
+}
+
+/// `out = a₁ b₁ + a₂ b₂` with `tmp` a buffer of `out`'s shape: bit for bit what
+/// `out.gemm(1, a₁, b₁, 0); tmp.gemm(1, a₂, b₂, 0); out += tmp` gives, without nalgebra's
+/// generic loops for the small products the stages form (nalgebra's small-size `gemm` sums
+/// `a_ik b_kj` over `k` in order, starting from the first product; for larger ones, which
+/// it hands to `matrixmultiply`, its own `gemm` is called).
+fn gemm_pair(
+    out: &mut DMatrix<f64>,
+    tmp: &mut DMatrix<f64>,
+    (a1, b1): (&DMatrix<f64>, &DMatrix<f64>),
+    (a2, b2): (&DMatrix<f64>, &DMatrix<f64>),
+) {
+    const SMALL_DIM: usize = 5;
+    let big = |a: &DMatrix<f64>| {
+        out.nrows() > SMALL_DIM
+            && out.ncols() > SMALL_DIM
+            && a.nrows() > SMALL_DIM
+            && a.ncols() > SMALL_DIM
+    };
+    if big(a1) || big(a2) || a1.ncols() == 0 || a2.ncols() == 0 {
+        out.gemm(1.0, a1, b1, 0.0);
+        tmp.gemm(1.0, a2, b2, 0.0);
+        *out += &*tmp;
+        return;
+    }
+    let r = out.nrows();
+    let (k1, k2) = (a1.ncols(), a2.ncols());
+    let (a1, b1, a2, b2) = (a1.as_slice(), b1.as_slice(), a2.as_slice(), b2.as_slice());
+    if r == 0 {
+        return;
+    }
+    // entry by entry, in the order of nalgebra's `gemv`: `s = a_i0 b_0j`, then
+    // `s = a_ik b_kj + s` for k = 1, 2, …; then `o = s₁ + s₂`
+    let dot = |a: &[f64], bj: &[f64], i: usize| {
+        let mut s = a[i] * bj[0];
+        let mut idx = i;
+        for &bk in &bj[1..] {
+            idx += r;
+            s += a[idx] * bk;
+        }
+        s
+    };
+    for ((oj, b1j), b2j) in out
+        .as_mut_slice()
+        .chunks_exact_mut(r)
+        .zip(b1.chunks_exact(k1))
+        .zip(b2.chunks_exact(k2))
+    {
+        for (i, o) in oj.iter_mut().enumerate() {
+            *o = dot(a1, b1j, i) + dot(a2, b2j, i);
+        }
     }
 }
 
@@ -725,12 +919,17 @@ impl Tangent<'_> {
             fit_vec(ys, y0.len());
             ys.copy_from_slice(y0);
             fit(ps, phi.nrows(), phi.ncols());
-            ps.copy_from(phi);
+            ps.as_mut_slice().copy_from_slice(phi.as_slice());
             for j in 0..s {
-                ys.axpy(h * RK_A[s][j], &k[j], 1.0);
-                // `ps += (h a_sj) kphi_j`, in place
+                // `ys += (h a_sj) k_j` and `ps += (h a_sj) kphi_j`, in place (as `axpy`
+                // forms them: `a x + y`)
                 let c = h * RK_A[s][j];
-                ps.zip_apply(&kphi[j], |p, v| *p += c * v);
+                for (y, v) in ys.as_mut_slice().iter_mut().zip(k[j].as_slice()) {
+                    *y += c * v;
+                }
+                for (p, v) in ps.as_mut_slice().iter_mut().zip(kphi[j].as_slice()) {
+                    *p += c * v;
+                }
             }
             let ts = (t0 + RK_C[s] * h).max(t_floor).min(t_cap);
             if let Some((piece, record)) = hold {
@@ -741,7 +940,7 @@ impl Tangent<'_> {
             }
             match params {
                 None => {
-                    let fj = ev.eval(
+                    ev.eval_into(
                         &*seg.controller,
                         &seg.locked,
                         &seg.slide_directions,
@@ -749,8 +948,12 @@ impl Tangent<'_> {
                         seg.mode,
                         ys.as_slice(),
                     )?;
-                    kphi[s] = &fj.jac * &*ps;
-                    k[s] = fj.f;
+                    let fj = &ev.full.out;
+                    // `F Φ` into the stage's buffer (the product `&F * &Φ` forms)
+                    fit(&mut kphi[s], fj.jac.nrows(), ps.ncols());
+                    kphi[s].gemm(1.0, &fj.jac, &*ps, 0.0);
+                    fit_vec(&mut k[s], fj.f.len());
+                    k[s].copy_from(&fj.f);
                 }
                 Some((params, names)) => {
                     ev.eval_columns_into(
@@ -771,7 +974,9 @@ impl Tangent<'_> {
         }
         for (s, kp) in kphi.iter().enumerate() {
             let c = h * RK_A[6][s];
-            phi.zip_apply(kp, |p, v| *p += c * v);
+            for (p, v) in phi.as_mut_slice().iter_mut().zip(kp.as_slice()) {
+                *p += c * v;
+            }
         }
         Ok(())
     }
@@ -927,19 +1132,15 @@ fn time_event(
     y: &[f64],
 ) -> Result<TimeEventSensitivity, SensitivityError> {
     let ctrl = &*seg.controller;
-    let fm = ev
-        .eval(
-            ctrl,
-            &seg.locked,
-            &seg.slide_directions,
-            te.t.next_down(),
-            seg.mode,
-            y,
-        )?
-        .f;
-    let fp = ev
-        .eval(ctrl, &seg.locked, &seg.slide_directions, te.t, seg.mode, y)?
-        .f;
+    let fm = ev.flow(
+        ctrl,
+        &seg.locked,
+        &seg.slide_directions,
+        te.t.next_down(),
+        seg.mode,
+        y,
+    )?;
+    let fp = ev.flow(ctrl, &seg.locked, &seg.slide_directions, te.t, seg.mode, y)?;
     let jump = (&fp - &fm).amax();
     let scale = 1.0 + fm.amax().max(fp.amax());
     let out = TimeEventSensitivity {
@@ -1021,26 +1222,22 @@ fn touch_switch(
         sw.status = SaltationStatus::Simultaneous;
         return Ok(sw);
     }
-    let fm = ev
-        .eval(
-            &*seg.controller,
-            &seg.locked,
-            &seg.slide_directions,
-            tm,
-            seg.mode,
-            ym,
-        )?
-        .f;
-    let fp = ev
-        .eval(
-            &*seg.controller,
-            &seg.locked,
-            &seg.slide_directions,
-            tp,
-            seg.mode,
-            yp,
-        )?
-        .f;
+    let fm = ev.flow(
+        &*seg.controller,
+        &seg.locked,
+        &seg.slide_directions,
+        tm,
+        seg.mode,
+        ym,
+    )?;
+    let fp = ev.flow(
+        &*seg.controller,
+        &seg.locked,
+        &seg.slide_directions,
+        tp,
+        seg.mode,
+        yp,
+    )?;
     // g = α_n − β_part(q) − α_end: D_qg = −∂β/∂q
     let mut dg = RowDVector::zeros(n2);
     dg[model.ix_phi()] = -1.0;
@@ -1724,17 +1921,14 @@ fn event_sensitivity(
     }
     let f_plus = match (event.kind, after) {
         (EventKind::Apex, _) => DVector::zeros(n2),
-        (_, Some(a)) => {
-            ev.eval(
-                &*a.controller,
-                &a.locked,
-                &a.slide_directions,
-                t,
-                event.mode_after,
-                &y_plus,
-            )?
-            .f
-        }
+        (_, Some(a)) => ev.flow(
+            &*a.controller,
+            &a.locked,
+            &a.slide_directions,
+            t,
+            event.mode_after,
+            &y_plus,
+        )?,
         (_, None) => {
             // the run ended at this event (its event budget): no flow after it to salt with
             es.status = SaltationStatus::Unsupported {
