@@ -33,10 +33,9 @@ use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyDict, PyList, PyString, PyType};
 use selfmanip_core::{ContactMode, RobotDescription};
 use selfmanip_hybrid::periodic::{PeriodicError, Stability};
-use selfmanip_hybrid::sensitivity::{SaltationStatus, SensitivityError};
+use selfmanip_hybrid::sensitivity::SensitivityError;
 use selfmanip_hybrid::Controller;
 use selfmanip_sim::behaviour::Behaviour;
-use selfmanip_sim::events::event_kind_name;
 use selfmanip_sim::labels::ContactLabels;
 use selfmanip_sim::periodic::{periodic_orbit, run_sensitivity, PeriodicRunError, PeriodicSpec};
 use selfmanip_sim::sweep::{grid, sweep_with, PointResult};
@@ -316,7 +315,7 @@ impl PyScenario {
             let events = PyList::empty(py);
             for (kind, mode) in &o.events {
                 let e = PyDict::new(py);
-                e.set_item("kind", event_kind_name(*kind))?;
+                e.set_item("kind", kind.name())?;
                 e.set_item("mode_after", sim.labels.label(*mode))?;
                 events.append(e)?;
             }
@@ -729,21 +728,9 @@ impl PyRun {
             for e in &s.events {
                 let ed = PyDict::new(py);
                 ed.set_item("t_s", e.t)?;
-                ed.set_item("kind", event_kind_name(e.kind))?;
-                let (status, reason) = match &e.status {
-                    SaltationStatus::Defined => ("defined", None),
-                    SaltationStatus::Grazing { transversality } => (
-                        "grazing",
-                        Some(format!("the flow meets the guard tangentially (|D_xg f| / (|D_xg| |f|) = {transversality:e})")),
-                    ),
-                    SaltationStatus::Simultaneous => (
-                        "simultaneous",
-                        Some("several guards at once, or a mode held for zero time".to_string()),
-                    ),
-                    SaltationStatus::Unsupported { reason } => ("unsupported", Some(reason.clone())),
-                };
-                ed.set_item("status", status)?;
-                ed.set_item("reason", reason)?;
+                ed.set_item("kind", e.kind.name())?;
+                ed.set_item("status", e.status.name())?;
+                ed.set_item("reason", e.status.reason())?;
                 match &e.saltation {
                     Some(x) => ed.set_item("saltation", matrix(x).into_pyarray(py))?,
                     None => ed.set_item("saltation", py.None())?,

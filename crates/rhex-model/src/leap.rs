@@ -2023,16 +2023,7 @@ pub(crate) fn run_leap_setup(
         .iter()
         .map(|e| LeapEvent {
             t_s: e.t - start[0],
-            kind: match e.kind {
-                EventKind::Touchdown => "touchdown",
-                EventKind::Liftoff => "liftoff",
-                EventKind::Slip => "slip",
-                EventKind::Stick => "stick",
-                EventKind::Apex => "apex",
-                EventKind::Fold => "fold",
-                EventKind::FoldPassed => "fold_passed",
-                EventKind::Jam => "jam",
-            },
+            kind: e.kind.name(),
             mode_before: rhex.label(e.mode_before),
             mode_after: rhex.label(e.mode_after),
             contacts: names(&e.triggered),

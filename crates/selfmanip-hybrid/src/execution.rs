@@ -31,6 +31,22 @@ pub enum EventKind {
     Jam,
 }
 
+impl EventKind {
+    /// The kind's name in tables, records and messages (`touchdown`, `fold_passed`, …).
+    pub fn name(self) -> &'static str {
+        match self {
+            EventKind::Touchdown => "touchdown",
+            EventKind::Liftoff => "liftoff",
+            EventKind::Slip => "slip",
+            EventKind::Stick => "stick",
+            EventKind::Apex => "apex",
+            EventKind::Fold => "fold",
+            EventKind::FoldPassed => "fold_passed",
+            EventKind::Jam => "jam",
+        }
+    }
+}
+
 /// One reset of the execution.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Event {

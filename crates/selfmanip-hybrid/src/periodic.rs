@@ -50,7 +50,7 @@ use crate::error::HybridError;
 use crate::execution::{EventKind, Execution, Termination};
 use crate::flow::Flow;
 use crate::options::HybridOptions;
-use crate::sensitivity::{execution_sensitivity, SaltationStatus, SensitivityError};
+use crate::sensitivity::{execution_sensitivity, SensitivityError};
 use crate::simulate::simulate;
 use crate::StepOptions;
 use nalgebra::{Complex, DMatrix, DVector, RowDVector};
@@ -352,19 +352,8 @@ fn apex_return(
                 .iter()
                 .find(|e| e.saltation.is_none())
                 .map(|e| {
-                    let why = match &e.status {
-                        SaltationStatus::Grazing { transversality } => format!(
-                            "the flow meets the guard tangentially (transversality \
-                             {transversality:.1e})"
-                        ),
-                        SaltationStatus::Simultaneous => "several guards fired at once, or \
-                             a mode lasted no time: the outcome may depend on their order"
-                            .into(),
-                        SaltationStatus::Unsupported { reason } => reason.clone(),
-                        SaltationStatus::Defined => "defined".into(),
-                    };
-                    let kind = format!("{:?}", e.kind).to_lowercase();
-                    format!("{kind} at t = {} s: {why}", e.t)
+                    let why = e.status.reason().unwrap_or_default();
+                    format!("{} at t = {} s: {why}", e.kind.name(), e.t)
                 })
                 .unwrap_or_else(|| "a segment end without an event".into());
             return Err(PeriodicError::NotDifferentiable { reason });

@@ -160,6 +160,33 @@ pub enum SaltationStatus {
     },
 }
 
+impl SaltationStatus {
+    /// The status's name (`defined`, `grazing`, `simultaneous`, `unsupported`).
+    pub fn name(&self) -> &'static str {
+        match self {
+            SaltationStatus::Defined => "defined",
+            SaltationStatus::Grazing { .. } => "grazing",
+            SaltationStatus::Simultaneous => "simultaneous",
+            SaltationStatus::Unsupported { .. } => "unsupported",
+        }
+    }
+
+    /// Why the saltation matrix is not defined, in words (`None` when it is).
+    pub fn reason(&self) -> Option<String> {
+        match self {
+            SaltationStatus::Defined => None,
+            SaltationStatus::Grazing { transversality } => Some(format!(
+                "the flow meets the guard tangentially (|D_xg f| / (|D_xg| |f|) = \
+                 {transversality:e})"
+            )),
+            SaltationStatus::Simultaneous => {
+                Some("several guards at once, or a mode held for zero time".to_string())
+            }
+            SaltationStatus::Unsupported { reason } => Some(reason.clone()),
+        }
+    }
+}
+
 /// The sensitivity of one event.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EventSensitivity {

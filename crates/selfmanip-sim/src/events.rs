@@ -20,20 +20,6 @@ pub struct EventRecord {
     pub impulse: Vec<f64>,
 }
 
-/// The name of an event kind, as in logs and tables.
-pub fn event_kind_name(k: EventKind) -> &'static str {
-    match k {
-        EventKind::Touchdown => "touchdown",
-        EventKind::Liftoff => "liftoff",
-        EventKind::Slip => "slip",
-        EventKind::Stick => "stick",
-        EventKind::Apex => "apex",
-        EventKind::Fold => "fold",
-        EventKind::FoldPassed => "fold_passed",
-        EventKind::Jam => "jam",
-    }
-}
-
 /// The events of `exec` in the names of `model` and `labels`, times minus `time_offset_s`.
 pub fn event_records(
     model: &Model,
@@ -45,7 +31,7 @@ pub fn event_records(
         .iter()
         .map(|e| EventRecord {
             t_s: e.t - time_offset_s,
-            kind: event_kind_name(e.kind),
+            kind: e.kind.name(),
             mode_before: labels.label(e.mode_before),
             mode_after: labels.label(e.mode_after),
             contacts: e
