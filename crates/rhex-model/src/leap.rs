@@ -2085,12 +2085,16 @@ impl LeapResult {
             .events
             .last()
             .map_or_else(|| "1010".to_string(), |e| e.mode_after.clone());
-        let names: Vec<String> = Rhex::new(params.clone())
-            .map(|r| r.model.contacts.iter().map(|c| c.name.clone()).collect())
-            .unwrap_or_default();
+        // a contact's name builds the robot: only a termination that names one asks for it
+        let name = |k: usize| {
+            Rhex::new(params.clone())
+                .ok()
+                .and_then(|r| r.model.contacts.get(k).map(|c| c.name.clone()))
+                .unwrap_or_else(|| format!("#{k}"))
+        };
         self.execution.termination.describe(
             &|t| format!("t = {:.6} s", t - self.time_offset_s),
-            &|k| names.get(k).cloned().unwrap_or_else(|| format!("#{k}")),
+            &name,
             Some(&mode),
         )
     }

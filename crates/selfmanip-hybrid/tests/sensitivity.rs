@@ -21,22 +21,17 @@ mod systems;
 use nalgebra::{DMatrix, DVector};
 use selfmanip_core::{ContactKind, ContactMode, FlatGround, Model};
 use selfmanip_hybrid::sensitivity::{simulate_with_sensitivity, SaltationStatus};
-use selfmanip_hybrid::{
-    simulate, Controller, EventKind, Execution, HybridOptions, StepOptions, ZeroTorque,
-};
+use selfmanip_hybrid::{simulate, Controller, EventKind, Execution, HybridOptions, ZeroTorque};
 use systems::{block, block_inertia, body, rotate, Friction, BLOCK, G};
 
-/// Tight tolerances, so that finite differences of whole executions resolve 1e-6.
+/// Tight tolerances, so that finite differences of whole executions resolve 1e-6
+/// ([`systems::tight`] with the pseudo-impulse's `delta_t_s` and the free joints out of the
+/// step-size control).
 fn tight(delta_t_s: f64) -> HybridOptions {
     HybridOptions {
-        step: StepOptions {
-            rtol: 1e-12,
-            atol: 1e-14,
-            ..StepOptions::default()
-        },
-        event_tol_s: 1e-14,
         delta_t_s,
-        ..HybridOptions::default()
+        control_free_joints: false,
+        ..systems::tight()
     }
 }
 
