@@ -9,7 +9,7 @@ use selfmanip::motor::{CaseParameters, Catalog, ThermalState};
 use std::hint::black_box;
 
 fn motor_tools(c: &mut Criterion) {
-    let motors = synthetic_motors(1546, 7);
+    let motors = synthetic_motors(1546, 7).expect("1,546 motors are within the bound");
     let task = TailTask::new(std::f64::consts::FRAC_PI_2, 0.05, 1.29).unwrap();
     let constraints = SelectionConstraints {
         max_length_m: 0.030,

@@ -10,7 +10,7 @@ fn main() {
         k.s_star, k.k_omega, k.k_t
     );
     let task = TailTask::new(std::f64::consts::FRAC_PI_2, 0.05, 1.29).expect("valid task");
-    let motors = synthetic_motors(1546, 7);
+    let motors = synthetic_motors(1546, 7).expect("1,546 motors are within the bound");
     let constraints = SelectionConstraints {
         max_length_m: 0.030,
         max_mass_kg: 0.200,

@@ -2,7 +2,7 @@
 //! `data/thesis_actuators.toml`, user catalogs in the same format, and a seeded synthetic
 //! catalog for selection benchmarks (the thesis searched 1,546 commercial motors).
 use crate::dc::{DcMotor, Drive, Gearbox};
-use crate::error::{non_negative, positive, MotorError, Result};
+use crate::error::{at_most, non_negative, positive, MotorError, Result};
 use crate::thermal::ThermalModel;
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
@@ -225,14 +225,18 @@ impl Catalog {
     }
 }
 
-/// `count` synthetic catalog motors, seeded and deterministic: log-uniform power
+/// The most motors [`synthetic_motors`] draws (a catalog of 10⁶ is ~100 MB).
+pub const MAX_SYNTHETIC_MOTORS: usize = 1_000_000;
+
+/// `count` (at most [`MAX_SYNTHETIC_MOTORS`]) synthetic catalog motors, seeded and deterministic: log-uniform power
 /// 1–500 W, no-load speeds 3,000–20,000 rpm, supply 6–48 V, lengths 10–120 mm and masses
 /// growing with power (a stand-in for the 1,546-motor catalog of section 2.1.1, which is
 /// not public).
-pub fn synthetic_motors(count: usize, seed: u64) -> Vec<MotorSpec> {
+pub fn synthetic_motors(count: usize, seed: u64) -> Result<Vec<MotorSpec>> {
+    at_most("synthetic_count", count, MAX_SYNTHETIC_MOTORS)?;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut log_uniform = |lo: f64, hi: f64| (lo.ln() + rng.gen::<f64>() * (hi / lo).ln()).exp();
-    (0..count)
+    Ok((0..count)
         .map(|i| {
             let power_w = log_uniform(1.0, 500.0);
             let no_load_speed_rad_s = log_uniform(3000.0, 20000.0) * crate::dc::RAD_S_PER_RPM;
@@ -260,5 +264,5 @@ pub fn synthetic_motors(count: usize, seed: u64) -> Vec<MotorSpec> {
                 mass_kg,
             }
         })
-        .collect()
+        .collect())
 }

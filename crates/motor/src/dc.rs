@@ -8,7 +8,7 @@
 //! `τ_stall = k_M V/R` scale with the supply voltage `V`; the continuous torque, a thermal
 //! limit, does not. Behind a gearbox of ratio `G` and efficiency `η` the output sees
 //! `ω_out = ω/G` and `τ_out = G η τ`.
-use crate::error::{non_negative, positive, MotorError, Result};
+use crate::error::{at_most, non_negative, positive, MotorError, Result};
 use serde::{Deserialize, Serialize};
 
 /// rad/s per rpm (catalogs print rpm; everything here is SI).
@@ -163,6 +163,10 @@ impl Gearbox {
     }
 }
 
+/// The most points [`Drive::torque_speed_curve`] samples: a figure needs hundreds; the bound
+/// keeps a request's memory bounded (10⁶ points are 24 MB).
+pub const MAX_CURVE_POINTS: usize = 1_000_000;
+
 /// One point of a torque–speed / power–speed curve at the gearbox output.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct CurvePoint {
@@ -237,9 +241,10 @@ impl Drive {
         motor_mass_kg + self.gearbox.mass_kg
     }
 
-    /// `points` samples of the output torque–speed and power–speed curves at full command,
-    /// from standstill to the no-load speed (Fig. 2.6).
+    /// `points` samples (2 to [`MAX_CURVE_POINTS`]) of the output torque–speed and
+    /// power–speed curves at full command, from standstill to the no-load speed (Fig. 2.6).
     pub fn torque_speed_curve(&self, points: usize) -> Result<Vec<CurvePoint>> {
+        at_most("points", points, MAX_CURVE_POINTS)?;
         if points < 2 {
             return Err(MotorError::TooFewSamples {
                 field: "points",

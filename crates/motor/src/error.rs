@@ -33,6 +33,20 @@ pub enum MotorError {
         required: usize,
         actual: usize,
     },
+    /// A sample count asked for is beyond what the routine allocates (bounded cost).
+    #[error("`{field}` asks for {actual} samples, more than the {limit} allowed")]
+    TooManySamples {
+        field: &'static str,
+        limit: usize,
+        actual: usize,
+    },
+    /// Inputs each inside its domain whose result overflows double precision (a heat input
+    /// so large that the winding's temperature is infinite): `field` names the inputs.
+    #[error("`{field}`: {quantity} overflows double precision")]
+    Overflow {
+        field: &'static str,
+        quantity: &'static str,
+    },
     /// A catalog or candidate list is empty.
     #[error("`{field}` is empty")]
     EmptyCatalog { field: &'static str },
@@ -85,6 +99,28 @@ pub(crate) fn finite(field: &'static str, value: f64) -> Result<f64> {
             value,
             reason: "must be finite",
         })
+    }
+}
+
+/// Checks that a sample count is at most `limit`.
+pub(crate) fn at_most(field: &'static str, actual: usize, limit: usize) -> Result<usize> {
+    if actual <= limit {
+        Ok(actual)
+    } else {
+        Err(MotorError::TooManySamples {
+            field,
+            limit,
+            actual,
+        })
+    }
+}
+
+/// Checks that a computed `value` is finite, else [`MotorError::Overflow`] naming the inputs.
+pub(crate) fn no_overflow(field: &'static str, quantity: &'static str, value: f64) -> Result<f64> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(MotorError::Overflow { field, quantity })
     }
 }
 

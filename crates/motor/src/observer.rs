@@ -30,6 +30,7 @@ pub fn wrap_angle(angle_rad: f64) -> f64 {
 
 /// Parameters of the observer (2.2)–(2.4) and its delay.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ObserverParams {
     /// Motor gain `K_m` [1/s² per unit error].
     pub k_m: f64,
@@ -124,6 +125,15 @@ impl LegObserver {
         finite("theta0_rad", theta0_rad)?;
         finite("omega0_rad_s", omega0_rad_s)?;
         let delay_samples = params.delay_s / dt_s;
+        // the delay line holds `⌊D⌋ + 2` samples: bounded before it is allocated
+        if delay_samples > MAX_DELAY_SAMPLES as f64 {
+            return Err(MotorError::InvalidParameter {
+                field: "delay_s",
+                value: params.delay_s,
+                reason: "the delay spans more samples of dt_s than the observer holds \
+                         (MAX_DELAY_SAMPLES)",
+            });
+        }
         let len = delay_samples.floor() as usize + 2;
         Ok(Self {
             params,
@@ -210,9 +220,22 @@ impl LegLog {
     }
 }
 
-/// Runs the observer over a log; sample 0 initializes it.
+/// The most samples of `dt_s` a transport delay may span ([`LegObserver::new`]): a delay line
+/// of 10⁷ samples (160 MB) is far beyond any logged leg, and it bounds the allocation.
+pub const MAX_DELAY_SAMPLES: usize = 10_000_000;
+
+/// Runs the observer over a log; sample 0 initializes it. A delay longer than the log leaves
+/// no sample of the model to compare with it: an error naming `delay_s`.
 pub fn observe(params: &ObserverParams, log: &LegLog) -> Result<Vec<ObserverSample>> {
     log.validate()?;
+    params.validate()?;
+    if params.delay_s > log.dt_s * log.len() as f64 {
+        return Err(MotorError::InvalidParameter {
+            field: "delay_s",
+            value: params.delay_s,
+            reason: "must not exceed the log's duration (dt_s × samples)",
+        });
+    }
     observe_unchecked(params, log)
 }
 

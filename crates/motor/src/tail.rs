@@ -25,7 +25,7 @@
 //! the form of eq. (2.1). The thesis prints k_ω ≈ 3.156, k_t ≈ 1.547 (0.15 % and 0.13 %
 //! lower): see docs/errata/ch2-actuators.md.
 use crate::catalog::MotorSpec;
-use crate::error::{positive, MotorError, Result};
+use crate::error::{no_overflow, positive, MotorError, Result};
 use serde::Serialize;
 use std::sync::OnceLock;
 
@@ -112,13 +112,21 @@ pub fn tail_optimum(task: &TailTask, power_w: f64) -> Result<TailOptimum> {
     let p = positive("power_w", power_w)?;
     let k = tail_constants();
     let lever = task.lever();
+    // Ω* = ∛(k_Ω θ₀ P ℓ² / I_b), t* = ∛(k_t θ₀² I_b ℓ / P), ℓ = 1 + 1/ε: the cube root of each
+    // factor, so that no intermediate product overflows where the result does not
+    let (theta, inertia) = (task.rotation_rad.cbrt(), task.body_inertia_kg_m2.cbrt());
+    let fields = "theta0_rad, power_w, body_inertia_kg_m2, effectiveness";
     Ok(TailOptimum {
-        no_load_speed_rad_s: (k.k_omega * task.rotation_rad * p * lever * lever
-            / task.body_inertia_kg_m2)
-            .cbrt(),
-        completion_time_s: (k.k_t * task.rotation_rad.powi(2) * task.body_inertia_kg_m2 * lever
-            / p)
-            .cbrt(),
+        no_load_speed_rad_s: no_overflow(
+            fields,
+            "the optimal no-load speed",
+            (k.k_omega * lever * lever).cbrt() * theta * (p.cbrt() / inertia),
+        )?,
+        completion_time_s: no_overflow(
+            fields,
+            "the completion time",
+            (k.k_t * lever).cbrt() * theta * theta * (inertia / p.cbrt()),
+        )?,
     })
 }
 
@@ -277,6 +285,9 @@ pub fn rank_tail_motors(
     if motors.is_empty() {
         return Err(MotorError::EmptyCatalog { field: "motors" });
     }
+    positive("max_length_m", constraints.max_length_m)?;
+    positive("max_mass_kg", constraints.max_mass_kg)?;
+    positive("max_completion_time_s", constraints.max_completion_time_s)?;
     let mut ranked = Vec::new();
     let mut invalid = Vec::new();
     for (index, spec) in motors.iter().enumerate() {

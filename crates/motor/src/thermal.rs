@@ -15,7 +15,9 @@
 //! (`x ← x* + e^{AΔt}(x − x*)`), so the step size only matters where the winding
 //! resistance depends on temperature.
 use crate::dc::Drive;
-use crate::error::{finite, finite_samples, non_negative, positive, MotorError, Result};
+use crate::error::{
+    at_most, finite, finite_samples, no_overflow, non_negative, positive, MotorError, Result,
+};
 use crate::nelder_mead::{minimize, NelderMeadOptions};
 use serde::{Deserialize, Serialize};
 
@@ -25,6 +27,13 @@ pub const COPPER_ALPHA_PER_K: f64 = 0.00393;
 
 /// Maximum winding temperature of the maxon motors in Table 2.1 [°C].
 pub const MAX_WINDING_TEMPERATURE_C: f64 = 125.0;
+
+/// Absolute zero [°C]: no ambient temperature lies below it.
+pub const ABSOLUTE_ZERO_C: f64 = -273.15;
+
+/// The most samples a thermal simulation runs ([`ThermalModel::simulate_power`] and the
+/// others): 10⁷ samples are four months at 1 s, and 240 MB of trace.
+pub const MAX_PROFILE_SAMPLES: usize = 10_000_000;
 
 /// Core (winding) and case (housing) temperatures.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -254,8 +263,31 @@ impl ThermalModel {
         ambient_c: f64,
     ) -> Result<()> {
         positive("dt_s", dt_s)?;
-        finite("ambient_c", ambient_c)?;
+        if !(finite("ambient_c", ambient_c)? >= ABSOLUTE_ZERO_C) {
+            return Err(MotorError::InvalidParameter {
+                field: "ambient_c",
+                value: ambient_c,
+                reason: "must be at least absolute zero (-273.15 °C)",
+            });
+        }
+        if samples.is_empty() {
+            return Err(MotorError::TooFewSamples {
+                field,
+                required: 1,
+                actual: 0,
+            });
+        }
+        at_most(field, samples.len(), MAX_PROFILE_SAMPLES)?;
         finite_samples(field, samples)
+    }
+
+    /// A trace whose every temperature is finite, or [`MotorError::Overflow`] naming the
+    /// profile `field` whose heat input overflowed it.
+    fn finite_trace(field: &'static str, trace: ThermalTrace) -> Result<ThermalTrace> {
+        let last = |v: &[f64]| v.iter().copied().find(|x| !x.is_finite()).unwrap_or(0.0);
+        no_overflow(field, "the winding temperature", last(&trace.core_c))?;
+        no_overflow(field, "the case temperature", last(&trace.case_c))?;
+        Ok(trace)
     }
 
     fn run(
@@ -302,7 +334,8 @@ impl ThermalModel {
         power_w: &[f64],
     ) -> Result<ThermalTrace> {
         Self::check_profile("power_w", power_w, dt_s, ambient_c)?;
-        Ok(self.run(initial, ambient_c, dt_s, power_w.len(), |k, _| power_w[k]))
+        let trace = self.run(initial, ambient_c, dt_s, power_w.len(), |k, _| power_w[k]);
+        Self::finite_trace("power_w", trace)
     }
 
     /// Temperatures for a winding-current profile; the Joule heat uses the winding
@@ -315,7 +348,7 @@ impl ThermalModel {
         current_a: &[f64],
     ) -> Result<ThermalTrace> {
         Self::check_profile("current_a", current_a, dt_s, ambient_c)?;
-        Ok(self.run_current(initial, ambient_c, dt_s, current_a))
+        Self::finite_trace("current_a", self.run_current(initial, ambient_c, dt_s, current_a))
     }
 
     /// [`Self::simulate_current`] on checked inputs.
@@ -341,12 +374,13 @@ impl ThermalModel {
         dt_s: f64,
         torque_n_m: &[f64],
     ) -> Result<ThermalTrace> {
-        finite_samples("torque_n_m", torque_n_m)?;
+        Self::check_profile("torque_n_m", torque_n_m, dt_s, ambient_c)?;
         let current: Vec<f64> = torque_n_m
             .iter()
             .map(|&t| drive.current_for_output_torque_a(t))
             .collect();
-        self.simulate_current(initial, ambient_c, dt_s, &current)
+        let trace = self.run_current(initial, ambient_c, dt_s, &current);
+        Self::finite_trace("torque_n_m", trace)
     }
 
     /// Fits the case parameters `(R₂, τ₂)` to a logged case temperature by least squares

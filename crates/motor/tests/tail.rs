@@ -107,7 +107,7 @@ fn scaling_laws_and_the_infinite_effectiveness_limit() {
 
 #[test]
 fn ranking_a_synthetic_catalog_is_sorted_feasible_and_keeps_good_entries_past_bad_ones() {
-    let mut motors = synthetic_motors(1546, 7);
+    let mut motors = synthetic_motors(1546, 7).unwrap();
     let mut bad: MotorSpec = motors[3].clone();
     bad.voltage_v = -12.0;
     motors[3] = bad;

@@ -270,6 +270,8 @@ pub(crate) fn motor(e: MotorError) -> PyErr {
         | MotorError::NonFiniteSample { field, .. }
         | MotorError::LengthMismatch { field, .. }
         | MotorError::TooFewSamples { field, .. }
+        | MotorError::TooManySamples { field, .. }
+        | MotorError::Overflow { field, .. }
         | MotorError::EmptyCatalog { field } => invalid(field, msg),
         MotorError::UnknownEntry { kind, .. } => invalid(kind, msg),
         MotorError::Parse { .. } => invalid("catalog_toml", msg),

@@ -23,6 +23,10 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(motor_observe, m)?)?;
     m.add_function(wrap_pyfunction!(motor_calibrate_observer, m)?)?;
     m.add_function(wrap_pyfunction!(motor_identify_faults, m)?)?;
+    m.add(
+        "MOTOR_MAX_PROFILE_SAMPLES",
+        motor::thermal::MAX_PROFILE_SAMPLES,
+    )?;
     Ok(())
 }
 
@@ -118,7 +122,7 @@ fn motor_rank_tail_motors<'py>(
             TailTask::new(theta0_rad, body_inertia_kg_m2, effectiveness).map_err(errors::motor)?;
         let motors = match catalog_toml {
             Some(text) => Catalog::from_toml_str(text).map_err(errors::motor)?.motor,
-            None => synthetic_motors(synthetic_count, seed),
+            None => synthetic_motors(synthetic_count, seed).map_err(errors::motor)?,
         };
         let constraints = SelectionConstraints {
             max_length_m,
