@@ -37,12 +37,19 @@ def real(field: str, value: Any) -> float:
     return float(value)
 
 
-def integer(field: str, value: Any, lo: int | None = None) -> int:
-    """An int (``bool`` rejected), at least ``lo`` when given."""
+#: The largest integer any engine input holds (a signed 64-bit count, index or seed): a larger
+#: Python int would otherwise fail in the conversion with an ``OverflowError`` naming nothing.
+INT_MAX = 2**63 - 1
+
+
+def integer(field: str, value: Any, lo: int | None = None, hi: int = INT_MAX) -> int:
+    """An int (``bool`` rejected), at least ``lo`` when given and at most ``hi``."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise InvalidTypeError(f"`{field}` must be an int, got {type(value).__name__}", field)
     if lo is not None and value < lo:
         raise InvalidInputError(f"`{field}` must be >= {lo}, got {value}", field)
+    if value > hi:
+        raise InvalidInputError(f"`{field}` must be <= {hi}, got {value}", field)
     return int(value)
 
 

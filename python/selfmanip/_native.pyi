@@ -309,6 +309,8 @@ def motor_observe(
 def motor_calibrate_observer(
     initial_params: dict[str, float], dt_s: float, theta_d: _F64, omega_d: _F64, theta: _F64, omega: _F64
 ) -> dict[str, Any]: ...
+MOTOR_MAX_PROFILE_SAMPLES: int
+
 def motor_identify_faults(
     params: dict[str, float],
     config: dict[str, Any],

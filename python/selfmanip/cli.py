@@ -135,6 +135,12 @@ def _motor(args) -> int:
     for name in ("duration", "cooling"):
         if not getattr(args, name) >= 0:
             raise InvalidInputError(f"`--{name}` must be >= 0, got {getattr(args, name)}", f"--{name}")
+    samples = (args.duration + args.cooling) / args.dt
+    if not samples <= motor.MAX_PROFILE_SAMPLES:
+        raise InvalidInputError(
+            f"`--duration` + `--cooling` over `--dt` is {samples:.3g} samples, more than the "
+            f"{motor.MAX_PROFILE_SAMPLES} a thermal simulation runs: raise --dt or shorten the run",
+            "--duration")
     n_on = int(round(args.duration / args.dt))
     n_off = int(round(args.cooling / args.dt))
     profile = np.concatenate([np.full(n_on, args.torque), np.zeros(n_off)])

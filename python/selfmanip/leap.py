@@ -337,6 +337,9 @@ def _overrides(params: Mapping[str, Any] | None, config: Mapping[str, Any]) -> d
                 raise InvalidTypeError(f"parameter names must be strings, got {k!r}", "params")
             if k not in known:
                 raise InvalidInputError(f"unknown parameter `{k}` (known: {', '.join(sorted(known))})", k)
+            if k in out:
+                # `leap(params={"m_b": 5}, m_b=9)` ran with 9: one value per name
+                raise InvalidInputError(f"`{k}` is given both in `params` and as a keyword: give it once", k)
             _check_type(k, v)
             out[k] = _plain_value(k, v)
     return out

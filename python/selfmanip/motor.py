@@ -41,6 +41,14 @@ __all__ = [
 ]
 
 
+#: The most samples :func:`thermal_simulation` runs (the engine's bound, 10**7).
+MAX_PROFILE_SAMPLES: int = _native.MOTOR_MAX_PROFILE_SAMPLES
+
+
+def _catalog(catalog_toml: Any) -> str | None:
+    return None if catalog_toml is None else text("catalog_toml", catalog_toml)
+
+
 def tail_optimum(theta0_rad: float, power_w: float, body_inertia_kg_m2: float,
                  effectiveness: float) -> dict[str, float]:
     """Eq. (2.1): the output no-load speed (a proxy for the gear ratio: motor no-load speed
@@ -70,8 +78,8 @@ def rank_tail_motors(theta0_rad: float, body_inertia_kg_m2: float, effectiveness
         real("theta0_rad", theta0_rad), real("body_inertia_kg_m2", body_inertia_kg_m2),
         real("effectiveness", effectiveness), real("max_length_m", max_length_m),
         real("max_mass_kg", max_mass_kg), real("max_completion_time_s", max_completion_time_s),
-        None if catalog_toml is None else text("catalog_toml", catalog_toml),
-        integer("synthetic_count", synthetic_count, 0), integer("seed", seed, 0)))
+        _catalog(catalog_toml), integer("synthetic_count", synthetic_count, 0),
+        integer("seed", seed, 0, 2**64 - 1)))
 
 
 def thesis_catalog_toml() -> str:
@@ -85,7 +93,7 @@ def drive_table(catalog_toml: str | None = None, current_limit_a: float | None =
     the Table 2.3 thermal data. ``current_limit_a`` overrides the controller limit (the thesis
     also evaluates 9 A)."""
     return [dict(r) for r in _native.motor_drive_table(
-        None if catalog_toml is None else text("catalog_toml", catalog_toml),
+        _catalog(catalog_toml),
         None if current_limit_a is None else real("current_limit_a", current_limit_a))]
 
 
@@ -94,7 +102,7 @@ def torque_speed_curve(drive: str, points: int = 50, current_limit_a: float | No
     """Fig. 2.6: output torque and power against output speed at full command."""
     return dict(_native.motor_torque_speed_curve(
         text("drive", drive), integer("points", points, 0),
-        None if current_limit_a is None else real("current_limit_a", current_limit_a), catalog_toml))
+        None if current_limit_a is None else real("current_limit_a", current_limit_a), _catalog(catalog_toml)))
 
 
 def thermal_simulation(drive: str, torque_n_m: npt.ArrayLike, dt_s: float = 1.0, ambient_c: float = 25.0,
@@ -106,7 +114,7 @@ def thermal_simulation(drive: str, torque_n_m: npt.ArrayLike, dt_s: float = 1.0,
     profile = np.asarray(vector("torque_n_m", torque_n_m), dtype=np.float64)
     return dict(_native.motor_thermal_simulation(
         text("drive", drive), profile, real("dt_s", dt_s), real("ambient_c", ambient_c),
-        text("case", case), catalog_toml))
+        text("case", case), _catalog(catalog_toml)))
 
 
 def continuous_output_torque(drive: str, max_winding_c: float = 125.0, ambient_c: float = 25.0,
@@ -114,7 +122,7 @@ def continuous_output_torque(drive: str, max_winding_c: float = 125.0, ambient_c
     """The output torque whose steady winding temperature is ``max_winding_c``."""
     return _native.motor_continuous_output_torque(
         text("drive", drive), real("max_winding_c", max_winding_c), real("ambient_c", ambient_c),
-        text("case", case), catalog_toml)
+        text("case", case), _catalog(catalog_toml))
 
 
 _OBSERVER_KEYS = ("k_m", "a_m", "k_p", "k_d", "k_g", "theta_g_rad", "delay_s")

@@ -22,6 +22,8 @@ def stub():
 def test_stub_declares_everything_the_native_module_has():
     tree = stub()
     top = {n.name for n in tree.body if isinstance(n, (ast.FunctionDef, ast.ClassDef))}
+    # module constants are declared with their type (`NAME: int`)
+    top |= {n.target.id for n in tree.body if isinstance(n, ast.AnnAssign) and isinstance(n.target, ast.Name)}
     assert "__getattr__" not in top
     public = {n for n in dir(_native) if not n.startswith("_")}
     assert public - top == set(), "undeclared in _native.pyi"

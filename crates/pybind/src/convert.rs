@@ -12,8 +12,23 @@ use pyo3::IntoPyObjectExt;
 use serde::Serialize;
 use serde_json::{Map, Number, Value};
 
+/// How deep a structured input may nest (dicts and lists within each other): a robot
+/// description or behaviour nests a handful of levels; the bound keeps the conversion's
+/// recursion (and serde's after it) far from the stack's end, whatever the caller passes.
+pub(crate) const MAX_NESTING: usize = 64;
+
 /// A Python value as a JSON value; `field` names it in errors (`"terrain.height_m"`).
 pub(crate) fn to_value(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<Value> {
+    to_value_at(obj, field, 0)
+}
+
+fn to_value_at(obj: &Bound<'_, PyAny>, field: &str, depth: usize) -> PyResult<Value> {
+    if depth > MAX_NESTING {
+        return Err(invalid(
+            field,
+            format!("`{field}`: nested deeper than {MAX_NESTING} levels"),
+        ));
+    }
     if obj.is_none() {
         return Ok(Value::Null);
     }
@@ -42,12 +57,12 @@ pub(crate) fn to_value(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<Value> {
         return Ok(Value::String(s.to_str()?.to_owned()));
     }
     if let Ok(d) = obj.cast::<PyDict>() {
-        return Ok(Value::Object(to_map(d, field)?));
+        return Ok(Value::Object(to_map_at(d, field, depth + 1)?));
     }
     if obj.is_instance_of::<PyList>() || obj.is_instance_of::<PyTuple>() {
         let mut out = Vec::new();
         for (i, item) in obj.try_iter()?.enumerate() {
-            out.push(to_value(&item?, &format!("{field}[{i}]"))?);
+            out.push(to_value_at(&item?, &format!("{field}[{i}]"), depth + 1)?);
         }
         return Ok(Value::Array(out));
     }
@@ -62,6 +77,10 @@ pub(crate) fn to_value(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<Value> {
 
 /// A `dict` with string keys as a JSON object; `field` prefixes the keys in errors.
 pub(crate) fn to_map(d: &Bound<'_, PyDict>, field: &str) -> PyResult<Map<String, Value>> {
+    to_map_at(d, field, 0)
+}
+
+fn to_map_at(d: &Bound<'_, PyDict>, field: &str, depth: usize) -> PyResult<Map<String, Value>> {
     let mut out = Map::new();
     for (k, v) in d.iter() {
         let key: String = k.extract().map_err(|_| {
@@ -72,7 +91,7 @@ pub(crate) fn to_map(d: &Bound<'_, PyDict>, field: &str) -> PyResult<Map<String,
         } else {
             format!("{field}.{key}")
         };
-        out.insert(key, to_value(&v, &name)?);
+        out.insert(key, to_value_at(&v, &name, depth)?);
     }
     Ok(out)
 }
