@@ -19,7 +19,16 @@ use rayon::prelude::*;
 use serde_json::Value;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-/// Runs `f` on every item on a pool of exactly `threads` threads; results in input order.
+/// The threads a pool for `items` points starts when `threads` are asked for: at most one per
+/// core of the machine and one per point (more would only wait), so that no request
+/// (`threads = 10⁹`) starts threads without bound. Results do not depend on it.
+pub fn pool_threads(threads: usize, items: usize) -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
+    threads.min(cores).min(items.max(1))
+}
+
+/// Runs `f` on every item on a pool of `threads` threads ([`pool_threads`]: at most the
+/// machine's cores); results in input order.
 pub fn run_parallel<T: Sync, R: Send>(
     items: &[T],
     threads: usize,
@@ -31,6 +40,7 @@ pub fn run_parallel<T: Sync, R: Send>(
             reason: "must be at least 1".into(),
         });
     }
+    let threads = pool_threads(threads, items.len());
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
