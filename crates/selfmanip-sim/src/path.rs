@@ -125,6 +125,23 @@ pub fn resolve(scenario: &Value, name: &str) -> Result<String, SimError> {
     }
 }
 
+/// Checks that every name of a point names a parameter of `tree`, and no two the same one
+/// (`kp_push` and `parameters.kp_push`: the later value would run under both labels).
+pub fn distinct_paths(tree: &Value, values: &[(String, Value)]) -> Result<(), SimError> {
+    let mut seen: Vec<(String, &str)> = Vec::with_capacity(values.len());
+    for (name, _) in values {
+        let path = resolve(tree, name)?;
+        if let Some((_, other)) = seen.iter().find(|(p, _)| *p == path) {
+            return Err(SimError::InvalidValue {
+                field: name.clone(),
+                reason: format!("names the same parameter as `{other}` (`{path}`): give it once"),
+            });
+        }
+        seen.push((path, name));
+    }
+    Ok(())
+}
+
 /// Sets the field `name` resolves to (see [`resolve`]) to `value`.
 pub fn set(scenario: &mut Value, name: &str, value: Value) -> Result<String, SimError> {
     let full = resolve(scenario, name)?;

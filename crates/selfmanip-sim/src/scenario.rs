@@ -204,6 +204,7 @@ impl Scenario {
     /// a value of the wrong type names its path.
     pub fn with_values(&self, values: &[(String, serde_json::Value)]) -> Result<Self, SimError> {
         let mut tree = self.to_value()?;
+        crate::path::distinct_paths(&tree, values)?;
         Self::set_all(&mut tree, values)
     }
 

@@ -164,9 +164,7 @@ pub fn sweep_with(
 ) -> Result<Vec<Option<PointResult>>, SimError> {
     let tree = base.to_value()?;
     for p in points {
-        for (name, _) in &p.values {
-            crate::path::resolve(&tree, name)?;
-        }
+        crate::path::distinct_paths(&tree, &p.values)?;
     }
     run_parallel(points, threads, |p| {
         if stop.load(Ordering::Relaxed) {

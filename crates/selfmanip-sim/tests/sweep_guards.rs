@@ -1,0 +1,60 @@
+//! What a sweep guards against (issue 31): a pool bounded by the machine and the points,
+//! whatever `threads` asks for (`threads=10**9` kept creating OS threads), and axes that
+//! cannot alias (two names of one parameter labelled rows with values they did not run).
+use selfmanip_core::RobotDescription;
+use selfmanip_sim::behaviour::Behaviour;
+use selfmanip_sim::sweep::{grid, pool_threads, run_parallel, sweep};
+use selfmanip_sim::{Scenario, SimError};
+use serde_json::json;
+use std::path::Path;
+
+#[test]
+fn a_billion_threads_run_on_at_most_the_machines_cores_with_the_same_results() {
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
+    let items: Vec<u64> = (0..64).collect();
+    // each point reports the size of the pool it ran on, and a value of its own
+    let f = |&k: &u64| (rayon::current_num_threads(), k.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+    let one = run_parallel(&items, 1, f).unwrap();
+    let huge = run_parallel(&items, 1_000_000_000, f).unwrap();
+    assert!(huge.iter().all(|&(n, _)| n <= cores));
+    assert_eq!(
+        one.iter().map(|r| r.1).collect::<Vec<_>>(),
+        huge.iter().map(|r| r.1).collect::<Vec<_>>()
+    );
+    // never more threads than points, never fewer than one
+    assert_eq!(pool_threads(usize::MAX, 1), 1);
+    assert_eq!(pool_threads(1, 0), 1);
+    assert!(run_parallel(&items, 0, f).is_err());
+}
+
+fn hopper() -> Scenario {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/data");
+    let robot = RobotDescription::from_file(&data.join("hopper.toml")).unwrap();
+    let mut s = Scenario::new(robot, vec![0.5, -1.0, 0.0, -0.451, 0.0]);
+    s.behaviour = Behaviour::from_file(&data.join("hop.toml")).unwrap();
+    s.options.t_final_s = 0.01;
+    s
+}
+
+/// `over={'k_push': [..], 'parameters.k_push': [..]}` ran every row with the second axis's
+/// value under the first axis's label; now the sweep refuses it, naming the second.
+#[test]
+fn two_axes_naming_one_parameter_are_refused() {
+    let base = hopper();
+    let over = vec![
+        ("k_push".to_string(), vec![json!(-0.7), json!(-0.9)]),
+        ("behaviour.parameters.k_push".to_string(), vec![json!(-0.5)]),
+    ];
+    let e = sweep(&base, &grid(&over), 1).unwrap_err();
+    match e {
+        SimError::InvalidValue { field, reason } => {
+            assert_eq!(field, "behaviour.parameters.k_push");
+            assert!(reason.contains("`k_push`"), "{reason}");
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(base.with_values(&grid(&over)[0].values).is_err());
+    // each name alone runs, and its rows carry the value they ran with
+    let rows = sweep(&base, &grid(&over[..1]), 1).unwrap();
+    assert_eq!(rows.len(), 2);
+}
