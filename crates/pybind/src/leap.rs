@@ -20,7 +20,6 @@ use pyo3::types::{PyDict, PyList};
 use rhex_model::grc::{match_leap_word, Cell};
 use rhex_model::leap::{
     leap_params, simulate_leap, LeapConfig, LeapEvent, LeapResult, LegActuator, Strategy,
-    Trajectory,
 };
 use rhex_model::leap_sensitivity::{
     check_sensitivity_names, leap_with_sensitivity, LeapSensitivity, APEX_COLUMNS,
@@ -32,7 +31,7 @@ use rhex_model::sweep::{
 };
 use rhex_model::{RhexError, RhexParams};
 use selfmanip_sim::sweep::run_parallel;
-use selfmanip_sim::SimError;
+use selfmanip_sim::{SimError, Trajectory};
 use serde_json::{Map, Value};
 use std::collections::BTreeMap;
 
@@ -663,6 +662,8 @@ fn leap_write_mcap(
         let n = t_s.len();
         let nc = contacts.len();
         let tr = Trajectory {
+            q_names: q_names(&params),
+            tau: Vec::new(),
             q: rows_from(&q, "q", n)?,
             qd: rows_from(&qd, "qd", n)?,
             contact_points_m: pairs_from(&contact_points_m, "contact_points_m", n, nc)?,

@@ -37,6 +37,7 @@ use selfmanip_hybrid::{Event, EventKind, Execution, HybridOptions, Termination};
 use selfmanip_sim::motion::JointMotion as LegMotion;
 use selfmanip_sim::motion::StartedLaw;
 use selfmanip_sim::terrain::TerrainSpec;
+use selfmanip_sim::Trajectory;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 use std::str::FromStr;
@@ -439,24 +440,6 @@ pub struct LeapEvent {
     /// within [`ENERGY_ROUND_OFF`] `· (T⁻ + 1 J)`, reported as zero). Never negative for a
     /// touchdown; a `fold` that starts a passage may gain energy from the motor.
     pub energy_loss_j: f64,
-}
-
-/// Samples of a leap on a uniform time grid, for logs and plots.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Trajectory {
-    /// Contact names, the column order of `contact_points_m` / `contact_forces_n`.
-    pub contacts: Vec<String>,
-    /// Times relative to the front leg's start (s).
-    pub t_s: Vec<f64>,
-    /// `q = [θ…, x, z, φ]` (thesis coordinates, NED: z down).
-    pub q: Vec<Vec<f64>>,
-    pub qd: Vec<Vec<f64>>,
-    /// Contact-mode label at each sample (`FB FL RB RL`, `s` for a sliding toe).
-    pub mode: Vec<String>,
-    /// World contact point `(x, z)` (NED) of each active contact, `None` when inactive.
-    pub contact_points_m: Vec<Vec<Option<[f64; 2]>>>,
-    /// World force `(f_x, f_z)` (NED) of the ground on the robot at each active contact.
-    pub contact_forces_n: Vec<Vec<Option<[f64; 2]>>>,
 }
 
 impl LeapConfig {
@@ -2123,96 +2106,25 @@ impl LeapResult {
         Ok(self.energy_report(params, cfg)?.friction_work_j)
     }
 
-    /// Samples the leap every `dt_s` seconds (and at its end): states, modes, contact points
-    /// and contact forces, the forces recomputed from each segment's flow with the
-    /// controller it ran with (so the torques are those of the run).
+    /// Samples the leap every `dt_s` seconds (and at its end) with the generic sampler
+    /// ([`selfmanip_sim::trajectory::sample_labelled`]): states, torques, modes in RHex's
+    /// labels, contact points and contact forces, each from its segment's flow as it ran;
+    /// times from the front leg's start.
     pub fn trajectory(
         &self,
         params: &RhexParams,
         cfg: &LeapConfig,
         dt_s: f64,
     ) -> Result<Trajectory, RhexError> {
-        if !(dt_s.is_finite() && dt_s > 0.0) {
-            return Err(RhexError::Params {
-                field: "dt_s".into(),
-                reason: format!("must be finite and positive, got {dt_s}"),
-            });
-        }
         let setup = LeapSetup::new(params, cfg, self.motor_t2_s)?;
-        let model = &setup.rhex.model;
-        let nq = model.nq();
-        let mut out = Trajectory {
-            contacts: model.contacts.iter().map(|c| c.name.clone()).collect(),
-            t_s: Vec::new(),
-            q: Vec::new(),
-            qd: Vec::new(),
-            mode: Vec::new(),
-            contact_points_m: Vec::new(),
-            contact_forces_n: Vec::new(),
-        };
-        let mut ws = selfmanip_hybrid::flow::FlowWorkspace::new(model);
-        let mut y = vec![0.0; 2 * nq];
-        let (t_begin, t_end) = (0.0, self.execution.t);
-        let n = ((t_end - t_begin) / dt_s).floor() as usize;
-        let times = (0..=n)
-            .map(|k| t_begin + k as f64 * dt_s)
-            .chain((t_end > t_begin + n as f64 * dt_s).then_some(t_end));
-        for t in times {
-            // the last segment that contains t (a reset at t belongs to the segment after it)
-            let Some(seg) = self
-                .execution
-                .segments
-                .iter()
-                .rev()
-                .find(|s| s.t0 <= t && !s.dense.is_empty())
-            else {
-                continue;
-            };
-            seg.eval(t.min(seg.t1), &mut y);
-            let (q, qd) = y.split_at(nq);
-            // the segment's flow as it ran: its controller, its joints locked for a passage
-            ws.data.locked.clone_from(&seg.locked);
-            ws.data.slide_directions.clone_from(&seg.slide_directions);
-            ws.data.prepare(model, &setup.terrain, seg.mode, q, qd)?;
-            ws.solve_prepared(model, &*seg.controller, t, seg.mode, q, qd)?;
-            let data = &ws.data;
-            let mut points = vec![None; model.n_contacts()];
-            let mut forces = vec![None; model.n_contacts()];
-            for (row, r) in seg.mode.rows().enumerate() {
-                let geom = selfmanip_core::contact::contact_geometry(
-                    model,
-                    &data.kin,
-                    &setup.terrain,
-                    r.contact,
-                );
-                let dir = selfmanip_core::contact::row_direction(&geom.plane, r.direction);
-                let f = forces[r.contact].get_or_insert([0.0, 0.0]);
-                f[0] += data.lambda[row] * dir.x;
-                f[1] += data.lambda[row] * dir.y;
-                points[r.contact] = Some([geom.point.x, geom.point.y]);
-            }
-            // kinetic friction of sliding toes acts along their tangent, outside the rows
-            for site in &data.sliding {
-                let k = data.constraints.rows[site.row].contact;
-                let geom =
-                    selfmanip_core::contact::contact_geometry(model, &data.kin, &setup.terrain, k);
-                let t = selfmanip_core::contact::row_direction(
-                    &geom.plane,
-                    selfmanip_core::RowDirection::Tangential,
-                );
-                if let Some(f) = forces[k].as_mut() {
-                    f[0] += site.force_t * t.x;
-                    f[1] += site.force_t * t.y;
-                }
-            }
-            out.t_s.push(t - self.time_offset_s);
-            out.q.push(q.to_vec());
-            out.qd.push(qd.to_vec());
-            out.mode.push(setup.rhex.label(seg.mode));
-            out.contact_points_m.push(points);
-            out.contact_forces_n.push(forces);
-        }
-        Ok(out)
+        Ok(selfmanip_sim::trajectory::sample_labelled(
+            &setup.rhex.model,
+            &setup.terrain,
+            &self.execution,
+            &|m| setup.rhex.label(m),
+            dt_s,
+            self.time_offset_s,
+        )?)
     }
 }
 

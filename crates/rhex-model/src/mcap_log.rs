@@ -1,11 +1,12 @@
 //! RHex leap logs as MCAP files: a leap's trajectory and events through the generic writer
 //! of [`selfmanip_sim::mcap`] (its topics and schemas), with the leg frames named after the
 //! pairs (`<pair>_hip`) and the `q` names of a leap (`<pair>_theta`, `x`, `z`, `phi`).
-use crate::leap::{LeapEvent, Trajectory};
+use crate::leap::LeapEvent;
 use crate::params::RhexParams;
 use crate::{Rhex, RhexError};
 use selfmanip_sim::events::EventRecord;
 use selfmanip_sim::mcap::{write_mcap, write_mcap_to, Layout, McapLog};
+use selfmanip_sim::Trajectory;
 use std::collections::BTreeMap;
 use std::io::{Seek, Write};
 use std::path::Path;
@@ -45,18 +46,6 @@ fn generic<R>(
         .iter()
         .map(|j| format!("{}_hip", model.legs[j.leg].name))
         .collect();
-    let tr = log.trajectory;
-    let trajectory = selfmanip_sim::Trajectory {
-        q_names: q_names(log.params),
-        contacts: tr.contacts.clone(),
-        t_s: tr.t_s.clone(),
-        q: tr.q.clone(),
-        qd: tr.qd.clone(),
-        tau: Vec::new(),
-        mode: tr.mode.clone(),
-        contact_points_m: tr.contact_points_m.clone(),
-        contact_forces_n: tr.contact_forces_n.clone(),
-    };
     let events: Vec<EventRecord> = log
         .events
         .iter()
@@ -72,7 +61,7 @@ fn generic<R>(
         .collect();
     Ok(write(&McapLog {
         model,
-        trajectory: &trajectory,
+        trajectory: log.trajectory,
         events: &events,
         metadata: log.metadata.clone(),
         layout,

@@ -14,7 +14,8 @@
 //!   different quadrature of the torques the controller applied).
 //! - The pair the leap leaves out (section 3.3: disabled) has its hip no lower than at the
 //!   start until takeoff, so it cannot touch the ground in the leaps' stance.
-use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapResult, Trajectory};
+use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapResult};
+use selfmanip_sim::Trajectory;
 use rhex_model::params::LegPair;
 
 const DT: f64 = 2e-5;

@@ -1,17 +1,20 @@
 //! Samples of an execution on a uniform time grid, from its own dense output: each sample
-//! evaluates the segment that contains it with the controller that segment ran with
-//! ([`selfmanip_hybrid::Segment::controller`]), so the torques and contact forces are those
-//! of the run — no replay of the execution.
+//! evaluates the segment that contains it with the flow that segment ran with — its
+//! controller ([`selfmanip_hybrid::Segment::controller`]), its locked joints and its sliding
+//! contacts' directions — so the torques and contact forces are those of the run, with no
+//! replay of the execution, and the sampler and the engine cannot disagree on a segment.
 //!
 //! ```text
 //! t  => the last segment with t0 ≤ t => y = [q; q̇] on its dense output
-//!    => τ = controller(t, q, q̇, mode), free joints' q̈ => (q̈, λ) of the mode's flow (5.48)
-//!    => contact points and world forces (λ along each active row's direction)
+//!    => the segment's flow (5.48): τ = controller(t, q, q̇, mode), free joints' q̈ => (q̈, λ)
+//!    => contact points and world forces (λ along each active row's direction, plus the
+//!       kinetic friction of sliding contacts along their tangent)
 //! ```
 use crate::error::{positive, SimError};
 use crate::labels::ContactLabels;
 use selfmanip_core::contact::{contact_geometry, row_direction};
-use selfmanip_core::{forward_dynamics, Data, Model, Terrain};
+use selfmanip_core::{ContactMode, Model, RowDirection, Terrain};
+use selfmanip_hybrid::flow::FlowWorkspace;
 use selfmanip_hybrid::Execution;
 use serde::Serialize;
 
@@ -52,12 +55,25 @@ pub fn q_names(model: &Model) -> Vec<String> {
 }
 
 /// Samples `exec` every `dt_s` seconds of its clock from 0 (and at its end); reported times
-/// are `t − time_offset_s`.
+/// are `t − time_offset_s`; modes are labelled by `labels`.
 pub fn sample(
     model: &Model,
     terrain: &dyn Terrain,
     exec: &Execution,
     labels: &ContactLabels,
+    dt_s: f64,
+    time_offset_s: f64,
+) -> Result<Trajectory, SimError> {
+    sample_labelled(model, terrain, exec, &|m| labels.label(m), dt_s, time_offset_s)
+}
+
+/// [`sample`] with the modes labelled by `label` (a robot's own notation, such as RHex's
+/// `FB FL RB RL`).
+pub fn sample_labelled(
+    model: &Model,
+    terrain: &dyn Terrain,
+    exec: &Execution,
+    label: &dyn Fn(ContactMode) -> String,
     dt_s: f64,
     time_offset_s: f64,
 ) -> Result<Trajectory, SimError> {
@@ -75,8 +91,8 @@ pub fn sample(
         contact_points_m: Vec::new(),
         contact_forces_n: Vec::new(),
     };
-    let mut data = Data::new(model);
-    let (mut tau, mut y, mut free) = (vec![0.0; model.n_joints()], vec![0.0; 2 * nq], Vec::new());
+    let mut ws = FlowWorkspace::new(model);
+    let mut y = vec![0.0; 2 * nq];
     let t_end = exec.t;
     let n = (t_end / dt_s).floor().max(0.0) as usize;
     let times = (0..=n)
@@ -94,23 +110,13 @@ pub fn sample(
         };
         seg.eval(t.min(seg.t1), &mut y);
         let (q, qd) = y.split_at(nq);
-        // (t, q, q̇) => Υ and the free joints' q̈, with the controller of the segment
-        seg.controller.torque(t, q, qd, seg.mode, &mut tau);
-        data.prepare(model, terrain, seg.mode, q, qd)?;
-        free.resize(data.free_joints.len(), 0.0);
-        seg.controller
-            .free_joint_qdd(t, q, qd, &data.free_joints, &mut free);
-        // => (q̈, λ)
-        forward_dynamics(
-            model,
-            &mut data,
-            terrain,
-            seg.mode,
-            q,
-            qd,
-            &tau,
-            Some(&free),
-        )?;
+        // the segment's flow as it ran: its controller, its joints locked for a passage, its
+        // sliding contacts' directions => (Υ, q̈, λ)
+        ws.data.locked.clone_from(&seg.locked);
+        ws.data.slide_directions.clone_from(&seg.slide_directions);
+        ws.data.prepare(model, terrain, seg.mode, q, qd)?;
+        ws.solve_prepared(model, &*seg.controller, t, seg.mode, q, qd)?;
+        let data = &ws.data;
         let mut points = vec![None; nc];
         let mut forces = vec![None; nc];
         for (row, r) in seg.mode.rows().enumerate() {
@@ -121,11 +127,21 @@ pub fn sample(
             f[1] += data.lambda[row] * dir.y;
             points[r.contact] = Some([geom.point.x, geom.point.y]);
         }
+        // the kinetic friction of sliding contacts acts along their tangent, outside the rows
+        for site in &data.sliding {
+            let k = data.constraints.rows[site.row].contact;
+            let geom = contact_geometry(model, &data.kin, terrain, k);
+            let tangent = row_direction(&geom.plane, RowDirection::Tangential);
+            if let Some(f) = forces[k].as_mut() {
+                f[0] += site.force_t * tangent.x;
+                f[1] += site.force_t * tangent.y;
+            }
+        }
         out.t_s.push(t - time_offset_s);
         out.q.push(q.to_vec());
         out.qd.push(qd.to_vec());
-        out.tau.push(tau.clone());
-        out.mode.push(labels.label(seg.mode));
+        out.tau.push(ws.tau.clone());
+        out.mode.push(label(seg.mode));
         out.contact_points_m.push(points);
         out.contact_forces_n.push(forces);
     }
