@@ -8,8 +8,7 @@ displacement and pitch with the leap word of each point, written as a table and 
 
 The same as ``selfmanip sweep --strategy ++,+-,-+,-- --t2=-0.2:0.2:41 --out chapter3_sweep.csv``
 followed by ``selfmanip plot chapter3_sweep.csv --out chapter3_sweep.png``. How the default
-model's leaps compare with the thesis's account: the README's section "Where the leaps
-differ from the thesis's".
+model's leaps compare with the thesis's account, claim by claim: ``docs/fidelity.md``.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """The (+,-) broad-sweep point whose front toe chattered at its friction cone's edge
-(docs/leap-physics.md): several hundred touchdown/liftoff cycles until t_final, then ``zeno``
+(docs/decisions/2026-11-24-chatter-ends-as-zeno.md): several hundred touchdown/liftoff cycles until t_final, then ``zeno``
 by the chatter detection. The cycle was the retracting leg's park planned anew at each
 release; with one retraction per leg ("One retraction per leg") the toe lets go once and the
 leap ends ``no_flight`` like the rear-first (+,-) leaps around it. (The chatter's reason text is

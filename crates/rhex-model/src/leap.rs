@@ -21,7 +21,7 @@
 //! has lifted off the ground it is slowly rotated upwards out of the way"), unless
 //! [`LeapConfig::keep_pushing_after_liftoff`] keeps it turning in its push direction. The
 //! park is planned once; a parked leg that the ground meets and lets go again returns to it
-//! (`docs/leap-physics.md`, "One retraction per leg").
+//! (`docs/decisions/2026-11-24-one-retraction-per-leg.md`).
 //!
 //! **Words.** The leap word is the sequence of ground-reaction-complex cells visited
 //! (chapter 3.1), sliding toes counted as contact, zero-time cells suppressed.
@@ -1406,7 +1406,7 @@ impl Controller for LeapController {
                 // a leg that has its retraction keeps it: released by the ground (or at
                 // takeoff), it returns to that motion; planned anew from the release, the
                 // park would start at rest in acceleration, not at the acceleration the
-                // ground imposed, and carry the toe back into the ground (docs/leap-physics.md)
+                // ground imposed, and carry the toe back into the ground (docs/leap-model.md)
                 Phase::Retracting if self.parked[i] => continue,
                 Phase::Retracting => {
                     self.parked[i] = true;

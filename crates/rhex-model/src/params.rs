@@ -106,7 +106,7 @@ pub struct RhexParams {
     /// ratio). `None` (the default): massive legs do, massless legs do not (Assumption C.6).
     /// `Some(true)`: every leg does, massless links too (a link whose joint has armature is
     /// not massless: it stays in the dynamics in the air and on the ground,
-    /// `docs/leap-physics.md`, "Massless links that carry their rotors"). `Some(false)`: no
+    /// `docs/decisions/2026-11-24-massless-legs-stay-default.md`). `Some(false)`: no
     /// leg does. Exclusive with [`Self::leg_armature_kg_m2`], which sets the armature by hand.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub leg_rotors: Option<bool>,
