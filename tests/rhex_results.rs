@@ -144,7 +144,7 @@ fn result_b1_maximal_sensor_pitch() {
     let rhex = rhex_massless(LegShape::HalfCircle);
     let p = &rhex.params;
     let expected = ((p.rho1 - p.rho_b) / (p.l1 + p.l2)).asin();
-    let map = contact_mode_map(&rhex, 144);
+    let map = contact_mode_map(&rhex, 144).unwrap();
     assert!(
         map.len() > 144 * 144 * 9 / 10,
         "the pitch is defined almost everywhere"

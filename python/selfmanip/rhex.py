@@ -121,7 +121,7 @@ class Model(Robot):
         return self._native.quasi_static_pose(_checks.real("theta1", theta1), _checks.real("theta2", theta2))
 
     def contact_mode_map(self, n: int = 64) -> ContactModeMap:
-        """Fig. 4.3/4.6 on an ``n x n`` grid (``1 <= n <= 4096``)."""
+        """Fig. 4.3/4.6 on an ``n x n`` grid (``1 <= n <= 1024``)."""
         n = _checks.integer("n", n)
         poses = self._native.contact_mode_map(n)
         grid = -np.pi + 2 * np.pi * np.arange(n) / n

@@ -679,10 +679,9 @@ impl Robot {
     /// RHex: Fig. 4.3/4.6 as data on an `n × n` grid over the joint torus.
     fn contact_mode_map<'py>(&self, py: Python<'py>, n: i64) -> PyResult<Bound<'py, PyList>> {
         guard(|| {
-            if !(1..=4096).contains(&n) {
-                return Err(invalid("n", format!("`n` must be in 1..=4096, got {n}")));
-            }
-            let poses = contact_mode_map(self.rhex()?, n as usize);
+            // a negative n is out of the engine's range as 0 is
+            let n = usize::try_from(n).unwrap_or(0);
+            let poses = contact_mode_map(self.rhex()?, n).map_err(rhex_err)?;
             let items = poses
                 .iter()
                 .map(|p| Self::pose_dict(py, p))

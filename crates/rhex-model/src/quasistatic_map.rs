@@ -6,6 +6,7 @@
 //! is the root of `depth_front(φ) = depth_rear(φ)` where each depth is the largest world
 //! `z` (z down) of that side's contact sites (body end, leg on its round or on its toe).
 use crate::modes::Rhex;
+use crate::RhexError;
 use selfmanip_core::contact::{contact_geometry, TouchKind};
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{ContactMode, FlatGround};
@@ -137,8 +138,19 @@ pub fn quasi_static_pose(rhex: &Rhex, theta1: f64, theta2: f64) -> Option<QuasiS
     })
 }
 
+/// The most grid points per joint of [`contact_mode_map`]: 1024² poses (a figure needs
+/// 64–144 a side); the bound keeps a map's time and memory bounded (a few seconds, and about
+/// a gigabyte once every pose is a Python object).
+pub const MAX_MAP_N: usize = 1024;
+
 /// Fig. 4.3 / 4.6 as data: the pose on an `n × n` grid over `θ₁, θ₂ ∈ [−π, π)`.
-pub fn contact_mode_map(rhex: &Rhex, n: usize) -> Vec<QuasiStaticPose> {
+pub fn contact_mode_map(rhex: &Rhex, n: usize) -> Result<Vec<QuasiStaticPose>, RhexError> {
+    if !(1..=MAX_MAP_N).contains(&n) {
+        return Err(RhexError::Params {
+            field: "n".into(),
+            reason: format!("the grid has 1 to {MAX_MAP_N} points per joint, got {n}"),
+        });
+    }
     let step = std::f64::consts::TAU / n as f64;
     let mut out = Vec::with_capacity(n * n);
     for i in 0..n {
@@ -150,5 +162,5 @@ pub fn contact_mode_map(rhex: &Rhex, n: usize) -> Vec<QuasiStaticPose> {
             }
         }
     }
-    out
+    Ok(out)
 }

@@ -66,7 +66,7 @@ pub fn max_sensor_pitch(rhex: &Rhex, grid: usize) -> Result<SensorPitchRange, Rh
     if grid < 8 {
         return Err(bad("grid", "at least 8 points per joint"));
     }
-    let map = crate::quasistatic_map::contact_mode_map(rhex, grid);
+    let map = crate::quasistatic_map::contact_mode_map(rhex, grid)?;
     if map.is_empty() {
         return Err(bad("model", "no quasi-static pose exists"));
     }
