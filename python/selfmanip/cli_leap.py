@@ -30,6 +30,11 @@ from .errors import InvalidInputError
 PLOT_SUFFIXES = (".csv", ".parquet", ".json", ".mcap")
 
 
+#: The most values an ``A:B:N`` range holds (the engine's bound on a sweep's grid): checked
+#: before numpy is asked for them (``--t2=0:1:1e11`` raised numpy's ArrayMemoryError).
+MAX_RANGE_COUNT = 10_000_000
+
+
 def parse_range(text: str, field: str, *, integer_count: bool = True) -> list[float]:
     """``A:B:N`` (inclusive linspace), ``A,B,...`` or ``A`` as floats; ``ValueError``
     naming the option otherwise."""
@@ -45,6 +50,8 @@ def parse_range(text: str, field: str, *, integer_count: bool = True) -> list[fl
             n_f = float(parts[2])
             if not n_f.is_integer() or n_f < 1:
                 raise ValueError(f"COUNT must be a positive integer, got {parts[2]!r}")
+            if n_f > MAX_RANGE_COUNT:
+                raise ValueError(f"COUNT {parts[2]} is more than the {MAX_RANGE_COUNT} values a range holds")
             n = int(n_f)
             if n == 1 and a != b:
                 raise ValueError("COUNT 1 needs START == STOP")

@@ -109,3 +109,12 @@ def test_a_leap_parameter_given_twice_is_refused():
     with pytest.raises(InvalidInputError) as e:
         selfmanip.leap("++", 0.0, params={"m_b": 5.0}, m_b=9.0)
     assert e.value.field == "m_b"
+
+
+@pytest.mark.parametrize("argv, field", [
+    (["sweep", "--t2=0:1:1e11"], "--t2"),
+])
+def test_cli_ranges_beyond_the_bound_fail_before_numpy_allocates(argv, field, capsys):
+    # numpy's ArrayMemoryError traceback before
+    assert cli.main(argv) == 2
+    assert field in capsys.readouterr().err

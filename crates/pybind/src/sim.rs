@@ -380,7 +380,7 @@ impl PyScenario {
                     .collect::<PyResult<Vec<_>>>()?;
                 axes.push((name.clone(), vals));
             }
-            let points = grid(&axes);
+            let points = grid(&axes).map_err(caller_err)?;
             let base = self.inner.clone();
             let names: Vec<String> = axes.iter().map(|(n, _)| n.clone()).collect();
             let pts = points.clone();

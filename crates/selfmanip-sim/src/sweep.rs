@@ -71,8 +71,25 @@ pub struct SweepPoint {
     pub values: Vec<(String, Value)>,
 }
 
-/// The Cartesian product of `over` (the last parameter varying fastest).
-pub fn grid(over: &[(String, Vec<Value>)]) -> Vec<SweepPoint> {
+/// The most points a sweep's grid holds: 10⁷ runs are hours of work on any machine, and the
+/// bound is checked before the product is formed (a range of 10¹² values asked for terabytes).
+pub const MAX_SWEEP_POINTS: usize = 10_000_000;
+
+/// The Cartesian product of `over` (the last parameter varying fastest); an error naming the
+/// last axis when it would hold more than [`MAX_SWEEP_POINTS`] points.
+pub fn grid(over: &[(String, Vec<Value>)]) -> Result<Vec<SweepPoint>, SimError> {
+    let mut count: usize = 1;
+    for (name, values) in over {
+        count = count
+            .checked_mul(values.len())
+            .filter(|&n| n <= MAX_SWEEP_POINTS)
+            .ok_or_else(|| SimError::InvalidValue {
+                field: name.clone(),
+                reason: format!(
+                    "the sweep's grid would hold more than {MAX_SWEEP_POINTS} points"
+                ),
+            })?;
+    }
     let mut points = vec![SweepPoint::default()];
     for (name, values) in over {
         points = points
@@ -86,7 +103,7 @@ pub fn grid(over: &[(String, Vec<Value>)]) -> Vec<SweepPoint> {
             })
             .collect();
     }
-    points
+    Ok(points)
 }
 
 /// Why a point has no outcome.

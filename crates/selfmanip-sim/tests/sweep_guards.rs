@@ -45,7 +45,7 @@ fn two_axes_naming_one_parameter_are_refused() {
         ("k_push".to_string(), vec![json!(-0.7), json!(-0.9)]),
         ("behaviour.parameters.k_push".to_string(), vec![json!(-0.5)]),
     ];
-    let e = sweep(&base, &grid(&over), 1).unwrap_err();
+    let e = sweep(&base, &grid(&over).unwrap(), 1).unwrap_err();
     match e {
         SimError::InvalidValue { field, reason } => {
             assert_eq!(field, "behaviour.parameters.k_push");
@@ -53,8 +53,24 @@ fn two_axes_naming_one_parameter_are_refused() {
         }
         other => panic!("{other:?}"),
     }
-    assert!(base.with_values(&grid(&over)[0].values).is_err());
+    assert!(base.with_values(&grid(&over).unwrap()[0].values).is_err());
     // each name alone runs, and its rows carry the value they ran with
-    let rows = sweep(&base, &grid(&over[..1]), 1).unwrap();
+    let rows = sweep(&base, &grid(&over[..1]).unwrap(), 1).unwrap();
     assert_eq!(rows.len(), 2);
+}
+
+/// `sweep --over kp_push=35:55:1e12` asked numpy for terabytes; the grid is bounded before
+/// its product is formed, naming the axis that crosses the bound.
+#[test]
+fn a_grid_beyond_the_bound_is_refused_before_it_is_formed() {
+    use selfmanip_sim::sweep::MAX_SWEEP_POINTS;
+    let axis = |name: &str, n: usize| (name.to_string(), vec![json!(0.0); n]);
+    let over = vec![axis("a", 10_000), axis("b", 10_000)];
+    match grid(&over).unwrap_err() {
+        SimError::InvalidValue { field, .. } => assert_eq!(field, "b"),
+        other => panic!("{other:?}"),
+    }
+    // within the bound, the grid is the product of its axes
+    assert!(10_000 * 10_000 > MAX_SWEEP_POINTS);
+    assert_eq!(grid(&[axis("a", 100), axis("b", 30)]).unwrap().len(), 3_000);
 }
