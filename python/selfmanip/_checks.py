@@ -5,6 +5,7 @@ labels) are checked by the Rust engine and raised as :class:`InvalidInputError` 
 
 from __future__ import annotations
 
+import argparse
 import numbers
 from typing import Any
 
@@ -57,3 +58,11 @@ def text(field: str, value: Any) -> str:
     if not isinstance(value, str):
         raise InvalidTypeError(f"`{field}` must be a string, got {type(value).__name__}", field)
     return value
+
+
+def path_arg(text: str) -> str:
+    """An ``argparse`` type for a path the command writes: an empty one names no file (``--out ""``
+    wrote ``.png`` or fell back to stdout) and is refused with the option's name."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path names no file")
+    return text

@@ -62,6 +62,11 @@ def run(out_dir: str | os.PathLike = ".", n: int = 41, saturated: bool = False,
 
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
         raise selfmanip.errors.InvalidInputError(f"n: expected a positive whole number of t2 values, got {n!r}")
+    parent = os.path.dirname(os.path.abspath(out_dir))
+    if not os.path.isdir(parent):
+        # the job makes its own folder, not a tree of them from a mistyped path
+        raise selfmanip.errors.InvalidInputError(
+            f"out_dir: the folder {parent!r} that would hold {out_dir!r} does not exist", "out_dir")
     t2 = np.linspace(-0.2, 0.2, n)
     kwargs: dict[str, Any] = {} if threads is None else {"threads": threads}
     table = selfmanip.sweep(list(STRATEGIES), t2=t2, gear_ratio=None if saturated else selfmanip.DEFAULT,

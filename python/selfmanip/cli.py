@@ -25,6 +25,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ._checks import path_arg
 from .errors import InvalidInputError, SelfmanipError
 from .rhex import Model
 
@@ -187,7 +188,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = ap.add_subparsers(dest="command")
     c3 = sub.add_parser("chapter3", help="the main job (default): chapter 3's leap sweep, four strategies over t2, "
                         "as a table and a figure (Figs. 3.4-3.5)")
-    c3.add_argument("--out-dir", default=".", help="where chapter3_sweep.csv and chapter3_sweep.png go")
+    c3.add_argument("--out-dir", default=".", type=path_arg, help="where chapter3_sweep.csv and chapter3_sweep.png go")
     c3.add_argument("--n", type=int, default=41, help="values of t2 in [-0.2, 0.2] s (default 41)")
     c3.add_argument("--saturated", action="store_true",
                     help="chapter 3's saturated torque (default: the engine's default actuator, the geared motor)")
@@ -201,7 +202,7 @@ def build_parser() -> argparse.ArgumentParser:
     dy.add_argument("--tau", type=_floats, default=[0.0, 0.0], help="hip torques (N m)")
     mp = sub.add_parser("map", help="quasi-static contact-mode map (Fig. 4.3/4.6) as CSV")
     mp.add_argument("--n", type=int, default=64)
-    mp.add_argument("--csv", help="output file (default: stdout)")
+    mp.add_argument("--csv", type=path_arg, help="output file (default: stdout)")
     mo = sub.add_parser("motor", help="motor/gearbox table (Tables 2.2-2.3) and a thermal simulation (Fig. 2.8)")
     mo.add_argument("--drive", default="x-rhex-28", help="research-rhex, x-rhex-18 or x-rhex-28")
     mo.add_argument("--torque", type=float, default=2.0, help="output torque during the run (N m)")
@@ -225,7 +226,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "fig4.12), or a sweep table / leap file")
     pl.add_argument("target", help="a figure name, a sweep table (.csv/.parquet) or a leap (.json from "
                     "`selfmanip leap --json`, or .mcap)")
-    pl.add_argument("--out", required=True, help="output PNG path")
+    pl.add_argument("--out", required=True, type=path_arg, help="output PNG path")
     return ap
 
 

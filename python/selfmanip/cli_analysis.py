@@ -10,6 +10,7 @@ import sys
 
 import numpy as np
 
+from ._checks import path_arg
 from . import analysis
 from .figures import FIGURE_NAMES, figure_data
 
@@ -19,7 +20,7 @@ def add_subcommands(subparsers) -> None:
     an = subparsers.add_parser("analysis", help="data behind Figs. 4.3/4.6/4.8/4.10-4.12 (CSV) or a results summary (JSON)")
     an.add_argument("what", choices=FIGURE_NAMES + ("results",), help="a figure name, or `results`")
     an.add_argument("--n", type=int, default=None, help="grid size (figures that have one)")
-    an.add_argument("--out", default=None, help="output file (default: stdout)")
+    an.add_argument("--out", default=None, type=path_arg, help="output file (default: stdout)")
     an.set_defaults(analysis_handler=run)
 
 

@@ -25,6 +25,7 @@ from typing import Any, Mapping, Sequence, TextIO
 
 import numpy as np
 
+from ._checks import path_arg
 from .errors import InvalidInputError
 
 PLOT_SUFFIXES = (".csv", ".parquet", ".json", ".mcap")
@@ -111,9 +112,12 @@ def _sets(items: list[str] | None) -> dict[str, list[Any]]:
 def _strategies(text: str) -> list[str]:
     from .leap import _strategy
 
-    items = [s.strip() for s in text.split(",") if s.strip()]
-    if not items:
+    items = [s.strip() for s in text.split(",")]
+    if not any(items):
         raise InvalidInputError("`--strategy`: no strategy given", "--strategy")
+    if not all(items):
+        # `--strategy=++,,` ran `++` alone
+        raise InvalidInputError(f"`--strategy`: an empty strategy in {text!r}", "--strategy")
     return [_strategy(s, "--strategy") for s in items]
 
 
@@ -127,7 +131,7 @@ def add_subcommands(sub: "argparse._SubParsersAction") -> None:
     le.add_argument("--saturated", action="store_true", help="chapter 3's saturated torque instead of geared motors")
     le.add_argument("--set", action="append", metavar="NAME=VALUE", help="set a parameter by name (repeatable)")
     le.add_argument("--dt", type=float, default=0.002, help="trajectory sample time (s)")
-    le.add_argument("--mcap", help="write the trajectory as an MCAP log (Foxglove)")
+    le.add_argument("--mcap", type=path_arg, help="write the trajectory as an MCAP log (Foxglove)")
     le.add_argument("--json", action="store_true", help="print the result (with the trajectory) as JSON")
     le.set_defaults(leap_handler=leap_command)
 
@@ -142,7 +146,7 @@ def add_subcommands(sub: "argparse._SubParsersAction") -> None:
                     help="comma-separated parameters (t2, gear_ratio, m_b, I_b): adds the columns "
                          "d_<apex column>/d_<name> and sensitivity_ok")
     sw.add_argument("--threads", type=int, default=None, help="worker threads (default: all CPUs)")
-    sw.add_argument("--out", help="output .csv or .parquet (default: CSV on stdout)")
+    sw.add_argument("--out", type=path_arg, help="output .csv or .parquet (default: CSV on stdout)")
     sw.add_argument("--progress", choices=["auto", "always", "never"], default="auto",
                     help="progress bar on stderr (auto: when stderr is a terminal)")
     sw.add_argument("--strict", action="store_true",

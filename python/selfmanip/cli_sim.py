@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from .cli_leap import _parse_values, _sets, finish_sweep, write_table
+from ._checks import path_arg
 from .errors import InvalidInputError
 
 
@@ -105,8 +106,8 @@ def add_subcommands(sub: "argparse._SubParsersAction") -> None:
     _common(si, sweep=False)
     si.add_argument("--set", action="append", metavar="NAME=VALUE", help="set a parameter by name (repeatable)")
     si.add_argument("--dt", type=float, default=None, help="sample interval of the MCAP log and plot (s)")
-    si.add_argument("--mcap", help="write an MCAP log (Foxglove)")
-    si.add_argument("--plot", help="write a PNG plot of the execution")
+    si.add_argument("--mcap", type=path_arg, help="write an MCAP log (Foxglove)")
+    si.add_argument("--plot", type=path_arg, help="write a PNG plot of the execution")
     si.add_argument("--json", action="store_true", help="print the outcome, events and energy report as JSON")
     si.set_defaults(leap_handler=simulate_command)
 

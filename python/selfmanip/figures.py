@@ -31,13 +31,13 @@ def figure_data(name: str, n: int | None = None) -> dict[str, np.ndarray]:
 
     name = _check(name)
     if name in ("fig4.3", "fig4.6"):
-        m = Model().contact_mode_map(n or 96)
+        m = Model().contact_mode_map(96 if n is None else n)
         return {"theta1": m.theta1, "theta2": m.theta2, "phi": m.phi, "height_m": m.height_m,
                 "front": m.front, "rear": m.rear, "label": m.label}
     if name == "fig4.8":
-        return analysis.fig_4_8(n or 25)
+        return analysis.fig_4_8(25 if n is None else n)
     if name == "fig4.10":
-        return analysis.fig_4_10(n or 13)
+        return analysis.fig_4_10(13 if n is None else n)
     if name == "fig4.11":
         return analysis.fig_4_11()
     return analysis.fig_4_12()

@@ -118,3 +118,40 @@ def test_cli_ranges_beyond_the_bound_fail_before_numpy_allocates(argv, field, ca
     # numpy's ArrayMemoryError traceback before
     assert cli.main(argv) == 2
     assert field in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["leap", "--mcap", ""], "--mcap"),          # accepted before
+    (["sweep", "--out", ""], "--out"),           # wrote the table to stdout
+    (["plot", "x.csv", "--out", ""], "--out"),   # wrote `.png`
+    (["simulate", "r.toml", "--plot", ""], "--plot"),
+    (["analysis", "fig4.8", "--out", ""], "--out"),
+    (["chapter3", "--out-dir", ""], "--out-dir"),
+])
+def test_cli_empty_output_paths_are_refused_naming_the_option(argv, option, capsys):
+    with pytest.raises(SystemExit) as e:
+        cli.main(argv)
+    assert e.value.code == 2
+    assert f"argument {option}" in capsys.readouterr().err
+
+
+def test_cli_strategy_list_with_an_empty_item_is_refused(capsys):
+    # `--strategy=++,,` ran `++` alone
+    assert cli.main(["sweep", "--strategy=++,,", "--t2=0"]) == 2
+    assert "--strategy" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("n", ["0", "100000"])
+def test_cli_figure_grid_out_of_range_names_n(n, capsys):
+    # `--n=0` drew the default grid, `--n=100000` had no limit
+    assert cli.main(["analysis", "fig4.8", f"--n={n}"]) == 2
+    assert "`n`" in capsys.readouterr().err
+
+
+def test_chapter3_does_not_create_a_tree_from_a_mistyped_path(tmp_path):
+    from selfmanip.chapter3 import run
+
+    with pytest.raises(InvalidInputError) as e:
+        run(str(tmp_path / "no" / "such" / "dir"), n=1)
+    assert e.value.field == "out_dir"
+    assert not (tmp_path / "no").exists()

@@ -35,6 +35,23 @@ pub(crate) fn bad(field: &str, reason: impl Into<String>) -> RhexError {
     }
 }
 
+/// The most points per axis of a figure's grid (Figs. 4.8, 4.10): 512² poses, each a
+/// contact problem (Fig. 4.8 solves a linear program per point), are minutes of work; the
+/// figures use 13–25.
+pub const MAX_FIGURE_GRID: usize = 512;
+
+/// `n` points per axis of a figure's grid, 2 to [`MAX_FIGURE_GRID`].
+pub(crate) fn grid_points(n: usize) -> Result<usize, RhexError> {
+    if (2..=MAX_FIGURE_GRID).contains(&n) {
+        Ok(n)
+    } else {
+        Err(bad(
+            "n",
+            format!("a figure's grid has 2 to {MAX_FIGURE_GRID} points per axis, got {n}"),
+        ))
+    }
+}
+
 pub(crate) fn check_finite(field: &str, v: &[f64]) -> Result<(), RhexError> {
     if v.iter().all(|x| x.is_finite()) {
         Ok(())

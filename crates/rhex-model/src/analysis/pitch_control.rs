@@ -381,6 +381,7 @@ pub fn fig_4_10(
     n: usize,
     ratio: f64,
 ) -> Result<Vec<TakeoffSample>, RhexError> {
+    let n = super::grid_points(n)?;
     let line = TorqueSpeedLine::xrhex(ratio)?;
     let mut out = Vec::new();
     for leg in [TakeoffLeg::Stick, TakeoffLeg::Rolling] {

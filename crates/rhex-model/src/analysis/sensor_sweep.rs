@@ -2,7 +2,7 @@
 //! (Result B.1, eqs. 4.55–4.56), holding torque by leg shape (B.2, eqs. 4.57–4.58), the exact
 //! pitch-rate controller from the free-motion Jacobian `H` (B.3, eq. 4.59), and the largest
 //! leg speed before a contact lifts (Fig. 4.8).
-use super::{bad, check_finite, free_motion_basis, normal_rows, selector_rows};
+use super::{bad, check_finite, free_motion_basis, grid_points, normal_rows, selector_rows};
 use crate::quasistatic_map::{quasi_static_pose, QuasiStaticPose, Support};
 use crate::{Rhex, RhexError};
 use nalgebra::{DMatrix, DVector};
@@ -306,9 +306,7 @@ pub fn fig_4_8(
     theta2_range: [f64; 2],
     n: usize,
 ) -> Result<Vec<Fig48Point>, RhexError> {
-    if n < 2 {
-        return Err(bad("n", "at least 2 points per axis"));
-    }
+    let n = grid_points(n)?;
     let model = &rhex.model;
     let mut out = Vec::new();
     for i in 0..n {
