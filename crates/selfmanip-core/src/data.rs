@@ -76,6 +76,9 @@ impl Data {
     /// else and the kept system is just `f`, `g` on the dynamic coordinates. A locked joint's
     /// column of `M̄` is zero too (it is massless), but its column of `A` is not: its
     /// prescribed `x` enters `g`.
+    // inlined into each caller, as when it shared a module with them (its callers' closures
+    // then fold into the loops)
+    #[inline(always)]
     pub(crate) fn solve_prepared(
         &mut self,
         f: impl Fn(&Self, usize) -> f64,
