@@ -4,7 +4,7 @@
 //! "about X" is within 25 % of X, "near-level" a pitch under 10°, "past vertical" |φ| > 90°,
 //! "forward" / "backward" the sign of the apex displacement. Claims the default model does
 //! not reproduce have no test here; `docs/fidelity.md` (written by
-//! `crates/rhex-model/examples/fidelity.rs`) lists every claim with its value and verdict.
+//! `crates/tools/src/bin/fidelity.rs`) lists every claim with its value and verdict.
 use rhex_model::leap::{
     leap_params, leg_swing, simulate_leap, LeapConfig, LeapResult, LeapStatus, T2Reference,
 };

@@ -453,10 +453,21 @@ pub(crate) fn resolve(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()>
         }
         s.sigma = sigma;
     }
-    // several sites leaving rest: each edge was checked with the sites after it still free
-    // of friction; together they must each start sliding against their force too, else the
-    // edge combinations are searched (2ⁿ, n the sites leaving rest on an edge: two for a
-    // pair of toes) for one that does, the sticking forces' sides first
+    jointly_consistent_edges(model, data, tau, &rest)?;
+    assemble(model, data, tau)
+}
+
+/// Several sites leaving rest (`rest`, the sites at rest): each edge was checked with the
+/// sites after it still free of friction; together they must each start sliding against
+/// their force too, else the edge combinations are searched (2ⁿ, n the sites leaving rest on
+/// an edge: two for a pair of toes) for one that does, the sticking forces' sides first; if
+/// none does, the edges first chosen stay.
+fn jointly_consistent_edges(
+    model: &Model,
+    data: &mut Data,
+    tau: &[f64],
+    rest: &[usize],
+) -> Result<()> {
     let edged: Vec<usize> = rest
         .iter()
         .copied()
@@ -493,7 +504,7 @@ pub(crate) fn resolve(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()>
             }
         }
     }
-    assemble(model, data, tau)
+    Ok(())
 }
 
 /// Whether every site of `sites`, each on the edge `σ` set on it, starts sliding against
