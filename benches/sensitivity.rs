@@ -10,82 +10,37 @@
 //! parameters (`t2`, `gear_ratio`: two columns propagated by Jacobian-times-matrix products,
 //! issue 18's criterion: at most 5×), and the leap the sensitivity path runs — with its free
 //! legs under step control — alone.
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use common::{drop_state, rhex_massless, rocking_block, Servos};
 use criterion::{criterion_group, criterion_main, Criterion};
-use selfmanip::core::contact::contact_geometry;
-use selfmanip::core::kinematics::Kinematics;
-use selfmanip::core::{ContactMode, FlatGround, Model, RobotDescription};
+use selfmanip::core::{ContactMode, FlatGround, Model};
 use selfmanip::hybrid::sensitivity::simulate_with_sensitivity;
-use selfmanip::hybrid::{simulate, Controller, ControllerPartials, HybridOptions, ZeroTorque};
+use selfmanip::hybrid::{simulate, HybridOptions, ZeroTorque};
 use selfmanip::rhex::leap::{leap_params, simulate_leap, LeapConfig};
 use selfmanip::rhex::leap_sensitivity::leap_with_sensitivity;
-use selfmanip::rhex::{LegShape, Rhex, RhexParams};
+use selfmanip::rhex::LegShape;
 use std::hint::black_box;
 
-#[derive(Debug, Clone)]
-struct Servos {
-    target: Vec<f64>,
-}
-
-impl Controller for Servos {
-    fn torque(&self, _t: f64, q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
-        for (i, t) in tau.iter_mut().enumerate() {
-            *t = -5.0 * (q[i] - self.target[i]) - 0.05 * qd[i];
-        }
-    }
-    fn partials(
-        &self,
-        _t: f64,
-        _q: &[f64],
-        _qd: &[f64],
-        _mode: ContactMode,
-        _free: &[usize],
-        out: &mut ControllerPartials,
-    ) -> bool {
-        for i in 0..self.target.len() {
-            out.dtau_dq[(i, i)] = -5.0;
-            out.dtau_dqd[(i, i)] = -0.05;
-        }
-        true
-    }
-}
-
-fn block() -> Model {
-    let path =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/rocking_block.toml");
-    RobotDescription::from_file(&path).unwrap().build().unwrap()
-}
-
+/// RHex with massless half-circle legs, 1 cm above flat ground, pitched 0.1 rad and moving,
+/// under hip servos (the drop of `tests/sensitivity_rhex.rs`).
 fn rhex_drop() -> (Model, Vec<f64>, Servos) {
-    let model = Rhex::new(RhexParams {
-        leg_shape: LegShape::HalfCircle,
-        ..RhexParams::default()
-    })
-    .unwrap()
-    .model;
-    let nq = model.nq();
-    let mut q = vec![0.3, -0.2, 0.0, 0.0, 0.1];
-    let mut kin = Kinematics::default();
-    kin.compute(&model, &q, &vec![0.0; nq]);
-    let lowest = (0..model.n_contacts())
-        .map(|k| contact_geometry(&model, &kin, &FlatGround, k).gap_m)
-        .fold(f64::INFINITY, f64::min);
-    q[model.ix_z()] += lowest - 0.01;
-    let mut y = q.clone();
-    y.extend([0.0, 0.0, 0.4, 0.3, 0.8]);
-    (
-        model,
-        y,
-        Servos {
-            target: vec![0.3, -0.2],
-        },
-    )
+    let model = rhex_massless(LegShape::HalfCircle).model;
+    let y = drop_state(&model, &[0.3, -0.2], 0.1, 0.01, &[0.0, 0.0, 0.4, 0.3, 0.8]);
+    let servo = Servos {
+        k: 5.0,
+        c: 0.05,
+        target: vec![0.3, -0.2],
+    };
+    (model, y, servo)
 }
 
 fn sensitivity(c: &mut Criterion) {
     let opts = HybridOptions::default();
     let mut group = c.benchmark_group("sensitivity");
     // the rocking block: left corner 2 cm above ground, tilted 0.15 rad
-    let model = block();
+    let model = rocking_block();
     let (w, h) = (0.05_f64, 0.10_f64);
     let phi0 = 0.15_f64;
     let (s, co) = phi0.sin_cos();

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The engine's behaviour corpus: 4,032 RHex leaps (four strategies × 21 t2 × flat and ledge
 # terrains × both actuators × four robot variants, each stopped at its apex and continued to
-# its landings), one JSON line each with exact bit patterns (crates/rhex-model/examples/
+# its landings), one JSON line each with exact bit patterns (crates/tools/src/bin/
 # engine_corpus.rs). A change that must not alter the engine's behaviour leaves it identical.
 #
 #   scripts/engine-corpus.sh OUT.jsonl        run it on this checkout (release build, ~10 s)
@@ -28,5 +28,5 @@ sys.exit(1 if diff else 0)
 PY
 fi
 out="${1:?usage: scripts/engine-corpus.sh OUT.jsonl | --compare A B}"
-cargo build --quiet --release -p rhex-model --example engine_corpus
-./target/release/examples/engine_corpus > "$out"
+cargo build --quiet --release -p selfmanip-tools --bin engine_corpus
+./target/release/engine_corpus > "$out"

@@ -18,27 +18,11 @@
 //! side when it does not — the force is continuous through a slip. An integrating caller's
 //! law (`Data::slide_at_rest`) never holds a site in a sliding mode: where the cone holds it,
 //! it takes no edge and reports that the cone holds it (the engine then sticks it).
-use selfmanip::core::{forward_dynamics, ContactKind, ContactMode, Data, FlatGround, Model};
-use selfmanip::hybrid::{simulate, Controller, EventKind, HybridOptions};
+use selfmanip::core::{forward_dynamics, ContactKind, Data, FlatGround, Model};
+use selfmanip::hybrid::{simulate, EventKind, HybridOptions};
 
 mod sled;
-use sled::{sled, G, HIP_HEIGHT, LEG, M, MU};
-
-/// The leg angle that puts the toe on the ground, ahead of the hip (`θ < 0` about −y).
-fn leg_angle() -> f64 {
-    -(HIP_HEIGHT / LEG).acos()
-}
-
-fn state(xdot: f64) -> ([f64; 4], [f64; 4]) {
-    ([leg_angle(), 0.0, -HIP_HEIGHT, 0.0], [0.0, xdot, 0.0, 0.0])
-}
-
-fn all_sliding() -> ContactMode {
-    ContactMode::FLIGHT
-        .with(0, ContactKind::Slide)
-        .with(1, ContactKind::Slide)
-        .with(2, ContactKind::Slide)
-}
+use sled::{all_sliding, leg_angle, sled, state, Press, G, HIP_HEIGHT, LEG, M, MU};
 
 /// Toe position (world, z down) at leg angle `theta` with the body at the origin pose.
 fn toe(model: &Model, theta: f64) -> [f64; 2] {
@@ -102,16 +86,6 @@ fn sliding_toe_force_is_on_the_cone_edge_against_sliding_and_balances_the_leg() 
             virtual_work.abs() < 1e-6 * tau.abs(),
             "τ + Jᵀ F = {virtual_work}"
         );
-    }
-}
-
-/// A constant joint torque.
-#[derive(Clone)]
-struct Press(f64);
-
-impl Controller for Press {
-    fn torque(&self, _t: f64, _q: &[f64], _qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
-        tau[0] = self.0;
     }
 }
 

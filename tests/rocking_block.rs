@@ -11,20 +11,15 @@
 //! (5.42) and (5.44); its quoted threshold of 6.3 cm/s follows from the corrected form:
 //! with `U(P_δ)_1n = δt m g / 2` (5.43) the contact persists for
 //! `ż ≤ δt g w² / (h² − w² + 4I/m)` = 6.31 cm/s for h = 10 cm, w = 5 cm, δt = 0.03 s.
-use selfmanip::core::{
-    plastic_impact, pseudo_impulse, ContactMode, Data, FlatGround, Model, RobotDescription,
-};
+mod common;
+
+use common::rocking_block;
+use selfmanip::core::{plastic_impact, pseudo_impulse, ContactMode, Data, FlatGround};
 
 const H: f64 = 0.10;
 const W: f64 = 0.05;
 const M: f64 = 5.0;
 const G: f64 = 9.81;
-
-fn block() -> Model {
-    let path =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/rocking_block.toml");
-    RobotDescription::from_file(&path).unwrap().build().unwrap()
-}
 
 fn inertia() -> f64 {
     M * (W * W + H * H) / 12.0
@@ -42,7 +37,7 @@ fn landing_state(zdot: f64) -> ([f64; 3], [f64; 3]) {
 
 #[test]
 fn trailing_corner_impulse_matches_corrected_5_41() {
-    let model = block();
+    let model = rocking_block();
     let mut data = Data::new(&model);
     let mode = ContactMode::parse_names(&model, "left,right:slide").unwrap();
     let i = inertia();
@@ -78,7 +73,7 @@ fn trailing_corner_impulse_matches_corrected_5_41() {
 
 #[test]
 fn pseudo_impulse_threshold_is_6_3_cm_per_s() {
-    let model = block();
+    let model = rocking_block();
     let mut data = Data::new(&model);
     let mode = ContactMode::parse_names(&model, "left,right:slide").unwrap();
     let dt = 0.03;

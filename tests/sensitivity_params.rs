@@ -14,96 +14,13 @@ mod common;
 #[path = "sled/mod.rs"]
 mod sled_model;
 
-use common::{rhex_massive, rhex_massless};
+use common::{drop_state, rhex_massive, rhex_massless, seq, tight, Servos};
 use nalgebra::DMatrix;
-use selfmanip::core::contact::contact_geometry;
-use selfmanip::core::kinematics::Kinematics;
 use selfmanip::core::tangent::BodyParameter;
 use selfmanip::core::{ContactMode, FlatGround, Model};
 use selfmanip::hybrid::sensitivity::{execution_sensitivity_columns, Parameter};
-use selfmanip::hybrid::{
-    execution_sensitivity, simulate, Controller, ControllerPartials, EventKind, Execution,
-    HybridOptions, StepOptions,
-};
+use selfmanip::hybrid::{execution_sensitivity, simulate, Execution};
 use selfmanip::rhex::LegShape;
-
-#[derive(Debug, Clone)]
-struct Servos {
-    k: f64,
-    c: f64,
-    target: Vec<f64>,
-}
-
-impl Controller for Servos {
-    fn torque(&self, _t: f64, q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
-        for (i, t) in tau.iter_mut().enumerate() {
-            *t = -self.k * (q[i] - self.target[i]) - self.c * qd[i];
-        }
-    }
-    fn partials(
-        &self,
-        _t: f64,
-        _q: &[f64],
-        _qd: &[f64],
-        _mode: ContactMode,
-        _free_joints: &[usize],
-        out: &mut ControllerPartials,
-    ) -> bool {
-        for i in 0..self.target.len() {
-            out.dtau_dq[(i, i)] = -self.k;
-            out.dtau_dqd[(i, i)] = -self.c;
-        }
-        true
-    }
-    fn parameter_partials(
-        &self,
-        _t: f64,
-        q: &[f64],
-        _qd: &[f64],
-        _mode: ContactMode,
-        _free_joints: &[usize],
-        names: &[&str],
-        out: &mut ControllerPartials,
-    ) -> bool {
-        for (col, n) in names.iter().enumerate() {
-            if *n != "k" {
-                return false;
-            }
-            for (i, (qi, ti)) in q.iter().zip(&self.target).enumerate() {
-                out.dtau_dp[(i, col)] = -(qi - ti);
-            }
-        }
-        true
-    }
-}
-
-fn tight() -> HybridOptions {
-    HybridOptions {
-        step: StepOptions {
-            rtol: 1e-12,
-            atol: 1e-14,
-            ..StepOptions::default()
-        },
-        event_tol_s: 1e-14,
-        ..HybridOptions::default()
-    }
-}
-
-fn drop_state(model: &Model, theta: &[f64], phi: f64, gap_m: f64, qd: &[f64]) -> Vec<f64> {
-    let mut q: Vec<f64> = theta.to_vec();
-    q.extend([0.0, 0.0, phi]);
-    let mut kin = Kinematics::default();
-    kin.compute(model, &q, &vec![0.0; model.nq()]);
-    let lowest = (0..model.n_contacts())
-        .map(|k| contact_geometry(model, &kin, &FlatGround, k).gap_m)
-        .fold(f64::INFINITY, f64::min);
-    q[model.ix_z()] += lowest - gap_m;
-    q.iter().chain(qd).copied().collect()
-}
-
-fn seq(e: &Execution) -> Vec<(EventKind, ContactMode)> {
-    e.events.iter().map(|e| (e.kind, e.mode_after)).collect()
-}
 
 fn run(model: &Model, ctrl: &Servos, y0: &[f64], tf: f64) -> Execution {
     let nq = model.nq();
@@ -238,50 +155,12 @@ mod sled {
         forward_dynamics, ContactKind, ContactMode, Data, FlatGround, Model, RobotDescription,
     };
     use selfmanip::hybrid::sensitivity::{execution_sensitivity_columns, Parameter};
-    use selfmanip::hybrid::{
-        simulate, Controller, ControllerPartials, EventKind, HybridOptions, StepOptions,
+    use selfmanip::hybrid::{simulate, EventKind};
+
+    use super::sled_model::{
+        all_sliding, leg_angle, sled, sled_with, state, Press, G, HIP_HEIGHT, M,
     };
-
-    use super::sled_model::{sled, sled_with, G, HIP_HEIGHT, LEG, M};
-
-    /// A constant torque, the named parameter `tau`.
-    #[derive(Debug, Clone)]
-    struct Press(f64);
-
-    impl Controller for Press {
-        fn torque(&self, _t: f64, _q: &[f64], _qd: &[f64], _m: ContactMode, tau: &mut [f64]) {
-            tau[0] = self.0;
-        }
-        fn partials(
-            &self,
-            _t: f64,
-            _q: &[f64],
-            _qd: &[f64],
-            _m: ContactMode,
-            _free: &[usize],
-            _out: &mut ControllerPartials,
-        ) -> bool {
-            true
-        }
-        fn parameter_partials(
-            &self,
-            _t: f64,
-            _q: &[f64],
-            _qd: &[f64],
-            _m: ContactMode,
-            _free: &[usize],
-            names: &[&str],
-            out: &mut ControllerPartials,
-        ) -> bool {
-            for (k, n) in names.iter().enumerate() {
-                if *n != "tau" {
-                    return false;
-                }
-                out.dtau_dp[(0, k)] = 1.0;
-            }
-            true
-        }
-    }
+    use crate::common::tight;
 
     /// `ẍ` at `t` on the first segment (the constant deceleration).
     fn y_acc(exec: &selfmanip::hybrid::Execution, t: f64) -> f64 {
@@ -296,27 +175,23 @@ mod sled {
         let model = sled();
         // the toe ahead of the hip on the ground; the torque that presses it (θ about −y:
         // the toe's height grows with θ here, so a positive torque pushes it down)
-        let theta = -(HIP_HEIGHT / LEG).acos();
         let tau = 4.0;
         let v0 = 0.6;
-        let q = [theta, 0.0, -HIP_HEIGHT, 0.0];
-        let qd = [0.0, v0, 0.0, 0.0];
-        let mode = ContactMode::FLIGHT
-            .with(0, ContactKind::Slide)
-            .with(1, ContactKind::Slide)
-            .with(2, ContactKind::Slide);
-        let opts = HybridOptions {
-            step: StepOptions {
-                rtol: 1e-12,
-                atol: 1e-14,
-                ..Default::default()
-            },
-            event_tol_s: 1e-14,
-            ..HybridOptions::default()
-        };
+        let (q, qd) = state(v0);
         // to 0.06 s: it stops at ≈ 0.039 s and sticks (the torque later lifts the sled and
         // the toe slips again, at ≈ 0.13 s)
-        let exec = simulate(&model, &FlatGround, &Press(tau), mode, &q, &qd, 0.06, opts).unwrap();
+        let mode = all_sliding();
+        let exec = simulate(
+            &model,
+            &FlatGround,
+            &Press(tau),
+            mode,
+            &q,
+            &qd,
+            0.06,
+            tight(),
+        )
+        .unwrap();
         let stop = &exec.events[0];
         assert_eq!(stop.kind, EventKind::Stick, "{:?}", exec.events);
         let t_star = stop.t;
@@ -478,8 +353,7 @@ mod sled {
         let mode = ContactMode::FLIGHT
             .with(0, ContactKind::Slide)
             .with(1, ContactKind::Slide);
-        let theta = -(HIP_HEIGHT / LEG).acos();
-        let q = [theta + 0.02, 0.01, -HIP_HEIGHT + 0.003, 0.04];
+        let q = [leg_angle() + 0.02, 0.01, -HIP_HEIGHT + 0.003, 0.04];
         let qd = [0.7, 0.5, -0.1, 0.3];
         let mut worst = 0.0_f64;
         for model in [sled(), sled_with(spring)] {

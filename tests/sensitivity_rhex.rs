@@ -13,75 +13,12 @@
 //! partials yet, so the leap itself is not covered here.
 mod common;
 
-use common::{rhex_massive, rhex_massless};
+use common::{drop_state, rhex_massive, rhex_massless, seq, tight, Servos};
 use nalgebra::DMatrix;
-use selfmanip::core::contact::contact_geometry;
-use selfmanip::core::kinematics::Kinematics;
 use selfmanip::core::{ContactMode, FlatGround, Model};
 use selfmanip::hybrid::sensitivity::{simulate_with_sensitivity, SaltationStatus};
-use selfmanip::hybrid::{
-    simulate, Controller, ControllerPartials, EventKind, Execution, HybridOptions, StepOptions,
-};
+use selfmanip::hybrid::simulate;
 use selfmanip::rhex::LegShape;
-
-#[derive(Debug, Clone)]
-struct Servos {
-    k: f64,
-    c: f64,
-    target: Vec<f64>,
-}
-
-impl Controller for Servos {
-    fn torque(&self, _t: f64, q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
-        for (i, t) in tau.iter_mut().enumerate() {
-            *t = -self.k * (q[i] - self.target[i]) - self.c * qd[i];
-        }
-    }
-    fn partials(
-        &self,
-        _t: f64,
-        _q: &[f64],
-        _qd: &[f64],
-        _mode: ContactMode,
-        _free_joints: &[usize],
-        out: &mut ControllerPartials,
-    ) -> bool {
-        for i in 0..self.target.len() {
-            out.dtau_dq[(i, i)] = -self.k;
-            out.dtau_dqd[(i, i)] = -self.c;
-        }
-        true
-    }
-}
-
-fn tight() -> HybridOptions {
-    HybridOptions {
-        step: StepOptions {
-            rtol: 1e-12,
-            atol: 1e-14,
-            ..StepOptions::default()
-        },
-        event_tol_s: 1e-14,
-        ..HybridOptions::default()
-    }
-}
-
-/// The initial state: joints `theta`, pitch `phi`, the lowest contact `gap_m` above ground.
-fn drop_state(model: &Model, theta: &[f64], phi: f64, gap_m: f64, qd: &[f64]) -> Vec<f64> {
-    let mut q: Vec<f64> = theta.to_vec();
-    q.extend([0.0, 0.0, phi]);
-    let mut kin = Kinematics::default();
-    kin.compute(model, &q, &vec![0.0; model.nq()]);
-    let lowest = (0..model.n_contacts())
-        .map(|k| contact_geometry(model, &kin, &FlatGround, k).gap_m)
-        .fold(f64::INFINITY, f64::min);
-    q[model.ix_z()] += lowest - gap_m;
-    q.iter().chain(qd).copied().collect()
-}
-
-fn seq(e: &Execution) -> Vec<(EventKind, ContactMode)> {
-    e.events.iter().map(|e| (e.kind, e.mode_after)).collect()
-}
 
 /// Runs the drop, checks every saltation is defined and the whole-run Jacobian against
 /// central differences in every direction of the initial state; returns the worst relative

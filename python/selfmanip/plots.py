@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Any, Mapping, Sequence
 import numpy as np
 
 from . import _native
+from ._tables import read_table
 from .errors import InvalidInputError
 from .leap import LeapResult, Trajectory
 
@@ -467,8 +468,6 @@ def plot_file(path: str | os.PathLike, out_path: str | os.PathLike) -> str:
     if not os.path.exists(p):
         raise InvalidInputError(f"no such file: {p}", "path")
     if p.endswith((".csv", ".parquet")):
-        from .cli_leap import read_table
-
         table = read_table(p)
         if "strategy" not in table and "status" in table:
             return simulation_sweep_figure(table, out_path)  # a sweep of any robot

@@ -3,7 +3,12 @@
 use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use selfmanip::core::contact::contact_geometry;
+use selfmanip::core::kinematics::Kinematics;
 use selfmanip::core::{ContactMode, Data, FlatGround, Model, RobotDescription};
+use selfmanip::hybrid::{
+    Controller, ControllerPartials, EventKind, Execution, HybridOptions, StepOptions,
+};
 use selfmanip::rhex::{LegShape, Rhex, RhexParams};
 
 pub fn rng(seed: u64) -> ChaCha8Rng {
@@ -29,9 +34,21 @@ pub fn rhex_massless(shape: LegShape) -> Rhex {
     .unwrap()
 }
 
-pub fn quadruped() -> Model {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/quadruped.toml");
+/// The robot of `tests/data/{file}`.
+pub fn data_robot(file: &str) -> Model {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(file);
     RobotDescription::from_file(&path).unwrap().build().unwrap()
+}
+
+pub fn quadruped() -> Model {
+    data_robot("quadruped.toml")
+}
+
+/// The rocking block of thesis section 5.1.4 (h = 10 cm, w = 5 cm, m = 5 kg).
+pub fn rocking_block() -> Model {
+    data_robot("rocking_block.toml")
 }
 
 /// A random configuration: joints in (−π, π), body pose near the origin.
@@ -77,4 +94,89 @@ pub fn feasible_labels(rhex: &Rhex) -> Vec<String> {
         .into_iter()
         .filter(|l| rhex.mode(l).unwrap().n_rows() <= rhex.model.nq())
         .collect()
+}
+
+/// Hip servos `Υ_i = −k (θ_i − θ_i*) − c θ̇_i` with their partials, and the gain `k` as a
+/// parameter (`"k"`): the controller of the drops of the whole-execution sensitivity tests.
+#[derive(Debug, Clone)]
+pub struct Servos {
+    pub k: f64,
+    pub c: f64,
+    pub target: Vec<f64>,
+}
+
+impl Controller for Servos {
+    fn torque(&self, _t: f64, q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
+        for (i, t) in tau.iter_mut().enumerate() {
+            *t = -self.k * (q[i] - self.target[i]) - self.c * qd[i];
+        }
+    }
+    fn partials(
+        &self,
+        _t: f64,
+        _q: &[f64],
+        _qd: &[f64],
+        _mode: ContactMode,
+        _free_joints: &[usize],
+        out: &mut ControllerPartials,
+    ) -> bool {
+        for i in 0..self.target.len() {
+            out.dtau_dq[(i, i)] = -self.k;
+            out.dtau_dqd[(i, i)] = -self.c;
+        }
+        true
+    }
+    fn parameter_partials(
+        &self,
+        _t: f64,
+        q: &[f64],
+        _qd: &[f64],
+        _mode: ContactMode,
+        _free_joints: &[usize],
+        names: &[&str],
+        out: &mut ControllerPartials,
+    ) -> bool {
+        for (col, n) in names.iter().enumerate() {
+            if *n != "k" {
+                return false;
+            }
+            for (i, (qi, ti)) in q.iter().zip(&self.target).enumerate() {
+                out.dtau_dp[(i, col)] = -(qi - ti);
+            }
+        }
+        true
+    }
+}
+
+/// Tolerances for derivatives against central differences of whole executions (rtol 1e-12,
+/// events to 1e-14 s).
+pub fn tight() -> HybridOptions {
+    HybridOptions {
+        step: StepOptions {
+            rtol: 1e-12,
+            atol: 1e-14,
+            ..StepOptions::default()
+        },
+        event_tol_s: 1e-14,
+        ..HybridOptions::default()
+    }
+}
+
+/// The initial state `(q, q̇)` of a drop: joints `theta`, pitch `phi`, the lowest contact
+/// `gap_m` above flat ground, velocity `qd`.
+pub fn drop_state(model: &Model, theta: &[f64], phi: f64, gap_m: f64, qd: &[f64]) -> Vec<f64> {
+    let mut q: Vec<f64> = theta.to_vec();
+    q.extend([0.0, 0.0, phi]);
+    let mut kin = Kinematics::default();
+    kin.compute(model, &q, &vec![0.0; model.nq()]);
+    let lowest = (0..model.n_contacts())
+        .map(|k| contact_geometry(model, &kin, &FlatGround, k).gap_m)
+        .fold(f64::INFINITY, f64::min);
+    q[model.ix_z()] += lowest - gap_m;
+    q.iter().chain(qd).copied().collect()
+}
+
+/// An execution's events as `(kind, mode after)`.
+pub fn seq(e: &Execution) -> Vec<(EventKind, ContactMode)> {
+    e.events.iter().map(|e| (e.kind, e.mode_after)).collect()
 }

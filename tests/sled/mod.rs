@@ -4,7 +4,8 @@
 //! (`tests/kinetic_friction.rs` for the force law, `tests/sensitivity_params.rs` for its
 //! derivatives).
 #![allow(dead_code)]
-use selfmanip::core::{Model, RobotDescription};
+use selfmanip::core::{ContactKind, ContactMode, Model, RobotDescription};
+use selfmanip::hybrid::{Controller, ControllerPartials};
 
 pub const G: f64 = 9.81;
 pub const M: f64 = 3.0;
@@ -52,4 +53,61 @@ friction = {{ kind = "sliding" }}
         .unwrap()
         .build()
         .unwrap()
+}
+
+/// The leg angle that puts the toe on the ground, ahead of the hip (`θ < 0` about −y).
+pub fn leg_angle() -> f64 {
+    -(HIP_HEIGHT / LEG).acos()
+}
+
+/// The sled on its skids with the toe on the ground, sliding along `x` at `xdot`.
+pub fn state(xdot: f64) -> ([f64; 4], [f64; 4]) {
+    ([leg_angle(), 0.0, -HIP_HEIGHT, 0.0], [0.0, xdot, 0.0, 0.0])
+}
+
+/// The toe and both skids sliding.
+pub fn all_sliding() -> ContactMode {
+    ContactMode::FLIGHT
+        .with(0, ContactKind::Slide)
+        .with(1, ContactKind::Slide)
+        .with(2, ContactKind::Slide)
+}
+
+/// A constant torque at the leg's joint, the named parameter `tau`.
+#[derive(Debug, Clone)]
+pub struct Press(pub f64);
+
+impl Controller for Press {
+    fn torque(&self, _t: f64, _q: &[f64], _qd: &[f64], _m: ContactMode, tau: &mut [f64]) {
+        tau[0] = self.0;
+    }
+    fn partials(
+        &self,
+        _t: f64,
+        _q: &[f64],
+        _qd: &[f64],
+        _m: ContactMode,
+        _free: &[usize],
+        _out: &mut ControllerPartials,
+    ) -> bool {
+        true
+    }
+    fn parameter_partials(
+        &self,
+        _t: f64,
+        _q: &[f64],
+        _qd: &[f64],
+        _m: ContactMode,
+        _free: &[usize],
+        names: &[&str],
+        out: &mut ControllerPartials,
+    ) -> bool {
+        for (k, n) in names.iter().enumerate() {
+            if *n != "tau" {
+                return false;
+            }
+            out.dtau_dp[(0, k)] = 1.0;
+        }
+        true
+    }
 }

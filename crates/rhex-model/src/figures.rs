@@ -52,7 +52,7 @@ pub fn fig5_1_ledge_20cm() -> LeapConfig {
 ///
 /// The thesis gives no timing. The rear motor starts 0.035 s before the front one: the
 /// highest near-level apex (pitch under 10°) of this toe law's (+,−) sweep over t2 (5 ms
-/// steps from −0.2 to 0.2 s; `crates/rhex-model/examples/fidelity.rs` reruns the sweep and
+/// steps from −0.2 to 0.2 s; `crates/tools/src/bin/fidelity.rs` reruns the sweep and
 /// checks the choice). The body centre rises to about 43 cm at 7° of pitch and 7 mm of
 /// horizontal travel; the thesis's figure shows 37 cm.
 pub fn fig5_8_vertical_leap() -> (RhexParams, LeapConfig) {

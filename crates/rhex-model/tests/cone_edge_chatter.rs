@@ -15,6 +15,9 @@
 //! after that its gap from the kinematics (not the guard) stays positive to the end of the
 //! run, which ends with the robot back on both body ends (`no_flight`, as the (+,−)
 //! rear-first leaps around it) in a bounded number of events.
+mod common;
+
+use common::state_at;
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapStatus, LegActuator};
 use rhex_model::Rhex;
 use selfmanip_core::contact::contact_geometry;
@@ -26,22 +29,10 @@ fn front_toe_of_the_old_cone_edge_chatter_lets_go_once() {
     let mut p = leap_params();
     p.m_b = 10.232834573074323;
     p.I_b = 0.07836595626904441;
-    let LegActuator::GearedMotor {
-        current_limit_a,
-        motors_per_leg,
-        ..
-    } = LegActuator::default()
-    else {
-        unreachable!("the default actuator is geared")
-    };
     let cfg = LeapConfig {
         strategy: "+-".parse().unwrap(),
         t2_s: -0.2303,
-        actuator: LegActuator::GearedMotor {
-            gear_ratio: 23.70,
-            current_limit_a,
-            motors_per_leg,
-        },
+        actuator: LegActuator::default().with_gear_ratio(23.70),
         ..LeapConfig::default()
     };
     let r = simulate_leap(&p, &cfg).unwrap();
@@ -86,14 +77,7 @@ fn front_toe_of_the_old_cone_edge_chatter_lets_go_once() {
     let mut y = vec![0.0; 2 * nq];
     for s in 1..=200 {
         let t = t0 + (t1 - t0) * f64::from(s) / 200.0;
-        let seg = r
-            .execution
-            .segments
-            .iter()
-            .rev()
-            .find(|g| g.t0 <= t && t <= g.t1 && !g.dense.is_empty())
-            .expect("a segment");
-        seg.eval(t, &mut y);
+        state_at(&r.execution, t, &mut y);
         kin.compute(model, &y[..nq], &y[nq..]);
         let gap = contact_geometry(model, &kin, &cfg.terrain, front).gap_m;
         assert!(

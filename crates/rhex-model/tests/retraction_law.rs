@@ -21,6 +21,9 @@
 //!   kinematics on the dense output (not by the absence of a guard);
 //! - over the 15 points of the broad sweep that ended in such a cycle, no leg's toe touches
 //!   down within a millisecond of its own release, and none ends in a two-mode cycle.
+mod common;
+
+use common::state_at;
 use rhex_model::leap::{
     leap_params, leg_swing, simulate_leap, LeapConfig, LeapResult, LegActuator,
 };
@@ -41,22 +44,10 @@ fn point(s: &str, t2: f64, gear: f64, i_b: f64, m_b: f64) -> (RhexParams, LeapCo
     let mut p = leap_params();
     p.I_b = i_b;
     p.m_b = m_b;
-    let LegActuator::GearedMotor {
-        current_limit_a,
-        motors_per_leg,
-        ..
-    } = LegActuator::default()
-    else {
-        unreachable!("the default actuator is geared")
-    };
     let cfg = LeapConfig {
         strategy: s.parse().unwrap(),
         t2_s: t2,
-        actuator: LegActuator::GearedMotor {
-            gear_ratio: gear,
-            current_limit_a,
-            motors_per_leg,
-        },
+        actuator: LegActuator::default().with_gear_ratio(gear),
         ..LeapConfig::default()
     };
     (p, cfg)
@@ -169,14 +160,7 @@ fn a_released_leg_returns_to_its_one_retraction_in_closed_form() {
             );
             for s in 1..=20 {
                 let t = e.t + (until - e.t).min(0.05) * f64::from(s) / 20.0;
-                let seg = r
-                    .execution
-                    .segments
-                    .iter()
-                    .rev()
-                    .find(|g| g.t0 <= t && t <= g.t1 && !g.dense.is_empty())
-                    .expect("a segment");
-                seg.eval(t, &mut y);
+                state_at(&r.execution, t, &mut y);
                 let tau = t - e.t;
                 let closed = park.eval(t).0
                     + (err0 + (derr0 + LOOP_RAD_S * err0) * tau) * (-LOOP_RAD_S * tau).exp();

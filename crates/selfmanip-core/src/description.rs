@@ -227,6 +227,14 @@ pub struct ContactDescription {
     pub friction: FrictionDescription,
 }
 
+impl Model {
+    /// The validated model of a description: [`RobotDescription::build`], from the model's
+    /// side (here, beside the validation, so that the model does not depend on its source).
+    pub fn from_description(d: &RobotDescription) -> Result<Self> {
+        d.build()
+    }
+}
+
 impl RobotDescription {
     pub fn from_toml_str(s: &str) -> Result<Self> {
         toml::from_str(s).map_err(|e| CoreError::Parse {

@@ -144,9 +144,10 @@
 //! the normal row then returns $\lambda^s_n$), else the edge as above. The engine's resets
 //! evaluate candidate modes this way, at one instant.
 use crate::contact::{row_direction, row_direction_rate, RowDirection};
-use crate::dynamics::Data;
+use crate::data::Data;
 use crate::error::{CoreError, Result, SingularityKind};
 use crate::model::Model;
+pub use crate::sliding::{SlideDirection, SlidingSite};
 use nalgebra::Vector2;
 
 /// Sliding speed at or below which a site without a fixed direction counts as at rest
@@ -157,62 +158,6 @@ pub const SLIDING_SPEED_EPS_M_S: f64 = 1e-6;
 pub const INCONSISTENT_ACCEL_M_S2: f64 = 1e-3;
 /// Relative size of `(A_n)_j + μ_k σ (A_t)_j` below which a sliding site is wedged.
 pub const WEDGE_TOL: f64 = 1e-3;
-
-/// How the sliding direction `σ` of a site with kinetic friction is set while a caller
-/// integrates a stretch of flow ([`Data::slide_directions`], module docs).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum SlideDirection {
-    /// `σ ∈ {−1, 0, 1}` whatever `v_t` is (0: no friction).
-    Fixed(f64),
-    /// The site starts from rest: the cone edge on the side of its sticking force (never
-    /// held); the edge taken is left in [`SlidingSite::sigma`].
-    FromRest,
-}
-
-/// One sliding site with kinetic friction at the prepared state.
-#[derive(Debug, Clone, Default)]
-pub struct SlidingSite {
-    /// Its normal row in `data.constraints.rows`.
-    pub row: usize,
-    /// Its contact.
-    pub contact: usize,
-    /// The joint of the massless leg that carries it ([`usize::MAX`] for a general site).
-    pub joint: usize,
-    /// Whether its friction is folded into the dynamics solve (a site not resolved by the
-    /// statics of a single-joint massless leg: a body site, a massive or multi-joint leg,
-    /// or a leg with another active contact; module docs, "The general sliding site").
-    pub general: bool,
-    pub mu_k: f64,
-    /// `(coordinate, A_t entry)` over the coordinates the site's point depends on.
-    pub a_t: Vec<(usize, f64)>,
-    /// `Ȧ_t q̇`.
-    pub a_t_dot_qd: f64,
-    /// Sliding velocity `v_t = −A_t q̇` (m/s).
-    pub v_t: f64,
-    /// The ratio `λ_t/λ_n` of the site's force, `μ_k σ` while it slides (0 at rest until
-    /// [`resolve`] sets `held`).
-    pub coef: f64,
-    /// The sliding direction `σ` of its force: fixed, `sign v_t`, or at rest the edge
-    /// [`resolve`] took (`−sign λ^s_t`; 0: none, or held).
-    pub sigma: f64,
-    /// At rest, whether the cone holds its sticking force (then it takes no edge unless
-    /// the instantaneous law holds it: the caller must let it stick).
-    pub cone_holds: bool,
-    /// Its [`Data::slide_directions`] entry, if any.
-    pub preset: Option<SlideDirection>,
-    /// At zero sliding speed with its sticking force inside the cone: that tangential force
-    /// (N, along `t̂`), which holds the site at rest.
-    pub held: Option<f64>,
-    /// Whether its force comes from sticking ([`resolve`]): [`SlideDirection::FromRest`],
-    /// or without a fixed direction `|v_t| ≤` [`SLIDING_SPEED_EPS_M_S`], or it slides into
-    /// a wedge.
-    pub at_rest: bool,
-    /// Whether it slides into a wedge (the cone edge against its sliding through the hip).
-    pub wedged: bool,
-    /// The friction force on the robot along the site's tangent `t̂` (the row direction of a
-    /// tangential row), `μ_k σ λ_n` (N), at the last assembly.
-    pub force_t: f64,
-}
 
 /// Collects the sliding sites with kinetic friction of the prepared mode into
 /// `data.sliding` (empty — the common case — costs one pass over the rows).
@@ -508,10 +453,21 @@ pub(crate) fn resolve(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()>
         }
         s.sigma = sigma;
     }
-    // several sites leaving rest: each edge was checked with the sites after it still free
-    // of friction; together they must each start sliding against their force too, else the
-    // edge combinations are searched (2ⁿ, n the sites leaving rest on an edge: two for a
-    // pair of toes) for one that does, the sticking forces' sides first
+    jointly_consistent_edges(model, data, tau, &rest)?;
+    assemble(model, data, tau)
+}
+
+/// Several sites leaving rest (`rest`, the sites at rest): each edge was checked with the
+/// sites after it still free of friction; together they must each start sliding against
+/// their force too, else the edge combinations are searched (2ⁿ, n the sites leaving rest on
+/// an edge: two for a pair of toes) for one that does, the sticking forces' sides first; if
+/// none does, the edges first chosen stay.
+fn jointly_consistent_edges(
+    model: &Model,
+    data: &mut Data,
+    tau: &[f64],
+    rest: &[usize],
+) -> Result<()> {
     let edged: Vec<usize> = rest
         .iter()
         .copied()
@@ -548,7 +504,7 @@ pub(crate) fn resolve(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()>
             }
         }
     }
-    assemble(model, data, tau)
+    Ok(())
 }
 
 /// Whether every site of `sites`, each on the edge `σ` set on it, starts sliding against
@@ -581,7 +537,7 @@ fn jointly_consistent(
 /// `v̇_t` of site `i` under the forces currently set on every site (one KKT solve).
 fn sliding_acceleration(model: &Model, data: &mut Data, tau: &[f64], i: usize) -> Result<f64> {
     assemble(model, data, tau)?;
-    data.solve_dynamics(model, tau, None)?;
+    solve_dynamics(model, data, tau, None)?;
     let s = &data.sliding[i];
     let a_t_qdd: f64 = s.a_t.iter().map(|&(k, a)| a * data.qdd[k]).sum();
     Ok(-(a_t_qdd + s.a_t_dot_qd))
@@ -617,6 +573,34 @@ fn set_edge(data: &mut Data, i: usize, tau: &[f64], sigma: f64) -> bool {
         }
         None => false,
     }
+}
+
+/// `(Υ − C̄q̇ − N̄ + f^fr, −Ȧq̇) ⇒ (q̈, λ)` into `data.qdd`, `data.lambda` at the prepared
+/// state, with the friction force as last assembled, and the friction of the general
+/// sliding sites folded in (a typed error where that system is singular or inconsistent).
+pub(crate) fn solve_dynamics(
+    model: &Model,
+    data: &mut Data,
+    tau: &[f64],
+    free_joint_qdd: Option<&[f64]>,
+) -> Result<()> {
+    let (mut x, mut y) = (
+        std::mem::take(&mut data.qdd),
+        std::mem::take(&mut data.lambda),
+    );
+    data.solve_prepared(
+        |d, a| d.generalized_force_at(model, tau, a),
+        |d, r| -d.constraints.a_dot_qd.as_slice()[r],
+        free_joint_qdd,
+        &mut x,
+        &mut y,
+    );
+    (data.qdd, data.lambda) = (x, y);
+    // general sliding sites: their friction, linear in their λ_n, folded in
+    if data.has_general {
+        fold_general(model, data)?;
+    }
+    Ok(())
 }
 
 /// Whether a site's friction is folded into the dynamics solve now: a general site on a

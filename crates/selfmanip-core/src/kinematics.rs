@@ -6,7 +6,7 @@
 //! point `o` is `s S(p − o)`, and its time derivative is `s S(ṗ − ȯ)` where `ṗ` is the rate of
 //! the point at which the Jacobian is evaluated (the material velocity for a fixed point,
 //! the centre's velocity for a rolling contact on a plane).
-use crate::contact::ArcRange;
+use crate::arc_range::ArcRange;
 use crate::frames::{perp, rotate_sc};
 use crate::model::{ContactShape, Model};
 use nalgebra::{DMatrix, Vector2};

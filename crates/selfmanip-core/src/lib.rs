@@ -13,8 +13,10 @@
 //! Pipeline: [`RobotDescription`] → [`Model`] (immutable) + [`Data`] (workspace) →
 //! [`forward_dynamics`] / [`plastic_impact`] / [`reduced::ReducedDynamics`] /
 //! [`quasistatic::QuasiStatic`].
+mod arc_range;
 pub mod constraint;
 pub mod contact;
+mod data;
 pub mod description;
 pub mod dynamics;
 pub mod error;
@@ -29,6 +31,7 @@ pub mod passive;
 pub mod poses;
 pub mod quasistatic;
 pub mod reduced;
+mod sliding;
 pub mod tangent;
 
 pub use contact::{

@@ -3,7 +3,6 @@
 //! Generalized coordinates follow the thesis (section 4.1.2): `q = [θ, x]` with the `n`
 //! joint angles first (leg by leg, proximal to distal) and then the body pose
 //! `x = (x, z, φ)` in the world frame (z down, φ nose-up).
-use crate::description::RobotDescription;
 use nalgebra::Vector2;
 
 /// A leg: a planar serial chain of revolute joints attached at `hip_m` in the body frame.
@@ -137,10 +136,6 @@ impl Model {
             joints,
             contacts,
         }
-    }
-
-    pub fn from_description(d: &RobotDescription) -> crate::Result<Self> {
-        d.build()
     }
 
     /// Number of joints `n`.

@@ -701,6 +701,7 @@ fn add_to(a: &mut DVector<f64>, b: &DVector<f64>) {
 }
 
 /// Sets `v` to `n` zeros, allocating only when its length changes.
+#[inline]
 fn zero_sized(v: &mut DVector<f64>, n: usize) {
     if v.len() == n {
         v.as_mut_slice().fill(0.0);

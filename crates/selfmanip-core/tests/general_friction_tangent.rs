@@ -21,6 +21,9 @@
 //! Jacobian-times-matrix product along random directions and the body mass (differences of
 //! rebuilt models), and the plastic impact into a mode with general sliding sites, which carries
 //! no kinetic friction (Assumption 5.9) and so is differentiated as before.
+mod common;
+
+use common::{coulomb_body, one_leg_body, robot, sliding, G};
 use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -31,10 +34,9 @@ use selfmanip_core::tangent::{
 };
 use selfmanip_core::{
     forward_dynamics, plastic_impact, ContactKind, ContactMode, Data, FlatGround, GroundPlane,
-    Model, RobotDescription, Terrain,
+    Model, Terrain,
 };
 
-const G: f64 = 9.81;
 const H: f64 = 1e-5;
 const TOL: f64 = 1e-6;
 
@@ -47,20 +49,8 @@ fn rel_err(exact: &DMatrix<f64>, fd: &DMatrix<f64>) -> f64 {
 /// with `mu`.
 fn block(m: f64, mu: f64) -> Model {
     let (w, h) = (0.1, 0.05);
-    let mut text = format!(
-        "name = \"block\"\ngravity_m_s2 = {G}\nlegs = []\n[body]\nmass_kg = {m}\ninertia_kg_m2 = {}\n",
-        m * (w * w + h * h) / 12.0
-    );
-    for (name, x) in [("left", -w / 2.0), ("right", w / 2.0)] {
-        text += &format!(
-            "[[contacts]]\nname = \"{name}\"\nshape = {{ kind = \"point\", position_m = [{x}, {}] }}\nfriction = {{ kind = \"sticking\", mu = {mu}, mu_kinetic = {mu} }}\n",
-            h / 2.0
-        );
-    }
-    RobotDescription::from_toml_str(&text)
-        .unwrap()
-        .build()
-        .unwrap()
+    let corners = [("left", -w / 2.0, h / 2.0), ("right", w / 2.0, h / 2.0)];
+    coulomb_body(m, m * (w * w + h * h) / 12.0, &corners, mu, mu)
 }
 
 /// Contacts `toe` (a massive leg's, general), `rear` and `front` (body ends, general), and
@@ -107,10 +97,7 @@ shape = {{ kind = "point", position_m = [0.0, 0.12] }}
 friction = {{ kind = "sticking", mu = 0.6, mu_kinetic = 0.6 }}
 "#
     );
-    RobotDescription::from_toml_str(&text)
-        .unwrap()
-        .build()
-        .unwrap()
+    robot(&text)
 }
 
 /// A two-joint leg with a Coulomb toe: both links massive, or (`sprung`) a massive hip link
@@ -124,14 +111,6 @@ fn two_joint(sprung: bool) -> Model {
     };
     let text = format!(
         r#"
-name = "two-joint leg"
-gravity_m_s2 = {G}
-[body]
-mass_kg = 3.0
-inertia_kg_m2 = 0.05
-[[legs]]
-name = "leg"
-hip_m = [0.0, 0.0]
 [[legs.links]]
 length_m = 0.177
 mass_kg = 0.126
@@ -151,16 +130,7 @@ shape = {{ kind = "point", position_m = [-0.2, 0.05] }}
 friction = {{ kind = "sticking", mu = 0.4, mu_kinetic = 0.4 }}
 "#
     );
-    RobotDescription::from_toml_str(&text)
-        .unwrap()
-        .build()
-        .unwrap()
-}
-
-fn slide(contacts: &[usize]) -> ContactMode {
-    contacts
-        .iter()
-        .fold(ContactMode::FLIGHT, |m, &k| m.with(k, ContactKind::Slide))
+    one_leg_body("two-joint leg", 0.0, &text)
 }
 
 /// One evaluation's inputs: the mode, its fixed sliding directions (empty: the
@@ -321,7 +291,7 @@ fn block_sliding_on_two_corners_jacobian_equals_finite_differences() {
             let mut case = Case {
                 model: &model,
                 terrain,
-                mode: slide(&[0, 1]),
+                mode: sliding(&[0, 1]),
                 dirs: Vec::new(),
             };
             let (n, e, most) = check_states(&mut case, &fixed, &[], 12, seed + 10 * t as u64);
@@ -339,7 +309,7 @@ fn massive_legs_sliding_toe_jacobian_equals_finite_differences() {
     let model = legged(3.0);
     // θ_leg, θ_stub about hanging down
     let mid = [0.0, 0.0];
-    for (sliding, stick, want_general, seed) in [
+    for (slides, stick, want_general, seed) in [
         (vec![0], vec![], 1, 3),
         (vec![0, 1], vec![], 2, 4),
         (vec![0], vec![2], 1, 5),
@@ -348,15 +318,15 @@ fn massive_legs_sliding_toe_jacobian_equals_finite_differences() {
     ] {
         let mode = stick
             .iter()
-            .fold(slide(&sliding), |m, &k| m.with(k, ContactKind::Stick));
+            .fold(sliding(&slides), |m, &k| m.with(k, ContactKind::Stick));
         let mut case = Case {
             model: &model,
             terrain: &FlatGround,
             mode,
             dirs: Vec::new(),
         };
-        let (n, e, most) = check_states(&mut case, &sliding, &mid, 12, seed);
-        eprintln!("legged, sliding {sliding:?}, sticking {stick:?}: {n} states, worst {e:e}");
+        let (n, e, most) = check_states(&mut case, &slides, &mid, 12, seed);
+        eprintln!("legged, sliding {slides:?}, sticking {stick:?}: {n} states, worst {e:e}");
         assert!(n >= 6, "only {n} of 12 states checked");
         assert_eq!(most, want_general);
     }
@@ -368,18 +338,18 @@ fn massive_legs_sliding_toe_jacobian_equals_finite_differences() {
 fn two_joint_legs_sliding_toe_jacobian_equals_finite_differences() {
     for sprung in [false, true] {
         let model = two_joint(sprung);
-        for (sliding, want_general, seed) in [(vec![0], 1, 8), (vec![0, 1], 2, 9)] {
+        for (slides, want_general, seed) in [(vec![0], 1, 8), (vec![0, 1], 2, 9)] {
             let mut case = Case {
                 model: &model,
                 terrain: &FlatGround,
-                mode: slide(&sliding),
+                mode: sliding(&slides),
                 dirs: Vec::new(),
             };
             // the shank well away from vertical (where a massless knee's toe row loses its
             // lever, Lemma 5.1) and from the cone edge through the knee (a wedge)
             let mid = if sprung { [0.3, 1.2] } else { [0.3, 0.5] };
-            let (n, e, most) = check_states(&mut case, &sliding, &mid, 12, seed);
-            eprintln!("two-joint (sprung {sprung}), sliding {sliding:?}: {n} states, worst {e:e}");
+            let (n, e, most) = check_states(&mut case, &slides, &mid, 12, seed);
+            eprintln!("two-joint (sprung {sprung}), sliding {slides:?}: {n} states, worst {e:e}");
             assert!(n >= 6, "only {n} of 12 states checked");
             assert_eq!(most, want_general);
         }
@@ -395,7 +365,7 @@ fn two_joint_legs_sliding_toe_jacobian_equals_finite_differences() {
 fn jvp_and_body_mass_derivative_through_the_fold() {
     let (m_b, dm) = (3.0, 1e-5);
     let model = legged(m_b);
-    let mode = slide(&[0, 1]);
+    let mode = sliding(&[0, 1]);
     let dirs = vec![
         (0, SlideDirection::Fixed(-1.0)),
         (1, SlideDirection::Fixed(-1.0)),
@@ -461,7 +431,7 @@ fn jvp_and_body_mass_derivative_through_the_fold() {
 #[test]
 fn impact_into_a_mode_with_general_sliding_sites_is_differentiated() {
     let model = legged(3.0);
-    let mode = slide(&[0, 1]).with(2, ContactKind::Stick);
+    let mode = sliding(&[0, 1]).with(2, ContactKind::Stick);
     let q = [0.2, 0.0, 0.0, 0.0, 0.05];
     let qd = [0.5, 0.3, 0.6, 0.8, 0.2];
     let mut data = Data::new(&model);

@@ -10,30 +10,14 @@
 //! Frames (docs/conventions.md): NED, z down, `q = [θ…, x, z, φ]`, a body point `p` at
 //! `X + R(φ) p`, `R(φ) = [[cos φ, sin φ], [−sin φ, cos φ]]`; `λ` is the ground's force on the
 //! robot, pushing normals negative.
+mod common;
+
+use common::{coulomb_body, one_leg_body, sliding, G};
 use selfmanip_core::friction::SlideDirection;
 use selfmanip_core::{
-    forward_dynamics, ContactKind, ContactMode, CoreError, Data, FlatGround, GroundPlane, Model,
-    RobotDescription, RowDirection, SingularityKind,
+    forward_dynamics, CoreError, Data, FlatGround, GroundPlane, Model, RowDirection,
+    SingularityKind,
 };
-
-const G: f64 = 9.81;
-
-/// A rigid body without legs, with point contacts `(name, x, z)` in its frame, each
-/// sticking with `mu` and sliding with `mu_kinetic`.
-fn body(mass: f64, inertia: f64, points: &[(&str, f64, f64)], mu: f64, mu_k: f64) -> Model {
-    let mut text = format!(
-        "name = \"body\"\ngravity_m_s2 = {G}\nlegs = []\n[body]\nmass_kg = {mass}\ninertia_kg_m2 = {inertia}\n"
-    );
-    for (name, x, z) in points {
-        text += &format!(
-            "[[contacts]]\nname = \"{name}\"\nshape = {{ kind = \"point\", position_m = [{x}, {z}] }}\nfriction = {{ kind = \"sticking\", mu = {mu}, mu_kinetic = {mu_k} }}\n"
-        );
-    }
-    RobotDescription::from_toml_str(&text)
-        .unwrap()
-        .build()
-        .unwrap()
-}
 
 /// The normal multiplier of contact `k` after a solve.
 fn lambda_n(data: &Data, k: usize) -> f64 {
@@ -46,12 +30,6 @@ fn lambda_n(data: &Data, k: usize) -> f64 {
     data.lambda[r]
 }
 
-fn sliding(contacts: &[usize]) -> ContactMode {
-    contacts
-        .iter()
-        .fold(ContactMode::FLIGHT, |m, &k| m.with(k, ContactKind::Slide))
-}
-
 /// A `w × h` block on its two bottom corners, sliding at `v` along `+x` or `−x`: no pitch or
 /// heave, `ẍ = −μ g sign v`, and the moment of the two friction forces (below the centre of
 /// mass by `h/2`) shifts the load to the leading corner: `N₂ − N₁ = μ h m g / w sign v`
@@ -59,7 +37,7 @@ fn sliding(contacts: &[usize]) -> ContactMode {
 #[test]
 fn block_sliding_on_level_ground_decelerates_at_mu_g_and_loads_its_leading_corner() {
     let (w, h, m, mu) = (0.1, 0.05, 2.0, 0.3);
-    let model = body(
+    let model = coulomb_body(
         m,
         m * (w * w + h * h) / 12.0,
         &[("left", -w / 2.0, h / 2.0), ("right", w / 2.0, h / 2.0)],
@@ -113,7 +91,7 @@ fn block_sliding_on_level_ground_decelerates_at_mu_g_and_loads_its_leading_corne
 #[test]
 fn puck_on_incline_slides_with_g_sin_alpha_minus_or_plus_mu_g_cos_alpha() {
     let (m, mu) = (2.0, 0.4);
-    let model = body(m, 0.01, &[("foot", 0.0, 0.0)], mu, mu);
+    let model = coulomb_body(m, 0.01, &[("foot", 0.0, 0.0)], mu, mu);
     let mut data = Data::new(&model);
     for alpha in [0.2_f64, 0.6] {
         let plane = GroundPlane {
@@ -158,7 +136,7 @@ fn painleve_rod_is_inconsistent_exactly_beyond_the_closed_form_threshold() {
         assert!(mu_star >= 4.0 / 3.0 - 1e-12);
         for (factor, sigma) in [(0.97, -1.0), (1.03, -1.0), (1.03, 1.0), (0.5, -1.0)] {
             let mu = mu_star * factor;
-            let model = body(m, m * l * l / 3.0, &[("end", -l, 0.0)], mu, mu);
+            let model = coulomb_body(m, m * l * l / 3.0, &[("end", -l, 0.0)], mu, mu);
             let mut data = Data::new(&model);
             // the end on the ground, sliding at σ·0.3 m/s, turning at φ̇
             let phidot = 0.7;
@@ -211,14 +189,6 @@ fn legged(link_mass: f64, mu_k: f64) -> Model {
     let (len, inertia) = (0.17, link_mass * 0.17 * 0.17 / 12.0);
     let text = format!(
         r#"
-name = "one leg"
-gravity_m_s2 = {G}
-[body]
-mass_kg = 3.0
-inertia_kg_m2 = 0.05
-[[legs]]
-name = "leg"
-hip_m = [0.05, 0.0]
 [[legs.links]]
 length_m = {len}
 mass_kg = {link_mass}
@@ -232,10 +202,7 @@ friction = {{ kind = "sticking", mu = {mu_k}, mu_kinetic = {mu_k} }}
 "#,
         com = len / 2.0
     );
-    RobotDescription::from_toml_str(&text)
-        .unwrap()
-        .build()
-        .unwrap()
+    one_leg_body("one leg", 0.05, &text)
 }
 
 /// The toe's pose: leg angle `θ`, body pitch `φ`, the toe on the ground at `x = 0`.
@@ -318,16 +285,7 @@ fn massive_leg_toe_tends_to_the_massless_statics_as_the_leg_mass_vanishes() {
 /// typed singular-KKT error (Lemma 5.1), with or without friction, never a number.
 #[test]
 fn two_joint_massless_leg_sliding_is_a_typed_singularity() {
-    let text = format!(
-        r#"
-name = "two-joint leg"
-gravity_m_s2 = {G}
-[body]
-mass_kg = 3.0
-inertia_kg_m2 = 0.05
-[[legs]]
-name = "leg"
-hip_m = [0.0, 0.0]
+    let text = r#"
 [[legs.links]]
 length_m = 0.1
 mass_kg = 0.0
@@ -336,18 +294,14 @@ inertia_kg_m2 = 0.0
 length_m = 0.1
 mass_kg = 0.0
 inertia_kg_m2 = 0.0
-spring = {{ stiffness_n_m_per_rad = 5.0 }}
+spring = { stiffness_n_m_per_rad = 5.0 }
 [[contacts]]
 name = "toe"
 leg = "leg"
-shape = {{ kind = "point", position_m = [0.0, 0.1] }}
-friction = {{ kind = "sticking", mu = 0.5, mu_kinetic = 0.5 }}
-"#
-    );
-    let model = RobotDescription::from_toml_str(&text)
-        .unwrap()
-        .build()
-        .unwrap();
+shape = { kind = "point", position_m = [0.0, 0.1] }
+friction = { kind = "sticking", mu = 0.5, mu_kinetic = 0.5 }
+"#;
+    let model = one_leg_body("two-joint leg", 0.0, text);
     let mut data = Data::new(&model);
     let mut q = vec![0.3, 0.4, 0.0, 0.0, 0.0];
     let p =
@@ -383,7 +337,7 @@ friction = {{ kind = "sticking", mu = 0.5, mu_kinetic = 0.5 }}
 #[test]
 fn puck_at_rest_on_a_steep_incline_takes_the_downhill_edge() {
     let (m, mu, alpha) = (2.0, 0.3, 0.5_f64);
-    let model = body(m, 0.01, &[("foot", 0.0, 0.0)], mu, mu);
+    let model = coulomb_body(m, 0.01, &[("foot", 0.0, 0.0)], mu, mu);
     let plane = GroundPlane {
         point_m: [0.0, 0.0],
         normal_into_ground: [alpha.sin(), alpha.cos()],
@@ -485,7 +439,7 @@ fn painleve_threshold_itself_is_a_typed_singularity_not_a_number() {
     let qd = [-0.3, 0.0, 0.0];
     for factor in [1.0, 1.0 + 1e-13, 1.0 - 1e-13] {
         let mu = mu_star * factor;
-        let model = body(m, m * l * l / 3.0, &[("end", -l, 0.0)], mu, mu);
+        let model = coulomb_body(m, m * l * l / 3.0, &[("end", -l, 0.0)], mu, mu);
         let mut data = Data::new(&model);
         let r = forward_dynamics(
             &model,

@@ -12,12 +12,11 @@
 //! negative, friction against the toe's sliding velocity `v_x`, itself by differences), the
 //! massless knee's row reads `J_k · F + τ_knee = 0` with `τ_knee = −k (δ − δ₀) − c δ̇`
 //! (`selfmanip_core::passive`).
-use selfmanip_core::{
-    contact_points, forward_dynamics, ContactKind, ContactMode, Data, FlatGround, Model,
-    RobotDescription,
-};
+mod common;
 
-const G: f64 = 9.81;
+use common::{one_leg_body, sliding};
+use selfmanip_core::{contact_points, forward_dynamics, Data, FlatGround, Model};
+
 const MU: f64 = 0.8;
 const K: f64 = 120.0;
 const REST: f64 = 1.5;
@@ -26,14 +25,6 @@ const DAMP: f64 = 0.4;
 fn sprung_leg() -> Model {
     let text = format!(
         r#"
-name = "sprung leg"
-gravity_m_s2 = {G}
-[body]
-mass_kg = 3.0
-inertia_kg_m2 = 0.05
-[[legs]]
-name = "leg"
-hip_m = [0.0, 0.0]
 [[legs.links]]
 length_m = 0.177
 mass_kg = 0.126
@@ -48,10 +39,7 @@ shape = {{ kind = "point", position_m = [0.0, 0.05] }}
 friction = {{ kind = "sticking", mu = {MU}, mu_kinetic = {MU} }}
 "#
     );
-    RobotDescription::from_toml_str(&text)
-        .unwrap()
-        .build()
-        .unwrap()
+    one_leg_body("sprung leg", 0.0, &text)
 }
 
 fn toe(model: &Model, q: &[f64]) -> [f64; 2] {
@@ -61,7 +49,7 @@ fn toe(model: &Model, q: &[f64]) -> [f64; 2] {
 #[test]
 fn sprung_legs_sliding_toe_force_is_set_by_the_knee_statics() {
     let model = sprung_leg();
-    let mode = ContactMode::FLIGHT.with(0, ContactKind::Slide);
+    let mode = sliding(&[0]);
     let mut data = Data::new(&model);
     for (hip, knee, phi, hip_tau, vx) in [
         (0.5, 1.62, 0.05, 2.0, 0.3),

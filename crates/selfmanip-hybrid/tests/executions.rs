@@ -5,7 +5,7 @@ use selfmanip_core::{ContactMode, FlatGround, Model};
 use selfmanip_hybrid::{simulate, EventKind, HybridError, HybridOptions, Termination, ZeroTorque};
 
 mod systems;
-use systems::{BLOCK, G};
+use systems::{released, BLOCK, G};
 
 const H: f64 = BLOCK.1;
 const W: f64 = BLOCK.0;
@@ -21,17 +21,13 @@ fn falling_block_lands_at_closed_form_time() {
     let model = block();
     for d in [0.01, 0.2, 1.3] {
         let q = [0.3, -H / 2.0 - d, 0.0];
-        let exec = simulate(
+        let exec = released(
             &model,
-            &FlatGround,
-            &ZeroTorque,
             ContactMode::FLIGHT,
             &q,
-            &[0.0; 3],
             2.0,
             HybridOptions::default(),
-        )
-        .unwrap();
+        );
         let first = &exec.events[0];
         assert_eq!(first.kind, EventKind::Touchdown);
         let expected = (2.0 * d / G).sqrt();
@@ -66,17 +62,7 @@ fn tilted_on_left_corner(phi: f64) -> ([f64; 3], ContactMode, Model) {
 #[test]
 fn rocking_block_is_zeno_without_pseudo_impulse() {
     let (q, mode, model) = tilted_on_left_corner(0.15);
-    let exec = simulate(
-        &model,
-        &FlatGround,
-        &ZeroTorque,
-        mode,
-        &q,
-        &[0.0; 3],
-        5.0,
-        HybridOptions::default(),
-    )
-    .unwrap();
+    let exec = released(&model, mode, &q, 5.0, HybridOptions::default());
     assert!(
         matches!(exec.termination, Termination::Zeno { .. }),
         "{:?}",
@@ -105,17 +91,7 @@ fn rocking_block_comes_to_rest_with_pseudo_impulse() {
         delta_t_s: 0.03,
         ..Default::default()
     };
-    let exec = simulate(
-        &model,
-        &FlatGround,
-        &ZeroTorque,
-        mode,
-        &q,
-        &[0.0; 3],
-        3.0,
-        opts,
-    )
-    .unwrap();
+    let exec = released(&model, mode, &q, 3.0, opts);
     assert_eq!(exec.termination, Termination::FinalTime);
     let last = exec.events.last().unwrap();
     assert_eq!(last.mode_after.active().count(), 2, "both corners down");

@@ -18,43 +18,23 @@
 //!   `β̇ = ω₀`, so the ground's normal force is `N = m (g + ḧ) = m (g − L ω₀² cos β)`: for
 //!   `L ω₀² < g` the leg passes the fold (from `−asin ε_p` to `+asin ε_p` in
 //!   `2 asin ε_p / ω₀`); for `L ω₀² > g` the toe lifts off where `cos β = g / (L ω₀²)`.
-use selfmanip_core::{ContactKind, ContactMode, FlatGround, Model, RobotDescription};
+mod systems;
+
+use selfmanip_core::{ContactMode, FlatGround, Model};
 use selfmanip_hybrid::{
     energy_report, simulate, Controller, EventKind, Execution, HybridOptions, StepOptions,
     Termination,
 };
+use systems::{massless_leg, sliding, HipTorque, G};
 
 const M: f64 = 1.0;
-const G: f64 = 9.81;
 const L: f64 = 0.2;
 /// The body's inertia: large enough that the torque's reaction does not turn it (over the
 /// run its rotation stores `τ² t² / (2 I) < 1e-7 J`).
 const I_BODY: f64 = 1e6;
 
 fn leg_robot(friction: &str) -> Model {
-    let text = format!(
-        r#"
-name = "one-legged body"
-gravity_m_s2 = {G}
-[body]
-mass_kg = {M}
-inertia_kg_m2 = {I_BODY}
-[[legs]]
-name = "leg"
-hip_m = [0.0, 0.0]
-[[legs.links]]
-length_m = {L}
-[[contacts]]
-name = "toe"
-leg = "leg"
-shape = {{ kind = "point", position_m = [0.0, {L}] }}
-friction = {friction}
-"#
-    );
-    RobotDescription::from_toml_str(&text)
-        .unwrap()
-        .build()
-        .unwrap()
+    massless_leg(M, I_BODY, L, friction)
 }
 
 /// The leg at `β₀ < 0` (φ = 0, so `β = θ`), its toe on the ground, the joint turning at
@@ -63,16 +43,6 @@ fn start(beta0: f64, omega: f64) -> ([f64; 4], [f64; 4]) {
     let q = [beta0, 0.0, -L * beta0.cos(), 0.0];
     let qd = [omega, 0.0, L * beta0.sin() * omega, 0.0];
     (q, qd)
-}
-
-/// A joint torque that is constant.
-#[derive(Clone)]
-struct Constant(f64);
-
-impl Controller for Constant {
-    fn torque(&self, _t: f64, _q: &[f64], _qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
-        tau[0] = self.0;
-    }
 }
 
 /// A motor's torque–speed line, `τ = k (ω₀ − θ̇)`.
@@ -99,10 +69,6 @@ fn opts(fold_threshold: f64) -> HybridOptions {
         },
         ..HybridOptions::default()
     }
-}
-
-fn sliding() -> ContactMode {
-    ContactMode::FLIGHT.with(0, ContactKind::Slide)
 }
 
 /// How closely a guard located to `event_tol_s` (1e-10 s) finds the leg's angle `β` on its
@@ -133,8 +99,8 @@ fn constant_torque_leg_is_released_at_its_fold_to_the_energy_apex() {
         let exec = simulate(
             &model,
             &FlatGround,
-            &Constant(tau),
-            sliding(),
+            &HipTorque(tau),
+            sliding(&[0]),
             &q,
             &qd,
             2.0,
@@ -177,8 +143,8 @@ fn impulsive_stick_that_would_pull_is_refused_at_the_fold() {
     let exec = simulate(
         &model,
         &FlatGround,
-        &Constant(tau),
-        sliding(),
+        &HipTorque(tau),
+        sliding(&[0]),
         &q,
         &qd,
         2.0,
@@ -212,7 +178,7 @@ fn leg_on_a_torque_speed_line_passes_its_fold_at_the_torque_free_speed() {
         stop_at_apex: false,
         ..opts(1e-2)
     };
-    let exec = simulate(&model, &FlatGround, &ctrl, sliding(), &q, &qd, 0.15, o).unwrap();
+    let exec = simulate(&model, &FlatGround, &ctrl, sliding(&[0]), &q, &qd, 0.15, o).unwrap();
     let kinds: Vec<EventKind> = exec.events.iter().map(|e| e.kind).collect();
     assert_eq!(
         kinds[..2],
@@ -221,7 +187,7 @@ fn leg_on_a_torque_speed_line_passes_its_fold_at_the_torque_free_speed() {
     );
     let (entry, exit) = (&exec.events[0], &exec.events[1]);
     let eps_p = o.passage_threshold;
-    assert_eq!(entry.mode_after, sliding(), "passes sliding");
+    assert_eq!(entry.mode_after, sliding(&[0]), "passes sliding");
     // located to event_tol_s = 1e-10 s at ~3 rad/s
     assert!(
         (entry.q[0] + eps_p.asin()).abs() < 1e-8,
@@ -289,7 +255,7 @@ fn leg_turning_faster_than_the_body_falls_lifts_off_in_its_passage() {
         stop_at_apex: false,
         ..opts(1e-2)
     };
-    let exec = simulate(&model, &FlatGround, &ctrl, sliding(), &q, &qd, 0.1, o).unwrap();
+    let exec = simulate(&model, &FlatGround, &ctrl, sliding(&[0]), &q, &qd, 0.1, o).unwrap();
     let kinds: Vec<EventKind> = exec.events.iter().map(|e| e.kind).collect();
     assert_eq!(
         kinds[..2],

@@ -19,54 +19,20 @@
 //! guard's pin is the smaller of `|sin ψ|` and `|sin ∠(r, e)|`; with `β` rising from `−0.5`
 //! the wedge is met first, at `|β| = atan μ + asin ε`, when the toe slides the way that puts
 //! the edge there (here `ẋ < 0`), and the frictionless fold `|β| = asin ε` otherwise.
-use selfmanip_core::{
-    forward_dynamics, ContactKind, ContactMode, Data, FlatGround, Model, RobotDescription,
-};
-use selfmanip_hybrid::{simulate, Controller, EventKind, HybridOptions, StepOptions, Termination};
+mod systems;
+
+use selfmanip_core::{forward_dynamics, Data, FlatGround, Model};
+use selfmanip_hybrid::{simulate, EventKind, HybridOptions, StepOptions, Termination};
+use systems::{massless_leg, sliding, HipTorque};
 
 const M: f64 = 1.0;
-const G: f64 = 9.81;
 const L: f64 = 0.2;
 const I_BODY: f64 = 1e6;
 const MU: f64 = 0.3;
 
 fn leg_robot(mu_kinetic: f64) -> Model {
-    let text = format!(
-        r#"
-name = "one-legged body"
-gravity_m_s2 = {G}
-[body]
-mass_kg = {M}
-inertia_kg_m2 = {I_BODY}
-[[legs]]
-name = "leg"
-hip_m = [0.0, 0.0]
-[[legs.links]]
-length_m = {L}
-[[contacts]]
-name = "toe"
-leg = "leg"
-shape = {{ kind = "point", position_m = [0.0, {L}] }}
-friction = {{ kind = "sticking", mu = {MU}, mu_kinetic = {mu_kinetic} }}
-"#
-    );
-    RobotDescription::from_toml_str(&text)
-        .unwrap()
-        .build()
-        .unwrap()
-}
-
-#[derive(Clone)]
-struct Constant(f64);
-
-impl Controller for Constant {
-    fn torque(&self, _t: f64, _q: &[f64], _qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
-        tau[0] = self.0;
-    }
-}
-
-fn sliding() -> ContactMode {
-    ContactMode::FLIGHT.with(0, ContactKind::Slide)
+    let friction = format!("{{ kind = \"sticking\", mu = {MU}, mu_kinetic = {mu_kinetic} }}");
+    massless_leg(M, I_BODY, L, &friction)
 }
 
 /// Runs the leg from `β₀ = −0.5` with the body moving sideways at `xdot`; returns the fold
@@ -89,8 +55,8 @@ fn run(model: &Model, xdot: f64, eps: f64) -> (Option<(f64, Vec<f64>)>, Terminat
     let exec = simulate(
         model,
         &FlatGround,
-        &Constant(2.0),
-        sliding(),
+        &HipTorque(2.0),
+        sliding(&[0]),
         &q,
         &qd,
         0.5,
@@ -149,7 +115,7 @@ fn sliding_leg_with_friction_meets_its_fold_where_the_statics_denominator_vanish
                 &model,
                 &mut data,
                 &FlatGround,
-                sliding(),
+                sliding(&[0]),
                 q,
                 qd,
                 &[2.0],
@@ -205,9 +171,15 @@ fn fold_pin_takes_the_segments_fixed_sliding_direction() {
     let q = [beta, 0.0, -L * beta.cos(), 0.0];
     let pin_at = |xdot: f64, dirs: &[(usize, SlideDirection)]| {
         let mut data = Data::new(&model);
-        data.prepare(&model, &FlatGround, sliding(), &q, &[0.0, xdot, 0.0, 0.0])
-            .unwrap();
-        pin(&model, &data.kin, &FlatGround, sliding(), 0, dirs).unwrap()
+        data.prepare(
+            &model,
+            &FlatGround,
+            sliding(&[0]),
+            &q,
+            &[0.0, xdot, 0.0, 0.0],
+        )
+        .unwrap();
+        pin(&model, &data.kin, &FlatGround, sliding(&[0]), 0, dirs).unwrap()
     };
     let normal = beta.sin().abs();
     let wedge_side = (beta.abs() - MU.atan()).sin().abs();

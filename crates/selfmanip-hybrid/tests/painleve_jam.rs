@@ -24,7 +24,7 @@ use selfmanip_hybrid::{
 use std::sync::Arc;
 
 mod systems;
-use systems::{Friction, G};
+use systems::{painleve_mu_star, painleve_rod, sliding};
 
 const M: f64 = 1.5;
 const L: f64 = 0.4;
@@ -32,21 +32,11 @@ const THETA: f64 = 0.8;
 const V: f64 = -0.3;
 
 fn mu_star() -> f64 {
-    let (s, c) = THETA.sin_cos();
-    (1.0 + 3.0 * c * c) / (3.0 * s * c)
+    painleve_mu_star(THETA)
 }
 
 fn rod(mu: f64) -> Model {
-    systems::body(
-        M,
-        M * L * L / 3.0,
-        G,
-        &[("end", -L, 0.0, Friction::Coulomb(mu))],
-    )
-}
-
-fn sliding() -> ContactMode {
-    ContactMode::FLIGHT.with(0, ContactKind::Slide)
+    painleve_rod(M, L, mu)
 }
 
 /// The rod's state: end on the ground, sliding at `V` (away from the centre), not turning.
@@ -75,7 +65,7 @@ fn painleve_rod_jams_with_the_closed_form_plastic_impulse() {
         &model,
         &GroundPlane::level(0.0),
         &ZeroTorque,
-        sliding(),
+        sliding(&[0]),
         &q,
         &qd,
         0.05,
@@ -141,7 +131,7 @@ fn jam_whose_impulse_leaves_the_cone_is_refused_typed() {
         let mut flow = Flow::new(&model, &ground, Arc::new(ZeroTorque));
         let mut ws = FlowWorkspace::new(&model);
         let opts = HybridOptions::default();
-        jam(&mut ws, &mut flow, &opts, sliding(), "end", (0.0, &y))
+        jam(&mut ws, &mut flow, &opts, sliding(&[0]), "end", (0.0, &y))
             .unwrap()
             .map(|_| ())
     };
@@ -156,7 +146,7 @@ fn jam_whose_impulse_leaves_the_cone_is_refused_typed() {
         &rod(0.95 * mu_star()),
         &ground,
         &ZeroTorque,
-        sliding(),
+        sliding(&[0]),
         &q,
         &qd,
         0.05,
@@ -184,7 +174,7 @@ fn jams_never_add_energy_and_lose_the_closed_form() {
                 &model,
                 &GroundPlane::level(0.0),
                 &ZeroTorque,
-                sliding(),
+                sliding(&[0]),
                 &q,
                 &qd,
                 0.02,
@@ -219,7 +209,7 @@ fn sensitivities_do_not_pass_through_a_jam() {
             &rod(mu),
             &GroundPlane::level(0.0),
             &ZeroTorque,
-            sliding(),
+            sliding(&[0]),
             &q,
             &qd,
             0.05,

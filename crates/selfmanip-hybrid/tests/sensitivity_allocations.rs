@@ -9,32 +9,15 @@ use nalgebra::DMatrix;
 use selfmanip_core::tangent::BodyParameter;
 use selfmanip_core::{ContactMode, FlatGround};
 use selfmanip_hybrid::sensitivity::{execution_sensitivity_columns, Parameter};
-use selfmanip_hybrid::{simulate, HybridOptions, StepOptions, Termination, ZeroTorque};
-use systems::{block, BLOCK, G};
+use selfmanip_hybrid::Termination;
+use systems::{block, released, short_steps, BLOCK, G};
 
 /// Steps of the single segment of a run to `t_final` and the allocations of its column
 /// tangent (two state directions and the body mass).
 fn steps_and_tangent_allocations(mode: &str, q: [f64; 3], t_final: f64) -> (usize, usize) {
     let model = block(G);
     let mode = ContactMode::parse_names(&model, mode).unwrap();
-    let opts = HybridOptions {
-        step: StepOptions {
-            h_max_s: 1e-3,
-            ..StepOptions::default()
-        },
-        ..HybridOptions::default()
-    };
-    let exec = simulate(
-        &model,
-        &FlatGround,
-        &ZeroTorque,
-        mode,
-        &q,
-        &[0.0; 3],
-        t_final,
-        opts,
-    )
-    .unwrap();
+    let exec = released(&model, mode, &q, t_final, short_steps());
     assert_eq!(exec.termination, Termination::FinalTime);
     assert_eq!(exec.segments.len(), 1);
     let n2 = 2 * model.nq();

@@ -12,7 +12,7 @@ use selfmanip_hybrid::{
 };
 
 mod systems;
-use systems::{Friction, G};
+use systems::{painleve_mu_star, painleve_rod, sliding, Friction, G};
 
 /// A rigid body with point contacts `(name, x, z)` in its frame, sticking with `mu` and
 /// sliding with the same kinetic coefficient.
@@ -22,12 +22,6 @@ fn body(mass: f64, inertia: f64, points: &[(&str, f64, f64)], mu: f64) -> Model 
         .map(|&(n, x, z)| (n, x, z, Friction::Coulomb(mu)))
         .collect();
     systems::body(mass, inertia, G, &points)
-}
-
-fn sliding(contacts: &[usize]) -> ContactMode {
-    contacts
-        .iter()
-        .fold(ContactMode::FLIGHT, |m, &k| m.with(k, ContactKind::Slide))
 }
 
 /// A puck (foot at its centre of mass) and a `w × h` block on its two bottom corners, each
@@ -157,12 +151,12 @@ fn puck_on_incline_slides_on_below_the_cone_and_sticks_above_it() {
 /// checks its impulse), never a number from the inconsistent slide; below it it slides.
 #[test]
 fn painleve_rod_run_jams_beyond_the_threshold_and_slides_below_it() {
-    let (m, l, theta) = (1.5, 0.4, 0.8_f64);
-    let (s, c) = theta.sin_cos();
-    let mu_star = (1.0 + 3.0 * c * c) / (3.0 * s * c);
+    let (l, theta) = (0.4, 0.8_f64);
+    let s = theta.sin();
+    let mu_star = painleve_mu_star(theta);
     for (factor, painleve) in [(1.05, true), (0.95, false)] {
         let mu = mu_star * factor;
-        let model = body(m, m * l * l / 3.0, &[("end", -l, 0.0)], mu);
+        let model = painleve_rod(1.5, l, mu);
         // the end on the ground, sliding at −0.3 m/s (away from the centre), not turning
         let q = [0.0, -l * s, theta];
         let qd = [-0.3, 0.0, 0.0];
@@ -328,8 +322,8 @@ fn sensitivity_through_general_sliding_sites_equals_closed_forms_and_differences
 #[test]
 fn sliding_rod_sensitivity_equals_differences_of_whole_runs() {
     use nalgebra::DVector;
-    let (m, l, theta, mu) = (1.5, 0.4, 0.8_f64, 0.5);
-    let model = body(m, m * l * l / 3.0, &[("end", -l, 0.0)], mu);
+    let (l, theta, mu) = (0.4, 0.8_f64, 0.5);
+    let model = painleve_rod(1.5, l, mu);
     let plane = GroundPlane::level(0.0);
     let (s, c) = theta.sin_cos();
     let t_end = 0.05;

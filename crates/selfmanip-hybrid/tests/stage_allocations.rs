@@ -4,33 +4,16 @@
 //! a segment adds only the few allocations of the buffers' growth, not one per step.
 mod counting;
 mod systems;
-use selfmanip_core::{ContactMode, FlatGround};
-use selfmanip_hybrid::{simulate, HybridOptions, StepOptions, Termination, ZeroTorque};
-use systems::{block, BLOCK, G};
+use selfmanip_core::ContactMode;
+use selfmanip_hybrid::Termination;
+use systems::{block, released, short_steps, BLOCK, G};
 
 /// Steps of the first segment and allocations of a run to `t_final` from `(q, q̇)` in `mode`.
 fn steps_and_allocations(mode: &str, q: [f64; 3], t_final: f64) -> (usize, usize) {
     let model = block(G);
     let mode = ContactMode::parse_names(&model, mode).unwrap();
-    let opts = HybridOptions {
-        step: StepOptions {
-            h_max_s: 1e-3,
-            ..StepOptions::default()
-        },
-        ..HybridOptions::default()
-    };
     let before = counting::allocations();
-    let exec = simulate(
-        &model,
-        &FlatGround,
-        &ZeroTorque,
-        mode,
-        &q,
-        &[0.0; 3],
-        t_final,
-        opts,
-    )
-    .unwrap();
+    let exec = released(&model, mode, &q, t_final, short_steps());
     let allocations = counting::allocations() - before;
     assert_eq!(exec.termination, Termination::FinalTime);
     assert_eq!(exec.segments.len(), 1);

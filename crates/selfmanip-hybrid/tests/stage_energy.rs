@@ -1,8 +1,8 @@
 //! Stage `energy`: the balance `E₁ − E₀ = W − L` against closed forms.
 mod systems;
 use selfmanip_core::{ContactMode, FlatGround};
-use selfmanip_hybrid::{energy_report, simulate, Controller, HybridOptions, ZeroTorque};
-use systems::{block, one_leg, BLOCK, G};
+use selfmanip_hybrid::{energy_report, simulate, HybridOptions, ZeroTorque};
+use systems::{block, one_leg, HipTorque, BLOCK, G};
 
 /// A level block dropped from `d` lands flat and stays: the impact takes all its kinetic
 /// energy `m g d`, the potential energy falls by `m g d`, no work is done.
@@ -29,15 +29,6 @@ fn dropped_block_loses_its_fall_in_the_impact() {
     assert!(r.residual_j().abs() < 1e-8);
 }
 
-#[derive(Clone)]
-struct Constant(f64);
-
-impl Controller for Constant {
-    fn torque(&self, _t: f64, _q: &[f64], _qd: &[f64], _m: ContactMode, tau: &mut [f64]) {
-        tau[0] = self.0;
-    }
-}
-
 /// In flight a constant hip torque does the work `τ Δθ` (the joint angle's change, read
 /// from the end state), and the energy changes by exactly that.
 #[test]
@@ -48,7 +39,7 @@ fn hip_work_in_flight_is_torque_times_turn() {
     let exec = simulate(
         &model,
         &FlatGround,
-        &Constant(tau),
+        &HipTorque(tau),
         ContactMode::FLIGHT,
         &q0,
         &[0.0; 4],

@@ -2,14 +2,14 @@
 //! second route: the right-hand side's own call count and the structure of Dormand–Prince
 //! 5(4) (six new stages per trial step, one more for the stored derivative after a restart,
 //! FSAL), and the execution's own count of accepted steps and its segments' dense outputs.
-use selfmanip_core::{ContactMode, FlatGround};
+use selfmanip_core::ContactMode;
 use selfmanip_hybrid::integrate::{
     reset_work_counters, work_counters, DenseStep, Dopri5, StepError,
 };
-use selfmanip_hybrid::{simulate, HybridOptions, StepOptions, ZeroTorque};
+use selfmanip_hybrid::{HybridOptions, StepOptions};
 
 mod systems;
-use systems::{BLOCK, G};
+use systems::{released, BLOCK, G};
 
 /// `ẏ = −50 y` from `y = 1` with a first trial step of 0.2 s: the first trials are rejected
 /// (their error is far above the tolerance) until the step resolves the decay; then accepted
@@ -70,17 +70,13 @@ fn flow_counters_split_a_falling_block_into_flight_and_stance() {
     let d = 0.2;
     let q = [0.3, -BLOCK.1 / 2.0 - d, 0.0];
     reset_work_counters();
-    let exec = simulate(
+    let exec = released(
         &model,
-        &FlatGround,
-        &ZeroTorque,
         ContactMode::FLIGHT,
         &q,
-        &[0.0; 3],
         1.0,
         HybridOptions::default(),
-    )
-    .unwrap();
+    );
     let w = work_counters();
     assert!((exec.events[0].t - (2.0 * d / G).sqrt()).abs() < 1e-9);
     let mut by_phase = [0u64; 2];

@@ -32,13 +32,10 @@ fn hop_sim(t_final: f64) -> Simulation {
     hop_sim_with(Behaviour::from_file(&data("hop.toml")).unwrap(), t_final)
 }
 
-/// [`hop_sim`] under another behaviour.
-fn hop_sim_with(behaviour: Behaviour, t_final: f64) -> Simulation {
-    let robot = RobotDescription::from_file(&data("hopper.toml")).unwrap();
-    let a: f64 = 0.5;
-    let q0 = vec![a, -2.0 * a, 0.0, -(0.1 + 0.4 * a.cos()), 0.0];
-    let mut s = Scenario::new(robot, q0);
-    s.initial.qd = Some(vec![0.0, 0.0, 0.3, 0.5, 0.0]);
+/// A simulation of `s` under `behaviour` to `t_final`, with tolerances for derivatives
+/// against central differences of whole runs (rtol 1e-12, events to 1e-14 s, free joints in
+/// the step-size control).
+fn tight_sim(mut s: Scenario, behaviour: Behaviour, t_final: f64) -> Simulation {
     s.behaviour = behaviour;
     s.options.t_final_s = t_final;
     s.options.rtol = 1e-12;
@@ -46,6 +43,16 @@ fn hop_sim_with(behaviour: Behaviour, t_final: f64) -> Simulation {
     let mut sim = Simulation::new(&s).unwrap();
     sim.options.control_free_joints = true;
     sim
+}
+
+/// [`hop_sim`] under another behaviour.
+fn hop_sim_with(behaviour: Behaviour, t_final: f64) -> Simulation {
+    let robot = RobotDescription::from_file(&data("hopper.toml")).unwrap();
+    let a: f64 = 0.5;
+    let q0 = vec![a, -2.0 * a, 0.0, -(0.1 + 0.4 * a.cos()), 0.0];
+    let mut s = Scenario::new(robot, q0);
+    s.initial.qd = Some(vec![0.0, 0.0, 0.3, 0.5, 0.0]);
+    tight_sim(s, behaviour, t_final)
 }
 
 /// The end state of a run from `x` with the simulation's controller (its memory at the
@@ -225,13 +232,7 @@ fn dropped_arm(landed: &str, t_final: f64) -> Simulation {
     // the belly 15 cm above the ground, falling at 0.5 m/s
     let mut s = Scenario::new(robot, vec![2.6, 0.0, -0.2, 0.0]);
     s.initial.qd = Some(vec![0.0, 0.0, 0.5, 0.0]);
-    s.behaviour = behaviour;
-    s.options.t_final_s = t_final;
-    s.options.rtol = 1e-12;
-    s.options.event_tol_s = 1e-14;
-    let mut sim = Simulation::new(&s).unwrap();
-    sim.options.control_free_joints = true;
-    sim
+    tight_sim(s, behaviour, t_final)
 }
 
 /// The closed form: the touchdown is at `t_k = (√(v₀² + 2gh) − v₀)/g` (free fall through

@@ -1,5 +1,8 @@
-//! Helpers shared by the leap tests that compare derivatives with differences of whole leaps.
+//! Helpers shared by the leap tests: tight leaps for derivatives against differences of whole
+//! leaps, and an execution's state at a time.
+#![allow(dead_code)]
 use rhex_model::leap::LeapConfig;
+use selfmanip_hybrid::Execution;
 
 /// A leap with tight tolerances, so that central differences of whole leaps resolve 1e-6
 /// (as `tests/leap_sensitivity.rs` of the workspace), under the sensitivities' step control
@@ -18,7 +21,6 @@ pub fn tight(strategy: &str, t2: f64) -> LeapConfig {
 /// The worst relative disagreement of `exact` (`d apex_z`, `d apex_φ`, `d apex_x` over one
 /// parameter) with central differences of whole leaps `leap(±h)`, taking for each column the
 /// best of `steps` (relative to `max(|fd|, floor)`).
-#[allow(dead_code)]
 pub fn apex_error(
     exact: [f64; 3],
     steps: &[f64],
@@ -44,4 +46,15 @@ pub fn apex_error(
                 .fold(f64::INFINITY, f64::min)
         })
         .fold(0.0, f64::max)
+}
+
+/// The state `(q, q̇)` of `exec` at `t` into `y`, from the last segment with steps that spans
+/// `t` (after an event at `t`, the state after it).
+pub fn state_at(exec: &Execution, t: f64, y: &mut [f64]) {
+    exec.segments
+        .iter()
+        .rev()
+        .find(|g| g.t0 <= t && t <= g.t1 && !g.dense.is_empty())
+        .expect("a segment")
+        .eval(t, y);
 }

@@ -7,9 +7,9 @@
 //! point at offset `r = R(φ) p` from the centre moves at `v + φ̇ (r_z, −r_x)` and a force `F`
 //! there has the moment `r_z F_x − r_x F_z` about `+y`.
 #![allow(dead_code)]
-use selfmanip_core::{ContactMode, FlatGround, Model, RobotDescription};
+use selfmanip_core::{ContactKind, ContactMode, FlatGround, Model, RobotDescription};
 use selfmanip_hybrid::integrate::StepOptions;
-use selfmanip_hybrid::{simulate, Controller, EventKind, HybridOptions};
+use selfmanip_hybrid::{simulate, Controller, EventKind, Execution, HybridOptions, ZeroTorque};
 
 pub const G: f64 = 9.81;
 
@@ -126,6 +126,104 @@ friction = {{ kind = "sliding" }}
         .unwrap()
         .build()
         .unwrap()
+}
+
+/// A legless body (three coordinates) released at rest at `q` in `mode` on flat ground,
+/// without torques, run to `t_final`.
+pub fn released(
+    model: &Model,
+    mode: ContactMode,
+    q: &[f64; 3],
+    t_final: f64,
+    opts: HybridOptions,
+) -> Execution {
+    simulate(
+        model,
+        &FlatGround,
+        &ZeroTorque,
+        mode,
+        q,
+        &[0.0; 3],
+        t_final,
+        opts,
+    )
+    .unwrap()
+}
+
+/// The default options with steps of at most 1 ms (runs with many steps per segment).
+pub fn short_steps() -> HybridOptions {
+    HybridOptions {
+        step: StepOptions {
+            h_max_s: 1e-3,
+            ..StepOptions::default()
+        },
+        ..HybridOptions::default()
+    }
+}
+
+/// Painlevé's rod: a uniform rod of `mass_kg` and half-length `half_length_m` (`I = m l²/3`)
+/// whose end `end`, at `(−l, 0)`, is a Coulomb point with `μ = mu`.
+pub fn painleve_rod(mass_kg: f64, half_length_m: f64, mu: f64) -> Model {
+    let l = half_length_m;
+    body(
+        mass_kg,
+        mass_kg * l * l / 3.0,
+        G,
+        &[("end", -l, 0.0, Friction::Coulomb(mu))],
+    )
+}
+
+/// The friction coefficient `μ* = (1 + 3cos²θ)/(3 sinθ cosθ)` above which the rod leaning at
+/// `θ` has no consistent slide with its end moving away from its centre (its normal
+/// response `1 + 3cos²θ − 3μ sinθ cosθ` vanishes there).
+pub fn painleve_mu_star(theta: f64) -> f64 {
+    let (s, c) = theta.sin_cos();
+    (1.0 + 3.0 * c * c) / (3.0 * s * c)
+}
+
+/// A body with one massless one-link leg of `length_m` at its centre, ending in the point
+/// toe `toe` with `friction` (a TOML inline table); no other contact. `q = [θ, x, z, φ]`.
+pub fn massless_leg(mass_kg: f64, inertia_kg_m2: f64, length_m: f64, friction: &str) -> Model {
+    let text = format!(
+        r#"
+name = "one-legged body"
+gravity_m_s2 = {G}
+[body]
+mass_kg = {mass_kg}
+inertia_kg_m2 = {inertia_kg_m2}
+[[legs]]
+name = "leg"
+hip_m = [0.0, 0.0]
+[[legs.links]]
+length_m = {length_m}
+[[contacts]]
+name = "toe"
+leg = "leg"
+shape = {{ kind = "point", position_m = [0.0, {length_m}] }}
+friction = {friction}
+"#
+    );
+    RobotDescription::from_toml_str(&text)
+        .unwrap()
+        .build()
+        .unwrap()
+}
+
+/// The mode with `contacts` sliding and no other contact.
+pub fn sliding(contacts: &[usize]) -> ContactMode {
+    contacts
+        .iter()
+        .fold(ContactMode::FLIGHT, |m, &k| m.with(k, ContactKind::Slide))
+}
+
+/// A constant torque at joint 0 (the first leg's hip).
+#[derive(Clone)]
+pub struct HipTorque(pub f64);
+
+impl Controller for HipTorque {
+    fn torque(&self, _t: f64, _q: &[f64], _qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
+        tau[0] = self.0;
+    }
 }
 
 /// Tolerances for derivatives against central differences of whole runs (rtol 1e-12,

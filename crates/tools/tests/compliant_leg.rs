@@ -1,5 +1,5 @@
 //! The compliant-leg experiment of issue 16's pitch question
-//! (`examples/compliant_leg_probe.rs`; `docs/leap-physics.md`, "Where the pitch comes
+//! (`src/bin/compliant_leg_probe.rs`; `docs/leap-physics.md`, "Where the pitch comes
 //! from"): pinned toes, point-toe legs made of two massless links with a knee spring–damper.
 //! Checked by routes that do not share its assumptions:
 //!
@@ -15,7 +15,7 @@
 //!   brief quotes for RHex's C-legs (2–8 kN/m per pair) the pinned (+,+) leap at t2 = 0
 //!   pitches more than with rigid legs, at light and at critical damping.
 #[allow(dead_code)]
-#[path = "../examples/compliant_leg_probe.rs"]
+#[path = "../src/bin/compliant_leg_probe.rs"]
 mod probe;
 
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig};

@@ -1,7 +1,7 @@
 //! One leap per strategy and coordination time, printed with its word, apex and events.
 //!
 //! ```sh
-//! cargo run --release -p rhex-model --example leap_probe -- "++,-+" -0.1,0,0.1 0.03
+//! cargo run --release -p selfmanip-tools --bin leap_probe -- "++,-+" -0.1,0,0.1 0.03
 //! ```
 //! Arguments: strategies (comma-separated), t2 values in seconds, δt of the pseudo-impulse.
 //! Set `EVENTS=1` to list every event (and `SEGS=1` every segment with its steps), `PAIRS=front,rear` to choose the pushing pairs,

@@ -3,9 +3,9 @@
 //! contact), and the events, for the default massless legs or legs with mass.
 //!
 //! ```sh
-//! cargo run --release -p rhex-model --example leap_cost -- "++,--" 0,-0.02
-//! M_L=0.126 cargo run --release -p rhex-model --example leap_cost -- "++" 0   # massive legs
-//! SWEEP=1 M_L=0.126 cargo run --release -p rhex-model --example leap_cost     # 4 × 41 sweeps
+//! cargo run --release -p selfmanip-tools --bin leap_cost -- "++,--" 0,-0.02
+//! M_L=0.126 cargo run --release -p selfmanip-tools --bin leap_cost -- "++" 0   # massive legs
+//! SWEEP=1 M_L=0.126 cargo run --release -p selfmanip-tools --bin leap_cost     # 4 × 41 sweeps
 //! ```
 //! `M_L` (kg) gives the legs that mass and Table 4.2's inertia scaled with it (their joints
 //! carry their rotors' `n J G²`, as every massive leg does); `GEAR`, `M_B` (kg) and `I_B`

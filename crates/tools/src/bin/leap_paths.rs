@@ -3,10 +3,10 @@
 //! not disturb:
 //!
 //! ```sh
-//! cargo build --release -p rhex-model --example leap_paths
-//! valgrind --tool=callgrind target/release/examples/leap_paths controller
-//! valgrind --tool=callgrind target/release/examples/leap_paths behaviour
-//! valgrind --tool=callgrind target/release/examples/leap_paths start
+//! cargo build --release -p selfmanip-tools --bin leap_paths
+//! valgrind --tool=callgrind target/release/leap_paths controller
+//! valgrind --tool=callgrind target/release/leap_paths behaviour
+//! valgrind --tool=callgrind target/release/leap_paths start
 //! ```
 //!
 //! The behaviour path needs each leap's start pose, which the controller path computes

@@ -2,7 +2,7 @@
 //! probe for profiling (`perf`, `valgrind --tool=callgrind`); the benchmark is `benches/leap.rs`.
 //!
 //! ```sh
-//! cargo run --release -p rhex-model --example leap_loop -- 300 0.02
+//! cargo run --release -p selfmanip-tools --bin leap_loop -- 300 0.02
 //! ```
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig};
 fn main() {

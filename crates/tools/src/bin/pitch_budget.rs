@@ -2,11 +2,11 @@
 //! of mass through stance, split by the contact whose ground force makes the moment.
 //!
 //! ```sh
-//! cargo run --release -p rhex-model --example pitch_budget -- "++" 0
+//! cargo run --release -p selfmanip-tools --bin pitch_budget -- "++" 0
 //! ```
 //! Arguments: strategy, t2 (s). With massless legs the robot's angular momentum about its
 //! COM is the body's, `H = I_b φ̇`, so `I_b φ̈ = Σ_c (r_c − r_G) × λ_c` (NED, pitch about
-//! `+y`: `M_y = r_z f_x − r_x f_z`, nose-up positive). The example integrates each contact's
+//! `+y`: `M_y = r_z f_x − r_x f_z`, nose-up positive). The program integrates each contact's
 //! moment over every segment (trapezoid on a 20 µs grid), prints the moment's
 //! normal and tangential parts, and the jump of `I_b φ̇` at each event (impulses), and
 //! checks that the sum reproduces `I_b φ̇` at the apex. `PAIRS=front,rear` chooses the

@@ -2,7 +2,7 @@
 //! (`data/behaviours/leap_*.toml`) run as scenarios of `selfmanip-sim`.
 //!
 //! ```sh
-//! cargo run --release -p rhex-model --example leap_behaviour_probe -- "++,-+" -0.1,0,0.1
+//! cargo run --release -p selfmanip-tools --bin leap_behaviour_probe -- "++,-+" -0.1,0,0.1
 //! ```
 //! Arguments: strategies (comma-separated), t2 values in seconds. The start pose is the leap
 //! controller's (a leap stopped at once); the robot and options are `LeapConfig::default()`'s.

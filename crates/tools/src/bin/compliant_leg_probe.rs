@@ -8,7 +8,7 @@
 //! legs with pinned compliant ones, everything else as in the default leap.
 //!
 //! ```sh
-//! cargo run --release -p rhex-model --example compliant_leg_probe -- ++ 0 2000,4000,8000,1e6
+//! cargo run --release -p selfmanip-tools --bin compliant_leg_probe -- ++ 0 2000,4000,8000,1e6
 //! ```
 //! Arguments: strategy, t2 (s, the rear motor's start after the front one's), radial
 //! stiffnesses of a leg pair (N/m, at the leg's rest shape; `rigid` for the one-joint rigid

@@ -6,7 +6,7 @@
 //! unchanged; `scripts/engine-corpus.sh` runs it and compares two outputs.
 //!
 //! ```sh
-//! cargo run --release -p rhex-model --example engine_corpus > corpus.jsonl
+//! cargo run --release -p selfmanip-tools --bin engine_corpus > corpus.jsonl
 //! ```
 use rayon::prelude::*;
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator, Strategy};

@@ -7,12 +7,12 @@
 //! shows in these times).
 //!
 //! ```sh
-//! cargo run --release -p rhex-model --example broad_sweep            # all sweeps
-//! cargo run --release -p rhex-model --example broad_sweep -- 500     # a 500-point broad sweep
-//! SHOW=zeno cargo run --release -p rhex-model --example broad_sweep  # and its zeno points
-//! M_L=0.126 cargo run --release -p rhex-model --example broad_sweep   # with massive legs
-//! ROTORS=1 cargo run --release -p rhex-model --example broad_sweep    # massless links that
-//!                                                  # carry their motors' rotors, n J G²
+//! cargo run --release -p selfmanip-tools --bin broad_sweep            # all sweeps
+//! cargo run --release -p selfmanip-tools --bin broad_sweep -- 500     # a 500-point broad sweep
+//! SHOW=zeno cargo run --release -p selfmanip-tools --bin broad_sweep  # and its zeno points
+//! M_L=0.126 cargo run --release -p selfmanip-tools --bin broad_sweep   # with massive legs
+//! ROTORS=1 cargo run --release -p selfmanip-tools --bin broad_sweep    # massless links that
+//!                                                       # carry their motors' rotors, n J G²
 //! ```
 //! The `zeno` points are also counted by kind (`zeno by kind`: a two-mode cycle of one
 //! contact, or events that change no mode; `docs/leap-physics.md` classifies them).

@@ -1,0 +1,160 @@
+//! The reusable workspace of the dynamics pipeline ([`crate::dynamics`], Pinocchio's
+//! `data`): every intermediate and output of one evaluation, with the solve of a prepared
+//! KKT system that every stage above it shares.
+use crate::constraint::Constraints;
+use crate::inertia::InertiaScratch;
+use crate::kinematics::Kinematics;
+use crate::kkt::KktFactorization;
+use crate::model::Model;
+use crate::sliding::{SlideDirection, SlidingSite};
+use nalgebra::{DMatrix, DVector};
+
+/// Reusable workspace: every intermediate and output of one evaluation.
+#[derive(Debug, Clone, Default)]
+pub struct Data {
+    pub kin: Kinematics,
+    pub constraints: Constraints,
+    /// `M̄` (q×q).
+    pub m_bar: DMatrix<f64>,
+    /// `C̄ q̇` (q).
+    pub c_qd: DVector<f64>,
+    /// `N̄` (q).
+    pub n_bar: DVector<f64>,
+    pub kkt: KktFactorization,
+    /// Coordinates kept in the KKT system, ascending.
+    pub dynamic_coords: Vec<usize>,
+    /// Joints removed as free massless joints, ascending (with the [`Self::locked`] ones).
+    pub free_joints: Vec<usize>,
+    /// Massless joints in contact whose motion is prescribed, not solved for (set by the
+    /// caller before [`Data::prepare`]; joints not in contact in the mode are free anyway).
+    pub locked: Vec<usize>,
+    /// Outputs: `q̈` (q) and `λ` (c), in the row order of `constraints.rows`.
+    pub qdd: DVector<f64>,
+    pub lambda: DVector<f64>,
+    /// Sliding sites with kinetic friction in the prepared mode, and their generalized
+    /// friction force `f^fr` (q) at the last solve ([`crate::friction`]).
+    pub sliding: Vec<SlidingSite>,
+    pub friction: DVector<f64>,
+    /// Sliding directions fixed by the caller for a stretch of flow, by contact (set before
+    /// [`Data::prepare`], kept by it); a sliding site not listed follows the instantaneous
+    /// law, `σ = sign v_t` ([`crate::friction`]).
+    pub slide_directions: Vec<(usize, SlideDirection)>,
+    /// Whether a sliding site at rest without a fixed direction takes a cone edge even where
+    /// the cone would hold it (as [`SlideDirection::FromRest`] does): what a
+    /// caller that integrates the flow needs, where a site the cone holds must stick in a
+    /// mode of its own; `false` (the instantaneous law): it is held for the instant.
+    pub slide_at_rest: bool,
+    /// Whether a site of [`Self::sliding`] is general (folded into the solve), so that a
+    /// solve without one does not look.
+    pub(crate) has_general: bool,
+    pub(crate) scratch: InertiaScratch,
+    /// The KKT right-hand side and solution on the dynamic coordinates.
+    f_r: Vec<f64>,
+    g_r: Vec<f64>,
+    x_r: Vec<f64>,
+}
+
+impl Data {
+    pub fn new(model: &Model) -> Self {
+        let nq = model.nq();
+        Data {
+            m_bar: DMatrix::zeros(nq, nq),
+            c_qd: DVector::zeros(nq),
+            n_bar: DVector::zeros(nq),
+            qdd: DVector::zeros(nq),
+            friction: DVector::zeros(nq),
+            ..Default::default()
+        }
+    }
+
+    /// Solves the prepared KKT system for the generalized force `f(self, a)` at each dynamic
+    /// coordinate `a` and the constraint right-hand side `g(self, r)` at each row `r`,
+    /// writing full-length `x` (prescribed entries = `x_free`) and `y`.
+    ///
+    /// A free joint's column of `M̄` and of `A` is zero by construction (nothing massive and
+    /// no active contact lies distal to it), so its prescribed acceleration moves nothing
+    /// else and the kept system is just `f`, `g` on the dynamic coordinates. A locked joint's
+    /// column of `M̄` is zero too (it is massless), but its column of `A` is not: its
+    /// prescribed `x` enters `g`.
+    // inlined into each caller, as when it shared a module with them (its callers' closures
+    // then fold into the loops)
+    #[inline(always)]
+    pub(crate) fn solve_prepared(
+        &mut self,
+        f: impl Fn(&Self, usize) -> f64,
+        g: impl Fn(&Self, usize) -> f64,
+        x_free: Option<&[f64]>,
+        x: &mut DVector<f64>,
+        y: &mut DVector<f64>,
+    ) {
+        let nq = self.m_bar.nrows();
+        let m = self.dynamic_coords.len();
+        let c = self.constraints.n_rows();
+        debug_assert!(self.free_joints.iter().all(|&j| {
+            self.m_bar.column(j).iter().all(|&v| v == 0.0)
+                && (self.locked.contains(&j)
+                    || self.constraints.a.column(j).iter().all(|&v| v == 0.0))
+        }));
+        self.f_r.resize(m, 0.0);
+        self.g_r.resize(c, 0.0);
+        self.x_r.resize(m, 0.0);
+        if x.len() != nq {
+            *x = DVector::zeros(nq);
+        }
+        if y.len() != c {
+            *y = DVector::zeros(c);
+        }
+        for i in 0..m {
+            let fa = f(self, self.dynamic_coords[i]);
+            self.f_r[i] = fa;
+        }
+        for r in 0..c {
+            let gr = g(self, r);
+            self.g_r[r] = gr;
+        }
+        if let (false, Some(xf)) = (self.locked.is_empty(), x_free) {
+            let a = &self.constraints.a;
+            for (i, &j) in self.free_joints.iter().enumerate() {
+                if self.locked.contains(&j) {
+                    for r in 0..c {
+                        self.g_r[r] -= a[(r, j)] * xf[i];
+                    }
+                }
+            }
+        }
+        self.kkt
+            .solve(&self.f_r, &self.g_r, &mut self.x_r, y.as_mut_slice());
+        for (&a, &xr) in self.dynamic_coords.iter().zip(&self.x_r) {
+            x[a] = xr;
+        }
+        for (i, &j) in self.free_joints.iter().enumerate() {
+            x[j] = x_free.map_or(0.0, |xf| xf[i]);
+        }
+    }
+
+    /// Sets [`Self::slide_directions`] to `dirs` (before [`Self::prepare`]); whether they
+    /// changed.
+    pub fn set_slide_directions(&mut self, dirs: &[(usize, SlideDirection)]) -> bool {
+        if self.slide_directions == dirs {
+            return false;
+        }
+        self.slide_directions.clear();
+        self.slide_directions.extend_from_slice(dirs);
+        true
+    }
+
+    /// `Υ − C̄q̇ − N̄` for joint torques `tau` (`N̄` includes the passive joint torques; plus
+    /// the kinetic friction of sliding sites as last assembled by a solve at this state).
+    pub fn generalized_force(&self, model: &Model, tau: &[f64]) -> DVector<f64> {
+        DVector::from_fn(model.nq(), |a, _| self.generalized_force_at(model, tau, a))
+    }
+
+    /// Entry `a` of [`Self::generalized_force`].
+    pub(crate) fn generalized_force_at(&self, model: &Model, tau: &[f64], a: usize) -> f64 {
+        let f = -self.c_qd.as_slice()[a] - self.n_bar.as_slice()[a] + self.friction[a];
+        match tau.get(a) {
+            Some(t) if a < model.n_joints() => f + t,
+            _ => f,
+        }
+    }
+}

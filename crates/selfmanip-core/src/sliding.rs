@@ -1,0 +1,60 @@
+//! The sliding sites with kinetic friction of a prepared mode, as the workspace
+//! ([`crate::Data::sliding`]) keeps them and the friction solve ([`crate::friction`]) sets
+//! them: their types only, below both.
+
+/// How the sliding direction `σ` of a site with kinetic friction is set while a caller
+/// integrates a stretch of flow ([`crate::Data::slide_directions`], [`crate::friction`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SlideDirection {
+    /// `σ ∈ {−1, 0, 1}` whatever `v_t` is (0: no friction).
+    Fixed(f64),
+    /// The site starts from rest: the cone edge on the side of its sticking force (never
+    /// held); the edge taken is left in [`SlidingSite::sigma`].
+    FromRest,
+}
+
+/// One sliding site with kinetic friction at the prepared state.
+#[derive(Debug, Clone, Default)]
+pub struct SlidingSite {
+    /// Its normal row in `data.constraints.rows`.
+    pub row: usize,
+    /// Its contact.
+    pub contact: usize,
+    /// The joint of the massless leg that carries it ([`usize::MAX`] for a general site).
+    pub joint: usize,
+    /// Whether its friction is folded into the dynamics solve (a site not resolved by the
+    /// statics of a single-joint massless leg: a body site, a massive or multi-joint leg,
+    /// or a leg with another active contact; [`crate::friction`], "The general sliding site").
+    pub general: bool,
+    pub mu_k: f64,
+    /// `(coordinate, A_t entry)` over the coordinates the site's point depends on.
+    pub a_t: Vec<(usize, f64)>,
+    /// `Ȧ_t q̇`.
+    pub a_t_dot_qd: f64,
+    /// Sliding velocity `v_t = −A_t q̇` (m/s).
+    pub v_t: f64,
+    /// The ratio `λ_t/λ_n` of the site's force, `μ_k σ` while it slides (0 at rest until
+    /// [`crate::friction`] resolves it at rest).
+    pub coef: f64,
+    /// The sliding direction `σ` of its force: fixed, `sign v_t`, or at rest the edge
+    /// the friction solve took (`−sign λ^s_t`; 0: none, or held).
+    pub sigma: f64,
+    /// At rest, whether the cone holds its sticking force (then it takes no edge unless
+    /// the instantaneous law holds it: the caller must let it stick).
+    pub cone_holds: bool,
+    /// Its [`crate::Data::slide_directions`] entry, if any.
+    pub preset: Option<SlideDirection>,
+    /// At zero sliding speed with its sticking force inside the cone: that tangential force
+    /// (N, along `t̂`), which holds the site at rest.
+    pub held: Option<f64>,
+    /// Whether its force comes from sticking (resolved by [`crate::friction`]): [`SlideDirection::FromRest`],
+    /// or without a fixed direction `|v_t| ≤`
+    /// [`crate::friction::SLIDING_SPEED_EPS_M_S`], or it slides into
+    /// a wedge.
+    pub at_rest: bool,
+    /// Whether it slides into a wedge (the cone edge against its sliding through the hip).
+    pub wedged: bool,
+    /// The friction force on the robot along the site's tangent `t̂` (the row direction of a
+    /// tangential row), `μ_k σ λ_n` (N), at the last assembly.
+    pub force_t: f64,
+}

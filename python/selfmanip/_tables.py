@@ -1,0 +1,89 @@
+"""Sweep tables as files: written as CSV (floats round-trip exactly) or Parquet, and read
+back as numpy columns. Shared by the CLI (``selfmanip sweep --out``) and the plots
+(``selfmanip plot table.csv``)."""
+
+from __future__ import annotations
+
+import csv
+import os
+import sys
+from typing import Mapping, TextIO
+
+import numpy as np
+
+from .errors import InvalidInputError
+
+
+def write_table(table: Mapping[str, np.ndarray], path: str | None, out: TextIO | None = None) -> None:
+    """A sweep table as CSV (floats round-trip exactly) or Parquet (pandas + pyarrow)."""
+    if path and path.endswith(".parquet"):
+        import pandas as pd
+
+        tmp = f"{path}.{os.getpid()}.tmp"
+        pd.DataFrame(table).to_parquet(tmp, index=False)
+        os.replace(tmp, path)
+        return
+    if path and not path.endswith(".csv"):
+        raise InvalidInputError(f"`--out`: expected a .csv or .parquet file, got {path!r}", "--out")
+    cols = list(table)
+    n = len(table[cols[0]]) if cols else 0
+
+    def fmt(v):
+        if isinstance(v, (float, np.floating)):
+            return repr(float(v))
+        if isinstance(v, (np.integer,)):
+            return str(int(v))
+        return str(v)
+
+    def emit(f):
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(cols)
+        for i in range(n):
+            w.writerow([fmt(table[c][i]) for c in cols])
+
+    if path:
+        tmp = f"{path}.{os.getpid()}.tmp"
+        with open(tmp, "w", encoding="utf-8", newline="") as f:
+            emit(f)
+        os.replace(tmp, path)
+    else:
+        emit(out or sys.stdout)
+
+
+def _check_not_empty(path: str, what: str) -> None:
+    if os.path.getsize(path) == 0:
+        raise InvalidInputError(f"{path}: the file is empty (expected {what})", "path")
+
+
+def read_table(path: str) -> dict[str, np.ndarray]:
+    """A sweep table written by :func:`write_table` (or pandas) as numpy columns."""
+    what = "a sweep table from `selfmanip sweep --out`"
+    _check_not_empty(path, what)
+    if path.endswith(".parquet"):
+        import pandas as pd
+
+        try:
+            df = pd.read_parquet(path)
+        except Exception as e:  # pyarrow raises its own types for a file that is not Parquet
+            raise InvalidInputError(f"{path}: not a Parquet table ({e})", "path") from None
+        return {c: df[c].to_numpy() for c in df.columns}
+    with open(path, encoding="utf-8", newline="") as f:
+        rows = list(csv.reader(f))
+    if not rows:
+        raise InvalidInputError(f"{path}: the file is empty (expected {what})", "path")
+    header, body = rows[0], rows[1:]
+    if not body:
+        raise InvalidInputError(f"{path}: the table has a header but no rows", "path")
+    out: dict[str, np.ndarray] = {}
+    for j, c in enumerate(header):
+        col = [r[j] if j < len(r) else "" for r in body]
+        try:
+            if c in ("strategy", "word", "status", "error"):
+                out[c] = np.asarray(col, dtype=str)
+            elif c == "n_events":
+                out[c] = np.asarray([int(v) for v in col], dtype=np.int64)
+            else:
+                out[c] = np.asarray([float(v) for v in col], dtype=float)
+        except ValueError:
+            out[c] = np.asarray(col, dtype=str)
+    return out
