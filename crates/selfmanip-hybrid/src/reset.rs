@@ -15,16 +15,16 @@
 //! stick; a touchdown whose contact is already found below its ground met a step of the
 //! terrain.
 use crate::complementarity::Selected;
-use crate::contact_set::ResetWorkspace;
-use crate::drift::MAX_DRIFT_M;
 use crate::energy::kinetic_energy_at;
 use crate::error::HybridError;
-use crate::execution::{Event, EventKind, Termination};
-use crate::features::TERRAIN_STEP_M;
+use crate::event::{Event, EventKind};
+use crate::execution::Termination;
 use crate::flow::{Flow, FlowWorkspace};
 use crate::fold;
 use crate::guard::Guard;
 use crate::options::HybridOptions;
+use crate::reset_workspace::ResetWorkspace;
+use crate::surface_tolerances::{MAX_DRIFT_M, TERRAIN_STEP_M};
 use selfmanip_core::contact::ContactKind;
 use selfmanip_core::{plastic_impact, ContactMode};
 

@@ -98,7 +98,8 @@
 //! differentiated with that memory held fixed.
 use crate::controller::{Controller, ControllerPartials, EventMemoryPartials, TimeEvent};
 use crate::error::HybridError;
-use crate::execution::{Event, EventKind, Execution, Segment, Termination};
+use crate::event::{Event, EventKind};
+use crate::execution::{Execution, Segment, Termination};
 use crate::integrate::{A as RK_A, C as RK_C};
 use crate::options::HybridOptions;
 use crate::simulate::simulate;
