@@ -484,38 +484,8 @@ impl Evaluator<'_> {
             (&p.dfree_dqd, &cb.dqd),
         );
         if self.memory_mode {
-            // the remembered events' tangents force every column: `∂Υ/∂m_k Dm_k`
-            cb.mem.clear();
-            if !ctrl.memory_partials(t, q, qd, mode, free_joints, &mut cb.mem) {
-                return Err(SensitivityError::EventMemoryWithoutPartials {
-                    t,
-                    reason: "the controller gives no memory partials".into(),
-                });
-            }
-            for mp in &cb.mem {
-                let cols = 1 + 2 * nq;
-                if mp.dtau.shape() != (n, cols) || mp.dfree.shape() != (free_joints.len(), cols) {
-                    return Err(SensitivityError::EventMemoryWithoutPartials {
-                        t,
-                        reason: format!(
-                            "memory partials of event {} sized {:?} and {:?}, not {:?} and {:?}",
-                            mp.event,
-                            mp.dtau.shape(),
-                            mp.dfree.shape(),
-                            (n, cols),
-                            (free_joints.len(), cols)
-                        ),
-                    });
-                }
-                let Some(d) = self.memory.get(mp.event) else {
-                    return Err(SensitivityError::EventMemoryWithoutPartials {
-                        t,
-                        reason: format!("event {} is not one the run recorded", mp.event),
-                    });
-                };
-                cb.dtau.gemm(1.0, &mp.dtau, d, 1.0);
-                cb.dfree.gemm(1.0, &mp.dfree, d, 1.0);
-            }
+            let tangents = (&mut cb.mem, &mut cb.dtau, &mut cb.dfree);
+            add_memory_tangents(tangents, free_joints, &self.memory, at, n)?;
         }
         cb.body.clear();
         cb.body.resize(m, None);
@@ -569,6 +539,60 @@ impl Evaluator<'_> {
         f.as_mut_slice()[nq..].copy_from_slice(self.data.qdd.as_slice());
         Ok(())
     }
+}
+
+/// The remembered events' tangents `∂Υ/∂m_k Dm_k` added to the columns' torque and free
+/// joints' tangents `dtau`, `dfree`: the controller's memory partials at `at` (into `mem`)
+/// times the tangents of the events it remembers (`memory`), for `n` joints.
+fn add_memory_tangents(
+    (mem, dtau, dfree): (
+        &mut Vec<EventMemoryPartials>,
+        &mut DMatrix<f64>,
+        &mut DMatrix<f64>,
+    ),
+    free_joints: &[usize],
+    memory: &[DMatrix<f64>],
+    at: FlowPoint,
+    n: usize,
+) -> Result<(), SensitivityError> {
+    let FlowPoint {
+        ctrl, t, mode, y, ..
+    } = at;
+    let nq = y.len() / 2;
+    let (q, qd) = y.split_at(nq);
+    // the remembered events' tangents force every column: `∂Υ/∂m_k Dm_k`
+    mem.clear();
+    if !ctrl.memory_partials(t, q, qd, mode, free_joints, mem) {
+        return Err(SensitivityError::EventMemoryWithoutPartials {
+            t,
+            reason: "the controller gives no memory partials".into(),
+        });
+    }
+    for mp in mem.iter() {
+        let cols = 1 + 2 * nq;
+        if mp.dtau.shape() != (n, cols) || mp.dfree.shape() != (free_joints.len(), cols) {
+            return Err(SensitivityError::EventMemoryWithoutPartials {
+                t,
+                reason: format!(
+                    "memory partials of event {} sized {:?} and {:?}, not {:?} and {:?}",
+                    mp.event,
+                    mp.dtau.shape(),
+                    mp.dfree.shape(),
+                    (n, cols),
+                    (free_joints.len(), cols)
+                ),
+            });
+        }
+        let Some(d) = memory.get(mp.event) else {
+            return Err(SensitivityError::EventMemoryWithoutPartials {
+                t,
+                reason: format!("event {} is not one the run recorded", mp.event),
+            });
+        };
+        dtau.gemm(1.0, &mp.dtau, d, 1.0);
+        dfree.gemm(1.0, &mp.dfree, d, 1.0);
+    }
+    Ok(())
 }
 
 /// `out = a₁ b₁ + a₂ b₂` with `tmp` a buffer of `out`'s shape: bit for bit what
