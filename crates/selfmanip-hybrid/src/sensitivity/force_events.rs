@@ -8,9 +8,7 @@ use crate::event::EventKind;
 use nalgebra::{DMatrix, DVector, RowDVector};
 use selfmanip_core::contact::RowDirection;
 use selfmanip_core::model::Friction;
-use selfmanip_core::tangent::{
-    plastic_impact_body_derivatives, plastic_impact_jacobian, ImpactJacobian,
-};
+use selfmanip_core::tangent::{plastic_impact_jacobian, ImpactJacobian};
 use selfmanip_core::{ContactMode, Data, Model};
 
 /// A liftoff's or a slip's guard gradient `D_xg` at the flow `fm` before it; its `∂g/∂t`
@@ -54,25 +52,15 @@ pub(super) fn force_guard(
 /// drift `A q̇ ≠ 0` away, a plastic impact into the mode before (5.52), whose Jacobians and
 /// state after go into `gr`.
 pub(super) fn drift_reset(at: &EventAt, gr: &mut GuardReset) -> Result<(), NotDifferentiated> {
-    let (model, body) = (at.model, at.body);
-    let nq = model.nq();
+    let model = at.model;
     let qd_minus = at.qd_minus();
     let jump = max_diff(qd_minus, &at.event.qd_after);
     if jump > 0.0 {
         let mut data = Data::new(model);
         match drift_projection(at, &mut data) {
             Some(ij) => {
-                // its body parameters' `D_pR` (of the order of the drift)
-                let dqd_dp =
-                    plastic_impact_body_derivatives(model, &mut data, &ij.impact, qd_minus, body);
-                gr.dr_p
-                    .view_mut((nq, 0), (nq, body.len()))
-                    .copy_from(&dqd_dp);
-                gr.dr.view_mut((nq, 0), (nq, nq)).copy_from(&ij.dqd_plus_dq);
-                gr.dr
-                    .view_mut((nq, nq), (nq, nq))
-                    .copy_from(&ij.dqd_plus_dqd_minus);
-                gr.y_plus[nq..].copy_from_slice(&at.event.qd_after);
+                // its body parameters' `D_pR` are of the order of the drift
+                gr.plastic_impact(at, &mut data, &ij, &at.event.qd_after);
             }
             None => {
                 return Err(NotDifferentiated(format!(

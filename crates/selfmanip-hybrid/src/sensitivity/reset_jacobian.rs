@@ -6,8 +6,8 @@ use crate::event::Event;
 use crate::execution::Segment;
 use nalgebra::{DMatrix, RowDVector};
 use selfmanip_core::kinematics::Kinematics;
-use selfmanip_core::tangent::BodyParameter;
-use selfmanip_core::{ContactMode, Model, Terrain};
+use selfmanip_core::tangent::{plastic_impact_body_derivatives, BodyParameter, ImpactJacobian};
+use selfmanip_core::{ContactMode, Data, Model, Terrain};
 
 /// An event and the state `[q; q̇⁻]` just before it, with the kinematics there.
 pub(super) struct EventAt<'a> {
@@ -70,6 +70,31 @@ pub(super) struct GuardReset {
     pub(super) y_plus: Vec<f64>,
     /// For a touchdown, the mode of the plastic impact the reset applied.
     pub(super) impact_mode: Option<ContactMode>,
+}
+
+impl GuardReset {
+    /// The reset is the plastic impact `ij` (its factorization left in `data`) into the
+    /// velocity `qd_plus`: `D_xR` from its Jacobian, `D_pR` of the body parameters from
+    /// [`plastic_impact_body_derivatives`].
+    pub(super) fn plastic_impact(
+        &mut self,
+        at: &EventAt,
+        data: &mut Data,
+        ij: &ImpactJacobian,
+        qd_plus: &[f64],
+    ) {
+        let (nq, nb) = (at.model.nq(), at.body.len());
+        let dqd_dp =
+            plastic_impact_body_derivatives(at.model, data, &ij.impact, at.qd_minus(), at.body);
+        self.dr_p.view_mut((nq, 0), (nq, nb)).copy_from(&dqd_dp);
+        self.dr
+            .view_mut((nq, 0), (nq, nq))
+            .copy_from(&ij.dqd_plus_dq);
+        self.dr
+            .view_mut((nq, nq), (nq, nq))
+            .copy_from(&ij.dqd_plus_dqd_minus);
+        self.y_plus[nq..].copy_from_slice(qd_plus);
+    }
 }
 
 /// Why an event is not differentiated (recorded as its status's reason).

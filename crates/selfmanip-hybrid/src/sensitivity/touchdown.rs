@@ -7,9 +7,7 @@ use crate::event::Event;
 use nalgebra::RowDVector;
 use selfmanip_core::contact::{contact_geometry, ContactKind};
 use selfmanip_core::model::Friction;
-use selfmanip_core::tangent::{
-    height_gradient, plastic_impact_body_derivatives, plastic_impact_jacobian,
-};
+use selfmanip_core::tangent::{height_gradient, plastic_impact_jacobian};
 use selfmanip_core::{ContactMode, Data, Model};
 
 /// The touchdown's guard gradient `D_xg`; its impact's Jacobians, the state after it and the
@@ -18,7 +16,7 @@ pub(super) fn touchdown(
     at: &EventAt,
     gr: &mut GuardReset,
 ) -> Result<RowDVector<f64>, NotDifferentiated> {
-    let (model, event, body) = (at.model, at.event, at.body);
+    let (model, event) = (at.model, at.event);
     let (q, qd_minus) = (at.q(), at.qd_minus());
     let nq = model.nq();
     let n2 = 2 * nq;
@@ -56,15 +54,7 @@ pub(super) fn touchdown(
     };
     gr.impact_mode = Some(m);
     // data holds the factorization of the impact just found
-    let dqd_dp = plastic_impact_body_derivatives(model, &mut data, &ij.impact, qd_minus, body);
-    gr.dr_p
-        .view_mut((nq, 0), (nq, body.len()))
-        .copy_from(&dqd_dp);
-    gr.dr.view_mut((nq, 0), (nq, nq)).copy_from(&ij.dqd_plus_dq);
-    gr.dr
-        .view_mut((nq, nq), (nq, nq))
-        .copy_from(&ij.dqd_plus_dqd_minus);
-    gr.y_plus[nq..].copy_from_slice(ij.impact.qd_plus.as_slice());
+    gr.plastic_impact(at, &mut data, &ij, ij.impact.qd_plus.as_slice());
     Ok(dg)
 }
 
