@@ -12,18 +12,15 @@
 //! **Beyond the limit** (all frictionless) the same problems are solved as a convex QP with
 //! clarabel ([`crate::impact_qp`]): the LCP with the Delassus operator, whose KKT conditions
 //! are complementarity itself.
-use crate::contact_set::ResetWorkspace;
 use crate::error::HybridError;
 use crate::execution::Termination;
 use crate::impact::SetOutcome;
 use crate::impact_qp::{self, ContactQpError, QpOutcome};
+use crate::limits::ENUMERATION_LIMIT;
+use crate::reset_workspace::ResetWorkspace;
 use selfmanip_core::contact::ContactKind;
 use selfmanip_core::model::Friction;
 use selfmanip_core::ContactMode;
-
-/// Up to this many candidate contacts the complementarity problems are solved by exact
-/// enumeration of their `2ⁿ` subsets; beyond it by the convex QP of [`crate::impact_qp`].
-pub const ENUMERATION_LIMIT: usize = 10;
 
 /// What complementarity selects at an event: the mode after it with the contact impulses
 /// (forces at a force event) and pseudo-impulses in its rows.

@@ -2,32 +2,14 @@
 //! sticking or sliding, and the rows kept when they are redundant), the Coulomb friction
 //! cone (section 5.1.5, Assumption 5.9), and the tie-break for a massless link touching
 //! down. Evaluated on the [`ResetWorkspace`], the resets' own copy of the core's workspace.
-use crate::controller::Controller;
-use crate::flow::FlowWorkspace;
 use crate::fold;
+use crate::reset_workspace::ResetWorkspace;
 use selfmanip_core::contact::{ContactKind, RowDirection};
 use selfmanip_core::model::Friction;
-use selfmanip_core::{ContactMode, CoreError, Model, SingularityKind, Terrain};
+use selfmanip_core::{ContactMode, CoreError, SingularityKind};
 
 /// An impulse this small (N s) is no verdict of its own: the pseudo-impulse decides (5.40).
 pub const IMPULSE_TOL_N_S: f64 = 1e-12;
-
-/// What a reset evaluates candidate contact sets with: the robot, its terrain, the
-/// controller at the event, the pseudo-impulse duration, and a workspace of the resets' own
-/// (the flow's cache is never touched by a reset).
-pub struct ResetWorkspace<'a> {
-    pub model: &'a Model,
-    pub terrain: &'a dyn Terrain,
-    pub ctrl: &'a dyn Controller,
-    /// δt of (5.39) (s); 0: no pseudo-impulse.
-    pub delta_t_s: f64,
-    pub ws: &'a mut FlowWorkspace,
-    /// Contacts that may not take a kind at this reset: a contact at its fold may not keep
-    /// the kind whose mode is singular there ([`crate::fold`]).
-    pub barred: &'a [(usize, ContactKind)],
-    /// The pin `ε` within which a mode counts as singular ([`crate::fold`]).
-    pub fold_threshold: f64,
-}
 
 impl ResetWorkspace<'_> {
     /// The mode for contact set `set`: each contact's kind from `prefer` where it is active

@@ -13,7 +13,7 @@
 //! event beyond the event itself says so ([`Controller::has_event_memory`]) and gives the
 //! partials of its outputs with respect to them ([`Controller::memory_partials`],
 //! [`Controller::memory_time_events`]).
-use crate::execution::Event;
+use crate::event::Event;
 use nalgebra::DMatrix;
 use selfmanip_core::ContactMode;
 

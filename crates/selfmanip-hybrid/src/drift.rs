@@ -14,14 +14,10 @@
 //!    \begin{bmatrix} \Delta q \\ \mu \end{bmatrix} = \begin{bmatrix} 0 \\ -a(q) \end{bmatrix}, $$
 //! the velocities as a plastic impact into the mode, $\dot q^+ = \dot q - A^{\dagger T} A \dot q$
 //! (5.52) — and the integration goes on from there.
-use crate::features::TERRAIN_STEP_M;
 use crate::flow::{Flow, FlowWorkspace};
+use crate::surface_tolerances::{MAX_DRIFT_M, TERRAIN_STEP_M};
 use selfmanip_core::contact::{ContactGeometry, RowDirection};
 use selfmanip_core::{plastic_impact_prepared, ContactMode, CoreError};
-
-/// The largest drift of a contact off its surface that is corrected (m); further, it left the
-/// surface (a terrain step smaller than this is not told apart from drift).
-pub const MAX_DRIFT_M: f64 = 1e-3;
 
 /// Newton steps of the position projection (each squares the relative error of a gap of
 /// `MAX_DRIFT_M` on curvatures of the robot's size).

@@ -1,7 +1,7 @@
 //! Errors that prevent an execution from starting or continuing (a run that ends for a
 //! physical reason ends with a [`crate::Termination`] instead).
-use crate::complementarity::ENUMERATION_LIMIT;
 use crate::impact_qp::ContactQpError;
+use crate::limits::ENUMERATION_LIMIT;
 use selfmanip_core::CoreError;
 use thiserror::Error;
 

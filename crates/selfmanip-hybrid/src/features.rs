@@ -7,15 +7,13 @@
 //! otherwise (a point crossing an edge, any site reaching a concave corner, where it would
 //! touch two surfaces) ends the execution with
 //! [`crate::Termination::TerrainDiscontinuity`].
+use crate::bracketing::bisect_first;
+use crate::drift::drifted;
 use crate::flow::Flow;
 use crate::integrate::DenseStep;
-use crate::locate::bisect_first;
+use crate::surface_tolerances::{MAX_DRIFT_M, TERRAIN_STEP_M};
 use selfmanip_core::contact::ContactGeometry;
 use selfmanip_core::ContactMode;
-
-/// A contact found this far from its surface left it other than continuously: its ground
-/// stepped (m).
-pub const TERRAIN_STEP_M: f64 = 1e-6;
 
 /// Largest change of a contact's normal (a unit vector) across the event bracket at which
 /// it passes onto the next terrain feature for the two to count as one continuous surface
@@ -66,7 +64,7 @@ impl Surfaces {
         self.on.iter().all(|(k, start)| {
             let g = flow.geometry(*k, y);
             let off = !g.same_feature(start) || g.gap_m.abs() > TERRAIN_STEP_M;
-            !off || crate::drift::drifted(start, &g)
+            !off || drifted(start, &g)
         })
     }
 
@@ -96,7 +94,7 @@ impl Surfaces {
         // below the ground by a coarsely located touchdown) as far off it as just before
         let gap_continuous = after.gap_m.abs() <= TERRAIN_STEP_M
             || ((after.gap_m - before.gap_m).abs() <= TERRAIN_STEP_M
-                && after.gap_m.abs() <= crate::drift::MAX_DRIFT_M);
+                && after.gap_m.abs() <= MAX_DRIFT_M);
         let continuous = gap_continuous
             && (after.plane.normal() - before.plane.normal()).norm() <= FEATURE_NORMAL_TOL;
         if continuous {

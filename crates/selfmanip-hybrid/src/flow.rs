@@ -23,9 +23,9 @@
 //! friction force through a segment ([`Flow::fix_slide_directions`]): the flow is smooth
 //! where its sliding velocity passes zero, and the slip→stick guard makes that an event.
 //! Nothing else writes the workspace: the resets work on one of their own
-//! ([`crate::contact_set::ResetWorkspace`]), so no reset can leave the cache stale.
+//! ([`crate::reset_workspace::ResetWorkspace`]), so no reset can leave the cache stale.
 use crate::controller::Controller;
-use crate::execution::Event;
+use crate::event::Event;
 use selfmanip_core::contact::{contact_geometry, ContactGeometry, ContactKind};
 use selfmanip_core::friction::{SlideDirection, SLIDING_SPEED_EPS_M_S};
 use selfmanip_core::kinematics::Kinematics;
@@ -132,7 +132,7 @@ impl<'a> Flow<'a> {
             if mode.kind(k) != Some(ContactKind::Slide) || model.contacts[k].kinetic_mu == 0.0 {
                 continue;
             }
-            let v_t = crate::guard::sliding_velocity(model, self.kinematics_at(y), terrain, k);
+            let v_t = sliding_velocity(model, self.kinematics_at(y), terrain, k);
             dirs.push((
                 k,
                 if from_rest.contains(&k) || v_t.abs() <= SLIDING_SPEED_EPS_M_S {
@@ -345,4 +345,12 @@ impl FlowWorkspace {
         // (Υ − C̄q̇ − N̄, −Ȧq̇) => (q̈, λ)
         forward_dynamics_prepared(model, &mut self.data, &self.tau, Some(&self.free))
     }
+}
+
+/// Tangential velocity `t · v` of the material point of contact `k` at its contact point
+/// (the sliding velocity; zero while it sticks or rolls).
+pub fn sliding_velocity(model: &Model, kin: &Kinematics, terrain: &dyn Terrain, k: usize) -> f64 {
+    let geom = contact_geometry(model, kin, terrain, k);
+    kin.material_velocity(geom.part, geom.point)
+        .dot(&geom.plane.tangent())
 }

@@ -63,23 +63,15 @@
 //! the way" (Assumption 5.9: any conflict is resolved by removing the contact). A released chain's joint velocities are set to zero (at rest relative to its
 //! parent): a massless chain carries no momentum, so its velocity after the release is not
 //! determined by mechanics, and the flow's value there grows like $1/\varepsilon$.
-use crate::contact_set::ResetWorkspace;
+use crate::bracketing::locate_crossing;
 use crate::controller::Controller;
-use crate::locate::locate_crossing;
 use crate::options::HybridOptions;
+use crate::reset_workspace::ResetWorkspace;
 use selfmanip_core::contact::{contact_geometry, ContactKind, RowDirection};
 use selfmanip_core::frames::perp;
 use selfmanip_core::friction::SlideDirection;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{plastic_impact, ContactMode, CoreError, Model, Terrain};
-
-/// The default fold threshold `ε` of the pin (see the module docs): the flow stops within
-/// `asin(ε) ≈ 0.6°` of the fold.
-pub const DEFAULT_FOLD_THRESHOLD: f64 = 1e-2;
-
-/// The default pin at which a leg whose torque falls with speed meets its fold guard and
-/// passes the fold locked ([`ResetWorkspace::passage`]): `asin(0.1) ≈ 5.7°` either side.
-pub const DEFAULT_PASSAGE_THRESHOLD: f64 = 0.1;
 
 /// The massless joints that pin contact `k` (the distal, all-massless part of the chain of
 /// its link), as a range of joint indices; empty for a body contact or a massive chain.
@@ -234,7 +226,7 @@ const SLAVING_RATIO: f64 = 10.0;
 /// grows (positive below `ω₀`, negative above), with the slope `k = −∂τ_j/∂θ̇_j > 0` there;
 /// `None` when there is none (a saturated torque never changes sign). Searched from `q̇_j`
 /// in the direction the torque points, with steps doubling up to `MAX_SPEED`, then located
-/// by regula falsi ([`crate::locate::locate_crossing`]).
+/// by regula falsi ([`crate::bracketing::locate_crossing`]).
 pub fn torque_free_speed(
     ctrl: &dyn Controller,
     (t, q, qd): (f64, &[f64], &[f64]),

@@ -41,11 +41,14 @@
 //! are sampled at the coarse samples (mid-step and end), and also at a fine sample where a
 //! cheap (kinematic) guard crosses, so that none of them can cross unseen before the
 //! earliest event; the kinematic guards at every sample.
+/// The slip→stick guard's value (defined with the flow, which fixes a sliding contact's
+/// direction by it).
+pub use crate::flow::sliding_velocity;
 use crate::flow::Flow;
 use crate::fold;
 use crate::integrate::DenseStep;
 use crate::options::HybridOptions;
-use selfmanip_core::contact::{contact_gap, contact_geometry};
+use selfmanip_core::contact::contact_gap;
 use selfmanip_core::contact::{ContactKind, RowDirection};
 use selfmanip_core::friction::SlideDirection;
 use selfmanip_core::kinematics::Kinematics;
@@ -202,14 +205,6 @@ impl Guard {
             out.push(Guard::Apex);
         }
     }
-}
-
-/// Tangential velocity `t · v` of the material point of contact `k` at its contact point
-/// (the sliding velocity; zero while it sticks or rolls).
-pub fn sliding_velocity(model: &Model, kin: &Kinematics, terrain: &dyn Terrain, k: usize) -> f64 {
-    let geom = contact_geometry(model, kin, terrain, k);
-    kin.material_velocity(geom.part, geom.point)
-        .dot(&geom.plane.tangent())
 }
 
 /// Which way a guard's value must cross zero for it to fire on `t₀ < t* ≤ t₁` (Drake's

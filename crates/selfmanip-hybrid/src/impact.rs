@@ -11,7 +11,8 @@
 //! A contact is held when its own impulse pushes, $U(P_\lambda) > 0$; any other — including
 //! a zero-speed touchdown, whose impulse vanishes — is judged by $U(P_\lambda + P_\delta)$
 //! (5.40).
-use crate::contact_set::{normal_push, ResetWorkspace, IMPULSE_TOL_N_S};
+use crate::contact_set::{normal_push, IMPULSE_TOL_N_S};
+use crate::reset_workspace::ResetWorkspace;
 use selfmanip_core::contact::{ContactKind, RowDirection};
 use selfmanip_core::{plastic_impact_prepared, pseudo_impulse_prepared, ContactMode, CoreError};
 

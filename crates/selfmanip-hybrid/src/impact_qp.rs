@@ -677,6 +677,75 @@ fn solve_lcp(
     }
     let p_scale = v_scale / w_max;
 
+    let (p_ipm, mut info) = clarabel_qp(f, b, o)?;
+    let v_ipm = w * &p_ipm + b;
+
+    // --- classify: the larger of the normalised impulse and velocity wins (complementarity
+    // makes the other one small); Clarabel's support approximates the largest active set
+    let support: Vec<usize> = (0..n)
+        .filter(|&i| p_ipm[i] / p_scale > (v_ipm[i] / v_scale).max(0.0))
+        .collect();
+
+    let mut basis = basic_solution(w, f, support, &p_ipm, o);
+
+    // --- exact solve on the basis and complementarity check; a wrong classification (near
+    // ties) is repaired by single principal pivots
+    let tol = o.zero_tolerance;
+    let mut p = DVector::zeros(n);
+    for _ in 0..=n {
+        p = solve_on_basis(w, f, b, &basis, o)?;
+        let v = w * &p + b;
+        let pull = basis
+            .iter()
+            .map(|&i| (i, p[i] / p_scale))
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        let penetrate = (0..n)
+            .filter(|i| !basis.contains(i))
+            .map(|i| (i, v[i] / v_scale))
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        match (pull, penetrate) {
+            (Some((i, x)), _) if x < -tol => {
+                basis.retain(|&k| k != i);
+                info.pivots += 1;
+            }
+            (_, Some((i, x))) if x < -tol => {
+                basis.push(i);
+                basis.sort_unstable();
+                info.pivots += 1;
+            }
+            _ => {
+                let scales = (p_scale, v_scale);
+                return unique_or_ambiguous(w, f, b, (basis, p, &v), scales, info, o);
+            }
+        }
+    }
+    // pivoting did not settle: report the worst violation
+    let v = w * &p + b;
+    let (contact, quantity, value) = (0..n)
+        .map(|i| {
+            if basis.contains(&i) {
+                (i, "push", p[i] / p_scale)
+            } else {
+                (i, "separation", v[i] / v_scale)
+            }
+        })
+        .min_by(|a, b| a.2.total_cmp(&b.2))
+        .expect("n > 0");
+    Err(ContactQpError::Inconsistent {
+        contact,
+        quantity,
+        value,
+    })
+}
+
+/// `min ½ pᵀWp + bᵀp, p ≥ 0` by Clarabel on the low-rank form (`x = [p; u]`, `u = F p`,
+/// `W = FᵀF`): its `p` and the solver's figures.
+fn clarabel_qp(
+    f: &DMatrix<f64>,
+    b: &DVector<f64>,
+    o: &ContactQpOptions,
+) -> Result<(DVector<f64>, QpInfo), ContactQpError> {
+    let n = b.len();
     // --- Clarabel on the low-rank form (x = [p; u], u = F p, W = FᵀF):
     // min ½ uᵀu + bᵀp  s.t.  F p − u = 0 (zero cone),  p ≥ 0 (s = p, non-negative cone)
     let r = f.nrows();
@@ -750,21 +819,23 @@ fn solve_lcp(
             })
         }
     }
-    let mut info = QpInfo {
+    let info = QpInfo {
         iterations: sol.iterations,
         solve_time_s: sol.solve_time,
         ..QpInfo::default()
     };
-    let p_ipm = DVector::from_column_slice(&sol.x[..n]);
-    let v_ipm = w * &p_ipm + b;
+    Ok((DVector::from_column_slice(&sol.x[..n]), info))
+}
 
-    // --- classify: the larger of the normalised impulse and velocity wins (complementarity
-    // makes the other one small); Clarabel's support approximates the largest active set
-    let support: Vec<usize> = (0..n)
-        .filter(|&i| p_ipm[i] / p_scale > (v_ipm[i] / v_scale).max(0.0))
-        .collect();
-
-    // --- a basic solution: walk along null directions of W_SS until the rows are independent
+/// A basic solution from the support of Clarabel's `p`: walk along null directions of `W_SS`
+/// until the rows are independent (each walk takes one entry of `p` to zero).
+fn basic_solution(
+    w: &DMatrix<f64>,
+    f: &DMatrix<f64>,
+    support: Vec<usize>,
+    p_ipm: &DVector<f64>,
+    o: &ContactQpOptions,
+) -> Vec<usize> {
     let mut basis = support;
     let mut p_s: Vec<f64> = basis.iter().map(|&i| p_ipm[i].max(0.0)).collect();
     loop {
@@ -795,123 +866,92 @@ fn solve_lcp(
         p_s.remove(drop);
     }
 
-    // --- exact solve on the basis and complementarity check; a wrong classification (near
-    // ties) is repaired by single principal pivots
-    let tol = o.zero_tolerance;
-    let mut p = DVector::zeros(n);
-    for _ in 0..=n {
-        p = solve_on_basis(w, f, b, &basis, o)?;
-        let v = w * &p + b;
-        let pull = basis
-            .iter()
-            .map(|&i| (i, p[i] / p_scale))
-            .min_by(|a, b| a.1.total_cmp(&b.1));
-        let penetrate = (0..n)
-            .filter(|i| !basis.contains(i))
-            .map(|i| (i, v[i] / v_scale))
-            .min_by(|a, b| a.1.total_cmp(&b.1));
-        match (pull, penetrate) {
-            (Some((i, x)), _) if x < -tol => {
-                basis.retain(|&k| k != i);
-                info.pivots += 1;
+    basis
+}
+
+/// The LCP's solution on a settled `basis` (its exact `p`, velocities `v`): uniqueness from
+/// the exact solution alone, the ties whose rows stay independent kept, as the enumeration
+/// does.
+fn unique_or_ambiguous(
+    w: &DMatrix<f64>,
+    f: &DMatrix<f64>,
+    b: &DVector<f64>,
+    (mut basis, mut p, v): (Vec<usize>, DVector<f64>, &DVector<f64>),
+    (p_scale, v_scale): (f64, f64),
+    info: QpInfo,
+    o: &ContactQpOptions,
+) -> Result<LcpSolution, ContactQpError> {
+    let (n, tol) = (b.len(), o.zero_tolerance);
+    // --- uniqueness, from the exact solution alone. Off the basis, a contact that
+    // touches with zero impulse (v ≈ 0) either lies in the span of the basis's
+    // rows — then impulse can be shifted onto it along a null direction of W:
+    // dependent — or not — then it may join or leave the set at no cost: a tie.
+    // A basis contact whose impulse vanishes is a tie too. Without any of these,
+    // B is independent with p_B > 0 and every other contact separates strictly:
+    // the solution is unique.
+    let rank = basis.len();
+    let (mut dependent, mut ties) = (Vec::new(), Vec::new());
+    for i in 0..n {
+        if basis.contains(&i) {
+            if p[i] / p_scale <= tol {
+                ties.push(i);
             }
-            (_, Some((i, x))) if x < -tol => {
-                basis.push(i);
-                basis.sort_unstable();
-                info.pivots += 1;
-            }
-            _ => {
-                // --- uniqueness, from the exact solution alone. Off the basis, a contact that
-                // touches with zero impulse (v ≈ 0) either lies in the span of the basis's
-                // rows — then impulse can be shifted onto it along a null direction of W:
-                // dependent — or not — then it may join or leave the set at no cost: a tie.
-                // A basis contact whose impulse vanishes is a tie too. Without any of these,
-                // B is independent with p_B > 0 and every other contact separates strictly:
-                // the solution is unique.
-                let rank = basis.len();
-                let (mut dependent, mut ties) = (Vec::new(), Vec::new());
-                for i in 0..n {
-                    if basis.contains(&i) {
-                        if p[i] / p_scale <= tol {
-                            ties.push(i);
-                        }
-                    } else if v[i] / v_scale <= tol {
-                        let mut with_i = basis.clone();
-                        with_i.push(i);
-                        if rank_of_columns(f, &with_i, o.rank_tolerance) == rank {
-                            dependent.push(i);
-                        } else {
-                            ties.push(i);
-                        }
-                    }
-                }
-                if !dependent.is_empty() {
-                    dependent.extend(&basis);
-                    dependent.sort_unstable();
-                }
-                let active: Vec<usize> = if dependent.is_empty() {
-                    &basis
-                } else {
-                    &dependent
-                }
-                .iter()
-                .copied()
-                .filter(|i| !ties.contains(i))
-                .collect();
-                // keep the ties whose rows stay independent, as the enumeration does: a
-                // contact is dropped only if holding it needs a pulling impulse (5.29)
-                let mut keep = basis.clone();
-                for &i in &ties {
-                    if !keep.contains(&i) {
-                        keep.push(i);
-                        if rank_of_columns(f, &keep, o.rank_tolerance) < keep.len() {
-                            keep.pop();
-                        }
-                    }
-                }
-                if keep.len() > basis.len() {
-                    keep.sort_unstable();
-                    let p2 = solve_on_basis(w, f, b, &keep, o)?;
-                    let v2 = w * &p2 + b;
-                    let complementary = (0..n).all(|i| {
-                        if keep.contains(&i) {
-                            p2[i] / p_scale >= -tol
-                        } else {
-                            v2[i] / v_scale >= -tol
-                        }
-                    });
-                    if complementary {
-                        (basis, p) = (keep, p2);
-                    }
-                }
-                let ambiguity =
-                    (!dependent.is_empty() || !ties.is_empty()).then_some((dependent, rank, ties));
-                return Ok(LcpSolution {
-                    p,
-                    basis,
-                    active,
-                    ambiguity,
-                    info,
-                });
+        } else if v[i] / v_scale <= tol {
+            let mut with_i = basis.clone();
+            with_i.push(i);
+            if rank_of_columns(f, &with_i, o.rank_tolerance) == rank {
+                dependent.push(i);
+            } else {
+                ties.push(i);
             }
         }
     }
-    // pivoting did not settle: report the worst violation
-    let v = w * &p + b;
-    let (contact, quantity, value) = (0..n)
-        .map(|i| {
-            if basis.contains(&i) {
-                (i, "push", p[i] / p_scale)
-            } else {
-                (i, "separation", v[i] / v_scale)
+    if !dependent.is_empty() {
+        dependent.extend(&basis);
+        dependent.sort_unstable();
+    }
+    let active: Vec<usize> = if dependent.is_empty() {
+        &basis
+    } else {
+        &dependent
+    }
+    .iter()
+    .copied()
+    .filter(|i| !ties.contains(i))
+    .collect();
+    // keep the ties whose rows stay independent, as the enumeration does: a
+    // contact is dropped only if holding it needs a pulling impulse (5.29)
+    let mut keep = basis.clone();
+    for &i in &ties {
+        if !keep.contains(&i) {
+            keep.push(i);
+            if rank_of_columns(f, &keep, o.rank_tolerance) < keep.len() {
+                keep.pop();
             }
-        })
-        .min_by(|a, b| a.2.total_cmp(&b.2))
-        .expect("n > 0");
-    Err(ContactQpError::Inconsistent {
-        contact,
-        quantity,
-        value,
+        }
+    }
+    if keep.len() > basis.len() {
+        keep.sort_unstable();
+        let p2 = solve_on_basis(w, f, b, &keep, o)?;
+        let v2 = w * &p2 + b;
+        let complementary = (0..n).all(|i| {
+            if keep.contains(&i) {
+                p2[i] / p_scale >= -tol
+            } else {
+                v2[i] / v_scale >= -tol
+            }
+        });
+        if complementary {
+            (basis, p) = (keep, p2);
+        }
+    }
+    let ambiguity = (!dependent.is_empty() || !ties.is_empty()).then_some((dependent, rank, ties));
+    Ok(LcpSolution {
+        p,
+        basis,
+        active,
+        ambiguity,
+        info,
     })
 }
 

@@ -30,14 +30,14 @@
 //! `μ > (1 + 3cos²θ)/(3 sinθ cosθ)`, test `painleve_jam`). Being a plastic impact — an
 //! `M̄`-orthogonal projection of q̇ — it never adds kinetic energy; the event records what it
 //! takes ([`crate::Execution::impact_losses`]).
-use crate::contact_set::ResetWorkspace;
 use crate::contact_set::IMPULSE_TOL_N_S;
 use crate::energy::kinetic_energy_at;
 use crate::error::HybridError;
-use crate::execution::{Event, EventKind, PainleveReason};
+use crate::event::{Event, EventKind, PainleveReason};
 use crate::flow::{Flow, FlowWorkspace};
 use crate::options::HybridOptions;
 use crate::reset::Reset;
+use crate::reset_workspace::ResetWorkspace;
 use selfmanip_core::contact::{ContactKind, RowDirection};
 use selfmanip_core::friction::SLIDING_SPEED_EPS_M_S;
 use selfmanip_core::model::Friction;
@@ -76,7 +76,7 @@ pub fn jam(
     // the contact's sliding speed: a contact at rest (a sticking one at its cone's edge, or
     // a slide that starts from rest) gives a jam no velocity to take
     let terrain = flow.terrain();
-    let at_rest = crate::guard::sliding_velocity(model, flow.kinematics(q, qd), terrain, k).abs()
+    let at_rest = crate::flow::sliding_velocity(model, flow.kinematics(q, qd), terrain, k).abs()
         <= SLIDING_SPEED_EPS_M_S;
     // k may stick or leave; sliding is what has no consistent continuation. A sticking k
     // (its force at the cone's edge) cannot stick on either: it may only leave

@@ -1,12 +1,19 @@
 //! The options of an execution, checked once before it starts.
 use crate::error::HybridError;
-use crate::fold::{DEFAULT_FOLD_THRESHOLD, DEFAULT_PASSAGE_THRESHOLD};
 use crate::integrate::StepOptions;
 
 /// The default step budget of a run: a leap takes a few hundred accepted steps, a
 /// thousand-step run of the robots in this repository is rare; this bounds a run that
 /// crawls to a few tens of milliseconds and a few megabytes of dense output.
 pub const DEFAULT_MAX_STEPS: usize = 20_000;
+
+/// The default fold threshold `ε` of the pin ([`crate::fold`]): the flow stops within
+/// `asin(ε) ≈ 0.6°` of the fold.
+pub const DEFAULT_FOLD_THRESHOLD: f64 = 1e-2;
+
+/// The default pin at which a leg whose torque falls with speed meets its fold guard and
+/// passes the fold locked ([`crate::reset_workspace::ResetWorkspace::passage`]): `asin(0.1) ≈ 5.7°` either side.
+pub const DEFAULT_PASSAGE_THRESHOLD: f64 = 0.1;
 
 /// Options of an execution.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]

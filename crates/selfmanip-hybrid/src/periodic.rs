@@ -47,7 +47,8 @@
 //! one execution.
 use crate::controller::Controller;
 use crate::error::HybridError;
-use crate::execution::{EventKind, Execution, Termination};
+use crate::event::EventKind;
+use crate::execution::{Execution, Termination};
 use crate::flow::Flow;
 use crate::options::HybridOptions;
 use crate::sensitivity::{execution_sensitivity, SensitivityError};

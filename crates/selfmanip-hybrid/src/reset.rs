@@ -15,18 +15,18 @@
 //! stick; a touchdown whose contact is already found below its ground met a step of the
 //! terrain.
 use crate::complementarity::Selected;
-use crate::contact_set::ResetWorkspace;
-use crate::drift::MAX_DRIFT_M;
 use crate::energy::kinetic_energy_at;
 use crate::error::HybridError;
-use crate::execution::{Event, EventKind, Termination};
-use crate::features::TERRAIN_STEP_M;
+use crate::event::{Event, EventKind};
+use crate::execution::Termination;
 use crate::flow::{Flow, FlowWorkspace};
 use crate::fold;
 use crate::guard::Guard;
 use crate::options::HybridOptions;
+use crate::reset_workspace::ResetWorkspace;
+use crate::surface_tolerances::{MAX_DRIFT_M, TERRAIN_STEP_M};
 use selfmanip_core::contact::ContactKind;
-use selfmanip_core::{plastic_impact, ContactMode};
+use selfmanip_core::{plastic_impact, ContactMode, Model};
 
 /// What a reset leads to.
 #[derive(Debug, Clone, PartialEq)]
@@ -73,91 +73,37 @@ pub fn reset_jamming(
 ) -> Result<Reset, HybridError> {
     let model = flow.model();
     let (q, qd) = y.split_at(model.nq());
-    // the apex: the end of the run, or (not stopping there) an event that changes nothing
-    // unless other guards fired with it
-    let apex_only = fired == [Guard::Apex];
-    if fired.contains(&Guard::Apex) && (opts.stop_at_apex || apex_only) {
-        let event = Event {
-            t,
-            kind: EventKind::Apex,
-            mode_before: mode,
-            mode_after: mode,
-            triggered: vec![],
-            impulse: vec![],
-            pseudo_impulse: vec![],
-            kinetic_before: f64::NAN,
-            kinetic_after: f64::NAN,
-            q: q.to_vec(),
-            qd_after: qd.to_vec(),
-        };
-        if !opts.stop_at_apex {
-            return Ok(Reset::Continue {
-                event,
-                from_rest: vec![],
-                lock: flow.lock().to_vec(),
-            });
-        }
-        return Ok(Reset::End {
-            event: Some(event),
-            termination: Termination::Apex,
-        });
+    if let Some(apex) = apex_reset(flow, opts, fired, mode, (t, y)) {
+        return Ok(apex);
     }
     let fired: Vec<Guard> = fired
         .iter()
         .copied()
         .filter(|&g| g != Guard::Apex)
         .collect();
-    let fired = &fired[..];
-    let fired_contacts = |pick: fn(&Guard) -> Option<usize>| -> Vec<usize> {
-        fired.iter().filter_map(pick).collect()
-    };
-    let touched = fired_contacts(|g| match g {
-        Guard::Touchdown(k) => Some(*k),
-        _ => None,
-    });
-    let released = fired_contacts(|g| match g {
-        Guard::Liftoff { contact, .. } => Some(*contact),
-        _ => None,
-    });
-    let slipped = fired_contacts(|g| match g {
-        Guard::Slip { contact, .. } => Some(*contact),
-        _ => None,
-    });
-    let stuck = fired_contacts(|g| match g {
-        Guard::Stick(k) => Some(*k),
-        _ => None,
-    });
-    let folded = fired_contacts(|g| match g {
-        Guard::Fold { contact, .. } => Some(*contact),
-        _ => None,
-    });
-    let passed = fired_contacts(|g| match g {
-        Guard::FoldPassed { contact, .. } => Some(*contact),
-        _ => None,
-    });
+    let c = FiredContacts::of(&fired);
     // a chain that is ε past its fold is unlocked
     let mut lock = flow.lock().to_vec();
     lock.retain(|j| {
-        !passed
+        !c.passed
             .iter()
             .any(|&k| fold::massless_chain(model, k).contains(j))
     });
-    let unchanged = |kind, triggered: Vec<usize>, qd_after: &[f64]| Event {
-        t,
-        kind,
-        mode_before: mode,
-        mode_after: mode,
-        triggered,
-        impulse: vec![],
-        pseudo_impulse: vec![],
-        kinetic_before: f64::NAN,
-        kinetic_after: f64::NAN,
-        q: q.to_vec(),
-        qd_after: qd_after.to_vec(),
-    };
-    if passed.len() == fired.len() {
+    if c.passed.len() == fired.len() {
         return Ok(Reset::Continue {
-            event: unchanged(EventKind::FoldPassed, passed, qd),
+            event: Event {
+                t,
+                kind: EventKind::FoldPassed,
+                mode_before: mode,
+                mode_after: mode,
+                triggered: c.passed,
+                impulse: vec![],
+                pseudo_impulse: vec![],
+                kinetic_before: f64::NAN,
+                kinetic_after: f64::NAN,
+                q: q.to_vec(),
+                qd_after: qd.to_vec(),
+            },
             from_rest: vec![],
             lock,
         });
@@ -168,69 +114,14 @@ pub fn reset_jamming(
             termination,
         })
     };
-    // a contact whose height jumped through zero met a step of the terrain: located to
-    // event_tol_s, a smooth crossing is at most |ȧ_k| event_tol_s below the ground
-    for &k in &touched {
-        let geom = flow.geometry(k, y);
-        let (q_, qd_) = y.split_at(model.nq());
-        let approach = flow
-            .kinematics(q_, qd_)
-            .material_velocity(geom.part, geom.point)
-            .dot(&geom.plane.normal())
-            .abs();
-        let gap = geom.gap_m;
-        // (nor is a gap within the drift band: a contact released below the ground by a
-        // coarsely located touchdown comes back from there, crate::drift)
-        let allowed = (TERRAIN_STEP_M + 2.0 * approach * opts.event_tol_s).max(MAX_DRIFT_M);
-        if gap < -allowed {
-            return end(Termination::TerrainDiscontinuity {
-                t,
-                contact: k,
-                gap_m: gap,
-            });
-        }
+    if let Some(step) = terrain_step(flow, opts, &c.touched, (t, y)) {
+        return end(step);
     }
-    // where each folded contact is judged: its pin
-    let pins: Vec<f64> = {
-        let terrain = flow.terrain();
-        folded
-            .iter()
-            .map(|&k| {
-                let own = fold::own_direction(flow.slide_directions(), k);
-                fold::pin(
-                    model,
-                    flow.kinematics(q, qd),
-                    terrain,
-                    mode,
-                    k,
-                    own.as_slice(),
-                )
-                .unwrap_or(0.0)
-            })
-            .collect()
-    };
-    // a contact at its fold may not keep its kind; a sliding one is offered the stick
-    let mut prefer = mode;
-    let mut barred = Vec::with_capacity(folded.len());
-    for &k in &folded {
-        let (bar, offered) = fold::fold_options(model, mode, k);
-        barred.push((k, bar));
-        if let Some(kind) = offered {
-            prefer = prefer.with(k, kind);
-        }
-    }
-    // a contact whose cone margin has just reached zero may not stick again at once: its
-    // slip guard has decided (the cone test at rest of a force event, ResetWorkspace::
-    // held_at_rest, would otherwise keep it on the cone's edge by round-off of the drift
-    // projection below, and the guard would fire again: an event that changes nothing)
-    barred.extend(slipped.iter().map(|&k| (k, ContactKind::Stick)));
-    barred.extend(jammed.iter().map(|&k| (k, ContactKind::Slide)));
-    for &k in jammed {
-        prefer = prefer.with(k, ContactKind::Stick);
-    }
+    let pins = fold_pins(flow, mode, &c.folded, (q, qd));
+    let (mut prefer, barred) = bars(model, mode, &c, jammed);
     // … unless it passes the fold sliding, locked: then it may not stick
     let passing_bar: Vec<(usize, ContactKind)> =
-        folded.iter().map(|&k| (k, ContactKind::Stick)).collect();
+        c.folded.iter().map(|&k| (k, ContactKind::Stick)).collect();
     let ctrl = flow.controller().clone();
     ws.data.locked.clone_from(&lock);
     let cx = &mut ResetWorkspace {
@@ -246,20 +137,10 @@ pub fn reset_jamming(
     // sliding legs whose speed is slaved at their folds pass them locked (fold::passage)
     let mut qd_in = qd.to_vec();
     let mut passing = false;
-    if !folded.is_empty() && folded.len() == fired.len() {
-        let (mut v, mut l) = (qd.to_vec(), lock.clone());
-        passing = true;
-        for (&k, &pin) in folded.iter().zip(&pins) {
-            match cx.passage(t, mode, &l, (k, pin), (q, &v))? {
-                Some((v1, l1)) => (v, l) = (v1, l1),
-                None => {
-                    passing = false;
-                    break;
-                }
-            }
-        }
-        if passing {
+    if !c.folded.is_empty() && c.folded.len() == fired.len() {
+        if let Some((v, l)) = fold_passage(cx, (t, mode), &lock, (&c.folded, &pins), (q, qd))? {
             (qd_in, lock) = (v, l);
+            passing = true;
             cx.barred = &passing_bar;
             prefer = mode;
         }
@@ -267,59 +148,19 @@ pub fn reset_jamming(
     }
     // a fold is resolved as an impact: the stick it offers must stop the sliding at once; a
     // passage has its velocity already (the lock's), and its contacts are judged by forces
-    let impact = !touched.is_empty() || (!folded.is_empty() && !passing);
-    // at a force event the velocity is continuous and satisfies the constraints of the mode
-    // before, `A q̇ = 0`, up to the integrator's drift: project that drift away (a plastic
-    // impact into the mode before, (5.52), as crate::drift does), so that a contact that
-    // stuck until now starts sliding from zero sliding speed exactly. Its sliding direction
-    // is then chosen by the forces at rest (selfmanip_core::friction), not by the sign of a
-    // drift whose size scales with the tolerance (at rtol = 1e-6 a middle leg stuck until its
-    // slip had |v_t| = 1.3 µm/s of the wrong sign, outside the rest band: the wrong cone edge,
-    // a pulling normal force, a liftoff instead of a slip — a different leap)
-    // Only at a slip: elsewhere the projection would move a leaving contact's force root
-    // (a massless leg's rate, slaved to its contact, sets its motor torque) and its liftoff
-    // guard would fire again at once, an event that changes nothing.
-    if !impact && folded.is_empty() && !slipped.is_empty() {
-        let imp = plastic_impact(model, &mut cx.ws.data, cx.terrain, mode, q, &qd_in)?;
-        qd_in.copy_from_slice(imp.qd_plus.as_slice());
-    }
-    // contacts that reached the cone slide; contacts whose sliding stopped try to stick
-    for &k in &slipped {
-        prefer = prefer.with(k, ContactKind::Slide);
-    }
-    for &k in &stuck {
-        prefer = prefer.with(k, ContactKind::Stick);
-    }
-    let mut candidates: Vec<usize> = mode.active().chain(touched.iter().copied()).collect();
-    candidates.sort_unstable();
-    candidates.dedup();
-    let Selected {
-        mode: new_mode,
-        value: impulse,
-        pseudo_impulse,
-    } = match cx.select(t, &candidates, &released, prefer, q, &qd_in, impact)? {
+    let impact = !c.touched.is_empty() || (!c.folded.is_empty() && !passing);
+    let AfterReset {
+        selected,
+        mut qd_after,
+        mode_after,
+    } = match select_mode(cx, (t, mode), &c, prefer, (q, &mut qd_in), impact)? {
         Ok(s) => s,
         Err(term) => return end(term),
     };
-    // q̇⁺ of the impact into the selected mode (5.52)
-    let mut qd_after = qd_in.clone();
-    if impact {
-        let imp = plastic_impact(model, &mut cx.ws.data, cx.terrain, new_mode, q, &qd_in)?;
-        qd_after.copy_from_slice(imp.qd_plus.as_slice());
-    }
-    // contacts kept by the impact must also hold in force (5.19)–(5.20)
-    let mut mode_after = new_mode;
-    if impact && !mode_after.is_flight() {
-        let kept: Vec<usize> = mode_after.active().collect();
-        match cx.select(t, &kept, &[], mode_after, q, &qd_after, false)? {
-            Ok(s) => mode_after = s.mode,
-            Err(term) => return end(term),
-        }
-    }
     // a chain released at its fold is left at rest relative to its parent (fold module
     // docs); one released on its passage turns on at its torque-free speed
     if !passing {
-        for &k in folded.iter().filter(|&&k| !mode_after.contains(k)) {
+        for &k in c.folded.iter().filter(|&&k| !mode_after.contains(k)) {
             for j in fold::massless_chain(model, k) {
                 qd_after[j] = 0.0;
             }
@@ -337,25 +178,10 @@ pub fn reset_jamming(
         .filter(|&k| {
             !impact
                 && mode_after.kind(k) == Some(ContactKind::Slide)
-                && (stuck.contains(&k) || mode.kind(k) == Some(ContactKind::Stick))
+                && (c.stuck.contains(&k) || mode.kind(k) == Some(ContactKind::Stick))
         })
         .collect();
-    let (kind, triggered) = if !touched.is_empty() {
-        (
-            EventKind::Touchdown,
-            touched.into_iter().chain(folded).collect(),
-        )
-    } else if !folded.is_empty() {
-        (EventKind::Fold, folded)
-    } else if !released.is_empty() {
-        (EventKind::Liftoff, released)
-    } else if !slipped.is_empty() {
-        (EventKind::Slip, slipped)
-    } else if !stuck.is_empty() {
-        (EventKind::Stick, stuck)
-    } else {
-        (EventKind::FoldPassed, passed)
-    };
+    let (kind, triggered) = c.event_kind();
     Ok(Reset::Continue {
         event: Event {
             t,
@@ -363,8 +189,8 @@ pub fn reset_jamming(
             mode_before: mode,
             mode_after,
             triggered,
-            impulse,
-            pseudo_impulse,
+            impulse: selected.value,
+            pseudo_impulse: selected.pseudo_impulse,
             kinetic_before: ke_before,
             kinetic_after: ke_after,
             q: q.to_vec(),
@@ -373,4 +199,289 @@ pub fn reset_jamming(
         from_rest,
         lock,
     })
+}
+
+/// The apex: the end of the run, or (not stopping there) an event that changes nothing —
+/// unless other guards fired with it (`None`: the reset goes on without it).
+fn apex_reset(
+    flow: &Flow,
+    opts: &HybridOptions,
+    fired: &[Guard],
+    mode: ContactMode,
+    (t, y): (f64, &[f64]),
+) -> Option<Reset> {
+    let (q, qd) = y.split_at(flow.model().nq());
+    let apex_only = fired == [Guard::Apex];
+    if !(fired.contains(&Guard::Apex) && (opts.stop_at_apex || apex_only)) {
+        return None;
+    }
+    let event = Event {
+        t,
+        kind: EventKind::Apex,
+        mode_before: mode,
+        mode_after: mode,
+        triggered: vec![],
+        impulse: vec![],
+        pseudo_impulse: vec![],
+        kinetic_before: f64::NAN,
+        kinetic_after: f64::NAN,
+        q: q.to_vec(),
+        qd_after: qd.to_vec(),
+    };
+    if !opts.stop_at_apex {
+        return Some(Reset::Continue {
+            event,
+            from_rest: vec![],
+            lock: flow.lock().to_vec(),
+        });
+    }
+    Some(Reset::End {
+        event: Some(event),
+        termination: Termination::Apex,
+    })
+}
+
+/// The contacts of the guards that fired, by guard.
+struct FiredContacts {
+    touched: Vec<usize>,
+    released: Vec<usize>,
+    slipped: Vec<usize>,
+    stuck: Vec<usize>,
+    folded: Vec<usize>,
+    passed: Vec<usize>,
+}
+
+impl FiredContacts {
+    fn of(fired: &[Guard]) -> Self {
+        let fired_contacts = |pick: fn(&Guard) -> Option<usize>| -> Vec<usize> {
+            fired.iter().filter_map(pick).collect()
+        };
+        FiredContacts {
+            touched: fired_contacts(|g| match g {
+                Guard::Touchdown(k) => Some(*k),
+                _ => None,
+            }),
+            released: fired_contacts(|g| match g {
+                Guard::Liftoff { contact, .. } => Some(*contact),
+                _ => None,
+            }),
+            slipped: fired_contacts(|g| match g {
+                Guard::Slip { contact, .. } => Some(*contact),
+                _ => None,
+            }),
+            stuck: fired_contacts(|g| match g {
+                Guard::Stick(k) => Some(*k),
+                _ => None,
+            }),
+            folded: fired_contacts(|g| match g {
+                Guard::Fold { contact, .. } => Some(*contact),
+                _ => None,
+            }),
+            passed: fired_contacts(|g| match g {
+                Guard::FoldPassed { contact, .. } => Some(*contact),
+                _ => None,
+            }),
+        }
+    }
+
+    /// The event's kind and the contacts that triggered it, by precedence: a touchdown (with
+    /// the folds that came with it), a fold, a liftoff, a slip, a stick, a fold passage's end.
+    fn event_kind(self) -> (EventKind, Vec<usize>) {
+        if !self.touched.is_empty() {
+            (
+                EventKind::Touchdown,
+                self.touched.into_iter().chain(self.folded).collect(),
+            )
+        } else if !self.folded.is_empty() {
+            (EventKind::Fold, self.folded)
+        } else if !self.released.is_empty() {
+            (EventKind::Liftoff, self.released)
+        } else if !self.slipped.is_empty() {
+            (EventKind::Slip, self.slipped)
+        } else if !self.stuck.is_empty() {
+            (EventKind::Stick, self.stuck)
+        } else {
+            (EventKind::FoldPassed, self.passed)
+        }
+    }
+}
+
+/// A contact whose height jumped through zero met a step of the terrain: located to
+/// `event_tol_s`, a smooth crossing is at most `|ȧ_k| event_tol_s` below the ground.
+fn terrain_step(
+    flow: &mut Flow,
+    opts: &HybridOptions,
+    touched: &[usize],
+    (t, y): (f64, &[f64]),
+) -> Option<Termination> {
+    let model = flow.model();
+    for &k in touched {
+        let geom = flow.geometry(k, y);
+        let (q_, qd_) = y.split_at(model.nq());
+        let approach = flow
+            .kinematics(q_, qd_)
+            .material_velocity(geom.part, geom.point)
+            .dot(&geom.plane.normal())
+            .abs();
+        let gap = geom.gap_m;
+        // (nor is a gap within the drift band: a contact released below the ground by a
+        // coarsely located touchdown comes back from there, crate::drift)
+        let allowed = (TERRAIN_STEP_M + 2.0 * approach * opts.event_tol_s).max(MAX_DRIFT_M);
+        if gap < -allowed {
+            return Some(Termination::TerrainDiscontinuity {
+                t,
+                contact: k,
+                gap_m: gap,
+            });
+        }
+    }
+    None
+}
+
+/// Where each folded contact is judged: its pin.
+fn fold_pins(
+    flow: &mut Flow,
+    mode: ContactMode,
+    folded: &[usize],
+    (q, qd): (&[f64], &[f64]),
+) -> Vec<f64> {
+    let model = flow.model();
+    let terrain = flow.terrain();
+    folded
+        .iter()
+        .map(|&k| {
+            let own = fold::own_direction(flow.slide_directions(), k);
+            fold::pin(
+                model,
+                flow.kinematics(q, qd),
+                terrain,
+                mode,
+                k,
+                own.as_slice(),
+            )
+            .unwrap_or(0.0)
+        })
+        .collect()
+}
+
+/// The kinds each contact is offered and barred from: a contact at its fold may not keep its
+/// kind (a sliding one is offered the stick), a contact whose cone margin has just reached
+/// zero may not stick again at once, a jammed one may not slide (it is offered the stick).
+fn bars(
+    model: &Model,
+    mode: ContactMode,
+    c: &FiredContacts,
+    jammed: &[usize],
+) -> (ContactMode, Vec<(usize, ContactKind)>) {
+    let mut prefer = mode;
+    let mut barred = Vec::with_capacity(c.folded.len());
+    for &k in &c.folded {
+        let (bar, offered) = fold::fold_options(model, mode, k);
+        barred.push((k, bar));
+        if let Some(kind) = offered {
+            prefer = prefer.with(k, kind);
+        }
+    }
+    // a contact whose cone margin has just reached zero may not stick again at once: its
+    // slip guard has decided (the cone test at rest of a force event, ResetWorkspace::
+    // held_at_rest, would otherwise keep it on the cone's edge by round-off of the drift
+    // projection below, and the guard would fire again: an event that changes nothing)
+    barred.extend(c.slipped.iter().map(|&k| (k, ContactKind::Stick)));
+    barred.extend(jammed.iter().map(|&k| (k, ContactKind::Slide)));
+    for &k in jammed {
+        prefer = prefer.with(k, ContactKind::Stick);
+    }
+    (prefer, barred)
+}
+
+/// Whether every folded contact (with its pin) passes its fold sliding, its joint locked:
+/// the velocity after the entries and the lock with their joints, or `None`.
+fn fold_passage(
+    cx: &mut ResetWorkspace,
+    (t, mode): (f64, ContactMode),
+    lock: &[usize],
+    (folded, pins): (&[usize], &[f64]),
+    (q, qd): (&[f64], &[f64]),
+) -> Result<Option<(Vec<f64>, Vec<usize>)>, HybridError> {
+    let (mut v, mut l) = (qd.to_vec(), lock.to_vec());
+    for (&k, &pin) in folded.iter().zip(pins) {
+        match cx.passage(t, mode, &l, (k, pin), (q, &v))? {
+            Some((v1, l1)) => (v, l) = (v1, l1),
+            None => return Ok(None),
+        }
+    }
+    Ok(Some((v, l)))
+}
+
+/// The selected contact set and the velocity after the reset from `q̇_in` (an `impact` or
+/// forces): the impulses' (or forces') complementarity among the active and touched
+/// contacts, the impact's `q̇⁺` (5.52), and the mode whose contacts also hold in force
+/// (5.19)–(5.20); or the termination complementarity ended the run with.
+fn select_mode(
+    cx: &mut ResetWorkspace,
+    (t, mode): (f64, ContactMode),
+    c: &FiredContacts,
+    mut prefer: ContactMode,
+    (q, qd_in): (&[f64], &mut Vec<f64>),
+    impact: bool,
+) -> Result<Result<AfterReset, Termination>, HybridError> {
+    let model = cx.model;
+    // at a force event the velocity is continuous and satisfies the constraints of the mode
+    // before, `A q̇ = 0`, up to the integrator's drift: project that drift away (a plastic
+    // impact into the mode before, (5.52), as crate::drift does), so that a contact that
+    // stuck until now starts sliding from zero sliding speed exactly. Its sliding direction
+    // is then chosen by the forces at rest (selfmanip_core::friction), not by the sign of a
+    // drift whose size scales with the tolerance (at rtol = 1e-6 a middle leg stuck until its
+    // slip had |v_t| = 1.3 µm/s of the wrong sign, outside the rest band: the wrong cone edge,
+    // a pulling normal force, a liftoff instead of a slip — a different leap)
+    // Only at a slip: elsewhere the projection would move a leaving contact's force root
+    // (a massless leg's rate, slaved to its contact, sets its motor torque) and its liftoff
+    // guard would fire again at once, an event that changes nothing.
+    if !impact && c.folded.is_empty() && !c.slipped.is_empty() {
+        let imp = plastic_impact(model, &mut cx.ws.data, cx.terrain, mode, q, qd_in)?;
+        qd_in.copy_from_slice(imp.qd_plus.as_slice());
+    }
+    // contacts that reached the cone slide; contacts whose sliding stopped try to stick
+    for &k in &c.slipped {
+        prefer = prefer.with(k, ContactKind::Slide);
+    }
+    for &k in &c.stuck {
+        prefer = prefer.with(k, ContactKind::Stick);
+    }
+    let mut candidates: Vec<usize> = mode.active().chain(c.touched.iter().copied()).collect();
+    candidates.sort_unstable();
+    candidates.dedup();
+    let selected = match cx.select(t, &candidates, &c.released, prefer, q, qd_in, impact)? {
+        Ok(s) => s,
+        Err(term) => return Ok(Err(term)),
+    };
+    // q̇⁺ of the impact into the selected mode (5.52)
+    let mut qd_after = qd_in.clone();
+    if impact {
+        let imp = plastic_impact(model, &mut cx.ws.data, cx.terrain, selected.mode, q, qd_in)?;
+        qd_after.copy_from_slice(imp.qd_plus.as_slice());
+    }
+    // contacts kept by the impact must also hold in force (5.19)–(5.20)
+    let mut mode_after = selected.mode;
+    if impact && !mode_after.is_flight() {
+        let kept: Vec<usize> = mode_after.active().collect();
+        match cx.select(t, &kept, &[], mode_after, q, &qd_after, false)? {
+            Ok(s) => mode_after = s.mode,
+            Err(term) => return Ok(Err(term)),
+        }
+    }
+    Ok(Ok(AfterReset {
+        selected,
+        qd_after,
+        mode_after,
+    }))
+}
+
+/// What complementarity made of a reset: the contact set selected (with its impulses or
+/// forces and pseudo-impulses), the velocity after the reset, and the mode after it, whose
+/// contacts also hold in force.
+struct AfterReset {
+    selected: Selected,
+    qd_after: Vec<f64>,
+    mode_after: ContactMode,
 }

@@ -99,23 +99,20 @@ impl SegmentIntegrator {
         }
     }
 
-    /// Integrates the flow of `mode` from `(t, y)` until a guard fires, a contact passes onto
-    /// the next terrain feature, `t_final`, or the flow ends the run; advances `(t, y)` to
-    /// the segment's end and returns the segment and how it ended. `from_rest`: sliding
-    /// contacts whose slip→stick guard starts from rest. Every accepted step is counted
-    /// against `budget`, which may end the run there.
-    #[allow(clippy::too_many_arguments)]
-    pub fn run(
+    /// Prepares the segment of `mode` from `(t, y)`: the error weights (free and locked
+    /// joints out of the norm), the free joints' step cap, the controller's time events ahead
+    /// as step stops, each sliding toe's friction side, the guards armed, the terrain
+    /// features under the active contacts, and the integrator. Returns the guards of the
+    /// contacts that slip at the start.
+    fn start(
         &mut self,
         flow: &mut Flow,
         mode: ContactMode,
-        t: &mut f64,
-        y: &mut [f64],
+        (t, y): (f64, &[f64]),
         from_rest: &[usize],
         t_final: f64,
         opts: &HybridOptions,
-        budget: &mut Budget,
-    ) -> Result<(Segment, SegmentEnd), HybridError> {
+    ) -> Result<Vec<Guard>, HybridError> {
         let model = flow.model();
         let nq = model.nq();
         mode.validate(model)?;
@@ -135,7 +132,7 @@ impl SegmentIntegrator {
         }
         let cap = self
             .free_stability
-            .step_cap(flow.controller().as_ref(), *t, y, nq, free);
+            .step_cap(flow.controller().as_ref(), t, y, nq, free);
         // the controller holds its memory over a segment: its time events are known here
         self.stops.clear();
         self.t_right = f64::NEG_INFINITY;
@@ -144,15 +141,39 @@ impl SegmentIntegrator {
                 .time_events(&[])
                 .into_iter()
                 .map(|e| e.t)
-                .filter(|&s| s > *t && s < t_final),
+                .filter(|&s| s > t && s < t_final),
         );
         self.stops.sort_by(f64::total_cmp);
         self.stops.dedup();
         // the side of each sliding toe's friction force, for the whole segment
-        let from_rest = flow.fix_slide_directions(*t, mode, y, from_rest)?;
-        self.guards.arm(flow, mode, *t, y, &from_rest, opts)?;
+        let from_rest = flow.fix_slide_directions(t, mode, y, from_rest)?;
+        self.guards.arm(flow, mode, t, y, &from_rest, opts)?;
         let slipping_now = self.guards.slipping_at_start(opts.arm_margin);
         self.surfaces.at_start(flow, mode, y);
+        self.ode.reset(self.h_carry);
+        self.ode.set_error_weights(&self.weights);
+        self.ode.set_stability_cap(cap);
+        Ok(slipping_now)
+    }
+
+    /// Integrates the flow of `mode` from `(t, y)` until a guard fires, a contact passes onto
+    /// the next terrain feature, `t_final`, or the flow ends the run; advances `(t, y)` to
+    /// the segment's end and returns the segment and how it ended. `from_rest`: sliding
+    /// contacts whose slip→stick guard starts from rest. Every accepted step is counted
+    /// against `budget`, which may end the run there.
+    #[allow(clippy::too_many_arguments)]
+    pub fn run(
+        &mut self,
+        flow: &mut Flow,
+        mode: ContactMode,
+        t: &mut f64,
+        y: &mut [f64],
+        from_rest: &[usize],
+        t_final: f64,
+        opts: &HybridOptions,
+        budget: &mut Budget,
+    ) -> Result<(Segment, SegmentEnd), HybridError> {
+        let slipping_now = self.start(flow, mode, (*t, y), from_rest, t_final, opts)?;
         // the time a contact passes continuously onto the next terrain feature in this
         // segment's last step, once located
         let mut feature_change: Option<f64> = None;
@@ -166,9 +187,6 @@ impl SegmentIntegrator {
             slide_directions: flow.slide_directions().to_vec(),
             dense: DenseOutput::default(),
         };
-        self.ode.reset(self.h_carry);
-        self.ode.set_error_weights(&self.weights);
-        self.ode.set_stability_cap(cap);
         let end = loop {
             if !slipping_now.is_empty() {
                 break SegmentEnd::Event {
@@ -241,34 +259,10 @@ impl SegmentIntegrator {
                     }
                 }
                 Ok(()) => {}
-                Err(StepError::Rhs(CoreError::SingularKkt {
-                    kind,
-                    condition_estimate,
-                })) => {
-                    // a trial stage beyond a fold (a step too long for the guards to see
-                    // the pin fall): try a shorter step, so that the fold guard fires first
-                    if self.ode.retry_smaller(SINGULAR_RETRY_FACTOR) {
-                        continue;
-                    }
-                    // Lemma 5.1 fails at the state itself: the flow ends here
-                    break SegmentEnd::Ended(Termination::SingularFlow {
-                        t: *t,
-                        mode,
-                        kind,
-                        condition_estimate,
-                    });
-                }
-                Err(StepError::Rhs(CoreError::PainleveInconsistent { contact, .. })) => {
-                    // a trial stage past the threshold: a shorter step first, as above
-                    if self.ode.retry_smaller(SINGULAR_RETRY_FACTOR) {
-                        continue;
-                    }
-                    break SegmentEnd::Painleve { contact };
-                }
-                Err(StepError::Rhs(e)) => return Err(e.into()),
-                Err(StepError::StepTooSmall(h)) => {
-                    return Err(HybridError::StepTooSmall { t_s: *t, h_s: h })
-                }
+                Err(e) => match step_failed(&mut self.ode, e, *t, mode)? {
+                    None => continue,
+                    Some(end) => break end,
+                },
             }
             // => the guards sampled on the step; the first crossing located: the event
             let crossed = self.guards.sample_step(
@@ -315,5 +309,42 @@ impl SegmentIntegrator {
         };
         self.h_carry = self.ode.next_step_size().max(opts.step.h_initial_s);
         Ok((seg, end))
+    }
+}
+
+/// What a failed step does: a trial stage beyond a fold (a step too long for the guards to
+/// see the pin fall) or past a Painlevé threshold is retried shorter (`None`), so that the
+/// fold guard fires first; at the state itself the segment ends. Other errors stop the run.
+fn step_failed(
+    ode: &mut Dopri5,
+    err: StepError<CoreError>,
+    t: f64,
+    mode: ContactMode,
+) -> Result<Option<SegmentEnd>, HybridError> {
+    match err {
+        StepError::Rhs(CoreError::SingularKkt {
+            kind,
+            condition_estimate,
+        }) => {
+            if ode.retry_smaller(SINGULAR_RETRY_FACTOR) {
+                return Ok(None);
+            }
+            // Lemma 5.1 fails at the state itself: the flow ends here
+            Ok(Some(SegmentEnd::Ended(Termination::SingularFlow {
+                t,
+                mode,
+                kind,
+                condition_estimate,
+            })))
+        }
+        StepError::Rhs(CoreError::PainleveInconsistent { contact, .. }) => {
+            // a trial stage past the threshold: a shorter step first, as above
+            if ode.retry_smaller(SINGULAR_RETRY_FACTOR) {
+                return Ok(None);
+            }
+            Ok(Some(SegmentEnd::Painleve { contact }))
+        }
+        StepError::Rhs(e) => Err(e.into()),
+        StepError::StepTooSmall(h) => Err(HybridError::StepTooSmall { t_s: t, h_s: h }),
     }
 }

@@ -15,7 +15,8 @@
 use crate::budget::{Budget, NEVER};
 use crate::controller::Controller;
 use crate::error::HybridError;
-use crate::execution::{Event, EventKind, Execution, PainleveReason, Termination};
+use crate::event::{Event, EventKind, PainleveReason};
+use crate::execution::{Execution, Termination};
 use crate::flow::{Flow, FlowWorkspace};
 use crate::guard::Guard;
 use crate::jam::{coulomb_jam, jam};

@@ -75,14 +75,14 @@ pub struct ChatterDetector;
 
 impl ChatterDetector {
     /// `Some(Chatter)` if `events` (latest last) end with a chatter.
-    pub fn check(&self, events: &[crate::execution::Event]) -> Option<Termination> {
+    pub fn check(&self, events: &[crate::event::Event]) -> Option<Termination> {
         for p in 1..=CHATTER_MAX_PERIOD {
             let span = p * CHATTER_CYCLES;
             if events.len() < span {
                 break;
             }
             let tail = &events[events.len() - span..];
-            let same = |a: &crate::execution::Event, b: &crate::execution::Event| {
+            let same = |a: &crate::event::Event, b: &crate::event::Event| {
                 a.kind == b.kind
                     && a.mode_before == b.mode_before
                     && a.mode_after == b.mode_after

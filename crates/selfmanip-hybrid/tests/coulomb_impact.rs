@@ -21,7 +21,7 @@
 use selfmanip_core::contact::ContactKind;
 use selfmanip_core::{ContactMode, Data, GroundPlane, Model};
 use selfmanip_hybrid::coulomb_impact::{coulomb_impacts, ContactImpact, CoulombImpact, NotOffered};
-use selfmanip_hybrid::execution::PainleveReason;
+use selfmanip_hybrid::event::PainleveReason;
 use selfmanip_hybrid::flow::{Flow, FlowWorkspace};
 use selfmanip_hybrid::jam::coulomb_jam;
 use selfmanip_hybrid::reset::Reset;

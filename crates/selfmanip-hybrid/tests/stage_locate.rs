@@ -1,5 +1,5 @@
 //! Stage `locate`: regula falsi and bisection against closed-form roots.
-use selfmanip_hybrid::locate::{bisect_first, locate_crossing};
+use selfmanip_hybrid::bracketing::{bisect_first, locate_crossing};
 
 /// A ball dropped from `h0` is at height `h0 − g t²/2`: the Illinois bracket closes on
 /// `sqrt(2 h0 / g)` to the tolerance, in far fewer evaluations than bisection's

@@ -5,10 +5,10 @@
 //! contact set is not unique, and the massless-link tie-break.
 mod systems;
 use selfmanip_core::{ContactKind, ContactMode, FlatGround, GroundPlane};
-use selfmanip_hybrid::contact_set::ResetWorkspace;
 use selfmanip_hybrid::flow::{Flow, FlowWorkspace};
 use selfmanip_hybrid::guard::Guard;
 use selfmanip_hybrid::reset::{reset, Reset};
+use selfmanip_hybrid::reset_workspace::ResetWorkspace;
 use selfmanip_hybrid::{HybridOptions, Termination, ZeroTorque};
 use std::sync::Arc;
 use systems::{block, block_inertia, body, one_leg, puck, rotate, Friction, BLOCK, G};

@@ -1,0 +1,121 @@
+//! The events of an execution (thesis Definition 5.2): what kind of guard fired, the reset
+//! it made, and why a Painlevé inconsistency was not resolved as a jam. Below the
+//! controllers, which may remember events ([`crate::controller::Controller::on_event`]).
+use selfmanip_core::ContactMode;
+
+/// What kind of guard fired.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum EventKind {
+    /// New contacts touched down: a plastic impact.
+    Touchdown,
+    /// Normal forces reached zero: contacts released without impact.
+    Liftoff,
+    /// The body reached its highest point in flight (terminal when the run stops at the
+    /// apex; otherwise recorded, changing nothing).
+    Apex,
+    /// Sticking contacts reached the friction cone and started to slide.
+    Slip,
+    /// Sliding contacts reached zero sliding velocity (and stuck, if `mode_after` says so).
+    Stick,
+    /// A contact's massless chain reached its fold (Lemma 5.1, [`crate::fold`]): the contact
+    /// stuck impulsively or was released, as `mode_after` says, or (mode unchanged) it
+    /// passes the fold sliding, its joint locked at the speed where its torque vanishes.
+    Fold,
+    /// A fold passage ended on the far side of the fold: the joint is unlocked.
+    FoldPassed,
+    /// A sliding contact whose slide had no consistent continuation (Painlevé) jammed: a
+    /// plastic impact into the mode with it sticking, an impact without collision
+    /// ([`crate::jam`]); or, no impulse acting, it stuck or left by force complementarity.
+    Jam,
+}
+
+impl EventKind {
+    /// The kind's name in tables, records and messages (`touchdown`, `fold_passed`, …).
+    pub fn name(self) -> &'static str {
+        match self {
+            EventKind::Touchdown => "touchdown",
+            EventKind::Liftoff => "liftoff",
+            EventKind::Slip => "slip",
+            EventKind::Stick => "stick",
+            EventKind::Apex => "apex",
+            EventKind::Fold => "fold",
+            EventKind::FoldPassed => "fold_passed",
+            EventKind::Jam => "jam",
+        }
+    }
+}
+
+/// One reset of the execution.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Event {
+    pub t: f64,
+    pub kind: EventKind,
+    pub mode_before: ContactMode,
+    pub mode_after: ContactMode,
+    /// Contacts that fired the guard.
+    pub triggered: Vec<usize>,
+    /// Contact impulse `P_λ` into `mode_after` (rows of `mode_after`; empty for liftoff).
+    pub impulse: Vec<f64>,
+    /// Pseudo-impulse `P_δ` into `mode_after` (empty when δt = 0).
+    pub pseudo_impulse: Vec<f64>,
+    pub kinetic_before: f64,
+    pub kinetic_after: f64,
+    /// Configuration at the event.
+    pub q: Vec<f64>,
+    /// Velocity after the reset (before it for liftoff, slip, stick and apex: no jump).
+    pub qd_after: Vec<f64>,
+}
+
+/// Why a Painlevé inconsistency was not resolved as a jam ([`crate::jam`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PainleveReason {
+    /// The tangential impact into the contact's stick needs an impulse that pulls or leaves
+    /// its friction cone — the sliding mode was still (barely) consistent, the approach to
+    /// Painlevé's singular point where `W → 0` and the normal force grows without bound
+    /// ("dynamic jam"): the rigid-body theory leaves it ambiguous.
+    JamOutsideCone,
+    /// The contact is at rest (a sticking contact at its cone's edge, or a slide from rest):
+    /// sticking leaves its cone, sliding is inconsistent, and letting it go would draw it
+    /// into the ground — Painlevé's inconsistent case from rest. The rigid-body theory's
+    /// answer is an impact without collision *that slips* (a Coulomb impact, Darboux–Keller
+    /// in the normal impulse, ending in a jump of the normal velocity), which the engine's
+    /// frictionless impact law (Assumption 5.9) does not carry.
+    AtRest,
+    /// Complementarity has no or several outcomes for the jam (or for the forces after it),
+    /// or the contact it lets go would be drawn into the ground.
+    NoJamOutcome,
+    /// The jam taken at this instant led straight back into the same inconsistency.
+    Repeated,
+    /// Met while a guard was evaluated inside a step (not at a state the run reached): not
+    /// resolved, the step's work would be lost.
+    InsideStep,
+    /// The jam would have added kinetic energy (a failed solve; never a plastic impact's).
+    EnergyGain,
+    /// The contact is not active in the mode (no jam can act on it).
+    Inactive,
+}
+
+impl PainleveReason {
+    /// A short description, for status messages.
+    pub fn describe(self) -> &'static str {
+        match self {
+            PainleveReason::JamOutsideCone => {
+                "its jam (an impact without collision) would need an impulse that pulls or \
+                 leaves its friction cone: the approach to Painlevé's singular point, which the \
+                 rigid-body theory leaves ambiguous"
+            }
+            PainleveReason::NoJamOutcome => {
+                "complementarity has no single consistent outcome for its jam"
+            }
+            PainleveReason::AtRest => {
+                "it is at rest, its stick leaves the cone and its liftoff would draw it into the \
+                 ground: an impact without collision that slips, which the frictionless impact \
+                 law (Assumption 5.9) does not carry"
+            }
+            PainleveReason::Repeated => "its jam led straight back into the inconsistency",
+            PainleveReason::InsideStep => "met inside an integration step",
+            PainleveReason::EnergyGain => "its jam would have added kinetic energy",
+            PainleveReason::Inactive => "the contact is not active",
+        }
+    }
+}

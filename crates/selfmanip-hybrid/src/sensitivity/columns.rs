@@ -1,0 +1,185 @@
+//! The sensitivities along selected columns ([`execution_sensitivity_columns`]): directions
+//! of the initial state and named parameters, carried as the augmented state's tangent
+//! through every segment's flow and every event, never forming the full matrices.
+use super::chain::{chain_complete, event_ending, has_event_memory};
+use super::evaluator::{controller_names, Evaluator, FlowPoint};
+use super::event_saltation::{segment_event, EventParts};
+use super::force_events::{force_guard_gradient, rows_of};
+use super::segment_tangent::segment_flow;
+use super::tangent::Tangent;
+use super::types::{ColumnSensitivity, Parameter, SaltationStatus, SensitivityError};
+use crate::event::{Event, EventKind};
+use crate::execution::{Execution, Segment};
+use nalgebra::{DMatrix, RowDVector};
+use selfmanip_core::tangent::BodyParameter;
+use selfmanip_core::{Model, Terrain};
+
+/// The sensitivities of a recorded execution along the columns of `directions` (`2nq × d`,
+/// directions of the initial state; `d` may be 0) and to the named `params`, propagated
+/// without forming the full `2nq × 2nq` matrices along the flows (see the module docs). With
+/// the augmented state `x̃ = (x, p)`, `ṗ = 0`:
+///
+/// - along a flow `Ẋ_p = F X_p + ∂f/∂p` (`∂f/∂p` from the controller's
+///   [`Controller::parameter_partials`] through `∂q̈/∂Υ`, or from `∂M̄/∂p`, `∂N̄/∂p` for body
+///   parameters, by implicit differentiation of the KKT system);
+/// - at an event, `X⁺ = Ξ X + [0 | D_pR + (f⁺ − D_xR f⁻) D_pg / (D_xg f⁻)]`, and
+///   `dt_e/d(columns) = −(D_xg X⁻ + [0 | D_pg]) / (D_xg f⁻)` (`D_pg` of a force guard from
+///   `∂λ/∂p`; `D_pR` of a plastic impact from `∂M̄/∂p`);
+/// - at a controller's time event `t_b(p)` where the flow jumps, `X_p += (f⁻ − f⁺) dt_b/dp`.
+pub fn execution_sensitivity_columns(
+    model: &Model,
+    terrain: &dyn Terrain,
+    exec: &Execution,
+    directions: &DMatrix<f64>,
+    params: &[Parameter],
+) -> Result<ColumnSensitivity, SensitivityError> {
+    let n2 = 2 * model.nq();
+    let nd = directions.ncols();
+    let m = nd + params.len();
+    let body: Vec<BodyParameter> = params
+        .iter()
+        .filter_map(|p| match p {
+            Parameter::Body(b) => Some(*b),
+            Parameter::Controller(_) => None,
+        })
+        .collect();
+    for b in &body {
+        b.check(model)?;
+    }
+    let mut ev = Evaluator::new(model, terrain);
+    ev.memory_mode = has_event_memory(exec);
+    let mut out = ColumnSensitivity {
+        n_directions: nd,
+        parameters: params.to_vec(),
+        events: Vec::new(),
+        event_time_columns: Vec::new(),
+        touch_switches: Vec::new(),
+        time_events: Vec::new(),
+        feature_changes: Vec::new(),
+        columns: None,
+    };
+    let mut x0 = DMatrix::zeros(n2, m);
+    if nd > 0 {
+        x0.columns_mut(0, nd).copy_from(directions);
+    }
+    let mut tangent = Tangent::Columns {
+        x: x0,
+        params,
+        names: controller_names(params),
+    };
+    let mut defined = true;
+    let mut next_event = 0;
+    let nseg = exec.segments.len();
+    for (si, seg) in exec.segments.iter().enumerate() {
+        segment_flow(
+            &mut ev,
+            seg,
+            &mut tangent,
+            &mut out.touch_switches,
+            &mut out.time_events,
+        )?;
+        let Some(event) = event_ending(exec, si, next_event) else {
+            if si + 1 < nseg {
+                out.feature_changes.push(si);
+                defined = false;
+            }
+            continue;
+        };
+        next_event += 1;
+        let (es, parts) = segment_event(&mut ev, exec, si, event, &body)?;
+        let (Some(xi), Some(parts), Some(dg)) = (&es.saltation, parts, &es.guard_gradient) else {
+            defined = false;
+            if ev.memory_mode && event.kind != EventKind::Apex {
+                // the event's memory has no derivative: the run's columns are not returned
+                ev.memory.push(DMatrix::from_element(1 + n2, m, f64::NAN));
+            }
+            out.event_time_columns.push(None);
+            out.events.push(es);
+            continue;
+        };
+        let Tangent::Columns { x, .. } = &mut tangent else {
+            unreachable!("columns stay columns")
+        };
+        let time = event_columns(&mut ev, (seg, event), (xi, parts, dg), x, params)?;
+        out.event_time_columns.push(Some(time));
+        out.events.push(es);
+    }
+    // a controller's time event moves the parameter columns only (its instant does not
+    // depend on the state), so only this path needs its statuses
+    let time_events_defined = out
+        .time_events
+        .iter()
+        .all(|e| e.status == SaltationStatus::Defined);
+    if defined && time_events_defined && chain_complete(exec, next_event, &out.touch_switches) {
+        let Tangent::Columns { x, .. } = tangent else {
+            unreachable!("columns stay columns")
+        };
+        out.columns = Some(x);
+    }
+    Ok(out)
+}
+
+/// The columns across an event whose saltation `xi` is defined (with its `parts` and guard
+/// gradient `dg`): `x ← Ξ x + [0 | D_pR + (f⁺ − D_xR f⁻) D_pg / ġ]` (and the memory's terms),
+/// the event remembered by the controllers when they remember events; returns
+/// `dt_e/d(columns)`.
+fn event_columns(
+    ev: &mut Evaluator,
+    (seg, event): (&Segment, &Event),
+    (xi, parts, dg): (&DMatrix<f64>, EventParts, &RowDVector<f64>),
+    x: &mut DMatrix<f64>,
+    params: &[Parameter],
+) -> Result<RowDVector<f64>, SensitivityError> {
+    let (model, n2, m) = (ev.model, x.nrows(), x.ncols());
+    let nd = m - params.len();
+    // D_pg: a force guard's from ∂λ/∂p at the state before; geometric guards have none
+    let mut dpg = RowDVector::zeros(m);
+    if matches!(event.kind, EventKind::Liftoff | EventKind::Slip)
+        && (!params.is_empty() || ev.memory_mode)
+    {
+        let k = event.triggered[0];
+        let (rt, rn) = rows_of(seg.mode, k);
+        let zero = DMatrix::zeros(n2, m);
+        let c = ev.eval_columns(FlowPoint::on(seg, event.t, &parts.y_minus), &zero, params)?;
+        if let Some(g) = rn.and_then(|rn| {
+            force_guard_gradient(model, event.kind, k, (rt, rn), &c.lambda, &c.dlambda)
+        }) {
+            dpg = g;
+        }
+    }
+    let dgx = dg * &*x;
+    let time = -(&dgx + &dpg) / parts.den;
+    let jump = &parts.f_plus - &parts.dr * &parts.f_minus;
+    let mut xn = xi * &*x;
+    let mut bi = 0;
+    for (k, p) in params.iter().enumerate() {
+        let col = nd + k;
+        if let Parameter::Body(_) = p {
+            xn.column_mut(col).axpy(1.0, &parts.dr_p.column(bi), 1.0);
+            bi += 1;
+        }
+        if dpg[col] != 0.0 {
+            xn.column_mut(col).axpy(dpg[col] / parts.den, &jump, 1.0);
+        }
+    }
+    if ev.memory_mode {
+        // the guard moves with the memory too (a force guard's `∂λ/∂m Dm`), in the
+        // directions' columns as in the parameters'
+        for col in 0..nd {
+            if dpg[col] != 0.0 {
+                xn.column_mut(col).axpy(dpg[col] / parts.den, &jump, 1.0);
+            }
+        }
+        if event.kind != EventKind::Apex {
+            // the event as the controller remembers it: `(t_e, x⁺)` with
+            // `Dx⁺ = X⁺ + f⁺ Dt_e` (X⁺ is the tangent at a fixed time just after it)
+            let mut d = DMatrix::zeros(1 + n2, m);
+            d.row_mut(0).copy_from(&time);
+            let moved = &xn + &parts.f_plus * &time;
+            d.rows_mut(1, n2).copy_from(&moved);
+            ev.memory.push(d);
+        }
+    }
+    *x = xn;
+    Ok(time)
+}

@@ -1,0 +1,214 @@
+//! The saltation of each event of an execution: the guard's gradient and the reset's
+//! Jacobian by its kind — touchdown ([`super::touchdown`]), liftoff and slip
+//! ([`super::force_events`]), stick, apex — the flows before and after it, and what the
+//! parameter columns need of it ([`EventParts`]).
+use super::evaluator::{Evaluator, FlowJacobian, FlowPoint};
+use super::force_events::{drift_reset, force_guard};
+use super::reset_jacobian::{EventAt, GuardReset, KindOutcome, NotDifferentiated};
+use super::saltation::saltation_with_rate;
+use super::touchdown::touchdown;
+use super::types::{EventSensitivity, SaltationStatus, SensitivityError};
+use crate::event::{Event, EventKind};
+use crate::execution::{Execution, Segment};
+use nalgebra::{DMatrix, DVector, RowDVector};
+use selfmanip_core::contact::contact_geometry;
+use selfmanip_core::tangent::{sliding_velocity_gradient, BodyParameter};
+
+/// What the parameter columns need of an event whose saltation is defined.
+pub(super) struct EventParts {
+    pub(super) f_minus: DVector<f64>,
+    pub(super) f_plus: DVector<f64>,
+    /// `D_xR` and `D_pR` (body parameters' columns) of the reset.
+    pub(super) dr: DMatrix<f64>,
+    pub(super) dr_p: DMatrix<f64>,
+    /// `D_xg f⁻`.
+    pub(super) den: f64,
+    pub(super) y_minus: Vec<f64>,
+}
+
+/// [`event_sensitivity`] of the event that ended segment `si`, flagged simultaneous (without
+/// parts) when a neighbouring mode lasted zero time.
+pub(super) fn segment_event(
+    ev: &mut Evaluator,
+    exec: &Execution,
+    si: usize,
+    event: &Event,
+    body: &[BodyParameter],
+) -> Result<(EventSensitivity, Option<EventParts>), SensitivityError> {
+    let seg = &exec.segments[si];
+    let after = exec.segments.get(si + 1);
+    let zero_time = seg.t1 == seg.t0 || after.is_some_and(|a| a.t1 == a.t0);
+    let (mut es, parts) = event_sensitivity(ev, seg, after, event, body)?;
+    // an event at a time event of the controller that ran up to it was fired by the flow's
+    // jump there (a torque switched on pushes a force to its cone at once), not by a
+    // crossing: its instant follows the time event's, which the state event's
+    // `−D_xg X / D_xg f⁻` does not give (the controller after it may start motions at the
+    // event itself: those follow the event, they do not fire it)
+    let at_time_event = seg
+        .controller
+        .time_events(&[])
+        .iter()
+        .any(|te| (te.t - event.t).abs() <= 1e-12 * (1.0 + event.t.abs()));
+    if es.status == SaltationStatus::Defined && event.kind != EventKind::Apex && at_time_event {
+        return Ok((
+            unsupported(
+                event,
+                "fired at a controller's time event (the flow's jump there), not by a \
+                 crossing: not differentiated",
+            ),
+            None,
+        ));
+    }
+    if zero_time && es.status == SaltationStatus::Defined {
+        es.status = SaltationStatus::Simultaneous;
+        es.saltation = None;
+        return Ok((es, None));
+    }
+    Ok((es, parts))
+}
+
+fn unsupported(event: &Event, reason: impl Into<String>) -> EventSensitivity {
+    EventSensitivity {
+        t: event.t,
+        kind: event.kind,
+        status: SaltationStatus::Unsupported {
+            reason: reason.into(),
+        },
+        saltation: None,
+        guard_gradient: None,
+        time_gradient: None,
+        impact_mode: None,
+    }
+}
+
+/// The saltation matrix of `event`, which ended `before` (and started `after`, if any).
+fn event_sensitivity(
+    ev: &mut Evaluator,
+    before: &Segment,
+    after: Option<&Segment>,
+    event: &Event,
+    body: &[BodyParameter],
+) -> Result<(EventSensitivity, Option<EventParts>), SensitivityError> {
+    let (model, terrain) = (ev.model, ev.terrain);
+    let n2 = 2 * model.nq();
+    let t = event.t;
+    let mut y = vec![0.0; n2];
+    before.eval(t, &mut y);
+    let fm = ev.eval(FlowPoint::on(before, t, &y))?;
+    let single = event.triggered.len() <= 1;
+    let mut simultaneous = !single;
+    let at = EventAt::new((model, terrain), before, event, body, &y);
+    let gr = match guard_and_reset(&at, &fm)? {
+        Ok(gr) => gr,
+        Err(NotDifferentiated(reason)) => return Ok((unsupported(event, reason), None)),
+    };
+    if event.kind == EventKind::Touchdown && event.triggered.is_empty() {
+        simultaneous = true;
+    }
+    let GuardReset {
+        dg,
+        dg_dt,
+        dr,
+        dr_p,
+        y_plus,
+        impact_mode,
+    } = gr;
+    let mut es = EventSensitivity {
+        t,
+        kind: event.kind,
+        status: SaltationStatus::Defined,
+        saltation: None,
+        guard_gradient: Some(dg.clone()),
+        time_gradient: None,
+        impact_mode,
+    };
+    if let Err(status) = saltation_with_rate(&dr, &fm.f, &fm.f, &dg, dg_dt) {
+        es.status = status;
+        return Ok((es, None));
+    }
+    if simultaneous {
+        es.status = SaltationStatus::Simultaneous;
+        return Ok((es, None));
+    }
+    let f_plus = match (event.kind, after) {
+        (EventKind::Apex, _) => DVector::zeros(n2),
+        (_, Some(a)) => ev.flow(FlowPoint {
+            mode: event.mode_after,
+            ..FlowPoint::on(a, t, &y_plus)
+        })?,
+        (_, None) => {
+            // the run ended at this event (its event budget): no flow after it to salt with
+            es.status = SaltationStatus::Unsupported {
+                reason: "no flow after the run's last event".into(),
+            };
+            return Ok((es, None));
+        }
+    };
+    let parts = match saltation_with_rate(&dr, &fm.f, &f_plus, &dg, dg_dt) {
+        Ok(x) => {
+            es.saltation = Some(x);
+            Some(EventParts {
+                den: (&dg * &fm.f)[0] + dg_dt,
+                f_minus: fm.f,
+                f_plus,
+                dr,
+                dr_p,
+                y_minus: y,
+            })
+        }
+        Err(status) => {
+            es.status = status;
+            None
+        }
+    };
+    Ok((es, parts))
+}
+
+/// The guard's gradient and the reset's Jacobians of the event at `at`, by its kind, with the
+/// flow `fm` before it.
+fn guard_and_reset(at: &EventAt, fm: &FlowJacobian) -> KindOutcome<GuardReset> {
+    let (model, event) = (at.model, at.event);
+    let nq = model.nq();
+    let n2 = 2 * nq;
+    let mut gr = GuardReset {
+        dg: RowDVector::zeros(0),
+        dg_dt: 0.0,
+        dr: DMatrix::identity(n2, n2),
+        dr_p: DMatrix::zeros(n2, at.body.len()),
+        y_plus: at.y.to_vec(),
+        impact_mode: None,
+    };
+    let dg = match event.kind {
+        EventKind::Touchdown => touchdown(at, &mut gr),
+        EventKind::Liftoff | EventKind::Slip => force_guard(at, fm, &mut gr.dg_dt),
+        EventKind::Stick => {
+            let k = event.triggered[0];
+            let geo = contact_geometry(model, &at.kin, at.terrain, k);
+            let (dq, dqd) = sliding_velocity_gradient(model, &at.kin, &geo, k, at.qd_minus())?;
+            let mut dg = RowDVector::zeros(n2);
+            dg.columns_mut(0, nq).copy_from(&dq.transpose());
+            dg.columns_mut(nq, nq).copy_from(&dqd.transpose());
+            Ok(dg)
+        }
+        EventKind::Apex => {
+            let mut dg = RowDVector::zeros(n2);
+            dg[nq + model.ix_z()] = -1.0;
+            Ok(dg)
+        }
+        EventKind::Jam => Err(NotDifferentiated("jams are not differentiated".into())),
+        EventKind::Fold | EventKind::FoldPassed => Err(NotDifferentiated(
+            "fold events are not differentiated yet".into(),
+        )),
+    };
+    let dg = match dg {
+        Ok(dg) => dg,
+        Err(e) => return Ok(Err(e)),
+    };
+    if event.kind != EventKind::Touchdown {
+        if let Err(e) = drift_reset(at, &mut gr) {
+            return Ok(Err(e));
+        }
+    }
+    gr.dg = dg;
+    Ok(Ok(gr))
+}

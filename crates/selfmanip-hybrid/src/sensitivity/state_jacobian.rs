@@ -1,0 +1,105 @@
+//! The sensitivities of an execution to its initial state ([`execution_sensitivity`]): the
+//! full `Φ` of each segment and the saltation of each event, chained.
+use super::chain::{chain_complete, event_ending, has_event_memory};
+use super::columns::execution_sensitivity_columns;
+use super::evaluator::Evaluator;
+use super::event_saltation::segment_event;
+use super::segment_tangent::segment_flow;
+use super::tangent::Tangent;
+use super::types::{Sensitivity, SensitivityError};
+use crate::controller::Controller;
+use crate::execution::Execution;
+use crate::options::HybridOptions;
+use crate::simulate::simulate;
+use nalgebra::DMatrix;
+use selfmanip_core::{ContactMode, Model, Terrain};
+
+/// Runs [`simulate`] and then [`execution_sensitivity`] on its result. The execution is
+/// the one [`simulate`] returns, bit for bit.
+#[allow(clippy::too_many_arguments)]
+pub fn simulate_with_sensitivity(
+    model: &Model,
+    terrain: &dyn Terrain,
+    controller: &dyn Controller,
+    mode0: ContactMode,
+    q0: &[f64],
+    qd0: &[f64],
+    t_final: f64,
+    opts: HybridOptions,
+) -> Result<(Execution, Sensitivity), SensitivityError> {
+    let exec = simulate(model, terrain, controller, mode0, q0, qd0, t_final, opts)?;
+    let s = execution_sensitivity(model, terrain, &exec)?;
+    Ok((exec, s))
+}
+
+/// The sensitivities of a recorded execution to its initial state (see the module docs).
+/// Each segment is re-evaluated with the controller it ran with.
+pub fn execution_sensitivity(
+    model: &Model,
+    terrain: &dyn Terrain,
+    exec: &Execution,
+) -> Result<Sensitivity, SensitivityError> {
+    let n2 = 2 * model.nq();
+    let mut ev = Evaluator::new(model, terrain);
+    let mut out = Sensitivity {
+        segment_flows: Vec::new(),
+        events: Vec::new(),
+        touch_switches: Vec::new(),
+        feature_changes: Vec::new(),
+        state_jacobian: None,
+    };
+    let mut total = DMatrix::identity(n2, n2);
+    let mut defined = true;
+    let mut next_event = 0;
+    let nseg = exec.segments.len();
+    for (si, seg) in exec.segments.iter().enumerate() {
+        let mut tangent = Tangent::Full(DMatrix::identity(n2, n2));
+        segment_flow(
+            &mut ev,
+            seg,
+            &mut tangent,
+            &mut out.touch_switches,
+            &mut Vec::new(),
+        )?;
+        let Tangent::Full(phi) = tangent else {
+            unreachable!("a full tangent stays full")
+        };
+        total = &phi * total;
+        out.segment_flows.push(phi);
+        let Some(event) = event_ending(exec, si, next_event) else {
+            if si + 1 < nseg {
+                out.feature_changes.push(si);
+                defined = false;
+            }
+            continue;
+        };
+        next_event += 1;
+        let (mut es, parts) = segment_event(&mut ev, exec, si, event, &[])?;
+        if let (Some(dg), Some(parts)) = (&es.guard_gradient, &parts) {
+            // `ġ = D_xg f⁻ (+ ∂g/∂t)` at the event, as its saltation had it
+            es.time_gradient = Some(-(dg * &total) / parts.den);
+        }
+        match &es.saltation {
+            Some(x) => total = x * total,
+            None => defined = false,
+        }
+        out.events.push(es);
+    }
+    // events not matched to a segment end, switches not differentiated
+    if defined && chain_complete(exec, next_event, &out.touch_switches) {
+        out.state_jacobian = Some(total);
+    }
+    if has_event_memory(exec) {
+        // the memory couples the segments: the chain is no longer the product of the
+        // segments' flows and saltations (which hold it fixed); the columns carry it
+        let cols =
+            execution_sensitivity_columns(model, terrain, exec, &DMatrix::identity(n2, n2), &[])?;
+        for (e, tc) in out.events.iter_mut().zip(cols.event_time_columns) {
+            if e.time_gradient.is_some() {
+                e.time_gradient = tc;
+            }
+        }
+        out.state_jacobian = out.state_jacobian.and(cols.columns);
+    }
+    Ok(out)
+}

@@ -1,0 +1,173 @@
+//! The results of the sensitivity pass and its errors: per event, per switch and time event
+//! inside a segment, the state Jacobian ([`Sensitivity`]) and the selected columns
+//! ([`ColumnSensitivity`]), and the parameters they are taken with ([`Parameter`]).
+use crate::error::HybridError;
+use crate::event::EventKind;
+use nalgebra::{DMatrix, RowDVector};
+use selfmanip_core::tangent::{BodyParameter, TangentError};
+use selfmanip_core::ContactMode;
+
+/// Why sensitivities could not be computed at all.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SensitivityError {
+    #[error(transparent)]
+    Hybrid(#[from] HybridError),
+    #[error(transparent)]
+    Tangent(#[from] TangentError),
+    /// A segment's controller does not give its partial derivatives.
+    #[error("the controller of the segment starting at t = {t} s gives no partial derivatives")]
+    ControllerWithoutPartials { t: f64 },
+    /// A parameter name that the segment's controller does not know.
+    #[error(
+        "parameter `{name}` is not a parameter of the controller (segment starting at t = {t} s)"
+    )]
+    UnknownParameter { name: String, t: f64 },
+    /// A segment's controller remembers the time or state of an event
+    /// ([`Controller::has_event_memory`](crate::Controller::has_event_memory)) but does not give the partial derivatives of its
+    /// outputs with respect to them ([`Controller::memory_partials`](crate::Controller::memory_partials)), or refers to an event
+    /// the execution did not record: holding that memory fixed would give a wrong derivative.
+    #[error(
+        "the controller at t = {t} s remembers events' times or states but gives no partial \
+         derivatives with respect to them ({reason})"
+    )]
+    EventMemoryWithoutPartials { t: f64, reason: String },
+}
+
+/// Whether an event's saltation matrix is defined.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SaltationStatus {
+    Defined,
+    /// The flow meets the guard tangentially: `D_xg f⁻ ≈ 0` (relative value given).
+    Grazing {
+        transversality: f64,
+    },
+    /// Several guards fired at once, or the event's neighbouring mode lasted zero time: the
+    /// outcome may depend on the order (one-sided and Bouligand derivatives not formed yet).
+    Simultaneous,
+    /// An event kind or situation not differentiated yet.
+    Unsupported {
+        reason: String,
+    },
+}
+
+impl SaltationStatus {
+    /// The status's name (`defined`, `grazing`, `simultaneous`, `unsupported`).
+    pub fn name(&self) -> &'static str {
+        match self {
+            SaltationStatus::Defined => "defined",
+            SaltationStatus::Grazing { .. } => "grazing",
+            SaltationStatus::Simultaneous => "simultaneous",
+            SaltationStatus::Unsupported { .. } => "unsupported",
+        }
+    }
+
+    /// Why the saltation matrix is not defined, in words (`None` when it is).
+    pub fn reason(&self) -> Option<String> {
+        match self {
+            SaltationStatus::Defined => None,
+            SaltationStatus::Grazing { transversality } => Some(format!(
+                "the flow meets the guard tangentially (|D_xg f| / (|D_xg| |f|) = \
+                 {transversality:e})"
+            )),
+            SaltationStatus::Simultaneous => {
+                Some("several guards at once, or a mode held for zero time".to_string())
+            }
+            SaltationStatus::Unsupported { reason } => Some(reason.clone()),
+        }
+    }
+}
+
+/// The sensitivity of one event.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EventSensitivity {
+    pub t: f64,
+    pub kind: EventKind,
+    pub status: SaltationStatus,
+    /// `Ξ` (`2nq × 2nq`) when defined.
+    pub saltation: Option<DMatrix<f64>>,
+    /// `D_xg` of the guard that fired (when a single guard fired).
+    pub guard_gradient: Option<RowDVector<f64>>,
+    /// `dt_e / dx(0)` when defined.
+    pub time_gradient: Option<RowDVector<f64>>,
+    /// For a touchdown, the mode of the plastic impact the reset applied: the mode after,
+    /// or a larger set whose extra contacts force complementarity released at once.
+    pub impact_mode: Option<ContactMode>,
+}
+
+/// Sensitivities of an execution to its initial state `x(0) = (q0, q̇0)`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sensitivity {
+    /// `Φ` of each segment (`2nq × 2nq`; the identity for a segment of zero duration), with
+    /// the controller's event memory held fixed (when a controller has memory, the state
+    /// Jacobian is not their product with the saltations: see the module docs).
+    pub segment_flows: Vec<DMatrix<f64>>,
+    /// One entry per event of the execution, in order.
+    pub events: Vec<EventSensitivity>,
+    /// Switches between an arc's rolling and its end's point touch inside segments, in
+    /// order ([`TouchSwitch`]); their saltation matrices are part of `segment_flows`.
+    pub touch_switches: Vec<TouchSwitch>,
+    /// Segment ends without an event (terrain feature changes), by segment index: not
+    /// differentiated yet.
+    pub feature_changes: Vec<usize>,
+    /// `dx(t_end)/dx(0)`, `None` unless every event's saltation is defined and the run ended
+    /// at its final time or at the apex (a run cut by its event budget ends on an event
+    /// with no flow after it, whose saltation is not formed).
+    pub state_jacobian: Option<DMatrix<f64>>,
+}
+
+/// A switch inside a segment between an active arc's rolling and its end's point touch:
+/// no event (the contact stays), but the flow's constraint rate `Ȧ` changes form there, so
+/// `q̈` jumps and the crossing has a saltation `Ξ = I + (f⁺ − f⁻) D_xg / (D_xg f⁻)` (the reset
+/// is the identity), `g` the angle between the ground's normal and the arc's end in the
+/// part's frame (`D_qg = −∂β/∂q` of the part's angle). `f⁻`, `f⁺` are the flows at the two
+/// ends of the bracket the crossing is located in by bisection on the dense output (a few
+/// ulps apart).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TouchSwitch {
+    pub t: f64,
+    pub contact: usize,
+    pub status: SaltationStatus,
+    pub saltation: Option<DMatrix<f64>>,
+}
+
+/// A controller's time event met by an execution ([`Controller::time_events`](crate::Controller::time_events)).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TimeEventSensitivity {
+    pub t: f64,
+    /// `max |f⁺ − f⁻|` there.
+    pub jump: f64,
+    /// Always `Defined` today (kept for time events that cannot be differentiated).
+    pub status: SaltationStatus,
+}
+
+/// A named parameter of an execution's sensitivities ([`execution_sensitivity_columns`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Parameter {
+    /// The body's mass or inertia, or a joint's armature (`M̄`, `N̄` and the impacts depend
+    /// on it).
+    Body(BodyParameter),
+    /// A parameter the segments' controllers know by this name
+    /// ([`Controller::parameter_partials`](crate::Controller::parameter_partials), [`Controller::time_events`](crate::Controller::time_events)).
+    Controller(String),
+}
+
+/// Sensitivities of an execution along selected columns: directions of the initial state
+/// and named parameters ([`execution_sensitivity_columns`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColumnSensitivity {
+    /// How many leading columns are initial-state directions (the rest are parameters).
+    pub n_directions: usize,
+    pub parameters: Vec<Parameter>,
+    /// One entry per event of the execution, in order, as in [`Sensitivity::events`]
+    /// (`time_gradient` is left `None`: see [`Self::event_time_columns`]).
+    pub events: Vec<EventSensitivity>,
+    /// `dt_e/d(columns)` of each event (`1 × m`), `None` where its saltation is undefined.
+    pub event_time_columns: Vec<Option<RowDVector<f64>>>,
+    pub touch_switches: Vec<TouchSwitch>,
+    /// The controllers' time events met (see [`Controller::time_events`](crate::Controller::time_events)).
+    pub time_events: Vec<TimeEventSensitivity>,
+    pub feature_changes: Vec<usize>,
+    /// `dx(t_end)/d(columns)` (`2nq × m`), `None` under the conditions of
+    /// [`Sensitivity::state_jacobian`] or when a time event was flagged.
+    pub columns: Option<DMatrix<f64>>,
+}
