@@ -142,7 +142,7 @@ fn stop_at_apex_false_reports_the_apex_of_the_first_flight() {
 /// t2 = −0.02 s (every
 /// strategy flies there) — except (+,+) at `rtol = 1e-3`: with Coulomb toes its leap has
 /// two outcomes, 34 cm and 24 cm, and which one a tolerance gives is not monotone in it
-/// (1e-8, 1e-7, 1e-4: 34 cm; 1e-6, 1e-5, 1e-3: 24 cm; `docs/leap-physics.md`), so only its
+/// (1e-8, 1e-7, 1e-4: 34 cm; 1e-6, 1e-5, 1e-3: 24 cm; `docs/leap-model.md`, "Tolerances"), so only its
 /// status is checked there. And (−,−) at `event_tol_s = 1e-3`: its leap reaches 52.6 cm at
 /// −153° for every rtol from 1e-9 to 1e-3 and every t2 from −0.0205 to −0.018 s at the
 /// default event tolerance, and for event tolerances up to 1e-4 s; from 1.5e-4 s on, the
@@ -150,7 +150,7 @@ fn stop_at_apex_false_reports_the_apex_of_the_first_flight() {
 /// differs (0.3 rad/s in the rear leg's rate at its liftoff), and the toe's later slip
 /// (0.173 s) lets it go instead of sliding: it touches down again 3 ms later and leaves
 /// again (word `…-0100-0000-0100-0000`, 55 cm at −194°). That outcome belongs to the event
-/// location, not to the model (issue 16; `docs/leap-physics.md`, "One retraction per leg"),
+/// location, not to the model (issue 16; `docs/decisions/2026-11-24-one-retraction-per-leg.md`),
 /// so there its word is checked to be the fine one with that one extra touch.
 #[test]
 fn coarse_event_tolerance_and_rtol_still_leap_on_flat_ground() {

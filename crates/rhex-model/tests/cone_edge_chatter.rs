@@ -1,7 +1,7 @@
 //! The slowest points of the issue-16 broad sweep: a (+,−) leap in which the robot sits on
 //! its rear body end and the front leg's toe, sticking, reached its friction cone's edge
 //! every 2.2 ms. At the edge no mode continued the flow (a Painlevé-type conflict of the
-//! massless leg, `docs/leap-physics.md`): the sticking force left the cone, and the toe was
+//! massless leg, `docs/decisions/2026-11-24-chatter-ends-as-zeno.md`): the sticking force left the cone, and the toe was
 //! let go — and touched down again 10 µs later, the impact sticking it. Before the chatter
 //! detection the cycle ran several hundred times until `t_final` (`no_flight`, 51–61 ms of
 //! wall time); then it ended as a chatter (`zeno`, period 3, under 150 events).
@@ -9,7 +9,7 @@
 //! The 10 µs return was the leg law's, not the cone's: the front leg was retracting, and each
 //! release planned its park anew, at rest in acceleration, which carried the toe straight
 //! back into the ground. A retracting leg now keeps its one retraction
-//! (`tests/retraction_law.rs`; `docs/leap-physics.md`, "One retraction per leg"): released,
+//! (`tests/retraction_law.rs`; `docs/decisions/2026-11-24-one-retraction-per-leg.md`): released,
 //! it returns to that motion, and the cycle is gone. This test keeps the point: the front
 //! toe touches down while the robot sits on its rear body end, slides, and lets go once;
 //! after that its gap from the kinematics (not the guard) stays positive to the end of the

@@ -1,7 +1,7 @@
 //! Result C.5: the legs act as inertial tails. In flight the robot's angular momentum about
 //! its centre of mass is conserved, so legs with mass that turn relative to the body turn the
 //! body the other way — what takes the default leap's (+,+) apex pitch from 68° to 52.5° with
-//! Table 4.2's leg mass (`docs/leap-physics.md`, "Massive legs with Coulomb toes"), and what
+//! Table 4.2's leg mass (`docs/decisions/2026-11-24-massive-legs-servoed-in-the-air.md`), and what
 //! the thesis measured on the robot (ε_m = 14°/360°, Fig. 4.13).
 //!
 //! Independent route: the angular momentum written from first principles in the world's

@@ -552,7 +552,7 @@ fn pseudo_impulse_removes_the_front_leg_chatter_of_fig_5_7() {
 /// This regression runs where it was found: frictionless sliding toes (Assumption 5.9) and
 /// the swing bounds the leaps had then (12 rad/s, 400 rad/s²). With the default Coulomb toes
 /// and motor-set swing some of these landings end `zeno` again (a parked leg re-touching as
-/// the body lands on its front end); see `docs/leap-physics.md`.
+/// the body lands on its front end); see `docs/leap-model.md`.
 #[test]
 fn parked_legs_that_meet_the_ground_stay_on_it() {
     let p = RhexParams {

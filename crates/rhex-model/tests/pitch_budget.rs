@@ -1,7 +1,7 @@
-//! Where the default leaps' pitch comes from (issue 16; `docs/leap-physics.md`, "Where the
-//! pitch comes from"): the measurement behind that section, checked by independent routes on
-//! the default path a user runs (`simulate_leap(&leap_params(), &LeapConfig { strategy, t2_s,
-//! ..LeapConfig::default() })`).
+//! Where the default leaps' pitch comes from (issue 16;
+//! `docs/decisions/2026-11-24-pitch-default-unchanged.md`): the measurement behind that
+//! decision, checked by independent routes on the default path a user runs
+//! (`simulate_leap(&leap_params(), &LeapConfig { strategy, t2_s, ..LeapConfig::default() })`).
 //!
 //! - The angular-momentum balance about the body's centre of mass (Euler's second law; with
 //!   massless legs the robot's angular momentum about its COM is the body's, `I_b φ̇`): the

@@ -1,5 +1,5 @@
 //! One retraction per leg (issue 16, the broad sweep's re-contact cycles;
-//! `docs/leap-physics.md`, "One retraction per leg").
+//! `docs/decisions/2026-11-24-one-retraction-per-leg.md`).
 //!
 //! A leg that retracts (after its own liftoff, or once the robot has taken off) parks along
 //! one motion, planned when it first retracts in the air (thesis 5.1.1: a free massless

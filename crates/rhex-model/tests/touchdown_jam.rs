@@ -1,7 +1,7 @@
 //! A touchdown that would leave another toe on a slide with no consistent continuation
 //! (Painlevé) is taken again with that toe sticking: a jam (`selfmanip_hybrid::jam`,
 //! `docs/singular-transitions.md` section 7). On the leap of massless links that carry their
-//! rotors (`leg_armature_kg_m2` = `n J G²` at 28:1, `docs/leap-physics.md`), (−,−) with the
+//! rotors (`leg_armature_kg_m2` = `n J G²` at 28:1, `docs/decisions/2026-11-24-massive-legs-carry-their-rotors.md`), (−,−) with the
 //! middle motor 0.1 s after the front one: the middle leg touches down while the front toe
 //! slides, and the impact is a jam.
 //!

@@ -1,6 +1,6 @@
 //! The compliant-leg experiment of issue 16's pitch question
-//! (`src/bin/compliant_leg_probe.rs`; `docs/leap-physics.md`, "Where the pitch comes
-//! from"): pinned toes, point-toe legs made of two massless links with a knee spring–damper.
+//! (`src/bin/compliant_leg_probe.rs`; `docs/decisions/2026-11-24-pitch-default-unchanged.md`):
+//! pinned toes, point-toe legs made of two massless links with a knee spring–damper.
 //! Checked by routes that do not share its assumptions:
 //!
 //! - its rigid leg and controller are a second formulation of `simulate_leap` with stick legs

@@ -15,7 +15,7 @@
 //!                                                       # carry their motors' rotors, n J G²
 //! ```
 //! The `zeno` points are also counted by kind (`zeno by kind`: a two-mode cycle of one
-//! contact, or events that change no mode; `docs/leap-physics.md` classifies them).
+//! contact, or events that change no mode; `docs/leap-model.md` says what they are).
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;

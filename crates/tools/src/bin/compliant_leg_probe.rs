@@ -4,7 +4,7 @@
 //! massless coordinates, one row: Lemma 5.1; `selfmanip_core::passive` module docs); with
 //! `MASS=1` the legs carry Table 4.2's pair mass on the hip's link, the massless knee is
 //! pinned by the toe alone, and `SLIDE=1` gives the toes the default leap's Coulomb law
-//! (`docs/leap-physics.md`, "(a) Compliant C-legs"). By default this compares pinned rigid
+//! (`docs/decisions/2026-11-24-pitch-default-unchanged.md`). By default this compares pinned rigid
 //! legs with pinned compliant ones, everything else as in the default leap.
 //!
 //! ```sh

@@ -31,7 +31,7 @@ fn variants() -> Vec<(&'static str, RhexParams)> {
             "massive_legs",
             // a massive leg's toe slides without friction (the variant as it was when Coulomb
             // sliding needed massless legs, kept so that corpora stay comparable; massive
-            // legs with Coulomb toes: docs/leap-physics.md)
+            // legs with Coulomb toes: docs/leap-model.md)
             RhexParams {
                 toe_sliding: rhex_model::params::ToeSliding::Frictionless,
                 ..base.clone().with_table_4_2_legs()
