@@ -8,11 +8,10 @@
 //! - a closed form: an arm swinging at constant speed `ω*` from a touchdown at `t_k` is at
 //!   `θ(T) = Θ(T − t_k)`, so `∂θ(T)/∂x₀ = −ω* ∂t_k/∂x₀`, with `∂t_k/∂z₀ = −1/ż_k` and
 //!   `∂t_k/∂ż₀ = −t_k/ż_k` of a free fall;
-//! - a memory the behaviour does not differentiate is a typed error, not a number.
+//! - a motion whose numbers depend on its start state, against central differences.
 use nalgebra::DMatrix;
 use selfmanip_core::ContactMode;
 use selfmanip_core::RobotDescription;
-use selfmanip_hybrid::sensitivity::SensitivityError;
 use selfmanip_hybrid::{simulate, Controller, ControllerPartials, EventKind};
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::periodic::run_sensitivity;
@@ -306,11 +305,11 @@ fn arm_closed_form(landed: &str) {
 }
 
 /// A motion whose numbers depend on the state where it starts (`theta`) is memory the
-/// behaviour does not differentiate: the sensitivities stop with a typed error naming the
-/// time, rather than hold it fixed; a hold at a constant angle started at the same event is
-/// no memory at all (its reference does not depend on the event).
+/// behaviour differentiates through its start (`θ* = θ_k + 0.1`): the state Jacobian's fall
+/// columns against central differences of whole runs; a hold at a constant angle started at
+/// the same event is no memory at all (its reference does not depend on the event).
 #[test]
-fn memory_not_differentiated_is_a_typed_error() {
+fn memory_of_the_start_state_is_differentiated() {
     let sim = dropped_arm(
         r#"motion = { kind = "hold", angle_rad = "theta + 0.1" }"#,
         0.4,
@@ -323,11 +322,11 @@ fn memory_not_differentiated_is_a_typed_error() {
         .unwrap()
         .controller
         .has_event_memory());
-    match run_sensitivity(&run) {
-        Err(SensitivityError::EventMemoryWithoutPartials { t, .. }) => {
-            assert!(t >= run.execution.events[0].t)
-        }
-        other => panic!("{other:?}"),
+    let j = run_sensitivity(&run).unwrap().state_jacobian.unwrap();
+    let fd = central_differences(&sim, &[2, 6], 1e-6);
+    for c in [2, 6] {
+        let e = (j.column(c) - fd.column(c)).amax();
+        assert!(e < 1e-7, "column {c}: {e:e}");
     }
     let sim = dropped_arm(r#"motion = { kind = "hold", angle_rad = 3.0 }"#, 0.4);
     let run = sim.run().unwrap();

@@ -8,6 +8,7 @@ use super::interpreter::{
 use super::spec::{
     ActuatorSpec, Behaviour, Interpolation, Motion, NamedEvent, On, Torque, Trigger,
 };
+use super::tangent::{ActuatorLaw, Grad, NumberTangent, PhaseTangent, PlanTangent, TorqueTangent};
 use crate::error::{finite, invalid, non_negative, positive, SimError};
 use crate::expr::{Expr, Scalar};
 use crate::labels::{contact_by_name, joint_contacts, joint_index, joint_name};
@@ -29,9 +30,46 @@ struct Context<'a> {
     model: &'a Model,
     /// Parameters and actuator constants by name.
     values: BTreeMap<String, f64>,
+    /// Their gradients over the parameters (`tangent.rs`).
+    grads: BTreeMap<String, Grad>,
+    /// The number of parameters.
+    n: usize,
 }
 
 impl Context<'_> {
+    /// The gradient over the parameters of a number [`Self::number`] has checked (`q0`, the
+    /// joint's start angle, an input: no gradient).
+    fn grad(&self, s: &Scalar, q0: Option<f64>) -> Grad {
+        let n = self.n;
+        let e = s.parse("").expect("checked by `number`");
+        let lookup = |name: &str| match name {
+            "q0" => q0.map(|v| (v, vec![0.0; n])),
+            _ => Some((
+                *self.values.get(name)?,
+                self.grads
+                    .get(name)
+                    .map_or_else(|| vec![0.0; n], |g| g.to_vec()),
+            )),
+        };
+        let (_, d) = e.eval_grad(n, &lookup).expect("checked by `number`");
+        d.into()
+    }
+
+    /// [`Self::number`] with its gradient.
+    fn number_grad(
+        &self,
+        field: &str,
+        s: &Scalar,
+        q0: Option<f64>,
+    ) -> Result<(f64, Grad), SimError> {
+        let v = self.number(field, s, q0)?;
+        Ok((v, self.grad(s, q0)))
+    }
+
+    fn zero(&self) -> Grad {
+        vec![0.0; self.n].into()
+    }
+
     /// A number known now: `scalar` with the parameters (and `q0`, the joint's start angle,
     /// when given).
     fn number(&self, field: &str, s: &Scalar, q0: Option<f64>) -> Result<f64, SimError> {
@@ -83,8 +121,13 @@ impl Context<'_> {
         })
     }
 
-    /// A number of a motion: known now unless it uses `theta` or `omega`.
-    fn motion_value(&self, field: &str, s: &Scalar, q0: f64) -> Result<Value, SimError> {
+    /// A number of a motion: known now unless it uses `theta` or `omega`; with its tangent.
+    fn motion_value(
+        &self,
+        field: &str,
+        s: &Scalar,
+        q0: f64,
+    ) -> Result<(Value, NumberTangent), SimError> {
         let e = s.parse(field)?;
         // checks names and evaluates once (at θ = ω = 0) to catch errors now
         let v = self.eval(field, s, &e, Some(q0), true)?;
@@ -94,9 +137,16 @@ impl Context<'_> {
             let mut consts: Vec<(String, f64)> =
                 self.values.iter().map(|(k, v)| (k.clone(), *v)).collect();
             consts.push(("q0".into(), q0));
-            Ok(Value::AtStart(e, Arc::new(consts)))
+            let consts = Arc::new(consts);
+            Ok((
+                Value::AtStart(e.clone(), Arc::clone(&consts)),
+                NumberTangent::AtStart(e, consts),
+            ))
         } else {
-            Ok(Value::Const(finite(field, v)?))
+            Ok((
+                Value::Const(finite(field, v)?),
+                NumberTangent::Const(self.grad(s, Some(q0))),
+            ))
         }
     }
 
@@ -180,8 +230,51 @@ fn parameters(b: &Behaviour) -> Result<BTreeMap<String, f64>, SimError> {
     Ok(values)
 }
 
-/// `(quantity, value)` pairs an actuator's data give besides its stall torque ([`actuator`]).
-type DerivedQuantities = Vec<(&'static str, f64)>;
+/// The gradient of every parameter over the parameters, in name order: `e_p` plus the chain
+/// of its formula (the parameters have been evaluated and checked for cycles).
+fn parameter_grads(b: &Behaviour, values: &BTreeMap<String, f64>) -> BTreeMap<String, Grad> {
+    fn visit(
+        name: &str,
+        b: &Behaviour,
+        values: &BTreeMap<String, f64>,
+        grads: &mut BTreeMap<String, Grad>,
+    ) -> Grad {
+        if let Some(g) = grads.get(name) {
+            return g.clone();
+        }
+        let n = b.parameters.len();
+        let e = b.parameters[name]
+            .parse("")
+            .expect("parsed by `parameters`");
+        let mut vars = Vec::new();
+        e.variables(&mut vars);
+        let deps: BTreeMap<String, Grad> = vars
+            .iter()
+            .map(|v| (v.clone(), visit(v, b, values, grads)))
+            .collect();
+        let (_, mut d) = e
+            .eval_grad(n, &|v| Some((values[v], deps.get(v)?.to_vec())))
+            .expect("evaluated by `parameters`");
+        let i = b
+            .parameters
+            .keys()
+            .position(|k| k == name)
+            .expect("a parameter");
+        d[i] += 1.0;
+        let g: Grad = d.into();
+        grads.insert(name.to_string(), g.clone());
+        g
+    }
+    let mut grads = BTreeMap::new();
+    for name in b.parameters.keys() {
+        visit(name, b, values, &mut grads);
+    }
+    grads
+}
+
+/// `(quantity, value, gradient)` of what an actuator's data give besides its stall torque
+/// ([`actuator`]).
+type DerivedQuantities = Vec<(&'static str, f64, Grad)>;
 
 /// An actuator of the spec, and the quantities derived from its data that expressions may
 /// read as `<name>.<quantity>` besides its stall torque: for DC motors their no-load output
@@ -193,7 +286,7 @@ fn actuator(
     cx: &Context<'_>,
     field: &str,
     spec: &ActuatorSpec,
-) -> Result<(Arc<dyn Actuator>, DerivedQuantities), SimError> {
+) -> Result<(Arc<dyn Actuator>, DerivedQuantities, ActuatorLaw), SimError> {
     let motor_err = |f: &str| {
         let f = format!("{field}.{f}");
         move |e: motor::MotorError| SimError::Motor {
@@ -207,7 +300,11 @@ fn actuator(
             let tau = positive(&f, cx.number(&f, max_torque_n_m, None)?)?;
             let a: Arc<dyn Actuator> =
                 Arc::new(motor::SaturatedTorque::new(tau).map_err(motor_err("max_torque_n_m"))?);
-            (a, Vec::new())
+            let law = ActuatorLaw::Saturated {
+                max_n_m: tau,
+                dmax: cx.grad(max_torque_n_m, None),
+            };
+            (a, Vec::new(), law)
         }
         ActuatorSpec::DcMotor {
             motor: motor_name,
@@ -227,6 +324,9 @@ fn actuator(
             };
             let motor_spec = catalog.motor_spec(motor_name).map_err(motor_err("motor"))?;
             let mut m = motor_spec.motor().map_err(motor_err("motor"))?;
+            let grad = |s: &Option<crate::expr::Scalar>| {
+                s.as_ref().map_or(cx.zero(), |s| cx.grad(s, None))
+            };
             if let Some(v) = supply_voltage_v {
                 let f = format!("{field}.supply_voltage_v");
                 let v = positive(&f, cx.number(&f, v, None)?)?;
@@ -253,18 +353,38 @@ fn actuator(
                 return Err(invalid(f, format!("must be a whole number ≥ 1, got {n}")));
             }
             let ratio = g.ratio;
-            let mut derived = vec![("no_load_speed_rad_s", m.no_load_speed_rad_s / ratio)];
+            let law = ActuatorLaw::Geared {
+                n,
+                ratio,
+                efficiency: g.efficiency,
+                stall_n_m: m.stall_torque_n_m,
+                no_load_rad_s: m.no_load_speed_rad_s,
+                torque_constant_n_m_per_a: m.torque_constant_n_m_per_a,
+                current_limit_a: m.current_limit_a,
+                voltage_v: m.supply_voltage_v,
+                dn: cx.grad(count, None),
+                dratio: grad(gear_ratio),
+                dcurrent: grad(current_limit_a),
+                dvoltage: grad(supply_voltage_v),
+            };
+            let speed = m.no_load_speed_rad_s / ratio;
+            let mut derived = vec![("no_load_speed_rad_s", speed, law.no_load_speed_grad())];
             if let Some(rotor) = motor_spec
                 .rotor_inertia_kg_m2()
                 .map_err(motor_err("motor"))?
             {
-                derived.push(("reflected_inertia_kg_m2", n * rotor * ratio * ratio));
+                let inertia = n * rotor * ratio * ratio;
+                derived.push((
+                    "reflected_inertia_kg_m2",
+                    inertia,
+                    law.reflected_inertia_grad(rotor),
+                ));
             }
             let a: Arc<dyn Actuator> = Arc::new(Drives {
                 drive: motor::Drive::new(m, g).map_err(motor_err("gearbox"))?,
                 n,
             });
-            (a, derived)
+            (a, derived, law)
         }
     })
 }
@@ -303,6 +423,14 @@ fn event_kind(field: &str, on: On) -> Result<MatchKind, SimError> {
             ))
         }
     })
+}
+
+/// The gradients of a start's times and delays, in the order of `Start::times` and
+/// `Start::phases`.
+#[derive(Default)]
+struct StartGrads {
+    times: Vec<Grad>,
+    delays: Vec<Grad>,
 }
 
 /// Where a phase reference points: `(program, phase)`.
@@ -382,13 +510,14 @@ impl Compiler<'_> {
         Ok((p, k))
     }
 
-    /// Adds the alternatives of `t` to `start`; `phase_refs` collects the phase references.
+    /// Adds the alternatives of `t` to `start` (and the gradients of its times and delays to
+    /// `grads`).
     #[allow(clippy::too_many_arguments)]
     fn start(
         &self,
         field: &str,
         t: &Trigger,
-        start: &mut Start,
+        (start, grads): (&mut Start, &mut StartGrads),
         own_joint: usize,
         own: u32,
         q0: f64,
@@ -428,7 +557,9 @@ impl Compiler<'_> {
         if let Some(at) = &t.at_s {
             only(&[])?;
             let f = format!("{field}.at_s");
-            start.times.push(self.cx.number(&f, at, Some(q0))?);
+            let (v, g) = self.cx.number_grad(&f, at, Some(q0))?;
+            start.times.push(v);
+            grads.times.push(g);
         } else if let Some(name) = &t.event {
             only(&[])?;
             start
@@ -442,7 +573,7 @@ impl Compiler<'_> {
                 self.start(
                     &format!("{field}.any[{i}]"),
                     sub,
-                    start,
+                    (&mut *start, &mut *grads),
                     own_joint,
                     own,
                     q0,
@@ -497,11 +628,15 @@ impl Compiler<'_> {
                         .ok_or_else(|| invalid(f.clone(), "is required for `phase`"))?;
                     let (p, k) = self.phase_ref(&f, name)?;
                     let f = format!("{field}.delay_s");
-                    let delay = match &t.delay_s {
-                        Some(d) => non_negative(&f, self.cx.number(&f, d, Some(q0))?)?,
-                        None => 0.0,
+                    let (delay, g) = match &t.delay_s {
+                        Some(d) => {
+                            let (v, g) = self.cx.number_grad(&f, d, Some(q0))?;
+                            (non_negative(&f, v)?, g)
+                        }
+                        None => (0.0, self.cx.zero()),
                     };
                     start.phases.push((p, k, delay));
+                    grads.delays.push(g);
                 }
                 _ => {
                     only(&["contacts", "not_before_s"])?;
@@ -525,11 +660,15 @@ impl Compiler<'_> {
         t: &Torque,
         q0: f64,
         actuators: &[String],
-    ) -> Result<TorqueLaw, SimError> {
+    ) -> Result<(TorqueLaw, TorqueTangent), SimError> {
         let num = |f: &str, s: &Scalar| self.cx.number(&format!("{field}.{f}"), s, Some(q0));
+        let grad = |s: &Scalar| self.cx.grad(s, Some(q0));
         Ok(match t {
-            Torque::Zero => TorqueLaw::Zero,
-            Torque::Constant { torque_n_m } => TorqueLaw::Constant(num("torque_n_m", torque_n_m)?),
+            Torque::Zero => (TorqueLaw::Zero, TorqueTangent::Zero),
+            Torque::Constant { torque_n_m } => (
+                TorqueLaw::Constant(num("torque_n_m", torque_n_m)?),
+                TorqueTangent::Constant(grad(torque_n_m)),
+            ),
             Torque::Schedule {
                 times_s,
                 torques_n_m,
@@ -561,11 +700,17 @@ impl Compiler<'_> {
                     .enumerate()
                     .map(|(i, s)| num(&format!("torques_n_m[{i}]"), s))
                     .collect::<Result<Vec<_>, _>>()?;
-                TorqueLaw::Schedule {
-                    times,
-                    torques,
-                    hold: *interpolation == Interpolation::Hold,
-                }
+                (
+                    TorqueLaw::Schedule {
+                        times,
+                        torques,
+                        hold: *interpolation == Interpolation::Hold,
+                    },
+                    TorqueTangent::Schedule {
+                        times: times_s.iter().map(grad).collect(),
+                        torques: torques_n_m.iter().map(grad).collect(),
+                    },
+                )
             }
             Torque::Servo {
                 target_rad,
@@ -577,19 +722,29 @@ impl Compiler<'_> {
                 let nn = |f: &str, s: &Scalar| -> Result<f64, SimError> {
                     non_negative(&format!("{field}.{f}"), num(f, s)?)
                 };
-                TorqueLaw::Servo {
-                    target: target_rad
-                        .as_ref()
-                        .map(|s| num("target_rad", s))
-                        .transpose()?,
-                    kp: nn("kp_n_m_per_rad", kp_n_m_per_rad)?,
-                    kd: nn("kd_n_m_s_per_rad", kd_n_m_s_per_rad)?,
-                    limit: match torque_limit_n_m {
-                        Some(s) => nn("torque_limit_n_m", s)?,
-                        None => f64::INFINITY,
+                (
+                    TorqueLaw::Servo {
+                        target: target_rad
+                            .as_ref()
+                            .map(|s| num("target_rad", s))
+                            .transpose()?,
+                        kp: nn("kp_n_m_per_rad", kp_n_m_per_rad)?,
+                        kd: nn("kd_n_m_s_per_rad", kd_n_m_s_per_rad)?,
+                        limit: match torque_limit_n_m {
+                            Some(s) => nn("torque_limit_n_m", s)?,
+                            None => f64::INFINITY,
+                        },
+                        only_in_contact: *only_in_contact,
                     },
-                    only_in_contact: *only_in_contact,
-                }
+                    TorqueTangent::Servo {
+                        target: target_rad.as_ref().map(grad),
+                        kp: grad(kp_n_m_per_rad),
+                        kd: grad(kd_n_m_s_per_rad),
+                        limit: torque_limit_n_m
+                            .as_ref()
+                            .map_or_else(|| self.cx.zero(), grad),
+                    },
+                )
             }
             Torque::Motor {
                 actuator,
@@ -612,47 +767,70 @@ impl Compiler<'_> {
                         format!("must lie in [-1, 1], got {u}"),
                     ));
                 }
-                TorqueLaw::Motor {
-                    actuator: a,
-                    command: u,
-                    reverse_beyond: reverse_beyond_rad
-                        .as_ref()
-                        .map(|s| num("reverse_beyond_rad", s))
-                        .transpose()?,
-                }
+                (
+                    TorqueLaw::Motor {
+                        actuator: a,
+                        command: u,
+                        reverse_beyond: reverse_beyond_rad
+                            .as_ref()
+                            .map(|s| num("reverse_beyond_rad", s))
+                            .transpose()?,
+                    },
+                    TorqueTangent::Motor {
+                        command: grad(command),
+                    },
+                )
             }
         })
     }
 
-    fn motion(&self, field: &str, m: &Motion, q0: f64) -> Result<MotionLaw, SimError> {
+    /// The motion law, and the tangents of its numbers in the order `speed`, `accel`,
+    /// `target` (a hold's angle its target; absent numbers constant).
+    fn motion(
+        &self,
+        field: &str,
+        m: &Motion,
+        q0: f64,
+    ) -> Result<(MotionLaw, [NumberTangent; 3]), SimError> {
         let v = |f: &str, s: &Scalar| self.cx.motion_value(&format!("{field}.{f}"), s, q0);
-        let pos = |f: &str, s: &Scalar| -> Result<Value, SimError> {
+        let pos = |f: &str, s: &Scalar| -> Result<(Value, NumberTangent), SimError> {
             let val = v(f, s)?;
-            if let Value::Const(x) = val {
+            if let Value::Const(x) = val.0 {
                 positive(&format!("{field}.{f}"), x)?;
             }
             Ok(val)
         };
+        let none = || NumberTangent::Const(self.cx.zero());
         Ok(match m {
-            Motion::Hold { angle_rad } => MotionLaw::Hold {
-                angle: v("angle_rad", angle_rad)?,
-            },
+            Motion::Hold { angle_rad } => {
+                let (angle, d) = v("angle_rad", angle_rad)?;
+                (MotionLaw::Hold { angle }, [none(), none(), d])
+            }
             Motion::Swing {
                 target_rad,
                 speed_rad_s,
                 accel_rad_s2,
-            } => MotionLaw::Swing {
-                target: v("target_rad", target_rad)?,
-                speed: pos("speed_rad_s", speed_rad_s)?,
-                accel: pos("accel_rad_s2", accel_rad_s2)?,
-            },
+            } => {
+                let (target, dt) = v("target_rad", target_rad)?;
+                let (speed, ds) = pos("speed_rad_s", speed_rad_s)?;
+                let (accel, da) = pos("accel_rad_s2", accel_rad_s2)?;
+                (
+                    MotionLaw::Swing {
+                        target,
+                        speed,
+                        accel,
+                    },
+                    [ds, da, dt],
+                )
+            }
             Motion::Park {
                 target_rad,
                 accel_rad_s2,
-            } => MotionLaw::Park {
-                target: v("target_rad", target_rad)?,
-                accel: pos("accel_rad_s2", accel_rad_s2)?,
-            },
+            } => {
+                let (target, dt) = v("target_rad", target_rad)?;
+                let (accel, da) = pos("accel_rad_s2", accel_rad_s2)?;
+                (MotionLaw::Park { target, accel }, [none(), da, dt])
+            }
         })
     }
 
@@ -792,25 +970,33 @@ pub fn compile(
         }
     }
     let mut values = parameters(b)?;
+    let mut grads = parameter_grads(b, &values);
+    let n_params = b.parameters.len();
     // actuators, and their stall torques as parameters `<name>.stall_torque_n_m` (with what
     // else their data give, `actuator`)
     let mut actuators = Vec::new();
+    let mut laws = Vec::new();
     let actuator_names: Vec<String> = b.actuators.keys().cloned().collect();
     {
         let cx = Context {
             model,
             values: values.clone(),
+            grads: grads.clone(),
+            n: n_params,
         };
         for (name, spec) in &b.actuators {
-            let (a, derived) = actuator(&cx, &format!("actuators.{name}"), spec)?;
+            let (a, derived, law) = actuator(&cx, &format!("actuators.{name}"), spec)?;
             values.insert(
                 format!("{name}.stall_torque_n_m"),
                 a.joint_torque_n_m(1.0, 0.0),
             );
-            for (quantity, v) in derived {
+            grads.insert(format!("{name}.stall_torque_n_m"), law.stall_grad());
+            for (quantity, v, g) in derived {
                 values.insert(format!("{name}.{quantity}"), v);
+                grads.insert(format!("{name}.{quantity}"), g);
             }
             actuators.push(a);
+            laws.push(law);
         }
     }
     let named: Vec<String> = b.events.keys().cloned().collect();
@@ -849,7 +1035,12 @@ pub fn compile(
         programs_names.push((prog.joint.clone(), phase_names));
     }
     let c = Compiler {
-        cx: Context { model, values },
+        cx: Context {
+            model,
+            values,
+            grads,
+            n: n_params,
+        },
         named: named.clone(),
         programs: programs_names.clone(),
     };
@@ -874,13 +1065,16 @@ pub fn compile(
         c.cx.number("free_joints.kd_per_s", &free.kd_per_s, None)?,
     )?;
     let mut programs = Vec::new();
+    let mut phase_tangents = Vec::new();
     for (i, prog) in b.joints.iter().enumerate() {
         let j = joint_index(model, &prog.joint).expect("checked above");
         let own = joint_contacts(model, j);
         let mut phases: Vec<PhasePlan> = Vec::new();
+        let mut tangents: Vec<PhaseTangent> = Vec::new();
         for (k, ph) in prog.phases.iter().enumerate() {
             let field = format!("joints[{i}].phases[{k}]");
             let mut start = Start::default();
+            let mut start_grads = StartGrads::default();
             match (&ph.start, k) {
                 (Some(_), 0) => {
                     return Err(invalid(
@@ -898,7 +1092,7 @@ pub fn compile(
                 (Some(t), _) => c.start(
                     &format!("{field}.start"),
                     t,
-                    &mut start,
+                    (&mut start, &mut start_grads),
                     j,
                     own,
                     q0[j],
@@ -908,19 +1102,32 @@ pub fn compile(
             for n in &mut start.named {
                 *n = remap[*n];
             }
-            let torque = c.torque(
+            let (torque, torque_tangent) = c.torque(
                 &format!("{field}.torque"),
                 &ph.torque,
                 q0[j],
                 &actuator_names,
             )?;
-            let (motion, own_motion) = match (&ph.motion, phases.last()) {
+            let ((motion, motion_tangent), own_motion) = match (&ph.motion, tangents.last()) {
                 (Some(m), _) => (c.motion(&format!("{field}.motion"), m, q0[j])?, true),
-                (None, Some(prev)) => (prev.motion.clone(), false),
+                (None, Some(prev)) => (
+                    (
+                        phases.last().expect("one per tangent").motion.clone(),
+                        prev.motion.clone(),
+                    ),
+                    false,
+                ),
                 (None, None) => (
-                    MotionLaw::Hold {
-                        angle: Value::Const(q0[j]),
-                    },
+                    (
+                        MotionLaw::Hold {
+                            angle: Value::Const(q0[j]),
+                        },
+                        [
+                            NumberTangent::Const(c.cx.zero()),
+                            NumberTangent::Const(c.cx.zero()),
+                            NumberTangent::Const(c.cx.zero()),
+                        ],
+                    ),
                     true,
                 ),
             };
@@ -931,7 +1138,8 @@ pub fn compile(
                     for (r, t) in list.iter().enumerate() {
                         let f = format!("{field}.restart_on[{r}]");
                         let mut s = Start::default();
-                        c.start(&f, t, &mut s, j, own, q0[j], true)?;
+                        let mut unused = StartGrads::default();
+                        c.start(&f, t, (&mut s, &mut unused), j, own, q0[j], true)?;
                         if !s.times.is_empty() || !s.phases.is_empty() {
                             return Err(invalid(
                                 f,
@@ -955,7 +1163,14 @@ pub fn compile(
                 restart_on,
                 restart_named,
             });
+            tangents.push(PhaseTangent {
+                times: start_grads.times,
+                delays: start_grads.delays,
+                torque: torque_tangent,
+                motion: motion_tangent,
+            });
         }
+        phase_tangents.push(tangents);
         let repeat_from = match &prog.repeat_from {
             None => None,
             Some(name) => {
@@ -994,7 +1209,16 @@ pub fn compile(
     let idle_joints = (0..model.n_joints())
         .filter(|&j| program_of_joint[j].is_none())
         .collect();
+    let tangent = PlanTangent {
+        names: b.parameters.keys().cloned().collect(),
+        kp_free: c.cx.grad(&free.kp_per_s2, None),
+        kd_free: c.cx.grad(&free.kd_per_s, None),
+        values: Arc::new(c.cx.grads),
+        phases: phase_tangents,
+        actuators: laws,
+    };
     let plan = Plan {
+        tangent,
         idle_joints,
         programs,
         actuators,

@@ -10,8 +10,8 @@
 //! past an angle. The file format is documented in `docs/behaviours.md`.
 pub mod compile;
 pub mod interpreter;
-pub(crate) mod memory;
 pub mod spec;
+pub(crate) mod tangent;
 
 pub use compile::compile;
 pub use interpreter::BehaviourController;
