@@ -6,7 +6,7 @@ use super::interpreter::{
     Program, Start, TorqueLaw, Value,
 };
 use super::spec::{
-    ActuatorSpec, Behaviour, Interpolation, Motion, NamedEvent, On, Torque, Trigger,
+    ActuatorSpec, Behaviour, Interpolation, JointProgram, Motion, NamedEvent, On, Torque, Trigger,
 };
 use super::tangent::{ActuatorLaw, Grad, NumberTangent, PhaseTangent, PlanTangent, TorqueTangent};
 use crate::error::{finite, invalid, non_negative, positive, SimError};
@@ -34,12 +34,19 @@ struct Context<'a> {
     grads: BTreeMap<String, Grad>,
     /// The number of parameters.
     n: usize,
+    /// Whether gradients are computed (else every gradient is [`Self::empty`]: the plan's
+    /// tangent is built on first use, [`compile`]).
+    tangent: bool,
+    empty: Grad,
 }
 
 impl Context<'_> {
     /// The gradient over the parameters of a number [`Self::number`] has checked (`q0`, the
     /// joint's start angle, an input: no gradient).
     fn grad(&self, s: &Scalar, q0: Option<f64>) -> Grad {
+        if !self.tangent {
+            return self.empty.clone();
+        }
         let n = self.n;
         let e = s.parse("").expect("checked by `number`");
         let lookup = |name: &str| match name {
@@ -67,6 +74,9 @@ impl Context<'_> {
     }
 
     fn zero(&self) -> Grad {
+        if !self.tangent {
+            return self.empty.clone();
+        }
         vec![0.0; self.n].into()
     }
 
@@ -138,10 +148,12 @@ impl Context<'_> {
                 self.values.iter().map(|(k, v)| (k.clone(), *v)).collect();
             consts.push(("q0".into(), q0));
             let consts = Arc::new(consts);
-            Ok((
-                Value::AtStart(e.clone(), Arc::clone(&consts)),
-                NumberTangent::AtStart(e, consts),
-            ))
+            let tangent = if self.tangent {
+                NumberTangent::AtStart(e.clone(), Arc::clone(&consts))
+            } else {
+                NumberTangent::Const(self.empty.clone())
+            };
+            Ok((Value::AtStart(e, consts), tangent))
         } else {
             Ok((
                 Value::Const(finite(field, v)?),
@@ -368,7 +380,13 @@ fn actuator(
                 dvoltage: grad(supply_voltage_v),
             };
             let speed = m.no_load_speed_rad_s / ratio;
-            let mut derived = vec![("no_load_speed_rad_s", speed, law.no_load_speed_grad())];
+            // gradients only where the tangent is built (`compile_shared`)
+            let grad_of = |g: &dyn Fn() -> Grad| if cx.tangent { g() } else { cx.empty.clone() };
+            let mut derived = vec![(
+                "no_load_speed_rad_s",
+                speed,
+                grad_of(&|| law.no_load_speed_grad()),
+            )];
             if let Some(rotor) = motor_spec
                 .rotor_inertia_kg_m2()
                 .map_err(motor_err("motor"))?
@@ -377,7 +395,7 @@ fn actuator(
                 derived.push((
                     "reflected_inertia_kg_m2",
                     inertia,
-                    law.reflected_inertia_grad(rotor),
+                    grad_of(&|| law.reflected_inertia_grad(rotor)),
                 ));
             }
             let a: Arc<dyn Actuator> = Arc::new(Drives {
@@ -834,6 +852,143 @@ impl Compiler<'_> {
         })
     }
 
+    /// Program `i` (`prog`, its joint's phases in order) and, when the tangent is built,
+    /// its phases' tangents.
+    fn program(
+        &self,
+        i: usize,
+        prog: &JointProgram,
+        q0: &[f64],
+        remap: &[usize],
+        actuator_names: &[String],
+    ) -> Result<(Program, Vec<PhaseTangent>), SimError> {
+        let j = joint_index(self.cx.model, &prog.joint).expect("checked above");
+        let own = joint_contacts(self.cx.model, j);
+        let mut phases: Vec<PhasePlan> = Vec::new();
+        let mut tangents: Vec<PhaseTangent> = Vec::new();
+        for (k, ph) in prog.phases.iter().enumerate() {
+            let field = format!("joints[{i}].phases[{k}]");
+            let mut start = Start::default();
+            let mut start_grads = StartGrads::default();
+            match (&ph.start, k) {
+                (Some(_), 0) => {
+                    return Err(invalid(
+                        format!("{field}.start"),
+                        "the first phase holds from the start: it has no `start`",
+                    ))
+                }
+                (None, 0) => {}
+                (None, _) => {
+                    return Err(invalid(
+                        format!("{field}.start"),
+                        "is required after the first phase",
+                    ))
+                }
+                (Some(t), _) => self.start(
+                    &format!("{field}.start"),
+                    t,
+                    (&mut start, &mut start_grads),
+                    j,
+                    own,
+                    q0[j],
+                    false,
+                )?,
+            }
+            for n in &mut start.named {
+                *n = remap[*n];
+            }
+            let (torque, torque_tangent) = self.torque(
+                &format!("{field}.torque"),
+                &ph.torque,
+                q0[j],
+                &actuator_names,
+            )?;
+            let ((motion, motion_tangent), own_motion) = match (&ph.motion, tangents.last()) {
+                (Some(m), _) => (self.motion(&format!("{field}.motion"), m, q0[j])?, true),
+                (None, Some(prev)) => (
+                    (
+                        phases.last().expect("one per tangent").motion.clone(),
+                        prev.motion.clone(),
+                    ),
+                    false,
+                ),
+                (None, None) => (
+                    (
+                        MotionLaw::Hold {
+                            angle: Value::Const(q0[j]),
+                        },
+                        [
+                            NumberTangent::Const(self.cx.zero()),
+                            NumberTangent::Const(self.cx.zero()),
+                            NumberTangent::Const(self.cx.zero()),
+                        ],
+                    ),
+                    true,
+                ),
+            };
+            let (restart_on, restart_named) = match (&ph.restart_on, phases.last()) {
+                (Some(list), _) => {
+                    let mut events = Vec::new();
+                    let mut names = Vec::new();
+                    for (r, t) in list.iter().enumerate() {
+                        let f = format!("{field}.restart_on[{r}]");
+                        let mut s = Start::default();
+                        let mut unused = StartGrads::default();
+                        self.start(&f, t, (&mut s, &mut unused), j, own, q0[j], true)?;
+                        if !s.times.is_empty() || !s.phases.is_empty() {
+                            return Err(invalid(
+                                f,
+                                "a motion restarts at events (`on`, `event`, `any`), not at times or phases",
+                            ));
+                        }
+                        events.extend(s.events);
+                        names.extend(s.named.iter().map(|&n| remap[n]));
+                    }
+                    (events, names)
+                }
+                (None, Some(prev)) => (prev.restart_on.clone(), prev.restart_named.clone()),
+                (None, None) => (Vec::new(), Vec::new()),
+            };
+            phases.push(PhasePlan {
+                name: ph.name.clone(),
+                start,
+                torque,
+                motion,
+                own_motion,
+                restart_on,
+                restart_named,
+            });
+            if self.cx.tangent {
+                tangents.push(PhaseTangent {
+                    times: start_grads.times,
+                    delays: start_grads.delays,
+                    torque: torque_tangent,
+                    motion: motion_tangent,
+                });
+            } else {
+                // the previous phase's motion tangent is read from here (`motion: None`)
+                tangents.clear();
+                tangents.push(PhaseTangent {
+                    times: Vec::new(),
+                    delays: Vec::new(),
+                    torque: TorqueTangent::Zero,
+                    motion: motion_tangent,
+                });
+            }
+        }
+        let repeat_from = repeat_from(i, prog, &phases)?;
+        Ok((
+            Program {
+                joint: j,
+                contacts: own,
+                has_levels: phases.iter().any(|ph| ph.start.level.is_some()),
+                phases,
+                repeat_from,
+            },
+            tangents,
+        ))
+    }
+
     fn named_event(&self, name: &str, ev: &NamedEvent) -> Result<NamedPlan, SimError> {
         let field = format!("events.{name}");
         let trigger = self.event_match(
@@ -947,59 +1102,11 @@ fn check_phase_cycles(
     Ok(())
 }
 
-/// Checks `b` against `model` and compiles it into the interpreter, starting from
-/// `(q0, qd0)` (the joints' start angles are the expression variable `q0`); phases that
-/// start at known times are planned up to `horizon_s` (the run's final time).
-pub fn compile(
-    b: &Behaviour,
-    model: &Model,
-    q0: &[f64],
-    qd0: &[f64],
-    horizon_s: f64,
-) -> Result<BehaviourController, SimError> {
-    let nq = model.nq();
-    for (field, v) in [("q0", q0), ("qd0", qd0)] {
-        if v.len() != nq {
-            return Err(invalid(
-                field,
-                format!("expected {nq} coordinates, got {}", v.len()),
-            ));
-        }
-        if let Some(i) = v.iter().position(|x| !x.is_finite()) {
-            return Err(invalid(format!("{field}[{i}]"), "must be finite"));
-        }
-    }
-    let mut values = parameters(b)?;
-    let mut grads = parameter_grads(b, &values);
-    let n_params = b.parameters.len();
-    // actuators, and their stall torques as parameters `<name>.stall_torque_n_m` (with what
-    // else their data give, `actuator`)
-    let mut actuators = Vec::new();
-    let mut laws = Vec::new();
-    let actuator_names: Vec<String> = b.actuators.keys().cloned().collect();
-    {
-        let cx = Context {
-            model,
-            values: values.clone(),
-            grads: grads.clone(),
-            n: n_params,
-        };
-        for (name, spec) in &b.actuators {
-            let (a, derived, law) = actuator(&cx, &format!("actuators.{name}"), spec)?;
-            values.insert(
-                format!("{name}.stall_torque_n_m"),
-                a.joint_torque_n_m(1.0, 0.0),
-            );
-            grads.insert(format!("{name}.stall_torque_n_m"), law.stall_grad());
-            for (quantity, v, g) in derived {
-                values.insert(format!("{name}.{quantity}"), v);
-                grads.insert(format!("{name}.{quantity}"), g);
-            }
-            actuators.push(a);
-            laws.push(law);
-        }
-    }
-    let named: Vec<String> = b.events.keys().cloned().collect();
+/// Each program's `(joint name, phase names)` and the program of each joint, checked: joints
+/// that exist and have one program, phases with distinct non-empty names, at least one.
+type ProgramNames = (Vec<(String, Vec<String>)>, Vec<Option<usize>>);
+
+fn program_names(b: &Behaviour, model: &Model) -> Result<ProgramNames, SimError> {
     let mut programs_names = Vec::new();
     let mut program_of_joint = vec![None; model.n_joints()];
     for (i, prog) in b.joints.iter().enumerate() {
@@ -1034,12 +1141,150 @@ pub fn compile(
         }
         programs_names.push((prog.joint.clone(), phase_names));
     }
+    Ok((programs_names, program_of_joint))
+}
+
+/// The phase program `i` repeats from, checked (after the first, not a joint-angle level).
+fn repeat_from(
+    i: usize,
+    prog: &JointProgram,
+    phases: &[PhasePlan],
+) -> Result<Option<usize>, SimError> {
+    Ok(match &prog.repeat_from {
+        None => None,
+        Some(name) => {
+            let f = format!("joints[{i}].repeat_from");
+            let r = phases
+                .iter()
+                .position(|ph| &ph.name == name)
+                .ok_or_else(|| SimError::UnknownReference {
+                    field: f.clone(),
+                    kind: "phase",
+                    name: name.clone(),
+                    known: phases
+                        .iter()
+                        .map(|ph| ph.name.clone())
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                })?;
+            if r == 0 || phases[r].start.level.is_some() {
+                return Err(invalid(
+                    f,
+                    "a program repeats from a phase after the first that is not a joint-angle level",
+                ));
+            }
+            Some(r)
+        }
+    })
+}
+
+/// Checks `b` against `model` and compiles it into the interpreter, starting from
+/// `(q0, qd0)` (the joints' start angles are the expression variable `q0`); phases that
+/// start at known times are planned up to `horizon_s` (the run's final time).
+pub fn compile(
+    b: &Behaviour,
+    model: &Model,
+    q0: &[f64],
+    qd0: &[f64],
+    horizon_s: f64,
+) -> Result<BehaviourController, SimError> {
+    compile_shared(b, &Arc::new(model.clone()), q0, qd0, horizon_s)
+}
+
+/// [`compile`] for a model already shared. The plan's parameter tangent (`tangent.rs`) is
+/// not computed here but on first use (by the sensitivities): the behaviour is compiled
+/// again then, with gradients, from a copy of its inputs — a run that is not
+/// differentiated does not pay for it.
+pub fn compile_shared(
+    b: &Behaviour,
+    model: &Arc<Model>,
+    q0: &[f64],
+    qd0: &[f64],
+    horizon_s: f64,
+) -> Result<BehaviourController, SimError> {
+    let (b2, m2, q, qd) = (b.clone(), Arc::clone(model), q0.to_vec(), qd0.to_vec());
+    let make = move || {
+        let c = compile_with(&b2, &m2, &q, &qd, horizon_s, true)
+            .expect("the same behaviour compiled before");
+        c.take_tangent()
+    };
+    let c = compile_with(b, model, q0, qd0, horizon_s, false)?;
+    c.set_tangent_source(Box::new(make));
+    Ok(c)
+}
+
+/// [`compile`], with the plan's tangent computed when `tangent`.
+fn compile_with(
+    b: &Behaviour,
+    model: &Model,
+    q0: &[f64],
+    qd0: &[f64],
+    horizon_s: f64,
+    tangent: bool,
+) -> Result<BehaviourController, SimError> {
+    let nq = model.nq();
+    for (field, v) in [("q0", q0), ("qd0", qd0)] {
+        if v.len() != nq {
+            return Err(invalid(
+                field,
+                format!("expected {nq} coordinates, got {}", v.len()),
+            ));
+        }
+        if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+            return Err(invalid(format!("{field}[{i}]"), "must be finite"));
+        }
+    }
+    let mut values = parameters(b)?;
+    let mut grads = if tangent {
+        parameter_grads(b, &values)
+    } else {
+        BTreeMap::new()
+    };
+    let empty: Grad = Arc::new([]);
+    let n_params = b.parameters.len();
+    // actuators, and their stall torques as parameters `<name>.stall_torque_n_m` (with what
+    // else their data give, `actuator`)
+    let mut actuators = Vec::new();
+    let mut laws = Vec::new();
+    let actuator_names: Vec<String> = b.actuators.keys().cloned().collect();
+    {
+        let cx = Context {
+            model,
+            values: values.clone(),
+            grads: grads.clone(),
+            n: n_params,
+            tangent,
+            empty: empty.clone(),
+        };
+        for (name, spec) in &b.actuators {
+            let (a, derived, law) = actuator(&cx, &format!("actuators.{name}"), spec)?;
+            values.insert(
+                format!("{name}.stall_torque_n_m"),
+                a.joint_torque_n_m(1.0, 0.0),
+            );
+            if tangent {
+                grads.insert(format!("{name}.stall_torque_n_m"), law.stall_grad());
+            }
+            for (quantity, v, g) in derived {
+                values.insert(format!("{name}.{quantity}"), v);
+                if tangent {
+                    grads.insert(format!("{name}.{quantity}"), g);
+                }
+            }
+            actuators.push(a);
+            laws.push(law);
+        }
+    }
+    let named: Vec<String> = b.events.keys().cloned().collect();
+    let (programs_names, program_of_joint) = program_names(b, model)?;
     let c = Compiler {
         cx: Context {
             model,
             values,
             grads,
             n: n_params,
+            tangent,
+            empty,
         },
         named: named.clone(),
         programs: programs_names.clone(),
@@ -1067,148 +1312,17 @@ pub fn compile(
     let mut programs = Vec::new();
     let mut phase_tangents = Vec::new();
     for (i, prog) in b.joints.iter().enumerate() {
-        let j = joint_index(model, &prog.joint).expect("checked above");
-        let own = joint_contacts(model, j);
-        let mut phases: Vec<PhasePlan> = Vec::new();
-        let mut tangents: Vec<PhaseTangent> = Vec::new();
-        for (k, ph) in prog.phases.iter().enumerate() {
-            let field = format!("joints[{i}].phases[{k}]");
-            let mut start = Start::default();
-            let mut start_grads = StartGrads::default();
-            match (&ph.start, k) {
-                (Some(_), 0) => {
-                    return Err(invalid(
-                        format!("{field}.start"),
-                        "the first phase holds from the start: it has no `start`",
-                    ))
-                }
-                (None, 0) => {}
-                (None, _) => {
-                    return Err(invalid(
-                        format!("{field}.start"),
-                        "is required after the first phase",
-                    ))
-                }
-                (Some(t), _) => c.start(
-                    &format!("{field}.start"),
-                    t,
-                    (&mut start, &mut start_grads),
-                    j,
-                    own,
-                    q0[j],
-                    false,
-                )?,
-            }
-            for n in &mut start.named {
-                *n = remap[*n];
-            }
-            let (torque, torque_tangent) = c.torque(
-                &format!("{field}.torque"),
-                &ph.torque,
-                q0[j],
-                &actuator_names,
-            )?;
-            let ((motion, motion_tangent), own_motion) = match (&ph.motion, tangents.last()) {
-                (Some(m), _) => (c.motion(&format!("{field}.motion"), m, q0[j])?, true),
-                (None, Some(prev)) => (
-                    (
-                        phases.last().expect("one per tangent").motion.clone(),
-                        prev.motion.clone(),
-                    ),
-                    false,
-                ),
-                (None, None) => (
-                    (
-                        MotionLaw::Hold {
-                            angle: Value::Const(q0[j]),
-                        },
-                        [
-                            NumberTangent::Const(c.cx.zero()),
-                            NumberTangent::Const(c.cx.zero()),
-                            NumberTangent::Const(c.cx.zero()),
-                        ],
-                    ),
-                    true,
-                ),
-            };
-            let (restart_on, restart_named) = match (&ph.restart_on, phases.last()) {
-                (Some(list), _) => {
-                    let mut events = Vec::new();
-                    let mut names = Vec::new();
-                    for (r, t) in list.iter().enumerate() {
-                        let f = format!("{field}.restart_on[{r}]");
-                        let mut s = Start::default();
-                        let mut unused = StartGrads::default();
-                        c.start(&f, t, (&mut s, &mut unused), j, own, q0[j], true)?;
-                        if !s.times.is_empty() || !s.phases.is_empty() {
-                            return Err(invalid(
-                                f,
-                                "a motion restarts at events (`on`, `event`, `any`), not at times or phases",
-                            ));
-                        }
-                        events.extend(s.events);
-                        names.extend(s.named.iter().map(|&n| remap[n]));
-                    }
-                    (events, names)
-                }
-                (None, Some(prev)) => (prev.restart_on.clone(), prev.restart_named.clone()),
-                (None, None) => (Vec::new(), Vec::new()),
-            };
-            phases.push(PhasePlan {
-                name: ph.name.clone(),
-                start,
-                torque,
-                motion,
-                own_motion,
-                restart_on,
-                restart_named,
-            });
-            tangents.push(PhaseTangent {
-                times: start_grads.times,
-                delays: start_grads.delays,
-                torque: torque_tangent,
-                motion: motion_tangent,
-            });
+        let (program, tangents) = c.program(i, prog, q0, &remap, &actuator_names)?;
+        programs.push(program);
+        if tangent {
+            phase_tangents.push(tangents);
         }
-        phase_tangents.push(tangents);
-        let repeat_from = match &prog.repeat_from {
-            None => None,
-            Some(name) => {
-                let f = format!("joints[{i}].repeat_from");
-                let r = phases
-                    .iter()
-                    .position(|ph| &ph.name == name)
-                    .ok_or_else(|| SimError::UnknownReference {
-                        field: f.clone(),
-                        kind: "phase",
-                        name: name.clone(),
-                        known: phases
-                            .iter()
-                            .map(|ph| ph.name.clone())
-                            .collect::<Vec<_>>()
-                            .join(", "),
-                    })?;
-                if r == 0 || phases[r].start.level.is_some() {
-                    return Err(invalid(
-                        f,
-                        "a program repeats from a phase after the first that is not a joint-angle level",
-                    ));
-                }
-                Some(r)
-            }
-        };
-        programs.push(Program {
-            joint: j,
-            contacts: own,
-            has_levels: phases.iter().any(|ph| ph.start.level.is_some()),
-            phases,
-            repeat_from,
-        });
     }
     check_phase_cycles(&programs, &programs_names)?;
     let idle_joints = (0..model.n_joints())
         .filter(|&j| program_of_joint[j].is_none())
         .collect();
+    let tangent_on = tangent;
     let tangent = PlanTangent {
         names: b.parameters.keys().cloned().collect(),
         kp_free: c.cx.grad(&free.kp_per_s2, None),
@@ -1218,7 +1332,11 @@ pub fn compile(
         actuators: laws,
     };
     let plan = Plan {
-        tangent,
+        tangent: match tangent_on {
+            true => std::sync::OnceLock::from(tangent),
+            false => std::sync::OnceLock::new(),
+        },
+        tangent_source: std::sync::OnceLock::new(),
         idle_joints,
         programs,
         actuators,

@@ -13,7 +13,7 @@
 //! on_event(e):             named events => phase latches => start times resolved =>
 //!                          motions (re)started at e, and those of later timed phases
 //! ```
-use super::tangent::{axpy, sum, Grad, NumberPartials, PlanTangent, TorqueTangent};
+use super::tangent::{axpy, Grad, NumberPartials, PlanTangent, TorqueTangent};
 use crate::expr::Expr;
 use crate::motion::{JointMotion, StartedLaw};
 use motor::Actuator;
@@ -23,7 +23,7 @@ use selfmanip_hybrid::{
     Controller, ControllerPartials, Event, EventKind, EventMemoryPartials, MemoryTimeEvent,
     TimeEvent,
 };
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 /// A number known when the behaviour is compiled, or one that depends on the joint's angle
 /// and rate where a motion starts (`theta`, `omega`).
@@ -248,8 +248,10 @@ pub(crate) struct NamedPlan {
 /// What a compiled behaviour runs: immutable, shared by every copy of the controller.
 pub(crate) struct Plan {
     /// The partials of its numbers over the behaviour's parameters (read by the
-    /// sensitivities only).
-    pub tangent: PlanTangent,
+    /// sensitivities only), built on first use by [`Self::tangent_source`].
+    pub tangent: OnceLock<PlanTangent>,
+    /// What builds [`Self::tangent`] (the behaviour compiled again with gradients).
+    pub tangent_source: OnceLock<TangentSource>,
     pub programs: Vec<Program>,
     pub actuators: Vec<Arc<dyn Actuator>>,
     /// Named events in an order where each comes after the one it waits for.
@@ -261,6 +263,22 @@ pub(crate) struct Plan {
     pub idle_joints: Vec<usize>,
     /// Phases that start at known times are planned up to here (the run's final time).
     pub horizon_s: f64,
+}
+
+/// Builds a plan's parameter tangent.
+pub(crate) type TangentSource = Box<dyn Fn() -> PlanTangent + Send + Sync>;
+
+impl Plan {
+    /// The parameter tangent, built on first use.
+    fn tangent(&self) -> &PlanTangent {
+        self.tangent.get_or_init(|| {
+            let make = self
+                .tangent_source
+                .get()
+                .expect("a plan without a tangent has its source");
+            make()
+        })
+    }
 }
 
 /// Most phase starts planned ahead per program and pass (a loop of timed phases with no
@@ -299,10 +317,26 @@ type TimeOrigin = Option<(usize, f64)>;
 
 /// A timeline entry: a phase's start time, the phase, the event the time is offset from, and
 /// the time's gradient over the parameters at fixed memory (`None`: zero).
-type Entry = (f64, usize, TimeOrigin, Option<Grad>);
+type Entry = (f64, usize, TimeOrigin, StartGrad);
+
+/// Where a planned start time's gradient over the parameters (at fixed memory) comes from,
+/// resolved against the plan's tangent only when the sensitivities ask
+/// ([`BehaviourController::start_grad`]): the forward run never builds the tangent.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum StartGrad {
+    /// Zero: a start at an event (its time is memory), phase 0's.
+    Zero,
+    /// `times[i]` of the start of phase `j` of program `p`: `(p, j, i)`.
+    Time(usize, usize, usize),
+    /// Another start's (zero, or a time's), plus `delays[i]` of the start of phase `j` of
+    /// program `p`.
+    Delay(Option<(usize, usize, usize)>, (usize, usize, usize)),
+    /// A delay after a delayed start: not differentiated (`parameter_partials` refuses it).
+    Deeper,
+}
 
 /// How a prescribed motion started: for its derivatives.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 struct MotionRecord {
     /// How it depends on the events the controller was told of (its memory).
     origin: MotionOrigin,
@@ -313,7 +347,7 @@ struct MotionRecord {
     omega0: f64,
     /// A timed phase's own motion: the motion whose reference it started from, and the
     /// gradient of its start time over the parameters at fixed memory (`None`: zero).
-    timed: Option<(usize, Option<Grad>)>,
+    timed: Option<(usize, StartGrad)>,
 }
 
 /// How a prescribed motion depends on the events the controller was told of.
@@ -374,7 +408,7 @@ impl BehaviourController {
             .programs
             .iter()
             .map(|p| ProgramMemory {
-                timeline: vec![(NEVER, 0, None, None)],
+                timeline: vec![(NEVER, 0, None, StartGrad::Zero)],
                 motions: vec![p.phases[0].motion.start(0.0, q0[p.joint], qd0[p.joint])],
                 records: vec![MotionRecord {
                     origin: MotionOrigin::Fixed,
@@ -399,6 +433,20 @@ impl BehaviourController {
         }
         c.plan_timed_motions(NEVER);
         Ok(c)
+    }
+
+    /// Where the plan's parameter tangent comes from when first used (`compile_shared`).
+    pub(crate) fn set_tangent_source(&self, make: TangentSource) {
+        // a plan compiled with its tangent has no source
+        let _ = self.plan.tangent_source.set(make);
+    }
+
+    /// The plan's parameter tangent (of a controller just compiled with it).
+    pub(crate) fn take_tangent(self) -> PlanTangent {
+        Arc::try_unwrap(self.plan)
+            .ok()
+            .and_then(|p| p.tangent.into_inner())
+            .expect("a controller compiled with its tangent, not shared")
     }
 
     /// The name of the phase the program of `joint` is in at `(t, q)`.
@@ -556,7 +604,7 @@ impl BehaviourController {
     /// start, over the parameters and `(θ₀, ω₀)`.
     fn numbers_at(&self, p: usize, i: usize) -> [NumberPartials; 3] {
         let rec = &self.programs[p].records[i];
-        let tan = &self.plan.tangent;
+        let tan = self.plan.tangent();
         tan.phases[p][rec.phase]
             .motion
             .each_ref()
@@ -576,9 +624,9 @@ impl BehaviourController {
         let plan = &*self.plan;
         let prog = &plan.programs[p];
         let j = prog.joint;
-        let n = plan.tangent.names.len();
+        let n = plan.tangent().names.len();
         let law = &prog.phases[k].torque;
-        Some(Some(match (law, &plan.tangent.phases[p][k].torque) {
+        Some(Some(match (law, &plan.tangent().phases[p][k].torque) {
             (TorqueLaw::Zero, _) => return Some(None),
             (TorqueLaw::Constant(_), TorqueTangent::Constant(g)) => g.to_vec(),
             (
@@ -642,7 +690,7 @@ impl BehaviourController {
                 },
                 TorqueTangent::Motor { command: du },
             ) => {
-                plan.tangent.actuators[*actuator]
+                plan.tangent().actuators[*actuator]
                     .partials(*command, du, qd[j])
                     .1
             }
@@ -685,7 +733,7 @@ impl BehaviourController {
             return;
         };
         let numbers = self.numbers_at(p, i);
-        let n = self.plan.tangent.names.len();
+        let n = self.plan.tangent().names.len();
         for (&t, row) in knots
             .iter()
             .zip(law.knot_partials(m, rec.theta0, rec.omega0))
@@ -721,8 +769,8 @@ impl BehaviourController {
         let mem = &self.programs[p];
         let (prev, g) = mem.records[i].timed.as_ref()?;
         let s = mem.motions[i].t0();
-        let n = self.plan.tangent.names.len();
-        let ds = g.as_ref().map_or_else(|| vec![0.0; n], |g| g.to_vec());
+        let n = self.plan.tangent().names.len();
+        let ds = self.start_grad(g).unwrap_or_else(|| vec![0.0; n]);
         let [mut dth, mut dw, _] = self.motion_dp(p, *prev, s);
         let (_, w, a) = mem.motions[*prev].eval(s);
         axpy(&mut dth, w, &ds);
@@ -735,7 +783,7 @@ impl BehaviourController {
     /// ([`Self::start_dp`]).
     fn motion_dp(&self, p: usize, i: usize, t: f64) -> [Vec<f64>; 3] {
         let (d, numbers) = self.law_partials(p, i, t);
-        let n = self.plan.tangent.names.len();
+        let n = self.plan.tangent().names.len();
         let mut out = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
         for (r, row) in d.iter().enumerate() {
             for (k, num) in numbers.iter().enumerate() {
@@ -817,7 +865,7 @@ impl BehaviourController {
             Armed,
             Time(usize),
             Named,
-            Phase(usize, Option<Grad>),
+            Phase(usize, StartGrad),
         }
         let s = &self.plan.programs[p].phases[j].start;
         let mut best: Option<(f64, TimeOrigin, Which)> = None;
@@ -842,19 +890,39 @@ impl BehaviourController {
         for (i, &(p2, k2, delay)) in s.phases.iter().enumerate() {
             let starts = self.programs[p2].timeline.iter().filter(|e| e.1 == k2);
             if let Some(e) = starts.map(|e| (e.0 + delay, e)).find(|e| e.0 >= armed.0) {
-                offer(e.0, e.1 .2, Which::Phase(i, e.1 .3.clone()));
+                offer(e.0, e.1 .2, Which::Phase(i, e.1 .3));
             }
         }
-        let tangent = &self.plan.tangent.phases[p][j];
         best.map(|(t, from, which)| {
             let grad = match which {
-                Which::Armed => armed.3.clone(),
-                Which::Time(i) => Some(tangent.times[i].clone()),
-                Which::Named => None,
-                Which::Phase(i, g) => sum(&[(1.0, g.as_ref()), (1.0, Some(&tangent.delays[i]))]),
+                Which::Armed => armed.3,
+                Which::Time(i) => StartGrad::Time(p, j, i),
+                Which::Named => StartGrad::Zero,
+                Which::Phase(i, g) => match g {
+                    StartGrad::Zero => StartGrad::Delay(None, (p, j, i)),
+                    StartGrad::Time(a, b, c) => StartGrad::Delay(Some((a, b, c)), (p, j, i)),
+                    _ => StartGrad::Deeper,
+                },
             };
             (t, j, from, grad)
         })
+    }
+
+    /// The gradient of a planned start (`None`: zero), from the plan's tangent; NaN for a
+    /// start not differentiated ([`StartGrad::Deeper`]).
+    fn start_grad(&self, g: &StartGrad) -> Option<Vec<f64>> {
+        let tan = self.plan.tangent();
+        let time = |(p, j, i): (usize, usize, usize)| tan.phases[p][j].times[i].to_vec();
+        match *g {
+            StartGrad::Zero => None,
+            StartGrad::Time(p, j, i) => Some(time((p, j, i))),
+            StartGrad::Delay(before, (p, j, i)) => {
+                let mut d = before.map_or_else(|| vec![0.0; tan.names.len()], time);
+                axpy(&mut d, 1.0, &tan.phases[p][j].delays[i]);
+                Some(d)
+            }
+            StartGrad::Deeper => Some(vec![f64::NAN; tan.names.len()]),
+        }
     }
 
     /// Plans again, after `now`, the phases whose starts are known (to the horizon), for
@@ -1095,7 +1163,7 @@ impl Controller for BehaviourController {
                 TorqueLaw::Motor {
                     actuator, command, ..
                 } => {
-                    let law = &plan.tangent.actuators[*actuator];
+                    let law = &plan.tangent().actuators[*actuator];
                     out.dtau_dqd[(j, j)] = law.partials(*command, &[], qd[j]).0;
                 }
                 TorqueLaw::Servo {
@@ -1138,7 +1206,8 @@ impl Controller for BehaviourController {
                 actuator, command, ..
             } = torque
             {
-                let on_limit = plan.tangent.actuators[*actuator].on_limit(*command, qd[prog.joint]);
+                let on_limit =
+                    plan.tangent().actuators[*actuator].on_limit(*command, qd[prog.joint]);
                 out ^= u64::from(on_limit) << (2 * (p % 32));
                 continue;
             }
@@ -1175,8 +1244,9 @@ impl Controller for BehaviourController {
     ///   `supply_voltage_v`) and its command (`ActuatorLaw::partials`);
     /// - a free joint `∂α* + (θ* − q) ∂kp_f + (ω* − q̇) ∂kd_f + kp_f ∂θ* + kd_f ∂ω*`.
     ///
-    /// `false` for a name that is not a parameter of the behaviour, and wherever
-    /// [`Controller::partials`] gives none.
+    /// `false` for a name that is not a parameter of the behaviour, wherever
+    /// [`Controller::partials`] gives none, and for a phase planned a delay after a phase
+    /// itself planned a delay after another (not differentiated yet).
     fn parameter_partials(
         &self,
         t: f64,
@@ -1188,10 +1258,14 @@ impl Controller for BehaviourController {
         out: &mut ControllerPartials,
     ) -> bool {
         let plan = &*self.plan;
-        let tan = &plan.tangent;
+        let tan = plan.tangent();
         let Some(idx) = tan.indices(names) else {
             return false;
         };
+        let deeper = |m: &ProgramMemory| m.timeline.iter().any(|e| e.3 == StartGrad::Deeper);
+        if self.programs.iter().any(deeper) {
+            return false;
+        }
         for (p, prog) in plan.programs.iter().enumerate() {
             if prog.has_levels {
                 return false;
@@ -1234,12 +1308,9 @@ impl Controller for BehaviourController {
     /// does not have get zeros ([`Self::parameter_partials`] refuses them). The engine's
     /// steps land on these instants.
     fn time_events(&self, names: &[&str]) -> Vec<TimeEvent> {
-        let tan = &self.plan.tangent;
-        let idx = if names.is_empty() {
-            None
-        } else {
-            tan.indices(names)
-        };
+        // the forward run asks with no names: the tangent is not built for it
+        let tan = (!names.is_empty()).then(|| self.plan.tangent());
+        let idx = tan.and_then(|t| t.indices(names));
         let pick = |g: Option<&[f64]>| -> Vec<f64> {
             match (&idx, g) {
                 (Some(ix), Some(g)) => ix.iter().map(|&i| g[i]).collect(),
@@ -1250,24 +1321,31 @@ impl Controller for BehaviourController {
         for mem in &self.programs {
             out.extend(mem.timeline.iter().map(|e| TimeEvent {
                 t: e.0,
-                dt_dp: pick(e.3.as_deref()),
+                dt_dp: match idx {
+                    Some(_) => pick(self.start_grad(&e.3).as_deref()),
+                    None => pick(None),
+                },
             }));
         }
         for (p, prog) in self.plan.programs.iter().enumerate() {
             for i in 0..self.programs[p].motions.len() {
                 self.motion_time_events(p, i, idx.is_some(), &pick, &mut out);
             }
-            for (phase, tangent) in prog.phases.iter().zip(&tan.phases[p]) {
-                if let (
-                    TorqueLaw::Schedule { times, .. },
-                    TorqueTangent::Schedule { times: dtimes, .. },
-                ) = (&phase.torque, &tangent.torque)
+            for (k, phase) in prog.phases.iter().enumerate() {
+                let TorqueLaw::Schedule { times, .. } = &phase.torque else {
+                    continue;
+                };
+                let dtimes = match tan
+                    .filter(|_| idx.is_some())
+                    .map(|t| &t.phases[p][k].torque)
                 {
-                    out.extend(times.iter().zip(dtimes).map(|(&t, g)| TimeEvent {
-                        t,
-                        dt_dp: pick(Some(g)),
-                    }));
-                }
+                    Some(TorqueTangent::Schedule { times: d, .. }) => Some(d),
+                    _ => None,
+                };
+                out.extend(times.iter().enumerate().map(|(i, &t)| TimeEvent {
+                    t,
+                    dt_dp: pick(dtimes.map(|d| &d[i][..])),
+                }));
             }
         }
         out.retain(|e| e.t.is_finite());
@@ -1434,7 +1512,7 @@ impl Controller for BehaviourController {
                 }
                 self.programs[p]
                     .timeline
-                    .push((e.t, j, Some((ev_k, e.t)), None));
+                    .push((e.t, j, Some((ev_k, e.t)), StartGrad::Zero));
             }
         }
         // => the starts this makes known, and those of the phases after them
