@@ -16,13 +16,8 @@ use selfmanip_hybrid::{simulate, Controller, ControllerPartials, EventKind};
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::periodic::run_sensitivity;
 use selfmanip_sim::{Scenario, Simulation};
-use std::path::{Path, PathBuf};
-
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("examples/data")
-        .join(name)
-}
+mod common;
+use common::{data, hopper};
 
 /// The hopper of `examples/hopper.rs` (dropped 10 cm, leg at its landing pose) moving
 /// forward at 0.3 m/s and falling at 0.5 m/s, under `hop.toml`, with every coordinate in the
@@ -33,16 +28,7 @@ fn hop_sim(t_final: f64) -> Simulation {
 
 /// [`hop_sim`] under another behaviour.
 fn hop_sim_with(behaviour: Behaviour, t_final: f64) -> Simulation {
-    let robot = RobotDescription::from_file(&data("hopper.toml")).unwrap();
-    let a: f64 = 0.5;
-    let q0 = vec![a, -2.0 * a, 0.0, -(0.1 + 0.4 * a.cos()), 0.0];
-    let mut s = Scenario::new(robot, q0);
-    s.initial.qd = Some(vec![0.0, 0.0, 0.3, 0.5, 0.0]);
-    s.behaviour = behaviour;
-    s.options.t_final_s = t_final;
-    s.options.rtol = 1e-12;
-    s.options.event_tol_s = 1e-14;
-    let mut sim = Simulation::new(&s).unwrap();
+    let mut sim = Simulation::new(&hopper(behaviour, t_final)).unwrap();
     sim.options.control_free_joints = true;
     sim
 }

@@ -327,15 +327,10 @@ fn ramp(dur: D, theta0: D, w0: D, w1: D, tau: D) -> [D; 3] {
 mod tests {
     use super::*;
 
-    /// The dual-number construction reproduces the motion (its values agree with
-    /// `JointMotion::eval` to round-off), and its partials over `(t₀, θ₀, ω₀)` agree with
-    /// central differences of whole motions built from perturbed starts (an independent
-    /// route: the production constructor, not the dual one), for swings (ramps, a cruise at
-    /// the start speed) and parks (a quintic after the duration search), at times inside
-    /// every piece.
-    #[test]
-    fn motion_partials_match_central_differences() {
-        let laws = [
+    /// Swings (ramps, a cruise at the start speed, one that falls back on a park) and a
+    /// park, with their starts `(θ₀, ω₀)`.
+    fn sample_laws() -> [(StartedLaw, f64, f64); 5] {
+        [
             (
                 StartedLaw::Swing {
                     target: 1.2,
@@ -380,7 +375,18 @@ mod tests {
                 0.45,
                 -4.0,
             ),
-        ];
+        ]
+    }
+
+    /// The dual-number construction reproduces the motion (its values agree with
+    /// `JointMotion::eval` to round-off), and its partials over `(t₀, θ₀, ω₀)` agree with
+    /// central differences of whole motions built from perturbed starts (an independent
+    /// route: the production constructor, not the dual one), for swings (ramps, a cruise at
+    /// the start speed) and parks (a quintic after the duration search), at times inside
+    /// every piece.
+    #[test]
+    fn motion_partials_match_central_differences() {
+        let laws = sample_laws();
         let t0 = 0.1;
         let mut worst: f64 = 0.0;
         for (law, th, w) in laws {
@@ -486,34 +492,7 @@ mod tests {
     /// constructor), for ramps and quintics.
     #[test]
     fn target_and_knot_partials_match_central_differences() {
-        let laws = [
-            (
-                StartedLaw::Swing {
-                    target: 1.2,
-                    speed: 15.0,
-                    accel: 600.0,
-                },
-                0.3,
-                -2.0,
-            ),
-            (
-                StartedLaw::Swing {
-                    target: -1.0,
-                    speed: 15.0,
-                    accel: 600.0,
-                },
-                0.4,
-                -20.0,
-            ),
-            (
-                StartedLaw::Park {
-                    target: -0.6,
-                    accel: 400.0,
-                },
-                0.2,
-                3.0,
-            ),
-        ];
+        let laws = sample_laws();
         let t0 = 0.1;
         // (t0, θ0, ω0, speed, accel, target) perturbed by h in column c
         let build = |law: StartedLaw, x: [f64; 6]| {
