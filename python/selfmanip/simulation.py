@@ -125,7 +125,8 @@ class Execution:
     impulse into ``mode_after`` in N s), ``segments`` (dicts ``t0_s``, ``t1_s``, ``mode``),
     ``outcome`` (apex, landing, end state, flight time, impact losses)."""
 
-    def __init__(self, native: Any, robot_name: str = "", sensitivity: bool = False):
+    def __init__(self, native: Any, robot_name: str = "", sensitivity: bool = False,
+                 parameters: Sequence[str] = ()):
         self._native = native
         self.robot_name = robot_name
         self.outcome: dict[str, Any] = dict(native.outcome())
@@ -134,8 +135,20 @@ class Execution:
         #: ``dx(t_end)/dx(0)`` over the state ``(q, qd)`` (``2 nq x 2 nq``) when run with
         #: ``sensitivity=True`` and every event's saltation matrix is defined; else ``None``.
         self.state_jacobian: np.ndarray | None = None
+        #: The behaviour parameters asked for with ``parameters=[...]``, and
+        #: ``dx(t_end)/dp`` over them (``2 nq x len(parameters)``, one column per name), or
+        #: ``None`` when not formed (``parameter_reason`` says why).
+        self.parameters: list[str] = list(parameters)
+        self.parameter_jacobian: np.ndarray | None = None
+        self.parameter_reason: str | None = None
         if sensitivity:
             self._attach_sensitivity(native.sensitivity())
+        if self.parameters:
+            p = native.parameter_sensitivity(self.parameters)
+            self.parameter_jacobian = p["parameter_jacobian"]
+            self.parameter_reason = p["reason"]
+            for ev, g in zip(self.events, p["event_time_gradients"]):
+                ev["parameter_time_gradient"] = g
 
     def _attach_sensitivity(self, s: Mapping[str, Any]) -> None:
         """Each event gets ``saltation`` (``2 nq x 2 nq`` or ``None``), ``saltation_status``
@@ -311,7 +324,8 @@ def simulate(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[float], qd
              terrain: TerrainLike = None, t_final: float | _Default = DEFAULT, stop_at: str | None | _Default = DEFAULT,
              *, controller: Controller | None = None, contacts: Sequence[str] | str | None = None,
              solve: Sequence[str] | str | None = None, params: Mapping[str, Any] | None = None,
-             sensitivity: bool = False, **options: Any) -> Execution:
+             sensitivity: bool = False, parameters: Sequence[str] | None = None,
+             **options: Any) -> Execution:
     """One execution of ``robot`` driven by ``behaviour`` from ``q0`` (``[joint angles..., x, z,
     phi]``, NED: z down) and ``qd0`` (default: at rest), on ``terrain`` (``None``: flat ground;
     ``"flat"``, or a dict such as ``{"kind": "ledge", "height_m": 0.04, "distance_m": 0.5}``;
@@ -340,15 +354,34 @@ def simulate(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[float], qd
     ``time_gradient``. A behaviour with a ``motor`` torque or a ``joint_angle`` level has no
     partial derivatives yet: :class:`~selfmanip.errors.InvalidInputError` naming
     ``behaviour``; so does a Python ``controller``.
+
+    ``parameters=["kp_push", ...]`` (with ``sensitivity=True``): also the final state's exact
+    derivatives with respect to those parameters of the behaviour (its ``[parameters]``
+    table), ``Execution.parameter_jacobian`` (``2 nq x len(parameters)``, ``None`` with
+    ``parameter_reason`` where not formed) and each event's ``parameter_time_gradient``. A
+    name the behaviour does not have raises :class:`~selfmanip.errors.InvalidInputError`
+    naming ``parameters[i]``.
     """
     if controller is not None and behaviour is not None:
         raise InvalidInputError("give a behaviour or a controller, not both", "controller")
     if not isinstance(sensitivity, bool):
         raise InvalidTypeError(f"`sensitivity` must be True or False, got {type(sensitivity).__name__}",
                                "sensitivity")
+    names = _parameter_names(parameters, sensitivity)
     s = scenario(robot, behaviour, q0, qd0, terrain, t_final, stop_at, contacts=contacts, solve=solve,
                  params=params, **options)
-    return Execution(s.run(controller), _robot(robot)[1], sensitivity)
+    return Execution(s.run(controller), _robot(robot)[1], sensitivity, names)
+
+
+def _parameter_names(parameters: Sequence[str] | None, sensitivity: bool) -> list[str]:
+    """The behaviour parameters of ``simulate(..., parameters=...)``, checked."""
+    if parameters is None:
+        return []
+    if isinstance(parameters, str) or not all(isinstance(p, str) for p in parameters):
+        raise InvalidTypeError("`parameters` must be a list of parameter names", "parameters")
+    if not sensitivity:
+        raise InvalidInputError("`parameters` needs `sensitivity=True`", "parameters")
+    return list(parameters)
 
 
 @dataclass(frozen=True)

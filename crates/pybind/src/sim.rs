@@ -37,7 +37,9 @@ use selfmanip_hybrid::sensitivity::SensitivityError;
 use selfmanip_hybrid::Controller;
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::labels::ContactLabels;
-use selfmanip_sim::periodic::{periodic_orbit, run_sensitivity, PeriodicRunError, PeriodicSpec};
+use selfmanip_sim::periodic::{
+    periodic_orbit, run_parameter_sensitivity, run_sensitivity, PeriodicRunError, PeriodicSpec,
+};
 use selfmanip_sim::sweep::{grid, sweep_with, PointResult};
 use selfmanip_sim::trajectory::{q_names, DEFAULT_DT_S};
 use selfmanip_sim::{InitialState, Scenario, SimError, SimOptions, Simulation, TerrainSpec};
@@ -745,6 +747,50 @@ impl PyRun {
                 events.append(ed)?;
             }
             d.set_item("events", events)?;
+            Ok(d)
+        })
+    }
+
+    /// The final state's derivatives with respect to the behaviour's named parameters
+    /// (`selfmanip_sim::periodic::run_parameter_sensitivity`): `parameter_jacobian`
+    /// (`2nq × len(names)`, `None` when not formed), `reason` (why not, else `None`) and
+    /// `event_time_gradients` (per event `dt_e/dp`, or `None`). A name the behaviour does not
+    /// have is an `InvalidInputError` naming `parameters[i]`.
+    fn parameter_sensitivity<'py>(
+        &self,
+        py: Python<'py>,
+        names: Vec<String>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        guard(|| {
+            let run = &self.inner;
+            let refs: Vec<&str> = names.iter().map(String::as_str).collect();
+            let s = py
+                .detach(|| run_parameter_sensitivity(run, &refs))
+                .map_err(|e| match e {
+                    SensitivityError::UnknownParameter { name, .. } => {
+                        let i = names.iter().position(|n| *n == name).unwrap_or(0);
+                        invalid(
+                            &format!("parameters[{i}]"),
+                            format!("`{name}` is not a parameter of the behaviour"),
+                        )
+                    }
+                    e => sensitivity_err(e),
+                })?;
+            take_failure(&self.failure)?;
+            let d = PyDict::new(py);
+            match &s.state {
+                Some(j) => d.set_item("parameter_jacobian", matrix(j).into_pyarray(py))?,
+                None => d.set_item("parameter_jacobian", py.None())?,
+            }
+            d.set_item("reason", s.reason.clone())?;
+            let times = PyList::empty(py);
+            for t in &s.event_times {
+                match t {
+                    Some(g) => times.append(g.clone().into_pyarray(py))?,
+                    None => times.append(py.None())?,
+                }
+            }
+            d.set_item("event_time_gradients", times)?;
             Ok(d)
         })
     }

@@ -7,7 +7,7 @@
 //! Run                    => outcome (word, apex, landing), events, trajectory(dt),
 //!                           energy_report(), write_mcap(path)
 //! ```
-use crate::behaviour::{compile, Behaviour};
+use crate::behaviour::{compile_shared, Behaviour};
 use crate::error::{invalid, non_negative, positive, SimError};
 use crate::events::{event_records, EventRecord};
 use crate::labels::ContactLabels;
@@ -259,7 +259,7 @@ impl Simulation {
     /// Checks and builds everything (errors name the field).
     pub fn new(s: &Scenario) -> Result<Self, SimError> {
         let mut sim = Self::without_behaviour(s)?;
-        let ctrl = compile(&s.behaviour, &sim.model, &sim.q0, &sim.qd0, sim.t_final_s)?;
+        let ctrl = compile_shared(&s.behaviour, &sim.model, &sim.q0, &sim.qd0, sim.t_final_s)?;
         sim.controller = Arc::new(ctrl);
         Ok(sim)
     }

@@ -8,22 +8,16 @@
 //! - a closed form: an arm swinging at constant speed `ω*` from a touchdown at `t_k` is at
 //!   `θ(T) = Θ(T − t_k)`, so `∂θ(T)/∂x₀ = −ω* ∂t_k/∂x₀`, with `∂t_k/∂z₀ = −1/ż_k` and
 //!   `∂t_k/∂ż₀ = −t_k/ż_k` of a free fall;
-//! - a memory the behaviour does not differentiate is a typed error, not a number.
+//! - a motion whose numbers depend on its start state, against central differences.
 use nalgebra::DMatrix;
 use selfmanip_core::ContactMode;
 use selfmanip_core::RobotDescription;
-use selfmanip_hybrid::sensitivity::SensitivityError;
 use selfmanip_hybrid::{simulate, Controller, ControllerPartials, EventKind};
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::periodic::run_sensitivity;
 use selfmanip_sim::{Scenario, Simulation};
-use std::path::{Path, PathBuf};
-
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("examples/data")
-        .join(name)
-}
+mod common;
+use common::{data, hopper};
 
 /// The hopper of `examples/hopper.rs` (dropped 10 cm, leg at its landing pose) moving
 /// forward at 0.3 m/s and falling at 0.5 m/s, under `hop.toml`, with every coordinate in the
@@ -47,12 +41,9 @@ fn tight_sim(mut s: Scenario, behaviour: Behaviour, t_final: f64) -> Simulation 
 
 /// [`hop_sim`] under another behaviour.
 fn hop_sim_with(behaviour: Behaviour, t_final: f64) -> Simulation {
-    let robot = RobotDescription::from_file(&data("hopper.toml")).unwrap();
-    let a: f64 = 0.5;
-    let q0 = vec![a, -2.0 * a, 0.0, -(0.1 + 0.4 * a.cos()), 0.0];
-    let mut s = Scenario::new(robot, q0);
-    s.initial.qd = Some(vec![0.0, 0.0, 0.3, 0.5, 0.0]);
-    tight_sim(s, behaviour, t_final)
+    let mut sim = Simulation::new(&hopper(behaviour, t_final)).unwrap();
+    sim.options.control_free_joints = true;
+    sim
 }
 
 /// The end state of a run from `x` with the simulation's controller (its memory at the
@@ -307,11 +298,11 @@ fn arm_closed_form(landed: &str) {
 }
 
 /// A motion whose numbers depend on the state where it starts (`theta`) is memory the
-/// behaviour does not differentiate: the sensitivities stop with a typed error naming the
-/// time, rather than hold it fixed; a hold at a constant angle started at the same event is
-/// no memory at all (its reference does not depend on the event).
+/// behaviour differentiates through its start (`θ* = θ_k + 0.1`): the state Jacobian's fall
+/// columns against central differences of whole runs; a hold at a constant angle started at
+/// the same event is no memory at all (its reference does not depend on the event).
 #[test]
-fn memory_not_differentiated_is_a_typed_error() {
+fn memory_of_the_start_state_is_differentiated() {
     let sim = dropped_arm(
         r#"motion = { kind = "hold", angle_rad = "theta + 0.1" }"#,
         0.4,
@@ -324,11 +315,11 @@ fn memory_not_differentiated_is_a_typed_error() {
         .unwrap()
         .controller
         .has_event_memory());
-    match run_sensitivity(&run) {
-        Err(SensitivityError::EventMemoryWithoutPartials { t, .. }) => {
-            assert!(t >= run.execution.events[0].t)
-        }
-        other => panic!("{other:?}"),
+    let j = run_sensitivity(&run).unwrap().state_jacobian.unwrap();
+    let fd = central_differences(&sim, &[2, 6], 1e-6);
+    for c in [2, 6] {
+        let e = (j.column(c) - fd.column(c)).amax();
+        assert!(e < 1e-7, "column {c}: {e:e}");
     }
     let sim = dropped_arm(r#"motion = { kind = "hold", angle_rad = 3.0 }"#, 0.4);
     let run = sim.run().unwrap();

@@ -6,8 +6,9 @@ use super::interpreter::{
     Program, Start, TorqueLaw, Value,
 };
 use super::spec::{
-    ActuatorSpec, Behaviour, Interpolation, Motion, NamedEvent, On, Torque, Trigger,
+    ActuatorSpec, Behaviour, Interpolation, JointProgram, Motion, NamedEvent, On, Torque, Trigger,
 };
+use super::tangent::{ActuatorLaw, Grad, NumberTangent, PhaseTangent, PlanTangent, TorqueTangent};
 use crate::error::{finite, invalid, non_negative, positive, SimError};
 use crate::expr::{Expr, Scalar};
 use crate::labels::{contact_by_name, joint_contacts, joint_index, joint_name};
@@ -29,9 +30,56 @@ struct Context<'a> {
     model: &'a Model,
     /// Parameters and actuator constants by name.
     values: BTreeMap<String, f64>,
+    /// Their gradients over the parameters (`tangent.rs`).
+    grads: BTreeMap<String, Grad>,
+    /// The number of parameters.
+    n: usize,
+    /// Whether gradients are computed (else every gradient is [`Self::empty`]: the plan's
+    /// tangent is built on first use, [`compile`]).
+    tangent: bool,
+    empty: Grad,
 }
 
 impl Context<'_> {
+    /// The gradient over the parameters of a number [`Self::number`] has checked (`q0`, the
+    /// joint's start angle, an input: no gradient).
+    fn grad(&self, s: &Scalar, q0: Option<f64>) -> Grad {
+        if !self.tangent {
+            return self.empty.clone();
+        }
+        let n = self.n;
+        let e = s.parse("").expect("checked by `number`");
+        let lookup = |name: &str| match name {
+            "q0" => q0.map(|v| (v, vec![0.0; n])),
+            _ => Some((
+                *self.values.get(name)?,
+                self.grads
+                    .get(name)
+                    .map_or_else(|| vec![0.0; n], |g| g.to_vec()),
+            )),
+        };
+        let (_, d) = e.eval_grad(n, &lookup).expect("checked by `number`");
+        d.into()
+    }
+
+    /// [`Self::number`] with its gradient.
+    fn number_grad(
+        &self,
+        field: &str,
+        s: &Scalar,
+        q0: Option<f64>,
+    ) -> Result<(f64, Grad), SimError> {
+        let v = self.number(field, s, q0)?;
+        Ok((v, self.grad(s, q0)))
+    }
+
+    fn zero(&self) -> Grad {
+        if !self.tangent {
+            return self.empty.clone();
+        }
+        vec![0.0; self.n].into()
+    }
+
     /// A number known now: `scalar` with the parameters (and `q0`, the joint's start angle,
     /// when given).
     fn number(&self, field: &str, s: &Scalar, q0: Option<f64>) -> Result<f64, SimError> {
@@ -83,8 +131,13 @@ impl Context<'_> {
         })
     }
 
-    /// A number of a motion: known now unless it uses `theta` or `omega`.
-    fn motion_value(&self, field: &str, s: &Scalar, q0: f64) -> Result<Value, SimError> {
+    /// A number of a motion: known now unless it uses `theta` or `omega`; with its tangent.
+    fn motion_value(
+        &self,
+        field: &str,
+        s: &Scalar,
+        q0: f64,
+    ) -> Result<(Value, NumberTangent), SimError> {
         let e = s.parse(field)?;
         // checks names and evaluates once (at θ = ω = 0) to catch errors now
         let v = self.eval(field, s, &e, Some(q0), true)?;
@@ -94,9 +147,18 @@ impl Context<'_> {
             let mut consts: Vec<(String, f64)> =
                 self.values.iter().map(|(k, v)| (k.clone(), *v)).collect();
             consts.push(("q0".into(), q0));
-            Ok(Value::AtStart(e, Arc::new(consts)))
+            let consts = Arc::new(consts);
+            let tangent = if self.tangent {
+                NumberTangent::AtStart(e.clone(), Arc::clone(&consts))
+            } else {
+                NumberTangent::Const(self.empty.clone())
+            };
+            Ok((Value::AtStart(e, consts), tangent))
         } else {
-            Ok(Value::Const(finite(field, v)?))
+            Ok((
+                Value::Const(finite(field, v)?),
+                NumberTangent::Const(self.grad(s, Some(q0))),
+            ))
         }
     }
 
@@ -180,8 +242,51 @@ fn parameters(b: &Behaviour) -> Result<BTreeMap<String, f64>, SimError> {
     Ok(values)
 }
 
-/// `(quantity, value)` pairs an actuator's data give besides its stall torque ([`actuator`]).
-type DerivedQuantities = Vec<(&'static str, f64)>;
+/// The gradient of every parameter over the parameters, in name order: `e_p` plus the chain
+/// of its formula (the parameters have been evaluated and checked for cycles).
+fn parameter_grads(b: &Behaviour, values: &BTreeMap<String, f64>) -> BTreeMap<String, Grad> {
+    fn visit(
+        name: &str,
+        b: &Behaviour,
+        values: &BTreeMap<String, f64>,
+        grads: &mut BTreeMap<String, Grad>,
+    ) -> Grad {
+        if let Some(g) = grads.get(name) {
+            return g.clone();
+        }
+        let n = b.parameters.len();
+        let e = b.parameters[name]
+            .parse("")
+            .expect("parsed by `parameters`");
+        let mut vars = Vec::new();
+        e.variables(&mut vars);
+        let deps: BTreeMap<String, Grad> = vars
+            .iter()
+            .map(|v| (v.clone(), visit(v, b, values, grads)))
+            .collect();
+        let (_, mut d) = e
+            .eval_grad(n, &|v| Some((values[v], deps.get(v)?.to_vec())))
+            .expect("evaluated by `parameters`");
+        let i = b
+            .parameters
+            .keys()
+            .position(|k| k == name)
+            .expect("a parameter");
+        d[i] += 1.0;
+        let g: Grad = d.into();
+        grads.insert(name.to_string(), g.clone());
+        g
+    }
+    let mut grads = BTreeMap::new();
+    for name in b.parameters.keys() {
+        visit(name, b, values, &mut grads);
+    }
+    grads
+}
+
+/// `(quantity, value, gradient)` of what an actuator's data give besides its stall torque
+/// ([`actuator`]).
+type DerivedQuantities = Vec<(&'static str, f64, Grad)>;
 
 /// An actuator of the spec, and the quantities derived from its data that expressions may
 /// read as `<name>.<quantity>` besides its stall torque: for DC motors their no-load output
@@ -193,7 +298,7 @@ fn actuator(
     cx: &Context<'_>,
     field: &str,
     spec: &ActuatorSpec,
-) -> Result<(Arc<dyn Actuator>, DerivedQuantities), SimError> {
+) -> Result<(Arc<dyn Actuator>, DerivedQuantities, ActuatorLaw), SimError> {
     let motor_err = |f: &str| {
         let f = format!("{field}.{f}");
         move |e: motor::MotorError| SimError::Motor {
@@ -207,7 +312,11 @@ fn actuator(
             let tau = positive(&f, cx.number(&f, max_torque_n_m, None)?)?;
             let a: Arc<dyn Actuator> =
                 Arc::new(motor::SaturatedTorque::new(tau).map_err(motor_err("max_torque_n_m"))?);
-            (a, Vec::new())
+            let law = ActuatorLaw::Saturated {
+                max_n_m: tau,
+                dmax: cx.grad(max_torque_n_m, None),
+            };
+            (a, Vec::new(), law)
         }
         ActuatorSpec::DcMotor {
             motor: motor_name,
@@ -227,6 +336,9 @@ fn actuator(
             };
             let motor_spec = catalog.motor_spec(motor_name).map_err(motor_err("motor"))?;
             let mut m = motor_spec.motor().map_err(motor_err("motor"))?;
+            let grad = |s: &Option<crate::expr::Scalar>| {
+                s.as_ref().map_or(cx.zero(), |s| cx.grad(s, None))
+            };
             if let Some(v) = supply_voltage_v {
                 let f = format!("{field}.supply_voltage_v");
                 let v = positive(&f, cx.number(&f, v, None)?)?;
@@ -253,18 +365,44 @@ fn actuator(
                 return Err(invalid(f, format!("must be a whole number ≥ 1, got {n}")));
             }
             let ratio = g.ratio;
-            let mut derived = vec![("no_load_speed_rad_s", m.no_load_speed_rad_s / ratio)];
+            let law = ActuatorLaw::Geared {
+                n,
+                ratio,
+                efficiency: g.efficiency,
+                stall_n_m: m.stall_torque_n_m,
+                no_load_rad_s: m.no_load_speed_rad_s,
+                torque_constant_n_m_per_a: m.torque_constant_n_m_per_a,
+                current_limit_a: m.current_limit_a,
+                voltage_v: m.supply_voltage_v,
+                dn: cx.grad(count, None),
+                dratio: grad(gear_ratio),
+                dcurrent: grad(current_limit_a),
+                dvoltage: grad(supply_voltage_v),
+            };
+            let speed = m.no_load_speed_rad_s / ratio;
+            // gradients only where the tangent is built (`compile_shared`)
+            let grad_of = |g: &dyn Fn() -> Grad| if cx.tangent { g() } else { cx.empty.clone() };
+            let mut derived = vec![(
+                "no_load_speed_rad_s",
+                speed,
+                grad_of(&|| law.no_load_speed_grad()),
+            )];
             if let Some(rotor) = motor_spec
                 .rotor_inertia_kg_m2()
                 .map_err(motor_err("motor"))?
             {
-                derived.push(("reflected_inertia_kg_m2", n * rotor * ratio * ratio));
+                let inertia = n * rotor * ratio * ratio;
+                derived.push((
+                    "reflected_inertia_kg_m2",
+                    inertia,
+                    grad_of(&|| law.reflected_inertia_grad(rotor)),
+                ));
             }
             let a: Arc<dyn Actuator> = Arc::new(Drives {
                 drive: motor::Drive::new(m, g).map_err(motor_err("gearbox"))?,
                 n,
             });
-            (a, derived)
+            (a, derived, law)
         }
     })
 }
@@ -303,6 +441,14 @@ fn event_kind(field: &str, on: On) -> Result<MatchKind, SimError> {
             ))
         }
     })
+}
+
+/// The gradients of a start's times and delays, in the order of `Start::times` and
+/// `Start::phases`.
+#[derive(Default)]
+struct StartGrads {
+    times: Vec<Grad>,
+    delays: Vec<Grad>,
 }
 
 /// Where a phase reference points: `(program, phase)`.
@@ -382,13 +528,14 @@ impl Compiler<'_> {
         Ok((p, k))
     }
 
-    /// Adds the alternatives of `t` to `start`; `phase_refs` collects the phase references.
+    /// Adds the alternatives of `t` to `start` (and the gradients of its times and delays to
+    /// `grads`).
     #[allow(clippy::too_many_arguments)]
     fn start(
         &self,
         field: &str,
         t: &Trigger,
-        start: &mut Start,
+        (start, grads): (&mut Start, &mut StartGrads),
         own_joint: usize,
         own: u32,
         q0: f64,
@@ -428,7 +575,9 @@ impl Compiler<'_> {
         if let Some(at) = &t.at_s {
             only(&[])?;
             let f = format!("{field}.at_s");
-            start.times.push(self.cx.number(&f, at, Some(q0))?);
+            let (v, g) = self.cx.number_grad(&f, at, Some(q0))?;
+            start.times.push(v);
+            grads.times.push(g);
         } else if let Some(name) = &t.event {
             only(&[])?;
             start
@@ -442,7 +591,7 @@ impl Compiler<'_> {
                 self.start(
                     &format!("{field}.any[{i}]"),
                     sub,
-                    start,
+                    (&mut *start, &mut *grads),
                     own_joint,
                     own,
                     q0,
@@ -497,11 +646,15 @@ impl Compiler<'_> {
                         .ok_or_else(|| invalid(f.clone(), "is required for `phase`"))?;
                     let (p, k) = self.phase_ref(&f, name)?;
                     let f = format!("{field}.delay_s");
-                    let delay = match &t.delay_s {
-                        Some(d) => non_negative(&f, self.cx.number(&f, d, Some(q0))?)?,
-                        None => 0.0,
+                    let (delay, g) = match &t.delay_s {
+                        Some(d) => {
+                            let (v, g) = self.cx.number_grad(&f, d, Some(q0))?;
+                            (non_negative(&f, v)?, g)
+                        }
+                        None => (0.0, self.cx.zero()),
                     };
                     start.phases.push((p, k, delay));
+                    grads.delays.push(g);
                 }
                 _ => {
                     only(&["contacts", "not_before_s"])?;
@@ -525,11 +678,15 @@ impl Compiler<'_> {
         t: &Torque,
         q0: f64,
         actuators: &[String],
-    ) -> Result<TorqueLaw, SimError> {
+    ) -> Result<(TorqueLaw, TorqueTangent), SimError> {
         let num = |f: &str, s: &Scalar| self.cx.number(&format!("{field}.{f}"), s, Some(q0));
+        let grad = |s: &Scalar| self.cx.grad(s, Some(q0));
         Ok(match t {
-            Torque::Zero => TorqueLaw::Zero,
-            Torque::Constant { torque_n_m } => TorqueLaw::Constant(num("torque_n_m", torque_n_m)?),
+            Torque::Zero => (TorqueLaw::Zero, TorqueTangent::Zero),
+            Torque::Constant { torque_n_m } => (
+                TorqueLaw::Constant(num("torque_n_m", torque_n_m)?),
+                TorqueTangent::Constant(grad(torque_n_m)),
+            ),
             Torque::Schedule {
                 times_s,
                 torques_n_m,
@@ -561,11 +718,17 @@ impl Compiler<'_> {
                     .enumerate()
                     .map(|(i, s)| num(&format!("torques_n_m[{i}]"), s))
                     .collect::<Result<Vec<_>, _>>()?;
-                TorqueLaw::Schedule {
-                    times,
-                    torques,
-                    hold: *interpolation == Interpolation::Hold,
-                }
+                (
+                    TorqueLaw::Schedule {
+                        times,
+                        torques,
+                        hold: *interpolation == Interpolation::Hold,
+                    },
+                    TorqueTangent::Schedule {
+                        times: times_s.iter().map(grad).collect(),
+                        torques: torques_n_m.iter().map(grad).collect(),
+                    },
+                )
             }
             Torque::Servo {
                 target_rad,
@@ -577,19 +740,29 @@ impl Compiler<'_> {
                 let nn = |f: &str, s: &Scalar| -> Result<f64, SimError> {
                     non_negative(&format!("{field}.{f}"), num(f, s)?)
                 };
-                TorqueLaw::Servo {
-                    target: target_rad
-                        .as_ref()
-                        .map(|s| num("target_rad", s))
-                        .transpose()?,
-                    kp: nn("kp_n_m_per_rad", kp_n_m_per_rad)?,
-                    kd: nn("kd_n_m_s_per_rad", kd_n_m_s_per_rad)?,
-                    limit: match torque_limit_n_m {
-                        Some(s) => nn("torque_limit_n_m", s)?,
-                        None => f64::INFINITY,
+                (
+                    TorqueLaw::Servo {
+                        target: target_rad
+                            .as_ref()
+                            .map(|s| num("target_rad", s))
+                            .transpose()?,
+                        kp: nn("kp_n_m_per_rad", kp_n_m_per_rad)?,
+                        kd: nn("kd_n_m_s_per_rad", kd_n_m_s_per_rad)?,
+                        limit: match torque_limit_n_m {
+                            Some(s) => nn("torque_limit_n_m", s)?,
+                            None => f64::INFINITY,
+                        },
+                        only_in_contact: *only_in_contact,
                     },
-                    only_in_contact: *only_in_contact,
-                }
+                    TorqueTangent::Servo {
+                        target: target_rad.as_ref().map(grad),
+                        kp: grad(kp_n_m_per_rad),
+                        kd: grad(kd_n_m_s_per_rad),
+                        limit: torque_limit_n_m
+                            .as_ref()
+                            .map_or_else(|| self.cx.zero(), grad),
+                    },
+                )
             }
             Torque::Motor {
                 actuator,
@@ -612,48 +785,208 @@ impl Compiler<'_> {
                         format!("must lie in [-1, 1], got {u}"),
                     ));
                 }
-                TorqueLaw::Motor {
-                    actuator: a,
-                    command: u,
-                    reverse_beyond: reverse_beyond_rad
-                        .as_ref()
-                        .map(|s| num("reverse_beyond_rad", s))
-                        .transpose()?,
-                }
+                (
+                    TorqueLaw::Motor {
+                        actuator: a,
+                        command: u,
+                        reverse_beyond: reverse_beyond_rad
+                            .as_ref()
+                            .map(|s| num("reverse_beyond_rad", s))
+                            .transpose()?,
+                    },
+                    TorqueTangent::Motor {
+                        command: grad(command),
+                    },
+                )
             }
         })
     }
 
-    fn motion(&self, field: &str, m: &Motion, q0: f64) -> Result<MotionLaw, SimError> {
+    /// The motion law, and the tangents of its numbers in the order `speed`, `accel`,
+    /// `target` (a hold's angle its target; absent numbers constant).
+    fn motion(
+        &self,
+        field: &str,
+        m: &Motion,
+        q0: f64,
+    ) -> Result<(MotionLaw, [NumberTangent; 3]), SimError> {
         let v = |f: &str, s: &Scalar| self.cx.motion_value(&format!("{field}.{f}"), s, q0);
-        let pos = |f: &str, s: &Scalar| -> Result<Value, SimError> {
+        let pos = |f: &str, s: &Scalar| -> Result<(Value, NumberTangent), SimError> {
             let val = v(f, s)?;
-            if let Value::Const(x) = val {
+            if let Value::Const(x) = val.0 {
                 positive(&format!("{field}.{f}"), x)?;
             }
             Ok(val)
         };
+        let none = || NumberTangent::Const(self.cx.zero());
         Ok(match m {
-            Motion::Hold { angle_rad } => MotionLaw::Hold {
-                angle: v("angle_rad", angle_rad)?,
-            },
+            Motion::Hold { angle_rad } => {
+                let (angle, d) = v("angle_rad", angle_rad)?;
+                (MotionLaw::Hold { angle }, [none(), none(), d])
+            }
             Motion::Swing {
                 target_rad,
                 speed_rad_s,
                 accel_rad_s2,
-            } => MotionLaw::Swing {
-                target: v("target_rad", target_rad)?,
-                speed: pos("speed_rad_s", speed_rad_s)?,
-                accel: pos("accel_rad_s2", accel_rad_s2)?,
-            },
+            } => {
+                let (target, dt) = v("target_rad", target_rad)?;
+                let (speed, ds) = pos("speed_rad_s", speed_rad_s)?;
+                let (accel, da) = pos("accel_rad_s2", accel_rad_s2)?;
+                (
+                    MotionLaw::Swing {
+                        target,
+                        speed,
+                        accel,
+                    },
+                    [ds, da, dt],
+                )
+            }
             Motion::Park {
                 target_rad,
                 accel_rad_s2,
-            } => MotionLaw::Park {
-                target: v("target_rad", target_rad)?,
-                accel: pos("accel_rad_s2", accel_rad_s2)?,
-            },
+            } => {
+                let (target, dt) = v("target_rad", target_rad)?;
+                let (accel, da) = pos("accel_rad_s2", accel_rad_s2)?;
+                (MotionLaw::Park { target, accel }, [none(), da, dt])
+            }
         })
+    }
+
+    /// Program `i` (`prog`, its joint's phases in order) and, when the tangent is built,
+    /// its phases' tangents.
+    fn program(
+        &self,
+        i: usize,
+        prog: &JointProgram,
+        q0: &[f64],
+        remap: &[usize],
+        actuator_names: &[String],
+    ) -> Result<(Program, Vec<PhaseTangent>), SimError> {
+        let j = joint_index(self.cx.model, &prog.joint).expect("checked above");
+        let own = joint_contacts(self.cx.model, j);
+        let mut phases: Vec<PhasePlan> = Vec::new();
+        let mut tangents: Vec<PhaseTangent> = Vec::new();
+        for (k, ph) in prog.phases.iter().enumerate() {
+            let field = format!("joints[{i}].phases[{k}]");
+            let mut start = Start::default();
+            let mut start_grads = StartGrads::default();
+            match (&ph.start, k) {
+                (Some(_), 0) => {
+                    return Err(invalid(
+                        format!("{field}.start"),
+                        "the first phase holds from the start: it has no `start`",
+                    ))
+                }
+                (None, 0) => {}
+                (None, _) => {
+                    return Err(invalid(
+                        format!("{field}.start"),
+                        "is required after the first phase",
+                    ))
+                }
+                (Some(t), _) => self.start(
+                    &format!("{field}.start"),
+                    t,
+                    (&mut start, &mut start_grads),
+                    j,
+                    own,
+                    q0[j],
+                    false,
+                )?,
+            }
+            for n in &mut start.named {
+                *n = remap[*n];
+            }
+            let (torque, torque_tangent) = self.torque(
+                &format!("{field}.torque"),
+                &ph.torque,
+                q0[j],
+                &actuator_names,
+            )?;
+            let ((motion, motion_tangent), own_motion) = match (&ph.motion, tangents.last()) {
+                (Some(m), _) => (self.motion(&format!("{field}.motion"), m, q0[j])?, true),
+                (None, Some(prev)) => (
+                    (
+                        phases.last().expect("one per tangent").motion.clone(),
+                        prev.motion.clone(),
+                    ),
+                    false,
+                ),
+                (None, None) => (
+                    (
+                        MotionLaw::Hold {
+                            angle: Value::Const(q0[j]),
+                        },
+                        [
+                            NumberTangent::Const(self.cx.zero()),
+                            NumberTangent::Const(self.cx.zero()),
+                            NumberTangent::Const(self.cx.zero()),
+                        ],
+                    ),
+                    true,
+                ),
+            };
+            let (restart_on, restart_named) = match (&ph.restart_on, phases.last()) {
+                (Some(list), _) => {
+                    let mut events = Vec::new();
+                    let mut names = Vec::new();
+                    for (r, t) in list.iter().enumerate() {
+                        let f = format!("{field}.restart_on[{r}]");
+                        let mut s = Start::default();
+                        let mut unused = StartGrads::default();
+                        self.start(&f, t, (&mut s, &mut unused), j, own, q0[j], true)?;
+                        if !s.times.is_empty() || !s.phases.is_empty() {
+                            return Err(invalid(
+                                f,
+                                "a motion restarts at events (`on`, `event`, `any`), not at times or phases",
+                            ));
+                        }
+                        events.extend(s.events);
+                        names.extend(s.named.iter().map(|&n| remap[n]));
+                    }
+                    (events, names)
+                }
+                (None, Some(prev)) => (prev.restart_on.clone(), prev.restart_named.clone()),
+                (None, None) => (Vec::new(), Vec::new()),
+            };
+            phases.push(PhasePlan {
+                name: ph.name.clone(),
+                start,
+                torque,
+                motion,
+                own_motion,
+                restart_on,
+                restart_named,
+            });
+            if self.cx.tangent {
+                tangents.push(PhaseTangent {
+                    times: start_grads.times,
+                    delays: start_grads.delays,
+                    torque: torque_tangent,
+                    motion: motion_tangent,
+                });
+            } else {
+                // the previous phase's motion tangent is read from here (`motion: None`)
+                tangents.clear();
+                tangents.push(PhaseTangent {
+                    times: Vec::new(),
+                    delays: Vec::new(),
+                    torque: TorqueTangent::Zero,
+                    motion: motion_tangent,
+                });
+            }
+        }
+        let repeat_from = repeat_from(i, prog, &phases)?;
+        Ok((
+            Program {
+                joint: j,
+                contacts: own,
+                has_levels: phases.iter().any(|ph| ph.start.level.is_some()),
+                phases,
+                repeat_from,
+            },
+            tangents,
+        ))
     }
 
     fn named_event(&self, name: &str, ev: &NamedEvent) -> Result<NamedPlan, SimError> {
@@ -769,51 +1102,11 @@ fn check_phase_cycles(
     Ok(())
 }
 
-/// Checks `b` against `model` and compiles it into the interpreter, starting from
-/// `(q0, qd0)` (the joints' start angles are the expression variable `q0`); phases that
-/// start at known times are planned up to `horizon_s` (the run's final time).
-pub fn compile(
-    b: &Behaviour,
-    model: &Model,
-    q0: &[f64],
-    qd0: &[f64],
-    horizon_s: f64,
-) -> Result<BehaviourController, SimError> {
-    let nq = model.nq();
-    for (field, v) in [("q0", q0), ("qd0", qd0)] {
-        if v.len() != nq {
-            return Err(invalid(
-                field,
-                format!("expected {nq} coordinates, got {}", v.len()),
-            ));
-        }
-        if let Some(i) = v.iter().position(|x| !x.is_finite()) {
-            return Err(invalid(format!("{field}[{i}]"), "must be finite"));
-        }
-    }
-    let mut values = parameters(b)?;
-    // actuators, and their stall torques as parameters `<name>.stall_torque_n_m` (with what
-    // else their data give, `actuator`)
-    let mut actuators = Vec::new();
-    let actuator_names: Vec<String> = b.actuators.keys().cloned().collect();
-    {
-        let cx = Context {
-            model,
-            values: values.clone(),
-        };
-        for (name, spec) in &b.actuators {
-            let (a, derived) = actuator(&cx, &format!("actuators.{name}"), spec)?;
-            values.insert(
-                format!("{name}.stall_torque_n_m"),
-                a.joint_torque_n_m(1.0, 0.0),
-            );
-            for (quantity, v) in derived {
-                values.insert(format!("{name}.{quantity}"), v);
-            }
-            actuators.push(a);
-        }
-    }
-    let named: Vec<String> = b.events.keys().cloned().collect();
+/// Each program's `(joint name, phase names)` and the program of each joint, checked: joints
+/// that exist and have one program, phases with distinct non-empty names, at least one.
+type ProgramNames = (Vec<(String, Vec<String>)>, Vec<Option<usize>>);
+
+fn program_names(b: &Behaviour, model: &Model) -> Result<ProgramNames, SimError> {
     let mut programs_names = Vec::new();
     let mut program_of_joint = vec![None; model.n_joints()];
     for (i, prog) in b.joints.iter().enumerate() {
@@ -848,8 +1141,151 @@ pub fn compile(
         }
         programs_names.push((prog.joint.clone(), phase_names));
     }
+    Ok((programs_names, program_of_joint))
+}
+
+/// The phase program `i` repeats from, checked (after the first, not a joint-angle level).
+fn repeat_from(
+    i: usize,
+    prog: &JointProgram,
+    phases: &[PhasePlan],
+) -> Result<Option<usize>, SimError> {
+    Ok(match &prog.repeat_from {
+        None => None,
+        Some(name) => {
+            let f = format!("joints[{i}].repeat_from");
+            let r = phases
+                .iter()
+                .position(|ph| &ph.name == name)
+                .ok_or_else(|| SimError::UnknownReference {
+                    field: f.clone(),
+                    kind: "phase",
+                    name: name.clone(),
+                    known: phases
+                        .iter()
+                        .map(|ph| ph.name.clone())
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                })?;
+            if r == 0 || phases[r].start.level.is_some() {
+                return Err(invalid(
+                    f,
+                    "a program repeats from a phase after the first that is not a joint-angle level",
+                ));
+            }
+            Some(r)
+        }
+    })
+}
+
+/// Checks `b` against `model` and compiles it into the interpreter, starting from
+/// `(q0, qd0)` (the joints' start angles are the expression variable `q0`); phases that
+/// start at known times are planned up to `horizon_s` (the run's final time).
+pub fn compile(
+    b: &Behaviour,
+    model: &Model,
+    q0: &[f64],
+    qd0: &[f64],
+    horizon_s: f64,
+) -> Result<BehaviourController, SimError> {
+    compile_shared(b, &Arc::new(model.clone()), q0, qd0, horizon_s)
+}
+
+/// [`compile`] for a model already shared. The plan's parameter tangent (`tangent.rs`) is
+/// not computed here but on first use (by the sensitivities): the behaviour is compiled
+/// again then, with gradients, from a copy of its inputs — a run that is not
+/// differentiated does not pay for it.
+pub fn compile_shared(
+    b: &Behaviour,
+    model: &Arc<Model>,
+    q0: &[f64],
+    qd0: &[f64],
+    horizon_s: f64,
+) -> Result<BehaviourController, SimError> {
+    let (b2, m2, q, qd) = (b.clone(), Arc::clone(model), q0.to_vec(), qd0.to_vec());
+    let make = move || {
+        let c = compile_with(&b2, &m2, &q, &qd, horizon_s, true)
+            .expect("the same behaviour compiled before");
+        c.take_tangent()
+    };
+    let c = compile_with(b, model, q0, qd0, horizon_s, false)?;
+    c.set_tangent_source(Box::new(make));
+    Ok(c)
+}
+
+/// [`compile`], with the plan's tangent computed when `tangent`.
+fn compile_with(
+    b: &Behaviour,
+    model: &Model,
+    q0: &[f64],
+    qd0: &[f64],
+    horizon_s: f64,
+    tangent: bool,
+) -> Result<BehaviourController, SimError> {
+    let nq = model.nq();
+    for (field, v) in [("q0", q0), ("qd0", qd0)] {
+        if v.len() != nq {
+            return Err(invalid(
+                field,
+                format!("expected {nq} coordinates, got {}", v.len()),
+            ));
+        }
+        if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+            return Err(invalid(format!("{field}[{i}]"), "must be finite"));
+        }
+    }
+    let mut values = parameters(b)?;
+    let mut grads = if tangent {
+        parameter_grads(b, &values)
+    } else {
+        BTreeMap::new()
+    };
+    let empty: Grad = Arc::new([]);
+    let n_params = b.parameters.len();
+    // actuators, and their stall torques as parameters `<name>.stall_torque_n_m` (with what
+    // else their data give, `actuator`)
+    let mut actuators = Vec::new();
+    let mut laws = Vec::new();
+    let actuator_names: Vec<String> = b.actuators.keys().cloned().collect();
+    {
+        let cx = Context {
+            model,
+            values: values.clone(),
+            grads: grads.clone(),
+            n: n_params,
+            tangent,
+            empty: empty.clone(),
+        };
+        for (name, spec) in &b.actuators {
+            let (a, derived, law) = actuator(&cx, &format!("actuators.{name}"), spec)?;
+            values.insert(
+                format!("{name}.stall_torque_n_m"),
+                a.joint_torque_n_m(1.0, 0.0),
+            );
+            if tangent {
+                grads.insert(format!("{name}.stall_torque_n_m"), law.stall_grad());
+            }
+            for (quantity, v, g) in derived {
+                values.insert(format!("{name}.{quantity}"), v);
+                if tangent {
+                    grads.insert(format!("{name}.{quantity}"), g);
+                }
+            }
+            actuators.push(a);
+            laws.push(law);
+        }
+    }
+    let named: Vec<String> = b.events.keys().cloned().collect();
+    let (programs_names, program_of_joint) = program_names(b, model)?;
     let c = Compiler {
-        cx: Context { model, values },
+        cx: Context {
+            model,
+            values,
+            grads,
+            n: n_params,
+            tangent,
+            empty,
+        },
         named: named.clone(),
         programs: programs_names.clone(),
     };
@@ -874,127 +1310,33 @@ pub fn compile(
         c.cx.number("free_joints.kd_per_s", &free.kd_per_s, None)?,
     )?;
     let mut programs = Vec::new();
+    let mut phase_tangents = Vec::new();
     for (i, prog) in b.joints.iter().enumerate() {
-        let j = joint_index(model, &prog.joint).expect("checked above");
-        let own = joint_contacts(model, j);
-        let mut phases: Vec<PhasePlan> = Vec::new();
-        for (k, ph) in prog.phases.iter().enumerate() {
-            let field = format!("joints[{i}].phases[{k}]");
-            let mut start = Start::default();
-            match (&ph.start, k) {
-                (Some(_), 0) => {
-                    return Err(invalid(
-                        format!("{field}.start"),
-                        "the first phase holds from the start: it has no `start`",
-                    ))
-                }
-                (None, 0) => {}
-                (None, _) => {
-                    return Err(invalid(
-                        format!("{field}.start"),
-                        "is required after the first phase",
-                    ))
-                }
-                (Some(t), _) => c.start(
-                    &format!("{field}.start"),
-                    t,
-                    &mut start,
-                    j,
-                    own,
-                    q0[j],
-                    false,
-                )?,
-            }
-            for n in &mut start.named {
-                *n = remap[*n];
-            }
-            let torque = c.torque(
-                &format!("{field}.torque"),
-                &ph.torque,
-                q0[j],
-                &actuator_names,
-            )?;
-            let (motion, own_motion) = match (&ph.motion, phases.last()) {
-                (Some(m), _) => (c.motion(&format!("{field}.motion"), m, q0[j])?, true),
-                (None, Some(prev)) => (prev.motion.clone(), false),
-                (None, None) => (
-                    MotionLaw::Hold {
-                        angle: Value::Const(q0[j]),
-                    },
-                    true,
-                ),
-            };
-            let (restart_on, restart_named) = match (&ph.restart_on, phases.last()) {
-                (Some(list), _) => {
-                    let mut events = Vec::new();
-                    let mut names = Vec::new();
-                    for (r, t) in list.iter().enumerate() {
-                        let f = format!("{field}.restart_on[{r}]");
-                        let mut s = Start::default();
-                        c.start(&f, t, &mut s, j, own, q0[j], true)?;
-                        if !s.times.is_empty() || !s.phases.is_empty() {
-                            return Err(invalid(
-                                f,
-                                "a motion restarts at events (`on`, `event`, `any`), not at times or phases",
-                            ));
-                        }
-                        events.extend(s.events);
-                        names.extend(s.named.iter().map(|&n| remap[n]));
-                    }
-                    (events, names)
-                }
-                (None, Some(prev)) => (prev.restart_on.clone(), prev.restart_named.clone()),
-                (None, None) => (Vec::new(), Vec::new()),
-            };
-            phases.push(PhasePlan {
-                name: ph.name.clone(),
-                start,
-                torque,
-                motion,
-                own_motion,
-                restart_on,
-                restart_named,
-            });
+        let (program, tangents) = c.program(i, prog, q0, &remap, &actuator_names)?;
+        programs.push(program);
+        if tangent {
+            phase_tangents.push(tangents);
         }
-        let repeat_from = match &prog.repeat_from {
-            None => None,
-            Some(name) => {
-                let f = format!("joints[{i}].repeat_from");
-                let r = phases
-                    .iter()
-                    .position(|ph| &ph.name == name)
-                    .ok_or_else(|| SimError::UnknownReference {
-                        field: f.clone(),
-                        kind: "phase",
-                        name: name.clone(),
-                        known: phases
-                            .iter()
-                            .map(|ph| ph.name.clone())
-                            .collect::<Vec<_>>()
-                            .join(", "),
-                    })?;
-                if r == 0 || phases[r].start.level.is_some() {
-                    return Err(invalid(
-                        f,
-                        "a program repeats from a phase after the first that is not a joint-angle level",
-                    ));
-                }
-                Some(r)
-            }
-        };
-        programs.push(Program {
-            joint: j,
-            contacts: own,
-            has_levels: phases.iter().any(|ph| ph.start.level.is_some()),
-            phases,
-            repeat_from,
-        });
     }
     check_phase_cycles(&programs, &programs_names)?;
     let idle_joints = (0..model.n_joints())
         .filter(|&j| program_of_joint[j].is_none())
         .collect();
+    let tangent_on = tangent;
+    let tangent = PlanTangent {
+        names: b.parameters.keys().cloned().collect(),
+        kp_free: c.cx.grad(&free.kp_per_s2, None),
+        kd_free: c.cx.grad(&free.kd_per_s, None),
+        values: Arc::new(c.cx.grads),
+        phases: phase_tangents,
+        actuators: laws,
+    };
     let plan = Plan {
+        tangent: match tangent_on {
+            true => std::sync::OnceLock::from(tangent),
+            false => std::sync::OnceLock::new(),
+        },
+        tangent_source: std::sync::OnceLock::new(),
         idle_joints,
         programs,
         actuators,

@@ -13,9 +13,9 @@
 //! on_event(e):             named events => phase latches => start times resolved =>
 //!                          motions (re)started at e, and those of later timed phases
 //! ```
-use super::memory::StartedLaw;
+use super::tangent::{axpy, Grad, NumberPartials, PlanTangent, TorqueTangent};
 use crate::expr::Expr;
-use crate::motion::JointMotion;
+use crate::motion::{JointMotion, StartedLaw};
 use motor::Actuator;
 use nalgebra::DMatrix;
 use selfmanip_core::ContactMode;
@@ -23,7 +23,7 @@ use selfmanip_hybrid::{
     Controller, ControllerPartials, Event, EventKind, EventMemoryPartials, MemoryTimeEvent,
     TimeEvent,
 };
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 /// A number known when the behaviour is compiled, or one that depends on the joint's angle
 /// and rate where a motion starts (`theta`, `omega`).
@@ -156,55 +156,35 @@ pub(crate) enum MotionLaw {
 }
 
 impl MotionLaw {
-    /// How a motion of this law started at an event depends on the event (its memory):
-    /// not at all (a hold at a constant angle), through its start `(t₀, θ₀, ω₀)` (a swing or
-    /// a park with constant numbers), or in a way not differentiated (numbers that depend
-    /// on `theta`, `omega`).
-    fn origin_at_event(&self, event: usize, joint: usize, nq: usize) -> MotionOrigin {
-        match self.constant_law() {
-            Ok(Some(law)) => MotionOrigin::Event {
-                event,
-                joint,
-                nq,
-                law,
-            },
-            Ok(None) => MotionOrigin::Fixed,
-            Err(()) => MotionOrigin::Unsupported,
-        }
+    /// Whether a motion of this law depends on the state it starts from: every swing and
+    /// park, a hold at an angle of `theta`/`omega` (not a hold at a constant angle).
+    fn depends_on_start(&self) -> bool {
+        !matches!(
+            self,
+            MotionLaw::Hold {
+                angle: Value::Const(_)
+            }
+        )
     }
 
-    /// The law with its numbers, when they are constants: `Ok(None)` for a hold at a
-    /// constant angle (its reference depends on nothing), `Err(())` when a number depends on
-    /// `theta`/`omega`.
-    fn constant_law(&self) -> Result<Option<StartedLaw>, ()> {
-        let c = |v: &Value| match v {
-            Value::Const(x) => Some(*x),
-            Value::AtStart(..) => None,
-        };
-        let law = match self {
-            MotionLaw::Hold { angle } => {
-                return match c(angle) {
-                    Some(_) => Ok(None),
-                    None => Err(()),
-                }
-            }
+    /// The law with its numbers at the start `(θ₀, ω₀)`; `None` for a hold.
+    fn law_at(&self, theta: f64, omega: f64) -> Option<StartedLaw> {
+        match self {
+            MotionLaw::Hold { .. } => None,
             MotionLaw::Swing {
                 target,
                 speed,
                 accel,
-            } => c(target)
-                .zip(c(speed))
-                .zip(c(accel))
-                .map(|((target, speed), accel)| StartedLaw::Swing {
-                    target,
-                    speed,
-                    accel,
-                }),
-            MotionLaw::Park { target, accel } => c(target)
-                .zip(c(accel))
-                .map(|(target, accel)| StartedLaw::Park { target, accel }),
-        };
-        law.map(Some).ok_or(())
+            } => Some(StartedLaw::Swing {
+                target: target.at(theta, omega),
+                speed: speed.at(theta, omega),
+                accel: accel.at(theta, omega),
+            }),
+            MotionLaw::Park { target, accel } => Some(StartedLaw::Park {
+                target: target.at(theta, omega),
+                accel: accel.at(theta, omega),
+            }),
+        }
     }
 
     fn start(&self, t0: f64, theta: f64, omega: f64) -> JointMotion {
@@ -267,6 +247,11 @@ pub(crate) struct NamedPlan {
 
 /// What a compiled behaviour runs: immutable, shared by every copy of the controller.
 pub(crate) struct Plan {
+    /// The partials of its numbers over the behaviour's parameters (read by the
+    /// sensitivities only), built on first use by [`Self::tangent_source`].
+    pub tangent: OnceLock<PlanTangent>,
+    /// What builds [`Self::tangent`] (the behaviour compiled again with gradients).
+    pub tangent_source: OnceLock<TangentSource>,
     pub programs: Vec<Program>,
     pub actuators: Vec<Arc<dyn Actuator>>,
     /// Named events in an order where each comes after the one it waits for.
@@ -280,6 +265,22 @@ pub(crate) struct Plan {
     pub horizon_s: f64,
 }
 
+/// Builds a plan's parameter tangent.
+pub(crate) type TangentSource = Box<dyn Fn() -> PlanTangent + Send + Sync>;
+
+impl Plan {
+    /// The parameter tangent, built on first use.
+    fn tangent(&self) -> &PlanTangent {
+        self.tangent.get_or_init(|| {
+            let make = self
+                .tangent_source
+                .get()
+                .expect("a plan without a tangent has its source");
+            make()
+        })
+    }
+}
+
 /// Most phase starts planned ahead per program and pass (a loop of timed phases with no
 /// delay would otherwise plan forever).
 pub(crate) const PLAN_CAP: usize = 10_000;
@@ -290,23 +291,23 @@ struct ProgramMemory {
     /// `(start time, phase, origin)` of every phase the program has entered or will enter at
     /// a time already known, in order (the first: phase 0 from the start); the origin is the
     /// event `(number, time)` whose time the start is (a delay after), if any.
-    timeline: Vec<(f64, usize, TimeOrigin)>,
+    timeline: Vec<Entry>,
     /// The joint's prescribed motions by start time; the reference at `t` is the last one
     /// started by `t`.
     motions: Vec<JointMotion>,
-    /// How each motion depends on the events (its memory), one per motion.
-    origins: Vec<MotionOrigin>,
+    /// How each motion started, one per motion.
+    records: Vec<MotionRecord>,
 }
 
 impl ProgramMemory {
-    /// Drops the motions (and their origins) that start after `now`.
+    /// Drops the motions (and their records) that start after `now`.
     fn keep_motions_started_by(&mut self, now: f64) {
         let keep: Vec<bool> = self.motions.iter().map(|m| m.t0() <= now).collect();
         let mut k = keep.iter();
         self.motions
             .retain(|_| *k.next().expect("one flag per motion"));
         let mut k = keep.iter();
-        self.origins
+        self.records
             .retain(|_| *k.next().expect("one flag per motion"));
     }
 }
@@ -314,18 +315,54 @@ impl ProgramMemory {
 /// The event (its number among those told, its time) a start time is offset from.
 type TimeOrigin = Option<(usize, f64)>;
 
+/// A timeline entry: a phase's start time, the phase, the event the time is offset from, and
+/// the time's gradient over the parameters at fixed memory (`None`: zero).
+type Entry = (f64, usize, TimeOrigin, StartGrad);
+
+/// Where a planned start time's gradient over the parameters (at fixed memory) comes from,
+/// resolved against the plan's tangent only when the sensitivities ask
+/// ([`BehaviourController::start_grad`]): the forward run never builds the tangent.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum StartGrad {
+    /// Zero: a start at an event (its time is memory), phase 0's.
+    Zero,
+    /// `times[i]` of the start of phase `j` of program `p`: `(p, j, i)`.
+    Time(usize, usize, usize),
+    /// Another start's (zero, or a time's), plus `delays[i]` of the start of phase `j` of
+    /// program `p`.
+    Delay(Option<(usize, usize, usize)>, (usize, usize, usize)),
+    /// A delay after a delayed start: not differentiated (`parameter_partials` refuses it).
+    Deeper,
+}
+
+/// How a prescribed motion started: for its derivatives.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct MotionRecord {
+    /// How it depends on the events the controller was told of (its memory).
+    origin: MotionOrigin,
+    /// The phase whose motion law it runs.
+    phase: usize,
+    /// The joint's angle and rate it started from.
+    theta0: f64,
+    omega0: f64,
+    /// A timed phase's own motion: the motion whose reference it started from, and the
+    /// gradient of its start time over the parameters at fixed memory (`None`: zero).
+    timed: Option<(usize, StartGrad)>,
+}
+
 /// How a prescribed motion depends on the events the controller was told of.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum MotionOrigin {
     /// Not at all (the initial motion from the run's `q0`, an input; a hold at a constant
-    /// angle; a timed phase's motion from a reference that does not depend on events).
+    /// angle; a timed phase's motion from a reference that does not depend on events). A
+    /// timed phase's motion whose start and whose previous motion depend on two different
+    /// events is `Timed` and not differentiated (`motion_memory`).
     Fixed,
-    /// Started at event `event` from `(t_k, q_k[joint], q̇_k⁺[joint])` by `law`.
+    /// Started at event `event` from `(t_k, q_k[joint], q̇_k⁺[joint])`.
     Event {
         event: usize,
         joint: usize,
         nq: usize,
-        law: StartedLaw,
     },
     /// A timed phase's own motion started at `s` — `t_k + δ` when `event` is the event `k`
     /// whose time it is offset from, else a known time — from the reference of motion
@@ -335,11 +372,7 @@ enum MotionOrigin {
         event: Option<usize>,
         prev: usize,
         nq: usize,
-        law: StartedLaw,
     },
-    /// Depends on an event in a way not differentiated (numbers of `theta`/`omega`; a timed
-    /// phase's motion whose start and whose previous motion depend on different events).
-    Unsupported,
 }
 
 /// The behaviour interpreter (see the module documentation).
@@ -375,9 +408,15 @@ impl BehaviourController {
             .programs
             .iter()
             .map(|p| ProgramMemory {
-                timeline: vec![(NEVER, 0, None)],
+                timeline: vec![(NEVER, 0, None, StartGrad::Zero)],
                 motions: vec![p.phases[0].motion.start(0.0, q0[p.joint], qd0[p.joint])],
-                origins: vec![MotionOrigin::Fixed],
+                records: vec![MotionRecord {
+                    origin: MotionOrigin::Fixed,
+                    phase: 0,
+                    theta0: q0[p.joint],
+                    omega0: qd0[p.joint],
+                    timed: None,
+                }],
             })
             .collect();
         let mut c = BehaviourController {
@@ -394,6 +433,20 @@ impl BehaviourController {
         }
         c.plan_timed_motions(NEVER);
         Ok(c)
+    }
+
+    /// Where the plan's parameter tangent comes from when first used (`compile_shared`).
+    pub(crate) fn set_tangent_source(&self, make: TangentSource) {
+        // a plan compiled with its tangent has no source
+        let _ = self.plan.tangent_source.set(make);
+    }
+
+    /// The plan's parameter tangent (of a controller just compiled with it).
+    pub(crate) fn take_tangent(self) -> PlanTangent {
+        Arc::try_unwrap(self.plan)
+            .ok()
+            .and_then(|p| p.tangent.into_inner())
+            .expect("a controller compiled with its tangent, not shared")
     }
 
     /// The name of the phase the program of `joint` is in at `(t, q)`.
@@ -479,13 +532,8 @@ impl BehaviourController {
         t: f64,
     ) -> Result<Option<(usize, DMatrix<f64>)>, ()> {
         let mem = &self.programs[p];
-        match mem.origins[i] {
-            MotionOrigin::Timed {
-                event,
-                prev,
-                nq,
-                law,
-            } => {
+        match mem.records[i].origin {
+            MotionOrigin::Timed { event, prev, nq } => {
                 // θ₀ = θ_prev(s), ω₀ = ω_prev(s) at s = t_k + δ (or a known time): with
                 // D the derivative over m_k, Ds = e_t (or 0),
                 // Dθ₀ = Dθ_prev(s) + ω_prev(s) Ds, Dω₀ = Dω_prev(s) + α_prev(s) Ds
@@ -510,8 +558,7 @@ impl BehaviourController {
                 }
                 let dth0 = d0.row(0) + w_prev * ds.row(0);
                 let dw0 = d0.row(1) + a_prev * ds.row(0);
-                let (theta0, omega0, _) = m.eval(s);
-                let d = law.partials(m, theta0, omega0, t);
+                let d = self.start_columns(p, i, t);
                 let mut out = DMatrix::zeros(3, cols);
                 for (r, row) in d.iter().enumerate() {
                     let v = row[0] * ds.row(0) + row[1] * &dth0 + row[2] * &dw0;
@@ -520,20 +567,8 @@ impl BehaviourController {
                 Ok(Some((k, out)))
             }
             MotionOrigin::Fixed => Ok(None),
-            MotionOrigin::Unsupported => Err(()),
-            MotionOrigin::Event {
-                event,
-                joint,
-                nq,
-                law,
-            } => {
-                let m = &mem.motions[i];
-                let (theta0, omega0, _) = {
-                    // the start the motion was built from: its own value at t₀ (a swing or a
-                    // park starts exactly at (θ₀, ω₀))
-                    m.eval(m.t0())
-                };
-                let d = law.partials(m, theta0, omega0, t);
+            MotionOrigin::Event { event, joint, nq } => {
+                let d = self.start_columns(p, i, t);
                 let mut out = DMatrix::zeros(3, 1 + 2 * nq);
                 for (r, row) in d.iter().enumerate() {
                     out[(r, 0)] = row[0];
@@ -543,6 +578,227 @@ impl BehaviourController {
                 Ok(Some((event, out)))
             }
         }
+    }
+
+    /// Program `p`'s motion `i` at `t`: `∂(θ*, ω*, α*)/∂(t₀, θ₀, ω₀, speed, accel, target)`
+    /// (rows `θ*, ω*, α*`; a hold is its angle, its target) and the partials of its numbers
+    /// `(speed, accel, target)` at its start over the parameters and `(θ₀, ω₀)`.
+    fn law_partials(&self, p: usize, i: usize, t: f64) -> ([[f64; 6]; 3], [NumberPartials; 3]) {
+        let mem = &self.programs[p];
+        let rec = &mem.records[i];
+        let law = &self.plan.programs[p].phases[rec.phase].motion;
+        let (th0, w0) = (rec.theta0, rec.omega0);
+        let numbers = self.numbers_at(p, i);
+        let d = match law.law_at(th0, w0) {
+            Some(l) => l.partials_full(&mem.motions[i], th0, w0, t),
+            None => {
+                let mut d = [[0.0; 6]; 3];
+                d[0][5] = 1.0;
+                d
+            }
+        };
+        (d, numbers)
+    }
+
+    /// The partials of program `p`'s motion `i`'s numbers `(speed, accel, target)` at its
+    /// start, over the parameters and `(θ₀, ω₀)`.
+    fn numbers_at(&self, p: usize, i: usize) -> [NumberPartials; 3] {
+        let rec = &self.programs[p].records[i];
+        let tan = self.plan.tangent();
+        tan.phases[p][rec.phase]
+            .motion
+            .each_ref()
+            .map(|nt| nt.at(rec.theta0, rec.omega0, &tan.values, tan.names.len()))
+    }
+
+    /// `∂τ/∂p` over every parameter of program `p`'s torque in phase `k` at fixed state and
+    /// memory ([`Controller::parameter_partials`]): `Some(None)` where it is zero, `None`
+    /// where it is not differentiated (a `motor` that reverses past an angle).
+    fn torque_dp(
+        &self,
+        (p, k): (usize, usize),
+        t: f64,
+        (q, qd): (&[f64], &[f64]),
+        mode: ContactMode,
+    ) -> Option<Option<Vec<f64>>> {
+        let plan = &*self.plan;
+        let prog = &plan.programs[p];
+        let j = prog.joint;
+        let n = plan.tangent().names.len();
+        let law = &prog.phases[k].torque;
+        Some(Some(match (law, &plan.tangent().phases[p][k].torque) {
+            (TorqueLaw::Zero, _) => return Some(None),
+            (TorqueLaw::Constant(_), TorqueTangent::Constant(g)) => g.to_vec(),
+            (
+                TorqueLaw::Schedule {
+                    times,
+                    torques,
+                    hold,
+                },
+                TorqueTangent::Schedule {
+                    times: dtimes,
+                    torques: dtorques,
+                },
+            ) => schedule_dp((times, torques, *hold), t, dtimes, dtorques),
+            (
+                TorqueLaw::Servo {
+                    target,
+                    kp,
+                    kd,
+                    limit,
+                    only_in_contact,
+                },
+                TorqueTangent::Servo {
+                    target: dtarget,
+                    kp: dkp,
+                    kd: dkd,
+                    limit: dlimit,
+                },
+            ) => {
+                if *only_in_contact && mode.normal_bits() & prog.contacts == 0 {
+                    return Some(None);
+                }
+                let u = self.servo_command(p, t, *target, (*kp, *kd), q[j], qd[j]);
+                if servo_piece(u, *limit) != 0 {
+                    return Some(Some(dlimit.iter().map(|x| u.signum() * x).collect()));
+                }
+                let (theta, omega, dth, dw) = match (target, dtarget) {
+                    (Some(a), Some(g)) => (*a, 0.0, g.to_vec(), vec![0.0; n]),
+                    _ => {
+                        let (th, om, _) = self.reference(p, t);
+                        let [dth, dw, _] = self.motion_dp(p, self.motion_index(p, t), t);
+                        (th, om, dth, dw)
+                    }
+                };
+                let mut d = vec![0.0; n];
+                axpy(&mut d, theta - q[j], dkp);
+                axpy(&mut d, omega - qd[j], dkd);
+                axpy(&mut d, *kp, &dth);
+                axpy(&mut d, *kd, &dw);
+                d
+            }
+            (
+                TorqueLaw::Motor {
+                    reverse_beyond: Some(_),
+                    ..
+                },
+                _,
+            ) => return None,
+            (
+                TorqueLaw::Motor {
+                    actuator, command, ..
+                },
+                TorqueTangent::Motor { command: du },
+            ) => {
+                plan.tangent().actuators[*actuator]
+                    .partials(*command, du, qd[j])
+                    .1
+            }
+            _ => unreachable!("a law and its tangent are compiled together"),
+        }))
+    }
+
+    /// The time events of program `p`'s motion `i`, appended to `out`: its start and its
+    /// knots, with `dt/dp` (computed when `with_dp`, else `pick`'s zeros).
+    fn motion_time_events(
+        &self,
+        p: usize,
+        i: usize,
+        with_dp: bool,
+        pick: &dyn Fn(Option<&[f64]>) -> Vec<f64>,
+        out: &mut Vec<TimeEvent>,
+    ) {
+        let mem = &self.programs[p];
+        let m = &mem.motions[i];
+        let knots = m.knots();
+        if !with_dp {
+            out.push(TimeEvent {
+                t: m.t0(),
+                dt_dp: pick(None),
+            });
+            out.extend(knots.into_iter().map(|t| TimeEvent {
+                t,
+                dt_dp: pick(None),
+            }));
+            return;
+        }
+        let rec = &mem.records[i];
+        let start = self.start_dp(p, i);
+        out.push(TimeEvent {
+            t: m.t0(),
+            dt_dp: pick(start.as_ref().map(|s| &s[0][..])),
+        });
+        let law = &self.plan.programs[p].phases[rec.phase].motion;
+        let Some(law) = law.law_at(rec.theta0, rec.omega0) else {
+            return;
+        };
+        let numbers = self.numbers_at(p, i);
+        let n = self.plan.tangent().names.len();
+        for (&t, row) in knots
+            .iter()
+            .zip(law.knot_partials(m, rec.theta0, rec.omega0))
+        {
+            let mut d = vec![0.0; n];
+            for (k, num) in numbers.iter().enumerate() {
+                axpy(&mut d, row[3 + k], &num.dp);
+            }
+            if let Some(start) = &start {
+                for (w, g) in fold_row(&row, &numbers).iter().zip(start) {
+                    axpy(&mut d, *w, g);
+                }
+            }
+            out.push(TimeEvent {
+                t,
+                dt_dp: pick(Some(&d)),
+            });
+        }
+    }
+
+    /// `∂(θ*, ω*, α*)/∂(t₀, θ₀, ω₀)` of program `p`'s motion `i` at `t` (rows `θ*, ω*, α*`),
+    /// through its numbers where they depend on `θ₀`, `ω₀` (`theta`, `omega`).
+    fn start_columns(&self, p: usize, i: usize, t: f64) -> [[f64; 3]; 3] {
+        let (d, numbers) = self.law_partials(p, i, t);
+        fold_start(&d, &numbers)
+    }
+
+    /// The gradients over the parameters, at fixed memory, of program `p`'s motion `i`'s
+    /// start: `(ds, dθ₀, dω₀)` — zero but for a timed phase's motion, which starts at `s`
+    /// from the reference of the motion before it, `dθ₀ = ∂θ_prev(s)/∂p + ω_prev(s) ds`,
+    /// `dω₀ = ∂ω_prev(s)/∂p + α_prev(s) ds`.
+    fn start_dp(&self, p: usize, i: usize) -> Option<[Vec<f64>; 3]> {
+        let mem = &self.programs[p];
+        let (prev, g) = mem.records[i].timed.as_ref()?;
+        let s = mem.motions[i].t0();
+        let n = self.plan.tangent().names.len();
+        let ds = self.start_grad(g).unwrap_or_else(|| vec![0.0; n]);
+        let [mut dth, mut dw, _] = self.motion_dp(p, *prev, s);
+        let (_, w, a) = mem.motions[*prev].eval(s);
+        axpy(&mut dth, w, &ds);
+        axpy(&mut dw, a, &ds);
+        Some([ds, dth, dw])
+    }
+
+    /// `∂(θ*, ω*, α*)/∂p` of program `p`'s motion `i` at `t` over the parameters, at fixed
+    /// memory: through its numbers, and for a timed phase's motion through its start
+    /// ([`Self::start_dp`]).
+    fn motion_dp(&self, p: usize, i: usize, t: f64) -> [Vec<f64>; 3] {
+        let (d, numbers) = self.law_partials(p, i, t);
+        let n = self.plan.tangent().names.len();
+        let mut out = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        for (r, row) in d.iter().enumerate() {
+            for (k, num) in numbers.iter().enumerate() {
+                axpy(&mut out[r], row[3 + k], &num.dp);
+            }
+        }
+        if let Some(start) = self.start_dp(p, i) {
+            let cols = fold_start(&d, &numbers);
+            for (r, c) in cols.iter().enumerate() {
+                for (w, g) in c.iter().zip(&start) {
+                    axpy(&mut out[r], *w, g);
+                }
+            }
+        }
+        out
     }
 
     /// `(kp, kd)` of program `p`'s `torque` when it is a servo that tracks the joint's motion,
@@ -597,42 +853,76 @@ impl BehaviourController {
         -kp * (q - theta) - kd * (qd - omega)
     }
 
-    /// When phase `j` of program `p`, armed at `armed`, starts without waiting for an event
-    /// of the execution: at a time, after a named event that has happened, or after another
-    /// phase's start that is known; `None` if it has to wait for an event.
-    /// With the start, the event its time is offset from (see [`TimeOrigin`]): the
-    /// alternative that wins, or the arming start when it is later.
-    fn known_start(
-        &self,
-        p: usize,
-        j: usize,
-        (armed, armed_from): (f64, TimeOrigin),
-    ) -> Option<(f64, TimeOrigin)> {
+    /// When phase `j` of program `p`, armed at `armed` (the entry before it), starts without
+    /// waiting for an event of the execution: at a time, after a named event that has
+    /// happened, or after another phase's start that is known; `None` if it has to wait for
+    /// an event. With the start, the event its time is offset from (see [`TimeOrigin`]) and
+    /// its gradient over the parameters: the alternative that wins, or the arming start when
+    /// it is later.
+    fn known_start(&self, p: usize, j: usize, armed: &Entry) -> Option<Entry> {
+        /// The alternative that gives the start.
+        enum Which {
+            Armed,
+            Time(usize),
+            Named,
+            Phase(usize, StartGrad),
+        }
         let s = &self.plan.programs[p].phases[j].start;
-        let mut best: Option<(f64, TimeOrigin)> = None;
-        let mut offer = |c: f64, from: TimeOrigin| {
-            let c = if armed > c {
-                (armed, armed_from)
+        let mut best: Option<(f64, TimeOrigin, Which)> = None;
+        let mut offer = |c: f64, from: TimeOrigin, which: Which| {
+            let c = if armed.0 > c {
+                (armed.0, armed.2, Which::Armed)
             } else {
-                (c, from)
+                (c, from, which)
             };
-            if best.is_none_or(|b| c.0 < b.0) {
+            if best.as_ref().is_none_or(|b| c.0 < b.0) {
                 best = Some(c);
             }
         };
-        s.times.iter().for_each(|&t| offer(t, None));
+        for (i, &t) in s.times.iter().enumerate() {
+            offer(t, None, Which::Time(i));
+        }
         for &n in &s.named {
             if let Some(t) = self.named[n] {
-                offer(t, self.named_from[n].map(|k| (k, t)));
+                offer(t, self.named_from[n].map(|k| (k, t)), Which::Named);
             }
         }
-        for &(p2, k2, delay) in &s.phases {
+        for (i, &(p2, k2, delay)) in s.phases.iter().enumerate() {
             let starts = self.programs[p2].timeline.iter().filter(|e| e.1 == k2);
-            if let Some((t, from)) = starts.map(|e| (e.0 + delay, e.2)).find(|e| e.0 >= armed) {
-                offer(t, from);
+            if let Some(e) = starts.map(|e| (e.0 + delay, e)).find(|e| e.0 >= armed.0) {
+                offer(e.0, e.1 .2, Which::Phase(i, e.1 .3));
             }
         }
-        best
+        best.map(|(t, from, which)| {
+            let grad = match which {
+                Which::Armed => armed.3,
+                Which::Time(i) => StartGrad::Time(p, j, i),
+                Which::Named => StartGrad::Zero,
+                Which::Phase(i, g) => match g {
+                    StartGrad::Zero => StartGrad::Delay(None, (p, j, i)),
+                    StartGrad::Time(a, b, c) => StartGrad::Delay(Some((a, b, c)), (p, j, i)),
+                    _ => StartGrad::Deeper,
+                },
+            };
+            (t, j, from, grad)
+        })
+    }
+
+    /// The gradient of a planned start (`None`: zero), from the plan's tangent; NaN for a
+    /// start not differentiated ([`StartGrad::Deeper`]).
+    fn start_grad(&self, g: &StartGrad) -> Option<Vec<f64>> {
+        let tan = self.plan.tangent();
+        let time = |(p, j, i): (usize, usize, usize)| tan.phases[p][j].times[i].to_vec();
+        match *g {
+            StartGrad::Zero => None,
+            StartGrad::Time(p, j, i) => Some(time((p, j, i))),
+            StartGrad::Delay(before, (p, j, i)) => {
+                let mut d = before.map_or_else(|| vec![0.0; tan.names.len()], time);
+                axpy(&mut d, 1.0, &tan.phases[p][j].delays[i]);
+                Some(d)
+            }
+            StartGrad::Deeper => Some(vec![f64::NAN; tan.names.len()]),
+        }
     }
 
     /// Plans again, after `now`, the phases whose starts are known (to the horizon), for
@@ -646,15 +936,18 @@ impl BehaviourController {
                     .timeline
                     .partition_point(|e| e.0 <= now)
                     .max(1);
-                let (mut s, mut k, mut from) = self.programs[p].timeline[keep - 1];
+                let mut last = self.programs[p].timeline[keep - 1].clone();
                 let mut planned = Vec::new();
                 while planned.len() <= PLAN_CAP {
-                    let Some(j) = self.successor(p, k) else { break };
-                    let Some((start, origin)) = self.known_start(p, j, (s, from)) else {
+                    let Some(j) = self.successor(p, last.1) else {
                         break;
                     };
-                    planned.push((start, j, origin));
-                    (s, k, from) = (start, j, origin);
+                    let Some(entry) = self.known_start(p, j, &last) else {
+                        break;
+                    };
+                    let start = entry.0;
+                    planned.push(entry.clone());
+                    last = entry;
                     if start > self.plan.horizon_s {
                         break;
                     }
@@ -683,7 +976,8 @@ impl BehaviourController {
                 mem.keep_motions_started_by(now);
             }
             let first = mem.timeline.partition_point(|e| e.0 <= now);
-            for &(s, k, from) in &mem.timeline[first..] {
+            for (s, k, from, grad) in &mem.timeline[first..] {
+                let (s, k) = (*s, *k);
                 let phase = &prog.phases[k];
                 if !phase.own_motion {
                     continue;
@@ -691,25 +985,71 @@ impl BehaviourController {
                 let i = mem.motions.iter().rposition(|m| m.t0() <= s).unwrap_or(0);
                 let (theta, omega, _) = mem.motions[i].eval(s);
                 // at a time or from a reference that depends on an event: it moves with them
-                let origin = if from.is_none() && mem.origins[i] == MotionOrigin::Fixed {
+                let fixed = from.is_none() && mem.records[i].origin == MotionOrigin::Fixed;
+                let origin = if fixed || !phase.motion.depends_on_start() {
                     MotionOrigin::Fixed
                 } else {
-                    match phase.motion.constant_law() {
-                        Ok(Some(law)) => MotionOrigin::Timed {
-                            event: from.map(|f| f.0),
-                            prev: i,
-                            nq,
-                            law,
-                        },
-                        Ok(None) => MotionOrigin::Fixed,
-                        Err(()) => MotionOrigin::Unsupported,
+                    MotionOrigin::Timed {
+                        event: from.map(|f| f.0),
+                        prev: i,
+                        nq,
                     }
                 };
                 mem.motions.push(phase.motion.start(s, theta, omega));
-                mem.origins.push(origin);
+                mem.records.push(MotionRecord {
+                    origin,
+                    phase: k,
+                    theta0: theta,
+                    omega0: omega,
+                    timed: Some((i, grad.clone())),
+                });
             }
         }
     }
+}
+
+/// `∂(θ*, ω*, α*)/∂(t₀, θ₀, ω₀)` from the partials `d` over the start and the numbers
+/// `(speed, accel, target)` and the numbers' partials over `(θ₀, ω₀)`: the chain through
+/// `theta`, `omega`.
+fn fold_start(d: &[[f64; 6]; 3], numbers: &[NumberPartials; 3]) -> [[f64; 3]; 3] {
+    d.map(|row| fold_row(&row, numbers))
+}
+
+/// [`fold_start`] of one row.
+fn fold_row(row: &[f64; 6], numbers: &[NumberPartials; 3]) -> [f64; 3] {
+    let mut c = [row[0], row[1], row[2]];
+    for (k, num) in numbers.iter().enumerate() {
+        c[1] += row[3 + k] * num.dtheta;
+        c[2] += row[3 + k] * num.domega;
+    }
+    c
+}
+
+/// `∂τ/∂p` of a schedule at `t` ([`schedule`]) over its torques' and times' gradients:
+/// between breakpoints `a < t < b`, `τ = τ_a + s (τ_b − τ_a)` with `s = (t − a)/(b − a)`,
+/// `∂s/∂a = (s − 1)/(b − a)`, `∂s/∂b = −s/(b − a)`; beyond the ends (and held) the torque's.
+fn schedule_dp(
+    (times, torques, hold): (&[f64], &[f64], bool),
+    t: f64,
+    dtimes: &[Grad],
+    dtorques: &[Grad],
+) -> Vec<f64> {
+    let i = times.partition_point(|&x| x <= t);
+    if i == 0 {
+        return dtorques[0].to_vec();
+    }
+    if i == times.len() || hold {
+        return dtorques[i - 1].to_vec();
+    }
+    let (a, b) = (times[i - 1], times[i]);
+    let s = (t - a) / (b - a);
+    let rise = torques[i] - torques[i - 1];
+    let mut d = vec![0.0; dtorques[0].len()];
+    axpy(&mut d, 1.0 - s, &dtorques[i - 1]);
+    axpy(&mut d, s, &dtorques[i]);
+    axpy(&mut d, rise * (s - 1.0) / (b - a), &dtimes[i - 1]);
+    axpy(&mut d, -rise * s / (b - a), &dtimes[i]);
+    d
 }
 
 /// The piece of a servo's law `sat(u, ±limit)` at command `u`: linear (0), saturated at
@@ -790,11 +1130,15 @@ impl Controller for BehaviourController {
     ///   own row and column inside the limit, 0 on the saturated branch (the side the clamp
     ///   returns: a value exactly at the limit counts as saturated), 0 out of contact with
     ///   `only_in_contact`;
+    /// - `motor`: `∂τ/∂q̇_j` of the actuator's law on its branch (`tangent.rs`,
+    ///   `ActuatorLaw::partials`: the torque–speed line or the current limit, one-sided at the
+    ///   kink a joint leaves);
     /// - a free joint `q̈ = α_ref + kp_f (θ_ref − q_j) + kd_f (ω_ref − q̇_j)`: `−kp_f`, `−kd_f`.
     ///
-    /// No partials (`false`) for a `motor` torque (the actuator models give no derivative
-    /// yet) or for a program with a `joint_angle` level (its torque switches inside a flow at
-    /// a crossing the engine does not locate, where no saltation matrix could be formed).
+    /// No partials (`false`) for a `motor` that reverses past an angle (`reverse_beyond_rad`:
+    /// its torque jumps at a crossing without an event) or for a program with a
+    /// `joint_angle` level (its torque switches inside a flow at a crossing the engine does
+    /// not locate, where no saltation matrix could be formed).
     fn partials(
         &self,
         t: f64,
@@ -812,7 +1156,16 @@ impl Controller for BehaviourController {
             let j = prog.joint;
             match &prog.phases[self.current(p, t, q)].torque {
                 TorqueLaw::Zero | TorqueLaw::Constant(_) | TorqueLaw::Schedule { .. } => {}
-                TorqueLaw::Motor { .. } => return false,
+                TorqueLaw::Motor {
+                    reverse_beyond: Some(_),
+                    ..
+                } => return false,
+                TorqueLaw::Motor {
+                    actuator, command, ..
+                } => {
+                    let law = &plan.tangent().actuators[*actuator];
+                    out.dtau_dqd[(j, j)] = law.partials(*command, &[], qd[j]).0;
+                }
                 TorqueLaw::Servo {
                     target,
                     kp,
@@ -841,19 +1194,30 @@ impl Controller for BehaviourController {
     }
 
     /// Per program, two bits: a servo in its linear range (0) or saturated at `+limit` (1)
-    /// or `−limit` (2) — where [`Self::partials`] switch branch (the tangent's steps are
-    /// split there); the other laws 0. Programs past the 32nd fold into the same bits.
+    /// or `−limit` (2), a motor on its torque–speed line (0) or at its current limit (1) —
+    /// where [`Self::partials`] switch branch (the tangent's steps are split there); the
+    /// other laws 0. Programs past the 32nd fold into the same bits.
     fn partials_piece(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode) -> u64 {
         let plan = &*self.plan;
         let mut out = 0u64;
         for (p, prog) in plan.programs.iter().enumerate() {
+            let torque = &prog.phases[self.current(p, t, q)].torque;
+            if let TorqueLaw::Motor {
+                actuator, command, ..
+            } = torque
+            {
+                let on_limit =
+                    plan.tangent().actuators[*actuator].on_limit(*command, qd[prog.joint]);
+                out ^= u64::from(on_limit) << (2 * (p % 32));
+                continue;
+            }
             let TorqueLaw::Servo {
                 target,
                 kp,
                 kd,
                 limit,
                 only_in_contact,
-            } = &prog.phases[self.current(p, t, q)].torque
+            } = torque
             else {
                 continue;
             };
@@ -867,33 +1231,127 @@ impl Controller for BehaviourController {
         out
     }
 
-    /// The instants where the outputs may jump in time alone: each phase start already known,
-    /// each prescribed motion's start and knots (its jerk jumps there), and the breakpoints
-    /// of torque schedules. The behaviour has no named parameters (`dt_dp` empty for no
-    /// names, zeros otherwise); the engine's steps land on these instants.
-    fn time_events(&self, names: &[&str]) -> Vec<TimeEvent> {
-        let mut times = Vec::new();
-        for (p, prog) in self.plan.programs.iter().enumerate() {
-            let mem = &self.programs[p];
-            times.extend(mem.timeline.iter().map(|e| e.0));
-            for m in &mem.motions {
-                times.push(m.t0());
-                times.extend(m.knots());
+    /// `∂Υ/∂p` and `∂q̈_free/∂p` over the named parameters of the behaviour (its
+    /// `[parameters]`) at fixed state and memory, each law through the gradients of its
+    /// numbers (`tangent.rs`: formulas forward-mode, actuator data in closed form):
+    ///
+    /// - `constant` its torque's gradient; `schedule` the interpolation's over its torques
+    ///   and breakpoints;
+    /// - `servo` inside its limit `(θ* − q) ∂kp + (ω* − q̇) ∂kd + kp ∂θ* + kd ∂ω*` (a fixed
+    ///   target's gradient, or the motion's, `motion_dp`), saturated `±∂limit`, 0 out of
+    ///   contact with `only_in_contact`;
+    /// - `motor` the actuator law's over its data (`gear_ratio`, `current_limit_a`, `count`,
+    ///   `supply_voltage_v`) and its command (`ActuatorLaw::partials`);
+    /// - a free joint `∂α* + (θ* − q) ∂kp_f + (ω* − q̇) ∂kd_f + kp_f ∂θ* + kd_f ∂ω*`.
+    ///
+    /// `false` for a name that is not a parameter of the behaviour, wherever
+    /// [`Controller::partials`] gives none, and for a phase planned a delay after a phase
+    /// itself planned a delay after another (not differentiated yet).
+    fn parameter_partials(
+        &self,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        mode: ContactMode,
+        free_joints: &[usize],
+        names: &[&str],
+        out: &mut ControllerPartials,
+    ) -> bool {
+        let plan = &*self.plan;
+        let tan = plan.tangent();
+        let Some(idx) = tan.indices(names) else {
+            return false;
+        };
+        let deeper = |m: &ProgramMemory| m.timeline.iter().any(|e| e.3 == StartGrad::Deeper);
+        if self.programs.iter().any(deeper) {
+            return false;
+        }
+        for (p, prog) in plan.programs.iter().enumerate() {
+            if prog.has_levels {
+                return false;
             }
-            for phase in &prog.phases {
-                if let TorqueLaw::Schedule { times: ts, .. } = &phase.torque {
-                    times.extend_from_slice(ts);
+            let k = self.current(p, t, q);
+            match self.torque_dp((p, k), t, (q, qd), mode) {
+                None => return false,
+                Some(None) => {}
+                Some(Some(d)) => {
+                    for (c, &i) in idx.iter().enumerate() {
+                        out.dtau_dp[(prog.joint, c)] = d[i];
+                    }
                 }
             }
         }
-        times
-            .into_iter()
-            .filter(|t| t.is_finite())
-            .map(|t| TimeEvent {
-                t,
-                dt_dp: vec![0.0; names.len()],
-            })
-            .collect()
+        for (r, &j) in free_joints.iter().enumerate() {
+            let Some(p) = plan.program_of_joint.get(j).copied().flatten() else {
+                continue;
+            };
+            let [dth, dw, mut d] = self.motion_dp(p, self.motion_index(p, t), t);
+            let (theta, omega, _) = self.reference(p, t);
+            axpy(&mut d, theta - q[j], &tan.kp_free);
+            axpy(&mut d, omega - qd[j], &tan.kd_free);
+            axpy(&mut d, plan.kp_free, &dth);
+            axpy(&mut d, plan.kd_free, &dw);
+            for (c, &i) in idx.iter().enumerate() {
+                out.dfree_dp[(r, c)] = d[i];
+            }
+        }
+        true
+    }
+
+    /// The instants where the outputs may jump in time alone: each phase start already known,
+    /// each prescribed motion's start and knots (its jerk jumps there), and the breakpoints
+    /// of torque schedules, once each (the first listed where several coincide), each with
+    /// `dt_b/dp` over the named parameters at fixed memory (an instant that moves with a
+    /// remembered event is also a memory time event, [`Self::memory_time_events`]): a start
+    /// planned at a time its gradient; a motion's start its phase's, its knots that plus the
+    /// durations' (`StartedLaw::knot_partials`); a breakpoint its time's. Names the behaviour
+    /// does not have get zeros ([`Self::parameter_partials`] refuses them). The engine's
+    /// steps land on these instants.
+    fn time_events(&self, names: &[&str]) -> Vec<TimeEvent> {
+        // the forward run asks with no names: the tangent is not built for it
+        let tan = (!names.is_empty()).then(|| self.plan.tangent());
+        let idx = tan.and_then(|t| t.indices(names));
+        let pick = |g: Option<&[f64]>| -> Vec<f64> {
+            match (&idx, g) {
+                (Some(ix), Some(g)) => ix.iter().map(|&i| g[i]).collect(),
+                _ => vec![0.0; names.len()],
+            }
+        };
+        let mut out = Vec::new();
+        for mem in &self.programs {
+            out.extend(mem.timeline.iter().map(|e| TimeEvent {
+                t: e.0,
+                dt_dp: match idx {
+                    Some(_) => pick(self.start_grad(&e.3).as_deref()),
+                    None => pick(None),
+                },
+            }));
+        }
+        for (p, prog) in self.plan.programs.iter().enumerate() {
+            for i in 0..self.programs[p].motions.len() {
+                self.motion_time_events(p, i, idx.is_some(), &pick, &mut out);
+            }
+            for (k, phase) in prog.phases.iter().enumerate() {
+                let TorqueLaw::Schedule { times, .. } = &phase.torque else {
+                    continue;
+                };
+                let dtimes = match tan
+                    .filter(|_| idx.is_some())
+                    .map(|t| &t.phases[p][k].torque)
+                {
+                    Some(TorqueTangent::Schedule { times: d, .. }) => Some(d),
+                    _ => None,
+                };
+                out.extend(times.iter().enumerate().map(|(i, &t)| TimeEvent {
+                    t,
+                    dt_dp: pick(dtimes.map(|d| &d[i][..])),
+                }));
+            }
+        }
+        out.retain(|e| e.t.is_finite());
+        out.sort_by(|a, b| a.t.total_cmp(&b.t));
+        out.dedup_by(|b, a| a.t == b.t);
+        out
     }
 
     /// `∂Υ/∂t` at a fixed state: a `servo` that tracks the joint's motion (inside its limit)
@@ -935,11 +1393,10 @@ impl Controller for BehaviourController {
         true
     }
 
-    /// Whether a motion depends on an event's start (or in a way not differentiated), or a
-    /// phase starts a delay after an event (a named event's, or another phase's start).
+    /// Whether a motion depends on an event's start, or a phase starts a delay after an event (a named event's, or another phase's start).
     fn has_event_memory(&self) -> bool {
         self.programs.iter().any(|m| {
-            m.origins.iter().any(|o| *o != MotionOrigin::Fixed)
+            m.records.iter().any(|r| r.origin != MotionOrigin::Fixed)
                 || m.timeline
                     .iter()
                     .any(|e| e.2.is_some_and(|(_, tk)| e.0 != tk))
@@ -948,12 +1405,13 @@ impl Controller for BehaviourController {
 
     /// `∂Υ/∂m_k`, `∂q̈_free/∂m_k` of the motion in force of each program, where it started
     /// at event `k` from the event's state, or (a timed phase's own motion) at a time or
-    /// from a reference that depends on it (`memory.rs`): a `servo` that tracks the motion
-    /// (inside its limit) `kp ∂θ*/∂m_k + kd ∂ω*/∂m_k` on its joint's row, a free joint
-    /// `∂α*/∂m_k + kp_f ∂θ*/∂m_k + kd_f ∂ω*/∂m_k`. `false` where the motion in force depends on
-    /// an event in a way not differentiated (numbers of `theta`/`omega`; a timed phase's
-    /// motion whose start and whose previous motion depend on two different events), or
-    /// where [`Controller::partials`] gives none (a `motor`).
+    /// from a reference that depends on it (`motion::StartedLaw`): a `servo` that tracks the
+    /// motion (inside its limit) `kp ∂θ*/∂m_k + kd ∂ω*/∂m_k` on its joint's row, a free joint
+    /// `∂α*/∂m_k + kp_f ∂θ*/∂m_k + kd_f ∂ω*/∂m_k`; numbers of `theta`/`omega` through the
+    /// start. `false` where the motion in force depends on an event in a way not
+    /// differentiated (a timed phase's motion whose start and whose previous motion depend
+    /// on two different events), or where [`Controller::partials`] gives none (a `motor`
+    /// that reverses past an angle).
     fn memory_partials(
         &self,
         t: f64,
@@ -969,7 +1427,13 @@ impl Controller for BehaviourController {
             let j = prog.joint;
             let free = free_joints.iter().position(|&f| f == j);
             let torque = &prog.phases[self.current(p, t, q)].torque;
-            if matches!(torque, TorqueLaw::Motor { .. }) {
+            if matches!(
+                torque,
+                TorqueLaw::Motor {
+                    reverse_beyond: Some(_),
+                    ..
+                }
+            ) {
                 return false;
             }
             let servo = self.tracking_servo(p, torque, t, (q, qd), mode);
@@ -1002,7 +1466,7 @@ impl Controller for BehaviourController {
     fn memory_time_events(&self) -> Vec<MemoryTimeEvent> {
         let mut out = Vec::new();
         for m in &self.programs {
-            for &(t, _, from) in &m.timeline {
+            for &(t, _, from, _) in &m.timeline {
                 let Some((k, tk)) = from else { continue };
                 if t == tk || !t.is_finite() {
                     continue;
@@ -1046,7 +1510,9 @@ impl Controller for BehaviourController {
                 if !prog.phases[j].start.events.iter().any(|m| m.matches(e)) {
                     break;
                 }
-                self.programs[p].timeline.push((e.t, j, Some((ev_k, e.t))));
+                self.programs[p]
+                    .timeline
+                    .push((e.t, j, Some((ev_k, e.t)), StartGrad::Zero));
             }
         }
         // => the starts this makes known, and those of the phases after them
@@ -1066,12 +1532,26 @@ impl Controller for BehaviourController {
                 || phase.restart_named.iter().any(|&n| fired_now[n]);
             if started_now || restart {
                 let j = prog.joint;
-                let origin = phase.motion.origin_at_event(ev_k, j, e.q.len());
+                let origin = if phase.motion.depends_on_start() {
+                    MotionOrigin::Event {
+                        event: ev_k,
+                        joint: j,
+                        nq: e.q.len(),
+                    }
+                } else {
+                    MotionOrigin::Fixed
+                };
                 let mem = &mut self.programs[p];
                 mem.keep_motions_started_by(e.t);
                 mem.motions
                     .push(phase.motion.start(e.t, e.q[j], e.qd_after[j]));
-                mem.origins.push(origin);
+                mem.records.push(MotionRecord {
+                    origin,
+                    phase: k,
+                    theta0: e.q[j],
+                    omega0: e.qd_after[j],
+                    timed: None,
+                });
             }
         }
         self.plan_timed_motions(e.t);

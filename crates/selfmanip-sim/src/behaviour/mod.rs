@@ -10,10 +10,10 @@
 //! past an angle. The file format is documented in `docs/behaviours.md`.
 pub mod compile;
 pub mod interpreter;
-pub(crate) mod memory;
 pub mod spec;
+pub(crate) mod tangent;
 
-pub use compile::compile;
+pub use compile::{compile, compile_shared};
 pub use interpreter::BehaviourController;
 pub use spec::{
     ActuatorSpec, Behaviour, FreeJointGains, Interpolation, JointProgram, Motion, NamedEvent, On,

@@ -20,7 +20,8 @@
 //! A motion started from a state (an event's) has derivatives with respect to that start,
 //! `∂(θ, θ̇, θ̈)/∂(t₀, θ₀, ω₀)`: [`StartedLaw::partials`], for a controller's event memory.
 
-pub use crate::behaviour::memory::StartedLaw;
+mod started;
+pub use started::StartedLaw;
 
 /// One joint's prescribed angle `θ(t)` (rad), its rate and its acceleration.
 #[derive(Debug, Clone, PartialEq)]

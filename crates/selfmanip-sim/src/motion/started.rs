@@ -15,12 +15,13 @@
 //! quintic's duration `T₀ 1.02ⁿ` with `n` the search's count held fixed) by dual numbers:
 //! each quantity carries its value and its partials over `(θ₀, ω₀)`. The branches are those
 //! of the motion at the values given; at a branch switch the derivative is one-sided.
-use crate::motion::JointMotion;
+use super::JointMotion;
 
-/// How many partials a [`D`] carries: over `(θ₀, ω₀, speed, accel)`.
-const N: usize = 4;
+/// How many partials a [`D`] carries: over `(θ₀, ω₀, speed, accel, target)`.
+const N: usize = 5;
 
-/// A value with its partials over `(θ₀, ω₀)` and the motion's bounds `(speed, accel)`.
+/// A value with its partials over `(θ₀, ω₀)` and the motion's numbers `(speed, accel,
+/// target)`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct D {
     v: f64,
@@ -152,11 +153,24 @@ impl StartedLaw {
         omega0: f64,
         t: f64,
     ) -> [[f64; 5]; 3] {
+        self.partials_full(motion, theta0, omega0, t)
+            .map(|row| [row[0], row[1], row[2], row[3], row[4]])
+    }
+
+    /// [`Self::partials_with_bounds`] and the partials over the target: columns `t₀, θ₀,
+    /// ω₀, speed, accel, target`, rows `θ*, ω*, α*`.
+    pub fn partials_full(
+        &self,
+        motion: &JointMotion,
+        theta0: f64,
+        omega0: f64,
+        t: f64,
+    ) -> [[f64; 6]; 3] {
         let t0 = motion.t0();
         let (_, w, a) = motion.eval(t);
         let jerk = motion.jerk(t);
         let r = self.reference_dual(motion, theta0, omega0, t);
-        let mut out = [[0.0; 5]; 3];
+        let mut out = [[0.0; 6]; 3];
         for (i, (dt, x)) in [(-w, r[0]), (-a, r[1]), (-jerk, r[2])]
             .into_iter()
             .enumerate()
@@ -168,81 +182,128 @@ impl StartedLaw {
                 x.d[1],
                 x.d[2],
                 x.d[3],
+                x.d[4],
             ];
         }
         out
     }
 
-    /// `(θ*, ω*, α*)` at `t` with their partials over `(θ₀, ω₀, speed, accel)`, on the
-    /// branches `motion` took.
-    fn reference_dual(&self, motion: &JointMotion, theta0: f64, omega0: f64, t: f64) -> [D; 3] {
-        let (th0, w0) = (D::var(theta0, 0), D::var(omega0, 1));
-        let accel_of = |a: f64| D::var(a, 3);
-        let tau = (t - motion.t0()).max(0.0);
-        let knots = motion.knots();
-        match *self {
+    /// The partials of each knot of `motion` ([`JointMotion::knots`], in order) over `(t₀,
+    /// θ₀, ω₀, speed, accel, target)`: a knot is `t₀` plus the durations of the pieces
+    /// before it, on the branches the motion took.
+    pub fn knot_partials(&self, motion: &JointMotion, theta0: f64, omega0: f64) -> Vec<[f64; 6]> {
+        let mut t = D::c(0.0);
+        self.durations_dual(motion, theta0, omega0)
+            .into_iter()
+            .map(|dur| {
+                t = t + dur;
+                [1.0, t.d[0], t.d[1], t.d[2], t.d[3], t.d[4]]
+            })
+            .collect()
+    }
+
+    /// The law's numbers as dual numbers: `(θ₀, ω₀, speed, accel, target)`.
+    fn inputs(&self, theta0: f64, omega0: f64) -> [D; 5] {
+        let (speed, accel, target) = match *self {
             StartedLaw::Swing {
                 target,
                 speed,
                 accel,
-            } if knots.len() == 3 => {
-                // the ramps of JointMotion::swing
-                let dir = (target - theta0).signum();
-                let v = if speed.abs() >= dir * omega0 {
-                    dir * D::var(speed, 2).abs()
-                } else {
-                    w0
-                };
-                let accel = accel_of(accel);
-                let up = (D::c(1.5) / accel) * (v - w0).abs();
-                let down = (D::c(1.5) / accel) * v.abs();
-                let ramps = 0.5 * ((w0 + v) * up) + 0.5 * (v * down);
-                let cruise = (D::c(target) - th0 - ramps) / v;
-                let mut theta = th0;
-                let mut tau = D::c(tau);
-                for (dur, a, b) in [(up, w0, v), (cruise, v, v), (down, v, D::c(0.0))] {
-                    if tau.v <= dur.v {
-                        return ramp(dur, theta, a, b, tau);
-                    }
-                    theta = ramp(dur, theta, a, b, dur)[0];
-                    tau = tau - dur;
-                }
-                [D::c(target), D::c(0.0), D::c(0.0)]
-            }
-            StartedLaw::Swing { target, accel, .. } | StartedLaw::Park { target, accel } => {
-                // the quintic of JointMotion::park: T = T₀ 1.02ⁿ
-                let distance = (D::c(target) - th0).abs();
-                let accel = accel_of(accel);
-                let mut dur = (5.77 * distance / accel).sqrt();
-                let by_speed = w0.abs() / accel;
-                if by_speed.v > dur.v {
-                    dur = by_speed;
-                }
-                if 1e-6 > dur.v {
-                    dur = D::c(1e-6);
-                }
-                let total = knots.first().map_or(0.0, |k| k - motion.t0());
-                while dur.v * 1.02 <= total * (1.0 + 1e-9) && dur.v < total {
-                    dur = 1.02 * dur;
-                }
-                if tau > dur.v {
-                    return [D::c(target), D::c(0.0), D::c(0.0)];
-                }
-                let d = D::c(target) - th0 - w0 * dur;
-                let wt = w0 * dur;
-                let t3 = dur * dur * dur;
-                let c3 = (10.0 * d + 4.0 * wt) / t3;
-                let c4 = (-15.0 * d - 7.0 * wt) / (t3 * dur);
-                let c5 = (6.0 * d + 3.0 * wt) / (t3 * dur * dur);
-                let tau = D::c(tau);
-                let (s2, s3) = (tau * tau, tau * tau * tau);
-                [
-                    th0 + w0 * tau + c3 * s3 + c4 * s3 * tau + c5 * s3 * s2,
-                    w0 + 3.0 * c3 * s2 + 4.0 * c4 * s3 + 5.0 * c5 * s2 * s2,
-                    6.0 * c3 * tau + 12.0 * c4 * s2 + 20.0 * c5 * s3,
-                ]
-            }
+            } => (speed, accel, target),
+            StartedLaw::Park { target, accel } => (0.0, accel, target),
+        };
+        [
+            D::var(theta0, 0),
+            D::var(omega0, 1),
+            D::var(speed, 2),
+            D::var(accel, 3),
+            D::var(target, 4),
+        ]
+    }
+
+    /// The durations of `motion`'s pieces as dual numbers (the ramps' up, cruise, down; the
+    /// quintic's one), on the branches the motion took, with the ramps' cruise speed.
+    fn durations_dual(&self, motion: &JointMotion, theta0: f64, omega0: f64) -> Vec<D> {
+        self.shape(motion, theta0, omega0).0
+    }
+
+    /// The pieces' durations and, for ramps, the cruise speed `v` (for the quintic: `None`).
+    fn shape(&self, motion: &JointMotion, theta0: f64, omega0: f64) -> (Vec<D>, Option<D>) {
+        let [th0, w0, speed, accel, target] = self.inputs(theta0, omega0);
+        let knots = motion.knots();
+        if matches!(self, StartedLaw::Swing { .. }) && knots.len() == 3 {
+            // the ramps of JointMotion::swing
+            let dir = (target.v - theta0).signum();
+            let v = if speed.v.abs() >= dir * omega0 {
+                dir * speed.abs()
+            } else {
+                w0
+            };
+            let up = (D::c(1.5) / accel) * (v - w0).abs();
+            let down = (D::c(1.5) / accel) * v.abs();
+            let ramps = 0.5 * ((w0 + v) * up) + 0.5 * (v * down);
+            let cruise = (target - th0 - ramps) / v;
+            return (vec![up, cruise, down], Some(v));
         }
+        if knots.is_empty() {
+            return (Vec::new(), None);
+        }
+        // the quintic of JointMotion::park: T = T₀ 1.02ⁿ
+        let distance = (target - th0).abs();
+        let mut dur = (5.77 * distance / accel).sqrt();
+        let by_speed = w0.abs() / accel;
+        if by_speed.v > dur.v {
+            dur = by_speed;
+        }
+        if 1e-6 > dur.v {
+            dur = D::c(1e-6);
+        }
+        let total = knots[0] - motion.t0();
+        while dur.v * 1.02 <= total * (1.0 + 1e-9) && dur.v < total {
+            dur = 1.02 * dur;
+        }
+        (vec![dur], None)
+    }
+
+    /// `(θ*, ω*, α*)` at `t` with their partials over `(θ₀, ω₀, speed, accel, target)`, on
+    /// the branches `motion` took.
+    fn reference_dual(&self, motion: &JointMotion, theta0: f64, omega0: f64, t: f64) -> [D; 3] {
+        let [th0, w0, _, _, target] = self.inputs(theta0, omega0);
+        let tau = (t - motion.t0()).max(0.0);
+        let (durations, cruise_speed) = self.shape(motion, theta0, omega0);
+        if let Some(v) = cruise_speed {
+            let [up, cruise, down] = [durations[0], durations[1], durations[2]];
+            let mut theta = th0;
+            let mut tau = D::c(tau);
+            for (dur, a, b) in [(up, w0, v), (cruise, v, v), (down, v, D::c(0.0))] {
+                if tau.v <= dur.v {
+                    return ramp(dur, theta, a, b, tau);
+                }
+                theta = ramp(dur, theta, a, b, dur)[0];
+                tau = tau - dur;
+            }
+            return [target, D::c(0.0), D::c(0.0)];
+        }
+        let Some(&dur) = durations.first() else {
+            // a hold: at rest at its end from the start
+            return [target, D::c(0.0), D::c(0.0)];
+        };
+        if tau > dur.v {
+            return [target, D::c(0.0), D::c(0.0)];
+        }
+        let d = target - th0 - w0 * dur;
+        let wt = w0 * dur;
+        let t3 = dur * dur * dur;
+        let c3 = (10.0 * d + 4.0 * wt) / t3;
+        let c4 = (-15.0 * d - 7.0 * wt) / (t3 * dur);
+        let c5 = (6.0 * d + 3.0 * wt) / (t3 * dur * dur);
+        let tau = D::c(tau);
+        let (s2, s3) = (tau * tau, tau * tau * tau);
+        [
+            th0 + w0 * tau + c3 * s3 + c4 * s3 * tau + c5 * s3 * s2,
+            w0 + 3.0 * c3 * s2 + 4.0 * c4 * s3 + 5.0 * c5 * s2 * s2,
+            6.0 * c3 * tau + 12.0 * c4 * s2 + 20.0 * c5 * s3,
+        ]
     }
 }
 
@@ -266,15 +327,10 @@ fn ramp(dur: D, theta0: D, w0: D, w1: D, tau: D) -> [D; 3] {
 mod tests {
     use super::*;
 
-    /// The dual-number construction reproduces the motion (its values agree with
-    /// `JointMotion::eval` to round-off), and its partials over `(t₀, θ₀, ω₀)` agree with
-    /// central differences of whole motions built from perturbed starts (an independent
-    /// route: the production constructor, not the dual one), for swings (ramps, a cruise at
-    /// the start speed) and parks (a quintic after the duration search), at times inside
-    /// every piece.
-    #[test]
-    fn motion_partials_match_central_differences() {
-        let laws = [
+    /// Swings (ramps, a cruise at the start speed, one that falls back on a park) and a
+    /// park, with their starts `(θ₀, ω₀)`.
+    fn sample_laws() -> [(StartedLaw, f64, f64); 5] {
+        [
             (
                 StartedLaw::Swing {
                     target: 1.2,
@@ -319,7 +375,18 @@ mod tests {
                 0.45,
                 -4.0,
             ),
-        ];
+        ]
+    }
+
+    /// The dual-number construction reproduces the motion (its values agree with
+    /// `JointMotion::eval` to round-off), and its partials over `(t₀, θ₀, ω₀)` agree with
+    /// central differences of whole motions built from perturbed starts (an independent
+    /// route: the production constructor, not the dual one), for swings (ramps, a cruise at
+    /// the start speed) and parks (a quintic after the duration search), at times inside
+    /// every piece.
+    #[test]
+    fn motion_partials_match_central_differences() {
+        let laws = sample_laws();
         let t0 = 0.1;
         let mut worst: f64 = 0.0;
         for (law, th, w) in laws {
@@ -418,5 +485,85 @@ mod tests {
             }
         }
         eprintln!("worst relative error of the bounds' partials: {worst:e}");
+    }
+
+    /// The partials over the target, and those of the knots over every number, against
+    /// central differences of motions built with that number perturbed (the production
+    /// constructor), for ramps and quintics.
+    #[test]
+    fn target_and_knot_partials_match_central_differences() {
+        let laws = sample_laws();
+        let t0 = 0.1;
+        // (t0, θ0, ω0, speed, accel, target) perturbed by h in column c
+        let build = |law: StartedLaw, x: [f64; 6]| {
+            let l = match law {
+                StartedLaw::Swing { .. } => StartedLaw::Swing {
+                    target: x[5],
+                    speed: x[3],
+                    accel: x[4],
+                },
+                StartedLaw::Park { .. } => StartedLaw::Park {
+                    target: x[5],
+                    accel: x[4],
+                },
+            };
+            l.motion(x[0], x[1], x[2])
+        };
+        let mut worst: f64 = 0.0;
+        for (law, th, w) in laws {
+            let (speed, accel, target) = match law {
+                StartedLaw::Swing {
+                    target,
+                    speed,
+                    accel,
+                } => (speed, accel, target),
+                StartedLaw::Park { target, accel } => (0.0, accel, target),
+            };
+            let x0 = [t0, th, w, speed, accel, target];
+            let m = law.motion(t0, th, w);
+            let kp = law.knot_partials(&m, th, w);
+            assert_eq!(kp.len(), m.knots().len());
+            let end = m.knots().last().copied().unwrap_or(t0) + 0.01;
+            for c in 0..6 {
+                let h = 1e-6 * (1.0 + x0[c].abs());
+                let (mut a, mut b) = (x0, x0);
+                a[c] += h;
+                b[c] -= h;
+                let (ma, mb) = (build(law, a), build(law, b));
+                for (k, (ka, kb)) in ma.knots().iter().zip(mb.knots()).enumerate() {
+                    let fd = (ka - kb) / (2.0 * h);
+                    let err = (kp[k][c] - fd).abs() / (1e-3 + fd.abs());
+                    worst = worst.max(err);
+                    assert!(err < 1e-5, "{law:?} knot {k} col {c}: {} vs {fd}", kp[k][c]);
+                }
+                if c != 5 {
+                    continue;
+                }
+                for i in 1..40 {
+                    let t = t0 + (end - t0) * i as f64 / 40.0;
+                    if m.knots().iter().any(|k| (k - t).abs() < 1e-4) {
+                        continue;
+                    }
+                    let p = law.partials_full(&m, th, w, t);
+                    let (ea, eb) = (ma.eval(t), mb.eval(t));
+                    let fd = [
+                        (ea.0 - eb.0) / (2.0 * h),
+                        (ea.1 - eb.1) / (2.0 * h),
+                        (ea.2 - eb.2) / (2.0 * h),
+                    ];
+                    for row in 0..3 {
+                        let err = (p[row][5] - fd[row]).abs() / (1e-3 + fd[row].abs());
+                        worst = worst.max(err);
+                        assert!(
+                            err < 1e-4,
+                            "{law:?} t {t} row {row}: {} vs {}",
+                            p[row][5],
+                            fd[row]
+                        );
+                    }
+                }
+            }
+        }
+        eprintln!("worst relative error of the target and knot partials: {worst:e}");
     }
 }

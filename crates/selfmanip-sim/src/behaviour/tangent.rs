@@ -1,0 +1,373 @@
+//! The **parameter tangent** of a compiled behaviour: the partial derivatives of every number
+//! the interpreter uses with respect to the behaviour's named parameters (the `[parameters]`
+//! table), for `selfmanip_hybrid::Controller::parameter_partials` and the time events' `dt/dp`.
+//!
+//! It lives beside the compiled plan, never in it: the forward path (`torque`,
+//! `free_joint_qdd`) reads the plan's plain numbers, and only the sensitivities read this.
+//! Every gradient has one entry per parameter, in the order of [`PlanTangent::names`]; the
+//! gradient of a parameter `p` defined by a formula is `e_p` plus the formula's chain (to
+//! differentiate with respect to `p` is to override `p` by a number, as a run with `p` set
+//! does). Numbers are differentiated exactly: formulas forward-mode through their tree
+//! ([`crate::expr::Expr::eval_grad`]), an actuator's data and torque law by closed forms
+//! ([`ActuatorLaw`]).
+use crate::expr::{Dual, Expr};
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+/// A gradient over the behaviour's parameters.
+pub(crate) type Grad = Arc<[f64]>;
+
+/// `Σ wᵢ gᵢ` of gradients (`None`: zero), `None` when every term is.
+pub(crate) fn sum(terms: &[(f64, Option<&Grad>)]) -> Option<Grad> {
+    let n = terms.iter().find_map(|(_, g)| g.map(|g| g.len()))?;
+    let mut out = vec![0.0; n];
+    for (w, g) in terms {
+        if let Some(g) = g {
+            for (o, x) in out.iter_mut().zip(g.iter()) {
+                *o += w * x;
+            }
+        }
+    }
+    Some(out.into())
+}
+
+/// `out += w g`.
+pub(crate) fn axpy(out: &mut [f64], w: f64, g: &[f64]) {
+    if w != 0.0 {
+        for (o, x) in out.iter_mut().zip(g) {
+            *o += w * x;
+        }
+    }
+}
+
+/// The tangent of a whole plan.
+pub(crate) struct PlanTangent {
+    /// The parameter names, in the order of every gradient.
+    pub names: Vec<String>,
+    /// The gradient of every named value expressions read (parameters and actuator
+    /// quantities `<actuator>.<quantity>`).
+    pub values: Arc<BTreeMap<String, Grad>>,
+    /// Per program, per phase.
+    pub phases: Vec<Vec<PhaseTangent>>,
+    /// Per actuator, its torque law with the gradients of its data.
+    pub actuators: Vec<ActuatorLaw>,
+    pub kp_free: Grad,
+    pub kd_free: Grad,
+}
+
+impl PlanTangent {
+    /// The index of each name, or `None` if one is not a parameter of the behaviour.
+    pub fn indices(&self, names: &[&str]) -> Option<Vec<usize>> {
+        names
+            .iter()
+            .map(|n| self.names.iter().position(|m| m == n))
+            .collect()
+    }
+}
+
+/// The gradients of one phase's numbers.
+pub(crate) struct PhaseTangent {
+    /// Of its start's times (`Start::times`, in order).
+    pub times: Vec<Grad>,
+    /// Of its start's delays after other phases (`Start::phases`, in order).
+    pub delays: Vec<Grad>,
+    pub torque: TorqueTangent,
+    /// Of its motion's numbers, in the order `speed`, `accel`, `target` (a hold's angle is
+    /// its target; a park has no speed).
+    pub motion: [NumberTangent; 3],
+}
+
+/// The gradients of a torque law's numbers (the variants of `TorqueLaw`).
+pub(crate) enum TorqueTangent {
+    Zero,
+    Constant(Grad),
+    Schedule {
+        times: Vec<Grad>,
+        torques: Vec<Grad>,
+    },
+    Servo {
+        target: Option<Grad>,
+        kp: Grad,
+        kd: Grad,
+        /// Zero without a limit.
+        limit: Grad,
+    },
+    Motor {
+        command: Grad,
+    },
+}
+
+/// The derivative of one number of a motion: a constant's gradient, or (a number of
+/// `theta`, `omega`, the joint's angle and rate where the motion starts) its formula, with
+/// the constants it reads.
+#[derive(Clone)]
+pub(crate) enum NumberTangent {
+    Const(Grad),
+    AtStart(Expr, Arc<Vec<(String, f64)>>),
+}
+
+/// A number's partials: over the parameters, and over the start's `θ₀`, `ω₀`.
+pub(crate) struct NumberPartials {
+    pub dp: Vec<f64>,
+    pub dtheta: f64,
+    pub domega: f64,
+}
+
+impl NumberTangent {
+    /// The partials at the start `(θ₀, ω₀)`; `values` the plan's gradients of named values.
+    pub fn at(
+        &self,
+        theta: f64,
+        omega: f64,
+        values: &BTreeMap<String, Grad>,
+        n: usize,
+    ) -> NumberPartials {
+        match self {
+            NumberTangent::Const(g) => NumberPartials {
+                dp: g.to_vec(),
+                dtheta: 0.0,
+                domega: 0.0,
+            },
+            NumberTangent::AtStart(e, consts) => {
+                // inputs: the parameters, then θ₀ and ω₀
+                let unit = |i: usize| {
+                    let mut d = vec![0.0; n + 2];
+                    d[i] = 1.0;
+                    d
+                };
+                let lookup = |name: &str| -> Option<Dual> {
+                    match name {
+                        "theta" => Some((theta, unit(n))),
+                        "omega" => Some((omega, unit(n + 1))),
+                        _ => {
+                            let v = consts.iter().find(|(k, _)| k == name)?.1;
+                            let mut d = vec![0.0; n + 2];
+                            if let Some(g) = values.get(name) {
+                                d[..n].copy_from_slice(g);
+                            }
+                            Some((v, d))
+                        }
+                    }
+                };
+                let (_, d) = e
+                    .eval_grad(n + 2, &lookup)
+                    .unwrap_or((f64::NAN, vec![f64::NAN; n + 2]));
+                NumberPartials {
+                    dp: d[..n].to_vec(),
+                    dtheta: d[n],
+                    domega: d[n + 1],
+                }
+            }
+        }
+    }
+}
+
+/// An actuator's torque law for its partial derivatives, with the gradients of the data it
+/// depends on: the ideal torque source `τ = clamp(u) τ_max`, or `n` geared DC motors in
+/// parallel, `τ = n G η clamp(τ_st (u − G ω/ω₀), ±k_M I_max)` (thesis 2.1.2: the motor's stall
+/// torque `τ_st` and no-load speed `ω₀` at the supply voltage `V` — both proportional to it —
+/// the current-limited torque `k_M I_max`, the gearbox's ratio `G` and efficiency `η`).
+pub(crate) enum ActuatorLaw {
+    Saturated {
+        max_n_m: f64,
+        dmax: Grad,
+    },
+    Geared {
+        n: f64,
+        ratio: f64,
+        efficiency: f64,
+        stall_n_m: f64,
+        no_load_rad_s: f64,
+        torque_constant_n_m_per_a: f64,
+        current_limit_a: f64,
+        voltage_v: f64,
+        dn: Grad,
+        dratio: Grad,
+        dcurrent: Grad,
+        dvoltage: Grad,
+    },
+}
+
+impl ActuatorLaw {
+    /// The gradient of the stall torque at the joint, `τ(1, 0)`: `τ_max`'s, or of
+    /// `n G η min(τ_st, k_M I_max)` the branch's (at a tie, where a current limit equals the
+    /// stall torque, the torque–speed line's: the side a motor leaving standstill takes).
+    pub fn stall_grad(&self) -> Grad {
+        match self {
+            ActuatorLaw::Saturated { dmax, .. } => dmax.clone(),
+            ActuatorLaw::Geared {
+                n,
+                ratio,
+                efficiency,
+                stall_n_m,
+                torque_constant_n_m_per_a,
+                current_limit_a,
+                voltage_v,
+                dn,
+                dratio,
+                dcurrent,
+                dvoltage,
+                ..
+            } => {
+                let limit = torque_constant_n_m_per_a * current_limit_a;
+                let tau = n * ratio * efficiency * stall_n_m.min(limit);
+                let on_line = *stall_n_m <= limit;
+                let terms: [(f64, Option<&Grad>); 4] = [
+                    (tau / n, Some(dn)),
+                    (tau / ratio, Some(dratio)),
+                    (
+                        if on_line { 0.0 } else { tau / current_limit_a },
+                        Some(dcurrent),
+                    ),
+                    (if on_line { tau / voltage_v } else { 0.0 }, Some(dvoltage)),
+                ];
+                sum(&terms).expect("gradients given")
+            }
+        }
+    }
+
+    /// The gradient of the no-load output speed `ω₀ / G` (`ω₀ ∝ V`).
+    pub fn no_load_speed_grad(&self) -> Grad {
+        match self {
+            ActuatorLaw::Saturated { dmax, .. } => vec![0.0; dmax.len()].into(),
+            ActuatorLaw::Geared {
+                ratio,
+                no_load_rad_s,
+                voltage_v,
+                dratio,
+                dvoltage,
+                ..
+            } => {
+                let w = no_load_rad_s / ratio;
+                sum(&[(-w / ratio, Some(dratio)), (w / voltage_v, Some(dvoltage))])
+                    .expect("gradients given")
+            }
+        }
+    }
+
+    /// The gradient of the rotors' inertia reflected to the joint, `n J G²` (`J` the rotor's,
+    /// from the catalog at its own voltage).
+    pub fn reflected_inertia_grad(&self, rotor_kg_m2: f64) -> Grad {
+        match self {
+            ActuatorLaw::Saturated { dmax, .. } => vec![0.0; dmax.len()].into(),
+            ActuatorLaw::Geared {
+                n,
+                ratio,
+                dn,
+                dratio,
+                ..
+            } => sum(&[
+                (rotor_kg_m2 * ratio * ratio, Some(dn)),
+                (2.0 * n * rotor_kg_m2 * ratio, Some(dratio)),
+            ])
+            .expect("gradients given"),
+        }
+    }
+
+    /// `τ_st (u − G ω/ω₀)` (motor torque on the line) and the current limit `k_M I_max`.
+    fn line(&self, u: f64, speed: f64) -> (f64, f64) {
+        match *self {
+            ActuatorLaw::Saturated { .. } => (0.0, f64::INFINITY),
+            ActuatorLaw::Geared {
+                ratio,
+                stall_n_m,
+                no_load_rad_s,
+                torque_constant_n_m_per_a,
+                current_limit_a,
+                ..
+            } => (
+                stall_n_m * (u.clamp(-1.0, 1.0) - speed * ratio / no_load_rad_s),
+                torque_constant_n_m_per_a * current_limit_a,
+            ),
+        }
+    }
+
+    /// The joint speed at which the branch of the law is read: `speed`, or, where the state
+    /// sits on the kink between the current limit and the torque–speed line (within
+    /// round-off: `|a|` at most 1e-9 above the limit), nudged into the branch a joint its
+    /// motor accelerates moves into. A drive whose current limit equals its stall torque
+    /// has that kink at standstill: a joint that starts from rest runs on the line for
+    /// every `t > t₀`, and the partials at its first instant must be the line's.
+    fn branch_speed(&self, u: f64, speed: f64) -> f64 {
+        if let ActuatorLaw::Geared {
+            ratio,
+            no_load_rad_s,
+            ..
+        } = *self
+        {
+            let (a, limit) = self.line(u, speed);
+            if a.abs() >= limit && a.abs() <= limit * (1.0 + 1e-9) && u != 0.0 {
+                return speed + u.signum() * 2e-9 * no_load_rad_s / ratio;
+            }
+        }
+        speed
+    }
+
+    /// Whether the torque is at the current limit (not on the torque–speed line) at command
+    /// `u` and joint speed `ω`, on the side [`Self::branch_speed`] reads: the law's piece.
+    pub fn on_limit(&self, u: f64, speed: f64) -> bool {
+        let (a, limit) = self.line(u, self.branch_speed(u, speed));
+        a.abs() >= limit
+    }
+
+    /// `∂τ/∂ω` and `∂τ/∂p` (over the parameters, `du` the command's gradient) at command `u`
+    /// and joint speed `ω`, on the branch [`Self::on_limit`] says:
+    ///
+    /// - saturated: `∂τ/∂ω = 0`, `∂τ/∂p = u ∂τ_max/∂p + τ_max ∂u/∂p` (inside `|u| < 1`);
+    /// - on the line `τ = n G η a`, `a = τ_st (u − G ω/ω₀)`: `∂τ/∂ω = −n G² η τ_st/ω₀`,
+    ///   `∂τ/∂G = n η (a − G τ_st ω/ω₀)`, `∂τ/∂n = G η a`, `∂τ/∂V = n G η u τ_st/V`
+    ///   (`τ_st/ω₀` does not depend on `V`), `∂τ/∂u = n G η τ_st`;
+    /// - at the limit `τ = ±n G η k_M I_max`: `∂τ/∂G = τ/G`, `∂τ/∂n = τ/n`, `∂τ/∂I_max = τ/I_max`.
+    pub fn partials(&self, u: f64, du: &[f64], speed: f64) -> (f64, Vec<f64>) {
+        let inside = u.abs() < 1.0;
+        match self {
+            ActuatorLaw::Saturated { max_n_m, dmax } => {
+                let uc = u.clamp(-1.0, 1.0);
+                let mut d: Vec<f64> = dmax.iter().map(|x| uc * x).collect();
+                if inside {
+                    axpy(&mut d, *max_n_m, du);
+                }
+                (0.0, d)
+            }
+            ActuatorLaw::Geared {
+                n,
+                ratio,
+                efficiency,
+                stall_n_m,
+                no_load_rad_s,
+                current_limit_a,
+                voltage_v,
+                dn,
+                dratio,
+                dcurrent,
+                dvoltage,
+                ..
+            } => {
+                let w = self.branch_speed(u, speed);
+                let (a, limit) = self.line(u, w);
+                let c = n * ratio * efficiency;
+                let mut d = vec![0.0; du.len()];
+                if a.abs() < limit {
+                    let uc = u.clamp(-1.0, 1.0);
+                    axpy(&mut d, efficiency * ratio * a, dn);
+                    axpy(
+                        &mut d,
+                        n * efficiency * (a - ratio * stall_n_m * w / no_load_rad_s),
+                        dratio,
+                    );
+                    axpy(&mut d, c * uc * stall_n_m / voltage_v, dvoltage);
+                    if inside {
+                        axpy(&mut d, c * stall_n_m, du);
+                    }
+                    (-c * stall_n_m * ratio / no_load_rad_s, d)
+                } else {
+                    let tau = c * a.signum() * limit;
+                    axpy(&mut d, tau / n, dn);
+                    axpy(&mut d, tau / ratio, dratio);
+                    axpy(&mut d, tau / current_limit_a, dcurrent);
+                    (0.0, d)
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,28 @@
+//! Fixtures the sensitivity tests share.
+use selfmanip_core::RobotDescription;
+use selfmanip_sim::behaviour::Behaviour;
+use selfmanip_sim::Scenario;
+use std::path::{Path, PathBuf};
+
+/// A file of `examples/data`.
+pub fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("examples/data")
+        .join(name)
+}
+
+/// The hopper of `examples/hopper.rs` (dropped 10 cm, leg at its landing pose) moving
+/// forward at 0.3 m/s and falling at 0.5 m/s under `behaviour`, at tight tolerances (what
+/// differences of whole runs need).
+pub fn hopper(behaviour: Behaviour, t_final: f64) -> Scenario {
+    let robot = RobotDescription::from_file(&data("hopper.toml")).unwrap();
+    let a: f64 = 0.5;
+    let q0 = vec![a, -2.0 * a, 0.0, -(0.1 + 0.4 * a.cos()), 0.0];
+    let mut s = Scenario::new(robot, q0);
+    s.initial.qd = Some(vec![0.0, 0.0, 0.3, 0.5, 0.0]);
+    s.behaviour = behaviour;
+    s.options.t_final_s = t_final;
+    s.options.rtol = 1e-12;
+    s.options.event_tol_s = 1e-14;
+    s
+}
