@@ -186,7 +186,8 @@ fn sweeps_are_deterministic_across_thread_counts() {
             vec![json!(35.0), json!(45.0), json!(55.0)],
         ),
         ("t_compress".into(), vec![json!(0.04), json!(0.06)]),
-    ]);
+    ])
+    .unwrap();
     assert_eq!(points.len(), 6);
     let text = |threads| format!("{:?}", sweep(&base, &points, threads).unwrap());
     let one = text(1);
