@@ -29,6 +29,7 @@ pub mod passive;
 pub mod poses;
 pub mod quasistatic;
 pub mod reduced;
+pub mod spatial;
 pub mod tangent;
 
 pub use contact::{
