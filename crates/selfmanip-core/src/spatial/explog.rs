@@ -109,6 +109,12 @@ pub fn log6_quaternion(q: &UnitQuaternion<f64>, p: &Vector3<f64>) -> Motion {
     Motion::new(v_inverse_matrix(&w) * p, w)
 }
 
+/// `log6` of an [`SE3`] (its rotation converted to a quaternion first).
+pub fn log6(g: &SE3) -> Motion {
+    let r = nalgebra::Rotation3::from_matrix_unchecked(g.rotation);
+    log6_quaternion(&UnitQuaternion::from_rotation_matrix(&r), &g.translation)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

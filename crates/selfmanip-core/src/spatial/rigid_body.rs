@@ -35,9 +35,12 @@ pub(crate) fn mass_matrix_from_kinematics(model: &SpatialModel, data: &mut Spati
         while let Some(k) = j {
             let (kv, nk) = (model.joints[k].idx_v, model.joints[k].kind.nv());
             let block = data.oS.columns(kv, nk).transpose() * &F;
-            data.M.view_mut((kv, iv), (nk, ni)).copy_from(&block);
             if k != i {
+                data.M.view_mut((kv, iv), (nk, ni)).copy_from(&block);
                 data.M.view_mut((iv, kv), (ni, nk)).copy_from(&block.transpose());
+            } else {
+                // the diagonal block, symmetric to round-off; made exactly so
+                data.M.view_mut((iv, iv), (ni, ni)).copy_from(&((&block + block.transpose()) * 0.5));
             }
             j = model.joints[k].parent;
         }
