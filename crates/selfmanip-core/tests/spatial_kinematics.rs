@@ -13,7 +13,15 @@ fn jacobians_match_finite_differences_of_placements() {
     let model = quadruped();
     let mut data = SpatialData::new(&model);
     let mut rng = rng(6);
-    let frames = ["FL_foot", "HR_foot", "FR_thigh", "imu", "trunk", "HL_knee", "FL_foot_fixed"];
+    let frames = [
+        "FL_foot",
+        "HR_foot",
+        "FR_thigh",
+        "imu",
+        "trunk",
+        "HL_knee",
+        "FL_foot_fixed",
+    ];
     let eps = 1e-5;
     let mut worst = [0.0f64; 3];
     for _ in 0..20 {
@@ -27,19 +35,37 @@ fn jacobians_match_finite_differences_of_placements() {
                 frame_placement(&model, &data, f)
             };
             let (m0, mp, mm) = (place(0.0), place(eps), place(-eps));
-            let local = (log6(&m0.inverse_compose(&mp)).to_vector() - log6(&m0.inverse_compose(&mm)).to_vector()) / (2.0 * eps);
-            let world = (log6(&mp.compose(&m0.inverse())).to_vector() - log6(&mm.compose(&m0.inverse())).to_vector()) / (2.0 * eps);
+            let local = (log6(&m0.inverse_compose(&mp)).to_vector()
+                - log6(&m0.inverse_compose(&mm)).to_vector())
+                / (2.0 * eps);
+            let world = (log6(&mp.compose(&m0.inverse())).to_vector()
+                - log6(&mm.compose(&m0.inverse())).to_vector())
+                / (2.0 * eps);
             let mut aligned = Vector6::zeros();
-            aligned.fixed_rows_mut::<3>(0).copy_from(&((mp.translation - mm.translation) / (2.0 * eps)));
-            aligned.fixed_rows_mut::<3>(3).copy_from(&world.fixed_rows::<3>(3));
+            aligned
+                .fixed_rows_mut::<3>(0)
+                .copy_from(&((mp.translation - mm.translation) / (2.0 * eps)));
+            aligned
+                .fixed_rows_mut::<3>(3)
+                .copy_from(&world.fixed_rows::<3>(3));
             forward_kinematics(&model, &mut data, q.as_slice()).unwrap();
-            for (k, (reference, fd)) in [(ReferenceFrame::Local, local), (ReferenceFrame::World, world), (ReferenceFrame::LocalWorldAligned, aligned)].into_iter().enumerate() {
+            for (k, (reference, fd)) in [
+                (ReferenceFrame::Local, local),
+                (ReferenceFrame::World, world),
+                (ReferenceFrame::LocalWorldAligned, aligned),
+            ]
+            .into_iter()
+            .enumerate()
+            {
                 frame_jacobian(&model, &mut data, f, reference);
                 worst[k] = worst[k].max((&data.J * &v - fd).amax());
             }
         }
     }
-    eprintln!("|J v − finite difference|: local {:.2e}, world {:.2e}, local_world_aligned {:.2e}", worst[0], worst[1], worst[2]);
+    eprintln!(
+        "|J v − finite difference|: local {:.2e}, world {:.2e}, local_world_aligned {:.2e}",
+        worst[0], worst[1], worst[2]
+    );
     assert!(worst.iter().all(|&w| w < 1e-8), "{worst:?}");
 }
 
@@ -59,7 +85,8 @@ fn frame_drift_is_the_derivative_of_the_velocity() {
             let f = model.frame_id(name).unwrap();
             let mut vel = |s: f64| {
                 let qs = integrate(&model, q.as_slice(), (&v * s).as_slice()).unwrap();
-                forward_kinematics_velocity(&model, &mut data, qs.as_slice(), v.as_slice()).unwrap();
+                forward_kinematics_velocity(&model, &mut data, qs.as_slice(), v.as_slice())
+                    .unwrap();
                 frame_linear_velocity(&model, &data, f)
             };
             let fd = (vel(eps) - vel(-eps)) / (2.0 * eps);

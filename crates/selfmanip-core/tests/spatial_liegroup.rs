@@ -14,9 +14,21 @@ fn integrate_and_difference_are_inverse() {
     for _ in 0..200 {
         let q = random_q(&model, &mut rng);
         let q1 = random_q(&model, &mut rng);
-        let back = integrate(&model, q.as_slice(), difference(&model, q.as_slice(), q1.as_slice()).unwrap().as_slice()).unwrap();
+        let back = integrate(
+            &model,
+            q.as_slice(),
+            difference(&model, q.as_slice(), q1.as_slice())
+                .unwrap()
+                .as_slice(),
+        )
+        .unwrap();
         // q and −q are the same rotation: compare the quaternion up to sign
-        let sign = if quaternion_at(back.as_slice(), 3).dot(&quaternion_at(q1.as_slice(), 3)) < 0.0 { -1.0 } else { 1.0 };
+        let sign = if quaternion_at(back.as_slice(), 3).dot(&quaternion_at(q1.as_slice(), 3)) < 0.0
+        {
+            -1.0
+        } else {
+            1.0
+        };
         let mut d = back.clone() - &q1;
         for k in 3..7 {
             d[k] = back[k] * sign - q1[k];
@@ -58,10 +70,21 @@ fn quaternion_norm_stays_one() {
     let n = 1000;
     let mut q = q0.clone();
     for _ in 0..n {
-        q = integrate(&model, q.as_slice(), (&spin * (std::f64::consts::TAU / n as f64)).as_slice()).unwrap();
+        q = integrate(
+            &model,
+            q.as_slice(),
+            (&spin * (std::f64::consts::TAU / n as f64)).as_slice(),
+        )
+        .unwrap();
     }
-    let sign = if quaternion_at(q.as_slice(), 3).dot(&quaternion_at(q0.as_slice(), 3)) < 0.0 { -1.0 } else { 1.0 };
-    let err = (0..7).map(|k| (if k >= 3 { q[k] * sign } else { q[k] } - q0[k]).abs()).fold(0.0, f64::max);
+    let sign = if quaternion_at(q.as_slice(), 3).dot(&quaternion_at(q0.as_slice(), 3)) < 0.0 {
+        -1.0
+    } else {
+        1.0
+    };
+    let err = (0..7)
+        .map(|k| (if k >= 3 { q[k] * sign } else { q[k] } - q0[k]).abs())
+        .fold(0.0, f64::max);
     eprintln!("full turn in {n} steps returns the pose to {err:.2e}");
     assert!(err < 1e-12, "{err}");
 }

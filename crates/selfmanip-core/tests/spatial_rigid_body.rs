@@ -5,7 +5,9 @@ mod spatial_support;
 use nalgebra::{DMatrix, DVector, Matrix3, SymmetricEigen, UnitQuaternion, Vector3};
 use selfmanip_core::spatial::kinematics::{forward_kinematics, forward_kinematics_velocity};
 use selfmanip_core::spatial::liegroup::quaternion_at;
-use selfmanip_core::spatial::rigid_body::{crba, kinetic_energy, nonlinear_effects, potential_energy, rnea};
+use selfmanip_core::spatial::rigid_body::{
+    crba, kinetic_energy, nonlinear_effects, potential_energy, rnea,
+};
 use selfmanip_core::spatial::*;
 use spatial_support::*;
 
@@ -18,14 +20,18 @@ const BODY: &str = r#"<robot name="tbar"><link name="body"><inertial>
 fn body() -> (SpatialModel, Matrix3<f64>) {
     let model = SpatialModel::from_urdf_str(BODY, BaseKind::FreeFlyer, None).unwrap();
     let r = nalgebra::Rotation3::from_euler_angles(0.3, -0.5, 0.8);
-    let i_body = r.matrix() * Matrix3::from_diagonal(&Vector3::new(0.1, 0.2, 0.3)) * r.matrix().transpose();
+    let i_body =
+        r.matrix() * Matrix3::from_diagonal(&Vector3::new(0.1, 0.2, 0.3)) * r.matrix().transpose();
     (model, i_body)
 }
 
 /// Euler's equations in the body frame: `v̇ = −ω×v + Rᵀg`, `I ω̇ = −ω × Iω` (zero torque).
 fn euler_rates(q: &[f64], v: &[f64], i_body: &Matrix3<f64>, g: &Vector3<f64>) -> DVector<f64> {
     let r = UnitQuaternion::new_normalize(quaternion_at(q, 3));
-    let (lin, w) = (Vector3::from_column_slice(&v[0..3]), Vector3::from_column_slice(&v[3..6]));
+    let (lin, w) = (
+        Vector3::from_column_slice(&v[0..3]),
+        Vector3::from_column_slice(&v[3..6]),
+    );
     let vd = -w.cross(&lin) + r.inverse() * g;
     let wd = -(i_body.try_inverse().unwrap() * w.cross(&(i_body * w)));
     DVector::from_iterator(6, vd.iter().chain(wd.iter()).copied())
@@ -43,20 +49,37 @@ fn free_body_matches_euler_equations() {
         let v = random_vector(6, 3.0, &mut rng);
         crba(&model, &mut data, q.as_slice()).unwrap();
         let mut m = DMatrix::zeros(6, 6);
-        m.view_mut((0, 0), (3, 3)).copy_from(&(Matrix3::identity() * 2.0));
+        m.view_mut((0, 0), (3, 3))
+            .copy_from(&(Matrix3::identity() * 2.0));
         m.view_mut((3, 3), (3, 3)).copy_from(&i_body);
         worst[0] = worst[0].max((&data.M - m).amax());
         nonlinear_effects(&model, &mut data, q.as_slice(), v.as_slice()).unwrap();
         let r = UnitQuaternion::new_normalize(quaternion_at(q.as_slice(), 3));
-        let (lin, w) = (Vector3::from_column_slice(&v.as_slice()[0..3]), Vector3::from_column_slice(&v.as_slice()[3..6]));
+        let (lin, w) = (
+            Vector3::from_column_slice(&v.as_slice()[0..3]),
+            Vector3::from_column_slice(&v.as_slice()[3..6]),
+        );
         let h_lin = (w.cross(&lin) - r.inverse() * model.gravity) * 2.0;
         let h_ang = w.cross(&(i_body * w));
         let h = DVector::from_iterator(6, h_lin.iter().chain(h_ang.iter()).copied());
         worst[1] = worst[1].max((&data.h - h).amax());
-        forward_dynamics(&model, &mut data, &[], q.as_slice(), v.as_slice(), &[0.0; 6]).unwrap();
-        worst[2] = worst[2].max((&data.qdd - euler_rates(q.as_slice(), v.as_slice(), &i_body, &model.gravity)).amax());
+        forward_dynamics(
+            &model,
+            &mut data,
+            &[],
+            q.as_slice(),
+            v.as_slice(),
+            &[0.0; 6],
+        )
+        .unwrap();
+        worst[2] = worst[2].max(
+            (&data.qdd - euler_rates(q.as_slice(), v.as_slice(), &i_body, &model.gravity)).amax(),
+        );
     }
-    eprintln!("free body: worst |M − M_euler| {:.2e}, |h − h_euler| {:.2e}, |v̇ − v̇_euler| {:.2e}", worst[0], worst[1], worst[2]);
+    eprintln!(
+        "free body: worst |M − M_euler| {:.2e}, |h − h_euler| {:.2e}, |v̇ − v̇_euler| {:.2e}",
+        worst[0], worst[1], worst[2]
+    );
     assert!(worst.iter().all(|&w| w < 1e-12), "{worst:?}");
 }
 
@@ -72,7 +95,10 @@ fn dzhanibekov_conserves_energy_and_angular_momentum() {
         forward_kinematics_velocity(&model, data, q.as_slice(), v.as_slice()).unwrap();
         let energy = kinetic_energy(&model, data) + potential_energy(&model, data);
         let r = UnitQuaternion::new_normalize(quaternion_at(q.as_slice(), 3));
-        (energy, r * (i_body * Vector3::from_column_slice(&v.as_slice()[3..6])))
+        (
+            energy,
+            r * (i_body * Vector3::from_column_slice(&v.as_slice()[3..6])),
+        )
     };
     let accel = |data: &mut SpatialData, q: &DVector<f64>, v: &DVector<f64>| {
         forward_dynamics(&model, data, &[], q.as_slice(), v.as_slice(), &[0.0; 6]).unwrap();
@@ -92,12 +118,18 @@ fn dzhanibekov_conserves_energy_and_angular_momentum() {
         let t = Motion::from_vector(&theta.fixed_rows::<6>(0).into_owned());
         let u = Motion::from_vector(&v.fixed_rows::<6>(0).into_owned());
         let tu = t.cross(&u);
-        DVector::from_column_slice((u + tu * 0.5 + t.cross(&tu) * (1.0 / 12.0)).to_vector().as_slice())
+        DVector::from_column_slice(
+            (u + tu * 0.5 + t.cross(&tu) * (1.0 / 12.0))
+                .to_vector()
+                .as_slice(),
+        )
     };
     for &n in &[2000usize, 4000, 8000] {
         let dt = 4.0 / n as f64;
         let (mut q, mut v, mut worst) = (q0.clone(), v0.clone(), (0.0f64, 0.0f64));
-        let step = |q: &DVector<f64>, dq: &DVector<f64>| integrate(&model, q.as_slice(), dq.as_slice()).unwrap();
+        let step = |q: &DVector<f64>, dq: &DVector<f64>| {
+            integrate(&model, q.as_slice(), dq.as_slice()).unwrap()
+        };
         for _ in 0..n {
             let (k1q, k1v) = (v.clone(), accel(&mut data, &q, &v));
             let th2 = &k1q * (dt / 2.0);
@@ -135,7 +167,11 @@ fn mass_matrix_and_bias_forces_agree_with_energy() {
     let (mut w_rnea, mut w_grav, mut w_power) = (0.0f64, 0.0f64, 0.0f64);
     for _ in 0..20 {
         let q = random_q(&model, &mut rng);
-        let (v, a, dv) = (random_vector(18, 2.0, &mut rng), random_vector(18, 2.0, &mut rng), random_vector(18, 1.0, &mut rng));
+        let (v, a, dv) = (
+            random_vector(18, 2.0, &mut rng),
+            random_vector(18, 2.0, &mut rng),
+            random_vector(18, 1.0, &mut rng),
+        );
         crba(&model, &mut data, q.as_slice()).unwrap();
         let m = data.M.clone();
         nonlinear_effects(&model, &mut data, q.as_slice(), v.as_slice()).unwrap();
@@ -144,7 +180,14 @@ fn mass_matrix_and_bias_forces_agree_with_energy() {
         w_rnea = w_rnea.max((&tau - (&m * &a + &h)).amax());
 
         let zero = DVector::zeros(18);
-        let g = rnea(&model, &mut data, q.as_slice(), zero.as_slice(), zero.as_slice()).unwrap();
+        let g = rnea(
+            &model,
+            &mut data,
+            q.as_slice(),
+            zero.as_slice(),
+            zero.as_slice(),
+        )
+        .unwrap();
         let eps = 1e-5;
         let mut pot = |s: f64| {
             let qs = integrate(&model, q.as_slice(), (&dv * s).as_slice()).unwrap();
@@ -175,7 +218,10 @@ fn mass_matrix_and_bias_forces_agree_with_energy() {
 fn massless_shins_span_the_null_space_of_m() {
     let model = quadruped_massless_shins();
     let massive = quadruped();
-    let knees: Vec<usize> = KNEES.iter().map(|k| model.joints.iter().find(|j| j.name == *k).unwrap().idx_v).collect();
+    let knees: Vec<usize> = KNEES
+        .iter()
+        .map(|k| model.joints.iter().find(|j| j.name == *k).unwrap().idx_v)
+        .collect();
     let (mut data, mut data_m) = (SpatialData::new(&model), SpatialData::new(&massive));
     let mut rng = rng(5);
     for _ in 0..20 {

@@ -11,7 +11,9 @@
 //! `M̄q̈ + Aᵀλ_thesis = Υ − C̄q̇ − N̄` with `λ_thesis = −λ`.
 #![allow(non_snake_case)]
 use super::error::{check_vector, SpatialError, SpatialResult};
-use super::kinematics::{forward_kinematics_velocity, frame_jacobian, frame_linear_drift, ReferenceFrame, SpatialData};
+use super::kinematics::{
+    forward_kinematics_velocity, frame_jacobian, frame_linear_drift, ReferenceFrame, SpatialData,
+};
 use super::model::SpatialModel;
 use super::rigid_body::{bias_forces_from_kinematics, mass_matrix_from_kinematics};
 use crate::error::check_result;
@@ -35,13 +37,25 @@ impl PointContact {
     }
 
     /// A contact on ground of normal `normal` (normalized).
-    pub fn with_normal(model: &SpatialModel, frame_name: &str, friction: bool, normal: Vector3<f64>) -> SpatialResult<Self> {
+    pub fn with_normal(
+        model: &SpatialModel,
+        frame_name: &str,
+        friction: bool,
+        normal: Vector3<f64>,
+    ) -> SpatialResult<Self> {
         let frame = model.frame_id(frame_name)?;
         check_vector("normal", normal.as_slice(), 3)?;
         if normal.norm() < 1e-12 {
-            return Err(SpatialError::InvalidArgument { field: "normal".into(), reason: "zero normal".into() });
+            return Err(SpatialError::InvalidArgument {
+                field: "normal".into(),
+                reason: "zero normal".into(),
+            });
         }
-        Ok(Self { frame, friction, normal: normal.normalize() })
+        Ok(Self {
+            frame,
+            friction,
+            normal: normal.normalize(),
+        })
     }
 
     pub fn n_rows(&self) -> usize {
@@ -60,7 +74,11 @@ impl PointContact {
         if !self.friction {
             return vec![n];
         }
-        let e = if n.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+        let e = if n.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        };
         let t1 = (e - n * n.dot(&e)).normalize();
         vec![t1, n.cross(&t1), n]
     }
@@ -79,7 +97,12 @@ fn contact_rows(model: &SpatialModel, data: &mut SpatialData, contacts: &[PointC
     }
     let mut row = 0;
     for contact in contacts {
-        frame_jacobian(model, data, contact.frame, ReferenceFrame::LocalWorldAligned);
+        frame_jacobian(
+            model,
+            data,
+            contact.frame,
+            ReferenceFrame::LocalWorldAligned,
+        );
         let drift = frame_linear_drift(model, data, contact.frame);
         for d in contact.directions() {
             let a = d.transpose() * data.J.fixed_rows::<3>(0);
@@ -91,7 +114,13 @@ fn contact_rows(model: &SpatialModel, data: &mut SpatialData, contacts: &[PointC
 }
 
 /// `M`, `h`, `A`, `Ȧq̇` at `(q, v)` and the KKT factorization of `[M Aᵀ; A 0]`.
-fn prepare(model: &SpatialModel, data: &mut SpatialData, contacts: &[PointContact], q: &[f64], v: &[f64]) -> SpatialResult<()> {
+fn prepare(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    contacts: &[PointContact],
+    q: &[f64],
+    v: &[f64],
+) -> SpatialResult<()> {
     forward_kinematics_velocity(model, data, q, v)?;
     mass_matrix_from_kinematics(model, data);
     bias_forces_from_kinematics(model, data);
@@ -113,9 +142,15 @@ pub fn forward_dynamics(
 ) -> SpatialResult<()> {
     check_vector("tau", tau, model.nv)?;
     prepare(model, data, contacts, q, v)?;
-    data.rhs_f.copy_from(&(DVector::from_column_slice(tau) - &data.h));
+    data.rhs_f
+        .copy_from(&(DVector::from_column_slice(tau) - &data.h));
     data.rhs_g.copy_from(&(-&data.A_drift));
-    data.kkt.solve(data.rhs_f.as_slice(), data.rhs_g.as_slice(), data.qdd.as_mut_slice(), data.lam.as_mut_slice());
+    data.kkt.solve(
+        data.rhs_f.as_slice(),
+        data.rhs_g.as_slice(),
+        data.qdd.as_mut_slice(),
+        data.lam.as_mut_slice(),
+    );
     data.lam.neg_mut();
     check_result("q̈", data.qdd.as_slice())?;
     check_result("λ", data.lam.as_slice())?;
@@ -133,11 +168,22 @@ pub struct SpatialImpact {
 
 /// Plastic impact, thesis (5.10): `[M Aᵀ; A 0][Δq̇; −P] = [0; −A q̇⁻]`, `q̇⁺ = q̇⁻ + Δq̇`, so
 /// `A q̇⁺ = 0` and `M(q̇⁺ − q̇⁻) = Aᵀ P`.
-pub fn impact(model: &SpatialModel, data: &mut SpatialData, contacts: &[PointContact], q: &[f64], v_minus: &[f64]) -> SpatialResult<SpatialImpact> {
+pub fn impact(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    contacts: &[PointContact],
+    q: &[f64],
+    v_minus: &[f64],
+) -> SpatialResult<SpatialImpact> {
     prepare(model, data, contacts, q, v_minus)?;
     data.rhs_f.fill(0.0);
     let g = -(&data.A * DVector::from_column_slice(v_minus));
-    data.kkt.solve(data.rhs_f.as_slice(), g.as_slice(), data.qdd.as_mut_slice(), data.lam.as_mut_slice());
+    data.kkt.solve(
+        data.rhs_f.as_slice(),
+        g.as_slice(),
+        data.qdd.as_mut_slice(),
+        data.lam.as_mut_slice(),
+    );
     let v_plus = DVector::from_column_slice(v_minus) + &data.qdd;
     let impulse = -&data.lam;
     check_result("q̇⁺", v_plus.as_slice())?;

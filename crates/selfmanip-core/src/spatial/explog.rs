@@ -124,21 +124,35 @@ mod tests {
     #[test]
     fn exp_matches_matrix_exponential_and_log_inverts_it() {
         for &scale in &[0.0, 1e-9, 1e-4, 0.05, 0.7, 1.5, 3.0] {
-            let m = Motion::new(Vector3::new(0.3, -1.2, 0.5), Vector3::new(0.6, 0.2, -0.75) * scale);
+            let m = Motion::new(
+                Vector3::new(0.3, -1.2, 0.5),
+                Vector3::new(0.6, 0.2, -0.75) * scale,
+            );
             let mut xi = nalgebra::Matrix4::zeros();
             xi.fixed_view_mut::<3, 3>(0, 0).copy_from(&skew(&m.angular));
             xi.fixed_view_mut::<3, 1>(0, 3).copy_from(&m.linear);
-            let (mut term, mut sum) = (nalgebra::Matrix4::identity(), nalgebra::Matrix4::identity());
+            let (mut term, mut sum) =
+                (nalgebra::Matrix4::identity(), nalgebra::Matrix4::identity());
             for k in 1..40 {
                 term = term * xi / k as f64;
                 sum += term;
             }
             let g = exp6(&m);
-            assert!((g.rotation - sum.fixed_view::<3, 3>(0, 0)).norm() < 1e-14, "{scale}");
-            assert!((g.translation - sum.fixed_view::<3, 1>(0, 3)).norm() < 1e-14, "{scale}");
+            assert!(
+                (g.rotation - sum.fixed_view::<3, 3>(0, 0)).norm() < 1e-14,
+                "{scale}"
+            );
+            assert!(
+                (g.translation - sum.fixed_view::<3, 1>(0, 3)).norm() < 1e-14,
+                "{scale}"
+            );
             let (q, p) = exp6_quaternion(&m);
             let back = log6_quaternion(&q, &p);
-            assert!((back.to_vector() - m.to_vector()).norm() < 4e-15, "{scale}: {}", (back.to_vector() - m.to_vector()).norm());
+            assert!(
+                (back.to_vector() - m.to_vector()).norm() < 4e-15,
+                "{scale}: {}",
+                (back.to_vector() - m.to_vector()).norm()
+            );
         }
     }
 }

@@ -95,7 +95,8 @@ mod tests {
         let y = body();
         let v = Motion::new(Vector3::new(0.3, -1.1, 0.8), Vector3::new(0.9, 0.4, -0.7));
         let vc = v.linear + v.angular.cross(&y.com);
-        let koenig = 0.5 * y.mass * vc.norm_squared() + 0.5 * v.angular.dot(&(y.inertia_com * v.angular));
+        let koenig =
+            0.5 * y.mass * vc.norm_squared() + 0.5 * v.angular.dot(&(y.inertia_com * v.angular));
         assert!((0.5 * v.dot(&y.apply(&v)) - koenig).abs() < 1e-14);
         assert!((y.matrix() * v.to_vector() - y.apply(&v).to_vector()).norm() < 1e-14);
     }
@@ -104,11 +105,18 @@ mod tests {
     /// bodies adds their 6×6 matrices (a second formulation); massless parts stay massless.
     #[test]
     fn transform_and_combine() {
-        let (y, g) = (body(), SE3::from_xyz_rpy([0.5, 0.1, -0.3], [1.0, -0.4, 0.2]));
+        let (y, g) = (
+            body(),
+            SE3::from_xyz_rpy([0.5, 0.1, -0.3], [1.0, -0.4, 0.2]),
+        );
         let v = Motion::new(Vector3::new(0.3, -1.1, 0.8), Vector3::new(0.9, 0.4, -0.7));
         let lhs = y.transformed(&g).apply(&g.act_motion(&v)).to_vector();
         assert!((lhs - g.act_force(&y.apply(&v)).to_vector()).norm() < 1e-14);
-        let z = Inertia::new(0.7, Vector3::new(-0.4, 0.3, 0.2), Matrix3::from_diagonal(&Vector3::new(0.01, 0.02, 0.03)));
+        let z = Inertia::new(
+            0.7,
+            Vector3::new(-0.4, 0.3, 0.2),
+            Matrix3::from_diagonal(&Vector3::new(0.01, 0.02, 0.03)),
+        );
         let sum = y.combined(&z).matrix();
         assert!((sum - (y.matrix() + z.matrix())).norm() < 1e-13);
         let massless = Inertia::new(0.0, Vector3::zeros(), Matrix3::identity() * 1e-3);

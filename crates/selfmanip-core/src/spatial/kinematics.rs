@@ -10,7 +10,9 @@ use super::model::{JointKind, SpatialModel};
 use super::motion::{Force, Motion};
 use super::se3::SE3;
 use crate::kkt::KktFactorization;
-use nalgebra::{DMatrix, DVector, Dyn, Matrix6, OMatrix, Rotation3, Unit, UnitQuaternion, Vector3, U6};
+use nalgebra::{
+    DMatrix, DVector, Dyn, Matrix6, OMatrix, Rotation3, Unit, UnitQuaternion, Vector3, U6,
+};
 
 /// A 6 × n matrix of spatial columns (linear rows first).
 pub type Matrix6xX = OMatrix<f64, U6, Dyn>;
@@ -35,7 +37,9 @@ impl ReferenceFrame {
             "local_world_aligned" => Ok(Self::LocalWorldAligned),
             other => Err(SpatialError::InvalidArgument {
                 field: "frame".into(),
-                reason: format!("unknown reference frame `{other}` (world, local, local_world_aligned)"),
+                reason: format!(
+                    "unknown reference frame `{other}` (world, local, local_world_aligned)"
+                ),
             }),
         }
     }
@@ -120,22 +124,35 @@ fn joint_transform(kind: &JointKind, q: &[f64]) -> SE3 {
 
 /// Forward kinematics (Featherstone 2008, §4.4): `⁰Mᵢ = ⁰M_λ(i) Xᵢ Mⱼ(qᵢ)`, the world motion
 /// subspaces `⁰Sᵢ = Ad(⁰Mᵢ) Sᵢ`, and the bodies' world inertias `⁰Yᵢ`.
-pub fn forward_kinematics(model: &SpatialModel, data: &mut SpatialData, q: &[f64]) -> SpatialResult<()> {
+pub fn forward_kinematics(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    q: &[f64],
+) -> SpatialResult<()> {
     check_configuration(model, "q", q)?;
     for (i, joint) in model.joints.iter().enumerate() {
-        let local = joint.placement.compose(&joint_transform(&joint.kind, &q[joint.idx_q..]));
+        let local = joint
+            .placement
+            .compose(&joint_transform(&joint.kind, &q[joint.idx_q..]));
         let oMi = match joint.parent {
             Some(p) => data.oMi[p].compose(&local),
             None => local,
         };
         match joint.kind {
-            JointKind::FreeFlyer => data.oS.fixed_view_mut::<6, 6>(0, joint.idx_v).copy_from(&oMi.action_matrix()),
+            JointKind::FreeFlyer => data
+                .oS
+                .fixed_view_mut::<6, 6>(0, joint.idx_v)
+                .copy_from(&oMi.action_matrix()),
             JointKind::Revolute { axis } => {
-                let col = oMi.act_motion(&Motion::new(Vector3::zeros(), axis)).to_vector();
+                let col = oMi
+                    .act_motion(&Motion::new(Vector3::zeros(), axis))
+                    .to_vector();
                 data.oS.column_mut(joint.idx_v).copy_from(&col);
             }
             JointKind::Prismatic { axis } => {
-                let col = oMi.act_motion(&Motion::new(axis, Vector3::zeros())).to_vector();
+                let col = oMi
+                    .act_motion(&Motion::new(axis, Vector3::zeros()))
+                    .to_vector();
                 data.oS.column_mut(joint.idx_v).copy_from(&col);
             }
         }
@@ -146,7 +163,12 @@ pub fn forward_kinematics(model: &SpatialModel, data: &mut SpatialData, q: &[f64
 }
 
 /// The joint's world motion `⁰Sᵢ q̇ᵢ` for the rates `x` (length nv).
-pub(crate) fn joint_motion(model: &SpatialModel, data: &SpatialData, i: usize, x: &[f64]) -> Motion {
+pub(crate) fn joint_motion(
+    model: &SpatialModel,
+    data: &SpatialData,
+    i: usize,
+    x: &[f64],
+) -> Motion {
     let j = &model.joints[i];
     let nv = j.kind.nv();
     let cols = data.oS.columns(j.idx_v, nv);
@@ -157,7 +179,12 @@ pub(crate) fn joint_motion(model: &SpatialModel, data: &SpatialData, i: usize, x
 /// `⁰vᵢ = ⁰v_λ(i) + ⁰Sᵢ q̇ᵢ` and the accelerations at `q̈ = 0`,
 /// `⁰aᵢ = ⁰a_λ(i) + ⁰vᵢ × ⁰Sᵢ q̇ᵢ` (Featherstone 2008, (5.7) in world coordinates, where
 /// `d/dt ⁰Sᵢ = ⁰vᵢ × ⁰Sᵢ`).
-pub fn forward_kinematics_velocity(model: &SpatialModel, data: &mut SpatialData, q: &[f64], v: &[f64]) -> SpatialResult<()> {
+pub fn forward_kinematics_velocity(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    q: &[f64],
+    v: &[f64],
+) -> SpatialResult<()> {
     forward_kinematics(model, data, q)?;
     super::error::check_vector("v", v, model.nv)?;
     for (i, joint) in model.joints.iter().enumerate() {
@@ -185,7 +212,12 @@ pub fn frame_placement(model: &SpatialModel, data: &SpatialData, frame: usize) -
 /// [`forward_kinematics`]): the world columns `⁰Sⱼ` of the joints supporting the frame
 /// (Featherstone 2008, (8.4)), then moved to the frame: `Local` by `Ad(⁰M_f)⁻¹`,
 /// `LocalWorldAligned` by shifting the point to the frame origin `p`: `v_p = v − p × ω`.
-pub fn frame_jacobian(model: &SpatialModel, data: &mut SpatialData, frame: usize, reference: ReferenceFrame) {
+pub fn frame_jacobian(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    frame: usize,
+    reference: ReferenceFrame,
+) {
     data.J.fill(0.0);
     let joint = model.frames[frame].joint;
     let oMf = frame_placement(model, data, frame);
@@ -197,9 +229,10 @@ pub fn frame_jacobian(model: &SpatialModel, data: &mut SpatialData, frame: usize
             let col = match reference {
                 ReferenceFrame::World => world,
                 ReferenceFrame::Local => oMf.act_inv_motion(&world),
-                ReferenceFrame::LocalWorldAligned => {
-                    Motion::new(world.linear - oMf.translation.cross(&world.angular), world.angular)
-                }
+                ReferenceFrame::LocalWorldAligned => Motion::new(
+                    world.linear - oMf.translation.cross(&world.angular),
+                    world.angular,
+                ),
             };
             data.J.column_mut(c).copy_from(&col.to_vector());
         }
@@ -222,7 +255,11 @@ pub fn frame_linear_drift(model: &SpatialModel, data: &SpatialData, frame: usize
 }
 
 /// The classical velocity of frame `frame`'s origin (world axes).
-pub fn frame_linear_velocity(model: &SpatialModel, data: &SpatialData, frame: usize) -> Vector3<f64> {
+pub fn frame_linear_velocity(
+    model: &SpatialModel,
+    data: &SpatialData,
+    frame: usize,
+) -> Vector3<f64> {
     let Some(j) = model.frames[frame].joint else {
         return Vector3::zeros();
     };

@@ -28,7 +28,11 @@ fn store_quaternion(q: &mut [f64], i: usize, r: &UnitQuaternion<f64>) {
 }
 
 /// Checks `q`: length `nq`, finite, and every free flyer's quaternion of unit norm.
-pub fn check_configuration(model: &SpatialModel, field: &'static str, q: &[f64]) -> SpatialResult<()> {
+pub fn check_configuration(
+    model: &SpatialModel,
+    field: &'static str,
+    q: &[f64],
+) -> SpatialResult<()> {
     check_vector(field, q, model.nq)?;
     for joint in &model.joints {
         if joint.kind == JointKind::FreeFlyer {
@@ -63,11 +67,18 @@ pub fn integrate(model: &SpatialModel, q: &[f64], v: &[f64]) -> SpatialResult<DV
         match joint.kind {
             JointKind::FreeFlyer => {
                 let r0 = UnitQuaternion::new_normalize(quaternion_at(q, iq + 3));
-                let twist = Motion::new(Vector3::from_column_slice(&v[iv..iv + 3]), Vector3::from_column_slice(&v[iv + 3..iv + 6]));
+                let twist = Motion::new(
+                    Vector3::from_column_slice(&v[iv..iv + 3]),
+                    Vector3::from_column_slice(&v[iv + 3..iv + 6]),
+                );
                 let (dr, dp) = exp6_quaternion(&twist);
                 let p = Vector3::from_column_slice(&q[iq..iq + 3]) + r0 * dp;
                 out.as_mut_slice()[iq..iq + 3].copy_from_slice(p.as_slice());
-                store_quaternion(out.as_mut_slice(), iq + 3, &UnitQuaternion::new_normalize(*(r0 * dr).quaternion()));
+                store_quaternion(
+                    out.as_mut_slice(),
+                    iq + 3,
+                    &UnitQuaternion::new_normalize(*(r0 * dr).quaternion()),
+                );
             }
             _ => out[iq] += v[iv],
         }
@@ -87,7 +98,9 @@ pub fn difference(model: &SpatialModel, q0: &[f64], q1: &[f64]) -> SpatialResult
             JointKind::FreeFlyer => {
                 let r0 = UnitQuaternion::new_normalize(quaternion_at(q0, iq + 3));
                 let r1 = UnitQuaternion::new_normalize(quaternion_at(q1, iq + 3));
-                let dp = r0.inverse() * (Vector3::from_column_slice(&q1[iq..iq + 3]) - Vector3::from_column_slice(&q0[iq..iq + 3]));
+                let dp = r0.inverse()
+                    * (Vector3::from_column_slice(&q1[iq..iq + 3])
+                        - Vector3::from_column_slice(&q0[iq..iq + 3]));
                 let m = log6_quaternion(&(r0.inverse() * r1), &dp);
                 v.as_mut_slice()[iv..iv + 6].copy_from_slice(m.to_vector().as_slice());
             }

@@ -130,7 +130,10 @@ mod tests {
     /// products are written independently, so this pins both.
     #[test]
     fn force_cross_is_the_dual_of_motion_cross() {
-        let (a, b) = (m([0.3, -1.2, 0.7, 2.0, -0.4, 1.1]), m([-0.8, 0.5, 1.9, -0.2, 0.9, -1.4]));
+        let (a, b) = (
+            m([0.3, -1.2, 0.7, 2.0, -0.4, 1.1]),
+            m([-0.8, 0.5, 1.9, -0.2, 0.9, -1.4]),
+        );
         let f = Force::from_vector(&Vector6::new(1.5, -0.3, 0.8, -2.2, 0.6, 0.4));
         let lhs = a.cross(&b).dot(&f);
         let rhs = -b.dot(&a.cross_force(&f));

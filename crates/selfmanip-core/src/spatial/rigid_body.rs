@@ -5,7 +5,9 @@
 //! `M` it should (thesis §5.1: the singular `M̄` of massless limbs).
 #![allow(non_snake_case)]
 use super::error::{check_vector, SpatialResult};
-use super::kinematics::{forward_kinematics, forward_kinematics_velocity, joint_motion, SpatialData};
+use super::kinematics::{
+    forward_kinematics, forward_kinematics_velocity, joint_motion, SpatialData,
+};
 use super::model::SpatialModel;
 use super::motion::{Force, Motion};
 use nalgebra::DVector;
@@ -37,10 +39,14 @@ pub(crate) fn mass_matrix_from_kinematics(model: &SpatialModel, data: &mut Spati
             let block = data.oS.columns(kv, nk).transpose() * &F;
             if k != i {
                 data.M.view_mut((kv, iv), (nk, ni)).copy_from(&block);
-                data.M.view_mut((iv, kv), (ni, nk)).copy_from(&block.transpose());
+                data.M
+                    .view_mut((iv, kv), (ni, nk))
+                    .copy_from(&block.transpose());
             } else {
                 // the diagonal block, symmetric to round-off; made exactly so
-                data.M.view_mut((iv, iv), (ni, ni)).copy_from(&((&block + block.transpose()) * 0.5));
+                data.M
+                    .view_mut((iv, iv), (ni, ni))
+                    .copy_from(&((&block + block.transpose()) * 0.5));
             }
             j = model.joints[k].parent;
         }
@@ -50,7 +56,13 @@ pub(crate) fn mass_matrix_from_kinematics(model: &SpatialModel, data: &mut Spati
 /// The RNEA sweeps on the velocities already in `data` with joint accelerations `a` (or none):
 /// `⁰aᵢ = ⁰a_λ(i) + ⁰Sᵢ q̈ᵢ + ⁰vᵢ × ⁰Sᵢ q̇ᵢ` from `⁰a₀ = −g`, `⁰fᵢ = ⁰Yᵢ ⁰aᵢ + ⁰vᵢ ×* ⁰Yᵢ ⁰vᵢ`,
 /// `τᵢ = ⁰Sᵢᵀ Σ_subtree ⁰f` (Featherstone 2008, Table 5.1, gravity as a base acceleration).
-fn rnea_sweeps(model: &SpatialModel, data: &mut SpatialData, a: Option<&[f64]>, gravity: bool, tau: &mut DVector<f64>) {
+fn rnea_sweeps(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    a: Option<&[f64]>,
+    gravity: bool,
+    tau: &mut DVector<f64>,
+) {
     let a0 = if gravity {
         Motion::new(-model.gravity, nalgebra::Vector3::zeros())
     } else {
@@ -81,7 +93,13 @@ fn rnea_sweeps(model: &SpatialModel, data: &mut SpatialData, a: Option<&[f64]>, 
 }
 
 /// Inverse dynamics `τ = M(q) q̈ + h(q, v)` by the RNEA.
-pub fn rnea(model: &SpatialModel, data: &mut SpatialData, q: &[f64], v: &[f64], a: &[f64]) -> SpatialResult<DVector<f64>> {
+pub fn rnea(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    q: &[f64],
+    v: &[f64],
+    a: &[f64],
+) -> SpatialResult<DVector<f64>> {
     forward_kinematics_velocity(model, data, q, v)?;
     check_vector("a", a, model.nv)?;
     let mut tau = DVector::zeros(model.nv);
@@ -91,7 +109,12 @@ pub fn rnea(model: &SpatialModel, data: &mut SpatialData, q: &[f64], v: &[f64], 
 
 /// The bias forces `h(q, v) = C(q, v) v + g(q)` (Pinocchio's `nle`) into `data.h`: the RNEA
 /// at `q̈ = 0`.
-pub fn nonlinear_effects(model: &SpatialModel, data: &mut SpatialData, q: &[f64], v: &[f64]) -> SpatialResult<()> {
+pub fn nonlinear_effects(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    q: &[f64],
+    v: &[f64],
+) -> SpatialResult<()> {
     forward_kinematics_velocity(model, data, q, v)?;
     bias_forces_from_kinematics(model, data);
     Ok(())

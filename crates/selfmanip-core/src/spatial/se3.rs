@@ -139,7 +139,10 @@ mod tests {
         // the action of a composition is the composition of the actions
         let h = SE3::from_xyz_rpy([-1.0, 0.2, 0.0], [0.0, 0.3, -0.9]);
         let gh = g.compose(&h);
-        assert!((gh.act_motion(&m).to_vector() - g.act_motion(&h.act_motion(&m)).to_vector()).norm() < 1e-14);
+        assert!(
+            (gh.act_motion(&m).to_vector() - g.act_motion(&h.act_motion(&m)).to_vector()).norm()
+                < 1e-14
+        );
         assert!(g.compose(&g.inverse()).max_abs_diff(&SE3::identity()) < 1e-15);
         assert!(g.inverse_compose(&gh).max_abs_diff(&h) < 1e-15);
     }

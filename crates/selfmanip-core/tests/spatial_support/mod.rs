@@ -6,7 +6,10 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use selfmanip_core::spatial::{neutral, BaseKind, SpatialModel};
 
-pub const QUADRUPED: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/urdf/quadruped12.urdf");
+pub const QUADRUPED: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../tests/data/urdf/quadruped12.urdf"
+);
 pub const FEET: [&str; 4] = ["FL_foot", "FR_foot", "HL_foot", "HR_foot"];
 pub const KNEES: [&str; 4] = ["FL_knee", "FR_knee", "HL_knee", "HR_knee"];
 
@@ -18,7 +21,9 @@ pub fn quadruped_scaled(suffixes: &[&str], scale: f64) -> SpatialModel {
         if suffixes.iter().any(|s| link.name.ends_with(s)) {
             link.inertial.mass.value *= scale;
             let i = &mut link.inertial.inertia;
-            for x in [&mut i.ixx, &mut i.ixy, &mut i.ixz, &mut i.iyy, &mut i.iyz, &mut i.izz] {
+            for x in [
+                &mut i.ixx, &mut i.ixy, &mut i.ixz, &mut i.iyy, &mut i.iyz, &mut i.izz,
+            ] {
                 *x *= scale;
             }
         }
@@ -46,7 +51,11 @@ pub fn random_q(model: &SpatialModel, rng: &mut ChaCha8Rng) -> DVector<f64> {
     for x in q.iter_mut().take(3) {
         *x = rng.gen_range(-1.0..1.0);
     }
-    let axis = Vector3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0));
+    let axis = Vector3::new(
+        rng.gen_range(-1.0..1.0),
+        rng.gen_range(-1.0..1.0),
+        rng.gen_range(-1.0..1.0),
+    );
     let r = UnitQuaternion::from_scaled_axis(axis * 2.0);
     q.as_mut_slice()[3..7].copy_from_slice(&[r.i, r.j, r.k, r.w]);
     for x in q.iter_mut().skip(7) {
