@@ -17,7 +17,7 @@ use super::kinematics::{
 use super::model::SpatialModel;
 use super::rigid_body::{bias_forces_from_kinematics, mass_matrix_from_kinematics};
 use crate::error::check_result;
-use nalgebra::{DVector, Vector3};
+use nalgebra::{DVector, DVectorView, Vector3};
 
 /// A point of a frame touching the ground.
 #[derive(Debug, Clone, PartialEq)]
@@ -66,13 +66,13 @@ impl PointContact {
         }
     }
 
-    /// The row directions: `[t₁, t₂, n]` with friction, `[n]` without. `t₁` is the world `x`
-    /// axis projected on the ground plane (the `y` axis if `n` is near `x`), `t₂ = n × t₁`:
-    /// on flat z-up ground the rows are world `x, y, z`.
-    pub fn directions(&self) -> Vec<Vector3<f64>> {
+    /// The row directions, the first [`Self::n_rows`] entries: `[t₁, t₂, n]` with friction,
+    /// `[n]` without. `t₁` is the world `x` axis projected on the ground plane (the `y` axis if
+    /// `n` is near `x`), `t₂ = n × t₁`: on flat z-up ground the rows are world `x, y, z`.
+    pub fn directions(&self) -> [Vector3<f64>; 3] {
         let n = self.normal;
         if !self.friction {
-            return vec![n];
+            return [n, Vector3::zeros(), Vector3::zeros()];
         }
         let e = if n.x.abs() < 0.9 {
             Vector3::x()
@@ -80,7 +80,7 @@ impl PointContact {
             Vector3::y()
         };
         let t1 = (e - n * n.dot(&e)).normalize();
-        vec![t1, n.cross(&t1), n]
+        [t1, n.cross(&t1), n]
     }
 }
 
@@ -104,9 +104,10 @@ fn contact_rows(model: &SpatialModel, data: &mut SpatialData, contacts: &[PointC
             ReferenceFrame::LocalWorldAligned,
         );
         let drift = frame_linear_drift(model, data, contact.frame);
-        for d in contact.directions() {
-            let a = d.transpose() * data.J.fixed_rows::<3>(0);
-            data.A.row_mut(row).copy_from(&a);
+        for d in &contact.directions()[..contact.n_rows()] {
+            for c in 0..model.nv {
+                data.A[(row, c)] = d.dot(&data.J.fixed_view::<3, 1>(0, c));
+            }
             data.A_drift[row] = d.dot(&drift);
             row += 1;
         }
@@ -142,9 +143,12 @@ pub fn forward_dynamics(
 ) -> SpatialResult<()> {
     check_vector("tau", tau, model.nv)?;
     prepare(model, data, contacts, q, v)?;
-    data.rhs_f
-        .copy_from(&(DVector::from_column_slice(tau) - &data.h));
-    data.rhs_g.copy_from(&(-&data.A_drift));
+    for (f, (t, h)) in data.rhs_f.iter_mut().zip(tau.iter().zip(data.h.iter())) {
+        *f = t - h;
+    }
+    for (g, d) in data.rhs_g.iter_mut().zip(data.A_drift.iter()) {
+        *g = -d;
+    }
     data.kkt.solve(
         data.rhs_f.as_slice(),
         data.rhs_g.as_slice(),
@@ -177,10 +181,11 @@ pub fn impact(
 ) -> SpatialResult<SpatialImpact> {
     prepare(model, data, contacts, q, v_minus)?;
     data.rhs_f.fill(0.0);
-    let g = -(&data.A * DVector::from_column_slice(v_minus));
+    let v = DVectorView::from_slice(v_minus, model.nv);
+    data.rhs_g.gemv(-1.0, &data.A, &v, 0.0);
     data.kkt.solve(
         data.rhs_f.as_slice(),
-        g.as_slice(),
+        data.rhs_g.as_slice(),
         data.qdd.as_mut_slice(),
         data.lam.as_mut_slice(),
     );

@@ -31,24 +31,20 @@ pub(crate) fn mass_matrix_from_kinematics(model: &SpatialModel, data: &mut Spati
     }
     data.M.fill(0.0);
     for (i, joint) in model.joints.iter().enumerate() {
-        let (iv, ni) = (joint.idx_v, joint.kind.nv());
-        let F = data.oYc[i] * data.oS.columns(iv, ni);
-        let mut j = Some(i);
-        while let Some(k) = j {
-            let (kv, nk) = (model.joints[k].idx_v, model.joints[k].kind.nv());
-            let block = data.oS.columns(kv, nk).transpose() * &F;
-            if k != i {
-                data.M.view_mut((kv, iv), (nk, ni)).copy_from(&block);
-                data.M
-                    .view_mut((iv, kv), (ni, nk))
-                    .copy_from(&block.transpose());
-            } else {
-                // the diagonal block, symmetric to round-off; made exactly so
-                data.M
-                    .view_mut((iv, iv), (ni, ni))
-                    .copy_from(&((&block + block.transpose()) * 0.5));
+        for c in joint.idx_v..joint.idx_v + joint.kind.nv() {
+            // the force column ⁰Yᶜᵢ ⁰S_c, projected on every column of the supporting joints
+            let F = data.oYc[i] * data.oS.fixed_columns::<1>(c);
+            let mut j = Some(i);
+            while let Some(k) = j {
+                let jk = &model.joints[k];
+                let first = if k == i { c } else { jk.idx_v };
+                for r in first..jk.idx_v + jk.kind.nv() {
+                    let m = data.oS.fixed_columns::<1>(r).dot(&F);
+                    data.M[(r, c)] = m;
+                    data.M[(c, r)] = m;
+                }
+                j = jk.parent;
             }
-            j = model.joints[k].parent;
         }
     }
 }
@@ -83,8 +79,9 @@ fn rnea_sweeps(
     for i in (0..model.joints.len()).rev() {
         let joint = &model.joints[i];
         let f = data.of[i].to_vector();
-        let t = data.oS.columns(joint.idx_v, joint.kind.nv()).transpose() * f;
-        tau.rows_mut(joint.idx_v, joint.kind.nv()).copy_from(&t);
+        for c in joint.idx_v..joint.idx_v + joint.kind.nv() {
+            tau[c] = data.oS.fixed_columns::<1>(c).dot(&f);
+        }
         if let Some(p) = joint.parent {
             let fi = data.of[i];
             data.of[p] += fi;
