@@ -25,9 +25,7 @@ fn spatial_err(e: SpatialError) -> PyErr {
     match e {
         SpatialError::UrdfParse { .. } => invalid("urdf", msg),
         SpatialError::InvalidUrdf { field, .. } => invalid(&field, msg),
-        SpatialError::WrongLength { field, .. }
-        | SpatialError::NonFinite { field, .. }
-        | SpatialError::NonUnitQuaternion { field, .. } => invalid(field, msg),
+        SpatialError::NonUnitQuaternion { field, .. } => invalid(field, msg),
         SpatialError::UnknownFrame { .. } => invalid("name", msg),
         SpatialError::InvalidArgument { field, .. } => invalid(&field, msg),
         SpatialError::Core(c) => errors::core(c, Source::Caller),
@@ -42,6 +40,9 @@ fn mat<'py>(py: Python<'py>, m: &DMatrix<f64>) -> Bound<'py, PyArray2<f64>> {
     Array2::from_shape_fn((m.nrows(), m.ncols()), |(i, j)| m[(i, j)]).into_pyarray(py)
 }
 
+/// A contact row's label: `(frame, "t1" | "t2" | "n")`.
+type RowLabel = (String, String);
+
 /// A spatial robot: `SpatialRobot.from_urdf(path, base="free_flyer")`.
 #[pyclass(module = "selfmanip._native", frozen)]
 pub struct SpatialRobot {
@@ -51,21 +52,22 @@ pub struct SpatialRobot {
 impl SpatialRobot {
     /// The contacts named in `names` (`"frame"` or `"frame:frictionless"`) and their row
     /// labels `(frame, "t1"|"t2"|"n")`.
-    fn contacts(&self, names: &[String]) -> PyResult<(Vec<PointContact>, Vec<(String, String)>)> {
+    fn contacts(&self, names: &[String]) -> PyResult<(Vec<PointContact>, Vec<RowLabel>)> {
         let mut contacts = Vec::new();
         let mut rows = Vec::new();
         for spec in names {
-            let (name, friction) =
-                match spec.split_once(':') {
-                    None => (spec.as_str(), true),
-                    Some((name, "frictionless")) => (name, false),
-                    Some((_, other)) => return Err(invalid(
+            let (name, friction) = match spec.split_once(':') {
+                None => (spec.as_str(), true),
+                Some((name, "frictionless")) => (name, false),
+                Some((_, other)) => {
+                    return Err(invalid(
                         "contacts",
                         format!(
                             "contact `{spec}`: unknown qualifier `{other}` (only `frictionless`)"
                         ),
-                    )),
-                };
+                    ))
+                }
+            };
             let c = PointContact::new(&self.model, name, friction).map_err(|e| match e {
                 SpatialError::UnknownFrame { .. } => invalid("contacts", e.to_string()),
                 other => spatial_err(other),

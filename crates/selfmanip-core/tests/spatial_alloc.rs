@@ -32,42 +32,21 @@ static GLOBAL: Counting = Counting;
 fn forward_dynamics_does_not_allocate() {
     let model = quadruped_massless_shins();
     let mut data = SpatialData::new(&model);
-    let contacts: Vec<PointContact> = FEET
-        .iter()
-        .map(|f| PointContact::new(&model, f, true).unwrap())
-        .collect();
+    let contacts = feet(&model, [true; 4]);
     let mut rng = rng(13);
-    let states: Vec<_> = (0..10)
-        .map(|_| {
-            (
-                random_q(&model, &mut rng),
-                random_vector(18, 2.0, &mut rng),
-                random_vector(18, 5.0, &mut rng),
-            )
-        })
-        .collect();
+    let states: Vec<_> = (0..10).map(|_| random_state(&model, &mut rng)).collect();
     // warm up: sizes the contact buffers and the KKT factorization
-    forward_dynamics(
+    dynamics_at(
         &model,
         &mut data,
         &contacts,
-        states[0].0.as_slice(),
-        states[0].1.as_slice(),
-        states[0].2.as_slice(),
+        (&states[0].0, &states[0].1, &states[0].2),
     )
     .unwrap();
     let before = ALLOCATIONS.load(Ordering::SeqCst);
     assert!(before > 0, "the counter counts (set-up allocates)");
     for (q, v, tau) in &states {
-        forward_dynamics(
-            &model,
-            &mut data,
-            &contacts,
-            q.as_slice(),
-            v.as_slice(),
-            tau.as_slice(),
-        )
-        .unwrap();
+        dynamics_at(&model, &mut data, &contacts, (q, v, tau)).unwrap();
         crba(&model, &mut data, q.as_slice()).unwrap();
         nonlinear_effects(&model, &mut data, q.as_slice(), v.as_slice()).unwrap();
     }

@@ -9,13 +9,6 @@ use spatial_support::*;
 
 const THIGH_SHIN_M: f64 = 0.22;
 
-fn feet(model: &SpatialModel, friction: [bool; 4]) -> Vec<PointContact> {
-    FEET.iter()
-        .zip(friction)
-        .map(|(f, mu)| PointContact::new(model, f, mu).unwrap())
-        .collect()
-}
-
 /// The trunk (12 kg) and IMU (0.2 kg) on four massless legs, standing level on bent legs.
 /// By hand: the foot forces `f_i` solve the body's statics, `Σ f = m g`, `Σ (p_i − c) × f = 0`,
 /// with an internal squeeze (vertical `α(1, −1, −1, 1)` and a fore–aft pinch of the left feet)
@@ -110,20 +103,8 @@ fn massive_robot_matches_the_schur_complement() {
     for k in 0..40 {
         let mode = modes[k % modes.len()];
         let contacts = feet(&model, mode);
-        let q = random_q(&model, &mut rng);
-        let (v, tau) = (
-            random_vector(18, 2.0, &mut rng),
-            random_vector(18, 5.0, &mut rng),
-        );
-        forward_dynamics(
-            &model,
-            &mut data,
-            &contacts,
-            q.as_slice(),
-            v.as_slice(),
-            tau.as_slice(),
-        )
-        .unwrap();
+        let (q, v, tau) = random_state(&model, &mut rng);
+        dynamics_at(&model, &mut data, &contacts, (&q, &v, &tau)).unwrap();
         let (m, h, a, drift) = (
             data.M.clone(),
             data.h.clone(),
@@ -161,20 +142,8 @@ fn massless_shins_give_exact_finite_answers() {
     let (mut w_acc, mut w_eom, mut w_imp) = (0.0f64, 0.0f64, 0.0f64);
     for k in 0..60 {
         let contacts = feet(&model, modes[k % modes.len()]);
-        let q = random_q(&model, &mut rng);
-        let (v, tau) = (
-            random_vector(18, 2.0, &mut rng),
-            random_vector(18, 5.0, &mut rng),
-        );
-        forward_dynamics(
-            &model,
-            &mut data,
-            &contacts,
-            q.as_slice(),
-            v.as_slice(),
-            tau.as_slice(),
-        )
-        .unwrap();
+        let (q, v, tau) = random_state(&model, &mut rng);
+        dynamics_at(&model, &mut data, &contacts, (&q, &v, &tau)).unwrap();
         // round-off relative to the terms summed: |A||q̈| and |Ȧq̇|
         let scale = (data.A.abs() * data.qdd.abs())
             .amax()

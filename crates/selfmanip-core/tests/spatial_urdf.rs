@@ -2,6 +2,7 @@
 //! typed error naming its field.
 mod spatial_support;
 use selfmanip_core::spatial::*;
+use selfmanip_core::CoreError;
 use spatial_support::*;
 
 fn two_links(joints: &str, mass_b: &str) -> String {
@@ -124,11 +125,11 @@ fn bad_state_names_the_field() {
     assert!(
         matches!(
             err,
-            SpatialError::WrongLength {
+            SpatialError::Core(CoreError::WrongLength {
                 field: "q",
                 expected: 19,
                 actual: 18
-            }
+            })
         ),
         "{err:?}"
     );
@@ -138,18 +139,21 @@ fn bad_state_names_the_field() {
     assert!(
         matches!(
             err,
-            SpatialError::NonFinite {
+            SpatialError::Core(CoreError::NonFinite {
                 field: "v",
                 index: 4,
                 ..
-            }
+            })
         ),
         "{err:?}"
     );
     let err =
         forward_dynamics(&model, &mut data, &[], q.as_slice(), &[0.0; 18], &[0.0; 17]).unwrap_err();
     assert!(
-        matches!(err, SpatialError::WrongLength { field: "tau", .. }),
+        matches!(
+            err,
+            SpatialError::Core(CoreError::WrongLength { field: "tau", .. })
+        ),
         "{err:?}"
     );
     assert!(matches!(

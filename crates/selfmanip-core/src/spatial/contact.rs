@@ -10,13 +10,14 @@
 //! positive); a frictionless contact has the row `n` alone. In the thesis's form (5.2),
 //! `M̄q̈ + Aᵀλ_thesis = Υ − C̄q̇ − N̄` with `λ_thesis = −λ`.
 #![allow(non_snake_case)]
-use super::error::{check_vector, SpatialError, SpatialResult};
+use super::error::{SpatialError, SpatialResult};
 use super::kinematics::{
     forward_kinematics_velocity, frame_jacobian, frame_linear_drift, ReferenceFrame, SpatialData,
 };
 use super::model::SpatialModel;
 use super::rigid_body::{bias_forces_from_kinematics, mass_matrix_from_kinematics};
 use crate::error::check_result;
+use crate::error::check_vector;
 use nalgebra::{DVector, DVectorView, Vector3};
 
 /// A point of a frame touching the ground.

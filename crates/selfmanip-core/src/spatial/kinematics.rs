@@ -186,7 +186,7 @@ pub fn forward_kinematics_velocity(
     v: &[f64],
 ) -> SpatialResult<()> {
     forward_kinematics(model, data, q)?;
-    super::error::check_vector("v", v, model.nv)?;
+    crate::error::check_vector("v", v, model.nv)?;
     for (i, joint) in model.joints.iter().enumerate() {
         let vj = joint_motion(model, data, i, v);
         let (vp, ap) = match joint.parent {

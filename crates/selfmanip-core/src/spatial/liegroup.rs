@@ -9,10 +9,11 @@
 //! A free flyer integrates on SE(3): `g(q ⊕ v) = g(q) exp6(v)` (the body-frame exponential,
 //! [`super::explog::exp6`]), and the quaternion is renormalized, so its norm stays 1 to
 //! round-off along any run. Revolute and prismatic joints are vector spaces.
-use super::error::{check_vector, SpatialError, SpatialResult};
+use super::error::{SpatialError, SpatialResult};
 use super::explog::{exp6_quaternion, log6_quaternion};
 use super::model::{JointKind, SpatialModel};
 use super::motion::Motion;
+use crate::error::check_vector;
 use nalgebra::{DVector, Quaternion, UnitQuaternion, Vector3};
 
 /// Tolerance on `|‖quaternion‖ − 1|` accepted in an input `q`.

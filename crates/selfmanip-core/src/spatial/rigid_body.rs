@@ -4,12 +4,13 @@
 //! nothing is ever divided by a mass, so a zero-mass link gives the zero rows and columns of
 //! `M` it should (thesis §5.1: the singular `M̄` of massless limbs).
 #![allow(non_snake_case)]
-use super::error::{check_vector, SpatialResult};
+use super::error::SpatialResult;
 use super::kinematics::{
     forward_kinematics, forward_kinematics_velocity, joint_motion, SpatialData,
 };
 use super::model::SpatialModel;
 use super::motion::{Force, Motion};
+use crate::error::check_vector;
 use nalgebra::DVector;
 
 /// `M(q)` into `data.M` (Featherstone 2008, Table 6.2, with world-frame composite inertias

@@ -4,7 +4,9 @@
 use nalgebra::{DVector, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use selfmanip_core::spatial::{neutral, BaseKind, SpatialModel};
+use selfmanip_core::spatial::{
+    forward_dynamics, neutral, BaseKind, PointContact, SpatialData, SpatialModel, SpatialResult,
+};
 
 pub const QUADRUPED: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -78,4 +80,42 @@ pub fn standing_q(model: &SpatialModel, h: f64, theta: f64) -> DVector<f64> {
         q[7 + 3 * leg + 2] = -2.0 * theta;
     }
     q
+}
+
+/// A random state of the quadruped: `(q, v, τ)` with rates in (−2, 2) and torques in (−5, 5).
+pub fn random_state(
+    model: &SpatialModel,
+    rng: &mut ChaCha8Rng,
+) -> (DVector<f64>, DVector<f64>, DVector<f64>) {
+    let q = random_q(model, rng);
+    (
+        q,
+        random_vector(model.nv, 2.0, rng),
+        random_vector(model.nv, 5.0, rng),
+    )
+}
+
+/// The four feet as point contacts, each with friction or not.
+pub fn feet(model: &SpatialModel, friction: [bool; 4]) -> Vec<PointContact> {
+    FEET.iter()
+        .zip(friction)
+        .map(|(f, mu)| PointContact::new(model, f, mu).unwrap())
+        .collect()
+}
+
+/// [`forward_dynamics`] at the state `(q, v, τ)`.
+pub fn dynamics_at(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    contacts: &[PointContact],
+    (q, v, tau): (&DVector<f64>, &DVector<f64>, &DVector<f64>),
+) -> SpatialResult<()> {
+    forward_dynamics(
+        model,
+        data,
+        contacts,
+        q.as_slice(),
+        v.as_slice(),
+        tau.as_slice(),
+    )
 }
