@@ -115,6 +115,22 @@ def test_kinematics_mass_matrix_and_bias_forces_match_pinocchio(tmp_path, varian
         assert np.linalg.matrix_rank(pin_mass_matrix(model, data, q), tol=1e-10) == 14
 
 
+def test_configuration_group_matches_pinocchio():
+    """``integrate``/``difference`` are Pinocchio's on the same layout (the free flyer on SE(3)
+    with the body-frame twist, not a decoupled R^3 x SO(3)); ``neutral`` too."""
+    ours, model, _ = both(QUADRUPED)
+    assert np.array_equal(ours.neutral(), pin.neutral(model))
+    rng = np.random.default_rng(14)
+    worst = 0.0
+    for _ in range(50):
+        q, v, _ = random_state(rng, model.nq, model.nv)
+        q1, _, _ = random_state(rng, model.nq, model.nv)
+        worst = max(worst, rel(ours.integrate(q, v), pin.integrate(model, q, v)))
+        worst = max(worst, rel(ours.difference(q, q1), pin.difference(model, q, q1)))
+    print(f"integrate/difference vs Pinocchio: {worst:.1e}")
+    assert worst < 1e-12, worst
+
+
 MODES = [FEET, ["FL_foot", "HR_foot"], [f + ":frictionless" for f in FEET], ["FL_foot", "FR_foot:frictionless", "HL_foot"]]
 
 
