@@ -124,30 +124,6 @@ impl SpatialModel {
             .ok_or_else(|| SpatialError::UnknownFrame { name: name.into() })
     }
 
-    /// The joints from the root down to `joint` (inclusive), root first.
-    pub fn support(&self, joint: Option<usize>) -> Vec<usize> {
-        let mut chain = Vec::new();
-        let mut j = joint;
-        while let Some(i) = j {
-            chain.push(i);
-            j = self.joints[i].parent;
-        }
-        chain.reverse();
-        chain
-    }
-
-    /// Whether joint `ancestor` lies on the path from the root to `joint` (inclusive).
-    pub fn supports(&self, ancestor: usize, joint: usize) -> bool {
-        let mut j = Some(joint);
-        while let Some(i) = j {
-            if i == ancestor {
-                return true;
-            }
-            j = self.joints[i].parent;
-        }
-        false
-    }
-
     /// Total mass (kg).
     pub fn total_mass(&self) -> f64 {
         self.inertias.iter().map(|y| y.mass).sum()
