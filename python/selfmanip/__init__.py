@@ -30,6 +30,7 @@ from . import analysis
 from . import distributed, plots
 from .leap import DEFAULT, LeapResult
 from . import simulation
+from .spatial import SpatialRobot
 from .simulation import EnergyReport, Execution, PeriodicOrbit, SimTrajectory, periodic_orbit, simulate, sweep
 
 if TYPE_CHECKING:
@@ -62,6 +63,7 @@ __all__ = [
     "SelfmanipError",
     "SimTrajectory",
     "SingularKktError",
+    "SpatialRobot",
     "analysis",
     "distributed",
     "errors",

@@ -15,6 +15,7 @@ mod leap;
 mod motor;
 mod robot;
 mod sim;
+mod spatial;
 
 use pyo3::prelude::*;
 
@@ -25,5 +26,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     analysis::register(m)?;
     leap::register(m)?;
     sim::register(m)?;
+    spatial::register(m)?;
     Ok(())
 }

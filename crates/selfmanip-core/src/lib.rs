@@ -32,6 +32,7 @@ pub mod poses;
 pub mod quasistatic;
 pub mod reduced;
 mod sliding;
+pub mod spatial;
 pub mod tangent;
 
 pub use contact::{

@@ -1,0 +1,282 @@
+//! `SpatialRobot`: a spatial robot from URDF (`selfmanip_core::spatial`), its kinematics,
+//! `M`, `h` and the constrained dynamics and impact of point contacts. Arrays cross as numpy;
+//! layouts are Pinocchio's (see `selfmanip_core::spatial`).
+//!
+//! Contacts are a list of frame names, each with friction (3 rows `[t₁, t₂, n]`) or, with the
+//! suffix `:frictionless`, the normal row alone; the ground is flat with a z-up normal.
+use crate::errors::{self, guard, invalid, Source};
+use nalgebra::{DMatrix, DVector};
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArray1, PyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use selfmanip_core::spatial::kinematics::{
+    forward_kinematics, frame_jacobian, frame_placement, ReferenceFrame,
+};
+use selfmanip_core::spatial::rigid_body::{crba, nonlinear_effects};
+use selfmanip_core::spatial::{
+    difference, forward_dynamics, impact, integrate, neutral, BaseKind, PointContact, SpatialData,
+    SpatialError, SpatialModel,
+};
+
+/// A spatial error as the Python exception of its kind, naming the field.
+fn spatial_err(e: SpatialError) -> PyErr {
+    let msg = e.to_string();
+    match e {
+        SpatialError::UrdfParse { .. } => invalid("urdf", msg),
+        SpatialError::InvalidUrdf { field, .. } => invalid(&field, msg),
+        SpatialError::NonUnitQuaternion { field, .. } => invalid(field, msg),
+        SpatialError::UnknownFrame { .. } => invalid("name", msg),
+        SpatialError::InvalidArgument { field, .. } => invalid(&field, msg),
+        SpatialError::Core(c) => errors::core(c, Source::Caller),
+    }
+}
+
+fn vec1<'py>(py: Python<'py>, v: &DVector<f64>) -> Bound<'py, PyArray1<f64>> {
+    v.as_slice().to_vec().into_pyarray(py)
+}
+
+fn mat<'py>(py: Python<'py>, m: &DMatrix<f64>) -> Bound<'py, PyArray2<f64>> {
+    Array2::from_shape_fn((m.nrows(), m.ncols()), |(i, j)| m[(i, j)]).into_pyarray(py)
+}
+
+/// A contact row's label: `(frame, "t1" | "t2" | "n")`.
+type RowLabel = (String, String);
+
+/// A spatial robot: `SpatialRobot.from_urdf(path, base="free_flyer")`.
+#[pyclass(module = "selfmanip._native", frozen)]
+pub struct SpatialRobot {
+    model: SpatialModel,
+}
+
+impl SpatialRobot {
+    /// The contacts named in `names` (`"frame"` or `"frame:frictionless"`) and their row
+    /// labels `(frame, "t1"|"t2"|"n")`.
+    fn contacts(&self, names: &[String]) -> PyResult<(Vec<PointContact>, Vec<RowLabel>)> {
+        let mut contacts = Vec::new();
+        let mut rows = Vec::new();
+        for spec in names {
+            let (name, friction) = match spec.split_once(':') {
+                None => (spec.as_str(), true),
+                Some((name, "frictionless")) => (name, false),
+                Some((_, other)) => {
+                    return Err(invalid(
+                        "contacts",
+                        format!(
+                            "contact `{spec}`: unknown qualifier `{other}` (only `frictionless`)"
+                        ),
+                    ))
+                }
+            };
+            let c = PointContact::new(&self.model, name, friction).map_err(|e| match e {
+                SpatialError::UnknownFrame { .. } => invalid("contacts", e.to_string()),
+                other => spatial_err(other),
+            })?;
+            let labels: &[&str] = if friction { &["t1", "t2", "n"] } else { &["n"] };
+            rows.extend(labels.iter().map(|l| (name.to_string(), l.to_string())));
+            contacts.push(c);
+        }
+        Ok((contacts, rows))
+    }
+
+    fn frame(&self, name: &str) -> PyResult<usize> {
+        self.model.frame_id(name).map_err(spatial_err)
+    }
+}
+
+#[pymethods]
+impl SpatialRobot {
+    /// From a URDF file; `base` is `"free_flyer"` or `"fixed"`; `root_link` defaults to the
+    /// one link that is no joint's child.
+    #[staticmethod]
+    #[pyo3(signature = (path, base="free_flyer", root_link=None))]
+    fn from_urdf(path: &str, base: &str, root_link: Option<&str>) -> PyResult<Self> {
+        guard(|| {
+            let base = BaseKind::from_name(base).map_err(spatial_err)?;
+            let model = SpatialModel::from_urdf_file(path, base, root_link).map_err(spatial_err)?;
+            Ok(SpatialRobot { model })
+        })
+    }
+
+    #[getter]
+    fn name(&self) -> String {
+        self.model.name.clone()
+    }
+    #[getter]
+    fn nq(&self) -> usize {
+        self.model.nq
+    }
+    #[getter]
+    fn nv(&self) -> usize {
+        self.model.nv
+    }
+    /// Moving joints in order (their coordinates stack in that order).
+    #[getter]
+    fn joint_names(&self) -> Vec<String> {
+        self.model.joints.iter().map(|j| j.name.clone()).collect()
+    }
+    #[getter]
+    fn frame_names(&self) -> Vec<String> {
+        self.model.frames.iter().map(|f| f.name.clone()).collect()
+    }
+    #[getter]
+    fn gravity(&self) -> Vec<f64> {
+        self.model.gravity.as_slice().to_vec()
+    }
+    #[getter]
+    fn total_mass(&self) -> f64 {
+        self.model.total_mass()
+    }
+
+    fn neutral<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        vec1(py, &neutral(&self.model))
+    }
+
+    /// `q ⊕ v`.
+    fn integrate<'py>(
+        &self,
+        py: Python<'py>,
+        q: Vec<f64>,
+        v: Vec<f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        guard(|| {
+            Ok(vec1(
+                py,
+                &integrate(&self.model, &q, &v).map_err(spatial_err)?,
+            ))
+        })
+    }
+
+    /// `q1 ⊖ q0`.
+    fn difference<'py>(
+        &self,
+        py: Python<'py>,
+        q0: Vec<f64>,
+        q1: Vec<f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        guard(|| {
+            Ok(vec1(
+                py,
+                &difference(&self.model, &q0, &q1).map_err(spatial_err)?,
+            ))
+        })
+    }
+
+    /// `M(q)` (nv × nv, CRBA).
+    fn mass_matrix<'py>(
+        &self,
+        py: Python<'py>,
+        q: Vec<f64>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| {
+            let mut data = SpatialData::new(&self.model);
+            crba(&self.model, &mut data, &q).map_err(spatial_err)?;
+            Ok(mat(py, &data.M))
+        })
+    }
+
+    /// `h(q, v) = C(q, v) v + g(q)` (Pinocchio's `nle`, RNEA).
+    fn bias_forces<'py>(
+        &self,
+        py: Python<'py>,
+        q: Vec<f64>,
+        v: Vec<f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        guard(|| {
+            let mut data = SpatialData::new(&self.model);
+            nonlinear_effects(&self.model, &mut data, &q, &v).map_err(spatial_err)?;
+            Ok(vec1(py, &data.h))
+        })
+    }
+
+    /// The frame's placement in the world as a 4 × 4 homogeneous matrix.
+    fn frame_placement<'py>(
+        &self,
+        py: Python<'py>,
+        q: Vec<f64>,
+        name: &str,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| {
+            let f = self.frame(name)?;
+            let mut data = SpatialData::new(&self.model);
+            forward_kinematics(&self.model, &mut data, &q).map_err(spatial_err)?;
+            let m = frame_placement(&self.model, &data, f);
+            let mut h = DMatrix::identity(4, 4);
+            h.view_mut((0, 0), (3, 3)).copy_from(&m.rotation);
+            h.view_mut((0, 3), (3, 1)).copy_from(&m.translation);
+            Ok(mat(py, &h))
+        })
+    }
+
+    /// The frame's 6 × nv Jacobian (linear rows first) in `frame`: `"local"` (Pinocchio's
+    /// default), `"world"` or `"local_world_aligned"`.
+    #[pyo3(signature = (q, name, frame="local"))]
+    fn frame_jacobian<'py>(
+        &self,
+        py: Python<'py>,
+        q: Vec<f64>,
+        name: &str,
+        frame: &str,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| {
+            let f = self.frame(name)?;
+            let reference = ReferenceFrame::from_name(frame).map_err(spatial_err)?;
+            let mut data = SpatialData::new(&self.model);
+            forward_kinematics(&self.model, &mut data, &q).map_err(spatial_err)?;
+            frame_jacobian(&self.model, &mut data, f, reference);
+            let j = &data.J;
+            Ok(Array2::from_shape_fn((6, j.ncols()), |(r, c)| j[(r, c)]).into_pyarray(py))
+        })
+    }
+
+    /// Constrained forward dynamics (thesis (5.3)–(5.4)) with `contacts` down:
+    /// `{"qdd", "lam", "rows", "A", "drift"}` with `M qdd + h = tau + Aᵀ lam` and
+    /// `A qdd + drift = 0`.
+    fn dynamics<'py>(
+        &self,
+        py: Python<'py>,
+        contacts: Vec<String>,
+        q: Vec<f64>,
+        v: Vec<f64>,
+        tau: Vec<f64>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        guard(|| {
+            let (contacts, rows) = self.contacts(&contacts)?;
+            let mut data = SpatialData::new(&self.model);
+            forward_dynamics(&self.model, &mut data, &contacts, &q, &v, &tau)
+                .map_err(spatial_err)?;
+            let d = PyDict::new(py);
+            d.set_item("qdd", vec1(py, &data.qdd))?;
+            d.set_item("lam", vec1(py, &data.lam))?;
+            d.set_item("rows", rows)?;
+            d.set_item("A", mat(py, &data.A))?;
+            d.set_item("drift", vec1(py, &data.A_drift))?;
+            Ok(d)
+        })
+    }
+
+    /// Plastic impact (5.10) into `contacts` at `q` with incoming rates `v`:
+    /// `{"v_plus", "impulse", "rows"}` with `M (v_plus − v) = Aᵀ impulse`, `A v_plus = 0`.
+    fn impact<'py>(
+        &self,
+        py: Python<'py>,
+        contacts: Vec<String>,
+        q: Vec<f64>,
+        v: Vec<f64>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        guard(|| {
+            let (contacts, rows) = self.contacts(&contacts)?;
+            let mut data = SpatialData::new(&self.model);
+            let out = impact(&self.model, &mut data, &contacts, &q, &v).map_err(spatial_err)?;
+            let d = PyDict::new(py);
+            d.set_item("v_plus", vec1(py, &out.v_plus))?;
+            d.set_item("impulse", vec1(py, &out.impulse))?;
+            d.set_item("rows", rows)?;
+            Ok(d)
+        })
+    }
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<SpatialRobot>()
+}

@@ -1,0 +1,268 @@
+//! Forward kinematics, frame placements and frame Jacobians, all in the world frame
+//! (Featherstone 2008, §4.4 and §8.3; Pinocchio's `forwardKinematics`, `updateFramePlacement`,
+//! `getFrameJacobian`), and [`SpatialData`], the workspace every algorithm writes into (the
+//! model/data split: the model is immutable, the data holds every buffer, so repeated
+//! evaluations allocate nothing once the data exists).
+#![allow(non_snake_case)]
+use super::error::{SpatialError, SpatialResult};
+use super::liegroup::{check_configuration, quaternion_at};
+use super::model::{JointKind, SpatialModel};
+use super::motion::{Force, Motion};
+use super::se3::SE3;
+use crate::kkt::KktFactorization;
+use nalgebra::{
+    DMatrix, DVector, Dyn, Matrix6, OMatrix, Rotation3, Unit, UnitQuaternion, Vector3, U6,
+};
+
+/// A 6 × n matrix of spatial columns (linear rows first).
+pub type Matrix6xX = OMatrix<f64, U6, Dyn>;
+
+/// In which frame a Jacobian expresses a frame's velocity (Pinocchio's `ReferenceFrame`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ReferenceFrame {
+    /// The spatial velocity in world axes at the world origin.
+    World,
+    /// The frame's own twist, in its own axes at its origin.
+    Local,
+    /// The velocity of the frame's origin and its angular velocity, in world axes.
+    LocalWorldAligned,
+}
+
+impl ReferenceFrame {
+    /// `"world"`, `"local"` or `"local_world_aligned"`.
+    pub fn from_name(name: &str) -> SpatialResult<Self> {
+        match name {
+            "world" => Ok(Self::World),
+            "local" => Ok(Self::Local),
+            "local_world_aligned" => Ok(Self::LocalWorldAligned),
+            other => Err(SpatialError::InvalidArgument {
+                field: "frame".into(),
+                reason: format!(
+                    "unknown reference frame `{other}` (world, local, local_world_aligned)"
+                ),
+            }),
+        }
+    }
+}
+
+/// Workspace of the spatial algorithms, sized for one model.
+#[derive(Debug, Clone)]
+pub struct SpatialData {
+    /// Joint placements in the world `⁰Mᵢ`.
+    pub oMi: Vec<SE3>,
+    /// World motion subspaces: the columns `⁰Sᵢ` of every joint (6 × nv).
+    pub oS: Matrix6xX,
+    /// Body inertias in the world (6×6, at the world origin) and their subtree sums.
+    pub oY: Vec<Matrix6<f64>>,
+    pub oYc: Vec<Matrix6<f64>>,
+    /// Body velocities in the world, and their spatial accelerations at `q̈ = 0` without
+    /// gravity (the velocity-product part `Σ v × S q̇`).
+    pub ov: Vec<Motion>,
+    pub oa_drift: Vec<Motion>,
+    /// The `Σ ⁰S q̈` part of the body accelerations in the last RNEA sweep.
+    pub oa: Vec<Motion>,
+    /// Body forces of the last RNEA sweep (world).
+    pub of: Vec<Force>,
+    /// Joint-space mass matrix `M(q)` (nv × nv, CRBA) and bias forces `h(q, v)` (RNEA).
+    pub M: DMatrix<f64>,
+    pub h: DVector<f64>,
+    /// A frame Jacobian (6 × nv).
+    pub J: Matrix6xX,
+    /// Contact Jacobian `A` (c × nv), its drift `Ȧq̇` (c), and the KKT factorization.
+    pub A: DMatrix<f64>,
+    pub A_drift: DVector<f64>,
+    pub kkt: KktFactorization,
+    /// Results of the last constrained solve: `q̈` (or `Δq̇` of an impact) and `λ`.
+    pub qdd: DVector<f64>,
+    pub lam: DVector<f64>,
+    /// Right-hand sides of the KKT solve.
+    pub(crate) rhs_f: DVector<f64>,
+    pub(crate) rhs_g: DVector<f64>,
+}
+
+impl SpatialData {
+    pub fn new(model: &SpatialModel) -> Self {
+        let (n, nv) = (model.joints.len(), model.nv);
+        Self {
+            oMi: vec![SE3::identity(); n],
+            oS: Matrix6xX::zeros(nv),
+            oY: vec![Matrix6::zeros(); n],
+            oYc: vec![Matrix6::zeros(); n],
+            ov: vec![Motion::zero(); n],
+            oa_drift: vec![Motion::zero(); n],
+            oa: vec![Motion::zero(); n],
+            of: vec![Force::zero(); n],
+            M: DMatrix::zeros(nv, nv),
+            h: DVector::zeros(nv),
+            J: Matrix6xX::zeros(nv),
+            A: DMatrix::zeros(0, nv),
+            A_drift: DVector::zeros(0),
+            kkt: KktFactorization::default(),
+            qdd: DVector::zeros(nv),
+            lam: DVector::zeros(0),
+            rhs_f: DVector::zeros(nv),
+            rhs_g: DVector::zeros(0),
+        }
+    }
+}
+
+/// The joint's own transform `ʲ⁻Mⱼ(q)` (parent-side joint frame to body frame) and its world
+/// motion-subspace columns once `⁰Mᵢ` is known (Featherstone 2008, Table 4.1).
+fn joint_transform(kind: &JointKind, q: &[f64]) -> SE3 {
+    match kind {
+        JointKind::FreeFlyer => {
+            let r = UnitQuaternion::new_normalize(quaternion_at(q, 3));
+            SE3::from_quaternion(&r, Vector3::new(q[0], q[1], q[2]))
+        }
+        JointKind::Revolute { axis } => {
+            let r = Rotation3::from_axis_angle(&Unit::new_unchecked(*axis), q[0]);
+            SE3::new(*r.matrix(), Vector3::zeros())
+        }
+        JointKind::Prismatic { axis } => SE3::new(nalgebra::Matrix3::identity(), axis * q[0]),
+    }
+}
+
+/// Forward kinematics (Featherstone 2008, §4.4): `⁰Mᵢ = ⁰M_λ(i) Xᵢ Mⱼ(qᵢ)`, the world motion
+/// subspaces `⁰Sᵢ = Ad(⁰Mᵢ) Sᵢ`, and the bodies' world inertias `⁰Yᵢ`.
+pub fn forward_kinematics(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    q: &[f64],
+) -> SpatialResult<()> {
+    check_configuration(model, "q", q)?;
+    for (i, joint) in model.joints.iter().enumerate() {
+        let local = joint
+            .placement
+            .compose(&joint_transform(&joint.kind, &q[joint.idx_q..]));
+        let oMi = match joint.parent {
+            Some(p) => data.oMi[p].compose(&local),
+            None => local,
+        };
+        match joint.kind {
+            JointKind::FreeFlyer => data
+                .oS
+                .fixed_view_mut::<6, 6>(0, joint.idx_v)
+                .copy_from(&oMi.action_matrix()),
+            JointKind::Revolute { axis } => {
+                let col = oMi
+                    .act_motion(&Motion::new(Vector3::zeros(), axis))
+                    .to_vector();
+                data.oS.column_mut(joint.idx_v).copy_from(&col);
+            }
+            JointKind::Prismatic { axis } => {
+                let col = oMi
+                    .act_motion(&Motion::new(axis, Vector3::zeros()))
+                    .to_vector();
+                data.oS.column_mut(joint.idx_v).copy_from(&col);
+            }
+        }
+        data.oY[i] = model.inertias[i].transformed(&oMi).matrix();
+        data.oMi[i] = oMi;
+    }
+    Ok(())
+}
+
+/// The joint's world motion `⁰Sᵢ q̇ᵢ` for the rates `x` (length nv).
+pub(crate) fn joint_motion(
+    model: &SpatialModel,
+    data: &SpatialData,
+    i: usize,
+    x: &[f64],
+) -> Motion {
+    let j = &model.joints[i];
+    let nv = j.kind.nv();
+    let cols = data.oS.columns(j.idx_v, nv);
+    Motion::from_vector(&(cols * nalgebra::DVectorView::from_slice(&x[j.idx_v..j.idx_v + nv], nv)))
+}
+
+/// [`forward_kinematics`] and the first- and second-order velocity terms: body velocities
+/// `⁰vᵢ = ⁰v_λ(i) + ⁰Sᵢ q̇ᵢ` and the accelerations at `q̈ = 0`,
+/// `⁰aᵢ = ⁰a_λ(i) + ⁰vᵢ × ⁰Sᵢ q̇ᵢ` (Featherstone 2008, (5.7) in world coordinates, where
+/// `d/dt ⁰Sᵢ = ⁰vᵢ × ⁰Sᵢ`).
+pub fn forward_kinematics_velocity(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    q: &[f64],
+    v: &[f64],
+) -> SpatialResult<()> {
+    forward_kinematics(model, data, q)?;
+    crate::error::check_vector("v", v, model.nv)?;
+    for (i, joint) in model.joints.iter().enumerate() {
+        let vj = joint_motion(model, data, i, v);
+        let (vp, ap) = match joint.parent {
+            Some(p) => (data.ov[p], data.oa_drift[p]),
+            None => (Motion::zero(), Motion::zero()),
+        };
+        data.ov[i] = vp + vj;
+        data.oa_drift[i] = ap + data.ov[i].cross(&vj);
+    }
+    Ok(())
+}
+
+/// The placement `⁰M_f` of frame `frame` (after [`forward_kinematics`]).
+pub fn frame_placement(model: &SpatialModel, data: &SpatialData, frame: usize) -> SE3 {
+    let f = &model.frames[frame];
+    match f.joint {
+        Some(j) => data.oMi[j].compose(&f.placement),
+        None => f.placement,
+    }
+}
+
+/// The 6 × nv Jacobian of frame `frame` in `reference` into `data.J` (after
+/// [`forward_kinematics`]): the world columns `⁰Sⱼ` of the joints supporting the frame
+/// (Featherstone 2008, (8.4)), then moved to the frame: `Local` by `Ad(⁰M_f)⁻¹`,
+/// `LocalWorldAligned` by shifting the point to the frame origin `p`: `v_p = v − p × ω`.
+pub fn frame_jacobian(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    frame: usize,
+    reference: ReferenceFrame,
+) {
+    data.J.fill(0.0);
+    let joint = model.frames[frame].joint;
+    let oMf = frame_placement(model, data, frame);
+    let mut j = joint;
+    while let Some(i) = j {
+        let jt = &model.joints[i];
+        for c in jt.idx_v..jt.idx_v + jt.kind.nv() {
+            let world = Motion::from_vector(&data.oS.column(c).into_owned());
+            let col = match reference {
+                ReferenceFrame::World => world,
+                ReferenceFrame::Local => oMf.act_inv_motion(&world),
+                ReferenceFrame::LocalWorldAligned => Motion::new(
+                    world.linear - oMf.translation.cross(&world.angular),
+                    world.angular,
+                ),
+            };
+            data.J.column_mut(c).copy_from(&col.to_vector());
+        }
+        j = jt.parent;
+    }
+}
+
+/// The classical acceleration of frame `frame`'s origin at `q̈ = 0` (world axes), after
+/// [`forward_kinematics_velocity`]: `a_p = a + α × p + ω × v_p` from the body's spatial
+/// drift `(a, α)` and velocity `(v, ω)` at the world origin, `v_p = v + ω × p`
+/// (Featherstone 2008, (2.45)). This is `J̇ q̇` of the frame's linear rows.
+pub fn frame_linear_drift(model: &SpatialModel, data: &SpatialData, frame: usize) -> Vector3<f64> {
+    let Some(j) = model.frames[frame].joint else {
+        return Vector3::zeros();
+    };
+    let p = frame_placement(model, data, frame).translation;
+    let (v, a) = (data.ov[j], data.oa_drift[j]);
+    let vp = v.linear + v.angular.cross(&p);
+    a.linear + a.angular.cross(&p) + v.angular.cross(&vp)
+}
+
+/// The classical velocity of frame `frame`'s origin (world axes).
+pub fn frame_linear_velocity(
+    model: &SpatialModel,
+    data: &SpatialData,
+    frame: usize,
+) -> Vector3<f64> {
+    let Some(j) = model.frames[frame].joint else {
+        return Vector3::zeros();
+    };
+    let p = frame_placement(model, data, frame).translation;
+    data.ov[j].linear + data.ov[j].angular.cross(&p)
+}

@@ -1,0 +1,39 @@
+//! Spatial robots (`d = 3` of thesis §4.1.1, Table 4.1): rigid-body algebra on nalgebra, a
+//! kinematic tree from URDF, and the constrained dynamics of point contacts with the planar
+//! core's KKT block inverse, exact for massless limbs. Part 1 of issue 32.
+//!
+//! Conventions, stated once here and followed by every function of the module (they are
+//! Pinocchio's, so arrays and matrices pass between the two unchanged):
+//! - Spatial vectors are **linear first**: a [`Motion`] `[v; ω]`, a [`Force`] `[f; n]`;
+//!   Jacobians are 6 × nv with the linear rows first.
+//! - `q` stacks each joint's coordinates in joint order (depth first over the URDF tree,
+//!   children in file order); a free-flying base has `q = [x, y, z, qx, qy, qz, qw]` and
+//!   `v = [v_lin, ω]`, its twist in the **base frame** (`nq = nv + 1`); see [`liegroup`].
+//! - The world is URDF's: z up, gravity a vector of the model
+//!   ([`SpatialModel::gravity`], `[0, 0, −9.81]` from a URDF).
+//! - Contact rows and forces: see [`contact`] (`M q̈ + h = τ + Aᵀλ`, λ the ground's force on
+//!   the robot, rows `[t₁, t₂, n]`, `n` out of the ground).
+//!
+//! Pipeline: URDF → [`SpatialModel`] (immutable) + [`SpatialData`] (workspace) →
+//! [`kinematics::forward_kinematics`], [`kinematics::frame_jacobian`], [`rigid_body::crba`],
+//! [`rigid_body::nonlinear_effects`], [`contact::forward_dynamics`], [`contact::impact`].
+pub mod contact;
+pub mod error;
+pub mod explog;
+pub mod inertia;
+pub mod kinematics;
+pub mod liegroup;
+pub mod model;
+pub mod motion;
+pub mod rigid_body;
+pub mod se3;
+pub mod urdf;
+
+pub use contact::{forward_dynamics, impact, PointContact, SpatialImpact};
+pub use error::{SpatialError, SpatialResult};
+pub use inertia::Inertia;
+pub use kinematics::{ReferenceFrame, SpatialData};
+pub use liegroup::{difference, integrate, neutral};
+pub use model::{BaseKind, FrameKind, JointKind, SpatialModel};
+pub use motion::{Force, Motion};
+pub use se3::SE3;

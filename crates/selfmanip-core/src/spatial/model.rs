@@ -1,0 +1,131 @@
+//! The immutable spatial model: a kinematic tree of joints with body inertias and named
+//! frames (Featherstone 2008, §4.1 "model of a kinematic tree"; Pinocchio's `Model`).
+//!
+//! Joint `i` moves its body relative to its parent joint's body; `placement` is the joint
+//! frame in the parent's frame at `q = 0` (URDF's `<origin>`), and the body frame coincides with
+//! the joint frame. Joints are stored parents first (depth first, children in URDF order, as
+//! Pinocchio's URDF parser orders them), so one forward sweep and one backward sweep visit the
+//! tree.
+use super::error::{SpatialError, SpatialResult};
+use super::inertia::Inertia;
+use super::se3::SE3;
+use nalgebra::Vector3;
+
+/// How a joint moves its body.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum JointKind {
+    /// Six degrees of freedom: `q = [p, qx, qy, qz, qw]` (position and unit quaternion of the
+    /// body in the parent frame), `v = [v, ω]` the body's twist in its own frame.
+    FreeFlyer,
+    /// Rotation about a unit axis of the joint frame (URDF revolute and continuous).
+    Revolute { axis: Vector3<f64> },
+    /// Translation along a unit axis of the joint frame.
+    Prismatic { axis: Vector3<f64> },
+}
+
+impl JointKind {
+    pub fn nq(&self) -> usize {
+        match self {
+            JointKind::FreeFlyer => 7,
+            _ => 1,
+        }
+    }
+    pub fn nv(&self) -> usize {
+        match self {
+            JointKind::FreeFlyer => 6,
+            _ => 1,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Joint {
+    pub name: String,
+    pub kind: JointKind,
+    /// Parent joint, `None` for the world.
+    pub parent: Option<usize>,
+    /// The joint frame in the parent body's frame at zero joint coordinate.
+    pub placement: SE3,
+    /// First index of this joint in `q` and in `v`.
+    pub idx_q: usize,
+    pub idx_v: usize,
+}
+
+/// What a frame marks (Pinocchio's `FrameType`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FrameKind {
+    /// A link of the URDF.
+    Body,
+    /// A moving joint.
+    Joint,
+    /// A fixed joint, merged into its parent body.
+    FixedJoint,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    pub name: String,
+    pub kind: FrameKind,
+    /// The joint whose body carries the frame, `None` for the world.
+    pub joint: Option<usize>,
+    /// The frame in that joint's frame.
+    pub placement: SE3,
+}
+
+/// How the robot's root link is attached to the world.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BaseKind {
+    /// A free-flying base: a [`JointKind::FreeFlyer`] joint named `root_joint`.
+    FreeFlyer,
+    /// The root link is the world (a manipulator bolted down).
+    Fixed,
+}
+
+impl BaseKind {
+    /// `"free_flyer"` or `"fixed"` (the names of the Python API).
+    pub fn from_name(name: &str) -> SpatialResult<Self> {
+        match name {
+            "free_flyer" => Ok(BaseKind::FreeFlyer),
+            "fixed" => Ok(BaseKind::Fixed),
+            other => Err(SpatialError::InvalidArgument {
+                field: "base".into(),
+                reason: format!("unknown base `{other}` (expected `free_flyer` or `fixed`; `planar` is not yet supported)"),
+            }),
+        }
+    }
+}
+
+/// A kinematic tree with inertias, frames and gravity.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpatialModel {
+    pub name: String,
+    pub joints: Vec<Joint>,
+    /// The inertia carried by each joint's body (fixed-joint children merged in), in the
+    /// joint frame.
+    pub inertias: Vec<Inertia>,
+    pub frames: Vec<Frame>,
+    /// Gravity acceleration in the world frame (m/s²): URDF robots get z up, `[0, 0, −9.81]`.
+    pub gravity: Vector3<f64>,
+    /// Lengths of `q` and `v`.
+    pub nq: usize,
+    pub nv: usize,
+}
+
+impl SpatialModel {
+    /// The standard gravity of URDF's z-up world.
+    pub const URDF_GRAVITY: [f64; 3] = [0.0, 0.0, -9.81];
+
+    /// The index of the frame named `name` (the first of that name: a link and a joint may
+    /// share a name only in distinct URDF namespaces, which URDF forbids for links).
+    pub fn frame_id(&self, name: &str) -> SpatialResult<usize> {
+        self.frames
+            .iter()
+            .position(|f| f.name == name)
+            .ok_or_else(|| SpatialError::UnknownFrame { name: name.into() })
+    }
+
+    /// Total mass (kg).
+    pub fn total_mass(&self) -> f64 {
+        self.inertias.iter().map(|y| y.mass).sum()
+    }
+}

@@ -1,0 +1,148 @@
+//! Joint-space inertia by the composite-rigid-body algorithm and inverse dynamics by the
+//! recursive Newton–Euler algorithm, in world coordinates (Featherstone 2008, §5.3 and §6.2;
+//! Pinocchio's `crba` and `rnea`/`nonLinearEffects`). Both are exact for massless bodies:
+//! nothing is ever divided by a mass, so a zero-mass link gives the zero rows and columns of
+//! `M` it should (thesis §5.1: the singular `M̄` of massless limbs).
+#![allow(non_snake_case)]
+use super::error::SpatialResult;
+use super::kinematics::{
+    forward_kinematics, forward_kinematics_velocity, joint_motion, SpatialData,
+};
+use super::model::SpatialModel;
+use super::motion::{Force, Motion};
+use crate::error::check_vector;
+use nalgebra::DVector;
+
+/// `M(q)` into `data.M` (Featherstone 2008, Table 6.2, with world-frame composite inertias
+/// `⁰Yᶜᵢ = ⁰Yᵢ + Σ_children ⁰Yᶜ`): `M[λ*, i] = ⁰Sⱼᵀ ⁰Yᶜᵢ ⁰Sᵢ` for each `j` supporting `i`.
+pub fn crba(model: &SpatialModel, data: &mut SpatialData, q: &[f64]) -> SpatialResult<()> {
+    forward_kinematics(model, data, q)?;
+    mass_matrix_from_kinematics(model, data);
+    Ok(())
+}
+
+/// The CRBA sweep on the kinematics already in `data`.
+pub(crate) fn mass_matrix_from_kinematics(model: &SpatialModel, data: &mut SpatialData) {
+    data.oYc.copy_from_slice(&data.oY);
+    for i in (0..model.joints.len()).rev() {
+        if let Some(p) = model.joints[i].parent {
+            let yc = data.oYc[i];
+            data.oYc[p] += yc;
+        }
+    }
+    data.M.fill(0.0);
+    for (i, joint) in model.joints.iter().enumerate() {
+        for c in joint.idx_v..joint.idx_v + joint.kind.nv() {
+            // the force column ⁰Yᶜᵢ ⁰S_c, projected on every column of the supporting joints
+            let F = data.oYc[i] * data.oS.fixed_columns::<1>(c);
+            let mut j = Some(i);
+            while let Some(k) = j {
+                let jk = &model.joints[k];
+                let first = if k == i { c } else { jk.idx_v };
+                for r in first..jk.idx_v + jk.kind.nv() {
+                    let m = data.oS.fixed_columns::<1>(r).dot(&F);
+                    data.M[(r, c)] = m;
+                    data.M[(c, r)] = m;
+                }
+                j = jk.parent;
+            }
+        }
+    }
+}
+
+/// The RNEA sweeps on the velocities already in `data` with joint accelerations `a` (or none):
+/// `⁰aᵢ = ⁰a_λ(i) + ⁰Sᵢ q̈ᵢ + ⁰vᵢ × ⁰Sᵢ q̇ᵢ` from `⁰a₀ = −g`, `⁰fᵢ = ⁰Yᵢ ⁰aᵢ + ⁰vᵢ ×* ⁰Yᵢ ⁰vᵢ`,
+/// `τᵢ = ⁰Sᵢᵀ Σ_subtree ⁰f` (Featherstone 2008, Table 5.1, gravity as a base acceleration).
+fn rnea_sweeps(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    a: Option<&[f64]>,
+    gravity: bool,
+    tau: &mut DVector<f64>,
+) {
+    let a0 = if gravity {
+        Motion::new(-model.gravity, nalgebra::Vector3::zeros())
+    } else {
+        Motion::zero()
+    };
+    for (i, joint) in model.joints.iter().enumerate() {
+        // oa_drift already holds Σ v × S q̇ down the chain; oa accumulates Σ S q̈
+        let parent = joint.parent.map_or(Motion::zero(), |p| data.oa[p]);
+        data.oa[i] = match a {
+            Some(a) => parent + joint_motion(model, data, i, a),
+            None => parent,
+        };
+        let acc = a0 + data.oa_drift[i] + data.oa[i];
+        let (y, v) = (&data.oY[i], data.ov[i]);
+        let momentum = Force::from_vector(&(y * v.to_vector()));
+        data.of[i] = Force::from_vector(&(y * acc.to_vector())) + v.cross_force(&momentum);
+    }
+    for i in (0..model.joints.len()).rev() {
+        let joint = &model.joints[i];
+        let f = data.of[i].to_vector();
+        for c in joint.idx_v..joint.idx_v + joint.kind.nv() {
+            tau[c] = data.oS.fixed_columns::<1>(c).dot(&f);
+        }
+        if let Some(p) = joint.parent {
+            let fi = data.of[i];
+            data.of[p] += fi;
+        }
+    }
+}
+
+/// Inverse dynamics `τ = M(q) q̈ + h(q, v)` by the RNEA.
+pub fn rnea(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    q: &[f64],
+    v: &[f64],
+    a: &[f64],
+) -> SpatialResult<DVector<f64>> {
+    forward_kinematics_velocity(model, data, q, v)?;
+    check_vector("a", a, model.nv)?;
+    let mut tau = DVector::zeros(model.nv);
+    rnea_sweeps(model, data, Some(a), true, &mut tau);
+    Ok(tau)
+}
+
+/// The bias forces `h(q, v) = C(q, v) v + g(q)` (Pinocchio's `nle`) into `data.h`: the RNEA
+/// at `q̈ = 0`.
+pub fn nonlinear_effects(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    q: &[f64],
+    v: &[f64],
+) -> SpatialResult<()> {
+    forward_kinematics_velocity(model, data, q, v)?;
+    bias_forces_from_kinematics(model, data);
+    Ok(())
+}
+
+/// The RNEA at `q̈ = 0` on the velocities already in `data`, into `data.h`.
+pub(crate) fn bias_forces_from_kinematics(model: &SpatialModel, data: &mut SpatialData) {
+    let mut h = std::mem::take(&mut data.h);
+    rnea_sweeps(model, data, None, true, &mut h);
+    data.h = h;
+}
+
+/// Kinetic energy `½ vᵀ M v = ½ Σ ⁰vᵢᵀ ⁰Yᵢ ⁰vᵢ` (Featherstone 2008, (2.72)), summed over the
+/// bodies (after [`super::kinematics::forward_kinematics_velocity`]).
+pub fn kinetic_energy(model: &SpatialModel, data: &SpatialData) -> f64 {
+    (0..model.joints.len())
+        .map(|i| {
+            let v = data.ov[i].to_vector();
+            0.5 * v.dot(&(data.oY[i] * v))
+        })
+        .sum()
+}
+
+/// Potential energy `−Σ mᵢ g·cᵢ` of the bodies in the model's gravity (after
+/// [`forward_kinematics`]).
+pub fn potential_energy(model: &SpatialModel, data: &SpatialData) -> f64 {
+    (0..model.joints.len())
+        .map(|i| {
+            let y = &model.inertias[i];
+            -y.mass * model.gravity.dot(&data.oMi[i].act_point(&y.com))
+        })
+        .sum()
+}

@@ -1,0 +1,99 @@
+//! Frame Jacobians against central finite differences of the frame placements along
+//! `q ⊕ εv`, in all three reference frames, and the contact drift `Ȧq̇` against differences of
+//! the frame's velocity.
+mod spatial_support;
+use nalgebra::Vector6;
+use selfmanip_core::spatial::explog::log6;
+use selfmanip_core::spatial::kinematics::*;
+use selfmanip_core::spatial::*;
+use spatial_support::*;
+
+#[test]
+fn jacobians_match_finite_differences_of_placements() {
+    let model = quadruped();
+    let mut data = SpatialData::new(&model);
+    let mut rng = rng(6);
+    let frames = [
+        "FL_foot",
+        "HR_foot",
+        "FR_thigh",
+        "imu",
+        "trunk",
+        "HL_knee",
+        "FL_foot_fixed",
+    ];
+    let eps = 1e-5;
+    let mut worst = [0.0f64; 3];
+    for _ in 0..20 {
+        let q = random_q(&model, &mut rng);
+        let v = random_vector(model.nv, 1.0, &mut rng);
+        for name in frames {
+            let f = model.frame_id(name).unwrap();
+            let mut place = |s: f64| {
+                let qs = integrate(&model, q.as_slice(), (&v * s).as_slice()).unwrap();
+                forward_kinematics(&model, &mut data, qs.as_slice()).unwrap();
+                frame_placement(&model, &data, f)
+            };
+            let (m0, mp, mm) = (place(0.0), place(eps), place(-eps));
+            let local = (log6(&m0.inverse_compose(&mp)).to_vector()
+                - log6(&m0.inverse_compose(&mm)).to_vector())
+                / (2.0 * eps);
+            let world = (log6(&mp.compose(&m0.inverse())).to_vector()
+                - log6(&mm.compose(&m0.inverse())).to_vector())
+                / (2.0 * eps);
+            let mut aligned = Vector6::zeros();
+            aligned
+                .fixed_rows_mut::<3>(0)
+                .copy_from(&((mp.translation - mm.translation) / (2.0 * eps)));
+            aligned
+                .fixed_rows_mut::<3>(3)
+                .copy_from(&world.fixed_rows::<3>(3));
+            forward_kinematics(&model, &mut data, q.as_slice()).unwrap();
+            for (k, (reference, fd)) in [
+                (ReferenceFrame::Local, local),
+                (ReferenceFrame::World, world),
+                (ReferenceFrame::LocalWorldAligned, aligned),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                frame_jacobian(&model, &mut data, f, reference);
+                worst[k] = worst[k].max((&data.J * &v - fd).amax());
+            }
+        }
+    }
+    eprintln!(
+        "|J v − finite difference|: local {:.2e}, world {:.2e}, local_world_aligned {:.2e}",
+        worst[0], worst[1], worst[2]
+    );
+    assert!(worst.iter().all(|&w| w < 1e-8), "{worst:?}");
+}
+
+/// The classical acceleration of a frame origin at `q̈ = 0` is `d/dt (J_lin v)` along
+/// `(q ⊕ tv, v)`, by central differences of the frame velocity.
+#[test]
+fn frame_drift_is_the_derivative_of_the_velocity() {
+    let model = quadruped();
+    let mut data = SpatialData::new(&model);
+    let mut rng = rng(7);
+    let eps = 1e-5;
+    let mut worst = 0.0f64;
+    for _ in 0..20 {
+        let q = random_q(&model, &mut rng);
+        let v = random_vector(model.nv, 2.0, &mut rng);
+        for name in FEET {
+            let f = model.frame_id(name).unwrap();
+            let mut vel = |s: f64| {
+                let qs = integrate(&model, q.as_slice(), (&v * s).as_slice()).unwrap();
+                forward_kinematics_velocity(&model, &mut data, qs.as_slice(), v.as_slice())
+                    .unwrap();
+                frame_linear_velocity(&model, &data, f)
+            };
+            let fd = (vel(eps) - vel(-eps)) / (2.0 * eps);
+            forward_kinematics_velocity(&model, &mut data, q.as_slice(), v.as_slice()).unwrap();
+            worst = worst.max((frame_linear_drift(&model, &data, f) - fd).amax());
+        }
+    }
+    eprintln!("|drift − d/dt v_frame| {worst:.2e}");
+    assert!(worst < 1e-7, "{worst}");
+}

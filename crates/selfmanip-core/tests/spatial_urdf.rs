@@ -1,0 +1,166 @@
+//! The URDF reader: fixed joints merged, massless links kept massless, and every bad input a
+//! typed error naming its field.
+mod spatial_support;
+use selfmanip_core::spatial::*;
+use selfmanip_core::CoreError;
+use spatial_support::*;
+
+fn two_links(joints: &str, mass_b: &str) -> String {
+    format!(
+        r#"<robot name="r"><link name="a"><inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
+        <link name="b"><inertial><mass value="{mass_b}"/><inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial></link>{joints}</robot>"#
+    )
+}
+
+fn joint(name: &str, kind: &str, parent: &str, child: &str, xyz: &str) -> String {
+    format!(
+        r#"<joint name="{name}" type="{kind}"><origin xyz="{xyz}"/><parent link="{parent}"/><child link="{child}"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>"#
+    )
+}
+
+fn field_of(err: SpatialError) -> String {
+    match err {
+        SpatialError::InvalidUrdf { field, .. } => field,
+        other => panic!("expected InvalidUrdf, got {other:?}"),
+    }
+}
+
+#[test]
+fn the_quadruped_has_its_joints_frames_and_mass() {
+    let model = quadruped();
+    assert_eq!((model.nq, model.nv, model.joints.len()), (19, 18, 13));
+    // fixed joints merged: 12.0 + 0.2 (imu) on the base; legs 4 × (0.6 + 1.1 + 0.25 + 0.06)
+    assert!((model.inertias[0].mass - 12.2).abs() < 1e-12);
+    assert!((model.total_mass() - (12.2 + 4.0 * 2.01)).abs() < 1e-12);
+    for name in FEET
+        .iter()
+        .chain(KNEES.iter())
+        .chain(["imu", "imu_fixed", "trunk", "root_joint"].iter())
+    {
+        model.frame_id(name).unwrap();
+    }
+    let shinless = quadruped_massless_shins();
+    let knee = shinless
+        .joints
+        .iter()
+        .position(|j| j.name == "FL_knee")
+        .unwrap();
+    assert_eq!(shinless.inertias[knee].mass, 0.0);
+    assert_eq!(shinless.inertias[knee].matrix().amax(), 0.0);
+    // a fixed base: nq = nv = 12
+    let fixed = SpatialModel::from_urdf_file(QUADRUPED, BaseKind::Fixed, None).unwrap();
+    assert_eq!((fixed.nq, fixed.nv), (12, 12));
+}
+
+#[test]
+fn bad_urdf_names_the_field() {
+    let free = BaseKind::FreeFlyer;
+    let ok = two_links(&joint("j", "revolute", "a", "b", "0 0 1"), "0.5");
+    SpatialModel::from_urdf_str(&ok, free, None).unwrap();
+    // a cycle: b's parent is a and a's parent is b
+    let cyc = two_links(
+        &(joint("j1", "revolute", "a", "b", "0 0 1") + &joint("j2", "revolute", "b", "a", "0 0 1")),
+        "0.5",
+    );
+    assert!(
+        field_of(SpatialModel::from_urdf_str(&cyc, free, None).unwrap_err()).starts_with("joint[j")
+    );
+    // a second parent
+    let twice = two_links(
+        &(joint("j1", "revolute", "a", "b", "0 0 1") + &joint("j2", "fixed", "a", "b", "0 0 1")),
+        "0.5",
+    );
+    assert_eq!(
+        field_of(SpatialModel::from_urdf_str(&twice, free, None).unwrap_err()),
+        "joint[j2].child"
+    );
+    let missing = two_links(&joint("j", "revolute", "nowhere", "b", "0 0 1"), "0.5");
+    assert_eq!(
+        field_of(SpatialModel::from_urdf_str(&missing, free, None).unwrap_err()),
+        "joint[j].parent"
+    );
+    let negative = two_links(&joint("j", "revolute", "a", "b", "0 0 1"), "-0.5");
+    assert_eq!(
+        field_of(SpatialModel::from_urdf_str(&negative, free, None).unwrap_err()),
+        "link[b].inertial.mass"
+    );
+    let nan_mass = two_links(&joint("j", "revolute", "a", "b", "0 0 1"), "NaN");
+    assert_eq!(
+        field_of(SpatialModel::from_urdf_str(&nan_mass, free, None).unwrap_err()),
+        "link[b].inertial.mass"
+    );
+    let nan_origin = two_links(&joint("j", "revolute", "a", "b", "0 NaN 1"), "0.5");
+    assert_eq!(
+        field_of(SpatialModel::from_urdf_str(&nan_origin, free, None).unwrap_err()),
+        "joint[j].origin.xyz"
+    );
+    let planar = two_links(&joint("j", "planar", "a", "b", "0 0 1"), "0.5");
+    assert_eq!(
+        field_of(SpatialModel::from_urdf_str(&planar, free, None).unwrap_err()),
+        "joint[j].type"
+    );
+    let bogus = two_links(&joint("j", "bogus", "a", "b", "0 0 1"), "0.5");
+    assert!(matches!(
+        SpatialModel::from_urdf_str(&bogus, free, None).unwrap_err(),
+        SpatialError::UrdfParse { .. }
+    ));
+    assert!(
+        matches!(BaseKind::from_name("planar").unwrap_err(), SpatialError::InvalidArgument { field, .. } if field == "base")
+    );
+}
+
+#[test]
+fn bad_state_names_the_field() {
+    let model = quadruped();
+    let mut data = SpatialData::new(&model);
+    let mut q = neutral(&model);
+    q[6] = 1.1;
+    let err = kinematics::forward_kinematics(&model, &mut data, q.as_slice()).unwrap_err();
+    assert!(
+        matches!(err, SpatialError::NonUnitQuaternion { field: "q", .. }),
+        "{err:?}"
+    );
+    let q = neutral(&model);
+    let err = kinematics::forward_kinematics(&model, &mut data, &q.as_slice()[..18]).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            SpatialError::Core(CoreError::WrongLength {
+                field: "q",
+                expected: 19,
+                actual: 18
+            })
+        ),
+        "{err:?}"
+    );
+    let mut v = vec![0.0; 18];
+    v[4] = f64::NAN;
+    let err = rigid_body::nonlinear_effects(&model, &mut data, q.as_slice(), &v).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            SpatialError::Core(CoreError::NonFinite {
+                field: "v",
+                index: 4,
+                ..
+            })
+        ),
+        "{err:?}"
+    );
+    let err =
+        forward_dynamics(&model, &mut data, &[], q.as_slice(), &[0.0; 18], &[0.0; 17]).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            SpatialError::Core(CoreError::WrongLength { field: "tau", .. })
+        ),
+        "{err:?}"
+    );
+    assert!(matches!(
+        PointContact::new(&model, "no_such_foot", true).unwrap_err(),
+        SpatialError::UnknownFrame { .. }
+    ));
+    assert!(
+        matches!(kinematics::ReferenceFrame::from_name("body").unwrap_err(), SpatialError::InvalidArgument { field, .. } if field == "frame")
+    );
+}

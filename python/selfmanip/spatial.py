@@ -1,0 +1,155 @@
+"""Spatial robots (d = 3) from URDF: kinematics, mass matrix, bias forces, and the constrained
+dynamics and plastic impact of point contacts, exact when links are massless (issue 32,
+part 1).
+
+Conventions (Pinocchio's, so arrays pass between the two unchanged): the world is URDF's, z
+up, gravity ``[0, 0, -9.81]``; a free-flying base has ``q = [x, y, z, qx, qy, qz, qw, joints...]``
+(unit quaternion) and ``v = [v_lin, omega, joint rates...]`` with the base twist in the
+**base frame**, so ``nq = nv + 1``; joints are ordered depth first over the URDF tree as in
+Pinocchio; Jacobians are ``6 x nv`` with the linear rows first. Contacts are frame names:
+``"FL_foot"`` constrains three rows (world ``x``, ``y``, ``z`` on flat ground: two tangents,
+then the normal), ``"FL_foot:frictionless"`` the normal only; ``lam`` is the ground's force on
+the robot along those rows (a pushing normal force is positive), with
+``M qdd + h = tau + A^T lam``.
+
+Example::
+
+    robot = SpatialRobot.from_urdf("tests/data/urdf/quadruped12.urdf")
+    q, v = robot.neutral(), np.zeros(robot.nv)
+    out = robot.dynamics(["FL_foot", "FR_foot", "HL_foot", "HR_foot"], q, v, np.zeros(robot.nv))
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Literal, Sequence
+
+import numpy as np
+
+from ._native import SpatialRobot as _NativeSpatialRobot
+from .errors import InvalidTypeError
+
+ReferenceFrame = Literal["local", "world", "local_world_aligned"]
+
+
+@dataclass(frozen=True)
+class SpatialDynamics:
+    """Constrained forward dynamics (thesis 5.3-5.4) at one state: ``qdd`` (nv), ``lam`` (one
+    entry per row of ``rows``: ``(frame, "t1" | "t2" | "n")``), the contact Jacobian ``A`` and
+    its drift ``A_dot v`` with ``A qdd + drift = 0``."""
+
+    qdd: np.ndarray
+    lam: np.ndarray
+    rows: list[tuple[str, str]]
+    A: np.ndarray
+    drift: np.ndarray
+
+
+@dataclass(frozen=True)
+class SpatialImpact:
+    """Plastic impact (thesis 5.10): ``v_plus`` (nv) with ``A v_plus = 0`` and the ground's
+    impulse on the robot along ``rows``."""
+
+    v_plus: np.ndarray
+    impulse: np.ndarray
+    rows: list[tuple[str, str]]
+
+
+def _vector(x: np.ndarray | Sequence[float]) -> np.ndarray:
+    return np.ascontiguousarray(x, dtype=float).reshape(-1)
+
+
+class SpatialRobot:
+    """A spatial robot: ``SpatialRobot.from_urdf(path, base="free_flyer")``."""
+
+    def __init__(self, native: _NativeSpatialRobot):
+        if not isinstance(native, _NativeSpatialRobot):
+            raise InvalidTypeError("use SpatialRobot.from_urdf", "native")
+        self._native = native
+
+    @classmethod
+    def from_urdf(cls, path: str | os.PathLike[str], base: Literal["free_flyer", "fixed"] = "free_flyer",
+                  root_link: str | None = None) -> "SpatialRobot":
+        """Loads a URDF; ``base`` attaches its root link to the world (``"free_flyer"`` or
+        ``"fixed"``). Links with zero mass stay massless."""
+        return cls(_NativeSpatialRobot.from_urdf(os.fspath(path), base, root_link))
+
+    @property
+    def name(self) -> str:
+        return self._native.name
+
+    @property
+    def nq(self) -> int:
+        return self._native.nq
+
+    @property
+    def nv(self) -> int:
+        return self._native.nv
+
+    @property
+    def joint_names(self) -> list[str]:
+        return self._native.joint_names
+
+    @property
+    def frame_names(self) -> list[str]:
+        return self._native.frame_names
+
+    @property
+    def gravity(self) -> np.ndarray:
+        return np.array(self._native.gravity)
+
+    @property
+    def total_mass(self) -> float:
+        return self._native.total_mass
+
+    def neutral(self) -> np.ndarray:
+        """Zero joints, base at the origin, identity orientation."""
+        return self._native.neutral()
+
+    def integrate(self, q: np.ndarray | Sequence[float], v: np.ndarray | Sequence[float]) -> np.ndarray:
+        """``q ⊕ v`` on the configuration group."""
+        return self._native.integrate(_vector(q), _vector(v))
+
+    def difference(self, q0: np.ndarray | Sequence[float], q1: np.ndarray | Sequence[float]) -> np.ndarray:
+        """``q1 ⊖ q0``: the ``v`` with ``integrate(q0, v) = q1``."""
+        return self._native.difference(_vector(q0), _vector(q1))
+
+    def from_pinocchio(self, q: np.ndarray | Sequence[float],
+                       v: np.ndarray | Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+        """Pinocchio's ``(q, v)`` in this layout: the layouts are the same, so copies."""
+        return _vector(q).copy(), _vector(v).copy()
+
+    def to_pinocchio(self, q: np.ndarray | Sequence[float],
+                     v: np.ndarray | Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+        """This layout's ``(q, v)`` in Pinocchio's: the same, so copies."""
+        return _vector(q).copy(), _vector(v).copy()
+
+    def mass_matrix(self, q: np.ndarray | Sequence[float]) -> np.ndarray:
+        """``M(q)``, nv x nv (singular when links are massless)."""
+        return self._native.mass_matrix(_vector(q))
+
+    def bias_forces(self, q: np.ndarray | Sequence[float], v: np.ndarray | Sequence[float]) -> np.ndarray:
+        """``h(q, v) = C(q, v) v + g(q)`` (Pinocchio's ``nle``)."""
+        return self._native.bias_forces(_vector(q), _vector(v))
+
+    def frame_placement(self, q: np.ndarray | Sequence[float], name: str) -> np.ndarray:
+        """The frame's placement in the world, a 4 x 4 homogeneous matrix."""
+        return self._native.frame_placement(_vector(q), name)
+
+    def frame_jacobian(self, q: np.ndarray | Sequence[float], name: str,
+                       frame: ReferenceFrame = "local") -> np.ndarray:
+        """The frame's 6 x nv Jacobian, linear rows first, in ``frame``."""
+        return self._native.frame_jacobian(_vector(q), name, frame)
+
+    def dynamics(self, contacts: Sequence[str], q: np.ndarray | Sequence[float],
+                 v: np.ndarray | Sequence[float], tau: np.ndarray | Sequence[float]) -> SpatialDynamics:
+        """Forward dynamics with ``contacts`` held (see the module's conventions)."""
+        d = self._native.dynamics(list(contacts), _vector(q), _vector(v), _vector(tau))
+        return SpatialDynamics(d["qdd"], d["lam"], [tuple(r) for r in d["rows"]], d["A"], d["drift"])
+
+    def impact(self, contacts: Sequence[str], q: np.ndarray | Sequence[float],
+               v: np.ndarray | Sequence[float]) -> SpatialImpact:
+        """Plastic impact into ``contacts`` with incoming rates ``v``."""
+        d = self._native.impact(list(contacts), _vector(q), _vector(v))
+        return SpatialImpact(d["v_plus"], d["impulse"], [tuple(r) for r in d["rows"]])

@@ -1,0 +1,234 @@
+"""Pinocchio as the independent route for the spatial engine (issue 32): on the shipped
+12-joint quadruped URDF, at random states, ``M``, ``nle``, frame placements and Jacobians to
+1e-10; constrained forward dynamics against ``pin.forwardDynamics`` with the same contact
+Jacobian to 1e-9; plastic impact against ``pin.impulseDynamics`` to 1e-9; and with the shins'
+mass eps -> 0, Pinocchio's answers converge to ours at eps = 0 (where its ``crba`` is singular
+and its solvers cannot run)."""
+
+from __future__ import annotations
+
+import pathlib
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+
+from selfmanip import SpatialRobot
+from selfmanip.errors import InvalidInputError, SingularKktError
+
+pin = pytest.importorskip("pinocchio", reason="Pinocchio (`pip install pin`, in the test extra) is the independent route")
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+QUADRUPED = ROOT / "tests" / "data" / "urdf" / "quadruped12.urdf"
+FEET = ["FL_foot", "FR_foot", "HL_foot", "HR_foot"]
+FRAMES = FEET + ["trunk", "imu", "FL_thigh", "HR_shin", "HL_knee", "FR_foot_fixed"]
+LEGS = ("_hip", "_thigh", "_shin", "_foot")
+SHINS = ("_shin", "_foot")
+
+
+def scaled_urdf(tmp_path: pathlib.Path, suffixes: tuple[str, ...], scale: float) -> pathlib.Path:
+    """The quadruped with the links ending in ``suffixes`` scaled in mass and inertia."""
+    tree = ET.parse(QUADRUPED)
+    for link in tree.getroot().iter("link"):
+        if link.get("name", "").endswith(suffixes):
+            inertial = link.find("inertial")
+            mass = inertial.find("mass")
+            mass.set("value", repr(float(mass.get("value")) * scale))
+            inertia = inertial.find("inertia")
+            for k, val in inertia.attrib.items():
+                inertia.set(k, repr(float(val) * scale))
+    path = tmp_path / f"quadruped_{'_'.join(s.strip('_') for s in suffixes)}_{scale:g}.urdf"
+    tree.write(path)
+    return path
+
+
+def both(path: pathlib.Path):
+    ours = SpatialRobot.from_urdf(path)
+    model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
+    return ours, model, model.createData()
+
+
+def random_state(rng: np.random.Generator, nq: int, nv: int):
+    q = np.zeros(nq)
+    q[:3] = rng.uniform(-1, 1, 3)
+    quat = rng.normal(size=4)
+    q[3:7] = quat / np.linalg.norm(quat)
+    q[7:] = rng.uniform(-1.5, 1.5, nq - 7)
+    return q, rng.uniform(-2, 2, nv), rng.uniform(-5, 5, nv)
+
+
+def contact_rows(model, data, q, v, contacts):
+    """Pinocchio's contact Jacobian and drift for our rows: the frames' LOCAL_WORLD_ALIGNED
+    linear Jacobians (world x, y, z: two tangents and the normal on flat z-up ground) and their
+    classical accelerations at zero joint acceleration."""
+    pin.computeJointJacobians(model, data, q)
+    pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
+    pin.updateFramePlacements(model, data)
+    J, gamma = [], []
+    for spec in contacts:
+        name, _, kind = spec.partition(":")
+        fid = model.getFrameId(name)
+        jac = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)[:3]
+        acc = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED).linear
+        rows = [2] if kind == "frictionless" else [0, 1, 2]
+        J.append(jac[rows])
+        gamma.append(acc[rows])
+    return np.vstack(J), np.concatenate(gamma)
+
+
+def pin_mass_matrix(model, data, q):
+    M = pin.crba(model, data, q)
+    return np.triu(M) + np.triu(M, 1).T
+
+
+def rel(a, b):
+    return float(np.max(np.abs(np.asarray(a) - np.asarray(b))) / max(1.0, float(np.max(np.abs(b)))))
+
+
+VARIANTS = {"as_shipped": ((), 1.0), "small_leg_masses": (LEGS, 1e-2), "massless_shins": (SHINS, 0.0)}
+
+
+@pytest.mark.parametrize("variant", list(VARIANTS))
+def test_kinematics_mass_matrix_and_bias_forces_match_pinocchio(tmp_path, variant):
+    suffixes, scale = VARIANTS[variant]
+    ours, model, data = both(scaled_urdf(tmp_path, suffixes, scale) if suffixes else QUADRUPED)
+    assert (ours.nq, ours.nv) == (model.nq, model.nv) == (19, 18)
+    assert ours.joint_names == list(model.names)[1:]
+    rng = np.random.default_rng(10)
+    worst = dict(M=0.0, nle=0.0, placement=0.0, jacobian=0.0)
+    for _ in range(20):
+        q, v, _ = random_state(rng, model.nq, model.nv)
+        worst["M"] = max(worst["M"], rel(ours.mass_matrix(q), pin_mass_matrix(model, data, q)))
+        worst["nle"] = max(worst["nle"], rel(ours.bias_forces(q, v), pin.nonLinearEffects(model, data, q, v)))
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        for name in FRAMES:
+            fid = model.getFrameId(name)
+            worst["placement"] = max(worst["placement"], rel(ours.frame_placement(q, name), data.oMf[fid].homogeneous))
+            for ref, pref in [("local", pin.LOCAL), ("world", pin.WORLD), ("local_world_aligned", pin.LOCAL_WORLD_ALIGNED)]:
+                J = pin.getFrameJacobian(model, data, fid, pref)
+                worst["jacobian"] = max(worst["jacobian"], rel(ours.frame_jacobian(q, name, ref), J))
+    print(variant, {k: f"{w:.1e}" for k, w in worst.items()})
+    assert all(w < 1e-10 for w in worst.values()), worst
+    if variant == "massless_shins":
+        # Pinocchio's crba is singular here too: rank 14 of 18
+        assert np.linalg.matrix_rank(pin_mass_matrix(model, data, q), tol=1e-10) == 14
+
+
+def test_configuration_group_matches_pinocchio():
+    """``integrate``/``difference`` are Pinocchio's on the same layout (the free flyer on SE(3)
+    with the body-frame twist, not a decoupled R^3 x SO(3)); ``neutral`` too."""
+    ours, model, _ = both(QUADRUPED)
+    assert np.array_equal(ours.neutral(), pin.neutral(model))
+    rng = np.random.default_rng(14)
+    worst = 0.0
+    for _ in range(50):
+        q, v, _ = random_state(rng, model.nq, model.nv)
+        q1, _, _ = random_state(rng, model.nq, model.nv)
+        worst = max(worst, rel(ours.integrate(q, v), pin.integrate(model, q, v)))
+        worst = max(worst, rel(ours.difference(q, q1), pin.difference(model, q, q1)))
+    print(f"integrate/difference vs Pinocchio: {worst:.1e}")
+    assert worst < 1e-12, worst
+
+
+MODES = [FEET, ["FL_foot", "HR_foot"], [f + ":frictionless" for f in FEET], ["FL_foot", "FR_foot:frictionless", "HL_foot"]]
+
+
+@pytest.mark.parametrize("variant", ["as_shipped", "small_leg_masses"])
+def test_constrained_dynamics_and_impact_match_pinocchio(tmp_path, variant):
+    suffixes, scale = VARIANTS[variant]
+    ours, model, data = both(scaled_urdf(tmp_path, suffixes, scale) if suffixes else QUADRUPED)
+    rng = np.random.default_rng(11)
+    worst = dict(A=0.0, drift=0.0, qdd=0.0, lam=0.0, v_plus=0.0, impulse=0.0)
+    for k in range(24):
+        contacts = MODES[k % len(MODES)]
+        q, v, tau = random_state(rng, model.nq, model.nv)
+        J, gamma = contact_rows(model, data, q, v, contacts)
+        out = ours.dynamics(contacts, q, v, tau)
+        worst["A"] = max(worst["A"], rel(out.A, J))
+        worst["drift"] = max(worst["drift"], rel(out.drift, gamma))
+        qdd = pin.forwardDynamics(model, data, q, v, tau, J, gamma)
+        worst["qdd"] = max(worst["qdd"], rel(out.qdd, qdd))
+        worst["lam"] = max(worst["lam"], rel(out.lam, data.lambda_c))
+        imp = ours.impact(contacts, q, v)
+        pin.impulseDynamics(model, data, q, v, J, 0.0)
+        worst["v_plus"] = max(worst["v_plus"], rel(imp.v_plus, data.dq_after))
+        worst["impulse"] = max(worst["impulse"], rel(imp.impulse, data.impulse_c))
+    print(variant, {k: f"{w:.1e}" for k, w in worst.items()})
+    assert all(w < 1e-9 for w in worst.values()), worst
+
+
+def test_massless_limit_of_pinocchio_converges_to_ours(tmp_path):
+    """Pinocchio needs a mass on every moving link; with the shins' mass and inertia scaled by
+    eps its answers approach ours at eps = 0 (exact, singular M), the gap falling with eps."""
+    ours = SpatialRobot.from_urdf(scaled_urdf(tmp_path, SHINS, 0.0))
+    rng = np.random.default_rng(12)
+    states = [random_state(rng, ours.nq, ours.nv) for _ in range(5)]
+    contacts = FEET
+    exact = []
+    for q, v, tau in states:
+        out = ours.dynamics(contacts, q, v, tau)
+        assert np.all(np.isfinite(out.qdd)) and np.all(np.isfinite(out.lam))
+        residual = out.A @ out.qdd + out.drift
+        assert np.max(np.abs(residual)) <= 1e-12 * max(1.0, np.max(np.abs(out.A) @ np.abs(out.qdd))), residual
+        imp = ours.impact(contacts, q, v)
+        assert np.max(np.abs(out.A @ imp.v_plus)) <= 1e-12 * max(1.0, np.max(np.abs(v)))
+        exact.append((out, imp))
+    gaps, kkt_gaps = [], []
+    for eps in [1e-2, 1e-4, 1e-6, 1e-8]:
+        _, model, data = both(scaled_urdf(tmp_path, SHINS, eps))
+        gap = kkt_gap = 0.0
+        for (q, v, tau), (out, imp) in zip(states, exact):
+            J, gamma = contact_rows(model, data, q, v, contacts)
+            qdd = pin.forwardDynamics(model, data, q, v, tau, J, gamma)
+            gap = max(gap, rel(qdd, out.qdd), rel(data.lambda_c, out.lam))
+            pin.impulseDynamics(model, data, q, v, J, 0.0)
+            gap = max(gap, rel(data.dq_after, imp.v_plus), rel(data.impulse_c, imp.impulse))
+            # the same Pinocchio M and nle, the KKT matrix solved whole by LU (no M^-1)
+            M, h, c = pin_mass_matrix(model, data, q), pin.nonLinearEffects(model, data, q, v), len(gamma)
+            K = np.block([[M, J.T], [J, np.zeros((c, c))]])
+            x = np.linalg.solve(K, np.concatenate([tau - h, -gamma]))
+            kkt_gap = max(kkt_gap, rel(x[:ours.nv], out.qdd), rel(-x[ours.nv:], out.lam))
+        gaps.append(gap)
+        kkt_gaps.append(kkt_gap)
+    print("eps = 1e-2, 1e-4, 1e-6, 1e-8: |Pinocchio(eps) - ours(0)|", [f"{g:.1e}" for g in gaps],
+          "; |KKT LU of Pinocchio's M, nle (eps) - ours(0)|", [f"{g:.1e}" for g in kkt_gaps])
+    for g in (gaps, kkt_gaps):
+        assert all(b < a for a, b in zip(g, g[1:])), g
+    # Pinocchio's solvers factor M (condition ~1/eps): their round-off floors the gap at ~1e-7
+    assert gaps[-1] < 1e-6 and kkt_gaps[-1] < 1e-7, (gaps, kkt_gaps)
+
+
+def test_bad_input_names_the_field(tmp_path):
+    robot = SpatialRobot.from_urdf(QUADRUPED)
+    q = robot.neutral()
+    bad = q.copy()
+    bad[6] = 1.1
+    with pytest.raises(InvalidInputError) as e:
+        robot.mass_matrix(bad)
+    assert e.value.field == "q"
+    with pytest.raises(InvalidInputError) as e:
+        robot.frame_placement(q, "no_such_frame")
+    assert e.value.field == "name"
+    with pytest.raises(InvalidInputError) as e:
+        robot.dynamics(["no_such_foot"], q, np.zeros(18), np.zeros(18))
+    assert e.value.field == "contacts"
+    with pytest.raises(InvalidInputError) as e:
+        robot.frame_jacobian(q, "FL_foot", "body")
+    assert e.value.field == "frame"
+    with pytest.raises(InvalidInputError) as e:
+        SpatialRobot.from_urdf(QUADRUPED, base="planar")
+    assert e.value.field == "base"
+    v = np.zeros(18)
+    v[3] = np.nan
+    with pytest.raises(InvalidInputError) as e:
+        robot.bias_forces(q, v)
+    assert e.value.field == "v"
+    negative = scaled_urdf(tmp_path, ("FL_shin",), -1.0)
+    with pytest.raises(InvalidInputError) as e:
+        SpatialRobot.from_urdf(negative)
+    assert e.value.field == "link[FL_shin].inertial.mass"
+    # a massless shin off the ground has no dynamics: Lemma 5.1's typed error
+    massless = SpatialRobot.from_urdf(scaled_urdf(tmp_path, SHINS, 0.0))
+    with pytest.raises(SingularKktError):
+        massless.dynamics(FEET[:3], q, np.zeros(18), np.zeros(18))
