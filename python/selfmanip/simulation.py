@@ -351,9 +351,10 @@ def simulate(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[float], qd
     engine's variational equations and saltation matrices, ``docs/periodic-orbits.md``):
     ``Execution.state_jacobian`` and, on every event, ``saltation`` (an ``(n, n)`` array over
     ``(q, qd)``, ``None`` where undefined), ``saltation_status``, ``saltation_reason`` and
-    ``time_gradient``. A behaviour with a ``motor`` torque or a ``joint_angle`` level has no
-    partial derivatives yet: :class:`~selfmanip.errors.InvalidInputError` naming
-    ``behaviour``; so does a Python ``controller``.
+    ``time_gradient``. A behaviour with a ``joint_angle`` level, or a ``motor`` torque with
+    ``reverse_beyond_rad``, has no partial derivatives yet:
+    :class:`~selfmanip.errors.InvalidInputError` naming ``behaviour``; so does a Python
+    ``controller``.
 
     ``parameters=["kp_push", ...]`` (with ``sensitivity=True``): also the final state's exact
     derivatives with respect to those parameters of the behaviour (its ``[parameters]``
