@@ -22,6 +22,11 @@ use serde::Serialize;
 /// second, finer than a stance of a few tens of milliseconds needs to show its shape.
 pub const DEFAULT_DT_S: f64 = 0.005;
 
+/// The most samples a trajectory holds: 10⁷ samples of a few coordinates are about a
+/// gigabyte once they reach Python; the bound is checked before any is taken
+/// (`dt = 1e-12` asked for terabytes).
+pub const MAX_TRAJECTORY_SAMPLES: usize = 10_000_000;
+
 /// Samples of an execution, for logs and plots.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Trajectory {
@@ -78,6 +83,17 @@ pub fn sample_labelled(
     time_offset_s: f64,
 ) -> Result<Trajectory, SimError> {
     positive("dt_s", dt_s)?;
+    let t_end = exec.t;
+    let samples = (t_end / dt_s).floor();
+    if !(samples < MAX_TRAJECTORY_SAMPLES as f64) {
+        return Err(SimError::InvalidValue {
+            field: "dt_s".into(),
+            reason: format!(
+                "{dt_s} s over the run's {t_end} s is more than the {MAX_TRAJECTORY_SAMPLES} \
+                 samples a trajectory holds"
+            ),
+        });
+    }
     let nq = model.nq();
     let nc = model.n_contacts();
     let mut out = Trajectory {
@@ -93,8 +109,7 @@ pub fn sample_labelled(
     };
     let mut ws = FlowWorkspace::new(model);
     let mut y = vec![0.0; 2 * nq];
-    let t_end = exec.t;
-    let n = (t_end / dt_s).floor().max(0.0) as usize;
+    let n = samples.max(0.0) as usize;
     let times = (0..=n)
         .map(|k| k as f64 * dt_s)
         .chain((t_end > n as f64 * dt_s).then_some(t_end));

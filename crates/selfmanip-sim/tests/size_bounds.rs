@@ -1,10 +1,11 @@
-//! What a sweep guards against (issue 31): a pool bounded by the machine and the points,
-//! whatever `threads` asks for (`threads=10**9` kept creating OS threads), and axes that
-//! cannot alias (two names of one parameter labelled rows with values they did not run).
+//! Every size a caller can ask of the simulator is bounded before it is allocated, and
+//! nothing a caller writes twice is run under the wrong label (issue 31): a sweep's pool
+//! (`threads=10**9` kept creating OS threads), its axes (two names of one parameter labelled
+//! rows with values they did not run), its grid, and a trajectory's samples.
 use selfmanip_core::RobotDescription;
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::sweep::{grid, pool_threads, run_parallel, sweep};
-use selfmanip_sim::{Scenario, SimError};
+use selfmanip_sim::{Scenario, SimError, Simulation};
 use serde_json::json;
 use std::path::Path;
 
@@ -73,4 +74,24 @@ fn a_grid_beyond_the_bound_is_refused_before_it_is_formed() {
     // within the bound, the grid is the product of its axes
     assert!(10_000 * 10_000 > MAX_SWEEP_POINTS);
     assert_eq!(grid(&[axis("a", 100), axis("b", 30)]).unwrap().len(), 3_000);
+}
+
+/// `Execution.trajectory(1e-12)` reached 3.5 GB in 12 s (and `leap(dt=1e-9)`, which samples
+/// through the same sampler, grew without bound): the sample count is checked before any
+/// sample is taken.
+#[test]
+fn a_trajectory_beyond_the_sample_bound_is_refused_naming_dt_s() {
+    use selfmanip_sim::trajectory::MAX_TRAJECTORY_SAMPLES;
+    let run = Simulation::new(&hopper()).unwrap().run().unwrap();
+    let t_end = run.execution.t;
+    assert!(t_end / 1e-12 > MAX_TRAJECTORY_SAMPLES as f64);
+    match run.trajectory(1e-12).unwrap_err() {
+        SimError::InvalidValue { field, .. } => assert_eq!(field, "dt_s"),
+        other => panic!("{other:?}"),
+    }
+    // within the bound: a sample every dt from 0, and the end
+    let dt = 1e-3;
+    let tr = run.trajectory(dt).unwrap();
+    let every = (t_end / dt).floor() as usize + 1;
+    assert_eq!(tr.t_s.len(), every + usize::from(t_end > (every - 1) as f64 * dt));
 }
