@@ -155,3 +155,10 @@ def test_chapter3_does_not_create_a_tree_from_a_mistyped_path(tmp_path):
         run(str(tmp_path / "no" / "such" / "dir"), n=1)
     assert e.value.field == "out_dir"
     assert not (tmp_path / "no").exists()
+
+
+def test_a_trajectory_of_too_many_samples_names_dt_s():
+    # leap(dt=1e-9) grew ~270 MB/s; Execution.trajectory(1e-12) reached 3.5 GB
+    with pytest.raises(InvalidInputError) as e:
+        selfmanip.leap("++", 0.0, dt=1e-12)
+    assert e.value.field == "dt_s"
