@@ -310,6 +310,7 @@ def motor_calibrate_observer(
     initial_params: dict[str, float], dt_s: float, theta_d: _F64, omega_d: _F64, theta: _F64, omega: _F64
 ) -> dict[str, Any]: ...
 MOTOR_MAX_PROFILE_SAMPLES: int
+SIM_MAX_SWEEP_POINTS: int
 
 def motor_identify_faults(
     params: dict[str, float],

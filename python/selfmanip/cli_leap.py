@@ -23,6 +23,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from . import _native
 from ._checks import path_arg
 from ._tables import read_table, write_table  # noqa: F401 (read_table: kept importable here)
 from .errors import InvalidInputError
@@ -32,7 +33,7 @@ PLOT_SUFFIXES = (".csv", ".parquet", ".json", ".mcap")
 
 #: The most values an ``A:B:N`` range holds (the engine's bound on a sweep's grid): checked
 #: before numpy is asked for them (``--t2=0:1:1e11`` raised numpy's ArrayMemoryError).
-MAX_RANGE_COUNT = 10_000_000
+MAX_RANGE_COUNT: int = _native.SIM_MAX_SWEEP_POINTS
 
 
 def parse_range(text: str, field: str, *, integer_count: bool = True) -> list[float]:

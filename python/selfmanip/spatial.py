@@ -73,6 +73,8 @@ class SpatialRobot:
                   root_link: str | None = None) -> "SpatialRobot":
         """Loads a URDF; ``base`` attaches its root link to the world (``"free_flyer"`` or
         ``"fixed"``). Links with zero mass stay massless."""
+        if not isinstance(path, (str, os.PathLike)):
+            raise InvalidTypeError(f"`path` must be a file path, got {type(path).__name__}", "path")
         return cls(_NativeSpatialRobot.from_urdf(os.fspath(path), base, root_link))
 
     @property

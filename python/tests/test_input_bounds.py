@@ -162,3 +162,10 @@ def test_a_trajectory_of_too_many_samples_names_dt_s():
     with pytest.raises(InvalidInputError) as e:
         selfmanip.leap("++", 0.0, dt=1e-12)
     assert e.value.field == "dt_s"
+
+
+def test_a_urdf_path_of_the_wrong_type_names_path():
+    with pytest.raises(InvalidTypeError) as e:
+        selfmanip.SpatialRobot.from_urdf(5)
+    assert e.value.field == "path"
+

@@ -284,9 +284,10 @@ impl ThermalModel {
     /// A trace whose every temperature is finite, or [`MotorError::Overflow`] naming the
     /// profile `field` whose heat input overflowed it.
     fn finite_trace(field: &'static str, trace: ThermalTrace) -> Result<ThermalTrace> {
-        let last = |v: &[f64]| v.iter().copied().find(|x| !x.is_finite()).unwrap_or(0.0);
-        no_overflow(field, "the winding temperature", last(&trace.core_c))?;
-        no_overflow(field, "the case temperature", last(&trace.case_c))?;
+        // the first non-finite temperature of each node, if any
+        let first_bad = |v: &[f64]| v.iter().copied().find(|x| !x.is_finite()).unwrap_or(0.0);
+        no_overflow(field, "the winding temperature", first_bad(&trace.core_c))?;
+        no_overflow(field, "the case temperature", first_bad(&trace.case_c))?;
         Ok(trace)
     }
 

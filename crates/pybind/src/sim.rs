@@ -53,6 +53,10 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyScenario>()?;
     m.add_class::<PyRun>()?;
     m.add_function(wrap_pyfunction!(sim_defaults, m)?)?;
+    m.add(
+        "SIM_MAX_SWEEP_POINTS",
+        selfmanip_sim::sweep::MAX_SWEEP_POINTS,
+    )?;
     Ok(())
 }
 
