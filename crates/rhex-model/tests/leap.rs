@@ -844,7 +844,7 @@ fn no_event_fires_on_round_off() {
                     let mut kin = selfmanip_core::kinematics::Kinematics::default();
                     kin.compute(&rhex.model, &e.q, &e.qd_after);
                     e.triggered.iter().all(|&k| {
-                        selfmanip_hybrid::guard::sliding_velocity(
+                        selfmanip_hybrid::flow::sliding_velocity(
                             &rhex.model,
                             &kin,
                             &cfg.terrain,

@@ -107,7 +107,7 @@ fn simultaneous_touchdown_keeps_both_toes_leaving_rest_together() {
         kin.compute(model, &y[..nq], &y[nq..]);
         for &(k, sigma) in &sliding {
             assert!(sigma != 0.0, "toe {k} without friction");
-            let v_t = selfmanip_hybrid::guard::sliding_velocity(model, &kin, &FlatGround, k);
+            let v_t = selfmanip_hybrid::flow::sliding_velocity(model, &kin, &FlatGround, k);
             assert!(
                 sigma * v_t > 0.0,
                 "toe {k} at {t}: σ = {sigma}, v_t = {v_t}"

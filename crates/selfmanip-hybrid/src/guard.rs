@@ -41,9 +41,9 @@
 //! are sampled at the coarse samples (mid-step and end), and also at a fine sample where a
 //! cheap (kinematic) guard crosses, so that none of them can cross unseen before the
 //! earliest event; the kinematic guards at every sample.
-/// The slip→stick guard's value (defined with the flow, which fixes a sliding contact's
-/// direction by it).
-pub use crate::flow::sliding_velocity;
+// the slip→stick guard's value is defined with the flow, which fixes a sliding contact's
+// direction by it
+use crate::flow::sliding_velocity;
 use crate::flow::Flow;
 use crate::fold;
 use crate::integrate::DenseStep;
