@@ -20,7 +20,7 @@
 mod systems;
 use nalgebra::{DMatrix, DVector};
 use selfmanip_core::{ContactKind, ContactMode, FlatGround, Model};
-use selfmanip_hybrid::sensitivity::{simulate_with_sensitivity, SaltationStatus};
+use selfmanip_hybrid::sensitivity::{simulate_with_sensitivity, SaltationStatus, Sensitivity};
 use selfmanip_hybrid::{simulate, Controller, EventKind, Execution, HybridOptions, ZeroTorque};
 use systems::{block, block_inertia, body, rotate, Friction, BLOCK, G};
 
@@ -35,98 +35,116 @@ fn tight(delta_t_s: f64) -> HybridOptions {
     }
 }
 
-/// `x(t_f)` and the event sequence of a run.
-fn run(
-    model: &Model,
-    ctrl: &dyn Controller,
+/// One run of the tests: a model under `ctrl` on flat ground from `y0 = (q, q̇)` in `mode`
+/// until `tf`.
+#[derive(Clone, Copy)]
+struct Case<'a> {
+    model: &'a Model,
+    ctrl: &'a dyn Controller,
     mode: ContactMode,
-    y0: &[f64],
+    y0: &'a [f64],
     tf: f64,
     opts: HybridOptions,
-) -> (Vec<f64>, Vec<(EventKind, ContactMode)>) {
-    let nq = model.nq();
-    let e = simulate(
-        model,
-        &FlatGround,
-        ctrl,
-        mode,
-        &y0[..nq],
-        &y0[nq..],
-        tf,
-        opts,
-    )
-    .unwrap();
-    (
-        final_state(&e),
-        e.events.iter().map(|e| (e.kind, e.mode_after)).collect(),
-    )
+}
+
+/// An event's kind and the mode after it.
+type Step = (EventKind, ContactMode);
+
+impl<'a> Case<'a> {
+    /// A passive body (no joint torque) from `y0` in flight.
+    fn passive(model: &'a Model, y0: &'a [f64], tf: f64, opts: HybridOptions) -> Self {
+        Case {
+            model,
+            ctrl: &ZeroTorque,
+            mode: ContactMode::FLIGHT,
+            y0,
+            tf,
+            opts,
+        }
+    }
+
+    /// The execution and its sensitivities.
+    fn sensitivity(&self) -> (Execution, Sensitivity) {
+        let nq = self.model.nq();
+        simulate_with_sensitivity(
+            self.model,
+            &FlatGround,
+            self.ctrl,
+            self.mode,
+            &self.y0[..nq],
+            &self.y0[nq..],
+            self.tf,
+            self.opts,
+        )
+        .unwrap()
+    }
+
+    /// `x(t_f)` and the event sequence of the run from `y0`.
+    fn run_from(&self, y0: &[f64]) -> (Vec<f64>, Vec<Step>) {
+        let nq = self.model.nq();
+        let e = simulate(
+            self.model,
+            &FlatGround,
+            self.ctrl,
+            self.mode,
+            &y0[..nq],
+            &y0[nq..],
+            self.tf,
+            self.opts,
+        )
+        .unwrap();
+        (final_state(&e), sequence(&e))
+    }
+
+    /// Central differences of `x(t_f)` along each direction `dirs[k]` of the initial state
+    /// (step `h` along the direction), each with the unperturbed run's event sequence.
+    fn fd_columns(&self, dirs: &[DVector<f64>], h: f64) -> DMatrix<f64> {
+        let (_, seq) = self.run_from(self.y0);
+        let n2 = self.y0.len();
+        let mut out = DMatrix::zeros(n2, dirs.len());
+        for (k, d) in dirs.iter().enumerate() {
+            let shifted = |s: f64| -> Vec<f64> {
+                self.y0
+                    .iter()
+                    .zip(d.iter())
+                    .map(|(a, b)| a + s * h * b)
+                    .collect()
+            };
+            let (xp, sp) = self.run_from(&shifted(1.0));
+            let (xm, sm) = self.run_from(&shifted(-1.0));
+            assert_eq!(sp, seq, "the mode sequence changed along direction {k}");
+            assert_eq!(sm, seq, "the mode sequence changed along direction {k}");
+            for i in 0..n2 {
+                out[(i, k)] = (xp[i] - xm[i]) / (2.0 * h);
+            }
+        }
+        out
+    }
+
+    /// The worst relative error of the whole-run Jacobian `jac` applied to `dirs` against
+    /// central differences of whole executions (h = 1e-6) along them.
+    fn whole_run_error(&self, jac: &DMatrix<f64>, dirs: &[DVector<f64>]) -> f64 {
+        let fd = self.fd_columns(dirs, 1e-6);
+        let ex = DMatrix::from_columns(&dirs.iter().map(|d| jac * d).collect::<Vec<_>>());
+        rel(&ex, &fd)
+    }
 }
 
 fn final_state(e: &Execution) -> Vec<f64> {
     e.q.iter().chain(&e.qd).copied().collect()
 }
 
-/// Central differences of `x(t_f)` along each direction `dirs[k]` of the initial state
-/// (step `h` along the direction), each with the unperturbed run's event sequence.
-fn fd_columns(
-    model: &Model,
-    mode: ContactMode,
-    y0: &[f64],
-    tf: f64,
-    opts: HybridOptions,
-    dirs: &[DVector<f64>],
-) -> DMatrix<f64> {
-    fd_columns_h(model, &ZeroTorque, mode, y0, tf, opts, dirs, 1e-6)
-}
-
-#[allow(clippy::too_many_arguments)]
-fn fd_columns_h(
-    model: &Model,
-    ctrl: &dyn Controller,
-    mode: ContactMode,
-    y0: &[f64],
-    tf: f64,
-    opts: HybridOptions,
-    dirs: &[DVector<f64>],
-    h: f64,
-) -> DMatrix<f64> {
-    let (_, seq) = run(model, ctrl, mode, y0, tf, opts);
-    let n2 = y0.len();
-    let mut out = DMatrix::zeros(n2, dirs.len());
-    for (k, d) in dirs.iter().enumerate() {
-        let yp: Vec<f64> = y0.iter().zip(d.iter()).map(|(a, b)| a + h * b).collect();
-        let ym: Vec<f64> = y0.iter().zip(d.iter()).map(|(a, b)| a - h * b).collect();
-        let (xp, sp) = run(model, ctrl, mode, &yp, tf, opts);
-        let (xm, sm) = run(model, ctrl, mode, &ym, tf, opts);
-        assert_eq!(sp, seq, "the mode sequence changed along direction {k}");
-        assert_eq!(sm, seq, "the mode sequence changed along direction {k}");
-        for i in 0..n2 {
-            out[(i, k)] = (xp[i] - xm[i]) / (2.0 * h);
-        }
-    }
-    out
+fn sequence(e: &Execution) -> Vec<Step> {
+    e.events.iter().map(|e| (e.kind, e.mode_after)).collect()
 }
 
 fn rel(a: &DMatrix<f64>, b: &DMatrix<f64>) -> f64 {
     (a - b).amax() / b.amax().max(1.0)
 }
 
-/// The worst relative error of the whole-run Jacobian `jac` applied to `dirs` against
-/// central differences of whole executions (h = 1e-6) along them.
-#[allow(clippy::too_many_arguments)]
-fn whole_run_error(
-    model: &Model,
-    ctrl: &dyn Controller,
-    mode: ContactMode,
-    y0: &[f64],
-    tf: f64,
-    opts: HybridOptions,
-    jac: &DMatrix<f64>,
-    dirs: &[DVector<f64>],
-) -> f64 {
-    let fd = fd_columns_h(model, ctrl, mode, y0, tf, opts, dirs, 1e-6);
-    let ex = DMatrix::from_columns(&dirs.iter().map(|d| jac * d).collect::<Vec<_>>());
-    rel(&ex, &fd)
+/// Every direction of an `n`-dimensional state.
+fn units(n: usize) -> Vec<DVector<f64>> {
+    (0..n).map(|k| unit(n, k)).collect()
 }
 
 fn unit(n: usize, k: usize) -> DVector<f64> {
@@ -212,18 +230,8 @@ fn plastic_ball_saltation_and_run() {
     // straddle that change of the event sequence
     let (h0, xd, zd0, phid) = (0.5, 1.0, 0.5, 0.3);
     let y0 = [0.0, -h0, 0.0, xd, zd0, phid];
-    let opts = tight(0.0);
-    let (exec, sens) = simulate_with_sensitivity(
-        &model,
-        &FlatGround,
-        &ZeroTorque,
-        ContactMode::FLIGHT,
-        &y0[..3],
-        &y0[3..],
-        0.4,
-        opts,
-    )
-    .unwrap();
+    let case = Case::passive(&model, &y0, 0.4, tight(0.0));
+    let (exec, sens) = case.sensitivity();
     assert_eq!(exec.events.len(), 1);
     assert_eq!(exec.events[0].kind, EventKind::Touchdown);
     let zd = (zd0 * zd0 + 2.0 * G * h0).sqrt();
@@ -237,10 +245,7 @@ fn plastic_ball_saltation_and_run() {
     // the landing time t = √(2 h0/g) − …: dt/dz0 = −1/ż⁻ (z down: a larger z0 is lower)
     let tg = es.time_gradient.as_ref().unwrap();
     assert!((tg[1] + 1.0 / zd).abs() < 1e-9, "{tg}");
-    let dirs: Vec<_> = (0..6)
-        .map(|k| DVector::from_fn(6, |i, _| if i == k { 1.0 } else { 0.0 }))
-        .collect();
-    let fd = fd_columns(&model, ContactMode::FLIGHT, &y0, 0.4, opts, &dirs);
+    let fd = case.fd_columns(&units(6), 1e-6);
     let e = rel(sens.state_jacobian.as_ref().unwrap(), &fd);
     eprintln!("ball: whole-run Jacobian vs central differences {e:e}");
     assert!(e < 1e-6, "{e:e}");
@@ -261,17 +266,7 @@ fn rod_landing_on_one_end_saltation() {
     let phi0 = 0.5_f64;
     let l0 = rotate(phi0, [-len / 2.0, 0.0]);
     let y0 = [0.0, -0.05 - l0[1], phi0, 0.3, 0.2, 0.5];
-    let (exec, sens) = simulate_with_sensitivity(
-        &model,
-        &FlatGround,
-        &ZeroTorque,
-        ContactMode::FLIGHT,
-        &y0[..3],
-        &y0[3..],
-        0.15,
-        tight(0.0),
-    )
-    .unwrap();
+    let (exec, sens) = Case::passive(&model, &y0, 0.15, tight(0.0)).sensitivity();
     assert_eq!(exec.events[0].kind, EventKind::Touchdown);
     let t = exec.events[0].t;
     let mut y = [0.0; 6];
@@ -306,17 +301,11 @@ fn rocking_block_saltation_with_and_without_pseudo_impulse() {
     let r0 = [-l_left[0], -l_left[1]];
     let y0 = [r0[0], r0[1], phi0, omega0 * r0[1], -omega0 * r0[0], omega0];
     for delta_t in [0.0, 0.03] {
-        let (exec, sens) = simulate_with_sensitivity(
-            &model,
-            &FlatGround,
-            &ZeroTorque,
-            left,
-            &y0[..3],
-            &y0[3..],
-            0.05,
-            tight(delta_t),
-        )
-        .unwrap();
+        let (exec, sens) = Case {
+            mode: left,
+            ..Case::passive(&model, &y0, 0.05, tight(delta_t))
+        }
+        .sensitivity();
         let ev = &exec.events[0];
         assert_eq!(ev.kind, EventKind::Touchdown);
         assert_eq!(
@@ -365,18 +354,8 @@ fn rocking_block_whole_execution_jacobian_through_several_events() {
     let l_left = rotate(phi0, [-w / 2.0, h / 2.0]);
     let y0 = [0.0, -0.02 - l_left[1], phi0, 0.05, 0.1, -0.5];
     let tf = 0.464;
-    let opts = tight(0.0);
-    let (exec, sens) = simulate_with_sensitivity(
-        &model,
-        &FlatGround,
-        &ZeroTorque,
-        ContactMode::FLIGHT,
-        &y0[..3],
-        &y0[3..],
-        tf,
-        opts,
-    )
-    .unwrap();
+    let case = Case::passive(&model, &y0, tf, tight(0.0));
+    let (exec, sens) = case.sensitivity();
     let kinds: Vec<_> = exec.events.iter().map(|e| e.kind).collect();
     eprintln!(
         "events: {kinds:?} at {:?}, termination {:?}",
@@ -387,10 +366,7 @@ fn rocking_block_whole_execution_jacobian_through_several_events() {
     for es in &sens.events {
         assert_eq!(es.status, SaltationStatus::Defined, "{es:?}");
     }
-    let dirs: Vec<_> = (0..6)
-        .map(|k| DVector::from_fn(6, |i, _| if i == k { 1.0 } else { 0.0 }))
-        .collect();
-    let fd = fd_columns(&model, ContactMode::FLIGHT, &y0, tf, opts, &dirs);
+    let fd = case.fd_columns(&units(6), 1e-6);
     let jac = sens.state_jacobian.as_ref().expect("defined");
     let e = rel(jac, &fd);
     eprintln!(
@@ -400,28 +376,9 @@ fn rocking_block_whole_execution_jacobian_through_several_events() {
     assert!(e < 1e-5, "{e:e}\n{jac}\n{fd}");
     // the default tolerances (rtol 1e-9, events to 1e-10 s), which finite differences resolve
     // only with a larger step (h = 1e-4: truncation ~1e-8, noise ~1e-9/1e-4)
-    let opts = HybridOptions::default();
-    let (_, sens) = simulate_with_sensitivity(
-        &model,
-        &FlatGround,
-        &ZeroTorque,
-        ContactMode::FLIGHT,
-        &y0[..3],
-        &y0[3..],
-        tf,
-        opts,
-    )
-    .unwrap();
-    let fd = fd_columns_h(
-        &model,
-        &ZeroTorque,
-        ContactMode::FLIGHT,
-        &y0,
-        tf,
-        opts,
-        &dirs,
-        1e-4,
-    );
+    let case = Case::passive(&model, &y0, tf, HybridOptions::default());
+    let (_, sens) = case.sensitivity();
+    let fd = case.fd_columns(&units(6), 1e-4);
     let e = rel(sens.state_jacobian.as_ref().expect("defined"), &fd);
     eprintln!("rocking block, default tolerances: whole-run Jacobian vs central differences {e:e}");
     assert!(e < 1e-4, "{e:e}");
@@ -470,28 +427,14 @@ fn massless_leg_with_servo_whole_execution_jacobian() {
         target: -0.3,
     };
     let y0 = [0.2, 0.0, -0.23, 0.1, -0.5, 0.4, 0.3, 0.2];
-    let opts = tight(0.0);
-    let tf = 1.5;
-    let (exec, sens) = simulate_with_sensitivity(
-        &model,
-        &FlatGround,
-        &servo,
-        ContactMode::FLIGHT,
-        &y0[..4],
-        &y0[4..],
-        tf,
-        opts,
-    )
-    .unwrap();
-    let seq = |e: &Execution| {
-        e.events
-            .iter()
-            .map(|e| (e.kind, e.mode_after))
-            .collect::<Vec<_>>()
+    let case = Case {
+        ctrl: &servo,
+        ..Case::passive(&model, &y0, 1.5, tight(0.0))
     };
+    let (exec, sens) = case.sensitivity();
     eprintln!(
         "one massless leg: {:?} at {:?}, {:?}",
-        seq(&exec),
+        sequence(&exec),
         exec.events.iter().map(|e| e.t).collect::<Vec<_>>(),
         exec.termination
     );
@@ -500,17 +443,7 @@ fn massless_leg_with_servo_whole_execution_jacobian() {
         assert_eq!(es.status, SaltationStatus::Defined, "{es:?}");
     }
     let jac = sens.state_jacobian.as_ref().expect("defined");
-    let dirs: Vec<_> = (0..8).map(|k| unit(8, k)).collect();
-    let e = whole_run_error(
-        &model,
-        &servo,
-        ContactMode::FLIGHT,
-        &y0,
-        tf,
-        opts,
-        jac,
-        &dirs,
-    );
+    let e = case.whole_run_error(jac, &units(8));
     eprintln!("one massless leg: whole-run Jacobian vs central differences {e:e}");
     assert!(e < 1e-5, "{e:e}");
 }
@@ -526,17 +459,8 @@ fn apex_projection_and_time_gradient() {
         stop_at_apex: true,
         ..tight(0.0)
     };
-    let (exec, sens) = simulate_with_sensitivity(
-        &model,
-        &FlatGround,
-        &ZeroTorque,
-        ContactMode::FLIGHT,
-        &[0.0, -1.0, 0.0],
-        &[xd, zd, 0.0],
-        2.0,
-        opts,
-    )
-    .unwrap();
+    let (exec, sens) =
+        Case::passive(&model, &[0.0, -1.0, 0.0, xd, zd, 0.0], 2.0, opts).sensitivity();
     assert_eq!(exec.events.last().map(|e| e.kind), Some(EventKind::Apex));
     let es = sens.events.last().unwrap();
     let tg = es.time_gradient.as_ref().unwrap();
@@ -567,38 +491,15 @@ fn kicking_leg_liftoff_touchdown_slip_whole_execution_jacobian() {
         target: -1.0,
     };
     let y0 = [0.0, 0.0, -len, 0.0, 0.0, 0.0, 0.0, 0.0];
-    let toe = ContactMode::FLIGHT.with(0, ContactKind::Slide);
-    let tf = 0.3;
-    let opts = tight(0.0);
-    let (exec, sens) = simulate_with_sensitivity(
-        &model,
-        &FlatGround,
-        &servo,
-        toe,
-        &y0[..4],
-        &y0[4..],
-        tf,
-        opts,
-    )
-    .unwrap();
-    let kinds: Vec<_> = exec.events.iter().map(|e| e.kind).collect();
-    eprintln!(
-        "kicking leg: {kinds:?} at {:?}",
-        exec.events.iter().map(|e| e.t).collect::<Vec<_>>()
+    let case = sliding_toe_case(&model, &servo, &y0, 0.3);
+    let (exec, sens) = case.sensitivity();
+    use EventKind::{Liftoff, Slip, Touchdown};
+    let jac = defined_jacobian(
+        "kicking leg",
+        &exec,
+        &sens,
+        &[Liftoff, Touchdown, Slip, Touchdown],
     );
-    assert_eq!(
-        kinds,
-        [
-            EventKind::Liftoff,
-            EventKind::Touchdown,
-            EventKind::Slip,
-            EventKind::Touchdown
-        ]
-    );
-    for es in &sens.events {
-        assert_eq!(es.status, SaltationStatus::Defined, "{es:?}");
-    }
-    let jac = sens.state_jacobian.as_ref().expect("defined");
     let sgn = model.joints[0].axis_sign;
     // the toe's sliding velocity is ẋ + β̇ L (β = φ + s θ): velocity directions that keep it
     // zero, since a sliding velocity off zero would end in a stick event (another sequence)
@@ -609,7 +510,7 @@ fn kicking_leg_liftoff_touchdown_slip_whole_execution_jacobian() {
         unit(8, 5) - (sgn / len) * unit(8, 4),
         unit(8, 7) - sgn * unit(8, 4),
     ];
-    let e = whole_run_error(&model, &servo, toe, &y0, tf, opts, jac, &dirs);
+    let e = case.whole_run_error(jac, &dirs);
     eprintln!("kicking leg: whole-run Jacobian vs central differences {e:e}");
     assert!(e < 1e-5, "{e:e}");
 }
@@ -629,35 +530,40 @@ fn sliding_toe_stick_slip_touchdown_whole_execution_jacobian() {
         target: -1.0,
     };
     let y0 = [0.0, 0.0, -len, 0.0, 0.0, 0.3, 0.0, 0.0];
-    let toe = ContactMode::FLIGHT.with(0, ContactKind::Slide);
-    let tf = 0.4;
-    let opts = tight(0.0);
-    let (exec, sens) = simulate_with_sensitivity(
-        &model,
-        &FlatGround,
-        &servo,
-        toe,
-        &y0[..4],
-        &y0[4..],
-        tf,
-        opts,
-    )
-    .unwrap();
-    let kinds: Vec<_> = exec.events.iter().map(|e| e.kind).collect();
+    let case = sliding_toe_case(&model, &servo, &y0, 0.4);
+    let (exec, sens) = case.sensitivity();
+    use EventKind::{Slip, Stick, Touchdown};
+    let jac = defined_jacobian("sliding toe", &exec, &sens, &[Stick, Slip, Touchdown]);
+    let dirs: Vec<_> = [0, 1, 3, 4, 5, 7].iter().map(|&k| unit(8, k)).collect();
+    let e = case.whole_run_error(jac, &dirs);
+    eprintln!("sliding toe: whole-run Jacobian vs central differences {e:e}");
+    assert!(e < 1e-5, "{e:e}");
+}
+
+/// The one-leg robot under `servo` from `y0` with its toe sliding.
+fn sliding_toe_case<'a>(model: &'a Model, servo: &'a Servo, y0: &'a [f64], tf: f64) -> Case<'a> {
+    Case {
+        ctrl: servo,
+        mode: ContactMode::FLIGHT.with(0, ContactKind::Slide),
+        ..Case::passive(model, y0, tf, tight(0.0))
+    }
+}
+
+/// The whole-run Jacobian of a run whose events are `kinds`, each with its saltation defined.
+fn defined_jacobian<'s>(
+    label: &str,
+    exec: &Execution,
+    sens: &'s Sensitivity,
+    kinds: &[EventKind],
+) -> &'s DMatrix<f64> {
+    let seen: Vec<_> = exec.events.iter().map(|e| e.kind).collect();
     eprintln!(
-        "sliding toe: {kinds:?} at {:?}",
+        "{label}: {seen:?} at {:?}",
         exec.events.iter().map(|e| e.t).collect::<Vec<_>>()
     );
-    assert_eq!(
-        kinds,
-        [EventKind::Stick, EventKind::Slip, EventKind::Touchdown]
-    );
+    assert_eq!(seen, kinds);
     for es in &sens.events {
         assert_eq!(es.status, SaltationStatus::Defined, "{es:?}");
     }
-    let jac = sens.state_jacobian.as_ref().expect("defined");
-    let dirs: Vec<_> = [0, 1, 3, 4, 5, 7].iter().map(|&k| unit(8, k)).collect();
-    let e = whole_run_error(&model, &servo, toe, &y0, tf, opts, jac, &dirs);
-    eprintln!("sliding toe: whole-run Jacobian vs central differences {e:e}");
-    assert!(e < 1e-5, "{e:e}");
+    sens.state_jacobian.as_ref().expect("defined")
 }
