@@ -12,7 +12,7 @@
 //! robot, pushing normals negative.
 mod common;
 
-use common::{coulomb_body, one_leg_body, sliding, G};
+use common::{coulomb_body, one_leg_body, slide_on_flat, sliding, G};
 use selfmanip_core::friction::SlideDirection;
 use selfmanip_core::{
     forward_dynamics, CoreError, Data, FlatGround, GroundPlane, Model, RowDirection,
@@ -48,17 +48,7 @@ fn block_sliding_on_level_ground_decelerates_at_mu_g_and_loads_its_leading_corne
     for v in [0.7, -0.4] {
         let q = [0.3, -h / 2.0, 0.0];
         let qd = [v, 0.0, 0.0];
-        forward_dynamics(
-            &model,
-            &mut data,
-            &FlatGround,
-            sliding(&[0, 1]),
-            &q,
-            &qd,
-            &[],
-            None,
-        )
-        .unwrap();
+        slide_on_flat(&model, &mut data, &[0, 1], &q, &qd, &[]).unwrap();
         let s = f64::signum(v);
         assert!((data.qdd[0] + mu * G * s).abs() < 1e-12, "{}", data.qdd);
         assert!(data.qdd[1].abs() < 1e-12 && data.qdd[2].abs() < 1e-12);
@@ -144,16 +134,7 @@ fn painleve_rod_is_inconsistent_exactly_beyond_the_closed_form_threshold() {
             // ẋ_P = ẋ + φ̇ l sinθ, ż_P = ż + φ̇ l cosθ = 0
             let xd = sigma * 0.3 - phidot * l * s;
             let qd = [xd, -phidot * l * c, phidot];
-            let r = forward_dynamics(
-                &model,
-                &mut data,
-                &FlatGround,
-                sliding(&[0]),
-                &q,
-                &qd,
-                &[],
-                None,
-            );
+            let r = slide_on_flat(&model, &mut data, &[0], &q, &qd, &[]);
             let w = 1.0 + 3.0 * c * (c + mu * sigma * s);
             if w < 0.0 {
                 match r {
@@ -237,33 +218,13 @@ fn massive_leg_toe_tends_to_the_massless_statics_as_the_leg_mass_vanishes() {
         let a = &dp.constraints.a;
         let rhs: f64 = (1..4).map(|k| a[(0, k)] * qd[k]).sum();
         qd[0] = -rhs / a[(0, 0)];
-        forward_dynamics(
-            &massless,
-            &mut d0,
-            &FlatGround,
-            sliding(&[0]),
-            &q,
-            &qd,
-            &[tau],
-            None,
-        )
-        .unwrap();
+        slide_on_flat(&massless, &mut d0, &[0], &q, &qd, &[tau]).unwrap();
         assert!(!d0.sliding[0].general && d0.sliding[0].sigma != 0.0);
         let mut errs = vec![];
         for m_l in [1e-4, 1e-5, 1e-6, 1e-7] {
             let massive = legged(m_l, 0.5);
             let mut d1 = Data::new(&massive);
-            forward_dynamics(
-                &massive,
-                &mut d1,
-                &FlatGround,
-                sliding(&[0]),
-                &q,
-                &qd,
-                &[tau],
-                None,
-            )
-            .unwrap();
+            slide_on_flat(&massive, &mut d1, &[0], &q, &qd, &[tau]).unwrap();
             assert!(d1.sliding[0].general);
             assert_eq!(d1.sliding[0].sigma, d0.sliding[0].sigma);
             let e = (0..4)
@@ -308,16 +269,7 @@ friction = { kind = "sticking", mu = 0.5, mu_kinetic = 0.5 }
         selfmanip_core::contact_points(&model, &FlatGround, &q, &[0.0; 5]).unwrap()[0].position_m;
     q[3] -= p[1];
     let qd = vec![0.0, 0.0, 0.2, 0.0, 0.0];
-    let r = forward_dynamics(
-        &model,
-        &mut data,
-        &FlatGround,
-        sliding(&[0]),
-        &q,
-        &qd,
-        &[0.5, 0.0],
-        None,
-    );
+    let r = slide_on_flat(&model, &mut data, &[0], &q, &qd, &[0.5, 0.0]);
     assert!(
         matches!(
             r,
@@ -405,16 +357,7 @@ fn light_leg_dragged_with_mu_above_tan_theta_is_a_painleve_case() {
             let rhs: f64 = (1..4).map(|k| a[(0, k)] * qd[k]).sum();
             qd[0] = -rhs / a[(0, 0)];
             let mut data = Data::new(&model);
-            match forward_dynamics(
-                &model,
-                &mut data,
-                &FlatGround,
-                sliding(&[0]),
-                &q,
-                &qd,
-                &[0.3],
-                None,
-            ) {
+            match slide_on_flat(&model, &mut data, &[0], &q, &qd, &[0.3]) {
                 Err(CoreError::PainleveInconsistent { contact, .. }) => {
                     assert_eq!(contact, "toe");
                     bad += 1;
@@ -441,16 +384,7 @@ fn painleve_threshold_itself_is_a_typed_singularity_not_a_number() {
         let mu = mu_star * factor;
         let model = coulomb_body(m, m * l * l / 3.0, &[("end", -l, 0.0)], mu, mu);
         let mut data = Data::new(&model);
-        let r = forward_dynamics(
-            &model,
-            &mut data,
-            &FlatGround,
-            sliding(&[0]),
-            &q,
-            &qd,
-            &[],
-            None,
-        );
+        let r = slide_on_flat(&model, &mut data, &[0], &q, &qd, &[]);
         assert!(
             matches!(
                 r,

@@ -1,7 +1,10 @@
 //! Robots and modes shared by the core's integration tests. Frames (docs/conventions.md):
 //! NED, z down, `q = [θ…, x, z, φ]`, a body point `p` at `X + R(φ) p`.
 #![allow(dead_code)]
-use selfmanip_core::{ContactKind, ContactMode, Model, RobotDescription};
+use selfmanip_core::{
+    forward_dynamics, ContactKind, ContactMode, CoreError, Data, FlatGround, Model,
+    RobotDescription,
+};
 
 pub const G: f64 = 9.81;
 
@@ -48,4 +51,26 @@ pub fn sliding(contacts: &[usize]) -> ContactMode {
     contacts
         .iter()
         .fold(ContactMode::FLIGHT, |m, &k| m.with(k, ContactKind::Slide))
+}
+
+/// `forward_dynamics` on flat ground with `contacts` sliding and no other contact, under the
+/// joint torques `tau`, with no prescribed free-joint motion.
+pub fn slide_on_flat(
+    model: &Model,
+    data: &mut Data,
+    contacts: &[usize],
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+) -> Result<(), CoreError> {
+    forward_dynamics(
+        model,
+        data,
+        &FlatGround,
+        sliding(contacts),
+        q,
+        qd,
+        tau,
+        None,
+    )
 }
