@@ -18,7 +18,7 @@
 //! side when it does not — the force is continuous through a slip. An integrating caller's
 //! law (`Data::slide_at_rest`) never holds a site in a sliding mode: where the cone holds it,
 //! it takes no edge and reports that the cone holds it (the engine then sticks it).
-use selfmanip::core::{forward_dynamics, ContactKind, Data, FlatGround, Model};
+use selfmanip::core::{ContactKind, Data, FlatGround, Model};
 use selfmanip::hybrid::{simulate, EventKind, HybridOptions};
 
 mod sled;
@@ -50,17 +50,7 @@ fn sliding_toe_force_is_on_the_cone_edge_against_sliding_and_balances_the_leg() 
     for xdot in [0.7, -0.4] {
         let (q, qd) = state(xdot);
         let mut data = Data::new(&model);
-        forward_dynamics(
-            &model,
-            &mut data,
-            &FlatGround,
-            all_sliding(),
-            &q,
-            &qd,
-            &[tau],
-            None,
-        )
-        .unwrap();
+        sled::solve(&model, &mut data, &FlatGround, all_sliding(), &q, &qd, tau).unwrap();
         // rows: toe normal, front skid, rear skid
         let lambda_n = data.lambda[0];
         assert!(lambda_n < 0.0, "the toe pushes: {lambda_n}");
@@ -97,17 +87,7 @@ fn sled_on_a_pressed_toe_stops_at_the_closed_form_time() {
     let (q, qd) = state(v0);
     // the friction force, constant along the slide (fixed geometry, constant torque)
     let mut data = Data::new(&model);
-    forward_dynamics(
-        &model,
-        &mut data,
-        &FlatGround,
-        all_sliding(),
-        &q,
-        &qd,
-        &[tau],
-        None,
-    )
-    .unwrap();
+    sled::solve(&model, &mut data, &FlatGround, all_sliding(), &q, &qd, tau).unwrap();
     let f_t = data.sliding[0].force_t.abs();
     let t_star = M * v0 / f_t;
     let opts = HybridOptions {
@@ -160,17 +140,7 @@ fn sled_on_a_pressed_toe_stops_at_the_closed_form_time() {
     let stick_mode = all_sliding().with(0, ContactKind::Stick);
     let mut stick = Data::new(&model);
     let (qs, qds) = ([y[0], y[1], y[2], y[3]], [0.0; 4]);
-    forward_dynamics(
-        &model,
-        &mut stick,
-        &FlatGround,
-        stick_mode,
-        &qs,
-        &qds,
-        &[tau],
-        None,
-    )
-    .unwrap();
+    sled::solve(&model, &mut stick, &FlatGround, stick_mode, &qs, &qds, tau).unwrap();
     let (lt, ln) = (stick.lambda[0], stick.lambda[1]);
     assert!(
         lt.abs() <= MU * -ln,
@@ -230,49 +200,19 @@ fn at_zero_sliding_speed_the_toe_sticks_for_the_instant() {
         let qd = [0.0; 4];
         let stick_mode = all_sliding().with(0, ContactKind::Stick);
         let mut stick = Data::new(&model);
-        forward_dynamics(
-            &model,
-            &mut stick,
-            &plane,
-            stick_mode,
-            &q,
-            &qd,
-            &[tau],
-            None,
-        )
-        .unwrap();
+        sled::solve(&model, &mut stick, &plane, stick_mode, &q, &qd, tau).unwrap();
         // the sticking mode holds everything: nothing moves
         assert!(stick.qdd.iter().all(|a| a.abs() < 1e-9), "{:?}", stick.qdd);
         let (lt, ln) = (stick.lambda[0], stick.lambda[1]);
         assert!(ln < 0.0 && (lt.abs() - M * G * beta.sin()).abs() < 1e-9 * M * G);
         let mut slide = Data::new(&model);
-        forward_dynamics(
-            &model,
-            &mut slide,
-            &plane,
-            all_sliding(),
-            &q,
-            &qd,
-            &[tau],
-            None,
-        )
-        .unwrap();
+        sled::solve(&model, &mut slide, &plane, all_sliding(), &q, &qd, tau).unwrap();
         let site = &slide.sliding[0];
         assert!(site.at_rest);
         // the integrating caller's law at rest: never held
         let mut integ = Data::new(&model);
         integ.slide_at_rest = true;
-        forward_dynamics(
-            &model,
-            &mut integ,
-            &plane,
-            all_sliding(),
-            &q,
-            &qd,
-            &[tau],
-            None,
-        )
-        .unwrap();
+        sled::solve(&model, &mut integ, &plane, all_sliding(), &q, &qd, tau).unwrap();
         let isite = &integ.sliding[0];
         assert_eq!(isite.cone_holds, lt.abs() <= MU * ln.abs());
         if lt.abs() <= MU * ln.abs() {

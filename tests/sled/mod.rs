@@ -4,7 +4,9 @@
 //! (`tests/kinetic_friction.rs` for the force law, `tests/sensitivity_params.rs` for its
 //! derivatives).
 #![allow(dead_code)]
-use selfmanip::core::{ContactKind, ContactMode, Model, RobotDescription};
+use selfmanip::core::{
+    forward_dynamics, ContactKind, ContactMode, CoreError, Data, Model, RobotDescription, Terrain,
+};
 use selfmanip::hybrid::{Controller, ControllerPartials};
 
 pub const G: f64 = 9.81;
@@ -63,6 +65,20 @@ pub fn leg_angle() -> f64 {
 /// The sled on its skids with the toe on the ground, sliding along `x` at `xdot`.
 pub fn state(xdot: f64) -> ([f64; 4], [f64; 4]) {
     ([leg_angle(), 0.0, -HIP_HEIGHT, 0.0], [0.0, xdot, 0.0, 0.0])
+}
+
+/// The sled's forward dynamics on `terrain` in `mode` from `(q, q̇)` under the leg torque
+/// `tau`, into `data`.
+pub fn solve(
+    model: &Model,
+    data: &mut Data,
+    terrain: &dyn Terrain,
+    mode: ContactMode,
+    q: &[f64],
+    qd: &[f64],
+    tau: f64,
+) -> Result<(), CoreError> {
+    forward_dynamics(model, data, terrain, mode, q, qd, &[tau], None)
 }
 
 /// The toe and both skids sliding.
