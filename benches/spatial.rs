@@ -1,0 +1,106 @@
+//! Spatial (d = 3) constrained forward dynamics, thesis (5.3)–(5.4), of the shipped 12-joint
+//! quadruped (`tests/data/urdf/quadruped12.urdf`) standing on its four feet, each a point
+//! contact with friction (three rows): with the URDF's leg masses, and with massless shins
+//! (singular `M`, the KKT block inverse of chapter 5). Also `M` (CRBA) and the bias forces
+//! (RNEA) alone. `scripts/bench-pinocchio.py` times Pinocchio's constrained forward dynamics
+//! on the same robot and state and prints the ratio. Target: ≤ 2 µs per KKT evaluation.
+use criterion::{criterion_group, criterion_main, Criterion};
+use nalgebra::DVector;
+use selfmanip::core::spatial::rigid_body::{crba, nonlinear_effects};
+use selfmanip::core::spatial::{
+    forward_dynamics, neutral, BaseKind, PointContact, SpatialData, SpatialModel,
+};
+use std::hint::black_box;
+
+const QUADRUPED: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/tests/data/urdf/quadruped12.urdf"
+);
+const FEET: [&str; 4] = ["FL_foot", "FR_foot", "HL_foot", "HR_foot"];
+
+/// The quadruped, with its shins' and feet's masses scaled by `shin_scale`.
+fn quadruped(shin_scale: f64) -> SpatialModel {
+    let mut robot = urdf_rs::read_file(QUADRUPED).expect("the shipped URDF parses");
+    for link in &mut robot.links {
+        if link.name.ends_with("_shin") || link.name.ends_with("_foot") {
+            link.inertial.mass.value *= shin_scale;
+            let i = &mut link.inertial.inertia;
+            for x in [
+                &mut i.ixx, &mut i.ixy, &mut i.ixz, &mut i.iyy, &mut i.iyz, &mut i.izz,
+            ] {
+                *x *= shin_scale;
+            }
+        }
+    }
+    SpatialModel::from_urdf_robot(&robot, BaseKind::FreeFlyer, None).expect("a tree")
+}
+
+/// Standing at 0.4 m on legs bent by 0.5 rad, moving: `(q, v, τ)`.
+fn standing_state(model: &SpatialModel) -> (DVector<f64>, DVector<f64>, DVector<f64>) {
+    let mut q = neutral(model);
+    q[2] = 0.4;
+    for leg in 0..4 {
+        q[7 + 3 * leg + 1] = 0.5;
+        q[7 + 3 * leg + 2] = -1.0;
+    }
+    let v = DVector::from_fn(model.nv, |i, _| 0.1 * ((i as f64) * 0.7).sin());
+    let tau = DVector::from_fn(model.nv, |i, _| {
+        if i < 6 {
+            0.0
+        } else {
+            2.0 * ((i as f64) * 1.3).cos()
+        }
+    });
+    (q, v, tau)
+}
+
+fn spatial(c: &mut Criterion) {
+    let mut group = c.benchmark_group("spatial_quadruped");
+    for (label, scale) in [("massive_legs", 1.0), ("massless_shins", 0.0)] {
+        let model = quadruped(scale);
+        let feet: Vec<PointContact> = FEET
+            .iter()
+            .map(|f| PointContact::new(&model, f, true).expect("a foot frame"))
+            .collect();
+        let mut data = SpatialData::new(&model);
+        let (q, v, tau) = standing_state(&model);
+        group.bench_function(format!("forward_dynamics_4_feet/{label}"), |b| {
+            b.iter(|| {
+                forward_dynamics(
+                    &model,
+                    &mut data,
+                    &feet,
+                    black_box(q.as_slice()),
+                    black_box(v.as_slice()),
+                    tau.as_slice(),
+                )
+                .expect("standing is regular");
+                black_box(&data.qdd);
+            })
+        });
+        if scale > 0.0 {
+            group.bench_function("crba", |b| {
+                b.iter(|| {
+                    crba(&model, &mut data, black_box(q.as_slice())).unwrap();
+                    black_box(&data.M);
+                })
+            });
+            group.bench_function("nonlinear_effects", |b| {
+                b.iter(|| {
+                    nonlinear_effects(
+                        &model,
+                        &mut data,
+                        black_box(q.as_slice()),
+                        black_box(v.as_slice()),
+                    )
+                    .unwrap();
+                    black_box(&data.h);
+                })
+            });
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, spatial);
+criterion_main!(benches);

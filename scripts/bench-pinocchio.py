@@ -1,0 +1,89 @@
+#!/usr/bin/env python3
+"""Pinocchio's timings on the quadruped of `benches/spatial.rs`, beside ours.
+
+Times Pinocchio's constrained forward dynamics (`pin.constraintDynamics`, four 3-D foot
+contacts: kinematics, CRBA, bias forces, contact Jacobians and the KKT solve in one C++ call),
+`pin.crba` and `pin.nonLinearEffects` on `tests/data/urdf/quadruped12.urdf` at the standing,
+moving state of the bench, and prints them with the matching criterion estimates of
+`cargo bench --bench spatial` (run that first) and the ratio. Python's call overhead
+(about 0.1–0.5 µs a call, measured here on an empty binding call) is reported, not subtracted.
+
+    cargo bench --bench spatial && python3 scripts/bench-pinocchio.py
+"""
+import json
+import math
+import pathlib
+import timeit
+
+import numpy as np
+import pinocchio as pin
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+URDF = ROOT / "tests/data/urdf/quadruped12.urdf"
+CRITERION = ROOT / "target/criterion/spatial_quadruped"
+FEET = ["FL_foot", "FR_foot", "HL_foot", "HR_foot"]
+
+
+def standing_state(model):
+    """The bench's state: base at 0.4 m, level; legs bent by 0.5 rad; a small motion."""
+    q = pin.neutral(model)
+    q[2] = 0.4
+    for leg in range(4):
+        q[7 + 3 * leg + 1] = 0.5
+        q[7 + 3 * leg + 2] = -1.0
+    v = np.array([0.1 * math.sin(0.7 * i) for i in range(model.nv)])
+    tau = np.array([0.0 if i < 6 else 2.0 * math.cos(1.3 * i) for i in range(model.nv)])
+    return q, v, tau
+
+
+def per_call_us(fn, repeat=7):
+    timer = timeit.Timer(fn)
+    n, _ = timer.autorange()
+    return 1e6 * min(timer.repeat(repeat=repeat, number=n)) / n
+
+
+def criterion_us(name):
+    path = CRITERION / name.replace("/", "_") / "new/estimates.json"
+    if not path.exists():
+        return None
+    return json.loads(path.read_text())["median"]["point_estimate"] / 1e3
+
+
+def main():
+    model = pin.buildModelFromUrdf(str(URDF), pin.JointModelFreeFlyer())
+    data = model.createData()
+    q, v, tau = standing_state(model)
+    contacts = pin.StdVec_RigidConstraintModel()
+    for foot in FEET:
+        frame = model.frames[model.getFrameId(foot)]
+        contacts.append(
+            pin.RigidConstraintModel(
+                pin.ContactType.CONTACT_3D, model, frame.parentJoint, frame.placement, pin.LOCAL_WORLD_ALIGNED
+            )
+        )
+    contact_datas = pin.StdVec_RigidConstraintData()
+    for c in contacts:
+        contact_datas.append(c.createData())
+    pin.initConstraintDynamics(model, data, contacts, contact_datas)
+    rows = [
+        ("forward_dynamics_4_feet/massive_legs", lambda: pin.constraintDynamics(model, data, q, v, tau, contacts, contact_datas)),
+        ("crba", lambda: pin.crba(model, data, q)),
+        ("nonlinear_effects", lambda: pin.nonLinearEffects(model, data, q, v)),
+    ]
+    overhead = per_call_us(lambda: model.nq)
+    print(f"Pinocchio {pin.__version__}, {URDF.name}: nq {model.nq}, nv {model.nv}; "
+          f"Python call overhead ≈ {overhead:.2f} µs")
+    print(f"{'quantity':40s} {'Pinocchio µs':>13s} {'selfmanip µs':>13s} {'ratio':>7s}")
+    for name, fn in rows:
+        theirs = per_call_us(fn)
+        ours = criterion_us(name)
+        ratio = f"{ours / theirs:7.2f}" if ours else "      -"
+        ours_s = f"{ours:13.2f}" if ours else "  (no bench)"
+        print(f"{name:40s} {theirs:13.2f} {ours_s} {ratio}")
+    ours = criterion_us("forward_dynamics_4_feet/massless_shins")
+    if ours:
+        print(f"{'forward_dynamics_4_feet/massless_shins':40s} {'(singular M)':>13s} {ours:13.2f}")
+
+
+if __name__ == "__main__":
+    main()
