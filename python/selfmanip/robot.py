@@ -3,7 +3,8 @@ shared with :mod:`selfmanip.rhex`.
 
 A description has a rigid body, legs as planar serial chains of revolute joints (links may be
 massless), foot and body contact shapes, and per-contact friction; see
-``tests/data/quadruped.toml`` in the repository for a complete example. Contact modes are given
+``tests/data/quadruped.toml`` in the repository for a complete example and
+``docs/robot-description.md`` for every field, unit and default. Contact modes are given
 by contact names: ``"front_foot,rear_foot"``; append ``:slide`` to let a sticking contact slide
 (``"front_foot:slide,rear_foot"``); ``""`` is flight.
 """

@@ -123,7 +123,11 @@ class Execution:
     ``touchdown``, ``liftoff``, ``slip``, ``stick``, ``apex``, ``fold``, … —, ``mode_before``,
     ``mode_after``, ``contacts`` that fired, ``energy_loss_j`` and ``impulse``, the contact
     impulse into ``mode_after`` in N s), ``segments`` (dicts ``t0_s``, ``t1_s``, ``mode``),
-    ``outcome`` (apex, landing, end state, flight time, impact losses)."""
+    ``outcome`` (apex, landing, end state, flight time, impact losses).
+
+    Picklable and deep-copyable (for process pools): a copy carries this data and replays the
+    engine run, the same bit for bit, when a method first needs it (see :meth:`__getstate__`);
+    a run with a Python controller pickles when its controller does."""
 
     def __init__(self, native: Any, robot_name: str = "", sensitivity: bool = False,
                  parameters: Sequence[str] = ()):
