@@ -36,7 +36,7 @@ if TYPE_CHECKING:
 import math
 import warnings
 
-from .errors import AllPointsFailedWarning, InvalidInputError
+from .errors import AllPointsFailedWarning, InvalidInputError, InvalidTypeError
 from .leap import DEFAULT, _warn_if_all_failed, run_points, sweep_points
 from .simulation import _is_robot, failure_summary, simulation_sweep
 
@@ -54,7 +54,9 @@ def chunks(over: Mapping[str, Any], chunk_size: int) -> list[dict[str, list[Any]
     one value of the first name each), in order: :func:`merge` of their sweep tables is the
     whole sweep's table, bit for bit."""
     _positive("chunk_size", chunk_size)
-    axes = [(name, _values(values)) for name, values in dict(over).items()]
+    if not isinstance(over, Mapping):
+        raise InvalidTypeError(f"`over` must be a dict of name: values, got {type(over).__name__}", "over")
+    axes = [(name, _values(values)) for name, values in over.items()]
     if not axes:
         return [{}]
     (first, values), rest = axes[0], axes[1:]
@@ -118,6 +120,11 @@ def _robot_sweep(client: "distributed.Client", args: tuple[Any, ...], kwargs: di
     if len(args) > len(names):
         raise InvalidInputError("give q0 and the options by name", "args")
     over = call.pop("over", None) or {}
+    if not isinstance(over, Mapping):
+        try:
+            over = dict(over)             # (name, values) pairs, as selfmanip.sweep takes them
+        except (TypeError, ValueError):
+            raise InvalidTypeError("`over` must be a dict of name: values or (name, values) pairs", "over") from None
     call["threads"] = threads
     parts = chunks(over, chunk_size)
     # check the inputs locally (one point), so that bad input fails before submitting

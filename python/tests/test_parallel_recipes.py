@@ -16,7 +16,7 @@ import pytest
 
 import selfmanip
 from selfmanip.distributed import chunks, merge
-from selfmanip.errors import InvalidInputError
+from selfmanip.errors import InvalidInputError, InvalidTypeError
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 DATA = ROOT / "crates" / "selfmanip-sim" / "examples" / "data"
@@ -99,6 +99,15 @@ def test_chunks_cover_the_grid_in_order(size) -> None:
     got = [(a, b) for p in parts for a in p["a"] for b in p["b"]]
     assert got == whole
     assert all(len(p["a"]) * len(p["b"]) <= max(size, len(over["b"])) for p in parts)
+
+
+def test_chunks_name_bad_input() -> None:
+    with pytest.raises(InvalidTypeError) as e:
+        chunks([("a", [1.0])], 2)
+    assert e.value.field == "over"
+    with pytest.raises(InvalidInputError) as e:
+        chunks({"a": [1.0]}, 0)
+    assert e.value.field == "chunk_size"
 
 
 def test_merge_refuses_different_columns() -> None:
