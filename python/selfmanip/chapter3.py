@@ -58,7 +58,7 @@ def run(out_dir: str | os.PathLike = ".", n: int = 41, saturated: bool = False,
     import selfmanip
 
     from .cli_leap import write_table
-    from .plots import sweep_figure
+    from .plots import INSTALL_HINT, PlottingUnavailableError, sweep_figure
 
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
         raise selfmanip.errors.InvalidInputError(f"n: expected a positive whole number of t2 values, got {n!r}")
@@ -75,11 +75,16 @@ def run(out_dir: str | os.PathLike = ".", n: int = 41, saturated: bool = False,
     csv_path = os.path.join(out_dir, "chapter3_sweep.csv")
     png_path = os.path.join(out_dir, "chapter3_sweep.png")
     write_table(table, csv_path)
-    sweep_figure(table, png_path, title="Chapter 3 leap sweep: apex against t2 "
-                 + ("(saturated torque)" if saturated else "(default model: geared X-RHex motors)"))
+    try:
+        sweep_figure(table, png_path, title="Chapter 3 leap sweep: apex against t2 "
+                     + ("(saturated torque)" if saturated else "(default model: geared X-RHex motors)"))
+        wrote = f"wrote {csv_path} and {png_path}"
+    except PlottingUnavailableError:
+        wrote = (f"wrote {csv_path}; no figure: matplotlib is not installed. For {png_path}: {INSTALL_HINT}, "
+                 f"then selfmanip plot {csv_path} --out {png_path}")
     actuator = "saturated torque (chapter 3)" if saturated else "the default geared motor"
     echo(f"chapter-3 leap sweep: {len(STRATEGIES)} strategies x {n} values of t2 in [-0.2, 0.2] s, {actuator}")
     for line in summary(table, n):
         echo(line)
-    echo(f"wrote {csv_path} and {png_path}")
+    echo(wrote)
     return table

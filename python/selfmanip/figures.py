@@ -47,11 +47,9 @@ def plot_figure(name: str, out_path: str | os.PathLike, n: int | None = None) ->
     """Draws figure ``name`` (one of :data:`FIGURE_NAMES`) to a PNG at ``out_path``."""
     name = _check(name)
     out = os.fspath(out_path)
-    import matplotlib
+    from .plots import _pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = _pyplot()
     d = figure_data(name, n)
     fig, axes = plt.subplots(1, 2 if name == "fig4.10" else 1, figsize=(9 if name == "fig4.10" else 6, 4.5))
     axes = np.atleast_1d(axes)

@@ -33,13 +33,13 @@ import numpy as np
 
 from . import _native
 from ._tables import read_table
-from .errors import InvalidInputError
+from .errors import InvalidInputError, SelfmanipError
 from .leap import LeapResult, Trajectory
 
 if TYPE_CHECKING:
     import matplotlib.figure
 
-__all__ = ["sweep_figure", "build_sweep_figure", "word_label", "fold_word", "leap_strip", "plot_file", "load_leap",
+__all__ = ["PlottingUnavailableError", "INSTALL_HINT", "sweep_figure", "build_sweep_figure", "word_label", "fold_word", "leap_strip", "plot_file", "load_leap",
            "execution_figure", "simulation_sweep_figure"]
 
 #: Length of a force arrow (m per N) in :func:`leap_strip`.
@@ -52,8 +52,21 @@ _RESULT_COLUMNS = {"apex_z_m", "apex_x_m", "apex_phi_rad", "apex_xdot_m_s", "ape
                    "apex_zdot_m_s", "apex_t_s", "word", "status", "n_events", "error"}
 
 
+class PlottingUnavailableError(SelfmanipError, ImportError):
+    """matplotlib is not installed (a plain ``pip install`` leaves it out): the message says
+    how to install it; the tables and logs that need no figure are written all the same."""
+
+
+#: How to get the figures: the ``plot`` extra, or matplotlib itself.
+INSTALL_HINT = 'python3 -m pip install matplotlib (or, in a checkout, python3 -m pip install ".[plot]")'
+
+
 def _pyplot():
-    import matplotlib
+    """``matplotlib.pyplot`` on the ``Agg`` backend, or :class:`PlottingUnavailableError`."""
+    try:
+        import matplotlib
+    except ImportError as e:
+        raise PlottingUnavailableError(f"figures need matplotlib, which is not installed: {INSTALL_HINT}") from e
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

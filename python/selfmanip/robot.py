@@ -3,7 +3,8 @@ shared with :mod:`selfmanip.rhex`.
 
 A description has a rigid body, legs as planar serial chains of revolute joints (links may be
 massless), foot and body contact shapes, and per-contact friction; see
-``tests/data/quadruped.toml`` in the repository for a complete example. Contact modes are given
+``tests/data/quadruped.toml`` in the repository for a complete example and
+``docs/robot-description.md`` for every field, unit and default. Contact modes are given
 by contact names: ``"front_foot,rear_foot"``; append ``:slide`` to let a sticking contact slide
 (``"front_foot:slide,rear_foot"``); ``""`` is flight.
 """
@@ -12,7 +13,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -138,8 +139,33 @@ class ContactPoints:
     velocities_m_s: np.ndarray | None = None
 
 
+#: File endings of robot formats that are not planar descriptions, and what reads them.
+_OTHER_FORMATS = {
+    ".urdf": "URDF: load it with selfmanip.SpatialRobot.from_urdf(path)",
+    ".xml": "URDF or MJCF XML: load a URDF with selfmanip.SpatialRobot.from_urdf(path) (MJCF is not read; "
+            "convert it to URDF first)",
+    ".mjcf": "MJCF: not read; convert it to URDF and load that with selfmanip.SpatialRobot.from_urdf(path)",
+    ".sdf": "SDF: not read; convert it to URDF and load that with selfmanip.SpatialRobot.from_urdf(path)",
+}
+
+
+def description_format(path: str | os.PathLike[str], text: str | None = None, field: str = "path") -> str:
+    """``"json"`` for a ``.json`` file, else ``"toml"``; a URDF, MJCF or SDF file (by its
+    ending, or XML text) is an :class:`~selfmanip.errors.InvalidInputError` naming ``path``
+    that says which reader takes it, not a TOML parse error (``field``: the argument's name)."""
+    p = os.fspath(path)
+    ext = os.path.splitext(p)[1].lower()
+    if ext in _OTHER_FORMATS or (text is not None and text.lstrip().startswith("<")):
+        what = _OTHER_FORMATS.get(ext, "XML (URDF or MJCF): load a URDF with selfmanip.SpatialRobot.from_urdf(path)")
+        raise InvalidInputError(f"`{field}`: unsupported format for a planar robot description ({p!r} is {what}); "
+                                "planar robots are read from .toml and .json descriptions (docs/robot-description.md)",
+                                field)
+    return "json" if ext == ".json" else "toml"
+
+
 class Robot:
-    """A planar robot: ``Robot.from_file("robot.toml")``."""
+    """A planar robot: ``Robot.from_file("robot.toml")``. Picklable and deep-copyable: a copy is
+    rebuilt from the same description (or RHex parameters), so it is the same model."""
 
     def __init__(self, native: _NativeRobot):
         if not isinstance(native, _NativeRobot):
@@ -149,11 +175,27 @@ class Robot:
     # -- construction -------------------------------------------------------------------
     @classmethod
     def from_file(cls, path: str | os.PathLike[str]) -> "Robot":
-        """Loads a ``.toml`` or ``.json`` description."""
+        """Loads a ``.toml`` or ``.json`` description (``docs/robot-description.md``). A URDF
+        or MJCF file raises :class:`~selfmanip.errors.InvalidInputError` naming ``path``: a
+        URDF is a spatial robot, :meth:`selfmanip.SpatialRobot.from_urdf`."""
         path = os.fspath(path)
-        fmt = "json" if path.endswith(".json") else "toml"
+        description_format(path)
         with open(path, encoding="utf-8") as f:
-            return cls(_NativeRobot.from_description(f.read(), fmt))
+            text = f.read()
+        return cls(_NativeRobot.from_description(text, description_format(path, text)))
+
+    @classmethod
+    def from_dict(cls, description: Mapping[str, Any]) -> "Robot":
+        """A robot from a description given as a dict (the form of the JSON file)."""
+        if not isinstance(description, Mapping):
+            raise InvalidTypeError(f"`description` must be a dict, got {type(description).__name__}",
+                                   "description")
+        return cls(_NativeRobot.from_description_data(dict(description)))
+
+    def to_dict(self) -> dict[str, Any]:
+        """The description as a dict (every field, defaults filled in): ``Robot.from_dict``
+        of it is the same robot."""
+        return self._native.description_data()
 
     @classmethod
     def from_toml(cls, text: str) -> "Robot":

@@ -49,7 +49,7 @@ import numpy as np
 from . import _checks, _native
 from .errors import AllPointsFailedWarning, InvalidInputError, InvalidTypeError
 from .leap import DEFAULT, _Default
-from .robot import Robot
+from .robot import Robot, description_format
 
 if TYPE_CHECKING:
     import matplotlib.figure
@@ -123,12 +123,21 @@ class Execution:
     ``touchdown``, ``liftoff``, ``slip``, ``stick``, ``apex``, ``fold``, … —, ``mode_before``,
     ``mode_after``, ``contacts`` that fired, ``energy_loss_j`` and ``impulse``, the contact
     impulse into ``mode_after`` in N s), ``segments`` (dicts ``t0_s``, ``t1_s``, ``mode``),
-    ``outcome`` (apex, landing, end state, flight time, impact losses)."""
+    ``outcome`` (apex, landing, end state, flight time, impact losses).
+
+    Picklable and deep-copyable (for process pools): a copy carries this data and replays the
+    engine run, the same bit for bit, when a method first needs it (see :meth:`__getstate__`);
+    a run with a Python controller pickles when its controller does."""
 
     def __init__(self, native: Any, robot_name: str = "", sensitivity: bool = False,
                  parameters: Sequence[str] = ()):
         self._native = native
         self.robot_name = robot_name
+        self._status = str(native.status)
+        self._reason = str(native.reason)
+        self._word = list(native.word)
+        self._q_names = list(native.q_names)
+        self._labels = list(native.labels)
         self.outcome: dict[str, Any] = dict(native.outcome())
         self.events: list[dict[str, Any]] = list(native.events())
         self.segments: list[dict[str, Any]] = list(native.segments())
@@ -164,18 +173,41 @@ class Execution:
                                       else match["reason"])
             ev["time_gradient"] = None if match is None else match["time_gradient"]
 
+    def __getstate__(self) -> dict[str, Any]:
+        """``pickle`` and ``copy``: everything but the native run, which is kept as the recipe
+        that replays it (its scenario and controller; the engine is deterministic, so the
+        replay is the same run bit for bit) and replayed on the first call that needs it
+        (:meth:`trajectory`, :meth:`energy_report`, :meth:`to_mcap`, :meth:`plot`)."""
+        state = self.__dict__.copy()
+        native = state.pop("_native")
+        if native is not None:
+            state["_replay"] = native.__reduce__()
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._native = None
+
+    @property
+    def _run(self) -> Any:
+        """The native run (replayed from its scenario after unpickling)."""
+        if self._native is None:
+            replay, args = self._replay
+            self._native = replay(*args)
+        return self._native
+
     @property
     def status(self) -> str:
-        return str(self._native.status)
+        return self._status
 
     @property
     def reason(self) -> str:
         """Why the run ended short of its final time or apex, in words ("" if it did not)."""
-        return str(self._native.reason)
+        return self._reason
 
     @property
     def word(self) -> list[str]:
-        return list(self._native.word)
+        return list(self._word)
 
     @property
     def word_string(self) -> str:
@@ -184,12 +216,12 @@ class Execution:
 
     @property
     def q_names(self) -> list[str]:
-        return list(self._native.q_names)
+        return list(self._q_names)
 
     @property
     def labels(self) -> list[str]:
         """The contacts of the mode labels, in order."""
-        return list(self._native.labels)
+        return list(self._labels)
 
     @property
     def t_end_s(self) -> float:
@@ -225,14 +257,14 @@ class Execution:
 
     def trajectory(self, dt: float | _Default = DEFAULT) -> SimTrajectory:
         """Samples every ``dt`` seconds (default: ``defaults()["sample_dt_s"]``) and at the end."""
-        d = self._native.trajectory(None if dt is DEFAULT else _checks.real("dt", dt))
+        d = self._run.trajectory(None if dt is DEFAULT else _checks.real("dt", dt))
         return SimTrajectory(q_names=list(d["q_names"]), contacts=list(d["contacts"]), t_s=d["t_s"], q=d["q"],
                              qd=d["qd"], tau=d["tau"], mode=list(d["mode"]),
                              contact_points_m=d["contact_points_m"], contact_forces_n=d["contact_forces_n"])
 
     def energy_report(self) -> EnergyReport:
         """``E1 - E0 = W + W_fr - L`` (see :class:`EnergyReport`)."""
-        return EnergyReport(**{k: float(v) for k, v in self._native.energy_report().items()})
+        return EnergyReport(**{k: float(v) for k, v in self._run.energy_report().items()})
 
     def to_mcap(self, path: str | os.PathLike[str], dt: float | _Default = DEFAULT,
                 metadata: Mapping[str, str] | None = None) -> str:
@@ -242,7 +274,7 @@ class Execution:
         md = {str(k): str(v) for k, v in (metadata or {}).items()}
         if self.robot_name:
             md.setdefault("robot", self.robot_name)
-        self._native.write_mcap(os.fspath(path), None if dt is DEFAULT else _checks.real("dt", dt), md)
+        self._run.write_mcap(os.fspath(path), None if dt is DEFAULT else _checks.real("dt", dt), md)
         return os.fspath(path)
 
     def plot(self, path: str | os.PathLike[str] | None = None, dt: float | _Default = DEFAULT,
@@ -259,6 +291,7 @@ def _robot(robot: Any) -> tuple[Any, str]:
         return robot._native, robot.name
     if isinstance(robot, (str, os.PathLike)):
         p = os.fspath(robot)
+        description_format(p, field="robot")
         if not os.path.exists(p):
             raise FileNotFoundError(f"robot description not found: {p}")
         return p, os.path.splitext(os.path.basename(p))[0]

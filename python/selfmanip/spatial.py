@@ -61,7 +61,8 @@ def _vector(x: np.ndarray | Sequence[float]) -> np.ndarray:
 
 
 class SpatialRobot:
-    """A spatial robot: ``SpatialRobot.from_urdf(path, base="free_flyer")``."""
+    """A spatial robot: ``SpatialRobot.from_urdf(path, base="free_flyer")``. Picklable and
+    deep-copyable: a copy is rebuilt from the same URDF text, base and root link."""
 
     def __init__(self, native: _NativeSpatialRobot):
         if not isinstance(native, _NativeSpatialRobot):

@@ -195,7 +195,8 @@ def test_the_documented_python_and_commands_run(tmp_path, monkeypatch, capsys):
     doc = (pathlib.Path(__file__).resolve().parents[2] / "docs" / "python-simulate.md").read_text()
     doc = doc.replace("crates/selfmanip-sim/examples/data/", str(DATA) + "/")
     monkeypatch.chdir(tmp_path)
-    py = re.findall(r"```python\n(.*?)```", doc, flags=re.S)
+    # the parallel recipes run in test_parallel_recipes.py
+    py = re.findall(r"```python\n(.*?)```", doc.split("## Parallel runs")[0], flags=re.S)
     assert len(py) == 2
     for b in py:
         exec(compile(b, "python-simulate.md", "exec"), {})

@@ -7,7 +7,7 @@ use nalgebra::{DMatrix, DVector, Vector2};
 use numpy::ndarray::{Array2, Array3};
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
+use pyo3::types::{PyDict, PyList, PyTuple};
 use rhex_model::quasistatic_map::{contact_mode_map, quasi_static_pose, QuasiStaticPose};
 use rhex_model::{Rhex, RhexParams};
 use selfmanip_core::contact::contact_geometry;
@@ -283,6 +283,46 @@ impl Robot {
                 description: d,
             })
         })
+    }
+
+    /// A robot from a description given as plain data (the dict form of a TOML/JSON
+    /// description; numbers cross exactly, no text is parsed).
+    #[staticmethod]
+    fn from_description_data(description: &Bound<'_, PyDict>) -> PyResult<Self> {
+        guard(|| {
+            let value = serde_json::Value::Object(to_map(description, "")?);
+            let d: RobotDescription = serde_json::from_value(value).map_err(|e| {
+                core_err(CoreError::Parse {
+                    format: "python",
+                    message: e.to_string(),
+                })
+            })?;
+            Ok(Robot {
+                model: d.build().map_err(core_err)?,
+                rhex: None,
+                description: d,
+            })
+        })
+    }
+
+    /// `pickle` and `copy`: the robot is rebuilt from what it was made of (the RHex
+    /// parameters, or the description as plain data), so that the copy is the same model.
+    fn __reduce__<'py>(
+        slf: &Bound<'py, Self>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
+        let py = slf.py();
+        let this = slf.get();
+        let cls = slf.get_type();
+        let (ctor, data) = match &this.rhex {
+            Some(r) => ("rhex_from_params", to_py(py, &r.params)?),
+            None => ("from_description_data", to_py(py, &this.description)?),
+        };
+        Ok((cls.getattr(ctor)?, PyTuple::new(py, [data])?))
+    }
+
+    /// The description as plain data (the dict form of the TOML/JSON file).
+    fn description_data<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.description)
     }
 
     #[getter]

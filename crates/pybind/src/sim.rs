@@ -30,7 +30,7 @@ use nalgebra::DMatrix;
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
-use pyo3::types::{PyDict, PyList, PyString, PyType};
+use pyo3::types::{PyDict, PyList, PyString, PyTuple, PyType};
 use selfmanip_core::{ContactMode, RobotDescription};
 use selfmanip_hybrid::periodic::{PeriodicError, Stability};
 use selfmanip_hybrid::sensitivity::SensitivityError;
@@ -212,6 +212,28 @@ impl PyScenario {
         })
     }
 
+    /// A scenario from its plain-data form (`to_dict`); numbers cross exactly.
+    #[staticmethod]
+    fn from_dict(data: &Bound<'_, PyDict>) -> PyResult<Self> {
+        guard(|| {
+            Ok(PyScenario {
+                inner: from_json(Value::Object(to_map(data, "")?), "scenario")?,
+            })
+        })
+    }
+
+    /// `pickle` and `copy`: rebuilt from its plain-data form.
+    fn __reduce__<'py>(
+        slf: &Bound<'py, Self>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
+        let py = slf.py();
+        let data = to_py(py, &slf.borrow().inner)?;
+        Ok((
+            slf.get_type().getattr("from_dict")?,
+            PyTuple::new(py, [data])?,
+        ))
+    }
+
     /// Sets one field by name (a behaviour parameter such as `kp_push`, or a path such as
     /// `legs.leg.links[1].length_m`, `terrain.height_m`, `options.rtol`).
     fn set(&mut self, name: &str, value: &Bound<'_, PyAny>) -> PyResult<()> {
@@ -248,6 +270,7 @@ impl PyScenario {
         guard(|| {
             let shared = Arc::new(Shared::default());
             let failure: Failure = Arc::new(Mutex::new(None));
+            let replay = controller.as_ref().map(|f| f.clone().unbind());
             let sim = match controller {
                 None => Simulation::new(&self.inner).map_err(caller_err)?,
                 Some(f) => {
@@ -275,6 +298,8 @@ impl PyScenario {
             Ok(PyRun {
                 inner: run.map_err(engine_err)?,
                 failure,
+                scenario: self.inner.clone(),
+                controller: replay,
             })
         })
     }
@@ -619,10 +644,33 @@ pub struct PyRun {
     inner: selfmanip_sim::Run,
     /// The Python controller's failure slot (sampling evaluates it again).
     failure: Failure,
+    /// The scenario it ran and the Python controller, if any: `pickle` replays the run from
+    /// them (the engine is deterministic, so the copy is the same run bit for bit).
+    scenario: Scenario,
+    controller: Option<Py<PyAny>>,
 }
 
 #[pymethods]
 impl PyRun {
+    /// `pickle` and `copy`: `Scenario.run(scenario, controller)`, the run replayed.
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
+        let scenario = Bound::new(
+            py,
+            PyScenario {
+                inner: self.scenario.clone(),
+            },
+        )?;
+        let controller = match &self.controller {
+            Some(f) => f.bind(py).clone(),
+            None => py.None().into_bound(py),
+        };
+        let args = PyTuple::new(py, [scenario.into_any(), controller])?;
+        Ok((py.get_type::<PyScenario>().getattr("run")?, args))
+    }
+
     /// How the run ended (`final_time`, `apex`, `zeno`, …).
     #[getter]
     fn status(&self) -> &'static str {

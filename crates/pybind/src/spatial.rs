@@ -9,7 +9,7 @@ use nalgebra::{DMatrix, DVector};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyDict, PyTuple};
 use selfmanip_core::spatial::kinematics::{
     forward_kinematics, frame_jacobian, frame_placement, ReferenceFrame,
 };
@@ -47,6 +47,27 @@ type RowLabel = (String, String);
 #[pyclass(module = "selfmanip._native", frozen)]
 pub struct SpatialRobot {
     model: SpatialModel,
+    /// What the model was built from (the URDF text, the base, the root link), for `pickle`.
+    source: UrdfSource,
+}
+
+/// A URDF model's inputs: `SpatialRobot.from_urdf_text(urdf, base, root_link)` rebuilds it.
+struct UrdfSource {
+    urdf: String,
+    base: String,
+    root_link: Option<String>,
+}
+
+impl UrdfSource {
+    fn build(self) -> PyResult<SpatialRobot> {
+        let base = BaseKind::from_name(&self.base).map_err(spatial_err)?;
+        let model = SpatialModel::from_urdf_str(&self.urdf, base, self.root_link.as_deref())
+            .map_err(spatial_err)?;
+        Ok(SpatialRobot {
+            model,
+            source: self,
+        })
+    }
 }
 
 impl SpatialRobot {
@@ -92,10 +113,37 @@ impl SpatialRobot {
     #[pyo3(signature = (path, base="free_flyer", root_link=None))]
     fn from_urdf(path: &str, base: &str, root_link: Option<&str>) -> PyResult<Self> {
         guard(|| {
-            let base = BaseKind::from_name(base).map_err(spatial_err)?;
-            let model = SpatialModel::from_urdf_file(path, base, root_link).map_err(spatial_err)?;
-            Ok(SpatialRobot { model })
+            let urdf = std::fs::read_to_string(path).map_err(|e| {
+                spatial_err(SpatialError::UrdfParse {
+                    message: format!("{path}: {e}"),
+                })
+            })?;
+            Self::from_urdf_text(&urdf, base, root_link)
         })
+    }
+
+    /// From URDF text (see `from_urdf`).
+    #[staticmethod]
+    #[pyo3(signature = (urdf, base="free_flyer", root_link=None))]
+    fn from_urdf_text(urdf: &str, base: &str, root_link: Option<&str>) -> PyResult<Self> {
+        guard(|| {
+            UrdfSource {
+                urdf: urdf.to_owned(),
+                base: base.to_owned(),
+                root_link: root_link.map(str::to_owned),
+            }
+            .build()
+        })
+    }
+
+    /// `pickle` and `copy`: rebuilt from its URDF text, base and root link.
+    fn __reduce__<'py>(
+        slf: &Bound<'py, Self>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
+        let py = slf.py();
+        let s = &slf.get().source;
+        let args = (s.urdf.clone(), s.base.clone(), s.root_link.clone()).into_pyobject(py)?;
+        Ok((slf.get_type().getattr("from_urdf_text")?, args))
     }
 
     #[getter]
