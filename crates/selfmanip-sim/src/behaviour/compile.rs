@@ -40,6 +40,83 @@ struct Context<'a> {
     empty: Grad,
 }
 
+/// The path of a field, for the errors that name it: formatted only when one does.
+trait FieldPath: std::fmt::Display {
+    fn path(&self) -> String {
+        self.to_string()
+    }
+}
+
+impl FieldPath for str {}
+
+impl FieldPath for String {}
+
+/// The field `leaf` of the field `parent`: `parent.leaf`.
+struct Leaf<'a, P: FieldPath + ?Sized>(&'a P, &'a str);
+
+impl<P: FieldPath + ?Sized> std::fmt::Display for Leaf<'_, P> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}.{}", self.0, self.1)
+    }
+}
+
+impl<P: FieldPath + ?Sized> FieldPath for Leaf<'_, P> {}
+
+/// `check` (a check of a value that names its field in its error), with `field`'s path
+/// formatted only when it fails.
+fn named<T>(
+    field: &(impl FieldPath + ?Sized),
+    check: impl Fn(&str) -> Result<T, SimError>,
+) -> Result<T, SimError> {
+    check("").or_else(|_| check(&field.path()))
+}
+
+/// Every name `e` reads, once each, in order of appearance (in every branch), appended to
+/// `out` ([`Expr::variables`] without copying them).
+fn names<'e>(e: &'e Expr, out: &mut Vec<&'e str>) {
+    match e {
+        Expr::Num(_) => {}
+        Expr::Var(v) => {
+            if !out.contains(&v.as_str()) {
+                out.push(v);
+            }
+        }
+        Expr::Neg(a) => names(a, out),
+        Expr::Bin(_, a, b) => {
+            names(a, out);
+            names(b, out);
+        }
+        Expr::Call(_, args) => args.iter().for_each(|a| names(a, out)),
+    }
+}
+
+/// `e` with the values of the names it reads (`read`, from [`names`]); an error names
+/// `field` and quotes `expr`.
+fn eval_read(
+    e: &Expr,
+    read: &[(&str, f64)],
+    field: &(impl FieldPath + ?Sized),
+    expr: &dyn Fn() -> String,
+) -> Result<f64, SimError> {
+    e.eval(&|n| read.iter().find(|(k, _)| *k == n).map(|(_, v)| *v))
+        .map_err(|reason| SimError::Expression {
+            field: field.path(),
+            expr: expr(),
+            reason,
+        })
+}
+
+/// Whether `e` reads a name that `is` picks (in any branch).
+fn reads_any(e: &Expr, is: &dyn Fn(&str) -> bool) -> bool {
+    match e {
+        Expr::Num(_) => false,
+        Expr::Var(v) => is(v),
+        Expr::Neg(a) => reads_any(a, is),
+        Expr::Bin(_, a, b) => reads_any(a, is) || reads_any(b, is),
+        Expr::Call(_, args) => args.iter().any(|a| reads_any(a, is)),
+    }
+}
+
 impl Context<'_> {
     /// The gradient over the parameters of a number [`Self::number`] has checked (`q0`, the
     /// joint's start angle, an input: no gradient).
@@ -65,7 +142,7 @@ impl Context<'_> {
     /// [`Self::number`] with its gradient.
     fn number_grad(
         &self,
-        field: &str,
+        field: &(impl FieldPath + ?Sized),
         s: &Scalar,
         q0: Option<f64>,
     ) -> Result<(f64, Grad), SimError> {
@@ -82,71 +159,76 @@ impl Context<'_> {
 
     /// A number known now: `scalar` with the parameters (and `q0`, the joint's start angle,
     /// when given).
-    fn number(&self, field: &str, s: &Scalar, q0: Option<f64>) -> Result<f64, SimError> {
-        let e = s.parse(field)?;
-        let v = self.eval(field, s, &e, q0, false)?;
-        finite(field, v)
+    fn number(
+        &self,
+        field: &(impl FieldPath + ?Sized),
+        s: &Scalar,
+        q0: Option<f64>,
+    ) -> Result<f64, SimError> {
+        let e = named(field, |f| s.parse(f))?;
+        let (v, _) = self.eval(field, s, &e, q0, false)?;
+        named(field, |f| finite(f, v))
     }
 
-    fn eval(
+    /// `e` with the parameters, `q0` where given, and `theta = omega = 0` when `at_start`
+    /// (a motion's number, checked once now); an error names the first name `e` reads that
+    /// is none of these. With the value, the names `e` reads and their values (`theta` and
+    /// `omega` left out).
+    fn eval<'e>(
         &self,
-        field: &str,
+        field: &(impl FieldPath + ?Sized),
         s: &Scalar,
-        e: &Expr,
+        e: &'e Expr,
         q0: Option<f64>,
         at_start: bool,
-    ) -> Result<f64, SimError> {
-        let mut vars = Vec::new();
-        e.variables(&mut vars);
-        for v in &vars {
-            let ok = self.values.contains_key(v)
-                || v == "q0" && q0.is_some()
-                || at_start && (v == "theta" || v == "omega");
-            if !ok {
+    ) -> Result<(f64, Vec<(&'e str, f64)>), SimError> {
+        let lookup = |v: &str| match v {
+            "q0" => q0,
+            "theta" | "omega" if at_start => Some(0.0),
+            _ => self.values.get(v).copied(),
+        };
+        let mut read = Vec::new();
+        names(e, &mut read);
+        let mut reads = Vec::with_capacity(read.len());
+        for v in read {
+            let Some(x) = lookup(v) else {
                 let extra = if v == "theta" || v == "omega" {
                     " (`theta` and `omega` exist only in the targets of motions)"
                 } else {
                     ""
                 };
                 return Err(SimError::UnknownReference {
-                    field: field.into(),
+                    field: field.path(),
                     kind: "parameter",
-                    name: v.clone(),
+                    name: v.to_string(),
                     known: format!(
                         "{}{extra}",
                         self.values.keys().cloned().collect::<Vec<_>>().join(", ")
                     ),
                 });
-            }
+            };
+            reads.push((v, x));
         }
-        e.eval(&|n| match n {
-            "q0" => q0,
-            "theta" | "omega" => Some(0.0),
-            _ => self.values.get(n).copied(),
-        })
-        .map_err(|reason| SimError::Expression {
-            field: field.into(),
-            expr: format!("{s:?}"),
-            reason,
-        })
+        let v = eval_read(e, &reads, field, &|| format!("{s:?}"))?;
+        reads.retain(|(n, _)| !matches!(*n, "theta" | "omega"));
+        Ok((v, reads))
     }
 
     /// A number of a motion: known now unless it uses `theta` or `omega`; with its tangent.
+    /// One that does keeps the values of the other names it reads (and `q0`).
     fn motion_value(
         &self,
-        field: &str,
+        field: &(impl FieldPath + ?Sized),
         s: &Scalar,
         q0: f64,
     ) -> Result<(Value, NumberTangent), SimError> {
-        let e = s.parse(field)?;
+        let e = named(field, |f| s.parse(f))?;
         // checks names and evaluates once (at θ = ω = 0) to catch errors now
-        let v = self.eval(field, s, &e, Some(q0), true)?;
-        let mut vars = Vec::new();
-        e.variables(&mut vars);
-        if vars.iter().any(|v| v == "theta" || v == "omega") {
-            let mut consts: Vec<(String, f64)> =
-                self.values.iter().map(|(k, v)| (k.clone(), *v)).collect();
-            consts.push(("q0".into(), q0));
+        let (v, reads) = self.eval(field, s, &e, Some(q0), true)?;
+        let at_start = |n: &str| n == "theta" || n == "omega";
+        if reads_any(&e, &at_start) {
+            let consts: Vec<(String, f64)> =
+                reads.into_iter().map(|(n, v)| (n.to_string(), v)).collect();
             let consts = Arc::new(consts);
             let tangent = if self.tangent {
                 NumberTangent::AtStart(e.clone(), Arc::clone(&consts))
@@ -156,7 +238,7 @@ impl Context<'_> {
             Ok((Value::AtStart(e, consts), tangent))
         } else {
             Ok((
-                Value::Const(finite(field, v)?),
+                Value::Const(named(field, |f| finite(f, v))?),
                 NumberTangent::Const(self.grad(s, Some(q0))),
             ))
         }
@@ -173,66 +255,60 @@ impl Context<'_> {
 
 /// Evaluates the parameters in dependency order (a formula may use other parameters).
 fn parameters(b: &Behaviour) -> Result<BTreeMap<String, f64>, SimError> {
-    let mut exprs = BTreeMap::new();
+    let mut exprs: BTreeMap<&str, Expr> = BTreeMap::new();
     for (name, s) in &b.parameters {
-        let field = format!("parameters.{name}");
         if name.is_empty()
             || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
             || name.starts_with(|c: char| c.is_ascii_digit())
             || matches!(name.as_str(), "theta" | "omega" | "q0")
         {
             return Err(invalid(
-                field,
+                Leaf("parameters", name).path(),
                 "a parameter name is letters, digits and `_`, not starting with a digit, and not \
                  `theta`, `omega` or `q0`",
             ));
         }
-        exprs.insert(name.clone(), (field.clone(), s.parse(&field)?));
+        exprs.insert(name, named(&Leaf("parameters", name), |f| s.parse(f))?);
     }
     let mut values = BTreeMap::new();
     // depth-first, with the path so far to report a cycle
-    fn visit(
-        name: &str,
-        exprs: &BTreeMap<String, (String, Expr)>,
+    fn visit<'a>(
+        name: &'a str,
+        exprs: &'a BTreeMap<&str, Expr>,
         values: &mut BTreeMap<String, f64>,
-        path: &mut Vec<String>,
+        path: &mut Vec<&'a str>,
     ) -> Result<f64, SimError> {
         if let Some(v) = values.get(name) {
             return Ok(*v);
         }
-        let (field, e) = &exprs[name];
-        if let Some(i) = path.iter().position(|p| p == name) {
-            let mut cycle = path[i..].to_vec();
+        let field = Leaf("parameters", name);
+        let e = &exprs[name];
+        if let Some(i) = path.iter().position(|p| *p == name) {
+            let mut cycle: Vec<String> = path[i..].iter().map(|p| p.to_string()).collect();
             cycle.push(name.to_string());
             return Err(SimError::Cycle {
-                field: format!("parameters.{}", path[i]),
+                field: Leaf("parameters", path[i]).path(),
                 cycle,
             });
         }
-        path.push(name.to_string());
-        let mut vars = Vec::new();
-        e.variables(&mut vars);
-        let mut local = BTreeMap::new();
-        for v in &vars {
+        path.push(name);
+        let mut read = Vec::new();
+        names(e, &mut read);
+        let mut local = Vec::with_capacity(read.len());
+        for v in read {
             if !exprs.contains_key(v) {
                 return Err(SimError::UnknownReference {
-                    field: field.clone(),
+                    field: field.path(),
                     kind: "parameter",
-                    name: v.clone(),
-                    known: exprs.keys().cloned().collect::<Vec<_>>().join(", "),
+                    name: v.to_string(),
+                    known: exprs.keys().copied().collect::<Vec<_>>().join(", "),
                 });
             }
-            local.insert(v.clone(), visit(v, exprs, values, path)?);
+            local.push((v, visit(v, exprs, values, path)?));
         }
         path.pop();
-        let v = e
-            .eval(&|n| local.get(n).copied())
-            .map_err(|reason| SimError::Expression {
-                field: field.clone(),
-                expr: format!("{e:?}"),
-                reason,
-            })?;
-        let v = finite(field, v)?;
+        let v = eval_read(e, &local, &field, &|| format!("{e:?}"))?;
+        let v = named(&field, |f| finite(f, v))?;
         values.insert(name.to_string(), v);
         Ok(v)
     }
@@ -299,17 +375,19 @@ fn actuator(
     field: &str,
     spec: &ActuatorSpec,
 ) -> Result<(Arc<dyn Actuator>, DerivedQuantities, ActuatorLaw), SimError> {
-    let motor_err = |f: &str| {
-        let f = format!("{field}.{f}");
+    let motor_err = |f: &'static str| {
         move |e: motor::MotorError| SimError::Motor {
-            field: f.clone(),
+            field: Leaf(field, f).path(),
             source: e,
         }
     };
+    let positive_number = |f: &'static str, s: &Scalar| -> Result<f64, SimError> {
+        let v = cx.number(&Leaf(field, f), s, None)?;
+        named(&Leaf(field, f), |path| positive(path, v))
+    };
     Ok(match spec {
         ActuatorSpec::Saturated { max_torque_n_m } => {
-            let f = format!("{field}.max_torque_n_m");
-            let tau = positive(&f, cx.number(&f, max_torque_n_m, None)?)?;
+            let tau = positive_number("max_torque_n_m", max_torque_n_m)?;
             let a: Arc<dyn Actuator> =
                 Arc::new(motor::SaturatedTorque::new(tau).map_err(motor_err("max_torque_n_m"))?);
             let law = ActuatorLaw::Saturated {
@@ -340,13 +418,11 @@ fn actuator(
                 s.as_ref().map_or(cx.zero(), |s| cx.grad(s, None))
             };
             if let Some(v) = supply_voltage_v {
-                let f = format!("{field}.supply_voltage_v");
-                let v = positive(&f, cx.number(&f, v, None)?)?;
+                let v = positive_number("supply_voltage_v", v)?;
                 m = m.at_voltage(v).map_err(motor_err("supply_voltage_v"))?;
             }
             if let Some(i) = current_limit_a {
-                let f = format!("{field}.current_limit_a");
-                let i = positive(&f, cx.number(&f, i, None)?)?;
+                let i = positive_number("current_limit_a", i)?;
                 m = m
                     .with_current_limit(i)
                     .map_err(motor_err("current_limit_a"))?;
@@ -356,13 +432,14 @@ fn actuator(
                 .map_err(motor_err("gearbox"))?
                 .clone();
             if let Some(r) = gear_ratio {
-                let f = format!("{field}.gear_ratio");
-                g.ratio = positive(&f, cx.number(&f, r, None)?)?;
+                g.ratio = positive_number("gear_ratio", r)?;
             }
-            let f = format!("{field}.count");
-            let n = cx.number(&f, count, None)?;
+            let n = cx.number(&Leaf(field, "count"), count, None)?;
             if !(n >= 1.0 && n.fract() == 0.0) {
-                return Err(invalid(f, format!("must be a whole number ≥ 1, got {n}")));
+                return Err(invalid(
+                    Leaf(field, "count").path(),
+                    format!("must be a whole number ≥ 1, got {n}"),
+                ));
             }
             let ratio = g.ratio;
             let law = ActuatorLaw::Geared {
@@ -477,10 +554,7 @@ impl Compiler<'_> {
             None => own,
         };
         let not_before_s = match not_before_s {
-            Some(s) => {
-                let f = format!("{field}.not_before_s");
-                self.cx.number(&f, s, q0)?
-            }
+            Some(s) => self.cx.number(&Leaf(field, "not_before_s"), s, q0)?,
             None => f64::NEG_INFINITY,
         };
         Ok(EventMatch {
@@ -574,8 +648,7 @@ impl Compiler<'_> {
         };
         if let Some(at) = &t.at_s {
             only(&[])?;
-            let f = format!("{field}.at_s");
-            let (v, g) = self.cx.number_grad(&f, at, Some(q0))?;
+            let (v, g) = self.cx.number_grad(&Leaf(field, "at_s"), at, Some(q0))?;
             start.times.push(v);
             grads.times.push(g);
         } else if let Some(name) = &t.event {
@@ -674,12 +747,12 @@ impl Compiler<'_> {
 
     fn torque(
         &self,
-        field: &str,
+        field: &(impl FieldPath + ?Sized),
         t: &Torque,
         q0: f64,
         actuators: &[String],
     ) -> Result<(TorqueLaw, TorqueTangent), SimError> {
-        let num = |f: &str, s: &Scalar| self.cx.number(&format!("{field}.{f}"), s, Some(q0));
+        let num = |f: &str, s: &Scalar| self.cx.number(&Leaf(field, f), s, Some(q0));
         let grad = |s: &Scalar| self.cx.grad(s, Some(q0));
         Ok(match t {
             Torque::Zero => (TorqueLaw::Zero, TorqueTangent::Zero),
@@ -738,7 +811,8 @@ impl Compiler<'_> {
                 only_in_contact,
             } => {
                 let nn = |f: &str, s: &Scalar| -> Result<f64, SimError> {
-                    non_negative(&format!("{field}.{f}"), num(f, s)?)
+                    let v = num(f, s)?;
+                    named(&Leaf(field, f), |path| non_negative(path, v))
                 };
                 (
                     TorqueLaw::Servo {
@@ -806,15 +880,15 @@ impl Compiler<'_> {
     /// `target` (a hold's angle its target; absent numbers constant).
     fn motion(
         &self,
-        field: &str,
+        field: &(impl FieldPath + ?Sized),
         m: &Motion,
         q0: f64,
     ) -> Result<(MotionLaw, [NumberTangent; 3]), SimError> {
-        let v = |f: &str, s: &Scalar| self.cx.motion_value(&format!("{field}.{f}"), s, q0);
+        let v = |f: &str, s: &Scalar| self.cx.motion_value(&Leaf(field, f), s, q0);
         let pos = |f: &str, s: &Scalar| -> Result<(Value, NumberTangent), SimError> {
             let val = v(f, s)?;
             if let Value::Const(x) = val.0 {
-                positive(&format!("{field}.{f}"), x)?;
+                named(&Leaf(field, f), |path| positive(path, x))?;
             }
             Ok(val)
         };
@@ -898,13 +972,16 @@ impl Compiler<'_> {
                 *n = remap[*n];
             }
             let (torque, torque_tangent) = self.torque(
-                &format!("{field}.torque"),
+                &Leaf(field.as_str(), "torque"),
                 &ph.torque,
                 q0[j],
                 &actuator_names,
             )?;
             let ((motion, motion_tangent), own_motion) = match (&ph.motion, tangents.last()) {
-                (Some(m), _) => (self.motion(&format!("{field}.motion"), m, q0[j])?, true),
+                (Some(m), _) => (
+                    self.motion(&Leaf(field.as_str(), "motion"), m, q0[j])?,
+                    true,
+                ),
                 (None, Some(prev)) => (
                     (
                         phases.last().expect("one per tangent").motion.clone(),
@@ -1178,6 +1255,37 @@ fn repeat_from(
     })
 }
 
+/// The behaviour's actuators and their torque laws. Their stall torques as parameters
+/// `<name>.stall_torque_n_m`, with what else their data give ([`actuator`]), join the values
+/// of `cx` (and their gradients, with the tangent): every actuator reads the parameters
+/// alone.
+fn actuators(
+    b: &Behaviour,
+    cx: &mut Context<'_>,
+) -> Result<(Vec<Arc<dyn Actuator>>, Vec<ActuatorLaw>), SimError> {
+    let (mut actuators, mut laws, mut quantities) = (Vec::new(), Vec::new(), Vec::new());
+    for (name, spec) in &b.actuators {
+        let (a, derived, law) = actuator(cx, &format!("actuators.{name}"), spec)?;
+        let stall = if cx.tangent {
+            law.stall_grad()
+        } else {
+            cx.empty.clone()
+        };
+        let tau = a.joint_torque_n_m(1.0, 0.0);
+        quantities.push((name, "stall_torque_n_m", tau, stall));
+        quantities.extend(derived.into_iter().map(|(q, v, g)| (name, q, v, g)));
+        actuators.push(a);
+        laws.push(law);
+    }
+    for (name, quantity, v, g) in quantities {
+        cx.values.insert(format!("{name}.{quantity}"), v);
+        if cx.tangent {
+            cx.grads.insert(format!("{name}.{quantity}"), g);
+        }
+    }
+    Ok((actuators, laws))
+}
+
 /// Checks `b` against `model` and compiles it into the interpreter, starting from
 /// `(q0, qd0)` (the joints' start angles are the expression variable `q0`); phases that
 /// start at known times are planned up to `horizon_s` (the run's final time).
@@ -1234,58 +1342,26 @@ fn compile_with(
             return Err(invalid(format!("{field}[{i}]"), "must be finite"));
         }
     }
-    let mut values = parameters(b)?;
-    let mut grads = if tangent {
+    let values = parameters(b)?;
+    let grads = if tangent {
         parameter_grads(b, &values)
     } else {
         BTreeMap::new()
     };
-    let empty: Grad = Arc::new([]);
-    let n_params = b.parameters.len();
-    // actuators, and their stall torques as parameters `<name>.stall_torque_n_m` (with what
-    // else their data give, `actuator`)
-    let mut actuators = Vec::new();
-    let mut laws = Vec::new();
+    let mut cx = Context {
+        model,
+        values,
+        grads,
+        n: b.parameters.len(),
+        tangent,
+        empty: Arc::new([]),
+    };
+    let (actuators, laws) = actuators(b, &mut cx)?;
     let actuator_names: Vec<String> = b.actuators.keys().cloned().collect();
-    {
-        let cx = Context {
-            model,
-            values: values.clone(),
-            grads: grads.clone(),
-            n: n_params,
-            tangent,
-            empty: empty.clone(),
-        };
-        for (name, spec) in &b.actuators {
-            let (a, derived, law) = actuator(&cx, &format!("actuators.{name}"), spec)?;
-            values.insert(
-                format!("{name}.stall_torque_n_m"),
-                a.joint_torque_n_m(1.0, 0.0),
-            );
-            if tangent {
-                grads.insert(format!("{name}.stall_torque_n_m"), law.stall_grad());
-            }
-            for (quantity, v, g) in derived {
-                values.insert(format!("{name}.{quantity}"), v);
-                if tangent {
-                    grads.insert(format!("{name}.{quantity}"), g);
-                }
-            }
-            actuators.push(a);
-            laws.push(law);
-        }
-    }
     let named: Vec<String> = b.events.keys().cloned().collect();
     let (programs_names, program_of_joint) = program_names(b, model)?;
     let c = Compiler {
-        cx: Context {
-            model,
-            values,
-            grads,
-            n: n_params,
-            tangent,
-            empty,
-        },
+        cx,
         named: named.clone(),
         programs: programs_names.clone(),
     };

@@ -300,6 +300,61 @@ struct ProgramMemory {
 }
 
 impl ProgramMemory {
+    /// The last timeline entry started by `t` (searched from the end: the engine asks about
+    /// the present, near the end of the planned timeline).
+    #[inline]
+    fn entry(&self, t: f64) -> (f64, usize) {
+        let tl = &self.timeline;
+        let e = tl.iter().rev().find(|e| e.0 <= t).unwrap_or(&tl[0]);
+        (e.0, e.1)
+    }
+
+    /// The phase of `prog` (the program of this memory) at `(t, q)`: that of the last
+    /// timeline entry started by `t`, or a joint-angle phase right after it while its level
+    /// holds.
+    #[inline]
+    fn phase(&self, prog: &Program, t: f64, q: &[f64]) -> usize {
+        let k = self.entry(t).1;
+        if !prog.has_levels {
+            return k;
+        }
+        level_phase(prog, k, q)
+    }
+
+    /// The index of the motion in force at `t`: the last one started by `t`.
+    #[inline]
+    fn motion_index(&self, t: f64) -> usize {
+        self.motions.iter().rposition(|m| m.t0() <= t).unwrap_or(0)
+    }
+
+    /// The reference `(θ, ω, α)` at `t`: the motion in force.
+    #[inline]
+    fn reference(&self, t: f64) -> (f64, f64, f64) {
+        let m = self.motions.iter().rev().find(|m| m.t0() <= t);
+        m.unwrap_or(&self.motions[0]).eval(t)
+    }
+
+    /// The unsaturated servo command `−kp (q − θ*) − kd (q̇ − ω*)` at `t`: the target at
+    /// rest, or (`None`) the joint's motion `(θ_ref, ω_ref)`.
+    #[inline]
+    fn servo_command(
+        &self,
+        t: f64,
+        target: Option<f64>,
+        (kp, kd): (f64, f64),
+        q: f64,
+        qd: f64,
+    ) -> f64 {
+        let (theta, omega) = match target {
+            Some(a) => (a, 0.0),
+            None => {
+                let (th, om, _) = self.reference(t);
+                (th, om)
+            }
+        };
+        -kp * (q - theta) - kd * (qd - omega)
+    }
+
     /// Drops the motions (and their records) that start after `now`.
     fn keep_motions_started_by(&mut self, now: f64) {
         let keep: Vec<bool> = self.motions.iter().map(|m| m.t0() <= now).collect();
@@ -474,47 +529,28 @@ impl BehaviourController {
             .or(prog.repeat_from)
     }
 
-    /// The last timeline entry of program `p` started by `t` (searched from the end: the
-    /// engine asks about the present, near the end of the planned timeline).
+    /// The last timeline entry of program `p` started by `t` ([`ProgramMemory::entry`]).
     #[inline]
     fn entry(&self, p: usize, t: f64) -> (f64, usize) {
-        let tl = &self.programs[p].timeline;
-        let e = tl.iter().rev().find(|e| e.0 <= t).unwrap_or(&tl[0]);
-        (e.0, e.1)
+        self.programs[p].entry(t)
     }
 
-    /// The phase of program `p` at `(t, q)`: that of the last timeline entry started by `t`,
-    /// or a joint-angle phase right after it while its level holds.
+    /// The phase of program `p` at `(t, q)` ([`ProgramMemory::phase`]).
     #[inline]
     fn current(&self, p: usize, t: f64, q: &[f64]) -> usize {
-        let k = self.entry(p, t).1;
-        let prog = &self.plan.programs[p];
-        if !prog.has_levels {
-            return k;
-        }
-        let phases = &prog.phases;
-        let mut j = k + 1;
-        while j < phases.len() {
-            match &phases[j].start.level {
-                Some(level) if level.holds(q) => return j,
-                Some(_) => j += 1,
-                None => break,
-            }
-        }
-        k
+        self.programs[p].phase(&self.plan.programs[p], t, q)
     }
 
     /// The reference `(θ, ω, α)` of program `p` at `t`.
     #[inline]
     fn reference(&self, p: usize, t: f64) -> (f64, f64, f64) {
-        self.programs[p].motions[self.motion_index(p, t)].eval(t)
+        self.programs[p].reference(t)
     }
 
     /// The index of program `p`'s motion in force at `t`: the last one started by `t`.
     #[inline]
     fn motion_index(&self, p: usize, t: f64) -> usize {
-        let motions = &self.programs[p].motions;
-        motions.iter().rposition(|m| m.t0() <= t).unwrap_or(0)
+        self.programs[p].motion_index(t)
     }
 
     /// `∂(θ*, ω*, α*)/∂m_k` of program `p`'s reference at `t` (`1 + 2nq` columns, rows
@@ -710,13 +746,13 @@ impl BehaviourController {
     ) {
         let mem = &self.programs[p];
         let m = &mem.motions[i];
-        let knots = m.knots();
+        let knots = m.knot_slice();
         if !with_dp {
             out.push(TimeEvent {
                 t: m.t0(),
                 dt_dp: pick(None),
             });
-            out.extend(knots.into_iter().map(|t| TimeEvent {
+            out.extend(knots.iter().map(|&t| TimeEvent {
                 t,
                 dt_dp: pick(None),
             }));
@@ -831,26 +867,19 @@ impl BehaviourController {
         (u.abs() < *limit).then_some((*kp, *kd))
     }
 
-    /// The unsaturated servo command `−kp (q − θ*) − kd (q̇ − ω*)` of program `p` at `t`: the
-    /// target at rest, or (`None`) the joint's motion `(θ_ref, ω_ref)`.
+    /// The unsaturated servo command of program `p` at `t`
+    /// ([`ProgramMemory::servo_command`]).
     #[inline]
     fn servo_command(
         &self,
         p: usize,
         t: f64,
         target: Option<f64>,
-        (kp, kd): (f64, f64),
+        gains: (f64, f64),
         q: f64,
         qd: f64,
     ) -> f64 {
-        let (theta, omega) = match target {
-            Some(a) => (a, 0.0),
-            None => {
-                let (th, om, _) = self.reference(p, t);
-                (th, om)
-            }
-        };
-        -kp * (q - theta) - kd * (qd - omega)
+        self.programs[p].servo_command(t, target, gains, q, qd)
     }
 
     /// When phase `j` of program `p`, armed at `armed` (the entry before it), starts without
@@ -1008,6 +1037,21 @@ impl BehaviourController {
     }
 }
 
+/// The joint-angle phase right after phase `k` of `prog` whose level holds at `q`, else `k`.
+#[inline(never)]
+fn level_phase(prog: &Program, k: usize, q: &[f64]) -> usize {
+    let phases = &prog.phases;
+    let mut j = k + 1;
+    while j < phases.len() {
+        match &phases[j].start.level {
+            Some(level) if level.holds(q) => return j,
+            Some(_) => j += 1,
+            None => break,
+        }
+    }
+    k
+}
+
 /// `∂(θ*, ω*, α*)/∂(t₀, θ₀, ω₀)` from the partials `d` over the start and the numbers
 /// `(speed, accel, target)` and the numbers' partials over `(θ₀, ω₀)`: the chain through
 /// `theta`, `omega`.
@@ -1071,9 +1115,9 @@ impl Controller for BehaviourController {
         for &j in &plan.idle_joints {
             tau[j] = 0.0;
         }
-        for (p, prog) in plan.programs.iter().enumerate() {
+        for (prog, mem) in plan.programs.iter().zip(&self.programs) {
             let j = prog.joint;
-            let phase = &prog.phases[self.current(p, t, q)];
+            let phase = &prog.phases[mem.phase(prog, t, q)];
             tau[j] = match &phase.torque {
                 TorqueLaw::Zero => 0.0,
                 TorqueLaw::Constant(c) => *c,
@@ -1092,7 +1136,7 @@ impl Controller for BehaviourController {
                     if *only_in_contact && mode.normal_bits() & prog.contacts == 0 {
                         0.0
                     } else {
-                        let u = self.servo_command(p, t, *target, (*kp, *kd), q[j], qd[j]);
+                        let u = mem.servo_command(t, *target, (*kp, *kd), q[j], qd[j]);
                         u.clamp(-limit, *limit)
                     }
                 }
@@ -1114,7 +1158,7 @@ impl Controller for BehaviourController {
         for (slot, &j) in out.iter_mut().zip(free) {
             *slot = match plan.program_of_joint.get(j).copied().flatten() {
                 Some(p) => {
-                    let (theta, omega, alpha) = self.reference(p, t);
+                    let (theta, omega, alpha) = self.programs[p].reference(t);
                     alpha + plan.kp_free * (theta - q[j]) + plan.kd_free * (omega - qd[j])
                 }
                 None => 0.0,

@@ -32,8 +32,11 @@ pub struct JointMotion {
 
 #[derive(Debug, Clone, PartialEq)]
 enum Kind {
-    /// Smoothstep velocity ramps and cruises, one after the other, then rest at `end`.
-    Ramps { pieces: Vec<Ramp>, end: f64 },
+    /// Rest at `end`.
+    Hold { end: f64 },
+    /// Smoothstep velocity ramps (up, cruise, down), one after the other, then rest at
+    /// `end`.
+    Ramps { pieces: [Ramp; 3], end: f64 },
     /// `θ₀ + ω₀τ + c₃τ³ + c₄τ⁴ + c₅τ⁵` for `τ ≤ T`, then rest at `end`.
     Quintic {
         theta0: f64,
@@ -42,6 +45,17 @@ enum Kind {
         duration: f64,
         end: f64,
     },
+}
+
+/// Up to three knots of a motion ([`JointMotion::knot_slice`]): the first `.1` of `.0`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Knots([f64; 3], usize);
+
+impl std::ops::Deref for Knots {
+    type Target = [f64];
+    fn deref(&self) -> &[f64] {
+        &self.0[..self.1]
+    }
 }
 
 /// The velocity goes from `w0` to `w1` along the smoothstep `S(s) = 3s² − 2s³` over `duration`
@@ -89,9 +103,8 @@ impl JointMotion {
         if dir * omega0 < 0.0 || !(cruise >= 0.0) || !cruise.is_finite() {
             return Self::park(t0, theta0, omega0, target, accel);
         }
-        let mut pieces = Vec::with_capacity(3);
         let mut theta = theta0;
-        for (duration, w0, w1) in [(up, omega0, v), (cruise, v, v), (down, v, 0.0)] {
+        let pieces = [(up, omega0, v), (cruise, v, v), (down, v, 0.0)].map(|(duration, w0, w1)| {
             let r = Ramp {
                 duration,
                 theta0: theta,
@@ -99,8 +112,8 @@ impl JointMotion {
                 w1,
             };
             theta = r.end_angle();
-            pieces.push(r);
-        }
+            r
+        });
         JointMotion {
             t0,
             kind: Kind::Ramps {
@@ -183,10 +196,7 @@ impl JointMotion {
     pub fn hold(t0: f64, angle: f64) -> Self {
         JointMotion {
             t0,
-            kind: Kind::Ramps {
-                pieces: Vec::new(),
-                end: angle,
-            },
+            kind: Kind::Hold { end: angle },
         }
     }
 
@@ -205,6 +215,7 @@ impl JointMotion {
         }
         let mut tau = t - self.t0;
         match &self.kind {
+            Kind::Hold { .. } => 0.0,
             Kind::Ramps { pieces, .. } => {
                 for r in pieces {
                     if tau <= r.duration {
@@ -230,15 +241,25 @@ impl JointMotion {
     /// The instants (absolute times, after `t0`) where the motion's pieces meet: its
     /// acceleration is continuous there, its jerk is not.
     pub fn knots(&self) -> Vec<f64> {
+        self.knot_slice().to_vec()
+    }
+
+    /// [`Self::knots`] without allocating: the array and how many of its first entries are
+    /// knots (0 for a hold, 3 for ramps, 1 for a quintic).
+    pub(crate) fn knot_slice(&self) -> Knots {
         match &self.kind {
-            Kind::Ramps { pieces, .. } => pieces
-                .iter()
-                .scan(self.t0, |t, r| {
-                    *t += r.duration;
-                    Some(*t)
-                })
-                .collect(),
-            Kind::Quintic { duration, .. } => vec![self.t0 + duration],
+            Kind::Hold { .. } => Knots([0.0; 3], 0),
+            Kind::Ramps { pieces, .. } => {
+                let mut t = self.t0;
+                Knots(
+                    pieces.map(|r| {
+                        t += r.duration;
+                        t
+                    }),
+                    3,
+                )
+            }
+            Kind::Quintic { duration, .. } => Knots([self.t0 + duration, 0.0, 0.0], 1),
         }
     }
 
@@ -247,6 +268,7 @@ impl JointMotion {
     pub fn eval(&self, t: f64) -> (f64, f64, f64) {
         let mut tau = (t - self.t0).max(0.0);
         match &self.kind {
+            Kind::Hold { end } => (*end, 0.0, 0.0),
             Kind::Ramps { pieces, end } => {
                 for r in pieces {
                     if tau <= r.duration {

@@ -193,9 +193,10 @@ impl StartedLaw {
     /// before it, on the branches the motion took.
     pub fn knot_partials(&self, motion: &JointMotion, theta0: f64, omega0: f64) -> Vec<[f64; 6]> {
         let mut t = D::c(0.0);
-        self.durations_dual(motion, theta0, omega0)
-            .into_iter()
-            .map(|dur| {
+        self.shape(motion, theta0, omega0)
+            .durations()
+            .iter()
+            .map(|&dur| {
                 t = t + dur;
                 [1.0, t.d[0], t.d[1], t.d[2], t.d[3], t.d[4]]
             })
@@ -222,15 +223,10 @@ impl StartedLaw {
     }
 
     /// The durations of `motion`'s pieces as dual numbers (the ramps' up, cruise, down; the
-    /// quintic's one), on the branches the motion took, with the ramps' cruise speed.
-    fn durations_dual(&self, motion: &JointMotion, theta0: f64, omega0: f64) -> Vec<D> {
-        self.shape(motion, theta0, omega0).0
-    }
-
-    /// The pieces' durations and, for ramps, the cruise speed `v` (for the quintic: `None`).
-    fn shape(&self, motion: &JointMotion, theta0: f64, omega0: f64) -> (Vec<D>, Option<D>) {
+    /// quintic's one), on the branches the motion took, and for ramps the cruise speed `v`.
+    fn shape(&self, motion: &JointMotion, theta0: f64, omega0: f64) -> Shape {
         let [th0, w0, speed, accel, target] = self.inputs(theta0, omega0);
-        let knots = motion.knots();
+        let knots = motion.knot_slice();
         if matches!(self, StartedLaw::Swing { .. }) && knots.len() == 3 {
             // the ramps of JointMotion::swing
             let dir = (target.v - theta0).signum();
@@ -243,10 +239,10 @@ impl StartedLaw {
             let down = (D::c(1.5) / accel) * v.abs();
             let ramps = 0.5 * ((w0 + v) * up) + 0.5 * (v * down);
             let cruise = (target - th0 - ramps) / v;
-            return (vec![up, cruise, down], Some(v));
+            return Shape::Ramps([up, cruise, down], v);
         }
         if knots.is_empty() {
-            return (Vec::new(), None);
+            return Shape::Hold;
         }
         // the quintic of JointMotion::park: T = T₀ 1.02ⁿ
         let distance = (target - th0).abs();
@@ -262,7 +258,7 @@ impl StartedLaw {
         while dur.v * 1.02 <= total * (1.0 + 1e-9) && dur.v < total {
             dur = 1.02 * dur;
         }
-        (vec![dur], None)
+        Shape::Quintic([dur])
     }
 
     /// `(θ*, ω*, α*)` at `t` with their partials over `(θ₀, ω₀, speed, accel, target)`, on
@@ -270,9 +266,8 @@ impl StartedLaw {
     fn reference_dual(&self, motion: &JointMotion, theta0: f64, omega0: f64, t: f64) -> [D; 3] {
         let [th0, w0, _, _, target] = self.inputs(theta0, omega0);
         let tau = (t - motion.t0()).max(0.0);
-        let (durations, cruise_speed) = self.shape(motion, theta0, omega0);
-        if let Some(v) = cruise_speed {
-            let [up, cruise, down] = [durations[0], durations[1], durations[2]];
+        let shape = self.shape(motion, theta0, omega0);
+        if let Shape::Ramps([up, cruise, down], v) = shape {
             let mut theta = th0;
             let mut tau = D::c(tau);
             for (dur, a, b) in [(up, w0, v), (cruise, v, v), (down, v, D::c(0.0))] {
@@ -284,7 +279,7 @@ impl StartedLaw {
             }
             return [target, D::c(0.0), D::c(0.0)];
         }
-        let Some(&dur) = durations.first() else {
+        let Some(&dur) = shape.durations().first() else {
             // a hold: at rest at its end from the start
             return [target, D::c(0.0), D::c(0.0)];
         };
@@ -304,6 +299,28 @@ impl StartedLaw {
             w0 + 3.0 * c3 * s2 + 4.0 * c4 * s3 + 5.0 * c5 * s2 * s2,
             6.0 * c3 * tau + 12.0 * c4 * s2 + 20.0 * c5 * s3,
         ]
+    }
+}
+
+/// The pieces of a motion as dual numbers ([`StartedLaw::shape`]).
+#[derive(Debug, Clone, Copy)]
+enum Shape {
+    /// At rest from the start.
+    Hold,
+    /// The ramps' durations (up, cruise, down) and the cruise speed.
+    Ramps([D; 3], D),
+    /// The quintic's duration.
+    Quintic([D; 1]),
+}
+
+impl Shape {
+    /// The pieces' durations, in order.
+    fn durations(&self) -> &[D] {
+        match self {
+            Shape::Hold => &[],
+            Shape::Ramps(d, _) => d,
+            Shape::Quintic(d) => d,
+        }
     }
 }
 
