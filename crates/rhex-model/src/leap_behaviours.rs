@@ -1,8 +1,7 @@
 //! The four leap strategies of thesis section 3.2.1 as behaviour files
 //! (`data/behaviours/leap_{pp,pm,mp,mm}.toml`, the schema of `docs/behaviours.md`), and a
-//! leap as a scenario of `selfmanip-sim`: the same robot, terrain, start, options and
-//! behaviour as [`crate::leap::simulate_leap`]'s controller, run by the behaviour
-//! interpreter. `tests/leap_behaviours.rs` checks that both give the same executions.
+//! leap as a scenario of `selfmanip-sim` run by the behaviour interpreter: what
+//! [`crate::leap::simulate_leap`] runs ([`crate::leap::LeapPreset`]).
 //!
 //! The [`LeapConfig`] fields map onto the behaviour by name: `t2_s` → `t2`, the geared
 //! motor → `gear_ratio`, `current_limit_a`, `motors_per_leg` (the saturated torque replaces
@@ -78,14 +77,17 @@ pub fn leap_scenario(
                 .into(),
         });
     }
-    let pairs = cfg.pairs.unwrap_or(cfg.strategy.chapter3_pairs());
-    if pairs[0] == pairs[1] {
-        return Err(RhexError::Params {
-            field: "pairs".into(),
-            reason: "a leap strategy drives two different leg pairs".into(),
-        });
-    }
-    let rhex = Rhex::new(crate::leap::leap_robot_params(params, cfg, pairs)?)?;
+    let rhex = crate::leap::leap_rhex(params, cfg)?;
+    scenario_of(rhex, params, cfg, q0)
+}
+
+/// [`leap_scenario`] on the leap's robot `rhex` ([`crate::leap::leap_rhex`]), `cfg` checked.
+pub(crate) fn scenario_of(
+    rhex: Rhex,
+    params: &RhexParams,
+    cfg: &LeapConfig,
+    q0: &[f64],
+) -> Result<LeapScenario, RhexError> {
     let mut b = leap_behaviour(cfg.strategy);
     // the front-most pushing pair drives joint 0, the rear-most joint 1
     for (prog, pair) in b.joints.iter_mut().zip(rhex.params.ordered_pairs()) {
@@ -163,6 +165,27 @@ pub fn leap_scenario(
             }
         }
     }
+    // a massive leg is a joint like any other in the air too: its servo drives it there (a
+    // massless one is a free joint whose motion is prescribed), critically damped for the
+    // leg's inertia about its hip with its armature (`servo_damping`)
+    let geared = matches!(cfg.actuator, LegActuator::GearedMotor { .. });
+    let critical = servo_damping_expr(params, &rhex.params, geared, &mut b);
+    for (i, prog) in b.joints.iter_mut().enumerate() {
+        let massive = !rhex.model.distal_massless(i);
+        for phase in &mut prog.phases {
+            if let Torque::Servo {
+                only_in_contact,
+                kd_n_m_s_per_rad,
+                ..
+            } = &mut phase.torque
+            {
+                *only_in_contact = !massive;
+                if let Some(kd) = &critical {
+                    *kd_n_m_s_per_rad = Scalar::Expr(kd.clone());
+                }
+            }
+        }
+    }
     let model = &rhex.model;
     let offset = cfg.t2_s.min(0.0);
     let labels = (0..rhex.label_len())
@@ -200,4 +223,44 @@ pub fn leap_scenario(
         rhex,
         time_offset_s: -offset,
     })
+}
+
+/// The servo damping of legs with inertia, as a formula of the behaviour's parameters (so
+/// that its partials follow the gear ratio and the armature). A leg with inertia `I` about
+/// its hip (`I_l + m_l (ρ/2)²` plus its joint's armature, the leg's `M̄_jj`) gets critical
+/// damping for the servo's stiffness `k_p = kp_hold · H` (`H` the stall torque):
+/// `k_d = 2 √(k_p I) = 2 √(kp_hold I / H) · H`, one double pole at `√(k_p / I)` (217 rad/s
+/// for Table 4.2's leg with its rotors at 28:1 and 20 A), the textbook design of a position
+/// servo for the inertia it moves. The files' `kd_hold` per N m was chosen for massless
+/// legs, whose servo acts only through the contact's statics; on a leg with inertia it is
+/// an overdamped servo (`ζ = 2.7` with the rotors) whose fast pole only makes the flow
+/// stiff. The armature is the rotors' reflected inertia `n J G²` where it follows the gear
+/// ratio (plus the parameter `leg_armature_kg_m2`, 0 there), else the parameter
+/// `leg_armature_kg_m2` as set. `None` for massless legs without armature (the file's
+/// damping).
+/// `user` are the parameters as given, `robot` the leap's (its armature set); `geared`: the
+/// actuator is the geared motor (the saturated torque has no rotors to reflect: its
+/// armature is a number).
+fn servo_damping_expr(
+    user: &RhexParams,
+    robot: &RhexParams,
+    geared: bool,
+    b: &mut Behaviour,
+) -> Option<String> {
+    let armature = robot.leg_armature_kg_m2.unwrap_or(0.0);
+    if crate::leap::leg_inertia_about_hip(robot) + armature <= 0.0 {
+        return None;
+    }
+    let armature = if geared && crate::leap::armature_follows_gear(user) {
+        b.parameters.insert("leg_armature_kg_m2".into(), num(0.0));
+        "(leg.reflected_inertia_kg_m2 + leg_armature_kg_m2)"
+    } else {
+        b.parameters
+            .insert("leg_armature_kg_m2".into(), num(armature));
+        "leg_armature_kg_m2"
+    };
+    Some(format!(
+        "2 * sqrt(kp_hold * (leg_inertia_kg_m2 + {armature}) / leg.stall_torque_n_m) \
+         * leg.stall_torque_n_m"
+    ))
 }

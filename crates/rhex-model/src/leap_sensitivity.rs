@@ -6,10 +6,12 @@
 //! - `t2_s` (alias `t2`): the rear motor's start relative to the front's. The execution
 //!   starts at `min(0, t2)`, so for `t2 ≥ 0` it moves the rear motor's start, below 0 the
 //!   front's (and the reported times' origin); at `t2 = 0` the derivative is the right-hand
-//!   one. The leap controller gives `∂q̈/∂t2` of the leg's swing down (which starts with its
-//!   motor: `∂(θ, θ̇, θ̈)/∂t0 = −(θ̇, θ̈, d³θ/dt³)`) and the motor start as a time event.
+//!   one. The behaviour interpreter gives `∂q̈/∂t2` of the leg's swing down (which starts
+//!   with its motor: `∂(θ, θ̇, θ̈)/∂t0 = −(θ̇, θ̈, d³θ/dt³)`) and the motor start as a time
+//!   event (the behaviour parameter `t2`).
 //! - `gear_ratio`: the geared motors' `G` (the torque–speed line's slope and the current
-//!   limit's torque scale with it; the servo's hold torque too), and on legs that carry their
+//!   limit's torque scale with it; the servo's hold torque and the swing's bounds too: the
+//!   behaviour parameter `gear_ratio`), and on legs that carry their
 //!   rotors (`RhexParams::legs_carry_rotors` without a hand-set armature) each leg joint's
 //!   armature `a = n J G²` with it: `d/dG = ∂/∂G + Σ_j (2a/G) ∂/∂a_j`. Not a parameter of the
 //!   saturated-torque actuator (a typed error).
@@ -28,13 +30,13 @@
 //! the tolerances; it costs ~3× the default leap's integration.
 //!
 //! **The controller's memory.** A leg's motion in the air that starts at an event (its
-//! liftoff, the takeoff) starts from the leg's angle and rate there: the leap controller
-//! gives its partials over that event's time and state
+//! liftoff, the takeoff) starts from the leg's angle and rate there: the behaviour
+//! interpreter gives its partials over that event's time and state
 //! ([`selfmanip_hybrid::Controller::memory_partials`], through
 //! [`selfmanip_sim::motion::StartedLaw`]) and, for the gear ratio, over the motion's speed
 //! and acceleration bounds, so a leg with inertia whose servo turns the body in flight
 //! (Result C.5) is differentiated (to 1e-6 of central differences). A massless leg's motion
-//! acts on nothing until the leg meets the ground again, so the controller carries its memory
+//! acts on nothing until the leg meets the ground again, so the interpreter carries its memory
 //! for a massless leg only in a run in which that leg lands again under such a motion (its
 //! touchdown's time and its servo in stance then follow the motion). In stance that servo
 //! may leave its saturation inside an engine step, a kink of the flow that the sensitivities
@@ -47,7 +49,7 @@
 //! time, folds, jams and impacts with Coulomb friction); an event at a motor's start (fired
 //! by the torque's jump, not by a crossing: flagged by the hybrid sensitivities as an event
 //! at a controller's time event).
-use crate::leap::{run_leap_setup, LeapConfig, LeapResult, LeapSetup, LegActuator, T2Reference};
+use crate::leap::{LeapConfig, LeapPreset, LeapResult, LegActuator, T2Reference};
 use crate::{RhexError, RhexParams};
 use nalgebra::DMatrix;
 use selfmanip_core::tangent::BodyParameter;
@@ -104,7 +106,7 @@ pub struct LeapSensitivity {
     pub reason: Option<String>,
     /// One entry per event of the execution (the events of [`LeapResult::events`]).
     pub events: Vec<EventSaltation>,
-    /// The leap controller's time events met (motor starts, knots of the swing down):
+    /// The behaviour's time events met (motor starts, knots of the swing down):
     /// `(t_s, max |f⁺ − f⁻|)`, the jump of the flow there (0 where it is continuous).
     pub time_events: Vec<(f64, f64)>,
     /// `d t_e / d (directions, parameters)` of each event (its time from the front leg's
@@ -167,12 +169,12 @@ fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<LeapParameter>, RhexE
 }
 
 /// The engine's parameters behind a leap's, with the weights that make its derivative the
-/// sum of theirs. The gear ratio moves the motors' torque line and the servo (a controller
+/// sum of theirs. The gear ratio moves the motors' torque line and the servo (a behaviour
 /// parameter) and, on legs that carry their rotors ([`crate::leap::armature_follows_gear`]),
 /// each leg joint's armature `a = n J G²`: `d/dG = ∂/∂G + Σ_j (2 a_j / G) ∂/∂a_j` (the
-/// controller's `∂/∂G` has the servo's damping, critical for the leg's inertia with `a`, move
+/// behaviour's `∂/∂G` has the servo's damping, critical for the leg's inertia with `a`, move
 /// with it). The legs' armature is every leg joint's at once, `Σ_j ∂/∂a_j` plus the
-/// controller's (the same damping), a parameter only of legs that have one.
+/// behaviour's (the same damping), a parameter only of legs that have one.
 fn engine_terms(
     p: LeapParameter,
     params: &RhexParams,
@@ -185,7 +187,7 @@ fn engine_terms(
             .collect()
     };
     Ok(match p {
-        LeapParameter::T2 => vec![(Parameter::Controller("t2_s".into()), 1.0)],
+        LeapParameter::T2 => vec![(Parameter::Controller("t2".into()), 1.0)],
         LeapParameter::BodyMass => vec![(Parameter::Body(BodyParameter::Mass), 1.0)],
         LeapParameter::BodyInertia => vec![(Parameter::Body(BodyParameter::Inertia), 1.0)],
         LeapParameter::GearRatio => {
@@ -263,9 +265,11 @@ pub fn leap_with_sensitivity_from(
                 .into(),
         });
     }
-    let setup = LeapSetup::new(params, cfg, cfg.t2_s)?;
-    let model = &setup.rhex.model;
-    let n2 = 2 * model.nq();
+    let preset = LeapPreset::new(params, cfg)?;
+    let (mut sim, front_start) = preset.simulation(cfg.t2_s)?;
+    let model = &preset.leap.rhex.model;
+    let nq = model.nq();
+    let n2 = 2 * nq;
     let dirs = directions.cloned().unwrap_or_else(|| DMatrix::zeros(n2, 0));
     if dirs.nrows() != n2 {
         return Err(RhexError::Params {
@@ -273,7 +277,23 @@ pub fn leap_with_sensitivity_from(
             reason: format!("expected {n2} rows, got {}", dirs.nrows()),
         });
     }
-    let result = run_leap_setup(&setup, cfg, &NEVER, start_offset)?;
+    if let Some(dx) = start_offset {
+        if dx.len() != n2 {
+            return Err(RhexError::Params {
+                field: "start_offset".into(),
+                reason: format!("expected {n2} entries, got {}", dx.len()),
+            });
+        }
+        // the behaviour was compiled at the unperturbed start (its legs hold that pose)
+        for i in 0..nq {
+            sim.q0[i] += dx[i];
+            sim.qd0[i] += dx[nq + i];
+        }
+    }
+    let run = sim.run_with(&NEVER)?;
+    let result = preset.result(run.execution, cfg.t2_s, front_start);
+    // `d (front leg's start) / d t2`: the execution starts at `min(0, t2)`
+    let dstart0_dt2 = if cfg.t2_s >= 0.0 { 0.0 } else { -1.0 };
     let nan = || vec![vec![f64::NAN; ps.len()]; APEX_COLUMNS.len()];
     let mut out = LeapSensitivity {
         parameters: names.iter().map(|s| s.to_string()).collect(),
@@ -307,7 +327,7 @@ pub fn leap_with_sensitivity_from(
     for &(i, k, wt) in &weights {
         w[(nd0 + i, nd0 + k)] += wt;
     }
-    let s = match execution_sensitivity_columns(model, &setup.terrain, exec, &dirs, &engine) {
+    let s = match execution_sensitivity_columns(model, &cfg.terrain, exec, &dirs, &engine) {
         Ok(mut s) => {
             s.columns = s.columns.map(|c| c * &w);
             for c in s.event_time_columns.iter_mut().flatten() {
@@ -338,7 +358,7 @@ pub fn leap_with_sensitivity_from(
                 (0..c.len())
                     .map(|j| {
                         let d0 = match (j >= nd_).then(|| ps[j - nd_]) {
-                            Some(LeapParameter::T2) => setup.ctrl.dstart_dt2[0],
+                            Some(LeapParameter::T2) => dstart0_dt2,
                             _ => 0.0,
                         };
                         c[j] - d0
@@ -410,7 +430,6 @@ pub fn leap_with_sensitivity_from(
         out.reason = Some("the apex event has no time gradient".into());
         return Ok(out);
     };
-    let nq = model.nq();
     let (ix, iz, ip) = (model.ix_x(), model.ix_z(), model.ix_phi());
     let nd = dirs.ncols();
     let column = |j: usize, dstart0: f64| -> [f64; 7] {
@@ -427,7 +446,7 @@ pub fn leap_with_sensitivity_from(
     for (k, p) in ps.iter().enumerate() {
         // apex t_s is measured from the front leg's start, which t2 < 0 moves
         let dstart0 = match p {
-            LeapParameter::T2 => setup.ctrl.dstart_dt2[0],
+            LeapParameter::T2 => dstart0_dt2,
             _ => 0.0,
         };
         for (c, v) in column(nd + k, dstart0).into_iter().enumerate() {
