@@ -1119,20 +1119,19 @@ impl LeapStatus {
     /// The leap's status of an execution that ended with `termination`; `flew_on`: the run
     /// went on past a flight (not stopping at its apex) to its final time.
     fn of(termination: &Termination, flew_on: bool) -> Self {
-        match termination {
-            Termination::Apex => LeapStatus::Ok,
-            Termination::FinalTime if flew_on => LeapStatus::Ok,
-            Termination::FinalTime => LeapStatus::NoFlight,
-            Termination::Zeno { .. } | Termination::Chatter { .. } => LeapStatus::Zeno,
-            Termination::EventBudget => LeapStatus::EventBudget,
-            Termination::NoContactSolution { .. } => LeapStatus::NoContactSolution,
-            Termination::SeveralContactSolutions { .. } => LeapStatus::SeveralContactSolutions,
-            Termination::TerrainDiscontinuity { .. } => LeapStatus::TerrainEdge,
-            Termination::SingularFlow { .. } | Termination::Painleve { .. } => {
-                LeapStatus::SingularContact
-            }
-            Termination::StepBudget { .. } => LeapStatus::StepBudget,
-            Termination::Interrupted { .. } => LeapStatus::Interrupted,
+        use selfmanip_sim::RunStatus as R;
+        match R::of(termination) {
+            R::Apex => LeapStatus::Ok,
+            R::FinalTime if flew_on => LeapStatus::Ok,
+            R::FinalTime => LeapStatus::NoFlight,
+            R::Zeno => LeapStatus::Zeno,
+            R::EventBudget => LeapStatus::EventBudget,
+            R::NoContactSolution => LeapStatus::NoContactSolution,
+            R::SeveralContactSolutions => LeapStatus::SeveralContactSolutions,
+            R::TerrainDiscontinuity => LeapStatus::TerrainEdge,
+            R::SingularFlow => LeapStatus::SingularContact,
+            R::StepBudget => LeapStatus::StepBudget,
+            R::Interrupted => LeapStatus::Interrupted,
         }
     }
 }
