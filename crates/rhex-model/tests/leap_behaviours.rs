@@ -3,8 +3,8 @@
 //! `selfmanip-sim`. That those leaps are the ones the former hand-written leap controller
 //! gave, bit for bit, is the engine corpus's check (`scripts/engine-corpus.sh` against a
 //! corpus made with that controller); here, that each file is its strategy.
+use rhex_model::leap::leap_behaviour;
 use rhex_model::leap::Strategy;
-use rhex_model::leap_behaviours::leap_behaviour;
 
 /// The files are well-formed data: each parses, names its strategy, and pushes in the
 /// strategy's directions.

@@ -10,8 +10,8 @@
 //! (issue 29: (+,+) and (−,−) at t2 = 0.025 s, G = 28); and `leap_with_sensitivity`, the
 //! user's entry point, gives the same numbers as the interpreter's columns taken here.
 use nalgebra::DMatrix;
+use rhex_model::leap::leap_scenario;
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator, Strategy};
-use rhex_model::leap_behaviours::leap_scenario;
 use rhex_model::leap_sensitivity::{leap_with_sensitivity, APEX_COLUMNS};
 use selfmanip_hybrid::sensitivity::{execution_sensitivity_columns, Parameter, SaltationStatus};
 use selfmanip_hybrid::{EventKind, Termination};

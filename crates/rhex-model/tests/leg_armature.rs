@@ -11,11 +11,11 @@
 //! given explicitly.
 mod common;
 use common::{apex_error, tight};
+use rhex_model::leap::leap_scenario;
 use rhex_model::leap::{
     leap_params, leg_actuator, leg_armature, leg_inertia_about_hip, leg_swing,
     rotor_reflected_inertia, simulate_leap, LeapConfig, LegActuator,
 };
-use rhex_model::leap_behaviours::leap_scenario;
 use rhex_model::leap_sensitivity::leap_with_sensitivity;
 use rhex_model::{LegPair, Rhex, RhexError, RhexParams};
 use selfmanip_core::tangent::{BodyParameter, TangentError};
