@@ -54,7 +54,9 @@ use crate::{RhexError, RhexParams};
 use nalgebra::DMatrix;
 use selfmanip_core::tangent::BodyParameter;
 use selfmanip_hybrid::budget::NEVER;
-use selfmanip_hybrid::sensitivity::{execution_sensitivity_columns, Parameter, SaltationStatus};
+use selfmanip_hybrid::sensitivity::{
+    execution_sensitivity_columns, ColumnSensitivity, Parameter, SaltationStatus,
+};
 use selfmanip_hybrid::{EventKind, Termination};
 
 /// The apex columns a leap reports, in order (the sweep's column names).
@@ -266,10 +268,8 @@ pub fn leap_with_sensitivity_from(
         });
     }
     let preset = LeapPreset::new(params, cfg)?;
-    let (mut sim, front_start) = preset.simulation(cfg.t2_s)?;
     let model = &preset.leap.rhex.model;
-    let nq = model.nq();
-    let n2 = 2 * nq;
+    let n2 = 2 * model.nq();
     let dirs = directions.cloned().unwrap_or_else(|| DMatrix::zeros(n2, 0));
     if dirs.nrows() != n2 {
         return Err(RhexError::Params {
@@ -277,21 +277,7 @@ pub fn leap_with_sensitivity_from(
             reason: format!("expected {n2} rows, got {}", dirs.nrows()),
         });
     }
-    if let Some(dx) = start_offset {
-        if dx.len() != n2 {
-            return Err(RhexError::Params {
-                field: "start_offset".into(),
-                reason: format!("expected {n2} entries, got {}", dx.len()),
-            });
-        }
-        // the behaviour was compiled at the unperturbed start (its legs hold that pose)
-        for i in 0..nq {
-            sim.q0[i] += dx[i];
-            sim.qd0[i] += dx[nq + i];
-        }
-    }
-    let run = sim.run_with(&NEVER)?;
-    let result = preset.result(run.execution, cfg.t2_s, front_start);
+    let result = run_from(&preset, start_offset)?;
     // `d (front leg's start) / d t2`: the execution starts at `min(0, t2)`
     let dstart0_dt2 = if cfg.t2_s >= 0.0 { 0.0 } else { -1.0 };
     let nan = || vec![vec![f64::NAN; ps.len()]; APEX_COLUMNS.len()];
@@ -306,27 +292,8 @@ pub fn leap_with_sensitivity_from(
         event_times: Vec::new(),
         result,
     };
+    let (engine, w) = engine_parameters(&ps, params, cfg, model, dirs.ncols())?;
     let exec = &out.result.execution;
-    // the engine's parameters, and the weights that sum them into the leap's
-    let mut engine: Vec<Parameter> = Vec::new();
-    let mut weights: Vec<(usize, usize, f64)> = Vec::new();
-    for (k, &p) in ps.iter().enumerate() {
-        for (e, w) in engine_terms(p, params, cfg, model)? {
-            let i = engine.iter().position(|x| *x == e).unwrap_or_else(|| {
-                engine.push(e);
-                engine.len() - 1
-            });
-            weights.push((i, k, w));
-        }
-    }
-    let nd0 = dirs.ncols();
-    let mut w = DMatrix::zeros(nd0 + engine.len(), nd0 + ps.len());
-    for j in 0..nd0 {
-        w[(j, j)] = 1.0;
-    }
-    for &(i, k, wt) in &weights {
-        w[(nd0 + i, nd0 + k)] += wt;
-    }
     let s = match execution_sensitivity_columns(model, &cfg.terrain, exec, &dirs, &engine) {
         Ok(mut s) => {
             s.columns = s.columns.map(|c| c * &w);
@@ -340,78 +307,8 @@ pub fn leap_with_sensitivity_from(
             return Ok(out);
         }
     };
-    out.events = s
-        .events
-        .iter()
-        .map(|e| EventSaltation {
-            t_s: e.t - out.result.time_offset_s,
-            status: e.status.clone(),
-            saltation: e.saltation.clone(),
-        })
-        .collect();
-    let nd_ = dirs.ncols();
-    out.event_times = s
-        .event_time_columns
-        .iter()
-        .map(|c| {
-            c.as_ref().map(|c| {
-                (0..c.len())
-                    .map(|j| {
-                        let d0 = match (j >= nd_).then(|| ps[j - nd_]) {
-                            Some(LeapParameter::T2) => dstart0_dt2,
-                            _ => 0.0,
-                        };
-                        c[j] - d0
-                    })
-                    .collect()
-            })
-        })
-        .collect();
-    out.time_events = s
-        .time_events
-        .iter()
-        .map(|e| (e.t - out.result.time_offset_s, e.jump))
-        .collect();
-    let reason = if exec.termination != Termination::Apex || out.result.apex.is_none() {
-        Some(
-            "the leap did not end at an apex (sensitivities are taken at the apex that ends a run)"
-                .to_string(),
-        )
-    } else if let Some(e) = s
-        .events
-        .iter()
-        .find(|e| e.status != SaltationStatus::Defined)
-    {
-        Some(format!(
-            "{:?} at t = {} s: {:?}",
-            e.kind,
-            e.t - out.result.time_offset_s,
-            e.status
-        ))
-    } else if let Some(e) = s
-        .time_events
-        .iter()
-        .find(|e| e.status != SaltationStatus::Defined)
-    {
-        Some(format!(
-            "time event at t = {} s: {:?}",
-            e.t - out.result.time_offset_s,
-            e.status
-        ))
-    } else if let Some(sw) = s
-        .touch_switches
-        .iter()
-        .find(|w| w.status != SaltationStatus::Defined)
-    {
-        Some(format!(
-            "rolling/point switch at t = {} s: {:?}",
-            sw.t, sw.status
-        ))
-    } else if s.columns.is_none() {
-        Some("the execution's sensitivities are not defined (a terrain feature change)".into())
-    } else {
-        None
-    };
+    record_events(&mut out, &s, &ps, dirs.ncols(), dstart0_dt2);
+    let reason = undefined_reason(&s, &out.result);
     if let Some(r) = reason {
         out.reason = Some(r);
         return Ok(out);
@@ -422,7 +319,9 @@ pub fn leap_with_sensitivity_from(
         .last()
         .and_then(|t| t.clone())
         .filter(|_| {
-            exec.events
+            out.result
+                .execution
+                .events
                 .last()
                 .is_some_and(|e| e.kind == EventKind::Apex)
         });
@@ -430,6 +329,7 @@ pub fn leap_with_sensitivity_from(
         out.reason = Some("the apex event has no time gradient".into());
         return Ok(out);
     };
+    let nq = model.nq();
     let (ix, iz, ip) = (model.ix_x(), model.ix_z(), model.ix_phi());
     let nd = dirs.ncols();
     let column = |j: usize, dstart0: f64| -> [f64; 7] {
@@ -467,4 +367,144 @@ pub fn leap_with_sensitivity_from(
     }
     out.ok = true;
     Ok(out)
+}
+
+/// Runs the leap of `preset` (its motor start `cfg.t2_s`) from its start state plus
+/// `start_offset` (`2nq` entries over `(q, q̇)`); the behaviour is compiled at the
+/// unperturbed start (its waiting legs hold that pose).
+fn run_from(preset: &LeapPreset, start_offset: Option<&[f64]>) -> Result<LeapResult, RhexError> {
+    let t2 = preset.cfg.t2_s;
+    let (mut sim, front_start) = preset.simulation(t2)?;
+    let nq = sim.q0.len();
+    if let Some(dx) = start_offset {
+        if dx.len() != 2 * nq {
+            return Err(RhexError::Params {
+                field: "start_offset".into(),
+                reason: format!("expected {} entries, got {}", 2 * nq, dx.len()),
+            });
+        }
+        for i in 0..nq {
+            sim.q0[i] += dx[i];
+            sim.qd0[i] += dx[nq + i];
+        }
+    }
+    let run = sim.run_with(&NEVER)?;
+    Ok(preset.result(run.execution, t2, front_start))
+}
+
+/// The engine's parameters behind the leap's `ps` ([`engine_terms`]), and the matrix that
+/// sums their columns (after `nd` start-state directions, kept as they are) into the leap's.
+fn engine_parameters(
+    ps: &[LeapParameter],
+    params: &RhexParams,
+    cfg: &LeapConfig,
+    model: &selfmanip_core::Model,
+    nd: usize,
+) -> Result<(Vec<Parameter>, DMatrix<f64>), RhexError> {
+    let mut engine: Vec<Parameter> = Vec::new();
+    let mut weights: Vec<(usize, usize, f64)> = Vec::new();
+    for (k, &p) in ps.iter().enumerate() {
+        for (e, w) in engine_terms(p, params, cfg, model)? {
+            let i = engine.iter().position(|x| *x == e).unwrap_or_else(|| {
+                engine.push(e);
+                engine.len() - 1
+            });
+            weights.push((i, k, w));
+        }
+    }
+    let mut w = DMatrix::zeros(nd + engine.len(), nd + ps.len());
+    for j in 0..nd {
+        w[(j, j)] = 1.0;
+    }
+    for &(i, k, wt) in &weights {
+        w[(nd + i, nd + k)] += wt;
+    }
+    Ok((engine, w))
+}
+
+/// Why the apex's derivatives of `result` are not defined, if they are not: no apex ends
+/// the run, or an event, a time event or a rolling/point switch has no saltation, or a
+/// terrain feature changes.
+fn undefined_reason(s: &ColumnSensitivity, result: &LeapResult) -> Option<String> {
+    let exec = &result.execution;
+    let offset = result.time_offset_s;
+    if exec.termination != Termination::Apex || result.apex.is_none() {
+        Some(
+            "the leap did not end at an apex (sensitivities are taken at the apex that ends a run)"
+                .to_string(),
+        )
+    } else if let Some(e) = s
+        .events
+        .iter()
+        .find(|e| e.status != SaltationStatus::Defined)
+    {
+        Some(format!(
+            "{:?} at t = {} s: {:?}",
+            e.kind,
+            e.t - offset,
+            e.status
+        ))
+    } else if let Some(e) = s
+        .time_events
+        .iter()
+        .find(|e| e.status != SaltationStatus::Defined)
+    {
+        Some(format!(
+            "time event at t = {} s: {:?}",
+            e.t - offset,
+            e.status
+        ))
+    } else if let Some(sw) = s
+        .touch_switches
+        .iter()
+        .find(|w| w.status != SaltationStatus::Defined)
+    {
+        Some(format!(
+            "rolling/point switch at t = {} s: {:?}",
+            sw.t, sw.status
+        ))
+    } else if s.columns.is_none() {
+        Some("the execution's sensitivities are not defined (a terrain feature change)".into())
+    } else {
+        None
+    }
+}
+
+/// The events' saltations, their times' gradients (`t_s` from the front leg's start, which
+/// `t2 < 0` moves at `dstart0_dt2`; `nd` start-state directions first) and the time events
+/// of `s` into `out`, on the leap's clock.
+fn record_events(
+    out: &mut LeapSensitivity,
+    s: &ColumnSensitivity,
+    ps: &[LeapParameter],
+    nd: usize,
+    dstart0_dt2: f64,
+) {
+    let offset = out.result.time_offset_s;
+    out.events = s
+        .events
+        .iter()
+        .map(|e| EventSaltation {
+            t_s: e.t - offset,
+            status: e.status.clone(),
+            saltation: e.saltation.clone(),
+        })
+        .collect();
+    let dstart0 = |j: usize| match (j >= nd).then(|| ps[j - nd]) {
+        Some(LeapParameter::T2) => dstart0_dt2,
+        _ => 0.0,
+    };
+    out.event_times = s
+        .event_time_columns
+        .iter()
+        .map(|c| {
+            c.as_ref()
+                .map(|c| (0..c.len()).map(|j| c[j] - dstart0(j)).collect())
+        })
+        .collect();
+    out.time_events = s
+        .time_events
+        .iter()
+        .map(|e| (e.t - offset, e.jump))
+        .collect();
 }
