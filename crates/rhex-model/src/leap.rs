@@ -1377,30 +1377,31 @@ pub(crate) fn scenario_of(
     // the files swing the legs as their motors do (`leg.no_load_speed_rad_s`, the stall
     // torque over the reflected rotor inertia); a saturated torque has no motor data, and
     // explicit values win: then the swing is set as numbers, those of `leg_swing`
-    let motor_set = matches!(cfg.actuator, LegActuator::GearedMotor { .. })
-        && cfg.swing_speed_rad_s.is_none()
-        && cfg.swing_accel_rad_s2.is_none();
-    let swing = if motor_set {
-        None
-    } else {
-        Some(leg_swing(params, cfg)?)
-    };
+    // with the geared motor, a value the configuration leaves out stays the file's formula
+    // of the motor (so that its partials follow the gear ratio)
+    let geared = matches!(cfg.actuator, LegActuator::GearedMotor { .. });
+    let (speed, accel) = leg_swing(params, cfg)?;
+    let speed = (!geared || cfg.swing_speed_rad_s.is_some()).then_some(speed);
+    let accel = (!geared || cfg.swing_accel_rad_s2.is_some()).then_some(accel);
     for prog in &mut b.joints {
         for phase in &mut prog.phases {
-            match (phase.motion.as_mut(), swing) {
-                (
-                    Some(Motion::Swing {
-                        speed_rad_s,
-                        accel_rad_s2,
-                        ..
-                    }),
-                    Some((speed, accel)),
-                ) => {
-                    *speed_rad_s = num(speed);
-                    *accel_rad_s2 = num(accel);
+            match phase.motion.as_mut() {
+                Some(Motion::Swing {
+                    speed_rad_s,
+                    accel_rad_s2,
+                    ..
+                }) => {
+                    if let Some(v) = speed {
+                        *speed_rad_s = num(v);
+                    }
+                    if let Some(a) = accel {
+                        *accel_rad_s2 = num(a);
+                    }
                 }
-                (Some(Motion::Park { accel_rad_s2, .. }), Some((_, accel))) => {
-                    *accel_rad_s2 = num(accel);
+                Some(Motion::Park { accel_rad_s2, .. }) => {
+                    if let Some(a) = accel {
+                        *accel_rad_s2 = num(a);
+                    }
                 }
                 _ => {}
             }
