@@ -10,7 +10,7 @@
 //! target yet; the massless default is the one the 1 ms bound is for).
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use selfmanip::rhex::leap::{leap_params, simulate_leap, LeapConfig};
-use selfmanip::rhex::leap_behaviours::leap_scenario;
+use selfmanip::rhex::leap::leap_scenario;
 use selfmanip::sim::Simulation;
 use std::hint::black_box;
 

@@ -222,6 +222,12 @@ class LeapResult:
     sensitivity: dict[tuple[str, str], float] | None = None
     sensitivity_ok: bool | None = None
     sensitivity_reason: str = ""
+    #: The rear motor's start after the front one's that the leap ran with (s): ``t2``
+    #: itself, or what the search of a touchdown-timed leap (``t2_reference="touchdown"``)
+    #: found; and the rear leg's first touchdown after the front leg's (None if one of them
+    #: never touched down).
+    motor_t2_s: float | None = None
+    touchdown_t2_s: float | None = None
 
     def to_dict(self, trajectory: bool = True) -> dict[str, Any]:
         """Plain JSON-ready data (NaN becomes ``None``)."""
@@ -448,7 +454,8 @@ def leap(strategy: str = "++", t2: float = 0.0, gear_ratio: float | None | _Defa
                       word="-".join(d["word"]), cells=list(d["word"]), events=events,
                       q0=np.asarray(d["q0"], dtype=float), q_names=list(d["q_names"]),
                       params=d["params"], config=d["config"], trajectory=traj, reason=d["reason"],
-                      sensitivity=sens, sensitivity_ok=sens_ok, sensitivity_reason=sens_reason)
+                      sensitivity=sens, sensitivity_ok=sens_ok, sensitivity_reason=sens_reason,
+                      motor_t2_s=float(d["motor_t2_s"]), touchdown_t2_s=d["touchdown_t2_s"])
 
 
 def _axis(field: str, value: Any, *, allow_none: bool = False) -> list[Any]:

@@ -324,3 +324,16 @@ def test_leg_armature_is_a_sensitivity_parameter_of_legs_that_have_it():
     assert exact == pytest.approx((z[0] - z[1]) / (2 * h), rel=1e-4)
     with pytest.raises(ValueError, match="leg_armature_kg_m2"):
         selfmanip.leap("++", sensitivities=["leg_armature_kg_m2"])
+
+
+def test_every_leap_reports_the_motor_start_it_ran_with():
+    """A motor-timed leap ran with its own t2; a touchdown-timed one reports the motor start
+    its search found, and with it the rear leg touches down t2 after the front leg (to the
+    search's tolerance, 1e-7 s), which a motor-timed leap at that start reproduces."""
+    plain = selfmanip.leap("++", t2=0.03, gear_ratio=28.0, dt=None)
+    assert plain.motor_t2_s == 0.03
+    timed = selfmanip.leap("++", t2=0.03, gear_ratio=28.0, dt=None, t2_reference="touchdown")
+    assert abs(timed.touchdown_t2_s - 0.03) < 1e-7
+    again = selfmanip.leap("++", t2=timed.motor_t2_s, gear_ratio=28.0, dt=None)
+    assert again.word == timed.word
+    assert again.touchdown_t2_s == timed.touchdown_t2_s

@@ -203,8 +203,11 @@ fn events_list<'py>(py: Python<'py>, events: &[LeapEvent]) -> PyResult<Bound<'py
 /// One leap. `gear_ratio`: `None` the engine's default actuator, a number the geared motor of
 /// that ratio, NaN the saturated torque. Returns a dict: `status`, `reason` (why it is not
 /// `ok`; empty when it is), `apex` (dict or None), `word` (list of cells), `events` (list of
-/// dicts), `q0`, `q_names`, `time_offset_s`, `params`, `config` (the full inputs used, as
-/// dicts) and, when `dt_s` is given, `trajectory` (numpy arrays).
+/// dicts), `q0`, `q_names`, `time_offset_s`, `motor_t2_s` (the rear motor's start after the
+/// front one's that the leap ran with: `t2` itself, or what a touchdown-timed leap's search
+/// found), `touchdown_t2_s` (the rear leg's first touchdown after the front leg's, or None),
+/// `params`, `config` (the full inputs used, as dicts) and, when `dt_s` is given,
+/// `trajectory` (numpy arrays).
 #[pyfunction]
 #[pyo3(signature = (strategy, t2_s, gear_ratio, overrides, dt_s=None, sensitivities=None))]
 fn leap_run<'py>(
@@ -247,6 +250,8 @@ fn leap_run<'py>(
         d.set_item("q0", res.q0.clone().into_pyarray(py))?;
         d.set_item("q_names", q_names(&params))?;
         d.set_item("time_offset_s", res.time_offset_s)?;
+        d.set_item("motor_t2_s", res.motor_t2_s)?;
+        d.set_item("touchdown_t2_s", res.touchdown_t2_s)?;
         d.set_item("params", to_py(py, &params)?)?;
         d.set_item("config", to_py(py, &cfg)?)?;
         if let Some(s) = &sens {

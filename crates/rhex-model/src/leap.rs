@@ -1,6 +1,9 @@
 //! RHex leaps from rest to apex (thesis chapter 3.2 and chapter 5's simulations): the four
-//! open-loop strategies `(±, ±)` with coordination time `t2`, driven through the hybrid
-//! engine of `selfmanip-hybrid`.
+//! open-loop strategies `(±, ±)` with coordination time `t2`, as a preset of the generic
+//! simulator: [`LeapPreset`] turns `(params, cfg)` into the robot, its start pose and a
+//! `selfmanip_sim::Scenario` that runs the strategy's behaviour file
+//! (`data/behaviours/leap_*.toml`, [`LEAP_BEHAVIOURS`]) through the behaviour
+//! interpreter; [`LeapResult`] is read off the generic execution.
 //!
 //! **The leap.** The robot starts at rest sitting on its body (`I_1010`) on the ground, each
 //! leg held [`LeapConfig::wait_clearance_rad`] above its touchdown angle (the angle at which
@@ -30,14 +33,13 @@ use crate::{Rhex, RhexError};
 use motor::Actuator;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{ContactMode, Terrain};
-use selfmanip_hybrid::EventMemoryPartials;
-use selfmanip_hybrid::StepOptions;
-use selfmanip_hybrid::{simulate_with, Controller, ControllerPartials, TimeEvent};
-use selfmanip_hybrid::{Event, EventKind, Execution, HybridOptions, Termination};
-use selfmanip_sim::motion::JointMotion as LegMotion;
-use selfmanip_sim::motion::StartedLaw;
+use selfmanip_hybrid::{EventKind, Execution, Termination};
+use selfmanip_sim::behaviour::{ActuatorSpec, Behaviour, Motion, Torque, Trigger};
+use selfmanip_sim::expr::Scalar;
+use selfmanip_sim::outcome::WordOptions;
 use selfmanip_sim::terrain::TerrainSpec;
-use selfmanip_sim::Trajectory;
+use selfmanip_sim::{InitialState, Scenario, SimOptions};
+use selfmanip_sim::{Simulation, Trajectory};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 use std::str::FromStr;
@@ -267,7 +269,7 @@ pub struct LeapConfig {
     /// Budget of events: a leap that makes more ends `event_budget`.
     pub max_events: usize,
     /// Integrate the legs' prescribed motions in the air to the tolerances too
-    /// ([`HybridOptions::control_free_joints`]; off by default: ~3× cheaper leaps).
+    /// ([`selfmanip_hybrid::HybridOptions::control_free_joints`]; off by default: ~3× cheaper leaps).
     pub control_free_joints: bool,
 }
 
@@ -552,140 +554,17 @@ impl Actuator for LegDrive {
     }
 }
 
-/// What a leg motor's torque depends on, for its partial derivatives: the saturated torque
-/// (`τ = u τ_s`, independent of speed and gear ratio) or `n` geared DC motors,
-/// `τ = n G η clamp(τ_st (u − G ω/ω₀), ±k_M I_max)` (motor stall torque `τ_st`, no-load
-/// speed `ω₀`, current-limited torque `k_M I_max`, gearbox ratio `G` and efficiency `η`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum MotorLaw {
-    Saturated,
-    Geared {
-        n: f64,
-        ratio: f64,
-        efficiency: f64,
-        stall_n_m: f64,
-        no_load_rad_s: f64,
-        limit_n_m: f64,
-    },
-}
-
-impl MotorLaw {
-    fn new(a: &LegActuator, drive: Option<&motor::Drive>) -> Self {
-        match (a, drive) {
-            (LegActuator::GearedMotor { motors_per_leg, .. }, Some(d)) => MotorLaw::Geared {
-                n: f64::from(*motors_per_leg),
-                ratio: d.gearbox.ratio,
-                efficiency: d.gearbox.efficiency,
-                stall_n_m: d.motor.stall_torque_n_m,
-                no_load_rad_s: d.motor.no_load_speed_rad_s,
-                limit_n_m: d.motor.current_limited_torque_n_m(),
-            },
-            _ => MotorLaw::Saturated,
-        }
-    }
-
-    /// `(∂τ/∂ω, ∂τ/∂G)` at command `u` and joint speed `ω`: the derivative of the active
-    /// branch (on the torque–speed line, or at the current limit). `None` for `∂τ/∂G` of
-    /// the saturated torque (no gear ratio).
-    fn partials(&self, u: f64, speed: f64) -> (f64, Option<f64>) {
-        match *self {
-            MotorLaw::Saturated => (0.0, None),
-            MotorLaw::Geared {
-                n,
-                ratio,
-                efficiency,
-                stall_n_m,
-                no_load_rad_s,
-                limit_n_m,
-            } => {
-                let a = stall_n_m * (u.clamp(-1.0, 1.0) - speed * ratio / no_load_rad_s);
-                if a.abs() < limit_n_m {
-                    let c = n * ratio * efficiency;
-                    (
-                        -c * stall_n_m * ratio / no_load_rad_s,
-                        Some(n * efficiency * a - c * stall_n_m * speed / no_load_rad_s),
-                    )
-                } else {
-                    (0.0, Some(n * efficiency * a.clamp(-limit_n_m, limit_n_m)))
-                }
-            }
-        }
-    }
-}
-
-impl MotorLaw {
-    /// [`Self::partials`] of the branch the leg moves into where the state sits on the kink
-    /// between the current limit and the torque–speed line (within round-off: `|a|` at most
-    /// 1e-9 above the limit). With the X-RHex drive the limit equals the stall torque, so the
-    /// kink is at standstill: a leg that starts from rest in contact (after a touchdown into
-    /// a sticking toe, its rate is 0 up to round-off of either sign) runs on the line for
-    /// every `t > t₀`, and the partial at its first instant must be the line's. The side
-    /// taken is the motor's push direction (a leg its motor accelerates from the kink);
-    /// elsewhere the active branch, as [`Self::partials`].
-    fn partials_one_sided(&self, u: f64, speed: f64) -> (f64, Option<f64>) {
-        self.partials(u, self.branch_speed(u, speed))
-    }
-
-    /// The joint speed at which the branch of the law is read: `speed`, or, where the state
-    /// sits on the kink between the current limit and the torque–speed line (within
-    /// round-off), nudged into the branch the leg moves into.
-    fn branch_speed(&self, u: f64, speed: f64) -> f64 {
-        if let MotorLaw::Geared {
-            ratio,
-            stall_n_m,
-            no_load_rad_s,
-            limit_n_m,
-            ..
-        } = *self
-        {
-            let a = stall_n_m * (u.clamp(-1.0, 1.0) - speed * ratio / no_load_rad_s);
-            if a.abs() >= limit_n_m && a.abs() <= limit_n_m * (1.0 + 1e-9) && u != 0.0 {
-                return speed + u.signum() * 2e-9 * no_load_rad_s / ratio;
-            }
-        }
-        speed
-    }
-
-    /// Whether [`Self::partials_one_sided`] takes the current limit's branch (not the
-    /// torque–speed line's) at command `u` and joint speed `ω`: the motor's piece of its law
-    /// ([`Controller::partials_piece`]).
-    fn on_limit(&self, u: f64, speed: f64) -> bool {
-        let MotorLaw::Geared {
-            ratio,
-            stall_n_m,
-            no_load_rad_s,
-            limit_n_m,
-            ..
-        } = *self
-        else {
-            return false;
-        };
-        let w = self.branch_speed(u, speed);
-        (stall_n_m * (u.clamp(-1.0, 1.0) - w * ratio / no_load_rad_s)).abs() >= limit_n_m
-    }
-}
-
 /// The actuator that turns one planar leg (a contralateral pair): chapter 3's saturated
-/// torque `τ_s`, or the current-limited geared X-RHex motors (the leap's own drive, for
-/// tools that build their own leap controller).
+/// torque `τ_s`, or the current-limited geared X-RHex motors.
 pub fn leg_actuator(params: &RhexParams, a: &LegActuator) -> Result<Arc<dyn Actuator>, RhexError> {
-    Ok(leg_motor(params, a)?.0)
-}
-
-/// The leg actuator and the law of its torque.
-fn leg_motor(
-    params: &RhexParams,
-    a: &LegActuator,
-) -> Result<(Arc<dyn Actuator>, MotorLaw), RhexError> {
     let motor_err = |e: motor::MotorError| RhexError::Params {
         field: "actuator".into(),
         reason: e.to_string(),
     };
     Ok(match *a {
-        LegActuator::SaturatedTorque => (
-            Arc::new(motor::SaturatedTorque::new(params.tau_s).map_err(motor_err)?),
-            MotorLaw::Saturated,
-        ),
+        LegActuator::SaturatedTorque => {
+            Arc::new(motor::SaturatedTorque::new(params.tau_s).map_err(motor_err)?)
+        }
         LegActuator::GearedMotor {
             gear_ratio,
             current_limit_a,
@@ -699,15 +578,10 @@ fn leg_motor(
                 .map_err(motor_err)?;
             let mut gearbox = catalog.gearbox("x-rhex-28").map_err(motor_err)?.clone();
             gearbox.ratio = gear_ratio;
-            let drive = motor::Drive::new(m, gearbox).map_err(motor_err)?;
-            let law = MotorLaw::new(a, Some(&drive));
-            (
-                Arc::new(LegDrive {
-                    drive,
-                    n: f64::from(motors_per_leg),
-                }),
-                law,
-            )
+            Arc::new(LegDrive {
+                drive: motor::Drive::new(m, gearbox).map_err(motor_err)?,
+                n: f64::from(motors_per_leg),
+            })
         }
     })
 }
@@ -856,698 +730,6 @@ pub fn leg_swing(params: &RhexParams, cfg: &LeapConfig) -> Result<(f64, f64), Rh
     Ok((speed, accel))
 }
 
-/// `d(speed, accel)/dG` of [`leg_swing`] (zero for a value the configuration gives, and
-/// for the saturated torque): `speed = ω₀/G` gives `−speed/G`; `accel = τ_st(G)/(nJG² + I)`
-/// with `nJG² + I = τ_st/accel` gives `(dτ_st/dG − accel · 2nJG)/(nJG² + I)`, `dτ_st/dG`
-/// from the motor law at stall.
-fn swing_dgear(
-    params: &RhexParams,
-    cfg: &LeapConfig,
-    law: &MotorLaw,
-    speed: f64,
-    accel: f64,
-) -> [f64; 2] {
-    let MotorLaw::Geared { ratio, .. } = *law else {
-        return [0.0; 2];
-    };
-    let dspeed = if cfg.swing_speed_rad_s.is_some() {
-        0.0
-    } else {
-        -speed / ratio
-    };
-    let daccel = match (cfg.swing_accel_rad_s2, law.partials(1.0, 0.0)) {
-        (None, (_, Some(dstall))) => {
-            // τ_st = n G η min(τ_stall, τ_limit) (the law at u = 1, ω = 0)
-            let stall = match *law {
-                MotorLaw::Geared {
-                    n,
-                    efficiency,
-                    stall_n_m,
-                    limit_n_m,
-                    ..
-                } => n * ratio * efficiency * stall_n_m.min(limit_n_m),
-                MotorLaw::Saturated => 0.0,
-            };
-            let total = stall / accel; // nJG² + I
-            let n_j_g2 = total - leg_inertia_about_hip(params);
-            (dstall - accel * 2.0 * n_j_g2 / ratio) / total
-        }
-        _ => 0.0,
-    };
-    [dspeed, daccel]
-}
-
-/// What a leg is doing.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Phase {
-    /// Motor not yet on: the leg servo holds its start angle.
-    Waiting,
-    /// Motor on: saturated push; in the air, the leg swings on in its push direction.
-    Pushing,
-    /// After takeoff (or, unless it keeps pushing, after its own liftoff): parked pointing
-    /// up in the air; on the ground its servo keeps following that motion.
-    Retracting,
-}
-
-/// The open-loop leap controller of section 3.2 (it remembers the events of its run).
-#[derive(Clone)]
-pub(crate) struct LeapController {
-    sign: [f64; 2],
-    pub(crate) start: [f64; 2],
-    hold: [f64; 2],
-    pub(crate) leg_contact: [usize; 2],
-    /// Whether each leg's joint moves only massless links: such a leg in the air is a free
-    /// joint whose motion the controller prescribes ([`Controller::free_joint_qdd`]) and
-    /// gets no torque; a massive leg in the air is a joint like any other, and its servo
-    /// drives it along the same motion with the torque it uses on the ground.
-    free_in_air: [bool; 2],
-    actuators: [Arc<dyn Actuator>; 2],
-    /// The law of the actuators' torque, for the partials.
-    law: MotorLaw,
-    hold_torque: f64,
-    /// The servo's damping per N m of stall torque (s/rad): [`HOLD_KD_S`] on massless legs;
-    /// on legs with inertia `I` about the hip (their own and their rotors' armature),
-    /// `2 √(k_p I / H)`, which makes the servo `k_p = HOLD_KP_PER_RAD · H` critically damped
-    /// on the leg ([`servo_damping`]).
-    servo_kd_s: f64,
-    /// Whether [`Self::servo_kd_s`] is the critical damping of a leg with inertia.
-    servo_critical: bool,
-    /// The inertia `I` that damping is critical for (kg m², [`leg_servo_inertia`]) and
-    /// `dI/dG`: `2a/G` where the armature `a` is the rotors' `n J G²`
-    /// ([`armature_follows_gear`]), else 0.
-    servo_inertia: f64,
-    dservo_inertia_dgear: f64,
-    /// `d start / d t2` of each leg (the execution starts at `min(0, t2)`): `(0, 1)` for
-    /// `t2 ≥ 0`, `(−1, 0)` below.
-    pub(crate) dstart_dt2: [f64; 2],
-    accel: f64,
-    speed: f64,
-    /// `d(speed, accel)/dG` of the swing ([`leg_swing`], [`swing_dgear`]).
-    pub(crate) dswing_dgear: [f64; 2],
-    stub: Option<f64>,
-    keep_pushing: bool,
-    /// Time of the first flight after both legs started (all legs retract from then on).
-    takeoff: Option<f64>,
-    /// Time each leg first lifted off after its motor started.
-    lifted: [Option<f64>; 2],
-    /// Each leg's motions in the air, by start time: the swing down from its motor's start,
-    /// then a swing from every event that released it while pushing, and its one park.
-    air: [Vec<LegMotion>; 2],
-    /// For each motion of [`Self::air`], the event it started at, if any: the controller's
-    /// memory of that event (the motion's law and the leg's angle and rate there), which
-    /// the sensitivities differentiate ([`Controller::memory_partials`]).
-    air_start: [Vec<Option<AirStart>>; 2],
-    /// How many events the controller has been told of (the number of the next one).
-    seen: usize,
-    /// Whether each leg touched down again after a motion in the air that started at an
-    /// event: from then on a massless leg's memory acts ([`Controller::has_event_memory`]).
-    relanded: [bool; 2],
-    /// Whether each leg's retraction has its motion in the air: planned once, at the event
-    /// that made the leg retract in the air or first released it while retracting; a leg
-    /// the ground releases later returns to it (the open-loop controller plans its motions
-    /// from its own clock and events, not from contacts it does not sense).
-    parked: [bool; 2],
-}
-
-/// A leg's motion in the air started at an event: the event's number among those the
-/// controller was told of, the motion's law, and the leg's angle and rate after the event.
-#[derive(Debug, Clone, Copy)]
-struct AirStart {
-    event: usize,
-    law: StartedLaw,
-    theta0: f64,
-    omega0: f64,
-}
-
-/// Servo gains of a leg (per N m of stall torque).
-const HOLD_KP_PER_RAD: f64 = 20.0;
-const HOLD_KD_S: f64 = 0.5;
-/// Gains (1/s², 1/s) that keep a free leg on its prescribed motion against round-off: a
-/// critically damped 20 rad/s servo, idle while the leg is on its motion.
-const AIR_KP: f64 = 400.0;
-const AIR_KD: f64 = 40.0;
-
-/// The leg servo's damping per N m of stall torque `H` (s/rad), and whether it is the
-/// critical damping of a leg with inertia. A leg with inertia `I` about its hip
-/// (`I_l + m_l (ρ/2)²` plus its joint's armature, the leg's `M̄_jj`) gets critical damping
-/// for the servo's stiffness `k_p = HOLD_KP_PER_RAD · H`: `k_d = 2 √(k_p I)`, i.e.
-/// `2 √(k_p I / H)` per N m, so that the servo tracks with one double pole at `√(k_p / I)`
-/// (217 rad/s for Table 4.2's leg with its rotors at 28:1 and 20 A): the textbook design of a
-/// position servo for the inertia it moves. [`HOLD_KD_S`] per N m was chosen for massless
-/// legs, whose servo acts only through the contact's statics (no inertia to damp); on a leg
-/// with inertia it is an overdamped servo (`ζ = 2.7` with the rotors, poles at 41 and
-/// 1140 /s; `ζ = 7.2` on the bare leg, pole at 8400 /s) whose fast pole only makes the
-/// flow stiff. The stiffness, which sets the angle error at which the servo saturates
-/// (`1/HOLD_KP_PER_RAD` rad), is the same for every leg. Massless legs keep [`HOLD_KD_S`].
-fn servo_damping(params: &RhexParams, hold_torque: f64) -> (f64, bool) {
-    let inertia = leg_servo_inertia(params);
-    if inertia > 0.0 && hold_torque > 0.0 {
-        (2.0 * (HOLD_KP_PER_RAD * inertia / hold_torque).sqrt(), true)
-    } else {
-        (HOLD_KD_S, false)
-    }
-}
-
-/// A leg's inertia about its hip with its joint's armature (the leg's `M̄_jj`), which the
-/// servo is critically damped for ([`servo_damping`]).
-fn leg_servo_inertia(params: &RhexParams) -> f64 {
-    leg_inertia_about_hip(params) + params.leg_armature_kg_m2.unwrap_or(0.0)
-}
-
-impl LeapController {
-    /// Whether leg `i`, when not pushing, is driven by its servo in `mode`: on the ground
-    /// always, in the air when it is massive (a massless leg in the air is a free joint
-    /// whose motion is prescribed instead).
-    fn servoed(&self, i: usize, mode: ContactMode) -> bool {
-        !self.free_in_air[i] || mode.contains(self.leg_contact[i])
-    }
-
-    fn phase(&self, i: usize, t: f64) -> Phase {
-        if t < self.start[i] {
-            Phase::Waiting
-        } else if self.takeoff.is_some_and(|t0| t >= t0)
-            || (!self.keep_pushing && self.lifted[i].is_some_and(|t0| t >= t0))
-        {
-            Phase::Retracting
-        } else {
-            Phase::Pushing
-        }
-    }
-
-    /// Where a leg parks in the air: pointing up, a little past vertical, on the side of
-    /// straight down that it is on (a leg never sweeps through the ground to park).
-    fn stow(&self, i: usize, theta: f64) -> f64 {
-        let side = if self.sign[i] * theta >= 0.0 {
-            self.sign[i]
-        } else {
-            -self.sign[i]
-        };
-        side * STOW_RAD
-    }
-
-    /// The leg servo's torque toward angle `theta` and rate `omega`: a PD law saturating at
-    /// the motor's stall torque (an ideal torque source, as for a waiting leg's hold). A
-    /// waiting leg holds its start angle with it; a retracting leg that meets the ground
-    /// keeps following its motion in the air with it, pushing back as a servoed leg does (a
-    /// limp massless leg would be released at once and driven back into the ground by that
-    /// motion, touching down again and again).
-    fn servo(&self, q: f64, qd: f64, theta: f64, omega: f64) -> f64 {
-        (-HOLD_KP_PER_RAD * self.hold_torque * (q - theta)
-            - self.servo_kd_s * self.hold_torque * (qd - omega))
-            .clamp(-self.hold_torque, self.hold_torque)
-    }
-
-    /// The motion of leg `i` in the air at `t`: the last one started by then.
-    fn air_motion(&self, i: usize, t: f64) -> (f64, f64, f64) {
-        self.air_motion_at(i, t).1.eval(t)
-    }
-
-    /// [`Self::air_motion`]'s motion and its index (0: the swing down that starts with the
-    /// leg's motor).
-    fn air_motion_at(&self, i: usize, t: f64) -> (usize, &LegMotion) {
-        let motions = &self.air[i];
-        motions
-            .iter()
-            .enumerate()
-            .rev()
-            .find(|(_, m)| m.t0() <= t)
-            .or(motions.first().map(|m| (0, m)))
-            .expect("every leg has its swing down")
-    }
-
-    /// `∂(θ, θ̇, θ̈)/∂t2` of leg `i`'s motion in the air at `t`: the swing down starts with
-    /// the motor, `∂/∂t0 = −(θ̇, θ̈, d³θ/dt³)`; a motion started at an event depends on `t2`
-    /// only through that event's time and state, the controller's memory
-    /// ([`Controller::memory_partials`]): no partial here.
-    fn air_motion_dt2(&self, i: usize, t: f64) -> (f64, f64, f64) {
-        let (k, m) = self.air_motion_at(i, t);
-        if k != 0 || self.dstart_dt2[i] == 0.0 || t < m.t0() {
-            return (0.0, 0.0, 0.0);
-        }
-        let (_, w, a) = m.eval(t);
-        let d = self.dstart_dt2[i];
-        (-w * d, -a * d, -m.jerk(t) * d)
-    }
-
-    /// `∂(θ, θ̇, θ̈)/∂G` of leg `i`'s motion in the air at `t`: every motion's speed and
-    /// acceleration bounds depend on the gear ratio ([`leg_swing`]), differentiated by the
-    /// motion's law ([`StartedLaw::partials_with_bounds`], the same branches: ramps or a
-    /// quintic park) — the swing down's from rest at the hold angle, a motion started at an
-    /// event's from the leg's state there (whose dependence on that state is the
-    /// controller's memory, [`Controller::memory_partials`]).
-    fn air_motion_dgear(&self, i: usize, t: f64) -> (f64, f64, f64) {
-        let (k, m) = self.air_motion_at(i, t);
-        if t < m.t0() || self.dswing_dgear == [0.0; 2] {
-            return (0.0, 0.0, 0.0);
-        }
-        let (law, theta0, omega0) = match self.air_start[i][k] {
-            Some(start) => (start.law, start.theta0, start.omega0),
-            None => (
-                StartedLaw::Swing {
-                    target: self.sign[i] * STOW_RAD,
-                    speed: self.speed,
-                    accel: self.accel,
-                },
-                self.hold[i],
-                0.0,
-            ),
-        };
-        let p = law.partials_with_bounds(m, theta0, omega0, t);
-        let [ds, da] = self.dswing_dgear;
-        let along = |row: [f64; 5]| row[3] * ds + row[4] * da;
-        (along(p[0]), along(p[1]), along(p[2]))
-    }
-
-    /// The servo's command per N m of its saturation torque `H` ([`Self::servo`] is `H` times
-    /// it, clamped to `±H`).
-    fn servo_raw(&self, q: f64, qd: f64, theta: f64, omega: f64) -> f64 {
-        -HOLD_KP_PER_RAD * (q - theta) - self.servo_kd_s * (qd - omega)
-    }
-
-    /// Whether the servo is in its linear range at command `raw` ([`Self::servo_raw`]): the
-    /// branch of its partials and its piece (a value exactly at the limit counts as
-    /// saturated).
-    fn servo_linear(&self, raw: f64) -> bool {
-        (raw * self.hold_torque).abs() < self.hold_torque
-    }
-
-    /// The servo's partials `(∂/∂q, ∂/∂q̇, ∂/∂θ, ∂/∂ω, ∂/∂H, ∂/∂I)` at its arguments, `I`
-    /// the inertia its damping is critical for: the active branch of the clamp (zero inside
-    /// the saturation but for `±∂/∂H`).
-    fn servo_partials(&self, q: f64, qd: f64, theta: f64, omega: f64) -> [f64; 6] {
-        let h = self.hold_torque;
-        let raw = self.servo_raw(q, qd, theta, omega);
-        if self.servo_linear(raw) {
-            let (kp, kd) = (HOLD_KP_PER_RAD * h, self.servo_kd_s * h);
-            // d(kd H)/dH: kd H = 2 √(k_p H I) on a leg with inertia (half of kd), kd H = 0.5 H
-            // on a massless one
-            let dkd_dh = if self.servo_critical {
-                0.5 * self.servo_kd_s
-            } else {
-                self.servo_kd_s
-            };
-            // d(kd H)/dI = kd H / (2 I) on a leg with inertia; a massless leg's kd is fixed
-            let dkd_di = if self.servo_critical {
-                0.5 * kd / self.servo_inertia
-            } else {
-                0.0
-            };
-            [
-                -kp,
-                -kd,
-                kp,
-                kd,
-                -HOLD_KP_PER_RAD * (q - theta) - dkd_dh * (qd - omega),
-                -dkd_di * (qd - omega),
-            ]
-        } else {
-            [0.0, 0.0, 0.0, 0.0, raw.signum(), 0.0]
-        }
-    }
-
-    /// `dH/dG` of the hold torque `H = n G η min(τ_st, k_M I_max)` (0 for the saturated
-    /// torque).
-    fn dhold_dgear(&self) -> f64 {
-        match self.law {
-            MotorLaw::Geared { ratio, .. } => self.hold_torque / ratio,
-            MotorLaw::Saturated => 0.0,
-        }
-    }
-
-    /// The servo target of leg `i` at `t` in `phase` (waiting: its hold angle).
-    fn servo_target(&self, i: usize, t: f64, phase: Phase) -> (f64, f64) {
-        match phase {
-            Phase::Waiting => (self.hold[i], 0.0),
-            _ => {
-                let (theta, omega, _) = self.air_motion(i, t);
-                (theta, omega)
-            }
-        }
-    }
-}
-
-impl Controller for LeapController {
-    fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]) {
-        for i in 0..2 {
-            let s = self.sign[i];
-            tau[i] = match self.phase(i, t) {
-                Phase::Pushing => {
-                    let stubbed = self.stub.is_some_and(|a| s * q[i] > a);
-                    let u = if stubbed { -s } else { s };
-                    self.actuators[i].joint_torque_n_m(u, qd[i])
-                }
-                // a massless leg in the air follows its prescribed motion: no torque
-                _ if !self.servoed(i, mode) => 0.0,
-                Phase::Waiting => self.servo(q[i], qd[i], self.hold[i], 0.0),
-                Phase::Retracting => {
-                    let (theta, omega, _) = self.air_motion(i, t);
-                    self.servo(q[i], qd[i], theta, omega)
-                }
-            };
-        }
-    }
-
-    fn free_joint_qdd(&self, t: f64, q: &[f64], qd: &[f64], free: &[usize], out: &mut [f64]) {
-        for (slot, &j) in out.iter_mut().zip(free) {
-            *slot = if j < 2 {
-                let (theta, omega, alpha) = match self.phase(j, t) {
-                    Phase::Waiting => (self.hold[j], 0.0, 0.0),
-                    Phase::Pushing | Phase::Retracting => self.air_motion(j, t),
-                };
-                alpha + AIR_KP * (theta - q[j]) + AIR_KD * (omega - qd[j])
-            } else {
-                0.0
-            };
-        }
-    }
-
-    fn partials(
-        &self,
-        t: f64,
-        q: &[f64],
-        qd: &[f64],
-        mode: ContactMode,
-        free: &[usize],
-        out: &mut ControllerPartials,
-    ) -> bool {
-        if self.stub.is_some() {
-            // the toe stub reverses the torque at an angle without an event: not covered
-            return false;
-        }
-        for i in 0..2 {
-            let phase = self.phase(i, t);
-            match phase {
-                Phase::Pushing => {
-                    let u = self.sign[i];
-                    out.dtau_dqd[(i, i)] = self.law.partials_one_sided(u, qd[i]).0;
-                }
-                _ if !self.servoed(i, mode) => {}
-                _ => {
-                    let (theta, omega) = self.servo_target(i, t, phase);
-                    let d = self.servo_partials(q[i], qd[i], theta, omega);
-                    out.dtau_dq[(i, i)] = d[0];
-                    out.dtau_dqd[(i, i)] = d[1];
-                }
-            }
-        }
-        for (r, &j) in free.iter().enumerate() {
-            if j < 2 {
-                out.dfree_dq[(r, j)] = -AIR_KP;
-                out.dfree_dqd[(r, j)] = -AIR_KD;
-            }
-        }
-        true
-    }
-
-    fn parameter_partials(
-        &self,
-        t: f64,
-        q: &[f64],
-        qd: &[f64],
-        mode: ContactMode,
-        free: &[usize],
-        names: &[&str],
-        out: &mut ControllerPartials,
-    ) -> bool {
-        for (col, name) in names.iter().enumerate() {
-            match *name {
-                "t2_s" => {
-                    for i in 0..2 {
-                        let phase = self.phase(i, t);
-                        if phase == Phase::Waiting {
-                            continue;
-                        }
-                        let (dth, dw, da) = self.air_motion_dt2(i, t);
-                        if phase == Phase::Retracting && self.servoed(i, mode) {
-                            let (theta, omega) = self.servo_target(i, t, phase);
-                            let d = self.servo_partials(q[i], qd[i], theta, omega);
-                            out.dtau_dp[(i, col)] = d[2] * dth + d[3] * dw;
-                        }
-                        if let Some(r) = free.iter().position(|&j| j == i) {
-                            out.dfree_dp[(r, col)] = da + AIR_KP * dth + AIR_KD * dw;
-                        }
-                    }
-                }
-                "gear_ratio" => {
-                    if self.law == MotorLaw::Saturated {
-                        return false;
-                    }
-                    let dh = self.dhold_dgear();
-                    for i in 0..2 {
-                        let phase = self.phase(i, t);
-                        // the swing down's dependence on G (its speed and acceleration)
-                        let (dth, dw, da) = self.air_motion_dgear(i, t);
-                        out.dtau_dp[(i, col)] = match phase {
-                            Phase::Pushing => {
-                                let u = self.sign[i];
-                                self.law.partials_one_sided(u, qd[i]).1.unwrap_or(0.0)
-                            }
-                            _ if !self.servoed(i, mode) => 0.0,
-                            _ => {
-                                let (theta, omega) = self.servo_target(i, t, phase);
-                                let d = self.servo_partials(q[i], qd[i], theta, omega);
-                                let moving = phase == Phase::Retracting;
-                                d[4] * dh
-                                    + d[5] * self.dservo_inertia_dgear
-                                    + if moving { d[2] * dth + d[3] * dw } else { 0.0 }
-                            }
-                        };
-                        if phase != Phase::Waiting {
-                            if let Some(r) = free.iter().position(|&j| j == i) {
-                                out.dfree_dp[(r, col)] = da + AIR_KP * dth + AIR_KD * dw;
-                            }
-                        }
-                    }
-                }
-                // the legs' armature, through the servo's damping (critical for the leg's
-                // inertia with it); the swing's bounds are the rotors' (`leg_swing`), whatever
-                // armature is set by hand
-                "leg_armature_kg_m2" => {
-                    for i in 0..2 {
-                        let phase = self.phase(i, t);
-                        if phase != Phase::Pushing && self.servoed(i, mode) {
-                            let (theta, omega) = self.servo_target(i, t, phase);
-                            let d = self.servo_partials(q[i], qd[i], theta, omega);
-                            out.dtau_dp[(i, col)] = d[5];
-                        }
-                    }
-                }
-                _ => return false,
-            }
-        }
-        true
-    }
-
-    /// Each motor's start, and the knots of the swing down that starts with it (its jerk
-    /// jumps there, and so does `∂q̈/∂t2`): all move with the start. Then the starts and knots
-    /// of the motions started at events (fixed: the controller's memory is not
-    /// differentiated). The engine's steps land on all of them.
-    fn time_events(&self, names: &[&str]) -> Vec<TimeEvent> {
-        let mut out = Vec::new();
-        for i in 0..2 {
-            let dt_dp: Vec<f64> = names
-                .iter()
-                .map(|n| {
-                    if *n == "t2_s" {
-                        self.dstart_dt2[i]
-                    } else {
-                        0.0
-                    }
-                })
-                .collect();
-            let knots = self.air[i]
-                .first()
-                .map(LegMotion::knots)
-                .unwrap_or_default();
-            for t in std::iter::once(self.start[i]).chain(knots) {
-                out.push(TimeEvent {
-                    t,
-                    dt_dp: dt_dp.clone(),
-                });
-            }
-            // the motions started at events (they move with the event, the controller's
-            // memory, not with a parameter: `dt_b/dp = 0`; their knots do not jump the flow)
-            for m in self.air[i].iter().skip(1) {
-                for t in std::iter::once(m.t0()).chain(m.knots()) {
-                    out.push(TimeEvent {
-                        t,
-                        dt_dp: vec![0.0; names.len()],
-                    });
-                }
-            }
-        }
-        out
-    }
-
-    fn on_event(&mut self, event: &Event) {
-        let both_started = event.t >= self.start[0].max(self.start[1]);
-        let took_off = self.takeoff.is_none() && both_started && event.mode_after.is_flight();
-        if took_off {
-            self.takeoff = Some(event.t);
-        }
-        for i in 0..2 {
-            let c = self.leg_contact[i];
-            if event.mode_after.contains(c)
-                && !event.mode_before.contains(c)
-                && self.air_start[i].iter().any(Option::is_some)
-            {
-                self.relanded[i] = true;
-            }
-            let left = event.mode_before.contains(c) && !event.mode_after.contains(c);
-            if left && event.t >= self.start[i] && self.lifted[i].is_none() {
-                self.lifted[i] = Some(event.t);
-            }
-            // a leg released here, or made to retract here, starts a new motion in the air
-            if event.mode_after.contains(c) || !(left || took_off) || event.t < self.start[i] {
-                continue;
-            }
-            let (theta, omega) = (event.q[i], event.qd_after[i]);
-            let law = match self.phase(i, event.t) {
-                // a leg that has its retraction keeps it: released by the ground (or at
-                // takeoff), it returns to that motion; planned anew from the release, the
-                // park would start at rest in acceleration, not at the acceleration the
-                // ground imposed, and carry the toe back into the ground (docs/leap-model.md)
-                Phase::Retracting if self.parked[i] => continue,
-                Phase::Retracting => {
-                    self.parked[i] = true;
-                    StartedLaw::Park {
-                        target: self.stow(i, theta),
-                        accel: self.accel,
-                    }
-                }
-                _ => StartedLaw::Swing {
-                    target: self.sign[i] * STOW_RAD,
-                    speed: self.speed,
-                    accel: self.accel,
-                },
-            };
-            let motion = match law {
-                StartedLaw::Park { target, accel } => {
-                    LegMotion::park(event.t, theta, omega, target, accel)
-                }
-                StartedLaw::Swing {
-                    target,
-                    speed,
-                    accel,
-                } => LegMotion::swing(event.t, theta, omega, target, speed, accel),
-            };
-            self.air[i].push(motion);
-            self.air_start[i].push(Some(AirStart {
-                event: self.seen,
-                law,
-                theta0: theta,
-                omega0: omega,
-            }));
-        }
-        self.seen += 1;
-    }
-
-    /// A motion in the air started at an event makes the outputs depend on that event's
-    /// time and state — on a body that feels them through a leg with inertia, which its servo
-    /// drives along the motion, or through a massless leg once it meets the ground again
-    /// under the motion (its touchdown's time and its servo in stance follow the motion). A
-    /// massless leg's motion that ends in the air acts on nothing, so its memory is carried
-    /// only in a run in which such a leg lands again (the sensitivities of the other massless
-    /// leaps do not pay for it). The memory is then carried over the whole run (the
-    /// sensitivities ask every segment's controller, and the last one knows the landing).
-    fn has_event_memory(&self) -> bool {
-        (0..2).any(|i| {
-            (!self.free_in_air[i] || self.relanded[i])
-                && self.air_start[i].iter().any(Option::is_some)
-        })
-    }
-
-    /// `∂Υ/∂m_k`, `∂q̈_free/∂m_k` of the events whose motions the legs follow at `t`: a free
-    /// leg's `q̈ = α* + k_p (θ* − q) + k_d (ω* − q̇)` and a servoed retracting leg's servo
-    /// toward `(θ*, ω*)`, with `∂(θ*, ω*, α*)/∂(t_k, θ_k, ω_k)` of the motion's law
-    /// ([`StartedLaw::partials`]; `θ_k`, `ω_k` the leg's own entries of `q_k`, `q̇_k⁺`).
-    fn memory_partials(
-        &self,
-        t: f64,
-        q: &[f64],
-        qd: &[f64],
-        mode: ContactMode,
-        free: &[usize],
-        out: &mut Vec<EventMemoryPartials>,
-    ) -> bool {
-        if self.stub.is_some() {
-            return false;
-        }
-        let nq = q.len();
-        for i in 0..2 {
-            let phase = self.phase(i, t);
-            if phase == Phase::Waiting {
-                continue;
-            }
-            let (k, m) = self.air_motion_at(i, t);
-            let Some(start) = self.air_start[i][k] else {
-                continue;
-            };
-            let d = start.law.partials(m, start.theta0, start.omega0, t);
-            // the columns of m_k: t_k, then q_k, then q̇_k⁺
-            let cols = [0, 1 + i, 1 + nq + i];
-            let free_row = free.iter().position(|&j| j == i);
-            let servo = phase == Phase::Retracting && self.servoed(i, mode);
-            if free_row.is_none() && !servo {
-                continue;
-            }
-            // one entry per event (both legs' motions may start at the same one)
-            let e = match out.iter().position(|e| e.event == start.event) {
-                Some(e) => e,
-                None => {
-                    out.push(EventMemoryPartials {
-                        event: start.event,
-                        dtau: nalgebra::DMatrix::zeros(2, 1 + 2 * nq),
-                        dfree: nalgebra::DMatrix::zeros(free.len(), 1 + 2 * nq),
-                    });
-                    out.len() - 1
-                }
-            };
-            let entry = &mut out[e];
-            if let Some(r) = free_row {
-                for (c, &col) in cols.iter().enumerate() {
-                    entry.dfree[(r, col)] += d[2][c] + AIR_KP * d[0][c] + AIR_KD * d[1][c];
-                }
-            } else {
-                let (theta, omega) = self.servo_target(i, t, phase);
-                let s = self.servo_partials(q[i], qd[i], theta, omega);
-                for (c, &col) in cols.iter().enumerate() {
-                    entry.dtau[(i, col)] += s[2] * d[0][c] + s[3] * d[1][c];
-                }
-            }
-        }
-        true
-    }
-
-    /// Per leg, two bits: a pushing leg's motor on its torque–speed line (0) or at its
-    /// current limit (1); a servoed leg's PD law in its linear range (0) or saturated at
-    /// `+H` (1) or `−H` (2); a massless leg in the air (no torque) 0. Its partials switch
-    /// exactly there ([`Self::partials`]).
-    fn partials_piece(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode) -> u64 {
-        let mut out = 0;
-        for i in 0..2 {
-            let phase = self.phase(i, t);
-            let code = match phase {
-                Phase::Pushing => u64::from(self.law.on_limit(self.sign[i], qd[i])),
-                _ if !self.servoed(i, mode) => 0,
-                _ => {
-                    let (theta, omega) = self.servo_target(i, t, phase);
-                    let raw = self.servo_raw(q[i], qd[i], theta, omega);
-                    if self.servo_linear(raw) {
-                        0
-                    } else if raw > 0.0 {
-                        1
-                    } else {
-                        2
-                    }
-                }
-            };
-            out |= code << (2 * i);
-        }
-        out
-    }
-}
-
 /// The angle at which leg `i`'s lowest point just reaches the ground with the body at `q`,
 /// on the side that `sign` pushes from (`+`: the leg ahead of its hip; `−`: behind), by
 /// bisection on the engine's own contact geometry (any leg shape).
@@ -1607,197 +789,356 @@ fn leap_word(rhex: &Rhex, exec: &Execution, min_duration_s: f64) -> Vec<String> 
     word
 }
 
-/// Everything a leap is built from: the robot with its two pushing pairs, the terrain, the
-/// start state and the controller (fresh, without history).
-pub(crate) struct LeapSetup {
-    pub(crate) rhex: Rhex,
-    pub(crate) terrain: TerrainSpec,
-    pub(crate) q0: Vec<f64>,
-    pub(crate) ctrl: LeapController,
-    /// The rear motor's start after the front one's (s).
-    pub(crate) motor_t2_s: f64,
+/// The leap's two pushing pairs (front-most first): [`LeapConfig::pairs`] or chapter 3's.
+fn leap_pairs(cfg: &LeapConfig) -> Result<[LegPair; 2], RhexError> {
+    let pairs = cfg.pairs.unwrap_or(cfg.strategy.chapter3_pairs());
+    if pairs[0] == pairs[1] {
+        return Err(RhexError::Params {
+            field: "pairs".into(),
+            reason: "a leap strategy drives two different leg pairs".into(),
+        });
+    }
+    Ok(pairs)
 }
 
-impl LeapSetup {
-    /// The leap of `cfg` with the rear motor starting `motor_t2_s` after the front one.
-    pub(crate) fn new(
-        params: &RhexParams,
-        cfg: &LeapConfig,
-        motor_t2_s: f64,
-    ) -> Result<Self, RhexError> {
-        cfg.validate()?;
-        let pairs = cfg.pairs.unwrap_or(cfg.strategy.chapter3_pairs());
-        if pairs[0] == pairs[1] {
+/// The robot of a leap: `params` with the leap's two pushing pairs and its legs' armature
+/// ([`leap_robot_params`]).
+pub fn leap_rhex(params: &RhexParams, cfg: &LeapConfig) -> Result<Rhex, RhexError> {
+    Rhex::new(leap_robot_params(params, cfg, leap_pairs(cfg)?)?)
+}
+
+/// A leap's start pose `q0`: sitting level on both body ends, each pushing leg held
+/// [`LeapConfig::wait_clearance_rad`] above the angle at which it touches the ground on the
+/// side its strategy pushes from (so that the body can pitch on the other leg without
+/// driving it into the ground). It depends on the robot's geometry, the terrain, the push
+/// directions and the clearance, not on `t2` or the actuator: a caller that runs many leaps
+/// of one strategy computes it once ([`LeapPreset`]).
+pub fn leap_start_pose(rhex: &Rhex, cfg: &LeapConfig) -> Result<Vec<f64>, RhexError> {
+    let params = &rhex.params;
+    let terrain = cfg.terrain;
+    if let TerrainSpec::Ledge { distance_m, .. } = terrain {
+        // the face must be clear of everything the robot can reach at the start: a
+        // body end, or a leg turned straight towards it
+        let side = distance_m.signum();
+        let reach = params
+            .ordered_pairs()
+            .iter()
+            .map(|&p| side * params.hip_x(p) + params.rho(p))
+            .fold(
+                if side > 0.0 { params.l1 } else { params.l2 } + params.rho_b,
+                f64::max,
+            );
+        if distance_m.abs() <= reach {
             return Err(RhexError::Params {
-                field: "pairs".into(),
-                reason: "a leap strategy drives two different leg pairs".into(),
+                field: "terrain.distance_m".into(),
+                reason: format!(
+                    "the ledge's face must be beyond the robot's reach at the start \
+                     ({reach:.3} m {} the body centre), got {distance_m}",
+                    if side > 0.0 { "ahead of" } else { "behind" }
+                ),
             });
         }
-        // dI/dG of the legs' inertia: their armature's where it is their rotors' n J G²
-        let dservo_inertia_dgear = match cfg.actuator {
-            LegActuator::GearedMotor { gear_ratio, .. } if armature_follows_gear(params) => {
-                2.0 * leg_armature(params, cfg)? / gear_ratio
-            }
-            _ => 0.0,
-        };
-        // the leap's two pairs, and the rotors of massive legs as their joints' armature
-        let params = leap_robot_params(params, cfg, pairs)?;
-        let terrain = cfg.terrain;
-        let sign = [cfg.strategy.front.sign(), cfg.strategy.rear.sign()];
-        // the robot and its start posture depend only on these (a sweep over t2 builds the
-        // same ones for every leap): built once, then cloned (`StartCache`)
-        let key = format!(
-            "{params:?}|{terrain:?}|{sign:?}|{:?}",
-            cfg.wait_clearance_rad
-        );
-        let cached = START_CACHE.get(&key);
-        let rhex = match &cached {
-            Some(start) => start.0.clone(),
-            None => Rhex::new(params.clone())?,
-        };
-        if let TerrainSpec::Ledge { distance_m, .. } = terrain {
-            // the face must be clear of everything the robot can reach at the start: a
-            // body end, or a leg turned straight towards it
-            let side = distance_m.signum();
-            let reach = params
-                .ordered_pairs()
+    }
+    let sign = [cfg.strategy.front.sign(), cfg.strategy.rear.sign()];
+    let mut q0 = vec![0.0, 0.0, 0.0, -params.rho_b, 0.0];
+    for i in 0..2 {
+        let contact = rhex.site(2 * i + 1);
+        q0[i] = touchdown_angle(rhex, &terrain, &q0, i, contact, sign[i])?
+            - sign[i] * cfg.wait_clearance_rad;
+    }
+    Ok(q0)
+}
+
+/// The mode a leap starts in: `1010`, sitting on both body ends; with Coulomb body ends
+/// (`RhexParams::mu_body`) the rear one starts sliding (both sticking is statically
+/// indeterminate).
+fn start_mode(rhex: &Rhex) -> Result<ContactMode, RhexError> {
+    let model = &rhex.model;
+    let mut mode0 = rhex.mode("1010")?;
+    let body_friction = model
+        .contacts
+        .iter()
+        .any(|c| c.link.is_none() && c.kinetic_mu > 0.0);
+    if let (true, Ok(rear)) = (body_friction, model.contact_index("rear_body")) {
+        if mode0.kind(rear) == Some(selfmanip_core::ContactKind::Stick) {
+            mode0 = mode0.with(rear, selfmanip_core::ContactKind::Slide);
+        }
+    }
+    Ok(mode0)
+}
+
+/// Robots and start poses a caller keeps for the leaps it runs ([`simulate_leap_cached`]:
+/// a sweep computes each strategy's once), keyed by everything they depend on — the leap's
+/// robot parameters (its pairs and armature set), the terrain, the strategy and the wait
+/// clearance — compared by value. A kept entry is what a fresh build gives, so results do
+/// not depend on which leaps ran before or on which thread.
+#[derive(Default)]
+pub struct StartPoses(std::sync::Mutex<Vec<(StartKey, Arc<(Rhex, Vec<f64>)>)>>);
+
+/// What a leap's robot and start pose depend on.
+type StartKey = (RhexParams, TerrainSpec, Strategy, f64);
+
+impl StartPoses {
+    /// The robot and start pose of `(params, cfg)` (`cfg` checked), built at the first ask.
+    fn get(
+        &self,
+        params: &RhexParams,
+        cfg: &LeapConfig,
+    ) -> Result<Arc<(Rhex, Vec<f64>)>, RhexError> {
+        let robot = leap_robot_params(params, cfg, leap_pairs(cfg)?)?;
+        let key = (robot, cfg.terrain, cfg.strategy, cfg.wait_clearance_rad);
+        let found = |entries: &[(StartKey, Arc<(Rhex, Vec<f64>)>)]| {
+            entries
                 .iter()
-                .map(|&p| side * params.hip_x(p) + params.rho(p))
-                .fold(
-                    if side > 0.0 { params.l1 } else { params.l2 } + params.rho_b,
-                    f64::max,
-                );
-            if distance_m.abs() <= reach {
-                return Err(RhexError::Params {
-                    field: "terrain.distance_m".into(),
-                    reason: format!(
-                        "the ledge's face must be beyond the robot's reach at the start \
-                         ({reach:.3} m {} the body centre), got {distance_m}",
-                        if side > 0.0 { "ahead of" } else { "behind" }
-                    ),
-                });
+                .find(|(k, _)| *k == key)
+                .map(|(_, v)| Arc::clone(v))
+        };
+        if let Some(v) = self.0.lock().ok().and_then(|e| found(&e)) {
+            return Ok(v);
+        }
+        let rhex = Rhex::new(key.0.clone())?;
+        let q0 = leap_start_pose(&rhex, cfg)?;
+        let value = Arc::new((rhex, q0));
+        if let Ok(mut entries) = self.0.lock() {
+            if found(&entries).is_none() {
+                entries.push((key, Arc::clone(&value)));
             }
         }
-        let leg_contact = [rhex.site(1), rhex.site(3)];
-        let q0 = match cached {
-            Some(start) => start.1.clone(),
-            None => {
-                // sitting level on both body ends, each leg at its touchdown angle
-                let mut q0 = vec![0.0, 0.0, 0.0, -params.rho_b, 0.0];
-                for i in 0..2 {
-                    // waiting legs are held raised above their touchdown angle, clear of the
-                    // ground while the body moves on the other leg; each swings down when its
-                    // motor starts
-                    q0[i] = touchdown_angle(&rhex, &terrain, &q0, i, leg_contact[i], sign[i])?
-                        - sign[i] * cfg.wait_clearance_rad;
-                }
-                START_CACHE.insert(key, Arc::new((rhex.clone(), q0.clone())));
-                q0
-            }
+        Ok(value)
+    }
+}
+
+/// [`simulate_leap_with`] with the robot and start pose from `starts` (built there at the
+/// first ask): the same result, bit for bit.
+pub fn simulate_leap_cached(
+    params: &RhexParams,
+    cfg: &LeapConfig,
+    stop: &AtomicBool,
+    starts: &StartPoses,
+) -> Result<LeapResult, RhexError> {
+    cfg.validate()?;
+    let start = starts.get(params, cfg)?;
+    LeapPreset::with_start(params, cfg, start.0.clone(), start.1.clone())?.run_leap(stop)
+}
+
+/// A leap as a preset of the generic simulator: the robot, its start pose and the scenario
+/// that runs the strategy's behaviour file through the interpreter
+/// ([`leap_scenario`]), built once; [`Self::run`] runs it with any
+/// motor start `t2` (the scenario's behaviour parameter `t2`).
+#[derive(Debug, Clone)]
+pub struct LeapPreset {
+    pub cfg: LeapConfig,
+    pub q0: Vec<f64>,
+    /// The scenario with the motor start `cfg.t2_s`.
+    pub leap: LeapScenario,
+    mode0: ContactMode,
+}
+
+impl LeapPreset {
+    /// The preset of `(params, cfg)` (checked: errors name the field).
+    pub fn new(params: &RhexParams, cfg: &LeapConfig) -> Result<Self, RhexError> {
+        cfg.validate()?;
+        let rhex = leap_rhex(params, cfg)?;
+        let q0 = leap_start_pose(&rhex, cfg)?;
+        Self::with_start(params, cfg, rhex, q0)
+    }
+
+    /// [`Self::new`] with the robot and start pose given (computed by the caller once for
+    /// many leaps: [`leap_rhex`], [`leap_start_pose`]).
+    pub fn with_start(
+        params: &RhexParams,
+        cfg: &LeapConfig,
+        rhex: Rhex,
+        q0: Vec<f64>,
+    ) -> Result<Self, RhexError> {
+        let mode0 = start_mode(&rhex)?;
+        let motor = LeapConfig {
+            t2_reference: T2Reference::MotorStart,
+            ..cfg.clone()
         };
-        // execution time starts at min(0, t2)
-        let offset = motor_t2_s.min(0.0);
-        let (front, law) = leg_motor(&params, &cfg.actuator)?;
-        let actuators = [front, leg_actuator(&params, &cfg.actuator)?];
-        let hold_torque = actuators[0].joint_torque_n_m(1.0, 0.0);
-        let start = [-offset, motor_t2_s - offset];
-        let (speed, accel) = leg_swing(&params, cfg)?;
-        let (servo_kd_s, servo_critical) = servo_damping(&params, hold_torque);
-        let ctrl = LeapController {
-            sign,
-            start,
-            hold: [q0[0], q0[1]],
-            leg_contact,
-            free_in_air: [0, 1].map(|i| rhex.model.distal_massless(i)),
-            actuators,
-            law,
-            hold_torque,
-            servo_kd_s,
-            servo_critical,
-            servo_inertia: leg_servo_inertia(&params),
-            dservo_inertia_dgear,
-            dstart_dt2: if motor_t2_s >= 0.0 {
-                [0.0, 1.0]
-            } else {
-                [-1.0, 0.0]
-            },
-            accel,
-            speed,
-            dswing_dgear: swing_dgear(&params, cfg, &law, speed, accel),
-            stub: cfg.toe_stub_rad,
-            keep_pushing: cfg.keep_pushing_after_liftoff,
-            takeoff: None,
-            lifted: [None, None],
-            parked: [false, false],
-            // each leg swings down from rest at its hold angle when its motor starts, towards
-            // pointing up in its push direction: it touches the ground on the way
-            air: std::array::from_fn(|i| {
-                vec![LegMotion::swing(
-                    start[i],
-                    q0[i],
-                    0.0,
-                    sign[i] * STOW_RAD,
-                    speed,
-                    accel,
-                )]
-            }),
-            // the swing down starts with the motor, not at an event
-            air_start: [vec![None], vec![None]],
-            seen: 0,
-            relanded: [false; 2],
-        };
-        Ok(LeapSetup {
-            rhex,
-            terrain,
+        let leap = scenario_of(rhex, params, &motor, &q0)?;
+        Ok(LeapPreset {
+            cfg: cfg.clone(),
             q0,
-            ctrl,
-            motor_t2_s,
+            leap,
+            mode0,
         })
     }
-}
 
-/// The robots and start postures [`LeapSetup::new`] built last, keyed by the `Debug` text of
-/// everything they depend on (the parameters with the pushing pairs, the terrain, the push
-/// signs and the wait clearance; `Debug` writes every `f64` so that it reads back to the
-/// same bits, `-0.0` included, so equal keys mean bit-equal inputs). A cached value is what
-/// a fresh build would give, so results do not depend on what other leaps, on any thread,
-/// ran before; builds that fail are not cached.
-struct StartCache(std::sync::Mutex<Vec<(String, Start)>>);
-
-/// A [`StartCache`] entry: the robot and its start posture `q0`.
-type Start = Arc<(Rhex, Vec<f64>)>;
-
-/// The entries [`StartCache`] keeps (the oldest is dropped first).
-const START_CACHE_ENTRIES: usize = 16;
-
-/// The process-wide [`StartCache`] (shared by every thread of a sweep).
-static START_CACHE: StartCache = StartCache(std::sync::Mutex::new(Vec::new()));
-
-impl StartCache {
-    fn get(&self, key: &str) -> Option<Start> {
-        let entries = self.0.lock().ok()?;
-        entries
-            .iter()
-            .find(|(k, _)| k == key)
-            .map(|(_, v)| Arc::clone(v))
+    /// The simulation of the leap with the rear motor starting `motor_t2_s` after the front
+    /// one, and the front motor's start on its clock (`−min(0, t2)`).
+    pub fn simulation(&self, motor_t2_s: f64) -> Result<(Simulation, f64), RhexError> {
+        let mut scenario = self.leap.scenario.clone();
+        scenario
+            .behaviour
+            .parameters
+            .insert("t2".into(), Scalar::Number(motor_t2_s));
+        let offset = motor_t2_s.min(0.0);
+        scenario.options.t_final_s = self.cfg.t_final_s - offset;
+        let mut sim = Simulation::new(&scenario)?;
+        sim.mode0 = self.mode0;
+        sim.options.max_steps = self.cfg.max_steps;
+        sim.options.max_events = self.cfg.max_events;
+        sim.options.control_free_joints = self.cfg.control_free_joints;
+        Ok((sim, -offset))
     }
 
-    fn insert(&self, key: String, value: Start) {
-        let Ok(mut entries) = self.0.lock() else {
-            return;
+    /// Runs the leap with the rear motor starting `motor_t2_s` after the front one.
+    pub fn run(&self, motor_t2_s: f64, stop: &AtomicBool) -> Result<LeapResult, RhexError> {
+        let (sim, front_start) = self.simulation(motor_t2_s)?;
+        let run = sim.run_with(stop)?;
+        Ok(self.result(run.execution, motor_t2_s, front_start))
+    }
+
+    /// Runs the leap as `cfg.t2_reference` says: the motor start `t2`, or the touchdown
+    /// offset `t2` by a search over motor starts.
+    pub fn run_leap(&self, stop: &AtomicBool) -> Result<LeapResult, RhexError> {
+        match self.cfg.t2_reference {
+            T2Reference::MotorStart => self.run(self.cfg.t2_s, stop),
+            T2Reference::Touchdown => self.touchdown_timed(stop),
+        }
+    }
+
+    /// [`T2Reference::Touchdown`]: a secant search on the rear motor's start `s` for the
+    /// touchdown offset `T(s) = t2` (`T(s) = s` while the body is at rest between the two
+    /// touchdowns, so the search starts there and usually ends after one or two more runs).
+    fn touchdown_timed(&self, stop: &AtomicBool) -> Result<LeapResult, RhexError> {
+        let target = self.cfg.t2_s;
+        let mut s0 = target;
+        let mut r0 = self.run(s0, stop)?;
+        let Some(mut d0) = r0.touchdown_t2_s.map(|t| t - target) else {
+            return Ok(r0);
         };
-        if entries.iter().any(|(k, _)| *k == key) {
-            return;
+        let mut s1 = s0 - d0;
+        for _ in 1..TOUCHDOWN_SEARCH_RUNS {
+            if d0.abs() <= TOUCHDOWN_SEARCH_TOL_S || s1.abs() >= self.cfg.t_final_s {
+                break;
+            }
+            let r1 = self.run(s1, stop)?;
+            let Some(d1) = r1.touchdown_t2_s.map(|t| t - target) else {
+                break;
+            };
+            let better = d1.abs() < d0.abs();
+            let slope = (d1 - d0) / (s1 - s0);
+            let next = if slope.is_finite() && slope.abs() > 1e-6 {
+                s1 - d1 / slope
+            } else {
+                s1 - d1
+            };
+            (s0, d0) = (s1, d1);
+            if better {
+                r0 = r1;
+            }
+            s1 = next;
         }
-        if entries.len() >= START_CACHE_ENTRIES {
-            entries.remove(0);
+        Ok(r0)
+    }
+
+    /// The leap's result read off the generic execution `exec`, run with the rear motor
+    /// starting `motor_t2_s` after the front one, the front one at `front_start` on its clock.
+    pub(crate) fn result(&self, exec: Execution, motor_t2_s: f64, front_start: f64) -> LeapResult {
+        let cfg = &self.cfg;
+        let rhex = &self.leap.rhex;
+        let model = &rhex.model;
+        let q0 = &self.q0;
+        let start = [front_start, front_start + motor_t2_s];
+        let first_start = start[0].min(start[1]);
+        let flew = exec
+            .segments
+            .iter()
+            .any(|s| s.mode.is_flight() && s.t0 >= first_start);
+        let status = LeapStatus::of(&exec.termination, flew && !cfg.stop_at_apex);
+        // the apex that ended the run, or (run on past it) that of its first flight after a
+        // motor started
+        let apex_event = match exec.termination {
+            Termination::Apex => exec.events.last(),
+            _ if !cfg.stop_at_apex => exec
+                .events
+                .iter()
+                .find(|e| e.kind == EventKind::Apex && e.t >= first_start),
+            _ => None,
+        };
+        let apex = apex_event.map(|e| Apex {
+            t_s: e.t - start[0],
+            x_m: e.q[2] - q0[2],
+            z_m: -e.q[3],
+            phi_rad: e.q[4],
+            xdot_m_s: e.qd_after[2],
+            zdot_m_s: -e.qd_after[3],
+            phidot_rad_s: e.qd_after[4],
+        });
+        // cells that last no longer than the events' location can resolve are zero-time
+        // cells; never more than 0.1 ms (a coarse event tolerance does not hide real cells)
+        let word = leap_word(rhex, &exec, (1e3 * cfg.event_tol_s).min(1e-4));
+        let names = |ks: &[usize]| ks.iter().map(|&k| model.contacts[k].name.clone()).collect();
+        let events = exec
+            .events
+            .iter()
+            .map(|e| LeapEvent {
+                t_s: e.t - start[0],
+                kind: e.kind.name(),
+                mode_before: rhex.label(e.mode_before),
+                mode_after: rhex.label(e.mode_after),
+                contacts: names(&e.triggered),
+                energy_loss_j: if matches!(
+                    e.kind,
+                    EventKind::Touchdown | EventKind::Fold | EventKind::Jam
+                ) {
+                    energy_loss(e.kinetic_before, e.kinetic_after)
+                } else {
+                    0.0
+                },
+            })
+            .collect();
+        // the touchdown offset: each pushing leg's first touchdown after its motor started
+        let first_touchdown = |i: usize| {
+            let contact = rhex.site(2 * i + 1);
+            exec.events
+                .iter()
+                .find(|e| {
+                    e.kind == EventKind::Touchdown
+                        && e.t >= start[i]
+                        && e.triggered.contains(&contact)
+                })
+                .map(|e| e.t)
+        };
+        let touchdown_t2_s = first_touchdown(0)
+            .zip(first_touchdown(1))
+            .map(|(front, rear)| rear - front);
+        LeapResult {
+            status,
+            apex,
+            word,
+            execution: exec,
+            time_offset_s: start[0],
+            q0: q0.clone(),
+            events,
+            motor_t2_s,
+            touchdown_t2_s,
         }
-        entries.push((key, value));
     }
 }
 
-/// Where a parked leg points: up, a little past vertical in its push direction (rad).
-const STOW_RAD: f64 = 2.6;
+impl LeapStatus {
+    /// The leap's status of an execution that ended with `termination`; `flew_on`: the run
+    /// went on past a flight (not stopping at its apex) to its final time.
+    fn of(termination: &Termination, flew_on: bool) -> Self {
+        use selfmanip_sim::RunStatus as R;
+        match R::of(termination) {
+            R::Apex => LeapStatus::Ok,
+            R::FinalTime if flew_on => LeapStatus::Ok,
+            R::FinalTime => LeapStatus::NoFlight,
+            R::Zeno => LeapStatus::Zeno,
+            R::EventBudget => LeapStatus::EventBudget,
+            R::NoContactSolution => LeapStatus::NoContactSolution,
+            R::SeveralContactSolutions => LeapStatus::SeveralContactSolutions,
+            R::TerrainDiscontinuity => LeapStatus::TerrainEdge,
+            R::SingularFlow => LeapStatus::SingularContact,
+            R::StepBudget => LeapStatus::StepBudget,
+            R::Interrupted => LeapStatus::Interrupted,
+        }
+    }
+}
 
 /// Round-off of a kinetic energy evaluated twice (`½ q̇ᵀ M̄ q̇` at the two velocities of one
 /// projection), relative to the energy, and its floor (J): an event's loss within
@@ -1832,219 +1173,7 @@ pub fn simulate_leap_with(
     cfg: &LeapConfig,
     stop: &AtomicBool,
 ) -> Result<LeapResult, RhexError> {
-    match cfg.t2_reference {
-        T2Reference::MotorStart => run_leap(params, cfg, cfg.t2_s, stop),
-        T2Reference::Touchdown => touchdown_timed_leap(params, cfg, stop),
-    }
-}
-
-/// [`T2Reference::Touchdown`]: a secant search on the rear motor's start `s` for the
-/// touchdown offset `T(s) = t2` (`T(s) = s` while the body is at rest between the two
-/// touchdowns, so the search starts there and usually ends after one or two more runs).
-fn touchdown_timed_leap(
-    params: &RhexParams,
-    cfg: &LeapConfig,
-    stop: &AtomicBool,
-) -> Result<LeapResult, RhexError> {
-    let target = cfg.t2_s;
-    let mut s0 = target;
-    let mut r0 = run_leap(params, cfg, s0, stop)?;
-    let Some(mut d0) = r0.touchdown_t2_s.map(|t| t - target) else {
-        return Ok(r0);
-    };
-    let mut s1 = s0 - d0;
-    for _ in 1..TOUCHDOWN_SEARCH_RUNS {
-        if d0.abs() <= TOUCHDOWN_SEARCH_TOL_S || s1.abs() >= cfg.t_final_s {
-            break;
-        }
-        let r1 = run_leap(params, cfg, s1, stop)?;
-        let Some(d1) = r1.touchdown_t2_s.map(|t| t - target) else {
-            break;
-        };
-        let better = d1.abs() < d0.abs();
-        let slope = (d1 - d0) / (s1 - s0);
-        let next = if slope.is_finite() && slope.abs() > 1e-6 {
-            s1 - d1 / slope
-        } else {
-            s1 - d1
-        };
-        (s0, d0) = (s1, d1);
-        if better {
-            r0 = r1;
-        }
-        s1 = next;
-    }
-    Ok(r0)
-}
-
-/// One leap with the rear motor starting `motor_t2_s` after the front one.
-fn run_leap(
-    params: &RhexParams,
-    cfg: &LeapConfig,
-    motor_t2_s: f64,
-    stop: &AtomicBool,
-) -> Result<LeapResult, RhexError> {
-    let setup = LeapSetup::new(params, cfg, motor_t2_s)?;
-    run_leap_setup(&setup, cfg, stop, None)
-}
-
-/// Runs the leap `setup` describes, from its start state or (`start_offset`, `2nq` entries)
-/// from that state plus an offset (which must keep the start on its contact constraints).
-pub(crate) fn run_leap_setup(
-    setup: &LeapSetup,
-    cfg: &LeapConfig,
-    stop: &AtomicBool,
-    start_offset: Option<&[f64]>,
-) -> Result<LeapResult, RhexError> {
-    let (rhex, terrain, ctrl, q0, start) = (
-        &setup.rhex,
-        setup.terrain,
-        &setup.ctrl,
-        &setup.q0,
-        setup.ctrl.start,
-    );
-    let model = &rhex.model;
-    let offset = -setup.ctrl.start[0];
-    let mut qd0 = vec![0.0; q0.len()];
-    let mut q_start = q0.clone();
-    if let Some(dx) = start_offset {
-        let nq = q0.len();
-        if dx.len() != 2 * nq {
-            return Err(RhexError::Params {
-                field: "start_offset".into(),
-                reason: format!("expected {} entries, got {}", 2 * nq, dx.len()),
-            });
-        }
-        for i in 0..nq {
-            q_start[i] += dx[i];
-            qd0[i] += dx[nq + i];
-        }
-    }
-    let opts = HybridOptions {
-        event_tol_s: cfg.event_tol_s,
-        delta_t_s: cfg.delta_t_s,
-        zeno_window_s: cfg.zeno_window_s,
-        zeno_max_events: cfg.zeno_max_events,
-        max_steps: cfg.max_steps,
-        max_events: cfg.max_events,
-        stop_at_apex: cfg.stop_at_apex,
-        control_free_joints: cfg.control_free_joints,
-        step: StepOptions {
-            rtol: cfg.rtol,
-            atol: cfg.rtol * 1e-2,
-            ..StepOptions::default()
-        },
-        ..HybridOptions::default()
-    };
-    let mut mode0 = rhex.mode("1010")?;
-    let body_friction = model
-        .contacts
-        .iter()
-        .any(|c| c.link.is_none() && c.kinetic_mu > 0.0);
-    if let (true, Ok(rear)) = (body_friction, model.contact_index("rear_body")) {
-        if mode0.kind(rear) == Some(selfmanip_core::ContactKind::Stick) {
-            // Coulomb body ends (`RhexParams::mu_body`): the rear one starts sliding (both
-            // sticking is statically indeterminate)
-            mode0 = mode0.with(rear, selfmanip_core::ContactKind::Slide);
-        }
-    }
-    let exec = simulate_with(
-        model,
-        &terrain,
-        ctrl,
-        mode0,
-        &q_start,
-        &qd0,
-        cfg.t_final_s - offset,
-        opts,
-        stop,
-    )?;
-    let flew = exec
-        .segments
-        .iter()
-        .any(|s| s.mode.is_flight() && s.t0 >= start[0].min(start[1]));
-    let status = match exec.termination {
-        Termination::Apex => LeapStatus::Ok,
-        Termination::FinalTime if flew && !cfg.stop_at_apex => LeapStatus::Ok,
-        Termination::FinalTime => LeapStatus::NoFlight,
-        Termination::Zeno { .. } | Termination::Chatter { .. } => LeapStatus::Zeno,
-        Termination::EventBudget => LeapStatus::EventBudget,
-        Termination::NoContactSolution { .. } => LeapStatus::NoContactSolution,
-        Termination::SeveralContactSolutions { .. } => LeapStatus::SeveralContactSolutions,
-        Termination::TerrainDiscontinuity { .. } => LeapStatus::TerrainEdge,
-        Termination::SingularFlow { .. } | Termination::Painleve { .. } => {
-            LeapStatus::SingularContact
-        }
-        Termination::StepBudget { .. } => LeapStatus::StepBudget,
-        Termination::Interrupted { .. } => LeapStatus::Interrupted,
-    };
-    // the apex that ended the run, or (run on past it) that of its first flight after a
-    // motor started
-    let apex_event = match exec.termination {
-        Termination::Apex => exec.events.last(),
-        _ if !cfg.stop_at_apex => exec
-            .events
-            .iter()
-            .find(|e| e.kind == EventKind::Apex && e.t >= start[0].min(start[1])),
-        _ => None,
-    };
-    let apex = apex_event.map(|e| Apex {
-        t_s: e.t - start[0],
-        x_m: e.q[2] - q0[2],
-        z_m: -e.q[3],
-        phi_rad: e.q[4],
-        xdot_m_s: e.qd_after[2],
-        zdot_m_s: -e.qd_after[3],
-        phidot_rad_s: e.qd_after[4],
-    });
-    // cells that last no longer than the events' location can resolve are zero-time cells;
-    // never more than 0.1 ms (a coarse event tolerance does not hide real cells)
-    let word = leap_word(rhex, &exec, (1e3 * cfg.event_tol_s).min(1e-4));
-    let names = |ks: &[usize]| ks.iter().map(|&k| model.contacts[k].name.clone()).collect();
-    let events = exec
-        .events
-        .iter()
-        .map(|e| LeapEvent {
-            t_s: e.t - start[0],
-            kind: e.kind.name(),
-            mode_before: rhex.label(e.mode_before),
-            mode_after: rhex.label(e.mode_after),
-            contacts: names(&e.triggered),
-            energy_loss_j: if matches!(
-                e.kind,
-                EventKind::Touchdown | EventKind::Fold | EventKind::Jam
-            ) {
-                energy_loss(e.kinetic_before, e.kinetic_after)
-            } else {
-                0.0
-            },
-        })
-        .collect();
-    // the touchdown offset: each pushing leg's first touchdown after its motor started
-    let first_touchdown = |i: usize| {
-        exec.events
-            .iter()
-            .find(|e| {
-                e.kind == EventKind::Touchdown
-                    && e.t >= start[i]
-                    && e.triggered.contains(&ctrl.leg_contact[i])
-            })
-            .map(|e| e.t)
-    };
-    let touchdown_t2_s = first_touchdown(0)
-        .zip(first_touchdown(1))
-        .map(|(front, rear)| rear - front);
-    Ok(LeapResult {
-        status,
-        apex,
-        word,
-        execution: exec,
-        time_offset_s: start[0],
-        q0: q0.clone(),
-        events,
-        motor_t2_s: setup.motor_t2_s,
-        touchdown_t2_s,
-    })
+    LeapPreset::new(params, cfg)?.run_leap(stop)
 }
 
 impl LeapResult {
@@ -2089,10 +1218,10 @@ impl LeapResult {
         params: &RhexParams,
         cfg: &LeapConfig,
     ) -> Result<selfmanip_hybrid::EnergyReport, RhexError> {
-        let setup = LeapSetup::new(params, cfg, self.motor_t2_s)?;
+        let rhex = leap_rhex(params, cfg)?;
         Ok(selfmanip_hybrid::energy_report(
-            &setup.rhex.model,
-            &setup.terrain,
+            &rhex.model,
+            &cfg.terrain,
             &self.execution,
         )?)
     }
@@ -2116,168 +1245,340 @@ impl LeapResult {
         cfg: &LeapConfig,
         dt_s: f64,
     ) -> Result<Trajectory, RhexError> {
-        let setup = LeapSetup::new(params, cfg, self.motor_t2_s)?;
+        let rhex = leap_rhex(params, cfg)?;
         Ok(selfmanip_sim::trajectory::sample_labelled(
-            &setup.rhex.model,
-            &setup.terrain,
+            &rhex.model,
+            &cfg.terrain,
             &self.execution,
-            &|m| setup.rhex.label(m),
+            &|m| rhex.label(m),
             dt_s,
             self.time_offset_s,
         )?)
     }
 }
 
+// ---- the leap behaviours as data ----
+// The four leap strategies of thesis section 3.2.1 as behaviour files
+// (`data/behaviours/leap_{pp,pm,mp,mm}.toml`, the schema of `docs/behaviours.md`), and a
+// leap as a scenario of `selfmanip-sim` run by the behaviour interpreter: what
+// [`crate::leap::simulate_leap`] runs ([`crate::leap::LeapPreset`]).
+//
+// The [`LeapConfig`] fields map onto the behaviour by name: `t2_s` → `t2`, the geared
+// motor → `gear_ratio`, `current_limit_a`, `motors_per_leg` (the saturated torque replaces
+// the actuator `leg`), the legs' inertia about their hips → `leg_inertia_kg_m2`,
+// `toe_stub_rad` → each push's `reverse_beyond_rad`, `keep_pushing_after_liftoff` → the
+// retract phase waits for `takeoff` only; the pushing pairs name the two programs' joints.
+// The files swing a leg in the air as its motor does ([`crate::leap::leg_swing`]: the
+// no-load output speed `leg.no_load_speed_rad_s`, the stall torque over the rotors'
+// reflected inertia `leg.reflected_inertia_kg_m2` plus the leg's own); with the saturated
+// torque, or explicit `swing_speed_rad_s` / `swing_accel_rad_s2`, the swing motions get
+// [`crate::leap::leg_swing`]'s numbers. The toes' friction (Coulomb sliding or not,
+// `RhexParams::toe_sliding`) is the robot's, in its description. `t2_s` is the motor-start
+// offset ([`crate::leap::T2Reference::MotorStart`]); for a touchdown-timed leap pass the
+// motor start its search found (`LeapResult::motor_t2_s`) with `MotorStart`.
+
+/// The shipped behaviour files, by strategy `(+,+)`, `(+,−)`, `(−,+)`, `(−,−)`.
+pub const LEAP_BEHAVIOURS: [(&str, &str); 4] = [
+    ("++", include_str!("../data/behaviours/leap_pp.toml")),
+    ("+-", include_str!("../data/behaviours/leap_pm.toml")),
+    ("-+", include_str!("../data/behaviours/leap_mp.toml")),
+    ("--", include_str!("../data/behaviours/leap_mm.toml")),
+];
+
+/// The shipped behaviour of a strategy (each file parsed once per process).
+pub fn leap_behaviour(strategy: Strategy) -> Behaviour {
+    static PARSED: [std::sync::OnceLock<Behaviour>; 4] = [const { std::sync::OnceLock::new() }; 4];
+    let key = strategy.to_string();
+    let i = LEAP_BEHAVIOURS
+        .iter()
+        .position(|(k, _)| *k == key)
+        .expect("four strategies, four files");
+    PARSED[i]
+        .get_or_init(|| {
+            Behaviour::from_toml_str(LEAP_BEHAVIOURS[i].1).expect("the shipped behaviours parse")
+        })
+        .clone()
+}
+
+/// A leap as a scenario.
+#[derive(Debug, Clone)]
+pub struct LeapScenario {
+    pub scenario: Scenario,
+    /// The robot with the leap's two pushing pairs.
+    pub rhex: Rhex,
+    /// Subtract from execution times to get times relative to the front leg's start.
+    pub time_offset_s: f64,
+}
+
+fn num(x: f64) -> Scalar {
+    Scalar::Number(x)
+}
+
+/// The leap of `(params, cfg)` from the start configuration `q0` (sitting on both body
+/// ends, legs raised — [`LeapResult::q0`]) as a scenario.
+pub fn leap_scenario(
+    params: &RhexParams,
+    cfg: &LeapConfig,
+    q0: &[f64],
+) -> Result<LeapScenario, RhexError> {
+    cfg.validate()?;
+    if cfg.t2_reference != T2Reference::MotorStart {
+        return Err(RhexError::Params {
+            field: "t2_reference".into(),
+            reason: "a leap scenario times its legs by motor start: pass the motor start of \
+                     the touchdown-timed leap (`LeapResult::motor_t2_s`) as `t2_s`"
+                .into(),
+        });
+    }
+    let rhex = leap_rhex(params, cfg)?;
+    scenario_of(rhex, params, cfg, q0)
+}
+
+/// [`leap_scenario`] on the leap's robot `rhex` ([`leap_rhex`]), `cfg` checked.
+pub(crate) fn scenario_of(
+    rhex: Rhex,
+    params: &RhexParams,
+    cfg: &LeapConfig,
+    q0: &[f64],
+) -> Result<LeapScenario, RhexError> {
+    let mut b = leap_behaviour(cfg.strategy);
+    // the front-most pushing pair drives joint 0, the rear-most joint 1
+    for (prog, pair) in b.joints.iter_mut().zip(rhex.params.ordered_pairs()) {
+        prog.joint = pair.name().into();
+    }
+    let p = &mut b.parameters;
+    p.insert("t2".into(), num(cfg.t2_s));
+    p.insert(
+        "leg_inertia_kg_m2".into(),
+        num(leg_inertia_about_hip(&rhex.params)),
+    );
+    let sign = |s: Push| num(s.sign());
+    p.insert("s_front".into(), sign(cfg.strategy.front));
+    p.insert("s_rear".into(), sign(cfg.strategy.rear));
+    match cfg.actuator {
+        LegActuator::SaturatedTorque => {
+            b.actuators.insert(
+                "leg".into(),
+                ActuatorSpec::Saturated {
+                    max_torque_n_m: num(rhex.params.tau_s),
+                },
+            );
+        }
+        LegActuator::GearedMotor {
+            gear_ratio,
+            current_limit_a,
+            motors_per_leg,
+        } => {
+            p.insert("gear_ratio".into(), num(gear_ratio));
+            p.insert("current_limit_a".into(), num(current_limit_a));
+            p.insert("motors_per_leg".into(), num(f64::from(motors_per_leg)));
+        }
+    }
+    // the files swing the legs as their motors do (`leg.no_load_speed_rad_s`, the stall
+    // torque over the reflected rotor inertia); a saturated torque has no motor data, and
+    // explicit values win: then the swing is set as numbers, those of `leg_swing`
+    // with the geared motor, a value the configuration leaves out stays the file's formula
+    // of the motor (so that its partials follow the gear ratio)
+    let geared = matches!(cfg.actuator, LegActuator::GearedMotor { .. });
+    let (speed, accel) = leg_swing(params, cfg)?;
+    let speed = (!geared || cfg.swing_speed_rad_s.is_some()).then_some(speed);
+    let accel = (!geared || cfg.swing_accel_rad_s2.is_some()).then_some(accel);
+    for prog in &mut b.joints {
+        for phase in &mut prog.phases {
+            match phase.motion.as_mut() {
+                Some(Motion::Swing {
+                    speed_rad_s,
+                    accel_rad_s2,
+                    ..
+                }) => {
+                    if let Some(v) = speed {
+                        *speed_rad_s = num(v);
+                    }
+                    if let Some(a) = accel {
+                        *accel_rad_s2 = num(a);
+                    }
+                }
+                Some(Motion::Park { accel_rad_s2, .. }) => {
+                    if let Some(a) = accel {
+                        *accel_rad_s2 = num(a);
+                    }
+                }
+                _ => {}
+            }
+            match (phase.name.as_str(), &mut phase.torque) {
+                (
+                    "push",
+                    Torque::Motor {
+                        reverse_beyond_rad, ..
+                    },
+                ) => *reverse_beyond_rad = cfg.toe_stub_rad.map(num),
+                ("retract", _) if cfg.keep_pushing_after_liftoff => {
+                    phase.start = Some(Trigger::event("takeoff"));
+                }
+                _ => {}
+            }
+        }
+    }
+    // a massive leg is a joint like any other in the air too: its servo drives it there (a
+    // massless one is a free joint whose motion is prescribed), critically damped for the
+    // leg's inertia about its hip with its armature (`servo_damping`)
+    let geared = matches!(cfg.actuator, LegActuator::GearedMotor { .. });
+    let critical = servo_damping_expr(params, &rhex.params, geared, &mut b);
+    for (i, prog) in b.joints.iter_mut().enumerate() {
+        let massive = !rhex.model.distal_massless(i);
+        for phase in &mut prog.phases {
+            if let Torque::Servo {
+                only_in_contact,
+                kd_n_m_s_per_rad,
+                ..
+            } = &mut phase.torque
+            {
+                *only_in_contact = !massive;
+                if let Some(kd) = &critical {
+                    *kd_n_m_s_per_rad = Scalar::Expr(kd.clone());
+                }
+            }
+        }
+    }
+    let model = &rhex.model;
+    let offset = cfg.t2_s.min(0.0);
+    let labels = (0..rhex.label_len())
+        .map(|i| model.contacts[rhex.site(i)].name.clone())
+        .collect();
+    let scenario = Scenario {
+        robot: rhex.params.description(),
+        terrain: cfg.terrain,
+        initial: InitialState {
+            q: q0.to_vec(),
+            qd: None,
+            contacts: vec!["front_body".into(), "rear_body".into()],
+            solve: Vec::new(),
+        },
+        behaviour: b,
+        options: SimOptions {
+            t_final_s: cfg.t_final_s - offset,
+            stop_at_apex: cfg.stop_at_apex,
+            event_tol_s: cfg.event_tol_s,
+            delta_t_s: cfg.delta_t_s,
+            rtol: cfg.rtol,
+            atol: None,
+            zeno_window_s: cfg.zeno_window_s,
+            zeno_max_events: cfg.zeno_max_events,
+            labels: Some(labels),
+            word: WordOptions {
+                min_duration_s: 1e3 * cfg.event_tol_s,
+                sliding_as_contact: true,
+            },
+            ..SimOptions::default()
+        },
+    };
+    Ok(LeapScenario {
+        scenario,
+        rhex,
+        time_offset_s: -offset,
+    })
+}
+
+/// The servo damping of legs with inertia, as a formula of the behaviour's parameters (so
+/// that its partials follow the gear ratio and the armature). A leg with inertia `I` about
+/// its hip (`I_l + m_l (ρ/2)²` plus its joint's armature, the leg's `M̄_jj`) gets critical
+/// damping for the servo's stiffness `k_p = kp_hold · H` (`H` the stall torque):
+/// `k_d = 2 √(k_p I) = 2 √(kp_hold I / H) · H`, one double pole at `√(k_p / I)` (217 rad/s
+/// for Table 4.2's leg with its rotors at 28:1 and 20 A), the textbook design of a position
+/// servo for the inertia it moves. The files' `kd_hold` per N m was chosen for massless
+/// legs, whose servo acts only through the contact's statics; on a leg with inertia it is
+/// an overdamped servo (`ζ = 2.7` with the rotors) whose fast pole only makes the flow
+/// stiff. The armature is the rotors' reflected inertia `n J G²` where it follows the gear
+/// ratio (plus the parameter `leg_armature_kg_m2`, 0 there), else the parameter
+/// `leg_armature_kg_m2` as set. `None` for massless legs without armature (the file's
+/// damping).
+/// `user` are the parameters as given, `robot` the leap's (its armature set); `geared`: the
+/// actuator is the geared motor (the saturated torque has no rotors to reflect: its
+/// armature is a number).
+fn servo_damping_expr(
+    user: &RhexParams,
+    robot: &RhexParams,
+    geared: bool,
+    b: &mut Behaviour,
+) -> Option<String> {
+    let armature = robot.leg_armature_kg_m2.unwrap_or(0.0);
+    if leg_inertia_about_hip(robot) + armature <= 0.0 {
+        return None;
+    }
+    let armature = if geared && armature_follows_gear(user) {
+        b.parameters.insert("leg_armature_kg_m2".into(), num(0.0));
+        "(leg.reflected_inertia_kg_m2 + leg_armature_kg_m2)"
+    } else {
+        b.parameters
+            .insert("leg_armature_kg_m2".into(), num(armature));
+        "leg_armature_kg_m2"
+    };
+    Some(format!(
+        "2 * sqrt(kp_hold * (leg_inertia_kg_m2 + {armature}) / leg.stall_torque_n_m) \
+         * leg.stall_torque_n_m"
+    ))
+}
+
 #[cfg(test)]
-mod start_cache_tests {
+mod start_pose_tests {
     use super::*;
 
     /// The gap of leg `i`'s toe with that leg turned to `theta` from `q0` (m).
-    fn gap(setup: &LeapSetup, i: usize, theta: f64) -> f64 {
-        let mut q = setup.q0.clone();
+    fn gap(rhex: &Rhex, terrain: &TerrainSpec, q0: &[f64], i: usize, theta: f64) -> f64 {
+        let mut q = q0.to_vec();
         q[i] = theta;
         let mut kin = Kinematics::default();
-        kin.compute(&setup.rhex.model, &q, &vec![0.0; q.len()]);
-        let contact = setup.ctrl.leg_contact[i];
-        selfmanip_core::contact::contact_geometry(&setup.rhex.model, &kin, &setup.terrain, contact)
+        kin.compute(&rhex.model, &q, &vec![0.0; q.len()]);
+        selfmanip_core::contact::contact_geometry(&rhex.model, &kin, terrain, rhex.site(2 * i + 1))
             .gap_m
     }
 
-    /// A setup built from the cache is bit-identical to the first build, its waiting legs
-    /// are held the clearance above the angle where the toe touches the ground (gap zero,
-    /// checked on the kinematics directly), and a different clearance or terrain is not
-    /// served the cached posture.
+    /// The waiting legs are held the clearance above the angle where the toe touches the
+    /// ground (gap zero, checked on the kinematics directly), on flat ground and on an
+    /// incline; another clearance shifts them by the difference.
     #[test]
-    fn cached_start_is_the_fresh_one_and_keys_tell_inputs_apart() {
+    fn legs_wait_the_clearance_above_their_touchdown_angles() {
         let params = leap_params();
-        // a clearance no other test uses: the first build is a miss
         let cfg = LeapConfig {
             wait_clearance_rad: 0.731_234,
             ..LeapConfig::default()
         };
-        let first = LeapSetup::new(&params, &cfg, 0.0).unwrap();
-        let second = LeapSetup::new(&params, &cfg, 0.0).unwrap();
-        let bits = |q: &[f64]| q.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
-        assert_eq!(bits(&first.q0), bits(&second.q0));
-        assert_eq!(first.rhex.params, second.rhex.params);
-        assert_eq!(first.rhex.model, second.rhex.model);
-        for (i, sign) in first.ctrl.sign.iter().enumerate() {
-            let touchdown = first.q0[i] + sign * cfg.wait_clearance_rad;
-            assert!(gap(&first, i, touchdown).abs() < 1e-12, "leg {i}");
-            assert!(gap(&first, i, first.q0[i]) > 1e-3, "leg {i} waits clear");
+        let rhex = leap_rhex(&params, &cfg).unwrap();
+        let q0 = leap_start_pose(&rhex, &cfg).unwrap();
+        let sign = [cfg.strategy.front.sign(), cfg.strategy.rear.sign()];
+        for i in 0..2 {
+            let touchdown = q0[i] + sign[i] * cfg.wait_clearance_rad;
+            assert!(
+                gap(&rhex, &cfg.terrain, &q0, i, touchdown).abs() < 1e-12,
+                "leg {i}"
+            );
+            assert!(
+                gap(&rhex, &cfg.terrain, &q0, i, q0[i]) > 1e-3,
+                "leg {i} waits clear"
+            );
         }
-        // another clearance: the same touchdown angles, held differently
         let other = LeapConfig {
             wait_clearance_rad: 0.5,
             ..cfg.clone()
         };
-        let moved = LeapSetup::new(&params, &other, 0.0).unwrap();
-        for (i, sign) in first.ctrl.sign.iter().enumerate() {
-            let shift = moved.q0[i] - first.q0[i];
+        let moved = leap_start_pose(&rhex, &other).unwrap();
+        for i in 0..2 {
+            let shift = moved[i] - q0[i];
             assert!(
-                (shift - sign * (0.731_234 - 0.5)).abs() < 1e-14,
+                (shift - sign[i] * (0.731_234 - 0.5)).abs() < 1e-14,
                 "leg {i}: {shift}"
             );
         }
-        // another terrain: a 0.05 rad incline under the robot changes the touchdown angles
-        let lower = LeapConfig {
+        let incline = LeapConfig {
             terrain: TerrainSpec::Incline { slope_rad: 0.05 },
             ..cfg.clone()
         };
-        let low = LeapSetup::new(&params, &lower, 0.0).unwrap();
-        assert!(low.q0.iter().zip(&first.q0).any(|(a, b)| a != b));
-        for (i, sign) in low.ctrl.sign.iter().enumerate() {
-            let touchdown = low.q0[i] + sign * cfg.wait_clearance_rad;
-            assert!(
-                gap(&low, i, touchdown).abs() < 1e-12,
-                "leg {i} on the incline"
-            );
-        }
-    }
-}
-
-#[cfg(test)]
-mod servo_tests {
-    use super::*;
-
-    fn massive() -> RhexParams {
-        RhexParams {
-            m_l: 0.126,
-            I_l: 0.00092,
-            ..leap_params()
-        }
-    }
-
-    /// A massive leg's servo is critically damped on the leg's inertia about its hip as the
-    /// core's `M̄` has it (the joint's diagonal entry: the leg's own inertia about the hip
-    /// plus its rotors' armature, `n J G²`), at the same stiffness per N m as a massless
-    /// leg's, which keeps [`HOLD_KD_S`].
-    #[test]
-    fn a_massive_legs_servo_is_critically_damped_on_its_mass_matrix_entry() {
-        let cfg = LeapConfig::default();
-        let setup = LeapSetup::new(&massive(), &cfg, 0.0).unwrap();
-        let model = &setup.rhex.model;
-        let mut data = selfmanip_core::Data::new(model);
-        let zeros = vec![0.0; model.nq()];
-        selfmanip_core::energy(model, &mut data, &setup.q0, &zeros).unwrap();
-        let a = rotor_reflected_inertia(&massive(), &cfg).unwrap();
+        let low = leap_start_pose(&rhex, &incline).unwrap();
+        assert!(low.iter().zip(&q0).any(|(a, b)| a != b));
         for i in 0..2 {
-            assert_eq!(model.joints[i].armature_kg_m2, a);
-            let inertia = data.m_bar[(i, i)];
-            let h = setup.ctrl.hold_torque;
-            let (kp, kd) = (HOLD_KP_PER_RAD * h, setup.ctrl.servo_kd_s * h);
-            let zeta = kd / (2.0 * (kp * inertia).sqrt());
-            assert!((zeta - 1.0).abs() < 1e-12, "leg {i}: ζ = {zeta}");
-        }
-        assert!(setup.ctrl.servo_critical);
-        let massless = LeapSetup::new(&leap_params(), &cfg, 0.0).unwrap();
-        assert!(!massless.ctrl.servo_critical);
-        assert_eq!(massless.ctrl.servo_kd_s, HOLD_KD_S);
-    }
-
-    /// The servo's partials against central differences of its torque, `∂/∂H` through both
-    /// gains (the critical damping `2 √(k_p I)` moves with `H` as `√H`) and `∂/∂I` through the
-    /// damping (as `√I`; none on a massless leg, whose damping is fixed), inside the clamp.
-    #[test]
-    fn servo_partials_match_central_differences() {
-        for params in [leap_params(), massive()] {
-            let setup = LeapSetup::new(&params, &LeapConfig::default(), 0.0).unwrap();
-            let ctrl = &setup.ctrl;
-            let (q, qd, theta, omega) = (0.31, -0.4, 0.3, 0.2);
-            let d = ctrl.servo_partials(q, qd, theta, omega);
-            let raw = ctrl.servo(q, qd, theta, omega);
-            assert!(raw.abs() < ctrl.hold_torque, "inside the clamp: {raw}");
-            let e = 1e-6;
-            let fd = |f: &dyn Fn(f64) -> f64| (f(e) - f(-e)) / (2.0 * e);
-            let num = [
-                fd(&|s| ctrl.servo(q + s, qd, theta, omega)),
-                fd(&|s| ctrl.servo(q, qd + s, theta, omega)),
-                fd(&|s| ctrl.servo(q, qd, theta + s, omega)),
-                fd(&|s| ctrl.servo(q, qd, theta, omega + s)),
-                fd(&|s| {
-                    let mut c = ctrl.clone();
-                    c.hold_torque += s;
-                    c.servo_kd_s = servo_damping(&setup.rhex.params, c.hold_torque).0;
-                    c.servo(q, qd, theta, omega)
-                }),
-                if ctrl.servo_critical {
-                    fd(&|s| {
-                        let mut p = setup.rhex.params.clone();
-                        p.leg_armature_kg_m2 = Some(p.leg_armature_kg_m2.unwrap_or(0.0) + s);
-                        let mut c = ctrl.clone();
-                        c.servo_kd_s = servo_damping(&p, c.hold_torque).0;
-                        c.servo(q, qd, theta, omega)
-                    })
-                } else {
-                    0.0
-                },
-            ];
-            for (k, (a, b)) in d.iter().zip(num).enumerate() {
-                assert!(
-                    (a - b).abs() < 1e-6 * b.abs().max(1.0),
-                    "partial {k}: {a} against {b}"
-                );
-            }
+            let touchdown = low[i] + sign[i] * cfg.wait_clearance_rad;
+            let g = gap(&rhex, &incline.terrain, &low, i, touchdown);
+            assert!(g.abs() < 1e-12, "leg {i} on the incline: {g}");
         }
     }
 }

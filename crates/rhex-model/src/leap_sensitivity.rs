@@ -6,10 +6,12 @@
 //! - `t2_s` (alias `t2`): the rear motor's start relative to the front's. The execution
 //!   starts at `min(0, t2)`, so for `t2 ≥ 0` it moves the rear motor's start, below 0 the
 //!   front's (and the reported times' origin); at `t2 = 0` the derivative is the right-hand
-//!   one. The leap controller gives `∂q̈/∂t2` of the leg's swing down (which starts with its
-//!   motor: `∂(θ, θ̇, θ̈)/∂t0 = −(θ̇, θ̈, d³θ/dt³)`) and the motor start as a time event.
+//!   one. The behaviour interpreter gives `∂q̈/∂t2` of the leg's swing down (which starts
+//!   with its motor: `∂(θ, θ̇, θ̈)/∂t0 = −(θ̇, θ̈, d³θ/dt³)`) and the motor start as a time
+//!   event (the behaviour parameter `t2`).
 //! - `gear_ratio`: the geared motors' `G` (the torque–speed line's slope and the current
-//!   limit's torque scale with it; the servo's hold torque too), and on legs that carry their
+//!   limit's torque scale with it; the servo's hold torque and the swing's bounds too: the
+//!   behaviour parameter `gear_ratio`), and on legs that carry their
 //!   rotors (`RhexParams::legs_carry_rotors` without a hand-set armature) each leg joint's
 //!   armature `a = n J G²` with it: `d/dG = ∂/∂G + Σ_j (2a/G) ∂/∂a_j`. Not a parameter of the
 //!   saturated-torque actuator (a typed error).
@@ -28,13 +30,13 @@
 //! the tolerances; it costs ~3× the default leap's integration.
 //!
 //! **The controller's memory.** A leg's motion in the air that starts at an event (its
-//! liftoff, the takeoff) starts from the leg's angle and rate there: the leap controller
-//! gives its partials over that event's time and state
+//! liftoff, the takeoff) starts from the leg's angle and rate there: the behaviour
+//! interpreter gives its partials over that event's time and state
 //! ([`selfmanip_hybrid::Controller::memory_partials`], through
 //! [`selfmanip_sim::motion::StartedLaw`]) and, for the gear ratio, over the motion's speed
 //! and acceleration bounds, so a leg with inertia whose servo turns the body in flight
 //! (Result C.5) is differentiated (to 1e-6 of central differences). A massless leg's motion
-//! acts on nothing until the leg meets the ground again, so the controller carries its memory
+//! acts on nothing until the leg meets the ground again, so the interpreter carries its memory
 //! for a massless leg only in a run in which that leg lands again under such a motion (its
 //! touchdown's time and its servo in stance then follow the motion). In stance that servo
 //! may leave its saturation inside an engine step, a kink of the flow that the sensitivities
@@ -47,12 +49,14 @@
 //! time, folds, jams and impacts with Coulomb friction); an event at a motor's start (fired
 //! by the torque's jump, not by a crossing: flagged by the hybrid sensitivities as an event
 //! at a controller's time event).
-use crate::leap::{run_leap_setup, LeapConfig, LeapResult, LeapSetup, LegActuator, T2Reference};
+use crate::leap::{LeapConfig, LeapPreset, LeapResult, LegActuator, T2Reference};
 use crate::{RhexError, RhexParams};
 use nalgebra::DMatrix;
 use selfmanip_core::tangent::BodyParameter;
 use selfmanip_hybrid::budget::NEVER;
-use selfmanip_hybrid::sensitivity::{execution_sensitivity_columns, Parameter, SaltationStatus};
+use selfmanip_hybrid::sensitivity::{
+    execution_sensitivity_columns, ColumnSensitivity, Parameter, SaltationStatus,
+};
 use selfmanip_hybrid::{EventKind, Termination};
 
 /// The apex columns a leap reports, in order (the sweep's column names).
@@ -104,7 +108,7 @@ pub struct LeapSensitivity {
     pub reason: Option<String>,
     /// One entry per event of the execution (the events of [`LeapResult::events`]).
     pub events: Vec<EventSaltation>,
-    /// The leap controller's time events met (motor starts, knots of the swing down):
+    /// The behaviour's time events met (motor starts, knots of the swing down):
     /// `(t_s, max |f⁺ − f⁻|)`, the jump of the flow there (0 where it is continuous).
     pub time_events: Vec<(f64, f64)>,
     /// `d t_e / d (directions, parameters)` of each event (its time from the front leg's
@@ -167,12 +171,12 @@ fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<LeapParameter>, RhexE
 }
 
 /// The engine's parameters behind a leap's, with the weights that make its derivative the
-/// sum of theirs. The gear ratio moves the motors' torque line and the servo (a controller
+/// sum of theirs. The gear ratio moves the motors' torque line and the servo (a behaviour
 /// parameter) and, on legs that carry their rotors ([`crate::leap::armature_follows_gear`]),
 /// each leg joint's armature `a = n J G²`: `d/dG = ∂/∂G + Σ_j (2 a_j / G) ∂/∂a_j` (the
-/// controller's `∂/∂G` has the servo's damping, critical for the leg's inertia with `a`, move
+/// behaviour's `∂/∂G` has the servo's damping, critical for the leg's inertia with `a`, move
 /// with it). The legs' armature is every leg joint's at once, `Σ_j ∂/∂a_j` plus the
-/// controller's (the same damping), a parameter only of legs that have one.
+/// behaviour's (the same damping), a parameter only of legs that have one.
 fn engine_terms(
     p: LeapParameter,
     params: &RhexParams,
@@ -185,7 +189,7 @@ fn engine_terms(
             .collect()
     };
     Ok(match p {
-        LeapParameter::T2 => vec![(Parameter::Controller("t2_s".into()), 1.0)],
+        LeapParameter::T2 => vec![(Parameter::Controller("t2".into()), 1.0)],
         LeapParameter::BodyMass => vec![(Parameter::Body(BodyParameter::Mass), 1.0)],
         LeapParameter::BodyInertia => vec![(Parameter::Body(BodyParameter::Inertia), 1.0)],
         LeapParameter::GearRatio => {
@@ -263,8 +267,8 @@ pub fn leap_with_sensitivity_from(
                 .into(),
         });
     }
-    let setup = LeapSetup::new(params, cfg, cfg.t2_s)?;
-    let model = &setup.rhex.model;
+    let preset = LeapPreset::new(params, cfg)?;
+    let model = &preset.leap.rhex.model;
     let n2 = 2 * model.nq();
     let dirs = directions.cloned().unwrap_or_else(|| DMatrix::zeros(n2, 0));
     if dirs.nrows() != n2 {
@@ -273,7 +277,9 @@ pub fn leap_with_sensitivity_from(
             reason: format!("expected {n2} rows, got {}", dirs.nrows()),
         });
     }
-    let result = run_leap_setup(&setup, cfg, &NEVER, start_offset)?;
+    let result = run_from(&preset, start_offset)?;
+    // `d (front leg's start) / d t2`: the execution starts at `min(0, t2)`
+    let dstart0_dt2 = if cfg.t2_s >= 0.0 { 0.0 } else { -1.0 };
     let nan = || vec![vec![f64::NAN; ps.len()]; APEX_COLUMNS.len()];
     let mut out = LeapSensitivity {
         parameters: names.iter().map(|s| s.to_string()).collect(),
@@ -286,28 +292,9 @@ pub fn leap_with_sensitivity_from(
         event_times: Vec::new(),
         result,
     };
+    let (engine, w) = engine_parameters(&ps, params, cfg, model, dirs.ncols())?;
     let exec = &out.result.execution;
-    // the engine's parameters, and the weights that sum them into the leap's
-    let mut engine: Vec<Parameter> = Vec::new();
-    let mut weights: Vec<(usize, usize, f64)> = Vec::new();
-    for (k, &p) in ps.iter().enumerate() {
-        for (e, w) in engine_terms(p, params, cfg, model)? {
-            let i = engine.iter().position(|x| *x == e).unwrap_or_else(|| {
-                engine.push(e);
-                engine.len() - 1
-            });
-            weights.push((i, k, w));
-        }
-    }
-    let nd0 = dirs.ncols();
-    let mut w = DMatrix::zeros(nd0 + engine.len(), nd0 + ps.len());
-    for j in 0..nd0 {
-        w[(j, j)] = 1.0;
-    }
-    for &(i, k, wt) in &weights {
-        w[(nd0 + i, nd0 + k)] += wt;
-    }
-    let s = match execution_sensitivity_columns(model, &setup.terrain, exec, &dirs, &engine) {
+    let s = match execution_sensitivity_columns(model, &cfg.terrain, exec, &dirs, &engine) {
         Ok(mut s) => {
             s.columns = s.columns.map(|c| c * &w);
             for c in s.event_time_columns.iter_mut().flatten() {
@@ -320,78 +307,8 @@ pub fn leap_with_sensitivity_from(
             return Ok(out);
         }
     };
-    out.events = s
-        .events
-        .iter()
-        .map(|e| EventSaltation {
-            t_s: e.t - out.result.time_offset_s,
-            status: e.status.clone(),
-            saltation: e.saltation.clone(),
-        })
-        .collect();
-    let nd_ = dirs.ncols();
-    out.event_times = s
-        .event_time_columns
-        .iter()
-        .map(|c| {
-            c.as_ref().map(|c| {
-                (0..c.len())
-                    .map(|j| {
-                        let d0 = match (j >= nd_).then(|| ps[j - nd_]) {
-                            Some(LeapParameter::T2) => setup.ctrl.dstart_dt2[0],
-                            _ => 0.0,
-                        };
-                        c[j] - d0
-                    })
-                    .collect()
-            })
-        })
-        .collect();
-    out.time_events = s
-        .time_events
-        .iter()
-        .map(|e| (e.t - out.result.time_offset_s, e.jump))
-        .collect();
-    let reason = if exec.termination != Termination::Apex || out.result.apex.is_none() {
-        Some(
-            "the leap did not end at an apex (sensitivities are taken at the apex that ends a run)"
-                .to_string(),
-        )
-    } else if let Some(e) = s
-        .events
-        .iter()
-        .find(|e| e.status != SaltationStatus::Defined)
-    {
-        Some(format!(
-            "{:?} at t = {} s: {:?}",
-            e.kind,
-            e.t - out.result.time_offset_s,
-            e.status
-        ))
-    } else if let Some(e) = s
-        .time_events
-        .iter()
-        .find(|e| e.status != SaltationStatus::Defined)
-    {
-        Some(format!(
-            "time event at t = {} s: {:?}",
-            e.t - out.result.time_offset_s,
-            e.status
-        ))
-    } else if let Some(sw) = s
-        .touch_switches
-        .iter()
-        .find(|w| w.status != SaltationStatus::Defined)
-    {
-        Some(format!(
-            "rolling/point switch at t = {} s: {:?}",
-            sw.t, sw.status
-        ))
-    } else if s.columns.is_none() {
-        Some("the execution's sensitivities are not defined (a terrain feature change)".into())
-    } else {
-        None
-    };
+    record_events(&mut out, &s, &ps, dirs.ncols(), dstart0_dt2);
+    let reason = undefined_reason(&s, &out.result);
     if let Some(r) = reason {
         out.reason = Some(r);
         return Ok(out);
@@ -402,7 +319,9 @@ pub fn leap_with_sensitivity_from(
         .last()
         .and_then(|t| t.clone())
         .filter(|_| {
-            exec.events
+            out.result
+                .execution
+                .events
                 .last()
                 .is_some_and(|e| e.kind == EventKind::Apex)
         });
@@ -427,7 +346,7 @@ pub fn leap_with_sensitivity_from(
     for (k, p) in ps.iter().enumerate() {
         // apex t_s is measured from the front leg's start, which t2 < 0 moves
         let dstart0 = match p {
-            LeapParameter::T2 => setup.ctrl.dstart_dt2[0],
+            LeapParameter::T2 => dstart0_dt2,
             _ => 0.0,
         };
         for (c, v) in column(nd + k, dstart0).into_iter().enumerate() {
@@ -448,4 +367,144 @@ pub fn leap_with_sensitivity_from(
     }
     out.ok = true;
     Ok(out)
+}
+
+/// Runs the leap of `preset` (its motor start `cfg.t2_s`) from its start state plus
+/// `start_offset` (`2nq` entries over `(q, q̇)`); the behaviour is compiled at the
+/// unperturbed start (its waiting legs hold that pose).
+fn run_from(preset: &LeapPreset, start_offset: Option<&[f64]>) -> Result<LeapResult, RhexError> {
+    let t2 = preset.cfg.t2_s;
+    let (mut sim, front_start) = preset.simulation(t2)?;
+    let nq = sim.q0.len();
+    if let Some(dx) = start_offset {
+        if dx.len() != 2 * nq {
+            return Err(RhexError::Params {
+                field: "start_offset".into(),
+                reason: format!("expected {} entries, got {}", 2 * nq, dx.len()),
+            });
+        }
+        for i in 0..nq {
+            sim.q0[i] += dx[i];
+            sim.qd0[i] += dx[nq + i];
+        }
+    }
+    let run = sim.run_with(&NEVER)?;
+    Ok(preset.result(run.execution, t2, front_start))
+}
+
+/// The engine's parameters behind the leap's `ps` ([`engine_terms`]), and the matrix that
+/// sums their columns (after `nd` start-state directions, kept as they are) into the leap's.
+fn engine_parameters(
+    ps: &[LeapParameter],
+    params: &RhexParams,
+    cfg: &LeapConfig,
+    model: &selfmanip_core::Model,
+    nd: usize,
+) -> Result<(Vec<Parameter>, DMatrix<f64>), RhexError> {
+    let mut engine: Vec<Parameter> = Vec::new();
+    let mut weights: Vec<(usize, usize, f64)> = Vec::new();
+    for (k, &p) in ps.iter().enumerate() {
+        for (e, w) in engine_terms(p, params, cfg, model)? {
+            let i = engine.iter().position(|x| *x == e).unwrap_or_else(|| {
+                engine.push(e);
+                engine.len() - 1
+            });
+            weights.push((i, k, w));
+        }
+    }
+    let mut w = DMatrix::zeros(nd + engine.len(), nd + ps.len());
+    for j in 0..nd {
+        w[(j, j)] = 1.0;
+    }
+    for &(i, k, wt) in &weights {
+        w[(nd + i, nd + k)] += wt;
+    }
+    Ok((engine, w))
+}
+
+/// Why the apex's derivatives of `result` are not defined, if they are not: no apex ends
+/// the run, or an event, a time event or a rolling/point switch has no saltation, or a
+/// terrain feature changes.
+fn undefined_reason(s: &ColumnSensitivity, result: &LeapResult) -> Option<String> {
+    let exec = &result.execution;
+    let offset = result.time_offset_s;
+    if exec.termination != Termination::Apex || result.apex.is_none() {
+        Some(
+            "the leap did not end at an apex (sensitivities are taken at the apex that ends a run)"
+                .to_string(),
+        )
+    } else if let Some(e) = s
+        .events
+        .iter()
+        .find(|e| e.status != SaltationStatus::Defined)
+    {
+        Some(format!(
+            "{:?} at t = {} s: {:?}",
+            e.kind,
+            e.t - offset,
+            e.status
+        ))
+    } else if let Some(e) = s
+        .time_events
+        .iter()
+        .find(|e| e.status != SaltationStatus::Defined)
+    {
+        Some(format!(
+            "time event at t = {} s: {:?}",
+            e.t - offset,
+            e.status
+        ))
+    } else if let Some(sw) = s
+        .touch_switches
+        .iter()
+        .find(|w| w.status != SaltationStatus::Defined)
+    {
+        Some(format!(
+            "rolling/point switch at t = {} s: {:?}",
+            sw.t, sw.status
+        ))
+    } else if s.columns.is_none() {
+        Some("the execution's sensitivities are not defined (a terrain feature change)".into())
+    } else {
+        None
+    }
+}
+
+/// The events' saltations, their times' gradients (`t_s` from the front leg's start, which
+/// `t2 < 0` moves at `dstart0_dt2`; `nd` start-state directions first) and the time events
+/// of `s` into `out`, on the leap's clock.
+fn record_events(
+    out: &mut LeapSensitivity,
+    s: &ColumnSensitivity,
+    ps: &[LeapParameter],
+    nd: usize,
+    dstart0_dt2: f64,
+) {
+    let offset = out.result.time_offset_s;
+    out.events = s
+        .events
+        .iter()
+        .map(|e| EventSaltation {
+            t_s: e.t - offset,
+            status: e.status.clone(),
+            saltation: e.saltation.clone(),
+        })
+        .collect();
+    let dstart0 = |j: usize| match (j >= nd).then(|| ps[j - nd]) {
+        Some(LeapParameter::T2) => dstart0_dt2,
+        _ => 0.0,
+    };
+    out.event_times = s
+        .event_time_columns
+        .iter()
+        .map(|c| {
+            c.as_ref()
+                .map(|c| (0..c.len()).map(|j| c[j] - dstart0(j)).collect())
+        })
+        .collect();
+    out.time_events = s
+        .time_events
+        .iter()
+        .map(|e| (e.t - offset, e.jump))
+        .collect();
 }

@@ -15,7 +15,6 @@ pub mod analysis;
 pub mod figures;
 pub mod grc;
 pub mod leap;
-pub mod leap_behaviours;
 pub mod leap_sensitivity;
 pub mod mcap_log;
 pub mod modes;

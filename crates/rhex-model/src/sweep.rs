@@ -21,7 +21,8 @@
 //! the defaults: 20 A, two motors per planar leg); `None` keeps the base actuator. The
 //! reported gear ratio is the one used, NaN for [`LegActuator::SaturatedTorque`].
 use crate::leap::{
-    simulate_leap, simulate_leap_with, LeapConfig, LeapResult, LeapStatus, LegActuator, Strategy,
+    simulate_leap, simulate_leap_cached, LeapConfig, LeapResult, LeapStatus, LegActuator,
+    StartPoses, Strategy,
 };
 use crate::{RhexError, RhexParams};
 use selfmanip_hybrid::budget::NEVER;
@@ -405,16 +406,18 @@ pub fn run_point(
 
 /// Runs one point and flattens the outcome; never panics and never fails.
 pub fn run_row(base_params: &RhexParams, base_cfg: &LeapConfig, point: &SweepPoint) -> SweepRow {
-    run_row_with(base_params, base_cfg, point, &NEVER)
+    run_row_with(base_params, base_cfg, point, &NEVER, &StartPoses::default())
 }
 
 /// [`run_row`] that another thread can stop ([`simulate_leap_with`]): a point not started
-/// before `stop` was raised is not run, its status `interrupted`.
+/// before `stop` was raised is not run, its status `interrupted`. The robots and start poses
+/// come from `starts` (the sweep's own: each strategy's built once).
 pub fn run_row_with(
     base_params: &RhexParams,
     base_cfg: &LeapConfig,
     point: &SweepPoint,
     stop: &AtomicBool,
+    starts: &StartPoses,
 ) -> SweepRow {
     if stop.load(Ordering::Relaxed) {
         return SweepRow::failed(LeapStatus::Interrupted.as_str(), String::new(), f64::NAN);
@@ -422,7 +425,7 @@ pub fn run_row_with(
     let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         let (params, cfg) = point_inputs(base_params, base_cfg, point)?;
         let g = gear_ratio_of(&cfg);
-        simulate_leap_with(&params, &cfg, stop).map(|r| (r, g))
+        simulate_leap_cached(&params, &cfg, stop, starts).map(|r| (r, g))
     }));
     match outcome {
         Err(p) => SweepRow::failed("panic", panic_message(p.as_ref()), f64::NAN),
@@ -488,7 +491,8 @@ pub fn sweep_with(
     threads: usize,
     stop: &AtomicBool,
 ) -> Result<Vec<SweepRow>, RhexError> {
+    let starts = StartPoses::default();
     Ok(run_parallel(points, threads, |p| {
-        run_row_with(base_params, base_cfg, p, stop)
+        run_row_with(base_params, base_cfg, p, stop, &starts)
     })?)
 }

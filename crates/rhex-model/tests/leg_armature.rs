@@ -11,11 +11,11 @@
 //! given explicitly.
 mod common;
 use common::{apex_error, tight};
+use rhex_model::leap::leap_scenario;
 use rhex_model::leap::{
     leap_params, leg_actuator, leg_armature, leg_inertia_about_hip, leg_swing,
     rotor_reflected_inertia, simulate_leap, LeapConfig, LegActuator,
 };
-use rhex_model::leap_behaviours::leap_scenario;
 use rhex_model::leap_sensitivity::leap_with_sensitivity;
 use rhex_model::{LegPair, Rhex, RhexError, RhexParams};
 use selfmanip_core::tangent::{BodyParameter, TangentError};
@@ -364,5 +364,47 @@ fn leg_rotors_puts_the_actuators_rotors_on_any_leg_or_none() {
     match simulate_leap(&both, &LeapConfig::default()) {
         Err(RhexError::Params { field, .. }) => assert_eq!(field, "leg_rotors"),
         other => panic!("{:?}", other.map(|r| r.status)),
+    }
+}
+
+/// A massive leg's servo, as the preset's interpreter runs it, is critically damped on the
+/// leg's inertia about its hip as the core's `M̄` has it (the joint's diagonal entry: the
+/// leg's own inertia plus its rotors' armature): `ζ = k_d / (2 √(k_p M̄_jj)) = 1`, with
+/// `k_p = −∂τ/∂q`, `k_d = −∂τ/∂q̇` read off the controller's partials at the start (both legs
+/// waiting, the toes on the ground: the servo holds them, inside its limit). Massless legs
+/// keep the files' damping `kd_hold = 0.5 s/rad` per N m of stall torque.
+#[test]
+fn a_massive_legs_servo_is_critically_damped_on_its_mass_matrix_entry() {
+    use rhex_model::leap::LeapPreset;
+    for (params, critical) in [(massive(), true), (leap_params(), false)] {
+        let cfg = LeapConfig::default();
+        let preset = LeapPreset::new(&params, &cfg).unwrap();
+        let stall = leg_actuator(&params, &cfg.actuator)
+            .unwrap()
+            .joint_torque_n_m(1.0, 0.0);
+        // each leg in turn waits while the other one's motor runs: at t = 0.01 s, with its own
+        // motor starting at 0.05 s
+        for (t2, i) in [(0.05, 1), (-0.05, 0)] {
+            let (sim, _) = preset.simulation(t2).unwrap();
+            let model = &sim.model;
+            let nq = model.nq();
+            let mut data = Data::new(model);
+            let zeros = vec![0.0; nq];
+            energy(model, &mut data, &sim.q0, &zeros).unwrap();
+            let mut out = selfmanip_hybrid::ControllerPartials::zeros(nq, nq, 0);
+            // the toes on the ground too (a massless leg's servo acts only there)
+            let mode = preset.leap.rhex.mode("1111").unwrap();
+            assert!(sim
+                .controller
+                .partials(0.01, &sim.q0, &zeros, mode, &[], &mut out));
+            let (kp, kd) = (-out.dtau_dq[(i, i)], -out.dtau_dqd[(i, i)]);
+            assert!((kp - 20.0 * stall).abs() < 1e-12 * kp, "leg {i}: kp {kp}");
+            if critical {
+                let zeta = kd / (2.0 * (kp * data.m_bar[(i, i)]).sqrt());
+                assert!((zeta - 1.0).abs() < 1e-12, "leg {i}: ζ = {zeta}");
+            } else {
+                assert!((kd - 0.5 * stall).abs() < 1e-12 * kd, "leg {i}: kd {kd}");
+            }
+        }
     }
 }

@@ -5,7 +5,7 @@
 //! `zeno`: 13.8 ms after takeoff the front toe touched down, the reset released it (the
 //! impact's pseudo-impulse and the force at q̇⁺ pulled: the leg's servo lifts the toe on the
 //! ground) and 15 µs later it touched down again — 41 times in 0.3 ms. In the air the
-//! leg got no torque at all (`LeapController::torque` gave a leg off the ground zero torque,
+//! leg got no torque at all (the leap controller of the time gave a leg off the ground zero torque,
 //! right for a massless leg, whose motion is then prescribed as a free joint's, but a massive
 //! leg is no free joint): limp, it fell back into the ground. The force complementarity of a
 //! touchdown, (5.19)–(5.20) (Theorem 5.5), presumes one torque law `τ(t, q, q̇)` for both of

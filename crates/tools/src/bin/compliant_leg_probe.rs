@@ -209,7 +209,7 @@ impl Controller for Ctrl {
             } else if mode.contains(i) || self.massive_hips {
                 // a retracting leg on the ground — and a massive one in the air — follows
                 // its motion in the air with the leap's servo (stall-torque-limited PD), as
-                // `leap::LeapController` does on the ground
+                // the leap preset's retract phase does on the ground
                 let stall = self.actuator.joint_torque_n_m(1.0, 0.0);
                 let (th, om, _) = self.motion(i, t);
                 tau[h] =
@@ -246,7 +246,7 @@ impl Controller for Ctrl {
     }
     /// The motors' starts and the knots of every motion in the air, where the torque or the
     /// prescribed acceleration jumps: the engine's steps land on them, as they do on
-    /// `leap::LeapController`'s.
+    /// the leap preset's (`data/behaviours/leap_*.toml`).
     fn time_events(&self, names: &[&str]) -> Vec<selfmanip_hybrid::TimeEvent> {
         let at = |t: f64| selfmanip_hybrid::TimeEvent {
             t,
@@ -270,7 +270,7 @@ impl Controller for Ctrl {
                 self.lifted[i] = true;
             }
             // a leg retracts along one motion, planned when it first retracts in the air; a
-            // leg the ground releases later returns to it (as `leap::LeapController` does)
+            // leg the ground releases later returns to it (as the leap preset's retract phase does)
             if (left || self.takeoff)
                 && e.t >= self.start[i]
                 && !e.mode_after.contains(c)

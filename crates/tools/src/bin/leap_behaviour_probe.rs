@@ -6,8 +6,8 @@
 //! ```
 //! Arguments: strategies (comma-separated), t2 values in seconds. The start pose is the leap
 //! controller's (a leap stopped at once); the robot and options are `LeapConfig::default()`'s.
+use rhex_model::leap::leap_scenario;
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig};
-use rhex_model::leap_behaviours::leap_scenario;
 use selfmanip_sim::Simulation;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

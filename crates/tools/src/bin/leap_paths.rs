@@ -17,8 +17,8 @@
 //! (`behaviour` builds each scenario and its `Simulation` per leap, as the controller path
 //! builds its robot and start pose per leap) and prints one line per leap (status, word,
 //! apex height) so that the two paths can be compared.
+use rhex_model::leap::leap_scenario;
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, Strategy};
-use rhex_model::leap_behaviours::leap_scenario;
 use rhex_model::params::RhexParams;
 use selfmanip_sim::Simulation;
 
