@@ -115,7 +115,9 @@ impl FreeJointStability {
 /// modulus exceeds (a larger `ρ` only shortens the steps).
 fn spectral_radius(m: DMatrix<f64>) -> f64 {
     let row_sum = m.row_iter().map(|r| r.abs().sum()).fold(0.0, f64::max);
-    eigenvalues(m).map_or(row_sum, |ev| ev.iter().map(|l| l.norm()).fold(0.0, f64::max))
+    eigenvalues(m).map_or(row_sum, |ev| {
+        ev.iter().map(|l| l.norm()).fold(0.0, f64::max)
+    })
 }
 
 /// The spectral radius of `[0 1; a b]` (`q̈ = a q + b q̇`): its eigenvalues are

@@ -218,13 +218,12 @@ pub struct PeriodicOrbit {
 /// matrix holding inf/NaN, or a QR iteration past its cap, is
 /// [`PeriodicError::NotDifferentiable`] rather than a loop without end).
 pub fn floquet_multipliers(m: &DMatrix<f64>) -> Result<Vec<Complex<f64>>, PeriodicError> {
-    let mut ev = crate::eigen::eigenvalues(m.clone()).ok_or_else(|| {
-        PeriodicError::NotDifferentiable {
+    let mut ev =
+        crate::eigen::eigenvalues(m.clone()).ok_or_else(|| PeriodicError::NotDifferentiable {
             reason: "the multipliers of a Jacobian that is not finite, or whose QR iteration \
                      did not converge, are not defined"
                 .into(),
-        }
-    })?;
+        })?;
     ev.sort_by(|a, b| {
         b.norm()
             .total_cmp(&a.norm())

@@ -292,7 +292,10 @@ struct Parser<'a> {
 
 impl Parser<'_> {
     /// Runs `inner` one nesting level down.
-    fn nested(&mut self, inner: impl FnOnce(&mut Self) -> Result<Node, String>) -> Result<Node, String> {
+    fn nested(
+        &mut self,
+        inner: impl FnOnce(&mut Self) -> Result<Node, String>,
+    ) -> Result<Node, String> {
         self.nesting = within_depth(self.nesting + 1)?;
         let out = inner(self);
         self.nesting -= 1;

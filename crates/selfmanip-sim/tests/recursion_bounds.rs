@@ -32,8 +32,15 @@ fn one(name: &str, formula: String) -> Map<String, Value> {
 
 fn expression_field(r: Result<Simulation, SimError>) -> (String, String) {
     match r.err().expect("refused") {
-        SimError::Expression { field, reason, expr } => {
-            assert!(expr.len() < 200, "the message quotes a bounded excerpt: {expr}");
+        SimError::Expression {
+            field,
+            reason,
+            expr,
+        } => {
+            assert!(
+                expr.len() < 200,
+                "the message quotes a bounded excerpt: {expr}"
+            );
             (field, reason)
         }
         other => panic!("{other:?}"),
@@ -95,7 +102,11 @@ fn formulas_at_the_bounds_evaluate_on_a_small_stack() {
             let closed = 1.01f64.powi(k as i32);
             assert!((v - closed).abs() < 1e-12 * closed, "{v} {closed}");
             let dclosed = k as f64 * 1.01f64.powi(k as i32 - 1);
-            assert!((g[0] - dclosed).abs() < 1e-10 * dclosed, "{} {dclosed}", g[0]);
+            assert!(
+                (g[0] - dclosed).abs() < 1e-10 * dclosed,
+                "{} {dclosed}",
+                g[0]
+            );
         })
         .unwrap()
         .join()
@@ -110,7 +121,10 @@ fn a_chain_of_twenty_thousand_parameters_is_refused_naming_a_parameter() {
     let chain = |n: usize| {
         let mut m = Map::new();
         for i in 0..n - 1 {
-            m.insert(format!("c{i:05}"), Value::String(format!("c{:05} + 1", i + 1)));
+            m.insert(
+                format!("c{i:05}"),
+                Value::String(format!("c{:05} + 1", i + 1)),
+            );
         }
         m.insert(format!("c{:05}", n - 1), json!(1.0));
         m.insert("p".into(), Value::String("c00000".into()));
@@ -120,7 +134,10 @@ fn a_chain_of_twenty_thousand_parameters_is_refused_naming_a_parameter() {
         match hopper_with(chain(n)).err().expect("refused") {
             SimError::InvalidValue { field, reason } => {
                 assert!(field.starts_with("parameters.c"), "{field}");
-                assert!(reason.contains(&MAX_PARAMETER_CHAIN.to_string()), "{reason}");
+                assert!(
+                    reason.contains(&MAX_PARAMETER_CHAIN.to_string()),
+                    "{reason}"
+                );
             }
             other => panic!("{n}: {other:?}"),
         }

@@ -86,7 +86,10 @@ fn a_damped_sprung_leg_loses_the_dampers_work() {
     let e = sim.run().unwrap().energy_report().unwrap();
     assert!(e.damping_work_j < -0.1, "{e:?}");
     assert!(e.residual_j().abs() < 1e-6, "{e:?}");
-    assert!((e.final_j - e.initial_j - e.damping_work_j).abs() < 1e-6, "{e:?}");
+    assert!(
+        (e.final_j - e.initial_j - e.damping_work_j).abs() < 1e-6,
+        "{e:?}"
+    );
 }
 
 /// Landing on the sprung leg's foot: touchdown losses, stance with the spring loaded, and
