@@ -357,6 +357,7 @@ class _SimEnergy(TypedDict):
     initial_j: float
     final_j: float
     joint_work_j: float
+    damping_work_j: float
     friction_work_j: float
     impact_loss_j: float
     residual_j: float

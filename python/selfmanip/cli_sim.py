@@ -40,7 +40,7 @@ def parse_terrain(text: str | None) -> Any:
     s = text.strip()
     if s.startswith("{"):
         try:
-            return json.loads(s)
+            return json.loads(s, object_pairs_hook=_once_each)
         except json.JSONDecodeError as e:
             raise InvalidInputError(f"`--terrain`: not a JSON object: {e}", "--terrain") from None
     kind, *rest = [p.strip() for p in s.split(",") if p.strip()] or [""]
@@ -53,10 +53,23 @@ def parse_terrain(text: str | None) -> Any:
         if "=" not in item:
             raise InvalidInputError(f"`--terrain`: expected KEY=VALUE, got {item!r}", "--terrain")
         k, v = item.split("=", 1)
+        if k.strip() in out:
+            raise InvalidInputError(f"`--terrain {k.strip()}`: given twice", f"--terrain {k.strip()}")
         try:
             out[k.strip()] = int(v) if k.strip() == "count" else float(v)
         except ValueError:
             raise InvalidInputError(f"`--terrain {k.strip()}`: not a number: {v!r}", f"--terrain {k.strip()}") from None
+    return out
+
+
+def _once_each(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object whose keys are given once each (``json.loads`` keeps the last of a
+    repeated key, silently)."""
+    out: dict[str, Any] = {}
+    for k, v in pairs:
+        if k in out:
+            raise InvalidInputError(f"`--terrain {k}`: given twice", f"--terrain {k}")
+        out[k] = v
     return out
 
 
@@ -167,7 +180,7 @@ def simulate_command(args: argparse.Namespace) -> int:
             print(f"apex t={e.apex['t_s']:.4f} s  height -z={-e.apex['z_m']:.4f} m  x={e.apex['x_m']:.4f} m")
         er = e.energy_report()
         print(f"energy E0={er.initial_j:.6g} J  E1={er.final_j:.6g} J  work W={er.joint_work_j:.6g} J  "
-              f"friction W_fr={er.friction_work_j:.6g} J  "
+              f"damping W_d={er.damping_work_j:.6g} J  friction W_fr={er.friction_work_j:.6g} J  "
               f"impact loss L={er.impact_loss_j:.6g} J  residual {er.residual_j:.2e} J")
         for f in (args.mcap, args.plot):
             if f:

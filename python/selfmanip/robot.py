@@ -263,7 +263,8 @@ class Robot:
         return Impact(d["qd_plus"], d["impulse"], [tuple(r) for r in d["rows"]])
 
     def energy(self, q: Sequence[float], qd: Sequence[float]) -> tuple[float, float]:
-        """``(kinetic, potential)`` energy in J (potential with z down: ``-m g z``)."""
+        """``(kinetic, potential)`` energy in J (potential: gravity's ``-m g z`` with z down, plus
+        the joint springs' ``k d^2 / 2 + k3 d^4 / 4``)."""
         return self._native.energy(_checks.vector("q", q), _checks.vector("qd", qd))
 
     def contact_gaps(self, q: Sequence[float]) -> dict[str, float]:

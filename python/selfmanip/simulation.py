@@ -83,15 +83,18 @@ def defaults() -> dict[str, Any]:
 
 @dataclass(frozen=True)
 class EnergyReport:
-    """``E1 - E0 = W + W_fr - L`` over an execution: kinetic plus potential energy at the start
-    and the end, the joint torques' work ``W = int tau . thetadot dt`` (free massless joints
-    carry no load), the sliding contacts' kinetic friction work ``W_fr = int f_fr . qdot dt``
-    (never positive) and the impact losses ``L`` (sum of ``T- - T+`` over the touchdowns);
-    ``residual_j = E1 - E0 - W - W_fr + L`` (zero up to the integration tolerance)."""
+    """``E1 - E0 = W + W_d + W_fr - L`` over an execution: kinetic plus potential energy (gravity's
+    and the joint springs') at the start and the end, the joint torques' work
+    ``W = int tau . thetadot dt`` (free massless joints carry no load but their own
+    spring-damper's), the passive dampers' work ``W_d = -int sum c thetadot^2 dt`` and the
+    sliding contacts' kinetic friction work ``W_fr = int f_fr . qdot dt`` (both never positive)
+    and the impact losses ``L`` (sum of ``T- - T+`` over the touchdowns);
+    ``residual_j = E1 - E0 - W - W_d - W_fr + L`` (zero up to the integration tolerance)."""
 
     initial_j: float
     final_j: float
     joint_work_j: float
+    damping_work_j: float
     friction_work_j: float
     impact_loss_j: float
     residual_j: float
@@ -263,7 +266,7 @@ class Execution:
                              contact_points_m=d["contact_points_m"], contact_forces_n=d["contact_forces_n"])
 
     def energy_report(self) -> EnergyReport:
-        """``E1 - E0 = W + W_fr - L`` (see :class:`EnergyReport`)."""
+        """``E1 - E0 = W + W_d + W_fr - L`` (see :class:`EnergyReport`)."""
         return EnergyReport(**{k: float(v) for k, v in self._run.energy_report().items()})
 
     def to_mcap(self, path: str | os.PathLike[str], dt: float | _Default = DEFAULT,

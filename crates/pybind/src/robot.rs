@@ -11,7 +11,7 @@ use pyo3::types::{PyDict, PyList, PyTuple};
 use rhex_model::quasistatic_map::{contact_mode_map, quasi_static_pose, QuasiStaticPose};
 use rhex_model::{Rhex, RhexParams};
 use selfmanip_core::contact::contact_geometry;
-use selfmanip_core::inertia::potential_energy;
+use selfmanip_core::dynamics::potential_energy;
 use selfmanip_core::kinematics::{Kinematics, Part};
 use selfmanip_core::quasistatic::quasi_static;
 use selfmanip_core::{
@@ -184,6 +184,7 @@ impl Robot {
         };
         let mut kin = Kinematics::default();
         kin.compute(&self.model, q, qd);
+        kin.check_finite().map_err(core_err)?;
         Ok(kin)
     }
 
@@ -492,7 +493,7 @@ impl Robot {
                 .map_err(core_err)?;
             let energy = (
                 kinetic_energy(&data, &qd),
-                potential_energy(&self.model, &data.kin),
+                potential_energy(&self.model, &data.kin, &q),
             );
             finite_result("energy", &[energy.0, energy.1])?;
             Ok(energy)

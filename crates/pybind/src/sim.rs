@@ -847,8 +847,8 @@ impl PyRun {
         })
     }
 
-    /// `E₁ − E₀ = W + W_fr − L`: `initial_j`, `final_j`, `joint_work_j`, `friction_work_j`, `impact_loss_j`,
-    /// `residual_j`.
+    /// `E₁ − E₀ = W + W_d + W_fr − L`: `initial_j`, `final_j`, `joint_work_j`, `damping_work_j`,
+    /// `friction_work_j`, `impact_loss_j`, `residual_j`.
     fn energy_report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         guard(|| {
             let r = self.inner.energy_report().map_err(engine_err)?;
@@ -857,6 +857,7 @@ impl PyRun {
             d.set_item("initial_j", r.initial_j)?;
             d.set_item("final_j", r.final_j)?;
             d.set_item("joint_work_j", r.joint_work_j)?;
+            d.set_item("damping_work_j", r.damping_work_j)?;
             d.set_item("friction_work_j", r.friction_work_j)?;
             d.set_item("impact_loss_j", r.impact_loss_j)?;
             d.set_item("residual_j", r.residual_j())?;

@@ -177,9 +177,20 @@ impl ContactMode {
     }
 
     /// Parses `"front_leg,rear_leg:slide"`-style lists of contact names (empty = flight).
+    /// An empty item (`",,,"`, `"foot,"`) or a contact listed twice is refused: it is a
+    /// list that says something other than what it seems to.
     pub fn parse_names(model: &Model, spec: &str) -> Result<Self> {
         let mut m = ContactMode::FLIGHT;
-        for item in spec.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+        if spec.trim().is_empty() {
+            return Ok(m);
+        }
+        let mut seen = Vec::new();
+        for (i, item) in spec.split(',').map(str::trim).enumerate() {
+            if item.is_empty() {
+                return Err(CoreError::InvalidMode {
+                    reason: format!("item {i} of `{spec}` names no contact"),
+                });
+            }
             let (name, kind) = match item.split_once(':') {
                 Some((n, "slide")) => (n, Some(ContactKind::Slide)),
                 Some((n, "stick")) => (n, Some(ContactKind::Stick)),
@@ -191,6 +202,12 @@ impl ContactMode {
                 None => (item, None),
             };
             let k = model.contact_index(name)?;
+            if seen.contains(&k) {
+                return Err(CoreError::InvalidMode {
+                    reason: format!("contact `{name}` is listed twice in `{spec}`"),
+                });
+            }
+            seen.push(k);
             m = match kind {
                 Some(kind) => m.with(k, kind),
                 None => m.union(ContactMode::with_defaults(model, &[k])?),

@@ -288,14 +288,22 @@ pub fn kinetic_energy(data: &Data, qd: &[f64]) -> f64 {
     0.5 * v.dot(&(&data.m_bar * &v))
 }
 
-/// Kinetic (4.24) and potential energy `(T, V)` of `model` at `(q, q̇)`: the checked entry
-/// point (typed errors for bad or overflowing inputs, never inf or NaN). Only `M̄` and the
-/// poses are needed, so the flight mode is prepared and its KKT matrix (singular with free
-/// massless legs) does not matter.
+/// Potential energy `V = V_g + V_s`: gravity's (4.27) and the passive joint springs'
+/// ([`crate::passive::potential_energy`]) at the configuration `q` of `kin`. The one
+/// definition of `V` that the energy report and `Robot.energy` use: the springs' torques in
+/// the flow ([`crate::passive::spring_torque`]) are its gradient, plus the dampers'.
+pub fn potential_energy(model: &Model, kin: &crate::kinematics::Kinematics, q: &[f64]) -> f64 {
+    crate::inertia::potential_energy(model, kin) + crate::passive::potential_energy(model, q)
+}
+
+/// Kinetic (4.24) and potential energy `(T, V)` ([`potential_energy`]: gravity and springs)
+/// of `model` at `(q, q̇)`: the checked entry point (typed errors for bad or overflowing
+/// inputs, never inf or NaN). Only `M̄` and the poses are needed, so the flight mode is
+/// prepared and its KKT matrix (singular with free massless legs) does not matter.
 pub fn energy(model: &Model, data: &mut Data, q: &[f64], qd: &[f64]) -> Result<(f64, f64)> {
     data.prepare_geometry(model, &crate::FlatGround, ContactMode::FLIGHT, q, qd)?;
     let t = kinetic_energy(data, qd);
-    let v = crate::inertia::potential_energy(model, &data.kin);
+    let v = potential_energy(model, &data.kin, q);
     check_result("T", &[t])?;
     check_result("V", &[v])?;
     Ok((t, v))

@@ -92,6 +92,29 @@ impl Kinematics {
         }
     }
 
+    /// [`CoreError::NonFiniteResult`](crate::CoreError::NonFiniteResult) unless every pose
+    /// and velocity of the last [`Self::compute`] is finite: finite `(q, q̇)` near the
+    /// largest `f64` (angles of 1e308 summed along a leg) overflow to inf and NaN.
+    pub fn check_finite(&self) -> crate::error::Result<()> {
+        let vectors = [self.body_pos, self.body_vel]
+            .into_iter()
+            .chain(self.origin.iter().copied())
+            .chain(self.origin_vel.iter().copied());
+        let finite = vectors.flat_map(|v| [v.x, v.y]).all(f64::is_finite)
+            && [self.phi, self.phi_dot]
+                .iter()
+                .chain(&self.beta)
+                .chain(&self.beta_dot)
+                .all(|v| v.is_finite());
+        if finite {
+            Ok(())
+        } else {
+            Err(crate::CoreError::NonFiniteResult {
+                quantity: "poses and velocities of the parts at (q, q̇)",
+            })
+        }
+    }
+
     pub fn part_angle(&self, part: Part) -> f64 {
         match part {
             Part::Body => self.phi,

@@ -97,6 +97,17 @@ pub fn potential_energy(model: &Model, q: &[f64]) -> f64 {
         .sum()
 }
 
+/// Power of the dampers `−Σ c_j q̇_j²` (W, never positive): with [`potential_energy`], the
+/// part of [`power`] that is not `−dV_s/dt`.
+pub fn damping_power(model: &Model, qd: &[f64]) -> f64 {
+    model
+        .joints
+        .iter()
+        .zip(qd)
+        .filter_map(|(joint, v)| joint.spring.map(|s| -s.damping_n_m_s_per_rad * v * v))
+        .sum()
+}
+
 /// Power of the passive torques `Σ τ_j^p q̇_j` (W): `−dV_s/dt − Σ c q̇²`.
 pub fn power(model: &Model, q: &[f64], qd: &[f64]) -> f64 {
     joint_torques(model, q, qd)

@@ -39,6 +39,7 @@ fn kinematics(model: &Model, q: &[f64], qd: &[f64]) -> Result<Kinematics> {
     check_vector("qd", qd, model.nq())?;
     let mut kin = Kinematics::default();
     kin.compute(model, q, qd);
+    kin.check_finite()?;
     Ok(kin)
 }
 

@@ -1,13 +1,21 @@
-//! Energy bookkeeping of an execution: the total energy $E = T + V$ (thesis (4.24)) at its
-//! start and end, the work of the joint torques along the flow, the work of the kinetic
-//! friction of sliding sites (`selfmanip_core::friction`, never positive), and the kinetic
-//! energy lost in its impacts. A correct execution balances,
-//! $$ E_1 - E_0 = W + W_{fr} - L, \qquad W = \int \tau \cdot \dot\theta \ dt, \qquad
+//! Energy bookkeeping of an execution: the total energy $E = T + V_g + V_s$ (thesis (4.24),
+//! with the passive joint springs' energy, `selfmanip_core::dynamics::potential_energy`) at
+//! its start and end, the work of the joint torques along the flow, the work of the passive
+//! dampers (never positive), the work of the kinetic friction of sliding sites
+//! (`selfmanip_core::friction`, never positive), and the kinetic energy lost in its impacts.
+//! A correct execution balances,
+//! $$ E_1 - E_0 = W + W_d + W_{fr} - L, \qquad W = \int \tau \cdot \dot\theta \ dt, \qquad
+//!    W_d = -\int \textstyle\sum_j c_j \dot\theta_j^2 \ dt \le 0, \qquad
 //!    W_{fr} = \int f^{fr} \cdot \dot q \ dt \le 0, \qquad L = \sum (T^- - T^+) \ge 0 . $$
+//! The spring torques `−∂V_s/∂θ` are inside `V_s`, so `W` is the work of what drives the
+//! joints: the actuators' torques; at a free massless joint, whose motion is prescribed
+//! (thesis 5.1.1), the torque `−τ^p_j` that moves it against its own spring–damper (zero
+//! without one); at a joint locked for a fold passage, the torque that holds it.
 use crate::error::HybridError;
 use crate::execution::Execution;
 use crate::flow::Flow;
-use selfmanip_core::inertia::potential_energy;
+use selfmanip_core::dynamics::potential_energy;
+use selfmanip_core::passive::{damping_power, spring_torque};
 use selfmanip_core::{kinetic_energy, ContactMode, CoreError, Data, Model, Terrain};
 
 /// The energy balance of an execution (J).
@@ -18,6 +26,8 @@ pub struct EnergyReport {
     /// `∫ τ·θ̇ dt` over the joints in the dynamics (free massless joints carry no load; a
     /// joint locked for a fold passage does the work of the torque that holds it).
     pub joint_work_j: f64,
+    /// `−∫ Σ c_j θ̇_j² dt`, the work of the joints' passive dampers (never positive).
+    pub damping_work_j: f64,
     /// `∫ f^fr·q̇ dt`, the work of the sliding sites' kinetic friction (never positive).
     pub friction_work_j: f64,
     /// `Σ (T⁻ − T⁺)` over the impulsive events (touchdowns and folds).
@@ -25,9 +35,13 @@ pub struct EnergyReport {
 }
 
 impl EnergyReport {
-    /// `E₁ − E₀ − W − W_fr + L`.
+    /// `E₁ − E₀ − W − W_d − W_fr + L`.
     pub fn residual_j(&self) -> f64 {
-        self.final_j - self.initial_j - self.joint_work_j - self.friction_work_j
+        self.final_j
+            - self.initial_j
+            - self.joint_work_j
+            - self.damping_work_j
+            - self.friction_work_j
             + self.impact_loss_j
     }
 }
@@ -59,7 +73,7 @@ pub fn energy_report(
     let mut data = Data::new(model);
     let total = |data: &mut Data, q: &[f64], qd: &[f64]| -> Result<f64, CoreError> {
         let t = kinetic_energy_at(model, terrain, data, q, qd)?;
-        Ok(t + potential_energy(model, &data.kin))
+        Ok(t + potential_energy(model, &data.kin, q))
     };
     let initial_j = total(&mut data, q0, qd0)?;
     let final_j = total(&mut data, &exec.q, &exec.qd)?;
@@ -71,6 +85,7 @@ pub fn energy_report(
     let mut flow = Flow::new(model, terrain, exec.segments[0].controller.clone());
     let mut y = vec![0.0; 2 * nq];
     let mut joint_work_j = 0.0;
+    let mut damping_work_j = 0.0;
     let mut friction_work_j = 0.0;
     for seg in &exec.segments {
         flow.set_controller(seg.controller.clone());
@@ -87,19 +102,30 @@ pub fn energy_report(
                 let (q, qd) = y.split_at(nq);
                 flow.eval(t, seg.mode, q, qd)?;
                 let (data, tau) = flow.last();
+                // the spring–damper's torque τ^p_j (0 without one)
+                let passive = |j: usize| {
+                    model.joints[j]
+                        .spring
+                        .map_or(0.0, |s| spring_torque(&s, q[j], qd[j]))
+                };
                 let power: f64 = (0..model.n_joints())
                     .map(
                         |j| match (data.free_joints.contains(&j), data.locked.contains(&j)) {
                             // locked for a fold passage: held by the torque that balances its
-                            // contact, (Aᵀλ)_j (its row of (5.3), M̄_j = 0)
-                            (true, true) => data.constraints.a.column(j).dot(&data.lambda) * qd[j],
-                            // free: carries no load
-                            (true, false) => 0.0,
+                            // contact and spring, (Aᵀλ)_j − τ^p_j (its row of (5.3), M̄_j = 0)
+                            (true, true) => {
+                                (data.constraints.a.column(j).dot(&data.lambda) - passive(j))
+                                    * qd[j]
+                            }
+                            // free: carries no load; its prescribed motion works against its
+                            // own spring–damper only
+                            (true, false) => -passive(j) * qd[j],
                             _ => tau[j] * qd[j],
                         },
                     )
                     .sum();
                 joint_work_j += w * (b - a) * power;
+                damping_work_j += w * (b - a) * damping_power(model, qd);
                 let friction: f64 = data.friction.iter().zip(qd).map(|(f, v)| f * v).sum();
                 friction_work_j += w * (b - a) * friction;
             }
@@ -109,6 +135,7 @@ pub fn energy_report(
         initial_j,
         final_j,
         joint_work_j,
+        damping_work_j,
         friction_work_j,
         impact_loss_j: exec.impact_losses().iter().sum(),
     })

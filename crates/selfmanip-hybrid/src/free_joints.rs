@@ -11,9 +11,14 @@
 //! the behaviours and the RHex leap; a law whose stiffness grows along a segment is not
 //! covered). Each joint's law on its own coordinates is a 2 × 2 block `[0 1; a b]`, whose
 //! eigenvalues are `(b ± √(b² + 4a))/2`; a law that couples joints gets the full eigenvalue
-//! problem.
+//! problem ([`crate::eigen`], iteration-capped: past the cap the row-sum bound
+//! `ρ ≤ ‖J‖_∞` stands in). A law that is not finite at the segment's start (a state or gain
+//! near the largest `f64`) ends the run with [`CoreError::NonFiniteResult`] before any
+//! eigenvalue is sought.
 use crate::controller::Controller;
+use crate::eigen::eigenvalues;
 use nalgebra::DMatrix;
+use selfmanip_core::CoreError;
 
 /// `h |λ|` at which the law is integrated, at most: inside DOPRI5's stability region with a
 /// margin (the region reaches −3.3 on the negative real axis).
@@ -34,7 +39,8 @@ pub struct FreeJointStability {
 impl FreeJointStability {
     /// The largest step at which the law of the joints `free` is integrated stably from
     /// `(t, y)` (`y = (q, q̇)`, `nq` coordinates): `STABLE_HZ / ρ`; infinite without free
-    /// joints or where `ρ` is 0 or not finite.
+    /// joints or where `ρ` is 0. A law whose differences are not finite is
+    /// [`CoreError::NonFiniteResult`].
     pub fn step_cap(
         &mut self,
         ctrl: &dyn Controller,
@@ -42,10 +48,10 @@ impl FreeJointStability {
         y: &[f64],
         nq: usize,
         free: &[usize],
-    ) -> f64 {
+    ) -> Result<f64, CoreError> {
         let nf = free.len();
         if nf == 0 {
-            return f64::INFINITY;
+            return Ok(f64::INFINITY);
         }
         let (q, qd) = y.split_at(nq);
         self.q.clear();
@@ -73,6 +79,11 @@ impl FreeJointStability {
                 self.b[c * nf + r] = (self.f1[r] - self.f0[r]) / dv;
             }
         }
+        if !self.a.iter().chain(&self.b).all(|v| v.is_finite()) {
+            return Err(CoreError::NonFiniteResult {
+                quantity: "free joints' tracking law ∂q̈_F/∂(q_F, q̇_F) at a segment's start",
+            });
+        }
         let coupled = (0..nf)
             .flat_map(|c| (0..nf).filter(move |&r| r != c).map(move |r| c * nf + r))
             .any(|k| self.a[k] != 0.0 || self.b[k] != 0.0);
@@ -85,21 +96,28 @@ impl FreeJointStability {
                     jac[(nf + r, nf + c)] = self.b[c * nf + r];
                 }
             }
-            jac.complex_eigenvalues()
-                .iter()
-                .map(|l| l.norm())
-                .fold(0.0, f64::max)
+            spectral_radius(jac)
         } else {
             (0..nf)
                 .map(|k| block_radius(self.a[k * nf + k], self.b[k * nf + k]))
                 .fold(0.0, f64::max)
         };
-        if rho.is_finite() && rho > 0.0 {
+        Ok(if rho.is_finite() && rho > 0.0 {
             STABLE_HZ / rho
         } else {
             f64::INFINITY
-        }
+        })
     }
+}
+
+/// The largest eigenvalue modulus of the finite matrix `m` ([`eigenvalues`]); where the
+/// capped QR iteration does not converge, the row-sum norm `‖m‖_∞`, which no eigenvalue's
+/// modulus exceeds (a larger `ρ` only shortens the steps).
+fn spectral_radius(m: DMatrix<f64>) -> f64 {
+    let row_sum = m.row_iter().map(|r| r.abs().sum()).fold(0.0, f64::max);
+    eigenvalues(m).map_or(row_sum, |ev| {
+        ev.iter().map(|l| l.norm()).fold(0.0, f64::max)
+    })
 }
 
 /// The spectral radius of `[0 1; a b]` (`q̈ = a q + b q̇`): its eigenvalues are

@@ -51,6 +51,7 @@ pub mod contact_set;
 pub mod controller;
 pub mod coulomb_impact;
 pub mod drift;
+pub mod eigen;
 pub mod energy;
 pub mod error;
 pub mod event;

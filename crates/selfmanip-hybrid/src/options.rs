@@ -73,6 +73,14 @@ impl Default for HybridOptions {
     }
 }
 
+/// The smallest relative step tolerance [`HybridOptions`] accepts: half a unit in the last
+/// place of a double is 1.1e-16, so a tighter one asks the steps for what rounding undoes.
+pub const MIN_RTOL: f64 = 1e-16;
+
+/// The widest event bracket [`HybridOptions::event_tol_s`] may ask for (s): wider, a
+/// touchdown would be placed a visible part of a stride away from where it happens.
+pub const MAX_EVENT_TOL_S: f64 = 1e-3;
+
 impl HybridOptions {
     /// Checks the options of a run that ends at `t_final` (errors name the field).
     pub fn validate(&self, t_final: f64) -> Result<(), HybridError> {
@@ -80,6 +88,16 @@ impl HybridOptions {
             return Err(HybridError::InvalidOption {
                 field: "event_tol_s",
                 reason: "must be positive".into(),
+            });
+        }
+        if self.event_tol_s > MAX_EVENT_TOL_S {
+            return Err(HybridError::InvalidOption {
+                field: "event_tol_s",
+                reason: format!(
+                    "must be at most {MAX_EVENT_TOL_S} s (an event located to a second is \
+                     not located), got {}",
+                    self.event_tol_s
+                ),
             });
         }
         if !self.delta_t_s.is_finite() || self.delta_t_s < 0.0 {
@@ -114,11 +132,22 @@ impl HybridOptions {
                 ),
             });
         }
-        // a relative tolerance of 1 lets a step's error be as large as the state itself
-        if !(self.step.rtol > 0.0 && self.step.rtol < 1.0) {
+        // a relative tolerance of 1 lets a step's error be as large as the state itself; one
+        // below MIN_RTOL no step of double precision arithmetic meets (the step collapses)
+        if !(self.step.rtol >= MIN_RTOL && self.step.rtol < 1.0) {
             return Err(HybridError::InvalidOption {
                 field: "rtol",
-                reason: format!("must lie in (0, 1), got {}", self.step.rtol),
+                reason: format!("must lie in [{MIN_RTOL:e}, 1), got {:e}", self.step.rtol),
+            });
+        }
+        // a largest step below the smallest one ends the run at its first step
+        if !(self.step.h_max_s >= self.step.h_min_s) {
+            return Err(HybridError::InvalidOption {
+                field: "h_max_s",
+                reason: format!(
+                    "must be at least the smallest step h_min_s = {:e} s, got {:e}",
+                    self.step.h_min_s, self.step.h_max_s
+                ),
             });
         }
         if !t_final.is_finite() {

@@ -214,16 +214,23 @@ pub struct PeriodicOrbit {
 }
 
 /// Eigenvalues of a square matrix by decreasing modulus (ties: by real part, then
-/// imaginary part, decreasing), from nalgebra's real Schur form.
-pub fn floquet_multipliers(m: &DMatrix<f64>) -> Vec<Complex<f64>> {
-    let mut ev: Vec<Complex<f64>> = m.clone().complex_eigenvalues().iter().copied().collect();
+/// imaginary part, decreasing), from nalgebra's real Schur form ([`crate::eigen`]: a
+/// matrix holding inf/NaN, or a QR iteration past its cap, is
+/// [`PeriodicError::NotDifferentiable`] rather than a loop without end).
+pub fn floquet_multipliers(m: &DMatrix<f64>) -> Result<Vec<Complex<f64>>, PeriodicError> {
+    let mut ev =
+        crate::eigen::eigenvalues(m.clone()).ok_or_else(|| PeriodicError::NotDifferentiable {
+            reason: "the multipliers of a Jacobian that is not finite, or whose QR iteration \
+                     did not converge, are not defined"
+                .into(),
+        })?;
     ev.sort_by(|a, b| {
         b.norm()
             .total_cmp(&a.norm())
             .then(b.re.total_cmp(&a.re))
             .then(b.im.total_cmp(&a.im))
     });
-    ev
+    Ok(ev)
 }
 
 /// The verdict from section multipliers (see [`Stability`]).
@@ -404,6 +411,16 @@ pub fn find_periodic_orbit(
     let mut r = residual(&rm, &idx);
     for it in 0..opts.max_iterations {
         let jac = rm.jacobian.as_ref().expect("asked for");
+        // a state near the largest f64 (a guess of 1e308) returns inf/NaN: no Newton step,
+        // SVD or eigenvalue is defined on it (and nalgebra's would not return)
+        if !r.iter().chain(jac.iter()).all(|v| v.is_finite()) {
+            return Err(PeriodicError::NotDifferentiable {
+                reason: format!(
+                    "the return map or its Jacobian is not finite at iteration {it} (a state \
+                     too large for f64 arithmetic)"
+                ),
+            });
+        }
         let rnorm = r.amax();
         let mut a = DMatrix::zeros(idx.len(), idx.len());
         for (i, &ri) in idx.iter().enumerate() {
@@ -417,7 +434,7 @@ pub fn find_periodic_orbit(
         let cut = opts.rank_rtol * smax;
         let rank_deficiency = svd.singular_values.iter().filter(|&&s| s <= cut).count();
         if rnorm <= opts.tol {
-            return Ok(orbit(
+            return orbit(
                 model,
                 terrain,
                 rm,
@@ -428,7 +445,7 @@ pub fn find_periodic_orbit(
                 rnorm,
                 rank_deficiency,
                 opts,
-            ));
+            );
         }
         let delta = -svd
             .pseudo_inverse(cut.max(f64::MIN_POSITIVE))
@@ -498,7 +515,7 @@ fn orbit(
     residual: f64,
     rank_deficiency: usize,
     opts: &PeriodicOptions,
-) -> PeriodicOrbit {
+) -> Result<PeriodicOrbit, PeriodicError> {
     let dp = rm.jacobian.clone().expect("asked for");
     let tg = rm
         .time_gradient
@@ -512,10 +529,10 @@ fn orbit(
         Ok(()) => &dp - &f * &tg,
         Err(_) => DMatrix::from_element(dp.nrows(), dp.ncols(), f64::NAN),
     };
-    let multipliers = floquet_multipliers(&dp);
-    let section_multipliers = floquet_multipliers(&section_jacobian);
+    let multipliers = floquet_multipliers(&dp)?;
+    let section_multipliers = floquet_multipliers(&section_jacobian)?;
     let drift = cyclic.iter().map(|&c| rm.x1[c] - rm.x0[c]).collect();
-    PeriodicOrbit {
+    Ok(PeriodicOrbit {
         x: rm.x0.clone(),
         period_s: rm.period_s,
         drift,
@@ -536,7 +553,7 @@ fn orbit(
         iterations,
         residual,
         rank_deficiency,
-    }
+    })
 }
 
 #[cfg(test)]
@@ -549,7 +566,7 @@ mod tests {
     fn multipliers_of_a_known_matrix() {
         let (c, s) = (0.5 * 0.3f64.cos(), 0.5 * 0.3f64.sin());
         let m = DMatrix::from_row_slice(3, 3, &[c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 2.0]);
-        let ev = floquet_multipliers(&m);
+        let ev = floquet_multipliers(&m).unwrap();
         assert!((ev[0] - Complex::new(2.0, 0.0)).norm() < 1e-14);
         assert!((ev[1] - Complex::new(c, s)).norm() < 1e-14, "{ev:?}");
         assert!((ev[2] - Complex::new(c, -s)).norm() < 1e-14, "{ev:?}");

@@ -132,7 +132,7 @@ impl SegmentIntegrator {
         }
         let cap = self
             .free_stability
-            .step_cap(flow.controller().as_ref(), t, y, nq, free);
+            .step_cap(flow.controller().as_ref(), t, y, nq, free)?;
         // the controller holds its memory over a segment: its time events are known here
         self.stops.clear();
         self.t_right = f64::NEG_INFINITY;

@@ -16,8 +16,22 @@
 //! `max(a, b)`, `abs(a)`, `sqrt(a)`, `sin(a)`, `cos(a)`, `if(c, a, b)` (`a` where `c ≠ 0`,
 //! else `b`). A hand-written parser of ~200 lines rather than a dependency: the expression
 //! crates we looked at mix integer and float arithmetic (`7 / 2 = 3`), which a physical
-//! parameter must never see.
+//! parameter must never see, and bound neither nesting nor size.
+//!
+//! A formula holds at most [`MAX_EXPR_BYTES`] bytes and nests at most [`MAX_EXPR_DEPTH`]
+//! deep (parentheses, calls, signs, and chains of `+ - * /`, which nest to the left): the
+//! parser, [`Expr::eval`], [`Expr::eval_grad`] and dropping a tree recurse through its
+//! depth, so a bounded depth is what keeps them inside any thread's stack. Parameters that
+//! refer to each other form chains of at most [`MAX_PARAMETER_CHAIN`] links.
 use crate::error::SimError;
+
+/// The longest formula, in bytes.
+pub const MAX_EXPR_BYTES: usize = 10_000;
+/// The deepest formula: each parenthesis, call and sign is a level, and so is each operator
+/// of a chain (`1 + 2 + 3` is `(1 + 2) + 3`, 2 levels).
+pub const MAX_EXPR_DEPTH: usize = 100;
+/// The longest chain of parameters whose formulas use each other (`a = b + 1`, `b = c`, …).
+pub const MAX_PARAMETER_CHAIN: usize = 256;
 
 /// A parsed expression.
 #[derive(Debug, Clone, PartialEq)]
@@ -72,16 +86,23 @@ impl Func {
 impl Expr {
     /// Parses `text`; errors name `field`.
     pub fn parse(field: &str, text: &str) -> Result<Expr, SimError> {
+        let err = |reason: String| SimError::Expression {
+            field: field.to_string(),
+            expr: shortened(text),
+            reason,
+        };
+        if text.len() > MAX_EXPR_BYTES {
+            return Err(err(format!(
+                "{} bytes is longer than the {MAX_EXPR_BYTES} a formula may hold",
+                text.len()
+            )));
+        }
         let mut p = Parser {
             s: text.as_bytes(),
             i: 0,
+            nesting: 0,
         };
-        let err = |reason: String| SimError::Expression {
-            field: field.to_string(),
-            expr: text.to_string(),
-            reason,
-        };
-        let e = p.compare().map_err(err)?;
+        let (e, _) = p.compare().map_err(err)?;
         p.ws();
         if p.i != p.s.len() {
             return Err(err(format!("unexpected `{}`", &text[p.i..])));
@@ -234,12 +255,53 @@ impl Expr {
     }
 }
 
+/// `text` for an error message: long formulas cut to their first 60 characters.
+fn shortened(text: &str) -> String {
+    match text.char_indices().nth(60) {
+        Some((end, _)) => format!("{}… ({} bytes)", &text[..end], text.len()),
+        None => text.to_string(),
+    }
+}
+
+/// A parsed subtree and its depth (a leaf is 0 deep).
+type Node = (Expr, usize);
+
+/// `depth` if a tree may be that deep ([`MAX_EXPR_DEPTH`]).
+fn within_depth(depth: usize) -> Result<usize, String> {
+    if depth > MAX_EXPR_DEPTH {
+        Err(format!(
+            "nests deeper than the {MAX_EXPR_DEPTH} levels a formula may have"
+        ))
+    } else {
+        Ok(depth)
+    }
+}
+
+fn bin(op: Op, (a, da): Node, (b, db): Node) -> Result<Node, String> {
+    let depth = within_depth(da.max(db) + 1)?;
+    Ok((Expr::Bin(op, Box::new(a), Box::new(b)), depth))
+}
+
 struct Parser<'a> {
     s: &'a [u8],
     i: usize,
+    /// How many parentheses, calls and signs enclose the position: bounded before each
+    /// recursion, so that the parser's own stack stays within [`MAX_EXPR_DEPTH`] levels.
+    nesting: usize,
 }
 
 impl Parser<'_> {
+    /// Runs `inner` one nesting level down.
+    fn nested(
+        &mut self,
+        inner: impl FnOnce(&mut Self) -> Result<Node, String>,
+    ) -> Result<Node, String> {
+        self.nesting = within_depth(self.nesting + 1)?;
+        let out = inner(self);
+        self.nesting -= 1;
+        out
+    }
+
     fn ws(&mut self) {
         while self.i < self.s.len() && self.s[self.i].is_ascii_whitespace() {
             self.i += 1;
@@ -261,7 +323,7 @@ impl Parser<'_> {
         }
     }
 
-    fn compare(&mut self) -> Result<Expr, String> {
+    fn compare(&mut self) -> Result<Node, String> {
         let a = self.sum()?;
         // two-character operators first
         for (tok, op) in [
@@ -274,13 +336,13 @@ impl Parser<'_> {
         ] {
             if self.eat(tok) {
                 let b = self.sum()?;
-                return Ok(Expr::Bin(op, Box::new(a), Box::new(b)));
+                return bin(op, a, b);
             }
         }
         Ok(a)
     }
 
-    fn sum(&mut self) -> Result<Expr, String> {
+    fn sum(&mut self) -> Result<Node, String> {
         let mut a = self.product()?;
         loop {
             let op = match self.peek() {
@@ -290,11 +352,11 @@ impl Parser<'_> {
             };
             self.i += 1;
             let b = self.product()?;
-            a = Expr::Bin(op, Box::new(a), Box::new(b));
+            a = bin(op, a, b)?;
         }
     }
 
-    fn product(&mut self) -> Result<Expr, String> {
+    fn product(&mut self) -> Result<Node, String> {
         let mut a = self.unary()?;
         loop {
             let op = match self.peek() {
@@ -304,24 +366,25 @@ impl Parser<'_> {
             };
             self.i += 1;
             let b = self.unary()?;
-            a = Expr::Bin(op, Box::new(a), Box::new(b));
+            a = bin(op, a, b)?;
         }
     }
 
-    fn unary(&mut self) -> Result<Expr, String> {
+    fn unary(&mut self) -> Result<Node, String> {
         if self.peek() == Some(b'-') {
             self.i += 1;
-            return Ok(Expr::Neg(Box::new(self.unary()?)));
+            let (a, depth) = self.nested(Self::unary)?;
+            return Ok((Expr::Neg(Box::new(a)), within_depth(depth + 1)?));
         }
         self.atom()
     }
 
-    fn atom(&mut self) -> Result<Expr, String> {
+    fn atom(&mut self) -> Result<Node, String> {
         match self.peek() {
             None => Err("unexpected end".into()),
             Some(b'(') => {
                 self.i += 1;
-                let e = self.compare()?;
+                let e = self.nested(Self::compare)?;
                 if !self.eat(")") {
                     return Err("missing `)`".into());
                 }
@@ -341,7 +404,7 @@ impl Parser<'_> {
                 }
                 let text = std::str::from_utf8(&self.s[start..self.i]).expect("ascii");
                 text.parse::<f64>()
-                    .map(Expr::Num)
+                    .map(|x| (Expr::Num(x), 0))
                     .map_err(|_| format!("bad number `{text}`"))
             }
             Some(c) if c.is_ascii_alphabetic() || c == b'_' => {
@@ -355,14 +418,20 @@ impl Parser<'_> {
                 }
                 let name = std::str::from_utf8(&self.s[start..self.i]).expect("ascii");
                 if self.peek() != Some(b'(') {
-                    return Ok(Expr::Var(name.to_string()));
+                    return Ok((Expr::Var(name.to_string()), 0));
                 }
                 let (f, arity) =
                     Func::parse(name).ok_or_else(|| format!("unknown function `{name}`"))?;
                 self.i += 1;
-                let mut args = vec![self.compare()?];
-                while self.eat(",") {
-                    args.push(self.compare()?);
+                let mut args = Vec::new();
+                let mut depth = 0;
+                loop {
+                    let (a, d) = self.nested(Self::compare)?;
+                    args.push(a);
+                    depth = depth.max(d + 1);
+                    if !self.eat(",") {
+                        break;
+                    }
                 }
                 if !self.eat(")") {
                     return Err(format!("missing `)` after the arguments of `{name}`"));
@@ -373,7 +442,7 @@ impl Parser<'_> {
                         args.len()
                     ));
                 }
-                Ok(Expr::Call(f, args))
+                Ok((Expr::Call(f, args), within_depth(depth)?))
             }
             Some(c) => Err(format!("unexpected `{}`", c as char)),
         }

@@ -45,6 +45,14 @@ impl ContactLabels {
 
     /// The contacts named `names`, in that order (errors name `field[i]`).
     pub fn from_names(model: &Model, names: &[String], field: &str) -> Result<Self, SimError> {
+        if names.is_empty() && model.n_contacts() > 0 {
+            return Err(SimError::InvalidValue {
+                field: field.to_string(),
+                reason: "lists no contact: every label would be empty (omit it for all \
+                         contacts, in the description's order)"
+                    .into(),
+            });
+        }
         let mut order = Vec::with_capacity(names.len());
         for (i, n) in names.iter().enumerate() {
             let k = contact_by_name(model, n, &format!("{field}[{i}]"))?;

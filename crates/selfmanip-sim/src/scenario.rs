@@ -325,6 +325,14 @@ impl Simulation {
             }
             q0 = crate::analysis::solve_contact_pose(&model, &terrain, &active, &free, &q0)?;
         }
+        // finite coordinates too large for double precision (1e308) give an infinite energy
+        let mut data = selfmanip_core::Data::new(&model);
+        if let Err(selfmanip_core::CoreError::NonFiniteResult { quantity }) =
+            selfmanip_core::energy(&model, &mut data, &q0, &qd0)
+        {
+            let field = if quantity == "T" { "initial.qd" } else { "initial.q" };
+            return Err(invalid(field, format!("too large: `{quantity}` overflows at it")));
+        }
         // no inactive contact may start below the ground (the first step would meet it as a
         // discontinuity of the terrain, not as a touchdown)
         let inactive: Vec<usize> = (0..model.n_contacts())

@@ -17,9 +17,15 @@ use nalgebra::Vector2;
 use selfmanip_core::{GroundPlane, Terrain};
 use serde::{Deserialize, Serialize};
 
-/// The ground an execution runs on.
+/// The ground an execution runs on. Read strictly ([`StrictTerrain`]): a key that the kind
+/// does not have is refused with the keys it has.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+#[serde(
+    tag = "kind",
+    rename_all = "snake_case",
+    deny_unknown_fields,
+    from = "StrictTerrain"
+)]
 pub enum TerrainSpec {
     /// Level ground at world `z = 0`.
     #[default]
@@ -39,6 +45,55 @@ pub enum TerrainSpec {
         count: u32,
         distance_m: f64,
     },
+}
+
+/// [`TerrainSpec`] as it is read: `flat` as a struct of no fields, since serde lets an
+/// internally tagged unit variant ignore any other key (`{"kind": "flat", "extra": 1}`
+/// passed silently); every kind refuses keys it does not have.
+#[derive(Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+enum StrictTerrain {
+    Flat {},
+    Incline {
+        slope_rad: f64,
+    },
+    Ledge {
+        height_m: f64,
+        distance_m: f64,
+    },
+    Stairs {
+        rise_m: f64,
+        run_m: f64,
+        count: u32,
+        distance_m: f64,
+    },
+}
+
+impl From<StrictTerrain> for TerrainSpec {
+    fn from(t: StrictTerrain) -> Self {
+        match t {
+            StrictTerrain::Flat {} => TerrainSpec::Flat,
+            StrictTerrain::Incline { slope_rad } => TerrainSpec::Incline { slope_rad },
+            StrictTerrain::Ledge {
+                height_m,
+                distance_m,
+            } => TerrainSpec::Ledge {
+                height_m,
+                distance_m,
+            },
+            StrictTerrain::Stairs {
+                rise_m,
+                run_m,
+                count,
+                distance_m,
+            } => TerrainSpec::Stairs {
+                rise_m,
+                run_m,
+                count,
+                distance_m,
+            },
+        }
+    }
 }
 
 fn bad(field: &str, reason: String) -> SimError {
@@ -202,6 +257,41 @@ impl Terrain for TerrainSpec {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Unknown and repeated keys are refused, naming the key and the kind's keys; every kind
+    /// reads back what it wrote.
+    #[test]
+    fn terrains_refuse_keys_they_do_not_have() {
+        let read = |s: &str| serde_json::from_str::<TerrainSpec>(s).map_err(|e| e.to_string());
+        let e = read(r#"{"kind": "flat", "extra": 1}"#).unwrap_err();
+        assert!(e.contains("unknown field `extra`"), "{e}");
+        let e =
+            read(r#"{"kind": "ledge", "height_m": 0.1, "distance_m": 0.2, "x": 1}"#).unwrap_err();
+        assert!(
+            e.contains("`x`") && e.contains("`height_m`") && e.contains("`distance_m`"),
+            "{e}"
+        );
+        let e = read(r#"{"kind": "ledge", "height_m": 0.1, "height_m": 0.2, "distance_m": 0.3}"#)
+            .unwrap_err();
+        assert!(e.contains("duplicate field `height_m`"), "{e}");
+        for t in [
+            TerrainSpec::Flat,
+            TerrainSpec::Incline { slope_rad: 0.1 },
+            TerrainSpec::Ledge {
+                height_m: 0.04,
+                distance_m: -0.3,
+            },
+            TerrainSpec::Stairs {
+                rise_m: 0.05,
+                run_m: 0.3,
+                count: 3,
+                distance_m: 0.2,
+            },
+        ] {
+            let text = serde_json::to_string(&t).unwrap();
+            assert_eq!(read(&text).unwrap(), t, "{text}");
+        }
+    }
 
     #[test]
     fn a_ledge_behind_mirrors_a_ledge_ahead() {

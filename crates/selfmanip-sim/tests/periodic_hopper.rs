@@ -149,7 +149,7 @@ fn hopper_section_multipliers_match_finite_differences() {
         }
     }
     let e = rel(&o.section_jacobian, &fd);
-    let fd_mult = floquet_multipliers(&fd);
+    let fd_mult = floquet_multipliers(&fd).unwrap();
     let em = multiplier_error(&o.section_multipliers, &fd_mult)
         .max(multiplier_error(&fd_mult, &o.section_multipliers));
     eprintln!("section Jacobian vs central differences {e:e}; multipliers {em:e}");

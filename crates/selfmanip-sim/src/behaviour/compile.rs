@@ -10,7 +10,7 @@ use super::spec::{
 };
 use super::tangent::{ActuatorLaw, Grad, NumberTangent, PhaseTangent, PlanTangent, TorqueTangent};
 use crate::error::{finite, invalid, non_negative, positive, SimError};
-use crate::expr::{Expr, Scalar};
+use crate::expr::{Expr, Scalar, MAX_PARAMETER_CHAIN};
 use crate::labels::{contact_by_name, joint_contacts, joint_index, joint_name};
 use motor::Actuator;
 use selfmanip_core::Model;
@@ -290,6 +290,12 @@ fn parameters(b: &Behaviour) -> Result<BTreeMap<String, f64>, SimError> {
                 field: Leaf("parameters", path[i]).path(),
                 cycle,
             });
+        }
+        if path.len() >= MAX_PARAMETER_CHAIN {
+            return Err(invalid(
+                field.path(),
+                format!("its formula starts a chain of more than {MAX_PARAMETER_CHAIN} parameters using each other"),
+            ));
         }
         path.push(name);
         let mut read = Vec::new();
