@@ -74,6 +74,14 @@ impl Default for HybridOptions {
 }
 
 impl HybridOptions {
+    /// The shortest time between transitions that the run resolves (s): the Zeno window
+    /// allows `zeno_max_events` in `zeno_window_s`, so transitions closer than this on
+    /// average are a Zeno execution to it. At `delta_t_s = 0`, a contact that an impact would
+    /// release for a flight shorter than this is at rest (`crate::complementarity`).
+    pub fn rest_time_s(&self) -> f64 {
+        self.zeno_window_s / self.zeno_max_events as f64
+    }
+
     /// Checks the options of a run that ends at `t_final` (errors name the field).
     pub fn validate(&self, t_final: f64) -> Result<(), HybridError> {
         if self.event_tol_s.is_nan() || self.event_tol_s <= 0.0 {
