@@ -130,6 +130,17 @@ fn assert_no_energy_gain(e: &Execution) {
     }
 }
 
+/// Whether a run ended as a Zeno execution (or its generalization, a chatter).
+fn is_zeno(t: &Termination) -> bool {
+    matches!(t, Termination::Zeno { .. } | Termination::Chatter { .. })
+}
+
+/// The run is no Zeno execution and no reset gained energy.
+fn assert_sound(e: &Execution) {
+    assert!(!is_zeno(&e.termination), "{:?}", e.termination);
+    assert_no_energy_gain(e);
+}
+
 /// A level drop from `q0` with the feet at equal height `h` lands in one touchdown at
 /// `√(2h/g)`, every foot at once, and then no foot lets go at once.
 fn assert_lands_in_one_event(model: &Model, q0: &[f64]) {
@@ -154,15 +165,7 @@ fn assert_lands_in_one_event(model: &Model, q0: &[f64]) {
     if let Some(next) = e.events.get(1) {
         assert!(next.t - first.t > 1e-3, "{:?} at {}", next.kind, next.t);
     }
-    assert!(
-        !matches!(
-            e.termination,
-            Termination::Zeno { .. } | Termination::Chatter { .. }
-        ),
-        "{:?}",
-        e.termination
-    );
-    assert_no_energy_gain(&e);
+    assert_sound(&e);
 }
 
 /// The issue's reproducer: the bounder dropped level from 0.33 m with limp servos.
@@ -203,15 +206,7 @@ fn a_tilted_two_foot_drop_lands_one_foot_then_the_other() {
         .find(|ev| ev.kind == EventKind::Touchdown && ev.triggered.contains(&(1 - low)))
         .expect("the other foot lands");
     assert!(second.t > first.t + 1e-3, "{} after {}", second.t, first.t);
-    assert!(
-        !matches!(
-            e.termination,
-            Termination::Zeno { .. } | Termination::Chatter { .. }
-        ),
-        "{:?}",
-        e.termination
-    );
-    assert_no_energy_gain(&e);
+    assert_sound(&e);
 }
 
 /// Issue 30's bound sweep: hips servo to 0.5 rad, knees push from −1.0 to −0.2 rad at
@@ -234,10 +229,7 @@ fn the_bound_sweep_ends_without_zeno() {
         assert_no_energy_gain(&e);
         statuses.push((kp, e.termination.clone(), e.events.len()));
     }
-    let zeno: Vec<_> = statuses
-        .iter()
-        .filter(|(_, t, _)| matches!(t, Termination::Zeno { .. } | Termination::Chatter { .. }))
-        .collect();
+    let zeno: Vec<_> = statuses.iter().filter(|(_, t, _)| is_zeno(t)).collect();
     assert!(zeno.is_empty(), "{zeno:?}");
 }
 
@@ -297,10 +289,7 @@ fn random_level_drops_end_without_zeno() {
         assert_no_energy_gain(&e);
         let has_massless = model.joints.iter().any(|j| j.mass_kg == 0.0);
         massive += usize::from(!has_massless);
-        if matches!(
-            e.termination,
-            Termination::Zeno { .. } | Termination::Chatter { .. }
-        ) {
+        if is_zeno(&e.termination) {
             let list = if has_massless {
                 &mut zeno_massless
             } else {
