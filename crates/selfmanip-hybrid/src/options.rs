@@ -21,7 +21,9 @@ pub struct HybridOptions {
     pub step: StepOptions,
     /// Width of the bracket that locates a guard's zero (s).
     pub event_tol_s: f64,
-    /// Pseudo-impulse duration δt of (5.39) (s); 0 disables it.
+    /// Pseudo-impulse duration δt of (5.39) (s). 0 takes its limit δt → 0⁺: the touching set
+    /// lands in one impact and a contact left at rest is judged by force, at the resolution
+    /// [`Self::rest_time_s`] ([`crate::complementarity`]).
     pub delta_t_s: f64,
     /// Zeno detection: more than `zeno_max_events` events within `zeno_window_s` stops the run.
     pub zeno_window_s: f64,
