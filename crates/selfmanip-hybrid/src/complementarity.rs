@@ -9,9 +9,31 @@
 //! at all (its KKT matrix singular). Exactly one accepted set is the answer; none or several
 //! end the execution with a typed [`Termination`].
 //!
+//! **Contacts an impact leaves at rest** (at `delta_t_s = 0`, the default). The
+//! pseudo-impulse rule (5.39)–(5.40) judges a contact by what it transmits over the impact's
+//! duration δt, `Π_k = P_k + δt F_k + o(δt)`: the plastic impulse `P` of (5.28)–(5.29) and
+//! then the force `F` of (5.19)–(5.20) in the mode after. Its limit δt → 0⁺ orders the two
+//! lexicographically: `Π_k ≥ 0` when `P_k > 0`, or `P_k = 0` and `F_k ≥ 0`; so does the
+//! contact's normal velocity after the duration, `v⁺_k + δt a_k`. Impulse complementarity
+//! (order 0) thus decides every contact of the touching set (at zero gap, not separating:
+//! [`ResetWorkspace::touching`]) except those it leaves at rest — zero impulse, zero normal
+//! velocity —, and force complementarity in the mode after (order δt) decides those: one
+//! whose force there is compressive stays, else it is released (its acceleration separates
+//! it). "Zero" is judged on the contact's own time scale: released by a pull `P_k < 0` (its
+//! impulse in `J ∪ {k}`) with the force `F_k > 0` holding it in that set, the contact leaves
+//! at `v⁺_k = W̃_kk |P_k|` and falls back at `a_k = W̃_kk F_k` (`W̃_kk` its Delassus
+//! operator with `J` held): its flight lasts `2 |P_k| / F_k`, independent of its inertia.
+//! A flight shorter than the run's time resolution `τ` ([`crate::HybridOptions::rest_time_s`],
+//! the mean event spacing at which the Zeno window stops the run) is no flight at that
+//! resolution: the contact is at rest, `|P_k| ≤ (τ/2) F_k` — (5.40) with `δt = τ/2` for it
+//! alone, the actuators' pseudo-impulse on the others staying of order δt → 0. The impact
+//! then goes into `J` and the resting contacts (5.52), and the mode after is what force
+//! complementarity keeps of them. A positive `delta_t_s` keeps (5.40) as the thesis states it.
+//!
 //! **Beyond the limit** (all frictionless) the same problems are solved as a convex QP with
 //! clarabel ([`crate::impact_qp`]): the LCP with the Delassus operator, whose KKT conditions
 //! are complementarity itself.
+use crate::contact_set::normal_push;
 use crate::error::HybridError;
 use crate::execution::Termination;
 use crate::impact::SetOutcome;
@@ -20,7 +42,7 @@ use crate::limits::ENUMERATION_LIMIT;
 use crate::reset_workspace::ResetWorkspace;
 use selfmanip_core::contact::ContactKind;
 use selfmanip_core::model::Friction;
-use selfmanip_core::ContactMode;
+use selfmanip_core::{plastic_impact, ContactMode, CoreError};
 
 /// What complementarity selects at an event: the mode after it with the contact impulses
 /// (forces at a force event) and pseudo-impulses in its rows.
@@ -113,6 +135,52 @@ impl ResetWorkspace<'_> {
                 candidates: accepted.iter().map(|a| a.mode).collect(),
             }),
         })
+    }
+
+    /// The contacts of `released` (left out of the impact into `held` from `(q, q̇⁻)`) that
+    /// the impact leaves at rest on the time scale `rest_time_s` (module docs): each pulls in
+    /// `held ∪ {k}` by at most `(rest_time_s / 2) F_k`, its compressive force there after
+    /// that set's impact. Kinds from `prefer`, as in [`Self::select`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn resting(
+        &mut self,
+        t: f64,
+        released: &[usize],
+        (held, prefer): (ContactMode, ContactMode),
+        q: &[f64],
+        qd_minus: &[f64],
+        rest_time_s: f64,
+    ) -> Result<Vec<usize>, CoreError> {
+        let mut resting = Vec::new();
+        for &k in released {
+            let mut set: Vec<usize> = held.active().chain([k]).collect();
+            set.sort_unstable();
+            let Some(imp) = self.outcome(t, &set, prefer, q, qd_minus, true)? else {
+                continue;
+            };
+            let pull = -push_of(&imp.push, k);
+            if pull.is_nan() || pull < 0.0 {
+                continue;
+            }
+            let qd_plus = plastic_impact(
+                self.model,
+                &mut self.ws.data,
+                self.terrain,
+                imp.mode,
+                q,
+                qd_minus,
+            )?;
+            let Some(force) =
+                self.outcome(t, &set, imp.mode, q, qd_plus.qd_plus.as_slice(), false)?
+            else {
+                continue;
+            };
+            let f = push_of(&normal_push(force.mode, &force.judged), k);
+            if f > 0.0 && pull <= 0.5 * rest_time_s * f {
+                resting.push(k);
+            }
+        }
+        Ok(resting)
     }
 
     /// [`Self::select`] for more than [`ENUMERATION_LIMIT`] candidates, all frictionless: the
@@ -209,4 +277,9 @@ impl ResetWorkspace<'_> {
             Err(e) => Err(e.into()),
         }
     }
+}
+
+/// The push of contact `k` in `push` (0 if it is not there).
+fn push_of(push: &[(usize, f64)], k: usize) -> f64 {
+    push.iter().find(|(c, _)| *c == k).map_or(0.0, |x| x.1)
 }

@@ -4,7 +4,8 @@
 //! down. Evaluated on the [`ResetWorkspace`], the resets' own copy of the core's workspace.
 use crate::fold;
 use crate::reset_workspace::ResetWorkspace;
-use selfmanip_core::contact::{ContactKind, RowDirection};
+use crate::surface_tolerances::TERRAIN_STEP_M;
+use selfmanip_core::contact::{contact_geometry, ContactKind, RowDirection};
 use selfmanip_core::model::Friction;
 use selfmanip_core::{ContactMode, CoreError, SingularityKind};
 
@@ -160,6 +161,53 @@ impl ResetWorkspace<'_> {
                 (u < -IMPULSE_TOL_N_S && slidable && mode.kind(k) == Some(ContactKind::Stick))
                     .then_some(k)
             })
+    }
+}
+
+impl ResetWorkspace<'_> {
+    /// The contacts that land with the touchdowns `touched` of a landing from `mode` at
+    /// `(q, q̇⁻)` without a pseudo-impulse (δt = 0, [`crate::complementarity`]): every other
+    /// contact not in `mode` within [`TERRAIN_STEP_M`] of its surface (on it, as an active
+    /// contact would be) whose normal velocity does not separate it. None with δt > 0 (the
+    /// thesis's rule (5.40) as it stands) or without a touchdown.
+    pub fn touching(
+        &mut self,
+        mode: ContactMode,
+        touched: &[usize],
+        q: &[f64],
+        qd: &[f64],
+    ) -> Result<Vec<usize>, CoreError> {
+        if self.delta_t_s > 0.0 || touched.is_empty() {
+            return Ok(Vec::new());
+        }
+        let others =
+            (0..self.model.n_contacts()).filter(|&k| !mode.contains(k) && !touched.contains(&k));
+        Ok(self
+            .gaps_and_approach(others, q, qd)?
+            .into_iter()
+            .filter(|&(_, gap, approach)| gap.abs() <= TERRAIN_STEP_M && approach >= 0.0)
+            .map(|(k, ..)| k)
+            .collect())
+    }
+
+    /// The normal velocity `ȧ_k = n · v_k` (m/s, positive into the ground: approaching) and
+    /// the gap `a_k` (m) of each contact in `contacts` at `(q, q̇)`.
+    fn gaps_and_approach(
+        &mut self,
+        contacts: impl Iterator<Item = usize>,
+        q: &[f64],
+        qd: &[f64],
+    ) -> Result<Vec<(usize, f64, f64)>, CoreError> {
+        self.ws
+            .data
+            .prepare_geometry(self.model, self.terrain, ContactMode::FLIGHT, q, qd)?;
+        let kin = &self.ws.data.kin;
+        Ok(contacts
+            .map(|k| {
+                let g = contact_geometry(self.model, kin, self.terrain, k);
+                (k, g.gap_m, g.point_rate.dot(&g.plane.normal()))
+            })
+            .collect())
     }
 }
 

@@ -45,19 +45,23 @@ impl Segment {
 pub enum Termination {
     FinalTime,
     Apex,
-    /// More than the allowed number of events in the Zeno window.
+    /// More than the allowed number of events in the Zeno window; `contacts` are the
+    /// contacts that triggered them.
     Zeno {
         t: f64,
         events_in_window: usize,
+        contacts: Vec<usize>,
     },
     /// A chattering execution ([`crate::zeno::ChatterDetector`]): the same cycle of
     /// `period` events ran `cycles` times in a row, over `duration_s` ending at `t`, while
-    /// the configuration stayed where it was.
+    /// the configuration stayed where it was; `contacts` are the contacts that triggered the
+    /// cycle's events.
     Chatter {
         t: f64,
         period: usize,
         cycles: usize,
         duration_s: f64,
+        contacts: Vec<usize>,
     },
     /// The run made [`crate::HybridOptions::max_events`] events.
     EventBudget,
@@ -114,6 +118,16 @@ pub enum Termination {
     },
 }
 
+/// `", triggered by contacts `a`, `b`"` for the contacts of a Zeno or chatter report (nothing
+/// when there are none: feature passages alone).
+fn involving(contacts: &[usize], name: &dyn Fn(usize) -> String) -> String {
+    if contacts.is_empty() {
+        return String::new();
+    }
+    let names: Vec<String> = contacts.iter().map(|&k| format!("`{}`", name(k))).collect();
+    format!(", triggered by contacts {}", names.join(", "))
+}
+
 impl Termination {
     /// How a run ended, in words, for status messages: `at(t)` writes an instant of the run
     /// (e.g. on the caller's own clock), `contact(k)` names contact `k`, and `mode` labels
@@ -135,20 +149,24 @@ impl Termination {
             Termination::Zeno {
                 t,
                 events_in_window,
+                contacts,
             } => format!(
-                "Zeno: {events_in_window} events within the Zeno window (zeno_window_s) at {}",
-                at(*t)
+                "Zeno: {events_in_window} events within the Zeno window (zeno_window_s) at {}{}",
+                at(*t),
+                involving(contacts, contact)
             ),
             Termination::Chatter {
                 t,
                 period,
                 cycles,
                 duration_s,
+                contacts,
             } => format!(
                 "chatter (a generalized Zeno execution): the same cycle of {period} events ran \
                  {cycles} times over {duration_s:.6} s with the robot staying where it was, \
-                 ending at {}",
-                at(*t)
+                 ending at {}{}",
+                at(*t),
+                involving(contacts, contact)
             ),
             Termination::EventBudget => {
                 "the execution used up its event budget (max_events)".into()
@@ -270,8 +288,9 @@ mod tests {
                 Termination::Zeno {
                     t: 0.25,
                     events_in_window: 41,
+                    contacts: vec![3],
                 },
-                vec!["41 events", "t = 0.25 s"],
+                vec!["41 events", "t = 0.25 s", "contacts `#3`"],
             ),
             (
                 Termination::Chatter {
@@ -279,8 +298,9 @@ mod tests {
                     period: 2,
                     cycles: 7,
                     duration_s: 0.001,
+                    contacts: vec![0, 3],
                 },
-                vec!["2 events", "7 times", "t = 0.5 s"],
+                vec!["2 events", "7 times", "t = 0.5 s", "contacts `#0`, `#3`"],
             ),
             (Termination::EventBudget, vec!["event budget"]),
             (

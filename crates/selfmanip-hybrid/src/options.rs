@@ -21,7 +21,9 @@ pub struct HybridOptions {
     pub step: StepOptions,
     /// Width of the bracket that locates a guard's zero (s).
     pub event_tol_s: f64,
-    /// Pseudo-impulse duration δt of (5.39) (s); 0 disables it.
+    /// Pseudo-impulse duration δt of (5.39) (s). 0 takes its limit δt → 0⁺: the touching set
+    /// lands in one impact and a contact left at rest is judged by force, at the resolution
+    /// [`Self::rest_time_s`] ([`crate::complementarity`]).
     pub delta_t_s: f64,
     /// Zeno detection: more than `zeno_max_events` events within `zeno_window_s` stops the run.
     pub zeno_window_s: f64,
@@ -82,6 +84,14 @@ pub const MIN_RTOL: f64 = 1e-16;
 pub const MAX_EVENT_TOL_S: f64 = 1e-3;
 
 impl HybridOptions {
+    /// The shortest time between transitions that the run resolves (s): the Zeno window
+    /// allows `zeno_max_events` in `zeno_window_s`, so transitions closer than this on
+    /// average are a Zeno execution to it. At `delta_t_s = 0`, a contact that an impact would
+    /// release for a flight shorter than this is at rest (`crate::complementarity`).
+    pub fn rest_time_s(&self) -> f64 {
+        self.zeno_window_s / self.zeno_max_events as f64
+    }
+
     /// Checks the options of a run that ends at `t_final` (errors name the field).
     pub fn validate(&self, t_final: f64) -> Result<(), HybridError> {
         if self.event_tol_s.is_nan() || self.event_tol_s <= 0.0 {

@@ -4,6 +4,8 @@
 //! ```text
 //! fired guards      => touched, released, slipped, stuck contacts
 //! touched           => a plastic impact: complementarity on impulses (5.28)–(5.29), (5.40)
+//!                      (at δt = 0 over the whole touching set, and with the contacts it
+//!                      leaves at rest: crate::complementarity)
 //!                      => q̇⁺ (5.52) => the kept contacts must also hold in force (5.19)–(5.20)
 //! folded            => the same impact problem, each folded contact barred from the kind
 //!                      that is singular at its fold: a sliding one offered the stick (an
@@ -81,7 +83,7 @@ pub fn reset_jamming(
         .copied()
         .filter(|&g| g != Guard::Apex)
         .collect();
-    let c = FiredContacts::of(&fired);
+    let mut c = FiredContacts::of(&fired);
     // a chain that is ε past its fold is unlocked
     let mut lock = flow.lock().to_vec();
     lock.retain(|j| {
@@ -133,6 +135,9 @@ pub fn reset_jamming(
         barred: &barred,
         fold_threshold: opts.fold_threshold,
     };
+    // a landing at δt = 0 takes every contact touching with it (ResetWorkspace::touching)
+    let more = cx.touching(mode, &c.touched, q, qd)?;
+    c.touched.extend(more);
     let ke_before = kinetic_energy_at(model, cx.terrain, &mut cx.ws.data, q, qd)?;
     // sliding legs whose speed is slaved at their folds pass them locked (fold::passage)
     let mut qd_in = qd.to_vec();
@@ -153,7 +158,15 @@ pub fn reset_jamming(
         selected,
         mut qd_after,
         mode_after,
-    } = match select_mode(cx, (t, mode), &c, prefer, (q, &mut qd_in), impact)? {
+    } = match select_mode(
+        cx,
+        (t, mode),
+        &c,
+        prefer,
+        (q, &mut qd_in),
+        impact,
+        opts.rest_time_s(),
+    )? {
         Ok(s) => s,
         Err(term) => return end(term),
     };
@@ -424,6 +437,7 @@ fn select_mode(
     mut prefer: ContactMode,
     (q, qd_in): (&[f64], &mut Vec<f64>),
     impact: bool,
+    rest_time_s: f64,
 ) -> Result<Result<AfterReset, Termination>, HybridError> {
     let model = cx.model;
     // at a force event the velocity is continuous and satisfies the constraints of the mode
@@ -460,6 +474,29 @@ fn select_mode(
     if impact {
         let imp = plastic_impact(model, &mut cx.ws.data, cx.terrain, selected.mode, q, qd_in)?;
         qd_after.copy_from_slice(imp.qd_plus.as_slice());
+    }
+    // at δt = 0 the impact also takes the contacts it leaves at rest (crate::complementarity)
+    let mut selected = selected;
+    if impact && cx.delta_t_s == 0.0 {
+        let released: Vec<usize> = candidates
+            .iter()
+            .copied()
+            .filter(|&k| !selected.mode.contains(k))
+            .collect();
+        let resting = cx.resting(t, &released, (selected.mode, prefer), q, qd_in, rest_time_s)?;
+        if !resting.is_empty() {
+            let mut set: Vec<usize> = selected.mode.active().chain(resting).collect();
+            set.sort_unstable();
+            if let Some(o) = cx.outcome(t, &set, prefer, q, qd_in, true)? {
+                let imp = plastic_impact(model, &mut cx.ws.data, cx.terrain, o.mode, q, qd_in)?;
+                qd_after.copy_from_slice(imp.qd_plus.as_slice());
+                selected = Selected {
+                    mode: o.mode,
+                    value: o.value,
+                    pseudo_impulse: o.pseudo_impulse,
+                };
+            }
+        }
     }
     // contacts kept by the impact must also hold in force (5.19)–(5.20)
     let mut mode_after = selected.mode;

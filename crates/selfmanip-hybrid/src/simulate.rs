@@ -119,7 +119,7 @@ pub fn simulate_with(
             segments.push(segment);
             let fired = match end {
                 SegmentEnd::Event { fired } => fired,
-                SegmentEnd::FeatureChange => match zeno.record(t) {
+                SegmentEnd::FeatureChange => match zeno.record(t, &[]) {
                     Some(z) => break 'run z,
                     None => continue 'run,
                 },
@@ -188,7 +188,8 @@ pub fn simulate_with(
         if budget.stopped() {
             break Termination::Interrupted { t };
         }
-        if let Some(z) = zeno.record(t) {
+        let triggered = events.last().map_or(&[][..], |e| &e.triggered[..]);
+        if let Some(z) = zeno.record(t, triggered) {
             break z;
         }
         if let Some(c) = chatter.check(&events) {

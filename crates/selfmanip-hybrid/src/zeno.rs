@@ -8,12 +8,13 @@
 //! without end.
 use crate::execution::Termination;
 
-/// The times of the transitions so far, latest last.
+/// The times of the transitions so far, latest last, with the contacts that triggered each.
 #[derive(Debug, Clone)]
 pub struct ZenoWindow {
     window_s: f64,
     max_in_window: usize,
     times: Vec<f64>,
+    triggered: Vec<Vec<usize>>,
 }
 
 impl ZenoWindow {
@@ -22,18 +23,22 @@ impl ZenoWindow {
             window_s,
             max_in_window,
             times: Vec::new(),
+            triggered: Vec::new(),
         }
     }
 
-    /// Records a transition at `t` (not before the last one); `Zeno` if the window ending
-    /// at `t` now holds more than the allowed number.
-    pub fn record(&mut self, t: f64) -> Option<Termination> {
+    /// Records a transition at `t` (not before the last one) triggered by `contacts` (none
+    /// for a feature passage); `Zeno` if the window ending at `t` now holds more than the
+    /// allowed number, naming the contacts that triggered them.
+    pub fn record(&mut self, t: f64, contacts: &[usize]) -> Option<Termination> {
         self.times.push(t);
+        self.triggered.push(contacts.to_vec());
         let since = t - self.window_s;
         let in_window = self.times.iter().rev().take_while(|&&s| s > since).count();
-        (in_window > self.max_in_window).then_some(Termination::Zeno {
+        (in_window > self.max_in_window).then(|| Termination::Zeno {
             t,
             events_in_window: in_window,
+            contacts: union(&self.triggered[self.triggered.len() - in_window..]),
         })
     }
 }
@@ -111,14 +116,25 @@ impl ChatterDetector {
                 .fold(0.0, f64::max);
             if moved <= CHATTER_Q_PER_CYCLE * (CHATTER_CYCLES - 1) as f64 {
                 let t = events.last().map_or(0.0, |e| e.t);
+                let cycle: Vec<Vec<usize>> =
+                    tail[..p].iter().map(|e| e.triggered.clone()).collect();
                 return Some(Termination::Chatter {
                     t,
                     period: p,
                     cycles: CHATTER_CYCLES,
                     duration_s: t - tail[0].t,
+                    contacts: union(&cycle),
                 });
             }
         }
         None
     }
+}
+
+/// The contacts of `lists`, sorted, each once.
+fn union(lists: &[Vec<usize>]) -> Vec<usize> {
+    let mut all: Vec<usize> = lists.iter().flatten().copied().collect();
+    all.sort_unstable();
+    all.dedup();
+    all
 }

@@ -68,8 +68,11 @@ fn a_cycle_repeated_with_the_robot_in_place_is_a_chatter() {
             cycles,
             t,
             duration_s,
+            contacts,
         }) => {
             assert_eq!(period, 3);
+            // every event of the cycle was triggered by contact 1
+            assert_eq!(contacts, vec![1]);
             assert_eq!(cycles, CHATTER_CYCLES);
             assert_eq!(t, ev.last().unwrap().t);
             // the 3·CHATTER_CYCLES events from the first slip to the last touchdown

@@ -11,7 +11,7 @@ fn window_fires_at_the_closed_form_transition() {
     let (w, n) = (0.01, 50);
     for d in [1e-4, 1.9e-4, 2.1e-4, 1e-3] {
         let mut zeno = ZenoWindow::new(w, n);
-        let fired = (0..500).find_map(|k| zeno.record(k as f64 * d).map(|z| (k, z)));
+        let fired = (0..500).find_map(|k| zeno.record(k as f64 * d, &[k % 2]).map(|z| (k, z)));
         if (n as f64) * d < w {
             let (k, z) = fired.expect("Zeno");
             assert_eq!(k, n, "d = {d}");
@@ -19,7 +19,8 @@ fn window_fires_at_the_closed_form_transition() {
                 z,
                 Termination::Zeno {
                     t: n as f64 * d,
-                    events_in_window: n + 1
+                    events_in_window: n + 1,
+                    contacts: vec![0, 1],
                 }
             );
         } else {
