@@ -20,6 +20,7 @@
 //! from `ẋ(0) = v₀` stops at `t* = (M + m_l) v₀/(μN)` after `v₀ t*/2`, where the engine's
 //! slip→stick event must be; the friction takes all of the kinetic energy `½ (M + m_l) v₀²`.
 use nalgebra::Vector2;
+use selfmanip_core::description::{FrictionDescription, ShapeDescription};
 use selfmanip_core::kinematics::{Kinematics, Part};
 use selfmanip_core::{
     forward_dynamics, ContactKind, ContactMode, Data, FlatGround, Model, RobotDescription,
@@ -32,45 +33,32 @@ const LEG: f64 = 0.12;
 const HIP_HEIGHT: f64 = 0.05;
 const MU: f64 = 0.5;
 
-/// The sled with a leg of mass `m_l` (uniform: inertia `m_l LEG²/12`).
+/// The sled of `tests/data/robots/sled.toml` (its numbers checked against the constants the
+/// closed forms use) with a toe of Coulomb coefficient `MU` and a leg of mass `m_l`
+/// (uniform: inertia `m_l LEG²/12`, centre of mass at mid-length).
 fn sled(m_l: f64) -> Model {
-    let text = format!(
-        r#"
-name = "massive sled"
-gravity_m_s2 = {G}
-[body]
-mass_kg = {M}
-inertia_kg_m2 = 0.05
-[[legs]]
-name = "leg"
-hip_m = [0.0, 0.0]
-[[legs.links]]
-length_m = {LEG}
-mass_kg = {m_l}
-inertia_kg_m2 = {i_l}
-com_m = [0.0, {com}]
-axis = "-y"
-[[contacts]]
-name = "toe"
-leg = "leg"
-shape = {{ kind = "point", position_m = [0.0, {LEG}] }}
-friction = {{ kind = "sticking", mu = {MU}, mu_kinetic = {MU} }}
-[[contacts]]
-name = "front_skid"
-shape = {{ kind = "point", position_m = [0.2, {HIP_HEIGHT}] }}
-friction = {{ kind = "sliding" }}
-[[contacts]]
-name = "rear_skid"
-shape = {{ kind = "point", position_m = [-0.2, {HIP_HEIGHT}] }}
-friction = {{ kind = "sliding" }}
-"#,
-        i_l = m_l * LEG * LEG / 12.0,
-        com = LEG / 2.0
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../tests/data/robots/sled.toml"
     );
-    RobotDescription::from_toml_str(&text)
-        .unwrap()
-        .build()
-        .unwrap()
+    let mut d = RobotDescription::from_file(std::path::Path::new(path)).unwrap();
+    let rear_skid = ShapeDescription::Point {
+        position_m: [-0.2, HIP_HEIGHT],
+    };
+    assert_eq!((d.gravity_m_s2, d.body.mass_kg), (G, M));
+    assert_eq!(
+        (d.legs[0].links[0].length_m, &d.contacts[2].shape),
+        (LEG, &rear_skid)
+    );
+    d.contacts[0].friction = FrictionDescription::Sticking {
+        mu: Some(MU),
+        mu_kinetic: Some(MU),
+    };
+    let link = &mut d.legs[0].links[0];
+    link.mass_kg = m_l;
+    link.inertia_kg_m2 = m_l * LEG * LEG / 12.0;
+    link.com_m = Some([0.0, LEG / 2.0]);
+    d.build().unwrap()
 }
 
 /// The leg angle that puts the toe on the ground, ahead of the hip (`θ < 0` about −y).
