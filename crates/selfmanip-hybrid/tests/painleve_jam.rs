@@ -63,8 +63,7 @@ fn painleve_rod_jams_with_the_closed_form_plastic_impulse() {
         &model,
         &GroundPlane::level(0.0),
         sliding(&[0]),
-        &q,
-        &qd,
+        (&q, &qd),
         0.05,
     );
     assert!(
@@ -141,8 +140,7 @@ fn jam_whose_impulse_leaves_the_cone_is_refused_typed() {
         &rod(0.95 * mu_star()),
         &ground,
         sliding(&[0]),
-        &q,
-        &qd,
+        (&q, &qd),
         0.05,
     );
     assert!(exec.events.iter().all(|e| e.kind != EventKind::Jam));
@@ -166,8 +164,7 @@ fn jams_never_add_energy_and_lose_the_closed_form() {
                 &model,
                 &GroundPlane::level(0.0),
                 sliding(&[0]),
-                &q,
-                &qd,
+                (&q, &qd),
                 0.02,
             );
             let e = &exec.events[0];

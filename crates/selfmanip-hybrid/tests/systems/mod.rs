@@ -14,7 +14,8 @@ use selfmanip_core::description::{
 use selfmanip_core::{ContactKind, ContactMode, FlatGround, Model, RobotDescription, Terrain};
 use selfmanip_hybrid::integrate::StepOptions;
 use selfmanip_hybrid::{
-    simulate, Controller, ControllerPartials, EventKind, Execution, HybridOptions, ZeroTorque,
+    energy_report, simulate, Controller, ControllerPartials, EventKind, Execution, HybridOptions,
+    ZeroTorque,
 };
 
 pub const G: f64 = 9.81;
@@ -195,8 +196,7 @@ pub fn coast(
     model: &Model,
     terrain: &dyn Terrain,
     mode: ContactMode,
-    q: &[f64],
-    qd: &[f64],
+    (q, qd): (&[f64], &[f64]),
     t_final: f64,
 ) -> Execution {
     let opts = HybridOptions::default();
@@ -239,6 +239,38 @@ pub fn fold_options(fold_threshold: f64) -> HybridOptions {
         },
         ..HybridOptions::default()
     }
+}
+
+/// A sled's slide (`tests/data/robots/sled.toml`): a run on flat ground under `ctrl` from
+/// `(q, q̇)` with the toe and both skids sliding, to `t_final`, at rtol 1e-10 (atol 1e-12).
+pub fn sled_slide(
+    model: &Model,
+    ctrl: &dyn Controller,
+    (q, qd): (&[f64], &[f64]),
+    t_final: f64,
+) -> Execution {
+    let opts = HybridOptions {
+        step: StepOptions {
+            rtol: 1e-10,
+            atol: 1e-12,
+            ..Default::default()
+        },
+        ..HybridOptions::default()
+    };
+    let mode = sliding(&[0, 1, 2]);
+    simulate(model, &FlatGround, ctrl, mode, q, qd, t_final, opts).unwrap()
+}
+
+/// The energy balance of `exec` on flat ground closes, and friction took the kinetic energy
+/// `t0_j`, both to 1e-6 relative.
+pub fn assert_friction_took(model: &Model, exec: &Execution, t0_j: f64) {
+    let rep = energy_report(model, &FlatGround, exec).unwrap();
+    let t0 = t0_j;
+    assert!(
+        (rep.friction_work_j + t0).abs() < 1e-6 * t0,
+        "{rep:?} vs -{t0}"
+    );
+    assert!(rep.residual_j().abs() < 1e-6 * t0, "{rep:?}");
 }
 
 /// The default options with steps of at most 1 ms (runs with many steps per segment).
