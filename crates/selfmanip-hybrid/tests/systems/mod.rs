@@ -7,6 +7,7 @@
 //! point at offset `r = R(φ) p` from the centre moves at `v + φ̇ (r_z, −r_x)` and a force `F`
 //! there has the moment `r_z F_x − r_x F_z` about `+y`.
 #![allow(dead_code)]
+use nalgebra::DMatrix;
 use selfmanip_core::description::{
     BodyDescription, ContactDescription, FrictionDescription, JointAxis, LegDescription,
     LinkDescription, ShapeDescription,
@@ -213,17 +214,8 @@ pub fn toe_sliding_run(
     t_final: f64,
     opts: HybridOptions,
 ) -> Execution {
-    simulate(
-        model,
-        &FlatGround,
-        ctrl,
-        sliding(&[0]),
-        q,
-        qd,
-        t_final,
-        opts,
-    )
-    .unwrap()
+    let mode = sliding(&[0]);
+    simulate(model, &FlatGround, ctrl, mode, q, qd, t_final, opts).unwrap()
 }
 
 /// The options of the fold tests: the fold threshold `ε = fold_threshold`, a stop at the
@@ -249,14 +241,8 @@ pub fn sled_slide(
     (q, qd): (&[f64], &[f64]),
     t_final: f64,
 ) -> Execution {
-    let opts = HybridOptions {
-        step: StepOptions {
-            rtol: 1e-10,
-            atol: 1e-12,
-            ..Default::default()
-        },
-        ..HybridOptions::default()
-    };
+    let mut opts = HybridOptions::default();
+    (opts.step.rtol, opts.step.atol) = (1e-10, 1e-12);
     let mode = sliding(&[0, 1, 2]);
     simulate(model, &FlatGround, ctrl, mode, q, qd, t_final, opts).unwrap()
 }
@@ -426,6 +412,43 @@ pub fn flight_run(
         opts,
     )
     .unwrap()
+}
+
+/// The Jacobian of [`run_from_flight`]'s end state to its start state `y0` by central
+/// differences at steps `h` and `h/2`, extrapolated (Richardson: `(4 D(h/2) − D(h)) / 3`);
+/// every perturbed run must meet the events `seq`.
+pub fn flight_run_jacobian_fd(
+    model: &Model,
+    ctrl: &dyn Controller,
+    y0: &[f64],
+    tf: f64,
+    seq: &[EventKind],
+    h: f64,
+) -> DMatrix<f64> {
+    let n = y0.len();
+    let mut fd = DMatrix::zeros(n, n);
+    for c in 0..n {
+        let d = |h: f64| {
+            let (mut yp, mut ym) = (y0.to_vec(), y0.to_vec());
+            yp[c] += h;
+            ym[c] -= h;
+            let ((xp, sp), (xm, sm)) = (
+                run_from_flight(model, ctrl, &yp, tf),
+                run_from_flight(model, ctrl, &ym, tf),
+            );
+            assert_eq!(sp, seq, "direction {c}");
+            assert_eq!(sm, seq, "direction {c}");
+            xp.iter()
+                .zip(&xm)
+                .map(|(a, b)| (a - b) / (2.0 * h))
+                .collect::<Vec<_>>()
+        };
+        let (d1, d2) = (d(h), d(h / 2.0));
+        for i in 0..n {
+            fd[(i, c)] = (4.0 * d2[i] - d1[i]) / 3.0;
+        }
+    }
+    fd
 }
 
 /// A run from `y0 = (q, q̇)` in flight on flat ground to `tf` with [`tight`] options: its end
