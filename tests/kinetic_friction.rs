@@ -19,10 +19,13 @@
 //! law (`Data::slide_at_rest`) never holds a site in a sliding mode: where the cone holds it,
 //! it takes no edge and reports that the cone holds it (the engine then sticks it).
 use selfmanip::core::{ContactKind, Data, FlatGround, Model};
-use selfmanip::hybrid::{simulate, EventKind, HybridOptions};
+use selfmanip::hybrid::EventKind;
 
 mod sled;
+#[path = "../crates/selfmanip-hybrid/tests/systems/mod.rs"]
+mod systems;
 use sled::{all_sliding, leg_angle, sled, state, Press, G, HIP_HEIGHT, LEG, M, MU};
+use systems::{assert_friction_took, sled_slide};
 
 /// Toe position (world, z down) at leg angle `theta` with the body at the origin pose.
 fn toe(model: &Model, theta: f64) -> [f64; 2] {
@@ -90,25 +93,7 @@ fn sled_on_a_pressed_toe_stops_at_the_closed_form_time() {
     sled::solve(&model, &mut data, &FlatGround, all_sliding(), &q, &qd, tau).unwrap();
     let f_t = data.sliding[0].force_t.abs();
     let t_star = M * v0 / f_t;
-    let opts = HybridOptions {
-        step: selfmanip::hybrid::StepOptions {
-            rtol: 1e-10,
-            atol: 1e-12,
-            ..Default::default()
-        },
-        ..HybridOptions::default()
-    };
-    let exec = simulate(
-        &model,
-        &FlatGround,
-        &Press(tau),
-        all_sliding(),
-        &q,
-        &qd,
-        2.0 * t_star,
-        opts,
-    )
-    .unwrap();
+    let exec = sled_slide(&model, &Press(tau), (&q, &qd), 2.0 * t_star);
     // it stops at t*: the first segment ends with the slip→stick event where the sliding
     // velocity crosses zero (no rest band: the friction force keeps its side through the
     // segment, so the crossing is a transversal zero of a smooth flow, located to event_tol),
@@ -127,13 +112,7 @@ fn sled_on_a_pressed_toe_stops_at_the_closed_form_time() {
     // the engine's energy balance counts that work (E₁ − E₀ = W + W_fr − L): the friction
     // took all of the sled's kinetic energy (the toe sticks after the stop, the skids slide
     // without friction), and the balance closes over the whole run
-    let rep = selfmanip::hybrid::energy_report(&model, &FlatGround, &exec).unwrap();
-    let t0 = 0.5 * M * v0 * v0;
-    assert!(
-        (rep.friction_work_j + t0).abs() < 1e-6 * t0,
-        "{rep:?} vs -{t0}"
-    );
-    assert!(rep.residual_j().abs() < 1e-6 * t0, "{rep:?}");
+    assert_friction_took(&model, &exec, 0.5 * M * v0 * v0);
     // at rest the reset decides by the cone (second route: the sticking mode's force at the
     // stop, by the core's KKT at zero speed): held, the toe sticks in a mode with its
     // tangential row, and the sled stays where it stopped to the end of the run

@@ -7,6 +7,7 @@
 //! engine's KKT: the 1-D ODE `m r̈ = F(r) − m g` integrated by hand (stance duration, deepest
 //! compression), the linear closed form of a stiff spring, conservation of
 //! `T + V_g + V_s` without damping, and the damper's dissipation `∫ c δ̇² dt` with it.
+use selfmanip::core::description::SpringDescription;
 use selfmanip::core::passive;
 use selfmanip::core::{ContactMode, FlatGround, Model, RobotDescription};
 use selfmanip::hybrid::{simulate, Controller, EventKind, HybridOptions, Termination};
@@ -22,35 +23,25 @@ fn touchdown_speed(drop_m: f64) -> f64 {
     (V_START * V_START + 2.0 * G * drop_m).sqrt()
 }
 
+/// The hopper of `tests/data/robots/spring_hopper.toml` (its numbers checked against the
+/// constants the closed forms use) with a knee spring of stiffness `k`, rest angle `rest`
+/// and damping `c`.
 fn hopper(k: f64, rest: f64, c: f64) -> Model {
-    let text = format!(
-        r#"
-name = "spring hopper"
-gravity_m_s2 = {G}
-[body]
-mass_kg = {M}
-inertia_kg_m2 = 0.02
-[[legs]]
-name = "leg"
-hip_m = [0.0, 0.0]
-[[legs.links]]
-length_m = {L}
-axis = "-y"
-[[legs.links]]
-length_m = {L}
-axis = "-y"
-spring = {{ stiffness_n_m_per_rad = {k}, rest_angle_rad = {rest}, damping_n_m_s_per_rad = {c} }}
-[[contacts]]
-name = "toe"
-leg = "leg"
-shape = {{ kind = "point", position_m = [0.0, {L}] }}
-friction = {{ kind = "sticking" }}
-"#
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/robots/spring_hopper.toml"
     );
-    RobotDescription::from_toml_str(&text)
-        .unwrap()
-        .build()
-        .unwrap()
+    let mut d = RobotDescription::from_file(std::path::Path::new(path)).unwrap();
+    assert_eq!((d.gravity_m_s2, d.body.mass_kg), (G, M));
+    let lengths: Vec<f64> = d.legs[0].links.iter().map(|l| l.length_m).collect();
+    assert_eq!(lengths, [L, L]);
+    d.legs[0].links[1].spring = Some(SpringDescription {
+        stiffness_n_m_per_rad: k,
+        cubic_stiffness_n_m_per_rad3: 0.0,
+        damping_n_m_s_per_rad: c,
+        rest_angle_rad: rest,
+    });
+    d.build().unwrap()
 }
 
 /// No torque at the joints; in the air the massless leg returns to its rest shape (knee

@@ -17,24 +17,13 @@ mod sled_model;
 use common::{drop_state, rhex_massive, rhex_massless, seq, tight, Servos};
 use nalgebra::DMatrix;
 use selfmanip::core::tangent::BodyParameter;
-use selfmanip::core::{ContactMode, FlatGround, Model};
+use selfmanip::core::{FlatGround, Model};
 use selfmanip::hybrid::sensitivity::{execution_sensitivity_columns, Parameter};
-use selfmanip::hybrid::{execution_sensitivity, simulate, Execution};
+use selfmanip::hybrid::{execution_sensitivity, Execution};
 use selfmanip::rhex::LegShape;
 
 fn run(model: &Model, ctrl: &Servos, y0: &[f64], tf: f64) -> Execution {
-    let nq = model.nq();
-    simulate(
-        model,
-        &FlatGround,
-        ctrl,
-        ContactMode::FLIGHT,
-        &y0[..nq],
-        &y0[nq..],
-        tf,
-        tight(),
-    )
-    .unwrap()
+    common::systems::flight_run(model, ctrl, y0, tf, tight())
 }
 
 fn end_state(e: &Execution) -> Vec<f64> {
@@ -149,16 +138,15 @@ fn parameter_columns_match_central_differences() {
 /// `f_j`, `∂f^fr/∂(q, q̇)`), the stick guard's gradient and the stick's saltation.
 mod sled {
     use nalgebra::{DMatrix, DVector};
+    use selfmanip::core::description::SpringDescription;
     use selfmanip::core::friction::SlideDirection;
     use selfmanip::core::tangent::{dynamics_jacobian, dynamics_jvp, FlowDirections};
-    use selfmanip::core::{
-        forward_dynamics, ContactKind, ContactMode, Data, FlatGround, Model, RobotDescription,
-    };
+    use selfmanip::core::{forward_dynamics, ContactKind, ContactMode, Data, FlatGround, Model};
     use selfmanip::hybrid::sensitivity::{execution_sensitivity_columns, Parameter};
     use selfmanip::hybrid::{simulate, EventKind};
 
     use super::sled_model::{
-        all_sliding, leg_angle, sled, sled_with, state, Press, G, HIP_HEIGHT, M,
+        all_sliding, leg_angle, sled, sled_description, sled_with, state, Press, HIP_HEIGHT,
     };
     use crate::common::tight;
 
@@ -348,8 +336,12 @@ mod sled {
     /// a spring in flight (`τ^p` in `N̄` alone).
     #[test]
     fn flow_jacobian_with_coulomb_sliding_and_springs_matches_central_differences() {
-        let spring = "spring = { stiffness_n_m_per_rad = 3.0, cubic_stiffness_n_m_per_rad3 = 5.0, \
-                      damping_n_m_s_per_rad = 0.4, rest_angle_rad = -0.9 }";
+        let spring = SpringDescription {
+            stiffness_n_m_per_rad: 3.0,
+            cubic_stiffness_n_m_per_rad3: 5.0,
+            damping_n_m_s_per_rad: 0.4,
+            rest_angle_rad: -0.9,
+        };
         let mode = ContactMode::FLIGHT
             .with(0, ContactKind::Slide)
             .with(1, ContactKind::Slide);
@@ -371,28 +363,13 @@ mod sled {
             }
         }
         // a massive leg with its spring, in flight
-        let text = format!(
-            r#"
-name = "swinging leg"
-gravity_m_s2 = {G}
-[body]
-mass_kg = {M}
-inertia_kg_m2 = 0.05
-[[legs]]
-name = "leg"
-hip_m = [0.1, 0.0]
-[[legs.links]]
-length_m = 0.2
-mass_kg = 0.3
-inertia_kg_m2 = 0.002
-axis = "-y"
-{spring}
-"#
-        );
-        let model = RobotDescription::from_toml_str(&text)
-            .unwrap()
-            .build()
-            .unwrap();
+        let mut swinging = sled_description();
+        swinging.contacts.clear();
+        swinging.legs[0].hip_m = [0.1, 0.0];
+        let link = &mut swinging.legs[0].links[0];
+        (link.length_m, link.mass_kg, link.inertia_kg_m2) = (0.2, 0.3, 0.002);
+        link.spring = Some(spring);
+        let model = swinging.build().unwrap();
         let e = flow_jacobian_error(
             &model,
             ContactMode::FLIGHT,

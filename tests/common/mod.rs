@@ -6,10 +6,15 @@ use rand_chacha::ChaCha8Rng;
 use selfmanip::core::contact::contact_geometry;
 use selfmanip::core::kinematics::Kinematics;
 use selfmanip::core::{ContactMode, Data, FlatGround, Model, RobotDescription};
-use selfmanip::hybrid::{
-    Controller, ControllerPartials, EventKind, Execution, HybridOptions, StepOptions,
-};
+use selfmanip::hybrid::{EventKind, Execution, HybridOptions};
 use selfmanip::rhex::{LegShape, Rhex, RhexParams};
+
+/// The engine's small systems and fixtures, `crates/selfmanip-hybrid/tests/systems`, shared
+/// as source.
+#[path = "../../crates/selfmanip-hybrid/tests/systems/mod.rs"]
+pub mod systems;
+#[allow(unused_imports)]
+pub use systems::Servos;
 
 pub fn rng(seed: u64) -> ChaCha8Rng {
     ChaCha8Rng::seed_from_u64(seed)
@@ -96,69 +101,12 @@ pub fn feasible_labels(rhex: &Rhex) -> Vec<String> {
         .collect()
 }
 
-/// Hip servos `Υ_i = −k (θ_i − θ_i*) − c θ̇_i` with their partials, and the gain `k` as a
-/// parameter (`"k"`): the controller of the drops of the whole-execution sensitivity tests.
-#[derive(Debug, Clone)]
-pub struct Servos {
-    pub k: f64,
-    pub c: f64,
-    pub target: Vec<f64>,
-}
-
-impl Controller for Servos {
-    fn torque(&self, _t: f64, q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
-        for (i, t) in tau.iter_mut().enumerate() {
-            *t = -self.k * (q[i] - self.target[i]) - self.c * qd[i];
-        }
-    }
-    fn partials(
-        &self,
-        _t: f64,
-        _q: &[f64],
-        _qd: &[f64],
-        _mode: ContactMode,
-        _free_joints: &[usize],
-        out: &mut ControllerPartials,
-    ) -> bool {
-        for i in 0..self.target.len() {
-            out.dtau_dq[(i, i)] = -self.k;
-            out.dtau_dqd[(i, i)] = -self.c;
-        }
-        true
-    }
-    fn parameter_partials(
-        &self,
-        _t: f64,
-        q: &[f64],
-        _qd: &[f64],
-        _mode: ContactMode,
-        _free_joints: &[usize],
-        names: &[&str],
-        out: &mut ControllerPartials,
-    ) -> bool {
-        for (col, n) in names.iter().enumerate() {
-            if *n != "k" {
-                return false;
-            }
-            for (i, (qi, ti)) in q.iter().zip(&self.target).enumerate() {
-                out.dtau_dp[(i, col)] = -(qi - ti);
-            }
-        }
-        true
-    }
-}
-
 /// Tolerances for derivatives against central differences of whole executions (rtol 1e-12,
-/// events to 1e-14 s).
+/// events to 1e-14 s), without free joints in the step-size control.
 pub fn tight() -> HybridOptions {
     HybridOptions {
-        step: StepOptions {
-            rtol: 1e-12,
-            atol: 1e-14,
-            ..StepOptions::default()
-        },
-        event_tol_s: 1e-14,
-        ..HybridOptions::default()
+        control_free_joints: false,
+        ..systems::tight()
     }
 }
 

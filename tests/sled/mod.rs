@@ -4,6 +4,7 @@
 //! (`tests/kinetic_friction.rs` for the force law, `tests/sensitivity_params.rs` for its
 //! derivatives).
 #![allow(dead_code)]
+use selfmanip::core::description::{FrictionDescription, ShapeDescription, SpringDescription};
 use selfmanip::core::{
     forward_dynamics, ContactKind, ContactMode, CoreError, Data, Model, RobotDescription, Terrain,
 };
@@ -15,46 +16,40 @@ pub const LEG: f64 = 0.12;
 pub const HIP_HEIGHT: f64 = 0.05;
 pub const MU: f64 = 0.8;
 
-/// The sled.
-pub fn sled() -> Model {
-    sled_with("")
+/// The sled's description, `tests/data/robots/sled.toml`, whose numbers are checked against
+/// the constants the closed forms use.
+pub fn sled_description() -> RobotDescription {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/robots/sled.toml");
+    let d = RobotDescription::from_file(std::path::Path::new(path)).unwrap();
+    let link = &d.legs[0].links[0];
+    assert_eq!((d.gravity_m_s2, d.body.mass_kg), (G, M));
+    assert_eq!((link.length_m, link.mass_kg), (LEG, 0.0));
+    assert_eq!(
+        d.contacts[0].friction,
+        FrictionDescription::Sticking {
+            mu: Some(MU),
+            mu_kinetic: Some(MU)
+        }
+    );
+    for (skid, x) in [(&d.contacts[1], 0.2), (&d.contacts[2], -0.2)] {
+        let expected = ShapeDescription::Point {
+            position_m: [x, HIP_HEIGHT],
+        };
+        assert_eq!(skid.shape, expected, "{}", skid.name);
+    }
+    d
 }
 
-/// The sled, with `spring` (a TOML inline table, or "") on the leg's joint.
-pub fn sled_with(spring: &str) -> Model {
-    let text = format!(
-        r#"
-name = "sled"
-gravity_m_s2 = {G}
-[body]
-mass_kg = {M}
-inertia_kg_m2 = 0.05
-[[legs]]
-name = "leg"
-hip_m = [0.0, 0.0]
-[[legs.links]]
-length_m = {LEG}
-axis = "-y"
-{spring}
-[[contacts]]
-name = "toe"
-leg = "leg"
-shape = {{ kind = "point", position_m = [0.0, {LEG}] }}
-friction = {{ kind = "sticking", mu = {MU}, mu_kinetic = {MU} }}
-[[contacts]]
-name = "front_skid"
-shape = {{ kind = "point", position_m = [0.2, {HIP_HEIGHT}] }}
-friction = {{ kind = "sliding" }}
-[[contacts]]
-name = "rear_skid"
-shape = {{ kind = "point", position_m = [-0.2, {HIP_HEIGHT}] }}
-friction = {{ kind = "sliding" }}
-"#
-    );
-    RobotDescription::from_toml_str(&text)
-        .unwrap()
-        .build()
-        .unwrap()
+/// The sled.
+pub fn sled() -> Model {
+    sled_description().build().unwrap()
+}
+
+/// The sled, with `spring` on the leg's joint.
+pub fn sled_with(spring: SpringDescription) -> Model {
+    let mut d = sled_description();
+    d.legs[0].links[0].spring = Some(spring);
+    d.build().unwrap()
 }
 
 /// The leg angle that puts the toe on the ground, ahead of the hip (`θ < 0` about −y).

@@ -48,39 +48,23 @@ const PEND_M: f64 = 0.5;
 const PEND_I: f64 = 0.004;
 const PEND_LC: f64 = 0.2;
 
-/// A body pinned to the ground by a sticking point and a sliding one (three rows on its
-/// three coordinates), with a pendulum hanging from its centre (`+z` is down).
+/// `tests/data/robots/{name}` of the workspace.
+fn data_robot(name: &str) -> RobotDescription {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/robots");
+    RobotDescription::from_file(&dir.join(name)).unwrap()
+}
+
+/// The body of `pinned_pendulum.toml`, pinned to the ground by a sticking point and a sliding
+/// one, with a pendulum hanging from its centre whose joint has `armature`; the file's
+/// numbers are checked against the constants the closed form uses.
 fn pinned_pendulum(armature: f64) -> Model {
-    RobotDescription::from_toml_str(&format!(
-        r#"
-name = "pinned pendulum"
-gravity_m_s2 = {G}
-[body]
-mass_kg = 2.0
-inertia_kg_m2 = 0.05
-[[legs]]
-name = "pendulum"
-hip_m = [0.0, 0.0]
-[[legs.links]]
-length_m = 0.4
-mass_kg = {PEND_M}
-inertia_kg_m2 = {PEND_I}
-com_m = [0.0, {PEND_LC}]
-axis = "-y"
-armature_kg_m2 = {armature}
-[[contacts]]
-name = "pin"
-shape = {{ kind = "point", position_m = [-0.2, 0.0] }}
-friction = {{ kind = "sticking" }}
-[[contacts]]
-name = "rest"
-shape = {{ kind = "point", position_m = [0.2, 0.0] }}
-friction = {{ kind = "sliding" }}
-"#
-    ))
-    .unwrap()
-    .build()
-    .unwrap()
+    let mut d = data_robot("pinned_pendulum.toml");
+    let link = &mut d.legs[0].links[0];
+    assert_eq!(d.gravity_m_s2, G);
+    assert_eq!((link.mass_kg, link.inertia_kg_m2), (PEND_M, PEND_I));
+    assert_eq!(link.com_m, Some([0.0, PEND_LC]));
+    link.armature_kg_m2 = armature;
+    d.build().unwrap()
 }
 
 fn pinned_qdd(model: &Model, data: &mut Data, theta: f64, theta_dot: f64) -> f64 {
@@ -458,36 +442,7 @@ fn flight_with_armature_conserves_energy_and_momentum_and_keeps_the_bare_links_c
 /// A body with a two-link leg: a massive hip with armature and a massless knee with
 /// armature, its toe a sticking point.
 fn two_link() -> Model {
-    RobotDescription::from_toml_str(&format!(
-        r#"
-name = "two-link leg"
-gravity_m_s2 = {G}
-[body]
-mass_kg = 2.5
-inertia_kg_m2 = 0.05
-[[legs]]
-name = "leg"
-hip_m = [0.1, 0.0]
-[[legs.links]]
-length_m = 0.15
-mass_kg = 0.2
-inertia_kg_m2 = 0.001
-axis = "-y"
-armature_kg_m2 = 0.01
-[[legs.links]]
-length_m = 0.15
-axis = "-y"
-armature_kg_m2 = 0.004
-[[contacts]]
-name = "toe"
-leg = "leg"
-shape = {{ kind = "point", position_m = [0.0, 0.15] }}
-friction = {{ kind = "sticking", mu = 5.0 }}
-"#
-    ))
-    .unwrap()
-    .build()
-    .unwrap()
+    data_robot("armature_two_link_leg.toml").build().unwrap()
 }
 
 /// `x` with entry `k` moved by `s`.

@@ -302,6 +302,31 @@ fn block_sliding_on_two_corners_jacobian_equals_finite_differences() {
     }
 }
 
+/// [`check_states`] on flat ground in `mode` at 12 states (seed `seed`) around `joint_mid`,
+/// the sites `slides` at the sliding direction of each state: at least 6 states checked, and
+/// `want_general` sites in the general (folded) law at most.
+fn check_on_flat(
+    model: &Model,
+    mode: ContactMode,
+    slides: &[usize],
+    joint_mid: &[f64],
+    seed: u64,
+    want_general: usize,
+) {
+    let terrain = &FlatGround;
+    let dirs = Vec::new();
+    let mut case = Case {
+        model,
+        terrain,
+        mode,
+        dirs,
+    };
+    let (n, e, most) = check_states(&mut case, slides, joint_mid, 12, seed);
+    eprintln!("{mode:?}, sliding {slides:?}: {n} states, worst {e:e}");
+    assert!(n >= 6, "only {n} of 12 states checked");
+    assert_eq!(most, want_general);
+}
+
 /// (b) A massive leg's sliding toe alone, with a body end sliding, with a body end
 /// sticking, and beside a massless leg's sliding toe (statics) in one solve.
 #[test]
@@ -319,16 +344,7 @@ fn massive_legs_sliding_toe_jacobian_equals_finite_differences() {
         let mode = stick
             .iter()
             .fold(sliding(&slides), |m, &k| m.with(k, ContactKind::Stick));
-        let mut case = Case {
-            model: &model,
-            terrain: &FlatGround,
-            mode,
-            dirs: Vec::new(),
-        };
-        let (n, e, most) = check_states(&mut case, &slides, &mid, 12, seed);
-        eprintln!("legged, sliding {slides:?}, sticking {stick:?}: {n} states, worst {e:e}");
-        assert!(n >= 6, "only {n} of 12 states checked");
-        assert_eq!(most, want_general);
+        check_on_flat(&model, mode, &slides, &mid, seed, want_general);
     }
 }
 
@@ -339,19 +355,10 @@ fn two_joint_legs_sliding_toe_jacobian_equals_finite_differences() {
     for sprung in [false, true] {
         let model = two_joint(sprung);
         for (slides, want_general, seed) in [(vec![0], 1, 8), (vec![0, 1], 2, 9)] {
-            let mut case = Case {
-                model: &model,
-                terrain: &FlatGround,
-                mode: sliding(&slides),
-                dirs: Vec::new(),
-            };
             // the shank well away from vertical (where a massless knee's toe row loses its
             // lever, Lemma 5.1) and from the cone edge through the knee (a wedge)
             let mid = if sprung { [0.3, 1.2] } else { [0.3, 0.5] };
-            let (n, e, most) = check_states(&mut case, &slides, &mid, 12, seed);
-            eprintln!("two-joint (sprung {sprung}), sliding {slides:?}: {n} states, worst {e:e}");
-            assert!(n >= 6, "only {n} of 12 states checked");
-            assert_eq!(most, want_general);
+            check_on_flat(&model, sliding(&slides), &slides, &mid, seed, want_general);
         }
     }
 }

@@ -282,6 +282,18 @@ friction = { kind = "sticking", mu = 0.5, mu_kinetic = 0.5 }
     );
 }
 
+/// `forward_dynamics` of a legless body at rest, pitched by `alpha` to lie on the plane
+/// through the origin inclined by `alpha`, its contact 0 sliding, into `data`; the plane.
+fn puck_at_rest_on_incline(model: &Model, data: &mut Data, alpha: f64) -> GroundPlane {
+    let plane = GroundPlane {
+        point_m: [0.0, 0.0],
+        normal_into_ground: [alpha.sin(), alpha.cos()],
+    };
+    let (q, qd) = ([0.0, 0.0, alpha], [0.0; 3]);
+    forward_dynamics(model, data, &plane, sliding(&[0]), &q, &qd, &[], None).unwrap();
+    plane
+}
+
 /// A site at rest whose sticking force the cone cannot hold takes the cone edge on the side
 /// of that force and starts sliding against it (`σ v̇_t ≥ 0`): a puck at rest on an incline
 /// steeper than its cone (`tan α > μ`) slides downhill at `g (sin α − μ cos α)` (the
@@ -290,25 +302,10 @@ friction = { kind = "sticking", mu = 0.5, mu_kinetic = 0.5 }
 fn puck_at_rest_on_a_steep_incline_takes_the_downhill_edge() {
     let (m, mu, alpha) = (2.0, 0.3, 0.5_f64);
     let model = coulomb_body(m, 0.01, &[("foot", 0.0, 0.0)], mu, mu);
-    let plane = GroundPlane {
-        point_m: [0.0, 0.0],
-        normal_into_ground: [alpha.sin(), alpha.cos()],
-    };
-    let t = plane.tangent();
-    let down = if t.y > 0.0 { t } else { -t };
     let mut data = Data::new(&model);
     data.set_slide_directions(&[(0, SlideDirection::FromRest)]);
-    forward_dynamics(
-        &model,
-        &mut data,
-        &plane,
-        sliding(&[0]),
-        &[0.0, 0.0, alpha],
-        &[0.0; 3],
-        &[],
-        None,
-    )
-    .unwrap();
+    let t = puck_at_rest_on_incline(&model, &mut data, alpha).tangent();
+    let down = if t.y > 0.0 { t } else { -t };
     let a = data.qdd[0] * down.x + data.qdd[1] * down.y;
     assert!(
         (a - G * (alpha.sin() - mu * alpha.cos())).abs() < 1e-12,
@@ -317,22 +314,7 @@ fn puck_at_rest_on_a_steep_incline_takes_the_downhill_edge() {
     let s = &data.sliding[0];
     assert!(s.general && s.sigma != 0.0 && !s.cone_holds);
     // and on a shallower incline the cone holds it: no edge (the caller must let it stick)
-    let alpha = 0.2_f64;
-    let plane = GroundPlane {
-        point_m: [0.0, 0.0],
-        normal_into_ground: [alpha.sin(), alpha.cos()],
-    };
-    forward_dynamics(
-        &model,
-        &mut data,
-        &plane,
-        sliding(&[0]),
-        &[0.0, 0.0, alpha],
-        &[0.0; 3],
-        &[],
-        None,
-    )
-    .unwrap();
+    puck_at_rest_on_incline(&model, &mut data, 0.2);
     assert!(data.sliding[0].cone_holds);
 }
 

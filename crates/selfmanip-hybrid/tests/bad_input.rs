@@ -1,35 +1,21 @@
 //! Absurd options and inputs end in a typed error, a budget status or a located event —
 //! never a hang, a panic or a NaN blamed on the caller's inputs — and a run can be stopped
 //! from outside.
-use selfmanip_core::{ContactMode, CoreError, FlatGround, Model, RobotDescription};
+mod systems;
+
+use selfmanip_core::description::{FrictionDescription, LinkDescription};
+use selfmanip_core::{ContactMode, CoreError, FlatGround, Model};
 use selfmanip_hybrid::{
     simulate, simulate_with, Controller, EventKind, HybridError, HybridOptions, Termination,
     ZeroTorque,
 };
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-
-const G: f64 = 9.81;
+use systems::{body, one_link_leg, uniform_link, Friction, G};
 
 /// A point mass on one frictionless foot, dropped from `d` above the ground.
 fn ball() -> Model {
-    let text = format!(
-        r#"
-name = "ball"
-gravity_m_s2 = {G}
-[body]
-mass_kg = 1.0
-inertia_kg_m2 = 0.01
-[[contacts]]
-name = "foot"
-shape = {{ kind = "point", position_m = [0.0, 0.0] }}
-friction = {{ kind = "sliding" }}
-"#
-    );
-    RobotDescription::from_toml_str(&text)
-        .unwrap()
-        .build()
-        .unwrap()
+    body(1.0, 0.01, G, &[("foot", 0.0, 0.0, Friction::Slide)])
 }
 
 fn drop_from(
@@ -178,23 +164,15 @@ impl Controller for Overflowing {
 
 #[test]
 fn an_engine_made_overflow_is_not_blamed_on_the_state() {
-    let text = r#"
-name = "one leg"
-[body]
-mass_kg = 1.0
-inertia_kg_m2 = 0.1
-[[legs]]
-name = "leg"
-hip_m = [0.0, 0.0]
-[[legs.links]]
-length_m = 0.2
-mass_kg = 0.1
-inertia_kg_m2 = 0.001
-"#;
-    let model = RobotDescription::from_toml_str(text)
-        .unwrap()
-        .build()
-        .unwrap();
+    // one massive link (1 kg body, 0.1 kg link), no contact
+    let link = LinkDescription {
+        inertia_kg_m2: 0.001,
+        com_m: None,
+        ..uniform_link(0.2, 0.1)
+    };
+    let mut d = one_link_leg(1.0, 0.1, G, link, FrictionDescription::Sliding);
+    d.contacts.clear();
+    let model = d.build().unwrap();
     let e = simulate(
         &model,
         &FlatGround,

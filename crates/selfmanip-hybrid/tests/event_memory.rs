@@ -153,28 +153,7 @@ fn ramp_servo_from_a_touchdown_whole_execution_jacobian() {
     assert_eq!(seq[0], EventKind::Touchdown);
     let jac = sens.state_jacobian.expect("defined");
     let n2 = 8;
-    let mut fd = DMatrix::zeros(n2, n2);
-    for c in 0..n2 {
-        let d = |h: f64| {
-            let (mut yp, mut ym) = (y0.to_vec(), y0.to_vec());
-            yp[c] += h;
-            ym[c] -= h;
-            let ((xp, sp), (xm, sm)) = (
-                run_from_flight(&model, &ctrl, &yp, tf),
-                run_from_flight(&model, &ctrl, &ym, tf),
-            );
-            assert_eq!(sp, seq, "direction {c}");
-            assert_eq!(sm, seq, "direction {c}");
-            xp.iter()
-                .zip(&xm)
-                .map(|(a, b)| (a - b) / (2.0 * h))
-                .collect::<Vec<_>>()
-        };
-        let (d1, d2) = (d(1e-6), d(5e-7));
-        for i in 0..n2 {
-            fd[(i, c)] = (4.0 * d2[i] - d1[i]) / 3.0;
-        }
-    }
+    let fd = systems::flight_run_jacobian_fd(&model, &ctrl, &y0, tf, &seq, 1e-6);
     let err = (&jac - &fd).amax() / fd.amax();
     eprintln!("ramp servo: |J − FD| / |FD| = {err:e}");
     assert!(err < 1e-6, "{err:e}");

@@ -20,12 +20,12 @@
 //!   `2 asin ε_p / ω₀`); for `L ω₀² > g` the toe lifts off where `cos β = g / (L ω₀²)`.
 mod systems;
 
+use selfmanip_core::description::FrictionDescription;
 use selfmanip_core::{ContactMode, FlatGround, Model};
 use selfmanip_hybrid::{
-    energy_report, simulate, Controller, EventKind, Execution, HybridOptions, StepOptions,
-    Termination,
+    energy_report, Controller, EventKind, Execution, HybridOptions, Termination,
 };
-use systems::{massless_leg, sliding, HipTorque, G};
+use systems::{fold_options, massless_leg, sliding, toe_sliding_run, HipTorque, G};
 
 const M: f64 = 1.0;
 const L: f64 = 0.2;
@@ -33,7 +33,7 @@ const L: f64 = 0.2;
 /// run its rotation stores `τ² t² / (2 I) < 1e-7 J`).
 const I_BODY: f64 = 1e6;
 
-fn leg_robot(friction: &str) -> Model {
+fn leg_robot(friction: FrictionDescription) -> Model {
     massless_leg(M, I_BODY, L, friction)
 }
 
@@ -58,19 +58,6 @@ impl Controller for SpeedLine {
     }
 }
 
-fn opts(fold_threshold: f64) -> HybridOptions {
-    HybridOptions {
-        fold_threshold,
-        stop_at_apex: true,
-        step: StepOptions {
-            rtol: 1e-11,
-            atol: 1e-13,
-            ..StepOptions::default()
-        },
-        ..HybridOptions::default()
-    }
-}
-
 /// How closely a guard located to `event_tol_s` (1e-10 s) finds the leg's angle `β` on its
 /// way to the fold under constant torque: the leg turns at `ḣ / (L sin|β|)`, `ḣ` from the
 /// energy balance (1); twice that over the tolerance.
@@ -89,24 +76,14 @@ fn height(exec: &Execution) -> f64 {
 /// at the singular KKT matrix.
 #[test]
 fn constant_torque_leg_is_released_at_its_fold_to_the_energy_apex() {
-    let model = leg_robot(r#"{ kind = "sliding" }"#);
+    let model = leg_robot(FrictionDescription::Sliding);
     let (beta0, tau) = (-0.5_f64, 2.0);
     let h0 = L * beta0.cos();
     // the torque turns the leg towards the fold, pushing: N = τ / (L sin|β|) > m g at the start
     assert!(tau / (L * beta0.abs().sin()) > M * G);
     let (q, qd) = start(beta0, 0.0);
     for eps in [1e-2, 1e-3, 1e-4] {
-        let exec = simulate(
-            &model,
-            &FlatGround,
-            &HipTorque(tau),
-            sliding(&[0]),
-            &q,
-            &qd,
-            2.0,
-            opts(eps),
-        )
-        .unwrap();
+        let exec = toe_sliding_run(&model, &HipTorque(tau), &q, &qd, 2.0, fold_options(eps));
         assert_eq!(exec.termination, Termination::Apex, "ε = {eps}");
         let kinds: Vec<EventKind> = exec.events.iter().map(|e| e.kind).collect();
         assert_eq!(kinds, [EventKind::Fold, EventKind::Apex], "ε = {eps}");
@@ -137,20 +114,13 @@ fn constant_torque_leg_is_released_at_its_fold_to_the_energy_apex() {
 /// leg is released as without friction, to the same apex.
 #[test]
 fn impulsive_stick_that_would_pull_is_refused_at_the_fold() {
-    let model = leg_robot(r#"{ kind = "sticking", mu = 1.0 }"#);
+    let model = leg_robot(FrictionDescription::Sticking {
+        mu: Some(1.0),
+        mu_kinetic: None,
+    });
     let (beta0, tau, eps) = (-0.5_f64, 2.0, 1e-3);
     let (q, qd) = start(beta0, 0.0);
-    let exec = simulate(
-        &model,
-        &FlatGround,
-        &HipTorque(tau),
-        sliding(&[0]),
-        &q,
-        &qd,
-        2.0,
-        opts(eps),
-    )
-    .unwrap();
+    let exec = toe_sliding_run(&model, &HipTorque(tau), &q, &qd, 2.0, fold_options(eps));
     assert_eq!(exec.termination, Termination::Apex);
     let fold = &exec.events[0];
     assert_eq!(fold.kind, EventKind::Fold);
@@ -167,7 +137,7 @@ fn impulsive_stick_that_would_pull_is_refused_at_the_fold() {
 /// the hip at `L cos β` all the while.
 #[test]
 fn leg_on_a_torque_speed_line_passes_its_fold_at_the_torque_free_speed() {
-    let model = leg_robot(r#"{ kind = "sliding" }"#);
+    let model = leg_robot(FrictionDescription::Sliding);
     let ctrl = SpeedLine {
         k: 5.0,
         omega0: 3.0,
@@ -176,9 +146,9 @@ fn leg_on_a_torque_speed_line_passes_its_fold_at_the_torque_free_speed() {
     let (q, qd) = start(-0.3, ctrl.omega0);
     let o = HybridOptions {
         stop_at_apex: false,
-        ..opts(1e-2)
+        ..fold_options(1e-2)
     };
-    let exec = simulate(&model, &FlatGround, &ctrl, sliding(&[0]), &q, &qd, 0.15, o).unwrap();
+    let exec = toe_sliding_run(&model, &ctrl, &q, &qd, 0.15, o);
     let kinds: Vec<EventKind> = exec.events.iter().map(|e| e.kind).collect();
     assert_eq!(
         kinds[..2],
@@ -246,16 +216,16 @@ fn leg_on_a_torque_speed_line_passes_its_fold_at_the_torque_free_speed() {
 /// `m (g − L ω₀² cos β)` reaches zero, at `β = −acos(g / (L ω₀²))`.
 #[test]
 fn leg_turning_faster_than_the_body_falls_lifts_off_in_its_passage() {
-    let model = leg_robot(r#"{ kind = "sliding" }"#);
+    let model = leg_robot(FrictionDescription::Sliding);
     let beta_off: f64 = 0.05;
     let omega0 = (G / (L * beta_off.cos())).sqrt();
     let ctrl = SpeedLine { k: 5.0, omega0 };
     let (q, qd) = start(-0.3, omega0);
     let o = HybridOptions {
         stop_at_apex: false,
-        ..opts(1e-2)
+        ..fold_options(1e-2)
     };
-    let exec = simulate(&model, &FlatGround, &ctrl, sliding(&[0]), &q, &qd, 0.1, o).unwrap();
+    let exec = toe_sliding_run(&model, &ctrl, &q, &qd, 0.1, o);
     let kinds: Vec<EventKind> = exec.events.iter().map(|e| e.kind).collect();
     assert_eq!(
         kinds[..2],

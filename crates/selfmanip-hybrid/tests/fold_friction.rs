@@ -21,9 +21,10 @@
 //! the edge there (here `ẋ < 0`), and the frictionless fold `|β| = asin ε` otherwise.
 mod systems;
 
+use selfmanip_core::description::FrictionDescription;
 use selfmanip_core::{forward_dynamics, Data, FlatGround, Model};
-use selfmanip_hybrid::{simulate, EventKind, HybridOptions, StepOptions, Termination};
-use systems::{massless_leg, sliding, HipTorque};
+use selfmanip_hybrid::{EventKind, Termination};
+use systems::{fold_options, massless_leg, sliding, toe_sliding_run, HipTorque};
 
 const M: f64 = 1.0;
 const L: f64 = 0.2;
@@ -31,8 +32,11 @@ const I_BODY: f64 = 1e6;
 const MU: f64 = 0.3;
 
 fn leg_robot(mu_kinetic: f64) -> Model {
-    let friction = format!("{{ kind = \"sticking\", mu = {MU}, mu_kinetic = {mu_kinetic} }}");
-    massless_leg(M, I_BODY, L, &friction)
+    let friction = FrictionDescription::Sticking {
+        mu: Some(MU),
+        mu_kinetic: Some(mu_kinetic),
+    };
+    massless_leg(M, I_BODY, L, friction)
 }
 
 /// Runs the leg from `β₀ = −0.5` with the body moving sideways at `xdot`; returns the fold
@@ -42,27 +46,8 @@ fn run(model: &Model, xdot: f64, eps: f64) -> (Option<(f64, Vec<f64>)>, Terminat
     let beta0: f64 = -0.5;
     let q = [beta0, 0.0, -L * beta0.cos(), 0.0];
     let qd = [0.0, xdot, 0.0, 0.0];
-    let opts = HybridOptions {
-        fold_threshold: eps,
-        stop_at_apex: true,
-        step: StepOptions {
-            rtol: 1e-11,
-            atol: 1e-13,
-            ..StepOptions::default()
-        },
-        ..HybridOptions::default()
-    };
-    let exec = simulate(
-        model,
-        &FlatGround,
-        &HipTorque(2.0),
-        sliding(&[0]),
-        &q,
-        &qd,
-        0.5,
-        opts,
-    )
-    .unwrap();
+    let opts = fold_options(eps);
+    let exec = toe_sliding_run(model, &HipTorque(2.0), &q, &qd, 0.5, opts);
     let fold = exec
         .events
         .iter()

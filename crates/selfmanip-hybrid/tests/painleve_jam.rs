@@ -18,13 +18,11 @@
 use selfmanip_core::{ContactKind, ContactMode, GroundPlane, Model};
 use selfmanip_hybrid::flow::{Flow, FlowWorkspace};
 use selfmanip_hybrid::jam::jam;
-use selfmanip_hybrid::{
-    simulate, EventKind, HybridOptions, PainleveReason, Termination, ZeroTorque,
-};
+use selfmanip_hybrid::{EventKind, HybridOptions, PainleveReason, Termination, ZeroTorque};
 use std::sync::Arc;
 
 mod systems;
-use systems::{painleve_mu_star, painleve_rod, sliding};
+use systems::{coast, painleve_mu_star, painleve_rod, sliding};
 
 const M: f64 = 1.5;
 const L: f64 = 0.4;
@@ -61,17 +59,13 @@ fn painleve_rod_jams_with_the_closed_form_plastic_impulse() {
     let mu = 1.05 * mu_star();
     let model = rod(mu);
     let (q, qd) = state();
-    let exec = simulate(
+    let exec = coast(
         &model,
         &GroundPlane::level(0.0),
-        &ZeroTorque,
         sliding(&[0]),
-        &q,
-        &qd,
+        (&q, &qd),
         0.05,
-        HybridOptions::default(),
-    )
-    .unwrap();
+    );
     assert!(
         !matches!(exec.termination, Termination::Painleve { .. }),
         "{:?}",
@@ -142,17 +136,13 @@ fn jam_whose_impulse_leaves_the_cone_is_refused_typed() {
     // … and at 1.05 μ* the same call jams
     let r = jam_at(1.05 * mu_star());
     assert!(r.is_ok(), "{r:?}");
-    let exec = simulate(
+    let exec = coast(
         &rod(0.95 * mu_star()),
         &ground,
-        &ZeroTorque,
         sliding(&[0]),
-        &q,
-        &qd,
+        (&q, &qd),
         0.05,
-        HybridOptions::default(),
-    )
-    .unwrap();
+    );
     assert!(exec.events.iter().all(|e| e.kind != EventKind::Jam));
     assert!(exec.t > 0.0);
 }
@@ -170,17 +160,13 @@ fn jams_never_add_energy_and_lose_the_closed_form() {
             let model = rod(mu_star * factor);
             let q = [0.0, -L * s, theta];
             let qd = [V, 0.0, 0.0];
-            let exec = simulate(
+            let exec = coast(
                 &model,
                 &GroundPlane::level(0.0),
-                &ZeroTorque,
                 sliding(&[0]),
-                &q,
-                &qd,
+                (&q, &qd),
                 0.02,
-                HybridOptions::default(),
-            )
-            .unwrap();
+            );
             let e = &exec.events[0];
             assert_eq!(e.kind, EventKind::Jam, "θ {theta} ×{factor}: {e:?}");
             let v = &e.qd_after;

@@ -22,7 +22,7 @@ use nalgebra::{DMatrix, DVector};
 use selfmanip_core::{ContactKind, ContactMode, FlatGround, Model};
 use selfmanip_hybrid::sensitivity::{simulate_with_sensitivity, SaltationStatus, Sensitivity};
 use selfmanip_hybrid::{simulate, Controller, EventKind, Execution, HybridOptions, ZeroTorque};
-use systems::{block, block_inertia, body, rotate, Friction, BLOCK, G};
+use systems::{block, block_inertia, body, rotate, Friction, Servos, BLOCK, G};
 
 /// Tight tolerances, so that finite differences of whole executions resolve 1e-6
 /// ([`systems::tight`] with the pseudo-impulse's `delta_t_s` and the free joints out of the
@@ -384,34 +384,6 @@ fn rocking_block_whole_execution_jacobian_through_several_events() {
     assert!(e < 1e-4, "{e:e}");
 }
 
-/// A hip servo `Υ = −k (θ − θ*) − c θ̇` whose partials the engine chains through
-/// `∂q̈/∂Υ` (`∂Υ/∂θ = −k`, `∂Υ/∂θ̇ = −c`).
-#[derive(Debug, Clone, Copy)]
-struct Servo {
-    k: f64,
-    c: f64,
-    target: f64,
-}
-
-impl selfmanip_hybrid::Controller for Servo {
-    fn torque(&self, _t: f64, q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
-        tau[0] = -self.k * (q[0] - self.target) - self.c * qd[0];
-    }
-    fn partials(
-        &self,
-        _t: f64,
-        _q: &[f64],
-        _qd: &[f64],
-        _mode: ContactMode,
-        _free_joints: &[usize],
-        out: &mut selfmanip_hybrid::ControllerPartials,
-    ) -> bool {
-        out.dtau_dq[(0, 0)] = -self.k;
-        out.dtau_dqd[(0, 0)] = -self.c;
-        true
-    }
-}
-
 /// A body with one **massless** leg (singular `M̄`; the leg is a free joint in flight and
 /// pinned by its toe in stance, Lemma 5.1) under a hip servo: it falls, lands on its toe,
 /// leans over it until the toe slips, and lands on its belly, which releases the toe (three
@@ -421,10 +393,10 @@ impl selfmanip_hybrid::Controller for Servo {
 #[test]
 fn massless_leg_with_servo_whole_execution_jacobian() {
     let model = systems::one_leg(0.2, 0.0, G);
-    let servo = Servo {
+    let servo = Servos {
         k: 20.0,
         c: 0.5,
-        target: -0.3,
+        target: vec![-0.3],
     };
     let y0 = [0.2, 0.0, -0.23, 0.1, -0.5, 0.4, 0.3, 0.2];
     let case = Case {
@@ -485,10 +457,10 @@ fn apex_projection_and_time_gradient() {
 fn kicking_leg_liftoff_touchdown_slip_whole_execution_jacobian() {
     let len = 0.2;
     let model = systems::one_leg(len, 0.2, G);
-    let servo = Servo {
+    let servo = Servos {
         k: 5.0,
         c: 0.5,
-        target: -1.0,
+        target: vec![-1.0],
     };
     let y0 = [0.0, 0.0, -len, 0.0, 0.0, 0.0, 0.0, 0.0];
     let case = sliding_toe_case(&model, &servo, &y0, 0.3);
@@ -524,10 +496,10 @@ fn kicking_leg_liftoff_touchdown_slip_whole_execution_jacobian() {
 fn sliding_toe_stick_slip_touchdown_whole_execution_jacobian() {
     let len = 0.2;
     let model = systems::one_leg(len, 0.2, G);
-    let servo = Servo {
+    let servo = Servos {
         k: 1.0,
         c: 0.5,
-        target: -1.0,
+        target: vec![-1.0],
     };
     let y0 = [0.0, 0.0, -len, 0.0, 0.0, 0.3, 0.0, 0.0];
     let case = sliding_toe_case(&model, &servo, &y0, 0.4);
@@ -541,7 +513,7 @@ fn sliding_toe_stick_slip_touchdown_whole_execution_jacobian() {
 }
 
 /// The one-leg robot under `servo` from `y0` with its toe sliding.
-fn sliding_toe_case<'a>(model: &'a Model, servo: &'a Servo, y0: &'a [f64], tf: f64) -> Case<'a> {
+fn sliding_toe_case<'a>(model: &'a Model, servo: &'a Servos, y0: &'a [f64], tf: f64) -> Case<'a> {
     Case {
         ctrl: servo,
         mode: ContactMode::FLIGHT.with(0, ContactKind::Slide),

@@ -5,11 +5,10 @@
 //! law switches piece (`Controller::partials_piece`) and the tangent's steps are split there.
 //! Checked against central differences of whole executions (the independent route).
 mod systems;
-use nalgebra::DMatrix;
 use selfmanip_core::{ContactMode, FlatGround, Model};
 use selfmanip_hybrid::sensitivity::simulate_with_sensitivity;
 use selfmanip_hybrid::{Controller, ControllerPartials};
-use systems::{run_from_flight, G};
+use systems::{flight_run_jacobian_fd, run_from_flight, G};
 
 /// A hip servo to `target` at rest, saturating at `±limit`; it reports its pieces
 /// (0 linear, 1 at `+limit`, 2 at `−limit`) when `pieces`.
@@ -93,28 +92,7 @@ fn jacobian_error(model: &Model, ctrl: &Saturating, y0: &[f64], tf: f64) -> (f64
         }
     }
     let jac = sens.state_jacobian.expect("defined");
-    let mut fd = DMatrix::zeros(8, 8);
-    for c in 0..8 {
-        let d = |h: f64| {
-            let (mut yp, mut ym) = (y0.to_vec(), y0.to_vec());
-            yp[c] += h;
-            ym[c] -= h;
-            let ((xp, sp), (xm, sm)) = (
-                run_from_flight(model, ctrl, &yp, tf),
-                run_from_flight(model, ctrl, &ym, tf),
-            );
-            assert_eq!(sp, seq, "direction {c}");
-            assert_eq!(sm, seq, "direction {c}");
-            xp.iter()
-                .zip(&xm)
-                .map(|(a, b)| (a - b) / (2.0 * h))
-                .collect::<Vec<_>>()
-        };
-        let (d1, d2) = (d(1e-3), d(5e-4));
-        for i in 0..8 {
-            fd[(i, c)] = (4.0 * d2[i] - d1[i]) / 3.0;
-        }
-    }
+    let fd = flight_run_jacobian_fd(model, ctrl, y0, tf, &seq, 1e-3);
     eprintln!("events {seq:?}");
     ((&jac - &fd).amax() / fd.amax(), kinks)
 }

@@ -12,7 +12,7 @@ use selfmanip_hybrid::{
 };
 
 mod systems;
-use systems::{painleve_mu_star, painleve_rod, sliding, Friction, G};
+use systems::{coast, painleve_mu_star, painleve_rod, sliding, Friction, G};
 
 /// A rigid body with point contacts `(name, x, z)` in its frame, sticking with `mu` and
 /// sliding with the same kinetic coefficient.
@@ -56,17 +56,7 @@ fn body_sliding_on_level_ground_stops_at_v0_over_mu_g_and_sticks() {
         for v0 in [0.8, -1.1] {
             let q = [0.1, *z0, 0.0];
             let qd = [v0, 0.0, 0.0];
-            let exec = simulate(
-                model,
-                &plane,
-                &ZeroTorque,
-                sliding(contacts),
-                &q,
-                &qd,
-                1.0,
-                HybridOptions::default(),
-            )
-            .unwrap();
+            let exec = coast(model, &plane, sliding(contacts), (&q, &qd), 1.0);
             let t_star = f64::abs(v0) / (mu * G);
             let stick = &exec.events[0];
             assert_eq!(stick.kind, EventKind::Stick, "{:?}", exec.events);
@@ -111,17 +101,7 @@ fn puck_on_incline_slides_on_below_the_cone_and_sticks_above_it() {
         let model = body(2.0, 0.01, &[("foot", 0.0, 0.0)], mu);
         let q = [0.0, 0.0, alpha];
         let qd = [v0 * down.x, v0 * down.y, 0.0];
-        let exec = simulate(
-            &model,
-            &plane,
-            &ZeroTorque,
-            sliding(&[0]),
-            &q,
-            &qd,
-            t_end,
-            HybridOptions::default(),
-        )
-        .unwrap();
+        let exec = coast(&model, &plane, sliding(&[0]), (&q, &qd), t_end);
         let a = G * (alpha.sin() - mu * alpha.cos());
         let s = exec.q[0] * down.x + exec.q[1] * down.y;
         if mu < alpha.tan() {
@@ -160,17 +140,13 @@ fn painleve_rod_run_jams_beyond_the_threshold_and_slides_below_it() {
         // the end on the ground, sliding at −0.3 m/s (away from the centre), not turning
         let q = [0.0, -l * s, theta];
         let qd = [-0.3, 0.0, 0.0];
-        let exec = simulate(
+        let exec = coast(
             &model,
             &GroundPlane::level(0.0),
-            &ZeroTorque,
             sliding(&[0]),
-            &q,
-            &qd,
+            (&q, &qd),
             0.05,
-            HybridOptions::default(),
-        )
-        .unwrap();
+        );
         assert!(exec.t > 0.0, "{:?}", exec.termination);
         let jammed = exec
             .events
@@ -327,19 +303,7 @@ fn sliding_rod_sensitivity_equals_differences_of_whole_runs() {
     let plane = GroundPlane::level(0.0);
     let (s, c) = theta.sin_cos();
     let t_end = 0.05;
-    let run = |x: &[f64]| {
-        simulate(
-            &model,
-            &plane,
-            &ZeroTorque,
-            sliding(&[0]),
-            &x[..3],
-            &x[3..],
-            t_end,
-            HybridOptions::default(),
-        )
-        .unwrap()
-    };
+    let run = |x: &[f64]| coast(&model, &plane, sliding(&[0]), (&x[..3], &x[3..]), t_end);
     for v_end in [0.8, -0.8] {
         // the end on the ground, sliding at v_end, the rod
         // turning at φ̇ (ż_P = ż + φ̇ l cos θ = 0)
@@ -404,17 +368,13 @@ fn sticking_puck_on_a_steep_incline_slips_at_once_and_slides_with_coulomb_decele
     let t = plane.tangent();
     let down = if t.y > 0.0 { t } else { -t };
     let model = body(2.0, 0.01, &[("foot", 0.0, 0.0)], mu);
-    let exec = simulate(
+    let exec = coast(
         &model,
         &plane,
-        &ZeroTorque,
         ContactMode::FLIGHT.with(0, ContactKind::Stick),
-        &[0.0, 0.0, alpha],
-        &[0.0; 3],
+        (&[0.0, 0.0, alpha], &[0.0; 3]),
         t_end,
-        HybridOptions::default(),
-    )
-    .unwrap();
+    );
     assert_eq!(exec.events.len(), 1, "{:?}", exec.events);
     assert_eq!(exec.events[0].kind, EventKind::Slip);
     assert!(exec.events[0].t.abs() < 1e-12);

@@ -2,16 +2,12 @@
 //! the parts of the schema the examples do not exercise — joint-angle levels, named events
 //! after named events, scheduled and constant torques, motors — do what the schema says,
 //! checked against the laws re-evaluated on the sampled states.
+mod common;
+
+use common::data;
 use selfmanip_core::RobotDescription;
 use selfmanip_sim::behaviour::{compile, Behaviour};
 use selfmanip_sim::{Scenario, SimError, Simulation};
-use std::path::{Path, PathBuf};
-
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("examples/data")
-        .join(name)
-}
 
 fn hopper() -> (selfmanip_core::Model, Vec<f64>) {
     let d = RobotDescription::from_file(&data("hopper.toml")).unwrap();
@@ -271,26 +267,7 @@ fn bad_values_are_refused_naming_the_field() {
 /// a scheduled torque, linear in time between its knots.
 #[test]
 fn levels_and_schedules_do_what_the_schema_says() {
-    let robot = RobotDescription::from_toml_str(
-        r#"
-        name = "arm"
-        [body]
-        mass_kg = 3.0
-        inertia_kg_m2 = 0.05
-        [[legs]]
-        name = "arm"
-        hip_m = [0.0, 0.0]
-        [[legs.links]]
-        length_m = 0.3
-        mass_kg = 0.5
-        inertia_kg_m2 = 0.004
-        [[legs.links]]
-        length_m = 0.3
-        mass_kg = 0.3
-        inertia_kg_m2 = 0.002
-        "#,
-    )
-    .unwrap();
+    let robot = common::test_robot("two_link_arm.toml");
     let mut s = Scenario::new(robot, vec![0.0, 0.0, 0.0, -2.0, 0.0]);
     s.options.t_final_s = 0.4;
     s.behaviour = Behaviour::from_toml_str(

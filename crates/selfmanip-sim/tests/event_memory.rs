@@ -187,24 +187,7 @@ fn a_saturating_servo_state_jacobian_matches_central_differences() {
 /// touchdown's phase and any phases after it: a motion started at the event from the arm's
 /// state there, or a delay after it).
 fn dropped_arm(landed: &str, t_final: f64) -> Simulation {
-    let robot = RobotDescription::from_toml_str(
-        r#"
-        name = "arm-on-a-block"
-        [body]
-        mass_kg = 2.0
-        inertia_kg_m2 = 0.05
-        [[legs]]
-        name = "arm"
-        hip_m = [0.1, 0.0]
-        [[legs.links]]
-        length_m = 0.1
-        [[contacts]]
-        name = "belly"
-        shape = { kind = "point", position_m = [0.0, 0.05] }
-        friction = { kind = "sticking", mu = 1.0 }
-        "#,
-    )
-    .unwrap();
+    let robot = common::test_robot("arm_on_a_block.toml");
     let behaviour = Behaviour::from_toml_str(&format!(
         r#"
         name = "swing-at-touchdown"
@@ -339,31 +322,7 @@ fn memory_of_the_start_state_is_differentiated() {
 /// torque schedule, away from the motion's knots and the schedule's breakpoints.
 #[test]
 fn time_partials_match_central_differences_of_the_torque() {
-    let robot = RobotDescription::from_toml_str(
-        r#"
-        name = "two arms"
-        [body]
-        mass_kg = 2.0
-        inertia_kg_m2 = 0.05
-        [[legs]]
-        name = "a"
-        hip_m = [0.1, 0.0]
-        [[legs.links]]
-        length_m = 0.1
-        mass_kg = 0.1
-        inertia_kg_m2 = 1e-4
-        com_m = [0.0, 0.05]
-        [[legs]]
-        name = "b"
-        hip_m = [-0.1, 0.0]
-        [[legs.links]]
-        length_m = 0.1
-        mass_kg = 0.1
-        inertia_kg_m2 = 1e-4
-        com_m = [0.0, 0.05]
-        "#,
-    )
-    .unwrap();
+    let robot = common::test_robot("two_arms.toml");
     for limit in [50.0, 0.5] {
         let behaviour = Behaviour::from_toml_str(&format!(
             r#"

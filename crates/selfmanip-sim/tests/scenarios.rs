@@ -4,6 +4,9 @@
 //! `E₁ − E₀ = W − L` (a conservation law the engine does not impose), the behaviour's own
 //! torque laws re-evaluated on sampled states, runs repeated alone or on other thread
 //! counts, and the MCAP file read back with the `mcap` crate's reader.
+mod common;
+
+use common::data;
 use selfmanip_core::RobotDescription;
 use selfmanip_hybrid::EventKind;
 use selfmanip_sim::behaviour::Behaviour;
@@ -11,13 +14,6 @@ use selfmanip_sim::sweep::{grid, sweep, PointFailure, SweepPoint};
 use selfmanip_sim::{Scenario, SimError, Simulation};
 use serde_json::json;
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
-
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("examples/data")
-        .join(name)
-}
 
 /// The hopper of the examples dropped from `drop_m` (foot above the ground), hopping.
 fn hopper(drop_m: f64, t_final_s: f64) -> Scenario {
@@ -53,23 +49,7 @@ fn quadruped(drop_m: f64, t_final_s: f64) -> Scenario {
 
 /// A box with two frictionless feet at its bottom corners (no legs).
 fn block() -> RobotDescription {
-    RobotDescription::from_toml_str(
-        r#"
-        name = "block"
-        [body]
-        mass_kg = 2.0
-        inertia_kg_m2 = 0.05
-        [[contacts]]
-        name = "front_corner"
-        shape = { kind = "point", position_m = [0.2, 0.05] }
-        friction = { kind = "sliding" }
-        [[contacts]]
-        name = "rear_corner"
-        shape = { kind = "point", position_m = [-0.2, 0.05] }
-        friction = { kind = "sliding" }
-        "#,
-    )
-    .unwrap()
+    common::test_robot("block_on_two_feet.toml")
 }
 
 /// Free fall from rest through `h` takes `√(2h/g)`; a level block lands on both corners at

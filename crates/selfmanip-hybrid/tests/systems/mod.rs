@@ -7,9 +7,17 @@
 //! point at offset `r = R(φ) p` from the centre moves at `v + φ̇ (r_z, −r_x)` and a force `F`
 //! there has the moment `r_z F_x − r_x F_z` about `+y`.
 #![allow(dead_code)]
-use selfmanip_core::{ContactKind, ContactMode, FlatGround, Model, RobotDescription};
+use nalgebra::DMatrix;
+use selfmanip_core::description::{
+    BodyDescription, ContactDescription, FrictionDescription, JointAxis, LegDescription,
+    LinkDescription, ShapeDescription,
+};
+use selfmanip_core::{ContactKind, ContactMode, FlatGround, Model, RobotDescription, Terrain};
 use selfmanip_hybrid::integrate::StepOptions;
-use selfmanip_hybrid::{simulate, Controller, EventKind, Execution, HybridOptions, ZeroTorque};
+use selfmanip_hybrid::{
+    energy_report, simulate, Controller, ControllerPartials, EventKind, Execution, HybridOptions,
+    ZeroTorque,
+};
 
 pub const G: f64 = 9.81;
 
@@ -90,42 +98,75 @@ pub fn rotate(phi: f64, p: [f64; 2]) -> [f64; 2] {
     [c * p[0] + s * p[1], -s * p[0] + c * p[1]]
 }
 
+/// A body of `mass_kg` and `inertia_kg_m2` with one leg of the one link `link` hanging
+/// from the body's centre, ending in the point toe `toe` at the link's end with
+/// `toe_friction`; no other contact. `q = [θ, x, z, φ]`.
+pub fn one_link_leg(
+    mass_kg: f64,
+    inertia_kg_m2: f64,
+    gravity_m_s2: f64,
+    link: LinkDescription,
+    toe_friction: FrictionDescription,
+) -> RobotDescription {
+    let toe = ContactDescription {
+        name: "toe".into(),
+        leg: Some("leg".into()),
+        link: None,
+        shape: ShapeDescription::Point {
+            position_m: [0.0, link.length_m],
+        },
+        friction: toe_friction,
+    };
+    RobotDescription {
+        name: "one leg".into(),
+        gravity_m_s2,
+        body: BodyDescription {
+            mass_kg,
+            inertia_kg_m2,
+        },
+        legs: vec![LegDescription {
+            name: "leg".into(),
+            hip_m: [0.0, 0.0],
+            links: vec![link],
+        }],
+        contacts: vec![toe],
+    }
+}
+
+/// A link of `length_m` and `mass_kg` along `+z` (uniform: inertia `m l²/12`, centre of
+/// mass at mid-length), without spring or armature.
+pub fn uniform_link(length_m: f64, mass_kg: f64) -> LinkDescription {
+    LinkDescription {
+        length_m,
+        mass_kg,
+        inertia_kg_m2: mass_kg * length_m * length_m / 12.0,
+        com_m: Some([0.0, length_m / 2.0]),
+        axis: JointAxis::PlusY,
+        spring: None,
+        armature_kg_m2: 0.0,
+    }
+}
+
 /// A body (mass 3 kg, inertia 0.05) with one leg of one link of `length_m` hanging from the
-/// body's centre, ending in a sticking point toe; the link is massless when `link_mass_kg`
-/// is 0.
+/// body's centre, ending in a sticking point toe (`μ = 1`), and a frictionless belly point
+/// 5 cm below the centre; the link is massless when `link_mass_kg` is 0.
 pub fn one_leg(length_m: f64, link_mass_kg: f64, gravity_m_s2: f64) -> Model {
-    let link_inertia = link_mass_kg * length_m * length_m / 12.0;
-    let text = format!(
-        r#"
-name = "one leg"
-gravity_m_s2 = {gravity_m_s2}
-[body]
-mass_kg = 3.0
-inertia_kg_m2 = 0.05
-[[legs]]
-name = "leg"
-hip_m = [0.0, 0.0]
-[[legs.links]]
-length_m = {length_m}
-mass_kg = {link_mass_kg}
-inertia_kg_m2 = {link_inertia}
-com_m = [0.0, {com}]
-[[contacts]]
-name = "toe"
-leg = "leg"
-shape = {{ kind = "point", position_m = [0.0, {length_m}] }}
-friction = {{ kind = "sticking", mu = 1.0 }}
-[[contacts]]
-name = "belly"
-shape = {{ kind = "point", position_m = [0.0, 0.05] }}
-friction = {{ kind = "sliding" }}
-"#,
-        com = length_m / 2.0
-    );
-    RobotDescription::from_toml_str(&text)
-        .unwrap()
-        .build()
-        .unwrap()
+    let toe_friction = FrictionDescription::Sticking {
+        mu: Some(1.0),
+        mu_kinetic: None,
+    };
+    let link = uniform_link(length_m, link_mass_kg);
+    let mut d = one_link_leg(3.0, 0.05, gravity_m_s2, link, toe_friction);
+    d.contacts.push(ContactDescription {
+        name: "belly".into(),
+        leg: None,
+        link: None,
+        shape: ShapeDescription::Point {
+            position_m: [0.0, 0.05],
+        },
+        friction: FrictionDescription::Sliding,
+    });
+    d.build().unwrap()
 }
 
 /// A legless body (three coordinates) released at rest at `q` in `mode` on flat ground,
@@ -148,6 +189,74 @@ pub fn released(
         opts,
     )
     .unwrap()
+}
+
+/// A run without torques on `terrain` from `(q, q̇)` in `mode` to `t_final`, at the default
+/// options.
+pub fn coast(
+    model: &Model,
+    terrain: &dyn Terrain,
+    mode: ContactMode,
+    (q, qd): (&[f64], &[f64]),
+    t_final: f64,
+) -> Execution {
+    let opts = HybridOptions::default();
+    simulate(model, terrain, &ZeroTorque, mode, q, qd, t_final, opts).unwrap()
+}
+
+/// A run on flat ground under `ctrl` from `(q, q̇)` with contact 0 (a leg's toe) sliding and
+/// no other contact, to `t_final` with the options `opts`.
+pub fn toe_sliding_run(
+    model: &Model,
+    ctrl: &dyn Controller,
+    q: &[f64],
+    qd: &[f64],
+    t_final: f64,
+    opts: HybridOptions,
+) -> Execution {
+    let mode = sliding(&[0]);
+    simulate(model, &FlatGround, ctrl, mode, q, qd, t_final, opts).unwrap()
+}
+
+/// The options of the fold tests: the fold threshold `ε = fold_threshold`, a stop at the
+/// apex, rtol 1e-11 (atol 1e-13).
+pub fn fold_options(fold_threshold: f64) -> HybridOptions {
+    HybridOptions {
+        fold_threshold,
+        stop_at_apex: true,
+        step: StepOptions {
+            rtol: 1e-11,
+            atol: 1e-13,
+            ..StepOptions::default()
+        },
+        ..HybridOptions::default()
+    }
+}
+
+/// A sled's slide (`tests/data/robots/sled.toml`): a run on flat ground under `ctrl` from
+/// `(q, q̇)` with the toe and both skids sliding, to `t_final`, at rtol 1e-10 (atol 1e-12).
+pub fn sled_slide(
+    model: &Model,
+    ctrl: &dyn Controller,
+    (q, qd): (&[f64], &[f64]),
+    t_final: f64,
+) -> Execution {
+    let mut opts = HybridOptions::default();
+    (opts.step.rtol, opts.step.atol) = (1e-10, 1e-12);
+    let mode = sliding(&[0, 1, 2]);
+    simulate(model, &FlatGround, ctrl, mode, q, qd, t_final, opts).unwrap()
+}
+
+/// The energy balance of `exec` on flat ground closes, and friction took the kinetic energy
+/// `t0_j`, both to 1e-6 relative.
+pub fn assert_friction_took(model: &Model, exec: &Execution, t0_j: f64) {
+    let rep = energy_report(model, &FlatGround, exec).unwrap();
+    let t0 = t0_j;
+    assert!(
+        (rep.friction_work_j + t0).abs() < 1e-6 * t0,
+        "{rep:?} vs -{t0}"
+    );
+    assert!(rep.residual_j().abs() < 1e-6 * t0, "{rep:?}");
 }
 
 /// The default options with steps of at most 1 ms (runs with many steps per segment).
@@ -182,29 +291,18 @@ pub fn painleve_mu_star(theta: f64) -> f64 {
 }
 
 /// A body with one massless one-link leg of `length_m` at its centre, ending in the point
-/// toe `toe` with `friction` (a TOML inline table); no other contact. `q = [θ, x, z, φ]`.
-pub fn massless_leg(mass_kg: f64, inertia_kg_m2: f64, length_m: f64, friction: &str) -> Model {
-    let text = format!(
-        r#"
-name = "one-legged body"
-gravity_m_s2 = {G}
-[body]
-mass_kg = {mass_kg}
-inertia_kg_m2 = {inertia_kg_m2}
-[[legs]]
-name = "leg"
-hip_m = [0.0, 0.0]
-[[legs.links]]
-length_m = {length_m}
-[[contacts]]
-name = "toe"
-leg = "leg"
-shape = {{ kind = "point", position_m = [0.0, {length_m}] }}
-friction = {friction}
-"#
-    );
-    RobotDescription::from_toml_str(&text)
-        .unwrap()
+/// toe `toe` with `toe_friction`; no other contact. `q = [θ, x, z, φ]`.
+pub fn massless_leg(
+    mass_kg: f64,
+    inertia_kg_m2: f64,
+    length_m: f64,
+    toe_friction: FrictionDescription,
+) -> Model {
+    let link = LinkDescription {
+        com_m: None,
+        ..uniform_link(length_m, 0.0)
+    };
+    one_link_leg(mass_kg, inertia_kg_m2, G, link, toe_friction)
         .build()
         .unwrap()
 }
@@ -226,6 +324,58 @@ impl Controller for HipTorque {
     }
 }
 
+/// Hip servos `Υ_i = −k (θ_i − θ_i*) − c θ̇_i` with their partials, and the gain `k` as a
+/// parameter (`"k"`): the controller of the drops of the whole-execution sensitivity tests.
+#[derive(Debug, Clone)]
+pub struct Servos {
+    pub k: f64,
+    pub c: f64,
+    pub target: Vec<f64>,
+}
+
+impl Controller for Servos {
+    fn torque(&self, _t: f64, q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
+        for (i, t) in tau.iter_mut().enumerate() {
+            *t = -self.k * (q[i] - self.target[i]) - self.c * qd[i];
+        }
+    }
+    fn partials(
+        &self,
+        _t: f64,
+        _q: &[f64],
+        _qd: &[f64],
+        _mode: ContactMode,
+        _free_joints: &[usize],
+        out: &mut ControllerPartials,
+    ) -> bool {
+        for i in 0..self.target.len() {
+            out.dtau_dq[(i, i)] = -self.k;
+            out.dtau_dqd[(i, i)] = -self.c;
+        }
+        true
+    }
+    fn parameter_partials(
+        &self,
+        _t: f64,
+        q: &[f64],
+        _qd: &[f64],
+        _mode: ContactMode,
+        _free_joints: &[usize],
+        names: &[&str],
+        out: &mut ControllerPartials,
+    ) -> bool {
+        for (col, n) in names.iter().enumerate() {
+            if *n != "k" {
+                return false;
+            }
+            for (i, (qi, ti)) in q.iter().zip(&self.target).enumerate() {
+                out.dtau_dp[(i, col)] = -(qi - ti);
+            }
+        }
+        true
+    }
+}
+
 /// Tolerances for derivatives against central differences of whole runs (rtol 1e-12,
 /// events to 1e-14 s, free joints in the step-size control).
 pub fn tight() -> HybridOptions {
@@ -241,6 +391,66 @@ pub fn tight() -> HybridOptions {
     }
 }
 
+/// A run from `y0 = (q, q̇)` in flight on flat ground to `tf` with the options `opts`.
+pub fn flight_run(
+    model: &Model,
+    ctrl: &dyn Controller,
+    y0: &[f64],
+    tf: f64,
+    opts: HybridOptions,
+) -> Execution {
+    let nq = model.nq();
+    let mode = ContactMode::FLIGHT;
+    simulate(
+        model,
+        &FlatGround,
+        ctrl,
+        mode,
+        &y0[..nq],
+        &y0[nq..],
+        tf,
+        opts,
+    )
+    .unwrap()
+}
+
+/// The Jacobian of [`run_from_flight`]'s end state to its start state `y0` by central
+/// differences at steps `h` and `h/2`, extrapolated (Richardson: `(4 D(h/2) − D(h)) / 3`);
+/// every perturbed run must meet the events `seq`.
+pub fn flight_run_jacobian_fd(
+    model: &Model,
+    ctrl: &dyn Controller,
+    y0: &[f64],
+    tf: f64,
+    seq: &[EventKind],
+    h: f64,
+) -> DMatrix<f64> {
+    let n = y0.len();
+    let mut fd = DMatrix::zeros(n, n);
+    for c in 0..n {
+        let d = |h: f64| {
+            let (mut yp, mut ym) = (y0.to_vec(), y0.to_vec());
+            yp[c] += h;
+            ym[c] -= h;
+            let ((xp, sp), (xm, sm)) = (
+                run_from_flight(model, ctrl, &yp, tf),
+                run_from_flight(model, ctrl, &ym, tf),
+            );
+            assert_eq!(sp, seq, "direction {c}");
+            assert_eq!(sm, seq, "direction {c}");
+            xp.iter()
+                .zip(&xm)
+                .map(|(a, b)| (a - b) / (2.0 * h))
+                .collect::<Vec<_>>()
+        };
+        let (d1, d2) = (d(h), d(h / 2.0));
+        for i in 0..n {
+            fd[(i, c)] = (4.0 * d2[i] - d1[i]) / 3.0;
+        }
+    }
+    fd
+}
+
 /// A run from `y0 = (q, q̇)` in flight on flat ground to `tf` with [`tight`] options: its end
 /// state and its event kinds.
 pub fn run_from_flight(
@@ -249,18 +459,7 @@ pub fn run_from_flight(
     y0: &[f64],
     tf: f64,
 ) -> (Vec<f64>, Vec<EventKind>) {
-    let nq = model.nq();
-    let e = simulate(
-        model,
-        &FlatGround,
-        ctrl,
-        ContactMode::FLIGHT,
-        &y0[..nq],
-        &y0[nq..],
-        tf,
-        tight(),
-    )
-    .unwrap();
+    let e = flight_run(model, ctrl, y0, tf, tight());
     (
         e.q.iter().chain(&e.qd).copied().collect(),
         e.events.iter().map(|e| e.kind).collect(),

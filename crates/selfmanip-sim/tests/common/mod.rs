@@ -1,4 +1,5 @@
-//! Fixtures the sensitivity tests share.
+//! Fixtures the sim's tests share.
+#![allow(dead_code)]
 use selfmanip_core::RobotDescription;
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::Scenario;
@@ -9,6 +10,12 @@ pub fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("examples/data")
         .join(name)
+}
+
+/// A robot of the workspace's `tests/data/robots`.
+pub fn test_robot(name: &str) -> RobotDescription {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/robots");
+    RobotDescription::from_file(&dir.join(name)).unwrap()
 }
 
 /// The hopper of `examples/hopper.rs` (dropped 10 cm, leg at its landing pose) moving
