@@ -9,8 +9,8 @@
 //! `++ massive_legs`: the same leap with legs of Table 4.2's mass carrying their rotors (no
 //! target yet; the massless default is the one the 1 ms bound is for).
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
-use selfmanip::rhex::leap::{leap_params, simulate_leap, LeapConfig};
 use selfmanip::rhex::leap::leap_scenario;
+use selfmanip::rhex::leap::{leap_params, simulate_leap, LeapConfig};
 use selfmanip::sim::Simulation;
 use std::hint::black_box;
 

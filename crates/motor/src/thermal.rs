@@ -349,7 +349,10 @@ impl ThermalModel {
         current_a: &[f64],
     ) -> Result<ThermalTrace> {
         Self::check_profile("current_a", current_a, dt_s, ambient_c)?;
-        Self::finite_trace("current_a", self.run_current(initial, ambient_c, dt_s, current_a))
+        Self::finite_trace(
+            "current_a",
+            self.run_current(initial, ambient_c, dt_s, current_a),
+        )
     }
 
     /// [`Self::simulate_current`] on checked inputs.

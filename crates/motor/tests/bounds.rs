@@ -1,7 +1,7 @@
 //! Every size a caller can ask of the actuator models is bounded, and every result is finite
 //! or a typed error naming the input: the reproducers of the adversarial audit (issue 31)
 //! that reach the motor crate, each a regression test named after what it checks.
-use motor::catalog::{synthetic_motors, Catalog, CaseParameters, MAX_SYNTHETIC_MOTORS};
+use motor::catalog::{synthetic_motors, CaseParameters, Catalog, MAX_SYNTHETIC_MOTORS};
 use motor::dc::MAX_CURVE_POINTS;
 use motor::observer::{observe, LegLog, LegObserver, ObserverParams, MAX_DELAY_SAMPLES};
 use motor::tail::{rank_tail_motors, tail_optimum, SelectionConstraints, TailTask};
@@ -59,7 +59,10 @@ fn observer_delay_of_1e308_is_an_error_naming_delay_s_not_a_panic() {
 #[test]
 fn observer_delay_longer_than_the_log_is_refused() {
     let log = still_log(100, 1e-3);
-    assert_eq!(field_of(&observe(&params(0.2), &log).unwrap_err()), "delay_s");
+    assert_eq!(
+        field_of(&observe(&params(0.2), &log).unwrap_err()),
+        "delay_s"
+    );
     let samples = observe(&params(0.05), &log).unwrap();
     assert_eq!(samples.len(), 100);
     // a leg at rest at the reference with no gravity torque stays there: zero residuals
@@ -71,7 +74,9 @@ fn observer_delay_longer_than_the_log_is_refused() {
 fn observer_params_reject_unknown_keys_naming_the_known_ones() {
     let json = r#"{"k_m": 50, "a_m": 20, "k_p": 10, "k_d": 0.5, "k_g": -1,
                    "theta_g_rad": 0, "delay_s": 0.01, "delay": 0.01}"#;
-    let e = serde_json::from_str::<ObserverParams>(json).unwrap_err().to_string();
+    let e = serde_json::from_str::<ObserverParams>(json)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("unknown field `delay`"), "{e}");
     assert!(e.contains("delay_s"), "{e}");
 }
@@ -115,7 +120,16 @@ fn thermal_simulation_of_an_overflowing_torque_is_an_error_naming_torque_n_m() {
         )
     };
     let e = run(&[1e308; 10], 25.0).unwrap_err();
-    assert!(matches!(e, MotorError::Overflow { field: "torque_n_m", .. }), "{e:?}");
+    assert!(
+        matches!(
+            e,
+            MotorError::Overflow {
+                field: "torque_n_m",
+                ..
+            }
+        ),
+        "{e:?}"
+    );
     // an empty profile and an ambient below absolute zero were accepted
     assert_eq!(field_of(&run(&[], 25.0).unwrap_err()), "torque_n_m");
     assert_eq!(field_of(&run(&[1.0], -300.0).unwrap_err()), "ambient_c");

@@ -845,13 +845,8 @@ fn no_event_fires_on_round_off() {
                     let mut kin = selfmanip_core::kinematics::Kinematics::default();
                     kin.compute(&rhex.model, &e.q, &e.qd_after);
                     e.triggered.iter().all(|&k| {
-                        selfmanip_hybrid::flow::sliding_velocity(
-                            &rhex.model,
-                            &kin,
-                            &cfg.terrain,
-                            k,
-                        )
-                        .abs()
+                        selfmanip_hybrid::flow::sliding_velocity(&rhex.model, &kin, &cfg.terrain, k)
+                            .abs()
                             <= selfmanip_core::friction::SLIDING_SPEED_EPS_M_S
                     })
                 };

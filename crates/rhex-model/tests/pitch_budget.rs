@@ -15,8 +15,8 @@
 //! - The pair the leap leaves out (section 3.3: disabled) has its hip no lower than at the
 //!   start until takeoff, so it cannot touch the ground in the leaps' stance.
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapResult};
-use selfmanip_sim::Trajectory;
 use rhex_model::params::LegPair;
+use selfmanip_sim::Trajectory;
 
 const DT: f64 = 2e-5;
 

@@ -1,12 +1,12 @@
 //! Sweeps (issue 5): determinism across thread counts, per-point failure isolation,
 //! parameter overrides by name, and MCAP logs read back.
 use rhex_model::leap::{leap_params, LeapConfig, LeapEvent, LegActuator, Push, Strategy};
-use selfmanip_sim::Trajectory;
 use rhex_model::mcap_log::{write_leap_mcap, write_leap_mcap_to, LeapLog};
 use rhex_model::sweep::{
     check_override_names, grid, point_inputs, run_row, sweep, sweepable_names, SweepPoint, SweepRow,
 };
 use rhex_model::RhexError;
+use selfmanip_sim::Trajectory;
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::io::Cursor;

@@ -330,8 +330,15 @@ impl Simulation {
         if let Err(selfmanip_core::CoreError::NonFiniteResult { quantity }) =
             selfmanip_core::energy(&model, &mut data, &q0, &qd0)
         {
-            let field = if quantity == "T" { "initial.qd" } else { "initial.q" };
-            return Err(invalid(field, format!("too large: `{quantity}` overflows at it")));
+            let field = if quantity == "T" {
+                "initial.qd"
+            } else {
+                "initial.q"
+            };
+            return Err(invalid(
+                field,
+                format!("too large: `{quantity}` overflows at it"),
+            ));
         }
         // no inactive contact may start below the ground (the first step would meet it as a
         // discontinuity of the terrain, not as a touchdown)

@@ -85,9 +85,7 @@ pub fn grid(over: &[(String, Vec<Value>)]) -> Result<Vec<SweepPoint>, SimError> 
             .filter(|&n| n <= MAX_SWEEP_POINTS)
             .ok_or_else(|| SimError::InvalidValue {
                 field: name.clone(),
-                reason: format!(
-                    "the sweep's grid would hold more than {MAX_SWEEP_POINTS} points"
-                ),
+                reason: format!("the sweep's grid would hold more than {MAX_SWEEP_POINTS} points"),
             })?;
     }
     let mut points = vec![SweepPoint::default()];

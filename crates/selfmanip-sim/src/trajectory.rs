@@ -69,7 +69,14 @@ pub fn sample(
     dt_s: f64,
     time_offset_s: f64,
 ) -> Result<Trajectory, SimError> {
-    sample_labelled(model, terrain, exec, &|m| labels.label(m), dt_s, time_offset_s)
+    sample_labelled(
+        model,
+        terrain,
+        exec,
+        &|m| labels.label(m),
+        dt_s,
+        time_offset_s,
+    )
 }
 
 /// [`sample`] with the modes labelled by `label` (a robot's own notation, such as RHex's

@@ -50,7 +50,10 @@ fn a_hopper_launched_at_1e308_ends_with_a_non_finite_error_instead_of_hanging() 
 
 #[test]
 fn a_hopper_placed_at_1e308_is_refused_naming_initial_q() {
-    match Simulation::new(&hopper(vec![1e308; 5], None)).err().expect("refused") {
+    match Simulation::new(&hopper(vec![1e308; 5], None))
+        .err()
+        .expect("refused")
+    {
         SimError::InvalidValue { field, reason } => {
             assert_eq!(field, "initial.q");
             assert!(reason.contains("too large"), "{reason}");
@@ -58,7 +61,10 @@ fn a_hopper_placed_at_1e308_is_refused_naming_initial_q() {
         other => panic!("{other:?}"),
     }
     // the same robot at a reachable height runs and reports finite energies
-    let run = Simulation::new(&hopper(Q0.to_vec(), None)).unwrap().run().unwrap();
+    let run = Simulation::new(&hopper(Q0.to_vec(), None))
+        .unwrap()
+        .run()
+        .unwrap();
     let e = run.energy_report().unwrap();
     assert!(e.initial_j.is_finite() && e.final_j.is_finite(), "{e:?}");
 }

@@ -14,7 +14,12 @@ fn a_billion_threads_run_on_at_most_the_machines_cores_with_the_same_results() {
     let cores = std::thread::available_parallelism().map_or(1, usize::from);
     let items: Vec<u64> = (0..64).collect();
     // each point reports the size of the pool it ran on, and a value of its own
-    let f = |&k: &u64| (rayon::current_num_threads(), k.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+    let f = |&k: &u64| {
+        (
+            rayon::current_num_threads(),
+            k.wrapping_mul(0x9E37_79B9_7F4A_7C15),
+        )
+    };
     let one = run_parallel(&items, 1, f).unwrap();
     let huge = run_parallel(&items, 1_000_000_000, f).unwrap();
     assert!(huge.iter().all(|&(n, _)| n <= cores));
@@ -93,5 +98,8 @@ fn a_trajectory_beyond_the_sample_bound_is_refused_naming_dt_s() {
     let dt = 1e-3;
     let tr = run.trajectory(dt).unwrap();
     let every = (t_end / dt).floor() as usize + 1;
-    assert_eq!(tr.t_s.len(), every + usize::from(t_end > (every - 1) as f64 * dt));
+    assert_eq!(
+        tr.t_s.len(),
+        every + usize::from(t_end > (every - 1) as f64 * dt)
+    );
 }
