@@ -220,12 +220,12 @@ def test_contact_mode_map_with_negative_n_is_a_value_error_naming_n(rhex):
 
 
 def test_engine_made_nan_is_not_blamed_on_the_callers_qd():
-    """A leap takes no ``qd`` from the caller: a non-finite state the engine produced (here
-    from a finite but absurd body mass) is an EngineError that says so, not "`qd` has a
-    non-finite entry" (the core's overflow error; it names what overflowed)."""
-    with pytest.raises(selfmanip.EngineError, match="produced a non-finite `N̄`") as e:
+    """A leap takes no ``qd`` from the caller: a finite but absurd body mass whose start state
+    overflows the model is refused as the parameters' fault, naming what overflowed, not as
+    "`qd` has a non-finite entry"."""
+    with pytest.raises(selfmanip.InvalidInputError, match="start state.*`N̄` overflows") as e:
         selfmanip.leap("++", 0.0, dt=None, params={"m_b": 1e308})
-    assert "has a non-finite entry" not in str(e.value) and not isinstance(e.value, ValueError)
+    assert "has a non-finite entry" not in str(e.value) and e.value.field == "params"
     # the same extreme model: the dynamics would come out NaN; refused rather than returned
     m = selfmanip.rhex.Model({"m_b": 1e308})
     with pytest.raises(selfmanip.EngineError, match="non-finite"):

@@ -975,7 +975,19 @@ impl LeapPreset {
             .insert("t2".into(), Scalar::Number(motor_t2_s));
         let offset = motor_t2_s.min(0.0);
         scenario.options.t_final_s = self.cfg.t_final_s - offset;
-        let mut sim = Simulation::new(&scenario)?;
+        // the start state is the preset's, computed from the robot's parameters: a start the
+        // simulator refuses (its energy overflows) is the parameters' fault, named as theirs
+        let mut sim = Simulation::new(&scenario).map_err(|e| match e {
+            selfmanip_sim::SimError::InvalidValue { field, reason }
+                if field.starts_with("initial.") =>
+            {
+                RhexError::Params {
+                    field: "params".into(),
+                    reason: format!("the leap's start state from them: {reason}"),
+                }
+            }
+            e => e.into(),
+        })?;
         sim.mode0 = self.mode0;
         sim.options.max_steps = self.cfg.max_steps;
         sim.options.max_events = self.cfg.max_events;

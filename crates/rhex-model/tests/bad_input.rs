@@ -46,7 +46,7 @@ fn leg_mass_of_1e308_is_a_typed_overflow_error() {
     // the first evaluation meets the overflow): typed, naming what overflowed
     match simulate_leap(&params, &LeapConfig::default()) {
         Err(RhexError::Params { field, reason }) => {
-            assert_eq!(field, "initial.q");
+            assert_eq!(field, "params");
             assert!(reason.contains("overflows"), "{reason}");
         }
         Err(e @ RhexError::Hybrid(HybridError::Core(CoreError::NonFiniteResult { .. }))) => {
