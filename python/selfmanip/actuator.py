@@ -139,10 +139,12 @@ def choices(actuator: Any, gear_ratio: Any) -> list[Choice]:
         raise InvalidInputError("give `actuator` or its shorthand `gear_ratio`, not both", "gear_ratio")
     field, value, one = (("gear_ratio", gear_ratio, _ratio) if actuator is DEFAULT
                          else ("actuator", actuator, _one))
-    if value is None or value is DEFAULT or isinstance(value, (Saturated, GearedMotor, numbers.Number, str)):
-        values = [value]
-    elif isinstance(value, np.ndarray) and value.ndim != 1:
+    if isinstance(value, np.ndarray) and value.ndim > 1:
         raise InvalidInputError(f"`{field}` must be a scalar or 1-D, got shape {value.shape}", field)
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        values = [value.item()]
+    elif value is None or value is DEFAULT or isinstance(value, (Saturated, GearedMotor, numbers.Number, str)):
+        values = [value]
     elif hasattr(value, "__iter__") and not isinstance(value, Mapping):
         values = list(value)
     else:

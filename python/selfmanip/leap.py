@@ -384,9 +384,9 @@ def leap(strategy: str = "++", t2: float = 0.0, gear_ratio: float | None | _Defa
     :class:`selfmanip.InvalidTypeError` (a ``TypeError``) naming the field; Ctrl-C interrupts.
 
     >>> import selfmanip
-    >>> r = selfmanip.leap("++", t2=0.0, gear_ratio=28.0)
-    >>> r.word.startswith("1010"), r.trajectory.q.shape[1]
-    (True, 5)
+    >>> r = selfmanip.leap("++", t2=0.0, actuator=selfmanip.GearedMotor(ratio=28.0))
+    >>> r.word.startswith("1010"), r.trajectory.q.shape[1], r.actuator.current_limit_a
+    (True, 5, 20.0)
     """
     s = _strategy(strategy)
     t2v = _real("t2", t2)

@@ -18,6 +18,7 @@ import pytest
 import selfmanip
 from selfmanip import GearedMotor, Saturated
 from selfmanip.errors import AllPointsFailedWarning
+from selfmanip.leap import sweep_points
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 DATA = ROOT / "crates" / "selfmanip-sim" / "examples" / "data"
@@ -148,6 +149,7 @@ def test_a_bad_geared_motor_names_its_field(kwargs, error, field):
     (lambda: selfmanip.sweep("++", t2=[0.0], actuator=[Saturated(), 28.0]), selfmanip.InvalidTypeError,
      "actuator[1]"),
     (lambda: selfmanip.sweep("++", t2=[0.0], actuator=[]), selfmanip.InvalidInputError, "actuator"),
+    (lambda: selfmanip.sweep("++", t2=[0.0], gear_ratio=np.ones((2, 2))), selfmanip.InvalidInputError, "gear_ratio"),
     (lambda: selfmanip.sweep("++", t2=[0.0], actuator=[GearedMotor()], m_b=8.0, current_limit_a=[5.0, 9.0]),
      selfmanip.InvalidInputError, "current_limit_a"),
 ])
@@ -155,6 +157,13 @@ def test_a_bad_actuator_argument_names_it(call, error, field):
     with pytest.raises(error) as e:
         call()
     assert e.value.field == field
+
+
+def test_an_axis_of_actuators_may_be_any_1d_sequence_and_a_0d_array_is_a_scalar():
+    assert sweep_points("++", t2=0.0, gear_ratio=np.asarray(28.0))["actuator"] == [28.0]
+    axis = np.asarray([Saturated(), GearedMotor()], dtype=object)
+    assert sweep_points("++", t2=0.0, actuator=axis)["actuator"] == [Saturated(), GearedMotor()]
+    assert sweep_points("++", t2=0.0, actuator=(GearedMotor(ratio=20.0),))["actuator"] == [GearedMotor(ratio=20.0)]
 
 
 def test_the_actuator_classes_are_values():
