@@ -606,8 +606,10 @@ def sweep_kind(args: Sequence[Any], kwargs: Mapping[str, Any]) -> str:
     for name in other:
         if name in kwargs:
             what = "the RHex leap preset's" if kind == "robot" else "a robot's sweep's"
-            raise InvalidInputError(f"`{name}` is {what} argument, but the first argument {first!r} selects "
-                                    f"the {'robot' if kind == 'robot' else 'RHex leap'} sweep", name)
+            chosen = (f"the first argument {first!r} selects" if args or field in kwargs
+                      else "without a robot first, sweep runs")
+            raise InvalidInputError(f"`{name}` is {what} argument, but {chosen} the "
+                                    f"{'robot' if kind == 'robot' else 'RHex leap'} sweep", name)
     return kind
 
 
