@@ -43,7 +43,7 @@ class Design:
 
     def _leap(self, t2: float, g: float):
         self.leaps += 1
-        return selfmanip.leap(self.strategy, t2=t2, gear_ratio=g, dt=None,
+        return selfmanip.leap(self.strategy, t2=t2, actuator=selfmanip.GearedMotor(ratio=g), dt=None,
                               sensitivities=["t2", "gear_ratio"])
 
     def __call__(self, x) -> tuple[float, float, np.ndarray, np.ndarray]:
@@ -105,8 +105,8 @@ def grid_design(strategy: str, n_t2: int, n_g: int, threads: int | None, best: i
     `starts`)."""
     t2 = np.linspace(*T2_BOUNDS, n_t2)
     g = np.linspace(*G_BOUNDS, n_g)
-    t = selfmanip.sweep(strategy, t2=t2, gear_ratio=g, threads=threads)
-    feasible = (t["status"] == "ok") & (np.abs(t["apex_phi_rad"]) <= PITCH_MAX)
+    t = selfmanip.sweep(strategy, t2=t2, actuator=[selfmanip.GearedMotor(ratio=x) for x in g], threads=threads)
+    feasible = np.isin(t["status"], selfmanip.simulation.COMPLETE_STATUSES) & (np.abs(t["apex_phi_rad"]) <= PITCH_MAX)
     out = {"method": f"grid {n_t2}x{n_g} sweep", "leaps": len(t2) * len(g), "apex_z_m": math.nan,
            "t2_s": math.nan, "gear_ratio": math.nan, "apex_pitch_deg": math.nan, "starts": []}
     if not feasible.any():

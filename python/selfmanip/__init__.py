@@ -10,7 +10,8 @@ rows ordered by contact, tangential before normal.
 Modules: :mod:`selfmanip.robot` (any planar robot from a description file: dynamics,
 kinematics, Jacobians, contacts), :mod:`selfmanip.rhex` (the RHex of thesis section 4.2),
 :mod:`selfmanip.leap` (RHex leaps and sweeps; the module is also callable as
-:func:`selfmanip.leap.leap`), :mod:`selfmanip.simulation` (any robot, any behaviour:
+:func:`selfmanip.leap.leap`), :mod:`selfmanip.actuator` (the leap's :class:`Saturated` torque
+or :class:`GearedMotor`), :mod:`selfmanip.simulation` (any robot, any behaviour:
 :func:`simulate`, and :func:`sweep` for any robot or, given a strategy, the RHex leap sweep),
 :mod:`selfmanip.analysis` (section 4.3),
 :mod:`selfmanip.motor` (motors, gearboxes, thermal model, tail optimum, leg observer),
@@ -25,7 +26,8 @@ from typing import TYPE_CHECKING
 from .errors import (AllPointsFailedWarning, ControllerError, EngineError, IllPosedError, InvalidInputError,
                      InvalidTypeError, SelfmanipError, SingularKktError)
 from .robot import ContactPoints, Dynamics, Impact, Kinematics, KktBlocks, PointJacobian, QuasiStatic, Robot
-from . import errors, motor, rhex
+from . import actuator, errors, motor, rhex
+from .actuator import GearedMotor, Saturated
 from . import analysis
 from . import distributed, plots
 from .leap import DEFAULT, LeapResult
@@ -49,6 +51,7 @@ __all__ = [
     "EnergyReport",
     "EngineError",
     "Execution",
+    "GearedMotor",
     "IllPosedError",
     "Impact",
     "InvalidInputError",
@@ -60,10 +63,12 @@ __all__ = [
     "PointJacobian",
     "QuasiStatic",
     "Robot",
+    "Saturated",
     "SelfmanipError",
     "SimTrajectory",
     "SingularKktError",
     "SpatialRobot",
+    "actuator",
     "analysis",
     "distributed",
     "errors",

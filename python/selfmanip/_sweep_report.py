@@ -1,5 +1,5 @@
-"""What a sweep table says about its failures, shared by the RHex leap sweep and the sweep of
-any robot (which differ only in the statuses that count as done)."""
+"""What a sweep table says about its failures, for the RHex leap sweep and the sweep of any
+robot alike (the façades pass ``_facade.COMPLETE_STATUSES`` as ``done``)."""
 
 from __future__ import annotations
 

@@ -19,6 +19,10 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ._facade import COMPLETE_STATUSES, DEFAULT
+from .actuator import GearedMotor, Saturated
+from .errors import InvalidInputError, InvalidTypeError
+
 __all__ = ["STRATEGIES", "run", "summary"]
 
 #: The four strategies of section 3.3, in the thesis's order.
@@ -32,8 +36,9 @@ def summary(table: dict[str, Any], n: int) -> list[str]:
     from .plots import word_label
 
     lines = []
+    done = np.isin(table["status"], COMPLETE_STATUSES)
     for s in STRATEGIES:
-        m = (table["strategy"] == s) & (table["status"] == "ok")
+        m = (table["strategy"] == s) & done
         line = f"({s[0]}, {s[1]}): {int(m.sum())}/{n} leaps reach an apex"
         if m.any():
             hi = int(np.argmax(np.where(m, table["apex_z_m"], -np.inf)))
@@ -43,18 +48,34 @@ def summary(table: dict[str, Any], n: int) -> list[str]:
         lines.append(line)
         for word, count in Counter(table["word"][m]).most_common(4):
             lines.append(f"    {count:3d} x {word_label(word)}")
-        failed = Counter(table["status"][(table["strategy"] == s) & (table["status"] != "ok")])
+        failed = Counter(table["status"][(table["strategy"] == s) & ~done])
         if failed:
             lines.append("    no apex: " + ", ".join(f"{k} {v}" for k, v in sorted(failed.items())))
     return lines
 
 
+def _actuator(saturated: bool, actuator: Any) -> tuple[Any, str, str]:
+    """The job's actuator (``saturated=True`` is the shorthand for ``Saturated()``), with its
+    name in the report and in the figure's title."""
+    if saturated and actuator is not DEFAULT:
+        raise InvalidInputError("give `actuator` or its shorthand `saturated`, not both", "saturated")
+    if saturated or isinstance(actuator, Saturated):
+        return Saturated(), "saturated torque (chapter 3)", "(saturated torque)"
+    if actuator is DEFAULT:
+        return DEFAULT, "the default geared motor", "(default model: geared X-RHex motors)"
+    if not isinstance(actuator, GearedMotor):
+        raise InvalidTypeError("`actuator` must be selfmanip.Saturated() or selfmanip.GearedMotor(...), got "
+                               f"{type(actuator).__name__} {actuator!r}", "actuator")
+    return actuator, repr(actuator), f"({actuator!r})"
+
+
 def run(out_dir: str | os.PathLike = ".", n: int = 41, saturated: bool = False,
-        threads: int | None = None, echo: Callable[[str], None] = print) -> dict[str, Any]:
+        threads: int | None = None, echo: Callable[[str], None] = print, *, actuator: Any = DEFAULT) -> dict[str, Any]:
     """Runs the chapter-3 sweep (``n`` values of ``t2`` in [-0.2, 0.2] s, four strategies) on
-    the default model — the engine's default actuator, the geared X-RHex motor, or with
-    ``saturated`` chapter 3's saturated torque — writes ``chapter3_sweep.csv`` and
-    ``chapter3_sweep.png`` into ``out_dir``, reports through ``echo`` and returns the table."""
+    the default model — with ``actuator`` (:mod:`selfmanip.actuator`; left out, the engine's
+    default actuator, the geared X-RHex motor; ``saturated=True`` is the shorthand for
+    chapter 3's ``Saturated()``) — writes ``chapter3_sweep.csv`` and ``chapter3_sweep.png``
+    into ``out_dir``, reports through ``echo`` and returns the table."""
     import selfmanip
 
     from .cli_leap import write_table
@@ -67,23 +88,21 @@ def run(out_dir: str | os.PathLike = ".", n: int = 41, saturated: bool = False,
         # the job makes its own folder, not a tree of them from a mistyped path
         raise selfmanip.errors.InvalidInputError(
             f"out_dir: the folder {parent!r} that would hold {out_dir!r} does not exist", "out_dir")
+    act, name, title = _actuator(saturated, actuator)
     t2 = np.linspace(-0.2, 0.2, n)
     kwargs: dict[str, Any] = {} if threads is None else {"threads": threads}
-    table = selfmanip.sweep(list(STRATEGIES), t2=t2, gear_ratio=None if saturated else selfmanip.DEFAULT,
-                            **kwargs)
+    table = selfmanip.sweep(list(STRATEGIES), t2=t2, actuator=act, **kwargs)
     os.makedirs(out_dir, exist_ok=True)
     csv_path = os.path.join(out_dir, "chapter3_sweep.csv")
     png_path = os.path.join(out_dir, "chapter3_sweep.png")
     write_table(table, csv_path)
     try:
-        sweep_figure(table, png_path, title="Chapter 3 leap sweep: apex against t2 "
-                     + ("(saturated torque)" if saturated else "(default model: geared X-RHex motors)"))
+        sweep_figure(table, png_path, title="Chapter 3 leap sweep: apex against t2 " + title)
         wrote = f"wrote {csv_path} and {png_path}"
     except PlottingUnavailableError:
         wrote = (f"wrote {csv_path}; no figure: matplotlib is not installed. For {png_path}: {INSTALL_HINT}, "
                  f"then selfmanip plot {csv_path} --out {png_path}")
-    actuator = "saturated torque (chapter 3)" if saturated else "the default geared motor"
-    echo(f"chapter-3 leap sweep: {len(STRATEGIES)} strategies x {n} values of t2 in [-0.2, 0.2] s, {actuator}")
+    echo(f"chapter-3 leap sweep: {len(STRATEGIES)} strategies x {n} values of t2 in [-0.2, 0.2] s, {name}")
     for line in summary(table, n):
         echo(line)
     echo(wrote)

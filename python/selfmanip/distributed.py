@@ -18,7 +18,7 @@ The workers need ``selfmanip`` installed (same version). Bring your own client::
     client = Client("tcp://scheduler:8786")
     table = selfmanip.distributed.sweep(client, ["++", "+-", "-+", "--"],
                                         t2=np.linspace(-0.2, 0.2, 401),
-                                        gear_ratio=np.linspace(15, 40, 101))
+                                        actuator=[selfmanip.GearedMotor(ratio=g) for g in range(15, 41)])
     robot = selfmanip.Robot.from_file("bounder.toml")            # any robot: a Robot, file or dict
     table = selfmanip.distributed.sweep(client, robot, "bound.toml",
                                         over={"kp_push": np.linspace(20, 60, 41)}, q0=q0)
@@ -36,16 +36,18 @@ if TYPE_CHECKING:
 import math
 import warnings
 
+from . import _facade
+from ._facade import DEFAULT
 from .errors import AllPointsFailedWarning, InvalidInputError, InvalidTypeError
-from .leap import DEFAULT, _warn_if_all_failed, run_points, sweep_points
-from .simulation import _is_robot, failure_summary, simulation_sweep
+from .leap import motors_differ, run_points, sweep_points
+from .simulation import simulation_sweep, sweep_kind
 
 __all__ = ["sweep", "merge", "chunks"]
 
 
 def _run_chunk(cols: dict[str, list[Any]], params: Mapping[str, Any] | None, config: Mapping[str, Any],
-               threads: int) -> dict[str, np.ndarray]:
-    return run_points(cols, params, threads=threads, **dict(config))
+               threads: int, motor_columns: bool) -> dict[str, np.ndarray]:
+    return run_points(cols, params, threads=threads, motor_columns=motor_columns, **dict(config))
 
 
 def chunks(over: Mapping[str, Any], chunk_size: int) -> list[dict[str, list[Any]]]:
@@ -101,13 +103,13 @@ def sweep(client: "distributed.Client", *args: Any, chunk_size: int = 1000, thre
     """:func:`selfmanip.sweep` on the Dask cluster behind ``client``: the same arguments and
     the same table, computed in chunks of ``chunk_size`` points, each task using
     ``threads_per_task`` rayon threads (match it to the workers' ``threads_per_worker``).
-    As there, a robot first (a :class:`selfmanip.Robot`, a description file or dict, or
-    ``robot=``) is any robot's sweep (:func:`selfmanip.simulation.simulation_sweep`; its grid
-    split by :func:`chunks`), anything else the RHex leap sweep. Inputs are checked here
-    (one point runs locally) before anything is sent."""
+    The first argument chooses the sweep by :func:`selfmanip.sweep`'s rule: a robot is any
+    robot's sweep (:func:`selfmanip.simulation.simulation_sweep`; its grid split by
+    :func:`chunks`), a strategy the RHex leap sweep (``actuator=`` as there). Inputs are
+    checked here (one point runs locally) before anything is sent."""
     _positive("chunk_size", chunk_size)
     _positive("threads_per_task", threads_per_task)
-    if "robot" in kwargs or "over" in kwargs or "behaviour" in kwargs or (args and _is_robot(args[0])):
+    if sweep_kind(args, kwargs) == "robot":
         return _robot_sweep(client, args, kwargs, chunk_size, threads_per_task)
     return _leap_sweep(client, *args, chunk_size=chunk_size, threads_per_task=threads_per_task, **kwargs)
 
@@ -131,18 +133,16 @@ def _robot_sweep(client: "distributed.Client", args: tuple[Any, ...], kwargs: di
     _run_robot_chunk((), dict(call, over={k: v[:1] for k, v in parts[0].items()}, threads=1))
     futures = client.map(_run_robot_chunk, [()] * len(parts), [dict(call, over=p) for p in parts], pure=False)
     table = merge(client.gather(futures))
-    msg = failure_summary(table)
-    if msg is not None:
-        warnings.warn(msg, AllPointsFailedWarning, stacklevel=3)
+    _facade.warn_if_all_failed(table, stacklevel=3)
     return table
 
 
 def _leap_sweep(client: "distributed.Client", strategy: str | Iterable[str] = "++", t2: Any = 0.0,
                 gear_ratio: Any = DEFAULT, params: Mapping[str, Any] | None = None, *, chunk_size: int,
-                threads_per_task: int, grid: bool = True, config: Mapping[str, Any] | None = None,
-                **swept: Any) -> dict[str, np.ndarray]:
+                threads_per_task: int, actuator: Any = DEFAULT, grid: bool = True,
+                config: Mapping[str, Any] | None = None, **swept: Any) -> dict[str, np.ndarray]:
     """The RHex leap sweep on the cluster (see :func:`sweep`)."""
-    cols = sweep_points(strategy, t2, gear_ratio, grid=grid, **swept)
+    cols = sweep_points(strategy, t2, gear_ratio, actuator=actuator, grid=grid, **swept)
     config = dict(config or {})
     # check the base parameters locally (one point), so a bad base fails before submitting
     one = {k: v[:1] for k, v in cols.items()}
@@ -150,7 +150,7 @@ def _leap_sweep(client: "distributed.Client", strategy: str | Iterable[str] = "+
     n = len(cols["strategy"])
     chunks = [{k: v[a:a + chunk_size] for k, v in cols.items()} for a in range(0, n, chunk_size)]
     futures = client.map(_run_chunk, chunks, params=params, config=config, threads=threads_per_task,
-                         pure=False)
+                         motor_columns=motors_differ(cols["actuator"]), pure=False)
     table = merge(client.gather(futures))
-    _warn_if_all_failed(table)
+    _facade.warn_if_all_failed(table, stacklevel=3)
     return table

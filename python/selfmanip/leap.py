@@ -7,10 +7,12 @@ gives each leg's push direction (front, rear): ``+`` turns the leg with increasi
 forward lunge, rolling on the half circle), ``-`` the other way (a flip onto the toe).
 
 The robot is the chapter-5 RHex (Table 4.2 with the middle and rear leg pairs, toe friction
-1.8 / 2.5). Left out, ``gear_ratio`` is the engine's default actuator (:func:`defaults`: two
-X-RHex motors per planar leg behind a gearbox of ratio 28 and a 20 A current limit, thesis
-section 4.3.3 and Table 2.1); ``gear_ratio=G`` sets the gear ratio of that motor;
-``gear_ratio=None`` uses chapter 3's constant saturated torque ``tau_s`` instead.
+1.8 / 2.5). The legs' ``actuator`` (:mod:`selfmanip.actuator`) is ``selfmanip.Saturated()``,
+chapter 3's constant saturated torque ``tau_s``, or ``selfmanip.GearedMotor(ratio,
+current_limit_a, motors_per_leg)``; left out, the engine's default actuator (:func:`defaults`:
+two X-RHex motors per planar leg behind a gearbox of ratio 28 and a 20 A current limit, thesis
+section 4.3.3 and Table 2.1). ``gear_ratio=G`` is the shorthand for a geared motor of ratio
+``G`` (``gear_ratio=None`` for ``Saturated()``), see :mod:`selfmanip.actuator`.
 
 ``selfmanip.leap`` is both this module and, called, :func:`leap`.
 
@@ -28,7 +30,8 @@ Any parameter is set by name, for a single leap or swept over an array:
   has exactly these two), ``delta_t_s`` (pseudo-impulse duration, thesis 0.03 s),
   ``swing_accel_rad_s2``, ``swing_speed_rad_s``, ``toe_stub_rad``, ``terrain``,
   ``t_final_s``, ``stop_at_apex``, ``event_tol_s``, ``zeno_window_s``, ``zeno_max_events``;
-* the geared motor: ``current_limit_a``, ``motors_per_leg``.
+* the geared motor's fields, with the default actuator or the ``gear_ratio`` shorthand:
+  ``current_limit_a``, ``motors_per_leg``.
 
 Results are reported in a z-**up** frame whose origin is the body centre at the start: apex
 height ``apex_z_m`` (of the body centre above the ground, positive up), forward displacement
@@ -38,7 +41,7 @@ joined by ``-``, e.g. ``1010-0110-0101-0001-0000``. Trajectories keep the thesis
 coordinates (``q = [theta..., x, z, phi]``, z down), see ``docs/conventions.md``.
 
 >>> import numpy as np, selfmanip
->>> table = selfmanip.sweep("++", t2=np.linspace(-0.1, 0.1, 5), gear_ratio=28.0)
+>>> table = selfmanip.sweep("++", t2=np.linspace(-0.1, 0.1, 5), actuator=selfmanip.GearedMotor(ratio=28.0))
 >>> sorted(table)[:3], len(table["t2_s"])
 (['apex_phi_rad', 'apex_phidot_rad_s', 'apex_t_s'], 5)
 >>> same = selfmanip.sweep("++", t2=np.linspace(-0.1, 0.1, 5), gear_ratio=28.0, threads=1)
@@ -56,46 +59,28 @@ import numbers
 import os
 import sys
 import types
-import warnings
 from dataclasses import dataclass
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from . import _native
-from .errors import AllPointsFailedWarning, InvalidInputError, InvalidTypeError
+from . import _facade, _native
+from ._facade import DEFAULT, _Default, failure_summary
+from .actuator import (MOTOR_FIELDS, Actuator, Choice, GearedMotor, check_motor_fields, choices, from_config,
+                       native_args)
+from .errors import InvalidInputError, InvalidTypeError
 
 __all__ = ["Apex", "DEFAULT", "LeapResult", "Trajectory", "defaults", "leap", "sweep", "sweep_points",
            "sweepable_names", "failure_summary", "STRATEGIES", "SWEEP_COLUMNS"]
 
 STRATEGIES = ("++", "+-", "-+", "--")
 
-#: The columns every sweep returns, in order (override columns follow ``gear_ratio``).
+#: The columns every sweep returns, in order (override columns follow ``gear_ratio``; a swept
+#: ``actuator`` whose geared motors differ in current limit or motor count adds
+#: ``current_limit_a`` and ``motors_per_leg`` there too, NaN for the saturated torque).
 SWEEP_COLUMNS = ("strategy", "t2_s", "gear_ratio", "apex_z_m", "apex_x_m", "apex_phi_rad",
                  "apex_xdot_m_s", "apex_phidot_rad_s", "apex_zdot_m_s", "apex_t_s", "word",
                  "status", "n_events", "error")
-
-
-class _Default:
-    """The engine's default actuator (see :func:`defaults`)."""
-
-    _instance: "_Default | None" = None
-
-    def __new__(cls) -> "_Default":
-        if cls._instance is None:
-            cls._instance = super().__new__(cls)
-        return cls._instance
-
-    def __repr__(self) -> str:
-        return "DEFAULT"
-
-    def __reduce__(self):
-        return (_Default, ())
-
-
-#: ``gear_ratio=DEFAULT`` (the default of :func:`leap` and :func:`sweep`): the actuator of the
-#: engine's default configuration, ``defaults()["config"]["actuator"]`` (chosen in Rust, once).
-DEFAULT = _Default()
 
 
 @functools.lru_cache(maxsize=1)
@@ -121,10 +106,9 @@ def sweepable_names() -> list[str]:
     return list(_sweepable_names())
 
 
-@functools.lru_cache(maxsize=1)
 def _actuator_fields() -> frozenset[str]:
     """The names that set the geared motor (not parameters, not configuration fields)."""
-    return frozenset(_native.leap_actuator_fields())
+    return MOTOR_FIELDS
 
 
 @functools.lru_cache(maxsize=1)
@@ -198,8 +182,10 @@ class LeapResult:
     past it with ``stop_at_apex=False``; None without one), the leap ``word`` (cells joined by
     ``-``), the labelled ``events`` (dicts with ``t_s, kind, mode_before, mode_after,
     contacts, energy_loss_j``), the start ``q0`` and, unless disabled, the ``trajectory``.
-    ``params``/``config`` are the full inputs used; ``gear_ratio`` is the one the leap ran with
-    (``None``: the saturated torque), read from ``config["actuator"]``."""
+    ``params``/``config`` are the full inputs used; ``actuator`` the one the leap ran with
+    (:class:`~selfmanip.actuator.Saturated` or :class:`~selfmanip.actuator.GearedMotor`,
+    read from ``config["actuator"]``) and ``gear_ratio`` its ratio (``None``: the saturated
+    torque)."""
 
     strategy: str
     t2_s: float
@@ -228,6 +214,7 @@ class LeapResult:
     #: never touched down).
     motor_t2_s: float | None = None
     touchdown_t2_s: float | None = None
+    actuator: Actuator | None = None
 
     def to_dict(self, trajectory: bool = True) -> dict[str, Any]:
         """Plain JSON-ready data (NaN becomes ``None``)."""
@@ -351,29 +338,6 @@ def _overrides(params: Mapping[str, Any] | None, config: Mapping[str, Any]) -> d
     return out
 
 
-def _gear(value: Any) -> float | None | _Default:
-    if value is DEFAULT:
-        return DEFAULT
-    return None if value is None else _real("gear_ratio", value, positive=True)
-
-
-def _native_gear(g: float | None | _Default) -> float | None:
-    """The binding's encoding: ``None`` the default actuator, NaN the saturated torque."""
-    if g is DEFAULT:
-        return None
-    return math.nan if g is None else float(g)
-
-
-def _check_actuator(gears: Iterable[Any], names: Iterable[str]) -> None:
-    """``gear_ratio=None`` (the saturated torque) with a geared motor's field is a contradiction:
-    refuse it instead of silently running the geared motor."""
-    motor = sorted(set(names) & _actuator_fields())
-    if motor and any(g is None for g in gears):
-        raise InvalidInputError(
-            f"`{motor[0]}` sets the geared motor, but gear_ratio=None selects chapter 3's saturated "
-            "torque: give a gear ratio (or leave gear_ratio out for the default motor)", motor[0])
-
-
 # ---------------------------------------------------------------------------------------------
 
 def _sensitivity_names(value: Any) -> list[str] | None:
@@ -391,14 +355,17 @@ def _sensitivity_names(value: Any) -> list[str] | None:
 
 
 def leap(strategy: str = "++", t2: float = 0.0, gear_ratio: float | None | _Default = DEFAULT,
-         params: Mapping[str, Any] | None = None, *, dt: float | None = 0.002,
-         sensitivities: Iterable[str] | None = None, **config: Any) -> LeapResult:
+         params: Mapping[str, Any] | None = None, *, actuator: Actuator | _Default = DEFAULT,
+         dt: float | None = 0.002, sensitivities: Iterable[str] | None = None, **config: Any) -> LeapResult:
     """One leap from rest to the apex of flight.
 
     ``strategy``: ``"++"``, ``"+-"``, ``"-+"`` or ``"--"`` (front, rear); ``t2``: the rear
-    leg's start relative to the front leg's (s); ``gear_ratio``: left out, the engine's default
-    actuator (``defaults()["config"]["actuator"]``: the geared X-RHex motor); a number, geared
-    X-RHex motors of this ratio; ``None``, chapter 3's saturated torque. ``params``: Table 4.2
+    leg's start relative to the front leg's (s); ``actuator``: ``selfmanip.Saturated()``
+    (chapter 3's saturated torque) or ``selfmanip.GearedMotor(ratio, current_limit_a,
+    motors_per_leg)``; left out, the engine's default actuator
+    (``defaults()["config"]["actuator"]``: the geared X-RHex motor). ``gear_ratio``: the
+    shorthand of :mod:`selfmanip.actuator` (a number: geared X-RHex motors of this ratio;
+    ``None``: the saturated torque), not together with ``actuator``. ``params``: Table 4.2
     overrides (``{"m_b": 8.0, "leg_shape": "stick"}``); ``dt``: trajectory sample time
     (``None``: no trajectory); further keywords set the leap configuration or the motor by name
     (see the module documentation). ``sensitivities``: parameter names (``"t2"``,
@@ -417,19 +384,20 @@ def leap(strategy: str = "++", t2: float = 0.0, gear_ratio: float | None | _Defa
     :class:`selfmanip.InvalidTypeError` (a ``TypeError``) naming the field; Ctrl-C interrupts.
 
     >>> import selfmanip
-    >>> r = selfmanip.leap("++", t2=0.0, gear_ratio=28.0)
-    >>> r.word.startswith("1010"), r.trajectory.q.shape[1]
-    (True, 5)
+    >>> r = selfmanip.leap("++", t2=0.0, actuator=selfmanip.GearedMotor(ratio=28.0))
+    >>> r.word.startswith("1010"), r.trajectory.q.shape[1], r.actuator.current_limit_a
+    (True, 5, 20.0)
     """
     s = _strategy(strategy)
     t2v = _real("t2", t2)
-    g = _gear(gear_ratio)
+    point = _one_actuator(actuator, gear_ratio)
     if dt is not None:
         dt = _real("dt", dt, positive=True)
     ov = _overrides(params, config)
-    _check_actuator([g], ov)
+    check_motor_fields([point], ov)
     names = _sensitivity_names(sensitivities)
-    d = _native.leap_run(s, t2v, _native_gear(g), ov, dt, names)
+    gear, motor = native_args(point)
+    d = _native.leap_run(s, t2v, gear, {**ov, **motor}, dt, names)
     apex = None if d["apex"] is None else Apex(**d["apex"])
     events = [dict(e) for e in d["events"]]
     sens, sens_ok, sens_reason = None, None, ""
@@ -448,9 +416,9 @@ def leap(strategy: str = "++", t2: float = 0.0, gear_ratio: float | None | _Defa
                           mode=list(t["mode"]), contacts=list(t["contacts"]),
                           contact_points_m=np.asarray(t["contact_points_m"]),
                           contact_forces_n=np.asarray(t["contact_forces_n"]))
-    actuator = d["config"]["actuator"]
-    used = float(actuator["gear_ratio"]) if actuator.get("kind") == "geared_motor" else None
-    return LeapResult(strategy=s, t2_s=t2v, gear_ratio=used, status=d["status"], apex=apex,
+    used = from_config(d["config"]["actuator"])
+    return LeapResult(strategy=s, t2_s=t2v, gear_ratio=used.ratio if isinstance(used, GearedMotor) else None,
+                      actuator=used, status=d["status"], apex=apex,
                       word="-".join(d["word"]), cells=list(d["word"]), events=events,
                       q0=np.asarray(d["q0"], dtype=float), q_names=list(d["q_names"]),
                       params=d["params"], config=d["config"], trajectory=traj, reason=d["reason"],
@@ -458,10 +426,17 @@ def leap(strategy: str = "++", t2: float = 0.0, gear_ratio: float | None | _Defa
                       motor_t2_s=float(d["motor_t2_s"]), touchdown_t2_s=d["touchdown_t2_s"])
 
 
-def _axis(field: str, value: Any, *, allow_none: bool = False) -> list[Any]:
+def _one_actuator(actuator: Any, gear_ratio: Any) -> Choice:
+    """The actuator of a single leap (``actuator=`` or the ``gear_ratio=`` shorthand)."""
+    points = choices(actuator, gear_ratio)
+    if len(points) != 1:
+        field = "gear_ratio" if actuator is DEFAULT else "actuator"
+        raise InvalidInputError(f"`{field}`: a single leap takes one actuator, got {len(points)}", field)
+    return points[0]
+
+
+def _axis(field: str, value: Any) -> list[Any]:
     """A swept axis: a scalar or a 1-D sequence/array."""
-    if value is DEFAULT or (value is None and allow_none):
-        return [value]
     if isinstance(value, (str, bytes, Mapping)) or not hasattr(value, "__iter__"):
         return [value]
     if np.ndim(np.asarray(value, dtype=object)) > 1:
@@ -473,11 +448,14 @@ def _axis(field: str, value: Any, *, allow_none: bool = False) -> list[Any]:
 
 
 def sweep_points(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any = DEFAULT,
-                 *, grid: bool = True, **overrides: Any) -> dict[str, list[Any]]:
-    """The points of a sweep as columns (what :func:`sweep` runs), checked.
+                 *, actuator: Any = DEFAULT, grid: bool = True, **overrides: Any) -> dict[str, list[Any]]:
+    """The points of a sweep as columns (what :func:`sweep` runs), checked: ``strategy``,
+    the overrides by name, ``actuator`` (each point's :class:`~selfmanip.actuator.Saturated`,
+    :class:`~selfmanip.actuator.GearedMotor`, bare ratio of the ``gear_ratio`` shorthand, or
+    ``DEFAULT``) and ``t2_s``.
 
     With ``grid=True`` (default) the Cartesian product strategy x overrides (in the order
-    given) x gear ratio x t2, t2 varying fastest; with ``grid=False`` every axis is a column
+    given) x actuator x t2, t2 varying fastest; with ``grid=False`` every axis is a column
     of the same length (scalars broadcast). A swept value that is itself a dict (``terrain``)
     is one value."""
     axes: dict[str, list[Any]] = {}
@@ -491,9 +469,7 @@ def sweep_points(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio
         for x in values:
             _check_type(k, x)
         axes[k] = [_plain_value(k, x) for x in values]
-    axes["gear_ratio"] = [_gear(g) for g in _axis("gear_ratio", gear_ratio, allow_none=True)]
-    if any(g is DEFAULT for g in axes["gear_ratio"]) and len(axes["gear_ratio"]) > 1:
-        raise InvalidInputError("`gear_ratio`: DEFAULT cannot be mixed with other values", "gear_ratio")
+    axes["actuator"] = choices(actuator, gear_ratio)
     axes["t2_s"] = [_real("t2", t) for t in _axis("t2", t2)]
     names = list(axes)
     if grid:
@@ -515,47 +491,27 @@ def sweep_points(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio
     return {k: (a * n if len(a) == 1 else a) for k, a in axes.items()}
 
 
-def _default_threads() -> int:
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-
-
-def _progress_bar(total: int, stream=None) -> Callable[[int], None]:
-    stream = stream or sys.stderr
-    width = 30
-
-    def update(done: int) -> None:
-        filled = int(width * done / max(total, 1))
-        stream.write(f"\rsweep [{'#' * filled}{'.' * (width - filled)}] {done}/{total}")
-        if done >= total:
-            stream.write("\n")
-        stream.flush()
-
-    return update
-
-
 def run_points(cols: Mapping[str, Sequence[Any]], params: Mapping[str, Any] | None = None, *,
                threads: int | None = None, progress: bool | Callable[[int], None] = False,
-               sensitivities: Iterable[str] | None = None, **config: Any) -> dict[str, np.ndarray]:
+               sensitivities: Iterable[str] | None = None, motor_columns: bool | None = None,
+               **config: Any) -> dict[str, np.ndarray]:
     """Runs points given as columns (from :func:`sweep_points`); the engine of :func:`sweep`
     and of :func:`selfmanip.distributed.sweep`. ``progress`` (a callable) receives the number
-    of points done as they finish; Ctrl-C stops the sweep promptly with ``KeyboardInterrupt``."""
-    if threads is None:
-        threads = _default_threads()
-    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or threads < 1:
-        raise InvalidInputError(f"`threads` must be a positive int, got {threads!r}", "threads")
+    of points done as they finish; Ctrl-C stops the sweep promptly with ``KeyboardInterrupt``.
+    ``motor_columns``: whether the table has ``current_limit_a`` and ``motors_per_leg``
+    columns (``None``: when these points' geared motors differ in them,
+    :func:`motors_differ`; a part of a sweep passes the whole sweep's answer)."""
+    n_threads = _facade.threads(threads)
     base = _overrides(params, config)
     strategies = list(cols["strategy"])
     t2 = [float(v) for v in cols["t2_s"]]
-    gears = list(cols["gear_ratio"])
-    extra = {k: [_plain_value(k, x) for x in v] for k, v in cols.items() if k not in ("strategy", "t2_s", "gear_ratio")}
-    _check_actuator(gears, list(base) + list(extra))
+    points = list(cols["actuator"])
+    extra = {k: [_plain_value(k, x) for x in v] for k, v in cols.items() if k not in ("strategy", "t2_s", "actuator")}
+    check_motor_fields(points, list(base) + list(extra))
     n = len(strategies)
-    if progress is True:
-        progress = _progress_bar(n)
     names = _sensitivity_names(sensitivities)
-    part = _native.leap_sweep(strategies, t2, [_native_gear(g) for g in gears], base, extra, int(threads),
-                              progress or None, names)
-    asked = np.asarray([math.nan if g is None or g is DEFAULT else float(g) for g in gears], dtype=float)
+    part = _native_sweep(strategies, t2, points, base, extra, n_threads, _facade.progress(progress, n), names)
+    asked = np.asarray([native_args(p)[0] for p in points], dtype=float)
     ran = np.asarray(part["gear_ratio"], dtype=float)
     out: dict[str, np.ndarray] = {
         "strategy": np.asarray(strategies, dtype=str),
@@ -563,13 +519,10 @@ def run_points(cols: Mapping[str, Sequence[Any]], params: Mapping[str, Any] | No
         # the gear ratio a point ran with; the one asked for when it failed before running
         "gear_ratio": np.where(np.isnan(ran), asked, ran) if n else np.asarray([], dtype=float),
     }
+    if motor_columns or (motor_columns is None and motors_differ(points)):
+        out.update(_motor_columns(points))
     for k, v in extra.items():
-        arr = np.asarray(v, dtype=object)
-        if all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
-            arr = np.asarray(v, dtype=float)
-        elif all(isinstance(x, str) for x in v):
-            arr = np.asarray(v, dtype=str)
-        out[k] = arr
+        out[k] = _facade.column(v)
     for k in ("apex_z_m", "apex_x_m", "apex_phi_rad", "apex_xdot_m_s", "apex_phidot_rad_s",
               "apex_zdot_m_s", "apex_t_s"):
         out[k] = np.asarray(part[k], dtype=float)
@@ -585,23 +538,49 @@ def run_points(cols: Mapping[str, Sequence[Any]], params: Mapping[str, Any] | No
     return out
 
 
-def failure_summary(table: Mapping[str, Any]) -> str | None:
-    """``None`` when some point of a sweep table reached ``ok``; otherwise a one-line account
-    of the failure: the count of each status and the first reason."""
-    from ._sweep_report import failure_summary as summary
+def _native_sweep(strategies: list[str], t2: list[float], points: list[Choice], base: dict[str, Any],
+                  extra: dict[str, list[Any]], threads: int, progress: Callable[[int], None] | None,
+                  names: list[str] | None) -> Mapping[str, Any]:
+    """The binding's sweep of the points, in input order. A geared motor's fields reach the
+    binding as overrides of the whole call (a per-point column would turn a saturated point
+    of the same call into a geared one), so the points run in one call per set of motor
+    fields: one call for every sweep but a swept ``actuator`` whose geared motors differ."""
+    encoded = [native_args(p) for p in points]
+    groups: dict[tuple[tuple[str, Any], ...], list[int]] = {}
+    for i, (_, motor) in enumerate(encoded):
+        groups.setdefault(tuple(sorted(motor.items())), []).append(i)
+    if len(groups) <= 1:
+        motor = dict(next(iter(groups), ()))
+        return _native.leap_sweep(strategies, t2, [g for g, _ in encoded], {**base, **motor}, extra, threads,
+                                  progress, names)
+    parts, done = [], 0
+    for motor, idx in groups.items():
+        report = None if progress is None else (lambda k, before=done: progress(before + k))
+        parts.append(_native.leap_sweep([strategies[i] for i in idx], [t2[i] for i in idx],
+                                        [encoded[i][0] for i in idx], {**base, **dict(motor)},
+                                        {k: [v[i] for i in idx] for k, v in extra.items()}, threads, report,
+                                        names))
+        done += len(idx)
+    order = np.argsort(np.concatenate([np.asarray(idx) for idx in groups.values()]), kind="stable")
+    return {k: np.concatenate([np.asarray(p[k]) for p in parts])[order] for k in parts[0]}
 
-    return summary(table, ("ok",))
+
+def motors_differ(points: Sequence[Choice]) -> bool:
+    """Whether the geared motors among a sweep's actuators differ in current limit or motor
+    count (then its table reports them)."""
+    return len({(p.current_limit_a, p.motors_per_leg) for p in points if isinstance(p, GearedMotor)}) > 1
 
 
-def _warn_if_all_failed(table: Mapping[str, Any], stacklevel: int = 3) -> None:
-    msg = failure_summary(table)
-    if msg is not None:
-        warnings.warn(msg, AllPointsFailedWarning, stacklevel=stacklevel)
+def _motor_columns(points: list[Choice]) -> dict[str, np.ndarray]:
+    """``current_limit_a`` and ``motors_per_leg`` of each point (NaN where it has no geared
+    motor of its own)."""
+    return {k: np.asarray([float(getattr(p, k)) if isinstance(p, GearedMotor) else math.nan for p in points])
+            for k in ("current_limit_a", "motors_per_leg")}
 
 
 def sweep(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any = DEFAULT,
           params: Mapping[str, Any] | None = None, threads: int | None = None,
-          progress: bool | Callable[[int], None] = False, *, grid: bool = True,
+          progress: bool | Callable[[int], None] = False, *, actuator: Any = DEFAULT, grid: bool = True,
           config: Mapping[str, Any] | None = None, sensitivities: Iterable[str] | None = None,
           **swept: Any) -> dict[str, np.ndarray]:
     """Many leaps at once, in parallel on ``threads`` threads (default: the CPUs this process
@@ -615,8 +594,10 @@ def sweep(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any =
     the others, and the result is bit-identical for any ``threads``. When no point reaches
     ``ok`` an :class:`selfmanip.errors.AllPointsFailedWarning` says so. Ctrl-C interrupts.
 
-    ``strategy``: one strategy or several; ``t2``, ``gear_ratio`` (left out: the engine's
-    default actuator; ``None``: saturated torque) and any parameter given by name as a keyword
+    ``strategy``: one strategy or several; ``t2``, ``actuator`` (``selfmanip.Saturated()``,
+    ``selfmanip.GearedMotor(...)`` or a list of them; left out: the engine's default actuator;
+    or its shorthand ``gear_ratio``: ratios, ``None`` the saturated torque) and any parameter
+    given by name as a keyword
     (``m_b=[8, 9]``, ``leg_shape=["half_circle", "stick"]``, ``delta_t_s=...``): scalars or
     1-D arrays, combined as a grid (see :func:`sweep_points`; ``grid=False`` zips them
     instead). ``params`` (Table 4.2) and ``config`` (leap configuration) set fixed values for
@@ -633,10 +614,10 @@ def sweep(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any =
     >>> r["strategy"][:4].tolist(), r["gear_ratio"][:4].tolist(), r["t2_s"][:2].tolist()
     (['++', '++', '++', '++'], [20.0, 20.0, 28.0, 28.0], [0.0, 0.05])
     """
-    cols = sweep_points(strategy, t2, gear_ratio, grid=grid, **swept)
+    cols = sweep_points(strategy, t2, gear_ratio, actuator=actuator, grid=grid, **swept)
     table = run_points(cols, params, threads=threads, progress=progress,
                        sensitivities=sensitivities, **dict(config or {}))
-    _warn_if_all_failed(table)
+    _facade.warn_if_all_failed(table, stacklevel=2)
     return table
 
 

@@ -40,15 +40,14 @@ import functools
 import math
 import numbers
 import os
-import warnings
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, Sequence, Union, overload
 
 import numpy as np
 
-from . import _checks, _native
-from .errors import AllPointsFailedWarning, InvalidInputError, InvalidTypeError
-from .leap import DEFAULT, _Default
+from . import _checks, _facade, _native
+from ._facade import COMPLETE_STATUSES, DEFAULT, _Default, failure_summary
+from .errors import InvalidInputError, InvalidTypeError
 from .robot import Robot, description_format
 
 if TYPE_CHECKING:
@@ -56,11 +55,6 @@ if TYPE_CHECKING:
 
 __all__ = ["Execution", "EnergyReport", "SimTrajectory", "simulate", "sweep", "simulation_sweep", "scenario",
            "defaults", "settable_names", "COMPLETE_STATUSES", "failure_summary", "PeriodicOrbit", "periodic_orbit"]
-
-#: Statuses of a run that reached its end (the final time, or the apex it was asked to stop
-#: at); every other status is the engine stopping it (Zeno, a budget, no contact solution, …)
-#: or, in a sweep, the error kind of a point that could not run.
-COMPLETE_STATUSES = ("final_time", "apex")
 
 RobotLike = Union[Robot, str, "os.PathLike[str]", Mapping[str, Any]]
 BehaviourLike = Union[str, "os.PathLike[str]", Mapping[str, Any], None]
@@ -527,26 +521,6 @@ def settable_names(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[floa
     return list(scenario(robot, behaviour, q0, **kwargs).settable_names())
 
 
-def failure_summary(table: Mapping[str, Any]) -> str | None:
-    """``None`` when some point of a sweep table reached its end (``final_time`` or ``apex``);
-    otherwise a one-line account: the count of each status and the first error."""
-    from ._sweep_report import failure_summary as summary
-
-    return summary(table, COMPLETE_STATUSES)
-
-
-def _default_threads() -> int:
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-
-
-def _column(values: list[Any]) -> np.ndarray:
-    if values and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
-        return np.asarray(values, dtype=float)
-    if values and all(isinstance(v, str) for v in values):
-        return np.asarray(values, dtype=str)
-    return np.asarray(values, dtype=object)
-
-
 def simulation_sweep(robot: RobotLike, behaviour: BehaviourLike = None,
                      over: Mapping[str, Any] | Iterable[tuple[str, Any]] | None = None, *,
                      q0: Sequence[float], qd0: Sequence[float] | None = None, terrain: TerrainLike = None,
@@ -569,9 +543,7 @@ def simulation_sweep(robot: RobotLike, behaviour: BehaviourLike = None,
     raises :class:`~selfmanip.errors.InvalidInputError` before anything runs. When no point
     reaches its end an :class:`~selfmanip.errors.AllPointsFailedWarning` says so.
     """
-    if threads is None:
-        threads = _default_threads()
-    threads = _checks.integer("threads", threads, 1)
+    threads = _facade.threads(threads)
     items = list(over.items()) if isinstance(over, Mapping) else list(over or [])
     axes: list[tuple[str, list[Any]]] = []
     for name, values in items:
@@ -587,28 +559,58 @@ def simulation_sweep(robot: RobotLike, behaviour: BehaviourLike = None,
     s = scenario(robot, behaviour, q0, qd0, terrain, t_final, stop_at, contacts=contacts, solve=solve,
                  params=params, **options)
     n = math.prod(len(v) for _, v in axes) if axes else 1
-    if progress is True:
-        from .leap import _progress_bar
-
-        progress = _progress_bar(n)
-    part = s.sweep(axes, threads, progress or None)
+    part = s.sweep(axes, threads, _facade.progress(progress, n))
     out: dict[str, np.ndarray] = {}
     for name, _ in axes:
-        out[name] = _column(list(part[name]))
+        out[name] = _facade.column(list(part[name]))
     for k, v in part.items():
         if k in out:
             continue
         out[k] = np.asarray(v, dtype=str) if isinstance(v, list) else np.asarray(v)
-    msg = failure_summary(out)
-    if msg is not None:
-        warnings.warn(msg, AllPointsFailedWarning, stacklevel=3)
+    _facade.warn_if_all_failed(out, stacklevel=2)
     return out
 
 
-def _is_robot(x: Any) -> bool:
-    if isinstance(x, (Robot, os.PathLike, Mapping)):
-        return True
-    return isinstance(x, str) and x.lower().endswith((".toml", ".json"))
+#: Arguments only a robot's sweep has, and only the RHex leap preset's.
+_ROBOT_ARGUMENTS = ("robot", "behaviour", "over", "q0", "qd0", "t_final", "stop_at", "contacts", "solve")
+_LEAP_ARGUMENTS = ("strategy", "t2", "gear_ratio", "actuator", "grid", "config", "sensitivities")
+
+
+def sweep_kind(args: Sequence[Any], kwargs: Mapping[str, Any]) -> str:
+    """Which sweep :func:`sweep` runs for these arguments, by the rule it documents:
+    ``"robot"`` or ``"leap"``; arguments that fit neither, or that mix the two, raise
+    :class:`~selfmanip.errors.InvalidTypeError` / :class:`~selfmanip.errors.InvalidInputError`
+    naming the argument."""
+    if args:
+        first, field = args[0], "args[0]"
+    elif "robot" in kwargs:
+        first, field = kwargs["robot"], "robot"
+    else:
+        first, field = kwargs.get("strategy", "++"), "strategy"
+    if isinstance(first, str):
+        # a file name has an extension or a folder; a strategy ("++", "(+, -)") neither
+        kind = "robot" if os.path.splitext(first)[1] or os.sep in first else "leap"
+    elif isinstance(first, (Robot, os.PathLike, Mapping)):
+        kind = "robot"
+    elif isinstance(first, (list, tuple, np.ndarray)):
+        kind = "leap"
+    else:
+        raise InvalidTypeError(
+            f"`{field}`: sweep takes a strategy (\"++\", or a list of strategies) for the RHex leap, or a "
+            f"robot (a selfmanip.Robot, a description file or dict) for any robot; got {type(first).__name__}",
+            field)
+    if field == "robot" and kind == "leap":
+        raise InvalidTypeError(f"`robot`: a robot is a selfmanip.Robot, a description file or dict, got {first!r}",
+                               "robot")
+    other = _LEAP_ARGUMENTS if kind == "robot" else _ROBOT_ARGUMENTS
+    for name in other:
+        if name in kwargs:
+            what = "the RHex leap preset's" if kind == "robot" else "a robot's sweep's"
+            chosen = (f"the first argument {first!r} selects" if args or field in kwargs
+                      else "without a robot first, sweep runs")
+            raise InvalidInputError(f"`{name}` is {what} argument, but {chosen} the "
+                                    f"{'robot' if kind == 'robot' else 'RHex leap'} sweep", name)
+    return kind
 
 
 @overload
@@ -624,25 +626,41 @@ def sweep(robot: RobotLike, behaviour: BehaviourLike = None,
 @overload
 def sweep(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any = DEFAULT,
           params: Mapping[str, Any] | None = None, threads: int | None = None,
-          progress: bool | Callable[[int], None] = False, *, grid: bool = True,
-          config: Mapping[str, Any] | None = None, **swept: Any) -> dict[str, np.ndarray]: ...
+          progress: bool | Callable[[int], None] = False, *, actuator: Any = DEFAULT, grid: bool = True,
+          config: Mapping[str, Any] | None = None, sensitivities: Iterable[str] | None = None,
+          **swept: Any) -> dict[str, np.ndarray]: ...
 
 
 def sweep(*args: Any, **kwargs: Any) -> dict[str, np.ndarray]:
-    """Sweeps: for any robot, or the RHex leap preset.
+    """Sweeps: for any robot, or the RHex leap preset — chosen by the first argument (or
+    ``robot=`` / ``strategy=``), by this rule:
 
-    ``sweep(robot, behaviour, over={name: values, ...}, q0=..., threads=..., progress=...)``
-    (``robot`` a :class:`selfmanip.Robot`, a description file or dict, or given as
-    ``robot=``) is :func:`simulation_sweep`. Anything else — ``sweep("++", t2=...)``,
-    ``sweep(["++", "--"], t2=..., gear_ratio=...)``, ``sweep()`` — is the RHex leap sweep
-    :func:`selfmanip.leap.sweep`, unchanged.
+    * a :class:`selfmanip.Robot`, a description dict, a path (``os.PathLike``, or a string
+      with a file extension or a folder: ``"bounder.toml"``), or ``robot=``: any robot's
+      sweep, :func:`simulation_sweep` (``sweep(robot, behaviour, over={...}, q0=...)``);
+    * any other string, a list, tuple or array (strategies: ``"++"``, ``"(+, -)"``,
+      ``["++", "--"]``), or no first argument at all: the RHex leap sweep,
+      :func:`selfmanip.leap.sweep` (``sweep("++", t2=..., actuator=...)``), which refuses an
+      unknown strategy naming ``strategy``;
+    * anything else: :class:`~selfmanip.errors.InvalidTypeError` naming the argument. An
+      argument of the other sweep (``over=`` after a strategy, ``t2=`` after a robot) is an
+      :class:`~selfmanip.errors.InvalidInputError` naming it.
+
+    Both return a dict of equal-length numpy arrays; the columns both have are typed alike:
+    ``status`` and ``error`` (strings; :data:`COMPLETE_STATUSES` count as done), ``word``
+    (cells joined by ``-``), ``n_events`` (int64) and ``apex_*`` (floats, NaN without an
+    apex). ``apex_t_s``, ``apex_phi_rad`` and ``apex_phidot_rad_s`` mean the same in both;
+    the leap reports ``apex_x_m``/``apex_z_m`` and their rates z-up from the body's start
+    (height above the ground), a robot's sweep in the world's NED coordinates (z down). Both
+    take ``threads`` (default: every CPU this process may use) and ``progress``, and warn
+    with :class:`~selfmanip.errors.AllPointsFailedWarning` when no point reaches its end.
 
     >>> import selfmanip
     >>> r = selfmanip.sweep(["++", "--"], t2=[0.0, 0.05], gear_ratio=[20.0, 28.0], threads=2)
     >>> r["strategy"][:4].tolist(), r["gear_ratio"][:4].tolist(), r["t2_s"][:2].tolist()
     (['++', '++', '++', '++'], [20.0, 20.0, 28.0, 28.0], [0.0, 0.05])
     """
-    if "robot" in kwargs or "over" in kwargs or "behaviour" in kwargs or (args and _is_robot(args[0])):
+    if sweep_kind(args, kwargs) == "robot":
         return simulation_sweep(*args, **kwargs)
     from . import leap as _leap
 

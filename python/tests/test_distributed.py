@@ -37,6 +37,15 @@ def test_distributed_equals_local(client):
         same_tables(selfmanip.distributed.sweep(client, **args, chunk_size=chunk), local)
 
 
+def test_distributed_takes_the_typed_actuator(client):
+    """Actuators travel to the workers as values; the chunks (split inside a set of motors)
+    merge to the local table."""
+    args = dict(strategy=["++", "--"], t2=[0.0, 0.05],
+                actuator=[selfmanip.Saturated(), selfmanip.GearedMotor(ratio=20.0, current_limit_a=10.0),
+                          selfmanip.GearedMotor(ratio=28.0)])
+    same_tables(selfmanip.distributed.sweep(client, **args, chunk_size=5), selfmanip.sweep(**args, threads=2))
+
+
 def test_failures_stay_per_point(client):
     args = dict(strategy="++", t2=[0.0, 0.05, 0.1], gear_ratio=28.0, m_b=[9.0, -1.0, 9.0], grid=False)
     got = selfmanip.distributed.sweep(client, **args, chunk_size=1)

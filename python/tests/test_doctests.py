@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-MODULES = ["leap", "robot", "rhex", "motor", "plots", "analysis", "errors"]
+MODULES = ["leap", "actuator", "robot", "rhex", "motor", "plots", "analysis", "errors"]
 
 
 @pytest.mark.parametrize("name", MODULES)

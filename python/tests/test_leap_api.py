@@ -231,7 +231,7 @@ def test_zip_mode_requires_equal_lengths():
     with pytest.raises(ValueError, match="same length"):
         sweep_points("++", t2=[0.0, 0.1], gear_ratio=[20.0, 25.0, 30.0], grid=False)
     cols = sweep_points(["++", "--"], t2=[0.0, 0.1], gear_ratio=28.0, grid=False)
-    assert cols["gear_ratio"] == [28.0, 28.0] and cols["strategy"] == ["++", "--"]
+    assert cols["actuator"] == [28.0, 28.0] and cols["strategy"] == ["++", "--"]
 
 
 def test_sweepable_names_cover_the_issue():

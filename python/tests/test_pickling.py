@@ -115,6 +115,8 @@ EXAMPLES = {
     "selfmanip.leap.LeapResult": _leap,
     "selfmanip.leap.Apex": lambda: _leap().apex,
     "selfmanip.leap.Trajectory": lambda: _leap().trajectory,
+    "selfmanip.actuator.Saturated": selfmanip.Saturated,
+    "selfmanip.actuator.GearedMotor": lambda: selfmanip.GearedMotor(ratio=31.5, current_limit_a=12.0, motors_per_leg=1),
     "selfmanip.rhex.Model": lambda: selfmanip.rhex.Model({"m_b": 7.5}),
     "selfmanip.rhex.ContactModeMap": lambda: selfmanip.rhex.Model().contact_mode_map(6),
     "selfmanip.robot.Robot": _robot,

@@ -42,7 +42,8 @@ def test_py_typed_ships():
     assert (PKG / "py.typed").exists()
 
 
-MODULES = ["robot", "rhex", "leap", "analysis", "motor", "plots", "figures", "distributed", "errors", "cli_leap"]
+MODULES = ["robot", "rhex", "leap", "actuator", "analysis", "motor", "plots", "figures", "distributed", "errors",
+           "cli_leap"]
 
 
 def public_callables(mod):
