@@ -214,3 +214,14 @@ def test_module_docstring_example_runs():
 
     mod = importlib.import_module("selfmanip.calibrate")
     assert doctest.testmod(mod, optionflags=doctest.ELLIPSIS).failed == 0
+
+
+def test_robust_loss_resists_an_outlier(clean_minus):
+    data = noisy(clean_minus, 2)
+    data["apex_z_m"] = data["apex_z_m"].copy()
+    data["apex_z_m"][0] += 0.05  # a 5 cm glitch of one marker
+    plain = calibrate("leap", data, FIT, threads=2)
+    robust = calibrate("leap", data, FIT, loss="soft_l1", f_scale=2.0, threads=2)
+    err = {name: abs(f.params["offset:apex_z_m"] - OFFSET_Z) for name, f in (("plain", plain), ("robust", robust))}
+    assert err["robust"] < 0.5 * err["plain"], err
+    assert abs(robust.residuals["apex_z_m_residual"][0]) > 0.04  # the outlier stays an outlier
