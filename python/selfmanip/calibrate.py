@@ -86,6 +86,8 @@ def _column_unit(header: str) -> tuple[str, str, float] | None:
     m = re.fullmatch(r"(.+?)\s*[\[(]\s*([^\])]*)\s*[\])]", h)
     if m:
         q, unit = _quantity(m.group(1)), m.group(2).strip().lower().replace("°", "deg").replace("sec", "s")
+        if q is None:
+            return None
     else:
         q, unit = _quantity(h), None
         if q is None:  # a unit in the name: apex_z_mm, phidot_deg_s
@@ -122,6 +124,18 @@ def _numbers(header: str, values: Sequence[Any]) -> np.ndarray:
         except (TypeError, ValueError):
             raise InvalidInputError(f"column `{header}`, row {i}: not a number: {v!r}", header) from None
     return out
+
+
+def _input_value(v: Any) -> Any:
+    """A per-row input: a number where it reads as one (a CSV gives strings), else as is."""
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, str):
+        try:
+            return float(v)
+        except ValueError:
+            return v
+    return v
 
 
 @dataclass
@@ -181,7 +195,7 @@ def read_table(data: Any, strategy: str | None = None, *, outcomes_required: boo
         unit = _column_unit(header)
         if unit is None:
             if header.strip() in known:
-                inputs[header.strip()] = [v.item() if isinstance(v, np.generic) else v for v in values]
+                inputs[header.strip()] = [_input_value(v) for v in values]
             else:
                 ignored.append(header)
             continue
@@ -497,7 +511,7 @@ class Calibration:
                 along = np.abs((g * widths) @ null.T).max(axis=1)
                 std = np.where(along > 1e-9 * (np.abs(g * widths).max(axis=1) + 1e-300), math.inf, std)
             out[col] = y[:, c] + prob.offsets(x)[c]
-            out[f"{col}_std"] = std
+            out[f"{col}_std"] = np.where(np.isfinite(y[:, c]), std, math.nan)
         out["status"] = np.asarray(["ok" if np.isfinite(v) else "no_apex" for v in y[:, 0]])
         return out
 
@@ -569,7 +583,8 @@ def _covariance(J: np.ndarray, r: np.ndarray, names: list[str], widths: np.ndarr
     inv = np.zeros((len(names), len(names)))
     for i in np.flatnonzero(determined):
         inv += np.outer(Vt[i], Vt[i]) / s_full[i] ** 2
-    cov = sigma2 * inv * np.outer(widths, widths)
+    with np.errstate(invalid="ignore"):  # no degree of freedom left: sigma2 = inf, 0·inf = NaN
+        cov = sigma2 * inv * np.outer(widths, widths)
     undetermined = []
     for i in np.flatnonzero(~determined):
         v = Vt[i] / np.abs(Vt[i]).max()
