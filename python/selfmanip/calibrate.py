@@ -192,12 +192,12 @@ def read_table(data: Any, strategy: str | None = None, *, outcomes_required: boo
         if header.strip().lower() == "strategy":
             inputs["strategy"] = [_leap._strategy(str(v), header) for v in values]
             continue
+        if header.strip() in known:  # before the units: `t_final_s` is a parameter, not a time
+            inputs[header.strip()] = [_input_value(v) for v in values]
+            continue
         unit = _column_unit(header)
         if unit is None:
-            if header.strip() in known:
-                inputs[header.strip()] = [_input_value(v) for v in values]
-            else:
-                ignored.append(header)
+            ignored.append(header)
             continue
         column, _, factor = unit
         x = _numbers(header, values) * factor

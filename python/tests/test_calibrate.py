@@ -154,7 +154,9 @@ def test_thesis_layout_with_units_in_the_header(tmp_path):
     assert np.allclose(t.outcomes["apex_phi_rad"], np.radians([24.5, -3]))
     assert np.allclose(t.outcomes["apex_xdot_m_s"], [2.1, 1.8005])
     assert np.allclose(t.outcomes["apex_phidot_rad_s"], [np.nan, np.radians(-120)], equal_nan=True)
-    by_name = read_table({"strategy": ["--"], "t2_s": [0.0], "apex_z_mm": [300.0], "apex_phi_deg": [90.0]})
+    by_name = read_table({"strategy": ["--"], "t2_s": [0.0], "apex_z_mm": [300.0], "apex_phi_deg": [90.0],
+                          "t_final_s": ["0.8"], "notes [text]": ["x"]})
+    assert by_name.inputs["t_final_s"] == [0.8] and by_name.ignored == ["notes [text]"]
     assert by_name.outcomes["apex_z_m"][0] == pytest.approx(0.3)
     assert by_name.outcomes["apex_phi_rad"][0] == pytest.approx(math.pi / 2)
 
