@@ -26,7 +26,7 @@ import os
 import re
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, ClassVar, Mapping, Sequence
 
 import numpy as np
 
@@ -237,6 +237,7 @@ class ModelRun:
     status: list[str]
 
 
+@dataclass(init=False)
 class LeapModel:
     """The RHex leap preset (:func:`selfmanip.leap`) as a model to calibrate: every
     :func:`selfmanip.leap.sweepable_names` number and ``gear_ratio`` is a parameter;
@@ -245,8 +246,10 @@ class LeapModel:
     ``control_free_joints=True``, as the sensitivities do, so that the values of a run with and
     without derivatives are the same."""
 
-    name = "leap"
-    exact = ("m_b", "I_b", "gear_ratio", "leg_armature_kg_m2")
+    name: ClassVar[str] = "leap"
+    exact: ClassVar[tuple[str, ...]] = ("m_b", "I_b", "gear_ratio", "leg_armature_kg_m2")
+    options: dict[str, Any]
+    threads: int | None
 
     def __init__(self, options: Mapping[str, Any] | None = None, threads: int | None = None):
         self.options = dict(options or {})
