@@ -32,6 +32,7 @@ from . import analysis
 from . import distributed, plots
 from .leap import DEFAULT, LeapResult
 from . import simulation
+from .calibrate import Calibration, calibrate  # noqa: F401  (issue 33; docs/calibration.md)
 from .spatial import SpatialRobot
 from .simulation import EnergyReport, Execution, PeriodicOrbit, SimTrajectory, periodic_orbit, simulate, sweep
 

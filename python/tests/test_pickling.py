@@ -24,6 +24,7 @@ import pytest
 
 import selfmanip
 from selfmanip import plots
+from selfmanip.calibrate import LeapModel, read_table
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 DATA = ROOT / "crates" / "selfmanip-sim" / "examples" / "data"
@@ -127,6 +128,11 @@ EXAMPLES = {
     "selfmanip.spatial.SpatialRobot": _spatial,
     "selfmanip.spatial.SpatialDynamics": _spatial_dynamics,
     "selfmanip.spatial.SpatialImpact": _spatial_impact,
+    "selfmanip.calibrate.Calibration": lambda: selfmanip.calibrate(
+        "leap", {"strategy": ["--"] * 2, "t2_s": [-0.03, 0.04], "apex_z_m": [0.52, 0.42]}, {"m_b": (5.0, 9.5)}),
+    "selfmanip.calibrate.LeapModel": lambda: LeapModel({"mu_rear": 2.0}),
+    "selfmanip.calibrate.MeasuredTable": lambda: read_table(
+        {"strategy": ["++", "--"], "t2 [s]": [0.0, 0.1], "z [mm]": ["*", 412], "x [mm]": [300, 280]}),
     **{f"selfmanip.robot.{n}": _robot_call(n) for n in
        ("ContactPoints", "Dynamics", "Impact", "Kinematics", "KktBlocks", "PointJacobian", "QuasiStatic")},
 }
