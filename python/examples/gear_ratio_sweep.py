@@ -52,11 +52,11 @@ def no_load_speed_rad_s() -> float:
 
 
 def objective_values(table: Mapping[str, Any], objective: str) -> np.ndarray:
-    """The objective per row, NaN where the leap reached no apex (status not ``ok``)."""
+    """The objective per row, NaN where the leap did not fly (column ``flew``)."""
     if objective not in OBJECTIVES:
         raise ValueError(f"`objective`: expected one of {sorted(OBJECTIVES)}, got {objective!r}")
     col, f = OBJECTIVES[objective]
-    ok = np.asarray(table["status"]).astype(str) == "ok"
+    ok = np.asarray(table["flew"], dtype=bool)
     return np.where(ok, f(np.asarray(table[col], dtype=float)), np.nan)
 
 

@@ -33,7 +33,7 @@ def summary(table: dict[str, Any], n: int) -> list[str]:
 
     lines = []
     for s in STRATEGIES:
-        m = (table["strategy"] == s) & (table["status"] == "ok")
+        m = (table["strategy"] == s) & table["flew"]
         line = f"({s[0]}, {s[1]}): {int(m.sum())}/{n} leaps reach an apex"
         if m.any():
             hi = int(np.argmax(np.where(m, table["apex_z_m"], -np.inf)))
@@ -43,7 +43,7 @@ def summary(table: dict[str, Any], n: int) -> list[str]:
         lines.append(line)
         for word, count in Counter(table["word"][m]).most_common(4):
             lines.append(f"    {count:3d} x {word_label(word)}")
-        failed = Counter(table["status"][(table["strategy"] == s) & (table["status"] != "ok")])
+        failed = Counter(table["status"][(table["strategy"] == s) & ~table["flew"]])
         if failed:
             lines.append("    no apex: " + ", ".join(f"{k} {v}" for k, v in sorted(failed.items())))
     return lines

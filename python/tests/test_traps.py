@@ -170,7 +170,7 @@ def test_a_relative_tolerance_of_one_or_more_is_refused_naming_rtol():
         assert e.value.field == "rtol"
         with pytest.raises(selfmanip.InvalidInputError, match="rtol"):
             selfmanip.simulate(QUADRUPED.parent / "rocking_block.toml", None, [0.0, -0.1, 0.3], t_final=0.1, rtol=rtol)
-    assert selfmanip.leap("++", -0.11, None, dt=None, rtol=1e-6).status == "ok"
+    assert selfmanip.leap("++", -0.11, None, dt=None, rtol=1e-6).status == "apex"
 
 
 def test_a_run_cut_by_its_step_budget_carries_no_tangent():
@@ -243,15 +243,16 @@ def test_a_sweep_whose_points_all_fail_says_so():
     """The saturated-torque chapter-3 sweep once failed 164 of 164 points with an empty
     ``error`` column and exit code 0. Here every point fails by construction: the execution
     ends long before any leg could launch the robot."""
-    with pytest.warns(selfmanip.AllPointsFailedWarning, match="all 3 points of the sweep failed.*no_flight"):
+    with pytest.warns(selfmanip.AllPointsFailedWarning, match="all 3 points of the sweep failed.*final_time"):
         t = selfmanip.sweep("++", t2=[0.0, 0.02, 0.04], t_final_s=0.05)
-    assert (t["status"] == "no_flight").all()
+    assert (t["status"] == "final_time").all() and not t["flew"].any()
     assert all("before t_final_s = 0.05 s" in e for e in t["error"])
     # one point that works: no warning
     with warnings.catch_warnings():
         warnings.simplefilter("error", selfmanip.AllPointsFailedWarning)
         t = selfmanip.sweep("++", t2=[0.0, 0.01], t_final_s=[0.05, 1.0], grid=False)
-    assert list(t["status"]) == ["no_flight", "ok"] and t["error"][1] == ""
+    assert list(t["status"]) == ["final_time", "apex"] and list(t["flew"]) == [False, True]
+    assert t["error"][1] == ""
 
 
 def test_cli_sweep_whose_points_all_fail_exits_non_zero(tmp_path):
@@ -426,7 +427,7 @@ def test_python_passes_the_apex_of_a_non_stopping_leap_through(monkeypatch):
 def test_non_stopping_leap_that_flew_reports_its_apex():
     """``stop_at_apex=False`` gave ``apex=None`` after a flight."""
     r = selfmanip.leap("++", 0.0, dt=None, stop_at_apex=False, t_final_s=1.0)
-    assert r.status == "ok" and any(c == "0000" for c in r.cells)
+    assert r.status == "apex" and any(c == "0000" for c in r.cells)
     assert r.apex is not None and r.apex.z_m > -r.q0[r.q_names.index("z")]
 
 

@@ -83,7 +83,7 @@ pub const SENSITIVITY_PARAMETERS: [&str; 6] = [
 /// One event's saltation matrix over `(q, q̇)`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EventSaltation {
-    /// Time relative to the front leg's start (s), as in [`crate::leap::LeapEvent`].
+    /// Time relative to the front leg's start (s), as in [`crate::leap::LeapResult::events`].
     pub t_s: f64,
     /// `Defined`, or why the saltation is not.
     pub status: SaltationStatus,
@@ -389,7 +389,7 @@ fn run_from(preset: &LeapPreset, start_offset: Option<&[f64]>) -> Result<LeapRes
         }
     }
     let run = sim.run_with(&NEVER)?;
-    Ok(preset.result(run.execution, t2, front_start))
+    Ok(preset.result(run.execution, run.outcome, t2, front_start))
 }
 
 /// The engine's parameters behind the leap's `ps` ([`engine_terms`]), and the matrix that

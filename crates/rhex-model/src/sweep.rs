@@ -21,8 +21,7 @@
 //! the defaults: 20 A, two motors per planar leg); `None` keeps the base actuator. The
 //! reported gear ratio is the one used, NaN for [`LegActuator::SaturatedTorque`].
 use crate::leap::{
-    simulate_leap, simulate_leap_cached, LeapConfig, LeapResult, LeapStatus, LegActuator,
-    StartPoses, Strategy,
+    simulate_leap, simulate_leap_cached, LeapConfig, LeapResult, LegActuator, StartPoses, Strategy,
 };
 use crate::{RhexError, RhexParams};
 use selfmanip_hybrid::budget::NEVER;
@@ -57,12 +56,14 @@ impl SweepPoint {
 /// The outcome of one point, flattened for a table.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SweepRow {
-    /// `ok`, a [`crate::leap::LeapStatus`] string (`no_flight`, `zeno`, …) or an error kind
+    /// The engine's [`selfmanip_sim::RunStatus`] (`apex`, `final_time`, `zeno`, …) or an error kind
     /// ([`error_kind`]: `invalid_params`, `singular_kkt`, `overflow`, `engine_error`,
     /// `panic`, …).
     pub status: String,
     /// The error message when the point failed with an error (empty otherwise).
     pub error: String,
+    /// The leap flew ([`LeapResult::flew`]); `false` for a point that failed.
+    pub flew: bool,
     /// Gear ratio used (NaN for the saturated-torque actuator or an invalid point).
     pub gear_ratio: f64,
     /// Apex (z up, x forward from the start); NaN when the leap has no apex.
@@ -86,6 +87,7 @@ impl SweepRow {
         Self {
             status: status.into(),
             error,
+            flew: false,
             gear_ratio,
             apex_t_s: f64::NAN,
             apex_x_m: f64::NAN,
@@ -99,9 +101,10 @@ impl SweepRow {
         }
     }
 
-    /// The row of a leap that ran (`why`: the reason it did not reach `ok`, or empty).
+    /// The row of a leap that ran (`why`: why it did not fly, or empty).
     pub fn of_leap(r: &LeapResult, why: String, gear_ratio: f64) -> Self {
         let mut row = Self::failed(r.status.as_str(), why, gear_ratio);
+        row.flew = r.flew;
         row.word = r.word_string();
         row.n_events = r.events.len();
         if let Some(a) = r.apex {
@@ -420,7 +423,11 @@ pub fn run_row_with(
     starts: &StartPoses,
 ) -> SweepRow {
     if stop.load(Ordering::Relaxed) {
-        return SweepRow::failed(LeapStatus::Interrupted.as_str(), String::new(), f64::NAN);
+        return SweepRow::failed(
+            selfmanip_sim::RunStatus::Interrupted.as_str(),
+            String::new(),
+            f64::NAN,
+        );
     }
     let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         let (params, cfg) = point_inputs(base_params, base_cfg, point)?;

@@ -185,7 +185,7 @@ fn worst_event_time_error(
     n: usize,
     floor: f64,
     steps: [f64; 3],
-    leap: impl Fn(f64) -> Vec<rhex_model::leap::LeapEvent>,
+    leap: impl Fn(f64) -> Vec<selfmanip_sim::EventRecord>,
 ) -> f64 {
     let base = leap(0.0);
     (0..n)
