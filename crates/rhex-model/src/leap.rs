@@ -112,13 +112,13 @@ impl FromStr for Strategy {
                 other => Err(other),
             })
             .collect::<Result<_, _>>()
-            .map_err(|c| RhexError::Params {
+            .map_err(|c| RhexError::Unreadable {
                 field: "strategy".into(),
                 reason: format!("`{s}`: character `{c}` is not + or -"),
             })?;
         match signs[..] {
             [front, rear] => Ok(Strategy { front, rear }),
-            _ => Err(RhexError::Params {
+            _ => Err(RhexError::Unreadable {
                 field: "strategy".into(),
                 reason: format!("`{s}`: expected two signs such as ++, +-, -+ or --"),
             }),
@@ -391,7 +391,7 @@ impl LeapConfig {
     /// Checks every field (errors name it).
     pub fn validate(&self) -> Result<(), RhexError> {
         let bad = |field: &str, reason: String| {
-            Err(RhexError::Params {
+            Err(RhexError::InvalidValue {
                 field: field.into(),
                 reason,
             })
@@ -500,7 +500,7 @@ impl Actuator for LegDrive {
 /// The actuator that turns one planar leg (a contralateral pair): chapter 3's saturated
 /// torque `τ_s`, or the current-limited geared X-RHex motors.
 pub fn leg_actuator(params: &RhexParams, a: &LegActuator) -> Result<Arc<dyn Actuator>, RhexError> {
-    let motor_err = |e: motor::MotorError| RhexError::Params {
+    let motor_err = |e: motor::MotorError| RhexError::InvalidValue {
         field: "actuator".into(),
         reason: e.to_string(),
     };
@@ -552,7 +552,7 @@ struct LegMotorData {
 }
 
 fn leg_motor_data(params: &RhexParams, cfg: &LeapConfig) -> Result<LegMotorData, RhexError> {
-    let motor_err = |e: motor::MotorError| RhexError::Params {
+    let motor_err = |e: motor::MotorError| RhexError::InvalidValue {
         field: "actuator".into(),
         reason: e.to_string(),
     };
@@ -581,7 +581,7 @@ fn leg_motor_data(params: &RhexParams, cfg: &LeapConfig) -> Result<LegMotorData,
     let rotor_kg_m2 = spec
         .rotor_inertia_kg_m2()
         .map_err(motor_err)?
-        .ok_or_else(|| RhexError::Params {
+        .ok_or_else(|| RhexError::InvalidValue {
             field: "actuator".into(),
             reason: "the motor's mechanical time constant is needed for the rotor inertia".into(),
         })?;
@@ -634,6 +634,28 @@ fn leap_leg_armature(params: &RhexParams, cfg: &LeapConfig) -> Result<Option<f64
 /// armature.
 pub(crate) fn armature_follows_gear(params: &RhexParams) -> bool {
     params.leg_armature_kg_m2.is_none() && params.legs_carry_rotors()
+}
+
+/// The mass or inertia parameter that makes a start state overflow: the one farthest above
+/// its Table 4.2 value (scaled by at least 1, so that a massless leg's `m_l = 0` compares).
+fn overflowing_parameter(params: &RhexParams) -> &'static str {
+    let table = RhexParams::default();
+    [
+        ("m_b", params.m_b, table.m_b),
+        ("I_b", params.I_b, table.I_b),
+        ("m_l", params.m_l, table.m_l),
+        ("I_l", params.I_l, table.I_l),
+    ]
+    .into_iter()
+    .map(|(name, v, t)| (name, v.abs() / t.abs().max(1.0)))
+    .fold(("m_b", f64::NEG_INFINITY), |best, c| {
+        if c.1 > best.1 {
+            c
+        } else {
+            best
+        }
+    })
+    .0
 }
 
 /// The robot of a leap: `params` (checked as the user gave them, [`RhexParams::validate`])
@@ -695,7 +717,7 @@ fn touchdown_angle(
     // pointing up (clear) .. pointing down (through the ground)
     let (mut clear, mut through) = (-sign * (PI - 1e-9), 0.0);
     if !(gap(clear) > 0.0 && gap(through) < 0.0) {
-        return Err(RhexError::Params {
+        return Err(RhexError::InvalidValue {
             field: "rho_b".into(),
             reason: "a leg pointing straight down must reach the ground from the sitting posture"
                 .into(),
@@ -719,7 +741,7 @@ fn touchdown_angle(
 fn leap_pairs(cfg: &LeapConfig) -> Result<[LegPair; 2], RhexError> {
     let pairs = cfg.pairs.unwrap_or(cfg.strategy.chapter3_pairs());
     if pairs[0] == pairs[1] {
-        return Err(RhexError::Params {
+        return Err(RhexError::InvalidValue {
             field: "pairs".into(),
             reason: "a leap strategy drives two different leg pairs".into(),
         });
@@ -755,7 +777,7 @@ pub fn leap_start_pose(rhex: &Rhex, cfg: &LeapConfig) -> Result<Vec<f64>, RhexEr
                 f64::max,
             );
         if distance_m.abs() <= reach {
-            return Err(RhexError::Params {
+            return Err(RhexError::InvalidValue {
                 field: "terrain.distance_m".into(),
                 reason: format!(
                     "the ledge's face must be beyond the robot's reach at the start \
@@ -907,9 +929,9 @@ impl LeapPreset {
             selfmanip_sim::SimError::InvalidValue { field, reason }
                 if field.starts_with("initial.") =>
             {
-                RhexError::Params {
-                    field: "params".into(),
-                    reason: format!("the leap's start state from them: {reason}"),
+                RhexError::StartOverflow {
+                    field: overflowing_parameter(&self.leap.rhex.params).into(),
+                    reason,
                 }
             }
             e => e.into(),
@@ -1211,7 +1233,7 @@ pub fn leap_scenario(
 ) -> Result<LeapScenario, RhexError> {
     cfg.validate()?;
     if cfg.t2_reference != T2Reference::MotorStart {
-        return Err(RhexError::Params {
+        return Err(RhexError::Unsupported {
             field: "t2_reference".into(),
             reason: "a leap scenario times its legs by motor start: pass the motor start of \
                      the touchdown-timed leap (`LeapResult::motor_t2_s`) as `t2_s`"

@@ -210,9 +210,9 @@ pub fn check_override_names<'a>(names: impl IntoIterator<Item = &'a str>) -> Res
     let known = sweepable_names();
     for n in names {
         if !known.iter().any(|k| k == n) {
-            return Err(RhexError::Params {
+            return Err(RhexError::UnknownParameter {
                 field: n.into(),
-                reason: format!("unknown parameter (sweepable: {})", known.join(", ")),
+                known: known.join(", "),
             });
         }
     }
@@ -238,11 +238,11 @@ fn merged<T: serde::de::DeserializeOwned>(
                 .map(|e1| (o.0.clone(), e1))
         });
         match culprit {
-            Some((field, e1)) => RhexError::Params {
+            Some((field, e1)) => RhexError::Unreadable {
                 field,
                 reason: e1.to_string(),
             },
-            None => RhexError::Params {
+            None => RhexError::Unreadable {
                 field: "overrides".into(),
                 reason: e.to_string(),
             },
@@ -260,7 +260,7 @@ pub fn point_inputs(
         (base_params.clone(), base_cfg.clone())
     } else {
         let to_value = |r: serde_json::Result<Value>| {
-            r.map_err(|e| RhexError::Params {
+            r.map_err(|e| RhexError::Unreadable {
                 field: "overrides".into(),
                 reason: e.to_string(),
             })
@@ -322,7 +322,7 @@ fn validate_inputs(params: &RhexParams, cfg: &LeapConfig) -> Result<(), RhexErro
     params.validate()?;
     cfg.terrain.validate()?;
     let bad = |field: &str, reason: String| {
-        Err(RhexError::Params {
+        Err(RhexError::InvalidValue {
             field: field.into(),
             reason,
         })
@@ -359,7 +359,11 @@ fn validate_inputs(params: &RhexParams, cfg: &LeapConfig) -> Result<(), RhexErro
 pub fn error_kind(e: &RhexError) -> &'static str {
     use selfmanip_hybrid::HybridError as H;
     match e {
-        RhexError::Params { .. } => "invalid_params",
+        RhexError::InvalidValue { .. }
+        | RhexError::UnknownParameter { .. }
+        | RhexError::Unreadable { .. }
+        | RhexError::Unsupported { .. }
+        | RhexError::StartOverflow { .. } => "invalid_params",
         RhexError::ModeLabel { .. } => "invalid_mode",
         RhexError::Sim(s) if s.is_input_error() => "invalid_params",
         RhexError::Sim(s) => s.kind(),

@@ -44,9 +44,10 @@ fn leg_mass_of_1e308_is_a_typed_overflow_error() {
     // the simulator refuses the start whose mass matrix overflows before the first step (or
     // the first evaluation meets the overflow): typed, naming what overflowed
     match simulate_leap(&params, &LeapConfig::default()) {
-        Err(RhexError::Params { field, reason }) => {
-            assert_eq!(field, "params");
-            assert!(reason.contains("overflows"), "{reason}");
+        Err(e @ RhexError::StartOverflow { .. }) => {
+            // the parameter that overflows, not `params`
+            assert_eq!(e.field(), Some("m_l"));
+            assert!(e.to_string().contains("overflows"), "{e}");
         }
         Err(e @ RhexError::Hybrid(HybridError::Core(CoreError::NonFiniteResult { .. }))) => {
             assert!(!e.to_string().contains("`qd`"), "{e}")
@@ -113,7 +114,7 @@ fn t_final_of_1e6_without_stopping_at_apex_ends_at_its_step_budget() {
     assert!(!why.contains('{'), "{why}");
     assert!(matches!(
         simulate_leap(&leap_params(), &LeapConfig { max_steps: 0, ..cfg }),
-        Err(RhexError::Params { field, .. }) if field == "max_steps"
+        Err(RhexError::InvalidValue { field, .. }) if field == "max_steps"
     ));
 }
 

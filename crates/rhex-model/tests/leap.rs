@@ -407,8 +407,10 @@ fn a_body_end_sliding_into_the_foot_of_a_ledge_is_reported_not_carried_on() {
 fn bad_input_is_a_typed_error_naming_the_field() {
     let p = leap_params();
     let field = |r: Result<_, RhexError>| match r {
-        Err(RhexError::Params { field, .. }) => field,
-        Err(e) => panic!("untyped: {e}"),
+        Err(e) => e
+            .field()
+            .unwrap_or_else(|| panic!("untyped: {e}"))
+            .to_string(),
         Ok(_) => panic!("accepted"),
     };
     let base = LeapConfig::default();
@@ -457,7 +459,7 @@ fn bad_input_is_a_typed_error_naming_the_field() {
     assert_eq!(field(simulate_leap(&bad, &base).map(|_| ())), "m_b");
     assert!(matches!(
         "+x".parse::<Strategy>(),
-        Err(RhexError::Params { ref field, .. }) if field == "strategy"
+        Err(RhexError::Unreadable { ref field, .. }) if field == "strategy"
     ));
     assert!("+-+".parse::<Strategy>().is_err());
 }

@@ -180,7 +180,7 @@ fn bad_overrides_name_their_field() {
         pt.overrides.insert("m_b".into(), json!(9.0));
         pt.overrides.insert(k.into(), v);
         match point_inputs(&p, &c, &pt) {
-            Err(RhexError::Params { field, .. }) => field,
+            Err(e) => e.field().unwrap_or_else(|| panic!("{k}: {e}")).to_string(),
             other => panic!("{k}: {other:?}"),
         }
     };
