@@ -5,7 +5,6 @@ use rhex_model::mcap_log::{write_leap_mcap, write_leap_mcap_to, LeapLog};
 use rhex_model::sweep::{
     check_override_names, grid, point_inputs, run_row, sweep, sweepable_names, SweepPoint, SweepRow,
 };
-use rhex_model::RhexError;
 use selfmanip_sim::Trajectory;
 use serde_json::json;
 use std::collections::BTreeMap;
