@@ -6,14 +6,41 @@
 #
 #   scripts/engine-corpus.sh OUT.jsonl        run it on this checkout (release build, ~10 s)
 #   scripts/engine-corpus.sh --compare A B    statuses of both, and every run that differs
+#   scripts/engine-corpus.sh --compare --rename OLD=NEW[|NEW2],... A B
+#                                             the same, A's statuses renamed first: a run of
+#                                             A with status OLD matches B's run if B's status
+#                                             is one of the NEWs and all else is equal
+#   --rename leap-statuses                    the map from the leap's own statuses to the
+#                                             engine's run statuses (corpora made before they
+#                                             were one type)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if [[ "${1:-}" == "--compare" ]]; then
-    exec python3 - "$2" "$3" <<'PY'
+    rename=""
+    if [[ "${2:-}" == "--rename" ]]; then
+        rename="$3"
+        shift 2
+    fi
+    if [[ "$rename" == "leap-statuses" ]]; then
+        # `ok`: the apex it stopped at, or the final time it ran on to after a flight
+        rename="ok=apex|final_time,no_flight=final_time,terrain_edge=terrain_discontinuity"
+        rename+=",singular_contact=singular_flow"
+    fi
+    exec python3 - "$2" "$3" "$rename" <<'PY'
 import collections, json, sys
 a, b = ([json.loads(l) for l in open(p)] for p in sys.argv[1:3])
+rename = {}
+for item in filter(None, sys.argv[3].split(",")):
+    old, _, new = item.partition("=")
+    rename[old] = set(new.split("|"))
 if len(a) != len(b):
     sys.exit(f"different corpora: {len(a)} and {len(b)} runs")
+if rename:
+    print("renaming A's statuses: " + ", ".join(f"{k} -> {'|'.join(sorted(v))}" for k, v in rename.items()))
+    # A's status takes B's name where the map allows it (any other stays and differs)
+    for x, y in zip(a, b):
+        if "status" in x and y.get("status") in rename.get(x["status"], ()):
+            x["status"] = y["status"]
 key = lambda d: (d["variant"], d["actuator"], d["terrain"], d["strategy"], d["t2"], d["stop_at_apex"])
 for name, runs in (("A", a), ("B", b)):
     c = collections.Counter(d.get("status", "error") for d in runs)

@@ -212,11 +212,11 @@ fn bad_descriptions_and_labels() {
     );
     assert!(matches!(
         Rhex::new(RhexParams { m_b: -7.0, ..RhexParams::default() }),
-        Err(RhexError::Params { field, .. }) if field == "m_b"
+        Err(RhexError::InvalidValue { field, .. }) if field == "m_b"
     ));
     assert!(matches!(
         Rhex::new(RhexParams { pairs: vec![], ..RhexParams::default() }),
-        Err(RhexError::Params { field, .. }) if field == "pairs"
+        Err(RhexError::InvalidValue { field, .. }) if field == "pairs"
     ));
     // a sliding-only contact cannot stick
     let m = &rhex.model;

@@ -39,7 +39,7 @@ def main() -> None:
     rates, tables = {}, {}
     for n in counts:
         rates[n], tables[n] = run(args.points, n, args.repeat, args.strategy)
-        ok = int(np.sum(tables[n]["status"] == "ok"))
+        ok = int(np.sum(tables[n]["flew"]))
         print(f"threads={n}: {rates[n]:8.0f} leaps/s  ({args.points} {args.strategy} leaps, {ok} ok)")
     print(f"speed-up 1 -> 2 threads: {rates[2] / rates[1]:.2f}x")
     ref = tables[1]

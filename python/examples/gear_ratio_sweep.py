@@ -52,12 +52,11 @@ def no_load_speed_rad_s() -> float:
 
 
 def objective_values(table: Mapping[str, Any], objective: str) -> np.ndarray:
-    """The objective per row, NaN where the leap reached no apex (its status is not one of
-    ``selfmanip.simulation.COMPLETE_STATUSES``)."""
+    """The objective per row, NaN where the leap did not fly (column ``flew``)."""
     if objective not in OBJECTIVES:
         raise ValueError(f"`objective`: expected one of {sorted(OBJECTIVES)}, got {objective!r}")
     col, f = OBJECTIVES[objective]
-    ok = np.isin(np.asarray(table["status"]).astype(str), selfmanip.simulation.COMPLETE_STATUSES)
+    ok = np.asarray(table["flew"], dtype=bool)
     return np.where(ok, f(np.asarray(table[col], dtype=float)), np.nan)
 
 

@@ -106,7 +106,7 @@ def grid_design(strategy: str, n_t2: int, n_g: int, threads: int | None, best: i
     t2 = np.linspace(*T2_BOUNDS, n_t2)
     g = np.linspace(*G_BOUNDS, n_g)
     t = selfmanip.sweep(strategy, t2=t2, actuator=[selfmanip.GearedMotor(ratio=x) for x in g], threads=threads)
-    feasible = np.isin(t["status"], selfmanip.simulation.COMPLETE_STATUSES) & (np.abs(t["apex_phi_rad"]) <= PITCH_MAX)
+    feasible = t["flew"] & (np.abs(t["apex_phi_rad"]) <= PITCH_MAX)
     out = {"method": f"grid {n_t2}x{n_g} sweep", "leaps": len(t2) * len(g), "apex_z_m": math.nan,
            "t2_s": math.nan, "gear_ratio": math.nan, "apex_pitch_deg": math.nan, "starts": []}
     if not feasible.any():

@@ -17,11 +17,11 @@ from . import _checks
 from ._sweep_report import failure_summary as _summary
 from .errors import AllPointsFailedWarning, InvalidTypeError
 
-#: Statuses of a run or leap that reached its end: the final time, or the apex it was asked
-#: to stop at (``ok`` is the RHex leap's name for its apex); every other status is the engine
-#: stopping it (Zeno, a budget, no contact solution, …) or, in a sweep, the error kind of a
-#: point that could not run.
-COMPLETE_STATUSES = ("final_time", "apex", "ok")
+#: Statuses of a run that reached its end: the final time, or the apex it was asked to stop
+#: at; every other status is the engine stopping it (Zeno, a budget, no contact solution, …)
+#: or, in a sweep, the error kind of a point that could not run. A leap is done when it flew
+#: (its ``flew`` column: a leap that never left the ground also ends at ``final_time``).
+COMPLETE_STATUSES = ("final_time", "apex")
 
 
 class _Default:
@@ -93,10 +93,18 @@ def column(values: Sequence[Any]) -> np.ndarray:
     return np.asarray(values, dtype=object)
 
 
+def done(table: Mapping[str, Any]) -> Any:
+    """What counts as done in a sweep table: a leap table's ``flew`` column, else the
+    :data:`COMPLETE_STATUSES`."""
+    if "flew" in table:
+        return np.asarray(table["flew"], dtype=bool)
+    return COMPLETE_STATUSES
+
+
 def failure_summary(table: Mapping[str, Any]) -> str | None:
-    """``None`` when some point of a sweep table reached its end (:data:`COMPLETE_STATUSES`);
-    otherwise a one-line account: the count of each status and the first error."""
-    return _summary(table, COMPLETE_STATUSES)
+    """``None`` when some point of a sweep table is done (:func:`done`); otherwise a
+    one-line account: the count of each status and the first error."""
+    return _summary(table, done(table))
 
 
 def warn_if_all_failed(table: Mapping[str, Any], stacklevel: int = 3) -> None:

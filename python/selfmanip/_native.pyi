@@ -166,6 +166,7 @@ class _LeapTrajectory(TypedDict):
 
 class _Leap(TypedDict, total=False):
     status: str
+    flew: bool
     reason: str
     apex: _Apex | None
     word: list[str]
@@ -189,6 +190,7 @@ class _SweepColumns(TypedDict):
     n_events: _I64
     word: list[str]
     status: list[str]
+    flew: npt.NDArray[np.bool_]
     error: list[str]
 
 class _Defaults(TypedDict):

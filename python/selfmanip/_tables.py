@@ -80,6 +80,10 @@ def read_table(path: str) -> dict[str, np.ndarray]:
         try:
             if c in ("strategy", "word", "status", "error"):
                 out[c] = np.asarray(col, dtype=str)
+            elif c == "flew":
+                if not set(col) <= {"True", "False"}:
+                    raise ValueError(c)
+                out[c] = np.asarray([v == "True" for v in col], dtype=bool)
             elif c == "n_events":
                 out[c] = np.asarray([int(v) for v in col], dtype=np.int64)
             else:

@@ -277,7 +277,7 @@ class LeapModel:
                             config=fixed, **swept)
         n = len(inputs["t2_s"])
         y = np.column_stack([table[c] for c in CHANNELS])
-        ok = table["status"] == "ok"
+        ok = np.asarray(table["flew"], dtype=bool)
         d = None
         d_ok = np.zeros(n, dtype=bool)
         if derivatives:
@@ -494,7 +494,7 @@ class Calibration:
         ignored) and returns a DataFrame-ready dict: the inputs, each outcome channel and its
         standard deviation ``<channel>_std`` from the parameters' covariance (delta method:
         ``sqrt(g Σ gᵀ)`` with ``g`` the exact derivative of the prediction; inf where ``g`` has
-        a component along an undetermined combination), and ``status``."""
+        a component along an undetermined combination), and ``flew`` (the model reached an apex)."""
         table = read_table(inputs, strategy, outcomes_required=False)
         table.outcomes = {c: np.zeros(len(table)) for c in CHANNELS}
         prob = _Problem(self.model, table, list(self.names), {c: 1.0 for c in CHANNELS},
@@ -515,7 +515,7 @@ class Calibration:
                 std = np.where(along > 1e-9 * (np.abs(g * widths).max(axis=1) + 1e-300), math.inf, std)
             out[col] = y[:, c] + prob.offsets(x)[c]
             out[f"{col}_std"] = np.where(np.isfinite(y[:, c]), std, math.nan)
-        out["status"] = np.asarray(["ok" if np.isfinite(v) else "no_apex" for v in y[:, 0]])
+        out["flew"] = np.isfinite(y[:, 0])
         return out
 
 

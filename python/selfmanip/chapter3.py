@@ -19,7 +19,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ._facade import COMPLETE_STATUSES, DEFAULT
+from ._facade import DEFAULT
 from .actuator import GearedMotor, Saturated
 from .errors import InvalidInputError, InvalidTypeError
 
@@ -36,9 +36,8 @@ def summary(table: dict[str, Any], n: int) -> list[str]:
     from .plots import word_label
 
     lines = []
-    done = np.isin(table["status"], COMPLETE_STATUSES)
     for s in STRATEGIES:
-        m = (table["strategy"] == s) & done
+        m = (table["strategy"] == s) & table["flew"]
         line = f"({s[0]}, {s[1]}): {int(m.sum())}/{n} leaps reach an apex"
         if m.any():
             hi = int(np.argmax(np.where(m, table["apex_z_m"], -np.inf)))
@@ -48,7 +47,7 @@ def summary(table: dict[str, Any], n: int) -> list[str]:
         lines.append(line)
         for word, count in Counter(table["word"][m]).most_common(4):
             lines.append(f"    {count:3d} x {word_label(word)}")
-        failed = Counter(table["status"][(table["strategy"] == s) & ~done])
+        failed = Counter(table["status"][(table["strategy"] == s) & ~table["flew"]])
         if failed:
             lines.append("    no apex: " + ", ".join(f"{k} {v}" for k, v in sorted(failed.items())))
     return lines

@@ -150,7 +150,7 @@ def add_subcommands(sub: "argparse._SubParsersAction") -> None:
     sw.add_argument("--progress", choices=["auto", "always", "never"], default="auto",
                     help="progress bar on stderr (auto: when stderr is a terminal)")
     sw.add_argument("--strict", action="store_true",
-                    help="exit with status 1 when any point is not ok (without it: when every point failed)")
+                    help="exit with status 1 when any leap did not fly (without it: when none flew)")
     sw.set_defaults(leap_handler=sweep_command)
 
     gr = sub.add_parser("grc", help="the ground reaction complex and the leap grammar (chapter 3)")
@@ -237,18 +237,22 @@ def sweep_command(args: argparse.Namespace) -> int:
     show = args.progress == "always" or (args.progress == "auto" and sys.stderr.isatty())
     names = None if args.sensitivities is None else [n.strip() for n in args.sensitivities.split(",") if n.strip()]
     table = run_points(cols, threads=args.threads, progress=show, sensitivities=names)
-    return finish_sweep(table, args.out, args.strict, done=("ok",), done_word="ok")
+    return finish_sweep(table, args.out, args.strict, done=np.asarray(table["flew"], dtype=bool),
+                        done_word="flew")
 
 
-def finish_sweep(table: Mapping[str, Any], out: str | None, strict: bool, done: Sequence[str],
-                 done_word: str) -> int:
+def finish_sweep(table: Mapping[str, Any], out: str | None, strict: bool,
+                 done: Sequence[str] | np.ndarray, done_word: str) -> int:
     """Writes a sweep table (``out``, or stdout), reports its statuses on stderr (``N points, M
     <done_word>, k <status>…``) and returns the exit code: 1 when no point reached one of the
     ``done`` statuses (saying why) or, with ``strict``, when any point did not; else 0."""
     write_table(table, out)
+    from ._sweep_report import done_points
+
     status = np.asarray(table["status"]).astype(str)
-    n_done = int(np.isin(status, list(done)).sum())
-    failed = {s: int(np.sum(status == s)) for s in sorted(set(status.tolist())) if s not in done}
+    is_done = done_points(table, done)
+    n_done = int(is_done.sum())
+    failed = {s: int(np.sum(status[~is_done] == s)) for s in sorted(set(status[~is_done].tolist()))}
     print(f"selfmanip sweep: {len(status)} points, {n_done} {done_word}"
           + ("" if not failed else ", " + ", ".join(f"{v} {k}" for k, v in failed.items()))
           + (f"; wrote {out}" if out else ""), file=sys.stderr)

@@ -80,7 +80,7 @@ STRATEGIES = ("++", "+-", "-+", "--")
 #: ``current_limit_a`` and ``motors_per_leg`` there too, NaN for the saturated torque).
 SWEEP_COLUMNS = ("strategy", "t2_s", "gear_ratio", "apex_z_m", "apex_x_m", "apex_phi_rad",
                  "apex_xdot_m_s", "apex_phidot_rad_s", "apex_zdot_m_s", "apex_t_s", "word",
-                 "status", "n_events", "error")
+                 "status", "flew", "n_events", "error")
 
 
 @functools.lru_cache(maxsize=1)
@@ -177,8 +177,10 @@ class Trajectory:
 
 @dataclass(frozen=True)
 class LeapResult:
-    """One leap: ``status`` (``ok``, ``no_flight``, ``zeno``, ...) and, when it is not ``ok``,
-    the ``reason`` in words; the ``apex`` (the first apex of flight, also when the leap ran on
+    """One leap: ``status`` (the engine's run status: ``apex``, ``final_time``, ``zeno``,
+    ``terrain_discontinuity``, ...), ``flew`` (it reached its apex, or, with
+    ``stop_at_apex=False``, flew and ran on to its final time) and, when it did not fly, the
+    ``reason`` in words; the ``apex`` (the first apex of flight, also when the leap ran on
     past it with ``stop_at_apex=False``; None without one), the leap ``word`` (cells joined by
     ``-``), the labelled ``events`` (dicts with ``t_s, kind, mode_before, mode_after,
     contacts, energy_loss_j``), the start ``q0`` and, unless disabled, the ``trajectory``.
@@ -191,6 +193,7 @@ class LeapResult:
     t2_s: float
     gear_ratio: float | None
     status: str
+    flew: bool
     apex: Apex | None
     word: str
     cells: list[str]
@@ -231,7 +234,7 @@ class LeapResult:
 
         d: dict[str, Any] = {
             "strategy": self.strategy, "t2_s": self.t2_s, "gear_ratio": self.gear_ratio,
-            "status": self.status, "reason": self.reason, "word": self.word, "cells": self.cells,
+            "status": self.status, "flew": self.flew, "reason": self.reason, "word": self.word, "cells": self.cells,
             "apex": None if self.apex is None else dict(self.apex.__dict__),
             "events": self.events, "q0": self.q0, "q_names": self.q_names,
             "params": self.params, "config": self.config,
@@ -418,7 +421,7 @@ def leap(strategy: str = "++", t2: float = 0.0, gear_ratio: float | None | _Defa
                           contact_forces_n=np.asarray(t["contact_forces_n"]))
     used = from_config(d["config"]["actuator"])
     return LeapResult(strategy=s, t2_s=t2v, gear_ratio=used.ratio if isinstance(used, GearedMotor) else None,
-                      actuator=used, status=d["status"], apex=apex,
+                      actuator=used, status=d["status"], flew=bool(d["flew"]), apex=apex,
                       word="-".join(d["word"]), cells=list(d["word"]), events=events,
                       q0=np.asarray(d["q0"], dtype=float), q_names=list(d["q_names"]),
                       params=d["params"], config=d["config"], trajectory=traj, reason=d["reason"],
@@ -528,6 +531,7 @@ def run_points(cols: Mapping[str, Sequence[Any]], params: Mapping[str, Any] | No
         out[k] = np.asarray(part[k], dtype=float)
     out["word"] = np.asarray(part["word"], dtype=str) if n else np.asarray([], dtype=str)
     out["status"] = np.asarray(part["status"], dtype=str) if n else np.asarray([], dtype=str)
+    out["flew"] = np.asarray(part["flew"], dtype=bool)
     out["n_events"] = np.asarray(part["n_events"], dtype=np.int64)
     out["error"] = np.asarray(part["error"], dtype=str) if n else np.asarray([], dtype=str)
     if names is not None:
@@ -588,11 +592,12 @@ def sweep(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any =
     (``pandas.DataFrame(result)`` works): ``strategy, t2_s, gear_ratio`` (the ratio each point
     ran with, NaN for the saturated torque), any swept parameter, ``apex_z_m, apex_x_m,
     apex_phi_rad, apex_xdot_m_s, apex_phidot_rad_s, apex_zdot_m_s, apex_t_s`` (NaN without an
-    apex), ``word``, ``status`` (``ok``, a leap status such as ``no_flight``, or the error kind
-    of a failed point such as ``invalid_params``), ``n_events`` and ``error`` (why a point is
-    not ``ok``: the error's message, or the reason the leap ended). A failing point never loses
-    the others, and the result is bit-identical for any ``threads``. When no point reaches
-    ``ok`` an :class:`selfmanip.errors.AllPointsFailedWarning` says so. Ctrl-C interrupts.
+    apex), ``word``, ``status`` (the engine's run status such as ``apex``, ``final_time`` or
+    ``zeno``, or the error kind of a failed point such as ``invalid_params``), ``flew`` (the leap
+    reached its apex, or flew and ran on to its final time), ``n_events`` and ``error`` (why a
+    point did not fly: the error's message, or the reason the leap ended). A failing point never
+    loses the others, and the result is bit-identical for any ``threads``. When no point flies
+    an :class:`selfmanip.errors.AllPointsFailedWarning` says so. Ctrl-C interrupts.
 
     ``strategy``: one strategy or several; ``t2``, ``actuator`` (``selfmanip.Saturated()``,
     ``selfmanip.GearedMotor(...)`` or a list of them; left out: the engine's default actuator;

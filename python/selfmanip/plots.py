@@ -49,7 +49,7 @@ _DEG = 180.0 / math.pi
 MAX_LEGEND_WORDS = 12
 #: Columns of a sweep table that are results, not swept inputs.
 _RESULT_COLUMNS = {"apex_z_m", "apex_x_m", "apex_phi_rad", "apex_xdot_m_s", "apex_phidot_rad_s",
-                   "apex_zdot_m_s", "apex_t_s", "word", "status", "n_events", "error"}
+                   "apex_zdot_m_s", "apex_t_s", "word", "status", "flew", "n_events", "error"}
 
 
 class PlottingUnavailableError(SelfmanipError, ImportError):
@@ -107,6 +107,14 @@ def fold_word(cells: Sequence[str], max_items: int = 8) -> str:
         hidden = len(items) - 7
         items = items[:4] + [f"…+{hidden}…"] + items[-3:]
     return "-".join(items)
+
+
+def _flew(cols: Mapping[str, np.ndarray]) -> np.ndarray:
+    """The points whose leap flew: the table's ``flew`` column (a table without one: those
+    that ended at their apex)."""
+    if "flew" in cols:
+        return np.asarray(cols["flew"], dtype=bool)
+    return np.asarray(cols["status"]).astype(str) == "apex"
 
 
 def word_label(word: str, max_items: int = 8) -> str:
@@ -189,7 +197,7 @@ def build_sweep_figure(table: Mapping[str, Any], title: str | None = None) -> "m
     cols["t2_s"] = cols["t2_s"].astype(float)
     strategies = [s for s in ("++", "+-", "-+", "--") if s in set(cols["strategy"].astype(str))]
     strategies += sorted(set(cols["strategy"].astype(str)) - set(strategies))
-    ok_all = cols["status"].astype(str) == "ok"
+    ok_all = _flew(cols)
     labels = np.array([word_label(w) for w in cols["word"].astype(str)], dtype=object)
     # words by frequency among the ok points; the rarest beyond the legend's size are grey
     counts: dict[str, int] = {}
@@ -210,7 +218,7 @@ def build_sweep_figure(table: Mapping[str, Any], title: str | None = None) -> "m
     if other:
         handles.append(plt.Line2D([], [], marker="o", ls="", color=colour[other[0]],
                                   label=f"{len(other)} other words"))
-    handles.append(plt.Line2D([], [], marker="x", ls="", color="0.4", label="no apex (status not ok)"))
+    handles.append(plt.Line2D([], [], marker="x", ls="", color="0.4", label="no apex (did not fly)"))
     legend_in = 0.3 + 0.2 * math.ceil(len(handles) / 3)  # the word legend's height (inches)
     if heat:
         fig = _heat_maps(plt, cols, strategies, labels, shown, colour, finite_g, legend_in)
@@ -240,7 +248,7 @@ def _series_figure(plt, cols, strategies, labels, colour, extra, legend_in):
     series_keys = [k for k in ("gear_ratio", "t2_s") if k != xkey and _varying(cols, k)] + extra
     fig, axes = plt.subplots(len(strategies), 3, figsize=(13, 2.8 * len(strategies) + 0.6 + legend_in),
                              squeeze=False, sharex=True)
-    ok_all = cols["status"].astype(str) == "ok"
+    ok_all = _flew(cols)
     series_handles: dict[str, Any] = {}
     for i, s in enumerate(strategies):
         sel = cols["strategy"].astype(str) == s
@@ -287,7 +295,7 @@ def _heat_maps(plt, cols, strategies, labels, shown, colour, finite_g, legend_in
     gears = np.unique(cols["gear_ratio"][finite_g])
     fig, axes = plt.subplots(len(strategies), 4, figsize=(16, 3.2 * len(strategies) + 0.6 + legend_in),
                              squeeze=False)
-    ok_all = cols["status"].astype(str) == "ok"
+    ok_all = _flew(cols)
     word_index = {w: k for k, w in enumerate(shown)}
     word_cmap = ListedColormap([colour[w] for w in shown] + [(0.6, 0.6, 0.6, 1.0)]).with_extremes(bad="white")
     for i, s in enumerate(strategies):

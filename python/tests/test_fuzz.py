@@ -39,7 +39,7 @@ def typed(e: BaseException) -> bool:
 
 
 def finite_execution(e) -> None:
-    assert e.status in {"ok", "final_time", "apex"} or isinstance(e.status, str) and e.status
+    assert e.status in {"final_time", "apex"} or isinstance(e.status, str) and e.status
     assert np.all(np.isfinite(e.q_end)) and np.all(np.isfinite(e.qd_end))
     assert math.isfinite(e.t_end_s)
 

@@ -76,7 +76,7 @@ def test_fig_4_11_optimum_is_the_thesis_window():
 
 def _apex(strategy, t2, gears):
     t = selfmanip.sweep(strategy, t2=t2, gear_ratio=gears, threads=2)
-    return t, np.where(t["status"] == "ok", t["apex_z_m"], np.nan)
+    return t, np.where(t["flew"], t["apex_z_m"], np.nan)
 
 
 def test_leap_apex_height_optimum_is_interior_and_stands_on_a_finer_grid(example):
@@ -150,7 +150,7 @@ def test_example_takeoff_speed_is_a_magnitude(example):
     best lies inside the grid and is the fastest leap."""
     gears = np.arange(8.0, 60.5, 2.0)
     table = selfmanip.sweep("--", t2=0.0, gear_ratio=gears, threads=2)
-    ok = table["status"] == "ok"
+    ok = table["flew"]
     xd = table["apex_xdot_m_s"][ok]
     assert (xd < 0).all(), "backward leaps"
     assert table["gear_ratio"][ok][int(np.argmax(xd))] == gears[0], "signed: the grid's edge"
@@ -166,7 +166,7 @@ def test_example_says_so_when_every_point_fails(example, tmp_path, capsys):
                          "--out-dir", str(tmp_path)])
     err = capsys.readouterr().err
     assert code == 1
-    assert "error: all 16 points of the sweep failed (16 no_flight)" in err
+    assert "error: all 16 points of the sweep failed (16 final_time)" in err
     lines = (tmp_path / "gear_ratio_sweep.csv").read_text().strip().splitlines()
     header = lines[0].split(",")
     k = header.index("error")

@@ -58,7 +58,7 @@ def test_a_leap_at_1e308_ends_with_a_typed_outcome_instead_of_hanging(call):
     except SelfmanipError as e:
         assert e.field or "non-finite" in str(e) or "too large" in str(e), e
         return
-    assert r.status != "ok" or all(math.isfinite(x) for x in r.q_final)
+    assert not r.flew or all(math.isfinite(x) for x in r.q_final)
 
 
 def test_a_hopper_launched_at_1e308_ends_with_a_typed_error_instead_of_hanging():
@@ -82,10 +82,10 @@ def test_one_gear_ratio_of_1e308_keeps_its_seventeen_good_neighbours():
     table = leap_mod.sweep("++", [0.0, 0.05, 0.1], gear_ratio=[20.0, 25.0, 28.0, 1e308, 35.0, 40.0])
     status = list(table["status"])
     gears = list(table["gear_ratio"])
-    bad = [s for s, g in zip(status, gears) if g == 1e308]
+    bad = [f for f, g in zip(table["flew"], gears) if g == 1e308]
     good = [s for s, g in zip(status, gears) if g != 1e308]
     assert len(good) == 15 and len(bad) == 3
-    assert all(s != "ok" for s in bad)
+    assert not any(bad)
 
 
 def test_contact_gaps_and_kinematics_at_1e308_are_typed_errors_not_nan():

@@ -22,7 +22,7 @@ def synthetic_table(t2, gears, seed=0):
     table = {c: rng.normal(size=n) for c in SWEEP_COLUMNS}
     table.update(strategy=np.array([r[0] for r in rows]), gear_ratio=np.array([r[1] for r in rows], dtype=float),
                  t2_s=np.array([r[2] for r in rows], dtype=float), word=w,
-                 status=np.where(w == "", "zeno", "ok"), error=np.full(n, ""), n_events=np.zeros(n, dtype=np.int64))
+                 status=np.where(w == "", "zeno", "apex"), flew=w != "", error=np.full(n, ""), n_events=np.zeros(n, dtype=np.int64))
     return table
 
 
@@ -119,7 +119,8 @@ def test_extra_swept_parameters_are_separate_series_without_zigzag_joins():
     # the same points swept over a second parameter, rows shuffled
     both = {k: np.concatenate([v, v]) for k, v in table.items()}
     both["m_b"] = np.repeat([8.0, 9.0], n)
-    both["status"] = np.full(2 * n, "ok")
+    both["status"] = np.full(2 * n, "apex")
+    both["flew"] = np.full(2 * n, True)
     order = np.random.default_rng(5).permutation(2 * n)
     both = {k: v[order] for k, v in both.items()}
     fig = plots.build_sweep_figure(both)
@@ -138,7 +139,8 @@ def test_pitch_is_drawn_in_degrees():
     import matplotlib.pyplot as plt
 
     table = synthetic_table(np.linspace(-0.2, 0.2, 7), [28.0])
-    table["status"] = np.full(len(table["t2_s"]), "ok")
+    table["status"] = np.full(len(table["t2_s"]), "apex")
+    table["flew"] = np.full(len(table["t2_s"]), True)
     fig = plots.build_sweep_figure(table)
     labels = [ax.get_ylabel() for ax in fig.axes] + [ax.get_xlabel() for ax in fig.axes]
     assert "pitch at apex (deg)" in labels and not any("rad" in l for l in labels)

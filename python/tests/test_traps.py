@@ -170,7 +170,7 @@ def test_a_relative_tolerance_of_one_or_more_is_refused_naming_rtol():
         assert e.value.field == "rtol"
         with pytest.raises(selfmanip.InvalidInputError, match="rtol"):
             selfmanip.simulate(QUADRUPED.parent / "rocking_block.toml", None, [0.0, -0.1, 0.3], t_final=0.1, rtol=rtol)
-    assert selfmanip.leap("++", -0.11, None, dt=None, rtol=1e-6).status == "ok"
+    assert selfmanip.leap("++", -0.11, None, dt=None, rtol=1e-6).status == "apex"
 
 
 def test_a_run_cut_by_its_step_budget_carries_no_tangent():
@@ -221,11 +221,11 @@ def test_contact_mode_map_with_negative_n_is_a_value_error_naming_n(rhex):
 
 def test_engine_made_nan_is_not_blamed_on_the_callers_qd():
     """A leap takes no ``qd`` from the caller: a finite but absurd body mass whose start state
-    overflows the model is refused as the parameters' fault, naming what overflowed, not as
+    overflows the model is refused as that parameter's fault (`m_b`), naming what overflowed, not as
     "`qd` has a non-finite entry"."""
     with pytest.raises(selfmanip.InvalidInputError, match="start state.*`N̄` overflows") as e:
         selfmanip.leap("++", 0.0, dt=None, params={"m_b": 1e308})
-    assert "has a non-finite entry" not in str(e.value) and e.value.field == "params"
+    assert "has a non-finite entry" not in str(e.value) and e.value.field == "m_b"
     # the same extreme model: the dynamics would come out NaN; refused rather than returned
     m = selfmanip.rhex.Model({"m_b": 1e308})
     with pytest.raises(selfmanip.EngineError, match="non-finite"):
@@ -243,15 +243,16 @@ def test_a_sweep_whose_points_all_fail_says_so():
     """The saturated-torque chapter-3 sweep once failed 164 of 164 points with an empty
     ``error`` column and exit code 0. Here every point fails by construction: the execution
     ends long before any leg could launch the robot."""
-    with pytest.warns(selfmanip.AllPointsFailedWarning, match="all 3 points of the sweep failed.*no_flight"):
+    with pytest.warns(selfmanip.AllPointsFailedWarning, match="all 3 points of the sweep failed.*final_time"):
         t = selfmanip.sweep("++", t2=[0.0, 0.02, 0.04], t_final_s=0.05)
-    assert (t["status"] == "no_flight").all()
+    assert (t["status"] == "final_time").all() and not t["flew"].any()
     assert all("before t_final_s = 0.05 s" in e for e in t["error"])
     # one point that works: no warning
     with warnings.catch_warnings():
         warnings.simplefilter("error", selfmanip.AllPointsFailedWarning)
         t = selfmanip.sweep("++", t2=[0.0, 0.01], t_final_s=[0.05, 1.0], grid=False)
-    assert list(t["status"]) == ["no_flight", "ok"] and t["error"][1] == ""
+    assert list(t["status"]) == ["final_time", "apex"] and list(t["flew"]) == [False, True]
+    assert t["error"][1] == ""
 
 
 def test_cli_sweep_whose_points_all_fail_exits_non_zero(tmp_path):
@@ -327,7 +328,7 @@ def test_a_forked_child_runs_leaps(tmp_path):
     script.write_text(FORK_SCRIPT)
     p = subprocess.run([sys.executable, "-W", "ignore::DeprecationWarning", str(script)], capture_output=True,
                        text=True, timeout=120)
-    assert sorted(p.stdout.split("\n")[:2]) == ["child ok", "parent ok"], (p.stdout, p.stderr)
+    assert sorted(p.stdout.split("\n")[:2]) == ["child apex", "parent apex"], (p.stdout, p.stderr)
 
 
 # ------------------------------------------------------------------------------ the CLI
@@ -426,7 +427,7 @@ def test_python_passes_the_apex_of_a_non_stopping_leap_through(monkeypatch):
 def test_non_stopping_leap_that_flew_reports_its_apex():
     """``stop_at_apex=False`` gave ``apex=None`` after a flight."""
     r = selfmanip.leap("++", 0.0, dt=None, stop_at_apex=False, t_final_s=1.0)
-    assert r.status == "ok" and any(c == "0000" for c in r.cells)
+    assert r.status == "final_time" and r.flew and any(c == "0000" for c in r.cells)
     assert r.apex is not None and r.apex.z_m > -r.q0[r.q_names.index("z")]
 
 

@@ -11,7 +11,7 @@
 //! | `CoreError::{UnknownContact, InvalidMode}`, `RhexError::ModeLabel` | `InvalidInputError` | `mode` |
 //! | `CoreError::SingularKkt` | `SingularKktError` (`kind`, `condition_estimate`) | — |
 //! | `CoreError::IllPosedQuasiStatic` | `IllPosedError` | — |
-//! | `RhexError::Params`, `HybridError::InvalidOption`, `MotorError` input variants | `InvalidInputError` | the field |
+//! | `RhexError::{InvalidValue, UnknownParameter, Unreadable, Unsupported, StartOverflow}`, `HybridError::InvalidOption`, `MotorError` input variants | `InvalidInputError` | the field |
 //! | `HybridError::OffManifold` | `InvalidInputError` (caller's state) / `EngineError` | the field |
 //! | `SimError::{InvalidValue, UnknownJoint, UnknownContact, UnknownReference, Cycle, Expression, UnknownParameter, Motor, Parse}` | `InvalidInputError` | the field, path, or what was parsed |
 //! | `SimError::Io` | the `OSError` subclass of its kind | — |
@@ -205,10 +205,12 @@ pub(crate) fn map_hybrid(e: &HybridError, source: Source) -> Mapped {
 /// How an RHex-model error maps; `source` says whose vectors a core error talks about.
 pub(crate) fn map_rhex(e: &RhexError, source: Source) -> Mapped {
     match e {
-        RhexError::Params { field, .. } => {
-            Mapped::new(Kind::InvalidInput, e.to_string(), Some(field))
-        }
-        RhexError::ModeLabel { .. } => Mapped::new(Kind::InvalidInput, e.to_string(), Some("mode")),
+        RhexError::InvalidValue { .. }
+        | RhexError::UnknownParameter { .. }
+        | RhexError::Unreadable { .. }
+        | RhexError::Unsupported { .. }
+        | RhexError::StartOverflow { .. }
+        | RhexError::ModeLabel { .. } => Mapped::new(Kind::InvalidInput, e.to_string(), e.field()),
         RhexError::Core(c) => map_core(c, source),
         RhexError::Hybrid(h) => map_hybrid(h, source),
         RhexError::Sim(s) => map_sim(s, source),

@@ -18,9 +18,7 @@ use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use rhex_model::grc::{match_leap_word, Cell};
-use rhex_model::leap::{
-    leap_params, simulate_leap, LeapConfig, LeapEvent, LeapResult, LegActuator, Strategy,
-};
+use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapResult, LegActuator, Strategy};
 use rhex_model::leap_sensitivity::{
     check_sensitivity_names, leap_with_sensitivity, LeapSensitivity, APEX_COLUMNS,
 };
@@ -31,7 +29,7 @@ use rhex_model::sweep::{
 };
 use rhex_model::{RhexError, RhexParams};
 use selfmanip_sim::sweep::run_parallel;
-use selfmanip_sim::{SimError, Trajectory};
+use selfmanip_sim::{EventRecord, SimError, Trajectory};
 use serde_json::{Map, Value};
 use std::collections::BTreeMap;
 
@@ -185,7 +183,7 @@ fn sensitivity_dict<'py>(py: Python<'py>, s: &LeapSensitivity) -> PyResult<Bound
     Ok(d)
 }
 
-fn events_list<'py>(py: Python<'py>, events: &[LeapEvent]) -> PyResult<Bound<'py, PyList>> {
+fn events_list<'py>(py: Python<'py>, events: &[EventRecord]) -> PyResult<Bound<'py, PyList>> {
     let list = PyList::empty(py);
     for e in events {
         let d = PyDict::new(py);
@@ -201,8 +199,10 @@ fn events_list<'py>(py: Python<'py>, events: &[LeapEvent]) -> PyResult<Bound<'py
 }
 
 /// One leap. `gear_ratio`: `None` the engine's default actuator, a number the geared motor of
-/// that ratio, NaN the saturated torque. Returns a dict: `status`, `reason` (why it is not
-/// `ok`; empty when it is), `apex` (dict or None), `word` (list of cells), `events` (list of
+/// that ratio, NaN the saturated torque. Returns a dict: `status` (the engine's run status:
+/// `apex`, `final_time`, `zeno`, `terrain_discontinuity`, …), `flew` (the leap reached its
+/// apex, or flew and ran on to its final time: `rhex_model::leap::LeapResult::flew`),
+/// `reason` (why it did not fly; empty when it did), `apex` (dict or None), `word` (list of cells), `events` (list of
 /// dicts), `q0`, `q_names`, `time_offset_s`, `motor_t2_s` (the rear motor's start after the
 /// front one's that the leap ran with: `t2` itself, or what a touchdown-timed leap's search
 /// found), `touchdown_t2_s` (the rear leg's first touchdown after the front leg's, or None),
@@ -240,6 +240,7 @@ fn leap_run<'py>(
         .map_err(rhex_err)?;
         let d = PyDict::new(py);
         d.set_item("status", res.status.as_str())?;
+        d.set_item("flew", res.flew)?;
         d.set_item("reason", res.reason(&params, &cfg))?;
         match res.apex {
             Some(a) => d.set_item("apex", to_py(py, &a)?)?,
@@ -509,6 +510,13 @@ fn leap_sweep<'py>(
             PyList::new(py, rows.iter().map(|r| r.status.as_str()))?,
         )?;
         d.set_item(
+            "flew",
+            rows.iter()
+                .map(|r| r.flew)
+                .collect::<Vec<_>>()
+                .into_pyarray(py),
+        )?;
+        d.set_item(
             "error",
             PyList::new(py, rows.iter().map(|r| r.error.as_str()))?,
         )?;
@@ -580,7 +588,7 @@ fn rows_from(
 }
 
 /// One event from a dict `{t_s, kind, mode_before, mode_after, contacts, energy_loss_j}`.
-fn event_from(e: &Bound<'_, PyAny>, i: usize) -> PyResult<LeapEvent> {
+fn event_from(e: &Bound<'_, PyAny>, i: usize) -> PyResult<EventRecord> {
     let field = |k: &str| format!("events[{i}].{k}");
     let get = |k: &str| -> PyResult<Option<Bound<'_, PyAny>>> {
         match e.get_item(k) {
@@ -628,13 +636,14 @@ fn event_from(e: &Bound<'_, PyAny>, i: usize) -> PyResult<LeapEvent> {
         None => 0.0,
         Some(v) => typed("energy_loss_j", v)?.as_f64().unwrap_or(0.0),
     };
-    Ok(LeapEvent {
+    Ok(EventRecord {
         t_s,
         kind: event_kind(&text("kind")?, &field("kind"))?,
         mode_before: text("mode_before")?,
         mode_after: text("mode_after")?,
         contacts,
         energy_loss_j,
+        impulse: Vec::new(),
     })
 }
 

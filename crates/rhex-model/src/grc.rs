@@ -18,6 +18,7 @@
 //! states. The category rules ([`categorize`]) come from the text's definitions and are
 //! checked against that reconstruction in `tests/grc.rs`. See `docs/errata/ch3-leaping.md`
 //! for the two misprints this reconstruction exposes.
+use crate::leap::Strategy;
 use crate::RhexError;
 use serde::Serialize;
 use std::fmt;
@@ -313,64 +314,6 @@ pub fn match_leap_word(cells: &[Cell]) -> Option<&'static str> {
         .map(|w| w.equation)
 }
 
-/// The four open-loop leg strategies of section 3.2.1: each leg pushes with `+τ_s` or `−τ_s`
-/// (saturated torque). `+` is the thesis's positive `θ` direction: a grounded toe sweeps
-/// backward and pushes the body forward; `(+,+)` lunges forward, `(−,−)` flips backward.
-/// The first sign is the front leg's, the second the rear leg's.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
-pub enum Strategy {
-    #[serde(rename = "++")]
-    PlusPlus,
-    #[serde(rename = "+-")]
-    PlusMinus,
-    #[serde(rename = "-+")]
-    MinusPlus,
-    #[serde(rename = "--")]
-    MinusMinus,
-}
-
-impl Strategy {
-    pub const ALL: [Strategy; 4] = [
-        Strategy::PlusPlus,
-        Strategy::PlusMinus,
-        Strategy::MinusPlus,
-        Strategy::MinusMinus,
-    ];
-
-    pub fn parse(s: &str) -> Result<Strategy, RhexError> {
-        let norm: String = s.chars().filter(|c| !"(), ".contains(*c)).collect();
-        Strategy::ALL
-            .into_iter()
-            .find(|st| st.label() == norm)
-            .ok_or_else(|| RhexError::ModeLabel {
-                label: s.into(),
-                reason: "a leg strategy is one of ++, +-, -+, --".into(),
-            })
-    }
-
-    pub fn label(self) -> &'static str {
-        match self {
-            Strategy::PlusPlus => "++",
-            Strategy::PlusMinus => "+-",
-            Strategy::MinusPlus => "-+",
-            Strategy::MinusMinus => "--",
-        }
-    }
-
-    /// Torque signs `(front, rear)`.
-    pub fn signs(self) -> (f64, f64) {
-        let b = self.label().as_bytes();
-        let s = |c: u8| if c == b'+' { 1.0 } else { -1.0 };
-        (s(b[0]), s(b[1]))
-    }
-}
-
-impl fmt::Display for Strategy {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "({}, {})", &self.label()[..1], &self.label()[1..])
-    }
-}
-
 /// The whole complex as JSON (for Python): cells, Hasse edges, allowable edges, words,
 /// strategies.
 pub fn grc_json() -> serde_json::Value {
@@ -387,7 +330,7 @@ pub fn grc_json() -> serde_json::Value {
         "hasse": hasse_transitions(),
         "allowable": allowable_transitions(),
         "leap_words": words,
-        "strategies": Strategy::ALL.iter().map(|s| s.label()).collect::<Vec<_>>(),
+        "strategies": Strategy::ALL.iter().map(|s| s.to_string()).collect::<Vec<_>>(),
     })
 }
 

@@ -35,9 +35,11 @@ use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{ContactMode, Terrain};
 use selfmanip_hybrid::{EventKind, Execution, Termination};
 use selfmanip_sim::behaviour::{ActuatorSpec, Behaviour, Motion, Torque, Trigger};
+use selfmanip_sim::events::{event_records_labelled, EventRecord};
 use selfmanip_sim::expr::Scalar;
-use selfmanip_sim::outcome::WordOptions;
+use selfmanip_sim::outcome::{Outcome, WordOptions};
 use selfmanip_sim::terrain::TerrainSpec;
+use selfmanip_sim::RunStatus;
 use selfmanip_sim::{InitialState, Scenario, SimOptions};
 use selfmanip_sim::{Simulation, Trajectory};
 use serde::{Deserialize, Serialize};
@@ -110,13 +112,13 @@ impl FromStr for Strategy {
                 other => Err(other),
             })
             .collect::<Result<_, _>>()
-            .map_err(|c| RhexError::Params {
+            .map_err(|c| RhexError::Unreadable {
                 field: "strategy".into(),
                 reason: format!("`{s}`: character `{c}` is not + or -"),
             })?;
         match signs[..] {
             [front, rear] => Ok(Strategy { front, rear }),
-            _ => Err(RhexError::Params {
+            _ => Err(RhexError::Unreadable {
                 field: "strategy".into(),
                 reason: format!("`{s}`: expected two signs such as ++, +-, -+ or --"),
             }),
@@ -344,71 +346,32 @@ pub struct Apex {
     pub phidot_rad_s: f64,
 }
 
-/// How a leap ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum LeapStatus {
-    /// Reached the apex of flight (or `t_final` after a flight when not stopping at apex).
-    Ok,
-    /// Never reached the apex of a flight (when stopping at apex), or never left the ground
-    /// (otherwise), before `t_final`.
-    NoFlight,
-    /// A Zeno execution (too many events in the Zeno window), or a chatter: one cycle of
-    /// events repeated with the robot staying where it is (`selfmanip_hybrid::zeno`).
-    Zeno,
-    EventBudget,
-    NoContactSolution,
-    SeveralContactSolutions,
-    /// A contact met a place of a ledge that is not a contact feature for it: the edge where
-    /// its face meets its top, met by a point of the robot (a leg's tip), or the concave
-    /// corner where the face meets the ground (one contact site touching two surfaces at
-    /// once). Body ends and leg arcs rest, roll and slide on the edge.
-    TerrainEdge,
-    /// The contact set met a pose where it no longer determines the motion of a massless
-    /// leg (Lemma 5.1) and the fold guard could not resolve it (rare: such poses are
-    /// normally resolved as transitions, see `selfmanip_hybrid::fold`).
-    SingularContact,
-    /// The run used up its budget of integration steps ([`LeapConfig::max_steps`]).
-    StepBudget,
-    /// The caller stopped the run ([`simulate_leap_with`]).
-    Interrupted,
-}
-
-impl LeapStatus {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            LeapStatus::Ok => "ok",
-            LeapStatus::NoFlight => "no_flight",
-            LeapStatus::Zeno => "zeno",
-            LeapStatus::EventBudget => "event_budget",
-            LeapStatus::NoContactSolution => "no_contact_solution",
-            LeapStatus::SeveralContactSolutions => "several_contact_solutions",
-            LeapStatus::TerrainEdge => "terrain_edge",
-            LeapStatus::SingularContact => "singular_contact",
-            LeapStatus::StepBudget => "step_budget",
-            LeapStatus::Interrupted => "interrupted",
-        }
-    }
-}
-
-/// The outcome of one leap.
+/// The outcome of one leap: the generic run's [`Outcome`] (its `status` is the engine's
+/// [`RunStatus`], named as everywhere: `apex`, `final_time`, `zeno`,
+/// `terrain_discontinuity`, `singular_flow`, …; its `word` the ground-reaction-complex cells
+/// visited, labels `FB FL RB RL`, sliding toes counted as contact, zero-time cells
+/// suppressed, starting with `1010`), read through `Deref`, with what a leap adds on the
+/// leap's clock (t = 0 at the front motor's start) and in chapter 3's frame.
 #[derive(Debug, Clone)]
 pub struct LeapResult {
-    pub status: LeapStatus,
+    /// The generic run's metrics (times on the simulation clock, NED frame).
+    pub outcome: Outcome,
+    /// The leap flew: it reached the apex of a flight after a motor started (stopping there),
+    /// or, not stopping at the apex, flew and ran on to its final time. `status` `apex`, or
+    /// `final_time` after a flight; `false` for a `final_time` that never flew (or, stopping
+    /// at the apex, never reached one) and for every status the engine stopped the run with.
+    pub flew: bool,
     /// The apex of the leap's first flight (when not stopping there, also after it: the run
     /// records it and goes on).
     pub apex: Option<Apex>,
-    /// Ground-reaction-complex cells visited (labels `FB FL RB RL`), zero-time cells
-    /// suppressed, starting with `1010`.
-    pub word: Vec<String>,
     /// The execution (times on the simulation clock, which starts at `min(0, t2)`).
     pub execution: Execution,
     /// Subtract from execution times to get times relative to the front leg's start.
     pub time_offset_s: f64,
     /// Start configuration `q` (thesis coordinates, z down).
     pub q0: Vec<f64>,
-    /// Events relative to the front leg's start, labelled.
-    pub events: Vec<LeapEvent>,
+    /// Events relative to the front leg's start, in RHex's names and mode labels.
+    pub events: Vec<EventRecord>,
     /// The rear motor's start relative to the front one's in this run (s): `t2` itself, or
     /// what the [`T2Reference::Touchdown`] search found.
     pub motor_t2_s: f64,
@@ -417,38 +380,18 @@ pub struct LeapResult {
     pub touchdown_t2_s: Option<f64>,
 }
 
-impl LeapResult {
-    /// The word joined by `-`, e.g. `1010-0110-0101-0001-0000`.
-    pub fn word_string(&self) -> String {
-        self.word.join("-")
+impl std::ops::Deref for LeapResult {
+    type Target = Outcome;
+    fn deref(&self) -> &Outcome {
+        &self.outcome
     }
-}
-
-/// One event of a leap, labelled for users.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct LeapEvent {
-    /// Time relative to the front leg's start (s).
-    pub t_s: f64,
-    /// `touchdown`, `liftoff`, `slip`, `stick`, `fold` (a leg reached the pose where its
-    /// contact stops pinning it: an impulsive stick, a release, or the start of its passage
-    /// through that pose), `fold_passed` (the passage's end), `jam` (a Painlevé slide
-    /// stopped by an impact without collision, `selfmanip_hybrid::jam`) or `apex`.
-    pub kind: &'static str,
-    pub mode_before: String,
-    pub mode_after: String,
-    /// Names of the contacts that fired the guard.
-    pub contacts: Vec<String>,
-    /// Kinetic energy lost in the event (J; zero for liftoff, slip, stick and apex; round-off,
-    /// within [`ENERGY_ROUND_OFF`] `· (T⁻ + 1 J)`, reported as zero). Never negative for a
-    /// touchdown; a `fold` that starts a passage may gain energy from the motor.
-    pub energy_loss_j: f64,
 }
 
 impl LeapConfig {
     /// Checks every field (errors name it).
     pub fn validate(&self) -> Result<(), RhexError> {
         let bad = |field: &str, reason: String| {
-            Err(RhexError::Params {
+            Err(RhexError::InvalidValue {
                 field: field.into(),
                 reason,
             })
@@ -557,7 +500,7 @@ impl Actuator for LegDrive {
 /// The actuator that turns one planar leg (a contralateral pair): chapter 3's saturated
 /// torque `τ_s`, or the current-limited geared X-RHex motors.
 pub fn leg_actuator(params: &RhexParams, a: &LegActuator) -> Result<Arc<dyn Actuator>, RhexError> {
-    let motor_err = |e: motor::MotorError| RhexError::Params {
+    let motor_err = |e: motor::MotorError| RhexError::InvalidValue {
         field: "actuator".into(),
         reason: e.to_string(),
     };
@@ -609,7 +552,7 @@ struct LegMotorData {
 }
 
 fn leg_motor_data(params: &RhexParams, cfg: &LeapConfig) -> Result<LegMotorData, RhexError> {
-    let motor_err = |e: motor::MotorError| RhexError::Params {
+    let motor_err = |e: motor::MotorError| RhexError::InvalidValue {
         field: "actuator".into(),
         reason: e.to_string(),
     };
@@ -638,7 +581,7 @@ fn leg_motor_data(params: &RhexParams, cfg: &LeapConfig) -> Result<LegMotorData,
     let rotor_kg_m2 = spec
         .rotor_inertia_kg_m2()
         .map_err(motor_err)?
-        .ok_or_else(|| RhexError::Params {
+        .ok_or_else(|| RhexError::InvalidValue {
             field: "actuator".into(),
             reason: "the motor's mechanical time constant is needed for the rotor inertia".into(),
         })?;
@@ -691,6 +634,28 @@ fn leap_leg_armature(params: &RhexParams, cfg: &LeapConfig) -> Result<Option<f64
 /// armature.
 pub(crate) fn armature_follows_gear(params: &RhexParams) -> bool {
     params.leg_armature_kg_m2.is_none() && params.legs_carry_rotors()
+}
+
+/// The mass or inertia parameter that makes a start state overflow: the one farthest above
+/// its Table 4.2 value (scaled by at least 1, so that a massless leg's `m_l = 0` compares).
+fn overflowing_parameter(params: &RhexParams) -> &'static str {
+    let table = RhexParams::default();
+    [
+        ("m_b", params.m_b, table.m_b),
+        ("I_b", params.I_b, table.I_b),
+        ("m_l", params.m_l, table.m_l),
+        ("I_l", params.I_l, table.I_l),
+    ]
+    .into_iter()
+    .map(|(name, v, t)| (name, v.abs() / t.abs().max(1.0)))
+    .fold(("m_b", f64::NEG_INFINITY), |best, c| {
+        if c.1 > best.1 {
+            c
+        } else {
+            best
+        }
+    })
+    .0
 }
 
 /// The robot of a leap: `params` (checked as the user gave them, [`RhexParams::validate`])
@@ -752,7 +717,7 @@ fn touchdown_angle(
     // pointing up (clear) .. pointing down (through the ground)
     let (mut clear, mut through) = (-sign * (PI - 1e-9), 0.0);
     if !(gap(clear) > 0.0 && gap(through) < 0.0) {
-        return Err(RhexError::Params {
+        return Err(RhexError::InvalidValue {
             field: "rho_b".into(),
             reason: "a leg pointing straight down must reach the ground from the sitting posture"
                 .into(),
@@ -772,28 +737,11 @@ fn touchdown_angle(
     Ok(clear)
 }
 
-/// The ground-reaction-complex cells visited (sliding toes count as contact), with cells
-/// held for no longer than `min_duration_s` suppressed and repeats merged.
-fn leap_word(rhex: &Rhex, exec: &Execution, min_duration_s: f64) -> Vec<String> {
-    let mut word: Vec<String> = Vec::new();
-    for (n, seg) in exec.segments.iter().enumerate() {
-        let last = n + 1 == exec.segments.len();
-        if seg.t1 - seg.t0 <= min_duration_s && n > 0 && !last {
-            continue;
-        }
-        let cell = rhex.label(seg.mode).replace('s', "1");
-        if word.last() != Some(&cell) {
-            word.push(cell);
-        }
-    }
-    word
-}
-
 /// The leap's two pushing pairs (front-most first): [`LeapConfig::pairs`] or chapter 3's.
 fn leap_pairs(cfg: &LeapConfig) -> Result<[LegPair; 2], RhexError> {
     let pairs = cfg.pairs.unwrap_or(cfg.strategy.chapter3_pairs());
     if pairs[0] == pairs[1] {
-        return Err(RhexError::Params {
+        return Err(RhexError::InvalidValue {
             field: "pairs".into(),
             reason: "a leap strategy drives two different leg pairs".into(),
         });
@@ -829,7 +777,7 @@ pub fn leap_start_pose(rhex: &Rhex, cfg: &LeapConfig) -> Result<Vec<f64>, RhexEr
                 f64::max,
             );
         if distance_m.abs() <= reach {
-            return Err(RhexError::Params {
+            return Err(RhexError::InvalidValue {
                 field: "terrain.distance_m".into(),
                 reason: format!(
                     "the ledge's face must be beyond the robot's reach at the start \
@@ -981,9 +929,9 @@ impl LeapPreset {
             selfmanip_sim::SimError::InvalidValue { field, reason }
                 if field.starts_with("initial.") =>
             {
-                RhexError::Params {
-                    field: "params".into(),
-                    reason: format!("the leap's start state from them: {reason}"),
+                RhexError::StartOverflow {
+                    field: overflowing_parameter(&self.leap.rhex.params).into(),
+                    reason,
                 }
             }
             e => e.into(),
@@ -999,7 +947,7 @@ impl LeapPreset {
     pub fn run(&self, motor_t2_s: f64, stop: &AtomicBool) -> Result<LeapResult, RhexError> {
         let (sim, front_start) = self.simulation(motor_t2_s)?;
         let run = sim.run_with(stop)?;
-        Ok(self.result(run.execution, motor_t2_s, front_start))
+        Ok(self.result(run.execution, run.outcome, motor_t2_s, front_start))
     }
 
     /// Runs the leap as `cfg.t2_reference` says: the motor start `t2`, or the touchdown
@@ -1048,18 +996,28 @@ impl LeapPreset {
 
     /// The leap's result read off the generic execution `exec`, run with the rear motor
     /// starting `motor_t2_s` after the front one, the front one at `front_start` on its clock.
-    pub(crate) fn result(&self, exec: Execution, motor_t2_s: f64, front_start: f64) -> LeapResult {
+    pub(crate) fn result(
+        &self,
+        exec: Execution,
+        outcome: Outcome,
+        motor_t2_s: f64,
+        front_start: f64,
+    ) -> LeapResult {
         let cfg = &self.cfg;
         let rhex = &self.leap.rhex;
         let model = &rhex.model;
         let q0 = &self.q0;
         let start = [front_start, front_start + motor_t2_s];
         let first_start = start[0].min(start[1]);
-        let flew = exec
+        let flight = exec
             .segments
             .iter()
             .any(|s| s.mode.is_flight() && s.t0 >= first_start);
-        let status = LeapStatus::of(&exec.termination, flew && !cfg.stop_at_apex);
+        let flew = match outcome.status {
+            RunStatus::Apex => true,
+            RunStatus::FinalTime => flight && !cfg.stop_at_apex,
+            _ => false,
+        };
         // the apex that ended the run, or (run on past it) that of its first flight after a
         // motor started
         let apex_event = match exec.termination {
@@ -1079,29 +1037,7 @@ impl LeapPreset {
             zdot_m_s: -e.qd_after[3],
             phidot_rad_s: e.qd_after[4],
         });
-        // cells that last no longer than the events' location can resolve are zero-time
-        // cells; never more than 0.1 ms (a coarse event tolerance does not hide real cells)
-        let word = leap_word(rhex, &exec, (1e3 * cfg.event_tol_s).min(1e-4));
-        let names = |ks: &[usize]| ks.iter().map(|&k| model.contacts[k].name.clone()).collect();
-        let events = exec
-            .events
-            .iter()
-            .map(|e| LeapEvent {
-                t_s: e.t - start[0],
-                kind: e.kind.name(),
-                mode_before: rhex.label(e.mode_before),
-                mode_after: rhex.label(e.mode_after),
-                contacts: names(&e.triggered),
-                energy_loss_j: if matches!(
-                    e.kind,
-                    EventKind::Touchdown | EventKind::Fold | EventKind::Jam
-                ) {
-                    energy_loss(e.kinetic_before, e.kinetic_after)
-                } else {
-                    0.0
-                },
-            })
-            .collect();
+        let events = event_records_labelled(model, &exec, &|m| rhex.label(m), start[0]);
         // the touchdown offset: each pushing leg's first touchdown after its motor started
         let first_touchdown = |i: usize| {
             let contact = rhex.site(2 * i + 1);
@@ -1118,9 +1054,9 @@ impl LeapPreset {
             .zip(first_touchdown(1))
             .map(|(front, rear)| rear - front);
         LeapResult {
-            status,
+            outcome,
+            flew,
             apex,
-            word,
             execution: exec,
             time_offset_s: start[0],
             q0: q0.clone(),
@@ -1131,55 +1067,17 @@ impl LeapPreset {
     }
 }
 
-impl LeapStatus {
-    /// The leap's status of an execution that ended with `termination`; `flew_on`: the run
-    /// went on past a flight (not stopping at its apex) to its final time.
-    fn of(termination: &Termination, flew_on: bool) -> Self {
-        use selfmanip_sim::RunStatus as R;
-        match R::of(termination) {
-            R::Apex => LeapStatus::Ok,
-            R::FinalTime if flew_on => LeapStatus::Ok,
-            R::FinalTime => LeapStatus::NoFlight,
-            R::Zeno => LeapStatus::Zeno,
-            R::EventBudget => LeapStatus::EventBudget,
-            R::NoContactSolution => LeapStatus::NoContactSolution,
-            R::SeveralContactSolutions => LeapStatus::SeveralContactSolutions,
-            R::TerrainDiscontinuity => LeapStatus::TerrainEdge,
-            R::SingularFlow => LeapStatus::SingularContact,
-            R::StepBudget => LeapStatus::StepBudget,
-            R::Interrupted => LeapStatus::Interrupted,
-        }
-    }
-}
-
-/// Round-off of a kinetic energy evaluated twice (`½ q̇ᵀ M̄ q̇` at the two velocities of one
-/// projection), relative to the energy, and its floor (J): an event's loss within
-/// `ENERGY_ROUND_OFF · (T⁻ + 1 J)` is reported as zero.
-pub const ENERGY_ROUND_OFF: f64 = 1e-12;
-
-/// The kinetic energy an event lost, `T⁻ − T⁺`, with round-off ([`ENERGY_ROUND_OFF`])
-/// reported as zero: a zero-speed touchdown loses nothing, and its computed loss is a few
-/// 1e-13 J of either sign.
-fn energy_loss(before: f64, after: f64) -> f64 {
-    let loss = before - after;
-    if loss.abs() <= ENERGY_ROUND_OFF * (before.abs() + 1.0) {
-        0.0
-    } else {
-        loss
-    }
-}
-
 /// Runs one leap (see the module documentation) and reports its apex and word.
 ///
 /// Errors are bad parameters (typed, naming the field) and failures of the engine that
 /// prevent any answer; a leap that runs but does not reach flight, or ends Zeno, is an `Ok`
-/// result with the corresponding [`LeapStatus`].
+/// result with the engine's [`RunStatus`] (and [`LeapResult::flew`] false).
 pub fn simulate_leap(params: &RhexParams, cfg: &LeapConfig) -> Result<LeapResult, RhexError> {
     simulate_leap_with(params, cfg, &selfmanip_hybrid::budget::NEVER)
 }
 
 /// [`simulate_leap`] that another thread can stop: once `stop` is raised the leap ends
-/// within one integration step with status [`LeapStatus::Interrupted`].
+/// within one integration step with status [`RunStatus::Interrupted`].
 pub fn simulate_leap_with(
     params: &RhexParams,
     cfg: &LeapConfig,
@@ -1189,12 +1087,12 @@ pub fn simulate_leap_with(
 }
 
 impl LeapResult {
-    /// Why the leap ended short of `ok`, in words (empty for `ok`): the engine's
+    /// Why the leap did not fly, in words (empty when it [flew](Self::flew)): the engine's
     /// [`Termination::describe`] on the leap's clock (t = 0 at the first motor's start) with
     /// the leap's contact names and the flowing mode's label (`s` for a sliding toe); a run
     /// that ended at its final time says it found no flight (or no apex).
     pub fn reason(&self, params: &RhexParams, cfg: &LeapConfig) -> String {
-        if self.status == LeapStatus::Ok {
+        if self.flew {
             return String::new();
         }
         if self.execution.termination == Termination::FinalTime {
@@ -1335,7 +1233,7 @@ pub fn leap_scenario(
 ) -> Result<LeapScenario, RhexError> {
     cfg.validate()?;
     if cfg.t2_reference != T2Reference::MotorStart {
-        return Err(RhexError::Params {
+        return Err(RhexError::Unsupported {
             field: "t2_reference".into(),
             reason: "a leap scenario times its legs by motor start: pass the motor start of \
                      the touchdown-timed leap (`LeapResult::motor_t2_s`) as `t2_s`"
@@ -1478,7 +1376,10 @@ pub(crate) fn scenario_of(
             zeno_max_events: cfg.zeno_max_events,
             labels: Some(labels),
             word: WordOptions {
-                min_duration_s: 1e3 * cfg.event_tol_s,
+                // cells that last no longer than the events' location can resolve are
+                // zero-time cells; never more than 0.1 ms (a coarse event tolerance does not
+                // hide real cells)
+                min_duration_s: (1e3 * cfg.event_tol_s).min(1e-4),
                 sliding_as_contact: true,
             },
             ..SimOptions::default()

@@ -83,7 +83,7 @@ pub const SENSITIVITY_PARAMETERS: [&str; 6] = [
 /// One event's saltation matrix over `(q, q̇)`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EventSaltation {
-    /// Time relative to the front leg's start (s), as in [`crate::leap::LeapEvent`].
+    /// Time relative to the front leg's start (s), as in [`crate::leap::LeapResult::events`].
     pub t_s: f64,
     /// `Defined`, or why the saltation is not.
     pub status: SaltationStatus,
@@ -150,7 +150,7 @@ fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<LeapParameter>, RhexE
             "t2" | "t2_s" => Ok(LeapParameter::T2),
             "gear_ratio" => match cfg.actuator {
                 LegActuator::GearedMotor { .. } => Ok(LeapParameter::GearRatio),
-                LegActuator::SaturatedTorque => Err(RhexError::Params {
+                LegActuator::SaturatedTorque => Err(RhexError::Unsupported {
                     field: "gear_ratio".into(),
                     reason: "the saturated-torque actuator has no gear ratio to differentiate"
                         .into(),
@@ -159,12 +159,9 @@ fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<LeapParameter>, RhexE
             "m_b" => Ok(LeapParameter::BodyMass),
             "I_b" => Ok(LeapParameter::BodyInertia),
             "leg_armature_kg_m2" => Ok(LeapParameter::LegArmature),
-            other => Err(RhexError::Params {
+            other => Err(RhexError::UnknownParameter {
                 field: other.into(),
-                reason: format!(
-                    "unknown sensitivity parameter (known: {})",
-                    SENSITIVITY_PARAMETERS.join(", ")
-                ),
+                known: SENSITIVITY_PARAMETERS.join(", "),
             }),
         })
         .collect()
@@ -206,7 +203,7 @@ fn engine_terms(
         }
         LeapParameter::LegArmature => {
             if crate::leap::leg_armature(params, cfg)? <= 0.0 {
-                return Err(RhexError::Params {
+                return Err(RhexError::Unsupported {
                     field: "leg_armature_kg_m2".into(),
                     reason: "the legs have no armature (massless legs without their rotors): \
                              at zero a massless leg leaves the dynamics, so the armature is \
@@ -251,7 +248,7 @@ pub fn leap_with_sensitivity_from(
         ..cfg.clone()
     };
     if cfg.toe_stub_rad.is_some() {
-        return Err(RhexError::Params {
+        return Err(RhexError::Unsupported {
             field: "toe_stub_rad".into(),
             reason: "the toe stub reverses the torque without an event: leaps with it have no \
                      sensitivities"
@@ -259,7 +256,7 @@ pub fn leap_with_sensitivity_from(
         });
     }
     if cfg.t2_reference != T2Reference::MotorStart {
-        return Err(RhexError::Params {
+        return Err(RhexError::Unsupported {
             field: "t2_reference".into(),
             reason: "sensitivities are taken at a fixed motor start: use t2_reference = \
                      motor_start (a touchdown-timed leap reports the start it found as \
@@ -272,7 +269,7 @@ pub fn leap_with_sensitivity_from(
     let n2 = 2 * model.nq();
     let dirs = directions.cloned().unwrap_or_else(|| DMatrix::zeros(n2, 0));
     if dirs.nrows() != n2 {
-        return Err(RhexError::Params {
+        return Err(RhexError::InvalidValue {
             field: "directions".into(),
             reason: format!("expected {n2} rows, got {}", dirs.nrows()),
         });
@@ -378,7 +375,7 @@ fn run_from(preset: &LeapPreset, start_offset: Option<&[f64]>) -> Result<LeapRes
     let nq = sim.q0.len();
     if let Some(dx) = start_offset {
         if dx.len() != 2 * nq {
-            return Err(RhexError::Params {
+            return Err(RhexError::InvalidValue {
                 field: "start_offset".into(),
                 reason: format!("expected {} entries, got {}", 2 * nq, dx.len()),
             });
@@ -389,7 +386,7 @@ fn run_from(preset: &LeapPreset, start_offset: Option<&[f64]>) -> Result<LeapRes
         }
     }
     let run = sim.run_with(&NEVER)?;
-    Ok(preset.result(run.execution, t2, front_start))
+    Ok(preset.result(run.execution, run.outcome, t2, front_start))
 }
 
 /// The engine's parameters behind the leap's `ps` ([`engine_terms`]), and the matrix that

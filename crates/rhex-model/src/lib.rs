@@ -27,10 +27,27 @@ pub use params::{LegPair, LegShape, RhexParams};
 
 use thiserror::Error;
 
+/// What went wrong. Every error of the caller's input names its field ([`RhexError::field`]).
 #[derive(Debug, Clone, Error, PartialEq)]
 pub enum RhexError {
+    /// A value outside its domain (the reason says which: finite, positive, a range, …).
     #[error("RHex parameter `{field}`: {reason}")]
-    Params { field: String, reason: String },
+    InvalidValue { field: String, reason: String },
+    /// A name that names no parameter (`known`: the names that do, comma-separated).
+    #[error("RHex parameter `{field}`: unknown parameter (known: {known})")]
+    UnknownParameter { field: String, known: String },
+    /// A value that does not read as its field's type or grammar (a strategy, a TOML file,
+    /// a sweep's override).
+    #[error("RHex parameter `{field}`: {reason}")]
+    Unreadable { field: String, reason: String },
+    /// Something asked of a leap that it does not have (a derivative its model cannot give,
+    /// a timing a scenario cannot take).
+    #[error("RHex parameter `{field}`: {reason}")]
+    Unsupported { field: String, reason: String },
+    /// The leap's start state, built from the parameters, overflows: `field` is the parameter
+    /// (`m_b`, `I_b`, `m_l`, `I_l`) whose size makes it so.
+    #[error("RHex parameter `{field}`: the leap's start state overflows with it: {reason}")]
+    StartOverflow { field: String, reason: String },
     #[error("bad contact-mode label `{label}`: {reason}")]
     ModeLabel { label: String, reason: String },
     #[error(transparent)]
@@ -41,13 +58,29 @@ pub enum RhexError {
     Sim(selfmanip_sim::SimError),
 }
 
+impl RhexError {
+    /// The input at fault, for an error of the caller's input: a parameter or setting by
+    /// name, `mode` for a bad mode label; `None` for a failure of the engine.
+    pub fn field(&self) -> Option<&str> {
+        match self {
+            RhexError::InvalidValue { field, .. }
+            | RhexError::UnknownParameter { field, .. }
+            | RhexError::Unreadable { field, .. }
+            | RhexError::Unsupported { field, .. }
+            | RhexError::StartOverflow { field, .. } => Some(field),
+            RhexError::ModeLabel { .. } => Some("mode"),
+            _ => None,
+        }
+    }
+}
+
 /// A value out of its domain stays a parameter error naming its field (a leap's terrain,
 /// an analysis's input); every other error of the simulation crate is carried as it is.
 impl From<selfmanip_sim::SimError> for RhexError {
     fn from(e: selfmanip_sim::SimError) -> Self {
         match e {
             selfmanip_sim::SimError::InvalidValue { field, reason } => {
-                RhexError::Params { field, reason }
+                RhexError::InvalidValue { field, reason }
             }
             selfmanip_sim::SimError::Core(c) => RhexError::Core(c),
             selfmanip_sim::SimError::Hybrid(h) => RhexError::Hybrid(h),

@@ -1,7 +1,6 @@
 //! RHex leap logs as MCAP files: a leap's trajectory and events through the generic writer
 //! of [`selfmanip_sim::mcap`] (its topics and schemas), with the leg frames named after the
 //! pairs (`<pair>_hip`) and the `q` names of a leap (`<pair>_theta`, `x`, `z`, `phi`).
-use crate::leap::LeapEvent;
 use crate::params::RhexParams;
 use crate::{Rhex, RhexError};
 use selfmanip_sim::events::EventRecord;
@@ -16,7 +15,7 @@ pub use selfmanip_sim::mcap::FORCE_ARROW_M_PER_N;
 /// What a log holds.
 pub struct LeapLog<'a> {
     pub trajectory: &'a Trajectory,
-    pub events: &'a [LeapEvent],
+    pub events: &'a [EventRecord],
     pub params: &'a RhexParams,
     /// Written as the `selfmanip` metadata record.
     pub metadata: BTreeMap<String, String>,
@@ -46,23 +45,10 @@ fn generic<R>(
         .iter()
         .map(|j| format!("{}_hip", model.legs[j.leg].name))
         .collect();
-    let events: Vec<EventRecord> = log
-        .events
-        .iter()
-        .map(|e| EventRecord {
-            t_s: e.t_s,
-            kind: e.kind,
-            mode_before: e.mode_before.clone(),
-            mode_after: e.mode_after.clone(),
-            contacts: e.contacts.clone(),
-            energy_loss_j: e.energy_loss_j,
-            impulse: Vec::new(),
-        })
-        .collect();
     Ok(write(&McapLog {
         model,
         trajectory: log.trajectory,
-        events: &events,
+        events: log.events,
         metadata: log.metadata.clone(),
         layout,
     })?)

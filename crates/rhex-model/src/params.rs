@@ -130,7 +130,7 @@ impl Default for RhexParams {
 
 impl RhexParams {
     pub fn from_toml_str(s: &str) -> Result<Self, crate::RhexError> {
-        toml::from_str(s).map_err(|e| crate::RhexError::Params {
+        toml::from_str(s).map_err(|e| crate::RhexError::Unreadable {
             field: "toml".into(),
             reason: e.to_string(),
         })
@@ -139,7 +139,7 @@ impl RhexParams {
     /// Checks every field (names in errors are the Table 4.2 symbols).
     pub fn validate(&self) -> Result<(), crate::RhexError> {
         let bad = |f: &str, r: &str| {
-            Err(crate::RhexError::Params {
+            Err(crate::RhexError::InvalidValue {
                 field: f.into(),
                 reason: r.into(),
             })

@@ -146,7 +146,7 @@ pub const MAX_MAP_N: usize = 1024;
 /// Fig. 4.3 / 4.6 as data: the pose on an `n × n` grid over `θ₁, θ₂ ∈ [−π, π)`.
 pub fn contact_mode_map(rhex: &Rhex, n: usize) -> Result<Vec<QuasiStaticPose>, RhexError> {
     if !(1..=MAX_MAP_N).contains(&n) {
-        return Err(RhexError::Params {
+        return Err(RhexError::InvalidValue {
             field: "n".into(),
             reason: format!("the grid has 1 to {MAX_MAP_N} points per joint, got {n}"),
         });

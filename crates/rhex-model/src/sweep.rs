@@ -21,8 +21,7 @@
 //! the defaults: 20 A, two motors per planar leg); `None` keeps the base actuator. The
 //! reported gear ratio is the one used, NaN for [`LegActuator::SaturatedTorque`].
 use crate::leap::{
-    simulate_leap, simulate_leap_cached, LeapConfig, LeapResult, LeapStatus, LegActuator,
-    StartPoses, Strategy,
+    simulate_leap, simulate_leap_cached, LeapConfig, LeapResult, LegActuator, StartPoses, Strategy,
 };
 use crate::{RhexError, RhexParams};
 use selfmanip_hybrid::budget::NEVER;
@@ -57,12 +56,14 @@ impl SweepPoint {
 /// The outcome of one point, flattened for a table.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SweepRow {
-    /// `ok`, a [`crate::leap::LeapStatus`] string (`no_flight`, `zeno`, …) or an error kind
+    /// The engine's [`selfmanip_sim::RunStatus`] (`apex`, `final_time`, `zeno`, …) or an error kind
     /// ([`error_kind`]: `invalid_params`, `singular_kkt`, `overflow`, `engine_error`,
     /// `panic`, …).
     pub status: String,
     /// The error message when the point failed with an error (empty otherwise).
     pub error: String,
+    /// The leap flew ([`LeapResult::flew`]); `false` for a point that failed.
+    pub flew: bool,
     /// Gear ratio used (NaN for the saturated-torque actuator or an invalid point).
     pub gear_ratio: f64,
     /// Apex (z up, x forward from the start); NaN when the leap has no apex.
@@ -86,6 +87,7 @@ impl SweepRow {
         Self {
             status: status.into(),
             error,
+            flew: false,
             gear_ratio,
             apex_t_s: f64::NAN,
             apex_x_m: f64::NAN,
@@ -99,9 +101,10 @@ impl SweepRow {
         }
     }
 
-    /// The row of a leap that ran (`why`: the reason it did not reach `ok`, or empty).
+    /// The row of a leap that ran (`why`: why it did not fly, or empty).
     pub fn of_leap(r: &LeapResult, why: String, gear_ratio: f64) -> Self {
         let mut row = Self::failed(r.status.as_str(), why, gear_ratio);
+        row.flew = r.flew;
         row.word = r.word_string();
         row.n_events = r.events.len();
         if let Some(a) = r.apex {
@@ -207,9 +210,9 @@ pub fn check_override_names<'a>(names: impl IntoIterator<Item = &'a str>) -> Res
     let known = sweepable_names();
     for n in names {
         if !known.iter().any(|k| k == n) {
-            return Err(RhexError::Params {
+            return Err(RhexError::UnknownParameter {
                 field: n.into(),
-                reason: format!("unknown parameter (sweepable: {})", known.join(", ")),
+                known: known.join(", "),
             });
         }
     }
@@ -235,11 +238,11 @@ fn merged<T: serde::de::DeserializeOwned>(
                 .map(|e1| (o.0.clone(), e1))
         });
         match culprit {
-            Some((field, e1)) => RhexError::Params {
+            Some((field, e1)) => RhexError::Unreadable {
                 field,
                 reason: e1.to_string(),
             },
-            None => RhexError::Params {
+            None => RhexError::Unreadable {
                 field: "overrides".into(),
                 reason: e.to_string(),
             },
@@ -257,7 +260,7 @@ pub fn point_inputs(
         (base_params.clone(), base_cfg.clone())
     } else {
         let to_value = |r: serde_json::Result<Value>| {
-            r.map_err(|e| RhexError::Params {
+            r.map_err(|e| RhexError::Unreadable {
                 field: "overrides".into(),
                 reason: e.to_string(),
             })
@@ -319,7 +322,7 @@ fn validate_inputs(params: &RhexParams, cfg: &LeapConfig) -> Result<(), RhexErro
     params.validate()?;
     cfg.terrain.validate()?;
     let bad = |field: &str, reason: String| {
-        Err(RhexError::Params {
+        Err(RhexError::InvalidValue {
             field: field.into(),
             reason,
         })
@@ -356,7 +359,11 @@ fn validate_inputs(params: &RhexParams, cfg: &LeapConfig) -> Result<(), RhexErro
 pub fn error_kind(e: &RhexError) -> &'static str {
     use selfmanip_hybrid::HybridError as H;
     match e {
-        RhexError::Params { .. } => "invalid_params",
+        RhexError::InvalidValue { .. }
+        | RhexError::UnknownParameter { .. }
+        | RhexError::Unreadable { .. }
+        | RhexError::Unsupported { .. }
+        | RhexError::StartOverflow { .. } => "invalid_params",
         RhexError::ModeLabel { .. } => "invalid_mode",
         RhexError::Sim(s) if s.is_input_error() => "invalid_params",
         RhexError::Sim(s) => s.kind(),
@@ -420,7 +427,11 @@ pub fn run_row_with(
     starts: &StartPoses,
 ) -> SweepRow {
     if stop.load(Ordering::Relaxed) {
-        return SweepRow::failed(LeapStatus::Interrupted.as_str(), String::new(), f64::NAN);
+        return SweepRow::failed(
+            selfmanip_sim::RunStatus::Interrupted.as_str(),
+            String::new(),
+            f64::NAN,
+        );
     }
     let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         let (params, cfg) = point_inputs(base_params, base_cfg, point)?;

@@ -881,7 +881,7 @@ fn analyses_run_on_the_quadruped() {
 fn bad_input_is_rejected() {
     use rhex_model::RhexError;
     let field = |e: RhexError| match e {
-        RhexError::Params { field, .. } => field,
+        RhexError::InvalidValue { field, .. } => field,
         other => panic!("unexpected {other:?}"),
     };
     assert_eq!(

@@ -1,14 +1,13 @@
 //! Leaps and sweeps with absurd inputs (issue 16): each ends in a typed error, a budget status
 //! or a fix — never a hang, a silent inf or a lost sweep — and a leap or a sweep can be
 //! stopped from outside.
-use rhex_model::leap::{
-    leap_params, simulate_leap, simulate_leap_with, LeapConfig, LeapStatus, Strategy,
-};
+use rhex_model::leap::{leap_params, simulate_leap, simulate_leap_with, LeapConfig, Strategy};
 use rhex_model::params::ToeSliding;
 use rhex_model::sweep::{grid, sweep, sweep_with, SweepPoint};
 use rhex_model::{RhexError, RhexParams};
 use selfmanip_core::CoreError;
 use selfmanip_hybrid::{HybridError, Termination};
+use selfmanip_sim::RunStatus;
 use serde_json::json;
 use std::sync::atomic::AtomicBool;
 
@@ -25,7 +24,7 @@ fn event_tol_of_1e_minus_308_leaps_like_the_default() {
         event_tol_s: 1e-308,
         ..LeapConfig::default()
     });
-    assert_eq!(r.status, LeapStatus::Ok);
+    assert!(r.flew);
     let (a, b) = (r.apex.unwrap(), fine.apex.unwrap());
     assert!((a.z_m - b.z_m).abs() < 1e-6 && (a.phi_rad - b.phi_rad).abs() < 1e-6);
     assert_eq!(r.word, fine.word);
@@ -45,9 +44,10 @@ fn leg_mass_of_1e308_is_a_typed_overflow_error() {
     // the simulator refuses the start whose mass matrix overflows before the first step (or
     // the first evaluation meets the overflow): typed, naming what overflowed
     match simulate_leap(&params, &LeapConfig::default()) {
-        Err(RhexError::Params { field, reason }) => {
-            assert_eq!(field, "params");
-            assert!(reason.contains("overflows"), "{reason}");
+        Err(e @ RhexError::StartOverflow { .. }) => {
+            // the parameter that overflows, not `params`
+            assert_eq!(e.field(), Some("m_l"));
+            assert!(e.to_string().contains("overflows"), "{e}");
         }
         Err(e @ RhexError::Hybrid(HybridError::Core(CoreError::NonFiniteResult { .. }))) => {
             assert!(!e.to_string().contains("`qd`"), "{e}")
@@ -68,7 +68,8 @@ fn leg_mass_of_1e308_is_a_typed_overflow_error() {
     )
     .unwrap();
     assert_eq!(rows[1].status, "invalid_params");
-    assert_eq!(rows[0].status, "ok");
+    assert_eq!(rows[0].status, "apex");
+    assert!(rows[0].flew);
     assert_eq!(rows[0], rows[2]);
 }
 
@@ -83,7 +84,7 @@ fn t_final_of_1e6_without_stopping_at_apex_ends_at_its_step_budget() {
         ..LeapConfig::default()
     };
     let r = leap(&cfg);
-    assert_eq!(r.status, LeapStatus::StepBudget);
+    assert_eq!(r.status, RunStatus::StepBudget);
     assert!(matches!(
         r.execution.termination,
         Termination::StepBudget { .. }
@@ -95,7 +96,7 @@ fn t_final_of_1e6_without_stopping_at_apex_ends_at_its_step_budget() {
         max_steps: 100,
         ..cfg.clone()
     });
-    assert_eq!((r.status, r.execution.steps), (LeapStatus::StepBudget, 100));
+    assert_eq!((r.status, r.execution.steps), (RunStatus::StepBudget, 100));
     // and says so in words, with the budget and the instant on the leap's clock (it read
     // `StepBudget { t: …, steps: 100 }`, the enum's debug form)
     let Termination::StepBudget { t, .. } = r.execution.termination else {
@@ -113,7 +114,7 @@ fn t_final_of_1e6_without_stopping_at_apex_ends_at_its_step_budget() {
     assert!(!why.contains('{'), "{why}");
     assert!(matches!(
         simulate_leap(&leap_params(), &LeapConfig { max_steps: 0, ..cfg }),
-        Err(RhexError::Params { field, .. }) if field == "max_steps"
+        Err(RhexError::InvalidValue { field, .. }) if field == "max_steps"
     ));
 }
 
@@ -133,8 +134,8 @@ fn stop_at_apex_false_reports_the_apex_of_the_first_flight() {
             stop_at_apex: false,
             ..cfg
         });
-        assert_eq!(stopped.status, LeapStatus::Ok, "{s}");
-        assert_ne!(on.status, LeapStatus::NoFlight, "{s}");
+        assert!(stopped.flew, "{s}");
+        assert!(on.flew, "{s}");
         assert_eq!(on.apex, stopped.apex, "{s}");
         assert!(on.events.iter().any(|e| e.kind == "apex"));
     }
@@ -178,7 +179,7 @@ fn coarse_event_tolerance_and_rtol_still_leap_on_flat_ground() {
             },
         ] {
             let r = leap(&cfg);
-            assert_eq!(r.status, LeapStatus::Ok, "{s} {r:?}", r = r.word_string());
+            assert!(r.flew, "{s} {r:?}", r = r.word_string());
             let a = r.apex.unwrap();
             if s == Strategy::ALL[0] && cfg.rtol == 1e-3 {
                 continue; // the two-outcome leap (doc comment)
@@ -229,7 +230,7 @@ fn touchdown_energy_loss_is_never_negative_round_off() {
 fn stop_flag_interrupts_leaps_and_sweeps() {
     let raised = AtomicBool::new(true);
     let r = simulate_leap_with(&leap_params(), &LeapConfig::default(), &raised).unwrap();
-    assert_eq!(r.status, LeapStatus::Interrupted);
+    assert_eq!(r.status, RunStatus::Interrupted);
     assert!(r.execution.steps <= 1);
     // timings at which every strategy flies: rows without an apex hold NaN, never equal
     let points = grid(&Strategy::ALL, &[-0.02, 0.1], &[None]);

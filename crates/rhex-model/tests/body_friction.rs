@@ -18,7 +18,7 @@ fn bad_body_friction_is_a_typed_error_naming_mu_body() {
             ..leap_params()
         };
         match params.validate() {
-            Err(RhexError::Params { field, .. }) => assert_eq!(field, "mu_body"),
+            Err(RhexError::InvalidValue { field, .. }) => assert_eq!(field, "mu_body"),
             other => panic!("μ {mu}: {other:?}"),
         }
     }

@@ -6,7 +6,7 @@
 //! not reproduce have no test here; `docs/fidelity.md` (written by
 //! `crates/tools/src/bin/fidelity.rs`) lists every claim with its value and verdict.
 use rhex_model::leap::{
-    leap_params, leg_swing, simulate_leap, LeapConfig, LeapResult, LeapStatus, T2Reference,
+    leap_params, leg_swing, simulate_leap, LeapConfig, LeapResult, T2Reference,
 };
 use rhex_model::params::ToeSliding;
 use rhex_model::RhexParams;
@@ -103,7 +103,7 @@ fn plus_plus_apex_height_jumps_just_after_t2_zero_and_rises_with_t2() {
         .into_iter()
         .map(|t2| {
             let r = leap("++", t2);
-            assert_eq!(r.status, LeapStatus::Ok, "t2 = {t2}: {}", r.word_string());
+            assert!(r.flew, "t2 = {t2}: {}", r.word_string());
             let a = r.apex.unwrap();
             (t2, a.z_m, a.phi_rad)
         })
@@ -238,7 +238,7 @@ fn minus_minus_flips_backward_more_when_the_rear_leg_is_not_late() {
     let (mut early, mut late) = ((0, 0), (0, 0));
     for t2 in grid(-0.2, 0.2, 0.01) {
         let r = leap("--", t2);
-        assert_eq!(r.status, LeapStatus::Ok, "t2 = {t2}: {}", r.word_string());
+        assert!(r.flew, "t2 = {t2}: {}", r.word_string());
         let a = r.apex.expect("a leap that ends ok has its apex");
         assert!(a.x_m < 0.0, "t2 = {t2}: {a:?}");
         let flipped = a.phi_rad.abs() > std::f64::consts::FRAC_PI_2;

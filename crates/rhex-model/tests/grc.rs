@@ -2,6 +2,7 @@
 //! statements (the 64-edge Hasse diagram, the category definitions, the "18 transitions over
 //! 15 cells" of Fig. 3.3, and the leap words (3.2)–(3.7)).
 use rhex_model::grc::*;
+use rhex_model::leap::{Push, Strategy};
 use std::collections::BTreeSet;
 
 fn cell(s: &str) -> Cell {
@@ -177,11 +178,15 @@ fn bad_labels_and_strategies_are_typed_errors() {
         assert!(Cell::from_label(bad).is_err(), "{bad:?}");
     }
     assert!(Cell::from_bits(16).is_err());
-    assert_eq!(Strategy::parse("(+, -)").unwrap(), Strategy::PlusMinus);
-    assert_eq!(Strategy::parse("--").unwrap().signs(), (-1.0, -1.0));
-    assert!(Strategy::parse("+0").is_err());
+    assert_eq!(
+        "(+, -)".parse::<Strategy>().unwrap(),
+        Strategy::new(Push::Plus, Push::Minus)
+    );
+    let mm: Strategy = "--".parse().unwrap();
+    assert_eq!((mm.front.sign(), mm.rear.sign()), (-1.0, -1.0));
+    assert!("+0".parse::<Strategy>().is_err());
     for s in Strategy::ALL {
-        assert_eq!(Strategy::parse(&s.to_string()).unwrap(), s);
+        assert_eq!(s.to_string().parse::<Strategy>().unwrap(), s);
     }
 }
 

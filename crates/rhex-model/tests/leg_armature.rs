@@ -99,7 +99,7 @@ fn a_massive_leaps_legs_carry_the_armature_and_massless_legs_stay_massless() {
             ..massive()
         };
         match simulate_leap(&p, &cfg) {
-            Err(RhexError::Params { field, .. }) => assert_eq!(field, "leg_armature_kg_m2"),
+            Err(RhexError::InvalidValue { field, .. }) => assert_eq!(field, "leg_armature_kg_m2"),
             other => panic!("{bad}: {:?}", other.map(|r| r.status)),
         }
     }
@@ -185,7 +185,7 @@ fn worst_event_time_error(
     n: usize,
     floor: f64,
     steps: [f64; 3],
-    leap: impl Fn(f64) -> Vec<rhex_model::leap::LeapEvent>,
+    leap: impl Fn(f64) -> Vec<selfmanip_sim::EventRecord>,
 ) -> f64 {
     let base = leap(0.0);
     (0..n)
@@ -291,7 +291,7 @@ fn gear_ratio_and_armature_derivatives_through_the_rotors_equal_central_differen
     );
     // legs without armature: not a parameter
     match leap_with_sensitivity(&leap_params(), &cfg, &["leg_armature_kg_m2"]) {
-        Err(RhexError::Params { field, .. }) => assert_eq!(field, "leg_armature_kg_m2"),
+        Err(RhexError::Unsupported { field, .. }) => assert_eq!(field, "leg_armature_kg_m2"),
         other => panic!("{:?}", other.map(|s| s.reason)),
     }
     let bare = Rhex::new(RhexParams {
@@ -362,7 +362,7 @@ fn leg_rotors_puts_the_actuators_rotors_on_any_leg_or_none() {
         ..with(leap_params(), Some(true))
     };
     match simulate_leap(&both, &LeapConfig::default()) {
-        Err(RhexError::Params { field, .. }) => assert_eq!(field, "leg_rotors"),
+        Err(RhexError::InvalidValue { field, .. }) => assert_eq!(field, "leg_rotors"),
         other => panic!("{:?}", other.map(|r| r.status)),
     }
 }

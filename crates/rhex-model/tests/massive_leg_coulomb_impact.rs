@@ -13,7 +13,7 @@
 //! contact let go is not approaching the ground; the kinetic energy does not grow; and over
 //! the whole leap the energy balances, `E₁ − E₀ = W + W_fr − L` (integrated powers against
 //! state energies). No apex numbers are asserted.
-use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapStatus, LegActuator};
+use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator};
 use rhex_model::{Rhex, RhexParams};
 use selfmanip_core::contact::{contact_geometry, ContactKind};
 use selfmanip_core::kinematics::Kinematics;
@@ -41,7 +41,7 @@ fn check(strategy: &str, t2_s: f64, actuator: LegActuator) {
         "{strategy} t2 = {t2_s}: {word} {:?}",
         r.execution.termination
     );
-    assert_eq!(r.status, LeapStatus::Ok, "{ctx}");
+    assert!(r.flew, "{ctx}");
     assert!(r.apex.is_some(), "{ctx}");
     let mut pp = p.clone();
     pp.pairs = cfg.strategy.chapter3_pairs().to_vec();

@@ -32,7 +32,7 @@ fn lands_again(r: &LeapResult) -> bool {
         .events
         .iter()
         .position(|e| e.t_s >= start_both && e.mode_after.chars().all(|c| c == '0'));
-    let leg_touchdown = |e: &rhex_model::leap::LeapEvent| {
+    let leg_touchdown = |e: &selfmanip_sim::EventRecord| {
         e.kind == "touchdown" && e.contacts.iter().any(|c| c.ends_with("_leg"))
     };
     let after_takeoff = takeoff.is_some_and(|k| r.events[k..].iter().any(leg_touchdown));

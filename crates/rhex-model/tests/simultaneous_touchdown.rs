@@ -22,7 +22,7 @@
 //! slides in the direction its fixed friction edge opposes, `σ v_t > 0`, found on the
 //! integrated states by the kinematics, not by the friction law), the core's KKT at its start
 //! (both legs push), and the same events at every integration tolerance.
-use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapResult, LeapStatus};
+use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapResult};
 use rhex_model::Rhex;
 use selfmanip_core::friction::SlideDirection;
 use selfmanip_core::kinematics::Kinematics;
@@ -44,7 +44,7 @@ fn leap(rtol: f64) -> LeapResult {
 #[test]
 fn simultaneous_touchdown_keeps_both_toes_leaving_rest_together() {
     let r = leap(1e-8);
-    assert_eq!(r.status, LeapStatus::Ok, "{}", r.word_string());
+    assert!(r.flew, "{}", r.word_string());
     // the first event is both legs' touchdown, and it keeps both (label FB FL RB RL)
     let first = &r.events[0];
     assert_eq!(first.kind, "touchdown");

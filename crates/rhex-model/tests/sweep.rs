@@ -1,11 +1,10 @@
 //! Sweeps (issue 5): determinism across thread counts, per-point failure isolation,
 //! parameter overrides by name, and MCAP logs read back.
-use rhex_model::leap::{leap_params, LeapConfig, LeapEvent, LegActuator, Push, Strategy};
+use rhex_model::leap::{leap_params, LeapConfig, LegActuator, Push, Strategy};
 use rhex_model::mcap_log::{write_leap_mcap, write_leap_mcap_to, LeapLog};
 use rhex_model::sweep::{
     check_override_names, grid, point_inputs, run_row, sweep, sweepable_names, SweepPoint, SweepRow,
 };
-use rhex_model::RhexError;
 use selfmanip_sim::Trajectory;
 use serde_json::json;
 use std::collections::BTreeMap;
@@ -180,7 +179,7 @@ fn bad_overrides_name_their_field() {
         pt.overrides.insert("m_b".into(), json!(9.0));
         pt.overrides.insert(k.into(), v);
         match point_inputs(&p, &c, &pt) {
-            Err(RhexError::Params { field, .. }) => field,
+            Err(e) => e.field().unwrap_or_else(|| panic!("{k}: {e}")).to_string(),
             other => panic!("{k}: {other:?}"),
         }
     };
@@ -195,7 +194,7 @@ fn bad_overrides_name_their_field() {
     assert!(sweep(&p, &c, &[], 0).is_err());
 }
 
-fn synthetic() -> (Trajectory, Vec<LeapEvent>) {
+fn synthetic() -> (Trajectory, Vec<selfmanip_sim::EventRecord>) {
     let n = 50;
     let t_s: Vec<f64> = (0..n).map(|k| -0.1 + 0.004 * k as f64).collect();
     let q: Vec<Vec<f64>> = t_s
@@ -256,13 +255,14 @@ fn synthetic() -> (Trajectory, Vec<LeapEvent>) {
         contact_points_m,
         contact_forces_n,
     };
-    let ev = vec![LeapEvent {
+    let ev = vec![selfmanip_sim::EventRecord {
         t_s: -0.02,
         kind: "touchdown",
         mode_before: "1010".into(),
         mode_after: "1111".into(),
         contacts: vec!["middle_leg".into()],
         energy_loss_j: 0.25,
+        impulse: Vec::new(),
     }];
     (tr, ev)
 }

@@ -13,7 +13,7 @@
 //! `0101 → 0001` instead of `0101 → 0s01`). The reset at a slip now projects the velocity
 //! onto the constraints of the mode before (`A q̇ = 0`), so the slipping toe starts from
 //! zero sliding speed and its edge is chosen by the forces at rest.
-use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapResult, LeapStatus};
+use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapResult};
 
 fn leap(strategy: &str, t2_s: f64, rtol: f64) -> LeapResult {
     simulate_leap(
@@ -86,7 +86,7 @@ fn default_leaps_have_one_outcome_across_integration_tolerances() {
         ("+-", 0.0),
     ] {
         let reference = leap(strategy, t2, 1e-8);
-        assert_eq!(reference.status, LeapStatus::Ok, "{strategy} t2={t2}");
+        assert!(reference.flew, "{strategy} t2={t2}");
         let ra = reference.apex.expect("an apex");
         for rtol in [1e-6, 1e-4, 1e-3] {
             let what = format!("{strategy} t2={t2} rtol={rtol}");

@@ -11,9 +11,7 @@
 //! at rest; the jammed toe's impulse, read from the event's rows, pushes and lies in its
 //! Coulomb cone; the kinetic energies the event records equal `½ q̇ᵀM̄q̇` evaluated again
 //! at its two velocities, the later the smaller; and the leap flies on to its apex.
-use rhex_model::leap::{
-    leap_params, rotor_reflected_inertia, simulate_leap, LeapConfig, LeapStatus,
-};
+use rhex_model::leap::{leap_params, rotor_reflected_inertia, simulate_leap, LeapConfig};
 use rhex_model::Rhex;
 use selfmanip_core::contact::{ContactKind, RowDirection};
 use selfmanip_core::model::Friction;
@@ -30,7 +28,7 @@ fn a_touchdown_that_leaves_a_toe_on_an_inconsistent_slide_jams_it() {
     let mut p = leap_params();
     p.leg_armature_kg_m2 = Some(rotor_reflected_inertia(&p, &cfg).unwrap());
     let r = simulate_leap(&p, &cfg).unwrap();
-    assert_eq!(r.status, LeapStatus::Ok, "{}", r.word_string());
+    assert!(r.flew, "{}", r.word_string());
     let exec = &r.execution;
     let e = exec
         .events

@@ -29,7 +29,7 @@ pub(crate) use selfmanip_sim::analysis::{
 };
 
 pub(crate) fn bad(field: &str, reason: impl Into<String>) -> RhexError {
-    RhexError::Params {
+    RhexError::InvalidValue {
         field: field.into(),
         reason: reason.into(),
     }

@@ -13,7 +13,7 @@
 //! (the pair's 0.126 kg and 0.00092 kg m², carrying their motors' rotors as joint armature),
 //! or massless links that carry their rotors (`RhexParams::leg_rotors`).
 use rhex_model::figures::{fig5_1_ledge_20cm, fig5_8_vertical_leap};
-use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapResult, LeapStatus};
+use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapResult};
 use rhex_model::RhexParams;
 use selfmanip_hybrid::EventKind;
 use selfmanip_sim::terrain::TerrainSpec;
@@ -495,7 +495,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         claim: "Fig. 5.1: (+,+), middle and rear legs, 20 A, δt = 0.03 s, t2 = 0.01 s, leaps onto a 20 cm ledge".into(),
         source: "Fig. 5.1",
         value: format!("{} — ends `{}` at z {:.3} m, φ {:.1}°", r1.word_string(), r1.events.last().map(|e| e.mode_after.clone()).unwrap_or_default(), -q1[3], deg(q1[4])),
-        verdict: pass(r1.status == LeapStatus::Ok && on_top),
+        verdict: pass(r1.flew && on_top),
     });
     // Fig. 5.6: the front leg's normal impulse at the rear leg's touchdown, and δt's
     let f16 = LeapConfig {
@@ -620,11 +620,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     });
 
     // --- counts
-    let count = |sw: &[(f64, LeapResult)]| {
-        sw.iter()
-            .filter(|(_, r)| r.status == LeapStatus::Ok)
-            .count()
-    };
+    let count = |sw: &[(f64, LeapResult)]| sw.iter().filter(|(_, r)| r.flew).count();
     let statuses = format!(
         "(+,+) {}/41, (+,−) {}/41, (−,−) {}/41, (−,+) {}/41",
         count(&pp),
