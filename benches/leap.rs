@@ -6,17 +6,22 @@
 //! `leap_pp.toml`, bit-identical executions): `behaviour_run` compiles nothing per
 //! iteration (a `Simulation` built once), `behaviour_build_and_run` also checks and compiles
 //! the scenario each time, as the controller path builds its robot and start pose each time.
+//! `++ preset_at` runs the leap on a [`LeapPreset`] built once for the strategy, its point
+//! bound to the simulation the preset built (`LeapPreset::run_at`: what a leap sweep does per
+//! point), beside the one-shot `simulate_leap` (`++`), which builds the preset each time.
 //! `++ massive_legs`: the same leap with legs of Table 4.2's mass carrying their rotors (no
 //! target yet; the massless default is the one the 1 ms bound is for).
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use selfmanip::hybrid::budget::NEVER;
 use selfmanip::rhex::leap::leap_scenario;
-use selfmanip::rhex::leap::{leap_params, simulate_leap, LeapConfig};
+use selfmanip::rhex::leap::{leap_params, simulate_leap, LeapConfig, LeapPreset};
 use selfmanip::sim::Simulation;
 use std::hint::black_box;
 
 fn leap(c: &mut Criterion) {
     let params = leap_params();
     let mut group = c.benchmark_group("leap_to_apex");
+    let preset = LeapPreset::new(&params, &LeapConfig::default()).unwrap();
     for t2 in [0.0, 0.02, 0.1] {
         let cfg = LeapConfig {
             t2_s: t2,
@@ -25,6 +30,13 @@ fn leap(c: &mut Criterion) {
         };
         group.bench_with_input(BenchmarkId::new("++", t2), &cfg, |b, cfg| {
             b.iter(|| simulate_leap(black_box(&params), cfg).unwrap())
+        });
+        group.bench_with_input(BenchmarkId::new("++ preset_at", t2), &cfg, |b, cfg| {
+            b.iter(|| {
+                preset
+                    .run_at(black_box(cfg.t2_s), &cfg.actuator, &NEVER)
+                    .unwrap()
+            })
         });
         let q0 = simulate_leap(&params, &cfg).unwrap().q0;
         let scenario = leap_scenario(&params, &cfg, &q0).unwrap().scenario;

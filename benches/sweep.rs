@@ -2,9 +2,12 @@
 //! to 2 threads" on the 2-core machine). One iteration is a sweep of 64 (+,+) leaps over
 //! `t2 ∈ [−0.2, 0.2]` with the geared X-RHex motors (G = 28), on a pool of 1 or 2 threads;
 //! leaps per second = 64 / time per iteration. Also one leap alone, and a mixed sweep over
-//! all four strategies.
+//! all four strategies. `preset_plus_plus_64`: the same 64 points run on one [`LeapPreset`]
+//! on one thread, each point's values bound to the simulation it built (`LeapPreset::run_at`),
+//! the call a leap sweep makes per strategy.
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use selfmanip::rhex::leap::{leap_params, simulate_leap, LeapConfig, Strategy};
+use selfmanip::hybrid::budget::NEVER;
+use selfmanip::rhex::leap::{leap_params, simulate_leap, LeapConfig, LeapPreset, Strategy};
 use selfmanip::rhex::sweep::{grid, sweep};
 use std::hint::black_box;
 use std::time::Duration;
@@ -34,6 +37,20 @@ fn sweeps(c: &mut Criterion) {
             b.iter(|| sweep(&params, &cfg, black_box(&plus_plus), threads).unwrap())
         });
     }
+    g.finish();
+
+    let mut g = c.benchmark_group("preset_plus_plus_64");
+    g.throughput(Throughput::Elements(N as u64));
+    g.sample_size(10);
+    g.measurement_time(Duration::from_secs(8));
+    g.bench_function("threads_1", |b| {
+        b.iter(|| {
+            let preset = LeapPreset::new(&params, &cfg).unwrap();
+            for &t2 in &t2_grid(N) {
+                black_box(preset.run_at(t2, &cfg.actuator, &NEVER).unwrap());
+            }
+        })
+    });
     g.finish();
 
     let all = grid(&Strategy::ALL, &t2_grid(N / 4), &[Some(28.0)]);

@@ -815,71 +815,124 @@ fn start_mode(rhex: &Rhex) -> Result<ContactMode, RhexError> {
     Ok(mode0)
 }
 
-/// Robots and start poses a caller keeps for the leaps it runs ([`simulate_leap_cached`]:
-/// a sweep computes each strategy's once), keyed by everything they depend on — the leap's
-/// robot parameters (its pairs and armature set), the terrain, the strategy and the wait
-/// clearance — compared by value. A kept entry is what a fresh build gives, so results do
+/// The presets a caller keeps for the leaps it runs ([`Presets::run`]: a sweep builds one
+/// per strategy and set of fixed inputs, and runs every point of it there with
+/// [`LeapPreset::run_at`]), keyed by everything a preset's build depends on — the robot
+/// parameters and the leap configuration apart from `t2_s` and the actuator's values —
+/// compared by value. A point gives what a fresh leap gives, bit for bit, so results do
 /// not depend on which leaps ran before or on which thread.
 #[derive(Default)]
-pub struct StartPoses(std::sync::Mutex<Vec<(StartKey, Arc<(Rhex, Vec<f64>)>)>>);
+pub struct Presets(std::sync::Mutex<Vec<(PresetKey, Arc<LeapPreset>)>>);
 
-/// What a leap's robot and start pose depend on.
-type StartKey = (RhexParams, TerrainSpec, Strategy, f64);
+/// What a preset's build depends on: the parameters and the configuration with `t2_s` set
+/// to 0 and the actuator to its kind's default.
+type PresetKey = (RhexParams, LeapConfig);
 
-impl StartPoses {
-    /// The robot and start pose of `(params, cfg)` (`cfg` checked), built at the first ask.
-    fn get(
+impl Presets {
+    fn key(params: &RhexParams, cfg: &LeapConfig) -> PresetKey {
+        let actuator = match cfg.actuator {
+            LegActuator::GearedMotor { .. } => LegActuator::default(),
+            LegActuator::SaturatedTorque => LegActuator::SaturatedTorque,
+        };
+        let cfg = LeapConfig {
+            t2_s: 0.0,
+            actuator,
+            ..cfg.clone()
+        };
+        (params.clone(), cfg)
+    }
+
+    /// The leap `(params, cfg)` on the preset kept for it (built at the first ask): what
+    /// [`simulate_leap_with`] gives, bit for bit.
+    pub fn run(
         &self,
         params: &RhexParams,
         cfg: &LeapConfig,
-    ) -> Result<Arc<(Rhex, Vec<f64>)>, RhexError> {
-        let robot = leap_robot_params(params, cfg, leap_pairs(cfg)?)?;
-        let key = (robot, cfg.terrain, cfg.strategy, cfg.wait_clearance_rad);
-        let found = |entries: &[(StartKey, Arc<(Rhex, Vec<f64>)>)]| {
+        stop: &AtomicBool,
+    ) -> Result<LeapResult, RhexError> {
+        let key = Self::key(params, cfg);
+        let found = |entries: &[(PresetKey, Arc<LeapPreset>)]| {
             entries
                 .iter()
                 .find(|(k, _)| *k == key)
                 .map(|(_, v)| Arc::clone(v))
         };
-        if let Some(v) = self.0.lock().ok().and_then(|e| found(&e)) {
-            return Ok(v);
-        }
-        let rhex = Rhex::new(key.0.clone())?;
-        let q0 = leap_start_pose(&rhex, cfg)?;
-        let value = Arc::new((rhex, q0));
-        if let Ok(mut entries) = self.0.lock() {
-            if found(&entries).is_none() {
-                entries.push((key, Arc::clone(&value)));
+        let kept = self.0.lock().ok().and_then(|e| found(&e));
+        let preset = match kept {
+            Some(p) => p,
+            None => {
+                let built = Arc::new(LeapPreset::new(params, cfg)?);
+                if let Ok(mut entries) = self.0.lock() {
+                    if found(&entries).is_none() {
+                        entries.push((key, Arc::clone(&built)));
+                    }
+                }
+                built
             }
-        }
-        Ok(value)
+        };
+        preset.run_at(cfg.t2_s, &cfg.actuator, stop)
     }
 }
 
-/// [`simulate_leap_with`] with the robot and start pose from `starts` (built there at the
-/// first ask): the same result, bit for bit.
-pub fn simulate_leap_cached(
-    params: &RhexParams,
-    cfg: &LeapConfig,
-    stop: &AtomicBool,
-    starts: &StartPoses,
-) -> Result<LeapResult, RhexError> {
-    cfg.validate()?;
-    let start = starts.get(params, cfg)?;
-    LeapPreset::with_start(params, cfg, start.0.clone(), start.1.clone())?.run_leap(stop)
-}
-
-/// A leap as a preset of the generic simulator: the robot, its start pose and the scenario
-/// that runs the strategy's behaviour file through the interpreter
-/// ([`leap_scenario`]), built once; [`Self::run`] runs it with any
-/// motor start `t2` (the scenario's behaviour parameter `t2`).
-#[derive(Debug, Clone)]
+/// A leap as a preset of the generic simulator: the robot, its start pose, the scenario
+/// that runs the strategy's behaviour file through the interpreter ([`leap_scenario`]) and
+/// its simulation, built once; [`Self::run`] runs it with any motor start `t2`, and
+/// [`Self::run_at`] any point `(t2, actuator)`, by binding the behaviour's parameters `t2`,
+/// `gear_ratio`, `current_limit_a` and `motors_per_leg` ([`Simulation::rebind`]: the leap a
+/// fresh preset of that point runs, bit for bit).
+///
+/// A leap sweep builds one preset per strategy and runs its points on it:
+///
+/// ```no_run
+/// # use rhex_model::leap::{leap_params, LeapConfig, LeapPreset, LegActuator, Strategy};
+/// # let stop = std::sync::atomic::AtomicBool::new(false);
+/// let params = leap_params();
+/// for strategy in Strategy::ALL {
+///     let preset = LeapPreset::new(&params, &LeapConfig { strategy, ..LeapConfig::default() })?;
+///     for k in 0..41 {
+///         let t2_s = -0.2 + 0.01 * f64::from(k);
+///         let leap = preset.run_at(t2_s, &LegActuator::default().with_gear_ratio(28.0), &stop)?;
+///     }
+/// }
+/// # Ok::<(), rhex_model::RhexError>(())
+/// ```
+#[derive(Clone)]
 pub struct LeapPreset {
     pub cfg: LeapConfig,
     pub q0: Vec<f64>,
-    /// The scenario with the motor start `cfg.t2_s`.
-    pub leap: LeapScenario,
-    mode0: ContactMode,
+    /// The scenario of `cfg`'s own point (its motor start `cfg.t2_s`, its actuator).
+    pub leap: Arc<LeapScenario>,
+    /// The parameters as given (a point whose actuator changes the robot is built afresh).
+    params: RhexParams,
+    /// The simulation of `cfg`'s point, with the preset's start mode and budgets.
+    sim: Simulation,
+}
+
+impl std::fmt::Debug for LeapPreset {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LeapPreset")
+            .field("cfg", &self.cfg)
+            .field("q0", &self.q0)
+            .field("leap", &self.leap)
+            .finish_non_exhaustive()
+    }
+}
+
+/// The behaviour parameters that a geared motor binds: its gear ratio, current limit and
+/// motors per leg (none for the saturated torque, whose torque is the actuator's own number).
+fn actuator_values(a: &LegActuator) -> Vec<(&'static str, f64)> {
+    match *a {
+        LegActuator::SaturatedTorque => Vec::new(),
+        LegActuator::GearedMotor {
+            gear_ratio,
+            current_limit_a,
+            motors_per_leg,
+        } => vec![
+            ("gear_ratio", gear_ratio),
+            ("current_limit_a", current_limit_a),
+            ("motors_per_leg", f64::from(motors_per_leg)),
+        ],
+    }
 }
 
 impl LeapPreset {
@@ -905,47 +958,69 @@ impl LeapPreset {
             ..cfg.clone()
         };
         let leap = scenario_of(rhex, params, &motor, &q0)?;
+        // the start state is the preset's, computed from the robot's parameters: a start the
+        // simulator refuses (its energy overflows) is the parameters' fault, named as theirs
+        let mut sim = Simulation::new(&leap.scenario).map_err(|e| match e {
+            selfmanip_sim::SimError::InvalidValue { field, reason }
+                if field.starts_with("initial.") =>
+            {
+                RhexError::StartOverflow {
+                    field: overflowing_parameter(&leap.rhex.params).into(),
+                    reason,
+                }
+            }
+            e => e.into(),
+        })?;
+        sim.mode0 = mode0;
+        sim.options.max_steps = cfg.max_steps;
+        sim.options.max_events = cfg.max_events;
+        sim.options.control_free_joints = cfg.control_free_joints;
         Ok(LeapPreset {
             cfg: cfg.clone(),
             q0,
-            leap,
-            mode0,
+            leap: Arc::new(leap),
+            params: params.clone(),
+            sim,
         })
     }
 
     /// The simulation of the leap with the rear motor starting `motor_t2_s` after the front
     /// one, and the front motor's start on its clock (`−min(0, t2)`).
     pub fn simulation(&self, motor_t2_s: f64) -> Result<(Simulation, f64), RhexError> {
-        let mut scenario = self.leap.scenario.clone();
-        scenario
-            .behaviour
-            .parameters
-            .insert("t2".into(), Scalar::Number(motor_t2_s));
+        self.simulation_with(&[], motor_t2_s)
+    }
+
+    /// [`Self::simulation`] with the behaviour parameters `values` bound too (an actuator's:
+    /// [`actuator_values`]).
+    fn simulation_with(
+        &self,
+        values: &[(&str, f64)],
+        motor_t2_s: f64,
+    ) -> Result<(Simulation, f64), RhexError> {
         let offset = motor_t2_s.min(0.0);
-        scenario.options.t_final_s = self.cfg.t_final_s - offset;
-        // the start state is the preset's, computed from the robot's parameters: a start the
-        // simulator refuses (its energy overflows) is the parameters' fault, named as theirs
-        let mut sim = Simulation::new(&scenario).map_err(|e| match e {
-            selfmanip_sim::SimError::InvalidValue { field, reason }
-                if field.starts_with("initial.") =>
-            {
-                RhexError::StartOverflow {
-                    field: overflowing_parameter(&self.leap.rhex.params).into(),
-                    reason,
-                }
-            }
-            e => e.into(),
-        })?;
-        sim.mode0 = self.mode0;
-        sim.options.max_steps = self.cfg.max_steps;
-        sim.options.max_events = self.cfg.max_events;
-        sim.options.control_free_joints = self.cfg.control_free_joints;
+        let mut sim = self.sim.clone();
+        // the preset's own point is its simulation as built
+        if !values.is_empty() || motor_t2_s.to_bits() != self.cfg.t2_s.to_bits() {
+            let mut bound = values.to_vec();
+            bound.push(("t2", motor_t2_s));
+            sim.rebind(&bound, self.cfg.t_final_s - offset)?;
+        }
         Ok((sim, -offset))
     }
 
     /// Runs the leap with the rear motor starting `motor_t2_s` after the front one.
     pub fn run(&self, motor_t2_s: f64, stop: &AtomicBool) -> Result<LeapResult, RhexError> {
-        let (sim, front_start) = self.simulation(motor_t2_s)?;
+        self.run_with(&[], motor_t2_s, stop)
+    }
+
+    /// [`Self::run`] with the behaviour parameters `values` bound too.
+    fn run_with(
+        &self,
+        values: &[(&str, f64)],
+        motor_t2_s: f64,
+        stop: &AtomicBool,
+    ) -> Result<LeapResult, RhexError> {
+        let (sim, front_start) = self.simulation_with(values, motor_t2_s)?;
         let run = sim.run_with(stop)?;
         Ok(self.result(run.execution, run.outcome, motor_t2_s, front_start))
     }
@@ -953,19 +1028,78 @@ impl LeapPreset {
     /// Runs the leap as `cfg.t2_reference` says: the motor start `t2`, or the touchdown
     /// offset `t2` by a search over motor starts.
     pub fn run_leap(&self, stop: &AtomicBool) -> Result<LeapResult, RhexError> {
+        self.run_point(&[], self.cfg.t2_s, stop)
+    }
+
+    /// The leap of the point `(t2_s, actuator)` of this preset's strategy and settings: the
+    /// result [`simulate_leap_with`] gives with `cfg`'s `t2_s` and `actuator` replaced, bit
+    /// for bit (checked as it checks them). Where the robot does not depend on the actuator
+    /// (its legs carry no rotors that follow the gear ratio) and both are geared motors, or
+    /// the actuator is the preset's, the point's values are bound to the simulation built
+    /// once; otherwise the point is built afresh.
+    pub fn run_at(
+        &self,
+        t2_s: f64,
+        actuator: &LegActuator,
+        stop: &AtomicBool,
+    ) -> Result<LeapResult, RhexError> {
+        let point = LeapConfig {
+            t2_s,
+            actuator: actuator.clone(),
+            ..self.cfg.clone()
+        };
+        point.validate()?;
+        if *actuator != self.cfg.actuator {
+            // what a fresh preset asks of the actuator (its drive builds)
+            leg_swing(&self.params, &point)?;
+        }
+        let both_geared = matches!(
+            (&self.cfg.actuator, actuator),
+            (
+                LegActuator::GearedMotor { .. },
+                LegActuator::GearedMotor { .. }
+            )
+        );
+        let same_robot = *actuator == self.cfg.actuator
+            || (both_geared
+                && leap_leg_armature(&self.params, &point)?
+                    == leap_leg_armature(&self.params, &self.cfg)?);
+        if !same_robot {
+            return LeapPreset::new(&self.params, &point)?.run_leap(stop);
+        }
+        let values = if *actuator == self.cfg.actuator {
+            Vec::new()
+        } else {
+            actuator_values(actuator)
+        };
+        self.run_point(&values, t2_s, stop)
+    }
+
+    /// The leap with the behaviour parameters `values` bound, at `t2` timed as
+    /// `cfg.t2_reference` says.
+    fn run_point(
+        &self,
+        values: &[(&str, f64)],
+        t2_s: f64,
+        stop: &AtomicBool,
+    ) -> Result<LeapResult, RhexError> {
         match self.cfg.t2_reference {
-            T2Reference::MotorStart => self.run(self.cfg.t2_s, stop),
-            T2Reference::Touchdown => self.touchdown_timed(stop),
+            T2Reference::MotorStart => self.run_with(values, t2_s, stop),
+            T2Reference::Touchdown => self.touchdown_timed(values, t2_s, stop),
         }
     }
 
     /// [`T2Reference::Touchdown`]: a secant search on the rear motor's start `s` for the
     /// touchdown offset `T(s) = t2` (`T(s) = s` while the body is at rest between the two
     /// touchdowns, so the search starts there and usually ends after one or two more runs).
-    fn touchdown_timed(&self, stop: &AtomicBool) -> Result<LeapResult, RhexError> {
-        let target = self.cfg.t2_s;
+    fn touchdown_timed(
+        &self,
+        values: &[(&str, f64)],
+        target: f64,
+        stop: &AtomicBool,
+    ) -> Result<LeapResult, RhexError> {
         let mut s0 = target;
-        let mut r0 = self.run(s0, stop)?;
+        let mut r0 = self.run_with(values, s0, stop)?;
         let Some(mut d0) = r0.touchdown_t2_s.map(|t| t - target) else {
             return Ok(r0);
         };
@@ -974,7 +1108,7 @@ impl LeapPreset {
             if d0.abs() <= TOUCHDOWN_SEARCH_TOL_S || s1.abs() >= self.cfg.t_final_s {
                 break;
             }
-            let r1 = self.run(s1, stop)?;
+            let r1 = self.run_with(values, s1, stop)?;
             let Some(d1) = r1.touchdown_t2_s.map(|t| t - target) else {
                 break;
             };
@@ -1063,6 +1197,90 @@ impl LeapPreset {
             events,
             motor_t2_s,
             touchdown_t2_s,
+        }
+    }
+}
+
+#[cfg(test)]
+mod preset_tests {
+    use super::*;
+    use selfmanip_hybrid::budget::NEVER;
+
+    /// What a leap's run is, to the bit: status, word, apex, motor start, the engine's
+    /// termination and step count, and every event's time, kind and state.
+    fn fingerprint(r: &LeapResult) -> String {
+        format!(
+            "{:?} {:?} {:?} {:?} {:?} {} {:?}",
+            r.status,
+            r.word,
+            r.apex,
+            r.motor_t2_s.to_bits(),
+            r.execution.termination,
+            r.execution.steps,
+            r.execution.events
+        )
+    }
+
+    /// A preset reused over points (t2 both ways of zero, gear ratios, current limits, the
+    /// touchdown-timed search) runs the leaps that fresh one-shot leaps of those points run,
+    /// bit for bit; on legs whose armature follows the gear ratio too (rebuilt there).
+    #[test]
+    fn a_reused_preset_runs_the_leaps_of_fresh_ones() {
+        let geared = |g: f64, i: f64| LegActuator::GearedMotor {
+            gear_ratio: g,
+            current_limit_a: i,
+            motors_per_leg: 2,
+        };
+        let mut rotors = leap_params();
+        rotors.m_l = 0.126;
+        rotors.I_l = 0.00092;
+        let cases = [
+            (leap_params(), T2Reference::MotorStart, "-+"),
+            (leap_params(), T2Reference::Touchdown, "++"),
+            (rotors, T2Reference::MotorStart, "+-"),
+        ];
+        for (params, t2_reference, strategy) in cases {
+            let cfg = LeapConfig {
+                strategy: strategy.parse().unwrap(),
+                t2_reference,
+                ..LeapConfig::default()
+            };
+            let preset = LeapPreset::new(&params, &cfg).unwrap();
+            for (t2, actuator) in [
+                (0.03, geared(28.0, 20.0)),
+                (-0.05, geared(28.0, 20.0)),
+                (0.02, geared(33.0, 20.0)),
+                (-0.01, geared(24.0, 12.0)),
+                (0.0, LegActuator::SaturatedTorque),
+            ] {
+                let point = LeapConfig {
+                    t2_s: t2,
+                    actuator: actuator.clone(),
+                    ..cfg.clone()
+                };
+                let fresh = simulate_leap(&params, &point).unwrap();
+                let reused = preset.run_at(t2, &actuator, &NEVER).unwrap();
+                assert_eq!(
+                    fingerprint(&reused),
+                    fingerprint(&fresh),
+                    "{strategy} t2 = {t2} {actuator:?}"
+                );
+            }
+        }
+    }
+
+    /// A point's bad value is refused as a fresh leap refuses it, naming the field.
+    #[test]
+    fn a_reused_preset_checks_its_points() {
+        let preset = LeapPreset::new(&leap_params(), &LeapConfig::default()).unwrap();
+        let bad = LegActuator::default().with_gear_ratio(-3.0);
+        match preset.run_at(0.0, &bad, &NEVER) {
+            Err(e) => assert_eq!(e.field(), Some("gear_ratio"), "{e}"),
+            other => panic!("{other:?}"),
+        }
+        match preset.run_at(f64::NAN, &LegActuator::default(), &NEVER) {
+            Err(e) => assert_eq!(e.field(), Some("t2_s"), "{e}"),
+            other => panic!("{other:?}"),
         }
     }
 }

@@ -21,7 +21,7 @@
 //! the defaults: 20 A, two motors per planar leg); `None` keeps the base actuator. The
 //! reported gear ratio is the one used, NaN for [`LegActuator::SaturatedTorque`].
 use crate::leap::{
-    simulate_leap, simulate_leap_cached, LeapConfig, LeapResult, LegActuator, StartPoses, Strategy,
+    simulate_leap, LeapConfig, LeapResult, LegActuator, Presets, Strategy,
 };
 use crate::{RhexError, RhexParams};
 use selfmanip_hybrid::budget::NEVER;
@@ -413,18 +413,18 @@ pub fn run_point(
 
 /// Runs one point and flattens the outcome; never panics and never fails.
 pub fn run_row(base_params: &RhexParams, base_cfg: &LeapConfig, point: &SweepPoint) -> SweepRow {
-    run_row_with(base_params, base_cfg, point, &NEVER, &StartPoses::default())
+    run_row_with(base_params, base_cfg, point, &NEVER, &Presets::default())
 }
 
 /// [`run_row`] that another thread can stop ([`simulate_leap_with`]): a point not started
-/// before `stop` was raised is not run, its status `interrupted`. The robots and start poses
-/// come from `starts` (the sweep's own: each strategy's built once).
+/// before `stop` was raised is not run, its status `interrupted`. The leap runs on its preset
+/// in `presets` (the sweep's own: each strategy's built once).
 pub fn run_row_with(
     base_params: &RhexParams,
     base_cfg: &LeapConfig,
     point: &SweepPoint,
     stop: &AtomicBool,
-    starts: &StartPoses,
+    presets: &Presets,
 ) -> SweepRow {
     if stop.load(Ordering::Relaxed) {
         return SweepRow::failed(
@@ -436,7 +436,7 @@ pub fn run_row_with(
     let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         let (params, cfg) = point_inputs(base_params, base_cfg, point)?;
         let g = gear_ratio_of(&cfg);
-        simulate_leap_cached(&params, &cfg, stop, starts).map(|r| (r, g))
+        presets.run(&params, &cfg, stop).map(|r| (r, g))
     }));
     match outcome {
         Err(p) => SweepRow::failed("panic", panic_message(p.as_ref()), f64::NAN),
@@ -502,8 +502,8 @@ pub fn sweep_with(
     threads: usize,
     stop: &AtomicBool,
 ) -> Result<Vec<SweepRow>, RhexError> {
-    let starts = StartPoses::default();
+    let presets = Presets::default();
     Ok(run_parallel(points, threads, |p| {
-        run_row_with(base_params, base_cfg, p, stop, &starts)
+        run_row_with(base_params, base_cfg, p, stop, &presets)
     })?)
 }

@@ -7,9 +7,10 @@
 //! Run                    => outcome (word, apex, landing), events, trajectory(dt),
 //!                           energy_report(), write_mcap(path)
 //! ```
-use crate::behaviour::{compile_shared, Behaviour};
+use crate::behaviour::{compile_bound, Behaviour, BehaviourController, Parameters};
 use crate::error::{invalid, non_negative, positive, SimError};
 use crate::events::{event_records, EventRecord};
+use crate::expr::Scalar;
 use crate::labels::ContactLabels;
 use crate::mcap::{self, McapLog};
 use crate::outcome::{outcome, Outcome, WordOptions};
@@ -253,15 +254,61 @@ pub struct Simulation {
     pub options: HybridOptions,
     pub labels: ContactLabels,
     pub word: WordOptions,
+    /// The behaviour the controller was compiled from, its parameters apart (in
+    /// `parameters`): what [`Self::rebind`] evaluates again.
+    behaviour: Arc<Behaviour>,
+    parameters: Arc<Parameters>,
 }
 
 impl Simulation {
     /// Checks and builds everything (errors name the field).
     pub fn new(s: &Scenario) -> Result<Self, SimError> {
         let mut sim = Self::without_behaviour(s)?;
-        let ctrl = compile_shared(&s.behaviour, &sim.model, &sim.q0, &sim.qd0, sim.t_final_s)?;
-        sim.controller = Arc::new(ctrl);
+        let mut b = s.behaviour.clone();
+        sim.parameters = Arc::new(std::mem::take(&mut b.parameters));
+        sim.behaviour = Arc::new(b);
+        sim.controller = Arc::new(sim.compiled(&sim.parameters, sim.t_final_s)?);
         Ok(sim)
+    }
+
+    /// The behaviour compiled with the parameters `p` for a run to `t_final_s`.
+    fn compiled(
+        &self,
+        p: &Arc<Parameters>,
+        t_final_s: f64,
+    ) -> Result<BehaviourController, SimError> {
+        compile_bound(
+            &self.behaviour,
+            p,
+            &self.model,
+            &self.q0,
+            &self.qd0,
+            t_final_s,
+        )
+    }
+
+    /// Binds numbers to behaviour parameters by name and sets the final time: the
+    /// simulation [`Self::new`] builds for the scenario with each
+    /// `behaviour.parameters.<name>` set to its value and `options.t_final_s` to
+    /// `t_final_s`, bit for bit. The robot, start state, labels and options already built
+    /// and checked are kept (a sweep's points and a preset's leaps share them); the behaviour
+    /// is evaluated again with the new values (errors name the field, as [`Self::new`]'s
+    /// do). A name that is not one of the behaviour's parameters is an error.
+    pub fn rebind(&mut self, values: &[(&str, f64)], t_final_s: f64) -> Result<(), SimError> {
+        positive("options.t_final_s", t_final_s)?;
+        let mut p = (*self.parameters).clone();
+        for (name, v) in values {
+            let slot = p.get_mut(*name).ok_or_else(|| SimError::UnknownParameter {
+                path: format!("behaviour.parameters.{name}"),
+                reason: "not a parameter of the behaviour".into(),
+            })?;
+            *slot = Scalar::Number(*v);
+        }
+        let p = Arc::new(p);
+        self.controller = Arc::new(self.compiled(&p, t_final_s)?);
+        self.parameters = p;
+        self.t_final_s = t_final_s;
+        Ok(())
     }
 
     /// Like [`Self::new`] with no actuation; set [`Self::controller`] to drive it with any
@@ -371,6 +418,8 @@ impl Simulation {
             q0,
             qd0,
             mode0,
+            behaviour: Arc::default(),
+            parameters: Arc::default(),
         })
     }
 

@@ -9,6 +9,11 @@
 //! unaffected. Only a malformed sweep (an unknown parameter name, zero threads) is an error
 //! of the whole call.
 //!
+//! **Compiled once.** The base is built once per sweep; a point that sets only behaviour
+//! parameters, to numbers, runs a copy of it with those values bound
+//! ([`Simulation::rebind`]: the same simulation a fresh build gives, bit for bit, without
+//! building the robot or round-tripping the scenario again); any other point is built afresh.
+//!
 //! **One task per point** (`with_max_len(1)`): rayon's default splitting hands each thread
 //! runs of neighbouring points, whose costs are correlated (a range of long runs), and loses
 //! ~20 % to the imbalance on 2 threads.
@@ -142,6 +147,42 @@ impl PointResult {
     }
 }
 
+/// The simulation of a point: `built` (the base's) with the point's values bound when they
+/// are all numbers for behaviour parameters, else the base tree with the values set, built.
+fn point_simulation(
+    tree: &Value,
+    built: Option<&Simulation>,
+    point: &SweepPoint,
+) -> Result<Simulation, SimError> {
+    if let (Some(base), Some(values)) = (built, parameter_values(tree, point)) {
+        let mut sim = base.clone();
+        sim.rebind(&values, base.t_final_s)?;
+        return Ok(sim);
+    }
+    Simulation::new(&Scenario::set_all(&mut tree.clone(), &point.values)?)
+}
+
+/// The point's values as `(behaviour parameter, number)`, `None` when one sets anything else
+/// (a field of the robot, options, terrain or start; a formula): the names resolve as
+/// [`crate::path::resolve`] resolves them, a bare name to the behaviour parameter of that
+/// name, `behaviour.parameters.<name>` to itself.
+fn parameter_values<'p>(tree: &Value, point: &'p SweepPoint) -> Option<Vec<(&'p str, f64)>> {
+    let parameters = tree.get("behaviour")?.get("parameters")?;
+    point
+        .values
+        .iter()
+        .map(|(name, v)| {
+            let key = name.strip_prefix("behaviour.parameters.").unwrap_or(name);
+            let plain = key.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+            let root = crate::path::ROOTS.contains(&key);
+            (plain && !root && parameters.get(key).is_some())
+                .then(|| v.as_f64())
+                .flatten()
+                .map(|x| (key, x))
+        })
+        .collect()
+}
+
 /// Runs one point: the base with the point's values set, checked, run.
 pub fn run_point(base: &Scenario, point: &SweepPoint) -> Result<Outcome, SimError> {
     let s = base.with_values(&point.values)?;
@@ -181,14 +222,21 @@ pub fn sweep_with(
     for p in points {
         crate::path::distinct_paths(&tree, &p.values)?;
     }
+    // the base as each point's fresh build reads it (through the JSON tree); a base that does
+    // not build leaves every point to its own build (and its own error)
+    let built = catch_panic(|| Simulation::new(&Scenario::set_all(&mut tree.clone(), &[])?))
+        .ok()
+        .and_then(Result::ok);
     run_parallel(points, threads, |p| {
         if stop.load(Ordering::Relaxed) {
             return None;
         }
         let result = match catch_panic(|| {
-            let mut t = tree.clone();
-            let s = Scenario::set_all(&mut t, &p.values)?;
-            Ok::<_, SimError>(Simulation::new(&s)?.run_with(stop)?.outcome)
+            Ok::<_, SimError>(
+                point_simulation(&tree, built.as_ref(), p)?
+                    .run_with(stop)?
+                    .outcome,
+            )
         }) {
             Ok(Ok(o)) => Ok(o),
             Ok(Err(e)) => Err(PointFailure::Error(e)),

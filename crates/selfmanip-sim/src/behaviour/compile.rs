@@ -253,10 +253,14 @@ impl Context<'_> {
     }
 }
 
+/// A behaviour's parameters by name (its own, or values bound in their place:
+/// [`compile_bound`]).
+pub type Parameters = BTreeMap<String, Scalar>;
+
 /// Evaluates the parameters in dependency order (a formula may use other parameters).
-fn parameters(b: &Behaviour) -> Result<BTreeMap<String, f64>, SimError> {
+fn parameters(p: &Parameters) -> Result<BTreeMap<String, f64>, SimError> {
     let mut exprs: BTreeMap<&str, Expr> = BTreeMap::new();
-    for (name, s) in &b.parameters {
+    for (name, s) in p {
         if name.is_empty()
             || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
             || name.starts_with(|c: char| c.is_ascii_digit())
@@ -326,42 +330,36 @@ fn parameters(b: &Behaviour) -> Result<BTreeMap<String, f64>, SimError> {
 
 /// The gradient of every parameter over the parameters, in name order: `e_p` plus the chain
 /// of its formula (the parameters have been evaluated and checked for cycles).
-fn parameter_grads(b: &Behaviour, values: &BTreeMap<String, f64>) -> BTreeMap<String, Grad> {
+fn parameter_grads(p: &Parameters, values: &BTreeMap<String, f64>) -> BTreeMap<String, Grad> {
     fn visit(
         name: &str,
-        b: &Behaviour,
+        p: &Parameters,
         values: &BTreeMap<String, f64>,
         grads: &mut BTreeMap<String, Grad>,
     ) -> Grad {
         if let Some(g) = grads.get(name) {
             return g.clone();
         }
-        let n = b.parameters.len();
-        let e = b.parameters[name]
-            .parse("")
-            .expect("parsed by `parameters`");
+        let n = p.len();
+        let e = p[name].parse("").expect("parsed by `parameters`");
         let mut vars = Vec::new();
         e.variables(&mut vars);
         let deps: BTreeMap<String, Grad> = vars
             .iter()
-            .map(|v| (v.clone(), visit(v, b, values, grads)))
+            .map(|v| (v.clone(), visit(v, p, values, grads)))
             .collect();
         let (_, mut d) = e
             .eval_grad(n, &|v| Some((values[v], deps.get(v)?.to_vec())))
             .expect("evaluated by `parameters`");
-        let i = b
-            .parameters
-            .keys()
-            .position(|k| k == name)
-            .expect("a parameter");
+        let i = p.keys().position(|k| k == name).expect("a parameter");
         d[i] += 1.0;
         let g: Grad = d.into();
         grads.insert(name.to_string(), g.clone());
         g
     }
     let mut grads = BTreeMap::new();
-    for name in b.parameters.keys() {
-        visit(name, b, values, &mut grads);
+    for name in p.keys() {
+        visit(name, p, values, &mut grads);
     }
     grads
 }
@@ -1316,20 +1314,39 @@ pub fn compile_shared(
     qd0: &[f64],
     horizon_s: f64,
 ) -> Result<BehaviourController, SimError> {
-    let (b2, m2, q, qd) = (b.clone(), Arc::clone(model), q0.to_vec(), qd0.to_vec());
+    // one copy: the parameters apart, the rest shared by the tangent's source
+    let mut b = b.clone();
+    let p = Arc::new(std::mem::take(&mut b.parameters));
+    compile_bound(&Arc::new(b), &p, model, q0, qd0, horizon_s)
+}
+
+/// [`compile_shared`] of `b` with `parameters` in place of its own (`b.parameters` is not
+/// read: the values a sweep's point or a preset binds), both shared rather than copied: the controller [`compile_shared`] gives for `b` with those
+/// parameters set, bit for bit. What a [`crate::Simulation::rebind`] compiles.
+pub fn compile_bound(
+    b: &Arc<Behaviour>,
+    parameters: &Arc<Parameters>,
+    model: &Arc<Model>,
+    q0: &[f64],
+    qd0: &[f64],
+    horizon_s: f64,
+) -> Result<BehaviourController, SimError> {
+    let (b2, p2, m2) = (Arc::clone(b), Arc::clone(parameters), Arc::clone(model));
+    let (q, qd) = (q0.to_vec(), qd0.to_vec());
     let make = move || {
-        let c = compile_with(&b2, &m2, &q, &qd, horizon_s, true)
+        let c = compile_with(&b2, &p2, &m2, &q, &qd, horizon_s, true)
             .expect("the same behaviour compiled before");
         c.take_tangent()
     };
-    let c = compile_with(b, model, q0, qd0, horizon_s, false)?;
+    let c = compile_with(b, parameters, model, q0, qd0, horizon_s, false)?;
     c.set_tangent_source(Box::new(make));
     Ok(c)
 }
 
-/// [`compile`], with the plan's tangent computed when `tangent`.
+/// [`compile`] with the parameters `p`, the plan's tangent computed when `tangent`.
 fn compile_with(
     b: &Behaviour,
+    p: &Parameters,
     model: &Model,
     q0: &[f64],
     qd0: &[f64],
@@ -1348,9 +1365,9 @@ fn compile_with(
             return Err(invalid(format!("{field}[{i}]"), "must be finite"));
         }
     }
-    let values = parameters(b)?;
+    let values = parameters(p)?;
     let grads = if tangent {
-        parameter_grads(b, &values)
+        parameter_grads(p, &values)
     } else {
         BTreeMap::new()
     };
@@ -1358,7 +1375,7 @@ fn compile_with(
         model,
         values,
         grads,
-        n: b.parameters.len(),
+        n: p.len(),
         tangent,
         empty: Arc::new([]),
     };
@@ -1406,7 +1423,7 @@ fn compile_with(
         .collect();
     let tangent_on = tangent;
     let tangent = PlanTangent {
-        names: b.parameters.keys().cloned().collect(),
+        names: p.keys().cloned().collect(),
         kp_free: c.cx.grad(&free.kp_per_s2, None),
         kd_free: c.cx.grad(&free.kd_per_s, None),
         values: Arc::new(c.cx.grads),

@@ -391,7 +391,7 @@ enum StartGrad {
 }
 
 /// How a prescribed motion started: for its derivatives.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone)]
 struct MotionRecord {
     /// How it depends on the events the controller was told of (its memory).
     origin: MotionOrigin,
@@ -403,6 +403,11 @@ struct MotionRecord {
     /// A timed phase's own motion: the motion whose reference it started from, and the
     /// gradient of its start time over the parameters at fixed memory (`None`: zero).
     timed: Option<(usize, StartGrad)>,
+    /// The partials of its numbers at its start ([`BehaviourController::numbers_at`]),
+    /// evaluated at the first ask: they do not change while it runs.
+    numbers: OnceLock<[NumberPartials; 3]>,
+    /// Its law with the numbers at its start ([`MotionLaw::law_at`]), at the first ask.
+    law: OnceLock<Option<StartedLaw>>,
 }
 
 /// How a prescribed motion depends on the events the controller was told of.
@@ -471,6 +476,8 @@ impl BehaviourController {
                     theta0: q0[p.joint],
                     omega0: qd0[p.joint],
                     timed: None,
+                    numbers: OnceLock::new(),
+                    law: OnceLock::new(),
                 }],
             })
             .collect();
@@ -619,13 +626,12 @@ impl BehaviourController {
     /// Program `p`'s motion `i` at `t`: `∂(θ*, ω*, α*)/∂(t₀, θ₀, ω₀, speed, accel, target)`
     /// (rows `θ*, ω*, α*`; a hold is its angle, its target) and the partials of its numbers
     /// `(speed, accel, target)` at its start over the parameters and `(θ₀, ω₀)`.
-    fn law_partials(&self, p: usize, i: usize, t: f64) -> ([[f64; 6]; 3], [NumberPartials; 3]) {
+    fn law_partials(&self, p: usize, i: usize, t: f64) -> ([[f64; 6]; 3], &[NumberPartials; 3]) {
         let mem = &self.programs[p];
         let rec = &mem.records[i];
-        let law = &self.plan.programs[p].phases[rec.phase].motion;
         let (th0, w0) = (rec.theta0, rec.omega0);
         let numbers = self.numbers_at(p, i);
-        let d = match law.law_at(th0, w0) {
+        let d = match self.started_law(p, i) {
             Some(l) => l.partials_full(&mem.motions[i], th0, w0, t),
             None => {
                 let mut d = [[0.0; 6]; 3];
@@ -636,15 +642,28 @@ impl BehaviourController {
         (d, numbers)
     }
 
-    /// The partials of program `p`'s motion `i`'s numbers `(speed, accel, target)` at its
-    /// start, over the parameters and `(θ₀, ω₀)`.
-    fn numbers_at(&self, p: usize, i: usize) -> [NumberPartials; 3] {
+    /// The law of program `p`'s motion `i` with its numbers at its start (`None` for a
+    /// hold), evaluated once per motion.
+    fn started_law(&self, p: usize, i: usize) -> Option<StartedLaw> {
         let rec = &self.programs[p].records[i];
-        let tan = self.plan.tangent();
-        tan.phases[p][rec.phase]
-            .motion
-            .each_ref()
-            .map(|nt| nt.at(rec.theta0, rec.omega0, &tan.values, tan.names.len()))
+        *rec.law.get_or_init(|| {
+            let law = &self.plan.programs[p].phases[rec.phase].motion;
+            law.law_at(rec.theta0, rec.omega0)
+        })
+    }
+
+    /// The partials of program `p`'s motion `i`'s numbers `(speed, accel, target)` at its
+    /// start, over the parameters and `(θ₀, ω₀)`: evaluated once per motion (the
+    /// sensitivities ask at every step it runs), kept with its record.
+    fn numbers_at(&self, p: usize, i: usize) -> &[NumberPartials; 3] {
+        let rec = &self.programs[p].records[i];
+        rec.numbers.get_or_init(|| {
+            let tan = self.plan.tangent();
+            tan.phases[p][rec.phase]
+                .motion
+                .each_ref()
+                .map(|nt| nt.at(rec.theta0, rec.omega0, &tan.values, tan.names.len()))
+        })
     }
 
     /// `∂τ/∂p` over every parameter of program `p`'s torque in phase `k` at fixed state and
@@ -764,8 +783,7 @@ impl BehaviourController {
             t: m.t0(),
             dt_dp: pick(start.as_ref().map(|s| &s[0][..])),
         });
-        let law = &self.plan.programs[p].phases[rec.phase].motion;
-        let Some(law) = law.law_at(rec.theta0, rec.omega0) else {
+        let Some(law) = self.started_law(p, i) else {
             return;
         };
         let numbers = self.numbers_at(p, i);
@@ -1031,6 +1049,8 @@ impl BehaviourController {
                     theta0: theta,
                     omega0: omega,
                     timed: Some((i, grad.clone())),
+                    numbers: OnceLock::new(),
+                    law: OnceLock::new(),
                 });
             }
         }
@@ -1595,6 +1615,8 @@ impl Controller for BehaviourController {
                     theta0: e.q[j],
                     omega0: e.qd_after[j],
                     timed: None,
+                    numbers: OnceLock::new(),
+                    law: OnceLock::new(),
                 });
             }
         }

@@ -107,6 +107,7 @@ pub(crate) enum NumberTangent {
 }
 
 /// A number's partials: over the parameters, and over the start's `θ₀`, `ω₀`.
+#[derive(Debug, Clone)]
 pub(crate) struct NumberPartials {
     pub dp: Vec<f64>,
     pub dtheta: f64,

@@ -7,6 +7,8 @@
 //! M_L=0.126 cargo run --release -p selfmanip-tools --bin leap_cost -- "++" 0   # massive legs
 //! SWEEP=1 M_L=0.126 cargo run --release -p selfmanip-tools --bin leap_cost     # 4 × 41 sweeps
 //! ```
+//! The sweep runs one [`LeapPreset`] per strategy, its points bound to the simulation the
+//! preset built (`LeapPreset::run_at`), as a leap sweep does.
 //! `M_L` (kg) gives the legs that mass and Table 4.2's inertia scaled with it (their joints
 //! carry their rotors' `n J G²`, as every massive leg does); `GEAR`, `M_B` (kg) and `I_B`
 //! (kg m²) change the gear ratio and the body's mass and inertia; `SEGS=1` lists each leap's
@@ -28,7 +30,8 @@
 //! motor start and takeoff excites the servo's transient, which decays as `(1 + λt) e^{−λt}`
 //! and is resolved to the tolerance for about 0.1 s: with the legs' own swings to their
 //! park, that is where the flight's steps go.
-use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator, Strategy};
+use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapPreset, LegActuator, Strategy};
+use selfmanip_hybrid::budget::NEVER;
 use selfmanip_hybrid::integrate::{reset_work_counters, work_counters, WorkCounters};
 use std::collections::BTreeMap;
 
@@ -65,15 +68,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut by_mode = BTreeMap::<u32, (usize, usize, f64)>::new();
         let mut statuses = BTreeMap::<String, usize>::new();
         let clock = std::time::Instant::now();
+        // one preset per strategy, its 41 points bound to the simulation it built
         for strategy in Strategy::ALL {
-            for k in 0..41 {
-                let c = LeapConfig {
+            let preset = LeapPreset::new(
+                &params,
+                &LeapConfig {
                     strategy,
-                    t2_s: -0.2 + 0.01 * f64::from(k),
                     ..cfg.clone()
-                };
+                },
+            )?;
+            for k in 0..41 {
                 reset_work_counters();
-                let r = simulate_leap(&params, &c)?;
+                let r = preset.run_at(-0.2 + 0.01 * f64::from(k), &cfg.actuator, &NEVER)?;
                 let w = work_counters();
                 for p in 0..2 {
                     total.accepted[p] += w.accepted[p];
