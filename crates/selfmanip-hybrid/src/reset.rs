@@ -51,21 +51,10 @@ pub enum Reset {
 
 /// The reset of the guards `fired` at `(t, y = [q; q̇])` in `mode` of `flow`, evaluated on
 /// the workspace `ws`, with the pseudo-impulse duration and the fold threshold of `opts`.
+/// The contacts `jammed` (usually none) may not slide: an impact that left one of them on a
+/// slide inconsistent with Coulomb friction (Painlevé) is taken again with it offered the
+/// stick — the impact's tangential part, an impact without collision ([`crate::jam`]).
 pub fn reset(
-    ws: &mut FlowWorkspace,
-    flow: &mut Flow,
-    opts: &HybridOptions,
-    fired: &[Guard],
-    mode: ContactMode,
-    (t, y): (f64, &[f64]),
-) -> Result<Reset, HybridError> {
-    reset_jamming(ws, flow, opts, fired, mode, (t, y), &[])
-}
-
-/// [`reset`] in which the contacts `jammed` may not slide: an impact that left one of them
-/// on a slide inconsistent with Coulomb friction (Painlevé) is taken again with it offered
-/// the stick — the impact's tangential part, an impact without collision ([`crate::jam`]).
-pub fn reset_jamming(
     ws: &mut FlowWorkspace,
     flow: &mut Flow,
     opts: &HybridOptions,
