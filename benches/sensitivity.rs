@@ -14,10 +14,11 @@
 mod common;
 
 use common::{drop_state, rhex_massless, rocking_block, Servos};
-use criterion::{criterion_group, criterion_main, Criterion};
-use selfmanip::core::{ContactMode, FlatGround, Model};
+use criterion::measurement::WallTime;
+use criterion::{criterion_group, criterion_main, BenchmarkGroup, Criterion};
+use selfmanip::core::{ContactMode, FlatGround, Model, Terrain};
 use selfmanip::hybrid::sensitivity::simulate_with_sensitivity;
-use selfmanip::hybrid::{simulate, HybridOptions, ZeroTorque};
+use selfmanip::hybrid::{simulate, Controller, HybridOptions, ZeroTorque};
 use selfmanip::rhex::leap::{leap_params, simulate_leap, LeapConfig};
 use selfmanip::rhex::leap_sensitivity::leap_with_sensitivity;
 use selfmanip::rhex::LegShape;
@@ -36,86 +37,89 @@ fn rhex_drop() -> (Model, Vec<f64>, Servos) {
     (model, y, servo)
 }
 
+/// A run from flight on flat ground: what `simulate` and `simulate_with_sensitivity` time.
+struct FlightRun<'a> {
+    model: &'a Model,
+    controller: &'a dyn Controller,
+    start: (&'a [f64], &'a [f64]),
+    t_final: f64,
+    opts: HybridOptions,
+}
+
+impl FlightRun<'_> {
+    /// `run` (`simulate` or `simulate_with_sensitivity`) of this run, unwrapped.
+    #[allow(clippy::type_complexity)]
+    fn with<T, E: std::fmt::Debug>(
+        &self,
+        run: fn(
+            &Model,
+            &dyn Terrain,
+            &dyn Controller,
+            ContactMode,
+            &[f64],
+            &[f64],
+            f64,
+            HybridOptions,
+        ) -> Result<T, E>,
+    ) -> T {
+        let (q0, qd0) = self.start;
+        let (model, ctrl) = (self.model, self.controller);
+        run(
+            model,
+            &FlatGround,
+            ctrl,
+            ContactMode::FLIGHT,
+            q0,
+            qd0,
+            self.t_final,
+            self.opts,
+        )
+        .unwrap()
+    }
+
+    /// `{name}/simulate` and `{name}/with_sensitivity` in `group`.
+    fn bench(&self, group: &mut BenchmarkGroup<'_, WallTime>, name: &str) {
+        group.bench_function(format!("{name}/simulate"), |b| {
+            b.iter(|| black_box(self.with(simulate)))
+        });
+        group.bench_function(format!("{name}/with_sensitivity"), |b| {
+            b.iter(|| black_box(self.with(simulate_with_sensitivity)))
+        });
+    }
+}
+
 fn sensitivity(c: &mut Criterion) {
     let opts = HybridOptions::default();
     let mut group = c.benchmark_group("sensitivity");
     // the rocking block: left corner 2 cm above ground, tilted 0.15 rad
-    let model = rocking_block();
     let (w, h) = (0.05_f64, 0.10_f64);
     let phi0 = 0.15_f64;
     let (s, co) = phi0.sin_cos();
     let left_z = -s * (-w / 2.0) + co * h / 2.0;
     let q0 = [0.0, -0.02 - left_z, phi0];
     let qd0 = [0.05, 0.1, -0.5];
-    let run = || {
-        simulate(
-            &model,
-            &FlatGround,
-            &ZeroTorque,
-            ContactMode::FLIGHT,
-            &q0,
-            &qd0,
-            0.464,
-            opts,
-        )
-        .unwrap()
+    let rocking = FlightRun {
+        model: &rocking_block(),
+        controller: &ZeroTorque,
+        start: (&q0, &qd0),
+        t_final: 0.464,
+        opts,
     };
-    eprintln!("rocking block: {} events", run().events.len());
-    group.bench_function("rocking_block/simulate", |b| b.iter(|| black_box(run())));
-    group.bench_function("rocking_block/with_sensitivity", |b| {
-        b.iter(|| {
-            black_box(
-                simulate_with_sensitivity(
-                    &model,
-                    &FlatGround,
-                    &ZeroTorque,
-                    ContactMode::FLIGHT,
-                    &q0,
-                    &qd0,
-                    0.464,
-                    opts,
-                )
-                .unwrap(),
-            )
-        })
-    });
+    eprintln!(
+        "rocking block: {} events",
+        rocking.with(simulate).events.len()
+    );
+    rocking.bench(&mut group, "rocking_block");
     let (rhex, y0, servo) = rhex_drop();
-    let nq = rhex.nq();
-    let (q0, qd0) = y0.split_at(nq);
-    group.bench_function("rhex_drop/simulate", |b| {
-        b.iter(|| {
-            black_box(
-                simulate(
-                    &rhex,
-                    &FlatGround,
-                    &servo,
-                    ContactMode::FLIGHT,
-                    q0,
-                    qd0,
-                    0.25,
-                    opts,
-                )
-                .unwrap(),
-            )
-        })
-    });
-    group.bench_function("rhex_drop/with_sensitivity", |b| {
-        b.iter(|| {
-            black_box(
-                simulate_with_sensitivity(
-                    &rhex,
-                    &FlatGround,
-                    &servo,
-                    ContactMode::FLIGHT,
-                    q0,
-                    qd0,
-                    0.25,
-                    opts,
-                )
-                .unwrap(),
-            )
-        })
-    });
+    let (q0, qd0) = y0.split_at(rhex.nq());
+    let rhex = FlightRun {
+        model: &rhex,
+        controller: &servo,
+        start: (q0, qd0),
+        t_final: 0.25,
+        opts,
+    };
+    rhex.bench(&mut group, "rhex_drop");
     group.finish();
     let mut group = c.benchmark_group("leap_sensitivity");
     let params = leap_params();

@@ -82,13 +82,7 @@ fn motor_work_equals_the_energy_gained_in_flight() {
         Waves.command(t, q, qd, ContactMode::FLIGHT, &mut u);
         let power: f64 = (0..nj).map(|k| tau[k] * qd[k]).sum();
         let electrical: f64 = (0..nj).map(|k| drive.electrical_power_w(u[k], qd[k])).sum();
-        let w = if i == 0 || i == n {
-            1.0
-        } else if i % 2 == 1 {
-            4.0
-        } else {
-            2.0
-        };
+        let w = common::simpson_weight(i, n);
         work += w * power * h / 3.0;
         supplied += w * electrical * h / 3.0;
     }

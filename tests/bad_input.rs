@@ -127,28 +127,7 @@ fn over_constrained_mode_is_a_typed_singularity() {
 fn unconstrained_massless_motion_violates_lemma_5_1() {
     // A massless two-link leg touching with a sliding foot: the knee can fold with no
     // kinetic energy, so M̃ is singular (Lemma 5.1).
-    let toml = r#"
-name = "massless two-link"
-[body]
-mass_kg = 5.0
-inertia_kg_m2 = 0.1
-[[legs]]
-name = "leg"
-hip_m = [0.0, 0.0]
-[[legs.links]]
-length_m = 0.2
-[[legs.links]]
-length_m = 0.2
-[[contacts]]
-name = "foot"
-leg = "leg"
-shape = { kind = "point", position_m = [0.0, 0.2] }
-friction = { kind = "sliding" }
-"#;
-    let m = RobotDescription::from_toml_str(toml)
-        .unwrap()
-        .build()
-        .unwrap();
+    let m = data_robot("robots/massless_two_link_leg.toml");
     let mode = ContactMode::parse_names(&m, "foot").unwrap();
     let mut d = Data::new(&m);
     let e = forward_dynamics(

@@ -51,9 +51,8 @@ fn sliding_toe_force_is_on_the_cone_edge_against_sliding_and_balances_the_leg() 
     let model = sled();
     let tau = pressing_torque(&model);
     for xdot in [0.7, -0.4] {
-        let (q, qd) = state(xdot);
-        let mut data = Data::new(&model);
-        sled::solve(&model, &mut data, &FlatGround, all_sliding(), &q, &qd, tau).unwrap();
+        let (q, _) = state(xdot);
+        let data = sled::sliding_on_flat(&model, xdot, tau);
         // rows: toe normal, front skid, rear skid
         let lambda_n = data.lambda[0];
         assert!(lambda_n < 0.0, "the toe pushes: {lambda_n}");
@@ -89,8 +88,7 @@ fn sled_on_a_pressed_toe_stops_at_the_closed_form_time() {
     let v0 = 0.6;
     let (q, qd) = state(v0);
     // the friction force, constant along the slide (fixed geometry, constant torque)
-    let mut data = Data::new(&model);
-    sled::solve(&model, &mut data, &FlatGround, all_sliding(), &q, &qd, tau).unwrap();
+    let data = sled::sliding_on_flat(&model, v0, tau);
     let f_t = data.sliding[0].force_t.abs();
     let t_star = M * v0 / f_t;
     let exec = sled_slide(&model, &Press(tau), (&q, &qd), 2.0 * t_star);
@@ -119,7 +117,15 @@ fn sled_on_a_pressed_toe_stops_at_the_closed_form_time() {
     let stick_mode = all_sliding().with(0, ContactKind::Stick);
     let mut stick = Data::new(&model);
     let (qs, qds) = ([y[0], y[1], y[2], y[3]], [0.0; 4]);
-    sled::solve(&model, &mut stick, &FlatGround, stick_mode, &qs, &qds, tau).unwrap();
+    sled::solve(
+        &model,
+        &mut stick,
+        &FlatGround,
+        stick_mode,
+        (&qs, &qds),
+        tau,
+    )
+    .unwrap();
     let (lt, ln) = (stick.lambda[0], stick.lambda[1]);
     assert!(
         lt.abs() <= MU * -ln,
@@ -179,19 +185,19 @@ fn at_zero_sliding_speed_the_toe_sticks_for_the_instant() {
         let qd = [0.0; 4];
         let stick_mode = all_sliding().with(0, ContactKind::Stick);
         let mut stick = Data::new(&model);
-        sled::solve(&model, &mut stick, &plane, stick_mode, &q, &qd, tau).unwrap();
+        sled::solve(&model, &mut stick, &plane, stick_mode, (&q, &qd), tau).unwrap();
         // the sticking mode holds everything: nothing moves
         assert!(stick.qdd.iter().all(|a| a.abs() < 1e-9), "{:?}", stick.qdd);
         let (lt, ln) = (stick.lambda[0], stick.lambda[1]);
         assert!(ln < 0.0 && (lt.abs() - M * G * beta.sin()).abs() < 1e-9 * M * G);
         let mut slide = Data::new(&model);
-        sled::solve(&model, &mut slide, &plane, all_sliding(), &q, &qd, tau).unwrap();
+        sled::solve(&model, &mut slide, &plane, all_sliding(), (&q, &qd), tau).unwrap();
         let site = &slide.sliding[0];
         assert!(site.at_rest);
         // the integrating caller's law at rest: never held
         let mut integ = Data::new(&model);
         integ.slide_at_rest = true;
-        sled::solve(&model, &mut integ, &plane, all_sliding(), &q, &qd, tau).unwrap();
+        sled::solve(&model, &mut integ, &plane, all_sliding(), (&q, &qd), tau).unwrap();
         let isite = &integ.sliding[0];
         assert_eq!(isite.cone_holds, lt.abs() <= MU * ln.abs());
         if lt.abs() <= MU * ln.abs() {

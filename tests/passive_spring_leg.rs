@@ -7,6 +7,8 @@
 //! engine's KKT: the 1-D ODE `m r̈ = F(r) − m g` integrated by hand (stance duration, deepest
 //! compression), the linear closed form of a stiff spring, conservation of
 //! `T + V_g + V_s` without damping, and the damper's dissipation `∫ c δ̇² dt` with it.
+mod common;
+
 use selfmanip::core::description::SpringDescription;
 use selfmanip::core::passive;
 use selfmanip::core::{ContactMode, FlatGround, Model, RobotDescription};
@@ -245,13 +247,7 @@ fn damped_spring_leg_loses_exactly_the_damper_work() {
     let mut dissipated = 0.0;
     for i in 0..=n {
         stance.eval(stance.t0 + h * i as f64, &mut y);
-        let w = if i == 0 || i == n {
-            1.0
-        } else if i % 2 == 1 {
-            4.0
-        } else {
-            2.0
-        };
+        let w = common::simpson_weight(i, n);
         dissipated += w * c * y[6] * y[6];
     }
     dissipated *= h / 3.0;

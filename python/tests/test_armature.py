@@ -8,31 +8,21 @@ kinetic energy is ``a theta'^2 / 2``; without armature the same link is a free m
 """
 
 import math
+import tomllib
 
 import pytest
 
 import selfmanip
+from conftest import REPO
 
 G = 9.81
 
 
 def robot(armature: float) -> selfmanip.Robot:
-    return selfmanip.Robot.from_toml(
-        f"""
-name = "rotor on a body"
-gravity_m_s2 = {G}
-[body]
-mass_kg = 2.0
-inertia_kg_m2 = 0.05
-[[legs]]
-name = "arm"
-hip_m = [0.1, 0.0]
-[[legs.links]]
-length_m = 0.2
-axis = "-y"
-armature_kg_m2 = {armature}
-"""
-    )
+    """``tests/data/robots/rotor_on_a_body.toml`` with ``armature`` at its arm's joint."""
+    description = tomllib.loads((REPO / "tests" / "data" / "robots" / "rotor_on_a_body.toml").read_text())
+    description["legs"][0]["links"][0]["armature_kg_m2"] = armature
+    return selfmanip.Robot.from_dict(description)
 
 
 def test_a_massless_link_with_armature_is_a_rotor_on_the_diagonal():
@@ -49,7 +39,7 @@ def test_a_massless_link_with_armature_is_a_rotor_on_the_diagonal():
     assert d.free_joints == [0] and d.qdd[0] == 0.0
 
 
-@pytest.mark.parametrize("bad", ["-0.01", "nan"])
+@pytest.mark.parametrize("bad", [-0.01, math.nan])
 def test_bad_armature_names_the_field(bad):
     with pytest.raises(ValueError, match="armature_kg_m2"):
         robot(bad)

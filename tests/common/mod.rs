@@ -128,3 +128,15 @@ pub fn drop_state(model: &Model, theta: &[f64], phi: f64, gap_m: f64, qd: &[f64]
 pub fn seq(e: &Execution) -> Vec<(EventKind, ContactMode)> {
     e.events.iter().map(|e| (e.kind, e.mode_after)).collect()
 }
+
+/// The weight of sample `i` of `0..=n` (`n` even) in Simpson's composite rule, without the
+/// factor `h/3`: 1 at the ends, 4 at odd samples, 2 at even ones.
+pub fn simpson_weight(i: usize, n: usize) -> f64 {
+    if i == 0 || i == n {
+        1.0
+    } else if i % 2 == 1 {
+        4.0
+    } else {
+        2.0
+    }
+}

@@ -6,7 +6,8 @@
 #![allow(dead_code)]
 use selfmanip::core::description::{FrictionDescription, ShapeDescription, SpringDescription};
 use selfmanip::core::{
-    forward_dynamics, ContactKind, ContactMode, CoreError, Data, Model, RobotDescription, Terrain,
+    forward_dynamics, ContactKind, ContactMode, CoreError, Data, FlatGround, Model,
+    RobotDescription, Terrain,
 };
 use selfmanip::hybrid::{Controller, ControllerPartials};
 
@@ -69,11 +70,19 @@ pub fn solve(
     data: &mut Data,
     terrain: &dyn Terrain,
     mode: ContactMode,
-    q: &[f64],
-    qd: &[f64],
+    (q, qd): (&[f64], &[f64]),
     tau: f64,
 ) -> Result<(), CoreError> {
     forward_dynamics(model, data, terrain, mode, q, qd, &[tau], None)
+}
+
+/// The sled at [`state`]`(xdot)` on flat ground, the toe and both skids sliding, under the
+/// leg torque `tau`: its forward dynamics.
+pub fn sliding_on_flat(model: &Model, xdot: f64, tau: f64) -> Data {
+    let (q, qd) = state(xdot);
+    let mut data = Data::new(model);
+    solve(model, &mut data, &FlatGround, all_sliding(), (&q, &qd), tau).unwrap();
+    data
 }
 
 /// The toe and both skids sliding.

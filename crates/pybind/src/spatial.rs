@@ -36,6 +36,14 @@ fn vec1<'py>(py: Python<'py>, v: &DVector<f64>) -> Bound<'py, PyArray1<f64>> {
     v.as_slice().to_vec().into_pyarray(py)
 }
 
+/// The vector `f` computes, as a numpy array, its error as the Python exception of its kind.
+fn vector<'py>(
+    py: Python<'py>,
+    f: impl FnOnce() -> Result<DVector<f64>, SpatialError>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    guard(|| Ok(vec1(py, &f().map_err(spatial_err)?)))
+}
+
 fn mat<'py>(py: Python<'py>, m: &DMatrix<f64>) -> Bound<'py, PyArray2<f64>> {
     Array2::from_shape_fn((m.nrows(), m.ncols()), |(i, j)| m[(i, j)]).into_pyarray(py)
 }
@@ -187,12 +195,7 @@ impl SpatialRobot {
         q: Vec<f64>,
         v: Vec<f64>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        guard(|| {
-            Ok(vec1(
-                py,
-                &integrate(&self.model, &q, &v).map_err(spatial_err)?,
-            ))
-        })
+        vector(py, || integrate(&self.model, &q, &v))
     }
 
     /// `q1 ⊖ q0`.
@@ -202,12 +205,7 @@ impl SpatialRobot {
         q0: Vec<f64>,
         q1: Vec<f64>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        guard(|| {
-            Ok(vec1(
-                py,
-                &difference(&self.model, &q0, &q1).map_err(spatial_err)?,
-            ))
-        })
+        vector(py, || difference(&self.model, &q0, &q1))
     }
 
     /// `M(q)` (nv × nv, CRBA).
@@ -230,10 +228,10 @@ impl SpatialRobot {
         q: Vec<f64>,
         v: Vec<f64>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        guard(|| {
+        vector(py, || {
             let mut data = SpatialData::new(&self.model);
-            nonlinear_effects(&self.model, &mut data, &q, &v).map_err(spatial_err)?;
-            Ok(vec1(py, &data.h))
+            nonlinear_effects(&self.model, &mut data, &q, &v)?;
+            Ok(data.h)
         })
     }
 

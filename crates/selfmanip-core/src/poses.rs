@@ -134,41 +134,13 @@ mod tests {
     use crate::contact::FlatGround;
     use crate::RobotDescription;
 
+    /// `tests/data/robots/knee_and_wheel_feet.toml`.
     fn robot() -> Model {
-        RobotDescription::from_toml_str(
-            r#"
-            name = "two-link legs"
-            [body]
-            mass_kg = 5.0
-            inertia_kg_m2 = 0.1
-            [[legs]]
-            name = "fore"
-            hip_m = [0.2, 0.03]
-            [[legs.links]]
-            length_m = 0.21
-            [[legs.links]]
-            length_m = 0.19
-            axis = "-y"
-            [[legs]]
-            name = "hind"
-            hip_m = [-0.2, 0.0]
-            [[legs.links]]
-            length_m = 0.25
-            [[contacts]]
-            name = "fore_foot"
-            leg = "fore"
-            shape = { kind = "point", position_m = [0.01, 0.19] }
-            friction = { kind = "sticking", mu = 1.0 }
-            [[contacts]]
-            name = "hind_foot"
-            leg = "hind"
-            shape = { kind = "circle", center_m = [0.0, 0.25], radius_m = 0.03 }
-            friction = { kind = "sticking", mu = 1.0 }
-            "#,
-        )
-        .unwrap()
-        .build()
-        .unwrap()
+        let text = include_str!("../../../tests/data/robots/knee_and_wheel_feet.toml");
+        RobotDescription::from_toml_str(text)
+            .unwrap()
+            .build()
+            .unwrap()
     }
 
     const Q: [f64; 6] = [0.4, -0.9, 1.1, 0.3, -0.5, 0.2];

@@ -172,27 +172,15 @@ mod tests {
     use crate::contact::FlatGround;
     use crate::RobotDescription;
 
-    fn model(contacts: &str) -> Model {
-        let text = format!(
-            r#"
-name = "one leg"
-gravity_m_s2 = 9.81
-[body]
-mass_kg = 2.0
-inertia_kg_m2 = 0.1
-[[legs]]
-name = "leg"
-hip_m = [0.0, 0.0]
-[[legs.links]]
-length_m = 0.2
-mass_kg = 0.0
-inertia_kg_m2 = 0.0
-{contacts}
-"#
-        );
-        RobotDescription::from_toml_str(&text)
-            .and_then(|d| d.build())
-            .expect("valid description")
+    /// `tests/data/robots/massless_leg_toe.toml`, with its toe or (`toe = false`) without
+    /// any contact.
+    fn model(toe: bool) -> Model {
+        let text = include_str!("../../../tests/data/robots/massless_leg_toe.toml");
+        let mut description = RobotDescription::from_toml_str(text).expect("valid description");
+        if !toe {
+            description.contacts.clear();
+        }
+        description.build().expect("valid description")
     }
 
     /// Fewer than three contact rows cannot balance the body's three equations (4.21): a
@@ -200,16 +188,9 @@ inertia_kg_m2 = 0.0
     /// with no contacts at all) nor a request for a negative number of torque constraints.
     #[test]
     fn fewer_than_three_contact_rows_are_ill_posed() {
-        let toe = r#"
-[[contacts]]
-name = "toe"
-leg = "leg"
-shape = { kind = "point", position_m = [0.0, 0.2] }
-friction = { kind = "sliding" }
-"#;
         let q = [0.0, 0.0, -0.2, 0.0];
         let none = DMatrix::zeros(1, 0);
-        for (m, spec) in [(model(""), ""), (model(toe), ""), (model(toe), "toe")] {
+        for (m, spec) in [(model(false), ""), (model(true), ""), (model(true), "toe")] {
             let mode = ContactMode::parse_names(&m, spec).unwrap();
             let mut data = Data::new(&m);
             let e = quasi_static(&m, &mut data, &FlatGround, mode, &q, &none).unwrap_err();

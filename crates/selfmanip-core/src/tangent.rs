@@ -311,6 +311,20 @@ struct Assembly {
 }
 
 impl Assembly {
+    /// The assembly at the state `data` was prepared at with rates `qd`, for the flow's
+    /// derivatives: [`Self::reset`], refused with friction at rest ([`Self::check_flow`]),
+    /// and the fold of its general sliding sites ([`Self::fold`]).
+    fn prepare_flow(
+        &mut self,
+        model: &Model,
+        data: &mut Data,
+        qd: &[f64],
+    ) -> Result<Option<Fold>, TangentError> {
+        self.reset(model, data, qd)?;
+        self.check_flow()?;
+        self.fold(model, data)
+    }
+
     /// Whether the flow's friction forces are differentiated here (none at rest).
     fn check_flow(&self) -> Result<(), TangentError> {
         match self.at_rest {
@@ -917,9 +931,7 @@ pub fn dynamics_jacobian_solved_into(
         zeros,
         solver,
     } = ws;
-    asm.reset(model, data, qd)?;
-    asm.check_flow()?;
-    let fold = asm.fold(model, data)?;
+    let fold = asm.prepare_flow(model, data, qd)?;
     let fold = fold.as_ref();
     let (nq, n, c) = (model.nq(), model.n_joints(), data.constraints.n_rows());
     asm.set_x(data.qdd.as_slice());
@@ -1197,9 +1209,7 @@ pub fn dynamics_jvp_into(
         fb,
         solver,
     } = ws;
-    asm.reset(model, data, qd)?;
-    asm.check_flow()?;
-    let fold = asm.fold(model, data)?;
+    let fold = asm.prepare_flow(model, data, qd)?;
     let (nq, c, m) = (model.nq(), data.constraints.n_rows(), dirs.dq.ncols());
     qdd.clear();
     qdd.extend_from_slice(data.qdd.as_slice());

@@ -20,6 +20,9 @@
 //! - **(c) the tangent** (`selfmanip_core::tangent`): the exact Jacobians of the flow and of
 //!   the plastic impact against central differences, with armature on a massive hip and on a
 //!   massless knee whose toe is on the ground.
+mod common;
+
+use common::test_robot;
 use nalgebra::{DMatrix, DVector, Vector2};
 use selfmanip_core::tangent::{dynamics_jacobian, plastic_impact_jacobian};
 use selfmanip_core::{
@@ -48,17 +51,11 @@ const PEND_M: f64 = 0.5;
 const PEND_I: f64 = 0.004;
 const PEND_LC: f64 = 0.2;
 
-/// `tests/data/robots/{name}` of the workspace.
-fn data_robot(name: &str) -> RobotDescription {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/robots");
-    RobotDescription::from_file(&dir.join(name)).unwrap()
-}
-
 /// The body of `pinned_pendulum.toml`, pinned to the ground by a sticking point and a sliding
 /// one, with a pendulum hanging from its centre whose joint has `armature`; the file's
 /// numbers are checked against the constants the closed form uses.
 fn pinned_pendulum(armature: f64) -> Model {
-    let mut d = data_robot("pinned_pendulum.toml");
+    let mut d = test_robot("pinned_pendulum.toml");
     let link = &mut d.legs[0].links[0];
     assert_eq!(d.gravity_m_s2, G);
     assert_eq!((link.mass_kg, link.inertia_kg_m2), (PEND_M, PEND_I));
@@ -442,7 +439,7 @@ fn flight_with_armature_conserves_energy_and_momentum_and_keeps_the_bare_links_c
 /// A body with a two-link leg: a massive hip with armature and a massless knee with
 /// armature, its toe a sticking point.
 fn two_link() -> Model {
-    data_robot("armature_two_link_leg.toml").build().unwrap()
+    test_robot("armature_two_link_leg.toml").build().unwrap()
 }
 
 /// `x` with entry `k` moved by `s`.

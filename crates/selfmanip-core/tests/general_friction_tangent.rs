@@ -23,10 +23,11 @@
 //! no kinetic friction (Assumption 5.9) and so is differentiated as before.
 mod common;
 
-use common::{coulomb_body, one_leg_body, robot, sliding, G};
+use common::{coulomb_body, sliding, test_robot};
 use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use selfmanip_core::description::SpringDescription;
 use selfmanip_core::friction::SlideDirection;
 use selfmanip_core::tangent::{
     dynamics_jacobian, dynamics_jvp, plastic_impact_jacobian, BodyParameter, FlowDirections,
@@ -53,84 +54,31 @@ fn block(m: f64, mu: f64) -> Model {
     coulomb_body(m, m * (w * w + h * h) / 12.0, &corners, mu, mu)
 }
 
-/// Contacts `toe` (a massive leg's, general), `rear` and `front` (body ends, general), and
-/// `stub` (a massless single-joint leg's toe: its statics, not the fold).
-/// `q = [θ_leg, θ_stub, x, z, φ]`.
+/// `tests/data/robots/legged_general_sliding.toml` with a body of `body_mass` kg: contacts
+/// `toe` (a massive leg's, general), `rear` and `front` (body ends, general), and `stub` (a
+/// massless single-joint leg's toe: its statics, not the fold). `q = [θ_leg, θ_stub, x, z, φ]`.
 fn legged(body_mass: f64) -> Model {
-    let text = format!(
-        r#"
-name = "legged"
-gravity_m_s2 = {G}
-[body]
-mass_kg = {body_mass}
-inertia_kg_m2 = 0.05
-[[legs]]
-name = "leg"
-hip_m = [0.05, 0.0]
-[[legs.links]]
-length_m = 0.15
-mass_kg = 0.3
-inertia_kg_m2 = 0.0006
-com_m = [0.0, 0.07]
-[[legs]]
-name = "stub"
-hip_m = [-0.1, 0.0]
-[[legs.links]]
-length_m = 0.12
-[[contacts]]
-name = "toe"
-leg = "leg"
-shape = {{ kind = "point", position_m = [0.0, 0.15] }}
-friction = {{ kind = "sticking", mu = 0.5, mu_kinetic = 0.5 }}
-[[contacts]]
-name = "rear"
-shape = {{ kind = "point", position_m = [-0.2, 0.05] }}
-friction = {{ kind = "sticking", mu = 0.4, mu_kinetic = 0.4 }}
-[[contacts]]
-name = "front"
-shape = {{ kind = "point", position_m = [0.2, 0.05] }}
-friction = {{ kind = "sticking", mu = 0.4, mu_kinetic = 0.4 }}
-[[contacts]]
-name = "stub"
-leg = "stub"
-shape = {{ kind = "point", position_m = [0.0, 0.12] }}
-friction = {{ kind = "sticking", mu = 0.6, mu_kinetic = 0.6 }}
-"#
-    );
-    robot(&text)
+    let mut description = test_robot("legged_general_sliding.toml");
+    description.body.mass_kg = body_mass;
+    description.build().unwrap()
 }
 
-/// A two-joint leg with a Coulomb toe: both links massive, or (`sprung`) a massive hip link
-/// and a massless knee link with a spring–damper. `q = [θ_hip, θ_knee, x, z, φ]`.
+/// `tests/data/robots/two_joint_leg.toml`: a two-joint leg with a Coulomb toe, both links
+/// massive, or (`sprung`) a massive hip link and a massless knee link with a spring–damper.
+/// `q = [θ_hip, θ_knee, x, z, φ]`.
 fn two_joint(sprung: bool) -> Model {
-    let knee = if sprung {
-        "spring = { stiffness_n_m_per_rad = 120.0, rest_angle_rad = 0.5, damping_n_m_s_per_rad = 0.4 }"
-            .to_string()
-    } else {
-        "mass_kg = 0.1\ninertia_kg_m2 = 0.0001\ncom_m = [0.0, 0.05]".to_string()
-    };
-    let text = format!(
-        r#"
-[[legs.links]]
-length_m = 0.177
-mass_kg = 0.126
-inertia_kg_m2 = 0.00092
-com_m = [0.0, 0.09]
-[[legs.links]]
-length_m = 0.1
-{knee}
-[[contacts]]
-name = "toe"
-leg = "leg"
-shape = {{ kind = "point", position_m = [0.0, 0.1] }}
-friction = {{ kind = "sticking", mu = 0.6, mu_kinetic = 0.6 }}
-[[contacts]]
-name = "rear"
-shape = {{ kind = "point", position_m = [-0.2, 0.05] }}
-friction = {{ kind = "sticking", mu = 0.4, mu_kinetic = 0.4 }}
-"#
-    );
-    one_leg_body("two-joint leg", 0.0, &text)
+    let mut description = test_robot("two_joint_leg.toml");
+    if sprung {
+        let knee = &mut description.legs[0].links[1];
+        (knee.mass_kg, knee.inertia_kg_m2, knee.com_m) = (0.0, 0.0, None);
+        knee.spring = Some(SpringDescription {
+            stiffness_n_m_per_rad: 120.0,
+            cubic_stiffness_n_m_per_rad3: 0.0,
+            damping_n_m_s_per_rad: 0.4,
+            rest_angle_rad: 0.5,
+        });
+    }
+    description.build().unwrap()
 }
 
 /// One evaluation's inputs: the mode, its fixed sliding directions (empty: the
@@ -143,12 +91,25 @@ struct Case<'a> {
 }
 
 impl Case<'_> {
-    /// `(q̈, λ)` at a state with the case's directions, or `None` (a typed error: singular,
-    /// Painlevé-inconsistent).
-    fn eval(&self, q: &[f64], qd: &[f64], tau: &[f64]) -> Option<(Vec<f64>, Vec<f64>)> {
+    /// `f` (the dynamics or its Jacobian) at `(q, q̇, Υ)` in the case's mode on its terrain,
+    /// with its sliding directions and no prescribed free-joint motion, and the data it left.
+    fn solve<T, E>(
+        &self,
+        f: impl Fn(
+            &Model,
+            &mut Data,
+            &dyn Terrain,
+            ContactMode,
+            &[f64],
+            &[f64],
+            &[f64],
+            Option<&[f64]>,
+        ) -> Result<T, E>,
+        (q, qd, tau): (&[f64], &[f64], &[f64]),
+    ) -> (Data, Result<T, E>) {
         let mut data = Data::new(self.model);
         data.set_slide_directions(&self.dirs);
-        forward_dynamics(
+        let solved = f(
             self.model,
             &mut data,
             self.terrain,
@@ -157,8 +118,15 @@ impl Case<'_> {
             qd,
             tau,
             None,
-        )
-        .ok()?;
+        );
+        (data, solved)
+    }
+
+    /// `(q̈, λ)` at a state with the case's directions, or `None` (a typed error: singular,
+    /// Painlevé-inconsistent).
+    fn eval(&self, q: &[f64], qd: &[f64], tau: &[f64]) -> Option<(Vec<f64>, Vec<f64>)> {
+        let (data, solved) = self.solve(forward_dynamics, (q, qd, tau));
+        solved.ok()?;
         Some((
             data.qdd.as_slice().to_vec(),
             data.lambda.as_slice().to_vec(),
@@ -169,18 +137,8 @@ impl Case<'_> {
     /// state, with the number of general sites folded there; `None` where a side is not
     /// defined.
     fn check(&self, q: &[f64], qd: &[f64], tau: &[f64]) -> Option<(f64, usize)> {
-        let mut data = Data::new(self.model);
-        data.set_slide_directions(&self.dirs);
-        let jac = match dynamics_jacobian(
-            self.model,
-            &mut data,
-            self.terrain,
-            self.mode,
-            q,
-            qd,
-            tau,
-            None,
-        ) {
+        let (data, jac) = self.solve(dynamics_jacobian, (q, qd, tau));
+        let jac = match jac {
             Ok(j) => j,
             Err(TangentError::Core(_)) => return None,
             Err(e) => panic!("{}: {e}", self.model.name),

@@ -36,7 +36,7 @@ use crate::error::HybridError;
 use crate::event::{Event, EventKind, PainleveReason};
 use crate::flow::{Flow, FlowWorkspace};
 use crate::options::HybridOptions;
-use crate::reset::Reset;
+use crate::reset::{reset_workspace, Reset};
 use crate::reset_workspace::ResetWorkspace;
 use selfmanip_core::contact::{ContactKind, RowDirection};
 use selfmanip_core::friction::SLIDING_SPEED_EPS_M_S;
@@ -89,16 +89,7 @@ pub fn jam(
     };
     let ctrl = flow.controller().clone();
     let lock = flow.lock().to_vec();
-    ws.data.locked.clone_from(&lock);
-    let cx = &mut ResetWorkspace {
-        model,
-        terrain: flow.terrain(),
-        ctrl: &*ctrl,
-        delta_t_s: opts.delta_t_s,
-        ws,
-        barred,
-        fold_threshold: opts.fold_threshold,
-    };
+    let cx = &mut reset_workspace(flow, &*ctrl, opts, ws, barred, &lock);
     let ke_before = kinetic_energy_at(model, cx.terrain, &mut cx.ws.data, q, qd)?;
     let candidates: Vec<usize> = mode.active().collect();
     // a sliding contact: the tangential impact into its stick (an impact: 5.28–5.29, 5.40)

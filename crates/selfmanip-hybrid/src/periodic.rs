@@ -316,67 +316,84 @@ pub fn return_map(
 ) -> Result<ReturnMap, PeriodicError> {
     check_state(model, x0, "x0")?;
     check_options(model, opts)?;
-    apex_return(model, terrain, controller, x0, jacobian, opts)
-}
-
-fn apex_return(
-    model: &Model,
-    terrain: &dyn Terrain,
-    controller: &dyn Controller,
-    x0: &[f64],
-    jacobian: bool,
-    opts: &PeriodicOptions,
-) -> Result<ReturnMap, PeriodicError> {
-    let nq = model.nq();
-    let mut x0 = x0.to_vec();
-    x0[nq + model.ix_z()] = 0.0;
-    let hybrid = HybridOptions {
-        stop_at_apex: true,
-        ..opts.hybrid
-    };
-    let exec = simulate(
+    let section = ApexSection {
         model,
         terrain,
         controller,
-        ContactMode::FLIGHT,
-        &x0[..nq],
-        &x0[nq..],
-        opts.max_period_s,
-        hybrid,
-    )?;
-    if exec.termination != Termination::Apex {
-        return Err(PeriodicError::NoReturn {
-            termination: exec.termination.clone(),
-            t: exec.t,
-        });
-    }
-    let x1: Vec<f64> = exec.q.iter().chain(&exec.qd).copied().collect();
-    let (mut jac, mut tg) = (None, None);
-    if jacobian {
-        let s = execution_sensitivity(model, terrain, &exec)?;
-        let Some(j) = s.state_jacobian else {
-            let reason = s
-                .events
-                .iter()
-                .find(|e| e.saltation.is_none())
-                .map(|e| {
-                    let why = e.status.reason().unwrap_or_default();
-                    format!("{} at t = {} s: {why}", e.kind.name(), e.t)
-                })
-                .unwrap_or_else(|| "a segment end without an event".into());
-            return Err(PeriodicError::NotDifferentiable { reason });
+        opts,
+    };
+    section.map(x0, jacobian)
+}
+
+/// The apex section of a system: [`return_map`] without the checks of its inputs (made once
+/// by the caller).
+#[derive(Clone, Copy)]
+struct ApexSection<'a> {
+    model: &'a Model,
+    terrain: &'a dyn Terrain,
+    controller: &'a dyn Controller,
+    opts: &'a PeriodicOptions,
+}
+
+impl ApexSection<'_> {
+    fn map(self, x0: &[f64], jacobian: bool) -> Result<ReturnMap, PeriodicError> {
+        let ApexSection {
+            model,
+            terrain,
+            controller,
+            opts,
+        } = self;
+        let nq = model.nq();
+        let mut x0 = x0.to_vec();
+        x0[nq + model.ix_z()] = 0.0;
+        let hybrid = HybridOptions {
+            stop_at_apex: true,
+            ..opts.hybrid
         };
-        jac = Some(j);
-        tg = s.events.last().and_then(|e| e.time_gradient.clone());
+        let exec = simulate(
+            model,
+            terrain,
+            controller,
+            ContactMode::FLIGHT,
+            &x0[..nq],
+            &x0[nq..],
+            opts.max_period_s,
+            hybrid,
+        )?;
+        if exec.termination != Termination::Apex {
+            return Err(PeriodicError::NoReturn {
+                termination: exec.termination.clone(),
+                t: exec.t,
+            });
+        }
+        let x1: Vec<f64> = exec.q.iter().chain(&exec.qd).copied().collect();
+        let (mut jac, mut tg) = (None, None);
+        if jacobian {
+            let s = execution_sensitivity(model, terrain, &exec)?;
+            let Some(j) = s.state_jacobian else {
+                let reason = s
+                    .events
+                    .iter()
+                    .find(|e| e.saltation.is_none())
+                    .map(|e| {
+                        let why = e.status.reason().unwrap_or_default();
+                        format!("{} at t = {} s: {why}", e.kind.name(), e.t)
+                    })
+                    .unwrap_or_else(|| "a segment end without an event".into());
+                return Err(PeriodicError::NotDifferentiable { reason });
+            };
+            jac = Some(j);
+            tg = s.events.last().and_then(|e| e.time_gradient.clone());
+        }
+        Ok(ReturnMap {
+            x0,
+            x1,
+            period_s: exec.t,
+            jacobian: jac,
+            time_gradient: tg,
+            execution: exec,
+        })
     }
-    Ok(ReturnMap {
-        x0,
-        x1,
-        period_s: exec.t,
-        jacobian: jac,
-        time_gradient: tg,
-        execution: exec,
-    })
 }
 
 /// The section coordinates: every state index but `ż` and the cyclic positions.
@@ -406,7 +423,13 @@ pub fn find_periodic_orbit(
     let n2 = 2 * model.nq();
     let mut x = guess.to_vec();
     x[model.nq() + model.ix_z()] = 0.0;
-    let mut rm = apex_return(model, terrain, controller, &x, true, opts)?;
+    let section = ApexSection {
+        model,
+        terrain,
+        controller,
+        opts,
+    };
+    let mut rm = section.map(&x, true)?;
     let mut runs = 1;
     let mut r = residual(&rm, &idx);
     for it in 0..opts.max_iterations {
@@ -468,7 +491,7 @@ pub fn find_periodic_orbit(
                 trial[i] += lambda * delta[k];
             }
             runs += 1;
-            if let Ok(t) = apex_return(model, terrain, controller, &trial, h == 0, opts) {
+            if let Ok(t) = section.map(&trial, h == 0) {
                 let rt = residual(&t, &idx);
                 if rt.amax() < rnorm {
                     accepted = Some((trial, t, rt));
@@ -480,7 +503,7 @@ pub fn find_periodic_orbit(
         let accepted = match accepted {
             Some((xt, t, rt)) if t.jacobian.is_none() => {
                 runs += 1;
-                let t = apex_return(model, terrain, controller, &xt, true, opts)?;
+                let t = section.map(&xt, true)?;
                 Some((xt, t, rt))
             }
             other => other,

@@ -17,6 +17,7 @@
 //! stick; a touchdown whose contact is already found below its ground met a step of the
 //! terrain.
 use crate::complementarity::Selected;
+use crate::controller::Controller;
 use crate::energy::kinetic_energy_at;
 use crate::error::HybridError;
 use crate::event::{Event, EventKind};
@@ -50,21 +51,10 @@ pub enum Reset {
 
 /// The reset of the guards `fired` at `(t, y = [q; q̇])` in `mode` of `flow`, evaluated on
 /// the workspace `ws`, with the pseudo-impulse duration and the fold threshold of `opts`.
+/// The contacts `jammed` (usually none) may not slide: an impact that left one of them on a
+/// slide inconsistent with Coulomb friction (Painlevé) is taken again with it offered the
+/// stick — the impact's tangential part, an impact without collision ([`crate::jam`]).
 pub fn reset(
-    ws: &mut FlowWorkspace,
-    flow: &mut Flow,
-    opts: &HybridOptions,
-    fired: &[Guard],
-    mode: ContactMode,
-    (t, y): (f64, &[f64]),
-) -> Result<Reset, HybridError> {
-    reset_jamming(ws, flow, opts, fired, mode, (t, y), &[])
-}
-
-/// [`reset`] in which the contacts `jammed` may not slide: an impact that left one of them
-/// on a slide inconsistent with Coulomb friction (Painlevé) is taken again with it offered
-/// the stick — the impact's tangential part, an impact without collision ([`crate::jam`]).
-pub fn reset_jamming(
     ws: &mut FlowWorkspace,
     flow: &mut Flow,
     opts: &HybridOptions,
@@ -125,16 +115,7 @@ pub fn reset_jamming(
     let passing_bar: Vec<(usize, ContactKind)> =
         c.folded.iter().map(|&k| (k, ContactKind::Stick)).collect();
     let ctrl = flow.controller().clone();
-    ws.data.locked.clone_from(&lock);
-    let cx = &mut ResetWorkspace {
-        model,
-        terrain: flow.terrain(),
-        ctrl: &*ctrl,
-        delta_t_s: opts.delta_t_s,
-        ws,
-        barred: &barred,
-        fold_threshold: opts.fold_threshold,
-    };
+    let cx = &mut reset_workspace(flow, &*ctrl, opts, ws, &barred, &lock);
     // a landing at δt = 0 takes every contact touching with it (ResetWorkspace::touching)
     let more = cx.touching(mode, &c.touched, q, qd)?;
     c.touched.extend(more);
@@ -254,7 +235,32 @@ fn apex_reset(
     })
 }
 
+/// The workspace of a reset of `flow` under `ctrl` (the flow's controller, cloned out so
+/// that `flow` stays free), with the joints `lock` locked in `ws`, the kinds `barred` barred,
+/// and the pseudo-impulse duration and fold threshold of `opts`.
+pub(crate) fn reset_workspace<'a: 'b, 'b>(
+    flow: &Flow<'a>,
+    ctrl: &'b dyn Controller,
+    opts: &HybridOptions,
+    ws: &'b mut FlowWorkspace,
+    barred: &'b [(usize, ContactKind)],
+    lock: &[usize],
+) -> ResetWorkspace<'b> {
+    ws.data.locked.clear();
+    ws.data.locked.extend_from_slice(lock);
+    ResetWorkspace {
+        model: flow.model(),
+        terrain: flow.terrain(),
+        ctrl,
+        delta_t_s: opts.delta_t_s,
+        ws,
+        barred,
+        fold_threshold: opts.fold_threshold,
+    }
+}
+
 /// The contacts of the guards that fired, by guard.
+#[derive(Default)]
 struct FiredContacts {
     touched: Vec<usize>,
     released: Vec<usize>,
@@ -266,35 +272,19 @@ struct FiredContacts {
 
 impl FiredContacts {
     fn of(fired: &[Guard]) -> Self {
-        let fired_contacts = |pick: fn(&Guard) -> Option<usize>| -> Vec<usize> {
-            fired.iter().filter_map(pick).collect()
-        };
-        FiredContacts {
-            touched: fired_contacts(|g| match g {
-                Guard::Touchdown(k) => Some(*k),
-                _ => None,
-            }),
-            released: fired_contacts(|g| match g {
-                Guard::Liftoff { contact, .. } => Some(*contact),
-                _ => None,
-            }),
-            slipped: fired_contacts(|g| match g {
-                Guard::Slip { contact, .. } => Some(*contact),
-                _ => None,
-            }),
-            stuck: fired_contacts(|g| match g {
-                Guard::Stick(k) => Some(*k),
-                _ => None,
-            }),
-            folded: fired_contacts(|g| match g {
-                Guard::Fold { contact, .. } => Some(*contact),
-                _ => None,
-            }),
-            passed: fired_contacts(|g| match g {
-                Guard::FoldPassed { contact, .. } => Some(*contact),
-                _ => None,
-            }),
+        let mut c = FiredContacts::default();
+        for guard in fired {
+            match *guard {
+                Guard::Touchdown(k) => c.touched.push(k),
+                Guard::Liftoff { contact, .. } => c.released.push(contact),
+                Guard::Slip { contact, .. } => c.slipped.push(contact),
+                Guard::Stick(k) => c.stuck.push(k),
+                Guard::Fold { contact, .. } => c.folded.push(contact),
+                Guard::FoldPassed { contact, .. } => c.passed.push(contact),
+                Guard::Apex => {}
+            }
         }
+        c
     }
 
     /// The event's kind and the contacts that triggered it, by precedence: a touchdown (with

@@ -21,7 +21,7 @@ use crate::flow::{Flow, FlowWorkspace};
 use crate::guard::Guard;
 use crate::jam::{coulomb_jam, jam};
 use crate::options::HybridOptions;
-use crate::reset::{reset, reset_jamming, Reset};
+use crate::reset::{reset, Reset};
 use crate::segment::{SegmentEnd, SegmentIntegrator};
 use crate::zeno::{ChatterDetector, ZenoWindow};
 use selfmanip_core::contact::ContactKind;
@@ -134,7 +134,7 @@ pub fn simulate_with(
                 }
                 SegmentEnd::Ended(term) => break 'run term,
             };
-            match reset(&mut reset_ws, &mut flow, &opts, &fired, mode, (t, &y)) {
+            match reset(&mut reset_ws, &mut flow, &opts, &fired, mode, (t, &y), &[]) {
                 Ok(r) => Ok(r),
                 // an impact that chose an inconsistent slide: the same impact with that
                 // contact sticking (its jam)
@@ -303,8 +303,8 @@ fn painleve(
 
 /// A touchdown's reset that failed with a Painlevé inconsistency (`e`) at a contact the
 /// impact left sliding, taken again with that contact barred from sliding
-/// ([`crate::reset::reset_jamming`]): accepted as a [`EventKind::Jam`] when the contact
-/// sticks after it (the impulse in its cone, pushing); else the run ends typed.
+/// ([`crate::reset::reset`] with it `jammed`): accepted as a [`EventKind::Jam`] when the
+/// contact sticks after it (the impulse in its cone, pushing); else the run ends typed.
 #[allow(clippy::too_many_arguments)]
 fn jammed_impact(
     e: HybridError,
@@ -331,7 +331,7 @@ fn jammed_impact(
         return Ok(end(PainleveReason::Inactive));
     };
     // any failure of the retry leaves the end as it was without it: typed
-    let rj = reset_jamming(ws, flow, opts, fired, mode, (t, y), &[k]);
+    let rj = reset(ws, flow, opts, fired, mode, (t, y), &[k]);
     let reason = match rj {
         Ok(Reset::Continue {
             mut event,

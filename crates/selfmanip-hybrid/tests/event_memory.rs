@@ -7,9 +7,7 @@
 mod systems;
 use nalgebra::DMatrix;
 use selfmanip_core::{ContactMode, FlatGround};
-use selfmanip_hybrid::sensitivity::{
-    execution_sensitivity_columns, simulate_with_sensitivity, Parameter, SensitivityError,
-};
+use selfmanip_hybrid::sensitivity::{execution_sensitivity_columns, Parameter, SensitivityError};
 use selfmanip_hybrid::{Controller, ControllerPartials, Event, EventKind, EventMemoryPartials};
 use systems::{run_from_flight, G};
 
@@ -134,17 +132,7 @@ fn ramp_servo_from_a_touchdown_whole_execution_jacobian() {
     let y0 = [0.2, 0.0, -0.23, 0.1, -0.5, 0.4, 0.3, 0.2];
     let tf = 0.42;
     let ctrl = servo(true);
-    let (exec, sens) = simulate_with_sensitivity(
-        &model,
-        &FlatGround,
-        &ctrl,
-        ContactMode::FLIGHT,
-        &y0[..4],
-        &y0[4..],
-        tf,
-        systems::tight(),
-    )
-    .unwrap();
+    let (exec, sens) = systems::flight_sensitivity(&model, &ctrl, &y0, tf).unwrap();
     let (_, seq) = run_from_flight(&model, &ctrl, &y0, tf);
     eprintln!(
         "events {seq:?} at {:?}",
@@ -170,33 +158,14 @@ fn ramp_servo_from_a_touchdown_whole_execution_jacobian() {
     // without its ∂τ/∂t the sensitivities difference the torque in time: the same Jacobian
     let mut timeless = servo(true);
     timeless.gives_time_partials = false;
-    let (_, s) = simulate_with_sensitivity(
-        &model,
-        &FlatGround,
-        &timeless,
-        ContactMode::FLIGHT,
-        &y0[..4],
-        &y0[4..],
-        tf,
-        systems::tight(),
-    )
-    .unwrap();
+    let (_, s) = systems::flight_sensitivity(&model, &timeless, &y0, tf).unwrap();
     let err_fd = (&s.state_jacobian.expect("defined") - &fd).amax() / fd.amax();
     eprintln!("ramp servo, ∂τ/∂t by differences: |J − FD| / |FD| = {err_fd:e}");
     assert!(err_fd < 1e-6, "{err_fd:e}");
     // held fixed, the derivative is wrong: a controller without memory partials is flagged
     let mut blind = servo(false);
     blind.gives_partials = false;
-    let r = simulate_with_sensitivity(
-        &model,
-        &FlatGround,
-        &blind,
-        ContactMode::FLIGHT,
-        &y0[..4],
-        &y0[4..],
-        tf,
-        systems::tight(),
-    );
+    let r = systems::flight_sensitivity(&model, &blind, &y0, tf);
     match r {
         Err(SensitivityError::EventMemoryWithoutPartials { t, .. }) => {
             assert!(t >= exec.events[0].t, "{t}")

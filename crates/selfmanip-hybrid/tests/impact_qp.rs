@@ -36,6 +36,13 @@ impl Rng {
     fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
         lo + (hi - lo) * self.next()
     }
+    /// One uniform draw in each `(lo, hi)`, in order.
+    fn within(&mut self, bounds: &[(f64, f64)]) -> Vec<f64> {
+        bounds
+            .iter()
+            .map(|&(lo, hi)| self.uniform(lo, hi))
+            .collect()
+    }
 }
 
 /// A rigid body with frictionless point contacts at `points` (body frame, z down).
@@ -219,11 +226,7 @@ fn random_case(rng: &mut Rng, n: usize) -> (Model, Facets, Vec<f64>, Vec<f64>) {
         let Some(terrain) = facets(&model, &q, &cand, &tilts) else {
             continue;
         };
-        let qd = vec![
-            rng.uniform(-1.0, 1.0),
-            rng.uniform(-0.5, 1.5),
-            rng.uniform(-4.0, 4.0),
-        ];
+        let qd = rng.within(&[(-1.0, 1.0), (-0.5, 1.5), (-4.0, 4.0)]);
         return (model, terrain, q, qd);
     }
 }
@@ -660,52 +663,11 @@ fn liftoff_agrees_with_brute_force_on_random_polygons() {
 /// result matches the brute force; a candidate on the massless leg is a typed error.
 #[test]
 fn legs_massive_candidate_and_massless_bystander() {
-    let toml = r#"
-name = "two legs"
-gravity_m_s2 = 9.81
-[body]
-mass_kg = 4.0
-inertia_kg_m2 = 0.08
-[[legs]]
-name = "heavy"
-hip_m = [0.2, 0.0]
-[[legs.links]]
-length_m = 0.15
-mass_kg = 0.5
-inertia_kg_m2 = 0.002
-[[legs]]
-name = "light"
-hip_m = [-0.2, 0.0]
-[[legs.links]]
-length_m = 0.15
-[[contacts]]
-name = "heavy_toe"
-leg = "heavy"
-shape = { kind = "point", position_m = [0.0, 0.15] }
-friction = { kind = "sliding" }
-[[contacts]]
-name = "light_toe"
-leg = "light"
-shape = { kind = "point", position_m = [0.0, 0.15] }
-friction = { kind = "sliding" }
-[[contacts]]
-name = "b0"
-shape = { kind = "point", position_m = [-0.25, 0.05] }
-friction = { kind = "sliding" }
-[[contacts]]
-name = "b1"
-shape = { kind = "point", position_m = [-0.08, 0.06] }
-friction = { kind = "sliding" }
-[[contacts]]
-name = "b2"
-shape = { kind = "point", position_m = [0.08, 0.06] }
-friction = { kind = "sliding" }
-[[contacts]]
-name = "b3"
-shape = { kind = "point", position_m = [0.25, 0.05] }
-friction = { kind = "sliding" }
-"#;
-    let model = RobotDescription::from_toml_str(toml)
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../tests/data/robots/heavy_and_light_legs.toml"
+    );
+    let model = RobotDescription::from_file(std::path::Path::new(path))
         .unwrap()
         .build()
         .unwrap();
@@ -725,13 +687,13 @@ friction = { kind = "sliding" }
         let Some(terrain) = facets(&model, &q, &cand, &tilts) else {
             continue;
         };
-        let qd = vec![
-            rng.uniform(-5.0, 5.0),
-            rng.uniform(-5.0, 5.0),
-            rng.uniform(-1.0, 1.0),
-            rng.uniform(-0.5, 1.5),
-            rng.uniform(-3.0, 3.0),
-        ];
+        let qd = rng.within(&[
+            (-5.0, 5.0),
+            (-5.0, 5.0),
+            (-1.0, 1.0),
+            (-0.5, 1.5),
+            (-3.0, 3.0),
+        ]);
         let accepted = brute_force_impact(&model, &terrain, &cand, &q, &qd, None);
         let mut data = Data::new(&model);
         let out = frictionless_impact(&model, &mut data, &terrain, &cand, &q, &qd, None).unwrap();

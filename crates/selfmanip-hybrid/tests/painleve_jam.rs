@@ -22,7 +22,7 @@ use selfmanip_hybrid::{EventKind, HybridOptions, PainleveReason, Termination, Ze
 use std::sync::Arc;
 
 mod systems;
-use systems::{coast, painleve_mu_star, painleve_rod, sliding};
+use systems::{coast, coast_sliding_on_level, painleve_mu_star, painleve_rod, sliding};
 
 const M: f64 = 1.5;
 const L: f64 = 0.4;
@@ -59,13 +59,7 @@ fn painleve_rod_jams_with_the_closed_form_plastic_impulse() {
     let mu = 1.05 * mu_star();
     let model = rod(mu);
     let (q, qd) = state();
-    let exec = coast(
-        &model,
-        &GroundPlane::level(0.0),
-        sliding(&[0]),
-        (&q, &qd),
-        0.05,
-    );
+    let exec = coast_sliding_on_level(&model, (&q, &qd), 0.05);
     assert!(
         !matches!(exec.termination, Termination::Painleve { .. }),
         "{:?}",
@@ -160,13 +154,7 @@ fn jams_never_add_energy_and_lose_the_closed_form() {
             let model = rod(mu_star * factor);
             let q = [0.0, -L * s, theta];
             let qd = [V, 0.0, 0.0];
-            let exec = coast(
-                &model,
-                &GroundPlane::level(0.0),
-                sliding(&[0]),
-                (&q, &qd),
-                0.02,
-            );
+            let exec = coast_sliding_on_level(&model, (&q, &qd), 0.02);
             let e = &exec.events[0];
             assert_eq!(e.kind, EventKind::Jam, "θ {theta} ×{factor}: {e:?}");
             let v = &e.qd_after;

@@ -5,8 +5,7 @@
 //! law switches piece (`Controller::partials_piece`) and the tangent's steps are split there.
 //! Checked against central differences of whole executions (the independent route).
 mod systems;
-use selfmanip_core::{ContactMode, FlatGround, Model};
-use selfmanip_hybrid::sensitivity::simulate_with_sensitivity;
+use selfmanip_core::{ContactMode, Model};
 use selfmanip_hybrid::{Controller, ControllerPartials};
 use systems::{flight_run_jacobian_fd, run_from_flight, G};
 
@@ -63,17 +62,7 @@ impl Controller for Saturating {
 /// engine's step, so differences over 1e-6 are noisy to ~1e-6 (the split tangent itself
 /// agrees with itself at rtol 1e-11, 1e-12 and 1e-13 to 2e-11).
 fn jacobian_error(model: &Model, ctrl: &Saturating, y0: &[f64], tf: f64) -> (f64, usize) {
-    let (exec, sens) = simulate_with_sensitivity(
-        model,
-        &FlatGround,
-        ctrl,
-        ContactMode::FLIGHT,
-        &y0[..4],
-        &y0[4..],
-        tf,
-        systems::tight(),
-    )
-    .unwrap();
+    let (exec, sens) = systems::flight_sensitivity(model, ctrl, y0, tf).unwrap();
     let (_, seq) = run_from_flight(model, ctrl, y0, tf);
     let probe = Saturating {
         pieces: true,

@@ -12,7 +12,9 @@ use selfmanip_hybrid::{
 };
 
 mod systems;
-use systems::{coast, painleve_mu_star, painleve_rod, sliding, Friction, G};
+use systems::{
+    coast, coast_sliding_on_level, painleve_mu_star, painleve_rod, sliding, Friction, G,
+};
 
 /// A rigid body with point contacts `(name, x, z)` in its frame, sticking with `mu` and
 /// sliding with the same kinetic coefficient.
@@ -140,13 +142,7 @@ fn painleve_rod_run_jams_beyond_the_threshold_and_slides_below_it() {
         // the end on the ground, sliding at −0.3 m/s (away from the centre), not turning
         let q = [0.0, -l * s, theta];
         let qd = [-0.3, 0.0, 0.0];
-        let exec = coast(
-            &model,
-            &GroundPlane::level(0.0),
-            sliding(&[0]),
-            (&q, &qd),
-            0.05,
-        );
+        let exec = coast_sliding_on_level(&model, (&q, &qd), 0.05);
         assert!(exec.t > 0.0, "{:?}", exec.termination);
         let jammed = exec
             .events

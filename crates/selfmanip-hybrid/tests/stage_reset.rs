@@ -22,7 +22,7 @@ fn reset_block(mode: ContactMode, fired: &[Guard], y: &[f64], delta_t_s: f64) ->
         delta_t_s,
         ..HybridOptions::default()
     };
-    reset(&mut ws, &mut flow, &opts, fired, mode, (0.0, y)).unwrap()
+    reset(&mut ws, &mut flow, &opts, fired, mode, (0.0, y), &[]).unwrap()
 }
 
 /// A tilted block falling at `v` lands on its left corner, which sticks. The impulse `P`
@@ -191,6 +191,7 @@ fn three_point_landing_has_several_contact_solutions() {
         &fired,
         ContactMode::FLIGHT,
         (0.2, &y),
+        &[],
     )
     .unwrap();
     let pair = |s| ContactMode::parse_names(&model, s).unwrap();

@@ -57,6 +57,25 @@ pub enum Op {
     Ne,
 }
 
+impl Op {
+    /// `x op y`; a comparison is 1 where it holds, else 0.
+    pub fn apply(self, x: f64, y: f64) -> f64 {
+        let truth = |c: bool| if c { 1.0 } else { 0.0 };
+        match self {
+            Op::Add => x + y,
+            Op::Sub => x - y,
+            Op::Mul => x * y,
+            Op::Div => x / y,
+            Op::Lt => truth(x < y),
+            Op::Le => truth(x <= y),
+            Op::Gt => truth(x > y),
+            Op::Ge => truth(x >= y),
+            Op::Eq => truth(x == y),
+            Op::Ne => truth(x != y),
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Func {
     Min,
@@ -134,22 +153,7 @@ impl Expr {
             Expr::Num(x) => *x,
             Expr::Var(v) => lookup(v).ok_or_else(|| format!("unknown name `{v}`"))?,
             Expr::Neg(a) => -a.eval(lookup)?,
-            Expr::Bin(op, a, b) => {
-                let (x, y) = (a.eval(lookup)?, b.eval(lookup)?);
-                let truth = |c: bool| if c { 1.0 } else { 0.0 };
-                match op {
-                    Op::Add => x + y,
-                    Op::Sub => x - y,
-                    Op::Mul => x * y,
-                    Op::Div => x / y,
-                    Op::Lt => truth(x < y),
-                    Op::Le => truth(x <= y),
-                    Op::Gt => truth(x > y),
-                    Op::Ge => truth(x >= y),
-                    Op::Eq => truth(x == y),
-                    Op::Ne => truth(x != y),
-                }
-            }
+            Expr::Bin(op, a, b) => op.apply(a.eval(lookup)?, b.eval(lookup)?),
             Expr::Call(f, args) => {
                 let v = |i: usize| args[i].eval(lookup);
                 match f {
@@ -202,19 +206,15 @@ impl Expr {
             }
             Expr::Bin(op, a, b) => {
                 let ((x, g), (y, h)) = (a.eval_grad(n, lookup)?, b.eval_grad(n, lookup)?);
-                let truth = |c: bool| (if c { 1.0 } else { 0.0 }, vec![0.0; n]);
-                match op {
-                    Op::Add => (x + y, lin(1.0, &g, 1.0, &h)),
-                    Op::Sub => (x - y, lin(1.0, &g, -1.0, &h)),
-                    Op::Mul => (x * y, lin(y, &g, x, &h)),
-                    Op::Div => (x / y, lin(1.0 / y, &g, -x / (y * y), &h)),
-                    Op::Lt => truth(x < y),
-                    Op::Le => truth(x <= y),
-                    Op::Gt => truth(x > y),
-                    Op::Ge => truth(x >= y),
-                    Op::Eq => truth(x == y),
-                    Op::Ne => truth(x != y),
-                }
+                let gradient = match op {
+                    Op::Add => lin(1.0, &g, 1.0, &h),
+                    Op::Sub => lin(1.0, &g, -1.0, &h),
+                    Op::Mul => lin(y, &g, x, &h),
+                    Op::Div => lin(1.0 / y, &g, -x / (y * y), &h),
+                    // piecewise constant
+                    Op::Lt | Op::Le | Op::Gt | Op::Ge | Op::Eq | Op::Ne => vec![0.0; n],
+                };
+                (op.apply(x, y), gradient)
             }
             Expr::Call(f, args) => {
                 let v = |i: usize| args[i].eval_grad(n, lookup);
@@ -343,29 +343,27 @@ impl Parser<'_> {
     }
 
     fn sum(&mut self) -> Result<Node, String> {
-        let mut a = self.product()?;
-        loop {
-            let op = match self.peek() {
-                Some(b'+') => Op::Add,
-                Some(b'-') => Op::Sub,
-                _ => return Ok(a),
-            };
-            self.i += 1;
-            let b = self.product()?;
-            a = bin(op, a, b)?;
-        }
+        self.left_associative([(b'+', Op::Add), (b'-', Op::Sub)], Self::product)
     }
 
     fn product(&mut self) -> Result<Node, String> {
-        let mut a = self.unary()?;
+        self.left_associative([(b'*', Op::Mul), (b'/', Op::Div)], Self::unary)
+    }
+
+    /// `operand (op operand)*` folded to the left, `ops` the level's operators by their byte.
+    fn left_associative(
+        &mut self,
+        ops: [(u8, Op); 2],
+        operand: fn(&mut Self) -> Result<Node, String>,
+    ) -> Result<Node, String> {
+        let mut a = operand(self)?;
         loop {
-            let op = match self.peek() {
-                Some(b'*') => Op::Mul,
-                Some(b'/') => Op::Div,
-                _ => return Ok(a),
+            let next = self.peek();
+            let Some(&(_, op)) = ops.iter().find(|(byte, _)| next == Some(*byte)) else {
+                return Ok(a);
             };
             self.i += 1;
-            let b = self.unary()?;
+            let b = operand(self)?;
             a = bin(op, a, b)?;
         }
     }

@@ -351,36 +351,9 @@ mod tests {
         use selfmanip_core::contact::{contact_gap, contact_geometry, TouchKind};
         use selfmanip_core::kinematics::Kinematics;
         use selfmanip_core::RobotDescription;
-        let model = RobotDescription::from_toml_str(
-            r#"
-            name = "probe"
-            [body]
-            mass_kg = 4.0
-            inertia_kg_m2 = 0.04
-            [[legs]]
-            name = "leg"
-            hip_m = [0.1, 0.0]
-            [[legs.links]]
-            length_m = 0.2
-            [[legs.links]]
-            length_m = 0.2
-            [[contacts]]
-            name = "foot"
-            leg = "leg"
-            shape = { kind = "circle", center_m = [0.0, 0.2], radius_m = 0.03 }
-            friction = { kind = "sticking", mu = 1.0 }
-            [[contacts]]
-            name = "knee"
-            leg = "leg"
-            link = 0
-            shape = { kind = "point", position_m = [0.0, 0.2] }
-            friction = { kind = "sliding" }
-            [[contacts]]
-            name = "tail"
-            shape = { kind = "arc", center_m = [-0.2, 0.0], radius_m = 0.05, normal_range_rad = [-3.0, -0.2] }
-            friction = { kind = "sticking", mu = 0.8 }
-            "#,
-        )
+        let model = RobotDescription::from_toml_str(include_str!(
+            "../../../tests/data/robots/knee_foot_tail.toml"
+        ))
         .unwrap()
         .build()
         .unwrap();

@@ -486,19 +486,7 @@ fn periodic_orbit_with_a_delayed_push_matches_central_differences() {
         (rm.x1, kinds)
     };
     let (_, kinds) = map(&*sim.controller, &o.x);
-    let h = 1e-6;
-    let mut fd = DMatrix::zeros(idx.len(), idx.len());
-    for (k, &c) in idx.iter().enumerate() {
-        let (mut xp, mut xm) = (o.x.clone(), o.x.clone());
-        xp[c] += h;
-        xm[c] -= h;
-        let ((yp, sp), (ym, sm)) = (map(&*sim.controller, &xp), map(&*sim.controller, &xm));
-        assert_eq!(sp, kinds);
-        assert_eq!(sm, kinds);
-        for (i, &r) in idx.iter().enumerate() {
-            fd[(i, k)] = (yp[r] - ym[r]) / (2.0 * h);
-        }
-    }
+    let fd = common::section_jacobian_fd(|x| map(&*sim.controller, x), &o.x, idx, &kinds, 1e-6);
     let rel = |a: &DMatrix<f64>| (a - &fd).amax() / fd.amax().max(1.0);
     let e = rel(&o.section_jacobian);
     let fd_mult = floquet_multipliers(&fd).unwrap();

@@ -17,6 +17,8 @@
 //!   (1, eigenvector `f(x*)`);
 //! - the behaviour's partial derivatives (`Controller::partials`) against finite differences
 //!   of its torque and free-joint accelerations.
+mod common;
+
 use nalgebra::{Complex, DMatrix, DVector};
 use selfmanip_core::{ContactMode, RobotDescription};
 use selfmanip_hybrid::periodic::{
@@ -135,19 +137,7 @@ fn hopper_section_multipliers_match_finite_differences() {
     );
     assert!(o.residual <= 1e-9);
     let idx = &o.section_coordinates;
-    let h = 1e-6;
-    let mut fd = DMatrix::zeros(idx.len(), idx.len());
-    for (k, &c) in idx.iter().enumerate() {
-        let (mut xp, mut xm) = (o.x.clone(), o.x.clone());
-        xp[c] += h;
-        xm[c] -= h;
-        let ((yp, sp), (ym, sm)) = (map(&sim, &xp), map(&sim, &xm));
-        assert_eq!(sp, kinds, "direction {c}");
-        assert_eq!(sm, kinds, "direction {c}");
-        for (i, &r) in idx.iter().enumerate() {
-            fd[(i, k)] = (yp[r] - ym[r]) / (2.0 * h);
-        }
-    }
+    let fd = common::section_jacobian_fd(|x| map(&sim, x), &o.x, idx, &kinds, 1e-6);
     let e = rel(&o.section_jacobian, &fd);
     let fd_mult = floquet_multipliers(&fd).unwrap();
     let em = multiplier_error(&o.section_multipliers, &fd_mult)

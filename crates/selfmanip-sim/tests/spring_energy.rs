@@ -4,40 +4,33 @@
 //! ½k(0.8² − θ_end²) = 2.29 J). `E` holds `V_s = ½kd² + ¼k₃d⁴`; `W_d = −∫Σcθ̇² dt`. The
 //! balance is a conservation law checked against states integrated by the engine: the two
 //! sides come from different routes (energies at the end states, quadrature of powers).
+mod common;
+
+use common::test_robot;
+use selfmanip_core::description::SpringDescription;
 use selfmanip_core::RobotDescription;
 use selfmanip_sim::{Scenario, Simulation};
 
-fn leg(spring: &str, contact: bool) -> RobotDescription {
-    let foot = if contact {
-        r#"
-        [[contacts]]
-        name = "foot"
-        leg = "leg"
-        shape = { kind = "point", position_m = [0.0, 0.3] }
-        friction = { kind = "sticking", mu = 0.6 }
-        "#
-    } else {
-        ""
-    };
-    RobotDescription::from_toml_str(&format!(
-        r#"
-        name = "spring_leg"
-        gravity_m_s2 = 9.81
-        [body]
-        mass_kg = 2.0
-        inertia_kg_m2 = 0.02
-        [[legs]]
-        name = "leg"
-        hip_m = [0.0, 0.0]
-        [[legs.links]]
-        length_m = 0.3
-        mass_kg = 0.3
-        inertia_kg_m2 = 0.002
-        spring = {spring}
-        {foot}
-        "#
-    ))
-    .unwrap()
+/// `tests/data/robots/sprung_leg.toml` with `spring` at its leg's joint, with its foot or
+/// (`contact = false`) without any contact.
+fn leg(spring: SpringDescription, contact: bool) -> RobotDescription {
+    let mut robot = test_robot("sprung_leg.toml");
+    robot.legs[0].links[0].spring = Some(spring);
+    if !contact {
+        robot.contacts.clear();
+    }
+    robot
+}
+
+/// A spring of stiffness `k` (N·m/rad), cubic term `k3` (N·m/rad³), damping `c`
+/// (N·m·s/rad), relaxed at `rest` (rad).
+fn spring(k: f64, k3: f64, c: f64, rest: f64) -> SpringDescription {
+    SpringDescription {
+        stiffness_n_m_per_rad: k,
+        cubic_stiffness_n_m_per_rad3: k3,
+        damping_n_m_s_per_rad: c,
+        rest_angle_rad: rest,
+    }
 }
 
 /// A limp run (no behaviour: zero torques) of `robot` from `q` for `t_final` s.
@@ -55,7 +48,7 @@ fn run(robot: RobotDescription, q: Vec<f64>, qd: Option<Vec<f64>>, t_final: f64)
 fn a_limp_sprung_leg_in_flight_conserves_energy_with_its_spring() {
     let k = 20.0;
     let sim = run(
-        leg(&format!("{{ stiffness_n_m_per_rad = {k} }}"), false),
+        leg(spring(k, 0.0, 0.0, 0.0), false),
         vec![0.8, 0.0, -2.0, 0.0],
         None,
         0.3,
@@ -74,11 +67,7 @@ fn a_limp_sprung_leg_in_flight_conserves_energy_with_its_spring() {
 #[test]
 fn a_damped_sprung_leg_loses_the_dampers_work() {
     let sim = run(
-        leg(
-            "{ stiffness_n_m_per_rad = 20.0, cubic_stiffness_n_m_per_rad3 = 5.0, \
-             damping_n_m_s_per_rad = 0.4, rest_angle_rad = 0.1 }",
-            false,
-        ),
+        leg(spring(20.0, 5.0, 0.4, 0.1), false),
         vec![0.8, 0.0, -2.0, 0.0],
         Some(vec![-3.0, 0.5, 0.0, 1.0]),
         0.3,
@@ -97,10 +86,7 @@ fn a_damped_sprung_leg_loses_the_dampers_work() {
 #[test]
 fn a_sprung_leg_that_lands_balances_impacts_spring_and_damper() {
     let sim = run(
-        leg(
-            "{ stiffness_n_m_per_rad = 30.0, damping_n_m_s_per_rad = 0.2 }",
-            true,
-        ),
+        leg(spring(30.0, 0.0, 0.2, 0.0), true),
         vec![0.3, 0.0, -0.35, 0.0],
         Some(vec![0.0, 0.3, 0.0, 0.0]),
         0.4,

@@ -16,6 +16,12 @@ pub fn robot(toml: &str) -> Model {
         .unwrap()
 }
 
+/// A robot of the workspace's `tests/data/robots`.
+pub fn test_robot(name: &str) -> RobotDescription {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/robots");
+    RobotDescription::from_file(&dir.join(name)).unwrap()
+}
+
 /// A robot `name`: a 3 kg body (0.05 kg m²) with one leg `leg` hinged at `(hip_x_m, 0)` in
 /// its frame, the rest of the description — the leg's `[[legs.links]]` and the
 /// `[[contacts]]` tables — in TOML.

@@ -4,16 +4,49 @@ use super::types::{SaltationStatus, TouchSwitch};
 use crate::event::{Event, EventKind};
 use crate::execution::{Execution, Termination};
 
-/// The event that ended segment `si`, if it is the next one not matched yet (`next_event`):
-/// a segment ends on an event unless it ended on a terrain feature change; the last one only
-/// on the apex or when the event budget ran out.
-pub(super) fn event_ending(exec: &Execution, si: usize, next_event: usize) -> Option<&Event> {
-    let seg = &exec.segments[si];
-    let last = si + 1 == exec.segments.len();
-    exec.events.get(next_event).filter(|e| {
-        e.t == seg.t1
-            && (!last || e.kind == EventKind::Apex || exec.termination == Termination::EventBudget)
-    })
+/// The walk along an execution's segments: how many of its events the segments have
+/// matched, and whether the chain of their tangents is still defined.
+pub(super) struct EventChain {
+    pub(super) next_event: usize,
+    pub(super) defined: bool,
+}
+
+impl EventChain {
+    pub(super) fn new() -> Self {
+        EventChain {
+            next_event: 0,
+            defined: true,
+        }
+    }
+
+    /// The event that ended segment `si`, if it is the next one not matched yet (then
+    /// matched): a segment ends on an event unless it ended on a terrain feature change
+    /// (then recorded in `feature_changes`, and the chain is not defined); the last one only
+    /// on the apex or when the event budget ran out.
+    pub(super) fn ending<'e>(
+        &mut self,
+        exec: &'e Execution,
+        si: usize,
+        feature_changes: &mut Vec<usize>,
+    ) -> Option<&'e Event> {
+        let seg = &exec.segments[si];
+        let last = si + 1 == exec.segments.len();
+        let event = exec.events.get(self.next_event).filter(|e| {
+            e.t == seg.t1
+                && (!last
+                    || e.kind == EventKind::Apex
+                    || exec.termination == Termination::EventBudget)
+        });
+        match event {
+            Some(_) => self.next_event += 1,
+            None if !last => {
+                feature_changes.push(si);
+                self.defined = false;
+            }
+            None => {}
+        }
+        event
+    }
 }
 
 /// Whether any segment's controller remembers events' times or states

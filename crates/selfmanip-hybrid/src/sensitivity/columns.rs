@@ -1,7 +1,7 @@
 //! The sensitivities along selected columns ([`execution_sensitivity_columns`]): directions
 //! of the initial state and named parameters, carried as the augmented state's tangent
 //! through every segment's flow and every event, never forming the full matrices.
-use super::chain::{chain_complete, event_ending, has_event_memory};
+use super::chain::{chain_complete, has_event_memory, EventChain};
 use super::evaluator::{controller_names, Evaluator, FlowPoint};
 use super::event_saltation::{segment_event, EventParts};
 use super::force_events::{force_guard_gradient, rows_of};
@@ -67,9 +67,7 @@ pub fn execution_sensitivity_columns(
         params,
         names: controller_names(params),
     };
-    let mut defined = true;
-    let mut next_event = 0;
-    let nseg = exec.segments.len();
+    let mut chain = EventChain::new();
     for (si, seg) in exec.segments.iter().enumerate() {
         segment_flow(
             &mut ev,
@@ -78,17 +76,12 @@ pub fn execution_sensitivity_columns(
             &mut out.touch_switches,
             &mut out.time_events,
         )?;
-        let Some(event) = event_ending(exec, si, next_event) else {
-            if si + 1 < nseg {
-                out.feature_changes.push(si);
-                defined = false;
-            }
+        let Some(event) = chain.ending(exec, si, &mut out.feature_changes) else {
             continue;
         };
-        next_event += 1;
         let (es, parts) = segment_event(&mut ev, exec, si, event, &body)?;
         let (Some(xi), Some(parts), Some(dg)) = (&es.saltation, parts, &es.guard_gradient) else {
-            defined = false;
+            chain.defined = false;
             if ev.memory_mode && event.kind != EventKind::Apex {
                 // the event's memory has no derivative: the run's columns are not returned
                 ev.memory.push(DMatrix::from_element(1 + n2, m, f64::NAN));
@@ -110,7 +103,10 @@ pub fn execution_sensitivity_columns(
         .time_events
         .iter()
         .all(|e| e.status == SaltationStatus::Defined);
-    if defined && time_events_defined && chain_complete(exec, next_event, &out.touch_switches) {
+    if chain.defined
+        && time_events_defined
+        && chain_complete(exec, chain.next_event, &out.touch_switches)
+    {
         let Tangent::Columns { x, .. } = tangent else {
             unreachable!("columns stay columns")
         };

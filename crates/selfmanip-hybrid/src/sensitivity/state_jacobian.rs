@@ -1,6 +1,6 @@
 //! The sensitivities of an execution to its initial state ([`execution_sensitivity`]): the
 //! full `Φ` of each segment and the saltation of each event, chained.
-use super::chain::{chain_complete, event_ending, has_event_memory};
+use super::chain::{chain_complete, has_event_memory, EventChain};
 use super::columns::execution_sensitivity_columns;
 use super::evaluator::Evaluator;
 use super::event_saltation::segment_event;
@@ -49,9 +49,7 @@ pub fn execution_sensitivity(
         state_jacobian: None,
     };
     let mut total = DMatrix::identity(n2, n2);
-    let mut defined = true;
-    let mut next_event = 0;
-    let nseg = exec.segments.len();
+    let mut chain = EventChain::new();
     for (si, seg) in exec.segments.iter().enumerate() {
         let mut tangent = Tangent::Full(DMatrix::identity(n2, n2));
         segment_flow(
@@ -66,14 +64,9 @@ pub fn execution_sensitivity(
         };
         total = &phi * total;
         out.segment_flows.push(phi);
-        let Some(event) = event_ending(exec, si, next_event) else {
-            if si + 1 < nseg {
-                out.feature_changes.push(si);
-                defined = false;
-            }
+        let Some(event) = chain.ending(exec, si, &mut out.feature_changes) else {
             continue;
         };
-        next_event += 1;
         let (mut es, parts) = segment_event(&mut ev, exec, si, event, &[])?;
         if let (Some(dg), Some(parts)) = (&es.guard_gradient, &parts) {
             // `ġ = D_xg f⁻ (+ ∂g/∂t)` at the event, as its saltation had it
@@ -81,12 +74,12 @@ pub fn execution_sensitivity(
         }
         match &es.saltation {
             Some(x) => total = x * total,
-            None => defined = false,
+            None => chain.defined = false,
         }
         out.events.push(es);
     }
     // events not matched to a segment end, switches not differentiated
-    if defined && chain_complete(exec, next_event, &out.touch_switches) {
+    if chain.defined && chain_complete(exec, chain.next_event, &out.touch_switches) {
         out.state_jacobian = Some(total);
     }
     if has_event_memory(exec) {

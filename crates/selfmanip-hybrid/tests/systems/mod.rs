@@ -12,8 +12,11 @@ use selfmanip_core::description::{
     BodyDescription, ContactDescription, FrictionDescription, JointAxis, LegDescription,
     LinkDescription, ShapeDescription,
 };
-use selfmanip_core::{ContactKind, ContactMode, FlatGround, Model, RobotDescription, Terrain};
+use selfmanip_core::{
+    ContactKind, ContactMode, FlatGround, GroundPlane, Model, RobotDescription, Terrain,
+};
 use selfmanip_hybrid::integrate::StepOptions;
+use selfmanip_hybrid::sensitivity::{simulate_with_sensitivity, Sensitivity, SensitivityError};
 use selfmanip_hybrid::{
     energy_report, simulate, Controller, ControllerPartials, EventKind, Execution, HybridOptions,
     ZeroTorque,
@@ -202,6 +205,17 @@ pub fn coast(
 ) -> Execution {
     let opts = HybridOptions::default();
     simulate(model, terrain, &ZeroTorque, mode, q, qd, t_final, opts).unwrap()
+}
+
+/// [`coast`] on level ground (`z = 0`) with contact 0 sliding and no other contact.
+pub fn coast_sliding_on_level(model: &Model, (q, qd): (&[f64], &[f64]), t_final: f64) -> Execution {
+    coast(
+        model,
+        &GroundPlane::level(0.0),
+        sliding(&[0]),
+        (q, qd),
+        t_final,
+    )
 }
 
 /// A run on flat ground under `ctrl` from `(q, q̇)` with contact 0 (a leg's toe) sliding and
@@ -412,6 +426,27 @@ pub fn flight_run(
         opts,
     )
     .unwrap()
+}
+
+/// [`simulate_with_sensitivity`] of a run on flat ground from `y0 = [q; q̇]` in flight to
+/// `tf`, at [`tight`] tolerances.
+pub fn flight_sensitivity(
+    model: &Model,
+    ctrl: &dyn Controller,
+    y0: &[f64],
+    tf: f64,
+) -> Result<(Execution, Sensitivity), SensitivityError> {
+    let nq = model.nq();
+    simulate_with_sensitivity(
+        model,
+        &FlatGround,
+        ctrl,
+        ContactMode::FLIGHT,
+        &y0[..nq],
+        &y0[nq..],
+        tf,
+        tight(),
+    )
 }
 
 /// The Jacobian of [`run_from_flight`]'s end state to its start state `y0` by central

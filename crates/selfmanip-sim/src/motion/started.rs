@@ -131,34 +131,9 @@ impl StartedLaw {
         }
     }
 
-    /// `∂(θ*, ω*, α*)/∂(t₀, θ₀, ω₀)` at `t` of `motion` (built by [`Self::motion`] from
-    /// `(t₀, θ₀, ω₀)`), rows `θ*, ω*, α*`.
-    pub fn partials(
-        &self,
-        motion: &JointMotion,
-        theta0: f64,
-        omega0: f64,
-        t: f64,
-    ) -> [[f64; 3]; 3] {
-        self.partials_with_bounds(motion, theta0, omega0, t)
-            .map(|row| [row[0], row[1], row[2]])
-    }
-
-    /// [`Self::partials`] and the partials over the law's bounds: columns `t₀, θ₀, ω₀`, the
-    /// swing's `speed` (0 for a park) and `accel`.
-    pub fn partials_with_bounds(
-        &self,
-        motion: &JointMotion,
-        theta0: f64,
-        omega0: f64,
-        t: f64,
-    ) -> [[f64; 5]; 3] {
-        self.partials_full(motion, theta0, omega0, t)
-            .map(|row| [row[0], row[1], row[2], row[3], row[4]])
-    }
-
-    /// [`Self::partials_with_bounds`] and the partials over the target: columns `t₀, θ₀,
-    /// ω₀, speed, accel, target`, rows `θ*, ω*, α*`.
+    /// `∂(θ*, ω*, α*)/∂(t₀, θ₀, ω₀, speed, accel, target)` at `t` of `motion` (built by
+    /// [`Self::motion`] from `(t₀, θ₀, ω₀)`): rows `θ*, ω*, α*`, columns the start, the
+    /// swing's `speed` (0 for a park), the law's `accel` and its target.
     pub fn partials_full(
         &self,
         motion: &JointMotion,
@@ -203,16 +178,21 @@ impl StartedLaw {
             .collect()
     }
 
-    /// The law's numbers as dual numbers: `(θ₀, ω₀, speed, accel, target)`.
-    fn inputs(&self, theta0: f64, omega0: f64) -> [D; 5] {
-        let (speed, accel, target) = match *self {
+    /// The law's own numbers `(speed, accel, target)` (a park's speed: 0).
+    fn numbers(&self) -> (f64, f64, f64) {
+        match *self {
             StartedLaw::Swing {
                 target,
                 speed,
                 accel,
             } => (speed, accel, target),
             StartedLaw::Park { target, accel } => (0.0, accel, target),
-        };
+        }
+    }
+
+    /// The law's numbers as dual numbers: `(θ₀, ω₀, speed, accel, target)`.
+    fn inputs(&self, theta0: f64, omega0: f64) -> [D; 5] {
+        let (speed, accel, target) = self.numbers();
         [
             D::var(theta0, 0),
             D::var(omega0, 1),
@@ -344,6 +324,32 @@ fn ramp(dur: D, theta0: D, w0: D, w1: D, tau: D) -> [D; 3] {
 mod tests {
     use super::*;
 
+    /// The worst of `|exact[row] − fd| / (floor + |fd|)` over the rows (angle, rate,
+    /// acceleration), `fd` the central difference `(ea − eb) / 2h` of a motion's values
+    /// built at `±h`, each asserted below `tol` (`what`: the case, for the message).
+    fn worst_error_against_fd(
+        exact: [f64; 3],
+        (ea, eb): ((f64, f64, f64), (f64, f64, f64)),
+        h: f64,
+        (floor, tol): (f64, f64),
+        what: impl Fn() -> String,
+    ) -> f64 {
+        let fd = [ea.0 - eb.0, ea.1 - eb.1, ea.2 - eb.2].map(|d| d / (2.0 * h));
+        let mut worst: f64 = 0.0;
+        for row in 0..3 {
+            let err = (exact[row] - fd[row]).abs() / (floor + fd[row].abs());
+            worst = worst.max(err);
+            assert!(
+                err < tol,
+                "{} row {row}: {} vs {}",
+                what(),
+                exact[row],
+                fd[row]
+            );
+        }
+        worst
+    }
+
     /// Swings (ramps, a cruise at the start speed, one that falls back on a park) and a
     /// park, with their starts `(θ₀, ω₀)`.
     fn sample_laws() -> [(StartedLaw, f64, f64); 5] {
@@ -423,7 +429,7 @@ mod tests {
                         x.v
                     );
                 }
-                let p = law.partials(&m, th, w, t);
+                let p = law.partials_full(&m, th, w, t);
                 let h = 1e-6;
                 for c in 0..3 {
                     let mut a = [t0, th, w];
@@ -434,21 +440,10 @@ mod tests {
                         law.motion(a[0], a[1], a[2]).eval(t),
                         law.motion(b[0], b[1], b[2]).eval(t),
                     );
-                    let fd = [
-                        (ea.0 - eb.0) / (2.0 * h),
-                        (ea.1 - eb.1) / (2.0 * h),
-                        (ea.2 - eb.2) / (2.0 * h),
-                    ];
-                    for row in 0..3 {
-                        let err = (p[row][c] - fd[row]).abs() / (1.0 + fd[row].abs());
-                        worst = worst.max(err);
-                        assert!(
-                            err < 1e-5,
-                            "{law:?} t {t} row {row} col {c}: {} vs {}",
-                            p[row][c],
-                            fd[row]
-                        );
-                    }
+                    let exact = [p[0][c], p[1][c], p[2][c]];
+                    let what = || format!("{law:?} t {t} col {c}");
+                    let err = worst_error_against_fd(exact, (ea, eb), h, (1.0, 1e-5), what);
+                    worst = worst.max(err);
                 }
             }
         }
@@ -478,26 +473,15 @@ mod tests {
                 if m.knots().iter().any(|k| (k - t).abs() < 1e-4) {
                     continue;
                 }
-                let p = law.partials_with_bounds(&m, th, w, t);
+                let p = law.partials_full(&m, th, w, t);
                 for (c, (ds, da)) in [(3, (1e-6, 0.0)), (4, (0.0, 1e-4))] {
                     let h = ds + da;
                     let ea = with(ds, da).motion(t0, th, w).eval(t);
                     let eb = with(-ds, -da).motion(t0, th, w).eval(t);
-                    let fd = [
-                        (ea.0 - eb.0) / (2.0 * h),
-                        (ea.1 - eb.1) / (2.0 * h),
-                        (ea.2 - eb.2) / (2.0 * h),
-                    ];
-                    for row in 0..3 {
-                        let err = (p[row][c] - fd[row]).abs() / (1e-3 + fd[row].abs());
-                        worst = worst.max(err);
-                        assert!(
-                            err < 1e-4,
-                            "{law:?} t {t} row {row} col {c}: {} vs {}",
-                            p[row][c],
-                            fd[row]
-                        );
-                    }
+                    let exact = [p[0][c], p[1][c], p[2][c]];
+                    let what = || format!("{law:?} t {t} col {c}");
+                    let err = worst_error_against_fd(exact, (ea, eb), h, (1e-3, 1e-4), what);
+                    worst = worst.max(err);
                 }
             }
         }
@@ -528,14 +512,7 @@ mod tests {
         };
         let mut worst: f64 = 0.0;
         for (law, th, w) in laws {
-            let (speed, accel, target) = match law {
-                StartedLaw::Swing {
-                    target,
-                    speed,
-                    accel,
-                } => (speed, accel, target),
-                StartedLaw::Park { target, accel } => (0.0, accel, target),
-            };
+            let (speed, accel, target) = law.numbers();
             let x0 = [t0, th, w, speed, accel, target];
             let m = law.motion(t0, th, w);
             let kp = law.knot_partials(&m, th, w);
@@ -563,21 +540,10 @@ mod tests {
                     }
                     let p = law.partials_full(&m, th, w, t);
                     let (ea, eb) = (ma.eval(t), mb.eval(t));
-                    let fd = [
-                        (ea.0 - eb.0) / (2.0 * h),
-                        (ea.1 - eb.1) / (2.0 * h),
-                        (ea.2 - eb.2) / (2.0 * h),
-                    ];
-                    for row in 0..3 {
-                        let err = (p[row][5] - fd[row]).abs() / (1e-3 + fd[row].abs());
-                        worst = worst.max(err);
-                        assert!(
-                            err < 1e-4,
-                            "{law:?} t {t} row {row}: {} vs {}",
-                            p[row][5],
-                            fd[row]
-                        );
-                    }
+                    let exact = [p[0][5], p[1][5], p[2][5]];
+                    let what = || format!("{law:?} t {t}");
+                    let err = worst_error_against_fd(exact, (ea, eb), h, (1e-3, 1e-4), what);
+                    worst = worst.max(err);
                 }
             }
         }

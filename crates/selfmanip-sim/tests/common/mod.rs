@@ -1,6 +1,8 @@
 //! Fixtures the sim's tests share.
 #![allow(dead_code)]
+use nalgebra::DMatrix;
 use selfmanip_core::RobotDescription;
+use selfmanip_hybrid::EventKind;
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::Scenario;
 use std::path::{Path, PathBuf};
@@ -32,4 +34,29 @@ pub fn hopper(behaviour: Behaviour, t_final: f64) -> Scenario {
     s.options.rtol = 1e-12;
     s.options.event_tol_s = 1e-14;
     s
+}
+
+/// Central differences (step `h`) of the section coordinates `idx` of a return map
+/// `map(x) = (x₁, the run's event kinds)` at `x`: `∂x₁[idx[i]]/∂x[idx[k]]`. Every perturbed
+/// run must meet the events `kinds`.
+pub fn section_jacobian_fd<Y: std::ops::Index<usize, Output = f64>>(
+    map: impl Fn(&[f64]) -> (Y, Vec<EventKind>),
+    x: &[f64],
+    idx: &[usize],
+    kinds: &[EventKind],
+    h: f64,
+) -> DMatrix<f64> {
+    let mut fd = DMatrix::zeros(idx.len(), idx.len());
+    for (k, &c) in idx.iter().enumerate() {
+        let (mut xp, mut xm) = (x.to_vec(), x.to_vec());
+        xp[c] += h;
+        xm[c] -= h;
+        let ((yp, sp), (ym, sm)) = (map(&xp), map(&xm));
+        assert_eq!(sp, kinds, "direction {c}");
+        assert_eq!(sm, kinds, "direction {c}");
+        for (i, &r) in idx.iter().enumerate() {
+            fd[(i, k)] = (yp[r] - ym[r]) / (2.0 * h);
+        }
+    }
+    fd
 }
