@@ -29,6 +29,8 @@ use crate::error::{CoreError, Result};
 use crate::model::{Contact, ContactShape, Friction, Joint, JointSpring, Leg, Model};
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+use std::hash::Hash;
 
 /// A planar vector `[a, b]` read as exactly two numbers: a longer or shorter list is an error
 /// (serde's fixed-size arrays let some formats drop extra entries silently, so that
@@ -227,6 +229,21 @@ pub struct ContactDescription {
     pub friction: FrictionDescription,
 }
 
+/// Each name's index in `names`, or the index of the first name that repeats an earlier one.
+/// One hashed look-up per name keeps loading linear in the number of legs (comparing each name
+/// with all before it took minutes for 120,000 legs).
+fn index_names<K: Hash + Eq>(
+    names: impl ExactSizeIterator<Item = K>,
+) -> std::result::Result<HashMap<K, usize>, usize> {
+    let mut index = HashMap::with_capacity(names.len());
+    for (i, name) in names.enumerate() {
+        if index.insert(name, i).is_some() {
+            return Err(i);
+        }
+    }
+    Ok(index)
+}
+
 impl Model {
     /// The validated model of a description: [`RobotDescription::build`], from the model's
     /// side (here, beside the validation, so that the model does not depend on its source).
@@ -307,9 +324,6 @@ impl RobotDescription {
             if leg.name.is_empty() {
                 return Err(bad(f("name"), "must not be empty"));
             }
-            if self.legs[..li].iter().any(|o| o.name == leg.name) {
-                return Err(bad(f("name"), "duplicate leg name"));
-            }
             if leg.links.is_empty() {
                 return Err(bad(f("links"), "a leg needs at least one link"));
             }
@@ -369,20 +383,22 @@ impl RobotDescription {
             });
         }
 
+        let leg_index = index_names(self.legs.iter().map(|l| l.name.as_str()))
+            .map_err(|li| bad(format!("legs[{li}].name"), "duplicate leg name"))?;
+
         if self.contacts.len() > 32 {
             return Err(bad(
                 "contacts".into(),
                 "at most 32 contact sites are supported",
             ));
         }
+        index_names(self.contacts.iter().map(|c| c.name.as_str()))
+            .map_err(|ci| bad(format!("contacts[{ci}].name"), "duplicate contact name"))?;
         let mut contacts = Vec::with_capacity(self.contacts.len());
         for (ci, c) in self.contacts.iter().enumerate() {
             let f = |s: &str| format!("contacts[{ci}].{s}");
             if c.name.is_empty() {
                 return Err(bad(f("name"), "must not be empty"));
-            }
-            if self.contacts[..ci].iter().any(|o| o.name == c.name) {
-                return Err(bad(f("name"), "duplicate contact name"));
             }
             let link = match &c.leg {
                 None => {
@@ -392,9 +408,8 @@ impl RobotDescription {
                     None
                 }
                 Some(name) => {
-                    let li = legs
-                        .iter()
-                        .position(|l| &l.name == name)
+                    let li = *leg_index
+                        .get(name.as_str())
                         .ok_or_else(|| bad(f("leg"), &format!("no leg named `{name}`")))?;
                     let leg = &legs[li];
                     let k = c.link.unwrap_or(leg.n_links - 1);
@@ -474,5 +489,59 @@ impl RobotDescription {
             joints,
             contacts,
         ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::index_names;
+    use std::cell::Cell;
+    use std::hash::{Hash, Hasher};
+
+    thread_local! {
+        static COMPARISONS: Cell<usize> = const { Cell::new(0) };
+    }
+
+    /// A name that counts how often it is compared with another.
+    #[derive(Debug)]
+    struct Counted(String);
+    impl PartialEq for Counted {
+        fn eq(&self, other: &Self) -> bool {
+            COMPARISONS.with(|c| c.set(c.get() + 1));
+            self.0 == other.0
+        }
+    }
+    impl Eq for Counted {}
+    impl Hash for Counted {
+        fn hash<H: Hasher>(&self, h: &mut H) {
+            self.0.hash(h)
+        }
+    }
+
+    fn comparisons(n: usize) -> usize {
+        COMPARISONS.with(|c| c.set(0));
+        let index = index_names((0..n).map(|i| Counted(format!("leg{i}")))).unwrap();
+        assert_eq!(index.len(), n);
+        COMPARISONS.with(|c| c.get())
+    }
+
+    /// Issue 31: 120,000 one-link legs took over a minute to load, each leg's name compared
+    /// with every earlier one (n(n−1)/2 = 7.2e9 comparisons). Distinct names are now compared
+    /// only on a hash collision: far fewer comparisons than names, at any size.
+    #[test]
+    fn checking_leg_names_for_repeats_is_linear_in_the_legs() {
+        for n in [1_000, 20_000] {
+            let c = comparisons(n);
+            assert!(c < n / 10, "{c} comparisons for {n} distinct names");
+        }
+    }
+
+    #[test]
+    fn a_repeated_name_is_reported_at_its_second_occurrence() {
+        assert_eq!(
+            index_names(["a", "b", "c", "b", "a"].into_iter()).unwrap_err(),
+            3
+        );
+        assert_eq!(index_names(["a", "b"].into_iter()).unwrap()["b"], 1);
     }
 }
