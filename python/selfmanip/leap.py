@@ -62,7 +62,7 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from . import _native
+from . import _checks, _native
 from .errors import AllPointsFailedWarning, InvalidInputError, InvalidTypeError
 
 __all__ = ["Apex", "DEFAULT", "LeapResult", "Trajectory", "defaults", "leap", "sweep", "sweep_points",
@@ -550,7 +550,7 @@ def run_points(cols: Mapping[str, Sequence[Any]], params: Mapping[str, Any] | No
     extra = {k: [_plain_value(k, x) for x in v] for k, v in cols.items() if k not in ("strategy", "t2_s", "gear_ratio")}
     _check_actuator(gears, list(base) + list(extra))
     n = len(strategies)
-    if progress is True:
+    if _checks.progress(progress) is True:
         progress = _progress_bar(n)
     names = _sensitivity_names(sensitivities)
     part = _native.leap_sweep(strategies, t2, [_native_gear(g) for g in gears], base, extra, int(threads),
@@ -635,7 +635,7 @@ def sweep(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any =
     """
     cols = sweep_points(strategy, t2, gear_ratio, grid=grid, **swept)
     table = run_points(cols, params, threads=threads, progress=progress,
-                       sensitivities=sensitivities, **dict(config or {}))
+                       sensitivities=sensitivities, **_checks.mapping("config", config))
     _warn_if_all_failed(table)
     return table
 

@@ -342,7 +342,7 @@ def scenario(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[float], qd
     s = _native.Scenario(native_robot, _behaviour(behaviour), _checks.vector("q0", q0),
                          None if qd0 is None else _checks.vector("qd0", qd0), terrain,
                          _names("contacts", contacts), _names("solve", solve), opts)
-    for name, value in (params or {}).items():
+    for name, value in _checks.mapping("params", params).items():
         s.set(name, _plain(name, value))
     return s
 
@@ -587,7 +587,7 @@ def simulation_sweep(robot: RobotLike, behaviour: BehaviourLike = None,
     s = scenario(robot, behaviour, q0, qd0, terrain, t_final, stop_at, contacts=contacts, solve=solve,
                  params=params, **options)
     n = math.prod(len(v) for _, v in axes) if axes else 1
-    if progress is True:
+    if _checks.progress(progress) is True:
         from .leap import _progress_bar
 
         progress = _progress_bar(n)

@@ -149,3 +149,55 @@ pub(crate) fn run_shared<T: Send + 'static>(
         }
     }
 }
+
+/// Runs `work`, which borrows the caller's data, on a scoped thread with the GIL released,
+/// checking Python's signals every [`POLL`]. On Ctrl-C it raises the flag `work` is given and
+/// waits for `work` to return (it checks the flag often: an interrupted file write stops at
+/// its next record and removes its temporary file), then raises the `KeyboardInterrupt`: the
+/// call has ended, nothing of it runs on, and nothing it wrote is left half done.
+pub(crate) fn run_borrowed<T: Send>(
+    py: Python<'_>,
+    work: impl FnOnce(&AtomicBool) -> T + Send,
+) -> PyResult<T> {
+    let cancel = AtomicBool::new(false);
+    std::thread::scope(|scope| {
+        let (tx, rx) = mpsc::sync_channel(1);
+        let cancel = &cancel;
+        scope.spawn(move || {
+            let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| work(cancel)));
+            let _ = tx.send(out);
+        });
+        let mut signal = None;
+        let mut rx = Some(rx);
+        loop {
+            // the receiver is `Send` but not `Sync`: it travels into the GIL-free wait and back
+            let (back, got) = py.detach(move || {
+                let r = rx
+                    .take()
+                    .expect("the receiver is returned after every wait");
+                let got = r.recv_timeout(POLL);
+                (r, got)
+            });
+            rx = Some(back);
+            match got {
+                Ok(Ok(out)) => return signal.map_or(Ok(out), Err),
+                Ok(Err(p)) => {
+                    return Err(signal.unwrap_or_else(|| crate::errors::panic(p.as_ref())))
+                }
+                Err(RecvTimeoutError::Timeout) => {
+                    if signal.is_none() {
+                        if let Err(e) = py.check_signals() {
+                            cancel.store(true, Ordering::Relaxed);
+                            signal = Some(e);
+                        }
+                    }
+                }
+                Err(RecvTimeoutError::Disconnected) => {
+                    return Err(signal.unwrap_or_else(|| {
+                        crate::errors::engine("the worker thread ended without a result")
+                    }))
+                }
+            }
+        }
+    })
+}
