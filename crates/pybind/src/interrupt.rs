@@ -83,6 +83,23 @@ impl Shared {
     }
 }
 
+/// Waits up to [`POLL`] for the worker's result with the GIL released. The receiver is
+/// `Send` but not `Sync`: it travels into the GIL-free wait and back.
+fn wait<R: Send>(
+    py: Python<'_>,
+    rx: &mut Option<mpsc::Receiver<R>>,
+) -> Result<R, RecvTimeoutError> {
+    let r = rx
+        .take()
+        .expect("the receiver is returned after every wait");
+    let (back, got) = py.detach(move || {
+        let got = r.recv_timeout(POLL);
+        (r, got)
+    });
+    *rx = Some(back);
+    got
+}
+
 /// Runs `work` on a worker thread with the GIL released, interruptible by Ctrl-C (see the
 /// module documentation). `progress`, if given, is called with the number of units done each
 /// time it changes (at most every [`POLL`]) and once at the end.
@@ -113,15 +130,7 @@ pub(crate) fn run_shared<T: Send + 'static>(
     let mut reported = usize::MAX;
     let mut rx = Some(rx);
     loop {
-        // the receiver is `Send` but not `Sync`: it travels into the GIL-free wait and back
-        let (back, got) = py.detach(move || {
-            let r = rx
-                .take()
-                .expect("the receiver is returned after every wait");
-            let got = r.recv_timeout(POLL);
-            (r, got)
-        });
-        rx = Some(back);
+        let got = wait(py, &mut rx);
         if let Some(cb) = progress {
             let done = shared.done.load(Ordering::Relaxed);
             if done != reported {
@@ -170,15 +179,7 @@ pub(crate) fn run_borrowed<T: Send>(
         let mut signal = None;
         let mut rx = Some(rx);
         loop {
-            // the receiver is `Send` but not `Sync`: it travels into the GIL-free wait and back
-            let (back, got) = py.detach(move || {
-                let r = rx
-                    .take()
-                    .expect("the receiver is returned after every wait");
-                let got = r.recv_timeout(POLL);
-                (r, got)
-            });
-            rx = Some(back);
+            let got = wait(py, &mut rx);
             match got {
                 Ok(Ok(out)) => return signal.map_or(Ok(out), Err),
                 Ok(Err(p)) => {
