@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import argparse
 import numbers
-from typing import Any
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
@@ -55,9 +55,36 @@ def integer(field: str, value: Any, lo: int | None = None, hi: int = INT_MAX) ->
 
 
 def text(field: str, value: Any) -> str:
+    """A string the engine can read: UTF-8 (a lone surrogate such as ``"\\ud800"`` has no UTF-8
+    form and failed in the conversion with a ``UnicodeEncodeError`` naming nothing)."""
     if not isinstance(value, str):
         raise InvalidTypeError(f"`{field}` must be a string, got {type(value).__name__}", field)
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError as e:
+        raise InvalidInputError(f"`{field}` is not valid text: {e.reason} at position {e.start}", field) from None
     return value
+
+
+def mapping(field: str, value: Any) -> dict[str, Any]:
+    """A dict of named values (``None``: empty)."""
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise InvalidTypeError(f"`{field}` must be a dict, got {type(value).__name__}", field)
+    return dict(value)
+
+
+def read_text_file(field: str, path: str) -> str:
+    """The text of a UTF-8 file; a binary file is :class:`InvalidInputError` naming ``field``
+    and the file, not a ``UnicodeDecodeError`` naming neither."""
+    with open(path, "rb") as f:
+        data = f.read()
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise InvalidInputError(f"`{field}`: {path} is not UTF-8 text ({e.reason} at byte {e.start})",
+                                field) from None
 
 
 def path_arg(text: str) -> str:

@@ -5,13 +5,34 @@ back as numpy columns. Shared by the CLI (``selfmanip sweep --out``) and the plo
 from __future__ import annotations
 
 import csv
+import errno
 import os
 import sys
-from typing import Mapping, TextIO
+from typing import Callable, Mapping, TextIO
 
 import numpy as np
 
 from .errors import InvalidInputError
+
+
+def write_atomically(path: str, write: Callable[[str], None]) -> None:
+    """Calls ``write(tmp)`` on a temporary file beside ``path``, then renames it to ``path``:
+    a reader never sees a partial file, and whatever stops the write (an error, Ctrl-C) removes
+    the temporary file. A missing directory is reported against ``path``, not the temporary
+    file."""
+    directory = os.path.dirname(path) or "."
+    if not os.path.isdir(directory):
+        raise FileNotFoundError(errno.ENOENT, f"no directory {directory!r} to write into", path)
+    tmp = os.path.join(directory, f".{os.path.basename(path)}.{os.getpid()}.tmp")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.remove(tmp)
+        except OSError:
+            pass
+        raise
 
 
 def write_table(table: Mapping[str, np.ndarray], path: str | None, out: TextIO | None = None) -> None:
@@ -19,9 +40,7 @@ def write_table(table: Mapping[str, np.ndarray], path: str | None, out: TextIO |
     if path and path.endswith(".parquet"):
         import pandas as pd
 
-        tmp = f"{path}.{os.getpid()}.tmp"
-        pd.DataFrame(table).to_parquet(tmp, index=False)
-        os.replace(tmp, path)
+        write_atomically(path, lambda tmp: pd.DataFrame(table).to_parquet(tmp, index=False))
         return
     if path and not path.endswith(".csv"):
         raise InvalidInputError(f"`--out`: expected a .csv or .parquet file, got {path!r}", "--out")
@@ -42,10 +61,11 @@ def write_table(table: Mapping[str, np.ndarray], path: str | None, out: TextIO |
             w.writerow([fmt(table[c][i]) for c in cols])
 
     if path:
-        tmp = f"{path}.{os.getpid()}.tmp"
-        with open(tmp, "w", encoding="utf-8", newline="") as f:
-            emit(f)
-        os.replace(tmp, path)
+        def emit_file(tmp: str) -> None:
+            with open(tmp, "w", encoding="utf-8", newline="") as f:
+                emit(f)
+
+        write_atomically(path, emit_file)
     else:
         emit(out or sys.stdout)
 

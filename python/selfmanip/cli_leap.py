@@ -99,13 +99,28 @@ def _parse_values(name: str, spec: str) -> list[Any]:
         return out
 
 
-def _sets(items: list[str] | None) -> dict[str, list[Any]]:
+#: The leap's inputs that have options of their own: ``--set gear_ratio=28`` reached ``leap()``
+#: twice ("got multiple values"); it is refused naming the option to use.
+OWN_OPTIONS = {"strategy": "--strategy", "t2": "--t2", "t2_s": "--t2", "gear_ratio": "--gear-ratio",
+               "dt": "--dt", "params": "--set NAME=VALUE", "sensitivities": "--sensitivities",
+               "grid": "--set", "config": "--set NAME=VALUE"}
+
+
+def _sets(items: list[str] | None, own: Mapping[str, str] | None = None) -> dict[str, list[Any]]:
+    """``--set NAME=VALUE`` items by name; a name in ``own`` (an input with its own option) or
+    a name given twice is refused."""
     out: dict[str, list[Any]] = {}
     for item in items or []:
         if "=" not in item:
             raise InvalidInputError(f"`--set`: expected NAME=VALUE, got {item!r}", "--set")
         name, spec = item.split("=", 1)
-        out[name.strip()] = _parse_values(name.strip(), spec)
+        name = name.strip()
+        field = f"--set {name}"
+        if own and name in own:
+            raise InvalidInputError(f"`{field}`: `{name}` is set with {own[name]}, not --set", field)
+        if name in out:
+            raise InvalidInputError(f"`{field}`: `{name}` is set twice", field)
+        out[name] = _parse_values(name, spec)
     return out
 
 
@@ -198,7 +213,7 @@ def leap_command(args: argparse.Namespace) -> int:
     if len(strategies) != 1:
         raise InvalidInputError("`--strategy`: a single leap takes one strategy", "--strategy")
     strategy = strategies[0]
-    r = leap(strategy, t2=t2, gear_ratio=gear, dt=args.dt, **_scalar_sets(_sets(args.set)))
+    r = leap(strategy, t2=t2, gear_ratio=gear, dt=args.dt, **_scalar_sets(_sets(args.set, OWN_OPTIONS)))
     if args.mcap:
         r.write_mcap(args.mcap)
     if args.json:
@@ -228,7 +243,7 @@ def sweep_command(args: argparse.Namespace) -> int:
     strategies = _strategies(args.strategy)
     t2 = parse_range(args.t2, "--t2")
     gear = _gear_arg(args)
-    sets = _sets(args.set)
+    sets = _sets(args.set, OWN_OPTIONS)
     if args.threads is not None and args.threads < 1:
         raise InvalidInputError(f"`--threads` must be >= 1, got {args.threads}", "--threads")
     if args.out and not args.out.endswith((".csv", ".parquet")):

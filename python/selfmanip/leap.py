@@ -64,7 +64,7 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from . import _facade, _native
+from . import _checks, _facade, _native
 from ._facade import DEFAULT, _Default, failure_summary
 from .actuator import (MOTOR_FIELDS, Actuator, Choice, GearedMotor, check_motor_fields, choices, from_config,
                        native_args)
@@ -621,7 +621,7 @@ def sweep(strategy: str | Iterable[str] = "++", t2: Any = 0.0, gear_ratio: Any =
     """
     cols = sweep_points(strategy, t2, gear_ratio, actuator=actuator, grid=grid, **swept)
     table = run_points(cols, params, threads=threads, progress=progress,
-                       sensitivities=sensitivities, **dict(config or {}))
+                       sensitivities=sensitivities, **_checks.mapping("config", config))
     _facade.warn_if_all_failed(table, stacklevel=2)
     return table
 

@@ -180,8 +180,7 @@ class Robot:
         URDF is a spatial robot, :meth:`selfmanip.SpatialRobot.from_urdf`."""
         path = os.fspath(path)
         description_format(path)
-        with open(path, encoding="utf-8") as f:
-            text = f.read()
+        text = _checks.read_text_file("path", path)
         return cls(_NativeRobot.from_description(text, description_format(path, text)))
 
     @classmethod

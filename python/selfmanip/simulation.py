@@ -336,7 +336,7 @@ def scenario(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[float], qd
     s = _native.Scenario(native_robot, _behaviour(behaviour), _checks.vector("q0", q0),
                          None if qd0 is None else _checks.vector("qd0", qd0), terrain,
                          _names("contacts", contacts), _names("solve", solve), opts)
-    for name, value in (params or {}).items():
+    for name, value in _checks.mapping("params", params).items():
         s.set(name, _plain(name, value))
     return s
 

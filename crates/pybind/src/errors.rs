@@ -9,12 +9,13 @@
 //! | `CoreError::{WrongLength, NonFinite}` from the caller's own vectors | `InvalidInputError` | the field |
 //! | `CoreError::{WrongLength, NonFinite}` inside a simulation | `EngineError` | — |
 //! | `CoreError::{UnknownContact, InvalidMode}`, `RhexError::ModeLabel` | `InvalidInputError` | `mode` |
-//! | `CoreError::SingularKkt` | `SingularKktError` (`kind`, `condition_estimate`) | — |
+//! | `CoreError::SingularKkt` | `SingularKktError` (`kind`, `condition_estimate`) | of a run: the link of the first joint that moves with no inertia |
 //! | `CoreError::IllPosedQuasiStatic` | `IllPosedError` | — |
 //! | `RhexError::{InvalidValue, UnknownParameter, Unreadable, Unsupported, StartOverflow}`, `HybridError::InvalidOption`, `MotorError` input variants | `InvalidInputError` | the field |
 //! | `HybridError::OffManifold` | `InvalidInputError` (caller's state) / `EngineError` | the field |
 //! | `SimError::{InvalidValue, UnknownJoint, UnknownContact, UnknownReference, Cycle, Expression, UnknownParameter, Motor, Parse}` | `InvalidInputError` | the field, path, or what was parsed |
-//! | `SimError::Io` | the `OSError` subclass of its kind | — |
+//! | `SimError::Io` of a file read but empty or not UTF-8 (`InvalidData`) | `InvalidInputError` | the path |
+//! | `SimError::Io` otherwise | the `OSError` subclass of its kind | — |
 //! | `HybridError::{StepTooSmall, TooManyContacts, ContactQp}`, `MotorError::NoConvergence`, a caught panic | `EngineError` | — |
 //!
 //! Variants added later fall through to `EngineError` until they are mapped here.
@@ -23,7 +24,8 @@ use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::PyType;
 use rhex_model::RhexError;
-use selfmanip_core::CoreError;
+use selfmanip_core::model::Model;
+use selfmanip_core::{ContactMode, CoreError, Data, FlatGround};
 use selfmanip_hybrid::HybridError;
 use selfmanip_sim::SimError;
 
@@ -245,6 +247,13 @@ pub(crate) fn map_sim(e: &SimError, source: Source) -> Mapped {
 /// (`SimError::Io`) is the `OSError` subclass of its kind (`FileNotFoundError`, …).
 pub(crate) fn sim(e: SimError, source: Source) -> PyErr {
     match e {
+        // read, but not what it should hold (empty, not UTF-8): the caller's input, named by
+        // its path
+        SimError::Io {
+            path,
+            message,
+            kind: std::io::ErrorKind::InvalidData,
+        } => invalid(&path, format!("{path}: {message}")),
         SimError::Io {
             path,
             message,
@@ -298,4 +307,66 @@ pub(crate) fn panic(payload: &(dyn std::any::Any + Send)) -> PyErr {
         "internal error in selfmanip (a bug, please report it): {}",
         selfmanip_sim::sweep::panic_message(payload)
     ))
+}
+
+/// The joints whose motion has no inertia at `q`: the directions of the mass matrix `M̄(q)`
+/// (4.24) with a vanishing eigenvalue, the motion Lemma 5.1 calls unconstrained and massless
+/// when no contact pins it. A joint is named when it carries a tenth of such a direction.
+pub(crate) fn inertia_free_joints(model: &Model, q: &[f64]) -> Vec<usize> {
+    let nq = model.nq();
+    if q.len() != nq || q.iter().any(|x| !x.is_finite()) {
+        return Vec::new();
+    }
+    let mut data = Data::new(model);
+    // flight: M̄ only (a singular KKT matrix in flight is the very thing being explained)
+    match data.prepare(model, &FlatGround, ContactMode::FLIGHT, q, &vec![0.0; nq]) {
+        Ok(()) | Err(CoreError::SingularKkt { .. }) => {}
+        Err(_) => return Vec::new(),
+    }
+    let eig = nalgebra::SymmetricEigen::new(data.m_bar.clone());
+    let scale = eig.eigenvalues.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let mut joints = Vec::new();
+    for (i, &lambda) in eig.eigenvalues.iter().enumerate() {
+        if !(lambda.abs() <= 1e-12 * scale) {
+            continue;
+        }
+        let v = eig.eigenvectors.column(i);
+        let vmax = v.amax();
+        for j in 0..model.n_joints() {
+            if v[j].abs() >= 0.1 * vmax && !joints.contains(&j) {
+                joints.push(j);
+            }
+        }
+    }
+    joints.sort_unstable();
+    joints
+}
+
+impl Mapped {
+    /// A `SingularKktError` of unconstrained massless motion names the joints that move with
+    /// no inertia at `q` ([`inertia_free_joints`]) and the description field of the first
+    /// one's link; other errors pass unchanged.
+    pub(crate) fn naming_massless_joints(mut self, model: &Model, q: &[f64]) -> Self {
+        let massless = matches!(&self.singular, Some((k, _)) if k == "UnconstrainedMasslessMotion");
+        if !massless {
+            return self;
+        }
+        let joints = inertia_free_joints(model, q);
+        let Some(&first) = joints.first() else {
+            return self;
+        };
+        let names: Vec<String> = joints
+            .iter()
+            .map(|&j| format!("`{}`", selfmanip_sim::labels::joint_name(model, j)))
+            .collect();
+        let joint = &model.joints[first];
+        self.message = format!(
+            "{}: joint(s) {} move with no inertia (their links and those beyond carry no mass \
+             off the joint axis, no rotational inertia and no armature) and no contact pins them",
+            self.message,
+            names.join(", ")
+        );
+        self.field = Some(format!("legs[{}].links[{}]", joint.leg, joint.index_in_leg));
+        self
+    }
 }

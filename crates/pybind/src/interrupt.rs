@@ -83,6 +83,23 @@ impl Shared {
     }
 }
 
+/// Waits up to [`POLL`] for the worker's result with the GIL released. The receiver is
+/// `Send` but not `Sync`: it travels into the GIL-free wait and back.
+fn wait<R: Send>(
+    py: Python<'_>,
+    rx: &mut Option<mpsc::Receiver<R>>,
+) -> Result<R, RecvTimeoutError> {
+    let r = rx
+        .take()
+        .expect("the receiver is returned after every wait");
+    let (back, got) = py.detach(move || {
+        let got = r.recv_timeout(POLL);
+        (r, got)
+    });
+    *rx = Some(back);
+    got
+}
+
 /// Runs `work` on a worker thread with the GIL released, interruptible by Ctrl-C (see the
 /// module documentation). `progress`, if given, is called with the number of units done each
 /// time it changes (at most every [`POLL`]) and once at the end.
@@ -113,15 +130,7 @@ pub(crate) fn run_shared<T: Send + 'static>(
     let mut reported = usize::MAX;
     let mut rx = Some(rx);
     loop {
-        // the receiver is `Send` but not `Sync`: it travels into the GIL-free wait and back
-        let (back, got) = py.detach(move || {
-            let r = rx
-                .take()
-                .expect("the receiver is returned after every wait");
-            let got = r.recv_timeout(POLL);
-            (r, got)
-        });
-        rx = Some(back);
+        let got = wait(py, &mut rx);
         if let Some(cb) = progress {
             let done = shared.done.load(Ordering::Relaxed);
             if done != reported {
@@ -148,4 +157,48 @@ pub(crate) fn run_shared<T: Send + 'static>(
             }
         }
     }
+}
+
+/// Runs `work`, which borrows the caller's data, on a scoped thread with the GIL released,
+/// checking Python's signals every [`POLL`]. On Ctrl-C it raises the flag `work` is given and
+/// waits for `work` to return (it checks the flag often: an interrupted file write stops at
+/// its next record and removes its temporary file), then raises the `KeyboardInterrupt`: the
+/// call has ended, nothing of it runs on, and nothing it wrote is left half done.
+pub(crate) fn run_borrowed<T: Send>(
+    py: Python<'_>,
+    work: impl FnOnce(&AtomicBool) -> T + Send,
+) -> PyResult<T> {
+    let cancel = AtomicBool::new(false);
+    std::thread::scope(|scope| {
+        let (tx, rx) = mpsc::sync_channel(1);
+        let cancel = &cancel;
+        scope.spawn(move || {
+            let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| work(cancel)));
+            let _ = tx.send(out);
+        });
+        let mut signal = None;
+        let mut rx = Some(rx);
+        loop {
+            let got = wait(py, &mut rx);
+            match got {
+                Ok(Ok(out)) => return signal.map_or(Ok(out), Err),
+                Ok(Err(p)) => {
+                    return Err(signal.unwrap_or_else(|| crate::errors::panic(p.as_ref())))
+                }
+                Err(RecvTimeoutError::Timeout) => {
+                    if signal.is_none() {
+                        if let Err(e) = py.check_signals() {
+                            cancel.store(true, Ordering::Relaxed);
+                            signal = Some(e);
+                        }
+                    }
+                }
+                Err(RecvTimeoutError::Disconnected) => {
+                    return Err(signal.unwrap_or_else(|| {
+                        crate::errors::engine("the worker thread ended without a result")
+                    }))
+                }
+            }
+        }
+    })
 }

@@ -291,12 +291,19 @@ impl PyScenario {
                     sim
                 }
             };
+            let model = Arc::clone(&sim.model);
             let run = interrupt::run_shared(py, None, shared, move |sh: &Shared| {
                 sim.run_with(&sh.cancel)
             })?;
             take_failure(&failure)?;
+            let q0 = &self.inner.initial.q;
             Ok(PyRun {
-                inner: run.map_err(engine_err)?,
+                inner: run.map_err(|e| match e {
+                    e @ SimError::Io { .. } => engine_err(e),
+                    e => errors::map_sim(&e, Source::Engine)
+                        .naming_massless_joints(&model, q0)
+                        .into_pyerr(),
+                })?,
                 failure,
                 scenario: self.inner.clone(),
                 controller: replay,
@@ -878,8 +885,12 @@ impl PyRun {
         guard(|| {
             let dt = dt_s.unwrap_or(DEFAULT_DT_S);
             let md = metadata.unwrap_or_default();
-            // the sampling may call a Python controller: keep the GIL reachable
-            let r = py.detach(|| self.inner.write_mcap(&path, dt, md));
+            // the sampling may call a Python controller: keep the GIL reachable; Ctrl-C stops
+            // the write before its next record and leaves no file behind
+            let run = &self.inner;
+            let r = interrupt::run_borrowed(py, |cancel| {
+                run.write_mcap_until(&path, dt, md, &|| cancel.load(Ordering::Relaxed))
+            })?;
             take_failure(&self.failure)?;
             r.map_err(|e| match e {
                 SimError::InvalidValue { .. } => caller_err(e),

@@ -29,6 +29,8 @@ use crate::error::{CoreError, Result};
 use crate::model::{Contact, ContactShape, Friction, Joint, JointSpring, Leg, Model};
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+use std::hash::Hash;
 
 /// A planar vector `[a, b]` read as exactly two numbers: a longer or shorter list is an error
 /// (serde's fixed-size arrays let some formats drop extra entries silently, so that
@@ -227,6 +229,47 @@ pub struct ContactDescription {
     pub friction: FrictionDescription,
 }
 
+/// The error of an invalid description field.
+fn bad(field: String, reason: &str) -> CoreError {
+    CoreError::InvalidDescription {
+        field,
+        reason: reason.into(),
+    }
+}
+
+fn finite_nonneg(field: String, v: f64) -> Result<()> {
+    if !v.is_finite() {
+        Err(bad(field, "must be finite"))
+    } else if v < 0.0 {
+        Err(bad(field, "must be non-negative"))
+    } else {
+        Ok(())
+    }
+}
+
+fn finite2(field: String, v: [f64; 2]) -> Result<Vector2<f64>> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(Vector2::new(v[0], v[1]))
+    } else {
+        Err(bad(field, "must be finite"))
+    }
+}
+
+/// Each name's index in `names`, or the index of the first name that repeats an earlier one.
+/// One hashed look-up per name keeps loading linear in the number of legs (comparing each name
+/// with all before it took minutes for 120,000 legs).
+fn index_names<K: Hash + Eq>(
+    names: impl ExactSizeIterator<Item = K>,
+) -> std::result::Result<HashMap<K, usize>, usize> {
+    let mut index = HashMap::with_capacity(names.len());
+    for (i, name) in names.enumerate() {
+        if index.insert(name, i).is_some() {
+            return Err(i);
+        }
+    }
+    Ok(index)
+}
+
 impl Model {
     /// The validated model of a description: [`RobotDescription::build`], from the model's
     /// side (here, beside the validation, so that the model does not depend on its source).
@@ -268,26 +311,6 @@ impl RobotDescription {
 
     /// Validates every field and builds the immutable [`Model`].
     pub fn build(&self) -> Result<Model> {
-        let bad = |field: String, reason: &str| CoreError::InvalidDescription {
-            field,
-            reason: reason.into(),
-        };
-        let finite_nonneg = |field: String, v: f64| -> Result<()> {
-            if !v.is_finite() {
-                Err(bad(field, "must be finite"))
-            } else if v < 0.0 {
-                Err(bad(field, "must be non-negative"))
-            } else {
-                Ok(())
-            }
-        };
-        let finite2 = |field: String, v: [f64; 2]| -> Result<Vector2<f64>> {
-            if v.iter().all(|x| x.is_finite()) {
-                Ok(Vector2::new(v[0], v[1]))
-            } else {
-                Err(bad(field, "must be finite"))
-            }
-        };
         if !(self.gravity_m_s2.is_finite()) {
             return Err(bad("gravity_m_s2".into(), "must be finite"));
         }
@@ -306,9 +329,6 @@ impl RobotDescription {
             let f = |s: &str| format!("legs[{li}].{s}");
             if leg.name.is_empty() {
                 return Err(bad(f("name"), "must not be empty"));
-            }
-            if self.legs[..li].iter().any(|o| o.name == leg.name) {
-                return Err(bad(f("name"), "duplicate leg name"));
             }
             if leg.links.is_empty() {
                 return Err(bad(f("links"), "a leg needs at least one link"));
@@ -369,101 +389,23 @@ impl RobotDescription {
             });
         }
 
+        let leg_index = index_names(self.legs.iter().map(|l| l.name.as_str()))
+            .map_err(|li| bad(format!("legs[{li}].name"), "duplicate leg name"))?;
+
         if self.contacts.len() > 32 {
             return Err(bad(
                 "contacts".into(),
                 "at most 32 contact sites are supported",
             ));
         }
-        let mut contacts = Vec::with_capacity(self.contacts.len());
-        for (ci, c) in self.contacts.iter().enumerate() {
-            let f = |s: &str| format!("contacts[{ci}].{s}");
-            if c.name.is_empty() {
-                return Err(bad(f("name"), "must not be empty"));
-            }
-            if self.contacts[..ci].iter().any(|o| o.name == c.name) {
-                return Err(bad(f("name"), "duplicate contact name"));
-            }
-            let link = match &c.leg {
-                None => {
-                    if c.link.is_some() {
-                        return Err(bad(f("link"), "a body contact has no link index"));
-                    }
-                    None
-                }
-                Some(name) => {
-                    let li = legs
-                        .iter()
-                        .position(|l| &l.name == name)
-                        .ok_or_else(|| bad(f("leg"), &format!("no leg named `{name}`")))?;
-                    let leg = &legs[li];
-                    let k = c.link.unwrap_or(leg.n_links - 1);
-                    if k >= leg.n_links {
-                        return Err(bad(f("link"), "link index out of range"));
-                    }
-                    Some(leg.first_joint + k)
-                }
-            };
-            let shape = match &c.shape {
-                ShapeDescription::Point { position_m } => ContactShape::Point {
-                    position_m: finite2(f("shape.position_m"), *position_m)?,
-                },
-                ShapeDescription::Circle { center_m, radius_m } => {
-                    finite_nonneg(f("shape.radius_m"), *radius_m)?;
-                    ContactShape::Arc {
-                        center_m: finite2(f("shape.center_m"), *center_m)?,
-                        radius_m: *radius_m,
-                        normal_range_rad: None,
-                    }
-                }
-                ShapeDescription::Arc {
-                    center_m,
-                    radius_m,
-                    normal_range_rad,
-                } => {
-                    finite_nonneg(f("shape.radius_m"), *radius_m)?;
-                    let [a0, a1] = *normal_range_rad;
-                    if !(a0.is_finite() && a1.is_finite())
-                        || a1 <= a0
-                        || a1 - a0 > std::f64::consts::TAU
-                    {
-                        return Err(bad(
-                            f("shape.normal_range_rad"),
-                            "must be finite with start < end and span at most 2π",
-                        ));
-                    }
-                    ContactShape::Arc {
-                        center_m: finite2(f("shape.center_m"), *center_m)?,
-                        radius_m: *radius_m,
-                        normal_range_rad: Some([a0, a1]),
-                    }
-                }
-            };
-            let (friction, kinetic_mu) = match c.friction {
-                FrictionDescription::Sliding => (Friction::Sliding, 0.0),
-                FrictionDescription::Sticking { mu, mu_kinetic } => {
-                    let mu = mu.unwrap_or(f64::INFINITY);
-                    if mu.is_nan() || mu < 0.0 {
-                        return Err(bad(f("friction.mu"), "must be non-negative"));
-                    }
-                    let mu_k = mu_kinetic.unwrap_or(0.0);
-                    if !mu_k.is_finite() || mu_k < 0.0 {
-                        return Err(bad(
-                            f("friction.mu_kinetic"),
-                            "must be finite and non-negative",
-                        ));
-                    }
-                    (Friction::Sticking { mu }, mu_k)
-                }
-            };
-            contacts.push(Contact {
-                name: c.name.clone(),
-                link,
-                shape,
-                friction,
-                kinetic_mu,
-            });
-        }
+        index_names(self.contacts.iter().map(|c| c.name.as_str()))
+            .map_err(|ci| bad(format!("contacts[{ci}].name"), "duplicate contact name"))?;
+        let contacts = self
+            .contacts
+            .iter()
+            .enumerate()
+            .map(|(ci, c)| build_contact(ci, c, &legs, &leg_index))
+            .collect::<Result<Vec<_>>>()?;
 
         Ok(Model::new(
             self.name.clone(),
@@ -474,5 +416,147 @@ impl RobotDescription {
             joints,
             contacts,
         ))
+    }
+}
+
+/// Contact `ci` of a description, validated, its leg found by name in `leg_index`.
+fn build_contact(
+    ci: usize,
+    c: &ContactDescription,
+    legs: &[Leg],
+    leg_index: &HashMap<&str, usize>,
+) -> Result<Contact> {
+    let f = |s: &str| format!("contacts[{ci}].{s}");
+    if c.name.is_empty() {
+        return Err(bad(f("name"), "must not be empty"));
+    }
+    let link = match &c.leg {
+        None => {
+            if c.link.is_some() {
+                return Err(bad(f("link"), "a body contact has no link index"));
+            }
+            None
+        }
+        Some(name) => {
+            let li = *leg_index
+                .get(name.as_str())
+                .ok_or_else(|| bad(f("leg"), &format!("no leg named `{name}`")))?;
+            let leg = &legs[li];
+            let k = c.link.unwrap_or(leg.n_links - 1);
+            if k >= leg.n_links {
+                return Err(bad(f("link"), "link index out of range"));
+            }
+            Some(leg.first_joint + k)
+        }
+    };
+    let shape = match &c.shape {
+        ShapeDescription::Point { position_m } => ContactShape::Point {
+            position_m: finite2(f("shape.position_m"), *position_m)?,
+        },
+        ShapeDescription::Circle { center_m, radius_m } => {
+            finite_nonneg(f("shape.radius_m"), *radius_m)?;
+            ContactShape::Arc {
+                center_m: finite2(f("shape.center_m"), *center_m)?,
+                radius_m: *radius_m,
+                normal_range_rad: None,
+            }
+        }
+        ShapeDescription::Arc {
+            center_m,
+            radius_m,
+            normal_range_rad,
+        } => {
+            finite_nonneg(f("shape.radius_m"), *radius_m)?;
+            let [a0, a1] = *normal_range_rad;
+            if !(a0.is_finite() && a1.is_finite()) || a1 <= a0 || a1 - a0 > std::f64::consts::TAU {
+                return Err(bad(
+                    f("shape.normal_range_rad"),
+                    "must be finite with start < end and span at most 2π",
+                ));
+            }
+            ContactShape::Arc {
+                center_m: finite2(f("shape.center_m"), *center_m)?,
+                radius_m: *radius_m,
+                normal_range_rad: Some([a0, a1]),
+            }
+        }
+    };
+    let (friction, kinetic_mu) = match c.friction {
+        FrictionDescription::Sliding => (Friction::Sliding, 0.0),
+        FrictionDescription::Sticking { mu, mu_kinetic } => {
+            let mu = mu.unwrap_or(f64::INFINITY);
+            if mu.is_nan() || mu < 0.0 {
+                return Err(bad(f("friction.mu"), "must be non-negative"));
+            }
+            let mu_k = mu_kinetic.unwrap_or(0.0);
+            if !mu_k.is_finite() || mu_k < 0.0 {
+                return Err(bad(
+                    f("friction.mu_kinetic"),
+                    "must be finite and non-negative",
+                ));
+            }
+            (Friction::Sticking { mu }, mu_k)
+        }
+    };
+    Ok(Contact {
+        name: c.name.clone(),
+        link,
+        shape,
+        friction,
+        kinetic_mu,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::index_names;
+    use std::cell::Cell;
+    use std::hash::{Hash, Hasher};
+
+    thread_local! {
+        static COMPARISONS: Cell<usize> = const { Cell::new(0) };
+    }
+
+    /// A name that counts how often it is compared with another.
+    #[derive(Debug)]
+    struct Counted(String);
+    impl PartialEq for Counted {
+        fn eq(&self, other: &Self) -> bool {
+            COMPARISONS.with(|c| c.set(c.get() + 1));
+            self.0 == other.0
+        }
+    }
+    impl Eq for Counted {}
+    impl Hash for Counted {
+        fn hash<H: Hasher>(&self, h: &mut H) {
+            self.0.hash(h)
+        }
+    }
+
+    fn comparisons(n: usize) -> usize {
+        COMPARISONS.with(|c| c.set(0));
+        let index = index_names((0..n).map(|i| Counted(format!("leg{i}")))).unwrap();
+        assert_eq!(index.len(), n);
+        COMPARISONS.with(|c| c.get())
+    }
+
+    /// Issue 31: 120,000 one-link legs took over a minute to load, each leg's name compared
+    /// with every earlier one (n(n−1)/2 = 7.2e9 comparisons). Distinct names are now compared
+    /// only on a hash collision: far fewer comparisons than names, at any size.
+    #[test]
+    fn checking_leg_names_for_repeats_is_linear_in_the_legs() {
+        for n in [1_000, 20_000] {
+            let c = comparisons(n);
+            assert!(c < n / 10, "{c} comparisons for {n} distinct names");
+        }
+    }
+
+    #[test]
+    fn a_repeated_name_is_reported_at_its_second_occurrence() {
+        assert_eq!(
+            index_names(["a", "b", "c", "b", "a"].into_iter()).unwrap_err(),
+            3
+        );
+        assert_eq!(index_names(["a", "b"].into_iter()).unwrap()["b"], 1);
     }
 }

@@ -267,6 +267,26 @@ fn event_json(e: &EventRecord) -> Value {
 
 /// Writes the MCAP stream of a log to any seekable writer.
 pub fn write_mcap_to<W: Write + Seek>(w: W, log: &McapLog<'_>) -> Result<W, SimError> {
+    write_mcap_to_until(w, log, &|| false)
+}
+
+/// The error of a write that `cancelled` stopped (Ctrl-C): an I/O error of kind
+/// `Interrupted` naming the file.
+fn interrupted(path: &str) -> SimError {
+    SimError::Io {
+        path: path.into(),
+        message: "the write was interrupted".into(),
+        kind: std::io::ErrorKind::Interrupted,
+    }
+}
+
+/// [`write_mcap_to`], asking `cancelled` before each sample and stopping with an
+/// `Interrupted` error once it says yes.
+pub fn write_mcap_to_until<W: Write + Seek>(
+    w: W,
+    log: &McapLog<'_>,
+    cancelled: &dyn Fn() -> bool,
+) -> Result<W, SimError> {
     let n = check(log)?;
     let (tr, model, layout) = (log.trajectory, log.model, &log.layout);
     let nj = model.n_joints();
@@ -326,6 +346,9 @@ pub fn write_mcap_to<W: Write + Seek>(w: W, log: &McapLog<'_>) -> Result<W, SimE
     let mut events = log.events.iter().peekable();
     let mut last_mode: Option<&str> = None;
     for k in 0..n {
+        if cancelled() {
+            return Err(interrupted(""));
+        }
         let (t, q, qd) = (tr.t_s[k], &tr.q[k], &tr.qd[k]);
         let t_ns = ns(t);
         // events up to this sample, in time order
@@ -451,6 +474,16 @@ pub fn write_mcap_to<W: Write + Seek>(w: W, log: &McapLog<'_>) -> Result<W, SimE
 /// Writes the log to `path` atomically (temporary file in the same directory, fsync,
 /// rename).
 pub fn write_mcap(path: &Path, log: &McapLog<'_>) -> Result<(), SimError> {
+    write_mcap_until(path, log, &|| false)
+}
+
+/// [`write_mcap`], stopped by `cancelled` (asked before each sample): an interrupted write
+/// removes its temporary file and leaves `path` as it was.
+pub fn write_mcap_until(
+    path: &Path,
+    log: &McapLog<'_>,
+    cancelled: &dyn Fn() -> bool,
+) -> Result<(), SimError> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => std::path::PathBuf::from("."),
@@ -464,11 +497,18 @@ pub fn write_mcap(path: &Path, log: &McapLog<'_>) -> Result<(), SimError> {
         std::process::id()
     ));
     let result = (|| -> Result<(), SimError> {
-        let f = std::fs::File::create(&tmp).map_err(io_err(&tmp))?;
-        let mut w = write_mcap_to(BufWriter::new(f), log)?;
-        w.flush().map_err(io_err(&tmp))?;
-        let f = w.into_inner().map_err(|e| io_err(&tmp)(e.into_error()))?;
-        f.sync_all().map_err(io_err(&tmp))?;
+        let f = std::fs::File::create(&tmp).map_err(io_err(path))?;
+        let mut w =
+            write_mcap_to_until(BufWriter::new(f), log, cancelled).map_err(|e| match e {
+                SimError::Io {
+                    kind: std::io::ErrorKind::Interrupted,
+                    ..
+                } => interrupted(&path.display().to_string()),
+                e => e,
+            })?;
+        w.flush().map_err(io_err(path))?;
+        let f = w.into_inner().map_err(|e| io_err(path)(e.into_error()))?;
+        f.sync_all().map_err(io_err(path))?;
         std::fs::rename(&tmp, path).map_err(io_err(path))?;
         Ok(())
     })();

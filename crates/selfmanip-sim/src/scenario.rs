@@ -350,6 +350,9 @@ impl Simulation {
                 None => (item.as_str(), None),
             };
             let k = crate::labels::contact_by_name(&model, name, &field)?;
+            if active.contains(&k) {
+                return Err(invalid(field, format!("contact `{name}` is listed twice")));
+            }
             mode0 = match kind {
                 Some(kind) => mode0.with(k, kind),
                 None => mode0.union(ContactMode::with_defaults(&model, &[k])?),
@@ -499,6 +502,18 @@ impl Run {
         dt_s: f64,
         metadata: BTreeMap<String, String>,
     ) -> Result<(), SimError> {
+        self.write_mcap_until(path, dt_s, metadata, &|| false)
+    }
+
+    /// [`Self::write_mcap`], stopped by `cancelled` (Ctrl-C) with no file left behind
+    /// ([`mcap::write_mcap_until`]).
+    pub fn write_mcap_until(
+        &self,
+        path: &Path,
+        dt_s: f64,
+        metadata: BTreeMap<String, String>,
+        cancelled: &dyn Fn() -> bool,
+    ) -> Result<(), SimError> {
         let trajectory = self.trajectory(dt_s)?;
         let events = self.events();
         let mut metadata = metadata;
@@ -508,7 +523,7 @@ impl Run {
         metadata
             .entry("status".into())
             .or_insert_with(|| self.outcome.status.as_str().into());
-        mcap::write_mcap(
+        mcap::write_mcap_until(
             path,
             &McapLog {
                 model: &self.model,
@@ -517,6 +532,7 @@ impl Run {
                 metadata,
                 layout: mcap::Layout::of(&self.model),
             },
+            cancelled,
         )
     }
 }

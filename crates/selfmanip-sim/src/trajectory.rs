@@ -96,8 +96,8 @@ pub fn sample_labelled(
         return Err(SimError::InvalidValue {
             field: "dt_s".into(),
             reason: format!(
-                "{dt_s} s over the run's {t_end} s is more than the {MAX_TRAJECTORY_SAMPLES} \
-                 samples a trajectory holds"
+                "{dt_s:e} s over the run's {t_end:.6} s is more than the \
+                 {MAX_TRAJECTORY_SAMPLES} samples a trajectory holds"
             ),
         });
     }
