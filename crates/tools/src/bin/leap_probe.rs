@@ -11,7 +11,7 @@
 //! `QD=1` (with `EVENTS`) to print each event's q and q̇ after it, `LANDINGS=1` to run past the apex to `t_final`, `EVENT_TOL` (s) and `RTOL` the tolerances.
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator};
 use rhex_model::params::LegPair;
-use selfmanip_tools::print_leap_line;
+use selfmanip_tools::{body_from_env, print_leap_line};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
@@ -63,16 +63,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 ..LeapConfig::default()
             };
             let mut params = leap_params();
-            // ROTORS=1: legs that carry their rotors (RhexParams::leg_rotors)
-            if std::env::var("ROTORS").is_ok() {
-                params.leg_rotors = Some(true);
-            }
-            if let Ok(v) = std::env::var("M_B") {
-                params.m_b = v.parse()?;
-            }
-            if let Ok(v) = std::env::var("I_B") {
-                params.I_b = v.parse()?;
-            }
+            body_from_env(&mut params)?;
             let r = simulate_leap(&params, &cfg)?;
             print_leap_line(
                 strategy,
