@@ -119,22 +119,12 @@ fn lemma_5_2_and_5_3_quadruped() {
 #[test]
 fn massless_limit_converges() {
     let massless = rhex_massless(LegShape::HalfCircle);
-    let mode = massless.mode("0101").unwrap();
+    let (model, mode) = (&massless.model, massless.mode("0101").unwrap());
     let q = [-0.4, 0.5, 0.0, -0.15, 0.05];
-    let qd = project_to_constraints(&massless.model, mode, &q, &[1.0, -2.0, 0.3, 0.1, 0.4]);
+    let qd = project_to_constraints(model, mode, &q, &[1.0, -2.0, 0.3, 0.1, 0.4]);
     let tau = [12.0, 7.0];
-    let mut data = Data::new(&massless.model);
-    forward_dynamics(
-        &massless.model,
-        &mut data,
-        &FlatGround,
-        mode,
-        &q,
-        &qd,
-        &tau,
-        None,
-    )
-    .unwrap();
+    let mut data = Data::new(model);
+    forward_dynamics(model, &mut data, &FlatGround, mode, &q, &qd, &tau, None).unwrap();
     let (qdd0, lam0) = (data.qdd.clone(), data.lambda.clone());
     let mut errors = vec![];
     for eps in [1e-1, 1e-2, 1e-3, 1e-4] {

@@ -13,16 +13,9 @@ use selfmanip::rhex::leap::{leap_params, simulate_leap, LeapConfig, LegActuator,
 use selfmanip::rhex::leap_sensitivity::{leap_with_sensitivity, leap_with_sensitivity_from};
 use selfmanip::rhex::RhexParams;
 
-fn tight(strategy: &str, t2: f64) -> LeapConfig {
-    LeapConfig {
-        strategy: strategy.parse().unwrap(),
-        t2_s: t2,
-        rtol: 1e-12,
-        event_tol_s: 1e-14,
-        control_free_joints: true,
-        ..LeapConfig::default()
-    }
-}
+#[path = "../crates/rhex-model/tests/common/mod.rs"]
+mod rhex_common;
+use rhex_common::tight;
 
 fn apex_of(params: &RhexParams, cfg: &LeapConfig, offset: Option<&[f64]>) -> [f64; 7] {
     let r = match offset {
@@ -33,16 +26,7 @@ fn apex_of(params: &RhexParams, cfg: &LeapConfig, offset: Option<&[f64]>) -> [f6
                 .result
         }
     };
-    let a = r.apex.expect("apex");
-    [
-        a.t_s,
-        a.x_m,
-        a.z_m,
-        a.phi_rad,
-        a.xdot_m_s,
-        a.zdot_m_s,
-        a.phidot_rad_s,
-    ]
+    r.apex.expect("apex").to_array()
 }
 
 /// The leap with a parameter set to `v`.
@@ -94,6 +78,25 @@ fn worst(d: &[f64], fd: &[f64], scale: f64) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// [`worst`] of `d` (the apex's derivatives over parameter `name`) against the central
+/// difference of whole leaps with step `f h`, `h` = 1e-5 of the parameter's `scale`.
+fn step_error(
+    params: &RhexParams,
+    cfg: &LeapConfig,
+    name: &str,
+    scale: f64,
+    d: &[f64],
+    f: f64,
+) -> f64 {
+    let h = 1e-5 * scale;
+    let v = value(params, cfg, name);
+    let (pp, cp) = with(params, cfg, name, v + f * h);
+    let (pm, cm) = with(params, cfg, name, v - f * h);
+    let (ap, am) = (apex_of(&pp, &cp, None), apex_of(&pm, &cm, None));
+    let fd: Vec<f64> = (0..7).map(|c| (ap[c] - am[c]) / (2.0 * f * h)).collect();
+    worst(d, &fd, scale)
+}
+
 /// The derivatives of one leap against central differences with steps `h`, `10h`, `100h`
 /// (`h` = 1e-5 of each parameter's scale): the round-off of two executions at these
 /// tolerances (their step sequences differ) falls as `1/h` and the truncation error grows
@@ -111,18 +114,10 @@ fn check_params(strategy: &str, t2: f64) -> [f64; PARAMS.len()] {
     );
     let mut w = [0.0_f64; PARAMS.len()];
     for (k, (name, scale)) in PARAMS.iter().enumerate() {
-        let h = 1e-5 * scale;
-        let v = value(&params, &cfg, name);
         let d: Vec<f64> = (0..7).map(|c| s.d_apex[c][k]).collect();
         let errs: Vec<f64> = [1.0, 10.0, 100.0]
             .iter()
-            .map(|f| {
-                let (pp, cp) = with(&params, &cfg, name, v + f * h);
-                let (pm, cm) = with(&params, &cfg, name, v - f * h);
-                let (ap, am) = (apex_of(&pp, &cp, None), apex_of(&pm, &cm, None));
-                let fd: Vec<f64> = (0..7).map(|c| (ap[c] - am[c]) / (2.0 * f * h)).collect();
-                worst(&d, &fd, *scale)
-            })
+            .map(|&f| step_error(&params, &cfg, name, *scale, &d, f))
             .collect();
         let e = errs.iter().copied().fold(f64::INFINITY, f64::min);
         eprintln!(
@@ -461,18 +456,10 @@ fn a_parked_swing_is_differentiated_in_the_gear_ratio() {
         .into_iter()
         .enumerate()
     {
-        let h = 1e-5 * scale;
-        let v = value(&params, &cfg, name);
         let d: Vec<f64> = (0..7).map(|c| s.d_apex[c][k]).collect();
         let e = [1.0, 10.0, 100.0]
             .iter()
-            .map(|f| {
-                let (pp, cp) = with(&params, &cfg, name, v + f * h);
-                let (pm, cm) = with(&params, &cfg, name, v - f * h);
-                let (ap, am) = (apex_of(&pp, &cp, None), apex_of(&pm, &cm, None));
-                let fd: Vec<f64> = (0..7).map(|c| (ap[c] - am[c]) / (2.0 * f * h)).collect();
-                worst(&d, &fd, scale)
-            })
+            .map(|&f| step_error(&params, &cfg, name, scale, &d, f))
             .fold(f64::INFINITY, f64::min);
         eprintln!("parked swing, {name}: {e:.2e}");
         assert!(e < 1e-5, "{name}: {e}");

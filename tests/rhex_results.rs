@@ -2,14 +2,15 @@
 //! C.1, the γ bounds of (4.47), and energy conservation along a constrained flow. Every
 //! number is computed by the general machinery and compared with a formula re-derived here.
 mod common;
+#[path = "../crates/rhex-model/tests/common/mod.rs"]
+mod rhex_common;
 use common::*;
 use nalgebra::{DMatrix, DVector};
+use rhex_common::{flat_dynamics, flat_quasi_static, flat_reduced};
 use selfmanip::core::grasp::grasp_maps;
 use selfmanip::core::inertia::potential_energy;
 use selfmanip::core::kinematics::Kinematics;
-use selfmanip::core::quasistatic::quasi_static;
-use selfmanip::core::reduced::reduced_dynamics;
-use selfmanip::core::{forward_dynamics, kinetic_energy, Data, FlatGround};
+use selfmanip::core::{kinetic_energy, Data, FlatGround};
 use selfmanip::rhex::quasistatic_map::{contact_mode_map, quasi_static_pose, Support};
 use selfmanip::rhex::LegShape;
 use std::f64::consts::PI;
@@ -113,17 +114,7 @@ fn result_c1_rear_minus_front_normal_force() {
             let yd = random_vec(1, 3.0, &mut r)[0];
             let qd = project_to_constraints(&rhex.model, mode, &q, &[yd, yd, 0.0, 0.0, 0.0]);
             let tau = 5.0 + 20.0 * (i as f64) / 30.0;
-            forward_dynamics(
-                &rhex.model,
-                &mut data,
-                &FlatGround,
-                mode,
-                &q,
-                &qd,
-                &[tau, tau],
-                None,
-            )
-            .unwrap();
+            flat_dynamics(&rhex.model, &mut data, mode, &q, &qd, &[tau, tau]);
             // rows: FL t, FL n, RL t, RL n
             let (l1n, l2n) = (data.lambda[1], data.lambda[3]);
             let diff = (-l2n) - (-l1n);
@@ -216,26 +207,12 @@ fn result_b2_round_leg_needs_less_holding_torque() {
         let phi = 0.25 * (i as f64 / 40.0) - 0.05;
         let u = -PI / 2.0 * (i as f64) / 40.0; // θ₁ − φ ∈ (−π/2, 0): round side down
         let q = [u + phi, -2.5, 0.0, -0.1, phi];
-        let tau_round = quasi_static(
-            &round.model,
-            &mut data,
-            &FlatGround,
-            round.mode("0110").unwrap(),
-            &q,
-            &none,
-        )
-        .unwrap()
-        .tau_particular[0];
-        let tau_stick = quasi_static(
-            &stick.model,
-            &mut data,
-            &FlatGround,
-            stick.mode("0110").unwrap(),
-            &q,
-            &none,
-        )
-        .unwrap()
-        .tau_particular[0];
+        let round_mode = round.mode("0110").unwrap();
+        let tau_round =
+            flat_quasi_static(&round.model, &mut data, round_mode, &q, &none).tau_particular[0];
+        let stick_mode = stick.mode("0110").unwrap();
+        let tau_stick =
+            flat_quasi_static(&stick.model, &mut data, stick_mode, &q, &none).tau_particular[0];
         // (4.57)–(4.58): τ₁ = −ℓ₂ρ m g cos φ sin(θ₁−φ) / (k(ℓ₁+ℓ₂) cos φ − ρ sin(θ₁−φ)), k = 2 round, 1 stick
         let formula = |k: f64| {
             -l * rho * m * g * phi.cos() * u.sin() / (k * 2.0 * l * phi.cos() - rho * u.sin())
@@ -273,17 +250,8 @@ fn gamma_ratio_bounds_under_d1() {
                 let t2 = (-30.0 + 2.5 * j as f64) * deg;
                 let phi = (-10.0 + 5.0 * k as f64) * deg;
                 let q = [t1, t2, 0.0, -0.17, phi];
-                let red = reduced_dynamics(
-                    &rhex.model,
-                    &mut data,
-                    &FlatGround,
-                    mode,
-                    &q,
-                    &[0.0; 5],
-                    &[0.0; 2],
-                    &y,
-                )
-                .unwrap();
+                let red =
+                    flat_reduced(&rhex.model, &mut data, mode, (&q, &[0.0; 5]), &[0.0; 2], &y);
                 let ratio = red.h[(0, 0)] / red.h[(1, 0)];
                 if k == 2 {
                     // (4.47) at φ = 0
@@ -333,17 +301,7 @@ fn energy_is_conserved_along_constrained_flow() {
         let qd0 = project_to_constraints(model, mode, &q0, &[1.0, -1.0, 0.2, 0.1, 0.3]);
         x[5..].copy_from_slice(&qd0);
         let mut f = |x: &[f64]| -> Vec<f64> {
-            forward_dynamics(
-                model,
-                &mut data,
-                &FlatGround,
-                mode,
-                &x[..5],
-                &x[5..],
-                &[0.0, 0.0],
-                None,
-            )
-            .unwrap();
+            flat_dynamics(model, &mut data, mode, &x[..5], &x[5..], &[0.0, 0.0]);
             x[5..]
                 .iter()
                 .cloned()

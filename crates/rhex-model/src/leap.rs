@@ -346,6 +346,22 @@ pub struct Apex {
     pub phidot_rad_s: f64,
 }
 
+impl Apex {
+    /// The state in the order of its fields: `[t, x, z, φ, ẋ, ż, φ̇]` (s, m, m, rad, m/s,
+    /// m/s, rad/s).
+    pub fn to_array(&self) -> [f64; 7] {
+        [
+            self.t_s,
+            self.x_m,
+            self.z_m,
+            self.phi_rad,
+            self.xdot_m_s,
+            self.zdot_m_s,
+            self.phidot_rad_s,
+        ]
+    }
+}
+
 /// The outcome of one leap: the generic run's [`Outcome`] (its `status` is the engine's
 /// [`RunStatus`], named as everywhere: `apex`, `final_time`, `zeno`,
 /// `terrain_discontinuity`, `singular_flow`, …; its `word` the ground-reaction-complex cells

@@ -4,6 +4,8 @@
 //! prints "thesis value | ours". (Result C.1 is `tests/rhex_results.rs::result_c1_…` at the
 //! workspace root; C.2 below is its derivative.) Every analysis also runs on a second,
 //! non-RHex robot: the sagittal quadruped of `tests/data/quadruped.toml`.
+mod common;
+use common::{flat_dynamics, flat_quasi_static, flat_reduced};
 use nalgebra::{DMatrix, DVector};
 use rhex_model::analysis::leg_tail::*;
 use rhex_model::analysis::pitch_control::*;
@@ -12,8 +14,7 @@ use rhex_model::analysis::standing::*;
 use rhex_model::quasistatic_map::{quasi_static_pose, Support};
 use rhex_model::{LegShape, Rhex, RhexParams};
 use selfmanip_core::kinematics::Kinematics;
-use selfmanip_core::reduced::reduced_dynamics;
-use selfmanip_core::{forward_dynamics, ContactMode, Data, FlatGround, Model, RobotDescription};
+use selfmanip_core::{ContactMode, Data, FlatGround, Model, RobotDescription};
 use selfmanip_sim::analysis::leg_tail::*;
 use selfmanip_sim::analysis::standing::*;
 use selfmanip_sim::analysis::{contact_gaps, free_motion_basis, solve_contact_pose};
@@ -180,15 +181,7 @@ fn torque_split_4_48_4_49() {
     for th in [deg(-20.0), deg(5.0), deg(25.0)] {
         let q = [th, th, 0.0, -rho * th.cos(), 0.0];
         let mut data = Data::new(&r.model);
-        let qs = quasi_static(
-            &r.model,
-            &mut data,
-            &FlatGround,
-            r.mode("0101").unwrap(),
-            &q,
-            &t_d,
-        )
-        .unwrap();
+        let qs = flat_quasi_static(&r.model, &mut data, r.mode("0101").unwrap(), &q, &t_d);
         let tn = qs.internal_torques.column(0);
         let g = 2.0 * l * rho * th.cos();
         assert!((tn[0] / tn[1] + g / g).abs() < 1e-10, "(4.49) ratio");
@@ -428,17 +421,7 @@ fn fig_4_8_liftoff_speed_linear_program() {
         );
         let mut data = Data::new(model);
         let qd: Vec<f64> = dir.iter().map(|v| v * s).collect();
-        forward_dynamics(
-            model,
-            &mut data,
-            &FlatGround,
-            pose.mode,
-            &q,
-            &qd,
-            &[0.0, 0.0],
-            None,
-        )
-        .unwrap();
+        flat_dynamics(model, &mut data, pose.mode, &q, &qd, &[0.0, 0.0]);
         let bind = ls.binding_row.unwrap();
         let scale = ls.a.iter().cloned().fold(0.0, f64::max);
         assert!(
@@ -451,32 +434,12 @@ fn fig_4_8_liftoff_speed_linear_program() {
             // λ(2s) = a + 4 b s² exactly
             let qd2: Vec<f64> = dir.iter().map(|v| v * 2.0 * s).collect();
             let mut d2 = Data::new(model);
-            forward_dynamics(
-                model,
-                &mut d2,
-                &FlatGround,
-                pose.mode,
-                &q,
-                &qd2,
-                &[0.0, 0.0],
-                None,
-            )
-            .unwrap();
+            flat_dynamics(model, &mut d2, pose.mode, &q, &qd2, &[0.0, 0.0]);
             let pred = ls.a[k] + 4.0 * ls.b[k] * s * s;
             assert!((-d2.lambda[i] - pred).abs() < 1e-8 * (1.0 + pred.abs()));
         }
         if nfree == 1 {
-            let red = reduced_dynamics(
-                model,
-                &mut data,
-                &FlatGround,
-                pose.mode,
-                &q,
-                &qd,
-                &[0.0, 0.0],
-                &y,
-            )
-            .unwrap();
+            let red = flat_reduced(model, &mut data, pose.mode, (&q, &qd), &[0.0, 0.0], &y);
             assert!((red.lambda[bind]).abs() < 1e-6 * scale, "(4.39) agrees");
         }
         println!(
@@ -541,17 +504,8 @@ fn result_c2_splay_reduces_imbalance() {
                 let imb = |td: f64| {
                     let (q, qd, mode) = double_stance_state(&table, deg(tm), td, thd).unwrap();
                     let mut data = Data::new(&table.model);
-                    let red = reduced_dynamics(
-                        &table.model,
-                        &mut data,
-                        &FlatGround,
-                        mode,
-                        &q,
-                        &qd,
-                        &[tau, tau],
-                        &y,
-                    )
-                    .unwrap();
+                    let red =
+                        flat_reduced(&table.model, &mut data, mode, (&q, &qd), &[tau, tau], &y);
                     -red.lambda[3] + red.lambda[1]
                 };
                 let e = 1e-5;
@@ -707,17 +661,7 @@ fn result_c4_takeoff_speed_bound() {
         let h = free_motion_basis(model, &FlatGround, mode, &q, &y).unwrap();
         let qd: Vec<f64> = (h.column(j) * b.leg_rate).iter().cloned().collect();
         let mut data = Data::new(model);
-        forward_dynamics(
-            model,
-            &mut data,
-            &FlatGround,
-            mode,
-            &q,
-            &qd,
-            &[0.0, b.tau],
-            None,
-        )
-        .unwrap();
+        flat_dynamics(model, &mut data, mode, &q, &qd, &[0.0, b.tau]);
         assert!(
             data.lambda[1].abs() < 1e-8 * p.m_b * p.g,
             "normal force at the bound {}",

@@ -5,13 +5,14 @@
 //! "forward" / "backward" the sign of the apex displacement. Claims the default model does
 //! not reproduce have no test here; `docs/fidelity.md` (written by
 //! `crates/tools/src/bin/fidelity.rs`) lists every claim with its value and verdict.
+mod common;
+use common::{at_ledge, flat_dynamics};
 use rhex_model::leap::{
     leap_params, leg_swing, simulate_leap, LeapConfig, LeapResult, T2Reference,
 };
 use rhex_model::params::ToeSliding;
 use rhex_model::RhexParams;
 use selfmanip_hybrid::EventKind;
-use selfmanip_sim::terrain::TerrainSpec;
 
 fn leap(strategy: &str, t2_s: f64) -> LeapResult {
     simulate_leap(
@@ -173,13 +174,7 @@ fn plus_plus_near_t2_0_18_gets_onto_a_27_cm_ledge() {
         for t2 in grid(0.15, 0.21, 0.01) {
             let cfg = LeapConfig {
                 t2_s: t2,
-                terrain: TerrainSpec::Ledge {
-                    height_m: h,
-                    distance_m: d,
-                },
-                stop_at_apex: false,
-                t_final_s: 1.5,
-                ..LeapConfig::default()
+                ..at_ledge(h, d)
             };
             let r = simulate_leap(&p, &cfg).unwrap();
             let q = &r.execution.q;
@@ -261,7 +256,7 @@ fn minus_minus_flips_backward_more_when_the_rear_leg_is_not_late() {
 #[test]
 fn slipping_toes_keep_their_force_on_the_default_path() {
     use rhex_model::Rhex;
-    use selfmanip_core::{forward_dynamics, Data, FlatGround, RowDirection};
+    use selfmanip_core::{Data, RowDirection};
     let force_at = |params: &RhexParams, r: &LeapResult, e: &selfmanip_hybrid::Event| {
         let mut pp = params.clone();
         pp.pairs = vec![rhex_model::LegPair::Middle, rhex_model::LegPair::Rear];
@@ -281,17 +276,7 @@ fn slipping_toes_keep_their_force_on_the_default_path() {
         for mode in [e.mode_before, e.mode_after] {
             ctrl.torque(e.t, &e.q, &e.qd_after, mode, &mut tau);
             let mut data = Data::new(model);
-            forward_dynamics(
-                model,
-                &mut data,
-                &FlatGround,
-                mode,
-                &e.q,
-                &e.qd_after,
-                &tau,
-                None,
-            )
-            .unwrap();
+            flat_dynamics(model, &mut data, mode, &e.q, &e.qd_after, &tau);
             let (mut t, mut n) = (0.0, 0.0);
             for (row, rw) in data.constraints.rows.iter().enumerate() {
                 if rw.contact == k {

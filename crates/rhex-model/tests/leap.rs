@@ -5,6 +5,8 @@
 //! velocities on the new constraint manifold (5.52), slips exactly on the friction cone
 //! (section 5.1.5), words that start at rest on the body (`1010`) and end in flight
 //! (`0000`), determinism, and typed errors for bad input.
+mod common;
+use common::at_ledge;
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, Strategy};
 use rhex_model::params::ToeSliding;
 use rhex_model::{Rhex, RhexError, RhexParams};
@@ -216,18 +218,6 @@ fn same_inputs_give_bit_identical_leaps() {
 /// height above it is zero, its normal horizontal), the impact removes energy, and no
 /// contact ever penetrates the ground, the top or the face (every contact's distance to the
 /// nearest of them stays non-negative along the whole execution).
-/// A leap run past its apex to 1.5 s at a ledge `h` high whose face is at `x = d`.
-fn at_ledge(h: f64, d: f64) -> LeapConfig {
-    LeapConfig {
-        terrain: TerrainSpec::Ledge {
-            height_m: h,
-            distance_m: d,
-        },
-        stop_at_apex: false,
-        t_final_s: 1.5,
-        ..LeapConfig::default()
-    }
-}
 
 #[test]
 fn a_ledge_face_is_a_contact_surface() {

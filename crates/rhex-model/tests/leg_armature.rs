@@ -228,7 +228,8 @@ fn gear_ratio_and_armature_derivatives_through_the_rotors_equal_central_differen
             .map(|k| s.event_times[k].as_ref().expect("defined")[c])
             .collect()
     };
-    let with_g = |dg: f64| {
+    // the leaps with the gear ratio moved by `dg` and with the armature moved by `da`
+    let leap_g = |dg: f64| {
         let c = LeapConfig {
             actuator: LegActuator::GearedMotor {
                 gear_ratio: g + dg,
@@ -237,42 +238,28 @@ fn gear_ratio_and_armature_derivatives_through_the_rotors_equal_central_differen
             },
             ..cfg.clone()
         };
-        simulate_leap(&massive(), &c).unwrap().events
+        simulate_leap(&massive(), &c).unwrap()
     };
-    let err_g = worst_event_time_error(&col(0), 3, 1e-5, [1e-4, 1e-3, 1e-2], with_g);
     let a = leg_armature(&massive(), &cfg).unwrap();
-    let with_a = |da: f64| {
+    let leap_a = |da: f64| {
         let p = RhexParams {
             leg_armature_kg_m2: Some(a + da),
             ..massive()
         };
-        simulate_leap(&p, &cfg).unwrap().events
+        simulate_leap(&p, &cfg).unwrap()
     };
-    let err_a = worst_event_time_error(&col(1), 3, 1e-2, [1e-7, 1e-6, 1e-5], with_a);
+    let err_g =
+        worst_event_time_error(&col(0), 3, 1e-5, [1e-4, 1e-3, 1e-2], |dg| leap_g(dg).events);
+    let err_a =
+        worst_event_time_error(&col(1), 3, 1e-2, [1e-7, 1e-6, 1e-5], |da| leap_a(da).events);
     assert!(
         err_g < 1e-5 && err_a < 1e-5,
         "d/dG {err_g:e}, d/da {err_a:e}"
     );
     // and the apex, through the legs' motions in the air started at their liftoffs
     let apex = |k: usize| [s.d_apex[2][k], s.d_apex[3][k], s.d_apex[1][k]];
-    let apex_g = apex_error(apex(0), &[1e-4, 1e-3], 1e-4, |dg| {
-        let c = LeapConfig {
-            actuator: LegActuator::GearedMotor {
-                gear_ratio: g + dg,
-                current_limit_a: 20.0,
-                motors_per_leg: 2,
-            },
-            ..cfg.clone()
-        };
-        simulate_leap(&massive(), &c).unwrap().apex.unwrap()
-    });
-    let apex_a = apex_error(apex(1), &[1e-7, 1e-6], 1e-2, |da| {
-        let p = RhexParams {
-            leg_armature_kg_m2: Some(a + da),
-            ..massive()
-        };
-        simulate_leap(&p, &cfg).unwrap().apex.unwrap()
-    });
+    let apex_g = apex_error(apex(0), &[1e-4, 1e-3], 1e-4, |dg| leap_g(dg).apex.unwrap());
+    let apex_a = apex_error(apex(1), &[1e-7, 1e-6], 1e-2, |da| leap_a(da).apex.unwrap());
     assert!(
         apex_g < 1e-4 && apex_a < 1e-4,
         "apex: d/dG {apex_g:e}, d/da {apex_a:e}"

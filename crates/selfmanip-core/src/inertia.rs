@@ -159,6 +159,24 @@ pub fn coriolis_matrix(model: &Model, kin: &Kinematics) -> DMatrix<f64> {
     let mut s = InertiaScratch::default();
     s.resize(nq);
     let mut c = DMatrix::zeros(nq, nq);
+    for_each_mass_rows(model, kin, &mut s, |m, s| {
+        for a in 0..nq {
+            for b in 0..nq {
+                c[(a, b)] += m * (s.jx[a] * s.jdx[b] + s.jz[a] * s.jdz[b]);
+            }
+        }
+    });
+    c
+}
+
+/// Calls `f(m, s)` for every massive part with `s.jx`, `s.jz` its centre of mass's rows
+/// `J_p` (x, z) and `s.jdx`, `s.jdz` their rates `J̇_p` at the velocity of `kin`.
+fn for_each_mass_rows(
+    model: &Model,
+    kin: &Kinematics,
+    s: &mut InertiaScratch,
+    mut f: impl FnMut(f64, &InertiaScratch),
+) {
     for (part, m, _inertia, com) in massive_parts(model) {
         let p = kin.point(part, com);
         let pd = kin.material_velocity(part, p);
@@ -166,13 +184,8 @@ pub fn coriolis_matrix(model: &Model, kin: &Kinematics) -> DMatrix<f64> {
         kin.point_jacobian_row(model, part, p, EZ, &mut s.jz);
         kin.point_jacobian_rate_row(model, part, pd, EX, &mut s.jdx);
         kin.point_jacobian_rate_row(model, part, pd, EZ, &mut s.jdz);
-        for a in 0..nq {
-            for b in 0..nq {
-                c[(a, b)] += m * (s.jx[a] * s.jdx[b] + s.jz[a] * s.jdz[b]);
-            }
-        }
+        f(m, s);
     }
-    c
 }
 
 /// `∂M̄/∂q_k` for every `k`, exactly: `J̇` evaluated at `q̇ = e_k` is `∂J/∂q_k` (the
@@ -188,13 +201,7 @@ pub fn mass_matrix_partials(model: &Model, q: &[f64]) -> Vec<DMatrix<f64>> {
         e[k] = 1.0;
         kin.compute(model, q, &e);
         let mut dm = DMatrix::zeros(nq, nq);
-        for (part, m, _inertia, com) in massive_parts(model) {
-            let p = kin.point(part, com);
-            let pd = kin.material_velocity(part, p);
-            kin.point_jacobian_row(model, part, p, EX, &mut s.jx);
-            kin.point_jacobian_row(model, part, p, EZ, &mut s.jz);
-            kin.point_jacobian_rate_row(model, part, pd, EX, &mut s.jdx);
-            kin.point_jacobian_rate_row(model, part, pd, EZ, &mut s.jdz);
+        for_each_mass_rows(model, &kin, &mut s, |m, s| {
             for a in 0..nq {
                 for b in 0..nq {
                     dm[(a, b)] += m
@@ -204,7 +211,7 @@ pub fn mass_matrix_partials(model: &Model, q: &[f64]) -> Vec<DMatrix<f64>> {
                             + s.jz[a] * s.jdz[b]);
                 }
             }
-        }
+        });
         out.push(dm);
     }
     out

@@ -66,6 +66,32 @@ pub struct Event {
     pub qd_after: Vec<f64>,
 }
 
+impl Event {
+    /// An event that changes neither the contact mode nor the velocity (a fold passed, an
+    /// apex): no impulses, and no kinetic energies (NaN) since nothing is lost.
+    pub fn without_jump(
+        t: f64,
+        kind: EventKind,
+        mode: ContactMode,
+        triggered: Vec<usize>,
+        (q, qd): (&[f64], &[f64]),
+    ) -> Self {
+        Event {
+            t,
+            kind,
+            mode_before: mode,
+            mode_after: mode,
+            triggered,
+            impulse: vec![],
+            pseudo_impulse: vec![],
+            kinetic_before: f64::NAN,
+            kinetic_after: f64::NAN,
+            q: q.to_vec(),
+            qd_after: qd.to_vec(),
+        }
+    }
+}
+
 /// Why a Painlevé inconsistency was not resolved as a jam ([`crate::jam`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PainleveReason {

@@ -83,19 +83,7 @@ pub fn reset(
     });
     if c.passed.len() == fired.len() {
         return Ok(Reset::Continue {
-            event: Event {
-                t,
-                kind: EventKind::FoldPassed,
-                mode_before: mode,
-                mode_after: mode,
-                triggered: c.passed,
-                impulse: vec![],
-                pseudo_impulse: vec![],
-                kinetic_before: f64::NAN,
-                kinetic_after: f64::NAN,
-                q: q.to_vec(),
-                qd_after: qd.to_vec(),
-            },
+            event: Event::without_jump(t, EventKind::FoldPassed, mode, c.passed, (q, qd)),
             from_rest: vec![],
             lock,
         });
@@ -209,19 +197,7 @@ fn apex_reset(
     if !(fired.contains(&Guard::Apex) && (opts.stop_at_apex || apex_only)) {
         return None;
     }
-    let event = Event {
-        t,
-        kind: EventKind::Apex,
-        mode_before: mode,
-        mode_after: mode,
-        triggered: vec![],
-        impulse: vec![],
-        pseudo_impulse: vec![],
-        kinetic_before: f64::NAN,
-        kinetic_after: f64::NAN,
-        q: q.to_vec(),
-        qd_after: qd.to_vec(),
-    };
+    let event = Event::without_jump(t, EventKind::Apex, mode, vec![], (q, qd));
     if !opts.stop_at_apex {
         return Some(Reset::Continue {
             event,

@@ -836,18 +836,20 @@ fn simulate_hands_large_contact_sets_to_the_qp() {
     use selfmanip_hybrid::{simulate, HybridError, HybridOptions, Termination, ZeroTorque};
     let n = 16;
     let (model, xs) = flat_bottom(n, 0.4, 0.04, 3.0, 0.05);
-    let q0 = [0.0, -0.04, 0.0];
-    let exec = simulate(
-        &model,
-        &FlatGround,
-        &ZeroTorque,
-        ContactMode::FLIGHT,
-        &q0,
-        &[0.0; 3],
-        0.1,
-        HybridOptions::default(),
-    )
-    .unwrap();
+    // released level at rest, its bottom points at zero height
+    let drop = |model: &Model| {
+        simulate(
+            model,
+            &FlatGround,
+            &ZeroTorque,
+            ContactMode::FLIGHT,
+            &[0.0, -0.04, 0.0],
+            &[0.0; 3],
+            0.1,
+            HybridOptions::default(),
+        )
+    };
+    let exec = drop(&model).unwrap();
     let Termination::SeveralContactSolutions { candidates, .. } = &exec.termination else {
         panic!("expected several solutions, got {:?}", exec.termination)
     };
@@ -861,17 +863,7 @@ fn simulate_hands_large_contact_sets_to_the_qp() {
     .unwrap()
     .build()
     .unwrap();
-    let err = simulate(
-        &sticking,
-        &FlatGround,
-        &ZeroTorque,
-        ContactMode::FLIGHT,
-        &q0,
-        &[0.0; 3],
-        0.1,
-        HybridOptions::default(),
-    )
-    .unwrap_err();
+    let err = drop(&sticking).unwrap_err();
     assert!(
         matches!(err, HybridError::TooManyContacts { n: 16, sticking: 0 }),
         "{err:?}"

@@ -1,8 +1,14 @@
-//! Helpers shared by the leap tests: tight leaps for derivatives against differences of whole
-//! leaps, and an execution's state at a time.
+//! Helpers shared by the RHex tests (these and the workspace's `tests/leap_sensitivity.rs`
+//! and `tests/rhex_results.rs`): tight leaps for derivatives against differences of whole
+//! leaps, an execution's state at a time, and the core's solves on flat ground.
 #![allow(dead_code)]
+use nalgebra::DMatrix;
 use rhex_model::leap::LeapConfig;
+use selfmanip_core::quasistatic::{quasi_static, QuasiStatic};
+use selfmanip_core::reduced::{reduced_dynamics, ReducedDynamics};
+use selfmanip_core::{forward_dynamics, ContactMode, Data, FlatGround, Model};
 use selfmanip_hybrid::Execution;
+use selfmanip_sim::terrain::TerrainSpec;
 
 /// A leap with tight tolerances, so that central differences of whole leaps resolve 1e-6
 /// (as `tests/leap_sensitivity.rs` of the workspace), under the sensitivities' step control
@@ -14,6 +20,19 @@ pub fn tight(strategy: &str, t2: f64) -> LeapConfig {
         rtol: 1e-12,
         event_tol_s: 1e-14,
         control_free_joints: true,
+        ..LeapConfig::default()
+    }
+}
+
+/// A leap run past its apex to 1.5 s at a ledge `h` high whose face is at `x = d`.
+pub fn at_ledge(h: f64, d: f64) -> LeapConfig {
+    LeapConfig {
+        terrain: TerrainSpec::Ledge {
+            height_m: h,
+            distance_m: d,
+        },
+        stop_at_apex: false,
+        t_final_s: 1.5,
         ..LeapConfig::default()
     }
 }
@@ -57,4 +76,40 @@ pub fn state_at(exec: &Execution, t: f64, y: &mut [f64]) {
         .find(|g| g.t0 <= t && t <= g.t1 && !g.dense.is_empty())
         .expect("a segment")
         .eval(t, y);
+}
+
+/// [`forward_dynamics`] on flat ground, no free-joint motion prescribed: `q̈` and `λ` land in
+/// `data.qdd` and `data.lambda`.
+pub fn flat_dynamics(
+    model: &Model,
+    data: &mut Data,
+    mode: ContactMode,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+) {
+    forward_dynamics(model, data, &FlatGround, mode, q, qd, tau, None).unwrap();
+}
+
+/// [`reduced_dynamics`] on flat ground with the coordinate map `y`.
+pub fn flat_reduced(
+    model: &Model,
+    data: &mut Data,
+    mode: ContactMode,
+    (q, qd): (&[f64], &[f64]),
+    tau: &[f64],
+    y: &DMatrix<f64>,
+) -> ReducedDynamics {
+    reduced_dynamics(model, data, &FlatGround, mode, q, qd, tau, y).unwrap()
+}
+
+/// [`quasi_static`] on flat ground with the torque constraints `t`.
+pub fn flat_quasi_static(
+    model: &Model,
+    data: &mut Data,
+    mode: ContactMode,
+    q: &[f64],
+    t: &DMatrix<f64>,
+) -> QuasiStatic {
+    quasi_static(model, data, &FlatGround, mode, q, t).unwrap()
 }

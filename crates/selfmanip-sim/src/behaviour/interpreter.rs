@@ -855,20 +855,21 @@ impl BehaviourController {
         out
     }
 
-    /// `(kp, kd)` of program `p`'s `torque` when it is a servo that tracks the joint's motion,
-    /// acts (in contact, if it must be) and is inside its limit at `(t, q, q̇)`: where the
-    /// torque moves with the motion's reference.
-    fn tracking_servo(
+    /// A `servo` law `torque` of program `p` in force at `(t, q, q̇, mode)`; `None` for another
+    /// law or a servo switched off (`only_in_contact` with none of the program's contacts
+    /// closed in `mode`).
+    #[inline]
+    fn servo_in_force(
         &self,
         p: usize,
         torque: &TorqueLaw,
         t: f64,
         (q, qd): (&[f64], &[f64]),
         mode: ContactMode,
-    ) -> Option<(f64, f64)> {
+    ) -> Option<ServoInForce> {
         let prog = &self.plan.programs[p];
         let TorqueLaw::Servo {
-            target: None,
+            target,
             kp,
             kd,
             limit,
@@ -881,8 +882,12 @@ impl BehaviourController {
             return None;
         }
         let j = prog.joint;
-        let u = self.servo_command(p, t, None, (*kp, *kd), q[j], qd[j]);
-        (u.abs() < *limit).then_some((*kp, *kd))
+        Some(ServoInForce {
+            u: self.servo_command(p, t, *target, (*kp, *kd), q[j], qd[j]),
+            limit: *limit,
+            gains: (*kp, *kd),
+            tracks_motion: target.is_none(),
+        })
     }
 
     /// The unsaturated servo command of program `p` at `t`
@@ -1129,6 +1134,25 @@ fn servo_piece(u: f64, limit: f64) -> u64 {
     }
 }
 
+/// A servo law in force at a state ([`BehaviourController::servo_in_force`]).
+#[derive(Clone, Copy)]
+struct ServoInForce {
+    /// The unsaturated command `u = −kp (q_j − θ*) − kd (q̇_j − ω*)`.
+    u: f64,
+    limit: f64,
+    gains: (f64, f64),
+    /// It tracks the joint's motion (no fixed target).
+    tracks_motion: bool,
+}
+
+impl ServoInForce {
+    /// `(kp, kd)` when the servo tracks the joint's motion inside its limit: where the torque
+    /// moves with the motion's reference.
+    fn tracking_gains(self) -> Option<(f64, f64)> {
+        (self.tracks_motion && self.u.abs() < self.limit).then_some(self.gains)
+    }
+}
+
 impl Controller for BehaviourController {
     fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]) {
         let plan = &*self.plan;
@@ -1230,18 +1254,9 @@ impl Controller for BehaviourController {
                     let law = &plan.tangent().actuators[*actuator];
                     out.dtau_dqd[(j, j)] = law.partials(*command, &[], qd[j]).0;
                 }
-                TorqueLaw::Servo {
-                    target,
-                    kp,
-                    kd,
-                    limit,
-                    only_in_contact,
-                } => {
-                    if *only_in_contact && mode.normal_bits() & prog.contacts == 0 {
-                        continue;
-                    }
-                    let u = self.servo_command(p, t, *target, (*kp, *kd), q[j], qd[j]);
-                    if servo_piece(u, *limit) == 0 {
+                law @ TorqueLaw::Servo { kp, kd, limit, .. } => {
+                    let in_force = self.servo_in_force(p, law, t, (q, qd), mode);
+                    if in_force.is_some_and(|s| servo_piece(s.u, *limit) == 0) {
                         out.dtau_dq[(j, j)] = -kp;
                         out.dtau_dqd[(j, j)] = -kd;
                     }
@@ -1275,22 +1290,9 @@ impl Controller for BehaviourController {
                 out ^= u64::from(on_limit) << (2 * (p % 32));
                 continue;
             }
-            let TorqueLaw::Servo {
-                target,
-                kp,
-                kd,
-                limit,
-                only_in_contact,
-            } = torque
-            else {
-                continue;
-            };
-            if *only_in_contact && mode.normal_bits() & prog.contacts == 0 {
-                continue;
+            if let Some(s) = self.servo_in_force(p, torque, t, (q, qd), mode) {
+                out ^= servo_piece(s.u, s.limit) << (2 * (p % 32));
             }
-            let j = prog.joint;
-            let u = self.servo_command(p, t, *target, (*kp, *kd), q[j], qd[j]);
-            out ^= servo_piece(u, *limit) << (2 * (p % 32));
         }
         out
     }
@@ -1433,7 +1435,10 @@ impl Controller for BehaviourController {
         for (p, prog) in plan.programs.iter().enumerate() {
             let j = prog.joint;
             let torque = &prog.phases[self.current(p, t, q)].torque;
-            if let Some((kp, kd)) = self.tracking_servo(p, torque, t, (q, qd), mode) {
+            if let Some((kp, kd)) = self
+                .servo_in_force(p, torque, t, (q, qd), mode)
+                .and_then(ServoInForce::tracking_gains)
+            {
                 let (_, w, a) = self.reference(p, t);
                 dtau_dt[j] = kp * w + kd * a;
                 continue;
@@ -1500,7 +1505,9 @@ impl Controller for BehaviourController {
             ) {
                 return false;
             }
-            let servo = self.tracking_servo(p, torque, t, (q, qd), mode);
+            let servo = self
+                .servo_in_force(p, torque, t, (q, qd), mode)
+                .and_then(ServoInForce::tracking_gains);
             if servo.is_none() && free.is_none() {
                 continue;
             }

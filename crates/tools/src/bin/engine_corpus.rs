@@ -145,18 +145,7 @@ fn main() {
                                 ])
                             })
                             .collect();
-                        let apex = r.apex.map(|a| {
-                            [
-                                a.t_s,
-                                a.x_m,
-                                a.z_m,
-                                a.phi_rad,
-                                a.xdot_m_s,
-                                a.zdot_m_s,
-                                a.phidot_rad_s,
-                            ]
-                            .map(bits)
-                        });
+                        let apex = r.apex.map(|a| a.to_array().map(bits));
                         json!({
                             "status": r.status.as_str(),
                             "word": r.word_string(),

@@ -9,6 +9,7 @@
 use rhex_model::leap::leap_scenario;
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig};
 use selfmanip_sim::Simulation;
+use selfmanip_tools::print_leap_line;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
@@ -35,21 +36,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let ls = leap_scenario(&params, &cfg, &q0)?;
             let run = Simulation::new(&ls.scenario)?.run()?;
             let o = &run.outcome;
-            print!(
-                "{strategy} t2={:+.3} s  {:<14} word {}",
+            print_leap_line(
+                strategy,
                 cfg.t2_s,
                 o.status.as_str(),
-                o.word_string()
+                &o.word_string(),
+                o.apex.map(|a| [a.x_m - q0[2], -a.z_m, a.phi_rad]),
             );
-            if let Some(a) = o.apex {
-                print!(
-                    "  apex x {:.3} m, z {:.3} m, pitch {:.1} deg",
-                    a.x_m - q0[2],
-                    -a.z_m,
-                    a.phi_rad.to_degrees()
-                );
-            }
-            println!();
         }
     }
     Ok(())

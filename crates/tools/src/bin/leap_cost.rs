@@ -33,6 +33,7 @@
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapPreset, LegActuator, Strategy};
 use selfmanip_hybrid::budget::NEVER;
 use selfmanip_hybrid::integrate::{reset_work_counters, work_counters, WorkCounters};
+use selfmanip_tools::body_from_env;
 use std::collections::BTreeMap;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -42,16 +43,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         params.m_l = v.parse()?;
         params.I_l = 0.00092 * params.m_l / 0.126;
     }
-    // ROTORS=1: legs that carry their rotors (RhexParams::leg_rotors)
-    if std::env::var("ROTORS").is_ok() {
-        params.leg_rotors = Some(true);
-    }
-    if let Ok(v) = std::env::var("M_B") {
-        params.m_b = v.parse()?;
-    }
-    if let Ok(v) = std::env::var("I_B") {
-        params.I_b = v.parse()?;
-    }
+    body_from_env(&mut params)?;
     let actuator = match std::env::var("GEAR") {
         Ok(g) => LegActuator::default().with_gear_ratio(g.parse()?),
         Err(_) => LegActuator::default(),

@@ -11,6 +11,7 @@
 //! `QD=1` (with `EVENTS`) to print each event's q and q̇ after it, `LANDINGS=1` to run past the apex to `t_final`, `EVENT_TOL` (s) and `RTOL` the tolerances.
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator};
 use rhex_model::params::LegPair;
+use selfmanip_tools::{body_from_env, print_leap_line};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
@@ -62,32 +63,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 ..LeapConfig::default()
             };
             let mut params = leap_params();
-            // ROTORS=1: legs that carry their rotors (RhexParams::leg_rotors)
-            if std::env::var("ROTORS").is_ok() {
-                params.leg_rotors = Some(true);
-            }
-            if let Ok(v) = std::env::var("M_B") {
-                params.m_b = v.parse()?;
-            }
-            if let Ok(v) = std::env::var("I_B") {
-                params.I_b = v.parse()?;
-            }
+            body_from_env(&mut params)?;
             let r = simulate_leap(&params, &cfg)?;
-            print!(
-                "{strategy} t2={:+.3} s  {:<14} word {}",
+            print_leap_line(
+                strategy,
                 cfg.t2_s,
                 r.status.as_str(),
-                r.word_string()
+                &r.word_string(),
+                r.apex.map(|a| [a.x_m, a.z_m, a.phi_rad]),
             );
-            if let Some(a) = r.apex {
-                print!(
-                    "  apex x {:.3} m, z {:.3} m, pitch {:.1} deg",
-                    a.x_m,
-                    a.z_m,
-                    a.phi_rad.to_degrees()
-                );
-            }
-            println!();
             if std::env::var("EVENTS").is_ok() {
                 println!(
                     "    termination {:?}, {} steps, {} segments",
