@@ -13,7 +13,8 @@ kinematics, Jacobians, contacts), :mod:`selfmanip.rhex` (the RHex of thesis sect
 :func:`selfmanip.leap.leap`), :mod:`selfmanip.actuator` (the leap's :class:`Saturated` torque
 or :class:`GearedMotor`), :mod:`selfmanip.simulation` (any robot, any behaviour:
 :func:`simulate`, and :func:`sweep` for any robot or, given a strategy, the RHex leap sweep),
-:mod:`selfmanip.analysis` (section 4.3),
+:mod:`selfmanip.analysis` (section 4.3), :mod:`selfmanip.calibrate` (fit a leap's parameters
+to measured runs),
 :mod:`selfmanip.motor` (motors, gearboxes, thermal model, tail optimum, leg observer),
 :mod:`selfmanip.plots`, :mod:`selfmanip.distributed`, :mod:`selfmanip.errors` (the exception
 hierarchy under :class:`SelfmanipError`) and :mod:`selfmanip.cli` (the ``selfmanip`` command).
@@ -32,7 +33,7 @@ from . import analysis
 from . import distributed, plots
 from .leap import DEFAULT, LeapResult
 from . import simulation
-from .calibrate import Calibration, calibrate  # noqa: F401  (issue 33; docs/calibration.md)
+from .calibrate import Calibration, calibrate
 from .spatial import SpatialRobot
 from .simulation import EnergyReport, Execution, PeriodicOrbit, SimTrajectory, periodic_orbit, simulate, sweep
 
@@ -45,6 +46,7 @@ else:
 
 __all__ = [
     "AllPointsFailedWarning",
+    "Calibration",
     "ContactPoints",
     "ControllerError",
     "DEFAULT",
@@ -71,6 +73,7 @@ __all__ = [
     "SpatialRobot",
     "actuator",
     "analysis",
+    "calibrate",
     "distributed",
     "errors",
     "leap",
