@@ -61,6 +61,14 @@ def test_a_leap_at_1e308_ends_with_a_typed_outcome_instead_of_hanging(call):
     assert not r.flew or all(math.isfinite(x) for x in r.q_final)
 
 
+def test_a_gear_ratio_of_1e308_is_refused_naming_the_gear_ratio():
+    # finite, but the drive's reflected rotor inertia n J G² overflows: the ratio's fault,
+    # not the servo gain the leap's behaviour derives from it
+    with pytest.raises(InvalidInputError) as e:
+        selfmanip.leap("++", 0.0, gear_ratio=1e308)
+    assert e.value.field == "gear_ratio", e.value
+
+
 def test_a_hopper_launched_at_1e308_ends_with_a_typed_error_instead_of_hanging():
     with pytest.raises(SelfmanipError) as e:
         selfmanip.simulate(HOP, HOPB, Q0H, [1e308] * 5)

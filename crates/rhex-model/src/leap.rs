@@ -601,13 +601,27 @@ fn leg_motor_data(params: &RhexParams, cfg: &LeapConfig) -> Result<LegMotorData,
             field: "actuator".into(),
             reason: "the motor's mechanical time constant is needed for the rotor inertia".into(),
         })?;
-    Ok(LegMotorData {
+    let data = LegMotorData {
         ratio,
         n,
         stall_n_m,
         no_load_speed_rad_s: m.no_load_speed_rad_s,
         rotor_kg_m2,
-    })
+    };
+    // the drive's torque and reflected inertia grow as G and G²: a ratio they overflow at is
+    // the ratio's fault, named as such (not the servo gain the behaviour derives from them)
+    if !(data.stall_n_m.is_finite() && data.reflected_inertia().is_finite()) {
+        return Err(RhexError::InvalidValue {
+            field: "gear_ratio".into(),
+            reason: format!(
+                "the drive's stall torque ({:e} N m) or reflected rotor inertia n J G² ({:e} kg m²) \
+                 is not finite at G = {ratio:e}",
+                data.stall_n_m,
+                data.reflected_inertia()
+            ),
+        });
+    }
+    Ok(data)
 }
 
 impl LegMotorData {

@@ -259,3 +259,27 @@ fn a_sweep_reports_step_budget_per_point_and_keeps_the_good_points() {
     let alone = sweep(&leap_params(), &LeapConfig::default(), &good, 1).unwrap();
     assert_eq!([&rows[..2], &rows[3..]].concat(), alone);
 }
+
+/// `gear_ratio = 1e308` (issue 31: `leap --gear-ratio=1e308`): finite, but the drive's
+/// reflected rotor inertia `n J G²` overflows — a typed error naming `gear_ratio`, not the
+/// servo gain the behaviour derives from it; the largest ratio whose drive stays finite
+/// (`G²` finite) still builds.
+#[test]
+fn gear_ratio_of_1e308_names_the_gear_ratio() {
+    let geared = |g: f64| LeapConfig {
+        actuator: rhex_model::leap::LegActuator::default().with_gear_ratio(g),
+        ..LeapConfig::default()
+    };
+    match simulate_leap(&leap_params(), &geared(1e308)) {
+        Err(e) => {
+            assert_eq!(e.field(), Some("gear_ratio"), "{e}");
+            assert!(e.to_string().contains("not finite"), "{e}");
+        }
+        Ok(r) => panic!("a leap at G = 1e308 ran: {:?}", r.status),
+    }
+    // 1e150: G² = 1e300 is finite, so the drive builds; whatever the leap does then, it
+    // does not blame the gear ratio's drive
+    if let Err(e) = simulate_leap(&leap_params(), &geared(1e150)) {
+        assert!(!e.to_string().contains("reflected rotor inertia"), "{e}");
+    }
+}
