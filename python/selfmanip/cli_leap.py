@@ -19,7 +19,7 @@ import argparse
 import json
 import math
 import sys
-from typing import Any, Mapping, Sequence
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -252,28 +252,26 @@ def sweep_command(args: argparse.Namespace) -> int:
     show = args.progress == "always" or (args.progress == "auto" and sys.stderr.isatty())
     names = None if args.sensitivities is None else [n.strip() for n in args.sensitivities.split(",") if n.strip()]
     table = run_points(cols, threads=args.threads, progress=show, sensitivities=names)
-    return finish_sweep(table, args.out, args.strict, done=np.asarray(table["flew"], dtype=bool),
-                        done_word="flew")
+    return finish_sweep(table, args.out, args.strict, done_word="flew")
 
 
-def finish_sweep(table: Mapping[str, Any], out: str | None, strict: bool,
-                 done: Sequence[str] | np.ndarray, done_word: str) -> int:
+def finish_sweep(table: Mapping[str, Any], out: str | None, strict: bool, done_word: str) -> int:
     """Writes a sweep table (``out``, or stdout), reports its statuses on stderr (``N points, M
-    <done_word>, k <status>…``) and returns the exit code: 1 when no point reached one of the
-    ``done`` statuses (saying why) or, with ``strict``, when any point did not; else 0."""
+    <done_word>, k <status>…``) and returns the exit code: 1 when no point is done
+    (:func:`selfmanip._facade.done`: a leap flew, a run reached its end; saying why) or, with
+    ``strict``, when any point is not; else 0."""
     write_table(table, out)
+    from . import _facade
     from ._sweep_report import done_points
 
     status = np.asarray(table["status"]).astype(str)
-    is_done = done_points(table, done)
+    is_done = done_points(table, _facade.done(table))
     n_done = int(is_done.sum())
     failed = {s: int(np.sum(status[~is_done] == s)) for s in sorted(set(status[~is_done].tolist()))}
     print(f"selfmanip sweep: {len(status)} points, {n_done} {done_word}"
           + ("" if not failed else ", " + ", ".join(f"{v} {k}" for k, v in failed.items()))
           + (f"; wrote {out}" if out else ""), file=sys.stderr)
-    from ._sweep_report import failure_summary
-
-    all_failed = failure_summary(table, done)
+    all_failed = _facade.failure_summary(table)
     if all_failed is not None:
         print(f"selfmanip sweep: error: {all_failed}", file=sys.stderr)
         return 1

@@ -231,7 +231,7 @@ def sweep_command(args: argparse.Namespace) -> int:
         table = simulation_sweep(args.robot, _behaviour(args.behaviour), over, q0=_vector(args.q0, "--q0"),
                                  threads=args.threads, progress=show,
                                  **_scenario_kwargs(args))
-    return finish_sweep(table, args.out, args.strict, done=("final_time", "apex"), done_word="complete")
+    return finish_sweep(table, args.out, args.strict, done_word="complete")
 
 
 __all__ = ["add_subcommands", "parse_terrain", "simulate_command", "sweep_command"]
