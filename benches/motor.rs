@@ -3,10 +3,13 @@
 //! simulation at 1 s and one observer sample.
 use criterion::{criterion_group, criterion_main, Criterion};
 use selfmanip::motor::catalog::synthetic_motors;
-use selfmanip::motor::observer::{LegObserver, ObserverParams};
+use selfmanip::motor::observer::LegObserver;
 use selfmanip::motor::tail::{rank_tail_motors, SelectionConstraints, TailTask};
 use selfmanip::motor::{CaseParameters, Catalog, ThermalState};
 use std::hint::black_box;
+
+#[path = "../crates/motor/tests/common/mod.rs"]
+mod motor_fixtures;
 
 fn motor_tools(c: &mut Criterion) {
     let motors = synthetic_motors(1546, 7).expect("1,546 motors are within the bound");
@@ -42,15 +45,7 @@ fn motor_tools(c: &mut Criterion) {
         })
     });
 
-    let params = ObserverParams {
-        k_m: 50.0,
-        a_m: 20.0,
-        k_p: 10.0,
-        k_d: 0.5,
-        k_g: -1.0,
-        theta_g_rad: 0.0,
-        delay_s: 0.012,
-    };
+    let params = motor_fixtures::synthetic_leg();
     let mut observer = LegObserver::new(params, 0.001, 0.0, 0.0).unwrap();
     c.bench_function("observer_sample", |b| {
         b.iter(|| observer.update(black_box(0.3), 2.0, 0.29, 2.1))

@@ -10,25 +10,21 @@
 //! matrix, at seeded random states (the velocity need not satisfy the constraint: (5.3)–(5.4)
 //! are defined for any `q̇`).
 mod common;
+#[path = "../crates/selfmanip-core/tests/common/dynamics_fd.rs"]
+mod dynamics_fd;
 #[path = "../crates/selfmanip-hybrid/tests/systems/mod.rs"]
 mod systems;
 
 use common::{feasible_labels, random_q, random_vec, rhex_massive, rhex_massless, rng};
+use dynamics_fd::{dynamics_jacobian_error, rel_err};
 use nalgebra::DMatrix;
-use selfmanip::core::contact::ContactKind;
+use selfmanip::core::contact::{ContactKind, TouchKind};
 use selfmanip::core::tangent::{dynamics_jacobian, plastic_impact_jacobian};
 use selfmanip::core::{forward_dynamics, plastic_impact, ContactMode, Data, FlatGround, Model};
 use selfmanip::rhex::LegShape;
 
 const H: f64 = 1e-6;
 const TOL: f64 = 1e-6;
-
-/// Worst relative error of `exact` against `fd`, relative to the largest entry of `fd`
-/// (or 1, whichever is larger).
-fn rel_err(exact: &DMatrix<f64>, fd: &DMatrix<f64>) -> f64 {
-    let scale = fd.amax().max(1.0);
-    (exact - fd).amax() / scale
-}
 
 /// `(q̈, λ)` at a state, or `None` if the KKT matrix is singular there.
 fn eval(
@@ -46,6 +42,15 @@ fn eval(
     ))
 }
 
+/// How each contact of the last prepared mode touches (a point or a rolling arc).
+fn touch_kinds(data: &Data) -> Vec<TouchKind> {
+    data.constraints
+        .geometry
+        .iter()
+        .map(|(_, g)| g.touch)
+        .collect()
+}
+
 /// Checks one state; returns the worst relative error, or `None` when a perturbed state's
 /// KKT matrix is singular (or the geometry switches between rolling and a point touch).
 fn check_state(
@@ -57,53 +62,14 @@ fn check_state(
 ) -> Option<f64> {
     let mut data = Data::new(model);
     let jac = dynamics_jacobian(model, &mut data, &FlatGround, mode, q, qd, tau, None).ok()?;
-    let touches: Vec<_> = data
-        .constraints
-        .geometry
-        .iter()
-        .map(|(_, g)| g.touch)
-        .collect();
-    let nq = model.nq();
-    let c = mode.n_rows();
-    let mut worst: f64 = 0.0;
-    for (which, n) in [(0, nq), (1, nq), (2, model.n_joints())] {
-        let (mut fq, mut fl) = (DMatrix::zeros(nq, n), DMatrix::zeros(c, n));
-        for k in 0..n {
-            let mut plus = [q.to_vec(), qd.to_vec(), tau.to_vec()];
-            let mut minus = plus.clone();
-            plus[which][k] += H;
-            minus[which][k] -= H;
-            let (qp, lp) = eval(model, mode, &plus[0], &plus[1], &plus[2])?;
-            let (qm, lm) = eval(model, mode, &minus[0], &minus[1], &minus[2])?;
-            for i in 0..nq {
-                fq[(i, k)] = (qp[i] - qm[i]) / (2.0 * H);
-            }
-            for r in 0..c {
-                fl[(r, k)] = (lp[r] - lm[r]) / (2.0 * H);
-            }
-            // the same touch kinds on both sides (no switch at an arc's end)
-            for x in [&plus, &minus] {
-                let mut d = Data::new(model);
-                d.prepare(model, &FlatGround, mode, &x[0], &x[1]).ok()?;
-                let t: Vec<_> = d
-                    .constraints
-                    .geometry
-                    .iter()
-                    .map(|(_, g)| g.touch)
-                    .collect();
-                if t != touches {
-                    return None;
-                }
-            }
-        }
-        let (eq, el) = match which {
-            0 => (&jac.dqdd_dq, &jac.dlambda_dq),
-            1 => (&jac.dqdd_dqd, &jac.dlambda_dqd),
-            _ => (&jac.dqdd_dtau, &jac.dlambda_dtau),
-        };
-        worst = worst.max(rel_err(eq, &fq)).max(rel_err(el, &fl));
-    }
-    Some(worst)
+    let touches = touch_kinds(&data);
+    dynamics_jacobian_error(&jac, (q, qd, tau), &[(H, 1.0)], |q, qd, tau| {
+        let z = eval(model, mode, q, qd, tau)?;
+        // the same touch kinds as at the state (no switch at an arc's end)
+        let mut d = Data::new(model);
+        d.prepare(model, &FlatGround, mode, q, qd).ok()?;
+        (touch_kinds(&d) == touches).then_some(z)
+    })
 }
 
 /// Checks `count` random states in each mode; returns (states checked, worst error).

@@ -28,6 +28,15 @@ def q0(drop_m: float = 0.1, a: float = 0.5) -> list[float]:
     return [a, -2.0 * a, 0.0, -(drop_m + 0.4 * math.cos(a)), 0.0]
 
 
+def write_log_and_plot(e: selfmanip.Execution, out_dir: str, name: str, indent: str = "") -> None:
+    """Logs the run to ``<out_dir>/<name>.mcap`` (for Foxglove) and plots it to ``<name>.png``,
+    printing each path written."""
+    out = pathlib.Path(out_dir)
+    print(f"{indent}wrote", e.to_mcap(out / f"{name}.mcap", metadata={"example": name}))
+    e.plot(out / f"{name}.png")
+    print(f"{indent}wrote", os.fspath(out / f"{name}.png"))
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out-dir", default=".")
@@ -43,10 +52,7 @@ def main(argv: list[str] | None = None) -> int:
     r = e.energy_report()
     print(f"energy: E0 {r.initial_j:.3f} J, E1 {r.final_j:.3f} J, joint work {r.joint_work_j:.3f} J, "
           f"impact loss {r.impact_loss_j:.3f} J, residual {r.residual_j:.2e} J")
-    out = pathlib.Path(args.out_dir)
-    print("wrote", e.to_mcap(out / "hopper.mcap", metadata={"example": "hopper"}))
-    e.plot(out / "hopper.png")
-    print("wrote", os.fspath(out / "hopper.png"))
+    write_log_and_plot(e, args.out_dir, "hopper")
     return 0
 
 

@@ -10,14 +10,10 @@ plotted.
 from __future__ import annotations
 
 import argparse
-import math
-import os
-import pathlib
 
 import selfmanip
+from hopper import DATA, q0, write_log_and_plot  # the example beside this one
 from selfmanip.cli_sim import parse_terrain
-
-DATA = pathlib.Path(__file__).resolve().parents[2] / "crates" / "selfmanip-sim" / "examples" / "data"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -28,22 +24,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--terrain", default="ledge,height_m=0.04,distance_m=0.55")
     ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="a parameter by name")
     args = ap.parse_args(argv)
-    a = 0.5
     # dropped 5 cm, the leg at its landing pose, moving forward at `speed`
-    q0 = [a, -2.0 * a, 0.0, -(0.05 + 0.4 * math.cos(a)), 0.0]
     qd0 = [0.0, 0.0, args.speed, 0.0, 0.0]
     params = {k: float(v) for k, v in (s.split("=", 1) for s in args.set)}
-    e = selfmanip.simulate(DATA / "hopper.toml", DATA / "hop_up.toml", q0, qd0, terrain=parse_terrain(args.terrain),
+    e = selfmanip.simulate(DATA / "hopper.toml", DATA / "hop_up.toml", q0(drop_m=0.05), qd0, terrain=parse_terrain(args.terrain),
                            t_final=args.t_final, params=params)
     print(f"status {e.status} after {e.t_end_s:.2f} s, word {e.word_string}")
     for ev in e.events:
         print(f"  t {ev['t_s']:.4f} s  {ev['kind']:<9} {ev['mode_before']} -> {ev['mode_after']}")
     x, z = e.q_end[2], e.q_end[3]
     print(f"end: body x {x:.3f} m, height {-z:.3f} m")
-    out = pathlib.Path(args.out_dir)
-    print("wrote", e.to_mcap(out / "ledge.mcap", metadata={"example": "ledge"}))
-    e.plot(out / "ledge.png")
-    print("wrote", os.fspath(out / "ledge.png"))
+    write_log_and_plot(e, args.out_dir, "ledge")
     return 0
 
 

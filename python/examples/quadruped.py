@@ -11,12 +11,9 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
-import pathlib
 
 import selfmanip
-
-DATA = pathlib.Path(__file__).resolve().parents[2] / "crates" / "selfmanip-sim" / "examples" / "data"
+from hopper import DATA, write_log_and_plot  # the example beside this one
 
 
 def q0(drop_m: float, phi: float, a: float = 0.5) -> list[float]:
@@ -38,7 +35,6 @@ def main(argv: list[str] | None = None) -> int:
             for k in range(2):
                 params[f"legs.{leg}.links[{k}].mass_kg"] = 0.0
                 params[f"legs.{leg}.links[{k}].inertia_kg_m2"] = 0.0
-    out = pathlib.Path(args.out_dir)
     for name, behaviour, phi in (("pronk", "pronk.toml", 0.0), ("bound", "bound.toml", 0.15)):
         e = selfmanip.simulate(DATA / "quadruped.toml", DATA / behaviour, q0(0.05, phi), t_final=args.t_final,
                                params=params, labels=["fore_foot", "hind_foot"])
@@ -47,9 +43,7 @@ def main(argv: list[str] | None = None) -> int:
               f"word {e.word_string}")
         print(f"    end: x {e.q_end[4]:.3f} m, height {-e.q_end[5]:.3f} m, pitch {math.degrees(e.q_end[6]):.1f} deg; "
               f"impact losses {e.outcome['impact_loss_j']:.2f} J")
-        print("    wrote", e.to_mcap(out / f"{name}.mcap", metadata={"example": name}))
-        e.plot(out / f"{name}.png")
-        print("    wrote", os.fspath(out / f"{name}.png"))
+        write_log_and_plot(e, args.out_dir, name, indent="    ")
     return 0
 
 

@@ -8,15 +8,13 @@ use motor::tail::{rank_tail_motors, tail_optimum, SelectionConstraints, TailTask
 use motor::thermal::{ThermalState, MAX_PROFILE_SAMPLES};
 use motor::MotorError;
 
+mod common;
+
+/// The synthetic leg with the delay `delay_s`.
 fn params(delay_s: f64) -> ObserverParams {
     ObserverParams {
-        k_m: 50.0,
-        a_m: 20.0,
-        k_p: 10.0,
-        k_d: 0.5,
-        k_g: -1.0,
-        theta_g_rad: 0.0,
         delay_s,
+        ..common::synthetic_leg()
     }
 }
 

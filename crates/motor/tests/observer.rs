@@ -7,19 +7,10 @@ use motor::MotorError;
 use rand::{Rng, SeedableRng};
 use std::f64::consts::PI;
 
-const DT: f64 = 0.001;
+mod common;
+use common::synthetic_leg;
 
-fn truth() -> ObserverParams {
-    ObserverParams {
-        k_m: 50.0,
-        a_m: 20.0,
-        k_p: 10.0,
-        k_d: 0.5,
-        k_g: -1.0, // gravity pulls the leg towards θ = 0 (straight down)
-        theta_g_rad: 0.0,
-        delay_s: 0.012,
-    }
-}
+const DT: f64 = 0.001;
 
 /// What the world does to the simulated leg.
 #[derive(Clone, Copy, Default)]
@@ -141,7 +132,7 @@ fn wrap_angle_maps_to_the_half_open_interval() {
 
 #[test]
 fn free_swing_residuals_are_small_where_the_tracking_error_is_not_and_nothing_is_flagged() {
-    let p = truth();
+    let p = synthetic_leg();
     let log = simulate(&p, World::default(), |_| 1.0, 6.0, 1);
     let samples = observe(&p, &log).unwrap();
     let skip = 200; // initial transient
@@ -163,7 +154,7 @@ fn free_swing_residuals_are_small_where_the_tracking_error_is_not_and_nothing_is
 
 #[test]
 fn walking_on_ground_cycles_stance_and_flight_without_faults() {
-    let p = truth();
+    let p = synthetic_leg();
     let log = simulate(
         &p,
         World {
@@ -191,7 +182,7 @@ fn walking_on_ground_cycles_stance_and_flight_without_faults() {
 
 #[test]
 fn an_obstacle_in_the_air_is_an_unexpected_disturbance() {
-    let p = truth();
+    let p = synthetic_leg();
     let deg = PI / 180.0;
     let world = World {
         ground: true,
@@ -212,7 +203,7 @@ fn an_obstacle_in_the_air_is_an_unexpected_disturbance() {
 
 #[test]
 fn a_leg_that_breaks_off_misses_the_ground_in_its_next_stance() {
-    let p = truth();
+    let p = synthetic_leg();
     let world = World {
         ground: true,
         break_time: Some(3.7),
@@ -243,7 +234,7 @@ fn a_leg_that_breaks_off_misses_the_ground_in_its_next_stance() {
 fn nelder_mead_calibration_recovers_the_free_swing_parameters() {
     // Thesis section 2.2.1: trained on free leg spinning with the gait speed ramped from
     // about 0.6 to 2.5 strides per second.
-    let p = truth();
+    let p = synthetic_leg();
     let log = simulate(
         &p,
         World::default(),
@@ -274,7 +265,7 @@ fn nelder_mead_calibration_recovers_the_free_swing_parameters() {
 
 #[test]
 fn bad_observer_inputs_are_typed_errors() {
-    let p = truth();
+    let p = synthetic_leg();
     let mut log = simulate(&p, World::default(), |_| 1.0, 0.1, 6);
     log.theta_rad[7] = f64::NAN;
     assert!(matches!(

@@ -60,6 +60,21 @@ fn leg(name: &str) -> PyResult<pc::TakeoffLeg> {
 type Obj<'py> = PyResult<Bound<'py, PyAny>>;
 type Params<'a, 'py> = Option<&'a Bound<'py, PyDict>>;
 
+/// `analysis` run with the GIL released (a figure's grid, a standing run), its result
+/// converted for Python.
+fn detached<'py, T: serde::Serialize + Send>(
+    py: Python<'py>,
+    analysis: impl FnOnce() -> Result<T, RhexError> + Send,
+) -> Obj<'py> {
+    let out = py.detach(analysis).map_err(err)?;
+    to_py(py, &out)
+}
+
+/// The take-off model of section 4.3 with the parameters `params` and the leg `leg`.
+fn takeoff_model(params: Params<'_, '_>, leg: pc::TakeoffLeg) -> PyResult<selfmanip_core::Model> {
+    pc::takeoff_model(Some(self::params(params)?), leg).map_err(err)
+}
+
 #[pyfunction]
 #[pyo3(signature = (params, grid))]
 fn analysis_sensor_pitch_range<'py>(
@@ -108,10 +123,7 @@ fn analysis_fig_4_8<'py>(
 ) -> Obj<'py> {
     guard(|| {
         let r = rhex(params)?;
-        let pts = py
-            .detach(|| ss::fig_4_8(&r, theta1_range, theta2_range, n))
-            .map_err(err)?;
-        to_py(py, &pts)
+        detached(py, || ss::fig_4_8(&r, theta1_range, theta2_range, n))
     })
 }
 
@@ -127,10 +139,9 @@ fn analysis_fig_4_10<'py>(
 ) -> Obj<'py> {
     guard(|| {
         let p = self::params(params)?;
-        let pts = py
-            .detach(|| pc::fig_4_10(Some(p), theta2_range, phi_range, n, gear_ratio))
-            .map_err(err)?;
-        to_py(py, &pts)
+        detached(py, || {
+            pc::fig_4_10(Some(p), theta2_range, phi_range, n, gear_ratio)
+        })
     })
 }
 
@@ -145,10 +156,7 @@ fn analysis_fig_4_11<'py>(
 ) -> Obj<'py> {
     guard(|| {
         let p = self::params(params)?;
-        let pts = py
-            .detach(|| pc::fig_4_11(Some(p), &ratios, &phis, theta2_range))
-            .map_err(err)?;
-        to_py(py, &pts)
+        detached(py, || pc::fig_4_11(Some(p), &ratios, &phis, theta2_range))
     })
 }
 
@@ -164,10 +172,9 @@ fn analysis_fig_4_12<'py>(
 ) -> Obj<'py> {
     guard(|| {
         let p = self::params(params)?;
-        let pts = py
-            .detach(|| pc::fig_4_12(Some(p), &phi_dots, &phis, theta2_range, gear_ratio))
-            .map_err(err)?;
-        to_py(py, &pts)
+        detached(py, || {
+            pc::fig_4_12(Some(p), &phi_dots, &phis, theta2_range, gear_ratio)
+        })
     })
 }
 
@@ -183,7 +190,7 @@ fn analysis_takeoff_speed<'py>(
     gear_ratio: f64,
 ) -> Obj<'py> {
     guard(|| {
-        let model = pc::takeoff_model(Some(self::params(params)?), leg(leg_kind)?).map_err(err)?;
+        let model = takeoff_model(params, leg(leg_kind)?)?;
         let line = pc::TorqueSpeedLine::xrhex(gear_ratio).map_err(err)?;
         to_py(
             py,
@@ -202,8 +209,7 @@ fn analysis_optimal_gear_ratio(
     ratio_range: [f64; 2],
 ) -> PyResult<(f64, f64)> {
     guard(|| {
-        let model =
-            pc::takeoff_model(Some(self::params(params)?), pc::TakeoffLeg::Rolling).map_err(err)?;
+        let model = takeoff_model(params, pc::TakeoffLeg::Rolling)?;
         pc::optimal_gear_ratio(
             &model,
             phi,
@@ -239,7 +245,7 @@ fn analysis_single_leg_pitch_accel(
     tau2: f64,
 ) -> PyResult<f64> {
     guard(|| {
-        let model = pc::takeoff_model(Some(self::params(params)?), leg(leg_kind)?).map_err(err)?;
+        let model = takeoff_model(params, leg(leg_kind)?)?;
         pc::single_leg_pitch_accel(&model, theta2, phi, theta2_dot, phi_dot, tau2).map_err(err)
     })
 }
@@ -311,22 +317,19 @@ fn analysis_standing_rhex<'py>(
             }
         };
         let r = Rhex::new(p).map_err(err)?;
-        let trace = py
-            .detach(|| {
-                let (q0, terrain, mode) = standing::random_rhex_stance(&r, seed, max_slope_rad)?;
-                Ok::<_, RhexError>(stand::simulate_standing(
-                    &r.model,
-                    &terrain,
-                    mode,
-                    &q0,
-                    &[tau_d0],
-                    &stand::TorqueSplit::mean_difference(),
-                    &stand::StandingGains::default(),
-                    dt_s,
-                    steps,
-                )?)
-            })
-            .map_err(err)?;
-        to_py(py, &trace)
+        detached(py, || {
+            let (q0, terrain, mode) = standing::random_rhex_stance(&r, seed, max_slope_rad)?;
+            Ok(stand::simulate_standing(
+                &r.model,
+                &terrain,
+                mode,
+                &q0,
+                &[tau_d0],
+                &stand::TorqueSplit::mean_difference(),
+                &stand::StandingGains::default(),
+                dt_s,
+                steps,
+            )?)
+        })
     })
 }

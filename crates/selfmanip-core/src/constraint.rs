@@ -21,6 +21,20 @@ pub struct Constraints {
     pub a_dot_qd: DVector<f64>,
 }
 
+/// The geometry of the active contact `contact` among `geometry` (as
+/// [`Constraints::geometry`]).
+#[inline]
+pub(crate) fn geometry_of(
+    geometry: &[(usize, ContactGeometry)],
+    contact: usize,
+) -> &ContactGeometry {
+    &geometry
+        .iter()
+        .find(|(k, _)| *k == contact)
+        .expect("active contact")
+        .1
+}
+
 impl Constraints {
     /// Rebuilds every row for `mode` at the current kinematics (allocates only when the
     /// number of rows grows).
@@ -65,12 +79,7 @@ impl Constraints {
         a.fill(0.0);
         a_dot.fill(0.0);
         for (r, row) in self.rows.iter().enumerate() {
-            let geo = &self
-                .geometry
-                .iter()
-                .find(|(k, _)| *k == row.contact)
-                .expect("active contact")
-                .1;
+            let geo = geometry_of(&self.geometry, row.contact);
             let d = row_direction(&geo.plane, row.direction);
             let d_rate = row_direction_rate(geo.normal_rate, row.direction);
             let turning = d_rate != nalgebra::Vector2::zeros();

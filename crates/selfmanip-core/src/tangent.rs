@@ -61,6 +61,7 @@
 //! Not covered: a contact on a terrain corner (its frame turns with the site; a typed
 //! [`TangentError::TurningFrame`]); a sliding site whose friction is a sticking force at
 //! rest ([`TangentError::FrictionAtRest`]).
+use crate::constraint::geometry_of;
 use crate::contact::{row_direction, ContactGeometry, ContactMode, RowDirection, TouchKind};
 use crate::dynamics::{forward_dynamics, plastic_impact, Data, Impact};
 use crate::error::CoreError;
@@ -393,12 +394,7 @@ impl Assembly {
         self.shared.clear();
         let mut prev = None;
         for row in &cons.rows {
-            let geo = &cons
-                .geometry
-                .iter()
-                .find(|(k, _)| *k == row.contact)
-                .expect("active contact")
-                .1;
+            let geo = geometry_of(&cons.geometry, row.contact);
             let shared = prev == Some(row.contact);
             let c = if shared {
                 None
@@ -451,12 +447,7 @@ impl Assembly {
             if site.coef == 0.0 {
                 continue;
             }
-            let geo = &cons
-                .geometry
-                .iter()
-                .find(|(k, _)| *k == site.contact)
-                .expect("active contact")
-                .1;
+            let geo = geometry_of(&cons.geometry, site.contact);
             if site.general {
                 // folded into the solve (`crate::friction::fold_general`): a row of `B`
                 let d_t = row_direction(&geo.plane, RowDirection::Tangential);

@@ -23,6 +23,7 @@
 //! no kinetic friction (Assumption 5.9) and so is differentiated as before.
 mod common;
 
+use common::dynamics_fd::{dynamics_jacobian_error, rel_err};
 use common::{coulomb_body, sliding, test_robot};
 use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
@@ -40,11 +41,6 @@ use selfmanip_core::{
 
 const H: f64 = 1e-5;
 const TOL: f64 = 1e-6;
-
-/// Worst error of `exact` against `fd`, relative to the largest entry of `fd` (or 1).
-fn rel_err(exact: &DMatrix<f64>, fd: &DMatrix<f64>) -> f64 {
-    (exact - fd).amax() / fd.amax().max(1.0)
-}
 
 /// A `w × h` block (mass `m`) on its bottom corners `left`, `right`, sticking and sliding
 /// with `mu`.
@@ -152,35 +148,11 @@ impl Case<'_> {
         if self.dirs.is_empty() && data.sliding.iter().any(|s| s.v_t.abs() < 1e-3) {
             return None;
         }
-        let (nq, c) = (self.model.nq(), self.mode.n_rows());
-        let mut worst: f64 = 0.0;
-        for (which, n) in [(0, nq), (1, nq), (2, self.model.n_joints())] {
-            let (mut fq, mut fl) = (DMatrix::zeros(nq, n), DMatrix::zeros(c, n));
-            for k in 0..n {
-                // Richardson's extrapolation of central differences at h and h/2:
-                // (4 D(h/2) − D(h))/3, truncation O(h⁴)
-                for (h, w) in [(H, -1.0 / 3.0), (H / 2.0, 4.0 / 3.0)] {
-                    let mut plus = [q.to_vec(), qd.to_vec(), tau.to_vec()];
-                    let mut minus = plus.clone();
-                    plus[which][k] += h;
-                    minus[which][k] -= h;
-                    let (qp, lp) = self.eval(&plus[0], &plus[1], &plus[2])?;
-                    let (qm, lm) = self.eval(&minus[0], &minus[1], &minus[2])?;
-                    for i in 0..nq {
-                        fq[(i, k)] += w * (qp[i] - qm[i]) / (2.0 * h);
-                    }
-                    for r in 0..c {
-                        fl[(r, k)] += w * (lp[r] - lm[r]) / (2.0 * h);
-                    }
-                }
-            }
-            let (eq, el) = match which {
-                0 => (&jac.dqdd_dq, &jac.dlambda_dq),
-                1 => (&jac.dqdd_dqd, &jac.dlambda_dqd),
-                _ => (&jac.dqdd_dtau, &jac.dlambda_dtau),
-            };
-            worst = worst.max(rel_err(eq, &fq)).max(rel_err(el, &fl));
-        }
+        // Richardson's extrapolation of central differences at h and h/2
+        let steps = [(H, -1.0 / 3.0), (H / 2.0, 4.0 / 3.0)];
+        let worst = dynamics_jacobian_error(&jac, (q, qd, tau), &steps, |q, qd, tau| {
+            self.eval(q, qd, tau)
+        })?;
         Some((worst, general))
     }
 }

@@ -186,6 +186,17 @@ friction = {{ kind = "sticking", mu = {mu_k}, mu_kinetic = {mu_k} }}
     one_leg_body("one leg", 0.05, &text)
 }
 
+/// Sets the hip rate `θ̇` (`qd[0]`) so that the toe's normal velocity vanishes (the row
+/// `A_n q̇ = 0` of contact 0 sliding), the body's rates kept.
+fn keep_toe_on_ground(model: &Model, q: &[f64], qd: &mut [f64]) {
+    let mut dp = Data::new(model);
+    dp.prepare_geometry(model, &FlatGround, sliding(&[0]), q, qd)
+        .unwrap();
+    let a = &dp.constraints.a;
+    let rhs: f64 = (1..4).map(|k| a[(0, k)] * qd[k]).sum();
+    qd[0] = -rhs / a[(0, 0)];
+}
+
 /// The toe's pose: leg angle `θ`, body pitch `φ`, the toe on the ground at `x = 0`.
 fn on_toe(model: &Model, theta: f64, phi: f64) -> Vec<f64> {
     let mut q = vec![theta, 0.0, 0.0, phi];
@@ -211,13 +222,7 @@ fn massive_leg_toe_tends_to_the_massless_statics_as_the_leg_mass_vanishes() {
         // the body moving so that the toe slides at −0.2 m/s and stays on the ground
         let qd_body = [0.4, -0.1, 0.3];
         let mut qd = vec![0.0, qd_body[0], qd_body[1], qd_body[2]];
-        // choose θ̇ so that the toe's normal velocity vanishes (the row A_n q̇ = 0)
-        let mut dp = Data::new(&massless);
-        dp.prepare_geometry(&massless, &FlatGround, sliding(&[0]), &q, &qd)
-            .unwrap();
-        let a = &dp.constraints.a;
-        let rhs: f64 = (1..4).map(|k| a[(0, k)] * qd[k]).sum();
-        qd[0] = -rhs / a[(0, 0)];
+        keep_toe_on_ground(&massless, &q, &mut qd);
         slide_on_flat(&massless, &mut d0, &[0], &q, &qd, &[tau]).unwrap();
         assert!(!d0.sliding[0].general && d0.sliding[0].sigma != 0.0);
         let mut errs = vec![];
@@ -332,12 +337,7 @@ fn light_leg_dragged_with_mu_above_tan_theta_is_a_painleve_case() {
         let mut bad = 0;
         for v in [0.2, -0.2] {
             let mut qd = vec![0.0, v, 0.0, 0.0];
-            let mut dp = Data::new(&model);
-            dp.prepare_geometry(&model, &FlatGround, sliding(&[0]), &q, &qd)
-                .unwrap();
-            let a = &dp.constraints.a;
-            let rhs: f64 = (1..4).map(|k| a[(0, k)] * qd[k]).sum();
-            qd[0] = -rhs / a[(0, 0)];
+            keep_toe_on_ground(&model, &q, &mut qd);
             let mut data = Data::new(&model);
             match slide_on_flat(&model, &mut data, &[0], &q, &qd, &[0.3]) {
                 Err(CoreError::PainleveInconsistent { contact, .. }) => {

@@ -213,15 +213,6 @@ impl ResetWorkspace<'_> {
         let ws = &mut self.ws;
         ws.tau.resize(self.model.n_joints(), 0.0);
         self.ctrl.torque(t, q, qd, prefer, &mut ws.tau);
-        // the per-candidate values of the contacts in `mode`, in row order
-        let rows = |mode: ContactMode, cands: &[usize], v: &[f64]| -> Vec<f64> {
-            cands
-                .iter()
-                .zip(v)
-                .filter(|(k, _)| mode.contains(**k))
-                .map(|(_, &x)| x)
-                .collect()
-        };
         let outcome = if impact {
             let pseudo = (self.delta_t_s > 0.0).then_some((&ws.tau[..], self.delta_t_s));
             impact_qp::frictionless_impact(
@@ -235,12 +226,12 @@ impl ResetWorkspace<'_> {
             )
             .map(|o| match o {
                 QpOutcome::Unique(s) => Ok(Selected {
-                    mode: s.mode,
-                    value: rows(s.mode, &s.candidates, &s.impulse),
+                    mode: s.set.mode,
+                    value: s.set.in_mode(&s.impulse),
                     // empty without a pseudo-impulse
-                    pseudo_impulse: rows(s.mode, &s.candidates, &s.pseudo_impulse),
+                    pseudo_impulse: s.set.in_mode(&s.pseudo_impulse),
                 }),
-                QpOutcome::Ambiguous(s, _) => Err(s.mode),
+                QpOutcome::Ambiguous(s, _) => Err(s.set.mode),
             })
         } else {
             ws.data
@@ -260,11 +251,11 @@ impl ResetWorkspace<'_> {
             )
             .map(|o| match o {
                 QpOutcome::Unique(s) => Ok(Selected {
-                    mode: s.mode,
-                    value: rows(s.mode, &s.candidates, &s.lambda),
+                    mode: s.set.mode,
+                    value: s.set.in_mode(&s.lambda),
                     pseudo_impulse: Vec::new(),
                 }),
-                QpOutcome::Ambiguous(s, _) => Err(s.mode),
+                QpOutcome::Ambiguous(s, _) => Err(s.set.mode),
             })
         };
         match outcome {

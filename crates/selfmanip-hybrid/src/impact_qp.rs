@@ -187,50 +187,63 @@ pub struct QpInfo {
     pub pivots: usize,
 }
 
+/// The contact set a QP keeps at an impact or a liftoff, and how the solve went.
+#[derive(Debug, Clone, PartialEq)]
+pub struct QpContactSet {
+    /// The contact set after the event (a basic one, see [`Ambiguity`]), every contact
+    /// [`ContactKind::Slide`]. Ties whose rows are independent of the others are kept, as in
+    /// the enumeration: a contact is dropped only if holding it needs a pulling impulse
+    /// (5.29) or force (5.20).
+    pub mode: ContactMode,
+    /// Contacts that carry impulse (force) in some solution: the contacts of `mode` except
+    /// ties, or [`Ambiguity::dependent`] when that is non-empty.
+    pub active: Vec<usize>,
+    /// The candidates, ascending: the order of every per-candidate vector of the solution.
+    pub candidates: Vec<usize>,
+    pub info: QpInfo,
+}
+
+impl QpContactSet {
+    /// The entries of the per-candidate vector `per_candidate` that belong to the contacts
+    /// of `mode`, in row order (ascending contact index).
+    pub fn in_mode(&self, per_candidate: &[f64]) -> Vec<f64> {
+        self.candidates
+            .iter()
+            .zip(per_candidate)
+            .filter(|(k, _)| self.mode.contains(**k))
+            .map(|(_, &x)| x)
+            .collect()
+    }
+}
+
 /// A frictionless plastic impact among the candidates (thesis (5.10), (5.28)–(5.29)).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ImpactSolution {
-    /// The contact set after the impact (a basic one, see [`Ambiguity`]), every contact
-    /// [`ContactKind::Slide`]. Ties whose rows are independent of the others are kept, as in
-    /// the enumeration: a contact is dropped only if holding it needs a pulling impulse
-    /// (5.29).
-    pub mode: ContactMode,
-    /// Contacts that carry impulse in some solution: the contacts of `mode` except ties, or
-    /// [`Ambiguity::dependent`] when that is non-empty.
-    pub active: Vec<usize>,
-    /// The candidates, ascending: the order of every per-candidate vector below.
-    pub candidates: Vec<usize>,
-    /// Plastic normal impulse `P_λ` (5.10) of each candidate in `mode` (N·s, row convention:
-    /// negative = pushing; zero off `mode`). Equals [`selfmanip_core::plastic_impact`] into
-    /// `mode`.
+    pub set: QpContactSet,
+    /// Plastic normal impulse `P_λ` (5.10) of each candidate in `set.mode` (N·s, row
+    /// convention: negative = pushing; zero off the mode). Equals
+    /// [`selfmanip_core::plastic_impact`] into that mode.
     pub impulse: Vec<f64>,
-    /// Pseudo-impulse `P_δ` (5.39) of each candidate in `mode` (zero off `mode`); empty
+    /// Pseudo-impulse `P_δ` (5.39) of each candidate in `set.mode` (zero off it); empty
     /// without a pseudo-impulse.
     pub pseudo_impulse: Vec<f64>,
     /// Normal separation velocity `A_k q̇⁺` of each candidate (m/s, positive = separating).
     pub normal_velocity: Vec<f64>,
-    /// Post-impact velocity (5.52): the plastic impact into `mode`.
+    /// Post-impact velocity (5.52): the plastic impact into `set.mode`.
     pub qd_plus: DVector<f64>,
-    pub info: QpInfo,
 }
 
 /// Contacts kept at a liftoff event (thesis (5.19)–(5.20)).
 #[derive(Debug, Clone, PartialEq)]
 pub struct LiftoffSolution {
-    /// The contact set that persists (a basic one), every contact [`ContactKind::Slide`].
-    pub mode: ContactMode,
-    /// Contacts that carry force in some solution (as [`ImpactSolution::active`]).
-    pub active: Vec<usize>,
-    /// The candidates, ascending.
-    pub candidates: Vec<usize>,
-    /// Normal force `λ` of each candidate in `mode` (N, row convention: negative = pushing;
-    /// zero off `mode`). Equals [`selfmanip_core::forward_dynamics`] in `mode`.
+    pub set: QpContactSet,
+    /// Normal force `λ` of each candidate in `set.mode` (N, row convention: negative =
+    /// pushing; zero off the mode). Equals [`selfmanip_core::forward_dynamics`] in that mode.
     pub lambda: Vec<f64>,
     /// Normal separation acceleration `A_k q̈ + Ȧ_k q̇` of each candidate (m/s²).
     pub normal_acceleration: Vec<f64>,
-    /// `q̈` in `mode` (free massless joints: their prescribed acceleration).
+    /// `q̈` in `set.mode` (free massless joints: their prescribed acceleration).
     pub qdd: DVector<f64>,
-    pub info: QpInfo,
 }
 
 /// [`frictionless_impact_with`] with default options.
@@ -318,17 +331,11 @@ pub fn frictionless_impact_with(
         Some(_) => (0..cand.len()).map(|i| -(sol.p[i] - p0[i])).collect(),
     };
     let solution = ImpactSolution {
-        mode: slide_mode(&cand, &sol.basis),
-        active: sol.active.iter().map(|&i| cand[i]).collect(),
+        set: sol.contact_set(&cand, del.rank(options)),
         impulse: p0.iter().map(|&p| -p).collect(),
         pseudo_impulse,
         normal_velocity,
         qd_plus,
-        info: QpInfo {
-            delassus_rank: del.rank(options),
-            ..sol.info
-        },
-        candidates: cand.clone(),
     };
     Ok(sol.outcome(solution, &cand))
 }
@@ -400,16 +407,10 @@ pub fn frictionless_liftoff_with(
     let qdd = &x + &del.y * &sol.p;
     let normal_acceleration = (&b + &del.w * &sol.p).iter().copied().collect();
     let solution = LiftoffSolution {
-        mode: slide_mode(&cand, &sol.basis),
-        active: sol.active.iter().map(|&i| cand[i]).collect(),
+        set: sol.contact_set(&cand, del.rank(options)),
         lambda: sol.p.iter().map(|&p| -p).collect(),
         normal_acceleration,
         qdd,
-        info: QpInfo {
-            delassus_rank: del.rank(options),
-            ..sol.info
-        },
-        candidates: cand.clone(),
     };
     Ok(sol.outcome(solution, &cand))
 }
@@ -632,6 +633,19 @@ struct LcpSolution {
 }
 
 impl LcpSolution {
+    /// The contact set of the basis among `cand`, with the rank of the full Delassus operator.
+    fn contact_set(&self, cand: &[usize], delassus_rank: usize) -> QpContactSet {
+        QpContactSet {
+            mode: slide_mode(cand, &self.basis),
+            active: self.active.iter().map(|&i| cand[i]).collect(),
+            candidates: cand.to_vec(),
+            info: QpInfo {
+                delassus_rank,
+                ..self.info
+            },
+        }
+    }
+
     fn outcome<S>(&self, s: S, cand: &[usize]) -> QpOutcome<S> {
         match &self.ambiguity {
             None => QpOutcome::Unique(s),

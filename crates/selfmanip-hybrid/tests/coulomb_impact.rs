@@ -29,7 +29,7 @@ use selfmanip_hybrid::{EventKind, HybridOptions, ZeroTorque};
 use std::sync::Arc;
 
 mod systems;
-use systems::{Friction, G};
+use systems::{Friction, Lcg, G};
 
 const M: f64 = 2.0;
 const L: f64 = 0.3;
@@ -147,18 +147,6 @@ fn bar_landing_flat_sticks_or_slips_by_the_closed_form() {
     }
 }
 
-/// A tiny deterministic generator (a 64-bit LCG), so that the fan of states is fixed.
-struct Lcg(u64);
-impl Lcg {
-    fn uniform(&mut self, a: f64, b: f64) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        a + (b - a) * ((self.0 >> 11) as f64 / (1u64 << 53) as f64)
-    }
-}
-
 /// Over 2,000 states of the bar (ends on the ground, any velocity and spin, any μ), every
 /// solution of the impact problem: never adds kinetic energy (by hand from `q̇⁺`); every
 /// complementarity condition holds on the ends' velocities computed by hand and the world
@@ -234,6 +222,29 @@ fn every_solution_dissipates_and_satisfies_complementarity_by_hand() {
     assert_eq!(solved, 2000);
 }
 
+/// The resolution of a Painlevé jam (outside the cone) of contact 0 sliding at `(q, q̇)` at
+/// `t = 0`, with no torque and the default options.
+fn jam_of_sliding_contact_0(
+    model: &Model,
+    ground: &GroundPlane,
+    q: &[f64],
+    qd: &[f64],
+) -> Result<Reset, PainleveReason> {
+    let mut flow = Flow::new(model, ground, Arc::new(ZeroTorque));
+    let mut ws = FlowWorkspace::new(model);
+    let y: Vec<f64> = q.iter().chain(qd).copied().collect();
+    coulomb_jam(
+        &mut ws,
+        &mut flow,
+        &HybridOptions::default(),
+        ContactMode::FLIGHT.with(0, ContactKind::Slide),
+        (&[], 0),
+        (0.0, &y),
+        PainleveReason::JamOutsideCone,
+    )
+    .unwrap()
+}
+
 /// A contact on a massless leg has no impulse response (thesis 5.1.3): the problem is not
 /// set up, and the resolution of a Painlevé end built on it hands back the reason it was
 /// given — the end stays typed.
@@ -249,20 +260,7 @@ fn massless_leg_is_not_offered_and_the_end_stays_typed() {
     let r = coulomb_impacts(&model, &mut data, &GroundPlane::level(0.0), &[0], &q, &qd).unwrap();
     assert_eq!(r, Err(NotOffered::Massless));
     let ground = GroundPlane::level(0.0);
-    let mut flow = Flow::new(&model, &ground, Arc::new(ZeroTorque));
-    let mut ws = FlowWorkspace::new(&model);
-    let y: Vec<f64> = q.iter().chain(&qd).copied().collect();
-    let mode = ContactMode::FLIGHT.with(0, ContactKind::Slide);
-    let out = coulomb_jam(
-        &mut ws,
-        &mut flow,
-        &HybridOptions::default(),
-        mode,
-        (&[], 0),
-        (0.0, &y),
-        PainleveReason::JamOutsideCone,
-    )
-    .unwrap();
+    let out = jam_of_sliding_contact_0(&model, &ground, &q, &qd);
     assert_eq!(out.map(|_| ()), Err(PainleveReason::JamOutsideCone));
 }
 
@@ -314,20 +312,7 @@ fn painleve_rod_has_two_velocity_solutions_and_the_force_check_keeps_the_jam() {
         "{stuck:?}"
     );
     // the resolution of the Painlevé end keeps the stick alone
-    let mut flow = Flow::new(&model, &ground, Arc::new(ZeroTorque));
-    let mut ws = FlowWorkspace::new(&model);
-    let y: Vec<f64> = q.iter().chain(&qd).copied().collect();
-    let sliding = ContactMode::FLIGHT.with(0, ContactKind::Slide);
-    let r = coulomb_jam(
-        &mut ws,
-        &mut flow,
-        &HybridOptions::default(),
-        sliding,
-        (&[], 0),
-        (0.0, &y),
-        PainleveReason::JamOutsideCone,
-    )
-    .unwrap();
+    let r = jam_of_sliding_contact_0(&model, &ground, &q, &qd);
     let Ok(Reset::Continue { event, .. }) = r else {
         panic!("{r:?}");
     };

@@ -5,7 +5,7 @@ use selfmanip_core::{ContactMode, FlatGround, Model};
 use selfmanip_hybrid::{simulate, EventKind, HybridError, HybridOptions, Termination, ZeroTorque};
 
 mod systems;
-use systems::{released, BLOCK, G};
+use systems::{free_fall_touchdown, released, BLOCK, G};
 
 const H: f64 = BLOCK.1;
 const W: f64 = BLOCK.0;
@@ -28,14 +28,7 @@ fn falling_block_lands_at_closed_form_time() {
             2.0,
             HybridOptions::default(),
         );
-        let first = &exec.events[0];
-        assert_eq!(first.kind, EventKind::Touchdown);
-        let expected = (2.0 * d / G).sqrt();
-        assert!(
-            (first.t - expected).abs() < 1e-9,
-            "d={d}: {} vs {expected}",
-            first.t
-        );
+        let first = free_fall_touchdown(&exec, d);
         assert_eq!(first.triggered, vec![0, 1], "both corners in one event");
         assert_eq!(first.mode_after.active().collect::<Vec<_>>(), vec![0, 1]);
         assert_eq!(exec.termination, Termination::FinalTime);

@@ -132,6 +132,27 @@ fn impulsive_stick_that_would_pull_is_refused_at_the_fold() {
     assert!((height(&exec) - apex).abs() < 1e-8);
 }
 
+/// The options of a run through the fold (at `ε_p = 1e-2`), past any apex.
+fn through_fold() -> HybridOptions {
+    HybridOptions {
+        stop_at_apex: false,
+        ..fold_options(1e-2)
+    }
+}
+
+/// A run of the leg under `ctrl` from `(q, q̇)` to `t_final` [`through_fold`], and its
+/// event kinds.
+fn speed_line_run(
+    model: &Model,
+    ctrl: &SpeedLine,
+    (q, qd): (&[f64], &[f64]),
+    t_final: f64,
+) -> (Execution, Vec<EventKind>) {
+    let exec = toe_sliding_run(model, ctrl, q, qd, t_final, through_fold());
+    let kinds = exec.events.iter().map(|e| e.kind).collect();
+    (exec, kinds)
+}
+
 /// A torque–speed line whose torque-free speed satisfies `L ω₀² < g`: the leg passes the
 /// fold sliding, locked at `ω₀`, from `β = −asin ε_p` to `+asin ε_p` in `2 asin ε_p / ω₀`,
 /// the hip at `L cos β` all the while.
@@ -144,19 +165,14 @@ fn leg_on_a_torque_speed_line_passes_its_fold_at_the_torque_free_speed() {
     };
     assert!(L * ctrl.omega0.powi(2) < G);
     let (q, qd) = start(-0.3, ctrl.omega0);
-    let o = HybridOptions {
-        stop_at_apex: false,
-        ..fold_options(1e-2)
-    };
-    let exec = toe_sliding_run(&model, &ctrl, &q, &qd, 0.15, o);
-    let kinds: Vec<EventKind> = exec.events.iter().map(|e| e.kind).collect();
+    let (exec, kinds) = speed_line_run(&model, &ctrl, (&q, &qd), 0.15);
     assert_eq!(
         kinds[..2],
         [EventKind::Fold, EventKind::FoldPassed],
         "{kinds:?}"
     );
     let (entry, exit) = (&exec.events[0], &exec.events[1]);
-    let eps_p = o.passage_threshold;
+    let eps_p = through_fold().passage_threshold;
     assert_eq!(entry.mode_after, sliding(&[0]), "passes sliding");
     // located to event_tol_s = 1e-10 s at ~3 rad/s
     assert!(
@@ -221,12 +237,7 @@ fn leg_turning_faster_than_the_body_falls_lifts_off_in_its_passage() {
     let omega0 = (G / (L * beta_off.cos())).sqrt();
     let ctrl = SpeedLine { k: 5.0, omega0 };
     let (q, qd) = start(-0.3, omega0);
-    let o = HybridOptions {
-        stop_at_apex: false,
-        ..fold_options(1e-2)
-    };
-    let exec = toe_sliding_run(&model, &ctrl, &q, &qd, 0.1, o);
-    let kinds: Vec<EventKind> = exec.events.iter().map(|e| e.kind).collect();
+    let (exec, kinds) = speed_line_run(&model, &ctrl, (&q, &qd), 0.1);
     assert_eq!(
         kinds[..2],
         [EventKind::Fold, EventKind::Liftoff],

@@ -276,16 +276,16 @@ fn agrees_with_brute_force_enumeration_on_random_polygons() {
             );
         }
         assert!(
-            accepted.iter().any(|a| a.set == members(s.mode)),
+            accepted.iter().any(|a| a.set == members(s.set.mode)),
             "case {case}: the QP's set {:?} is one the enumeration accepts",
-            members(s.mode)
+            members(s.set.mode)
         );
         // the QP's support contains every contact that pushes in some solution
         for a in &accepted {
             for (i, &k) in a.set.iter().enumerate() {
                 if -a.impulse[i] > 1e-7 * model.total_mass_kg() {
                     assert!(
-                        s.active.contains(&k),
+                        s.set.active.contains(&k),
                         "case {case}: {k} pushes in {:?}",
                         a.set
                     );
@@ -348,9 +348,9 @@ fn pseudo_impulse_agrees_with_brute_force_rule_5_40() {
         .unwrap_or_else(|e| panic!("case {case}: {e}"));
         let s = out.solution();
         assert!(
-            accepted.iter().any(|a| a.set == members(s.mode)),
+            accepted.iter().any(|a| a.set == members(s.set.mode)),
             "case {case}: QP set {:?} not accepted",
-            members(s.mode)
+            members(s.set.mode)
         );
         if out.is_unique() {
             assert_eq!(accepted.len(), 1, "case {case}");
@@ -423,10 +423,10 @@ fn large_flat_landing_stops_the_body_closed_form() {
         );
         assert_eq!(amb.dependent_rank, 2);
         assert!(amb.ties.is_empty());
-        assert_eq!(s.active, cand);
+        assert_eq!(s.set.active, cand);
         assert_close(s.qd_plus.as_slice(), &[qd[0], 0.0, 0.0], 1e-12, "q̇⁺");
         // the basic solution: two points bracketing the centre of pressure, pushing
-        let basis = members(s.mode);
+        let basis = members(s.set.mode);
         assert_eq!(basis.len(), 2, "{basis:?}");
         assert!(
             xs[basis[0]] <= cop && cop <= xs[basis[1]],
@@ -440,7 +440,7 @@ fn large_flat_landing_stops_the_body_closed_form() {
         assert!((moment + i_b * qd[2]).abs() < 1e-12, "Σpx = {moment}");
         assert!(s.normal_velocity.iter().all(|v| v.abs() < 1e-12));
         // the basis mode is regular: the core's impact into it gives the same reset
-        let imp = plastic_impact(&model, &mut data, &FlatGround, s.mode, &q, &qd).unwrap();
+        let imp = plastic_impact(&model, &mut data, &FlatGround, s.set.mode, &q, &qd).unwrap();
         assert_close(
             imp.qd_plus.as_slice(),
             s.qd_plus.as_slice(),
@@ -472,8 +472,8 @@ fn large_flat_landing_with_fast_spin_pivots_on_one_point_closed_form() {
     let QpOutcome::Unique(s) = &out else {
         panic!("expected unique, got {out:?}")
     };
-    assert_eq!(members(s.mode), vec![n - 1]);
-    assert_eq!(s.active, vec![n - 1]);
+    assert_eq!(members(s.set.mode), vec![n - 1]);
+    assert_eq!(s.set.active, vec![n - 1]);
     assert_close(s.qd_plus.as_slice(), &[qd[0], zd, phid], 1e-12, "q̇⁺");
     assert!((-s.impulse[n - 1] - p).abs() < 1e-12);
     for (i, &x) in xs.iter().enumerate().take(n - 1) {
@@ -516,8 +516,8 @@ fn tie_is_reported_and_kept_in_the_mode() {
     };
     assert!(amb.dependent.is_empty());
     assert_eq!(amb.ties, vec![1]);
-    assert_eq!(members(s.mode), vec![0, 1]);
-    assert_eq!(s.active, vec![0]);
+    assert_eq!(members(s.set.mode), vec![0, 1]);
+    assert_eq!(s.set.active, vec![0]);
     assert!((s.impulse[0] + m * qd[1]).abs() < 1e-12);
     assert!(s.impulse[1].abs() < 1e-12);
     assert_close(s.qd_plus.as_slice(), &[0.0; 3], 1e-12, "q̇⁺");
@@ -550,7 +550,7 @@ fn liftoff_of_a_tipping_body_closed_form() {
     let xr = xs[0];
     let phidd = m * G * xr / (m * xr * xr + i_b);
     let l = i_b * phidd / xr;
-    assert_eq!(members(s.mode), vec![0]);
+    assert_eq!(members(s.set.mode), vec![0]);
     assert!((-s.lambda[0] - l).abs() < 1e-10, "{} vs {l}", -s.lambda[0]);
     assert_close(s.qdd.as_slice(), &[0.0, phidd * xr, phidd], 1e-10, "q̈");
     for (a, x) in s.normal_acceleration.iter().zip(&xs).skip(1) {
@@ -561,7 +561,17 @@ fn liftoff_of_a_tipping_body_closed_form() {
         );
     }
     // the core's dynamics in the chosen mode agree
-    forward_dynamics(&model, &mut data, &FlatGround, s.mode, &q, &qd, &[], None).unwrap();
+    forward_dynamics(
+        &model,
+        &mut data,
+        &FlatGround,
+        s.set.mode,
+        &q,
+        &qd,
+        &[],
+        None,
+    )
+    .unwrap();
     assert_close(data.qdd.as_slice(), s.qdd.as_slice(), 1e-10, "core q̈");
 }
 
@@ -642,7 +652,7 @@ fn liftoff_agrees_with_brute_force_on_random_polygons() {
         if out.is_unique() {
             assert_eq!(accepted.len(), 1, "case {case}");
             let (set, _, lambda) = &accepted[0];
-            assert_eq!(&members(s.mode), set);
+            assert_eq!(&members(s.set.mode), set);
             assert_close(
                 &s.lambda,
                 &per_candidate(&cand, set, lambda.as_slice()),
@@ -707,7 +717,7 @@ fn legs_massive_candidate_and_massless_bystander() {
         }
         if out.is_unique() {
             assert_eq!(accepted.len(), 1);
-            assert_eq!(accepted[0].set, members(s.mode));
+            assert_eq!(accepted[0].set, members(s.set.mode));
         }
         checked += 1;
     }
@@ -820,7 +830,7 @@ fn bad_input_is_a_typed_error() {
     ));
     // no candidates: nothing happens
     let out = frictionless_impact(&model, &mut data, &FlatGround, &[], &q, &qd, None).unwrap();
-    assert!(out.is_unique() && out.solution().mode.is_flight());
+    assert!(out.is_unique() && out.solution().set.mode.is_flight());
     assert_eq!(out.solution().qd_plus.as_slice(), &qd);
 }
 

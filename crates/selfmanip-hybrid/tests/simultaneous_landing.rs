@@ -9,6 +9,9 @@ use selfmanip_core::contact::contact_gap;
 use selfmanip_core::{ContactMode, Data, FlatGround, Model, RobotDescription};
 use selfmanip_hybrid::{simulate, Controller, EventKind, Execution, HybridOptions, Termination};
 
+mod systems;
+use systems::Lcg;
+
 const G: f64 = 9.81;
 
 /// The bounder with legs `(name, hip x)` and a shin of `shin_mass_kg`.
@@ -231,20 +234,6 @@ fn the_bound_sweep_ends_without_zeno() {
     }
     let zeno: Vec<_> = statuses.iter().filter(|(_, t, _)| is_zeno(t)).collect();
     assert!(zeno.is_empty(), "{zeno:?}");
-}
-
-/// A small linear congruential generator (Knuth's MMIX constants): a fixed, dependency-free
-/// sequence for the survey.
-struct Lcg(u64);
-
-impl Lcg {
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        lo + (hi - lo) * ((self.0 >> 11) as f64 / (1u64 << 53) as f64)
-    }
 }
 
 /// A random planar robot: two or four legs of two links (the shin's mass possibly zero), a

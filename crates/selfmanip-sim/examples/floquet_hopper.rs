@@ -10,13 +10,9 @@ use selfmanip_core::RobotDescription;
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::periodic::{periodic_orbit, PeriodicSpec};
 use selfmanip_sim::Scenario;
-use std::path::{Path, PathBuf};
 
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("examples/data")
-        .join(name)
-}
+mod common;
+use common::data;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let robot = RobotDescription::from_file(&data("hopper.toml"))?;

@@ -4,28 +4,19 @@
 //! ```sh
 //! cargo run --release -p selfmanip-sim --example hopper -- [hopper.mcap]
 //! ```
-use selfmanip_core::RobotDescription;
 use selfmanip_sim::behaviour::Behaviour;
-use selfmanip_sim::{Scenario, Simulation};
+use selfmanip_sim::Simulation;
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
 
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("examples/data")
-        .join(name)
-}
+mod common;
+use common::{data, dropped_hopper};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = std::env::args()
         .nth(1)
         .unwrap_or_else(|| "hopper.mcap".into());
-    let robot = RobotDescription::from_file(&data("hopper.toml"))?;
     // dropped level, foot 10 cm above the ground, the leg at its landing pose
-    // (hip a, knee −2a: the foot under the hip, 2 L cos a below it)
-    let a: f64 = 0.5;
-    let q0 = vec![a, -2.0 * a, 0.0, -(0.1 + 0.4 * a.cos()), 0.0];
-    let mut scenario = Scenario::new(robot, q0);
+    let mut scenario = dropped_hopper(0.1)?;
     scenario.behaviour = Behaviour::from_file(&data("hop.toml"))?;
     scenario.options.t_final_s = 1.0;
     let run = Simulation::new(&scenario)?.run()?;
@@ -51,7 +42,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     let mut md = BTreeMap::new();
     md.insert("example".into(), "hopper".into());
-    run.write_mcap(Path::new(&out), 0.005, md)?;
+    run.write_mcap(std::path::Path::new(&out), 0.005, md)?;
     println!("wrote {out}");
     Ok(())
 }

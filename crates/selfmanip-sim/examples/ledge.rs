@@ -7,18 +7,13 @@
 //! cargo run --release -p selfmanip-sim --example ledge -- [ledge.mcap]
 //! SET="lean=0.08,terrain.height_m=0.06" cargo run …   # parameters by name
 //! ```
-use selfmanip_core::RobotDescription;
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::terrain::TerrainSpec;
 use selfmanip_sim::{Scenario, Simulation};
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
 
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("examples/data")
-        .join(name)
-}
+mod common;
+use common::{data, dropped_hopper, set_from_env};
 
 /// The hopper dropped 5 cm at `speed` forward, towards a ledge `height_m` high whose face is
 /// `distance_m` ahead.
@@ -27,10 +22,7 @@ pub fn scenario(
     height_m: f64,
     distance_m: f64,
 ) -> Result<Scenario, Box<dyn std::error::Error>> {
-    let robot = RobotDescription::from_file(&data("hopper.toml"))?;
-    let a: f64 = 0.5;
-    let q0 = vec![a, -2.0 * a, 0.0, -(0.05 + 0.4 * a.cos()), 0.0];
-    let mut s = Scenario::new(robot, q0);
+    let mut s = dropped_hopper(0.05)?;
     s.initial.qd = Some(vec![0.0, 0.0, speed, 0.0, 0.0]);
     s.behaviour = Behaviour::from_file(&data("hop_up.toml"))?;
     s.terrain = TerrainSpec::Ledge {
@@ -38,12 +30,7 @@ pub fn scenario(
         distance_m,
     };
     s.options.t_final_s = 2.0;
-    if let Ok(set) = std::env::var("SET") {
-        for item in set.split(',').filter(|i| !i.is_empty()) {
-            let (name, value) = item.split_once('=').ok_or("SET: name=value")?;
-            s.set(name.trim(), value.trim().parse::<f64>()?)?;
-        }
-    }
+    set_from_env(&mut s)?;
     Ok(s)
 }
 
@@ -80,7 +67,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     let mut md = BTreeMap::new();
     md.insert("example".into(), "ledge".into());
-    run.write_mcap(Path::new(&out), 0.005, md)?;
+    run.write_mcap(std::path::Path::new(&out), 0.005, md)?;
     println!("wrote {out}");
     Ok(())
 }

@@ -6,17 +6,13 @@
 //! cargo run --release -p selfmanip-sim --example quadruped -- [out_dir]
 //! SET="kp_push=90,t_compress=0.03" EVENTS=1 cargo run …   # parameters by name; every event
 //! ```
-use selfmanip_core::RobotDescription;
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::{Run, Scenario, Simulation};
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("examples/data")
-        .join(name)
-}
+mod common;
+use common::{data, dropped_quadruped, set_from_env};
 
 /// The quadruped dropped from `drop_m` (feet above the ground) at pitch `phi`, legs at their
 /// landing pose (hip a, knee −2a: each foot under its hip).
@@ -26,21 +22,9 @@ pub fn scenario(
     drop_m: f64,
     phi: f64,
 ) -> Result<Scenario, Box<dyn std::error::Error>> {
-    let robot = RobotDescription::from_file(&data("quadruped.toml"))?;
-    let a: f64 = 0.5;
-    let q0 = vec![
-        a,
-        -2.0 * a,
-        a,
-        -2.0 * a,
-        0.0,
-        -(drop_m + 0.4 * a.cos()),
-        phi,
-    ];
-    let mut s = Scenario::new(robot, q0);
+    let mut s = dropped_quadruped(drop_m, phi)?;
     s.behaviour = Behaviour::from_file(&data(behaviour))?;
     s.options.t_final_s = 1.5;
-    s.options.labels = Some(vec!["fore_foot".into(), "hind_foot".into()]);
     if massless {
         // parameters by name: every link's mass and inertia
         for leg in ["fore", "hind"] {
@@ -50,13 +34,7 @@ pub fn scenario(
             }
         }
     }
-    // `SET="kp_push=90,t_compress=0.03"`: any parameter by name (see docs/behaviours.md)
-    if let Ok(set) = std::env::var("SET") {
-        for item in set.split(',').filter(|i| !i.is_empty()) {
-            let (name, value) = item.split_once('=').ok_or("SET: name=value")?;
-            s.set(name.trim(), value.trim().parse::<f64>()?)?;
-        }
-    }
+    set_from_env(&mut s)?;
     Ok(s)
 }
 

@@ -18,6 +18,9 @@ use selfmanip_sim::periodic::run_sensitivity;
 use selfmanip_sim::{Scenario, Simulation};
 mod common;
 use common::{data, hopper};
+#[path = "../../selfmanip-hybrid/tests/systems/fd.rs"]
+mod fd;
+use fd::{end_state_and_events, run_jacobian_fd};
 
 /// The hopper of `examples/hopper.rs` (dropped 10 cm, leg at its landing pose) moving
 /// forward at 0.3 m/s and falling at 0.5 m/s, under `hop.toml`, with every coordinate in the
@@ -62,38 +65,15 @@ fn end_state(sim: &Simulation, x: &[f64]) -> (Vec<f64>, Vec<EventKind>) {
         sim.options,
     )
     .unwrap();
-    (
-        e.q.iter().chain(&e.qd).copied().collect(),
-        e.events.iter().map(|e| e.kind).collect(),
-    )
+    end_state_and_events(&e)
 }
 
 /// `dx(T)/dx₀` by central differences of whole runs, Richardson-extrapolated from steps `h`
 /// and `h/2`, in the directions `cols`; every run keeps the reference's event sequence.
 fn central_differences(sim: &Simulation, cols: &[usize], h: f64) -> DMatrix<f64> {
     let x0: Vec<f64> = sim.q0.iter().chain(&sim.qd0).copied().collect();
-    let n2 = x0.len();
     let (_, k0) = end_state(sim, &x0);
-    let mut fd = DMatrix::zeros(n2, n2);
-    for &c in cols {
-        let d = |h: f64| {
-            let (mut xp, mut xm) = (x0.clone(), x0.clone());
-            xp[c] += h;
-            xm[c] -= h;
-            let ((yp, kp), (ym, km)) = (end_state(sim, &xp), end_state(sim, &xm));
-            assert_eq!(kp, k0, "direction {c}");
-            assert_eq!(km, k0, "direction {c}");
-            yp.iter()
-                .zip(&ym)
-                .map(|(a, b)| (a - b) / (2.0 * h))
-                .collect::<Vec<f64>>()
-        };
-        let (d1, d2) = (d(h), d(h / 2.0));
-        for i in 0..n2 {
-            fd[(i, c)] = (4.0 * d2[i] - d1[i]) / 3.0;
-        }
-    }
-    fd
+    run_jacobian_fd(|x| end_state(sim, x), &x0, cols, &k0, h)
 }
 
 /// The hopper's touchdown, stance (the push phase starts `t_compress = 0.05 s` after the

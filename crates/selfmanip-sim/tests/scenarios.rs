@@ -29,21 +29,9 @@ fn hopper(drop_m: f64, t_final_s: f64) -> Scenario {
 
 /// The quadruped of the examples (massive legs) dropped level, pronking.
 fn quadruped(drop_m: f64, t_final_s: f64) -> Scenario {
-    let robot = RobotDescription::from_file(&data("quadruped.toml")).unwrap();
-    let a: f64 = 0.5;
-    let q0 = vec![
-        a,
-        -2.0 * a,
-        a,
-        -2.0 * a,
-        0.0,
-        -(drop_m + 0.4 * a.cos()),
-        0.0,
-    ];
-    let mut s = Scenario::new(robot, q0);
+    let mut s = common::examples::dropped_quadruped(drop_m, 0.0).unwrap();
     s.behaviour = Behaviour::from_file(&data("pronk.toml")).unwrap();
     s.options.t_final_s = t_final_s;
-    s.options.labels = Some(vec!["fore_foot".into(), "hind_foot".into()]);
     s
 }
 

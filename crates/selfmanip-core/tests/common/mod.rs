@@ -1,6 +1,7 @@
 //! Robots and modes shared by the core's integration tests. Frames (docs/conventions.md):
 //! NED, z down, `q = [θ…, x, z, φ]`, a body point `p` at `X + R(φ) p`.
 #![allow(dead_code)]
+pub mod dynamics_fd;
 use selfmanip_core::{
     forward_dynamics, ContactKind, ContactMode, CoreError, Data, FlatGround, Model,
     RobotDescription,

@@ -7,6 +7,8 @@
 //! point at offset `r = R(φ) p` from the centre moves at `v + φ̇ (r_z, −r_x)` and a force `F`
 //! there has the moment `r_z F_x − r_x F_z` about `+y`.
 #![allow(dead_code)]
+mod fd;
+pub use fd::{end_state_and_events, run_jacobian_fd};
 use nalgebra::DMatrix;
 use selfmanip_core::description::{
     BodyDescription, ContactDescription, FrictionDescription, JointAxis, LegDescription,
@@ -18,8 +20,8 @@ use selfmanip_core::{
 use selfmanip_hybrid::integrate::StepOptions;
 use selfmanip_hybrid::sensitivity::{simulate_with_sensitivity, Sensitivity, SensitivityError};
 use selfmanip_hybrid::{
-    energy_report, simulate, Controller, ControllerPartials, EventKind, Execution, HybridOptions,
-    ZeroTorque,
+    energy_report, simulate, Controller, ControllerPartials, Event, EventKind, Execution,
+    HybridOptions, ZeroTorque,
 };
 
 pub const G: f64 = 9.81;
@@ -192,6 +194,20 @@ pub fn released(
         opts,
     )
     .unwrap()
+}
+
+/// The first event of a run released at rest with its lowest contact `d` above flat ground,
+/// checked to be a touchdown at the free-fall time `√(2d/g)` (to 1e-9 s).
+pub fn free_fall_touchdown(exec: &Execution, d: f64) -> &Event {
+    let first = &exec.events[0];
+    assert_eq!(first.kind, EventKind::Touchdown, "d={d}");
+    let expected = (2.0 * d / G).sqrt();
+    assert!(
+        (first.t - expected).abs() < 1e-9,
+        "d={d}: {} vs {expected}",
+        first.t
+    );
+    first
 }
 
 /// A run without torques on `terrain` from `(q, q̇)` in `mode` to `t_final`, at the default
@@ -449,9 +465,8 @@ pub fn flight_sensitivity(
     )
 }
 
-/// The Jacobian of [`run_from_flight`]'s end state to its start state `y0` by central
-/// differences at steps `h` and `h/2`, extrapolated (Richardson: `(4 D(h/2) − D(h)) / 3`);
-/// every perturbed run must meet the events `seq`.
+/// The Jacobian of [`run_from_flight`]'s end state to its start state `y0` by
+/// [`run_jacobian_fd`] in every direction; every perturbed run must meet the events `seq`.
 pub fn flight_run_jacobian_fd(
     model: &Model,
     ctrl: &dyn Controller,
@@ -460,30 +475,8 @@ pub fn flight_run_jacobian_fd(
     seq: &[EventKind],
     h: f64,
 ) -> DMatrix<f64> {
-    let n = y0.len();
-    let mut fd = DMatrix::zeros(n, n);
-    for c in 0..n {
-        let d = |h: f64| {
-            let (mut yp, mut ym) = (y0.to_vec(), y0.to_vec());
-            yp[c] += h;
-            ym[c] -= h;
-            let ((xp, sp), (xm, sm)) = (
-                run_from_flight(model, ctrl, &yp, tf),
-                run_from_flight(model, ctrl, &ym, tf),
-            );
-            assert_eq!(sp, seq, "direction {c}");
-            assert_eq!(sm, seq, "direction {c}");
-            xp.iter()
-                .zip(&xm)
-                .map(|(a, b)| (a - b) / (2.0 * h))
-                .collect::<Vec<_>>()
-        };
-        let (d1, d2) = (d(h), d(h / 2.0));
-        for i in 0..n {
-            fd[(i, c)] = (4.0 * d2[i] - d1[i]) / 3.0;
-        }
-    }
-    fd
+    let all: Vec<usize> = (0..y0.len()).collect();
+    run_jacobian_fd(|y| run_from_flight(model, ctrl, y, tf), y0, &all, seq, h)
 }
 
 /// A run from `y0 = (q, q̇)` in flight on flat ground to `tf` with [`tight`] options: its end
@@ -495,8 +488,20 @@ pub fn run_from_flight(
     tf: f64,
 ) -> (Vec<f64>, Vec<EventKind>) {
     let e = flight_run(model, ctrl, y0, tf, tight());
-    (
-        e.q.iter().chain(&e.qd).copied().collect(),
-        e.events.iter().map(|e| e.kind).collect(),
-    )
+    end_state_and_events(&e)
+}
+
+/// A small linear congruential generator (64-bit, Knuth's MMIX constants): a fixed,
+/// dependency-free sequence of test states.
+pub struct Lcg(pub u64);
+
+impl Lcg {
+    /// The next number, uniform in `[lo, hi)`.
+    pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        lo + (hi - lo) * ((self.0 >> 11) as f64 / (1u64 << 53) as f64)
+    }
 }

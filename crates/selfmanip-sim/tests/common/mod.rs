@@ -5,14 +5,12 @@ use selfmanip_core::RobotDescription;
 use selfmanip_hybrid::EventKind;
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::Scenario;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-/// A file of `examples/data`.
-pub fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("examples/data")
-        .join(name)
-}
+#[path = "../../examples/common/mod.rs"]
+pub mod examples;
+#[allow(unused_imports)] // not every test reads the examples' data
+pub use examples::data;
 
 /// A robot of the workspace's `tests/data/robots`.
 pub fn test_robot(name: &str) -> RobotDescription {
@@ -24,10 +22,7 @@ pub fn test_robot(name: &str) -> RobotDescription {
 /// forward at 0.3 m/s and falling at 0.5 m/s under `behaviour`, at tight tolerances (what
 /// differences of whole runs need).
 pub fn hopper(behaviour: Behaviour, t_final: f64) -> Scenario {
-    let robot = RobotDescription::from_file(&data("hopper.toml")).unwrap();
-    let a: f64 = 0.5;
-    let q0 = vec![a, -2.0 * a, 0.0, -(0.1 + 0.4 * a.cos()), 0.0];
-    let mut s = Scenario::new(robot, q0);
+    let mut s = examples::dropped_hopper(0.1).unwrap();
     s.initial.qd = Some(vec![0.0, 0.0, 0.3, 0.5, 0.0]);
     s.behaviour = behaviour;
     s.options.t_final_s = t_final;

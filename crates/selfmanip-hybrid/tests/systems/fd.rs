@@ -1,0 +1,45 @@
+//! Central differences of whole runs (also included by path in the sim's tests).
+use nalgebra::DMatrix;
+use selfmanip_hybrid::{EventKind, Execution};
+
+/// `∂run(x)/∂x` at `x0` in the directions `cols` (other columns zero) by central differences
+/// of whole runs at steps `h` and `h/2`, extrapolated (Richardson: `(4 D(h/2) − D(h)) / 3`).
+/// `run` gives a run's end state (as long as `x0`) and its event kinds; every perturbed run
+/// must meet the events `seq`.
+pub fn run_jacobian_fd(
+    run: impl Fn(&[f64]) -> (Vec<f64>, Vec<EventKind>),
+    x0: &[f64],
+    cols: &[usize],
+    seq: &[EventKind],
+    h: f64,
+) -> DMatrix<f64> {
+    let n = x0.len();
+    let mut fd = DMatrix::zeros(n, n);
+    for &c in cols {
+        let d = |h: f64| {
+            let (mut xp, mut xm) = (x0.to_vec(), x0.to_vec());
+            xp[c] += h;
+            xm[c] -= h;
+            let ((yp, sp), (ym, sm)) = (run(&xp), run(&xm));
+            assert_eq!(sp, seq, "direction {c}");
+            assert_eq!(sm, seq, "direction {c}");
+            yp.iter()
+                .zip(&ym)
+                .map(|(a, b)| (a - b) / (2.0 * h))
+                .collect::<Vec<_>>()
+        };
+        let (d1, d2) = (d(h), d(h / 2.0));
+        for i in 0..n {
+            fd[(i, c)] = (4.0 * d2[i] - d1[i]) / 3.0;
+        }
+    }
+    fd
+}
+
+/// A run's end state `(q, q̇)` and its event kinds: what [`run_jacobian_fd`] differences.
+pub fn end_state_and_events(e: &Execution) -> (Vec<f64>, Vec<EventKind>) {
+    (
+        e.q.iter().chain(&e.qd).copied().collect(),
+        e.events.iter().map(|e| e.kind).collect(),
+    )
+}
