@@ -17,7 +17,9 @@ extend at 0.15 s and swing back on flight with the examples' swing settings, 15 
     python3 scripts/user_robot_sweep.py --run 17          # one run: its description and events
 
 It prints the status histogram, the share of ``zeno`` + ``several_contact_solutions`` (the
-statuses a run on the defaults must not end in) and the slowest runs. A run that raises is
+statuses a run on the defaults must not end in), the touchdowns that change no mode (issue 30
+item 2: a massless chain put back on the ground; their largest energy loss tells zero-impulse
+touches from real ones) and the slowest runs. A run that raises is
 counted under ``error:<ExceptionType>``.
 """
 
@@ -158,9 +160,14 @@ def run_one(i: int, seed: int) -> dict[str, Any]:
         q0 = place(run, robot)
         t0 = time.perf_counter()
         e = selfmanip.simulate(robot, run["behaviour"], q0, terrain=run["terrain"], t_final=T_FINAL_S)
-        out.update(status=e.status, events=len(e.events), word="-".join(e.word)[:80], reason=e.reason[:160])
+        same = [ev for ev in e.events if ev["kind"] == "touchdown" and ev["mode_before"] == ev["mode_after"]]
+        out.update(status=e.status, events=len(e.events), word="-".join(e.word)[:80], reason=e.reason[:160],
+                   unchanged_touchdowns=len(same),
+                   unchanged_loss_j=max((ev["energy_loss_j"] for ev in same), default=0.0))
     except Exception as exc:  # counted, never hidden: the histogram names the type
         out.update(status=f"error:{type(exc).__name__}", events=0, word="", reason=str(exc)[:160])
+    out.setdefault("unchanged_touchdowns", 0)
+    out.setdefault("unchanged_loss_j", 0.0)
     out["wall_s"] = time.perf_counter() - t0
     return out
 
@@ -170,6 +177,10 @@ def summarise(rows: list[dict[str, Any]], slowest: int = 10) -> str:
     bad = sum(c[s] for s in BAD)
     lines = [f"{len(rows)} runs: " + ", ".join(f"{k} {v}" for k, v in sorted(c.items()))]
     lines.append(f"zeno + several_contact_solutions: {bad} of {len(rows)} = {100 * bad / len(rows):.1f} %")
+    unchanged = [r for r in rows if r["unchanged_touchdowns"]]
+    lines.append(f"touchdowns that change no mode: {sum(r['unchanged_touchdowns'] for r in rows)} in "
+                 f"{len(unchanged)} runs ({sum(r['status'] in BAD for r in unchanged)} of them bad), largest loss "
+                 f"{max((r['unchanged_loss_j'] for r in unchanged), default=0.0):.3g} J")
     walls = sorted(rows, key=lambda r: -r["wall_s"])
     lines.append(f"over 100 ms: {sum(r['wall_s'] > 0.1 for r in rows)}; slowest:")
     for r in walls[:slowest]:
