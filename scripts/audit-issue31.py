@@ -29,6 +29,7 @@ import argparse
 import json
 import os
 import resource
+import signal
 import subprocess
 import sys
 import tempfile
@@ -344,6 +345,14 @@ def finite(x, depth=0):
         if hasattr(x, name) and not finite(getattr(x, name), depth + 1):
             return False
     return True
+def checked(ns):
+    # the case's check over its outcome: None without one, False when it fails or raises
+    if not {check!r}:
+        return None
+    try:
+        return bool(eval({check!r}, ns))
+    except Exception:
+        return False
 def report(**kw):
     print(MARK + json.dumps(kw, default=str), flush=True)
 ns = {{}}
@@ -355,22 +364,12 @@ except MemoryError:
 except BaseException as err:
     from selfmanip.errors import SelfmanipError
     ns["err"] = err
-    ok = None
-    if {check!r}:
-        try:
-            ok = bool(eval({check!r}, ns))
-        except Exception as e:
-            ok = False
+    ok = checked(ns)
     report(kind="typed" if isinstance(err, SelfmanipError) else "generic", cls=type(err).__name__,
            field=getattr(err, "field", None) or "", message=str(err)[:300], check=ok)
 else:
     r = ns.get("r")
-    ok = None
-    if {check!r}:
-        try:
-            ok = bool(eval({check!r}, ns))
-        except Exception as e:
-            ok = False
+    ok = checked(ns)
     report(kind="result", finite=finite(r), check=ok, summary=repr(r)[:200])
 """
 
@@ -379,6 +378,9 @@ def limits(memory_gb: float):
     def apply() -> None:
         cap = int(memory_gb * 2**30)
         resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
+        # a shell's background job ignores SIGINT, and so would its children (Python then
+        # installs no KeyboardInterrupt handler): the cases that send it need the default
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
         os.setsid()
     return apply
 
