@@ -15,15 +15,50 @@ import numpy as np
 from .errors import InvalidInputError
 
 
+def _temp_name(name: str, pid: int) -> str:
+    """The hidden temporary name a write of ``name`` by process ``pid`` uses beside it (the
+    MCAP writer, ``selfmanip-sim/src/mcap.rs``, names its own the same way)."""
+    return f".{name}.{pid}.tmp"
+
+
+def _process_is_gone(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    except (PermissionError, OSError, OverflowError):
+        return False   # it exists (another user's), or cannot be asked about: keep its file
+    return False
+
+
+def remove_stale_temp_files(directory: str, name: str) -> None:
+    """Removes from ``directory`` the temporary files of earlier writes of ``name`` whose
+    process is gone (killed mid-write, SIGKILL: nothing else removed them); a write still
+    running keeps its own."""
+    prefix, suffix = f".{name}.", ".tmp"
+    try:
+        entries = os.listdir(directory)
+    except OSError:
+        return
+    for entry in entries:
+        pid = entry[len(prefix):-len(suffix)] if entry.startswith(prefix) and entry.endswith(suffix) else ""
+        if pid.isdigit() and int(pid) != os.getpid() and _process_is_gone(int(pid)):
+            try:
+                os.remove(os.path.join(directory, entry))
+            except OSError:
+                pass
+
+
 def write_atomically(path: str, write: Callable[[str], None]) -> None:
     """Calls ``write(tmp)`` on a temporary file beside ``path``, then renames it to ``path``:
     a reader never sees a partial file, and whatever stops the write (an error, Ctrl-C) removes
-    the temporary file. A missing directory is reported against ``path``, not the temporary
-    file."""
+    the temporary file; one a killed write left behind is removed by the next write of
+    ``path``. A missing directory is reported against ``path``, not the temporary file."""
     directory = os.path.dirname(path) or "."
     if not os.path.isdir(directory):
         raise FileNotFoundError(errno.ENOENT, f"no directory {directory!r} to write into", path)
-    tmp = os.path.join(directory, f".{os.path.basename(path)}.{os.getpid()}.tmp")
+    remove_stale_temp_files(directory, os.path.basename(path))
+    tmp = os.path.join(directory, _temp_name(os.path.basename(path), os.getpid()))
     try:
         write(tmp)
         os.replace(tmp, path)

@@ -26,6 +26,7 @@ from typing import Sequence
 import numpy as np
 
 from ._checks import path_arg
+from ._tables import write_atomically
 from .errors import InvalidInputError, SelfmanipError
 from .rhex import Model
 
@@ -114,16 +115,22 @@ def _dynamics(args) -> int:
 
 def _map(args) -> int:
     cm = Model().contact_mode_map(args.n)
-    out = open(args.csv, "w", encoding="utf-8") if args.csv else sys.stdout
-    try:
+
+    def emit(out) -> None:
         out.write("theta1_rad,theta2_rad,phi_rad,height_m,front,rear,label\n")
         for i in range(args.n):
             for j in range(args.n):
                 out.write(f"{cm.theta1[i, j]:.12g},{cm.theta2[i, j]:.12g},{cm.phi[i, j]:.12g},"
                           f"{cm.height_m[i, j]:.12g},{cm.front[i, j]},{cm.rear[i, j]},{cm.label[i, j]}\n")
-    finally:
-        if out is not sys.stdout:
-            out.close()
+
+    if args.csv:
+        def emit_file(tmp: str) -> None:
+            with open(tmp, "w", encoding="utf-8") as f:
+                emit(f)
+
+        write_atomically(args.csv, emit_file)
+    else:
+        emit(sys.stdout)
     return 0
 
 

@@ -11,6 +11,7 @@ import sys
 import numpy as np
 
 from ._checks import path_arg
+from ._tables import write_atomically
 from . import analysis
 from .figures import FIGURE_NAMES, figure_data
 
@@ -69,8 +70,11 @@ def run(args: argparse.Namespace) -> int:
     else:
         text = _csv(figure_data(args.what, args.n))
     if args.out:
-        with open(args.out, "w", encoding="utf-8") as f:
-            f.write(text)
+        def emit(tmp: str) -> None:
+            with open(tmp, "w", encoding="utf-8") as f:
+                f.write(text)
+
+        write_atomically(args.out, emit)
     else:
         sys.stdout.write(text)
     return 0

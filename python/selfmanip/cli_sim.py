@@ -159,7 +159,14 @@ def simulate_command(args: argparse.Namespace) -> int:
     from .simulation import simulate
 
     q0 = _vector(args.q0, "--q0")
-    e = simulate(args.robot, _behaviour(args.behaviour), q0, params=_scalar_sets(args.set), **_scenario_kwargs(args))
+    try:
+        e = simulate(args.robot, _behaviour(args.behaviour), q0, params=_scalar_sets(args.set),
+                     **_scenario_kwargs(args))
+    except InvalidInputError as err:
+        # the engine names the terrain's fields as simulate's `terrain`: here they came from `--terrain`
+        if args.terrain is not None and (err.field or "").startswith("terrain"):
+            raise InvalidInputError(f"`--terrain`: {err}", "--" + err.field) from None
+        raise
     dt = DEFAULT if args.dt is None else args.dt
     if args.mcap:
         e.to_mcap(args.mcap, dt=dt)

@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, Any, Mapping, Sequence
 import numpy as np
 
 from . import _native
-from ._tables import read_table
+from ._tables import read_table, write_atomically
 from .errors import InvalidInputError, SelfmanipError
 from .leap import LeapResult, Trajectory
 
@@ -59,6 +59,15 @@ class PlottingUnavailableError(SelfmanipError, ImportError):
 
 #: How to get the figures: the ``plot`` extra, or matplotlib itself.
 INSTALL_HINT = 'python3 -m pip install matplotlib (or, in a checkout, python3 -m pip install ".[plot]")'
+
+
+def save_figure(fig: Any, path: str | os.PathLike[str]) -> None:
+    """``fig`` as an image file at ``path``, in the format its suffix names (PNG without
+    one), written atomically (:func:`selfmanip._tables.write_atomically`): a run stopped
+    midway leaves no partial image under ``path``."""
+    path = os.fspath(path)
+    suffix = os.path.splitext(path)[1].lstrip(".").lower()
+    write_atomically(path, lambda tmp: fig.savefig(tmp, dpi=110, format=suffix or "png"))
 
 
 def _pyplot():
@@ -176,7 +185,7 @@ def sweep_figure(table: Mapping[str, Any], out_path: str | os.PathLike, title: s
     path (see :func:`build_sweep_figure`)."""
     plt = _pyplot()
     fig = build_sweep_figure(table, title)
-    fig.savefig(out_path, dpi=110)
+    save_figure(fig, out_path)
     plt.close(fig)
     return os.fspath(out_path)
 
@@ -411,7 +420,7 @@ def leap_strip(params: Mapping[str, Any], trajectory: Trajectory, out_path: str 
     fig.suptitle(title or "Leap keyframes (contact forces: ground on robot, "
                           f"{FORCE_SCALE_M_PER_N * 100:g} cm per N)", fontsize=10)
     fig.tight_layout()
-    fig.savefig(out_path, dpi=110)
+    save_figure(fig, out_path)
     plt.close(fig)
     return os.fspath(out_path)
 
@@ -554,7 +563,7 @@ def execution_figure(execution: Any, out_path: str | os.PathLike | None = None, 
                  f"{fold_word(execution.word)}", fontsize=10)
     fig.tight_layout()
     if out_path is not None:
-        fig.savefig(os.fspath(out_path), dpi=110)
+        save_figure(fig, out_path)
         plt.close(fig)
     return fig
 
@@ -599,6 +608,6 @@ def simulation_sweep_figure(table: Mapping[str, Any], out_path: str | os.PathLik
     axes[-1].set_xlabel(xk)
     fig.suptitle(title or f"sweep over {', '.join(swept)}", fontsize=10)
     fig.tight_layout()
-    fig.savefig(os.fspath(out_path), dpi=110)
+    save_figure(fig, out_path)
     plt.close(fig)
     return os.fspath(out_path)

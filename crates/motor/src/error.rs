@@ -1,12 +1,22 @@
 //! The one error type of the motor crate.
 use thiserror::Error;
 
+/// `x` as a message shows it: in exponent form when plain digits would run long (1e308 is
+/// 309 digits, 1e-300 three hundred zeros), as written otherwise.
+fn shown(x: f64) -> String {
+    if x != 0.0 && !(1e-6..1e16).contains(&x.abs()) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
 /// Errors of the actuator models. Every public constructor and analysis checks its inputs
 /// and returns one of these instead of panicking or producing NaN.
 #[derive(Debug, Clone, Error, PartialEq)]
 pub enum MotorError {
     /// A physical parameter is out of its domain (negative resistance, zero gear ratio, …).
-    #[error("`{field}` = {value}: {reason}")]
+    #[error("`{field}` = {}: {reason}", shown(*value))]
     InvalidParameter {
         field: &'static str,
         value: f64,

@@ -184,7 +184,18 @@ impl Robot {
         };
         let mut kin = Kinematics::default();
         kin.compute(&self.model, q, qd);
-        kin.check_finite().map_err(core_err)?;
+        if kin.check_finite().is_err() {
+            // finite inputs near the largest f64 overflow: the poses are `q`'s, the rest `qd`'s
+            let poses = [kin.body_pos.x, kin.body_pos.y, kin.phi]
+                .into_iter()
+                .chain(kin.origin.iter().flat_map(|v| [v.x, v.y]))
+                .chain(kin.beta.iter().copied());
+            let field = if poses.into_iter().all(f64::is_finite) { "qd" } else { "q" };
+            return Err(invalid(
+                field,
+                format!("`{field}`: too large: the parts' poses and velocities overflow at it"),
+            ));
+        }
         Ok(kin)
     }
 

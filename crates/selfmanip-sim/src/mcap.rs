@@ -16,7 +16,9 @@
 //! key–value pairs.
 //!
 //! The file is written to a temporary name in the target directory, flushed to disk and then
-//! renamed: a crash never leaves a truncated file under the final name.
+//! renamed: a crash never leaves a truncated file under the final name. The temporary name,
+//! `.<name>.<pid>.tmp`, is hidden and says whose it is: a write that was killed (SIGKILL)
+//! leaves it behind, and the next write of the same file removes it once that process is gone.
 use crate::error::SimError;
 use crate::events::EventRecord;
 use crate::trajectory::Trajectory;
@@ -471,6 +473,40 @@ pub fn write_mcap_to_until<W: Write + Seek>(
     Ok(out.into_inner())
 }
 
+/// The temporary name a write of `file_name` by process `pid` uses beside it.
+fn temp_name(file_name: &str, pid: u32) -> String {
+    format!(".{file_name}.{pid}.tmp")
+}
+
+/// Removes from `dir` the temporary files of earlier writes of `file_name` whose process is
+/// gone (killed mid-write: nothing else removed them). A process that still runs — another
+/// write of the same file — keeps its own. Where processes cannot be looked up (no `/proc`),
+/// nothing is removed.
+fn remove_stale_temp_files(dir: &Path, file_name: &str) {
+    let proc_dir = Path::new("/proc");
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    if !proc_dir.is_dir() {
+        return;
+    }
+    let prefix = format!(".{file_name}.");
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(pid) = name
+            .to_str()
+            .and_then(|n| n.strip_prefix(&prefix))
+            .and_then(|n| n.strip_suffix(".tmp"))
+            .and_then(|p| p.parse::<u32>().ok())
+        else {
+            continue;
+        };
+        if pid != std::process::id() && !proc_dir.join(pid.to_string()).exists() {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
+}
+
 /// Writes the log to `path` atomically (temporary file in the same directory, fsync,
 /// rename).
 pub fn write_mcap(path: &Path, log: &McapLog<'_>) -> Result<(), SimError> {
@@ -491,11 +527,8 @@ pub fn write_mcap_until(
     let file_name = path
         .file_name()
         .ok_or_else(|| invalid("path", format!("`{}` names no file", path.display())))?;
-    let tmp = dir.join(format!(
-        ".{}.{}.tmp",
-        file_name.to_string_lossy(),
-        std::process::id()
-    ));
+    let tmp = dir.join(temp_name(&file_name.to_string_lossy(), std::process::id()));
+    remove_stale_temp_files(&dir, &file_name.to_string_lossy());
     let result = (|| -> Result<(), SimError> {
         let f = std::fs::File::create(&tmp).map_err(io_err(path))?;
         let mut w =
@@ -516,4 +549,42 @@ pub fn write_mcap_until(
         let _ = std::fs::remove_file(&tmp);
     }
     result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The pid of a process that has ended (a child, waited for).
+    fn ended_pid() -> u32 {
+        let mut child = std::process::Command::new("true").spawn().unwrap();
+        let pid = child.id();
+        child.wait().unwrap();
+        pid
+    }
+
+    #[test]
+    fn a_killed_writers_temp_file_is_removed_by_the_next_write_and_a_live_ones_kept() {
+        if !Path::new("/proc").is_dir() {
+            return; // processes cannot be looked up: nothing is removed (the doc's rule)
+        }
+        let dir = std::env::temp_dir().join(format!("selfmanip-stale-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let dead = temp_name("run.mcap", ended_pid());
+        let live = temp_name("run.mcap", 1); // init runs as long as the system does
+        let other = temp_name("other.mcap", ended_pid());
+        for name in [&dead, &live, &other, &"run.mcap".to_string()] {
+            std::fs::write(dir.join(name), b"x").unwrap();
+        }
+        remove_stale_temp_files(&dir, "run.mcap");
+        let mut left: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        left.sort();
+        let mut want = vec![live, other, "run.mcap".to_string()];
+        want.sort();
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(left, want);
+    }
 }

@@ -121,13 +121,10 @@ pub fn sample_labelled(
         .map(|k| k as f64 * dt_s)
         .chain((t_end > n as f64 * dt_s).then_some(t_end));
     for t in times {
-        // the last segment that contains t (a reset at t belongs to the segment after it)
-        let Some(seg) = exec
-            .segments
-            .iter()
-            .rev()
-            .find(|s| s.t0 <= t && !s.dense.is_empty())
-        else {
+        // the last segment that contains t: a reset at t belongs to the segment after it, even
+        // one of zero duration (a run that ends at its final time right after an event ends
+        // in the mode and the state after the reset, not in the slide or stance before it)
+        let Some(seg) = exec.segments.iter().rev().find(|s| s.t0 <= t) else {
             continue;
         };
         seg.eval(t.min(seg.t1), &mut y);
