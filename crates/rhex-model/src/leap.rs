@@ -37,7 +37,7 @@ use selfmanip_hybrid::{EventKind, Execution, Termination};
 use selfmanip_sim::behaviour::{ActuatorSpec, Behaviour, Motion, Torque, Trigger};
 use selfmanip_sim::events::{event_records_labelled, EventRecord};
 use selfmanip_sim::expr::Scalar;
-use selfmanip_sim::outcome::{Outcome, WordOptions};
+use selfmanip_sim::outcome::{BodyState, Outcome, WordOptions};
 use selfmanip_sim::terrain::TerrainSpec;
 use selfmanip_sim::RunStatus;
 use selfmanip_sim::{InitialState, Scenario, SimOptions};
@@ -188,6 +188,37 @@ impl LegActuator {
             motors_per_leg,
         }
     }
+
+    /// Checks the geared motor's fields (errors name them: `gear_ratio`, `current_limit_a`,
+    /// `motors_per_leg`); the saturated torque has none.
+    pub fn validate(&self) -> Result<(), RhexError> {
+        let LegActuator::GearedMotor {
+            gear_ratio,
+            current_limit_a,
+            motors_per_leg,
+        } = *self
+        else {
+            return Ok(());
+        };
+        let bad = |field: &str, reason: String| {
+            Err(RhexError::InvalidValue {
+                field: field.into(),
+                reason,
+            })
+        };
+        for (field, v) in [
+            ("gear_ratio", gear_ratio),
+            ("current_limit_a", current_limit_a),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(field, format!("must be finite and positive, got {v}"));
+            }
+        }
+        if motors_per_leg == 0 {
+            return bad("motors_per_leg", "must be at least 1".into());
+        }
+        Ok(())
+    }
 }
 
 /// What the coordination time `t2` times (the two readings of the thesis; see
@@ -331,36 +362,10 @@ impl Strategy {
 }
 
 /// The body state at the apex of flight, in a z-**up** frame whose origin is the body centre
-/// at the start (x forward): what chapter 3 reports.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Apex {
-    pub t_s: f64,
-    /// Forward displacement of the body centre from the start.
-    pub x_m: f64,
-    /// Height of the body centre above the ground under the start (positive up).
-    pub z_m: f64,
-    /// Pitch, nose-up positive.
-    pub phi_rad: f64,
-    pub xdot_m_s: f64,
-    pub zdot_m_s: f64,
-    pub phidot_rad_s: f64,
-}
-
-impl Apex {
-    /// The state in the order of its fields: `[t, x, z, φ, ẋ, ż, φ̇]` (s, m, m, rad, m/s,
-    /// m/s, rad/s).
-    pub fn to_array(&self) -> [f64; 7] {
-        [
-            self.t_s,
-            self.x_m,
-            self.z_m,
-            self.phi_rad,
-            self.xdot_m_s,
-            self.zdot_m_s,
-            self.phidot_rad_s,
-        ]
-    }
-}
+/// at the start, times from the front motor's start: what chapter 3 reports (`x_m`: forward
+/// displacement of the body centre from the start; `z_m`: its height above the ground under
+/// the start, positive up; `phi_rad`: pitch, nose-up positive).
+pub type Apex = BodyState;
 
 /// The outcome of one leap: the generic run's [`Outcome`] (its `status` is the engine's
 /// [`RunStatus`], named as everywhere: `apex`, `final_time`, `zeno`,
@@ -472,28 +477,7 @@ impl LeapConfig {
                 return bad("toe_stub_rad", format!("must lie in [0, π), got {a}"));
             }
         }
-        if let LegActuator::GearedMotor {
-            gear_ratio,
-            current_limit_a,
-            motors_per_leg,
-        } = self.actuator
-        {
-            if !gear_ratio.is_finite() || gear_ratio <= 0.0 {
-                return bad(
-                    "gear_ratio",
-                    format!("must be finite and positive, got {gear_ratio}"),
-                );
-            }
-            if !current_limit_a.is_finite() || current_limit_a <= 0.0 {
-                return bad(
-                    "current_limit_a",
-                    format!("must be finite and positive, got {current_limit_a}"),
-                );
-            }
-            if motors_per_leg == 0 {
-                return bad("motors_per_leg", "must be at least 1".into());
-            }
-        }
+        self.actuator.validate()?;
         Ok(self.terrain.validate()?)
     }
 }
