@@ -14,10 +14,10 @@ use rhex_model::analysis::standing::*;
 use rhex_model::quasistatic_map::{quasi_static_pose, Support};
 use rhex_model::{LegShape, Rhex, RhexParams};
 use selfmanip_core::kinematics::Kinematics;
-use selfmanip_core::{ContactMode, Data, FlatGround, Model, RobotDescription};
+use selfmanip_core::{Data, FlatGround};
 use selfmanip_sim::analysis::leg_tail::*;
 use selfmanip_sim::analysis::standing::*;
-use selfmanip_sim::analysis::{contact_gaps, free_motion_basis, solve_contact_pose};
+use selfmanip_sim::analysis::{free_motion_basis, solve_contact_pose};
 use std::f64::consts::PI;
 
 fn rhex(shape: LegShape) -> Rhex {
