@@ -191,7 +191,7 @@ fn analysis_takeoff_speed<'py>(
 ) -> Obj<'py> {
     guard(|| {
         let model = takeoff_model(params, leg(leg_kind)?)?;
-        let line = pc::TorqueSpeedLine::xrhex(gear_ratio).map_err(err)?;
+        let line = pc::xrhex_line(gear_ratio).map_err(err)?;
         to_py(
             py,
             &pc::rear_takeoff_speed(&model, theta2, phi, phi_dot, &line).map_err(err)?,
@@ -216,7 +216,7 @@ fn analysis_optimal_gear_ratio(
             phi_dot,
             theta2_range,
             ratio_range,
-            &pc::TorqueSpeedLine::xrhex,
+            &pc::xrhex_line,
         )
         .map_err(err)
     })

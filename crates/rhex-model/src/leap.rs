@@ -37,7 +37,7 @@ use selfmanip_hybrid::{EventKind, Execution, Termination};
 use selfmanip_sim::behaviour::{ActuatorSpec, Behaviour, Motion, Torque, Trigger};
 use selfmanip_sim::events::{event_records_labelled, EventRecord};
 use selfmanip_sim::expr::Scalar;
-use selfmanip_sim::outcome::{Outcome, WordOptions};
+use selfmanip_sim::outcome::{BodyState, Outcome, WordOptions};
 use selfmanip_sim::terrain::TerrainSpec;
 use selfmanip_sim::RunStatus;
 use selfmanip_sim::{InitialState, Scenario, SimOptions};
@@ -188,6 +188,37 @@ impl LegActuator {
             motors_per_leg,
         }
     }
+
+    /// Checks the geared motor's fields (errors name them: `gear_ratio`, `current_limit_a`,
+    /// `motors_per_leg`); the saturated torque has none.
+    pub fn validate(&self) -> Result<(), RhexError> {
+        let LegActuator::GearedMotor {
+            gear_ratio,
+            current_limit_a,
+            motors_per_leg,
+        } = *self
+        else {
+            return Ok(());
+        };
+        let bad = |field: &str, reason: String| {
+            Err(RhexError::InvalidValue {
+                field: field.into(),
+                reason,
+            })
+        };
+        for (field, v) in [
+            ("gear_ratio", gear_ratio),
+            ("current_limit_a", current_limit_a),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(field, format!("must be finite and positive, got {v}"));
+            }
+        }
+        if motors_per_leg == 0 {
+            return bad("motors_per_leg", "must be at least 1".into());
+        }
+        Ok(())
+    }
 }
 
 /// What the coordination time `t2` times (the two readings of the thesis; see
@@ -331,36 +362,10 @@ impl Strategy {
 }
 
 /// The body state at the apex of flight, in a z-**up** frame whose origin is the body centre
-/// at the start (x forward): what chapter 3 reports.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Apex {
-    pub t_s: f64,
-    /// Forward displacement of the body centre from the start.
-    pub x_m: f64,
-    /// Height of the body centre above the ground under the start (positive up).
-    pub z_m: f64,
-    /// Pitch, nose-up positive.
-    pub phi_rad: f64,
-    pub xdot_m_s: f64,
-    pub zdot_m_s: f64,
-    pub phidot_rad_s: f64,
-}
-
-impl Apex {
-    /// The state in the order of its fields: `[t, x, z, φ, ẋ, ż, φ̇]` (s, m, m, rad, m/s,
-    /// m/s, rad/s).
-    pub fn to_array(&self) -> [f64; 7] {
-        [
-            self.t_s,
-            self.x_m,
-            self.z_m,
-            self.phi_rad,
-            self.xdot_m_s,
-            self.zdot_m_s,
-            self.phidot_rad_s,
-        ]
-    }
-}
+/// at the start, times from the front motor's start: what chapter 3 reports (`x_m`: forward
+/// displacement of the body centre from the start; `z_m`: its height above the ground under
+/// the start, positive up; `phi_rad`: pitch, nose-up positive).
+pub type Apex = BodyState;
 
 /// The outcome of one leap: the generic run's [`Outcome`] (its `status` is the engine's
 /// [`RunStatus`], named as everywhere: `apex`, `final_time`, `zeno`,
@@ -472,28 +477,7 @@ impl LeapConfig {
                 return bad("toe_stub_rad", format!("must lie in [0, π), got {a}"));
             }
         }
-        if let LegActuator::GearedMotor {
-            gear_ratio,
-            current_limit_a,
-            motors_per_leg,
-        } = self.actuator
-        {
-            if !gear_ratio.is_finite() || gear_ratio <= 0.0 {
-                return bad(
-                    "gear_ratio",
-                    format!("must be finite and positive, got {gear_ratio}"),
-                );
-            }
-            if !current_limit_a.is_finite() || current_limit_a <= 0.0 {
-                return bad(
-                    "current_limit_a",
-                    format!("must be finite and positive, got {current_limit_a}"),
-                );
-            }
-            if motors_per_leg == 0 {
-                return bad("motors_per_leg", "must be at least 1".into());
-            }
-        }
+        self.actuator.validate()?;
         Ok(self.terrain.validate()?)
     }
 }
@@ -1231,90 +1215,6 @@ impl LeapPreset {
     }
 }
 
-#[cfg(test)]
-mod preset_tests {
-    use super::*;
-    use selfmanip_hybrid::budget::NEVER;
-
-    /// What a leap's run is, to the bit: status, word, apex, motor start, the engine's
-    /// termination and step count, and every event's time, kind and state.
-    fn fingerprint(r: &LeapResult) -> String {
-        format!(
-            "{:?} {:?} {:?} {:?} {:?} {} {:?}",
-            r.status,
-            r.word,
-            r.apex,
-            r.motor_t2_s.to_bits(),
-            r.execution.termination,
-            r.execution.steps,
-            r.execution.events
-        )
-    }
-
-    /// A preset reused over points (t2 both ways of zero, gear ratios, current limits, the
-    /// touchdown-timed search) runs the leaps that fresh one-shot leaps of those points run,
-    /// bit for bit; on legs whose armature follows the gear ratio too (rebuilt there).
-    #[test]
-    fn a_reused_preset_runs_the_leaps_of_fresh_ones() {
-        let geared = |g: f64, i: f64| LegActuator::GearedMotor {
-            gear_ratio: g,
-            current_limit_a: i,
-            motors_per_leg: 2,
-        };
-        let mut rotors = leap_params();
-        rotors.m_l = 0.126;
-        rotors.I_l = 0.00092;
-        let cases = [
-            (leap_params(), T2Reference::MotorStart, "-+"),
-            (leap_params(), T2Reference::Touchdown, "++"),
-            (rotors, T2Reference::MotorStart, "+-"),
-        ];
-        for (params, t2_reference, strategy) in cases {
-            let cfg = LeapConfig {
-                strategy: strategy.parse().unwrap(),
-                t2_reference,
-                ..LeapConfig::default()
-            };
-            let preset = LeapPreset::new(&params, &cfg).unwrap();
-            for (t2, actuator) in [
-                (0.03, geared(28.0, 20.0)),
-                (-0.05, geared(28.0, 20.0)),
-                (0.02, geared(33.0, 20.0)),
-                (-0.01, geared(24.0, 12.0)),
-                (0.0, LegActuator::SaturatedTorque),
-            ] {
-                let point = LeapConfig {
-                    t2_s: t2,
-                    actuator: actuator.clone(),
-                    ..cfg.clone()
-                };
-                let fresh = simulate_leap(&params, &point).unwrap();
-                let reused = preset.run_at(t2, &actuator, &NEVER).unwrap();
-                assert_eq!(
-                    fingerprint(&reused),
-                    fingerprint(&fresh),
-                    "{strategy} t2 = {t2} {actuator:?}"
-                );
-            }
-        }
-    }
-
-    /// A point's bad value is refused as a fresh leap refuses it, naming the field.
-    #[test]
-    fn a_reused_preset_checks_its_points() {
-        let preset = LeapPreset::new(&leap_params(), &LeapConfig::default()).unwrap();
-        let bad = LegActuator::default().with_gear_ratio(-3.0);
-        match preset.run_at(0.0, &bad, &NEVER) {
-            Err(e) => assert_eq!(e.field(), Some("gear_ratio"), "{e}"),
-            other => panic!("{other:?}"),
-        }
-        match preset.run_at(f64::NAN, &LegActuator::default(), &NEVER) {
-            Err(e) => assert_eq!(e.field(), Some("t2_s"), "{e}"),
-            other => panic!("{other:?}"),
-        }
-    }
-}
-
 /// Runs one leap (see the module documentation) and reports its apex and word.
 ///
 /// Errors are bad parameters (typed, naming the field) and failures of the engine that
@@ -1678,68 +1578,4 @@ fn servo_damping_expr(
         "2 * sqrt(kp_hold * (leg_inertia_kg_m2 + {armature}) / leg.stall_torque_n_m) \
          * leg.stall_torque_n_m"
     ))
-}
-
-#[cfg(test)]
-mod start_pose_tests {
-    use super::*;
-
-    /// The gap of leg `i`'s toe with that leg turned to `theta` from `q0` (m).
-    fn gap(rhex: &Rhex, terrain: &TerrainSpec, q0: &[f64], i: usize, theta: f64) -> f64 {
-        let mut q = q0.to_vec();
-        q[i] = theta;
-        let mut kin = Kinematics::default();
-        kin.compute(&rhex.model, &q, &vec![0.0; q.len()]);
-        selfmanip_core::contact::contact_geometry(&rhex.model, &kin, terrain, rhex.site(2 * i + 1))
-            .gap_m
-    }
-
-    /// The waiting legs are held the clearance above the angle where the toe touches the
-    /// ground (gap zero, checked on the kinematics directly), on flat ground and on an
-    /// incline; another clearance shifts them by the difference.
-    #[test]
-    fn legs_wait_the_clearance_above_their_touchdown_angles() {
-        let params = leap_params();
-        let cfg = LeapConfig {
-            wait_clearance_rad: 0.731_234,
-            ..LeapConfig::default()
-        };
-        let rhex = leap_rhex(&params, &cfg).unwrap();
-        let q0 = leap_start_pose(&rhex, &cfg).unwrap();
-        let sign = [cfg.strategy.front.sign(), cfg.strategy.rear.sign()];
-        for i in 0..2 {
-            let touchdown = q0[i] + sign[i] * cfg.wait_clearance_rad;
-            assert!(
-                gap(&rhex, &cfg.terrain, &q0, i, touchdown).abs() < 1e-12,
-                "leg {i}"
-            );
-            assert!(
-                gap(&rhex, &cfg.terrain, &q0, i, q0[i]) > 1e-3,
-                "leg {i} waits clear"
-            );
-        }
-        let other = LeapConfig {
-            wait_clearance_rad: 0.5,
-            ..cfg.clone()
-        };
-        let moved = leap_start_pose(&rhex, &other).unwrap();
-        for i in 0..2 {
-            let shift = moved[i] - q0[i];
-            assert!(
-                (shift - sign[i] * (0.731_234 - 0.5)).abs() < 1e-14,
-                "leg {i}: {shift}"
-            );
-        }
-        let incline = LeapConfig {
-            terrain: TerrainSpec::Incline { slope_rad: 0.05 },
-            ..cfg.clone()
-        };
-        let low = leap_start_pose(&rhex, &incline).unwrap();
-        assert!(low.iter().zip(&q0).any(|(a, b)| a != b));
-        for i in 0..2 {
-            let touchdown = low[i] + sign[i] * cfg.wait_clearance_rad;
-            let g = gap(&rhex, &incline.terrain, &low, i, touchdown);
-            assert!(g.abs() < 1e-12, "leg {i} on the incline: {g}");
-        }
-    }
 }

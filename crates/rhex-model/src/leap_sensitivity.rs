@@ -1,6 +1,7 @@
 //! Sensitivities of RHex leaps to named parameters and to the start state: the apex the
-//! leap reports, differentiated through every event of its execution
-//! ([`selfmanip_hybrid::sensitivity::execution_sensitivity_columns`]).
+//! leap reports, differentiated through every event of its execution by the generic named
+//! sensitivities ([`selfmanip_sim::sensitivity`]); what is RHex's is which engine parameters
+//! stand behind a leap's names and the apex in chapter 3's frame.
 //!
 //! **Parameters** (by the names a leap already uses):
 //! - `t2_s` (alias `t2`): the rear motor's start relative to the front's. The execution
@@ -54,10 +55,12 @@ use crate::{RhexError, RhexParams};
 use nalgebra::DMatrix;
 use selfmanip_core::tangent::BodyParameter;
 use selfmanip_hybrid::budget::NEVER;
-use selfmanip_hybrid::sensitivity::{
-    execution_sensitivity_columns, ColumnSensitivity, Parameter, SaltationStatus,
-};
+use selfmanip_hybrid::sensitivity::{ColumnSensitivity, Parameter};
 use selfmanip_hybrid::{EventKind, Termination};
+pub use selfmanip_sim::sensitivity::EventSaltation;
+use selfmanip_sim::sensitivity::{
+    end_event_time_gradient, event_saltations, named_sensitivity_columns, time_event_jumps,
+};
 
 /// The apex columns a leap reports, in order (the sweep's column names).
 pub const APEX_COLUMNS: [&str; 7] = [
@@ -79,17 +82,6 @@ pub const SENSITIVITY_PARAMETERS: [&str; 6] = [
     "I_b",
     "leg_armature_kg_m2",
 ];
-
-/// One event's saltation matrix over `(q, q̇)`.
-#[derive(Debug, Clone, PartialEq)]
-pub struct EventSaltation {
-    /// Time relative to the front leg's start (s), as in [`crate::leap::LeapResult::events`].
-    pub t_s: f64,
-    /// `Defined`, or why the saltation is not.
-    pub status: SaltationStatus,
-    /// `Ξ` (`2nq × 2nq`) when defined.
-    pub saltation: Option<DMatrix<f64>>,
-}
 
 /// A leap with the derivatives of its apex.
 #[derive(Debug, Clone)]
@@ -289,16 +281,13 @@ pub fn leap_with_sensitivity_from(
         event_times: Vec::new(),
         result,
     };
-    let (engine, w) = engine_parameters(&ps, params, cfg, model, dirs.ncols())?;
+    let named = ps
+        .iter()
+        .map(|&p| engine_terms(p, params, cfg, model))
+        .collect::<Result<Vec<_>, _>>()?;
     let exec = &out.result.execution;
-    let s = match execution_sensitivity_columns(model, &cfg.terrain, exec, &dirs, &engine) {
-        Ok(mut s) => {
-            s.columns = s.columns.map(|c| c * &w);
-            for c in s.event_time_columns.iter_mut().flatten() {
-                *c = &*c * &w;
-            }
-            s
-        }
+    let s = match named_sensitivity_columns(model, &cfg.terrain, exec, &dirs, &named) {
+        Ok(s) => s,
         Err(e) => {
             out.reason = Some(e.to_string());
             return Ok(out);
@@ -311,18 +300,7 @@ pub fn leap_with_sensitivity_from(
         return Ok(out);
     }
     let x = s.columns.as_ref().expect("checked above");
-    let dt = s
-        .event_time_columns
-        .last()
-        .and_then(|t| t.clone())
-        .filter(|_| {
-            out.result
-                .execution
-                .events
-                .last()
-                .is_some_and(|e| e.kind == EventKind::Apex)
-        });
-    let Some(dt) = dt else {
+    let Some(dt) = end_event_time_gradient(&s, &out.result.execution, EventKind::Apex) else {
         out.reason = Some("the apex event has no time gradient".into());
         return Ok(out);
     };
@@ -389,81 +367,17 @@ fn run_from(preset: &LeapPreset, start_offset: Option<&[f64]>) -> Result<LeapRes
     Ok(preset.result(run.execution, run.outcome, t2, front_start))
 }
 
-/// The engine's parameters behind the leap's `ps` ([`engine_terms`]), and the matrix that
-/// sums their columns (after `nd` start-state directions, kept as they are) into the leap's.
-fn engine_parameters(
-    ps: &[LeapParameter],
-    params: &RhexParams,
-    cfg: &LeapConfig,
-    model: &selfmanip_core::Model,
-    nd: usize,
-) -> Result<(Vec<Parameter>, DMatrix<f64>), RhexError> {
-    let mut engine: Vec<Parameter> = Vec::new();
-    let mut weights: Vec<(usize, usize, f64)> = Vec::new();
-    for (k, &p) in ps.iter().enumerate() {
-        for (e, w) in engine_terms(p, params, cfg, model)? {
-            let i = engine.iter().position(|x| *x == e).unwrap_or_else(|| {
-                engine.push(e);
-                engine.len() - 1
-            });
-            weights.push((i, k, w));
-        }
-    }
-    let mut w = DMatrix::zeros(nd + engine.len(), nd + ps.len());
-    for j in 0..nd {
-        w[(j, j)] = 1.0;
-    }
-    for &(i, k, wt) in &weights {
-        w[(nd + i, nd + k)] += wt;
-    }
-    Ok((engine, w))
-}
-
 /// Why the apex's derivatives of `result` are not defined, if they are not: no apex ends
-/// the run, or an event, a time event or a rolling/point switch has no saltation, or a
-/// terrain feature changes.
+/// the run, or the generic reasons ([`selfmanip_sim::sensitivity::undefined_reason`]).
 fn undefined_reason(s: &ColumnSensitivity, result: &LeapResult) -> Option<String> {
     let exec = &result.execution;
-    let offset = result.time_offset_s;
     if exec.termination != Termination::Apex || result.apex.is_none() {
         Some(
             "the leap did not end at an apex (sensitivities are taken at the apex that ends a run)"
                 .to_string(),
         )
-    } else if let Some(e) = s
-        .events
-        .iter()
-        .find(|e| e.status != SaltationStatus::Defined)
-    {
-        Some(format!(
-            "{:?} at t = {} s: {:?}",
-            e.kind,
-            e.t - offset,
-            e.status
-        ))
-    } else if let Some(e) = s
-        .time_events
-        .iter()
-        .find(|e| e.status != SaltationStatus::Defined)
-    {
-        Some(format!(
-            "time event at t = {} s: {:?}",
-            e.t - offset,
-            e.status
-        ))
-    } else if let Some(sw) = s
-        .touch_switches
-        .iter()
-        .find(|w| w.status != SaltationStatus::Defined)
-    {
-        Some(format!(
-            "rolling/point switch at t = {} s: {:?}",
-            sw.t, sw.status
-        ))
-    } else if s.columns.is_none() {
-        Some("the execution's sensitivities are not defined (a terrain feature change)".into())
     } else {
-        None
+        selfmanip_sim::sensitivity::undefined_reason(s, result.time_offset_s)
     }
 }
 
@@ -478,15 +392,7 @@ fn record_events(
     dstart0_dt2: f64,
 ) {
     let offset = out.result.time_offset_s;
-    out.events = s
-        .events
-        .iter()
-        .map(|e| EventSaltation {
-            t_s: e.t - offset,
-            status: e.status.clone(),
-            saltation: e.saltation.clone(),
-        })
-        .collect();
+    out.events = event_saltations(s, offset);
     let dstart0 = |j: usize| match (j >= nd).then(|| ps[j - nd]) {
         Some(LeapParameter::T2) => dstart0_dt2,
         _ => 0.0,
@@ -499,9 +405,5 @@ fn record_events(
                 .map(|c| (0..c.len()).map(|j| c[j] - dstart0(j)).collect())
         })
         .collect();
-    out.time_events = s
-        .time_events
-        .iter()
-        .map(|e| (e.t - offset, e.jump))
-        .collect();
+    out.time_events = time_event_jumps(s, offset);
 }

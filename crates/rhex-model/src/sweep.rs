@@ -20,11 +20,10 @@
 //! (current limit and motor count from the base actuator when it is a geared motor, else
 //! the defaults: 20 A, two motors per planar leg); `None` keeps the base actuator. The
 //! reported gear ratio is the one used, NaN for [`LegActuator::SaturatedTorque`].
-use crate::leap::{
-    simulate_leap, LeapConfig, LeapResult, LegActuator, Presets, Strategy,
-};
+use crate::leap::{simulate_leap, LeapConfig, LeapResult, LegActuator, Presets, Strategy};
 use crate::{RhexError, RhexParams};
 use selfmanip_hybrid::budget::NEVER;
+use selfmanip_sim::path::{deserialize_with, serde_field_names};
 pub use selfmanip_sim::sweep::panic_message;
 use selfmanip_sim::sweep::run_parallel;
 use serde_json::{Map, Value};
@@ -151,58 +150,19 @@ pub fn actuator_field_names() -> &'static [&'static str] {
 /// `leg_armature_kg_m2`).
 pub fn sweepable_names() -> Vec<String> {
     let mut names: Vec<String> = Vec::new();
-    names.extend(serde_fields::<RhexParams>().iter().map(|s| s.to_string()));
     names.extend(
-        serde_fields::<LeapConfig>()
+        serde_field_names::<RhexParams>()
+            .iter()
+            .map(|s| s.to_string()),
+    );
+    names.extend(
+        serde_field_names::<LeapConfig>()
             .iter()
             .filter(|k| !OWN_COLUMNS.contains(k))
             .map(|s| s.to_string()),
     );
     names.extend(ACTUATOR_FIELDS.iter().map(|s| s.to_string()));
     names
-}
-
-/// The field names a struct's derived `Deserialize` reads, as it hands them to
-/// `deserialize_struct` (serde's own list: nothing to keep in step by hand).
-fn serde_fields<T: serde::de::DeserializeOwned>() -> &'static [&'static str] {
-    use serde::de::{self, Visitor};
-    #[derive(Debug)]
-    struct Caught(Option<&'static [&'static str]>);
-    impl std::fmt::Display for Caught {
-        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-            f.write_str("field names caught")
-        }
-    }
-    impl std::error::Error for Caught {}
-    impl de::Error for Caught {
-        fn custom<M: std::fmt::Display>(_: M) -> Self {
-            Caught(None)
-        }
-    }
-    struct Probe;
-    impl<'de> de::Deserializer<'de> for Probe {
-        type Error = Caught;
-        fn deserialize_any<V: Visitor<'de>>(self, _: V) -> Result<V::Value, Caught> {
-            Err(Caught(None))
-        }
-        fn deserialize_struct<V: Visitor<'de>>(
-            self,
-            _: &'static str,
-            fields: &'static [&'static str],
-            _: V,
-        ) -> Result<V::Value, Caught> {
-            Err(Caught(Some(fields)))
-        }
-        serde::forward_to_deserialize_any! {
-            bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string bytes
-            byte_buf option unit unit_struct newtype_struct seq tuple tuple_struct map enum
-            identifier ignored_any
-        }
-    }
-    match T::deserialize(Probe) {
-        Err(Caught(Some(fields))) => fields,
-        _ => &[],
-    }
 }
 
 /// Checks that every name is sweepable; the error names the first unknown one.
@@ -224,29 +184,9 @@ fn merged<T: serde::de::DeserializeOwned>(
     base: &Value,
     overrides: &[(&String, &Value)],
 ) -> Result<T, RhexError> {
-    let with = |set: &[(&String, &Value)]| {
-        let mut v = base.clone();
-        for (k, val) in set {
-            v[k.as_str()] = (*val).clone();
-        }
-        serde_json::from_value::<T>(v)
-    };
-    with(overrides).map_err(|e| {
-        let culprit = overrides.iter().find_map(|o| {
-            with(std::slice::from_ref(o))
-                .err()
-                .map(|e1| (o.0.clone(), e1))
-        });
-        match culprit {
-            Some((field, e1)) => RhexError::Unreadable {
-                field,
-                reason: e1.to_string(),
-            },
-            None => RhexError::Unreadable {
-                field: "overrides".into(),
-                reason: e.to_string(),
-            },
-        }
+    deserialize_with(base, overrides).map_err(|(field, reason)| RhexError::Unreadable {
+        field: field.unwrap_or_else(|| "overrides".into()),
+        reason,
     })
 }
 
@@ -273,9 +213,9 @@ pub fn point_inputs(
             // robot has exactly its pushing pairs, so the name sets those
             if k == LEAP_PAIRS {
                 on_c.push((k, v));
-            } else if serde_fields::<RhexParams>().contains(&k.as_str()) {
+            } else if serde_field_names::<RhexParams>().contains(&k.as_str()) {
                 on_p.push((k, v));
-            } else if serde_fields::<LeapConfig>().contains(&k.as_str())
+            } else if serde_field_names::<LeapConfig>().contains(&k.as_str())
                 && !OWN_COLUMNS.contains(&k.as_str())
             {
                 on_c.push((k, v));
@@ -321,38 +261,13 @@ pub fn point_inputs(
 fn validate_inputs(params: &RhexParams, cfg: &LeapConfig) -> Result<(), RhexError> {
     params.validate()?;
     cfg.terrain.validate()?;
-    let bad = |field: &str, reason: String| {
-        Err(RhexError::InvalidValue {
-            field: field.into(),
-            reason,
-        })
-    };
     if !cfg.t2_s.is_finite() {
-        return bad("t2_s", format!("must be finite, got {}", cfg.t2_s));
+        return Err(RhexError::InvalidValue {
+            field: "t2_s".into(),
+            reason: format!("must be finite, got {}", cfg.t2_s),
+        });
     }
-    if let LegActuator::GearedMotor {
-        gear_ratio,
-        current_limit_a,
-        motors_per_leg,
-    } = cfg.actuator
-    {
-        if !(gear_ratio.is_finite() && gear_ratio > 0.0) {
-            return bad(
-                "gear_ratio",
-                format!("must be finite and positive, got {gear_ratio}"),
-            );
-        }
-        if !(current_limit_a.is_finite() && current_limit_a > 0.0) {
-            return bad(
-                "current_limit_a",
-                format!("must be finite and positive, got {current_limit_a}"),
-            );
-        }
-        if motors_per_leg == 0 {
-            return bad("motors_per_leg", "must be at least 1".into());
-        }
-    }
-    Ok(())
+    cfg.actuator.validate()
 }
 
 /// The status string of an error (see [`SweepRow::status`]).

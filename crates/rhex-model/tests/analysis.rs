@@ -14,43 +14,16 @@ use rhex_model::analysis::standing::*;
 use rhex_model::quasistatic_map::{quasi_static_pose, Support};
 use rhex_model::{LegShape, Rhex, RhexParams};
 use selfmanip_core::kinematics::Kinematics;
-use selfmanip_core::{ContactMode, Data, FlatGround, Model, RobotDescription};
+use selfmanip_core::{Data, FlatGround};
 use selfmanip_sim::analysis::leg_tail::*;
 use selfmanip_sim::analysis::standing::*;
-use selfmanip_sim::analysis::{contact_gaps, free_motion_basis, solve_contact_pose};
+use selfmanip_sim::analysis::{free_motion_basis, solve_contact_pose};
 use std::f64::consts::PI;
 
 fn rhex(shape: LegShape) -> Rhex {
     let mut p = RhexParams::default();
     p.leg_shape = shape;
     Rhex::new(p).unwrap()
-}
-
-fn quadruped() -> Model {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../tests/data/quadruped.toml"
-    );
-    RobotDescription::from_file(std::path::Path::new(path))
-        .unwrap()
-        .build()
-        .unwrap()
-}
-
-/// The quadruped standing on both feet: the mode, and the pose from a fixed posture with
-/// coordinates 5 and 6 (body height and pitch) solved onto the ground.
-fn double_stance(m: &Model) -> (ContactMode, Vec<f64>) {
-    let mode = ContactMode::parse_names(m, "fore_foot,hind_foot").unwrap();
-    let feet: Vec<usize> = mode.active().collect();
-    let q = solve_contact_pose(
-        m,
-        &FlatGround,
-        &feet,
-        &[5, 6],
-        &[0.4, -0.8, -0.3, 0.7, 0.0, -0.3, 0.0],
-    )
-    .unwrap();
-    (mode, q)
 }
 
 fn deg(x: f64) -> f64 {
@@ -195,47 +168,6 @@ fn torque_split_4_48_4_49() {
         );
         assert!((tm - printed).abs() < 1e-9, "(4.48): {tm} vs {printed}");
     }
-}
-
-/// The standing controller on the non-RHex quadruped (both feet sticking, one internal force,
-/// three free motions): the split comes from the free motions, `δ` decays monotonically and
-/// `ε` decreases — the Lyapunov properties of (4.53)–(4.54) for a different robot.
-#[test]
-fn standing_controller_runs_on_the_quadruped() {
-    let m = quadruped();
-    let (mode, q0) = double_stance(&m);
-    let split = TorqueSplit::from_free_motion(&m, &FlatGround, mode, &q0).unwrap();
-    assert_eq!(split.n_mean, 3);
-    // T orthogonal
-    assert!((&split.t * split.t.transpose() - DMatrix::identity(4, 4)).norm() < 1e-10);
-    let gains = StandingGains {
-        kappa_m: 0.02,
-        ..Default::default()
-    };
-    let tr = simulate_standing(
-        &m,
-        &FlatGround,
-        mode,
-        &q0,
-        &[2.0],
-        &split,
-        &gains,
-        0.01,
-        800,
-    )
-    .unwrap();
-    for w in tr.delta.windows(2) {
-        assert!(w[1] <= w[0] * (1.0 + 1e-9) + 1e-15);
-    }
-    let (e0, e1) = (tr.epsilon[0], *tr.epsilon.last().unwrap());
-    println!(
-        "quadruped: ε {e0:.3e} → {e1:.3e}, δ {:.3e} → {:.3e}",
-        tr.delta[0],
-        tr.delta.last().unwrap()
-    );
-    assert!(*tr.delta.last().unwrap() < 1e-6 * tr.delta[0]);
-    assert!(e1 < e0);
-    assert!(tr.max_gap_m < 1e-6);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -623,7 +555,7 @@ fn result_c3_single_leg_pitch_dynamics() {
 #[test]
 fn result_c4_takeoff_speed_bound() {
     let p = RhexParams::default();
-    let line = TorqueSpeedLine::xrhex(23.0).unwrap();
+    let line = xrhex_line(23.0).unwrap();
     let stick = takeoff_model(None, TakeoffLeg::Stick).unwrap();
     let round = takeoff_model(None, TakeoffLeg::Rolling).unwrap();
     let bs = rear_takeoff_speed(&stick, 0.0, 0.0, 0.0, &line)
@@ -697,10 +629,10 @@ fn result_c4_takeoff_speed_bound() {
 fn fig_4_11_optimal_gear_ratio() {
     let p = RhexParams::default();
     let round = takeoff_model(None, TakeoffLeg::Rolling).unwrap();
-    let mut cf = |g: f64| midstance_closed_form(&p, &TorqueSpeedLine::xrhex(g).unwrap(), 0.0, 0.5);
+    let mut cf = |g: f64| midstance_closed_form(&p, &xrhex_line(g).unwrap(), 0.0, 0.5);
     let (g_cf, v_cf) = golden_max(5.0, 100.0, 1e-7, &mut cf);
     let mut gen = |g: f64| {
-        rear_takeoff_speed(&round, 0.0, 0.0, 0.0, &TorqueSpeedLine::xrhex(g).unwrap())
+        rear_takeoff_speed(&round, 0.0, 0.0, 0.0, &xrhex_line(g).unwrap())
             .unwrap()
             .unwrap()
             .x_dot
@@ -711,13 +643,10 @@ fn fig_4_11_optimal_gear_ratio() {
     assert!((g_cf - g_gen).abs() < 1e-3 * g_cf);
     let range = [deg(-45.0), deg(45.0)];
     for phi in [deg(-5.0), 0.0, deg(5.0)] {
-        let (g_opt, v_opt) = optimal_gear_ratio(&round, phi, 0.0, range, [5.0, 80.0], &|g| {
-            TorqueSpeedLine::xrhex(g)
-        })
-        .unwrap();
-        let at = |g: f64| {
-            best_takeoff_over_theta2(&round, phi, 0.0, &TorqueSpeedLine::xrhex(g).unwrap(), range).1
-        };
+        let (g_opt, v_opt) =
+            optimal_gear_ratio(&round, phi, 0.0, range, [5.0, 80.0], &|g| xrhex_line(g)).unwrap();
+        let at =
+            |g: f64| best_takeoff_over_theta2(&round, phi, 0.0, &xrhex_line(g).unwrap(), range).1;
         println!("Fig 4.11 φ = {:.0}°: optimal G = {g_opt:.2} ({v_opt:.3} m/s) vs G = 23: {:.3} m/s (thesis: 25–30 vs 23)", phi.to_degrees(), at(23.0));
         assert!(v_opt >= at(g_opt - 2.0) - 1e-9 && v_opt >= at(g_opt + 2.0) - 1e-9);
         assert!((25.0..=30.0).contains(&g_opt), "the thesis's 25–30 window");
@@ -769,57 +698,6 @@ fn result_c5_legs_as_tails() {
     }
 }
 
-// ---------------------------------------------------------------------------------------
-// The same analyses on a non-RHex robot
-// ---------------------------------------------------------------------------------------
-
-/// Tail effect, liftoff speed LP and takeoff bound on the quadruped: momentum vs flight
-/// simulation; LP vs closed-form ratio and the dynamics at the optimum; takeoff root vs a
-/// direct evaluation of the normal force.
-#[test]
-fn analyses_run_on_the_quadruped() {
-    let m = quadruped();
-    let q0 = vec![0.4, -0.8, -0.3, 0.7, 0.0, 0.0, 0.0];
-    let hips = [0usize, 2];
-    let mom = revolution_rotation_momentum(&m, &q0, &hips, 128).unwrap();
-    let sim = revolution_rotation_dynamic(&m, &q0, &hips, 1.0, 2e-4).unwrap();
-    println!(
-        "quadruped tail: momentum {mom:.6} rad | simulation {:.6} rad",
-        sim.delta_phi
-    );
-    assert!((mom - sim.delta_phi).abs() < 2e-3 * mom.abs());
-    // liftoff LP in double stance, moving along the first free motion
-    let (mode, q) = double_stance(&m);
-    let y = selfmanip_sim::analysis::selector_rows(7, &[0, 2, 4]);
-    let h = free_motion_basis(&m, &FlatGround, mode, &q, &y).unwrap();
-    let dir: Vec<f64> = h.column(0).iter().cloned().collect();
-    let ls = liftoff_speed(&m, &FlatGround, mode, &q, &dir, &[0.0; 4]).unwrap();
-    if let Some(s) = ls.speed {
-        let ratio = (0..ls.a.len())
-            .filter(|&i| ls.b[i] < 0.0)
-            .map(|i| (ls.a[i] / -ls.b[i]).sqrt())
-            .fold(f64::INFINITY, f64::min);
-        assert!((s - ratio).abs() < 1e-6 * ratio);
-        println!("quadruped liftoff speed {s:.3} rad/s");
-    } else {
-        assert!(ls.b.iter().all(|&b| b >= 0.0));
-    }
-    // takeoff bound on the hind foot alone
-    let hind = m.contact_index("hind_foot").unwrap();
-    let single = ContactMode::with_defaults(&m, &[hind]).unwrap();
-    let qs = solve_contact_pose(&m, &FlatGround, &[hind], &[5], &q).unwrap();
-    let line = TorqueSpeedLine::new(40.0, 30.0).unwrap();
-    let b = takeoff_bound(&m, &FlatGround, single, &qs, 2, 0.0, &line).unwrap();
-    if let Some(b) = b {
-        println!(
-            "quadruped hind-foot takeoff: {:.3} rad/s, ẋ = {:.3} m/s",
-            b.leg_rate, b.x_dot
-        );
-        assert!(b.leg_rate > 0.0 && b.leg_rate <= 30.0);
-        assert!(contact_gaps(&m, &FlatGround, &[hind], &qs)[0].abs() < 1e-9);
-    }
-}
-
 /// Bad input gives typed errors naming the field.
 #[test]
 fn bad_input_is_rejected() {
@@ -829,13 +707,10 @@ fn bad_input_is_rejected() {
         other => panic!("unexpected {other:?}"),
     };
     assert_eq!(
-        field(TorqueSpeedLine::new(-1.0, 10.0).unwrap_err()),
+        field(TorqueSpeedLine::new(-1.0, 10.0).unwrap_err().into()),
         "stall_torque_n_m"
     );
-    assert_eq!(
-        field(TorqueSpeedLine::xrhex(f64::NAN).unwrap_err()),
-        "gear_ratio"
-    );
+    assert_eq!(field(xrhex_line(f64::NAN).unwrap_err()), "gear_ratio");
     assert_eq!(field(tail_rhex(None, 4).unwrap_err()), "pairs");
     let r = rhex(LegShape::HalfCircle);
     assert_eq!(field(max_sensor_pitch(&r, 2).unwrap_err()), "grid");

@@ -17,8 +17,9 @@
 //! | [`trajectory`] | samples of an execution from its own dense output |
 //! | [`mcap`] | MCAP logs that open in Foxglove: a frame per body and link, contacts, forces, modes, events |
 //! | [`periodic`] | periodic orbits of a scenario: Newton shooting on the apex section, Floquet multipliers |
+//! | [`sensitivity`] | derivatives of a run by named parameters (weighted sums of the engine's) and start directions |
 //! | [`sweep`] | batched runs on an explicit pool: deterministic, per-point status |
-//! | [`analysis`] | section 4.3's analyses for any `Model`: free motions, contact poses, standing, legs as tails |
+//! | [`analysis`] | section 4.3's analyses for any `Model`: free motions, contact poses, standing, legs as tails, takeoff and liftoff speeds |
 //! | [`error`] | the crate's typed errors |
 pub mod analysis;
 pub mod behaviour;
@@ -32,6 +33,7 @@ pub mod outcome;
 pub mod path;
 pub mod periodic;
 pub mod scenario;
+pub mod sensitivity;
 pub mod sweep;
 pub mod terrain;
 pub mod trajectory;

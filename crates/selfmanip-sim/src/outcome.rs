@@ -87,6 +87,20 @@ impl BodyState {
             phidot_rad_s: qd[ip],
         }
     }
+
+    /// The state in the order of its fields: `[t, x, z, φ, ẋ, ż, φ̇]` (s, m, m, rad, m/s,
+    /// m/s, rad/s).
+    pub fn to_array(&self) -> [f64; 7] {
+        [
+            self.t_s,
+            self.x_m,
+            self.z_m,
+            self.phi_rad,
+            self.xdot_m_s,
+            self.zdot_m_s,
+            self.phidot_rad_s,
+        ]
+    }
 }
 
 /// The first touchdown after the first flight.

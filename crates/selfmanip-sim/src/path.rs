@@ -191,10 +191,130 @@ pub fn leaves(tree: &Value) -> Vec<String> {
     out
 }
 
+/// The field names a struct's derived `Deserialize` reads, as it hands them to
+/// `deserialize_struct`: serde's own list, including the optional fields a default value
+/// leaves out of a serialization (nothing to keep in step by hand). Empty for a type that is
+/// not read as a struct.
+pub fn serde_field_names<T: serde::de::DeserializeOwned>() -> &'static [&'static str] {
+    use serde::de::{self, Visitor};
+    #[derive(Debug)]
+    struct Caught(Option<&'static [&'static str]>);
+    impl std::fmt::Display for Caught {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str("field names caught")
+        }
+    }
+    impl std::error::Error for Caught {}
+    impl de::Error for Caught {
+        fn custom<M: std::fmt::Display>(_: M) -> Self {
+            Caught(None)
+        }
+    }
+    struct Probe;
+    impl<'de> de::Deserializer<'de> for Probe {
+        type Error = Caught;
+        fn deserialize_any<V: Visitor<'de>>(self, _: V) -> Result<V::Value, Caught> {
+            Err(Caught(None))
+        }
+        fn deserialize_struct<V: Visitor<'de>>(
+            self,
+            _: &'static str,
+            fields: &'static [&'static str],
+            _: V,
+        ) -> Result<V::Value, Caught> {
+            Err(Caught(Some(fields)))
+        }
+        serde::forward_to_deserialize_any! {
+            bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string bytes
+            byte_buf option unit unit_struct newtype_struct seq tuple tuple_struct map enum
+            identifier ignored_any
+        }
+    }
+    match T::deserialize(Probe) {
+        Err(Caught(Some(fields))) => fields,
+        _ => &[],
+    }
+}
+
+/// Deserializes the object `base` with the fields `overrides` set; on failure the field at
+/// fault (the first override that fails on its own; `None` when only their combination
+/// does) and serde's reason (that override's own, else the combination's).
+pub fn deserialize_with<T: serde::de::DeserializeOwned>(
+    base: &Value,
+    overrides: &[(&String, &Value)],
+) -> Result<T, (Option<String>, String)> {
+    let with = |set: &[(&String, &Value)]| {
+        let mut v = base.clone();
+        for (k, val) in set {
+            v[k.as_str()] = (*val).clone();
+        }
+        serde_json::from_value::<T>(v)
+    };
+    with(overrides).map_err(|e| {
+        overrides
+            .iter()
+            .find_map(|o| {
+                with(std::slice::from_ref(o))
+                    .err()
+                    .map(|e1| (Some(o.0.clone()), e1.to_string()))
+            })
+            .unwrap_or_else(|| (None, e.to_string()))
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use serde_json::json;
+
+    #[derive(Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+    #[serde(deny_unknown_fields)]
+    struct Gains {
+        k_p: f64,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        k_d: Option<f64>,
+        label: String,
+    }
+
+    /// The field names come from serde's own list, the optional field that its serialization
+    /// leaves out included; a non-struct has none.
+    #[test]
+    fn serde_field_names_include_what_serialization_omits() {
+        let base = Gains {
+            k_p: 1.0,
+            k_d: None,
+            label: "a".into(),
+        };
+        let written = serde_json::to_value(&base).unwrap();
+        assert!(written.get("k_d").is_none());
+        assert_eq!(serde_field_names::<Gains>(), ["k_p", "k_d", "label"]);
+        assert!(serde_field_names::<f64>().is_empty());
+    }
+
+    /// Overrides set fields by name; a failure names the override that fails on its own.
+    #[test]
+    fn deserialize_with_names_the_override_at_fault() {
+        let base = serde_json::to_value(Gains {
+            k_p: 1.0,
+            k_d: None,
+            label: "a".into(),
+        })
+        .unwrap();
+        let (kd, lbl, kp) = ("k_d".to_string(), "label".to_string(), "k_p".to_string());
+        let (two, name, text) = (json!(2.0), json!("b"), json!("fast"));
+        let g: Gains = deserialize_with(&base, &[(&kd, &two), (&lbl, &name)]).unwrap();
+        assert_eq!(
+            g,
+            Gains {
+                k_p: 1.0,
+                k_d: Some(2.0),
+                label: "b".into()
+            }
+        );
+        let e = deserialize_with::<Gains>(&base, &[(&kd, &two), (&kp, &text)]).unwrap_err();
+        assert_eq!(e.0.as_deref(), Some("k_p"), "{e:?}");
+        assert!(e.1.contains("invalid type"), "{e:?}");
+    }
 
     #[test]
     fn paths_pick_fields_and_named_elements() {

@@ -2,189 +2,30 @@
 //! imbalance (4.61, Result C.2), single-leg pitch dynamics (4.62)–(4.63, Result C.3), and the
 //! takeoff-speed bound with a torque–speed motor (4.64)–(4.66, Result C.4, Figs. 4.10–4.12).
 //!
-//! The takeoff bound: with one leg down, `(Uλ)_n` is affine in the joint torque and quadratic
-//! in the velocity, and the motor line `τ ≤ κ_P κ_G (1 − κ_G θ̇)` is affine in the leg rate,
-//! so along `ẏ = (θ̇, φ̇)` with `φ̇` fixed the liftoff condition `(Uλ)_n(θ̇) ≥ 0` is a scalar
-//! quadratic in `θ̇`: its first positive root is the bound (closed form, exact). Maximising
-//! that bound over leg angle or gear ratio (Figs. 4.11/4.12) is not convex: a grid followed by
-//! golden-section refinement.
+//! The takeoff bound at one state is the generic one of
+//! [`selfmanip_sim::analysis::takeoff`] (a closed-form root), here on RHex's rear leg with
+//! X-RHex's motor ([`xrhex_line`]). Maximising it over leg angle or gear ratio (Figs.
+//! 4.11/4.12) is not convex: a grid followed by golden-section refinement
+//! ([`selfmanip_sim::analysis::maximise`]).
 use super::{bad, check_finite, free_motion_basis, normal_rows, selector_rows, solve_contact_pose};
 use crate::params::{LegShape, RhexParams};
 use crate::{Rhex, RhexError};
 use selfmanip_core::description::ShapeDescription;
-use selfmanip_core::{forward_dynamics, ContactMode, Data, FlatGround, Model, Terrain};
+use selfmanip_core::{forward_dynamics, ContactMode, Data, FlatGround, Model};
+pub use selfmanip_sim::analysis::maximise::{golden_max, grid_golden_max};
+pub use selfmanip_sim::analysis::takeoff::{takeoff_bound, TakeoffBound, TorqueSpeedLine};
 use serde::Serialize;
 
-/// The linear torque–speed limit of a leg, `τ ≤ τ_s (1 − θ̇/ω₀) = κ_P κ_G (1 − κ_G θ̇)` with
-/// `κ_G = 1/ω₀` (∝ gear ratio) and `κ_P = τ_s ω₀` (∝ peak power) (ref. \[129\], after (4.64)).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct TorqueSpeedLine {
-    pub stall_torque_n_m: f64,
-    pub no_load_speed_rad_s: f64,
-}
-
-impl TorqueSpeedLine {
-    pub fn new(stall_torque_n_m: f64, no_load_speed_rad_s: f64) -> Result<Self, RhexError> {
-        if !(stall_torque_n_m > 0.0 && stall_torque_n_m.is_finite()) {
-            return Err(bad("stall_torque_n_m", "must be positive and finite"));
-        }
-        if !(no_load_speed_rad_s > 0.0 && no_load_speed_rad_s.is_finite()) {
-            return Err(bad("no_load_speed_rad_s", "must be positive and finite"));
-        }
-        Ok(Self {
-            stall_torque_n_m,
-            no_load_speed_rad_s,
-        })
-    }
-
-    /// A planar leg driven by `motors` identical motors (a contralateral pair: 2) through a
-    /// gearbox of `ratio` and `efficiency`: `τ_s = n G η τ_stall`, `ω₀ = ω_nl / G` (the
-    /// current-limited stall torque of chapter 2 is used as `τ_stall`).
-    pub fn from_motor(
-        motor: &motor::DcMotor,
-        ratio: f64,
-        efficiency: f64,
-        motors: f64,
-    ) -> Result<Self, RhexError> {
-        if !(ratio > 0.0 && ratio.is_finite()) {
-            return Err(bad("gear_ratio", "must be positive and finite"));
-        }
-        if !(efficiency > 0.0 && efficiency <= 1.0) {
-            return Err(bad("efficiency", "must be in (0, 1]"));
-        }
-        if !(motors > 0.0 && motors.is_finite()) {
-            return Err(bad("motors", "must be positive"));
-        }
-        Self::new(
-            motors * ratio * efficiency * motor.achievable_stall_torque_n_m(),
-            motor.no_load_speed_rad_s / ratio,
-        )
-    }
-
-    /// X-RHex's motor (catalog `x-rhex`, gearbox efficiency of `x-rhex-28`) at gear ratio
-    /// `ratio`, two motors per planar leg.
-    pub fn xrhex(ratio: f64) -> Result<Self, RhexError> {
-        let cat = motor::Catalog::thesis();
-        let m = cat
-            .motor_spec("x-rhex")
-            .and_then(|s| s.motor())
-            .map_err(|e| bad("motor", e.to_string()))?;
-        let eta = cat
-            .gearbox("x-rhex-28")
-            .map_err(|e| bad("gearbox", e.to_string()))?
-            .efficiency;
-        Self::from_motor(&m, ratio, eta, 2.0)
-    }
-
-    pub fn kappa_g(&self) -> f64 {
-        1.0 / self.no_load_speed_rad_s
-    }
-    pub fn kappa_p(&self) -> f64 {
-        self.stall_torque_n_m * self.no_load_speed_rad_s
-    }
-    pub fn torque(&self, speed_rad_s: f64) -> f64 {
-        self.stall_torque_n_m * (1.0 - speed_rad_s / self.no_load_speed_rad_s)
-    }
-}
-
-/// The takeoff bound at one state.
-#[derive(Debug, Clone, Serialize)]
-pub struct TakeoffBound {
-    /// Largest leg rate (rad/s) before `(Uλ)_n` reaches zero at full motor torque.
-    pub leg_rate: f64,
-    /// Body COM forward speed there (m/s).
-    pub x_dot: f64,
-    /// Torque at that rate (N m).
-    pub tau: f64,
-    /// True if the contact holds all the way to the motor's no-load speed.
-    pub holds_to_no_load: bool,
-}
-
-/// (4.64)–(4.66) generalised: in a single-contact `mode` at `q`, with `y = [θ_all, φ]`,
-/// the leg joint `leg_joint` turning at `θ̇` under full motor torque `line.torque(θ̇)`, the other
-/// joints at rest and unactuated, and pitch rate `phi_dot`, returns the first `θ̇ > 0` at which
-/// the contact's normal force `Uλ` vanishes. `None` if the contact cannot hold even at rest.
-pub fn takeoff_bound(
-    model: &Model,
-    terrain: &dyn Terrain,
-    mode: ContactMode,
-    q: &[f64],
-    leg_joint: usize,
-    phi_dot: f64,
-    line: &TorqueSpeedLine,
-) -> Result<Option<TakeoffBound>, RhexError> {
-    check_finite("phi_dot", &[phi_dot])?;
-    let n = model.n_joints();
-    if leg_joint >= n {
-        return Err(bad(
-            "leg_joint",
-            format!("joint {leg_joint} does not exist"),
-        ));
-    }
-    let nq = model.nq();
-    let mut idx: Vec<usize> = (0..n).collect();
-    idx.push(model.ix_phi());
-    let h = free_motion_basis(model, terrain, mode, q, &selector_rows(nq, &idx))?;
-    let mut data = Data::new(model);
-    data.prepare_geometry(model, terrain, mode, q, &vec![0.0; nq])?;
-    let rows = normal_rows(&data);
-    let qd_of = |w: f64| -> Vec<f64> {
-        let mut yd = nalgebra::DVector::zeros(n + 1);
-        yd[leg_joint] = w;
-        yd[n] = phi_dot;
-        (&h * yd).iter().cloned().collect()
-    };
-    let mut g = |w: f64| -> Result<Vec<f64>, RhexError> {
-        let mut tau = vec![0.0; n];
-        tau[leg_joint] = line.torque(w);
-        forward_dynamics(model, &mut data, terrain, mode, q, &qd_of(w), &tau, None)?;
-        Ok(rows.iter().map(|&i| -data.lambda[i]).collect())
-    };
-    let w1 = line.no_load_speed_rad_s;
-    let (g0, gh, g1) = (g(0.0)?, g(0.5 * w1)?, g(w1)?);
-    if g0.iter().any(|&v| v < 0.0) {
-        return Ok(None);
-    }
-    // exact quadratic through the three samples, per row; first positive root in (0, w1]
-    let mut w_star = w1;
-    for r in 0..rows.len() {
-        let c0 = g0[r];
-        // g(w) = c0 + c1 w + c2 w²
-        let c2 = 2.0 * (g1[r] - 2.0 * gh[r] + c0) / (w1 * w1);
-        let c1 = (g1[r] - c0) / w1 - c2 * w1;
-        let roots = real_roots(c2, c1, c0);
-        for rt in roots {
-            if rt > 0.0 && rt < w_star {
-                w_star = rt;
-            }
-        }
-    }
-    let qd = qd_of(w_star);
-    Ok(Some(TakeoffBound {
-        leg_rate: w_star,
-        x_dot: qd[model.ix_x()],
-        tau: line.torque(w_star),
-        holds_to_no_load: w_star >= w1,
-    }))
-}
-
-fn real_roots(a: f64, b: f64, c: f64) -> Vec<f64> {
-    let scale = a.abs().max(b.abs()).max(c.abs());
-    if a.abs() <= 1e-14 * scale {
-        return if b != 0.0 { vec![-c / b] } else { vec![] };
-    }
-    let disc = b * b - 4.0 * a * c;
-    if disc < 0.0 {
-        return vec![];
-    }
-    // numerically stable pair
-    let s = disc.sqrt();
-    let qq = -0.5 * (b + b.signum() * s);
-    let mut r = vec![qq / a];
-    if qq != 0.0 {
-        r.push(c / qq);
-    }
-    r
+/// X-RHex's motor (catalog `x-rhex`, gearbox efficiency of `x-rhex-28`) at gear ratio
+/// `ratio`, two motors per planar leg.
+pub fn xrhex_line(ratio: f64) -> Result<TorqueSpeedLine, RhexError> {
+    Ok(TorqueSpeedLine::from_catalog(
+        &motor::Catalog::thesis(),
+        "x-rhex",
+        "x-rhex-28",
+        ratio,
+        2.0,
+    )?)
 }
 
 /// Leg geometry for the takeoff analyses.
@@ -257,7 +98,15 @@ pub fn rear_takeoff_speed(
 ) -> Result<Option<TakeoffBound>, RhexError> {
     let (q, mode) = rear_stance_q(model, theta2, phi)?;
     let (j, _) = rear_leg(model)?;
-    takeoff_bound(model, &FlatGround, mode, &q, j, phi_dot, line)
+    Ok(takeoff_bound(
+        model,
+        &FlatGround,
+        mode,
+        &q,
+        j,
+        phi_dot,
+        line,
+    )?)
 }
 
 /// Closed forms (4.65) (stick, `inertia_factor = 1`) and (4.66) (rolling, `= 1/2`) at
@@ -274,48 +123,6 @@ pub fn midstance_closed_form(
     let kc = kb * p.rho2 * (1.0 / line.kappa_g() - phi_dot) + p.rho2 * p.g * p.I_b;
     let i = inertia_factor * p.I_b;
     (-kb + (kb * kb + 4.0 * i * kc).sqrt()) / (2.0 * i)
-}
-
-/// Golden-section maximisation of a unimodal `f` on `[a, b]`.
-pub fn golden_max(mut a: f64, mut b: f64, tol: f64, f: &mut dyn FnMut(f64) -> f64) -> (f64, f64) {
-    let r = 0.5 * (5f64.sqrt() - 1.0);
-    let mut c = b - r * (b - a);
-    let mut d = a + r * (b - a);
-    let (mut fc, mut fd) = (f(c), f(d));
-    while (b - a).abs() > tol {
-        if fc > fd {
-            b = d;
-            d = c;
-            fd = fc;
-            c = b - r * (b - a);
-            fc = f(c);
-        } else {
-            a = c;
-            c = d;
-            fc = fd;
-            d = a + r * (b - a);
-            fd = f(d);
-        }
-    }
-    let x = 0.5 * (a + b);
-    (x, f(x))
-}
-
-/// Grid then golden section: the maximiser of `f` over `[a, b]`.
-pub fn grid_golden_max(a: f64, b: f64, n: usize, f: &mut dyn FnMut(f64) -> f64) -> (f64, f64) {
-    let n = n.max(3);
-    let h = (b - a) / (n - 1) as f64;
-    let (mut bi, mut bv) = (0, f64::MIN);
-    for i in 0..n {
-        let v = f(a + h * i as f64);
-        if v > bv {
-            bv = v;
-            bi = i;
-        }
-    }
-    let lo = a + h * (bi.saturating_sub(1)) as f64;
-    let hi = (a + h * (bi + 1) as f64).min(b);
-    golden_max(lo, hi, 1e-6 * (b - a).abs().max(1e-9), f)
 }
 
 /// Fig. 4.11/4.12's inner problem: the best takeoff speed over the rear leg angle
@@ -382,7 +189,7 @@ pub fn fig_4_10(
     ratio: f64,
 ) -> Result<Vec<TakeoffSample>, RhexError> {
     let n = super::grid_points(n)?;
-    let line = TorqueSpeedLine::xrhex(ratio)?;
+    let line = xrhex_line(ratio)?;
     let mut out = Vec::new();
     for leg in [TakeoffLeg::Stick, TakeoffLeg::Rolling] {
         let model = takeoff_model(params.clone(), leg)?;
@@ -413,7 +220,7 @@ pub fn fig_4_11(
     let model = takeoff_model(params, TakeoffLeg::Rolling)?;
     let mut out = Vec::new();
     for &g in ratios {
-        let line = TorqueSpeedLine::xrhex(g)?;
+        let line = xrhex_line(g)?;
         for &phi in phis {
             let (t2, v) = best_takeoff_over_theta2(&model, phi, 0.0, &line, theta2_range);
             out.push(TakeoffSample {
@@ -438,7 +245,7 @@ pub fn fig_4_12(
     ratio: f64,
 ) -> Result<Vec<TakeoffSample>, RhexError> {
     let model = takeoff_model(params, TakeoffLeg::Rolling)?;
-    let line = TorqueSpeedLine::xrhex(ratio)?;
+    let line = xrhex_line(ratio)?;
     let mut out = Vec::new();
     for &pd in phi_dots {
         for &phi in phis {

@@ -2,12 +2,16 @@
 //! (Result B.1, eqs. 4.55–4.56), holding torque by leg shape (B.2, eqs. 4.57–4.58), the exact
 //! pitch-rate controller from the free-motion Jacobian `H` (B.3, eq. 4.59), and the largest
 //! leg speed before a contact lifts (Fig. 4.8).
-use super::{bad, check_finite, free_motion_basis, grid_points, normal_rows, selector_rows};
+use super::{bad, check_finite, free_motion_basis, grid_points};
 use crate::quasistatic_map::{quasi_static_pose, QuasiStaticPose, Support};
 use crate::{Rhex, RhexError};
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 use selfmanip_core::quasistatic::quasi_static;
-use selfmanip_core::{forward_dynamics, ContactMode, Data, FlatGround, Model, Terrain};
+use selfmanip_core::{Data, FlatGround};
+pub use selfmanip_sim::analysis::liftoff::{
+    free_leg_parameterization, liftoff_speed, LiftoffSpeed,
+};
+use selfmanip_sim::analysis::maximise::pattern_search_max;
 use serde::Serialize;
 use std::f64::consts::PI;
 
@@ -32,27 +36,10 @@ fn pose(rhex: &Rhex, t: [f64; 2]) -> Option<QuasiStaticPose> {
     quasi_static_pose(rhex, t[0], t[1])
 }
 
-/// Pattern search (coordinate steps halving) maximising `sign·φ` from `start`.
+/// The leg angles near `start` where `sign·φ` is largest ([`pattern_search_max`]), and `φ`
+/// there.
 fn refine(rhex: &Rhex, start: [f64; 2], sign: f64) -> ([f64; 2], f64) {
-    let mut best = start;
-    let mut val = pose(rhex, best).map(|p| sign * p.phi).unwrap_or(f64::MIN);
-    let mut step = 0.05;
-    while step > 1e-9 {
-        let mut improved = false;
-        for d in [[step, 0.0], [-step, 0.0], [0.0, step], [0.0, -step]] {
-            let c = [best[0] + d[0], best[1] + d[1]];
-            if let Some(p) = pose(rhex, c) {
-                if sign * p.phi > val {
-                    val = sign * p.phi;
-                    best = c;
-                    improved = true;
-                }
-            }
-        }
-        if !improved {
-            step *= 0.5;
-        }
-    }
+    let (best, val) = pattern_search_max(start, &mut |t| pose(rhex, t).map(|p| sign * p.phi));
     (best, sign * val)
 }
 
@@ -134,26 +121,6 @@ pub fn holding_torque(rhex: &Rhex, theta1: f64, theta2: f64) -> Result<HoldingTo
     })
 }
 
-/// Velocity parameterization `y = [θ₁, free massless joints…]` of a stance: the joints of
-/// legs without an active contact are free coordinates (they move without affecting the
-/// body, 5.1.1), the front joint is the behaviour's input.
-fn sweep_y(model: &Model, mode: ContactMode, lead_joint: usize) -> DMatrix<f64> {
-    let mut idx = vec![lead_joint];
-    for (li, leg) in model.legs.iter().enumerate() {
-        let touching = mode
-            .active()
-            .any(|k| super::contact_leg(model, k) == Some(li));
-        if !touching {
-            for j in leg.first_joint..leg.first_joint + leg.n_links {
-                if j != lead_joint {
-                    idx.push(j);
-                }
-            }
-        }
-    }
-    selector_rows(model.nq(), &idx)
-}
-
 /// Result B.3 / eq. (4.59): the leg rate per unit pitch rate, `θ̇₁/φ̇ = 1/H_φ`, with
 /// `H_φ = π_φ H` from the free-motion basis (4.20) at the quasi-static pose, `y = θ₁`.
 /// Setting `θ̇₁ = φ̇_d / H_φ` tracks a desired pitch rate exactly.
@@ -162,7 +129,7 @@ pub fn pitch_rate_gain(rhex: &Rhex, theta1: f64, theta2: f64) -> Result<f64, Rhe
         .ok_or_else(|| bad("theta", "no quasi-static pose at these leg angles"))?;
     let model = &rhex.model;
     let q = [theta1, theta2, 0.0, -p.height_m, p.phi];
-    let y = sweep_y(model, p.mode, 0);
+    let y = free_leg_parameterization(model, p.mode, 0);
     let h = free_motion_basis(model, &FlatGround, p.mode, &q, &y)?;
     let h_phi = h[(model.ix_phi(), 0)];
     if h_phi.abs() < 1e-12 {
@@ -172,118 +139,6 @@ pub fn pitch_rate_gain(rhex: &Rhex, theta1: f64, theta2: f64) -> Result<f64, Rhe
         ));
     }
     Ok(1.0 / h_phi)
-}
-
-/// The largest speed along a velocity direction before a contact lifts off.
-#[derive(Debug, Clone, Serialize)]
-pub struct LiftoffSpeed {
-    /// Largest `s ≥ 0` with `Uλ(q, s·v) ≥ 0` (`None`: no contact ever lifts).
-    pub speed: Option<f64>,
-    /// Index into λ of the normal row that reaches zero first.
-    pub binding_row: Option<usize>,
-    /// `Uλ` of every normal row at rest (`a`) and its coefficient of `s²` (`b`):
-    /// `Uλ(s) = a + b s²`.
-    pub a: Vec<f64>,
-    pub b: Vec<f64>,
-    pub normal_rows: Vec<usize>,
-}
-
-/// `max s  s.t. Uλ ≥ 0, λ = λ(q, s v, τ)` (the optimisation under Fig. 4.8). At fixed
-/// torque λ of (5.4) is exactly quadratic in the velocity (`C̄q̇` and `Ȧq̇` are), so
-/// `Uλ = a + b s²` and the problem is a linear program in `σ = s²`, solved with Clarabel.
-pub fn liftoff_speed(
-    model: &Model,
-    terrain: &dyn Terrain,
-    mode: ContactMode,
-    q: &[f64],
-    direction: &[f64],
-    tau: &[f64],
-) -> Result<LiftoffSpeed, RhexError> {
-    check_finite("direction", direction)?;
-    if direction.len() != model.nq() {
-        return Err(bad("direction", format!("expected {} entries", model.nq())));
-    }
-    let mut data = Data::new(model);
-    let mut lam = |s: f64| -> Result<DVector<f64>, RhexError> {
-        let qd: Vec<f64> = direction.iter().map(|v| s * v).collect();
-        forward_dynamics(model, &mut data, terrain, mode, q, &qd, tau, None)?;
-        Ok(data.lambda.clone())
-    };
-    let l0 = lam(0.0)?;
-    let l1 = lam(1.0)?;
-    data.prepare_geometry(model, terrain, mode, q, &vec![0.0; q.len()])?;
-    let rows = normal_rows(&data);
-    // U = −1 on normal rows (4.76)
-    let a: Vec<f64> = rows.iter().map(|&i| -l0[i]).collect();
-    let b: Vec<f64> = rows.iter().map(|&i| -(l1[i] - l0[i])).collect();
-    if let Some(i) = a.iter().position(|&v| v < -1e-9) {
-        return Err(bad(
-            "q",
-            format!(
-                "contact row {} already pulls at rest (Uλ = {:.3e})",
-                rows[i], a[i]
-            ),
-        ));
-    }
-    // LP: min −σ s.t. a_i + b_i σ ≥ 0, 0 ≤ σ ≤ σ_cap
-    use clarabel::algebra::CscMatrix;
-    use clarabel::solver::{
-        DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
-    };
-    let sigma_cap = 1.0e8;
-    let m = rows.len() + 2;
-    let mut acol = Vec::with_capacity(m);
-    let mut bvec = Vec::with_capacity(m);
-    // scale each row to unit coefficient so the LP is well conditioned
-    for (ai, bi) in a.iter().zip(&b) {
-        let s = bi.abs().max(ai.abs()).max(1e-300);
-        acol.push(-bi / s);
-        bvec.push(ai.max(0.0) / s);
-    }
-    acol.push(-1.0);
-    bvec.push(0.0);
-    acol.push(1.0 / sigma_cap);
-    bvec.push(1.0);
-    let amat = CscMatrix::new(m, 1, vec![0, m], (0..m).collect(), acol);
-    let p = CscMatrix::<f64>::zeros((1, 1));
-    let settings = DefaultSettingsBuilder::default()
-        .verbose(false)
-        .tol_gap_abs(1e-12)
-        .tol_gap_rel(1e-12)
-        .tol_feas(1e-12)
-        .build()
-        .expect("valid settings");
-    let cones = [SupportedConeT::NonnegativeConeT(m)];
-    let mut solver = DefaultSolver::new(&p, &[-1.0], &amat, &bvec, &cones, settings)
-        .map_err(|e| bad("lp", format!("{e:?}")))?;
-    solver.solve();
-    if !matches!(
-        solver.solution.status,
-        SolverStatus::Solved | SolverStatus::AlmostSolved
-    ) {
-        return Err(bad("lp", format!("Clarabel: {:?}", solver.solution.status)));
-    }
-    let sigma = solver.solution.x[0].max(0.0);
-    if sigma > 0.5 * sigma_cap {
-        return Ok(LiftoffSpeed {
-            speed: None,
-            binding_row: None,
-            a,
-            b,
-            normal_rows: rows,
-        });
-    }
-    let binding = (0..rows.len())
-        .filter(|&i| b[i] < 0.0)
-        .min_by(|&i, &j| (a[i] / -b[i]).total_cmp(&(a[j] / -b[j])))
-        .map(|i| rows[i]);
-    Ok(LiftoffSpeed {
-        speed: Some(sigma.sqrt()),
-        binding_row: binding,
-        a,
-        b,
-        normal_rows: rows,
-    })
 }
 
 /// One point of Fig. 4.8.
@@ -326,7 +181,7 @@ pub fn fig_4_8(
                 continue; // the front leg must carry the sweep
             }
             let q = [t1, t2, 0.0, -p.height_m, p.phi];
-            let y = sweep_y(model, p.mode, 0);
+            let y = free_leg_parameterization(model, p.mode, 0);
             let Ok(h) = free_motion_basis(model, &FlatGround, p.mode, &q, &y) else {
                 continue;
             };

@@ -5,13 +5,21 @@
 //!   and the quasi-static "generalized damper" controller (4.50)–(4.54), with contact normals
 //!   that need not be vertical;
 //! - [`leg_tail`]: legs as inertial tails in flight (4.67)–(4.68): the momentum route and the
-//!   flight-dynamics route.
+//!   flight-dynamics route;
+//! - [`takeoff`]: the takeoff-speed bound of a leg with a torque–speed motor (4.64)–(4.66);
+//! - [`liftoff`]: the largest speed along a direction before a contact lifts (Fig. 4.8's
+//!   linear program);
+//! - [`maximise`]: golden-section, grid-then-golden and pattern-search maximisation (for
+//!   the non-convex searches over leg angle, gear ratio and the joint torus).
 //!
 //! The RHex instances of these (Results A.1–A.3, C.5) and RHex's own analyses (sensor sweep,
 //! pitch control) are in `rhex-model`.
 #![allow(non_snake_case)]
 pub mod leg_tail;
+pub mod liftoff;
+pub mod maximise;
 pub mod standing;
+pub mod takeoff;
 
 use crate::error::SimError;
 use nalgebra::DMatrix;
