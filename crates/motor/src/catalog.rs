@@ -198,13 +198,18 @@ fn thesis_gearbox(
 
 /// A Table 2.3 drive of [`Catalog::thesis`]: `[name, motor, gearbox]` and its listed and
 /// measured `[τ_core s, τ_case s, H_core, H_case K/(N m)²]`.
-fn thesis_drive([name, motor, gearbox]: [&str; 3], listed: [f64; 4], measured: [f64; 4]) -> DriveSpec {
-    let heat = |[tau_core_s, tau_case_s, h_core_k_per_n2m2, h_case_k_per_n2m2]: [f64; 4]| HeatSpec {
-        tau_core_s,
-        tau_case_s,
-        h_core_k_per_n2m2,
-        h_case_k_per_n2m2,
-    };
+fn thesis_drive(
+    [name, motor, gearbox]: [&str; 3],
+    listed: [f64; 4],
+    measured: [f64; 4],
+) -> DriveSpec {
+    let heat =
+        |[tau_core_s, tau_case_s, h_core_k_per_n2m2, h_case_k_per_n2m2]: [f64; 4]| HeatSpec {
+            tau_core_s,
+            tau_case_s,
+            h_core_k_per_n2m2,
+            h_case_k_per_n2m2,
+        };
     DriveSpec {
         name: name.into(),
         motor: motor.into(),
@@ -256,7 +261,12 @@ impl Catalog {
                 ),
             ],
             gearbox: vec![
-                thesis_gearbox(["research-rhex-33", "maxon 166163"], 33.0, 1.0, [3.4, 2.25, 0.162]),
+                thesis_gearbox(
+                    ["research-rhex-33", "maxon 166163"],
+                    33.0,
+                    1.0,
+                    [3.4, 2.25, 0.162],
+                ),
                 thesis_gearbox(["x-rhex-18", "maxon 326659"], 18.0, 0.82, [6.0, 4.0, 0.178]),
                 thesis_gearbox(["x-rhex-28", "maxon 326662"], 28.0, 0.82, [6.0, 4.0, 0.178]),
             ],

@@ -1510,7 +1510,9 @@ pub fn leap_behaviour(strategy: Strategy) -> Behaviour {
     let symbols = format!("({},{})", strategy.front.symbol(), strategy.rear.symbol());
     Behaviour {
         name: format!("rhex-leap-{strategy}"),
-        description: format!("RHex leap {symbols}: open-loop motor pushes with coordination time t2"),
+        description: format!(
+            "RHex leap {symbols}: open-loop motor pushes with coordination time t2"
+        ),
         parameters: [
             number("t2", 0.0),
             formula("t_front", "max(0, -t2)"),
