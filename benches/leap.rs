@@ -18,16 +18,21 @@ use selfmanip::rhex::leap::{leap_params, simulate_leap, LeapConfig, LeapPreset};
 use selfmanip::sim::Simulation;
 use std::hint::black_box;
 
+/// The default leap at the motor start `t2_s`, its events located to 1e-10 s.
+fn leap_at(t2_s: f64) -> LeapConfig {
+    LeapConfig {
+        t2_s,
+        event_tol_s: 1e-10,
+        ..LeapConfig::default()
+    }
+}
+
 fn leap(c: &mut Criterion) {
     let params = leap_params();
     let mut group = c.benchmark_group("leap_to_apex");
     let preset = LeapPreset::new(&params, &LeapConfig::default()).unwrap();
     for t2 in [0.0, 0.02, 0.1] {
-        let cfg = LeapConfig {
-            t2_s: t2,
-            event_tol_s: 1e-10,
-            ..LeapConfig::default()
-        };
+        let cfg = leap_at(t2);
         group.bench_with_input(BenchmarkId::new("++", t2), &cfg, |b, cfg| {
             b.iter(|| simulate_leap(black_box(&params), cfg).unwrap())
         });
@@ -59,11 +64,7 @@ fn leap(c: &mut Criterion) {
         ..leap_params()
     };
     for t2 in [0.0, -0.02] {
-        let cfg = LeapConfig {
-            t2_s: t2,
-            event_tol_s: 1e-10,
-            ..LeapConfig::default()
-        };
+        let cfg = leap_at(t2);
         group.bench_with_input(BenchmarkId::new("++ massive_legs", t2), &cfg, |b, cfg| {
             b.iter(|| simulate_leap(black_box(&massive), cfg).unwrap())
         });

@@ -151,6 +151,74 @@ fn find_named<'a, T>(
 /// The thesis's Tables 2.1–2.3 as a TOML catalog.
 pub const THESIS_CATALOG_TOML: &str = include_str!("../data/thesis_actuators.toml");
 
+/// A Table 2.1 motor of [`Catalog::thesis`]: `[name, part number]`, its kind, `[voltage V,
+/// no-load speed rad/s, torque constant N m/A, current limit A, continuous torque N m]` and
+/// `[mechanical time constant s, length m, width m, mass kg]` (no unlimited stall torque).
+fn thesis_motor(
+    [name, part_number]: [&str; 2],
+    kind: MotorKind,
+    [voltage_v, no_load_speed_rad_s, torque_constant_n_m_per_a, current_limit_a, continuous_torque_n_m]: [f64; 5],
+    [tau_m_s, length_m, width_m, mass_kg]: [f64; 4],
+) -> MotorSpec {
+    MotorSpec {
+        name: name.into(),
+        part_number: part_number.into(),
+        kind,
+        voltage_v,
+        no_load_speed_rad_s,
+        torque_constant_n_m_per_a,
+        stall_torque_n_m: None,
+        current_limit_a: Some(current_limit_a),
+        continuous_torque_n_m,
+        mechanical_time_constant_s: Some(tau_m_s),
+        length_m,
+        width_m,
+        mass_kg,
+    }
+}
+
+/// A Table 2.2 gearbox of [`Catalog::thesis`]: `[name, part number]`, ratio, efficiency and
+/// `[peak output torque N m, continuous output torque N m, mass kg]`.
+fn thesis_gearbox(
+    [name, part_number]: [&str; 2],
+    ratio: f64,
+    efficiency: f64,
+    [peak_torque_n_m, continuous_torque_n_m, mass_kg]: [f64; 3],
+) -> Gearbox {
+    Gearbox {
+        name: name.into(),
+        part_number: part_number.into(),
+        ratio,
+        efficiency,
+        peak_torque_n_m,
+        continuous_torque_n_m,
+        mass_kg,
+    }
+}
+
+/// A Table 2.3 drive of [`Catalog::thesis`]: `[name, motor, gearbox]` and its listed and
+/// measured `[τ_core s, τ_case s, H_core, H_case K/(N m)²]`.
+fn thesis_drive(
+    [name, motor, gearbox]: [&str; 3],
+    listed: [f64; 4],
+    measured: [f64; 4],
+) -> DriveSpec {
+    let heat =
+        |[tau_core_s, tau_case_s, h_core_k_per_n2m2, h_case_k_per_n2m2]: [f64; 4]| HeatSpec {
+            tau_core_s,
+            tau_case_s,
+            h_core_k_per_n2m2,
+            h_case_k_per_n2m2,
+        };
+    DriveSpec {
+        name: name.into(),
+        motor: motor.into(),
+        gearbox: gearbox.into(),
+        thermal_listed: Some(heat(listed)),
+        thermal_measured: Some(heat(measured)),
+    }
+}
+
 impl Catalog {
     /// Parses and validates a TOML catalog (every motor and gearbox, every drive's
     /// references).
@@ -173,14 +241,53 @@ impl Catalog {
         Ok(catalog)
     }
 
-    /// Tables 2.1–2.3 (parsed and validated once per process).
+    /// Tables 2.1–2.3: [`THESIS_CATALOG_TOML`] as a value built in Rust, nothing parsed (the
+    /// test `the_thesis_catalog_is_its_file` checks that the file parses and validates to
+    /// exactly this value).
     pub fn thesis() -> Self {
-        static THESIS: std::sync::OnceLock<Catalog> = std::sync::OnceLock::new();
-        THESIS
-            .get_or_init(|| {
-                Self::from_toml_str(THESIS_CATALOG_TOML).expect("the shipped catalog is valid")
-            })
-            .clone()
+        Catalog {
+            motor: vec![
+                thesis_motor(
+                    ["research-rhex", "maxon 118752"],
+                    MotorKind::Brushed,
+                    [24.0, 1424.1886696273727, 0.016333333333333333, 15.0, 0.0231],
+                    [0.00428, 0.0545, 0.025, 0.130],
+                ),
+                thesis_motor(
+                    ["x-rhex", "maxon 251601"],
+                    MotorKind::Brushless,
+                    [37.0, 1080.0795543041709, 0.0335, 20.0, 0.0831],
+                    [0.0118, 0.0209, 0.045, 0.110],
+                ),
+            ],
+            gearbox: vec![
+                thesis_gearbox(
+                    ["research-rhex-33", "maxon 166163"],
+                    33.0,
+                    1.0,
+                    [3.4, 2.25, 0.162],
+                ),
+                thesis_gearbox(["x-rhex-18", "maxon 326659"], 18.0, 0.82, [6.0, 4.0, 0.178]),
+                thesis_gearbox(["x-rhex-28", "maxon 326662"], 28.0, 0.82, [6.0, 4.0, 0.178]),
+            ],
+            drive: vec![
+                thesis_drive(
+                    ["research-rhex", "research-rhex", "research-rhex-33"],
+                    [12.4, 910.0, 9.9, 44.8],
+                    [12.4, 551.0, 9.9, 17.2],
+                ),
+                thesis_drive(
+                    ["x-rhex-18", "x-rhex", "x-rhex-18"],
+                    [16.7, 212.0, 9.4, 8.9],
+                    [16.7, 710.0, 9.4, 10.2],
+                ),
+                thesis_drive(
+                    ["x-rhex-28", "x-rhex", "x-rhex-28"],
+                    [16.7, 212.0, 3.9, 3.7],
+                    [16.7, 710.0, 3.9, 4.2],
+                ),
+            ],
+        }
     }
 
     pub fn motor_spec(&self, name: &str) -> Result<&MotorSpec> {
@@ -265,4 +372,19 @@ pub fn synthetic_motors(count: usize, seed: u64) -> Result<Vec<MotorSpec>> {
             }
         })
         .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_thesis_catalog_is_its_file() {
+        // the file is the documented data: it parses and validates to the value built in Rust
+        let parsed = Catalog::from_toml_str(THESIS_CATALOG_TOML).unwrap();
+        let built = Catalog::thesis();
+        assert_eq!(parsed, built);
+        // bit for bit (PartialEq on f64 would let −0.0 pass for 0.0)
+        assert_eq!(format!("{parsed:?}"), format!("{built:?}"));
+    }
 }

@@ -34,7 +34,10 @@ use motor::Actuator;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{ContactMode, Terrain};
 use selfmanip_hybrid::{EventKind, Execution, Termination};
-use selfmanip_sim::behaviour::{ActuatorSpec, Behaviour, Motion, Torque, Trigger};
+use selfmanip_sim::behaviour::{
+    ActuatorSpec, Behaviour, FreeJointGains, JointProgram, Motion, NamedEvent, On, Phase, Torque,
+    Trigger,
+};
 use selfmanip_sim::events::{event_records_labelled, EventRecord};
 use selfmanip_sim::expr::Scalar;
 use selfmanip_sim::outcome::{BodyState, Outcome, WordOptions};
@@ -1343,19 +1346,142 @@ pub const LEAP_BEHAVIOURS: [(&str, &str); 4] = [
     ("--", include_str!("../data/behaviours/leap_mm.toml")),
 ];
 
-/// The shipped behaviour of a strategy (each file parsed once per process).
+/// The shipped behaviour of a strategy: the data of its file ([`LEAP_BEHAVIOURS`]) as a value
+/// built in Rust, nothing parsed (the test `each_file_parses_to_the_built_behaviour` checks
+/// that each file parses to exactly this value).
 pub fn leap_behaviour(strategy: Strategy) -> Behaviour {
-    static PARSED: [std::sync::OnceLock<Behaviour>; 4] = [const { std::sync::OnceLock::new() }; 4];
-    let key = strategy.to_string();
-    let i = LEAP_BEHAVIOURS
-        .iter()
-        .position(|(k, _)| *k == key)
-        .expect("four strategies, four files");
-    PARSED[i]
-        .get_or_init(|| {
-            Behaviour::from_toml_str(LEAP_BEHAVIOURS[i].1).expect("the shipped behaviours parse")
-        })
-        .clone()
+    let [front, rear] = strategy.chapter3_pairs();
+    let motor = "leg.stall_torque_n_m";
+    let accel = "leg.stall_torque_n_m / (leg.reflected_inertia_kg_m2 + leg_inertia_kg_m2)";
+    let servo = || Torque::Servo {
+        target_rad: None,
+        kp_n_m_per_rad: format!("kp_hold * {motor}").as_str().into(),
+        kd_n_m_s_per_rad: format!("kd_hold * {motor}").as_str().into(),
+        torque_limit_n_m: Some(motor.into()),
+        only_in_contact: true,
+    };
+    let program = |pair: LegPair, start: &str, sign: &str| JointProgram {
+        joint: pair.name().into(),
+        phases: vec![
+            Phase {
+                name: "wait".into(),
+                start: None,
+                torque: servo(),
+                motion: Some(Motion::Hold {
+                    angle_rad: "q0".into(),
+                }),
+                restart_on: None,
+            },
+            Phase {
+                name: "push".into(),
+                start: Some(Trigger::at(start)),
+                torque: Torque::Motor {
+                    actuator: "leg".into(),
+                    command: sign.into(),
+                    reverse_beyond_rad: None,
+                },
+                motion: Some(Motion::Swing {
+                    target_rad: format!("{sign} * stow").as_str().into(),
+                    speed_rad_s: "leg.no_load_speed_rad_s".into(),
+                    accel_rad_s2: accel.into(),
+                }),
+                restart_on: Some(vec![Trigger::on(On::Release)]),
+            },
+            Phase {
+                name: "retract".into(),
+                start: Some(Trigger {
+                    any: Some(vec![Trigger::on(On::Release), Trigger::event("takeoff")]),
+                    ..Trigger::default()
+                }),
+                torque: servo(),
+                motion: Some(Motion::Park {
+                    target_rad: format!("if({sign} * theta >= 0, {sign}, -{sign}) * stow")
+                        .as_str()
+                        .into(),
+                    accel_rad_s2: accel.into(),
+                }),
+                restart_on: Some(Vec::new()),
+            },
+        ],
+        repeat_from: None,
+    };
+    let number = |k: &str, x: f64| (k.to_string(), Scalar::Number(x));
+    let formula = |k: &str, e: &str| (k.to_string(), Scalar::from(e));
+    let symbols = format!("({},{})", strategy.front.symbol(), strategy.rear.symbol());
+    Behaviour {
+        name: format!("rhex-leap-{strategy}"),
+        description: format!(
+            "RHex leap {symbols}: open-loop motor pushes with coordination time t2"
+        ),
+        parameters: [
+            number("t2", 0.0),
+            formula("t_front", "max(0, -t2)"),
+            formula("t_rear", "max(0, t2)"),
+            number("s_front", strategy.front.sign()),
+            number("s_rear", strategy.rear.sign()),
+            number("gear_ratio", 28.0),
+            number("current_limit_a", DEFAULT_CURRENT_LIMIT_A),
+            number("motors_per_leg", f64::from(DEFAULT_MOTORS_PER_LEG)),
+            number("leg_inertia_kg_m2", 0.0),
+            number("stow", 2.6),
+            number("kp_hold", 20.0),
+            number("kd_hold", 0.5),
+        ]
+        .into_iter()
+        .collect(),
+        actuators: [(
+            "leg".to_string(),
+            ActuatorSpec::DcMotor {
+                motor: "x-rhex".into(),
+                gearbox: "x-rhex-28".into(),
+                gear_ratio: Some("gear_ratio".into()),
+                current_limit_a: Some("current_limit_a".into()),
+                supply_voltage_v: None,
+                count: "motors_per_leg".into(),
+                catalog: None,
+            },
+        )]
+        .into_iter()
+        .collect(),
+        events: [(
+            "takeoff".to_string(),
+            NamedEvent {
+                on: On::Flight,
+                contacts: None,
+                not_before_s: Some("max(t_front, t_rear)".into()),
+                after_event: None,
+            },
+        )]
+        .into_iter()
+        .collect(),
+        free_joints: FreeJointGains {
+            kp_per_s2: Scalar::Number(400.0),
+            kd_per_s: Scalar::Number(40.0),
+        },
+        joints: vec![
+            program(front, "t_front", "s_front"),
+            program(rear, "t_rear", "s_rear"),
+        ],
+    }
+}
+
+#[cfg(test)]
+mod behaviour_tests {
+    use super::*;
+
+    /// The files are the documented data: each parses to exactly the behaviour the preset
+    /// builds for its strategy.
+    #[test]
+    fn each_file_parses_to_the_built_behaviour() {
+        for (symbols, text) in LEAP_BEHAVIOURS {
+            let strategy: Strategy = symbols.parse().unwrap();
+            let parsed = Behaviour::from_toml_str(text).unwrap();
+            let built = leap_behaviour(strategy);
+            assert_eq!(parsed, built, "{symbols}");
+            // bit for bit (−0.0 and 0.0 compare equal)
+            assert_eq!(format!("{parsed:?}"), format!("{built:?}"), "{symbols}");
+        }
+    }
 }
 
 /// A leap as a scenario.

@@ -447,6 +447,38 @@ impl Parser<'_> {
     }
 }
 
+/// The parsed formulas of one behaviour by their text, each parsed once: owned by the
+/// caller that compiles the behaviour again and again (a [`crate::Simulation`] and its
+/// rebinds share one), never global. A formula that fails to parse is not kept (its error
+/// is reported where it is read).
+#[derive(Debug, Default)]
+pub struct ParsedFormulas(
+    std::sync::Mutex<std::collections::HashMap<String, std::sync::Arc<Expr>>>,
+);
+
+impl ParsedFormulas {
+    /// `s` parsed: a number as itself, a formula at its first ask by `parse` (whose error is
+    /// returned), then kept.
+    pub fn parse(
+        &self,
+        s: &Scalar,
+        parse: impl FnOnce() -> Result<Expr, SimError>,
+    ) -> Result<std::sync::Arc<Expr>, SimError> {
+        let text = match s {
+            Scalar::Number(x) => return Ok(std::sync::Arc::new(Expr::Num(*x))),
+            Scalar::Expr(text) => text,
+        };
+        if let Some(e) = self.0.lock().ok().and_then(|m| m.get(text).cloned()) {
+            return Ok(e);
+        }
+        let e = std::sync::Arc::new(parse()?);
+        if let Ok(mut m) = self.0.lock() {
+            m.insert(text.clone(), std::sync::Arc::clone(&e));
+        }
+        Ok(e)
+    }
+}
+
 /// A number field: a number, or an expression of named parameters.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(untagged)]

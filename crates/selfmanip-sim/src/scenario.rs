@@ -10,7 +10,7 @@
 use crate::behaviour::{compile_bound, Behaviour, BehaviourController, Parameters};
 use crate::error::{invalid, non_negative, positive, SimError};
 use crate::events::{event_records, EventRecord};
-use crate::expr::Scalar;
+use crate::expr::{ParsedFormulas, Scalar};
 use crate::labels::ContactLabels;
 use crate::mcap::{self, McapLog};
 use crate::outcome::{outcome, Outcome, WordOptions};
@@ -258,6 +258,8 @@ pub struct Simulation {
     /// `parameters`): what [`Self::rebind`] evaluates again.
     behaviour: Arc<Behaviour>,
     parameters: Arc<Parameters>,
+    /// The behaviour's formulas, parsed at the first compilation for every rebind.
+    formulas: Arc<ParsedFormulas>,
 }
 
 impl Simulation {
@@ -280,6 +282,7 @@ impl Simulation {
         compile_bound(
             &self.behaviour,
             p,
+            &self.formulas,
             &self.model,
             &self.q0,
             &self.qd0,
@@ -423,6 +426,7 @@ impl Simulation {
             mode0,
             behaviour: Arc::default(),
             parameters: Arc::default(),
+            formulas: Arc::default(),
         })
     }
 

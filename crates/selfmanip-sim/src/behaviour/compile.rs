@@ -10,7 +10,7 @@ use super::spec::{
 };
 use super::tangent::{ActuatorLaw, Grad, NumberTangent, PhaseTangent, PlanTangent, TorqueTangent};
 use crate::error::{finite, invalid, non_negative, positive, SimError};
-use crate::expr::{Expr, Scalar, MAX_PARAMETER_CHAIN};
+use crate::expr::{Expr, ParsedFormulas, Scalar, MAX_PARAMETER_CHAIN};
 use crate::labels::{contact_by_name, joint_contacts, joint_index, joint_name};
 use motor::Actuator;
 use selfmanip_core::Model;
@@ -38,6 +38,8 @@ struct Context<'a> {
     /// tangent is built on first use, [`compile`]).
     tangent: bool,
     empty: Grad,
+    /// The behaviour's formulas, parsed once for all its compilations.
+    formulas: &'a ParsedFormulas,
 }
 
 /// The path of a field, for the errors that name it: formatted only when one does.
@@ -118,6 +120,11 @@ fn reads_any(e: &Expr, is: &dyn Fn(&str) -> bool) -> bool {
 }
 
 impl Context<'_> {
+    /// `s` parsed (a formula once per behaviour, [`ParsedFormulas`]); an error names `field`.
+    fn parse(&self, field: &(impl FieldPath + ?Sized), s: &Scalar) -> Result<Arc<Expr>, SimError> {
+        self.formulas.parse(s, || named(field, |f| s.parse(f)))
+    }
+
     /// The gradient over the parameters of a number [`Self::number`] has checked (`q0`, the
     /// joint's start angle, an input: no gradient).
     fn grad(&self, s: &Scalar, q0: Option<f64>) -> Grad {
@@ -125,7 +132,7 @@ impl Context<'_> {
             return self.empty.clone();
         }
         let n = self.n;
-        let e = s.parse("").expect("checked by `number`");
+        let e = self.parse("", s).expect("checked by `number`");
         let lookup = |name: &str| match name {
             "q0" => q0.map(|v| (v, vec![0.0; n])),
             _ => Some((
@@ -165,7 +172,7 @@ impl Context<'_> {
         s: &Scalar,
         q0: Option<f64>,
     ) -> Result<f64, SimError> {
-        let e = named(field, |f| s.parse(f))?;
+        let e = self.parse(field, s)?;
         let (v, _) = self.eval(field, s, &e, q0, false)?;
         named(field, |f| finite(f, v))
     }
@@ -222,7 +229,7 @@ impl Context<'_> {
         s: &Scalar,
         q0: f64,
     ) -> Result<(Value, NumberTangent), SimError> {
-        let e = named(field, |f| s.parse(f))?;
+        let e = self.parse(field, s)?;
         // checks names and evaluates once (at θ = ω = 0) to catch errors now
         let (v, reads) = self.eval(field, s, &e, Some(q0), true)?;
         let at_start = |n: &str| n == "theta" || n == "omega";
@@ -231,7 +238,7 @@ impl Context<'_> {
                 reads.into_iter().map(|(n, v)| (n.to_string(), v)).collect();
             let consts = Arc::new(consts);
             let tangent = if self.tangent {
-                NumberTangent::AtStart(e.clone(), Arc::clone(&consts))
+                NumberTangent::AtStart(Arc::clone(&e), Arc::clone(&consts))
             } else {
                 NumberTangent::Const(self.empty.clone())
             };
@@ -258,8 +265,11 @@ impl Context<'_> {
 pub type Parameters = BTreeMap<String, Scalar>;
 
 /// Evaluates the parameters in dependency order (a formula may use other parameters).
-fn parameters(p: &Parameters) -> Result<BTreeMap<String, f64>, SimError> {
-    let mut exprs: BTreeMap<&str, Expr> = BTreeMap::new();
+fn parameters(
+    p: &Parameters,
+    formulas: &ParsedFormulas,
+) -> Result<BTreeMap<String, f64>, SimError> {
+    let mut exprs: BTreeMap<&str, Arc<Expr>> = BTreeMap::new();
     for (name, s) in p {
         if name.is_empty()
             || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
@@ -272,13 +282,14 @@ fn parameters(p: &Parameters) -> Result<BTreeMap<String, f64>, SimError> {
                  `theta`, `omega` or `q0`",
             ));
         }
-        exprs.insert(name, named(&Leaf("parameters", name), |f| s.parse(f))?);
+        let e = formulas.parse(s, || named(&Leaf("parameters", name), |f| s.parse(f)))?;
+        exprs.insert(name, e);
     }
     let mut values = BTreeMap::new();
     // depth-first, with the path so far to report a cycle
     fn visit<'a>(
         name: &'a str,
-        exprs: &'a BTreeMap<&str, Expr>,
+        exprs: &'a BTreeMap<&str, Arc<Expr>>,
         values: &mut BTreeMap<String, f64>,
         path: &mut Vec<&'a str>,
     ) -> Result<f64, SimError> {
@@ -330,23 +341,30 @@ fn parameters(p: &Parameters) -> Result<BTreeMap<String, f64>, SimError> {
 
 /// The gradient of every parameter over the parameters, in name order: `e_p` plus the chain
 /// of its formula (the parameters have been evaluated and checked for cycles).
-fn parameter_grads(p: &Parameters, values: &BTreeMap<String, f64>) -> BTreeMap<String, Grad> {
+fn parameter_grads(
+    p: &Parameters,
+    values: &BTreeMap<String, f64>,
+    formulas: &ParsedFormulas,
+) -> BTreeMap<String, Grad> {
     fn visit(
         name: &str,
         p: &Parameters,
         values: &BTreeMap<String, f64>,
         grads: &mut BTreeMap<String, Grad>,
+        formulas: &ParsedFormulas,
     ) -> Grad {
         if let Some(g) = grads.get(name) {
             return g.clone();
         }
         let n = p.len();
-        let e = p[name].parse("").expect("parsed by `parameters`");
+        let e = formulas
+            .parse(&p[name], || p[name].parse(""))
+            .expect("parsed by `parameters`");
         let mut vars = Vec::new();
         e.variables(&mut vars);
         let deps: BTreeMap<String, Grad> = vars
             .iter()
-            .map(|v| (v.clone(), visit(v, p, values, grads)))
+            .map(|v| (v.clone(), visit(v, p, values, grads, formulas)))
             .collect();
         let (_, mut d) = e
             .eval_grad(n, &|v| Some((values[v], deps.get(v)?.to_vec())))
@@ -359,7 +377,7 @@ fn parameter_grads(p: &Parameters, values: &BTreeMap<String, f64>) -> BTreeMap<S
     }
     let mut grads = BTreeMap::new();
     for name in p.keys() {
-        visit(name, p, values, &mut grads);
+        visit(name, p, values, &mut grads, formulas);
     }
     grads
 }
@@ -1317,28 +1335,40 @@ pub fn compile_shared(
     // one copy: the parameters apart, the rest shared by the tangent's source
     let mut b = b.clone();
     let p = Arc::new(std::mem::take(&mut b.parameters));
-    compile_bound(&Arc::new(b), &p, model, q0, qd0, horizon_s)
+    let formulas = Arc::new(ParsedFormulas::default());
+    compile_bound(&Arc::new(b), &p, &formulas, model, q0, qd0, horizon_s)
 }
 
 /// [`compile_shared`] of `b` with `parameters` in place of its own (`b.parameters` is not
-/// read: the values a sweep's point or a preset binds), both shared rather than copied: the controller [`compile_shared`] gives for `b` with those
-/// parameters set, bit for bit. What a [`crate::Simulation::rebind`] compiles.
+/// read: the values a sweep's point or a preset binds), both shared rather than copied, its
+/// formulas parsed once in `formulas` (kept by the caller for every compilation of `b`): the
+/// controller [`compile_shared`] gives for `b` with those parameters set, bit for bit. What a
+/// [`crate::Simulation::rebind`] compiles.
 pub fn compile_bound(
     b: &Arc<Behaviour>,
     parameters: &Arc<Parameters>,
+    formulas: &Arc<ParsedFormulas>,
     model: &Arc<Model>,
     q0: &[f64],
     qd0: &[f64],
     horizon_s: f64,
 ) -> Result<BehaviourController, SimError> {
     let (b2, p2, m2) = (Arc::clone(b), Arc::clone(parameters), Arc::clone(model));
+    let f2 = Arc::clone(formulas);
     let (q, qd) = (q0.to_vec(), qd0.to_vec());
     let make = move || {
-        let c = compile_with(&b2, &p2, &m2, &q, &qd, horizon_s, true)
+        let c = compile_with(&b2, (&p2, &f2), &m2, (&q, &qd), horizon_s, true)
             .expect("the same behaviour compiled before");
         c.take_tangent()
     };
-    let c = compile_with(b, parameters, model, q0, qd0, horizon_s, false)?;
+    let c = compile_with(
+        b,
+        (parameters, formulas),
+        model,
+        (q0, qd0),
+        horizon_s,
+        false,
+    )?;
     c.set_tangent_source(Box::new(make));
     Ok(c)
 }
@@ -1346,10 +1376,9 @@ pub fn compile_bound(
 /// [`compile`] with the parameters `p`, the plan's tangent computed when `tangent`.
 fn compile_with(
     b: &Behaviour,
-    p: &Parameters,
+    (p, formulas): (&Parameters, &ParsedFormulas),
     model: &Model,
-    q0: &[f64],
-    qd0: &[f64],
+    (q0, qd0): (&[f64], &[f64]),
     horizon_s: f64,
     tangent: bool,
 ) -> Result<BehaviourController, SimError> {
@@ -1365,9 +1394,9 @@ fn compile_with(
             return Err(invalid(format!("{field}[{i}]"), "must be finite"));
         }
     }
-    let values = parameters(p)?;
+    let values = parameters(p, formulas)?;
     let grads = if tangent {
-        parameter_grads(p, &values)
+        parameter_grads(p, &values, formulas)
     } else {
         BTreeMap::new()
     };
@@ -1378,6 +1407,7 @@ fn compile_with(
         n: p.len(),
         tangent,
         empty: Arc::new([]),
+        formulas,
     };
     let (actuators, laws) = actuators(b, &mut cx)?;
     let actuator_names: Vec<String> = b.actuators.keys().cloned().collect();

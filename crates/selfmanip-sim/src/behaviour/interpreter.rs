@@ -30,7 +30,7 @@ use std::sync::{Arc, OnceLock};
 #[derive(Debug, Clone)]
 pub(crate) enum Value {
     Const(f64),
-    AtStart(Expr, Arc<Vec<(String, f64)>>),
+    AtStart(Arc<Expr>, Arc<Vec<(String, f64)>>),
 }
 
 impl Value {

@@ -103,7 +103,7 @@ pub(crate) enum TorqueTangent {
 #[derive(Clone)]
 pub(crate) enum NumberTangent {
     Const(Grad),
-    AtStart(Expr, Arc<Vec<(String, f64)>>),
+    AtStart(Arc<Expr>, Arc<Vec<(String, f64)>>),
 }
 
 /// A number's partials: over the parameters, and over the start's `θ₀`, `ω₀`.
