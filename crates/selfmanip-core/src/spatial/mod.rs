@@ -16,7 +16,8 @@
 //!
 //! Pipeline: URDF → [`SpatialModel`] (immutable) + [`SpatialData`] (workspace) →
 //! [`kinematics::forward_kinematics`], [`kinematics::frame_jacobian`], [`rigid_body::crba`],
-//! [`rigid_body::nonlinear_effects`], [`contact::forward_dynamics`], [`contact::impact`].
+//! [`rigid_body::nonlinear_effects`], [`contact::forward_dynamics`], [`contact::impact`]. [`rhex`] builds the six-legged RHex of Table 4.2 and maps
+//! the planar RHex's states onto it.
 pub mod contact;
 pub mod error;
 pub mod explog;
@@ -26,6 +27,7 @@ pub mod liegroup;
 pub mod model;
 pub mod motion;
 pub mod rigid_body;
+pub mod rhex;
 pub mod se3;
 pub mod urdf;
 
