@@ -1,5 +1,6 @@
-//! Closed forms of spatial mechanics: a torque-free asymmetric body (Euler's equations, the
-//! Dzhanibekov flip, conserved energy and angular momentum), `q ⊕ v` undone by `⊕ (−v)`, and
+//! Closed forms of spatial mechanics: a torque-free asymmetric body (the Dzhanibekov flip,
+//! conserved energy and angular momentum; its `M`, `h` and `q̈` against Euler's equations are
+//! `spatial_rigid_body.rs`'s `free_body_matches_euler_equations`), `q ⊕ v` undone by `⊕ (−v)`, and
 //! the quasi-static forces of a plate on four feet.
 mod spatial_support;
 use nalgebra::{DMatrix, DVector, Matrix3, UnitQuaternion, Vector3};
@@ -29,51 +30,6 @@ fn tumbling_body() -> (SpatialModel, Matrix3<f64>) {
     let mut model = SpatialModel::from_urdf_str(&urdf, BaseKind::FreeFlyer, None).unwrap();
     model.gravity = Vector3::zeros();
     (model, i)
-}
-
-/// `[a; b]`.
-fn stack(a: Vector3<f64>, b: Vector3<f64>) -> DVector<f64> {
-    DVector::from_iterator(6, a.iter().chain(b.iter()).copied())
-}
-
-/// Newton–Euler in the body frame at the centre of mass: `M = diag(m 1, I)`,
-/// `h = [m ω × v; ω × I ω]`, and the torque-free motion `v̇ = −ω × v`, `I ω̇ = −ω × I ω`
-/// (Euler's equations), at random states.
-#[test]
-fn torque_free_body_obeys_eulers_equations() {
-    let (model, i) = tumbling_body();
-    let mut data = SpatialData::new(&model);
-    let mut rng = rng(50);
-    let mut worst = 0.0f64;
-    for _ in 0..20 {
-        let (q, v, _) = random_state(&model, &mut rng);
-        let (lin, w) = (
-            Vector3::new(v[0], v[1], v[2]),
-            Vector3::new(v[3], v[4], v[5]),
-        );
-        crba(&model, &mut data, q.as_slice()).unwrap();
-        let mut m = DMatrix::zeros(6, 6);
-        m.view_mut((0, 0), (3, 3)).fill_with_identity();
-        m.view_mut((0, 0), (3, 3)).scale_mut(MASS);
-        m.view_mut((3, 3), (3, 3)).copy_from(&i);
-        worst = worst.max((&data.M - m).amax());
-        nonlinear_effects(&model, &mut data, q.as_slice(), v.as_slice()).unwrap();
-        let h = stack(w.cross(&lin) * MASS, w.cross(&(i * w)));
-        worst = worst.max((&data.h - h).amax());
-        forward_dynamics(
-            &model,
-            &mut data,
-            &[],
-            q.as_slice(),
-            v.as_slice(),
-            &[0.0; 6],
-        )
-        .unwrap();
-        let w_dot = -(i.try_inverse().unwrap() * w.cross(&(i * w)));
-        worst = worst.max((&data.qdd - stack(-w.cross(&lin), w_dot)).amax());
-    }
-    eprintln!("|M, h, q̈ − Newton–Euler| {worst:.1e}");
-    assert!(worst < 1e-12, "{worst}");
 }
 
 /// The conserved quantities: kinetic energy and the world angular momentum about the origin

@@ -190,14 +190,8 @@ fn redundant_toes_give_the_unique_motion_and_minimum_norm_forces() {
                 "a motion: {v} {}",
                 data.qdd
             );
-            let scale = (data.A.abs() * data.qdd.abs())
-                .amax()
-                .max(data.A_drift.amax())
-                .max(1.0);
-            w_acc = w_acc.max((&data.A * &data.qdd + &data.A_drift).amax() / scale);
-            let eom = &data.M * &data.qdd + &data.h - &tau - data.A.transpose() * &data.lam;
-            w_eom =
-                w_eom.max(eom.amax() / (data.A.transpose().abs() * data.lam.abs()).amax().max(1.0));
+            let (acc, eom) = dynamics_residuals(&data, &tau);
+            (w_acc, w_eom) = (w_acc.max(acc), w_eom.max(eom));
             // orthogonal to ker Aᵀ ⟺ in A's range: λ equals its projection there (an
             // independent SVD)
             let svd = data.A.clone().svd(true, false);
@@ -212,7 +206,8 @@ fn redundant_toes_give_the_unique_motion_and_minimum_norm_forces() {
             w_null = w_null.max((&data.lam - projected).amax() / data.lam.amax());
         }
         eprintln!(
-            "six toes (legs {} kg): |A q̈ + Ȧq̇| {w_acc:.1e}, |EOM| {w_eom:.1e}, |λ·ker Aᵀ| {w_null:.1e}, |A q̇⁺| {w_imp:.1e}",
+            "{} toe contacts (legs {} kg): |A q̈ + Ȧq̇| {w_acc:.1e}, |EOM| {w_eom:.1e}, |λ·ker Aᵀ| {w_null:.1e}, |A q̇⁺| {w_imp:.1e}",
+            contacts.len(),
             p.leg_mass_kg
         );
         assert!(w_acc < 1e-12 && w_eom < 1e-12 && w_null < 1e-12 && w_imp < 1e-12);
