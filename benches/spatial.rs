@@ -2,11 +2,12 @@
 //! quadruped (`tests/data/urdf/quadruped12.urdf`) standing on its four feet, each a point
 //! contact with friction (three rows): with the URDF's leg masses, and with massless shins
 //! (singular `M`, the KKT block inverse of chapter 5). Also `M` (CRBA) and the bias forces
-//! (RNEA) alone. `scripts/bench-pinocchio.py` times Pinocchio's constrained forward dynamics
+//! (RNEA) alone; and the six-legged RHex of Table 4.2 on its six toes. `scripts/bench-pinocchio.py` times Pinocchio's constrained forward dynamics
 //! on the same robot and state and prints the ratio. Target: ≤ 2 µs per KKT evaluation.
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::DVector;
 use selfmanip::core::spatial::rigid_body::{crba, nonlinear_effects};
+use selfmanip::core::spatial::rhex::{RhexSixLegs, PAIRS, SIDES};
 use selfmanip::core::spatial::{
     forward_dynamics, neutral, BaseKind, PointContact, SpatialData, SpatialModel,
 };
@@ -102,5 +103,46 @@ fn spatial(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, spatial);
+/// The six-legged RHex (Table 4.2) standing on its six toes, frictionless (six rows), legs
+/// at 0.3 rad, moving slightly: massless legs (singular `M`) and Table 4.2's legs.
+fn spatial_rhex(c: &mut Criterion) {
+    let mut group = c.benchmark_group("spatial_rhex");
+    for (label, p) in [
+        ("massless_legs", RhexSixLegs::table_4_2()),
+        ("table_4_2_legs", RhexSixLegs::table_4_2().with_table_4_2_legs()),
+    ] {
+        let model = p.model().expect("Table 4.2 is valid");
+        let toes: Vec<PointContact> = PAIRS
+            .iter()
+            .flat_map(|pair| SIDES.iter().map(move |side| format!("{pair}_{side}")))
+            .map(|leg| p.toe(&model, &leg, false).expect("a toe frame"))
+            .collect();
+        let mut data = SpatialData::new(&model);
+        // legs at 0.3 rad, so that each toe's normal row pins its (massless) leg
+        let mut q = neutral(&model);
+        q[2] = p.leg_length_m * 0.3f64.cos();
+        for x in q.iter_mut().skip(7) {
+            *x = 0.3;
+        }
+        let v = DVector::from_fn(model.nv, |i, _| 0.1 * ((i as f64) * 0.7).sin());
+        let tau = DVector::from_fn(model.nv, |i, _| if i < 6 { 0.0 } else { 1.0 });
+        group.bench_function(format!("forward_dynamics_6_toes/{label}"), |b| {
+            b.iter(|| {
+                forward_dynamics(
+                    &model,
+                    &mut data,
+                    &toes,
+                    black_box(q.as_slice()),
+                    black_box(v.as_slice()),
+                    tau.as_slice(),
+                )
+                .expect("standing is regular");
+                black_box(&data.qdd);
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, spatial, spatial_rhex);
 criterion_main!(benches);
