@@ -2,10 +2,11 @@
 //! quadruped (`tests/data/urdf/quadruped12.urdf`) standing on its four feet, each a point
 //! contact with friction (three rows): with the URDF's leg masses, and with massless shins
 //! (singular `M`, the KKT block inverse of chapter 5). Also `M` (CRBA) and the bias forces
-//! (RNEA) alone. `scripts/bench-pinocchio.py` times Pinocchio's constrained forward dynamics
+//! (RNEA) alone; and the six-legged RHex of Table 4.2 on its six toes. `scripts/bench-pinocchio.py` times Pinocchio's constrained forward dynamics
 //! on the same robot and state and prints the ratio. Target: ≤ 2 µs per KKT evaluation.
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::DVector;
+use selfmanip::core::spatial::rhex::{RhexSixLegs, PAIRS, SIDES};
 use selfmanip::core::spatial::rigid_body::{crba, nonlinear_effects};
 use selfmanip::core::spatial::{
     forward_dynamics, neutral, BaseKind, PointContact, SpatialData, SpatialModel,
@@ -54,6 +55,33 @@ fn standing_state(model: &SpatialModel) -> (DVector<f64>, DVector<f64>, DVector<
     (q, v, tau)
 }
 
+type State<'a> = (&'a DVector<f64>, &'a DVector<f64>, &'a DVector<f64>);
+
+/// One `forward_dynamics` benchmark at the state `(q, v, τ)`.
+fn bench_dynamics(
+    group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    name: &str,
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    contacts: &[PointContact],
+    (q, v, tau): State<'_>,
+) {
+    group.bench_function(name, |b| {
+        b.iter(|| {
+            forward_dynamics(
+                model,
+                data,
+                contacts,
+                black_box(q.as_slice()),
+                black_box(v.as_slice()),
+                tau.as_slice(),
+            )
+            .expect("standing is regular");
+            black_box(&data.qdd);
+        })
+    });
+}
+
 fn spatial(c: &mut Criterion) {
     let mut group = c.benchmark_group("spatial_quadruped");
     for (label, scale) in [("massive_legs", 1.0), ("massless_shins", 0.0)] {
@@ -64,20 +92,15 @@ fn spatial(c: &mut Criterion) {
             .collect();
         let mut data = SpatialData::new(&model);
         let (q, v, tau) = standing_state(&model);
-        group.bench_function(format!("forward_dynamics_4_feet/{label}"), |b| {
-            b.iter(|| {
-                forward_dynamics(
-                    &model,
-                    &mut data,
-                    &feet,
-                    black_box(q.as_slice()),
-                    black_box(v.as_slice()),
-                    tau.as_slice(),
-                )
-                .expect("standing is regular");
-                black_box(&data.qdd);
-            })
-        });
+        let state = (&q, &v, &tau);
+        bench_dynamics(
+            &mut group,
+            &format!("forward_dynamics_4_feet/{label}"),
+            &model,
+            &mut data,
+            &feet,
+            state,
+        );
         if scale > 0.0 {
             group.bench_function("crba", |b| {
                 b.iter(|| {
@@ -102,5 +125,44 @@ fn spatial(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, spatial);
+/// The six-legged RHex (Table 4.2) standing on its six toes, frictionless (six rows), legs
+/// at 0.3 rad, moving slightly: massless legs (singular `M`) and Table 4.2's legs.
+fn spatial_rhex(c: &mut Criterion) {
+    let mut group = c.benchmark_group("spatial_rhex");
+    for (label, p) in [
+        ("massless_legs", RhexSixLegs::table_4_2()),
+        (
+            "table_4_2_legs",
+            RhexSixLegs::table_4_2().with_table_4_2_legs(),
+        ),
+    ] {
+        let model = p.model().expect("Table 4.2 is valid");
+        let toes: Vec<PointContact> = PAIRS
+            .iter()
+            .flat_map(|pair| SIDES.iter().map(move |side| format!("{pair}_{side}")))
+            .map(|leg| p.toe(&model, &leg, false).expect("a toe frame"))
+            .collect();
+        let mut data = SpatialData::new(&model);
+        // legs at 0.3 rad, so that each toe's normal row pins its (massless) leg
+        let mut q = neutral(&model);
+        q[2] = p.leg_length_m * 0.3f64.cos();
+        for x in q.iter_mut().skip(7) {
+            *x = 0.3;
+        }
+        let v = DVector::from_fn(model.nv, |i, _| 0.1 * ((i as f64) * 0.7).sin());
+        let tau = DVector::from_fn(model.nv, |i, _| if i < 6 { 0.0 } else { 1.0 });
+        let state = (&q, &v, &tau);
+        bench_dynamics(
+            &mut group,
+            &format!("forward_dynamics_6_toes/{label}"),
+            &model,
+            &mut data,
+            &toes,
+            state,
+        );
+    }
+    group.finish();
+}
+
+criterion_group!(benches, spatial, spatial_rhex);
 criterion_main!(benches);

@@ -56,6 +56,24 @@ class SpatialImpact:
     rows: list[tuple[str, str]]
 
 
+@dataclass(frozen=True)
+class SpatialQuasiStatic:
+    """Quasi-static forces at rest (thesis 4.21-4.22): the grasp map ``grasp`` (6 x c, the
+    contact rows' base columns transposed), the base's gravity wrench ``gravity_wrench`` with
+    ``grasp @ lam = gravity_wrench``; the minimum-norm external forces ``lam_external`` and an
+    orthonormal basis ``internal_basis`` of the internal forces (``ker grasp``); the joint
+    torques ``tau_external`` that hold ``lam_external`` and ``internal_torques`` of each
+    internal force."""
+
+    grasp: np.ndarray
+    gravity_wrench: np.ndarray
+    lam_external: np.ndarray
+    internal_basis: np.ndarray
+    tau_external: np.ndarray
+    internal_torques: np.ndarray
+    rows: list[tuple[str, str]]
+
+
 def _vector(x: np.ndarray | Sequence[float]) -> np.ndarray:
     return np.ascontiguousarray(x, dtype=float).reshape(-1)
 
@@ -77,6 +95,15 @@ class SpatialRobot:
         if not isinstance(path, (str, os.PathLike)):
             raise InvalidTypeError(f"`path` must be a file path, got {type(path).__name__}", "path")
         return cls(_NativeSpatialRobot.from_urdf(os.fspath(path), base, root_link))
+
+    @classmethod
+    def rhex(cls, leg_mass_kg: float = 0.0, leg_inertia_kg_m2: float = 0.0,
+             hip_half_width_m: float | None = None) -> "SpatialRobot":
+        """RHex with six legs (thesis Table 4.2; massless legs by default, Assumption C.6):
+        hips ``{front,middle,rear}_{left,right}_hip``, toe frames ``..._toe``. The hips'
+        half-width (0.125 m by default) is an assumption, the thesis gives none."""
+        return cls(_NativeSpatialRobot.rhex(float(leg_mass_kg), float(leg_inertia_kg_m2),
+                                            None if hip_half_width_m is None else float(hip_half_width_m)))
 
     @property
     def name(self) -> str:
@@ -150,6 +177,12 @@ class SpatialRobot:
         """Forward dynamics with ``contacts`` held (see the module's conventions)."""
         d = self._native.dynamics(list(contacts), _vector(q), _vector(v), _vector(tau))
         return SpatialDynamics(d["qdd"], d["lam"], [tuple(r) for r in d["rows"]], d["A"], d["drift"])
+
+    def quasi_static(self, contacts: Sequence[str], q: np.ndarray | Sequence[float]) -> SpatialQuasiStatic:
+        """Quasi-static forces of ``contacts`` at rest at ``q`` (thesis 4.21-4.22)."""
+        d = self._native.quasi_static(list(contacts), _vector(q))
+        return SpatialQuasiStatic(d["grasp"], d["gravity_wrench"], d["lam_external"], d["internal_basis"],
+                                  d["tau_external"], d["internal_torques"], [tuple(r) for r in d["rows"]])
 
     def impact(self, contacts: Sequence[str], q: np.ndarray | Sequence[float],
                v: np.ndarray | Sequence[float]) -> SpatialImpact:

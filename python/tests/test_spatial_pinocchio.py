@@ -20,15 +20,20 @@ pin = pytest.importorskip("pinocchio", reason="Pinocchio (`pip install pin`, in 
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 QUADRUPED = ROOT / "tests" / "data" / "urdf" / "quadruped12.urdf"
+# the six-legged RHex of Table 4.2 (its legs 0.063 kg each), written by
+# selfmanip_core::spatial::rhex::RhexSixLegs::urdf
+RHEX6 = ROOT / "tests" / "data" / "urdf" / "rhex6.urdf"
+RHEX_LEGS = [f"{p}_{s}" for p in ("front", "middle", "rear") for s in ("left", "right")]
 FEET = ["FL_foot", "FR_foot", "HL_foot", "HR_foot"]
 FRAMES = FEET + ["trunk", "imu", "FL_thigh", "HR_shin", "HL_knee", "FR_foot_fixed"]
 LEGS = ("_hip", "_thigh", "_shin", "_foot")
 SHINS = ("_shin", "_foot")
 
 
-def scaled_urdf(tmp_path: pathlib.Path, suffixes: tuple[str, ...], scale: float) -> pathlib.Path:
-    """The quadruped with the links ending in ``suffixes`` scaled in mass and inertia."""
-    tree = ET.parse(QUADRUPED)
+def scaled_urdf(tmp_path: pathlib.Path, suffixes: tuple[str, ...], scale: float,
+                source: pathlib.Path = QUADRUPED) -> pathlib.Path:
+    """The robot of ``source`` with the links ending in ``suffixes`` scaled in mass and inertia."""
+    tree = ET.parse(source)
     for link in tree.getroot().iter("link"):
         if link.get("name", "").endswith(suffixes):
             inertial = link.find("inertial")
@@ -37,7 +42,7 @@ def scaled_urdf(tmp_path: pathlib.Path, suffixes: tuple[str, ...], scale: float)
             inertia = inertial.find("inertia")
             for k, val in inertia.attrib.items():
                 inertia.set(k, repr(float(val) * scale))
-    path = tmp_path / f"quadruped_{'_'.join(s.strip('_') for s in suffixes)}_{scale:g}.urdf"
+    path = tmp_path / f"{source.stem}_{'_'.join(s.strip('_') for s in suffixes)}_{scale:g}.urdf"
     tree.write(path)
     return path
 
@@ -86,13 +91,20 @@ def rel(a, b):
 
 
 VARIANTS = {"as_shipped": ((), 1.0), "small_leg_masses": (LEGS, 1e-2), "massless_shins": (SHINS, 0.0)}
+RHEX_VARIANTS = {"table_4_2_legs": ((), 1.0), "small_leg_masses": (("_leg",), 1e-2), "tenth_leg_masses": (("_leg",), 0.1),
+                 "massless_legs": (("_leg",), 0.0)}
+RHEX_FRAMES = [f"{leg}_{f}" for leg in RHEX_LEGS for f in ("toe", "arc")] + ["body", "front_left_end", "rear_right_hip"]
+# the cases of the kinematics test: (robot, variant) -> (URDF, suffixes, scale, frames, (nq, nv))
+KINEMATICS = {("quadruped", k): (QUADRUPED, *v, FRAMES, (19, 18)) for k, v in VARIANTS.items()} | {
+    ("rhex6", k): (RHEX6, *v, RHEX_FRAMES, (13, 12)) for k, v in RHEX_VARIANTS.items()}
 
 
-@pytest.mark.parametrize("variant", list(VARIANTS))
-def test_kinematics_mass_matrix_and_bias_forces_match_pinocchio(tmp_path, variant):
-    suffixes, scale = VARIANTS[variant]
-    ours, model, data = both(scaled_urdf(tmp_path, suffixes, scale) if suffixes else QUADRUPED)
-    assert (ours.nq, ours.nv) == (model.nq, model.nv) == (19, 18)
+@pytest.mark.parametrize("case", list(KINEMATICS), ids=lambda c: "-".join(c))
+def test_kinematics_mass_matrix_and_bias_forces_match_pinocchio(tmp_path, case):
+    source, suffixes, scale, frames, dims = KINEMATICS[case]
+    variant = case[1]
+    ours, model, data = both(scaled_urdf(tmp_path, suffixes, scale, source) if suffixes else source)
+    assert (ours.nq, ours.nv) == (model.nq, model.nv) == dims
     assert ours.joint_names == list(model.names)[1:]
     rng = np.random.default_rng(10)
     worst = dict(M=0.0, nle=0.0, placement=0.0, jacobian=0.0)
@@ -102,17 +114,17 @@ def test_kinematics_mass_matrix_and_bias_forces_match_pinocchio(tmp_path, varian
         worst["nle"] = max(worst["nle"], rel(ours.bias_forces(q, v), pin.nonLinearEffects(model, data, q, v)))
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
-        for name in FRAMES:
+        for name in frames:
             fid = model.getFrameId(name)
             worst["placement"] = max(worst["placement"], rel(ours.frame_placement(q, name), data.oMf[fid].homogeneous))
             for ref, pref in [("local", pin.LOCAL), ("world", pin.WORLD), ("local_world_aligned", pin.LOCAL_WORLD_ALIGNED)]:
                 J = pin.getFrameJacobian(model, data, fid, pref)
                 worst["jacobian"] = max(worst["jacobian"], rel(ours.frame_jacobian(q, name, ref), J))
-    print(variant, {k: f"{w:.1e}" for k, w in worst.items()})
+    print(case, {k: f"{w:.1e}" for k, w in worst.items()})
     assert all(w < 1e-10 for w in worst.values()), worst
-    if variant == "massless_shins":
-        # Pinocchio's crba is singular here too: rank 14 of 18
-        assert np.linalg.matrix_rank(pin_mass_matrix(model, data, q), tol=1e-10) == 14
+    if variant.startswith("massless"):
+        # Pinocchio's crba is singular here too: the quadruped's rank 14 of 18, RHex's 6 of 12
+        assert np.linalg.matrix_rank(pin_mass_matrix(model, data, q), tol=1e-10) == {"quadruped": 14, "rhex6": 6}[case[0]]
 
 
 def test_configuration_group_matches_pinocchio():
@@ -134,14 +146,26 @@ def test_configuration_group_matches_pinocchio():
 MODES = [FEET, ["FL_foot", "HR_foot"], [f + ":frictionless" for f in FEET], ["FL_foot", "FR_foot:frictionless", "HL_foot"]]
 
 
-@pytest.mark.parametrize("variant", ["as_shipped", "small_leg_masses"])
-def test_constrained_dynamics_and_impact_match_pinocchio(tmp_path, variant):
-    suffixes, scale = VARIANTS[variant]
-    ours, model, data = both(scaled_urdf(tmp_path, suffixes, scale) if suffixes else QUADRUPED)
+TOES = [f"{leg}_toe" for leg in RHEX_LEGS]
+# RHex's contact sets of full row rank: a tripod, two toes, four frictionless toes, a mixed set
+RHEX_MODES = [[TOES[0], TOES[3], TOES[4]], [TOES[1], TOES[5]], [t + ":frictionless" for t in TOES[:4]],
+              [TOES[0], TOES[1] + ":frictionless", TOES[4], TOES[5] + ":frictionless"]]
+# (robot, variant) -> (URDF, suffixes, scale, modes)
+DYNAMICS = {("quadruped", k): (QUADRUPED, *VARIANTS[k], MODES) for k in ("as_shipped", "small_leg_masses")} | {
+    ("rhex6", "table_4_2_legs"): (RHEX6, *RHEX_VARIANTS["table_4_2_legs"], RHEX_MODES)}
+# (RHex's Table 4.2 legs, 63 g each, are its small leg masses: lighter ones make Pinocchio's
+# M^-1 route lose lam, 3.9e-9 at a tenth and 1.8e-8 at 1e-2, while q'' agrees to 3.5e-12; the
+# eps -> 0 test below follows that limit)
+
+
+@pytest.mark.parametrize("case", list(DYNAMICS), ids=lambda c: "-".join(c))
+def test_constrained_dynamics_and_impact_match_pinocchio(tmp_path, case):
+    source, suffixes, scale, modes = DYNAMICS[case]
+    ours, model, data = both(scaled_urdf(tmp_path, suffixes, scale, source) if suffixes else source)
     rng = np.random.default_rng(11)
     worst = dict(A=0.0, drift=0.0, qdd=0.0, lam=0.0, v_plus=0.0, impulse=0.0)
     for k in range(24):
-        contacts = MODES[k % len(MODES)]
+        contacts = modes[k % len(modes)]
         q, v, tau = random_state(rng, model.nq, model.nv)
         J, gamma = contact_rows(model, data, q, v, contacts)
         out = ours.dynamics(contacts, q, v, tau)
@@ -154,17 +178,24 @@ def test_constrained_dynamics_and_impact_match_pinocchio(tmp_path, variant):
         pin.impulseDynamics(model, data, q, v, J, 0.0)
         worst["v_plus"] = max(worst["v_plus"], rel(imp.v_plus, data.dq_after))
         worst["impulse"] = max(worst["impulse"], rel(imp.impulse, data.impulse_c))
-    print(variant, {k: f"{w:.1e}" for k, w in worst.items()})
+    print(case, {k: f"{w:.1e}" for k, w in worst.items()})
     assert all(w < 1e-9 for w in worst.values()), worst
 
 
-def test_massless_limit_of_pinocchio_converges_to_ours(tmp_path):
-    """Pinocchio needs a mass on every moving link; with the shins' mass and inertia scaled by
-    eps its answers approach ours at eps = 0 (exact, singular M), the gap falling with eps."""
-    ours = SpatialRobot.from_urdf(scaled_urdf(tmp_path, SHINS, 0.0))
+# robot -> (URDF, massless links, contacts): the quadruped's shins on four feet; RHex's six
+# legs on their toes, frictionless (six rows: with friction the set is redundant)
+LIMITS = {"quadruped": (QUADRUPED, SHINS, FEET), "rhex6": (RHEX6, ("_leg",), [t + ":frictionless" for t in TOES])}
+
+
+@pytest.mark.parametrize("robot", list(LIMITS))
+def test_massless_limit_of_pinocchio_converges_to_ours(tmp_path, robot):
+    """Pinocchio needs a mass on every moving link; with the legs' (shins') mass and inertia
+    scaled by eps its answers approach ours at eps = 0 (exact, singular M), the gap falling
+    with eps."""
+    source, massless, contacts = LIMITS[robot]
+    ours = SpatialRobot.from_urdf(scaled_urdf(tmp_path, massless, 0.0, source))
     rng = np.random.default_rng(12)
     states = [random_state(rng, ours.nq, ours.nv) for _ in range(5)]
-    contacts = FEET
     exact = []
     for q, v, tau in states:
         out = ours.dynamics(contacts, q, v, tau)
@@ -176,7 +207,7 @@ def test_massless_limit_of_pinocchio_converges_to_ours(tmp_path):
         exact.append((out, imp))
     gaps, kkt_gaps = [], []
     for eps in [1e-2, 1e-4, 1e-6, 1e-8]:
-        _, model, data = both(scaled_urdf(tmp_path, SHINS, eps))
+        _, model, data = both(scaled_urdf(tmp_path, massless, eps, source))
         gap = kkt_gap = 0.0
         for (q, v, tau), (out, imp) in zip(states, exact):
             J, gamma = contact_rows(model, data, q, v, contacts)
@@ -191,12 +222,13 @@ def test_massless_limit_of_pinocchio_converges_to_ours(tmp_path):
             kkt_gap = max(kkt_gap, rel(x[:ours.nv], out.qdd), rel(-x[ours.nv:], out.lam))
         gaps.append(gap)
         kkt_gaps.append(kkt_gap)
-    print("eps = 1e-2, 1e-4, 1e-6, 1e-8: |Pinocchio(eps) - ours(0)|", [f"{g:.1e}" for g in gaps],
+    print(robot, "eps = 1e-2, 1e-4, 1e-6, 1e-8: |Pinocchio(eps) - ours(0)|", [f"{g:.1e}" for g in gaps],
           "; |KKT LU of Pinocchio's M, nle (eps) - ours(0)|", [f"{g:.1e}" for g in kkt_gaps])
     for g in (gaps, kkt_gaps):
         assert all(b < a for a, b in zip(g, g[1:])), g
-    # Pinocchio's solvers factor M (condition ~1/eps): their round-off floors the gap at ~1e-7
-    assert gaps[-1] < 1e-6 and kkt_gaps[-1] < 1e-7, (gaps, kkt_gaps)
+    # the gap is the legs' mass, O(eps) (RHex's ~15 eps), down to Pinocchio's round-off (it
+    # factors M, of condition ~1/eps), which floors the quadruped's at ~1e-7
+    assert gaps[-1] < 1e-6 and kkt_gaps[-1] < 1e-6, (gaps, kkt_gaps)
 
 
 def test_bad_input_names_the_field(tmp_path):
@@ -232,3 +264,35 @@ def test_bad_input_names_the_field(tmp_path):
     massless = SpatialRobot.from_urdf(scaled_urdf(tmp_path, SHINS, 0.0))
     with pytest.raises(SingularKktError):
         massless.dynamics(FEET[:3], q, np.zeros(18), np.zeros(18))
+
+
+def test_rhex_and_quasi_static_name_bad_fields():
+    """The six-legged RHex's constructor and the quasi-static solve: typed errors naming the
+    field; and the quasi-static forces balance the base (``grasp @ lam = gravity_wrench``,
+    internal forces in ``ker grasp``) on RHex's six frictionless toes."""
+    rhex = SpatialRobot.rhex()
+    assert (rhex.nq, rhex.nv) == (13, 12)
+    assert abs(rhex.total_mass - 7.15) < 1e-12
+    for kwargs, field in [({"leg_mass_kg": -1.0}, "leg_mass_kg"), ({"leg_inertia_kg_m2": float("nan")}, "leg_inertia_kg_m2"),
+                          ({"hip_half_width_m": 0.0}, "hip_half_width_m")]:
+        with pytest.raises(InvalidInputError) as e:
+            SpatialRobot.rhex(**kwargs)
+        assert e.value.field == field
+    q = rhex.neutral()
+    q[2] = 0.17
+    qs = rhex.quasi_static([t + ":frictionless" for t in TOES], q)
+    assert np.max(np.abs(qs.grasp @ qs.lam_external - qs.gravity_wrench)) < 1e-10
+    assert qs.internal_basis.shape == (6, 3)
+    assert np.max(np.abs(qs.grasp @ qs.internal_basis)) < 1e-12
+    # six equal toes under the centre of mass: 7.15 g / 6 each
+    assert np.max(np.abs(qs.lam_external - 7.15 * 9.81 / 6)) < 1e-10
+    with pytest.raises(InvalidInputError) as e:
+        rhex.quasi_static(["no_such_toe"], q)
+    assert e.value.field == "contacts"
+    with pytest.raises(InvalidInputError) as e:
+        rhex.quasi_static(TOES[:1], q)
+    assert e.value.field == "contacts"
+    fixed = SpatialRobot.from_urdf(QUADRUPED, base="fixed")
+    with pytest.raises(InvalidInputError) as e:
+        fixed.quasi_static(["FL_foot"], fixed.neutral())
+    assert e.value.field == "base"

@@ -13,10 +13,11 @@ use pyo3::types::{PyDict, PyTuple};
 use selfmanip_core::spatial::kinematics::{
     forward_kinematics, frame_jacobian, frame_placement, ReferenceFrame,
 };
+use selfmanip_core::spatial::rhex::RhexSixLegs;
 use selfmanip_core::spatial::rigid_body::{crba, nonlinear_effects};
 use selfmanip_core::spatial::{
-    difference, forward_dynamics, impact, integrate, neutral, BaseKind, PointContact, SpatialData,
-    SpatialError, SpatialModel,
+    difference, forward_dynamics, impact, integrate, neutral, quasi_static, BaseKind, PointContact,
+    SpatialData, SpatialError, SpatialModel,
 };
 
 /// A spatial error as the Python exception of its kind, naming the field.
@@ -141,6 +142,28 @@ impl SpatialRobot {
                 root_link: root_link.map(str::to_owned),
             }
             .build()
+        })
+    }
+
+    /// The six-legged RHex of thesis Table 4.2 (`selfmanip_core::spatial::rhex`), massless
+    /// legs by default; the other parameters default to Table 4.2 and the stated assumptions.
+    #[staticmethod]
+    #[pyo3(signature = (leg_mass_kg=0.0, leg_inertia_kg_m2=0.0, hip_half_width_m=None))]
+    fn rhex(
+        leg_mass_kg: f64,
+        leg_inertia_kg_m2: f64,
+        hip_half_width_m: Option<f64>,
+    ) -> PyResult<Self> {
+        guard(|| {
+            let table = RhexSixLegs::table_4_2();
+            let params = RhexSixLegs {
+                leg_mass_kg,
+                leg_inertia_kg_m2,
+                hip_half_width_m: hip_half_width_m.unwrap_or(table.hip_half_width_m),
+                ..table
+            };
+            let urdf = params.urdf().map_err(spatial_err)?;
+            Self::from_urdf_text(&urdf, "free_flyer", None)
         })
     }
 
@@ -297,6 +320,31 @@ impl SpatialRobot {
             d.set_item("rows", rows)?;
             d.set_item("A", mat(py, &data.A))?;
             d.set_item("drift", vec1(py, &data.A_drift))?;
+            Ok(d)
+        })
+    }
+
+    /// Quasi-static forces (thesis 4.21–4.22) of `contacts` at rest at `q`:
+    /// `{"grasp", "gravity_wrench", "lam_external", "internal_basis", "tau_external",
+    /// "internal_torques", "rows"}` (see `selfmanip_core::spatial::quasistatic`).
+    fn quasi_static<'py>(
+        &self,
+        py: Python<'py>,
+        contacts: Vec<String>,
+        q: Vec<f64>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        guard(|| {
+            let (contacts, rows) = self.contacts(&contacts)?;
+            let mut data = SpatialData::new(&self.model);
+            let out = quasi_static(&self.model, &mut data, &contacts, &q).map_err(spatial_err)?;
+            let d = PyDict::new(py);
+            d.set_item("grasp", mat(py, &out.grasp))?;
+            d.set_item("gravity_wrench", vec1(py, &out.gravity_wrench))?;
+            d.set_item("lam_external", vec1(py, &out.lambda_external))?;
+            d.set_item("internal_basis", mat(py, &out.internal_basis))?;
+            d.set_item("tau_external", vec1(py, &out.tau_external))?;
+            d.set_item("internal_torques", mat(py, &out.internal_torques))?;
+            d.set_item("rows", rows)?;
             Ok(d)
         })
     }

@@ -144,19 +144,8 @@ fn massless_shins_give_exact_finite_answers() {
         let contacts = feet(&model, modes[k % modes.len()]);
         let (q, v, tau) = random_state(&model, &mut rng);
         dynamics_at(&model, &mut data, &contacts, (&q, &v, &tau)).unwrap();
-        // round-off relative to the terms summed: |A||q̈| and |Ȧq̇|
-        let scale = (data.A.abs() * data.qdd.abs())
-            .amax()
-            .max(data.A_drift.amax())
-            .max(1.0);
-        w_acc = w_acc.max((&data.A * &data.qdd + &data.A_drift).amax() / scale);
-        let eom = &data.M * &data.qdd + &data.h - &tau - data.A.transpose() * &data.lam;
-        w_eom = w_eom.max(
-            eom.amax()
-                / (data.A.transpose().abs() * data.lam.abs())
-                    .amax()
-                    .max(tau.amax()),
-        );
+        let (acc, eom) = dynamics_residuals(&data, &tau);
+        (w_acc, w_eom) = (w_acc.max(acc), w_eom.max(eom));
         let imp = impact(&model, &mut data, &contacts, q.as_slice(), v.as_slice()).unwrap();
         w_imp = w_imp.max((&data.A * &imp.v_plus).amax() / v.amax());
     }

@@ -12,23 +12,56 @@
 #![allow(non_snake_case)]
 use super::error::{SpatialError, SpatialResult};
 use super::kinematics::{
-    forward_kinematics_velocity, frame_jacobian, frame_linear_drift, ReferenceFrame, SpatialData,
+    forward_kinematics_velocity, frame_jacobian, frame_linear_drift, frame_placement,
+    ReferenceFrame, SpatialData,
 };
 use super::model::SpatialModel;
 use super::rigid_body::{bias_forces_from_kinematics, mass_matrix_from_kinematics};
 use crate::error::check_result;
 use crate::error::check_vector;
-use nalgebra::{DVector, DVectorView, Vector3};
+use nalgebra::{DMatrix, DVector, DVectorView, Vector3};
+
+/// Where on its frame a contact touches the ground.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ContactShape {
+    /// The frame's origin (a toe, a foot of zero radius).
+    Point,
+    /// A circle of radius `radius_m` about the frame's origin in the plane normal to `axis`
+    /// (a unit vector in the frame's axes): a C-leg's arc or a body's rounded end, touching at
+    /// the circle's lowest point `c + r d`, `d` the unit vector of the circle's plane closest to
+    /// `−n`. The rows constrain the velocity of the material point there (rolling with
+    /// friction; the normal row alone when frictionless), and the drift is that point's
+    /// acceleration `a_c + α × r d + ω × r ḋ` at `q̈ = 0`, the time derivative of those rows
+    /// (thesis (5.2)'s `Ȧq̇` for a rolling contact: the centre's acceleration, not the
+    /// material point's, whose centripetal part the contact point does not follow).
+    Circle { radius_m: f64, axis: Vector3<f64> },
+}
 
 /// A point of a frame touching the ground.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PointContact {
-    /// The frame whose origin touches.
+    /// The frame whose origin touches (or carries the [`ContactShape::Circle`]).
     pub frame: usize,
-    /// With friction (3 rows: two tangents, then the normal) or frictionless (the normal).
+    /// With friction (tangent rows, then the normal) or frictionless (the normal).
     pub friction: bool,
     /// Unit ground normal in the world, pointing out of the ground.
     pub normal: Vector3<f64>,
+    /// With friction: `None` constrains both tangents (3 rows); `Some(t)` only the tangent
+    /// along `t` (2 rows `[t, n]`, the contact of a planar model embedded in the spatial one,
+    /// whose ground holds no force across its plane). Unit, normal to `normal`.
+    pub tangent: Option<Vector3<f64>>,
+    pub shape: ContactShape,
+}
+
+fn unit(field: &'static str, x: Vector3<f64>) -> SpatialResult<Vector3<f64>> {
+    check_vector(field, x.as_slice(), 3)?;
+    if x.norm() < 1e-12 {
+        return Err(SpatialError::InvalidArgument {
+            field: field.into(),
+            reason: "zero vector".into(),
+        });
+    }
+    Ok(x.normalize())
 }
 
 impl PointContact {
@@ -45,35 +78,68 @@ impl PointContact {
         normal: Vector3<f64>,
     ) -> SpatialResult<Self> {
         let frame = model.frame_id(frame_name)?;
-        check_vector("normal", normal.as_slice(), 3)?;
-        if normal.norm() < 1e-12 {
-            return Err(SpatialError::InvalidArgument {
-                field: "normal".into(),
-                reason: "zero normal".into(),
-            });
-        }
         Ok(Self {
             frame,
             friction,
-            normal: normal.normalize(),
+            normal: unit("normal", normal)?,
+            tangent: None,
+            shape: ContactShape::Point,
+        })
+    }
+
+    /// `self` touching on a circle of radius `radius_m` (m, finite, ≥ 0) about the frame's
+    /// origin, normal to `axis` (frame axes): see [`ContactShape::Circle`].
+    pub fn on_circle(self, radius_m: f64, axis: Vector3<f64>) -> SpatialResult<Self> {
+        if !radius_m.is_finite() || radius_m < 0.0 {
+            return Err(SpatialError::InvalidArgument {
+                field: "radius_m".into(),
+                reason: format!("must be finite and non-negative, got {radius_m}"),
+            });
+        }
+        let axis = unit("axis", axis)?;
+        Ok(Self {
+            shape: ContactShape::Circle { radius_m, axis },
+            ..self
+        })
+    }
+
+    /// `self` with friction along the ground tangent `tangent` only (two rows `[t, n]`): the
+    /// tangent is projected on the ground plane and normalized.
+    pub fn in_plane(self, tangent: Vector3<f64>) -> SpatialResult<Self> {
+        let t = unit("tangent", tangent)?;
+        let t = t - self.normal * self.normal.dot(&t);
+        if t.norm() < 1e-9 {
+            return Err(SpatialError::InvalidArgument {
+                field: "tangent".into(),
+                reason: "parallel to the ground normal".into(),
+            });
+        }
+        Ok(Self {
+            friction: true,
+            tangent: Some(t.normalize()),
+            ..self
         })
     }
 
     pub fn n_rows(&self) -> usize {
-        if self.friction {
-            3
-        } else {
-            1
+        match (self.friction, self.tangent) {
+            (false, _) => 1,
+            (true, Some(_)) => 2,
+            (true, None) => 3,
         }
     }
 
     /// The row directions, the first [`Self::n_rows`] entries: `[t₁, t₂, n]` with friction,
-    /// `[n]` without. `t₁` is the world `x` axis projected on the ground plane (the `y` axis if
-    /// `n` is near `x`), `t₂ = n × t₁`: on flat z-up ground the rows are world `x, y, z`.
+    /// `[t, n]` with friction in a plane, `[n]` without. `t₁` is the world `x` axis projected
+    /// on the ground plane (the `y` axis if `n` is near `x`), `t₂ = n × t₁`: on flat z-up
+    /// ground the rows are world `x, y, z`.
     pub fn directions(&self) -> [Vector3<f64>; 3] {
         let n = self.normal;
         if !self.friction {
             return [n, Vector3::zeros(), Vector3::zeros()];
+        }
+        if let Some(t) = self.tangent {
+            return [t, n, Vector3::zeros()];
         }
         let e = if n.x.abs() < 0.9 {
             Vector3::x()
@@ -83,12 +149,43 @@ impl PointContact {
         let t1 = (e - n * n.dot(&e)).normalize();
         [t1, n.cross(&t1), n]
     }
+
+    /// The contact point's offset `r d` from the frame origin (world axes) and its rate
+    /// `r ḋ`, after the velocity kinematics: zero for a point; for a circle of world axis `a`,
+    /// `d = u/|u|` with `u = −n + (n·a)a`, and `ḋ = (u̇ − d(d·u̇))/|u|`,
+    /// `u̇ = (n·ȧ)a + (n·a)ȧ`, `ȧ = ω × a`.
+    pub fn offset(&self, model: &SpatialModel, data: &SpatialData) -> (Vector3<f64>, Vector3<f64>) {
+        let ContactShape::Circle { radius_m, axis } = self.shape else {
+            return (Vector3::zeros(), Vector3::zeros());
+        };
+        let Some(j) = model.frames[self.frame].joint else {
+            return (-self.normal * radius_m, Vector3::zeros());
+        };
+        let a = frame_placement(model, data, self.frame).rotation * axis;
+        let n = self.normal;
+        let u = -n + a * n.dot(&a);
+        let norm = u.norm();
+        if norm < 1e-12 {
+            // the circle lies flat on the ground, every point of it lowest: the contact is
+            // taken at its centre, at the same height
+            return (Vector3::zeros(), Vector3::zeros());
+        }
+        let d = u / norm;
+        let a_dot = data.ov[j].angular.cross(&a);
+        let u_dot = a * n.dot(&a_dot) + a_dot * n.dot(&a);
+        let d_dot = (u_dot - d * d.dot(&u_dot)) / norm;
+        (d * radius_m, d_dot * radius_m)
+    }
 }
 
 /// The contact Jacobian `A` (rows of the contact points' world linear Jacobians along the
-/// row directions) and its drift `Ȧq̇` (the points' classical accelerations at `q̈ = 0` along
-/// the same directions) into `data.A`, `data.A_drift`, after the velocity kinematics.
-fn contact_rows(model: &SpatialModel, data: &mut SpatialData, contacts: &[PointContact]) {
+/// row directions) and its drift `Ȧq̇` (the points' accelerations at `q̈ = 0` along the same
+/// directions, [`ContactShape`]) into `data.A`, `data.A_drift`, after the velocity kinematics.
+pub(crate) fn contact_rows(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    contacts: &[PointContact],
+) {
     let c: usize = contacts.iter().map(PointContact::n_rows).sum();
     if data.A.nrows() != c {
         data.A = nalgebra::DMatrix::zeros(c, model.nv);
@@ -104,10 +201,18 @@ fn contact_rows(model: &SpatialModel, data: &mut SpatialData, contacts: &[PointC
             contact.frame,
             ReferenceFrame::LocalWorldAligned,
         );
-        let drift = frame_linear_drift(model, data, contact.frame);
+        let (r, r_dot) = contact.offset(model, data);
+        let mut drift = frame_linear_drift(model, data, contact.frame);
+        if let Some(j) = model.frames[contact.frame].joint {
+            let (w, alpha) = (data.ov[j].angular, data.oa_drift[j].angular);
+            drift += alpha.cross(&r) + w.cross(&r_dot);
+        }
         for d in &contact.directions()[..contact.n_rows()] {
+            // v_p = v_c + ω × r: the row d·v_c + (r × d)·ω
+            let rd = r.cross(d);
             for c in 0..model.nv {
-                data.A[(row, c)] = d.dot(&data.J.fixed_view::<3, 1>(0, c));
+                data.A[(row, c)] = d.dot(&data.J.fixed_view::<3, 1>(0, c))
+                    + rd.dot(&data.J.fixed_view::<3, 1>(3, c));
             }
             data.A_drift[row] = d.dot(&drift);
             row += 1;
@@ -127,7 +232,81 @@ fn prepare(
     mass_matrix_from_kinematics(model, data);
     bias_forces_from_kinematics(model, data);
     contact_rows(model, data, contacts);
-    data.kkt.factor(&data.M, &data.A)?;
+    factor(data)
+}
+
+/// Relative size (to the largest) below which a singular value of `A` marks a redundant
+/// row combination.
+pub const REDUNDANT_ROW_TOLERANCE: f64 = 1e-9;
+
+/// Factors `[M Aᵀ; A 0]`. A contact set whose rows are dependent (statically indeterminate:
+/// both toes of a pair held in the sagittal plane with three pairs down, six toes with
+/// friction) is factored on `A`'s row space instead: `A = U Σ Vᵀ`, the `r` singular values
+/// above [`REDUNDANT_ROW_TOLERANCE`]` σ₁` kept, `Ã = Σ_r V_rᵀ`, the right-hand side
+/// `g̃ = U_rᵀ g`, and `λ = U_r λ̃` — `q̈` is unique (`M` positive definite on `ker A`), and `λ`
+/// is the solution with no component in `ker Aᵀ`, the internal forces that rigid contacts
+/// leave undetermined (thesis §4.1.8's internal forces, here set to zero). Only a
+/// singular `A` pays for the decomposition (it allocates).
+fn factor(data: &mut SpatialData) -> SpatialResult<()> {
+    data.row_basis = None;
+    match data.kkt.factor(&data.M, &data.A) {
+        Err(crate::CoreError::SingularKkt {
+            kind: crate::SingularityKind::RedundantConstraints,
+            ..
+        }) if data.A.nrows() > 0 => {
+            let svd = data.A.clone().svd(true, true);
+            let (u, vt) = (svd.u.expect("asked for"), svd.v_t.expect("asked for"));
+            let top = svd.singular_values.max();
+            let kept: Vec<usize> = (0..svd.singular_values.len())
+                .filter(|&k| svd.singular_values[k] > REDUNDANT_ROW_TOLERANCE * top)
+                .collect();
+            let mut reduced = DMatrix::zeros(kept.len(), data.A.ncols());
+            let mut basis = DMatrix::zeros(data.A.nrows(), kept.len());
+            for (i, &k) in kept.iter().enumerate() {
+                reduced
+                    .row_mut(i)
+                    .copy_from(&(vt.row(k) * svd.singular_values[k]));
+                basis.column_mut(i).copy_from(&u.column(k));
+            }
+            data.kkt.factor(&data.M, &reduced)?;
+            data.row_basis = Some(basis);
+            Ok(())
+        }
+        other => Ok(other?),
+    }
+}
+
+/// Solves the factored KKT system for `data.rhs_f`, `data.rhs_g` into `data.qdd` and
+/// `data.lam` (the second block `y`, `λ = −y`), through the row space when [`factor`] found
+/// `A` redundant; a right-hand side `g` outside `A`'s range (redundant rows that contradict
+/// each other) is the typed redundant-constraints error.
+fn solve(data: &mut SpatialData) -> SpatialResult<()> {
+    let Some(basis) = &data.row_basis else {
+        data.kkt.solve(
+            data.rhs_f.as_slice(),
+            data.rhs_g.as_slice(),
+            data.qdd.as_mut_slice(),
+            data.lam.as_mut_slice(),
+        );
+        return Ok(());
+    };
+    let g = basis.transpose() * &data.rhs_g;
+    let off_range = (&data.rhs_g - basis * &g).amax();
+    if off_range > 1e-9 * data.rhs_g.amax().max(1.0) {
+        return Err(crate::CoreError::SingularKkt {
+            kind: crate::SingularityKind::RedundantConstraints,
+            condition_estimate: f64::INFINITY,
+        }
+        .into());
+    }
+    let mut y = DVector::zeros(g.len());
+    data.kkt.solve(
+        data.rhs_f.as_slice(),
+        g.as_slice(),
+        data.qdd.as_mut_slice(),
+        y.as_mut_slice(),
+    );
+    data.lam = basis * y;
     Ok(())
 }
 
@@ -150,12 +329,7 @@ pub fn forward_dynamics(
     for (g, d) in data.rhs_g.iter_mut().zip(data.A_drift.iter()) {
         *g = -d;
     }
-    data.kkt.solve(
-        data.rhs_f.as_slice(),
-        data.rhs_g.as_slice(),
-        data.qdd.as_mut_slice(),
-        data.lam.as_mut_slice(),
-    );
+    solve(data)?;
     data.lam.neg_mut();
     check_result("q̈", data.qdd.as_slice())?;
     check_result("λ", data.lam.as_slice())?;
@@ -184,12 +358,7 @@ pub fn impact(
     data.rhs_f.fill(0.0);
     let v = DVectorView::from_slice(v_minus, model.nv);
     data.rhs_g.gemv(-1.0, &data.A, &v, 0.0);
-    data.kkt.solve(
-        data.rhs_f.as_slice(),
-        data.rhs_g.as_slice(),
-        data.qdd.as_mut_slice(),
-        data.lam.as_mut_slice(),
-    );
+    solve(data)?;
     let v_plus = DVector::from_column_slice(v_minus) + &data.qdd;
     let impulse = -&data.lam;
     check_result("q̇⁺", v_plus.as_slice())?;

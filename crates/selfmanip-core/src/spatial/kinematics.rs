@@ -75,6 +75,9 @@ pub struct SpatialData {
     /// Results of the last constrained solve: `q̈` (or `Δq̇` of an impact) and `λ`.
     pub qdd: DVector<f64>,
     pub lam: DVector<f64>,
+    /// With a redundant contact set, the orthonormal basis `U_r` (c × r) of `A`'s range the
+    /// KKT system was factored on ([`super::contact`]); `None` when `A` has full row rank.
+    pub row_basis: Option<DMatrix<f64>>,
     /// Right-hand sides of the KKT solve.
     pub(crate) rhs_f: DVector<f64>,
     pub(crate) rhs_g: DVector<f64>,
@@ -100,6 +103,7 @@ impl SpatialData {
             kkt: KktFactorization::default(),
             qdd: DVector::zeros(nv),
             lam: DVector::zeros(0),
+            row_basis: None,
             rhs_f: DVector::zeros(nv),
             rhs_g: DVector::zeros(0),
         }

@@ -16,7 +16,9 @@
 //!
 //! Pipeline: URDF → [`SpatialModel`] (immutable) + [`SpatialData`] (workspace) →
 //! [`kinematics::forward_kinematics`], [`kinematics::frame_jacobian`], [`rigid_body::crba`],
-//! [`rigid_body::nonlinear_effects`], [`contact::forward_dynamics`], [`contact::impact`].
+//! [`rigid_body::nonlinear_effects`], [`contact::forward_dynamics`], [`contact::impact`],
+//! [`quasistatic::quasi_static`]. [`rhex`] builds the six-legged RHex of Table 4.2 and maps
+//! the planar RHex's states onto it.
 pub mod contact;
 pub mod error;
 pub mod explog;
@@ -26,6 +28,8 @@ pub mod liegroup;
 pub mod model;
 pub mod motion;
 pub mod rigid_body;
+pub mod quasistatic;
+pub mod rhex;
 pub mod se3;
 pub mod urdf;
 
@@ -36,4 +40,5 @@ pub use kinematics::{ReferenceFrame, SpatialData};
 pub use liegroup::{difference, integrate, neutral};
 pub use model::{BaseKind, FrameKind, JointKind, SpatialModel};
 pub use motion::{Force, Motion};
+pub use quasistatic::{quasi_static, SpatialQuasiStatic};
 pub use se3::SE3;

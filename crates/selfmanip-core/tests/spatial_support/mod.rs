@@ -119,3 +119,18 @@ pub fn dynamics_at(
         tau.as_slice(),
     )
 }
+
+/// The residuals of the last [`forward_dynamics`] in `data` with torques `tau`, each relative
+/// to the size of the terms it sums (round-off): the constraint `|A q̈ + Ȧq̇|` against
+/// `|A||q̈|` and `|Ȧq̇|`, the equations of motion `|M q̈ + h − τ − Aᵀλ|` against `|Aᵀ||λ|`
+/// and `|τ|`.
+pub fn dynamics_residuals(data: &SpatialData, tau: &DVector<f64>) -> (f64, f64) {
+    let scale = (data.A.abs() * data.qdd.abs())
+        .amax()
+        .max(data.A_drift.amax())
+        .max(1.0);
+    let acc = (&data.A * &data.qdd + &data.A_drift).amax() / scale;
+    let eom = &data.M * &data.qdd + &data.h - tau - data.A.transpose() * &data.lam;
+    let forces = (data.A.transpose().abs() * data.lam.abs()).amax();
+    (acc, eom.amax() / forces.max(tau.amax()).max(1.0))
+}

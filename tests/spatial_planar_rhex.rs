@@ -1,0 +1,260 @@
+//! d = 2 inside d = 3 (issue 32): the six-legged spatial RHex with each pair's two legs in
+//! the pair's state gives the planar three-pair RHex's `q̈`, `λ` (the pair's two forces
+//! summed, against the planar leg's) and plastic impact in every planar contact mode
+//! (`FB FL ML RB RL`, toes sticking, body ends sliding), with the toes on their points or the
+//! C-legs rolling as the planar model finds them. Two routes: the planar core (its own
+//! kinematics, `M̄`, contact geometry and KKT kernel) and the spatial one (URDF, CRBA, RNEA,
+//! frame Jacobians); the map between their coordinates is
+//! `selfmanip_core::spatial::rhex::{from_planar, velocity_to_planar, acceleration_to_planar,
+//! force_to_planar}`.
+use nalgebra::{DVector, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use selfmanip::core::contact::{row_direction, TouchKind};
+use selfmanip::core::spatial::rhex::{self, RhexSixLegs, SIDES};
+use selfmanip::core::spatial::{self as sp, PointContact, SpatialData, SpatialError, SpatialModel};
+use selfmanip::core::{
+    forward_dynamics, plastic_impact, CoreError, Data, FlatGround, SingularityKind,
+};
+use selfmanip::rhex::{LegPair, Rhex, RhexParams};
+
+const PAIRS: [LegPair; 3] = [LegPair::Front, LegPair::Middle, LegPair::Rear];
+
+fn planar(massive_legs: bool) -> Rhex {
+    let params = RhexParams {
+        pairs: PAIRS.to_vec(),
+        ..RhexParams::default()
+    };
+    let params = if massive_legs {
+        params.with_table_4_2_legs()
+    } else {
+        params
+    };
+    Rhex::new(params).unwrap()
+}
+
+/// The spatial robot of the planar one: Table 4.2's single leg on each side (the planar pair
+/// is twice it), or massless legs.
+fn spatial(massive_legs: bool) -> (RhexSixLegs, SpatialModel) {
+    let p = if massive_legs {
+        RhexSixLegs::table_4_2().with_table_4_2_legs()
+    } else {
+        RhexSixLegs::table_4_2()
+    };
+    let model = p.model().unwrap();
+    (p, model)
+}
+
+/// The spatial contacts of the planar mode just prepared in `data`: per active planar site
+/// (in its geometry order) the left and right sites of the pair, a leg held in the sagittal
+/// plane (rows world `x`, `z`) on its toe or rolling on its arc as the planar geometry says,
+/// a body end frictionless on its rounded end. Checks that a planar toe contact is the toe
+/// (not the arc's hip end), at the spatial toe's position.
+fn spatial_contacts(
+    rhex: &Rhex,
+    data: &Data,
+    p: &RhexSixLegs,
+    model: &SpatialModel,
+    q: &DVector<f64>,
+) -> Vec<PointContact> {
+    let mut sdata = SpatialData::new(model);
+    sp::kinematics::forward_kinematics(model, &mut sdata, q.as_slice()).unwrap();
+    let mut out = Vec::new();
+    for (k, geometry) in &data.constraints.geometry {
+        let name = &rhex.model.contacts[*k].name;
+        let (site, kind) = name.split_once('_').unwrap();
+        for side in SIDES {
+            let pair_side = format!("{site}_{side}");
+            let c = match (kind, geometry.touch) {
+                ("body", _) => p.body_end(model, &pair_side).unwrap(),
+                ("leg", TouchKind::Rolling) => p.leg_arc(model, &pair_side, true).unwrap(),
+                ("leg", TouchKind::Point) => {
+                    let c = p.toe(model, &pair_side, true).unwrap();
+                    let toe = sp::kinematics::frame_placement(model, &sdata, c.frame).translation;
+                    let (xz, _) = rhex::force_to_planar(&toe);
+                    let gap = (geometry.point.x - xz[0])
+                        .abs()
+                        .max((geometry.point.y - xz[1]).abs());
+                    assert!(
+                        gap < 1e-12,
+                        "planar point contact {name} is not the toe: {gap}"
+                    );
+                    c
+                }
+                other => panic!("{other:?}"),
+            };
+            out.push(match kind {
+                "leg" => c.in_plane(Vector3::x()).unwrap(),
+                _ => c,
+            });
+        }
+    }
+    out
+}
+
+/// The planar `λ` from the spatial one: each pair's two world forces summed, mapped to NED
+/// and projected on the planar rows' directions.
+fn planar_forces(
+    rhex: &Rhex,
+    data: &Data,
+    contacts: &[PointContact],
+    lam: &DVector<f64>,
+) -> DVector<f64> {
+    let mut totals = Vec::new();
+    let mut row = 0;
+    for pair in contacts.chunks(2) {
+        let mut f = Vector3::zeros();
+        for c in pair {
+            for d in &c.directions()[..c.n_rows()] {
+                f += d * lam[row];
+                row += 1;
+            }
+        }
+        totals.push(f);
+    }
+    assert_eq!(row, lam.len());
+    let mut out = DVector::zeros(data.constraints.rows.len());
+    for (r, crow) in data.constraints.rows.iter().enumerate() {
+        let i = data
+            .constraints
+            .geometry
+            .iter()
+            .position(|(k, _)| *k == crow.contact)
+            .unwrap();
+        let (xz, lateral) = rhex::force_to_planar(&totals[i]);
+        assert!(
+            lateral.abs() < 1e-9 * totals[i].norm().max(1.0),
+            "lateral force {lateral}"
+        );
+        let dir = row_direction(&data.constraints.geometry[i].1.plane, crow.direction);
+        out[r] = dir.x * xz[0] + dir.y * xz[1];
+        let _ = rhex;
+    }
+    out
+}
+
+fn rel(a: &DVector<f64>, b: &DVector<f64>) -> f64 {
+    (a - b).amax() / b.amax().max(1.0)
+}
+
+/// Every `0`/`1` mode at random states: where the planar KKT system is regular the spatial
+/// robot gives its `q̈` (both legs of a pair alike, no lateral, roll or yaw acceleration),
+/// its per-pair `λ` and its plastic impact to 1e-12 relative (to 1e-13 κ_A where the contact
+/// rows' condition κ_A exceeds 10: both solvers' round-off grows with it); where the planar system is singular
+/// (redundant rows) so is the spatial one's constraint set, which the spatial engine solves
+/// on `A`'s row space instead. With massless legs, a leg pair off the ground is the typed
+/// Lemma 5.1 error in the spatial engine (the planar one prescribes its motion instead).
+#[test]
+fn six_legs_in_pairs_are_the_planar_model() {
+    for massive in [true, false] {
+        let rhex = planar(massive);
+        let (p, model) = spatial(massive);
+        let mut data = Data::new(&rhex.model);
+        let mut sdata = SpatialData::new(&model);
+        let mut rng = ChaCha8Rng::seed_from_u64(40);
+        let (mut w_qdd, mut w_lam, mut w_imp, mut w_sym) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        let (mut compared, mut rolling, mut toes, mut free_legs) = (0, 0, 0, 0);
+        let mut kappa_max = 0.0f64;
+        for _ in 0..6 {
+            let mut q = [0.0; 6];
+            for t in q.iter_mut().take(3) {
+                *t = rng.gen_range(-1.3..1.3);
+            }
+            q[3] = rng.gen_range(-1.0..1.0);
+            q[4] = rng.gen_range(-0.4..-0.1);
+            q[5] = rng.gen_range(-0.3..0.3);
+            let qd: Vec<f64> = (0..6).map(|_| rng.gen_range(-2.0..2.0)).collect();
+            let tau: Vec<f64> = (0..3).map(|_| rng.gen_range(-5.0..5.0)).collect();
+            let (qs, vs) = rhex::from_planar(&q, &qd).unwrap();
+            let mut tau_s = vec![0.0; 12];
+            for pair in 0..3 {
+                tau_s[6 + 2 * pair] = 0.5 * tau[pair];
+                tau_s[7 + 2 * pair] = 0.5 * tau[pair];
+            }
+            for label in rhex.all_labels() {
+                let mode = rhex.mode(&label).unwrap();
+                let planar_ok = forward_dynamics(
+                    &rhex.model,
+                    &mut data,
+                    &FlatGround,
+                    mode,
+                    &q,
+                    &qd,
+                    &tau,
+                    None,
+                );
+                let Ok(()) = planar_ok else { continue };
+                let contacts = spatial_contacts(&rhex, &data, &p, &model, &qs);
+                let ours = sp::forward_dynamics(
+                    &model,
+                    &mut sdata,
+                    &contacts,
+                    qs.as_slice(),
+                    vs.as_slice(),
+                    &tau_s,
+                );
+                if !data.free_joints.is_empty() && !massive {
+                    assert!(
+                        matches!(
+                            ours,
+                            Err(SpatialError::Core(CoreError::SingularKkt {
+                                kind: SingularityKind::UnconstrainedMasslessMotion,
+                                ..
+                            }))
+                        ),
+                        "{label}: {ours:?}"
+                    );
+                    free_legs += 1;
+                    continue;
+                }
+                ours.unwrap();
+                compared += 1;
+                for (_, g) in &data.constraints.geometry {
+                    match g.touch {
+                        TouchKind::Rolling => rolling += 1,
+                        TouchKind::Point => toes += 1,
+                    }
+                }
+                // the round-off of two KKT solvers grows with the condition of the contact
+                // rows (`κ_A`, the planar factorization's): errors are measured against
+                // 1e-12 where κ_A ≤ 10 and 1e-13 κ_A above
+                let kappa = (data.kkt.info.constraint_condition / 10.0).max(1.0);
+                kappa_max = kappa_max.max(10.0 * kappa);
+                let rel = |a: &DVector<f64>, b: &DVector<f64>| rel(a, b) / kappa;
+                let (qdd, right) = rhex::acceleration_to_planar(
+                    qs.as_slice(),
+                    vs.as_slice(),
+                    sdata.qdd.as_slice(),
+                );
+                w_qdd = w_qdd.max(rel(&qdd, &data.qdd));
+                for pair in 0..3 {
+                    w_sym = w_sym.max((right[pair] - qdd[pair]).abs() / qdd.amax().max(1.0));
+                }
+                // y, roll, yaw accelerations
+                for i in [1, 3, 5] {
+                    w_sym = w_sym.max(sdata.qdd[i].abs() / qdd.amax().max(1.0));
+                }
+                let lam = planar_forces(&rhex, &data, &contacts, &sdata.lam);
+                w_lam = w_lam.max(rel(&lam, &data.lambda));
+
+                let planar_imp =
+                    plastic_impact(&rhex.model, &mut data, &FlatGround, mode, &q, &qd).unwrap();
+                let imp = sp::impact(&model, &mut sdata, &contacts, qs.as_slice(), vs.as_slice())
+                    .unwrap();
+                let v_plus = rhex::velocity_to_planar(qs.as_slice(), imp.v_plus.as_slice());
+                let impulse = planar_forces(&rhex, &data, &contacts, &imp.impulse);
+                w_imp = w_imp
+                    .max(rel(&v_plus, &planar_imp.qd_plus))
+                    .max(rel(&impulse, &planar_imp.impulse));
+            }
+        }
+        eprintln!(
+            "legs {} kg: {compared} mode-states compared ({toes} toe and {rolling} rolling leg contacts, \
+             {free_legs} with a massless pair in the air refused); |q̈| {w_qdd:.1e}, |λ| {w_lam:.1e}, \
+             |impact| {w_imp:.1e}, |asymmetry| {w_sym:.1e} (each / max(1, κ_A/10); κ_A up to {kappa_max:.0})",
+            p.leg_mass_kg
+        );
+        assert!(compared >= if massive { 60 } else { 3 } && toes > 0 && rolling > 0);
+        assert!(w_qdd < 1e-12 && w_lam < 1e-12 && w_imp < 1e-12 && w_sym < 1e-12);
+    }
+}
