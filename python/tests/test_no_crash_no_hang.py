@@ -61,6 +61,14 @@ def test_a_leap_at_1e308_ends_with_a_typed_outcome_instead_of_hanging(call):
     assert not r.flew or all(math.isfinite(x) for x in r.q_final)
 
 
+@pytest.mark.parametrize("field", ["swing_accel_rad_s2", "swing_speed_rad_s"])
+def test_a_swing_of_1e308_is_refused_naming_its_field(field):
+    # finite, but the free legs' tracking law takes differences of values this large
+    with pytest.raises(InvalidInputError) as e:
+        selfmanip.leap(**{field: 1e308})
+    assert e.value.field == field, e.value
+
+
 def test_a_gear_ratio_of_1e308_is_refused_naming_the_gear_ratio():
     # finite, but the drive's reflected rotor inertia n J G² overflows: the ratio's fault,
     # not the servo gain the leap's behaviour derives from it

@@ -448,6 +448,20 @@ impl LeapConfig {
                 return bad(field, format!("must be positive, got {v}"));
             }
         }
+        // The free legs' tracking law is differenced at each segment's start
+        // (`selfmanip_hybrid::free_joints`): values of the swing's size must leave room for
+        // a difference of two of them.
+        for (field, v) in [
+            ("swing_accel_rad_s2", self.swing_accel_rad_s2.unwrap_or(1.0)),
+            ("swing_speed_rad_s", self.swing_speed_rad_s.unwrap_or(1.0)),
+        ] {
+            if !(2.0 * v).is_finite() {
+                return bad(
+                    field,
+                    format!("must be at most f64::MAX / 2 (the free legs' tracking law is differenced), got {v}"),
+                );
+            }
+        }
         for (field, n) in [
             ("max_steps", self.max_steps),
             ("max_events", self.max_events),
