@@ -82,6 +82,11 @@ def _spatial_impact():
     return r.impact(["FL_foot", "FR_foot"], r.neutral(), np.linspace(-0.1, 0.1, r.nv))
 
 
+def _spatial_quasi_static():
+    r = _spatial()
+    return r.quasi_static(["FL_foot", "FR_foot", "HL_foot", "HR_foot"], r.neutral())
+
+
 def _periodic_orbit():
     return selfmanip.periodic_orbit(DATA / "hopper.toml", DATA / "hop_periodic.toml", [0.5, -1.0, 0.0, -0.45, 0.0])
 
@@ -128,6 +133,7 @@ EXAMPLES = {
     "selfmanip.spatial.SpatialRobot": _spatial,
     "selfmanip.spatial.SpatialDynamics": _spatial_dynamics,
     "selfmanip.spatial.SpatialImpact": _spatial_impact,
+    "selfmanip.spatial.SpatialQuasiStatic": _spatial_quasi_static,
     "selfmanip.calibrate.Calibration": lambda: selfmanip.calibrate(
         "leap", {"strategy": ["--"] * 2, "t2_s": [-0.03, 0.04], "apex_z_m": [0.52, 0.42]}, {"m_b": (5.0, 9.5)}),
     "selfmanip.calibrate.LeapModel": lambda: LeapModel({"mu_rear": 2.0}),

@@ -393,11 +393,12 @@ def test_stop_at_apex_and_terrain():
 
 
 @pytest.mark.parametrize("example", ["hopper", "ledge", "quadruped"])
-def test_examples_run_small(example, tmp_path):
+def test_examples_run_small(example, tmp_path, monkeypatch):
     pytest.importorskip("matplotlib")
     import importlib.util
 
     root = pathlib.Path(__file__).resolve().parents[2] / "python" / "examples"
+    monkeypatch.syspath_prepend(str(root))  # as `python python/examples/X.py` does: they share hopper.py
     spec = importlib.util.spec_from_file_location(example, root / f"{example}.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
