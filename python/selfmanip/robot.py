@@ -19,6 +19,7 @@ import numpy as np
 
 from . import _checks
 from ._native import Robot as _NativeRobot
+from ._wrapped_model import WrappedModel
 from .errors import InvalidInputError, InvalidTypeError
 
 
@@ -163,14 +164,13 @@ def description_format(path: str | os.PathLike[str], text: str | None = None, fi
     return "json" if ext == ".json" else "toml"
 
 
-class Robot:
+class Robot(WrappedModel):
     """A planar robot: ``Robot.from_file("robot.toml")``. Picklable and deep-copyable: a copy is
-    rebuilt from the same description (or RHex parameters), so it is the same model."""
+    rebuilt from the same description (or RHex parameters), so it is the same model. ``nq``
+    counts the joints and ``x, z, phi``."""
 
-    def __init__(self, native: _NativeRobot):
-        if not isinstance(native, _NativeRobot):
-            raise InvalidTypeError("use Robot.from_file / from_toml / from_json, or selfmanip.rhex.Model", "native")
-        self._native = native
+    _native_class = _NativeRobot
+    _construct_with = "Robot.from_file / from_toml / from_json, or selfmanip.rhex.Model"
 
     # -- construction -------------------------------------------------------------------
     @classmethod
@@ -205,15 +205,6 @@ class Robot:
         return cls(_NativeRobot.from_description(_checks.text("text", text), "json"))
 
     # -- structure ----------------------------------------------------------------------
-    @property
-    def name(self) -> str:
-        return self._native.name
-
-    @property
-    def nq(self) -> int:
-        """Number of generalized coordinates (joints + x, z, phi)."""
-        return self._native.nq
-
     @property
     def n_joints(self) -> int:
         return self._native.n_joints

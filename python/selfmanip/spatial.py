@@ -28,6 +28,7 @@ from typing import Literal, Sequence
 import numpy as np
 
 from ._native import SpatialRobot as _NativeSpatialRobot
+from ._wrapped_model import WrappedModel
 from .errors import InvalidTypeError
 
 ReferenceFrame = Literal["local", "world", "local_world_aligned"]
@@ -78,14 +79,12 @@ def _vector(x: np.ndarray | Sequence[float]) -> np.ndarray:
     return np.ascontiguousarray(x, dtype=float).reshape(-1)
 
 
-class SpatialRobot:
+class SpatialRobot(WrappedModel):
     """A spatial robot: ``SpatialRobot.from_urdf(path, base="free_flyer")``. Picklable and
     deep-copyable: a copy is rebuilt from the same URDF text, base and root link."""
 
-    def __init__(self, native: _NativeSpatialRobot):
-        if not isinstance(native, _NativeSpatialRobot):
-            raise InvalidTypeError("use SpatialRobot.from_urdf", "native")
-        self._native = native
+    _native_class = _NativeSpatialRobot
+    _construct_with = "SpatialRobot.from_urdf"
 
     @classmethod
     def from_urdf(cls, path: str | os.PathLike[str], base: Literal["free_flyer", "fixed"] = "free_flyer",
@@ -104,14 +103,6 @@ class SpatialRobot:
         half-width (0.125 m by default) is an assumption, the thesis gives none."""
         return cls(_NativeSpatialRobot.rhex(float(leg_mass_kg), float(leg_inertia_kg_m2),
                                             None if hip_half_width_m is None else float(hip_half_width_m)))
-
-    @property
-    def name(self) -> str:
-        return self._native.name
-
-    @property
-    def nq(self) -> int:
-        return self._native.nq
 
     @property
     def nv(self) -> int:

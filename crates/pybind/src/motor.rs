@@ -307,38 +307,53 @@ fn observer_params(params: &Bound<'_, PyDict>) -> PyResult<ObserverParams> {
     Ok(p)
 }
 
-fn leg_log(
-    dt_s: f64,
-    theta_d: PyReadonlyArray1<'_, f64>,
-    omega_d: PyReadonlyArray1<'_, f64>,
-    theta: PyReadonlyArray1<'_, f64>,
-    omega: PyReadonlyArray1<'_, f64>,
-) -> PyResult<LegLog> {
-    Ok(LegLog {
-        dt_s,
-        theta_d_rad: theta_d.as_slice()?.to_vec(),
-        omega_d_rad_s: omega_d.as_slice()?.to_vec(),
-        theta_rad: theta.as_slice()?.to_vec(),
-        omega_rad_s: omega.as_slice()?.to_vec(),
-    })
+/// A leg's log as the observer functions take it, after their dicts: `dt_s` and the arrays
+/// `theta_d`, `omega_d`, `theta`, `omega` (rad, rad/s), passed positionally.
+#[derive(FromPyObject)]
+struct LegLogArgs<'py>(
+    f64,
+    PyReadonlyArray1<'py, f64>,
+    PyReadonlyArray1<'py, f64>,
+    PyReadonlyArray1<'py, f64>,
+    PyReadonlyArray1<'py, f64>,
+);
+
+impl LegLogArgs<'_> {
+    fn to_log(&self) -> PyResult<LegLog> {
+        let LegLogArgs(dt_s, theta_d, omega_d, theta, omega) = self;
+        Ok(LegLog {
+            dt_s: *dt_s,
+            theta_d_rad: theta_d.as_slice()?.to_vec(),
+            omega_d_rad_s: omega_d.as_slice()?.to_vec(),
+            theta_rad: theta.as_slice()?.to_vec(),
+            omega_rad_s: omega.as_slice()?.to_vec(),
+        })
+    }
 }
 
+/// What the observer functions share: the log out of its Python form, then `run` on the
+/// parameters and the log with the interpreter released.
+fn run_observer<T: Send>(
+    py: Python<'_>,
+    params: &ObserverParams,
+    log: &LegLogArgs<'_>,
+    run: impl FnOnce(&ObserverParams, &LegLog) -> motor::Result<T> + Send,
+) -> PyResult<T> {
+    let log = log.to_log()?;
+    py.detach(|| run(params, &log)).map_err(errors::motor)
+}
+
+/// `motor_observe(params, dt_s, theta_d, omega_d, theta, omega)`.
 #[pyfunction]
+#[pyo3(signature = (params, *log))]
 fn motor_observe<'py>(
     py: Python<'py>,
     params: &Bound<'py, PyDict>,
-    dt_s: f64,
-    theta_d: PyReadonlyArray1<'py, f64>,
-    omega_d: PyReadonlyArray1<'py, f64>,
-    theta: PyReadonlyArray1<'py, f64>,
-    omega: PyReadonlyArray1<'py, f64>,
+    log: LegLogArgs<'py>,
 ) -> PyResult<Bound<'py, PyDict>> {
     guard(|| {
         let params = observer_params(params)?;
-        let log = leg_log(dt_s, theta_d, omega_d, theta, omega)?;
-        let samples = py
-            .detach(|| observer::observe(&params, &log))
-            .map_err(errors::motor)?;
+        let samples = run_observer(py, &params, &log, observer::observe)?;
         let out = PyDict::new(py);
         out.set_item("theta_hat_rad", column(py, &samples, |s| s.theta_hat_rad))?;
         out.set_item(
@@ -351,45 +366,38 @@ fn motor_observe<'py>(
     })
 }
 
+/// `motor_calibrate_observer(initial_params, dt_s, theta_d, omega_d, theta, omega)`.
 #[pyfunction]
+#[pyo3(signature = (initial_params, *log))]
 fn motor_calibrate_observer<'py>(
     py: Python<'py>,
     initial_params: &Bound<'py, PyDict>,
-    dt_s: f64,
-    theta_d: PyReadonlyArray1<'py, f64>,
-    omega_d: PyReadonlyArray1<'py, f64>,
-    theta: PyReadonlyArray1<'py, f64>,
-    omega: PyReadonlyArray1<'py, f64>,
+    log: LegLogArgs<'py>,
 ) -> PyResult<Bound<'py, PyAny>> {
     guard(|| {
         let initial = observer_params(initial_params)?;
-        let log = leg_log(dt_s, theta_d, omega_d, theta, omega)?;
-        let calibration = py
-            .detach(|| observer::calibrate(&log, &initial))
-            .map_err(errors::motor)?;
+        let calibration = run_observer(py, &initial, &log, |initial, log| {
+            observer::calibrate(log, initial)
+        })?;
         to_py(py, &calibration)
     })
 }
 
+/// `motor_identify_faults(params, config, dt_s, theta_d, omega_d, theta, omega)`.
 #[pyfunction]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (params, config, *log))]
 fn motor_identify_faults<'py>(
     py: Python<'py>,
     params: &Bound<'py, PyDict>,
     config: &Bound<'py, PyDict>,
-    dt_s: f64,
-    theta_d: PyReadonlyArray1<'py, f64>,
-    omega_d: PyReadonlyArray1<'py, f64>,
-    theta: PyReadonlyArray1<'py, f64>,
-    omega: PyReadonlyArray1<'py, f64>,
+    log: LegLogArgs<'py>,
 ) -> PyResult<Bound<'py, PyAny>> {
     guard(|| {
         let params = observer_params(params)?;
         let config: FaultFsmConfig = from_dict(config, "config")?;
-        let log = leg_log(dt_s, theta_d, omega_d, theta, omega)?;
-        let changes = py
-            .detach(|| observer::identify(&params, &config, &log))
-            .map_err(errors::motor)?;
+        let changes = run_observer(py, &params, &log, |params, log| {
+            observer::identify(params, &config, log)
+        })?;
         to_py(py, &changes)
     })
 }

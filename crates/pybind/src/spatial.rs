@@ -112,6 +112,34 @@ impl SpatialRobot {
     fn frame(&self, name: &str) -> PyResult<usize> {
         self.model.frame_id(name).map_err(spatial_err)
     }
+
+    /// The model's data after forward kinematics at `q`.
+    fn kinematics(&self, q: &[f64]) -> PyResult<SpatialData> {
+        let mut data = SpatialData::new(&self.model);
+        forward_kinematics(&self.model, &mut data, q).map_err(spatial_err)?;
+        Ok(data)
+    }
+
+    /// What the contact methods share: `names` resolved ([`Self::contacts`]), `solve` on the
+    /// contacts and fresh data, then a dict that `fill` writes from its result and the data,
+    /// with the contact rows under `"rows"`.
+    fn contact_dict<'py, T>(
+        &self,
+        py: Python<'py>,
+        names: &[String],
+        solve: impl FnOnce(&[PointContact], &mut SpatialData) -> Result<T, SpatialError>,
+        fill: impl FnOnce(&Bound<'py, PyDict>, T, &SpatialData) -> PyResult<()>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        guard(|| {
+            let (contacts, rows) = self.contacts(names)?;
+            let mut data = SpatialData::new(&self.model);
+            let out = solve(&contacts, &mut data).map_err(spatial_err)?;
+            let d = PyDict::new(py);
+            fill(&d, out, &data)?;
+            d.set_item("rows", rows)?;
+            Ok(d)
+        })
+    }
 }
 
 #[pymethods]
@@ -267,8 +295,7 @@ impl SpatialRobot {
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         guard(|| {
             let f = self.frame(name)?;
-            let mut data = SpatialData::new(&self.model);
-            forward_kinematics(&self.model, &mut data, &q).map_err(spatial_err)?;
+            let data = self.kinematics(&q)?;
             let m = frame_placement(&self.model, &data, f);
             let mut h = DMatrix::identity(4, 4);
             h.view_mut((0, 0), (3, 3)).copy_from(&m.rotation);
@@ -290,8 +317,7 @@ impl SpatialRobot {
         guard(|| {
             let f = self.frame(name)?;
             let reference = ReferenceFrame::from_name(frame).map_err(spatial_err)?;
-            let mut data = SpatialData::new(&self.model);
-            forward_kinematics(&self.model, &mut data, &q).map_err(spatial_err)?;
+            let mut data = self.kinematics(&q)?;
             frame_jacobian(&self.model, &mut data, f, reference);
             let j = &data.J;
             Ok(Array2::from_shape_fn((6, j.ncols()), |(r, c)| j[(r, c)]).into_pyarray(py))
@@ -309,19 +335,17 @@ impl SpatialRobot {
         v: Vec<f64>,
         tau: Vec<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        guard(|| {
-            let (contacts, rows) = self.contacts(&contacts)?;
-            let mut data = SpatialData::new(&self.model);
-            forward_dynamics(&self.model, &mut data, &contacts, &q, &v, &tau)
-                .map_err(spatial_err)?;
-            let d = PyDict::new(py);
-            d.set_item("qdd", vec1(py, &data.qdd))?;
-            d.set_item("lam", vec1(py, &data.lam))?;
-            d.set_item("rows", rows)?;
-            d.set_item("A", mat(py, &data.A))?;
-            d.set_item("drift", vec1(py, &data.A_drift))?;
-            Ok(d)
-        })
+        self.contact_dict(
+            py,
+            &contacts,
+            |contacts, data| forward_dynamics(&self.model, data, contacts, &q, &v, &tau),
+            |d, (), data| {
+                d.set_item("qdd", vec1(py, &data.qdd))?;
+                d.set_item("lam", vec1(py, &data.lam))?;
+                d.set_item("A", mat(py, &data.A))?;
+                d.set_item("drift", vec1(py, &data.A_drift))
+            },
+        )
     }
 
     /// Quasi-static forces (thesis 4.21–4.22) of `contacts` at rest at `q`:
@@ -333,20 +357,19 @@ impl SpatialRobot {
         contacts: Vec<String>,
         q: Vec<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        guard(|| {
-            let (contacts, rows) = self.contacts(&contacts)?;
-            let mut data = SpatialData::new(&self.model);
-            let out = quasi_static(&self.model, &mut data, &contacts, &q).map_err(spatial_err)?;
-            let d = PyDict::new(py);
-            d.set_item("grasp", mat(py, &out.grasp))?;
-            d.set_item("gravity_wrench", vec1(py, &out.gravity_wrench))?;
-            d.set_item("lam_external", vec1(py, &out.lambda_external))?;
-            d.set_item("internal_basis", mat(py, &out.internal_basis))?;
-            d.set_item("tau_external", vec1(py, &out.tau_external))?;
-            d.set_item("internal_torques", mat(py, &out.internal_torques))?;
-            d.set_item("rows", rows)?;
-            Ok(d)
-        })
+        self.contact_dict(
+            py,
+            &contacts,
+            |contacts, data| quasi_static(&self.model, data, contacts, &q),
+            |d, out, _| {
+                d.set_item("grasp", mat(py, &out.grasp))?;
+                d.set_item("gravity_wrench", vec1(py, &out.gravity_wrench))?;
+                d.set_item("lam_external", vec1(py, &out.lambda_external))?;
+                d.set_item("internal_basis", mat(py, &out.internal_basis))?;
+                d.set_item("tau_external", vec1(py, &out.tau_external))?;
+                d.set_item("internal_torques", mat(py, &out.internal_torques))
+            },
+        )
     }
 
     /// Plastic impact (5.10) into `contacts` at `q` with incoming rates `v`:
@@ -358,16 +381,15 @@ impl SpatialRobot {
         q: Vec<f64>,
         v: Vec<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        guard(|| {
-            let (contacts, rows) = self.contacts(&contacts)?;
-            let mut data = SpatialData::new(&self.model);
-            let out = impact(&self.model, &mut data, &contacts, &q, &v).map_err(spatial_err)?;
-            let d = PyDict::new(py);
-            d.set_item("v_plus", vec1(py, &out.v_plus))?;
-            d.set_item("impulse", vec1(py, &out.impulse))?;
-            d.set_item("rows", rows)?;
-            Ok(d)
-        })
+        self.contact_dict(
+            py,
+            &contacts,
+            |contacts, data| impact(&self.model, data, contacts, &q, &v),
+            |d, out, _| {
+                d.set_item("v_plus", vec1(py, &out.v_plus))?;
+                d.set_item("impulse", vec1(py, &out.impulse))
+            },
+        )
     }
 }
 

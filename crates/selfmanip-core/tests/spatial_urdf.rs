@@ -25,6 +25,14 @@ fn field_of(err: SpatialError) -> String {
     }
 }
 
+/// The core error a spatial error wraps.
+fn core_error(err: SpatialError) -> CoreError {
+    match err {
+        SpatialError::Core(e) => e,
+        other => panic!("expected a core error, got {other:?}"),
+    }
+}
+
 #[test]
 fn the_quadruped_has_its_joints_frames_and_mass() {
     let model = quadruped();
@@ -57,48 +65,43 @@ fn bad_urdf_names_the_field() {
     let free = BaseKind::FreeFlyer;
     let ok = two_links(&joint("j", "revolute", "a", "b", "0 0 1"), "0.5");
     SpatialModel::from_urdf_str(&ok, free, None).unwrap();
+    // the field the first error of a two-link robot with `joints` and b's mass names
+    let field = |joints: &str, mass_b: &str| {
+        field_of(SpatialModel::from_urdf_str(&two_links(joints, mass_b), free, None).unwrap_err())
+    };
+    let revolute = |xyz: &str| joint("j", "revolute", "a", "b", xyz);
     // a cycle: b's parent is a and a's parent is b
-    let cyc = two_links(
-        &(joint("j1", "revolute", "a", "b", "0 0 1") + &joint("j2", "revolute", "b", "a", "0 0 1")),
-        "0.5",
-    );
-    assert!(
-        field_of(SpatialModel::from_urdf_str(&cyc, free, None).unwrap_err()).starts_with("joint[j")
-    );
-    // a second parent
-    let twice = two_links(
-        &(joint("j1", "revolute", "a", "b", "0 0 1") + &joint("j2", "fixed", "a", "b", "0 0 1")),
-        "0.5",
-    );
-    assert_eq!(
-        field_of(SpatialModel::from_urdf_str(&twice, free, None).unwrap_err()),
-        "joint[j2].child"
-    );
-    let missing = two_links(&joint("j", "revolute", "nowhere", "b", "0 0 1"), "0.5");
-    assert_eq!(
-        field_of(SpatialModel::from_urdf_str(&missing, free, None).unwrap_err()),
-        "joint[j].parent"
-    );
-    let negative = two_links(&joint("j", "revolute", "a", "b", "0 0 1"), "-0.5");
-    assert_eq!(
-        field_of(SpatialModel::from_urdf_str(&negative, free, None).unwrap_err()),
-        "link[b].inertial.mass"
-    );
-    let nan_mass = two_links(&joint("j", "revolute", "a", "b", "0 0 1"), "NaN");
-    assert_eq!(
-        field_of(SpatialModel::from_urdf_str(&nan_mass, free, None).unwrap_err()),
-        "link[b].inertial.mass"
-    );
-    let nan_origin = two_links(&joint("j", "revolute", "a", "b", "0 NaN 1"), "0.5");
-    assert_eq!(
-        field_of(SpatialModel::from_urdf_str(&nan_origin, free, None).unwrap_err()),
-        "joint[j].origin.xyz"
-    );
-    let planar = two_links(&joint("j", "planar", "a", "b", "0 0 1"), "0.5");
-    assert_eq!(
-        field_of(SpatialModel::from_urdf_str(&planar, free, None).unwrap_err()),
-        "joint[j].type"
-    );
+    let cycle =
+        joint("j1", "revolute", "a", "b", "0 0 1") + &joint("j2", "revolute", "b", "a", "0 0 1");
+    assert!(field(&cycle, "0.5").starts_with("joint[j"));
+    let cases = [
+        // a second parent
+        (
+            joint("j1", "revolute", "a", "b", "0 0 1") + &joint("j2", "fixed", "a", "b", "0 0 1"),
+            "0.5",
+            "joint[j2].child",
+        ),
+        (
+            joint("j", "revolute", "nowhere", "b", "0 0 1"),
+            "0.5",
+            "joint[j].parent",
+        ),
+        (revolute("0 0 1"), "-0.5", "link[b].inertial.mass"),
+        (revolute("0 0 1"), "NaN", "link[b].inertial.mass"),
+        (revolute("0 NaN 1"), "0.5", "joint[j].origin.xyz"),
+        (
+            joint("j", "planar", "a", "b", "0 0 1"),
+            "0.5",
+            "joint[j].type",
+        ),
+    ];
+    for (joints, mass_b, expected) in &cases {
+        assert_eq!(
+            field(joints, mass_b),
+            *expected,
+            "{joints} with mass {mass_b}"
+        );
+    }
     let bogus = two_links(&joint("j", "bogus", "a", "b", "0 0 1"), "0.5");
     assert!(matches!(
         SpatialModel::from_urdf_str(&bogus, free, None).unwrap_err(),
@@ -121,39 +124,35 @@ fn bad_state_names_the_field() {
         "{err:?}"
     );
     let q = neutral(&model);
-    let err = kinematics::forward_kinematics(&model, &mut data, &q.as_slice()[..18]).unwrap_err();
-    assert!(
-        matches!(
-            err,
-            SpatialError::Core(CoreError::WrongLength {
-                field: "q",
-                expected: 19,
-                actual: 18
-            })
-        ),
-        "{err:?}"
+    let err = core_error(
+        kinematics::forward_kinematics(&model, &mut data, &q.as_slice()[..18]).unwrap_err(),
     );
+    let q_length = CoreError::WrongLength {
+        field: "q",
+        expected: 19,
+        actual: 18,
+    };
+    assert_eq!(err, q_length);
     let mut v = vec![0.0; 18];
     v[4] = f64::NAN;
-    let err = rigid_body::nonlinear_effects(&model, &mut data, q.as_slice(), &v).unwrap_err();
+    let err =
+        core_error(rigid_body::nonlinear_effects(&model, &mut data, q.as_slice(), &v).unwrap_err());
     assert!(
         matches!(
             err,
-            SpatialError::Core(CoreError::NonFinite {
+            CoreError::NonFinite {
                 field: "v",
                 index: 4,
                 ..
-            })
+            }
         ),
         "{err:?}"
     );
-    let err =
-        forward_dynamics(&model, &mut data, &[], q.as_slice(), &[0.0; 18], &[0.0; 17]).unwrap_err();
+    let err = core_error(
+        forward_dynamics(&model, &mut data, &[], q.as_slice(), &[0.0; 18], &[0.0; 17]).unwrap_err(),
+    );
     assert!(
-        matches!(
-            err,
-            SpatialError::Core(CoreError::WrongLength { field: "tau", .. })
-        ),
+        matches!(err, CoreError::WrongLength { field: "tau", .. }),
         "{err:?}"
     );
     assert!(matches!(

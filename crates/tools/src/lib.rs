@@ -1,6 +1,7 @@
-//! What the probe binaries share: the robot's changes from the environment and the one-line
-//! summary of a leap.
+//! What the probe binaries share: the robot's changes from the environment, the one-line
+//! summary of a leap and the line of one of its segments.
 use rhex_model::RhexParams;
+use selfmanip_hybrid::Segment;
 
 /// Applies the environment's changes to the robot: `ROTORS=1` legs that carry their rotors
 /// ([`RhexParams::leg_rotors`]), `M_B` (kg) and `I_B` (kg m²) the body's mass and inertia.
@@ -34,4 +35,21 @@ pub fn print_leap_line(
         );
     }
     println!();
+}
+
+/// Prints `{indent}segment T0..T1 BITS N steps`, the segment's times (s), its mode's normal
+/// bits and its accepted steps, with ` (locked)` when joints are locked in it.
+pub fn print_segment_line(indent: &str, sg: &Segment) {
+    println!(
+        "{indent}segment {:.6}..{:.6} {:<6} {:>6} steps{}",
+        sg.t0,
+        sg.t1,
+        format!("{:b}", sg.mode.normal_bits()),
+        sg.dense.len(),
+        if sg.locked.is_empty() {
+            ""
+        } else {
+            " (locked)"
+        }
+    );
 }

@@ -33,7 +33,7 @@
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapPreset, LegActuator, Strategy};
 use selfmanip_hybrid::budget::NEVER;
 use selfmanip_hybrid::integrate::{reset_work_counters, work_counters, WorkCounters};
-use selfmanip_tools::body_from_env;
+use selfmanip_tools::{body_from_env, print_segment_line};
 use std::collections::BTreeMap;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -139,13 +139,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             print_counters(&w, 1.0);
             if std::env::var("SEGS").is_ok() {
                 for sg in &r.execution.segments {
-                    println!(
-                        "    segment {:.6}..{:.6} {:>8b} {:>6} steps",
-                        sg.t0,
-                        sg.t1,
-                        sg.mode.normal_bits(),
-                        sg.dense.len()
-                    );
+                    print_segment_line("    ", sg);
                     if std::env::var("TORQUE").is_ok() {
                         // the controller's torques and the legs' angles along the segment
                         let n = sg.y0.len() / 2;

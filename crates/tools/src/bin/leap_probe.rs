@@ -11,7 +11,7 @@
 //! `QD=1` (with `EVENTS`) to print each event's q and q̇ after it, `LANDINGS=1` to run past the apex to `t_final`, `EVENT_TOL` (s) and `RTOL` the tolerances.
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator};
 use rhex_model::params::LegPair;
-use selfmanip_tools::{body_from_env, print_leap_line};
+use selfmanip_tools::{body_from_env, print_leap_line, print_segment_line};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
@@ -81,18 +81,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 );
                 if std::env::var("SEGS").is_ok() {
                     for sg in &r.execution.segments {
-                        println!(
-                            "      segment {:.6}..{:.6} {:<6} {:>6} steps{}",
-                            sg.t0,
-                            sg.t1,
-                            format!("{:b}", sg.mode.normal_bits()),
-                            sg.dense.len(),
-                            if sg.locked.is_empty() {
-                                ""
-                            } else {
-                                " (locked)"
-                            }
-                        );
+                        print_segment_line("      ", sg);
                     }
                 }
                 if std::env::var("QD").is_ok() {
