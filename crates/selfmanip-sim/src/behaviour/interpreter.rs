@@ -455,7 +455,7 @@ pub struct BehaviourController {
 /// [`BehaviourController::memory_partials`]) and given back after use, so that a call
 /// allocates nothing once the buffers exist.
 #[derive(Default)]
-struct Scratch(Vec<Vec<f64>>);
+struct Scratch(Vec<Vec<f64>>, Vec<usize>);
 
 impl Scratch {
     /// A buffer of `n` zeros.
@@ -1397,14 +1397,16 @@ impl Controller for BehaviourController {
     ) -> bool {
         let plan = &*self.plan;
         let tan = plan.tangent();
-        let Some(idx) = tan.indices(names) else {
+        let mut ws = self.workspace.lend();
+        // the indices' buffer, given back on success (a refusal drops it)
+        let mut idx = std::mem::take(&mut ws.1);
+        if !tan.indices_into(names, &mut idx) {
             return false;
-        };
+        }
         let deeper = |m: &ProgramMemory| m.timeline.iter().any(|e| e.3 == StartGrad::Deeper);
         if self.programs.iter().any(deeper) {
             return false;
         }
-        let mut ws = self.workspace.lend();
         for (p, prog) in plan.programs.iter().enumerate() {
             if prog.has_levels {
                 return false;
@@ -1436,6 +1438,7 @@ impl Controller for BehaviourController {
             }
             ws.give([dth, dw, d]);
         }
+        ws.1 = idx;
         true
     }
 

@@ -58,10 +58,21 @@ pub(crate) struct PlanTangent {
 impl PlanTangent {
     /// The index of each name, or `None` if one is not a parameter of the behaviour.
     pub fn indices(&self, names: &[&str]) -> Option<Vec<usize>> {
-        names
-            .iter()
-            .map(|n| self.names.iter().position(|m| m == n))
-            .collect()
+        let mut out = Vec::with_capacity(names.len());
+        self.indices_into(names, &mut out).then_some(out)
+    }
+
+    /// [`Self::indices`] into `out` (its old contents discarded); `false` if a name is not
+    /// a parameter of the behaviour.
+    pub fn indices_into(&self, names: &[&str], out: &mut Vec<usize>) -> bool {
+        out.clear();
+        for n in names {
+            match self.names.iter().position(|m| m == n) {
+                Some(i) => out.push(i),
+                None => return false,
+            }
+        }
+        true
     }
 }
 
