@@ -23,7 +23,7 @@ use selfmanip_hybrid::{
     Controller, ControllerPartials, Event, EventKind, EventMemoryPartials, MemoryTimeEvent,
     TimeEvent,
 };
-use std::sync::{Arc, OnceLock};
+use std::sync::{Arc, Mutex, OnceLock, PoisonError};
 
 /// A number known when the behaviour is compiled, or one that depends on the joint's angle
 /// and rate where a motion starts (`theta`, `omega`).
@@ -447,6 +447,54 @@ pub struct BehaviourController {
     events_seen: usize,
     /// The number of coordinates, once an event told it.
     nq: Option<usize>,
+    /// Buffers the partials reuse from call to call.
+    workspace: Workspace,
+}
+
+/// Gradient buffers lent to the partials ([`BehaviourController::parameter_partials`],
+/// [`BehaviourController::memory_partials`]) and given back after use, so that a call
+/// allocates nothing once the buffers exist.
+#[derive(Default)]
+struct Scratch(Vec<Vec<f64>>, Vec<usize>);
+
+impl Scratch {
+    /// A buffer of `n` zeros.
+    fn zeros(&mut self, n: usize) -> Vec<f64> {
+        let mut v = self.0.pop().unwrap_or_default();
+        v.clear();
+        v.resize(n, 0.0);
+        v
+    }
+
+    /// A buffer holding a copy of `g`.
+    fn copy_of(&mut self, g: &[f64]) -> Vec<f64> {
+        let mut v = self.0.pop().unwrap_or_default();
+        v.clear();
+        v.extend_from_slice(g);
+        v
+    }
+
+    /// Takes back buffers lent.
+    fn give<const K: usize>(&mut self, vs: [Vec<f64>; K]) {
+        self.0.extend(vs);
+    }
+}
+
+/// A controller's [`Scratch`], its own (a clone starts with none).
+#[derive(Default)]
+struct Workspace(Mutex<Scratch>);
+
+impl Clone for Workspace {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl Workspace {
+    /// The buffers, for one call of the partials.
+    fn lend(&self) -> std::sync::MutexGuard<'_, Scratch> {
+        self.0.lock().unwrap_or_else(PoisonError::into_inner)
+    }
 }
 
 impl std::fmt::Debug for BehaviourController {
@@ -488,6 +536,7 @@ impl BehaviourController {
             programs,
             events_seen: 0,
             nq: None,
+            workspace: Workspace::default(),
         };
         c.resolve(NEVER);
         if let Some(p) = c.programs.iter().position(|m| m.timeline.len() > PLAN_CAP) {
@@ -560,20 +609,27 @@ impl BehaviourController {
         self.programs[p].motion_index(t)
     }
 
-    /// `∂(θ*, ω*, α*)/∂m_k` of program `p`'s reference at `t` (`1 + 2nq` columns, rows
-    /// `θ*, ω*, α*`) and the event `k` it depends on; `None` when it depends on no event,
-    /// `Err(())` when it depends on one in a way not differentiated.
-    fn reference_memory(&self, p: usize, t: f64) -> Result<Option<(usize, DMatrix<f64>)>, ()> {
-        self.motion_memory(p, self.motion_index(p, t), t)
+    /// `∂(θ*, ω*, α*)/∂m_k` of program `p`'s reference at `t` (rows `θ*, ω*, α*` of
+    /// `1 + 2nq` columns each, one after the other, in a buffer of `ws`) and the event `k` it
+    /// depends on; `None` when it depends on no event, `Err(())` when it depends on one in a
+    /// way not differentiated.
+    fn reference_memory(
+        &self,
+        ws: &mut Scratch,
+        p: usize,
+        t: f64,
+    ) -> Result<Option<(usize, Vec<f64>)>, ()> {
+        self.motion_memory(ws, p, self.motion_index(p, t), t)
     }
 
     /// [`Self::reference_memory`] of program `p`'s motion `i` at `t`.
     fn motion_memory(
         &self,
+        ws: &mut Scratch,
         p: usize,
         i: usize,
         t: f64,
-    ) -> Result<Option<(usize, DMatrix<f64>)>, ()> {
+    ) -> Result<Option<(usize, Vec<f64>)>, ()> {
         let mem = &self.programs[p];
         match mem.records[i].origin {
             MotionOrigin::Timed { event, prev, nq } => {
@@ -582,7 +638,7 @@ impl BehaviourController {
                 // Dθ₀ = Dθ_prev(s) + ω_prev(s) Ds, Dω₀ = Dω_prev(s) + α_prev(s) Ds
                 let m = &mem.motions[i];
                 let s = m.t0();
-                let before = self.motion_memory(p, prev, s)?;
+                let before = self.motion_memory(ws, p, prev, s)?;
                 let k = match (event, &before) {
                     (Some(a), Some((b, _))) if a != *b => return Err(()),
                     (Some(a), _) => a,
@@ -590,33 +646,34 @@ impl BehaviourController {
                     (None, None) => return Ok(None),
                 };
                 let cols = 1 + 2 * nq;
-                let mut ds = DMatrix::zeros(1, cols);
-                if event.is_some() {
-                    ds[(0, 0)] = 1.0;
-                }
                 let (_, w_prev, a_prev) = mem.motions[prev].eval(s);
-                let mut d0 = DMatrix::zeros(2, cols);
-                if let Some((_, d)) = &before {
-                    d0.copy_from(&d.rows(0, 2));
-                }
-                let dth0 = d0.row(0) + w_prev * ds.row(0);
-                let dw0 = d0.row(1) + a_prev * ds.row(0);
                 let d = self.start_columns(p, i, t);
-                let mut out = DMatrix::zeros(3, cols);
-                for (r, row) in d.iter().enumerate() {
-                    let v = row[0] * ds.row(0) + row[1] * &dth0 + row[2] * &dw0;
-                    out.row_mut(r).copy_from(&v);
+                let mut out = ws.zeros(3 * cols);
+                for c in 0..cols {
+                    let ds = if c == 0 && event.is_some() { 1.0 } else { 0.0 };
+                    let (th, w) = before
+                        .as_ref()
+                        .map_or((0.0, 0.0), |(_, b)| (b[c], b[cols + c]));
+                    let dth0 = th + w_prev * ds;
+                    let dw0 = w + a_prev * ds;
+                    for (r, row) in d.iter().enumerate() {
+                        out[r * cols + c] = row[0] * ds + row[1] * dth0 + row[2] * dw0;
+                    }
+                }
+                if let Some((_, b)) = before {
+                    ws.give([b]);
                 }
                 Ok(Some((k, out)))
             }
             MotionOrigin::Fixed => Ok(None),
             MotionOrigin::Event { event, joint, nq } => {
                 let d = self.start_columns(p, i, t);
-                let mut out = DMatrix::zeros(3, 1 + 2 * nq);
+                let cols = 1 + 2 * nq;
+                let mut out = ws.zeros(3 * cols);
                 for (r, row) in d.iter().enumerate() {
-                    out[(r, 0)] = row[0];
-                    out[(r, 1 + joint)] = row[1];
-                    out[(r, 1 + nq + joint)] = row[2];
+                    out[r * cols] = row[0];
+                    out[r * cols + 1 + joint] = row[1];
+                    out[r * cols + 1 + nq + joint] = row[2];
                 }
                 Ok(Some((event, out)))
             }
@@ -671,6 +728,7 @@ impl BehaviourController {
     /// where it is not differentiated (a `motor` that reverses past an angle).
     fn torque_dp(
         &self,
+        ws: &mut Scratch,
         (p, k): (usize, usize),
         t: f64,
         (q, qd): (&[f64], &[f64]),
@@ -683,7 +741,7 @@ impl BehaviourController {
         let law = &prog.phases[k].torque;
         Some(Some(match (law, &plan.tangent().phases[p][k].torque) {
             (TorqueLaw::Zero, _) => return Some(None),
-            (TorqueLaw::Constant(_), TorqueTangent::Constant(g)) => g.to_vec(),
+            (TorqueLaw::Constant(_), TorqueTangent::Constant(g)) => ws.copy_of(g),
             (
                 TorqueLaw::Schedule {
                     times,
@@ -694,7 +752,7 @@ impl BehaviourController {
                     times: dtimes,
                     torques: dtorques,
                 },
-            ) => schedule_dp((times, torques, *hold), t, dtimes, dtorques),
+            ) => schedule_dp(ws, (times, torques, *hold), t, dtimes, dtorques),
             (
                 TorqueLaw::Servo {
                     target,
@@ -715,21 +773,25 @@ impl BehaviourController {
                 }
                 let u = self.servo_command(p, t, *target, (*kp, *kd), q[j], qd[j]);
                 if servo_piece(u, *limit) != 0 {
-                    return Some(Some(dlimit.iter().map(|x| u.signum() * x).collect()));
+                    let mut d = ws.copy_of(dlimit);
+                    d.iter_mut().for_each(|x| *x *= u.signum());
+                    return Some(Some(d));
                 }
                 let (theta, omega, dth, dw) = match (target, dtarget) {
-                    (Some(a), Some(g)) => (*a, 0.0, g.to_vec(), vec![0.0; n]),
+                    (Some(a), Some(g)) => (*a, 0.0, ws.copy_of(g), ws.zeros(n)),
                     _ => {
                         let (th, om, _) = self.reference(p, t);
-                        let [dth, dw, _] = self.motion_dp(p, self.motion_index(p, t), t);
+                        let [dth, dw, da] = self.motion_dp(ws, p, self.motion_index(p, t), t);
+                        ws.give([da]);
                         (th, om, dth, dw)
                     }
                 };
-                let mut d = vec![0.0; n];
+                let mut d = ws.zeros(n);
                 axpy(&mut d, theta - q[j], dkp);
                 axpy(&mut d, omega - qd[j], dkd);
                 axpy(&mut d, *kp, &dth);
                 axpy(&mut d, *kd, &dw);
+                ws.give([dth, dw]);
                 d
             }
             (
@@ -745,9 +807,9 @@ impl BehaviourController {
                 },
                 TorqueTangent::Motor { command: du },
             ) => {
-                plan.tangent().actuators[*actuator]
-                    .partials(*command, du, qd[j])
-                    .1
+                let mut d = ws.zeros(0);
+                plan.tangent().actuators[*actuator].partials(*command, du, qd[j], &mut d);
+                d
             }
             _ => unreachable!("a law and its tangent are compiled together"),
         }))
@@ -761,7 +823,7 @@ impl BehaviourController {
         i: usize,
         with_dp: bool,
         pick: &dyn Fn(Option<&[f64]>) -> Vec<f64>,
-        out: &mut Vec<TimeEvent>,
+        (ws, out): (&mut Scratch, &mut Vec<TimeEvent>),
     ) {
         let mem = &self.programs[p];
         let m = &mem.motions[i];
@@ -778,7 +840,7 @@ impl BehaviourController {
             return;
         }
         let rec = &mem.records[i];
-        let start = self.start_dp(p, i);
+        let start = self.start_dp(ws, p, i);
         out.push(TimeEvent {
             t: m.t0(),
             dt_dp: pick(start.as_ref().map(|s| &s[0][..])),
@@ -819,13 +881,14 @@ impl BehaviourController {
     /// start: `(ds, dθ₀, dω₀)` — zero but for a timed phase's motion, which starts at `s`
     /// from the reference of the motion before it, `dθ₀ = ∂θ_prev(s)/∂p + ω_prev(s) ds`,
     /// `dω₀ = ∂ω_prev(s)/∂p + α_prev(s) ds`.
-    fn start_dp(&self, p: usize, i: usize) -> Option<[Vec<f64>; 3]> {
+    fn start_dp(&self, ws: &mut Scratch, p: usize, i: usize) -> Option<[Vec<f64>; 3]> {
         let mem = &self.programs[p];
         let (prev, g) = mem.records[i].timed.as_ref()?;
         let s = mem.motions[i].t0();
         let n = self.plan.tangent().names.len();
-        let ds = self.start_grad(g).unwrap_or_else(|| vec![0.0; n]);
-        let [mut dth, mut dw, _] = self.motion_dp(p, *prev, s);
+        let ds = self.start_grad(ws, g).unwrap_or_else(|| ws.zeros(n));
+        let [mut dth, mut dw, da] = self.motion_dp(ws, p, *prev, s);
+        ws.give([da]);
         let (_, w, a) = mem.motions[*prev].eval(s);
         axpy(&mut dth, w, &ds);
         axpy(&mut dw, a, &ds);
@@ -835,22 +898,23 @@ impl BehaviourController {
     /// `∂(θ*, ω*, α*)/∂p` of program `p`'s motion `i` at `t` over the parameters, at fixed
     /// memory: through its numbers, and for a timed phase's motion through its start
     /// ([`Self::start_dp`]).
-    fn motion_dp(&self, p: usize, i: usize, t: f64) -> [Vec<f64>; 3] {
+    fn motion_dp(&self, ws: &mut Scratch, p: usize, i: usize, t: f64) -> [Vec<f64>; 3] {
         let (d, numbers) = self.law_partials(p, i, t);
         let n = self.plan.tangent().names.len();
-        let mut out = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        let mut out = [ws.zeros(n), ws.zeros(n), ws.zeros(n)];
         for (r, row) in d.iter().enumerate() {
             for (k, num) in numbers.iter().enumerate() {
                 axpy(&mut out[r], row[3 + k], &num.dp);
             }
         }
-        if let Some(start) = self.start_dp(p, i) {
+        if let Some(start) = self.start_dp(ws, p, i) {
             let cols = fold_start(&d, &numbers);
             for (r, c) in cols.iter().enumerate() {
                 for (w, g) in c.iter().zip(&start) {
                     axpy(&mut out[r], *w, g);
                 }
             }
+            ws.give(start);
         }
         out
     }
@@ -962,18 +1026,25 @@ impl BehaviourController {
 
     /// The gradient of a planned start (`None`: zero), from the plan's tangent; NaN for a
     /// start not differentiated ([`StartGrad::Deeper`]).
-    fn start_grad(&self, g: &StartGrad) -> Option<Vec<f64>> {
+    fn start_grad(&self, ws: &mut Scratch, g: &StartGrad) -> Option<Vec<f64>> {
         let tan = self.plan.tangent();
-        let time = |(p, j, i): (usize, usize, usize)| tan.phases[p][j].times[i].to_vec();
+        let n = tan.names.len();
         match *g {
             StartGrad::Zero => None,
-            StartGrad::Time(p, j, i) => Some(time((p, j, i))),
+            StartGrad::Time(p, j, i) => Some(ws.copy_of(&tan.phases[p][j].times[i])),
             StartGrad::Delay(before, (p, j, i)) => {
-                let mut d = before.map_or_else(|| vec![0.0; tan.names.len()], time);
+                let mut d = match before {
+                    Some((bp, bj, bi)) => ws.copy_of(&tan.phases[bp][bj].times[bi]),
+                    None => ws.zeros(n),
+                };
                 axpy(&mut d, 1.0, &tan.phases[p][j].delays[i]);
                 Some(d)
             }
-            StartGrad::Deeper => Some(vec![f64::NAN; tan.names.len()]),
+            StartGrad::Deeper => {
+                let mut d = ws.zeros(n);
+                d.fill(f64::NAN);
+                Some(d)
+            }
         }
     }
 
@@ -1098,6 +1169,7 @@ fn fold_row(row: &[f64; 6], numbers: &[NumberPartials; 3]) -> [f64; 3] {
 /// between breakpoints `a < t < b`, `τ = τ_a + s (τ_b − τ_a)` with `s = (t − a)/(b − a)`,
 /// `∂s/∂a = (s − 1)/(b − a)`, `∂s/∂b = −s/(b − a)`; beyond the ends (and held) the torque's.
 fn schedule_dp(
+    ws: &mut Scratch,
     (times, torques, hold): (&[f64], &[f64], bool),
     t: f64,
     dtimes: &[Grad],
@@ -1105,15 +1177,15 @@ fn schedule_dp(
 ) -> Vec<f64> {
     let i = times.partition_point(|&x| x <= t);
     if i == 0 {
-        return dtorques[0].to_vec();
+        return ws.copy_of(&dtorques[0]);
     }
     if i == times.len() || hold {
-        return dtorques[i - 1].to_vec();
+        return ws.copy_of(&dtorques[i - 1]);
     }
     let (a, b) = (times[i - 1], times[i]);
     let s = (t - a) / (b - a);
     let rise = torques[i] - torques[i - 1];
-    let mut d = vec![0.0; dtorques[0].len()];
+    let mut d = ws.zeros(dtorques[0].len());
     axpy(&mut d, 1.0 - s, &dtorques[i - 1]);
     axpy(&mut d, s, &dtorques[i]);
     axpy(&mut d, rise * (s - 1.0) / (b - a), &dtimes[i - 1]);
@@ -1252,7 +1324,7 @@ impl Controller for BehaviourController {
                     actuator, command, ..
                 } => {
                     let law = &plan.tangent().actuators[*actuator];
-                    out.dtau_dqd[(j, j)] = law.partials(*command, &[], qd[j]).0;
+                    out.dtau_dqd[(j, j)] = law.partials(*command, &[], qd[j], &mut Vec::new());
                 }
                 law @ TorqueLaw::Servo { kp, kd, limit, .. } => {
                     let in_force = self.servo_in_force(p, law, t, (q, qd), mode);
@@ -1325,9 +1397,12 @@ impl Controller for BehaviourController {
     ) -> bool {
         let plan = &*self.plan;
         let tan = plan.tangent();
-        let Some(idx) = tan.indices(names) else {
+        let mut ws = self.workspace.lend();
+        // the indices' buffer, given back on success (a refusal drops it)
+        let mut idx = std::mem::take(&mut ws.1);
+        if !tan.indices_into(names, &mut idx) {
             return false;
-        };
+        }
         let deeper = |m: &ProgramMemory| m.timeline.iter().any(|e| e.3 == StartGrad::Deeper);
         if self.programs.iter().any(deeper) {
             return false;
@@ -1337,13 +1412,14 @@ impl Controller for BehaviourController {
                 return false;
             }
             let k = self.current(p, t, q);
-            match self.torque_dp((p, k), t, (q, qd), mode) {
+            match self.torque_dp(&mut ws, (p, k), t, (q, qd), mode) {
                 None => return false,
                 Some(None) => {}
                 Some(Some(d)) => {
                     for (c, &i) in idx.iter().enumerate() {
                         out.dtau_dp[(prog.joint, c)] = d[i];
                     }
+                    ws.give([d]);
                 }
             }
         }
@@ -1351,7 +1427,7 @@ impl Controller for BehaviourController {
             let Some(p) = plan.program_of_joint.get(j).copied().flatten() else {
                 continue;
             };
-            let [dth, dw, mut d] = self.motion_dp(p, self.motion_index(p, t), t);
+            let [dth, dw, mut d] = self.motion_dp(&mut ws, p, self.motion_index(p, t), t);
             let (theta, omega, _) = self.reference(p, t);
             axpy(&mut d, theta - q[j], &tan.kp_free);
             axpy(&mut d, omega - qd[j], &tan.kd_free);
@@ -1360,7 +1436,9 @@ impl Controller for BehaviourController {
             for (c, &i) in idx.iter().enumerate() {
                 out.dfree_dp[(r, c)] = d[i];
             }
+            ws.give([dth, dw, d]);
         }
+        ws.1 = idx;
         true
     }
 
@@ -1384,18 +1462,19 @@ impl Controller for BehaviourController {
             }
         };
         let mut out = Vec::new();
+        let mut ws = self.workspace.lend();
         for mem in &self.programs {
             out.extend(mem.timeline.iter().map(|e| TimeEvent {
                 t: e.0,
                 dt_dp: match idx {
-                    Some(_) => pick(self.start_grad(&e.3).as_deref()),
+                    Some(_) => pick(self.start_grad(&mut ws, &e.3).as_deref()),
                     None => pick(None),
                 },
             }));
         }
         for (p, prog) in self.plan.programs.iter().enumerate() {
             for i in 0..self.programs[p].motions.len() {
-                self.motion_time_events(p, i, idx.is_some(), &pick, &mut out);
+                self.motion_time_events(p, i, idx.is_some(), &pick, (&mut ws, &mut out));
             }
             for (k, phase) in prog.phases.iter().enumerate() {
                 let TorqueLaw::Schedule { times, .. } = &phase.torque else {
@@ -1492,6 +1571,7 @@ impl Controller for BehaviourController {
     ) -> bool {
         let plan = &*self.plan;
         let n = plan.program_of_joint.len();
+        let mut ws = self.workspace.lend();
         for (p, prog) in plan.programs.iter().enumerate() {
             let j = prog.joint;
             let free = free_joints.iter().position(|&f| f == j);
@@ -1511,22 +1591,27 @@ impl Controller for BehaviourController {
             if servo.is_none() && free.is_none() {
                 continue;
             }
-            let (event, d) = match self.reference_memory(p, t) {
+            let (event, d) = match self.reference_memory(&mut ws, p, t) {
                 Ok(Some(x)) => x,
                 Ok(None) => continue,
                 Err(()) => return false,
             };
-            let cols = d.ncols();
+            let cols = d.len() / 3;
+            let (th, rest) = d.split_at(cols);
+            let (w, a) = rest.split_at(cols);
             let mut dtau = DMatrix::zeros(n, cols);
             let mut dfree = DMatrix::zeros(free_joints.len(), cols);
             if let Some((kp, kd)) = servo {
-                let row = kp * d.row(0) + kd * d.row(1);
-                dtau.row_mut(j).copy_from(&row);
+                for c in 0..cols {
+                    dtau[(j, c)] = kp * th[c] + kd * w[c];
+                }
             }
             if let Some(i) = free {
-                let row = d.row(2) + plan.kp_free * d.row(0) + plan.kd_free * d.row(1);
-                dfree.row_mut(i).copy_from(&row);
+                for c in 0..cols {
+                    dfree[(i, c)] = a[c] + plan.kp_free * th[c] + plan.kd_free * w[c];
+                }
             }
+            ws.give([d]);
             out.push(EventMemoryPartials { event, dtau, dfree });
         }
         true

@@ -58,10 +58,21 @@ pub(crate) struct PlanTangent {
 impl PlanTangent {
     /// The index of each name, or `None` if one is not a parameter of the behaviour.
     pub fn indices(&self, names: &[&str]) -> Option<Vec<usize>> {
-        names
-            .iter()
-            .map(|n| self.names.iter().position(|m| m == n))
-            .collect()
+        let mut out = Vec::with_capacity(names.len());
+        self.indices_into(names, &mut out).then_some(out)
+    }
+
+    /// [`Self::indices`] into `out` (its old contents discarded); `false` if a name is not
+    /// a parameter of the behaviour.
+    pub fn indices_into(&self, names: &[&str], out: &mut Vec<usize>) -> bool {
+        out.clear();
+        for n in names {
+            match self.names.iter().position(|m| m == n) {
+                Some(i) => out.push(i),
+                None => return false,
+            }
+        }
+        true
     }
 }
 
@@ -319,16 +330,19 @@ impl ActuatorLaw {
     ///   `∂τ/∂G = n η (a − G τ_st ω/ω₀)`, `∂τ/∂n = G η a`, `∂τ/∂V = n G η u τ_st/V`
     ///   (`τ_st/ω₀` does not depend on `V`), `∂τ/∂u = n G η τ_st`;
     /// - at the limit `τ = ±n G η k_M I_max`: `∂τ/∂G = τ/G`, `∂τ/∂n = τ/n`, `∂τ/∂I_max = τ/I_max`.
-    pub fn partials(&self, u: f64, du: &[f64], speed: f64) -> (f64, Vec<f64>) {
+    ///
+    /// `∂τ/∂p` is written into `d` (its old contents and length discarded).
+    pub fn partials(&self, u: f64, du: &[f64], speed: f64, d: &mut Vec<f64>) -> f64 {
         let inside = u.abs() < 1.0;
+        d.clear();
         match self {
             ActuatorLaw::Saturated { max_n_m, dmax } => {
                 let uc = u.clamp(-1.0, 1.0);
-                let mut d: Vec<f64> = dmax.iter().map(|x| uc * x).collect();
+                d.extend(dmax.iter().map(|x| uc * x));
                 if inside {
-                    axpy(&mut d, *max_n_m, du);
+                    axpy(d, *max_n_m, du);
                 }
-                (0.0, d)
+                0.0
             }
             ActuatorLaw::Geared {
                 n,
@@ -347,26 +361,26 @@ impl ActuatorLaw {
                 let w = self.branch_speed(u, speed);
                 let (a, limit) = self.line(u, w);
                 let c = n * ratio * efficiency;
-                let mut d = vec![0.0; du.len()];
+                d.resize(du.len(), 0.0);
                 if a.abs() < limit {
                     let uc = u.clamp(-1.0, 1.0);
-                    axpy(&mut d, efficiency * ratio * a, dn);
+                    axpy(d, efficiency * ratio * a, dn);
                     axpy(
-                        &mut d,
+                        d,
                         n * efficiency * (a - ratio * stall_n_m * w / no_load_rad_s),
                         dratio,
                     );
-                    axpy(&mut d, c * uc * stall_n_m / voltage_v, dvoltage);
+                    axpy(d, c * uc * stall_n_m / voltage_v, dvoltage);
                     if inside {
-                        axpy(&mut d, c * stall_n_m, du);
+                        axpy(d, c * stall_n_m, du);
                     }
-                    (-c * stall_n_m * ratio / no_load_rad_s, d)
+                    -c * stall_n_m * ratio / no_load_rad_s
                 } else {
                     let tau = c * a.signum() * limit;
-                    axpy(&mut d, tau / n, dn);
-                    axpy(&mut d, tau / ratio, dratio);
-                    axpy(&mut d, tau / current_limit_a, dcurrent);
-                    (0.0, d)
+                    axpy(d, tau / n, dn);
+                    axpy(d, tau / ratio, dratio);
+                    axpy(d, tau / current_limit_a, dcurrent);
+                    0.0
                 }
             }
         }
