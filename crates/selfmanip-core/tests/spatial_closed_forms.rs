@@ -3,9 +3,9 @@
 //! `spatial_rigid_body.rs`'s `free_body_matches_euler_equations`), `q ⊕ v` undone by `⊕ (−v)`, and
 //! the quasi-static forces of a plate on four feet.
 mod spatial_support;
-use nalgebra::{DMatrix, DVector, Matrix3, UnitQuaternion, Vector3};
+use nalgebra::{DVector, Matrix3, UnitQuaternion, Vector3};
 use selfmanip_core::spatial::kinematics::forward_kinematics_velocity;
-use selfmanip_core::spatial::rigid_body::{crba, kinetic_energy, nonlinear_effects};
+use selfmanip_core::spatial::rigid_body::kinetic_energy;
 use selfmanip_core::spatial::*;
 use spatial_support::*;
 
