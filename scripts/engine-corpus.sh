@@ -54,6 +54,11 @@ for x, y in diff[:10]:
 sys.exit(1 if diff else 0)
 PY
 fi
-out="${1:?usage: scripts/engine-corpus.sh OUT.jsonl | --compare A B}"
+usage="usage: scripts/engine-corpus.sh OUT.jsonl | --compare [--rename MAP] A B"
+out="${1:?$usage}"
+if [[ "$out" == -* ]]; then
+    echo "$usage" >&2  # an option it does not know (`--help`) is not an output file name
+    [[ "$out" == "-h" || "$out" == "--help" ]] && exit 0 || exit 2
+fi
 cargo build --quiet --release -p selfmanip-tools --bin engine_corpus
 ./target/release/engine_corpus > "$out"
