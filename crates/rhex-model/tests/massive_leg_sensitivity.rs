@@ -21,8 +21,10 @@
 //! (1) is right: `leap_with_sensitivity` flags it (`LeapSensitivity::ok` false, with the
 //! reason).
 mod common;
+#[path = "../../selfmanip-core/tests/common/dynamics_fd.rs"]
+mod dynamics_fd;
 use common::{apex_error, tight};
-use nalgebra::DMatrix;
+use dynamics_fd::dynamics_jacobian_error;
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig};
 use rhex_model::leap_sensitivity::leap_with_sensitivity;
 use rhex_model::{Rhex, RhexParams};
@@ -81,35 +83,14 @@ fn flow_jacobian_error(model: &Model, seg: &Segment, t: f64, y: &[f64]) -> (f64,
         .iter()
         .filter(|s| s.general && s.coef != 0.0 && s.held.is_none())
         .count();
-    let c = seg.mode.n_rows();
     let h = 1e-5;
-    let mut worst: f64 = 0.0;
-    for (which, n) in [(0, nq), (1, nq), (2, model.n_joints())] {
-        let (mut fq, mut fl) = (DMatrix::zeros(nq, n), DMatrix::zeros(c, n));
-        for k in 0..n {
-            for (h, w) in [(h, -1.0 / 3.0), (h / 2.0, 4.0 / 3.0)] {
-                let mut plus = [q.to_vec(), qd.to_vec(), tau.clone()];
-                let mut minus = plus.clone();
-                plus[which][k] += h;
-                minus[which][k] -= h;
-                let (qp, lp) = eval(model, seg, &plus[0], &plus[1], &plus[2]).unwrap();
-                let (qm, lm) = eval(model, seg, &minus[0], &minus[1], &minus[2]).unwrap();
-                for i in 0..nq {
-                    fq[(i, k)] += w * (qp[i] - qm[i]) / (2.0 * h);
-                }
-                for r in 0..c {
-                    fl[(r, k)] += w * (lp[r] - lm[r]) / (2.0 * h);
-                }
-            }
-        }
-        let (eq, el) = match which {
-            0 => (&jac.dqdd_dq, &jac.dlambda_dq),
-            1 => (&jac.dqdd_dqd, &jac.dlambda_dqd),
-            _ => (&jac.dqdd_dtau, &jac.dlambda_dtau),
-        };
-        let rel = |a: &DMatrix<f64>, b: &DMatrix<f64>| (a - b).amax() / b.amax().max(1.0);
-        worst = worst.max(rel(eq, &fq)).max(rel(el, &fl));
-    }
+    let worst = dynamics_jacobian_error(
+        &jac,
+        (q, qd, &tau),
+        &[(h, -1.0 / 3.0), (h / 2.0, 4.0 / 3.0)],
+        |q, qd, tau| eval(model, seg, q, qd, tau),
+    )
+    .expect("the dynamics are defined beside the segment's state");
     (worst, general)
 }
 
