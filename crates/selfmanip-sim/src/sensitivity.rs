@@ -104,7 +104,8 @@ pub fn undefined_reason(s: &ColumnSensitivity, offset_s: f64) -> Option<String> 
     {
         Some(format!(
             "rolling/point switch at t = {} s: {:?}",
-            sw.t, sw.status
+            sw.t - offset_s,
+            sw.status
         ))
     } else if s.columns.is_none() {
         Some("the execution's sensitivities are not defined (a terrain feature change)".into())
