@@ -1,17 +1,15 @@
 //! Forward dynamics (thesis 5.3–5.4) of the chapter-4 RHex (massless half-circle legs):
 //! mode 0101 and every other contact mode except the over-constrained 1111.
 //! Target: ≤ 1 µs per evaluation.
+mod common;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use selfmanip::core::{forward_dynamics, Data, FlatGround};
-use selfmanip::rhex::Rhex;
 use std::hint::black_box;
 
 fn dynamics(c: &mut Criterion) {
-    let rhex = Rhex::chapter4();
+    let (rhex, q, qd) = common::chapter4_rhex_at_bench_state();
     let model = &rhex.model;
     let mut data = Data::new(model);
-    let q = [-0.4, 0.5, 0.0, -0.16, 0.05];
-    let qd = [2.0, 1.5, 0.3, -0.1, 0.2];
     let tau = [20.0, 15.0];
     let mut group = c.benchmark_group("forward_dynamics");
     for label in rhex.all_labels().into_iter().filter(|l| l != "1111") {

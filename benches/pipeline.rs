@@ -1,18 +1,16 @@
 //! Where one forward-dynamics evaluation spends its time: each pipeline stage of
 //! `selfmanip_core::dynamics` timed alone for the chapter-4 RHex in mode 0101.
+mod common;
 use criterion::{criterion_group, criterion_main, Criterion};
 use selfmanip::core::constraint::Constraints;
 use selfmanip::core::inertia::mass_coriolis_gravity;
 use selfmanip::core::kinematics::Kinematics;
 use selfmanip::core::{Data, FlatGround};
-use selfmanip::rhex::Rhex;
 use std::hint::black_box;
 fn pipeline_stages(c: &mut Criterion) {
-    let rhex = Rhex::chapter4();
+    let (rhex, q, qd) = common::chapter4_rhex_at_bench_state();
     let model = &rhex.model;
     let mut data = Data::new(model);
-    let q = [-0.4, 0.5, 0.0, -0.16, 0.05];
-    let qd = [2.0, 1.5, 0.3, -0.1, 0.2];
     let mode = rhex.mode("0101").unwrap();
     let mut kin = Kinematics::default();
     c.bench_function("kinematics", |b| {

@@ -16,85 +16,44 @@ fn non_finite_and_wrong_length_states() {
     let mode = rhex.mode("0101").unwrap();
     let mut d = Data::new(m);
     let q = [0.1, 0.1, 0.0, -0.17, 0.0];
-    let e = forward_dynamics(
-        m,
-        &mut d,
-        &FlatGround,
-        mode,
-        &[0.1, f64::NAN, 0.0, 0.0, 0.0],
-        &[0.0; 5],
-        &[0.0; 2],
-        None,
-    );
-    assert!(matches!(
-        e,
-        Err(CoreError::NonFinite {
-            field: "q",
-            index: 1,
-            ..
-        })
-    ));
-    let e = forward_dynamics(
-        m,
-        &mut d,
-        &FlatGround,
-        mode,
-        &q,
-        &[0.0, 0.0, f64::INFINITY, 0.0, 0.0],
-        &[0.0; 2],
-        None,
-    );
-    assert!(matches!(
-        e,
-        Err(CoreError::NonFinite {
-            field: "qd",
-            index: 2,
-            ..
-        })
-    ));
-    let e = forward_dynamics(
-        m,
-        &mut d,
-        &FlatGround,
-        mode,
-        &q,
-        &[0.0; 5],
-        &[f64::NAN, 0.0],
-        None,
-    );
-    assert!(matches!(
-        e,
-        Err(CoreError::NonFinite {
-            field: "tau",
-            index: 0,
-            ..
-        })
-    ));
-    let e = forward_dynamics(
-        m,
-        &mut d,
-        &FlatGround,
-        mode,
-        &q[..4],
-        &[0.0; 5],
-        &[0.0; 2],
-        None,
-    );
-    assert!(matches!(
-        e,
-        Err(CoreError::WrongLength {
-            field: "q",
-            expected: 5,
-            actual: 4
-        })
-    ));
-    let e = forward_dynamics(m, &mut d, &FlatGround, mode, &q, &[0.0; 5], &[0.0; 3], None);
-    assert!(matches!(
-        e,
-        Err(CoreError::WrongLength { field: "tau", .. })
-    ));
-    let e = plastic_impact(m, &mut d, &FlatGround, mode, &q, &[0.0; 6]);
-    assert!(matches!(e, Err(CoreError::WrongLength { field: "qd", .. })));
+    let (rest, idle) = ([0.0; 5], [0.0; 2]);
+    // (q, q̇, Υ) with one bad entry or length each, and what the error must name
+    let cases: [(&[f64], &[f64], &[f64], &str); 5] = [
+        (
+            &[0.1, f64::NAN, 0.0, 0.0, 0.0],
+            &rest,
+            &idle,
+            "q[1] not finite",
+        ),
+        (
+            &q,
+            &[0.0, 0.0, f64::INFINITY, 0.0, 0.0],
+            &idle,
+            "qd[2] not finite",
+        ),
+        (&q, &rest, &[f64::NAN, 0.0], "tau[0] not finite"),
+        (&q[..4], &rest, &idle, "q: length 4, not 5"),
+        (&q, &rest, &[0.0; 3], "tau: length 3, not 2"),
+    ];
+    for (q, qd, tau, expected) in cases {
+        let e = forward_dynamics(m, &mut d, &FlatGround, mode, q, qd, tau, None).unwrap_err();
+        assert_eq!(input_error(&e), expected);
+    }
+    let e = plastic_impact(m, &mut d, &FlatGround, mode, &q, &[0.0; 6]).unwrap_err();
+    assert_eq!(input_error(&e), "qd: length 6, not 5");
+}
+
+/// What a typed input error names: the non-finite entry, or the length found and wanted.
+fn input_error(e: &CoreError) -> String {
+    match e {
+        CoreError::NonFinite { field, index, .. } => format!("{field}[{index}] not finite"),
+        CoreError::WrongLength {
+            field,
+            expected,
+            actual,
+        } => format!("{field}: length {actual}, not {expected}"),
+        other => panic!("not an input error: {other:?}"),
+    }
 }
 
 #[test]

@@ -189,14 +189,11 @@ mod sled {
         let mut dirs = DMatrix::zeros(8, 2);
         dirs[(1, 0)] = 1.0;
         dirs[(5, 1)] = 1.0;
-        let cs = execution_sensitivity_columns(
-            &model,
-            &FlatGround,
-            &exec,
-            &dirs,
-            &[Parameter::Controller("tau".into())],
-        )
-        .unwrap();
+        let params = [Parameter::Controller("tau".into())];
+        let columns = |exec: &selfmanip::hybrid::Execution| {
+            execution_sensitivity_columns(&model, &FlatGround, exec, &dirs, &params).unwrap()
+        };
+        let cs = columns(&exec);
         let dt = cs.event_time_columns[0].clone().expect("stick defined");
         assert!(cs.columns.is_some());
         // the place where it stopped: the columns of the run cut at the stop (its first
@@ -206,16 +203,7 @@ mod sled {
         cut.segments.truncate(1);
         cut.events.clear();
         cut.termination = selfmanip::hybrid::Termination::FinalTime;
-        let x = execution_sensitivity_columns(
-            &model,
-            &FlatGround,
-            &cut,
-            &dirs,
-            &[Parameter::Controller("tau".into())],
-        )
-        .unwrap()
-        .columns
-        .expect("defined");
+        let x = columns(&cut).columns.expect("defined");
         let mut y = vec![0.0; 8];
         exec.segments[0].eval(t_star, &mut y);
         let x_star = y[1] - q[1];

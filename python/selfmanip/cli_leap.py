@@ -69,22 +69,23 @@ def parse_range(text: str, field: str, *, integer_count: bool = True) -> list[fl
     return vals
 
 
-def _parse_values(name: str, spec: str) -> list[Any]:
+def _parse_values(name: str, spec: str, option: str = "--set") -> list[Any]:
     """One JSON value when ``spec`` starts with ``{`` or ``[``; otherwise numbers (a range) when
-    they parse, else strings; ``none`` is ``None``."""
+    they parse, else strings; ``none`` is ``None``. Errors name ``{option} {name}``."""
+    field = f"{option} {name}"
     if spec.lstrip().startswith(("{", "[")):
         try:
             return [json.loads(spec)]
         except json.JSONDecodeError as e:
-            raise InvalidInputError(f"`--set {name}`: not a JSON value: {e}", f"--set {name}") from None
+            raise InvalidInputError(f"`{field}`: not a JSON value: {e}", field) from None
     try:
-        return parse_range(spec, f"--set {name}")
+        return parse_range(spec, field)
     except ValueError:
         items = [v.strip() for v in spec.split(",") if v.strip()]
         if not items:
-            raise InvalidInputError(f"`--set {name}`: no value", f"--set {name}") from None
+            raise InvalidInputError(f"`{field}`: no value", field) from None
         if any(":" in v for v in items):
-            return parse_range(spec, f"--set {name}")  # re-raise the range's message
+            return parse_range(spec, field)  # re-raise the range's message
         out: list[Any] = []
         for v in items:
             if v.lower() in ("none", "null"):
@@ -106,15 +107,21 @@ OWN_OPTIONS = {"strategy": "--strategy", "t2": "--t2", "t2_s": "--t2", "gear_rat
                "grid": "--set", "config": "--set NAME=VALUE"}
 
 
+def _name_and_spec(item: str, option: str, form: str) -> tuple[str, str]:
+    """The stripped name and the text after the first ``=`` of one ``option`` item (``--set``,
+    ``--over``) of the ``form`` ``NAME=…``."""
+    if "=" not in item:
+        raise InvalidInputError(f"`{option}`: expected {form}, got {item!r}", option)
+    name, spec = item.split("=", 1)
+    return name.strip(), spec
+
+
 def _sets(items: list[str] | None, own: Mapping[str, str] | None = None) -> dict[str, list[Any]]:
     """``--set NAME=VALUE`` items by name; a name in ``own`` (an input with its own option) or
     a name given twice is refused."""
     out: dict[str, list[Any]] = {}
     for item in items or []:
-        if "=" not in item:
-            raise InvalidInputError(f"`--set`: expected NAME=VALUE, got {item!r}", "--set")
-        name, spec = item.split("=", 1)
-        name = name.strip()
+        name, spec = _name_and_spec(item, "--set", "NAME=VALUE")
         field = f"--set {name}"
         if own and name in own:
             raise InvalidInputError(f"`{field}`: `{name}` is set with {own[name]}, not --set", field)

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from .cli_leap import _parse_values, _sets, finish_sweep, write_table
+from .cli_leap import _name_and_spec, _parse_values, _sets, finish_sweep, write_table
 from ._checks import path_arg
 from .errors import InvalidInputError
 
@@ -201,14 +201,8 @@ def simulate_command(args: argparse.Namespace) -> int:
 def _over(items: list[str] | None) -> dict[str, list[Any]]:
     out: dict[str, list[Any]] = {}
     for item in items or []:
-        if "=" not in item:
-            raise InvalidInputError(f"`--over`: expected NAME=RANGE, got {item!r}", "--over")
-        name, spec = item.split("=", 1)
-        name = name.strip()
-        try:
-            out[name] = _parse_values(name, spec)
-        except InvalidInputError as e:
-            raise InvalidInputError(str(e).replace("--set", "--over"), f"--over {name}") from None
+        name, spec = _name_and_spec(item, "--over", "NAME=RANGE")
+        out[name] = _parse_values(name, spec, "--over")
     if not out:
         raise InvalidInputError("`--over`: give at least one NAME=RANGE", "--over")
     return out

@@ -102,42 +102,25 @@ impl Controller for RaiseAt {
 
 #[test]
 fn a_raised_stop_flag_interrupts_the_run_within_a_step() {
+    // a ball dropped from 10 m, run to 10 s under `ctrl` until `stop` is raised
+    let run = |ctrl: &dyn Controller, stop: &AtomicBool| {
+        let (q, qd) = ([0.0, -10.0, 0.0], [0.0; 3]);
+        let (mode, opts) = (ContactMode::FLIGHT, HybridOptions::default());
+        simulate_with(&ball(), &FlatGround, ctrl, mode, &q, &qd, 10.0, opts, stop).unwrap()
+    };
     let flag = Arc::new(AtomicBool::new(false));
     let ctrl = RaiseAt {
         at: 0.2,
         flag: flag.clone(),
     };
-    let exec = simulate_with(
-        &ball(),
-        &FlatGround,
-        &ctrl,
-        ContactMode::FLIGHT,
-        &[0.0, -10.0, 0.0],
-        &[0.0; 3],
-        10.0,
-        HybridOptions::default(),
-        &flag,
-    )
-    .unwrap();
+    let exec = run(&ctrl, &flag);
     match exec.termination {
         // h_max = 0.01 s
         Termination::Interrupted { t } => assert!((0.2..=0.2 + 0.01 + 1e-12).contains(&t), "{t}"),
         other => panic!("{other:?}"),
     }
     // raised before the start: no more than one step
-    let raised = AtomicBool::new(true);
-    let exec = simulate_with(
-        &ball(),
-        &FlatGround,
-        &ZeroTorque,
-        ContactMode::FLIGHT,
-        &[0.0, -10.0, 0.0],
-        &[0.0; 3],
-        10.0,
-        HybridOptions::default(),
-        &raised,
-    )
-    .unwrap();
+    let exec = run(&ZeroTorque, &AtomicBool::new(true));
     assert!(matches!(exec.termination, Termination::Interrupted { .. }));
     assert_eq!(exec.steps, 1);
 }

@@ -116,62 +116,40 @@ fn assert_rests_on_the_first_slow_impact(exec: &selfmanip_hybrid::Execution, del
 fn bad_initial_states_are_typed_errors() {
     let model = block();
     let both = ContactMode::parse_names(&model, "left,right:slide").unwrap();
-    // corners not on the ground
-    let err = simulate(
-        &model,
-        &FlatGround,
-        &ZeroTorque,
-        both,
-        &[0.0, -0.2, 0.0],
-        &[0.0; 3],
-        1.0,
-        HybridOptions::default(),
-    )
-    .unwrap_err();
-    assert!(matches!(err, HybridError::OffManifold { field: "q", .. }));
-    // velocity through the ground
-    let err = simulate(
-        &model,
-        &FlatGround,
-        &ZeroTorque,
-        both,
-        &[0.0, -H / 2.0, 0.0],
-        &[0.0, 1.0, 0.0],
-        1.0,
-        HybridOptions::default(),
-    )
-    .unwrap_err();
-    assert!(matches!(err, HybridError::OffManifold { field: "qd", .. }));
-    let err = simulate(
-        &model,
-        &FlatGround,
-        &ZeroTorque,
-        ContactMode::FLIGHT,
-        &[0.0, f64::NAN, 0.0],
-        &[0.0; 3],
-        1.0,
-        HybridOptions::default(),
-    )
-    .unwrap_err();
-    assert!(matches!(err, HybridError::Core(_)));
-    let bad = HybridOptions {
+    let flight = ContactMode::FLIGHT;
+    let bad_delta_t = HybridOptions {
         delta_t_s: -1.0,
         ..Default::default()
     };
-    assert!(matches!(
-        simulate(
-            &model,
-            &FlatGround,
-            &ZeroTorque,
-            ContactMode::FLIGHT,
-            &[0.0, -1.0, 0.0],
-            &[0.0; 3],
-            1.0,
-            bad
+    let fine = HybridOptions::default();
+    let cases = [
+        // corners not on the ground
+        (both, [0.0, -0.2, 0.0], [0.0; 3], fine, "off manifold: q"),
+        // velocity through the ground
+        (
+            both,
+            [0.0, -H / 2.0, 0.0],
+            [0.0, 1.0, 0.0],
+            fine,
+            "off manifold: qd",
         ),
-        Err(HybridError::InvalidOption {
-            field: "delta_t_s",
-            ..
-        })
-    ));
+        (flight, [0.0, f64::NAN, 0.0], [0.0; 3], fine, "core"),
+        (
+            flight,
+            [0.0, -1.0, 0.0],
+            [0.0; 3],
+            bad_delta_t,
+            "option delta_t_s",
+        ),
+    ];
+    for (mode, q, qd, opts, expected) in cases {
+        let err = simulate(&model, &FlatGround, &ZeroTorque, mode, &q, &qd, 1.0, opts).unwrap_err();
+        let named = match err {
+            HybridError::OffManifold { field, .. } => format!("off manifold: {field}"),
+            HybridError::Core(_) => "core".to_string(),
+            HybridError::InvalidOption { field, .. } => format!("option {field}"),
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(named, expected);
+    }
 }

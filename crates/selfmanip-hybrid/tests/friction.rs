@@ -4,10 +4,10 @@
 //! cycling at zero velocity; a sticking puck on an incline steeper than `atan μ` slips at
 //! once, and a tangential push reaching the cone makes it slip when `|λ_t| = μ λ_n`.
 use selfmanip_core::{ContactKind, ContactMode, GroundPlane};
-use selfmanip_hybrid::{simulate, EventKind, HybridOptions, Termination, ZeroTorque};
+use selfmanip_hybrid::{EventKind, Termination};
 
 mod systems;
-use systems::{puck, G};
+use systems::{coast, puck, G};
 /// The foot at the centre of mass: no toppling moment, so the only dynamics are along the
 /// incline.
 const H: f64 = 0.0;
@@ -34,17 +34,7 @@ fn sliding_puck_stops_at_closed_form_time_and_sticks_below_the_cone() {
         let v0 = -a.signum() * 0.8;
         let (_, _, qd) = on_incline(beta, v0);
         let sliding = ContactMode::FLIGHT.with(0, ContactKind::Slide);
-        let exec = simulate(
-            &model,
-            &plane,
-            &ZeroTorque,
-            sliding,
-            &q,
-            &qd,
-            1.0,
-            HybridOptions::default(),
-        )
-        .unwrap();
+        let exec = coast(&model, &plane, sliding, (&q, &qd), 1.0);
         let stick = &exec.events[0];
         assert_eq!(stick.kind, EventKind::Stick);
         let t_star = -v0 / a;
@@ -71,17 +61,13 @@ fn puck_steeper_than_the_cone_keeps_sliding_without_cycling() {
     let a = G * plane.tangent().y;
     let v0 = -a.signum() * 0.5;
     let (_, _, qd) = on_incline(beta, v0);
-    let exec = simulate(
+    let exec = coast(
         &model,
         &plane,
-        &ZeroTorque,
         ContactMode::FLIGHT.with(0, ContactKind::Slide),
-        &q,
-        &qd,
+        (&q, &qd),
         0.5,
-        HybridOptions::default(),
-    )
-    .unwrap();
+    );
     // one stick attempt at v = 0 that the cone refuses, then sliding back down
     assert_eq!(exec.events.len(), 1);
     let e = &exec.events[0];
@@ -101,17 +87,13 @@ fn sticking_puck_slips_when_the_incline_exceeds_the_cone() {
     let (beta, mu) = (0.5_f64, 0.3);
     let model = puck(mu);
     let (plane, q, qd) = on_incline(beta, 0.0);
-    let exec = simulate(
+    let exec = coast(
         &model,
         &plane,
-        &ZeroTorque,
         ContactMode::FLIGHT.with(0, ContactKind::Stick),
-        &q,
-        &qd,
+        (&q, &qd),
         0.2,
-        HybridOptions::default(),
-    )
-    .unwrap();
+    );
     let e = &exec.events[0];
     assert_eq!(e.kind, EventKind::Slip);
     assert!(e.t < 1e-9, "slips at once: {}", e.t);
@@ -148,17 +130,13 @@ fn no_spurious_stick_right_after_a_slip() {
         let q = [0.0, 0.0, beta];
         let qd = [drift * t.x, drift * t.y, 0.0];
         let t_final = 0.2;
-        let exec = simulate(
+        let exec = coast(
             &model,
             &plane,
-            &selfmanip_hybrid::ZeroTorque,
             ContactMode::FLIGHT.with(0, ContactKind::Stick),
-            &q,
-            &qd,
+            (&q, &qd),
             t_final,
-            HybridOptions::default(),
-        )
-        .unwrap();
+        );
         let unchanged: Vec<_> = exec
             .events
             .iter()

@@ -128,6 +128,19 @@ impl<'a> Case<'a> {
         let ex = DMatrix::from_columns(&dirs.iter().map(|d| jac * d).collect::<Vec<_>>());
         rel(&ex, &fd)
     }
+
+    /// [`Self::whole_run_error`] is below `tol` (`what` names the case in the messages).
+    fn assert_whole_run_close(
+        &self,
+        jac: &DMatrix<f64>,
+        dirs: &[DVector<f64>],
+        tol: f64,
+        what: &str,
+    ) {
+        let e = self.whole_run_error(jac, dirs);
+        eprintln!("{what}: whole-run Jacobian vs central differences {e:e}");
+        assert!(e < tol, "{what}: {e:e}");
+    }
 }
 
 fn final_state(e: &Execution) -> Vec<f64> {
@@ -140,6 +153,15 @@ fn sequence(e: &Execution) -> Vec<Step> {
 
 fn rel(a: &DMatrix<f64>, b: &DMatrix<f64>) -> f64 {
     (a - b).amax() / b.amax().max(1.0)
+}
+
+/// The saltation matrix of the first event of `sens` is `expected` (a closed form) to `tol`
+/// relative ([`rel`]).
+fn assert_first_saltation(sens: &Sensitivity, expected: &DMatrix<f64>, tol: f64, what: &str) {
+    let xi = sens.events[0].saltation.as_ref().expect("defined");
+    let e = rel(xi, expected);
+    eprintln!("{what}: saltation vs closed form {e:e}");
+    assert!(e < tol, "{what}: {xi} vs {expected}");
 }
 
 /// Every direction of an `n`-dimensional state.
@@ -277,10 +299,7 @@ fn rod_landing_on_one_end_saltation() {
     let fm = DVector::from_vec(vec![qd[0], qd[1], qd[2], 0.0, G, 0.0]);
     let fp = pin.flow(pin.phidot_plus(qd));
     let expected = saltation(&pin.reset_jacobian(qd), &fm, &fp, &height_gradient(l));
-    let xi = sens.events[0].saltation.as_ref().expect("defined");
-    let e = rel(xi, &expected);
-    eprintln!("rod: saltation vs closed form {e:e}");
-    assert!(e < 1e-9, "{xi} vs {expected}");
+    assert_first_saltation(&sens, &expected, 1e-9, "rod");
 }
 
 /// The rocking block of section 5.1.4, pivoting on its left corner at `ω₀ < 0`, level at
@@ -335,10 +354,12 @@ fn rocking_block_saltation_with_and_without_pseudo_impulse() {
             dr.view_mut((0, 0), (3, 3)).fill_with_identity();
             saltation(&dr, &fm, &DVector::zeros(6), &dg)
         };
-        let xi = sens.events[0].saltation.as_ref().expect("defined");
-        let e = rel(xi, &expected);
-        eprintln!("rocking block δt {delta_t}: saltation vs closed form {e:e}");
-        assert!(e < 1e-8, "δt {delta_t}: {xi} vs {expected}");
+        assert_first_saltation(
+            &sens,
+            &expected,
+            1e-8,
+            &format!("rocking block δt {delta_t}"),
+        );
     }
 }
 
@@ -415,9 +436,7 @@ fn massless_leg_with_servo_whole_execution_jacobian() {
         assert_eq!(es.status, SaltationStatus::Defined, "{es:?}");
     }
     let jac = sens.state_jacobian.as_ref().expect("defined");
-    let e = case.whole_run_error(jac, &units(8));
-    eprintln!("one massless leg: whole-run Jacobian vs central differences {e:e}");
-    assert!(e < 1e-5, "{e:e}");
+    case.assert_whole_run_close(jac, &units(8), 1e-5, "one massless leg");
 }
 
 /// A ball thrown up, stopped at its apex (`ż = 0`, the terminal apex event): `t_a = −ż₀/g`,
@@ -455,36 +474,21 @@ fn apex_projection_and_time_gradient() {
 /// keep the sliding velocity `ẋ + β̇ L` zero: `(ẋ, θ̇) = (1, −s/L)`, `(φ̇, θ̇) = (1, −s)`.
 #[test]
 fn kicking_leg_liftoff_touchdown_slip_whole_execution_jacobian() {
-    let len = 0.2;
-    let model = systems::one_leg(len, 0.2, G);
-    let servo = Servos {
-        k: 5.0,
-        c: 0.5,
-        target: vec![-1.0],
-    };
-    let y0 = [0.0, 0.0, -len, 0.0, 0.0, 0.0, 0.0, 0.0];
-    let case = sliding_toe_case(&model, &servo, &y0, 0.3);
-    let (exec, sens) = case.sensitivity();
     use EventKind::{Liftoff, Slip, Touchdown};
-    let jac = defined_jacobian(
-        "kicking leg",
-        &exec,
-        &sens,
-        &[Liftoff, Touchdown, Slip, Touchdown],
-    );
-    let sgn = model.joints[0].axis_sign;
+    let events = [Liftoff, Touchdown, Slip, Touchdown];
     // the toe's sliding velocity is ẋ + β̇ L (β = φ + s θ): velocity directions that keep it
     // zero, since a sliding velocity off zero would end in a stick event (another sequence)
-    let dirs = [
-        unit(8, 0),
-        unit(8, 1),
-        unit(8, 3),
-        unit(8, 5) - (sgn / len) * unit(8, 4),
-        unit(8, 7) - sgn * unit(8, 4),
-    ];
-    let e = case.whole_run_error(jac, &dirs);
-    eprintln!("kicking leg: whole-run Jacobian vs central differences {e:e}");
-    assert!(e < 1e-5, "{e:e}");
+    let dirs = |model: &Model| {
+        let sgn = model.joints[0].axis_sign;
+        vec![
+            unit(8, 0),
+            unit(8, 1),
+            unit(8, 3),
+            unit(8, 5) - (sgn / TOE_LEG_M) * unit(8, 4),
+            unit(8, 7) - sgn * unit(8, 4),
+        ]
+    };
+    assert_standing_toe_jacobian("kicking leg", 5.0, [0.0; 4], 0.3, &events, dirs);
 }
 
 /// The same robot with a soft servo, its toe sliding forward at 0.3 m/s: the sliding stops
@@ -494,31 +498,49 @@ fn kicking_leg_liftoff_touchdown_slip_whole_execution_jacobian() {
 /// vertical, `β̇ = 0`): the whole-run Jacobian in those six columns.
 #[test]
 fn sliding_toe_stick_slip_touchdown_whole_execution_jacobian() {
-    let len = 0.2;
-    let model = systems::one_leg(len, 0.2, G);
+    use EventKind::{Slip, Stick, Touchdown};
+    let dirs = |_: &Model| [0, 1, 3, 4, 5, 7].iter().map(|&k| unit(8, k)).collect();
+    let (events, qd0) = ([Stick, Slip, Touchdown], [0.0, 0.3, 0.0, 0.0]);
+    assert_standing_toe_jacobian("sliding toe", 1.0, qd0, 0.4, &events, dirs);
+}
+
+/// The leg length of [`leg_with_hip_servo`] (m).
+const TOE_LEG_M: f64 = 0.2;
+
+/// The robot of the sliding-toe tests: a body with one massive leg ([`TOE_LEG_M`] long,
+/// 0.2 kg) and a hip servo of stiffness `k` (N·m/rad; damping 0.5 N·m·s/rad) towards −1 rad.
+fn leg_with_hip_servo(k: f64) -> (Model, Servos) {
+    let model = systems::one_leg(TOE_LEG_M, 0.2, G);
     let servo = Servos {
-        k: 1.0,
+        k,
         c: 0.5,
         target: vec![-1.0],
     };
-    let y0 = [0.0, 0.0, -len, 0.0, 0.0, 0.3, 0.0, 0.0];
-    let case = sliding_toe_case(&model, &servo, &y0, 0.4);
-    let (exec, sens) = case.sensitivity();
-    use EventKind::{Slip, Stick, Touchdown};
-    let jac = defined_jacobian("sliding toe", &exec, &sens, &[Stick, Slip, Touchdown]);
-    let dirs: Vec<_> = [0, 1, 3, 4, 5, 7].iter().map(|&k| unit(8, k)).collect();
-    let e = case.whole_run_error(jac, &dirs);
-    eprintln!("sliding toe: whole-run Jacobian vs central differences {e:e}");
-    assert!(e < 1e-5, "{e:e}");
+    (model, servo)
 }
 
-/// The one-leg robot under `servo` from `y0` with its toe sliding.
-fn sliding_toe_case<'a>(model: &'a Model, servo: &'a Servos, y0: &'a [f64], tf: f64) -> Case<'a> {
-    Case {
-        ctrl: servo,
+/// The robot of [`leg_with_hip_servo`]`(k)` standing on its sliding toe, leg vertical, with
+/// the velocities `qd0`, run to `tf`: its events are `events`, each with its saltation
+/// defined, and its whole-run Jacobian along `dirs(model)` matches central differences of
+/// whole runs to 1e-5 (`what` names the case in the messages).
+fn assert_standing_toe_jacobian(
+    what: &str,
+    k: f64,
+    qd0: [f64; 4],
+    tf: f64,
+    events: &[EventKind],
+    dirs: impl Fn(&Model) -> Vec<DVector<f64>>,
+) {
+    let (model, servo) = leg_with_hip_servo(k);
+    let y0: Vec<f64> = [0.0, 0.0, -TOE_LEG_M, 0.0].into_iter().chain(qd0).collect();
+    let case = Case {
+        ctrl: &servo,
         mode: ContactMode::FLIGHT.with(0, ContactKind::Slide),
-        ..Case::passive(model, y0, tf, tight(0.0))
-    }
+        ..Case::passive(&model, &y0, tf, tight(0.0))
+    };
+    let (exec, sens) = case.sensitivity();
+    let jac = defined_jacobian(what, &exec, &sens, events);
+    case.assert_whole_run_close(jac, &dirs(&model), 1e-5, what);
 }
 
 /// The whole-run Jacobian of a run whose events are `kinds`, each with its saltation defined.

@@ -10,7 +10,7 @@ use selfmanip_core::tangent::BodyParameter;
 use selfmanip_core::{ContactMode, FlatGround};
 use selfmanip_hybrid::sensitivity::{execution_sensitivity_columns, Parameter};
 use selfmanip_hybrid::Termination;
-use systems::{block, released, short_steps, BLOCK, G};
+use systems::{block, released, short_steps, G};
 
 /// Steps of the single segment of a run to `t_final` and the allocations of its column
 /// tangent (two state directions and the body mass).
@@ -34,19 +34,5 @@ fn steps_and_tangent_allocations(mode: &str, q: [f64; 3], t_final: f64) -> (usiz
 
 #[test]
 fn tangent_stages_allocate_nothing() {
-    let (_, h, _) = BLOCK;
-    // a free fall (no rows), and a block sliding on its corners (two contacts' rows)
-    for (mode, q) in [
-        ("", [0.0, -100.0, 0.0]),
-        ("left,right:slide", [0.0, -h / 2.0, 0.0]),
-    ] {
-        let (n1, a1) = steps_and_tangent_allocations(mode, q, 1.0);
-        let (n2, a2) = steps_and_tangent_allocations(mode, q, 2.0);
-        eprintln!("mode `{mode}`: {a1} allocations for {n1} steps, {a2} for {n2}");
-        assert!(n2 >= n1 + 900, "mode `{mode}`: {n1} and {n2} steps");
-        assert!(
-            a2 <= a1 + 12,
-            "mode `{mode}`: {a1} allocations for {n1} steps, {a2} for {n2}"
-        );
-    }
+    systems::assert_doubling_the_steps_adds_no_allocations(steps_and_tangent_allocations);
 }

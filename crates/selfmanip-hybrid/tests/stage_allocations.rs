@@ -6,7 +6,7 @@ mod counting;
 mod systems;
 use selfmanip_core::ContactMode;
 use selfmanip_hybrid::Termination;
-use systems::{block, released, short_steps, BLOCK, G};
+use systems::{block, released, short_steps, G};
 
 /// Steps of the first segment and allocations of a run to `t_final` from `(q, q̇)` in `mode`.
 fn steps_and_allocations(mode: &str, q: [f64; 3], t_final: f64) -> (usize, usize) {
@@ -22,19 +22,5 @@ fn steps_and_allocations(mode: &str, q: [f64; 3], t_final: f64) -> (usize, usize
 
 #[test]
 fn steps_allocate_nothing() {
-    let (_, h, _) = BLOCK;
-    // a fall from 100 m (touchdown guards sampled at every step), and a block standing on
-    // its corners (liftoff and slip→stick guards: a flow evaluation per sample)
-    for (mode, q) in [
-        ("", [0.0, -100.0, 0.0]),
-        ("left,right:slide", [0.0, -h / 2.0, 0.0]),
-    ] {
-        let (n1, a1) = steps_and_allocations(mode, q, 1.0);
-        let (n2, a2) = steps_and_allocations(mode, q, 2.0);
-        assert!(n2 >= n1 + 900, "mode `{mode}`: {n1} and {n2} steps");
-        assert!(
-            a2 <= a1 + 12,
-            "mode `{mode}`: {a1} allocations for {n1} steps, {a2} for {n2}"
-        );
-    }
+    systems::assert_doubling_the_steps_adds_no_allocations(steps_and_allocations);
 }

@@ -7,7 +7,7 @@ use selfmanip_hybrid::flow::Flow;
 use selfmanip_hybrid::guard::{Direction, Guard, GuardSet};
 use selfmanip_hybrid::{simulate, EventKind, HybridOptions, StepOptions, Termination, ZeroTorque};
 use std::sync::Arc;
-use systems::{block, body, puck, Friction, BLOCK, G};
+use systems::{block, body, coast, puck, Friction, BLOCK, G};
 
 #[test]
 fn directions_orient_guard_values() {
@@ -100,17 +100,13 @@ fn puck_sliding_backward_stops_at_the_closed_form_time() {
     };
     let t = plane.tangent();
     let mode = ContactMode::parse_names(&model, "foot:slide").unwrap();
-    let exec = simulate(
+    let exec = coast(
         &model,
         &plane,
-        &ZeroTorque,
         mode,
-        &[0.0, 0.0, beta],
-        &[v0 * t.x, v0 * t.y, 0.0],
+        (&[0.0, 0.0, beta], &[v0 * t.x, v0 * t.y, 0.0]),
         2.0,
-        HybridOptions::default(),
-    )
-    .unwrap();
+    );
     let stop = &exec.events[0];
     assert_eq!(stop.kind, EventKind::Stick);
     let expected = v0.abs() / (G * beta.abs().sin());
@@ -133,17 +129,13 @@ fn grazing_touchdown_fires_only_when_the_end_reaches_the_ground() {
         ],
     );
     let run = |zc: f64| {
-        simulate(
+        coast(
             &model,
             &FlatGround,
-            &ZeroTorque,
             ContactMode::FLIGHT,
-            &[0.0, -zc, 0.0],
-            &[0.0, 0.0, omega],
+            (&[0.0, -zc, 0.0], &[0.0, 0.0, omega]),
             1.5,
-            HybridOptions::default(),
         )
-        .unwrap()
     };
     let above = run(l + delta);
     assert!(above.events.is_empty(), "a miss by 1 µm must not fire");

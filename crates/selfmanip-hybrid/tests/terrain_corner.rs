@@ -14,7 +14,9 @@
 //! continuous there.
 use nalgebra::Vector2;
 use selfmanip_core::{ContactKind, ContactMode, GroundPlane, Model, RobotDescription, Terrain};
-use selfmanip_hybrid::{simulate, EventKind, HybridOptions, Termination, ZeroTorque};
+use selfmanip_hybrid::{EventKind, Termination};
+mod systems;
+use systems::coast;
 
 const G: f64 = 9.81;
 const R: f64 = 0.05;
@@ -80,17 +82,13 @@ fn simpson(f: impl Fn(f64) -> f64, theta: f64, n: usize) -> f64 {
 fn frictionless_disk_leaves_the_edge_where_a_particle_leaves_a_sphere() {
     let model = disk(r#"{ kind = "sliding" }"#);
     let (x0, v0) = (0.1, 0.3);
-    let exec = simulate(
+    let exec = coast(
         &model,
         &Step,
-        &ZeroTorque,
         ContactMode::FLIGHT.with(0, ContactKind::Slide),
-        &[-x0, -R, 0.0],
-        &[v0, 0.0, 0.0],
+        (&[-x0, -R, 0.0], &[v0, 0.0, 0.0]),
         0.6,
-        HybridOptions::default(),
-    )
-    .unwrap();
+    );
     assert!(
         !matches!(exec.termination, Termination::TerrainDiscontinuity { .. }),
         "{:?}",
@@ -123,17 +121,13 @@ fn rolling_disk_pivots_on_the_edge_and_slips_where_its_cone_runs_out() {
     let (x0, v0) = (0.05, 0.2);
     // rolling: the rim point at the ground, R below the centre, is at rest
     let omega0 = -v0 / R;
-    let exec = simulate(
+    let exec = coast(
         &model,
         &Step,
-        &ZeroTorque,
         ContactMode::FLIGHT.with(0, ContactKind::Stick),
-        &[-x0, -R, 0.0],
-        &[v0, 0.0, omega0],
+        (&[-x0, -R, 0.0], &[v0, 0.0, omega0]),
         0.6,
-        HybridOptions::default(),
-    )
-    .unwrap();
+    );
     let e = &exec.events[0];
     assert_eq!(e.kind, EventKind::Slip, "{:?}", exec.events);
     let ip = I + M * R * R;

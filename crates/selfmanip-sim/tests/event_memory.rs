@@ -17,10 +17,8 @@ use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::periodic::run_sensitivity;
 use selfmanip_sim::{Scenario, Simulation};
 mod common;
+use common::fd::{end_state_and_events, run_jacobian_fd};
 use common::{data, hopper};
-#[path = "../../selfmanip-hybrid/tests/systems/fd.rs"]
-mod fd;
-use fd::{end_state_and_events, run_jacobian_fd};
 
 /// The hopper of `examples/hopper.rs` (dropped 10 cm, leg at its landing pose) moving
 /// forward at 0.3 m/s and falling at 0.5 m/s, under `hop.toml`, with every coordinate in the

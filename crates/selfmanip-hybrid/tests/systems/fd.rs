@@ -1,4 +1,4 @@
-//! Central differences of whole runs (also included by path in the sim's tests).
+//! Central differences of whole runs (also included by path in the sim's tests' `common`).
 use nalgebra::DMatrix;
 use selfmanip_hybrid::{EventKind, Execution};
 
@@ -17,12 +17,7 @@ pub fn run_jacobian_fd(
     let mut fd = DMatrix::zeros(n, n);
     for &c in cols {
         let d = |h: f64| {
-            let (mut xp, mut xm) = (x0.to_vec(), x0.to_vec());
-            xp[c] += h;
-            xm[c] -= h;
-            let ((yp, sp), (ym, sm)) = (run(&xp), run(&xm));
-            assert_eq!(sp, seq, "direction {c}");
-            assert_eq!(sm, seq, "direction {c}");
+            let (yp, ym) = runs_either_side(&run, x0, c, seq, h);
             yp.iter()
                 .zip(&ym)
                 .map(|(a, b)| (a - b) / (2.0 * h))
@@ -34,6 +29,24 @@ pub fn run_jacobian_fd(
         }
     }
     fd
+}
+
+/// The runs of `run` from `x0 ± h e_c`, both checked to meet the events `seq`: the two
+/// sides of a central difference along coordinate `c`.
+pub fn runs_either_side<Y>(
+    run: &impl Fn(&[f64]) -> (Y, Vec<EventKind>),
+    x0: &[f64],
+    c: usize,
+    seq: &[EventKind],
+    h: f64,
+) -> (Y, Y) {
+    let (mut xp, mut xm) = (x0.to_vec(), x0.to_vec());
+    xp[c] += h;
+    xm[c] -= h;
+    let ((yp, sp), (ym, sm)) = (run(&xp), run(&xm));
+    assert_eq!(sp, seq, "direction {c}");
+    assert_eq!(sm, seq, "direction {c}");
+    (yp, ym)
 }
 
 /// A run's end state `(q, q̇)` and its event kinds: what [`run_jacobian_fd`] differences.

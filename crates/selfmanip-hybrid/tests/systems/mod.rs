@@ -505,3 +505,28 @@ impl Lcg {
         lo + (hi - lo) * ((self.0 >> 11) as f64 / (1u64 << 53) as f64)
     }
 }
+
+/// The check of both allocation tests (`stage_allocations.rs`, `sensitivity_allocations.rs`):
+/// `steps_and_allocations(mode, q, t_final)` — the steps of a run's single segment and the
+/// allocations of the stage measured — for the block falling from 100 m (no rows; touchdown
+/// guards sampled at every step) and standing on its corners (two contacts' rows; liftoff and
+/// slip→stick guards: a flow evaluation per sample), to 1 s and to 2 s. Doubling the steps (at least 900 more) may add only the few allocations of the buffers'
+/// growth and the per-segment work (at most 12), not one per step.
+pub fn assert_doubling_the_steps_adds_no_allocations(
+    steps_and_allocations: impl Fn(&str, [f64; 3], f64) -> (usize, usize),
+) {
+    let (_, h, _) = BLOCK;
+    for (mode, q) in [
+        ("", [0.0, -100.0, 0.0]),
+        ("left,right:slide", [0.0, -h / 2.0, 0.0]),
+    ] {
+        let (n1, a1) = steps_and_allocations(mode, q, 1.0);
+        let (n2, a2) = steps_and_allocations(mode, q, 2.0);
+        eprintln!("mode `{mode}`: {a1} allocations for {n1} steps, {a2} for {n2}");
+        assert!(n2 >= n1 + 900, "mode `{mode}`: {n1} and {n2} steps");
+        assert!(
+            a2 <= a1 + 12,
+            "mode `{mode}`: {a1} allocations for {n1} steps, {a2} for {n2}"
+        );
+    }
+}

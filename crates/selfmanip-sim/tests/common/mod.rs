@@ -9,6 +9,8 @@ use std::path::Path;
 
 #[path = "../../examples/common/mod.rs"]
 pub mod examples;
+#[path = "../../../selfmanip-hybrid/tests/systems/fd.rs"]
+pub mod fd;
 #[allow(unused_imports)] // not every test reads the examples' data
 pub use examples::data;
 
@@ -43,12 +45,7 @@ pub fn section_jacobian_fd<Y: std::ops::Index<usize, Output = f64>>(
 ) -> DMatrix<f64> {
     let mut fd = DMatrix::zeros(idx.len(), idx.len());
     for (k, &c) in idx.iter().enumerate() {
-        let (mut xp, mut xm) = (x.to_vec(), x.to_vec());
-        xp[c] += h;
-        xm[c] -= h;
-        let ((yp, sp), (ym, sm)) = (map(&xp), map(&xm));
-        assert_eq!(sp, kinds, "direction {c}");
-        assert_eq!(sm, kinds, "direction {c}");
+        let (yp, ym) = fd::runs_either_side(&map, x, c, kinds, h);
         for (i, &r) in idx.iter().enumerate() {
             fd[(i, k)] = (yp[r] - ym[r]) / (2.0 * h);
         }
