@@ -35,7 +35,8 @@ use selfmanip_core::{ContactMode, Terrain};
 use selfmanip_hybrid::{Execution, Termination};
 use selfmanip_sim::analysis::{angle_to_ground, roots::secant_search};
 use selfmanip_sim::behaviour::{
-    ActuatorSpec, Behaviour, Motion, Torque, Trigger,
+    ActuatorSpec, Behaviour, FreeJointGains, JointProgram, Motion, NamedEvent, On, Phase, Torque,
+    Trigger,
 };
 use selfmanip_sim::events::{event_records_labelled, EventRecord};
 use selfmanip_sim::expr::Scalar;
@@ -1275,16 +1276,123 @@ pub const LEAP_BEHAVIOURS: [(&str, &str); 4] = [
     ("--", include_str!("../data/behaviours/leap_mm.toml")),
 ];
 
-/// The shipped behaviour of a strategy: its file ([`LEAP_BEHAVIOURS`]) read. The files are
-/// the one statement of the leap's phases (`tests/leap_behaviours.rs` checks that each parses
-/// and is its strategy); reading one costs a small fraction of a leap.
+/// The shipped behaviour of a strategy: the data of its file ([`LEAP_BEHAVIOURS`]) as a value
+/// built in Rust, nothing parsed (`tests/leap_behaviours.rs` checks that each file parses to
+/// exactly this value: parsing one would cost ~9 % of a one-shot leap's instructions).
 pub fn leap_behaviour(strategy: Strategy) -> Behaviour {
-    let symbols = strategy.to_string();
-    let (_, text) = LEAP_BEHAVIOURS
-        .iter()
-        .find(|(s, _)| *s == symbols)
-        .expect("a file for each of the four strategies");
-    Behaviour::from_toml_str(text).expect("the shipped leap files parse (tests/leap_behaviours.rs)")
+    let [front, rear] = strategy.chapter3_pairs();
+    let motor = "leg.stall_torque_n_m";
+    let accel = "leg.stall_torque_n_m / (leg.reflected_inertia_kg_m2 + leg_inertia_kg_m2)";
+    let servo = || Torque::Servo {
+        target_rad: None,
+        kp_n_m_per_rad: format!("kp_hold * {motor}").as_str().into(),
+        kd_n_m_s_per_rad: format!("kd_hold * {motor}").as_str().into(),
+        torque_limit_n_m: Some(motor.into()),
+        only_in_contact: true,
+    };
+    let program = |pair: LegPair, start: &str, sign: &str| JointProgram {
+        joint: pair.name().into(),
+        phases: vec![
+            Phase {
+                name: "wait".into(),
+                start: None,
+                torque: servo(),
+                motion: Some(Motion::Hold {
+                    angle_rad: "q0".into(),
+                }),
+                restart_on: None,
+            },
+            Phase {
+                name: "push".into(),
+                start: Some(Trigger::at(start)),
+                torque: Torque::Motor {
+                    actuator: "leg".into(),
+                    command: sign.into(),
+                    reverse_beyond_rad: None,
+                },
+                motion: Some(Motion::Swing {
+                    target_rad: format!("{sign} * stow").as_str().into(),
+                    speed_rad_s: "leg.no_load_speed_rad_s".into(),
+                    accel_rad_s2: accel.into(),
+                }),
+                restart_on: Some(vec![Trigger::on(On::Release)]),
+            },
+            Phase {
+                name: "retract".into(),
+                start: Some(Trigger {
+                    any: Some(vec![Trigger::on(On::Release), Trigger::event("takeoff")]),
+                    ..Trigger::default()
+                }),
+                torque: servo(),
+                motion: Some(Motion::Park {
+                    target_rad: format!("if({sign} * theta >= 0, {sign}, -{sign}) * stow")
+                        .as_str()
+                        .into(),
+                    accel_rad_s2: accel.into(),
+                }),
+                restart_on: Some(Vec::new()),
+            },
+        ],
+        repeat_from: None,
+    };
+    let number = |k: &str, x: f64| (k.to_string(), Scalar::Number(x));
+    let formula = |k: &str, e: &str| (k.to_string(), Scalar::from(e));
+    let symbols = format!("({},{})", strategy.front.symbol(), strategy.rear.symbol());
+    Behaviour {
+        name: format!("rhex-leap-{strategy}"),
+        description: format!(
+            "RHex leap {symbols}: open-loop motor pushes with coordination time t2"
+        ),
+        parameters: [
+            number("t2", 0.0),
+            formula("t_front", "max(0, -t2)"),
+            formula("t_rear", "max(0, t2)"),
+            number("s_front", strategy.front.sign()),
+            number("s_rear", strategy.rear.sign()),
+            number("gear_ratio", 28.0),
+            number("current_limit_a", DEFAULT_CURRENT_LIMIT_A),
+            number("motors_per_leg", f64::from(DEFAULT_MOTORS_PER_LEG)),
+            number("leg_inertia_kg_m2", 0.0),
+            number("stow", 2.6),
+            number("kp_hold", 20.0),
+            number("kd_hold", 0.5),
+        ]
+        .into_iter()
+        .collect(),
+        actuators: [(
+            "leg".to_string(),
+            ActuatorSpec::DcMotor {
+                motor: "x-rhex".into(),
+                gearbox: "x-rhex-28".into(),
+                gear_ratio: Some("gear_ratio".into()),
+                current_limit_a: Some("current_limit_a".into()),
+                supply_voltage_v: None,
+                count: "motors_per_leg".into(),
+                catalog: None,
+            },
+        )]
+        .into_iter()
+        .collect(),
+        events: [(
+            "takeoff".to_string(),
+            NamedEvent {
+                on: On::Flight,
+                contacts: None,
+                not_before_s: Some("max(t_front, t_rear)".into()),
+                after_event: None,
+            },
+        )]
+        .into_iter()
+        .collect(),
+        free_joints: FreeJointGains {
+            kp_per_s2: Scalar::Number(400.0),
+            kd_per_s: Scalar::Number(40.0),
+        },
+        joints: vec![
+            program(front, "t_front", "s_front"),
+            program(rear, "t_rear", "s_rear"),
+        ],
+    }
 }
 
 /// A leap as a scenario.
