@@ -3,20 +3,15 @@
 //! hind leg on a circular foot): the stance puts its hind foot on the ground, the
 //! searched maxima are at least every point of a brute-force grid, and the pitch
 //! acceleration is affine in the leg's torque (the dynamics are linear in the torques).
-use selfmanip_core::{FlatGround, Model, RobotDescription};
+use selfmanip_core::{FlatGround, Model};
 use selfmanip_sim::analysis::contact_gaps;
 use selfmanip_sim::analysis::one_leg::*;
 use selfmanip_sim::analysis::takeoff::TorqueSpeedLine;
+mod common;
+use common::test_robot;
 
 fn two_legs() -> Model {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../tests/data/robots/knee_and_wheel_feet.toml"
-    );
-    RobotDescription::from_file(std::path::Path::new(path))
-        .unwrap()
-        .build()
-        .unwrap()
+    test_robot("knee_and_wheel_feet.toml").build().unwrap()
 }
 
 #[test]

@@ -4,7 +4,7 @@
 //! build cache's one build per key, the quasi-static pitch of a block on two feet of unequal
 //! length against its closed form, and a preset's end-state derivatives
 //! (`sensitivity_preset`) on the hopper against central differences of whole runs.
-use selfmanip_core::{ContactMode, FlatGround, Model, RobotDescription};
+use selfmanip_core::{ContactMode, FlatGround, Model};
 use selfmanip_sim::analysis::roots::secant_search;
 use selfmanip_sim::analysis::{angle_to_ground, balance_pitch, contact_gaps, solve_contact_pose};
 use selfmanip_hybrid::sensitivity::Parameter;
@@ -16,18 +16,12 @@ use selfmanip_sim::sensitivity_preset::{end_state_sensitivity, EndStateRequest};
 use selfmanip_sim::sweep::BuildCache;
 use selfmanip_sim::{Run, Scenario, Simulation};
 mod common;
-use common::{data, hopper};
+use common::{data, hopper, test_robot};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
+/// The quadruped of `tests/data/quadruped.toml`.
 fn quadruped() -> Model {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../tests/data/quadruped.toml"
-    );
-    RobotDescription::from_file(std::path::Path::new(path))
-        .unwrap()
-        .build()
-        .unwrap()
+    test_robot("../quadruped.toml").build().unwrap()
 }
 
 /// The quadruped standing on both feet (body height and pitch solved by Newton's method):
@@ -252,8 +246,7 @@ fn readings_of_a_run_on_the_hopper() {
 #[test]
 fn balance_pitch_of_a_block_on_unequal_feet() {
     use selfmanip_core::description::ShapeDescription;
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/robots");
-    let mut d = RobotDescription::from_file(&dir.join("block_on_two_feet.toml")).unwrap();
+    let mut d = test_robot("block_on_two_feet.toml");
     let level = d.clone().build().unwrap();
     let (phi, f, r) = balance_pitch(&level, &[0.0, 0.0, 0.0], &[0], &[1]).unwrap();
     assert!(phi.abs() < 1e-13, "{phi}");
