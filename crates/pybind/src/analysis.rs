@@ -194,7 +194,7 @@ fn analysis_takeoff_speed<'py>(
         let line = pc::xrhex_line(gear_ratio).map_err(err)?;
         to_py(
             py,
-            &pc::rear_takeoff_speed(&model, theta2, phi, phi_dot, &line).map_err(err)?,
+            &pc::rear_takeoff_speed(&model, theta2, phi, phi_dot, &line).map_err(|e| err(e.into()))?,
         )
     })
 }
@@ -246,7 +246,8 @@ fn analysis_single_leg_pitch_accel(
 ) -> PyResult<f64> {
     guard(|| {
         let model = takeoff_model(params, leg(leg_kind)?)?;
-        pc::single_leg_pitch_accel(&model, theta2, phi, theta2_dot, phi_dot, tau2).map_err(err)
+        pc::single_leg_pitch_accel(&model, theta2, phi, theta2_dot, phi_dot, tau2)
+            .map_err(|e| err(e.into()))
     })
 }
 

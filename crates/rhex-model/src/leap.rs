@@ -31,17 +31,20 @@
 use crate::params::{LegPair, RhexParams};
 use crate::{Rhex, RhexError};
 use motor::Actuator;
-use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{ContactMode, Terrain};
-use selfmanip_hybrid::{EventKind, Execution, Termination};
+use selfmanip_hybrid::{Execution, Termination};
+use selfmanip_sim::analysis::{angle_to_ground, roots::secant_search};
 use selfmanip_sim::behaviour::{
     ActuatorSpec, Behaviour, FreeJointGains, JointProgram, Motion, NamedEvent, On, Phase, Torque,
     Trigger,
 };
 use selfmanip_sim::events::{event_records_labelled, EventRecord};
 use selfmanip_sim::expr::Scalar;
-use selfmanip_sim::outcome::{BodyState, Outcome, WordOptions};
+use selfmanip_sim::outcome::{
+    first_touchdown_s, flies_after, reported_apex, BodyState, Outcome, WordOptions,
+};
 use selfmanip_sim::terrain::TerrainSpec;
+use selfmanip_sim::sweep::BuildCache;
 use selfmanip_sim::RunStatus;
 use selfmanip_sim::{InitialState, Scenario, SimOptions};
 use selfmanip_sim::{Simulation, Trajectory};
@@ -728,7 +731,9 @@ pub fn leg_swing(params: &RhexParams, cfg: &LeapConfig) -> Result<(f64, f64), Rh
 
 /// The angle at which leg `i`'s lowest point just reaches the ground with the body at `q`,
 /// on the side that `sign` pushes from (`+`: the leg ahead of its hip; `−`: behind), by
-/// bisection on the engine's own contact geometry (any leg shape).
+/// bisection on the engine's own contact geometry (any leg shape,
+/// [`selfmanip_sim::analysis::angle_to_ground`]) from pointing up (clear) to pointing down
+/// (through the ground).
 fn touchdown_angle(
     rhex: &Rhex,
     terrain: &dyn Terrain,
@@ -737,35 +742,14 @@ fn touchdown_angle(
     contact: usize,
     sign: f64,
 ) -> Result<f64, RhexError> {
-    let mut kin = Kinematics::default();
-    let zero = vec![0.0; q.len()];
-    let mut qq = q.to_vec();
-    let mut gap = |theta: f64| {
-        qq[i] = theta;
-        kin.compute(&rhex.model, &qq, &zero);
-        selfmanip_core::contact::contact_geometry(&rhex.model, &kin, terrain, contact).gap_m
-    };
-    // pointing up (clear) .. pointing down (through the ground)
-    let (mut clear, mut through) = (-sign * (PI - 1e-9), 0.0);
-    if !(gap(clear) > 0.0 && gap(through) < 0.0) {
-        return Err(RhexError::InvalidValue {
+    let up = -sign * (PI - 1e-9);
+    angle_to_ground(&rhex.model, terrain, q, i, contact, up, 0.0).ok_or_else(|| {
+        RhexError::InvalidValue {
             field: "rho_b".into(),
             reason: "a leg pointing straight down must reach the ground from the sitting posture"
                 .into(),
-        });
-    }
-    for _ in 0..200 {
-        let mid = 0.5 * (clear + through);
-        if gap(mid) > 0.0 {
-            clear = mid;
-        } else {
-            through = mid;
         }
-        if (clear - through).abs() < 1e-15 {
-            break;
-        }
-    }
-    Ok(clear)
+    })
 }
 
 /// The leap's two pushing pairs (front-most first): [`LeapConfig::pairs`] or chapter 3's.
@@ -853,7 +837,7 @@ fn start_mode(rhex: &Rhex) -> Result<ContactMode, RhexError> {
 /// compared by value. A point gives what a fresh leap gives, bit for bit, so results do
 /// not depend on which leaps ran before or on which thread.
 #[derive(Default)]
-pub struct Presets(std::sync::Mutex<Vec<(PresetKey, Arc<LeapPreset>)>>);
+pub struct Presets(BuildCache<PresetKey, LeapPreset>);
 
 /// What a preset's build depends on: the parameters and the configuration with `t2_s` set
 /// to 0 and the actuator to its kind's default.
@@ -881,26 +865,7 @@ impl Presets {
         cfg: &LeapConfig,
         stop: &AtomicBool,
     ) -> Result<LeapResult, RhexError> {
-        let key = Self::key(params, cfg);
-        let found = |entries: &[(PresetKey, Arc<LeapPreset>)]| {
-            entries
-                .iter()
-                .find(|(k, _)| *k == key)
-                .map(|(_, v)| Arc::clone(v))
-        };
-        let kept = self.0.lock().ok().and_then(|e| found(&e));
-        let preset = match kept {
-            Some(p) => p,
-            None => {
-                let built = Arc::new(LeapPreset::new(params, cfg)?);
-                if let Ok(mut entries) = self.0.lock() {
-                    if found(&entries).is_none() {
-                        entries.push((key, Arc::clone(&built)));
-                    }
-                }
-                built
-            }
-        };
+        let preset = (self.0).get_or_build(Self::key(params, cfg), || LeapPreset::new(params, cfg))?;
         preset.run_at(cfg.t2_s, &cfg.actuator, stop)
     }
 }
@@ -1129,34 +1094,13 @@ impl LeapPreset {
         target: f64,
         stop: &AtomicBool,
     ) -> Result<LeapResult, RhexError> {
-        let mut s0 = target;
-        let mut r0 = self.run_with(values, s0, stop)?;
-        let Some(mut d0) = r0.touchdown_t2_s.map(|t| t - target) else {
-            return Ok(r0);
+        let run = |s: f64| {
+            let r = self.run_with(values, s, stop)?;
+            let d = r.touchdown_t2_s.map(|t| t - target);
+            Ok((r, d))
         };
-        let mut s1 = s0 - d0;
-        for _ in 1..TOUCHDOWN_SEARCH_RUNS {
-            if d0.abs() <= TOUCHDOWN_SEARCH_TOL_S || s1.abs() >= self.cfg.t_final_s {
-                break;
-            }
-            let r1 = self.run_with(values, s1, stop)?;
-            let Some(d1) = r1.touchdown_t2_s.map(|t| t - target) else {
-                break;
-            };
-            let better = d1.abs() < d0.abs();
-            let slope = (d1 - d0) / (s1 - s0);
-            let next = if slope.is_finite() && slope.abs() > 1e-6 {
-                s1 - d1 / slope
-            } else {
-                s1 - d1
-            };
-            (s0, d0) = (s1, d1);
-            if better {
-                r0 = r1;
-            }
-            s1 = next;
-        }
-        Ok(r0)
+        let (runs, tol) = (TOUCHDOWN_SEARCH_RUNS, TOUCHDOWN_SEARCH_TOL_S);
+        secant_search(target, runs, tol, self.cfg.t_final_s, run)
     }
 
     /// The leap's result read off the generic execution `exec`, run with the rear motor
@@ -1174,47 +1118,19 @@ impl LeapPreset {
         let q0 = &self.q0;
         let start = [front_start, front_start + motor_t2_s];
         let first_start = start[0].min(start[1]);
-        let flight = exec
-            .segments
-            .iter()
-            .any(|s| s.mode.is_flight() && s.t0 >= first_start);
         let flew = match outcome.status {
             RunStatus::Apex => true,
-            RunStatus::FinalTime => flight && !cfg.stop_at_apex,
+            RunStatus::FinalTime => flies_after(&exec, first_start) && !cfg.stop_at_apex,
             _ => false,
         };
         // the apex that ended the run, or (run on past it) that of its first flight after a
-        // motor started
-        let apex_event = match exec.termination {
-            Termination::Apex => exec.events.last(),
-            _ if !cfg.stop_at_apex => exec
-                .events
-                .iter()
-                .find(|e| e.kind == EventKind::Apex && e.t >= first_start),
-            _ => None,
-        };
-        let apex = apex_event.map(|e| Apex {
-            t_s: e.t - start[0],
-            x_m: e.q[2] - q0[2],
-            z_m: -e.q[3],
-            phi_rad: e.q[4],
-            xdot_m_s: e.qd_after[2],
-            zdot_m_s: -e.qd_after[3],
-            phidot_rad_s: e.qd_after[4],
+        // motor started, in chapter 3's frame
+        let apex = reported_apex(&exec, cfg.stop_at_apex, first_start).map(|e| {
+            BodyState::from_state(model, e.t, &e.q, &e.qd_after).seen_from_start(start[0], q0[2])
         });
         let events = event_records_labelled(model, &exec, &|m| rhex.label(m), start[0]);
         // the touchdown offset: each pushing leg's first touchdown after its motor started
-        let first_touchdown = |i: usize| {
-            let contact = rhex.site(2 * i + 1);
-            exec.events
-                .iter()
-                .find(|e| {
-                    e.kind == EventKind::Touchdown
-                        && e.t >= start[i]
-                        && e.triggered.contains(&contact)
-                })
-                .map(|e| e.t)
-        };
+        let first_touchdown = |i: usize| first_touchdown_s(&exec, rhex.site(2 * i + 1), start[i]);
         let touchdown_t2_s = first_touchdown(0)
             .zip(first_touchdown(1))
             .map(|(front, rear)| rear - front);
@@ -1361,8 +1277,8 @@ pub const LEAP_BEHAVIOURS: [(&str, &str); 4] = [
 ];
 
 /// The shipped behaviour of a strategy: the data of its file ([`LEAP_BEHAVIOURS`]) as a value
-/// built in Rust, nothing parsed (the test `each_file_parses_to_the_built_behaviour` checks
-/// that each file parses to exactly this value).
+/// built in Rust, nothing parsed (`tests/leap_behaviours.rs` checks that each file parses to
+/// exactly this value: parsing one would cost ~9 % of a one-shot leap's instructions).
 pub fn leap_behaviour(strategy: Strategy) -> Behaviour {
     let [front, rear] = strategy.chapter3_pairs();
     let motor = "leg.stall_torque_n_m";
@@ -1476,25 +1392,6 @@ pub fn leap_behaviour(strategy: Strategy) -> Behaviour {
             program(front, "t_front", "s_front"),
             program(rear, "t_rear", "s_rear"),
         ],
-    }
-}
-
-#[cfg(test)]
-mod behaviour_tests {
-    use super::*;
-
-    /// The files are the documented data: each parses to exactly the behaviour the preset
-    /// builds for its strategy.
-    #[test]
-    fn each_file_parses_to_the_built_behaviour() {
-        for (symbols, text) in LEAP_BEHAVIOURS {
-            let strategy: Strategy = symbols.parse().unwrap();
-            let parsed = Behaviour::from_toml_str(text).unwrap();
-            let built = leap_behaviour(strategy);
-            assert_eq!(parsed, built, "{symbols}");
-            // bit for bit (−0.0 and 0.0 compare equal)
-            assert_eq!(format!("{parsed:?}"), format!("{built:?}"), "{symbols}");
-        }
     }
 }
 

@@ -55,12 +55,10 @@ use crate::{RhexError, RhexParams};
 use nalgebra::DMatrix;
 use selfmanip_core::tangent::BodyParameter;
 use selfmanip_hybrid::budget::NEVER;
-use selfmanip_hybrid::sensitivity::{ColumnSensitivity, Parameter};
+use selfmanip_hybrid::sensitivity::Parameter;
 use selfmanip_hybrid::{EventKind, Termination};
 pub use selfmanip_sim::sensitivity::EventSaltation;
-use selfmanip_sim::sensitivity::{
-    end_event_time_gradient, event_saltations, named_sensitivity_columns, time_event_jumps,
-};
+use selfmanip_sim::sensitivity_preset::{end_state_sensitivity, EndStateRequest};
 
 /// The apex columns a leap reports, in order (the sweep's column names).
 pub const APEX_COLUMNS: [&str; 7] = [
@@ -269,79 +267,46 @@ pub fn leap_with_sensitivity_from(
     let result = run_from(&preset, start_offset)?;
     // `d (front leg's start) / d t2`: the execution starts at `min(0, t2)`
     let dstart0_dt2 = if cfg.t2_s >= 0.0 { 0.0 } else { -1.0 };
-    let nan = || vec![vec![f64::NAN; ps.len()]; APEX_COLUMNS.len()];
-    let mut out = LeapSensitivity {
-        parameters: names.iter().map(|s| s.to_string()).collect(),
-        d_apex: nan(),
-        d_apex_d_start: vec![vec![f64::NAN; dirs.ncols()]; APEX_COLUMNS.len()],
-        ok: false,
-        reason: None,
-        events: Vec::new(),
-        time_events: Vec::new(),
-        event_times: Vec::new(),
-        result,
-    };
+    let d_origin: Vec<f64> = ps
+        .iter()
+        .map(|p| match p {
+            LeapParameter::T2 => dstart0_dt2,
+            _ => 0.0,
+        })
+        .collect();
     let named = ps
         .iter()
         .map(|&p| engine_terms(p, params, cfg, model))
         .collect::<Result<Vec<_>, _>>()?;
-    let exec = &out.result.execution;
-    let s = match named_sensitivity_columns(model, &cfg.terrain, exec, &dirs, &named) {
-        Ok(s) => s,
-        Err(e) => {
-            out.reason = Some(e.to_string());
-            return Ok(out);
-        }
-    };
-    record_events(&mut out, &s, &ps, dirs.ncols(), dstart0_dt2);
-    let reason = undefined_reason(&s, &out.result);
-    if let Some(r) = reason {
-        out.reason = Some(r);
-        return Ok(out);
-    }
-    let x = s.columns.as_ref().expect("checked above");
-    let Some(dt) = end_event_time_gradient(&s, &out.result.execution, EventKind::Apex) else {
-        out.reason = Some("the apex event has no time gradient".into());
-        return Ok(out);
-    };
-    let nq = model.nq();
-    let (ix, iz, ip) = (model.ix_x(), model.ix_z(), model.ix_phi());
-    let nd = dirs.ncols();
-    let column = |j: usize, dstart0: f64| -> [f64; 7] {
-        [
-            dt[j] - dstart0,
-            x[(ix, j)],
-            -x[(iz, j)],
-            x[(ip, j)],
-            x[(nq + ix, j)],
-            -x[(nq + iz, j)],
-            x[(nq + ip, j)],
-        ]
-    };
-    for (k, p) in ps.iter().enumerate() {
-        // apex t_s is measured from the front leg's start, which t2 < 0 moves
-        let dstart0 = match p {
-            LeapParameter::T2 => dstart0_dt2,
-            _ => 0.0,
-        };
-        for (c, v) in column(nd + k, dstart0).into_iter().enumerate() {
-            out.d_apex[c][k] = v;
-        }
-    }
-    for j in 0..nd {
-        for (c, v) in column(j, 0.0).into_iter().enumerate() {
-            out.d_apex_d_start[c][j] = v;
-        }
-    }
-    // a derivative that a controller's partials leave undefined comes out NaN: never reported
-    if let Some(k) = (0..ps.len()).find(|&k| out.d_apex.iter().any(|c| !c[k].is_finite())) {
-        out.reason = Some(format!("d/d{} is not finite", names[k]));
-        out.d_apex = nan();
-        out.d_apex_d_start = vec![vec![f64::NAN; nd]; APEX_COLUMNS.len()];
-        return Ok(out);
-    }
-    out.ok = true;
-    Ok(out)
+    let exec = &result.execution;
+    let not_ended = (exec.termination != Termination::Apex || result.apex.is_none()).then(|| {
+        "the leap did not end at an apex (sensitivities are taken at the apex that ends a run)"
+            .to_string()
+    });
+    let d = end_state_sensitivity(&EndStateRequest {
+        model,
+        terrain: &cfg.terrain,
+        exec,
+        directions: &dirs,
+        named: &named,
+        names,
+        offset_s: result.time_offset_s,
+        d_origin: &d_origin,
+        end: (EventKind::Apex, "apex"),
+        not_ended,
+        z_up: true,
+    });
+    Ok(LeapSensitivity {
+        parameters: names.iter().map(|s| s.to_string()).collect(),
+        d_apex: d.d_state,
+        d_apex_d_start: d.d_state_d_start,
+        ok: d.ok,
+        reason: d.reason,
+        events: d.events,
+        time_events: d.time_events,
+        event_times: d.event_times,
+        result,
+    })
 }
 
 /// Runs the leap of `preset` (its motor start `cfg.t2_s`) from its start state plus
@@ -365,45 +330,4 @@ fn run_from(preset: &LeapPreset, start_offset: Option<&[f64]>) -> Result<LeapRes
     }
     let run = sim.run_with(&NEVER)?;
     Ok(preset.result(run.execution, run.outcome, t2, front_start))
-}
-
-/// Why the apex's derivatives of `result` are not defined, if they are not: no apex ends
-/// the run, or the generic reasons ([`selfmanip_sim::sensitivity::undefined_reason`]).
-fn undefined_reason(s: &ColumnSensitivity, result: &LeapResult) -> Option<String> {
-    let exec = &result.execution;
-    if exec.termination != Termination::Apex || result.apex.is_none() {
-        Some(
-            "the leap did not end at an apex (sensitivities are taken at the apex that ends a run)"
-                .to_string(),
-        )
-    } else {
-        selfmanip_sim::sensitivity::undefined_reason(s, result.time_offset_s)
-    }
-}
-
-/// The events' saltations, their times' gradients (`t_s` from the front leg's start, which
-/// `t2 < 0` moves at `dstart0_dt2`; `nd` start-state directions first) and the time events
-/// of `s` into `out`, on the leap's clock.
-fn record_events(
-    out: &mut LeapSensitivity,
-    s: &ColumnSensitivity,
-    ps: &[LeapParameter],
-    nd: usize,
-    dstart0_dt2: f64,
-) {
-    let offset = out.result.time_offset_s;
-    out.events = event_saltations(s, offset);
-    let dstart0 = |j: usize| match (j >= nd).then(|| ps[j - nd]) {
-        Some(LeapParameter::T2) => dstart0_dt2,
-        _ => 0.0,
-    };
-    out.event_times = s
-        .event_time_columns
-        .iter()
-        .map(|c| {
-            c.as_ref()
-                .map(|c| (0..c.len()).map(|j| c[j] - dstart0(j)).collect())
-        })
-        .collect();
-    out.time_events = time_event_jumps(s, offset);
 }

@@ -4,12 +4,13 @@
 //! Quasi-statically on level ground the robot rests on its lowest front support and its
 //! lowest rear support (section 4.2.2): with the body at `x = z = 0`, the pitch `φ(θ₁, θ₂)`
 //! is the root of `depth_front(φ) = depth_rear(φ)` where each depth is the largest world
-//! `z` (z down) of that side's contact sites (body end, leg on its round or on its toe).
+//! `z` (z down) of that side's contact sites (body end, leg on its round or on its toe): the
+//! generic [`selfmanip_sim::analysis::balance_pitch`] on RHex's two sides.
 use crate::modes::Rhex;
 use crate::RhexError;
-use selfmanip_core::contact::{contact_geometry, TouchKind};
-use selfmanip_core::kinematics::Kinematics;
-use selfmanip_core::{ContactMode, FlatGround};
+use selfmanip_core::contact::TouchKind;
+use selfmanip_core::ContactMode;
+use selfmanip_sim::analysis::{balance_pitch, SideSupport};
 use serde::Serialize;
 
 /// How one side of the robot is supported (the letters of Fig. 4.3).
@@ -50,89 +51,43 @@ pub struct QuasiStaticPose {
     pub mode: ContactMode,
 }
 
-struct Sides {
-    front: [usize; 2], // [leg, body]
-    rear: [usize; 2],
-}
-
-fn sides(rhex: &Rhex) -> Option<Sides> {
+/// The contact sites of the front and rear sides, `[leg, body]` each.
+fn sides(rhex: &Rhex) -> Option<[[usize; 2]; 2]> {
     let m = &rhex.model;
     let pairs = rhex.params.ordered_pairs();
     if pairs.len() != 2 {
         return None;
     }
     let leg = |i: usize| m.contact_index(&format!("{}_leg", pairs[i].name())).ok();
-    Some(Sides {
-        front: [leg(0)?, m.contact_index("front_body").ok()?],
-        rear: [leg(1)?, m.contact_index("rear_body").ok()?],
-    })
+    Some([
+        [leg(0)?, m.contact_index("front_body").ok()?],
+        [leg(1)?, m.contact_index("rear_body").ok()?],
+    ])
 }
 
-/// Lowest depth of a side and which site gives it.
-fn side_depth(rhex: &Rhex, kin: &Kinematics, sites: [usize; 2]) -> (f64, usize, TouchKind) {
-    let g: Vec<_> = sites
-        .iter()
-        .map(|&k| (k, contact_geometry(&rhex.model, kin, &FlatGround, k)))
-        .collect();
-    let (k, geo) = if g[0].1.point.y >= g[1].1.point.y {
-        g[0]
-    } else {
-        g[1]
-    };
-    (geo.point.y, k, geo.touch)
-}
-
-/// Pitch and supports for legs `(θ₁, θ₂)`; `None` for a model without exactly two pairs or
-/// where no pitch in (−π/2, π/2) balances the two sides.
+/// Pitch and supports for legs `(θ₁, θ₂)` ([`balance_pitch`]); `None` for a model without
+/// exactly two pairs or where no pitch in (−π/2, π/2) balances the two sides.
 pub fn quasi_static_pose(rhex: &Rhex, theta1: f64, theta2: f64) -> Option<QuasiStaticPose> {
-    let s = sides(rhex)?;
-    let mut kin = Kinematics::default();
-    let zero = [0.0; 5];
-    let mut eval = |phi: f64| {
-        kin.compute(&rhex.model, &[theta1, theta2, 0.0, 0.0, phi], &zero);
-        let f = side_depth(rhex, &kin, s.front);
-        let r = side_depth(rhex, &kin, s.rear);
-        (f.0 - r.0, f, r)
-    };
-    // depth_front − depth_rear decreases as the nose rises: bisection.
-    let (mut lo, mut hi) = (
-        -std::f64::consts::FRAC_PI_2 + 1e-9,
-        std::f64::consts::FRAC_PI_2 - 1e-9,
-    );
-    let (glo, ghi) = (eval(lo).0, eval(hi).0);
-    if !(glo >= 0.0 && ghi <= 0.0) {
-        return None;
-    }
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if eval(mid).0 > 0.0 {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-        if hi - lo < 1e-14 {
-            break;
-        }
-    }
-    let phi = 0.5 * (lo + hi);
-    let (_, (fdepth, fk, ftouch), (_, rk, rtouch)) = eval(phi);
-    let support = |k: usize, touch: TouchKind| {
-        if rhex.model.contacts[k].link.is_none() {
+    let [front, rear] = sides(rhex)?;
+    let q = [theta1, theta2, 0.0, 0.0, 0.0];
+    let (phi, f, r) = balance_pitch(&rhex.model, &q, &front, &rear)?;
+    let support = |s: SideSupport| {
+        if rhex.model.contacts[s.contact].link.is_none() {
             Support::Body
-        } else if touch == TouchKind::Rolling {
+        } else if s.touch == TouchKind::Rolling {
             Support::Rolling
         } else {
             Support::Toe
         }
     };
-    let mode = ContactMode::with_defaults(&rhex.model, &[fk, rk]).ok()?;
+    let mode = ContactMode::with_defaults(&rhex.model, &[f.contact, r.contact]).ok()?;
     Some(QuasiStaticPose {
         theta1,
         theta2,
         phi,
-        front: support(fk, ftouch),
-        rear: support(rk, rtouch),
-        height_m: fdepth,
+        front: support(f),
+        rear: support(r),
+        height_m: f.depth_m,
         label: rhex.label(mode),
         mode,
     })

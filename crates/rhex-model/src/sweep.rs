@@ -23,9 +23,9 @@
 use crate::leap::{simulate_leap, LeapConfig, LeapResult, LegActuator, Presets, Strategy};
 use crate::{RhexError, RhexParams};
 use selfmanip_hybrid::budget::NEVER;
-use selfmanip_sim::path::{deserialize_with, serde_field_names};
+use selfmanip_sim::path::{record_with, serde_field_names, sort_by_record};
 pub use selfmanip_sim::sweep::panic_message;
-use selfmanip_sim::sweep::run_parallel;
+use selfmanip_sim::sweep::{catch_panic, run_parallel};
 use serde_json::{Map, Value};
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -168,26 +168,13 @@ pub fn sweepable_names() -> Vec<String> {
 /// Checks that every name is sweepable; the error names the first unknown one.
 pub fn check_override_names<'a>(names: impl IntoIterator<Item = &'a str>) -> Result<(), RhexError> {
     let known = sweepable_names();
-    for n in names {
-        if !known.iter().any(|k| k == n) {
-            return Err(RhexError::UnknownParameter {
-                field: n.into(),
-                known: known.join(", "),
-            });
-        }
+    match names.into_iter().find(|n| !known.iter().any(|k| k == n)) {
+        Some(n) => Err(RhexError::UnknownParameter {
+            field: n.into(),
+            known: known.join(", "),
+        }),
+        None => Ok(()),
     }
-    Ok(())
-}
-
-/// Deserializes `base` with `overrides` merged in; a failure names the override at fault.
-fn merged<T: serde::de::DeserializeOwned>(
-    base: &Value,
-    overrides: &[(&String, &Value)],
-) -> Result<T, RhexError> {
-    deserialize_with(base, overrides).map_err(|(field, reason)| RhexError::Unreadable {
-        field: field.unwrap_or_else(|| "overrides".into()),
-        reason,
-    })
 }
 
 /// The robot parameters and leap configuration of one point, validated.
@@ -196,55 +183,30 @@ pub fn point_inputs(
     base_cfg: &LeapConfig,
     point: &SweepPoint,
 ) -> Result<(RhexParams, LeapConfig), RhexError> {
-    let (params, mut cfg) = if point.overrides.is_empty() {
-        (base_params.clone(), base_cfg.clone())
-    } else {
-        let to_value = |r: serde_json::Result<Value>| {
-            r.map_err(|e| RhexError::Unreadable {
-                field: "overrides".into(),
-                reason: e.to_string(),
-            })
+    // `pairs` is both the robot's leg pairs and the leap's pushing pairs; a leap's robot has
+    // exactly its pushing pairs, so the name sets those
+    let of_params: Vec<&str> = serde_field_names::<RhexParams>()
+        .iter()
+        .copied()
+        .filter(|k| *k != LEAP_PAIRS)
+        .collect();
+    let of_cfg: Vec<&str> = serde_field_names::<LeapConfig>()
+        .iter()
+        .copied()
+        .filter(|k| !OWN_COLUMNS.contains(k))
+        .collect();
+    let sorted = sort_by_record(&[&of_params, &of_cfg, &ACTUATOR_FIELDS], &point.overrides)
+        .map_err(|n| check_override_names([n]).expect_err("an unknown name"))?;
+    let unreadable = |(field, reason)| RhexError::Unreadable { field, reason };
+    let params = record_with(base_params, &sorted[0]).map_err(unreadable)?;
+    let mut cfg = record_with(base_cfg, &sorted[1]).map_err(unreadable)?;
+    if !sorted[2].is_empty() {
+        let base_act = match &cfg.actuator {
+            a @ LegActuator::GearedMotor { .. } => a.clone(),
+            LegActuator::SaturatedTorque => LegActuator::default(),
         };
-        let pv = to_value(serde_json::to_value(base_params))?;
-        let cv = to_value(serde_json::to_value(base_cfg))?;
-        let (mut on_p, mut on_c, mut on_a) = (Vec::new(), Vec::new(), Vec::new());
-        for (k, v) in &point.overrides {
-            // `pairs` is both the robot's leg pairs and the leap's pushing pairs; a leap's
-            // robot has exactly its pushing pairs, so the name sets those
-            if k == LEAP_PAIRS {
-                on_c.push((k, v));
-            } else if serde_field_names::<RhexParams>().contains(&k.as_str()) {
-                on_p.push((k, v));
-            } else if serde_field_names::<LeapConfig>().contains(&k.as_str())
-                && !OWN_COLUMNS.contains(&k.as_str())
-            {
-                on_c.push((k, v));
-            } else if ACTUATOR_FIELDS.contains(&k.as_str()) {
-                on_a.push((k, v));
-            } else {
-                check_override_names([k.as_str()])?;
-            }
-        }
-        let params: RhexParams = if on_p.is_empty() {
-            base_params.clone()
-        } else {
-            merged(&pv, &on_p)?
-        };
-        let mut cfg: LeapConfig = if on_c.is_empty() {
-            base_cfg.clone()
-        } else {
-            merged(&cv, &on_c)?
-        };
-        if !on_a.is_empty() {
-            let base_act = match &cfg.actuator {
-                a @ LegActuator::GearedMotor { .. } => a.clone(),
-                LegActuator::SaturatedTorque => LegActuator::default(),
-            };
-            let av = to_value(serde_json::to_value(&base_act))?;
-            cfg.actuator = merged(&av, &on_a)?;
-        }
-        (params, cfg)
-    };
+        cfg.actuator = record_with(&base_act, &sorted[2]).map_err(unreadable)?;
+    }
     cfg.strategy = point.strategy;
     cfg.t2_s = point.t2_s;
     if let Some(g) = point.gear_ratio {
@@ -348,13 +310,13 @@ pub fn run_row_with(
             f64::NAN,
         );
     }
-    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+    let outcome = catch_panic(|| {
         let (params, cfg) = point_inputs(base_params, base_cfg, point)?;
         let g = gear_ratio_of(&cfg);
         presets.run(&params, &cfg, stop).map(|r| (r, g))
-    }));
+    });
     match outcome {
-        Err(p) => SweepRow::failed("panic", panic_message(p.as_ref()), f64::NAN),
+        Err(m) => SweepRow::failed("panic", m, f64::NAN),
         Ok(Err(e)) => SweepRow::failed(error_kind(&e), e.to_string(), f64::NAN),
         Ok(Ok((r, g))) => SweepRow::of_leap(&r, String::new(), g),
     }

@@ -18,6 +18,7 @@
 //! | [`mcap`] | MCAP logs that open in Foxglove: a frame per body and link, contacts, forces, modes, events |
 //! | [`periodic`] | periodic orbits of a scenario: Newton shooting on the apex section, Floquet multipliers |
 //! | [`sensitivity`] | derivatives of a run by named parameters (weighted sums of the engine's) and start directions |
+//! | [`sensitivity_preset`] | what a preset reports of them: the end body state's derivatives on its clock and in its frame |
 //! | [`sweep`] | batched runs on an explicit pool: deterministic, per-point status |
 //! | [`analysis`] | section 4.3's analyses for any `Model`: free motions, contact poses, standing, legs as tails, takeoff and liftoff speeds |
 //! | [`error`] | the crate's typed errors |
@@ -34,6 +35,7 @@ pub mod path;
 pub mod periodic;
 pub mod scenario;
 pub mod sensitivity;
+pub mod sensitivity_preset;
 pub mod sweep;
 pub mod terrain;
 pub mod trajectory;

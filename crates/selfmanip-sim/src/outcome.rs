@@ -3,7 +3,7 @@
 //! execution clock; states in the world frame of `q` (NED: z down, φ nose-up).
 use crate::labels::{contact_word, ContactLabels};
 use selfmanip_core::Model;
-use selfmanip_hybrid::{EventKind, Execution, Termination};
+use selfmanip_hybrid::{Event, EventKind, Execution, Termination};
 use serde::Serialize;
 
 /// How an execution ended ([`Termination`] without its payload).
@@ -88,6 +88,18 @@ impl BodyState {
         }
     }
 
+    /// This state in a frame whose origin is the body at `x0_m` (forward), `z` up, on a clock
+    /// starting at `t0_s`: a preset's frame from its start (chapter 3's apex).
+    pub fn seen_from_start(self, t0_s: f64, x0_m: f64) -> Self {
+        BodyState {
+            t_s: self.t_s - t0_s,
+            x_m: self.x_m - x0_m,
+            z_m: -self.z_m,
+            zdot_m_s: -self.zdot_m_s,
+            ..self
+        }
+    }
+
     /// The state in the order of its fields: `[t, x, z, φ, ẋ, ż, φ̇]` (s, m, m, rad, m/s,
     /// m/s, rad/s).
     pub fn to_array(&self) -> [f64; 7] {
@@ -146,6 +158,34 @@ impl Outcome {
     pub fn word_string(&self) -> String {
         self.word.join("-")
     }
+}
+
+/// Whether a flight starts in `exec` at or after `after_s` (execution clock).
+pub fn flies_after(exec: &Execution, after_s: f64) -> bool {
+    exec.segments
+        .iter()
+        .any(|s| s.mode.is_flight() && s.t0 >= after_s)
+}
+
+/// The apex a run reports: the apex event that ended `exec`; a run that goes on past its
+/// apexes (`stop_at_apex` false), its first apex at or after `after_s`.
+pub fn reported_apex(exec: &Execution, stop_at_apex: bool, after_s: f64) -> Option<&Event> {
+    match exec.termination {
+        Termination::Apex => exec.events.last(),
+        _ if !stop_at_apex => exec
+            .events
+            .iter()
+            .find(|e| e.kind == EventKind::Apex && e.t >= after_s),
+        _ => None,
+    }
+}
+
+/// The time of contact `contact`'s first touchdown at or after `after_s` (execution clock).
+pub fn first_touchdown_s(exec: &Execution, contact: usize, after_s: f64) -> Option<f64> {
+    exec.events
+        .iter()
+        .find(|e| e.kind == EventKind::Touchdown && e.t >= after_s && e.triggered.contains(&contact))
+        .map(|e| e.t)
 }
 
 /// How the word is formed.

@@ -262,12 +262,50 @@ pub fn deserialize_with<T: serde::de::DeserializeOwned>(
     })
 }
 
+/// Sorts named overrides into the records they set, for a caller whose parameters live in
+/// several serde records (a preset's robot parameters, its configuration, its actuator):
+/// `records[i]` lists the field names record `i` reads ([`serde_field_names`] or a part of
+/// them); the first record that lists a name takes it. The overrides of each record, in their
+/// order; `Err(name)`: the first name no record lists.
+pub fn sort_by_record<'a>(
+    records: &[&[&str]],
+    overrides: &'a serde_json::Map<String, Value>,
+) -> Result<Vec<Vec<(&'a String, &'a Value)>>, &'a str> {
+    let mut out = vec![Vec::new(); records.len()];
+    for (k, v) in overrides {
+        let i = records
+            .iter()
+            .position(|names| names.contains(&k.as_str()))
+            .ok_or(k.as_str())?;
+        out[i].push((k, v));
+    }
+    Ok(out)
+}
+
+/// `base` with the fields `overrides` set, read with the same serde rules as the record read
+/// from a file ([`deserialize_with`] on its serialization); `base` itself without overrides.
+/// On failure the field at fault (`"overrides"` when only their combination is) and the
+/// reason.
+pub fn record_with<T: serde::Serialize + serde::de::DeserializeOwned + Clone>(
+    base: &T,
+    overrides: &[(&String, &Value)],
+) -> Result<T, (String, String)> {
+    if overrides.is_empty() {
+        return Ok(base.clone());
+    }
+    let fault = |field: Option<String>, reason: String| {
+        (field.unwrap_or_else(|| "overrides".into()), reason)
+    };
+    let tree = serde_json::to_value(base).map_err(|e| fault(None, e.to_string()))?;
+    deserialize_with(&tree, overrides).map_err(|(field, reason)| fault(field, reason))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use serde_json::json;
 
-    #[derive(Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+    #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
     #[serde(deny_unknown_fields)]
     struct Gains {
         k_p: f64,
@@ -314,6 +352,35 @@ mod tests {
         let e = deserialize_with::<Gains>(&base, &[(&kd, &two), (&kp, &text)]).unwrap_err();
         assert_eq!(e.0.as_deref(), Some("k_p"), "{e:?}");
         assert!(e.1.contains("invalid type"), "{e:?}");
+    }
+
+    /// Overrides go to the first record that reads their name, in their order; a name no
+    /// record reads is returned; a record without overrides is its base.
+    #[test]
+    fn overrides_sort_into_records_and_merge() {
+        let ov: serde_json::Map<String, Value> = [
+            ("label", json!("b")),
+            ("k_d", json!(3.0)),
+            ("speed", json!(1.5)),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v))
+        .collect();
+        let gains = serde_field_names::<Gains>();
+        let sorted = sort_by_record(&[&["label"], gains, &["speed"]], &ov).unwrap();
+        let names = |i: usize| sorted[i].iter().map(|(k, _)| k.as_str()).collect::<Vec<_>>();
+        assert_eq!((names(0), names(1), names(2)), (vec!["label"], vec!["k_d"], vec!["speed"]));
+        assert_eq!(sort_by_record(&[gains], &ov).unwrap_err(), "speed");
+        let base = Gains {
+            k_p: 1.0,
+            k_d: None,
+            label: "a".into(),
+        };
+        let g = record_with(&base, &sorted[1]).unwrap();
+        assert_eq!((g.k_p, g.k_d, g.label.as_str()), (1.0, Some(3.0), "a"));
+        assert_eq!(record_with(&base, &[]).unwrap(), base);
+        let (kp, text) = ("k_p".to_string(), json!("fast"));
+        assert_eq!(record_with(&base, &[(&kp, &text)]).unwrap_err().0, "k_p");
     }
 
     #[test]

@@ -70,6 +70,46 @@ pub fn catch_panic<R>(f: impl FnOnce() -> R) -> Result<R, String> {
     std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).map_err(|p| panic_message(p.as_ref()))
 }
 
+/// Values built at the first ask for their key and shared after that, for a caller that runs
+/// many points on a few builds (a preset per set of fixed inputs): the caller owns it, keys
+/// compare by value, and a build runs outside the lock (two threads may build the same key at
+/// once; the first kept is kept). What a point gets is the value a fresh build gives, so
+/// results do not depend on which points ran before or on which thread.
+pub struct BuildCache<K, V>(std::sync::Mutex<Vec<(K, std::sync::Arc<V>)>>);
+
+impl<K, V> Default for BuildCache<K, V> {
+    fn default() -> Self {
+        BuildCache(std::sync::Mutex::new(Vec::new()))
+    }
+}
+
+impl<K: PartialEq, V> BuildCache<K, V> {
+    /// The value kept for `key`, or `build()`'s (kept for the next ask; an error is not kept).
+    pub fn get_or_build<E>(
+        &self,
+        key: K,
+        build: impl FnOnce() -> Result<V, E>,
+    ) -> Result<std::sync::Arc<V>, E> {
+        use std::sync::Arc;
+        let found = |entries: &[(K, Arc<V>)]| {
+            entries
+                .iter()
+                .find(|(k, _)| *k == key)
+                .map(|(_, v)| Arc::clone(v))
+        };
+        if let Some(v) = self.0.lock().ok().and_then(|e| found(&e)) {
+            return Ok(v);
+        }
+        let built = Arc::new(build()?);
+        if let Ok(mut entries) = self.0.lock() {
+            if found(&entries).is_none() {
+                entries.push((key, Arc::clone(&built)));
+            }
+        }
+        Ok(built)
+    }
+}
+
 /// One point of a sweep: values by parameter name (paths of [`crate::path`]).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct SweepPoint {

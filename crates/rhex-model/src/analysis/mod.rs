@@ -25,7 +25,7 @@ pub mod standing;
 
 use crate::RhexError;
 pub(crate) use selfmanip_sim::analysis::{
-    contact_leg, free_motion_basis, normal_rows, selector_rows, solve_contact_pose,
+    contact_leg, free_motion_basis, normal_rows, solve_contact_pose,
 };
 
 pub(crate) fn bad(field: &str, reason: impl Into<String>) -> RhexError {

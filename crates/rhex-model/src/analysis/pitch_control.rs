@@ -2,17 +2,20 @@
 //! imbalance (4.61, Result C.2), single-leg pitch dynamics (4.62)–(4.63, Result C.3), and the
 //! takeoff-speed bound with a torque–speed motor (4.64)–(4.66, Result C.4, Figs. 4.10–4.12).
 //!
-//! The takeoff bound at one state is the generic one of
-//! [`selfmanip_sim::analysis::takeoff`] (a closed-form root), here on RHex's rear leg with
-//! X-RHex's motor ([`xrhex_line`]). Maximising it over leg angle or gear ratio (Figs.
-//! 4.11/4.12) is not convex: a grid followed by golden-section refinement
-//! ([`selfmanip_sim::analysis::maximise`]).
-use super::{bad, check_finite, free_motion_basis, normal_rows, selector_rows, solve_contact_pose};
+//! The takeoff bound at one state, its maxima over leg angle or gear ratio (Figs. 4.11/4.12:
+//! not convex, grid then golden section) and the single-leg pitch acceleration are the
+//! generic ones of [`selfmanip_sim::analysis::one_leg`], here on RHex's rear leg with
+//! X-RHex's motor ([`xrhex_line`]).
+use super::{bad, check_finite, free_motion_basis, normal_rows, solve_contact_pose};
 use crate::params::{LegShape, RhexParams};
 use crate::{Rhex, RhexError};
 use selfmanip_core::description::ShapeDescription;
 use selfmanip_core::{forward_dynamics, ContactMode, Data, FlatGround, Model};
 pub use selfmanip_sim::analysis::maximise::{golden_max, grid_golden_max};
+pub use selfmanip_sim::analysis::one_leg::{
+    best_takeoff_over_theta2, optimal_gear_ratio, rear_stance_q, rear_takeoff_speed,
+    single_leg_pitch_accel,
+};
 pub use selfmanip_sim::analysis::takeoff::{takeoff_bound, TakeoffBound, TorqueSpeedLine};
 use serde::Serialize;
 
@@ -62,53 +65,6 @@ pub fn takeoff_model(params: Option<RhexParams>, leg: TakeoffLeg) -> Result<Mode
     Ok(d.build()?)
 }
 
-/// The rear-most leg's joint and contact index of a RHex-built model.
-fn rear_leg(model: &Model) -> Result<(usize, usize), RhexError> {
-    let k = model
-        .contacts
-        .iter()
-        .rposition(|c| c.link.is_some())
-        .ok_or_else(|| bad("model", "no leg contact"))?;
-    Ok((model.contacts[k].link.expect("leg"), k))
-}
-
-/// Rear-leg-only stance at `(θ₂, φ)`: body height solved so the rear leg touches (4.41)/(4.42).
-pub fn rear_stance_q(
-    model: &Model,
-    theta2: f64,
-    phi: f64,
-) -> Result<(Vec<f64>, ContactMode), RhexError> {
-    check_finite("theta2/phi", &[theta2, phi])?;
-    let (j, k) = rear_leg(model)?;
-    let mut q = vec![0.0; model.nq()];
-    q[j] = theta2;
-    q[model.ix_phi()] = phi;
-    q[model.ix_z()] = -0.2;
-    let q = solve_contact_pose(model, &FlatGround, &[k], &[model.ix_z()], &q)?;
-    Ok((q, ContactMode::with_defaults(model, &[k])?))
-}
-
-/// `|ẋ|` at takeoff of the rear leg (Fig. 4.10's quantity) at `(θ₂, φ, φ̇)`.
-pub fn rear_takeoff_speed(
-    model: &Model,
-    theta2: f64,
-    phi: f64,
-    phi_dot: f64,
-    line: &TorqueSpeedLine,
-) -> Result<Option<TakeoffBound>, RhexError> {
-    let (q, mode) = rear_stance_q(model, theta2, phi)?;
-    let (j, _) = rear_leg(model)?;
-    Ok(takeoff_bound(
-        model,
-        &FlatGround,
-        mode,
-        &q,
-        j,
-        phi_dot,
-        line,
-    )?)
-}
-
 /// Closed forms (4.65) (stick, `inertia_factor = 1`) and (4.66) (rolling, `= 1/2`) at
 /// mid-stance `θ₂ = φ = 0`: `ẋ = (−κ_b + √(κ_b² + 4 I κ_c)) / (2I)`, `I = factor · I_b`,
 /// `κ_b = ℓ₂ κ_G² κ_P`, `κ_c = κ_b ρ₂ (1/κ_G − φ̇) + ρ₂ g I_b` (re-derived, see errata).
@@ -123,42 +79,6 @@ pub fn midstance_closed_form(
     let kc = kb * p.rho2 * (1.0 / line.kappa_g() - phi_dot) + p.rho2 * p.g * p.I_b;
     let i = inertia_factor * p.I_b;
     (-kb + (kb * kb + 4.0 * i * kc).sqrt()) / (2.0 * i)
-}
-
-/// Fig. 4.11/4.12's inner problem: the best takeoff speed over the rear leg angle
-/// `θ₂ ∈ theta2_range` at pitch `φ` and pitch rate `φ̇` (not convex: grid + golden section).
-pub fn best_takeoff_over_theta2(
-    model: &Model,
-    phi: f64,
-    phi_dot: f64,
-    line: &TorqueSpeedLine,
-    theta2_range: [f64; 2],
-) -> (f64, f64) {
-    let mut f = |t2: f64| {
-        rear_takeoff_speed(model, t2, phi, phi_dot, line)
-            .ok()
-            .flatten()
-            .map(|b| b.x_dot.abs())
-            .unwrap_or(0.0)
-    };
-    grid_golden_max(theta2_range[0], theta2_range[1], 25, &mut f)
-}
-
-/// The gear ratio maximising the best takeoff speed at pitch `φ` (Fig. 4.11's optimum).
-pub fn optimal_gear_ratio(
-    model: &Model,
-    phi: f64,
-    phi_dot: f64,
-    theta2_range: [f64; 2],
-    ratio_range: [f64; 2],
-    line_of: &dyn Fn(f64) -> Result<TorqueSpeedLine, RhexError>,
-) -> Result<(f64, f64), RhexError> {
-    line_of(ratio_range[0])?;
-    let mut f = |g: f64| match line_of(g) {
-        Ok(line) => best_takeoff_over_theta2(model, phi, phi_dot, &line, theta2_range).1,
-        Err(_) => 0.0,
-    };
-    Ok(grid_golden_max(ratio_range[0], ratio_range[1], 16, &mut f))
 }
 
 /// One sample of Figs. 4.10–4.12.
@@ -334,38 +254,4 @@ pub fn splay_derivative(
     let p = normal_force_imbalance(rhex, theta_m, h, theta_m_dot, tau)?;
     let m = normal_force_imbalance(rhex, theta_m, -h, theta_m_dot, tau)?;
     Ok((p - m) / (2.0 * h))
-}
-
-/// Result C.3 / (4.63): the pitch acceleration `φ̈` with only the rear leg down, from the
-/// general dynamics (5.3), at `(θ₂, φ, θ̇₂, φ̇)` with rear torque `τ₂`.
-pub fn single_leg_pitch_accel(
-    model: &Model,
-    theta2: f64,
-    phi: f64,
-    theta2_dot: f64,
-    phi_dot: f64,
-    tau2: f64,
-) -> Result<f64, RhexError> {
-    check_finite("state", &[theta2_dot, phi_dot, tau2])?;
-    let (q, mode) = rear_stance_q(model, theta2, phi)?;
-    let (j, _) = rear_leg(model)?;
-    let n = model.n_joints();
-    let mut idx: Vec<usize> = (0..n).collect();
-    idx.push(model.ix_phi());
-    let h = free_motion_basis(
-        model,
-        &FlatGround,
-        mode,
-        &q,
-        &selector_rows(model.nq(), &idx),
-    )?;
-    let mut yd = nalgebra::DVector::zeros(n + 1);
-    yd[j] = theta2_dot;
-    yd[n] = phi_dot;
-    let qd: Vec<f64> = (&h * yd).iter().cloned().collect();
-    let mut tau = vec![0.0; n];
-    tau[j] = tau2;
-    let mut data = Data::new(model);
-    forward_dynamics(model, &mut data, &FlatGround, mode, &q, &qd, &tau, None)?;
-    Ok(data.qdd[model.ix_phi()])
 }

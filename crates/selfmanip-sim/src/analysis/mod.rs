@@ -1,5 +1,6 @@
 //! Analyses of thesis section 4.3 that take any robot (`Model`): the free motions of a
-//! contact mode (4.20), contact gaps and contact poses (4.41)–(4.43),
+//! contact mode (4.20), contact gaps and contact poses (4.41)–(4.43), the quasi-static pitch
+//! on level ground (4.44),
 //!
 //! - [`standing`]: reactive standing (4.3.1): the mean/difference torque split (4.45)–(4.49)
 //!   and the quasi-static "generalized damper" controller (4.50)–(4.54), with contact normals
@@ -7,10 +8,13 @@
 //! - [`leg_tail`]: legs as inertial tails in flight (4.67)–(4.68): the momentum route and the
 //!   flight-dynamics route;
 //! - [`takeoff`]: the takeoff-speed bound of a leg with a torque–speed motor (4.64)–(4.66);
+//! - [`one_leg`]: the stance on the rear-most leg, its takeoff speed and the best over leg
+//!   angle and gear ratio, its pitch acceleration (4.63);
 //! - [`liftoff`]: the largest speed along a direction before a contact lifts (Fig. 4.8's
 //!   linear program);
 //! - [`maximise`]: golden-section, grid-then-golden and pattern-search maximisation (for
-//!   the non-convex searches over leg angle, gear ratio and the joint torus).
+//!   the non-convex searches over leg angle, gear ratio and the joint torus);
+//! - [`roots`]: a secant search over one input of a run (a leap's touchdown timing).
 //!
 //! The RHex instances of these (Results A.1–A.3, C.5) and RHex's own analyses (sensor sweep,
 //! pitch control) are in `rhex-model`.
@@ -18,14 +22,16 @@
 pub mod leg_tail;
 pub mod liftoff;
 pub mod maximise;
+pub mod one_leg;
+pub mod roots;
 pub mod standing;
 pub mod takeoff;
 
 use crate::error::SimError;
 use nalgebra::DMatrix;
-use selfmanip_core::contact::{contact_geometry, RowDirection};
+use selfmanip_core::contact::{contact_geometry, RowDirection, TouchKind};
 use selfmanip_core::kinematics::Kinematics;
-use selfmanip_core::{ContactMode, Data, Model, Terrain};
+use selfmanip_core::{ContactMode, Data, FlatGround, Model, Terrain};
 
 pub(crate) fn bad(field: &str, reason: impl Into<String>) -> SimError {
     crate::error::invalid(field, reason)
@@ -115,6 +121,124 @@ pub fn contact_gaps(
         .iter()
         .map(|&k| contact_geometry(model, &kin, terrain, k).gap_m)
         .collect()
+}
+
+/// The angle of coordinate `coord` (a joint) at which contact `contact`'s gap reaches zero
+/// with the rest of `q` held, between `clear_rad` (gap positive) and `through_rad` (gap
+/// negative), by bisection on the contact geometry (any contact shape) to 10⁻¹⁵ rad (at
+/// most 200 halvings); the clear end of the last bracket. `None` when the gap does not
+/// change sign from `clear_rad` to `through_rad` that way.
+pub fn angle_to_ground(
+    model: &Model,
+    terrain: &dyn Terrain,
+    q: &[f64],
+    coord: usize,
+    contact: usize,
+    clear_rad: f64,
+    through_rad: f64,
+) -> Option<f64> {
+    let mut kin = Kinematics::default();
+    let zero = vec![0.0; q.len()];
+    let mut qq = q.to_vec();
+    let mut gap = |theta: f64| {
+        qq[coord] = theta;
+        kin.compute(model, &qq, &zero);
+        contact_geometry(model, &kin, terrain, contact).gap_m
+    };
+    let (mut clear, mut through) = (clear_rad, through_rad);
+    if !(gap(clear) > 0.0 && gap(through) < 0.0) {
+        return None;
+    }
+    for _ in 0..200 {
+        let mid = 0.5 * (clear + through);
+        if gap(mid) > 0.0 {
+            clear = mid;
+        } else {
+            through = mid;
+        }
+        if (clear - through).abs() < 1e-15 {
+            break;
+        }
+    }
+    Some(clear)
+}
+
+/// The lowest of a side's contacts: which one, its depth (world `z`, down) and how it
+/// touches.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SideSupport {
+    pub contact: usize,
+    pub depth_m: f64,
+    pub touch: TouchKind,
+}
+
+/// The lowest of `sites` in the pose `kin` (the first of equals).
+fn lowest(model: &Model, kin: &Kinematics, sites: &[usize]) -> SideSupport {
+    let at = |k: usize| {
+        let g = contact_geometry(model, kin, &FlatGround, k);
+        SideSupport {
+            contact: k,
+            depth_m: g.point.y,
+            touch: g.touch,
+        }
+    };
+    let mut best = at(sites[0]);
+    for &k in &sites[1..] {
+        let s = at(k);
+        if !(best.depth_m >= s.depth_m) {
+            best = s;
+        }
+    }
+    best
+}
+
+/// The quasi-static pitch on level ground (thesis section 4.2.2, (4.44)): with the body at
+/// `x = z = 0` and the other coordinates of `q`, the pitch `φ ∈ (−π/2, π/2)` at which the
+/// lowest of the `front` contacts and the lowest of the `rear` ones are equally deep
+/// (`depth_front − depth_rear` falls as the nose rises: bisection to 10⁻¹⁴ rad), with those
+/// two supports there. `None` where no such pitch exists or a side has no contact.
+pub fn balance_pitch(
+    model: &Model,
+    q: &[f64],
+    front: &[usize],
+    rear: &[usize],
+) -> Option<(f64, SideSupport, SideSupport)> {
+    if front.is_empty() || rear.is_empty() {
+        return None;
+    }
+    let mut kin = Kinematics::default();
+    let zero = vec![0.0; q.len()];
+    let mut qq = q.to_vec();
+    qq[model.ix_x()] = 0.0;
+    qq[model.ix_z()] = 0.0;
+    let mut eval = |phi: f64| {
+        qq[model.ix_phi()] = phi;
+        kin.compute(model, &qq, &zero);
+        let (f, r) = (lowest(model, &kin, front), lowest(model, &kin, rear));
+        (f.depth_m - r.depth_m, f, r)
+    };
+    let (mut lo, mut hi) = (
+        -std::f64::consts::FRAC_PI_2 + 1e-9,
+        std::f64::consts::FRAC_PI_2 - 1e-9,
+    );
+    let (glo, ghi) = (eval(lo).0, eval(hi).0);
+    if !(glo >= 0.0 && ghi <= 0.0) {
+        return None;
+    }
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if eval(mid).0 > 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+        if hi - lo < 1e-14 {
+            break;
+        }
+    }
+    let phi = 0.5 * (lo + hi);
+    let (_, f, r) = eval(phi);
+    Some((phi, f, r))
 }
 
 /// Puts the listed contacts on the ground by Newton's method on the coordinates `free`
