@@ -119,8 +119,12 @@ def calibrate_command(args: argparse.Namespace) -> int:
             f.write(report + "\n")
 
     write_atomically(os.path.join(args.out, "report.txt"), emit)
+    written = list(OUTPUT_FILES)
+    if args.plot:
+        fit.plot(os.path.join(args.out, "fit.png"), predictions)
+        written.append("fit.png")
     print(report)
-    print(f"wrote {', '.join(OUTPUT_FILES)} to {args.out}")
+    print(f"wrote {', '.join(written)} to {args.out}")
     return 0
 
 
@@ -147,6 +151,8 @@ def add_subcommands(sub: "argparse._SubParsersAction") -> None:
                     help="the channel scales are the noise's standard deviations")
     ca.add_argument("--predict", default=None, help="a table of inputs (strategy, t2) to predict "
                     "(default: every strategy at the data's t2 values)")
+    ca.add_argument("--plot", action="store_true", help="also draw fit.png: measured, fitted and predicted "
+                    "over t2 per strategy (needs matplotlib)")
     ca.add_argument("--threads", type=int, default=None, help="worker threads (default: all cores)")
     ca.add_argument("--out", required=True, type=path_arg, help="directory for the tables and report.txt")
     ca.set_defaults(calibrate_handler=calibrate_command)

@@ -259,3 +259,14 @@ def test_45_leaps_by_5_parameters_exact_under_30_s_and_fewer_runs_than_finite_di
     for p, v in truth.items():
         assert exact.intervals[p][0] <= v <= exact.intervals[p][1], (p, exact.intervals[p])
         assert abs(exact.params[p] - fd.params[p]) < 0.05 * exact.stderr[p], p
+
+
+def test_plot_draws_measured_fitted_and_predicted(clean_minus, tmp_path):
+    pytest.importorskip("matplotlib")
+    fit = calibrate("leap", noisy(clean_minus, 11), FIT, threads=2)
+    pred = fit.predict({"strategy": ["++"] * 2, "t2_s": [-0.05, 0.05]})
+    png = fit.plot(tmp_path / "fit.png", pred)
+    assert open(png, "rb").read(8) == b"\x89PNG\r\n\x1a\n"
+    svg = (tmp_path / "fit.svg").read_text() if fit.plot(tmp_path / "fit.svg") else ""
+    # one panel per measured channel, each labelled with its channel
+    assert all(c in svg for c in MEASURED)

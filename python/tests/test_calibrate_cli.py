@@ -17,6 +17,7 @@ from selfmanip.cli_calibrate import OUTPUT_FILES, parse_fit
 from selfmanip.errors import InvalidInputError
 
 pytest.importorskip("scipy")
+pytest.importorskip("matplotlib")
 
 M_B, OFFSET_Z = 7.8, 0.025  # defaults: 7.15 kg, offset 0
 T2 = [-0.08, -0.03, 0.04, 0.09]
@@ -48,9 +49,10 @@ def test_cli_recovers_the_parameters_of_a_thesis_layout_table_and_writes_consist
                                                                                          capsys):
     out = tmp_path / "fit"
     code = main(["calibrate", str(thesis_table), "--preset", "leap", "--strategy", "--", "--fit", "m_b=5:9.5",
-                 "--fit", "offset:apex_z_m=-0.1:0.1", "--threads", "2", "--out", str(out)])
+                 "--fit", "offset:apex_z_m=-0.1:0.1", "--threads", "2", "--plot", "--out", str(out)])
     assert code == 0
-    assert sorted(p.name for p in out.iterdir()) == sorted(OUTPUT_FILES)
+    assert sorted(p.name for p in out.iterdir()) == sorted(OUTPUT_FILES + ("fit.png",))
+    assert (out / "fit.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "calibration of `leap`" in capsys.readouterr().out
     params = _read(out / "params.csv")
     value = dict(zip(params["name"], map(float, params["value"])))
