@@ -18,6 +18,17 @@ fn with(drive: &Drive, gearbox_loss: GearboxLoss, battery_resistance_ohm: f64) -
         .unwrap()
 }
 
+/// `(G, η, R, k_e)` of a drive: ratio, efficiency, terminal resistance and back-EMF constant.
+fn constants(d: &Drive) -> (f64, f64, f64, f64) {
+    let m = &d.motor;
+    (
+        d.gearbox.ratio,
+        d.gearbox.efficiency,
+        m.terminal_resistance_ohm(),
+        m.supply_voltage_v / m.no_load_speed_rad_s,
+    )
+}
+
 const COMMANDS: [f64; 5] = [1.0, 0.6, 0.2, -0.4, -1.0];
 /// Output speeds (rad/s) on both sides of standstill, up to past the no-load speed (≈ 38 rad/s).
 const SPEEDS: [f64; 7] = [-20.0, -3.0, 0.0, 4.0, 15.0, 30.0, 45.0];
@@ -102,9 +113,7 @@ fn battery_resistance_lowers_the_stall_torque_to_k_m_v_over_r_plus_r_b_not_the_n
     // without a binding current limit: the unclipped line
     let free = Drive::new(d.motor.with_current_limit(1e6).unwrap(), d.gearbox.clone()).unwrap();
     let m = &free.motor;
-    let (g, eta) = (free.gearbox.ratio, free.gearbox.efficiency);
-    let r = m.terminal_resistance_ohm();
-    let k_e = m.supply_voltage_v / m.no_load_speed_rad_s;
+    let (g, eta, r, k_e) = constants(&free);
     for r_b in [0.05, 0.3, 2.0] {
         let b = with(&free, GearboxLoss::Derating, r_b);
         let stall = g * eta * m.torque_constant_n_m_per_a * m.supply_voltage_v / (r + r_b);
@@ -146,9 +155,7 @@ fn battery_energy_equals_output_work_plus_copper_friction_gear_and_battery_losse
     // formula: P_gear = (1 − η) τ_m ω_m driving, (1/η − 1) |τ_m ω_m| back-driven (≥ 0)
     let d = x_rhex_28();
     let m = &d.motor;
-    let (g, eta) = (d.gearbox.ratio, d.gearbox.efficiency);
-    let r = m.terminal_resistance_ohm();
-    let k_e = m.supply_voltage_v / m.no_load_speed_rad_s;
+    let (g, eta, r, k_e) = constants(&d);
     for r_b in [0.0, 0.1, 0.5] {
         let flow = with(&d, GearboxLoss::PowerFlow, r_b);
         for u in COMMANDS {
