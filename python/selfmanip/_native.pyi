@@ -294,6 +294,10 @@ def motor_drive_table(catalog_toml: str | None = None, current_limit_a: float | 
 def motor_torque_speed_curve(
     drive: str, points: int = 50, current_limit_a: float | None = None, catalog_toml: str | None = None
 ) -> dict[str, _F64]: ...
+def motor_operating_point(
+    drive: str, command: float, speed_rad_s: float, gearbox_loss: str = "derating",
+    battery_resistance_ohm: float = 0.0, current_limit_a: float | None = None, catalog_toml: str | None = None
+) -> dict[str, float]: ...
 def motor_thermal_simulation(
     drive: str,
     torque_n_m: _F64,

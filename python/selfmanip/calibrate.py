@@ -488,6 +488,46 @@ class Calibration:
                      f"{self.elapsed_s:.2f} s")
         return "\n".join(lines)
 
+    def plot(self, path: str | os.PathLike[str], predictions: Mapping[str, Any] | None = None) -> str:
+        """Measured against fitted, and predicted, per strategy over ``t2`` (as chapter 3's
+        figures): a panel per measured channel (SI units); measured points, the fitted model
+        (with the offsets) as a line through the fitted rows, and ``predictions`` (a
+        :meth:`predict` result) as dashed lines with a band of two standard deviations.
+        Writes ``path`` (PNG, or the format its suffix names) and returns it."""
+        from .plots import _pyplot, save_figure
+
+        plt = _pyplot()
+        fig, axes = plt.subplots(len(self.channels), 1, figsize=(7.0, 2.2 * len(self.channels)), sharex=True,
+                                 squeeze=False)
+        res = self.residuals
+        strategies = list(dict.fromkeys(list(res["strategy"]) + list((predictions or {}).get("strategy", []))))
+        colours = {s: f"C{k}" for k, s in enumerate(strategies)}
+        for ax, c in zip(axes[:, 0], self.channels):
+            for s in dict.fromkeys(res["strategy"]):
+                sel = np.asarray(res["strategy"]) == s
+                t2 = np.asarray(res["t2_s"], dtype=float)[sel]
+                order = np.argsort(t2)
+                ax.plot(t2[order], res[f"{c}_measured"][sel][order], "o", color=colours[s], label=f"{s} measured")
+                ax.plot(t2[order], res[f"{c}_fitted"][sel][order], "-", color=colours[s], label=f"{s} fitted")
+            for s in dict.fromkeys((predictions or {}).get("strategy", [])):
+                sel = np.asarray(predictions["strategy"]) == s
+                t2 = np.asarray(predictions["t2_s"], dtype=float)[sel]
+                order = np.argsort(t2)
+                y, sd = np.asarray(predictions[c])[sel][order], np.asarray(predictions[f"{c}_std"])[sel][order]
+                ax.plot(t2[order], y, "--", color=colours[s], label=f"{s} predicted")
+                ax.fill_between(t2[order], y - 2 * sd, y + 2 * sd, color=colours[s], alpha=0.15)
+            ax.set_ylabel(c)
+        axes[-1, 0].set_xlabel("t2_s")
+        axes[0, 0].legend(fontsize="x-small", ncol=3)
+        fig.suptitle(f"calibration of `{getattr(self.model, 'name', self.model)}`: "
+                     + ", ".join(f"{p} = {self.params[p]:.4g}" for p in self.names), fontsize="small")
+        fig.tight_layout()
+        try:
+            save_figure(fig, path)
+        finally:
+            plt.close(fig)
+        return os.fspath(path)
+
     def predict(self, inputs: Any, strategy: str | None = None) -> dict[str, np.ndarray]:
         """Runs the fitted model (with its measurement offsets) at ``inputs`` (a table with
         ``strategy`` and ``t2_s``, as :func:`read_table` reads it; outcome columns are

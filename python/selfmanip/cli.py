@@ -11,7 +11,8 @@ defaults and prints a readable report; ``selfmanip dynamics`` evaluates (5.3)-(5
 ``selfmanip grc`` run one leap, parallel sweeps of leaps and print the ground reaction complex
 (``cli_leap.py``; ``selfmanip plot FILE.csv|.parquet|.json|.mcap`` draws their results);
 ``selfmanip simulate ROBOT BEHAVIOUR`` and ``selfmanip sweep --robot ROBOT …`` run any robot
-(``cli_sim.py``).
+(``cli_sim.py``); ``selfmanip calibrate DATA.csv --fit NAME=LO:HI … --out DIR`` fits a
+preset's parameters to measured runs (``cli_calibrate.py``).
 """
 
 from __future__ import annotations
@@ -229,6 +230,9 @@ def build_parser() -> argparse.ArgumentParser:
     from .cli_sim import add_subcommands as add_sim_subcommands
 
     add_sim_subcommands(sub)
+    from .cli_calibrate import add_subcommands as add_calibrate_subcommands
+
+    add_calibrate_subcommands(sub)
     pl = sub.add_parser("plot", help="draw a thesis figure as PNG (fig4.3, fig4.6, fig4.8, fig4.10, fig4.11, "
                         "fig4.12), or a sweep table / leap file")
     pl.add_argument("target", help="a figure name, a sweep table (.csv/.parquet) or a leap (.json from "
@@ -310,6 +314,8 @@ def _run(args) -> int:
         return _plot(args)
     if args.command in ("leap", "sweep", "grc", "simulate"):
         return args.leap_handler(args)
+    if args.command == "calibrate":
+        return args.calibrate_handler(args)
     return 2
 
 

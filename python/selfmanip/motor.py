@@ -32,6 +32,7 @@ __all__ = [
     "drive_table",
     "identify_faults",
     "observe",
+    "operating_point",
     "rank_tail_motors",
     "tail_constants",
     "tail_optimum",
@@ -102,6 +103,22 @@ def torque_speed_curve(drive: str, points: int = 50, current_limit_a: float | No
     """Fig. 2.6: output torque and power against output speed at full command."""
     return dict(_native.motor_torque_speed_curve(
         text("drive", drive), integer("points", points, 0),
+        None if current_limit_a is None else real("current_limit_a", current_limit_a), _catalog(catalog_toml)))
+
+
+def operating_point(drive: str, command: float, speed_rad_s: float, *, gearbox_loss: str = "derating",
+                    battery_resistance_ohm: float = 0.0, current_limit_a: float | None = None,
+                    catalog_toml: str | None = None) -> dict[str, float]:
+    """One operating point of a drive at a voltage command ``command`` in [-1, 1] and output
+    speed ``speed_rad_s``, with the drive's optional losses (``docs/calibration.md``, physics
+    options): ``gearbox_loss="derating"`` (the default: output torque ``G η τ_m`` in both
+    directions) or ``"power_flow"`` (``G η τ_m`` driving, ``G τ_m / η`` back-driven), and the
+    battery's internal resistance (``V = V_oc − R_b I_b``; 0: an ideal source). Returns the
+    output torque, the electrical power drawn from the battery's open-circuit voltage, the
+    motor's torque and current, and the battery's current and terminal voltage."""
+    return dict(_native.motor_operating_point(
+        text("drive", drive), real("command", command), real("speed_rad_s", speed_rad_s),
+        text("gearbox_loss", gearbox_loss), real("battery_resistance_ohm", battery_resistance_ohm),
         None if current_limit_a is None else real("current_limit_a", current_limit_a), _catalog(catalog_toml)))
 
 

@@ -8,6 +8,11 @@
 //! `τ_stall = k_M V/R` scale with the supply voltage `V`; the continuous torque, a thermal
 //! limit, does not. Behind a gearbox of ratio `G` and efficiency `η` the output sees
 //! `ω_out = ω/G` and `τ_out = G η τ`.
+//!
+//! Two losses a real drive has are options of a [`Drive`] ([`DriveLosses`]), off by default:
+//! the gearbox efficiency as a loss in the direction the power flows
+//! ([`GearboxLoss::PowerFlow`]: `τ_out = G η τ` when the motor drives, `G τ/η` when the load
+//! back-drives it) and the battery's internal resistance (`V = V_oc − R_b I_b`).
 use crate::error::{at_most, non_negative, positive, MotorError, Result};
 use serde::{Deserialize, Serialize};
 
@@ -98,9 +103,33 @@ impl DcMotor {
     /// Torque at shaft speed `speed_rad_s` for a voltage command `command ∈ [−1, 1]`
     /// (fraction of the supply voltage): `τ = τ_stall (u − ω/ω₀)`, clipped to `±k_M I_max`.
     pub fn torque_n_m(&self, command: f64, speed_rad_s: f64) -> f64 {
+        self.torque_on_battery_n_m(command, speed_rad_s, 0.0)
+    }
+
+    /// [`DcMotor::torque_n_m`] when the supply voltage is a battery's open-circuit voltage
+    /// `V_oc` behind its internal resistance `R_b` (`battery_resistance_ohm`), through a
+    /// lossless PWM stage of duty `u`: the battery current is `I_b = u I`, its terminal
+    /// voltage `V = V_oc − R_b I_b`, and `u V = R I + k_e ω` gives the winding current
+    /// `I = (u V_oc − k_e ω)/(R + u² R_b)`, so
+    /// `τ = τ_stall (u − ω/ω₀) · R/(R + u² R_b)`, clipped to `±k_M I_max`. The no-load speed
+    /// is unchanged; the stall torque at full command falls to `k_M V_oc/(R + R_b)`.
+    /// `R_b = 0` is [`DcMotor::torque_n_m`] bit for bit.
+    pub fn torque_on_battery_n_m(
+        &self,
+        command: f64,
+        speed_rad_s: f64,
+        battery_resistance_ohm: f64,
+    ) -> f64 {
         let u = command.clamp(-1.0, 1.0);
         let limit = self.current_limited_torque_n_m();
-        (self.stall_torque_n_m * (u - speed_rad_s / self.no_load_speed_rad_s)).clamp(-limit, limit)
+        let line = self.stall_torque_n_m * (u - speed_rad_s / self.no_load_speed_rad_s);
+        let sag = if battery_resistance_ohm == 0.0 {
+            1.0
+        } else {
+            let r = self.terminal_resistance_ohm();
+            r / (r + u * u * battery_resistance_ohm)
+        };
+        (line * sag).clamp(-limit, limit)
     }
 
     /// Torque at full command, the torque–speed curve of Fig. 2.6.
@@ -175,22 +204,91 @@ pub struct CurvePoint {
     pub power_w: f64,
 }
 
+/// How the gearbox efficiency `η` enters the output torque.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GearboxLoss {
+    /// `τ_out = G η τ_m` whatever the direction of the power: the datasheet derating with
+    /// which Table 2.2's output torques are computed (the default).
+    #[default]
+    Derating,
+    /// A loss in the direction the power flows: `τ_out = G η τ_m` while the motor drives
+    /// (`τ_m ω_m ≥ 0`, standstill included) and `τ_out = G τ_m / η` while the load
+    /// back-drives it (`τ_m ω_m < 0`), so the gearbox's friction takes `(1 − η)` of the
+    /// power that passes through it either way (the derating returns power when
+    /// back-driven). The torque jumps at `ω_m = 0` where `τ_m ≠ 0`, by the factor `η²`.
+    PowerFlow,
+}
+
+/// The losses of a [`Drive`] beyond the motor's own: both off by default
+/// ([`GearboxLoss::Derating`], an ideal supply), which keeps every output of the model
+/// before these options bit for bit.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DriveLosses {
+    pub gearbox_loss: GearboxLoss,
+    /// The internal resistance `R_b` (Ω) of the battery whose open-circuit voltage is the
+    /// motor's supply voltage, as this drive sees it (`n` identical drives drawing equal
+    /// currents from one battery each see `n R_b`). 0: an ideal source.
+    pub battery_resistance_ohm: f64,
+}
+
+impl Default for DriveLosses {
+    fn default() -> Self {
+        Self {
+            gearbox_loss: GearboxLoss::Derating,
+            battery_resistance_ohm: 0.0,
+        }
+    }
+}
+
 /// A motor behind a gearbox: the derived rows of Table 2.2 and the output curves of
 /// Fig. 2.6.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Drive {
     pub motor: DcMotor,
     pub gearbox: Gearbox,
+    pub losses: DriveLosses,
 }
 
 impl Drive {
     pub fn new(motor: DcMotor, gearbox: Gearbox) -> Result<Self> {
         gearbox.validate()?;
-        Ok(Self { motor, gearbox })
+        Ok(Self {
+            motor,
+            gearbox,
+            losses: DriveLosses::default(),
+        })
+    }
+
+    /// The same drive with the losses `losses` (errors name `battery_resistance_ohm`
+    /// when it is negative or not finite).
+    pub fn with_losses(&self, losses: DriveLosses) -> Result<Self> {
+        non_negative("battery_resistance_ohm", losses.battery_resistance_ohm)?;
+        Ok(Self {
+            losses,
+            ..self.clone()
+        })
     }
 
     fn g_eta(&self) -> f64 {
         self.gearbox.ratio * self.gearbox.efficiency
+    }
+
+    /// Output torque for motor torque `tau_m` at motor speed `speed_m`, by the gearbox law
+    /// of [`DriveLosses::gearbox_loss`].
+    fn output_from_motor_torque(&self, tau_m: f64, speed_m: f64) -> f64 {
+        match self.losses.gearbox_loss {
+            GearboxLoss::Derating => self.g_eta() * tau_m,
+            GearboxLoss::PowerFlow if tau_m * speed_m >= 0.0 => self.g_eta() * tau_m,
+            GearboxLoss::PowerFlow => self.gearbox.ratio * tau_m / self.gearbox.efficiency,
+        }
+    }
+
+    /// Motor torque for a command at motor speed `speed_m`, on this drive's battery.
+    fn motor_torque_n_m(&self, command: f64, speed_m: f64) -> f64 {
+        self.motor
+            .torque_on_battery_n_m(command, speed_m, self.losses.battery_resistance_ohm)
     }
 
     /// `ω₀ / G`.
@@ -211,18 +309,14 @@ impl Drive {
 
     /// Output torque at full command and output speed `speed_rad_s`.
     pub fn max_output_torque_at_speed_n_m(&self, speed_rad_s: f64) -> f64 {
-        self.g_eta()
-            * self
-                .motor
-                .max_torque_at_speed_n_m(speed_rad_s * self.gearbox.ratio)
+        self.output_torque_n_m(1.0, speed_rad_s)
     }
 
-    /// Output torque for a voltage command at output speed `speed_rad_s`.
+    /// Output torque for a voltage command at output speed `speed_rad_s` (with the
+    /// drive's [`DriveLosses`]).
     pub fn output_torque_n_m(&self, command: f64, speed_rad_s: f64) -> f64 {
-        self.g_eta()
-            * self
-                .motor
-                .torque_n_m(command, speed_rad_s * self.gearbox.ratio)
+        let speed_m = speed_rad_s * self.gearbox.ratio;
+        self.output_from_motor_torque(self.motor_torque_n_m(command, speed_m), speed_m)
     }
 
     /// Winding current that produces `torque_n_m` at the output, `τ_out / (G η k_M)`.
@@ -305,6 +399,10 @@ impl Actuator for SaturatedTorque {
 /// follows the linear model with the current limit. The supply delivers `V_eff I` with
 /// `I = τ_motor/k_M` and `V_eff = R I + k_e ω_motor` (`k_e = V/ω₀`), which equals `u V` where
 /// the current limit does not bind (a lossless PWM stage).
+///
+/// With a battery resistance `R_b` the power is the one drawn from the battery's
+/// open-circuit voltage: the motor's `P_m = V_eff I` plus the battery's own loss `R_b I_b²`,
+/// with the battery current `I_b` the root of `P_m = (V_oc − R_b I_b) I_b` nearer zero.
 impl Actuator for Drive {
     fn joint_torque_n_m(&self, command: f64, joint_speed_rad_s: f64) -> f64 {
         self.output_torque_n_m(command, joint_speed_rad_s)
@@ -312,8 +410,26 @@ impl Actuator for Drive {
     fn electrical_power_w(&self, command: f64, joint_speed_rad_s: f64) -> f64 {
         let m = &self.motor;
         let motor_speed = joint_speed_rad_s * self.gearbox.ratio;
-        let current = m.current_for_torque_a(m.torque_n_m(command, motor_speed));
+        let current = m.current_for_torque_a(self.motor_torque_n_m(command, motor_speed));
         let back_emf_v = m.supply_voltage_v * motor_speed / m.no_load_speed_rad_s;
-        (m.terminal_resistance_ohm() * current + back_emf_v) * current
+        let motor_power_w = (m.terminal_resistance_ohm() * current + back_emf_v) * current;
+        let r_b = self.losses.battery_resistance_ohm;
+        if r_b == 0.0 {
+            return motor_power_w;
+        }
+        let battery_current_a = self.battery_current_a(motor_power_w);
+        motor_power_w + r_b * battery_current_a * battery_current_a
+    }
+}
+
+impl Drive {
+    /// The battery current `I_b` that delivers the motor power `motor_power_w` at the
+    /// battery's terminal voltage `V_oc − R_b I_b`: the root of
+    /// `R_b I_b² − V_oc I_b + P = 0` nearer zero, `2P / (V_oc + √(V_oc² − 4 R_b P))`
+    /// (the discriminant clipped at 0: beyond the battery's maximum power).
+    pub fn battery_current_a(&self, motor_power_w: f64) -> f64 {
+        let v_oc = self.motor.supply_voltage_v;
+        let disc = v_oc * v_oc - 4.0 * self.losses.battery_resistance_ohm * motor_power_w;
+        2.0 * motor_power_w / (v_oc + disc.max(0.0).sqrt())
     }
 }

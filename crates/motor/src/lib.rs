@@ -4,7 +4,8 @@
 //!
 //! - [`dc`]: the linear DC motor at any supply voltage with a controller current limit, the
 //!   gearbox, their combination (Table 2.2's derived rows, Fig. 2.6's curves), and the
-//!   [`Actuator`] trait the leap simulation drives;
+//!   [`Actuator`] trait the leap simulation drives, and the drive's optional losses
+//!   ([`DriveLosses`]: the gearbox loss by power flow, the battery's internal resistance);
 //! - [`catalog`]: Tables 2.1–2.3 as a TOML catalog, user catalogs, a synthetic catalog;
 //! - [`thermal`]: the two-node thermal model of Fig. 2.7, heat coefficients, winding-limited
 //!   continuous torque, the case-parameter fit of Fig. 2.9;
@@ -22,6 +23,6 @@ pub mod tail;
 pub mod thermal;
 
 pub use catalog::{CaseParameters, Catalog, MotorSpec};
-pub use dc::{Actuator, DcMotor, Drive, Gearbox, SaturatedTorque};
+pub use dc::{Actuator, DcMotor, Drive, DriveLosses, Gearbox, GearboxLoss, SaturatedTorque};
 pub use error::{MotorError, Result};
 pub use thermal::{ThermalModel, ThermalState};

@@ -6,7 +6,7 @@ use crate::errors::{self, guard, invalid};
 use motor::catalog::{synthetic_motors, CaseParameters, Catalog};
 use motor::observer::{self, FaultFsmConfig, LegLog, ObserverParams};
 use motor::tail::{self, SelectionConstraints, TailTask};
-use motor::{Drive, ThermalState};
+use motor::{Actuator, Drive, DriveLosses, GearboxLoss, ThermalState};
 use numpy::{IntoPyArray, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -18,6 +18,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(motor_thesis_catalog_toml, m)?)?;
     m.add_function(wrap_pyfunction!(motor_drive_table, m)?)?;
     m.add_function(wrap_pyfunction!(motor_torque_speed_curve, m)?)?;
+    m.add_function(wrap_pyfunction!(motor_operating_point, m)?)?;
     m.add_function(wrap_pyfunction!(motor_thermal_simulation, m)?)?;
     m.add_function(wrap_pyfunction!(motor_continuous_output_torque, m)?)?;
     m.add_function(wrap_pyfunction!(motor_observe, m)?)?;
@@ -224,6 +225,70 @@ fn motor_torque_speed_curve<'py>(
         out.set_item("speed_rad_s", column(py, &curve, |p| p.speed_rad_s))?;
         out.set_item("torque_n_m", column(py, &curve, |p| p.torque_n_m))?;
         out.set_item("power_w", column(py, &curve, |p| p.power_w))?;
+        Ok(out)
+    })
+}
+
+fn parse_gearbox_loss(name: &str) -> PyResult<GearboxLoss> {
+    match name {
+        "derating" => Ok(GearboxLoss::Derating),
+        "power_flow" => Ok(GearboxLoss::PowerFlow),
+        other => Err(invalid(
+            "gearbox_loss",
+            format!("`gearbox_loss` must be \"derating\" or \"power_flow\", got {other:?}"),
+        )),
+    }
+}
+
+/// One operating point of a drive with its optional losses: output torque, electrical
+/// power, the motor's torque and current, and the battery's current and terminal voltage.
+#[pyfunction]
+#[pyo3(signature = (drive, command, speed_rad_s, gearbox_loss="derating", battery_resistance_ohm=0.0,
+                    current_limit_a=None, catalog_toml=None))]
+#[allow(clippy::too_many_arguments)]
+fn motor_operating_point<'py>(
+    py: Python<'py>,
+    drive: &str,
+    command: f64,
+    speed_rad_s: f64,
+    gearbox_loss: &str,
+    battery_resistance_ohm: f64,
+    current_limit_a: Option<f64>,
+    catalog_toml: Option<&str>,
+) -> PyResult<Bound<'py, PyDict>> {
+    guard(|| {
+        let cat = catalog(catalog_toml)?;
+        let losses = DriveLosses {
+            gearbox_loss: parse_gearbox_loss(gearbox_loss)?,
+            battery_resistance_ohm,
+        };
+        let d = drive_with_limit(&cat, drive, current_limit_a)?
+            .with_losses(losses)
+            .map_err(errors::motor)?;
+        let speed_m = speed_rad_s * d.gearbox.ratio;
+        let tau_m = d
+            .motor
+            .torque_on_battery_n_m(command, speed_m, battery_resistance_ohm);
+        let current = d.motor.current_for_torque_a(tau_m);
+        let k_e = d.motor.supply_voltage_v / d.motor.no_load_speed_rad_s;
+        let motor_power_w = (d.motor.terminal_resistance_ohm() * current + k_e * speed_m) * current;
+        let battery_current_a = d.battery_current_a(motor_power_w);
+        let out = PyDict::new(py);
+        out.set_item(
+            "output_torque_n_m",
+            d.joint_torque_n_m(command, speed_rad_s),
+        )?;
+        out.set_item(
+            "electrical_power_w",
+            d.electrical_power_w(command, speed_rad_s),
+        )?;
+        out.set_item("motor_torque_n_m", tau_m)?;
+        out.set_item("current_a", current)?;
+        out.set_item("battery_current_a", battery_current_a)?;
+        out.set_item(
+            "battery_voltage_v",
+            d.motor.supply_voltage_v - battery_resistance_ohm * battery_current_a,
+        )?;
         Ok(out)
     })
 }
