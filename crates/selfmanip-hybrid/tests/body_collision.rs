@@ -49,6 +49,18 @@ fn run(
     .unwrap()
 }
 
+/// `model` dropped at rest, level, from `z0`.
+fn dropped(model: &Model, terrain: &dyn Terrain, z0: f64, t: f64) -> Execution {
+    run(
+        model,
+        terrain,
+        ContactMode::FLIGHT,
+        [0.0, z0, 0.0],
+        [0.0; 3],
+        t,
+    )
+}
+
 fn names(model: &Model, contacts: &[usize]) -> Vec<String> {
     let mut v: Vec<String> = contacts
         .iter()
@@ -63,14 +75,7 @@ fn a_box_dropped_flat_lands_on_its_two_lower_corners_at_the_free_fall_time() {
     let (l, h) = (0.4, 0.1);
     let model = body(&format!("{{ kind = \"box\", size_m = [{l}, {h}] }}"), STICK);
     let z0 = -0.2;
-    let e = run(
-        &model,
-        &FlatGround,
-        ContactMode::FLIGHT,
-        [0.0, z0, 0.0],
-        [0.0; 3],
-        0.5,
-    );
+    let e = dropped(&model, &FlatGround, z0, 0.5);
     assert_eq!(e.termination, Termination::FinalTime);
     let first = &e.events[0];
     assert_eq!(first.kind, EventKind::Touchdown);
@@ -248,14 +253,7 @@ fn a_terrain_corner_inside_the_outline_ends_the_run_as_a_penetration() {
     };
     let z0 = -0.2;
     // it lands on its corners with the tip inside, h/2 − 0.02 deep: the landing is the end
-    let e = run(
-        &model,
-        &spike,
-        ContactMode::FLIGHT,
-        [0.0, z0, 0.0],
-        [0.0; 3],
-        0.5,
-    );
+    let e = dropped(&model, &spike, z0, 0.5);
     let t1 = (2.0 * (-z0 - h / 2.0) / G).sqrt();
     let Termination::Penetration {
         t,
@@ -274,14 +272,7 @@ fn a_terrain_corner_inside_the_outline_ends_the_run_as_a_penetration() {
     // ending in flight with the tip 2 cm inside its bottom edge: found at the final time
     // (bottom edge at z0 + h/2 + g t²/2 = −0.05)
     let t_end = (2.0 * 0.1 / G).sqrt();
-    let e = run(
-        &model,
-        &spike,
-        ContactMode::FLIGHT,
-        [0.0, z0, 0.0],
-        [0.0; 3],
-        t_end,
-    );
+    let e = dropped(&model, &spike, z0, t_end);
     assert!(e.events.is_empty());
     let Termination::Penetration { t, depth_m, .. } = e.termination else {
         panic!("{}", e.termination)
@@ -310,13 +301,6 @@ fn a_terrain_corner_inside_the_outline_ends_the_run_as_a_penetration() {
     .unwrap()
     .build()
     .unwrap();
-    let e = run(
-        &plain,
-        &spike,
-        ContactMode::FLIGHT,
-        [0.0, z0, 0.0],
-        [0.0; 3],
-        t_end,
-    );
+    let e = dropped(&plain, &spike, z0, t_end);
     assert_eq!(e.termination, Termination::FinalTime);
 }
