@@ -27,7 +27,8 @@ from selfmanip.simulation import scenario
 DOCS = pathlib.Path(__file__).resolve().parents[2] / "docs"
 PROBE = "__probe__"
 
-ROBOT = {"name": "r", "body": {"mass_kg": 1.0, "inertia_kg_m2": 0.1},
+ROBOT = {"name": "r", "body": {"mass_kg": 1.0, "inertia_kg_m2": 0.1, "collision": [
+            {"shape": {"kind": "circle", "radius_m": 0.01}, "friction": {"kind": "sliding"}}]},
          "legs": [{"name": "leg", "hip_m": [0.0, 0.0], "links": [{"length_m": 0.1}]}],
          "contacts": [{"name": "foot", "leg": "leg", "shape": {"kind": "point", "position_m": [0.0, 0.1]},
                        "friction": {"kind": "sliding"}}]}
@@ -50,6 +51,11 @@ SCHEMAS: dict[str, tuple[str, list[Any], dict[str, Any]]] = {
     "robot.contacts[].shape kind=arc": ("robot", ["contacts", 0, "shape"],
                                         {"kind": "arc", "center_m": [0, 0.05], "radius_m": 0.05,
                                          "normal_range_rad": [-3.0, 0.0]}),
+    "robot.body.collision[]": ("robot", ["body", "collision", 0], {"shape": {"kind": "circle", "radius_m": 0.1},
+                                                                 "friction": {"kind": "sliding"}}),
+    **{f"robot.body.collision[].shape kind={k}": ("robot", ["body", "collision", 0, "shape"], dict(kind=k, **m))
+       for k, m in (("box", {"size_m": [0.1, 0.05]}), ("stadium", {"length_m": 0.1, "radius_m": 0.02}),
+                    ("circle", {"radius_m": 0.02}))},
     "robot.contacts[].friction kind=sticking": ("robot", ["contacts", 0, "friction"], {"kind": "sticking"}),
     "robot.contacts[].friction kind=sliding": ("robot", ["contacts", 0, "friction"], {"kind": "sliding"}),
     "behaviour": ("behaviour", [], {}),

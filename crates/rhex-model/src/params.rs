@@ -286,6 +286,7 @@ impl RhexParams {
                     axis: JointAxis::MinusY,
                     spring: None,
                     armature_kg_m2: self.leg_armature_kg_m2.unwrap_or(0.0),
+                    collision: Vec::new(),
                 }],
             })
             .collect();
@@ -344,6 +345,7 @@ impl RhexParams {
             body: BodyDescription {
                 mass_kg: self.m_b,
                 inertia_kg_m2: self.I_b,
+                collision: Vec::new(),
             },
             legs,
             contacts,

@@ -18,7 +18,7 @@ use crate::arc_range::ArcRange;
 use crate::error::{CoreError, Result};
 use crate::frames::{perp, rotate_sc};
 use crate::kinematics::{Kinematics, Part};
-use crate::model::{ContactShape, Friction, Model};
+use crate::model::{ContactShape, Friction, Model, Outline, OutlineShape};
 use nalgebra::Vector2;
 use serde::Serialize;
 
@@ -555,6 +555,97 @@ fn touch_point(
                 }
                 _ => (center_m + *radius_m * d, TouchKind::Rolling),
             }
+        }
+    }
+}
+
+/// A collision outline found inside the terrain ([`outline_penetration`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Penetration {
+    /// The outline, in `model.outlines`.
+    pub outline: usize,
+    /// How deep its deepest point is inside the terrain (m, positive).
+    pub depth_m: f64,
+}
+
+/// The deepest of the model's collision outlines ([`crate::model::Outline`]) inside the
+/// terrain, if deeper than `tol_m`; `None` at once for a model without outlines. An
+/// outline's depth is the larger of its sites' depths below their surfaces (`−a_k`, the
+/// gap [`contact_gap`] the guards watch) and the depth inside it of a convex terrain corner
+/// near it — what its sites cannot see, such as a step's edge pressed into a box's side.
+pub fn outline_penetration(
+    model: &Model,
+    kin: &Kinematics,
+    terrain: &dyn Terrain,
+    tol_m: f64,
+) -> Option<Penetration> {
+    let mut deepest: Option<Penetration> = None;
+    for (o, outline) in model.outlines.iter().enumerate() {
+        let depth_m = outline_depth(model, kin, terrain, outline);
+        if depth_m > tol_m && deepest.is_none_or(|d| depth_m > d.depth_m) {
+            deepest = Some(Penetration {
+                outline: o,
+                depth_m,
+            });
+        }
+    }
+    deepest
+}
+
+/// How deep `outline` is inside the terrain (negative: its clearance from it, as far as its
+/// sites see).
+fn outline_depth(model: &Model, kin: &Kinematics, terrain: &dyn Terrain, outline: &Outline) -> f64 {
+    let part = match outline.link {
+        None => Part::Body,
+        Some(j) => Part::Link(j),
+    };
+    let (s, c) = kin.part_sin_cos(part);
+    let origin = kin.part_origin(part);
+    // a world point in the part's frame: R(β)ᵀ (p − o)
+    let local = |p: Vector2<f64>| rotate_sc((-s, c), p - origin);
+    let center = match &outline.shape {
+        OutlineShape::Box { center_m, .. } => *center_m,
+        OutlineShape::Round { ends_m, .. } => 0.5 * (ends_m[0] + ends_m[1]),
+    };
+    let mut depth = f64::NEG_INFINITY;
+    let references = outline
+        .contacts
+        .clone()
+        .map(|k| site_reference(model, kin, k).2)
+        .chain(std::iter::once(kin.point(part, center)));
+    for r in references {
+        if let Some(v) = terrain.corner_near(r) {
+            depth = depth.max(depth_inside(&outline.shape, local(v)));
+        }
+    }
+    for k in outline.contacts.clone() {
+        depth = depth.max(-contact_gap(model, kin, terrain, k));
+    }
+    depth
+}
+
+/// How deep the point `p` (part frame) is inside `shape` (negative outside).
+fn depth_inside(shape: &OutlineShape, p: Vector2<f64>) -> f64 {
+    match shape {
+        OutlineShape::Box {
+            center_m,
+            axis,
+            half_m,
+        } => {
+            let d = p - center_m;
+            let (u, w) = (d.dot(axis), d.dot(&perp(*axis)));
+            (half_m[0] - u.abs()).min(half_m[1] - w.abs())
+        }
+        OutlineShape::Round { ends_m, radius_m } => {
+            let [a, b] = *ends_m;
+            let ab = b - a;
+            let len2 = ab.norm_squared();
+            let t = if len2 > 0.0 {
+                ((p - a).dot(&ab) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            radius_m - (p - (a + t * ab)).norm()
         }
     }
 }

@@ -26,7 +26,9 @@
 //! friction = { kind = "sticking", mu = 1.8 }
 //! ```
 use crate::error::{CoreError, Result};
-use crate::model::{Contact, ContactShape, Friction, Joint, JointSpring, Leg, Model};
+use crate::model::{
+    Contact, ContactShape, Friction, Joint, JointSpring, Leg, Model, Outline, OutlineShape,
+};
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
@@ -88,6 +90,87 @@ pub struct BodyDescription {
     pub mass_kg: f64,
     /// Inertia about the body's centre of mass (the palm frame `P`).
     pub inertia_kg_m2: f64,
+    /// The body's collision shapes (omit for none): each becomes contact sites
+    /// ([`CollisionDescription`]).
+    #[serde(
+        default,
+        skip_serializing_if = "Vec::is_empty",
+        with = "collision_list"
+    )]
+    pub collision: Vec<CollisionDescription>,
+}
+
+/// A collision shape of the body or of a link, in its part's frame: its outline's lowest
+/// points become contact sites like any other (guarded, impacting, with `friction`), named
+/// after where the shape is declared — a box's four corners `….corner[j]`, a stadium's two
+/// end circles `….end[j]`, a circle itself. The shape's long axis is the part's: the body's
+/// `x` (forward), a link's `z` (along the link).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CollisionDescription {
+    pub shape: CollisionShapeDescription,
+    /// The shape's centre in the part's frame; omitted: the body's origin, a link's middle
+    /// `[0, length/2]`.
+    #[serde(
+        default,
+        with = "optional_pair",
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub center_m: Option<[f64; 2]>,
+    pub friction: FrictionDescription,
+}
+
+/// The outline of a [`CollisionDescription`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum CollisionShapeDescription {
+    /// A rectangle `size_m = [l, h]`: `l` along the part's long axis, `h` across; its four
+    /// corners are point contacts.
+    Box {
+        #[serde(with = "pair")]
+        size_m: [f64; 2],
+    },
+    /// A rectangle of length `length_m` capped by two half-circles of radius `radius_m` (the
+    /// points within `radius_m` of a segment of length `length_m` along the long axis): its
+    /// two end circles are rolling contacts.
+    Stadium { length_m: f64, radius_m: f64 },
+    /// A circle: a rolling contact.
+    Circle { radius_m: f64 },
+}
+
+/// A list of collision shapes whose errors name the entry (`collision[1]: unknown variant …`):
+/// serde's own messages say what is wrong, not where.
+mod collision_list {
+    use super::CollisionDescription;
+    use serde::de::{Error, SeqAccess, Visitor};
+    use serde::{Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &[CollisionDescription], s: S) -> Result<S::Ok, S::Error> {
+        v.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(
+        d: D,
+    ) -> Result<Vec<CollisionDescription>, D::Error> {
+        struct List;
+        impl<'de> Visitor<'de> for List {
+            type Value = Vec<CollisionDescription>;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a list of collision shapes")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+                let mut out = Vec::new();
+                while let Some(c) = seq
+                    .next_element()
+                    .map_err(|e| A::Error::custom(format!("collision[{}]: {e}", out.len())))?
+                {
+                    out.push(c);
+                }
+                Ok(out)
+            }
+        }
+        d.deserialize_seq(List)
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -144,6 +227,14 @@ pub struct LinkDescription {
     /// not massless, whatever its link's mass.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub armature_kg_m2: f64,
+    /// The link's collision shapes (omit for none), long axis along the link
+    /// ([`CollisionDescription`]).
+    #[serde(
+        default,
+        skip_serializing_if = "Vec::is_empty",
+        with = "collision_list"
+    )]
+    pub collision: Vec<CollisionDescription>,
 }
 
 /// Whether an optional number is at its default (so that descriptions without it serialize
@@ -400,12 +491,13 @@ impl RobotDescription {
         }
         index_names(self.contacts.iter().map(|c| c.name.as_str()))
             .map_err(|ci| bad(format!("contacts[{ci}].name"), "duplicate contact name"))?;
-        let contacts = self
+        let mut contacts = self
             .contacts
             .iter()
             .enumerate()
             .map(|(ci, c)| build_contact(ci, c, &legs, &leg_index))
             .collect::<Result<Vec<_>>>()?;
+        let outlines = self.build_collisions(&legs, &joints, &mut contacts)?;
 
         Ok(Model::new(
             self.name.clone(),
@@ -415,7 +507,159 @@ impl RobotDescription {
             legs,
             joints,
             contacts,
+            outlines,
         ))
+    }
+
+    /// The collision shapes of the body and of every link, validated, their sites appended
+    /// to `contacts` (after the described contacts, body first, then leg by leg).
+    fn build_collisions(
+        &self,
+        legs: &[Leg],
+        joints: &[Joint],
+        contacts: &mut Vec<Contact>,
+    ) -> Result<Vec<Outline>> {
+        let mut outlines = Vec::new();
+        // each outline's field, for the errors that name it
+        let mut fields = Vec::new();
+        let body = self.body.collision.iter().enumerate().map(|(i, c)| {
+            let field = format!("body.collision[{i}]");
+            (field.clone(), field, None, Vector2::zeros(), c)
+        });
+        let links = legs.iter().enumerate().flat_map(|(li, leg)| {
+            self.legs[li]
+                .links
+                .iter()
+                .enumerate()
+                .flat_map(move |(k, link)| {
+                    let j = leg.first_joint + k;
+                    link.collision.iter().enumerate().map(move |(i, c)| {
+                        (
+                            format!("legs[{li}].links[{k}].collision[{i}]"),
+                            format!("{}[{k}].collision[{i}]", leg.name),
+                            Some(j),
+                            Vector2::new(0.0, 0.5 * joints[j].length_m),
+                            c,
+                        )
+                    })
+                })
+        });
+        for (field, name, link, default_center, c) in body.chain(links) {
+            let outline = build_collision(&field, name, link, default_center, c, contacts)?;
+            if contacts.len() > 32 {
+                return Err(bad(
+                    field,
+                    "at most 32 contact sites are supported, described and collision sites \
+                     together",
+                ));
+            }
+            outlines.push(outline);
+            fields.push(field);
+        }
+        if let Err(k) = index_names(contacts.iter().map(|c| c.name.as_str())) {
+            let field = match outlines.iter().position(|o| o.contacts.contains(&k)) {
+                Some(o) => fields[o].clone(),
+                None => format!("contacts[{k}].name"),
+            };
+            let reason = format!(
+                "its site `{}` repeats another contact's name",
+                contacts[k].name
+            );
+            return Err(bad(field, &reason));
+        }
+        Ok(outlines)
+    }
+}
+
+/// The collision shape `c` declared at `field` (named `name`; on joint `link`'s link or the
+/// body), validated, its contact sites appended to `contacts`. The shape's long axis is the
+/// part's: the body's `x`, a link's `z`; its centre defaults to `default_center`.
+fn build_collision(
+    field: &str,
+    name: String,
+    link: Option<usize>,
+    default_center: Vector2<f64>,
+    c: &CollisionDescription,
+    contacts: &mut Vec<Contact>,
+) -> Result<Outline> {
+    let f = |s: &str| format!("{field}.{s}");
+    let positive = |s: &str, v: f64| {
+        finite_nonneg(f(s), v)?;
+        if v == 0.0 {
+            return Err(bad(f(s), "must be positive"));
+        }
+        Ok(())
+    };
+    let center = match c.center_m {
+        Some(p) => finite2(f("center_m"), p)?,
+        None => default_center,
+    };
+    let axis = if link.is_some() {
+        Vector2::new(0.0, 1.0)
+    } else {
+        Vector2::new(1.0, 0.0)
+    };
+    let across = crate::frames::perp(axis);
+    let (friction, kinetic_mu) = build_friction(&f("friction"), &c.friction)?;
+    let site = |suffix: String, shape: ContactShape| Contact {
+        name: format!("{name}{suffix}"),
+        link,
+        shape,
+        friction,
+        kinetic_mu,
+    };
+    let first = contacts.len();
+    let shape = match c.shape {
+        CollisionShapeDescription::Box { size_m } => {
+            positive("shape.size_m[0]", size_m[0])?;
+            positive("shape.size_m[1]", size_m[1])?;
+            let half_m = [0.5 * size_m[0], 0.5 * size_m[1]];
+            let corners = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
+            for (j, (sa, sb)) in corners.into_iter().enumerate() {
+                let p = center + sa * half_m[0] * axis + sb * half_m[1] * across;
+                contacts.push(site(
+                    format!(".corner[{j}]"),
+                    ContactShape::Point { position_m: p },
+                ));
+            }
+            OutlineShape::Box {
+                center_m: center,
+                axis,
+                half_m,
+            }
+        }
+        CollisionShapeDescription::Stadium { length_m, radius_m } => {
+            positive("shape.length_m", length_m)?;
+            positive("shape.radius_m", radius_m)?;
+            let ends_m = [-1.0, 1.0].map(|s| center + s * 0.5 * length_m * axis);
+            for (j, e) in ends_m.into_iter().enumerate() {
+                contacts.push(site(format!(".end[{j}]"), circle(e, radius_m)));
+            }
+            OutlineShape::Round { ends_m, radius_m }
+        }
+        CollisionShapeDescription::Circle { radius_m } => {
+            positive("shape.radius_m", radius_m)?;
+            contacts.push(site(String::new(), circle(center, radius_m)));
+            OutlineShape::Round {
+                ends_m: [center, center],
+                radius_m,
+            }
+        }
+    };
+    Ok(Outline {
+        name,
+        link,
+        shape,
+        contacts: first..contacts.len(),
+    })
+}
+
+/// A full circle that rolls.
+fn circle(center_m: Vector2<f64>, radius_m: f64) -> ContactShape {
+    ContactShape::Arc {
+        center_m,
+        radius_m,
+        normal_range_rad: None,
     }
 }
 
@@ -481,23 +725,7 @@ fn build_contact(
             }
         }
     };
-    let (friction, kinetic_mu) = match c.friction {
-        FrictionDescription::Sliding => (Friction::Sliding, 0.0),
-        FrictionDescription::Sticking { mu, mu_kinetic } => {
-            let mu = mu.unwrap_or(f64::INFINITY);
-            if mu.is_nan() || mu < 0.0 {
-                return Err(bad(f("friction.mu"), "must be non-negative"));
-            }
-            let mu_k = mu_kinetic.unwrap_or(0.0);
-            if !mu_k.is_finite() || mu_k < 0.0 {
-                return Err(bad(
-                    f("friction.mu_kinetic"),
-                    "must be finite and non-negative",
-                ));
-            }
-            (Friction::Sticking { mu }, mu_k)
-        }
-    };
+    let (friction, kinetic_mu) = build_friction(&f("friction"), &c.friction)?;
     Ok(Contact {
         name: c.name.clone(),
         link,
@@ -505,6 +733,28 @@ fn build_contact(
         friction,
         kinetic_mu,
     })
+}
+
+/// A site's friction (declared at `field`), validated: the model's friction and the kinetic
+/// coefficient `μ_k`.
+fn build_friction(field: &str, friction: &FrictionDescription) -> Result<(Friction, f64)> {
+    match *friction {
+        FrictionDescription::Sliding => Ok((Friction::Sliding, 0.0)),
+        FrictionDescription::Sticking { mu, mu_kinetic } => {
+            let mu = mu.unwrap_or(f64::INFINITY);
+            if mu.is_nan() || mu < 0.0 {
+                return Err(bad(format!("{field}.mu"), "must be non-negative"));
+            }
+            let mu_k = mu_kinetic.unwrap_or(0.0);
+            if !mu_k.is_finite() || mu_k < 0.0 {
+                return Err(bad(
+                    format!("{field}.mu_kinetic"),
+                    "must be finite and non-negative",
+                ));
+            }
+            Ok((Friction::Sticking { mu }, mu_k))
+        }
+    }
 }
 
 #[cfg(test)]

@@ -105,6 +105,39 @@ pub struct Contact {
     pub kinetic_mu: f64,
 }
 
+/// The convex outline of a collision shape in its part's frame: the contact sites it
+/// expands to keep it above the ground, and the whole outline checks what those sites cannot
+/// see (a terrain edge pressed into a box's side) with [`crate::contact::outline_penetration`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum OutlineShape {
+    /// A rectangle centred at `center_m` with half-extents `half_m[0]` along the unit axis
+    /// `axis` and `half_m[1]` across it.
+    Box {
+        center_m: Vector2<f64>,
+        axis: Vector2<f64>,
+        half_m: [f64; 2],
+    },
+    /// The points within `radius_m` of the segment `ends_m[0]`–`ends_m[1]`: a stadium, or a
+    /// circle when the two ends coincide.
+    Round {
+        ends_m: [Vector2<f64>; 2],
+        radius_m: f64,
+    },
+}
+
+/// A collision shape of the body or of a link: its outline, and the contact sites
+/// (`model.contacts[contacts]`) it expands to.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Outline {
+    /// Where it was declared: `body.collision[i]` or `<leg>[<k>].collision[i]`.
+    pub name: String,
+    /// The joint whose link carries it, or `None` for the body.
+    pub link: Option<usize>,
+    pub shape: OutlineShape,
+    /// Its contact sites, in `model.contacts`.
+    pub contacts: std::ops::Range<usize>,
+}
+
 /// The validated robot. Cheap to share between threads (`Send + Sync`, no interior mutability).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Model {
@@ -115,9 +148,13 @@ pub struct Model {
     pub legs: Vec<Leg>,
     pub joints: Vec<Joint>,
     pub contacts: Vec<Contact>,
+    /// The collision shapes of the body and links (empty unless described): their sites are
+    /// among `contacts`.
+    pub outlines: Vec<Outline>,
 }
 
 impl Model {
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn new(
         name: String,
         gravity_m_s2: f64,
@@ -126,6 +163,7 @@ impl Model {
         legs: Vec<Leg>,
         joints: Vec<Joint>,
         contacts: Vec<Contact>,
+        outlines: Vec<Outline>,
     ) -> Self {
         Model {
             name,
@@ -135,6 +173,7 @@ impl Model {
             legs,
             joints,
             contacts,
+            outlines,
         }
     }
 

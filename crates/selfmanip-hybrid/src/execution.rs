@@ -116,6 +116,16 @@ pub enum Termination {
         contact: usize,
         gap_m: f64,
     },
+    /// A collision outline of the description (`outline`, named where it is declared, e.g.
+    /// `body.collision[0]`) is inside the terrain by `depth_m` at `t` — an event or the run's
+    /// end — deeper than the drift the engine corrects
+    /// ([`crate::surface_tolerances::MAX_DRIFT_M`]): a penetration the engine did not
+    /// resolve ([`selfmanip_core::contact::outline_penetration`]).
+    Penetration {
+        t: f64,
+        outline: String,
+        depth_m: f64,
+    },
 }
 
 /// `", triggered by contacts `a`, `b`"` for the contacts of a Zeno or chatter report (nothing
@@ -223,6 +233,15 @@ impl Termination {
                 "contact `{}` met a terrain edge or corner that is not a contact feature for it \
                  at {} (gap {gap_m:.3e} m)",
                 contact(*k),
+                at(*t)
+            ),
+            Termination::Penetration {
+                t,
+                outline,
+                depth_m,
+            } => format!(
+                "the collision outline `{outline}` is {depth_m:.3e} m inside the terrain at {}, \
+                 a penetration the engine did not resolve",
                 at(*t)
             ),
         }
@@ -350,6 +369,14 @@ mod tests {
                     gap_m: -0.01,
                 },
                 vec!["`#3`", "-1.000e-2 m", "t = 5 s"],
+            ),
+            (
+                Termination::Penetration {
+                    t: 6.0,
+                    outline: "body.collision[0]".into(),
+                    depth_m: 0.27,
+                },
+                vec!["`body.collision[0]`", "2.700e-1 m", "t = 6 s"],
             ),
         ];
         for (term, parts) in cases {

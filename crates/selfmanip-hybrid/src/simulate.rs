@@ -195,6 +195,15 @@ pub fn simulate_with(
         if let Some(c) = chatter.check(&events) {
             break c;
         }
+        if let Some(p) = penetration(model, terrain, t, &y[..model.nq()]) {
+            break p;
+        }
+    };
+    let termination = match termination {
+        Termination::FinalTime | Termination::Apex => {
+            penetration(model, terrain, t, &y[..model.nq()]).unwrap_or(termination)
+        }
+        other => other,
     };
     let (q, qd) = y.split_at(model.nq());
     Ok(Execution {
@@ -206,6 +215,24 @@ pub fn simulate_with(
         qd: qd.to_vec(),
         mode,
         steps: budget.steps(),
+    })
+}
+
+/// A collision outline inside the terrain at `(t, q)`, deeper than the drift the engine
+/// corrects ([`crate::surface_tolerances::MAX_DRIFT_M`]): the end of the run, typed. Nothing
+/// is computed for a model without collision outlines.
+fn penetration(model: &Model, terrain: &dyn Terrain, t: f64, q: &[f64]) -> Option<Termination> {
+    if model.outlines.is_empty() {
+        return None;
+    }
+    let mut kin = selfmanip_core::kinematics::Kinematics::default();
+    kin.compute(model, q, &vec![0.0; model.nq()]);
+    let tol = crate::surface_tolerances::MAX_DRIFT_M;
+    let p = selfmanip_core::contact::outline_penetration(model, &kin, terrain, tol)?;
+    Some(Termination::Penetration {
+        t,
+        outline: model.outlines[p.outline].name.clone(),
+        depth_m: p.depth_m,
     })
 }
 

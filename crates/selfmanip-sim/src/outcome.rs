@@ -17,6 +17,7 @@ pub enum RunStatus {
     NoContactSolution,
     SeveralContactSolutions,
     TerrainDiscontinuity,
+    Penetration,
     SingularFlow,
     StepBudget,
     Interrupted,
@@ -32,6 +33,7 @@ impl RunStatus {
             Termination::NoContactSolution { .. } => RunStatus::NoContactSolution,
             Termination::SeveralContactSolutions { .. } => RunStatus::SeveralContactSolutions,
             Termination::TerrainDiscontinuity { .. } => RunStatus::TerrainDiscontinuity,
+            Termination::Penetration { .. } => RunStatus::Penetration,
             Termination::SingularFlow { .. } | Termination::Painleve { .. } => {
                 RunStatus::SingularFlow
             }
@@ -49,6 +51,7 @@ impl RunStatus {
             RunStatus::NoContactSolution => "no_contact_solution",
             RunStatus::SeveralContactSolutions => "several_contact_solutions",
             RunStatus::TerrainDiscontinuity => "terrain_discontinuity",
+            RunStatus::Penetration => "penetration",
             RunStatus::SingularFlow => "singular_flow",
             RunStatus::StepBudget => "step_budget",
             RunStatus::Interrupted => "interrupted",

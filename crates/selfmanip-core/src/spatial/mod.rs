@@ -27,9 +27,9 @@ pub mod kinematics;
 pub mod liegroup;
 pub mod model;
 pub mod motion;
-pub mod rigid_body;
 pub mod quasistatic;
 pub mod rhex;
+pub mod rigid_body;
 pub mod se3;
 pub mod urdf;
 

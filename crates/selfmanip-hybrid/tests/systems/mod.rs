@@ -128,6 +128,7 @@ pub fn one_link_leg(
         body: BodyDescription {
             mass_kg,
             inertia_kg_m2,
+            collision: Vec::new(),
         },
         legs: vec![LegDescription {
             name: "leg".into(),
@@ -149,6 +150,7 @@ pub fn uniform_link(length_m: f64, mass_kg: f64) -> LinkDescription {
         axis: JointAxis::PlusY,
         spring: None,
         armature_kg_m2: 0.0,
+        collision: Vec::new(),
     }
 }
 
