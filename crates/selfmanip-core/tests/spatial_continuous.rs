@@ -6,16 +6,17 @@ use nalgebra::{Rotation3, Unit, Vector3};
 use selfmanip_core::spatial::kinematics::{forward_kinematics, frame_placement};
 use selfmanip_core::spatial::*;
 
-/// A free-flying cart with a continuous wheel (axis y), a revolute arm (axis z) and a
-/// second continuous joint on the arm (axis x).
+/// A free-flying cart with a revolute arm (axis z), a continuous joint on the arm (axis x)
+/// and a continuous wheel (axis y). Sibling joints are in name order, Pinocchio's (urdfdom's)
+/// order, so that the joints are in the same order in both layouts.
 pub const CART: &str = r#"<robot name="cart">
   <link name="base"><inertial><mass value="2"/><inertia ixx="0.1" ixy="0" ixz="0" iyy="0.2" iyz="0" izz="0.3"/></inertial></link>
   <link name="wheel"><inertial><mass value="0.5"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.01"/></inertial></link>
   <link name="arm"><inertial><origin xyz="0.1 0 0"/><mass value="0.3"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.004" iyz="0" izz="0.004"/></inertial></link>
   <link name="tip"><inertial><mass value="0.1"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/></inertial></link>
-  <joint name="wheel_joint" type="continuous"><parent link="base"/><child link="wheel"/><origin xyz="0.2 0.1 -0.05"/><axis xyz="0 1 0"/></joint>
   <joint name="arm_joint" type="revolute"><parent link="base"/><child link="arm"/><origin xyz="0 0 0.1"/><axis xyz="0 0 1"/><limit lower="-2" upper="2" effort="10" velocity="10"/></joint>
   <joint name="tip_joint" type="continuous"><parent link="arm"/><child link="tip"/><origin xyz="0.2 0 0"/><axis xyz="1 0 0"/></joint>
+  <joint name="wheel_joint" type="continuous"><parent link="base"/><child link="wheel"/><origin xyz="0.2 0.1 -0.05"/><axis xyz="0 1 0"/></joint>
 </robot>"#;
 
 fn cart() -> SpatialModel {
@@ -29,12 +30,12 @@ fn continuous_joints_are_cos_sin_pairs_in_pinocchio_layout() {
     assert_eq!(pinocchio_nq(&model), 12);
     let mut q = neutral(&model);
     q.as_mut_slice()[0..7].copy_from_slice(&[0.1, -0.2, 0.3, 0.0, 0.0, 0.6f64.sin(), 0.6f64.cos()]);
-    let (wheel, arm, tip) = (2.5, -0.7, -3.0);
-    q.as_mut_slice()[7..].copy_from_slice(&[wheel, arm, tip]);
+    let (arm, tip, wheel) = (-0.7, -3.0, 2.5);
+    q.as_mut_slice()[7..].copy_from_slice(&[arm, tip, wheel]);
     let p = to_pinocchio(&model, q.as_slice()).unwrap();
     let expected = [
         &q.as_slice()[..7],
-        &[wheel.cos(), wheel.sin(), arm, tip.cos(), tip.sin()][..],
+        &[arm, tip.cos(), tip.sin(), wheel.cos(), wheel.sin()][..],
     ]
     .concat();
     assert_eq!(p.as_slice(), expected.as_slice());
@@ -42,13 +43,13 @@ fn continuous_joints_are_cos_sin_pairs_in_pinocchio_layout() {
     assert!((&back - &q).amax() < 1e-15, "{back} vs {q}");
 
     // an angle outside (−π, π] comes back as the same rotation
-    q[7] = wheel + 2.0 * std::f64::consts::PI;
+    q[9] = wheel + 2.0 * std::f64::consts::PI;
     let back = from_pinocchio(
         &model,
         to_pinocchio(&model, q.as_slice()).unwrap().as_slice(),
     )
     .unwrap();
-    assert!((back[7] - wheel).abs() < 1e-14);
+    assert!((back[9] - wheel).abs() < 1e-14);
 
     // the wheel frame is turned by θ about y from its placement on the base
     let mut data = SpatialData::new(&model);
@@ -60,7 +61,7 @@ fn continuous_joints_are_cos_sin_pairs_in_pinocchio_layout() {
     let relative = frame_placement(&model, &data, base)
         .inverse()
         .compose(&frame_placement(&model, &data, w));
-    let turn = Rotation3::from_axis_angle(&Unit::new_normalize(Vector3::y()), p[8].atan2(p[7]));
+    let turn = Rotation3::from_axis_angle(&Unit::new_normalize(Vector3::y()), p[11].atan2(p[10]));
     assert!((relative.rotation - turn.matrix()).amax() < 1e-14);
 }
 
@@ -68,7 +69,7 @@ fn continuous_joints_are_cos_sin_pairs_in_pinocchio_layout() {
 fn off_circle_pinocchio_coordinates_are_a_typed_error() {
     let model = cart();
     let mut p = to_pinocchio(&model, neutral(&model).as_slice()).unwrap();
-    p[7] = 0.9;
+    p[10] = 0.9;
     match from_pinocchio(&model, p.as_slice()) {
         Err(SpatialError::InvalidArgument { field, .. }) => {
             assert!(field.contains("wheel_joint"), "{field}")
