@@ -1,12 +1,14 @@
 """A URDF ``continuous`` joint against Pinocchio, which stores it as ``(cos θ, sin θ)``
 (``nq`` one larger per such joint, ``nv`` the same): ``to_pinocchio``/``from_pinocchio``
 convert ``q``, and at converted states Pinocchio's ``M``, ``nle``, frame placements and
-Jacobians equal ours to 1e-10. The URDF is the one of
-``crates/selfmanip-core/tests/spatial_continuous.rs``: a free-flying cart with a revolute
+Jacobians equal ours to 1e-10. The URDF,
+``tests/data/urdf/cart_continuous.urdf``, is a free-flying cart with a revolute
 arm, a continuous joint on the arm and a continuous wheel (siblings in name order, which is
 Pinocchio's order)."""
 
 from __future__ import annotations
+
+import pathlib
 
 import numpy as np
 import pytest
@@ -16,24 +18,14 @@ from selfmanip.errors import InvalidInputError
 
 pin = pytest.importorskip("pinocchio", reason="Pinocchio (`pip install pin`, in the test extra) is the independent route")
 
-CART = """<robot name="cart">
-  <link name="base"><inertial><mass value="2"/><inertia ixx="0.1" ixy="0" ixz="0" iyy="0.2" iyz="0" izz="0.3"/></inertial></link>
-  <link name="wheel"><inertial><mass value="0.5"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.01"/></inertial></link>
-  <link name="arm"><inertial><origin xyz="0.1 0 0"/><mass value="0.3"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.004" iyz="0" izz="0.004"/></inertial></link>
-  <link name="tip"><inertial><mass value="0.1"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/></inertial></link>
-  <joint name="arm_joint" type="revolute"><parent link="base"/><child link="arm"/><origin xyz="0 0 0.1"/><axis xyz="0 0 1"/><limit lower="-2" upper="2" effort="10" velocity="10"/></joint>
-  <joint name="tip_joint" type="continuous"><parent link="arm"/><child link="tip"/><origin xyz="0.2 0 0"/><axis xyz="1 0 0"/></joint>
-  <joint name="wheel_joint" type="continuous"><parent link="base"/><child link="wheel"/><origin xyz="0.2 0.1 -0.05"/><axis xyz="0 1 0"/></joint>
-</robot>"""
+CART = pathlib.Path(__file__).resolve().parents[2] / "tests" / "data" / "urdf" / "cart_continuous.urdf"
 FRAMES = ["wheel", "arm", "tip", "tip_joint"]
 
 
 @pytest.fixture(scope="module")
-def robots(tmp_path_factory):
-    path = tmp_path_factory.mktemp("urdf") / "cart.urdf"
-    path.write_text(CART)
-    ours = SpatialRobot.from_urdf(path)
-    model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
+def robots():
+    ours = SpatialRobot.from_urdf(CART)
+    model = pin.buildModelFromUrdf(str(CART), pin.JointModelFreeFlyer())
     return ours, model, model.createData()
 
 

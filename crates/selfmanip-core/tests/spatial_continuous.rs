@@ -6,21 +6,16 @@ use nalgebra::{Rotation3, Unit, Vector3};
 use selfmanip_core::spatial::kinematics::{forward_kinematics, frame_placement};
 use selfmanip_core::spatial::*;
 
-/// A free-flying cart with a revolute arm (axis z), a continuous joint on the arm (axis x)
-/// and a continuous wheel (axis y). Sibling joints are in name order, Pinocchio's (urdfdom's)
-/// order, so that the joints are in the same order in both layouts.
-pub const CART: &str = r#"<robot name="cart">
-  <link name="base"><inertial><mass value="2"/><inertia ixx="0.1" ixy="0" ixz="0" iyy="0.2" iyz="0" izz="0.3"/></inertial></link>
-  <link name="wheel"><inertial><mass value="0.5"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.01"/></inertial></link>
-  <link name="arm"><inertial><origin xyz="0.1 0 0"/><mass value="0.3"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.004" iyz="0" izz="0.004"/></inertial></link>
-  <link name="tip"><inertial><mass value="0.1"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/></inertial></link>
-  <joint name="arm_joint" type="revolute"><parent link="base"/><child link="arm"/><origin xyz="0 0 0.1"/><axis xyz="0 0 1"/><limit lower="-2" upper="2" effort="10" velocity="10"/></joint>
-  <joint name="tip_joint" type="continuous"><parent link="arm"/><child link="tip"/><origin xyz="0.2 0 0"/><axis xyz="1 0 0"/></joint>
-  <joint name="wheel_joint" type="continuous"><parent link="base"/><child link="wheel"/><origin xyz="0.2 0.1 -0.05"/><axis xyz="0 1 0"/></joint>
-</robot>"#;
+/// `tests/data/urdf/cart_continuous.urdf`: a free-flying cart with a revolute arm (axis z), a
+/// continuous joint on the arm (axis x) and a continuous wheel (axis y), siblings in name
+/// order (Pinocchio's).
+pub const CART: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../tests/data/urdf/cart_continuous.urdf"
+);
 
 fn cart() -> SpatialModel {
-    SpatialModel::from_urdf_str(CART, BaseKind::FreeFlyer, None).unwrap()
+    SpatialModel::from_urdf_file(CART, BaseKind::FreeFlyer, None).unwrap()
 }
 
 #[test]

@@ -9,30 +9,14 @@
 //! ```
 //!
 //! and divide the collected instructions by the calls.
+#[path = "spatial_support/bench_state.rs"]
+mod bench_state;
 mod spatial_support;
+use bench_state::standing_state;
 use nalgebra::DVector;
 use selfmanip_core::spatial::*;
 use spatial_support::*;
 use std::hint::black_box;
-
-/// The bench's standing, moving state `(q, v, τ)`.
-fn bench_state(model: &SpatialModel) -> (DVector<f64>, DVector<f64>, DVector<f64>) {
-    let mut q = neutral(model);
-    q[2] = 0.4;
-    for leg in 0..4 {
-        q[7 + 3 * leg + 1] = 0.5;
-        q[7 + 3 * leg + 2] = -1.0;
-    }
-    let v = DVector::from_fn(model.nv, |i, _| 0.1 * ((i as f64) * 0.7).sin());
-    let tau = DVector::from_fn(model.nv, |i, _| {
-        if i < 6 {
-            0.0
-        } else {
-            2.0 * ((i as f64) * 1.3).cos()
-        }
-    });
-    (q, v, tau)
-}
 
 #[inline(never)]
 fn probe_calls(
@@ -63,7 +47,7 @@ fn probe() {
     };
     let mut data = SpatialData::new(&model);
     let contacts = feet(&model, [true; 4]);
-    let (q, v, tau) = bench_state(&model);
+    let (q, v, tau) = standing_state(&model);
     let state = (&q, &v, &tau);
     dynamics_at(&model, &mut data, &contacts, state).unwrap();
     probe_calls(&model, &mut data, &contacts, state, calls);
