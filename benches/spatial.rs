@@ -13,6 +13,10 @@ use selfmanip::core::spatial::{
 };
 use std::hint::black_box;
 
+#[path = "../crates/selfmanip-core/tests/spatial_support/bench_state.rs"]
+mod bench_state;
+use bench_state::standing_state;
+
 const QUADRUPED: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/tests/data/urdf/quadruped12.urdf"
@@ -34,25 +38,6 @@ fn quadruped(shin_scale: f64) -> SpatialModel {
         }
     }
     SpatialModel::from_urdf_robot(&robot, BaseKind::FreeFlyer, None).expect("a tree")
-}
-
-/// Standing at 0.4 m on legs bent by 0.5 rad, moving: `(q, v, τ)`.
-fn standing_state(model: &SpatialModel) -> (DVector<f64>, DVector<f64>, DVector<f64>) {
-    let mut q = neutral(model);
-    q[2] = 0.4;
-    for leg in 0..4 {
-        q[7 + 3 * leg + 1] = 0.5;
-        q[7 + 3 * leg + 2] = -1.0;
-    }
-    let v = DVector::from_fn(model.nv, |i, _| 0.1 * ((i as f64) * 0.7).sin());
-    let tau = DVector::from_fn(model.nv, |i, _| {
-        if i < 6 {
-            0.0
-        } else {
-            2.0 * ((i as f64) * 1.3).cos()
-        }
-    });
-    (q, v, tau)
 }
 
 type State<'a> = (&'a DVector<f64>, &'a DVector<f64>, &'a DVector<f64>);

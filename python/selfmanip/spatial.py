@@ -138,13 +138,23 @@ class SpatialRobot(WrappedModel):
 
     def from_pinocchio(self, q: np.ndarray | Sequence[float],
                        v: np.ndarray | Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
-        """Pinocchio's ``(q, v)`` in this layout: the layouts are the same, so copies."""
-        return _vector(q).copy(), _vector(v).copy()
+        """Pinocchio's ``(q, v)`` in this layout: a ``continuous`` joint's ``(cos θ, sin θ)``
+        becomes its angle ``θ`` (Pinocchio's ``nq`` is one larger per continuous joint); every
+        other coordinate and ``v`` are copied."""
+        return self._native.q_from_pinocchio(_vector(q)), self._rates(v)
 
     def to_pinocchio(self, q: np.ndarray | Sequence[float],
                      v: np.ndarray | Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
-        """This layout's ``(q, v)`` in Pinocchio's: the same, so copies."""
-        return _vector(q).copy(), _vector(v).copy()
+        """This layout's ``(q, v)`` in Pinocchio's: a ``continuous`` joint's angle ``θ``
+        becomes ``(cos θ, sin θ)``; every other coordinate and ``v`` are copied."""
+        return self._native.q_to_pinocchio(_vector(q)), self._rates(v)
+
+    def _rates(self, v: np.ndarray | Sequence[float]) -> np.ndarray:
+        """A copy of ``v``, checked (``nv`` finite entries, the typed error naming ``v``) by
+        the native ``integrate`` at the neutral configuration."""
+        v = _vector(v).copy()
+        self._native.integrate(self._native.neutral(), v)
+        return v
 
     def mass_matrix(self, q: np.ndarray | Sequence[float]) -> np.ndarray:
         """``M(q)``, nv x nv (singular when links are massless)."""

@@ -16,8 +16,8 @@ use selfmanip_core::spatial::kinematics::{
 use selfmanip_core::spatial::rhex::RhexSixLegs;
 use selfmanip_core::spatial::rigid_body::{crba, nonlinear_effects};
 use selfmanip_core::spatial::{
-    difference, forward_dynamics, impact, integrate, neutral, quasi_static, BaseKind, PointContact,
-    SpatialData, SpatialError, SpatialModel,
+    difference, forward_dynamics, from_pinocchio, impact, integrate, neutral, quasi_static,
+    to_pinocchio, BaseKind, PointContact, SpatialData, SpatialError, SpatialModel,
 };
 
 /// A spatial error as the Python exception of its kind, naming the field.
@@ -257,6 +257,24 @@ impl SpatialRobot {
         q1: Vec<f64>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         vector(py, || difference(&self.model, &q0, &q1))
+    }
+
+    /// Pinocchio's `q` (a continuous joint's `(cos θ, sin θ)`) in this layout (`θ`).
+    fn q_from_pinocchio<'py>(
+        &self,
+        py: Python<'py>,
+        q: Vec<f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        vector(py, || from_pinocchio(&self.model, &q))
+    }
+
+    /// This layout's `q` in Pinocchio's.
+    fn q_to_pinocchio<'py>(
+        &self,
+        py: Python<'py>,
+        q: Vec<f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        vector(py, || to_pinocchio(&self.model, &q))
     }
 
     /// `M(q)` (nv × nv, CRBA).

@@ -12,11 +12,11 @@
 #![allow(non_snake_case)]
 use super::error::{SpatialError, SpatialResult};
 use super::kinematics::{
-    forward_kinematics_velocity, frame_jacobian, frame_linear_drift, frame_placement,
-    ReferenceFrame, SpatialData,
+    forward_kinematics_velocity, frame_linear_drift, frame_placement, SpatialData,
 };
 use super::model::SpatialModel;
-use super::rigid_body::{bias_forces_from_kinematics, mass_matrix_from_kinematics};
+use super::rigid_body::{bias_forces_from_kinematics, mass_matrix_from_kinematics, world_column};
+use super::tree_kkt::KktRoute;
 use crate::error::check_result;
 use crate::error::check_vector;
 use nalgebra::{DMatrix, DVector, DVectorView, Vector3};
@@ -181,6 +181,8 @@ impl PointContact {
 /// The contact Jacobian `A` (rows of the contact points' world linear Jacobians along the
 /// row directions) and its drift `Ȧq̇` (the points' accelerations at `q̈ = 0` along the same
 /// directions, [`ContactShape`]) into `data.A`, `data.A_drift`, after the velocity kinematics.
+/// A row `d` of the contact point `x` (world) is `d·v_x = d·v + (x × d)·ω` on each
+/// supporting joint's world column `⁰S = [v; ω]` (Featherstone 2008, (2.20)), zero elsewhere.
 pub(crate) fn contact_rows(
     model: &SpatialModel,
     data: &mut SpatialData,
@@ -193,26 +195,28 @@ pub(crate) fn contact_rows(
         data.lam = DVector::zeros(c);
         data.rhs_g = DVector::zeros(c);
     }
+    data.A.fill(0.0);
     let mut row = 0;
     for contact in contacts {
-        frame_jacobian(
-            model,
-            data,
-            contact.frame,
-            ReferenceFrame::LocalWorldAligned,
-        );
         let (r, r_dot) = contact.offset(model, data);
         let mut drift = frame_linear_drift(model, data, contact.frame);
-        if let Some(j) = model.frames[contact.frame].joint {
+        let joint = model.frames[contact.frame].joint;
+        if let Some(j) = joint {
             let (w, alpha) = (data.ov[j].angular, data.oa_drift[j].angular);
             drift += alpha.cross(&r) + w.cross(&r_dot);
         }
+        let x = frame_placement(model, data, contact.frame).translation + r;
         for d in &contact.directions()[..contact.n_rows()] {
-            // v_p = v_c + ω × r: the row d·v_c + (r × d)·ω
-            let rd = r.cross(d);
-            for c in 0..model.nv {
-                data.A[(row, c)] = d.dot(&data.J.fixed_view::<3, 1>(0, c))
-                    + rd.dot(&data.J.fixed_view::<3, 1>(3, c));
+            let xd = x.cross(d);
+            let mut j = joint;
+            while let Some(i) = j {
+                let jt = &model.joints[i];
+                for col in jt.idx_v..jt.idx_v + jt.kind.nv() {
+                    let s = world_column(data, col);
+                    data.A[(row, col)] =
+                        d.dot(&s.fixed_rows::<3>(0)) + xd.dot(&s.fixed_rows::<3>(3));
+                }
+                j = jt.parent;
             }
             data.A_drift[row] = d.dot(&drift);
             row += 1;
@@ -247,8 +251,17 @@ pub const REDUNDANT_ROW_TOLERANCE: f64 = 1e-9;
 /// is the solution with no component in `ker Aᵀ`, the internal forces that rigid contacts
 /// leave undetermined (thesis §4.1.8's internal forces, here set to zero). Only a
 /// singular `A` pays for the decomposition (it allocates).
+///
+/// A positive definite `M` with independent rows takes the range-space route first
+/// ([`super::tree_kkt`], the tree's sparse `LᵀDL` and the rows' `A M⁻¹ Aᵀ`), and only a
+/// singular `M` or dependent rows the null-space block inverse.
 fn factor(data: &mut SpatialData) -> SpatialResult<()> {
     data.row_basis = None;
+    if data.tree_kkt.factor(&data.M, &data.A) {
+        data.kkt_route = KktRoute::RangeSpace;
+        return Ok(());
+    }
+    data.kkt_route = KktRoute::NullSpace;
     match data.kkt.factor(&data.M, &data.A) {
         Err(crate::CoreError::SingularKkt {
             kind: crate::SingularityKind::RedundantConstraints,
@@ -281,6 +294,15 @@ fn factor(data: &mut SpatialData) -> SpatialResult<()> {
 /// `A` redundant; a right-hand side `g` outside `A`'s range (redundant rows that contradict
 /// each other) is the typed redundant-constraints error.
 fn solve(data: &mut SpatialData) -> SpatialResult<()> {
+    if data.kkt_route == KktRoute::RangeSpace {
+        data.tree_kkt.solve(
+            data.rhs_f.as_slice(),
+            data.rhs_g.as_slice(),
+            data.qdd.as_mut_slice(),
+            data.lam.as_mut_slice(),
+        );
+        return Ok(());
+    }
     let Some(basis) = &data.row_basis else {
         data.kkt.solve(
             data.rhs_f.as_slice(),

@@ -9,6 +9,7 @@ use super::liegroup::{check_configuration, quaternion_at};
 use super::model::{JointKind, SpatialModel};
 use super::motion::{Force, Motion};
 use super::se3::SE3;
+use super::tree_kkt::{KktRoute, TreeKkt};
 use crate::kkt::KktFactorization;
 use nalgebra::{
     DMatrix, DVector, Dyn, Matrix6, OMatrix, Rotation3, Unit, UnitQuaternion, Vector3, U6,
@@ -78,6 +79,10 @@ pub struct SpatialData {
     /// With a redundant contact set, the orthonormal basis `U_r` (c × r) of `A`'s range the
     /// KKT system was factored on ([`super::contact`]); `None` when `A` has full row rank.
     pub row_basis: Option<DMatrix<f64>>,
+    /// The range-space factorization tried first ([`super::tree_kkt`]) and the route the last
+    /// solve took.
+    pub tree_kkt: TreeKkt,
+    pub kkt_route: KktRoute,
     /// Right-hand sides of the KKT solve.
     pub(crate) rhs_f: DVector<f64>,
     pub(crate) rhs_g: DVector<f64>,
@@ -104,6 +109,8 @@ impl SpatialData {
             qdd: DVector::zeros(nv),
             lam: DVector::zeros(0),
             row_basis: None,
+            tree_kkt: TreeKkt::new(model),
+            kkt_route: KktRoute::RangeSpace,
             rhs_f: DVector::zeros(nv),
             rhs_g: DVector::zeros(0),
         }

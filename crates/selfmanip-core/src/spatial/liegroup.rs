@@ -9,6 +9,10 @@
 //! A free flyer integrates on SE(3): `g(q ⊕ v) = g(q) exp6(v)` (the body-frame exponential,
 //! [`super::explog::exp6`]), and the quaternion is renormalized, so its norm stays 1 to
 //! round-off along any run. Revolute and prismatic joints are vector spaces.
+//!
+//! Pinocchio's layout differs in one joint: a URDF `continuous` joint (unbounded revolute) has
+//! the angle `θ` here and `(cos θ, sin θ)` there (`nq` one larger per such joint, `v` the
+//! same); [`to_pinocchio`] and [`from_pinocchio`] convert `q`.
 use super::error::{SpatialError, SpatialResult};
 use super::explog::{exp6_quaternion, log6_quaternion};
 use super::model::{JointKind, SpatialModel};
@@ -109,4 +113,62 @@ pub fn difference(model: &SpatialModel, q0: &[f64], q1: &[f64]) -> SpatialResult
         }
     }
     Ok(v)
+}
+
+/// Tolerance on `|cos² θ + sin² θ − 1|` accepted from a continuous joint's Pinocchio
+/// coordinates.
+pub const UNIT_CIRCLE_TOLERANCE: f64 = 1e-9;
+
+/// The length of `q` in Pinocchio's layout: `nq` plus one per continuous joint.
+pub fn pinocchio_nq(model: &SpatialModel) -> usize {
+    model.nq + model.joints.iter().filter(|j| j.continuous).count()
+}
+
+/// This layout's `q` in Pinocchio's: each continuous joint's angle `θ` becomes
+/// `(cos θ, sin θ)`, every other coordinate is copied.
+pub fn to_pinocchio(model: &SpatialModel, q: &[f64]) -> SpatialResult<DVector<f64>> {
+    check_configuration(model, "q", q)?;
+    let mut out = DVector::zeros(pinocchio_nq(model));
+    let mut at = 0;
+    for joint in &model.joints {
+        let (iq, nq) = (joint.idx_q, joint.kind.nq());
+        if joint.continuous {
+            let (s, c) = q[iq].sin_cos();
+            out[at] = c;
+            out[at + 1] = s;
+            at += 2;
+        } else {
+            out.as_mut_slice()[at..at + nq].copy_from_slice(&q[iq..iq + nq]);
+            at += nq;
+        }
+    }
+    Ok(out)
+}
+
+/// Pinocchio's `q` in this layout: each continuous joint's `(cos θ, sin θ)` (of unit norm to
+/// [`UNIT_CIRCLE_TOLERANCE`]) becomes `θ = atan2(sin θ, cos θ)` in `(−π, π]`.
+pub fn from_pinocchio(model: &SpatialModel, q_pinocchio: &[f64]) -> SpatialResult<DVector<f64>> {
+    check_vector("q", q_pinocchio, pinocchio_nq(model))?;
+    let mut q = DVector::zeros(model.nq);
+    let mut at = 0;
+    for joint in &model.joints {
+        let (iq, nq) = (joint.idx_q, joint.kind.nq());
+        if joint.continuous {
+            let (c, s) = (q_pinocchio[at], q_pinocchio[at + 1]);
+            let norm = c.hypot(s);
+            if (norm - 1.0).abs() > UNIT_CIRCLE_TOLERANCE {
+                return Err(SpatialError::InvalidArgument {
+                    field: format!("q[{at}..{}] (joint `{}`)", at + 2, joint.name),
+                    reason: format!("(cos θ, sin θ) of norm {norm}, not 1"),
+                });
+            }
+            q[iq] = s.atan2(c);
+            at += 2;
+        } else {
+            q.as_mut_slice()[iq..iq + nq].copy_from_slice(&q_pinocchio[at..at + nq]);
+            at += nq;
+        }
+    }
+    check_configuration(model, "q", q.as_slice())?;
+    Ok(q)
 }

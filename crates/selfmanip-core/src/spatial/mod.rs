@@ -31,14 +31,16 @@ pub mod quasistatic;
 pub mod rhex;
 pub mod rigid_body;
 pub mod se3;
+pub mod tree_kkt;
 pub mod urdf;
 
 pub use contact::{forward_dynamics, impact, PointContact, SpatialImpact};
 pub use error::{SpatialError, SpatialResult};
 pub use inertia::Inertia;
 pub use kinematics::{ReferenceFrame, SpatialData};
-pub use liegroup::{difference, integrate, neutral};
+pub use liegroup::{difference, from_pinocchio, integrate, neutral, pinocchio_nq, to_pinocchio};
 pub use model::{BaseKind, FrameKind, JointKind, SpatialModel};
 pub use motion::{Force, Motion};
 pub use quasistatic::{quasi_static, SpatialQuasiStatic};
 pub use se3::SE3;
+pub use tree_kkt::KktRoute;

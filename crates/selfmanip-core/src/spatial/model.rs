@@ -49,6 +49,10 @@ pub struct Joint {
     /// First index of this joint in `q` and in `v`.
     pub idx_q: usize,
     pub idx_v: usize,
+    /// A URDF `continuous` joint (a revolute joint without limits): one coordinate, the angle
+    /// `θ`, here, and two, `(cos θ, sin θ)`, in Pinocchio's layout
+    /// ([`super::liegroup::to_pinocchio`]).
+    pub continuous: bool,
 }
 
 /// What a frame marks (Pinocchio's `FrameType`).

@@ -11,7 +11,7 @@ use super::kinematics::{
 use super::model::SpatialModel;
 use super::motion::{Force, Motion};
 use crate::error::check_vector;
-use nalgebra::DVector;
+use nalgebra::{DVector, Vector6};
 
 /// `M(q)` into `data.M` (Featherstone 2008, Table 6.2, with world-frame composite inertias
 /// `⁰Yᶜᵢ = ⁰Yᵢ + Σ_children ⁰Yᶜ`): `M[λ*, i] = ⁰Sⱼᵀ ⁰Yᶜᵢ ⁰Sᵢ` for each `j` supporting `i`.
@@ -34,13 +34,13 @@ pub(crate) fn mass_matrix_from_kinematics(model: &SpatialModel, data: &mut Spati
     for (i, joint) in model.joints.iter().enumerate() {
         for c in joint.idx_v..joint.idx_v + joint.kind.nv() {
             // the force column ⁰Yᶜᵢ ⁰S_c, projected on every column of the supporting joints
-            let F = data.oYc[i] * data.oS.fixed_columns::<1>(c);
+            let F = data.oYc[i] * world_column(data, c);
             let mut j = Some(i);
             while let Some(k) = j {
                 let jk = &model.joints[k];
                 let first = if k == i { c } else { jk.idx_v };
                 for r in first..jk.idx_v + jk.kind.nv() {
-                    let m = data.oS.fixed_columns::<1>(r).dot(&F);
+                    let m = world_column(data, r).dot(&F);
                     data.M[(r, c)] = m;
                     data.M[(c, r)] = m;
                 }
@@ -48,6 +48,11 @@ pub(crate) fn mass_matrix_from_kinematics(model: &SpatialModel, data: &mut Spati
             }
         }
     }
+}
+
+/// The world motion-subspace column `⁰S_c` as a fixed-size vector.
+pub(crate) fn world_column(data: &SpatialData, c: usize) -> Vector6<f64> {
+    Vector6::from_column_slice(&data.oS.as_slice()[6 * c..6 * c + 6])
 }
 
 /// The RNEA sweeps on the velocities already in `data` with joint accelerations `a` (or none):

@@ -219,6 +219,8 @@ impl<'a> Builder<'a> {
                 }
                 Some(kind) => {
                     let j = self.add_joint(child.name.clone(), kind, joint, at);
+                    self.model.joints[j].continuous =
+                        child.joint_type == urdf_rs::JointType::Continuous;
                     self.add_link(&child.child.link, Some(j), SE3::identity(), depth + 1)?;
                 }
             }
@@ -241,6 +243,7 @@ impl<'a> Builder<'a> {
             placement,
             idx_q: m.nq,
             idx_v: m.nv,
+            continuous: false,
         });
         m.inertias.push(Inertia::zero());
         m.nq += kind.nq();

@@ -1,0 +1,23 @@
+//! The state of the quadruped's cost measurements (`benches/spatial.rs`, `spatial_cost_probe.rs`,
+//! `scripts/bench-pinocchio.py`), shared as source.
+use nalgebra::DVector;
+use selfmanip_core::spatial::{neutral, SpatialModel};
+
+/// Standing at 0.4 m on legs bent by 0.5 rad (knees −1 rad), moving: `(q, v, τ)`.
+pub fn standing_state(model: &SpatialModel) -> (DVector<f64>, DVector<f64>, DVector<f64>) {
+    let mut q = neutral(model);
+    q[2] = 0.4;
+    for leg in 0..4 {
+        q[7 + 3 * leg + 1] = 0.5;
+        q[7 + 3 * leg + 2] = -1.0;
+    }
+    let v = DVector::from_fn(model.nv, |i, _| 0.1 * ((i as f64) * 0.7).sin());
+    let tau = DVector::from_fn(model.nv, |i, _| {
+        if i < 6 {
+            0.0
+        } else {
+            2.0 * ((i as f64) * 1.3).cos()
+        }
+    });
+    (q, v, tau)
+}
