@@ -413,12 +413,14 @@ fn route(model: &Model, tree: &serde_json::Value, full: &str) -> PathParameter {
         };
     }
     if full.starts_with("behaviour.") {
+        let field = |value| PathParameter::Field {
+            path: full.to_string(),
+            value,
+        };
         return match field_value(tree, full) {
-            Some(v @ (serde_json::Value::Number(_) | serde_json::Value::String(_))) => {
-                PathParameter::Field {
-                    path: full.to_string(),
-                    value: v,
-                }
+            Some(v @ serde_json::Value::Number(_)) => field(v),
+            Some(serde_json::Value::String(text)) if is_formula(tree, full, &text) => {
+                field(serde_json::Value::String(text))
             }
             _ => PathParameter::NotDifferentiated(format!(
                 "`{full}` holds no number of the behaviour"
@@ -432,6 +434,19 @@ fn route(model: &Model, tree: &serde_json::Value, full: &str) -> PathParameter {
          body's mass and inertia and the joints' armatures"
     };
     PathParameter::NotDifferentiated(format!("`{full}`: {what}"))
+}
+
+/// Whether `text` (the field `full` of `tree`) is a formula of the behaviour's parameters
+/// (not a name, a kind or a formula of the state).
+fn is_formula(tree: &serde_json::Value, full: &str, text: &str) -> bool {
+    let Ok(e) = crate::expr::Expr::parse(full, text) else {
+        return false;
+    };
+    let mut vars = Vec::new();
+    e.variables(&mut vars);
+    let params = tree.get("behaviour").and_then(|b| b.get("parameters"));
+    vars.iter()
+        .all(|v| params.is_some_and(|p| p.get(v).is_some()))
 }
 
 /// The value at the full path `full` of `tree` (set to a marker, found where the trees

@@ -184,6 +184,7 @@ fn parameters_by_path_match_central_differences() {
         "legs[0].links[1].mass_kg",
         "legs.leg.links[0].length_m",
         "joints[1].phases[2].torque.kind",
+        "behaviour.name",
     ];
     let names: Vec<&str> = cases.iter().map(|c| c.0).chain(flagged).collect();
     let p = scenario_parameter_sensitivity(&s, &sim.options, &run, &names).unwrap();
