@@ -44,6 +44,21 @@ fn end(s: &Scenario) -> (Vec<f64>, Vec<EventKind>, Vec<f64>) {
     (x, k, run.execution.events.iter().map(|e| e.t).collect())
 }
 
+/// The run of `sim` from the state `x` (its controller as compiled for the scenario's start).
+fn from(sim: &Simulation, x: &[f64]) -> selfmanip_hybrid::Execution {
+    selfmanip_hybrid::simulate(
+        &sim.model,
+        &sim.terrain,
+        &*sim.controller,
+        sim.mode0,
+        &x[..5],
+        &x[5..],
+        sim.t_final_s,
+        sim.options,
+    )
+    .unwrap()
+}
+
 const T_AFTER_APEX: f64 = 0.35;
 
 /// Through touchdown (0.087 s), the delayed push, liftoff (0.189 s) and the apex (0.294 s)
@@ -69,17 +84,7 @@ fn state_jacobian_through_a_passed_apex_matches_central_differences() {
         let jac = s.state_jacobian.expect("defined through the apex");
         let x0: Vec<f64> = sim.q0.iter().chain(&sim.qd0).copied().collect();
         let at = |x: &[f64]| {
-            let e = selfmanip_hybrid::simulate(
-                &sim.model,
-                &sim.terrain,
-                &*sim.controller,
-                sim.mode0,
-                &x[..5],
-                &x[5..],
-                sim.t_final_s,
-                sim.options,
-            )
-            .unwrap();
+            let e = from(&sim, x);
             end_state_and_events(&e)
         };
         let fd = run_jacobian_fd(at, &x0, &(0..10).collect::<Vec<_>>(), &kinds, 1e-6);
@@ -98,17 +103,7 @@ fn passed_apex_time_gradient_matches_central_differences() {
     let g = s.events[2].time_gradient.clone().unwrap();
     let x0: Vec<f64> = sim.q0.iter().chain(&sim.qd0).copied().collect();
     let t_apex = |x: &[f64]| {
-        let e = selfmanip_hybrid::simulate(
-            &sim.model,
-            &sim.terrain,
-            &*sim.controller,
-            sim.mode0,
-            &x[..5],
-            &x[5..],
-            sim.t_final_s,
-            sim.options,
-        )
-        .unwrap();
+        let e = from(&sim, x);
         assert_eq!(e.events[2].kind, EventKind::Apex);
         e.events[2].t
     };
