@@ -15,9 +15,10 @@ your own (issue 17), through the Rust crate ``selfmanip-sim``.
   Newton shooting on the engine's own derivatives: fixed point, period, monodromy matrix,
   Floquet multipliers and a stability verdict (``docs/periodic-orbits.md``).
 * ``simulate(..., sensitivity=True)``: the execution's state Jacobian ``dx(t_end)/dx(0)``
-  (``Execution.state_jacobian``) and each event's saltation matrix
-  (``execution.events[i]["saltation"]``, ``None`` with ``"saltation_reason"`` where the
-  engine flags it).
+  (``Execution.state_jacobian``, through every event, an apex passed on the way included)
+  and each event's saltation matrix (``execution.events[i]["saltation"]``, ``None`` with
+  ``"saltation_reason"`` where the engine flags it); with ``parameters=[path, ...]`` the
+  derivatives with respect to behaviour and description parameters by path.
 * A Python callable as controller, ``controller=lambda t, q, qd, mode: tau``: the slow escape
   hatch. Each evaluation takes the GIL and crosses the FFI (seven per integration step), so a
   run is one to two orders of magnitude slower than the same law as a behaviour file; the
@@ -141,18 +142,22 @@ class Execution:
         #: ``dx(t_end)/dx(0)`` over the state ``(q, qd)`` (``2 nq x 2 nq``) when run with
         #: ``sensitivity=True`` and every event's saltation matrix is defined; else ``None``.
         self.state_jacobian: np.ndarray | None = None
-        #: The behaviour parameters asked for with ``parameters=[...]``, and
+        #: The parameters asked for with ``parameters=[...]`` (names or paths), and
         #: ``dx(t_end)/dp`` over them (``2 nq x len(parameters)``, one column per name), or
-        #: ``None`` when not formed (``parameter_reason`` says why).
+        #: ``None`` when not formed (``parameter_reason`` says why). A name without an exact
+        #: derivative yet has a NaN column and its reason in ``parameter_not_differentiated``.
         self.parameters: list[str] = list(parameters)
         self.parameter_jacobian: np.ndarray | None = None
         self.parameter_reason: str | None = None
+        self.parameter_not_differentiated: dict[str, str] = {}
         if sensitivity:
             self._attach_sensitivity(native.sensitivity())
         if self.parameters:
             p = native.parameter_sensitivity(self.parameters)
             self.parameter_jacobian = p["parameter_jacobian"]
             self.parameter_reason = p["reason"]
+            self.parameter_not_differentiated = {
+                n: why for n, why in zip(self.parameters, p["not_differentiated"]) if why is not None}
             for ev, g in zip(self.events, p["event_time_gradients"]):
                 ev["parameter_time_gradient"] = g
 
@@ -387,11 +392,16 @@ def simulate(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[float], qd
     ``controller``.
 
     ``parameters=["kp_push", ...]`` (with ``sensitivity=True``): also the final state's exact
-    derivatives with respect to those parameters of the behaviour (its ``[parameters]``
-    table), ``Execution.parameter_jacobian`` (``2 nq x len(parameters)``, ``None`` with
+    derivatives with respect to those parameters, named as in ``params=`` — a behaviour
+    parameter (``kp_push``), any number of the behaviour by path
+    (``joints[1].phases[0].torque.kp_n_m_per_rad``, a literal or a formula), the body's
+    ``body.mass_kg`` and ``body.inertia_kg_m2``, a joint's ``legs[0].links[1].armature_kg_m2``
+    —: ``Execution.parameter_jacobian`` (``2 nq x len(parameters)``, ``None`` with
     ``parameter_reason`` where not formed) and each event's ``parameter_time_gradient``. A
-    name the behaviour does not have raises :class:`~selfmanip.errors.InvalidInputError`
-    naming ``parameters[i]``.
+    path without an exact derivative yet (a link's mass or length, a friction coefficient, the
+    terrain) has a NaN column and its reason in ``Execution.parameter_not_differentiated``
+    (never a finite difference). A name that names nothing raises
+    :class:`~selfmanip.errors.InvalidInputError` naming ``parameters[i]``.
     """
     if controller is not None and behaviour is not None:
         raise InvalidInputError("give a behaviour or a controller, not both", "controller")
@@ -405,11 +415,11 @@ def simulate(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[float], qd
 
 
 def _parameter_names(parameters: Sequence[str] | None, sensitivity: bool) -> list[str]:
-    """The behaviour parameters of ``simulate(..., parameters=...)``, checked."""
+    """The parameter names or paths of ``simulate(..., parameters=...)``, checked."""
     if parameters is None:
         return []
     if isinstance(parameters, str) or not all(isinstance(p, str) for p in parameters):
-        raise InvalidTypeError("`parameters` must be a list of parameter names", "parameters")
+        raise InvalidTypeError("`parameters` must be a list of parameter names or paths", "parameters")
     if not sensitivity:
         raise InvalidInputError("`parameters` needs `sensitivity=True`", "parameters")
     return list(parameters)

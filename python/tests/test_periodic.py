@@ -162,15 +162,15 @@ def test_flagged_event_has_no_saltation_and_a_reason(orbit: selfmanip.PeriodicOr
     assert ev["saltation"] is None and ev["saltation_status"] == "unsupported"
     assert "no flow after" in ev["saltation_reason"]
     assert e.state_jacobian is None
-    # an apex recorded on the way: the engine salts it as a terminal one (a wrong number,
-    # docs/periodic-orbits.md): flagged, and no state Jacobian
+    # an apex recorded on the way is no reset: its saltation the identity, the state
+    # Jacobian carried through it (against central differences: test_simulate_sensitivity_paths.py)
     e = selfmanip.simulate(HOPPER, HOP, list(orbit.q), list(orbit.qd), t_final=orbit.period_s + 0.1,
                            sensitivity=True)
     assert [ev["kind"] for ev in e.events] == ["touchdown", "liftoff", "apex"]
     apex = e.events[-1]
-    assert apex["saltation"] is None and apex["saltation_status"] == "unsupported"
-    assert "terminal" in apex["saltation_reason"]
-    assert e.events[0]["saltation"] is not None and e.state_jacobian is None
+    assert apex["saltation_status"] == "defined" and apex["saltation_reason"] is None
+    assert np.abs(apex["saltation"] - np.eye(10)).max() < 1e-12
+    assert e.state_jacobian is not None
     # without sensitivity=True nothing is attached
     plain = selfmanip.simulate(HOPPER, HOP, list(orbit.q), list(orbit.qd), t_final=0.3)
     assert plain.state_jacobian is None and "saltation" not in plain.events[0]

@@ -37,9 +37,8 @@ use selfmanip_hybrid::sensitivity::SensitivityError;
 use selfmanip_hybrid::Controller;
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::labels::ContactLabels;
-use selfmanip_sim::periodic::{
-    periodic_orbit, run_parameter_sensitivity, run_sensitivity, PeriodicRunError, PeriodicSpec,
-};
+use selfmanip_sim::periodic::{periodic_orbit, run_sensitivity, PeriodicRunError, PeriodicSpec};
+use selfmanip_sim::sensitivity::{scenario_parameter_sensitivity, ParameterPathError};
 use selfmanip_sim::sweep::{grid, sweep_with, PointResult};
 use selfmanip_sim::trajectory::{q_names, DEFAULT_DT_S};
 use selfmanip_sim::{InitialState, Scenario, SimError, SimOptions, Simulation, TerrainSpec};
@@ -810,30 +809,31 @@ impl PyRun {
         })
     }
 
-    /// The final state's derivatives with respect to the behaviour's named parameters
-    /// (`selfmanip_sim::periodic::run_parameter_sensitivity`): `parameter_jacobian`
-    /// (`2nq × len(names)`, `None` when not formed), `reason` (why not, else `None`) and
-    /// `event_time_gradients` (per event `dt_e/dp`, or `None`). A name the behaviour does not
-    /// have is an `InvalidInputError` naming `parameters[i]`.
+    /// The final state's derivatives with respect to parameters named by path
+    /// (`selfmanip_sim::sensitivity::scenario_parameter_sensitivity`: behaviour parameters,
+    /// behaviour numbers, the body's mass and inertia, joints' armatures):
+    /// `parameter_jacobian` (`2nq × len(names)`, `None` when not formed; NaN columns for
+    /// names without an exact derivative yet), `reason` (why not formed, else `None`),
+    /// `not_differentiated` (per name, why it has no exact derivative, else `None`) and
+    /// `event_time_gradients` (per event `dt_e/dp`, or `None`). A name that names nothing is
+    /// an `InvalidInputError` naming `parameters[i]`.
     fn parameter_sensitivity<'py>(
         &self,
         py: Python<'py>,
         names: Vec<String>,
     ) -> PyResult<Bound<'py, PyDict>> {
         guard(|| {
-            let run = &self.inner;
+            let (run, scenario) = (&self.inner, &self.scenario);
             let refs: Vec<&str> = names.iter().map(String::as_str).collect();
+            let options = scenario.options.hybrid().map_err(caller_err)?;
             let s = py
-                .detach(|| run_parameter_sensitivity(run, &refs))
+                .detach(|| scenario_parameter_sensitivity(scenario, &options, run, &refs))
                 .map_err(|e| match e {
-                    SensitivityError::UnknownParameter { name, .. } => {
-                        let i = names.iter().position(|n| *n == name).unwrap_or(0);
-                        invalid(
-                            &format!("parameters[{i}]"),
-                            format!("`{name}` is not a parameter of the behaviour"),
-                        )
+                    ParameterPathError::Unknown { index, source } => {
+                        invalid(&format!("parameters[{index}]"), source.to_string())
                     }
-                    e => sensitivity_err(e),
+                    ParameterPathError::Sensitivity(e) => sensitivity_err(e),
+                    ParameterPathError::Sim(e) => caller_err(e),
                 })?;
             take_failure(&self.failure)?;
             let d = PyDict::new(py);
@@ -842,6 +842,7 @@ impl PyRun {
                 None => d.set_item("parameter_jacobian", py.None())?,
             }
             d.set_item("reason", s.reason.clone())?;
+            d.set_item("not_differentiated", s.not_differentiated.clone())?;
             let times = PyList::empty(py);
             for t in &s.event_times {
                 match t {

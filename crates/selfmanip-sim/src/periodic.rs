@@ -3,7 +3,7 @@
 //! name ([`PeriodicSpec`], what `selfmanip.periodic_orbit` forwards); and the sensitivities
 //! of a scenario's run ([`run_sensitivity`], what `simulate(..., sensitivity=True)` shows) and
 //! its derivatives with respect to its behaviour's named parameters
-//! ([`run_parameter_sensitivity`]).
+//! ([`run_parameter_sensitivity`], in [`crate::sensitivity`]).
 //!
 //! ```text
 //! Scenario (guess = initial q, q̇; behaviour compiled there) + PeriodicSpec
@@ -12,19 +12,18 @@
 use crate::error::{invalid, non_negative, positive, SimError};
 use crate::scenario::{Scenario, Simulation};
 use crate::trajectory::q_names;
-use nalgebra::DMatrix;
 use selfmanip_core::tangent::TangentError;
 use selfmanip_core::Model;
 use selfmanip_hybrid::periodic::{
     find_periodic_orbit, PeriodicError, PeriodicOptions, PeriodicOrbit,
 };
 use selfmanip_hybrid::sensitivity::{
-    execution_sensitivity, execution_sensitivity_columns, EventSensitivity, Parameter,
-    SaltationStatus, Sensitivity, SensitivityError,
+    execution_sensitivity, EventSensitivity, SaltationStatus, Sensitivity, SensitivityError,
 };
-use selfmanip_hybrid::ControllerPartials;
-use selfmanip_hybrid::{EventKind, Termination};
+use selfmanip_hybrid::Termination;
 use serde::{Deserialize, Serialize};
+
+pub use crate::sensitivity::{run_parameter_sensitivity, ParameterSensitivity};
 
 /// The options of a periodic-orbit search by name; every field absent keeps
 /// [`PeriodicOptions::default`]'s value.
@@ -128,11 +127,8 @@ pub fn periodic_orbit(
 }
 
 /// The sensitivities of a run to its initial state
-/// ([`selfmanip_hybrid::sensitivity::execution_sensitivity`]), with an apex recorded on the
-/// way (a run that does not stop there) flagged [`SaltationStatus::Unsupported`] and the
-/// state Jacobian withheld: the engine salts every apex as a terminal one (`I − f D_xg /
-/// (D_xg f)`, which zeroes `ż`'s row), while the flow goes on unchanged through it (its
-/// saltation is the identity) — a wrong number, not returned. A behaviour that remembers
+/// ([`selfmanip_hybrid::sensitivity::execution_sensitivity`]); an apex passed on the way is
+/// no reset (its saltation the identity, its time's gradient given). A behaviour that remembers
 /// events (motions started at them, phases a delay after them) has that memory
 /// differentiated (`docs/sensitivity.md`, "A controller's memory of events"); one whose
 /// memory is not differentiated is a typed error
@@ -155,144 +151,15 @@ pub fn run_sensitivity(run: &crate::Run) -> Result<Sensitivity, SensitivityError
     if let Some(reason) = cut {
         return Ok(not_formed(exec, &reason));
     }
-    let mut s = match execution_sensitivity(&run.model, &run.terrain, exec) {
-        Ok(s) => s,
+    match execution_sensitivity(&run.model, &run.terrain, exec) {
+        Ok(s) => Ok(s),
         // a situation the tangent does not cover yet, somewhere along the run: said on every
         // event, the run itself kept
         Err(SensitivityError::Tangent(
             e @ (TangentError::TurningFrame { .. } | TangentError::FrictionAtRest { .. }),
-        )) => return Ok(not_formed(exec, &e.to_string())),
-        Err(e) => return Err(e),
-    };
-    let terminal = exec.termination == Termination::Apex;
-    let n = s.events.len();
-    for (i, e) in s.events.iter_mut().enumerate() {
-        if e.kind == EventKind::Apex && !(terminal && i + 1 == n) {
-            e.status = SaltationStatus::Unsupported {
-                reason: "an apex recorded on the way is salted as a terminal one by the engine \
-                         (docs/periodic-orbits.md, known limits)"
-                    .into(),
-            };
-            e.saltation = None;
-            e.time_gradient = None;
-            s.state_jacobian = None;
-        }
+        )) => Ok(not_formed(exec, &e.to_string())),
+        Err(e) => Err(e),
     }
-    Ok(s)
-}
-
-/// A run's final state differentiated with respect to named parameters of its behaviour
-/// ([`run_parameter_sensitivity`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct ParameterSensitivity {
-    /// `d(q, q̇)(T)/dp`, `2nq × k` (one column per name, in order); `None` when not formed
-    /// (see [`Self::reason`]).
-    pub state: Option<DMatrix<f64>>,
-    /// Each event's `dt_e/dp` (`k` entries), `None` where its saltation is not defined.
-    pub event_times: Vec<Option<Vec<f64>>>,
-    /// Why [`Self::state`] is `None`.
-    pub reason: Option<String>,
-}
-
-/// The derivatives of `run`'s final state with respect to the behaviour parameters `names`
-/// (the `[parameters]` table: `kp_push`, `t2`, `gear_ratio`, …): the behaviour's exact
-/// parameter partials carried through every event
-/// ([`selfmanip_hybrid::sensitivity::execution_sensitivity_columns`]). Not formed (with the
-/// reason) for a run cut by its budget or stopped, where an event's saltation is not defined,
-/// and past an apex recorded on the way (see [`run_sensitivity`]). A name the behaviour does
-/// not have is [`SensitivityError::UnknownParameter`] naming that name alone.
-pub fn run_parameter_sensitivity(
-    run: &crate::Run,
-    names: &[&str],
-) -> Result<ParameterSensitivity, SensitivityError> {
-    let exec = &run.execution;
-    let unformed = |reason: String| ParameterSensitivity {
-        state: None,
-        event_times: vec![None; exec.events.len()],
-        reason: Some(reason),
-    };
-    match exec.termination {
-        Termination::StepBudget { t, steps } => {
-            return Ok(unformed(format!(
-                "the run ended on its step budget ({steps} steps, at t = {t} s)"
-            )))
-        }
-        Termination::Interrupted { t } => {
-            return Ok(unformed(format!("the run was stopped at t = {t} s")))
-        }
-        _ => {}
-    }
-    let params: Vec<Parameter> = names
-        .iter()
-        .map(|n| Parameter::Controller((*n).to_string()))
-        .collect();
-    let n2 = 2 * run.model.nq();
-    let s = match execution_sensitivity_columns(
-        &run.model,
-        &run.terrain,
-        exec,
-        &DMatrix::zeros(n2, 0),
-        &params,
-    ) {
-        Ok(s) => s,
-        Err(SensitivityError::UnknownParameter { name, t }) => {
-            let name = unknown_name(run, names).map_or(name, str::to_string);
-            return Err(SensitivityError::UnknownParameter { name, t });
-        }
-        Err(SensitivityError::Tangent(
-            e @ (TangentError::TurningFrame { .. } | TangentError::FrictionAtRest { .. }),
-        )) => return Ok(unformed(e.to_string())),
-        Err(e) => return Err(e),
-    };
-    let event_times = s
-        .event_time_columns
-        .iter()
-        .map(|c| c.as_ref().map(|c| c.iter().copied().collect()))
-        .collect();
-    let last = exec.events.len().saturating_sub(1);
-    let reason = if let Some(e) = s
-        .events
-        .iter()
-        .find(|e| e.status != SaltationStatus::Defined)
-    {
-        Some(format!(
-            "{} at t = {} s: {}",
-            e.kind.name(),
-            e.t,
-            e.status.name()
-        ))
-    } else if let Some(i) = exec.events.iter().position(|e| e.kind == EventKind::Apex) {
-        (i != last || exec.termination != Termination::Apex).then(|| {
-            "an apex recorded on the way is salted as a terminal one by the engine".to_string()
-        })
-    } else {
-        None
-    };
-    Ok(match (reason, s.columns) {
-        (None, Some(x)) => ParameterSensitivity {
-            state: Some(x),
-            event_times,
-            reason: None,
-        },
-        (reason, _) => ParameterSensitivity {
-            state: None,
-            event_times,
-            reason: Some(reason.unwrap_or_else(|| "not defined along the run".into())),
-        },
-    })
-}
-
-/// The first of `names` that the run's first controller does not know (its
-/// [`selfmanip_hybrid::Controller::parameter_partials`] refuses it alone).
-fn unknown_name<'a>(run: &crate::Run, names: &[&'a str]) -> Option<&'a str> {
-    let seg = run.execution.segments.first()?;
-    let (n, nq) = (run.model.n_joints(), run.model.nq());
-    let (q, qd) = seg.y0.split_at(nq);
-    names.iter().copied().find(|name| {
-        let mut out = ControllerPartials::with_parameters(n, nq, 0, 1);
-        !seg.controller
-            .parameter_partials(seg.t0, q, qd, seg.mode, &[], &[name], &mut out)
-    })
 }
 
 /// The sensitivities of `exec` when none are formed: every event unsupported for `reason`.

@@ -7,12 +7,15 @@
 //!
 //! Times are reported on the caller's clock: execution times minus `offset_s` (a leap's
 //! clock starts at its front motor's start, not at the execution's).
+use crate::error::SimError;
+use crate::scenario::Scenario;
 use nalgebra::DMatrix;
+use selfmanip_core::tangent::TangentError;
 use selfmanip_core::{Model, Terrain};
 use selfmanip_hybrid::sensitivity::{
     execution_sensitivity_columns, ColumnSensitivity, Parameter, SaltationStatus, SensitivityError,
 };
-use selfmanip_hybrid::{EventKind, Execution};
+use selfmanip_hybrid::{ControllerPartials, EventKind, Execution, HybridOptions, Termination};
 
 /// One event's saltation matrix over `(q, q̇)`.
 #[derive(Debug, Clone, PartialEq)]
@@ -147,4 +150,429 @@ pub fn end_event_time_gradient(
         .last()
         .is_some_and(|e| e.kind == kind)
         .then(|| t.iter().copied().collect())
+}
+
+/// A run's final state differentiated with respect to named parameters
+/// ([`run_parameter_sensitivity`], [`scenario_parameter_sensitivity`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParameterSensitivity {
+    /// `d(q, q̇)(T)/dp`, `2nq × k` (one column per name, in order); `None` when not formed
+    /// (see [`Self::reason`]). The column of a name in [`Self::not_differentiated`] is NaN.
+    pub state: Option<DMatrix<f64>>,
+    /// Each event's `dt_e/dp` (`k` entries), `None` where its saltation is not defined.
+    pub event_times: Vec<Option<Vec<f64>>>,
+    /// Why [`Self::state`] is `None`.
+    pub reason: Option<String>,
+    /// Per name, why it has no exact derivative yet (`None`: it has one).
+    pub not_differentiated: Vec<Option<String>>,
+}
+
+/// The derivatives of `run`'s final state with respect to the behaviour parameters `names`
+/// (the `[parameters]` table: `kp_push`, `t2`, `gear_ratio`, …): the behaviour's exact
+/// parameter partials carried through every event
+/// ([`selfmanip_hybrid::sensitivity::execution_sensitivity_columns`]). Not formed (with the
+/// reason) for a run cut by its budget or stopped, and where an event's saltation is not
+/// defined. A name the behaviour does not have is [`SensitivityError::UnknownParameter`]
+/// naming that name alone.
+pub fn run_parameter_sensitivity(
+    run: &crate::Run,
+    names: &[&str],
+) -> Result<ParameterSensitivity, SensitivityError> {
+    let params: Vec<Parameter> = names
+        .iter()
+        .map(|n| Parameter::Controller((*n).to_string()))
+        .collect();
+    run_columns(run, &params).map_err(|e| match e {
+        SensitivityError::UnknownParameter { name, t } => {
+            let name = unknown_name(run, names).map_or(name, str::to_string);
+            SensitivityError::UnknownParameter { name, t }
+        }
+        e => e,
+    })
+}
+
+/// The final state's and the events' derivatives of `run` with respect to the engine's
+/// parameters `params` (see [`run_parameter_sensitivity`]).
+fn run_columns(
+    run: &crate::Run,
+    params: &[Parameter],
+) -> Result<ParameterSensitivity, SensitivityError> {
+    let exec = &run.execution;
+    let unformed = |reason: String| ParameterSensitivity {
+        state: None,
+        event_times: vec![None; exec.events.len()],
+        reason: Some(reason),
+        not_differentiated: vec![None; params.len()],
+    };
+    match exec.termination {
+        Termination::StepBudget { t, steps } => {
+            return Ok(unformed(format!(
+                "the run ended on its step budget ({steps} steps, at t = {t} s)"
+            )))
+        }
+        Termination::Interrupted { t } => {
+            return Ok(unformed(format!("the run was stopped at t = {t} s")))
+        }
+        _ => {}
+    }
+    let n2 = 2 * run.model.nq();
+    let s = match execution_sensitivity_columns(
+        &run.model,
+        &run.terrain,
+        exec,
+        &DMatrix::zeros(n2, 0),
+        params,
+    ) {
+        Ok(s) => s,
+        Err(SensitivityError::Tangent(
+            e @ (TangentError::TurningFrame { .. } | TangentError::FrictionAtRest { .. }),
+        )) => return Ok(unformed(e.to_string())),
+        Err(e) => return Err(e),
+    };
+    let event_times = s
+        .event_time_columns
+        .iter()
+        .map(|c| c.as_ref().map(|c| c.iter().copied().collect()))
+        .collect();
+    let reason = s
+        .events
+        .iter()
+        .find(|e| e.status != SaltationStatus::Defined)
+        .map(|e| format!("{} at t = {} s: {}", e.kind.name(), e.t, e.status.name()));
+    Ok(match (reason, s.columns) {
+        (None, Some(x)) => ParameterSensitivity {
+            state: Some(x),
+            event_times,
+            reason: None,
+            not_differentiated: vec![None; params.len()],
+        },
+        (reason, _) => ParameterSensitivity {
+            state: None,
+            event_times,
+            reason: Some(reason.unwrap_or_else(|| "not defined along the run".into())),
+            not_differentiated: vec![None; params.len()],
+        },
+    })
+}
+
+/// The first of `names` that the run's first controller does not know (its
+/// [`selfmanip_hybrid::Controller::parameter_partials`] refuses it alone).
+fn unknown_name<'a>(run: &crate::Run, names: &[&'a str]) -> Option<&'a str> {
+    let seg = run.execution.segments.first()?;
+    let (n, nq) = (run.model.n_joints(), run.model.nq());
+    let (q, qd) = seg.y0.split_at(nq);
+    names.iter().copied().find(|name| {
+        let mut out = ControllerPartials::with_parameters(n, nq, 0, 1);
+        !seg.controller
+            .parameter_partials(seg.t0, q, qd, seg.mode, &[], &[name], &mut out)
+    })
+}
+
+/// What stands behind a parameter path of a scenario for the derivatives.
+#[derive(Debug, Clone, PartialEq)]
+enum PathParameter {
+    /// A parameter the engine differentiates as it is (a behaviour parameter, the body's
+    /// mass or inertia, a joint's armature).
+    Engine(Parameter),
+    /// A number of the behaviour (a literal or a formula): made a behaviour parameter of its
+    /// own (`FIELD_PARAMETER` + index) added to the field, 0 at the run.
+    Field {
+        path: String,
+        value: serde_json::Value,
+    },
+    /// No exact derivative yet: why.
+    NotDifferentiated(String),
+}
+
+/// The prefix of the behaviour parameters a field is differentiated through.
+const FIELD_PARAMETER: &str = "__d_field_";
+
+/// Why a parameter path has no derivative of a scenario's run.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ParameterPathError {
+    /// `names[index]` names nothing settable of the scenario.
+    #[error("parameters[{index}]: {source}")]
+    Unknown { index: usize, source: SimError },
+    #[error(transparent)]
+    Sensitivity(#[from] SensitivityError),
+    #[error(transparent)]
+    Sim(#[from] SimError),
+}
+
+/// The derivatives of `run` (a run of `scenario`, with its behaviour, under the engine's
+/// `options`: the scenario's own, [`crate::scenario::SimOptions::hybrid`], unless the caller
+/// changed them) with respect to
+/// parameters named by path ([`crate::path`]: a behaviour parameter `kp_push` or
+/// `parameters.kp_push`, a number of the behaviour `joints[1].phases[0].torque.kp_n_m_per_rad`,
+/// a field of the robot `body.mass_kg`, `legs[0].links[1].armature_kg_m2`), exact:
+///
+/// - a behaviour parameter: the behaviour's own partials;
+/// - a number of the behaviour (a literal or a formula `e`): the field made `e + δ`, `δ` a
+///   behaviour parameter at 0, and the run differentiated with respect to `δ` (the run of the
+///   rewritten behaviour is compared with `run`: any difference in its events or end state
+///   leaves the name not differentiated, with the reason);
+/// - the body's mass and inertia, a joint's armature: [`Parameter::Body`];
+/// - anything else (a link's mass or length, a friction coefficient, the terrain, the initial
+///   state — whose derivatives are the state Jacobian's): no exact derivative yet, its column
+///   NaN and the reason in [`ParameterSensitivity::not_differentiated`], never a finite
+///   difference.
+pub fn scenario_parameter_sensitivity(
+    scenario: &Scenario,
+    options: &HybridOptions,
+    run: &crate::Run,
+    names: &[&str],
+) -> Result<ParameterSensitivity, ParameterPathError> {
+    let tree = scenario.to_value()?;
+    let mut routes = Vec::with_capacity(names.len());
+    for (index, name) in names.iter().enumerate() {
+        let full = crate::path::resolve(&tree, name)
+            .map_err(|source| ParameterPathError::Unknown { index, source })?;
+        routes.push(route(&run.model, &tree, &full));
+    }
+    let fields: Vec<(usize, String, serde_json::Value)> = routes
+        .iter()
+        .enumerate()
+        .filter_map(|(i, r)| match r {
+            PathParameter::Field { path, value } => Some((i, path.clone(), value.clone())),
+            _ => None,
+        })
+        .collect();
+    // each field alone first: one that is no number of the behaviour is flagged by itself
+    let mut good = Vec::with_capacity(fields.len());
+    for f in fields {
+        match with_field_parameters(scenario, std::slice::from_ref(&f)) {
+            Ok(_) => good.push(f),
+            Err(reason) => routes[f.0] = PathParameter::NotDifferentiated(reason),
+        }
+    }
+    let mut rewritten = None;
+    if !good.is_empty() {
+        match with_field_parameters(scenario, &good).and_then(|s| rerun(&s, options, run)) {
+            Ok(r) => rewritten = Some(r),
+            Err(reason) => {
+                for (i, ..) in &good {
+                    routes[*i] = PathParameter::NotDifferentiated(reason.clone());
+                }
+            }
+        }
+    }
+    let params: Vec<Parameter> = routes
+        .iter()
+        .enumerate()
+        .filter_map(|(i, r)| match r {
+            PathParameter::Engine(p) => Some(p.clone()),
+            PathParameter::Field { .. } => {
+                Some(Parameter::Controller(format!("{FIELD_PARAMETER}{i}")))
+            }
+            PathParameter::NotDifferentiated(_) => None,
+        })
+        .collect();
+    let s = match run_columns(rewritten.as_ref().unwrap_or(run), &params) {
+        Err(SensitivityError::UnknownParameter { name, .. }) => {
+            // a parameter of the table the controller gives no derivative for: named by path
+            let index = routes
+                .iter()
+                .enumerate()
+                .position(|(i, r)| match r {
+                    PathParameter::Engine(Parameter::Controller(n)) => *n == name,
+                    PathParameter::Field { .. } => name == format!("{FIELD_PARAMETER}{i}"),
+                    _ => false,
+                })
+                .unwrap_or(0);
+            return Err(ParameterPathError::Unknown {
+                index,
+                source: SimError::UnknownParameter {
+                    path: names[index].to_string(),
+                    reason: "the behaviour gives no derivative with respect to it".into(),
+                },
+            });
+        }
+        s => s?,
+    };
+    Ok(spread(s, &routes))
+}
+
+/// What stands behind the full path `full` of `tree` (a scenario) for the derivatives.
+fn route(model: &Model, tree: &serde_json::Value, full: &str) -> PathParameter {
+    use selfmanip_core::tangent::BodyParameter;
+    if let Some(k) = full.strip_prefix("behaviour.parameters.") {
+        return PathParameter::Engine(Parameter::Controller(k.to_string()));
+    }
+    match full {
+        "robot.body.mass_kg" => return PathParameter::Engine(Parameter::Body(BodyParameter::Mass)),
+        "robot.body.inertia_kg_m2" => {
+            return PathParameter::Engine(Parameter::Body(BodyParameter::Inertia))
+        }
+        _ => {}
+    }
+    if let Some(j) = armature_joint(model, tree, full) {
+        let p = BodyParameter::Armature(j);
+        return match p.check(model) {
+            Ok(()) => PathParameter::Engine(Parameter::Body(p)),
+            Err(e) => PathParameter::NotDifferentiated(e.to_string()),
+        };
+    }
+    if full.starts_with("behaviour.") {
+        let field = |value| PathParameter::Field {
+            path: full.to_string(),
+            value,
+        };
+        return match field_value(tree, full) {
+            Some(v @ serde_json::Value::Number(_)) => field(v),
+            Some(serde_json::Value::String(text)) if is_formula(tree, full, &text) => {
+                field(serde_json::Value::String(text))
+            }
+            _ => PathParameter::NotDifferentiated(format!(
+                "`{full}` holds no number of the behaviour"
+            )),
+        };
+    }
+    let what = if full.starts_with("initial.") {
+        "the initial state's derivatives are the state Jacobian's (`sensitivity=True`)"
+    } else {
+        "no exact derivative yet: the engine differentiates the behaviour's numbers, the \
+         body's mass and inertia and the joints' armatures"
+    };
+    PathParameter::NotDifferentiated(format!("`{full}`: {what}"))
+}
+
+/// Whether `text` (the field `full` of `tree`) is a formula of the behaviour's parameters
+/// (not a name, a kind or a formula of the state).
+fn is_formula(tree: &serde_json::Value, full: &str, text: &str) -> bool {
+    let Ok(e) = crate::expr::Expr::parse(full, text) else {
+        return false;
+    };
+    let mut vars = Vec::new();
+    e.variables(&mut vars);
+    let params = tree.get("behaviour").and_then(|b| b.get("parameters"));
+    vars.iter()
+        .all(|v| params.is_some_and(|p| p.get(v).is_some()))
+}
+
+/// The value at the full path `full` of `tree` (set to a marker, found where the trees
+/// differ).
+fn field_value(tree: &serde_json::Value, full: &str) -> Option<serde_json::Value> {
+    let mut t = tree.clone();
+    let marker = serde_json::Value::String("\u{0}marker".into());
+    crate::path::set(&mut t, full, marker).ok()?;
+    find_changed(tree, &t)
+}
+
+/// The value of `a` where `b` differs from it (the one leaf set to a marker).
+fn find_changed(a: &serde_json::Value, b: &serde_json::Value) -> Option<serde_json::Value> {
+    use serde_json::Value;
+    match (a, b) {
+        (Value::Object(x), Value::Object(y)) => x
+            .iter()
+            .find_map(|(k, v)| y.get(k).and_then(|w| find_changed(v, w))),
+        (Value::Array(x), Value::Array(y)) => x.iter().zip(y).find_map(|(v, w)| find_changed(v, w)),
+        _ => (a != b).then(|| a.clone()),
+    }
+}
+
+/// The joint whose armature the full path `full` names (`robot.legs.<leg>.links[k]
+/// .armature_kg_m2`, the leg by name or index), if it names one.
+fn armature_joint(model: &Model, tree: &serde_json::Value, full: &str) -> Option<usize> {
+    let rest = full
+        .strip_prefix("robot.legs")?
+        .strip_suffix(".armature_kg_m2")?;
+    let (leg, link) = rest.rsplit_once(".links[")?;
+    let k: usize = link.strip_suffix(']')?.parse().ok()?;
+    let legs = tree.get("robot")?.get("legs")?.as_array()?;
+    let li = match leg.strip_prefix('[') {
+        Some(i) => i.strip_suffix(']')?.parse().ok()?,
+        None => {
+            let name = leg.strip_prefix('.')?;
+            legs.iter()
+                .position(|l| l.get("name").and_then(|n| n.as_str()) == Some(name))?
+        }
+    };
+    model
+        .joints
+        .iter()
+        .position(|j| j.leg == li && j.index_in_leg == k)
+}
+
+/// `scenario` with each behaviour number of `fields` (`(name index, full path, value)`) made
+/// `value + δ_i` (`δ_i` a behaviour parameter at 0), checked to compile; else why not.
+fn with_field_parameters(
+    scenario: &Scenario,
+    fields: &[(usize, String, serde_json::Value)],
+) -> Result<Scenario, String> {
+    let mut s = scenario.clone();
+    let mut values = Vec::with_capacity(fields.len());
+    for (i, path, value) in fields {
+        let p = format!("{FIELD_PARAMETER}{i}");
+        let sum = match value {
+            serde_json::Value::String(e) => format!("({e}) + {p}"),
+            v => format!("{v} + {p}"),
+        };
+        values.push((path.clone(), serde_json::Value::String(sum)));
+        s.behaviour
+            .parameters
+            .insert(p, crate::expr::Scalar::Number(0.0));
+    }
+    let s = s
+        .with_values(&values)
+        .and_then(|s| crate::scenario::Simulation::new(&s).map(|_| s))
+        .map_err(|e| format!("not a number the behaviour differentiates ({e})"))?;
+    Ok(s)
+}
+
+/// The run of `s` (a scenario [`with_field_parameters`]) under `options`, checked to be
+/// `run` (events and end state bit for bit); else why not.
+fn rerun(s: &Scenario, options: &HybridOptions, run: &crate::Run) -> Result<crate::Run, String> {
+    let again = crate::scenario::Simulation::new(s)
+        .and_then(|mut sim| {
+            sim.options = *options;
+            sim.run()
+        })
+        .map_err(|e| format!("the behaviour with the field as a parameter does not run ({e})"))?;
+    let (a, b) = (&run.execution, &again.execution);
+    let same = a.events.len() == b.events.len()
+        && a.events
+            .iter()
+            .zip(&b.events)
+            .all(|(x, y)| x.t == y.t && x.kind == y.kind)
+        && a.q == b.q
+        && a.qd == b.qd;
+    if same {
+        Ok(again)
+    } else {
+        Err("the run with the field as a parameter differs from the run itself".into())
+    }
+}
+
+/// The engine's columns of `s` spread over every name of `routes`, NaN (and the reason) for
+/// those not differentiated.
+fn spread(mut s: ParameterSensitivity, routes: &[PathParameter]) -> ParameterSensitivity {
+    let k = routes.len();
+    let cols: Vec<Option<usize>> = routes
+        .iter()
+        .scan(0, |next, r| {
+            Some(match r {
+                PathParameter::NotDifferentiated(_) => None,
+                _ => {
+                    *next += 1;
+                    Some(*next - 1)
+                }
+            })
+        })
+        .collect();
+    let pick =
+        |v: &[f64]| -> Vec<f64> { cols.iter().map(|c| c.map_or(f64::NAN, |c| v[c])).collect() };
+    s.state = s
+        .state
+        .map(|x| DMatrix::from_fn(x.nrows(), k, |r, j| cols[j].map_or(f64::NAN, |c| x[(r, c)])));
+    for t in s.event_times.iter_mut().flatten() {
+        *t = pick(t);
+    }
+    s.not_differentiated = routes
+        .iter()
+        .map(|r| match r {
+            PathParameter::NotDifferentiated(why) => Some(why.clone()),
+            _ => None,
+        })
+        .collect();
+    s
 }

@@ -457,11 +457,12 @@ fn behaviour_partials_match_finite_differences() {
     }
 }
 
-/// `run_sensitivity` withholds the state Jacobian of a run through an apex recorded on the
-/// way (the engine salts it as terminal: docs/periodic-orbits.md) and keeps it for a run that
-/// stops at the apex, where it equals the return map's Jacobian.
+/// `run_sensitivity` carries the state Jacobian of a run through an apex recorded on the
+/// way (no reset: its saltation the identity; checked against central differences in
+/// `tests/sensitivity_paths.rs`) and, for a run that stops at the apex, it equals the return
+/// map's Jacobian.
 #[test]
-fn run_sensitivity_flags_an_apex_on_the_way() {
+fn run_sensitivity_passes_an_apex_on_the_way() {
     use selfmanip_hybrid::sensitivity::SaltationStatus;
     let (_, o) = find();
     let mut s = Scenario::new(
@@ -478,8 +479,10 @@ fn run_sensitivity_flags_an_apex_on_the_way() {
     let sens = selfmanip_sim::periodic::run_sensitivity(&run).unwrap();
     let last = sens.events.last().unwrap();
     assert_eq!(last.kind, EventKind::Apex);
-    assert!(matches!(last.status, SaltationStatus::Unsupported { .. }));
-    assert!(sens.state_jacobian.is_none());
+    assert_eq!(last.status, SaltationStatus::Defined);
+    let xi = last.saltation.as_ref().unwrap();
+    assert!((xi - nalgebra::DMatrix::identity(10, 10)).amax() < 1e-12);
+    assert!(sens.state_jacobian.is_some());
     s.options.stop_at_apex = true;
     let run = Simulation::new(&s).unwrap().run().unwrap();
     let sens = selfmanip_sim::periodic::run_sensitivity(&run).unwrap();

@@ -131,7 +131,10 @@ fn event_sensitivity(
         return Ok((es, None));
     }
     let f_plus = match (event.kind, after) {
-        (EventKind::Apex, _) => DVector::zeros(n2),
+        // the terminal apex: the end state is the state at the apex, whose time moves
+        (EventKind::Apex, None) => DVector::zeros(n2),
+        // an apex passed on the way is no reset (the controller is not told of it): the flow
+        // after it is the next segment's, and the saltation the identity up to round-off
         (_, Some(a)) => ev.flow(FlowPoint {
             mode: event.mode_after,
             ..FlowPoint::on(a, t, &y_plus)

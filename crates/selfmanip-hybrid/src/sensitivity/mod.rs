@@ -38,8 +38,10 @@
 //! Where a force event's reset projected the integrator's drift away (`crate::reset`: at a
 //! slip, or a liftoff whose contact's slip guard fired with it as its cone shrank to a
 //! point), `R` is that plastic impact into the mode before and `D_xR` its Jacobian
-//! ([`DRIFT_JUMP_TOL`]); any other velocity jump at a force event is flagged. Apex (terminal):
-//! `g = −ż`, and the end state is the state at the apex, `Ξ = I − f⁻ D_xg / (D_xg f⁻)`.
+//! ([`DRIFT_JUMP_TOL`]); any other velocity jump at a force event is flagged. Apex: `g = −ż`;
+//! at the apex that ends a run the end state is the state at the apex, `Ξ = I − f⁻ D_xg /
+//! (D_xg f⁻)`; an apex passed on the way is no reset (`R = I`, the controller not told of it,
+//! `f⁺ = f⁻`): `Ξ = I`, and only its time's gradient is new.
 //! Each event also gives its time's gradient `dt_e/dx(0) = −D_xg X⁻ / (D_xg f⁻)`. An
 //! active arc whose rolling contact reaches the arc's end inside a segment (no event, but
 //! `Ȧ`, hence `q̈`, changes form there) gets a saltation of its own ([`TouchSwitch`]).
