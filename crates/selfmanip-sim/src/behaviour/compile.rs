@@ -73,6 +73,23 @@ fn named<T>(
     check("").or_else(|_| check(&field.path()))
 }
 
+/// `v` (a speed or an acceleration of a motion) at most `f64::MAX / 2`, else an error naming
+/// `field`: the free joints' tracking law differences two of them at each segment's start
+/// (`selfmanip_hybrid::free_joints`), which a larger value would overflow.
+fn differenceable(field: &str, v: f64) -> Result<f64, SimError> {
+    if (2.0 * v).is_finite() {
+        Ok(v)
+    } else {
+        Err(invalid(
+            field,
+            format!(
+                "must be at most f64::MAX / 2 (the free joints' tracking law is differenced), \
+                 got {v}"
+            ),
+        ))
+    }
+}
+
 /// Every name `e` reads, once each, in order of appearance (in every branch), appended to
 /// `out` ([`Expr::variables`] without copying them).
 fn names<'e>(e: &'e Expr, out: &mut Vec<&'e str>) {
@@ -907,10 +924,13 @@ impl Compiler<'_> {
         q0: f64,
     ) -> Result<(MotionLaw, [NumberTangent; 3]), SimError> {
         let v = |f: &str, s: &Scalar| self.cx.motion_value(&Leaf(field, f), s, q0);
+        // a speed or acceleration: positive, and small enough that the free joints' tracking
+        // law, which differences two of them (`selfmanip_hybrid::free_joints`), stays finite
         let pos = |f: &str, s: &Scalar| -> Result<(Value, NumberTangent), SimError> {
             let val = v(f, s)?;
             if let Value::Const(x) = val.0 {
                 named(&Leaf(field, f), |path| positive(path, x))?;
+                named(&Leaf(field, f), |path| differenceable(path, x))?;
             }
             Ok(val)
         };
