@@ -7,7 +7,7 @@
 //! Run                    => outcome (word, apex, landing), events, trajectory(dt),
 //!                           energy_report(), write_mcap(path)
 //! ```
-use crate::behaviour::{compile_bound, Behaviour, BehaviourController, Parameters};
+use crate::behaviour::{compile_bound, Behaviour, BehaviourController, Parameters, ReusableParts};
 use crate::error::{invalid, non_negative, positive, SimError};
 use crate::events::{event_records, EventRecord};
 use crate::expr::{ParsedFormulas, Scalar};
@@ -260,6 +260,9 @@ pub struct Simulation {
     parameters: Arc<Parameters>,
     /// The behaviour's formulas, parsed at the first compilation for every rebind.
     formulas: Arc<ParsedFormulas>,
+    /// The behaviour's compiled parts, kept by the first rebind: a later one compiles again
+    /// only those that read a parameter whose value changed.
+    parts: Arc<ReusableParts>,
 }
 
 impl Simulation {
@@ -269,20 +272,23 @@ impl Simulation {
         let mut b = s.behaviour.clone();
         sim.parameters = Arc::new(std::mem::take(&mut b.parameters));
         sim.behaviour = Arc::new(b);
-        sim.controller = Arc::new(sim.compiled(&sim.parameters, sim.t_final_s)?);
+        sim.controller = Arc::new(sim.compiled(&sim.parameters, sim.t_final_s, false)?);
         Ok(sim)
     }
 
-    /// The behaviour compiled with the parameters `p` for a run to `t_final_s`.
+    /// The behaviour compiled with the parameters `p` for a run to `t_final_s`; by a rebind
+    /// (`reuse`), with the parts kept by the first rebind ([`ReusableParts`]: a simulation
+    /// run once does not pay for keeping them).
     fn compiled(
         &self,
         p: &Arc<Parameters>,
         t_final_s: f64,
+        reuse: bool,
     ) -> Result<BehaviourController, SimError> {
         compile_bound(
             &self.behaviour,
             p,
-            &self.formulas,
+            (&self.formulas, reuse.then_some(&*self.parts)),
             &self.model,
             &self.q0,
             &self.qd0,
@@ -308,7 +314,7 @@ impl Simulation {
             *slot = Scalar::Number(*v);
         }
         let p = Arc::new(p);
-        self.controller = Arc::new(self.compiled(&p, t_final_s)?);
+        self.controller = Arc::new(self.compiled(&p, t_final_s, true)?);
         self.parameters = p;
         self.t_final_s = t_final_s;
         Ok(())
@@ -427,6 +433,7 @@ impl Simulation {
             behaviour: Arc::default(),
             parameters: Arc::default(),
             formulas: Arc::default(),
+            parts: Arc::default(),
         })
     }
 

@@ -6,7 +6,8 @@ use super::interpreter::{
     Program, Start, TorqueLaw, Value,
 };
 use super::spec::{
-    ActuatorSpec, Behaviour, Interpolation, JointProgram, Motion, NamedEvent, On, Torque, Trigger,
+    ActuatorSpec, Behaviour, Interpolation, JointProgram, Motion, NamedEvent, On, Phase, Torque,
+    Trigger,
 };
 use super::tangent::{ActuatorLaw, Grad, NumberTangent, PhaseTangent, PlanTangent, TorqueTangent};
 use crate::error::{finite, invalid, non_negative, positive, SimError};
@@ -15,8 +16,9 @@ use crate::labels::{contact_by_name, joint_contacts, joint_index, joint_name};
 use motor::Actuator;
 use selfmanip_core::Model;
 use selfmanip_hybrid::EventKind;
+use std::cell::RefCell;
 use std::collections::BTreeMap;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 fn known_joints(model: &Model) -> String {
     (0..model.n_joints())
@@ -40,6 +42,9 @@ struct Context<'a> {
     empty: Grad,
     /// The behaviour's formulas, parsed once for all its compilations.
     formulas: &'a ParsedFormulas,
+    /// While a part is compiled for [`ReusableParts`]: the names it reads from
+    /// [`Self::values`] with their values' bits.
+    log: RefCell<Option<Vec<(String, u64)>>>,
 }
 
 /// The path of a field, for the errors that name it: formatted only when one does.
@@ -71,6 +76,23 @@ fn named<T>(
     check: impl Fn(&str) -> Result<T, SimError>,
 ) -> Result<T, SimError> {
     check("").or_else(|_| check(&field.path()))
+}
+
+/// `v` (a speed or an acceleration of a motion) at most `f64::MAX / 2`, else an error naming
+/// `field`: the free joints' tracking law differences two of them at each segment's start
+/// (`selfmanip_hybrid::free_joints`), which a larger value would overflow.
+fn differenceable(field: &str, v: f64) -> Result<f64, SimError> {
+    if (2.0 * v).is_finite() {
+        Ok(v)
+    } else {
+        Err(invalid(
+            field,
+            format!(
+                "must be at most f64::MAX / 2 (the free joints' tracking law is differenced), \
+                 got {v}"
+            ),
+        ))
+    }
 }
 
 /// Every name `e` reads, once each, in order of appearance (in every branch), appended to
@@ -192,7 +214,13 @@ impl Context<'_> {
         let lookup = |v: &str| match v {
             "q0" => q0,
             "theta" | "omega" if at_start => Some(0.0),
-            _ => self.values.get(v).copied(),
+            _ => {
+                let x = self.values.get(v).copied();
+                if let (Some(x), Some(log)) = (x, self.log.borrow_mut().as_mut()) {
+                    log.push((v.to_string(), x.to_bits()));
+                }
+                x
+            }
         };
         let mut read = Vec::new();
         names(e, &mut read);
@@ -249,6 +277,25 @@ impl Context<'_> {
                 NumberTangent::Const(self.grad(s, Some(q0))),
             ))
         }
+    }
+
+    /// `part()` and, when `record`, the names it read from [`Self::values`] with their
+    /// values' bits (what [`Reused::holds`] checks).
+    fn recording<T>(
+        &self,
+        record: bool,
+        part: impl FnOnce() -> Result<T, SimError>,
+    ) -> Result<Reused<T>, SimError> {
+        let outer = record.then(|| self.log.replace(Some(Vec::new())));
+        let value = part();
+        let reads = match outer {
+            Some(outer) => self.log.replace(outer).unwrap_or_default(),
+            None => Vec::new(),
+        };
+        Ok(Reused {
+            value: value?,
+            reads,
+        })
     }
 
     fn contacts(&self, field: &str, names: &[String]) -> Result<u32, SimError> {
@@ -907,10 +954,13 @@ impl Compiler<'_> {
         q0: f64,
     ) -> Result<(MotionLaw, [NumberTangent; 3]), SimError> {
         let v = |f: &str, s: &Scalar| self.cx.motion_value(&Leaf(field, f), s, q0);
+        // a speed or acceleration: positive, and small enough that the free joints' tracking
+        // law, which differences two of them (`selfmanip_hybrid::free_joints`), stays finite
         let pos = |f: &str, s: &Scalar| -> Result<(Value, NumberTangent), SimError> {
             let val = v(f, s)?;
             if let Value::Const(x) = val.0 {
                 named(&Leaf(field, f), |path| positive(path, x))?;
+                named(&Leaf(field, f), |path| differenceable(path, x))?;
             }
             Ok(val)
         };
@@ -948,132 +998,54 @@ impl Compiler<'_> {
         })
     }
 
-    /// Program `i` (`prog`, its joint's phases in order) and, when the tangent is built,
-    /// its phases' tangents.
+    /// Program `i` (`prog`, its joint's phases in order), when the tangent is built its
+    /// phases' tangents, and when `record` its phases with the names each read (for
+    /// [`ReusableParts`]). A phase of `reuse` is taken as kept where the names it read have
+    /// the same values and what it carries over from the phase before (its motion, its
+    /// restarts) was kept too.
     fn program(
         &self,
         i: usize,
         prog: &JointProgram,
         q0: &[f64],
-        remap: &[usize],
-        actuator_names: &[String],
-    ) -> Result<(Program, Vec<PhaseTangent>), SimError> {
+        (remap, actuator_names): (&[usize], &[String]),
+        (reuse, record): (Option<&[Reused<PhasePlan>]>, bool),
+    ) -> Result<(Program, Vec<PhaseTangent>, Vec<Reused<PhasePlan>>), SimError> {
         let j = joint_index(self.cx.model, &prog.joint).expect("checked above");
         let own = joint_contacts(self.cx.model, j);
         let mut phases: Vec<PhasePlan> = Vec::new();
         let mut tangents: Vec<PhaseTangent> = Vec::new();
+        let mut recorded = Vec::new();
+        let mut previous_kept = false;
         for (k, ph) in prog.phases.iter().enumerate() {
-            let field = format!("joints[{i}].phases[{k}]");
-            let mut start = Start::default();
-            let mut start_grads = StartGrads::default();
-            match (&ph.start, k) {
-                (Some(_), 0) => {
-                    return Err(invalid(
-                        format!("{field}.start"),
-                        "the first phase holds from the start: it has no `start`",
-                    ))
-                }
-                (None, 0) => {}
-                (None, _) => {
-                    return Err(invalid(
-                        format!("{field}.start"),
-                        "is required after the first phase",
-                    ))
-                }
-                (Some(t), _) => self.start(
-                    &format!("{field}.start"),
-                    t,
-                    (&mut start, &mut start_grads),
-                    j,
-                    own,
-                    q0[j],
-                    false,
-                )?,
-            }
-            for n in &mut start.named {
-                *n = remap[*n];
-            }
-            let (torque, torque_tangent) = self.torque(
-                &Leaf(field.as_str(), "torque"),
-                &ph.torque,
-                q0[j],
-                &actuator_names,
-            )?;
-            let ((motion, motion_tangent), own_motion) = match (&ph.motion, tangents.last()) {
-                (Some(m), _) => (
-                    self.motion(&Leaf(field.as_str(), "motion"), m, q0[j])?,
-                    true,
-                ),
-                (None, Some(prev)) => (
-                    (
-                        phases.last().expect("one per tangent").motion.clone(),
-                        prev.motion.clone(),
-                    ),
-                    false,
-                ),
-                (None, None) => (
-                    (
-                        MotionLaw::Hold {
-                            angle: Value::Const(q0[j]),
-                        },
-                        [
-                            NumberTangent::Const(self.cx.zero()),
-                            NumberTangent::Const(self.cx.zero()),
-                            NumberTangent::Const(self.cx.zero()),
-                        ],
-                    ),
-                    true,
-                ),
-            };
-            let (restart_on, restart_named) = match (&ph.restart_on, phases.last()) {
-                (Some(list), _) => {
-                    let mut events = Vec::new();
-                    let mut names = Vec::new();
-                    for (r, t) in list.iter().enumerate() {
-                        let f = format!("{field}.restart_on[{r}]");
-                        let mut s = Start::default();
-                        let mut unused = StartGrads::default();
-                        self.start(&f, t, (&mut s, &mut unused), j, own, q0[j], true)?;
-                        if !s.times.is_empty() || !s.phases.is_empty() {
-                            return Err(invalid(
-                                f,
-                                "a motion restarts at events (`on`, `event`, `any`), not at times or phases",
-                            ));
-                        }
-                        events.extend(s.events);
-                        names.extend(s.named.iter().map(|&n| remap[n]));
+            let carries = k > 0 && (ph.motion.is_none() || ph.restart_on.is_none());
+            let kept = reuse
+                .and_then(|r| r.get(k))
+                .filter(|r| (!carries || previous_kept) && r.holds(&self.cx.values));
+            previous_kept = kept.is_some();
+            let (phase, tangent) = match kept {
+                Some(r) => (r.value.clone(), self.untangled_phase()),
+                None => {
+                    let prev = phases.last().zip(tangents.last());
+                    let compiled = self.cx.recording(record, || {
+                        self.phase((i, k), ph, (j, own, q0[j]), (remap, actuator_names), prev)
+                    })?;
+                    let (phase, tangent) = compiled.value;
+                    if record {
+                        recorded.push(Reused {
+                            value: phase.clone(),
+                            reads: compiled.reads,
+                        });
                     }
-                    (events, names)
+                    (phase, tangent)
                 }
-                (None, Some(prev)) => (prev.restart_on.clone(), prev.restart_named.clone()),
-                (None, None) => (Vec::new(), Vec::new()),
             };
-            phases.push(PhasePlan {
-                name: ph.name.clone(),
-                start,
-                torque,
-                motion,
-                own_motion,
-                restart_on,
-                restart_named,
-            });
-            if self.cx.tangent {
-                tangents.push(PhaseTangent {
-                    times: start_grads.times,
-                    delays: start_grads.delays,
-                    torque: torque_tangent,
-                    motion: motion_tangent,
-                });
-            } else {
+            phases.push(phase);
+            if !self.cx.tangent {
                 // the previous phase's motion tangent is read from here (`motion: None`)
                 tangents.clear();
-                tangents.push(PhaseTangent {
-                    times: Vec::new(),
-                    delays: Vec::new(),
-                    torque: TorqueTangent::Zero,
-                    motion: motion_tangent,
-                });
             }
+            tangents.push(tangent);
         }
         let repeat_from = repeat_from(i, prog, &phases)?;
         Ok((
@@ -1085,7 +1057,136 @@ impl Compiler<'_> {
                 repeat_from,
             },
             tangents,
+            recorded,
         ))
+    }
+
+    /// The tangent of a phase compiled without gradients: no times, no delays, a zero torque
+    /// and a motion of empty gradients (what [`Self::phase`] gives when the tangent is not
+    /// built).
+    fn untangled_phase(&self) -> PhaseTangent {
+        let none = || NumberTangent::Const(self.cx.empty.clone());
+        PhaseTangent {
+            times: Vec::new(),
+            delays: Vec::new(),
+            torque: TorqueTangent::Zero,
+            motion: [none(), none(), none()],
+        }
+    }
+
+    /// Phase `k` of program `i` (`ph`, of joint `j` with the contacts `own`, starting at
+    /// `q0j`) and its tangent, after the phase `prev` (with its tangent) whose motion and
+    /// restarts it keeps where it has none of its own.
+    fn phase(
+        &self,
+        (i, k): (usize, usize),
+        ph: &Phase,
+        (j, own, q0j): (usize, u32, f64),
+        (remap, actuator_names): (&[usize], &[String]),
+        prev: Option<(&PhasePlan, &PhaseTangent)>,
+    ) -> Result<(PhasePlan, PhaseTangent), SimError> {
+        let field = format!("joints[{i}].phases[{k}]");
+        let mut start = Start::default();
+        let mut start_grads = StartGrads::default();
+        match (&ph.start, k) {
+            (Some(_), 0) => {
+                return Err(invalid(
+                    format!("{field}.start"),
+                    "the first phase holds from the start: it has no `start`",
+                ))
+            }
+            (None, 0) => {}
+            (None, _) => {
+                return Err(invalid(
+                    format!("{field}.start"),
+                    "is required after the first phase",
+                ))
+            }
+            (Some(t), _) => self.start(
+                &format!("{field}.start"),
+                t,
+                (&mut start, &mut start_grads),
+                j,
+                own,
+                q0j,
+                false,
+            )?,
+        }
+        for n in &mut start.named {
+            *n = remap[*n];
+        }
+        let (torque, torque_tangent) = self.torque(
+            &Leaf(field.as_str(), "torque"),
+            &ph.torque,
+            q0j,
+            actuator_names,
+        )?;
+        let ((motion, motion_tangent), own_motion) = match (&ph.motion, prev) {
+            (Some(m), _) => (self.motion(&Leaf(field.as_str(), "motion"), m, q0j)?, true),
+            (None, Some((prev, prev_tangent))) => {
+                ((prev.motion.clone(), prev_tangent.motion.clone()), false)
+            }
+            (None, None) => {
+                let none = || NumberTangent::Const(self.cx.zero());
+                (
+                    (
+                        MotionLaw::Hold {
+                            angle: Value::Const(q0j),
+                        },
+                        [none(), none(), none()],
+                    ),
+                    true,
+                )
+            }
+        };
+        let (restart_on, restart_named) = match (&ph.restart_on, prev) {
+            (Some(list), _) => {
+                let mut events = Vec::new();
+                let mut names = Vec::new();
+                for (r, t) in list.iter().enumerate() {
+                    let f = format!("{field}.restart_on[{r}]");
+                    let mut s = Start::default();
+                    let mut unused = StartGrads::default();
+                    self.start(&f, t, (&mut s, &mut unused), j, own, q0j, true)?;
+                    if !s.times.is_empty() || !s.phases.is_empty() {
+                        return Err(invalid(
+                            f,
+                            "a motion restarts at events (`on`, `event`, `any`), not at times or phases",
+                        ));
+                    }
+                    events.extend(s.events);
+                    names.extend(s.named.iter().map(|&n| remap[n]));
+                }
+                (events, names)
+            }
+            (None, Some((prev, _))) => (prev.restart_on.clone(), prev.restart_named.clone()),
+            (None, None) => (Vec::new(), Vec::new()),
+        };
+        let phase = PhasePlan {
+            name: ph.name.clone(),
+            start,
+            torque,
+            motion,
+            own_motion,
+            restart_on,
+            restart_named,
+        };
+        let tangent = if self.cx.tangent {
+            PhaseTangent {
+                times: start_grads.times,
+                delays: start_grads.delays,
+                torque: torque_tangent,
+                motion: motion_tangent,
+            }
+        } else {
+            PhaseTangent {
+                times: Vec::new(),
+                delays: Vec::new(),
+                torque: TorqueTangent::Zero,
+                motion: motion_tangent,
+            }
+        };
+        Ok((phase, tangent))
     }
 
     fn named_event(&self, name: &str, ev: &NamedEvent) -> Result<NamedPlan, SimError> {
@@ -1281,10 +1382,14 @@ fn repeat_from(
 /// `<name>.stall_torque_n_m`, with what else their data give ([`actuator`]), join the values
 /// of `cx` (and their gradients, with the tangent): every actuator reads the parameters
 /// alone.
+/// The actuators of a behaviour and the quantities they give its formulas (`leg.stall_torque_n_m`,
+/// inserted into the context's values too).
+type CompiledActuators = (Vec<Arc<dyn Actuator>>, Vec<(String, f64)>);
+
 fn actuators(
     b: &Behaviour,
     cx: &mut Context<'_>,
-) -> Result<(Vec<Arc<dyn Actuator>>, Vec<ActuatorLaw>), SimError> {
+) -> Result<(CompiledActuators, Vec<ActuatorLaw>), SimError> {
     let (mut actuators, mut laws, mut quantities) = (Vec::new(), Vec::new(), Vec::new());
     for (name, spec) in &b.actuators {
         let (a, derived, law) = actuator(cx, &format!("actuators.{name}"), spec)?;
@@ -1299,13 +1404,101 @@ fn actuators(
         actuators.push(a);
         laws.push(law);
     }
+    let mut given = Vec::with_capacity(quantities.len());
     for (name, quantity, v, g) in quantities {
-        cx.values.insert(format!("{name}.{quantity}"), v);
+        let key = format!("{name}.{quantity}");
+        cx.values.insert(key.clone(), v);
         if cx.tangent {
-            cx.grads.insert(format!("{name}.{quantity}"), g);
+            cx.grads.insert(key.clone(), g);
         }
+        given.push((key, v));
     }
-    Ok((actuators, laws))
+    Ok(((actuators, given), laws))
+}
+
+/// The actuators of `b` as `kept` where it holds (their quantities inserted into the
+/// context's values), else compiled ([`actuators`]) and, when `record`, kept with the names
+/// they read.
+#[allow(clippy::type_complexity)]
+fn kept_or_compiled_actuators(
+    b: &Behaviour,
+    cx: &mut Context<'_>,
+    kept: Option<&Reused<CompiledActuators>>,
+    record: bool,
+) -> Result<
+    (
+        CompiledActuators,
+        Vec<ActuatorLaw>,
+        Option<Reused<CompiledActuators>>,
+    ),
+    SimError,
+> {
+    if let Some(a) = kept.filter(|a| a.holds(&cx.values)) {
+        for (key, v) in &a.value.1 {
+            cx.values.insert(key.clone(), *v);
+        }
+        return Ok((a.value.clone(), Vec::new(), None));
+    }
+    if record {
+        *cx.log.get_mut() = Some(Vec::new());
+    }
+    let compiled = actuators(b, cx);
+    let reads = cx.log.get_mut().take().unwrap_or_default();
+    let (a, laws) = compiled?;
+    let recorded = record.then(|| Reused {
+        value: a.clone(),
+        reads,
+    });
+    Ok((a, laws, recorded))
+}
+
+/// What a compilation of a behaviour keeps for the next ones of the same behaviour, robot and
+/// start with other parameter values (a sweep's points, a preset's leaps:
+/// [`crate::Simulation::rebind`]): its actuators and each phase of each program, with the
+/// values of the names each read. A later compilation takes a part as kept where every name
+/// it read has the same value, bit for bit, and compiles the rest again: it gives the
+/// controller a fresh compilation gives, bit for bit. Filled by the first compilation that
+/// is given it ([`compile_bound`]).
+#[derive(Default)]
+pub struct ReusableParts(OnceLock<Parts>);
+
+struct Parts {
+    /// The inputs the parts were compiled from, apart from the parameters.
+    behaviour: Arc<Behaviour>,
+    model: Arc<Model>,
+    q0: Vec<f64>,
+    actuators: Reused<CompiledActuators>,
+    /// By program, then phase.
+    phases: Vec<Vec<Reused<PhasePlan>>>,
+}
+
+impl Parts {
+    /// Whether the parts were compiled from `b` on `model` from `q0`.
+    fn compiled_from(&self, b: &Arc<Behaviour>, model: &Arc<Model>, q0: &[f64]) -> bool {
+        Arc::ptr_eq(&self.behaviour, b)
+            && Arc::ptr_eq(&self.model, model)
+            && self.q0.len() == q0.len()
+            && self
+                .q0
+                .iter()
+                .zip(q0)
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+    }
+}
+
+/// A compiled part and the names it read with their values' bits.
+struct Reused<T> {
+    value: T,
+    reads: Vec<(String, u64)>,
+}
+
+impl<T> Reused<T> {
+    /// Whether every name the part read has the same value in `values`.
+    fn holds(&self, values: &BTreeMap<String, f64>) -> bool {
+        self.reads
+            .iter()
+            .all(|(n, bits)| values.get(n).is_some_and(|v| v.to_bits() == *bits))
+    }
 }
 
 /// Checks `b` against `model` and compiles it into the interpreter, starting from
@@ -1336,18 +1529,28 @@ pub fn compile_shared(
     let mut b = b.clone();
     let p = Arc::new(std::mem::take(&mut b.parameters));
     let formulas = Arc::new(ParsedFormulas::default());
-    compile_bound(&Arc::new(b), &p, &formulas, model, q0, qd0, horizon_s)
+    compile_bound(
+        &Arc::new(b),
+        &p,
+        (&formulas, None),
+        model,
+        q0,
+        qd0,
+        horizon_s,
+    )
 }
 
 /// [`compile_shared`] of `b` with `parameters` in place of its own (`b.parameters` is not
 /// read: the values a sweep's point or a preset binds), both shared rather than copied, its
-/// formulas parsed once in `formulas` (kept by the caller for every compilation of `b`): the
-/// controller [`compile_shared`] gives for `b` with those parameters set, bit for bit. What a
-/// [`crate::Simulation::rebind`] compiles.
+/// formulas parsed once in `formulas` and, given `parts`, its parts that do not depend on the
+/// parameters that changed taken from there (both kept by the caller for every compilation of
+/// `b`; the first compilation given `parts` fills it):
+/// the controller [`compile_shared`] gives for `b` with those parameters set, bit for bit.
+/// What a [`crate::Simulation::rebind`] compiles.
 pub fn compile_bound(
     b: &Arc<Behaviour>,
     parameters: &Arc<Parameters>,
-    formulas: &Arc<ParsedFormulas>,
+    (formulas, parts): (&Arc<ParsedFormulas>, Option<&ReusableParts>),
     model: &Arc<Model>,
     q0: &[f64],
     qd0: &[f64],
@@ -1357,31 +1560,36 @@ pub fn compile_bound(
     let f2 = Arc::clone(formulas);
     let (q, qd) = (q0.to_vec(), qd0.to_vec());
     let make = move || {
-        let c = compile_with(&b2, (&p2, &f2), &m2, (&q, &qd), horizon_s, true)
+        let c = compile_with(&b2, (&p2, &f2), (&m2, (&q, &qd)), horizon_s, (true, None))
             .expect("the same behaviour compiled before");
         c.take_tangent()
     };
     let c = compile_with(
         b,
         (parameters, formulas),
-        model,
-        (q0, qd0),
+        (model, (q0, qd0)),
         horizon_s,
-        false,
+        (false, parts),
     )?;
     c.set_tangent_source(Box::new(make));
     Ok(c)
 }
 
-/// [`compile`] with the parameters `p`, the plan's tangent computed when `tangent`.
+/// [`compile`] with the parameters `p`, the plan's tangent computed when `tangent`; without
+/// it, the parts of `parts` taken where they hold (recorded there by the first compilation
+/// given it).
 fn compile_with(
-    b: &Behaviour,
+    b: &Arc<Behaviour>,
     (p, formulas): (&Parameters, &ParsedFormulas),
-    model: &Model,
-    (q0, qd0): (&[f64], &[f64]),
+    (model, (q0, qd0)): (&Arc<Model>, (&[f64], &[f64])),
     horizon_s: f64,
-    tangent: bool,
+    (tangent, parts): (bool, Option<&ReusableParts>),
 ) -> Result<BehaviourController, SimError> {
+    let parts = parts.filter(|_| !tangent);
+    let kept = parts
+        .and_then(|p| p.0.get())
+        .filter(|k| k.compiled_from(b, model, q0));
+    let record = parts.is_some_and(|p| p.0.get().is_none());
     let nq = model.nq();
     for (field, v) in [("q0", q0), ("qd0", qd0)] {
         if v.len() != nq {
@@ -1408,8 +1616,10 @@ fn compile_with(
         tangent,
         empty: Arc::new([]),
         formulas,
+        log: RefCell::new(None),
     };
-    let (actuators, laws) = actuators(b, &mut cx)?;
+    let ((actuators, _), laws, recorded_actuators) =
+        kept_or_compiled_actuators(b, &mut cx, kept.map(|k| &k.actuators), record)?;
     let actuator_names: Vec<String> = b.actuators.keys().cloned().collect();
     let named: Vec<String> = b.events.keys().cloned().collect();
     let (programs_names, program_of_joint) = program_names(b, model)?;
@@ -1440,14 +1650,28 @@ fn compile_with(
     )?;
     let mut programs = Vec::new();
     let mut phase_tangents = Vec::new();
+    let mut recorded_phases = Vec::new();
     for (i, prog) in b.joints.iter().enumerate() {
-        let (program, tangents) = c.program(i, prog, q0, &remap, &actuator_names)?;
+        let reuse = kept.and_then(|k| k.phases.get(i)).map(Vec::as_slice);
+        let (program, tangents, recorded) =
+            c.program(i, prog, q0, (&remap, &actuator_names), (reuse, record))?;
         programs.push(program);
+        recorded_phases.push(recorded);
         if tangent {
             phase_tangents.push(tangents);
         }
     }
     check_phase_cycles(&programs, &programs_names)?;
+    if let (Some(parts), Some(actuators)) = (parts.filter(|_| record), recorded_actuators) {
+        // a concurrent first compilation may have kept its own: the same parts
+        let _ = parts.0.set(Parts {
+            behaviour: Arc::clone(b),
+            model: Arc::clone(model),
+            q0: q0.to_vec(),
+            actuators,
+            phases: recorded_phases,
+        });
+    }
     let idle_joints = (0..model.n_joints())
         .filter(|&j| program_of_joint[j].is_none())
         .collect();

@@ -13,7 +13,7 @@ pub mod interpreter;
 pub mod spec;
 pub(crate) mod tangent;
 
-pub use compile::{compile, compile_bound, compile_shared, Parameters};
+pub use compile::{compile, compile_bound, compile_shared, Parameters, ReusableParts};
 pub use interpreter::BehaviourController;
 pub use spec::{
     ActuatorSpec, Behaviour, FreeJointGains, Interpolation, JointProgram, Motion, NamedEvent, On,
