@@ -27,6 +27,10 @@ pub enum EventKind {
     /// plastic impact into the mode with it sticking, an impact without collision
     /// ([`crate::jam`]); or, no impulse acting, it stuck or left by force complementarity.
     Jam,
+    /// A Zeno execution truncated ([`crate::zeno::truncate`]): the plastic impact into every
+    /// contact of the Zeno window on its surface, and the mode force complementarity keeps of
+    /// them — the limit of the pseudo-impulse (5.39)–(5.40) at the accumulation.
+    ZenoTruncation,
 }
 
 impl EventKind {
@@ -41,7 +45,17 @@ impl EventKind {
             EventKind::Fold => "fold",
             EventKind::FoldPassed => "fold_passed",
             EventKind::Jam => "jam",
+            EventKind::ZenoTruncation => "zeno_truncation",
         }
+    }
+
+    /// Whether the event is a plastic impact that may lose kinetic energy (a touchdown, a
+    /// fold, a jam, a Zeno truncation): the events of [`crate::Execution::impact_losses`].
+    pub fn is_impulsive(self) -> bool {
+        matches!(
+            self,
+            EventKind::Touchdown | EventKind::Fold | EventKind::Jam | EventKind::ZenoTruncation
+        )
     }
 }
 

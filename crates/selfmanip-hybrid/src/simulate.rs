@@ -8,8 +8,9 @@
 //!   locate    the first crossing, to event_tol_s              [locate, features]
 //!   reset     impact or force complementarity ⇒ (mode, q̇⁺)   [reset, complementarity,
 //!                                                              impact, contact_set]
-//!   zeno      too many transitions in a window, or one cycle of transitions
-//!             repeated with the robot staying where it is ⇒ end   [zeno]
+//!   zeno      too many transitions in a window ⇒ truncated by the pseudo-impulse's
+//!             limit (a reset), or the end when that makes no progress; one cycle of
+//!             transitions repeated with the robot staying where it is ⇒ end   [zeno]
 //!   budget    out of steps or events, or stopped from outside ⇒ end  [budget]
 //! ```
 use crate::budget::{Budget, NEVER};
@@ -95,11 +96,16 @@ pub fn simulate_with(
     // sliding contacts whose sliding velocity is zero at the start of the next segment up
     // to drift (they stuck until the last reset, or their stick was just refused)
     let mut from_rest: Vec<usize> = Vec::new();
+    // a Zeno window's truncation, taken as the next reset (crate::zeno::truncate)
+    let mut truncation: Option<Reset> = None;
     let termination = 'run: loop {
         // flow ⇒ guards ⇒ locate ⇒ reset; a slide with no consistent continuation
         // (Painlevé) met on the way comes out as `Err((error, may_jam))`
         let t_start = t;
         let outcome: Result<Reset, (HybridError, bool)> = 'stages: {
+            if let Some(r) = truncation.take() {
+                break 'stages Ok(r);
+            }
             let run = integrator.run(
                 &mut flow,
                 mode,
@@ -190,7 +196,20 @@ pub fn simulate_with(
         }
         let triggered = events.last().map_or(&[][..], |e| &e.triggered[..]);
         if let Some(z) = zeno.record(t, triggered) {
-            break z;
+            let Termination::Zeno { ref contacts, .. } = z else {
+                break z;
+            };
+            truncation = match zeno.may_truncate(t) {
+                true => {
+                    crate::zeno::truncate(&mut reset_ws, &mut flow, &opts, mode, (t, &y), contacts)?
+                }
+                false => None,
+            };
+            if truncation.is_none() {
+                break z;
+            }
+            zeno.truncated(t);
+            continue;
         }
         if let Some(c) = chatter.check(&events) {
             break c;
