@@ -179,14 +179,20 @@ pub fn simulate_with(
                 break termination;
             }
         };
-        // an apex recorded on the way changes nothing: the controller is not told of it
-        if event.kind != EventKind::Apex {
+        // an event that changes no mode and carries no impulse (a massless chain's foot
+        // touching and let go at once) is no transition: neither told nor reported; an apex
+        // recorded on the way changes nothing either, and the controller is not told of it
+        let silent = event.changes_nothing();
+        if event.kind != EventKind::Apex && !silent {
             flow.notify(&event);
         }
         y[model.nq()..].copy_from_slice(&event.qd_after);
         mode = event.mode_after;
         from_rest = rest;
-        events.push(event);
+        let triggered = event.triggered.clone();
+        if !silent {
+            events.push(event);
+        }
         // ⇒ budget and Zeno
         if events.len() >= opts.max_events {
             break Termination::EventBudget;
@@ -194,8 +200,7 @@ pub fn simulate_with(
         if budget.stopped() {
             break Termination::Interrupted { t };
         }
-        let triggered = events.last().map_or(&[][..], |e| &e.triggered[..]);
-        if let Some(z) = zeno.record(t, triggered) {
+        if let Some(z) = zeno.record(t, &triggered) {
             let Termination::Zeno { ref contacts, .. } = z else {
                 break z;
             };
