@@ -108,18 +108,19 @@ impl Event {
 
 impl Event {
     /// Whether the event changes no contact mode and carries no impulse: a touchdown whose
-    /// contact complementarity let go at once, its impulse zero (`|P_λ| ≤` [`IMPULSE_TOL_N_S`]:
-    /// a massless chain's foot, whose stop needs none, thesis 5.1.3 — the chain's own rates
-    /// may jump, at no cost in energy), or a force event that kept every contact as it was
-    /// (no velocity jump by definition). Such a reset is no transition of Definition 5.2
-    /// (its edges join distinct modes): the run does not report it, and it still counts in
-    /// the Zeno window. A touchdown that leaves the mode as it was but carries an impulse is
-    /// reported; an apex, a fold or its passage's end, a jam and a truncation always are.
+    /// contact complementarity let go at once, its impulse zero (`|P_λ| ≤`
+    /// [`IMPULSE_TOL_N_S`]: a massless chain's foot, whose stop needs none, thesis 5.1.3 —
+    /// the chain's own rates may jump, at no cost in energy), or a liftoff that kept every
+    /// contact. Such a reset is no transition of Definition 5.2 (its edges join distinct
+    /// modes): the run does not report it, and it still counts in the Zeno window. A
+    /// touchdown that leaves the mode as it was but carries an impulse is reported, and so
+    /// are a stick the cone refused and a slip it held (the sliding direction, which the mode
+    /// does not name, turns), an apex, a fold or its passage's end, a jam and a truncation.
     pub fn changes_nothing(&self) -> bool {
         let same = self.mode_before == self.mode_after;
         match self.kind {
             EventKind::Touchdown => same && self.impulse.iter().all(|p| p.abs() <= IMPULSE_TOL_N_S),
-            EventKind::Liftoff | EventKind::Slip | EventKind::Stick => same,
+            EventKind::Liftoff => same,
             _ => false,
         }
     }
