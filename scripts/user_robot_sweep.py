@@ -17,7 +17,7 @@ extend at 0.15 s and swing back on flight with the examples' swing settings, 15 
     python3 scripts/user_robot_sweep.py --run 17          # one run: its description and events
 
 It prints the status histogram, the share of ``zeno`` + ``several_contact_solutions`` (the
-statuses a run on the defaults must not end in), the touchdowns that change no mode (issue 30
+statuses a run on the defaults must not end in), the Zeno truncations, the touchdowns that change no mode (issue 30
 item 2: a massless chain put back on the ground; their largest energy loss tells zero-impulse
 touches from real ones) and the slowest runs. A run that raises is
 counted under ``error:<ExceptionType>``.
@@ -162,6 +162,7 @@ def run_one(i: int, seed: int) -> dict[str, Any]:
         e = selfmanip.simulate(robot, run["behaviour"], q0, terrain=run["terrain"], t_final=T_FINAL_S)
         same = [ev for ev in e.events if ev["kind"] == "touchdown" and ev["mode_before"] == ev["mode_after"]]
         out.update(status=e.status, events=len(e.events), word="-".join(e.word)[:80], reason=e.reason[:160],
+                   truncations=sum(ev["kind"] == "zeno_truncation" for ev in e.events),
                    unchanged_touchdowns=len(same),
                    unchanged_loss_j=max((ev["energy_loss_j"] for ev in same), default=0.0))
     except Exception as exc:  # counted, never hidden: the histogram names the type
@@ -181,6 +182,9 @@ def summarise(rows: list[dict[str, Any]], slowest: int = 10) -> str:
     lines.append(f"touchdowns that change no mode: {sum(r['unchanged_touchdowns'] for r in rows)} in "
                  f"{len(unchanged)} runs ({sum(r['status'] in BAD for r in unchanged)} of them bad), largest loss "
                  f"{max((r['unchanged_loss_j'] for r in unchanged), default=0.0):.3g} J")
+    truncated = [r for r in rows if r.get("truncations", 0)]
+    lines.append(f"Zeno truncations: {sum(r['truncations'] for r in truncated)} in {len(truncated)} runs "
+                 f"({sum(r['status'] in BAD for r in truncated)} of them still bad)")
     walls = sorted(rows, key=lambda r: -r["wall_s"])
     lines.append(f"over 100 ms: {sum(r['wall_s'] > 0.1 for r in rows)}; slowest:")
     for r in walls[:slowest]:

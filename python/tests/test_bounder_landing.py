@@ -85,3 +85,44 @@ def test_the_bound_sweep_ends_without_zeno(bounder):
         assert no_energy_gain(e), kp
         statuses.append((kp, e.status))
     assert [s for s in statuses if s[1] == "zeno"] == []
+
+
+SWING = {"kind": "swing", "target_rad": -1.0, "speed_rad_s": 15.0, "accel_rad_s2": 600.0}
+
+
+def jump(kp=30.0):
+    """Hips servo to 0.5 rad; knees push from -1.0 to -0.2 rad at 0.2 s and swing back to -1.0
+    in flight with the examples' swing settings (15 rad/s, 600 rad/s^2)."""
+    hips = [{"joint": f"{leg}[0]", "phases": [{"name": "hold", "torque": servo(0.5, kp)}]}
+            for leg in ("front", "hind")]
+    knees = [{"joint": f"{leg}[1]", "phases": [
+        {"name": "crouch", "torque": servo(-1.0, kp)},
+        {"name": "push", "start": {"at_s": 0.2}, "torque": servo(-0.2, kp)},
+        {"name": "swing", "start": {"on": "flight"}, "torque": servo(-1.0, kp), "motion": SWING}]}
+        for leg in ("front", "hind")]
+    return {"joints": hips + knees}
+
+
+@pytest.fixture(scope="module")
+def massless_shins(tmp_path_factory):
+    path = tmp_path_factory.mktemp("bounder") / "bounder_massless.json"
+    path.write_text(json.dumps(description(shin_mass_kg=0.0)))
+    return selfmanip.Robot.from_file(path)
+
+
+def test_massless_shin_jump_flies_and_balances_energy(massless_shins):
+    """Issue 30 item 2: the shins leave the ground on their servo's torque-free manifold
+    (docs/singular-transitions.md section 10) -- no touchdown that changes no mode, a flight,
+    and the energy balance E1 - E0 = W + W_d + W_fr - L closed to 1e-6 J."""
+    e = selfmanip.simulate(massless_shins, jump(), Q0, t_final=0.6)
+    assert e.status == "final_time", e.reason
+    kinds = [(ev["kind"], ev["mode_before"], ev["mode_after"]) for ev in e.events]
+    assert not [k for k in kinds if k[0] == "touchdown" and k[1] == k[2]], kinds
+    assert not [k for k in kinds if k[0] == "zeno_truncation"], kinds
+    # a flight after the push: both feet off the ground for longer than a millisecond
+    flights = [(a["t_s"], b["t_s"]) for a, b in zip(e.events, e.events[1:])
+               if a["t_s"] > 0.2 and a["mode_after"] == "00"]
+    assert flights and max(b - a for a, b in flights) > 1e-3, kinds
+    er = e.energy_report()
+    assert abs(er.residual_j) < 1e-6, er
+    assert no_energy_gain(e)

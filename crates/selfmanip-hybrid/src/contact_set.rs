@@ -9,8 +9,7 @@ use selfmanip_core::contact::{contact_geometry, ContactKind, RowDirection};
 use selfmanip_core::model::Friction;
 use selfmanip_core::{ContactMode, CoreError, SingularityKind};
 
-/// An impulse this small (N s) is no verdict of its own: the pseudo-impulse decides (5.40).
-pub const IMPULSE_TOL_N_S: f64 = 1e-12;
+pub use crate::event::IMPULSE_TOL_N_S;
 
 impl ResetWorkspace<'_> {
     /// The mode for contact set `set`: each contact's kind from `prefer` where it is active

@@ -27,6 +27,10 @@ pub enum EventKind {
     /// plastic impact into the mode with it sticking, an impact without collision
     /// ([`crate::jam`]); or, no impulse acting, it stuck or left by force complementarity.
     Jam,
+    /// A Zeno execution truncated ([`crate::zeno::truncate`]): the plastic impact into every
+    /// contact of the Zeno window on its surface, and the mode force complementarity keeps of
+    /// them — the limit of the pseudo-impulse (5.39)–(5.40) at the accumulation.
+    ZenoTruncation,
 }
 
 impl EventKind {
@@ -41,7 +45,17 @@ impl EventKind {
             EventKind::Fold => "fold",
             EventKind::FoldPassed => "fold_passed",
             EventKind::Jam => "jam",
+            EventKind::ZenoTruncation => "zeno_truncation",
         }
+    }
+
+    /// Whether the event is a plastic impact that may lose kinetic energy (a touchdown, a
+    /// fold, a jam, a Zeno truncation): the events of [`crate::Execution::impact_losses`].
+    pub fn is_impulsive(self) -> bool {
+        matches!(
+            self,
+            EventKind::Touchdown | EventKind::Fold | EventKind::Jam | EventKind::ZenoTruncation
+        )
     }
 }
 
@@ -91,6 +105,31 @@ impl Event {
         }
     }
 }
+
+impl Event {
+    /// Whether the event changes no contact mode and carries no impulse: a touchdown whose
+    /// contact complementarity let go at once, its impulse zero (`|P_λ| ≤`
+    /// [`IMPULSE_TOL_N_S`]: a massless chain's foot, whose stop needs none, thesis 5.1.3 —
+    /// the chain's own rates may jump, at no cost in energy), or a liftoff that kept every
+    /// contact. Such a reset is no transition of Definition 5.2 (its edges join distinct
+    /// modes): the run does not report it, and it still counts in the Zeno window. A
+    /// touchdown that leaves the mode as it was but carries an impulse is reported, and so
+    /// are a stick the cone refused and a slip it held (the sliding direction, which the mode
+    /// does not name, turns), an apex, a fold or its passage's end, a jam and a truncation.
+    pub fn changes_nothing(&self) -> bool {
+        let same = self.mode_before == self.mode_after;
+        match self.kind {
+            EventKind::Touchdown => same && self.impulse.iter().all(|p| p.abs() <= IMPULSE_TOL_N_S),
+            EventKind::Liftoff => same,
+            _ => false,
+        }
+    }
+}
+
+/// An impulse this small (N s) is none: no verdict of its own at an impact (the
+/// pseudo-impulse decides (5.40), `crate::contact_set`), and a touchdown carrying no larger
+/// one changes nothing ([`Event::changes_nothing`]).
+pub const IMPULSE_TOL_N_S: f64 = 1e-12;
 
 /// Why a Painlevé inconsistency was not resolved as a jam ([`crate::jam`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -1,7 +1,7 @@
 //! The record of an execution of the hybrid system (thesis Definition 5.2): the segments of
 //! flow with their dense output, the events (resets) between them, and why the run ended.
 use crate::controller::Controller;
-use crate::event::{Event, EventKind, PainleveReason};
+use crate::event::{Event, PainleveReason};
 use crate::integrate::DenseOutput;
 use selfmanip_core::{ContactMode, SingularityKind};
 use std::sync::Arc;
@@ -272,19 +272,14 @@ pub struct Execution {
 }
 
 impl Execution {
-    /// Kinetic energy lost in each impulsive event: touchdowns, folds and jams. Never
+    /// Kinetic energy lost in each impulsive event ([`crate::EventKind::is_impulsive`]). Never
     /// negative for a plastic impact (a touchdown, an impulsive stick, a jam); a fold passage's entry, the leg's
     /// fast relaxation to its torque-free speed, may also gain energy from the joint torque
     /// that drives it ([`crate::fold`]).
     pub fn impact_losses(&self) -> Vec<f64> {
         self.events
             .iter()
-            .filter(|e| {
-                matches!(
-                    e.kind,
-                    EventKind::Touchdown | EventKind::Fold | EventKind::Jam
-                )
-            })
+            .filter(|e| e.kind.is_impulsive())
             .map(|e| e.kinetic_before - e.kinetic_after)
             .collect()
     }

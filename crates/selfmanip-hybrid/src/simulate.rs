@@ -8,8 +8,9 @@
 //!   locate    the first crossing, to event_tol_s              [locate, features]
 //!   reset     impact or force complementarity ⇒ (mode, q̇⁺)   [reset, complementarity,
 //!                                                              impact, contact_set]
-//!   zeno      too many transitions in a window, or one cycle of transitions
-//!             repeated with the robot staying where it is ⇒ end   [zeno]
+//!   zeno      too many transitions in a window ⇒ truncated by the pseudo-impulse's
+//!             limit (a reset), or the end when that makes no progress; one cycle of
+//!             transitions repeated with the robot staying where it is ⇒ end   [zeno]
 //!   budget    out of steps or events, or stopped from outside ⇒ end  [budget]
 //! ```
 use crate::budget::{Budget, NEVER};
@@ -95,11 +96,16 @@ pub fn simulate_with(
     // sliding contacts whose sliding velocity is zero at the start of the next segment up
     // to drift (they stuck until the last reset, or their stick was just refused)
     let mut from_rest: Vec<usize> = Vec::new();
+    // a Zeno window's truncation, taken as the next reset (crate::zeno::truncate)
+    let mut truncation: Option<Reset> = None;
     let termination = 'run: loop {
         // flow ⇒ guards ⇒ locate ⇒ reset; a slide with no consistent continuation
         // (Painlevé) met on the way comes out as `Err((error, may_jam))`
         let t_start = t;
         let outcome: Result<Reset, (HybridError, bool)> = 'stages: {
+            if let Some(r) = truncation.take() {
+                break 'stages Ok(r);
+            }
             let run = integrator.run(
                 &mut flow,
                 mode,
@@ -173,14 +179,20 @@ pub fn simulate_with(
                 break termination;
             }
         };
-        // an apex recorded on the way changes nothing: the controller is not told of it
-        if event.kind != EventKind::Apex {
+        // an event that changes no mode and carries no impulse (a massless chain's foot
+        // touching and let go at once) is no transition: neither told nor reported; an apex
+        // recorded on the way changes nothing either, and the controller is not told of it
+        let silent = event.changes_nothing();
+        if event.kind != EventKind::Apex && !silent {
             flow.notify(&event);
         }
         y[model.nq()..].copy_from_slice(&event.qd_after);
         mode = event.mode_after;
         from_rest = rest;
-        events.push(event);
+        let triggered = event.triggered.clone();
+        if !silent {
+            events.push(event);
+        }
         // ⇒ budget and Zeno
         if events.len() >= opts.max_events {
             break Termination::EventBudget;
@@ -188,9 +200,21 @@ pub fn simulate_with(
         if budget.stopped() {
             break Termination::Interrupted { t };
         }
-        let triggered = events.last().map_or(&[][..], |e| &e.triggered[..]);
-        if let Some(z) = zeno.record(t, triggered) {
-            break z;
+        if let Some(z) = zeno.record(t, &triggered) {
+            let Termination::Zeno { ref contacts, .. } = z else {
+                break z;
+            };
+            truncation = match zeno.may_truncate(t) {
+                true => {
+                    crate::zeno::truncate(&mut reset_ws, &mut flow, &opts, mode, (t, &y), contacts)?
+                }
+                false => None,
+            };
+            if truncation.is_none() {
+                break z;
+            }
+            zeno.truncated(t);
+            continue;
         }
         if let Some(c) = chatter.check(&events) {
             break c;

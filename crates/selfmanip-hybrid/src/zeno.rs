@@ -6,7 +6,31 @@
 //! impacts accumulating at a finite time (section 5.1.4). Feature passages count as well:
 //! a site rocking across the boundary between two features could otherwise split the flow
 //! without end.
+//!
+//! **Truncation** ([`truncate`]). The window does not end the run when it can truncate it: a
+//! Zeno execution is what the pseudo-impulse (5.39)–(5.40) exists to truncate (section
+//! 5.1.4). Along the accumulating impacts the contacts' approach speeds go to zero, so the
+//! plastic impulses `P_λ` of (5.28)–(5.29) shrink with them while the pseudo-impulse
+//! `P_δ = A_J^† (Υ − C̄q̇ − N̄) δt` (5.39) does not depend on the speed: for any `δt > 0`
+//! some impact has `U(P_λ + P_δ)` of the sign of `U(P_δ)` for every contact, and the block
+//! of (5.44) comes to rest (below 6.3 cm/s in Fig. 5.5). That impact's limit `δt → 0⁺` is the
+//! truncation: the plastic impact (5.52) into the set `J` of every contact of the Zeno
+//! window that is on its surface, and then force complementarity (5.19)–(5.20) over `J` —
+//! the sign of `U(P_δ)`, `δt` times the forces of mode `J` — keeps the contacts that push and
+//! releases (at zero normal velocity) those that would pull. It is the order-`δt` rule of
+//! [`crate::complementarity`] taken at the accumulation instead of at one impact. The run
+//! goes on from there with an [`EventKind::ZenoTruncation`] naming the window's contacts; a
+//! truncation that the next Zeno window finds less than one window back made no progress,
+//! and that window ends the run with [`Termination::Zeno`] (as does a window with no
+//! contact to add, e.g. of feature passages only).
+use crate::error::HybridError;
+use crate::event::{Event, EventKind};
 use crate::execution::Termination;
+use crate::flow::{Flow, FlowWorkspace};
+use crate::options::HybridOptions;
+use crate::reset::{reset_workspace, Reset};
+use crate::surface_tolerances::TERRAIN_STEP_M;
+use selfmanip_core::{plastic_impact, ContactMode, CoreError};
 
 /// The times of the transitions so far, latest last, with the contacts that triggered each.
 #[derive(Debug, Clone)]
@@ -15,6 +39,8 @@ pub struct ZenoWindow {
     max_in_window: usize,
     times: Vec<f64>,
     triggered: Vec<Vec<usize>>,
+    /// When the last truncation was made ([`truncate`]).
+    truncated_at: Option<f64>,
 }
 
 impl ZenoWindow {
@@ -24,7 +50,21 @@ impl ZenoWindow {
             max_in_window,
             times: Vec::new(),
             triggered: Vec::new(),
+            truncated_at: None,
         }
+    }
+
+    /// Whether a Zeno window ending at `t` may be truncated: no truncation within the last
+    /// window (one that was made no progress).
+    pub fn may_truncate(&self, t: f64) -> bool {
+        self.truncated_at.is_none_or(|s| t - s > self.window_s)
+    }
+
+    /// Records a truncation at `t`: the window starts afresh.
+    pub fn truncated(&mut self, t: f64) {
+        self.times.clear();
+        self.triggered.clear();
+        self.truncated_at = Some(t);
     }
 
     /// Records a transition at `t` (not before the last one) triggered by `contacts` (none
@@ -137,4 +177,71 @@ fn union(lists: &[Vec<usize>]) -> Vec<usize> {
     all.sort_unstable();
     all.dedup();
     all
+}
+
+/// The truncation of a Zeno execution (module docs) at `(t, y = [q; q̇])` in `mode` of
+/// `flow`, whose window holds the transitions of `contacts`: the plastic impact (5.52) into
+/// `J` = the active contacts and those of `contacts` within [`TERRAIN_STEP_M`] of their
+/// surface, then force complementarity (5.19)–(5.20) over `J` for the mode after. `None`
+/// when there is nothing to truncate (no contact to add, `J` singular, no single force
+/// solution, or a slide without consistent forces): the window's end stands.
+pub fn truncate(
+    ws: &mut FlowWorkspace,
+    flow: &mut Flow,
+    opts: &HybridOptions,
+    mode: ContactMode,
+    (t, y): (f64, &[f64]),
+    contacts: &[usize],
+) -> Result<Option<Reset>, HybridError> {
+    let model = flow.model();
+    let (q, qd) = y.split_at(model.nq());
+    let added: Vec<usize> = contacts
+        .iter()
+        .copied()
+        .filter(|&k| !mode.contains(k) && flow.geometry(k, y).gap_m.abs() <= TERRAIN_STEP_M)
+        .collect();
+    if added.is_empty() {
+        return Ok(None);
+    }
+    let mut set: Vec<usize> = mode.active().chain(added).collect();
+    set.sort_unstable();
+    let mut lock = flow.lock().to_vec();
+    let ctrl = flow.controller().clone();
+    let cx = &mut reset_workspace(flow, &*ctrl, opts, ws, &[], &lock);
+    let inconsistent = |e: &CoreError| matches!(e, CoreError::PainleveInconsistent { .. });
+    let impact = match cx.outcome(t, &set, mode, q, qd, true) {
+        Ok(Some(o)) => o,
+        Ok(None) => return Ok(None),
+        Err(e) if inconsistent(&e) => return Ok(None),
+        Err(e) => return Err(e.into()),
+    };
+    let ke_before = crate::energy::kinetic_energy_at(model, cx.terrain, &mut cx.ws.data, q, qd)?;
+    let imp = plastic_impact(model, &mut cx.ws.data, cx.terrain, impact.mode, q, qd)?;
+    let qd_after: Vec<f64> = imp.qd_plus.iter().copied().collect();
+    let mode_after = match cx.select(t, &set, &[], impact.mode, q, &qd_after, false) {
+        Ok(Ok(s)) => s.mode,
+        Ok(Err(_)) => return Ok(None),
+        Err(HybridError::Core(e)) if inconsistent(&e) => return Ok(None),
+        Err(e) => return Err(e),
+    };
+    let ke_after =
+        crate::energy::kinetic_energy_at(model, cx.terrain, &mut cx.ws.data, q, &qd_after)?;
+    crate::fold::retain_held_locks(model, mode_after, &mut lock);
+    Ok(Some(Reset::Continue {
+        event: Event {
+            t,
+            kind: EventKind::ZenoTruncation,
+            mode_before: mode,
+            mode_after,
+            triggered: contacts.to_vec(),
+            impulse: impact.value,
+            pseudo_impulse: vec![],
+            kinetic_before: ke_before,
+            kinetic_after: ke_after,
+            q: q.to_vec(),
+            qd_after,
+        },
+        from_rest: vec![],
+        lock,
+    }))
 }

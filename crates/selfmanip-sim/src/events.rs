@@ -11,15 +11,16 @@ pub struct EventRecord {
     /// `touchdown`, `liftoff`, `slip`, `stick`, `fold` (a leg reached the pose where its
     /// contact stops pinning it: an impulsive stick, a release, or the start of its passage
     /// through that pose), `fold_passed` (the passage's end), `jam` (a Painlevé slide stopped
-    /// by an impact without collision, `selfmanip_hybrid::jam`) or `apex`
+    /// by an impact without collision, `selfmanip_hybrid::jam`), `zeno_truncation` (a Zeno
+    /// execution truncated, `selfmanip_hybrid::zeno`) or `apex`
     /// ([`EventKind::name`]).
     pub kind: &'static str,
     pub mode_before: String,
     pub mode_after: String,
     /// Contacts that fired the guard.
     pub contacts: Vec<String>,
-    /// Kinetic energy lost in the event (J): `T⁻ − T⁺` for the impulsive events (touchdown,
-    /// fold, jam: those of [`Execution::impact_losses`]), zero for the others; round-off,
+    /// Kinetic energy lost in the event (J): `T⁻ − T⁺` for the impulsive events
+    /// ([`EventKind::is_impulsive`], those of [`Execution::impact_losses`]), zero for the others; round-off,
     /// within [`ENERGY_ROUND_OFF`] `· (T⁻ + 1 J)`, reported as zero. Never negative for a
     /// touchdown; a `fold` that starts a passage may gain energy from a motor.
     pub energy_loss_j: f64,
@@ -73,10 +74,7 @@ pub fn event_records_labelled(
                 .iter()
                 .map(|&k| model.contacts[k].name.clone())
                 .collect(),
-            energy_loss_j: if matches!(
-                e.kind,
-                EventKind::Touchdown | EventKind::Fold | EventKind::Jam
-            ) {
+            energy_loss_j: if EventKind::is_impulsive(e.kind) {
                 energy_loss(e.kinetic_before, e.kinetic_after)
             } else {
                 0.0

@@ -199,6 +199,9 @@ fn guard_and_reset(at: &EventAt, fm: &FlowJacobian) -> KindOutcome<GuardReset> {
             Ok(dg)
         }
         EventKind::Jam => Err(NotDifferentiated("jams are not differentiated".into())),
+        EventKind::ZenoTruncation => Err(NotDifferentiated(
+            "Zeno truncations are not differentiated".into(),
+        )),
         EventKind::Fold | EventKind::FoldPassed => Err(NotDifferentiated(
             "fold events are not differentiated yet".into(),
         )),

@@ -213,6 +213,22 @@ impl MotionLaw {
     }
 }
 
+/// The servo `(target, kp, kd)` whose torque-free manifold a free massless joint in
+/// `phase` follows ([`BehaviourController::free_law`]): a servo with damping that acts in
+/// the air.
+fn servo_manifold(phase: &PhasePlan) -> Option<(Option<f64>, f64, f64)> {
+    match phase.torque {
+        TorqueLaw::Servo {
+            target,
+            kp,
+            kd,
+            only_in_contact: false,
+            ..
+        } if kd > 0.0 => Some((target, kp, kd)),
+        _ => None,
+    }
+}
+
 #[derive(Debug, Clone)]
 pub(crate) struct PhasePlan {
     pub name: String,
@@ -601,6 +617,52 @@ impl BehaviourController {
     #[inline]
     fn reference(&self, p: usize, t: f64) -> (f64, f64, f64) {
         self.programs[p].reference(t)
+    }
+
+    /// The law a free massless joint of program `p` follows at `(t, q)`: the reference
+    /// `(θ*, ω*, α*)` and gains `(kp_f, kd_f)` of `q̈ = α* + kp_f (θ* − q) + kd_f (ω* − q̇)`.
+    ///
+    /// A phase with a servo (`kd > 0`, acting in the air): the joint follows the servo's
+    /// **torque-free manifold**, towards the servo's target (or the joint's motion, which a
+    /// servo without a target tracks). A link of inertia
+    /// `ε` under `τ = kp (θ* − θ) + kd (ω* − θ̇)` obeys `ε θ̈ = τ + O(ε)`; as `ε → 0` its fast
+    /// motion relaxes in `ε / kd` onto `τ = 0` (Tikhonov: `∂τ/∂θ̇ = −kd < 0`), i.e.
+    /// `θ̇ = v(t, θ) = ω* + r (θ* − θ)`, `r = kp / kd`. At a liftoff of the massless chain its
+    /// contact force, and with it `τ`, reaches zero, so the rate it leaves with is already
+    /// `v`: the law is continuous with stance (docs/singular-transitions.md §9). Written in
+    /// second order with a relaxation `c (v − θ̇)` onto the manifold at the law's own rate
+    /// `c = r`: `θ̈ = dv/dt + r (v − θ̇) = α* + 2r (ω* − θ̇) + r² (θ* − θ)`, critically damped
+    /// at `r` (roots `−c` and `−r`). The massless link's torque acts on nothing else, so a
+    /// tracking law with other gains would leave the manifold at the liftoff and could drive
+    /// the foot back into the ground. Otherwise (no servo acting in the air) the motion's
+    /// reference with the behaviour's `free_joints` gains.
+    pub(crate) fn free_law(&self, p: usize, t: f64, q: &[f64]) -> ((f64, f64, f64), (f64, f64)) {
+        let plan = &*self.plan;
+        let phase = &plan.programs[p].phases[self.current(p, t, q)];
+        let reference = self.reference(p, t);
+        match servo_manifold(phase) {
+            Some((target, kp, kd)) => {
+                let r = kp / kd;
+                let (theta, omega, alpha) = target.map_or(reference, |a| (a, 0.0, 0.0));
+                ((theta, omega, alpha), (r * r, 2.0 * r))
+            }
+            None => (reference, (plan.kp_free, plan.kd_free)),
+        }
+    }
+
+    /// Whether a joint of `free_joints` follows its servo's torque-free manifold at `(t, q)`
+    /// ([`Self::free_law`]): its parameter and memory partials are not formed yet.
+    fn follows_servo_manifold(&self, free_joints: &[usize], t: f64, q: &[f64]) -> bool {
+        let plan = &*self.plan;
+        free_joints.iter().any(|&j| {
+            plan.program_of_joint
+                .get(j)
+                .copied()
+                .flatten()
+                .is_some_and(|p| {
+                    servo_manifold(&plan.programs[p].phases[self.current(p, t, q)]).is_some()
+                })
+        })
     }
 
     /// The index of program `p`'s motion in force at `t`: the last one started by `t`.
@@ -1274,8 +1336,8 @@ impl Controller for BehaviourController {
         for (slot, &j) in out.iter_mut().zip(free) {
             *slot = match plan.program_of_joint.get(j).copied().flatten() {
                 Some(p) => {
-                    let (theta, omega, alpha) = self.programs[p].reference(t);
-                    alpha + plan.kp_free * (theta - q[j]) + plan.kd_free * (omega - qd[j])
+                    let ((theta, omega, alpha), (kp_f, kd_f)) = self.free_law(p, t, q);
+                    alpha + kp_f * (theta - q[j]) + kd_f * (omega - qd[j])
                 }
                 None => 0.0,
             };
@@ -1336,9 +1398,10 @@ impl Controller for BehaviourController {
             }
         }
         for (i, &j) in free_joints.iter().enumerate() {
-            if plan.program_of_joint.get(j).copied().flatten().is_some() {
-                out.dfree_dq[(i, j)] = -plan.kp_free;
-                out.dfree_dqd[(i, j)] = -plan.kd_free;
+            if let Some(p) = plan.program_of_joint.get(j).copied().flatten() {
+                let (_, (kp_f, kd_f)) = self.free_law(p, t, q);
+                out.dfree_dq[(i, j)] = -kp_f;
+                out.dfree_dqd[(i, j)] = -kd_f;
             }
         }
         true
@@ -1422,6 +1485,9 @@ impl Controller for BehaviourController {
                     ws.give([d]);
                 }
             }
+        }
+        if self.follows_servo_manifold(free_joints, t, q) {
+            return false;
         }
         for (r, &j) in free_joints.iter().enumerate() {
             let Some(p) = plan.program_of_joint.get(j).copied().flatten() else {
@@ -1571,6 +1637,9 @@ impl Controller for BehaviourController {
     ) -> bool {
         let plan = &*self.plan;
         let n = plan.program_of_joint.len();
+        if self.follows_servo_manifold(free_joints, t, q) {
+            return false;
+        }
         let mut ws = self.workspace.lend();
         for (p, prog) in plan.programs.iter().enumerate() {
             let j = prog.joint;
