@@ -102,6 +102,7 @@ impl DcMotor {
 
     /// Torque at shaft speed `speed_rad_s` for a voltage command `command ∈ [−1, 1]`
     /// (fraction of the supply voltage): `τ = τ_stall (u − ω/ω₀)`, clipped to `±k_M I_max`.
+    #[inline]
     pub fn torque_n_m(&self, command: f64, speed_rad_s: f64) -> f64 {
         self.torque_on_battery_n_m(command, speed_rad_s, 0.0)
     }
@@ -114,6 +115,7 @@ impl DcMotor {
     /// `τ = τ_stall (u − ω/ω₀) · R/(R + u² R_b)`, clipped to `±k_M I_max`. The no-load speed
     /// is unchanged; the stall torque at full command falls to `k_M V_oc/(R + R_b)`.
     /// `R_b = 0` is [`DcMotor::torque_n_m`] bit for bit.
+    #[inline]
     pub fn torque_on_battery_n_m(
         &self,
         command: f64,
@@ -123,13 +125,11 @@ impl DcMotor {
         let u = command.clamp(-1.0, 1.0);
         let limit = self.current_limited_torque_n_m();
         let line = self.stall_torque_n_m * (u - speed_rad_s / self.no_load_speed_rad_s);
-        let sag = if battery_resistance_ohm == 0.0 {
-            1.0
-        } else {
-            let r = self.terminal_resistance_ohm();
-            r / (r + u * u * battery_resistance_ohm)
-        };
-        (line * sag).clamp(-limit, limit)
+        if battery_resistance_ohm == 0.0 {
+            return line.clamp(-limit, limit);
+        }
+        let r = self.terminal_resistance_ohm();
+        (line * (r / (r + u * u * battery_resistance_ohm))).clamp(-limit, limit)
     }
 
     /// Torque at full command, the torque–speed curve of Fig. 2.6.
@@ -277,6 +277,7 @@ impl Drive {
 
     /// Output torque for motor torque `tau_m` at motor speed `speed_m`, by the gearbox law
     /// of [`DriveLosses::gearbox_loss`].
+    #[inline]
     fn output_from_motor_torque(&self, tau_m: f64, speed_m: f64) -> f64 {
         match self.losses.gearbox_loss {
             GearboxLoss::Derating => self.g_eta() * tau_m,
@@ -286,6 +287,7 @@ impl Drive {
     }
 
     /// Motor torque for a command at motor speed `speed_m`, on this drive's battery.
+    #[inline]
     fn motor_torque_n_m(&self, command: f64, speed_m: f64) -> f64 {
         self.motor
             .torque_on_battery_n_m(command, speed_m, self.losses.battery_resistance_ohm)
@@ -314,6 +316,7 @@ impl Drive {
 
     /// Output torque for a voltage command at output speed `speed_rad_s` (with the
     /// drive's [`DriveLosses`]).
+    #[inline]
     pub fn output_torque_n_m(&self, command: f64, speed_rad_s: f64) -> f64 {
         let speed_m = speed_rad_s * self.gearbox.ratio;
         self.output_from_motor_torque(self.motor_torque_n_m(command, speed_m), speed_m)

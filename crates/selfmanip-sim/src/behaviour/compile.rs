@@ -2,8 +2,8 @@
 //! names resolved to indices, parameters and formulas evaluated, every value checked. Each
 //! error names the field at fault (`joints[1].phases[2].torque.kp_n_m_per_rad`).
 use super::interpreter::{
-    BehaviourController, EventMatch, Level, MatchKind, MotionLaw, NamedPlan, PhasePlan, Plan,
-    Program, Start, TorqueLaw, Value,
+    servo_manifold, BehaviourController, EventMatch, Level, MatchKind, MotionLaw, NamedPlan,
+    PhasePlan, Plan, Program, Start, TorqueLaw, Value,
 };
 use super::spec::{
     ActuatorSpec, Behaviour, Interpolation, JointProgram, Motion, NamedEvent, On, Phase, Torque,
@@ -1053,6 +1053,7 @@ impl Compiler<'_> {
                 joint: j,
                 contacts: own,
                 has_levels: phases.iter().any(|ph| ph.start.level.is_some()),
+                has_servo_manifold: phases.iter().any(|ph| servo_manifold(ph).is_some()),
                 phases,
                 repeat_from,
             },

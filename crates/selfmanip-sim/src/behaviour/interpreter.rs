@@ -216,7 +216,7 @@ impl MotionLaw {
 /// The servo `(target, kp, kd)` whose torque-free manifold a free massless joint in
 /// `phase` follows ([`BehaviourController::free_law`]): a servo with damping that acts in
 /// the air.
-fn servo_manifold(phase: &PhasePlan) -> Option<(Option<f64>, f64, f64)> {
+pub(crate) fn servo_manifold(phase: &PhasePlan) -> Option<(Option<f64>, f64, f64)> {
     match phase.torque {
         TorqueLaw::Servo {
             target,
@@ -251,6 +251,9 @@ pub(crate) struct Program {
     pub repeat_from: Option<usize>,
     /// Whether any phase is a joint-angle level.
     pub has_levels: bool,
+    /// Whether any phase has a servo whose torque-free manifold a free massless joint
+    /// follows ([`servo_manifold`]); without one, the joint always takes the tracking law.
+    pub has_servo_manifold: bool,
 }
 
 /// A named event: its trigger and the named event it waits for.
@@ -638,8 +641,8 @@ impl BehaviourController {
     /// reference with the behaviour's `free_joints` gains.
     pub(crate) fn free_law(&self, p: usize, t: f64, q: &[f64]) -> ((f64, f64, f64), (f64, f64)) {
         let plan = &*self.plan;
-        let phase = &plan.programs[p].phases[self.current(p, t, q)];
         let reference = self.reference(p, t);
+        let phase = &plan.programs[p].phases[self.current(p, t, q)];
         match servo_manifold(phase) {
             Some((target, kp, kd)) => {
                 let r = kp / kd;
@@ -660,7 +663,8 @@ impl BehaviourController {
                 .copied()
                 .flatten()
                 .is_some_and(|p| {
-                    servo_manifold(&plan.programs[p].phases[self.current(p, t, q)]).is_some()
+                    plan.programs[p].has_servo_manifold
+                        && servo_manifold(&plan.programs[p].phases[self.current(p, t, q)]).is_some()
                 })
         })
     }
@@ -1335,6 +1339,10 @@ impl Controller for BehaviourController {
         let plan = &*self.plan;
         for (slot, &j) in out.iter_mut().zip(free) {
             *slot = match plan.program_of_joint.get(j).copied().flatten() {
+                Some(p) if !plan.programs[p].has_servo_manifold => {
+                    let (theta, omega, alpha) = self.reference(p, t);
+                    alpha + plan.kp_free * (theta - q[j]) + plan.kd_free * (omega - qd[j])
+                }
                 Some(p) => {
                     let ((theta, omega, alpha), (kp_f, kd_f)) = self.free_law(p, t, q);
                     alpha + kp_f * (theta - q[j]) + kd_f * (omega - qd[j])
