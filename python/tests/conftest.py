@@ -12,6 +12,15 @@ QUADRUPED = REPO / "tests" / "data" / "quadruped.toml"
 # Table 4.2 planar-pair leg values (2 x the single-leg 0.063 kg, 0.00046 kg m^2)
 MASSIVE_LEGS = {"m_l": 0.126, "I_l": 0.00092}
 
+# the hopper of crates/selfmanip-sim/examples/data under hop.toml, dropped 10 cm with its leg
+# at the landing pose, moving forward at 0.3 m/s, simulated to tight tolerances (the state
+# the sensitivity tests differentiate)
+HOPPER_DATA = REPO / "crates" / "selfmanip-sim" / "examples" / "data"
+HOPPER, HOP = HOPPER_DATA / "hopper.toml", HOPPER_DATA / "hop.toml"
+HOPPER_TIGHT = dict(rtol=1e-12, event_tol_s=1e-14)
+HOPPER_Q0 = [0.5, -1.0, 0.0, -(0.1 + 0.4 * math.cos(0.5)), 0.0]
+HOPPER_QD0 = [0.0, 0.0, 0.3, 0.5, 0.0]
+
 
 def gravity_by_finite_differences(robot, q, h=1e-6):
     """N(q) = dV/dq from the engine's potential energy by central differences: a second route

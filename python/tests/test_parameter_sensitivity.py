@@ -4,8 +4,6 @@ parameter set by ``params=`` (an independent route: the behaviour recompiled at 
 and a typed error naming an unknown parameter."""
 from __future__ import annotations
 
-import math
-import pathlib
 
 import numpy as np
 import pytest
@@ -13,14 +11,7 @@ import pytest
 import selfmanip
 from selfmanip.errors import InvalidInputError, InvalidTypeError
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
-DATA = ROOT / "crates" / "selfmanip-sim" / "examples" / "data"
-HOPPER, HOP = DATA / "hopper.toml", DATA / "hop.toml"
-TIGHT = dict(rtol=1e-12, event_tol_s=1e-14)
-# the hopper dropped 10 cm with its leg at the landing pose, moving forward at 0.3 m/s
-A = 0.5
-Q0 = [A, -2 * A, 0.0, -(0.1 + 0.4 * math.cos(A)), 0.0]
-QD0 = [0.0, 0.0, 0.3, 0.5, 0.0]
+from conftest import HOP, HOPPER, HOPPER_Q0 as Q0, HOPPER_QD0 as QD0, HOPPER_TIGHT as TIGHT
 VALUES = {"kp_push": 45.0, "t_compress": 0.05, "kp_spring": 60.0}
 
 

@@ -7,8 +7,6 @@ field set by ``params=`` and the behaviour recompiled), Richardson-extrapolated 
 honest flag of a path without an exact derivative."""
 from __future__ import annotations
 
-import math
-import pathlib
 
 import numpy as np
 import pytest
@@ -16,13 +14,7 @@ import pytest
 import selfmanip
 from selfmanip.errors import InvalidInputError
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
-DATA = ROOT / "crates" / "selfmanip-sim" / "examples" / "data"
-HOPPER, HOP = DATA / "hopper.toml", DATA / "hop.toml"
-TIGHT = dict(rtol=1e-12, event_tol_s=1e-14)
-A = 0.5
-Q0 = [A, -2 * A, 0.0, -(0.1 + 0.4 * math.cos(A)), 0.0]
-QD0 = [0.0, 0.0, 0.3, 0.5, 0.0]
+from conftest import HOP, HOPPER, HOPPER_Q0 as Q0, HOPPER_QD0 as QD0, HOPPER_TIGHT as TIGHT
 T_FINAL = 0.35   # the apex at 0.294 s passed, the next touchdown at 0.401 s not reached
 KINDS = ["touchdown", "liftoff", "apex"]
 # the body's rows: the massless leg's own coordinates follow their prescribed motion through

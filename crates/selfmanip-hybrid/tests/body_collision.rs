@@ -70,6 +70,16 @@ fn names(model: &Model, contacts: &[usize]) -> Vec<String> {
     v
 }
 
+/// The names of the sites the run's first event lands on, after checking that it is a
+/// touchdown at the free-fall time of a drop of `fall_m`, `sqrt(2 fall / g)`.
+fn landing_after_free_fall(model: &Model, e: &Execution, fall_m: f64) -> Vec<String> {
+    let first = &e.events[0];
+    assert_eq!(first.kind, EventKind::Touchdown);
+    let t = (2.0 * fall_m / G).sqrt();
+    assert!((first.t - t).abs() < 1e-9, "{} against {t}", first.t);
+    names(model, &first.triggered)
+}
+
 #[test]
 fn a_box_dropped_flat_lands_on_its_two_lower_corners_at_the_free_fall_time() {
     let (l, h) = (0.4, 0.1);
@@ -77,17 +87,9 @@ fn a_box_dropped_flat_lands_on_its_two_lower_corners_at_the_free_fall_time() {
     let z0 = -0.2;
     let e = dropped(&model, &FlatGround, z0, 0.5);
     assert_eq!(e.termination, Termination::FinalTime);
-    let first = &e.events[0];
-    assert_eq!(first.kind, EventKind::Touchdown);
     // the lower corners (body z = +h/2) fall −z0 − h/2
-    let fall = -z0 - h / 2.0;
-    assert!(
-        (first.t - (2.0 * fall / G).sqrt()).abs() < 1e-9,
-        "{}",
-        first.t
-    );
     assert_eq!(
-        names(&model, &first.triggered),
+        landing_after_free_fall(&model, &e, -z0 - h / 2.0),
         ["body.collision[0].corner[0]", "body.collision[0].corner[1]"]
     );
     // it rests there: centre h/2 above the ground, level, still
@@ -144,15 +146,9 @@ fn a_tilted_stadium_lands_on_its_lower_end_circle_first() {
         [0.0; 3],
         0.5,
     );
-    let first = &e.events[0];
     let fall = -(z0 + phi.sin() * len / 2.0) - r;
-    assert!(
-        (first.t - (2.0 * fall / G).sqrt()).abs() < 1e-9,
-        "{}",
-        first.t
-    );
     assert_eq!(
-        names(&model, &first.triggered),
+        landing_after_free_fall(&model, &e, fall),
         ["body.collision[0].end[0]"]
     );
     // then its front end comes down: it ends on both, level, its centre r above the ground
