@@ -189,7 +189,8 @@ pub fn simulate_with(
         y[model.nq()..].copy_from_slice(&event.qd_after);
         mode = event.mode_after;
         from_rest = rest;
-        let triggered = event.triggered.clone();
+        // a silent event counts in the Zeno window too
+        let zeno_window = zeno.record(t, &event.triggered);
         if !silent {
             events.push(event);
         }
@@ -200,15 +201,14 @@ pub fn simulate_with(
         if budget.stopped() {
             break Termination::Interrupted { t };
         }
-        if let Some(z) = zeno.record(t, &triggered) {
+        if let Some(z) = zeno_window {
             let Termination::Zeno { ref contacts, .. } = z else {
                 break z;
             };
-            truncation = match zeno.may_truncate(t) {
-                true => {
-                    crate::zeno::truncate(&mut reset_ws, &mut flow, &opts, mode, (t, &y), contacts)?
-                }
-                false => None,
+            truncation = if zeno.may_truncate(t) {
+                crate::zeno::truncate(&mut reset_ws, &mut flow, &opts, mode, (t, &y), contacts)?
+            } else {
+                None
             };
             if truncation.is_none() {
                 break z;

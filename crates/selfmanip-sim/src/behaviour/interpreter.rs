@@ -1339,6 +1339,8 @@ impl Controller for BehaviourController {
         let plan = &*self.plan;
         for (slot, &j) in out.iter_mut().zip(free) {
             *slot = match plan.program_of_joint.get(j).copied().flatten() {
+                // no servo manifold in the program: the tracking law, without the phase
+                // lookup of `free_law` (a leap's legs in the air take this path every step)
                 Some(p) if !plan.programs[p].has_servo_manifold => {
                     let (theta, omega, alpha) = self.reference(p, t);
                     alpha + plan.kp_free * (theta - q[j]) + plan.kd_free * (omega - qd[j])
