@@ -1647,7 +1647,20 @@ impl Controller for BehaviourController {
                 _ => vec![0.0; names.len()],
             }
         };
-        let mut out = Vec::new();
+        // each timeline entry, each motion's start and its (at most three) knots, each
+        // breakpoint: one allocation
+        let breakpoints = |prog: &Program| -> usize {
+            let times = |ph: &PhasePlan| match &ph.torque {
+                TorqueLaw::Schedule { times, .. } => times.len(),
+                _ => 0,
+            };
+            prog.phases.iter().map(times).sum()
+        };
+        let capacity = (self.programs.iter())
+            .zip(&self.plan.programs)
+            .map(|(m, prog)| m.timeline.len() + 4 * m.motions.len() + breakpoints(prog))
+            .sum();
+        let mut out = Vec::with_capacity(capacity);
         let mut ws = self.workspace.lend();
         for mem in &self.programs {
             out.extend(mem.timeline.iter().map(|e| TimeEvent {
