@@ -173,6 +173,7 @@ impl DenseOutput {
     }
 
     /// Appends a step (which must start where the last one ended).
+    #[inline]
     pub fn push(&mut self, step: &DenseStep) {
         debug_assert!(self.t0.is_empty() || step.r.len() * self.t0.len() == self.r.len());
         self.t0.push(step.t0);
