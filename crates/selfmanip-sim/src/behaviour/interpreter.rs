@@ -394,13 +394,10 @@ impl ProgramMemory {
 
     /// Drops the motions (and their records) that start after `now`.
     fn keep_motions_started_by(&mut self, now: f64) {
-        let keep: Vec<bool> = self.motions.iter().map(|m| m.t0() <= now).collect();
-        let mut k = keep.iter();
-        self.motions
-            .retain(|_| *k.next().expect("one flag per motion"));
-        let mut k = keep.iter();
+        let mut started = self.motions.iter().map(|m| m.t0() <= now);
         self.records
-            .retain(|_| *k.next().expect("one flag per motion"));
+            .retain(|_| started.next().expect("one record per motion"));
+        self.motions.retain(|m| m.t0() <= now);
     }
 }
 
@@ -1220,6 +1217,7 @@ impl BehaviourController {
     /// every program, to a fixed point (phases may wait for other programs' phases).
     fn resolve(&mut self, now: f64) {
         let passes = self.plan.programs.len() + 2;
+        let mut planned = Vec::new();
         for _ in 0..passes {
             let mut changed = false;
             for p in 0..self.plan.programs.len() {
@@ -1227,8 +1225,8 @@ impl BehaviourController {
                     .timeline
                     .partition_point(|e| e.0 <= now)
                     .max(1);
-                let mut last = self.programs[p].timeline[keep - 1].clone();
-                let mut planned = Vec::new();
+                let mut last = self.programs[p].timeline[keep - 1];
+                planned.clear();
                 while planned.len() <= PLAN_CAP {
                     let Some(j) = self.successor(p, last.1) else {
                         break;
@@ -1237,7 +1235,7 @@ impl BehaviourController {
                         break;
                     };
                     let start = entry.0;
-                    planned.push(entry.clone());
+                    planned.push(entry);
                     last = entry;
                     if start > self.plan.horizon_s {
                         break;
@@ -1246,7 +1244,7 @@ impl BehaviourController {
                 let tl = &mut self.programs[p].timeline;
                 if tl[keep..] != planned[..] {
                     tl.truncate(keep);
-                    tl.extend(planned);
+                    tl.extend_from_slice(&planned);
                     changed = true;
                 }
             }
