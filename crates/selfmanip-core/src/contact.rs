@@ -373,6 +373,7 @@ impl ContactGeometry {
 
 /// Site `k`, the part it is on, and the world position of its reference point (a point
 /// site's point, an arc's centre), near which the terrain's features are looked up.
+#[inline]
 fn site_reference<'m>(
     model: &'m Model,
     kin: &Kinematics,

@@ -162,7 +162,18 @@ pub struct DenseOutput {
 }
 
 impl DenseOutput {
+    /// An empty output with room for `steps` steps of a state of `n` numbers: as many
+    /// appended without growing its buffers.
+    pub fn with_capacity(steps: usize, n: usize) -> Self {
+        DenseOutput {
+            t0: Vec::with_capacity(steps),
+            h: Vec::with_capacity(steps),
+            r: Vec::with_capacity(5 * n * steps),
+        }
+    }
+
     /// Appends a step (which must start where the last one ended).
+    #[inline]
     pub fn push(&mut self, step: &DenseStep) {
         debug_assert!(self.t0.is_empty() || step.r.len() * self.t0.len() == self.r.len());
         self.t0.push(step.t0);

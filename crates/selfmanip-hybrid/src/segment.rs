@@ -35,6 +35,10 @@ use selfmanip_core::{free_massless_joints, ContactMode, CoreError, Model};
 /// The factor a trial step shrinks by when one of its stages met a singular KKT matrix.
 const SINGULAR_RETRY_FACTOR: f64 = 0.25;
 
+/// The steps a segment's dense output has room for from its start (a leap's segments take
+/// 13 steps on average; a longer one grows its buffers).
+const STEPS_RESERVED: usize = 16;
+
 /// How a segment ended.
 #[derive(Debug, Clone, PartialEq)]
 pub enum SegmentEnd {
@@ -185,7 +189,7 @@ impl SegmentIntegrator {
             controller: flow.controller().clone(),
             locked: flow.lock().to_vec(),
             slide_directions: flow.slide_directions().to_vec(),
-            dense: DenseOutput::default(),
+            dense: DenseOutput::with_capacity(STEPS_RESERVED, y.len()),
         };
         let end = loop {
             if !slipping_now.is_empty() {

@@ -1013,7 +1013,7 @@ impl Compiler<'_> {
     ) -> Result<(Program, Vec<PhaseTangent>, Vec<Reused<PhasePlan>>), SimError> {
         let j = joint_index(self.cx.model, &prog.joint).expect("checked above");
         let own = joint_contacts(self.cx.model, j);
-        let mut phases: Vec<PhasePlan> = Vec::new();
+        let mut phases: Vec<PhasePlan> = Vec::with_capacity(prog.phases.len());
         let mut tangents: Vec<PhaseTangent> = Vec::new();
         let mut recorded = Vec::new();
         let mut previous_kept = false;

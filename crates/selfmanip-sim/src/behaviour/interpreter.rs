@@ -316,6 +316,10 @@ struct ProgramMemory {
     motions: Vec<JointMotion>,
     /// How each motion started, one per motion.
     records: Vec<MotionRecord>,
+    /// The start time and torque law of each timeline entry's phase, its numbers read out
+    /// of the plan ([`ActiveLaw`]): what [`Controller::torque`] evaluates, made again
+    /// whenever the timeline changes ([`BehaviourController::resolve`]).
+    laws: Vec<(f64, ActiveLaw)>,
 }
 
 impl ProgramMemory {
@@ -338,6 +342,20 @@ impl ProgramMemory {
             return k;
         }
         level_phase(prog, k, q)
+    }
+
+    /// The torque law of the last timeline entry started by `t` (that of [`Self::entry`]).
+    #[inline]
+    fn law(&self, t: f64) -> ActiveLaw {
+        let laws = &self.laws;
+        laws.iter().rev().find(|e| e.0 <= t).unwrap_or(&laws[0]).1
+    }
+
+    /// Makes [`Self::laws`] again from the timeline of `prog` (the program of this memory).
+    fn refresh_laws(&mut self, prog: &Program) {
+        self.laws.clear();
+        let laws = self.timeline.iter().map(|e| (e.0, ActiveLaw::of(prog, e.1)));
+        self.laws.extend(laws);
     }
 
     /// The index of the motion in force at `t`: the last one started by `t`.
@@ -376,13 +394,93 @@ impl ProgramMemory {
 
     /// Drops the motions (and their records) that start after `now`.
     fn keep_motions_started_by(&mut self, now: f64) {
-        let keep: Vec<bool> = self.motions.iter().map(|m| m.t0() <= now).collect();
-        let mut k = keep.iter();
-        self.motions
-            .retain(|_| *k.next().expect("one flag per motion"));
-        let mut k = keep.iter();
+        let mut started = self.motions.iter().map(|m| m.t0() <= now);
         self.records
-            .retain(|_| *k.next().expect("one flag per motion"));
+            .retain(|_| started.next().expect("one record per motion"));
+        self.motions.retain(|m| m.t0() <= now);
+    }
+}
+
+/// A phase's torque law with its numbers read out of the plan once, when the timeline is
+/// planned, rather than at each evaluation ([`ProgramMemory::laws`]): a segment evaluates it
+/// at every stage of every step. Laws whose phase depends on the state (a program with
+/// joint-angle levels) and schedules take the general path ([`law_torque`]).
+#[derive(Debug, Clone, Copy)]
+enum ActiveLaw {
+    Zero,
+    Constant(f64),
+    /// A motor at a constant command.
+    Motor { actuator: usize, command: f64 },
+    /// A motor whose command reverses while `sign · q_joint > reverse_beyond`, `sign` the
+    /// command's sign.
+    MotorReversing {
+        actuator: usize,
+        command: f64,
+        sign: f64,
+        reverse_beyond: f64,
+    },
+    /// A servo to a fixed target at rest.
+    ServoAt {
+        target: f64,
+        gains: (f64, f64),
+        limit: f64,
+        only_in_contact: bool,
+    },
+    /// A servo that tracks the joint's motion.
+    ServoTracking {
+        gains: (f64, f64),
+        limit: f64,
+        only_in_contact: bool,
+    },
+    /// Any other: [`law_torque`] of the phase in force.
+    General,
+}
+
+impl ActiveLaw {
+    /// The law of phase `k` of `prog`.
+    fn of(prog: &Program, k: usize) -> Self {
+        if prog.has_levels {
+            return ActiveLaw::General;
+        }
+        match prog.phases[k].torque {
+            TorqueLaw::Zero => ActiveLaw::Zero,
+            TorqueLaw::Constant(c) => ActiveLaw::Constant(c),
+            TorqueLaw::Schedule { .. } => ActiveLaw::General,
+            TorqueLaw::Servo {
+                target,
+                kp,
+                kd,
+                limit,
+                only_in_contact,
+            } => match target {
+                Some(target) => ActiveLaw::ServoAt {
+                    target,
+                    gains: (kp, kd),
+                    limit,
+                    only_in_contact,
+                },
+                None => ActiveLaw::ServoTracking {
+                    gains: (kp, kd),
+                    limit,
+                    only_in_contact,
+                },
+            },
+            TorqueLaw::Motor {
+                actuator,
+                command,
+                reverse_beyond: None,
+            } => ActiveLaw::Motor { actuator, command },
+            TorqueLaw::Motor {
+                actuator,
+                command,
+                reverse_beyond: Some(angle),
+            } => ActiveLaw::MotorReversing {
+                actuator,
+                command,
+                sign: command.signum(),
+                reverse_beyond: angle,
+            },
+        }
     }
 }
 
@@ -546,6 +644,7 @@ impl BehaviourController {
                     numbers: OnceLock::new(),
                     law: OnceLock::new(),
                 }],
+                laws: Vec::new(),
             })
             .collect();
         let mut c = BehaviourController {
@@ -1118,6 +1217,7 @@ impl BehaviourController {
     /// every program, to a fixed point (phases may wait for other programs' phases).
     fn resolve(&mut self, now: f64) {
         let passes = self.plan.programs.len() + 2;
+        let mut planned = Vec::new();
         for _ in 0..passes {
             let mut changed = false;
             for p in 0..self.plan.programs.len() {
@@ -1125,8 +1225,8 @@ impl BehaviourController {
                     .timeline
                     .partition_point(|e| e.0 <= now)
                     .max(1);
-                let mut last = self.programs[p].timeline[keep - 1].clone();
-                let mut planned = Vec::new();
+                let mut last = self.programs[p].timeline[keep - 1];
+                planned.clear();
                 while planned.len() <= PLAN_CAP {
                     let Some(j) = self.successor(p, last.1) else {
                         break;
@@ -1135,7 +1235,7 @@ impl BehaviourController {
                         break;
                     };
                     let start = entry.0;
-                    planned.push(entry.clone());
+                    planned.push(entry);
                     last = entry;
                     if start > self.plan.horizon_s {
                         break;
@@ -1144,13 +1244,16 @@ impl BehaviourController {
                 let tl = &mut self.programs[p].timeline;
                 if tl[keep..] != planned[..] {
                     tl.truncate(keep);
-                    tl.extend(planned);
+                    tl.extend_from_slice(&planned);
                     changed = true;
                 }
             }
             if !changed {
                 break;
             }
+        }
+        for (mem, prog) in self.programs.iter_mut().zip(&self.plan.programs) {
+            mem.refresh_laws(prog);
         }
     }
 
@@ -1299,38 +1402,43 @@ impl Controller for BehaviourController {
         }
         for (prog, mem) in plan.programs.iter().zip(&self.programs) {
             let j = prog.joint;
-            let phase = &prog.phases[mem.phase(prog, t, q)];
-            tau[j] = match &phase.torque {
-                TorqueLaw::Zero => 0.0,
-                TorqueLaw::Constant(c) => *c,
-                TorqueLaw::Schedule {
-                    times,
-                    torques,
-                    hold,
-                } => schedule(times, torques, *hold, t),
-                TorqueLaw::Servo {
-                    target,
-                    kp,
-                    kd,
-                    limit,
-                    only_in_contact,
-                } => {
-                    if *only_in_contact && mode.normal_bits() & prog.contacts == 0 {
-                        0.0
-                    } else {
-                        let u = mem.servo_command(t, *target, (*kp, *kd), q[j], qd[j]);
-                        u.clamp(-limit, *limit)
-                    }
+            let servo_off = |only_in_contact: bool| {
+                only_in_contact && mode.normal_bits() & prog.contacts == 0
+            };
+            tau[j] = match mem.law(t) {
+                ActiveLaw::Zero => 0.0,
+                ActiveLaw::Constant(c) => c,
+                ActiveLaw::Motor { actuator, command } => {
+                    plan.actuators[actuator].joint_torque_n_m(command, qd[j])
                 }
-                TorqueLaw::Motor {
+                ActiveLaw::MotorReversing {
                     actuator,
                     command,
+                    sign,
                     reverse_beyond,
                 } => {
-                    let reversed = reverse_beyond.is_some_and(|a| command.signum() * q[j] > a);
-                    let u = if reversed { -command } else { *command };
-                    plan.actuators[*actuator].joint_torque_n_m(u, qd[j])
+                    let reversed = sign * q[j] > reverse_beyond;
+                    let u = if reversed { -command } else { command };
+                    plan.actuators[actuator].joint_torque_n_m(u, qd[j])
                 }
+                ActiveLaw::ServoAt {
+                    only_in_contact, ..
+                }
+                | ActiveLaw::ServoTracking {
+                    only_in_contact, ..
+                } if servo_off(only_in_contact) => 0.0,
+                ActiveLaw::ServoAt {
+                    target,
+                    gains,
+                    limit,
+                    ..
+                } => mem
+                    .servo_command(t, Some(target), gains, q[j], qd[j])
+                    .clamp(-limit, limit),
+                ActiveLaw::ServoTracking { gains, limit, .. } => mem
+                    .servo_command(t, None, gains, q[j], qd[j])
+                    .clamp(-limit, limit),
+                ActiveLaw::General => law_torque(plan, prog, mem, (t, q, qd), mode),
             };
         }
     }
@@ -1537,7 +1645,20 @@ impl Controller for BehaviourController {
                 _ => vec![0.0; names.len()],
             }
         };
-        let mut out = Vec::new();
+        // each timeline entry, each motion's start and its (at most three) knots, each
+        // breakpoint: one allocation
+        let breakpoints = |prog: &Program| -> usize {
+            let times = |ph: &PhasePlan| match &ph.torque {
+                TorqueLaw::Schedule { times, .. } => times.len(),
+                _ => 0,
+            };
+            prog.phases.iter().map(times).sum()
+        };
+        let capacity = (self.programs.iter())
+            .zip(&self.plan.programs)
+            .map(|(m, prog)| m.timeline.len() + 4 * m.motions.len() + breakpoints(prog))
+            .sum();
+        let mut out = Vec::with_capacity(capacity);
         let mut ws = self.workspace.lend();
         for mem in &self.programs {
             out.extend(mem.timeline.iter().map(|e| TimeEvent {
@@ -1792,6 +1913,51 @@ impl Controller for BehaviourController {
             }
         }
         self.plan_timed_motions(e.t);
+    }
+}
+
+/// The torque of program `prog` (with its memory `mem`) at `(t, q, q̇, mode)`: the law of
+/// its phase there ([`ProgramMemory::phase`]), read from the plan.
+#[inline(never)]
+fn law_torque(
+    plan: &Plan,
+    prog: &Program,
+    mem: &ProgramMemory,
+    (t, q, qd): (f64, &[f64], &[f64]),
+    mode: ContactMode,
+) -> f64 {
+    let j = prog.joint;
+    match &prog.phases[mem.phase(prog, t, q)].torque {
+        TorqueLaw::Zero => 0.0,
+        TorqueLaw::Constant(c) => *c,
+        TorqueLaw::Schedule {
+            times,
+            torques,
+            hold,
+        } => schedule(times, torques, *hold, t),
+        TorqueLaw::Servo {
+            target,
+            kp,
+            kd,
+            limit,
+            only_in_contact,
+        } => {
+            if *only_in_contact && mode.normal_bits() & prog.contacts == 0 {
+                0.0
+            } else {
+                let u = mem.servo_command(t, *target, (*kp, *kd), q[j], qd[j]);
+                u.clamp(-limit, *limit)
+            }
+        }
+        TorqueLaw::Motor {
+            actuator,
+            command,
+            reverse_beyond,
+        } => {
+            let reversed = reverse_beyond.is_some_and(|a| command.signum() * q[j] > a);
+            let u = if reversed { -command } else { *command };
+            plan.actuators[*actuator].joint_torque_n_m(u, qd[j])
+        }
     }
 }
 
