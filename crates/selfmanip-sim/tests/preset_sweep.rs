@@ -7,7 +7,6 @@
 mod common;
 
 use common::data;
-use selfmanip_core::RobotDescription;
 use selfmanip_hybrid::budget::NEVER;
 use selfmanip_hybrid::EventKind;
 use selfmanip_sim::behaviour::Behaviour;
@@ -19,12 +18,10 @@ use selfmanip_sim::{Scenario, SimError, Simulation};
 use serde_json::json;
 use std::sync::atomic::AtomicBool;
 
-/// The hopper of the examples dropped from `drop_m` (foot above the ground), hopping.
+/// The hopper of the examples, its foot circle (radius 0.02 m) `drop_m` above the ground,
+/// hopping.
 fn hopper(drop_m: f64, t_final_s: f64) -> Scenario {
-    let robot = RobotDescription::from_file(&data("hopper.toml")).unwrap();
-    let a: f64 = 0.5;
-    let q0 = vec![a, -2.0 * a, 0.0, -(drop_m + 0.4 * a.cos() + 0.02), 0.0];
-    let mut s = Scenario::new(robot, q0);
+    let mut s = common::examples::dropped_hopper(drop_m + 0.02).unwrap();
     s.behaviour = Behaviour::from_file(&data("hop.toml")).unwrap();
     s.options.t_final_s = t_final_s;
     s
