@@ -576,7 +576,7 @@ _SIM_RESULT_COLUMNS = {"status", "error", "word", "mode_end", "n_events", "t_end
 
 def simulation_sweep_figure(table: Mapping[str, Any], out_path: str | os.PathLike,
                             title: str | None = None) -> str:
-    """A sweep of any robot: apex height ``-apex_z_m``, forward end position and impact losses
+    """A sweep of any robot: apex height ``apex_z_m``, forward end position and impact losses
     against the first swept parameter; one series per combination of the other swept values
     (never joined to another); failed points marked ``x`` at the bottom of each panel."""
     plt = _pyplot()
@@ -587,7 +587,7 @@ def simulation_sweep_figure(table: Mapping[str, Any], out_path: str | os.PathLik
     xk, others = swept[0], swept[1:]
     x = cols[xk].astype(float)
     ok = np.isin(cols["status"].astype(str), ("final_time", "apex"))
-    panels = [("apex height -z (m)", -cols["apex_z_m"].astype(float))]
+    panels = [("apex height (m)", cols["apex_z_m"].astype(float))]
     if "end_x" in cols:
         panels.append(("end x (m)", cols["end_x"].astype(float)))
     panels.append(("impact losses (J)", cols["impact_loss_j"].astype(float)))

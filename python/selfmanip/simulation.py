@@ -547,8 +547,9 @@ def simulation_sweep(robot: RobotLike, behaviour: BehaviourLike = None,
     ``unknown_reference``, …), ``error`` (its message; empty for a run), ``word``,
     ``mode_end``, ``n_events``, ``t_end_s``, ``flight_time_s``, ``impact_loss_j``,
     ``apex_{t_s,x_m,z_m,phi_rad,xdot_m_s,zdot_m_s,phidot_rad_s}``, ``landing_…`` (the body just
-    before the first landing) and ``landing_energy_loss_j`` (NaN where there is none), and
-    ``end_<coordinate>`` for every coordinate of ``q``. A failing point never loses the
+    before the first landing; z up: ``apex_z_m`` is the height above the ground, as in the
+    leap sweep) and ``landing_energy_loss_j`` (NaN where there is none), and
+    ``end_<coordinate>`` for every coordinate of ``q`` (as ``q`` has it: z down). A failing point never loses the
     others; the columns are bit-identical for any ``threads``; a name that names nothing
     raises :class:`~selfmanip.errors.InvalidInputError` before anything runs. When no point
     reaches its end an :class:`~selfmanip.errors.AllPointsFailedWarning` says so.
@@ -659,9 +660,10 @@ def sweep(*args: Any, **kwargs: Any) -> dict[str, np.ndarray]:
     Both return a dict of equal-length numpy arrays; the columns both have are typed alike:
     ``status`` and ``error`` (strings; :data:`COMPLETE_STATUSES` count as done), ``word``
     (cells joined by ``-``), ``n_events`` (int64) and ``apex_*`` (floats, NaN without an
-    apex). ``apex_t_s``, ``apex_phi_rad`` and ``apex_phidot_rad_s`` mean the same in both;
-    the leap reports ``apex_x_m``/``apex_z_m`` and their rates z-up from the body's start
-    (height above the ground), a robot's sweep in the world's NED coordinates (z down). Both
+    apex). ``apex_*`` and ``landing_*`` are z **up** in both: ``apex_z_m`` is the body
+    centre's height above the ground (the world's z = 0) and ``apex_zdot_m_s`` its rate up;
+    times and ``apex_x_m`` are the leap's from its front motor's start and its body's start,
+    a robot's sweep's on the run's clock and in the world's x. Both
     take ``threads`` (default: every CPU this process may use) and ``progress``, and warn
     with :class:`~selfmanip.errors.AllPointsFailedWarning` when no point reaches its end.
 

@@ -196,7 +196,7 @@ def test_sweeps_are_bit_identical_across_thread_counts_and_equal_runs_alone():
                                params={"kp_push": one["kp_push"][i], "t_compress": one["t_compress"][i]})
         assert one["status"][i] == e.status
         assert one["word"][i] == e.word_string
-        assert one["apex_z_m"][i] == e.apex["z_m"]
+        assert one["apex_z_m"][i] == -e.apex["z_m"]  # sweeps report z up, the run NED
         assert one["end_x"][i] == e.q_end[2]
         assert one["n_events"][i] == len(e.events)
     # the apex differs between points: the parameters reached the runs

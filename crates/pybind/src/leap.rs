@@ -25,7 +25,7 @@ use rhex_model::leap_sensitivity::{
 use rhex_model::mcap_log::{q_names, write_leap_mcap, LeapLog};
 use rhex_model::sweep::{
     actuator_field_names, check_override_names, error_kind, gear_ratio_of, panic_message,
-    point_inputs, sweepable_names, SweepPoint, SweepRow,
+    point_inputs, sweepable_names, LeapPoint, SweepRow,
 };
 use rhex_model::{RhexError, RhexParams};
 use selfmanip_sim::sweep::run_parallel;
@@ -77,7 +77,7 @@ fn resolve(
 ) -> PyResult<(RhexParams, LeapConfig)> {
     let strategy: Strategy = strategy.parse().map_err(rhex_err)?;
     let (saturated, gear) = actuator_choice(gear_ratio);
-    let mut pt = SweepPoint::new(strategy, t2_s, gear);
+    let mut pt = LeapPoint::new(strategy, t2_s, gear);
     pt.overrides = overrides;
     let (p, c) = base(saturated);
     point_inputs(&p, &c, &pt).map_err(rhex_err)
@@ -295,7 +295,7 @@ fn error_message(e: &RhexError) -> String {
 /// at `c * names.len() + k`, NaN where undefined or when the point failed).
 fn sweep_row(
     base: &(RhexParams, LeapConfig),
-    point: &SweepPoint,
+    point: &LeapPoint,
     names: Option<&[String]>,
 ) -> (SweepRow, Option<(bool, Vec<f64>)>) {
     let k = names.map_or(0, <[String]>::len);
@@ -330,15 +330,15 @@ fn sweep_row_of(outcome: PointOutcome) -> (SweepRow, Option<(bool, Vec<f64>)>) {
                     "internal error in selfmanip (a bug, please report it): {}",
                     panic_message(p.as_ref())
                 ),
-                f64::NAN,
+                1,
             ),
             None,
         ),
         Ok(Err(e)) => (
-            SweepRow::failed(error_kind(&e), error_message(&e), f64::NAN),
+            SweepRow::failed(error_kind(&e), error_message(&e), 1),
             None,
         ),
-        Ok(Ok((r, why, g, sens))) => (SweepRow::of_leap(&r, why, g), sens),
+        Ok(Ok((r, why, g, sens))) => (r.row(why, g), sens),
     }
 }
 
@@ -349,7 +349,7 @@ type Row = (SweepRow, Option<(bool, Vec<f64>)>);
 
 fn sweep_rows(
     bases: &[(RhexParams, LeapConfig); 2],
-    points: &[(bool, SweepPoint)],
+    points: &[(bool, LeapPoint)],
     threads: usize,
     names: Option<&[String]>,
     shared: &Shared,
@@ -448,7 +448,7 @@ fn leap_sweep<'py>(
                 }
             };
             let (saturated, gear) = actuator_choice(gear_ratio[i]);
-            let mut pt = SweepPoint::new(s, t2_s[i], gear);
+            let mut pt = LeapPoint::new(s, t2_s[i], gear);
             for (k, a) in &cols {
                 pt.overrides.insert(k.clone(), a[i].clone());
             }
@@ -482,18 +482,11 @@ fn leap_sweep<'py>(
                 .collect();
             d.set_item("sensitivity_ok", ok.into_pyarray(py))?;
         }
-        let f = |g: fn(&SweepRow) -> f64| -> Vec<f64> { rows.iter().map(g).collect() };
-        d.set_item("gear_ratio", f(|r| r.gear_ratio).into_pyarray(py))?;
-        d.set_item("apex_t_s", f(|r| r.apex_t_s).into_pyarray(py))?;
-        d.set_item("apex_x_m", f(|r| r.apex_x_m).into_pyarray(py))?;
-        d.set_item("apex_z_m", f(|r| r.apex_z_m).into_pyarray(py))?;
-        d.set_item("apex_phi_rad", f(|r| r.apex_phi_rad).into_pyarray(py))?;
-        d.set_item("apex_xdot_m_s", f(|r| r.apex_xdot_m_s).into_pyarray(py))?;
-        d.set_item("apex_zdot_m_s", f(|r| r.apex_zdot_m_s).into_pyarray(py))?;
-        d.set_item(
-            "apex_phidot_rad_s",
-            f(|r| r.apex_phidot_rad_s).into_pyarray(py),
-        )?;
+        let f = |g: &dyn Fn(&SweepRow) -> f64| -> Vec<f64> { rows.iter().map(g).collect() };
+        d.set_item("gear_ratio", f(&|r| r.columns[0]).into_pyarray(py))?;
+        for (c, name) in APEX_COLUMNS.iter().enumerate() {
+            d.set_item(*name, f(&|r| r.apex_columns()[c]).into_pyarray(py))?;
+        }
         d.set_item(
             "n_events",
             rows.iter()

@@ -489,13 +489,13 @@ fn sweep_columns(
     for (k, g) in body {
         d.set_item(
             format!("apex_{k}"),
-            num(&|o| o.apex.map_or(nan, |a| g(&a))).into_pyarray(py),
+            num(&|o| o.apex.map_or(nan, |a| g(&a.upward()))).into_pyarray(py),
         )?;
     }
     for (k, g) in body {
         d.set_item(
             format!("landing_{k}"),
-            num(&|o| o.landing.as_ref().map_or(nan, |l| g(&l.before))).into_pyarray(py),
+            num(&|o| o.landing.as_ref().map_or(nan, |l| g(&l.before.upward()))).into_pyarray(py),
         )?;
     }
     d.set_item(

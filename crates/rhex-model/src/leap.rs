@@ -32,7 +32,7 @@ use crate::params::{LegPair, RhexParams};
 use crate::{Rhex, RhexError};
 use motor::Actuator;
 use selfmanip_core::{ContactMode, Terrain};
-use selfmanip_hybrid::{Execution, Termination};
+use selfmanip_hybrid::Execution;
 use selfmanip_sim::analysis::{angle_to_ground, roots::secant_search};
 use selfmanip_sim::behaviour::{
     ActuatorSpec, Behaviour, FreeJointGains, JointProgram, Motion, NamedEvent, On, Phase, Torque,
@@ -40,12 +40,9 @@ use selfmanip_sim::behaviour::{
 };
 use selfmanip_sim::events::{event_records_labelled, EventRecord};
 use selfmanip_sim::expr::Scalar;
-use selfmanip_sim::outcome::{
-    first_touchdown_s, flies_after, reported_apex, BodyState, Outcome, WordOptions,
-};
+use selfmanip_sim::outcome::{first_touchdown_s, BodyState, Outcome, PresetFrame, WordOptions};
 use selfmanip_sim::terrain::TerrainSpec;
 use selfmanip_sim::sweep::BuildCache;
-use selfmanip_sim::RunStatus;
 use selfmanip_sim::{InitialState, Scenario, SimOptions};
 use selfmanip_sim::{Simulation, Trajectory};
 use serde::{Deserialize, Serialize};
@@ -374,7 +371,7 @@ impl Strategy {
 pub type Apex = BodyState;
 
 /// The outcome of one leap: the generic run's [`Outcome`] (its `status` is the engine's
-/// [`RunStatus`], named as everywhere: `apex`, `final_time`, `zeno`,
+/// [`RunStatus`](selfmanip_sim::RunStatus), named as everywhere: `apex`, `final_time`, `zeno`,
 /// `terrain_discontinuity`, `singular_flow`, …; its `word` the ground-reaction-complex cells
 /// visited, labels `FB FL RB RL`, sliding toes counted as contact, zero-time cells
 /// suppressed, starting with `1010`), read through `Deref`, with what a leap adds on the
@@ -1103,6 +1100,18 @@ impl LeapPreset {
         secant_search(target, runs, tol, self.cfg.t_final_s, run)
     }
 
+    /// The leap's frame: its clock from the front motor's start (at `front_start` on the
+    /// execution clock), flights counted from the first motor's start, `x` from the body's
+    /// start.
+    fn frame(&self, front_start: f64, motor_t2_s: f64) -> PresetFrame {
+        PresetFrame {
+            t0_s: front_start,
+            drive_start_s: front_start.min(front_start + motor_t2_s),
+            x0_m: self.q0[2],
+            stop_at_apex: self.cfg.stop_at_apex,
+        }
+    }
+
     /// The leap's result read off the generic execution `exec`, run with the rear motor
     /// starting `motor_t2_s` after the front one, the front one at `front_start` on its clock.
     pub(crate) fn result(
@@ -1112,23 +1121,14 @@ impl LeapPreset {
         motor_t2_s: f64,
         front_start: f64,
     ) -> LeapResult {
-        let cfg = &self.cfg;
         let rhex = &self.leap.rhex;
-        let model = &rhex.model;
-        let q0 = &self.q0;
         let start = [front_start, front_start + motor_t2_s];
-        let first_start = start[0].min(start[1]);
-        let flew = match outcome.status {
-            RunStatus::Apex => true,
-            RunStatus::FinalTime => flies_after(&exec, first_start) && !cfg.stop_at_apex,
-            _ => false,
-        };
+        let frame = self.frame(front_start, motor_t2_s);
+        let flew = frame.flew(&exec, outcome.status);
         // the apex that ended the run, or (run on past it) that of its first flight after a
         // motor started, in chapter 3's frame
-        let apex = reported_apex(&exec, cfg.stop_at_apex, first_start).map(|e| {
-            BodyState::from_state(model, e.t, &e.q, &e.qd_after).seen_from_start(start[0], q0[2])
-        });
-        let events = event_records_labelled(model, &exec, &|m| rhex.label(m), start[0]);
+        let apex = frame.apex(&rhex.model, &exec);
+        let events = event_records_labelled(&rhex.model, &exec, &|m| rhex.label(m), start[0]);
         // the touchdown offset: each pushing leg's first touchdown after its motor started
         let first_touchdown = |i: usize| first_touchdown_s(&exec, rhex.site(2 * i + 1), start[i]);
         let touchdown_t2_s = first_touchdown(0)
@@ -1140,7 +1140,7 @@ impl LeapPreset {
             apex,
             execution: exec,
             time_offset_s: start[0],
-            q0: q0.clone(),
+            q0: self.q0.clone(),
             events,
             motor_t2_s,
             touchdown_t2_s,
@@ -1152,13 +1152,13 @@ impl LeapPreset {
 ///
 /// Errors are bad parameters (typed, naming the field) and failures of the engine that
 /// prevent any answer; a leap that runs but does not reach flight, or ends Zeno, is an `Ok`
-/// result with the engine's [`RunStatus`] (and [`LeapResult::flew`] false).
+/// result with the engine's [`RunStatus`](selfmanip_sim::RunStatus) (and [`LeapResult::flew`] false).
 pub fn simulate_leap(params: &RhexParams, cfg: &LeapConfig) -> Result<LeapResult, RhexError> {
     simulate_leap_with(params, cfg, &selfmanip_hybrid::budget::NEVER)
 }
 
 /// [`simulate_leap`] that another thread can stop: once `stop` is raised the leap ends
-/// within one integration step with status [`RunStatus::Interrupted`].
+/// within one integration step with status [`RunStatus::Interrupted`](selfmanip_sim::RunStatus::Interrupted).
 pub fn simulate_leap_with(
     params: &RhexParams,
     cfg: &LeapConfig,
@@ -1169,20 +1169,10 @@ pub fn simulate_leap_with(
 
 impl LeapResult {
     /// Why the leap did not fly, in words (empty when it [flew](Self::flew)): the engine's
-    /// [`Termination::describe`] on the leap's clock (t = 0 at the first motor's start) with
+    /// [`Termination::describe`](selfmanip_hybrid::Termination::describe) on the leap's clock (t = 0 at the first motor's start) with
     /// the leap's contact names and the flowing mode's label (`s` for a sliding toe); a run
     /// that ended at its final time says it found no flight (or no apex).
     pub fn reason(&self, params: &RhexParams, cfg: &LeapConfig) -> String {
-        if self.flew {
-            return String::new();
-        }
-        if self.execution.termination == Termination::FinalTime {
-            return format!(
-                "no flight reached{} before t_final_s = {} s",
-                if cfg.stop_at_apex { " its apex" } else { "" },
-                cfg.t_final_s
-            );
-        }
         // the mode that was flowing: the last event's, or the start's
         let mode = self
             .events
@@ -1195,11 +1185,11 @@ impl LeapResult {
                 .and_then(|r| r.model.contacts.get(k).map(|c| c.name.clone()))
                 .unwrap_or_else(|| format!("#{k}"))
         };
-        self.execution.termination.describe(
-            &|t| format!("t = {:.6} s", t - self.time_offset_s),
-            &name,
-            Some(&mode),
-        )
+        let frame = PresetFrame {
+            t0_s: self.time_offset_s,
+            ..PresetFrame::world(cfg.stop_at_apex)
+        };
+        frame.reason(&self.execution, self.flew, cfg.t_final_s, &name, &mode)
     }
 
     /// Energy bookkeeping of the leap (motor work, impact losses, start and end energy),

@@ -60,16 +60,8 @@ use selfmanip_hybrid::{EventKind, Termination};
 pub use selfmanip_sim::sensitivity::EventSaltation;
 use selfmanip_sim::sensitivity_preset::{end_state_sensitivity, EndStateRequest};
 
-/// The apex columns a leap reports, in order (the sweep's column names).
-pub const APEX_COLUMNS: [&str; 7] = [
-    "apex_t_s",
-    "apex_x_m",
-    "apex_z_m",
-    "apex_phi_rad",
-    "apex_xdot_m_s",
-    "apex_zdot_m_s",
-    "apex_phidot_rad_s",
-];
+/// The apex columns a leap reports, in order (every sweep's column names).
+pub use selfmanip_sim::outcome::APEX_COLUMNS;
 
 /// The parameter names [`leap_with_sensitivity`] knows.
 pub const SENSITIVITY_PARAMETERS: [&str; 6] = [

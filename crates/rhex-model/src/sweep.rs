@@ -20,18 +20,22 @@
 //! (current limit and motor count from the base actuator when it is a geared motor, else
 //! the defaults: 20 A, two motors per planar leg); `None` keeps the base actuator. The
 //! reported gear ratio is the one used, NaN for [`LegActuator::SaturatedTorque`].
-use crate::leap::{simulate_leap, LeapConfig, LeapResult, LegActuator, Presets, Strategy};
+//! The RHex leap sweep is the generic sweep ([`selfmanip_sim::sweep::preset_sweep`]) with the
+//! leap preset ([`LeapSweep`]): a point is `(strategy, t2, gear ratio, overrides)`, its row
+//! the generic [`SweepRow`] with the leap's apex (chapter 3's frame, z up) and one column of
+//! its own, the gear ratio used ([`LEAP_COLUMNS`]).
+use crate::leap::{LeapConfig, LeapResult, LegActuator, Presets, Strategy};
 use crate::{RhexError, RhexParams};
 use selfmanip_hybrid::budget::NEVER;
 use selfmanip_sim::path::{record_with, serde_field_names, sort_by_record};
-pub use selfmanip_sim::sweep::panic_message;
-use selfmanip_sim::sweep::{catch_panic, run_parallel};
+pub use selfmanip_sim::sweep::{panic_message, run_row, SweepRow};
+use selfmanip_sim::sweep::{preset_sweep, Preset};
 use serde_json::{Map, Value};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 
 /// One leap of a sweep.
 #[derive(Debug, Clone, PartialEq)]
-pub struct SweepPoint {
+pub struct LeapPoint {
     pub strategy: Strategy,
     /// Rear leg's start relative to the front leg's (s).
     pub t2_s: f64,
@@ -41,9 +45,9 @@ pub struct SweepPoint {
     pub overrides: Map<String, Value>,
 }
 
-impl SweepPoint {
+impl LeapPoint {
     pub fn new(strategy: Strategy, t2_s: f64, gear_ratio: Option<f64>) -> Self {
-        SweepPoint {
+        LeapPoint {
             strategy,
             t2_s,
             gear_ratio,
@@ -52,80 +56,63 @@ impl SweepPoint {
     }
 }
 
-/// The outcome of one point, flattened for a table.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SweepRow {
-    /// The engine's [`selfmanip_sim::RunStatus`] (`apex`, `final_time`, `zeno`, …) or an error kind
-    /// ([`error_kind`]: `invalid_params`, `singular_kkt`, `overflow`, `engine_error`,
-    /// `panic`, …).
-    pub status: String,
-    /// The error message when the point failed with an error (empty otherwise).
-    pub error: String,
-    /// The leap flew ([`LeapResult::flew`]); `false` for a point that failed.
-    pub flew: bool,
-    /// Gear ratio used (NaN for the saturated-torque actuator or an invalid point).
-    pub gear_ratio: f64,
-    /// Apex (z up, x forward from the start); NaN when the leap has no apex.
-    pub apex_t_s: f64,
-    pub apex_x_m: f64,
-    pub apex_z_m: f64,
-    pub apex_phi_rad: f64,
-    pub apex_xdot_m_s: f64,
-    pub apex_zdot_m_s: f64,
-    pub apex_phidot_rad_s: f64,
-    /// Leap word, cells joined by `-` (empty when the point failed).
-    pub word: String,
-    /// Number of events of the execution.
-    pub n_events: usize,
+/// The leap preset's own columns of a [`SweepRow`]: the gear ratio used (NaN for the
+/// saturated-torque actuator or a point that failed).
+pub const LEAP_COLUMNS: [&str; 1] = ["gear_ratio"];
+
+impl LeapResult {
+    /// The sweep row of this leap run with gear ratio `gear_ratio` (`why`: why it did not
+    /// fly, or empty).
+    pub fn row(&self, why: String, gear_ratio: f64) -> SweepRow {
+        SweepRow::of_run(&self.outcome, self.flew, self.apex, why, vec![gear_ratio])
+    }
 }
 
-impl SweepRow {
-    /// A row without an apex: `status`, the error message (empty for a leap that ran) and the
-    /// gear ratio.
-    pub fn failed(status: &str, error: String, gear_ratio: f64) -> Self {
-        Self {
-            status: status.into(),
-            error,
-            flew: false,
-            gear_ratio,
-            apex_t_s: f64::NAN,
-            apex_x_m: f64::NAN,
-            apex_z_m: f64::NAN,
-            apex_phi_rad: f64::NAN,
-            apex_xdot_m_s: f64::NAN,
-            apex_zdot_m_s: f64::NAN,
-            apex_phidot_rad_s: f64::NAN,
-            word: String::new(),
-            n_events: 0,
+/// The leap as a preset of the generic sweep: each point's inputs ([`point_inputs`]) from
+/// the base parameters and configuration, run on the preset kept for its strategy and
+/// fixed inputs ([`Presets`]).
+pub struct LeapSweep {
+    pub params: RhexParams,
+    pub cfg: LeapConfig,
+    presets: Presets,
+}
+
+impl LeapSweep {
+    pub fn new(params: &RhexParams, cfg: &LeapConfig) -> Self {
+        LeapSweep {
+            params: params.clone(),
+            cfg: cfg.clone(),
+            presets: Presets::default(),
         }
     }
+}
 
-    /// The row of a leap that ran (`why`: why it did not fly, or empty).
-    pub fn of_leap(r: &LeapResult, why: String, gear_ratio: f64) -> Self {
-        let mut row = Self::failed(r.status.as_str(), why, gear_ratio);
-        row.flew = r.flew;
-        row.word = r.word_string();
-        row.n_events = r.events.len();
-        if let Some(a) = r.apex {
-            row.apex_t_s = a.t_s;
-            row.apex_x_m = a.x_m;
-            row.apex_z_m = a.z_m;
-            row.apex_phi_rad = a.phi_rad;
-            row.apex_xdot_m_s = a.xdot_m_s;
-            row.apex_zdot_m_s = a.zdot_m_s;
-            row.apex_phidot_rad_s = a.phidot_rad_s;
-        }
-        row
+impl Preset for LeapSweep {
+    type Point = LeapPoint;
+    type Error = RhexError;
+
+    fn columns(&self) -> &'static [&'static str] {
+        &LEAP_COLUMNS
+    }
+
+    fn run(&self, point: &LeapPoint, stop: &AtomicBool) -> Result<SweepRow, RhexError> {
+        let (params, cfg) = point_inputs(&self.params, &self.cfg, point)?;
+        let g = gear_ratio_of(&cfg);
+        Ok(self.presets.run(&params, &cfg, stop)?.row(String::new(), g))
+    }
+
+    fn error_kind(&self, e: &RhexError) -> &'static str {
+        error_kind(e)
     }
 }
 
 /// The Cartesian product strategy × gear ratio × `t2` (`t2` varying fastest).
-pub fn grid(strategies: &[Strategy], t2_s: &[f64], gear_ratios: &[Option<f64>]) -> Vec<SweepPoint> {
+pub fn grid(strategies: &[Strategy], t2_s: &[f64], gear_ratios: &[Option<f64>]) -> Vec<LeapPoint> {
     let mut out = Vec::with_capacity(strategies.len() * t2_s.len() * gear_ratios.len());
     for &s in strategies {
         for &g in gear_ratios {
             for &t2 in t2_s {
-                out.push(SweepPoint::new(s, t2, g));
+                out.push(LeapPoint::new(s, t2, g));
             }
         }
     }
@@ -181,7 +168,7 @@ pub fn check_override_names<'a>(names: impl IntoIterator<Item = &'a str>) -> Res
 pub fn point_inputs(
     base_params: &RhexParams,
     base_cfg: &LeapConfig,
-    point: &SweepPoint,
+    point: &LeapPoint,
 ) -> Result<(RhexParams, LeapConfig), RhexError> {
     // `pairs` is both the robot's leg pairs and the leap's pushing pairs; a leap's robot has
     // exactly its pushing pairs, so the name sets those
@@ -278,50 +265,6 @@ pub fn gear_ratio_of(cfg: &LeapConfig) -> f64 {
     }
 }
 
-/// Runs one point: its inputs, then the leap.
-pub fn run_point(
-    base_params: &RhexParams,
-    base_cfg: &LeapConfig,
-    point: &SweepPoint,
-) -> Result<LeapResult, RhexError> {
-    let (params, cfg) = point_inputs(base_params, base_cfg, point)?;
-    simulate_leap(&params, &cfg)
-}
-
-/// Runs one point and flattens the outcome; never panics and never fails.
-pub fn run_row(base_params: &RhexParams, base_cfg: &LeapConfig, point: &SweepPoint) -> SweepRow {
-    run_row_with(base_params, base_cfg, point, &NEVER, &Presets::default())
-}
-
-/// [`run_row`] that another thread can stop ([`simulate_leap_with`]): a point not started
-/// before `stop` was raised is not run, its status `interrupted`. The leap runs on its preset
-/// in `presets` (the sweep's own: each strategy's built once).
-pub fn run_row_with(
-    base_params: &RhexParams,
-    base_cfg: &LeapConfig,
-    point: &SweepPoint,
-    stop: &AtomicBool,
-    presets: &Presets,
-) -> SweepRow {
-    if stop.load(Ordering::Relaxed) {
-        return SweepRow::failed(
-            selfmanip_sim::RunStatus::Interrupted.as_str(),
-            String::new(),
-            f64::NAN,
-        );
-    }
-    let outcome = catch_panic(|| {
-        let (params, cfg) = point_inputs(base_params, base_cfg, point)?;
-        let g = gear_ratio_of(&cfg);
-        presets.run(&params, &cfg, stop).map(|r| (r, g))
-    });
-    match outcome {
-        Err(m) => SweepRow::failed("panic", m, f64::NAN),
-        Ok(Err(e)) => SweepRow::failed(error_kind(&e), e.to_string(), f64::NAN),
-        Ok(Ok((r, g))) => SweepRow::of_leap(&r, String::new(), g),
-    }
-}
-
 /// Runs every point on a rayon pool of exactly `threads` threads; rows in input order.
 ///
 /// Errors only for `threads == 0` or a pool that cannot start; every per-point failure is a
@@ -339,7 +282,7 @@ pub fn run_row_with(
 pub fn sweep(
     base_params: &RhexParams,
     base_cfg: &LeapConfig,
-    points: &[SweepPoint],
+    points: &[LeapPoint],
     threads: usize,
 ) -> Result<Vec<SweepRow>, RhexError> {
     sweep_with(base_params, base_cfg, points, threads, &NEVER)
@@ -375,12 +318,10 @@ pub fn sweep(
 pub fn sweep_with(
     base_params: &RhexParams,
     base_cfg: &LeapConfig,
-    points: &[SweepPoint],
+    points: &[LeapPoint],
     threads: usize,
     stop: &AtomicBool,
 ) -> Result<Vec<SweepRow>, RhexError> {
-    let presets = Presets::default();
-    Ok(run_parallel(points, threads, |p| {
-        run_row_with(base_params, base_cfg, p, stop, &presets)
-    })?)
+    let preset = LeapSweep::new(base_params, base_cfg);
+    Ok(preset_sweep(&preset, points, threads, stop)?)
 }

@@ -3,7 +3,7 @@
 //! stopped from outside.
 use rhex_model::leap::{leap_params, simulate_leap, simulate_leap_with, LeapConfig, Strategy};
 use rhex_model::params::ToeSliding;
-use rhex_model::sweep::{grid, sweep, sweep_with, SweepPoint};
+use rhex_model::sweep::{grid, sweep, sweep_with, LeapPoint};
 use rhex_model::{RhexError, RhexParams};
 use selfmanip_core::CoreError;
 use selfmanip_hybrid::{HybridError, Termination};
@@ -55,11 +55,11 @@ fn leg_mass_of_1e308_is_a_typed_overflow_error() {
         other => panic!("{other:?}"),
     }
     // in a sweep: a row of its own, the others untouched
-    let mut bad = SweepPoint::new(Strategy::ALL[0], 0.0, None);
+    let mut bad = LeapPoint::new(Strategy::ALL[0], 0.0, None);
     bad.overrides.insert("m_l".into(), json!(1e308));
     bad.overrides
         .insert("toe_sliding".into(), json!("frictionless"));
-    let good = SweepPoint::new(Strategy::ALL[0], 0.0, None);
+    let good = LeapPoint::new(Strategy::ALL[0], 0.0, None);
     let rows = sweep(
         &leap_params(),
         &LeapConfig::default(),
@@ -249,7 +249,7 @@ fn stop_flag_interrupts_leaps_and_sweeps() {
 /// every other point as it is alone.
 #[test]
 fn a_sweep_reports_step_budget_per_point_and_keeps_the_good_points() {
-    let mut starved = SweepPoint::new(Strategy::ALL[1], 0.05, Some(40.0));
+    let mut starved = LeapPoint::new(Strategy::ALL[1], 0.05, Some(40.0));
     starved.overrides.insert("max_steps".into(), json!(30));
     let good = grid(&Strategy::ALL, &[-0.02], &[Some(28.0)]);
     let mut points = good.clone();

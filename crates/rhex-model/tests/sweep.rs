@@ -3,14 +3,16 @@
 use rhex_model::leap::{leap_params, LeapConfig, LegActuator, Push, Strategy};
 use rhex_model::mcap_log::{write_leap_mcap, write_leap_mcap_to, LeapLog};
 use rhex_model::sweep::{
-    check_override_names, grid, point_inputs, run_row, sweep, sweepable_names, SweepPoint, SweepRow,
+    check_override_names, grid, point_inputs, run_row, sweep, sweepable_names, LeapPoint, LeapSweep,
+    SweepRow,
 };
+use selfmanip_hybrid::budget::NEVER;
 use selfmanip_sim::Trajectory;
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::io::Cursor;
 
-fn small_grid() -> Vec<SweepPoint> {
+fn small_grid() -> Vec<LeapPoint> {
     let t2: Vec<f64> = (0..7).map(|i| -0.15 + 0.05 * i as f64).collect();
     grid(&Strategy::ALL, &t2, &[Some(28.0)])
 }
@@ -24,16 +26,11 @@ fn same_bits(a: &[SweepRow], b: &[SweepRow]) {
             (&y.status, &y.error, &y.word, y.n_events),
             "row {i}"
         );
-        for (u, v) in [
-            (x.gear_ratio, y.gear_ratio),
-            (x.apex_t_s, y.apex_t_s),
-            (x.apex_x_m, y.apex_x_m),
-            (x.apex_z_m, y.apex_z_m),
-            (x.apex_phi_rad, y.apex_phi_rad),
-            (x.apex_xdot_m_s, y.apex_xdot_m_s),
-            (x.apex_zdot_m_s, y.apex_zdot_m_s),
-            (x.apex_phidot_rad_s, y.apex_phidot_rad_s),
-        ] {
+        let all = |r: &SweepRow| -> Vec<f64> { [&r.columns[..], &r.apex_columns()].concat() };
+        let (mine, theirs) = (all(x), all(y));
+        assert_eq!(x.columns.len(), 1, "row {i}: the gear ratio");
+        assert_eq!(mine.len(), theirs.len(), "row {i}");
+        for (u, v) in mine.into_iter().zip(theirs) {
             assert_eq!(u.to_bits(), v.to_bits(), "row {i}");
         }
     }
@@ -61,10 +58,31 @@ fn sweep_is_bit_identical_for_any_thread_count() {
     let three = sweep(&p, &c, &pts, 3).unwrap();
     same_bits(&one, &two);
     same_bits(&one, &three);
-    // and each row equals the point run on its own
+    // and each row equals the point run on its own, by a preset of its own
     for (pt, row) in pts.iter().zip(&one) {
-        same_bits(std::slice::from_ref(row), &[run_row(&p, &c, pt)]);
+        let alone = run_row(&LeapSweep::new(&p, &c), pt, &NEVER);
+        same_bits(std::slice::from_ref(row), &[alone]);
     }
+}
+
+/// One column vocabulary (`selfmanip_sim::outcome::APEX_COLUMNS`): a leap row's `apex_z_m`
+/// is the body centre's height above the ground, up — minus the NED `z` of the engine's own
+/// apex event — as in the sweep of any robot (`selfmanip-sim/tests/preset_sweep.rs`), and
+/// the vertical rate vanishes there.
+#[test]
+fn leap_rows_report_the_apex_height_up() {
+    let (p, c) = (leap_params(), LeapConfig::default());
+    let leap = rhex_model::leap::simulate_leap(&p, &c).unwrap();
+    let e = leap.execution.events.last().unwrap();
+    assert_eq!(e.kind, selfmanip_hybrid::EventKind::Apex);
+    let iz = rhex_model::leap::leap_rhex(&p, &c).unwrap().model.ix_z();
+    let pt = LeapPoint::new(c.strategy, c.t2_s, None);
+    let row = sweep(&p, &c, &[pt], 1).unwrap().remove(0);
+    let a = row.apex.unwrap();
+    assert_eq!(a.z_m, -e.q[iz]);
+    assert!(a.z_m > 0.0 && a.zdot_m_s.abs() < 1e-6, "{a:?}");
+    assert_eq!(row.apex_columns()[2], a.z_m);
+    assert_eq!(row.columns, vec![28.0]);
 }
 
 #[test]
@@ -82,7 +100,7 @@ fn a_bad_point_never_loses_the_others() {
     assert_eq!(rows.len(), good.len() + 2);
     assert_eq!(rows[3].status, "invalid_params");
     assert!(rows[3].error.contains("m_b"), "{}", rows[3].error);
-    assert!(rows[3].apex_z_m.is_nan());
+    assert!(rows[3].apex.is_none() && rows[3].columns[0].is_nan());
     assert_eq!(rows.last().unwrap().status, "invalid_params");
     assert!(rows.last().unwrap().error.contains("gear_ratio"));
     let alone = sweep(&p, &c, &good, 2).unwrap();
@@ -95,7 +113,7 @@ fn a_bad_point_never_loses_the_others() {
 #[test]
 fn overrides_reach_params_config_and_actuator_by_name() {
     let (p, c) = (leap_params(), LeapConfig::default());
-    let mut pt = SweepPoint::new(Strategy::new(Push::Minus, Push::Plus), -0.05, Some(21.0));
+    let mut pt = LeapPoint::new(Strategy::new(Push::Minus, Push::Plus), -0.05, Some(21.0));
     for (k, v) in [
         ("m_b", json!(8.5)),
         ("leg_shape", json!("stick")),
@@ -142,7 +160,7 @@ fn overrides_reach_params_config_and_actuator_by_name() {
         actuator: LegActuator::SaturatedTorque,
         ..LeapConfig::default()
     };
-    let (_, cc) = point_inputs(&p, &sat, &SweepPoint::new(Strategy::ALL[0], 0.0, None)).unwrap();
+    let (_, cc) = point_inputs(&p, &sat, &LeapPoint::new(Strategy::ALL[0], 0.0, None)).unwrap();
     assert_eq!(cc.actuator, LegActuator::SaturatedTorque);
 }
 
@@ -163,7 +181,7 @@ fn optional_fields_are_overrides_too() {
     for k in keys.keys() {
         assert!(names.contains(k), "{k} is not sweepable");
     }
-    let mut pt = SweepPoint::new(Strategy::ALL[0], 0.0, Some(28.0));
+    let mut pt = LeapPoint::new(Strategy::ALL[0], 0.0, Some(28.0));
     pt.overrides
         .insert("leg_armature_kg_m2".into(), json!(0.01));
     pt.overrides.insert("mu_body".into(), json!(0.3));
@@ -175,7 +193,7 @@ fn optional_fields_are_overrides_too() {
 fn bad_overrides_name_their_field() {
     let (p, c) = (leap_params(), LeapConfig::default());
     let field_of = |k: &str, v: serde_json::Value| {
-        let mut pt = SweepPoint::new(Strategy::ALL[0], 0.0, Some(28.0));
+        let mut pt = LeapPoint::new(Strategy::ALL[0], 0.0, Some(28.0));
         pt.overrides.insert("m_b".into(), json!(9.0));
         pt.overrides.insert(k.into(), v);
         match point_inputs(&p, &c, &pt) {

@@ -91,6 +91,16 @@ impl BodyState {
         }
     }
 
+    /// This state with `z` and `ż` up (height above the world's `z = 0`): the frame of every
+    /// sweep's columns ([`APEX_COLUMNS`]).
+    pub fn upward(self) -> Self {
+        BodyState {
+            z_m: -self.z_m,
+            zdot_m_s: -self.zdot_m_s,
+            ..self
+        }
+    }
+
     /// This state in a frame whose origin is the body at `x0_m` (forward), `z` up, on a clock
     /// starting at `t0_s`: a preset's frame from its start (chapter 3's apex).
     pub fn seen_from_start(self, t0_s: f64, x0_m: f64) -> Self {
@@ -115,6 +125,94 @@ impl BodyState {
             self.zdot_m_s,
             self.phidot_rad_s,
         ]
+    }
+}
+
+/// The apex columns of every sweep, in the order of [`BodyState::to_array`]: the body at the
+/// apex with `z` **up** — `apex_z_m` is the body centre's height above the world's `z = 0`
+/// (the flat ground's level), `apex_zdot_m_s` its rate, positive up — on the preset's clock,
+/// `apex_x_m` from the preset's forward origin ([`PresetFrame`]; a plain scenario's: the
+/// world's). One meaning and sign in the leap sweep and in the sweep of any robot.
+pub const APEX_COLUMNS: [&str; 7] = [
+    "apex_t_s",
+    "apex_x_m",
+    "apex_z_m",
+    "apex_phi_rad",
+    "apex_xdot_m_s",
+    "apex_zdot_m_s",
+    "apex_phidot_rad_s",
+];
+
+/// What a preset reports of a run, and in which frame: its clock's origin `t0_s` on the
+/// execution clock, the time its drive starts `drive_start_s` (a flight counts from then on),
+/// its forward origin `x0_m`, and whether its runs stop at the first apex. A leap's: the
+/// front motor's start, the first motor's, the body's start; a plain scenario's:
+/// [`PresetFrame::world`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PresetFrame {
+    pub t0_s: f64,
+    pub drive_start_s: f64,
+    pub x0_m: f64,
+    pub stop_at_apex: bool,
+}
+
+impl PresetFrame {
+    /// The execution's own clock and the world's `x` (flights counted from the start).
+    pub fn world(stop_at_apex: bool) -> Self {
+        PresetFrame {
+            t0_s: 0.0,
+            drive_start_s: 0.0,
+            x0_m: 0.0,
+            stop_at_apex,
+        }
+    }
+
+    /// Whether the run flew: it reached the apex of a flight (stopping there), or, not
+    /// stopping at the apex, flew after the drive started and ran on to its final time;
+    /// `false` for every status the engine stopped the run with.
+    pub fn flew(&self, exec: &Execution, status: RunStatus) -> bool {
+        match status {
+            RunStatus::Apex => true,
+            RunStatus::FinalTime => flies_after(exec, self.drive_start_s) && !self.stop_at_apex,
+            _ => false,
+        }
+    }
+
+    /// The apex the run reports ([`reported_apex`]) in this frame, `z` up.
+    pub fn apex(&self, model: &Model, exec: &Execution) -> Option<BodyState> {
+        reported_apex(exec, self.stop_at_apex, self.drive_start_s).map(|e| {
+            BodyState::from_state(model, e.t, &e.q, &e.qd_after)
+                .seen_from_start(self.t0_s, self.x0_m)
+        })
+    }
+
+    /// Why the run did not fly, in words, on this clock (empty when it `flew`): a run that
+    /// reached its final time found no flight (or no apex) before `t_final_s` (on this
+    /// clock); otherwise the engine's [`Termination::describe`] with the contacts' names
+    /// (`name`) and the flowing mode's label (`mode`).
+    pub fn reason(
+        &self,
+        exec: &Execution,
+        flew: bool,
+        t_final_s: f64,
+        name: &dyn Fn(usize) -> String,
+        mode: &str,
+    ) -> String {
+        if flew {
+            return String::new();
+        }
+        if exec.termination == Termination::FinalTime {
+            return format!(
+                "no flight reached{} before t_final_s = {} s",
+                if self.stop_at_apex { " its apex" } else { "" },
+                t_final_s
+            );
+        }
+        exec.termination.describe(
+            &|t| format!("t = {:.6} s", t - self.t0_s),
+            name,
+            Some(mode),
+        )
     }
 }
 

@@ -17,8 +17,13 @@
 //! **One task per point** (`with_max_len(1)`): rayon's default splitting hands each thread
 //! runs of neighbouring points, whose costs are correlated (a range of long runs), and loses
 //! ~20 % to the imbalance on 2 threads.
+//!
+//! **Presets.** A preset ([`Preset`]: RHex's leap, [`ScenarioPreset`] for any scenario) turns
+//! its points into runs and reports each as a [`SweepRow`] in its own frame and on its own
+//! clock (the column vocabulary of [`crate::outcome::APEX_COLUMNS`]: z up), with its own
+//! columns and the status names of its errors; [`preset_sweep`] runs any of them.
 use crate::error::SimError;
-use crate::outcome::Outcome;
+use crate::outcome::{BodyState, Outcome, PresetFrame, RunStatus};
 use crate::scenario::{Scenario, Simulation};
 use rayon::prelude::*;
 use serde_json::Value;
@@ -258,26 +263,14 @@ pub fn sweep_with(
     stop: &AtomicBool,
     done: &(dyn Fn() + Sync),
 ) -> Result<Vec<Option<PointResult>>, SimError> {
-    let tree = base.to_value()?;
-    for p in points {
-        crate::path::distinct_paths(&tree, &p.values)?;
-    }
-    // the base as each point's fresh build reads it (through the JSON tree); a base that does
-    // not build leaves every point to its own build (and its own error)
-    let built = catch_panic(|| Simulation::new(&Scenario::set_all(&mut tree.clone(), &[])?))
-        .ok()
-        .and_then(Result::ok);
+    // a base that does not build leaves every point to its own build (and its own error)
+    let preset = ScenarioPreset::new(base)?;
+    preset.check(points)?;
     run_parallel(points, threads, |p| {
         if stop.load(Ordering::Relaxed) {
             return None;
         }
-        let result = match catch_panic(|| {
-            Ok::<_, SimError>(
-                point_simulation(&tree, built.as_ref(), p)?
-                    .run_with(stop)?
-                    .outcome,
-            )
-        }) {
+        let result = match catch_panic(|| Ok::<_, SimError>(preset.outcome(p, stop)?.0.outcome)) {
             Ok(Ok(o)) => Ok(o),
             Ok(Err(e)) => Err(PointFailure::Error(e)),
             Err(m) => Err(PointFailure::Panic(m)),
@@ -285,4 +278,170 @@ pub fn sweep_with(
         done();
         Some(PointResult { result })
     })
+}
+
+/// A preset of the simulator as a sweep runs it ([`preset_sweep`]): how one of its points
+/// becomes a run (a scenario built, or bound to one built before), the row it reports (the
+/// apex in the preset's frame and on its clock, [`PresetFrame`]; its own columns) and the
+/// status names of its errors.
+pub trait Preset: Sync {
+    /// One point of the preset's sweep.
+    type Point: Sync;
+    /// What a point fails with.
+    type Error: std::fmt::Display;
+    /// The names of the preset's own columns ([`SweepRow::columns`], in this order).
+    fn columns(&self) -> &'static [&'static str];
+    /// Runs one point; a raised `stop` ends its run within one integration step.
+    fn run(&self, point: &Self::Point, stop: &AtomicBool) -> Result<SweepRow, Self::Error>;
+    /// The status of a point that failed with `e` (`invalid_params`, `singular_kkt`, …).
+    fn error_kind(&self, e: &Self::Error) -> &'static str;
+}
+
+/// The outcome of one point of a preset's sweep, flattened for a table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepRow {
+    /// The run's [`RunStatus`] (`apex`, `final_time`, `zeno`, …), the preset's error kind
+    /// ([`Preset::error_kind`]), `panic`, or `interrupted` for a point not started.
+    pub status: String,
+    /// The error message of a failed point, or (where the preset gives it) why a run did not
+    /// fly; empty otherwise.
+    pub error: String,
+    /// The run flew ([`PresetFrame::flew`]); `false` for a point that failed.
+    pub flew: bool,
+    /// The apex in the preset's frame, `z` up ([`crate::outcome::APEX_COLUMNS`]).
+    pub apex: Option<BodyState>,
+    /// The contact word, cells joined by `-` (empty when the point failed).
+    pub word: String,
+    /// Events of the execution.
+    pub n_events: usize,
+    /// The preset's own columns ([`Preset::columns`]); NaN for a point that failed.
+    pub columns: Vec<f64>,
+}
+
+impl SweepRow {
+    /// A row without a run: `status`, the error message and `n_columns` NaN columns.
+    pub fn failed(status: &str, error: String, n_columns: usize) -> Self {
+        SweepRow {
+            status: status.into(),
+            error,
+            flew: false,
+            apex: None,
+            word: String::new(),
+            n_events: 0,
+            columns: vec![f64::NAN; n_columns],
+        }
+    }
+
+    /// The row of a run of `outcome` that `flew` or not, its `apex` in the preset's frame.
+    pub fn of_run(
+        outcome: &Outcome,
+        flew: bool,
+        apex: Option<BodyState>,
+        error: String,
+        columns: Vec<f64>,
+    ) -> Self {
+        SweepRow {
+            status: outcome.status.as_str().into(),
+            error,
+            flew,
+            apex,
+            word: outcome.word_string(),
+            n_events: outcome.n_events,
+            columns,
+        }
+    }
+
+    /// The apex columns ([`crate::outcome::APEX_COLUMNS`]); NaN without an apex.
+    pub fn apex_columns(&self) -> [f64; 7] {
+        self.apex.map_or([f64::NAN; 7], |a| a.to_array())
+    }
+}
+
+/// Runs one point of `preset`; never panics and never fails: a point not started before
+/// `stop` was raised is `interrupted`, a failure is a row of its error kind, a panic a row
+/// `panic` with its message.
+pub fn run_row<P: Preset>(preset: &P, point: &P::Point, stop: &AtomicBool) -> SweepRow {
+    let n = preset.columns().len();
+    if stop.load(Ordering::Relaxed) {
+        return SweepRow::failed(RunStatus::Interrupted.as_str(), String::new(), n);
+    }
+    match catch_panic(|| preset.run(point, stop)) {
+        Err(m) => SweepRow::failed("panic", m, n),
+        Ok(Err(e)) => SweepRow::failed(preset.error_kind(&e), e.to_string(), n),
+        Ok(Ok(row)) => row,
+    }
+}
+
+/// Runs every point of `preset` on a pool of `threads` threads ([`run_parallel`]); rows in
+/// input order, every point a row ([`run_row`]). Errors only for zero threads or a pool that
+/// cannot start.
+pub fn preset_sweep<P: Preset>(
+    preset: &P,
+    points: &[P::Point],
+    threads: usize,
+    stop: &AtomicBool,
+) -> Result<Vec<SweepRow>, SimError> {
+    run_parallel(points, threads, |p| run_row(preset, p, stop))
+}
+
+/// The sweep of a scenario as a preset: a point sets values by name ([`SweepPoint`],
+/// [`crate::path`]); its row reports the apex in the world frame, `z` up, on the
+/// execution's clock ([`PresetFrame::world`]), and no columns of its own.
+pub struct ScenarioPreset {
+    /// The base as each point's fresh build reads it (through the JSON tree).
+    tree: Value,
+    /// The base built once, `None` when it does not build (each point builds its own).
+    built: Option<Simulation>,
+}
+
+impl ScenarioPreset {
+    /// The preset of `base` (errors only when `base` does not serialize).
+    pub fn new(base: &Scenario) -> Result<Self, SimError> {
+        let tree = base.to_value()?;
+        let built = catch_panic(|| Simulation::new(&Scenario::set_all(&mut tree.clone(), &[])?))
+            .ok()
+            .and_then(Result::ok);
+        Ok(ScenarioPreset { tree, built })
+    }
+
+    /// Checks that every point's names are parameters of the base, each set once.
+    pub fn check(&self, points: &[SweepPoint]) -> Result<(), SimError> {
+        for p in points {
+            crate::path::distinct_paths(&self.tree, &p.values)?;
+        }
+        Ok(())
+    }
+
+    /// The run of one point, stopped by `stop`, and whether it stops at its apex.
+    fn outcome(
+        &self,
+        point: &SweepPoint,
+        stop: &AtomicBool,
+    ) -> Result<(crate::Run, bool), SimError> {
+        let sim = point_simulation(&self.tree, self.built.as_ref(), point)?;
+        let stop_at_apex = sim.options.stop_at_apex;
+        Ok((sim.run_with(stop)?, stop_at_apex))
+    }
+}
+
+impl Preset for ScenarioPreset {
+    type Point = SweepPoint;
+    type Error = SimError;
+
+    fn columns(&self) -> &'static [&'static str] {
+        &[]
+    }
+
+    fn run(&self, point: &SweepPoint, stop: &AtomicBool) -> Result<SweepRow, SimError> {
+        let (run, stop_at_apex) = self.outcome(point, stop)?;
+        let frame = PresetFrame::world(stop_at_apex);
+        let (exec, o) = (&run.execution, &run.outcome);
+        let flew = frame.flew(exec, o.status);
+        let apex = frame.apex(&run.model, exec);
+        Ok(SweepRow::of_run(o, flew, apex, o.reason.clone(), Vec::new()))
+    }
+
+    fn error_kind(&self, e: &SimError) -> &'static str {
+        e.kind()
+    }
 }

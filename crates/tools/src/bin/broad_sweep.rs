@@ -20,13 +20,14 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use rhex_model::leap::{leap_params, LeapConfig, LegActuator, Strategy};
-use rhex_model::sweep::{run_row, SweepPoint, SweepRow};
+use rhex_model::sweep::{run_row, LeapPoint, LeapSweep, SweepRow};
+use selfmanip_hybrid::budget::NEVER;
 use serde_json::{json, Map};
 use std::collections::BTreeMap;
 use std::time::Instant;
 
 /// The broad sweep's points (seed 16).
-fn broad_points(n: usize) -> Vec<SweepPoint> {
+fn broad_points(n: usize) -> Vec<LeapPoint> {
     let base = leap_params();
     let mut rng = ChaCha8Rng::seed_from_u64(16);
     (0..n)
@@ -46,7 +47,7 @@ fn broad_points(n: usize) -> Vec<SweepPoint> {
                 overrides.insert("I_l".into(), json!(0.00092 * m_l / 0.126));
             }
             rotors(&mut overrides);
-            SweepPoint {
+            LeapPoint {
                 strategy,
                 t2_s: t2,
                 gear_ratio: Some(gear),
@@ -66,8 +67,8 @@ fn rotors(overrides: &mut Map<String, serde_json::Value>) {
 }
 
 /// Runs `points` on a pool of two threads, each leap timed; rows and times in input order.
-fn run(cfg: &LeapConfig, points: &[SweepPoint]) -> Vec<(SweepRow, f64)> {
-    let params = leap_params();
+fn run(cfg: &LeapConfig, points: &[LeapPoint]) -> Vec<(SweepRow, f64)> {
+    let preset = LeapSweep::new(&leap_params(), cfg);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(2)
         .build()
@@ -78,14 +79,14 @@ fn run(cfg: &LeapConfig, points: &[SweepPoint]) -> Vec<(SweepRow, f64)> {
             .with_max_len(1)
             .map(|p| {
                 let t0 = Instant::now();
-                let row = run_row(&params, cfg, p);
+                let row = run_row(&preset, p, &NEVER);
                 (row, t0.elapsed().as_secs_f64())
             })
             .collect()
     })
 }
 
-fn describe(p: &SweepPoint) -> String {
+fn describe(p: &LeapPoint) -> String {
     let mut s = format!("{} t2={:+.4}", p.strategy, p.t2_s);
     if let Some(g) = p.gear_ratio {
         s += &format!(" G={g:.2}");
@@ -113,13 +114,13 @@ fn zeno_kind(word: &str) -> String {
     }
 }
 
-fn report(name: &str, points: &[SweepPoint], out: &[(SweepRow, f64)]) {
+fn report(name: &str, points: &[LeapPoint], out: &[(SweepRow, f64)]) {
     let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
     for (r, _) in out {
         *counts.entry(r.status.as_str()).or_default() += 1;
     }
     let n = out.len();
-    let apex = out.iter().filter(|(r, _)| r.apex_z_m.is_finite()).count();
+    let apex = out.iter().filter(|(r, _)| r.apex.is_some()).count();
     let mut times: Vec<f64> = out.iter().map(|o| o.1).collect();
     times.sort_by(f64::total_cmp);
     let (slow_i, slow) = out
@@ -160,10 +161,10 @@ fn main() {
             ..LeapConfig::default()
         };
         for s in Strategy::ALL {
-            let points: Vec<SweepPoint> = t2
+            let points: Vec<LeapPoint> = t2
                 .iter()
                 .map(|&t| {
-                    let mut p = SweepPoint::new(s, t, None);
+                    let mut p = LeapPoint::new(s, t, None);
                     rotors(&mut p.overrides);
                     p
                 })
