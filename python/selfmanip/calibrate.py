@@ -237,6 +237,16 @@ class ModelRun:
     status: list[str]
 
 
+def _leg_gearbox_efficiency() -> float:
+    """The efficiency of the leap's gearbox (``x-rhex-28``) in the thesis catalog."""
+    import tomllib
+
+    from .motor import thesis_catalog_toml
+
+    boxes = tomllib.loads(thesis_catalog_toml())["gearbox"]
+    return float(next(g["efficiency"] for g in boxes if g["name"] == "x-rhex-28"))
+
+
 @dataclass(init=False)
 class LeapModel:
     """The RHex leap preset (:func:`selfmanip.leap`) as a model to calibrate: every
@@ -247,7 +257,8 @@ class LeapModel:
     without derivatives are the same."""
 
     name: ClassVar[str] = "leap"
-    exact: ClassVar[tuple[str, ...]] = ("m_b", "I_b", "gear_ratio", "leg_armature_kg_m2")
+    exact: ClassVar[tuple[str, ...]] = ("m_b", "I_b", "gear_ratio", "leg_armature_kg_m2",
+                                        "gearbox_efficiency", "battery_resistance_ohm")
     options: dict[str, Any]
     threads: int | None
 
@@ -264,6 +275,10 @@ class LeapModel:
                if k in set(_leap.sweepable_names()) | {"gear_ratio"} and isinstance(v, numbers.Real)
                and not isinstance(v, bool)}
         out.setdefault("leg_armature_kg_m2", 0.0)
+        # the geared motor's loss options, unset by default: the catalog gearbox's η and an
+        # ideal supply
+        out.setdefault("gearbox_efficiency", _leg_gearbox_efficiency())
+        out.setdefault("battery_resistance_ohm", 0.0)
         return out
 
     def run(self, inputs: Mapping[str, Sequence[Any]], values: Mapping[str, float],

@@ -322,6 +322,16 @@ impl Drive {
         self.output_from_motor_torque(self.motor_torque_n_m(command, speed_m), speed_m)
     }
 
+    /// The output torque of the thesis's law, `G η τ_m` on an ideal supply, without reading
+    /// [`Self::losses`]: [`Self::output_torque_n_m`] of a drive with the default
+    /// [`DriveLosses`] bit for bit. For callers that choose the law once (a compiled
+    /// behaviour), so that the default pays no option check per call.
+    #[inline]
+    pub fn derated_output_torque_n_m(&self, command: f64, speed_rad_s: f64) -> f64 {
+        let speed_m = speed_rad_s * self.gearbox.ratio;
+        self.g_eta() * self.motor.torque_n_m(command, speed_m)
+    }
+
     /// Winding current that produces `torque_n_m` at the output, `τ_out / (G η k_M)`.
     pub fn current_for_output_torque_a(&self, torque_n_m: f64) -> f64 {
         torque_n_m / (self.g_eta() * self.motor.torque_constant_n_m_per_a)
@@ -411,12 +421,8 @@ impl Actuator for Drive {
         self.output_torque_n_m(command, joint_speed_rad_s)
     }
     fn electrical_power_w(&self, command: f64, joint_speed_rad_s: f64) -> f64 {
-        let m = &self.motor;
-        let motor_speed = joint_speed_rad_s * self.gearbox.ratio;
-        let current = m.current_for_torque_a(self.motor_torque_n_m(command, motor_speed));
-        let back_emf_v = m.supply_voltage_v * motor_speed / m.no_load_speed_rad_s;
-        let motor_power_w = (m.terminal_resistance_ohm() * current + back_emf_v) * current;
         let r_b = self.losses.battery_resistance_ohm;
+        let motor_power_w = self.motor_power_w(command, joint_speed_rad_s, r_b);
         if r_b == 0.0 {
             return motor_power_w;
         }
@@ -426,6 +432,32 @@ impl Actuator for Drive {
 }
 
 impl Drive {
+    /// The motor's electrical power `V_eff I` (`I = τ_m/k_M`, `V_eff = R I + k_e ω_m`) at a
+    /// command and output speed, on a battery of internal resistance
+    /// `battery_resistance_ohm` (which sets `τ_m`, not the formula).
+    #[inline]
+    fn motor_power_w(
+        &self,
+        command: f64,
+        joint_speed_rad_s: f64,
+        battery_resistance_ohm: f64,
+    ) -> f64 {
+        let m = &self.motor;
+        let motor_speed = joint_speed_rad_s * self.gearbox.ratio;
+        let tau_m = m.torque_on_battery_n_m(command, motor_speed, battery_resistance_ohm);
+        let current = m.current_for_torque_a(tau_m);
+        let back_emf_v = m.supply_voltage_v * motor_speed / m.no_load_speed_rad_s;
+        (m.terminal_resistance_ohm() * current + back_emf_v) * current
+    }
+
+    /// The electrical power of the thesis's law on an ideal supply, without reading
+    /// [`Self::losses`]: [`Actuator::electrical_power_w`] of a drive with the default
+    /// [`DriveLosses`] bit for bit (see [`Self::derated_output_torque_n_m`]).
+    #[inline]
+    pub fn ideal_supply_power_w(&self, command: f64, joint_speed_rad_s: f64) -> f64 {
+        self.motor_power_w(command, joint_speed_rad_s, 0.0)
+    }
+
     /// The battery current `I_b` that delivers the motor power `motor_power_w` at the
     /// battery's terminal voltage `V_oc − R_b I_b`: the root of
     /// `R_b I_b² − V_oc I_b + P = 0` nearer zero, `2P / (V_oc + √(V_oc² − 4 R_b P))`

@@ -152,11 +152,28 @@ pub enum LegActuator {
     /// `gear_ratio` and the catalog gearbox efficiency, with the controller current limit
     /// `current_limit_a` (chapter 5's simulations: 20 A): the linear torque–speed line
     /// clipped by the current limit (section 2.1.2, Fig. 2.6).
+    ///
+    /// The drive's loss options (`motor::DriveLosses`, `docs/calibration.md`), off by
+    /// default: `gearbox_efficiency` `η ∈ (0, 1]` (unset: the catalog gearbox's, 0.82), how it
+    /// enters the torque (`gearbox_loss`: `derating`, the thesis's `G η τ_m`, or
+    /// `power_flow`, `G τ_m/η` when back-driven) and the battery's internal resistance as one
+    /// motor sees it, `battery_resistance_ohm` (Ω; unset: an ideal supply). A value set is a
+    /// behaviour parameter of the leap (so its derivative can be asked for).
     GearedMotor {
         gear_ratio: f64,
         current_limit_a: f64,
         motors_per_leg: u32,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        gearbox_efficiency: Option<f64>,
+        #[serde(default, skip_serializing_if = "is_derating")]
+        gearbox_loss: motor::GearboxLoss,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        battery_resistance_ohm: Option<f64>,
     },
+}
+
+fn is_derating(loss: &motor::GearboxLoss) -> bool {
+    *loss == motor::GearboxLoss::Derating
 }
 
 impl Default for LegActuator {
@@ -165,6 +182,9 @@ impl Default for LegActuator {
             gear_ratio: 28.0,
             current_limit_a: DEFAULT_CURRENT_LIMIT_A,
             motors_per_leg: DEFAULT_MOTORS_PER_LEG,
+            gearbox_efficiency: None,
+            gearbox_loss: motor::GearboxLoss::Derating,
+            battery_resistance_ohm: None,
         }
     }
 }
@@ -172,24 +192,69 @@ impl Default for LegActuator {
 /// Chapter 5's controller current limit (A) and motors per planar leg (a contralateral pair).
 const DEFAULT_CURRENT_LIMIT_A: f64 = 20.0;
 const DEFAULT_MOTORS_PER_LEG: u32 = 2;
+/// The thesis catalog's gearbox of X-RHex, whose efficiency the geared motor has by default.
+const LEG_GEARBOX: &str = "x-rhex-28";
 
 impl LegActuator {
     /// The geared motor with gear ratio `gear_ratio`, keeping this actuator's current limit
     /// and motor count (chapter 5's when this is the saturated torque).
     pub fn with_gear_ratio(&self, gear_ratio: f64) -> LegActuator {
-        let (current_limit_a, motors_per_leg) = match *self {
-            LegActuator::GearedMotor {
-                current_limit_a,
-                motors_per_leg,
-                ..
-            } => (current_limit_a, motors_per_leg),
-            LegActuator::SaturatedTorque => (DEFAULT_CURRENT_LIMIT_A, DEFAULT_MOTORS_PER_LEG),
+        let mut a = match self {
+            a @ LegActuator::GearedMotor { .. } => a.clone(),
+            LegActuator::SaturatedTorque => LegActuator::default(),
         };
-        LegActuator::GearedMotor {
-            gear_ratio,
-            current_limit_a,
-            motors_per_leg,
+        if let LegActuator::GearedMotor { gear_ratio: g, .. } = &mut a {
+            *g = gear_ratio;
         }
+        a
+    }
+
+    /// The geared motor's loss options that are set, as behaviour parameters
+    /// (`gearbox_efficiency`, `battery_resistance_ohm`), and how `η` enters the torque.
+    fn loss_values(&self) -> (Vec<(&'static str, f64)>, motor::GearboxLoss) {
+        match *self {
+            LegActuator::GearedMotor {
+                gearbox_efficiency,
+                gearbox_loss,
+                battery_resistance_ohm,
+                ..
+            } => {
+                let set = [
+                    ("gearbox_efficiency", gearbox_efficiency),
+                    ("battery_resistance_ohm", battery_resistance_ohm),
+                ];
+                (
+                    set.into_iter().filter_map(|(k, v)| Some((k, v?))).collect(),
+                    gearbox_loss,
+                )
+            }
+            LegActuator::SaturatedTorque => (Vec::new(), motor::GearboxLoss::Derating),
+        }
+    }
+
+    /// This actuator with the loss options among `names` set (to the drive's values where
+    /// unset: the catalog's efficiency, an ideal supply), so that the leap binds them as
+    /// parameters; the leap it runs is the same bit for bit.
+    pub fn with_loss_parameters(&self, names: &[&str]) -> LegActuator {
+        let mut a = self.clone();
+        if let LegActuator::GearedMotor {
+            gearbox_efficiency,
+            battery_resistance_ohm,
+            ..
+        } = &mut a
+        {
+            if names.contains(&"gearbox_efficiency") && gearbox_efficiency.is_none() {
+                let catalog = motor::catalog::Catalog::thesis();
+                let g = catalog
+                    .gearbox(LEG_GEARBOX)
+                    .expect("the thesis catalog's gearbox");
+                *gearbox_efficiency = Some(g.efficiency);
+            }
+            if names.contains(&"battery_resistance_ohm") && battery_resistance_ohm.is_none() {
+                *battery_resistance_ohm = Some(0.0);
+            }
+        }
+        a
     }
 
     /// Checks the geared motor's fields (errors name them: `gear_ratio`, `current_limit_a`,
@@ -199,6 +264,9 @@ impl LegActuator {
             gear_ratio,
             current_limit_a,
             motors_per_leg,
+            gearbox_efficiency,
+            battery_resistance_ohm,
+            ..
         } = *self
         else {
             return Ok(());
@@ -219,6 +287,15 @@ impl LegActuator {
         }
         if motors_per_leg == 0 {
             return bad("motors_per_leg", "must be at least 1".into());
+        }
+        if let Some(e) = gearbox_efficiency.filter(|e| !(*e > 0.0 && *e <= 1.0)) {
+            return bad("gearbox_efficiency", format!("must be in (0, 1], got {e}"));
+        }
+        if let Some(r) = battery_resistance_ohm.filter(|r| !(r.is_finite() && *r >= 0.0)) {
+            return bad(
+                "battery_resistance_ohm",
+                format!("must be finite and non-negative, got {r}"),
+            );
         }
         Ok(())
     }
@@ -529,6 +606,9 @@ pub fn leg_actuator(params: &RhexParams, a: &LegActuator) -> Result<Arc<dyn Actu
             gear_ratio,
             current_limit_a,
             motors_per_leg,
+            gearbox_efficiency,
+            gearbox_loss,
+            battery_resistance_ohm,
         } => {
             let catalog = motor::catalog::Catalog::thesis();
             let m = catalog
@@ -536,10 +616,17 @@ pub fn leg_actuator(params: &RhexParams, a: &LegActuator) -> Result<Arc<dyn Actu
                 .and_then(|m| m.motor())
                 .and_then(|m| m.with_current_limit(current_limit_a))
                 .map_err(motor_err)?;
-            let mut gearbox = catalog.gearbox("x-rhex-28").map_err(motor_err)?.clone();
+            let mut gearbox = catalog.gearbox(LEG_GEARBOX).map_err(motor_err)?.clone();
             gearbox.ratio = gear_ratio;
+            gearbox.efficiency = gearbox_efficiency.unwrap_or(gearbox.efficiency);
+            let losses = motor::DriveLosses {
+                gearbox_loss,
+                battery_resistance_ohm: battery_resistance_ohm.unwrap_or(0.0),
+            };
             Arc::new(LegDrive {
-                drive: motor::Drive::new(m, gearbox).map_err(motor_err)?,
+                drive: motor::Drive::new(m, gearbox)
+                    .and_then(|d| d.with_losses(losses))
+                    .map_err(motor_err)?,
                 n: f64::from(motors_per_leg),
             })
         }
@@ -920,11 +1007,16 @@ fn actuator_values(a: &LegActuator) -> Vec<(&'static str, f64)> {
             gear_ratio,
             current_limit_a,
             motors_per_leg,
-        } => vec![
-            ("gear_ratio", gear_ratio),
-            ("current_limit_a", current_limit_a),
-            ("motors_per_leg", f64::from(motors_per_leg)),
-        ],
+            ..
+        } => {
+            let mut v = vec![
+                ("gear_ratio", gear_ratio),
+                ("current_limit_a", current_limit_a),
+                ("motors_per_leg", f64::from(motors_per_leg)),
+            ];
+            v.extend(a.loss_values().0);
+            v
+        }
     }
 }
 
@@ -1053,8 +1145,15 @@ impl LeapPreset {
                 LegActuator::GearedMotor { .. }
             )
         );
+        // the loss options set (and the gearbox law) are the behaviour's: a point that sets
+        // others is built afresh
+        let names = |a: &LegActuator| {
+            let (v, loss) = a.loss_values();
+            (v.into_iter().map(|(k, _)| k).collect::<Vec<_>>(), loss)
+        };
         let same_robot = *actuator == self.cfg.actuator
             || (both_geared
+                && names(actuator) == names(&self.cfg.actuator)
                 && leap_leg_armature(&self.params, &point)?
                     == leap_leg_armature(&self.params, &self.cfg)?);
         if !same_robot {
@@ -1359,6 +1458,9 @@ pub fn leap_behaviour(strategy: Strategy) -> Behaviour {
                 supply_voltage_v: None,
                 count: "motors_per_leg".into(),
                 catalog: None,
+                gearbox_efficiency: None,
+                gearbox_loss: motor::GearboxLoss::Derating,
+                battery_resistance_ohm: None,
             },
         )]
         .into_iter()
@@ -1453,10 +1555,29 @@ pub(crate) fn scenario_of(
             gear_ratio,
             current_limit_a,
             motors_per_leg,
+            ..
         } => {
             p.insert("gear_ratio".into(), num(gear_ratio));
             p.insert("current_limit_a".into(), num(current_limit_a));
             p.insert("motors_per_leg".into(), num(f64::from(motors_per_leg)));
+            let (set, loss) = cfg.actuator.loss_values();
+            if let Some(ActuatorSpec::DcMotor {
+                gearbox_efficiency,
+                gearbox_loss,
+                battery_resistance_ohm,
+                ..
+            }) = b.actuators.get_mut("leg")
+            {
+                *gearbox_loss = loss;
+                for (name, v) in set {
+                    p.insert(name.into(), num(v));
+                    let slot = match name {
+                        "gearbox_efficiency" => &mut *gearbox_efficiency,
+                        _ => &mut *battery_resistance_ohm,
+                    };
+                    *slot = Some(name.into());
+                }
+            }
         }
     }
     // the files swing the legs as their motors do (`leg.no_load_speed_rad_s`, the stall

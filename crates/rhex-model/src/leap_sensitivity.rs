@@ -16,6 +16,10 @@
 //!   rotors (`RhexParams::legs_carry_rotors` without a hand-set armature) each leg joint's
 //!   armature `a = n J G²` with it: `d/dG = ∂/∂G + Σ_j (2a/G) ∂/∂a_j`. Not a parameter of the
 //!   saturated-torque actuator (a typed error).
+//! - `gearbox_efficiency`, `battery_resistance_ohm`: the geared motor's loss options
+//!   (`LegActuator::GearedMotor`; an unset one is taken at the drive's value, the catalog's
+//!   `η` or an ideal supply). Under the power-flow gearbox law a leg whose speed changes sign
+//!   under load makes the derivative undefined (the torque jumps there: see below).
 //! - `m_b`, `I_b`: the body's mass and inertia (`M̄`, `N̄` and the plastic impacts).
 //! - `leg_armature_kg_m2`: every leg joint's armature at once (`M̄`'s diagonal and the
 //!   impacts); only of legs that have one (a typed error otherwise: at zero a massless leg
@@ -49,7 +53,8 @@
 //! (grazing, simultaneous touchdowns such as both legs at `t2 = 0`, a mode held for zero
 //! time, folds, jams and impacts with Coulomb friction); an event at a motor's start (fired
 //! by the torque's jump, not by a crossing: flagged by the hybrid sensitivities as an event
-//! at a controller's time event).
+//! at a controller's time event); the power-flow gearbox law's jump (a leg's speed changing
+//! sign under load: the reason says so).
 use crate::leap::{LeapConfig, LeapPreset, LeapResult, LegActuator, T2Reference};
 use crate::{RhexError, RhexParams};
 use nalgebra::DMatrix;
@@ -64,13 +69,15 @@ use selfmanip_sim::sensitivity_preset::{end_state_sensitivity, EndStateRequest};
 pub use selfmanip_sim::outcome::APEX_COLUMNS;
 
 /// The parameter names [`leap_with_sensitivity`] knows.
-pub const SENSITIVITY_PARAMETERS: [&str; 6] = [
+pub const SENSITIVITY_PARAMETERS: [&str; 8] = [
     "t2",
     "t2_s",
     "gear_ratio",
     "m_b",
     "I_b",
     "leg_armature_kg_m2",
+    "gearbox_efficiency",
+    "battery_resistance_ohm",
 ];
 
 /// A leap with the derivatives of its apex.
@@ -123,6 +130,9 @@ enum LeapParameter {
     BodyInertia,
     /// The armature of every leg joint at once.
     LegArmature,
+    /// A loss option of the geared motor, a behaviour parameter by its name
+    /// (`gearbox_efficiency`, `battery_resistance_ohm`).
+    DriveLoss(&'static str),
 }
 
 fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<LeapParameter>, RhexError> {
@@ -136,6 +146,19 @@ fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<LeapParameter>, RhexE
                     field: "gear_ratio".into(),
                     reason: "the saturated-torque actuator has no gear ratio to differentiate"
                         .into(),
+                }),
+            },
+            "gearbox_efficiency" | "battery_resistance_ohm" => match cfg.actuator {
+                LegActuator::GearedMotor { .. } => {
+                    Ok(LeapParameter::DriveLoss(if n == "gearbox_efficiency" {
+                        "gearbox_efficiency"
+                    } else {
+                        "battery_resistance_ohm"
+                    }))
+                }
+                LegActuator::SaturatedTorque => Err(RhexError::Unsupported {
+                    field: n.into(),
+                    reason: "the saturated-torque actuator has no drive losses".into(),
                 }),
             },
             "m_b" => Ok(LeapParameter::BodyMass),
@@ -171,6 +194,7 @@ fn engine_terms(
         LeapParameter::T2 => vec![(Parameter::Controller("t2".into()), 1.0)],
         LeapParameter::BodyMass => vec![(Parameter::Body(BodyParameter::Mass), 1.0)],
         LeapParameter::BodyInertia => vec![(Parameter::Body(BodyParameter::Inertia), 1.0)],
+        LeapParameter::DriveLoss(name) => vec![(Parameter::Controller(name.into()), 1.0)],
         LeapParameter::GearRatio => {
             let mut t = vec![(Parameter::Controller("gear_ratio".into()), 1.0)];
             if crate::leap::armature_follows_gear(params) {
@@ -225,8 +249,10 @@ pub fn leap_with_sensitivity_from(
 ) -> Result<LeapSensitivity, RhexError> {
     let ps = resolve(cfg, names)?;
     // the free legs' touchdowns are resolved to the tolerances (see the module docs)
+    // and the drive's loss options asked for are the behaviour's parameters (the same leap)
     let cfg = &LeapConfig {
         control_free_joints: true,
+        actuator: cfg.actuator.with_loss_parameters(names),
         ..cfg.clone()
     };
     if cfg.toe_stub_rad.is_some() {
@@ -293,12 +319,35 @@ pub fn leap_with_sensitivity_from(
         d_apex: d.d_state,
         d_apex_d_start: d.d_state_d_start,
         ok: d.ok,
-        reason: d.reason,
+        reason: d.reason.map(|r| power_flow_reason(cfg, r)),
         events: d.events,
         time_events: d.time_events,
         event_times: d.event_times,
         result,
     })
+}
+
+/// The reason a derivative is undefined, saying where it is the power-flow gearbox law's jump:
+/// the only law of a leap whose controller withholds its partials (the toe stub is refused
+/// above) is the power-flow law at a leg's change of direction under load, where the torque
+/// jumps by `η²` without an event and a derivative across it would be one-sided.
+fn power_flow_reason(cfg: &LeapConfig, reason: String) -> String {
+    let power_flow = matches!(
+        cfg.actuator,
+        LegActuator::GearedMotor {
+            gearbox_loss: motor::GearboxLoss::PowerFlow,
+            ..
+        }
+    );
+    if power_flow && reason.contains("gives no partial derivatives") {
+        format!(
+            "{reason}: a leg's speed changed sign under load, where the power-flow gearbox \
+             law's torque jumps by η² without an event (the derivative across it is \
+             one-sided and not formed)"
+        )
+    } else {
+        reason
+    }
 }
 
 /// Runs the leap of `preset` (its motor start `cfg.t2_s`) from its start state plus

@@ -123,7 +123,13 @@ const OWN_COLUMNS: [&str; 3] = ["strategy", "t2_s", "actuator"];
 /// The override that names the leap's pushing pairs ([`LeapConfig::pairs`]), not the
 /// parameters' `pairs`, which a leap does not read.
 const LEAP_PAIRS: &str = "pairs";
-const ACTUATOR_FIELDS: [&str; 2] = ["current_limit_a", "motors_per_leg"];
+const ACTUATOR_FIELDS: [&str; 5] = [
+    "current_limit_a",
+    "motors_per_leg",
+    "gearbox_efficiency",
+    "gearbox_loss",
+    "battery_resistance_ohm",
+];
 
 /// The names that set the geared motor's fields ([`LegActuator::GearedMotor`]) rather than a
 /// parameter or the configuration: an override of one of them runs the geared motor.

@@ -417,7 +417,10 @@ fn bad_input_is_a_typed_error_naming_the_field() {
             &|c| c.actuator = rhex_model::leap::LegActuator::GearedMotor {
                 gear_ratio: -3.0,
                 current_limit_a: 20.0,
-                motors_per_leg: 2
+                motors_per_leg: 2,
+                gearbox_efficiency: None,
+                gearbox_loss: Default::default(),
+                battery_resistance_ohm: None,
             }
         ),
         "gear_ratio"

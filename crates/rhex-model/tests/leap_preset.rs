@@ -33,6 +33,9 @@ fn a_reused_preset_runs_the_leaps_of_fresh_ones() {
         gear_ratio: g,
         current_limit_a: i,
         motors_per_leg: 2,
+        gearbox_efficiency: None,
+        gearbox_loss: Default::default(),
+        battery_resistance_ohm: None,
     };
     let mut rotors = leap_params();
     rotors.m_l = 0.126;

@@ -296,6 +296,9 @@ fn the_issue_points_agree_with_differences_of_the_differentiated_execution() {
                     gear_ratio: g,
                     current_limit_a: 20.0,
                     motors_per_leg: 2,
+                    gearbox_efficiency: None,
+                    gearbox_loss: Default::default(),
+                    battery_resistance_ohm: None,
                 },
                 ..cfg.clone()
             };

@@ -32,6 +32,9 @@ fn geared(gear_ratio: f64, motors_per_leg: u32) -> LeapConfig {
             gear_ratio,
             current_limit_a: 20.0,
             motors_per_leg,
+            gearbox_efficiency: None,
+            gearbox_loss: Default::default(),
+            battery_resistance_ohm: None,
         },
         ..LeapConfig::default()
     }
@@ -235,6 +238,9 @@ fn gear_ratio_and_armature_derivatives_through_the_rotors_equal_central_differen
                 gear_ratio: g + dg,
                 current_limit_a: 20.0,
                 motors_per_leg: 2,
+                gearbox_efficiency: None,
+                gearbox_loss: Default::default(),
+                battery_resistance_ohm: None,
             },
             ..cfg.clone()
         };

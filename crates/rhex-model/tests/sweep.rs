@@ -137,6 +137,7 @@ fn overrides_reach_params_config_and_actuator_by_name() {
             gear_ratio,
             current_limit_a,
             motors_per_leg,
+            ..
         } => {
             assert_eq!((gear_ratio, current_limit_a), (21.0, 12.5));
             assert_eq!(
@@ -144,7 +145,10 @@ fn overrides_reach_params_config_and_actuator_by_name() {
                 LegActuator::GearedMotor {
                     gear_ratio: 28.0,
                     current_limit_a: 20.0,
-                    motors_per_leg
+                    motors_per_leg,
+                    gearbox_efficiency: None,
+                    gearbox_loss: Default::default(),
+                    battery_resistance_ohm: None,
                 }
             );
         }

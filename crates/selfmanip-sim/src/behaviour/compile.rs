@@ -9,7 +9,9 @@ use super::spec::{
     ActuatorSpec, Behaviour, Interpolation, JointProgram, Motion, NamedEvent, On, Phase, Torque,
     Trigger,
 };
-use super::tangent::{ActuatorLaw, Grad, NumberTangent, PhaseTangent, PlanTangent, TorqueTangent};
+use super::tangent::{
+    ActuatorLaw, GearedLosses, Grad, NumberTangent, PhaseTangent, PlanTangent, TorqueTangent,
+};
 use crate::error::{finite, invalid, non_negative, positive, SimError};
 use crate::expr::{Expr, ParsedFormulas, Scalar, MAX_PARAMETER_CHAIN};
 use crate::labels::{contact_by_name, joint_contacts, joint_index, joint_name};
@@ -473,6 +475,9 @@ fn actuator(
             supply_voltage_v,
             count,
             catalog,
+            gearbox_efficiency,
+            gearbox_loss,
+            battery_resistance_ohm,
         } => {
             let catalog = match catalog {
                 None => motor::Catalog::thesis(),
@@ -503,6 +508,22 @@ fn actuator(
             if let Some(r) = gear_ratio {
                 g.ratio = positive_number("gear_ratio", r)?;
             }
+            if let Some(e) = gearbox_efficiency {
+                g.efficiency = positive_number("gearbox_efficiency", e)?;
+                if g.efficiency > 1.0 {
+                    return Err(invalid(
+                        Leaf(field, "gearbox_efficiency").path(),
+                        format!("must be at most 1, got {}", g.efficiency),
+                    ));
+                }
+            }
+            let losses = motor::DriveLosses {
+                gearbox_loss: *gearbox_loss,
+                battery_resistance_ohm: match battery_resistance_ohm {
+                    Some(r) => cx.number(&Leaf(field, "battery_resistance_ohm"), r, None)?,
+                    None => 0.0,
+                },
+            };
             let n = cx.number(&Leaf(field, "count"), count, None)?;
             if !(n >= 1.0 && n.fract() == 0.0) {
                 return Err(invalid(
@@ -520,10 +541,17 @@ fn actuator(
                 torque_constant_n_m_per_a: m.torque_constant_n_m_per_a,
                 current_limit_a: m.current_limit_a,
                 voltage_v: m.supply_voltage_v,
+                losses: GearedLosses {
+                    power_flow: losses.gearbox_loss == motor::GearboxLoss::PowerFlow,
+                    battery_resistance_ohm: losses.battery_resistance_ohm,
+                    terminal_resistance_ohm: m.terminal_resistance_ohm(),
+                },
                 dn: cx.grad(count, None),
                 dratio: grad(gear_ratio),
                 dcurrent: grad(current_limit_a),
                 dvoltage: grad(supply_voltage_v),
+                defficiency: grad(gearbox_efficiency),
+                dbattery: grad(battery_resistance_ohm),
             };
             let speed = m.no_load_speed_rad_s / ratio;
             // gradients only where the tangent is built (`compile_shared`)
@@ -544,22 +572,40 @@ fn actuator(
                     grad_of(&|| law.reflected_inertia_grad(rotor)),
                 ));
             }
-            let a: Arc<dyn Actuator> = Arc::new(Drives {
-                drive: motor::Drive::new(m, g).map_err(motor_err("gearbox"))?,
-                n,
-            });
+            let drive = motor::Drive::new(m, g)
+                .map_err(motor_err("gearbox"))?
+                .with_losses(losses)
+                .map_err(motor_err("battery_resistance_ohm"))?;
+            // the law is chosen here, once: the thesis's (the default options) reads no
+            // option per call
+            let a: Arc<dyn Actuator> = if losses == motor::DriveLosses::default() {
+                Arc::new(Drives::<false> { drive, n })
+            } else {
+                Arc::new(Drives::<true> { drive, n })
+            };
             (a, derived, law)
         }
     })
 }
 
-/// `n` identical drives in parallel on one joint.
-struct Drives {
+/// `n` identical drives in parallel on one joint, `LOSSY` with the drive's loss options
+/// (`motor::DriveLosses`), else the thesis's law, which reads none of them per call (bit for
+/// bit the same where the options are the defaults).
+struct Drives<const LOSSY: bool> {
     drive: motor::Drive,
     n: f64,
 }
 
-impl Actuator for Drives {
+impl Actuator for Drives<false> {
+    fn joint_torque_n_m(&self, command: f64, speed: f64) -> f64 {
+        self.n * self.drive.derated_output_torque_n_m(command, speed)
+    }
+    fn electrical_power_w(&self, command: f64, speed: f64) -> f64 {
+        self.n * self.drive.ideal_supply_power_w(command, speed)
+    }
+}
+
+impl Actuator for Drives<true> {
     fn joint_torque_n_m(&self, command: f64, speed: f64) -> f64 {
         self.n * self.drive.joint_torque_n_m(command, speed)
     }

@@ -1472,11 +1472,13 @@ impl Controller for BehaviourController {
     ///   `only_in_contact`;
     /// - `motor`: `∂τ/∂q̇_j` of the actuator's law on its branch (`tangent.rs`,
     ///   `ActuatorLaw::partials`: the torque–speed line or the current limit, one-sided at the
-    ///   kink a joint leaves);
+    ///   kink a joint leaves; driving or back-driven under the power-flow gearbox law);
     /// - a free joint `q̈ = α_ref + kp_f (θ_ref − q_j) + kd_f (ω_ref − q̇_j)`: `−kp_f`, `−kd_f`.
     ///
     /// No partials (`false`) for a `motor` that reverses past an angle (`reverse_beyond_rad`:
-    /// its torque jumps at a crossing without an event) or for a program with a
+    /// its torque jumps at a crossing without an event), for a `motor` whose power-flow
+    /// gearbox law is at its jump (the joint's speed changing sign under load:
+    /// `ActuatorLaw::at_power_flow_jump`) or for a program with a
     /// `joint_angle` level (its torque switches inside a flow at a crossing the engine does
     /// not locate, where no saltation matrix could be formed).
     fn partials(
@@ -1504,6 +1506,9 @@ impl Controller for BehaviourController {
                     actuator, command, ..
                 } => {
                     let law = &plan.tangent().actuators[*actuator];
+                    if law.at_power_flow_jump(*command, qd[j]) {
+                        return false;
+                    }
                     out.dtau_dqd[(j, j)] = law.partials(*command, &[], qd[j], &mut Vec::new());
                 }
                 law @ TorqueLaw::Servo { kp, kd, limit, .. } => {
@@ -1526,8 +1531,9 @@ impl Controller for BehaviourController {
     }
 
     /// Per program, two bits: a servo in its linear range (0) or saturated at `+limit` (1)
-    /// or `−limit` (2), a motor on its torque–speed line (0) or at its current limit (1) —
-    /// where [`Self::partials`] switch branch (the tangent's steps are split there); the
+    /// or `−limit` (2), a motor on its torque–speed line (0) or at its current limit (1),
+    /// plus 2 where its power-flow gearbox law is back-driven — where [`Self::partials`]
+    /// switch branch (the tangent's steps are split there); the
     /// other laws 0. Programs past the 32nd fold into the same bits.
     fn partials_piece(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode) -> u64 {
         let plan = &*self.plan;
@@ -1538,9 +1544,9 @@ impl Controller for BehaviourController {
                 actuator, command, ..
             } = torque
             {
-                let on_limit =
-                    plan.tangent().actuators[*actuator].on_limit(*command, qd[prog.joint]);
-                out ^= u64::from(on_limit) << (2 * (p % 32));
+                let piece = plan.tangent().actuators[*actuator].piece(*command, qd[prog.joint]);
+                let bits = u64::from(piece.on_limit) | u64::from(piece.back_driven) << 1;
+                out ^= bits << (2 * (p % 32));
                 continue;
             }
             if let Some(s) = self.servo_in_force(p, torque, t, (q, qd), mode) {

@@ -72,6 +72,17 @@ pub enum ActuatorSpec {
         supply_voltage_v: Option<Scalar>,
         #[serde(default = "one")]
         count: Scalar,
+        /// The gearbox's torque efficiency `η ∈ (0, 1]` (default: the catalog gearbox's).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        gearbox_efficiency: Option<Scalar>,
+        /// How `η` enters the torque (`motor::GearboxLoss`): `"derating"` (default, `G η τ_m`
+        /// both ways, the thesis's law) or `"power_flow"` (`G τ_m/η` when back-driven).
+        #[serde(default, skip_serializing_if = "is_derating")]
+        gearbox_loss: motor::GearboxLoss,
+        /// The internal resistance (Ω) of the battery behind each motor's PWM stage
+        /// (`motor::DriveLosses::battery_resistance_ohm`; default 0: an ideal supply).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        battery_resistance_ohm: Option<Scalar>,
         /// A catalog TOML file of the `motor` crate's format; default: the thesis's Tables
         /// 2.1–2.3.
         #[serde(default)]
@@ -81,6 +92,10 @@ pub enum ActuatorSpec {
 
 fn one() -> Scalar {
     Scalar::Number(1.0)
+}
+
+fn is_derating(loss: &motor::GearboxLoss) -> bool {
+    *loss == motor::GearboxLoss::Derating
 }
 
 /// The first event of an execution that matches (after `after_event`, if given). A named

@@ -176,9 +176,12 @@ impl NumberTangent {
 
 /// An actuator's torque law for its partial derivatives, with the gradients of the data it
 /// depends on: the ideal torque source `τ = clamp(u) τ_max`, or `n` geared DC motors in
-/// parallel, `τ = n G η clamp(τ_st (u − G ω/ω₀), ±k_M I_max)` (thesis 2.1.2: the motor's stall
-/// torque `τ_st` and no-load speed `ω₀` at the supply voltage `V` — both proportional to it —
-/// the current-limited torque `k_M I_max`, the gearbox's ratio `G` and efficiency `η`).
+/// parallel, `τ = n G e clamp(s a₀, ±k_M I_max)`, `a₀ = τ_st (u − G ω/ω₀)` (thesis 2.1.2: the
+/// motor's stall torque `τ_st` and no-load speed `ω₀` at the supply voltage `V` — both
+/// proportional to it — the current-limited torque `k_M I_max`, the gearbox's ratio `G` and
+/// efficiency `η`), with the drive's loss options ([`GearedLosses`], `motor::DriveLosses`):
+/// the battery's sag `s = R/(R + u² R_b)` (1 on an ideal supply) and the gearbox factor
+/// `e = η`, or `1/η` where the power-flow law is back-driven (`τ_m ω_m < 0`).
 pub(crate) enum ActuatorLaw {
     Saturated {
         max_n_m: f64,
@@ -193,17 +196,51 @@ pub(crate) enum ActuatorLaw {
         torque_constant_n_m_per_a: f64,
         current_limit_a: f64,
         voltage_v: f64,
+        losses: GearedLosses,
         dn: Grad,
         dratio: Grad,
         dcurrent: Grad,
         dvoltage: Grad,
+        defficiency: Grad,
+        dbattery: Grad,
     },
+}
+
+/// The loss options of a geared law (`motor::DriveLosses`): the power-flow gearbox law, the
+/// battery's internal resistance `R_b` (Ω) and the motor's terminal resistance `R` (Ω,
+/// `k_M V/τ_st`, independent of `V`).
+pub(crate) struct GearedLosses {
+    pub power_flow: bool,
+    pub battery_resistance_ohm: f64,
+    pub terminal_resistance_ohm: f64,
+}
+
+impl GearedLosses {
+    /// The battery's sag of the winding current at command `u`, `R/(R + u² R_b)` (exactly 1
+    /// on an ideal supply).
+    fn sag(&self, u: f64) -> f64 {
+        if self.battery_resistance_ohm == 0.0 {
+            1.0
+        } else {
+            let r = self.terminal_resistance_ohm;
+            r / (r + u * u * self.battery_resistance_ohm)
+        }
+    }
+}
+
+/// A piece of a geared law: at the current limit (not on the torque–speed line), and
+/// back-driven under the power-flow gearbox law.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct GearedPiece {
+    pub on_limit: bool,
+    pub back_driven: bool,
 }
 
 impl ActuatorLaw {
     /// The gradient of the stall torque at the joint, `τ(1, 0)`: `τ_max`'s, or of
-    /// `n G η min(τ_st, k_M I_max)` the branch's (at a tie, where a current limit equals the
-    /// stall torque, the torque–speed line's: the side a motor leaving standstill takes).
+    /// `n G η min(s₁ τ_st, k_M I_max)` (`s₁ = R/(R + R_b)`; standstill drives the gearbox) the
+    /// branch's (at a tie, where a current limit equals the stall torque, the torque–speed
+    /// line's: the side a motor leaving standstill takes).
     pub fn stall_grad(&self) -> Grad {
         match self {
             ActuatorLaw::Saturated { dmax, .. } => dmax.clone(),
@@ -215,16 +252,21 @@ impl ActuatorLaw {
                 torque_constant_n_m_per_a,
                 current_limit_a,
                 voltage_v,
+                losses,
                 dn,
                 dratio,
                 dcurrent,
                 dvoltage,
+                defficiency,
+                dbattery,
                 ..
             } => {
                 let limit = torque_constant_n_m_per_a * current_limit_a;
-                let tau = n * ratio * efficiency * stall_n_m.min(limit);
-                let on_line = *stall_n_m <= limit;
-                let terms: [(f64, Option<&Grad>); 4] = [
+                let sag = losses.sag(1.0);
+                let stall = stall_n_m * sag;
+                let tau = n * ratio * efficiency * stall.min(limit);
+                let on_line = stall <= limit;
+                let terms: [(f64, Option<&Grad>); 6] = [
                     (tau / n, Some(dn)),
                     (tau / ratio, Some(dratio)),
                     (
@@ -232,13 +274,22 @@ impl ActuatorLaw {
                         Some(dcurrent),
                     ),
                     (if on_line { tau / voltage_v } else { 0.0 }, Some(dvoltage)),
+                    (tau / efficiency, Some(defficiency)),
+                    (
+                        if on_line {
+                            -tau * sag / losses.terminal_resistance_ohm
+                        } else {
+                            0.0
+                        },
+                        Some(dbattery),
+                    ),
                 ];
                 sum(&terms).expect("gradients given")
             }
         }
     }
 
-    /// The gradient of the no-load output speed `ω₀ / G` (`ω₀ ∝ V`).
+    /// The gradient of the no-load output speed `ω₀ / G` (`ω₀ ∝ V`; the losses leave it).
     pub fn no_load_speed_grad(&self) -> Grad {
         match self {
             ActuatorLaw::Saturated { dmax, .. } => vec![0.0; dmax.len()].into(),
@@ -276,21 +327,28 @@ impl ActuatorLaw {
         }
     }
 
-    /// `τ_st (u − G ω/ω₀)` (motor torque on the line) and the current limit `k_M I_max`.
-    fn line(&self, u: f64, speed: f64) -> (f64, f64) {
-        match *self {
-            ActuatorLaw::Saturated { .. } => (0.0, f64::INFINITY),
+    /// `a₀ = τ_st (u − G ω/ω₀)`, the motor torque `s a₀` on the line (with the battery's sag
+    /// `s`), and the current limit `k_M I_max`.
+    fn line(&self, u: f64, speed: f64) -> (f64, f64, f64) {
+        match self {
+            ActuatorLaw::Saturated { .. } => (0.0, 0.0, f64::INFINITY),
             ActuatorLaw::Geared {
                 ratio,
                 stall_n_m,
                 no_load_rad_s,
                 torque_constant_n_m_per_a,
                 current_limit_a,
+                losses,
                 ..
-            } => (
-                stall_n_m * (u.clamp(-1.0, 1.0) - speed * ratio / no_load_rad_s),
-                torque_constant_n_m_per_a * current_limit_a,
-            ),
+            } => {
+                let uc = u.clamp(-1.0, 1.0);
+                let a0 = stall_n_m * (uc - speed * ratio / no_load_rad_s);
+                (
+                    a0,
+                    a0 * losses.sag(uc),
+                    torque_constant_n_m_per_a * current_limit_a,
+                )
+            }
         }
     }
 
@@ -307,7 +365,7 @@ impl ActuatorLaw {
             ..
         } = *self
         {
-            let (a, limit) = self.line(u, speed);
+            let (_, a, limit) = self.line(u, speed);
             if a.abs() >= limit && a.abs() <= limit * (1.0 + 1e-9) && u != 0.0 {
                 return speed + u.signum() * 2e-9 * no_load_rad_s / ratio;
             }
@@ -315,21 +373,52 @@ impl ActuatorLaw {
         speed
     }
 
-    /// Whether the torque is at the current limit (not on the torque–speed line) at command
-    /// `u` and joint speed `ω`, on the side [`Self::branch_speed`] reads: the law's piece.
-    pub fn on_limit(&self, u: f64, speed: f64) -> bool {
-        let (a, limit) = self.line(u, self.branch_speed(u, speed));
-        a.abs() >= limit
+    /// The law's piece at command `u` and joint speed `ω`, on the side
+    /// [`Self::branch_speed`] reads: at the current limit or on the torque–speed line, and
+    /// (power-flow gearbox law only) back-driven, `τ_m ω < 0`. The ideal torque source has
+    /// one piece.
+    pub fn piece(&self, u: f64, speed: f64) -> GearedPiece {
+        let (_, a, limit) = self.line(u, self.branch_speed(u, speed));
+        let power_flow = matches!(self, ActuatorLaw::Geared { losses, .. } if losses.power_flow);
+        GearedPiece {
+            on_limit: a.abs() >= limit,
+            back_driven: power_flow && a * speed < 0.0,
+        }
+    }
+
+    /// Whether the state sits at the power-flow law's jump: back-driven, within round-off
+    /// of rest (`0 < |ω| ≤ 1e-9 ω₀/G`), with `η < 1` — the torque jumps there by `η²` when
+    /// the speed changes sign under load, without an event, so a derivative carried across
+    /// it is not defined. The sensitivities split their steps where [`Self::piece`] changes,
+    /// so a crossing either way puts a stage at the kink on its back-driven side: this says
+    /// so there. (A motor that starts from rest back-driven says so too: conservative.) Off
+    /// for the derating law.
+    pub fn at_power_flow_jump(&self, u: f64, speed: f64) -> bool {
+        match self {
+            ActuatorLaw::Geared {
+                efficiency,
+                no_load_rad_s,
+                ratio,
+                losses,
+                ..
+            } if losses.power_flow && *efficiency < 1.0 => {
+                let (_, a, _) = self.line(u, speed);
+                a * speed < 0.0 && speed.abs() <= 1e-9 * no_load_rad_s / ratio
+            }
+            _ => false,
+        }
     }
 
     /// `∂τ/∂ω` and `∂τ/∂p` (over the parameters, `du` the command's gradient) at command `u`
-    /// and joint speed `ω`, on the branch [`Self::on_limit`] says:
+    /// and joint speed `ω`, on the piece [`Self::piece`] says:
     ///
     /// - saturated: `∂τ/∂ω = 0`, `∂τ/∂p = u ∂τ_max/∂p + τ_max ∂u/∂p` (inside `|u| < 1`);
-    /// - on the line `τ = n G η a`, `a = τ_st (u − G ω/ω₀)`: `∂τ/∂ω = −n G² η τ_st/ω₀`,
-    ///   `∂τ/∂G = n η (a − G τ_st ω/ω₀)`, `∂τ/∂n = G η a`, `∂τ/∂V = n G η u τ_st/V`
-    ///   (`τ_st/ω₀` does not depend on `V`), `∂τ/∂u = n G η τ_st`;
-    /// - at the limit `τ = ±n G η k_M I_max`: `∂τ/∂G = τ/G`, `∂τ/∂n = τ/n`, `∂τ/∂I_max = τ/I_max`.
+    /// - on the line `τ = c s a₀`, `c = n G e`: `∂τ/∂ω = −c s G τ_st/ω₀`,
+    ///   `∂τ/∂G = n e s (a₀ − G τ_st ω/ω₀)`, `∂τ/∂n = G e s a₀`, `∂τ/∂V = c s u τ_st/V`
+    ///   (`τ_st/ω₀` and `R` do not depend on `V`), `∂τ/∂η = ±τ/η` (`+` driving, `−`
+    ///   back-driven), `∂τ/∂R_b = −c a₀ u² s²/R`, `∂τ/∂u = c (s τ_st − 2 u R_b s² a₀/R)`;
+    /// - at the limit `τ = ±n G e k_M I_max`: `∂τ/∂G = τ/G`, `∂τ/∂n = τ/n`,
+    ///   `∂τ/∂I_max = τ/I_max`, `∂τ/∂η = ±τ/η`.
     ///
     /// `∂τ/∂p` is written into `d` (its old contents and length discarded).
     pub fn partials(&self, u: f64, du: &[f64], speed: f64, d: &mut Vec<f64>) -> f64 {
@@ -352,34 +441,51 @@ impl ActuatorLaw {
                 no_load_rad_s,
                 current_limit_a,
                 voltage_v,
+                losses,
                 dn,
                 dratio,
                 dcurrent,
                 dvoltage,
+                defficiency,
+                dbattery,
                 ..
             } => {
                 let w = self.branch_speed(u, speed);
-                let (a, limit) = self.line(u, w);
-                let c = n * ratio * efficiency;
+                let (a0, a, limit) = self.line(u, w);
+                let piece = self.piece(u, speed);
+                // the gearbox factor `e` and `∂e/∂η / e`
+                let (e, de) = if piece.back_driven {
+                    (1.0 / efficiency, -1.0 / efficiency)
+                } else {
+                    (*efficiency, 1.0 / efficiency)
+                };
+                let c = n * ratio * e;
                 d.resize(du.len(), 0.0);
-                if a.abs() < limit {
+                if !piece.on_limit {
                     let uc = u.clamp(-1.0, 1.0);
-                    axpy(d, efficiency * ratio * a, dn);
+                    let sag = losses.sag(uc);
+                    axpy(d, e * ratio * a, dn);
                     axpy(
                         d,
-                        n * efficiency * (a - ratio * stall_n_m * w / no_load_rad_s),
+                        n * e * sag * (a0 - ratio * stall_n_m * w / no_load_rad_s),
                         dratio,
                     );
-                    axpy(d, c * uc * stall_n_m / voltage_v, dvoltage);
+                    axpy(d, c * sag * uc * stall_n_m / voltage_v, dvoltage);
+                    axpy(d, c * a * de, defficiency);
+                    let r = losses.terminal_resistance_ohm;
+                    axpy(d, -c * a0 * uc * uc * sag * sag / r, dbattery);
                     if inside {
-                        axpy(d, c * stall_n_m, du);
+                        let r_b = losses.battery_resistance_ohm;
+                        let da_du = sag * stall_n_m - 2.0 * uc * r_b * sag * sag * a0 / r;
+                        axpy(d, c * da_du, du);
                     }
-                    -c * stall_n_m * ratio / no_load_rad_s
+                    -c * sag * stall_n_m * ratio / no_load_rad_s
                 } else {
                     let tau = c * a.signum() * limit;
                     axpy(d, tau / n, dn);
                     axpy(d, tau / ratio, dratio);
                     axpy(d, tau / current_limit_a, dcurrent);
+                    axpy(d, tau * de, defficiency);
                     0.0
                 }
             }

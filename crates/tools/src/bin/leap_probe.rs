@@ -106,23 +106,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
 /// The default geared motor, with `GEAR` (gear ratio) and `CURRENT` (A) from the environment.
 fn geared_from_env() -> Result<LegActuator, Box<dyn std::error::Error>> {
+    let mut a = LegActuator::default();
     let LegActuator::GearedMotor {
-        mut gear_ratio,
-        mut current_limit_a,
-        motors_per_leg,
-    } = LegActuator::default()
+        gear_ratio,
+        current_limit_a,
+        ..
+    } = &mut a
     else {
         unreachable!("the default actuator is geared")
     };
     if let Ok(g) = std::env::var("GEAR") {
-        gear_ratio = g.parse()?;
+        *gear_ratio = g.parse()?;
     }
     if let Ok(i) = std::env::var("CURRENT") {
-        current_limit_a = i.parse()?;
+        *current_limit_a = i.parse()?;
     }
-    Ok(LegActuator::GearedMotor {
-        gear_ratio,
-        current_limit_a,
-        motors_per_leg,
-    })
+    Ok(a)
 }
