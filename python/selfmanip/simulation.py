@@ -42,6 +42,7 @@ import math
 import numbers
 import os
 from dataclasses import dataclass
+from dataclasses import field as dataclass_field
 from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, Sequence, Union, overload
 
 import numpy as np
@@ -142,6 +143,7 @@ class Execution:
         #: ``dx(t_end)/dx(0)`` over the state ``(q, qd)`` (``2 nq x 2 nq``) when run with
         #: ``sensitivity=True`` and every event's saltation matrix is defined; else ``None``.
         self.state_jacobian: np.ndarray | None = None
+        self.one_sided_state_jacobian: np.ndarray | None = None
         #: The parameters asked for with ``parameters=[...]`` (names or paths), and
         #: ``dx(t_end)/dp`` over them (``2 nq x len(parameters)``, one column per name), or
         #: ``None`` when not formed (``parameter_reason`` says why). A name without an exact
@@ -163,9 +165,13 @@ class Execution:
 
     def _attach_sensitivity(self, s: Mapping[str, Any]) -> None:
         """Each event gets ``saltation`` (``2 nq x 2 nq`` or ``None``), ``saltation_status``
-        (``defined``, ``grazing``, ``simultaneous``, ``unsupported``), ``saltation_reason``
-        and ``time_gradient`` (``dt_event/dx(0)``)."""
+        (``defined``, ``grazing``, ``simultaneous``, ``one_sided``, ``unsupported``),
+        ``saltation_reason``, ``time_gradient`` (``dt_event/dx(0)``) and ``one_sided`` (where
+        several guards fired at once: one ``{"order", "saltation"}`` per order of their
+        contacts); ``one_sided_state_jacobian`` is the run's derivative for the first
+        orders where only ``one_sided`` events leave ``state_jacobian`` undefined."""
         self.state_jacobian = s["state_jacobian"]
+        self.one_sided_state_jacobian = s["one_sided_state_jacobian"]
         sens = list(s["events"])
         for ev in self.events:
             match = next((e for e in sens if e["t_s"] == ev["t_s"] and e["kind"] == ev["kind"]), None)
@@ -174,6 +180,7 @@ class Execution:
             ev["saltation_reason"] = ("no sensitivity was formed for this event" if match is None
                                       else match["reason"])
             ev["time_gradient"] = None if match is None else match["time_gradient"]
+            ev["one_sided"] = [] if match is None else list(match["one_sided"])
 
     def __getstate__(self) -> dict[str, Any]:
         """``pickle`` and ``copy``: everything but the native run, which is kept as the recipe
@@ -441,7 +448,11 @@ class PeriodicOrbit:
     (``stable``: all inside the unit circle; ``unstable``: one outside; ``neutral``: the
     largest on it); ``iterations``, ``residual`` (``|P(x) - x|`` at the end),
     ``rank_deficiency`` (directions along which the orbit is one of a family, e.g. a
-    conserved momentum)."""
+    conserved momentum); ``one_sided``: the events at which several guards fire at once and
+    the derivative depends on their order (``t_s``, ``kind``, ``guards`` and ``orders`` by
+    contact name), where the monodromies are those of the first orders (the derivative on
+    perturbations that keep the guards simultaneous, e.g. a symmetric pronk's symmetric
+    ones; ``docs/periodic-orbits.md``, "Several guards at once")."""
 
     x: np.ndarray
     q: np.ndarray
@@ -461,6 +472,7 @@ class PeriodicOrbit:
     iterations: int
     residual: float
     rank_deficiency: int
+    one_sided: list[dict[str, Any]] = dataclass_field(default_factory=list)
 
     @property
     def stable(self) -> bool:
@@ -522,7 +534,7 @@ def periodic_orbit(robot: RobotLike, behaviour: BehaviourLike, guess_q0: Sequenc
         section_coordinates=list(d["section_coordinates"]), section_jacobian=d["section_jacobian"],
         section_multipliers=d["section_multipliers"], stability=str(d["stability"]),
         iterations=int(d["iterations"]), residual=float(d["residual"]),
-        rank_deficiency=int(d["rank_deficiency"]))
+        rank_deficiency=int(d["rank_deficiency"]), one_sided=[dict(e) for e in d["one_sided"]])
 
 
 def settable_names(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[float], **kwargs: Any) -> list[str]:

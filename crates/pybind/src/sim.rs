@@ -389,6 +389,23 @@ impl PyScenario {
             d.set_item("iterations", o.iterations)?;
             d.set_item("residual", o.residual)?;
             d.set_item("rank_deficiency", o.rank_deficiency)?;
+            let one_sided = PyList::empty(py);
+            for e in &o.one_sided {
+                let ed = PyDict::new(py);
+                ed.set_item("t_s", e.t)?;
+                ed.set_item("kind", e.kind.name())?;
+                let contact = |c: &usize| sim.model.contacts[*c].name.clone();
+                ed.set_item("guards", e.guards.iter().map(contact).collect::<Vec<_>>())?;
+                ed.set_item(
+                    "orders",
+                    e.orders
+                        .iter()
+                        .map(|o| o.iter().map(contact).collect::<Vec<_>>())
+                        .collect::<Vec<_>>(),
+                )?;
+                one_sided.append(ed)?;
+            }
+            d.set_item("one_sided", one_sided)?;
             Ok(d)
         })
     }
@@ -770,8 +787,12 @@ impl PyRun {
     /// (`selfmanip_sim::periodic::run_sensitivity`): `state_jacobian` (`2nq × 2nq`
     /// numpy array, `None` where some event's saltation is not defined) and `events`, one dict
     /// per event of the run in order: `t_s`, `kind`, `status` (`defined`, `grazing`,
-    /// `simultaneous`, `unsupported`), `reason` (`None` when defined), `saltation` (`2nq × 2nq`
-    /// or `None`), `time_gradient` (`dt_e/dx(0)`, or `None`).
+    /// `simultaneous`, `one_sided`, `unsupported`), `reason` (`None` when defined),
+    /// `saltation` (`2nq × 2nq` or `None`), `time_gradient` (`dt_e/dx(0)`, or `None`),
+    /// `one_sided` (where several guards fired at once: `order`, contact names in firing
+    /// order, and `saltation` for each order); `one_sided_state_jacobian` where
+    /// `state_jacobian` is `None` only for `one_sided` events (the piece of each one's first
+    /// order).
     fn sensitivity<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         guard(|| {
             let run = &self.inner;
@@ -780,9 +801,14 @@ impl PyRun {
                 .map_err(sensitivity_err)?;
             take_failure(&self.failure)?;
             let d = PyDict::new(py);
-            match &s.state_jacobian {
-                Some(j) => d.set_item("state_jacobian", matrix(j).into_pyarray(py))?,
-                None => d.set_item("state_jacobian", py.None())?,
+            for (key, j) in [
+                ("state_jacobian", &s.state_jacobian),
+                ("one_sided_state_jacobian", &s.one_sided_state_jacobian),
+            ] {
+                match j {
+                    Some(j) => d.set_item(key, matrix(j).into_pyarray(py))?,
+                    None => d.set_item(key, py.None())?,
+                }
             }
             let events = PyList::empty(py);
             for e in &s.events {
@@ -802,6 +828,19 @@ impl PyRun {
                     )?,
                     None => ed.set_item("time_gradient", py.None())?,
                 }
+                let pieces = PyList::empty(py);
+                for p in &e.one_sided {
+                    let pd = PyDict::new(py);
+                    let names: Vec<String> = p
+                        .order
+                        .iter()
+                        .map(|&c| run.model.contacts[c].name.clone())
+                        .collect();
+                    pd.set_item("order", names)?;
+                    pd.set_item("saltation", matrix(&p.saltation).into_pyarray(py))?;
+                    pieces.append(pd)?;
+                }
+                ed.set_item("one_sided", pieces)?;
                 events.append(ed)?;
             }
             d.set_item("events", events)?;

@@ -33,6 +33,14 @@
 //! budgets and [`PeriodicOptions::max_period_s`]; what does not converge ends with a typed
 //! [`PeriodicError`].
 //!
+//! **Several guards at once** (a pronk's feet landing and lifting off together): where the
+//! return map's derivative depends on the order a perturbation makes the guards fire
+//! ([`crate::sensitivity::SaltationStatus::OneSided`]), its Jacobian is the piece of the
+//! Bouligand derivative of each event's first order — an element of the B-subdifferential,
+//! which Newton converges with as on a smooth map, and the derivative itself on the
+//! perturbations that keep the guards simultaneous; [`PeriodicOrbit::one_sided`] lists
+//! those events.
+//!
 //! **Monodromy.** At the fixed point `x*`, [`PeriodicOrbit::monodromy`] is `DP` (multipliers
 //! `{0} ∪ λ_Σ`), and [`PeriodicOrbit::period_monodromy`] the Jacobian of the time-`T` flow
 //! map, `M_T = ∂x(T)/∂x₀ = DP − f(x*) ∇τ` (since `DP = M_T + f ∇τ`, `∇τ = −D_xg M_T / (D_xg f)`
@@ -51,7 +59,7 @@ use crate::event::EventKind;
 use crate::execution::{Execution, Termination};
 use crate::flow::Flow;
 use crate::options::HybridOptions;
-use crate::sensitivity::{execution_sensitivity, SensitivityError};
+use crate::sensitivity::{execution_sensitivity, SaltationStatus, SensitivityError};
 use crate::simulate::simulate;
 use crate::StepOptions;
 use nalgebra::{Complex, DMatrix, DVector, RowDVector};
@@ -165,8 +173,27 @@ pub struct ReturnMap {
     pub jacobian: Option<DMatrix<f64>>,
     /// `∇τ = dτ/dx0`, when the Jacobian was asked for.
     pub time_gradient: Option<RowDVector<f64>>,
+    /// The events at which several guards fired at once and the derivative depends on
+    /// their order ([`SaltationStatus::OneSided`]): `jacobian` and `time_gradient` are then
+    /// the one-sided ones for the perturbations that keep each such event's first order
+    /// (`orders[0]`), and on the perturbations that keep its guards simultaneous the
+    /// derivative itself.
+    pub one_sided: Vec<OneSidedEvent>,
     /// The run.
     pub execution: Execution,
+}
+
+/// An event of a return run at which several guards fired at once and whose derivative
+/// depends on the order a perturbation makes them fire in.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OneSidedEvent {
+    pub t: f64,
+    pub kind: EventKind,
+    /// The contacts whose guards fired.
+    pub guards: Vec<usize>,
+    /// The orders whose one-sided derivatives were formed; the Jacobians given are those
+    /// of the first.
+    pub orders: Vec<Vec<usize>>,
 }
 
 /// The stability of a periodic orbit, from its section multipliers `λ_Σ`.
@@ -211,6 +238,13 @@ pub struct PeriodicOrbit {
     pub residual: f64,
     /// Dimensions of the family the fixed point lies on (singular values dropped).
     pub rank_deficiency: usize,
+    /// Events of the period at which several guards fire at once and the derivative
+    /// depends on their order ([`ReturnMap::one_sided`]): the monodromies and multipliers
+    /// are then those of one piece of the return map's Bouligand derivative, the one whose
+    /// perturbations keep each event's `orders[0]`; on perturbations that keep the guards
+    /// simultaneous (in a mirror-symmetric gait, the symmetric ones) every piece is the
+    /// derivative. Empty where the map is differentiable.
+    pub one_sided: Vec<OneSidedEvent>,
 }
 
 /// Eigenvalues of a square matrix by decreasing modulus (ties: by real part, then
@@ -367,10 +401,23 @@ impl ApexSection<'_> {
             });
         }
         let x1: Vec<f64> = exec.q.iter().chain(&exec.qd).copied().collect();
-        let (mut jac, mut tg) = (None, None);
+        let (mut jac, mut tg, mut one_sided) = (None, None, Vec::new());
         if jacobian {
             let s = execution_sensitivity(model, terrain, &exec)?;
-            let Some(j) = s.state_jacobian else {
+            one_sided = s
+                .events
+                .iter()
+                .filter_map(|e| match &e.status {
+                    SaltationStatus::OneSided { guards } => Some(OneSidedEvent {
+                        t: e.t,
+                        kind: e.kind,
+                        guards: guards.clone(),
+                        orders: e.one_sided.iter().map(|p| p.order.clone()).collect(),
+                    }),
+                    _ => None,
+                })
+                .collect();
+            let Some(j) = s.state_jacobian.or(s.one_sided_state_jacobian) else {
                 let reason = s
                     .events
                     .iter()
@@ -391,6 +438,7 @@ impl ApexSection<'_> {
             period_s: exec.t,
             jacobian: jac,
             time_gradient: tg,
+            one_sided,
             execution: exec,
         })
     }
@@ -576,6 +624,7 @@ fn orbit(
         iterations,
         residual,
         rank_deficiency,
+        one_sided: rm.one_sided,
     })
 }
 

@@ -179,11 +179,13 @@ fn not_formed(exec: &selfmanip_hybrid::Execution, reason: &str) -> Sensitivity {
                 guard_gradient: None,
                 time_gradient: None,
                 impact_mode: None,
+                one_sided: Vec::new(),
             })
             .collect(),
         touch_switches: Vec::new(),
         feature_changes: Vec::new(),
         state_jacobian: None,
+        one_sided_state_jacobian: None,
     }
 }
 

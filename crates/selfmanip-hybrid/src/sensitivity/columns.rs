@@ -79,7 +79,25 @@ pub fn execution_sensitivity_columns(
         let Some(event) = chain.ending(exec, si, &mut out.feature_changes) else {
             continue;
         };
-        let (es, parts) = segment_event(&mut ev, exec, si, event, &body)?;
+        let (mut es, parts) = segment_event(&mut ev, exec, si, event, &body)?;
+        if let (Some(xi), Some(first)) = (&es.saltation, es.one_sided.first()) {
+            // several guards at once whose orders agree: the initial-state directions go
+            // through its saltation; parameters and memory are not carried across it yet
+            let Tangent::Columns { x, .. } = &mut tangent else {
+                unreachable!("columns stay columns")
+            };
+            if params.is_empty() && !ev.memory_mode {
+                out.event_time_columns.push(Some(&first.time_row * &*x));
+                *x = xi * &*x;
+                out.events.push(es);
+                continue;
+            }
+            es.status = SaltationStatus::Unsupported {
+                reason: "parameter columns and event memory through several guards at once \
+                         are not carried yet"
+                    .into(),
+            };
+        }
         let (Some(xi), Some(parts), Some(dg)) = (&es.saltation, parts, &es.guard_gradient) else {
             chain.defined = false;
             if ev.memory_mode && event.kind != EventKind::Apex {

@@ -6,6 +6,7 @@ use super::evaluator::{Evaluator, FlowJacobian, FlowPoint};
 use super::force_events::{drift_reset, force_guard};
 use super::reset_jacobian::{EventAt, GuardReset, KindOutcome, NotDifferentiated};
 use super::saltation::saltation_with_rate;
+use super::simultaneous::{guards_at_once, one_sided_saltations, orders_agree};
 use super::touchdown::touchdown;
 use super::types::{EventSensitivity, SaltationStatus, SensitivityError};
 use crate::event::{Event, EventKind};
@@ -78,7 +79,43 @@ fn unsupported(event: &Event, reason: impl Into<String>) -> EventSensitivity {
         guard_gradient: None,
         time_gradient: None,
         impact_mode: None,
+        one_sided: Vec::new(),
     }
+}
+
+/// An event at which several guards fired at once, with a flow after it: its derivative for
+/// each order of the guards ([`super::simultaneous`]); `Defined` with their common matrix
+/// when the orders agree, else [`SaltationStatus::OneSided`] naming the guards.
+fn simultaneous_event(
+    ev: &mut Evaluator,
+    (before, after): (&Segment, &Segment),
+    (event, guards): (&Event, &[usize]),
+    y: &[f64],
+) -> Result<EventSensitivity, SensitivityError> {
+    let pieces = match one_sided_saltations(ev, (before, after), event, guards, y)? {
+        Ok(p) => p,
+        Err(NotDifferentiated(reason)) => {
+            return Ok(unsupported(
+                event,
+                format!(
+                    "the guards of contacts {guards:?} fired at once; their orders are not \
+                     formed: {reason}"
+                ),
+            ))
+        }
+    };
+    let mut es = unsupported(event, "");
+    if orders_agree(&pieces) {
+        es.status = SaltationStatus::Defined;
+        es.saltation = Some(pieces[0].saltation.clone());
+    } else {
+        es.status = SaltationStatus::OneSided {
+            guards: guards.to_vec(),
+        };
+    }
+    es.impact_mode = (event.kind == EventKind::Touchdown).then_some(event.mode_after);
+    es.one_sided = pieces;
+    Ok(es)
 }
 
 /// The saltation matrix of `event`, which ended `before` (and started `after`, if any).
@@ -94,8 +131,15 @@ fn event_sensitivity(
     let t = event.t;
     let mut y = vec![0.0; n2];
     before.eval(t, &mut y);
+    let guards = guards_at_once(ev, before, event, &y)?;
+    let single = guards.len() <= 1;
+    if let (false, Some(a)) = (single, after) {
+        return Ok((
+            simultaneous_event(ev, (before, a), (event, &guards), &y)?,
+            None,
+        ));
+    }
     let fm = ev.eval(FlowPoint::on(before, t, &y))?;
-    let single = event.triggered.len() <= 1;
     let mut simultaneous = !single;
     let at = EventAt::new((model, terrain), before, event, body, &y);
     let gr = match guard_and_reset(&at, &fm)? {
@@ -121,6 +165,7 @@ fn event_sensitivity(
         guard_gradient: Some(dg.clone()),
         time_gradient: None,
         impact_mode,
+        one_sided: Vec::new(),
     };
     if let Err(status) = saltation_with_rate(&dr, &fm.f, &fm.f, &dg, dg_dt) {
         es.status = status;

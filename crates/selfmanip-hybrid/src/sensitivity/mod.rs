@@ -55,12 +55,20 @@
 //! past the kink takes the record's state at its time, so that every stage has its side's
 //! partials (`docs/sensitivity.md`, "Kinks of a controller's law").
 //!
+//! **Several guards at once** (two feet landing or lifting off together): the derivative
+//! for every order in which a perturbation may make them fire, the single-guard saltations
+//! composed in that order (`simultaneous`, [`EventSensitivity::one_sided`]); the event is
+//! `Defined` when the orders agree, else [`SaltationStatus::OneSided`] naming the guards,
+//! and [`Sensitivity::one_sided_state_jacobian`] chains the first order of each such event
+//! (the pieces of the Bouligand derivative agree on the perturbations that keep the guards
+//! simultaneous).
+//!
 //! **Where Ξ is not defined** the event says so ([`SaltationStatus`]) instead of carrying a
-//! number: grazing (`|D_xg f⁻|` below [`GRAZING_TOL`] relative to `|D_xg| |f⁻|`), several
-//! guards at once or a mode held for zero time (two orders of simultaneous events may give
-//! different outcomes: the Bouligand derivative is not formed yet), and events not covered
-//! yet (folds, a fold passage's end, a segment that ended on a terrain feature change).
-//! [`Sensitivity::state_jacobian`] is then `None`.
+//! number: grazing (`|D_xg f⁻|` below [`GRAZING_TOL`] relative to `|D_xg| |f⁻|`), a mode
+//! held for zero time between two events at one instant, several guards whose orders are
+//! not formed (more than [`MAX_SIMULTANEOUS_GUARDS`], an order whose single impact would
+//! pull, event memory), and events not covered yet (folds, a fold passage's end, a segment
+//! that ended on a terrain feature change). [`Sensitivity::state_jacobian`] is then `None`.
 //!
 //! **Parameters and selected columns** ([`execution_sensitivity_columns`]): named parameters
 //! `p` are constant states (`x̃ = (x, p)`, `ṗ = 0`), so the same variational equations and
@@ -106,6 +114,7 @@ mod force_events;
 mod reset_jacobian;
 mod saltation;
 mod segment_tangent;
+mod simultaneous;
 mod state_jacobian;
 mod tangent;
 mod time_events;
@@ -116,9 +125,10 @@ mod types;
 pub use columns::execution_sensitivity_columns;
 pub use force_events::DRIFT_JUMP_TOL;
 pub use saltation::{saltation, GRAZING_TOL};
+pub use simultaneous::{MAX_SIMULTANEOUS_GUARDS, ORDER_AGREEMENT_TOL, SIMULTANEOUS_GUARD_S};
 pub use state_jacobian::{execution_sensitivity, simulate_with_sensitivity};
 pub use time_events::TIME_EVENT_TOL;
 pub use types::{
-    ColumnSensitivity, EventSensitivity, Parameter, SaltationStatus, Sensitivity, SensitivityError,
-    TimeEventSensitivity, TouchSwitch,
+    ColumnSensitivity, EventSensitivity, OneSidedSaltation, Parameter, SaltationStatus,
+    Sensitivity, SensitivityError, TimeEventSensitivity, TouchSwitch,
 };

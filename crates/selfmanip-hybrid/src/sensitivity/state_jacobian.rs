@@ -6,7 +6,7 @@ use super::evaluator::Evaluator;
 use super::event_saltation::segment_event;
 use super::segment_tangent::segment_flow;
 use super::tangent::Tangent;
-use super::types::{Sensitivity, SensitivityError};
+use super::types::{SaltationStatus, Sensitivity, SensitivityError};
 use crate::controller::Controller;
 use crate::execution::Execution;
 use crate::options::HybridOptions;
@@ -47,9 +47,11 @@ pub fn execution_sensitivity(
         touch_switches: Vec::new(),
         feature_changes: Vec::new(),
         state_jacobian: None,
+        one_sided_state_jacobian: None,
     };
     let mut total = DMatrix::identity(n2, n2);
     let mut chain = EventChain::new();
+    let mut one_sided = false;
     for (si, seg) in exec.segments.iter().enumerate() {
         let mut tangent = Tangent::Full(DMatrix::identity(n2, n2));
         segment_flow(
@@ -71,16 +73,28 @@ pub fn execution_sensitivity(
         if let (Some(dg), Some(parts)) = (&es.guard_gradient, &parts) {
             // `ġ = D_xg f⁻ (+ ∂g/∂t)` at the event, as its saltation had it
             es.time_gradient = Some(-(dg * &total) / parts.den);
+        } else if let Some(first) = es.one_sided.first() {
+            // several guards at once: the time of the one that fires first (in the first
+            // order), the event's time
+            es.time_gradient = Some(&first.time_row * &total);
         }
-        match &es.saltation {
-            Some(x) => total = x * total,
-            None => chain.defined = false,
+        match (&es.saltation, &es.status) {
+            (Some(x), _) => total = x * total,
+            (None, SaltationStatus::OneSided { .. }) => {
+                one_sided = true;
+                total = &es.one_sided[0].saltation * total;
+            }
+            _ => chain.defined = false,
         }
         out.events.push(es);
     }
     // events not matched to a segment end, switches not differentiated
     if chain.defined && chain_complete(exec, chain.next_event, &out.touch_switches) {
-        out.state_jacobian = Some(total);
+        if one_sided {
+            out.one_sided_state_jacobian = Some(total);
+        } else {
+            out.state_jacobian = Some(total);
+        }
     }
     if has_event_memory(exec) {
         // the memory couples the segments: the chain is no longer the product of the
@@ -93,6 +107,8 @@ pub fn execution_sensitivity(
             }
         }
         out.state_jacobian = out.state_jacobian.and(cols.columns);
+        // (the columns do not follow one-sided events)
+        out.one_sided_state_jacobian = None;
     }
     Ok(out)
 }

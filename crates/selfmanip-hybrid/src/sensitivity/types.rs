@@ -41,9 +41,18 @@ pub enum SaltationStatus {
     Grazing {
         transversality: f64,
     },
-    /// Several guards fired at once, or the event's neighbouring mode lasted zero time: the
-    /// outcome may depend on the order (one-sided and Bouligand derivatives not formed yet).
+    /// The event's neighbouring mode lasted zero time (two events at one instant), or
+    /// several guards fired at once where their orders could not be formed (see
+    /// [`EventSensitivity::one_sided`]): the outcome may depend on the order.
     Simultaneous,
+    /// Several guards fired at once (`guards`: their contacts) and the derivative depends on
+    /// the order in which a perturbation makes them fire: the event's map is piecewise
+    /// smooth there, its Bouligand derivative piecewise linear, one piece per order
+    /// ([`EventSensitivity::one_sided`], each valid for the perturbations that keep its
+    /// order; the pieces agree on the perturbations that keep the guards simultaneous).
+    OneSided {
+        guards: Vec<usize>,
+    },
     /// An event kind or situation not differentiated yet.
     Unsupported {
         reason: String,
@@ -57,6 +66,7 @@ impl SaltationStatus {
             SaltationStatus::Defined => "defined",
             SaltationStatus::Grazing { .. } => "grazing",
             SaltationStatus::Simultaneous => "simultaneous",
+            SaltationStatus::OneSided { .. } => "one_sided",
             SaltationStatus::Unsupported { .. } => "unsupported",
         }
     }
@@ -72,6 +82,10 @@ impl SaltationStatus {
             SaltationStatus::Simultaneous => {
                 Some("several guards at once, or a mode held for zero time".to_string())
             }
+            SaltationStatus::OneSided { guards } => Some(format!(
+                "the guards of contacts {guards:?} fired at once and the derivative depends on \
+                 the order a perturbation makes them fire in (one-sided derivatives given)"
+            )),
             SaltationStatus::Unsupported { reason } => Some(reason.clone()),
         }
     }
@@ -92,6 +106,29 @@ pub struct EventSensitivity {
     /// For a touchdown, the mode of the plastic impact the reset applied: the mode after,
     /// or a larger set whose extra contacts force complementarity released at once.
     pub impact_mode: Option<ContactMode>,
+    /// Where several guards fired at once: the event's derivative for each order in which a
+    /// perturbation may make them fire (the single-guard saltations composed in that
+    /// order); empty for a single guard. When they all agree the event is
+    /// [`SaltationStatus::Defined`] with `saltation` the common matrix, else
+    /// [`SaltationStatus::OneSided`].
+    pub one_sided: Vec<OneSidedSaltation>,
+}
+
+/// The derivative of an event at which several guards fired at once, for the perturbations
+/// that make them fire in `order`: `Ξ_σ = Ξ_{σ_k} ⋯ Ξ_{σ_1}`, each single-guard saltation
+/// `Ξ_{σ_i} = D_xR_i + (f_i − D_xR_i f_{i−1}) D_xg_i / (D_xg_i f_{i−1})` taken at the event's
+/// state with the flow `f_{i−1}` of the mode (and controller) the earlier guards left, the
+/// reset `R_i` of guard `σ_i` alone (a plastic impact into the mode with its contact added,
+/// or the identity of a liftoff), `f_k = f⁺` the recorded flow after the event.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OneSidedSaltation {
+    /// The contacts whose guards fire, in firing order.
+    pub order: Vec<usize>,
+    /// `Ξ_σ` (`2nq × 2nq`).
+    pub saltation: DMatrix<f64>,
+    /// `−D_xg / ġ` of the guard that fires first (`1 × 2nq`): the event's time moves by this
+    /// row times the state's perturbation just before it.
+    pub time_row: RowDVector<f64>,
 }
 
 /// Sensitivities of an execution to its initial state `x(0) = (q0, q̇0)`.
@@ -113,6 +150,12 @@ pub struct Sensitivity {
     /// at its final time or at the apex (a run cut by its event budget ends on an event
     /// with no flow after it, whose saltation is not formed).
     pub state_jacobian: Option<DMatrix<f64>>,
+    /// Where `state_jacobian` is `None` only because some events are
+    /// [`SaltationStatus::OneSided`]: the one-sided derivative of the run for the
+    /// perturbations that make each such event's guards fire in its `one_sided[0].order`
+    /// (a piece of the run's Bouligand derivative; on perturbations that keep those guards
+    /// simultaneous, the derivative itself).
+    pub one_sided_state_jacobian: Option<DMatrix<f64>>,
 }
 
 /// A switch inside a segment between an active arc's rolling and its end's point touch:
