@@ -1128,7 +1128,7 @@ impl LeapPreset {
         let apex = reported_apex(&exec, cfg.stop_at_apex, first_start).map(|e| {
             BodyState::from_state(model, e.t, &e.q, &e.qd_after).seen_from_start(start[0], q0[2])
         });
-        let events = event_records_labelled(model, &exec, &|m| rhex.label(m), start[0]);
+        let events = event_records_labelled(model, &cfg.terrain, &exec, &|m| rhex.label(m), start[0]);
         // the touchdown offset: each pushing leg's first touchdown after its motor started
         let first_touchdown = |i: usize| first_touchdown_s(&exec, rhex.site(2 * i + 1), start[i]);
         let touchdown_t2_s = first_touchdown(0)
