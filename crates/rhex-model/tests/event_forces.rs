@@ -23,6 +23,7 @@ use selfmanip_core::{ContactKind, FlatGround, Model};
 use selfmanip_hybrid::flow::FlowWorkspace;
 use selfmanip_hybrid::{Event, EventKind};
 use selfmanip_sim::trajectory::{site_points_and_forces, site_vectors};
+use selfmanip_sim::EventRecord;
 
 /// Leaps of the four strategies that run on past their apex to land, and those that stop
 /// there, each with the model it ran on.
@@ -71,6 +72,24 @@ fn force_before(model: &Model, r: &LeapResult, e: &Event) -> Option<Vec<Option<[
     ws.solve_prepared(model, &*seg.controller, e.t, seg.mode, q, qd)
         .unwrap();
     Some(site_points_and_forces(model, &FlatGround, &ws.data, seg.mode).1)
+}
+
+/// Each event of `kind` in [`leaps`] with its model, its record and the forces per site just
+/// before it ([`force_before`]).
+fn with_left_forces(
+    kind: EventKind,
+    mut check: impl FnMut(&Model, &Event, &EventRecord, &[Option<[f64; 2]>]),
+) {
+    for (model, r) in leaps() {
+        for (e, rec) in r.execution.events.iter().zip(&r.events) {
+            if e.kind != kind {
+                continue;
+            }
+            if let Some(left) = force_before(&model, &r, e) {
+                check(&model, e, rec, &left);
+            }
+        }
+    }
 }
 
 /// `Jᵀ p`: the generalized impulse of the world impulse `p` at the material point of `part`
@@ -154,64 +173,48 @@ fn impact_impulses_are_the_momentum_jump() {
 #[test]
 fn a_slip_force_is_on_the_kinetic_cone_and_continuous() {
     let mut checked = 0;
-    for (model, r) in leaps() {
-        for (e, rec) in r.execution.events.iter().zip(&r.events) {
-            if e.kind != EventKind::Slip {
+    with_left_forces(EventKind::Slip, |model, e, rec, left| {
+        for &k in &e.triggered {
+            if e.mode_after.kind(k) != Some(ContactKind::Slide) {
                 continue;
             }
-            let Some(left) = force_before(&model, &r, e) else {
-                continue;
+            let Friction::Sticking { mu } = model.contacts[k].friction else {
+                panic!("only sticking contacts slip")
             };
-            for &k in &e.triggered {
-                if e.mode_after.kind(k) != Some(ContactKind::Slide) {
-                    continue;
-                }
-                let Friction::Sticking { mu } = model.contacts[k].friction else {
-                    panic!("only sticking contacts slip")
-                };
-                let mu_k = model.contacts[k].kinetic_mu;
-                assert_eq!(mu_k, mu, "these toes slide with μ_k = μ");
-                let f = rec.force_n[k].expect("a sliding contact carries a force");
-                // level ground: x tangential, z normal (down: a push is negative)
-                assert!(f[1] < 0.0, "the ground pushes: {f:?}");
-                let cone = (f[0].abs() - mu_k * f[1].abs()).abs();
-                assert!(cone < 1e-9 * f[1].abs(), "|f_t| − μ_k |f_n| = {cone} ({f:?})");
-                let l = left[k].expect("sticking before the slip");
-                let jump = (f[0] - l[0]).hypot(f[1] - l[1]);
-                assert!(jump < 1e-4 * f[1].abs() + 1e-6, "{l:?} -> {f:?}");
-                checked += 1;
-            }
+            let mu_k = model.contacts[k].kinetic_mu;
+            assert_eq!(mu_k, mu, "these toes slide with μ_k = μ");
+            let f = rec.force_n[k].expect("a sliding contact carries a force");
+            // level ground: x tangential, z normal (down: a push is negative)
+            assert!(f[1] < 0.0, "the ground pushes: {f:?}");
+            let cone = (f[0].abs() - mu_k * f[1].abs()).abs();
+            assert!(cone < 1e-9 * f[1].abs(), "|f_t| − μ_k |f_n| = {cone} ({f:?})");
+            let l = left[k].expect("sticking before the slip");
+            let jump = (f[0] - l[0]).hypot(f[1] - l[1]);
+            assert!(jump < 1e-4 * f[1].abs() + 1e-6, "{l:?} -> {f:?}");
+            checked += 1;
         }
-    }
+    });
     assert!(checked >= 4, "only {checked} slips checked");
 }
 
 #[test]
 fn a_liftoff_leaves_at_zero_normal_force_and_keeps_the_others() {
     let mut checked = 0;
-    for (model, r) in leaps() {
+    with_left_forces(EventKind::Liftoff, |model, e, rec, left| {
         let weight = model.total_mass_kg() * 9.81;
-        for (e, rec) in r.execution.events.iter().zip(&r.events) {
-            if e.kind != EventKind::Liftoff {
-                continue;
-            }
-            let Some(left) = force_before(&model, &r, e) else {
-                continue;
-            };
-            for k in e.mode_before.active() {
-                let l = left[k].expect("active before the liftoff");
-                if e.mode_after.contains(k) {
-                    let f = rec.force_n[k].expect("kept");
-                    let jump = (f[0] - l[0]).hypot(f[1] - l[1]);
-                    assert!(jump < 1e-4 * weight, "kept {k}: {l:?} -> {f:?}");
-                } else {
-                    assert!(rec.force_n[k].is_none(), "released {k}");
-                    assert!(l[1].abs() < 1e-5 * weight, "released {k} at {l:?}");
-                    checked += 1;
-                }
+        for k in e.mode_before.active() {
+            let l = left[k].expect("active before the liftoff");
+            if e.mode_after.contains(k) {
+                let f = rec.force_n[k].expect("kept");
+                let jump = (f[0] - l[0]).hypot(f[1] - l[1]);
+                assert!(jump < 1e-4 * weight, "kept {k}: {l:?} -> {f:?}");
+            } else {
+                assert!(rec.force_n[k].is_none(), "released {k}");
+                assert!(l[1].abs() < 1e-5 * weight, "released {k} at {l:?}");
+                checked += 1;
             }
         }
-    }
+    });
     assert!(checked >= 4, "only {checked} liftoffs checked");
 }
 
