@@ -646,7 +646,10 @@ fn event_from(e: &Bound<'_, PyAny>, i: usize) -> PyResult<EventRecord> {
             Some(v) => v.extract().map_err(|_| {
                 errors::invalid_type(
                     &field(k),
-                    format!("`{}` must be a list of None or [x, z] per contact", field(k)),
+                    format!(
+                        "`{}` must be a list of None or [x, z] per contact",
+                        field(k)
+                    ),
                 )
             }),
         }

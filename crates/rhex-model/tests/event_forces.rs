@@ -68,7 +68,9 @@ fn force_before(model: &Model, r: &LeapResult, e: &Event) -> Option<Vec<Option<[
     let mut ws = FlowWorkspace::new(model);
     ws.data.locked.clone_from(&seg.locked);
     ws.data.slide_directions.clone_from(&seg.slide_directions);
-    ws.data.prepare(model, &FlatGround, seg.mode, q, qd).unwrap();
+    ws.data
+        .prepare(model, &FlatGround, seg.mode, q, qd)
+        .unwrap();
     ws.solve_prepared(model, &*seg.controller, e.t, seg.mode, q, qd)
         .unwrap();
     Some(site_points_and_forces(model, &FlatGround, &ws.data, seg.mode).1)
@@ -94,7 +96,13 @@ fn with_left_forces(
 
 /// `Jᵀ p`: the generalized impulse of the world impulse `p` at the material point of `part`
 /// at world position `point`, `J` by central differences of that point's position over `q`.
-fn generalized(model: &Model, q: &[f64], part: Part, point: Vector2<f64>, p: [f64; 2]) -> DVector<f64> {
+fn generalized(
+    model: &Model,
+    q: &[f64],
+    part: Part,
+    point: Vector2<f64>,
+    p: [f64; 2],
+) -> DVector<f64> {
     let nq = model.nq();
     let mut kin = Kinematics::default();
     kin.compute(model, q, &vec![0.0; nq]);
@@ -135,7 +143,12 @@ fn impact_impulses_are_the_momentum_jump() {
             // q̇⁻: the previous event's q̇⁺ when it was at the same instant (a Zeno window's
             // last event and its truncation), else the end of the segment before
             let nq = model.nq();
-            let i = r.execution.events.iter().position(|x| std::ptr::eq(x, e)).unwrap();
+            let i = r
+                .execution
+                .events
+                .iter()
+                .position(|x| std::ptr::eq(x, e))
+                .unwrap();
             let y = match i.checked_sub(1).map(|j| &r.execution.events[j]) {
                 Some(prev) if prev.t == e.t => [prev.q.clone(), prev.qd_after.clone()].concat(),
                 _ => match before(&r, e) {
@@ -187,7 +200,10 @@ fn a_slip_force_is_on_the_kinetic_cone_and_continuous() {
             // level ground: x tangential, z normal (down: a push is negative)
             assert!(f[1] < 0.0, "the ground pushes: {f:?}");
             let cone = (f[0].abs() - mu_k * f[1].abs()).abs();
-            assert!(cone < 1e-9 * f[1].abs(), "|f_t| − μ_k |f_n| = {cone} ({f:?})");
+            assert!(
+                cone < 1e-9 * f[1].abs(),
+                "|f_t| − μ_k |f_n| = {cone} ({f:?})"
+            );
             let l = left[k].expect("sticking before the slip");
             let jump = (f[0] - l[0]).hypot(f[1] - l[1]);
             assert!(jump < 1e-4 * f[1].abs() + 1e-6, "{l:?} -> {f:?}");

@@ -119,7 +119,11 @@ pub fn jam(
         (Vec::new(), Vec::new(), prefer, qd.to_vec())
     };
     // the kept contacts must hold in force (5.19)–(5.20); k still may not slide
-    let impulse_mode = if impact { mode_after } else { ContactMode::FLIGHT };
+    let impulse_mode = if impact {
+        mode_after
+    } else {
+        ContactMode::FLIGHT
+    };
     let mut force = Vec::new();
     if !mode_after.is_flight() {
         let kept: Vec<usize> = mode_after.active().collect();

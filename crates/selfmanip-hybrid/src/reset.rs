@@ -179,7 +179,11 @@ pub fn reset(
             mode_after,
             triggered,
             impulse,
-            impulse_mode: if impact { selected.mode } else { ContactMode::FLIGHT },
+            impulse_mode: if impact {
+                selected.mode
+            } else {
+                ContactMode::FLIGHT
+            },
             pseudo_impulse: selected.pseudo_impulse,
             force,
             kinetic_before: ke_before,
