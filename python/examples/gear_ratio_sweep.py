@@ -123,7 +123,7 @@ def analysis_optimum(phi: float = 0.0, phi_dot: float = 0.0) -> dict[str, float]
     f = analysis.fig_4_11(ratios=[g], phis=[phi])
     theta2 = float(f["theta2_opt"][0, 0])
     b = analysis.takeoff_speed(theta2, phi, phi_dot, g, leg="rolling")
-    return {"gear_ratio": g, "x_dot": v, "theta2": theta2, "leg_rate": b["leg_rate"],
+    return {"gear_ratio": g, "xdot": v, "theta2": theta2, "leg_rate": b["leg_rate"],
             "speed_fraction": g * b["leg_rate"] / no_load_speed_rad_s()}
 
 
@@ -168,7 +168,7 @@ def main(argv=None) -> int:
                             title="Leaps over t2 and gear ratio (cf. thesis section 4.3.3)")
     a = analysis_optimum()
     print(f"takeoff-speed analysis (Fig. 4.11, rear leg alone, rolling, phi = 0): best G = {a['gear_ratio']:.1f} "
-          f"(|x_dot| = {a['x_dot']:.2f} m/s; the motor at {a['speed_fraction']:.2f} of its no-load speed at takeoff)")
+          f"(|x_dot| = {a['xdot']:.2f} m/s; the motor at {a['speed_fraction']:.2f} of its no-load speed at takeoff)")
     by = {obj: {(r["strategy"], r["t2_s"]): r for r in best_gear_ratios(table, obj)} for obj in OBJECTIVES}
     for key, h in by["apex_height"].items():
         s, t = key

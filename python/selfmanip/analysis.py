@@ -124,7 +124,7 @@ def takeoff_speed(theta2: float, phi: float, phi_dot: float = 0.0, gear_ratio: f
                   leg: str = "rolling", model: Any = None) -> dict[str, Any] | None:
     """(4.64)-(4.66): with only the rear leg down at ``(theta2, phi)``, pitch rate ``phi_dot``,
     and the motor at full torque, the first leg rate at which the normal force vanishes:
-    ``leg_rate`` (rad/s), ``x_dot`` (body forward speed, m/s), ``tau`` (N m). ``leg`` is
+    ``leg_rate`` (rad/s), ``xdot`` (body forward speed, m/s), ``tau`` (N m). ``leg`` is
     ``"stick"``, ``"half_circle"`` (RHex's leg) or ``"rolling"`` (rolls at every angle, as
     (4.66)). ``None`` if the leg cannot keep contact even at rest."""
     out = _n.analysis_takeoff_speed(_params(model), _leg(leg), _checks.real("theta2", theta2),
@@ -141,7 +141,7 @@ def _grid2(pts: list[dict], xkey: str, xs: Sequence[float], ykey: str, ys: Seque
         sel = [p for p in pts if leg is None or p["leg"] == leg]
         for k, p in enumerate(sel):
             i, j = divmod(k, len(ys))
-            arr[i, j] = np.nan if p["x_dot"] is None else p["x_dot"]
+            arr[i, j] = np.nan if p["xdot"] is None else p["xdot"]
             th[i, j] = p["theta2"]
         out[leg] = (arr, th)
     return out
@@ -150,7 +150,7 @@ def _grid2(pts: list[dict], xkey: str, xs: Sequence[float], ykey: str, ys: Seque
 def fig_4_10(n: int = 13, theta2_range: Sequence[float] = (-30 * _DEG, 30 * _DEG),
              phi_range: Sequence[float] = (-10 * _DEG, 10 * _DEG), gear_ratio: float = 23.0,
              model: Any = None) -> dict[str, np.ndarray]:
-    """Fig. 4.10: ``|x_dot|`` (m/s) at rear-leg takeoff over ``theta2 x phi`` (``n x n``),
+    """Fig. 4.10: ``|xdot|`` (m/s) at rear-leg takeoff over ``theta2 x phi`` (``n x n``),
     ``phi_dot = 0``: ``stick`` and ``rolling`` arrays indexed ``[theta2, phi]``."""
     t2 = _range("theta2_range", theta2_range)
     ph = _range("phi_range", phi_range)
@@ -163,15 +163,15 @@ def fig_4_10(n: int = 13, theta2_range: Sequence[float] = (-30 * _DEG, 30 * _DEG
 
 def fig_4_11(ratios: Sequence[float] | None = None, phis: Sequence[float] | None = None,
              theta2_range: Sequence[float] = (-45 * _DEG, 45 * _DEG), model: Any = None) -> dict[str, np.ndarray]:
-    """Fig. 4.11: best ``|x_dot|`` over ``theta2`` for each gear ratio and pitch (rolling legs,
-    ``phi_dot = 0``): ``x_dot[ratio, phi]``, ``theta2_opt[ratio, phi]``, ``best_ratio[phi]`` (on
+    """Fig. 4.11: best ``|xdot|`` over ``theta2`` for each gear ratio and pitch (rolling legs,
+    ``phi_dot = 0``): ``xdot[ratio, phi]``, ``theta2_opt[ratio, phi]``, ``best_ratio[phi]`` (on
     the grid)."""
     ratios = np.arange(10.0, 60.1, 2.5) if ratios is None else np.asarray(_checks.vector("ratios", ratios))
     phis = np.linspace(-10 * _DEG, 10 * _DEG, 5) if phis is None else np.asarray(_checks.vector("phis", phis))
     pts = _n.analysis_fig_4_11(_params(model), [float(r) for r in ratios], [float(p) for p in phis],
                                _range("theta2_range", theta2_range))
     arr, th = _grid2(pts, "gear_ratio", ratios, "phi", phis)[None]
-    return {"gear_ratio": ratios, "phi": phis, "x_dot": arr, "theta2_opt": th,
+    return {"gear_ratio": ratios, "phi": phis, "xdot": arr, "theta2_opt": th,
             "best_ratio": ratios[np.nanargmax(arr, axis=0)]}
 
 
@@ -187,14 +187,14 @@ def optimal_gear_ratio(phi: float = 0.0, phi_dot: float = 0.0, theta2_range: Seq
 def fig_4_12(phi_dots: Sequence[float] | None = None, phis: Sequence[float] | None = None,
              theta2_range: Sequence[float] = (-45 * _DEG, 45 * _DEG), gear_ratio: float = 23.0,
              model: Any = None) -> dict[str, np.ndarray]:
-    """Fig. 4.12: best ``|x_dot|`` over ``theta2`` for each pitch rate and pitch (rolling legs):
-    ``x_dot[phi_dot, phi]``."""
+    """Fig. 4.12: best ``|xdot|`` over ``theta2`` for each pitch rate and pitch (rolling legs):
+    ``xdot[phidot, phi]`` (the pitch rates ``phi_dots`` under ``phidot``)."""
     phi_dots = np.linspace(-100 * _DEG, 100 * _DEG, 9) if phi_dots is None else np.asarray(_checks.vector("phi_dots", phi_dots))
     phis = np.linspace(-10 * _DEG, 10 * _DEG, 5) if phis is None else np.asarray(_checks.vector("phis", phis))
     pts = _n.analysis_fig_4_12(_params(model), [float(v) for v in phi_dots], [float(p) for p in phis],
                                _range("theta2_range", theta2_range), _checks.real("gear_ratio", gear_ratio))
-    arr, th = _grid2(pts, "phi_dot", phi_dots, "phi", phis)[None]
-    return {"phi_dot": phi_dots, "phi": phis, "x_dot": arr, "theta2_opt": th}
+    arr, th = _grid2(pts, "phidot", phi_dots, "phi", phis)[None]
+    return {"phidot": phi_dots, "phi": phis, "xdot": arr, "theta2_opt": th}
 
 
 def splay_derivative(theta_m: float, tau: float, theta_m_dot: float = 0.0, model: Any = None) -> float:

@@ -80,14 +80,14 @@ def plot_figure(name: str, out_path: str | os.PathLike, n: int | None = None) ->
             a.set_ylabel("phi (deg)")
     elif name == "fig4.11":
         for j, phi in enumerate(d["phi"]):
-            ax.plot(d["gear_ratio"], d["x_dot"][:, j], label=f"phi = {phi * _DEG:.0f} deg")
+            ax.plot(d["gear_ratio"], d["xdot"][:, j], label=f"phi = {phi * _DEG:.0f} deg")
         ax.axvline(23.0, color="k", ls="--", lw=0.8, label="X-RHex (23)")
         ax.set_xlabel("gear ratio G")
         ax.set_ylabel("best |x_dot| at takeoff (m/s)")
         ax.legend(fontsize=7)
         ax.set_title("Fig. 4.11: takeoff speed vs gear ratio (rolling leg)")
     else:
-        cs = ax.contourf(d["phi_dot"] * _DEG, d["phi"] * _DEG, d["x_dot"].T, levels=16)
+        cs = ax.contourf(d["phidot"] * _DEG, d["phi"] * _DEG, d["xdot"].T, levels=16)
         fig.colorbar(cs, ax=ax, label="best |x_dot| (m/s)")
         ax.set_xlabel("phi_dot (deg/s)")
         ax.set_ylabel("phi (deg)")

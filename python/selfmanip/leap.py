@@ -183,7 +183,7 @@ class LeapResult:
     ``reason`` in words; the ``apex`` (the first apex of flight, also when the leap ran on
     past it with ``stop_at_apex=False``; None without one), the leap ``word`` (cells joined by
     ``-``), the labelled ``events`` (dicts with ``t_s, kind, mode_before, mode_after,
-    contacts, energy_loss_j``), the start ``q0`` and, unless disabled, the ``trajectory``.
+    contacts, energy_loss_j, force_n, impulse_n_s``, as :class:`selfmanip.Execution`'s), the start ``q0`` and, unless disabled, the ``trajectory``.
     ``params``/``config`` are the full inputs used; ``actuator`` the one the leap ran with
     (:class:`~selfmanip.actuator.Saturated` or :class:`~selfmanip.actuator.GearedMotor`,
     read from ``config["actuator"]``) and ``gear_ratio`` its ratio (``None``: the saturated

@@ -279,22 +279,27 @@ class Robot(WrappedModel):
         return Kinematics(**d)
 
     def _part(self, part: str | int | None) -> int | None:
-        """``"body"``/``None`` or a joint given by index or by its coordinate name
-        (``"fore_0"``): the part whose frame a point is given in."""
+        """``"body"``/``None`` or a joint given by index, by its name (``"fore[0]"``, ``"fore"``
+        for a one-link leg), by its coordinate name (``"fore[0]_theta"``) or, on input only, as
+        ``"fore_0"``: the part whose frame a point is given in."""
         if part is None or part == "body":
             return None
         if isinstance(part, str):
             names = self.coordinate_names[: self.n_joints]
-            if part not in names:
-                raise InvalidInputError(f"`part`: unknown part {part!r} (known: body, {', '.join(names)})", "part")
-            return names.index(part)
+            joints = [n[: -len("_theta")] for n in names]
+            aliases = ["_".join(j[:-1].split("[")) if j.endswith("]") else f"{j}_0" for j in joints]
+            for spelling in (names, joints, aliases):
+                if part in spelling:
+                    return spelling.index(part)
+            raise InvalidInputError(f"`part`: unknown part {part!r} (known: body, {', '.join(joints)})", "part")
         return _checks.integer("part", part, 0)
 
     def jacobian(self, q: Sequence[float], part: str | int | None = "body",
                  point_m: Sequence[float] = (0.0, 0.0)) -> PointJacobian:
         """The point ``point_m`` of ``part`` (``"body"``, or the link driven by a joint given
-        by name, ``"fore_1"``, or index; the point in that part's frame: body frame ``(x
-        forward, z down)``, a link's frame with its tip at ``(0, length)``) at ``q``: its world
+        by name, ``"fore[1]"`` (also ``"fore[1]_theta"`` or ``"fore_1"``), or index; the point
+        in that part's frame: body frame ``(x forward, z down)``, a link's frame with its tip
+        at ``(0, length)``) at ``q``: its world
         position and its ``3 x nq`` Jacobian (world ``xdot``, ``zdot``, the part's angular
         rate).
 

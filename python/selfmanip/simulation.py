@@ -120,8 +120,11 @@ class Execution:
     ``status`` (``final_time``, ``apex``, ``zeno``, ``step_budget``, …), ``word`` (the contact
     cells visited, in the robot's own contact order), ``events`` (dicts: ``t_s``, ``kind`` —
     ``touchdown``, ``liftoff``, ``slip``, ``stick``, ``apex``, ``fold``, … —, ``mode_before``,
-    ``mode_after``, ``contacts`` that fired, ``energy_loss_j`` and ``impulse``, the contact
-    impulse into ``mode_after`` in N s), ``segments`` (dicts ``t0_s``, ``t1_s``, ``mode``),
+    ``mode_after``, ``contacts`` that fired, ``energy_loss_j``, and one entry per contact
+    site in the order of ``SimTrajectory.contacts`` -- ``None`` or the world NED ``[x, z]`` of
+    the ground's action on the robot -- in ``force_n``, the force right after the event in N,
+    and ``impulse_n_s``, the impulse of an impact in N s, all ``None`` for the other kinds;
+    ``docs/conventions.md``), ``segments`` (dicts ``t0_s``, ``t1_s``, ``mode``),
     ``outcome`` (apex, landing, end state, flight time, impact losses).
 
     Picklable and deep-copyable (for process pools): a copy carries this data and replays the
@@ -443,7 +446,7 @@ class PeriodicOrbit:
     state, whose ``multipliers`` include a trivial 0 (the section's direction: the flow);
     ``period_monodromy`` the Jacobian of the time-``T`` flow map, ``DP - f grad(tau)``, whose
     multipliers are the same with a trivial 1 instead; ``section_coordinates`` (every state
-    coordinate but ``z_dot`` and the cyclic ones), ``section_jacobian`` and
+    coordinate but ``zdot`` and the cyclic ones), ``section_jacobian`` and
     ``section_multipliers`` (the nontrivial ones, by decreasing modulus); ``stability``
     (``stable``: all inside the unit circle; ``unstable``: one outside; ``neutral``: the
     largest on it); ``iterations``, ``residual`` (``|P(x) - x|`` at the end),

@@ -69,7 +69,7 @@ def test_takeoff_speed_matches_4_65_and_4_66(leg, factor):
     i = factor * p["I_b"]
     want = (-kb + math.sqrt(kb * kb + 4 * i * kc)) / (2 * i)
     got = analysis.takeoff_speed(0.0, 0.0, leg=leg)
-    assert abs(got["x_dot"]) == pytest.approx(want, rel=1e-8)
+    assert abs(got["xdot"]) == pytest.approx(want, rel=1e-8)
     assert got["tau"] == pytest.approx(stall * (1 - got["leg_rate"] / w0), rel=1e-9)
 
 

@@ -54,7 +54,7 @@ def test_fig_4_11_optimum_runs_the_motor_at_half_its_no_load_speed(phi):
     theta2 = float(analysis.fig_4_11(ratios=[g], phis=[phi])["theta2_opt"][0, 0])
     b = analysis.takeoff_speed(theta2, phi, 0.0, g, leg="rolling")
     assert not b["holds_to_no_load"]
-    assert b["x_dot"] == pytest.approx(v, rel=1e-4)
+    assert b["xdot"] == pytest.approx(v, rel=1e-4)
     assert g * b["leg_rate"] / OMEGA_NL == pytest.approx(0.5, abs=1e-4)
     assert g == pytest.approx(OMEGA_NL / (2.0 * b["leg_rate"]), rel=2e-4)
     # the analysis's torque is the leap's drive (catalog x-rhex-28, two motors) at that rate,
@@ -70,8 +70,8 @@ def test_fig_4_11_optimum_is_the_thesis_window():
     g, v = analysis.optimal_gear_ratio()
     assert 25.0 <= g <= 30.0
     f = analysis.fig_4_11(ratios=np.arange(20.0, 36.5, 0.5), phis=[0.0])
-    best = float(f["gear_ratio"][int(np.nanargmax(f["x_dot"][:, 0]))])
-    assert abs(best - g) <= 0.5 and np.nanmax(f["x_dot"]) <= v + 1e-6
+    best = float(f["gear_ratio"][int(np.nanargmax(f["xdot"][:, 0]))])
+    assert abs(best - g) <= 0.5 and np.nanmax(f["xdot"]) <= v + 1e-6
 
 
 def _apex(strategy, t2, gears):

@@ -160,7 +160,8 @@ def test_leap_result_shapes(one_leap):
     assert tr.contact_points_m.shape == tr.contact_forces_n.shape == (n, len(tr.contacts), 2)
     assert r.cells[0] == "1010" and r.word == "-".join(r.cells)
     for e in r.events:
-        assert set(e) == {"t_s", "kind", "mode_before", "mode_after", "contacts", "energy_loss_j"}
+        assert set(e) == {"t_s", "kind", "mode_before", "mode_after", "contacts", "energy_loss_j",
+                          "impulse_n_s", "force_n"}
     # inactive contacts have NaN points exactly where they have NaN forces
     assert np.array_equal(np.isnan(tr.contact_points_m), np.isnan(tr.contact_forces_n))
 

@@ -7,7 +7,7 @@ one-legged hopper of ``crates/selfmanip-sim/examples/data`` hopping under
   the finite-difference matrix;
 * the fixed point against one ``simulate`` run of three periods (every recorded apex is the
   fixed point again, a stride further on);
-* conservation: the leg force passes through the body's centre of mass, so ``phi_dot`` is
+* conservation: the leg force passes through the body's centre of mass, so ``phidot`` is
   conserved and its row of the monodromy is a unit row (closed form);
 * the trivial multipliers: ``monodromy @ f = 0`` and ``period_monodromy @ f = f`` with the
   flow ``f`` from the trajectory's finite differences at the apex;
@@ -52,7 +52,7 @@ def test_orbit_section_jacobian_matches_finite_differences(orbit: selfmanip.Peri
     assert orbit.cyclic == ["x"]
     names = orbit.state_names
     idx = [names.index(n) for n in orbit.section_coordinates]
-    assert "z_dot" not in orbit.section_coordinates and "x" not in orbit.section_coordinates
+    assert "zdot" not in orbit.section_coordinates and "x" not in orbit.section_coordinates
     nq = len(orbit.q)
     h = 1e-6
     fd = np.zeros((len(idx), len(idx)))
@@ -100,7 +100,7 @@ def test_orbit_returns_to_itself_over_three_periods(orbit: selfmanip.PeriodicOrb
 def test_conserved_pitch_rate_and_trivial_multipliers(orbit: selfmanip.PeriodicOrbit) -> None:
     names = orbit.state_names
     n = len(names)
-    i = names.index("phi_dot")
+    i = names.index("phidot")
     assert np.abs(orbit.monodromy[i] - np.eye(n)[i]).max() < 1e-9
     assert orbit.rank_deficiency == 1
     # f(x*) from central differences of the sampled trajectory around the apex at t = T
@@ -140,7 +140,7 @@ def test_simulate_sensitivity_matches_finite_differences(orbit: selfmanip.Period
     assert jac.shape == (n, n)
     x0 = np.concatenate([orbit.q, orbit.qd])
     h = 1e-6
-    zd = orbit.state_names.index("z_dot")
+    zd = orbit.state_names.index("zdot")
     for c in range(n):
         if c == zd:
             continue   # a rise off the apex adds an apex event right away; the FD is one-sided

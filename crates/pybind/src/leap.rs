@@ -193,6 +193,8 @@ fn events_list<'py>(py: Python<'py>, events: &[EventRecord]) -> PyResult<Bound<'
         d.set_item("mode_after", &e.mode_after)?;
         d.set_item("contacts", &e.contacts)?;
         d.set_item("energy_loss_j", e.energy_loss_j)?;
+        d.set_item("impulse_n_s", e.impulse_n_s.clone())?;
+        d.set_item("force_n", e.force_n.clone())?;
         list.append(d)?;
     }
     Ok(list)
@@ -580,7 +582,8 @@ fn rows_from(
     Ok(v.rows().into_iter().map(|r| r.to_vec()).collect())
 }
 
-/// One event from a dict `{t_s, kind, mode_before, mode_after, contacts, energy_loss_j}`.
+/// One event from a dict `{t_s, kind, mode_before, mode_after, contacts, energy_loss_j,
+/// impulse_n_s, force_n}`.
 fn event_from(e: &Bound<'_, PyAny>, i: usize) -> PyResult<EventRecord> {
     let field = |k: &str| format!("events[{i}].{k}");
     let get = |k: &str| -> PyResult<Option<Bound<'_, PyAny>>> {
@@ -629,6 +632,21 @@ fn event_from(e: &Bound<'_, PyAny>, i: usize) -> PyResult<EventRecord> {
         None => 0.0,
         Some(v) => typed("energy_loss_j", v)?.as_f64().unwrap_or(0.0),
     };
+    // per contact: None or [x, z] (the keys of `LeapResult.events`; absent: none)
+    let sites = |k: &str| -> PyResult<Vec<Option<[f64; 2]>>> {
+        match get(k)? {
+            None => Ok(Vec::new()),
+            Some(v) => v.extract().map_err(|_| {
+                errors::invalid_type(
+                    &field(k),
+                    format!(
+                        "`{}` must be a list of None or [x, z] per contact",
+                        field(k)
+                    ),
+                )
+            }),
+        }
+    };
     Ok(EventRecord {
         t_s,
         kind: event_kind(&text("kind")?, &field("kind"))?,
@@ -636,7 +654,8 @@ fn event_from(e: &Bound<'_, PyAny>, i: usize) -> PyResult<EventRecord> {
         mode_after: text("mode_after")?,
         contacts,
         energy_loss_j,
-        impulse: Vec::new(),
+        impulse_n_s: sites("impulse_n_s")?,
+        force_n: sites("force_n")?,
     })
 }
 

@@ -360,14 +360,8 @@ impl Robot {
     /// `q` names: joint names `<leg>_<i>`, then `x`, `z`, `phi`.
     #[getter]
     fn coordinate_names(&self) -> Vec<String> {
-        let mut v: Vec<String> = self
-            .model
-            .joints
-            .iter()
-            .map(|j| format!("{}_{}", self.model.legs[j.leg].name, j.index_in_leg))
-            .collect();
-        v.extend(["x", "z", "phi"].map(String::from));
-        v
+        // the one spelling of every output (docs/conventions.md)
+        selfmanip_sim::trajectory::q_names(&self.model)
     }
 
     #[getter]

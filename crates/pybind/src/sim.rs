@@ -332,7 +332,7 @@ impl PyScenario {
             let state_names: Vec<String> = names
                 .iter()
                 .cloned()
-                .chain(names.iter().map(|n| format!("{n}_dot")))
+                .chain(names.iter().map(|n| format!("{n}dot")))
                 .collect();
             let nq = sim.model.nq();
             let d = PyDict::new(py);
@@ -718,7 +718,7 @@ impl PyRun {
     }
 
     /// The events as dicts: `t_s`, `kind`, `mode_before`, `mode_after`, `contacts`,
-    /// `energy_loss_j`, `impulse`.
+    /// `energy_loss_j`, `impulse_n_s`, `force_n` (`selfmanip_sim::EventRecord`).
     fn events<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         to_py(py, &self.inner.events())
     }

@@ -41,8 +41,8 @@ use selfmanip_sim::behaviour::{
 use selfmanip_sim::events::{event_records_labelled, EventRecord};
 use selfmanip_sim::expr::Scalar;
 use selfmanip_sim::outcome::{first_touchdown_s, BodyState, Outcome, PresetFrame, WordOptions};
-use selfmanip_sim::terrain::TerrainSpec;
 use selfmanip_sim::sweep::BuildCache;
+use selfmanip_sim::terrain::TerrainSpec;
 use selfmanip_sim::{InitialState, Scenario, SimOptions};
 use selfmanip_sim::{Simulation, Trajectory};
 use serde::{Deserialize, Serialize};
@@ -949,7 +949,8 @@ impl Presets {
         cfg: &LeapConfig,
         stop: &AtomicBool,
     ) -> Result<LeapResult, RhexError> {
-        let preset = (self.0).get_or_build(Self::key(params, cfg), || LeapPreset::new(params, cfg))?;
+        let preset =
+            (self.0).get_or_build(Self::key(params, cfg), || LeapPreset::new(params, cfg))?;
         preset.run_at(cfg.t2_s, &cfg.actuator, stop)
     }
 }
@@ -1227,7 +1228,13 @@ impl LeapPreset {
         // the apex that ended the run, or (run on past it) that of its first flight after a
         // motor started, in chapter 3's frame
         let apex = frame.apex(&rhex.model, &exec);
-        let events = event_records_labelled(&rhex.model, &exec, &|m| rhex.label(m), start[0]);
+        let events = event_records_labelled(
+            &rhex.model,
+            &self.cfg.terrain,
+            &exec,
+            &|m| rhex.label(m),
+            start[0],
+        );
         // the touchdown offset: each pushing leg's first touchdown after its motor started
         let first_touchdown = |i: usize| first_touchdown_s(&exec, rhex.site(2 * i + 1), start[i]);
         let touchdown_t2_s = first_touchdown(0)

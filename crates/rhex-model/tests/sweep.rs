@@ -284,7 +284,8 @@ fn synthetic() -> (Trajectory, Vec<selfmanip_sim::EventRecord>) {
         mode_after: "1111".into(),
         contacts: vec!["middle_leg".into()],
         energy_loss_j: 0.25,
-        impulse: Vec::new(),
+        impulse_n_s: vec![None, None, Some([0.1, -0.4]), None],
+        force_n: vec![Some([0.0, -3.0]), None, Some([0.5, -6.0]), Some([0.0, -1.0])],
     }];
     (tr, ev)
 }

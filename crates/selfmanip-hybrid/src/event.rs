@@ -68,10 +68,23 @@ pub struct Event {
     pub mode_after: ContactMode,
     /// Contacts that fired the guard.
     pub triggered: Vec<usize>,
-    /// Contact impulse `P_λ` into `mode_after` (rows of `mode_after`; empty for liftoff).
+    /// Contact impulse `P_λ` of the event's plastic impact (N s, rows of `impulse_mode`;
+    /// ground on robot, the sign of `λ`): only for an impact ([`EventKind::is_impulsive`]: a
+    /// touchdown, a fold that stops its slide, a jam, a Zeno truncation), empty otherwise.
     pub impulse: Vec<f64>,
-    /// Pseudo-impulse `P_δ` into `mode_after` (empty when δt = 0).
+    /// The mode of the impact's rows (`impulse`, `pseudo_impulse`): the mode the plastic
+    /// impact went into, which is `mode_after` unless the kept contacts' forces then released
+    /// one or let it slide (a Coulomb jam's, [`crate::jam::coulomb_jam`], has each of its
+    /// contacts sticking: a slipping contact's friction impulse has a row there);
+    /// [`ContactMode::FLIGHT`] without an impact.
+    pub impulse_mode: ContactMode,
+    /// Pseudo-impulse `P_δ` (5.39)–(5.40) (N s, rows of `impulse_mode`; empty when δt = 0).
     pub pseudo_impulse: Vec<f64>,
+    /// Contact force `λ` right after the reset (N, rows of `mode_after`, the sign of `λ`; a
+    /// sliding contact's one row is its normal force, its friction `μ_k` of it against the
+    /// slide); empty in flight and where the reset solves no forces (an apex, a fold's
+    /// passage or its end).
+    pub force: Vec<f64>,
     pub kinetic_before: f64,
     pub kinetic_after: f64,
     /// Configuration at the event.
@@ -97,7 +110,9 @@ impl Event {
             mode_after: mode,
             triggered,
             impulse: vec![],
+            impulse_mode: ContactMode::FLIGHT,
             pseudo_impulse: vec![],
+            force: vec![],
             kinetic_before: f64::NAN,
             kinetic_after: f64::NAN,
             q: q.to_vec(),

@@ -119,10 +119,16 @@ pub fn jam(
         (Vec::new(), Vec::new(), prefer, qd.to_vec())
     };
     // the kept contacts must hold in force (5.19)–(5.20); k still may not slide
+    let impulse_mode = if impact {
+        mode_after
+    } else {
+        ContactMode::FLIGHT
+    };
+    let mut force = Vec::new();
     if !mode_after.is_flight() {
         let kept: Vec<usize> = mode_after.active().collect();
         match cx.select(t, &kept, &[], mode_after, q, &qd_after, false)? {
-            Ok(s) => mode_after = s.mode,
+            Ok(s) => (mode_after, force) = (s.mode, s.value),
             Err(_) => return Ok(Err(PainleveReason::NoJamOutcome)),
         }
     }
@@ -167,7 +173,9 @@ pub fn jam(
             mode_after,
             triggered: vec![k],
             impulse,
+            impulse_mode,
             pseudo_impulse,
+            force,
             kinetic_before: ke_before,
             kinetic_after: ke_after,
             q: q.to_vec(),
@@ -275,9 +283,11 @@ pub fn coulomb_jam(
     };
     let ke_before = kinetic_energy_at(model, terrain, &mut ws.data, q, qd)?;
     let ctrl = flow.controller().clone();
-    let mut survivors: Vec<(ContactMode, crate::coulomb_impact::CoulombImpact)> = Vec::new();
+    let mut survivors: Vec<(ContactMode, Vec<f64>, crate::coulomb_impact::CoulombImpact)> =
+        Vec::new();
     for o in outcomes {
         let mut mode_after = o.mode;
+        let mut force = Vec::new();
         let mut y_after = y.to_vec();
         y_after[model.nq()..].copy_from_slice(&o.qd_plus);
         if !mode_after.is_flight() {
@@ -292,7 +302,7 @@ pub fn coulomb_jam(
             };
             let kept: Vec<usize> = mode_after.active().collect();
             match cx.select(t, &kept, &[], mode_after, q, &o.qd_plus, false) {
-                Ok(Ok(s)) => mode_after = s.mode,
+                Ok(Ok(s)) => (mode_after, force) = (s.mode, s.value),
                 _ => continue,
             }
             // the forces after must not be Painlevé-inconsistent either
@@ -318,10 +328,10 @@ pub fn coulomb_jam(
             }
         }
         if all_separate {
-            survivors.push((mode_after, o));
+            survivors.push((mode_after, force, o));
         }
     }
-    let [(mode_after, o)] = &survivors[..] else {
+    let [(mode_after, force, o)] = &survivors[..] else {
         return Ok(Err(reason));
     };
     let ke_after = kinetic_energy_at(model, terrain, &mut ws.data, q, &o.qd_plus)?;
@@ -332,6 +342,23 @@ pub fn coulomb_jam(
     if !triggered.contains(&k) {
         triggered.push(k);
     }
+    // each contact's whole impulse: a slipping contact's friction is no row of `o.mode`, so
+    // the rows are those of its contacts sticking
+    let impulse_mode = o
+        .mode
+        .active()
+        .fold(ContactMode::FLIGHT, |m, c| m.with(c, ContactKind::Stick));
+    let impulse = impulse_mode
+        .rows()
+        .map(|r| {
+            let (_, p_t, p_n) = o.contact_impulses.iter().find(|p| p.0 == r.contact)?;
+            Some(match r.direction {
+                RowDirection::Tangential => *p_t,
+                RowDirection::Normal => *p_n,
+            })
+        })
+        .map(|p| p.unwrap_or(0.0))
+        .collect();
     Ok(Ok(Reset::Continue {
         event: Event {
             t,
@@ -339,8 +366,10 @@ pub fn coulomb_jam(
             mode_before: mode,
             mode_after: *mode_after,
             triggered,
-            impulse: o.impulse.clone(),
+            impulse,
+            impulse_mode,
             pseudo_impulse: Vec::new(),
+            force: force.clone(),
             kinetic_before: ke_before,
             kinetic_after: ke_after,
             q: q.to_vec(),

@@ -127,6 +127,7 @@ pub fn reset(
         selected,
         mut qd_after,
         mode_after,
+        force,
     } = match select_mode(
         cx,
         (t, mode),
@@ -164,6 +165,12 @@ pub fn reset(
         })
         .collect();
     let (kind, triggered) = c.event_kind();
+    // an impact's value is its impulse, a force event's its forces (Selected)
+    let (impulse, force) = if impact {
+        (selected.value, force)
+    } else {
+        (Vec::new(), selected.value)
+    };
     Ok(Reset::Continue {
         event: Event {
             t,
@@ -171,8 +178,14 @@ pub fn reset(
             mode_before: mode,
             mode_after,
             triggered,
-            impulse: selected.value,
+            impulse,
+            impulse_mode: if impact {
+                selected.mode
+            } else {
+                ContactMode::FLIGHT
+            },
             pseudo_impulse: selected.pseudo_impulse,
+            force,
             kinetic_before: ke_before,
             kinetic_after: ke_after,
             q: q.to_vec(),
@@ -466,10 +479,11 @@ fn select_mode(
     }
     // contacts kept by the impact must also hold in force (5.19)–(5.20)
     let mut mode_after = selected.mode;
+    let mut force = Vec::new();
     if impact && !mode_after.is_flight() {
         let kept: Vec<usize> = mode_after.active().collect();
         match cx.select(t, &kept, &[], mode_after, q, &qd_after, false)? {
-            Ok(s) => mode_after = s.mode,
+            Ok(s) => (mode_after, force) = (s.mode, s.value),
             Err(term) => return Ok(Err(term)),
         }
     }
@@ -477,14 +491,16 @@ fn select_mode(
         selected,
         qd_after,
         mode_after,
+        force,
     }))
 }
 
 /// What complementarity made of a reset: the contact set selected (with its impulses or
 /// forces and pseudo-impulses), the velocity after the reset, and the mode after it, whose
-/// contacts also hold in force.
+/// contacts also hold in force: after an impact, `force` (rows of `mode_after`).
 struct AfterReset {
     selected: Selected,
     qd_after: Vec<f64>,
     mode_after: ContactMode,
+    force: Vec<f64>,
 }

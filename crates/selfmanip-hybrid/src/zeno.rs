@@ -218,8 +218,8 @@ pub fn truncate(
     let ke_before = crate::energy::kinetic_energy_at(model, cx.terrain, &mut cx.ws.data, q, qd)?;
     let imp = plastic_impact(model, &mut cx.ws.data, cx.terrain, impact.mode, q, qd)?;
     let qd_after: Vec<f64> = imp.qd_plus.iter().copied().collect();
-    let mode_after = match cx.select(t, &set, &[], impact.mode, q, &qd_after, false) {
-        Ok(Ok(s)) => s.mode,
+    let (mode_after, force) = match cx.select(t, &set, &[], impact.mode, q, &qd_after, false) {
+        Ok(Ok(s)) => (s.mode, s.value),
         Ok(Err(_)) => return Ok(None),
         Err(HybridError::Core(e)) if inconsistent(&e) => return Ok(None),
         Err(e) => return Err(e),
@@ -235,7 +235,9 @@ pub fn truncate(
             mode_after,
             triggered: contacts.to_vec(),
             impulse: impact.value,
+            impulse_mode: impact.mode,
             pseudo_impulse: vec![],
+            force,
             kinetic_before: ke_before,
             kinetic_after: ke_after,
             q: q.to_vec(),

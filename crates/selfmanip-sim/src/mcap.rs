@@ -9,7 +9,7 @@
 //! | `/state` | `selfmanip.State` | `t_s`, `mode`, `q_names`, `q`, `qd` (NED), and `tau` when sampled |
 //! | `/contact_forces` | `selfmanip.ContactForces` | `t_s`, per contact: `name`, `active`, `point_m` `[x, z]`, `force_n` `[f_x, f_z]` (NED; ground on robot; null when inactive) |
 //! | `/mode` | `selfmanip.Mode` | `t_s`, `mode`: the first sample and every change of contact mode |
-//! | `/events` | `selfmanip.Event` | `t_s`, `kind`, `mode_before`, `mode_after`, `contacts`, `energy_loss_j` |
+//! | `/events` | `selfmanip.Event` | `t_s`, `kind`, `mode_before`, `mode_after`, `contacts`, `energy_loss_j`, and per contact (the order of `/contact_forces`) `impulse_n_s` and `force_n` `[x, z]` (NED; ground on robot; null where none: [`EventRecord`]; left out for a record without them) |
 //!
 //! Message log times are nanoseconds since the first sample (sample times may be negative);
 //! the `t_s` fields keep the caller's clock. A metadata record `selfmanip` holds the caller's
@@ -259,12 +259,19 @@ const FOXGLOVE_SCENE_SCHEMA: &str = r#"{"title":"foxglove.SceneUpdate","type":"o
 const STATE_SCHEMA: &str = r#"{"title":"selfmanip.State","type":"object","properties":{"t_s":{"type":"number"},"mode":{"type":"string"},"q_names":{"type":"array","items":{"type":"string"}},"q":{"type":"array","items":{"type":"number"}},"qd":{"type":"array","items":{"type":"number"}},"tau":{"type":"array","items":{"type":"number"}}}}"#;
 const FORCES_SCHEMA: &str = r#"{"title":"selfmanip.ContactForces","type":"object","properties":{"t_s":{"type":"number"},"contacts":{"type":"array","items":{"type":"object","properties":{"name":{"type":"string"},"active":{"type":"boolean"},"point_m":{"type":["array","null"]},"force_n":{"type":["array","null"]}}}}}}"#;
 const MODE_SCHEMA: &str = r#"{"title":"selfmanip.Mode","type":"object","properties":{"t_s":{"type":"number"},"mode":{"type":"string"}}}"#;
-const EVENT_SCHEMA: &str = r#"{"title":"selfmanip.Event","type":"object","properties":{"t_s":{"type":"number"},"kind":{"type":"string"},"mode_before":{"type":"string"},"mode_after":{"type":"string"},"contacts":{"type":"array","items":{"type":"string"}},"energy_loss_j":{"type":"number"}}}"#;
+const EVENT_SCHEMA: &str = r#"{"title":"selfmanip.Event","type":"object","properties":{"t_s":{"type":"number"},"kind":{"type":"string"},"mode_before":{"type":"string"},"mode_after":{"type":"string"},"contacts":{"type":"array","items":{"type":"string"}},"energy_loss_j":{"type":"number"},"impulse_n_s":{"type":"array","items":{"type":["array","null"]}},"force_n":{"type":"array","items":{"type":["array","null"]}}}}"#;
 
 fn event_json(e: &EventRecord) -> Value {
-    json!({"t_s": e.t_s, "kind": e.kind, "mode_before": e.mode_before,
+    let mut v = json!({"t_s": e.t_s, "kind": e.kind, "mode_before": e.mode_before,
            "mode_after": e.mode_after, "contacts": e.contacts,
-           "energy_loss_j": e.energy_loss_j})
+           "energy_loss_j": e.energy_loss_j});
+    // per-site vectors when the record has them (a synthetic event may have none)
+    for (key, sites) in [("impulse_n_s", &e.impulse_n_s), ("force_n", &e.force_n)] {
+        if !sites.is_empty() {
+            v[key] = json!(sites);
+        }
+    }
+    v
 }
 
 /// Writes the MCAP stream of a log to any seekable writer.

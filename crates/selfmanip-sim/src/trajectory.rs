@@ -13,7 +13,8 @@
 use crate::error::{positive, SimError};
 use crate::labels::ContactLabels;
 use selfmanip_core::contact::{contact_geometry, row_direction};
-use selfmanip_core::{ContactMode, Model, RowDirection, Terrain};
+use selfmanip_core::kinematics::Kinematics;
+use selfmanip_core::{ContactMode, Data, Model, RowDirection, Terrain};
 use selfmanip_hybrid::flow::FlowWorkspace;
 use selfmanip_hybrid::Execution;
 use serde::Serialize;
@@ -102,7 +103,6 @@ pub fn sample_labelled(
         });
     }
     let nq = model.nq();
-    let nc = model.n_contacts();
     let mut out = Trajectory {
         q_names: q_names(model),
         contacts: model.contacts.iter().map(|c| c.name.clone()).collect(),
@@ -135,27 +135,7 @@ pub fn sample_labelled(
         ws.data.slide_directions.clone_from(&seg.slide_directions);
         ws.data.prepare(model, terrain, seg.mode, q, qd)?;
         ws.solve_prepared(model, &*seg.controller, t, seg.mode, q, qd)?;
-        let data = &ws.data;
-        let mut points = vec![None; nc];
-        let mut forces = vec![None; nc];
-        for (row, r) in seg.mode.rows().enumerate() {
-            let geom = contact_geometry(model, &data.kin, terrain, r.contact);
-            let dir = row_direction(&geom.plane, r.direction);
-            let f = forces[r.contact].get_or_insert([0.0, 0.0]);
-            f[0] += data.lambda[row] * dir.x;
-            f[1] += data.lambda[row] * dir.y;
-            points[r.contact] = Some([geom.point.x, geom.point.y]);
-        }
-        // the kinetic friction of sliding contacts acts along their tangent, outside the rows
-        for site in &data.sliding {
-            let k = data.constraints.rows[site.row].contact;
-            let geom = contact_geometry(model, &data.kin, terrain, k);
-            let tangent = row_direction(&geom.plane, RowDirection::Tangential);
-            if let Some(f) = forces[k].as_mut() {
-                f[0] += site.force_t * tangent.x;
-                f[1] += site.force_t * tangent.y;
-            }
-        }
+        let (points, forces) = site_points_and_forces(model, terrain, &ws.data, seg.mode);
         out.t_s.push(t - time_offset_s);
         out.q.push(q.to_vec());
         out.qd.push(qd.to_vec());
@@ -165,4 +145,54 @@ pub fn sample_labelled(
         out.contact_forces_n.push(forces);
     }
     Ok(out)
+}
+
+/// One vector per contact site of `model` (description order), in the world NED frame
+/// `[x, z]`: the sum over the rows of `mode` of each row's value along the row's direction at
+/// the kinematics `kin` (`λ` gives the ground's force on the robot, an impulse `P_λ` its
+/// impulse); `None` for a site without a row.
+pub fn site_vectors(
+    model: &Model,
+    terrain: &dyn Terrain,
+    kin: &Kinematics,
+    mode: ContactMode,
+    rows: &[f64],
+) -> Vec<Option<[f64; 2]>> {
+    let mut out = vec![None; model.n_contacts()];
+    for (r, &value) in mode.rows().zip(rows) {
+        let geom = contact_geometry(model, kin, terrain, r.contact);
+        let dir = row_direction(&geom.plane, r.direction);
+        let v = out[r.contact].get_or_insert([0.0, 0.0]);
+        v[0] += value * dir.x;
+        v[1] += value * dir.y;
+    }
+    out
+}
+
+/// The world contact points `[x, z]` (m) and forces `[f_x, f_z]` (N, NED; the ground on the
+/// robot) of each contact site of `model` in `mode`, from a flow solved in `data` (its `λ`
+/// along each active row's direction, plus the kinetic friction of sliding contacts along
+/// their tangent, outside the rows); `None` for a site not in `mode`.
+pub fn site_points_and_forces(
+    model: &Model,
+    terrain: &dyn Terrain,
+    data: &Data,
+    mode: ContactMode,
+) -> (Vec<Option<[f64; 2]>>, Vec<Option<[f64; 2]>>) {
+    let mut forces = site_vectors(model, terrain, &data.kin, mode, data.lambda.as_slice());
+    let mut points = vec![None; model.n_contacts()];
+    for k in mode.active() {
+        let geom = contact_geometry(model, &data.kin, terrain, k);
+        points[k] = Some([geom.point.x, geom.point.y]);
+    }
+    for site in &data.sliding {
+        let k = data.constraints.rows[site.row].contact;
+        let geom = contact_geometry(model, &data.kin, terrain, k);
+        let tangent = row_direction(&geom.plane, RowDirection::Tangential);
+        if let Some(f) = forces[k].as_mut() {
+            f[0] += site.force_t * tangent.x;
+            f[1] += site.force_t * tangent.y;
+        }
+    }
+    (points, forces)
 }

@@ -86,10 +86,14 @@ pub fn midstance_closed_form(
 pub struct TakeoffSample {
     pub theta2: f64,
     pub phi: f64,
+    /// Output name `phidot` (`docs/conventions.md`).
+    #[serde(rename = "phidot")]
     pub phi_dot: f64,
     pub gear_ratio: f64,
     pub leg: TakeoffLeg,
-    /// `|ẋ|` at takeoff (m/s); `None` where the leg cannot hold contact even at rest.
+    /// `|ẋ|` at takeoff (m/s); `None` where the leg cannot hold contact even at rest. Output
+    /// name `xdot`.
+    #[serde(rename = "xdot")]
     pub x_dot: Option<f64>,
 }
 

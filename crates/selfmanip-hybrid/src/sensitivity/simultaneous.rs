@@ -210,7 +210,15 @@ fn fire_in_order(
                 mode_after: step.mode_after,
                 triggered: vec![k],
                 impulse: step.impulse.clone(),
+                // a touchdown's impact goes into its own mode; a release has no impact
+                impulse_mode: if step.impulse.is_empty() {
+                    ContactMode::FLIGHT
+                } else {
+                    step.mode_after
+                },
                 pseudo_impulse: vec![],
+                // the controller's event is the guard's alone: no forces are solved for it
+                force: vec![],
                 kinetic_before: f64::NAN,
                 kinetic_after: f64::NAN,
                 q: step.y_plus[..model.nq()].to_vec(),

@@ -92,7 +92,8 @@ impl TorqueSpeedLine {
 pub struct TakeoffBound {
     /// Largest leg rate (rad/s) before `(Uλ)_n` reaches zero at full motor torque.
     pub leg_rate: f64,
-    /// Body COM forward speed there (m/s).
+    /// Body COM forward speed there (m/s); output name `xdot` (`docs/conventions.md`).
+    #[serde(rename = "xdot")]
     pub x_dot: f64,
     /// Torque at that rate (N m).
     pub tau: f64,
