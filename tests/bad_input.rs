@@ -9,13 +9,19 @@ use selfmanip::core::{
 };
 use selfmanip::rhex::{LegShape, Rhex, RhexError, RhexParams};
 
+/// The massless half-circle RHex, a workspace for it and a level pose `q` of it: where the
+/// typed-error tests feed in their bad inputs.
+fn massless_rhex_and_pose() -> (Rhex, Data, [f64; 5]) {
+    let rhex = rhex_massless(LegShape::HalfCircle);
+    let d = Data::new(&rhex.model);
+    (rhex, d, [0.1, 0.1, 0.0, -0.17, 0.0])
+}
+
 #[test]
 fn non_finite_and_wrong_length_states() {
-    let rhex = rhex_massless(LegShape::HalfCircle);
+    let (rhex, mut d, q) = massless_rhex_and_pose();
     let m = &rhex.model;
     let mode = rhex.mode("0101").unwrap();
-    let mut d = Data::new(m);
-    let q = [0.1, 0.1, 0.0, -0.17, 0.0];
     let (rest, idle) = ([0.0; 5], [0.0; 2]);
     // (q, q̇, Υ) with one bad entry or length each, and what the error must name
     let cases: [(&[f64], &[f64], &[f64], &str); 5] = [
@@ -174,10 +180,8 @@ fn bad_descriptions_and_labels() {
 /// never blamed on the inputs, which are finite.
 #[test]
 fn huge_velocities_and_torques_are_typed_overflow_errors() {
-    let rhex = rhex_massless(LegShape::HalfCircle);
+    let (rhex, mut d, q) = massless_rhex_and_pose();
     let m = &rhex.model;
-    let mut d = Data::new(m);
-    let q = [0.1, 0.1, 0.0, -0.17, 0.0];
     let mode = rhex.mode("0101").unwrap();
     let overflow = |r: Result<(), CoreError>| {
         matches!(r, Err(CoreError::NonFiniteResult { .. })) || {
@@ -245,10 +249,8 @@ fn body_mass_of_1e308_is_a_typed_error_not_a_nan() {
 /// with no contact sites at all, a typed error — not a panic.
 #[test]
 fn quasi_static_without_contacts_is_a_typed_error() {
-    let rhex = rhex_massless(LegShape::HalfCircle);
+    let (rhex, mut d, q) = massless_rhex_and_pose();
     let m = &rhex.model;
-    let mut d = Data::new(m);
-    let q = [0.1, 0.1, 0.0, -0.17, 0.0];
     let t = nalgebra::DMatrix::zeros(2, 0);
     let e = quasi_static(m, &mut d, &FlatGround, rhex.mode("0000").unwrap(), &q, &t);
     assert!(

@@ -19,12 +19,12 @@
 //! law (`Data::slide_at_rest`) never holds a site in a sliding mode: where the cone holds it,
 //! it takes no edge and reports that the cone holds it (the engine then sticks it).
 use selfmanip::core::{ContactKind, Data, FlatGround, Model};
-use selfmanip::hybrid::EventKind;
+use selfmanip::hybrid::{ConstantTorque, EventKind};
 
 mod sled;
 #[path = "../crates/selfmanip-hybrid/tests/systems/mod.rs"]
 mod systems;
-use sled::{all_sliding, leg_angle, sled, state, Press, G, HIP_HEIGHT, LEG, M, MU};
+use sled::{all_sliding, leg_angle, sled, state, G, HIP_HEIGHT, LEG, M, MU};
 use systems::{assert_friction_took, sled_slide};
 
 /// Toe position (world, z down) at leg angle `theta` with the body at the origin pose.
@@ -91,7 +91,8 @@ fn sled_on_a_pressed_toe_stops_at_the_closed_form_time() {
     let data = sled::sliding_on_flat(&model, v0, tau);
     let f_t = data.sliding[0].force_t.abs();
     let t_star = M * v0 / f_t;
-    let exec = sled_slide(&model, &Press(tau), (&q, &qd), 2.0 * t_star);
+    let press = ConstantTorque::first_joint(tau);
+    let exec = sled_slide(&model, &press, (&q, &qd), 2.0 * t_star);
     // it stops at t*: the first segment ends with the slip→stick event where the sliding
     // velocity crosses zero (no rest band: the friction force keeps its side through the
     // segment, so the crossing is a transversal zero of a smooth flow, located to event_tol),

@@ -14,7 +14,7 @@ mod common;
 #[path = "sled/mod.rs"]
 mod sled_model;
 
-use common::{drop_state, rhex_massive, rhex_massless, seq, tight, Servos};
+use common::{rhex_massive, rhex_massless, seq, tight, tumbling_drop, Servos};
 use nalgebra::DMatrix;
 use selfmanip::core::tangent::BodyParameter;
 use selfmanip::core::{FlatGround, Model};
@@ -40,11 +40,7 @@ fn parameter_columns_match_central_differences() {
         let model = &rhex.model;
         let nq = model.nq();
         let n = model.n_joints();
-        let mut qd = vec![0.0; nq];
-        qd[model.ix_x()] = 0.4;
-        qd[model.ix_z()] = 0.3;
-        qd[model.ix_phi()] = 0.8;
-        let y0 = drop_state(model, &[0.3, -0.2], 0.1, 0.01, &qd);
+        let y0 = tumbling_drop(model);
         let ctrl = Servos {
             k: 5.0,
             c: 0.05,
@@ -143,10 +139,10 @@ mod sled {
     use selfmanip::core::tangent::{dynamics_jacobian, dynamics_jvp, FlowDirections};
     use selfmanip::core::{forward_dynamics, ContactKind, ContactMode, Data, FlatGround, Model};
     use selfmanip::hybrid::sensitivity::{execution_sensitivity_columns, Parameter};
-    use selfmanip::hybrid::{simulate, EventKind};
+    use selfmanip::hybrid::{simulate, ConstantTorque, EventKind};
 
     use super::sled_model::{
-        all_sliding, leg_angle, sled, sled_description, sled_with, state, Press, HIP_HEIGHT,
+        all_sliding, leg_angle, sled, sled_description, sled_with, state, HIP_HEIGHT,
     };
     use crate::common::tight;
 
@@ -172,7 +168,7 @@ mod sled {
         let exec = simulate(
             &model,
             &FlatGround,
-            &Press(tau),
+            &ConstantTorque::first_joint(tau),
             mode,
             &q,
             &qd,
@@ -189,7 +185,7 @@ mod sled {
         let mut dirs = DMatrix::zeros(8, 2);
         dirs[(1, 0)] = 1.0;
         dirs[(5, 1)] = 1.0;
-        let params = [Parameter::Controller("tau".into())];
+        let params = [Parameter::Controller("tau[0]".into())];
         let columns = |exec: &selfmanip::hybrid::Execution| {
             execution_sensitivity_columns(&model, &FlatGround, exec, &dirs, &params).unwrap()
         };

@@ -13,7 +13,7 @@
 //! partials yet, so the leap itself is not covered here.
 mod common;
 
-use common::{drop_state, rhex_massive, rhex_massless, seq, tight, Servos};
+use common::{rhex_massive, rhex_massless, seq, tight, tumbling_drop, Servos};
 use nalgebra::DMatrix;
 use selfmanip::core::{ContactMode, FlatGround, Model};
 use selfmanip::hybrid::sensitivity::{simulate_with_sensitivity, SaltationStatus};
@@ -110,12 +110,7 @@ fn rhex_drop_whole_execution_jacobian() {
         (rhex_massive(LegShape::HalfCircle), "massive half-circle"),
     ] {
         let model = &rhex.model;
-        let nq = model.nq();
-        let mut qd = vec![0.0; nq];
-        qd[model.ix_x()] = 0.4;
-        qd[model.ix_z()] = 0.3;
-        qd[model.ix_phi()] = 0.8;
-        let y0 = drop_state(model, &[0.3, -0.2], 0.1, 0.01, &qd);
+        let y0 = tumbling_drop(model);
         let (err, events) = check_drop(model, &y0, 0.25);
         eprintln!("RHex {shape}: {events} events, worst relative error {err:e}");
         assert!(err < 1e-5, "{shape}: {err:e}");

@@ -18,6 +18,7 @@ import os
 import pathlib
 
 import selfmanip
+from selfmanip.cli_sim import print_execution
 
 DATA = pathlib.Path(__file__).resolve().parents[2] / "crates" / "selfmanip-sim" / "examples" / "data"
 
@@ -43,15 +44,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--t-final", type=float, default=1.0)
     args = ap.parse_args(argv)
     e = selfmanip.simulate(DATA / "hopper.toml", DATA / "hop.toml", q0(), t_final=args.t_final)
-    print(f"status {e.status}  word {e.word_string}")
-    for ev in e.events:
-        print(f"  t {ev['t_s']:.4f} s  {ev['kind']:<9} {ev['mode_before']} -> {ev['mode_after']}  "
-              f"{ev['contacts']}  loss {ev['energy_loss_j']:.3f} J")
-    if e.apex is not None:
-        print(f"first apex: t {e.apex['t_s']:.3f} s, height {-e.apex['z_m']:.3f} m")
-    r = e.energy_report()
-    print(f"energy: E0 {r.initial_j:.3f} J, E1 {r.final_j:.3f} J, joint work {r.joint_work_j:.3f} J, "
-          f"impact loss {r.impact_loss_j:.3f} J, residual {r.residual_j:.2e} J")
+    print_execution(e)
     write_log_and_plot(e, args.out_dir, "hopper")
     return 0
 

@@ -24,13 +24,16 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .cli_leap import _name_and_spec, _parse_values, _sets, finish_sweep, write_table
 from ._checks import path_arg
 from .errors import InvalidInputError
+
+if TYPE_CHECKING:
+    from .simulation import Execution
 
 
 def parse_terrain(text: str | None) -> Any:
@@ -154,6 +157,22 @@ def _scenario_kwargs(args: argparse.Namespace) -> dict[str, Any]:
                 contacts=args.contacts, solve=args.solve)
 
 
+def print_execution(e: Execution) -> None:
+    """Prints what ``selfmanip simulate`` reports of a run: its status and end, the word, each
+    event (time, kind, modes, contacts, energy lost), the first apex and the energy account."""
+    print(f"{e.robot_name}: status {e.status} at t={e.t_end_s:.6g} s, {len(e.events)} events")
+    print(f"word {e.word_string}")
+    for ev in e.events:
+        print(f"  t={ev['t_s']:.6f} s  {ev['kind']:<9} {ev['mode_before']} -> {ev['mode_after']}  "
+              f"{','.join(ev['contacts'])}  dE={ev['energy_loss_j']:.4g} J")
+    if e.apex is not None:
+        print(f"apex t={e.apex['t_s']:.4f} s  height -z={-e.apex['z_m']:.4f} m  x={e.apex['x_m']:.4f} m")
+    er = e.energy_report()
+    print(f"energy E0={er.initial_j:.6g} J  E1={er.final_j:.6g} J  work W={er.joint_work_j:.6g} J  "
+          f"damping W_d={er.damping_work_j:.6g} J  friction W_fr={er.friction_work_j:.6g} J  "
+          f"impact loss L={er.impact_loss_j:.6g} J  residual {er.residual_j:.2e} J")
+
+
 def simulate_command(args: argparse.Namespace) -> int:
     from .leap import DEFAULT
     from .simulation import simulate
@@ -178,17 +197,7 @@ def simulate_command(args: argparse.Namespace) -> int:
                    "energy": er.__dict__}, sys.stdout)
         sys.stdout.write("\n")
     else:
-        print(f"{e.robot_name}: status {e.status} at t={e.t_end_s:.6g} s, {len(e.events)} events")
-        print(f"word {e.word_string}")
-        for ev in e.events:
-            print(f"  t={ev['t_s']:.6f} s  {ev['kind']:<9} {ev['mode_before']} -> {ev['mode_after']}  "
-                  f"{','.join(ev['contacts'])}  dE={ev['energy_loss_j']:.4g} J")
-        if e.apex is not None:
-            print(f"apex t={e.apex['t_s']:.4f} s  height -z={-e.apex['z_m']:.4f} m  x={e.apex['x_m']:.4f} m")
-        er = e.energy_report()
-        print(f"energy E0={er.initial_j:.6g} J  E1={er.final_j:.6g} J  work W={er.joint_work_j:.6g} J  "
-              f"damping W_d={er.damping_work_j:.6g} J  friction W_fr={er.friction_work_j:.6g} J  "
-              f"impact loss L={er.impact_loss_j:.6g} J  residual {er.residual_j:.2e} J")
+        print_execution(e)
         for f in (args.mcap, args.plot):
             if f:
                 print(f"wrote {f}")
@@ -235,4 +244,4 @@ def sweep_command(args: argparse.Namespace) -> int:
     return finish_sweep(table, args.out, args.strict, done_word="complete")
 
 
-__all__ = ["add_subcommands", "parse_terrain", "simulate_command", "sweep_command"]
+__all__ = ["add_subcommands", "parse_terrain", "print_execution", "simulate_command", "sweep_command"]

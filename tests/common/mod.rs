@@ -124,6 +124,17 @@ pub fn drop_state(model: &Model, theta: &[f64], phi: f64, gap_m: f64, qd: &[f64]
     q.iter().chain(qd).copied().collect()
 }
 
+/// The RHex drop of the whole-execution sensitivity tests ([`drop_state`]): hips at
+/// (0.3, −0.2) rad, pitched 0.1 rad, the lowest contact 1 cm above flat ground, moving at
+/// (0.4, 0.3) m/s and turning at 0.8 rad/s.
+pub fn tumbling_drop(model: &Model) -> Vec<f64> {
+    let mut qd = vec![0.0; model.nq()];
+    qd[model.ix_x()] = 0.4;
+    qd[model.ix_z()] = 0.3;
+    qd[model.ix_phi()] = 0.8;
+    drop_state(model, &[0.3, -0.2], 0.1, 0.01, &qd)
+}
+
 /// An execution's events as `(kind, mode after)`.
 pub fn seq(e: &Execution) -> Vec<(EventKind, ContactMode)> {
     e.events.iter().map(|e| (e.kind, e.mode_after)).collect()

@@ -9,7 +9,6 @@ use selfmanip::core::{
     forward_dynamics, ContactKind, ContactMode, CoreError, Data, FlatGround, Model,
     RobotDescription, Terrain,
 };
-use selfmanip::hybrid::{Controller, ControllerPartials};
 
 pub const G: f64 = 9.81;
 pub const M: f64 = 3.0;
@@ -91,43 +90,4 @@ pub fn all_sliding() -> ContactMode {
         .with(0, ContactKind::Slide)
         .with(1, ContactKind::Slide)
         .with(2, ContactKind::Slide)
-}
-
-/// A constant torque at the leg's joint, the named parameter `tau`.
-#[derive(Debug, Clone)]
-pub struct Press(pub f64);
-
-impl Controller for Press {
-    fn torque(&self, _t: f64, _q: &[f64], _qd: &[f64], _m: ContactMode, tau: &mut [f64]) {
-        tau[0] = self.0;
-    }
-    fn partials(
-        &self,
-        _t: f64,
-        _q: &[f64],
-        _qd: &[f64],
-        _m: ContactMode,
-        _free: &[usize],
-        _out: &mut ControllerPartials,
-    ) -> bool {
-        true
-    }
-    fn parameter_partials(
-        &self,
-        _t: f64,
-        _q: &[f64],
-        _qd: &[f64],
-        _m: ContactMode,
-        _free: &[usize],
-        names: &[&str],
-        out: &mut ControllerPartials,
-    ) -> bool {
-        for (k, n) in names.iter().enumerate() {
-            if *n != "tau" {
-                return false;
-            }
-            out.dtau_dp[(0, k)] = 1.0;
-        }
-        true
-    }
 }

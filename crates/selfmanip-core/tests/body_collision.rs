@@ -4,10 +4,14 @@
 //! `q = [θ…, x, z, φ]`, a body point `p` at `X + R(φ) p` with
 //! `R(φ) = [[cos φ, sin φ], [−sin φ, cos φ]]`.
 use nalgebra::Vector2;
-use selfmanip_core::contact::{contact_gap, outline_penetration, Terrain};
+use selfmanip_core::contact::{contact_gap, outline_penetration};
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::model::{ContactShape, Friction, OutlineShape};
-use selfmanip_core::{CoreError, FlatGround, GroundPlane, Model, RobotDescription};
+use selfmanip_core::{CoreError, FlatGround, Model, RobotDescription};
+
+#[path = "common/spike.rs"]
+mod spike;
+use spike::Spike;
 
 const STICK: &str = "{ kind = \"sticking\", mu = 0.8 }";
 
@@ -245,20 +249,6 @@ fn a_site_name_taken_twice_or_too_many_sites_name_the_shape() {
     assert_eq!(build(&boxes[..7].join(", "), "").unwrap().n_contacts(), 29);
 }
 
-/// Level ground at `z = 0` with one convex corner at `v` offered everywhere (a spike's tip).
-struct Spike {
-    v: Vector2<f64>,
-}
-
-impl Terrain for Spike {
-    fn plane_under(&self, _x_m: f64) -> GroundPlane {
-        GroundPlane::level(0.0)
-    }
-    fn corner_near(&self, _c: Vector2<f64>) -> Option<Vector2<f64>> {
-        Some(self.v)
-    }
-}
-
 fn kinematics(m: &Model, q: &[f64]) -> Kinematics {
     let mut kin = Kinematics::default();
     kin.compute(m, q, &vec![0.0; q.len()]);
@@ -317,7 +307,7 @@ fn a_terrain_corner_inside_an_outline_is_a_penetration_its_sites_cannot_see() {
         assert!(contact_gap(&m, &kin, &FlatGround, k) > 0.0);
     }
     let spike = Spike {
-        v: Vector2::new(1.05, -0.07),
+        tip: Vector2::new(1.05, -0.07),
     };
     let p = outline_penetration(&m, &kin, &spike, 0.0).unwrap();
     assert_eq!(p.outline, 0);
@@ -325,14 +315,14 @@ fn a_terrain_corner_inside_an_outline_is_a_penetration_its_sites_cannot_see() {
     // into the stadium's straight side: the tip 0.01 below its axis, 0.05 from its middle,
     // is 0.03 − 0.01 inside
     let spike = Spike {
-        v: Vector2::new(1.05, -0.39),
+        tip: Vector2::new(1.05, -0.39),
     };
     let p = outline_penetration(&m, &kin, &spike, 0.0).unwrap();
     assert_eq!(p.outline, 1);
     assert!((p.depth_m - 0.02).abs() < 1e-12, "{}", p.depth_m);
     // beyond the stadium's end circle: outside by |(0.15, 0.02) − (0.1, 0)| − 0.03
     let spike = Spike {
-        v: Vector2::new(1.15, -0.38),
+        tip: Vector2::new(1.15, -0.38),
     };
     let outside = (0.05f64.hypot(0.02)) - 0.03;
     assert!(outside > 0.0);

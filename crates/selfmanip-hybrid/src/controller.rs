@@ -252,3 +252,99 @@ impl Controller for ZeroTorque {
         true
     }
 }
+
+/// Constant joint torques: `Υ_j = torques_n_m[j]`, 0 at the joints past the list's end. Its
+/// partials over the state vanish, and each torque of the list is a named parameter,
+/// `"tau[j]"` for joint `j` (`∂Υ_j/∂tau[j] = 1`).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ConstantTorque {
+    pub torques_n_m: Vec<f64>,
+}
+
+impl ConstantTorque {
+    /// `tau_n_m` at joint 0, none at the others.
+    pub fn first_joint(tau_n_m: f64) -> Self {
+        ConstantTorque {
+            torques_n_m: vec![tau_n_m],
+        }
+    }
+
+    /// The joint whose torque `name` is (`"tau[j]"`), if it is one of this controller's.
+    fn joint_of(&self, name: &str) -> Option<usize> {
+        let j = name.strip_prefix("tau[")?.strip_suffix(']')?.parse().ok()?;
+        (j < self.torques_n_m.len()).then_some(j)
+    }
+}
+
+impl Controller for ConstantTorque {
+    fn torque(&self, _t: f64, _q: &[f64], _qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
+        let k = self.torques_n_m.len().min(tau.len());
+        tau[..k].copy_from_slice(&self.torques_n_m[..k]);
+        tau[k..].fill(0.0);
+    }
+    fn partials(
+        &self,
+        _t: f64,
+        _q: &[f64],
+        _qd: &[f64],
+        _mode: ContactMode,
+        _free_joints: &[usize],
+        _out: &mut ControllerPartials,
+    ) -> bool {
+        true
+    }
+    fn parameter_partials(
+        &self,
+        _t: f64,
+        _q: &[f64],
+        _qd: &[f64],
+        _mode: ContactMode,
+        _free_joints: &[usize],
+        names: &[&str],
+        out: &mut ControllerPartials,
+    ) -> bool {
+        for (k, name) in names.iter().enumerate() {
+            match self.joint_of(name) {
+                Some(j) if j < out.dtau_dp.nrows() => out.dtau_dp[(j, k)] = 1.0,
+                _ => return false,
+            }
+        }
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The torques land on their joints and zero the rest; each `"tau[j]"` moves only its
+    /// own joint's torque, one for one; a name that is not one of its torques is refused.
+    #[test]
+    fn constant_torque_parameters_are_its_torques() {
+        let c = ConstantTorque {
+            torques_n_m: vec![1.5, -2.0],
+        };
+        let mut tau = [9.0; 3];
+        c.torque(0.0, &[], &[], ContactMode::FLIGHT, &mut tau);
+        assert_eq!(tau, [1.5, -2.0, 0.0]);
+        let mut out = ControllerPartials::with_parameters(3, 4, 0, 2);
+        assert!(c.partials(0.0, &[], &[], ContactMode::FLIGHT, &[], &mut out));
+        assert!(c.parameter_partials(
+            0.0,
+            &[],
+            &[],
+            ContactMode::FLIGHT,
+            &[],
+            &["tau[1]", "tau[0]"],
+            &mut out
+        ));
+        let expected = DMatrix::from_row_slice(3, 2, &[0.0, 1.0, 1.0, 0.0, 0.0, 0.0]);
+        assert_eq!(out.dtau_dp, expected);
+        for name in ["tau[2]", "tau", "tau[x]", "k"] {
+            let mut out = ControllerPartials::with_parameters(3, 4, 0, 1);
+            let known =
+                c.parameter_partials(0.0, &[], &[], ContactMode::FLIGHT, &[], &[name], &mut out);
+            assert!(!known, "{name}");
+        }
+    }
+}

@@ -79,7 +79,8 @@ pub mod zeno;
 
 pub use actuated::{Actuated, CommandPolicy};
 pub use controller::{
-    Controller, ControllerPartials, EventMemoryPartials, MemoryTimeEvent, TimeEvent, ZeroTorque,
+    ConstantTorque, Controller, ControllerPartials, EventMemoryPartials, MemoryTimeEvent,
+    TimeEvent, ZeroTorque,
 };
 pub use energy::{energy_report, EnergyReport};
 pub use error::HybridError;

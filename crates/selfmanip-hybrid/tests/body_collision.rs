@@ -9,6 +9,10 @@ use selfmanip_core::{
 };
 use selfmanip_hybrid::{simulate, EventKind, Execution, HybridOptions, Termination, ZeroTorque};
 
+#[path = "../../selfmanip-core/tests/common/spike.rs"]
+mod spike;
+use spike::Spike;
+
 const G: f64 = 9.81;
 const M: f64 = 2.0;
 const I: f64 = 0.03;
@@ -223,20 +227,6 @@ fn a_circle_landing_with_speed_rolls_on_at_the_speed_its_angular_momentum_allows
         e.q[0]
     );
     assert!((e.q[2] + v * (t - t1) / r).abs() < 1e-7, "{}", e.q[2]);
-}
-
-/// Level ground at `z = 0` and a spike: one convex corner at `tip`, offered everywhere.
-struct Spike {
-    tip: Vector2<f64>,
-}
-
-impl Terrain for Spike {
-    fn plane_under(&self, _x_m: f64) -> GroundPlane {
-        GroundPlane::level(0.0)
-    }
-    fn corner_near(&self, _c: Vector2<f64>) -> Option<Vector2<f64>> {
-        Some(self.tip)
-    }
 }
 
 #[test]

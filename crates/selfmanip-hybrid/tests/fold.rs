@@ -23,9 +23,9 @@ mod systems;
 use selfmanip_core::description::FrictionDescription;
 use selfmanip_core::{ContactMode, FlatGround, Model};
 use selfmanip_hybrid::{
-    energy_report, Controller, EventKind, Execution, HybridOptions, Termination,
+    energy_report, ConstantTorque, Controller, EventKind, Execution, HybridOptions, Termination,
 };
-use systems::{fold_options, massless_leg, sliding, toe_sliding_run, HipTorque, G};
+use systems::{fold_options, massless_leg, sliding, toe_sliding_run, G};
 
 const M: f64 = 1.0;
 const L: f64 = 0.2;
@@ -83,7 +83,8 @@ fn constant_torque_leg_is_released_at_its_fold_to_the_energy_apex() {
     assert!(tau / (L * beta0.abs().sin()) > M * G);
     let (q, qd) = start(beta0, 0.0);
     for eps in [1e-2, 1e-3, 1e-4] {
-        let exec = toe_sliding_run(&model, &HipTorque(tau), &q, &qd, 2.0, fold_options(eps));
+        let press = ConstantTorque::first_joint(tau);
+        let exec = toe_sliding_run(&model, &press, &q, &qd, 2.0, fold_options(eps));
         assert_eq!(exec.termination, Termination::Apex, "ε = {eps}");
         let kinds: Vec<EventKind> = exec.events.iter().map(|e| e.kind).collect();
         assert_eq!(kinds, [EventKind::Fold, EventKind::Apex], "ε = {eps}");
@@ -120,7 +121,8 @@ fn impulsive_stick_that_would_pull_is_refused_at_the_fold() {
     });
     let (beta0, tau, eps) = (-0.5_f64, 2.0, 1e-3);
     let (q, qd) = start(beta0, 0.0);
-    let exec = toe_sliding_run(&model, &HipTorque(tau), &q, &qd, 2.0, fold_options(eps));
+    let press = ConstantTorque::first_joint(tau);
+    let exec = toe_sliding_run(&model, &press, &q, &qd, 2.0, fold_options(eps));
     assert_eq!(exec.termination, Termination::Apex);
     let fold = &exec.events[0];
     assert_eq!(fold.kind, EventKind::Fold);

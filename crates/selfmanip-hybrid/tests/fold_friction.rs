@@ -23,8 +23,8 @@ mod systems;
 
 use selfmanip_core::description::FrictionDescription;
 use selfmanip_core::{forward_dynamics, Data, FlatGround, Model};
-use selfmanip_hybrid::{EventKind, Termination};
-use systems::{fold_options, massless_leg, sliding, toe_sliding_run, HipTorque};
+use selfmanip_hybrid::{ConstantTorque, EventKind, Termination};
+use systems::{fold_options, massless_leg, sliding, toe_sliding_run};
 
 const M: f64 = 1.0;
 const L: f64 = 0.2;
@@ -47,7 +47,8 @@ fn run(model: &Model, xdot: f64, eps: f64) -> (Option<(f64, Vec<f64>)>, Terminat
     let q = [beta0, 0.0, -L * beta0.cos(), 0.0];
     let qd = [0.0, xdot, 0.0, 0.0];
     let opts = fold_options(eps);
-    let exec = toe_sliding_run(model, &HipTorque(2.0), &q, &qd, 0.5, opts);
+    let press = ConstantTorque::first_joint(2.0);
+    let exec = toe_sliding_run(model, &press, &q, &qd, 0.5, opts);
     let fold = exec
         .events
         .iter()

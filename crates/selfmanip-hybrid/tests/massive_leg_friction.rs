@@ -27,7 +27,7 @@ use selfmanip_core::kinematics::{Kinematics, Part};
 use selfmanip_core::{
     forward_dynamics, ContactKind, ContactMode, Data, FlatGround, Model, RobotDescription,
 };
-use selfmanip_hybrid::{Controller, EventKind};
+use selfmanip_hybrid::{ConstantTorque, EventKind};
 use systems::{assert_friction_took, sled_slide};
 
 const G: f64 = 9.81;
@@ -90,16 +90,6 @@ fn all_sliding() -> ContactMode {
 fn push(model: &Model, m_l: f64, tau: f64, sigma: f64) -> f64 {
     let (jt, jc) = (jacobian(model, LEG), jacobian(model, LEG / 2.0));
     (tau + m_l * G * jc.y) / (jt.y + MU * sigma * (jt.x - m_l * jc.x / (M + m_l)))
-}
-
-/// A constant joint torque.
-#[derive(Clone)]
-struct Press(f64);
-
-impl Controller for Press {
-    fn torque(&self, _t: f64, _q: &[f64], _qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
-        tau[0] = self.0;
-    }
 }
 
 /// The engine's accelerations and toe force at one instant against the second formulation,
@@ -169,7 +159,8 @@ fn massive_leg_sled_stops_at_the_reduced_equation_time_and_the_energy_balance_cl
     // to past the stop only: there the reset sticks the toe and lets the front skid go (the
     // pressed leg's reaction tips the body up about the toe, a flow without friction that
     // the hand derivation does not cover; the toe slips again at ~2 t*)
-    let exec = sled_slide(&model, &Press(tau), (&q, &qd), 1.5 * t_star);
+    let press = ConstantTorque::first_joint(tau);
+    let exec = sled_slide(&model, &press, (&q, &qd), 1.5 * t_star);
     let stop = &exec.events[0];
     assert_eq!(stop.kind, EventKind::Stick, "{:?}", exec.events);
     assert!((stop.t - t_star).abs() < 1e-7, "{} vs {t_star}", stop.t);

@@ -1,8 +1,8 @@
 //! Stage `energy`: the balance `E₁ − E₀ = W − L` against closed forms.
 mod systems;
 use selfmanip_core::{ContactMode, FlatGround};
-use selfmanip_hybrid::{energy_report, simulate, HybridOptions};
-use systems::{block, coast, one_leg, HipTorque, BLOCK, G};
+use selfmanip_hybrid::{energy_report, simulate, ConstantTorque, HybridOptions};
+use systems::{block, coast, one_leg, BLOCK, G};
 
 /// A level block dropped from `d` lands flat and stays: the impact takes all its kinetic
 /// energy `m g d`, the potential energy falls by `m g d`, no work is done.
@@ -35,7 +35,7 @@ fn hip_work_in_flight_is_torque_times_turn() {
     let exec = simulate(
         &model,
         &FlatGround,
-        &HipTorque(tau),
+        &ConstantTorque::first_joint(tau),
         ContactMode::FLIGHT,
         &q0,
         &[0.0; 4],

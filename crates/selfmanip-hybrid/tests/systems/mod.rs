@@ -346,16 +346,6 @@ pub fn sliding(contacts: &[usize]) -> ContactMode {
         .fold(ContactMode::FLIGHT, |m, &k| m.with(k, ContactKind::Slide))
 }
 
-/// A constant torque at joint 0 (the first leg's hip).
-#[derive(Clone)]
-pub struct HipTorque(pub f64);
-
-impl Controller for HipTorque {
-    fn torque(&self, _t: f64, _q: &[f64], _qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
-        tau[0] = self.0;
-    }
-}
-
 /// Hip servos `Υ_i = −k (θ_i − θ_i*) − c θ̇_i` with their partials, and the gain `k` as a
 /// parameter (`"k"`): the controller of the drops of the whole-execution sensitivity tests.
 #[derive(Debug, Clone)]
