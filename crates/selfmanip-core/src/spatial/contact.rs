@@ -12,10 +12,10 @@
 #![allow(non_snake_case)]
 use super::error::{SpatialError, SpatialResult};
 use super::kinematics::{
-    forward_kinematics_velocity, frame_linear_drift, frame_placement, SpatialData,
+    forward_kinematics_velocity, frame_linear_drift, frame_placement, Matrix6xX, SpatialData,
 };
 use super::model::SpatialModel;
-use super::rigid_body::{bias_forces_from_kinematics, mass_matrix_from_kinematics, world_column};
+use super::rigid_body::{bias_forces_from_kinematics, mass_matrix_from_kinematics};
 use super::tree_kkt::KktRoute;
 use crate::error::check_result;
 use crate::error::check_vector;
@@ -206,21 +206,41 @@ pub(crate) fn contact_rows(
             drift += alpha.cross(&r) + w.cross(&r_dot);
         }
         let x = frame_placement(model, data, contact.frame).translation + r;
-        for d in &contact.directions()[..contact.n_rows()] {
-            let xd = x.cross(d);
-            let mut j = joint;
-            while let Some(i) = j {
-                let jt = &model.joints[i];
-                for col in jt.idx_v..jt.idx_v + jt.kind.nv() {
-                    let s = world_column(data, col);
-                    data.A[(row, col)] =
-                        d.dot(&s.fixed_rows::<3>(0)) + xd.dot(&s.fixed_rows::<3>(3));
-                }
-                j = jt.parent;
-            }
-            data.A_drift[row] = d.dot(&drift);
-            row += 1;
+        let dirs = contact.directions();
+        let n = contact.n_rows();
+        point_rows(model, &data.oS, joint, &x, &dirs[..n], |k, col, value| {
+            data.A[(row + k, col)] = value
+        });
+        for (k, d) in dirs[..n].iter().enumerate() {
+            data.A_drift[row + k] = d.dot(&drift);
         }
+        row += n;
+    }
+}
+/// The rows `d·J_p` of the material point `x` (world) of joint `joint`'s body along the world
+/// directions `dirs`, `d·(v + ω × x)` on each supporting joint's world column `⁰S = [v; ω]`
+/// (Featherstone 2008, (2.20)), through `put(direction index, column, value)`; the columns of
+/// other joints (zero) are not visited.
+pub(crate) fn point_rows(
+    model: &SpatialModel,
+    oS: &Matrix6xX,
+    joint: Option<usize>,
+    x: &Vector3<f64>,
+    dirs: &[Vector3<f64>],
+    mut put: impl FnMut(usize, usize, f64),
+) {
+    let s = oS.as_slice();
+    let mut j = joint;
+    while let Some(i) = j {
+        let jt = &model.joints[i];
+        for col in jt.idx_v..jt.idx_v + jt.kind.nv() {
+            let c = &s[6 * col..6 * col + 6];
+            let jp = Vector3::new(c[0], c[1], c[2]) + Vector3::new(c[3], c[4], c[5]).cross(x);
+            for (k, d) in dirs.iter().enumerate() {
+                put(k, col, d.dot(&jp));
+            }
+        }
+        j = jt.parent;
     }
 }
 
