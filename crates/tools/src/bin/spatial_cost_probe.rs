@@ -11,13 +11,10 @@
 //! and divide the collected instructions by the calls (printed).
 #[path = "../../../selfmanip-core/tests/spatial_support/bench_state.rs"]
 mod bench_state;
-use bench_state::standing_state;
+use bench_state::{evaluate, standing_state};
 use nalgebra::DVector;
 use selfmanip_core::spatial::inertia::Inertia;
-use selfmanip_core::spatial::{
-    forward_dynamics, BaseKind, PointContact, SpatialData, SpatialModel,
-};
-use std::hint::black_box;
+use selfmanip_core::spatial::{BaseKind, PointContact, SpatialData, SpatialModel};
 
 const QUADRUPED: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -30,20 +27,11 @@ fn probe_calls(
     model: &SpatialModel,
     data: &mut SpatialData,
     contacts: &[PointContact],
-    (q, v, tau): (&DVector<f64>, &DVector<f64>, &DVector<f64>),
+    state: (&DVector<f64>, &DVector<f64>, &DVector<f64>),
     calls: usize,
 ) {
     for _ in 0..calls {
-        forward_dynamics(
-            model,
-            data,
-            contacts,
-            black_box(q.as_slice()),
-            black_box(v.as_slice()),
-            tau.as_slice(),
-        )
-        .expect("standing is regular");
-        black_box(&data.qdd);
+        evaluate(model, data, contacts, state);
     }
 }
 
@@ -72,7 +60,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     probe_calls(&model, &mut data, &contacts, state, 1);
     println!(
         "quadruped ({}), four feet with friction: {calls} calls, route {:?}, |q̈| {:.6e}",
-        if massless { "massless shins" } else { "URDF legs" },
+        if massless {
+            "massless shins"
+        } else {
+            "URDF legs"
+        },
         data.kkt_route,
         data.qdd.norm()
     );
