@@ -8,14 +8,12 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::DVector;
 use selfmanip::core::spatial::rhex::{RhexSixLegs, PAIRS, SIDES};
 use selfmanip::core::spatial::rigid_body::{crba, nonlinear_effects};
-use selfmanip::core::spatial::{
-    forward_dynamics, neutral, BaseKind, PointContact, SpatialData, SpatialModel,
-};
+use selfmanip::core::spatial::{neutral, BaseKind, PointContact, SpatialData, SpatialModel};
 use std::hint::black_box;
 
 #[path = "../crates/selfmanip-core/tests/spatial_support/bench_state.rs"]
 mod bench_state;
-use bench_state::standing_state;
+use bench_state::{evaluate, standing_state};
 
 const QUADRUPED: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -49,22 +47,9 @@ fn bench_dynamics(
     model: &SpatialModel,
     data: &mut SpatialData,
     contacts: &[PointContact],
-    (q, v, tau): State<'_>,
+    state: State<'_>,
 ) {
-    group.bench_function(name, |b| {
-        b.iter(|| {
-            forward_dynamics(
-                model,
-                data,
-                contacts,
-                black_box(q.as_slice()),
-                black_box(v.as_slice()),
-                tau.as_slice(),
-            )
-            .expect("standing is regular");
-            black_box(&data.qdd);
-        })
-    });
+    group.bench_function(name, |b| b.iter(|| evaluate(model, data, contacts, state)));
 }
 
 fn spatial(c: &mut Criterion) {

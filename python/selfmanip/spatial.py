@@ -12,6 +12,16 @@ then the normal), ``"FL_foot:frictionless"`` the normal only; ``lam`` is the gro
 the robot along those rows (a pushing normal force is positive), with
 ``M qdd + h = tau + A^T lam``.
 
+Contacts may also be a dict ``{frame: {"radius_m": r, "friction": mu}}``: a point (``r = 0``)
+or a sphere foot of radius ``r`` about the frame's origin, with three rows if ``mu > 0`` and
+the normal row alone if ``mu = 0``; ``"slide": True`` keeps the normal row and applies Coulomb
+friction ``mu`` on the circular cone's edge against the contact point's sliding velocity;
+``"normal": [nx, ny, nz]`` tilts the ground; and an arc of radius ``r`` is
+``"arc": {"axis": [..], "zero": [..], "angle_range_rad": [a, b]}`` (frame axes: the arc spans
+the angles ``a..b`` about ``axis`` from the direction ``zero``; RHex's C-leg is the arc of
+radius 0.085 about ``..._arc`` with axis ``[0, -1, 0]``, zero ``[0, 0, -1]`` and range
+``[0, pi]``). A bad entry raises ``InvalidInputError`` naming ``contacts[frame].key``.
+
 Example::
 
     robot = SpatialRobot.from_urdf("tests/data/urdf/quadruped12.urdf")
@@ -23,7 +33,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
-from typing import Literal, Sequence
+from typing import Any, Literal, Mapping, Sequence
 
 import numpy as np
 
@@ -32,6 +42,12 @@ from ._wrapped_model import WrappedModel
 from .errors import InvalidTypeError
 
 ReferenceFrame = Literal["local", "world", "local_world_aligned"]
+Contacts = Sequence[str] | Mapping[str, Mapping[str, Any]]
+
+
+def _contacts(contacts: Contacts) -> list[str] | dict[str, Mapping[str, Any]]:
+    """Frame names as a list, the dict form as a dict (see the module's conventions)."""
+    return dict(contacts) if isinstance(contacts, Mapping) else list(contacts)
 
 
 @dataclass(frozen=True)
@@ -173,20 +189,20 @@ class SpatialRobot(WrappedModel):
         """The frame's 6 x nv Jacobian, linear rows first, in ``frame``."""
         return self._native.frame_jacobian(_vector(q), name, frame)
 
-    def dynamics(self, contacts: Sequence[str], q: np.ndarray | Sequence[float],
+    def dynamics(self, contacts: Contacts, q: np.ndarray | Sequence[float],
                  v: np.ndarray | Sequence[float], tau: np.ndarray | Sequence[float]) -> SpatialDynamics:
         """Forward dynamics with ``contacts`` held (see the module's conventions)."""
-        d = self._native.dynamics(list(contacts), _vector(q), _vector(v), _vector(tau))
+        d = self._native.dynamics(_contacts(contacts), _vector(q), _vector(v), _vector(tau))
         return SpatialDynamics(d["qdd"], d["lam"], [tuple(r) for r in d["rows"]], d["A"], d["drift"])
 
-    def quasi_static(self, contacts: Sequence[str], q: np.ndarray | Sequence[float]) -> SpatialQuasiStatic:
+    def quasi_static(self, contacts: Contacts, q: np.ndarray | Sequence[float]) -> SpatialQuasiStatic:
         """Quasi-static forces of ``contacts`` at rest at ``q`` (thesis 4.21-4.22)."""
-        d = self._native.quasi_static(list(contacts), _vector(q))
+        d = self._native.quasi_static(_contacts(contacts), _vector(q))
         return SpatialQuasiStatic(d["grasp"], d["gravity_wrench"], d["lam_external"], d["internal_basis"],
                                   d["tau_external"], d["internal_torques"], [tuple(r) for r in d["rows"]])
 
-    def impact(self, contacts: Sequence[str], q: np.ndarray | Sequence[float],
+    def impact(self, contacts: Contacts, q: np.ndarray | Sequence[float],
                v: np.ndarray | Sequence[float]) -> SpatialImpact:
         """Plastic impact into ``contacts`` with incoming rates ``v``."""
-        d = self._native.impact(list(contacts), _vector(q), _vector(v))
+        d = self._native.impact(_contacts(contacts), _vector(q), _vector(v))
         return SpatialImpact(d["v_plus"], d["impulse"], [tuple(r) for r in d["rows"]])

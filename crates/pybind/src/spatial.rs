@@ -3,9 +3,11 @@
 //! layouts are Pinocchio's (see `selfmanip_core::spatial`).
 //!
 //! Contacts are a list of frame names, each with friction (3 rows `[t₁, t₂, n]`) or, with the
-//! suffix `:frictionless`, the normal row alone; the ground is flat with a z-up normal.
-use crate::errors::{self, guard, invalid, Source};
-use nalgebra::{DMatrix, DVector};
+//! suffix `:frictionless`, the normal row alone, on flat z-up ground; or a dict
+//! `{frame: {"radius_m", "friction", "slide", "normal", "arc"}}` (`SpatialRobot::contact`):
+//! sphere feet, arcs, other ground normals and Coulomb sliding.
+use crate::errors::{self, guard, invalid, invalid_type, Source};
+use nalgebra::{DMatrix, DVector, Vector3};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
@@ -80,12 +82,33 @@ impl UrdfSource {
 }
 
 impl SpatialRobot {
-    /// The contacts named in `names` (`"frame"` or `"frame:frictionless"`) and their row
-    /// labels `(frame, "t1"|"t2"|"n")`.
-    fn contacts(&self, names: &[String]) -> PyResult<(Vec<PointContact>, Vec<RowLabel>)> {
+    /// The contacts of `spec` and their row labels `(frame, "t1"|"t2"|"n")`: a list of frame
+    /// names (`"frame"` or `"frame:frictionless"`), or a dict `{frame: {...}}` ([`Self::contact`]).
+    fn contacts(&self, spec: &Bound<'_, PyAny>) -> PyResult<(Vec<PointContact>, Vec<RowLabel>)> {
         let mut contacts = Vec::new();
         let mut rows = Vec::new();
-        for spec in names {
+        let mut push = |name: &str, c: PointContact| {
+            let labels: &[&str] = match c.n_rows() {
+                3 => &["t1", "t2", "n"],
+                _ => &["n"],
+            };
+            rows.extend(labels.iter().map(|l| (name.to_string(), l.to_string())));
+            contacts.push(c);
+        };
+        if let Ok(dict) = spec.cast::<PyDict>() {
+            for (key, value) in dict.iter() {
+                let name: String = key
+                    .extract()
+                    .map_err(|_| invalid_type("contacts", "contact keys are frame names"))?;
+                let c = self.contact(&name, &value)?;
+                push(&name, c);
+            }
+            return Ok((contacts, rows));
+        }
+        let names: Vec<String> = spec.extract().map_err(|_| {
+            invalid_type("contacts", "a list of frame names or a dict {frame: {...}}")
+        })?;
+        for spec in &names {
             let (name, friction) = match spec.split_once(':') {
                 None => (spec.as_str(), true),
                 Some((name, "frictionless")) => (name, false),
@@ -102,11 +125,108 @@ impl SpatialRobot {
                 SpatialError::UnknownFrame { .. } => invalid("contacts", e.to_string()),
                 other => spatial_err(other),
             })?;
-            let labels: &[&str] = if friction { &["t1", "t2", "n"] } else { &["n"] };
-            rows.extend(labels.iter().map(|l| (name.to_string(), l.to_string())));
-            contacts.push(c);
+            push(name, c);
         }
         Ok((contacts, rows))
+    }
+
+    /// One contact of the dict form, `{"radius_m": r, "friction": mu, "slide": False,
+    /// "normal": [0, 0, 1], "arc": {"axis": [..], "zero": [..], "angle_range_rad": [a, b]}}`
+    /// (every key optional): a point (`r = 0`) or a sphere foot of radius `r`, or with `arc`
+    /// the arc of radius `r`; with `mu > 0` three rows (sticking) or, with `slide`, the normal
+    /// row and Coulomb friction `mu`; `mu = 0` frictionless. Errors name
+    /// `contacts[frame].key`.
+    fn contact(&self, name: &str, spec: &Bound<'_, PyAny>) -> PyResult<PointContact> {
+        let field = |key: &str| format!("contacts[{name}].{key}");
+        let spec = spec.cast::<PyDict>().map_err(|_| {
+            invalid_type(&format!("contacts[{name}]"), "a dict of the contact's keys")
+        })?;
+        for key in spec.keys() {
+            let key: String = key.extract()?;
+            if !["radius_m", "friction", "slide", "normal", "arc"].contains(&key.as_str()) {
+                return Err(invalid(
+                    &field(&key),
+                    format!("unknown key `{key}` (radius_m, friction, slide, normal, arc)"),
+                ));
+            }
+        }
+        let get = |key: &str| spec.get_item(key);
+        let number = |key: &str, default: f64| -> PyResult<f64> {
+            match get(key)? {
+                None => Ok(default),
+                Some(x) => x
+                    .extract()
+                    .map_err(|_| invalid_type(&field(key), "a number")),
+            }
+        };
+        let triple = |d: &Bound<'_, PyDict>, key: &str, label: String| -> PyResult<Vector3<f64>> {
+            let x: Vec<f64> = d
+                .get_item(key)?
+                .ok_or_else(|| invalid(&label, "missing"))?
+                .extract()
+                .map_err(|_| invalid_type(&label, "three numbers"))?;
+            if x.len() != 3 {
+                return Err(invalid(&label, format!("{} numbers, expected 3", x.len())));
+            }
+            Ok(Vector3::new(x[0], x[1], x[2]))
+        };
+        let (radius_m, mu) = (number("radius_m", 0.0)?, number("friction", 0.0)?);
+        let slide: bool = match get("slide")? {
+            None => false,
+            Some(x) => x
+                .extract()
+                .map_err(|_| invalid_type(&field("slide"), "a bool"))?,
+        };
+        let normal = match get("normal")? {
+            None => Vector3::z(),
+            Some(_) => triple(spec, "normal", field("normal"))?,
+        };
+        let named = |e: SpatialError| match e {
+            SpatialError::InvalidArgument { field: f, reason } => invalid(&field(&f), reason),
+            SpatialError::UnknownFrame { .. } => invalid("contacts", e.to_string()),
+            other => spatial_err(other),
+        };
+        let c = PointContact::with_normal(&self.model, name, mu > 0.0 && !slide, normal)
+            .map_err(named)?;
+        let c = match get("arc")? {
+            Some(arc) => {
+                let arc = arc.cast::<PyDict>().map_err(|_| {
+                    invalid_type(&field("arc"), "a dict with axis, zero, angle_range_rad")
+                })?;
+                let sub = |k: &str| format!("contacts[{name}].arc.{k}");
+                let range: Vec<f64> = arc
+                    .get_item("angle_range_rad")?
+                    .ok_or_else(|| invalid(&sub("angle_range_rad"), "missing"))?
+                    .extract()
+                    .map_err(|_| invalid_type(&sub("angle_range_rad"), "two numbers"))?;
+                if range.len() != 2 {
+                    return Err(invalid(&sub("angle_range_rad"), "two numbers [from, to]"));
+                }
+                let (axis, zero) = (
+                    triple(arc, "axis", sub("axis"))?,
+                    triple(arc, "zero", sub("zero"))?,
+                );
+                c.on_arc(radius_m, axis, zero, (range[0], range[1]))
+                    .map_err(|e| match e {
+                        SpatialError::InvalidArgument { field: f, reason } if f != "radius_m" => {
+                            invalid(&sub(&f), reason)
+                        }
+                        other => named(other),
+                    })?
+            }
+            None if radius_m != 0.0 => c.on_sphere(radius_m).map_err(named)?,
+            None => c,
+        };
+        if slide {
+            c.sliding(mu).map_err(named)
+        } else if !(mu >= 0.0 && mu.is_finite()) {
+            Err(invalid(
+                &field("friction"),
+                format!("must be finite and non-negative, got {mu}"),
+            ))
+        } else {
+            Ok(c)
+        }
     }
 
     fn frame(&self, name: &str) -> PyResult<usize> {
@@ -120,18 +240,18 @@ impl SpatialRobot {
         Ok(data)
     }
 
-    /// What the contact methods share: `names` resolved ([`Self::contacts`]), `solve` on the
+    /// What the contact methods share: `spec` resolved ([`Self::contacts`]), `solve` on the
     /// contacts and fresh data, then a dict that `fill` writes from its result and the data,
     /// with the contact rows under `"rows"`.
     fn contact_dict<'py, T>(
         &self,
         py: Python<'py>,
-        names: &[String],
+        spec: &Bound<'_, PyAny>,
         solve: impl FnOnce(&[PointContact], &mut SpatialData) -> Result<T, SpatialError>,
         fill: impl FnOnce(&Bound<'py, PyDict>, T, &SpatialData) -> PyResult<()>,
     ) -> PyResult<Bound<'py, PyDict>> {
         guard(|| {
-            let (contacts, rows) = self.contacts(names)?;
+            let (contacts, rows) = self.contacts(spec)?;
             let mut data = SpatialData::new(&self.model);
             let out = solve(&contacts, &mut data).map_err(spatial_err)?;
             let d = PyDict::new(py);
@@ -348,14 +468,14 @@ impl SpatialRobot {
     fn dynamics<'py>(
         &self,
         py: Python<'py>,
-        contacts: Vec<String>,
+        contacts: &Bound<'py, PyAny>,
         q: Vec<f64>,
         v: Vec<f64>,
         tau: Vec<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
         self.contact_dict(
             py,
-            &contacts,
+            contacts,
             |contacts, data| forward_dynamics(&self.model, data, contacts, &q, &v, &tau),
             |d, (), data| {
                 d.set_item("qdd", vec1(py, &data.qdd))?;
@@ -372,12 +492,12 @@ impl SpatialRobot {
     fn quasi_static<'py>(
         &self,
         py: Python<'py>,
-        contacts: Vec<String>,
+        contacts: &Bound<'py, PyAny>,
         q: Vec<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
         self.contact_dict(
             py,
-            &contacts,
+            contacts,
             |contacts, data| quasi_static(&self.model, data, contacts, &q),
             |d, out, _| {
                 d.set_item("grasp", mat(py, &out.grasp))?;
@@ -395,13 +515,13 @@ impl SpatialRobot {
     fn impact<'py>(
         &self,
         py: Python<'py>,
-        contacts: Vec<String>,
+        contacts: &Bound<'py, PyAny>,
         q: Vec<f64>,
         v: Vec<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
         self.contact_dict(
             py,
-            &contacts,
+            contacts,
             |contacts, data| impact(&self.model, data, contacts, &q, &v),
             |d, out, _| {
                 d.set_item("v_plus", vec1(py, &out.v_plus))?;

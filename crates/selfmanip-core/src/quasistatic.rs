@@ -97,9 +97,73 @@ pub fn quasi_static(
         });
     }
 
-    // ker G_s from the eigenvectors of G_sᵀ G_s with (relatively) zero eigenvalue
-    let gtg = maps.g_s.transpose() * &maps.g_s;
-    let eig = SymmetricEigen::new(gtg);
+    let n_theta = data.n_bar.rows(0, n).into_owned();
+    let balance = balance_contact_forces(
+        &maps.g_s,
+        &DVector::from_column_slice((-f_g).as_slice()),
+        &maps.j_h,
+        &n_theta,
+        ParticularForces::TorqueConstraints(t),
+    )?;
+    let f_p = balance.f_particular;
+    Ok(QuasiStatic {
+        rows: maps.rows,
+        g_s: maps.g_s,
+        j_h: maps.j_h,
+        gravity_wrench: f_g,
+        internal_basis: balance.internal_basis,
+        internal_torques: balance.internal_torques,
+        lambda_particular: -&f_p,
+        f_particular: f_p,
+        tau_particular: balance.tau_particular,
+    })
+}
+
+/// How the particular forces are chosen among the solutions `f_p + ker G` of `G f = w`.
+#[derive(Debug, Clone, Copy)]
+pub enum ParticularForces<'a> {
+    /// Torque constraints `tᵀ τ = 0` (4.23): `t` is n×a_t with `b + a_t = c` (the base's `b`
+    /// equations and the `c` contact rows), so `[G; tᵀ J_hᵀ] f = [w; −tᵀ τ₀]` is square.
+    TorqueConstraints(&'a DMatrix<f64>),
+    /// The minimum-norm forces `G⁺ w`, orthogonal to `ker G` (for a plate on point feet, the
+    /// forces of equally stiff legs); `w` outside `G`'s range (to 1e-9 relative) is an error.
+    MinimumNorm,
+}
+
+/// The contact forces that hold a robot's base at rest, for `d = 2` (`b = 3` base equations)
+/// and `d = 3` (`b = 6`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ContactForceBalance {
+    /// An orthonormal basis of the internal forces `ker G` (4.22), c×k.
+    pub internal_basis: DMatrix<f64>,
+    /// The joint torques of each internal force, `J_hᵀ N` (n×k).
+    pub internal_torques: DMatrix<f64>,
+    /// The particular forces `f_p` (c), `G f_p = w`.
+    pub f_particular: DVector<f64>,
+    /// The joint torques that hold them, `τ₀ + J_hᵀ f_p` (n).
+    pub tau_particular: DVector<f64>,
+}
+
+/// Thesis (4.21)–(4.23) for `SE(d)`: the forces `f` (c) on the contact rows with `G f = w`
+/// (`G` b×c, the grasp map; `w` the wrench the contacts balance, b), split into a particular
+/// solution chosen by `choice` and the internal forces `ker G`, with the joint torques
+/// `τ = τ₀ + J_hᵀ f` (`J_h` c×n) that hold them. `ker G` comes from the eigenvectors of `GᵀG`
+/// whose eigenvalue is at most [`NULL_SPACE_TOLERANCE`] of the largest.
+pub fn balance_contact_forces(
+    G: &DMatrix<f64>,
+    w: &DVector<f64>,
+    J_h: &DMatrix<f64>,
+    tau_0: &DVector<f64>,
+    choice: ParticularForces,
+) -> Result<ContactForceBalance> {
+    let (b, c) = (G.nrows(), G.ncols());
+    if c == 0 {
+        return Err(CoreError::IllPosedQuasiStatic {
+            reason: "no contact rows: nothing holds the robot at rest".into(),
+        });
+    }
+    // ker G from the eigenvectors of GᵀG with (relatively) zero eigenvalue
+    let eig = SymmetricEigen::new(G.transpose() * G);
     let scale = eig
         .eigenvalues
         .iter()
@@ -113,27 +177,65 @@ pub fn quasi_static(
     for (col, &i) in null.iter().enumerate() {
         internal_basis.set_column(col, &eig.eigenvectors.column(i));
     }
-    let internal_torques = maps.j_h.transpose() * &internal_basis;
+    let internal_torques = J_h.transpose() * &internal_basis;
+    let f_p = match choice {
+        ParticularForces::TorqueConstraints(t) => torque_constrained(G, w, J_h, tau_0, t)?,
+        ParticularForces::MinimumNorm => {
+            // G⁺ w = Σ over GᵀG's range of v_k (v_kᵀ Gᵀ w) / μ_k
+            let gtw = G.transpose() * w;
+            let mut f = DVector::zeros(c);
+            for k in (0..c).filter(|k| !null.contains(k)) {
+                let v_k = eig.eigenvectors.column(k);
+                f += v_k * (v_k.dot(&gtw) / eig.eigenvalues[k]);
+            }
+            let residual = (G * &f - w).amax();
+            if residual > 1e-9 * w.amax().max(1.0) {
+                return Err(CoreError::IllPosedQuasiStatic {
+                    reason: format!(
+                        "the contacts cannot hold the base at rest (wrench residual \
+                         {residual:.3e} of {b} base equations)"
+                    ),
+                });
+            }
+            f
+        }
+    };
+    let tau_p = tau_0 + J_h.transpose() * &f_p;
+    check_result("f_p", f_p.as_slice())?;
+    check_result("τ_p", tau_p.as_slice())?;
+    Ok(ContactForceBalance {
+        internal_basis,
+        internal_torques,
+        f_particular: f_p,
+        tau_particular: tau_p,
+    })
+}
 
-    // [G_s; tᵀ J_hᵀ] f = [−F_g; −tᵀ N̄_θ]
+/// The particular solution of (4.23): `[G; tᵀ J_hᵀ] f = [w; −tᵀ τ₀]`.
+fn torque_constrained(
+    G: &DMatrix<f64>,
+    w: &DVector<f64>,
+    J_h: &DMatrix<f64>,
+    tau_0: &DVector<f64>,
+    t: &DMatrix<f64>,
+) -> Result<DVector<f64>> {
+    let (b, c) = (G.nrows(), G.ncols());
     let at = t.ncols();
-    if 3 + at != c {
+    if b + at != c {
         return Err(CoreError::IllPosedQuasiStatic {
             reason: format!(
                 "{c} contact rows need {} torque constraints, got {at}",
-                c as i64 - 3
+                c as i64 - b as i64
             ),
         });
     }
     let mut lhs = DMatrix::zeros(c, c);
-    lhs.view_mut((0, 0), (3, c)).copy_from(&maps.g_s);
-    let tj = t.transpose() * maps.j_h.transpose();
-    lhs.view_mut((3, 0), (at, c)).copy_from(&tj);
-    let n_theta = data.n_bar.rows(0, n).into_owned();
+    lhs.view_mut((0, 0), (b, c)).copy_from(G);
+    let tj = t.transpose() * J_h.transpose();
+    lhs.view_mut((b, 0), (at, c)).copy_from(&tj);
     let mut rhs = DVector::zeros(c);
-    rhs.rows_mut(0, 3).copy_from(&(-f_g));
-    rhs.rows_mut(3, at)
-        .copy_from(&(-(t.transpose() * &n_theta)));
+    rhs.rows_mut(0, b).copy_from(w);
+    rhs.rows_mut(b, at).copy_from(&(-(t.transpose() * tau_0)));
     let svd = lhs.clone().svd(false, false);
     let (smax, smin) = (svd.singular_values.max(), svd.singular_values.min());
     if !(smin > 1e-12 * smax) {
@@ -144,26 +246,11 @@ pub fn quasi_static(
             ),
         });
     }
-    let f_p = lhs
-        .lu()
+    lhs.lu()
         .solve(&rhs)
         .ok_or_else(|| CoreError::IllPosedQuasiStatic {
             reason: "the augmented grasp map is singular".into(),
-        })?;
-    let tau_p = &n_theta + maps.j_h.transpose() * &f_p;
-    check_result("f_p", f_p.as_slice())?;
-    check_result("τ_p", tau_p.as_slice())?;
-    Ok(QuasiStatic {
-        rows: maps.rows,
-        g_s: maps.g_s,
-        j_h: maps.j_h,
-        gravity_wrench: f_g,
-        internal_basis,
-        internal_torques,
-        lambda_particular: -&f_p,
-        f_particular: f_p,
-        tau_particular: tau_p,
-    })
+        })
 }
 
 #[cfg(test)]

@@ -10,12 +10,13 @@
 //! positive); a frictionless contact has the row `n` alone. In the thesis's form (5.2),
 //! `M̄q̈ + Aᵀλ_thesis = Υ − C̄q̇ − N̄` with `λ_thesis = −λ`.
 #![allow(non_snake_case)]
+use super::coulomb::{solve_sliding, MIN_SLIDING_SPEED};
 use super::error::{SpatialError, SpatialResult};
 use super::kinematics::{
-    forward_kinematics_velocity, frame_linear_drift, frame_placement, SpatialData,
+    forward_kinematics_velocity, frame_linear_drift, frame_placement, Matrix6xX, SpatialData,
 };
 use super::model::SpatialModel;
-use super::rigid_body::{bias_forces_from_kinematics, mass_matrix_from_kinematics, world_column};
+use super::rigid_body::{bias_forces_from_kinematics, mass_matrix_from_kinematics};
 use super::tree_kkt::KktRoute;
 use crate::error::check_result;
 use crate::error::check_vector;
@@ -35,6 +36,22 @@ pub enum ContactShape {
     /// (thesis (5.2)'s `Ȧq̇` for a rolling contact: the centre's acceleration, not the
     /// material point's, whose centripetal part the contact point does not follow).
     Circle { radius_m: f64, axis: Vector3<f64> },
+    /// A sphere of radius `radius_m` about the frame's origin (a rounded foot), touching at
+    /// `c − r n`; the rows constrain the material point there, and the contact point stays
+    /// below the centre (`ṙ = 0` in the world), so the drift is `a_c + α × (−r n)`.
+    Sphere { radius_m: f64 },
+    /// The arc of the [`Self::Circle`] of radius `radius_m` normal to `axis` that spans the
+    /// angles `[from_rad, to_rad]` about `axis` from the unit direction `zero` (frame axes,
+    /// normal to `axis`): RHex's C-leg. It touches at the circle's lowest point while that
+    /// point's angle lies in the range (rolling, as the circle), and otherwise at the lower of
+    /// its two ends, a material point of the frame (drift `a + α × r + ω × (ω × r)`).
+    Arc {
+        radius_m: f64,
+        axis: Vector3<f64>,
+        zero: Vector3<f64>,
+        from_rad: f64,
+        to_rad: f64,
+    },
 }
 
 /// A point of a frame touching the ground.
@@ -51,6 +68,10 @@ pub struct PointContact {
     /// whose ground holds no force across its plane). Unit, normal to `normal`.
     pub tangent: Option<Vector3<f64>>,
     pub shape: ContactShape,
+    /// Coulomb's kinetic coefficient of a contact without tangent rows (`friction` false):
+    /// `μ > 0` makes it slide with the ground's tangential force `μ λ_n` on the circular
+    /// cone's edge, opposite its sliding velocity ([`super::coulomb`]); 0 is frictionless.
+    pub kinetic_friction: f64,
 }
 
 fn unit(field: &'static str, x: Vector3<f64>) -> SpatialResult<Vector3<f64>> {
@@ -62,6 +83,16 @@ fn unit(field: &'static str, x: Vector3<f64>) -> SpatialResult<Vector3<f64>> {
         });
     }
     Ok(x.normalize())
+}
+
+fn non_negative(field: &'static str, x: f64) -> SpatialResult<f64> {
+    if !x.is_finite() || x < 0.0 {
+        return Err(SpatialError::InvalidArgument {
+            field: field.into(),
+            reason: format!("must be finite and non-negative, got {x}"),
+        });
+    }
+    Ok(x)
 }
 
 impl PointContact {
@@ -84,18 +115,82 @@ impl PointContact {
             normal: unit("normal", normal)?,
             tangent: None,
             shape: ContactShape::Point,
+            kinetic_friction: 0.0,
         })
+    }
+
+    /// `self` touching on a sphere of radius `radius_m` (m, finite, ≥ 0) about the frame's
+    /// origin: see [`ContactShape::Sphere`].
+    pub fn on_sphere(self, radius_m: f64) -> SpatialResult<Self> {
+        Ok(Self {
+            shape: ContactShape::Sphere {
+                radius_m: non_negative("radius_m", radius_m)?,
+            },
+            ..self
+        })
+    }
+
+    /// `self` touching on the arc of radius `radius_m` normal to `axis` spanning
+    /// `[from_rad, to_rad]` about `axis` from `zero` (frame axes): see [`ContactShape::Arc`].
+    /// `zero` is made normal to `axis`; the range must be increasing and at most `2π` wide.
+    pub fn on_arc(
+        self,
+        radius_m: f64,
+        axis: Vector3<f64>,
+        zero: Vector3<f64>,
+        (from_rad, to_rad): (f64, f64),
+    ) -> SpatialResult<Self> {
+        let radius_m = non_negative("radius_m", radius_m)?;
+        let axis = unit("axis", axis)?;
+        let zero = unit("zero", zero)?;
+        let zero = zero - axis * axis.dot(&zero);
+        if zero.norm() < 1e-9 {
+            return Err(SpatialError::InvalidArgument {
+                field: "zero".into(),
+                reason: "parallel to the arc's axis".into(),
+            });
+        }
+        check_vector("angle_range_rad", &[from_rad, to_rad], 2)?;
+        if !(to_rad > from_rad && to_rad - from_rad <= std::f64::consts::TAU) {
+            return Err(SpatialError::InvalidArgument {
+                field: "angle_range_rad".into(),
+                reason: format!(
+                    "must be increasing and at most 2π wide, got [{from_rad}, {to_rad}]"
+                ),
+            });
+        }
+        Ok(Self {
+            shape: ContactShape::Arc {
+                radius_m,
+                axis,
+                zero: zero.normalize(),
+                from_rad,
+                to_rad,
+            },
+            ..self
+        })
+    }
+
+    /// `self` sliding with Coulomb's kinetic coefficient `mu` (finite, ≥ 0): the normal row
+    /// alone, the friction force on the cone's edge ([`super::coulomb`]).
+    pub fn sliding(self, mu: f64) -> SpatialResult<Self> {
+        Ok(Self {
+            friction: false,
+            tangent: None,
+            kinetic_friction: non_negative("friction", mu)?,
+            ..self
+        })
+    }
+
+    /// A contact without tangent rows whose sliding meets Coulomb friction (`μ > 0`).
+    pub fn slides_with_friction(&self) -> bool {
+        !self.friction && self.kinetic_friction > 0.0
     }
 
     /// `self` touching on a circle of radius `radius_m` (m, finite, ≥ 0) about the frame's
     /// origin, normal to `axis` (frame axes): see [`ContactShape::Circle`].
     pub fn on_circle(self, radius_m: f64, axis: Vector3<f64>) -> SpatialResult<Self> {
-        if !radius_m.is_finite() || radius_m < 0.0 {
-            return Err(SpatialError::InvalidArgument {
-                field: "radius_m".into(),
-                reason: format!("must be finite and non-negative, got {radius_m}"),
-            });
-        }
+        let radius_m = non_negative("radius_m", radius_m)?;
         let axis = unit("axis", axis)?;
         Ok(Self {
             shape: ContactShape::Circle { radius_m, axis },
@@ -150,31 +245,73 @@ impl PointContact {
         [t1, n.cross(&t1), n]
     }
 
-    /// The contact point's offset `r d` from the frame origin (world axes) and its rate
-    /// `r ḋ`, after the velocity kinematics: zero for a point; for a circle of world axis `a`,
-    /// `d = u/|u|` with `u = −n + (n·a)a`, and `ḋ = (u̇ − d(d·u̇))/|u|`,
-    /// `u̇ = (n·ȧ)a + (n·a)ȧ`, `ȧ = ω × a`.
+    /// The contact point's offset `r` from the frame origin (world axes) and its rate `ṙ` in
+    /// the world, after the velocity kinematics: zero for a point; `−r n` and 0 for a sphere;
+    /// for a circle of world axis `a`, `r d` with `d = u/|u|`, `u = −n + (n·a)a`, and
+    /// `ḋ = (u̇ − d(d·u̇))/|u|`, `u̇ = (n·ȧ)a + (n·a)ȧ`, `ȧ = ω × a`; for an arc, the circle's
+    /// while `d` lies in its range, else its lower end `r` with `ṙ = ω × r`.
     pub fn offset(&self, model: &SpatialModel, data: &SpatialData) -> (Vector3<f64>, Vector3<f64>) {
-        let ContactShape::Circle { radius_m, axis } = self.shape else {
-            return (Vector3::zeros(), Vector3::zeros());
+        let n = self.normal;
+        let (radius_m, axis) = match self.shape {
+            ContactShape::Point => return (Vector3::zeros(), Vector3::zeros()),
+            ContactShape::Sphere { radius_m } => return (-n * radius_m, Vector3::zeros()),
+            ContactShape::Circle { radius_m, axis } | ContactShape::Arc { radius_m, axis, .. } => {
+                (radius_m, axis)
+            }
         };
         let Some(j) = model.frames[self.frame].joint else {
-            return (-self.normal * radius_m, Vector3::zeros());
+            return (-n * radius_m, Vector3::zeros());
         };
-        let a = frame_placement(model, data, self.frame).rotation * axis;
-        let n = self.normal;
+        let rotation = frame_placement(model, data, self.frame).rotation;
+        let a = rotation * axis;
+        let w = data.ov[j].angular;
         let u = -n + a * n.dot(&a);
         let norm = u.norm();
+        let d = u / norm.max(f64::MIN_POSITIVE);
+        if let ContactShape::Arc {
+            zero,
+            from_rad,
+            to_rad,
+            ..
+        } = self.shape
+        {
+            let e0 = rotation * zero;
+            let e1 = a.cross(&e0);
+            let angle = d.dot(&e1).atan2(d.dot(&e0));
+            let inside = (angle - from_rad).rem_euclid(std::f64::consts::TAU) <= to_rad - from_rad;
+            if norm < 1e-12 || !inside {
+                // the lower end, a material point of the frame
+                let end = |t: f64| (e0 * t.cos() + e1 * t.sin()) * radius_m;
+                let (p, q) = (end(from_rad), end(to_rad));
+                let r = if n.dot(&p) <= n.dot(&q) { p } else { q };
+                return (r, w.cross(&r));
+            }
+        }
         if norm < 1e-12 {
             // the circle lies flat on the ground, every point of it lowest: the contact is
             // taken at its centre, at the same height
             return (Vector3::zeros(), Vector3::zeros());
         }
-        let d = u / norm;
-        let a_dot = data.ov[j].angular.cross(&a);
+        let a_dot = w.cross(&a);
         let u_dot = a * n.dot(&a_dot) + a_dot * n.dot(&a);
         let d_dot = (u_dot - d * d.dot(&u_dot)) / norm;
         (d * radius_m, d_dot * radius_m)
+    }
+
+    /// The contact point `x` (world) and the velocity of the material point there, after the
+    /// velocity kinematics.
+    pub fn point_velocity(
+        &self,
+        model: &SpatialModel,
+        data: &SpatialData,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let (r, _) = self.offset(model, data);
+        let x = frame_placement(model, data, self.frame).translation + r;
+        let v = match model.frames[self.frame].joint {
+            Some(j) => data.ov[j].linear + data.ov[j].angular.cross(&x),
+            None => Vector3::zeros(),
+        };
+        (x, v)
     }
 }
 
@@ -206,25 +343,88 @@ pub(crate) fn contact_rows(
             drift += alpha.cross(&r) + w.cross(&r_dot);
         }
         let x = frame_placement(model, data, contact.frame).translation + r;
-        for d in &contact.directions()[..contact.n_rows()] {
-            let xd = x.cross(d);
-            let mut j = joint;
-            while let Some(i) = j {
-                let jt = &model.joints[i];
-                for col in jt.idx_v..jt.idx_v + jt.kind.nv() {
-                    let s = world_column(data, col);
-                    data.A[(row, col)] =
-                        d.dot(&s.fixed_rows::<3>(0)) + xd.dot(&s.fixed_rows::<3>(3));
-                }
-                j = jt.parent;
-            }
-            data.A_drift[row] = d.dot(&drift);
-            row += 1;
+        let dirs = contact.directions();
+        let n = contact.n_rows();
+        point_rows(model, &data.oS, joint, &x, &dirs[..n], |k, col, value| {
+            data.A[(row + k, col)] = value
+        });
+        for (k, d) in dirs[..n].iter().enumerate() {
+            data.A_drift[row + k] = d.dot(&drift);
         }
+        row += n;
+    }
+}
+/// The rows `d·J_p` of the material point `x` (world) of joint `joint`'s body along the world
+/// directions `dirs`, `d·(v + ω × x)` on each supporting joint's world column `⁰S = [v; ω]`
+/// (Featherstone 2008, (2.20)), through `put(direction index, column, value)`; the columns of
+/// other joints (zero) are not visited.
+pub(crate) fn point_rows(
+    model: &SpatialModel,
+    oS: &Matrix6xX,
+    joint: Option<usize>,
+    x: &Vector3<f64>,
+    dirs: &[Vector3<f64>],
+    mut put: impl FnMut(usize, usize, f64),
+) {
+    let s = oS.as_slice();
+    let mut j = joint;
+    while let Some(i) = j {
+        let jt = &model.joints[i];
+        for col in jt.idx_v..jt.idx_v + jt.kind.nv() {
+            let c = &s[6 * col..6 * col + 6];
+            let jp = Vector3::new(c[0], c[1], c[2]) + Vector3::new(c[3], c[4], c[5]).cross(x);
+            for (k, d) in dirs.iter().enumerate() {
+                put(k, col, d.dot(&jp));
+            }
+        }
+        j = jt.parent;
     }
 }
 
-/// `M`, `h`, `A`, `Ȧq̇` at `(q, v)` and the KKT factorization of `[M Aᵀ; A 0]`.
+/// Whether any contact slides with friction (`μ > 0` on a contact without tangent rows).
+pub fn has_coulomb_sliding(contacts: &[PointContact]) -> bool {
+    contacts.iter().any(PointContact::slides_with_friction)
+}
+
+/// `B` (c × nv, the rows of [`contact_rows`]): each sliding contact's normal
+/// row `−μ ŝᵀ J_p`, after the contact rows. A contact with `μ > 0` that does not slide
+/// (`|v_t| ≤` [`MIN_SLIDING_SPEED`]) is an error naming `v`.
+pub fn friction_rows(
+    model: &SpatialModel,
+    data: &SpatialData,
+    contacts: &[PointContact],
+) -> SpatialResult<DMatrix<f64>> {
+    let mut B = DMatrix::zeros(data.A.nrows(), model.nv);
+    let mut row = 0;
+    for contact in contacts {
+        if contact.slides_with_friction() {
+            let (x, v_x) = contact.point_velocity(model, data);
+            let n = contact.normal;
+            let v_t = v_x - n * n.dot(&v_x);
+            let speed = v_t.norm();
+            if !(speed > MIN_SLIDING_SPEED) {
+                return Err(SpatialError::InvalidArgument {
+                    field: "v".into(),
+                    reason: format!(
+                        "the contact on frame `{}` does not slide (|v_t| = {speed:.3e} m/s): \
+                         give it tangent rows (sticking)",
+                        model.frames[contact.frame].name
+                    ),
+                });
+            }
+            let s = v_t / speed;
+            let mu = contact.kinetic_friction;
+            let joint = model.frames[contact.frame].joint;
+            point_rows(model, &data.oS, joint, &x, &[s], |_, col, value| {
+                B[(row, col)] = -mu * value
+            });
+        }
+        row += contact.n_rows();
+    }
+    Ok(B)
+}
+
+/// `M`, `h`, `A`, `Ȧq̇` at `(q, v)`.
 fn prepare(
     model: &SpatialModel,
     data: &mut SpatialData,
@@ -236,7 +436,7 @@ fn prepare(
     mass_matrix_from_kinematics(model, data);
     bias_forces_from_kinematics(model, data);
     contact_rows(model, data, contacts);
-    factor(data)
+    Ok(())
 }
 
 /// Relative size (to the largest) below which a singular value of `A` marks a redundant
@@ -334,7 +534,8 @@ fn solve(data: &mut SpatialData) -> SpatialResult<()> {
 
 /// Constrained forward dynamics, thesis (5.3)–(5.4): `q̈` and `λ` into `data.qdd`,
 /// `data.lam` from `[M Aᵀ; A 0][q̈; −λ] = [τ − h; −Ȧq̇]`, with `tau` the nv generalized forces
-/// (zero on a free flyer's six rates for an unactuated base).
+/// (zero on a free flyer's six rates for an unactuated base). Contacts that slide with
+/// friction ([`PointContact::sliding`]) make it the nonsymmetric system of [`super::coulomb`].
 pub fn forward_dynamics(
     model: &SpatialModel,
     data: &mut SpatialData,
@@ -345,6 +546,14 @@ pub fn forward_dynamics(
 ) -> SpatialResult<()> {
     check_vector("tau", tau, model.nv)?;
     prepare(model, data, contacts, q, v)?;
+    if has_coulomb_sliding(contacts) {
+        let B = friction_rows(model, data, contacts)?;
+        solve_sliding(data, &B, tau)?;
+        check_result("q̈", data.qdd.as_slice())?;
+        check_result("λ", data.lam.as_slice())?;
+        return Ok(());
+    }
+    factor(data)?;
     for (f, (t, h)) in data.rhs_f.iter_mut().zip(tau.iter().zip(data.h.iter())) {
         *f = t - h;
     }
@@ -377,6 +586,7 @@ pub fn impact(
     v_minus: &[f64],
 ) -> SpatialResult<SpatialImpact> {
     prepare(model, data, contacts, q, v_minus)?;
+    factor(data)?;
     data.rhs_f.fill(0.0);
     let v = DVectorView::from_slice(v_minus, model.nv);
     data.rhs_g.gemv(-1.0, &data.A, &v, 0.0);

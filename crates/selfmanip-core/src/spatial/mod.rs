@@ -20,6 +20,7 @@
 //! [`quasistatic::quasi_static`]. [`rhex`] builds the six-legged RHex of Table 4.2 and maps
 //! the planar RHex's states onto it.
 pub mod contact;
+pub mod coulomb;
 pub mod error;
 pub mod explog;
 pub mod inertia;
@@ -34,7 +35,7 @@ pub mod se3;
 pub mod tree_kkt;
 pub mod urdf;
 
-pub use contact::{forward_dynamics, impact, PointContact, SpatialImpact};
+pub use contact::{forward_dynamics, impact, ContactShape, PointContact, SpatialImpact};
 pub use error::{SpatialError, SpatialResult};
 pub use inertia::Inertia;
 pub use kinematics::{ReferenceFrame, SpatialData};

@@ -5,17 +5,17 @@
 //! the gravity forces `h(q, 0)`. The forces split into an external part, the minimum-norm
 //! solution `λ_e = G⁺ g_b` (for a plate on point feet, the forces of equally stiff legs:
 //! affine in the feet's positions), and internal forces `ker G` (4.22), which move no part of
-//! the base; the joints hold `λ` with `τ = h_j − A_jᵀ λ` (the joint rows).
+//! the base; the joints hold `λ` with `τ = h_j − A_jᵀ λ` (the joint rows). The planar core's
+//! [`balance_contact_forces`] solves both dimensions (`b = 6` base equations here, 3 there).
 #![allow(non_snake_case)]
 use super::contact::{contact_rows, PointContact};
 use super::error::{SpatialError, SpatialResult};
 use super::kinematics::{forward_kinematics_velocity, SpatialData};
 use super::model::{JointKind, SpatialModel};
 use super::rigid_body::bias_forces_from_kinematics;
+use crate::error::CoreError;
+use crate::quasistatic::{balance_contact_forces, ParticularForces};
 use nalgebra::{DMatrix, DVector};
-
-/// Relative size (to the largest) below which a singular value of `G` spans internal forces.
-pub const INTERNAL_FORCE_TOLERANCE: f64 = 1e-10;
 
 /// The quasi-static forces of a contact set at a configuration.
 #[derive(Debug, Clone, PartialEq)]
@@ -54,69 +54,31 @@ pub fn quasi_static(
     forward_kinematics_velocity(model, data, q, &zero)?;
     bias_forces_from_kinematics(model, data);
     contact_rows(model, data, contacts);
-    let (c, nj) = (data.A.nrows(), model.nv - 6);
+    let nj = model.nv - 6;
     let grasp = data.A.columns(0, 6).transpose();
     let gravity_wrench = data.h.rows(0, 6).into_owned();
-    let svd = data.A.columns(0, 6).into_owned().svd(true, true);
-    let (u, vt) = (svd.u.expect("asked for"), svd.v_t.expect("asked for"));
-    // A_b = U Σ Vᵀ, so G = V Σ Uᵀ: G⁺ = U Σ⁺ Vᵀ, ker G = the columns of U with σ = 0 and
-    // the complement of U's columns in ℝᶜ
-    let top = svd.singular_values.max();
-    let mut lambda_external = DVector::zeros(c);
-    let mut range = Vec::new();
-    for (k, &s) in svd.singular_values.iter().enumerate() {
-        if s > INTERNAL_FORCE_TOLERANCE * top {
-            lambda_external += u.column(k) * (vt.row(k).transpose().dot(&gravity_wrench) / s);
-            range.push(u.column(k).into_owned());
-        }
-    }
-    let residual = (&grasp * &lambda_external - &gravity_wrench).amax();
-    if residual > 1e-9 * gravity_wrench.amax().max(1.0) {
-        return Err(SpatialError::InvalidArgument {
+    // τ = h_j − A_jᵀ λ: the planar core's `J_h` is −A_j here
+    let minus_A_j = -data.A.columns(6, nj);
+    let balance = balance_contact_forces(
+        &grasp,
+        &gravity_wrench,
+        &minus_A_j,
+        &data.h.rows(6, nj).into_owned(),
+        ParticularForces::MinimumNorm,
+    )
+    .map_err(|e| match e {
+        CoreError::IllPosedQuasiStatic { reason } => SpatialError::InvalidArgument {
             field: "contacts".into(),
-            reason: format!("cannot hold the base at rest (wrench residual {residual:.3e})"),
-        });
-    }
-    let internal_basis = orthogonal_complement(c, &range);
-    let A_j = data.A.columns(6, nj);
-    let tau_external = data.h.rows(6, nj) - A_j.transpose() * &lambda_external;
-    let internal_torques = -(A_j.transpose() * &internal_basis);
+            reason,
+        },
+        other => other.into(),
+    })?;
     Ok(SpatialQuasiStatic {
         grasp,
         gravity_wrench,
-        lambda_external,
-        internal_basis,
-        tau_external,
-        internal_torques,
+        lambda_external: balance.f_particular,
+        internal_basis: balance.internal_basis,
+        tau_external: balance.tau_particular,
+        internal_torques: balance.internal_torques,
     })
-}
-
-/// An orthonormal basis of the complement in `ℝⁿ` of the orthonormal vectors `basis`
-/// (Gram–Schmidt, twice, on the unit vectors).
-fn orthogonal_complement(n: usize, basis: &[DVector<f64>]) -> DMatrix<f64> {
-    let mut kept: Vec<DVector<f64>> = basis.to_vec();
-    let mut out = Vec::new();
-    for i in 0..n {
-        let mut e = DVector::zeros(n);
-        e[i] = 1.0;
-        for _ in 0..2 {
-            for b in &kept {
-                let d = b.dot(&e);
-                e -= b * d;
-            }
-        }
-        let norm = e.norm();
-        if norm > 1e-8 {
-            e /= norm;
-            kept.push(e.clone());
-            out.push(e);
-        }
-        if kept.len() == n {
-            break;
-        }
-    }
-    if out.is_empty() {
-        return DMatrix::zeros(n, 0);
-    }
-    DMatrix::from_columns(&out)
 }

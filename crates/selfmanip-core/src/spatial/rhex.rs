@@ -213,6 +213,25 @@ impl RhexSixLegs {
             .on_circle(0.5 * self.leg_length_m, Vector3::y())
     }
 
+    /// The C-leg of `name` as the arc it is: the forward half of the circle of
+    /// [`Self::leg_arc`], from the toe (angle 0, straight down the leg) through the leg's
+    /// front (`π/2`) to the hip (`π`), about the leg's `−y` axis. It rolls on the circle's
+    /// lowest point while that lies on the half circle, and otherwise touches at the toe or the
+    /// hip end ([`super::contact::ContactShape::Arc`]).
+    pub fn leg_c_arc(
+        &self,
+        model: &SpatialModel,
+        name: &str,
+        friction: bool,
+    ) -> SpatialResult<PointContact> {
+        PointContact::new(model, &format!("{name}_arc"), friction)?.on_arc(
+            0.5 * self.leg_length_m,
+            -Vector3::y(),
+            -Vector3::z(),
+            (0.0, std::f64::consts::PI),
+        )
+    }
+
     /// A rounded body end (`"front_left"`, …) touching on its lowest point (radius `ρ_b`
     /// about the hip axis), frictionless as in the thesis's C.3.
     pub fn body_end(&self, model: &SpatialModel, name: &str) -> SpatialResult<PointContact> {

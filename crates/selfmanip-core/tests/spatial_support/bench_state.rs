@@ -1,7 +1,8 @@
 //! The state of the quadruped's cost measurements (`benches/spatial.rs`, `spatial_cost_probe.rs`,
 //! `scripts/bench-pinocchio.py`), shared as source.
 use nalgebra::DVector;
-use selfmanip_core::spatial::{neutral, SpatialModel};
+use selfmanip_core::spatial::{forward_dynamics, neutral, PointContact, SpatialData, SpatialModel};
+use std::hint::black_box;
 
 /// Standing at 0.4 m on legs bent by 0.5 rad (knees −1 rad), moving: `(q, v, τ)`.
 pub fn standing_state(model: &SpatialModel) -> (DVector<f64>, DVector<f64>, DVector<f64>) {
@@ -20,4 +21,24 @@ pub fn standing_state(model: &SpatialModel) -> (DVector<f64>, DVector<f64>, DVec
         }
     });
     (q, v, tau)
+}
+
+/// One `forward_dynamics` at `(q, v, τ)` with its inputs hidden from the optimizer: the unit
+/// the bench times and the probe counts.
+pub fn evaluate(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    contacts: &[PointContact],
+    (q, v, tau): (&DVector<f64>, &DVector<f64>, &DVector<f64>),
+) {
+    forward_dynamics(
+        model,
+        data,
+        contacts,
+        black_box(q.as_slice()),
+        black_box(v.as_slice()),
+        tau.as_slice(),
+    )
+    .expect("standing is regular");
+    black_box(&data.qdd);
 }
