@@ -44,6 +44,7 @@ impl ResetWorkspace<'_> {
             if self.barred.iter().any(|&(k, kind)| m.kind(k) == Some(kind)) {
                 continue;
             }
+            self.lock_for(m, q, qd);
             match self.ws.data.prepare(self.model, self.terrain, m, q, qd) {
                 Ok(()) if self.within_fold(m) => return Ok(None),
                 Ok(()) => return Ok(Some(m)),
@@ -56,6 +57,51 @@ impl ResetWorkspace<'_> {
             }
         }
         Ok(None)
+    }
+
+    /// Sets the locks of `ws.data` for `mode` at `(q, q̇)`: a two-joint massless chain that
+    /// slides is locked for its damped slide ([`crate::damped_slide::locks_for`]), one that
+    /// does not is not; fold passages' locks stay while their chain is held.
+    pub fn lock_for(&mut self, mode: ContactMode, q: &[f64], qd: &[f64]) {
+        self.set_locks(mode, q, qd, true);
+    }
+
+    /// [`Self::lock_for`], `offered` whether the mode is a candidate (a chain without damping
+    /// is then not locked: its slide stays singular) or chosen already (locked anyway).
+    fn set_locks(&mut self, mode: ContactMode, q: &[f64], qd: &[f64], offered: bool) {
+        let model = self.model;
+        let needs = |k| crate::damped_slide::massless_chain(model, k).len() == 2;
+        let touched = mode.active().any(needs)
+            || self.ws.data.locked.iter().any(|&j| {
+                (0..model.n_contacts())
+                    .any(|k| needs(k) && crate::damped_slide::massless_chain(model, k).contains(&j))
+            });
+        if !touched {
+            return;
+        }
+        let ws = &mut *self.ws;
+        ws.damped_kin.compute(model, q, qd);
+        ws.tau.resize(model.n_joints(), 0.0);
+        crate::damped_slide::locks_for(
+            model,
+            self.terrain,
+            self.ctrl,
+            &ws.damped_kin,
+            (ws.reset_t, q, qd),
+            (mode, offered),
+            &mut ws.data.locked,
+            &mut ws.tau,
+        );
+    }
+
+    /// The locks after a reset into `mode` at `(q, q̇)`, from the locks `lock` before it:
+    /// fold passages' locks while their chain is held ([`fold::retain_held_locks`]) and the
+    /// damped slides' ([`Self::lock_for`]). Leaves them in `ws.data.locked` too.
+    pub fn locks_after(&mut self, mode: ContactMode, q: &[f64], qd: &[f64], lock: &mut Vec<usize>) {
+        fold::retain_held_locks(self.model, mode, lock);
+        self.ws.data.locked.clone_from(lock);
+        self.set_locks(mode, q, qd, false);
+        lock.clone_from(&self.ws.data.locked);
     }
 
     /// Whether a contact of `mode` (prepared in `ws.data`) is within the fold threshold of

@@ -111,10 +111,13 @@ pub fn energy_report(
                 let power: f64 = (0..model.n_joints())
                     .map(
                         |j| match (data.free_joints.contains(&j), data.locked.contains(&j)) {
-                            // locked for a fold passage: held by the torque that balances its
-                            // contact and spring, (Aᵀλ)_j − τ^p_j (its row of (5.3), M̄_j = 0)
+                            // locked (a fold passage, a damped slide): held by the torque
+                            // that balances its contact, friction and spring,
+                            // (Aᵀλ)_j − f^fr_j − τ^p_j (its row of (5.3), M̄_j = 0)
                             (true, true) => {
-                                (data.constraints.a.column(j).dot(&data.lambda) - passive(j))
+                                (data.constraints.a.column(j).dot(&data.lambda)
+                                    - data.friction[j]
+                                    - passive(j))
                                     * qd[j]
                             }
                             // free: carries no load; its prescribed motion works against its

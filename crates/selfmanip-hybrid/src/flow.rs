@@ -214,6 +214,12 @@ impl<'a> Flow<'a> {
             .prepare(self.model, self.terrain, mode, q, qd)?;
         self.ws
             .solve_prepared(self.model, &*self.ctrl, t, mode, q, qd)?;
+        if !self.ws.data.locked.is_empty() {
+            // a two-joint chain's damped slide: its locked joint keeps the chain's manifold
+            let ws = &mut self.ws;
+            let args = (self.model, self.terrain, &*self.ctrl);
+            crate::damped_slide::apply_law(&mut ws.data, &mut ws.damped, args.0, args.1, args.2, (t, q, qd), mode)?;
+        }
         self.y.clear();
         self.y.extend_from_slice(q);
         self.y.extend_from_slice(qd);
@@ -299,6 +305,13 @@ pub struct FlowWorkspace {
     pub data: Data,
     pub tau: Vec<f64>,
     pub free: Vec<f64>,
+    /// Scratch of the damped slide's law ([`crate::damped_slide`]).
+    pub damped: crate::damped_slide::DampedScratch,
+    /// The time of the reset evaluated on this workspace (the resets' own), at which
+    /// [`crate::damped_slide::locks_for`] asks the controller for its damping.
+    pub reset_t: f64,
+    /// Kinematics at a reset's state, for [`crate::damped_slide::locks_for`].
+    pub damped_kin: Kinematics,
 }
 
 impl FlowWorkspace {
@@ -311,6 +324,9 @@ impl FlowWorkspace {
             data,
             tau: vec![0.0; model.n_joints()],
             free: Vec::new(),
+            damped: Default::default(),
+            reset_t: 0.0,
+            damped_kin: Kinematics::default(),
         }
     }
 

@@ -73,19 +73,7 @@ use selfmanip_core::friction::SlideDirection;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{plastic_impact, ContactMode, CoreError, Model, Terrain};
 
-/// The massless joints that pin contact `k` (the distal, all-massless part of the chain of
-/// its link), as a range of joint indices; empty for a body contact or a massive chain.
-pub fn massless_chain(model: &Model, k: usize) -> std::ops::Range<usize> {
-    let Some(j) = model.contacts[k].link else {
-        return 0..0;
-    };
-    let chain = model.chain(j);
-    let first = chain
-        .clone()
-        .find(|&i| model.distal_massless(i))
-        .unwrap_or(j + 1);
-    first..j + 1
-}
+pub use crate::damped_slide::massless_chain;
 
 /// Keeps in `lock` the joints whose massless chain is still pinned by a contact of `mode`:
 /// a locked chain stays locked while its contact holds.

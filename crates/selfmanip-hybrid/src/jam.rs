@@ -89,7 +89,7 @@ pub fn jam(
     };
     let ctrl = flow.controller().clone();
     let lock = flow.lock().to_vec();
-    let cx = &mut reset_workspace(flow, &*ctrl, opts, ws, barred, &lock);
+    let cx = &mut reset_workspace(flow, &*ctrl, opts, ws, barred, &lock, t);
     let ke_before = kinetic_energy_at(model, cx.terrain, &mut cx.ws.data, q, qd)?;
     let candidates: Vec<usize> = mode.active().collect();
     // a sliding contact: the tangential impact into its stick (an impact: 5.28–5.29, 5.40)
@@ -112,6 +112,7 @@ pub fn jam(
                 PainleveReason::JamOutsideCone
             }));
         }
+        cx.lock_for(sel.mode, q, qd);
         let imp = plastic_impact(model, &mut cx.ws.data, cx.terrain, sel.mode, q, qd)?;
         let v: Vec<f64> = imp.qd_plus.iter().copied().collect();
         (sel.value, sel.pseudo_impulse, sel.mode, v)
@@ -148,7 +149,7 @@ pub fn jam(
         }
     }
     let mut lock = lock;
-    crate::fold::retain_held_locks(model, mode_after, &mut lock);
+    cx.locks_after(mode_after, q, &qd_after, &mut lock);
     // without a velocity jump a contact that stuck until now and slides after starts from
     // rest (as at a reset); after the impact every slide has the velocity it leaves
     let from_rest = mode_after

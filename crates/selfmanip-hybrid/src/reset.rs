@@ -103,7 +103,7 @@ pub fn reset(
     let passing_bar: Vec<(usize, ContactKind)> =
         c.folded.iter().map(|&k| (k, ContactKind::Stick)).collect();
     let ctrl = flow.controller().clone();
-    let cx = &mut reset_workspace(flow, &*ctrl, opts, ws, &barred, &lock);
+    let cx = &mut reset_workspace(flow, &*ctrl, opts, ws, &barred, &lock, t);
     // a landing at δt = 0 takes every contact touching with it (ResetWorkspace::touching)
     let more = cx.touching(mode, &c.touched, q, qd)?;
     c.touched.extend(more);
@@ -148,8 +148,19 @@ pub fn reset(
             }
         }
     }
+    // a two-joint chain that slides is locked for its damped slide, its rates on its manifold
+    cx.locks_after(mode_after, q, &qd_after, &mut lock);
+    crate::damped_slide::onto_manifold(
+        &mut cx.ws.damped,
+        model,
+        cx.terrain,
+        cx.ctrl,
+        (t, q),
+        mode_after,
+        &lock,
+        &mut qd_after,
+    );
     let ke_after = kinetic_energy_at(model, cx.terrain, &mut cx.ws.data, q, &qd_after)?;
-    fold::retain_held_locks(model, mode_after, &mut lock);
     // without a velocity jump, a contact that stuck until now starts sliding from rest;
     // so does one whose stick the cone refused (its velocity just crossed zero). After an
     // impact a sliding contact slides with the velocity the impact leaves it — even one
@@ -211,9 +222,10 @@ fn apex_reset(
     })
 }
 
-/// The workspace of a reset of `flow` under `ctrl` (the flow's controller, cloned out so
-/// that `flow` stays free), with the joints `lock` locked in `ws`, the kinds `barred` barred,
-/// and the pseudo-impulse duration and fold threshold of `opts`.
+/// The workspace of a reset of `flow` at time `t` under `ctrl` (the flow's controller,
+/// cloned out so that `flow` stays free), with the joints `lock` locked in `ws`, the kinds
+/// `barred` barred, and the pseudo-impulse duration and fold threshold of `opts`.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn reset_workspace<'a: 'b, 'b>(
     flow: &Flow<'a>,
     ctrl: &'b dyn Controller,
@@ -221,9 +233,11 @@ pub(crate) fn reset_workspace<'a: 'b, 'b>(
     ws: &'b mut FlowWorkspace,
     barred: &'b [(usize, ContactKind)],
     lock: &[usize],
+    t: f64,
 ) -> ResetWorkspace<'b> {
     ws.data.locked.clear();
     ws.data.locked.extend_from_slice(lock);
+    ws.reset_t = t;
     ResetWorkspace {
         model: flow.model(),
         terrain: flow.terrain(),
@@ -418,6 +432,7 @@ fn select_mode(
     // (a massless leg's rate, slaved to its contact, sets its motor torque) and its liftoff
     // guard would fire again at once, an event that changes nothing.
     if !impact && c.folded.is_empty() && !c.slipped.is_empty() {
+        cx.lock_for(mode, q, qd_in);
         let imp = plastic_impact(model, &mut cx.ws.data, cx.terrain, mode, q, qd_in)?;
         qd_in.copy_from_slice(imp.qd_plus.as_slice());
     }
@@ -438,6 +453,7 @@ fn select_mode(
     // q̇⁺ of the impact into the selected mode (5.52)
     let mut qd_after = qd_in.clone();
     if impact {
+        cx.lock_for(selected.mode, q, qd_in);
         let imp = plastic_impact(model, &mut cx.ws.data, cx.terrain, selected.mode, q, qd_in)?;
         qd_after.copy_from_slice(imp.qd_plus.as_slice());
     }
@@ -454,6 +470,7 @@ fn select_mode(
             let mut set: Vec<usize> = selected.mode.active().chain(resting).collect();
             set.sort_unstable();
             if let Some(o) = cx.outcome(t, &set, prefer, q, qd_in, true)? {
+                cx.lock_for(o.mode, q, qd_in);
                 let imp = plastic_impact(model, &mut cx.ws.data, cx.terrain, o.mode, q, qd_in)?;
                 qd_after.copy_from_slice(imp.qd_plus.as_slice());
                 selected = Selected {

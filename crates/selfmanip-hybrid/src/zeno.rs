@@ -207,7 +207,7 @@ pub fn truncate(
     set.sort_unstable();
     let mut lock = flow.lock().to_vec();
     let ctrl = flow.controller().clone();
-    let cx = &mut reset_workspace(flow, &*ctrl, opts, ws, &[], &lock);
+    let cx = &mut reset_workspace(flow, &*ctrl, opts, ws, &[], &lock, t);
     let inconsistent = |e: &CoreError| matches!(e, CoreError::PainleveInconsistent { .. });
     let impact = match cx.outcome(t, &set, mode, q, qd, true) {
         Ok(Some(o)) => o,
@@ -216,6 +216,7 @@ pub fn truncate(
         Err(e) => return Err(e.into()),
     };
     let ke_before = crate::energy::kinetic_energy_at(model, cx.terrain, &mut cx.ws.data, q, qd)?;
+    cx.lock_for(impact.mode, q, qd);
     let imp = plastic_impact(model, &mut cx.ws.data, cx.terrain, impact.mode, q, qd)?;
     let qd_after: Vec<f64> = imp.qd_plus.iter().copied().collect();
     let mode_after = match cx.select(t, &set, &[], impact.mode, q, &qd_after, false) {
@@ -224,9 +225,20 @@ pub fn truncate(
         Err(HybridError::Core(e)) if inconsistent(&e) => return Ok(None),
         Err(e) => return Err(e),
     };
+    let mut qd_after = qd_after;
+    cx.locks_after(mode_after, q, &qd_after, &mut lock);
+    crate::damped_slide::onto_manifold(
+        &mut cx.ws.damped,
+        model,
+        cx.terrain,
+        cx.ctrl,
+        (t, q),
+        mode_after,
+        &lock,
+        &mut qd_after,
+    );
     let ke_after =
         crate::energy::kinetic_energy_at(model, cx.terrain, &mut cx.ws.data, q, &qd_after)?;
-    crate::fold::retain_held_locks(model, mode_after, &mut lock);
     Ok(Some(Reset::Continue {
         event: Event {
             t,
