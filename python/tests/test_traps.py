@@ -74,7 +74,8 @@ def test_parameters_a_default_leaves_unset_are_not_taken_for_the_geared_motors_f
     """``mu_body``, ``leg_rotors`` and ``leg_armature_kg_m2`` (parameters the defaults leave
     unset, so absent from their serialization) were refused with ``gear_ratio=None`` as if they
     set the geared motor. The names that do are the engine's own list."""
-    assert set(selfmanip.leap._actuator_fields()) == {"current_limit_a", "motors_per_leg"}
+    assert set(selfmanip.leap._actuator_fields()) == {
+        "current_limit_a", "motors_per_leg", "gearbox_efficiency", "gearbox_loss", "battery_resistance_ohm"}
     # body-end friction with the saturated torque; μ = 0 is the frictionless default (its
     # limit: it raised SingularKktError, the start's two sticking ends being indeterminate)
     base = selfmanip.leap("++", 0.01, None, dt=None)
