@@ -446,12 +446,13 @@ class Identifiability:
 @dataclass
 class Calibration:
     """What :func:`calibrate` found. ``params``, ``stderr`` (inf for a parameter in an
-    undetermined combination), ``covariance`` (over ``names``), ``intervals`` (95 %, Student t
-    with ``dof`` degrees of freedom), ``residuals`` (a DataFrame-ready dict: inputs, measured,
-    fitted and measured − fitted per channel, in SI), ``identifiability``, ``n_model_runs``
-    (leaps run, of which ``n_sensitivity_runs`` with exact derivatives), ``fd_rows`` (rows
-    whose derivative the engine flagged and that were differenced), ``dropped_rows`` (rows left
-    out, with why), ``starts`` (each start's cost), ``elapsed_s``."""
+    undetermined combination), ``covariance`` (over ``names``), ``intervals`` (95 %: Student t
+    with ``dof`` degrees of freedom, normal with ``absolute_sigma``), ``residuals`` (a
+    DataFrame-ready dict: inputs, measured, fitted and measured − fitted per channel, in SI),
+    ``identifiability``, ``n_model_runs`` (leaps run, of which ``n_sensitivity_runs`` with
+    exact derivatives), ``fd_rows`` (rows whose derivative the engine flagged and that were
+    differenced), ``dropped_rows`` (rows left out, with why), ``starts`` (each start's cost),
+    ``elapsed_s``."""
 
     model: Any
     names: list[str]
@@ -654,6 +655,18 @@ def _covariance(J: np.ndarray, r: np.ndarray, names: list[str], widths: np.ndarr
     return cov, sigma2, dof, Identifiability(names, s_full, Vt, undetermined)
 
 
+def _quantile_975(dof: int, absolute_sigma: bool) -> float:
+    """The two-sided 95 % point of ``(θ̂ − θ)/σ_θ``: the normal's (1.96) where the scales are
+    the noise's standard deviations (``absolute_sigma``: σ is known), Student t's with
+    ``dof = m − rank`` degrees of freedom where σ² is estimated from the residuals (inf with
+    none left)."""
+    from scipy.stats import norm, t as student_t
+
+    if absolute_sigma:
+        return float(norm.ppf(0.975))
+    return float(student_t.ppf(0.975, dof)) if dof > 0 else math.inf
+
+
 def _starts(x0: np.ndarray, lo: np.ndarray, hi: np.ndarray, n: int, seed: int) -> list[np.ndarray]:
     """The first start is ``x0``; the others uniform in the bounds (finite) or within a
     factor around ``x0``, from ``numpy.random.default_rng(seed)``: deterministic."""
@@ -701,11 +714,12 @@ def calibrate(model: Any, data: Any, parameters: Mapping[str, tuple[float, float
     "finite_difference"`` differences those rows only (central, step 1e-4 of the bounds'
     width) and lists them; ``"drop"`` leaves them out of the fit and lists them. Rows whose
     model has no apex at the first start are dropped and listed. ``absolute_sigma``: the
-    scales are the noise's standard deviations (else the covariance is scaled by the residual
-    variance factor, as ``scipy.optimize.curve_fit`` does). ``options``: fixed model keywords.
+    scales are the noise's standard deviations and the intervals use the normal quantile (else
+    the covariance is scaled by the residual variance factor, as ``scipy.optimize.curve_fit``
+    does, and the intervals use Student t's with ``m − rank`` degrees of freedom).
+    ``options``: fixed model keywords.
     """
     from scipy.optimize import least_squares
-    from scipy.stats import t as student_t
 
     started = time.perf_counter()
     if jacobian not in ("exact", "finite_difference"):
@@ -749,7 +763,7 @@ def calibrate(model: Any, data: Any, parameters: Mapping[str, tuple[float, float
         runs.append(res)
     best = min(runs, key=lambda r: r.cost)
     cov, sigma2, dof, ident = _covariance(best.jac, best.fun, names, widths, absolute_sigma)
-    q = float(student_t.ppf(0.975, dof)) if dof > 0 else math.inf
+    q = _quantile_975(dof, absolute_sigma)
     stderr = {p: (math.sqrt(cov[k, k]) if np.isfinite(cov[k, k]) else math.inf) for k, p in enumerate(names)}
     params = {p: float(v) for p, v in zip(names, best.x)}
     prob.residuals(best.x, exact)  # the failing rows at the solution

@@ -6,6 +6,8 @@ exact derivatives in η; an unidentifiable combination reported as such. The tab
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -45,19 +47,65 @@ def test_the_efficiency_has_an_exact_derivative_and_a_default():
     assert model.parameters()["battery_resistance_ohm"] == 0.0
 
 
-@pytest.mark.xfail(strict=True, reason="open: measured 17 of 20 for eta and offset:apex_x_m, 19 for "
-                   "offset:apex_z_m (16-18 with absolute_sigma): the intervals undercover on four leaps")
-def test_eta_and_offsets_recovered_inside_95_percent_interval_in_19_of_20_draws(clean):
+#: Noise draws of the coverage test (seeds 0 … DRAWS − 1). An exact 95 % interval misses the
+#: truth a Binomial(DRAWS, 0.05) number of times: 5 expected, 1 … 10 with probability 0.98.
+#: Twenty draws cannot show 95 %: an exact interval covers in at least 19 of 20 only with
+#: probability 0.74 (seeds 0–19 give 17, 19 and 17 of 20; seeds 20–39 give 19, 20 and 19).
+DRAWS = 100
+
+
+@pytest.fixture(scope="module")
+def draws(clean):
+    return [calibrate("leap", noisy(clean, seed), FIT, threads=2) for seed in range(DRAWS)]
+
+
+def test_eta_and_offsets_recovered_inside_95_percent_interval_at_the_nominal_rate(draws):
     truth = {"gearbox_efficiency": ETA, **{f"offset:{c}": v for c, v in OFFSETS.items()}}
-    inside = {p: 0 for p in truth}
-    for seed in range(20):
-        fit = calibrate("leap", noisy(clean, seed), FIT, threads=2)
+    misses = {p: 0 for p in truth}
+    z = {p: [] for p in truth}
+    for fit in draws:
         assert not fit.identifiability.undetermined
         assert not fit.fd_rows  # every row differentiated exactly
         for p, v in truth.items():
             lo, hi = fit.intervals[p]
-            inside[p] += lo <= v <= hi
-    assert all(n >= 19 for n in inside.values()), inside
+            misses[p] += not lo <= v <= hi
+            z[p].append((fit.params[p] - v) / fit.stderr[p])
+    print(f"\nmisses of the 95 % intervals in {DRAWS} draws: {misses}")
+    assert all(1 <= n <= 10 for n in misses.values()), misses
+    # the standard errors are the estimates' spread: (θ̂ − θ)/σ_θ is Student t with ν = m − p
+    # degrees of freedom (Gaussian noise, a model linear at the noise's scale), whose square
+    # has mean ν/(ν − 2) and variance 2ν²(ν − 1)/((ν − 2)²(ν − 4)); standard errors 20 % too
+    # small (or 60 % too large) leave the mean square of these draws outside three standard
+    # errors of it
+    nu = draws[0].dof
+    assert nu == 4 * len(MEASURED) - len(truth)
+    mean, sd = nu / (nu - 2), math.sqrt(2 * nu**2 * (nu - 1) / ((nu - 2) ** 2 * (nu - 4)) / DRAWS)
+    for p, zs in z.items():
+        assert abs(np.mean(np.square(zs)) - mean) < 3 * sd, (p, np.mean(np.square(zs)), mean, sd)
+
+
+#: The two-sided 95 % point of the standard normal distribution.
+Z_975 = 1.959963984540054
+
+
+def test_with_known_noise_the_intervals_use_the_normal_quantile(clean, draws):
+    # absolute_sigma (the scales are the noise's standard deviations, as here): the same
+    # estimate, the covariance without the residual variance factor, θ̂ ± 1.96 σ_θ
+    truth = {"gearbox_efficiency": ETA, **{f"offset:{c}": v for c, v in OFFSETS.items()}}
+    for seed in (0, 1):
+        rel = draws[seed]
+        known = calibrate("leap", noisy(clean, seed), FIT, absolute_sigma=True, threads=2)
+        assert known.sigma2 == 1.0
+        for p in truth:
+            assert known.params[p] == rel.params[p]
+            assert known.stderr[p] == pytest.approx(rel.stderr[p] / math.sqrt(rel.sigma2), rel=1e-9)
+            assert known.intervals[p] == pytest.approx((known.params[p] - Z_975 * known.stderr[p],
+                                                        known.params[p] + Z_975 * known.stderr[p]), rel=1e-12)
+    # these intervals miss at the nominal rate too (Student t's 2.11 σ_θ would cover 96.5 %)
+    misses = {p: sum(abs(f.params[p] - v) > Z_975 * f.stderr[p] / math.sqrt(f.sigma2) for f in draws)
+              for p, v in truth.items()}
+    print(f"\nmisses of the 95 % intervals with known noise in {DRAWS} draws: {misses}")
+    assert all(1 <= n <= 10 for n in misses.values()), misses
 
 
 def test_one_channel_of_one_leap_cannot_separate_eta_from_the_offset(clean):
