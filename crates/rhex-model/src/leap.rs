@@ -34,6 +34,7 @@ use motor::Actuator;
 use selfmanip_core::{ContactMode, Terrain};
 use selfmanip_hybrid::Execution;
 use selfmanip_sim::analysis::{angle_to_ground, roots::secant_search};
+use selfmanip_sim::behaviour::compile::Drives;
 use selfmanip_sim::behaviour::{
     ActuatorSpec, Behaviour, FreeJointGains, JointProgram, Motion, NamedEvent, On, Phase, Torque,
     Trigger,
@@ -489,7 +490,9 @@ impl std::ops::Deref for LeapResult {
 }
 
 impl LeapConfig {
-    /// Checks every field (errors name it).
+    /// Checks every field (errors name it). The run's options (`t_final_s`, `event_tol_s`,
+    /// `delta_t_s`, `rtol`, `zeno_window_s`) are the generic simulator's, checked as it
+    /// checks them ([`SimOptions::hybrid`]); the rest is the leap's.
     pub fn validate(&self) -> Result<(), RhexError> {
         let bad = |field: &str, reason: String| {
             Err(RhexError::InvalidValue {
@@ -497,47 +500,8 @@ impl LeapConfig {
                 reason,
             })
         };
-        let finite = [
-            ("t2_s", self.t2_s),
-            ("delta_t_s", self.delta_t_s),
-            ("swing_accel_rad_s2", self.swing_accel_rad_s2.unwrap_or(1.0)),
-            ("swing_speed_rad_s", self.swing_speed_rad_s.unwrap_or(1.0)),
-            ("wait_clearance_rad", self.wait_clearance_rad),
-            ("t_final_s", self.t_final_s),
-            ("event_tol_s", self.event_tol_s),
-            ("zeno_window_s", self.zeno_window_s),
-            ("rtol", self.rtol),
-        ];
-        for (field, v) in finite {
-            if !v.is_finite() {
-                return bad(field, format!("must be finite, got {v}"));
-            }
-        }
-        for (field, v) in [
-            ("swing_accel_rad_s2", self.swing_accel_rad_s2.unwrap_or(1.0)),
-            ("swing_speed_rad_s", self.swing_speed_rad_s.unwrap_or(1.0)),
-            ("t_final_s", self.t_final_s),
-            ("event_tol_s", self.event_tol_s),
-            ("zeno_window_s", self.zeno_window_s),
-            ("rtol", self.rtol),
-        ] {
-            if v <= 0.0 {
-                return bad(field, format!("must be positive, got {v}"));
-            }
-        }
-        // The free legs' tracking law is differenced at each segment's start
-        // (`selfmanip_hybrid::free_joints`): values of the swing's size must leave room for
-        // a difference of two of them.
-        for (field, v) in [
-            ("swing_accel_rad_s2", self.swing_accel_rad_s2.unwrap_or(1.0)),
-            ("swing_speed_rad_s", self.swing_speed_rad_s.unwrap_or(1.0)),
-        ] {
-            if !(2.0 * v).is_finite() {
-                return bad(
-                    field,
-                    format!("must be at most f64::MAX / 2 (the free legs' tracking law is differenced), got {v}"),
-                );
-            }
+        if !self.t2_s.is_finite() {
+            return bad("t2_s", format!("must be finite, got {}", self.t2_s));
         }
         for (field, n) in [
             ("max_steps", self.max_steps),
@@ -548,11 +512,32 @@ impl LeapConfig {
                 return bad(field, "must be at least 1".into());
             }
         }
-        if self.delta_t_s < 0.0 {
-            return bad(
-                "delta_t_s",
-                format!("must be non-negative, got {}", self.delta_t_s),
-            );
+        self.sim_options(0.0).hybrid().map_err(|e| match e {
+            selfmanip_sim::SimError::InvalidValue { field, reason } => RhexError::InvalidValue {
+                field: field.trim_start_matches("options.").into(),
+                reason,
+            },
+            e => e.into(),
+        })?;
+        // The free legs' tracking law is differenced at each segment's start
+        // (`selfmanip_hybrid::free_joints`): values of the swing's size must leave room for
+        // a difference of two of them.
+        for (field, v) in [
+            ("swing_accel_rad_s2", self.swing_accel_rad_s2),
+            ("swing_speed_rad_s", self.swing_speed_rad_s),
+        ] {
+            match v {
+                Some(v) if !(v.is_finite() && v > 0.0) => {
+                    return bad(field, format!("must be finite and positive, got {v}"))
+                }
+                Some(v) if !(2.0 * v).is_finite() => {
+                    return bad(
+                        field,
+                        format!("must be at most f64::MAX / 2 (the free legs' tracking law is differenced), got {v}"),
+                    )
+                }
+                _ => {}
+            }
         }
         if !(0.0..=1.5).contains(&self.wait_clearance_rad) {
             return bad(
@@ -574,20 +559,29 @@ impl LeapConfig {
         self.actuator.validate()?;
         Ok(self.terrain.validate()?)
     }
-}
 
-/// A planar leg's actuator: `n` identical drives in parallel (a contralateral pair).
-struct LegDrive {
-    drive: motor::Drive,
-    n: f64,
-}
-
-impl Actuator for LegDrive {
-    fn joint_torque_n_m(&self, command: f64, speed: f64) -> f64 {
-        self.n * self.drive.joint_torque_n_m(command, speed)
-    }
-    fn electrical_power_w(&self, command: f64, speed: f64) -> f64 {
-        self.n * self.drive.electrical_power_w(command, speed)
+    /// The generic simulator's options of this leap, on a clock that starts `offset_s`
+    /// (`min(0, t2)`) before the front motor; contact labels aside.
+    fn sim_options(&self, offset_s: f64) -> SimOptions {
+        SimOptions {
+            t_final_s: self.t_final_s - offset_s,
+            stop_at_apex: self.stop_at_apex,
+            event_tol_s: self.event_tol_s,
+            delta_t_s: self.delta_t_s,
+            rtol: self.rtol,
+            atol: None,
+            zeno_window_s: self.zeno_window_s,
+            zeno_max_events: self.zeno_max_events,
+            labels: None,
+            word: WordOptions {
+                // cells that last no longer than the events' location can resolve are
+                // zero-time cells; never more than 0.1 ms (a coarse event tolerance does not
+                // hide real cells)
+                min_duration_s: (1e3 * self.event_tol_s).min(1e-4),
+                sliding_as_contact: true,
+            },
+            ..SimOptions::default()
+        }
     }
 }
 
@@ -623,7 +617,8 @@ pub fn leg_actuator(params: &RhexParams, a: &LegActuator) -> Result<Arc<dyn Actu
                 gearbox_loss,
                 battery_resistance_ohm: battery_resistance_ohm.unwrap_or(0.0),
             };
-            Arc::new(LegDrive {
+            // `n` drives in parallel, with the loss options as set (the behaviour's law)
+            Arc::new(Drives::<true> {
                 drive: motor::Drive::new(m, gearbox)
                     .and_then(|d| d.with_losses(losses))
                     .map_err(motor_err)?,
@@ -1669,23 +1664,8 @@ pub(crate) fn scenario_of(
         },
         behaviour: b,
         options: SimOptions {
-            t_final_s: cfg.t_final_s - offset,
-            stop_at_apex: cfg.stop_at_apex,
-            event_tol_s: cfg.event_tol_s,
-            delta_t_s: cfg.delta_t_s,
-            rtol: cfg.rtol,
-            atol: None,
-            zeno_window_s: cfg.zeno_window_s,
-            zeno_max_events: cfg.zeno_max_events,
             labels: Some(labels),
-            word: WordOptions {
-                // cells that last no longer than the events' location can resolve are
-                // zero-time cells; never more than 0.1 ms (a coarse event tolerance does not
-                // hide real cells)
-                min_duration_s: (1e3 * cfg.event_tol_s).min(1e-4),
-                sliding_as_contact: true,
-            },
-            ..SimOptions::default()
+            ..cfg.sim_options(offset)
         },
     };
     Ok(LeapScenario {

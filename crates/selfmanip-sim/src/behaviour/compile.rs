@@ -591,9 +591,9 @@ fn actuator(
 /// `n` identical drives in parallel on one joint, `LOSSY` with the drive's loss options
 /// (`motor::DriveLosses`), else the thesis's law, which reads none of them per call (bit for
 /// bit the same where the options are the defaults).
-struct Drives<const LOSSY: bool> {
-    drive: motor::Drive,
-    n: f64,
+pub struct Drives<const LOSSY: bool> {
+    pub drive: motor::Drive,
+    pub n: f64,
 }
 
 impl Actuator for Drives<false> {
