@@ -472,7 +472,8 @@ pub struct LeapResult {
     pub time_offset_s: f64,
     /// Start configuration `q` (thesis coordinates, z down).
     pub q0: Vec<f64>,
-    /// Events relative to the front leg's start, in RHex's names and mode labels.
+    /// Events relative to the front leg's start, in RHex's names and mode labels (empty from
+    /// a preset that makes none: [`LeapPreset::without_event_records`]).
     pub events: Vec<EventRecord>,
     /// The rear motor's start relative to the front one's in this run (s): `t2` itself, or
     /// what the [`T2Reference::Touchdown`] search found.
@@ -937,15 +938,16 @@ impl Presets {
     }
 
     /// The leap `(params, cfg)` on the preset kept for it (built at the first ask): what
-    /// [`simulate_leap_with`] gives, bit for bit.
+    /// [`simulate_leap_with`] gives, bit for bit, without its event records (a sweep keeps
+    /// rows: [`LeapPreset::without_event_records`]).
     pub fn run(
         &self,
         params: &RhexParams,
         cfg: &LeapConfig,
         stop: &AtomicBool,
     ) -> Result<LeapResult, RhexError> {
-        let preset =
-            (self.0).get_or_build(Self::key(params, cfg), || LeapPreset::new(params, cfg))?;
+        let build = || LeapPreset::new(params, cfg).map(LeapPreset::without_event_records);
+        let preset = (self.0).get_or_build(Self::key(params, cfg), build)?;
         preset.run_at(cfg.t2_s, &cfg.actuator, stop)
     }
 }
@@ -982,6 +984,9 @@ pub struct LeapPreset {
     params: RhexParams,
     /// The simulation of `cfg`'s point, with the preset's start mode and budgets.
     sim: Simulation,
+    /// Its results carry [`LeapResult::events`] (each record evaluates the flow after its
+    /// event for the contact forces: a sweep that reads only rows does without).
+    event_records: bool,
 }
 
 impl std::fmt::Debug for LeapPreset {
@@ -1062,7 +1067,18 @@ impl LeapPreset {
             leap: Arc::new(leap),
             params: params.clone(),
             sim,
+            event_records: true,
         })
+    }
+
+    /// This preset with results that carry no event records ([`LeapResult::events`] empty,
+    /// and [`LeapResult::reason`] names the start's mode as the one flowing): what a sweep
+    /// that keeps only each leap's row ([`LeapResult::row`]) runs, everything else bit for bit.
+    pub fn without_event_records(self) -> Self {
+        LeapPreset {
+            event_records: false,
+            ..self
+        }
     }
 
     /// The simulation of the leap with the rear motor starting `motor_t2_s` after the front
@@ -1153,7 +1169,12 @@ impl LeapPreset {
                 && leap_leg_armature(&self.params, &point)?
                     == leap_leg_armature(&self.params, &self.cfg)?);
         if !same_robot {
-            return LeapPreset::new(&self.params, &point)?.run_leap(stop);
+            let fresh = LeapPreset::new(&self.params, &point)?;
+            let fresh = LeapPreset {
+                event_records: self.event_records,
+                ..fresh
+            };
+            return fresh.run_leap(stop);
         }
         let values = if *actuator == self.cfg.actuator {
             Vec::new()
@@ -1223,13 +1244,17 @@ impl LeapPreset {
         // the apex that ended the run, or (run on past it) that of its first flight after a
         // motor started, in chapter 3's frame
         let apex = frame.apex(&rhex.model, &exec);
-        let events = event_records_labelled(
-            &rhex.model,
-            &self.cfg.terrain,
-            &exec,
-            &|m| rhex.label(m),
-            start[0],
-        );
+        let events = if self.event_records {
+            event_records_labelled(
+                &rhex.model,
+                &self.cfg.terrain,
+                &exec,
+                &|m| rhex.label(m),
+                start[0],
+            )
+        } else {
+            Vec::new()
+        };
         // the touchdown offset: each pushing leg's first touchdown after its motor started
         let first_touchdown = |i: usize| first_touchdown_s(&exec, rhex.site(2 * i + 1), start[i]);
         let touchdown_t2_s = first_touchdown(0)

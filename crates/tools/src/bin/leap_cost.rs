@@ -8,7 +8,7 @@
 //! SWEEP=1 M_L=0.126 cargo run --release -p selfmanip-tools --bin leap_cost     # 4 × 41 sweeps
 //! ```
 //! The sweep runs one [`LeapPreset`] per strategy, its points bound to the simulation the
-//! preset built (`LeapPreset::run_at`), as a leap sweep does.
+//! preset built (`LeapPreset::run_at`) and without event records, as a leap sweep does.
 //! `M_L` (kg) gives the legs that mass and Table 4.2's inertia scaled with it (their joints
 //! carry their rotors' `n J G²`, as every massive leg does); `GEAR`, `M_B` (kg) and `I_B`
 //! (kg m²) change the gear ratio and the body's mass and inertia; `SEGS=1` lists each leap's
@@ -68,7 +68,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     strategy,
                     ..cfg.clone()
                 },
-            )?;
+            )?
+            .without_event_records();
             for k in 0..41 {
                 reset_work_counters();
                 let r = preset.run_at(-0.2 + 0.01 * f64::from(k), &cfg.actuator, &NEVER)?;
