@@ -83,6 +83,38 @@ def main():
     ours = criterion_us("forward_dynamics_4_feet/massless_shins")
     if ours:
         print(f"{'forward_dynamics_4_feet/massless_shins':40s} {'(singular M)':>13s} {ours:13.2f}")
+    rhex()
+
+
+def rhex():
+    """The six-legged RHex of `benches/spatial.rs` (`tests/data/urdf/rhex6.urdf`, Table 4.2's
+    legs) on six frictionless toes: Pinocchio has no one-row contact model, so its KKT forward
+    dynamics with our toes' Jacobian rows (`computeAllTerms`, then `forwardDynamics` with the
+    rows and drift computed once outside the timing)."""
+    model = pin.buildModelFromUrdf(str(ROOT / "tests/data/urdf/rhex6.urdf"), pin.JointModelFreeFlyer())
+    data = model.createData()
+    q = pin.neutral(model)
+    q[2] = 0.17 * math.cos(0.3)
+    q[7:] = 0.3
+    v = np.array([0.1 * math.sin(0.7 * i) for i in range(model.nv)])
+    tau = np.array([0.0 if i < 6 else 1.0 for i in range(model.nv)])
+    toes = [f"{p}_{s}_toe" for p in ("front", "middle", "rear") for s in ("left", "right")]
+    pin.computeJointJacobians(model, data, q)
+    pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
+    pin.updateFramePlacements(model, data)
+    J = np.vstack([pin.getFrameJacobian(model, data, model.getFrameId(t), pin.LOCAL_WORLD_ALIGNED)[2] for t in toes])
+    gamma = np.array([pin.getFrameClassicalAcceleration(model, data, model.getFrameId(t), pin.LOCAL_WORLD_ALIGNED).linear[2]
+                      for t in toes])
+
+    def fd():
+        pin.computeAllTerms(model, data, q, v)
+        return pin.forwardDynamics(model, data, tau, J, gamma)
+
+    theirs = per_call_us(fd)
+    path = ROOT / "target/criterion/spatial_rhex/forward_dynamics_6_toes_table_4_2_legs/new/estimates.json"
+    ours = json.loads(path.read_text())["median"]["point_estimate"] / 1e3 if path.exists() else None
+    name = "rhex6 forward_dynamics_6_toes/table_4_2_legs"
+    print(f"{name:40s} {theirs:13.2f} " + (f"{ours:13.2f} {ours / theirs:7.2f}" if ours else "  (no bench)"))
 
 
 if __name__ == "__main__":

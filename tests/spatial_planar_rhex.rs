@@ -143,7 +143,9 @@ fn rel(a: &DVector<f64>, b: &DVector<f64>) -> f64 {
 /// rows' condition κ_A exceeds 10: both solvers' round-off grows with it); where the planar system is singular
 /// (redundant rows) so is the spatial one's constraint set, which the spatial engine solves
 /// on `A`'s row space instead. With massless legs, a leg pair off the ground is the typed
-/// Lemma 5.1 error in the spatial engine (the planar one prescribes its motion instead).
+/// Lemma 5.1 error in the spatial engine's `forward_dynamics`, and follows the planar core's
+/// prescribed motion (random accelerations, both legs of the pair alike) in
+/// `forward_dynamics_prescribed`; its rates keep their values through an impact in both.
 #[test]
 fn six_legs_in_pairs_are_the_planar_model() {
     for massive in [true, false] {
@@ -185,28 +187,75 @@ fn six_legs_in_pairs_are_the_planar_model() {
                 );
                 let Ok(()) = planar_ok else { continue };
                 let contacts = spatial_contacts(&rhex, &data, &p, &model, &qs);
-                let ours = sp::forward_dynamics(
-                    &model,
-                    &mut sdata,
-                    &contacts,
-                    qs.as_slice(),
-                    vs.as_slice(),
-                    &tau_s,
-                );
-                if !data.free_joints.is_empty() && !massive {
+                let ours = if data.free_joints.is_empty() || massive {
+                    sp::forward_dynamics(
+                        &model,
+                        &mut sdata,
+                        &contacts,
+                        qs.as_slice(),
+                        vs.as_slice(),
+                        &tau_s,
+                    )
+                } else {
+                    // a massless pair in the air: without its motion, Lemma 5.1's error;
+                    // with it, the planar core's prescribed motion (both legs of the pair)
+                    let refused = sp::forward_dynamics(
+                        &model,
+                        &mut sdata,
+                        &contacts,
+                        qs.as_slice(),
+                        vs.as_slice(),
+                        &tau_s,
+                    );
                     assert!(
                         matches!(
-                            ours,
+                            refused,
                             Err(SpatialError::Core(CoreError::SingularKkt {
                                 kind: SingularityKind::UnconstrainedMasslessMotion,
                                 ..
                             }))
                         ),
-                        "{label}: {ours:?}"
+                        "{label}: {refused:?}"
                     );
+                    let free_qdd: Vec<f64> = data
+                        .free_joints
+                        .iter()
+                        .map(|_| rng.gen_range(-50.0..50.0))
+                        .collect();
+                    forward_dynamics(
+                        &rhex.model,
+                        &mut data,
+                        &FlatGround,
+                        mode,
+                        &q,
+                        &qd,
+                        &tau,
+                        Some(&free_qdd),
+                    )
+                    .unwrap();
+                    let free = sp::free_rates(&model, &contacts);
+                    let pairs: Vec<usize> = free.iter().map(|k| (k - 6) / 2).collect();
+                    let expected: Vec<usize> =
+                        data.free_joints.iter().flat_map(|&j| [j, j]).collect();
+                    assert_eq!(pairs, expected, "{label}: free rates {free:?}");
+                    let spatial_qdd: Vec<f64> = pairs
+                        .iter()
+                        .map(|pair| {
+                            let i = data.free_joints.iter().position(|j| j == pair).unwrap();
+                            free_qdd[i]
+                        })
+                        .collect();
                     free_legs += 1;
-                    continue;
-                }
+                    sp::forward_dynamics_prescribed(
+                        &model,
+                        &mut sdata,
+                        &contacts,
+                        &spatial_qdd,
+                        qs.as_slice(),
+                        vs.as_slice(),
+                        &tau_s,
+                    )
+                };
                 ours.unwrap();
                 compared += 1;
                 for (_, g) in &data.constraints.geometry {
@@ -250,11 +299,12 @@ fn six_legs_in_pairs_are_the_planar_model() {
         }
         eprintln!(
             "legs {} kg: {compared} mode-states compared ({toes} toe and {rolling} rolling leg contacts, \
-             {free_legs} with a massless pair in the air refused); |q̈| {w_qdd:.1e}, |λ| {w_lam:.1e}, \
+             {free_legs} with a massless pair in the air prescribed); |q̈| {w_qdd:.1e}, |λ| {w_lam:.1e}, \
              |impact| {w_imp:.1e}, |asymmetry| {w_sym:.1e} (each / max(1, κ_A/10); κ_A up to {kappa_max:.0})",
             p.leg_mass_kg
         );
         assert!(compared >= if massive { 60 } else { 3 } && toes > 0 && rolling > 0);
+        assert!(massive || free_legs >= 10, "{free_legs}");
         assert!(w_qdd < 1e-12 && w_lam < 1e-12 && w_imp < 1e-12 && w_sym < 1e-12);
     }
 }

@@ -189,10 +189,19 @@ class SpatialRobot(WrappedModel):
         """The frame's 6 x nv Jacobian, linear rows first, in ``frame``."""
         return self._native.frame_jacobian(_vector(q), name, frame)
 
+    def free_rates(self, contacts: Contacts) -> list[int]:
+        """The rates of the massless limbs that ``contacts`` leave in the air (their subtree
+        has no mass and no contact), ascending: ``dynamics`` needs their ``free_qdd``."""
+        return self._native.free_rates(_contacts(contacts))
+
     def dynamics(self, contacts: Contacts, q: np.ndarray | Sequence[float],
-                 v: np.ndarray | Sequence[float], tau: np.ndarray | Sequence[float]) -> SpatialDynamics:
-        """Forward dynamics with ``contacts`` held (see the module's conventions)."""
-        d = self._native.dynamics(_contacts(contacts), _vector(q), _vector(v), _vector(tau))
+                 v: np.ndarray | Sequence[float], tau: np.ndarray | Sequence[float],
+                 free_qdd: np.ndarray | Sequence[float] | None = None) -> SpatialDynamics:
+        """Forward dynamics with ``contacts`` held (see the module's conventions). A massless
+        limb in the air (``free_rates``) follows the accelerations ``free_qdd`` (one per free
+        rate); without them it is ``SingularKktError`` (Lemma 5.1)."""
+        free = None if free_qdd is None else _vector(free_qdd)
+        d = self._native.dynamics(_contacts(contacts), _vector(q), _vector(v), _vector(tau), free)
         return SpatialDynamics(d["qdd"], d["lam"], [tuple(r) for r in d["rows"]], d["A"], d["drift"])
 
     def quasi_static(self, contacts: Contacts, q: np.ndarray | Sequence[float]) -> SpatialQuasiStatic:

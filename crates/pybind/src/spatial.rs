@@ -18,8 +18,8 @@ use selfmanip_core::spatial::kinematics::{
 use selfmanip_core::spatial::rhex::RhexSixLegs;
 use selfmanip_core::spatial::rigid_body::{crba, nonlinear_effects};
 use selfmanip_core::spatial::{
-    difference, forward_dynamics, from_pinocchio, impact, integrate, neutral, quasi_static,
-    to_pinocchio, BaseKind, PointContact, SpatialData, SpatialError, SpatialModel,
+    difference, forward_dynamics, forward_dynamics_prescribed, free_rates, from_pinocchio,
+    impact, integrate, neutral, quasi_static, to_pinocchio, BaseKind, PointContact, SpatialData, SpatialError, SpatialModel,
 };
 
 /// A spatial error as the Python exception of its kind, naming the field.
@@ -465,6 +465,7 @@ impl SpatialRobot {
     /// Constrained forward dynamics (thesis (5.3)–(5.4)) with `contacts` down:
     /// `{"qdd", "lam", "rows", "A", "drift"}` with `M qdd + h = tau + Aᵀ lam` and
     /// `A qdd + drift = 0`.
+    #[pyo3(signature = (contacts, q, v, tau, free_qdd=None))]
     fn dynamics<'py>(
         &self,
         py: Python<'py>,
@@ -472,11 +473,17 @@ impl SpatialRobot {
         q: Vec<f64>,
         v: Vec<f64>,
         tau: Vec<f64>,
+        free_qdd: Option<Vec<f64>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         self.contact_dict(
             py,
             contacts,
-            |contacts, data| forward_dynamics(&self.model, data, contacts, &q, &v, &tau),
+            |contacts, data| match &free_qdd {
+                None => forward_dynamics(&self.model, data, contacts, &q, &v, &tau),
+                Some(a) => {
+                    forward_dynamics_prescribed(&self.model, data, contacts, a, &q, &v, &tau)
+                }
+            },
             |d, (), data| {
                 d.set_item("qdd", vec1(py, &data.qdd))?;
                 d.set_item("lam", vec1(py, &data.lam))?;
@@ -484,6 +491,15 @@ impl SpatialRobot {
                 d.set_item("drift", vec1(py, &data.A_drift))
             },
         )
+    }
+
+    /// The rates of the massless limbs `contacts` leave in the air, ascending (their
+    /// accelerations are `dynamics`'s `free_qdd`).
+    fn free_rates(&self, contacts: &Bound<'_, PyAny>) -> PyResult<Vec<usize>> {
+        guard(|| {
+            let (contacts, _) = self.contacts(contacts)?;
+            Ok(free_rates(&self.model, &contacts))
+        })
     }
 
     /// Quasi-static forces (thesis 4.21–4.22) of `contacts` at rest at `q`:

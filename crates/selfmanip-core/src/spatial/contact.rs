@@ -536,6 +536,8 @@ fn solve(data: &mut SpatialData) -> SpatialResult<()> {
 /// `data.lam` from `[M Aᵀ; A 0][q̈; −λ] = [τ − h; −Ȧq̇]`, with `tau` the nv generalized forces
 /// (zero on a free flyer's six rates for an unactuated base). Contacts that slide with
 /// friction ([`PointContact::sliding`]) make it the nonsymmetric system of [`super::coulomb`].
+/// A massless limb no contact pins ([`free_rates`]) has no dynamics: Lemma 5.1's typed error
+/// (give its motion to [`forward_dynamics_prescribed`]).
 pub fn forward_dynamics(
     model: &SpatialModel,
     data: &mut SpatialData,
@@ -546,6 +548,99 @@ pub fn forward_dynamics(
 ) -> SpatialResult<()> {
     check_vector("tau", tau, model.nv)?;
     prepare(model, data, contacts, q, v)?;
+    solve_dynamics(model, data, contacts, tau)
+}
+
+/// The rates that move no mass and that no contact of `contacts` pins, ascending: those of
+/// every joint whose subtree (the joint and its descendants) has zero inertia and carries
+/// none of the contacts' frames — a massless limb in the air. Their columns of `M`, `A` and
+/// their entries of `h` are zero, so the constrained dynamics leaves their accelerations
+/// open; the thesis prescribes their motion (§5.1.1), as the planar core's
+/// `dynamics::free_massless_joints` does.
+pub fn free_rates(model: &SpatialModel, contacts: &[PointContact]) -> Vec<usize> {
+    // a joint is held when its subtree has mass or a contact: mark each such joint's chain
+    let mut held = vec![false; model.joints.len()];
+    let mut mark = |mut joint: Option<usize>| {
+        while let Some(j) = joint {
+            if std::mem::replace(&mut held[j], true) {
+                break;
+            }
+            joint = model.joints[j].parent;
+        }
+    };
+    for (j, inertia) in model.inertias.iter().enumerate() {
+        if inertia.mass != 0.0 || inertia.inertia_com.iter().any(|&x| x != 0.0) {
+            mark(Some(j));
+        }
+    }
+    for contact in contacts {
+        mark(model.frames[contact.frame].joint);
+    }
+    model
+        .joints
+        .iter()
+        .zip(&held)
+        .filter(|(_, &h)| !h)
+        .flat_map(|(joint, _)| joint.idx_v..joint.idx_v + joint.kind.nv())
+        .collect()
+}
+
+/// [`forward_dynamics`] with the massless limbs in the air following a prescribed motion
+/// (given before the state): `free_qdd[i]` is the acceleration of the `i`-th rate of [`free_rates`] (rad/s² or m/s²),
+/// as the planar core's `free_joint_qdd`; the other rates and `λ` are those of the KKT system
+/// without the free rates (their columns of `M` and `A` vanish, so the two decouple exactly).
+/// The free rates' entries of `tau` are not used (a massless limb takes no torque).
+pub fn forward_dynamics_prescribed(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    contacts: &[PointContact],
+    free_qdd: &[f64],
+    q: &[f64],
+    v: &[f64],
+    tau: &[f64],
+) -> SpatialResult<()> {
+    let free = free_rates(model, contacts);
+    check_vector("free_qdd", free_qdd, free.len())?;
+    check_vector("tau", tau, model.nv)?;
+    prepare(model, data, contacts, q, v)?;
+    let mut tau = tau.to_vec();
+    let unit = pin_free_rates(data, &free);
+    for (&k, &a) in free.iter().zip(free_qdd) {
+        tau[k] = unit * a;
+    }
+    let solved = solve_dynamics(model, data, contacts, &tau);
+    unpin_free_rates(data, &free);
+    solved
+}
+
+/// Gives each free rate (a zero row and column of `M`, a zero column of `A`, `h_k = 0`) the
+/// inertia `M_kk` = the largest diagonal entry of `M` (at least 1), so that its row of the KKT
+/// system reads `M_kk q̈_k = τ_k` and decouples from the rest; returns that inertia.
+fn pin_free_rates(data: &mut SpatialData, free: &[usize]) -> f64 {
+    let unit = (0..data.M.nrows())
+        .map(|k| data.M[(k, k)])
+        .fold(1.0, f64::max);
+    for &k in free {
+        debug_assert!(data.M.column(k).iter().all(|&x| x == 0.0) && data.h[k] == 0.0);
+        data.M[(k, k)] = unit;
+    }
+    unit
+}
+
+/// Restores the free rates' zero diagonal of `M` after [`pin_free_rates`].
+fn unpin_free_rates(data: &mut SpatialData, free: &[usize]) {
+    for &k in free {
+        data.M[(k, k)] = 0.0;
+    }
+}
+
+/// The KKT solve of [`forward_dynamics`] at the prepared state.
+fn solve_dynamics(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    contacts: &[PointContact],
+    tau: &[f64],
+) -> SpatialResult<()> {
     if has_coulomb_sliding(contacts) {
         let B = friction_rows(model, data, contacts)?;
         solve_sliding(data, &B, tau)?;
@@ -577,7 +672,8 @@ pub struct SpatialImpact {
 }
 
 /// Plastic impact, thesis (5.10): `[M Aᵀ; A 0][Δq̇; −P] = [0; −A q̇⁻]`, `q̇⁺ = q̇⁻ + Δq̇`, so
-/// `A q̇⁺ = 0` and `M(q̇⁺ − q̇⁻) = Aᵀ P`.
+/// `A q̇⁺ = 0` and `M(q̇⁺ − q̇⁻) = Aᵀ P`. A massless limb in the air ([`free_rates`]) keeps
+/// its rates, as in the planar core.
 pub fn impact(
     model: &SpatialModel,
     data: &mut SpatialData,
@@ -586,7 +682,11 @@ pub fn impact(
     v_minus: &[f64],
 ) -> SpatialResult<SpatialImpact> {
     prepare(model, data, contacts, q, v_minus)?;
-    factor(data)?;
+    let free = free_rates(model, contacts);
+    pin_free_rates(data, &free);
+    let factored = factor(data);
+    unpin_free_rates(data, &free);
+    factored?;
     data.rhs_f.fill(0.0);
     let v = DVectorView::from_slice(v_minus, model.nv);
     data.rhs_g.gemv(-1.0, &data.A, &v, 0.0);

@@ -35,7 +35,10 @@ pub mod se3;
 pub mod tree_kkt;
 pub mod urdf;
 
-pub use contact::{forward_dynamics, impact, ContactShape, PointContact, SpatialImpact};
+pub use contact::{
+    forward_dynamics, forward_dynamics_prescribed, free_rates, impact, ContactShape,
+    PointContact, SpatialImpact,
+};
 pub use error::{SpatialError, SpatialResult};
 pub use inertia::Inertia;
 pub use kinematics::{ReferenceFrame, SpatialData};

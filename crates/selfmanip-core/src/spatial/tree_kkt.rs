@@ -10,9 +10,17 @@
 //! - `[M Aᵀ; A 0][x; y] = [f; g]`: with `w = D^{-1/2} L⁻ᵀ f`, `y = K⁻¹ (Zᵀ w − g)` and
 //!   `x = L⁻¹ D^{-1/2} (w − Z y)`.
 //!
-//! A pivot of `M` that is not clearly positive (a massless limb: singular `M`) or of `K` (dependent
-//! rows) makes [`TreeKkt::factor`] decline; the caller then uses the null-space block inverse of
-//! [`crate::kkt`], exact for singular `M` (Lemma 5.1).
+//! Storage follows the sparsity: each rate's **chain** (the rate, its parent, …, the root)
+//! is one contiguous list, `L`'s row `k` (with `D_k` first) is packed along `k`'s chain, and
+//! each row of `A` — a contact point's row, whose entries lie on its frame's chain — gives a
+//! column of `Z` packed along the chain of its deepest rate (`L⁻ᵀ` moves entries to ancestors
+//! only). The factorization's inner loops are then contiguous `axpy`s and dot products, and
+//! an entry of `K` is a dot product over the two rows' common ancestors.
+//!
+//! A pivot of `M` that is not clearly positive (a massless limb: singular `M`) or of `K`
+//! (dependent rows), or a row of `A` not on one chain of the tree, makes [`TreeKkt::factor`]
+//! decline; the caller then uses the null-space block inverse of [`crate::kkt`], exact for
+//! singular `M` (Lemma 5.1).
 #![allow(non_snake_case)]
 use super::model::SpatialModel;
 use nalgebra::DMatrix;
@@ -31,56 +39,75 @@ pub const ROW_PIVOT_FRACTION: f64 = 1e-10;
 /// Workspace and factors of the range-space KKT solve for one model.
 #[derive(Debug, Clone, Default)]
 pub struct TreeKkt {
-    /// The parent rate `λ(k)` of each rate (`usize::MAX` at the root): the previous rate of
-    /// the same joint, or the last rate of the parent joint.
-    parent: Vec<usize>,
     nv: usize,
     c: usize,
-    /// `L` below the diagonal and `D` on it (nv × nv, column-major; only supported entries
-    /// are read).
+    /// Every rate's chain `[k, λ(k), λ(λ(k)), …, root]` (`λ` the parent rate: the previous
+    /// rate of the same joint, or the last rate of the parent joint), rate `k`'s at
+    /// `chain[offset[k]..offset[k + 1]]`.
+    chain: Vec<usize>,
+    offset: Vec<usize>,
+    /// `common[a · nv + b]`: how many rates the chains of `a` and `b` share (their last ones).
+    common: Vec<usize>,
+    /// `D_k` and `L`'s row `k` along `k`'s chain: `ltdl[offset[k]] = D_k`,
+    /// `ltdl[offset[k] + p] = L[k, chain[offset[k] + p]]`.
     ltdl: Vec<f64>,
     /// `D^{-1/2}`.
     d_isqrt: Vec<f64>,
-    /// `Z` (nv × c, column-major) and the Cholesky factor of `K` (c × c, lower, column-major).
+    /// Column `r` of `Z` along the chain of row `r`'s deepest rate `row_end[r]`, at `z[r · nv..]`.
     z: Vec<f64>,
+    row_end: Vec<usize>,
+    /// The Cholesky factor of `K` (c × c, lower, column-major).
     k: Vec<f64>,
-    /// Per row of `A`: the deepest rate of the chain its entries lie on, or [`DENSE`].
-    chain_end: Vec<usize>,
     w: Vec<f64>,
 }
 
-const ROOT: usize = usize::MAX;
-/// A row of `A` not on one chain of the tree: its entries of `K` are full dot products.
-const DENSE: usize = usize::MAX - 1;
-
 impl TreeKkt {
     pub fn new(model: &SpatialModel) -> Self {
-        let mut parent = vec![ROOT; model.nv];
+        let nv = model.nv;
+        let mut parent = vec![None; nv];
         for joint in &model.joints {
-            let first = joint.parent.map_or(ROOT, |p| {
+            let first = joint.parent.map(|p| {
                 let jp = &model.joints[p];
                 jp.idx_v + jp.kind.nv() - 1
             });
             for k in 0..joint.kind.nv() {
-                parent[joint.idx_v + k] = if k == 0 { first } else { joint.idx_v + k - 1 };
+                parent[joint.idx_v + k] = if k == 0 { first } else { Some(joint.idx_v + k - 1) };
             }
         }
-        let nv = model.nv;
+        let (mut chain, mut offset) = (Vec::new(), vec![0]);
+        for k in 0..nv {
+            let mut i = Some(k);
+            while let Some(r) = i {
+                chain.push(r);
+                i = parent[r];
+            }
+            offset.push(chain.len());
+        }
+        let of = |k: usize| &chain[offset[k]..offset[k + 1]];
+        let common = (0..nv * nv)
+            .map(|ab| {
+                let (a, b) = (of(ab / nv), of(ab % nv));
+                a.iter().rev().zip(b.iter().rev()).take_while(|(x, y)| x == y).count()
+            })
+            .collect();
         Self {
-            parent,
             nv,
             c: 0,
-            ltdl: vec![0.0; nv * nv],
+            ltdl: vec![0.0; chain.len()],
+            chain,
+            offset,
+            common,
             d_isqrt: vec![0.0; nv],
             z: Vec::new(),
+            row_end: Vec::new(),
             k: Vec::new(),
-            chain_end: Vec::new(),
             w: vec![0.0; nv],
         }
     }
 
     /// Factors `M = Lᵀ D L` and `K = A M⁻¹ Aᵀ = Zᵀ Z`; `false` (nothing usable) when a pivot
-    /// of either is not clearly positive (see the module's tolerances).
+    /// of either is not clearly positive (see the module's tolerances) or a row of `A` is not
+    /// on one chain.
     pub fn factor(&mut self, M: &DMatrix<f64>, A: &DMatrix<f64>) -> bool {
         let (nv, c) = (self.nv, A.nrows());
         debug_assert_eq!((M.nrows(), A.ncols()), (nv, nv));
@@ -88,149 +115,165 @@ impl TreeKkt {
             self.c = c;
             self.z.resize(nv * c, 0.0);
             self.k.resize(c * c, 0.0);
-            self.chain_end.resize(c, DENSE);
+            self.row_end.resize(c, 0);
         }
         self.factor_mass_matrix(M) && self.factor_rows(A)
     }
 
-    /// Featherstone 2008, Table 6.3 (`LTDL`), from the leaves up.
+    /// The packed chain of rate `k`, and where it starts in [`Self::chain`] and `ltdl`.
+    fn span(&self, k: usize) -> (usize, usize) {
+        (self.offset[k], self.offset[k + 1])
+    }
+
+    /// Featherstone 2008, Table 6.3 (`LTDL`), from the leaves up: for each ancestor `i` of
+    /// `k`, `H[i, j] −= H[k, i]/D_k · H[k, j]` over `j` in `i`'s chain (the rest of `k`'s).
     fn factor_mass_matrix(&mut self, M: &DMatrix<f64>) -> bool {
-        let (nv, par) = (self.nv, &self.parent);
-        let h = &mut self.ltdl;
-        h.copy_from_slice(M.as_slice());
-        let largest = (0..nv).map(|k| M[(k, k)]).fold(0.0, f64::max);
+        let nv = self.nv;
+        let m = M.as_slice();
+        for k in 0..nv {
+            let (b, e) = self.span(k);
+            // M's lower triangle: (k, j) with j on k's chain, j ≤ k
+            for (x, &j) in self.ltdl[b..e].iter_mut().zip(&self.chain[b..e]) {
+                *x = m[k + j * nv];
+            }
+        }
+        let largest = (0..nv).map(|k| m[k + k * nv]).fold(0.0, f64::max);
         for k in (0..nv).rev() {
-            let mkk = M[(k, k)];
-            let dk = h[k + k * nv];
+            let (b, e) = self.span(k);
+            let (mkk, dk) = (m[k + k * nv], self.ltdl[b]);
             if !(mkk > MASSLESS_DIAGONAL * largest && dk > PIVOT_FRACTION * mkk) {
                 return false;
             }
-            let mut i = par[k];
-            while i != ROOT {
-                let a = h[k + i * nv] / dk;
-                let mut j = i;
-                while j != ROOT {
-                    h[i + j * nv] -= a * h[k + j * nv];
-                    j = par[j];
+            // the rows of k's ancestors lie before k's
+            let (before, rest) = self.ltdl.split_at_mut(b);
+            let row_k = &mut rest[..e - b];
+            for p in 1..e - b {
+                let i = self.chain[b + p];
+                let a = row_k[p] / dk;
+                let row_i = &mut before[self.offset[i]..self.offset[i + 1]];
+                for (h, x) in row_i.iter_mut().zip(&row_k[p..]) {
+                    *h -= a * x;
                 }
-                h[k + i * nv] = a;
-                i = par[i];
+                row_k[p] = a;
             }
             self.d_isqrt[k] = 1.0 / dk.sqrt();
         }
         true
     }
 
-    /// `x ← L⁻ᵀ x` (Table 6.4's back-substitution, leaves first).
-    fn solve_lt(ltdl: &[f64], parent: &[usize], x: &mut [f64]) {
-        let nv = parent.len();
-        for i in (0..nv).rev() {
-            let xi = x[i];
+    /// `x ← L⁻ᵀ x` for `x` packed along `chain` (Table 6.4's back-substitution, leaves
+    /// first): `L⁻ᵀ` keeps a vector on a chain.
+    fn solve_lt_on_chain(ltdl: &[f64], offset: &[usize], chain: &[usize], x: &mut [f64]) {
+        for (t, &i) in chain.iter().enumerate() {
+            let xi = x[t];
             if xi == 0.0 {
                 continue;
             }
-            let mut j = parent[i];
-            while j != ROOT {
-                x[j] -= ltdl[i + j * nv] * xi;
-                j = parent[j];
+            let (b, e) = (offset[i], offset[i + 1]);
+            for (xj, l) in x[t + 1..].iter_mut().zip(&ltdl[b + 1..e]) {
+                *xj -= l * xi;
             }
         }
     }
 
-    /// `x ← L⁻¹ x` (root first).
-    fn solve_l(ltdl: &[f64], parent: &[usize], x: &mut [f64]) {
-        let nv = parent.len();
-        for i in 0..nv {
-            let mut j = parent[i];
-            let mut xi = x[i];
-            while j != ROOT {
-                xi -= ltdl[i + j * nv] * x[j];
-                j = parent[j];
-            }
-            x[i] = xi;
-        }
-    }
-
-    /// `Z = D^{-1/2} L⁻ᵀ Aᵀ` and the dense Cholesky `K = Zᵀ Z = C Cᵀ`. A row of `A` whose
-    /// entries lie on the chain of one rate `k` and its ancestors (a contact point's row: its
-    /// frame's supporting joints) gives a column of `Z` on that chain alone (`L⁻ᵀ` moves
-    /// entries to ancestors only), and `K`'s entries with it are sums along the chain.
+    /// `Z = D^{-1/2} L⁻ᵀ Aᵀ` and the dense Cholesky `K = Zᵀ Z = C Cᵀ`, `K[i, j]` the dot
+    /// product of the two columns over the rows' common ancestors.
     fn factor_rows(&mut self, A: &DMatrix<f64>) -> bool {
         let (nv, c) = (self.nv, self.c);
+        let a = A.as_slice();
         for r in 0..c {
-            let col = &mut self.z[r * nv..(r + 1) * nv];
-            let (mut deepest, mut nonzero) = (ROOT, 0);
             // A is column-major: its row r is strided by c
-            for (k, (x, a)) in col
-                .iter_mut()
-                .zip(A.as_slice()[r..].iter().step_by(c))
-                .enumerate()
-            {
-                *x = *a;
-                if *a != 0.0 {
-                    deepest = k;
-                    nonzero += 1;
-                }
+            let entry = |k: usize| a[r + k * c];
+            let Some(end) = (0..nv).rev().find(|&k| entry(k) != 0.0) else {
+                return false;
+            };
+            let (b, e) = self.span(end);
+            let nonzero = (0..=end).filter(|&k| entry(k) != 0.0).count();
+            let on_chain = self.chain[b..e].iter().filter(|&&k| entry(k) != 0.0).count();
+            if on_chain != nonzero {
+                return false;
             }
-            let mut on_chain = 0;
-            let mut k = deepest;
-            while k != ROOT {
-                on_chain += usize::from(col[k] != 0.0);
-                k = self.parent[k];
+            self.row_end[r] = end;
+            let chain = &self.chain[b..e];
+            let zr = &mut self.z[r * nv..r * nv + e - b];
+            for (x, &k) in zr.iter_mut().zip(chain) {
+                *x = entry(k);
             }
-            self.chain_end[r] = if on_chain == nonzero { deepest } else { DENSE };
-            Self::solve_lt(&self.ltdl, &self.parent, col);
-            for (x, s) in col.iter_mut().zip(&self.d_isqrt) {
-                *x *= s;
+            Self::solve_lt_on_chain(&self.ltdl, &self.offset, chain, zr);
+            for (x, &k) in zr.iter_mut().zip(chain) {
+                *x *= self.d_isqrt[k];
             }
         }
         for j in 0..c {
+            let (ej, lj) = self.column(j);
             for i in j..c {
-                let (zi, zj) = (&self.z[i * nv..(i + 1) * nv], &self.z[j * nv..(j + 1) * nv]);
-                self.k[i + j * c] = match self.chain_end[i] {
-                    DENSE => zi.iter().zip(zj).map(|(a, b)| a * b).sum(),
-                    end => {
-                        let (mut sum, mut k) = (0.0, end);
-                        while k != ROOT {
-                            sum += zi[k] * zj[k];
-                            k = self.parent[k];
-                        }
-                        sum
-                    }
-                };
+                let (ei, li) = self.column(i);
+                let m = self.common[ei * nv + ej];
+                let zi = &self.z[i * nv + li - m..i * nv + li];
+                let zj = &self.z[j * nv + lj - m..j * nv + lj];
+                self.k[i + j * c] = zi.iter().zip(zj).fold(0.0, |s, (x, y)| s + x * y);
             }
         }
         let largest = (0..c).map(|i| self.k[i + i * c]).fold(0.0, f64::max);
         dense_cholesky(&mut self.k, c, ROW_PIVOT_FRACTION * largest)
     }
 
+    /// Row `r`'s deepest rate and the length of its column of `Z`.
+    fn column(&self, r: usize) -> (usize, usize) {
+        let end = self.row_end[r];
+        (end, self.offset[end + 1] - self.offset[end])
+    }
+
     /// Solves `[M Aᵀ; A 0][x; y] = [f; g]` with the current factors.
     pub fn solve(&mut self, f: &[f64], g: &[f64], x: &mut [f64], y: &mut [f64]) {
         let (nv, c) = (self.nv, self.c);
-        let w = &mut self.w;
+        let mut w = std::mem::take(&mut self.w);
         w.copy_from_slice(f);
-        Self::solve_lt(&self.ltdl, &self.parent, w);
+        // w ← L⁻ᵀ w (leaves first), then D^{-1/2}
+        for i in (0..nv).rev() {
+            let wi = w[i];
+            if wi == 0.0 {
+                continue;
+            }
+            let (b, e) = self.span(i);
+            for (&j, l) in self.chain[b + 1..e].iter().zip(&self.ltdl[b + 1..e]) {
+                w[j] -= l * wi;
+            }
+        }
         for (x, s) in w.iter_mut().zip(&self.d_isqrt) {
             *x *= s;
         }
-        for r in 0..c {
-            let zr = &self.z[r * nv..(r + 1) * nv];
-            y[r] = zr.iter().zip(w.iter()).map(|(a, b)| a * b).sum::<f64>() - g[r];
+        for (r, yr) in y.iter_mut().enumerate().take(c) {
+            let (end, len) = self.column(r);
+            let chain = &self.chain[self.offset[end]..self.offset[end] + len];
+            let zr = &self.z[r * nv..r * nv + len];
+            // root first, as the dense product would add them
+            let dot = zr.iter().zip(chain).rev().fold(0.0, |s, (z, &k)| s + z * w[k]);
+            *yr = dot - g[r];
         }
         cholesky_solve(&self.k, c, y);
-        for r in 0..c {
-            let zr = &self.z[r * nv..(r + 1) * nv];
-            for (wi, zi) in w.iter_mut().zip(zr) {
-                *wi -= zi * y[r];
+        for (r, yr) in y.iter().enumerate().take(c) {
+            let (end, len) = self.column(r);
+            let chain = &self.chain[self.offset[end]..self.offset[end] + len];
+            for (z, &k) in self.z[r * nv..r * nv + len].iter().zip(chain) {
+                w[k] -= z * yr;
             }
         }
         for ((xi, wi), s) in x.iter_mut().zip(w.iter()).zip(&self.d_isqrt) {
             *xi = wi * s;
         }
-        Self::solve_l(&self.ltdl, &self.parent, x);
+        self.w = w;
+        // x ← L⁻¹ x (root first)
+        for i in 0..nv {
+            let (b, e) = self.span(i);
+            let mut xi = x[i];
+            for (&j, l) in self.chain[b + 1..e].iter().zip(&self.ltdl[b + 1..e]) {
+                xi -= l * x[j];
+            }
+            x[i] = xi;
+        }
     }
 }
-
 /// In-place Cholesky `K = C Cᵀ` of the symmetric `n × n` column-major `k` (lower triangle
 /// read and overwritten); `false` when a pivot is at most `min_pivot`.
 fn dense_cholesky(k: &mut [f64], n: usize, min_pivot: f64) -> bool {
