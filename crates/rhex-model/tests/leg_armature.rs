@@ -20,7 +20,7 @@ use rhex_model::leap_sensitivity::leap_with_sensitivity;
 use rhex_model::{LegPair, Rhex, RhexError, RhexParams};
 use selfmanip_core::tangent::{BodyParameter, TangentError};
 use selfmanip_core::{energy, ContactMode, Data, FlatGround};
-use selfmanip_hybrid::{simulate, ConstantTorque, Controller, HybridOptions};
+use selfmanip_hybrid::{simulate, ConstantTorque, HybridOptions};
 
 fn massive() -> RhexParams {
     leap_params().with_table_4_2_legs()
