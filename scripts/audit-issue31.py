@@ -40,6 +40,8 @@ from dataclasses import dataclass, field
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DATA = os.path.join(ROOT, "crates", "selfmanip-sim", "examples", "data")
 MARK = "@@AUDIT@@"
+# The CLI's hopper run (its robot, behaviour and initial pose), ahead of each case's options.
+HOP_CLI = ["simulate", f"{DATA}/hopper.toml", f"{DATA}/hop.toml", "--q0=0.5,-1,0,-0.451,0"]
 
 # What every Python case sees: the issue's abbreviations.
 PRELUDE = f"""
@@ -120,8 +122,7 @@ CASES: list[Case] = [
     Case("execution_trajectory_1e-12", "3", "error", field="dt",
          code="r = s.simulate(HOP, HOPB, q0h, t_final=0.6).trajectory(1e-12)"),
     Case("cli_simulate_dt_1e-10_mcap", "3", "error", field="dt",
-         argv=["simulate", f"{DATA}/hopper.toml", f"{DATA}/hop.toml", "--q0=0.5,-1,0,-0.451,0", "--dt=1e-10",
-               "--mcap", "x.mcap"], check="not files"),
+         argv=[*HOP_CLI, "--dt=1e-10", "--mcap", "x.mcap"], check="not files"),
     Case("torque_speed_curve_points_1e9", "3", "error", field="points",
          code="r = motor.torque_speed_curve('x-rhex-28', points=10**9)"),
     Case("observe_delay_over_dt_1e9", "3", "error", field="delay_s",
@@ -180,11 +181,9 @@ CASES: list[Case] = [
     Case("terrain_flat_with_extra_key", "6", "error", field="terrain",
          code="r = s.simulate(HOP, HOPB, q0h, terrain={'kind': 'flat', 'extra': 1}, t_final=0.01)"),
     Case("cli_terrain_flat_x_1", "6", "error", field="--terrain",
-         argv=["simulate", f"{DATA}/hopper.toml", f"{DATA}/hop.toml", "--q0=0.5,-1,0,-0.451,0", "--t-final=0.01",
-               "--terrain=flat,x=1"]),
+         argv=[*HOP_CLI, "--t-final=0.01", "--terrain=flat,x=1"]),
     Case("cli_terrain_repeated_height_m", "6", "error", field="--terrain",
-         argv=["simulate", f"{DATA}/hopper.toml", f"{DATA}/hop.toml", "--q0=0.5,-1,0,-0.451,0", "--t-final=0.01",
-               "--terrain=ledge,height_m=0.1,height_m=0.2,distance_m=0.3"]),
+         argv=[*HOP_CLI, "--t-final=0.01", "--terrain=ledge,height_m=0.1,height_m=0.2,distance_m=0.3"]),
     Case("terrain_json_repeated_height_m", "6", "error", field="terrain",
          code="from selfmanip import cli_sim\n"
               "r = s.simulate(HOP, HOPB, q0h, t_final=0.01, terrain=cli_sim.parse_terrain("
@@ -208,8 +207,7 @@ CASES: list[Case] = [
     Case("leap_param_given_twice", "6", "error", field="m_b", code="r = s.leap(params={'m_b': 5}, m_b=9)"),
     Case("cli_leap_mcap_empty", "6", "error", field="--mcap", argv=["leap", "--mcap", ""]),
     Case("cli_simulate_plot_empty", "6", "error", field="--plot",
-         argv=["simulate", f"{DATA}/hopper.toml", f"{DATA}/hop.toml", "--q0=0.5,-1,0,-0.451,0", "--t-final=0.01",
-               "--plot", ""]),
+         argv=[*HOP_CLI, "--t-final=0.01", "--plot", ""]),
     Case("cli_plot_out_empty", "6", "error", field="--out", setup="open('t.csv', 'w').write('x\\n1\\n')",
          argv=["plot", "t.csv", "--out", ""], check="files == []"),
     Case("cli_sweep_out_empty", "6", "error", field="--out", argv=["sweep", "--t2=0", "--out", ""]),

@@ -413,16 +413,7 @@ fn bad_input_is_a_typed_error_naming_the_field() {
     assert_eq!(with(&|c| c.delta_t_s = -0.1), "delta_t_s");
     assert_eq!(with(&|c| c.t2_s = 5.0), "t2_s");
     assert_eq!(
-        with(
-            &|c| c.actuator = rhex_model::leap::LegActuator::GearedMotor {
-                gear_ratio: -3.0,
-                current_limit_a: 20.0,
-                motors_per_leg: 2,
-                gearbox_efficiency: None,
-                gearbox_loss: Default::default(),
-                battery_resistance_ohm: None,
-            }
-        ),
+        with(&|c| c.actuator = rhex_model::leap::LegActuator::default().with_gear_ratio(-3.0)),
         "gear_ratio"
     );
     assert_eq!(

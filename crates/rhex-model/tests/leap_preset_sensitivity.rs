@@ -292,14 +292,7 @@ fn the_issue_points_agree_with_differences_of_the_differentiated_execution() {
         // the differences of default leaps (free legs out of the step control)
         let default_leap = |g: f64| {
             let c = LeapConfig {
-                actuator: LegActuator::GearedMotor {
-                    gear_ratio: g,
-                    current_limit_a: 20.0,
-                    motors_per_leg: 2,
-                    gearbox_efficiency: None,
-                    gearbox_loss: Default::default(),
-                    battery_resistance_ohm: None,
-                },
+                actuator: LegActuator::default().with_gear_ratio(g),
                 ..cfg.clone()
             };
             simulate_leap(&leap_params(), &c).unwrap().apex.unwrap().z_m

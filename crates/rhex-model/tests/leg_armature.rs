@@ -20,7 +20,7 @@ use rhex_model::leap_sensitivity::leap_with_sensitivity;
 use rhex_model::{LegPair, Rhex, RhexError, RhexParams};
 use selfmanip_core::tangent::{BodyParameter, TangentError};
 use selfmanip_core::{energy, ContactMode, Data, FlatGround};
-use selfmanip_hybrid::{simulate, Controller, HybridOptions};
+use selfmanip_hybrid::{simulate, ConstantTorque, HybridOptions};
 
 fn massive() -> RhexParams {
     leap_params().with_table_4_2_legs()
@@ -123,16 +123,6 @@ fn the_default_leap_is_the_same_with_an_explicit_zero_armature() {
     assert_eq!(bits(&a.execution.qd), bits(&b.execution.qd));
 }
 
-/// Constant torques on the two legs.
-#[derive(Clone)]
-struct Constant([f64; 2]);
-
-impl Controller for Constant {
-    fn torque(&self, _t: f64, _q: &[f64], _qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
-        tau.copy_from_slice(&self.0);
-    }
-}
-
 #[test]
 fn flight_with_rotor_armature_balances_the_torques_work_in_the_engine() {
     let cfg = LeapConfig::default();
@@ -150,7 +140,9 @@ fn flight_with_rotor_armature_balances_the_torques_work_in_the_engine() {
     let exec = simulate(
         model,
         &FlatGround,
-        &Constant(tau),
+        &ConstantTorque {
+            torques_n_m: tau.to_vec(),
+        },
         ContactMode::FLIGHT,
         &q0,
         &[0.0; 5],
@@ -234,14 +226,7 @@ fn gear_ratio_and_armature_derivatives_through_the_rotors_equal_central_differen
     // the leaps with the gear ratio moved by `dg` and with the armature moved by `da`
     let leap_g = |dg: f64| {
         let c = LeapConfig {
-            actuator: LegActuator::GearedMotor {
-                gear_ratio: g + dg,
-                current_limit_a: 20.0,
-                motors_per_leg: 2,
-                gearbox_efficiency: None,
-                gearbox_loss: Default::default(),
-                battery_resistance_ohm: None,
-            },
+            actuator: LegActuator::default().with_gear_ratio(g + dg),
             ..cfg.clone()
         };
         simulate_leap(&massive(), &c).unwrap()

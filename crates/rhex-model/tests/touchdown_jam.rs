@@ -8,9 +8,12 @@
 //! Independent routes: the contacts' velocities after it from the core's kinematics
 //! (`contact_points`, the material point's `J q̇` at each site, not the constraint rows the
 //! impact was solved with) — every kept contact at rest along its normal, every sticking one
-//! at rest; the jammed toe's impulse, read from the event's rows, pushes and lies in its
-//! Coulomb cone; the kinetic energies the event records equal `½ q̇ᵀM̄q̇` evaluated again
-//! at its two velocities, the later the smaller; and the leap flies on to its apex.
+//! at rest; the jammed toe's impulse, read from the rows of the mode the impact went into
+//! (`impulse_mode`, every contact sticking; the mode after lets the other toe slide), pushes
+//! and lies in its Coulomb cone, and the impulse is the momentum jump in those rows; the
+//! kinetic energies the event records equal `½ q̇ᵀM̄q̇` evaluated again at its two
+//! velocities, the later the smaller; and the leap flies on to its apex.
+use nalgebra::DVector;
 use rhex_model::leap::{leap_params, rotor_reflected_inertia, simulate_leap, LeapConfig};
 use rhex_model::Rhex;
 use selfmanip_core::contact::{ContactKind, RowDirection};
@@ -73,9 +76,9 @@ fn a_touchdown_that_leaves_a_toe_on_an_inconsistent_slide_jams_it() {
             );
         }
     }
-    // the jammed toe's impulse (rows of the mode after: U = −P_n pushes)
+    // the jammed toe's impulse, in the rows of the mode the impact went into (U = −P_n pushes)
     let (mut p_t, mut p_n) = (0.0, 0.0);
-    for (row, &v) in e.mode_after.rows().zip(&e.impulse) {
+    for (row, &v) in e.impulse_mode.rows().zip(&e.impulse) {
         if row.contact == k {
             match row.direction {
                 RowDirection::Tangential => p_t = v,
@@ -103,6 +106,11 @@ fn a_touchdown_that_leaves_a_toe_on_an_inconsistent_slide_jams_it() {
     let mut y = vec![0.0; 2 * model.nq()];
     seg.eval(e.t, &mut y);
     let qd_before = &y[model.nq()..];
+    // the impulse is in the rows of `impulse_mode` (every contact sticking in a jam), not
+    // those of `mode_after`: its momentum jump `M̄ (q̇⁺ − q̇⁻) = −Aᵀ P` with `A` of that mode
+    // (the impact's KKT system (5.10))
+    assert_eq!(e.impulse.len(), e.impulse_mode.n_rows());
+    momentum_jump_is_the_impulse(model, e, qd_before);
     let mut data = Data::new(model);
     let t_before = energy(model, &mut data, q, qd_before).unwrap().0;
     let t_after = energy(model, &mut data, q, &e.qd_after).unwrap().0;
@@ -110,4 +118,22 @@ fn a_touchdown_that_leaves_a_toe_on_an_inconsistent_slide_jams_it() {
     assert!((t_after - e.kinetic_after).abs() < 1e-9 * t_before);
     assert!(t_after < t_before);
     assert!(r.apex.is_some());
+}
+
+/// `M̄ (q̇⁺ − q̇⁻) + Aᵀ P = 0` at the event's configuration, `A` the constraint matrix of the
+/// impact's mode `e.impulse_mode` (from the core's `Data::prepare`, not the reset's solve).
+fn momentum_jump_is_the_impulse(
+    model: &selfmanip_core::Model,
+    e: &selfmanip_hybrid::Event,
+    qd_before: &[f64],
+) {
+    let nq = model.nq();
+    let mut data = Data::new(model);
+    data.prepare_geometry(model, &FlatGround, e.impulse_mode, &e.q, qd_before)
+        .unwrap();
+    let dqd = DVector::from_iterator(nq, e.qd_after.iter().zip(qd_before).map(|(a, b)| a - b));
+    let residual =
+        &data.m_bar * dqd + data.constraints.a.transpose() * DVector::from_column_slice(&e.impulse);
+    let scale = data.m_bar.norm() * qd_before.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+    assert!(residual.norm() < 1e-9 * scale, "M̄Δq̇ + AᵀP = {residual}");
 }

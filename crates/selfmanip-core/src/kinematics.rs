@@ -184,9 +184,7 @@ impl Kinematics {
         p: Vector2<f64>,
         mut f: impl FnMut(usize, Vector2<f64>),
     ) {
-        for k in Self::chain(model, part) {
-            f(k, model.joints[k].axis_sign * perp(p - self.origin[k]));
-        }
+        Self::joint_columns(model, part, p, &self.origin, &mut f);
         let n = model.n_joints();
         f(n, Vector2::new(1.0, 0.0));
         f(n + 1, Vector2::new(0.0, 1.0));
@@ -204,13 +202,24 @@ impl Kinematics {
         p_dot: Vector2<f64>,
         mut f: impl FnMut(usize, Vector2<f64>),
     ) {
-        for k in Self::chain(model, part) {
-            f(
-                k,
-                model.joints[k].axis_sign * perp(p_dot - self.origin_vel[k]),
-            );
-        }
+        Self::joint_columns(model, part, p_dot, &self.origin_vel, &mut f);
         f(model.n_joints() + 2, perp(p_dot - self.body_vel));
+    }
+
+    /// The joint columns of [`Self::point_jacobian_columns`] (`origins`: the joints'
+    /// positions, `p` the point's) and of [`Self::point_jacobian_rate_columns`] (their
+    /// velocities, `p` the point's): `f(k, σ_k (p − o_k)^⊥)` along the chain to `part`.
+    #[inline]
+    fn joint_columns(
+        model: &Model,
+        part: Part,
+        p: Vector2<f64>,
+        origins: &[Vector2<f64>],
+        f: &mut impl FnMut(usize, Vector2<f64>),
+    ) {
+        for k in Self::chain(model, part) {
+            f(k, model.joints[k].axis_sign * perp(p - origins[k]));
+        }
     }
 
     /// Calls `f(k, J_ω e_k)` for the nonzero entries of the angular Jacobian row of a part:

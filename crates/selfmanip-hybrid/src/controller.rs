@@ -232,26 +232,12 @@ impl std::fmt::Debug for dyn Controller {
     }
 }
 
-/// No actuation.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct ZeroTorque;
-
-impl Controller for ZeroTorque {
-    fn torque(&self, _t: f64, _q: &[f64], _qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
-        tau.fill(0.0);
-    }
-    fn partials(
-        &self,
-        _t: f64,
-        _q: &[f64],
-        _qd: &[f64],
-        _mode: ContactMode,
-        _free_joints: &[usize],
-        _out: &mut ControllerPartials,
-    ) -> bool {
-        true
-    }
-}
+/// No actuation: [`ConstantTorque`] with no torques (`Υ = 0`, partials zero, no named
+/// parameters).
+#[allow(non_upper_case_globals)]
+pub const ZeroTorque: ConstantTorque = ConstantTorque {
+    torques_n_m: Vec::new(),
+};
 
 /// Constant joint torques: `Υ_j = torques_n_m[j]`, 0 at the joints past the list's end. Its
 /// partials over the state vanish, and each torque of the list is a named parameter,

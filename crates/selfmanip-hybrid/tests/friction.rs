@@ -3,11 +3,11 @@
 //! `tan β ≤ μ` and stays at rest, otherwise it keeps sliding (back down) with no stick/slip
 //! cycling at zero velocity; a sticking puck on an incline steeper than `atan μ` slips at
 //! once, and a tangential push reaching the cone makes it slip when `|λ_t| = μ λ_n`.
-use selfmanip_core::{ContactKind, ContactMode, GroundPlane};
-use selfmanip_hybrid::{EventKind, Termination};
+use selfmanip_core::{ContactKind, GroundPlane};
+use selfmanip_hybrid::{EventKind, Execution, Termination};
 
 mod systems;
-use systems::{coast, puck, G};
+use systems::{coast, puck, sliding, sticking, G};
 /// The foot at the centre of mass: no toppling moment, so the only dynamics are along the
 /// incline.
 const H: f64 = 0.0;
@@ -24,17 +24,22 @@ fn on_incline(beta: f64, v0: f64) -> (GroundPlane, [f64; 3], [f64; 3]) {
     (plane, [x.x, x.y, beta], [v0 * t.x, v0 * t.y, 0.0])
 }
 
+/// The puck with friction `mu` sliding up the incline `beta` at `speed`, against the
+/// tangential acceleration along the plane's tangent `t`, `a = g (t · ẑ_down)`, coasted to
+/// `t_final`: the run, `a` and the signed initial speed `v₀` along `t`.
+fn slid_uphill(beta: f64, mu: f64, speed: f64, t_final: f64) -> (Execution, f64, f64) {
+    let (plane, q, _) = on_incline(beta, 0.0);
+    let a = G * plane.tangent().y;
+    let v0 = -a.signum() * speed;
+    let (_, _, qd) = on_incline(beta, v0);
+    let exec = coast(&puck(mu), &plane, sliding(&[0]), (&q, &qd), t_final);
+    (exec, a, v0)
+}
+
 #[test]
 fn sliding_puck_stops_at_closed_form_time_and_sticks_below_the_cone() {
     for (beta, mu) in [(0.2_f64, 0.5), (0.35, 0.4)] {
-        let model = puck(mu);
-        // tangential acceleration along t: a = g (t · ẑ_down); slide against it
-        let (plane, q, _) = on_incline(beta, 0.0);
-        let a = G * plane.tangent().y;
-        let v0 = -a.signum() * 0.8;
-        let (_, _, qd) = on_incline(beta, v0);
-        let sliding = ContactMode::FLIGHT.with(0, ContactKind::Slide);
-        let exec = coast(&model, &plane, sliding, (&q, &qd), 1.0);
+        let (exec, a, v0) = slid_uphill(beta, mu, 0.8, 1.0);
         let stick = &exec.events[0];
         assert_eq!(stick.kind, EventKind::Stick);
         let t_star = -v0 / a;
@@ -56,18 +61,7 @@ fn sliding_puck_stops_at_closed_form_time_and_sticks_below_the_cone() {
 #[test]
 fn puck_steeper_than_the_cone_keeps_sliding_without_cycling() {
     let (beta, mu) = (0.5_f64, 0.3); // tan β = 0.546 > μ
-    let model = puck(mu);
-    let (plane, q, _) = on_incline(beta, 0.0);
-    let a = G * plane.tangent().y;
-    let v0 = -a.signum() * 0.5;
-    let (_, _, qd) = on_incline(beta, v0);
-    let exec = coast(
-        &model,
-        &plane,
-        ContactMode::FLIGHT.with(0, ContactKind::Slide),
-        (&q, &qd),
-        0.5,
-    );
+    let (exec, a, v0) = slid_uphill(beta, mu, 0.5, 0.5);
     // one stick attempt at v = 0 that the cone refuses, then sliding back down
     assert_eq!(exec.events.len(), 1);
     let e = &exec.events[0];
@@ -75,7 +69,7 @@ fn puck_steeper_than_the_cone_keeps_sliding_without_cycling() {
     assert!((e.t + v0 / a).abs() < 1e-9);
     assert_eq!(e.mode_after.kind(0), Some(ContactKind::Slide));
     // free sliding from rest at t*: v(T) = a (T − t*) along the tangent
-    let t = plane.tangent();
+    let t = on_incline(beta, 0.0).0.tangent();
     let v_t = exec.qd[0] * t.x + exec.qd[1] * t.y;
     assert!((v_t - a * (0.5 - e.t)).abs() < 1e-8, "{v_t}");
 }
@@ -87,13 +81,7 @@ fn sticking_puck_slips_when_the_incline_exceeds_the_cone() {
     let (beta, mu) = (0.5_f64, 0.3);
     let model = puck(mu);
     let (plane, q, qd) = on_incline(beta, 0.0);
-    let exec = coast(
-        &model,
-        &plane,
-        ContactMode::FLIGHT.with(0, ContactKind::Stick),
-        (&q, &qd),
-        0.2,
-    );
+    let exec = coast(&model, &plane, sticking(&[0]), (&q, &qd), 0.2);
     let e = &exec.events[0];
     assert_eq!(e.kind, EventKind::Slip);
     assert!(e.t < 1e-9, "slips at once: {}", e.t);
@@ -130,13 +118,7 @@ fn no_spurious_stick_right_after_a_slip() {
         let q = [0.0, 0.0, beta];
         let qd = [drift * t.x, drift * t.y, 0.0];
         let t_final = 0.2;
-        let exec = coast(
-            &model,
-            &plane,
-            ContactMode::FLIGHT.with(0, ContactKind::Stick),
-            (&q, &qd),
-            t_final,
-        );
+        let exec = coast(&model, &plane, sticking(&[0]), (&q, &qd), t_final);
         let unchanged: Vec<_> = exec
             .events
             .iter()

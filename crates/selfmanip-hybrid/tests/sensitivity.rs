@@ -21,7 +21,9 @@ mod systems;
 use nalgebra::{DMatrix, DVector};
 use selfmanip_core::{ContactKind, ContactMode, FlatGround, Model};
 use selfmanip_hybrid::sensitivity::{simulate_with_sensitivity, SaltationStatus, Sensitivity};
-use selfmanip_hybrid::{simulate, Controller, EventKind, Execution, HybridOptions, ZeroTorque};
+use selfmanip_hybrid::{
+    simulate, ConstantTorque, Controller, EventKind, Execution, HybridOptions, ZeroTorque,
+};
 use systems::{block, block_inertia, body, rotate, Friction, Servos, BLOCK, G};
 
 /// Tight tolerances, so that finite differences of whole executions resolve 1e-6
@@ -47,6 +49,9 @@ struct Case<'a> {
     opts: HybridOptions,
 }
 
+/// No actuation, for cases that outlive the call that makes them.
+static NO_TORQUE: ConstantTorque = ZeroTorque;
+
 /// An event's kind and the mode after it.
 type Step = (EventKind, ContactMode);
 
@@ -55,7 +60,7 @@ impl<'a> Case<'a> {
     fn passive(model: &'a Model, y0: &'a [f64], tf: f64, opts: HybridOptions) -> Self {
         Case {
             model,
-            ctrl: &ZeroTorque,
+            ctrl: &NO_TORQUE,
             mode: ContactMode::FLIGHT,
             y0,
             tf,

@@ -13,10 +13,10 @@
 //! Passing from the top onto the edge is no terrain discontinuity: the gap and the normal are
 //! continuous there.
 use nalgebra::Vector2;
-use selfmanip_core::{ContactKind, ContactMode, GroundPlane, Model, RobotDescription, Terrain};
+use selfmanip_core::{GroundPlane, Model, RobotDescription, Terrain};
 use selfmanip_hybrid::{EventKind, Termination};
 mod systems;
-use systems::coast;
+use systems::{coast, sliding, sticking};
 
 const G: f64 = 9.81;
 const R: f64 = 0.05;
@@ -85,7 +85,7 @@ fn frictionless_disk_leaves_the_edge_where_a_particle_leaves_a_sphere() {
     let exec = coast(
         &model,
         &Step,
-        ContactMode::FLIGHT.with(0, ContactKind::Slide),
+        sliding(&[0]),
         (&[-x0, -R, 0.0], &[v0, 0.0, 0.0]),
         0.6,
     );
@@ -124,7 +124,7 @@ fn rolling_disk_pivots_on_the_edge_and_slips_where_its_cone_runs_out() {
     let exec = coast(
         &model,
         &Step,
-        ContactMode::FLIGHT.with(0, ContactKind::Stick),
+        sticking(&[0]),
         (&[-x0, -R, 0.0], &[v0, 0.0, omega0]),
         0.6,
     );

@@ -22,9 +22,9 @@ mod common;
 use nalgebra::{Complex, DMatrix, DVector};
 use selfmanip_core::{ContactMode, RobotDescription};
 use selfmanip_hybrid::periodic::{
-    find_periodic_orbit, floquet_multipliers, return_map, PeriodicOptions, PeriodicOrbit,
+    find_periodic_orbit, floquet_multipliers, PeriodicOptions, PeriodicOrbit,
 };
-use selfmanip_hybrid::{simulate, Controller, ControllerPartials, EventKind};
+use selfmanip_hybrid::{simulate, Controller, ControllerPartials, EventKind, Segment};
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::{Scenario, Simulation};
 use std::path::{Path, PathBuf};
@@ -52,14 +52,7 @@ fn simulation(q0: &[f64]) -> Simulation {
 fn find() -> (Simulation, PeriodicOrbit) {
     let g = guess(0.45);
     let sim = simulation(&g[..5]);
-    let orbit = find_periodic_orbit(
-        &sim.model,
-        &sim.terrain,
-        &*sim.controller,
-        &g,
-        &PeriodicOptions::default(),
-    )
-    .unwrap();
+    let orbit = common::orbit(&sim, &g);
     (sim, orbit)
 }
 
@@ -69,15 +62,7 @@ fn opts() -> PeriodicOptions {
 
 /// `x1` of the return map from `x0`, with its event kinds.
 fn map(sim: &Simulation, x0: &[f64]) -> (Vec<f64>, Vec<EventKind>) {
-    let rm = return_map(
-        &sim.model,
-        &sim.terrain,
-        &*sim.controller,
-        x0,
-        false,
-        &opts(),
-    )
-    .unwrap();
+    let rm = common::apex_return_map(sim, x0, false);
     let kinds = rm.execution.events.iter().map(|e| e.kind).collect();
     (rm.x1, kinds)
 }
@@ -104,14 +89,10 @@ fn rel(a: &DMatrix<f64>, b: &DMatrix<f64>) -> f64 {
 /// Jordan blocks — the conserved `φ̇` — whose eigenvalues are ill-conditioned, `O(ε^{1/k})`:
 /// those are checked through their rows, against the closed form.)
 fn multiplier_error(a: &[Complex<f64>], b: &[Complex<f64>]) -> f64 {
-    a.iter()
-        .filter(|l| (*l - Complex::new(1.0, 0.0)).norm() > 1e-3)
-        .map(|l| {
-            b.iter()
-                .map(|m| (l - m).norm())
-                .fold(f64::INFINITY, f64::min)
-        })
-        .fold(0.0, f64::max)
+    let off_one = a
+        .iter()
+        .filter(|l| (*l - Complex::new(1.0, 0.0)).norm() > 1e-3);
+    common::multiplier_error(off_one, b)
 }
 
 /// The hopper's orbit: found from a guess 10 cm off in apex height and with the leg at
@@ -126,16 +107,7 @@ fn hopper_section_multipliers_match_finite_differences() {
         o.x, o.period_s, o.events, o.iterations, o.residual, o.rank_deficiency
     );
     eprintln!("DP multipliers {:?}", o.multipliers);
-    eprintln!(
-        "section multipliers {:?} ({:?})",
-        o.section_multipliers, o.stability
-    );
-    let kinds: Vec<_> = o.events.iter().map(|e| e.0).collect();
-    assert_eq!(
-        kinds,
-        [EventKind::Touchdown, EventKind::Liftoff, EventKind::Apex]
-    );
-    assert!(o.residual <= 1e-9);
+    let kinds = common::hop_events(&o);
     let idx = &o.section_coordinates;
     let fd = common::section_jacobian_fd(|x| map(&sim, x), &o.x, idx, &kinds, 1e-6);
     let e = rel(&o.section_jacobian, &fd);
@@ -392,35 +364,19 @@ fn check_partials(
 fn behaviour_partials_match_finite_differences() {
     let (sim, o) = find();
     let nq = sim.model.nq();
-    let rm = return_map(
-        &sim.model,
-        &sim.terrain,
-        &*sim.controller,
-        &o.x,
-        false,
-        &opts(),
-    )
-    .unwrap();
+    let rm = common::apex_return_map(&sim, &o.x, false);
     let stance = &rm.execution.segments[1];
     assert!(!stance.mode.is_flight());
-    let mut y = vec![0.0; 2 * nq];
-    stance.eval(0.5 * (stance.t0 + stance.t1), &mut y);
-    let e1 = check_partials(
-        &*stance.controller,
-        0.5 * (stance.t0 + stance.t1),
-        &y,
-        stance.mode,
-        &[],
-    );
+    // the partials at the middle of a segment, of the controller it ran with
+    let at_middle = |seg: &Segment, free: &[usize]| {
+        let t = 0.5 * (seg.t0 + seg.t1);
+        let mut y = vec![0.0; 2 * nq];
+        seg.eval(t, &mut y);
+        check_partials(&*seg.controller, t, &y, seg.mode, free)
+    };
+    let e1 = at_middle(stance, &[]);
     let flight = &rm.execution.segments[2];
-    flight.eval(0.5 * (flight.t0 + flight.t1), &mut y);
-    let e2 = check_partials(
-        &*flight.controller,
-        0.5 * (flight.t0 + flight.t1),
-        &y,
-        flight.mode,
-        &[0, 1],
-    );
+    let e2 = at_middle(flight, &[0, 1]);
     eprintln!("partials vs central differences: stance {e1:e}, flight {e2:e}");
     assert!(e1 < 1e-6 && e2 < 1e-6, "{e1:e} {e2:e}");
     // a saturating servo, a schedule, a constant
@@ -523,15 +479,7 @@ fn undamped_hop_gains_the_spring_preload_in_closed_form() {
         .parameters
         .insert("kd_knee".into(), selfmanip_sim::expr::Scalar::Number(0.0));
     let sim = Simulation::new(&s).unwrap();
-    let rm = return_map(
-        &sim.model,
-        &sim.terrain,
-        &*sim.controller,
-        &g,
-        true,
-        &opts(),
-    )
-    .unwrap();
+    let rm = common::apex_return_map(&sim, &g, true);
     let kinds: Vec<_> = rm.execution.events.iter().map(|e| e.kind).collect();
     assert_eq!(
         kinds,

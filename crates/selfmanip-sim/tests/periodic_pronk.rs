@@ -16,12 +16,10 @@
 //!   pre-load gained every hop, `∂z₁/∂z₀ = 1`).
 mod common;
 
-use nalgebra::{Complex, DMatrix};
+use nalgebra::DMatrix;
 use selfmanip_core::description::FrictionDescription;
 use selfmanip_core::RobotDescription;
-use selfmanip_hybrid::periodic::{
-    find_periodic_orbit, floquet_multipliers, return_map, PeriodicOptions, PeriodicOrbit,
-};
+use selfmanip_hybrid::periodic::{floquet_multipliers, PeriodicOrbit};
 use selfmanip_hybrid::sensitivity::{execution_sensitivity, SaltationStatus};
 use selfmanip_hybrid::EventKind;
 use selfmanip_sim::behaviour::Behaviour;
@@ -69,28 +67,13 @@ fn simulation(kd_knee: Option<f64>) -> Simulation {
 }
 
 fn find(sim: &Simulation) -> PeriodicOrbit {
-    find_periodic_orbit(
-        &sim.model,
-        &sim.terrain,
-        &*sim.controller,
-        &guess(0.45),
-        &PeriodicOptions::default(),
-    )
-    .unwrap()
+    common::orbit(sim, &guess(0.45))
 }
 
 /// `P(x)` and the run's event kinds with consecutive repeats merged (a liftoff of both
 /// feet is one event or two at the same instant, as round-off decides).
 fn map(sim: &Simulation, x: &[f64]) -> (Vec<f64>, Vec<EventKind>) {
-    let rm = return_map(
-        &sim.model,
-        &sim.terrain,
-        &*sim.controller,
-        x,
-        false,
-        &PeriodicOptions::default(),
-    )
-    .unwrap();
+    let rm = common::apex_return_map(sim, x, false);
     let mut kinds: Vec<EventKind> = rm.execution.events.iter().map(|e| e.kind).collect();
     kinds.dedup();
     (rm.x1, kinds)
@@ -130,17 +113,6 @@ fn restricted(j: &DMatrix<f64>, v: &DMatrix<f64>) -> (DMatrix<f64>, f64) {
     (c, off)
 }
 
-/// Each of `a` matched to the nearest of `b`: the worst distance.
-fn multiplier_error(a: &[Complex<f64>], b: &[Complex<f64>]) -> f64 {
-    a.iter()
-        .map(|l| {
-            b.iter()
-                .map(|m| (l - m).norm())
-                .fold(f64::INFINITY, f64::min)
-        })
-        .fold(0.0, f64::max)
-}
-
 /// The pronk's orbit: found from a level guess at rest, 3 events a period (both feet land
 /// in one touchdown, lift off together, apex); the touchdown is differentiable (plastic
 /// impacts into nested modes commute to first order: both orders agree) and the liftoff is
@@ -157,16 +129,7 @@ fn pronk_orbit_through_simultaneous_guards_matches_symmetric_differences() {
         "x* {:?}\nT {} s, {} iterations, residual {:e}, one-sided {:?}",
         o.x, o.period_s, o.iterations, o.residual, o.one_sided
     );
-    eprintln!(
-        "section multipliers {:?} ({:?})",
-        o.section_multipliers, o.stability
-    );
-    let kinds: Vec<_> = o.events.iter().map(|e| e.0).collect();
-    assert_eq!(
-        kinds,
-        [EventKind::Touchdown, EventKind::Liftoff, EventKind::Apex]
-    );
-    assert!(o.residual <= 1e-9);
+    common::hop_events(&o);
     assert_eq!(o.one_sided.len(), 1, "{:?}", o.one_sided);
     assert_eq!(o.one_sided[0].kind, EventKind::Liftoff);
     assert_eq!(o.one_sided[0].guards, [0, 1]);
@@ -214,7 +177,7 @@ fn pronk_orbit_through_simultaneous_guards_matches_symmetric_differences() {
         floquet_multipliers(&c).unwrap(),
         floquet_multipliers(&c_fd).unwrap(),
     );
-    let me = multiplier_error(&mc, &mfd);
+    let me = common::multiplier_error(&mc, &mfd);
     eprintln!(
         "symmetric multipliers {mc:?}\n  finite differences {mfd:?}\n  {me:e}; rows of \
          angles and height {err_q:e}, of the legs' rates {err_rates:e}"
@@ -222,7 +185,7 @@ fn pronk_orbit_through_simultaneous_guards_matches_symmetric_differences() {
     assert!(err_q < 1e-5, "{err_q:e}\n{c}\n{c_fd}");
     assert!(err_rates < 1e-4, "{err_rates:e}\n{c}\n{c_fd}");
     assert!(me < 1e-5, "{me:e}");
-    assert!(multiplier_error(&mc, &o.section_multipliers) < 1e-8);
+    assert!(common::multiplier_error(&mc, &o.section_multipliers) < 1e-8);
 }
 
 /// The liftoff's two one-sided derivatives are each other's mirror image: with `S` the
@@ -232,15 +195,7 @@ fn pronk_orbit_through_simultaneous_guards_matches_symmetric_differences() {
 fn one_sided_liftoff_derivatives_are_mirror_images() {
     let sim = simulation(None);
     let o = find(&sim);
-    let rm = return_map(
-        &sim.model,
-        &sim.terrain,
-        &*sim.controller,
-        &o.x,
-        false,
-        &PeriodicOptions::default(),
-    )
-    .unwrap();
+    let rm = common::apex_return_map(&sim, &o.x, false);
     let s = execution_sensitivity(&sim.model, &sim.terrain, &rm.execution).unwrap();
     let lift = s
         .events
@@ -283,15 +238,7 @@ fn one_sided_liftoff_derivatives_are_mirror_images() {
 fn undamped_pronk_gains_both_springs_preload_in_closed_form() {
     let sim = simulation(Some(0.0));
     let g = guess(0.45);
-    let rm = return_map(
-        &sim.model,
-        &sim.terrain,
-        &*sim.controller,
-        &g,
-        true,
-        &PeriodicOptions::default(),
-    )
-    .unwrap();
+    let rm = common::apex_return_map(&sim, &g, true);
     let ev = &rm.execution.events;
     assert_eq!(ev[0].kind, EventKind::Touchdown);
     assert_eq!(ev[0].triggered, [0, 1]);

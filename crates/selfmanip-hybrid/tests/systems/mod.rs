@@ -339,11 +339,21 @@ pub fn massless_leg(
         .unwrap()
 }
 
-/// The mode with `contacts` sliding and no other contact.
-pub fn sliding(contacts: &[usize]) -> ContactMode {
+/// The mode with `contacts` touching as `kind` and no other contact.
+pub fn touching(kind: ContactKind, contacts: &[usize]) -> ContactMode {
     contacts
         .iter()
-        .fold(ContactMode::FLIGHT, |m, &k| m.with(k, ContactKind::Slide))
+        .fold(ContactMode::FLIGHT, |m, &k| m.with(k, kind))
+}
+
+/// The mode with `contacts` sliding and no other contact.
+pub fn sliding(contacts: &[usize]) -> ContactMode {
+    touching(ContactKind::Slide, contacts)
+}
+
+/// The mode with `contacts` sticking and no other contact.
+pub fn sticking(contacts: &[usize]) -> ContactMode {
+    touching(ContactKind::Stick, contacts)
 }
 
 /// Hip servos `Υ_i = −k (θ_i − θ_i*) − c θ̇_i` with their partials, and the gain `k` as a

@@ -1,10 +1,13 @@
 //! Fixtures the sim's tests share.
 #![allow(dead_code)]
-use nalgebra::DMatrix;
+use nalgebra::{Complex, DMatrix};
 use selfmanip_core::RobotDescription;
+use selfmanip_hybrid::periodic::{
+    find_periodic_orbit, return_map, PeriodicOptions, PeriodicOrbit, ReturnMap,
+};
 use selfmanip_hybrid::EventKind;
 use selfmanip_sim::behaviour::Behaviour;
-use selfmanip_sim::Scenario;
+use selfmanip_sim::{Scenario, Simulation};
 use std::path::Path;
 
 #[path = "../../examples/common/mod.rs"]
@@ -51,4 +54,55 @@ pub fn section_jacobian_fd<Y: std::ops::Index<usize, Output = f64>>(
         }
     }
     fd
+}
+
+/// The event kinds of a period of the orbit `o`, checked to be a hop's (touchdown, liftoff,
+/// apex: the feet land and lift off together), its residual at most 1e-9; its section
+/// multipliers printed.
+pub fn hop_events(o: &PeriodicOrbit) -> Vec<EventKind> {
+    eprintln!(
+        "section multipliers {:?} ({:?})",
+        o.section_multipliers, o.stability
+    );
+    let kinds: Vec<_> = o.events.iter().map(|e| e.0).collect();
+    assert_eq!(
+        kinds,
+        [EventKind::Touchdown, EventKind::Liftoff, EventKind::Apex]
+    );
+    assert!(o.residual <= 1e-9);
+    kinds
+}
+
+/// The periodic orbit of `sim`'s robot and controller found from `guess` (default options).
+pub fn orbit(sim: &Simulation, guess: &[f64]) -> PeriodicOrbit {
+    let opts = PeriodicOptions::default();
+    find_periodic_orbit(&sim.model, &sim.terrain, &*sim.controller, guess, &opts).unwrap()
+}
+
+/// The apex return map of `sim` from `x` (default options), with its Jacobian if `jacobian`.
+pub fn apex_return_map(sim: &Simulation, x: &[f64], jacobian: bool) -> ReturnMap {
+    let opts = PeriodicOptions::default();
+    return_map(
+        &sim.model,
+        &sim.terrain,
+        &*sim.controller,
+        x,
+        jacobian,
+        &opts,
+    )
+    .unwrap()
+}
+
+/// Each multiplier of `a` matched to the nearest of `b`: the worst distance.
+pub fn multiplier_error<'a>(
+    a: impl IntoIterator<Item = &'a Complex<f64>>,
+    b: &[Complex<f64>],
+) -> f64 {
+    a.into_iter()
+        .map(|l| {
+            b.iter()
+                .map(|m| (l - m).norm())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max)
 }

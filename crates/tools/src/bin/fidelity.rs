@@ -517,7 +517,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .iter()
         .find(|e| e.kind == EventKind::Touchdown && e.triggered.contains(&rear));
     let fig56 = td.and_then(|e| {
-        let rows: Vec<_> = e.mode_after.rows().collect();
+        // P_λ and P_δ are in the rows of the mode the impact went into
+        let rows: Vec<_> = e.impulse_mode.rows().collect();
         let i = rows.iter().position(|r| {
             r.contact == front && r.direction == selfmanip_core::RowDirection::Normal
         })?;
