@@ -160,7 +160,7 @@ pub fn uniform_link(length_m: f64, mass_kg: f64) -> LinkDescription {
 pub fn one_leg(length_m: f64, link_mass_kg: f64, gravity_m_s2: f64) -> Model {
     let toe_friction = FrictionDescription::Sticking {
         mu: Some(1.0),
-        mu_kinetic: None,
+        mu_kinetic: Some(0.0),
     };
     let link = uniform_link(length_m, link_mass_kg);
     let mut d = one_link_leg(3.0, 0.05, gravity_m_s2, link, toe_friction);
