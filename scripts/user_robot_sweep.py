@@ -161,6 +161,8 @@ def run_one(i: int, seed: int) -> dict[str, Any]:
         t0 = time.perf_counter()
         e = selfmanip.simulate(robot, run["behaviour"], q0, terrain=run["terrain"], t_final=T_FINAL_S)
         same = [ev for ev in e.events if ev["kind"] == "touchdown" and ev["mode_before"] == ev["mode_after"]]
+        # the run's cost as the engine bounds it: accepted steps (max_steps) and events
+        out["steps"] = int(e._native.steps) if e._native is not None else 0
         out.update(status=e.status, events=len(e.events), word="-".join(e.word)[:80], reason=e.reason[:160],
                    truncations=sum(ev["kind"] == "zeno_truncation" for ev in e.events),
                    unchanged_touchdowns=len(same),
@@ -185,10 +187,16 @@ def summarise(rows: list[dict[str, Any]], slowest: int = 10) -> str:
     truncated = [r for r in rows if r.get("truncations", 0)]
     lines.append(f"Zeno truncations: {sum(r['truncations'] for r in truncated)} in {len(truncated)} runs "
                  f"({sum(r['status'] in BAD for r in truncated)} of them still bad)")
+    steps = sorted(r.get("steps", 0) for r in rows)
+    if steps:
+        lines.append(f"steps per run: median {steps[len(steps) // 2]}, 99th percentile "
+                     f"{steps[(99 * len(steps)) // 100]}, largest {steps[-1]}; events largest "
+                     f"{max(r['events'] for r in rows)}")
     walls = sorted(rows, key=lambda r: -r["wall_s"])
     lines.append(f"over 100 ms: {sum(r['wall_s'] > 0.1 for r in rows)}; slowest:")
     for r in walls[:slowest]:
         lines.append(f"  run {r['i']:4d} {1000 * r['wall_s']:8.1f} ms  {r['status']:<26} {r['events']:4d} events  "
+                     f"{r.get('steps', 0):6d} steps  "
                      f"{r['legs']} legs, {r['behaviour']}, {r['terrain']}, massless {r['massless_links']}")
     by = collections.defaultdict(collections.Counter)
     for r in rows:

@@ -706,6 +706,12 @@ impl PyRun {
         self.inner.outcome.reason.clone()
     }
 
+    /// Accepted integration steps of the run (its cost; bounded by `max_steps`).
+    #[getter]
+    fn steps(&self) -> usize {
+        self.inner.execution.steps
+    }
+
     /// The contact cells visited, in the robot's own contact order.
     #[getter]
     fn word(&self) -> Vec<String> {

@@ -313,7 +313,7 @@ impl RhexParams {
                         mu: self.mu(p),
                         mu_kinetic: match self.toe_sliding {
                             ToeSliding::Coulomb => self.mu(p),
-                            ToeSliding::Frictionless => None,
+                            ToeSliding::Frictionless => Some(0.0),
                         },
                     },
                 }

@@ -294,8 +294,8 @@ pub enum ShapeDescription {
 pub enum FrictionDescription {
     /// Resists sliding: a normal and a tangential constraint row, Coulomb coefficient `mu`
     /// (omit for "never slips"). Once it slips it slides with kinetic coefficient
-    /// `mu_kinetic` (omit for 0, the thesis's Assumption 5.9; any site, see
-    /// [`crate::friction`]).
+    /// `mu_kinetic` (omit for `mu`: Coulomb sliding; `0` for the thesis's frictionless
+    /// sliding of Assumption 5.9; any site, see [`crate::friction`]).
     Sticking {
         #[serde(default)]
         mu: Option<f64>,
@@ -745,7 +745,8 @@ fn build_friction(field: &str, friction: &FrictionDescription) -> Result<(Fricti
             if mu.is_nan() || mu < 0.0 {
                 return Err(bad(format!("{field}.mu"), "must be non-negative"));
             }
-            let mu_k = mu_kinetic.unwrap_or(0.0);
+            // Coulomb sliding unless declared (a site that never slips needs none)
+            let mu_k = mu_kinetic.unwrap_or(if mu.is_finite() { mu } else { 0.0 });
             if !mu_k.is_finite() || mu_k < 0.0 {
                 return Err(bad(
                     format!("{field}.mu_kinetic"),

@@ -91,8 +91,11 @@ impl ResetWorkspace<'_> {
             outcomes.push(self.outcome(t, &set, prefer, q, qd, impact)?);
         }
         // the push a contact needs to be held: a leaving one must push clearly
+        let held = &self.held;
         let holds = |c: usize, u: f64| {
-            if leaving.contains(&c) {
+            if held.contains(&c) {
+                true
+            } else if leaving.contains(&c) {
                 u > tol
             } else {
                 u >= -tol
@@ -104,6 +107,11 @@ impl ResetWorkspace<'_> {
                 continue;
             };
             if o.push.iter().any(|&(c, u)| !holds(c, u)) {
+                continue;
+            }
+            // a held contact stays in every accepted set
+            let left_out = |i: usize| bits >> i & 1 == 0;
+            if (0..n).any(|i| left_out(i) && held.contains(&candidates[i])) {
                 continue;
             }
             // each left-out contact k must separate: singular with k means k cannot be held
@@ -122,6 +130,13 @@ impl ResetWorkspace<'_> {
             if separates {
                 accepted.push(o);
             }
+        }
+        // no set keeps every held contact: the hold gives way to complementarity
+        if accepted.is_empty() && !self.held.is_empty() {
+            let held = std::mem::take(&mut self.held);
+            let free = self.select(t, candidates, leaving, prefer, q, qd, impact);
+            self.held = held;
+            return free;
         }
         Ok(match accepted[..] {
             [one] => Ok(Selected {

@@ -46,6 +46,9 @@ pub struct Flow<'a> {
     /// Kinematics at `kin_y`, for states where no flow was evaluated.
     kin: Kinematics,
     kin_y: Option<Vec<f64>>,
+    /// Contacts held closed by a Zeno truncation's dwell ([`crate::zeno`]): their liftoff
+    /// and stick→slip guards are not armed until the dwell ends.
+    held: Vec<usize>,
 }
 
 impl<'a> Flow<'a> {
@@ -60,7 +63,20 @@ impl<'a> Flow<'a> {
             y: Vec::with_capacity(2 * model.nq()),
             kin: Kinematics::default(),
             kin_y: None,
+            held: Vec::new(),
         }
+    }
+
+    /// Holds the contacts `contacts` closed (none: the hold ends): see [`Self::held`].
+    pub fn set_held(&mut self, contacts: &[usize]) {
+        self.held.clear();
+        self.held.extend_from_slice(contacts);
+    }
+
+    /// The contacts a Zeno truncation holds closed for its dwell ([`crate::zeno`]): the
+    /// segments arm neither their liftoff nor their stick→slip guards.
+    pub fn held(&self) -> &[usize] {
+        &self.held
     }
 
     pub fn model(&self) -> &'a Model {

@@ -81,6 +81,15 @@ pub enum Guard {
 }
 
 impl Guard {
+    /// The contact whose liftoff or stick→slip guard this is — the guards that let a
+    /// contact go, which a Zeno truncation's dwell holds back ([`crate::zeno`]).
+    pub fn lets_go(self) -> Option<usize> {
+        match self {
+            Guard::Liftoff { contact, .. } | Guard::Slip { contact, .. } => Some(contact),
+            _ => None,
+        }
+    }
+
     /// Whether the guard's value needs the flow (the contact forces), not just kinematics.
     pub fn needs_flow(self) -> bool {
         matches!(self, Guard::Liftoff { .. } | Guard::Slip { .. })
@@ -407,6 +416,10 @@ impl GuardSet {
         opts: &HybridOptions,
     ) -> Result<(), CoreError> {
         Guard::of_mode(flow.model(), mode, flow.lock(), opts, &mut self.guards);
+        // a Zeno truncation's dwell holds its contacts closed (crate::zeno)
+        let held = flow.held();
+        self.guards
+            .retain(|g| g.lets_go().is_none_or(|k| !held.contains(&k)));
         // a leg whose torque falls with speed meets its fold at the passage threshold
         let (q, qd) = y.split_at(flow.model().nq());
         self.scratch_tau.resize(flow.model().n_joints(), 0.0);

@@ -299,6 +299,7 @@ pub fn coulomb_jam(
                 ws,
                 barred: &[],
                 fold_threshold: opts.fold_threshold,
+                held: Vec::new(),
             };
             let kept: Vec<usize> = mode_after.active().collect();
             match cx.select(t, &kept, &[], mode_after, q, &o.qd_plus, false) {

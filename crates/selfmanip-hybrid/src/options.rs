@@ -25,7 +25,9 @@ pub struct HybridOptions {
     /// lands in one impact and a contact left at rest is judged by force, at the resolution
     /// [`Self::rest_time_s`] ([`crate::complementarity`]).
     pub delta_t_s: f64,
-    /// Zeno detection: more than `zeno_max_events` events within `zeno_window_s` stops the run.
+    /// Zeno detection: more than `zeno_max_events` events within `zeno_window_s` is
+    /// truncated, its mode held for a dwell of at least the window ([`crate::zeno`]); the
+    /// run stops only where there is nothing to truncate.
     pub zeno_window_s: f64,
     pub zeno_max_events: usize,
     /// Total event budget: the run ends with [`crate::Termination::EventBudget`] at this

@@ -245,6 +245,7 @@ pub(crate) fn reset_workspace<'a: 'b, 'b>(
         ws,
         barred,
         fold_threshold: opts.fold_threshold,
+        held: flow.held().to_vec(),
     }
 }
 

@@ -21,4 +21,7 @@ pub struct ResetWorkspace<'a> {
     pub barred: &'a [(usize, ContactKind)],
     /// The pin `ε` within which a mode counts as singular ([`crate::fold`]).
     pub fold_threshold: f64,
+    /// Contacts a Zeno truncation's dwell holds ([`crate::zeno`]): complementarity keeps
+    /// them, pushing or not, until the dwell ends.
+    pub held: Vec<usize>,
 }

@@ -9,8 +9,9 @@
 //!   reset     impact or force complementarity ⇒ (mode, q̇⁺)   [reset, complementarity,
 //!                                                              impact, contact_set]
 //!   zeno      too many transitions in a window ⇒ truncated by the pseudo-impulse's
-//!             limit (a reset), or the end when that makes no progress; one cycle of
-//!             transitions repeated with the robot staying where it is ⇒ end   [zeno]
+//!             limit (a reset) whose mode is held for a dwell, or the end when there is
+//!             nothing to truncate; one cycle of transitions repeated with the robot
+//!             staying where it is ⇒ end                                  [zeno]
 //!   budget    out of steps or events, or stopped from outside ⇒ end  [budget]
 //! ```
 use crate::budget::{Budget, NEVER};
@@ -106,13 +107,15 @@ pub fn simulate_with(
             if let Some(r) = truncation.take() {
                 break 'stages Ok(r);
             }
+            // a truncation's dwell ends its segment (crate::zeno)
+            let t_end = zeno.holding_until().map_or(t_final, |d| d.min(t_final));
             let run = integrator.run(
                 &mut flow,
                 mode,
                 &mut t,
                 &mut y,
                 &from_rest,
-                t_final,
+                t_end,
                 &opts,
                 &mut budget,
             );
@@ -129,7 +132,16 @@ pub fn simulate_with(
                     Some(z) => break 'run z,
                     None => continue 'run,
                 },
-                SegmentEnd::FinalTime => break 'run Termination::FinalTime,
+                SegmentEnd::FinalTime if t >= t_final => break 'run Termination::FinalTime,
+                // the dwell of a truncation ends: its contacts are judged by force again
+                SegmentEnd::FinalTime => {
+                    let held = (&mut reset_ws, &mut flow, &mut zeno);
+                    match crate::zeno::dwell_end(held, &opts, mode, (t, &y)) {
+                        Ok(Some(r)) => break 'stages Ok(r),
+                        Ok(None) => continue 'run,
+                        Err(e) => break 'stages Err((e, true)),
+                    }
+                }
                 // mid-flow: the segment is recorded up to `t`, where the slide ended
                 SegmentEnd::Painleve { contact } => {
                     let e = CoreError::PainleveInconsistent {
@@ -202,18 +214,11 @@ pub fn simulate_with(
             break Termination::Interrupted { t };
         }
         if let Some(z) = zeno_window {
-            let Termination::Zeno { ref contacts, .. } = z else {
-                break z;
-            };
-            truncation = if zeno.may_truncate(t) {
-                crate::zeno::truncate(&mut reset_ws, &mut flow, &opts, mode, (t, &y), contacts)?
-            } else {
-                None
-            };
+            let held = (&mut reset_ws, &mut flow, &mut zeno);
+            truncation = crate::zeno::truncate_and_hold(held, &opts, mode, (t, &y), &z)?;
             if truncation.is_none() {
                 break z;
             }
-            zeno.truncated(t);
             continue;
         }
         if let Some(c) = chatter.check(&events) {

@@ -15,14 +15,16 @@
 //! some impact has `U(P_λ + P_δ)` of the sign of `U(P_δ)` for every contact, and the block
 //! of (5.44) comes to rest (below 6.3 cm/s in Fig. 5.5). That impact's limit `δt → 0⁺` is the
 //! truncation: the plastic impact (5.52) into the set `J` of every contact of the Zeno
-//! window that is on its surface, and then force complementarity (5.19)–(5.20) over `J` —
-//! the sign of `U(P_δ)`, `δt` times the forces of mode `J` — keeps the contacts that push and
-//! releases (at zero normal velocity) those that would pull. It is the order-`δt` rule of
-//! [`crate::complementarity`] taken at the accumulation instead of at one impact. The run
-//! goes on from there with an [`EventKind::ZenoTruncation`] naming the window's contacts; a
-//! truncation that the next Zeno window finds less than one window back made no progress,
-//! and that window ends the run with [`Termination::Zeno`] (as does a window with no
-//! contact to add, e.g. of feature passages only).
+//! window that is on its surface, in the mode impulse complementarity gives it (every contact
+//! sticking where that mode is singular), and then the **dwell**: the run goes on in that
+//! mode with its contacts held — no liftoff or stick→slip guard armed ([`Flow::held`]), kept
+//! by the complementarity of any reset in between — for
+//! [`ZenoWindow::dwell_s`], after which force complementarity (5.19)–(5.20) judges them
+//! ([`dwell_end`]). Holding `J` for `δt` and judging it by force is the pseudo-impulse of
+//! (5.39), the impulse of mode `J`'s forces over `δt`, applied as that force. The run goes on
+//! with an [`EventKind::ZenoTruncation`] naming the window's contacts; a window with nothing
+//! to truncate (no contact of it on its surface, e.g. of feature passages only) ends the run
+//! with [`Termination::Zeno`]. Derivation: docs/singular-transitions.md section 9.
 use crate::error::HybridError;
 use crate::event::{Event, EventKind};
 use crate::execution::Termination;
@@ -39,8 +41,10 @@ pub struct ZenoWindow {
     max_in_window: usize,
     times: Vec<f64>,
     triggered: Vec<Vec<usize>>,
-    /// When the last truncation was made ([`truncate`]).
-    truncated_at: Option<f64>,
+    /// The last truncation's dwell: its length (s) and when it ends ([`Self::truncated`]).
+    dwell: Option<(f64, f64)>,
+    /// Whether that dwell still holds its contacts ([`dwell_end`] has not been reached).
+    holding: bool,
 }
 
 impl ZenoWindow {
@@ -50,27 +54,50 @@ impl ZenoWindow {
             max_in_window,
             times: Vec::new(),
             triggered: Vec::new(),
-            truncated_at: None,
+            dwell: None,
+            holding: false,
         }
     }
 
-    /// Whether a Zeno window ending at `t` may be truncated: no truncation within the last
-    /// window (one that was made no progress).
-    pub fn may_truncate(&self, t: f64) -> bool {
-        self.truncated_at.is_none_or(|s| t - s > self.window_s)
+    /// The end of the dwell that holds its contacts now (s), if any.
+    pub fn holding_until(&self) -> Option<f64> {
+        self.dwell.filter(|_| self.holding).map(|(_, end)| end)
     }
 
-    /// Records a truncation at `t`: the window starts afresh.
-    pub fn truncated(&mut self, t: f64) {
+    /// The dwell of a truncation (s), for which it holds its mode ([`truncate`]): `base_s`
+    /// (the window, or the pseudo-impulse's `δt` where longer); twice the last dwell when no
+    /// quiet window — a whole window without a transition — came between the last dwell's
+    /// end and this truncation (the truncated mode's own continuation is the cycle: the
+    /// hold spans more of it). A run of horizon `T` therefore makes at most
+    /// `⌊log2(T / base_s + 1)⌋ + 1` truncations that follow one another, each after at most
+    /// `zeno_max_events + 1` transitions.
+    pub fn dwell_s(&self, base_s: f64) -> f64 {
+        match self.dwell {
+            Some((last, _)) => 2.0 * last,
+            None => base_s,
+        }
+    }
+
+    /// Records a truncation at `t` holding its mode for `dwell_s`: the window starts afresh.
+    pub fn truncated(&mut self, t: f64, dwell_s: f64) {
         self.times.clear();
         self.triggered.clear();
-        self.truncated_at = Some(t);
+        self.dwell = Some((dwell_s, t + dwell_s));
+        self.holding = true;
     }
 
     /// Records a transition at `t` (not before the last one) triggered by `contacts` (none
     /// for a feature passage); `Zeno` if the window ending at `t` now holds more than the
     /// allowed number, naming the contacts that triggered them.
     pub fn record(&mut self, t: f64, contacts: &[usize]) -> Option<Termination> {
+        // a quiet window since the last transition (or since the dwell's end): the cycle
+        // stopped, and the next truncation dwells from the base again
+        let last = self.times.last().copied();
+        if let Some((_, end)) = self.dwell {
+            if t - last.unwrap_or(end).max(end) > self.window_s {
+                self.dwell = None;
+            }
+        }
         self.times.push(t);
         self.triggered.push(contacts.to_vec());
         let since = t - self.window_s;
@@ -182,9 +209,13 @@ fn union(lists: &[Vec<usize>]) -> Vec<usize> {
 /// The truncation of a Zeno execution (module docs) at `(t, y = [q; q̇])` in `mode` of
 /// `flow`, whose window holds the transitions of `contacts`: the plastic impact (5.52) into
 /// `J` = the active contacts and those of `contacts` within [`TERRAIN_STEP_M`] of their
-/// surface, then force complementarity (5.19)–(5.20) over `J` for the mode after. `None`
-/// when there is nothing to truncate (no contact to add, `J` singular, no single force
-/// solution, or a slide without consistent forces): the window's end stands.
+/// surface, into the mode that impulse complementarity (5.28)–(5.29) gives `J` (a sticking
+/// contact whose impulse leaves its cone slides) — or, where that mode is singular (a
+/// massless two-link chain cannot slide, section 1 of docs/singular-transitions.md), with
+/// every contact of `J` sticking. The run goes on in that mode, which the caller holds for
+/// the dwell ([`ZenoWindow::dwell_s`], [`Flow::set_held`]). `None` when there is nothing to
+/// truncate (no contact of the window in `J`, `J` singular either way, or a slide without
+/// consistent forces): the window's end stands.
 pub fn truncate(
     ws: &mut FlowWorkspace,
     flow: &mut Flow,
@@ -200,44 +231,41 @@ pub fn truncate(
         .copied()
         .filter(|&k| !mode.contains(k) && flow.geometry(k, y).gap_m.abs() <= TERRAIN_STEP_M)
         .collect();
-    if added.is_empty() {
+    if added.is_empty() && !contacts.iter().any(|&k| mode.contains(k)) {
         return Ok(None);
     }
     let mut set: Vec<usize> = mode.active().chain(added).collect();
     set.sort_unstable();
-    let mut lock = flow.lock().to_vec();
+    let lock = flow.lock().to_vec();
     let ctrl = flow.controller().clone();
     let cx = &mut reset_workspace(flow, &*ctrl, opts, ws, &[], &lock);
     let inconsistent = |e: &CoreError| matches!(e, CoreError::PainleveInconsistent { .. });
-    let impact = match cx.outcome(t, &set, mode, q, qd, true) {
-        Ok(Some(o)) => o,
-        Ok(None) => return Ok(None),
+    let held = match cx.outcome(t, &set, mode, q, qd, true) {
+        Ok(Some(o)) => o.mode,
+        Ok(None) => ContactMode::with_defaults(model, &set)?,
         Err(e) if inconsistent(&e) => return Ok(None),
         Err(e) => return Err(e.into()),
     };
     let ke_before = crate::energy::kinetic_energy_at(model, cx.terrain, &mut cx.ws.data, q, qd)?;
-    let imp = plastic_impact(model, &mut cx.ws.data, cx.terrain, impact.mode, q, qd)?;
-    let qd_after: Vec<f64> = imp.qd_plus.iter().copied().collect();
-    let (mode_after, force) = match cx.select(t, &set, &[], impact.mode, q, &qd_after, false) {
-        Ok(Ok(s)) => (s.mode, s.value),
-        Ok(Err(_)) => return Ok(None),
-        Err(HybridError::Core(e)) if inconsistent(&e) => return Ok(None),
-        Err(e) => return Err(e),
+    let imp = match plastic_impact(model, &mut cx.ws.data, cx.terrain, held, q, qd) {
+        Ok(imp) => imp,
+        Err(CoreError::SingularKkt { .. }) => return Ok(None),
+        Err(e) => return Err(e.into()),
     };
+    let qd_after: Vec<f64> = imp.qd_plus.iter().copied().collect();
     let ke_after =
         crate::energy::kinetic_energy_at(model, cx.terrain, &mut cx.ws.data, q, &qd_after)?;
-    crate::fold::retain_held_locks(model, mode_after, &mut lock);
     Ok(Some(Reset::Continue {
         event: Event {
             t,
             kind: EventKind::ZenoTruncation,
             mode_before: mode,
-            mode_after,
+            mode_after: held,
             triggered: contacts.to_vec(),
-            impulse: impact.value,
-            impulse_mode: impact.mode,
+            impulse: imp.impulse.iter().copied().collect(),
+            impulse_mode: held,
             pseudo_impulse: vec![],
-            force,
+            force: vec![],
             kinetic_before: ke_before,
             kinetic_after: ke_after,
             q: q.to_vec(),
@@ -246,4 +274,49 @@ pub fn truncate(
         from_rest: vec![],
         lock,
     }))
+}
+
+/// [`truncate`] for the Zeno window's end `z` at `(t, y)` in `mode`, its mode held for the
+/// dwell ([`ZenoWindow::dwell_s`]: the window, or `δt` where longer, doubled while the cycle
+/// resumes): `None` when there is nothing to truncate (the run ends with `z`).
+pub fn truncate_and_hold(
+    (ws, flow, zeno): (&mut FlowWorkspace, &mut Flow, &mut ZenoWindow),
+    opts: &HybridOptions,
+    mode: ContactMode,
+    (t, y): (f64, &[f64]),
+    z: &Termination,
+) -> Result<Option<Reset>, HybridError> {
+    let Termination::Zeno { contacts, .. } = z else {
+        return Ok(None);
+    };
+    let truncation = truncate(ws, flow, opts, mode, (t, y), contacts)?;
+    if let Some(Reset::Continue { event, .. }) = &truncation {
+        let dwell = zeno.dwell_s(opts.zeno_window_s.max(opts.delta_t_s));
+        let held: Vec<usize> = event.mode_after.active().collect();
+        flow.set_held(&held);
+        zeno.truncated(t, dwell);
+    }
+    Ok(truncation)
+}
+
+/// The reset at the end of a truncation's dwell at `(t, y)` in `mode`: the liftoff and
+/// stick→slip guards of the contacts held fire together, and force complementarity
+/// (5.19)–(5.20) decides which of them go on holding — an event that changes nothing when
+/// all of them do; `None` when none of them is still in `mode`.
+pub fn dwell_end(
+    (ws, flow, zeno): (&mut FlowWorkspace, &mut Flow, &mut ZenoWindow),
+    opts: &HybridOptions,
+    mode: ContactMode,
+    (t, y): (f64, &[f64]),
+) -> Result<Option<Reset>, HybridError> {
+    zeno.holding = false;
+    let held = flow.held().to_vec();
+    flow.set_held(&[]);
+    let mut guards = Vec::new();
+    crate::guard::Guard::of_mode(flow.model(), mode, flow.lock(), opts, &mut guards);
+    guards.retain(|g| g.lets_go().is_some_and(|k| held.contains(&k)));
+    if guards.is_empty() {
+        return Ok(None);
+    }
+    crate::reset::reset(ws, flow, opts, &guards, mode, (t, y), &[]).map(Some)
 }

@@ -117,7 +117,7 @@ fn constant_torque_leg_is_released_at_its_fold_to_the_energy_apex() {
 fn impulsive_stick_that_would_pull_is_refused_at_the_fold() {
     let model = leg_robot(FrictionDescription::Sticking {
         mu: Some(1.0),
-        mu_kinetic: None,
+        mu_kinetic: Some(0.0),
     });
     let (beta0, tau, eps) = (-0.5_f64, 2.0, 1e-3);
     let (q, qd) = start(beta0, 0.0);

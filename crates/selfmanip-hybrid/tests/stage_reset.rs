@@ -144,6 +144,7 @@ fn puck_on_an_incline_sticks_inside_the_cone_and_slides_outside() {
             ws: &mut ws,
             barred: &[],
             fold_threshold: HybridOptions::default().fold_threshold,
+            held: Vec::new(),
         };
         let q = [0.0, 0.0, beta];
         let selected = cx
@@ -224,6 +225,7 @@ fn toe_touching_down_slides_instead_of_pulling() {
             ws: &mut ws,
             barred: &[],
             fold_threshold: HybridOptions::default().fold_threshold,
+            held: Vec::new(),
         };
         let toe = ContactMode::parse_names(&model, "toe").unwrap();
         let toe_sliding = ContactMode::parse_names(&model, "toe:slide").unwrap();

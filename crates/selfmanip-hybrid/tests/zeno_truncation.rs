@@ -79,27 +79,32 @@ fn rocking_block_zeno_is_truncated_at_rest_on_both_corners() {
     );
 }
 
-/// A truncation that the next Zeno window finds less than one window back made no progress:
-/// that window may not be truncated again (the run then ends `Zeno`); one more than a window
-/// later it may.
+/// A truncation holds its mode for one window; one that the next Zeno window fires without
+/// a quiet window since the last dwell's end (the cycle resumed: no progress) holds twice as
+/// long, and a truncation after a quiet window starts again from one window.
 #[test]
-fn a_truncation_that_recurs_within_one_window_is_refused() {
+fn a_truncation_that_recurs_without_a_quiet_window_dwells_twice_as_long() {
     let (w, n) = (0.01, 50);
     let mut zeno = ZenoWindow::new(w, n);
-    assert!(zeno.may_truncate(0.0));
     let d = w / (2.0 * n as f64);
     let fired = (0..=n).find_map(|k| zeno.record(k as f64 * d, &[k % 2]));
     let t1 = n as f64 * d;
     assert!(matches!(fired, Some(Termination::Zeno { .. })));
-    zeno.truncated(t1);
-    // the window starts afresh: n more transitions are allowed
-    let again = (1..=n).find_map(|k| zeno.record(t1 + k as f64 * d, &[0]));
+    assert_eq!(zeno.dwell_s(w), w, "the first dwell is one window");
+    zeno.truncated(t1, w);
+    // the window starts afresh: n more transitions are allowed after the dwell, here spread
+    // so that the next window fires more than one window after the dwell's end
+    let t_end = t1 + w;
+    let slow = 0.9 * w / n as f64;
+    let start = t_end + 0.5 * w;
+    let again = (0..n).find_map(|k| zeno.record(start + k as f64 * slow, &[0]));
     assert!(again.is_none());
-    let t2 = t1 + (n + 1) as f64 * d;
+    let t2 = start + n as f64 * slow;
     assert!(zeno.record(t2, &[0]).is_some());
-    assert!(
-        !zeno.may_truncate(t2),
-        "within one window of the truncation"
-    );
-    assert!(zeno.may_truncate(t1 + 1.01 * w));
+    assert!(t2 - t_end > w);
+    assert_eq!(zeno.dwell_s(w), 2.0 * w, "no quiet window since the dwell's end");
+    zeno.truncated(t2, 2.0 * w);
+    // a transition a quiet window after the dwell's end: the next dwell is one window
+    assert!(zeno.record(t2 + 2.0 * w + 1.01 * w, &[0]).is_none());
+    assert_eq!(zeno.dwell_s(w), w, "after a quiet window");
 }

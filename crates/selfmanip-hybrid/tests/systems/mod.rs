@@ -29,7 +29,8 @@ pub const G: f64 = 9.81;
 /// How a point contact resists sliding.
 #[derive(Clone, Copy)]
 pub enum Friction {
-    /// Sticking, with a Coulomb coefficient (`None`: never slips).
+    /// Sticking, with a Coulomb coefficient (`None`: never slips); sliding frictionlessly
+    /// (`mu_kinetic = 0`, the thesis's Assumption 5.9).
     Stick(Option<f64>),
     Slide,
     /// Sticking with Coulomb's `μ`, sliding with the same kinetic coefficient.
@@ -49,7 +50,9 @@ pub fn body(
     for (name, x, z, friction) in points {
         let friction = match friction {
             Friction::Stick(None) => "{ kind = \"sticking\" }".to_string(),
-            Friction::Stick(Some(mu)) => format!("{{ kind = \"sticking\", mu = {mu} }}"),
+            Friction::Stick(Some(mu)) => {
+                format!("{{ kind = \"sticking\", mu = {mu}, mu_kinetic = 0 }}")
+            }
             Friction::Slide => "{ kind = \"sliding\" }".to_string(),
             Friction::Coulomb(mu) => {
                 format!("{{ kind = \"sticking\", mu = {mu}, mu_kinetic = {mu} }}")
@@ -160,7 +163,7 @@ pub fn uniform_link(length_m: f64, mass_kg: f64) -> LinkDescription {
 pub fn one_leg(length_m: f64, link_mass_kg: f64, gravity_m_s2: f64) -> Model {
     let toe_friction = FrictionDescription::Sticking {
         mu: Some(1.0),
-        mu_kinetic: None,
+        mu_kinetic: Some(0.0),
     };
     let link = uniform_link(length_m, link_mass_kg);
     let mut d = one_link_leg(3.0, 0.05, gravity_m_s2, link, toe_friction);
