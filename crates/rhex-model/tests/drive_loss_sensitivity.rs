@@ -175,20 +175,3 @@ fn default_options_have_exact_loss_derivatives() {
         assert!(e < 1e-5, "{}: {e:e}", APEX_COLUMNS[c]);
     }
 }
-
-/// With a battery resistance set, the derivatives in η and R_b are refused with an error
-/// naming the parameter (they do not yet agree with finite differences; see
-/// docs/calibration.md), while the gear ratio's are still formed.
-#[test]
-fn a_battery_resistance_refuses_the_loss_derivatives_by_name() {
-    let cfg = config(
-        "--".parse().unwrap(),
-        0.04,
-        geared(None, motor::GearboxLoss::Derating, Some(0.1)),
-    );
-    for name in ["gearbox_efficiency", "battery_resistance_ohm"] {
-        let e = leap_with_sensitivity(&leap_params(), &cfg, &[name]).unwrap_err();
-        assert!(e.to_string().contains(name), "{e}");
-    }
-    assert!(leap_with_sensitivity(&leap_params(), &cfg, &["gear_ratio"]).is_ok());
-}

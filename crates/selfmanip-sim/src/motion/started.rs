@@ -246,12 +246,17 @@ impl StartedLaw {
     fn reference_dual(&self, motion: &JointMotion, theta0: f64, omega0: f64, t: f64) -> [D; 3] {
         let [th0, w0, _, _, target] = self.inputs(theta0, omega0);
         let tau = (t - motion.t0()).max(0.0);
+        // the piece the motion's own values take at `t`, not the dual durations' rounding
+        let (piece, _) = motion.piece_at(t);
         let shape = self.shape(motion, theta0, omega0);
         if let Shape::Ramps([up, cruise, down], v) = shape {
             let mut theta = th0;
             let mut tau = D::c(tau);
-            for (dur, a, b) in [(up, w0, v), (cruise, v, v), (down, v, D::c(0.0))] {
-                if tau.v <= dur.v {
+            for (i, (dur, a, b)) in [(up, w0, v), (cruise, v, v), (down, v, D::c(0.0))]
+                .into_iter()
+                .enumerate()
+            {
+                if i == piece {
                     return ramp(dur, theta, a, b, tau);
                 }
                 theta = ramp(dur, theta, a, b, dur)[0];
@@ -263,7 +268,7 @@ impl StartedLaw {
             // a hold: at rest at its end from the start
             return [target, D::c(0.0), D::c(0.0)];
         };
-        if tau > dur.v {
+        if piece > 0 {
             return [target, D::c(0.0), D::c(0.0)];
         }
         let d = target - th0 - w0 * dur;
