@@ -175,3 +175,29 @@ fn default_options_have_exact_loss_derivatives() {
         assert!(e < 1e-5, "{}: {e:e}", APEX_COLUMNS[c]);
     }
 }
+
+/// With a battery resistance set (`R_b` = 0.05 Ω and 0.3 Ω, where the swing's knot once
+/// rounded the wrong way: `tests/battery_sensitivity.rs`), six leaps of four strategies: the
+/// derivatives in η, `R_b` and the gear ratio to 1e-5.
+#[test]
+fn loss_derivatives_with_a_battery_resistance_match_central_differences() {
+    for (s, t2, eta, r_b) in [
+        ("--", 0.04, 0.82, 0.05),
+        ("--", 0.1, 0.7, 0.05),
+        ("--", 0.04, 0.82, 0.3),
+        ("++", 0.04, 0.82, 0.05),
+        ("+-", 0.1, 0.82, 0.05),
+        ("-+", 0.04, 0.82, 0.3),
+    ] {
+        let loss = motor::GearboxLoss::Derating;
+        let cfg = config(s.parse().unwrap(), t2, geared(Some(eta), loss, Some(r_b)));
+        let names = [
+            ("battery_resistance_ohm", r_b, 1e-3 * r_b),
+            ("gearbox_efficiency", eta, 1e-3),
+            ("gear_ratio", 28.0, 3e-3),
+        ];
+        let e = worst_error(&cfg, &names, 1e-3);
+        eprintln!("{s} t2 {t2} η {eta} R_b {r_b}: worst {e:.1e}");
+        assert!(e < 1e-5, "{s} t2 {t2} R_b {r_b}: {e:e}");
+    }
+}
