@@ -12,7 +12,7 @@ use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::sensitivity::scenario_parameter_sensitivity;
 use selfmanip_sim::{Scenario, Simulation};
 mod common;
-use common::{data, fd, hopper};
+use common::{data, fd, hopper, path_column_error};
 
 /// `hop.toml` with the push by `knee` (x-rhex behind its 28:1 gearbox, on a battery of
 /// `r_b` Ω, efficiency `eta`, command `u_push`) and the swings' acceleration the motor's
@@ -72,16 +72,9 @@ fn central(s: &Scenario, path: &str, p: f64, h: f64, kinds: &[EventKind]) -> Vec
     };
     let d = |h: f64| {
         let (a, b) = fd::runs_either_side(&run, &[p], 0, kinds, h);
-        a.iter()
-            .zip(&b)
-            .map(|(a, b)| (a - b) / (2.0 * h))
-            .collect::<Vec<_>>()
+        fd::central_difference(&a, &b, h)
     };
-    let (d1, d2) = (d(h), d(h / 2.0));
-    d1.iter()
-        .zip(&d2)
-        .map(|(a, b)| (4.0 * b - a) / 3.0)
-        .collect()
+    fd::richardson(d, h)
 }
 
 #[test]
@@ -105,23 +98,11 @@ fn drive_loss_parameters_match_central_differences() {
     let names: Vec<&str> = cases.iter().map(|c| c.0).collect();
     let p = scenario_parameter_sensitivity(&s, &sim.options, &run, &names).unwrap();
     assert_eq!(p.reason, None);
-    let x = p.state.as_ref().unwrap();
     let mut worst: f64 = 0.0;
     for (k, &(path, value)) in cases.iter().enumerate() {
         assert_eq!(p.not_differentiated[k], None, "{path}");
         let fd = central(&s, path, value, 1e-4 * value, &kinds);
-        let exact: Vec<f64> = x
-            .column(k)
-            .iter()
-            .copied()
-            .chain(p.event_times.iter().map(|t| t.as_ref().unwrap()[k]))
-            .collect();
-        let scale = fd.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let err = exact
-            .iter()
-            .zip(&fd)
-            .fold(0.0f64, |m, (e, f)| m.max((e - f).abs()))
-            / scale;
+        let (err, scale) = path_column_error(&p, k, &fd);
         eprintln!("{path}: |exact − FD| / |FD| = {err:.1e} (|FD| = {scale:.2e})");
         assert!(
             scale > 1e-3,
