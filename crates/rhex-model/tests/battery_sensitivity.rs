@@ -3,14 +3,13 @@
 //! against central differences of whole leaps at the same instant (the apex's derivatives at
 //! `R_b > 0`: `tests/drive_loss_sensitivity.rs`).
 //!
-//! The knot is where the leap's derivatives in η and `R_b` were once wrong (1e-4 … 1e-2 relative at some `R_b`,
-//! exact at others): the swing's partials (`StartedLaw::partials_full`) chose their piece by
+//! The knot is where the leap's derivatives in η and `R_b` were once wrong (1e-4 … 1e-2
+//! relative at some `R_b`, exact at others): the swing's partials (`StartedLaw::partials_full`) chose their piece by
 //! durations formed as dual numbers, which round otherwise than the motion's own, so one ulp
 //! past a knot they were the previous piece's; the first stage of the step after the knot
 //! sits there (`t_k` + 1 ulp, the right limit) and carried `b₁ h Δ(∂q̈/∂η)` into the
 //! tangent. Whether the two roundings differ depends on the numbers, so it came and went
-//! with `R_b`. The motion and its partials now take one piece decision
-//! (`JointMotion::piece_at`).
+//! with `R_b`. The dual durations now carry the motion's own values (`StartedLaw::shape`).
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapPreset, LegActuator};
 use selfmanip_hybrid::sensitivity::{execution_sensitivity_columns, Parameter};
 

@@ -263,47 +263,29 @@ impl JointMotion {
         }
     }
 
-    /// The piece in force at `t` (ramps: up, cruise, down, then 3 at rest; a quintic: 0,
-    /// then 1 at rest; a hold: 0) and the time into it — the one decision [`Self::eval`]
-    /// makes, so that whatever differentiates the motion (`StartedLaw::partials_full`) takes
-    /// the same piece to the last bit (its durations, formed as dual numbers, may round
-    /// otherwise: a piece's partials one ulp past a knot are the next piece's).
-    #[inline]
-    pub(crate) fn piece_at(&self, t: f64) -> (usize, f64) {
-        let mut tau = (t - self.t0).max(0.0);
-        match &self.kind {
-            Kind::Hold { .. } => (0, tau),
-            Kind::Ramps { pieces, .. } => {
-                for (i, r) in pieces.iter().enumerate() {
-                    if tau <= r.duration {
-                        return (i, tau);
-                    }
-                    tau -= r.duration;
-                }
-                (pieces.len(), tau)
-            }
-            Kind::Quintic { duration, .. } => (usize::from(tau > *duration), tau),
-        }
-    }
-
     /// `(θ, θ̇, θ̈)` at `t ≥ t0` (before `t0`: the start, at its start speed).
     #[inline]
     pub fn eval(&self, t: f64) -> (f64, f64, f64) {
-        let (piece, tau) = self.piece_at(t);
+        let mut tau = (t - self.t0).max(0.0);
         match &self.kind {
             Kind::Hold { end } => (*end, 0.0, 0.0),
-            Kind::Ramps { pieces, end } => match pieces.get(piece) {
-                Some(r) => r.eval(tau),
-                None => (*end, 0.0, 0.0),
-            },
+            Kind::Ramps { pieces, end } => {
+                for r in pieces {
+                    if tau <= r.duration {
+                        return r.eval(tau);
+                    }
+                    tau -= r.duration;
+                }
+                (*end, 0.0, 0.0)
+            }
             Kind::Quintic {
                 theta0,
                 omega0,
                 c,
+                duration,
                 end,
-                ..
             } => {
-                if piece > 0 {
+                if tau > *duration {
                     return (*end, 0.0, 0.0);
                 }
                 let (t2, t3) = (tau * tau, tau * tau * tau);
