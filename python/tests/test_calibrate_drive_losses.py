@@ -43,7 +43,7 @@ def noisy(table, seed):
 
 def test_the_efficiency_has_an_exact_derivative_and_a_default():
     model = LeapModel()
-    assert "gearbox_efficiency" in model.exact and "battery_resistance_ohm" not in model.exact
+    assert "gearbox_efficiency" in model.exact and "battery_resistance_ohm" in model.exact
     # unset, the catalog gearbox's efficiency (x-rhex-28, Table 2.2) and an ideal supply
     assert model.parameters()["gearbox_efficiency"] == 0.82
     assert model.parameters()["battery_resistance_ohm"] == 0.0

@@ -149,16 +149,6 @@ fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<LeapParameter>, RhexE
                 }),
             },
             "gearbox_efficiency" | "battery_resistance_ohm" => match cfg.actuator {
-                LegActuator::GearedMotor {
-                    battery_resistance_ohm: Some(r_b),
-                    ..
-                } if r_b > 0.0 => Err(RhexError::Unsupported {
-                    field: n.into(),
-                    reason: "with a battery resistance above 0 the drive-loss derivatives do not \
-                             yet agree with finite differences (relative errors up to 4e-3): fit \
-                             this parameter by finite differences"
-                        .into(),
-                }),
                 LegActuator::GearedMotor { .. } => {
                     Ok(LeapParameter::DriveLoss(if n == "gearbox_efficiency" {
                         "gearbox_efficiency"

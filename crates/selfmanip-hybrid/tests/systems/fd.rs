@@ -56,3 +56,19 @@ pub fn end_state_and_events(e: &Execution) -> (Vec<f64>, Vec<EventKind>) {
         e.events.iter().map(|e| e.kind).collect(),
     )
 }
+
+/// `(4 D(h/2) − D(h)) / 3`: central differences `d(h)` Richardson-extrapolated.
+#[allow(dead_code)] // not every test that includes this file extrapolates
+pub fn richardson(d: impl Fn(f64) -> Vec<f64>, h: f64) -> Vec<f64> {
+    let (d1, d2) = (d(h), d(h / 2.0));
+    d1.iter()
+        .zip(&d2)
+        .map(|(a, b)| (4.0 * b - a) / 3.0)
+        .collect()
+}
+
+/// `(a − b) / 2h` entrywise: the central difference of the runs either side.
+#[allow(dead_code)]
+pub fn central_difference(a: &[f64], b: &[f64], h: f64) -> Vec<f64> {
+    a.iter().zip(b).map(|(a, b)| (a - b) / (2.0 * h)).collect()
+}

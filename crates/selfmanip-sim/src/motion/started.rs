@@ -15,7 +15,7 @@
 //! quintic's duration `T₀ 1.02ⁿ` with `n` the search's count held fixed) by dual numbers:
 //! each quantity carries its value and its partials over `(θ₀, ω₀)`. The branches are those
 //! of the motion at the values given; at a branch switch the derivative is one-sided.
-use super::JointMotion;
+use super::{JointMotion, Kind};
 
 /// How many partials a [`D`] carries: over `(θ₀, ω₀, speed, accel, target)`.
 const N: usize = 5;
@@ -204,6 +204,10 @@ impl StartedLaw {
 
     /// The durations of `motion`'s pieces as dual numbers (the ramps' up, cruise, down; the
     /// quintic's one), on the branches the motion took, and for ramps the cruise speed `v`.
+    /// Their values are the motion's own durations, their partials the formula's: formed
+    /// here the values can round a few ulps otherwise, and [`Self::reference_dual`], which
+    /// picks its piece by them, would take the previous piece one ulp past a knot, where
+    /// the first stage of the tangent's next step sits (`docs/sensitivity.md`, "Time events").
     fn shape(&self, motion: &JointMotion, theta0: f64, omega0: f64) -> Shape {
         let [th0, w0, speed, accel, target] = self.inputs(theta0, omega0);
         let knots = motion.knot_slice();
@@ -219,7 +223,13 @@ impl StartedLaw {
             let down = (D::c(1.5) / accel) * v.abs();
             let ramps = 0.5 * ((w0 + v) * up) + 0.5 * (v * down);
             let cruise = (target - th0 - ramps) / v;
-            return Shape::Ramps([up, cruise, down], v);
+            let mut durations = [up, cruise, down];
+            if let Kind::Ramps { pieces, .. } = &motion.kind {
+                for (d, r) in durations.iter_mut().zip(pieces) {
+                    d.v = r.duration;
+                }
+            }
+            return Shape::Ramps(durations, v);
         }
         if knots.is_empty() {
             return Shape::Hold;
@@ -237,6 +247,9 @@ impl StartedLaw {
         let total = knots[0] - motion.t0();
         while dur.v * 1.02 <= total * (1.0 + 1e-9) && dur.v < total {
             dur = 1.02 * dur;
+        }
+        if let Kind::Quintic { duration, .. } = motion.kind {
+            dur.v = duration;
         }
         Shape::Quintic([dur])
     }

@@ -36,6 +36,25 @@ pub fn hopper(behaviour: Behaviour, t_final: f64) -> Scenario {
     s
 }
 
+/// Column `k` of a parameter sensitivity by path (the final state, then every event's time)
+/// against central differences `fd` of the same: the worst difference relative to `fd`'s
+/// size, and that size.
+pub fn path_column_error(
+    p: &selfmanip_sim::sensitivity::ParameterSensitivity,
+    k: usize,
+    fd: &[f64],
+) -> (f64, f64) {
+    let x = p.state.as_ref().expect("the state's columns");
+    let times = p.event_times.iter().map(|t| t.as_ref().unwrap()[k]);
+    let exact: Vec<f64> = x.column(k).iter().copied().chain(times).collect();
+    let scale = fd.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let err = exact
+        .iter()
+        .zip(fd)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    (err / scale, scale)
+}
+
 /// Central differences (step `h`) of the section coordinates `idx` of a return map
 /// `map(x) = (x₁, the run's event kinds)` at `x`: `∂x₁[idx[i]]/∂x[idx[k]]`. Every perturbed
 /// run must meet the events `kinds`.
