@@ -16,7 +16,7 @@
 //! | `SimError::{InvalidValue, UnknownJoint, UnknownContact, UnknownReference, Cycle, Expression, UnknownParameter, Motor, Parse}` | `InvalidInputError` | the field, path, or what was parsed |
 //! | `SimError::Io` of a file read but empty or not UTF-8 (`InvalidData`) | `InvalidInputError` | the path |
 //! | `SimError::Io` otherwise | the `OSError` subclass of its kind | — |
-//! | `HybridError::{StepTooSmall, TooManyContacts, ContactQp}`, `MotorError::NoConvergence`, a caught panic | `EngineError` | — |
+//! | `HybridError::{TooManyContacts, ContactQp}`, `MotorError::NoConvergence`, a caught panic | `EngineError` | — |
 //!
 //! Variants added later fall through to `EngineError` until they are mapped here.
 use motor::MotorError;

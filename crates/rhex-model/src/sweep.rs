@@ -242,7 +242,6 @@ pub fn error_kind(e: &RhexError) -> &'static str {
             H::Core(c) => core_kind(c),
             H::OffManifold { .. } => "off_manifold",
             H::InvalidOption { .. } => "invalid_params",
-            H::StepTooSmall { .. } => "step_too_small",
             H::TooManyContacts { .. } => "too_many_contacts",
             H::ContactQp(_) => "contact_qp",
             #[allow(unreachable_patterns)]

@@ -13,8 +13,6 @@ pub enum HybridError {
     OffManifold { field: &'static str, residual: f64 },
     #[error("invalid option `{field}`: {reason}")]
     InvalidOption { field: &'static str, reason: String },
-    #[error("step size fell to {h_s:.3e} s at t = {t_s} s")]
-    StepTooSmall { t_s: f64, h_s: f64 },
     /// More candidates than [`ENUMERATION_LIMIT`], not all frictionless: the convex QP that
     /// takes over beyond the limit covers frictionless contacts only.
     #[error("{n} candidate contacts are too many for exact enumeration (at most {ENUMERATION_LIMIT}) and contact {sticking} can stick: the QP path is frictionless only")]

@@ -71,6 +71,13 @@ pub enum Termination {
         t: f64,
         steps: usize,
     },
+    /// The integrator's step size fell below its floor (`h_s`, s) at `t`: the flow stalls
+    /// there (a mode whose accelerations grow without bound, e.g. a massless foot held in a
+    /// slide). The run ends typed rather than crawling on.
+    StepTooSmall {
+        t: f64,
+        h_s: f64,
+    },
     /// The caller raised the stop flag ([`crate::simulate_with`]); the run ended at `t`.
     Interrupted {
         t: f64,
@@ -183,6 +190,10 @@ impl Termination {
             }
             Termination::StepBudget { t, steps } => format!(
                 "the execution used up its step budget (max_steps: {steps} accepted steps) at {}",
+                at(*t)
+            ),
+            Termination::StepTooSmall { t, h_s } => format!(
+                "the flow stalled: the step size fell to {h_s:.3e} s at {}",
                 at(*t)
             ),
             Termination::Interrupted { t } => format!("interrupted at {}", at(*t)),
@@ -323,6 +334,13 @@ mod tests {
                     steps: 300,
                 },
                 vec!["300", "t = 0.75 s"],
+            ),
+            (
+                Termination::StepTooSmall {
+                    t: 0.625,
+                    h_s: 1e-14,
+                },
+                vec!["stalled", "1.000e-14 s", "t = 0.625 s"],
             ),
             (
                 Termination::Interrupted { t: 1.5 },

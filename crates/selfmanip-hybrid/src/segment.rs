@@ -52,7 +52,7 @@ pub enum SegmentEnd {
     /// last accepted step: the run resolves it (a jam, [`crate::jam`]) or ends typed.
     Painleve { contact: String },
     /// The flow ended the run (a singular KKT matrix, a discontinuity of the terrain, the
-    /// step budget or the stop flag).
+    /// step budget, a stalled step size or the stop flag).
     Ended(Termination),
 }
 
@@ -349,6 +349,10 @@ fn step_failed(
             Ok(Some(SegmentEnd::Painleve { contact }))
         }
         StepError::Rhs(e) => Err(e.into()),
-        StepError::StepTooSmall(h) => Err(HybridError::StepTooSmall { t_s: t, h_s: h }),
+        // the flow stalls: the run ends typed where it stalled
+        StepError::StepTooSmall(h) => Ok(Some(SegmentEnd::Ended(Termination::StepTooSmall {
+            t,
+            h_s: h,
+        }))),
     }
 }

@@ -104,7 +104,6 @@ impl SimError {
             SimError::Hybrid(h) => match h {
                 HybridError::OffManifold { .. } => "off_manifold",
                 HybridError::InvalidOption { .. } => "invalid_value",
-                HybridError::StepTooSmall { .. } => "step_too_small",
                 HybridError::TooManyContacts { .. } => "too_many_contacts",
                 HybridError::ContactQp(_) => "contact_qp",
                 _ => "engine_error",

@@ -20,6 +20,7 @@ pub enum RunStatus {
     Penetration,
     SingularFlow,
     StepBudget,
+    StepTooSmall,
     Interrupted,
 }
 
@@ -38,6 +39,7 @@ impl RunStatus {
                 RunStatus::SingularFlow
             }
             Termination::StepBudget { .. } => RunStatus::StepBudget,
+            Termination::StepTooSmall { .. } => RunStatus::StepTooSmall,
             Termination::Interrupted { .. } => RunStatus::Interrupted,
         }
     }
@@ -54,6 +56,7 @@ impl RunStatus {
             RunStatus::Penetration => "penetration",
             RunStatus::SingularFlow => "singular_flow",
             RunStatus::StepBudget => "step_budget",
+            RunStatus::StepTooSmall => "step_too_small",
             RunStatus::Interrupted => "interrupted",
         }
     }
@@ -208,11 +211,8 @@ impl PresetFrame {
                 t_final_s
             );
         }
-        exec.termination.describe(
-            &|t| format!("t = {:.6} s", t - self.t0_s),
-            name,
-            Some(mode),
-        )
+        exec.termination
+            .describe(&|t| format!("t = {:.6} s", t - self.t0_s), name, Some(mode))
     }
 }
 
@@ -285,7 +285,9 @@ pub fn reported_apex(exec: &Execution, stop_at_apex: bool, after_s: f64) -> Opti
 pub fn first_touchdown_s(exec: &Execution, contact: usize, after_s: f64) -> Option<f64> {
     exec.events
         .iter()
-        .find(|e| e.kind == EventKind::Touchdown && e.t >= after_s && e.triggered.contains(&contact))
+        .find(|e| {
+            e.kind == EventKind::Touchdown && e.t >= after_s && e.triggered.contains(&contact)
+        })
         .map(|e| e.t)
 }
 
