@@ -175,38 +175,39 @@ fn six_legs_in_pairs_are_the_planar_model() {
             }
             for label in rhex.all_labels() {
                 let mode = rhex.mode(&label).unwrap();
-                let planar_ok = forward_dynamics(
-                    &rhex.model,
-                    &mut data,
-                    &FlatGround,
-                    mode,
-                    &q,
-                    &qd,
-                    &tau,
-                    None,
-                );
-                let Ok(()) = planar_ok else { continue };
+                // the planar flow of `mode`, with the free joints' accelerations given
+                let planar = |data: &mut _, free_qdd: Option<&[f64]>| {
+                    forward_dynamics(
+                        &rhex.model,
+                        data,
+                        &FlatGround,
+                        mode,
+                        &q,
+                        &qd,
+                        &tau,
+                        free_qdd,
+                    )
+                };
+                let Ok(()) = planar(&mut data, None) else {
+                    continue;
+                };
                 let contacts = spatial_contacts(&rhex, &data, &p, &model, &qs);
-                let ours = if data.free_joints.is_empty() || massive {
+                let mut spatial = |sdata: &mut _| {
                     sp::forward_dynamics(
                         &model,
-                        &mut sdata,
+                        sdata,
                         &contacts,
                         qs.as_slice(),
                         vs.as_slice(),
                         &tau_s,
                     )
+                };
+                let ours = if data.free_joints.is_empty() || massive {
+                    spatial(&mut sdata)
                 } else {
                     // a massless pair in the air: without its motion, Lemma 5.1's error;
                     // with it, the planar core's prescribed motion (both legs of the pair)
-                    let refused = sp::forward_dynamics(
-                        &model,
-                        &mut sdata,
-                        &contacts,
-                        qs.as_slice(),
-                        vs.as_slice(),
-                        &tau_s,
-                    );
+                    let refused = spatial(&mut sdata);
                     assert!(
                         matches!(
                             refused,
@@ -222,17 +223,7 @@ fn six_legs_in_pairs_are_the_planar_model() {
                         .iter()
                         .map(|_| rng.gen_range(-50.0..50.0))
                         .collect();
-                    forward_dynamics(
-                        &rhex.model,
-                        &mut data,
-                        &FlatGround,
-                        mode,
-                        &q,
-                        &qd,
-                        &tau,
-                        Some(&free_qdd),
-                    )
-                    .unwrap();
+                    planar(&mut data, Some(&free_qdd)).unwrap();
                     let free = sp::free_rates(&model, &contacts);
                     let pairs: Vec<usize> = free.iter().map(|k| (k - 6) / 2).collect();
                     let expected: Vec<usize> =
