@@ -18,8 +18,9 @@ use selfmanip_core::spatial::kinematics::{
 use selfmanip_core::spatial::rhex::RhexSixLegs;
 use selfmanip_core::spatial::rigid_body::{crba, nonlinear_effects};
 use selfmanip_core::spatial::{
-    difference, forward_dynamics, forward_dynamics_prescribed, free_rates, from_pinocchio,
-    impact, integrate, neutral, quasi_static, to_pinocchio, BaseKind, PointContact, SpatialData, SpatialError, SpatialModel,
+    difference, forward_dynamics, forward_dynamics_prescribed, free_rates, from_pinocchio, impact,
+    integrate, neutral, quasi_static, to_pinocchio, BaseKind, PointContact, SpatialData,
+    SpatialError, SpatialModel,
 };
 
 /// A spatial error as the Python exception of its kind, naming the field.
@@ -230,7 +231,7 @@ impl SpatialRobot {
     }
 
     fn frame(&self, name: &str) -> PyResult<usize> {
-        self.model.frame_id(name).map_err(spatial_err)
+        self.model.frame_id_of("name", name).map_err(spatial_err)
     }
 
     /// The model's data after forward kinematics at `q`.

@@ -157,7 +157,11 @@ fn bad_state_names_the_field() {
     );
     assert!(matches!(
         PointContact::new(&model, "no_such_foot", true).unwrap_err(),
-        SpatialError::UnknownFrame { .. }
+        SpatialError::UnknownFrame { field, name } if field == "contacts[no_such_foot]" && name == "no_such_foot"
+    ));
+    assert!(matches!(
+        model.frame_id("no_such_frame").unwrap_err(),
+        SpatialError::UnknownFrame { field, .. } if field == "frame"
     ));
     assert!(
         matches!(kinematics::ReferenceFrame::from_name("body").unwrap_err(), SpatialError::InvalidArgument { field, .. } if field == "frame")

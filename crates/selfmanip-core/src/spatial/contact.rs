@@ -108,7 +108,7 @@ impl PointContact {
         friction: bool,
         normal: Vector3<f64>,
     ) -> SpatialResult<Self> {
-        let frame = model.frame_id(frame_name)?;
+        let frame = model.frame_id_of(&format!("contacts[{frame_name}]"), frame_name)?;
         Ok(Self {
             frame,
             friction,

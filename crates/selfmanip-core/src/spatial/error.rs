@@ -15,9 +15,10 @@ pub enum SpatialError {
     /// The base quaternion of `q` is not of unit norm (to 1e-9).
     #[error("`{field}`: the base quaternion (entries 3..7) has norm {norm}, not 1")]
     NonUnitQuaternion { field: &'static str, norm: f64 },
-    /// No frame (link or joint) of this name.
-    #[error("unknown frame `{name}`")]
-    UnknownFrame { name: String },
+    /// No frame (link or joint) of this name, given as `field` (`frame`, `contacts[…]`,
+    /// `root_link`).
+    #[error("`{field}`: unknown frame `{name}`")]
+    UnknownFrame { field: String, name: String },
     /// An invalid argument that is not a vector (a contact normal, a reference frame name…).
     #[error("`{field}`: {reason}")]
     InvalidArgument { field: String, reason: String },

@@ -36,8 +36,8 @@ pub mod tree_kkt;
 pub mod urdf;
 
 pub use contact::{
-    forward_dynamics, forward_dynamics_prescribed, free_rates, impact, ContactShape,
-    PointContact, SpatialImpact,
+    forward_dynamics, forward_dynamics_prescribed, free_rates, impact, ContactShape, PointContact,
+    SpatialImpact,
 };
 pub use error::{SpatialError, SpatialResult};
 pub use inertia::Inertia;

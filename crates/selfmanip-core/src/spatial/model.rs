@@ -120,12 +120,21 @@ impl SpatialModel {
     pub const URDF_GRAVITY: [f64; 3] = [0.0, 0.0, -9.81];
 
     /// The index of the frame named `name` (the first of that name: a link and a joint may
-    /// share a name only in distinct URDF namespaces, which URDF forbids for links).
+    /// share a name only in distinct URDF namespaces, which URDF forbids for links); an
+    /// unknown name is an error naming the field `frame`.
     pub fn frame_id(&self, name: &str) -> SpatialResult<usize> {
+        self.frame_id_of("frame", name)
+    }
+
+    /// [`Self::frame_id`] for a frame given as `field` of the caller's input.
+    pub fn frame_id_of(&self, field: &str, name: &str) -> SpatialResult<usize> {
         self.frames
             .iter()
             .position(|f| f.name == name)
-            .ok_or_else(|| SpatialError::UnknownFrame { name: name.into() })
+            .ok_or_else(|| SpatialError::UnknownFrame {
+                field: field.into(),
+                name: name.into(),
+            })
     }
 
     /// Total mass (kg).

@@ -71,7 +71,11 @@ impl TreeKkt {
                 jp.idx_v + jp.kind.nv() - 1
             });
             for k in 0..joint.kind.nv() {
-                parent[joint.idx_v + k] = if k == 0 { first } else { Some(joint.idx_v + k - 1) };
+                parent[joint.idx_v + k] = if k == 0 {
+                    first
+                } else {
+                    Some(joint.idx_v + k - 1)
+                };
             }
         }
         let (mut chain, mut offset) = (Vec::new(), vec![0]);
@@ -87,7 +91,11 @@ impl TreeKkt {
         let common = (0..nv * nv)
             .map(|ab| {
                 let (a, b) = (of(ab / nv), of(ab % nv));
-                a.iter().rev().zip(b.iter().rev()).take_while(|(x, y)| x == y).count()
+                a.iter()
+                    .rev()
+                    .zip(b.iter().rev())
+                    .take_while(|(x, y)| x == y)
+                    .count()
             })
             .collect();
         Self {
@@ -189,7 +197,10 @@ impl TreeKkt {
             };
             let (b, e) = self.span(end);
             let nonzero = (0..=end).filter(|&k| entry(k) != 0.0).count();
-            let on_chain = self.chain[b..e].iter().filter(|&&k| entry(k) != 0.0).count();
+            let on_chain = self.chain[b..e]
+                .iter()
+                .filter(|&&k| entry(k) != 0.0)
+                .count();
             if on_chain != nonzero {
                 return false;
             }
@@ -248,7 +259,11 @@ impl TreeKkt {
             let chain = &self.chain[self.offset[end]..self.offset[end] + len];
             let zr = &self.z[r * nv..r * nv + len];
             // root first, as the dense product would add them
-            let dot = zr.iter().zip(chain).rev().fold(0.0, |s, (z, &k)| s + z * w[k]);
+            let dot = zr
+                .iter()
+                .zip(chain)
+                .rev()
+                .fold(0.0, |s, (z, &k)| s + z * w[k]);
             *yr = dot - g[r];
         }
         cholesky_solve(&self.k, c, y);

@@ -125,7 +125,12 @@ fn tree<'a>(robot: &'a urdf_rs::Robot, root: Option<&'a str>) -> SpatialResult<T
     }
     let root = match root {
         Some(name) if links.contains_key(name) => name,
-        Some(name) => return Err(SpatialError::UnknownFrame { name: name.into() }),
+        Some(name) => {
+            return Err(SpatialError::UnknownFrame {
+                field: "root_link".into(),
+                name: name.into(),
+            })
+        }
         None => {
             let roots: Vec<&str> = robot
                 .links
