@@ -192,7 +192,7 @@ fn six_legs_in_pairs_are_the_planar_model() {
                     continue;
                 };
                 let contacts = spatial_contacts(&rhex, &data, &p, &model, &qs);
-                let mut spatial = |sdata: &mut _| {
+                let spatial = |sdata: &mut _| {
                     sp::forward_dynamics(
                         &model,
                         sdata,
