@@ -195,9 +195,11 @@ impl<'a> Flow<'a> {
     /// Tells the controller of an event (its torques may change from here on): a copy of
     /// it learns of the event and replaces it, so the one that ran before stays as it was.
     pub fn notify(&mut self, event: &Event) {
-        let mut next = self.ctrl.clone_box();
-        next.on_event(event);
-        self.set_controller(Arc::from(next));
+        let mut next = self.ctrl.clone_shared();
+        Arc::get_mut(&mut next)
+            .expect("a controller just copied has no other owner")
+            .on_event(event);
+        self.set_controller(next);
     }
 
     /// Whether `data` holds a flow (and so the kinematics) at `(q, q̇)`.
