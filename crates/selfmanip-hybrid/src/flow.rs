@@ -351,7 +351,9 @@ impl FlowWorkspace {
         self.tau.resize(model.n_joints(), 0.0);
         ctrl.torque(t, q, qd, mode, &mut self.tau);
         self.free.resize(self.data.free_joints.len(), 0.0);
-        ctrl.free_joint_qdd(t, q, qd, &self.data.free_joints, &mut self.free);
+        if !self.free.is_empty() {
+            ctrl.free_joint_qdd(t, q, qd, &self.data.free_joints, &mut self.free);
+        }
         // locked joints turn at constant speed
         if !self.data.locked.is_empty() {
             for (x, j) in self.free.iter_mut().zip(&self.data.free_joints) {
