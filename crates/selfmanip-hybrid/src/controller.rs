@@ -16,6 +16,7 @@
 use crate::event::Event;
 use nalgebra::DMatrix;
 use selfmanip_core::ContactMode;
+use std::sync::Arc;
 
 /// Joint torques (and the motion of free massless joints) as functions of time and state.
 /// Implement it for a `Clone` type: [`ControllerClone`] comes with it.
@@ -214,15 +215,21 @@ impl ControllerPartials {
     }
 }
 
-/// A boxed copy of a controller in its current state (implemented for every `Clone`
-/// controller).
+/// A copy of a controller in its current state, boxed or shared (implemented for every
+/// `Clone` controller).
 pub trait ControllerClone {
     fn clone_box(&self) -> Box<dyn Controller>;
+    /// The copy in an `Arc` of its own (no other owner): what an execution records in its
+    /// segments, made in place rather than moved out of a box.
+    fn clone_shared(&self) -> Arc<dyn Controller>;
 }
 
 impl<T: Controller + Clone + 'static> ControllerClone for T {
     fn clone_box(&self) -> Box<dyn Controller> {
         Box::new(self.clone())
+    }
+    fn clone_shared(&self) -> Arc<dyn Controller> {
+        Arc::new(self.clone())
     }
 }
 

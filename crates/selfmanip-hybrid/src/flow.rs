@@ -195,9 +195,11 @@ impl<'a> Flow<'a> {
     /// Tells the controller of an event (its torques may change from here on): a copy of
     /// it learns of the event and replaces it, so the one that ran before stays as it was.
     pub fn notify(&mut self, event: &Event) {
-        let mut next = self.ctrl.clone_box();
-        next.on_event(event);
-        self.set_controller(Arc::from(next));
+        let mut next = self.ctrl.clone_shared();
+        Arc::get_mut(&mut next)
+            .expect("a controller just copied has no other owner")
+            .on_event(event);
+        self.set_controller(next);
     }
 
     /// Whether `data` holds a flow (and so the kinematics) at `(q, q̇)`.
@@ -349,7 +351,9 @@ impl FlowWorkspace {
         self.tau.resize(model.n_joints(), 0.0);
         ctrl.torque(t, q, qd, mode, &mut self.tau);
         self.free.resize(self.data.free_joints.len(), 0.0);
-        ctrl.free_joint_qdd(t, q, qd, &self.data.free_joints, &mut self.free);
+        if !self.free.is_empty() {
+            ctrl.free_joint_qdd(t, q, qd, &self.data.free_joints, &mut self.free);
+        }
         // locked joints turn at constant speed
         if !self.data.locked.is_empty() {
             for (x, j) in self.free.iter_mut().zip(&self.data.free_joints) {

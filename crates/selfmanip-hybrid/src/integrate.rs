@@ -232,6 +232,8 @@ pub struct Dopri5 {
     k: [Vec<f64>; 7],
     ytmp: Vec<f64>,
     ynew: Vec<f64>,
+    /// Each component's squared scaled error of the trial step ([`Self::error_norm`]).
+    err_terms: Vec<f64>,
     h: f64,
     fsal_valid: bool,
     /// Weight of each component in the error norm (1: counted, 0: ignored).
@@ -254,6 +256,7 @@ impl Dopri5 {
             k: std::array::from_fn(|_| vec![0.0; n]),
             ytmp: vec![0.0; n],
             ynew: vec![0.0; n],
+            err_terms: vec![0.0; n],
             h: opts.h_initial_s,
             fsal_valid: false,
             weights: vec![1.0; n],
@@ -341,39 +344,17 @@ impl Dopri5 {
             }
             self.trial_h = h;
             for s in 1..7 {
-                for i in 0..n {
-                    let mut acc = 0.0;
-                    for j in 0..s {
-                        acc += A[s][j] * self.k[j][i];
-                    }
-                    self.ytmp[i] = y[i] + h * acc;
-                }
-                let (head, tail) = self.k.split_at_mut(s);
-                let _ = head;
-                f(t + C[s] * h, &self.ytmp, &mut tail[0]).map_err(StepError::Rhs)?;
+                stage_point(s, &self.k, y, h, &mut self.ytmp);
+                f(t + C[s] * h, &self.ytmp, &mut self.k[s]).map_err(StepError::Rhs)?;
             }
             // the 7th stage point is y_{n+1} (FSAL)
             self.ynew.copy_from_slice(&self.ytmp);
-            let mut err = 0.0;
-            for i in (0..n).filter(|&i| self.weights[i] != 0.0) {
-                let e: f64 = h * (0..7).map(|j| E[j] * self.k[j][i]).sum::<f64>();
-                let sc = self.opts.atol + self.opts.rtol * y[i].abs().max(self.ynew[i].abs());
-                err += self.weights[i] * (e / sc).powi(2);
-            }
-            let err = (err / self.counted).sqrt();
+            let err = self.error_norm(y, h);
             if err <= 1.0 || h <= self.opts.h_min_s {
                 dense.t0 = t;
                 dense.h = h;
                 dense.r.resize(5 * n, 0.0);
-                for i in 0..n {
-                    let dy = self.ynew[i] - y[i];
-                    let bspl = h * self.k[0][i] - dy;
-                    dense.r[i] = y[i];
-                    dense.r[n + i] = dy;
-                    dense.r[2 * n + i] = bspl;
-                    dense.r[3 * n + i] = dy - h * self.k[6][i] - bspl;
-                    dense.r[4 * n + i] = h * (0..7).map(|j| D[j] * self.k[j][i]).sum::<f64>();
-                }
+                self.dense_coefficients(y, h, &mut dense.r);
                 y.copy_from_slice(&self.ynew);
                 let (first, rest) = self.k.split_at_mut(1);
                 first[0].copy_from_slice(&rest[5]);
@@ -405,6 +386,81 @@ impl Dopri5 {
             bump(REJECTED);
             self.h = h * (0.9 * err.powf(-0.2)).clamp(0.2, 1.0);
         }
+    }
+
+    /// The weighted RMS norm of the error estimate `h Σ_s (b_s − b̂_s) k_s` of the trial step
+    /// of size `h` from `y` (to `ynew`), scaled by `atol + rtol max(|y|, |y_new|)`.
+    /// Each component's term first (one loop the compiler vectorizes), then their weighted
+    /// sum in component order, over the components the norm counts.
+    fn error_norm(&mut self, y: &[f64], h: f64) -> f64 {
+        let n = y.len();
+        let k: [&[f64]; 7] = std::array::from_fn(|j| &self.k[j][..n]);
+        let (atol, rtol) = (self.opts.atol, self.opts.rtol);
+        let (ynew, terms) = (&self.ynew[..n], &mut self.err_terms[..n]);
+        for i in 0..n {
+            let e: f64 = h * (0..7).map(|j| E[j] * k[j][i]).sum::<f64>();
+            let sc = atol + rtol * y[i].abs().max(ynew[i].abs());
+            terms[i] = (e / sc).powi(2);
+        }
+        let mut err = 0.0;
+        for (&w, &term) in self.weights.iter().zip(terms.iter()) {
+            if w != 0.0 {
+                err += w * term;
+            }
+        }
+        (err / self.counted).sqrt()
+    }
+
+    /// The coefficients `r₀ … r₄` of the accepted step of size `h` from `y` (to `ynew`), one
+    /// after the other in `r` (`5 n` numbers).
+    fn dense_coefficients(&self, y: &[f64], h: f64, r: &mut [f64]) {
+        let n = y.len();
+        let k: [&[f64]; 7] = std::array::from_fn(|j| &self.k[j][..n]);
+        let ynew = &self.ynew[..n];
+        let (r0, rest) = r.split_at_mut(n);
+        let (r1, rest) = rest.split_at_mut(n);
+        let (r2, rest) = rest.split_at_mut(n);
+        let (r3, r4) = rest.split_at_mut(n);
+        let r4 = &mut r4[..n];
+        for i in 0..n {
+            let dy = ynew[i] - y[i];
+            let bspl = h * k[0][i] - dy;
+            r0[i] = y[i];
+            r1[i] = dy;
+            r2[i] = bspl;
+            r3[i] = dy - h * k[6][i] - bspl;
+            r4[i] = h * (0..7).map(|j| D[j] * k[j][i]).sum::<f64>();
+        }
+    }
+}
+
+/// The point of stage `s` (1 … 6) of a step of size `h` from `y`: `out = y + h Σ_{j<s} a_sj k_j`,
+/// each component's sum taken in the order of the tableau, from 0.
+fn stage_point(s: usize, k: &[Vec<f64>; 7], y: &[f64], h: f64, out: &mut [f64]) {
+    match s {
+        1 => stage_sum::<1>(&A[1], k, y, h, out),
+        2 => stage_sum::<2>(&A[2], k, y, h, out),
+        3 => stage_sum::<3>(&A[3], k, y, h, out),
+        4 => stage_sum::<4>(&A[4], k, y, h, out),
+        5 => stage_sum::<5>(&A[5], k, y, h, out),
+        _ => stage_sum::<6>(&A[6], k, y, h, out),
+    }
+}
+
+/// [`stage_point`] for `S` stages known at compile time: one loop over the components on
+/// slices of the state's length, which the compiler vectorizes (a component's operations,
+/// and so its result, are those of the plain sum).
+#[inline(always)]
+fn stage_sum<const S: usize>(a: &[f64; 6], k: &[Vec<f64>; 7], y: &[f64], h: f64, out: &mut [f64]) {
+    let n = out.len();
+    let y = &y[..n];
+    let k: [&[f64]; S] = std::array::from_fn(|j| &k[j][..n]);
+    for i in 0..n {
+        let mut acc = 0.0;
+        for j in 0..S {
+            acc += a[j] * k[j][i];
+        }
+        out[i] = y[i] + h * acc;
     }
 }
 

@@ -29,7 +29,6 @@ use crate::zeno::{ChatterDetector, ZenoWindow};
 use selfmanip_core::contact::ContactKind;
 use selfmanip_core::{ContactMode, CoreError, Model, Terrain};
 use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
 
 /// Runs the hybrid system from `(q0, qd0)` in `mode0` until `t_final` or a terminal event.
 #[allow(clippy::too_many_arguments)]
@@ -83,7 +82,7 @@ pub fn simulate_with(
     opts.validate(t_final)?;
     let mut budget = Budget::new(opts.max_steps, stop);
     // the run's own copy of the controller: it learns of the events, the caller's does not
-    let mut flow = Flow::new(model, terrain, Arc::from(controller.clone_box()));
+    let mut flow = Flow::new(model, terrain, controller.clone_shared());
     // the resets' workspace
     let mut reset_ws = FlowWorkspace::new(model);
     check_initial_state(&mut reset_ws, &mut flow, mode0, q0, qd0)?;
