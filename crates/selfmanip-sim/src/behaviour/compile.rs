@@ -290,10 +290,13 @@ impl Context<'_> {
     ) -> Result<Reused<T>, SimError> {
         let outer = record.then(|| self.log.replace(Some(Vec::new())));
         let value = part();
-        let reads = match outer {
+        let mut reads = match outer {
             Some(outer) => self.log.replace(outer).unwrap_or_default(),
             None => Vec::new(),
         };
+        // each name once: what a reuse compares
+        reads.sort_unstable();
+        reads.dedup();
         Ok(Reused {
             value: value?,
             reads,
@@ -313,12 +316,20 @@ impl Context<'_> {
 /// [`compile_bound`]).
 pub type Parameters = BTreeMap<String, Scalar>;
 
+/// A parameter as [`parameters`] evaluates it: a number, or a parsed formula.
+enum ParameterExpr {
+    Number(f64),
+    Formula(Arc<Expr>),
+}
+
 /// Evaluates the parameters in dependency order (a formula may use other parameters).
 fn parameters(
     p: &Parameters,
     formulas: &ParsedFormulas,
 ) -> Result<BTreeMap<String, f64>, SimError> {
-    let mut exprs: BTreeMap<&str, Arc<Expr>> = BTreeMap::new();
+    // in name order (a `Parameters` map's own), found by binary search
+    let names: Vec<&str> = p.keys().map(String::as_str).collect();
+    let mut exprs = Vec::with_capacity(names.len());
     for (name, s) in p {
         if name.is_empty()
             || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
@@ -331,61 +342,77 @@ fn parameters(
                  `theta`, `omega` or `q0`",
             ));
         }
-        let e = formulas.parse(s, || named(&Leaf("parameters", name), |f| s.parse(f)))?;
-        exprs.insert(name, e);
+        exprs.push(match s {
+            Scalar::Number(x) => ParameterExpr::Number(*x),
+            Scalar::Expr(_) => ParameterExpr::Formula(
+                formulas.parse(s, || named(&Leaf("parameters", name), |f| s.parse(f)))?,
+            ),
+        });
     }
-    let mut values = BTreeMap::new();
-    // depth-first, with the path so far to report a cycle
-    fn visit<'a>(
-        name: &'a str,
-        exprs: &'a BTreeMap<&str, Arc<Expr>>,
-        values: &mut BTreeMap<String, f64>,
-        path: &mut Vec<&'a str>,
-    ) -> Result<f64, SimError> {
-        if let Some(v) = values.get(name) {
-            return Ok(*v);
-        }
-        let field = Leaf("parameters", name);
-        let e = &exprs[name];
-        if let Some(i) = path.iter().position(|p| *p == name) {
-            let mut cycle: Vec<String> = path[i..].iter().map(|p| p.to_string()).collect();
-            cycle.push(name.to_string());
-            return Err(SimError::Cycle {
-                field: Leaf("parameters", path[i]).path(),
-                cycle,
-            });
-        }
-        if path.len() >= MAX_PARAMETER_CHAIN {
-            return Err(invalid(
-                field.path(),
-                format!("its formula starts a chain of more than {MAX_PARAMETER_CHAIN} parameters using each other"),
-            ));
-        }
-        path.push(name);
-        let mut read = Vec::new();
-        names(e, &mut read);
-        let mut local = Vec::with_capacity(read.len());
-        for v in read {
-            if !exprs.contains_key(v) {
-                return Err(SimError::UnknownReference {
-                    field: field.path(),
-                    kind: "parameter",
-                    name: v.to_string(),
-                    known: exprs.keys().copied().collect::<Vec<_>>().join(", "),
-                });
+    let mut values = vec![None; names.len()];
+    for i in 0..names.len() {
+        visit_parameter(i, (&names, &exprs), &mut values, &mut Vec::new())?;
+    }
+    Ok(names
+        .iter()
+        .zip(values)
+        .map(|(n, v)| (n.to_string(), v.expect("every parameter visited")))
+        .collect())
+}
+
+/// The value of parameter `i` of `keys` (with its expression in `exprs`), evaluated
+/// depth-first into `values` after those its formula reads, with the path so far (`path`) to
+/// report a cycle.
+fn visit_parameter(
+    i: usize,
+    (keys, exprs): (&[&str], &[ParameterExpr]),
+    values: &mut [Option<f64>],
+    path: &mut Vec<usize>,
+) -> Result<f64, SimError> {
+    if let Some(v) = values[i] {
+        return Ok(v);
+    }
+    let name = keys[i];
+    let field = Leaf("parameters", name);
+    if let Some(at) = path.iter().position(|&p| p == i) {
+        let mut cycle: Vec<String> = path[at..].iter().map(|&p| keys[p].to_string()).collect();
+        cycle.push(name.to_string());
+        return Err(SimError::Cycle {
+            field: Leaf("parameters", keys[path[at]]).path(),
+            cycle,
+        });
+    }
+    if path.len() >= MAX_PARAMETER_CHAIN {
+        return Err(invalid(
+            field.path(),
+            format!("its formula starts a chain of more than {MAX_PARAMETER_CHAIN} parameters using each other"),
+        ));
+    }
+    let v = match &exprs[i] {
+        ParameterExpr::Number(x) => *x,
+        ParameterExpr::Formula(e) => {
+            path.push(i);
+            let mut read = Vec::new();
+            names(e, &mut read);
+            let mut local = Vec::with_capacity(read.len());
+            for v in read {
+                let Ok(k) = keys.binary_search(&v) else {
+                    return Err(SimError::UnknownReference {
+                        field: field.path(),
+                        kind: "parameter",
+                        name: v.to_string(),
+                        known: keys.join(", "),
+                    });
+                };
+                local.push((v, visit_parameter(k, (keys, exprs), values, path)?));
             }
-            local.push((v, visit(v, exprs, values, path)?));
+            path.pop();
+            eval_read(e, &local, &field, &|| format!("{e:?}"))?
         }
-        path.pop();
-        let v = eval_read(e, &local, &field, &|| format!("{e:?}"))?;
-        let v = named(&field, |f| finite(f, v))?;
-        values.insert(name.to_string(), v);
-        Ok(v)
-    }
-    for name in exprs.keys() {
-        visit(name, &exprs, &mut values, &mut Vec::new())?;
-    }
-    Ok(values)
+    };
+    let v = named(&field, |f| finite(f, v))?;
+    values[i] = Some(v);
+    Ok(v)
 }
 
 /// The gradient of every parameter over the parameters, in name order: `e_p` plus the chain
@@ -648,9 +675,9 @@ type PhaseRef = (usize, usize);
 
 struct Compiler<'a> {
     cx: Context<'a>,
-    named: Vec<String>,
+    named: &'a [String],
     /// `(joint name, phase names)` of every program, for phase references.
-    programs: Vec<(String, Vec<String>)>,
+    programs: &'a [(String, Vec<String>)],
 }
 
 impl Compiler<'_> {
@@ -1044,20 +1071,19 @@ impl Compiler<'_> {
         })
     }
 
-    /// Program `i` (`prog`, its joint's phases in order), when the tangent is built its
+    /// Program `i` (`prog`, of joint `j`, its phases in order), when the tangent is built its
     /// phases' tangents, and when `record` its phases with the names each read (for
     /// [`ReusableParts`]). A phase of `reuse` is taken as kept where the names it read have
     /// the same values and what it carries over from the phase before (its motion, its
     /// restarts) was kept too.
     fn program(
         &self,
-        i: usize,
+        (i, j): (usize, usize),
         prog: &JointProgram,
         q0: &[f64],
         (remap, actuator_names): (&[usize], &[String]),
         (reuse, record): (Option<&[Reused<PhasePlan>]>, bool),
     ) -> Result<(Program, Vec<PhaseTangent>, Vec<Reused<PhasePlan>>), SimError> {
-        let j = joint_index(self.cx.model, &prog.joint).expect("checked above");
         let own = joint_contacts(self.cx.model, j);
         let mut phases: Vec<PhasePlan> = Vec::with_capacity(prog.phases.len());
         let mut tangents: Vec<PhaseTangent> = Vec::new();
@@ -1514,9 +1540,65 @@ struct Parts {
     behaviour: Arc<Behaviour>,
     model: Arc<Model>,
     q0: Vec<f64>,
+    /// The names resolved and the structure checked (no parameter read).
+    skeleton: Arc<Skeleton>,
     actuators: Reused<CompiledActuators>,
+    named: Reused<Vec<NamedPlan>>,
+    /// The free joints' gains `(kp, kd)`.
+    free_gains: Reused<(f64, f64)>,
     /// By program, then phase.
     phases: Vec<Vec<Reused<PhasePlan>>>,
+}
+
+/// What a behaviour's compilation on a robot resolves and checks without reading a
+/// parameter: the names of its actuators, named events and programs, the order the named
+/// events are checked in, the program of each joint. Its phases' references to each other
+/// were checked for deadlocks ([`check_phase_cycles`]) too.
+struct Skeleton {
+    actuator_names: Vec<String>,
+    named: Vec<String>,
+    /// `(joint name, phase names)` of every program.
+    programs: Vec<(String, Vec<String>)>,
+    program_of_joint: Vec<Option<usize>>,
+    /// The joint of each program.
+    program_joints: Vec<usize>,
+    /// The named events in the order they are checked, and each one's place in that order.
+    order: Vec<usize>,
+    remap: Vec<usize>,
+    /// Joints without a program.
+    idle_joints: Vec<usize>,
+}
+
+impl Skeleton {
+    /// The skeleton of `b` on `model` (errors name the field).
+    fn of(b: &Behaviour, model: &Model) -> Result<Self, SimError> {
+        let named: Vec<String> = b.events.keys().cloned().collect();
+        let (programs, program_of_joint) = program_names(b, model)?;
+        let order = named_order(b, &named)?;
+        // indices in `named` are re-mapped to check order
+        let remap = (0..named.len())
+            .map(|n| order.iter().position(|&o| o == n).expect("a permutation"))
+            .collect();
+        let idle_joints = (0..model.n_joints())
+            .filter(|&j| program_of_joint[j].is_none())
+            .collect();
+        let mut program_joints = vec![0; programs.len()];
+        for (j, p) in program_of_joint.iter().enumerate() {
+            if let Some(p) = *p {
+                program_joints[p] = j;
+            }
+        }
+        Ok(Skeleton {
+            actuator_names: b.actuators.keys().cloned().collect(),
+            named,
+            programs,
+            program_of_joint,
+            program_joints,
+            order,
+            remap,
+            idle_joints,
+        })
+    }
 }
 
 impl Parts {
@@ -1667,81 +1749,87 @@ fn compile_with(
     };
     let ((actuators, _), laws, recorded_actuators) =
         kept_or_compiled_actuators(b, &mut cx, kept.map(|k| &k.actuators), record)?;
-    let actuator_names: Vec<String> = b.actuators.keys().cloned().collect();
-    let named: Vec<String> = b.events.keys().cloned().collect();
-    let (programs_names, program_of_joint) = program_names(b, model)?;
+    let skeleton = match kept {
+        Some(k) => Arc::clone(&k.skeleton),
+        None => Arc::new(Skeleton::of(b, model)?),
+    };
     let c = Compiler {
         cx,
-        named: named.clone(),
-        programs: programs_names.clone(),
+        named: &skeleton.named,
+        programs: &skeleton.programs,
     };
-    let order = named_order(b, &named)?;
-    let mut named_plans: Vec<NamedPlan> = Vec::new();
-    // indices in `named` are re-mapped to check order
-    let remap: Vec<usize> = (0..named.len())
-        .map(|n| order.iter().position(|&o| o == n).expect("a permutation"))
-        .collect();
-    for &n in &order {
-        let mut plan = c.named_event(&named[n], &b.events[&named[n]])?;
-        plan.after = plan.after.map(|a| remap[a]);
-        named_plans.push(plan);
-    }
+    let named_plans = kept_or_compiled(kept.map(|k| &k.named), &c.cx, record, || {
+        let sk = &*skeleton;
+        let mut plans = Vec::with_capacity(sk.order.len());
+        for &n in &sk.order {
+            let mut plan = c.named_event(&sk.named[n], &b.events[&sk.named[n]])?;
+            plan.after = plan.after.map(|a| sk.remap[a]);
+            plans.push(plan);
+        }
+        Ok(plans)
+    })?;
     let free = &b.free_joints;
-    let kp_free = non_negative(
-        "free_joints.kp_per_s2",
-        c.cx.number("free_joints.kp_per_s2", &free.kp_per_s2, None)?,
-    )?;
-    let kd_free = non_negative(
-        "free_joints.kd_per_s",
-        c.cx.number("free_joints.kd_per_s", &free.kd_per_s, None)?,
-    )?;
-    let mut programs = Vec::new();
+    let free_gains = kept_or_compiled(kept.map(|k| &k.free_gains), &c.cx, record, || {
+        let kp =
+            c.cx.number("free_joints.kp_per_s2", &free.kp_per_s2, None)?;
+        let kp = non_negative("free_joints.kp_per_s2", kp)?;
+        let kd = c.cx.number("free_joints.kd_per_s", &free.kd_per_s, None)?;
+        Ok((kp, non_negative("free_joints.kd_per_s", kd)?))
+    })?;
+    let mut programs = Vec::with_capacity(b.joints.len());
     let mut phase_tangents = Vec::new();
     let mut recorded_phases = Vec::new();
     for (i, prog) in b.joints.iter().enumerate() {
         let reuse = kept.and_then(|k| k.phases.get(i)).map(Vec::as_slice);
-        let (program, tangents, recorded) =
-            c.program(i, prog, q0, (&remap, &actuator_names), (reuse, record))?;
+        let names = (&skeleton.remap[..], &skeleton.actuator_names[..]);
+        let ij = (i, skeleton.program_joints[i]);
+        let (program, tangents, recorded) = c.program(ij, prog, q0, names, (reuse, record))?;
         programs.push(program);
         recorded_phases.push(recorded);
         if tangent {
             phase_tangents.push(tangents);
         }
     }
-    check_phase_cycles(&programs, &programs_names)?;
+    if kept.is_none() {
+        // structure only: what the kept parts were compiled from passed it
+        check_phase_cycles(&programs, &skeleton.programs)?;
+    }
     if let (Some(parts), Some(actuators)) = (parts.filter(|_| record), recorded_actuators) {
         // a concurrent first compilation may have kept its own: the same parts
         let _ = parts.0.set(Parts {
             behaviour: Arc::clone(b),
             model: Arc::clone(model),
             q0: q0.to_vec(),
+            skeleton: Arc::clone(&skeleton),
             actuators,
+            named: Reused {
+                value: named_plans.value.clone(),
+                reads: named_plans.reads,
+            },
+            free_gains: Reused {
+                value: free_gains.value,
+                reads: free_gains.reads,
+            },
             phases: recorded_phases,
         });
     }
-    let idle_joints = (0..model.n_joints())
-        .filter(|&j| program_of_joint[j].is_none())
-        .collect();
-    let tangent_on = tangent;
-    let tangent = PlanTangent {
+    let tangent = tangent.then(|| PlanTangent {
         names: p.keys().cloned().collect(),
         kp_free: c.cx.grad(&free.kp_per_s2, None),
         kd_free: c.cx.grad(&free.kd_per_s, None),
         values: Arc::new(c.cx.grads),
         phases: phase_tangents,
         actuators: laws,
-    };
+    });
+    let (kp_free, kd_free) = free_gains.value;
     let plan = Plan {
-        tangent: match tangent_on {
-            true => std::sync::OnceLock::from(tangent),
-            false => std::sync::OnceLock::new(),
-        },
-        tangent_source: std::sync::OnceLock::new(),
-        idle_joints,
+        tangent: tangent.map_or_else(OnceLock::new, OnceLock::from),
+        tangent_source: OnceLock::new(),
+        idle_joints: skeleton.idle_joints.clone(),
         programs,
         actuators,
-        named: named_plans,
-        program_of_joint,
+        named: named_plans.value,
+        program_of_joint: skeleton.program_of_joint.clone(),
         kp_free,
         kd_free,
         horizon_s: if horizon_s.is_nan() {
@@ -1757,4 +1845,21 @@ fn compile_with(
              positive delay in its cycle",
         )
     })
+}
+
+/// `kept` where it holds (every name it read has the same value in `cx`), else `part()`
+/// compiled, with the names it read when `record` (for [`ReusableParts`]).
+fn kept_or_compiled<T: Clone>(
+    kept: Option<&Reused<T>>,
+    cx: &Context<'_>,
+    record: bool,
+    part: impl FnOnce() -> Result<T, SimError>,
+) -> Result<Reused<T>, SimError> {
+    match kept.filter(|k| k.holds(&cx.values)) {
+        Some(k) => Ok(Reused {
+            value: k.value.clone(),
+            reads: Vec::new(),
+        }),
+        None => cx.recording(record, part),
+    }
 }

@@ -521,8 +521,9 @@ struct MotionRecord {
     /// gradient of its start time over the parameters at fixed memory (`None`: zero).
     timed: Option<(usize, StartGrad)>,
     /// The partials of its numbers at its start ([`BehaviourController::numbers_at`]),
-    /// evaluated at the first ask: they do not change while it runs.
-    numbers: OnceLock<[NumberPartials; 3]>,
+    /// evaluated at the first ask: they do not change while it runs (boxed: a forward run
+    /// never asks, and moves and copies the record at each event).
+    numbers: OnceLock<Box<[NumberPartials; 3]>>,
     /// Its law with the numbers at its start ([`MotionLaw::law_at`]), at the first ask.
     law: OnceLock<Option<StartedLaw>>,
 }
@@ -632,10 +633,19 @@ impl BehaviourController {
         let programs = plan
             .programs
             .iter()
-            .map(|p| ProgramMemory {
-                timeline: vec![(NEVER, 0, None, StartGrad::Zero)],
-                motions: vec![p.phases[0].motion.start(0.0, q0[p.joint], qd0[p.joint])],
-                records: vec![MotionRecord {
+            .map(|p| {
+                // room for a motion per phase and one more (a restart) before any event
+                let n = p.phases.len() + 1;
+                let mut memory = ProgramMemory {
+                    timeline: Vec::with_capacity(n),
+                    motions: Vec::with_capacity(n),
+                    records: Vec::with_capacity(n),
+                    laws: Vec::with_capacity(n),
+                };
+                memory.timeline.push((NEVER, 0, None, StartGrad::Zero));
+                let motion = p.phases[0].motion.start(0.0, q0[p.joint], qd0[p.joint]);
+                memory.motions.push(motion);
+                memory.records.push(MotionRecord {
                     origin: MotionOrigin::Fixed,
                     phase: 0,
                     theta0: q0[p.joint],
@@ -643,8 +653,8 @@ impl BehaviourController {
                     timed: None,
                     numbers: OnceLock::new(),
                     law: OnceLock::new(),
-                }],
-                laws: Vec::new(),
+                });
+                memory
             })
             .collect();
         let mut c = BehaviourController {
@@ -881,10 +891,12 @@ impl BehaviourController {
         let rec = &self.programs[p].records[i];
         rec.numbers.get_or_init(|| {
             let tan = self.plan.tangent();
-            tan.phases[p][rec.phase]
-                .motion
-                .each_ref()
-                .map(|nt| nt.at(rec.theta0, rec.omega0, &tan.values, tan.names.len()))
+            Box::new(
+                tan.phases[p][rec.phase]
+                    .motion
+                    .each_ref()
+                    .map(|nt| nt.at(rec.theta0, rec.omega0, &tan.values, tan.names.len())),
+            )
         })
     }
 

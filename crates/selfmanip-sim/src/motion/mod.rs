@@ -174,18 +174,26 @@ impl JointMotion {
             (6.0 * c[0] * tau + 12.0 * c[1] * tau * tau + 20.0 * c[2] * tau.powi(3)).abs()
         };
         let (a, b, cc) = (60.0 * c[2], 24.0 * c[1], 6.0 * c[0]);
-        let mut roots = Vec::with_capacity(2);
-        if a.abs() > 0.0 {
+        // the real roots (at most two) of the cubic's derivative, in `roots[..n]`
+        let (roots, n) = if a.abs() > 0.0 {
             let disc = b * b - 4.0 * a * cc;
             if disc >= 0.0 {
-                roots.push((-b + disc.sqrt()) / (2.0 * a));
-                roots.push((-b - disc.sqrt()) / (2.0 * a));
+                let r = [
+                    (-b + disc.sqrt()) / (2.0 * a),
+                    (-b - disc.sqrt()) / (2.0 * a),
+                ];
+                (r, 2)
+            } else {
+                ([0.0; 2], 0)
             }
         } else if b != 0.0 {
-            roots.push(-cc / b);
-        }
-        roots
-            .into_iter()
+            ([-cc / b, 0.0], 1)
+        } else {
+            ([0.0; 2], 0)
+        };
+        roots[..n]
+            .iter()
+            .copied()
             .filter(|tau| (0.0..=*duration).contains(tau))
             .chain([0.0, *duration])
             .map(acc)
