@@ -129,6 +129,6 @@ pub use simultaneous::{MAX_SIMULTANEOUS_GUARDS, ORDER_AGREEMENT_TOL, SIMULTANEOU
 pub use state_jacobian::{execution_sensitivity, simulate_with_sensitivity};
 pub use time_events::TIME_EVENT_TOL;
 pub use types::{
-    ColumnSensitivity, EventSensitivity, OneSidedSaltation, Parameter, SaltationStatus,
-    Sensitivity, SensitivityError, TimeEventSensitivity, TouchSwitch,
+    ColumnSensitivity, EventSensitivity, FrictionCoefficient, OneSidedSaltation, Parameter,
+    SaltationStatus, Sensitivity, SensitivityError, TimeEventSensitivity, TouchSwitch,
 };
