@@ -20,16 +20,7 @@ fn config(strategy: Strategy, t2: f64) -> LeapConfig {
 }
 
 fn apex(params: &RhexParams, cfg: &LeapConfig) -> Option<[f64; 7]> {
-    let a = simulate_leap(params, cfg).ok()?.apex?;
-    Some([
-        a.t_s,
-        a.x_m,
-        a.z_m,
-        a.phi_rad,
-        a.xdot_m_s,
-        a.zdot_m_s,
-        a.phidot_rad_s,
-    ])
+    Some(simulate_leap(params, cfg).ok()?.apex?.to_array())
 }
 
 fn with_mu_rear(mu: f64) -> RhexParams {
