@@ -313,10 +313,13 @@ pub enum ParameterPathError {
 ///   rewritten behaviour is compared with `run`: any difference in its events or end state
 ///   leaves the name not differentiated, with the reason);
 /// - the body's mass and inertia, a joint's armature: [`Parameter::Body`];
-/// - anything else (a link's mass or length, a friction coefficient, the terrain, the initial
-///   state — whose derivatives are the state Jacobian's): no exact derivative yet, its column
-///   NaN and the reason in [`ParameterSensitivity::not_differentiated`], never a finite
-///   difference.
+/// - a contact's `friction.mu` (the static coefficient, and the kinetic one with it where
+///   `mu_kinetic` is left to default to it) and `friction.mu_kinetic`:
+///   [`Parameter::Friction`]; `options.delta_t_s` at a positive value:
+///   [`Parameter::PseudoImpulseDuration`] (zero columns);
+/// - anything else (a link's mass or length, the terrain, the initial state — whose
+///   derivatives are the state Jacobian's): no exact derivative yet, its column NaN and the
+///   reason in [`ParameterSensitivity::not_differentiated`], never a finite difference.
 pub fn scenario_parameter_sensitivity(
     scenario: &Scenario,
     options: &HybridOptions,
