@@ -258,7 +258,8 @@ class LeapModel:
 
     name: ClassVar[str] = "leap"
     exact: ClassVar[tuple[str, ...]] = ("m_b", "I_b", "gear_ratio", "leg_armature_kg_m2",
-                                        "gearbox_efficiency", "battery_resistance_ohm")
+                                        "gearbox_efficiency", "battery_resistance_ohm",
+                                        "mu_front", "mu_middle", "mu_rear")
     options: dict[str, Any]
     threads: int | None
 

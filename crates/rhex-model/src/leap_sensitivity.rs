@@ -56,11 +56,13 @@
 //! at a controller's time event); the power-flow gearbox law's jump (a leg's speed changing
 //! sign under load: the reason says so).
 use crate::leap::{LeapConfig, LeapPreset, LeapResult, LegActuator, T2Reference};
+use crate::params::{LegPair, ToeSliding};
 use crate::{RhexError, RhexParams};
 use nalgebra::DMatrix;
+use selfmanip_core::model::Friction;
 use selfmanip_core::tangent::BodyParameter;
 use selfmanip_hybrid::budget::NEVER;
-use selfmanip_hybrid::sensitivity::Parameter;
+use selfmanip_hybrid::sensitivity::{FrictionCoefficient, Parameter};
 use selfmanip_hybrid::{EventKind, Termination};
 pub use selfmanip_sim::sensitivity::EventSaltation;
 use selfmanip_sim::sensitivity_preset::{end_state_sensitivity, EndStateRequest};
@@ -69,7 +71,7 @@ use selfmanip_sim::sensitivity_preset::{end_state_sensitivity, EndStateRequest};
 pub use selfmanip_sim::outcome::APEX_COLUMNS;
 
 /// The parameter names [`leap_with_sensitivity`] knows.
-pub const SENSITIVITY_PARAMETERS: [&str; 8] = [
+pub const SENSITIVITY_PARAMETERS: [&str; 12] = [
     "t2",
     "t2_s",
     "gear_ratio",
@@ -78,6 +80,10 @@ pub const SENSITIVITY_PARAMETERS: [&str; 8] = [
     "leg_armature_kg_m2",
     "gearbox_efficiency",
     "battery_resistance_ohm",
+    "mu_front",
+    "mu_middle",
+    "mu_rear",
+    "delta_t_s",
 ];
 
 /// A leap with the derivatives of its apex.
@@ -133,6 +139,13 @@ enum LeapParameter {
     /// A loss option of the geared motor, a behaviour parameter by its name
     /// (`gearbox_efficiency`, `battery_resistance_ohm`).
     DriveLoss(&'static str),
+    /// A leg pair's toe friction coefficient (`mu_rear`, …): the static `μ` of its toe's
+    /// cone and, with Coulomb toes ([`ToeSliding::Coulomb`], `mu_kinetic = mu`), the kinetic
+    /// one with it.
+    ToeFriction(LegPair),
+    /// The pseudo-impulse's `δt` ([`Parameter::PseudoImpulseDuration`]: zero columns, the
+    /// pseudo-impulse selects the impact's mode only).
+    PseudoImpulse,
 }
 
 fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<LeapParameter>, RhexError> {
@@ -164,6 +177,16 @@ fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<LeapParameter>, RhexE
             "m_b" => Ok(LeapParameter::BodyMass),
             "I_b" => Ok(LeapParameter::BodyInertia),
             "leg_armature_kg_m2" => Ok(LeapParameter::LegArmature),
+            "mu_front" => Ok(LeapParameter::ToeFriction(LegPair::Front)),
+            "mu_middle" => Ok(LeapParameter::ToeFriction(LegPair::Middle)),
+            "mu_rear" => Ok(LeapParameter::ToeFriction(LegPair::Rear)),
+            "delta_t_s" if cfg.delta_t_s > 0.0 => Ok(LeapParameter::PseudoImpulse),
+            "delta_t_s" => Err(RhexError::Unsupported {
+                field: "delta_t_s".into(),
+                reason: "at δt = 0 the impact takes the limit δt → 0⁺, another rule: the \
+                         derivative there is one-sided (differentiated at a positive δt)"
+                    .into(),
+            }),
             other => Err(RhexError::UnknownParameter {
                 field: other.into(),
                 known: SENSITIVITY_PARAMETERS.join(", "),
@@ -195,6 +218,8 @@ fn engine_terms(
         LeapParameter::BodyMass => vec![(Parameter::Body(BodyParameter::Mass), 1.0)],
         LeapParameter::BodyInertia => vec![(Parameter::Body(BodyParameter::Inertia), 1.0)],
         LeapParameter::DriveLoss(name) => vec![(Parameter::Controller(name.into()), 1.0)],
+        LeapParameter::PseudoImpulse => vec![(Parameter::PseudoImpulseDuration, 1.0)],
+        LeapParameter::ToeFriction(pair) => vec![(toe_friction(params, model, pair)?, 1.0)],
         LeapParameter::GearRatio => {
             let mut t = vec![(Parameter::Controller("gear_ratio".into()), 1.0)];
             if crate::leap::armature_follows_gear(params) {
@@ -222,6 +247,42 @@ fn engine_terms(
             t.push((Parameter::Controller("leg_armature_kg_m2".into()), 1.0));
             t
         }
+    })
+}
+
+/// The engine's friction parameter of a leg pair's toe (its contact `<pair>_leg`): the
+/// static `μ`, and the kinetic one with it where the toes slide with Coulomb friction.
+fn toe_friction(
+    params: &RhexParams,
+    model: &selfmanip_core::Model,
+    pair: LegPair,
+) -> Result<Parameter, RhexError> {
+    let field = format!("mu_{}", pair.name());
+    let name = format!("{}_leg", pair.name());
+    let unsupported = |reason: &str| RhexError::Unsupported {
+        field: field.clone(),
+        reason: reason.into(),
+    };
+    let contact = model
+        .contacts
+        .iter()
+        .position(|c| c.name == name)
+        .ok_or_else(|| unsupported("the leap has no such leg pair"))?;
+    match model.contacts[contact].friction {
+        Friction::Sticking { mu } if mu.is_finite() => {}
+        _ => {
+            return Err(unsupported(
+                "the toe's friction coefficient is infinite or absent",
+            ))
+        }
+    }
+    let coefficient = match params.toe_sliding {
+        ToeSliding::Coulomb => FrictionCoefficient::Both,
+        ToeSliding::Frictionless => FrictionCoefficient::Static,
+    };
+    Ok(Parameter::Friction {
+        contact,
+        coefficient,
     })
 }
 

@@ -1123,14 +1123,17 @@ impl BodyParameter {
 
 /// The directions of a Jacobian-times-matrix product of the flow ([`dynamics_jvp`]): `m`
 /// columns, each a direction `(δq, δq̇)` of the state (`nq × m` each), a direction `δΥ` of the
-/// joint torques (`n × m`), and optionally one body parameter per column (its unit
-/// direction added to the column).
+/// joint torques (`n × m`), optionally one body parameter per column (its unit
+/// direction added to the column), and optionally a direction `δQ` of a generalized force
+/// on the robot (`nq × m`, entering as a torque does; a friction coefficient's column,
+/// `selfmanip_hybrid::sensitivity`).
 #[derive(Debug, Clone)]
 pub struct FlowDirections<'a> {
     pub dq: &'a DMatrix<f64>,
     pub dqd: &'a DMatrix<f64>,
     pub dtau: &'a DMatrix<f64>,
     pub body: &'a [Option<BodyParameter>],
+    pub force: Option<&'a DMatrix<f64>>,
 }
 
 /// `(δq̈, δλ)` along each column of `dirs` (`nq × m`, `c × m`), after [`forward_dynamics`] (or
@@ -1245,6 +1248,9 @@ pub fn dynamics_jvp_into(
         if let Some(p) = dirs.body.get(col).copied().flatten() {
             p.dm_x_into(model, qdd, true, fb);
             *f += &*fb;
+        }
+        if let Some(dq_force) = dirs.force {
+            *f -= dq_force.column(col);
         }
         solver.solve_folded(data, fold.as_ref(), -1.0, f, g, col, dqdd, Some(dlambda))?;
     }

@@ -333,6 +333,7 @@ fn jvp_and_body_mass_derivative_through_the_fold() {
             dqd: &dqd,
             dtau: &dtau,
             body: &body,
+            force: None,
         },
     )
     .unwrap();

@@ -13,7 +13,8 @@ use nalgebra::DMatrix;
 use selfmanip_core::tangent::TangentError;
 use selfmanip_core::{Model, Terrain};
 use selfmanip_hybrid::sensitivity::{
-    execution_sensitivity_columns, ColumnSensitivity, Parameter, SaltationStatus, SensitivityError,
+    execution_sensitivity_columns, ColumnSensitivity, FrictionCoefficient, Parameter,
+    SaltationStatus, SensitivityError,
 };
 use selfmanip_hybrid::{ControllerPartials, EventKind, Execution, HybridOptions, Termination};
 
@@ -312,10 +313,13 @@ pub enum ParameterPathError {
 ///   rewritten behaviour is compared with `run`: any difference in its events or end state
 ///   leaves the name not differentiated, with the reason);
 /// - the body's mass and inertia, a joint's armature: [`Parameter::Body`];
-/// - anything else (a link's mass or length, a friction coefficient, the terrain, the initial
-///   state — whose derivatives are the state Jacobian's): no exact derivative yet, its column
-///   NaN and the reason in [`ParameterSensitivity::not_differentiated`], never a finite
-///   difference.
+/// - a contact's `friction.mu` (the static coefficient, and the kinetic one with it where
+///   `mu_kinetic` is left to default to it) and `friction.mu_kinetic`:
+///   [`Parameter::Friction`]; `options.delta_t_s` at a positive value:
+///   [`Parameter::PseudoImpulseDuration`] (zero columns);
+/// - anything else (a link's mass or length, the terrain, the initial state — whose
+///   derivatives are the state Jacobian's): no exact derivative yet, its column NaN and the
+///   reason in [`ParameterSensitivity::not_differentiated`], never a finite difference.
 pub fn scenario_parameter_sensitivity(
     scenario: &Scenario,
     options: &HybridOptions,
@@ -327,7 +331,7 @@ pub fn scenario_parameter_sensitivity(
     for (index, name) in names.iter().enumerate() {
         let full = crate::path::resolve(&tree, name)
             .map_err(|source| ParameterPathError::Unknown { index, source })?;
-        routes.push(route(&run.model, &tree, &full));
+        routes.push(route(&run.model, &tree, &full, options));
     }
     let fields: Vec<(usize, String, serde_json::Value)> = routes
         .iter()
@@ -392,11 +396,31 @@ pub fn scenario_parameter_sensitivity(
     Ok(spread(s, &routes))
 }
 
-/// What stands behind the full path `full` of `tree` (a scenario) for the derivatives.
-fn route(model: &Model, tree: &serde_json::Value, full: &str) -> PathParameter {
+/// What stands behind the full path `full` of `tree` (a scenario run under `options`) for
+/// the derivatives.
+fn route(
+    model: &Model,
+    tree: &serde_json::Value,
+    full: &str,
+    options: &HybridOptions,
+) -> PathParameter {
     use selfmanip_core::tangent::BodyParameter;
     if let Some(k) = full.strip_prefix("behaviour.parameters.") {
         return PathParameter::Engine(Parameter::Controller(k.to_string()));
+    }
+    if full == "options.delta_t_s" {
+        return if options.delta_t_s > 0.0 {
+            PathParameter::Engine(Parameter::PseudoImpulseDuration)
+        } else {
+            PathParameter::NotDifferentiated(
+                "`options.delta_t_s` at 0 takes the limit δt → 0⁺, another impact rule: its \
+                 derivative there is one-sided (differentiated at a positive δt)"
+                    .into(),
+            )
+        };
+    }
+    if let Some(p) = friction_parameter(model, tree, full) {
+        return p;
     }
     match full {
         "robot.body.mass_kg" => return PathParameter::Engine(Parameter::Body(BodyParameter::Mass)),
@@ -434,6 +458,53 @@ fn route(model: &Model, tree: &serde_json::Value, full: &str) -> PathParameter {
          body's mass and inertia and the joints' armatures"
     };
     PathParameter::NotDifferentiated(format!("`{full}`: {what}"))
+}
+
+/// The friction coefficient the full path `full` names (`robot.contacts.<contact>.friction.
+/// mu` or `.mu_kinetic`, the contact by name or index), if it names one: `mu` is the static
+/// coefficient, and the kinetic one too where the description leaves `mu_kinetic` to
+/// default to it ([`FrictionCoefficient::Both`]); `mu_kinetic` is the kinetic one alone.
+fn friction_parameter(
+    model: &Model,
+    tree: &serde_json::Value,
+    full: &str,
+) -> Option<PathParameter> {
+    let rest = full.strip_prefix("robot.contacts")?;
+    let (contact, field) = rest.rsplit_once(".friction.")?;
+    let contacts = tree.get("robot")?.get("contacts")?.as_array()?;
+    let i = match contact.strip_prefix('[') {
+        Some(i) => i.strip_suffix(']')?.parse().ok()?,
+        None => {
+            let name = contact.strip_prefix('.')?;
+            contacts
+                .iter()
+                .position(|c| c.get("name").and_then(|n| n.as_str()) == Some(name))?
+        }
+    };
+    let friction = contacts.get(i)?.get("friction")?;
+    let name = contacts[i].get("name").and_then(|n| n.as_str())?;
+    let k = model.contacts.iter().position(|c| c.name == name)?;
+    let kinetic_given = friction.get("mu_kinetic").is_some_and(|v| !v.is_null());
+    let coefficient = match field {
+        "mu" if kinetic_given => FrictionCoefficient::Static,
+        "mu" => FrictionCoefficient::Both,
+        "mu_kinetic" => FrictionCoefficient::Kinetic,
+        _ => return None,
+    };
+    if field == "mu"
+        && !friction
+            .get("mu")
+            .and_then(|v| v.as_f64())
+            .is_some_and(f64::is_finite)
+    {
+        return Some(PathParameter::NotDifferentiated(format!(
+            "`{full}`: an infinite friction coefficient is no number to differentiate in"
+        )));
+    }
+    Some(PathParameter::Engine(Parameter::Friction {
+        contact: k,
+        coefficient,
+    }))
 }
 
 /// Whether `text` (the field `full` of `tree`) is a formula of the behaviour's parameters

@@ -11,6 +11,8 @@ use super::types::{ColumnSensitivity, Parameter, SaltationStatus, SensitivityErr
 use crate::event::{Event, EventKind};
 use crate::execution::{Execution, Segment};
 use nalgebra::{DMatrix, RowDVector};
+use selfmanip_core::contact::ContactKind;
+use selfmanip_core::model::Friction;
 use selfmanip_core::tangent::BodyParameter;
 use selfmanip_core::{Model, Terrain};
 
@@ -40,11 +42,14 @@ pub fn execution_sensitivity_columns(
         .iter()
         .filter_map(|p| match p {
             Parameter::Body(b) => Some(*b),
-            Parameter::Controller(_) => None,
+            _ => None,
         })
         .collect();
     for b in &body {
         b.check(model)?;
+    }
+    for p in params {
+        check_friction(model, exec, p)?;
     }
     let mut ev = Evaluator::new(model, terrain);
     ev.memory_mode = has_event_memory(exec);
@@ -160,6 +165,21 @@ fn event_columns(
         }) {
             dpg = g;
         }
+        if let (EventKind::Slip, Some(rn)) = (event.kind, rn) {
+            // the slip guard `g = μ(−λ_n) − |λ_t|` moves with its own static μ:
+            // `∂g/∂μ = −λ_n` at the state before
+            for (i, p) in params.iter().enumerate() {
+                if let Parameter::Friction {
+                    contact,
+                    coefficient,
+                } = p
+                {
+                    if *contact == k && coefficient.moves_static() {
+                        dpg[nd + i] -= c.lambda[rn];
+                    }
+                }
+            }
+        }
     }
     let dgx = dg * &*x;
     let time = -(&dgx + &dpg) / parts.den;
@@ -196,4 +216,42 @@ fn event_columns(
     }
     *x = xn;
     Ok(time)
+}
+
+/// Whether a [`Parameter::Friction`] is one of `model`'s that the run can be differentiated
+/// in: its contact exists; a static `μ` belongs to a sticking contact (a frictionless one
+/// has none); a kinetic `μ_k` is positive wherever the contact slides along the run (at
+/// `μ_k = 0` the sliding sites carry no friction and no direction, Assumption 5.9, so the
+/// derivative there — one-sided in the direction's sign — is not formed).
+fn check_friction(model: &Model, exec: &Execution, p: &Parameter) -> Result<(), SensitivityError> {
+    let Parameter::Friction {
+        contact,
+        coefficient,
+    } = *p
+    else {
+        return Ok(());
+    };
+    let bad = |reason: &str| {
+        Err(SensitivityError::NotAParameter {
+            parameter: p.clone(),
+            reason: reason.to_string(),
+        })
+    };
+    let Some(c) = model.contacts.get(contact) else {
+        return bad("no such contact");
+    };
+    if coefficient.moves_static() && !matches!(c.friction, Friction::Sticking { .. }) {
+        return bad("a frictionless contact has no static friction coefficient");
+    }
+    let slides = exec
+        .segments
+        .iter()
+        .any(|s| s.mode.kind(contact) == Some(ContactKind::Slide));
+    if coefficient.moves_kinetic() && c.kinetic_mu == 0.0 && slides {
+        return bad(
+            "the contact slides with no kinetic friction (mu_kinetic = 0); the derivative \
+             at 0 is not formed",
+        );
+    }
+    Ok(())
 }

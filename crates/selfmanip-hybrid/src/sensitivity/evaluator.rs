@@ -108,6 +108,9 @@ pub(super) struct ColumnBuffers {
     dfree: DMatrix<f64>,
     dfree2: DMatrix<f64>,
     body: Vec<Option<BodyParameter>>,
+    /// `∂Q^fr/∂μ_k` of the kinetic friction coefficients' columns (`nq × m`,
+    /// [`kinetic_friction_force`]).
+    force: DMatrix<f64>,
     dqdd: DMatrix<f64>,
     /// `∂λ/∂x X + ∂λ/∂p` of the last evaluation, `c × m`.
     dlambda: DMatrix<f64>,
@@ -490,6 +493,7 @@ impl Evaluator<'_> {
         cb.body.clear();
         cb.body.resize(m, None);
         let mut ci = 0;
+        let mut with_force = false;
         for (k, par) in params.iter().enumerate() {
             match par {
                 Parameter::Body(b) => cb.body[nd + k] = Some(*b),
@@ -502,6 +506,19 @@ impl Evaluator<'_> {
                         .axpy(1.0, &p.dfree_dp.column(ci), 1.0);
                     ci += 1;
                 }
+                Parameter::Friction {
+                    contact,
+                    coefficient,
+                } if coefficient.moves_kinetic() => {
+                    if !with_force {
+                        fit(&mut cb.force, nq, m);
+                        cb.force.fill(0.0);
+                        with_force = true;
+                    }
+                    kinetic_friction_force(&self.data, *contact, &mut cb.force, nd + k);
+                }
+                // the static μ enters the slip guard only; δt the impact's selection only
+                Parameter::Friction { .. } | Parameter::PseudoImpulseDuration => {}
             }
         }
         let dirs = FlowDirections {
@@ -509,6 +526,7 @@ impl Evaluator<'_> {
             dqd: &cb.dqd,
             dtau: &cb.dtau,
             body: &cb.body,
+            force: with_force.then_some(&cb.force),
         };
         dynamics_jvp_into(
             model,
@@ -648,13 +666,57 @@ fn gemm_pair(
     }
 }
 
+/// `∂Q^fr/∂μ_k` of contact `contact`'s sliding sites at the state `data` was solved at
+/// (after [`forward_dynamics_prepared`]), into column `col` of `force`: the derivative of
+/// the Coulomb force on the cone's edge with respect to the kinetic coefficient, a
+/// generalized force direction of the flow's tangent (`selfmanip_core::tangent`'s
+/// `FlowDirections::force`). The force of a site sliding with direction `σ` lies on the
+/// edge `n + μ_kσ t` ([`selfmanip_core::friction`]), so `μ_k` enters where `μ_kσ` does:
+///
+/// - a general site, folded into the solve: its row of `B` in `K' = [M̄ (A + B)ᵀ; A 0]` is
+///   `μ_kσ A_t`, so `∂B/∂μ_k = σ A_t` and `K' δz = −[(∂B/∂μ_k)ᵀ λ_n; 0]`: the force
+///   direction `δQ = −σ λ_n A_tᵀ`;
+/// - a single-joint massless leg's site, resolved by the leg's statics: `f^fr = −μ_kσ λ_n
+///   A_tᵀ`, `λ_n = f_j/den`, `den = (A_n)_j + μ_kσ (A_t)_j`, so `∂λ_n/∂μ_k = −λ_n σ
+///   (A_t)_j/den` and `δQ = ∂f^fr/∂μ_k = −σ λ_n ((A_n)_j/den) A_tᵀ`.
+///
+/// A site at rest or wedged has a sticking force (no `μ_k` in it); its flow is not
+/// differentiated anyway (`TangentError::FrictionAtRest`).
+fn kinetic_friction_force(data: &Data, contact: usize, force: &mut DMatrix<f64>, col: usize) {
+    let cons = &data.constraints;
+    let c = cons.n_rows();
+    for site in data.sliding.iter().filter(|s| s.contact == contact) {
+        if site.held.is_some() || site.at_rest || site.wedged || site.coef == 0.0 {
+            continue;
+        }
+        let sigma = site.sigma;
+        let scale = if site.general {
+            -sigma * data.lambda[site.row]
+        } else {
+            let lambda_n = site.force_t / site.coef;
+            let a_t_j: f64 = site
+                .a_t
+                .iter()
+                .filter(|(k, _)| *k == site.joint)
+                .map(|(_, v)| v)
+                .sum();
+            let a_nj = cons.a.as_slice()[site.joint * c + site.row];
+            let den = a_nj + site.coef * a_t_j;
+            -sigma * lambda_n * a_nj / den
+        };
+        for &(k, v) in &site.a_t {
+            force[(k, col)] += scale * v;
+        }
+    }
+}
+
 /// The names of the controller parameters among `params`, in order.
 pub(super) fn controller_names(params: &[Parameter]) -> Vec<&str> {
     params
         .iter()
         .filter_map(|p| match p {
             Parameter::Controller(n) => Some(n.as_str()),
-            Parameter::Body(_) => None,
+            _ => None,
         })
         .collect()
 }

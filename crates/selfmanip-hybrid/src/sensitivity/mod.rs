@@ -76,8 +76,12 @@
 //! `X_p⁺ = Ξ X_p + D_pR + (f⁺ − D_xR f⁻) D_pg / (D_xg f⁻)` and
 //! `dt_e/dp = −(D_xg X_p + D_pg)/(D_xg f⁻)`. `∂f/∂p` comes from the controller
 //! ([`Controller::parameter_partials`](crate::Controller::parameter_partials), through `∂q̈/∂Υ`) or, for the body's mass and
-//! inertia, from `∂M̄/∂p`, `∂N̄/∂p` by implicit differentiation of the KKT system; `D_pg` of
-//! a force guard from `∂λ/∂p`; `D_pR` of a plastic impact from `∂M̄/∂p`. A controller's
+//! inertia, from `∂M̄/∂p`, `∂N̄/∂p` by implicit differentiation of the KKT system, for a
+//! contact's kinetic friction coefficient from the Coulomb force on the cone's edge (a
+//! generalized force direction of the same solve, [`Parameter::Friction`]); `D_pg` of
+//! a force guard from `∂λ/∂p` (and `−λ_n` at a slip in its own static `μ`); `D_pR` of a
+//! plastic impact from `∂M̄/∂p`. The pseudo-impulse's `δt` selects impacts' modes only: its
+//! columns are zero ([`Parameter::PseudoImpulseDuration`]). A controller's
 //! **time events** ([`Controller::time_events`](crate::Controller::time_events), e.g. a motor switched on at `t2`) add
 //! `(f⁻ − f⁺) dt_b/dp` where the flow jumps; the tangent is split at them (and `∂f/∂p` may
 //! jump there even when `f` does not). Only the columns asked for are propagated, by
@@ -129,6 +133,6 @@ pub use simultaneous::{MAX_SIMULTANEOUS_GUARDS, ORDER_AGREEMENT_TOL, SIMULTANEOU
 pub use state_jacobian::{execution_sensitivity, simulate_with_sensitivity};
 pub use time_events::TIME_EVENT_TOL;
 pub use types::{
-    ColumnSensitivity, EventSensitivity, OneSidedSaltation, Parameter, SaltationStatus,
-    Sensitivity, SensitivityError, TimeEventSensitivity, TouchSwitch,
+    ColumnSensitivity, EventSensitivity, FrictionCoefficient, OneSidedSaltation, Parameter,
+    SaltationStatus, Sensitivity, SensitivityError, TimeEventSensitivity, TouchSwitch,
 };

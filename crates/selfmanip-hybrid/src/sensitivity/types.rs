@@ -31,6 +31,13 @@ pub enum SensitivityError {
          derivatives with respect to them ({reason})"
     )]
     EventMemoryWithoutPartials { t: f64, reason: String },
+    /// A [`Parameter::Friction`] the model does not have, or cannot be differentiated in
+    /// along this run.
+    #[error("{parameter:?}: {reason}")]
+    NotAParameter {
+        parameter: Parameter,
+        reason: String,
+    },
 }
 
 /// Whether an event's saltation matrix is defined.
@@ -192,6 +199,52 @@ pub enum Parameter {
     /// A parameter the segments' controllers know by this name
     /// ([`Controller::parameter_partials`](crate::Controller::parameter_partials), [`Controller::time_events`](crate::Controller::time_events)).
     Controller(String),
+    /// A friction coefficient of contact `contact`: its static `μ` (the cone
+    /// `|λ_t| ≤ μ(−λ_n)` of a sticking contact, the slip guard), its kinetic `μ_k` (the
+    /// Coulomb sliding force on the cone's edge), or both where they are one number (a
+    /// description that leaves `mu_kinetic` to default to `mu`).
+    Friction {
+        contact: usize,
+        coefficient: FrictionCoefficient,
+    },
+    /// The pseudo-impulse's duration `δt` (5.39)–(5.40). The pseudo-impulse is never applied
+    /// to the state (thesis §5.1.4: it is "used only in determining which contacts to
+    /// break", an extra guard condition of the impact), so `δt` only selects the impact's
+    /// mode: the state and the event times are locally constant in it, and its columns are
+    /// zero wherever the selection is strict (a `δt` at which (5.40)'s test changes its
+    /// answer changes the mode sequence: no derivative there). Differentiated at a
+    /// positive `δt` only: at `δt = 0` the impact's rule is another one (the limit
+    /// `δt → 0⁺`, `crate::complementarity`), so the derivative there is one-sided.
+    PseudoImpulseDuration,
+}
+
+/// Which of a contact's friction coefficients a [`Parameter::Friction`] is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FrictionCoefficient {
+    /// The static `μ` alone.
+    Static,
+    /// The kinetic `μ_k` alone.
+    Kinetic,
+    /// `μ = μ_k`, one number.
+    Both,
+}
+
+impl FrictionCoefficient {
+    /// Whether the static `μ` moves with it.
+    pub fn moves_static(self) -> bool {
+        matches!(
+            self,
+            FrictionCoefficient::Static | FrictionCoefficient::Both
+        )
+    }
+
+    /// Whether the kinetic `μ_k` moves with it.
+    pub fn moves_kinetic(self) -> bool {
+        matches!(
+            self,
+            FrictionCoefficient::Kinetic | FrictionCoefficient::Both
+        )
+    }
 }
 
 /// Sensitivities of an execution along selected columns: directions of the initial state
