@@ -86,8 +86,8 @@ pub struct SpatialImpact {
 /// Plastic impact, thesis (5.10): `[M Aᵀ; A 0][Δq̇; −P] = [0; −A q̇⁻]`, `q̇⁺ = q̇⁻ + Δq̇`, so
 /// `A q̇⁺ = 0` and `M(q̇⁺ − q̇⁻) = Aᵀ P`. A massless limb in the air ([`free_rates`]) keeps
 /// its rates, as in the planar core. A contact with a finite impact friction
-/// ([`PointContact::with_impact_friction`]) makes it the Coulomb impact of
-/// the module's Coulomb impact, whose outcome must be unique (a typed error naming `contacts`
+/// ([`PointContact::with_impact_friction`]) makes it Coulomb's impact ([`coulomb_impacts`],
+/// the module's docs), whose outcome must be unique (a typed error naming `contacts`
 /// otherwise).
 pub fn impact(
     model: &SpatialModel,
@@ -100,7 +100,7 @@ pub fn impact(
         .iter()
         .any(|c| c.friction && c.impact_friction.is_finite())
     {
-        return unique_coulomb_impact(model, data, contacts, q, v_minus);
+        return the_only(coulomb_impacts(model, data, contacts, q, v_minus)?);
     }
     prepare(model, data, contacts, q, v_minus)?;
     let free = free_rates(model, contacts);
@@ -657,17 +657,10 @@ fn keep_distinct(out: &mut Vec<(SpatialImpact, usize)>, imp: SpatialImpact, v_sc
     }
 }
 
-/// [`coulomb_impacts`]'s single outcome, or a typed error naming `contacts` when there is
+/// The single outcome of [`coulomb_impacts`], or a typed error naming `contacts` when there is
 /// none (a contact's normal impulse would pull: it leaves the ground) or several (a Painlevé
 /// configuration: [`coulomb_impacts`] lists them).
-fn unique_coulomb_impact(
-    model: &SpatialModel,
-    data: &mut SpatialData,
-    contacts: &[PointContact],
-    q: &[f64],
-    v_minus: &[f64],
-) -> SpatialResult<SpatialImpact> {
-    let mut all = coulomb_impacts(model, data, contacts, q, v_minus)?;
+fn the_only(mut all: Vec<SpatialImpact>) -> SpatialResult<SpatialImpact> {
     match all.len() {
         1 => Ok(all.pop().expect("one")),
         0 => Err(SpatialError::InvalidArgument {
