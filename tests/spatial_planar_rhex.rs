@@ -299,3 +299,161 @@ fn six_legs_in_pairs_are_the_planar_model() {
         assert!(w_qdd < 1e-12 && w_lam < 1e-12 && w_imp < 1e-12 && w_sym < 1e-12);
     }
 }
+
+/// The Coulomb plastic impact (`μ = 0.4` on every leg, frictionless body ends) of every `0`/`1`
+/// mode at random states coming down: each outcome of the planar engine's impact
+/// complementarity (`selfmanip::hybrid::coulomb_impact`) that holds every contact is an
+/// outcome of the spatial one with each pair's legs in the pair's state (`q̇⁺` and each pair's
+/// impulse summed, to 1e-12 relative, 1e-13 κ_A above κ_A = 10), and each spatial outcome whose
+/// pairs' legs are alike is one of the planar ones. Sets with both body ends down are left
+/// out (four rounded ends on three rates: redundant rows, whose impulse split is least-norm).
+#[test]
+fn coulomb_impact_of_the_pairs_is_the_planar_one() {
+    use selfmanip::hybrid::coulomb_impact::{coulomb_impacts, ContactImpact};
+    let mu = 0.4;
+    let params = RhexParams {
+        pairs: PAIRS.to_vec(),
+        mu_front: Some(mu),
+        mu_middle: Some(mu),
+        mu_rear: Some(mu),
+        ..RhexParams::default()
+    }
+    .with_table_4_2_legs();
+    let rhex = Rhex::new(params).unwrap();
+    let (p, model) = spatial(true);
+    let mut data = Data::new(&rhex.model);
+    let mut sdata = SpatialData::new(&model);
+    let mut rng = ChaCha8Rng::seed_from_u64(41);
+    let (mut worst, mut matched, mut slips, mut symmetric) = (0.0f64, 0, 0, 0);
+    for _ in 0..6 {
+        let mut q = [0.0; 6];
+        for t in q.iter_mut().take(3) {
+            *t = rng.gen_range(-1.3..1.3);
+        }
+        q[3] = rng.gen_range(-1.0..1.0);
+        q[4] = rng.gen_range(-0.4..-0.1);
+        q[5] = rng.gen_range(-0.3..0.3);
+        let mut qd: Vec<f64> = (0..6).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        qd[4] += 1.5;
+        let (qs, vs) = rhex::from_planar(&q, &qd).unwrap();
+        for label in rhex.all_labels() {
+            let mode = rhex.mode(&label).unwrap();
+            let Ok(()) = forward_dynamics(
+                &rhex.model,
+                &mut data,
+                &FlatGround,
+                mode,
+                &q,
+                &qd,
+                &[0.0; 3],
+                None,
+            ) else {
+                continue;
+            };
+            let kappa = (data.kkt.info.constraint_condition / 10.0).max(1.0);
+            let geometry = data.constraints.geometry.clone();
+            let contacts: Vec<PointContact> = spatial_contacts(&rhex, &data, &p, &model, &qs)
+                .into_iter()
+                .map(|c| {
+                    if c.friction {
+                        c.with_impact_friction(mu).unwrap()
+                    } else {
+                        c
+                    }
+                })
+                .collect();
+            let candidates: Vec<usize> = mode.active().collect();
+            // both body ends down are four rounded ends on three rates (z, roll, pitch):
+            // redundant rows, whose split the spatial impact takes least-norm — left out
+            let ends = candidates
+                .iter()
+                .filter(|&&k| rhex.model.contacts[k].name.ends_with("_body"))
+                .count();
+            if ends == 2 {
+                continue;
+            }
+            let planar = coulomb_impacts(&rhex.model, &mut data, &FlatGround, &candidates, &q, &qd)
+                .unwrap()
+                .unwrap();
+            let held: Vec<_> = planar
+                .iter()
+                .filter(|o| o.states.iter().all(|(_, s)| *s != ContactImpact::Separate))
+                .collect();
+            let Ok(ours) =
+                sp::coulomb_impacts(&model, &mut sdata, &contacts, qs.as_slice(), vs.as_slice())
+            else {
+                continue;
+            };
+            // (planar q̇⁺, per pair the planar world impulse (x, z)) of a spatial outcome
+            let to_planar = |o: &sp::SpatialImpact| {
+                let v = rhex::velocity_to_planar(qs.as_slice(), o.v_plus.as_slice());
+                let (mut row, mut forces) = (0, Vec::new());
+                for pair in contacts.chunks(2) {
+                    let mut f = Vector3::zeros();
+                    for c in pair {
+                        for d in &c.directions()[..c.n_rows()] {
+                            f += d * o.impulse[row];
+                            row += 1;
+                        }
+                    }
+                    forces.push(rhex::force_to_planar(&f).0);
+                }
+                (v, forces)
+            };
+            let gap =
+                |o: &sp::SpatialImpact,
+                 planar: &selfmanip::hybrid::coulomb_impact::CoulombImpact| {
+                    let (v, forces) = to_planar(o);
+                    let mut g = rel(&v, &DVector::from_column_slice(&planar.qd_plus));
+                    let scale = planar
+                        .contact_impulses
+                        .iter()
+                        .fold(1.0f64, |s, &(_, t, n)| s.max(t.abs()).max(n.abs()));
+                    for (&(k, p_t, p_n), f) in planar.contact_impulses.iter().zip(&forces) {
+                        let plane = &geometry.iter().find(|(c, _)| *c == k).unwrap().1.plane;
+                        let w = row_direction(
+                            plane,
+                            selfmanip::core::contact::RowDirection::Tangential,
+                        ) * p_t
+                            + row_direction(plane, selfmanip::core::contact::RowDirection::Normal)
+                                * p_n;
+                        g = g.max((w.x - f[0]).abs().max((w.y - f[1]).abs()) / scale);
+                    }
+                    g / kappa
+                };
+            for o in &held {
+                let best = ours.iter().map(|s| gap(s, o)).fold(f64::INFINITY, f64::min);
+                worst = worst.max(best);
+                matched += 1;
+                slips += o
+                    .states
+                    .iter()
+                    .filter(|(_, s)| matches!(s, ContactImpact::Slip { sigma } if *sigma != 0.0))
+                    .count();
+            }
+            for s in &ours {
+                let alike = s.states.chunks(2).all(|pair| match (pair[0], pair[1]) {
+                    (
+                        sp::ImpactState::Slip { direction: a },
+                        sp::ImpactState::Slip { direction: b },
+                    ) => (a - b).amax() < 1e-9,
+                    (a, b) => a == b,
+                });
+                if alike {
+                    symmetric += 1;
+                    let best = held.iter().map(|o| gap(s, o)).fold(f64::INFINITY, f64::min);
+                    worst = worst.max(best);
+                }
+            }
+        }
+    }
+    eprintln!(
+        "Coulomb impact: {matched} planar outcomes holding every contact ({slips} legs slipping), \
+         {symmetric} spatial outcomes with pairs alike; worst gap {worst:.1e} (/ max(1, κ_A/10))"
+    );
+    assert!(
+        matched >= 20 && slips >= 5 && symmetric >= matched,
+        "{matched} {slips} {symmetric}"
+    );
+    assert!(worst < 1e-12, "{worst}");
+}

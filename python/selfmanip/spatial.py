@@ -13,8 +13,9 @@ the robot along those rows (a pushing normal force is positive), with
 ``M qdd + h = tau + A^T lam``.
 
 Contacts may also be a dict ``{frame: {"radius_m": r, "friction": mu}}``: a point (``r = 0``)
-or a sphere foot of radius ``r`` about the frame's origin, with three rows if ``mu > 0`` and
-the normal row alone if ``mu = 0``; ``"slide": True`` keeps the normal row and applies Coulomb
+or a sphere foot of radius ``r`` about the frame's origin, with three rows if ``mu > 0`` (and
+in ``impact`` Coulomb's circular cone of ``mu``: each contact sticks inside it or slips on its
+edge) and the normal row alone if ``mu = 0``; ``"slide": True`` keeps the normal row and applies Coulomb
 friction ``mu`` on the circular cone's edge against the contact point's sliding velocity;
 ``"normal": [nx, ny, nz]`` tilts the ground; and an arc of radius ``r`` is
 ``"arc": {"axis": [..], "zero": [..], "angle_range_rad": [a, b]}`` (frame axes: the arc spans
@@ -65,12 +66,15 @@ class SpatialDynamics:
 
 @dataclass(frozen=True)
 class SpatialImpact:
-    """Plastic impact (thesis 5.10): ``v_plus`` (nv) with ``A v_plus = 0`` and the ground's
-    impulse on the robot along ``rows``."""
+    """Plastic impact (thesis 5.10): ``v_plus`` (nv) with every contact's normal velocity zero
+    and the ground's impulse on the robot along ``rows``; each contact's ``states`` entry is
+    ``"stick"`` (every row held), ``"slip"`` (the impulse on its friction cone's edge, opposite
+    its slip after) or ``"frictionless"``."""
 
     v_plus: np.ndarray
     impulse: np.ndarray
     rows: list[tuple[str, str]]
+    states: list[str]
 
 
 @dataclass(frozen=True)
@@ -212,6 +216,8 @@ class SpatialRobot(WrappedModel):
 
     def impact(self, contacts: Contacts, q: np.ndarray | Sequence[float],
                v: np.ndarray | Sequence[float]) -> SpatialImpact:
-        """Plastic impact into ``contacts`` with incoming rates ``v``."""
+        """Plastic impact into ``contacts`` with incoming rates ``v``; a dict contact with
+        ``friction`` meets Coulomb's cone (raises ``InvalidInputError`` naming ``contacts``
+        when no impact, or more than one, holds every contact)."""
         d = self._native.impact(_contacts(contacts), _vector(q), _vector(v))
-        return SpatialImpact(d["v_plus"], d["impulse"], [tuple(r) for r in d["rows"]])
+        return SpatialImpact(d["v_plus"], d["impulse"], [tuple(r) for r in d["rows"]], list(d["states"]))

@@ -19,8 +19,8 @@ use selfmanip_core::spatial::rhex::RhexSixLegs;
 use selfmanip_core::spatial::rigid_body::{crba, nonlinear_effects};
 use selfmanip_core::spatial::{
     difference, forward_dynamics, forward_dynamics_prescribed, free_rates, from_pinocchio, impact,
-    integrate, neutral, quasi_static, to_pinocchio, BaseKind, PointContact, SpatialData,
-    SpatialError, SpatialModel,
+    integrate, neutral, quasi_static, to_pinocchio, BaseKind, ImpactState, PointContact,
+    SpatialData, SpatialError, SpatialModel,
 };
 
 /// A spatial error as the Python exception of its kind, naming the field.
@@ -134,8 +134,9 @@ impl SpatialRobot {
     /// One contact of the dict form, `{"radius_m": r, "friction": mu, "slide": False,
     /// "normal": [0, 0, 1], "arc": {"axis": [..], "zero": [..], "angle_range_rad": [a, b]}}`
     /// (every key optional): a point (`r = 0`) or a sphere foot of radius `r`, or with `arc`
-    /// the arc of radius `r`; with `mu > 0` three rows (sticking) or, with `slide`, the normal
-    /// row and Coulomb friction `mu`; `mu = 0` frictionless. Errors name
+    /// the arc of radius `r`; with `mu > 0` three rows (sticking, and Coulomb's cone of `mu` in
+    /// an impact) or, with `slide`, the normal row and Coulomb friction `mu`; `mu = 0`
+    /// frictionless. Errors name
     /// `contacts[frame].key`.
     fn contact(&self, name: &str, spec: &Bound<'_, PyAny>) -> PyResult<PointContact> {
         let field = |key: &str| format!("contacts[{name}].{key}");
@@ -225,6 +226,8 @@ impl SpatialRobot {
                 &field("friction"),
                 format!("must be finite and non-negative, got {mu}"),
             ))
+        } else if mu > 0.0 {
+            c.with_impact_friction(mu).map_err(named)
         } else {
             Ok(c)
         }
@@ -528,7 +531,10 @@ impl SpatialRobot {
     }
 
     /// Plastic impact (5.10) into `contacts` at `q` with incoming rates `v`:
-    /// `{"v_plus", "impulse", "rows"}` with `M (v_plus − v) = Aᵀ impulse`, `A v_plus = 0`.
+    /// `{"v_plus", "impulse", "rows", "states"}` with `M (v_plus − v) = Aᵀ impulse`, every
+    /// normal velocity after zero; with a friction cone (dict contacts with `friction`) the
+    /// Coulomb impact (`spatial::impact`), each contact's state `"stick"`, `"slip"`
+    /// or `"frictionless"`.
     fn impact<'py>(
         &self,
         py: Python<'py>,
@@ -542,7 +548,17 @@ impl SpatialRobot {
             |contacts, data| impact(&self.model, data, contacts, &q, &v),
             |d, out, _| {
                 d.set_item("v_plus", vec1(py, &out.v_plus))?;
-                d.set_item("impulse", vec1(py, &out.impulse))
+                d.set_item("impulse", vec1(py, &out.impulse))?;
+                let states: Vec<&str> = out
+                    .states
+                    .iter()
+                    .map(|s| match s {
+                        ImpactState::Stick => "stick",
+                        ImpactState::Slip { .. } => "slip",
+                        ImpactState::Frictionless => "frictionless",
+                    })
+                    .collect();
+                d.set_item("states", states)
             },
         )
     }

@@ -2,7 +2,7 @@
 //! (5.2) for the rows of a contact set, solved by the planar core's null-space block inverse
 //! ([`crate::kkt::KktFactorization`], (5.3)–(5.4)), which needs `A` of full row rank and `M`
 //! positive definite only on `ker A` (Lemma 5.1), never `M` invertible: massless limbs are
-//! exact. Plastic impact is (5.10).
+//! exact. Plastic impact (5.10) is [`super::impact`].
 //!
 //! Sign convention (Pinocchio's): `M q̈ + h = τ + Aᵀλ`, `λ` the ground's force on the robot
 //! along the rows' world directions — for a contact with friction `[t₁, t₂, n]`, tangents
@@ -20,7 +20,7 @@ use super::rigid_body::{bias_forces_from_kinematics, mass_matrix_from_kinematics
 use super::tree_kkt::KktRoute;
 use crate::error::check_result;
 use crate::error::check_vector;
-use nalgebra::{DMatrix, DVector, DVectorView, Vector3};
+use nalgebra::{DMatrix, DVector, Vector3};
 
 /// Where on its frame a contact touches the ground.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -72,6 +72,10 @@ pub struct PointContact {
     /// `μ > 0` makes it slide with the ground's tangential force `μ λ_n` on the circular
     /// cone's edge, opposite its sliding velocity ([`super::coulomb`]); 0 is frictionless.
     pub kinetic_friction: f64,
+    /// Coulomb's coefficient of a contact with tangent rows in a plastic impact: its impulse
+    /// lies in the circular cone of this `μ` ([`super::impact`]). `f64::INFINITY` (the
+    /// default) holds every row, thesis (5.10); 0 leaves the normal row alone.
+    pub impact_friction: f64,
 }
 
 fn unit(field: &'static str, x: Vector3<f64>) -> SpatialResult<Vector3<f64>> {
@@ -116,6 +120,7 @@ impl PointContact {
             tangent: None,
             shape: ContactShape::Point,
             kinetic_friction: 0.0,
+            impact_friction: f64::INFINITY,
         })
     }
 
@@ -178,6 +183,28 @@ impl PointContact {
             friction: false,
             tangent: None,
             kinetic_friction: non_negative("friction", mu)?,
+            ..self
+        })
+    }
+
+    /// `self`, a contact with tangent rows, meeting Coulomb friction `mu` (finite, ≥ 0, or
+    /// `f64::INFINITY` to stick) in a plastic impact ([`super::impact`]); its
+    /// dynamics keep the tangent rows (sticking).
+    pub fn with_impact_friction(self, mu: f64) -> SpatialResult<Self> {
+        if !self.friction {
+            return Err(SpatialError::InvalidArgument {
+                field: "friction".into(),
+                reason: "an impact friction cone needs the contact's tangent rows".into(),
+            });
+        }
+        if mu.is_nan() || mu < 0.0 {
+            return Err(SpatialError::InvalidArgument {
+                field: "friction".into(),
+                reason: format!("must be non-negative (∞ sticks), got {mu}"),
+            });
+        }
+        Ok(Self {
+            impact_friction: mu,
             ..self
         })
     }
@@ -425,7 +452,7 @@ pub fn friction_rows(
 }
 
 /// `M`, `h`, `A`, `Ȧq̇` at `(q, v)`.
-fn prepare(
+pub(super) fn prepare(
     model: &SpatialModel,
     data: &mut SpatialData,
     contacts: &[PointContact],
@@ -455,7 +482,7 @@ pub const REDUNDANT_ROW_TOLERANCE: f64 = 1e-9;
 /// A positive definite `M` with independent rows takes the range-space route first
 /// ([`super::tree_kkt`], the tree's sparse `LᵀDL` and the rows' `A M⁻¹ Aᵀ`), and only a
 /// singular `M` or dependent rows the null-space block inverse.
-fn factor(data: &mut SpatialData) -> SpatialResult<()> {
+pub(super) fn factor(data: &mut SpatialData) -> SpatialResult<()> {
     data.row_basis = None;
     if data.tree_kkt.factor(&data.M, &data.A) {
         data.kkt_route = KktRoute::RangeSpace;
@@ -493,7 +520,7 @@ fn factor(data: &mut SpatialData) -> SpatialResult<()> {
 /// `data.lam` (the second block `y`, `λ = −y`), through the row space when [`factor`] found
 /// `A` redundant; a right-hand side `g` outside `A`'s range (redundant rows that contradict
 /// each other) is the typed redundant-constraints error.
-fn solve(data: &mut SpatialData) -> SpatialResult<()> {
+pub(super) fn solve(data: &mut SpatialData) -> SpatialResult<()> {
     if data.kkt_route == KktRoute::RangeSpace {
         data.tree_kkt.solve(
             data.rhs_f.as_slice(),
@@ -616,7 +643,7 @@ pub fn forward_dynamics_prescribed(
 /// Gives each free rate (a zero row and column of `M`, a zero column of `A`, `h_k = 0`) the
 /// inertia `M_kk` = the largest diagonal entry of `M` (at least 1), so that its row of the KKT
 /// system reads `M_kk q̈_k = τ_k` and decouples from the rest; returns that inertia.
-fn pin_free_rates(data: &mut SpatialData, free: &[usize]) -> f64 {
+pub(super) fn pin_free_rates(data: &mut SpatialData, free: &[usize]) -> f64 {
     let unit = (0..data.M.nrows())
         .map(|k| data.M[(k, k)])
         .fold(1.0, f64::max);
@@ -628,7 +655,7 @@ fn pin_free_rates(data: &mut SpatialData, free: &[usize]) -> f64 {
 }
 
 /// Restores the free rates' zero diagonal of `M` after [`pin_free_rates`].
-fn unpin_free_rates(data: &mut SpatialData, free: &[usize]) {
+pub(super) fn unpin_free_rates(data: &mut SpatialData, free: &[usize]) {
     for &k in free {
         data.M[(k, k)] = 0.0;
     }
@@ -660,40 +687,4 @@ fn solve_dynamics(
     check_result("q̈", data.qdd.as_slice())?;
     check_result("λ", data.lam.as_slice())?;
     Ok(())
-}
-
-/// The outcome of a plastic impact.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SpatialImpact {
-    /// Post-impact rates `q̇⁺` (nv).
-    pub v_plus: DVector<f64>,
-    /// The ground's impulse on the robot along the rows (N·s), same sign as `λ`.
-    pub impulse: DVector<f64>,
-}
-
-/// Plastic impact, thesis (5.10): `[M Aᵀ; A 0][Δq̇; −P] = [0; −A q̇⁻]`, `q̇⁺ = q̇⁻ + Δq̇`, so
-/// `A q̇⁺ = 0` and `M(q̇⁺ − q̇⁻) = Aᵀ P`. A massless limb in the air ([`free_rates`]) keeps
-/// its rates, as in the planar core.
-pub fn impact(
-    model: &SpatialModel,
-    data: &mut SpatialData,
-    contacts: &[PointContact],
-    q: &[f64],
-    v_minus: &[f64],
-) -> SpatialResult<SpatialImpact> {
-    prepare(model, data, contacts, q, v_minus)?;
-    let free = free_rates(model, contacts);
-    pin_free_rates(data, &free);
-    let factored = factor(data);
-    unpin_free_rates(data, &free);
-    factored?;
-    data.rhs_f.fill(0.0);
-    let v = DVectorView::from_slice(v_minus, model.nv);
-    data.rhs_g.gemv(-1.0, &data.A, &v, 0.0);
-    solve(data)?;
-    let v_plus = DVector::from_column_slice(v_minus) + &data.qdd;
-    let impulse = -&data.lam;
-    check_result("q̇⁺", v_plus.as_slice())?;
-    check_result("P", impulse.as_slice())?;
-    Ok(SpatialImpact { v_plus, impulse })
 }

@@ -16,13 +16,15 @@
 //!
 //! Pipeline: URDF → [`SpatialModel`] (immutable) + [`SpatialData`] (workspace) →
 //! [`kinematics::forward_kinematics`], [`kinematics::frame_jacobian`], [`rigid_body::crba`],
-//! [`rigid_body::nonlinear_effects`], [`contact::forward_dynamics`], [`contact::impact`],
+//! [`rigid_body::nonlinear_effects`], [`contact::forward_dynamics`], [`impact::impact`] (with
+//! Coulomb friction: [`impact::coulomb_impacts`]),
 //! [`quasistatic::quasi_static`]. [`rhex`] builds the six-legged RHex of Table 4.2 and maps
 //! the planar RHex's states onto it.
 pub mod contact;
 pub mod coulomb;
 pub mod error;
 pub mod explog;
+pub mod impact;
 pub mod inertia;
 pub mod kinematics;
 pub mod liegroup;
@@ -36,10 +38,10 @@ pub mod tree_kkt;
 pub mod urdf;
 
 pub use contact::{
-    forward_dynamics, forward_dynamics_prescribed, free_rates, impact, ContactShape, PointContact,
-    SpatialImpact,
+    forward_dynamics, forward_dynamics_prescribed, free_rates, ContactShape, PointContact,
 };
 pub use error::{SpatialError, SpatialResult};
+pub use impact::{coulomb_impacts, impact, ImpactState, SpatialImpact};
 pub use inertia::Inertia;
 pub use kinematics::{ReferenceFrame, SpatialData};
 pub use liegroup::{difference, from_pinocchio, integrate, neutral, pinocchio_nq, to_pinocchio};
