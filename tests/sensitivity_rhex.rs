@@ -13,11 +13,11 @@
 //! partials yet, so the leap itself is not covered here.
 mod common;
 
+use common::systems::flight_run;
 use common::{rhex_massive, rhex_massless, seq, tight, tumbling_drop, Servos};
 use nalgebra::DMatrix;
 use selfmanip::core::{ContactMode, FlatGround, Model};
 use selfmanip::hybrid::sensitivity::{simulate_with_sensitivity, SaltationStatus};
-use selfmanip::hybrid::simulate;
 use selfmanip::rhex::LegShape;
 
 /// Runs the drop, checks every saltation is defined and the whole-run Jacobian against
@@ -72,19 +72,7 @@ fn check_drop(model: &Model, y0: &[f64], tf: f64) -> (f64, usize) {
     }
     let jac = sens.state_jacobian.as_ref().expect("defined");
     const H: f64 = 1e-6;
-    let run = |y: &[f64]| {
-        simulate(
-            model,
-            &FlatGround,
-            &ctrl,
-            ContactMode::FLIGHT,
-            &y[..nq],
-            &y[nq..],
-            tf,
-            opts,
-        )
-        .unwrap()
-    };
+    let run = |y: &[f64]| flight_run(model, &ctrl, y, tf, opts);
     let mut fd = DMatrix::zeros(2 * nq, 2 * nq);
     for k in 0..2 * nq {
         let (mut yp, mut ym) = (y0.to_vec(), y0.to_vec());

@@ -122,6 +122,19 @@ fn faults(changes: &[StateChange]) -> Vec<StateChange> {
         .collect()
 }
 
+/// The synthetic leg walking in `world` at one stride a second for 6 s (`seed` for the
+/// sensor noise), identified with a fault detector that expects ground: its fault changes,
+/// of which there is at least one, the first of them `first`.
+fn faults_walking_in(world: World, seed: u64, first: LegState) -> Vec<StateChange> {
+    let p = synthetic_leg();
+    let log = simulate(&p, world, |_| 1.0, 6.0, seed);
+    let changes = identify(&p, &fsm(true), &log).unwrap();
+    let found = faults(&changes);
+    assert!(!found.is_empty(), "{changes:?}");
+    assert_eq!(found[0].to, first, "{changes:?}");
+    found
+}
+
 #[test]
 fn wrap_angle_maps_to_the_half_open_interval() {
     assert_eq!(wrap_angle(PI), PI);
@@ -182,18 +195,13 @@ fn walking_on_ground_cycles_stance_and_flight_without_faults() {
 
 #[test]
 fn an_obstacle_in_the_air_is_an_unexpected_disturbance() {
-    let p = synthetic_leg();
     let deg = PI / 180.0;
     let world = World {
         ground: true,
         obstacle: Some((3.5, 4.0, -100.0 * deg, -80.0 * deg)),
         ..Default::default()
     };
-    let log = simulate(&p, world, |_| 1.0, 6.0, 3);
-    let changes = identify(&p, &fsm(true), &log).unwrap();
-    let found = faults(&changes);
-    assert!(!found.is_empty(), "{changes:?}");
-    assert_eq!(found[0].to, LegState::UnexpectedDisturbance, "{changes:?}");
+    let found = faults_walking_in(world, 3, LegState::UnexpectedDisturbance);
     assert!(found[0].time_s > 3.5 && found[0].time_s < 4.1, "{found:?}");
     assert!(
         found.iter().all(|c| c.to != LegState::MissingGround),
@@ -203,17 +211,12 @@ fn an_obstacle_in_the_air_is_an_unexpected_disturbance() {
 
 #[test]
 fn a_leg_that_breaks_off_misses_the_ground_in_its_next_stance() {
-    let p = synthetic_leg();
     let world = World {
         ground: true,
         break_time: Some(3.7),
         ..Default::default()
     };
-    let log = simulate(&p, world, |_| 1.0, 6.0, 4);
-    let changes = identify(&p, &fsm(true), &log).unwrap();
-    let found = faults(&changes);
-    assert!(!found.is_empty(), "{changes:?}");
-    assert_eq!(found[0].to, LegState::MissingGround, "{changes:?}");
+    let found = faults_walking_in(world, 4, LegState::MissingGround);
     // the first stance after the break starts at t = 4 s (clock phase 0)
     assert!(found[0].time_s > 4.0 && found[0].time_s < 4.5, "{found:?}");
     // and every later stance is missed too

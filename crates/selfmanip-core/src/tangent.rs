@@ -326,6 +326,23 @@ impl Assembly {
         self.fold(model, data)
     }
 
+    /// [`Self::prepare_flow`] for the derivatives of the flow's solution in `data` (after
+    /// [`forward_dynamics`] at rates `qd`): the evaluation point `x = q̈` ([`Self::set_x`])
+    /// and a copy of `λ` in `lambda`.
+    fn prepare_flow_solution(
+        &mut self,
+        model: &Model,
+        data: &mut Data,
+        qd: &[f64],
+        lambda: &mut Vec<f64>,
+    ) -> Result<Option<Fold>, TangentError> {
+        let fold = self.prepare_flow(model, data, qd)?;
+        self.set_x(data.qdd.as_slice());
+        lambda.clear();
+        lambda.extend_from_slice(data.lambda.as_slice());
+        Ok(fold)
+    }
+
     /// Whether the flow's friction forces are differentiated here (none at rest).
     fn check_flow(&self) -> Result<(), TangentError> {
         match self.at_rest {
@@ -922,12 +939,9 @@ pub fn dynamics_jacobian_solved_into(
         zeros,
         solver,
     } = ws;
-    let fold = asm.prepare_flow(model, data, qd)?;
+    let fold = asm.prepare_flow_solution(model, data, qd, lambda)?;
     let fold = fold.as_ref();
     let (nq, n, c) = (model.nq(), model.n_joints(), data.constraints.n_rows());
-    asm.set_x(data.qdd.as_slice());
-    lambda.clear();
-    lambda.extend(data.lambda.iter().copied());
     zero_shaped(&mut out.dqdd_dq, nq, nq);
     zero_shaped(&mut out.dqdd_dqd, nq, nq);
     zero_shaped(&mut out.dqdd_dtau, nq, n);
@@ -1203,13 +1217,10 @@ pub fn dynamics_jvp_into(
         fb,
         solver,
     } = ws;
-    let fold = asm.prepare_flow(model, data, qd)?;
+    let fold = asm.prepare_flow_solution(model, data, qd, lambda)?;
     let (nq, c, m) = (model.nq(), data.constraints.n_rows(), dirs.dq.ncols());
     qdd.clear();
     qdd.extend_from_slice(data.qdd.as_slice());
-    asm.set_x(qdd);
-    lambda.clear();
-    lambda.extend_from_slice(data.lambda.as_slice());
     zero_shaped(dqdd, nq, m);
     zero_shaped(dlambda, c, m);
     let (dq, dqd) = (dirs.dq.as_slice(), dirs.dqd.as_slice());

@@ -332,20 +332,13 @@ fn pseudo_impulse_agrees_with_brute_force_rule_5_40() {
         // slow impacts, so that δt of gravity matters
         qd.iter_mut().for_each(|v| *v *= 0.2);
         let cand: Vec<usize> = (0..n).collect();
-        let tau: [f64; 0] = [];
-        let accepted = brute_force_impact(&model, &terrain, &cand, &q, &qd, Some((&tau, dt)));
+        // no joints, no torques: the pseudo-impulse of the smooth forces alone over δt
+        let pseudo = Some((&[][..], dt));
+        let accepted = brute_force_impact(&model, &terrain, &cand, &q, &qd, pseudo);
         assert!(!accepted.is_empty(), "case {case}");
         let mut data = Data::new(&model);
-        let out = frictionless_impact(
-            &model,
-            &mut data,
-            &terrain,
-            &cand,
-            &q,
-            &qd,
-            Some((&tau, dt)),
-        )
-        .unwrap_or_else(|e| panic!("case {case}: {e}"));
+        let out = frictionless_impact(&model, &mut data, &terrain, &cand, &q, &qd, pseudo)
+            .unwrap_or_else(|e| panic!("case {case}: {e}"));
         let s = out.solution();
         assert!(
             accepted.iter().any(|a| a.set == members(s.set.mode)),
@@ -582,18 +575,10 @@ fn liftoff_of_a_standing_body_is_ambiguous_with_zero_acceleration() {
     let (m, i_b, h) = (2.0, 0.04, 0.05);
     let (model, xs) = flat_bottom(20, 0.3, h, m, i_b);
     let cand: Vec<usize> = (0..20).collect();
+    let (q, qd) = ([0.0, -h, 0.0], [0.0; 3]);
     let mut data = Data::new(&model);
-    let out = frictionless_liftoff(
-        &model,
-        &mut data,
-        &FlatGround,
-        &cand,
-        &[0.0, -h, 0.0],
-        &[0.0; 3],
-        &[],
-        None,
-    )
-    .unwrap();
+    let out =
+        frictionless_liftoff(&model, &mut data, &FlatGround, &cand, &q, &qd, &[], None).unwrap();
     let QpOutcome::Ambiguous(s, amb) = &out else {
         panic!("{out:?}")
     };
@@ -795,34 +780,18 @@ fn bad_input_is_a_typed_error() {
         max_iterations: 1,
         ..ContactQpOptions::default()
     };
-    let e = frictionless_impact_with(
-        &model,
-        &mut data,
-        &FlatGround,
-        &cand,
-        &q,
-        &[0.0, 1.0, -2.0],
-        None,
-        &one_iteration,
-    )
-    .unwrap_err();
+    let with_options = |data: &mut Data, qd: &[f64], options: &ContactQpOptions| {
+        frictionless_impact_with(&model, data, &FlatGround, &cand, &q, qd, None, options)
+            .unwrap_err()
+    };
+    let e = with_options(&mut data, &[0.0, 1.0, -2.0], &one_iteration);
     assert!(matches!(e, ContactQpError::SolverFailed { .. }), "{e:?}");
     let bad_tol = ContactQpOptions {
         zero_tolerance: f64::NAN,
         ..ContactQpOptions::default()
     };
     assert!(matches!(
-        frictionless_impact_with(
-            &model,
-            &mut data,
-            &FlatGround,
-            &cand,
-            &q,
-            &qd,
-            None,
-            &bad_tol
-        )
-        .unwrap_err(),
+        with_options(&mut data, &qd, &bad_tol),
         ContactQpError::InvalidArgument {
             field: "zero_tolerance",
             ..

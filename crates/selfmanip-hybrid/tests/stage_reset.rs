@@ -4,12 +4,12 @@
 //! sticking or slipping at its friction cone (5.19)–(5.20), a three-point landing whose
 //! contact set is not unique, and the massless-link tie-break.
 mod systems;
-use selfmanip_core::{ContactKind, ContactMode, FlatGround, GroundPlane};
+use selfmanip_core::{ContactKind, ContactMode, FlatGround, GroundPlane, Model, Terrain};
 use selfmanip_hybrid::flow::{Flow, FlowWorkspace};
 use selfmanip_hybrid::guard::Guard;
 use selfmanip_hybrid::reset::{reset, Reset};
 use selfmanip_hybrid::reset_workspace::ResetWorkspace;
-use selfmanip_hybrid::{HybridOptions, Termination, ZeroTorque};
+use selfmanip_hybrid::{ConstantTorque, HybridOptions, Termination, ZeroTorque};
 use std::sync::Arc;
 use systems::{block, block_inertia, body, one_leg, puck, rotate, Friction, BLOCK, G};
 
@@ -23,6 +23,28 @@ fn reset_block(mode: ContactMode, fired: &[Guard], y: &[f64], delta_t_s: f64) ->
         ..HybridOptions::default()
     };
     reset(&mut ws, &mut flow, &opts, fired, mode, (0.0, y), &[]).unwrap()
+}
+
+/// [`ZeroTorque`] for as long as a reset stage may borrow it.
+static UNFORCED: ConstantTorque = ZeroTorque;
+
+/// The reset stage of an unforced world (no torque, no pseudo-impulse, nothing barred or
+/// held) on `terrain`, with the default fold threshold.
+fn unforced_reset<'a>(
+    model: &'a Model,
+    terrain: &'a dyn Terrain,
+    ws: &'a mut FlowWorkspace,
+) -> ResetWorkspace<'a> {
+    ResetWorkspace {
+        model,
+        terrain,
+        ctrl: &UNFORCED,
+        delta_t_s: 0.0,
+        ws,
+        barred: &[],
+        fold_threshold: HybridOptions::default().fold_threshold,
+        held: Vec::new(),
+    }
 }
 
 /// A tilted block falling at `v` lands on its left corner, which sticks. The impulse `P`
@@ -136,16 +158,7 @@ fn puck_on_an_incline_sticks_inside_the_cone_and_slides_outside() {
         };
         let stick = ContactMode::parse_names(&model, "foot").unwrap();
         let mut ws = FlowWorkspace::new(&model);
-        let mut cx = ResetWorkspace {
-            model: &model,
-            terrain: &plane,
-            ctrl: &ZeroTorque,
-            delta_t_s: 0.0,
-            ws: &mut ws,
-            barred: &[],
-            fold_threshold: HybridOptions::default().fold_threshold,
-            held: Vec::new(),
-        };
+        let mut cx = unforced_reset(&model, &plane, &mut ws);
         let q = [0.0, 0.0, beta];
         let selected = cx
             .select(0.0, &[0], &[], stick, &q, &[0.0; 3], false)
@@ -217,16 +230,7 @@ fn toe_touching_down_slides_instead_of_pulling() {
     for (link_mass, expected) in [(0.0, Some(0)), (0.4, Some(0))] {
         let model = one_leg(0.2, link_mass, G);
         let mut ws = FlowWorkspace::new(&model);
-        let cx = ResetWorkspace {
-            model: &model,
-            terrain: &FlatGround,
-            ctrl: &ZeroTorque,
-            delta_t_s: 0.0,
-            ws: &mut ws,
-            barred: &[],
-            fold_threshold: HybridOptions::default().fold_threshold,
-            held: Vec::new(),
-        };
+        let cx = unforced_reset(&model, &FlatGround, &mut ws);
         let toe = ContactMode::parse_names(&model, "toe").unwrap();
         let toe_sliding = ContactMode::parse_names(&model, "toe:slide").unwrap();
         let pull = [(0, -1.0)];

@@ -96,6 +96,17 @@ impl From<StrictTerrain> for TerrainSpec {
     }
 }
 
+/// The steps of a ledge or a flight of stairs: `count` faces, the first at world
+/// `x = first_face_m`, each next one `run_m` further from the origin, each top `rise_m` above
+/// the one before.
+#[derive(Debug, Clone, Copy)]
+struct Steps {
+    rise_m: f64,
+    run_m: f64,
+    count: u32,
+    first_face_m: f64,
+}
+
 fn bad(field: &str, reason: String) -> SimError {
     SimError::InvalidValue {
         field: field.into(),
@@ -172,44 +183,50 @@ impl TerrainSpec {
 
     /// The rise of each step (0 without steps).
     fn rise(&self) -> f64 {
+        self.steps().map_or(0.0, |s| s.rise_m)
+    }
+
+    /// A ledge as one step (of no run), stairs as theirs; none on flat ground or an incline.
+    fn steps(&self) -> Option<Steps> {
         match *self {
-            TerrainSpec::Ledge { height_m, .. } => height_m,
-            TerrainSpec::Stairs { rise_m, .. } => rise_m,
-            _ => 0.0,
+            TerrainSpec::Flat | TerrainSpec::Incline { .. } => None,
+            TerrainSpec::Ledge {
+                height_m,
+                distance_m,
+            } => Some(Steps {
+                rise_m: height_m,
+                run_m: 0.0,
+                count: 1,
+                first_face_m: distance_m,
+            }),
+            TerrainSpec::Stairs {
+                rise_m,
+                run_m,
+                count,
+                distance_m,
+            } => Some(Steps {
+                rise_m,
+                run_m,
+                count,
+                first_face_m: distance_m,
+            }),
         }
     }
 
     /// The steps already passed at `x_m` (faces on whose far side `x_m` is), and the face
     /// still ahead, `(x of the face, height of its top)`.
     fn next_step(&self, x_m: f64) -> (u32, Option<(f64, f64)>) {
-        match *self {
-            TerrainSpec::Flat | TerrainSpec::Incline { .. } => (0, None),
-            TerrainSpec::Ledge {
-                height_m,
-                distance_m,
-            } => {
-                if Self::beyond(x_m, distance_m) {
-                    (1, None)
-                } else {
-                    (0, Some((distance_m, height_m)))
-                }
-            }
-            TerrainSpec::Stairs {
-                rise_m,
-                run_m,
-                count,
-                distance_m,
-            } => {
-                let dir = distance_m.signum();
-                for k in 0..count {
-                    let face = distance_m + dir * run_m * f64::from(k);
-                    if !Self::beyond(x_m, face) {
-                        return (k, Some((face, rise_m * f64::from(k + 1))));
-                    }
-                }
-                (count, None)
+        let Some(steps) = self.steps() else {
+            return (0, None);
+        };
+        let dir = steps.first_face_m.signum();
+        for k in 0..steps.count {
+            let face = steps.first_face_m + dir * steps.run_m * f64::from(k);
+            if !Self::beyond(x_m, face) {
+                return (k, Some((face, steps.rise_m * f64::from(k + 1))));
             }
         }
+        (steps.count, None)
     }
 
     /// Whether world `x_m` is on the far side (from the origin) of a face at `face_m`.
