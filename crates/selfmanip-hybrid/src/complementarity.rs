@@ -88,7 +88,7 @@ impl ResetWorkspace<'_> {
         for bits in 0u32..(1 << n) {
             set.clear();
             set.extend((0..n).filter(|i| bits >> i & 1 == 1).map(|i| candidates[i]));
-            outcomes.push(self.outcome_at_state(t, &set, prefer, q, qd, impact)?);
+            outcomes.push(self.outcome_at_state((t, q, qd), &set, prefer, impact)?);
         }
         let mut accepted = accepted_sets(&outcomes, candidates, leaving, &self.held);
         // no set keeps every held contact: the hold gives way to complementarity (the

@@ -61,19 +61,17 @@ impl ResetWorkspace<'_> {
         impact: bool,
     ) -> Result<Option<SetOutcome>, CoreError> {
         self.ws.data.prepare_state(self.model, q, qd)?;
-        self.outcome_at_state(t, set, prefer, q, qd, impact)
+        self.outcome_at_state((t, q, qd), set, prefer, impact)
     }
 
-    /// [`Self::outcome`] with `ws.data`'s state stages already prepared at `(q, q̇)`
-    /// ([`selfmanip_core::Data::prepare_state`]), as an enumeration over the sets at one
-    /// event prepares them once for all.
+    /// [`Self::outcome`] at `(t, q, q̇)` with `ws.data`'s state stages already prepared at
+    /// `(q, q̇)` ([`selfmanip_core::Data::prepare_state`]), as an enumeration over the sets
+    /// at one event prepares them once for all.
     pub(crate) fn outcome_at_state(
         &mut self,
-        t: f64,
+        (t, q, qd): (f64, &[f64], &[f64]),
         set: &[usize],
         prefer: ContactMode,
-        q: &[f64],
-        qd: &[f64],
         impact: bool,
     ) -> Result<Option<SetOutcome>, CoreError> {
         // contacts that `prefer` does not hold are the ones touching down now
