@@ -22,7 +22,7 @@
 //! acceleration enter the constraint's right-hand side, `A_d q̈_d = −Ȧq̇ − A_ℓ q̈_ℓ`.
 use crate::contact::{ContactMode, Terrain};
 pub use crate::data::Data;
-use crate::error::{check_result, check_vector, Result};
+use crate::error::{check_result, check_vector, Result, SingularityKind};
 use crate::inertia::mass_coriolis_gravity;
 use crate::model::Model;
 use nalgebra::DVector;
@@ -58,6 +58,51 @@ impl Data {
         check_vector("q", q, nq)?;
         check_vector("qd", qd, nq)?;
         mode.validate(model)?;
+        self.state_stages(model, q, qd)?;
+        self.mode_stages(model, terrain, mode, qd)?;
+        // => factor [M̄ Aᵀ; A 0] on the dynamic coordinates
+        self.kkt
+            .factor_on(&self.m_bar, &self.constraints.a, &self.dynamic_coords)
+    }
+
+    /// The stages of [`Self::prepare`] that depend on the state `(q, q̇)` alone — kinematics,
+    /// `M̄ C̄q̇ N̄` —: what every candidate mode at one event shares. [`Self::prepare_mode`]
+    /// then runs the rest for each mode.
+    pub fn prepare_state(&mut self, model: &Model, q: &[f64], qd: &[f64]) -> Result<()> {
+        check_vector("q", q, model.nq())?;
+        check_vector("qd", qd, model.nq())?;
+        self.state_stages(model, q, qd)
+    }
+
+    /// The stages of [`Self::prepare`] that depend on `mode` — `A Ȧ`, the sliding sites, the
+    /// free joints, the KKT factor — at the state of the last [`Self::prepare_state`] or
+    /// [`Self::prepare`], which must have been at the same `q̇ = qd` (and `q`); the same
+    /// result as `prepare` at that state. A singular KKT matrix (Lemma 5.1) is the inner
+    /// error, its kind only: [`Self::prepare`]'s error also carries the matrix's condition
+    /// number, an SVD, which a caller that discards the error need not pay for.
+    pub fn prepare_mode(
+        &mut self,
+        model: &Model,
+        terrain: &dyn Terrain,
+        mode: ContactMode,
+        qd: &[f64],
+    ) -> Result<std::result::Result<(), SingularityKind>> {
+        check_vector("qd", qd, model.nq())?;
+        mode.validate(model)?;
+        debug_assert_eq!(
+            self.m_bar.shape(),
+            (model.nq(), model.nq()),
+            "state not prepared"
+        );
+        self.mode_stages(model, terrain, mode, qd)?;
+        Ok(self
+            .kkt
+            .try_factor_on(&self.m_bar, &self.constraints.a, &self.dynamic_coords))
+    }
+
+    /// Kinematics and `M̄ C̄q̇ N̄` at `(q, q̇)` (checked by the caller).
+    fn state_stages(&mut self, model: &Model, q: &[f64], qd: &[f64]) -> Result<()> {
+        let nq = model.nq();
         if self.m_bar.shape() != (nq, nq) {
             *self = Data::new(model);
         }
@@ -74,14 +119,25 @@ impl Data {
             &mut self.n_bar,
         );
         crate::passive::add_passive_bias(model, q, qd, &mut self.n_bar); // springs, dampers
-                                                                         // => A, Ȧ, Ȧq̇
-        self.constraints
-            .assemble(model, &self.kin, terrain, mode, qd);
-        // finite inputs too large for double precision overflow here, not as a singular
-        // KKT matrix further on
+                                                                         // finite inputs too large for double precision overflow here, not as a singular
+                                                                         // KKT matrix further on
         check_result("M̄", self.m_bar.as_slice())?;
         check_result("C̄q̇", self.c_qd.as_slice())?;
-        check_result("N̄", self.n_bar.as_slice())?;
+        check_result("N̄", self.n_bar.as_slice())
+    }
+
+    /// Every stage of `mode` before the KKT factor: `A Ȧ`, the sliding sites, the free and
+    /// locked joints.
+    fn mode_stages(
+        &mut self,
+        model: &Model,
+        terrain: &dyn Terrain,
+        mode: ContactMode,
+        qd: &[f64],
+    ) -> Result<()> {
+        // => A, Ȧ, Ȧq̇
+        self.constraints
+            .assemble(model, &self.kin, terrain, mode, qd);
         check_result("A", self.constraints.a.as_slice())?;
         check_result("Ȧq̇", self.constraints.a_dot_qd.as_slice())?;
         // => sliding sites with kinetic friction
@@ -101,9 +157,7 @@ impl Data {
                 self.free_joints.insert(at, j);
             }
         }
-        // => factor [M̄ Aᵀ; A 0] on the dynamic coordinates
-        self.kkt
-            .factor_on(&self.m_bar, &self.constraints.a, &self.dynamic_coords)
+        Ok(())
     }
 }
 

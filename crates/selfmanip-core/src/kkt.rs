@@ -182,14 +182,26 @@ impl KktFactorization {
         a: &DMatrix<f64>,
         coords: &[usize],
     ) -> Result<()> {
-        self.load(mbar, a, Some(coords));
-        with_dims!(self.m, self.c, |md, cd| factor_kernel(md, cd, self)).map_err(|kind| {
+        self.try_factor_on(mbar, a, coords).map_err(|kind| {
             singular(
                 mbar.select_rows(coords).select_columns(coords),
                 a.select_columns(coords),
                 kind,
             )
         })
+    }
+
+    /// [`Self::factor_on`] whose Lemma 5.1 failure is only its kind: no condition number (an
+    /// SVD of the KKT matrix), for callers that discard the error (a candidate mode found
+    /// singular is simply not a candidate).
+    pub(crate) fn try_factor_on(
+        &mut self,
+        mbar: &DMatrix<f64>,
+        a: &DMatrix<f64>,
+        coords: &[usize],
+    ) -> std::result::Result<(), SingularityKind> {
+        self.load(mbar, a, Some(coords));
+        with_dims!(self.m, self.c, |md, cd| factor_kernel(md, cd, self))
     }
 
     /// Sizes the storage and copies `M̄[coords, coords]` and `A[:, coords]ᵀ` in (all

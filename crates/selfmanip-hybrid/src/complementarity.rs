@@ -80,63 +80,21 @@ impl ResetWorkspace<'_> {
         if n > ENUMERATION_LIMIT {
             return self.select_by_qp(t, candidates, prefer, q, qd, impact);
         }
-        let tol = 1e-12;
-        // every subset is needed, as a candidate and as `J ∪ {k}` of others: solve each once
+        // every subset is needed, as a candidate and as `J ∪ {k}` of others: solve each once,
+        // on the state stages (kinematics, M̄ C̄q̇ N̄) they all share
+        self.ws.data.prepare_state(self.model, q, qd)?;
         let mut outcomes: Vec<Option<SetOutcome>> = Vec::with_capacity(1 << n);
+        let mut set: Vec<usize> = Vec::with_capacity(n);
         for bits in 0u32..(1 << n) {
-            let set: Vec<usize> = (0..n)
-                .filter(|i| bits >> i & 1 == 1)
-                .map(|i| candidates[i])
-                .collect();
-            outcomes.push(self.outcome(t, &set, prefer, q, qd, impact)?);
+            set.clear();
+            set.extend((0..n).filter(|i| bits >> i & 1 == 1).map(|i| candidates[i]));
+            outcomes.push(self.outcome_at_state((t, q, qd), &set, prefer, impact)?);
         }
-        // the push a contact needs to be held: a leaving one must push clearly
-        let held = &self.held;
-        let holds = |c: usize, u: f64| {
-            if held.contains(&c) {
-                true
-            } else if leaving.contains(&c) {
-                u > tol
-            } else {
-                u >= -tol
-            }
-        };
-        let mut accepted: Vec<&SetOutcome> = Vec::new();
-        for bits in 0u32..(1 << n) {
-            let Some(o) = &outcomes[bits as usize] else {
-                continue;
-            };
-            if o.push.iter().any(|&(c, u)| !holds(c, u)) {
-                continue;
-            }
-            // a held contact stays in every accepted set
-            let left_out = |i: usize| bits >> i & 1 == 0;
-            if (0..n).any(|i| left_out(i) && held.contains(&candidates[i])) {
-                continue;
-            }
-            // each left-out contact k must separate: singular with k means k cannot be held
-            let separates = (0..n).filter(|i| bits >> i & 1 == 0).all(|i| {
-                outcomes[(bits | 1 << i) as usize]
-                    .as_ref()
-                    .is_none_or(|ok| {
-                        let uk = ok
-                            .push
-                            .iter()
-                            .find(|(c, _)| *c == candidates[i])
-                            .map_or(0.0, |x| x.1);
-                        !holds(candidates[i], uk)
-                    })
-            });
-            if separates {
-                accepted.push(o);
-            }
-        }
-        // no set keeps every held contact: the hold gives way to complementarity
+        let mut accepted = accepted_sets(&outcomes, candidates, leaving, &self.held);
+        // no set keeps every held contact: the hold gives way to complementarity (the
+        // outcomes do not depend on the hold)
         if accepted.is_empty() && !self.held.is_empty() {
-            let held = std::mem::take(&mut self.held);
-            let free = self.select(t, candidates, leaving, prefer, q, qd, impact);
-            self.held = held;
-            return free;
+            accepted = accepted_sets(&outcomes, candidates, leaving, &[]);
         }
         Ok(match accepted[..] {
             [one] => Ok(Selected {
@@ -283,6 +241,54 @@ impl ResetWorkspace<'_> {
             Err(e) => Err(e.into()),
         }
     }
+}
+
+/// The sets that complementarity accepts among `outcomes` (by subset of `candidates`, bit `i`
+/// for `candidates[i]`; `None`: singular): each of its contacts pushes (a `leaving` one
+/// clearly), a `held` one is in it, and each left-out contact `k` would pull in `J ∪ {k}`
+/// or cannot be held there at all (module docs).
+fn accepted_sets<'o>(
+    outcomes: &'o [Option<SetOutcome>],
+    candidates: &[usize],
+    leaving: &[usize],
+    held: &[usize],
+) -> Vec<&'o SetOutcome> {
+    let n = candidates.len();
+    let tol = 1e-12;
+    // the push a contact needs to be held: a leaving one must push clearly
+    let holds = |c: usize, u: f64| {
+        if held.contains(&c) {
+            true
+        } else if leaving.contains(&c) {
+            u > tol
+        } else {
+            u >= -tol
+        }
+    };
+    let mut accepted: Vec<&SetOutcome> = Vec::new();
+    for bits in 0u32..(1 << n) {
+        let Some(o) = &outcomes[bits as usize] else {
+            continue;
+        };
+        if o.push.iter().any(|&(c, u)| !holds(c, u)) {
+            continue;
+        }
+        // a held contact stays in every accepted set
+        let left_out = |i: usize| bits >> i & 1 == 0;
+        if (0..n).any(|i| left_out(i) && held.contains(&candidates[i])) {
+            continue;
+        }
+        // each left-out contact k must separate: singular with k means k cannot be held
+        let separates = (0..n).filter(|&i| left_out(i)).all(|i| {
+            outcomes[(bits | 1 << i) as usize]
+                .as_ref()
+                .is_none_or(|ok| !holds(candidates[i], push_of(&ok.push, candidates[i])))
+        });
+        if separates {
+            accepted.push(o);
+        }
+    }
+    accepted
 }
 
 /// The push of contact `k` in `push` (0 if it is not there).

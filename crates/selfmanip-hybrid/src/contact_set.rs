@@ -16,15 +16,17 @@ impl ResetWorkspace<'_> {
     /// there (a sliding contact keeps sliding), its own default otherwise; a sticking
     /// contact whose tangential row is redundant (two sticking corners on a plane) slides
     /// instead, as the thesis does for the rocking block (footnote 8 of section 5.1.4).
-    /// Leaves `ws.data` prepared at the mode; `None` if its KKT matrix is singular otherwise
-    /// (Lemma 5.1) — or within the fold threshold of it: a contact whose pin is at most
-    /// `ε` ([`crate::fold`]) — or if the set would need a contact in a kind
-    /// [`Self::barred`] bars.
+    /// `ws.data`'s state stages must be prepared at `(q, q̇)` ([`Data::prepare_state`]:
+    /// every set at one event shares them); leaves `ws.data` prepared at the mode. `None` if
+    /// its KKT matrix is singular otherwise (Lemma 5.1) — or within the fold threshold of
+    /// it: a contact whose pin is at most `ε` ([`crate::fold`]) — or if the set would need a
+    /// contact in a kind [`Self::barred`] bars.
+    ///
+    /// [`Data::prepare_state`]: selfmanip_core::Data::prepare_state
     pub fn mode_for(
         &mut self,
         set: &[usize],
         prefer: ContactMode,
-        q: &[f64],
         qd: &[f64],
     ) -> Result<Option<ContactMode>, CoreError> {
         let mut base = ContactMode::with_defaults(self.model, set)?;
@@ -44,15 +46,11 @@ impl ResetWorkspace<'_> {
             if self.barred.iter().any(|&(k, kind)| m.kind(k) == Some(kind)) {
                 continue;
             }
-            match self.ws.data.prepare(self.model, self.terrain, m, q, qd) {
+            match self.ws.data.prepare_mode(self.model, self.terrain, m, qd)? {
                 Ok(()) if self.within_fold(m) => return Ok(None),
                 Ok(()) => return Ok(Some(m)),
-                Err(CoreError::SingularKkt {
-                    kind: SingularityKind::RedundantConstraints,
-                    ..
-                }) => continue,
-                Err(CoreError::SingularKkt { .. }) => return Ok(None),
-                Err(e) => return Err(e),
+                Err(SingularityKind::RedundantConstraints) => continue,
+                Err(SingularityKind::UnconstrainedMasslessMotion) => return Ok(None),
             }
         }
         Ok(None)

@@ -60,6 +60,20 @@ impl ResetWorkspace<'_> {
         qd: &[f64],
         impact: bool,
     ) -> Result<Option<SetOutcome>, CoreError> {
+        self.ws.data.prepare_state(self.model, q, qd)?;
+        self.outcome_at_state((t, q, qd), set, prefer, impact)
+    }
+
+    /// [`Self::outcome`] at `(t, q, q̇)` with `ws.data`'s state stages already prepared at
+    /// `(q, q̇)` ([`selfmanip_core::Data::prepare_state`]), as an enumeration over the sets
+    /// at one event prepares them once for all.
+    pub(crate) fn outcome_at_state(
+        &mut self,
+        (t, q, qd): (f64, &[f64], &[f64]),
+        set: &[usize],
+        prefer: ContactMode,
+        impact: bool,
+    ) -> Result<Option<SetOutcome>, CoreError> {
         // contacts that `prefer` does not hold are the ones touching down now
         let before = prefer;
         let mut prefer = prefer;
@@ -67,7 +81,7 @@ impl ResetWorkspace<'_> {
         let mut offered: Vec<usize> = Vec::new();
         for _ in 0..=2 * set.len() {
             // `mode_for` leaves `ws.data` prepared at `(mode, q, q̇)`
-            let Some(mode) = self.mode_for(set, prefer, q, qd)? else {
+            let Some(mode) = self.mode_for(set, prefer, qd)? else {
                 return Ok(None);
             };
             let outcome = if impact {
