@@ -360,7 +360,8 @@ pub(crate) fn resolve(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()>
     }
     let coords = &data.dynamic_coords;
     let mut kkt = crate::kkt::KktFactorization::default();
-    let y = match kkt.factor_on(&data.m_bar, &a, coords) {
+    // the failure's condition number is not wanted: only whether it factors
+    let y = match kkt.try_factor_on(&data.m_bar, &a, coords) {
         Ok(()) => {
             let f: Vec<f64> = coords.iter().map(|&k| f_full[k]).collect();
             let (mut x, mut y) = (vec![0.0; coords.len()], vec![0.0; c + rest.len()]);
