@@ -301,6 +301,7 @@ mod sled {
             dqd: &dqd,
             dtau: &dtau,
             body: &[None],
+            force: None,
         };
         let (x, y) = dynamics_jvp(model, &mut data, qd, &fd).unwrap();
         let xf = &j.dqdd_dq * &dq + &j.dqdd_dqd * &dqd + &j.dqdd_dtau * &dtau;
