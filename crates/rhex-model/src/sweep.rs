@@ -1,14 +1,8 @@
 //! Batched leaps (issue 5): many independent leaps — strategy × `t2` × gear ratio × any
 //! parameter by name — run on an explicit rayon pool, results in input order.
 //!
-//! **Determinism.** Every point is a pure function of `(base params, base config, point)`:
-//! no state is shared between points and the results are collected in input order, so a
-//! sweep is bit-identical for any thread count.
-//!
-//! **Failure isolation.** A point whose inputs are invalid, whose leap engine returns an
-//! error, or that panics becomes a row with a non-`ok` status and the error message; the
-//! other points are unaffected. Only a malformed sweep (an unknown parameter name, zero
-//! threads) is an error of the whole call.
+//! Determinism, failure isolation and the pool are the generic sweep's
+//! ([`selfmanip_sim::sweep`]).
 //!
 //! **Parameters by name.** An override names a field of [`RhexParams`] (`m_b`, `leg_shape`,
 //! `mu_rear`, …), of [`LeapConfig`] (`delta_t_s`, `swing_accel_rad_s2`, `toe_stub_rad`, …;
@@ -194,11 +188,7 @@ pub fn point_inputs(
     let params = record_with(base_params, &sorted[0]).map_err(unreadable)?;
     let mut cfg = record_with(base_cfg, &sorted[1]).map_err(unreadable)?;
     if !sorted[2].is_empty() {
-        let base_act = match &cfg.actuator {
-            a @ LegActuator::GearedMotor { .. } => a.clone(),
-            LegActuator::SaturatedTorque => LegActuator::default(),
-        };
-        cfg.actuator = record_with(&base_act, &sorted[2]).map_err(unreadable)?;
+        cfg.actuator = record_with(&cfg.actuator.geared(), &sorted[2]).map_err(unreadable)?;
     }
     cfg.strategy = point.strategy;
     cfg.t2_s = point.t2_s;
@@ -225,40 +215,25 @@ fn validate_inputs(params: &RhexParams, cfg: &LeapConfig) -> Result<(), RhexErro
     cfg.actuator.validate()
 }
 
-/// The status string of an error (see [`SweepRow::status`]).
+/// The status string of an error (see [`SweepRow::status`]): `invalid_params` for an error
+/// of the inputs, `invalid_mode` for a bad mode label, `overflow` for a result that
+/// overflows, `off_manifold` for the engine's, else the engine's kind ([`selfmanip_sim::SimError::kind`]).
 pub fn error_kind(e: &RhexError) -> &'static str {
-    use selfmanip_hybrid::HybridError as H;
-    match e {
-        RhexError::InvalidValue { .. }
-        | RhexError::UnknownParameter { .. }
-        | RhexError::Unreadable { .. }
-        | RhexError::Unsupported { .. }
-        | RhexError::StartOverflow { .. } => "invalid_params",
-        RhexError::ModeLabel { .. } => "invalid_mode",
-        RhexError::Sim(s) if s.is_input_error() => "invalid_params",
-        RhexError::Sim(s) => s.kind(),
-        RhexError::Core(c) => core_kind(c),
-        RhexError::Hybrid(h) => match h {
-            H::Core(c) => core_kind(c),
-            H::OffManifold { .. } => "off_manifold",
-            H::InvalidOption { .. } => "invalid_params",
-            H::TooManyContacts { .. } => "too_many_contacts",
-            H::ContactQp(_) => "contact_qp",
-            #[allow(unreachable_patterns)]
-            _ => "engine_error",
-        },
-    }
-}
-
-fn core_kind(c: &selfmanip_core::CoreError) -> &'static str {
     use selfmanip_core::CoreError as C;
-    match c {
-        C::SingularKkt { .. } => "singular_kkt",
-        C::NonFinite { .. } => "non_finite",
-        C::NonFiniteResult { .. } => "overflow",
-        C::IllPosedQuasiStatic { .. } => "ill_posed",
-        C::InvalidDescription { .. } | C::InvalidParameterization { .. } => "invalid_params",
-        _ => "engine_error",
+    use selfmanip_hybrid::HybridError as H;
+    let sim = match e {
+        RhexError::ModeLabel { .. } => return "invalid_mode",
+        RhexError::Core(C::NonFiniteResult { .. })
+        | RhexError::Hybrid(H::Core(C::NonFiniteResult { .. })) => return "overflow",
+        RhexError::Hybrid(H::OffManifold { .. }) => return "off_manifold",
+        RhexError::Core(c) => selfmanip_sim::SimError::Core(c.clone()),
+        RhexError::Hybrid(h) => selfmanip_sim::SimError::Hybrid(h.clone()),
+        RhexError::Sim(s) => s.clone(),
+        _ => return "invalid_params",
+    };
+    match sim.kind() {
+        _ if sim.is_input_error() => "invalid_params",
+        kind => kind,
     }
 }
 
