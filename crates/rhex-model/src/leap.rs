@@ -1285,24 +1285,11 @@ impl LeapResult {
 }
 
 // ---- the leap behaviours as data ----
-// The four leap strategies of thesis section 3.2.1 as behaviour files
-// (`data/behaviours/leap_{pp,pm,mp,mm}.toml`, the schema of `docs/behaviours.md`), and a
-// leap as a scenario of `selfmanip-sim` run by the behaviour interpreter: what
-// [`crate::leap::simulate_leap`] runs ([`crate::leap::LeapPreset`]).
-//
-// The [`LeapConfig`] fields map onto the behaviour by name: `t2_s` → `t2`, the geared
-// motor → `gear_ratio`, `current_limit_a`, `motors_per_leg` (the saturated torque replaces
-// the actuator `leg`), the legs' inertia about their hips → `leg_inertia_kg_m2`,
-// `toe_stub_rad` → each push's `reverse_beyond_rad`, `keep_pushing_after_liftoff` → the
-// retract phase waits for `takeoff` only; the pushing pairs name the two programs' joints.
-// The files swing a leg in the air as its motor does ([`crate::leap::leg_swing`]: the
-// no-load output speed `leg.no_load_speed_rad_s`, the stall torque over the rotors'
-// reflected inertia `leg.reflected_inertia_kg_m2` plus the leg's own); with the saturated
-// torque, or explicit `swing_speed_rad_s` / `swing_accel_rad_s2`, the swing motions get
-// [`crate::leap::leg_swing`]'s numbers. The toes' friction (Coulomb sliding or not,
-// `RhexParams::toe_sliding`) is the robot's, in its description. `t2_s` is the motor-start
-// offset ([`crate::leap::T2Reference::MotorStart`]); for a touchdown-timed leap pass the
-// motor start its search found (`LeapResult::motor_t2_s`) with `MotorStart`.
+// The four strategies of thesis section 3.2.1 as behaviour files
+// (`data/behaviours/leap_{pp,pm,mp,mm}.toml`, the schema of `docs/behaviours.md`), and a leap
+// as a scenario of them ([`scenario_of`]: which `LeapConfig` field sets what). The toes'
+// friction (`RhexParams::toe_sliding`) is the robot's, in its description; `t2_s` is the
+// motor-start offset (a touchdown-timed leap passes the motor start its search found).
 
 /// The shipped behaviour files, by strategy `(+,+)`, `(+,−)`, `(−,+)`, `(−,−)`.
 pub const LEAP_BEHAVIOURS: [(&str, &str); 4] = [
@@ -1320,9 +1307,12 @@ pub fn leap_behaviour(strategy: Strategy) -> Behaviour {
     behaviour(strategy, &Settings::files(pairs))
 }
 
-/// What a leap sets in its strategy's file: the joints' names, the swing as numbers where
-/// set, the toe stub, whether a lifted leg keeps pushing, which legs have inertia and their
-/// servo damping ([`servo_damping`]).
+/// What a leap sets in its strategy's file: the pushing pairs name the two programs' joints;
+/// the swing motions get numbers where set (else the files' formulas of the motor: the no-load
+/// output speed, the stall torque over the rotors' reflected inertia plus the leg's own);
+/// `toe_stub_rad` is each push's `reverse_beyond_rad`; `keep_pushing_after_liftoff` has the
+/// retract phase wait for `takeoff` only; legs with inertia get the servo damping of
+/// [`servo_damping`].
 struct Settings<'a> {
     joints: [&'a str; 2],
     swing_speed_rad_s: Option<f64>,
