@@ -95,14 +95,7 @@ fn leap_actuator_fields() -> Vec<String> {
 /// Every parameter name a sweep or a leap accepts, each once.
 #[pyfunction]
 fn leap_sweepable_names() -> Vec<String> {
-    let mut out: Vec<String> = Vec::new();
-    for n in sweepable_names() {
-        // `pairs` is both a robot parameter and the leap's pushing pairs: one name
-        if !out.contains(&n) {
-            out.push(n);
-        }
-    }
-    out
+    sweepable_names()
 }
 
 /// `{"params": leap_params(), "config": LeapConfig::default()}`: the engine's defaults.

@@ -131,25 +131,33 @@ pub fn actuator_field_names() -> &'static [&'static str] {
     &ACTUATOR_FIELDS
 }
 
-/// Every name an override may use: the fields of [`RhexParams`], of [`LeapConfig`] (except
-/// `strategy`, `t2_s`, `actuator`) and of the geared motor — every field serde reads,
-/// including optional ones a default value leaves out of its serialization (`mu_body`,
-/// `leg_armature_kg_m2`).
+/// Every name an override may use, each once: the fields of [`RhexParams`] (but `pairs`,
+/// which names the leap's pushing pairs, [`LeapConfig::pairs`]: a leap's robot has exactly
+/// those), of [`LeapConfig`] (except `strategy`, `t2_s`, `actuator`) and of the geared motor —
+/// every field serde reads, including optional ones a default value leaves out of its
+/// serialization (`mu_body`, `leg_armature_kg_m2`) — grouped by what they set.
+fn override_groups() -> [Vec<&'static str>; 3] {
+    let fields = |names: &'static [&'static str], skip: &[&str]| {
+        names
+            .iter()
+            .copied()
+            .filter(|k| !skip.contains(k))
+            .collect()
+    };
+    [
+        fields(serde_field_names::<RhexParams>(), &[LEAP_PAIRS]),
+        fields(serde_field_names::<LeapConfig>(), &OWN_COLUMNS),
+        ACTUATOR_FIELDS.to_vec(),
+    ]
+}
+
+/// Every name an override may use, each once ([`override_groups`]).
 pub fn sweepable_names() -> Vec<String> {
-    let mut names: Vec<String> = Vec::new();
-    names.extend(
-        serde_field_names::<RhexParams>()
-            .iter()
-            .map(|s| s.to_string()),
-    );
-    names.extend(
-        serde_field_names::<LeapConfig>()
-            .iter()
-            .filter(|k| !OWN_COLUMNS.contains(k))
-            .map(|s| s.to_string()),
-    );
-    names.extend(ACTUATOR_FIELDS.iter().map(|s| s.to_string()));
-    names
+    override_groups()
+        .concat()
+        .into_iter()
+        .map(String::from)
+        .collect()
 }
 
 /// Checks that every name is sweepable; the error names the first unknown one.
@@ -170,19 +178,8 @@ pub fn point_inputs(
     base_cfg: &LeapConfig,
     point: &LeapPoint,
 ) -> Result<(RhexParams, LeapConfig), RhexError> {
-    // `pairs` is both the robot's leg pairs and the leap's pushing pairs; a leap's robot has
-    // exactly its pushing pairs, so the name sets those
-    let of_params: Vec<&str> = serde_field_names::<RhexParams>()
-        .iter()
-        .copied()
-        .filter(|k| *k != LEAP_PAIRS)
-        .collect();
-    let of_cfg: Vec<&str> = serde_field_names::<LeapConfig>()
-        .iter()
-        .copied()
-        .filter(|k| !OWN_COLUMNS.contains(k))
-        .collect();
-    let sorted = sort_by_record(&[&of_params, &of_cfg, &ACTUATOR_FIELDS], &point.overrides)
+    let [of_params, of_cfg, of_actuator] = override_groups();
+    let sorted = sort_by_record(&[&of_params, &of_cfg, &of_actuator], &point.overrides)
         .map_err(|n| check_override_names([n]).expect_err("an unknown name"))?;
     let unreadable = |(field, reason)| RhexError::Unreadable { field, reason };
     let params = record_with(base_params, &sorted[0]).map_err(unreadable)?;
@@ -198,21 +195,10 @@ pub fn point_inputs(
     // the parameters reported with a leap describe its robot: the two pushing pairs
     let mut params = params;
     params.pairs = cfg.pairs.unwrap_or(cfg.strategy.chapter3_pairs()).to_vec();
-    validate_inputs(&params, &cfg)?;
-    Ok((params, cfg))
-}
-
-/// The checks a sweep makes before running a point (the leap makes its own too).
-fn validate_inputs(params: &RhexParams, cfg: &LeapConfig) -> Result<(), RhexError> {
+    // the checks the leap makes, before the point runs (the parameters first)
     params.validate()?;
-    cfg.terrain.validate()?;
-    if !cfg.t2_s.is_finite() {
-        return Err(RhexError::InvalidValue {
-            field: "t2_s".into(),
-            reason: format!("must be finite, got {}", cfg.t2_s),
-        });
-    }
-    cfg.actuator.validate()
+    cfg.validate()?;
+    Ok((params, cfg))
 }
 
 /// The status string of an error (see [`SweepRow::status`]): `invalid_params` for an error
