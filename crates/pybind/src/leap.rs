@@ -141,7 +141,7 @@ fn run_leap(
         }
     };
     let traj = match dt_s {
-        Some(dt) => Some(res.trajectory(params, cfg, dt)?),
+        Some(dt) => Some(res.trajectory(dt)?),
         None => None,
     };
     Ok((res, traj, sens))
@@ -236,7 +236,7 @@ fn leap_run<'py>(
         let d = PyDict::new(py);
         d.set_item("status", res.status.as_str())?;
         d.set_item("flew", res.flew)?;
-        d.set_item("reason", res.reason(&params, &cfg))?;
+        d.set_item("reason", res.reason())?;
         match res.apex {
             Some(a) => d.set_item("apex", to_py(py, &a)?)?,
             None => d.set_item("apex", py.None())?,
@@ -306,7 +306,7 @@ fn sweep_row(
                 (s.result, Some((s.ok, values)))
             }
         };
-        let why = r.reason(&params, &cfg);
+        let why = r.reason();
         Ok::<_, RhexError>((r, why, gear_ratio_of(&cfg), sens))
     }));
     let (row, sens) = sweep_row_of(outcome);

@@ -502,6 +502,10 @@ pub struct LeapResult {
     /// The rear leg's first touchdown relative to the front leg's (s), each after its motor
     /// started (section 3.2.2's `t2`); `None` if one of them never touched down.
     pub touchdown_t2_s: Option<f64>,
+    /// The leap it ran: its robot (the two pushing pairs), terrain and run options.
+    pub leap: Arc<LeapScenario>,
+    /// Latest time of the execution (s after the front leg starts).
+    pub t_final_s: f64,
 }
 
 impl std::ops::Deref for LeapResult {
@@ -1199,6 +1203,8 @@ impl LeapPreset {
             events,
             motor_t2_s,
             touchdown_t2_s,
+            leap: Arc::clone(&self.leap),
+            t_final_s: self.cfg.t_final_s,
         }
     }
 }
@@ -1227,37 +1233,27 @@ impl LeapResult {
     /// [`Termination::describe`](selfmanip_hybrid::Termination::describe) on the leap's clock (t = 0 at the first motor's start) with
     /// the leap's contact names and the flowing mode's label (`s` for a sliding toe); a run
     /// that ended at its final time says it found no flight (or no apex).
-    pub fn reason(&self, params: &RhexParams, cfg: &LeapConfig) -> String {
+    pub fn reason(&self) -> String {
         // the mode that was flowing: the last event's, or the start's
         let mode = self
             .events
             .last()
             .map_or_else(|| "1010".to_string(), |e| e.mode_after.clone());
-        // a contact's name builds the robot: only a termination that names one asks for it
-        let name = |k: usize| {
-            Rhex::new(params.clone())
-                .ok()
-                .and_then(|r| r.model.contacts.get(k).map(|c| c.name.clone()))
-                .unwrap_or_else(|| format!("#{k}"))
-        };
+        let contacts = &self.leap.rhex.model.contacts;
+        let name = |k: usize| contacts.get(k).map_or_else(|| format!("#{k}"), |c| c.name.clone());
         let frame = PresetFrame {
             t0_s: self.time_offset_s,
-            ..PresetFrame::world(cfg.stop_at_apex)
+            ..PresetFrame::world(self.leap.scenario.options.stop_at_apex)
         };
-        frame.reason(&self.execution, self.flew, cfg.t_final_s, &name, &mode)
+        frame.reason(&self.execution, self.flew, self.t_final_s, &name, &mode)
     }
 
     /// Energy bookkeeping of the leap (motor work, impact losses, start and end energy),
     /// each segment re-evaluated with the controller it ran with.
-    pub fn energy_report(
-        &self,
-        params: &RhexParams,
-        cfg: &LeapConfig,
-    ) -> Result<selfmanip_hybrid::EnergyReport, RhexError> {
-        let rhex = leap_rhex(params, cfg)?;
+    pub fn energy_report(&self) -> Result<selfmanip_hybrid::EnergyReport, RhexError> {
         Ok(selfmanip_hybrid::energy_report(
-            &rhex.model,
-            &cfg.terrain,
+            &self.leap.rhex.model,
+            &self.leap.scenario.terrain,
             &self.execution,
         )?)
     }
@@ -1266,16 +1262,11 @@ impl LeapResult {
     /// ([`selfmanip_sim::trajectory::sample_labelled`]): states, torques, modes in RHex's
     /// labels, contact points and contact forces, each from its segment's flow as it ran;
     /// times from the front leg's start.
-    pub fn trajectory(
-        &self,
-        params: &RhexParams,
-        cfg: &LeapConfig,
-        dt_s: f64,
-    ) -> Result<Trajectory, RhexError> {
-        let rhex = leap_rhex(params, cfg)?;
+    pub fn trajectory(&self, dt_s: f64) -> Result<Trajectory, RhexError> {
+        let rhex = &self.leap.rhex;
         Ok(selfmanip_sim::trajectory::sample_labelled(
             &rhex.model,
-            &cfg.terrain,
+            &self.leap.scenario.terrain,
             &self.execution,
             &|m| rhex.label(m),
             dt_s,
