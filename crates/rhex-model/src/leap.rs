@@ -34,14 +34,17 @@ use motor::geared::{GearedDrive, GearedDriveSpec};
 use motor::Actuator;
 use selfmanip_core::{ContactMode, Terrain};
 use selfmanip_hybrid::Execution;
-use selfmanip_sim::analysis::{angle_to_ground, roots::secant_search};
+use selfmanip_sim::analysis::angle_to_ground;
 use selfmanip_sim::behaviour::{
     ActuatorSpec, Behaviour, FreeJointGains, JointProgram, Motion, NamedEvent, On, Phase, Torque,
     Trigger,
 };
 use selfmanip_sim::events::{event_records_labelled, EventRecord};
 use selfmanip_sim::expr::Scalar;
-use selfmanip_sim::outcome::{first_touchdown_s, BodyState, Outcome, PresetFrame, WordOptions};
+use selfmanip_sim::outcome::{BodyState, Outcome, PresetFrame, WordOptions};
+use selfmanip_sim::staggered::{
+    search_touchdown_lag, staggered_frame, touchdown_lag_s, StaggeredScenario,
+};
 use selfmanip_sim::sweep::BuildCache;
 use selfmanip_sim::terrain::TerrainSpec;
 use selfmanip_sim::{InitialState, Scenario, SimOptions};
@@ -335,16 +338,11 @@ pub enum T2Reference {
     MotorStart,
     /// The rear leg touches down `t2` after the front leg does (section 3.2.2: "choose as a
     /// reference time the touchdown of the front leg … the second leg will touch down at
-    /// `t2`"). The rear motor's start is adjusted, leap by leap, by a secant search (at
-    /// most [`TOUCHDOWN_SEARCH_RUNS`] runs of the leap); a leap whose legs do not both touch
-    /// down keeps the motor-start offset `t2`.
+    /// `t2`"). The rear motor's start is adjusted, leap by leap, by a secant search
+    /// ([`selfmanip_sim::staggered::search_touchdown_lag`]); a leap whose legs do not both
+    /// touch down keeps the motor-start offset `t2`.
     Touchdown,
 }
-
-/// Runs of a leap at most in a [`T2Reference::Touchdown`] search.
-pub const TOUCHDOWN_SEARCH_RUNS: usize = 12;
-/// Agreement of the touchdown offset with `t2` at which that search stops (s).
-pub const TOUCHDOWN_SEARCH_TOL_S: f64 = 1e-7;
 
 /// Everything a leap needs besides the robot's parameters.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -926,8 +924,9 @@ pub struct LeapPreset {
     pub leap: Arc<LeapScenario>,
     /// The parameters as given (a point whose actuator changes the robot is built afresh).
     params: RhexParams,
-    /// The simulation of `cfg`'s point, with the preset's start mode and budgets.
-    sim: Simulation,
+    /// The simulation of `cfg`'s point, with the preset's start mode and budgets; the rear
+    /// motor starts `t2` after the front one ([`StaggeredScenario`]).
+    sim: StaggeredScenario,
     /// Its results carry [`LeapResult::events`] (each record evaluates the flow after its
     /// event for the contact forces: a sweep that reads only rows does without).
     event_records: bool,
@@ -994,6 +993,12 @@ impl LeapPreset {
         sim.options.max_steps = cfg.max_steps;
         sim.options.max_events = cfg.max_events;
         sim.options.control_free_joints = cfg.control_free_joints;
+        let sim = StaggeredScenario {
+            sim,
+            lag_parameter: "t2",
+            built_lag_s: cfg.t2_s,
+            t_final_s: cfg.t_final_s,
+        };
         Ok(LeapPreset {
             cfg: cfg.clone(),
             q0,
@@ -1017,25 +1022,7 @@ impl LeapPreset {
     /// The simulation of the leap with the rear motor starting `motor_t2_s` after the front
     /// one, and the front motor's start on its clock (`−min(0, t2)`).
     pub fn simulation(&self, motor_t2_s: f64) -> Result<(Simulation, f64), RhexError> {
-        self.simulation_with(&[], motor_t2_s)
-    }
-
-    /// [`Self::simulation`] with the behaviour parameters `values` bound too (an actuator's:
-    /// [`actuator_values`]).
-    fn simulation_with(
-        &self,
-        values: &[(&str, f64)],
-        motor_t2_s: f64,
-    ) -> Result<(Simulation, f64), RhexError> {
-        let offset = motor_t2_s.min(0.0);
-        let mut sim = self.sim.clone();
-        // the preset's own point is its simulation as built
-        if !values.is_empty() || motor_t2_s.to_bits() != self.cfg.t2_s.to_bits() {
-            let mut bound = values.to_vec();
-            bound.push(("t2", motor_t2_s));
-            sim.rebind(&bound, self.cfg.t_final_s - offset)?;
-        }
-        Ok((sim, -offset))
+        Ok(self.sim.simulation(&[], motor_t2_s)?)
     }
 
     /// Runs the leap with the rear motor starting `motor_t2_s` after the front one.
@@ -1050,8 +1037,7 @@ impl LeapPreset {
         motor_t2_s: f64,
         stop: &AtomicBool,
     ) -> Result<LeapResult, RhexError> {
-        let (sim, front_start) = self.simulation_with(values, motor_t2_s)?;
-        let run = sim.run_with(stop)?;
+        let (run, front_start) = self.sim.run(values, motor_t2_s, stop)?;
         Ok(self.result(run.execution, run.outcome, motor_t2_s, front_start))
     }
 
@@ -1131,34 +1117,19 @@ impl LeapPreset {
         }
     }
 
-    /// [`T2Reference::Touchdown`]: a secant search on the rear motor's start `s` for the
-    /// touchdown offset `T(s) = t2` (`T(s) = s` while the body is at rest between the two
-    /// touchdowns, so the search starts there and usually ends after one or two more runs).
+    /// [`T2Reference::Touchdown`]: the rear motor's start at which the rear leg touches down
+    /// `target` after the front one ([`search_touchdown_lag`]).
     fn touchdown_timed(
         &self,
         values: &[(&str, f64)],
         target: f64,
         stop: &AtomicBool,
     ) -> Result<LeapResult, RhexError> {
-        let run = |s: f64| {
+        search_touchdown_lag(target, self.cfg.t_final_s, |s| {
             let r = self.run_with(values, s, stop)?;
-            let d = r.touchdown_t2_s.map(|t| t - target);
-            Ok((r, d))
-        };
-        let (runs, tol) = (TOUCHDOWN_SEARCH_RUNS, TOUCHDOWN_SEARCH_TOL_S);
-        secant_search(target, runs, tol, self.cfg.t_final_s, run)
-    }
-
-    /// The leap's frame: its clock from the front motor's start (at `front_start` on the
-    /// execution clock), flights counted from the first motor's start, `x` from the body's
-    /// start.
-    fn frame(&self, front_start: f64, motor_t2_s: f64) -> PresetFrame {
-        PresetFrame {
-            t0_s: front_start,
-            drive_start_s: front_start.min(front_start + motor_t2_s),
-            x0_m: self.q0[2],
-            stop_at_apex: self.cfg.stop_at_apex,
-        }
+            let lag = r.touchdown_t2_s;
+            Ok((r, lag))
+        })
     }
 
     /// The leap's result read off the generic execution `exec`, run with the rear motor
@@ -1171,8 +1142,7 @@ impl LeapPreset {
         front_start: f64,
     ) -> LeapResult {
         let rhex = &self.leap.rhex;
-        let start = [front_start, front_start + motor_t2_s];
-        let frame = self.frame(front_start, motor_t2_s);
+        let frame = staggered_frame(front_start, motor_t2_s, self.q0[2], self.cfg.stop_at_apex);
         let flew = frame.flew(&exec, outcome.status);
         // the apex that ended the run, or (run on past it) that of its first flight after a
         // motor started, in chapter 3's frame
@@ -1183,22 +1153,20 @@ impl LeapPreset {
                 &self.cfg.terrain,
                 &exec,
                 &|m| rhex.label(m),
-                start[0],
+                front_start,
             )
         } else {
             Vec::new()
         };
         // the touchdown offset: each pushing leg's first touchdown after its motor started
-        let first_touchdown = |i: usize| first_touchdown_s(&exec, rhex.site(2 * i + 1), start[i]);
-        let touchdown_t2_s = first_touchdown(0)
-            .zip(first_touchdown(1))
-            .map(|(front, rear)| rear - front);
+        let toes = [rhex.site(1), rhex.site(3)];
+        let touchdown_t2_s = touchdown_lag_s(&exec, toes, front_start, motor_t2_s);
         LeapResult {
             outcome,
             flew,
             apex,
             execution: exec,
-            time_offset_s: start[0],
+            time_offset_s: front_start,
             q0: self.q0.clone(),
             events,
             motor_t2_s,
@@ -1240,7 +1208,11 @@ impl LeapResult {
             .last()
             .map_or_else(|| "1010".to_string(), |e| e.mode_after.clone());
         let contacts = &self.leap.rhex.model.contacts;
-        let name = |k: usize| contacts.get(k).map_or_else(|| format!("#{k}"), |c| c.name.clone());
+        let name = |k: usize| {
+            contacts
+                .get(k)
+                .map_or_else(|| format!("#{k}"), |c| c.name.clone())
+        };
         let frame = PresetFrame {
             t0_s: self.time_offset_s,
             ..PresetFrame::world(self.leap.scenario.options.stop_at_apex)
