@@ -17,6 +17,7 @@
 pub mod catalog;
 pub mod dc;
 pub mod error;
+pub mod geared;
 pub mod nelder_mead;
 pub mod observer;
 pub mod tail;

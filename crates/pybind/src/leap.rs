@@ -95,14 +95,7 @@ fn leap_actuator_fields() -> Vec<String> {
 /// Every parameter name a sweep or a leap accepts, each once.
 #[pyfunction]
 fn leap_sweepable_names() -> Vec<String> {
-    let mut out: Vec<String> = Vec::new();
-    for n in sweepable_names() {
-        // `pairs` is both a robot parameter and the leap's pushing pairs: one name
-        if !out.contains(&n) {
-            out.push(n);
-        }
-    }
-    out
+    sweepable_names()
 }
 
 /// `{"params": leap_params(), "config": LeapConfig::default()}`: the engine's defaults.
@@ -148,7 +141,7 @@ fn run_leap(
         }
     };
     let traj = match dt_s {
-        Some(dt) => Some(res.trajectory(params, cfg, dt)?),
+        Some(dt) => Some(res.trajectory(dt)?),
         None => None,
     };
     Ok((res, traj, sens))
@@ -243,7 +236,7 @@ fn leap_run<'py>(
         let d = PyDict::new(py);
         d.set_item("status", res.status.as_str())?;
         d.set_item("flew", res.flew)?;
-        d.set_item("reason", res.reason(&params, &cfg))?;
+        d.set_item("reason", res.reason())?;
         match res.apex {
             Some(a) => d.set_item("apex", to_py(py, &a)?)?,
             None => d.set_item("apex", py.None())?,
@@ -313,7 +306,7 @@ fn sweep_row(
                 (s.result, Some((s.ok, values)))
             }
         };
-        let why = r.reason(&params, &cfg);
+        let why = r.reason();
         Ok::<_, RhexError>((r, why, gear_ratio_of(&cfg), sens))
     }));
     let (row, sens) = sweep_row_of(outcome);

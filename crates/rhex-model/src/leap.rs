@@ -30,18 +30,21 @@
 //! (chapter 3.1), sliding toes counted as contact, zero-time cells suppressed.
 use crate::params::{LegPair, RhexParams};
 use crate::{Rhex, RhexError};
+use motor::geared::{GearedDrive, GearedDriveSpec};
 use motor::Actuator;
 use selfmanip_core::{ContactMode, Terrain};
 use selfmanip_hybrid::Execution;
-use selfmanip_sim::analysis::{angle_to_ground, roots::secant_search};
-use selfmanip_sim::behaviour::compile::Drives;
+use selfmanip_sim::analysis::angle_to_ground;
 use selfmanip_sim::behaviour::{
     ActuatorSpec, Behaviour, FreeJointGains, JointProgram, Motion, NamedEvent, On, Phase, Torque,
     Trigger,
 };
 use selfmanip_sim::events::{event_records_labelled, EventRecord};
 use selfmanip_sim::expr::Scalar;
-use selfmanip_sim::outcome::{first_touchdown_s, BodyState, Outcome, PresetFrame, WordOptions};
+use selfmanip_sim::outcome::{BodyState, Outcome, PresetFrame, WordOptions};
+use selfmanip_sim::staggered::{
+    search_touchdown_lag, staggered_frame, touchdown_lag_s, StaggeredScenario,
+};
 use selfmanip_sim::sweep::BuildCache;
 use selfmanip_sim::terrain::TerrainSpec;
 use selfmanip_sim::{InitialState, Scenario, SimOptions};
@@ -200,14 +203,19 @@ impl LegActuator {
     /// The geared motor with gear ratio `gear_ratio`, keeping this actuator's current limit
     /// and motor count (chapter 5's when this is the saturated torque).
     pub fn with_gear_ratio(&self, gear_ratio: f64) -> LegActuator {
-        let mut a = match self {
-            a @ LegActuator::GearedMotor { .. } => a.clone(),
-            LegActuator::SaturatedTorque => LegActuator::default(),
-        };
+        let mut a = self.geared();
         if let LegActuator::GearedMotor { gear_ratio: g, .. } = &mut a {
             *g = gear_ratio;
         }
         a
+    }
+
+    /// This actuator if it is the geared motor, else chapter 5's.
+    pub fn geared(&self) -> LegActuator {
+        match self {
+            a @ LegActuator::GearedMotor { .. } => a.clone(),
+            LegActuator::SaturatedTorque => LegActuator::default(),
+        }
     }
 
     /// The geared motor's loss options that are set, as behaviour parameters
@@ -245,10 +253,8 @@ impl LegActuator {
         } = &mut a
         {
             if names.contains(&"gearbox_efficiency") && gearbox_efficiency.is_none() {
-                let catalog = motor::catalog::Catalog::thesis();
-                let g = catalog
-                    .gearbox(LEG_GEARBOX)
-                    .expect("the thesis catalog's gearbox");
+                let catalog = motor::Catalog::thesis();
+                let g = catalog.gearbox(LEG_GEARBOX).expect("the catalog's gearbox");
                 *gearbox_efficiency = Some(g.efficiency);
             }
             if names.contains(&"battery_resistance_ohm") && battery_resistance_ohm.is_none() {
@@ -258,50 +264,68 @@ impl LegActuator {
         a
     }
 
-    /// Checks the geared motor's fields (errors name them: `gear_ratio`, `current_limit_a`,
-    /// `motors_per_leg`); the saturated torque has none.
-    pub fn validate(&self) -> Result<(), RhexError> {
+    /// The drive of this actuator ([`motor::geared`]): the geared motor's, or for the
+    /// saturated torque chapter 5's, whose legs and motors it keeps.
+    pub fn drive_spec(&self) -> GearedDriveSpec<'static> {
         let LegActuator::GearedMotor {
             gear_ratio,
             current_limit_a,
             motors_per_leg,
             gearbox_efficiency,
+            gearbox_loss,
             battery_resistance_ohm,
-            ..
-        } = *self
+        } = self.geared()
         else {
-            return Ok(());
+            unreachable!("`geared` is the geared motor")
         };
-        let bad = |field: &str, reason: String| {
-            Err(RhexError::InvalidValue {
-                field: field.into(),
-                reason,
-            })
-        };
-        for (field, v) in [
-            ("gear_ratio", gear_ratio),
-            ("current_limit_a", current_limit_a),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return bad(field, format!("must be finite and positive, got {v}"));
-            }
+        GearedDriveSpec {
+            motor: "x-rhex",
+            gearbox: LEG_GEARBOX,
+            gear_ratio: Some(gear_ratio),
+            current_limit_a: Some(current_limit_a),
+            count: f64::from(motors_per_leg),
+            gearbox_efficiency,
+            losses: motor::DriveLosses {
+                gearbox_loss,
+                battery_resistance_ohm: battery_resistance_ohm.unwrap_or(0.0),
+            },
         }
-        if motors_per_leg == 0 {
-            return bad("motors_per_leg", "must be at least 1".into());
+    }
+
+    /// Checks the geared motor's fields (errors name them: `gear_ratio`, `current_limit_a`,
+    /// `motors_per_leg`, `gearbox_efficiency`, `battery_resistance_ohm`); the saturated
+    /// torque has none.
+    pub fn validate(&self) -> Result<(), RhexError> {
+        match self {
+            LegActuator::SaturatedTorque => Ok(()),
+            _ => self.drive_spec().validate().map_err(drive_error),
         }
-        if let Some(e) = gearbox_efficiency.filter(|e| !(*e > 0.0 && *e <= 1.0)) {
-            return bad("gearbox_efficiency", format!("must be in (0, 1], got {e}"));
-        }
-        if let Some(r) = battery_resistance_ohm.filter(|r| !(r.is_finite() && *r >= 0.0)) {
-            return bad(
-                "battery_resistance_ohm",
-                format!("must be finite and non-negative, got {r}"),
-            );
-        }
-        Ok(())
     }
 }
 
+/// A drive's error as the leap's: the geared motor's field it names (`count` is
+/// `motors_per_leg`), else `actuator`.
+fn drive_error(e: motor::MotorError) -> RhexError {
+    let field = match e {
+        motor::MotorError::InvalidParameter { field: "count", .. } => "motors_per_leg",
+        motor::MotorError::InvalidParameter { field, .. } if DRIVE_FIELDS.contains(&field) => {
+            field
+        }
+        _ => "actuator",
+    };
+    RhexError::InvalidValue {
+        field: field.into(),
+        reason: e.to_string(),
+    }
+}
+
+/// The geared motor's fields a drive's error may name.
+const DRIVE_FIELDS: [&str; 4] = [
+    "gear_ratio",
+    "current_limit_a",
+    "gearbox_efficiency",
+    "battery_resistance_ohm",
+];
 /// What the coordination time `t2` times (the two readings of the thesis; see
 /// `docs/errata/ch3-leaping.md`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -314,16 +338,11 @@ pub enum T2Reference {
     MotorStart,
     /// The rear leg touches down `t2` after the front leg does (section 3.2.2: "choose as a
     /// reference time the touchdown of the front leg … the second leg will touch down at
-    /// `t2`"). The rear motor's start is adjusted, leap by leap, by a secant search (at
-    /// most [`TOUCHDOWN_SEARCH_RUNS`] runs of the leap); a leap whose legs do not both touch
-    /// down keeps the motor-start offset `t2`.
+    /// `t2`"). The rear motor's start is adjusted, leap by leap, by a secant search
+    /// ([`selfmanip_sim::staggered::search_touchdown_lag`]); a leap whose legs do not both
+    /// touch down keeps the motor-start offset `t2`.
     Touchdown,
 }
-
-/// Runs of a leap at most in a [`T2Reference::Touchdown`] search.
-pub const TOUCHDOWN_SEARCH_RUNS: usize = 12;
-/// Agreement of the touchdown offset with `t2` at which that search stops (s).
-pub const TOUCHDOWN_SEARCH_TOL_S: f64 = 1e-7;
 
 /// Everything a leap needs besides the robot's parameters.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -481,6 +500,10 @@ pub struct LeapResult {
     /// The rear leg's first touchdown relative to the front leg's (s), each after its motor
     /// started (section 3.2.2's `t2`); `None` if one of them never touched down.
     pub touchdown_t2_s: Option<f64>,
+    /// The leap it ran: its robot (the two pushing pairs), terrain and run options.
+    pub leap: Arc<LeapScenario>,
+    /// Latest time of the execution (s after the front leg starts).
+    pub t_final_s: f64,
 }
 
 impl std::ops::Deref for LeapResult {
@@ -587,46 +610,21 @@ impl LeapConfig {
 }
 
 /// The actuator that turns one planar leg (a contralateral pair): chapter 3's saturated
-/// torque `τ_s`, or the current-limited geared X-RHex motors.
+/// torque `τ_s`, or the current-limited geared X-RHex motors ([`motor::geared`]).
 pub fn leg_actuator(params: &RhexParams, a: &LegActuator) -> Result<Arc<dyn Actuator>, RhexError> {
-    let motor_err = |e: motor::MotorError| RhexError::InvalidValue {
-        field: "actuator".into(),
-        reason: e.to_string(),
-    };
-    Ok(match *a {
+    Ok(match a {
         LegActuator::SaturatedTorque => {
-            Arc::new(motor::SaturatedTorque::new(params.tau_s).map_err(motor_err)?)
+            Arc::new(motor::SaturatedTorque::new(params.tau_s).map_err(drive_error)?)
         }
-        LegActuator::GearedMotor {
-            gear_ratio,
-            current_limit_a,
-            motors_per_leg,
-            gearbox_efficiency,
-            gearbox_loss,
-            battery_resistance_ohm,
-        } => {
-            let catalog = motor::catalog::Catalog::thesis();
-            let m = catalog
-                .motor_spec("x-rhex")
-                .and_then(|m| m.motor())
-                .and_then(|m| m.with_current_limit(current_limit_a))
-                .map_err(motor_err)?;
-            let mut gearbox = catalog.gearbox(LEG_GEARBOX).map_err(motor_err)?.clone();
-            gearbox.ratio = gear_ratio;
-            gearbox.efficiency = gearbox_efficiency.unwrap_or(gearbox.efficiency);
-            let losses = motor::DriveLosses {
-                gearbox_loss,
-                battery_resistance_ohm: battery_resistance_ohm.unwrap_or(0.0),
-            };
-            // `n` drives in parallel, with the loss options as set (the behaviour's law)
-            Arc::new(Drives::<true> {
-                drive: motor::Drive::new(m, gearbox)
-                    .and_then(|d| d.with_losses(losses))
-                    .map_err(motor_err)?,
-                n: f64::from(motors_per_leg),
-            })
-        }
+        _ => Arc::new(leg_drive(a)?),
     })
+}
+
+/// The geared drive of `a` ([`LegActuator::drive_spec`]) in the thesis catalog.
+fn leg_drive(a: &LegActuator) -> Result<GearedDrive, RhexError> {
+    a.drive_spec()
+        .build(&motor::Catalog::thesis())
+        .map_err(drive_error)
 }
 
 /// A leg's own inertia about its hip, `I_l + m_l (ρ₁/2)²` (kg m²; zero for Table 4.2's
@@ -635,84 +633,38 @@ pub fn leg_inertia_about_hip(params: &RhexParams) -> f64 {
     params.I_l + params.m_l * (0.5 * params.rho1).powi(2)
 }
 
-/// The drive that turns a leg: its gear ratio `G`, motors per leg `n`, stall torque at the
-/// joint (N m), the motor's no-load speed `ω₀` (rad/s) and one rotor's inertia `J` (kg m²).
-/// The geared motor's own; the saturated-torque idealization keeps X-RHex's legs and motors
-/// (Table 2.1's motor behind the 28:1 gearbox, two per planar leg) with `τ_s` as its stall
-/// torque. The rotor inertia is not printed; it is `J = τ_m k_M² / R` from Table 2.1's
-/// mechanical time constant `τ_m = 11.8 ms` and the motor model's `k_M` and `R`
-/// ([`motor::catalog::MotorSpec::rotor_inertia_kg_m2`]: 7.2·10⁻⁶ kg m², within the range of
-/// maxon's 45 mm flat motors).
-struct LegMotorData {
-    ratio: f64,
-    n: f64,
-    stall_n_m: f64,
-    no_load_speed_rad_s: f64,
-    rotor_kg_m2: f64,
-}
-
-fn leg_motor_data(params: &RhexParams, cfg: &LeapConfig) -> Result<LegMotorData, RhexError> {
-    let motor_err = |e: motor::MotorError| RhexError::InvalidValue {
-        field: "actuator".into(),
-        reason: e.to_string(),
+/// The drive that turns a leg and its stall torque at the joint (N m): the geared motor's
+/// own; the saturated-torque idealization keeps X-RHex's legs and motors (Table 2.1's motor
+/// behind the 28:1 gearbox, two per planar leg) with `τ_s` as its stall torque. The rotor
+/// inertia is not printed; it is `J = τ_m k_M² / R` from Table 2.1's mechanical time
+/// constant `τ_m = 11.8 ms` ([`motor::catalog::MotorSpec::rotor_inertia_kg_m2`]: 7.2·10⁻⁶
+/// kg m², within the range of maxon's 45 mm flat motors). With the drive's reflected rotor
+/// inertia `n J G²` (kg m²).
+fn leg_motor(params: &RhexParams, cfg: &LeapConfig) -> Result<(GearedDrive, f64, f64), RhexError> {
+    let drive = leg_drive(&cfg.actuator)?;
+    let stall_n_m = match cfg.actuator {
+        LegActuator::GearedMotor { .. } => drive.stall_torque_n_m(),
+        LegActuator::SaturatedTorque => params.tau_s,
     };
-    let catalog = motor::catalog::Catalog::thesis();
-    let spec = catalog.motor_spec("x-rhex").map_err(motor_err)?;
-    let (ratio, n, stall_n_m) = match cfg.actuator {
-        LegActuator::GearedMotor {
-            gear_ratio,
-            motors_per_leg,
-            ..
-        } => {
-            let drive = leg_actuator(params, &cfg.actuator)?;
-            (
-                gear_ratio,
-                f64::from(motors_per_leg),
-                drive.joint_torque_n_m(1.0, 0.0),
-            )
-        }
-        LegActuator::SaturatedTorque => (
-            catalog.gearbox("x-rhex-28").map_err(motor_err)?.ratio,
-            f64::from(DEFAULT_MOTORS_PER_LEG),
-            params.tau_s,
-        ),
-    };
-    let m = spec.motor().map_err(motor_err)?;
-    let rotor_kg_m2 = spec
-        .rotor_inertia_kg_m2()
-        .map_err(motor_err)?
+    let reflected = drive
+        .reflected_inertia_kg_m2()
         .ok_or_else(|| RhexError::InvalidValue {
             field: "actuator".into(),
             reason: "the motor's mechanical time constant is needed for the rotor inertia".into(),
         })?;
-    let data = LegMotorData {
-        ratio,
-        n,
-        stall_n_m,
-        no_load_speed_rad_s: m.no_load_speed_rad_s,
-        rotor_kg_m2,
-    };
     // the drive's torque and reflected inertia grow as G and G²: a ratio they overflow at is
     // the ratio's fault, named as such (not the servo gain the behaviour derives from them)
-    if !(data.stall_n_m.is_finite() && data.reflected_inertia().is_finite()) {
+    if !(stall_n_m.is_finite() && reflected.is_finite()) {
         return Err(RhexError::InvalidValue {
             field: "gear_ratio".into(),
             reason: format!(
-                "the drive's stall torque ({:e} N m) or reflected rotor inertia n J G² ({:e} kg m²) \
-                 is not finite at G = {ratio:e}",
-                data.stall_n_m,
-                data.reflected_inertia()
+                "the drive's stall torque ({stall_n_m:e} N m) or reflected rotor inertia n J G² \
+                 ({reflected:e} kg m²) is not finite at G = {:e}",
+                drive.drive.gearbox.ratio
             ),
         });
     }
-    Ok(data)
-}
-
-impl LegMotorData {
-    /// `n J G²`.
-    fn reflected_inertia(&self) -> f64 {
-        self.n * self.rotor_kg_m2 * self.ratio * self.ratio
-    }
+    Ok((drive, stall_n_m, reflected))
 }
 
 /// The inertia of a leg's motors' rotors seen at the leg's joint through the gearbox,
@@ -721,9 +673,8 @@ impl LegMotorData {
 /// bound of a massless leg ([`leg_swing`]) and the armature of a massive leg's joint
 /// ([`leg_armature`]).
 pub fn rotor_reflected_inertia(params: &RhexParams, cfg: &LeapConfig) -> Result<f64, RhexError> {
-    Ok(leg_motor_data(params, cfg)?.reflected_inertia())
+    Ok(leg_motor(params, cfg)?.2)
 }
-
 /// The armature a leap gives each leg joint (kg m²): `params.leg_armature_kg_m2` when set;
 /// otherwise its rotors' reflected inertia ([`rotor_reflected_inertia`]) on legs that carry
 /// them ([`RhexParams::legs_carry_rotors`]: by default massive legs, whose physical motors
@@ -772,22 +723,6 @@ fn overflowing_parameter(params: &RhexParams) -> &'static str {
     .0
 }
 
-/// The robot of a leap: `params` (checked as the user gave them, [`RhexParams::validate`])
-/// with the leap's two pushing pairs (`pairs`) and its legs' armature ([`leg_armature`]) set.
-pub(crate) fn leap_robot_params(
-    params: &RhexParams,
-    cfg: &LeapConfig,
-    pairs: [LegPair; 2],
-) -> Result<RhexParams, RhexError> {
-    params.validate()?;
-    Ok(RhexParams {
-        pairs: pairs.to_vec(),
-        leg_armature_kg_m2: leap_leg_armature(params, cfg)?,
-        leg_rotors: None,
-        ..params.clone()
-    })
-}
-
 /// How a massless leg swings in the air while its motor is on: `(speed, acceleration
 /// bound)`. The model's legs have no inertia, so the motion is prescribed (thesis 5.1.1);
 /// its bounds are those of the physical leg, which its motor drives: it runs up to the
@@ -798,14 +733,14 @@ pub(crate) fn leap_robot_params(
 /// inertia, and the 28:1 drive's no-load speed. A massive leg's servo follows the same
 /// motion. Explicit values in the configuration win.
 pub fn leg_swing(params: &RhexParams, cfg: &LeapConfig) -> Result<(f64, f64), RhexError> {
-    let d = leg_motor_data(params, cfg)?;
+    let (drive, stall_n_m, reflected) = leg_motor(params, cfg)?;
     let leg = leg_inertia_about_hip(params);
     let speed = cfg
         .swing_speed_rad_s
-        .unwrap_or(d.no_load_speed_rad_s / d.ratio);
+        .unwrap_or(drive.no_load_speed_rad_s());
     let accel = cfg
         .swing_accel_rad_s2
-        .unwrap_or(d.stall_n_m / (d.reflected_inertia() + leg));
+        .unwrap_or(stall_n_m / (reflected + leg));
     Ok((speed, accel))
 }
 
@@ -844,10 +779,17 @@ fn leap_pairs(cfg: &LeapConfig) -> Result<[LegPair; 2], RhexError> {
     Ok(pairs)
 }
 
-/// The robot of a leap: `params` with the leap's two pushing pairs and its legs' armature
-/// ([`leap_robot_params`]).
+/// The robot of a leap: `params` (checked as the user gave them, [`RhexParams::validate`])
+/// with the leap's two pushing pairs and its legs' armature ([`leg_armature`]) set.
 pub fn leap_rhex(params: &RhexParams, cfg: &LeapConfig) -> Result<Rhex, RhexError> {
-    Rhex::new(leap_robot_params(params, cfg, leap_pairs(cfg)?)?)
+    let pairs = leap_pairs(cfg)?;
+    params.validate()?;
+    Rhex::new(RhexParams {
+        pairs: pairs.to_vec(),
+        leg_armature_kg_m2: leap_leg_armature(params, cfg)?,
+        leg_rotors: None,
+        ..params.clone()
+    })
 }
 
 /// A leap's start pose `q0`: sitting level on both body ends, each pushing leg held
@@ -982,8 +924,9 @@ pub struct LeapPreset {
     pub leap: Arc<LeapScenario>,
     /// The parameters as given (a point whose actuator changes the robot is built afresh).
     params: RhexParams,
-    /// The simulation of `cfg`'s point, with the preset's start mode and budgets.
-    sim: Simulation,
+    /// The simulation of `cfg`'s point, with the preset's start mode and budgets; the rear
+    /// motor starts `t2` after the front one ([`StaggeredScenario`]).
+    sim: StaggeredScenario,
     /// Its results carry [`LeapResult::events`] (each record evaluates the flow after its
     /// event for the contact forces: a sweep that reads only rows does without).
     event_records: bool,
@@ -1027,17 +970,6 @@ impl LeapPreset {
         cfg.validate()?;
         let rhex = leap_rhex(params, cfg)?;
         let q0 = leap_start_pose(&rhex, cfg)?;
-        Self::with_start(params, cfg, rhex, q0)
-    }
-
-    /// [`Self::new`] with the robot and start pose given (computed by the caller once for
-    /// many leaps: [`leap_rhex`], [`leap_start_pose`]).
-    pub fn with_start(
-        params: &RhexParams,
-        cfg: &LeapConfig,
-        rhex: Rhex,
-        q0: Vec<f64>,
-    ) -> Result<Self, RhexError> {
         let mode0 = start_mode(&rhex)?;
         let motor = LeapConfig {
             t2_reference: T2Reference::MotorStart,
@@ -1061,6 +993,12 @@ impl LeapPreset {
         sim.options.max_steps = cfg.max_steps;
         sim.options.max_events = cfg.max_events;
         sim.options.control_free_joints = cfg.control_free_joints;
+        let sim = StaggeredScenario {
+            sim,
+            lag_parameter: "t2",
+            built_lag_s: cfg.t2_s,
+            t_final_s: cfg.t_final_s,
+        };
         Ok(LeapPreset {
             cfg: cfg.clone(),
             q0,
@@ -1084,25 +1022,7 @@ impl LeapPreset {
     /// The simulation of the leap with the rear motor starting `motor_t2_s` after the front
     /// one, and the front motor's start on its clock (`−min(0, t2)`).
     pub fn simulation(&self, motor_t2_s: f64) -> Result<(Simulation, f64), RhexError> {
-        self.simulation_with(&[], motor_t2_s)
-    }
-
-    /// [`Self::simulation`] with the behaviour parameters `values` bound too (an actuator's:
-    /// [`actuator_values`]).
-    fn simulation_with(
-        &self,
-        values: &[(&str, f64)],
-        motor_t2_s: f64,
-    ) -> Result<(Simulation, f64), RhexError> {
-        let offset = motor_t2_s.min(0.0);
-        let mut sim = self.sim.clone();
-        // the preset's own point is its simulation as built
-        if !values.is_empty() || motor_t2_s.to_bits() != self.cfg.t2_s.to_bits() {
-            let mut bound = values.to_vec();
-            bound.push(("t2", motor_t2_s));
-            sim.rebind(&bound, self.cfg.t_final_s - offset)?;
-        }
-        Ok((sim, -offset))
+        Ok(self.sim.simulation(&[], motor_t2_s)?)
     }
 
     /// Runs the leap with the rear motor starting `motor_t2_s` after the front one.
@@ -1117,8 +1037,7 @@ impl LeapPreset {
         motor_t2_s: f64,
         stop: &AtomicBool,
     ) -> Result<LeapResult, RhexError> {
-        let (sim, front_start) = self.simulation_with(values, motor_t2_s)?;
-        let run = sim.run_with(stop)?;
+        let (run, front_start) = self.sim.run(values, motor_t2_s, stop)?;
         Ok(self.result(run.execution, run.outcome, motor_t2_s, front_start))
     }
 
@@ -1198,34 +1117,19 @@ impl LeapPreset {
         }
     }
 
-    /// [`T2Reference::Touchdown`]: a secant search on the rear motor's start `s` for the
-    /// touchdown offset `T(s) = t2` (`T(s) = s` while the body is at rest between the two
-    /// touchdowns, so the search starts there and usually ends after one or two more runs).
+    /// [`T2Reference::Touchdown`]: the rear motor's start at which the rear leg touches down
+    /// `target` after the front one ([`search_touchdown_lag`]).
     fn touchdown_timed(
         &self,
         values: &[(&str, f64)],
         target: f64,
         stop: &AtomicBool,
     ) -> Result<LeapResult, RhexError> {
-        let run = |s: f64| {
+        search_touchdown_lag(target, self.cfg.t_final_s, |s| {
             let r = self.run_with(values, s, stop)?;
-            let d = r.touchdown_t2_s.map(|t| t - target);
-            Ok((r, d))
-        };
-        let (runs, tol) = (TOUCHDOWN_SEARCH_RUNS, TOUCHDOWN_SEARCH_TOL_S);
-        secant_search(target, runs, tol, self.cfg.t_final_s, run)
-    }
-
-    /// The leap's frame: its clock from the front motor's start (at `front_start` on the
-    /// execution clock), flights counted from the first motor's start, `x` from the body's
-    /// start.
-    fn frame(&self, front_start: f64, motor_t2_s: f64) -> PresetFrame {
-        PresetFrame {
-            t0_s: front_start,
-            drive_start_s: front_start.min(front_start + motor_t2_s),
-            x0_m: self.q0[2],
-            stop_at_apex: self.cfg.stop_at_apex,
-        }
+            let lag = r.touchdown_t2_s;
+            Ok((r, lag))
+        })
     }
 
     /// The leap's result read off the generic execution `exec`, run with the rear motor
@@ -1238,8 +1142,7 @@ impl LeapPreset {
         front_start: f64,
     ) -> LeapResult {
         let rhex = &self.leap.rhex;
-        let start = [front_start, front_start + motor_t2_s];
-        let frame = self.frame(front_start, motor_t2_s);
+        let frame = staggered_frame(front_start, motor_t2_s, self.q0[2], self.cfg.stop_at_apex);
         let flew = frame.flew(&exec, outcome.status);
         // the apex that ended the run, or (run on past it) that of its first flight after a
         // motor started, in chapter 3's frame
@@ -1250,26 +1153,26 @@ impl LeapPreset {
                 &self.cfg.terrain,
                 &exec,
                 &|m| rhex.label(m),
-                start[0],
+                front_start,
             )
         } else {
             Vec::new()
         };
         // the touchdown offset: each pushing leg's first touchdown after its motor started
-        let first_touchdown = |i: usize| first_touchdown_s(&exec, rhex.site(2 * i + 1), start[i]);
-        let touchdown_t2_s = first_touchdown(0)
-            .zip(first_touchdown(1))
-            .map(|(front, rear)| rear - front);
+        let toes = [rhex.site(1), rhex.site(3)];
+        let touchdown_t2_s = touchdown_lag_s(&exec, toes, front_start, motor_t2_s);
         LeapResult {
             outcome,
             flew,
             apex,
             execution: exec,
-            time_offset_s: start[0],
+            time_offset_s: front_start,
             q0: self.q0.clone(),
             events,
             motor_t2_s,
             touchdown_t2_s,
+            leap: Arc::clone(&self.leap),
+            t_final_s: self.cfg.t_final_s,
         }
     }
 }
@@ -1298,64 +1201,44 @@ impl LeapResult {
     /// [`Termination::describe`](selfmanip_hybrid::Termination::describe) on the leap's clock (t = 0 at the first motor's start) with
     /// the leap's contact names and the flowing mode's label (`s` for a sliding toe); a run
     /// that ended at its final time says it found no flight (or no apex).
-    pub fn reason(&self, params: &RhexParams, cfg: &LeapConfig) -> String {
+    pub fn reason(&self) -> String {
         // the mode that was flowing: the last event's, or the start's
         let mode = self
             .events
             .last()
             .map_or_else(|| "1010".to_string(), |e| e.mode_after.clone());
-        // a contact's name builds the robot: only a termination that names one asks for it
+        let contacts = &self.leap.rhex.model.contacts;
         let name = |k: usize| {
-            Rhex::new(params.clone())
-                .ok()
-                .and_then(|r| r.model.contacts.get(k).map(|c| c.name.clone()))
-                .unwrap_or_else(|| format!("#{k}"))
+            contacts
+                .get(k)
+                .map_or_else(|| format!("#{k}"), |c| c.name.clone())
         };
         let frame = PresetFrame {
             t0_s: self.time_offset_s,
-            ..PresetFrame::world(cfg.stop_at_apex)
+            ..PresetFrame::world(self.leap.scenario.options.stop_at_apex)
         };
-        frame.reason(&self.execution, self.flew, cfg.t_final_s, &name, &mode)
+        frame.reason(&self.execution, self.flew, self.t_final_s, &name, &mode)
     }
 
     /// Energy bookkeeping of the leap (motor work, impact losses, start and end energy),
     /// each segment re-evaluated with the controller it ran with.
-    pub fn energy_report(
-        &self,
-        params: &RhexParams,
-        cfg: &LeapConfig,
-    ) -> Result<selfmanip_hybrid::EnergyReport, RhexError> {
-        let rhex = leap_rhex(params, cfg)?;
+    pub fn energy_report(&self) -> Result<selfmanip_hybrid::EnergyReport, RhexError> {
         Ok(selfmanip_hybrid::energy_report(
-            &rhex.model,
-            &cfg.terrain,
+            &self.leap.rhex.model,
+            &self.leap.scenario.terrain,
             &self.execution,
         )?)
-    }
-
-    /// Work of the toes' kinetic friction along the leap (J, never positive): the engine's
-    /// [`EnergyReport::friction_work_j`](selfmanip_hybrid::EnergyReport), `∫ f^frᵀ q̇ dt`
-    /// with `f^fr` the generalized friction force of the sliding toes
-    /// (`selfmanip_core::friction`), each segment re-evaluated as it ran. The energy
-    /// balances: `E₁ − E₀ = W + W_fr − L` ([`Self::energy_report`]).
-    pub fn friction_work_j(&self, params: &RhexParams, cfg: &LeapConfig) -> Result<f64, RhexError> {
-        Ok(self.energy_report(params, cfg)?.friction_work_j)
     }
 
     /// Samples the leap every `dt_s` seconds (and at its end) with the generic sampler
     /// ([`selfmanip_sim::trajectory::sample_labelled`]): states, torques, modes in RHex's
     /// labels, contact points and contact forces, each from its segment's flow as it ran;
     /// times from the front leg's start.
-    pub fn trajectory(
-        &self,
-        params: &RhexParams,
-        cfg: &LeapConfig,
-        dt_s: f64,
-    ) -> Result<Trajectory, RhexError> {
-        let rhex = leap_rhex(params, cfg)?;
+    pub fn trajectory(&self, dt_s: f64) -> Result<Trajectory, RhexError> {
+        let rhex = &self.leap.rhex;
         Ok(selfmanip_sim::trajectory::sample_labelled(
             &rhex.model,
-            &cfg.terrain,
+            &self.leap.scenario.terrain,
             &self.execution,
             &|m| rhex.label(m),
             dt_s,
@@ -1365,24 +1248,11 @@ impl LeapResult {
 }
 
 // ---- the leap behaviours as data ----
-// The four leap strategies of thesis section 3.2.1 as behaviour files
-// (`data/behaviours/leap_{pp,pm,mp,mm}.toml`, the schema of `docs/behaviours.md`), and a
-// leap as a scenario of `selfmanip-sim` run by the behaviour interpreter: what
-// [`crate::leap::simulate_leap`] runs ([`crate::leap::LeapPreset`]).
-//
-// The [`LeapConfig`] fields map onto the behaviour by name: `t2_s` → `t2`, the geared
-// motor → `gear_ratio`, `current_limit_a`, `motors_per_leg` (the saturated torque replaces
-// the actuator `leg`), the legs' inertia about their hips → `leg_inertia_kg_m2`,
-// `toe_stub_rad` → each push's `reverse_beyond_rad`, `keep_pushing_after_liftoff` → the
-// retract phase waits for `takeoff` only; the pushing pairs name the two programs' joints.
-// The files swing a leg in the air as its motor does ([`crate::leap::leg_swing`]: the
-// no-load output speed `leg.no_load_speed_rad_s`, the stall torque over the rotors'
-// reflected inertia `leg.reflected_inertia_kg_m2` plus the leg's own); with the saturated
-// torque, or explicit `swing_speed_rad_s` / `swing_accel_rad_s2`, the swing motions get
-// [`crate::leap::leg_swing`]'s numbers. The toes' friction (Coulomb sliding or not,
-// `RhexParams::toe_sliding`) is the robot's, in its description. `t2_s` is the motor-start
-// offset ([`crate::leap::T2Reference::MotorStart`]); for a touchdown-timed leap pass the
-// motor start its search found (`LeapResult::motor_t2_s`) with `MotorStart`.
+// The four strategies of thesis section 3.2.1 as behaviour files
+// (`data/behaviours/leap_{pp,pm,mp,mm}.toml`, the schema of `docs/behaviours.md`), and a leap
+// as a scenario of them ([`scenario_of`]: which `LeapConfig` field sets what). The toes'
+// friction (`RhexParams::toe_sliding`) is the robot's, in its description; `t2_s` is the
+// motor-start offset (a touchdown-timed leap passes the motor start its search found).
 
 /// The shipped behaviour files, by strategy `(+,+)`, `(+,−)`, `(−,+)`, `(−,−)`.
 pub const LEAP_BEHAVIOURS: [(&str, &str); 4] = [
@@ -1396,23 +1266,72 @@ pub const LEAP_BEHAVIOURS: [(&str, &str); 4] = [
 /// built in Rust, nothing parsed (`tests/leap_behaviours.rs` checks that each file parses to
 /// exactly this value: parsing one would cost ~9 % of a one-shot leap's instructions).
 pub fn leap_behaviour(strategy: Strategy) -> Behaviour {
-    let [front, rear] = strategy.chapter3_pairs();
+    let pairs = strategy.chapter3_pairs().map(LegPair::name);
+    behaviour(strategy, &Settings::files(pairs))
+}
+
+/// What a leap sets in its strategy's file: the pushing pairs name the two programs' joints;
+/// the swing motions get numbers where set (else the files' formulas of the motor: the no-load
+/// output speed, the stall torque over the rotors' reflected inertia plus the leg's own);
+/// `toe_stub_rad` is each push's `reverse_beyond_rad`; `keep_pushing_after_liftoff` has the
+/// retract phase wait for `takeoff` only; legs with inertia get the servo damping of
+/// [`servo_damping`].
+struct Settings<'a> {
+    joints: [&'a str; 2],
+    swing_speed_rad_s: Option<f64>,
+    swing_accel_rad_s2: Option<f64>,
+    toe_stub_rad: Option<f64>,
+    keep_pushing_after_liftoff: bool,
+    massive: [bool; 2],
+    kd_n_m_s_per_rad: Option<String>,
+}
+
+impl<'a> Settings<'a> {
+    /// The files' own settings, on the joints `joints`.
+    fn files(joints: [&'a str; 2]) -> Self {
+        Settings {
+            joints,
+            swing_speed_rad_s: None,
+            swing_accel_rad_s2: None,
+            toe_stub_rad: None,
+            keep_pushing_after_liftoff: false,
+            massive: [false; 2],
+            kd_n_m_s_per_rad: None,
+        }
+    }
+}
+
+/// The behaviour of `strategy` with the settings `k`.
+fn behaviour(strategy: Strategy, k: &Settings<'_>) -> Behaviour {
     let motor = "leg.stall_torque_n_m";
-    let accel = "leg.stall_torque_n_m / (leg.reflected_inertia_kg_m2 + leg_inertia_kg_m2)";
-    let servo = || Torque::Servo {
+    let accel = || match k.swing_accel_rad_s2 {
+        Some(a) => num(a),
+        None => "leg.stall_torque_n_m / (leg.reflected_inertia_kg_m2 + leg_inertia_kg_m2)".into(),
+    };
+    let servo = |i: usize| Torque::Servo {
         target_rad: None,
         kp_n_m_per_rad: format!("kp_hold * {motor}").as_str().into(),
-        kd_n_m_s_per_rad: format!("kd_hold * {motor}").as_str().into(),
+        kd_n_m_s_per_rad: match &k.kd_n_m_s_per_rad {
+            Some(kd) => Scalar::Expr(kd.clone()),
+            None => format!("kd_hold * {motor}").as_str().into(),
+        },
         torque_limit_n_m: Some(motor.into()),
-        only_in_contact: true,
+        only_in_contact: !k.massive[i],
     };
-    let program = |pair: LegPair, start: &str, sign: &str| JointProgram {
-        joint: pair.name().into(),
+    let retract = match k.keep_pushing_after_liftoff {
+        true => Trigger::event("takeoff"),
+        false => Trigger {
+            any: Some(vec![Trigger::on(On::Release), Trigger::event("takeoff")]),
+            ..Trigger::default()
+        },
+    };
+    let program = |i: usize, start: &str, sign: &str| JointProgram {
+        joint: k.joints[i].into(),
         phases: vec![
             Phase {
                 name: "wait".into(),
                 start: None,
-                torque: servo(),
+                torque: servo(i),
                 motion: Some(Motion::Hold {
                     angle_rad: "q0".into(),
                 }),
@@ -1424,35 +1343,34 @@ pub fn leap_behaviour(strategy: Strategy) -> Behaviour {
                 torque: Torque::Motor {
                     actuator: "leg".into(),
                     command: sign.into(),
-                    reverse_beyond_rad: None,
+                    reverse_beyond_rad: k.toe_stub_rad.map(num),
                 },
                 motion: Some(Motion::Swing {
                     target_rad: format!("{sign} * stow").as_str().into(),
-                    speed_rad_s: "leg.no_load_speed_rad_s".into(),
-                    accel_rad_s2: accel.into(),
+                    speed_rad_s: k
+                        .swing_speed_rad_s
+                        .map_or_else(|| "leg.no_load_speed_rad_s".into(), num),
+                    accel_rad_s2: accel(),
                 }),
                 restart_on: Some(vec![Trigger::on(On::Release)]),
             },
             Phase {
                 name: "retract".into(),
-                start: Some(Trigger {
-                    any: Some(vec![Trigger::on(On::Release), Trigger::event("takeoff")]),
-                    ..Trigger::default()
-                }),
-                torque: servo(),
+                start: Some(retract.clone()),
+                torque: servo(i),
                 motion: Some(Motion::Park {
                     target_rad: format!("if({sign} * theta >= 0, {sign}, -{sign}) * stow")
                         .as_str()
                         .into(),
-                    accel_rad_s2: accel.into(),
+                    accel_rad_s2: accel(),
                 }),
                 restart_on: Some(Vec::new()),
             },
         ],
         repeat_from: None,
     };
-    let number = |k: &str, x: f64| (k.to_string(), Scalar::Number(x));
-    let formula = |k: &str, e: &str| (k.to_string(), Scalar::from(e));
+    let number = |name: &str, x: f64| (name.to_string(), Scalar::Number(x));
+    let formula = |name: &str, e: &str| (name.to_string(), Scalar::from(e));
     let symbols = format!("({},{})", strategy.front.symbol(), strategy.rear.symbol());
     Behaviour {
         name: format!("rhex-leap-{strategy}"),
@@ -1508,8 +1426,8 @@ pub fn leap_behaviour(strategy: Strategy) -> Behaviour {
             kd_per_s: Scalar::Number(40.0),
         },
         joints: vec![
-            program(front, "t_front", "s_front"),
-            program(rear, "t_rear", "s_rear"),
+            program(0, "t_front", "s_front"),
+            program(1, "t_rear", "s_rear"),
         ],
     }
 }
@@ -1555,58 +1473,6 @@ pub(crate) fn scenario_of(
     cfg: &LeapConfig,
     q0: &[f64],
 ) -> Result<LeapScenario, RhexError> {
-    let mut b = leap_behaviour(cfg.strategy);
-    // the front-most pushing pair drives joint 0, the rear-most joint 1
-    for (prog, pair) in b.joints.iter_mut().zip(rhex.params.ordered_pairs()) {
-        prog.joint = pair.name().into();
-    }
-    let p = &mut b.parameters;
-    p.insert("t2".into(), num(cfg.t2_s));
-    p.insert(
-        "leg_inertia_kg_m2".into(),
-        num(leg_inertia_about_hip(&rhex.params)),
-    );
-    let sign = |s: Push| num(s.sign());
-    p.insert("s_front".into(), sign(cfg.strategy.front));
-    p.insert("s_rear".into(), sign(cfg.strategy.rear));
-    match cfg.actuator {
-        LegActuator::SaturatedTorque => {
-            b.actuators.insert(
-                "leg".into(),
-                ActuatorSpec::Saturated {
-                    max_torque_n_m: num(rhex.params.tau_s),
-                },
-            );
-        }
-        LegActuator::GearedMotor {
-            gear_ratio,
-            current_limit_a,
-            motors_per_leg,
-            ..
-        } => {
-            p.insert("gear_ratio".into(), num(gear_ratio));
-            p.insert("current_limit_a".into(), num(current_limit_a));
-            p.insert("motors_per_leg".into(), num(f64::from(motors_per_leg)));
-            let (set, loss) = cfg.actuator.loss_values();
-            if let Some(ActuatorSpec::DcMotor {
-                gearbox_efficiency,
-                gearbox_loss,
-                battery_resistance_ohm,
-                ..
-            }) = b.actuators.get_mut("leg")
-            {
-                *gearbox_loss = loss;
-                for (name, v) in set {
-                    p.insert(name.into(), num(v));
-                    let slot = match name {
-                        "gearbox_efficiency" => &mut *gearbox_efficiency,
-                        _ => &mut *battery_resistance_ohm,
-                    };
-                    *slot = Some(name.into());
-                }
-            }
-        }
-    }
     // the files swing the legs as their motors do (`leg.no_load_speed_rad_s`, the stall
     // torque over the reflected rotor inertia); a saturated torque has no motor data, and
     // explicit values win: then the swing is set as numbers, those of `leg_swing`
@@ -1614,64 +1480,59 @@ pub(crate) fn scenario_of(
     // of the motor (so that its partials follow the gear ratio)
     let geared = matches!(cfg.actuator, LegActuator::GearedMotor { .. });
     let (speed, accel) = leg_swing(params, cfg)?;
-    let speed = (!geared || cfg.swing_speed_rad_s.is_some()).then_some(speed);
-    let accel = (!geared || cfg.swing_accel_rad_s2.is_some()).then_some(accel);
-    for prog in &mut b.joints {
-        for phase in &mut prog.phases {
-            match phase.motion.as_mut() {
-                Some(Motion::Swing {
-                    speed_rad_s,
-                    accel_rad_s2,
-                    ..
-                }) => {
-                    if let Some(v) = speed {
-                        *speed_rad_s = num(v);
-                    }
-                    if let Some(a) = accel {
-                        *accel_rad_s2 = num(a);
-                    }
-                }
-                Some(Motion::Park { accel_rad_s2, .. }) => {
-                    if let Some(a) = accel {
-                        *accel_rad_s2 = num(a);
-                    }
-                }
-                _ => {}
-            }
-            match (phase.name.as_str(), &mut phase.torque) {
-                (
-                    "push",
-                    Torque::Motor {
-                        reverse_beyond_rad, ..
-                    },
-                ) => *reverse_beyond_rad = cfg.toe_stub_rad.map(num),
-                ("retract", _) if cfg.keep_pushing_after_liftoff => {
-                    phase.start = Some(Trigger::event("takeoff"));
-                }
-                _ => {}
-            }
-        }
-    }
     // a massive leg is a joint like any other in the air too: its servo drives it there (a
     // massless one is a free joint whose motion is prescribed), critically damped for the
     // leg's inertia about its hip with its armature (`servo_damping`)
-    let geared = matches!(cfg.actuator, LegActuator::GearedMotor { .. });
-    let critical = servo_damping_expr(params, &rhex.params, geared, &mut b);
-    for (i, prog) in b.joints.iter_mut().enumerate() {
-        let massive = !rhex.model.distal_massless(i);
-        for phase in &mut prog.phases {
-            if let Torque::Servo {
-                only_in_contact,
-                kd_n_m_s_per_rad,
+    let damping = servo_damping(params, &rhex.params, geared);
+    let pairs = rhex.params.ordered_pairs();
+    let settings = Settings {
+        // the front-most pushing pair drives joint 0, the rear-most joint 1
+        joints: [pairs[0].name(), pairs[1].name()],
+        swing_speed_rad_s: (!geared || cfg.swing_speed_rad_s.is_some()).then_some(speed),
+        swing_accel_rad_s2: (!geared || cfg.swing_accel_rad_s2.is_some()).then_some(accel),
+        toe_stub_rad: cfg.toe_stub_rad,
+        keep_pushing_after_liftoff: cfg.keep_pushing_after_liftoff,
+        massive: [0, 1].map(|i| !rhex.model.distal_massless(i)),
+        kd_n_m_s_per_rad: damping.as_ref().map(|(kd, _)| kd.clone()),
+    };
+    let mut b = behaviour(cfg.strategy, &settings);
+    let p = &mut b.parameters;
+    p.insert("t2".into(), num(cfg.t2_s));
+    let leg_inertia = leg_inertia_about_hip(&rhex.params);
+    p.insert("leg_inertia_kg_m2".into(), num(leg_inertia));
+    if let Some((_, armature)) = damping {
+        p.insert("leg_armature_kg_m2".into(), num(armature));
+    }
+    for (name, v) in actuator_values(&cfg.actuator) {
+        p.insert(name.into(), num(v));
+    }
+    let leg = b.actuators.get_mut("leg").expect("the files' actuator");
+    match (&cfg.actuator, leg) {
+        (LegActuator::SaturatedTorque, leg) => {
+            *leg = ActuatorSpec::Saturated {
+                max_torque_n_m: num(rhex.params.tau_s),
+            };
+        }
+        (
+            a,
+            ActuatorSpec::DcMotor {
+                gearbox_efficiency,
+                gearbox_loss,
+                battery_resistance_ohm,
                 ..
-            } = &mut phase.torque
-            {
-                *only_in_contact = !massive;
-                if let Some(kd) = &critical {
-                    *kd_n_m_s_per_rad = Scalar::Expr(kd.clone());
-                }
+            },
+        ) => {
+            let (set, loss) = a.loss_values();
+            *gearbox_loss = loss;
+            for (name, _) in set {
+                let slot = match name {
+                    "gearbox_efficiency" => &mut *gearbox_efficiency,
+                    _ => &mut *battery_resistance_ohm,
+                };
+                *slot = Some(name.into());
             }
         }
+        _ => unreachable!("the files' actuator is a DC motor"),
     }
     let model = &rhex.model;
     let offset = cfg.t2_s.min(0.0);
@@ -1701,9 +1562,10 @@ pub(crate) fn scenario_of(
 }
 
 /// The servo damping of legs with inertia, as a formula of the behaviour's parameters (so
-/// that its partials follow the gear ratio and the armature). A leg with inertia `I` about
-/// its hip (`I_l + m_l (ρ/2)²` plus its joint's armature, the leg's `M̄_jj`) gets critical
-/// damping for the servo's stiffness `k_p = kp_hold · H` (`H` the stall torque):
+/// that its partials follow the gear ratio and the armature), and the value of the
+/// parameter `leg_armature_kg_m2` it reads. A leg with inertia `I` about its hip
+/// (`I_l + m_l (ρ/2)²` plus its joint's armature, the leg's `M̄_jj`) gets critical damping
+/// for the servo's stiffness `k_p = kp_hold · H` (`H` the stall torque):
 /// `k_d = 2 √(k_p I) = 2 √(kp_hold I / H) · H`, one double pole at `√(k_p / I)` (217 rad/s
 /// for Table 4.2's leg with its rotors at 28:1 and 20 A), the textbook design of a position
 /// servo for the inertia it moves. The files' `kd_hold` per N m was chosen for massless
@@ -1716,26 +1578,19 @@ pub(crate) fn scenario_of(
 /// `user` are the parameters as given, `robot` the leap's (its armature set); `geared`: the
 /// actuator is the geared motor (the saturated torque has no rotors to reflect: its
 /// armature is a number).
-fn servo_damping_expr(
-    user: &RhexParams,
-    robot: &RhexParams,
-    geared: bool,
-    b: &mut Behaviour,
-) -> Option<String> {
+fn servo_damping(user: &RhexParams, robot: &RhexParams, geared: bool) -> Option<(String, f64)> {
     let armature = robot.leg_armature_kg_m2.unwrap_or(0.0);
     if leg_inertia_about_hip(robot) + armature <= 0.0 {
         return None;
     }
-    let armature = if geared && armature_follows_gear(user) {
-        b.parameters.insert("leg_armature_kg_m2".into(), num(0.0));
-        "(leg.reflected_inertia_kg_m2 + leg_armature_kg_m2)"
+    let (armature, value) = if geared && armature_follows_gear(user) {
+        ("(leg.reflected_inertia_kg_m2 + leg_armature_kg_m2)", 0.0)
     } else {
-        b.parameters
-            .insert("leg_armature_kg_m2".into(), num(armature));
-        "leg_armature_kg_m2"
+        ("leg_armature_kg_m2", armature)
     };
-    Some(format!(
+    let kd = format!(
         "2 * sqrt(kp_hold * (leg_inertia_kg_m2 + {armature}) / leg.stall_torque_n_m) \
          * leg.stall_torque_n_m"
-    ))
+    );
+    Some((kd, value))
 }

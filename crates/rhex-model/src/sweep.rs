@@ -1,14 +1,8 @@
 //! Batched leaps (issue 5): many independent leaps — strategy × `t2` × gear ratio × any
 //! parameter by name — run on an explicit rayon pool, results in input order.
 //!
-//! **Determinism.** Every point is a pure function of `(base params, base config, point)`:
-//! no state is shared between points and the results are collected in input order, so a
-//! sweep is bit-identical for any thread count.
-//!
-//! **Failure isolation.** A point whose inputs are invalid, whose leap engine returns an
-//! error, or that panics becomes a row with a non-`ok` status and the error message; the
-//! other points are unaffected. Only a malformed sweep (an unknown parameter name, zero
-//! threads) is an error of the whole call.
+//! Determinism, failure isolation and the pool are the generic sweep's
+//! ([`selfmanip_sim::sweep`]).
 //!
 //! **Parameters by name.** An override names a field of [`RhexParams`] (`m_b`, `leg_shape`,
 //! `mu_rear`, …), of [`LeapConfig`] (`delta_t_s`, `swing_accel_rad_s2`, `toe_stub_rad`, …;
@@ -137,25 +131,33 @@ pub fn actuator_field_names() -> &'static [&'static str] {
     &ACTUATOR_FIELDS
 }
 
-/// Every name an override may use: the fields of [`RhexParams`], of [`LeapConfig`] (except
-/// `strategy`, `t2_s`, `actuator`) and of the geared motor — every field serde reads,
-/// including optional ones a default value leaves out of its serialization (`mu_body`,
-/// `leg_armature_kg_m2`).
+/// Every name an override may use, each once: the fields of [`RhexParams`] (but `pairs`,
+/// which names the leap's pushing pairs, [`LeapConfig::pairs`]: a leap's robot has exactly
+/// those), of [`LeapConfig`] (except `strategy`, `t2_s`, `actuator`) and of the geared motor —
+/// every field serde reads, including optional ones a default value leaves out of its
+/// serialization (`mu_body`, `leg_armature_kg_m2`) — grouped by what they set.
+fn override_groups() -> [Vec<&'static str>; 3] {
+    let fields = |names: &'static [&'static str], skip: &[&str]| {
+        names
+            .iter()
+            .copied()
+            .filter(|k| !skip.contains(k))
+            .collect()
+    };
+    [
+        fields(serde_field_names::<RhexParams>(), &[LEAP_PAIRS]),
+        fields(serde_field_names::<LeapConfig>(), &OWN_COLUMNS),
+        ACTUATOR_FIELDS.to_vec(),
+    ]
+}
+
+/// Every name an override may use, each once ([`override_groups`]).
 pub fn sweepable_names() -> Vec<String> {
-    let mut names: Vec<String> = Vec::new();
-    names.extend(
-        serde_field_names::<RhexParams>()
-            .iter()
-            .map(|s| s.to_string()),
-    );
-    names.extend(
-        serde_field_names::<LeapConfig>()
-            .iter()
-            .filter(|k| !OWN_COLUMNS.contains(k))
-            .map(|s| s.to_string()),
-    );
-    names.extend(ACTUATOR_FIELDS.iter().map(|s| s.to_string()));
-    names
+    override_groups()
+        .concat()
+        .into_iter()
+        .map(String::from)
+        .collect()
 }
 
 /// Checks that every name is sweepable; the error names the first unknown one.
@@ -176,29 +178,14 @@ pub fn point_inputs(
     base_cfg: &LeapConfig,
     point: &LeapPoint,
 ) -> Result<(RhexParams, LeapConfig), RhexError> {
-    // `pairs` is both the robot's leg pairs and the leap's pushing pairs; a leap's robot has
-    // exactly its pushing pairs, so the name sets those
-    let of_params: Vec<&str> = serde_field_names::<RhexParams>()
-        .iter()
-        .copied()
-        .filter(|k| *k != LEAP_PAIRS)
-        .collect();
-    let of_cfg: Vec<&str> = serde_field_names::<LeapConfig>()
-        .iter()
-        .copied()
-        .filter(|k| !OWN_COLUMNS.contains(k))
-        .collect();
-    let sorted = sort_by_record(&[&of_params, &of_cfg, &ACTUATOR_FIELDS], &point.overrides)
+    let [of_params, of_cfg, of_actuator] = override_groups();
+    let sorted = sort_by_record(&[&of_params, &of_cfg, &of_actuator], &point.overrides)
         .map_err(|n| check_override_names([n]).expect_err("an unknown name"))?;
     let unreadable = |(field, reason)| RhexError::Unreadable { field, reason };
     let params = record_with(base_params, &sorted[0]).map_err(unreadable)?;
     let mut cfg = record_with(base_cfg, &sorted[1]).map_err(unreadable)?;
     if !sorted[2].is_empty() {
-        let base_act = match &cfg.actuator {
-            a @ LegActuator::GearedMotor { .. } => a.clone(),
-            LegActuator::SaturatedTorque => LegActuator::default(),
-        };
-        cfg.actuator = record_with(&base_act, &sorted[2]).map_err(unreadable)?;
+        cfg.actuator = record_with(&cfg.actuator.geared(), &sorted[2]).map_err(unreadable)?;
     }
     cfg.strategy = point.strategy;
     cfg.t2_s = point.t2_s;
@@ -208,57 +195,31 @@ pub fn point_inputs(
     // the parameters reported with a leap describe its robot: the two pushing pairs
     let mut params = params;
     params.pairs = cfg.pairs.unwrap_or(cfg.strategy.chapter3_pairs()).to_vec();
-    validate_inputs(&params, &cfg)?;
+    // the checks the leap makes, before the point runs (the parameters first)
+    params.validate()?;
+    cfg.validate()?;
     Ok((params, cfg))
 }
 
-/// The checks a sweep makes before running a point (the leap makes its own too).
-fn validate_inputs(params: &RhexParams, cfg: &LeapConfig) -> Result<(), RhexError> {
-    params.validate()?;
-    cfg.terrain.validate()?;
-    if !cfg.t2_s.is_finite() {
-        return Err(RhexError::InvalidValue {
-            field: "t2_s".into(),
-            reason: format!("must be finite, got {}", cfg.t2_s),
-        });
-    }
-    cfg.actuator.validate()
-}
-
-/// The status string of an error (see [`SweepRow::status`]).
+/// The status string of an error (see [`SweepRow::status`]): `invalid_params` for an error
+/// of the inputs, `invalid_mode` for a bad mode label, `overflow` for a result that
+/// overflows, `off_manifold` for the engine's, else the engine's kind ([`selfmanip_sim::SimError::kind`]).
 pub fn error_kind(e: &RhexError) -> &'static str {
-    use selfmanip_hybrid::HybridError as H;
-    match e {
-        RhexError::InvalidValue { .. }
-        | RhexError::UnknownParameter { .. }
-        | RhexError::Unreadable { .. }
-        | RhexError::Unsupported { .. }
-        | RhexError::StartOverflow { .. } => "invalid_params",
-        RhexError::ModeLabel { .. } => "invalid_mode",
-        RhexError::Sim(s) if s.is_input_error() => "invalid_params",
-        RhexError::Sim(s) => s.kind(),
-        RhexError::Core(c) => core_kind(c),
-        RhexError::Hybrid(h) => match h {
-            H::Core(c) => core_kind(c),
-            H::OffManifold { .. } => "off_manifold",
-            H::InvalidOption { .. } => "invalid_params",
-            H::TooManyContacts { .. } => "too_many_contacts",
-            H::ContactQp(_) => "contact_qp",
-            #[allow(unreachable_patterns)]
-            _ => "engine_error",
-        },
-    }
-}
-
-fn core_kind(c: &selfmanip_core::CoreError) -> &'static str {
     use selfmanip_core::CoreError as C;
-    match c {
-        C::SingularKkt { .. } => "singular_kkt",
-        C::NonFinite { .. } => "non_finite",
-        C::NonFiniteResult { .. } => "overflow",
-        C::IllPosedQuasiStatic { .. } => "ill_posed",
-        C::InvalidDescription { .. } | C::InvalidParameterization { .. } => "invalid_params",
-        _ => "engine_error",
+    use selfmanip_hybrid::HybridError as H;
+    let sim = match e {
+        RhexError::ModeLabel { .. } => return "invalid_mode",
+        RhexError::Core(C::NonFiniteResult { .. })
+        | RhexError::Hybrid(H::Core(C::NonFiniteResult { .. })) => return "overflow",
+        RhexError::Hybrid(H::OffManifold { .. }) => return "off_manifold",
+        RhexError::Core(c) => selfmanip_sim::SimError::Core(c.clone()),
+        RhexError::Hybrid(h) => selfmanip_sim::SimError::Hybrid(h.clone()),
+        RhexError::Sim(s) => s.clone(),
+        _ => return "invalid_params",
+    };
+    match sim.kind() {
+        _ if sim.is_input_error() => "invalid_params",
+        kind => kind,
     }
 }
 

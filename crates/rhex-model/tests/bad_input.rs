@@ -102,7 +102,7 @@ fn t_final_of_1e6_without_stopping_at_apex_ends_at_its_step_budget() {
     let Termination::StepBudget { t, .. } = r.execution.termination else {
         unreachable!()
     };
-    let why = r.reason(&leap_params(), &cfg);
+    let why = r.reason();
     assert!(
         why.contains("step budget (max_steps: 100 accepted steps)"),
         "{why}"

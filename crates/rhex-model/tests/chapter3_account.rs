@@ -349,7 +349,7 @@ fn touchdown_timed_t2_lands_the_rear_leg_t2_after_the_front() {
         .unwrap();
         let td = r.touchdown_t2_s.expect("both legs land");
         assert!(
-            (td - t2).abs() < rhex_model::leap::TOUCHDOWN_SEARCH_TOL_S * 10.0,
+            (td - t2).abs() < selfmanip_sim::staggered::TOUCHDOWN_SEARCH_TOL_S * 10.0,
             "t2 = {t2}: touchdown offset {td} (motor {})",
             r.motor_t2_s
         );

@@ -53,14 +53,13 @@ fn energy_balances_and_impacts_never_add_energy() {
                 assert!((e.kinetic_after - e.kinetic_before).abs() < 1e-9, "{e:?}");
             }
         }
-        let rep = r.energy_report(&p, &cfg).unwrap();
+        let rep = r.energy_report().unwrap();
         // the sliding toes' kinetic friction only dissipates
-        let w_fr = r.friction_work_j(&p, &cfg).unwrap();
+        let w_fr = rep.friction_work_j;
         assert!(w_fr <= 1e-9, "friction work {w_fr}");
         dissipated -= w_fr;
         let scale = rep.joint_work_j.abs() + rep.final_j.abs() + 1.0;
         // the engine's balance counts it: E₁ − E₀ = W + W_fr − L
-        assert_eq!(w_fr, rep.friction_work_j);
         let residual = rep.residual_j();
         assert!(
             residual.abs() < 1e-6 * scale,
@@ -124,7 +123,7 @@ fn events_sit_on_their_guards() {
                 // sample 0.1 ms before the slip, so only when that sample lies in the
                 // sticking segment that led to it
                 EventKind::Slip if seg.t1 - seg.t0 > 2e-4 => {
-                    check_on_cone(model, &cfg, &e.triggered, &r, e.t);
+                    check_on_cone(model, &e.triggered, &r, e.t);
                 }
                 _ => {}
             }
@@ -136,14 +135,12 @@ fn events_sit_on_their_guards() {
 /// replays the controller) and checks the cone margin there.
 fn check_on_cone(
     model: &selfmanip_core::Model,
-    cfg: &LeapConfig,
     contacts: &[usize],
     r: &rhex_model::leap::LeapResult,
     t_event: f64,
 ) {
-    let p = leap_params();
     // a sample just before the event, in the sticking mode
-    let traj = r.trajectory(&p, cfg, 1e-4).unwrap();
+    let traj = r.trajectory(1e-4).unwrap();
     let i = traj
         .t_s
         .iter()
@@ -658,7 +655,7 @@ fn assert_vertical_leap_on_sliding_toes(p: &RhexParams, cfg: &LeapConfig) -> f64
         "pitch {}",
         apex.phi_rad
     );
-    let traj = r.trajectory(p, cfg, 1e-3).unwrap();
+    let traj = r.trajectory(1e-3).unwrap();
     let mut sliding = 0;
     for (k, mode) in traj.mode.iter().enumerate() {
         for (c, ch) in mode.chars().enumerate() {
@@ -687,8 +684,8 @@ fn assert_vertical_leap_on_sliding_toes(p: &RhexParams, cfg: &LeapConfig) -> f64
         }
     }
     assert!(sliding > 10, "{}", r.word_string());
-    let rep = r.energy_report(p, cfg).unwrap();
-    let w_fr = r.friction_work_j(p, cfg).unwrap();
+    let rep = r.energy_report().unwrap();
+    let w_fr = rep.friction_work_j;
     match p.toe_sliding {
         ToeSliding::Coulomb => assert!(w_fr < 0.0),
         ToeSliding::Frictionless => assert_eq!(w_fr, 0.0),

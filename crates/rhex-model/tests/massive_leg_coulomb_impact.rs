@@ -102,7 +102,7 @@ fn check(strategy: &str, t2_s: f64, actuator: LegActuator) {
             }
         }
     }
-    let rep = r.energy_report(&p, &cfg).unwrap();
+    let rep = r.energy_report().unwrap();
     let scale = rep.joint_work_j.abs() + rep.final_j.abs() + 1.0;
     assert!(rep.residual_j().abs() < 1e-6 * scale, "{ctx}: {rep:?}");
     assert!(rep.impact_loss_j >= -1e-9, "{ctx}: {rep:?}");

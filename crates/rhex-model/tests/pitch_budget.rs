@@ -27,7 +27,7 @@ fn leap(strategy: &str, t2_s: f64) -> (LeapConfig, LeapResult, Trajectory) {
         ..LeapConfig::default()
     };
     let r = simulate_leap(&leap_params(), &cfg).unwrap();
-    let tr = r.trajectory(&leap_params(), &cfg, DT).unwrap();
+    let tr = r.trajectory(DT).unwrap();
     (cfg, r, tr)
 }
 
@@ -108,7 +108,7 @@ fn a_massless_legs_moment_about_its_hip_is_its_motor_torque() {
                 })
             })
             .sum();
-        let rep = r.energy_report(&params, &cfg).unwrap();
+        let rep = r.energy_report().unwrap();
         assert!(
             (work - rep.joint_work_j).abs() <= 0.01 * rep.joint_work_j.abs(),
             "{s} t2 {t2}: ∫ΣM_hip θ̇ dt = {work} J, joint work {} J",

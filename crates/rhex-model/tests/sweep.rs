@@ -168,6 +168,16 @@ fn overrides_reach_params_config_and_actuator_by_name() {
     assert_eq!(cc.actuator, LegActuator::SaturatedTorque);
 }
 
+/// Each name is listed once: `pairs`, a field of both the parameters and the configuration,
+/// is one override (the leap's pushing pairs). Second route: the names as a set.
+#[test]
+fn sweepable_names_are_listed_once() {
+    let names = sweepable_names();
+    let set: std::collections::BTreeSet<&String> = names.iter().collect();
+    assert_eq!(set.len(), names.len(), "{names:?}");
+    assert!(names.iter().any(|n| n == "pairs"));
+}
+
 /// Every field the parameters and the configuration read is an override by name — also
 /// the optional ones that a default value leaves out of its serialization. Second route:
 /// the keys of a serialization with every such option set.

@@ -36,6 +36,7 @@ pub mod periodic;
 pub mod scenario;
 pub mod sensitivity;
 pub mod sensitivity_preset;
+pub mod staggered;
 pub mod sweep;
 pub mod terrain;
 pub mod trajectory;

@@ -166,7 +166,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
     }
     let dt = 2e-5;
-    let tr = r.trajectory(&params, &cfg, dt)?;
+    let tr = r.trajectory(dt)?;
     let n = tr.t_s.len();
     let nq = tr.q[0].len();
     let (ix, iz, ip) = (nq - 3, nq - 2, nq - 1);

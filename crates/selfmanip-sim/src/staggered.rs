@@ -1,0 +1,135 @@
+//! A scenario with two drives started a lag apart, compiled once and run at many points: its
+//! simulation is rebound per point (behaviour parameter values and the lag) on a clock that
+//! starts with the earlier drive, its runs are read in the first drive's frame, and a search
+//! finds the lag at which the two drives' legs touch down a given time apart. What a preset of
+//! two staggered drives keeps per set of fixed inputs ([`crate::sweep::BuildCache`]).
+use crate::analysis::roots::secant_search;
+use crate::outcome::{first_touchdown_s, PresetFrame};
+use crate::{Run, SimError, Simulation};
+use selfmanip_hybrid::Execution;
+use std::sync::atomic::AtomicBool;
+
+/// Runs at most in a touchdown-timed search ([`search_touchdown_lag`]).
+pub const TOUCHDOWN_SEARCH_RUNS: usize = 12;
+/// Agreement of the touchdown lag with its target at which that search stops (s).
+pub const TOUCHDOWN_SEARCH_TOL_S: f64 = 1e-7;
+
+/// A compiled scenario whose second drive starts `lag` seconds after the first (the behaviour
+/// parameter `lag_parameter`; negative: the second starts first): its simulation as built at
+/// the lag `built_lag_s`, on a clock that starts `min(0, lag)` before the first drive.
+#[derive(Clone)]
+pub struct StaggeredScenario {
+    pub sim: Simulation,
+    pub lag_parameter: &'static str,
+    pub built_lag_s: f64,
+    /// Final time on the first drive's clock (s).
+    pub t_final_s: f64,
+}
+
+impl StaggeredScenario {
+    /// The simulation at lag `lag_s` with the behaviour parameters `values` bound too
+    /// ([`Simulation::rebind`]: what a fresh build of that point runs, bit for bit), and the
+    /// first drive's start on its clock (`−min(0, lag)`).
+    pub fn simulation(
+        &self,
+        values: &[(&str, f64)],
+        lag_s: f64,
+    ) -> Result<(Simulation, f64), SimError> {
+        let offset = lag_s.min(0.0);
+        let mut sim = self.sim.clone();
+        // the build's own point is its simulation as built
+        if !values.is_empty() || lag_s.to_bits() != self.built_lag_s.to_bits() {
+            let mut bound = values.to_vec();
+            bound.push((self.lag_parameter, lag_s));
+            sim.rebind(&bound, self.t_final_s - offset)?;
+        }
+        Ok((sim, -offset))
+    }
+
+    /// Runs [`Self::simulation`]: the run, and the first drive's start on its clock.
+    pub fn run(
+        &self,
+        values: &[(&str, f64)],
+        lag_s: f64,
+        stop: &AtomicBool,
+    ) -> Result<(Run, f64), SimError> {
+        let (sim, first_start) = self.simulation(values, lag_s)?;
+        Ok((sim.run_with(stop)?, first_start))
+    }
+}
+
+/// The frame of a run whose first drive starts at `first_start_s` on the execution clock and
+/// second `lag_s` later: its clock from the first drive's start, flights counted from the
+/// earlier start, `x` from `x0_m`.
+pub fn staggered_frame(
+    first_start_s: f64,
+    lag_s: f64,
+    x0_m: f64,
+    stop_at_apex: bool,
+) -> PresetFrame {
+    PresetFrame {
+        t0_s: first_start_s,
+        drive_start_s: first_start_s.min(first_start_s + lag_s),
+        x0_m,
+        stop_at_apex,
+    }
+}
+
+/// The touchdown lag of such a run: the first touchdown of `contacts[1]` after the second
+/// drive's start minus that of `contacts[0]` after the first's (`None` if either never touches
+/// down).
+pub fn touchdown_lag_s(
+    exec: &Execution,
+    contacts: [usize; 2],
+    first_start_s: f64,
+    lag_s: f64,
+) -> Option<f64> {
+    let first = first_touchdown_s(exec, contacts[0], first_start_s);
+    let second = first_touchdown_s(exec, contacts[1], first_start_s + lag_s);
+    first.zip(second).map(|(a, b)| b - a)
+}
+
+/// The run at the drive lag `s` whose touchdown lag `T(s)` is `target_s`: a secant search
+/// (at most [`TOUCHDOWN_SEARCH_RUNS`] runs, to [`TOUCHDOWN_SEARCH_TOL_S`], `|s| < limit_s`) on
+/// `run(s) = (result, T(s))`, started at `target_s` (`T(s) = s` while the body rests between
+/// the two touchdowns, so it usually ends after one or two more runs); the run it returns is
+/// the one [`secant_search`] keeps.
+pub fn search_touchdown_lag<R, E>(
+    target_s: f64,
+    limit_s: f64,
+    mut run: impl FnMut(f64) -> Result<(R, Option<f64>), E>,
+) -> Result<R, E> {
+    let (runs, tol) = (TOUCHDOWN_SEARCH_RUNS, TOUCHDOWN_SEARCH_TOL_S);
+    secant_search(target_s, runs, tol, limit_s, |s| {
+        let (r, lag) = run(s)?;
+        Ok((r, lag.map(|t| t - target_s)))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The search ends at the lag whose touchdown lag is the target. Second route: the root
+    /// of `T(s) = s + 2 s²` in closed form, `s = (√(1 + 8 t) − 1) / 4`.
+    #[test]
+    fn search_finds_the_lag_of_a_touchdown_lag() {
+        let target = 0.05;
+        let found =
+            search_touchdown_lag(target, 1.0, |s| Ok::<_, ()>((s, Some(s + 2.0 * s * s)))).unwrap();
+        let exact = ((1.0 + 8.0 * target).sqrt() - 1.0) / 4.0;
+        assert!(
+            (found - exact).abs() < TOUCHDOWN_SEARCH_TOL_S,
+            "{found} vs {exact}"
+        );
+    }
+
+    /// The frame's clock starts with the first drive and its flights with the earlier one.
+    #[test]
+    fn frame_counts_flights_from_the_earlier_drive() {
+        let f = staggered_frame(0.1, -0.1, 0.5, true);
+        assert_eq!((f.t0_s, f.drive_start_s, f.x0_m), (0.1, 0.0, 0.5));
+        let f = staggered_frame(0.0, 0.1, 0.5, false);
+        assert_eq!((f.t0_s, f.drive_start_s), (0.0, 0.0));
+    }
+}
