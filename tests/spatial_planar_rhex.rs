@@ -158,13 +158,7 @@ fn six_legs_in_pairs_are_the_planar_model() {
         let (mut compared, mut rolling, mut toes, mut free_legs) = (0, 0, 0, 0);
         let mut kappa_max = 0.0f64;
         for _ in 0..6 {
-            let mut q = [0.0; 6];
-            for t in q.iter_mut().take(3) {
-                *t = rng.gen_range(-1.3..1.3);
-            }
-            q[3] = rng.gen_range(-1.0..1.0);
-            q[4] = rng.gen_range(-0.4..-0.1);
-            q[5] = rng.gen_range(-0.3..0.3);
+            let q = random_planar_pose(&mut rng);
             let qd: Vec<f64> = (0..6).map(|_| rng.gen_range(-2.0..2.0)).collect();
             let tau: Vec<f64> = (0..3).map(|_| rng.gen_range(-5.0..5.0)).collect();
             let (qs, vs) = rhex::from_planar(&q, &qd).unwrap();
@@ -326,13 +320,7 @@ fn coulomb_impact_of_the_pairs_is_the_planar_one() {
     let mut rng = ChaCha8Rng::seed_from_u64(41);
     let (mut worst, mut matched, mut slips, mut symmetric) = (0.0f64, 0, 0, 0);
     for _ in 0..6 {
-        let mut q = [0.0; 6];
-        for t in q.iter_mut().take(3) {
-            *t = rng.gen_range(-1.3..1.3);
-        }
-        q[3] = rng.gen_range(-1.0..1.0);
-        q[4] = rng.gen_range(-0.4..-0.1);
-        q[5] = rng.gen_range(-0.3..0.3);
+        let q = random_planar_pose(&mut rng);
         let mut qd: Vec<f64> = (0..6).map(|_| rng.gen_range(-1.0..1.0)).collect();
         qd[4] += 1.5;
         let (qs, vs) = rhex::from_planar(&q, &qd).unwrap();
@@ -456,4 +444,17 @@ fn coulomb_impact_of_the_pairs_is_the_planar_one() {
         "{matched} {slips} {symmetric}"
     );
     assert!(worst < 1e-12, "{worst}");
+}
+
+/// A random planar RHex pose `q = [θ₁, θ₂, θ₃, x, z, φ]`: leg angles in ±1.3 rad, x in ±1 m,
+/// z in −0.4 … −0.1 m, φ in ±0.3 rad (the states both tests compare the routes at).
+fn random_planar_pose(rng: &mut ChaCha8Rng) -> [f64; 6] {
+    let mut q = [0.0; 6];
+    for t in q.iter_mut().take(3) {
+        *t = rng.gen_range(-1.3..1.3);
+    }
+    q[3] = rng.gen_range(-1.0..1.0);
+    q[4] = rng.gen_range(-0.4..-0.1);
+    q[5] = rng.gen_range(-0.3..0.3);
+    q
 }

@@ -15,6 +15,22 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from selfmanip.calibrate import DEFAULT_CHANNEL_SCALES
+
+#: The apex channels a synthetic leap table measures.
+MEASURED = ("apex_x_m", "apex_z_m", "apex_phi_rad", "apex_xdot_m_s", "apex_phidot_rad_s")
+
+
+def noisy(table: dict[str, np.ndarray], seed: int) -> dict[str, np.ndarray]:
+    """``table`` with motion-capture-sized noise on the :data:`MEASURED` channels: the default
+    channel scales as standard deviations, drawn from ``seed``."""
+    rng = np.random.default_rng(seed)
+    out = dict(table)
+    for c in MEASURED:
+        out[c] = table[c] + rng.normal(0.0, DEFAULT_CHANNEL_SCALES[c], len(table[c]))
+    return out
+
+
 #: Noise draws (seeds 0 … DRAWS − 1) of a coverage test.
 DRAWS = 100
 

@@ -12,12 +12,11 @@ import numpy as np
 import pytest
 
 import selfmanip
-from calibration_coverage import ACCEPTED_MISSES, DRAWS, assert_nominal_coverage
-from selfmanip.calibrate import DEFAULT_CHANNEL_SCALES, LeapModel, calibrate
+from calibration_coverage import ACCEPTED_MISSES, DRAWS, MEASURED, assert_nominal_coverage, noisy
+from selfmanip.calibrate import LeapModel, calibrate
 
 ETA = 0.7
 OFFSETS = {"apex_z_m": 0.03, "apex_x_m": -0.02}
-MEASURED = ("apex_x_m", "apex_z_m", "apex_phi_rad", "apex_xdot_m_s", "apex_phidot_rad_s")
 TRUTH = {"gearbox_efficiency": ETA, **{f"offset:{c}": v for c, v in OFFSETS.items()}}
 FIT = {"gearbox_efficiency": (0.4, 1.0), "offset:apex_z_m": (-0.1, 0.1), "offset:apex_x_m": (-0.1, 0.1)}
 
@@ -32,13 +31,6 @@ def clean():
         out[c] = np.asarray(t[c]) + OFFSETS.get(c, 0.0)
     return out
 
-
-def noisy(table, seed):
-    rng = np.random.default_rng(seed)
-    out = dict(table)
-    for c in MEASURED:
-        out[c] = table[c] + rng.normal(0.0, DEFAULT_CHANNEL_SCALES[c], len(table[c]))
-    return out
 
 
 def test_the_efficiency_has_an_exact_derivative_and_a_default():

@@ -10,11 +10,10 @@ import numpy as np
 import pytest
 
 import selfmanip
-from calibration_coverage import DRAWS, assert_nominal_coverage
-from selfmanip.calibrate import DEFAULT_CHANNEL_SCALES, LeapModel, calibrate
+from calibration_coverage import DRAWS, MEASURED, assert_nominal_coverage, noisy
+from selfmanip.calibrate import LeapModel, calibrate
 
 MU = 2.0
-MEASURED = ("apex_x_m", "apex_z_m", "apex_phi_rad", "apex_xdot_m_s", "apex_phidot_rad_s")
 TRUTH = {"mu_rear": MU}
 FIT = {"mu_rear": (1.0, 4.0)}
 T2 = [0.03, 0.05, 0.08, 0.1]
@@ -29,13 +28,6 @@ def clean():
         out[c] = np.asarray(t[c])
     return out
 
-
-def noisy(table, seed):
-    rng = np.random.default_rng(seed)
-    out = dict(table)
-    for c in MEASURED:
-        out[c] = table[c] + rng.normal(0.0, DEFAULT_CHANNEL_SCALES[c], len(table[c]))
-    return out
 
 
 def test_mu_rear_has_an_exact_derivative():

@@ -12,7 +12,7 @@ use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::sensitivity::scenario_parameter_sensitivity;
 use selfmanip_sim::{Scenario, Simulation};
 mod common;
-use common::{data, fd, hopper, path_column_error};
+use common::{data, hopper, path_column_error};
 
 /// `hop.toml` with the push by `knee` (x-rhex behind its 28:1 gearbox, on a battery of
 /// `r_b` Ω, efficiency `eta`, command `u_push`) and the swings' acceleration the motor's
@@ -62,19 +62,9 @@ fn end(s: &Scenario) -> (Vec<f64>, Vec<EventKind>) {
     )
 }
 
-/// Richardson-extrapolated central differences in `path` at `p` (steps `h`, `h/2`), every
-/// run checked to meet the events `kinds` (`fd::runs_either_side`).
+/// Richardson-extrapolated central differences in `path` at `p` (steps `h`, `h/2`).
 fn central(s: &Scenario, path: &str, p: f64, h: f64, kinds: &[EventKind]) -> Vec<f64> {
-    let run = |x: &[f64]| {
-        let mut t = s.clone();
-        t.set(path, x[0]).unwrap();
-        end(&t)
-    };
-    let d = |h: f64| {
-        let (a, b) = fd::runs_either_side(&run, &[p], 0, kinds, h);
-        fd::central_difference(&a, &b, h)
-    };
-    fd::richardson(d, h)
+    common::central_in_path(s, (path, p, h), kinds, end)
 }
 
 #[test]

@@ -15,19 +15,9 @@ fn end(s: &Scenario) -> (Vec<f64>, Vec<EventKind>) {
     fd::end_state_and_events(&run.execution)
 }
 
-/// Richardson-extrapolated central differences in `path` at `p` (steps `h`, `h/2`), every
-/// run checked to meet the events `kinds`.
+/// Richardson-extrapolated central differences in `path` at `p` (steps `h`, `h/2`).
 fn central(s: &Scenario, path: &str, p: f64, h: f64, kinds: &[EventKind]) -> Vec<f64> {
-    let run = |x: &[f64]| {
-        let mut t = s.clone();
-        t.set(path, x[0]).unwrap();
-        end(&t)
-    };
-    let d = |h: f64| {
-        let (a, b) = fd::runs_either_side(&run, &[p], 0, kinds, h);
-        fd::central_difference(&a, &b, h)
-    };
-    fd::richardson(d, h)
+    common::central_in_path(s, (path, p, h), kinds, end)
 }
 
 /// The bounder moving forward at 1 m/s, pitched 0.1 rad, feet of `mu = 0.4`: its hind

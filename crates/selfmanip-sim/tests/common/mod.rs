@@ -125,3 +125,24 @@ pub fn multiplier_error<'a>(
         })
         .fold(0.0, f64::max)
 }
+
+/// Richardson-extrapolated central differences of `end` (a run's end state and event times,
+/// and its event kinds) in the scenario field `path` at `p` (steps `h`, `h/2`), every run
+/// checked to meet the events `kinds` (`fd::runs_either_side`).
+pub fn central_in_path(
+    s: &Scenario,
+    (path, p, h): (&str, f64, f64),
+    kinds: &[EventKind],
+    end: impl Fn(&Scenario) -> (Vec<f64>, Vec<EventKind>),
+) -> Vec<f64> {
+    let run = |x: &[f64]| {
+        let mut t = s.clone();
+        t.set(path, x[0]).unwrap();
+        end(&t)
+    };
+    let d = |h: f64| {
+        let (a, b) = fd::runs_either_side(&run, &[p], 0, kinds, h);
+        fd::central_difference(&a, &b, h)
+    };
+    fd::richardson(d, h)
+}
