@@ -230,7 +230,10 @@ fn a_mode_sequence_change_is_flagged() {
     let at = leap_with_sensitivity(&params, &LeapConfig::default(), &["t2", "gear_ratio"]).unwrap();
     assert!(!at.ok);
     assert!(
-        at.reason.as_deref().unwrap().contains("OneSided { guards: [0, 1] }"),
+        at.reason
+            .as_deref()
+            .unwrap()
+            .contains("OneSided { guards: [0, 1] }"),
         "{:?}",
         at.reason
     );

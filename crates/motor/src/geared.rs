@@ -126,8 +126,14 @@ mod tests {
     #[test]
     fn reflected_inertia_and_speed_scale_with_the_ratio() {
         let c = Catalog::thesis();
-        let (a, b) = (x_rhex(14.0).build(&c).unwrap(), x_rhex(28.0).build(&c).unwrap());
-        let (ia, ib) = (a.reflected_inertia_kg_m2().unwrap(), b.reflected_inertia_kg_m2().unwrap());
+        let (a, b) = (
+            x_rhex(14.0).build(&c).unwrap(),
+            x_rhex(28.0).build(&c).unwrap(),
+        );
+        let (ia, ib) = (
+            a.reflected_inertia_kg_m2().unwrap(),
+            b.reflected_inertia_kg_m2().unwrap(),
+        );
         assert!((ib / ia - 4.0).abs() < 1e-12);
         assert!((a.no_load_speed_rad_s() / b.no_load_speed_rad_s() - 2.0).abs() < 1e-12);
         // the stall torque is the count times one drive's, G η min(τ_stall, k_M I_max): the
@@ -144,8 +150,17 @@ mod tests {
             other => panic!("{other:?}"),
         };
         assert_eq!(field(x_rhex(0.0)), "gear_ratio");
-        assert_eq!(field(GearedDriveSpec { count: 0.5, ..x_rhex(28.0) }), "count");
-        let eta = GearedDriveSpec { gearbox_efficiency: Some(1.5), ..x_rhex(28.0) };
+        assert_eq!(
+            field(GearedDriveSpec {
+                count: 0.5,
+                ..x_rhex(28.0)
+            }),
+            "count"
+        );
+        let eta = GearedDriveSpec {
+            gearbox_efficiency: Some(1.5),
+            ..x_rhex(28.0)
+        };
         assert_eq!(field(eta), "gearbox_efficiency");
         assert!(x_rhex(28.0).validate().is_ok());
     }

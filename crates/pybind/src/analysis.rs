@@ -194,7 +194,8 @@ fn analysis_takeoff_speed<'py>(
         let line = pc::xrhex_line(gear_ratio).map_err(err)?;
         to_py(
             py,
-            &pc::rear_takeoff_speed(&model, theta2, phi, phi_dot, &line).map_err(|e| err(e.into()))?,
+            &pc::rear_takeoff_speed(&model, theta2, phi, phi_dot, &line)
+                .map_err(|e| err(e.into()))?,
         )
     })
 }

@@ -329,10 +329,7 @@ fn sweep_row_of(outcome: PointOutcome) -> (SweepRow, Option<(bool, Vec<f64>)>) {
             ),
             None,
         ),
-        Ok(Err(e)) => (
-            SweepRow::failed(error_kind(&e), error_message(&e), 1),
-            None,
-        ),
+        Ok(Err(e)) => (SweepRow::failed(error_kind(&e), error_message(&e), 1), None),
         Ok(Ok((r, why, g, sens))) => (r.row(why, g), sens),
     }
 }

@@ -190,7 +190,11 @@ impl Robot {
                 .into_iter()
                 .chain(kin.origin.iter().flat_map(|v| [v.x, v.y]))
                 .chain(kin.beta.iter().copied());
-            let field = if poses.into_iter().all(f64::is_finite) { "qd" } else { "q" };
+            let field = if poses.into_iter().all(f64::is_finite) {
+                "qd"
+            } else {
+                "q"
+            };
             return Err(invalid(
                 field,
                 format!("`{field}`: too large: the parts' poses and velocities overflow at it"),

@@ -308,9 +308,7 @@ impl LegActuator {
 fn drive_error(e: motor::MotorError) -> RhexError {
     let field = match e {
         motor::MotorError::InvalidParameter { field: "count", .. } => "motors_per_leg",
-        motor::MotorError::InvalidParameter { field, .. } if DRIVE_FIELDS.contains(&field) => {
-            field
-        }
+        motor::MotorError::InvalidParameter { field, .. } if DRIVE_FIELDS.contains(&field) => field,
         _ => "actuator",
     };
     RhexError::InvalidValue {
@@ -735,9 +733,7 @@ fn overflowing_parameter(params: &RhexParams) -> &'static str {
 pub fn leg_swing(params: &RhexParams, cfg: &LeapConfig) -> Result<(f64, f64), RhexError> {
     let (drive, stall_n_m, reflected) = leg_motor(params, cfg)?;
     let leg = leg_inertia_about_hip(params);
-    let speed = cfg
-        .swing_speed_rad_s
-        .unwrap_or(drive.no_load_speed_rad_s());
+    let speed = cfg.swing_speed_rad_s.unwrap_or(drive.no_load_speed_rad_s());
     let accel = cfg
         .swing_accel_rad_s2
         .unwrap_or(stall_n_m / (reflected + leg));

@@ -3,8 +3,8 @@
 use rhex_model::leap::{leap_params, LeapConfig, LegActuator, Push, Strategy};
 use rhex_model::mcap_log::{write_leap_mcap, write_leap_mcap_to, LeapLog};
 use rhex_model::sweep::{
-    check_override_names, grid, point_inputs, run_row, sweep, sweepable_names, LeapPoint, LeapSweep,
-    SweepRow,
+    check_override_names, grid, point_inputs, run_row, sweep, sweepable_names, LeapPoint,
+    LeapSweep, SweepRow,
 };
 use selfmanip_hybrid::budget::NEVER;
 use selfmanip_sim::Trajectory;
@@ -295,7 +295,12 @@ fn synthetic() -> (Trajectory, Vec<selfmanip_sim::EventRecord>) {
         contacts: vec!["middle_leg".into()],
         energy_loss_j: 0.25,
         impulse_n_s: vec![None, None, Some([0.1, -0.4]), None],
-        force_n: vec![Some([0.0, -3.0]), None, Some([0.5, -6.0]), Some([0.0, -1.0])],
+        force_n: vec![
+            Some([0.0, -3.0]),
+            None,
+            Some([0.5, -6.0]),
+            Some([0.0, -1.0]),
+        ],
     }];
     (tr, ev)
 }

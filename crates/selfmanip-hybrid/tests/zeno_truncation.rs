@@ -102,7 +102,11 @@ fn a_truncation_that_recurs_without_a_quiet_window_dwells_twice_as_long() {
     let t2 = start + n as f64 * slow;
     assert!(zeno.record(t2, &[0]).is_some());
     assert!(t2 - t_end > w);
-    assert_eq!(zeno.dwell_s(w), 2.0 * w, "no quiet window since the dwell's end");
+    assert_eq!(
+        zeno.dwell_s(w),
+        2.0 * w,
+        "no quiet window since the dwell's end"
+    );
     zeno.truncated(t2, 2.0 * w);
     // a transition a quiet window after the dwell's end: the next dwell is one window
     assert!(zeno.record(t2 + 2.0 * w + 1.01 * w, &[0]).is_none());

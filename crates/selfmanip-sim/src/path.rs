@@ -368,8 +368,16 @@ mod tests {
         .collect();
         let gains = serde_field_names::<Gains>();
         let sorted = sort_by_record(&[&["label"], gains, &["speed"]], &ov).unwrap();
-        let names = |i: usize| sorted[i].iter().map(|(k, _)| k.as_str()).collect::<Vec<_>>();
-        assert_eq!((names(0), names(1), names(2)), (vec!["label"], vec!["k_d"], vec!["speed"]));
+        let names = |i: usize| {
+            sorted[i]
+                .iter()
+                .map(|(k, _)| k.as_str())
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(
+            (names(0), names(1), names(2)),
+            (vec!["label"], vec!["k_d"], vec!["speed"])
+        );
         assert_eq!(sort_by_record(&[gains], &ov).unwrap_err(), "speed");
         let base = Gains {
             k_p: 1.0,

@@ -486,7 +486,13 @@ pub struct Run {
 impl Run {
     /// The events, named.
     pub fn events(&self) -> Vec<EventRecord> {
-        event_records(&self.model, &self.terrain, &self.execution, &self.labels, 0.0)
+        event_records(
+            &self.model,
+            &self.terrain,
+            &self.execution,
+            &self.labels,
+            0.0,
+        )
     }
 
     /// Samples every `dt_s` (see [`crate::trajectory`]).

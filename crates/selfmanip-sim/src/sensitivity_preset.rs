@@ -77,7 +77,11 @@ pub struct EndStateSensitivity {
 /// saltation ([`undefined_reason`]), the end event without a time gradient, or a derivative
 /// that is not finite.
 pub fn end_state_sensitivity(r: &EndStateRequest<'_>) -> EndStateSensitivity {
-    let (nd, np, rows) = (r.directions.ncols(), r.named.len(), BODY_STATE_ENTRIES.len());
+    let (nd, np, rows) = (
+        r.directions.ncols(),
+        r.named.len(),
+        BODY_STATE_ENTRIES.len(),
+    );
     let nan = |n: usize| vec![vec![f64::NAN; n]; rows];
     let mut out = EndStateSensitivity {
         d_state: nan(np),
@@ -114,7 +118,10 @@ pub fn end_state_sensitivity(r: &EndStateRequest<'_>) -> EndStateSensitivity {
         out.reason = Some(why);
         return out;
     }
-    let x = s.columns.as_ref().expect("defined where no reason is given");
+    let x = s
+        .columns
+        .as_ref()
+        .expect("defined where no reason is given");
     let Some(dt) = end_event_time_gradient(&s, r.exec, r.end.0) else {
         out.reason = Some(format!("the {} event has no time gradient", r.end.1));
         return out;

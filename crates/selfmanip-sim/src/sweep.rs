@@ -438,7 +438,13 @@ impl Preset for ScenarioPreset {
         let (exec, o) = (&run.execution, &run.outcome);
         let flew = frame.flew(exec, o.status);
         let apex = frame.apex(&run.model, exec);
-        Ok(SweepRow::of_run(o, flew, apex, o.reason.clone(), Vec::new()))
+        Ok(SweepRow::of_run(
+            o,
+            flew,
+            apex,
+            o.reason.clone(),
+            Vec::new(),
+        ))
     }
 
     fn error_kind(&self, e: &SimError) -> &'static str {

@@ -39,7 +39,11 @@ fn hind_foot_stance_and_its_takeoff_on_two_legs() {
     assert_eq!(v_best, speed(t_best));
     for i in 0..=60 {
         let t = range[0] + (range[1] - range[0]) * f64::from(i) / 60.0;
-        assert!(speed(t) <= v_best * (1.0 + 1e-9), "θ = {t}: {} > {v_best}", speed(t));
+        assert!(
+            speed(t) <= v_best * (1.0 + 1e-9),
+            "θ = {t}: {} > {v_best}",
+            speed(t)
+        );
     }
     // and the gear ratio's over its grid (the line's stall torque grows, its speed falls);
     // here the best is at the range's low end, which golden section approaches to ~1e-7
@@ -59,6 +63,9 @@ fn one_leg_pitch_acceleration_is_affine_in_the_torque() {
     let (a0, a1, a3) = (a(0.0), a(1.0), a(3.0));
     let slope = a1 - a0;
     assert!(slope.abs() > 1e-6);
-    assert!((a3 - (a0 + 3.0 * slope)).abs() < 1e-9 * (1.0 + a3.abs()), "{a0} {a1} {a3}");
+    assert!(
+        (a3 - (a0 + 3.0 * slope)).abs() < 1e-9 * (1.0 + a3.abs()),
+        "{a0} {a1} {a3}"
+    );
     assert!(single_leg_pitch_accel(&m, f64::NAN, 0.0, 0.0, 0.0, 0.0).is_err());
 }

@@ -5,10 +5,10 @@
 //! length against its closed form, and a preset's end-state derivatives
 //! (`sensitivity_preset`) on the hopper against central differences of whole runs.
 use selfmanip_core::{ContactMode, FlatGround, Model};
-use selfmanip_sim::analysis::roots::secant_search;
-use selfmanip_sim::analysis::{angle_to_ground, balance_pitch, contact_gaps, solve_contact_pose};
 use selfmanip_hybrid::sensitivity::Parameter;
 use selfmanip_hybrid::{EventKind, Termination};
+use selfmanip_sim::analysis::roots::secant_search;
+use selfmanip_sim::analysis::{angle_to_ground, balance_pitch, contact_gaps, solve_contact_pose};
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::expr::Scalar;
 use selfmanip_sim::outcome::BodyState;
@@ -85,7 +85,10 @@ fn secant_search_finds_a_closed_form_root() {
     let limited = secant_search(0.0, 12, 1e-12, 0.5, |s| Ok::<_, ()>((s, Some(d(s))))).unwrap();
     assert_eq!(limited, 0.0);
     // an error of a run is the search's
-    assert_eq!(secant_search::<f64, _>(0.0, 12, 1e-12, 1.0, |_| Err("bad")), Err("bad"));
+    assert_eq!(
+        secant_search::<f64, _>(0.0, 12, 1e-12, 1.0, |_| Err("bad")),
+        Err("bad")
+    );
 }
 
 /// One build per key (compared by value), shared after; a failed build is not kept.
@@ -106,7 +109,10 @@ fn build_cache_builds_once_per_key() {
     assert_eq!(builds.load(Ordering::Relaxed), 2);
     let failed = cache.get_or_build((2, "c".into()), || Err::<u64, _>("no".to_string()));
     assert_eq!(failed.unwrap_err(), "no");
-    assert_eq!(*cache.get_or_build((2, "c".into()), || build(30)).unwrap(), 30);
+    assert_eq!(
+        *cache.get_or_build((2, "c".into()), || build(30)).unwrap(),
+        30
+    );
 }
 
 /// The hopper of `hop.toml` from its drop to the apex after its hop.
@@ -167,7 +173,9 @@ fn end_state_derivatives_match_whole_runs_on_the_hopper() {
         let h = 1e-3 * p.abs().max(0.1);
         let cd = |h: f64| {
             let (a, m) = (apex_with(&b, name, p + h), apex_with(&b, name, p - h));
-            (0..7).map(|c| (a[c] - m[c]) / (2.0 * h)).collect::<Vec<_>>()
+            (0..7)
+                .map(|c| (a[c] - m[c]) / (2.0 * h))
+                .collect::<Vec<_>>()
         };
         let (d1, d2) = (cd(h), cd(0.5 * h));
         for c in 0..7 {

@@ -55,7 +55,10 @@ fn the_scenario_preset_rows_are_the_generic_sweeps_runs() {
     for (row, g) in rows.iter().zip(&generic) {
         let o = g.outcome().unwrap();
         assert_eq!(row.status, o.status.as_str());
-        assert_eq!((row.word.as_str(), row.n_events), (o.word_string().as_str(), o.n_events));
+        assert_eq!(
+            (row.word.as_str(), row.n_events),
+            (o.word_string().as_str(), o.n_events)
+        );
         let apex = o.apex.expect("the hopper flies");
         assert_eq!(row.apex, Some(apex.upward()));
         // hopping on to its final time after a flight
@@ -116,7 +119,13 @@ impl Preset for Drop {
         };
         let flew = frame.flew(&run.execution, run.outcome.status);
         let apex = frame.apex(&run.model, &run.execution);
-        Ok(SweepRow::of_run(&run.outcome, flew, apex, String::new(), vec![*drop_m]))
+        Ok(SweepRow::of_run(
+            &run.outcome,
+            flew,
+            apex,
+            String::new(),
+            vec![*drop_m],
+        ))
     }
 
     fn error_kind(&self, e: &SimError) -> &'static str {
@@ -132,7 +141,10 @@ fn a_user_preset_runs_through_the_generic_sweep() {
     let one = preset_sweep(&Drop, &points, 1, &NEVER).unwrap();
     assert_eq!(format!("{rows:?}"), format!("{one:?}"));
     for (i, drop_m) in [(0, 0.05), (2, 0.1)] {
-        let run = Simulation::new(&hopper(drop_m, 0.5)).unwrap().run().unwrap();
+        let run = Simulation::new(&hopper(drop_m, 0.5))
+            .unwrap()
+            .run()
+            .unwrap();
         let o = &run.outcome;
         let a = o.apex.unwrap();
         // by hand: the frame's clock and origin, z up
@@ -155,7 +167,9 @@ fn a_user_preset_runs_through_the_generic_sweep() {
     }
     let raised = AtomicBool::new(true);
     let rows = preset_sweep(&Drop, &points, 2, &raised).unwrap();
-    assert!(rows.iter().all(|r| r.status == "interrupted" && r.columns[0].is_nan()));
+    assert!(rows
+        .iter()
+        .all(|r| r.status == "interrupted" && r.columns[0].is_nan()));
     assert!(preset_sweep(&Drop, &points, 0, &NEVER).is_err());
     assert_eq!(bits(&rows[0]).len(), 1 + APEX_COLUMNS.len());
 }

@@ -354,7 +354,10 @@ impl ProgramMemory {
     /// Makes [`Self::laws`] again from the timeline of `prog` (the program of this memory).
     fn refresh_laws(&mut self, prog: &Program) {
         self.laws.clear();
-        let laws = self.timeline.iter().map(|e| (e.0, ActiveLaw::of(prog, e.1)));
+        let laws = self
+            .timeline
+            .iter()
+            .map(|e| (e.0, ActiveLaw::of(prog, e.1)));
         self.laws.extend(laws);
     }
 
@@ -410,7 +413,10 @@ enum ActiveLaw {
     Zero,
     Constant(f64),
     /// A motor at a constant command.
-    Motor { actuator: usize, command: f64 },
+    Motor {
+        actuator: usize,
+        command: f64,
+    },
     /// A motor whose command reverses while `sign · q_joint > reverse_beyond`, `sign` the
     /// command's sign.
     MotorReversing {
@@ -1414,9 +1420,8 @@ impl Controller for BehaviourController {
         }
         for (prog, mem) in plan.programs.iter().zip(&self.programs) {
             let j = prog.joint;
-            let servo_off = |only_in_contact: bool| {
-                only_in_contact && mode.normal_bits() & prog.contacts == 0
-            };
+            let servo_off =
+                |only_in_contact: bool| only_in_contact && mode.normal_bits() & prog.contacts == 0;
             tau[j] = match mem.law(t) {
                 ActiveLaw::Zero => 0.0,
                 ActiveLaw::Constant(c) => c,
