@@ -12,7 +12,7 @@ use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::sensitivity::scenario_parameter_sensitivity;
 use selfmanip_sim::{Scenario, Simulation};
 mod common;
-use common::{data, hopper, path_column_error};
+use common::{data, hopper};
 
 /// `hop.toml` with the push by `knee` (x-rhex behind its 28:1 gearbox, on a battery of
 /// `r_b` Ω, efficiency `eta`, command `u_push`) and the swings' acceleration the motor's
@@ -88,19 +88,9 @@ fn drive_loss_parameters_match_central_differences() {
     let names: Vec<&str> = cases.iter().map(|c| c.0).collect();
     let p = scenario_parameter_sensitivity(&s, &sim.options, &run, &names).unwrap();
     assert_eq!(p.reason, None);
-    let mut worst: f64 = 0.0;
-    for (k, &(path, value)) in cases.iter().enumerate() {
-        assert_eq!(p.not_differentiated[k], None, "{path}");
-        let fd = central(&s, path, value, 1e-4 * value, &kinds);
-        let (err, scale) = path_column_error(&p, k, &fd);
-        eprintln!("{path}: |exact − FD| / |FD| = {err:.1e} (|FD| = {scale:.2e})");
-        assert!(
-            scale > 1e-3,
-            "{path}: the run does not depend on it ({scale:e})"
-        );
-        assert!(err < 1e-5, "{path}: {err:e}");
-        worst = worst.max(err);
-    }
+    let worst = common::worst_path_error(&p, &cases, |path, value| {
+        central(&s, path, value, 1e-4 * value, &kinds)
+    });
     eprintln!("worst {worst:.1e}");
 }
 

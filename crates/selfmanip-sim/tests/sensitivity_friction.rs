@@ -7,7 +7,7 @@ use selfmanip_hybrid::EventKind;
 use selfmanip_sim::sensitivity::scenario_parameter_sensitivity;
 use selfmanip_sim::{Scenario, Simulation};
 mod common;
-use common::{fd, path_column_error};
+use common::fd;
 
 /// The end state `(q, q̇)` followed by the event times, and the event kinds.
 fn end(s: &Scenario) -> (Vec<f64>, Vec<EventKind>) {
@@ -38,20 +38,9 @@ fn check(s: &Scenario, cases: &[(&str, f64)]) -> f64 {
     let names: Vec<&str> = cases.iter().map(|c| c.0).collect();
     let p = scenario_parameter_sensitivity(s, &sim.options, &run, &names).unwrap();
     assert_eq!(p.reason, None);
-    let mut worst: f64 = 0.0;
-    for (k, &(path, value)) in cases.iter().enumerate() {
-        assert_eq!(p.not_differentiated[k], None, "{path}");
-        let fd = central(s, path, value, 1e-4 * value, &kinds);
-        let (err, scale) = path_column_error(&p, k, &fd);
-        eprintln!("{path}: |exact − FD| / |FD| = {err:.1e} (|FD| = {scale:.2e})");
-        assert!(
-            scale > 1e-3,
-            "{path}: the run does not depend on it ({scale:e})"
-        );
-        assert!(err < 1e-5, "{path}: {err:e}");
-        worst = worst.max(err);
-    }
-    worst
+    common::worst_path_error(&p, cases, |path, value| {
+        central(s, path, value, 1e-4 * value, &kinds)
+    })
 }
 
 #[test]

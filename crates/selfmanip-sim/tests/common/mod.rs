@@ -55,6 +55,29 @@ pub fn path_column_error(
     (err / scale, scale)
 }
 
+/// Checks each `(path, value)` of `cases` (column `k` of `p`) against central differences
+/// `fd(path, value)`: differentiated, the run depending on it (|FD| > 1e-3), and within 1e-5
+/// relative. Returns the worst relative difference.
+pub fn worst_path_error(
+    p: &selfmanip_sim::sensitivity::ParameterSensitivity,
+    cases: &[(&str, f64)],
+    fd: impl Fn(&str, f64) -> Vec<f64>,
+) -> f64 {
+    let mut worst: f64 = 0.0;
+    for (k, &(path, value)) in cases.iter().enumerate() {
+        assert_eq!(p.not_differentiated[k], None, "{path}");
+        let (err, scale) = path_column_error(p, k, &fd(path, value));
+        eprintln!("{path}: |exact − FD| / |FD| = {err:.1e} (|FD| = {scale:.2e})");
+        assert!(
+            scale > 1e-3,
+            "{path}: the run does not depend on it ({scale:e})"
+        );
+        assert!(err < 1e-5, "{path}: {err:e}");
+        worst = worst.max(err);
+    }
+    worst
+}
+
 /// Central differences (step `h`) of the section coordinates `idx` of a return map
 /// `map(x) = (x₁, the run's event kinds)` at `x`: `∂x₁[idx[i]]/∂x[idx[k]]`. Every perturbed
 /// run must meet the events `kinds`.
