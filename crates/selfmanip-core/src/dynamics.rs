@@ -118,9 +118,10 @@ impl Data {
             &mut self.c_qd,
             &mut self.n_bar,
         );
-        crate::passive::add_passive_bias(model, q, qd, &mut self.n_bar); // springs, dampers
-                                                                         // finite inputs too large for double precision overflow here, not as a singular
-                                                                         // KKT matrix further on
+        // springs, dampers
+        crate::passive::add_passive_bias(model, q, qd, &mut self.n_bar);
+        // finite inputs too large for double precision overflow here, not as a singular
+        // KKT matrix further on
         check_result("M̄", self.m_bar.as_slice())?;
         check_result("C̄q̇", self.c_qd.as_slice())?;
         check_result("N̄", self.n_bar.as_slice())
