@@ -1109,8 +1109,14 @@ pub const LEAP_BEHAVIOURS: [(&str, &str); 4] = [
 /// Rust, nothing parsed (`tests/leap_behaviours.rs` checks that each file parses to exactly
 /// this value; parsing costs ~9 % of a one-shot leap's instructions, JSON ~2.4 %).
 pub fn leap_behaviour(strategy: Strategy) -> Behaviour {
-    let pairs = strategy.chapter3_pairs().map(LegPair::name);
-    behaviour(strategy, &Settings::files(pairs))
+    let joints = strategy.chapter3_pairs().map(LegPair::name);
+    behaviour(
+        strategy,
+        &Settings {
+            joints,
+            ..Settings::default()
+        },
+    )
 }
 
 /// What a leap sets in its strategy's file ([`scenario_of`]): the two programs' joints; the
@@ -1118,6 +1124,7 @@ pub fn leap_behaviour(strategy: Strategy) -> Behaviour {
 /// motor); `toe_stub_rad` as each push's `reverse_beyond_rad`; `keep_pushing_after_liftoff`
 /// (retract at `takeoff` only); legs with inertia, servoed in the air too with the damping of
 /// [`servo_damping`].
+#[derive(Default)]
 struct Settings<'a> {
     joints: [&'a str; 2],
     swing_speed_rad_s: Option<f64>,
@@ -1126,21 +1133,6 @@ struct Settings<'a> {
     keep_pushing_after_liftoff: bool,
     massive: [bool; 2],
     kd_n_m_s_per_rad: Option<String>,
-}
-
-impl<'a> Settings<'a> {
-    /// The files' own settings, on the joints `joints`.
-    fn files(joints: [&'a str; 2]) -> Self {
-        Settings {
-            joints,
-            swing_speed_rad_s: None,
-            swing_accel_rad_s2: None,
-            toe_stub_rad: None,
-            keep_pushing_after_liftoff: false,
-            massive: [false; 2],
-            kd_n_m_s_per_rad: None,
-        }
-    }
 }
 
 /// The behaviour of `strategy` with the settings `k`.
