@@ -1159,54 +1159,47 @@ fn behaviour(strategy: Strategy, k: &Settings<'_>) -> Behaviour {
             ..Trigger::default()
         },
     };
-    let phase = |name: &str, start, torque, motion, restart_on| Phase {
-        name: name.into(),
-        start,
-        torque,
-        motion: Some(motion),
-        restart_on,
-    };
     let program = |i: usize, start: &str, sign: &str| JointProgram {
         joint: k.joints[i].into(),
         phases: vec![
-            phase(
-                "wait",
-                None,
-                servo(i),
-                Motion::Hold {
+            Phase {
+                name: "wait".into(),
+                start: None,
+                torque: servo(i),
+                motion: Some(Motion::Hold {
                     angle_rad: "q0".into(),
-                },
-                None,
-            ),
-            phase(
-                "push",
-                Some(Trigger::at(start)),
-                Torque::Motor {
+                }),
+                restart_on: None,
+            },
+            Phase {
+                name: "push".into(),
+                start: Some(Trigger::at(start)),
+                torque: Torque::Motor {
                     actuator: "leg".into(),
                     command: sign.into(),
                     reverse_beyond_rad: k.toe_stub_rad.map(num),
                 },
-                Motion::Swing {
+                motion: Some(Motion::Swing {
                     target_rad: format!("{sign} * stow").as_str().into(),
                     speed_rad_s: k
                         .swing_speed_rad_s
                         .map_or_else(|| "leg.no_load_speed_rad_s".into(), num),
                     accel_rad_s2: accel(),
-                },
-                Some(vec![Trigger::on(On::Release)]),
-            ),
-            phase(
-                "retract",
-                Some(retract.clone()),
-                servo(i),
-                Motion::Park {
+                }),
+                restart_on: Some(vec![Trigger::on(On::Release)]),
+            },
+            Phase {
+                name: "retract".into(),
+                start: Some(retract.clone()),
+                torque: servo(i),
+                motion: Some(Motion::Park {
                     target_rad: format!("if({sign} * theta >= 0, {sign}, -{sign}) * stow")
                         .as_str()
                         .into(),
                     accel_rad_s2: accel(),
-                },
-                Some(Vec::new()),
-            ),
+                }),
+                restart_on: Some(Vec::new()),
+            },
         ],
         repeat_from: None,
     };
