@@ -1,23 +1,15 @@
 //! The ground reaction complex (GRC) of thesis chapter 3 as data.
 //!
-//! A **cell** is a set of ground contacts among the four sites of the planar RHex, written as
-//! four bits in the thesis's lexicographic order `FB FL RB RL` (front body, front leg, rear
-//! body, rear leg): `I_1010` sits on the body, `I_0101` stands on both legs, `I_0000` flies.
-//! The 16 cells form a tetrahedron (Fig. 3.2); the **Hasse diagram** links cells that differ by
-//! one contact, `|I|·2^|I| = 64` directed edges. Section 3.1.3 sorts those edges into
-//! categories ([`TransitionCategory`]) and keeps 18 *allowable* ones (Fig. 3.3): the
-//! possible and desirable transitions that make up the **leap grammar** — every path from
-//! rest `I_1010` to flight `I_0000`. The six **leap words** (3.2)–(3.7) are those paths with
-//! the zero-time cells suppressed: the cells passed in no time when a touchdown breaks another
-//! contact at once (the 0-DOF cells, and under saturated pushing also `I_0011`/`I_1100`,
-//! where the landing leg lifts its body end immediately).
-//!
-//! Fig. 3.3 itself is not in the converted text; the 18 edges are reconstructed here as the
-//! union of the leap words with their zero-time cells restored (see [`expand_zero_time`]),
-//! which gives exactly 18 edges over exactly the 15 cells other than `I_1111`, as the text
-//! states. The category rules ([`categorize`]) come from the text's definitions and are
-//! checked against that reconstruction in `tests/grc.rs`. See `docs/errata/ch3-leaping.md`
-//! for the two misprints this reconstruction exposes.
+//! A **cell** is a set of ground contacts, four bits in the order `FB FL RB RL` (front body,
+//! front leg, rear body, rear leg): `I_1010` sits, `I_0101` stands on both legs, `I_0000`
+//! flies. The **Hasse diagram** of the 16 cells (Fig. 3.2) has 64 directed edges, sorted into
+//! categories ([`TransitionCategory`], section 3.1.3); the 18 *allowable* ones (Fig. 3.3) make
+//! the **leap grammar**, every path from `I_1010` to `I_0000`. The six **leap words**
+//! (3.2)–(3.7) are those paths without zero-time cells (the 0-DOF cells, and under saturated
+//! pushing `I_0011`/`I_1100`). Fig. 3.3 is reconstructed as the union of the leap words with
+//! their zero-time cells restored ([`expand_zero_time`]: 18 edges over the 15 cells other than
+//! `I_1111`, as the text states); `tests/grc.rs` checks [`categorize`] against it
+//! (`docs/errata/ch3-leaping.md`: two misprints).
 use crate::leap::Strategy;
 use crate::RhexError;
 use serde::Serialize;

@@ -1,38 +1,27 @@
 //! RHex leaps from rest to apex (thesis chapter 3.2 and chapter 5's simulations): the four
 //! open-loop strategies `(±, ±)` with coordination time `t2`, as a preset of the generic
-//! simulator: [`LeapPreset`] turns `(params, cfg)` into the robot, its start pose and a
-//! `selfmanip_sim::Scenario` that runs the strategy's behaviour file
-//! (`data/behaviours/leap_*.toml`, [`LEAP_BEHAVIOURS`]) through the behaviour
-//! interpreter; [`LeapResult`] is read off the generic execution.
+//! simulator. [`LeapPreset`] turns `(params, cfg)` into the robot, its start pose and a
+//! `selfmanip_sim::Scenario` that runs the strategy's behaviour (`data/behaviours/leap_*.toml`,
+//! [`LEAP_BEHAVIOURS`]) through the interpreter; [`LeapResult`] is read off the execution.
 //!
-//! **The leap.** The robot starts at rest sitting on its body (`I_1010`) on the ground, each
-//! leg held [`LeapConfig::wait_clearance_rad`] above its touchdown angle (the angle at which
-//! its lowest point reaches the ground, on the side its strategy pushes from). The front
-//! leg's motor switches on at `t = 0` and the rear leg's at `t = t2` (negative: the rear leg
-//! starts first); a leg swings down and touches the ground shortly after its start.
-//! Execution time starts at `min(0, t2)`; every reported time is shifted so that the front
-//! leg starts at 0. A leg's motor then applies its saturated torque `±τ_s` (or a current-limited geared DC
-//! motor's torque at the leg speed) in the strategy's direction: `+` turns the leg with
-//! increasing θ (the toe sweeps backward, pushing the body forward — RHex's walking direction,
-//! rolling on the half circle), `−` the other way (pushing on the toe point: a flip).
-//!
-//! **Massless legs in the air** (thesis 5.1.1) have no dynamics: their motion is prescribed
-//! with bounded acceleration (the thesis's assumption that keeps executions non-Zeno), as
-//! smooth functions of time ([`selfmanip_sim::motion`]). A leg that has not touched down yet
-//! swings towards the ground; a leg that has lifted off parks pointing up on the side of
-//! straight down where it is, never sweeping through the ground (the thesis's "once a leg
-//! has lifted off the ground it is slowly rotated upwards out of the way"), unless
-//! [`LeapConfig::keep_pushing_after_liftoff`] keeps it turning in its push direction. The
-//! park is planned once; a parked leg that the ground meets and lets go again returns to it
-//! (`docs/decisions/2026-11-24-one-retraction-per-leg.md`).
-//!
-//! **Words.** The leap word is the sequence of ground-reaction-complex cells visited
-//! (chapter 3.1), sliding toes counted as contact, zero-time cells suppressed.
+//! The robot starts at rest on its body (`I_1010`), each leg held
+//! [`LeapConfig::wait_clearance_rad`] above its touchdown angle on the side its strategy
+//! pushes from. The front motor starts at `t = 0`, the rear one at `t = t2`; execution time
+//! starts at `min(0, t2)` and reported times are shifted so that the front leg starts at 0.
+//! A motor applies its torque (saturated `±τ_s`, or a current-limited geared DC motor's at the
+//! leg speed) in the strategy's direction: `+` increases θ (forward, rolling on the half
+//! circle), `−` the other way (a flip). Massless legs in the air follow prescribed motions of
+//! bounded acceleration (thesis 5.1.1, [`selfmanip_sim::motion`]): down to the ground, then
+//! parked pointing up once lifted off (planned once:
+//! `docs/decisions/2026-11-24-one-retraction-per-leg.md`) unless
+//! [`LeapConfig::keep_pushing_after_liftoff`]. The leap word is the sequence of
+//! ground-reaction-complex cells visited (chapter 3.1), sliding toes as contact, zero-time
+//! cells suppressed.
 use crate::params::{LegPair, RhexParams};
 use crate::{Rhex, RhexError};
 use motor::geared::{GearedDrive, GearedDriveSpec};
 use motor::Actuator;
-use selfmanip_core::{ContactMode, Terrain};
+use selfmanip_core::ContactMode;
 use selfmanip_hybrid::Execution;
 use selfmanip_sim::analysis::angle_to_ground;
 use selfmanip_sim::behaviour::{
@@ -98,6 +87,15 @@ impl Strategy {
     pub const fn new(front: Push, rear: Push) -> Self {
         Strategy { front, rear }
     }
+
+    /// Chapter 3's pushing pairs for this strategy (the leading leg disabled, section 3.3).
+    pub fn chapter3_pairs(self) -> [LegPair; 2] {
+        match (self.front, self.rear) {
+            (Push::Plus, Push::Plus) => [LegPair::Middle, LegPair::Rear],
+            (Push::Minus, Push::Minus) => [LegPair::Front, LegPair::Middle],
+            _ => [LegPair::Front, LegPair::Rear],
+        }
+    }
 }
 
 impl std::fmt::Display for Strategy {
@@ -110,25 +108,24 @@ impl FromStr for Strategy {
     type Err = RhexError;
     /// `"++"`, `"+-"`, `"-+"`, `"--"` (also `"(+,+)"`).
     fn from_str(s: &str) -> Result<Self, RhexError> {
+        let unreadable = |reason: String| RhexError::Unreadable {
+            field: "strategy".into(),
+            reason: format!("`{s}`: {reason}"),
+        };
         let signs: Vec<Push> = s
             .chars()
             .filter(|c| !matches!(c, '(' | ')' | ',' | ' '))
             .map(|c| match c {
                 '+' => Ok(Push::Plus),
                 '-' => Ok(Push::Minus),
-                other => Err(other),
+                other => Err(unreadable(format!("character `{other}` is not + or -"))),
             })
-            .collect::<Result<_, _>>()
-            .map_err(|c| RhexError::Unreadable {
-                field: "strategy".into(),
-                reason: format!("`{s}`: character `{c}` is not + or -"),
-            })?;
+            .collect::<Result<_, _>>()?;
         match signs[..] {
             [front, rear] => Ok(Strategy { front, rear }),
-            _ => Err(RhexError::Unreadable {
-                field: "strategy".into(),
-                reason: format!("`{s}`: expected two signs such as ++, +-, -+ or --"),
-            }),
+            _ => Err(unreadable(
+                "expected two signs such as ++, +-, -+ or --".into(),
+            )),
         }
     }
 }
@@ -152,17 +149,12 @@ impl From<Strategy> for String {
 pub enum LegActuator {
     /// The constant saturated torque `τ_s` of Table 4.2 (chapter 3's assumption).
     SaturatedTorque,
-    /// `motors_per_leg` X-RHex motors (thesis Table 2.1, 37 V) behind a gearbox of ratio
-    /// `gear_ratio` and the catalog gearbox efficiency, with the controller current limit
-    /// `current_limit_a` (chapter 5's simulations: 20 A): the linear torque–speed line
-    /// clipped by the current limit (section 2.1.2, Fig. 2.6).
-    ///
-    /// The drive's loss options (`motor::DriveLosses`, `docs/calibration.md`), off by
-    /// default: `gearbox_efficiency` `η ∈ (0, 1]` (unset: the catalog gearbox's, 0.82), how it
-    /// enters the torque (`gearbox_loss`: `derating`, the thesis's `G η τ_m`, or
-    /// `power_flow`, `G τ_m/η` when back-driven) and the battery's internal resistance as one
-    /// motor sees it, `battery_resistance_ohm` (Ω; unset: an ideal supply). A value set is a
-    /// behaviour parameter of the leap (so its derivative can be asked for).
+    /// `motors_per_leg` X-RHex motors (Table 2.1, 37 V) behind a gearbox of ratio `gear_ratio`
+    /// with the controller current limit `current_limit_a` (chapter 5: 20 A), section 2.1.2.
+    /// The drive's loss options (`motor::DriveLosses`, `docs/calibration.md`) are off by
+    /// default: `gearbox_efficiency` (unset: the catalog's 0.82), `gearbox_loss` (`derating`
+    /// `G η τ_m`, or `power_flow`) and `battery_resistance_ohm` (unset: an ideal supply). A
+    /// value set is a behaviour parameter of the leap (differentiable).
     GearedMotor {
         gear_ratio: f64,
         current_limit_a: f64,
@@ -218,47 +210,67 @@ impl LegActuator {
         }
     }
 
+    /// The behaviour parameters the actuator binds: the geared motor's gear ratio, current
+    /// limit, motors per leg and the loss options set (none for the saturated torque).
+    fn values(&self) -> Vec<(&'static str, f64)> {
+        let LegActuator::GearedMotor {
+            gear_ratio,
+            current_limit_a,
+            motors_per_leg,
+            ..
+        } = *self
+        else {
+            return Vec::new();
+        };
+        let mut v = vec![
+            ("gear_ratio", gear_ratio),
+            ("current_limit_a", current_limit_a),
+            ("motors_per_leg", f64::from(motors_per_leg)),
+        ];
+        v.extend(self.loss_values().0);
+        v
+    }
+
     /// The geared motor's loss options that are set, as behaviour parameters
     /// (`gearbox_efficiency`, `battery_resistance_ohm`), and how `η` enters the torque.
     fn loss_values(&self) -> (Vec<(&'static str, f64)>, motor::GearboxLoss) {
         match *self {
             LegActuator::GearedMotor {
-                gearbox_efficiency,
+                gearbox_efficiency: e,
                 gearbox_loss,
-                battery_resistance_ohm,
+                battery_resistance_ohm: r,
                 ..
             } => {
-                let set = [
-                    ("gearbox_efficiency", gearbox_efficiency),
-                    ("battery_resistance_ohm", battery_resistance_ohm),
-                ];
-                (
-                    set.into_iter().filter_map(|(k, v)| Some((k, v?))).collect(),
-                    gearbox_loss,
-                )
+                let set = [("gearbox_efficiency", e), ("battery_resistance_ohm", r)];
+                let set = set.into_iter().filter_map(|(k, v)| Some((k, v?)));
+                (set.collect(), gearbox_loss)
             }
             LegActuator::SaturatedTorque => (Vec::new(), motor::GearboxLoss::Derating),
         }
     }
 
-    /// This actuator with the loss options among `names` set (to the drive's values where
-    /// unset: the catalog's efficiency, an ideal supply), so that the leap binds them as
+    /// This actuator with the loss options among `names` set (where unset, to the drive's
+    /// values: the catalog's efficiency, an ideal supply), so that the leap binds them as
     /// parameters; the leap it runs is the same bit for bit.
     pub fn with_loss_parameters(&self, names: &[&str]) -> LegActuator {
         let mut a = self.clone();
         if let LegActuator::GearedMotor {
-            gearbox_efficiency,
-            battery_resistance_ohm,
+            gearbox_efficiency: e,
+            battery_resistance_ohm: r,
             ..
         } = &mut a
         {
-            if names.contains(&"gearbox_efficiency") && gearbox_efficiency.is_none() {
+            if names.contains(&"gearbox_efficiency") && e.is_none() {
                 let catalog = motor::Catalog::thesis();
-                let g = catalog.gearbox(LEG_GEARBOX).expect("the catalog's gearbox");
-                *gearbox_efficiency = Some(g.efficiency);
+                *e = Some(
+                    catalog
+                        .gearbox(LEG_GEARBOX)
+                        .expect("the catalog's")
+                        .efficiency,
+                );
             }
-            if names.contains(&"battery_resistance_ohm") && battery_resistance_ohm.is_none() {
-                *battery_resistance_ohm = Some(0.0);
+            if names.contains(&"battery_resistance_ohm") && r.is_none() {
+                *r = Some(0.0);
             }
         }
         a
@@ -292,9 +304,7 @@ impl LegActuator {
         }
     }
 
-    /// Checks the geared motor's fields (errors name them: `gear_ratio`, `current_limit_a`,
-    /// `motors_per_leg`, `gearbox_efficiency`, `battery_resistance_ohm`); the saturated
-    /// torque has none.
+    /// Checks the geared motor's fields (errors name them); the saturated torque has none.
     pub fn validate(&self) -> Result<(), RhexError> {
         match self {
             LegActuator::SaturatedTorque => Ok(()),
@@ -308,7 +318,17 @@ impl LegActuator {
 fn drive_error(e: motor::MotorError) -> RhexError {
     let field = match e {
         motor::MotorError::InvalidParameter { field: "count", .. } => "motors_per_leg",
-        motor::MotorError::InvalidParameter { field, .. } if DRIVE_FIELDS.contains(&field) => field,
+        motor::MotorError::InvalidParameter { field, .. }
+            if [
+                "gear_ratio",
+                "current_limit_a",
+                "gearbox_efficiency",
+                "battery_resistance_ohm",
+            ]
+            .contains(&field) =>
+        {
+            field
+        }
         _ => "actuator",
     };
     RhexError::InvalidValue {
@@ -317,28 +337,17 @@ fn drive_error(e: motor::MotorError) -> RhexError {
     }
 }
 
-/// The geared motor's fields a drive's error may name.
-const DRIVE_FIELDS: [&str; 4] = [
-    "gear_ratio",
-    "current_limit_a",
-    "gearbox_efficiency",
-    "battery_resistance_ohm",
-];
-/// What the coordination time `t2` times (the two readings of the thesis; see
-/// `docs/errata/ch3-leaping.md`).
+/// What the coordination time `t2` times (`docs/errata/ch3-leaping.md`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum T2Reference {
-    /// The rear leg's motor starts `t2` after the front leg's (chapter 5, footnote 1: "the
-    /// middle legs are started 0.01 s before the rear legs"): what a controller commands,
-    /// and what the thesis's own simulation of chapter 3's leaps used. The default.
+    /// The rear motor starts `t2` after the front one (chapter 5, footnote 1; what the
+    /// thesis's own simulations used). The default.
     #[default]
     MotorStart,
-    /// The rear leg touches down `t2` after the front leg does (section 3.2.2: "choose as a
-    /// reference time the touchdown of the front leg … the second leg will touch down at
-    /// `t2`"). The rear motor's start is adjusted, leap by leap, by a secant search
-    /// ([`selfmanip_sim::staggered::search_touchdown_lag`]); a leap whose legs do not both
-    /// touch down keeps the motor-start offset `t2`.
+    /// The rear leg touches down `t2` after the front one (section 3.2.2): the rear motor's
+    /// start is found leap by leap ([`selfmanip_sim::staggered::search_touchdown_lag`]); a
+    /// leap whose legs do not both touch down keeps the motor-start offset `t2`.
     Touchdown,
 }
 
@@ -350,57 +359,45 @@ pub struct LeapConfig {
     /// Start of the rear leg's motor relative to the front leg's (s); negative: rear first.
     pub t2_s: f64,
     pub actuator: LegActuator,
-    /// The two leg pairs that push (front-most first). `None`: chapter 3's choice for the
-    /// strategy, the leading leg disabled — middle and rear for `(+,+)`, front and rear for
-    /// `(+,−)` and `(−,+)`, front and middle for `(−,−)` (section 3.3). A leap's robot has
-    /// exactly these two pairs: the parameters' `pairs` are not read (an override named
-    /// `pairs` in a sweep or from Python sets this field).
+    /// The two pushing leg pairs (front-most first). `None`: chapter 3's for the strategy
+    /// ([`Strategy::chapter3_pairs`]). A leap's robot has exactly these two pairs (the
+    /// parameters' `pairs` are not read; an override named `pairs` sets this field).
     pub pairs: Option<[LegPair; 2]>,
     /// Pseudo-impulse duration δt of (5.39) (s); 0 disables it. Thesis: 0.03 s.
     pub delta_t_s: f64,
-    /// Bound on a massless leg's acceleration while it is in the air (rad/s²). `None`: set by
-    /// the motor that turns it — its stall torque over its rotor's reflected inertia
+    /// Bound on a massless leg's acceleration in the air (rad/s²). `None`: its motor's
     /// ([`leg_swing`]).
     pub swing_accel_rad_s2: Option<f64>,
     /// Speed a massless leg in the air is brought to (rad/s). `None`: its motor's no-load
     /// output speed ([`leg_swing`]).
     pub swing_speed_rad_s: Option<f64>,
-    /// What `t2_s` times: the rear motor's start relative to the front one's (chapter 5,
-    /// footnote 1; the default), or the rear leg's touchdown relative to the front leg's
-    /// (section 3.2.2), found by adjusting the motor start.
+    /// What `t2_s` times: the rear motor's start (the default) or the rear leg's touchdown.
     pub t2_reference: T2Reference,
-    /// A leg waits for its motor raised this far (rad) above the angle at which it would
-    /// touch the ground from the sitting posture, so that the body can pitch on the other
-    /// leg without driving it into the ground; at its start it swings down (at
-    /// `swing_accel_rad_s2`, `swing_speed_rad_s`) and touches down shortly after.
+    /// A leg waits raised this far (rad) above its touchdown angle from the sitting posture.
     pub wait_clearance_rad: f64,
     /// Toe stub (Result C.3, section 3.3.1): a pushing leg's torque reverses once its angle
-    /// has turned this far past straight down (rad, measured in its push direction).
+    /// has turned this far past straight down (rad, in its push direction).
     pub toe_stub_rad: Option<f64>,
     pub terrain: TerrainSpec,
     /// Latest time of the execution (s after the front leg starts).
     pub t_final_s: f64,
     /// Stop at the first apex of flight (otherwise run to `t_final_s`: landings, ledges).
     pub stop_at_apex: bool,
-    /// What a pushing leg does once it has lifted off: park out of the way (the thesis's
-    /// "once a leg has lifted off the ground it is slowly rotated upwards out of the way"),
-    /// or keep turning in its push direction at bounded acceleration until the robot is in
-    /// flight (the motor stays on: the setting of Fig. 5.7's chatter).
+    /// A pushing leg that has lifted off keeps turning in its push direction until the robot
+    /// flies (the setting of Fig. 5.7's chatter) instead of parking out of the way.
     pub keep_pushing_after_liftoff: bool,
     /// Width of the bracket that locates each event (s).
     pub event_tol_s: f64,
-    /// Relative error tolerance of the integrator per step (absolute: 1 % of it, in SI
-    /// units of the state).
+    /// Relative error tolerance of the integrator per step (absolute: 1 % of it).
     pub rtol: f64,
     /// Zeno detection: more than `zeno_max_events` events within `zeno_window_s`.
     pub zeno_window_s: f64,
     pub zeno_max_events: usize,
-    /// Budget of accepted integration steps: a leap that needs more ends `step_budget`.
+    /// Budgets of accepted integration steps and of events (`step_budget`, `event_budget`).
     pub max_steps: usize,
-    /// Budget of events: a leap that makes more ends `event_budget`.
     pub max_events: usize,
     /// Integrate the legs' prescribed motions in the air to the tolerances too
-    /// ([`selfmanip_hybrid::HybridOptions::control_free_joints`]; off by default: ~3× cheaper leaps).
+    /// ([`selfmanip_hybrid::HybridOptions::control_free_joints`]; off: ~3× cheaper leaps).
     pub control_free_joints: bool,
 }
 
@@ -426,18 +423,15 @@ impl Default for LeapConfig {
             zeno_window_s: 0.01,
             zeno_max_events: 40,
             max_steps: selfmanip_hybrid::DEFAULT_MAX_STEPS,
-            max_events: DEFAULT_MAX_EVENTS,
+            // a leap makes a few tens of events
+            max_events: 1_000,
             control_free_joints: false,
         }
     }
 }
 
-/// A leap's default event budget (a leap makes a few tens of events).
-const DEFAULT_MAX_EVENTS: usize = 1_000;
-
 /// The parameters of the leaps of chapters 3 and 5: Table 4.2 (massless half-circle legs)
-/// with toe friction μ = 1.8 on the front and middle pairs and 2.5 on the rear (section
-/// 5.1.5). Which pairs push is [`LeapConfig::pairs`].
+/// with toe friction μ = 1.8 on the front and middle pairs and 2.5 on the rear (5.1.5).
 pub fn leap_params() -> RhexParams {
     RhexParams {
         pairs: vec![LegPair::Middle, LegPair::Rear],
@@ -448,40 +442,21 @@ pub fn leap_params() -> RhexParams {
     }
 }
 
-impl Strategy {
-    /// Chapter 3's pushing pairs for this strategy (the leading leg disabled, section 3.3).
-    pub fn chapter3_pairs(self) -> [LegPair; 2] {
-        match (self.front, self.rear) {
-            (Push::Plus, Push::Plus) => [LegPair::Middle, LegPair::Rear],
-            (Push::Minus, Push::Minus) => [LegPair::Front, LegPair::Middle],
-            _ => [LegPair::Front, LegPair::Rear],
-        }
-    }
-}
-
-/// The body state at the apex of flight, in a z-**up** frame whose origin is the body centre
-/// at the start, times from the front motor's start: what chapter 3 reports (`x_m`: forward
-/// displacement of the body centre from the start; `z_m`: its height above the ground under
-/// the start, positive up; `phi_rad`: pitch, nose-up positive).
+/// The body state at the apex of flight in chapter 3's frame (z up, origin at the body
+/// centre at the start, times from the front motor's start; `phi_rad` nose-up positive).
 pub type Apex = BodyState;
 
-/// The outcome of one leap: the generic run's [`Outcome`] (its `status` is the engine's
-/// [`RunStatus`](selfmanip_sim::RunStatus), named as everywhere: `apex`, `final_time`, `zeno`,
-/// `terrain_discontinuity`, `singular_flow`, …; its `word` the ground-reaction-complex cells
-/// visited, labels `FB FL RB RL`, sliding toes counted as contact, zero-time cells
-/// suppressed, starting with `1010`), read through `Deref`, with what a leap adds on the
-/// leap's clock (t = 0 at the front motor's start) and in chapter 3's frame.
+/// The outcome of one leap: the generic run's [`Outcome`] (status, word in the labels
+/// `FB FL RB RL`, …), read through `Deref`, with what a leap adds on its clock (t = 0 at the
+/// front motor's start) and in chapter 3's frame.
 #[derive(Debug, Clone)]
 pub struct LeapResult {
     /// The generic run's metrics (times on the simulation clock, NED frame).
     pub outcome: Outcome,
-    /// The leap flew: it reached the apex of a flight after a motor started (stopping there),
-    /// or, not stopping at the apex, flew and ran on to its final time. `status` `apex`, or
-    /// `final_time` after a flight; `false` for a `final_time` that never flew (or, stopping
-    /// at the apex, never reached one) and for every status the engine stopped the run with.
+    /// It reached the apex of a flight after a motor started (status `apex`), or, not
+    /// stopping there, flew and ran on to `final_time`.
     pub flew: bool,
-    /// The apex of the leap's first flight (when not stopping there, also after it: the run
-    /// records it and goes on).
+    /// The apex of the leap's first flight.
     pub apex: Option<Apex>,
     /// The execution (times on the simulation clock, which starts at `min(0, t2)`).
     pub execution: Execution,
@@ -489,14 +464,13 @@ pub struct LeapResult {
     pub time_offset_s: f64,
     /// Start configuration `q` (thesis coordinates, z down).
     pub q0: Vec<f64>,
-    /// Events relative to the front leg's start, in RHex's names and mode labels (empty from
-    /// a preset that makes none: [`LeapPreset::without_event_records`]).
+    /// Events from the front leg's start in RHex's names and labels (empty from a preset
+    /// [`LeapPreset::without_event_records`]).
     pub events: Vec<EventRecord>,
-    /// The rear motor's start relative to the front one's in this run (s): `t2` itself, or
-    /// what the [`T2Reference::Touchdown`] search found.
+    /// The rear motor's start relative to the front one's in this run (s).
     pub motor_t2_s: f64,
     /// The rear leg's first touchdown relative to the front leg's (s), each after its motor
-    /// started (section 3.2.2's `t2`); `None` if one of them never touched down.
+    /// started (section 3.2.2's `t2`); `None` if one never touched down.
     pub touchdown_t2_s: Option<f64>,
     /// The leap it ran: its robot (the two pushing pairs), terrain and run options.
     pub leap: Arc<LeapScenario>,
@@ -512,9 +486,8 @@ impl std::ops::Deref for LeapResult {
 }
 
 impl LeapConfig {
-    /// Checks every field (errors name it). The run's options (`t_final_s`, `event_tol_s`,
-    /// `delta_t_s`, `rtol`, `zeno_window_s`) are the generic simulator's, checked as it
-    /// checks them ([`SimOptions::hybrid`]); the rest is the leap's.
+    /// Checks every field (errors name it); the run's options as the generic simulator
+    /// checks them ([`SimOptions::hybrid`]).
     pub fn validate(&self) -> Result<(), RhexError> {
         let bad = |field: &str, reason: String| {
             Err(RhexError::InvalidValue {
@@ -541,9 +514,7 @@ impl LeapConfig {
             },
             e => e.into(),
         })?;
-        // The free legs' tracking law is differenced at each segment's start
-        // (`selfmanip_hybrid::free_joints`): values of the swing's size must leave room for
-        // a difference of two of them.
+        // the free legs' tracking law differences two values of the swing's size
         for (field, v) in [
             ("swing_accel_rad_s2", self.swing_accel_rad_s2),
             ("swing_speed_rad_s", self.swing_speed_rad_s),
@@ -596,9 +567,7 @@ impl LeapConfig {
             zeno_max_events: self.zeno_max_events,
             labels: None,
             word: WordOptions {
-                // cells that last no longer than the events' location can resolve are
-                // zero-time cells; never more than 0.1 ms (a coarse event tolerance does not
-                // hide real cells)
+                // zero-time cells: no longer than the events' location resolves, ≤ 0.1 ms
                 min_duration_s: (1e3 * self.event_tol_s).min(1e-4),
                 sliding_as_contact: true,
             },
@@ -607,8 +576,8 @@ impl LeapConfig {
     }
 }
 
-/// The actuator that turns one planar leg (a contralateral pair): chapter 3's saturated
-/// torque `τ_s`, or the current-limited geared X-RHex motors ([`motor::geared`]).
+/// The actuator that turns one planar leg: chapter 3's saturated torque `τ_s`, or the
+/// current-limited geared X-RHex motors ([`motor::geared`]).
 pub fn leg_actuator(params: &RhexParams, a: &LegActuator) -> Result<Arc<dyn Actuator>, RhexError> {
     Ok(match a {
         LegActuator::SaturatedTorque => {
@@ -625,19 +594,14 @@ fn leg_drive(a: &LegActuator) -> Result<GearedDrive, RhexError> {
         .map_err(drive_error)
 }
 
-/// A leg's own inertia about its hip, `I_l + m_l (ρ₁/2)²` (kg m²; zero for Table 4.2's
-/// massless legs): what the motor accelerates besides its rotors ([`leg_swing`]).
+/// A leg's own inertia about its hip, `I_l + m_l (ρ₁/2)²` (kg m²; zero for massless legs).
 pub fn leg_inertia_about_hip(params: &RhexParams) -> f64 {
     params.I_l + params.m_l * (0.5 * params.rho1).powi(2)
 }
 
-/// The drive that turns a leg and its stall torque at the joint (N m): the geared motor's
-/// own; the saturated-torque idealization keeps X-RHex's legs and motors (Table 2.1's motor
-/// behind the 28:1 gearbox, two per planar leg) with `τ_s` as its stall torque. The rotor
-/// inertia is not printed; it is `J = τ_m k_M² / R` from Table 2.1's mechanical time
-/// constant `τ_m = 11.8 ms` ([`motor::catalog::MotorSpec::rotor_inertia_kg_m2`]: 7.2·10⁻⁶
-/// kg m², within the range of maxon's 45 mm flat motors). With the drive's reflected rotor
-/// inertia `n J G²` (kg m²).
+/// The drive that turns a leg, its stall torque at the joint (N m; `τ_s` for the saturated
+/// torque, which keeps X-RHex's motors) and its reflected rotor inertia `n J G²` (kg m²; `J`
+/// from Table 2.1's mechanical time constant, [`motor::catalog::MotorSpec::rotor_inertia_kg_m2`]).
 fn leg_motor(params: &RhexParams, cfg: &LeapConfig) -> Result<(GearedDrive, f64, f64), RhexError> {
     let drive = leg_drive(&cfg.actuator)?;
     let stall_n_m = match cfg.actuator {
@@ -650,8 +614,7 @@ fn leg_motor(params: &RhexParams, cfg: &LeapConfig) -> Result<(GearedDrive, f64,
             field: "actuator".into(),
             reason: "the motor's mechanical time constant is needed for the rotor inertia".into(),
         })?;
-    // the drive's torque and reflected inertia grow as G and G²: a ratio they overflow at is
-    // the ratio's fault, named as such (not the servo gain the behaviour derives from them)
+    // torque and inertia grow as G and G²: a ratio they overflow at is the ratio's fault
     if !(stall_n_m.is_finite() && reflected.is_finite()) {
         return Err(RhexError::InvalidValue {
             field: "gear_ratio".into(),
@@ -665,20 +628,15 @@ fn leg_motor(params: &RhexParams, cfg: &LeapConfig) -> Result<(GearedDrive, f64,
     Ok((drive, stall_n_m, reflected))
 }
 
-/// The inertia of a leg's motors' rotors seen at the leg's joint through the gearbox,
-/// `n J G²` (kg m²; 0.0113 for X-RHex's two motors per planar leg at 28:1): `n` rotors of
-/// inertia `J` turning `G` times as fast as the leg. One value for both uses: the swing
-/// bound of a massless leg ([`leg_swing`]) and the armature of a massive leg's joint
-/// ([`leg_armature`]).
+/// The rotors' inertia seen at a leg's joint, `n J G²` (kg m²; 0.0113 for X-RHex's two motors
+/// at 28:1): the swing bound of a massless leg ([`leg_swing`]) and a massive leg's armature.
 pub fn rotor_reflected_inertia(params: &RhexParams, cfg: &LeapConfig) -> Result<f64, RhexError> {
     Ok(leg_motor(params, cfg)?.2)
 }
-/// The armature a leap gives each leg joint (kg m²): `params.leg_armature_kg_m2` when set;
-/// otherwise its rotors' reflected inertia ([`rotor_reflected_inertia`]) on legs that carry
-/// them ([`RhexParams::legs_carry_rotors`]: by default massive legs, whose physical motors
-/// turn with them) and none on the others — by default massless legs, which stay massless
-/// (Assumption C.6: their motion is prescribed, bounded by the same rotors in
-/// [`leg_swing`]).
+
+/// The armature a leap gives each leg joint (kg m²): `params.leg_armature_kg_m2` when set,
+/// else [`rotor_reflected_inertia`] on legs that carry their rotors
+/// ([`RhexParams::legs_carry_rotors`]), else none (massless legs stay massless, C.6).
 pub fn leg_armature(params: &RhexParams, cfg: &LeapConfig) -> Result<f64, RhexError> {
     Ok(leap_leg_armature(params, cfg)?.unwrap_or(0.0))
 }
@@ -692,9 +650,8 @@ fn leap_leg_armature(params: &RhexParams, cfg: &LeapConfig) -> Result<Option<f64
     })
 }
 
-/// Whether a leap's leg armature is the actuator's reflected rotor inertia, which moves with
-/// the gear ratio (`∂a/∂G = 2 n J G`): legs that carry their rotors, without an explicit
-/// armature.
+/// Whether a leap's leg armature is the reflected rotor inertia, which moves with the gear
+/// ratio (`∂a/∂G = 2 n J G`).
 pub(crate) fn armature_follows_gear(params: &RhexParams) -> bool {
     params.leg_armature_kg_m2.is_none() && params.legs_carry_rotors()
 }
@@ -721,15 +678,10 @@ fn overflowing_parameter(params: &RhexParams) -> &'static str {
     .0
 }
 
-/// How a massless leg swings in the air while its motor is on: `(speed, acceleration
-/// bound)`. The model's legs have no inertia, so the motion is prescribed (thesis 5.1.1);
-/// its bounds are those of the physical leg, which its motor drives: it runs up to the
-/// motor's no-load output speed `ω₀/G` (Table 2.1: 10314 rpm at 37 V; 38.6 rad/s at 28:1),
-/// accelerating at most at the stall torque over the reflected rotor inertia
-/// `n J G²` ([`rotor_reflected_inertia`]) plus the leg's own inertia about the hip. The
-/// saturated-torque idealization keeps X-RHex's legs and motors: `τ_s` over the same
-/// inertia, and the 28:1 drive's no-load speed. A massive leg's servo follows the same
-/// motion. Explicit values in the configuration win.
+/// How a leg swings in the air while its motor is on, `(speed, acceleration bound)`: the
+/// motor's no-load output speed `ω₀/G` (38.6 rad/s at 28:1) and its stall torque over the
+/// reflected rotor inertia plus the leg's own about the hip (thesis 5.1.1; the saturated
+/// torque keeps X-RHex's drive with `τ_s`). Explicit values in the configuration win.
 pub fn leg_swing(params: &RhexParams, cfg: &LeapConfig) -> Result<(f64, f64), RhexError> {
     let (drive, stall_n_m, reflected) = leg_motor(params, cfg)?;
     let leg = leg_inertia_about_hip(params);
@@ -740,31 +692,9 @@ pub fn leg_swing(params: &RhexParams, cfg: &LeapConfig) -> Result<(f64, f64), Rh
     Ok((speed, accel))
 }
 
-/// The angle at which leg `i`'s lowest point just reaches the ground with the body at `q`,
-/// on the side that `sign` pushes from (`+`: the leg ahead of its hip; `−`: behind), by
-/// bisection on the engine's own contact geometry (any leg shape,
-/// [`selfmanip_sim::analysis::angle_to_ground`]) from pointing up (clear) to pointing down
-/// (through the ground).
-fn touchdown_angle(
-    rhex: &Rhex,
-    terrain: &dyn Terrain,
-    q: &[f64],
-    i: usize,
-    contact: usize,
-    sign: f64,
-) -> Result<f64, RhexError> {
-    let up = -sign * (PI - 1e-9);
-    angle_to_ground(&rhex.model, terrain, q, i, contact, up, 0.0).ok_or_else(|| {
-        RhexError::InvalidValue {
-            field: "rho_b".into(),
-            reason: "a leg pointing straight down must reach the ground from the sitting posture"
-                .into(),
-        }
-    })
-}
-
-/// The leap's two pushing pairs (front-most first): [`LeapConfig::pairs`] or chapter 3's.
-fn leap_pairs(cfg: &LeapConfig) -> Result<[LegPair; 2], RhexError> {
+/// The robot of a leap: `params` (checked as given) with the leap's two pushing pairs
+/// ([`LeapConfig::pairs`] or chapter 3's) and its legs' armature ([`leg_armature`]).
+pub fn leap_rhex(params: &RhexParams, cfg: &LeapConfig) -> Result<Rhex, RhexError> {
     let pairs = cfg.pairs.unwrap_or(cfg.strategy.chapter3_pairs());
     if pairs[0] == pairs[1] {
         return Err(RhexError::InvalidValue {
@@ -772,13 +702,6 @@ fn leap_pairs(cfg: &LeapConfig) -> Result<[LegPair; 2], RhexError> {
             reason: "a leap strategy drives two different leg pairs".into(),
         });
     }
-    Ok(pairs)
-}
-
-/// The robot of a leap: `params` (checked as the user gave them, [`RhexParams::validate`])
-/// with the leap's two pushing pairs and its legs' armature ([`leg_armature`]) set.
-pub fn leap_rhex(params: &RhexParams, cfg: &LeapConfig) -> Result<Rhex, RhexError> {
-    let pairs = leap_pairs(cfg)?;
     params.validate()?;
     Rhex::new(RhexParams {
         pairs: pairs.to_vec(),
@@ -789,17 +712,15 @@ pub fn leap_rhex(params: &RhexParams, cfg: &LeapConfig) -> Result<Rhex, RhexErro
 }
 
 /// A leap's start pose `q0`: sitting level on both body ends, each pushing leg held
-/// [`LeapConfig::wait_clearance_rad`] above the angle at which it touches the ground on the
-/// side its strategy pushes from (so that the body can pitch on the other leg without
-/// driving it into the ground). It depends on the robot's geometry, the terrain, the push
-/// directions and the clearance, not on `t2` or the actuator: a caller that runs many leaps
-/// of one strategy computes it once ([`LeapPreset`]).
+/// [`LeapConfig::wait_clearance_rad`] above the angle at which its lowest point reaches the
+/// ground on the side its strategy pushes from (by bisection on the engine's contact
+/// geometry, [`selfmanip_sim::analysis::angle_to_ground`]). It does not depend on `t2` or the
+/// actuator ([`LeapPreset`] computes it once).
 pub fn leap_start_pose(rhex: &Rhex, cfg: &LeapConfig) -> Result<Vec<f64>, RhexError> {
     let params = &rhex.params;
     let terrain = cfg.terrain;
     if let TerrainSpec::Ledge { distance_m, .. } = terrain {
-        // the face must be clear of everything the robot can reach at the start: a
-        // body end, or a leg turned straight towards it
+        // the face must be clear of a body end, or a leg turned straight towards it
         let side = distance_m.signum();
         let reach = params
             .ordered_pairs()
@@ -824,15 +745,22 @@ pub fn leap_start_pose(rhex: &Rhex, cfg: &LeapConfig) -> Result<Vec<f64>, RhexEr
     let mut q0 = vec![0.0, 0.0, 0.0, -params.rho_b, 0.0];
     for i in 0..2 {
         let contact = rhex.site(2 * i + 1);
-        q0[i] = touchdown_angle(rhex, &terrain, &q0, i, contact, sign[i])?
-            - sign[i] * cfg.wait_clearance_rad;
+        // from pointing up (clear) to pointing down (through the ground)
+        let up = -sign[i] * (PI - 1e-9);
+        let touchdown = angle_to_ground(&rhex.model, &terrain, &q0, i, contact, up, 0.0)
+            .ok_or_else(|| RhexError::InvalidValue {
+                field: "rho_b".into(),
+                reason:
+                    "a leg pointing straight down must reach the ground from the sitting posture"
+                        .into(),
+            })?;
+        q0[i] = touchdown - sign[i] * cfg.wait_clearance_rad;
     }
     Ok(q0)
 }
 
-/// The mode a leap starts in: `1010`, sitting on both body ends; with Coulomb body ends
-/// (`RhexParams::mu_body`) the rear one starts sliding (both sticking is statically
-/// indeterminate).
+/// The mode a leap starts in: `1010`; with Coulomb body ends (`RhexParams::mu_body`) the
+/// rear one starts sliding (both sticking is statically indeterminate).
 fn start_mode(rhex: &Rhex) -> Result<ContactMode, RhexError> {
     let model = &rhex.model;
     let mut mode0 = rhex.mode("1010")?;
@@ -848,56 +776,41 @@ fn start_mode(rhex: &Rhex) -> Result<ContactMode, RhexError> {
     Ok(mode0)
 }
 
-/// The presets a caller keeps for the leaps it runs ([`Presets::run`]: a sweep builds one
-/// per strategy and set of fixed inputs, and runs every point of it there with
-/// [`LeapPreset::run_at`]), keyed by everything a preset's build depends on — the robot
-/// parameters and the leap configuration apart from `t2_s` and the actuator's values —
-/// compared by value. A point gives what a fresh leap gives, bit for bit, so results do
-/// not depend on which leaps ran before or on which thread.
+/// The presets a caller keeps for the leaps it runs (a sweep builds one per strategy and set
+/// of fixed inputs and runs each point on it, [`LeapPreset::run_at`]), keyed by value by what
+/// a build depends on: the parameters and the configuration with `t2_s` set to 0 and the
+/// actuator to its kind's default. A point gives what a fresh leap gives, bit for bit.
 #[derive(Default)]
-pub struct Presets(BuildCache<PresetKey, LeapPreset>);
-
-/// What a preset's build depends on: the parameters and the configuration with `t2_s` set
-/// to 0 and the actuator to its kind's default.
-type PresetKey = (RhexParams, LeapConfig);
+pub struct Presets(BuildCache<(RhexParams, LeapConfig), LeapPreset>);
 
 impl Presets {
-    fn key(params: &RhexParams, cfg: &LeapConfig) -> PresetKey {
-        let actuator = match cfg.actuator {
-            LegActuator::GearedMotor { .. } => LegActuator::default(),
-            LegActuator::SaturatedTorque => LegActuator::SaturatedTorque,
-        };
-        let cfg = LeapConfig {
-            t2_s: 0.0,
-            actuator,
-            ..cfg.clone()
-        };
-        (params.clone(), cfg)
-    }
-
     /// The leap `(params, cfg)` on the preset kept for it (built at the first ask): what
-    /// [`simulate_leap_with`] gives, bit for bit, without its event records (a sweep keeps
-    /// rows: [`LeapPreset::without_event_records`]).
+    /// [`simulate_leap_with`] gives, bit for bit, without its event records.
     pub fn run(
         &self,
         params: &RhexParams,
         cfg: &LeapConfig,
         stop: &AtomicBool,
     ) -> Result<LeapResult, RhexError> {
+        let actuator = match cfg.actuator {
+            LegActuator::GearedMotor { .. } => LegActuator::default(),
+            LegActuator::SaturatedTorque => LegActuator::SaturatedTorque,
+        };
+        let key = LeapConfig {
+            t2_s: 0.0,
+            actuator,
+            ..cfg.clone()
+        };
         let build = || LeapPreset::new(params, cfg).map(LeapPreset::without_event_records);
-        let preset = (self.0).get_or_build(Self::key(params, cfg), build)?;
+        let preset = (self.0).get_or_build((params.clone(), key), build)?;
         preset.run_at(cfg.t2_s, &cfg.actuator, stop)
     }
 }
 
-/// A leap as a preset of the generic simulator: the robot, its start pose, the scenario
-/// that runs the strategy's behaviour file through the interpreter ([`leap_scenario`]) and
-/// its simulation, built once; [`Self::run`] runs it with any motor start `t2`, and
-/// [`Self::run_at`] any point `(t2, actuator)`, by binding the behaviour's parameters `t2`,
-/// `gear_ratio`, `current_limit_a` and `motors_per_leg` ([`Simulation::rebind`]: the leap a
-/// fresh preset of that point runs, bit for bit).
-///
-/// A leap sweep builds one preset per strategy and runs its points on it:
+/// A leap as a preset of the generic simulator: the robot, its start pose and the scenario of
+/// its strategy's behaviour ([`leap_scenario`]), built once; [`Self::run`] runs it at any
+/// motor start `t2` and [`Self::run_at`] at any point `(t2, actuator)` by binding the
+/// behaviour's parameters ([`Simulation::rebind`]: bit for bit a fresh preset's leap).
 ///
 /// ```no_run
 /// # use rhex_model::leap::{leap_params, LeapConfig, LeapPreset, LegActuator, Strategy};
@@ -920,11 +833,9 @@ pub struct LeapPreset {
     pub leap: Arc<LeapScenario>,
     /// The parameters as given (a point whose actuator changes the robot is built afresh).
     params: RhexParams,
-    /// The simulation of `cfg`'s point, with the preset's start mode and budgets; the rear
-    /// motor starts `t2` after the front one ([`StaggeredScenario`]).
+    /// The simulation of `cfg`'s point ([`StaggeredScenario`]: the rear motor `t2` later).
     sim: StaggeredScenario,
-    /// Its results carry [`LeapResult::events`] (each record evaluates the flow after its
-    /// event for the contact forces: a sweep that reads only rows does without).
+    /// Its results carry [`LeapResult::events`] (a sweep that reads only rows does without).
     event_records: bool,
 }
 
@@ -935,28 +846,6 @@ impl std::fmt::Debug for LeapPreset {
             .field("q0", &self.q0)
             .field("leap", &self.leap)
             .finish_non_exhaustive()
-    }
-}
-
-/// The behaviour parameters that a geared motor binds: its gear ratio, current limit and
-/// motors per leg (none for the saturated torque, whose torque is the actuator's own number).
-fn actuator_values(a: &LegActuator) -> Vec<(&'static str, f64)> {
-    match *a {
-        LegActuator::SaturatedTorque => Vec::new(),
-        LegActuator::GearedMotor {
-            gear_ratio,
-            current_limit_a,
-            motors_per_leg,
-            ..
-        } => {
-            let mut v = vec![
-                ("gear_ratio", gear_ratio),
-                ("current_limit_a", current_limit_a),
-                ("motors_per_leg", f64::from(motors_per_leg)),
-            ];
-            v.extend(a.loss_values().0);
-            v
-        }
     }
 }
 
@@ -972,8 +861,7 @@ impl LeapPreset {
             ..cfg.clone()
         };
         let leap = scenario_of(rhex, params, &motor, &q0)?;
-        // the start state is the preset's, computed from the robot's parameters: a start the
-        // simulator refuses (its energy overflows) is the parameters' fault, named as theirs
+        // a start the simulator refuses (its energy overflows) is the parameters' fault
         let mut sim = Simulation::new(&leap.scenario).map_err(|e| match e {
             selfmanip_sim::SimError::InvalidValue { field, reason }
                 if field.starts_with("initial.") =>
@@ -1006,8 +894,7 @@ impl LeapPreset {
     }
 
     /// This preset with results that carry no event records ([`LeapResult::events`] empty,
-    /// and [`LeapResult::reason`] names the start's mode as the one flowing): what a sweep
-    /// that keeps only each leap's row ([`LeapResult::row`]) runs, everything else bit for bit.
+    /// [`LeapResult::reason`] names the start's mode), everything else bit for bit.
     pub fn without_event_records(self) -> Self {
         LeapPreset {
             event_records: false,
@@ -1043,12 +930,11 @@ impl LeapPreset {
         self.run_point(&[], self.cfg.t2_s, stop)
     }
 
-    /// The leap of the point `(t2_s, actuator)` of this preset's strategy and settings: the
-    /// result [`simulate_leap_with`] gives with `cfg`'s `t2_s` and `actuator` replaced, bit
-    /// for bit (checked as it checks them). Where the robot does not depend on the actuator
-    /// (its legs carry no rotors that follow the gear ratio) and both are geared motors, or
-    /// the actuator is the preset's, the point's values are bound to the simulation built
-    /// once; otherwise the point is built afresh.
+    /// The leap of the point `(t2_s, actuator)`: what [`simulate_leap_with`] gives with
+    /// `cfg`'s `t2_s` and `actuator` replaced, bit for bit. Where the robot does not depend
+    /// on the actuator (no rotors that follow the gear ratio), both are geared motors with the
+    /// same loss options set, or the actuator is the preset's, the point's values are bound to
+    /// the simulation built once; otherwise the point is built afresh.
     pub fn run_at(
         &self,
         t2_s: f64,
@@ -1061,7 +947,8 @@ impl LeapPreset {
             ..self.cfg.clone()
         };
         point.validate()?;
-        if *actuator != self.cfg.actuator {
+        let same = *actuator == self.cfg.actuator;
+        if !same {
             // what a fresh preset asks of the actuator (its drive builds)
             leg_swing(&self.params, &point)?;
         }
@@ -1072,35 +959,28 @@ impl LeapPreset {
                 LegActuator::GearedMotor { .. }
             )
         );
-        // the loss options set (and the gearbox law) are the behaviour's: a point that sets
-        // others is built afresh
         let names = |a: &LegActuator| {
             let (v, loss) = a.loss_values();
             (v.into_iter().map(|(k, _)| k).collect::<Vec<_>>(), loss)
         };
-        let same_robot = *actuator == self.cfg.actuator
+        let same_robot = same
             || (both_geared
                 && names(actuator) == names(&self.cfg.actuator)
                 && leap_leg_armature(&self.params, &point)?
                     == leap_leg_armature(&self.params, &self.cfg)?);
         if !same_robot {
-            let fresh = LeapPreset::new(&self.params, &point)?;
             let fresh = LeapPreset {
                 event_records: self.event_records,
-                ..fresh
+                ..LeapPreset::new(&self.params, &point)?
             };
             return fresh.run_leap(stop);
         }
-        let values = if *actuator == self.cfg.actuator {
-            Vec::new()
-        } else {
-            actuator_values(actuator)
-        };
+        let values = if same { Vec::new() } else { actuator.values() };
         self.run_point(&values, t2_s, stop)
     }
 
     /// The leap with the behaviour parameters `values` bound, at `t2` timed as
-    /// `cfg.t2_reference` says.
+    /// `cfg.t2_reference` says ([`search_touchdown_lag`] for touchdown timing).
     fn run_point(
         &self,
         values: &[(&str, f64)],
@@ -1109,23 +989,12 @@ impl LeapPreset {
     ) -> Result<LeapResult, RhexError> {
         match self.cfg.t2_reference {
             T2Reference::MotorStart => self.run_with(values, t2_s, stop),
-            T2Reference::Touchdown => self.touchdown_timed(values, t2_s, stop),
+            T2Reference::Touchdown => search_touchdown_lag(t2_s, self.cfg.t_final_s, |s| {
+                let r = self.run_with(values, s, stop)?;
+                let lag = r.touchdown_t2_s;
+                Ok((r, lag))
+            }),
         }
-    }
-
-    /// [`T2Reference::Touchdown`]: the rear motor's start at which the rear leg touches down
-    /// `target` after the front one ([`search_touchdown_lag`]).
-    fn touchdown_timed(
-        &self,
-        values: &[(&str, f64)],
-        target: f64,
-        stop: &AtomicBool,
-    ) -> Result<LeapResult, RhexError> {
-        search_touchdown_lag(target, self.cfg.t_final_s, |s| {
-            let r = self.run_with(values, s, stop)?;
-            let lag = r.touchdown_t2_s;
-            Ok((r, lag))
-        })
     }
 
     /// The leap's result read off the generic execution `exec`, run with the rear motor
@@ -1140,21 +1009,13 @@ impl LeapPreset {
         let rhex = &self.leap.rhex;
         let frame = staggered_frame(front_start, motor_t2_s, self.q0[2], self.cfg.stop_at_apex);
         let flew = frame.flew(&exec, outcome.status);
-        // the apex that ended the run, or (run on past it) that of its first flight after a
-        // motor started, in chapter 3's frame
         let apex = frame.apex(&rhex.model, &exec);
         let events = if self.event_records {
-            event_records_labelled(
-                &rhex.model,
-                &self.cfg.terrain,
-                &exec,
-                &|m| rhex.label(m),
-                front_start,
-            )
+            let label = |m: ContactMode| rhex.label(m);
+            event_records_labelled(&rhex.model, &self.cfg.terrain, &exec, &label, front_start)
         } else {
             Vec::new()
         };
-        // the touchdown offset: each pushing leg's first touchdown after its motor started
         let toes = [rhex.site(1), rhex.site(3)];
         let touchdown_t2_s = touchdown_lag_s(&exec, toes, front_start, motor_t2_s);
         LeapResult {
@@ -1173,17 +1034,15 @@ impl LeapPreset {
     }
 }
 
-/// Runs one leap (see the module documentation) and reports its apex and word.
-///
-/// Errors are bad parameters (typed, naming the field) and failures of the engine that
-/// prevent any answer; a leap that runs but does not reach flight, or ends Zeno, is an `Ok`
-/// result with the engine's [`RunStatus`](selfmanip_sim::RunStatus) (and [`LeapResult::flew`] false).
+/// Runs one leap (see the module documentation). Errors are bad parameters (typed, naming
+/// the field) and engine failures that prevent any answer; a leap that does not fly is an
+/// `Ok` result with the engine's [`RunStatus`](selfmanip_sim::RunStatus).
 pub fn simulate_leap(params: &RhexParams, cfg: &LeapConfig) -> Result<LeapResult, RhexError> {
     simulate_leap_with(params, cfg, &selfmanip_hybrid::budget::NEVER)
 }
 
 /// [`simulate_leap`] that another thread can stop: once `stop` is raised the leap ends
-/// within one integration step with status [`RunStatus::Interrupted`](selfmanip_sim::RunStatus::Interrupted).
+/// within one integration step with status `interrupted`.
 pub fn simulate_leap_with(
     params: &RhexParams,
     cfg: &LeapConfig,
@@ -1194,11 +1053,9 @@ pub fn simulate_leap_with(
 
 impl LeapResult {
     /// Why the leap did not fly, in words (empty when it [flew](Self::flew)): the engine's
-    /// [`Termination::describe`](selfmanip_hybrid::Termination::describe) on the leap's clock (t = 0 at the first motor's start) with
-    /// the leap's contact names and the flowing mode's label (`s` for a sliding toe); a run
-    /// that ended at its final time says it found no flight (or no apex).
+    /// [`Termination::describe`](selfmanip_hybrid::Termination::describe) on the leap's clock
+    /// with its contact names and the flowing mode's label.
     pub fn reason(&self) -> String {
-        // the mode that was flowing: the last event's, or the start's
         let mode = self
             .events
             .last()
@@ -1216,8 +1073,7 @@ impl LeapResult {
         frame.reason(&self.execution, self.flew, self.t_final_s, &name, &mode)
     }
 
-    /// Energy bookkeeping of the leap (motor work, impact losses, start and end energy),
-    /// each segment re-evaluated with the controller it ran with.
+    /// Energy bookkeeping of the leap (motor work, impact losses, start and end energy).
     pub fn energy_report(&self) -> Result<selfmanip_hybrid::EnergyReport, RhexError> {
         Ok(selfmanip_hybrid::energy_report(
             &self.leap.rhex.model,
@@ -1227,9 +1083,7 @@ impl LeapResult {
     }
 
     /// Samples the leap every `dt_s` seconds (and at its end) with the generic sampler
-    /// ([`selfmanip_sim::trajectory::sample_labelled`]): states, torques, modes in RHex's
-    /// labels, contact points and contact forces, each from its segment's flow as it ran;
-    /// times from the front leg's start.
+    /// ([`selfmanip_sim::trajectory::sample_labelled`]), times from the front leg's start.
     pub fn trajectory(&self, dt_s: f64) -> Result<Trajectory, RhexError> {
         let rhex = &self.leap.rhex;
         Ok(selfmanip_sim::trajectory::sample_labelled(
@@ -1243,14 +1097,7 @@ impl LeapResult {
     }
 }
 
-// ---- the leap behaviours as data ----
-// The four strategies of thesis section 3.2.1 as behaviour files
-// (`data/behaviours/leap_{pp,pm,mp,mm}.toml`, the schema of `docs/behaviours.md`), and a leap
-// as a scenario of them ([`scenario_of`]: which `LeapConfig` field sets what). The toes'
-// friction (`RhexParams::toe_sliding`) is the robot's, in its description; `t2_s` is the
-// motor-start offset (a touchdown-timed leap passes the motor start its search found).
-
-/// The shipped behaviour files, by strategy `(+,+)`, `(+,−)`, `(−,+)`, `(−,−)`.
+/// The shipped behaviour files (the schema of `docs/behaviours.md`), by strategy.
 pub const LEAP_BEHAVIOURS: [(&str, &str); 4] = [
     ("++", include_str!("../data/behaviours/leap_pp.toml")),
     ("+-", include_str!("../data/behaviours/leap_pm.toml")),
@@ -1258,20 +1105,26 @@ pub const LEAP_BEHAVIOURS: [(&str, &str); 4] = [
     ("--", include_str!("../data/behaviours/leap_mm.toml")),
 ];
 
-/// The shipped behaviour of a strategy: the data of its file ([`LEAP_BEHAVIOURS`]) as a value
-/// built in Rust, nothing parsed (`tests/leap_behaviours.rs` checks that each file parses to
-/// exactly this value: parsing one would cost ~9 % of a one-shot leap's instructions).
+/// The shipped behaviour of a strategy: the data of its file ([`LEAP_BEHAVIOURS`]) built in
+/// Rust, nothing parsed (`tests/leap_behaviours.rs` checks that each file parses to exactly
+/// this value; parsing costs ~9 % of a one-shot leap's instructions, JSON ~2.4 %).
 pub fn leap_behaviour(strategy: Strategy) -> Behaviour {
-    let pairs = strategy.chapter3_pairs().map(LegPair::name);
-    behaviour(strategy, &Settings::files(pairs))
+    let joints = strategy.chapter3_pairs().map(LegPair::name);
+    behaviour(
+        strategy,
+        &Settings {
+            joints,
+            ..Settings::default()
+        },
+    )
 }
 
-/// What a leap sets in its strategy's file: the pushing pairs name the two programs' joints;
-/// the swing motions get numbers where set (else the files' formulas of the motor: the no-load
-/// output speed, the stall torque over the rotors' reflected inertia plus the leg's own);
-/// `toe_stub_rad` is each push's `reverse_beyond_rad`; `keep_pushing_after_liftoff` has the
-/// retract phase wait for `takeoff` only; legs with inertia get the servo damping of
+/// What a leap sets in its strategy's file ([`scenario_of`]): the two programs' joints; the
+/// swing's speed and acceleration as numbers where set (else the files' formulas of the
+/// motor); `toe_stub_rad` as each push's `reverse_beyond_rad`; `keep_pushing_after_liftoff`
+/// (retract at `takeoff` only); legs with inertia, servoed in the air too with the damping of
 /// [`servo_damping`].
+#[derive(Default)]
 struct Settings<'a> {
     joints: [&'a str; 2],
     swing_speed_rad_s: Option<f64>,
@@ -1280,21 +1133,6 @@ struct Settings<'a> {
     keep_pushing_after_liftoff: bool,
     massive: [bool; 2],
     kd_n_m_s_per_rad: Option<String>,
-}
-
-impl<'a> Settings<'a> {
-    /// The files' own settings, on the joints `joints`.
-    fn files(joints: [&'a str; 2]) -> Self {
-        Settings {
-            joints,
-            swing_speed_rad_s: None,
-            swing_accel_rad_s2: None,
-            toe_stub_rad: None,
-            keep_pushing_after_liftoff: false,
-            massive: [false; 2],
-            kd_n_m_s_per_rad: None,
-        }
-    }
 }
 
 /// The behaviour of `strategy` with the settings `k`.
@@ -1393,7 +1231,7 @@ fn behaviour(strategy: Strategy, k: &Settings<'_>) -> Behaviour {
             "leg".to_string(),
             ActuatorSpec::DcMotor {
                 motor: "x-rhex".into(),
-                gearbox: "x-rhex-28".into(),
+                gearbox: LEG_GEARBOX.into(),
                 gear_ratio: Some("gear_ratio".into()),
                 current_limit_a: Some("current_limit_a".into()),
                 supply_voltage_v: None,
@@ -1442,8 +1280,8 @@ fn num(x: f64) -> Scalar {
     Scalar::Number(x)
 }
 
-/// The leap of `(params, cfg)` from the start configuration `q0` (sitting on both body
-/// ends, legs raised — [`LeapResult::q0`]) as a scenario.
+/// The leap of `(params, cfg)` from the start configuration `q0` ([`LeapResult::q0`]) as a
+/// scenario; its legs are timed by motor start.
 pub fn leap_scenario(
     params: &RhexParams,
     cfg: &LeapConfig,
@@ -1462,23 +1300,18 @@ pub fn leap_scenario(
     scenario_of(rhex, params, cfg, q0)
 }
 
-/// [`leap_scenario`] on the leap's robot `rhex` ([`leap_rhex`]), `cfg` checked.
+/// [`leap_scenario`] on the leap's robot `rhex` ([`leap_rhex`]), `cfg` checked. The toes'
+/// friction is the robot's; `t2_s` is the motor-start offset.
 pub(crate) fn scenario_of(
     rhex: Rhex,
     params: &RhexParams,
     cfg: &LeapConfig,
     q0: &[f64],
 ) -> Result<LeapScenario, RhexError> {
-    // the files swing the legs as their motors do (`leg.no_load_speed_rad_s`, the stall
-    // torque over the reflected rotor inertia); a saturated torque has no motor data, and
-    // explicit values win: then the swing is set as numbers, those of `leg_swing`
-    // with the geared motor, a value the configuration leaves out stays the file's formula
-    // of the motor (so that its partials follow the gear ratio)
+    // the swing is the motor's formula (so that its partials follow the gear ratio) unless
+    // set, or the actuator (a saturated torque) has no motor data: then a number
     let geared = matches!(cfg.actuator, LegActuator::GearedMotor { .. });
     let (speed, accel) = leg_swing(params, cfg)?;
-    // a massive leg is a joint like any other in the air too: its servo drives it there (a
-    // massless one is a free joint whose motion is prescribed), critically damped for the
-    // leg's inertia about its hip with its armature (`servo_damping`)
     let damping = servo_damping(params, &rhex.params, geared);
     let pairs = rhex.params.ordered_pairs();
     let settings = Settings {
@@ -1494,12 +1327,14 @@ pub(crate) fn scenario_of(
     let mut b = behaviour(cfg.strategy, &settings);
     let p = &mut b.parameters;
     p.insert("t2".into(), num(cfg.t2_s));
-    let leg_inertia = leg_inertia_about_hip(&rhex.params);
-    p.insert("leg_inertia_kg_m2".into(), num(leg_inertia));
+    p.insert(
+        "leg_inertia_kg_m2".into(),
+        num(leg_inertia_about_hip(&rhex.params)),
+    );
     if let Some((_, armature)) = damping {
         p.insert("leg_armature_kg_m2".into(), num(armature));
     }
-    for (name, v) in actuator_values(&cfg.actuator) {
+    for (name, v) in cfg.actuator.values() {
         p.insert(name.into(), num(v));
     }
     let leg = b.actuators.get_mut("leg").expect("the files' actuator");
@@ -1557,23 +1392,15 @@ pub(crate) fn scenario_of(
     })
 }
 
-/// The servo damping of legs with inertia, as a formula of the behaviour's parameters (so
-/// that its partials follow the gear ratio and the armature), and the value of the
-/// parameter `leg_armature_kg_m2` it reads. A leg with inertia `I` about its hip
-/// (`I_l + m_l (ρ/2)²` plus its joint's armature, the leg's `M̄_jj`) gets critical damping
-/// for the servo's stiffness `k_p = kp_hold · H` (`H` the stall torque):
-/// `k_d = 2 √(k_p I) = 2 √(kp_hold I / H) · H`, one double pole at `√(k_p / I)` (217 rad/s
-/// for Table 4.2's leg with its rotors at 28:1 and 20 A), the textbook design of a position
-/// servo for the inertia it moves. The files' `kd_hold` per N m was chosen for massless
-/// legs, whose servo acts only through the contact's statics; on a leg with inertia it is
-/// an overdamped servo (`ζ = 2.7` with the rotors) whose fast pole only makes the flow
-/// stiff. The armature is the rotors' reflected inertia `n J G²` where it follows the gear
-/// ratio (plus the parameter `leg_armature_kg_m2`, 0 there), else the parameter
-/// `leg_armature_kg_m2` as set. `None` for massless legs without armature (the file's
-/// damping).
-/// `user` are the parameters as given, `robot` the leap's (its armature set); `geared`: the
-/// actuator is the geared motor (the saturated torque has no rotors to reflect: its
-/// armature is a number).
+/// The servo damping of legs with inertia as a formula of the behaviour's parameters (its
+/// partials follow the gear ratio and the armature), and the value of the parameter
+/// `leg_armature_kg_m2` it reads; `None` for massless legs without armature (the files'
+/// `kd_hold`, chosen for massless legs). A leg of inertia `I` about its hip (with its
+/// joint's armature) gets critical damping for the stiffness `k_p = kp_hold · H` (`H` the
+/// stall torque): `k_d = 2 √(kp_hold I / H) · H` (a double pole at 217 rad/s for Table 4.2's
+/// leg with its rotors at 28:1). The armature is `n J G²` where it follows the gear ratio
+/// (`user`: the parameters as given; `robot`: the leap's, its armature set; `geared`: the
+/// saturated torque has no rotors to reflect), else the parameter as set.
 fn servo_damping(user: &RhexParams, robot: &RhexParams, geared: bool) -> Option<(String, f64)> {
     let armature = robot.leg_armature_kg_m2.unwrap_or(0.0);
     if leg_inertia_about_hip(robot) + armature <= 0.0 {

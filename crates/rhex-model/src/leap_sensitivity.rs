@@ -1,60 +1,29 @@
-//! Sensitivities of RHex leaps to named parameters and to the start state: the apex the
-//! leap reports, differentiated through every event of its execution by the generic named
-//! sensitivities ([`selfmanip_sim::sensitivity`]); what is RHex's is which engine parameters
-//! stand behind a leap's names and the apex in chapter 3's frame.
+//! Sensitivities of RHex leaps to named parameters and to the start state: the apex,
+//! differentiated through every event by the generic named sensitivities
+//! ([`selfmanip_sim::sensitivity`]). What is RHex's is which engine parameters stand behind a
+//! leap's names ([`SENSITIVITY_PARAMETERS`]) and the apex in chapter 3's frame:
+//! - `t2_s` (alias `t2`): the rear motor's start (the behaviour parameter `t2`, a time event;
+//!   for `t2 < 0` the front's, and the reported times' origin; at 0 the right-hand derivative).
+//! - `gear_ratio`: the geared motors' `G` (torque line, current limit, servo, swing bounds) and,
+//!   on legs that carry their rotors, each leg joint's armature `a = n J G²`:
+//!   `d/dG = ∂/∂G + Σ_j (2a/G) ∂/∂a_j`. Not a parameter of the saturated torque.
+//! - `gearbox_efficiency`, `battery_resistance_ohm`: the geared motor's loss options (an unset
+//!   one is taken at the drive's value).
+//! - `m_b`, `I_b`; `leg_armature_kg_m2` (every leg joint's at once, only of legs that have one);
+//!   `mu_front`, `mu_middle`, `mu_rear` (a toe's static `μ`, with Coulomb toes the kinetic one
+//!   too); `delta_t_s` (zero columns: the pseudo-impulse only selects the impact's mode).
 //!
-//! **Parameters** (by the names a leap already uses):
-//! - `t2_s` (alias `t2`): the rear motor's start relative to the front's. The execution
-//!   starts at `min(0, t2)`, so for `t2 ≥ 0` it moves the rear motor's start, below 0 the
-//!   front's (and the reported times' origin); at `t2 = 0` the derivative is the right-hand
-//!   one. The behaviour interpreter gives `∂q̈/∂t2` of the leg's swing down (which starts
-//!   with its motor: `∂(θ, θ̇, θ̈)/∂t0 = −(θ̇, θ̈, d³θ/dt³)`) and the motor start as a time
-//!   event (the behaviour parameter `t2`).
-//! - `gear_ratio`: the geared motors' `G` (the torque–speed line's slope and the current
-//!   limit's torque scale with it; the servo's hold torque and the swing's bounds too: the
-//!   behaviour parameter `gear_ratio`), and on legs that carry their
-//!   rotors (`RhexParams::legs_carry_rotors` without a hand-set armature) each leg joint's
-//!   armature `a = n J G²` with it: `d/dG = ∂/∂G + Σ_j (2a/G) ∂/∂a_j`. Not a parameter of the
-//!   saturated-torque actuator (a typed error).
-//! - `gearbox_efficiency`, `battery_resistance_ohm`: the geared motor's loss options
-//!   (`LegActuator::GearedMotor`; an unset one is taken at the drive's value, the catalog's
-//!   `η` or an ideal supply). Under the power-flow gearbox law a leg whose speed changes sign
-//!   under load makes the derivative undefined (the torque jumps there: see below).
-//! - `m_b`, `I_b`: the body's mass and inertia (`M̄`, `N̄` and the plastic impacts).
-//! - `leg_armature_kg_m2`: every leg joint's armature at once (`M̄`'s diagonal and the
-//!   impacts); only of legs that have one (a typed error otherwise: at zero a massless leg
-//!   leaves the dynamics).
+//! The leap runs with [`LeapConfig::control_free_joints`] on: a massless leg's angle in the air
+//! decides when it touches down, and its tracking error left out of the step-size control
+//! (~1e-5 rad) would make touchdown-dependent derivatives off by ~1e-3. The execution is the
+//! one [`crate::leap::simulate_leap`] returns with that setting, bit for bit (~3× the default
+//! leap's integration). Motions started at an event carry their partials over that event
+//! ([`selfmanip_hybrid::Controller::memory_partials`]; `tests/relanding_sensitivity.rs`).
 //!
-//! **Free legs under step control.** The leap with sensitivities always runs with
-//! [`LeapConfig::control_free_joints`] on (whatever the configuration says): a massless leg's
-//! prescribed motion in the air feeds back into nothing, but its angle decides when it
-//! touches down, and left out of the step-size control its tracking error (~1e-5 rad at the
-//! default `rtol`) makes the derivatives of touchdown-dependent outcomes off by ~1e-3. The
-//! execution is therefore the one [`crate::leap::simulate_leap`] returns with
-//! `control_free_joints = true` (bit for bit), which can differ from the default leap's by
-//! the tolerances; it costs ~3× the default leap's integration.
-//!
-//! **The controller's memory.** A leg's motion in the air that starts at an event (its
-//! liftoff, the takeoff) starts from the leg's angle and rate there: the behaviour
-//! interpreter gives its partials over that event's time and state
-//! ([`selfmanip_hybrid::Controller::memory_partials`], through
-//! [`selfmanip_sim::motion::StartedLaw`]) and, for the gear ratio, over the motion's speed
-//! and acceleration bounds, so a leg with inertia whose servo turns the body in flight
-//! (Result C.5) is differentiated (to 1e-6 of central differences). A massless leg's motion
-//! acts on nothing until the leg meets the ground again, so the interpreter carries its memory
-//! for a massless leg only in a run in which that leg lands again under such a motion (its
-//! touchdown's time and its servo in stance then follow the motion). In stance that servo
-//! may leave its saturation inside an engine step, a kink of the flow that the sensitivities
-//! split their steps at ([`selfmanip_hybrid::Controller::partials_piece`]): those leaps agree
-//! with central differences to 1e-7 (`tests/relanding_sensitivity.rs`).
-//!
-//! **Undefined derivatives** make [`LeapSensitivity::ok`] false, with every derivative NaN
-//! and the reason given: a leap without an apex; any event whose saltation is not defined
-//! (grazing, simultaneous touchdowns such as both legs at `t2 = 0`, a mode held for zero
-//! time, folds, jams and impacts with Coulomb friction); an event at a motor's start (fired
-//! by the torque's jump, not by a crossing: flagged by the hybrid sensitivities as an event
-//! at a controller's time event); the power-flow gearbox law's jump (a leg's speed changing
-//! sign under load: the reason says so).
+//! **Undefined derivatives** make [`LeapSensitivity::ok`] false, every derivative NaN, with the
+//! reason: no apex; an event whose saltation is not defined (grazing, simultaneous touchdowns,
+//! zero-time modes, folds, jams, Coulomb impacts); an event at a motor's start; the power-flow
+//! gearbox law's torque jump at a leg's change of direction under load.
 use crate::leap::{LeapConfig, LeapPreset, LeapResult, LegActuator, T2Reference};
 use crate::params::{LegPair, ToeSliding};
 use crate::{RhexError, RhexParams};
@@ -136,44 +105,38 @@ enum LeapParameter {
     BodyInertia,
     /// The armature of every leg joint at once.
     LegArmature,
-    /// A loss option of the geared motor, a behaviour parameter by its name
-    /// (`gearbox_efficiency`, `battery_resistance_ohm`).
+    /// A loss option of the geared motor, a behaviour parameter by its name.
     DriveLoss(&'static str),
-    /// A leg pair's toe friction coefficient (`mu_rear`, …): the static `μ` of its toe's
-    /// cone and, with Coulomb toes ([`ToeSliding::Coulomb`], `mu_kinetic = mu`), the kinetic
-    /// one with it.
+    /// A leg pair's toe friction coefficient (static, and kinetic with Coulomb toes).
     ToeFriction(LegPair),
-    /// The pseudo-impulse's `δt` ([`Parameter::PseudoImpulseDuration`]: zero columns, the
-    /// pseudo-impulse selects the impact's mode only).
+    /// The pseudo-impulse's `δt` ([`Parameter::PseudoImpulseDuration`]).
     PseudoImpulse,
 }
 
 fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<LeapParameter>, RhexError> {
+    let geared = matches!(cfg.actuator, LegActuator::GearedMotor { .. });
+    let unsupported = |field: &str, reason: &str| {
+        Err(RhexError::Unsupported {
+            field: field.into(),
+            reason: reason.into(),
+        })
+    };
     names
         .iter()
         .map(|&n| match n {
             "t2" | "t2_s" => Ok(LeapParameter::T2),
-            "gear_ratio" => match cfg.actuator {
-                LegActuator::GearedMotor { .. } => Ok(LeapParameter::GearRatio),
-                LegActuator::SaturatedTorque => Err(RhexError::Unsupported {
-                    field: "gear_ratio".into(),
-                    reason: "the saturated-torque actuator has no gear ratio to differentiate"
-                        .into(),
-                }),
-            },
-            "gearbox_efficiency" | "battery_resistance_ohm" => match cfg.actuator {
-                LegActuator::GearedMotor { .. } => {
-                    Ok(LeapParameter::DriveLoss(if n == "gearbox_efficiency" {
-                        "gearbox_efficiency"
-                    } else {
-                        "battery_resistance_ohm"
-                    }))
-                }
-                LegActuator::SaturatedTorque => Err(RhexError::Unsupported {
-                    field: n.into(),
-                    reason: "the saturated-torque actuator has no drive losses".into(),
-                }),
-            },
+            "gear_ratio" if geared => Ok(LeapParameter::GearRatio),
+            "gearbox_efficiency" if geared => Ok(LeapParameter::DriveLoss("gearbox_efficiency")),
+            "battery_resistance_ohm" if geared => {
+                Ok(LeapParameter::DriveLoss("battery_resistance_ohm"))
+            }
+            "gear_ratio" => unsupported(
+                n,
+                "the saturated-torque actuator has no gear ratio to differentiate",
+            ),
+            "gearbox_efficiency" | "battery_resistance_ohm" => {
+                unsupported(n, "the saturated-torque actuator has no drive losses")
+            }
             "m_b" => Ok(LeapParameter::BodyMass),
             "I_b" => Ok(LeapParameter::BodyInertia),
             "leg_armature_kg_m2" => Ok(LeapParameter::LegArmature),
@@ -181,12 +144,11 @@ fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<LeapParameter>, RhexE
             "mu_middle" => Ok(LeapParameter::ToeFriction(LegPair::Middle)),
             "mu_rear" => Ok(LeapParameter::ToeFriction(LegPair::Rear)),
             "delta_t_s" if cfg.delta_t_s > 0.0 => Ok(LeapParameter::PseudoImpulse),
-            "delta_t_s" => Err(RhexError::Unsupported {
-                field: "delta_t_s".into(),
-                reason: "at δt = 0 the impact takes the limit δt → 0⁺, another rule: the \
-                         derivative there is one-sided (differentiated at a positive δt)"
-                    .into(),
-            }),
+            "delta_t_s" => unsupported(
+                n,
+                "at δt = 0 the impact takes the limit δt → 0⁺, another rule: the derivative \
+                 there is one-sided (differentiated at a positive δt)",
+            ),
             other => Err(RhexError::UnknownParameter {
                 field: other.into(),
                 known: SENSITIVITY_PARAMETERS.join(", "),

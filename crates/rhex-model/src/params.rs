@@ -81,33 +81,22 @@ pub struct RhexParams {
     /// How a toe slides once it has slipped.
     #[serde(default)]
     pub toe_sliding: ToeSliding,
-    /// Coulomb friction of the body ends (one coefficient, static = kinetic): they stick
-    /// while the cone holds and slide on its edge (`selfmanip_core::friction`, the general
-    /// sliding site). `None` (the default): they slide without friction, the thesis's
-    /// Assumption 5.9 and section C.3 (the shell's friction is low). A leap starts with the
-    /// front end sticking and the rear one sliding (both sticking would be statically
-    /// indeterminate: four rows on the body's three coordinates). `Some(0.0)` is the
-    /// default's frictionless sliding.
+    /// Coulomb friction of the body ends (static = kinetic). `None` (the default) or
+    /// `Some(0.0)`: they slide without friction (Assumption 5.9, section C.3). A leap starts
+    /// with the front end sticking and the rear one sliding (both sticking is indeterminate).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mu_body: Option<f64>,
-    /// Armature of every leg joint (kg m²): the inertia of the leg's motors' rotors seen
-    /// through the gearbox, `n J G²`, on `M̄`'s diagonal at the leg's angle
-    /// ([`selfmanip_core::model::Joint::armature_kg_m2`]). `None` (the default): a leap gives
-    /// massive legs (`m_l` or `I_l` > 0) their actuator's
-    /// ([`crate::leap::rotor_reflected_inertia`], the same rotors that bound a massless
-    /// leg's swing) and massless legs none (they stay massless, Assumption C.6); a robot
-    /// built from the parameters alone ([`crate::Rhex::new`]), which has no actuator, has
-    /// none. `Some(a)`: `a` on every leg joint, whatever the actuator (`Some(0.0)`: bare
-    /// legs without rotors).
+    /// Armature of every leg joint (kg m², [`selfmanip_core::model::Joint::armature_kg_m2`]).
+    /// `None` (the default): a leap gives legs that carry their rotors
+    /// ([`Self::legs_carry_rotors`]) the actuator's `n J G²`
+    /// ([`crate::leap::rotor_reflected_inertia`]), others none; [`crate::Rhex::new`] alone
+    /// gives none. `Some(a)`: `a` on every leg joint (`Some(0.0)`: bare legs).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub leg_armature_kg_m2: Option<f64>,
-    /// Whether a leap's legs carry their motors' rotors as joint armature, the leap's
-    /// actuator's `n J G²` ([`crate::leap::rotor_reflected_inertia`], following its gear
-    /// ratio). `None` (the default): massive legs do, massless legs do not (Assumption C.6).
-    /// `Some(true)`: every leg does, massless links too (a link whose joint has armature is
-    /// not massless: it stays in the dynamics in the air and on the ground,
-    /// `docs/decisions/2026-11-24-massless-legs-stay-default.md`). `Some(false)`: no
-    /// leg does. Exclusive with [`Self::leg_armature_kg_m2`], which sets the armature by hand.
+    /// Whether a leap's legs carry their motors' rotors as joint armature (following the gear
+    /// ratio). `None` (the default): massive legs do, massless legs do not (Assumption C.6;
+    /// `docs/decisions/2026-11-24-massless-legs-stay-default.md`). Exclusive with
+    /// [`Self::leg_armature_kg_m2`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub leg_rotors: Option<bool>,
 }
@@ -115,9 +104,7 @@ pub struct RhexParams {
 /// The shipped Table 4.2 file.
 pub const TABLE_4_2_TOML: &str = include_str!("../data/table_4_2.toml");
 
-/// The shipped Table 4.2, parsed once per process ([`RhexParams::default`] clones it): the
-/// text is a compile-time constant, so every parse gives the same value, and a leap builds
-/// its parameters from it each time.
+/// The shipped Table 4.2, parsed once per process ([`RhexParams::default`] clones it).
 static TABLE_4_2: std::sync::OnceLock<RhexParams> = std::sync::OnceLock::new();
 
 impl Default for RhexParams {
@@ -184,10 +171,8 @@ impl RhexParams {
             ("mu_middle", self.mu_middle),
             ("mu_rear", self.mu_rear),
         ] {
-            if let Some(m) = mu {
-                if !(m >= 0.0) {
-                    return bad(name, "must be non-negative");
-                }
+            if mu.is_some_and(|m| !(m >= 0.0)) {
+                return bad(name, "must be non-negative");
             }
         }
         if self.leg_rotors.is_some() && self.leg_armature_kg_m2.is_some() {
@@ -197,19 +182,14 @@ impl RhexParams {
                  not both",
             );
         }
-        if let Some(a) = self.leg_armature_kg_m2 {
-            if !a.is_finite() {
-                return bad("leg_armature_kg_m2", "must be finite");
-            }
-            if a < 0.0 {
-                return bad("leg_armature_kg_m2", "must be non-negative");
-            }
+        match self.leg_armature_kg_m2 {
+            Some(a) if !a.is_finite() => return bad("leg_armature_kg_m2", "must be finite"),
+            Some(a) if a < 0.0 => return bad("leg_armature_kg_m2", "must be non-negative"),
+            _ => {}
         }
-        if let Some(m) = self.mu_body {
-            // also the kinetic coefficient: finite
-            if !(m.is_finite() && m >= 0.0) {
-                return bad("mu_body", "must be finite and non-negative");
-            }
+        // also the kinetic coefficient: finite
+        if self.mu_body.is_some_and(|m| !(m.is_finite() && m >= 0.0)) {
+            return bad("mu_body", "must be finite and non-negative");
         }
         Ok(())
     }

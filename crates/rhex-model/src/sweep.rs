@@ -1,23 +1,13 @@
-//! Batched leaps (issue 5): many independent leaps — strategy × `t2` × gear ratio × any
-//! parameter by name — run on an explicit rayon pool, results in input order.
+//! Batched leaps: strategy × `t2` × gear ratio × any parameter by name, as the generic sweep
+//! ([`selfmanip_sim::sweep::preset_sweep`]: determinism, failure isolation, the rayon pool)
+//! with the leap preset ([`LeapSweep`]). A row is the generic [`SweepRow`] with the leap's
+//! apex (chapter 3's frame, z up) and the gear ratio used ([`LEAP_COLUMNS`]).
 //!
-//! Determinism, failure isolation and the pool are the generic sweep's
-//! ([`selfmanip_sim::sweep`]).
-//!
-//! **Parameters by name.** An override names a field of [`RhexParams`] (`m_b`, `leg_shape`,
-//! `mu_rear`, …), of [`LeapConfig`] (`delta_t_s`, `swing_accel_rad_s2`, `toe_stub_rad`, …;
-//! not `strategy`, `t2_s` or `actuator`, which have their own columns) or of the geared
-//! motor (`current_limit_a`, `motors_per_leg`). Values are JSON values, deserialized with
-//! the same serde rules as the data files, so a wrong type names its field.
-//!
-//! **Gear ratio.** `Some(G)` runs the point with [`LegActuator::GearedMotor`] of ratio `G`
-//! (current limit and motor count from the base actuator when it is a geared motor, else
-//! the defaults: 20 A, two motors per planar leg); `None` keeps the base actuator. The
-//! reported gear ratio is the one used, NaN for [`LegActuator::SaturatedTorque`].
-//! The RHex leap sweep is the generic sweep ([`selfmanip_sim::sweep::preset_sweep`]) with the
-//! leap preset ([`LeapSweep`]): a point is `(strategy, t2, gear ratio, overrides)`, its row
-//! the generic [`SweepRow`] with the leap's apex (chapter 3's frame, z up) and one column of
-//! its own, the gear ratio used ([`LEAP_COLUMNS`]).
+//! **Overrides** name a field of [`RhexParams`], of [`LeapConfig`] (not `strategy`, `t2_s` or
+//! `actuator`, which are columns) or of the geared motor (`current_limit_a`, …), as JSON values
+//! read with the data files' serde rules (a wrong type names its field). **Gear ratio**
+//! `Some(G)` runs the geared motor of ratio `G` (the base actuator's other values, else
+//! chapter 5's); `None` keeps the base actuator (reported NaN for the saturated torque).
 use crate::leap::{LeapConfig, LeapResult, LegActuator, Presets, Strategy};
 use crate::{RhexError, RhexParams};
 use selfmanip_hybrid::budget::NEVER;
@@ -125,17 +115,14 @@ const ACTUATOR_FIELDS: [&str; 5] = [
     "battery_resistance_ohm",
 ];
 
-/// The names that set the geared motor's fields ([`LegActuator::GearedMotor`]) rather than a
-/// parameter or the configuration: an override of one of them runs the geared motor.
+/// The names that set the geared motor's fields: an override of one runs the geared motor.
 pub fn actuator_field_names() -> &'static [&'static str] {
     &ACTUATOR_FIELDS
 }
 
-/// Every name an override may use, each once: the fields of [`RhexParams`] (but `pairs`,
-/// which names the leap's pushing pairs, [`LeapConfig::pairs`]: a leap's robot has exactly
-/// those), of [`LeapConfig`] (except `strategy`, `t2_s`, `actuator`) and of the geared motor —
-/// every field serde reads, including optional ones a default value leaves out of its
-/// serialization (`mu_body`, `leg_armature_kg_m2`) — grouped by what they set.
+/// Every name an override may use, each once, grouped by what they set: every field serde
+/// reads of [`RhexParams`] (but `pairs`, which names [`LeapConfig::pairs`]), of [`LeapConfig`]
+/// (but its columns) and of the geared motor.
 fn override_groups() -> [Vec<&'static str>; 3] {
     let fields = |names: &'static [&'static str], skip: &[&str]| {
         names
@@ -254,33 +241,10 @@ pub fn sweep(
     sweep_with(base_params, base_cfg, points, threads, &NEVER)
 }
 
-/// [`sweep`] that another thread can stop: once `stop` is raised, running leaps end within
-/// one integration step and the points not yet started are not run; all of them get the
-/// status `interrupted` (the rows of finished points are kept). Every point is still a row,
-/// in input order.
-///
-/// How a caller stops it on Ctrl-C: run the sweep on a thread of its own and, on the
-/// calling thread, poll for the signal and raise the flag.
-///
-/// ```no_run
-/// use rhex_model::leap::{leap_params, LeapConfig, Strategy};
-/// use rhex_model::sweep::{grid, sweep_with};
-/// use std::sync::atomic::{AtomicBool, Ordering};
-/// let points = grid(&Strategy::ALL, &[0.0, 0.1], &[None]);
-/// let stop = AtomicBool::new(false);
-/// let rows = std::thread::scope(|s| {
-///     let job = s.spawn(|| sweep_with(&leap_params(), &LeapConfig::default(), &points, 2, &stop));
-///     while !job.is_finished() {
-///         std::thread::sleep(std::time::Duration::from_millis(50));
-///         let interrupted = false; // e.g. pyo3's `py.check_signals().is_err()`
-///         if interrupted {
-///             stop.store(true, Ordering::Relaxed);
-///         }
-///     }
-///     job.join().expect("the sweep thread does not panic")
-/// })?;
-/// # Ok::<(), rhex_model::RhexError>(())
-/// ```
+/// [`sweep`] that another thread can stop (on Ctrl-C: run it on a thread of its own and
+/// raise `stop` from the calling one): running leaps end within one integration step, points
+/// not yet started are not run, and all of them get the status `interrupted`; every point is
+/// still a row, in input order.
 pub fn sweep_with(
     base_params: &RhexParams,
     base_cfg: &LeapConfig,
