@@ -149,15 +149,8 @@ impl ServoLaw {
     /// program's `contacts` (bits) closed.
     #[inline]
     fn is_off(&self, mode: ContactMode, contacts: u32) -> bool {
-        servo_off(self.only_in_contact, mode, contacts)
+        self.only_in_contact && mode.normal_bits() & contacts == 0
     }
-}
-
-/// Whether a servo with `only_in_contact` is switched off in `mode`: none of the program's
-/// `contacts` (bits) closed.
-#[inline]
-fn servo_off(only_in_contact: bool, mode: ContactMode, contacts: u32) -> bool {
-    only_in_contact && mode.normal_bits() & contacts == 0
 }
 
 #[derive(Debug, Clone)]
@@ -1425,6 +1418,8 @@ impl Controller for BehaviourController {
         }
         for (prog, mem) in plan.programs.iter().zip(&self.programs) {
             let j = prog.joint;
+            let servo_off =
+                |only_in_contact: bool| only_in_contact && mode.normal_bits() & prog.contacts == 0;
             tau[j] = match mem.law(t) {
                 ActiveLaw::Zero => 0.0,
                 ActiveLaw::Constant(c) => c,
@@ -1446,7 +1441,7 @@ impl Controller for BehaviourController {
                 }
                 | ActiveLaw::ServoTracking {
                     only_in_contact, ..
-                } if servo_off(only_in_contact, mode, prog.contacts) => 0.0,
+                } if servo_off(only_in_contact) => 0.0,
                 ActiveLaw::ServoAt {
                     target,
                     gains,
