@@ -1,4 +1,4 @@
-"""The reproducers of issue 31 that ``scripts/audit-issue31.py`` still found wanting on main:
+"""The reproducers of issue 31 that were still wanting after its first fixes:
 a write killed outright (SIGKILL) left its temporary file for good, a run that ends at its
 final time right after an event was sampled in the mode before the event (the sampler and
 the engine disagreed on the last sample: the Painlevé report of a slide that had ended), and

@@ -3,14 +3,15 @@
 //! error names the field at fault (`joints[1].phases[2].torque.kp_n_m_per_rad`).
 use super::interpreter::{
     servo_manifold, BehaviourController, EventMatch, Level, MatchKind, MotionLaw, NamedPlan,
-    PhasePlan, Plan, Program, Start, TorqueLaw, Value,
+    PhasePlan, Plan, Program, ServoLaw, Start, TorqueLaw, Value,
 };
 use super::spec::{
     ActuatorSpec, Behaviour, Interpolation, JointProgram, Motion, NamedEvent, On, Phase, Torque,
     Trigger,
 };
 use super::tangent::{
-    ActuatorLaw, GearedLosses, Grad, NumberTangent, PhaseTangent, PlanTangent, TorqueTangent,
+    ActuatorLaw, GearedLaw, GearedLosses, Grad, NumberTangent, PhaseTangent, PlanTangent,
+    TorqueTangent,
 };
 use crate::error::{finite, invalid, non_negative, positive, SimError};
 use crate::expr::{Expr, ParsedFormulas, Scalar, MAX_PARAMETER_CHAIN};
@@ -559,7 +560,7 @@ fn actuator(
                 ));
             }
             let ratio = g.ratio;
-            let law = ActuatorLaw::Geared {
+            let law = ActuatorLaw::Geared(GearedLaw {
                 n,
                 ratio,
                 efficiency: g.efficiency,
@@ -579,7 +580,7 @@ fn actuator(
                 dvoltage: grad(supply_voltage_v),
                 defficiency: grad(gearbox_efficiency),
                 dbattery: grad(battery_resistance_ohm),
-            };
+            });
             let speed = m.no_load_speed_rad_s / ratio;
             // gradients only where the tangent is built (`compile_shared`)
             let grad_of = |g: &dyn Fn() -> Grad| if cx.tangent { g() } else { cx.empty.clone() };
@@ -957,7 +958,7 @@ impl Compiler<'_> {
                     named(&Leaf(field, f), |path| non_negative(path, v))
                 };
                 (
-                    TorqueLaw::Servo {
+                    TorqueLaw::Servo(ServoLaw {
                         target: target_rad
                             .as_ref()
                             .map(|s| num("target_rad", s))
@@ -969,7 +970,7 @@ impl Compiler<'_> {
                             None => f64::INFINITY,
                         },
                         only_in_contact: *only_in_contact,
-                    },
+                    }),
                     TorqueTangent::Servo {
                         target: target_rad.as_ref().map(grad),
                         kp: grad(kp_n_m_per_rad),

@@ -124,19 +124,33 @@ pub(crate) enum TorqueLaw {
         torques: Vec<f64>,
         hold: bool,
     },
-    Servo {
-        /// `None`: the joint's motion.
-        target: Option<f64>,
-        kp: f64,
-        kd: f64,
-        limit: f64,
-        only_in_contact: bool,
-    },
+    Servo(ServoLaw),
     Motor {
         actuator: usize,
         command: f64,
         reverse_beyond: Option<f64>,
     },
+}
+
+/// A `servo` torque law: the command `kp (θ* − θ) + kd (ω* − ω)` to a fixed target at rest
+/// or along the joint's motion, clamped to `±limit`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct ServoLaw {
+    /// `None`: the joint's motion.
+    pub target: Option<f64>,
+    pub kp: f64,
+    pub kd: f64,
+    pub limit: f64,
+    pub only_in_contact: bool,
+}
+
+impl ServoLaw {
+    /// Whether the servo is switched off in `mode`: `only_in_contact` with none of the
+    /// program's `contacts` (bits) closed.
+    #[inline]
+    fn is_off(&self, mode: ContactMode, contacts: u32) -> bool {
+        self.only_in_contact && mode.normal_bits() & contacts == 0
+    }
 }
 
 #[derive(Debug, Clone)]
@@ -218,13 +232,13 @@ impl MotionLaw {
 /// the air.
 pub(crate) fn servo_manifold(phase: &PhasePlan) -> Option<(Option<f64>, f64, f64)> {
     match phase.torque {
-        TorqueLaw::Servo {
+        TorqueLaw::Servo(ServoLaw {
             target,
             kp,
             kd,
             only_in_contact: false,
             ..
-        } if kd > 0.0 => Some((target, kp, kd)),
+        }) if kd > 0.0 => Some((target, kp, kd)),
         _ => None,
     }
 }
@@ -452,25 +466,22 @@ impl ActiveLaw {
             TorqueLaw::Zero => ActiveLaw::Zero,
             TorqueLaw::Constant(c) => ActiveLaw::Constant(c),
             TorqueLaw::Schedule { .. } => ActiveLaw::General,
-            TorqueLaw::Servo {
-                target,
-                kp,
-                kd,
-                limit,
-                only_in_contact,
-            } => match target {
-                Some(target) => ActiveLaw::ServoAt {
-                    target,
-                    gains: (kp, kd),
-                    limit,
-                    only_in_contact,
-                },
-                None => ActiveLaw::ServoTracking {
-                    gains: (kp, kd),
-                    limit,
-                    only_in_contact,
-                },
-            },
+            TorqueLaw::Servo(s) => {
+                let (gains, limit, only_in_contact) = ((s.kp, s.kd), s.limit, s.only_in_contact);
+                match s.target {
+                    Some(target) => ActiveLaw::ServoAt {
+                        target,
+                        gains,
+                        limit,
+                        only_in_contact,
+                    },
+                    None => ActiveLaw::ServoTracking {
+                        gains,
+                        limit,
+                        only_in_contact,
+                    },
+                }
+            }
             TorqueLaw::Motor {
                 actuator,
                 command,
@@ -937,13 +948,7 @@ impl BehaviourController {
                 },
             ) => schedule_dp(ws, (times, torques, *hold), t, dtimes, dtorques),
             (
-                TorqueLaw::Servo {
-                    target,
-                    kp,
-                    kd,
-                    limit,
-                    only_in_contact,
-                },
+                TorqueLaw::Servo(s),
                 TorqueTangent::Servo {
                     target: dtarget,
                     kp: dkp,
@@ -951,17 +956,17 @@ impl BehaviourController {
                     limit: dlimit,
                 },
             ) => {
-                if *only_in_contact && mode.normal_bits() & prog.contacts == 0 {
+                if s.is_off(mode, prog.contacts) {
                     return Some(None);
                 }
-                let u = self.servo_command(p, t, *target, (*kp, *kd), q[j], qd[j]);
-                if servo_piece(u, *limit) != 0 {
+                let u = self.servo_command(p, t, s.target, (s.kp, s.kd), q[j], qd[j]);
+                if servo_piece(u, s.limit) != 0 {
                     let mut d = ws.copy_of(dlimit);
                     d.iter_mut().for_each(|x| *x *= u.signum());
                     return Some(Some(d));
                 }
-                let (theta, omega, dth, dw) = match (target, dtarget) {
-                    (Some(a), Some(g)) => (*a, 0.0, ws.copy_of(g), ws.zeros(n)),
+                let (theta, omega, dth, dw) = match (s.target, dtarget) {
+                    (Some(a), Some(g)) => (a, 0.0, ws.copy_of(g), ws.zeros(n)),
                     _ => {
                         let (th, om, _) = self.reference(p, t);
                         let [dth, dw, da] = self.motion_dp(ws, p, self.motion_index(p, t), t);
@@ -972,8 +977,8 @@ impl BehaviourController {
                 let mut d = ws.zeros(n);
                 axpy(&mut d, theta - q[j], dkp);
                 axpy(&mut d, omega - qd[j], dkd);
-                axpy(&mut d, *kp, &dth);
-                axpy(&mut d, *kd, &dw);
+                axpy(&mut d, s.kp, &dth);
+                axpy(&mut d, s.kd, &dw);
                 ws.give([dth, dw]);
                 d
             }
@@ -1115,25 +1120,18 @@ impl BehaviourController {
         mode: ContactMode,
     ) -> Option<ServoInForce> {
         let prog = &self.plan.programs[p];
-        let TorqueLaw::Servo {
-            target,
-            kp,
-            kd,
-            limit,
-            only_in_contact,
-        } = torque
-        else {
+        let TorqueLaw::Servo(s) = torque else {
             return None;
         };
-        if *only_in_contact && mode.normal_bits() & prog.contacts == 0 {
+        if s.is_off(mode, prog.contacts) {
             return None;
         }
         let j = prog.joint;
         Some(ServoInForce {
-            u: self.servo_command(p, t, *target, (*kp, *kd), q[j], qd[j]),
-            limit: *limit,
-            gains: (*kp, *kd),
-            tracks_motion: target.is_none(),
+            u: self.servo_command(p, t, s.target, (s.kp, s.kd), q[j], qd[j]),
+            limit: s.limit,
+            gains: (s.kp, s.kd),
+            tracks_motion: s.target.is_none(),
         })
     }
 
@@ -1528,11 +1526,11 @@ impl Controller for BehaviourController {
                     }
                     out.dtau_dqd[(j, j)] = law.partials(*command, &[], qd[j], &mut Vec::new());
                 }
-                law @ TorqueLaw::Servo { kp, kd, limit, .. } => {
+                law @ TorqueLaw::Servo(servo) => {
                     let in_force = self.servo_in_force(p, law, t, (q, qd), mode);
-                    if in_force.is_some_and(|s| servo_piece(s.u, *limit) == 0) {
-                        out.dtau_dq[(j, j)] = -kp;
-                        out.dtau_dqd[(j, j)] = -kd;
+                    if in_force.is_some_and(|s| servo_piece(s.u, servo.limit) == 0) {
+                        out.dtau_dq[(j, j)] = -servo.kp;
+                        out.dtau_dqd[(j, j)] = -servo.kd;
                     }
                 }
             }
@@ -1958,18 +1956,12 @@ fn law_torque(
             torques,
             hold,
         } => schedule(times, torques, *hold, t),
-        TorqueLaw::Servo {
-            target,
-            kp,
-            kd,
-            limit,
-            only_in_contact,
-        } => {
-            if *only_in_contact && mode.normal_bits() & prog.contacts == 0 {
+        TorqueLaw::Servo(s) => {
+            if s.is_off(mode, prog.contacts) {
                 0.0
             } else {
-                let u = mem.servo_command(t, *target, (*kp, *kd), q[j], qd[j]);
-                u.clamp(-limit, *limit)
+                let u = mem.servo_command(t, s.target, (s.kp, s.kd), q[j], qd[j]);
+                u.clamp(-s.limit, s.limit)
             }
         }
         TorqueLaw::Motor {

@@ -183,27 +183,28 @@ impl NumberTangent {
 /// the battery's sag `s = R/(R + u² R_b)` (1 on an ideal supply) and the gearbox factor
 /// `e = η`, or `1/η` where the power-flow law is back-driven (`τ_m ω_m < 0`).
 pub(crate) enum ActuatorLaw {
-    Saturated {
-        max_n_m: f64,
-        dmax: Grad,
-    },
-    Geared {
-        n: f64,
-        ratio: f64,
-        efficiency: f64,
-        stall_n_m: f64,
-        no_load_rad_s: f64,
-        torque_constant_n_m_per_a: f64,
-        current_limit_a: f64,
-        voltage_v: f64,
-        losses: GearedLosses,
-        dn: Grad,
-        dratio: Grad,
-        dcurrent: Grad,
-        dvoltage: Grad,
-        defficiency: Grad,
-        dbattery: Grad,
-    },
+    Saturated { max_n_m: f64, dmax: Grad },
+    Geared(GearedLaw),
+}
+
+/// `n` geared DC motors in parallel ([`ActuatorLaw::Geared`]): the data of the law and the
+/// gradients of those the parameters move.
+pub(crate) struct GearedLaw {
+    pub n: f64,
+    pub ratio: f64,
+    pub efficiency: f64,
+    pub stall_n_m: f64,
+    pub no_load_rad_s: f64,
+    pub torque_constant_n_m_per_a: f64,
+    pub current_limit_a: f64,
+    pub voltage_v: f64,
+    pub losses: GearedLosses,
+    pub dn: Grad,
+    pub dratio: Grad,
+    pub dcurrent: Grad,
+    pub dvoltage: Grad,
+    pub defficiency: Grad,
+    pub dbattery: Grad,
 }
 
 /// The loss options of a geared law (`motor::DriveLosses`): the power-flow gearbox law, the
@@ -244,44 +245,35 @@ impl ActuatorLaw {
     pub fn stall_grad(&self) -> Grad {
         match self {
             ActuatorLaw::Saturated { dmax, .. } => dmax.clone(),
-            ActuatorLaw::Geared {
-                n,
-                ratio,
-                efficiency,
-                stall_n_m,
-                torque_constant_n_m_per_a,
-                current_limit_a,
-                voltage_v,
-                losses,
-                dn,
-                dratio,
-                dcurrent,
-                dvoltage,
-                defficiency,
-                dbattery,
-                ..
-            } => {
-                let limit = torque_constant_n_m_per_a * current_limit_a;
-                let sag = losses.sag(1.0);
-                let stall = stall_n_m * sag;
-                let tau = n * ratio * efficiency * stall.min(limit);
+            ActuatorLaw::Geared(g) => {
+                let limit = g.torque_constant_n_m_per_a * g.current_limit_a;
+                let sag = g.losses.sag(1.0);
+                let stall = g.stall_n_m * sag;
+                let tau = g.n * g.ratio * g.efficiency * stall.min(limit);
                 let on_line = stall <= limit;
                 let terms: [(f64, Option<&Grad>); 6] = [
-                    (tau / n, Some(dn)),
-                    (tau / ratio, Some(dratio)),
-                    (
-                        if on_line { 0.0 } else { tau / current_limit_a },
-                        Some(dcurrent),
-                    ),
-                    (if on_line { tau / voltage_v } else { 0.0 }, Some(dvoltage)),
-                    (tau / efficiency, Some(defficiency)),
+                    (tau / g.n, Some(&g.dn)),
+                    (tau / g.ratio, Some(&g.dratio)),
                     (
                         if on_line {
-                            -tau * sag / losses.terminal_resistance_ohm
+                            0.0
+                        } else {
+                            tau / g.current_limit_a
+                        },
+                        Some(&g.dcurrent),
+                    ),
+                    (
+                        if on_line { tau / g.voltage_v } else { 0.0 },
+                        Some(&g.dvoltage),
+                    ),
+                    (tau / g.efficiency, Some(&g.defficiency)),
+                    (
+                        if on_line {
+                            -tau * sag / g.losses.terminal_resistance_ohm
                         } else {
                             0.0
                         },
-                        Some(dbattery),
+                        Some(&g.dbattery),
                     ),
                 ];
                 sum(&terms).expect("gradients given")
@@ -293,17 +285,13 @@ impl ActuatorLaw {
     pub fn no_load_speed_grad(&self) -> Grad {
         match self {
             ActuatorLaw::Saturated { dmax, .. } => vec![0.0; dmax.len()].into(),
-            ActuatorLaw::Geared {
-                ratio,
-                no_load_rad_s,
-                voltage_v,
-                dratio,
-                dvoltage,
-                ..
-            } => {
-                let w = no_load_rad_s / ratio;
-                sum(&[(-w / ratio, Some(dratio)), (w / voltage_v, Some(dvoltage))])
-                    .expect("gradients given")
+            ActuatorLaw::Geared(g) => {
+                let w = g.no_load_rad_s / g.ratio;
+                sum(&[
+                    (-w / g.ratio, Some(&g.dratio)),
+                    (w / g.voltage_v, Some(&g.dvoltage)),
+                ])
+                .expect("gradients given")
             }
         }
     }
@@ -313,15 +301,9 @@ impl ActuatorLaw {
     pub fn reflected_inertia_grad(&self, rotor_kg_m2: f64) -> Grad {
         match self {
             ActuatorLaw::Saturated { dmax, .. } => vec![0.0; dmax.len()].into(),
-            ActuatorLaw::Geared {
-                n,
-                ratio,
-                dn,
-                dratio,
-                ..
-            } => sum(&[
-                (rotor_kg_m2 * ratio * ratio, Some(dn)),
-                (2.0 * n * rotor_kg_m2 * ratio, Some(dratio)),
+            ActuatorLaw::Geared(g) => sum(&[
+                (rotor_kg_m2 * g.ratio * g.ratio, Some(&g.dn)),
+                (2.0 * g.n * rotor_kg_m2 * g.ratio, Some(&g.dratio)),
             ])
             .expect("gradients given"),
         }
@@ -332,21 +314,13 @@ impl ActuatorLaw {
     fn line(&self, u: f64, speed: f64) -> (f64, f64, f64) {
         match self {
             ActuatorLaw::Saturated { .. } => (0.0, 0.0, f64::INFINITY),
-            ActuatorLaw::Geared {
-                ratio,
-                stall_n_m,
-                no_load_rad_s,
-                torque_constant_n_m_per_a,
-                current_limit_a,
-                losses,
-                ..
-            } => {
+            ActuatorLaw::Geared(g) => {
                 let uc = u.clamp(-1.0, 1.0);
-                let a0 = stall_n_m * (uc - speed * ratio / no_load_rad_s);
+                let a0 = g.stall_n_m * (uc - speed * g.ratio / g.no_load_rad_s);
                 (
                     a0,
-                    a0 * losses.sag(uc),
-                    torque_constant_n_m_per_a * current_limit_a,
+                    a0 * g.losses.sag(uc),
+                    g.torque_constant_n_m_per_a * g.current_limit_a,
                 )
             }
         }
@@ -359,15 +333,10 @@ impl ActuatorLaw {
     /// has that kink at standstill: a joint that starts from rest runs on the line for
     /// every `t > t₀`, and the partials at its first instant must be the line's.
     fn branch_speed(&self, u: f64, speed: f64) -> f64 {
-        if let ActuatorLaw::Geared {
-            ratio,
-            no_load_rad_s,
-            ..
-        } = *self
-        {
+        if let ActuatorLaw::Geared(g) = self {
             let (_, a, limit) = self.line(u, speed);
             if a.abs() >= limit && a.abs() <= limit * (1.0 + 1e-9) && u != 0.0 {
-                return speed + u.signum() * 2e-9 * no_load_rad_s / ratio;
+                return speed + u.signum() * 2e-9 * g.no_load_rad_s / g.ratio;
             }
         }
         speed
@@ -379,7 +348,7 @@ impl ActuatorLaw {
     /// one piece.
     pub fn piece(&self, u: f64, speed: f64) -> GearedPiece {
         let (_, a, limit) = self.line(u, self.branch_speed(u, speed));
-        let power_flow = matches!(self, ActuatorLaw::Geared { losses, .. } if losses.power_flow);
+        let power_flow = matches!(self, ActuatorLaw::Geared(g) if g.losses.power_flow);
         GearedPiece {
             on_limit: a.abs() >= limit,
             back_driven: power_flow && a * speed < 0.0,
@@ -395,15 +364,9 @@ impl ActuatorLaw {
     /// for the derating law.
     pub fn at_power_flow_jump(&self, u: f64, speed: f64) -> bool {
         match self {
-            ActuatorLaw::Geared {
-                efficiency,
-                no_load_rad_s,
-                ratio,
-                losses,
-                ..
-            } if losses.power_flow && *efficiency < 1.0 => {
+            ActuatorLaw::Geared(g) if g.losses.power_flow && g.efficiency < 1.0 => {
                 let (_, a, _) = self.line(u, speed);
-                a * speed < 0.0 && speed.abs() <= 1e-9 * no_load_rad_s / ratio
+                a * speed < 0.0 && speed.abs() <= 1e-9 * g.no_load_rad_s / g.ratio
             }
             _ => false,
         }
@@ -433,59 +396,44 @@ impl ActuatorLaw {
                 }
                 0.0
             }
-            ActuatorLaw::Geared {
-                n,
-                ratio,
-                efficiency,
-                stall_n_m,
-                no_load_rad_s,
-                current_limit_a,
-                voltage_v,
-                losses,
-                dn,
-                dratio,
-                dcurrent,
-                dvoltage,
-                defficiency,
-                dbattery,
-                ..
-            } => {
+            ActuatorLaw::Geared(g) => {
                 let w = self.branch_speed(u, speed);
                 let (a0, a, limit) = self.line(u, w);
                 let piece = self.piece(u, speed);
                 // the gearbox factor `e` and `∂e/∂η / e`
                 let (e, de) = if piece.back_driven {
-                    (1.0 / efficiency, -1.0 / efficiency)
+                    (1.0 / g.efficiency, -1.0 / g.efficiency)
                 } else {
-                    (*efficiency, 1.0 / efficiency)
+                    (g.efficiency, 1.0 / g.efficiency)
                 };
-                let c = n * ratio * e;
+                let (ratio, stall_n_m, no_load_rad_s) = (g.ratio, g.stall_n_m, g.no_load_rad_s);
+                let c = g.n * ratio * e;
                 d.resize(du.len(), 0.0);
                 if !piece.on_limit {
                     let uc = u.clamp(-1.0, 1.0);
-                    let sag = losses.sag(uc);
-                    axpy(d, e * ratio * a, dn);
+                    let sag = g.losses.sag(uc);
+                    axpy(d, e * ratio * a, &g.dn);
                     axpy(
                         d,
-                        n * e * sag * (a0 - ratio * stall_n_m * w / no_load_rad_s),
-                        dratio,
+                        g.n * e * sag * (a0 - ratio * stall_n_m * w / no_load_rad_s),
+                        &g.dratio,
                     );
-                    axpy(d, c * sag * uc * stall_n_m / voltage_v, dvoltage);
-                    axpy(d, c * a * de, defficiency);
-                    let r = losses.terminal_resistance_ohm;
-                    axpy(d, -c * a0 * uc * uc * sag * sag / r, dbattery);
+                    axpy(d, c * sag * uc * stall_n_m / g.voltage_v, &g.dvoltage);
+                    axpy(d, c * a * de, &g.defficiency);
+                    let r = g.losses.terminal_resistance_ohm;
+                    axpy(d, -c * a0 * uc * uc * sag * sag / r, &g.dbattery);
                     if inside {
-                        let r_b = losses.battery_resistance_ohm;
+                        let r_b = g.losses.battery_resistance_ohm;
                         let da_du = sag * stall_n_m - 2.0 * uc * r_b * sag * sag * a0 / r;
                         axpy(d, c * da_du, du);
                     }
                     -c * sag * stall_n_m * ratio / no_load_rad_s
                 } else {
                     let tau = c * a.signum() * limit;
-                    axpy(d, tau / n, dn);
-                    axpy(d, tau / ratio, dratio);
-                    axpy(d, tau / current_limit_a, dcurrent);
-                    axpy(d, tau * de, defficiency);
+                    axpy(d, tau / g.n, &g.dn);
+                    axpy(d, tau / ratio, &g.dratio);
+                    axpy(d, tau / g.current_limit_a, &g.dcurrent);
+                    axpy(d, tau * de, &g.defficiency);
                     0.0
                 }
             }
