@@ -48,15 +48,19 @@ pub struct TreeKkt {
     offset: Vec<usize>,
     /// `common[a · nv + b]`: how many rates the chains of `a` and `b` share (their last ones).
     common: Vec<usize>,
+    /// `on_chain[a · nv + b]`: whether rate `b` lies on `a`'s chain.
+    on_chain: Vec<bool>,
     /// `D_k` and `L`'s row `k` along `k`'s chain: `ltdl[offset[k]] = D_k`,
     /// `ltdl[offset[k] + p] = L[k, chain[offset[k] + p]]`.
     ltdl: Vec<f64>,
     /// `D^{-1/2}`.
     d_isqrt: Vec<f64>,
-    /// Column `r` of `Z` along the chain of row `r`'s deepest rate `row_end[r]`, at `z[r · nv..]`.
+    /// Column `r` of `Z` along the chain of row `r`'s deepest rate `row_end[r]`, at `z[r · nv..]`,
+    /// `row_len[r]` entries.
     z: Vec<f64>,
     row_end: Vec<usize>,
-    /// The Cholesky factor of `K` (c × c, lower, column-major).
+    row_len: Vec<usize>,
+    /// The Cholesky factor of `K` (c × c, lower, row-major: `k[i · c + j]`, `j ≤ i`).
     k: Vec<f64>,
     w: Vec<f64>,
 }
@@ -98,9 +102,16 @@ impl TreeKkt {
                     .count()
             })
             .collect();
+        let mut on_chain = vec![false; nv * nv];
+        for a in 0..nv {
+            for &b in of(a) {
+                on_chain[a * nv + b] = true;
+            }
+        }
         Self {
             nv,
             c: 0,
+            on_chain,
             ltdl: vec![0.0; chain.len()],
             chain,
             offset,
@@ -108,6 +119,7 @@ impl TreeKkt {
             d_isqrt: vec![0.0; nv],
             z: Vec::new(),
             row_end: Vec::new(),
+            row_len: Vec::new(),
             k: Vec::new(),
             w: vec![0.0; nv],
         }
@@ -124,6 +136,7 @@ impl TreeKkt {
             self.z.resize(nv * c, 0.0);
             self.k.resize(c * c, 0.0);
             self.row_end.resize(c, 0);
+            self.row_len.resize(c, 0);
         }
         self.factor_mass_matrix(M) && self.factor_rows(A)
     }
@@ -159,9 +172,7 @@ impl TreeKkt {
                 let i = self.chain[b + p];
                 let a = row_k[p] / dk;
                 let row_i = &mut before[self.offset[i]..self.offset[i + 1]];
-                for (h, x) in row_i.iter_mut().zip(&row_k[p..]) {
-                    *h -= a * x;
-                }
+                sub_scaled(row_i, a, &row_k[p..]);
                 row_k[p] = a;
             }
             self.d_isqrt[k] = 1.0 / dk.sqrt();
@@ -178,9 +189,7 @@ impl TreeKkt {
                 continue;
             }
             let (b, e) = (offset[i], offset[i + 1]);
-            for (xj, l) in x[t + 1..].iter_mut().zip(&ltdl[b + 1..e]) {
-                *xj -= l * xi;
-            }
+            sub_scaled(&mut x[t + 1..], xi, &ltdl[b + 1..e]);
         }
     }
 
@@ -191,20 +200,22 @@ impl TreeKkt {
         let a = A.as_slice();
         for r in 0..c {
             // A is column-major: its row r is strided by c
-            let entry = |k: usize| a[r + k * c];
+            let row = &a[r..];
+            let entry = |k: usize| row[k * c];
             let Some(end) = (0..nv).rev().find(|&k| entry(k) != 0.0) else {
                 return false;
             };
-            let (b, e) = self.span(end);
-            let nonzero = (0..=end).filter(|&k| entry(k) != 0.0).count();
-            let on_chain = self.chain[b..e]
+            let on_chain = &self.on_chain[end * nv..end * nv + end];
+            if on_chain
                 .iter()
-                .filter(|&&k| entry(k) != 0.0)
-                .count();
-            if on_chain != nonzero {
+                .enumerate()
+                .any(|(k, &on)| !on && entry(k) != 0.0)
+            {
                 return false;
             }
+            let (b, e) = self.span(end);
             self.row_end[r] = end;
+            self.row_len[r] = e - b;
             let chain = &self.chain[b..e];
             let zr = &mut self.z[r * nv..r * nv + e - b];
             for (x, &k) in zr.iter_mut().zip(chain) {
@@ -215,24 +226,23 @@ impl TreeKkt {
                 *x *= self.d_isqrt[k];
             }
         }
-        for j in 0..c {
-            let (ej, lj) = self.column(j);
-            for i in j..c {
-                let (ei, li) = self.column(i);
+        for i in 0..c {
+            let (ei, li) = (self.row_end[i], self.row_len[i]);
+            let zi = &self.z[i * nv..i * nv + li];
+            for j in 0..=i {
+                let (ej, lj) = (self.row_end[j], self.row_len[j]);
                 let m = self.common[ei * nv + ej];
-                let zi = &self.z[i * nv + li - m..i * nv + li];
                 let zj = &self.z[j * nv + lj - m..j * nv + lj];
-                self.k[i + j * c] = zi.iter().zip(zj).fold(0.0, |s, (x, y)| s + x * y);
+                self.k[i * c + j] = dot(&zi[li - m..], zj);
             }
         }
-        let largest = (0..c).map(|i| self.k[i + i * c]).fold(0.0, f64::max);
+        let largest = (0..c).map(|i| self.k[i * c + i]).fold(0.0, f64::max);
         dense_cholesky(&mut self.k, c, ROW_PIVOT_FRACTION * largest)
     }
 
     /// Row `r`'s deepest rate and the length of its column of `Z`.
     fn column(&self, r: usize) -> (usize, usize) {
-        let end = self.row_end[r];
-        (end, self.offset[end + 1] - self.offset[end])
+        (self.row_end[r], self.row_len[r])
     }
 
     /// Solves `[M Aᵀ; A 0][x; y] = [f; g]` with the current factors.
@@ -289,26 +299,58 @@ impl TreeKkt {
         }
     }
 }
-/// In-place Cholesky `K = C Cᵀ` of the symmetric `n × n` column-major `k` (lower triangle
-/// read and overwritten); `false` when a pivot is at most `min_pivot`.
-fn dense_cholesky(k: &mut [f64], n: usize, min_pivot: f64) -> bool {
-    for j in 0..n {
-        let mut d = k[j + j * n];
-        for p in 0..j {
-            d -= k[j + p * n] * k[j + p * n];
+/// `Σ xᵢ yᵢ` over the common length of two slices, four products at a time (the chains are
+/// short: a loop per entry would cost several times its arithmetic).
+fn dot(x: &[f64], y: &[f64]) -> f64 {
+    let n = x.len().min(y.len());
+    let (x, y) = (&x[..n], &y[..n]);
+    let mut s = [0.0; 4];
+    let (xs, ys) = (x.chunks_exact(4), y.chunks_exact(4));
+    let tail = xs
+        .remainder()
+        .iter()
+        .zip(ys.remainder())
+        .fold(0.0, |t, (a, b)| t + a * b);
+    for (a, b) in xs.zip(ys) {
+        for p in 0..4 {
+            s[p] += a[p] * b[p];
         }
+    }
+    (s[0] + s[1]) + (s[2] + s[3]) + tail
+}
+
+/// `y ← y − a x` over the common length of two slices, four entries at a time.
+fn sub_scaled(y: &mut [f64], a: f64, x: &[f64]) {
+    let n = x.len().min(y.len());
+    let (y, x) = (&mut y[..n], &x[..n]);
+    let mut ys = y.chunks_exact_mut(4);
+    let mut xs = x.chunks_exact(4);
+    for (u, v) in (&mut ys).zip(&mut xs) {
+        for p in 0..4 {
+            u[p] -= a * v[p];
+        }
+    }
+    for (u, v) in ys.into_remainder().iter_mut().zip(xs.remainder()) {
+        *u -= a * v;
+    }
+}
+
+/// In-place Cholesky `K = C Cᵀ` of the symmetric `n × n` row-major `k` (lower triangle read
+/// and overwritten, row by row: `C[i, j] = (K[i, j] − C[i, :j]·C[j, :j]) / C[j, j]`, two
+/// contiguous slices); `false` when a pivot is at most `min_pivot`.
+fn dense_cholesky(k: &mut [f64], n: usize, min_pivot: f64) -> bool {
+    for i in 0..n {
+        let (done, rest) = k.split_at_mut(i * n);
+        let row_i = &mut rest[..=i];
+        for j in 0..i {
+            let row_j = &done[j * n..j * n + j + 1];
+            row_i[j] = (row_i[j] - dot(&row_i[..j], &row_j[..j])) / row_j[j];
+        }
+        let d = row_i[i] - dot(&row_i[..i], &row_i[..i]);
         if !(d > min_pivot) {
             return false;
         }
-        let d = d.sqrt();
-        k[j + j * n] = d;
-        for i in j + 1..n {
-            let mut s = k[i + j * n];
-            for p in 0..j {
-                s -= k[i + p * n] * k[j + p * n];
-            }
-            k[i + j * n] = s / d;
-        }
+        row_i[i] = d.sqrt();
     }
     true
 }
@@ -316,18 +358,14 @@ fn dense_cholesky(k: &mut [f64], n: usize, min_pivot: f64) -> bool {
 /// `y ← (C Cᵀ)⁻¹ y` with the factor of [`dense_cholesky`].
 fn cholesky_solve(k: &[f64], n: usize, y: &mut [f64]) {
     for i in 0..n {
-        let mut s = y[i];
-        for p in 0..i {
-            s -= k[i + p * n] * y[p];
-        }
-        y[i] = s / k[i + i * n];
+        let row = &k[i * n..i * n + i + 1];
+        y[i] = (y[i] - dot(&row[..i], &y[..i])) / row[i];
     }
     for i in (0..n).rev() {
-        let mut s = y[i];
-        for p in i + 1..n {
-            s -= k[p + i * n] * y[p];
-        }
-        y[i] = s / k[i + i * n];
+        let yi = y[i] / k[i * n + i];
+        y[i] = yi;
+        // subtract column i of Cᵀ's row i, i.e. C[i, :i], from the earlier entries
+        sub_scaled(&mut y[..i], yi, &k[i * n..i * n + i]);
     }
 }
 
