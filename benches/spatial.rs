@@ -6,14 +6,14 @@
 //! on the same robot and state and prints the ratio. Target: ≤ 2 µs per KKT evaluation.
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::DVector;
-use selfmanip::core::spatial::rhex::{RhexSixLegs, PAIRS, SIDES};
+use selfmanip::core::spatial::rhex::RhexSixLegs;
 use selfmanip::core::spatial::rigid_body::{crba, nonlinear_effects};
-use selfmanip::core::spatial::{neutral, BaseKind, PointContact, SpatialData, SpatialModel};
+use selfmanip::core::spatial::{BaseKind, PointContact, SpatialData, SpatialModel};
 use std::hint::black_box;
 
 #[path = "../crates/selfmanip-core/tests/spatial_support/bench_state.rs"]
 mod bench_state;
-use bench_state::{evaluate, standing_state};
+use bench_state::{evaluate, rhex_standing, standing_state};
 
 const QUADRUPED: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -107,20 +107,8 @@ fn spatial_rhex(c: &mut Criterion) {
         ),
     ] {
         let model = p.model().expect("Table 4.2 is valid");
-        let toes: Vec<PointContact> = PAIRS
-            .iter()
-            .flat_map(|pair| SIDES.iter().map(move |side| format!("{pair}_{side}")))
-            .map(|leg| p.toe(&model, &leg, false).expect("a toe frame"))
-            .collect();
+        let (toes, q, v, tau) = rhex_standing(&p, &model);
         let mut data = SpatialData::new(&model);
-        // legs at 0.3 rad, so that each toe's normal row pins its (massless) leg
-        let mut q = neutral(&model);
-        q[2] = p.leg_length_m * 0.3f64.cos();
-        for x in q.iter_mut().skip(7) {
-            *x = 0.3;
-        }
-        let v = DVector::from_fn(model.nv, |i, _| 0.1 * ((i as f64) * 0.7).sin());
-        let tau = DVector::from_fn(model.nv, |i, _| if i < 6 { 0.0 } else { 1.0 });
         let state = (&q, &v, &tau);
         bench_dynamics(
             &mut group,

@@ -58,6 +58,31 @@ fn range_space_route_matches_the_block_inverse() {
     assert!(worst < 1e-11, "routes differ by {worst:e}");
 }
 
+/// A fixed base has no root block: the range-space route factors the legs' chains alone and
+/// still agrees with the block inverse.
+#[test]
+fn range_space_route_on_a_fixed_base_matches_the_block_inverse() {
+    let model = SpatialModel::from_urdf_file(QUADRUPED, BaseKind::Fixed, None).unwrap();
+    let mut data = SpatialData::new(&model);
+    let mut rng = rng(31);
+    let mut worst: f64 = 0.0;
+    for friction in [[true, false, true, false], [false; 4]] {
+        let contacts = feet(&model, friction);
+        for _ in 0..20 {
+            let q = random_vector(model.nq, 1.0, &mut rng);
+            let (v, tau) = (
+                random_vector(model.nv, 2.0, &mut rng),
+                random_vector(model.nv, 5.0, &mut rng),
+            );
+            dynamics_at(&model, &mut data, &contacts, (&q, &v, &tau)).unwrap();
+            assert_eq!(data.kkt_route, KktRoute::RangeSpace);
+            let (qdd, y) = null_space_solve(&data, &(&tau - &data.h), &(-&data.A_drift));
+            worst = worst.max(rel(&data.qdd, &qdd)).max(rel(&data.lam, &(-y)));
+        }
+    }
+    assert!(worst < 1e-11, "routes differ by {worst:e}");
+}
+
 #[test]
 fn singular_mass_matrix_takes_the_null_space_route() {
     let model = quadruped_massless_shins();

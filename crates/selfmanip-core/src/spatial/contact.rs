@@ -359,7 +359,7 @@ pub(crate) fn contact_rows(
         data.lam = DVector::zeros(c);
         data.rhs_g = DVector::zeros(c);
     }
-    data.A.fill(0.0);
+    data.A.as_mut_slice().fill(0.0);
     let mut row = 0;
     for contact in contacts {
         let (r, r_dot) = contact.offset(model, data);

@@ -5,6 +5,7 @@
 //! evaluations allocate nothing once the data exists).
 #![allow(non_snake_case)]
 use super::error::{SpatialError, SpatialResult};
+use super::inertia::Inertia;
 use super::liegroup::{check_configuration, quaternion_at};
 use super::model::{JointKind, SpatialModel};
 use super::motion::{Force, Motion};
@@ -53,7 +54,9 @@ pub struct SpatialData {
     pub oMi: Vec<SE3>,
     /// World motion subspaces: the columns `⁰Sᵢ` of every joint (6 × nv).
     pub oS: Matrix6xX,
-    /// Body inertias in the world (6×6, at the world origin) and their subtree sums.
+    /// Body inertias in the world (at the world origin: `(m, c, I_c)` and the 6×6 matrix) and
+    /// the matrices' subtree sums.
+    pub oI: Vec<Inertia>,
     pub oY: Vec<Matrix6<f64>>,
     pub oYc: Vec<Matrix6<f64>>,
     /// Body velocities in the world, and their spatial accelerations at `q̈ = 0` without
@@ -64,7 +67,9 @@ pub struct SpatialData {
     pub oa: Vec<Motion>,
     /// Body forces of the last RNEA sweep (world).
     pub of: Vec<Force>,
-    /// Joint-space mass matrix `M(q)` (nv × nv, CRBA) and bias forces `h(q, v)` (RNEA).
+    /// Joint-space mass matrix `M(q)` (nv × nv, CRBA) and bias forces `h(q, v)` (RNEA). The
+    /// CRBA writes `M`'s entries on the tree's sparsity only (a rate and its ancestors): the
+    /// others are zero from [`SpatialData::new`], and nothing may write them.
     pub M: DMatrix<f64>,
     pub h: DVector<f64>,
     /// A frame Jacobian (6 × nv).
@@ -94,6 +99,7 @@ impl SpatialData {
         Self {
             oMi: vec![SE3::identity(); n],
             oS: Matrix6xX::zeros(nv),
+            oI: vec![Inertia::zero(); n],
             oY: vec![Matrix6::zeros(); n],
             oYc: vec![Matrix6::zeros(); n],
             ov: vec![Motion::zero(); n],
@@ -167,7 +173,8 @@ pub fn forward_kinematics(
                 data.oS.column_mut(joint.idx_v).copy_from(&col);
             }
         }
-        data.oY[i] = model.inertias[i].transformed(&oMi).matrix();
+        data.oI[i] = model.inertias[i].transformed(&oMi);
+        data.oY[i] = data.oI[i].matrix();
         data.oMi[i] = oMi;
     }
     Ok(())

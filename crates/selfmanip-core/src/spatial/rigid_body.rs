@@ -9,7 +9,7 @@ use super::kinematics::{
     forward_kinematics, forward_kinematics_velocity, joint_motion, SpatialData,
 };
 use super::model::SpatialModel;
-use super::motion::{Force, Motion};
+use super::motion::Motion;
 use crate::error::check_vector;
 use nalgebra::{DVector, Vector6};
 
@@ -24,35 +24,41 @@ pub fn crba(model: &SpatialModel, data: &mut SpatialData, q: &[f64]) -> SpatialR
 /// The CRBA sweep on the kinematics already in `data`.
 pub(crate) fn mass_matrix_from_kinematics(model: &SpatialModel, data: &mut SpatialData) {
     data.oYc.copy_from_slice(&data.oY);
-    for i in (0..model.joints.len()).rev() {
+    for i in (1..model.joints.len()).rev() {
         if let Some(p) = model.joints[i].parent {
-            let yc = data.oYc[i];
-            data.oYc[p] += yc;
+            // parents come first: p < i
+            let (before, from_i) = data.oYc.split_at_mut(i);
+            for (y, x) in before[p]
+                .as_mut_slice()
+                .iter_mut()
+                .zip(from_i[0].as_slice())
+            {
+                *y += x;
+            }
         }
     }
-    data.M.fill(0.0);
+    let nv = model.nv;
+    // only the entries on the tree's sparsity (a rate and its ancestors) are written: the
+    // others are zero from `SpatialData::new` and stay so ([`SpatialData::M`])
+    let (s, m) = (data.oS.as_slice(), data.M.as_mut_slice());
+    let column = |c: usize| Vector6::from_column_slice(&s[6 * c..6 * c + 6]);
     for (i, joint) in model.joints.iter().enumerate() {
         for c in joint.idx_v..joint.idx_v + joint.kind.nv() {
             // the force column ⁰Yᶜᵢ ⁰S_c, projected on every column of the supporting joints
-            let F = data.oYc[i] * world_column(data, c);
+            let F = data.oYc[i] * column(c);
             let mut j = Some(i);
             while let Some(k) = j {
                 let jk = &model.joints[k];
                 let first = if k == i { c } else { jk.idx_v };
                 for r in first..jk.idx_v + jk.kind.nv() {
-                    let m = world_column(data, r).dot(&F);
-                    data.M[(r, c)] = m;
-                    data.M[(c, r)] = m;
+                    let x = column(r).dot(&F);
+                    m[r + c * nv] = x;
+                    m[c + r * nv] = x;
                 }
                 j = jk.parent;
             }
         }
     }
-}
-
-/// The world motion-subspace column `⁰S_c` as a fixed-size vector.
-pub(crate) fn world_column(data: &SpatialData, c: usize) -> Vector6<f64> {
-    Vector6::from_column_slice(&data.oS.as_slice()[6 * c..6 * c + 6])
 }
 
 /// The RNEA sweeps on the velocities already in `data` with joint accelerations `a` (or none):
@@ -78,9 +84,8 @@ fn rnea_sweeps(
             None => parent,
         };
         let acc = a0 + data.oa_drift[i] + data.oa[i];
-        let (y, v) = (&data.oY[i], data.ov[i]);
-        let momentum = Force::from_vector(&(y * v.to_vector()));
-        data.of[i] = Force::from_vector(&(y * acc.to_vector())) + v.cross_force(&momentum);
+        let (y, v) = (&data.oI[i], data.ov[i]);
+        data.of[i] = y.apply(&acc) + v.cross_force(&y.apply(&v));
     }
     for i in (0..model.joints.len()).rev() {
         let joint = &model.joints[i];

@@ -1,6 +1,7 @@
 //! The state of the quadruped's cost measurements (`benches/spatial.rs`, `spatial_cost_probe.rs`,
 //! `scripts/bench-pinocchio.py`), shared as source.
 use nalgebra::DVector;
+use selfmanip_core::spatial::rhex::{RhexSixLegs, PAIRS, SIDES};
 use selfmanip_core::spatial::{forward_dynamics, neutral, PointContact, SpatialData, SpatialModel};
 use std::hint::black_box;
 
@@ -21,6 +22,28 @@ pub fn standing_state(model: &SpatialModel) -> (DVector<f64>, DVector<f64>, DVec
         }
     });
     (q, v, tau)
+}
+
+/// The six-legged RHex `p` (its `model`) on its six frictionless toes, legs at 0.3 rad so
+/// that each toe's normal row pins its leg (massless or not), moving slightly: the toes and
+/// `(q, v, τ)`.
+pub fn rhex_standing(
+    p: &RhexSixLegs,
+    model: &SpatialModel,
+) -> (Vec<PointContact>, DVector<f64>, DVector<f64>, DVector<f64>) {
+    let toes = PAIRS
+        .iter()
+        .flat_map(|pair| SIDES.iter().map(move |side| format!("{pair}_{side}")))
+        .map(|leg| p.toe(model, &leg, false).expect("a toe frame"))
+        .collect();
+    let mut q = neutral(model);
+    q[2] = p.leg_length_m * 0.3f64.cos();
+    for x in q.iter_mut().skip(7) {
+        *x = 0.3;
+    }
+    let v = DVector::from_fn(model.nv, |i, _| 0.1 * ((i as f64) * 0.7).sin());
+    let tau = DVector::from_fn(model.nv, |i, _| if i < 6 { 0.0 } else { 1.0 });
+    (toes, q, v, tau)
 }
 
 /// One `forward_dynamics` at `(q, v, τ)` with its inputs hidden from the optimizer: the unit

@@ -1,19 +1,23 @@
 //! A probe for instruction counts: `forward_dynamics` of the shipped quadruped standing on its
 //! four feet with friction (the state of `benches/spatial.rs`), repeated `CALLS` times
 //! (default 1000) inside `probe_calls`, with the URDF's legs or (`LEGS=massless_shins`) with
-//! the shins (and the feet fixed to them) massless. Under callgrind:
+//! the shins (and the feet fixed to them) massless; or (`ROBOT=rhex`) the six-legged RHex on
+//! its six frictionless toes at the bench's state, with Table 4.2's legs or
+//! (`LEGS=massless`) massless ones. Under callgrind:
 //!
 //! ```sh
 //! cargo build --release -p selfmanip-tools --bin spatial_cost_probe
 //! valgrind --tool=callgrind --toggle-collect='*probe_calls*' target/release/spatial_cost_probe
 //! ```
 //!
-//! and divide the collected instructions by the calls (printed).
+//! and divide the collected instructions by the calls plus one (a first call runs before
+//! the count is printed).
 #[path = "../../../selfmanip-core/tests/spatial_support/bench_state.rs"]
 mod bench_state;
-use bench_state::{evaluate, standing_state};
+use bench_state::{evaluate, rhex_standing, standing_state};
 use nalgebra::DVector;
 use selfmanip_core::spatial::inertia::Inertia;
+use selfmanip_core::spatial::rhex::RhexSixLegs;
 use selfmanip_core::spatial::{BaseKind, PointContact, SpatialData, SpatialModel};
 
 const QUADRUPED: &str = concat!(
@@ -35,12 +39,14 @@ fn probe_calls(
     }
 }
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let calls: usize = std::env::var("CALLS").map_or(Ok(1000), |s| s.parse())?;
-    let massless = match std::env::var("LEGS").as_deref() {
-        Err(_) | Ok("urdf") => false,
-        Ok("massless_shins") => true,
-        Ok(other) => return Err(format!("LEGS: `{other}` (urdf, massless_shins)").into()),
+type Setup = (SpatialModel, Vec<PointContact>, [DVector<f64>; 3], String);
+
+/// The quadruped on four feet with friction, with the URDF's legs or massless shins.
+fn quadruped(legs: &str) -> Result<Setup, Box<dyn std::error::Error>> {
+    let massless = match legs {
+        "urdf" => false,
+        "massless_shins" => true,
+        other => return Err(format!("LEGS: `{other}` (urdf, massless_shins)").into()),
     };
     let mut model = SpatialModel::from_urdf_file(QUADRUPED, BaseKind::FreeFlyer, None)?;
     if massless {
@@ -50,21 +56,42 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
     }
-    let mut data = SpatialData::new(&model);
     let contacts = FEET
         .iter()
         .map(|f| PointContact::new(&model, f, true))
         .collect::<Result<Vec<_>, _>>()?;
     let (q, v, tau) = standing_state(&model);
+    let label = format!("quadruped ({legs}), four feet with friction");
+    Ok((model, contacts, [q, v, tau], label))
+}
+
+/// The six-legged RHex on its six frictionless toes at the state of `benches/spatial.rs`
+/// (legs at 0.3 rad, moving slightly), with Table 4.2's legs or massless ones.
+fn rhex(legs: &str) -> Result<Setup, Box<dyn std::error::Error>> {
+    let p = match legs {
+        "table_4_2" => RhexSixLegs::table_4_2().with_table_4_2_legs(),
+        "massless" => RhexSixLegs::table_4_2(),
+        other => return Err(format!("LEGS: `{other}` (table_4_2, massless)").into()),
+    };
+    let model = p.model()?;
+    let (toes, q, v, tau) = rhex_standing(&p, &model);
+    let label = format!("six-legged RHex ({legs} legs), six frictionless toes");
+    Ok((model, toes, [q, v, tau], label))
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let calls: usize = std::env::var("CALLS").map_or(Ok(1000), |s| s.parse())?;
+    let legs = std::env::var("LEGS").ok();
+    let (model, contacts, [q, v, tau], label) = match std::env::var("ROBOT").as_deref() {
+        Err(_) | Ok("quadruped") => quadruped(legs.as_deref().unwrap_or("urdf"))?,
+        Ok("rhex") => rhex(legs.as_deref().unwrap_or("table_4_2"))?,
+        Ok(other) => return Err(format!("ROBOT: `{other}` (quadruped, rhex)").into()),
+    };
+    let mut data = SpatialData::new(&model);
     let state = (&q, &v, &tau);
     probe_calls(&model, &mut data, &contacts, state, 1);
     println!(
-        "quadruped ({}), four feet with friction: {calls} calls, route {:?}, |q̈| {:.6e}",
-        if massless {
-            "massless shins"
-        } else {
-            "URDF legs"
-        },
+        "{label}: {calls} calls, route {:?}, |q̈| {:.6e}",
         data.kkt_route,
         data.qdd.norm()
     );
