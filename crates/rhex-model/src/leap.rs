@@ -402,6 +402,10 @@ pub struct LeapConfig {
     /// Integrate the legs' prescribed motions in the air to the tolerances too
     /// ([`selfmanip_hybrid::HybridOptions::control_free_joints`]; off by default: ~3× cheaper leaps).
     pub control_free_joints: bool,
+    /// Compliant C-legs ([`selfmanip_sim::compliant_leg`]: stick legs with mass, a knee
+    /// spring–damper; `docs/leap-model.md`); `None` (default): rigid legs.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub compliant_leg: Option<selfmanip_sim::compliant_leg::CompliantLeg>,
 }
 
 impl Default for LeapConfig {
@@ -428,6 +432,7 @@ impl Default for LeapConfig {
             max_steps: selfmanip_hybrid::DEFAULT_MAX_STEPS,
             max_events: DEFAULT_MAX_EVENTS,
             control_free_joints: false,
+            compliant_leg: None,
         }
     }
 }
@@ -579,6 +584,9 @@ impl LeapConfig {
             }
         }
         self.actuator.validate()?;
+        self.compliant_leg
+            .as_ref()
+            .map_or(Ok(()), |c| c.validate())?;
         Ok(self.terrain.validate()?)
     }
 
@@ -972,6 +980,7 @@ impl LeapPreset {
             ..cfg.clone()
         };
         let leap = scenario_of(rhex, params, &motor, &q0)?;
+        let q0 = leap.scenario.initial.q.clone();
         // the start state is the preset's, computed from the robot's parameters: a start the
         // simulator refuses (its energy overflows) is the parameters' fault, named as theirs
         let mut sim = Simulation::new(&leap.scenario).map_err(|e| match e {
@@ -1138,7 +1147,8 @@ impl LeapPreset {
         front_start: f64,
     ) -> LeapResult {
         let rhex = &self.leap.rhex;
-        let frame = staggered_frame(front_start, motor_t2_s, self.q0[2], self.cfg.stop_at_apex);
+        let x0 = self.q0[self.q0.len() - 3];
+        let frame = staggered_frame(front_start, motor_t2_s, x0, self.cfg.stop_at_apex);
         let flew = frame.flew(&exec, outcome.status);
         // the apex that ended the run, or (run on past it) that of its first flight after a
         // motor started, in chapter 3's frame
@@ -1464,7 +1474,7 @@ pub fn leap_scenario(
 
 /// [`leap_scenario`] on the leap's robot `rhex` ([`leap_rhex`]), `cfg` checked.
 pub(crate) fn scenario_of(
-    rhex: Rhex,
+    mut rhex: Rhex,
     params: &RhexParams,
     cfg: &LeapConfig,
     q0: &[f64],
@@ -1535,7 +1545,7 @@ pub(crate) fn scenario_of(
     let labels = (0..rhex.label_len())
         .map(|i| model.contacts[rhex.site(i)].name.clone())
         .collect();
-    let scenario = Scenario {
+    let mut scenario = Scenario {
         robot: rhex.params.description(),
         terrain: cfg.terrain,
         initial: InitialState {
@@ -1550,6 +1560,10 @@ pub(crate) fn scenario_of(
             ..cfg.sim_options(offset)
         },
     };
+    if let Some(c) = &cfg.compliant_leg {
+        selfmanip_sim::compliant_leg::make_compliant(&mut scenario, &settings.joints, c)?;
+        rhex.model = scenario.robot.build()?;
+    }
     Ok(LeapScenario {
         scenario,
         rhex,

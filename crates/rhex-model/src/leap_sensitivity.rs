@@ -71,7 +71,7 @@ use selfmanip_sim::sensitivity_preset::{end_state_sensitivity, EndStateRequest};
 pub use selfmanip_sim::outcome::APEX_COLUMNS;
 
 /// The parameter names [`leap_with_sensitivity`] knows.
-pub const SENSITIVITY_PARAMETERS: [&str; 12] = [
+pub const SENSITIVITY_PARAMETERS: [&str; 14] = [
     "t2",
     "t2_s",
     "gear_ratio",
@@ -84,6 +84,8 @@ pub const SENSITIVITY_PARAMETERS: [&str; 12] = [
     "mu_middle",
     "mu_rear",
     "delta_t_s",
+    "leg_stiffness",
+    "leg_damping",
 ];
 
 /// A leap with the derivatives of its apex.
@@ -146,6 +148,9 @@ enum LeapParameter {
     /// The pseudo-impulse's `δt` ([`Parameter::PseudoImpulseDuration`]: zero columns, the
     /// pseudo-impulse selects the impact's mode only).
     PseudoImpulse,
+    /// The compliant leg's stiffness or damping (`leg_stiffness`, `leg_damping`: behaviour
+    /// parameters, the knee law's gains, [`selfmanip_sim::compliant_leg`]).
+    CompliantLeg(&'static str),
 }
 
 fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<LeapParameter>, RhexError> {
@@ -172,6 +177,14 @@ fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<LeapParameter>, RhexE
                 LegActuator::SaturatedTorque => Err(RhexError::Unsupported {
                     field: n.into(),
                     reason: "the saturated-torque actuator has no drive losses".into(),
+                }),
+            },
+            "leg_stiffness" | "leg_damping" => match cfg.compliant_leg {
+                Some(_) if n == "leg_stiffness" => Ok(LeapParameter::CompliantLeg("leg_stiffness")),
+                Some(_) => Ok(LeapParameter::CompliantLeg("leg_damping")),
+                None => Err(RhexError::Unsupported {
+                    field: n.into(),
+                    reason: "the leap's legs are rigid (set `compliant_leg`)".into(),
                 }),
             },
             "m_b" => Ok(LeapParameter::BodyMass),
@@ -210,6 +223,7 @@ fn engine_terms(
 ) -> Result<Vec<(Parameter, f64)>, RhexError> {
     let legs_armature = |w: f64| -> Vec<(Parameter, f64)> {
         (0..model.joints.len())
+            .filter(|&j| model.joints[j].armature_kg_m2 > 0.0) // a compliant leg's knee has none
             .map(|j| (Parameter::Body(BodyParameter::Armature(j)), w))
             .collect()
     };
@@ -217,7 +231,9 @@ fn engine_terms(
         LeapParameter::T2 => vec![(Parameter::Controller("t2".into()), 1.0)],
         LeapParameter::BodyMass => vec![(Parameter::Body(BodyParameter::Mass), 1.0)],
         LeapParameter::BodyInertia => vec![(Parameter::Body(BodyParameter::Inertia), 1.0)],
-        LeapParameter::DriveLoss(name) => vec![(Parameter::Controller(name.into()), 1.0)],
+        LeapParameter::DriveLoss(name) | LeapParameter::CompliantLeg(name) => {
+            vec![(Parameter::Controller(name.into()), 1.0)]
+        }
         LeapParameter::PseudoImpulse => vec![(Parameter::PseudoImpulseDuration, 1.0)],
         LeapParameter::ToeFriction(pair) => vec![(toe_friction(params, model, pair)?, 1.0)],
         LeapParameter::GearRatio => {

@@ -16,7 +16,8 @@
 //!
 //! **The spring.** The knee law is `τ = −k_θ (δ − δ₀) − c_θ δ̇` (a servo about `δ₀` without a
 //! torque limit, acting while the toe is on the ground; in the air the massless knee holds
-//! its rest bend by the free-joint gains). A force across the hip–toe line runs along the
+//! the bend it left the ground with, by the free-joint gains: a loaded spring relaxing there
+//! would drive the toe straight back into the ground). A force across the hip–toe line runs along the
 //! knee–toe link, through the knee: the leg is stiff across. A toe displacement `δr` along
 //! the line turns the knee by `δr/e` (the lever `e`, perpendicular to the line), whose torque
 //! `k_θ δr/e` holds a force `k_θ δr/e²` along the line: a **radial** spring and damper of
@@ -24,7 +25,7 @@
 //! only at second order). A spring may be given either way ([`CompliantLeg`]); the
 //! behaviour parameters [`LEG_STIFFNESS`] and [`LEG_DAMPING`] carry it in the units given, and
 //! the knee's gains are formulas of them, so their derivatives are the servo gains' exact ones.
-use crate::behaviour::{Behaviour, JointProgram, Motion, Phase, Torque, Trigger};
+use crate::behaviour::{Behaviour, JointProgram, Motion, On, Phase, Torque, Trigger};
 use crate::error::SimError;
 use crate::expr::Scalar;
 use crate::scenario::Scenario;
@@ -438,8 +439,8 @@ pub fn make_compliant(
 }
 
 /// The knee's program: the spring–damper about `δ₀` while the toe is on the ground (a servo
-/// whose gains are formulas of [`LEG_STIFFNESS`] and [`LEG_DAMPING`]); in the air the rest
-/// bend (the free-joint gains keep the massless knee there).
+/// whose gains are formulas of [`LEG_STIFFNESS`] and [`LEG_DAMPING`]); in the air the bend
+/// the knee left the ground with (the free-joint gains keep the massless knee there).
 fn knee_program(leg: &str, spec: &CompliantLeg, g: &KneeGeometry) -> JointProgram {
     let w = spec.lever_factor();
     let gain = |p: &str| {
@@ -462,9 +463,9 @@ fn knee_program(leg: &str, spec: &CompliantLeg, g: &KneeGeometry) -> JointProgra
                 only_in_contact: true,
             },
             motion: Some(Motion::Hold {
-                angle_rad: Scalar::Number(g.rest_bend_rad),
+                angle_rad: Scalar::Expr("theta".into()),
             }),
-            restart_on: None,
+            restart_on: Some(vec![Trigger::on(On::Release)]),
         }],
         repeat_from: None,
     }
