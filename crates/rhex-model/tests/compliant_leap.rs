@@ -46,15 +46,7 @@ fn apex(p: &RhexParams, c: &LeapConfig) -> Vec<f64> {
     let a = r
         .apex
         .unwrap_or_else(|| panic!("{}: {}", r.outcome.status.as_str(), r.reason()));
-    vec![
-        a.t_s,
-        a.x_m,
-        a.z_m,
-        a.phi_rad,
-        a.xdot_m_s,
-        a.zdot_m_s,
-        a.phidot_rad_s,
-    ]
+    a.to_array().to_vec()
 }
 
 /// Damping at ratio ζ for half the body's mass on one leg: `c_r = 2 ζ √(k_r m_b / 2)`.
@@ -197,15 +189,7 @@ fn series(t2s: &[f64], leg: (f64, f64)) -> Option<(Vec<f64>, Vec<[f64; 2]>)> {
             return None;
         }
         let a = s.result.apex.unwrap();
-        let v = [
-            a.t_s,
-            a.x_m,
-            a.z_m,
-            a.phi_rad,
-            a.xdot_m_s,
-            a.zdot_m_s,
-            a.phidot_rad_s,
-        ];
+        let v = a.to_array();
         for &(c, scale) in &CHANNELS {
             y.push(v[c] / scale);
             j.push([s.d_apex[c][0] / scale, s.d_apex[c][1] / scale]);
