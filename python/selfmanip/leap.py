@@ -371,9 +371,12 @@ def leap(strategy: str = "++", t2: float = 0.0, gear_ratio: float | None | _Defa
     ``None``: the saturated torque), not together with ``actuator``. ``params``: Table 4.2
     overrides (``{"m_b": 8.0, "leg_shape": "stick"}``); ``dt``: trajectory sample time
     (``None``: no trajectory); further keywords set the leap configuration or the motor by name
-    (see the module documentation). ``sensitivities``: parameter names (``"t2"``,
-    ``"gear_ratio"``, ``"m_b"``, ``"I_b"``, and ``"leg_armature_kg_m2"`` for legs that have
-    armature) whose derivatives of every apex column are
+    (see the module documentation); ``compliant_leg={"stiffness_n_per_m": k_r,
+    "damping_n_s_per_m": c_r}`` (or ``stiffness_n_m_per_rad``, ``damping_n_m_s_per_rad`` at the
+    knee) gives stick legs with mass a knee spring–damper (``docs/leap-model.md``).
+    ``sensitivities``: parameter names (``"t2"``,
+    ``"gear_ratio"``, ``"m_b"``, ``"I_b"``, ``"leg_armature_kg_m2"`` for legs that have
+    armature, ``"leg_stiffness"`` and ``"leg_damping"`` for compliant legs) whose derivatives of every apex column are
     returned in ``result.sensitivity[("apex_z_m", "t2")]``, exact (variational equations
     and saltation matrices, not finite differences), NaN with ``sensitivity_ok`` False where
     undefined (e.g. at a change of the leap's mode sequence); each event then also carries

@@ -399,6 +399,10 @@ pub struct LeapConfig {
     /// Integrate the legs' prescribed motions in the air to the tolerances too
     /// ([`selfmanip_hybrid::HybridOptions::control_free_joints`]; off: ~3× cheaper leaps).
     pub control_free_joints: bool,
+    /// Compliant C-legs ([`selfmanip_sim::compliant_leg`]: stick legs with mass, a knee
+    /// spring–damper; `docs/leap-model.md`); `None` (default): rigid legs.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub compliant_leg: Option<selfmanip_sim::compliant_leg::CompliantLeg>,
 }
 
 impl Default for LeapConfig {
@@ -426,6 +430,7 @@ impl Default for LeapConfig {
             // a leap makes a few tens of events
             max_events: 1_000,
             control_free_joints: false,
+            compliant_leg: None,
         }
     }
 }
@@ -550,6 +555,9 @@ impl LeapConfig {
             }
         }
         self.actuator.validate()?;
+        self.compliant_leg
+            .as_ref()
+            .map_or(Ok(()), |c| c.validate())?;
         Ok(self.terrain.validate()?)
     }
 
@@ -861,6 +869,7 @@ impl LeapPreset {
             ..cfg.clone()
         };
         let leap = scenario_of(rhex, params, &motor, &q0)?;
+        let q0 = leap.scenario.initial.q.clone();
         // a start the simulator refuses (its energy overflows) is the parameters' fault
         let mut sim = Simulation::new(&leap.scenario).map_err(|e| match e {
             selfmanip_sim::SimError::InvalidValue { field, reason }
@@ -1007,7 +1016,8 @@ impl LeapPreset {
         front_start: f64,
     ) -> LeapResult {
         let rhex = &self.leap.rhex;
-        let frame = staggered_frame(front_start, motor_t2_s, self.q0[2], self.cfg.stop_at_apex);
+        let x0 = self.q0[self.q0.len() - 3];
+        let frame = staggered_frame(front_start, motor_t2_s, x0, self.cfg.stop_at_apex);
         let flew = frame.flew(&exec, outcome.status);
         let apex = frame.apex(&rhex.model, &exec);
         let events = if self.event_records {
@@ -1303,7 +1313,7 @@ pub fn leap_scenario(
 /// [`leap_scenario`] on the leap's robot `rhex` ([`leap_rhex`]), `cfg` checked. The toes'
 /// friction is the robot's; `t2_s` is the motor-start offset.
 pub(crate) fn scenario_of(
-    rhex: Rhex,
+    mut rhex: Rhex,
     params: &RhexParams,
     cfg: &LeapConfig,
     q0: &[f64],
@@ -1370,7 +1380,7 @@ pub(crate) fn scenario_of(
     let labels = (0..rhex.label_len())
         .map(|i| model.contacts[rhex.site(i)].name.clone())
         .collect();
-    let scenario = Scenario {
+    let mut scenario = Scenario {
         robot: rhex.params.description(),
         terrain: cfg.terrain,
         initial: InitialState {
@@ -1385,6 +1395,10 @@ pub(crate) fn scenario_of(
             ..cfg.sim_options(offset)
         },
     };
+    if let Some(c) = &cfg.compliant_leg {
+        selfmanip_sim::compliant_leg::make_compliant(&mut scenario, &settings.joints, c)?;
+        rhex.model = scenario.robot.build()?;
+    }
     Ok(LeapScenario {
         scenario,
         rhex,

@@ -40,7 +40,7 @@ use selfmanip_sim::sensitivity_preset::{end_state_sensitivity, EndStateRequest};
 pub use selfmanip_sim::outcome::APEX_COLUMNS;
 
 /// The parameter names [`leap_with_sensitivity`] knows.
-pub const SENSITIVITY_PARAMETERS: [&str; 12] = [
+pub const SENSITIVITY_PARAMETERS: [&str; 14] = [
     "t2",
     "t2_s",
     "gear_ratio",
@@ -53,6 +53,8 @@ pub const SENSITIVITY_PARAMETERS: [&str; 12] = [
     "mu_middle",
     "mu_rear",
     "delta_t_s",
+    "leg_stiffness",
+    "leg_damping",
 ];
 
 /// A leap with the derivatives of its apex.
@@ -111,6 +113,9 @@ enum LeapParameter {
     ToeFriction(LegPair),
     /// The pseudo-impulse's `δt` ([`Parameter::PseudoImpulseDuration`]).
     PseudoImpulse,
+    /// The compliant leg's stiffness or damping (`leg_stiffness`, `leg_damping`: behaviour
+    /// parameters, the knee law's gains, [`selfmanip_sim::compliant_leg`]).
+    CompliantLeg(&'static str),
 }
 
 fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<LeapParameter>, RhexError> {
@@ -136,6 +141,16 @@ fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<LeapParameter>, RhexE
             ),
             "gearbox_efficiency" | "battery_resistance_ohm" => {
                 unsupported(n, "the saturated-torque actuator has no drive losses")
+            }
+            "leg_stiffness" | "leg_damping" if cfg.compliant_leg.is_some() => {
+                Ok(LeapParameter::CompliantLeg(if n == "leg_stiffness" {
+                    "leg_stiffness"
+                } else {
+                    "leg_damping"
+                }))
+            }
+            "leg_stiffness" | "leg_damping" => {
+                unsupported(n, "the leap's legs are rigid (set `compliant_leg`)")
             }
             "m_b" => Ok(LeapParameter::BodyMass),
             "I_b" => Ok(LeapParameter::BodyInertia),
@@ -172,6 +187,7 @@ fn engine_terms(
 ) -> Result<Vec<(Parameter, f64)>, RhexError> {
     let legs_armature = |w: f64| -> Vec<(Parameter, f64)> {
         (0..model.joints.len())
+            .filter(|&j| model.joints[j].armature_kg_m2 > 0.0) // a compliant leg's knee has none
             .map(|j| (Parameter::Body(BodyParameter::Armature(j)), w))
             .collect()
     };
@@ -179,7 +195,9 @@ fn engine_terms(
         LeapParameter::T2 => vec![(Parameter::Controller("t2".into()), 1.0)],
         LeapParameter::BodyMass => vec![(Parameter::Body(BodyParameter::Mass), 1.0)],
         LeapParameter::BodyInertia => vec![(Parameter::Body(BodyParameter::Inertia), 1.0)],
-        LeapParameter::DriveLoss(name) => vec![(Parameter::Controller(name.into()), 1.0)],
+        LeapParameter::DriveLoss(name) | LeapParameter::CompliantLeg(name) => {
+            vec![(Parameter::Controller(name.into()), 1.0)]
+        }
         LeapParameter::PseudoImpulse => vec![(Parameter::PseudoImpulseDuration, 1.0)],
         LeapParameter::ToeFriction(pair) => vec![(toe_friction(params, model, pair)?, 1.0)],
         LeapParameter::GearRatio => {

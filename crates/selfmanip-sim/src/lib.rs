@@ -7,6 +7,7 @@
 //! |---|---|
 //! | [`scenario`] | robot + terrain + initial state + behaviour + options ⇒ a run: outcome, events, trajectory, energy, MCAP |
 //! | [`behaviour`] | behaviours as data: phases, triggers, torques, motions, actuators; the interpreter |
+//! | [`compliant_leg`] | a rigid leg made a two-link leg with a knee spring–damper (its law a behaviour law) |
 //! | [`path`] | parameters by name: any field of a scenario, by path |
 //! | [`outcome`] | what a run amounts to: status, word, apex, landing, end state |
 //! | [`expr`] | formulas in number fields |
@@ -24,6 +25,7 @@
 //! | [`error`] | the crate's typed errors |
 pub mod analysis;
 pub mod behaviour;
+pub mod compliant_leg;
 pub mod error;
 pub mod events;
 pub mod expr;
