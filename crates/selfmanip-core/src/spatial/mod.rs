@@ -44,6 +44,7 @@ pub use contact::{
 pub use error::{SpatialError, SpatialResult};
 pub use impact::{
     coulomb_impacts, impact, impact_outcomes, impact_with, ImpactState, Separation, SpatialImpact,
+    MAX_COMBINATIONS,
 };
 pub use inertia::Inertia;
 pub use kinematics::{ReferenceFrame, SpatialData};
