@@ -1,16 +1,17 @@
-//! Plastic impact (5.10) of spatial contacts, every row held ([`impact`]) or with Coulomb
-//! friction on the circular cone ([`coulomb_impacts`]): the spatial form of the
-//! planar engine's velocity-level impact complementarity (`selfmanip_hybrid::coulomb_impact`,
-//! Stewart 2000 §4), with every contact held (its normal velocity after the impact zero) and
-//! pushing (every normal impulse `P_n ≥ 0`, frictionless and sticking contacts included, as in
-//! the planar engine).
+//! Plastic impact (5.10) of spatial contacts, every row held ([`impact`]), with Coulomb
+//! friction on the circular cone, and with contacts free to leave the ground
+//! ([`impact_with`], [`impact_outcomes`]): the spatial form of the planar engine's
+//! velocity-level impact complementarity (`selfmanip_hybrid::coulomb_impact`, Stewart 2000 §4;
+//! thesis (5.28)–(5.29) for the normal rows).
 //!
 //! ```text
 //! contacts k with impact friction μ_k (PointContact::with_impact_friction), at (q, q̇⁻):
-//!   M (q̇⁺ − q̇⁻) = Aᵀ P,   n_kᵀ J_k q̇⁺ = 0                      (every contact)
-//!   stick  t_kᵀ J_k q̇⁺ = 0 (both tangents),   |P_t,k| ≤ μ_k P_n,k
-//!   slip   P_t,k = −μ_k P_n,k ŝ_k,  ŝ_k = v_t,k⁺/|v_t,k⁺|,  P_n,k ≥ 0
-//!   (μ = ∞: every row held, (5.10); μ = 0 or no tangent rows: the normal row alone)
+//!   M (q̇⁺ − q̇⁻) = Aᵀ P
+//!   separate  P_k = 0,  n_kᵀ J_k q̇⁺ ≥ 0                      (Separation::Allowed only)
+//!   held      n_kᵀ J_k q̇⁺ = 0,  P_n,k ≥ 0, and
+//!     stick   t_kᵀ J_k q̇⁺ = 0 (both tangents),   |P_t,k| ≤ μ_k P_n,k
+//!     slip    P_t,k = −μ_k P_n,k ŝ_k,  ŝ_k = v_t,k⁺/|v_t,k⁺|
+//!   (μ = ∞: separate or stick, (5.10); μ = 0 or no tangent rows: separate or the normal row)
 //! ```
 //!
 //! This is Coulomb's law itself, not a relaxation of it: the tangential impulse of a sliding
@@ -20,34 +21,37 @@
 //! whose sliding contacts leave the ground with `v_n⁺ = μ |v_t⁺|`: the normal and tangential
 //! velocities are coupled, and that is not Coulomb's impact.)
 //!
-//! **How it is solved.** As the planar engine, by enumerating each contact's state: a contact
-//! with a finite `μ > 0` sticks or slips (with two tangent rows, `[t₁, t₂, n]`, the slip
-//! direction is an angle `φ`, `ŝ = cos φ t₁ + sin φ t₂`; with one, `[t, n]`, it is `±t`, as
-//! in the planar engine). For given states and directions the impact is one square linear
-//! system, the sliding KKT system of [`super::coulomb`] with the impulse on the right:
+//! **How it is solved.** As the planar engine, by enumerating each contact's state (at most
+//! [`MAX_COMBINATIONS`] combinations): a separating contact holds no row; a contact with a
+//! finite `μ > 0` sticks or slips (with two tangent rows, `[t₁, t₂, n]`, the slip direction is
+//! an angle `φ`, `ŝ = cos φ t₁ + sin φ t₂`; with one, `[t, n]`, it is `±t`, as in the planar
+//! engine). For given states and directions the impact is one square linear system, the
+//! sliding KKT system of [`super::coulomb`] with the impulse on the right:
 //!
 //! ```text
 //! [M  −(A_h + B)ᵀ] [Δq̇]   [    0    ]      A_h: the rows held; B: −μ ŝᵀJ_p in each
 //! [A_h     0     ] [P_h] = [−A_h q̇⁻ ]      slipping contact's normal row
 //! ```
 //!
-//! (exact for a singular `M`, as the dynamics; without slips it is (5.10) on `A_h`, solved by
-//! [`super::contact`]'s factorization; redundant rows, four body ends down, take the
-//! least-norm impulse). The slip angles solve `ŝ_k^⊥ · v_t,k⁺(φ) = 0` together with the linear
+//! (exact for a singular `M`, as the dynamics: the massless limbs without a held contact keep
+//! their rates; without slips it is (5.10) on `A_h`, solved by [`super::contact`]'s
+//! factorization). The slip angles solve `ŝ_k^⊥ · v_t,k⁺(φ) = 0` together with the linear
 //! system, by Newton's method on both with the exact derivative `∂K/∂φ_k x = [μ_k P_n,k J_kᵀ
 //! ŝ_k^⊥; 0]`: the bordered iteration stays regular where `K` alone is singular, a massless
 //! stance limb slipping (the slip direction's equation fixes its rate, the light limb's
 //! limit). It starts from the directions opposite the sticking impulse, of the frictionless
-//! impact's slip, and of the
-//! slip before. A solution is kept when its inequalities hold (to 1e-9 of the impulses' and
-//! velocities' scale) and the kinetic energy does not rise; solutions with the same `q̇⁺` are
-//! one (the one with more contacts sticking names it). Why not an interior-point solve of the
-//! cone program (clarabel): it needs the Delassus operator `A M⁻¹ Aᵀ`, which a massless limb
-//! does not have (thesis §5.1.3), and it would give the impulse to the solver's tolerance,
-//! where the enumeration gives it to round-off.
+//! impact's slip, and of the slip before. A solution is kept when its inequalities hold (to
+//! 1e-9 of the impulses' and velocities' scale) and the kinetic energy does not rise;
+//! solutions with the same `q̇⁺` are one (the one holding more contacts, then sticking more,
+//! names it). Redundant rows (four feet of a table) fix `Δq̇` and leave the impulse's split
+//! open: the least-norm split where it satisfies the contacts' laws, else the minimum-norm
+//! split that does ([`super::impulse_split`]). Why not an interior-point solve of the whole
+//! cone program: it needs the Delassus operator `A M⁻¹ Aᵀ`, which a massless limb does not
+//! have (thesis §5.1.3), and it would give the impulse to the solver's tolerance, where the
+//! enumeration gives it to round-off.
 //!
 //! **Energy.** `ΔT = ½ (q̇⁺ + q̇⁻)ᵀ Aᵀ P = ½ (v⁺ + v⁻) · P` over the rows, which the states make
-//! `−Σ μ P_n |v_t⁺| − ½ Δq̇ᵀ M Δq̇ ≤ 0`.
+//! `−Σ μ P_n |v_t⁺| − ½ Δq̇ᵀ M Δq̇ ≤ 0` (a separating contact has `P = 0`).
 #![allow(non_snake_case)]
 use super::contact::{
     factor, free_rates, pin_free_rates, prepare, solve, unpin_free_rates, PointContact,
