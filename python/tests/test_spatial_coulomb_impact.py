@@ -75,9 +75,10 @@ def test_a_pulling_contact_names_contacts(tmp_path):
 
 
 def test_lift_off_with_friction_dicts_and_its_bad_type():
-    """With ``lift_off`` the dict form with ``friction`` (mu = 1000, far inside the cones)
-    has the named (sticking) form's outcomes, feet separating among them; a non-bool
-    ``lift_off`` raises ``InvalidTypeError`` naming it."""
+    """With ``lift_off`` the dict form with ``friction`` (mu = 1000) has the named (sticking,
+    mu = infinity) form's outcomes, feet separating among them, and besides them only
+    outcomes with a foot slipping (a receding foot may be caught on the cone's edge); a
+    non-bool ``lift_off`` raises ``InvalidTypeError`` naming it."""
     robot = SpatialRobot.from_urdf(QUADRUPED)
     rng = np.random.default_rng(8)
     separated = 0
@@ -89,8 +90,9 @@ def test_lift_off_with_friction_dicts_and_its_bad_type():
         v[2] -= 0.5
         named = robot.impact_outcomes(FEET, q, v, lift_off=True)
         dicts = robot.impact_outcomes({f: {"friction": 1000.0} for f in FEET}, q, v, lift_off=True)
-        assert [o.states for o in dicts] == [o.states for o in named]
-        for a, b in zip(dicts, named):
+        without_slip = [o for o in dicts if "slip" not in o.states]
+        assert [o.states for o in without_slip] == [o.states for o in named]
+        for a, b in zip(without_slip, named):
             assert np.max(np.abs(a.v_plus - b.v_plus)) < 1e-12 * np.max(np.abs(v))
         separated += sum(o.states.count("separate") for o in named)
     assert separated > 0

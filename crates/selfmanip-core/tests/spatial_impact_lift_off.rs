@@ -47,6 +47,24 @@ fn level(model: &SpatialModel, v: Vector3<f64>, w: Vector3<f64>) -> (DVector<f64
     (q, rates)
 }
 
+/// The impact of `model` into `contacts` at `(q, q̇⁻)`.
+fn land(
+    model: &SpatialModel,
+    contacts: &[PointContact],
+    (q, rates): (&DVector<f64>, &DVector<f64>),
+    separation: Separation,
+) -> SpatialResult<SpatialImpact> {
+    let mut data = SpatialData::new(model);
+    impact_with(
+        model,
+        &mut data,
+        contacts,
+        q.as_slice(),
+        rates.as_slice(),
+        separation,
+    )
+}
+
 fn rel(a: &DVector<f64>, b: &DVector<f64>) -> f64 {
     (a - b).amax() / b.amax().max(1e-300)
 }
@@ -94,15 +112,7 @@ fn table_tipping_onto_one_edge_lifts_the_other() {
         P.iter().all(|&p| p > 0.0) && lift.iter().all(|&u| u > 0.1),
         "{P} {lift:?}"
     );
-    let out = impact_with(
-        &model,
-        &mut data,
-        &contacts,
-        q.as_slice(),
-        rates.as_slice(),
-        Separation::Allowed,
-    )
-    .unwrap();
+    let out = land(&model, &contacts, (&q, &rates), Separation::Allowed).unwrap();
     use ImpactState::*;
     assert_eq!(out.states, [Frictionless, Frictionless, Separate, Separate]);
     let want_v = DVector::from_iterator(6, v_plus.iter().chain(w_plus.iter()).copied());
@@ -137,7 +147,6 @@ fn table_tipping_onto_one_edge_lifts_the_other() {
 #[test]
 fn angular_momentum_about_the_edge_landed_on_is_conserved() {
     let model = table(&TIP_FEET);
-    let mut data = SpatialData::new(&model);
     let mut rng = rng(91);
     let (mut worst, mut stuck) = (0.0f64, 0);
     for mu in [f64::INFINITY, 0.9] {
@@ -156,15 +165,7 @@ fn angular_momentum_about_the_edge_landed_on_is_conserved() {
                     }
                 })
                 .collect();
-            let out = impact_with(
-                &model,
-                &mut data,
-                &contacts,
-                q.as_slice(),
-                rates.as_slice(),
-                Separation::Allowed,
-            )
-            .unwrap();
+            let out = land(&model, &contacts, (&q, &rates), Separation::Allowed).unwrap();
             let held = |s: &ImpactState| *s != ImpactState::Separate;
             assert!(
                 out.states[..2].iter().all(held) && !out.states[2..].iter().any(held),
@@ -217,7 +218,6 @@ const SKID_FEET: [(f64, f64); 4] = [(-0.05, -0.3), (-0.05, 0.3), (0.6, -0.3), (0
 #[allow(non_snake_case)]
 fn four_feet_skidding_split_the_impulse_inside_their_cones() {
     let model = table(&SKID_FEET);
-    let mut data = SpatialData::new(&model);
     let (v, w) = (Vector3::new(0.4, 0.0, -1.0), Vector3::zeros());
     let (q, rates) = level(&model, v, w);
     let mu = 0.5;
@@ -249,15 +249,7 @@ fn four_feet_skidding_split_the_impulse_inside_their_cones() {
         "the least-norm split leaves a cone"
     );
     for separation in [Separation::Forbidden, Separation::Allowed] {
-        let out = impact_with(
-            &model,
-            &mut data,
-            &contacts,
-            q.as_slice(),
-            rates.as_slice(),
-            separation,
-        )
-        .unwrap();
+        let out = land(&model, &contacts, (&q, &rates), separation).unwrap();
         assert!(
             out.states.iter().all(|s| *s == ImpactState::Stick),
             "{:?}",
@@ -282,7 +274,6 @@ fn four_feet_skidding_split_the_impulse_inside_their_cones() {
 #[test]
 fn too_many_contacts_to_enumerate_name_contacts() {
     let model = table(&TIP_FEET);
-    let mut data = SpatialData::new(&model);
     let (q, rates) = level(&model, Vector3::new(0.0, 0.0, -1.0), Vector3::zeros());
     // 4 × 4 × … cones in a plane: 4⁷ > MAX_COMBINATIONS
     let c = PointContact::new(&model, "foot0", true)
@@ -292,15 +283,7 @@ fn too_many_contacts_to_enumerate_name_contacts() {
         .with_impact_friction(0.5)
         .unwrap();
     let many = vec![c; 7];
-    let e = impact_with(
-        &model,
-        &mut data,
-        &many,
-        q.as_slice(),
-        rates.as_slice(),
-        Separation::Allowed,
-    )
-    .unwrap_err();
+    let e = land(&model, &many, (&q, &rates), Separation::Allowed).unwrap_err();
     assert!(
         matches!(&e, SpatialError::InvalidArgument { field, .. } if field == "contacts"),
         "{e}"
