@@ -450,7 +450,10 @@ fn coulomb_impact_of_the_pairs_is_the_planar_one() {
                 lifted += o.states.iter().any(|(_, s)| *s == ContactImpact::Separate) as usize;
             }
             for s in free.iter().filter(|s| alike(s)) {
-                let best = planar.iter().map(|o| gap(s, o)).fold(f64::INFINITY, f64::min);
+                let best = planar
+                    .iter()
+                    .map(|o| gap(s, o))
+                    .fold(f64::INFINITY, f64::min);
                 worst = worst.max(best);
             }
         }
