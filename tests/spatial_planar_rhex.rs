@@ -299,7 +299,8 @@ fn six_legs_in_pairs_are_the_planar_model() {
 /// complementarity (`selfmanip::hybrid::coulomb_impact`) that holds every contact is an
 /// outcome of the spatial one with each pair's legs in the pair's state (`q̇⁺` and each pair's
 /// impulse summed, to 1e-12 relative, 1e-13 κ_A above κ_A = 10), and each spatial outcome whose
-/// pairs' legs are alike is one of the planar ones. Sets with both body ends down are left
+/// pairs' legs are alike is one of the planar ones; with lift-off (`Separation::Allowed`) the
+/// same holds for every planar outcome, contacts separating included. Sets with both body ends down are left
 /// out (four rounded ends on three rates: redundant rows, whose impulse split is least-norm).
 #[test]
 fn coulomb_impact_of_the_pairs_is_the_planar_one() {
@@ -318,7 +319,7 @@ fn coulomb_impact_of_the_pairs_is_the_planar_one() {
     let mut data = Data::new(&rhex.model);
     let mut sdata = SpatialData::new(&model);
     let mut rng = ChaCha8Rng::seed_from_u64(41);
-    let (mut worst, mut matched, mut slips, mut symmetric) = (0.0f64, 0, 0, 0);
+    let (mut worst, mut matched, mut slips, mut symmetric, mut lifted) = (0.0f64, 0, 0, 0, 0);
     for _ in 0..6 {
         let q = random_planar_pose(&mut rng);
         let mut qd: Vec<f64> = (0..6).map(|_| rng.gen_range(-1.0..1.0)).collect();
@@ -419,29 +420,52 @@ fn coulomb_impact_of_the_pairs_is_the_planar_one() {
                     .filter(|(_, s)| matches!(s, ContactImpact::Slip { sigma } if *sigma != 0.0))
                     .count();
             }
-            for s in &ours {
-                let alike = s.states.chunks(2).all(|pair| match (pair[0], pair[1]) {
+            let alike = |s: &sp::SpatialImpact| {
+                s.states.chunks(2).all(|pair| match (pair[0], pair[1]) {
                     (
                         sp::ImpactState::Slip { direction: a },
                         sp::ImpactState::Slip { direction: b },
                     ) => (a - b).amax() < 1e-9,
                     (a, b) => a == b,
-                });
-                if alike {
-                    symmetric += 1;
-                    let best = held.iter().map(|o| gap(s, o)).fold(f64::INFINITY, f64::min);
-                    worst = worst.max(best);
-                }
+                })
+            };
+            for s in ours.iter().filter(|s| alike(s)) {
+                symmetric += 1;
+                let best = held.iter().map(|o| gap(s, o)).fold(f64::INFINITY, f64::min);
+                worst = worst.max(best);
+            }
+            // with lift-off: every planar outcome (contacts separating too), and back
+            let free = sp::impact_outcomes(
+                &model,
+                &mut sdata,
+                &contacts,
+                qs.as_slice(),
+                vs.as_slice(),
+                sp::Separation::Allowed,
+            )
+            .unwrap();
+            for o in &planar {
+                let best = free.iter().map(|s| gap(s, o)).fold(f64::INFINITY, f64::min);
+                worst = worst.max(best);
+                lifted += o.states.iter().any(|(_, s)| *s == ContactImpact::Separate) as usize;
+            }
+            for s in free.iter().filter(|s| alike(s)) {
+                let best = planar
+                    .iter()
+                    .map(|o| gap(s, o))
+                    .fold(f64::INFINITY, f64::min);
+                worst = worst.max(best);
             }
         }
     }
     eprintln!(
         "Coulomb impact: {matched} planar outcomes holding every contact ({slips} legs slipping), \
-         {symmetric} spatial outcomes with pairs alike; worst gap {worst:.1e} (/ max(1, κ_A/10))"
+         {symmetric} spatial outcomes with pairs alike, {lifted} planar outcomes lifting a \
+         contact; worst gap {worst:.1e} (/ max(1, κ_A/10))"
     );
     assert!(
-        matched >= 20 && slips >= 5 && symmetric >= matched,
-        "{matched} {slips} {symmetric}"
+        matched >= 20 && slips >= 5 && symmetric >= matched && lifted >= 5,
+        "{matched} {slips} {symmetric} {lifted}"
     );
     assert!(worst < 1e-12, "{worst}");
 }

@@ -66,10 +66,11 @@ class SpatialDynamics:
 
 @dataclass(frozen=True)
 class SpatialImpact:
-    """Plastic impact (thesis 5.10): ``v_plus`` (nv) with every contact's normal velocity zero
-    and the ground's impulse on the robot along ``rows``; each contact's ``states`` entry is
-    ``"stick"`` (every row held), ``"slip"`` (the impulse on its friction cone's edge, opposite
-    its slip after) or ``"frictionless"``."""
+    """Plastic impact (thesis 5.10): ``v_plus`` (nv) with every held contact's normal velocity
+    zero and the ground's impulse on the robot along ``rows``; each contact's ``states`` entry
+    is ``"stick"`` (every row held), ``"slip"`` (the impulse on its friction cone's edge,
+    opposite its slip after), ``"frictionless"`` or, with ``lift_off``, ``"separate"`` (no
+    impulse, leaving the ground)."""
 
     v_plus: np.ndarray
     impulse: np.ndarray
@@ -215,9 +216,31 @@ class SpatialRobot(WrappedModel):
                                   d["tau_external"], d["internal_torques"], [tuple(r) for r in d["rows"]])
 
     def impact(self, contacts: Contacts, q: np.ndarray | Sequence[float],
-               v: np.ndarray | Sequence[float]) -> SpatialImpact:
+               v: np.ndarray | Sequence[float], lift_off: bool = False) -> SpatialImpact:
         """Plastic impact into ``contacts`` with incoming rates ``v``; a dict contact with
-        ``friction`` meets Coulomb's cone (raises ``InvalidInputError`` naming ``contacts``
-        when no impact, or more than one, holds every contact)."""
-        d = self._native.impact(_contacts(contacts), _vector(q), _vector(v))
-        return SpatialImpact(d["v_plus"], d["impulse"], [tuple(r) for r in d["rows"]], list(d["states"]))
+        ``friction`` meets Coulomb's cone. With ``lift_off`` each contact separates (state
+        ``"separate"``: no impulse, its normal velocity after non-negative), sticks or slips
+        by complementarity, frictionless contacts alike. Raises ``InvalidInputError`` naming
+        ``contacts`` when no impact, or more than one, satisfies the contacts."""
+        d = self._native.impact(_contacts(contacts), _vector(q), _vector(v), _flag(lift_off, "lift_off"))
+        return _impact(d, d["rows"])
+
+    def impact_outcomes(self, contacts: Contacts, q: np.ndarray | Sequence[float],
+                        v: np.ndarray | Sequence[float], lift_off: bool = False) -> list[SpatialImpact]:
+        """Every outcome of ``impact``'s complementarity problem, distinct in ``v_plus`` (none
+        when no state of the contacts satisfies them, several in a Painlevé configuration,
+        where ``impact`` raises)."""
+        d = self._native.impact_outcomes(_contacts(contacts), _vector(q), _vector(v),
+                                         _flag(lift_off, "lift_off"))
+        return [_impact(o, d["rows"]) for o in d["outcomes"]]
+
+
+def _flag(value: Any, field: str) -> bool:
+    """``value`` as a bool, or ``InvalidTypeError`` naming ``field``."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise InvalidTypeError(f"`{field}` must be a bool, got {type(value).__name__}", field)
+    return bool(value)
+
+
+def _impact(d: Mapping[str, Any], rows: Sequence[Sequence[str]]) -> SpatialImpact:
+    return SpatialImpact(d["v_plus"], d["impulse"], [tuple(r) for r in rows], list(d["states"]))

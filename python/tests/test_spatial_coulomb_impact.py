@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from selfmanip import InvalidInputError, SpatialRobot
+from selfmanip import InvalidInputError, InvalidTypeError, SpatialRobot
 
 ROOT = Path(__file__).resolve().parents[2]
 QUADRUPED = str(ROOT / "tests" / "data" / "urdf" / "quadruped12.urdf")
@@ -72,3 +72,31 @@ def test_a_pulling_contact_names_contacts(tmp_path):
     q[2] = 0.1
     with pytest.raises(InvalidInputError, match="contacts"):
         robot.impact({"ball": {"radius_m": 0.1, "friction": 0.5}}, q, [0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+
+
+def test_lift_off_with_friction_dicts_and_its_bad_type():
+    """With ``lift_off`` the dict form with ``friction`` (mu = 1000) has the named (sticking,
+    mu = infinity) form's outcomes, feet separating among them, and besides them only
+    outcomes with a foot slipping (a receding foot may be caught on the cone's edge); a
+    non-bool ``lift_off`` raises ``InvalidTypeError`` naming it."""
+    robot = SpatialRobot.from_urdf(QUADRUPED)
+    rng = np.random.default_rng(8)
+    separated = 0
+    for _ in range(6):
+        q = robot.neutral()
+        q[2] = 0.4
+        q[7:] = np.tile([0.0, 0.5, -1.0], 4)
+        v = rng.uniform(-1.0, 1.0, robot.nv)
+        v[2] -= 0.5
+        named = robot.impact_outcomes(FEET, q, v, lift_off=True)
+        dicts = robot.impact_outcomes({f: {"friction": 1000.0} for f in FEET}, q, v, lift_off=True)
+        without_slip = [o for o in dicts if "slip" not in o.states]
+        assert [o.states for o in without_slip] == [o.states for o in named]
+        for a, b in zip(without_slip, named):
+            assert np.max(np.abs(a.v_plus - b.v_plus)) < 1e-12 * np.max(np.abs(v))
+        separated += sum(o.states.count("separate") for o in named)
+    assert separated > 0
+    for call in (robot.impact, robot.impact_outcomes):
+        with pytest.raises(InvalidTypeError) as e:
+            call(FEET, robot.neutral(), np.zeros(robot.nv), lift_off="yes")
+        assert e.value.field == "lift_off"

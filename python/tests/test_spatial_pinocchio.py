@@ -296,3 +296,55 @@ def test_rhex_and_quasi_static_name_bad_fields():
     with pytest.raises(InvalidInputError) as e:
         fixed.quasi_static(["FL_foot"], fixed.neutral())
     assert e.value.field == "base"
+
+
+@pytest.mark.parametrize("friction", [True, False], ids=["sticking", "frictionless"])
+def test_impact_with_lift_off_is_pinocchios_on_the_feet_it_holds(friction):
+    """The quadruped's four feet at random states with ``lift_off``: each foot separates or is
+    held by complementarity. With each outcome's active set fixed, Pinocchio's
+    ``impulseDynamics`` on the held feet gives the same ``v_plus`` and impulses (1e-9), its
+    normal impulses push and the separated feet's normal velocities after (by Pinocchio's
+    Jacobian) are non-negative. Frictionless feet have exactly one outcome (``W`` positive
+    definite: a P-matrix problem); sticking feet (mu = infinity, no slip) may have several, or
+    none, where ``impact`` raises ``InvalidInputError`` naming ``contacts``."""
+    ours, model, data = both(QUADRUPED)
+    contacts = FEET if friction else [f + ":frictionless" for f in FEET]
+    rng = np.random.default_rng(23)
+    worst, separated, held_counts, outcomes, unresolved = 0.0, 0, set(), 0, 0
+    for _ in range(24):
+        q, v, _ = random_state(rng, model.nq, model.nv)
+        found = ours.impact_outcomes(contacts, q, v, lift_off=True)
+        assert friction or len(found) == 1
+        if len(found) == 1:
+            assert ours.impact(contacts, q, v, lift_off=True).states == found[0].states
+        else:
+            with pytest.raises(InvalidInputError) as e:
+                ours.impact(contacts, q, v, lift_off=True)
+            assert e.value.field == "contacts"
+            unresolved += 1
+        for imp in found:
+            outcomes += 1
+            held = [c for c, s in zip(contacts, imp.states) if s != "separate"]
+            free = [c for c, s in zip(contacts, imp.states) if s == "separate"]
+            separated += len(free)
+            held_counts.add(len(held))
+            names = {h.partition(":")[0] for h in held}
+            rows = [r for r, (frame, _) in enumerate(imp.rows) if frame in names]
+            others = [r for r in range(len(imp.rows)) if r not in rows]
+            assert np.all(imp.impulse[others] == 0.0)
+            after, impulse = v, np.zeros(0)
+            if held:
+                J, _ = contact_rows(model, data, q, v, held)
+                pin.impulseDynamics(model, data, q, v, J, 0.0)
+                after, impulse = data.dq_after.copy(), data.impulse_c.copy()
+                normals = impulse[2::3] if friction else impulse
+                assert np.all(normals >= -1e-9 * np.max(np.abs(impulse)))
+                worst = max(worst, rel(imp.impulse[rows], impulse))
+            worst = max(worst, rel(imp.v_plus, after))
+            if free:
+                J_free, _ = contact_rows(model, data, q, v, [f.partition(":")[0] + ":frictionless" for f in free])
+                assert np.all(J_free @ after >= -1e-9 * max(1.0, np.max(np.abs(v))))
+    print(f"lift-off vs Pinocchio on the held feet: {worst:.1e}; {outcomes} outcomes "
+          f"({unresolved} states without exactly one), {separated} feet separated; feet held "
+          f"{sorted(held_counts)}")
+    assert worst < 1e-9 and separated >= 10 and len(held_counts) >= 3

@@ -11,16 +11,16 @@ use nalgebra::{DMatrix, DVector, Vector3};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyTuple};
+use pyo3::types::{PyDict, PyList, PyTuple};
 use selfmanip_core::spatial::kinematics::{
     forward_kinematics, frame_jacobian, frame_placement, ReferenceFrame,
 };
 use selfmanip_core::spatial::rhex::RhexSixLegs;
 use selfmanip_core::spatial::rigid_body::{crba, nonlinear_effects};
 use selfmanip_core::spatial::{
-    difference, forward_dynamics, forward_dynamics_prescribed, free_rates, from_pinocchio, impact,
-    integrate, neutral, quasi_static, to_pinocchio, BaseKind, ImpactState, PointContact,
-    SpatialData, SpatialError, SpatialModel,
+    difference, forward_dynamics, forward_dynamics_prescribed, free_rates, from_pinocchio,
+    impact_outcomes, impact_with, integrate, neutral, quasi_static, to_pinocchio, BaseKind,
+    ImpactState, PointContact, Separation, SpatialData, SpatialError, SpatialImpact, SpatialModel,
 };
 
 /// A spatial error as the Python exception of its kind, naming the field.
@@ -533,35 +533,81 @@ impl SpatialRobot {
     /// Plastic impact (5.10) into `contacts` at `q` with incoming rates `v`:
     /// `{"v_plus", "impulse", "rows", "states"}` with `M (v_plus − v) = Aᵀ impulse`, every
     /// normal velocity after zero; with a friction cone (dict contacts with `friction`) the
-    /// Coulomb impact (`spatial::impact`), each contact's state `"stick"`, `"slip"`
-    /// or `"frictionless"`.
+    /// Coulomb impact (`spatial::impact_with`), each contact's state `"stick"`, `"slip"`
+    /// or `"frictionless"`; with `lift_off` each contact may also leave the ground
+    /// (`"separate"`, no impulse, normal velocity after non-negative), by complementarity.
+    #[pyo3(signature = (contacts, q, v, lift_off=false))]
     fn impact<'py>(
         &self,
         py: Python<'py>,
         contacts: &Bound<'py, PyAny>,
         q: Vec<f64>,
         v: Vec<f64>,
+        lift_off: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         self.contact_dict(
             py,
             contacts,
-            |contacts, data| impact(&self.model, data, contacts, &q, &v),
-            |d, out, _| {
-                d.set_item("v_plus", vec1(py, &out.v_plus))?;
-                d.set_item("impulse", vec1(py, &out.impulse))?;
-                let states: Vec<&str> = out
-                    .states
-                    .iter()
-                    .map(|s| match s {
-                        ImpactState::Stick => "stick",
-                        ImpactState::Slip { .. } => "slip",
-                        ImpactState::Frictionless => "frictionless",
-                    })
-                    .collect();
-                d.set_item("states", states)
+            |contacts, data| impact_with(&self.model, data, contacts, &q, &v, separation(lift_off)),
+            |d, out, _| fill_impact(py, d, &out),
+        )
+    }
+
+    /// Every outcome of the plastic impact's complementarity into `contacts` (`impact`'s
+    /// problem, not asking for a unique one): `{"outcomes": [{"v_plus", "impulse",
+    /// "states"}, ...], "rows"}`, distinct in `v_plus`.
+    #[pyo3(signature = (contacts, q, v, lift_off=false))]
+    fn impact_outcomes<'py>(
+        &self,
+        py: Python<'py>,
+        contacts: &Bound<'py, PyAny>,
+        q: Vec<f64>,
+        v: Vec<f64>,
+        lift_off: bool,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        self.contact_dict(
+            py,
+            contacts,
+            |contacts, data| {
+                impact_outcomes(&self.model, data, contacts, &q, &v, separation(lift_off))
+            },
+            |d, all, _| {
+                let list = PyList::empty(py);
+                for out in &all {
+                    let one = PyDict::new(py);
+                    fill_impact(py, &one, out)?;
+                    list.append(one)?;
+                }
+                d.set_item("outcomes", list)
             },
         )
     }
+}
+
+/// The separation of an impact with (`lift_off`) or without lift-off.
+fn separation(lift_off: bool) -> Separation {
+    if lift_off {
+        Separation::Allowed
+    } else {
+        Separation::Forbidden
+    }
+}
+
+/// `v_plus`, `impulse` and `states` of an impact outcome into `d`.
+fn fill_impact<'py>(py: Python<'py>, d: &Bound<'py, PyDict>, out: &SpatialImpact) -> PyResult<()> {
+    d.set_item("v_plus", vec1(py, &out.v_plus))?;
+    d.set_item("impulse", vec1(py, &out.impulse))?;
+    let states: Vec<&str> = out
+        .states
+        .iter()
+        .map(|s| match s {
+            ImpactState::Separate => "separate",
+            ImpactState::Stick => "stick",
+            ImpactState::Slip { .. } => "slip",
+            ImpactState::Frictionless => "frictionless",
+        })
+        .collect();
+    d.set_item("states", states)
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

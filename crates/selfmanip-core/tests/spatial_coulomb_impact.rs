@@ -216,7 +216,7 @@ fn landing_quadruped_takes_the_coulomb_impulse() {
     assert!(worst < 1e-12, "{worst}");
 }
 
-/// RHex with massless legs on a tripod of toes (`μ = 0.5`, three rows each) and three legs in
+/// RHex with massless legs on a tripod of toes (`μ = 0.2`, three rows each) and three legs in
 /// the air: the legs in the air keep their rates through the impact, and the other rates and
 /// the impulse are the limit of the same robot with legs of mass `ε` times Table 4.2's (the
 /// gap falling as ε; at smaller ε the light legs make the toes' lateral impulses nearly
@@ -236,7 +236,7 @@ fn massless_legs_keep_their_free_rates_and_are_the_light_legs_limit() {
             .map(|leg| {
                 PointContact::new(model, &format!("{leg}_toe"), true)
                     .unwrap()
-                    .with_impact_friction(0.5)
+                    .with_impact_friction(0.2)
                     .unwrap()
             })
             .collect()

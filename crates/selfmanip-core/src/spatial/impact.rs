@@ -1,16 +1,17 @@
-//! Plastic impact (5.10) of spatial contacts, every row held ([`impact`]) or with Coulomb
-//! friction on the circular cone ([`coulomb_impacts`]): the spatial form of the
-//! planar engine's velocity-level impact complementarity (`selfmanip_hybrid::coulomb_impact`,
-//! Stewart 2000 §4), with every contact held (its normal velocity after the impact zero) and
-//! pushing (every normal impulse `P_n ≥ 0`, frictionless and sticking contacts included, as in
-//! the planar engine).
+//! Plastic impact (5.10) of spatial contacts, every row held ([`impact`]), with Coulomb
+//! friction on the circular cone, and with contacts free to leave the ground
+//! ([`impact_with`], [`impact_outcomes`]): the spatial form of the planar engine's
+//! velocity-level impact complementarity (`selfmanip_hybrid::coulomb_impact`, Stewart 2000 §4;
+//! thesis (5.28)–(5.29) for the normal rows).
 //!
 //! ```text
 //! contacts k with impact friction μ_k (PointContact::with_impact_friction), at (q, q̇⁻):
-//!   M (q̇⁺ − q̇⁻) = Aᵀ P,   n_kᵀ J_k q̇⁺ = 0                      (every contact)
-//!   stick  t_kᵀ J_k q̇⁺ = 0 (both tangents),   |P_t,k| ≤ μ_k P_n,k
-//!   slip   P_t,k = −μ_k P_n,k ŝ_k,  ŝ_k = v_t,k⁺/|v_t,k⁺|,  P_n,k ≥ 0
-//!   (μ = ∞: every row held, (5.10); μ = 0 or no tangent rows: the normal row alone)
+//!   M (q̇⁺ − q̇⁻) = Aᵀ P
+//!   separate  P_k = 0,  n_kᵀ J_k q̇⁺ ≥ 0                      (Separation::Allowed only)
+//!   held      n_kᵀ J_k q̇⁺ = 0,  P_n,k ≥ 0, and
+//!     stick   t_kᵀ J_k q̇⁺ = 0 (both tangents),   |P_t,k| ≤ μ_k P_n,k
+//!     slip    P_t,k = −μ_k P_n,k ŝ_k,  ŝ_k = v_t,k⁺/|v_t,k⁺|
+//!   (μ = ∞: separate or stick, (5.10); μ = 0 or no tangent rows: separate or the normal row)
 //! ```
 //!
 //! This is Coulomb's law itself, not a relaxation of it: the tangential impulse of a sliding
@@ -20,40 +21,44 @@
 //! whose sliding contacts leave the ground with `v_n⁺ = μ |v_t⁺|`: the normal and tangential
 //! velocities are coupled, and that is not Coulomb's impact.)
 //!
-//! **How it is solved.** As the planar engine, by enumerating each contact's state: a contact
-//! with a finite `μ > 0` sticks or slips (with two tangent rows, `[t₁, t₂, n]`, the slip
-//! direction is an angle `φ`, `ŝ = cos φ t₁ + sin φ t₂`; with one, `[t, n]`, it is `±t`, as
-//! in the planar engine). For given states and directions the impact is one square linear
-//! system, the sliding KKT system of [`super::coulomb`] with the impulse on the right:
+//! **How it is solved.** As the planar engine, by enumerating each contact's state (at most
+//! [`MAX_COMBINATIONS`] combinations): a separating contact holds no row; a contact with a
+//! finite `μ > 0` sticks or slips (with two tangent rows, `[t₁, t₂, n]`, the slip direction is
+//! an angle `φ`, `ŝ = cos φ t₁ + sin φ t₂`; with one, `[t, n]`, it is `±t`, as in the planar
+//! engine). For given states and directions the impact is one square linear system, the
+//! sliding KKT system of [`super::coulomb`] with the impulse on the right:
 //!
 //! ```text
 //! [M  −(A_h + B)ᵀ] [Δq̇]   [    0    ]      A_h: the rows held; B: −μ ŝᵀJ_p in each
 //! [A_h     0     ] [P_h] = [−A_h q̇⁻ ]      slipping contact's normal row
 //! ```
 //!
-//! (exact for a singular `M`, as the dynamics; without slips it is (5.10) on `A_h`, solved by
-//! [`super::contact`]'s factorization; redundant rows, four body ends down, take the
-//! least-norm impulse). The slip angles solve `ŝ_k^⊥ · v_t,k⁺(φ) = 0` together with the linear
+//! (exact for a singular `M`, as the dynamics: the massless limbs without a held contact keep
+//! their rates; without slips it is (5.10) on `A_h`, solved by [`super::contact`]'s
+//! factorization). The slip angles solve `ŝ_k^⊥ · v_t,k⁺(φ) = 0` together with the linear
 //! system, by Newton's method on both with the exact derivative `∂K/∂φ_k x = [μ_k P_n,k J_kᵀ
 //! ŝ_k^⊥; 0]`: the bordered iteration stays regular where `K` alone is singular, a massless
 //! stance limb slipping (the slip direction's equation fixes its rate, the light limb's
 //! limit). It starts from the directions opposite the sticking impulse, of the frictionless
-//! impact's slip, and of the
-//! slip before. A solution is kept when its inequalities hold (to 1e-9 of the impulses' and
-//! velocities' scale) and the kinetic energy does not rise; solutions with the same `q̇⁺` are
-//! one (the one with more contacts sticking names it). Why not an interior-point solve of the
-//! cone program (clarabel): it needs the Delassus operator `A M⁻¹ Aᵀ`, which a massless limb
-//! does not have (thesis §5.1.3), and it would give the impulse to the solver's tolerance,
-//! where the enumeration gives it to round-off.
+//! impact's slip, and of the slip before. A solution is kept when its inequalities hold (to
+//! 1e-9 of the impulses' and velocities' scale) and the kinetic energy does not rise;
+//! solutions with the same `q̇⁺` are one (the one holding more contacts, then sticking more,
+//! names it). Redundant rows (four feet of a table) fix `Δq̇` and leave the impulse's split
+//! open: the least-norm split where it satisfies the contacts' laws, else the minimum-norm
+//! split that does ([`super::impulse_split`]). Why not an interior-point solve of the whole
+//! cone program: it needs the Delassus operator `A M⁻¹ Aᵀ`, which a massless limb does not
+//! have (thesis §5.1.3), and it would give the impulse to the solver's tolerance, where the
+//! enumeration gives it to round-off.
 //!
 //! **Energy.** `ΔT = ½ (q̇⁺ + q̇⁻)ᵀ Aᵀ P = ½ (v⁺ + v⁻) · P` over the rows, which the states make
-//! `−Σ μ P_n |v_t⁺| − ½ Δq̇ᵀ M Δq̇ ≤ 0`.
+//! `−Σ μ P_n |v_t⁺| − ½ Δq̇ᵀ M Δq̇ ≤ 0` (a separating contact has `P = 0`).
 #![allow(non_snake_case)]
 use super::contact::{
     factor, free_rates, pin_free_rates, prepare, solve, unpin_free_rates, PointContact,
 };
 use super::coulomb::SINGULAR_PIVOT_RATIO;
 use super::error::{SpatialError, SpatialResult};
+use super::impulse_split::{cone_split, null_basis, SplitLaw};
 use super::kinematics::SpatialData;
 use super::model::SpatialModel;
 use crate::error::check_result;
@@ -63,6 +68,9 @@ use nalgebra::{DMatrix, DVector, RowDVector, Vector3};
 /// The state a contact takes in a plastic impact.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ImpactState {
+    /// No impulse; its normal velocity after is non-negative: it leaves the ground (or grazes
+    /// it). Only with [`Separation::Allowed`].
+    Separate,
     /// Every row held: the contact point stops (μ = ∞, (5.10); or inside its cone).
     Stick,
     /// The normal row held; the impulse on the cone's edge, its tangential part
@@ -70,6 +78,16 @@ pub enum ImpactState {
     Slip { direction: Vector3<f64> },
     /// The normal row held, no tangential impulse (a frictionless contact, or `μ = 0`).
     Frictionless,
+}
+
+/// Whether a contact may leave the ground in the impact.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Separation {
+    /// Every contact is held (its normal velocity after zero), as (5.10).
+    Forbidden,
+    /// Each contact separates (`P = 0`, `v_n⁺ ≥ 0`) or is held (`P_n ≥ 0`, `v_n⁺ = 0`), by
+    /// complementarity, `0 ≤ P_n ⊥ v_n⁺ ≥ 0` (the planar engine's impact, (5.28)–(5.29)).
+    Allowed,
 }
 
 /// The outcome of a plastic impact.
@@ -83,12 +101,8 @@ pub struct SpatialImpact {
     pub states: Vec<ImpactState>,
 }
 
-/// Plastic impact, thesis (5.10): `[M Aᵀ; A 0][Δq̇; −P] = [0; −A q̇⁻]`, `q̇⁺ = q̇⁻ + Δq̇`, so
-/// `A q̇⁺ = 0` and `M(q̇⁺ − q̇⁻) = Aᵀ P`. A massless limb in the air ([`free_rates`]) keeps
-/// its rates, as in the planar core. A contact with a finite impact friction
-/// ([`PointContact::with_impact_friction`]) makes it Coulomb's impact ([`coulomb_impacts`],
-/// the module's docs), whose outcome must be unique (a typed error naming `contacts`
-/// otherwise).
+/// Plastic impact, thesis (5.10), every contact held: [`impact_with`] with
+/// [`Separation::Forbidden`].
 pub fn impact(
     model: &SpatialModel,
     data: &mut SpatialData,
@@ -96,11 +110,30 @@ pub fn impact(
     q: &[f64],
     v_minus: &[f64],
 ) -> SpatialResult<SpatialImpact> {
-    if contacts
+    impact_with(model, data, contacts, q, v_minus, Separation::Forbidden)
+}
+
+/// Plastic impact into `contacts` at `(q, q̇⁻)`. With every contact held and no finite impact
+/// friction it is (5.10): `[M Aᵀ; A 0][Δq̇; −P] = [0; −A q̇⁻]`, `q̇⁺ = q̇⁻ + Δq̇`, so `A q̇⁺ = 0`
+/// and `M(q̇⁺ − q̇⁻) = Aᵀ P`. A massless limb in the air ([`free_rates`]) keeps its rates, as
+/// in the planar core. Otherwise (a contact with a finite impact friction,
+/// [`PointContact::with_impact_friction`], or `separation` [`Separation::Allowed`]) it is the
+/// complementarity problem of the module's docs, whose outcome must be unique: none, or
+/// several, is a typed error naming `contacts` ([`impact_outcomes`] lists them).
+pub fn impact_with(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    contacts: &[PointContact],
+    q: &[f64],
+    v_minus: &[f64],
+    separation: Separation,
+) -> SpatialResult<SpatialImpact> {
+    let cones = contacts
         .iter()
-        .any(|c| c.friction && c.impact_friction.is_finite())
-    {
-        return the_only(coulomb_impacts(model, data, contacts, q, v_minus)?);
+        .any(|c| c.friction && c.impact_friction.is_finite());
+    if cones || separation == Separation::Allowed {
+        let all = impact_outcomes(model, data, contacts, q, v_minus, separation)?;
+        return the_only(all, separation);
     }
     prepare(model, data, contacts, q, v_minus)?;
     let free = free_rates(model, contacts);
@@ -170,6 +203,8 @@ impl Site {
 /// A contact's state in one combination.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Choice {
+    /// No rows held, no impulse (with [`Separation::Allowed`]).
+    Separate,
     /// Its law's fixed rows: every row of a [`Law::Held`] contact, the normal row alone of
     /// the others (on a cone: the frictionless impact that seeds the slip angles).
     Fixed,
@@ -183,32 +218,49 @@ enum Choice {
 }
 
 /// The choices of a site, in enumeration order.
-fn choices(site: &Site) -> &'static [Choice] {
-    match (site.law, site.n_rows) {
-        (Law::Cone { .. }, 3) => &[Choice::Stick, Choice::SlipAngle],
-        (Law::Cone { .. }, _) => &[
-            Choice::Stick,
-            Choice::SlipSign { sigma: 1.0 },
-            Choice::SlipSign { sigma: -1.0 },
+fn choices(site: &Site, separation: Separation) -> &'static [Choice] {
+    use Choice::*;
+    let allowed = separation == Separation::Allowed;
+    match (site.law, site.n_rows, allowed) {
+        (Law::Cone { .. }, 3, false) => &[Stick, SlipAngle],
+        (Law::Cone { .. }, 3, true) => &[Separate, Stick, SlipAngle],
+        (Law::Cone { .. }, _, false) => &[Stick, SlipSign { sigma: 1.0 }, SlipSign { sigma: -1.0 }],
+        (Law::Cone { .. }, _, true) => &[
+            Separate,
+            Stick,
+            SlipSign { sigma: 1.0 },
+            SlipSign { sigma: -1.0 },
         ],
-        _ => &[Choice::Fixed],
+        (_, _, false) => &[Fixed],
+        (_, _, true) => &[Separate, Fixed],
     }
 }
 
-/// The prepared impact: `A` of every row, `q̇⁻`, `A q̇⁻`, `M` with the free rates pinned.
-struct Problem {
+/// The enumeration's bound: at most this many combinations of states (`∏_k` of each
+/// contact's choices: 2 for a frictionless or `μ ∈ {0, ∞}` contact, 3 for a cone with two
+/// tangents, 4 for a cone in a plane, with separation allowed). Each is one LU of
+/// `nv + rows` unknowns, or Newton's method from at most three starts where a slip has an
+/// angle: `3⁷ = 2187` combinations for seven feet in cones.
+pub const MAX_COMBINATIONS: usize = 4096;
+
+/// The prepared impact: `A` of every row, `q̇⁻`, `A q̇⁻`, `M` as prepared (free rates' columns
+/// zero), and the contacts (whose held subset fixes the free rates of a combination).
+struct Problem<'a> {
+    model: &'a SpatialModel,
+    contacts: &'a [PointContact],
     A: DMatrix<f64>,
     v_minus: DVector<f64>,
     v0: DVector<f64>,
-    M_pinned: DMatrix<f64>,
-    free: Vec<usize>,
+    M: DMatrix<f64>,
     sites: Vec<Site>,
 }
 
-/// One solved combination: `Δq̇` and the impulse on every row.
+/// One solved combination: `Δq̇`, the impulse on every row, and the map `C = −(A_h + B)ᵀ`
+/// from the held rows' impulses to the generalized impulse (its null space: the splits).
 struct Trial {
     delta_v: DVector<f64>,
     impulse: DVector<f64>,
+    coupling: DMatrix<f64>,
 }
 
 /// The solution of the square system `K x = b`: by LU, or where `K` is singular (redundant
@@ -231,17 +283,30 @@ fn solve_square(K: DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
     ((&K * &x - b).amax() <= 1e-9 * scale).then_some(x)
 }
 
+/// What a trial's inequalities say ([`Problem::verdict`]).
+enum Verdict {
+    /// Every one holds: each contact's state.
+    Holds(Vec<ImpactState>),
+    /// Only impulses fail (a pull, a sticking impulse outside its cone): another split of
+    /// redundant rows may pass.
+    Impulse,
+    /// A velocity fails (a separating contact approaching, a slip against its direction).
+    Motion,
+}
+
 /// Newton's iteration limit for the slip angles.
 const MAX_NEWTON: usize = 60;
 /// Relative tolerance of the states' inequalities and of the energy check.
 const INEQUALITY_TOLERANCE: f64 = 1e-9;
 
-impl Problem {
-    /// The rows held under `choice`: all of a sticking or held contact's, the normal of the rest.
+impl Problem<'_> {
+    /// The rows held under `choice`: all of a sticking or held contact's, the normal of the
+    /// rest, none of a separating one.
     fn held(&self, choice: &[Choice]) -> Vec<usize> {
         let mut rows = Vec::new();
         for (site, c) in self.sites.iter().zip(choice) {
             match (c, site.law) {
+                (Choice::Separate, _) => {}
                 (Choice::Stick, _) | (Choice::Fixed, Law::Held) => {
                     rows.extend(site.row..site.row + site.n_rows)
                 }
@@ -249,6 +314,19 @@ impl Problem {
             }
         }
         rows
+    }
+
+    /// The massless limbs in the air under `choice`: [`free_rates`] of the contacts held (a
+    /// massless limb whose contact separates keeps its rates, as one in the air).
+    fn free(&self, choice: &[Choice]) -> Vec<usize> {
+        let held: Vec<PointContact> = self
+            .contacts
+            .iter()
+            .zip(choice)
+            .filter(|(_, &c)| c != Choice::Separate)
+            .map(|(c, _)| c.clone())
+            .collect();
+        free_rates(self.model, &held)
     }
 
     /// `ŝᵀJ_p` and `ŝ^⊥ᵀJ_p` of a two-tangent site at angle `phi`.
@@ -296,24 +374,43 @@ impl Problem {
     }
 
     /// The combination without slips: (5.10) on the held rows, by [`super::contact`]'s
-    /// factorization (redundant rows on `A`'s row space, massless limbs exact).
+    /// factorization (redundant rows on `A`'s row space, massless limbs exact); no rows held,
+    /// no change.
     fn solve_held(&self, data: &mut SpatialData, choice: &[Choice]) -> SpatialResult<Trial> {
         let held = self.held(choice);
-        data.A = self.A.select_rows(&held);
+        let A_h = self.A.select_rows(&held);
+        let coupling = -A_h.transpose();
+        if held.is_empty() {
+            return Ok(Trial {
+                delta_v: DVector::zeros(self.A.ncols()),
+                impulse: DVector::zeros(self.A.nrows()),
+                coupling,
+            });
+        }
+        data.A = A_h;
         data.rhs_g = DVector::zeros(held.len());
         data.lam = DVector::zeros(held.len());
-        let (delta_v, P_h) = held_rows_impact(data, &self.free, self.v_minus.as_slice())?;
+        let free = self.free(choice);
+        let (delta_v, P_h) = held_rows_impact(data, &free, self.v_minus.as_slice())?;
         let impulse = self.full_impulse(choice, &held, &P_h, &vec![0.0; choice.len()]);
-        Ok(Trial { delta_v, impulse })
+        Ok(Trial {
+            delta_v,
+            impulse,
+            coupling,
+        })
     }
 
     /// The linear system of the module's doc at slip angles `phi` (per site): the rows held,
-    /// `K` and its right-hand side.
+    /// `K` and its right-hand side (`M` with the combination's free rates pinned).
     fn assemble(&self, choice: &[Choice], phi: &[f64]) -> (Vec<usize>, DMatrix<f64>, DVector<f64>) {
         let held = self.held(choice);
         let (nv, m) = (self.A.ncols(), held.len());
         let mut K = DMatrix::zeros(nv + m, nv + m);
-        K.view_mut((0, 0), (nv, nv)).copy_from(&self.M_pinned);
+        K.view_mut((0, 0), (nv, nv)).copy_from(&self.M);
+        let unit = (0..nv).map(|k| self.M[(k, k)]).fold(1.0, f64::max);
+        for k in self.free(choice) {
+            K[(k, k)] = unit;
+        }
         let mut rhs = DVector::zeros(nv + m);
         for (i, &r) in held.iter().enumerate() {
             for c in 0..nv {
@@ -342,11 +439,13 @@ impl Problem {
     fn solve_slipping(&self, choice: &[Choice], phi: &[f64]) -> Option<Trial> {
         let (held, K, rhs) = self.assemble(choice, phi);
         let nv = self.A.ncols();
+        let coupling = K.view((0, nv), (nv, held.len())).into_owned();
         let x = solve_square(K, &rhs)?;
         let impulse = self.full_impulse(choice, &held, &x.rows(nv, held.len()).into_owned(), phi);
         Some(Trial {
             delta_v: x.rows(0, nv).into_owned(),
             impulse,
+            coupling,
         })
     }
 
@@ -405,7 +504,14 @@ impl Problem {
                 let P_h = x.rows(nv, held.len()).into_owned();
                 let impulse = self.full_impulse(choice, &held, &P_h, &phi);
                 let delta_v = x.rows(0, nv).into_owned();
-                return root.then_some((Trial { delta_v, impulse }, phi));
+                let (_, K, _) = self.assemble(choice, &phi);
+                let coupling = K.view((0, nv), (nv, held.len())).into_owned();
+                let trial = Trial {
+                    delta_v,
+                    impulse,
+                    coupling,
+                };
+                return root.then_some((trial, phi));
             }
             let big = step.rows(n, s).amax();
             let damp = if big > 0.5 { 0.5 / big } else { 1.0 };
@@ -418,35 +524,76 @@ impl Problem {
     }
 
     /// The impact of a trial if every state's inequality holds and the energy does not rise.
+    /// Where only impulses fail (a normal impulse pulls, a sticking impulse leaves its cone)
+    /// and the held rows are redundant, the split of [`super::impulse_split`] is tried: the
+    /// minimum-norm impulse with the same `Δq̇` that satisfies every contact's law.
     fn accept(&self, choice: &[Choice], trial: &Trial, phi: &[f64]) -> Option<SpatialImpact> {
         let v_plus = &self.v_minus + &trial.delta_v;
         let v_rows = &self.A * &v_plus;
-        let P = &trial.impulse;
+        let (states, P) = match self.verdict(choice, (&v_plus, &v_rows), &trial.impulse, phi) {
+            Verdict::Holds(states) => (states, trial.impulse.clone()),
+            Verdict::Motion => return None,
+            Verdict::Impulse => {
+                let P = self.split(choice, trial, phi)?;
+                match self.verdict(choice, (&v_plus, &v_rows), &P, phi) {
+                    Verdict::Holds(states) => (states, P),
+                    _ => return None,
+                }
+            }
+        };
+        // ΔT = ½ (v⁺ + v⁻) · P (module docs): the split moves P along ker (A_h + B)ᵀ, which
+        // leaves the generalized impulse, and so ΔT, as it is
+        let (after, before) = (v_rows.dot(&P), self.v0.dot(&P));
+        let change = 0.5 * (after + before);
+        if !(change <= INEQUALITY_TOLERANCE * (after.abs() + before.abs())) {
+            return None;
+        }
+        Some(SpatialImpact {
+            v_plus,
+            impulse: P,
+            states,
+        })
+    }
+
+    /// Each contact's state if its inequalities hold at `q̇⁺` and row velocities `v_rows`
+    /// (after) with impulse `P`, else which kind fails.
+    fn verdict(
+        &self,
+        choice: &[Choice],
+        (v_plus, v_rows): (&DVector<f64>, &DVector<f64>),
+        P: &DVector<f64>,
+        phi: &[f64],
+    ) -> Verdict {
         let (tol_p, tol_v) = (
             INEQUALITY_TOLERANCE * P.amax(),
             INEQUALITY_TOLERANCE * self.v0.amax() + 1e-12,
         );
         let mut states = Vec::with_capacity(self.sites.len());
+        let mut pulls = false;
         for ((site, &c), &phi) in self.sites.iter().zip(choice).zip(phi) {
             let (r, n) = (site.row, site.normal());
-            // every contact's normal impulse pushes (held, frictionless or in a cone)
-            if !(P[n] >= -tol_p) {
-                return None;
+            if c == Choice::Separate {
+                // no impulse; leaving or grazing, never approaching
+                if !(v_rows[n] >= -tol_v) {
+                    return Verdict::Motion;
+                }
+                states.push(ImpactState::Separate);
+                continue;
             }
+            // every held contact's normal impulse pushes (held, frictionless or in a cone)
+            pulls |= !(P[n] >= -tol_p);
             let state = match (site.law, c) {
                 (Law::Held, _) if site.n_rows > 1 => ImpactState::Stick,
                 (Law::Held | Law::NormalOnly, _) => ImpactState::Frictionless,
                 (Law::Cone { mu }, Choice::Stick) => {
                     let tangential = P.rows(r, site.n_rows - 1).norm();
-                    if !(tangential <= mu * P[n] + tol_p) {
-                        return None;
-                    }
+                    pulls |= !(tangential <= mu * P[n] + tol_p);
                     ImpactState::Stick
                 }
                 (Law::Cone { .. }, _) => {
                     let s = self.slip_row(site, c, phi).expect("a slip");
-                    if !((s * &v_plus)[0] >= -tol_v) {
-                        return None;
+                    if !((s * v_plus)[0] >= -tol_v) {
+                        return Verdict::Motion;
                     }
                     ImpactState::Slip {
                         direction: self.slip_direction(site, c, phi),
@@ -455,16 +602,42 @@ impl Problem {
             };
             states.push(state);
         }
-        let (after, before) = (v_rows.dot(P), self.v0.dot(P));
-        let change = 0.5 * (after + before);
-        if !(change <= INEQUALITY_TOLERANCE * (after.abs() + before.abs())) {
+        if pulls {
+            Verdict::Impulse
+        } else {
+            Verdict::Holds(states)
+        }
+    }
+
+    /// The minimum-norm impulse of the trial's motion that satisfies every held contact's
+    /// law ([`super::impulse_split`]), `None` without redundant rows or without such a split.
+    fn split(&self, choice: &[Choice], trial: &Trial, phi: &[f64]) -> Option<DVector<f64>> {
+        let held = self.held(choice);
+        let N_h = null_basis(&trial.coupling);
+        if N_h.ncols() == 0 {
             return None;
         }
-        Some(SpatialImpact {
-            v_plus,
-            impulse: P.clone(),
-            states,
-        })
+        let columns: Vec<DVector<f64>> = N_h
+            .column_iter()
+            .map(|c| self.full_impulse(choice, &held, &c.into_owned(), phi))
+            .collect();
+        let N = DMatrix::from_columns(&columns);
+        let laws: Vec<SplitLaw> = self
+            .sites
+            .iter()
+            .zip(choice)
+            .filter(|(_, &c)| c != Choice::Separate)
+            .map(|(site, &c)| SplitLaw {
+                normal: site.normal(),
+                cone: match (site.law, c) {
+                    (Law::Cone { mu }, Choice::Stick) => {
+                        Some((mu, (site.row..site.normal()).collect()))
+                    }
+                    _ => None,
+                },
+            })
+            .collect();
+        cone_split(&trial.impulse, &N, &laws)
     }
 
     /// The world slip direction `ŝ` of a slipping site, from the contact's rows' directions.
@@ -477,14 +650,30 @@ impl Problem {
     }
 }
 
-/// Every solution of the Coulomb plastic impact into `contacts` at `(q, q̇⁻)` (module docs),
-/// distinct in `q̇⁺`, in enumeration order. `data` is left prepared at `(q, q̇⁻)`.
+/// Every solution of the Coulomb plastic impact into `contacts` at `(q, q̇⁻)` with every
+/// contact held: [`impact_outcomes`] with [`Separation::Forbidden`].
 pub fn coulomb_impacts(
     model: &SpatialModel,
     data: &mut SpatialData,
     contacts: &[PointContact],
     q: &[f64],
     v_minus: &[f64],
+) -> SpatialResult<Vec<SpatialImpact>> {
+    impact_outcomes(model, data, contacts, q, v_minus, Separation::Forbidden)
+}
+
+/// Every solution of the plastic impact's complementarity problem into `contacts` at
+/// `(q, q̇⁻)` (module docs), distinct in `q̇⁺`, in enumeration order; with
+/// [`Separation::Allowed`] each contact may also leave the ground. More than
+/// [`MAX_COMBINATIONS`] combinations of states is a typed error naming `contacts`. `data` is
+/// left prepared at `(q, q̇⁻)`.
+pub fn impact_outcomes(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    contacts: &[PointContact],
+    q: &[f64],
+    v_minus: &[f64],
+    separation: Separation,
 ) -> SpatialResult<Vec<SpatialImpact>> {
     prepare(model, data, contacts, q, v_minus)?;
     let mut row = 0;
@@ -507,20 +696,31 @@ pub fn coulomb_impacts(
             site
         })
         .collect();
-    let free = free_rates(model, contacts);
-    pin_free_rates(data, &free);
-    let M_pinned = data.M.clone();
-    unpin_free_rates(data, &free);
+    let combinations = sites
+        .iter()
+        .try_fold(1usize, |n, s| n.checked_mul(choices(s, separation).len()))
+        .filter(|&n| n <= MAX_COMBINATIONS);
+    if combinations.is_none() {
+        return Err(SpatialError::InvalidArgument {
+            field: "contacts".into(),
+            reason: format!(
+                "{} contacts have more than {MAX_COMBINATIONS} combinations of impact states \
+                 to enumerate",
+                contacts.len()
+            ),
+        });
+    }
     let v_minus = DVector::from_column_slice(v_minus);
     let problem = Problem {
+        model,
+        contacts,
         v0: &data.A * &v_minus,
         A: data.A.clone(),
         v_minus,
-        M_pinned,
-        free,
+        M: data.M.clone(),
         sites,
     };
-    let found = enumerate(&problem, data);
+    let found = enumerate(&problem, data, separation);
     // the full rows back in `data`
     data.A = problem.A.clone();
     data.rhs_g = DVector::zeros(row);
@@ -576,13 +776,20 @@ fn starting_angles(
 }
 
 /// Every combination of states, solved and checked; distinct outcomes in `q̇⁺`.
-fn enumerate(p: &Problem, data: &mut SpatialData) -> SpatialResult<Vec<SpatialImpact>> {
+fn enumerate(
+    p: &Problem,
+    data: &mut SpatialData,
+    separation: Separation,
+) -> SpatialResult<Vec<SpatialImpact>> {
     let n = p.sites.len();
-    let options: Vec<&[Choice]> = p.sites.iter().map(choices).collect();
+    let options: Vec<&[Choice]> = p.sites.iter().map(|s| choices(s, separation)).collect();
     let uniform = |c: Choice| -> Vec<Choice> {
-        options
+        p.sites
             .iter()
-            .map(|o| if o.len() > 1 { c } else { Choice::Fixed })
+            .map(|s| match s.law {
+                Law::Cone { .. } => c,
+                _ => Choice::Fixed,
+            })
             .collect()
     };
     // the two linear combinations that seed the slip angles: every cone sticking, and every
@@ -592,7 +799,7 @@ fn enumerate(p: &Problem, data: &mut SpatialData) -> SpatialResult<Vec<SpatialIm
     let starts = starting_angles(p, stick.as_ref().ok(), frictionless.as_ref());
     let mut first_error = stick.as_ref().err().cloned();
     let mut solved_any = false;
-    let mut out: Vec<(SpatialImpact, usize)> = Vec::new();
+    let mut out: Vec<(SpatialImpact, (usize, usize))> = Vec::new();
     let mut code = vec![0usize; n];
     loop {
         let choice: Vec<Choice> = (0..n).map(|k| options[k][code[k]]).collect();
@@ -640,41 +847,45 @@ fn enumerate(p: &Problem, data: &mut SpatialData) -> SpatialResult<Vec<SpatialIm
 }
 
 /// Adds `imp` to `out` unless an outcome with the same `q̇⁺` is there; of two, the one with
-/// more contacts sticking stays.
-fn keep_distinct(out: &mut Vec<(SpatialImpact, usize)>, imp: SpatialImpact, v_scale: f64) {
-    let stuck = imp
-        .states
-        .iter()
-        .filter(|s| **s == ImpactState::Stick)
-        .count();
+/// more contacts held, then more sticking, stays (a contact held with no impulse is one
+/// grazing; a slip whose velocity after is zero a stick on its cone's edge).
+fn keep_distinct(out: &mut Vec<(SpatialImpact, (usize, usize))>, imp: SpatialImpact, v_scale: f64) {
+    let count = |f: fn(&ImpactState) -> bool| imp.states.iter().filter(|s| f(s)).count();
+    let rank = (
+        count(|s| *s != ImpactState::Separate),
+        count(|s| *s == ImpactState::Stick),
+    );
     let same = out
         .iter()
         .position(|(o, _)| (&o.v_plus - &imp.v_plus).amax() <= 1e-8 * (1.0 + v_scale));
     match same {
-        None => out.push((imp, stuck)),
-        Some(i) if stuck > out[i].1 => out[i] = (imp, stuck),
+        None => out.push((imp, rank)),
+        Some(i) if rank > out[i].1 => out[i] = (imp, rank),
         Some(_) => {}
     }
 }
 
-/// The single outcome of [`coulomb_impacts`], or a typed error naming `contacts` when there is
-/// none (a contact's normal impulse would pull: it leaves the ground) or several (a Painlevé
-/// configuration: [`coulomb_impacts`] lists them).
-fn the_only(mut all: Vec<SpatialImpact>) -> SpatialResult<SpatialImpact> {
-    match all.len() {
-        1 => Ok(all.pop().expect("one")),
-        0 => Err(SpatialError::InvalidArgument {
-            field: "contacts".into(),
-            reason: "no Coulomb impact holds every contact: a normal impulse would pull \
-                     (that contact leaves the ground)"
-                .into(),
-        }),
-        n => Err(SpatialError::InvalidArgument {
-            field: "contacts".into(),
-            reason: format!(
-                "{n} Coulomb impacts hold these contacts (a Painlevé configuration): \
-                 coulomb_impacts lists them"
-            ),
-        }),
-    }
+/// The single outcome of [`impact_outcomes`], or a typed error naming `contacts` when there
+/// is none (held: a contact's normal impulse would pull, it leaves the ground; with
+/// separation allowed, no state of the contacts satisfies them all) or several (a Painlevé
+/// configuration: [`impact_outcomes`] lists them).
+fn the_only(mut all: Vec<SpatialImpact>, separation: Separation) -> SpatialResult<SpatialImpact> {
+    let reason = match (all.len(), separation) {
+        (1, _) => return Ok(all.pop().expect("one")),
+        (0, Separation::Forbidden) => "no plastic impact holds every contact: a normal impulse \
+                                       would pull (that contact leaves the ground: allow \
+                                       separation)"
+            .to_string(),
+        (0, Separation::Allowed) => "no plastic impact satisfies every contact's \
+                                     complementarity (separate, stick or slip)"
+            .to_string(),
+        (n, _) => format!(
+            "{n} plastic impacts satisfy these contacts (a Painlevé configuration): \
+             impact_outcomes lists them"
+        ),
+    };
+    Err(SpatialError::InvalidArgument {
+        field: "contacts".into(),
+        reason,
+    })
 }

@@ -25,6 +25,7 @@ pub mod coulomb;
 pub mod error;
 pub mod explog;
 pub mod impact;
+mod impulse_split;
 pub mod inertia;
 pub mod kinematics;
 pub mod liegroup;
@@ -41,7 +42,10 @@ pub use contact::{
     forward_dynamics, forward_dynamics_prescribed, free_rates, ContactShape, PointContact,
 };
 pub use error::{SpatialError, SpatialResult};
-pub use impact::{coulomb_impacts, impact, ImpactState, SpatialImpact};
+pub use impact::{
+    coulomb_impacts, impact, impact_outcomes, impact_with, ImpactState, Separation, SpatialImpact,
+    MAX_COMBINATIONS,
+};
 pub use inertia::Inertia;
 pub use kinematics::{ReferenceFrame, SpatialData};
 pub use liegroup::{difference, from_pinocchio, integrate, neutral, pinocchio_nq, to_pinocchio};
