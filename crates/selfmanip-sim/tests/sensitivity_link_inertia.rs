@@ -1,0 +1,101 @@
+//! A link's mass, inertia and centre of mass as exact sensitivity parameters
+//! (`docs/sensitivity.md`, "Parameters by path"): runs with a flight, an apex passed on the
+//! way, touchdowns (plastic impacts) and sliding, differentiated in their links' inertia
+//! parameters by path, against Richardson central differences of whole runs with the field
+//! set to `p ± h` (final state and every event time).
+use selfmanip_hybrid::EventKind;
+use selfmanip_sim::sensitivity::scenario_parameter_sensitivity;
+use selfmanip_sim::{Scenario, Simulation};
+mod common;
+use common::fd;
+
+/// The end state `(q, q̇)` followed by the event times, and the event kinds.
+fn end(s: &Scenario) -> (Vec<f64>, Vec<EventKind>) {
+    let run = Simulation::new(s).unwrap().run().unwrap();
+    fd::end_state_and_events(&run.execution)
+}
+
+/// `s`'s run differentiated in the paths of `cases` (`(path, value)`), every column against
+/// central differences (steps `1e-4 |p|`, `h/2`): the worst relative difference. The run
+/// meets the events `expected`.
+fn worst_error(s: &Scenario, cases: &[(&str, f64)], expected: &[EventKind]) -> f64 {
+    let sim = Simulation::new(s).unwrap();
+    let run = sim.run().unwrap();
+    let kinds: Vec<_> = run.execution.events.iter().map(|e| e.kind).collect();
+    eprintln!(
+        "{:?}",
+        run.execution
+            .events
+            .iter()
+            .map(|e| (e.kind, e.t))
+            .collect::<Vec<_>>()
+    );
+    assert_eq!(kinds, expected);
+    let names: Vec<&str> = cases.iter().map(|c| c.0).collect();
+    let p = scenario_parameter_sensitivity(s, &sim.options, &run, &names).unwrap();
+    assert_eq!(p.reason, None);
+    common::worst_path_error(&p, cases, |path, value| {
+        common::central_in_path(s, (path, value, 1e-4 * value.abs()), &kinds, end)
+    })
+}
+
+/// The newcomer's bounder of issue 30 (a 2 kg body, two two-link legs of 0.1 kg links with
+/// their centres given off the links' axes, point feet of friction 0.4) with servoed joints,
+/// thrown up (`ż = −0.6` m/s, z down) moving forward at 1 m/s pitched 0.1 rad: it passes its
+/// apex, falls, and its hind foot lands sliding, sticks, slips and slides on the cone's edge.
+fn bounder(t_final: f64) -> Scenario {
+    let link = |com: [f64; 2]| {
+        serde_json::json!({"length_m": 0.15, "mass_kg": 0.1, "inertia_kg_m2": 1.875e-4,
+        "com_m": com})
+    };
+    let friction = serde_json::json!({"kind": "sticking", "mu": 0.4});
+    let foot = |g: &str| {
+        serde_json::json!({"name": format!("{g}_foot"), "leg": g,
+        "shape": {"kind": "point", "position_m": [0, 0.15]}, "friction": friction.clone()})
+    };
+    let leg = |name: &str, hip: f64| {
+        serde_json::json!({"name": name, "hip_m": [hip, 0.0],
+        "links": [link([0.01, 0.07]), link([-0.005, 0.08])]})
+    };
+    let robot = serde_json::json!({"name": "bounder", "body": {"mass_kg": 2.0, "inertia_kg_m2": 0.0267},
+        "contacts": [foot("front"), foot("hind")],
+        "legs": [leg("front", 0.2), leg("hind", -0.2)]});
+    let joints: Vec<_> = [
+        ("front[0]", 0.5),
+        ("front[1]", -1.0),
+        ("hind[0]", 0.5),
+        ("hind[1]", -1.0),
+    ]
+    .iter()
+    .map(|(j, t)| {
+        serde_json::json!({"joint": j, "phases": [{"name": "h", "torque": {"kind": "servo",
+        "target_rad": t, "kp_n_m_per_rad": 30.0, "kd_n_m_s_per_rad": 0.5}}]})
+    })
+    .collect();
+    let v = serde_json::json!({
+        "robot": robot,
+        "initial": {"q": [0.5, -1.0, 0.5, -1.0, 0.0, -0.30, 0.1],
+                    "qd": [0.0, 0.0, 0.0, 0.0, 1.0, -0.6, 0.0]},
+        "behaviour": {"joints": joints},
+        "options": {"t_final_s": t_final, "rtol": 1e-12, "event_tol_s": 1e-14,
+                    "stop_at_apex": false}
+    });
+    serde_json::from_value(v).unwrap()
+}
+
+#[test]
+fn bounder_link_inertia_matches_central_differences() {
+    let s = bounder(0.195);
+    let cases = [
+        ("legs.hind.links[0].mass_kg", 0.1),
+        ("legs.hind.links[1].mass_kg", 0.1),
+        ("legs.front.links[1].mass_kg", 0.1),
+        ("legs.hind.links[1].inertia_kg_m2", 1.875e-4),
+        ("legs.hind.links[0].com_m[0]", 0.01),
+        ("legs.hind.links[1].com_m[1]", 0.08),
+    ];
+    use EventKind::{Apex, Slip, Stick, Touchdown};
+    let kinds = [Apex, Touchdown, Slip, Touchdown, Stick, Stick, Slip];
+    let w = worst_error(&s, &cases, &kinds);
+    eprintln!("worst {w:.1e}");
+}
