@@ -80,41 +80,30 @@ pub fn named_sensitivity_columns(
 /// controller's time event or a rolling/point switch without a saltation, or a terrain
 /// feature change (times on the caller's clock).
 pub fn undefined_reason(s: &ColumnSensitivity, offset_s: f64) -> Option<String> {
-    if let Some(e) = s
+    let undefined = |status: &SaltationStatus| *status != SaltationStatus::Defined;
+    let first = s
         .events
         .iter()
-        .find(|e| e.status != SaltationStatus::Defined)
-    {
-        Some(format!(
-            "{:?} at t = {} s: {:?}",
-            e.kind,
-            e.t - offset_s,
-            e.status
-        ))
-    } else if let Some(e) = s
-        .time_events
-        .iter()
-        .find(|e| e.status != SaltationStatus::Defined)
-    {
-        Some(format!(
-            "time event at t = {} s: {:?}",
-            e.t - offset_s,
-            e.status
-        ))
-    } else if let Some(sw) = s
-        .touch_switches
-        .iter()
-        .find(|w| w.status != SaltationStatus::Defined)
-    {
-        Some(format!(
-            "rolling/point switch at t = {} s: {:?}",
-            sw.t - offset_s,
-            sw.status
-        ))
-    } else if s.columns.is_none() {
-        Some("the execution's sensitivities are not defined (a terrain feature change)".into())
-    } else {
-        None
+        .find(|e| undefined(&e.status))
+        .map(|e| (format!("{:?}", e.kind), e.t, &e.status))
+        .or_else(|| {
+            s.time_events
+                .iter()
+                .find(|e| undefined(&e.status))
+                .map(|e| ("time event".to_string(), e.t, &e.status))
+        })
+        .or_else(|| {
+            s.touch_switches
+                .iter()
+                .find(|w| undefined(&w.status))
+                .map(|w| ("rolling/point switch".to_string(), w.t, &w.status))
+        });
+    match first {
+        Some((what, t, status)) => Some(format!("{what} at t = {} s: {status:?}", t - offset_s)),
+        None if s.columns.is_none() => Some(
+            "the execution's sensitivities are not defined (a terrain feature change)".into(),
+        ),
+        None => None,
     }
 }
 
