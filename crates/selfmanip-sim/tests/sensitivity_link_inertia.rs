@@ -39,6 +39,21 @@ fn worst_error(s: &Scenario, cases: &[(&str, f64)], expected: &[EventKind]) -> f
     })
 }
 
+/// The joint programs of two two-link legs each servoed (gains `kp`, `kd`) to the landing
+/// pose, hip 0.5 rad and knee −1 rad (the foot under the hip).
+fn held_at_landing_pose(legs: [&str; 2], kp: f64, kd: f64) -> Vec<serde_json::Value> {
+    let servo = |target: f64| {
+        serde_json::json!({"kind": "servo", "target_rad": target, "kp_n_m_per_rad": kp,
+        "kd_n_m_s_per_rad": kd})
+    };
+    legs.iter()
+        .flat_map(|leg| [(0, 0.5), (1, -1.0)].map(|(k, t)| (format!("{leg}[{k}]"), t)))
+        .map(|(joint, t)| {
+            serde_json::json!({"joint": joint, "phases": [{"name": "h", "torque": servo(t)}]})
+        })
+        .collect()
+}
+
 /// The newcomer's bounder of issue 30 (a 2 kg body, two two-link legs of 0.1 kg links with
 /// their centres given off the links' axes, point feet of friction 0.4) with servoed joints,
 /// thrown up (`ż = −0.6` m/s, z down) moving forward at 1 m/s pitched 0.1 rad: it passes its
@@ -60,18 +75,7 @@ fn bounder(t_final: f64) -> Scenario {
     let robot = serde_json::json!({"name": "bounder", "body": {"mass_kg": 2.0, "inertia_kg_m2": 0.0267},
         "contacts": [foot("front"), foot("hind")],
         "legs": [leg("front", 0.2), leg("hind", -0.2)]});
-    let joints: Vec<_> = [
-        ("front[0]", 0.5),
-        ("front[1]", -1.0),
-        ("hind[0]", 0.5),
-        ("hind[1]", -1.0),
-    ]
-    .iter()
-    .map(|(j, t)| {
-        serde_json::json!({"joint": j, "phases": [{"name": "h", "torque": {"kind": "servo",
-        "target_rad": t, "kp_n_m_per_rad": 30.0, "kd_n_m_s_per_rad": 0.5}}]})
-    })
-    .collect();
+    let joints = held_at_landing_pose(["front", "hind"], 30.0, 0.5);
     let v = serde_json::json!({
         "robot": robot,
         "initial": {"q": [0.5, -1.0, 0.5, -1.0, 0.0, -0.30, 0.1],
@@ -106,18 +110,7 @@ fn bounder_link_inertia_matches_central_differences() {
 /// apex and lands hind foot first, then fore foot (plastic impacts of massive legs).
 fn quadruped(t_final: f64) -> Scenario {
     let mut s = common::examples::dropped_quadruped(0.1, 0.15).unwrap();
-    let joints: Vec<_> = [
-        ("fore[0]", 0.5),
-        ("fore[1]", -1.0),
-        ("hind[0]", 0.5),
-        ("hind[1]", -1.0),
-    ]
-    .iter()
-    .map(|(j, t)| {
-        serde_json::json!({"joint": j, "phases": [{"name": "h", "torque": {"kind": "servo",
-        "target_rad": t, "kp_n_m_per_rad": 150.0, "kd_n_m_s_per_rad": 2.0}}]})
-    })
-    .collect();
+    let joints = held_at_landing_pose(["fore", "hind"], 150.0, 2.0);
     s.behaviour = serde_json::from_value(serde_json::json!({ "joints": joints })).unwrap();
     s.initial.qd = Some(vec![0.0, 0.0, 0.0, 0.0, 0.8, -0.5, 0.0]);
     s.options.t_final_s = t_final;
