@@ -405,11 +405,13 @@ def simulate(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[float], qd
     derivatives with respect to those parameters, named as in ``params=`` — a behaviour
     parameter (``kp_push``), any number of the behaviour by path
     (``joints[1].phases[0].torque.kp_n_m_per_rad``, a literal or a formula), the body's
-    ``body.mass_kg`` and ``body.inertia_kg_m2``, a joint's ``legs[0].links[1].armature_kg_m2``
+    ``body.mass_kg`` and ``body.inertia_kg_m2``, a link's ``legs[0].links[1].mass_kg``,
+    ``.inertia_kg_m2``, ``.com_m[0]``, ``.com_m[1]`` and a joint's ``.armature_kg_m2``, a
+    contact's ``friction.mu`` and ``friction.mu_kinetic`` (``docs/sensitivity.md``)
     —: ``Execution.parameter_jacobian`` (``2 nq x len(parameters)``, ``None`` with
     ``parameter_reason`` where not formed) and each event's ``parameter_time_gradient``. A
-    path without an exact derivative yet (a link's mass or length, a friction coefficient, the
-    terrain) has a NaN column and its reason in ``Execution.parameter_not_differentiated``
+    path without an exact derivative yet (a link's length, the terrain, a link mass or inertia
+    of 0) has a NaN column and its reason in ``Execution.parameter_not_differentiated``
     (never a finite difference). A name that names nothing raises
     :class:`~selfmanip.errors.InvalidInputError` naming ``parameters[i]``.
     """

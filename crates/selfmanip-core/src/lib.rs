@@ -24,6 +24,7 @@ pub mod frames;
 pub mod friction;
 pub mod grasp;
 pub mod inertia;
+pub mod inertia_partials;
 pub mod kinematics;
 pub mod kkt;
 pub mod model;

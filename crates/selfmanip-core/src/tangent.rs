@@ -724,7 +724,7 @@ fn add_to(a: &mut DVector<f64>, b: &DVector<f64>) {
 
 /// Sets `v` to `n` zeros, allocating only when its length changes.
 #[inline]
-fn zero_sized(v: &mut DVector<f64>, n: usize) {
+pub(crate) fn zero_sized(v: &mut DVector<f64>, n: usize) {
     if v.len() == n {
         v.as_mut_slice().fill(0.0);
     } else {
@@ -1075,11 +1075,9 @@ pub fn sliding_velocity_gradient(
     Ok((dq, DVector::from_vec(row)))
 }
 
-/// An inertia parameter that `M̄` and `N̄` are linear in at fixed geometry: the body's mass
-/// and inertia (its centre of mass is its frame's origin, so `J = [e_x; e_z]`, `J_ω = e_φ`,
-/// `J̇ = 0`): `∂M̄/∂m_b = e_x e_xᵀ + e_z e_zᵀ`, `∂N̄/∂m_b = −g e_z`, `∂M̄/∂I_b = e_φ e_φᵀ`;
-/// and a joint's armature ([`crate::model::Joint::armature_kg_m2`]), `∂M̄/∂a_j = e_j e_jᵀ`.
-/// `C̄q̇`, `A`, `Ȧq̇` depend on none of them.
+/// An inertia parameter of the model: the body's mass and inertia, a joint's armature, a
+/// link's mass, inertia and centre of mass. `M̄`, `C̄q̇` and `N̄` depend on them at fixed
+/// geometry, `A` and `Ȧq̇` do not; their partials are in [`crate::inertia_partials`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum BodyParameter {
     /// `m_b` (kg).
@@ -1090,49 +1088,14 @@ pub enum BodyParameter {
     /// joint on massless links is removed from the dynamics, so the derivative there is not
     /// the limit of this one ([`Self::check`]).
     Armature(usize),
-}
-
-impl BodyParameter {
-    /// Whether `self` is a parameter of `model`'s dynamics: an armature of a joint that has
-    /// one ([`TangentError::NotAParameter`] otherwise).
-    pub fn check(self, model: &Model) -> Result<(), TangentError> {
-        let bad = |reason| {
-            Err(TangentError::NotAParameter {
-                parameter: self,
-                reason,
-            })
-        };
-        match self {
-            BodyParameter::Armature(j) if j >= model.joints.len() => bad("no such joint"),
-            BodyParameter::Armature(j) if model.joints[j].armature_kg_m2 <= 0.0 => {
-                bad("the joint has no armature")
-            }
-            _ => Ok(()),
-        }
-    }
-
-    /// `∂M̄/∂p · x + ∂N̄/∂p` (the latter only `with_gravity`).
-    fn dm_x(self, model: &Model, x: &[f64], with_gravity: bool) -> DVector<f64> {
-        let mut f = DVector::zeros(model.nq());
-        self.dm_x_into(model, x, with_gravity, &mut f);
-        f
-    }
-
-    /// [`Self::dm_x`] into `f` (zeroed and sized here).
-    fn dm_x_into(self, model: &Model, x: &[f64], with_gravity: bool, f: &mut DVector<f64>) {
-        zero_sized(f, model.nq());
-        match self {
-            BodyParameter::Mass => {
-                f[model.ix_x()] = x[model.ix_x()];
-                f[model.ix_z()] = x[model.ix_z()];
-                if with_gravity {
-                    f[model.ix_z()] -= model.gravity_m_s2;
-                }
-            }
-            BodyParameter::Inertia => f[model.ix_phi()] = x[model.ix_phi()],
-            BodyParameter::Armature(j) => f[j] = x[j],
-        }
-    }
+    /// The mass `m_j` of joint `j`'s link (kg), a link that has mass.
+    LinkMass(usize),
+    /// The inertia `I_j` of joint `j`'s link about its centre of mass (kg m²), a link that
+    /// has inertia.
+    LinkInertia(usize),
+    /// Coordinate `axis` (0 or 1) of the centre of mass of joint `j`'s link in the link's
+    /// frame (m): `LinkCom(j, axis)`.
+    LinkCom(usize, usize),
 }
 
 /// The directions of a Jacobian-times-matrix product of the flow ([`dynamics_jvp`]): `m`
@@ -1257,7 +1220,7 @@ pub fn dynamics_jvp_into(
             );
         }
         if let Some(p) = dirs.body.get(col).copied().flatten() {
-            p.dm_x_into(model, qdd, true, fb);
+            p.dm_x_into(model, &data.kin, qdd, Some(qd), fb);
             *f += &*fb;
         }
         if let Some(dq_force) = dirs.force {
@@ -1286,7 +1249,7 @@ pub fn plastic_impact_body_derivatives(
     let zeros = DVector::zeros(c);
     let mut solver = Solver::default();
     for (k, p) in ps.iter().enumerate() {
-        let f = p.dm_x(model, &dx, false);
+        let f = p.dm_x(model, &data.kin, &dx, None);
         solver.solve(data, -1.0, &f, &zeros, k, &mut out, None);
     }
     out

@@ -80,41 +80,30 @@ pub fn named_sensitivity_columns(
 /// controller's time event or a rolling/point switch without a saltation, or a terrain
 /// feature change (times on the caller's clock).
 pub fn undefined_reason(s: &ColumnSensitivity, offset_s: f64) -> Option<String> {
-    if let Some(e) = s
+    let undefined = |status: &SaltationStatus| *status != SaltationStatus::Defined;
+    let first = s
         .events
         .iter()
-        .find(|e| e.status != SaltationStatus::Defined)
-    {
-        Some(format!(
-            "{:?} at t = {} s: {:?}",
-            e.kind,
-            e.t - offset_s,
-            e.status
-        ))
-    } else if let Some(e) = s
-        .time_events
-        .iter()
-        .find(|e| e.status != SaltationStatus::Defined)
-    {
-        Some(format!(
-            "time event at t = {} s: {:?}",
-            e.t - offset_s,
-            e.status
-        ))
-    } else if let Some(sw) = s
-        .touch_switches
-        .iter()
-        .find(|w| w.status != SaltationStatus::Defined)
-    {
-        Some(format!(
-            "rolling/point switch at t = {} s: {:?}",
-            sw.t - offset_s,
-            sw.status
-        ))
-    } else if s.columns.is_none() {
-        Some("the execution's sensitivities are not defined (a terrain feature change)".into())
-    } else {
-        None
+        .find(|e| undefined(&e.status))
+        .map(|e| (format!("{:?}", e.kind), e.t, &e.status))
+        .or_else(|| {
+            s.time_events
+                .iter()
+                .find(|e| undefined(&e.status))
+                .map(|e| ("time event".to_string(), e.t, &e.status))
+        })
+        .or_else(|| {
+            s.touch_switches
+                .iter()
+                .find(|w| undefined(&w.status))
+                .map(|w| ("rolling/point switch".to_string(), w.t, &w.status))
+        });
+    match first {
+        Some((what, t, status)) => Some(format!("{what} at t = {} s: {status:?}", t - offset_s)),
+        None if s.columns.is_none() => Some(
+            "the execution's sensitivities are not defined (a terrain feature change)".into(),
+        ),
+        None => None,
     }
 }
 
@@ -272,8 +261,8 @@ fn unknown_name<'a>(run: &crate::Run, names: &[&'a str]) -> Option<&'a str> {
 /// What stands behind a parameter path of a scenario for the derivatives.
 #[derive(Debug, Clone, PartialEq)]
 enum PathParameter {
-    /// A parameter the engine differentiates as it is (a behaviour parameter, the body's
-    /// mass or inertia, a joint's armature).
+    /// A parameter the engine differentiates as it is (a behaviour parameter, an inertia
+    /// parameter of the body or a link, a friction coefficient).
     Engine(Parameter),
     /// A number of the behaviour (a literal or a formula): made a behaviour parameter of its
     /// own (`FIELD_PARAMETER` + index) added to the field, 0 at the run.
@@ -305,19 +294,20 @@ pub enum ParameterPathError {
 /// changed them) with respect to
 /// parameters named by path ([`crate::path`]: a behaviour parameter `kp_push` or
 /// `parameters.kp_push`, a number of the behaviour `joints[1].phases[0].torque.kp_n_m_per_rad`,
-/// a field of the robot `body.mass_kg`, `legs[0].links[1].armature_kg_m2`), exact:
+/// a field of the robot `body.mass_kg`, `legs[0].links[1].mass_kg`), exact:
 ///
 /// - a behaviour parameter: the behaviour's own partials;
 /// - a number of the behaviour (a literal or a formula `e`): the field made `e + δ`, `δ` a
 ///   behaviour parameter at 0, and the run differentiated with respect to `δ` (the run of the
 ///   rewritten behaviour is compared with `run`: any difference in its events or end state
 ///   leaves the name not differentiated, with the reason);
-/// - the body's mass and inertia, a joint's armature: [`Parameter::Body`];
+/// - the body's mass and inertia, a link's mass, inertia (at a positive value) and centre
+///   of mass `com_m[0]`, `com_m[1]`, a joint's armature: [`Parameter::Body`];
 /// - a contact's `friction.mu` (the static coefficient, and the kinetic one with it where
 ///   `mu_kinetic` is left to default to it) and `friction.mu_kinetic`:
 ///   [`Parameter::Friction`]; `options.delta_t_s` at a positive value:
 ///   [`Parameter::PseudoImpulseDuration`] (zero columns);
-/// - anything else (a link's mass or length, the terrain, the initial state — whose
+/// - anything else (a link's length, the terrain, the initial state — whose
 ///   derivatives are the state Jacobian's): no exact derivative yet, its column NaN and the
 ///   reason in [`ParameterSensitivity::not_differentiated`], never a finite difference.
 pub fn scenario_parameter_sensitivity(
@@ -429,8 +419,13 @@ fn route(
         }
         _ => {}
     }
-    if let Some(j) = armature_joint(model, tree, full) {
-        let p = BodyParameter::Armature(j);
+    if let Some((_, "length_m")) = link_field(model, tree, full) {
+        return PathParameter::NotDifferentiated(format!(
+            "`{full}`: a link's length moves the kinematics (the distal joints, the contacts \
+             and the centres on it, `A`, `Ȧ` and the touchdown guards): no exact derivative yet"
+        ));
+    }
+    if let Some(p) = link_field(model, tree, full).and_then(|(j, f)| link_parameter(j, f)) {
         return match p.check(model) {
             Ok(()) => PathParameter::Engine(Parameter::Body(p)),
             Err(e) => PathParameter::NotDifferentiated(e.to_string()),
@@ -455,7 +450,8 @@ fn route(
         "the initial state's derivatives are the state Jacobian's (`sensitivity=True`)"
     } else {
         "no exact derivative yet: the engine differentiates the behaviour's numbers, the \
-         body's mass and inertia and the joints' armatures"
+         body's and links' masses, inertias and centres of mass, the joints' armatures, the \
+         contacts' friction coefficients and a positive `options.delta_t_s`"
     };
     PathParameter::NotDifferentiated(format!("`{full}`: {what}"))
 }
@@ -541,14 +537,18 @@ fn find_changed(a: &serde_json::Value, b: &serde_json::Value) -> Option<serde_js
     }
 }
 
-/// The joint whose armature the full path `full` names (`robot.legs.<leg>.links[k]
-/// .armature_kg_m2`, the leg by name or index), if it names one.
-fn armature_joint(model: &Model, tree: &serde_json::Value, full: &str) -> Option<usize> {
-    let rest = full
-        .strip_prefix("robot.legs")?
-        .strip_suffix(".armature_kg_m2")?;
+/// The joint whose link's field the full path `full` names (`robot.legs.<leg>.links[k].
+/// <field>`, the leg by name or index), and the field (`mass_kg`, `com_m[0]`, …), if it
+/// names one.
+fn link_field<'a>(
+    model: &Model,
+    tree: &serde_json::Value,
+    full: &'a str,
+) -> Option<(usize, &'a str)> {
+    let rest = full.strip_prefix("robot.legs")?;
     let (leg, link) = rest.rsplit_once(".links[")?;
-    let k: usize = link.strip_suffix(']')?.parse().ok()?;
+    let (k, field) = link.split_once("].")?;
+    let k: usize = k.parse().ok()?;
     let legs = tree.get("robot")?.get("legs")?.as_array()?;
     let li = match leg.strip_prefix('[') {
         Some(i) => i.strip_suffix(']')?.parse().ok()?,
@@ -558,10 +558,25 @@ fn armature_joint(model: &Model, tree: &serde_json::Value, full: &str) -> Option
                 .position(|l| l.get("name").and_then(|n| n.as_str()) == Some(name))?
         }
     };
-    model
+    let j = model
         .joints
         .iter()
-        .position(|j| j.leg == li && j.index_in_leg == k)
+        .position(|j| j.leg == li && j.index_in_leg == k)?;
+    Some((j, field))
+}
+
+/// The inertia parameter of a link's field (`mass_kg`, `inertia_kg_m2`, `armature_kg_m2`,
+/// `com_m[0]`, `com_m[1]`), if it is one.
+fn link_parameter(j: usize, field: &str) -> Option<selfmanip_core::tangent::BodyParameter> {
+    use selfmanip_core::tangent::BodyParameter;
+    Some(match field {
+        "mass_kg" => BodyParameter::LinkMass(j),
+        "inertia_kg_m2" => BodyParameter::LinkInertia(j),
+        "armature_kg_m2" => BodyParameter::Armature(j),
+        "com_m[0]" => BodyParameter::LinkCom(j, 0),
+        "com_m[1]" => BodyParameter::LinkCom(j, 1),
+        _ => return None,
+    })
 }
 
 /// `scenario` with each behaviour number of `fields` (`(name index, full path, value)`) made

@@ -22,8 +22,8 @@ use selfmanip_core::{Model, Terrain};
 /// the augmented state `x̃ = (x, p)`, `ṗ = 0`:
 ///
 /// - along a flow `Ẋ_p = F X_p + ∂f/∂p` (`∂f/∂p` from the controller's
-///   [`Controller::parameter_partials`] through `∂q̈/∂Υ`, or from `∂M̄/∂p`, `∂N̄/∂p` for body
-///   parameters, by implicit differentiation of the KKT system);
+///   [`Controller::parameter_partials`] through `∂q̈/∂Υ`, or from `∂(M̄q̈ + C̄q̇ + N̄)/∂p` for the
+///   body's and links' inertia parameters, by implicit differentiation of the KKT system);
 /// - at an event, `X⁺ = Ξ X + [0 | D_pR + (f⁺ − D_xR f⁻) D_pg / (D_xg f⁻)]`, and
 ///   `dt_e/d(columns) = −(D_xg X⁻ + [0 | D_pg]) / (D_xg f⁻)` (`D_pg` of a force guard from
 ///   `∂λ/∂p`; `D_pR` of a plastic impact from `∂M̄/∂p`);

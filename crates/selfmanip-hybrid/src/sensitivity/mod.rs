@@ -75,8 +75,8 @@
 //! saltation matrices carry `X_p = dx/dp`: along a flow `Ẋ_p = F X_p + ∂f/∂p`; at an event
 //! `X_p⁺ = Ξ X_p + D_pR + (f⁺ − D_xR f⁻) D_pg / (D_xg f⁻)` and
 //! `dt_e/dp = −(D_xg X_p + D_pg)/(D_xg f⁻)`. `∂f/∂p` comes from the controller
-//! ([`Controller::parameter_partials`](crate::Controller::parameter_partials), through `∂q̈/∂Υ`) or, for the body's mass and
-//! inertia, from `∂M̄/∂p`, `∂N̄/∂p` by implicit differentiation of the KKT system, for a
+//! ([`Controller::parameter_partials`](crate::Controller::parameter_partials), through `∂q̈/∂Υ`) or, for an inertia
+//! parameter of the body or a link, from `∂(M̄q̈ + C̄q̇ + N̄)/∂p` by implicit differentiation of the KKT system, for a
 //! contact's kinetic friction coefficient from the Coulomb force on the cone's edge (a
 //! generalized force direction of the same solve, [`Parameter::Friction`]); `D_pg` of
 //! a force guard from `∂λ/∂p` (and `−λ_n` at a slip in its own static `μ`); `D_pR` of a

@@ -193,8 +193,8 @@ pub struct TimeEventSensitivity {
 /// A named parameter of an execution's sensitivities ([`execution_sensitivity_columns`]).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Parameter {
-    /// The body's mass or inertia, or a joint's armature (`M̄`, `N̄` and the impacts depend
-    /// on it).
+    /// An inertia parameter: the body's mass or inertia, a joint's armature, a link's mass,
+    /// inertia or centre of mass (`M̄`, `C̄q̇`, `N̄` and the impacts depend on it).
     Body(BodyParameter),
     /// A parameter the segments' controllers know by this name
     /// ([`Controller::parameter_partials`](crate::Controller::parameter_partials), [`Controller::time_events`](crate::Controller::time_events)).
