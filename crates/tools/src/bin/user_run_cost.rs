@@ -1,0 +1,69 @@
+//! What a user's run costs, and where: runs scenario files (the JSON of
+//! `selfmanip.simulation.scenario(...).to_dict()`, e.g. slow runs of
+//! `scripts/user_robot_sweep.py`) and prints, per run, its status, events, segments (one per
+//! reset, reported or not), accepted/rejected steps and restarts split by stance and flight
+//! (`selfmanip_hybrid::integrate::work_counters`), the CPU time of the run, and the segments
+//! that took the most steps with their mode, duration and smallest and median step, and the
+//! run's energy residual (`selfmanip_hybrid::energy_report`).
+//!
+//! ```sh
+//! cargo run --release -p selfmanip-tools --bin user_run_cost -- run471.json …
+//! ```
+use selfmanip_hybrid::integrate::{reset_work_counters, work_counters};
+use selfmanip_sim::{Scenario, Simulation};
+use std::path::Path;
+use std::time::Instant;
+
+fn main() {
+    for path in std::env::args().skip(1) {
+        let s = Scenario::from_file(Path::new(&path)).unwrap_or_else(|e| panic!("{path}: {e}"));
+        let sim = Simulation::new(&s).unwrap_or_else(|e| panic!("{path}: {e}"));
+        reset_work_counters();
+        let t0 = Instant::now();
+        let run = sim.run().unwrap_or_else(|e| panic!("{path}: {e}"));
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        let w = work_counters();
+        let exec = &run.execution;
+        println!(
+            "{path}: {:?} {ms:.1} ms; events {} segments {} steps {} accepted {:?} rejected {:?} \
+             restarts {:?} rhs {:?} solves {:?}",
+            run.outcome.status,
+            exec.events.len(),
+            exec.segments.len(),
+            exec.steps,
+            w.accepted,
+            w.rejected,
+            w.restarts,
+            w.rhs_calls,
+            w.solves
+        );
+        let mut segs: Vec<_> = exec.segments.iter().collect();
+        segs.sort_by_key(|s| std::cmp::Reverse(s.dense.len()));
+        for seg in segs.iter().take(6) {
+            let mut h: Vec<f64> = seg.dense.steps().map(|st| st.h).collect();
+            h.sort_by(f64::total_cmp);
+            if h.is_empty() {
+                continue;
+            }
+            println!(
+                "  segment t {:.6}..{:.6} mode {:?} steps {} h min {:.2e} median {:.2e} max {:.2e}",
+                seg.t0,
+                seg.t1,
+                seg.mode,
+                h.len(),
+                h[0],
+                h[h.len() / 2],
+                h[h.len() - 1]
+            );
+        }
+        if let Ok(er) = run.energy_report() {
+            println!(
+                "  energy residual {:.3e} J (friction work {:.3e} J)",
+                er.residual_j(),
+                er.friction_work_j
+            );
+        }
+        let short = exec.segments.iter().filter(|s| s.dense.len() <= 1).count();
+        println!("  segments of at most one step: {short}");
+    }
+}
