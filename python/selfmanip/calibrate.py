@@ -247,6 +247,25 @@ def _leg_gearbox_efficiency() -> float:
     return float(next(g["efficiency"] for g in boxes if g["name"] == "x-rhex-28"))
 
 
+#: The compliant leg's parameters (``docs/leap-model.md``) and the fields of the
+#: ``compliant_leg`` option that hold each (radial, angular).
+_SPRING = {"leg_stiffness": ("stiffness_n_per_m", "stiffness_n_m_per_rad"),
+           "leg_damping": ("damping_n_s_per_m", "damping_n_m_s_per_rad")}
+
+
+def _with_spring(leg: Mapping[str, Any] | None, values: Mapping[str, float]) -> dict[str, Any]:
+    """The ``compliant_leg`` option with the fitted spring numbers written into the fields it
+    uses (radial if it gives a radial stiffness, else angular)."""
+    if not leg:
+        raise InvalidInputError("leg_stiffness and leg_damping need the compliant_leg option", "compliant_leg")
+    out = dict(leg)
+    radial = out.get("stiffness_n_per_m") is not None
+    for name, (r, a) in _SPRING.items():
+        if name in values:
+            out[r if radial else a] = float(values[name])
+    return out
+
+
 @dataclass(init=False)
 class LeapModel:
     """The RHex leap preset (:func:`selfmanip.leap`) as a model to calibrate: every
@@ -259,7 +278,8 @@ class LeapModel:
     name: ClassVar[str] = "leap"
     exact: ClassVar[tuple[str, ...]] = ("m_b", "I_b", "gear_ratio", "leg_armature_kg_m2",
                                         "gearbox_efficiency", "battery_resistance_ohm",
-                                        "mu_front", "mu_middle", "mu_rear")
+                                        "mu_front", "mu_middle", "mu_rear", "delta_t_s",
+                                        *_SPRING)
     options: dict[str, Any]
     threads: int | None
 
@@ -280,12 +300,19 @@ class LeapModel:
         # ideal supply
         out.setdefault("gearbox_efficiency", _leg_gearbox_efficiency())
         out.setdefault("battery_resistance_ohm", 0.0)
+        leg = self.options.get("compliant_leg")
+        if leg:
+            # the spring's two numbers in the units the leg gives them (radial or angular)
+            for name, fields in _SPRING.items():
+                out[name] = float(next((leg[f] for f in fields if leg.get(f) is not None), 0.0))
         return out
 
     def run(self, inputs: Mapping[str, Sequence[Any]], values: Mapping[str, float],
             derivatives: Sequence[str] | None) -> ModelRun:
         swept = {k: v for k, v in inputs.items() if k not in ("strategy", "t2_s")}
-        kw = {**self.options, **{k: v for k, v in values.items() if k != "gear_ratio"}}
+        kw = {**self.options, **{k: v for k, v in values.items() if k != "gear_ratio" and k not in _SPRING}}
+        if any(k in _SPRING for k in values):
+            kw["compliant_leg"] = _with_spring(kw.get("compliant_leg"), values)
         ratio = values.get("gear_ratio", swept.pop("gear_ratio", _leap.DEFAULT))
         fixed = {k: v for k, v in kw.items() if k not in swept}
         table = _leap.sweep(list(inputs["strategy"]), t2=list(inputs["t2_s"]), gear_ratio=ratio, grid=False,

@@ -157,17 +157,24 @@ pub const QUADRATURE_TOL_J: f64 = 1e-13;
 /// Halvings of a step at most: a kink of the integrand is then bracketed to 2⁻²⁰ of the step.
 const MAX_HALVINGS: u32 = 20;
 
+/// Intervals halved per step at most, over all depths: bisecting one kink to
+/// [`MAX_HALVINGS`] takes 20; an integrand whose rounding exceeds [`QUADRATURE_TOL_J`]
+/// everywhere stops here instead of at 2²⁰ intervals, so a step's quadrature costs at most
+/// `3 + 6 (1 + 2 MAX_SPLITS)` evaluations.
+const MAX_SPLITS: u32 = 64;
+
 /// `∫ₐᵇ f` of the vector integrand `f` by 3-point Gauss–Legendre on `[a, b]`, compared with
 /// the sum over its halves; halved again where the two differ by more than
 /// [`QUADRATURE_TOL_J`] (the integrand is not a polynomial of degree ≤ 5 there: a kink),
-/// down to [`MAX_HALVINGS`] halvings.
+/// down to [`MAX_HALVINGS`] halvings and [`MAX_SPLITS`] halved intervals in all.
 pub fn adaptive_gauss<E>(
     f: &mut impl FnMut(f64) -> Result<[f64; 3], E>,
     a: f64,
     b: f64,
 ) -> Result<[f64; 3], E> {
     let whole = gauss3(f, a, b)?;
-    refine(f, a, b, whole, MAX_HALVINGS)
+    let mut splits = MAX_SPLITS;
+    refine(f, a, b, whole, MAX_HALVINGS, &mut splits)
 }
 
 fn refine<E>(
@@ -176,17 +183,19 @@ fn refine<E>(
     b: f64,
     whole: [f64; 3],
     halvings: u32,
+    splits: &mut u32,
 ) -> Result<[f64; 3], E> {
     let m = 0.5 * (a + b);
     let (left, right) = (gauss3(f, a, m)?, gauss3(f, m, b)?);
     let split: [f64; 3] = std::array::from_fn(|i| left[i] + right[i]);
     let converged = (0..3).all(|i| (split[i] - whole[i]).abs() <= QUADRATURE_TOL_J);
-    if converged || halvings == 0 {
+    if converged || halvings == 0 || *splits == 0 {
         return Ok(split);
     }
+    *splits -= 1;
     let (l, r) = (
-        refine(f, a, m, left, halvings - 1)?,
-        refine(f, m, b, right, halvings - 1)?,
+        refine(f, a, m, left, halvings - 1, splits)?,
+        refine(f, m, b, right, halvings - 1, splits)?,
     );
     Ok(std::array::from_fn(|i| l[i] + r[i]))
 }
@@ -237,5 +246,20 @@ mod tests {
         let got = adaptive_gauss(&mut quintic, 0.0, 2.0).unwrap()[0];
         assert!((got - 64.0 / 6.0).abs() < 1e-12);
         assert_eq!(calls, 9);
+    }
+
+    /// An integrand that never converges (noise far above the tolerance at every point)
+    /// costs a bounded number of evaluations: the whole step, then `1 + 2 MAX_SPLITS` pairs of
+    /// halves (3 points each).
+    #[test]
+    fn adaptive_gauss_cost_is_bounded_on_noise() {
+        let mut calls = 0u32;
+        let mut noisy = |t: f64| -> Result<[f64; 3], ()> {
+            calls += 1;
+            Ok([t + if calls % 2 == 0 { 1e-6 } else { -1e-6 }, 0.0, 0.0])
+        };
+        let got = adaptive_gauss(&mut noisy, 0.0, 1.0).unwrap()[0];
+        assert!((got - 0.5).abs() < 1e-5, "{got}");
+        assert_eq!(calls, 3 + 6 * (1 + 2 * MAX_SPLITS));
     }
 }

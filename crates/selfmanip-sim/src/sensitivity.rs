@@ -100,9 +100,9 @@ pub fn undefined_reason(s: &ColumnSensitivity, offset_s: f64) -> Option<String> 
         });
     match first {
         Some((what, t, status)) => Some(format!("{what} at t = {} s: {status:?}", t - offset_s)),
-        None if s.columns.is_none() => Some(
-            "the execution's sensitivities are not defined (a terrain feature change)".into(),
-        ),
+        None if s.columns.is_none() => {
+            Some("the execution's sensitivities are not defined (a terrain feature change)".into())
+        }
         None => None,
     }
 }

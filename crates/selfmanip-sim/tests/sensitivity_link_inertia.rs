@@ -160,9 +160,18 @@ fn massless_link_parameters_are_flagged() {
         eprintln!("{name}: {why}");
         assert!(x.column(k).iter().all(|v| v.is_nan()), "{name}");
     }
-    assert!(p.not_differentiated[0].as_deref().unwrap().contains("no mass"));
-    assert!(p.not_differentiated[1].as_deref().unwrap().contains("no inertia"));
-    assert!(p.not_differentiated[2].as_deref().unwrap().contains("length"));
+    assert!(p.not_differentiated[0]
+        .as_deref()
+        .unwrap()
+        .contains("no mass"));
+    assert!(p.not_differentiated[1]
+        .as_deref()
+        .unwrap()
+        .contains("no inertia"));
+    assert!(p.not_differentiated[2]
+        .as_deref()
+        .unwrap()
+        .contains("length"));
     // the massive thigh's mass is exact on the same run (the hind thigh keeps its mass)
     assert_eq!(p.not_differentiated[3], None);
     let fd = common::central_in_path(&s, (names[3], 0.1, 1e-5), &kinds_of(&s), end);
