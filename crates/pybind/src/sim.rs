@@ -89,6 +89,11 @@ fn sim_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     Ok(d)
 }
 
+/// The names of the coordinates `indices` (into `names`).
+fn named(names: &[String], indices: &[usize]) -> Vec<String> {
+    indices.iter().map(|&i| names[i].clone()).collect()
+}
+
 /// A description (`what`: `robot`, `behaviour`) given as a dict, or else the path of its
 /// file, opened by `from_file`; anything else is a type error naming `what` with `message`.
 fn dict_or_file<T: serde::de::DeserializeOwned>(
@@ -348,13 +353,7 @@ impl PyScenario {
             d.set_item("qd", o.x[nq..].to_vec().into_pyarray(py))?;
             d.set_item("state_names", state_names.clone())?;
             d.set_item("period_s", o.period_s)?;
-            d.set_item(
-                "cyclic",
-                o.cyclic
-                    .iter()
-                    .map(|&c| names[c].clone())
-                    .collect::<Vec<_>>(),
-            )?;
+            d.set_item("cyclic", named(&names, &o.cyclic))?;
             d.set_item("drift", o.drift.clone().into_pyarray(py))?;
             let events = PyList::empty(py);
             for (kind, mode) in &o.events {
@@ -372,10 +371,7 @@ impl PyScenario {
             d.set_item("multipliers", o.multipliers.clone().into_pyarray(py))?;
             d.set_item(
                 "section_coordinates",
-                o.section_coordinates
-                    .iter()
-                    .map(|&i| state_names[i].clone())
-                    .collect::<Vec<_>>(),
+                named(&state_names, &o.section_coordinates),
             )?;
             d.set_item(
                 "section_jacobian",
