@@ -13,12 +13,14 @@
 //!   cross-check and catalog ranking;
 //! - [`observer`]: the leg observer (2.2)–(2.5), the fault-identification machine of
 //!   Fig. 2.13, the Buehler clock, and the Nelder–Mead calibration;
-//! - [`nelder_mead`]: the simplex minimizer both fits use.
+//! - [`nelder_mead`]: the simplex minimizer both fits use; [`numeric`]: an RK4 step and
+//!   bisection.
 pub mod catalog;
 pub mod dc;
 pub mod error;
 pub mod geared;
 pub mod nelder_mead;
+pub mod numeric;
 pub mod observer;
 pub mod tail;
 pub mod thermal;

@@ -14,6 +14,7 @@
 //! interpolate linearly). The residuals are `r_θ = ⟨θ̂ − θ⟩`, `r_ω = ω̂ − ω` (2.5).
 use crate::error::{finite, finite_samples, non_negative, positive, MotorError, Result};
 use crate::nelder_mead::{minimize, NelderMeadOptions};
+use crate::numeric::rk4_step;
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 use std::f64::consts::{PI, TAU};
@@ -70,24 +71,9 @@ impl ObserverParams {
 
     /// One RK4 step of length `dt` with the reference held.
     fn rk4(&self, theta: f64, omega: f64, theta_d: f64, omega_d: f64, dt: f64) -> (f64, f64) {
-        let (a1, b1) = self.derivative(theta, omega, theta_d, omega_d);
-        let (a2, b2) = self.derivative(
-            theta + 0.5 * dt * a1,
-            omega + 0.5 * dt * b1,
-            theta_d,
-            omega_d,
-        );
-        let (a3, b3) = self.derivative(
-            theta + 0.5 * dt * a2,
-            omega + 0.5 * dt * b2,
-            theta_d,
-            omega_d,
-        );
-        let (a4, b4) = self.derivative(theta + dt * a3, omega + dt * b3, theta_d, omega_d);
-        (
-            theta + dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4),
-            omega + dt / 6.0 * (b1 + 2.0 * b2 + 2.0 * b3 + b4),
-        )
+        rk4_step(theta, omega, dt, |th, w| {
+            self.derivative(th, w, theta_d, omega_d)
+        })
     }
 }
 

@@ -26,6 +26,7 @@
 //! lower): see docs/errata/ch2-actuators.md.
 use crate::catalog::MotorSpec;
 use crate::error::{no_overflow, positive, MotorError, Result};
+use crate::numeric::{bisect, rk4_step};
 use serde::Serialize;
 use std::sync::OnceLock;
 
@@ -79,16 +80,7 @@ pub fn tail_constants() -> TailConstants {
     static CONSTANTS: OnceLock<TailConstants> = OnceLock::new();
     *CONSTANTS.get_or_init(|| {
         let h = |s: f64| f_rise(s) - 2.0 / 3.0 * s * (1.0 - (-s).exp());
-        let (mut lo, mut hi) = (1.0_f64, 4.0_f64); // h(1) < 0 < h(4)
-        for _ in 0..200 {
-            let mid = 0.5 * (lo + hi);
-            if h(mid) < 0.0 {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        let s = 0.5 * (lo + hi);
+        let s = bisect(|s| h(s) < 0.0, 1.0, 4.0, 200); // h(1) < 0 < h(4)
         let f = f_rise(s);
         TailConstants {
             s_star: s,
@@ -171,12 +163,7 @@ pub fn simulated_completion_time_s(
     let accel = |w: f64| stall * (1.0 - w / omega_max) / inertia;
     let (mut t, mut theta, mut w) = (0.0_f64, 0.0_f64, 0.0_f64);
     for _ in 0..100_000_000u64 {
-        let (k1t, k1w) = (w, accel(w));
-        let (k2t, k2w) = (w + 0.5 * h * k1w, accel(w + 0.5 * h * k1w));
-        let (k3t, k3w) = (w + 0.5 * h * k2w, accel(w + 0.5 * h * k2w));
-        let (k4t, k4w) = (w + h * k3w, accel(w + h * k3w));
-        let theta1 = theta + h / 6.0 * (k1t + 2.0 * k2t + 2.0 * k3t + k4t);
-        let w1 = w + h / 6.0 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w);
+        let (theta1, w1) = rk4_step(theta, w, h, |_, w| (w, accel(w)));
         if theta1 >= target {
             // cubic Hermite on [t, t+h] with slopes w, w1; bisection on the interpolant
             let hermite = |x: f64| {
@@ -186,16 +173,7 @@ pub fn simulated_completion_time_s(
                     + (-2.0 * x3 + 3.0 * x2) * theta1
                     + (x3 - x2) * h * w1
             };
-            let (mut lo, mut hi) = (0.0, 1.0);
-            for _ in 0..60 {
-                let mid = 0.5 * (lo + hi);
-                if hermite(mid) < target {
-                    lo = mid;
-                } else {
-                    hi = mid;
-                }
-            }
-            return Ok(t + 0.5 * (lo + hi) * h);
+            return Ok(t + bisect(|x| hermite(x) < target, 0.0, 1.0, 60) * h);
         }
         t += h;
         theta = theta1;

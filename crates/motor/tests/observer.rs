@@ -2,6 +2,7 @@
 //! a simulated leg (the flight model with its own delay, encoder quantization and velocity
 //! noise) with and without ground contact, hitting an obstacle in the air, and breaking
 //! off; and the Nelder–Mead calibration recovering the parameters of a free-swing run.
+use motor::numeric::rk4_step;
 use motor::observer::*;
 use motor::MotorError;
 use rand::{Rng, SeedableRng};
@@ -75,18 +76,7 @@ fn simulate(
             a
         };
         for _ in 0..substeps {
-            let (a1, b1) = (omega, accel(theta, omega));
-            let (a2, b2) = (
-                omega + 0.5 * h * b1,
-                accel(theta + 0.5 * h * a1, omega + 0.5 * h * b1),
-            );
-            let (a3, b3) = (
-                omega + 0.5 * h * b2,
-                accel(theta + 0.5 * h * a2, omega + 0.5 * h * b2),
-            );
-            let (a4, b4) = (omega + h * b3, accel(theta + h * a3, omega + h * b3));
-            theta += h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4);
-            omega += h / 6.0 * (b1 + 2.0 * b2 + 2.0 * b3 + b4);
+            (theta, omega) = rk4_step(theta, omega, h, |th, w| (w, accel(th, w)));
         }
         let counts = (theta / (2.0 * PI) * 4096.0).round();
         log.theta_d_rad.push(refs[k].0);

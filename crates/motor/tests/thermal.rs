@@ -2,6 +2,7 @@
 //! steady state, the energy balance, Table 2.3's heat coefficients and the 60 % claim, the
 //! 125 °C continuous current, and the least-squares case fit of Fig. 2.9.
 use motor::catalog::CaseParameters;
+use motor::numeric::rk4_step;
 use motor::thermal::{ThermalModel, ThermalState, COPPER_ALPHA_PER_K, MAX_WINDING_TEMPERATURE_C};
 use motor::{Catalog, MotorError};
 use rand::{Rng, SeedableRng};
@@ -12,7 +13,7 @@ fn model() -> ThermalModel {
 }
 
 /// Classical RK4 on the circuit ODE with the heat input held per sample: an independent
-/// route to the exact exponential step.
+/// route to the exact exponential step ([`ThermalModel`] does not integrate numerically).
 fn rk4_reference(
     m: &ThermalModel,
     ambient: f64,
@@ -32,12 +33,7 @@ fn rk4_reference(
     let mut out = vec![(ambient, ambient)];
     for &p in power {
         for _ in 0..substeps {
-            let (a1, b1) = f(x1, x2, p);
-            let (a2, b2) = f(x1 + 0.5 * h * a1, x2 + 0.5 * h * b1, p);
-            let (a3, b3) = f(x1 + 0.5 * h * a2, x2 + 0.5 * h * b2, p);
-            let (a4, b4) = f(x1 + h * a3, x2 + h * b3, p);
-            x1 += h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4);
-            x2 += h / 6.0 * (b1 + 2.0 * b2 + 2.0 * b3 + b4);
+            (x1, x2) = rk4_step(x1, x2, h, |x1, x2| f(x1, x2, p));
         }
         out.push((x1 + ambient, x2 + ambient));
     }

@@ -11,20 +11,14 @@ use rhex_model::{LegShape, Rhex, RhexError, RhexParams};
 use selfmanip_sim::analysis::{leg_tail as tail, standing as stand};
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add_function(wrap_pyfunction!(analysis_sensor_pitch_range, m)?)?;
-    m.add_function(wrap_pyfunction!(analysis_holding_torque, m)?)?;
-    m.add_function(wrap_pyfunction!(analysis_pitch_rate_gain, m)?)?;
-    m.add_function(wrap_pyfunction!(analysis_fig_4_8, m)?)?;
-    m.add_function(wrap_pyfunction!(analysis_fig_4_10, m)?)?;
-    m.add_function(wrap_pyfunction!(analysis_fig_4_11, m)?)?;
-    m.add_function(wrap_pyfunction!(analysis_fig_4_12, m)?)?;
-    m.add_function(wrap_pyfunction!(analysis_takeoff_speed, m)?)?;
-    m.add_function(wrap_pyfunction!(analysis_optimal_gear_ratio, m)?)?;
-    m.add_function(wrap_pyfunction!(analysis_splay_derivative, m)?)?;
-    m.add_function(wrap_pyfunction!(analysis_single_leg_pitch_accel, m)?)?;
-    m.add_function(wrap_pyfunction!(analysis_leg_effectiveness, m)?)?;
-    m.add_function(wrap_pyfunction!(analysis_tail_effect, m)?)?;
-    m.add_function(wrap_pyfunction!(analysis_standing_rhex, m)?)?;
+    add_functions! {
+        m,
+        analysis_sensor_pitch_range, analysis_holding_torque, analysis_pitch_rate_gain,
+        analysis_fig_4_8, analysis_fig_4_10, analysis_fig_4_11, analysis_fig_4_12,
+        analysis_takeoff_speed, analysis_optimal_gear_ratio, analysis_splay_derivative,
+        analysis_single_leg_pitch_accel, analysis_leg_effectiveness, analysis_tail_effect,
+        analysis_standing_rhex
+    }
     Ok(())
 }
 

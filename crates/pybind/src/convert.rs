@@ -6,11 +6,25 @@
 //! Non-finite floats are refused on the way in (`InvalidInputError` naming the field); on the
 //! way out serde writes them as `None`, as it would in a data file.
 use crate::errors::{invalid, invalid_type};
+use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use pyo3::IntoPyObjectExt;
 use serde::Serialize;
 use serde_json::{Map, Number, Value};
+
+/// One field of every record as a numpy column.
+pub(crate) fn column<'py, T, V: numpy::Element>(
+    py: Python<'py>,
+    records: &[T],
+    field: impl Fn(&T) -> V,
+) -> Bound<'py, numpy::PyArray1<V>> {
+    records
+        .iter()
+        .map(field)
+        .collect::<Vec<_>>()
+        .into_pyarray(py)
+}
 
 /// How deep a structured input may nest (dicts and lists within each other): a robot
 /// description or behaviour nests a handful of levels; the bound keeps the conversion's

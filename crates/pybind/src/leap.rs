@@ -11,7 +11,7 @@
 //!
 //! **Work** runs on a worker thread with the GIL released and is interruptible by Ctrl-C
 //! ([`crate::interrupt`]); a sweep checks the cancellation flag before every point.
-use crate::convert::{to_map, to_py, to_value};
+use crate::convert::{column, to_map, to_py, to_value};
 use crate::errors::{self, invalid, Source};
 use crate::interrupt::{self, Shared};
 use numpy::IntoPyArray;
@@ -34,14 +34,11 @@ use serde_json::{Map, Value};
 use std::collections::BTreeMap;
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add_function(wrap_pyfunction!(leap_run, m)?)?;
-    m.add_function(wrap_pyfunction!(leap_sweep, m)?)?;
-    m.add_function(wrap_pyfunction!(leap_write_mcap, m)?)?;
-    m.add_function(wrap_pyfunction!(leap_sweepable_names, m)?)?;
-    m.add_function(wrap_pyfunction!(leap_actuator_fields, m)?)?;
-    m.add_function(wrap_pyfunction!(leap_defaults, m)?)?;
-    m.add_function(wrap_pyfunction!(leap_grammar_text, m)?)?;
-    m.add_function(wrap_pyfunction!(leap_word_equation, m)?)?;
+    add_functions! {
+        m,
+        leap_run, leap_sweep, leap_write_mcap, leap_sweepable_names, leap_actuator_fields,
+        leap_defaults, leap_grammar_text, leap_word_equation
+    }
     Ok(())
 }
 
@@ -474,37 +471,18 @@ fn leap_sweep<'py>(
                 .collect();
             d.set_item("sensitivity_ok", ok.into_pyarray(py))?;
         }
-        let f = |g: &dyn Fn(&SweepRow) -> f64| -> Vec<f64> { rows.iter().map(g).collect() };
-        d.set_item("gear_ratio", f(&|r| r.columns[0]).into_pyarray(py))?;
+        d.set_item("gear_ratio", column(py, &rows, |r| r.columns[0]))?;
         for (c, name) in APEX_COLUMNS.iter().enumerate() {
-            d.set_item(*name, f(&|r| r.apex_columns()[c]).into_pyarray(py))?;
+            d.set_item(*name, column(py, &rows, |r| r.apex_columns()[c]))?;
         }
-        d.set_item(
-            "n_events",
-            rows.iter()
-                .map(|r| r.n_events as i64)
-                .collect::<Vec<_>>()
-                .into_pyarray(py),
-        )?;
-        d.set_item(
-            "word",
-            PyList::new(py, rows.iter().map(|r| r.word.as_str()))?,
-        )?;
-        d.set_item(
-            "status",
-            PyList::new(py, rows.iter().map(|r| r.status.as_str()))?,
-        )?;
-        d.set_item(
-            "flew",
-            rows.iter()
-                .map(|r| r.flew)
-                .collect::<Vec<_>>()
-                .into_pyarray(py),
-        )?;
-        d.set_item(
-            "error",
-            PyList::new(py, rows.iter().map(|r| r.error.as_str()))?,
-        )?;
+        d.set_item("n_events", column(py, &rows, |r| r.n_events as i64))?;
+        let text = |name: &str, field: fn(&SweepRow) -> &str| {
+            d.set_item(name, PyList::new(py, rows.iter().map(field))?)
+        };
+        text("word", |r| &r.word)?;
+        text("status", |r| &r.status)?;
+        d.set_item("flew", column(py, &rows, |r| r.flew))?;
+        text("error", |r| &r.error)?;
         Ok(d)
     })
 }

@@ -7,6 +7,14 @@
 //! own. Long work runs with the GIL released and is interruptible by Ctrl-C ([`interrupt`]).
 //! No call can panic across the FFI: errors are values, and every entry point is additionally
 //! guarded by [`errors::guard`].
+
+/// Adds the `#[pyfunction]`s named to the module `m`: `add_functions! { m, f, g, … }`.
+macro_rules! add_functions {
+    ($m:expr, $($f:ident),+ $(,)?) => {{
+        $($m.add_function(pyo3::wrap_pyfunction!($f, $m)?)?;)+
+    }};
+}
+
 mod analysis;
 mod convert;
 mod errors;

@@ -1,7 +1,7 @@
 //! `selfmanip.motor`'s native half: conversions only. Results are plain dicts (numpy
 //! arrays for series); structured inputs (observer parameters, machine configuration)
 //! arrive as dicts, deserialized with serde so that it names any missing or mistyped field.
-use crate::convert::{to_map, to_py};
+use crate::convert::{column, to_map, to_py};
 use crate::errors::{self, guard, invalid};
 use motor::catalog::{synthetic_motors, CaseParameters, Catalog};
 use motor::observer::{self, FaultFsmConfig, LegLog, ObserverParams};
@@ -12,36 +12,18 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add_function(wrap_pyfunction!(motor_tail_optimum, m)?)?;
-    m.add_function(wrap_pyfunction!(motor_tail_constants, m)?)?;
-    m.add_function(wrap_pyfunction!(motor_rank_tail_motors, m)?)?;
-    m.add_function(wrap_pyfunction!(motor_thesis_catalog_toml, m)?)?;
-    m.add_function(wrap_pyfunction!(motor_drive_table, m)?)?;
-    m.add_function(wrap_pyfunction!(motor_torque_speed_curve, m)?)?;
-    m.add_function(wrap_pyfunction!(motor_operating_point, m)?)?;
-    m.add_function(wrap_pyfunction!(motor_thermal_simulation, m)?)?;
-    m.add_function(wrap_pyfunction!(motor_continuous_output_torque, m)?)?;
-    m.add_function(wrap_pyfunction!(motor_observe, m)?)?;
-    m.add_function(wrap_pyfunction!(motor_calibrate_observer, m)?)?;
-    m.add_function(wrap_pyfunction!(motor_identify_faults, m)?)?;
+    add_functions! {
+        m,
+        motor_tail_optimum, motor_tail_constants, motor_rank_tail_motors, motor_thesis_catalog_toml,
+        motor_drive_table, motor_torque_speed_curve, motor_operating_point,
+        motor_thermal_simulation, motor_continuous_output_torque, motor_observe,
+        motor_calibrate_observer, motor_identify_faults
+    }
     m.add(
         "MOTOR_MAX_PROFILE_SAMPLES",
         motor::thermal::MAX_PROFILE_SAMPLES,
     )?;
     Ok(())
-}
-
-/// One field of every record as a numpy column.
-fn column<'py, T, V: numpy::Element>(
-    py: Python<'py>,
-    records: &[T],
-    field: impl Fn(&T) -> V,
-) -> Bound<'py, numpy::PyArray1<V>> {
-    records
-        .iter()
-        .map(field)
-        .collect::<Vec<_>>()
-        .into_pyarray(py)
 }
 
 fn catalog(catalog_toml: Option<&str>) -> PyResult<Catalog> {

@@ -1,7 +1,7 @@
 //! `Robot`: any planar robot (from a description) or the RHex instance (from Table 4.2
 //! parameters), with contact modes given as RHex labels (`"0101"`) or as contact names
 //! (`"front_leg,rear_body"`, `"front_leg:slide"`).
-use crate::convert::{to_map, to_py};
+use crate::convert::{column, to_map, to_py};
 use crate::errors::{self, guard, invalid, Source};
 use nalgebra::{DMatrix, DVector, Vector2};
 use numpy::ndarray::{Array2, Array3};
@@ -60,8 +60,7 @@ fn check_vector(field: &'static str, v: &[f64], expected: usize) -> PyResult<()>
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Robot>()?;
-    m.add_function(wrap_pyfunction!(rhex_default_params, m)?)?;
-    m.add_function(wrap_pyfunction!(ground_reaction_complex, m)?)?;
+    add_functions! { m, rhex_default_params, ground_reaction_complex }
     Ok(())
 }
 
@@ -635,13 +634,7 @@ impl Robot {
                 "points_m",
                 Array2::from_shape_fn((nc, 2), |(k, i)| geom[k].point[i]).into_pyarray(py),
             )?;
-            d.set_item(
-                "gaps_m",
-                geom.iter()
-                    .map(|g| g.gap_m)
-                    .collect::<Vec<_>>()
-                    .into_pyarray(py),
-            )?;
+            d.set_item("gaps_m", column(py, &geom, |g| g.gap_m))?;
             d.set_item(
                 "normals",
                 Array2::from_shape_fn((nc, 2), |(k, i)| geom[k].plane.normal()[i]).into_pyarray(py),

@@ -51,7 +51,7 @@ use std::sync::{Arc, Mutex};
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyScenario>()?;
     m.add_class::<PyRun>()?;
-    m.add_function(wrap_pyfunction!(sim_defaults, m)?)?;
+    add_functions! { m, sim_defaults }
     m.add(
         "SIM_MAX_SWEEP_POINTS",
         selfmanip_sim::sweep::MAX_SWEEP_POINTS,
@@ -89,36 +89,48 @@ fn sim_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     Ok(d)
 }
 
+/// The names of the coordinates `indices` (into `names`).
+fn named(names: &[String], indices: &[usize]) -> Vec<String> {
+    indices.iter().map(|&i| names[i].clone()).collect()
+}
+
+/// A description (`what`: `robot`, `behaviour`) given as a dict, or else the path of its
+/// file, opened by `from_file`; anything else is a type error naming `what` with `message`.
+fn dict_or_file<T: serde::de::DeserializeOwned>(
+    obj: &Bound<'_, PyAny>,
+    what: &str,
+    message: &str,
+    from_file: impl FnOnce(&PathBuf) -> PyResult<T>,
+) -> PyResult<T> {
+    if obj.is_instance_of::<PyDict>() {
+        return from_json(to_value(obj, what)?, what);
+    }
+    let path: PathBuf = obj.extract().map_err(|_| invalid_type(what, message))?;
+    from_file(&path)
+}
+
 fn robot_description(robot: &Bound<'_, PyAny>) -> PyResult<RobotDescription> {
     if let Ok(r) = robot.cast::<crate::robot::Robot>() {
         return Ok(r.get().description().clone());
     }
-    if robot.is_instance_of::<PyDict>() {
-        return from_json(to_value(robot, "robot")?, "robot");
-    }
-    let path: PathBuf = robot.extract().map_err(|_| {
-        invalid_type(
-            "robot",
-            "`robot` must be a selfmanip.Robot, a description dict or a file path",
-        )
-    })?;
-    RobotDescription::from_file(&path).map_err(|e| errors::core(e, Source::Caller))
+    dict_or_file(
+        robot,
+        "robot",
+        "`robot` must be a selfmanip.Robot, a description dict or a file path",
+        |path| RobotDescription::from_file(path).map_err(|e| errors::core(e, Source::Caller)),
+    )
 }
 
 fn behaviour_of(b: Option<&Bound<'_, PyAny>>) -> PyResult<Behaviour> {
     let Some(b) = b.filter(|b| !b.is_none()) else {
         return Ok(Behaviour::default());
     };
-    if b.is_instance_of::<PyDict>() {
-        return from_json(to_value(b, "behaviour")?, "behaviour");
-    }
-    let path: PathBuf = b.extract().map_err(|_| {
-        invalid_type(
-            "behaviour",
-            "`behaviour` must be a dict, a file path or None",
-        )
-    })?;
-    Behaviour::from_file(&path).map_err(caller_err)
+    dict_or_file(
+        b,
+        "behaviour",
+        "`behaviour` must be a dict, a file path or None",
+        |path| Behaviour::from_file(path).map_err(caller_err),
+    )
 }
 
 fn terrain_of(t: Option<&Bound<'_, PyAny>>) -> PyResult<TerrainSpec> {
@@ -341,13 +353,7 @@ impl PyScenario {
             d.set_item("qd", o.x[nq..].to_vec().into_pyarray(py))?;
             d.set_item("state_names", state_names.clone())?;
             d.set_item("period_s", o.period_s)?;
-            d.set_item(
-                "cyclic",
-                o.cyclic
-                    .iter()
-                    .map(|&c| names[c].clone())
-                    .collect::<Vec<_>>(),
-            )?;
+            d.set_item("cyclic", named(&names, &o.cyclic))?;
             d.set_item("drift", o.drift.clone().into_pyarray(py))?;
             let events = PyList::empty(py);
             for (kind, mode) in &o.events {
@@ -365,10 +371,7 @@ impl PyScenario {
             d.set_item("multipliers", o.multipliers.clone().into_pyarray(py))?;
             d.set_item(
                 "section_coordinates",
-                o.section_coordinates
-                    .iter()
-                    .map(|&i| state_names[i].clone())
-                    .collect::<Vec<_>>(),
+                named(&state_names, &o.section_coordinates),
             )?;
             d.set_item(
                 "section_jacobian",

@@ -11,7 +11,7 @@
 //! ```
 use crate::error::{invalid, non_negative, positive, SimError};
 use crate::scenario::{Scenario, Simulation};
-use crate::trajectory::q_names;
+use crate::trajectory::coordinate_indices;
 use selfmanip_core::tangent::TangentError;
 use selfmanip_core::Model;
 use selfmanip_hybrid::periodic::{
@@ -79,18 +79,7 @@ impl PeriodicSpec {
             o.hybrid.delta_t_s = non_negative("delta_t_s", v)?;
         }
         if let Some(names) = &self.cyclic {
-            let all = q_names(model);
-            let mut idx = Vec::new();
-            for (i, n) in names.iter().enumerate() {
-                let k = all.iter().position(|a| a == n).ok_or_else(|| {
-                    invalid(
-                        format!("cyclic[{i}]"),
-                        format!("no coordinate `{n}` (coordinates: {})", all.join(", ")),
-                    )
-                })?;
-                idx.push(k);
-            }
-            o.cyclic = Some(idx);
+            o.cyclic = Some(coordinate_indices(model, "cyclic", names)?);
         }
         Ok(o)
     }

@@ -15,7 +15,7 @@ use crate::labels::ContactLabels;
 use crate::mcap::{self, McapLog};
 use crate::outcome::{outcome, Outcome, WordOptions};
 use crate::terrain::TerrainSpec;
-use crate::trajectory::{q_names, sample, Trajectory};
+use crate::trajectory::{coordinate_indices, q_names, sample, Trajectory};
 use selfmanip_core::{ContactKind, ContactMode, Model, RobotDescription};
 use selfmanip_hybrid::{
     energy_report, Controller, EnergyReport, Execution, HybridOptions, StepOptions,
@@ -379,17 +379,7 @@ impl Simulation {
         mode0.validate(&model)?;
         let terrain = s.terrain;
         if !s.initial.solve.is_empty() {
-            let names = q_names(&model);
-            let mut free = Vec::new();
-            for (i, n) in s.initial.solve.iter().enumerate() {
-                let ix = names.iter().position(|x| x == n).ok_or_else(|| {
-                    invalid(
-                        format!("initial.solve[{i}]"),
-                        format!("no coordinate `{n}` (coordinates: {})", names.join(", ")),
-                    )
-                })?;
-                free.push(ix);
-            }
+            let free = coordinate_indices(&model, "initial.solve", &s.initial.solve)?;
             q0 = crate::analysis::solve_contact_pose(&model, &terrain, &active, &free, &q0)?;
         }
         // finite coordinates too large for double precision (1e308) give an infinite energy

@@ -10,7 +10,7 @@
 //!    => contact points and world forces (λ along each active row's direction, plus the
 //!       kinetic friction of sliding contacts along their tangent)
 //! ```
-use crate::error::{positive, SimError};
+use crate::error::{invalid, positive, SimError};
 use crate::labels::ContactLabels;
 use selfmanip_core::contact::{contact_geometry, row_direction};
 use selfmanip_core::kinematics::Kinematics;
@@ -58,6 +58,28 @@ pub fn q_names(model: &Model) -> Vec<String> {
         .collect();
     v.extend(["x", "z", "phi"].map(String::from));
     v
+}
+
+/// The indices into `q` of the coordinates `names` ([`q_names`]); an unknown name is an error
+/// naming `field[i]` and listing the coordinates.
+pub fn coordinate_indices(
+    model: &Model,
+    field: &str,
+    names: &[String],
+) -> Result<Vec<usize>, SimError> {
+    let all = q_names(model);
+    names
+        .iter()
+        .enumerate()
+        .map(|(i, n)| {
+            all.iter().position(|a| a == n).ok_or_else(|| {
+                invalid(
+                    format!("{field}[{i}]"),
+                    format!("no coordinate `{n}` (coordinates: {})", all.join(", ")),
+                )
+            })
+        })
+        .collect()
 }
 
 /// Samples `exec` every `dt_s` seconds of its clock from 0 (and at its end); reported times

@@ -18,7 +18,7 @@ use selfmanip_sim::periodic::run_sensitivity;
 use selfmanip_sim::{Scenario, Simulation};
 mod common;
 use common::fd::{end_state_and_events, run_jacobian_fd};
-use common::{data, hopper};
+use common::{data, hopper, run_from_state};
 
 /// The hopper of `examples/hopper.rs` (dropped 10 cm, leg at its landing pose) moving
 /// forward at 0.3 m/s and falling at 0.5 m/s, under `hop.toml`, with every coordinate in the
@@ -51,18 +51,7 @@ fn hop_sim_with(behaviour: Behaviour, t_final: f64) -> Simulation {
 /// start — the initial motions from the scenario's `q0` — is an input, held), and its
 /// event kinds.
 fn end_state(sim: &Simulation, x: &[f64]) -> (Vec<f64>, Vec<EventKind>) {
-    let nq = sim.model.nq();
-    let e = simulate(
-        &sim.model,
-        &sim.terrain,
-        &*sim.controller,
-        sim.mode0,
-        &x[..nq],
-        &x[nq..],
-        sim.t_final_s,
-        sim.options,
-    )
-    .unwrap();
+    let e = run_from_state(sim, sim.mode0, x, sim.t_final_s, sim.options);
     end_state_and_events(&e)
 }
 

@@ -18,13 +18,14 @@
 //! - the behaviour's partial derivatives (`Controller::partials`) against finite differences
 //!   of its torque and free-joint accelerations.
 mod common;
+use common::run_from_state;
 
 use nalgebra::{Complex, DMatrix, DVector};
 use selfmanip_core::{ContactMode, RobotDescription};
 use selfmanip_hybrid::periodic::{
     find_periodic_orbit, floquet_multipliers, PeriodicOptions, PeriodicOrbit,
 };
-use selfmanip_hybrid::{simulate, Controller, ControllerPartials, EventKind, Segment};
+use selfmanip_hybrid::{Controller, ControllerPartials, EventKind, Segment};
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::{Scenario, Simulation};
 use std::path::{Path, PathBuf};
@@ -133,17 +134,7 @@ fn hopper_period_monodromy_matches_fixed_time_differences() {
     let (sim, o) = find();
     let nq = sim.model.nq();
     let run = |x: &[f64]| {
-        let e = simulate(
-            &sim.model,
-            &sim.terrain,
-            &*sim.controller,
-            ContactMode::FLIGHT,
-            &x[..nq],
-            &x[nq..],
-            o.period_s,
-            opts().hybrid,
-        )
-        .unwrap();
+        let e = run_from_state(&sim, ContactMode::FLIGHT, x, o.period_s, opts().hybrid);
         e.q.iter().chain(&e.qd).copied().collect::<Vec<f64>>()
     };
     let h = 1e-6;
@@ -206,17 +197,13 @@ fn hopper_conserved_pitch_rate_gives_exact_unit_multipliers() {
 fn hopper_fixed_point_returns_over_five_periods() {
     let (sim, o) = find();
     let nq = sim.model.nq();
-    let e = simulate(
-        &sim.model,
-        &sim.terrain,
-        &*sim.controller,
+    let e = run_from_state(
+        &sim,
         ContactMode::FLIGHT,
-        &o.x[..nq],
-        &o.x[nq..],
+        &o.x,
         5.0 * o.period_s + 0.05,
         opts().hybrid,
-    )
-    .unwrap();
+    );
     let apexes: Vec<_> = e
         .events
         .iter()

@@ -345,3 +345,21 @@ fn a_scenario_file_is_the_scenario() {
     let b = Simulation::new(&back).unwrap().run().unwrap();
     assert_eq!(format!("{:?}", a.outcome), format!("{:?}", b.outcome));
 }
+
+/// A coordinate to solve for that the robot does not have is refused naming its entry and
+/// listing the coordinates there are (the hopper's: its two joints, then `x`, `z`, `phi`).
+#[test]
+fn an_unknown_coordinate_to_solve_names_its_entry() {
+    let mut s = hopper(0.1, 0.1);
+    s.initial.solve = vec!["z".into(), "knee".into()];
+    match Simulation::new(&s) {
+        Err(SimError::InvalidValue { field, reason }) => {
+            assert_eq!(field, "initial.solve[1]");
+            assert!(
+                reason.contains("`knee`") && reason.contains("x, z, phi"),
+                "{reason}"
+            );
+        }
+        other => panic!("{:?}", other.err()),
+    }
+}

@@ -1,11 +1,12 @@
 //! Fixtures the sim's tests share.
 #![allow(dead_code)]
 use nalgebra::{Complex, DMatrix};
+use selfmanip_core::ContactMode;
 use selfmanip_core::RobotDescription;
 use selfmanip_hybrid::periodic::{
     find_periodic_orbit, return_map, PeriodicOptions, PeriodicOrbit, ReturnMap,
 };
-use selfmanip_hybrid::EventKind;
+use selfmanip_hybrid::{simulate, EventKind, Execution, HybridOptions};
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::{Scenario, Simulation};
 use std::path::Path;
@@ -21,6 +22,30 @@ pub use examples::data;
 pub fn test_robot(name: &str) -> RobotDescription {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/robots");
     RobotDescription::from_file(&dir.join(name)).unwrap()
+}
+
+/// The execution of `sim`'s robot, terrain and controller from the stacked state
+/// `x = [q; q̇]` in `mode` to `t_final` under `options`.
+pub fn run_from_state(
+    sim: &Simulation,
+    mode: ContactMode,
+    x: &[f64],
+    t_final: f64,
+    options: HybridOptions,
+) -> Execution {
+    let nq = sim.model.nq();
+    let (q, qd) = x.split_at(nq);
+    simulate(
+        &sim.model,
+        &sim.terrain,
+        &*sim.controller,
+        mode,
+        q,
+        qd,
+        t_final,
+        options,
+    )
+    .unwrap()
 }
 
 /// The hopper of `examples/hopper.rs` (dropped 10 cm, leg at its landing pose) moving
