@@ -28,6 +28,8 @@ use selfmanip_sim::behaviour::{
     ActuatorSpec, Behaviour, FreeJointGains, JointProgram, Motion, NamedEvent, On, Phase, Torque,
     Trigger,
 };
+use selfmanip_sim::drive::drive_error;
+pub use selfmanip_sim::drive::GearedMotor;
 use selfmanip_sim::events::{event_records_labelled, EventRecord};
 use selfmanip_sim::expr::Scalar;
 use selfmanip_sim::outcome::{BodyState, Outcome, PresetFrame, WordOptions};
@@ -143,197 +145,92 @@ impl From<Strategy> for String {
     }
 }
 
-/// What turns a planar leg (a contralateral pair of physical legs).
+/// What turns a planar leg (a contralateral pair of physical legs): chapter 3's constant
+/// saturated torque `τ_s` of Table 4.2, or `motors_per_leg` X-RHex motors (Table 2.1, 37 V)
+/// behind their gearbox (section 2.1.2), the generic drive of [`GearedMotor`] whose default
+/// is chapter 5's ([`X_RHEX_LEG`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum LegActuator {
-    /// The constant saturated torque `τ_s` of Table 4.2 (chapter 3's assumption).
     SaturatedTorque,
-    /// `motors_per_leg` X-RHex motors (Table 2.1, 37 V) behind a gearbox of ratio `gear_ratio`
-    /// with the controller current limit `current_limit_a` (chapter 5: 20 A), section 2.1.2.
-    /// The drive's loss options (`motor::DriveLosses`, `docs/calibration.md`) are off by
-    /// default: `gearbox_efficiency` (unset: the catalog's 0.82), `gearbox_loss` (`derating`
-    /// `G η τ_m`, or `power_flow`) and `battery_resistance_ohm` (unset: an ideal supply). A
-    /// value set is a behaviour parameter of the leap (differentiable).
-    GearedMotor {
-        gear_ratio: f64,
-        current_limit_a: f64,
-        motors_per_leg: u32,
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        gearbox_efficiency: Option<f64>,
-        #[serde(default, skip_serializing_if = "is_derating")]
-        gearbox_loss: motor::GearboxLoss,
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        battery_resistance_ohm: Option<f64>,
-    },
+    GearedMotor(GearedMotor),
 }
 
-fn is_derating(loss: &motor::GearboxLoss) -> bool {
-    *loss == motor::GearboxLoss::Derating
-}
+/// Chapter 5's leg drive: two motors per planar leg at 28:1, the controller's 20 A limit,
+/// no loss options.
+pub const X_RHEX_LEG: GearedMotor = GearedMotor {
+    gear_ratio: 28.0,
+    current_limit_a: 20.0,
+    motors_per_leg: 2,
+    gearbox_efficiency: None,
+    gearbox_loss: motor::GearboxLoss::Derating,
+    battery_resistance_ohm: None,
+};
 
 impl Default for LegActuator {
     fn default() -> Self {
-        LegActuator::GearedMotor {
-            gear_ratio: 28.0,
-            current_limit_a: DEFAULT_CURRENT_LIMIT_A,
-            motors_per_leg: DEFAULT_MOTORS_PER_LEG,
-            gearbox_efficiency: None,
-            gearbox_loss: motor::GearboxLoss::Derating,
-            battery_resistance_ohm: None,
-        }
+        LegActuator::GearedMotor(X_RHEX_LEG)
     }
 }
 
-/// Chapter 5's controller current limit (A) and motors per planar leg (a contralateral pair).
-const DEFAULT_CURRENT_LIMIT_A: f64 = 20.0;
-const DEFAULT_MOTORS_PER_LEG: u32 = 2;
-/// The thesis catalog's gearbox of X-RHex, whose efficiency the geared motor has by default.
+/// The thesis catalog's motor and gearbox of X-RHex.
+const LEG_MOTOR: &str = "x-rhex";
 const LEG_GEARBOX: &str = "x-rhex-28";
 
 impl LegActuator {
-    /// The geared motor with gear ratio `gear_ratio`, keeping this actuator's current limit
-    /// and motor count (chapter 5's when this is the saturated torque).
+    /// The geared motor with gear ratio `gear_ratio`, keeping this actuator's other values
+    /// (chapter 5's when this is the saturated torque).
     pub fn with_gear_ratio(&self, gear_ratio: f64) -> LegActuator {
-        let mut a = self.geared();
-        if let LegActuator::GearedMotor { gear_ratio: g, .. } = &mut a {
-            *g = gear_ratio;
-        }
-        a
+        LegActuator::GearedMotor(GearedMotor {
+            gear_ratio,
+            ..self.motor()
+        })
     }
 
     /// This actuator if it is the geared motor, else chapter 5's.
     pub fn geared(&self) -> LegActuator {
+        LegActuator::GearedMotor(self.motor())
+    }
+
+    /// The geared motor's values, chapter 5's for the saturated torque.
+    pub fn motor(&self) -> GearedMotor {
         match self {
-            a @ LegActuator::GearedMotor { .. } => a.clone(),
-            LegActuator::SaturatedTorque => LegActuator::default(),
+            LegActuator::GearedMotor(m) => *m,
+            LegActuator::SaturatedTorque => X_RHEX_LEG,
         }
     }
 
-    /// The behaviour parameters the actuator binds: the geared motor's gear ratio, current
-    /// limit, motors per leg and the loss options set (none for the saturated torque).
+    /// The behaviour parameters the actuator binds (none for the saturated torque).
     fn values(&self) -> Vec<(&'static str, f64)> {
-        let LegActuator::GearedMotor {
-            gear_ratio,
-            current_limit_a,
-            motors_per_leg,
-            ..
-        } = *self
-        else {
-            return Vec::new();
-        };
-        let mut v = vec![
-            ("gear_ratio", gear_ratio),
-            ("current_limit_a", current_limit_a),
-            ("motors_per_leg", f64::from(motors_per_leg)),
-        ];
-        v.extend(self.loss_values().0);
-        v
-    }
-
-    /// The geared motor's loss options that are set, as behaviour parameters
-    /// (`gearbox_efficiency`, `battery_resistance_ohm`), and how `η` enters the torque.
-    fn loss_values(&self) -> (Vec<(&'static str, f64)>, motor::GearboxLoss) {
-        match *self {
-            LegActuator::GearedMotor {
-                gearbox_efficiency: e,
-                gearbox_loss,
-                battery_resistance_ohm: r,
-                ..
-            } => {
-                let set = [("gearbox_efficiency", e), ("battery_resistance_ohm", r)];
-                let set = set.into_iter().filter_map(|(k, v)| Some((k, v?)));
-                (set.collect(), gearbox_loss)
-            }
-            LegActuator::SaturatedTorque => (Vec::new(), motor::GearboxLoss::Derating),
+        match self {
+            LegActuator::GearedMotor(m) => m.values(),
+            LegActuator::SaturatedTorque => Vec::new(),
         }
     }
 
-    /// This actuator with the loss options among `names` set (where unset, to the drive's
-    /// values: the catalog's efficiency, an ideal supply), so that the leap binds them as
-    /// parameters; the leap it runs is the same bit for bit.
+    /// This actuator with the loss options among `names` bound as parameters
+    /// ([`GearedMotor::with_loss_parameters`]); the leap it runs is the same bit for bit.
     pub fn with_loss_parameters(&self, names: &[&str]) -> LegActuator {
-        let mut a = self.clone();
-        if let LegActuator::GearedMotor {
-            gearbox_efficiency: e,
-            battery_resistance_ohm: r,
-            ..
-        } = &mut a
-        {
-            if names.contains(&"gearbox_efficiency") && e.is_none() {
-                let catalog = motor::Catalog::thesis();
-                *e = Some(
-                    catalog
-                        .gearbox(LEG_GEARBOX)
-                        .expect("the catalog's")
-                        .efficiency,
-                );
+        match self {
+            LegActuator::GearedMotor(m) => {
+                LegActuator::GearedMotor(m.with_loss_parameters(names, LEG_GEARBOX))
             }
-            if names.contains(&"battery_resistance_ohm") && r.is_none() {
-                *r = Some(0.0);
-            }
+            a => a.clone(),
         }
-        a
     }
 
     /// The drive of this actuator ([`motor::geared`]): the geared motor's, or for the
     /// saturated torque chapter 5's, whose legs and motors it keeps.
     pub fn drive_spec(&self) -> GearedDriveSpec<'static> {
-        let LegActuator::GearedMotor {
-            gear_ratio,
-            current_limit_a,
-            motors_per_leg,
-            gearbox_efficiency,
-            gearbox_loss,
-            battery_resistance_ohm,
-        } = self.geared()
-        else {
-            unreachable!("`geared` is the geared motor")
-        };
-        GearedDriveSpec {
-            motor: "x-rhex",
-            gearbox: LEG_GEARBOX,
-            gear_ratio: Some(gear_ratio),
-            current_limit_a: Some(current_limit_a),
-            count: f64::from(motors_per_leg),
-            gearbox_efficiency,
-            losses: motor::DriveLosses {
-                gearbox_loss,
-                battery_resistance_ohm: battery_resistance_ohm.unwrap_or(0.0),
-            },
-        }
+        self.motor().spec(LEG_MOTOR, LEG_GEARBOX)
     }
 
     /// Checks the geared motor's fields (errors name them); the saturated torque has none.
     pub fn validate(&self) -> Result<(), RhexError> {
         match self {
             LegActuator::SaturatedTorque => Ok(()),
-            _ => self.drive_spec().validate().map_err(drive_error),
+            LegActuator::GearedMotor(m) => Ok(m.validate()?),
         }
-    }
-}
-
-/// A drive's error as the leap's: the geared motor's field it names (`count` is
-/// `motors_per_leg`), else `actuator`.
-fn drive_error(e: motor::MotorError) -> RhexError {
-    let field = match e {
-        motor::MotorError::InvalidParameter { field: "count", .. } => "motors_per_leg",
-        motor::MotorError::InvalidParameter { field, .. }
-            if [
-                "gear_ratio",
-                "current_limit_a",
-                "gearbox_efficiency",
-                "battery_resistance_ohm",
-            ]
-            .contains(&field) =>
-        {
-            field
-        }
-        _ => "actuator",
-    };
-    RhexError::InvalidValue {
-        field: field.into(),
-        reason: e.to_string(),
     }
 }
 
@@ -597,9 +494,8 @@ pub fn leg_actuator(params: &RhexParams, a: &LegActuator) -> Result<Arc<dyn Actu
 
 /// The geared drive of `a` ([`LegActuator::drive_spec`]) in the thesis catalog.
 fn leg_drive(a: &LegActuator) -> Result<GearedDrive, RhexError> {
-    a.drive_spec()
-        .build(&motor::Catalog::thesis())
-        .map_err(drive_error)
+    let drive = a.drive_spec().build(&motor::Catalog::thesis());
+    Ok(drive.map_err(drive_error)?)
 }
 
 /// A leg's own inertia about its hip, `I_l + m_l (ρ₁/2)²` (kg m²; zero for massless legs).
@@ -969,8 +865,9 @@ impl LeapPreset {
             )
         );
         let names = |a: &LegActuator| {
-            let (v, loss) = a.loss_values();
-            (v.into_iter().map(|(k, _)| k).collect::<Vec<_>>(), loss)
+            let m = a.motor();
+            let set = m.losses_set().into_iter().map(|(k, _)| k);
+            (set.collect::<Vec<_>>(), m.gearbox_loss)
         };
         let same_robot = same
             || (both_geared
@@ -1227,9 +1124,9 @@ fn behaviour(strategy: Strategy, k: &Settings<'_>) -> Behaviour {
             formula("t_rear", "max(0, t2)"),
             number("s_front", strategy.front.sign()),
             number("s_rear", strategy.rear.sign()),
-            number("gear_ratio", 28.0),
-            number("current_limit_a", DEFAULT_CURRENT_LIMIT_A),
-            number("motors_per_leg", f64::from(DEFAULT_MOTORS_PER_LEG)),
+            number("gear_ratio", X_RHEX_LEG.gear_ratio),
+            number("current_limit_a", X_RHEX_LEG.current_limit_a),
+            number("motors_per_leg", f64::from(X_RHEX_LEG.motors_per_leg)),
             number("leg_inertia_kg_m2", 0.0),
             number("stow", 2.6),
             number("kp_hold", 20.0),
@@ -1240,7 +1137,7 @@ fn behaviour(strategy: Strategy, k: &Settings<'_>) -> Behaviour {
         actuators: [(
             "leg".to_string(),
             ActuatorSpec::DcMotor {
-                motor: "x-rhex".into(),
+                motor: LEG_MOTOR.into(),
                 gearbox: LEG_GEARBOX.into(),
                 gear_ratio: Some("gear_ratio".into()),
                 current_limit_a: Some("current_limit_a".into()),
@@ -1344,36 +1241,14 @@ pub(crate) fn scenario_of(
     if let Some((_, armature)) = damping {
         p.insert("leg_armature_kg_m2".into(), num(armature));
     }
-    for (name, v) in cfg.actuator.values() {
-        p.insert(name.into(), num(v));
-    }
     let leg = b.actuators.get_mut("leg").expect("the files' actuator");
-    match (&cfg.actuator, leg) {
-        (LegActuator::SaturatedTorque, leg) => {
+    match &cfg.actuator {
+        LegActuator::SaturatedTorque => {
             *leg = ActuatorSpec::Saturated {
                 max_torque_n_m: num(rhex.params.tau_s),
             };
         }
-        (
-            a,
-            ActuatorSpec::DcMotor {
-                gearbox_efficiency,
-                gearbox_loss,
-                battery_resistance_ohm,
-                ..
-            },
-        ) => {
-            let (set, loss) = a.loss_values();
-            *gearbox_loss = loss;
-            for (name, _) in set {
-                let slot = match name {
-                    "gearbox_efficiency" => &mut *gearbox_efficiency,
-                    _ => &mut *battery_resistance_ohm,
-                };
-                *slot = Some(name.into());
-            }
-        }
-        _ => unreachable!("the files' actuator is a DC motor"),
+        LegActuator::GearedMotor(m) => m.bind(leg, &mut b.parameters),
     }
     let model = &rhex.model;
     let offset = cfg.t2_s.min(0.0);

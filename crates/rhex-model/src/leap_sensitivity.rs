@@ -28,11 +28,11 @@ use crate::leap::{LeapConfig, LeapPreset, LeapResult, LegActuator, T2Reference};
 use crate::params::{LegPair, ToeSliding};
 use crate::{RhexError, RhexParams};
 use nalgebra::DMatrix;
-use selfmanip_core::model::Friction;
 use selfmanip_core::tangent::BodyParameter;
 use selfmanip_hybrid::budget::NEVER;
-use selfmanip_hybrid::sensitivity::{FrictionCoefficient, Parameter};
+use selfmanip_hybrid::sensitivity::Parameter;
 use selfmanip_hybrid::{EventKind, Termination};
+use selfmanip_sim::named_terms::{armature_terms, contact_friction, offset_start};
 pub use selfmanip_sim::sensitivity::EventSaltation;
 use selfmanip_sim::sensitivity_preset::{end_state_sensitivity, EndStateRequest};
 
@@ -185,12 +185,6 @@ fn engine_terms(
     cfg: &LeapConfig,
     model: &selfmanip_core::Model,
 ) -> Result<Vec<(Parameter, f64)>, RhexError> {
-    let legs_armature = |w: f64| -> Vec<(Parameter, f64)> {
-        (0..model.joints.len())
-            .filter(|&j| model.joints[j].armature_kg_m2 > 0.0) // a compliant leg's knee has none
-            .map(|j| (Parameter::Body(BodyParameter::Armature(j)), w))
-            .collect()
-    };
     Ok(match p {
         LeapParameter::T2 => vec![(Parameter::Controller("t2".into()), 1.0)],
         LeapParameter::BodyMass => vec![(Parameter::Body(BodyParameter::Mass), 1.0)],
@@ -199,16 +193,21 @@ fn engine_terms(
             vec![(Parameter::Controller(name.into()), 1.0)]
         }
         LeapParameter::PseudoImpulse => vec![(Parameter::PseudoImpulseDuration, 1.0)],
-        LeapParameter::ToeFriction(pair) => vec![(toe_friction(params, model, pair)?, 1.0)],
+        LeapParameter::ToeFriction(pair) => {
+            let coulomb = params.toe_sliding == ToeSliding::Coulomb;
+            let toe = contact_friction(model, &format!("{}_leg", pair.name()), coulomb);
+            let field = format!("mu_{}", pair.name());
+            vec![(
+                toe.map_err(|reason| RhexError::Unsupported { field, reason })?,
+                1.0,
+            )]
+        }
         LeapParameter::GearRatio => {
             let mut t = vec![(Parameter::Controller("gear_ratio".into()), 1.0)];
             if crate::leap::armature_follows_gear(params) {
-                let g = match cfg.actuator {
-                    LegActuator::GearedMotor { gear_ratio, .. } => gear_ratio,
-                    LegActuator::SaturatedTorque => unreachable!("refused by `resolve`"),
-                };
+                let g = cfg.actuator.motor().gear_ratio; // geared: `resolve` refuses others
                 let a = crate::leap::leg_armature(params, cfg)?;
-                t.extend(legs_armature(2.0 * a / g));
+                t.extend(armature_terms(model, 2.0 * a / g));
             }
             t
         }
@@ -222,47 +221,11 @@ fn engine_terms(
                         .into(),
                 });
             }
-            let mut t = legs_armature(1.0);
+            let mut t = armature_terms(model, 1.0);
             // the servo is critically damped for the leg's inertia with its armature
             t.push((Parameter::Controller("leg_armature_kg_m2".into()), 1.0));
             t
         }
-    })
-}
-
-/// The engine's friction parameter of a leg pair's toe (its contact `<pair>_leg`): the
-/// static `μ`, and the kinetic one with it where the toes slide with Coulomb friction.
-fn toe_friction(
-    params: &RhexParams,
-    model: &selfmanip_core::Model,
-    pair: LegPair,
-) -> Result<Parameter, RhexError> {
-    let field = format!("mu_{}", pair.name());
-    let name = format!("{}_leg", pair.name());
-    let unsupported = |reason: &str| RhexError::Unsupported {
-        field: field.clone(),
-        reason: reason.into(),
-    };
-    let contact = model
-        .contacts
-        .iter()
-        .position(|c| c.name == name)
-        .ok_or_else(|| unsupported("the leap has no such leg pair"))?;
-    match model.contacts[contact].friction {
-        Friction::Sticking { mu } if mu.is_finite() => {}
-        _ => {
-            return Err(unsupported(
-                "the toe's friction coefficient is infinite or absent",
-            ))
-        }
-    }
-    let coefficient = match params.toe_sliding {
-        ToeSliding::Coulomb => FrictionCoefficient::Both,
-        ToeSliding::Frictionless => FrictionCoefficient::Static,
-    };
-    Ok(Parameter::Friction {
-        contact,
-        coefficient,
     })
 }
 
@@ -360,35 +323,14 @@ pub fn leap_with_sensitivity_from(
         d_apex: d.d_state,
         d_apex_d_start: d.d_state_d_start,
         ok: d.ok,
-        reason: d.reason.map(|r| power_flow_reason(cfg, r)),
+        reason: d
+            .reason
+            .map(|r| cfg.actuator.motor().undefined_derivative_reason(r)),
         events: d.events,
         time_events: d.time_events,
         event_times: d.event_times,
         result,
     })
-}
-
-/// The reason a derivative is undefined, saying where it is the power-flow gearbox law's jump:
-/// the only law of a leap whose controller withholds its partials (the toe stub is refused
-/// above) is the power-flow law at a leg's change of direction under load, where the torque
-/// jumps by `η²` without an event and a derivative across it would be one-sided.
-fn power_flow_reason(cfg: &LeapConfig, reason: String) -> String {
-    let power_flow = matches!(
-        cfg.actuator,
-        LegActuator::GearedMotor {
-            gearbox_loss: motor::GearboxLoss::PowerFlow,
-            ..
-        }
-    );
-    if power_flow && reason.contains("gives no partial derivatives") {
-        format!(
-            "{reason}: a leg's speed changed sign under load, where the power-flow gearbox \
-             law's torque jumps by η² without an event (the derivative across it is \
-             one-sided and not formed)"
-        )
-    } else {
-        reason
-    }
 }
 
 /// Runs the leap of `preset` (its motor start `cfg.t2_s`) from its start state plus
@@ -397,18 +339,8 @@ fn power_flow_reason(cfg: &LeapConfig, reason: String) -> String {
 fn run_from(preset: &LeapPreset, start_offset: Option<&[f64]>) -> Result<LeapResult, RhexError> {
     let t2 = preset.cfg.t2_s;
     let (mut sim, front_start) = preset.simulation(t2)?;
-    let nq = sim.q0.len();
     if let Some(dx) = start_offset {
-        if dx.len() != 2 * nq {
-            return Err(RhexError::InvalidValue {
-                field: "start_offset".into(),
-                reason: format!("expected {} entries, got {}", 2 * nq, dx.len()),
-            });
-        }
-        for i in 0..nq {
-            sim.q0[i] += dx[i];
-            sim.qd0[i] += dx[nq + i];
-        }
+        offset_start(&mut sim, dx)?;
     }
     let run = sim.run_with(&NEVER)?;
     Ok(preset.result(run.execution, run.outcome, t2, front_start))

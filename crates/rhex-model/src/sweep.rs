@@ -213,7 +213,7 @@ pub fn error_kind(e: &RhexError) -> &'static str {
 /// The gear ratio a point ran with (NaN: the saturated torque).
 pub fn gear_ratio_of(cfg: &LeapConfig) -> f64 {
     match cfg.actuator {
-        LegActuator::GearedMotor { gear_ratio, .. } => gear_ratio,
+        LegActuator::GearedMotor(m) => m.gear_ratio,
         LegActuator::SaturatedTorque => f64::NAN,
     }
 }

@@ -10,7 +10,9 @@
 //! sits there (`t_k` + 1 ulp, the right limit) and carried `b₁ h Δ(∂q̈/∂η)` into the
 //! tangent. Whether the two roundings differ depends on the numbers, so it came and went
 //! with `R_b`. The dual durations now carry the motion's own values (`StartedLaw::shape`).
-use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapPreset, LegActuator};
+use rhex_model::leap::{
+    leap_params, simulate_leap, GearedMotor, LeapConfig, LeapPreset, LegActuator,
+};
 use selfmanip_hybrid::sensitivity::{execution_sensitivity_columns, Parameter};
 
 /// The `(−,−)` leap at `t2 = 0.04` s with efficiency `efficiency` on a battery of `r_b` Ω.
@@ -18,14 +20,14 @@ fn config(efficiency: f64, r_b: f64) -> LeapConfig {
     LeapConfig {
         strategy: "--".parse().unwrap(),
         t2_s: 0.04,
-        actuator: LegActuator::GearedMotor {
+        actuator: LegActuator::GearedMotor(GearedMotor {
             gear_ratio: 28.0,
             current_limit_a: 20.0,
             motors_per_leg: 2,
             gearbox_efficiency: Some(efficiency),
             gearbox_loss: motor::GearboxLoss::Derating,
             battery_resistance_ohm: Some(r_b),
-        },
+        }),
         rtol: 1e-12,
         event_tol_s: 1e-14,
         control_free_joints: true,

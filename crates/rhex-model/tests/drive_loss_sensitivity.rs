@@ -4,7 +4,9 @@
 //! R_b must still be given), against Richardson-extrapolated central differences of whole
 //! leaps (the execution `leap_with_sensitivity` differentiates: free legs under step
 //! control), to 1e-5; and the power-flow law's jump at a stalled leg, flagged.
-use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator, Strategy};
+use rhex_model::leap::{
+    leap_params, simulate_leap, GearedMotor, LeapConfig, LegActuator, Strategy,
+};
 use rhex_model::leap_sensitivity::{leap_with_sensitivity, APEX_COLUMNS};
 
 /// The apex's `ż` column: 0 at the apex by definition; differences see only where each run
@@ -12,14 +14,14 @@ use rhex_model::leap_sensitivity::{leap_with_sensitivity, APEX_COLUMNS};
 const ZDOT: usize = 5;
 
 fn geared(efficiency: Option<f64>, loss: motor::GearboxLoss, r_b: Option<f64>) -> LegActuator {
-    LegActuator::GearedMotor {
+    LegActuator::GearedMotor(GearedMotor {
         gear_ratio: 28.0,
         current_limit_a: 20.0,
         motors_per_leg: 2,
         gearbox_efficiency: efficiency,
         gearbox_loss: loss,
         battery_resistance_ohm: r_b,
-    }
+    })
 }
 
 /// A leap at tight tolerances (differences of whole leaps need them), free legs under step
@@ -39,12 +41,12 @@ fn config(strategy: Strategy, t2: f64, actuator: LegActuator) -> LeapConfig {
 /// `cfg`'s actuator with the named option set to `v`.
 fn with(cfg: &LeapConfig, name: &str, v: f64) -> LeapConfig {
     let mut c = cfg.clone();
-    if let LegActuator::GearedMotor {
+    if let LegActuator::GearedMotor(GearedMotor {
         gear_ratio,
         gearbox_efficiency,
         battery_resistance_ohm,
         ..
-    } = &mut c.actuator
+    }) = &mut c.actuator
     {
         match name {
             "gear_ratio" => *gear_ratio = v,

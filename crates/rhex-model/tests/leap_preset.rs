@@ -1,8 +1,8 @@
 //! The leap preset's own guarantees: a preset reused over points runs the leaps fresh ones
 //! run (bit for bit) and checks its points as they do; the waiting legs' start pose.
 use rhex_model::leap::{
-    leap_params, leap_rhex, leap_start_pose, simulate_leap, LeapConfig, LeapPreset, LeapResult,
-    LegActuator, T2Reference,
+    leap_params, leap_rhex, leap_start_pose, simulate_leap, GearedMotor, LeapConfig, LeapPreset,
+    LeapResult, LegActuator, T2Reference,
 };
 use rhex_model::Rhex;
 use selfmanip_core::kinematics::Kinematics;
@@ -29,13 +29,15 @@ fn fingerprint(r: &LeapResult) -> String {
 /// bit for bit; on legs whose armature follows the gear ratio too (rebuilt there).
 #[test]
 fn a_reused_preset_runs_the_leaps_of_fresh_ones() {
-    let geared = |g: f64, i: f64| LegActuator::GearedMotor {
-        gear_ratio: g,
-        current_limit_a: i,
-        motors_per_leg: 2,
-        gearbox_efficiency: None,
-        gearbox_loss: Default::default(),
-        battery_resistance_ohm: None,
+    let geared = |g: f64, i: f64| {
+        LegActuator::GearedMotor(GearedMotor {
+            gear_ratio: g,
+            current_limit_a: i,
+            motors_per_leg: 2,
+            gearbox_efficiency: None,
+            gearbox_loss: Default::default(),
+            battery_resistance_ohm: None,
+        })
     };
     let mut rotors = leap_params();
     rotors.m_l = 0.126;

@@ -14,7 +14,7 @@ use common::{apex_error, tight};
 use rhex_model::leap::leap_scenario;
 use rhex_model::leap::{
     leap_params, leg_actuator, leg_armature, leg_inertia_about_hip, leg_swing,
-    rotor_reflected_inertia, simulate_leap, LeapConfig, LegActuator,
+    rotor_reflected_inertia, simulate_leap, GearedMotor, LeapConfig, LegActuator,
 };
 use rhex_model::leap_sensitivity::leap_with_sensitivity;
 use rhex_model::{LegPair, Rhex, RhexError, RhexParams};
@@ -28,14 +28,14 @@ fn massive() -> RhexParams {
 
 fn geared(gear_ratio: f64, motors_per_leg: u32) -> LeapConfig {
     LeapConfig {
-        actuator: LegActuator::GearedMotor {
+        actuator: LegActuator::GearedMotor(GearedMotor {
             gear_ratio,
             current_limit_a: 20.0,
             motors_per_leg,
             gearbox_efficiency: None,
             gearbox_loss: Default::default(),
             battery_resistance_ohm: None,
-        },
+        }),
         ..LeapConfig::default()
     }
 }

@@ -7,6 +7,7 @@
 //! |---|---|
 //! | [`scenario`] | robot + terrain + initial state + behaviour + options ⇒ a run: outcome, events, trajectory, energy, MCAP |
 //! | [`behaviour`] | behaviours as data: phases, triggers, torques, motions, actuators; the interpreter |
+//! | [`drive`] | a geared DC drive as numbers, bound to a behaviour's parameters |
 //! | [`compliant_leg`] | a rigid leg made a two-link leg with a knee spring–damper (its law a behaviour law) |
 //! | [`path`] | parameters by name: any field of a scenario, by path |
 //! | [`outcome`] | what a run amounts to: status, word, apex, landing, end state |
@@ -18,6 +19,7 @@
 //! | [`trajectory`] | samples of an execution from its own dense output |
 //! | [`mcap`] | MCAP logs that open in Foxglove: a frame per body and link, contacts, forces, modes, events |
 //! | [`periodic`] | periodic orbits of a scenario: Newton shooting on the apex section, Floquet multipliers |
+//! | [`named_terms`] | engine parameters behind named ones on any robot: joint armatures, a contact's friction |
 //! | [`sensitivity`] | derivatives of a run by named parameters (weighted sums of the engine's) and start directions |
 //! | [`sensitivity_preset`] | what a preset reports of them: the end body state's derivatives on its clock and in its frame |
 //! | [`sweep`] | batched runs on an explicit pool: deterministic, per-point status |
@@ -26,12 +28,14 @@
 pub mod analysis;
 pub mod behaviour;
 pub mod compliant_leg;
+pub mod drive;
 pub mod error;
 pub mod events;
 pub mod expr;
 pub mod labels;
 pub mod mcap;
 pub mod motion;
+pub mod named_terms;
 pub mod outcome;
 pub mod path;
 pub mod periodic;

@@ -94,7 +94,7 @@ fn one() -> Scalar {
     Scalar::Number(1.0)
 }
 
-fn is_derating(loss: &motor::GearboxLoss) -> bool {
+pub(crate) fn is_derating(loss: &motor::GearboxLoss) -> bool {
     *loss == motor::GearboxLoss::Derating
 }
 

@@ -15,7 +15,7 @@
 //! `BODY_MU` Coulomb friction at the body ends, `STICK=1` point-toe legs, `PINNED=1` toes that never slip, `MU`, `FRICTIONLESS`,
 //! `SATURATED`, `CURRENT` (A) and `WAIT` (rad) the other candidates; `SWEEP=1` runs the four
 //! 41-point sweeps with these settings instead.
-use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator};
+use rhex_model::leap::{leap_params, simulate_leap, GearedMotor, LeapConfig, LegActuator};
 use rhex_model::params::{LegPair, ToeSliding};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -46,10 +46,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         cfg.actuator = LegActuator::SaturatedTorque;
     }
     if let Ok(v) = std::env::var("CURRENT") {
-        if let LegActuator::GearedMotor {
+        if let LegActuator::GearedMotor(GearedMotor {
             ref mut current_limit_a,
             ..
-        } = cfg.actuator
+        }) = cfg.actuator
         {
             *current_limit_a = v.parse()?;
         }
