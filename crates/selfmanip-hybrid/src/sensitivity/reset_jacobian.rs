@@ -4,7 +4,7 @@
 use super::types::SensitivityError;
 use crate::event::Event;
 use crate::execution::Segment;
-use nalgebra::{DMatrix, RowDVector};
+use nalgebra::{DMatrix, DVector, RowDVector};
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::tangent::{plastic_impact_body_derivatives, BodyParameter, ImpactJacobian};
 use selfmanip_core::{ContactMode, Data, Model, Terrain};
@@ -70,6 +70,9 @@ pub(super) struct GuardReset {
     pub(super) y_plus: Vec<f64>,
     /// For a touchdown, the mode of the plastic impact the reset applied.
     pub(super) impact_mode: Option<ContactMode>,
+    /// `∂R/∂μ` of the static friction coefficients the reset depends on, `(contact, column)`
+    /// (a Coulomb impact's slipping contacts, [`super::coulomb_impact`]); empty otherwise.
+    pub(super) dr_mu: Vec<(usize, DVector<f64>)>,
 }
 
 impl GuardReset {
