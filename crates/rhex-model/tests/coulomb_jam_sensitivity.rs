@@ -11,6 +11,8 @@
 //! start-state direction (the rear leg's rate) and in the body's mass and the toes' `μ`.
 //! That the jam's impulse is a Coulomb impact's is checked from the event alone: a contact
 //! it leaves sliding took an impulse on its cone's edge, `|P_t| = μ |P_n|`.
+mod common;
+use common::tight;
 use nalgebra::DMatrix;
 use rhex_model::leap::{leap_params, LeapConfig};
 use rhex_model::leap_sensitivity::{leap_with_sensitivity_from, LeapSensitivity};
@@ -27,17 +29,6 @@ fn massive() -> RhexParams {
     let mut p = leap_params();
     p.m_l = 0.126;
     p
-}
-
-fn config(strategy: &str, t2: f64) -> LeapConfig {
-    LeapConfig {
-        strategy: strategy.parse().unwrap(),
-        t2_s: t2,
-        rtol: 1e-12,
-        event_tol_s: 1e-14,
-        control_free_joints: true,
-        ..LeapConfig::default()
-    }
 }
 
 /// A parameter moved by `s`: the body's mass or a toe pair's `μ`.
@@ -132,7 +123,7 @@ fn assert_coulomb_jam(p: &RhexParams, cfg: &LeapConfig, sens: &LeapSensitivity) 
 
 fn check(strategy: &str, t2: f64, names: &[&str]) {
     let p = massive();
-    let cfg = config(strategy, t2);
+    let cfg = tight(strategy, t2);
     let nq = 5;
     // the rear leg's rate at the start (q = [θ_front, θ_rear, x, z, φ])
     let mut dir = DMatrix::zeros(2 * nq, 1);

@@ -61,16 +61,14 @@ pub(super) fn coulomb_reset(
         }
         Err(e) => return Err(not(e.to_string())),
     };
-    let nb = at.body.len();
-    gr.dr
-        .view_mut((nq, 0), (nq, nq))
-        .copy_from(&jac.dqd_plus_dq);
-    gr.dr
-        .view_mut((nq, nq), (nq, nq))
-        .copy_from(&jac.dqd_plus_dqd_minus);
-    gr.dr_p
-        .view_mut((nq, 0), (nq, nb))
-        .copy_from(&jac.dqd_plus_dbody);
+    gr.velocity_jump(
+        (
+            &jac.dqd_plus_dq,
+            &jac.dqd_plus_dqd_minus,
+            &jac.dqd_plus_dbody,
+        ),
+        &o.qd_plus,
+    );
     gr.dr_mu = jac
         .dqd_plus_dmu
         .into_iter()
@@ -81,7 +79,6 @@ pub(super) fn coulomb_reset(
             (k, col)
         })
         .collect();
-    gr.y_plus[nq..].copy_from_slice(&o.qd_plus);
     gr.impact_mode = Some(o.mode);
     Ok(())
 }
