@@ -498,7 +498,7 @@ pub fn coulomb_impact_jacobian(
     kmat.view_mut((nq, 0), (m, nq)).copy_from(&e_a);
     let svd = kmat.clone().svd(false, false);
     let smax = svd.singular_values.max();
-    if !(smax > 0.0) || svd.singular_values.min() <= 1e-12 * smax {
+    if smax.is_nan() || smax <= 0.0 || svd.singular_values.min() <= 1e-12 * smax {
         return Ok(Err(NotDifferentiable::Singular));
     }
     let lu = kmat.lu();
