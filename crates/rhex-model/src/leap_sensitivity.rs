@@ -22,7 +22,7 @@
 //!
 //! **Undefined derivatives** make [`LeapSensitivity::ok`] false, every derivative NaN, with the
 //! reason: no apex; an event whose saltation is not defined (grazing, simultaneous touchdowns,
-//! zero-time modes, folds, jams, Coulomb impacts); an event at a motor's start; the power-flow
+//! zero-time modes, folds, jams met by the flow); an event at a motor's start; the power-flow
 //! gearbox law's torque jump at a leg's change of direction under load.
 use crate::leap::{LeapConfig, LeapPreset, LeapResult, LegActuator, T2Reference};
 use crate::params::{LegPair, ToeSliding};

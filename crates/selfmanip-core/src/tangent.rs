@@ -1254,3 +1254,50 @@ pub fn plastic_impact_body_derivatives(
     }
     out
 }
+
+/// The partial derivatives of an impact's terms at the state and rows `data` was prepared at
+/// ([`Data::prepare`] or [`Data::prepare_geometry`], any mode), for impacts other than
+/// [`plastic_impact_jacobian`]'s (the Coulomb impact's, whose impulse lies on cone edges:
+/// `selfmanip_hybrid::coulomb_impact`). For vectors `x`, `z` (`nq`) and `y` (rows):
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImpactPartials {
+    /// `D_q(M̄ x + Aᵀ y)` (`nq × nq`; column `k` along `q_k`).
+    pub dq_mx_aty: DMatrix<f64>,
+    /// `D_q(A z)` (`rows × nq`).
+    pub dq_az: DMatrix<f64>,
+    /// `∂M̄/∂p x` for each body parameter (`nq × |ps|`).
+    pub dp_mx: DMatrix<f64>,
+}
+
+/// [`ImpactPartials`] at `data`'s state (its `q̇` given again as `qd`), by the closed forms of
+/// the module docs (`(D_q M̄[v] x)`, `(D_q A[v] x)_r = −d_r·D²c[x, v]`).
+pub fn impact_partials(
+    model: &Model,
+    data: &Data,
+    qd: &[f64],
+    (x, y, z): (&[f64], &[f64], &[f64]),
+    ps: &[BodyParameter],
+) -> Result<ImpactPartials, TangentError> {
+    let nq = model.nq();
+    let c = data.constraints.n_rows();
+    debug_assert!(x.len() == nq && z.len() == nq && y.len() == c);
+    let mut asm = Assembly::new(model, data, qd)?;
+    let mut out = ImpactPartials {
+        dq_mx_aty: DMatrix::zeros(nq, nq),
+        dq_az: DMatrix::zeros(c, nq),
+        dp_mx: DMatrix::zeros(nq, ps.len()),
+    };
+    asm.set_x(x);
+    for k in 0..nq {
+        out.dq_mx_aty.set_column(k, &asm.dq_terms(k, y, false).0);
+    }
+    asm.set_x(z);
+    let zeros = vec![0.0; c];
+    for k in 0..nq {
+        out.dq_az.set_column(k, &asm.dq_terms(k, &zeros, false).1);
+    }
+    for (i, p) in ps.iter().enumerate() {
+        out.dp_mx.set_column(i, &p.dm_x(model, &data.kin, x, None));
+    }
+    Ok(out)
+}

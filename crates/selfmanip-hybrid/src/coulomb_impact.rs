@@ -31,6 +31,11 @@
 //! the outcomes after which the contacts kept also hold in force (5.19)–(5.20), and accepts
 //! only a single survivor.
 //!
+//! **Derivative.** On its active set (each contact's state, a slip's `σ`, held) the impact
+//! is a smooth map of `(q, q̇⁻)`, the inertia parameters and each `μ`: the implicit function
+//! theorem on its linear system gives [`coulomb_impact_jacobian`], the reset Jacobian of the
+//! sensitivity pass at a jam (`crate::sensitivity`).
+//!
 //! Offered only where the Delassus operator exists: every coordinate carries inertia
 //! (no free massless joint, no locked joint) — a massless leg's contact has no finite
 //! impulse response (thesis 5.1.3), and its own impacts are the thesis's.
@@ -38,6 +43,7 @@ use nalgebra::{DMatrix, DVector};
 use selfmanip_core::constraint::Constraints;
 use selfmanip_core::contact::{ContactKind, RowDirection};
 use selfmanip_core::model::Friction;
+use selfmanip_core::tangent::{impact_partials, BodyParameter, TangentError};
 use selfmanip_core::{ContactMode, CoreError, Data, Model, Terrain};
 
 /// The state a contact takes in the impact.
@@ -119,33 +125,9 @@ pub fn coulomb_impacts(
         return Ok(Err(NotOffered::Massless));
     }
     data.prepare_geometry(model, terrain, ContactMode::FLIGHT, q, qd_minus)?;
-    // rows: a tangential row where the contact has friction, and its normal row
-    let mut all = ContactMode::FLIGHT;
-    for &k in &cand {
-        let kind = if mu_of(model, k) > 0.0 {
-            ContactKind::Stick
-        } else {
-            ContactKind::Slide
-        };
-        all = all.with(k, kind);
-    }
+    let (all, idx) = impact_rows(model, &cand);
     let mut cons = Constraints::default();
     cons.assemble(model, &data.kin, terrain, all, qd_minus);
-    let rows: Vec<_> = all.rows().collect();
-    // (normal row, tangential row) of each candidate
-    let row_of = |k: usize, dir: RowDirection| {
-        rows.iter()
-            .position(|r| r.contact == k && r.direction == dir)
-    };
-    let idx: Vec<(usize, Option<usize>)> = cand
-        .iter()
-        .map(|&k| {
-            (
-                row_of(k, RowDirection::Normal).expect("a normal row"),
-                row_of(k, RowDirection::Tangential),
-            )
-        })
-        .collect();
     let Some(chol) = data.m_bar.clone().cholesky() else {
         return Ok(Err(NotOffered::Massless));
     };
@@ -194,6 +176,36 @@ pub fn coulomb_impacts(
         break;
     }
     Ok(Ok(out))
+}
+
+/// The rows of the impact among the candidates `cand` (ascending): the mode whose rows they
+/// are (a tangential row where the contact has friction, and its normal row) and each
+/// candidate's `(normal row, tangential row)`.
+fn impact_rows(model: &Model, cand: &[usize]) -> (ContactMode, Vec<(usize, Option<usize>)>) {
+    let mut all = ContactMode::FLIGHT;
+    for &k in cand {
+        let kind = if mu_of(model, k) > 0.0 {
+            ContactKind::Stick
+        } else {
+            ContactKind::Slide
+        };
+        all = all.with(k, kind);
+    }
+    let rows: Vec<_> = all.rows().collect();
+    let row_of = |k: usize, dir: RowDirection| {
+        rows.iter()
+            .position(|r| r.contact == k && r.direction == dir)
+    };
+    let idx = cand
+        .iter()
+        .map(|&k| {
+            (
+                row_of(k, RowDirection::Normal).expect("a normal row"),
+                row_of(k, RowDirection::Tangential),
+            )
+        })
+        .collect();
+    (all, idx)
 }
 
 /// Contacts held, then sticking ones: which of several equal motions names the outcome.
@@ -360,4 +372,191 @@ fn solve_combo(
         velocity_after,
         kinetic_change,
     })
+}
+
+/// The derivatives of a Coulomb impact's `q̇⁺` on its active set ([`coulomb_impact_jacobian`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CoulombImpactJacobian {
+    /// `∂q̇⁺/∂q` (`nq × nq`).
+    pub dqd_plus_dq: DMatrix<f64>,
+    /// `∂q̇⁺/∂q̇⁻` (`nq × nq`).
+    pub dqd_plus_dqd_minus: DMatrix<f64>,
+    /// `∂q̇⁺/∂p` of each body parameter asked for (`nq × |ps|`).
+    pub dqd_plus_dbody: DMatrix<f64>,
+    /// `∂q̇⁺/∂μ` of each candidate's static friction coefficient `μ` (the cone the impulse
+    /// lies in; zero unless the contact slips), `(contact, column)` in ascending contact.
+    pub dqd_plus_dmu: Vec<(usize, DVector<f64>)>,
+}
+
+/// Why a Coulomb impact has no derivative at its state.
+#[derive(Debug, Clone, PartialEq)]
+pub enum NotDifferentiable {
+    /// Contact `contact` sits on the boundary of its state's region (a separating contact
+    /// leaving at zero normal velocity, a sticking impulse on its cone's edge or without
+    /// push, a slip ending at zero sliding velocity): a perturbation may change its state,
+    /// so the map is only piecewise smooth there.
+    Boundary {
+        contact: usize,
+        state: ContactImpact,
+    },
+    /// The active set's linear system is singular (dependent rows: `q̇⁺` is determined, its
+    /// derivative by this system is not).
+    Singular,
+}
+
+/// The exact Jacobian of the Coulomb impact `outcome` (one of [`coulomb_impacts`]' solutions
+/// at `(q, q̇⁻)`) on its active set, by the implicit function theorem, with the columns of
+/// the body parameters `ps` and of each candidate's `μ`.
+///
+/// ```text
+/// active set: the states of `outcome` (σ of each slip fixed), p = G(μ, σ) x,
+///   G: a sticking contact's two rows, a slip's normal row with −μσ in its tangential row
+///   M̄ Δ − Aᵀ G x = 0,   E A (q̇⁻ + Δ) = 0        (E: the rows whose velocity after is zero)
+/// differentiated, [M̄  −AᵀG; E A  0] [dΔ; dx] =
+///   along q_k:  [−D_k(M̄ Δ − Aᵀ p);  −E D_k(A q̇⁺)]
+///   along q̇⁻:   [0;  −E A w]            (dq̇⁺ = w + dΔ)
+///   along p_b:  [−∂M̄/∂p_b Δ;  0]          (A does not depend on inertia)
+///   along μ_c:  [Aᵀ ∂G/∂μ_c x;  0] = [−σ x_c A_tᵀ;  0]   (slipping c)
+/// ```
+///
+/// `D_k(M̄Δ − Aᵀp)` and `D_k(A q̇⁺)` are the core's closed forms
+/// ([`selfmanip_core::tangent::impact_partials`]). Defined where every candidate is strictly
+/// inside its state's region ([`NotDifferentiable::Boundary`] else, relative margin `1e-9`).
+#[allow(clippy::too_many_arguments)]
+pub fn coulomb_impact_jacobian(
+    model: &Model,
+    data: &mut Data,
+    terrain: &dyn Terrain,
+    outcome: &CoulombImpact,
+    q: &[f64],
+    qd_minus: &[f64],
+    ps: &[BodyParameter],
+) -> Result<Result<CoulombImpactJacobian, NotDifferentiable>, TangentError> {
+    let nq = model.nq();
+    let cand: Vec<usize> = outcome.states.iter().map(|s| s.0).collect();
+    let (all, idx) = impact_rows(model, &cand);
+    data.prepare_geometry(model, terrain, all, q, qd_minus)?;
+    let a = data.constraints.a.clone();
+    let nr = a.nrows();
+    // the impulse in row coordinates p = −P, and the velocities after
+    let mut p = DVector::zeros(nr);
+    for (i, &(k, pt, pn)) in outcome.contact_impulses.iter().enumerate() {
+        debug_assert_eq!(k, cand[i]);
+        p[idx[i].0] = -pn;
+        if let Some(rt) = idx[i].1 {
+            p[rt] = -pt;
+        }
+    }
+    let scale_p = p.amax().max(1e-12);
+    // the margins of the enumeration's own tests (`solve_combo`)
+    let scale_v = (&a * DVector::from_column_slice(qd_minus)).amax().max(1e-9);
+    let (tol_p, tol_v) = (1e-9 * scale_p, 1e-9 * scale_v + 1e-12);
+    // unknowns x (G's columns), equations on rows E; each μ's ∂G/∂μ x column
+    let mut g_cols: Vec<DVector<f64>> = Vec::new();
+    let mut eqs: Vec<usize> = Vec::new();
+    let mut dg_mu: Vec<(usize, DVector<f64>)> = Vec::new();
+    for (i, &(k, state)) in outcome.states.iter().enumerate() {
+        let (rn, rt) = idx[i];
+        let mu = mu_of(model, k);
+        let (_, vt, vn) = outcome.velocity_after[i];
+        let (pn, pt) = (p[rn], rt.map_or(0.0, |r| p[r]));
+        let mut dg = DVector::zeros(nr);
+        let inside = match state {
+            ContactImpact::Separate => vn > tol_v,
+            ContactImpact::Stick => {
+                let rt = rt.expect("a sticking contact has friction");
+                g_cols.push(unit(nr, rt));
+                g_cols.push(unit(nr, rn));
+                eqs.extend([rt, rn]);
+                pn > tol_p && (!mu.is_finite() || pt.abs() < mu * pn - tol_p)
+            }
+            ContactImpact::Slip { sigma } => {
+                let mut c = unit(nr, rn);
+                if let Some(rt) = rt {
+                    c[rt] = -mu * sigma;
+                    // ∂(G x)/∂μ = −σ x_c e_t, x_c = p_n
+                    dg[rt] = -sigma * pn;
+                }
+                g_cols.push(c);
+                eqs.push(rn);
+                pn > tol_p && (rt.is_none() || sigma * vt > tol_v)
+            }
+        };
+        if !inside {
+            return Ok(Err(NotDifferentiable::Boundary { contact: k, state }));
+        }
+        dg_mu.push((k, dg));
+    }
+    let m = g_cols.len();
+    let g = DMatrix::from_columns(&g_cols);
+    let e_a = DMatrix::from_fn(m, nq, |r, c| a[(eqs[r], c)]);
+    // [M̄ −AᵀG; E A 0]
+    let at_g = a.transpose() * &g;
+    let mut kmat = DMatrix::zeros(nq + m, nq + m);
+    kmat.view_mut((0, 0), (nq, nq)).copy_from(&data.m_bar);
+    kmat.view_mut((0, nq), (nq, m)).copy_from(&(-&at_g));
+    kmat.view_mut((nq, 0), (m, nq)).copy_from(&e_a);
+    let svd = kmat.clone().svd(false, false);
+    let smax = svd.singular_values.max();
+    if smax.is_nan() || smax <= 0.0 || svd.singular_values.min() <= 1e-12 * smax {
+        return Ok(Err(NotDifferentiable::Singular));
+    }
+    let lu = kmat.lu();
+    // right-hand sides: q (nq), q̇⁻ (nq), body parameters, μ of each candidate
+    let dqd: Vec<f64> = (0..nq).map(|i| outcome.qd_plus[i] - qd_minus[i]).collect();
+    let minus_p: Vec<f64> = p.iter().map(|v| -v).collect();
+    let parts = impact_partials(
+        model,
+        data,
+        qd_minus,
+        (&dqd, &minus_p, &outcome.qd_plus),
+        ps,
+    )?;
+    let nb = ps.len();
+    let nc = dg_mu.len();
+    let mut rhs = DMatrix::zeros(nq + m, 2 * nq + nb + nc);
+    for k in 0..nq {
+        // along q_k
+        for i in 0..nq {
+            rhs[(i, k)] = -parts.dq_mx_aty[(i, k)];
+        }
+        for r in 0..m {
+            rhs[(nq + r, k)] = -parts.dq_az[(eqs[r], k)];
+            // along q̇⁻ = e_k
+            rhs[(nq + r, nq + k)] = -e_a[(r, k)];
+        }
+    }
+    for b in 0..nb {
+        for i in 0..nq {
+            rhs[(i, 2 * nq + b)] = -parts.dp_mx[(i, b)];
+        }
+    }
+    for (c, (_, dg)) in dg_mu.iter().enumerate() {
+        let col = a.transpose() * dg;
+        rhs.view_mut((0, 2 * nq + nb + c), (nq, 1)).copy_from(&col);
+    }
+    let Some(sol) = lu.solve(&rhs) else {
+        return Ok(Err(NotDifferentiable::Singular));
+    };
+    let d = sol.rows(0, nq);
+    let mut dqd_minus = d.columns(nq, nq).clone_owned();
+    for i in 0..nq {
+        dqd_minus[(i, i)] += 1.0;
+    }
+    Ok(Ok(CoulombImpactJacobian {
+        dqd_plus_dq: d.columns(0, nq).clone_owned(),
+        dqd_plus_dqd_minus: dqd_minus,
+        dqd_plus_dbody: d.columns(2 * nq, nb).clone_owned(),
+        dqd_plus_dmu: dg_mu
+            .iter()
+            .enumerate()
+            .map(|(c, (k, _))| (*k, d.column(2 * nq + nb + c).clone_owned()))
+            .collect(),
+    }))
+}
+
+fn unit(n: usize, i: usize) -> DVector<f64> {
+    let mut v = DVector::zeros(n);
+    v[i] = 1.0;
+    v
 }

@@ -171,7 +171,8 @@ fn jams_never_add_energy_and_lose_the_closed_form() {
     }
 }
 
-/// Derivatives never pass through a jam (its saltation is not formed): the rod's run,
+/// Derivatives do not pass through a jam the flow meets (a slide's Painlevé inconsistency,
+/// no touchdown: no crossing guard, its saltation is not formed): the rod's run,
 /// which jams at its start before any segment, gets no state Jacobian — no number that
 /// would be wrong — while the same rod below the threshold, sliding on without a jam, gets
 /// one.

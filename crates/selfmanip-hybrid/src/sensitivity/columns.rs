@@ -195,6 +195,18 @@ fn event_columns(
         if dpg[col] != 0.0 {
             xn.column_mut(col).axpy(dpg[col] / parts.den, &jump, 1.0);
         }
+        // a Coulomb impact's reset moves with the static μ of its slipping contacts
+        if let Parameter::Friction {
+            contact,
+            coefficient,
+        } = p
+        {
+            for (_, d) in parts.dr_mu.iter().filter(|(c, _)| c == contact) {
+                if coefficient.moves_static() {
+                    xn.column_mut(col).axpy(1.0, d, 1.0);
+                }
+            }
+        }
     }
     if ev.memory_mode {
         // the guard moves with the memory too (a force guard's `∂λ/∂m Dm`), in the

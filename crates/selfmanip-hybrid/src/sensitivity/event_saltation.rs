@@ -7,7 +7,7 @@ use super::force_events::{drift_reset, force_guard};
 use super::reset_jacobian::{EventAt, GuardReset, KindOutcome, NotDifferentiated};
 use super::saltation::saltation_with_rate;
 use super::simultaneous::{guards_at_once, one_sided_saltations, orders_agree};
-use super::touchdown::touchdown;
+use super::touchdown::{jam, touchdown};
 use super::types::{EventSensitivity, SaltationStatus, SensitivityError};
 use crate::event::{Event, EventKind};
 use crate::execution::{Execution, Segment};
@@ -22,6 +22,8 @@ pub(super) struct EventParts {
     /// `D_xR` and `D_pR` (body parameters' columns) of the reset.
     pub(super) dr: DMatrix<f64>,
     pub(super) dr_p: DMatrix<f64>,
+    /// `∂R/∂μ` of static friction coefficients (a Coulomb impact's, [`GuardReset::dr_mu`]).
+    pub(super) dr_mu: Vec<(usize, DVector<f64>)>,
     /// `D_xg f⁻`.
     pub(super) den: f64,
     pub(super) y_minus: Vec<f64>,
@@ -156,6 +158,7 @@ fn event_sensitivity(
         dr_p,
         y_plus,
         impact_mode,
+        dr_mu,
     } = gr;
     let mut es = EventSensitivity {
         t,
@@ -201,6 +204,7 @@ fn event_sensitivity(
                 f_plus,
                 dr,
                 dr_p,
+                dr_mu,
                 y_minus: y,
             })
         }
@@ -225,6 +229,7 @@ fn guard_and_reset(at: &EventAt, fm: &FlowJacobian) -> KindOutcome<GuardReset> {
         dr_p: DMatrix::zeros(n2, at.body.len()),
         y_plus: at.y.to_vec(),
         impact_mode: None,
+        dr_mu: Vec::new(),
     };
     let dg = match event.kind {
         EventKind::Touchdown => touchdown(at, &mut gr),
@@ -243,7 +248,7 @@ fn guard_and_reset(at: &EventAt, fm: &FlowJacobian) -> KindOutcome<GuardReset> {
             dg[nq + model.ix_z()] = -1.0;
             Ok(dg)
         }
-        EventKind::Jam => Err(NotDifferentiated("jams are not differentiated".into())),
+        EventKind::Jam => jam(at, &mut gr),
         EventKind::ZenoTruncation => Err(NotDifferentiated(
             "Zeno truncations are not differentiated".into(),
         )),
@@ -255,7 +260,7 @@ fn guard_and_reset(at: &EventAt, fm: &FlowJacobian) -> KindOutcome<GuardReset> {
         Ok(dg) => dg,
         Err(e) => return Ok(Err(e)),
     };
-    if event.kind != EventKind::Touchdown {
+    if !matches!(event.kind, EventKind::Touchdown | EventKind::Jam) {
         if let Err(e) = drift_reset(at, &mut gr) {
             return Ok(Err(e));
         }

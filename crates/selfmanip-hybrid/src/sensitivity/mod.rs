@@ -41,7 +41,10 @@
 //! ([`DRIFT_JUMP_TOL`]); any other velocity jump at a force event is flagged. Apex: `g = −ż`;
 //! at the apex that ends a run the end state is the state at the apex, `Ξ = I − f⁻ D_xg /
 //! (D_xg f⁻)`; an apex passed on the way is no reset (`R = I`, the controller not told of it,
-//! `f⁺ = f⁻`): `Ξ = I`, and only its time's gradient is new.
+//! `f⁺ = f⁻`): `Ξ = I`, and only its time's gradient is new. A jam fired by a touchdown
+//! (`crate::jam`): the touchdown's guard, `R` its stick jam's plastic impact or its Coulomb
+//! impact, differentiated on its active set
+//! ([`crate::coulomb_impact::coulomb_impact_jacobian`], with `∂R/∂μ` of each slipping contact).
 //! Each event also gives its time's gradient `dt_e/dx(0) = −D_xg X⁻ / (D_xg f⁻)`. An
 //! active arc whose rolling contact reaches the arc's end inside a segment (no event, but
 //! `Ȧ`, hence `q̈`, changes form there) gets a saltation of its own ([`TouchSwitch`]).
@@ -68,7 +71,8 @@
 //! held for zero time between two events at one instant, several guards whose orders are
 //! not formed (more than [`MAX_SIMULTANEOUS_GUARDS`], an order whose single impact would
 //! pull, event memory), and events not covered yet (folds, a fold passage's end, a segment
-//! that ended on a terrain feature change). [`Sensitivity::state_jacobian`] is then `None`.
+//! that ended on a terrain feature change, Zeno truncations, a jam met by the flow, a
+//! Coulomb impact on the boundary of its active set). [`Sensitivity::state_jacobian`] is then `None`.
 //!
 //! **Parameters and selected columns** ([`execution_sensitivity_columns`]): named parameters
 //! `p` are constant states (`x̃ = (x, p)`, `ṗ = 0`), so the same variational equations and
@@ -112,6 +116,7 @@
 //! differentiated with that memory held fixed.
 mod chain;
 mod columns;
+mod coulomb_impact;
 mod evaluator;
 mod event_saltation;
 mod force_events;

@@ -4,7 +4,7 @@
 use super::types::SensitivityError;
 use crate::event::Event;
 use crate::execution::Segment;
-use nalgebra::{DMatrix, RowDVector};
+use nalgebra::{DMatrix, DVector, RowDVector};
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::tangent::{plastic_impact_body_derivatives, BodyParameter, ImpactJacobian};
 use selfmanip_core::{ContactMode, Data, Model, Terrain};
@@ -70,6 +70,9 @@ pub(super) struct GuardReset {
     pub(super) y_plus: Vec<f64>,
     /// For a touchdown, the mode of the plastic impact the reset applied.
     pub(super) impact_mode: Option<ContactMode>,
+    /// `∂R/∂μ` of the static friction coefficients the reset depends on, `(contact, column)`
+    /// (a Coulomb impact's slipping contacts, [`super::coulomb_impact`]); empty otherwise.
+    pub(super) dr_mu: Vec<(usize, DVector<f64>)>,
 }
 
 impl GuardReset {
@@ -83,16 +86,22 @@ impl GuardReset {
         ij: &ImpactJacobian,
         qd_plus: &[f64],
     ) {
-        let (nq, nb) = (at.model.nq(), at.body.len());
         let dqd_dp =
             plastic_impact_body_derivatives(at.model, data, &ij.impact, at.qd_minus(), at.body);
-        self.dr_p.view_mut((nq, 0), (nq, nb)).copy_from(&dqd_dp);
-        self.dr
-            .view_mut((nq, 0), (nq, nq))
-            .copy_from(&ij.dqd_plus_dq);
-        self.dr
-            .view_mut((nq, nq), (nq, nq))
-            .copy_from(&ij.dqd_plus_dqd_minus);
+        self.velocity_jump((&ij.dqd_plus_dq, &ij.dqd_plus_dqd_minus, &dqd_dp), qd_plus);
+    }
+
+    /// The reset jumps the velocity to `qd_plus` with `∂q̇⁺/∂q`, `∂q̇⁺/∂q̇⁻` and `∂q̇⁺/∂p` of
+    /// the body parameters (`nq` rows each): the velocity rows of `D_xR`, `D_pR` and `y⁺`.
+    pub(super) fn velocity_jump(
+        &mut self,
+        (dq, dqd_minus, dp): (&DMatrix<f64>, &DMatrix<f64>, &DMatrix<f64>),
+        qd_plus: &[f64],
+    ) {
+        let nq = qd_plus.len();
+        self.dr_p.view_mut((nq, 0), (nq, dp.ncols())).copy_from(dp);
+        self.dr.view_mut((nq, 0), (nq, nq)).copy_from(dq);
+        self.dr.view_mut((nq, nq), (nq, nq)).copy_from(dqd_minus);
         self.y_plus[nq..].copy_from_slice(qd_plus);
     }
 }

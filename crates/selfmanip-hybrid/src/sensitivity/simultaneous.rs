@@ -53,6 +53,12 @@ pub(super) fn guards_at_once(
     y: &[f64],
 ) -> Result<Vec<usize>, SensitivityError> {
     let mut guards = event.triggered.clone();
+    if event.kind == EventKind::Jam {
+        // a jam names the contact whose slide was inconsistent with the contacts that
+        // touched down: only the touchdowns are guards that fired
+        guards.retain(|&c| !before.mode.contains(c));
+        return Ok(guards);
+    }
     if event.kind != EventKind::Liftoff {
         return Ok(guards);
     }
@@ -351,6 +357,7 @@ fn release(
         dr_p: DMatrix::zeros(2 * nq, 0),
         y_plus: y.to_vec(),
         impact_mode: None,
+        dr_mu: Vec::new(),
     };
     if y[nq..] != event.qd_after[..] {
         // the reset projected the integrator's drift away first (in the mode before the

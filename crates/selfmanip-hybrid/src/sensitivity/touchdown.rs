@@ -1,7 +1,12 @@
 //! A touchdown's guard and reset: `g` the contact's height (5.49), `R` the plastic impact
 //! (5.10)/(5.52) into the mode the event took — or into a larger set whose extra contacts
 //! force complementarity (5.19)–(5.20) released at once — whichever reproduces the recorded
-//! `q̇⁺`, with its Jacobian from [`plastic_impact_jacobian`].
+//! `q̇⁺`, with its Jacobian from [`plastic_impact_jacobian`]; else the Coulomb impact among
+//! the contacts held and those touching down ([`super::coulomb_impact`]). A jam fired by a
+//! touchdown (a touchdown whose impact left a slide inconsistent, `crate::jam`) has the same
+//! guard and its reset is one of the same impacts (the stick jam a plastic impact, the
+//! Coulomb jam a Coulomb impact).
+use super::coulomb_impact::coulomb_reset;
 use super::reset_jacobian::{EventAt, GuardReset, NotDifferentiated};
 use crate::event::Event;
 use nalgebra::RowDVector;
@@ -16,15 +21,50 @@ pub(super) fn touchdown(
     at: &EventAt,
     gr: &mut GuardReset,
 ) -> Result<RowDVector<f64>, NotDifferentiated> {
-    let (model, event) = (at.model, at.event);
-    let (q, qd_minus) = (at.q(), at.qd_minus());
+    let dg = height_row(at, at.event.triggered[0]);
+    impact_reset(at, gr)?;
+    Ok(dg)
+}
+
+/// A jam's guard gradient and reset: those of the touchdown that fired it (the first
+/// contact it names that the mode before did not hold). A jam met by the flow — a slide's
+/// Painlevé inconsistency at a segment's start or mid-flow, no touchdown — has no crossing
+/// guard here and is not differentiated.
+pub(super) fn jam(at: &EventAt, gr: &mut GuardReset) -> Result<RowDVector<f64>, NotDifferentiated> {
+    let Some(k) = at
+        .event
+        .triggered
+        .iter()
+        .copied()
+        .find(|&c| !at.before.mode.contains(c))
+    else {
+        return Err(NotDifferentiated(
+            "a jam met by the flow (a slide inconsistent with Coulomb friction, no touchdown) \
+             has no crossing guard: not differentiated"
+                .into(),
+        ));
+    };
+    let dg = height_row(at, k);
+    impact_reset(at, gr)?;
+    Ok(dg)
+}
+
+/// `D_xg` of contact `k`'s height (5.49) at the event.
+fn height_row(at: &EventAt, k: usize) -> RowDVector<f64> {
+    let model = at.model;
     let nq = model.nq();
-    let n2 = 2 * nq;
-    let k = event.triggered[0];
     let geo = contact_geometry(model, &at.kin, at.terrain, k);
-    let mut dg = RowDVector::zeros(n2);
+    let mut dg = RowDVector::zeros(2 * nq);
     dg.columns_mut(0, nq)
         .copy_from(&height_gradient(model, &at.kin, &geo).transpose());
+    dg
+}
+
+/// The impact that reproduces the recorded `q̇⁺` — a plastic impact into one of
+/// [`impact_candidates`], else the Coulomb impact — and its Jacobians, into `gr`.
+fn impact_reset(at: &EventAt, gr: &mut GuardReset) -> Result<(), NotDifferentiated> {
+    let (model, event) = (at.model, at.event);
+    let (q, qd_minus) = (at.q(), at.qd_minus());
     let candidates = impact_candidates(model, at.before.mode, event);
     let mut data = Data::new(model);
     let scale = 1.0 + event.qd_after.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
@@ -48,14 +88,17 @@ pub(super) fn touchdown(
         }
     }
     let Some((m, ij)) = found else {
-        return Err(NotDifferentiated(format!(
-            "q̇⁺ is not a plastic impact into the mode after or a superset ({worst:.2e})"
-        )));
+        return coulomb_reset(at, gr, 1e-9 * scale).map_err(|NotDifferentiated(why)| {
+            NotDifferentiated(format!(
+                "q̇⁺ is not a plastic impact into the mode after or a superset \
+                 ({worst:.2e}), {why}"
+            ))
+        });
     };
     gr.impact_mode = Some(m);
     // data holds the factorization of the impact just found
     gr.plastic_impact(at, &mut data, &ij, ij.impact.qd_plus.as_slice());
-    Ok(dg)
+    Ok(())
 }
 
 /// The modes a touchdown's impact may have gone into, in the order they are tried: the mode
