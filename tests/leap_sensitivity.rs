@@ -46,7 +46,7 @@ fn value(params: &RhexParams, cfg: &LeapConfig, name: &str) -> f64 {
     match name {
         "t2_s" => cfg.t2_s,
         "gear_ratio" => match cfg.actuator {
-            LegActuator::GearedMotor { gear_ratio, .. } => gear_ratio,
+            LegActuator::GearedMotor(ref g) => g.gear_ratio,
             LegActuator::SaturatedTorque => f64::NAN,
         },
         "m_b" => params.m_b,
