@@ -32,10 +32,13 @@
 //! gravity zero) `K [δΔq̇; δP] = −[δM̄ Δq̇ + δAᵀP; δA q̇⁺]`. A contact's height `g = −n · c`
 //! moves by `−n · u`, its sliding velocity `t · J_c q̇` by `ω_Q(q̇) t · S u`.
 //!
+//! The Coulomb friction of a sliding site moves with its tangential row: at a general site
+//! (folded, `B_k = μ_kσ A_t,k`) by `δBᵀλ = μ_kσ λ_n δA_tᵀ`; on a single-joint massless leg
+//! (`f^fr = −μ_kσ λ_n A_tᵀ`, `λ_n = f_j/den`, `den = (A_n)_j + μ_kσ (A_t)_j`) by
+//! `δf^fr = −μ_kσ (δλ_n A_tᵀ + λ_n δA_tᵀ)`, `δλ_n = −λ_n δden/den` (`crate::tangent`).
+//!
 //! A rolling arc's centre translates with its part like a point (a length moves it
-//! rigidly); an arc's own centre and radius are not parameters here. The Coulomb friction of
-//! sliding sites depends on `A` through its statics: a flow with such sites is refused
-//! ([`TangentError::NotAParameter`]).
+//! rigidly); an arc's own centre and radius are not parameters here.
 use crate::constraint::{geometry_of, Constraints};
 use crate::contact::row_direction;
 use crate::frames::{perp, rotate_sc};
@@ -173,6 +176,26 @@ impl BodyParameter {
             }
         }
         Ok(())
+    }
+
+    /// `(J_ω,Q, d · S u)` of contact `k`'s row of direction `d` under a unit step of a
+    /// geometric `self`: the row moves by `δA_r = −(d · S u) J_ω,Q` (none if the contact
+    /// stays), calling `f(i, (J_ω,Q)_i)` for its nonzero entries and returning `d · S u`.
+    pub(crate) fn row_shift(
+        self,
+        model: &Model,
+        kin: &Kinematics,
+        contact: usize,
+        d: Vector2<f64>,
+        f: impl FnMut(usize, f64),
+    ) -> f64 {
+        match self.shift(model, kin, Site::Contact(contact)) {
+            Some((q, u)) => {
+                kin.angular_jacobian_entries(model, q, f);
+                d.dot(&perp(u))
+            }
+            None => 0.0,
+        }
     }
 
     /// Whether a geometric `self` is one of `model`'s (see [`Self::check`]).

@@ -540,6 +540,52 @@ impl Assembly {
         }
     }
 
+    /// `f += δ(f^fr terms)` of the kinetic friction under a unit step of the geometric
+    /// parameter `p` (`crate::geometry_partials`), of [`Self::applied_terms_along`]'s sign:
+    /// a general site's `δBᵀλ = μ_kσ λ_n δA_tᵀ`, a single-joint massless leg's
+    /// `μ_kσ (δλ_n A_tᵀ + λ_n δA_tᵀ)` with `δλ_n = −λ_n δden/den`,
+    /// `δden = (δA_n)_j + μ_kσ (δA_t)_j`, `δA_r = −(d_r · S u) J_ω,Q`.
+    fn geometric_friction_terms(
+        &self,
+        p: BodyParameter,
+        model: &Model,
+        data: &Data,
+        y: &[f64],
+        f: &mut DVector<f64>,
+    ) {
+        let (kin, cons) = (&data.kin, &data.constraints);
+        for &(row, coef, d_t) in &self.general {
+            let l = coef * y[row];
+            if l == 0.0 {
+                continue;
+            }
+            let contact = cons.rows[row].contact;
+            let st = p.row_shift(model, kin, contact, d_t, |_, _| {});
+            p.row_shift(model, kin, contact, d_t, |i, w| f[i] -= l * w * st);
+        }
+        for s in &self.sliding[..self.n_sliding] {
+            let contact = cons.rows[s.row].contact;
+            let d_n = self.rows[s.row].0;
+            let mut wj = 0.0;
+            let sn = p.row_shift(model, kin, contact, d_n, |i, w| {
+                if i == s.joint {
+                    wj = w
+                }
+            });
+            let st = p.row_shift(model, kin, contact, s.d_t, |_, _| {});
+            if sn == 0.0 && st == 0.0 {
+                continue;
+            }
+            let dden = -(sn + s.coef * st) * wj;
+            let dlam = -s.lambda_n * dden / s.den;
+            for i in 0..self.nq {
+                f[i] += s.coef * dlam * s.a_t[i];
+            }
+            let l = s.coef * s.lambda_n;
+            p.row_shift(model, kin, contact, s.d_t, |i, w| f[i] -= l * w * st);
+        }
+    }
+
     /// `f += D_q B[v]ᵀ y`: the folded friction's part of `dK' z` along a direction `v` of
     /// `q` (`K' = [M̄ (A + B)ᵀ; A 0]`, `z = (q̈, λ)`, module docs), added to a right-hand side
     /// `f` of [`Self::dq_terms_along`]'s sign, with `wv` a scratch buffer. Row `k` of `B` is
@@ -1234,22 +1280,10 @@ pub fn dynamics_jvp_into(
         }
         if let Some(p) = dirs.body.get(col).copied().flatten() {
             if p.is_geometric() {
-                if asm.n_sliding > 0 || !asm.general.is_empty() {
-                    return Err(TangentError::NotAParameter {
-                        parameter: p,
-                        reason: "a Coulomb-sliding site's friction moves with the geometry                                  through its statics: not differentiated in a geometric                                  parameter",
-                    });
-                }
                 let x = (&qdd[..], &qdd[..]);
-                p.geometry_terms_into(
-                    model,
-                    &data.kin,
-                    &data.constraints,
-                    x,
-                    lambda,
-                    Some(qd),
-                    (fb, gb),
-                )?;
+                let cons = &data.constraints;
+                p.geometry_terms_into(model, &data.kin, cons, x, lambda, Some(qd), (fb, gb))?;
+                asm.geometric_friction_terms(p, model, data, lambda, fb);
                 *g += &*gb;
             } else {
                 p.dm_x_into(model, &data.kin, qdd, Some(qd), fb);

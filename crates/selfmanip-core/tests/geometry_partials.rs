@@ -173,10 +173,18 @@ fn flow_column(
 
 #[test]
 fn flow_partials_match_rebuilt_models() {
-    let modes: [fn(&Model) -> ContactMode; 3] = [
+    // sliding feet carry Coulomb friction (`mu_kinetic` defaults to `mu`): general sites,
+    // folded into the solve, whose `B = μ_kσ A_t` moves with the geometry
+    let modes: [fn(&Model) -> ContactMode; 5] = [
         |_| ContactMode::FLIGHT,
         |_| ContactMode::FLIGHT.with(1, ContactKind::Stick),
         both_stick,
+        |_| ContactMode::FLIGHT.with(1, ContactKind::Slide),
+        |_| {
+            ContactMode::FLIGHT
+                .with(0, ContactKind::Stick)
+                .with(1, ContactKind::Slide)
+        },
     ];
     for mode in modes {
         for (coms, thigh) in [(true, 0.1), (false, 0.1), (true, 0.0)] {
