@@ -11,6 +11,7 @@
 //! (a massless link's length moves the kinematics only).
 use nalgebra::{DMatrix, DVector};
 use selfmanip_core::contact::{contact_geometry, ContactKind};
+use selfmanip_core::description::ShapeDescription;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::tangent::{
     dynamics_jvp, plastic_impact_body_derivatives, BodyParameter, FlowDirections,
@@ -262,4 +263,63 @@ fn arc_positions_and_unknown_parts_are_refused() {
         com_follows: false,
     };
     assert!(p.check(&m).is_err());
+}
+
+/// `tests/data/robots/legged_general_sliding.toml` with contact `k`'s position moved by `h`
+/// along `axis`: a massive one-link leg's toe (`toe`, 0: a general sliding site, folded) and
+/// a massless one-link leg's toe (`stub`, 3: resolved by its leg's statics).
+fn legged(k: usize, axis: usize, h: f64) -> Model {
+    let text = include_str!("../../../tests/data/robots/legged_general_sliding.toml");
+    let mut d = RobotDescription::from_toml_str(text).unwrap();
+    if let ShapeDescription::Point { position_m } = &mut d.contacts[k].shape {
+        position_m[axis] += h;
+    }
+    d.build().unwrap()
+}
+
+/// Both kinds of Coulomb sliding site in one solve, the massive leg's toe and the massless
+/// stub's, sliding backward: the flow's column of each toe's position against rebuilt models.
+#[test]
+fn sliding_toes_positions_match_rebuilt_models() {
+    let mode = ContactMode::FLIGHT
+        .with(0, ContactKind::Slide)
+        .with(3, ContactKind::Slide);
+    let (q, qd, tau) = (
+        [0.1, 0.05, 0.0, 0.0, 0.05],
+        [0.3, -0.2, -1.0, 0.1, 0.2],
+        [0.4, -0.3],
+    );
+    let solve = |m: &Model| {
+        let mut data = Data::new(m);
+        forward_dynamics(m, &mut data, &FlatGround, mode, &q, &qd, &tau, None).unwrap();
+        let mut v: Vec<f64> = data.qdd.iter().copied().collect();
+        v.extend(data.lambda.iter());
+        (DVector::from_vec(v), data)
+    };
+    for (k, axis) in [(0, 0), (0, 1), (3, 0), (3, 1)] {
+        let model = legged(k, axis, 0.0);
+        let (_, mut data) = solve(&model);
+        let p = BodyParameter::ContactPosition(k, axis);
+        let z = DMatrix::zeros(model.nq(), 1);
+        let dirs = FlowDirections {
+            dq: &z,
+            dqd: &z,
+            dtau: &DMatrix::zeros(model.n_joints(), 1),
+            body: &[Some(p)],
+            force: None,
+        };
+        let (dqdd, dl) = dynamics_jvp(&model, &mut data, &qd, &dirs).unwrap();
+        let mut ex: Vec<f64> = dqdd.iter().copied().collect();
+        ex.extend(dl.iter());
+        let ex = DVector::from_vec(ex);
+        let d = |h: f64| (solve(&legged(k, axis, h)).0 - solve(&legged(k, axis, -h)).0) / (2.0 * h);
+        let fd = (4.0 * d(1e-4) - d(2e-4)) / 3.0;
+        let scale = fd.amax().max(ex.amax());
+        let err = (&ex - &fd).amax() / scale;
+        eprintln!("{p:?}: |exact − FD| / max = {err:.1e} (max {scale:.2e})");
+        assert!(
+            scale > 1e-3 && err < TOL,
+            "{p:?}: {err:e}\nexact {ex}\nfd {fd}"
+        );
+    }
 }
