@@ -456,6 +456,24 @@ fn route(
     PathParameter::NotDifferentiated(format!("`{full}`: {what}"))
 }
 
+/// The contact a path names after `robot.contacts` (`[i]` or `.<name>`): its index among the
+/// description's contacts and among `model`'s, if it names one.
+fn contact_index(model: &Model, tree: &serde_json::Value, contact: &str) -> Option<(usize, usize)> {
+    let contacts = tree.get("robot")?.get("contacts")?.as_array()?;
+    let i = match contact.strip_prefix('[') {
+        Some(i) => i.strip_suffix(']')?.parse().ok()?,
+        None => {
+            let name = contact.strip_prefix('.')?;
+            contacts
+                .iter()
+                .position(|c| c.get("name").and_then(|n| n.as_str()) == Some(name))?
+        }
+    };
+    let name = contacts.get(i)?.get("name").and_then(|n| n.as_str())?;
+    let k = model.contacts.iter().position(|c| c.name == name)?;
+    Some((i, k))
+}
+
 /// The friction coefficient the full path `full` names (`robot.contacts.<contact>.friction.
 /// mu` or `.mu_kinetic`, the contact by name or index), if it names one: `mu` is the static
 /// coefficient, and the kinetic one too where the description leaves `mu_kinetic` to
@@ -467,19 +485,8 @@ fn friction_parameter(
 ) -> Option<PathParameter> {
     let rest = full.strip_prefix("robot.contacts")?;
     let (contact, field) = rest.rsplit_once(".friction.")?;
-    let contacts = tree.get("robot")?.get("contacts")?.as_array()?;
-    let i = match contact.strip_prefix('[') {
-        Some(i) => i.strip_suffix(']')?.parse().ok()?,
-        None => {
-            let name = contact.strip_prefix('.')?;
-            contacts
-                .iter()
-                .position(|c| c.get("name").and_then(|n| n.as_str()) == Some(name))?
-        }
-    };
-    let friction = contacts.get(i)?.get("friction")?;
-    let name = contacts[i].get("name").and_then(|n| n.as_str())?;
-    let k = model.contacts.iter().position(|c| c.name == name)?;
+    let (i, k) = contact_index(model, tree, contact)?;
+    let friction = tree["robot"]["contacts"][i].get("friction")?;
     let kinetic_given = friction.get("mu_kinetic").is_some_and(|v| !v.is_null());
     let coefficient = match field {
         "mu" if kinetic_given => FrictionCoefficient::Static,
@@ -631,18 +638,7 @@ fn field_value_at(tree: &serde_json::Value, path: &str) -> Option<serde_json::Va
 fn contact_position(model: &Model, tree: &serde_json::Value, full: &str) -> Option<PathParameter> {
     let rest = full.strip_prefix("robot.contacts")?;
     let (contact, field) = rest.split_once(".shape.")?;
-    let contacts = tree.get("robot")?.get("contacts")?.as_array()?;
-    let i = match contact.strip_prefix('[') {
-        Some(i) => i.strip_suffix(']')?.parse().ok()?,
-        None => {
-            let name = contact.strip_prefix('.')?;
-            contacts
-                .iter()
-                .position(|c| c.get("name").and_then(|n| n.as_str()) == Some(name))?
-        }
-    };
-    let name = contacts.get(i)?.get("name").and_then(|n| n.as_str())?;
-    let k = model.contacts.iter().position(|c| c.name == name)?;
+    let (_, k) = contact_index(model, tree, contact)?;
     let axis = match field {
         "position_m[0]" => 0,
         "position_m[1]" => 1,

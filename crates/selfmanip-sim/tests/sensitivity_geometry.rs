@@ -4,40 +4,8 @@
 //! differentiated by path, against Richardson central differences of whole runs built with
 //! the field set to `p ± h` (final state and every event time), to 1e-5.
 use selfmanip_hybrid::EventKind;
-use selfmanip_sim::sensitivity::scenario_parameter_sensitivity;
-use selfmanip_sim::{Scenario, Simulation};
+use selfmanip_sim::Scenario;
 mod common;
-use common::fd;
-
-/// The end state `(q, q̇)` followed by the event times, and the event kinds.
-fn end(s: &Scenario) -> (Vec<f64>, Vec<EventKind>) {
-    let run = Simulation::new(s).unwrap().run().unwrap();
-    fd::end_state_and_events(&run.execution)
-}
-
-/// `s`'s run differentiated in the paths of `cases` (`(path, value)`), every column against
-/// Richardson central differences (steps `1e-4 |p|`, `h/2`): the worst relative difference.
-/// The run meets the events `expected`.
-fn worst_error(s: &Scenario, cases: &[(&str, f64)], expected: &[EventKind]) -> f64 {
-    let sim = Simulation::new(s).unwrap();
-    let run = sim.run().unwrap();
-    let kinds: Vec<_> = run.execution.events.iter().map(|e| e.kind).collect();
-    eprintln!(
-        "{:?}",
-        run.execution
-            .events
-            .iter()
-            .map(|e| (e.kind, e.t))
-            .collect::<Vec<_>>()
-    );
-    assert_eq!(kinds, expected);
-    let names: Vec<&str> = cases.iter().map(|c| c.0).collect();
-    let p = scenario_parameter_sensitivity(s, &sim.options, &run, &names).unwrap();
-    assert_eq!(p.reason, None);
-    common::worst_path_error(&p, cases, |path, value| {
-        common::central_in_path(s, (path, value, 1e-4 * value.abs()), &kinds, end)
-    })
-}
 
 /// The newcomer's bounder of issue 30 (a 2 kg body, two two-link legs of 0.15 m links,
 /// point feet of friction `mu` at the shins' ends, 5 mm ahead of their axes) with links of `masses` (thigh, shin; 0: a
@@ -96,6 +64,19 @@ fn bounder(b: &Bounder, t_final: f64) -> Scenario {
     serde_json::from_value(v).unwrap()
 }
 
+/// [`Bounder`] of friction 1.5 and servo gain 30, dropped from 0.36 m (z down) falling at
+/// 0.6 m/s, pitched `pitch` and moving forward at `vx`.
+fn pitched(masses: [f64; 2], appendix: bool, pitch: f64, vx: f64) -> Bounder {
+    Bounder {
+        mu: 1.5,
+        masses,
+        appendix,
+        kp: 30.0,
+        q0: [0.5, -1.0, 0.5, -1.0, 0.0, -0.36, pitch],
+        qd0: [0.0, 0.0, 0.0, 0.0, vx, -0.6, 0.0],
+    }
+}
+
 /// The hind leg's thigh length, the front leg's, and the hind foot's position (the shins'
 /// lengths move nothing here: their feet are given in their frames, and their centres too
 /// unless [`Bounder::appendix`]).
@@ -111,17 +92,10 @@ const GEOMETRY: [(&str, f64); 4] = [
 /// whose friction moves with the geometry) and lifts off.
 #[test]
 fn a_bounder_through_touchdowns_a_slip_and_a_liftoff() {
-    let b = Bounder {
-        mu: 1.5,
-        masses: [0.1, 0.1],
-        appendix: false,
-        kp: 30.0,
-        q0: [0.5, -1.0, 0.5, -1.0, 0.0, -0.36, 0.1],
-        qd0: [0.0, 0.0, 0.0, 0.0, 1.0, -0.6, 0.0],
-    };
+    let b = pitched([0.1, 0.1], false, 0.1, 1.0);
     use EventKind::{Apex, Liftoff, Slip, Touchdown};
     let kinds = [Apex, Touchdown, Touchdown, Slip, Liftoff];
-    let w = worst_error(&bounder(&b, 0.29), &GEOMETRY, &kinds);
+    let w = common::worst_run_path_error(&bounder(&b, 0.29), &GEOMETRY, &kinds);
     eprintln!("worst {w:.1e}");
 }
 
@@ -130,17 +104,10 @@ fn a_bounder_through_touchdowns_a_slip_and_a_liftoff() {
 /// stick.
 #[test]
 fn b_massless_thighs_through_touchdowns_and_a_liftoff() {
-    let b = Bounder {
-        mu: 1.5,
-        masses: [0.0, 0.1],
-        appendix: true,
-        kp: 30.0,
-        q0: [0.5, -1.0, 0.5, -1.0, 0.0, -0.36, 0.3],
-        qd0: [0.0, 0.0, 0.0, 0.0, 0.0, -0.6, 0.0],
-    };
+    let b = pitched([0.0, 0.1], true, 0.3, 0.0);
     use EventKind::{Apex, Liftoff, Slip, Stick, Touchdown};
     let kinds = [Apex, Touchdown, Touchdown, Slip, Liftoff, Touchdown, Stick];
-    let w = worst_error(&bounder(&b, 0.35), &GEOMETRY, &kinds);
+    let w = common::worst_run_path_error(&bounder(&b, 0.35), &GEOMETRY, &kinds);
     eprintln!("worst {w:.1e}");
 }
 
@@ -149,19 +116,12 @@ fn b_massless_thighs_through_touchdowns_and_a_liftoff() {
 /// through two touchdowns, a slip and a liftoff.
 #[test]
 fn c_appendix_bounder_with_default_centres() {
-    let b = Bounder {
-        mu: 1.5,
-        masses: [0.1, 0.1],
-        appendix: true,
-        kp: 30.0,
-        q0: [0.5, -1.0, 0.5, -1.0, 0.0, -0.36, 0.1],
-        qd0: [0.0, 0.0, 0.0, 0.0, 1.0, -0.6, 0.0],
-    };
+    let b = pitched([0.1, 0.1], true, 0.1, 1.0);
     let mut cases = GEOMETRY.to_vec();
     cases.push(("legs.hind.links[1].length_m", 0.15));
     cases.push(("legs.front.links[1].length_m", 0.15));
     use EventKind::{Apex, Liftoff, Slip, Touchdown};
     let kinds = [Apex, Touchdown, Touchdown, Slip, Liftoff];
-    let w = worst_error(&bounder(&b, 0.29), &cases, &kinds);
+    let w = common::worst_run_path_error(&bounder(&b, 0.29), &cases, &kinds);
     eprintln!("worst {w:.1e}");
 }
