@@ -125,3 +125,26 @@ fn c_appendix_bounder_with_default_centres() {
     let w = common::worst_run_path_error(&bounder(&b, 0.29), &cases, &kinds);
     eprintln!("worst {w:.1e}");
 }
+
+/// A geometric column leaves the others as they were: the body's mass differentiated alone
+/// and beside a length and a contact's position gives the same column, bit for bit (each
+/// column is its own solve with the same factorization).
+#[test]
+fn geometric_columns_leave_the_others_unchanged() {
+    let s = bounder(&pitched([0.1, 0.1], false, 0.1, 1.0), 0.29);
+    let sim = selfmanip_sim::Simulation::new(&s).unwrap();
+    let run = sim.run().unwrap();
+    let column = |names: &[&str]| {
+        let p = selfmanip_sim::sensitivity::scenario_parameter_sensitivity(
+            &s,
+            &sim.options,
+            &run,
+            names,
+        )
+        .unwrap();
+        p.state.unwrap().column(0).into_owned()
+    };
+    let alone = column(&["body.mass_kg"]);
+    let beside = column(&["body.mass_kg", GEOMETRY[0].0, GEOMETRY[3].0]);
+    assert_eq!(alone, beside);
+}
