@@ -1124,9 +1124,11 @@ pub fn sliding_velocity_gradient(
     Ok((dq, DVector::from_vec(row)))
 }
 
-/// An inertia parameter of the model: the body's mass and inertia, a joint's armature, a
-/// link's mass, inertia and centre of mass. `M̄`, `C̄q̇` and `N̄` depend on them at fixed
-/// geometry, `A` and `Ȧq̇` do not; their partials are in [`crate::inertia_partials`].
+/// A parameter of the model's bodies: its inertia — the body's mass and inertia, a joint's
+/// armature, a link's mass, inertia and centre of mass (`M̄`, `C̄q̇` and `N̄` depend on them
+/// at fixed geometry, `A` and `Ȧq̇` do not; partials in [`crate::inertia_partials`]) — or its
+/// geometry — a link's length, a point contact's position (they move `A`, `Ȧq̇` and the
+/// guards too; partials in `crate::geometry_partials`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum BodyParameter {
     /// `m_b` (kg).
