@@ -41,8 +41,14 @@ impl BodyParameter {
                 reason,
             })
         };
+        if self.is_geometric() {
+            return self.check_geometric(model);
+        }
         let joint = match self {
             BodyParameter::Mass | BodyParameter::Inertia => return Ok(()),
+            BodyParameter::LinkLength { .. } | BodyParameter::ContactPosition(..) => {
+                unreachable!("checked above")
+            }
             BodyParameter::Armature(j)
             | BodyParameter::LinkMass(j)
             | BodyParameter::LinkInertia(j)
@@ -70,7 +76,9 @@ impl BodyParameter {
     }
 
     /// `∂(M̄ x + C̄q̇ + N̄)/∂p` at the state of `kin`, with `rates = Some(q̇)` (the flow: `kin`
-    /// formed with those rates); `∂M̄/∂p x` alone with `None` (an impact).
+    /// formed with those rates); `∂M̄/∂p x` alone with `None` (an impact). Zero for a
+    /// geometric parameter, whose terms ([`Self::geometry_terms_into`]) need the
+    /// constraint rows too.
     pub(crate) fn dm_x(
         self,
         model: &Model,
@@ -113,6 +121,7 @@ impl BodyParameter {
                 let c = Centre::of(model, kin, j, x, rates);
                 kin.angular_jacobian_entries(model, c.part, |k, w| f[k] += w * c.beta_dd);
             }
+            BodyParameter::LinkLength { .. } | BodyParameter::ContactPosition(..) => {}
             BodyParameter::LinkCom(j, axis) => {
                 let c = Centre::of(model, kin, j, x, rates);
                 let m = model.joints[j].mass_kg;
@@ -132,16 +141,22 @@ impl BodyParameter {
 /// A link's centre of mass at one state, for its parameters' partials: where it is (`p`),
 /// `a = J_p x + J̇_p q̇ − g e_z` (only `J_p x` for an impact), `β̈ = J_ω x` and `β̇`
 /// (0 for an impact).
-struct Centre {
-    part: Part,
-    p: Vector2<f64>,
-    a: Vector2<f64>,
+pub(crate) struct Centre {
+    pub(crate) part: Part,
+    pub(crate) p: Vector2<f64>,
+    pub(crate) a: Vector2<f64>,
     beta_dd: f64,
     beta_d: f64,
 }
 
 impl Centre {
-    fn of(model: &Model, kin: &Kinematics, j: usize, x: &[f64], rates: Option<&[f64]>) -> Self {
+    pub(crate) fn of(
+        model: &Model,
+        kin: &Kinematics,
+        j: usize,
+        x: &[f64],
+        rates: Option<&[f64]>,
+    ) -> Self {
         let part = Part::Link(j);
         let p = kin.point(part, model.joints[j].com_m);
         let mut a = Vector2::zeros();

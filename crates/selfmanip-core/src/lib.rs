@@ -22,6 +22,7 @@ pub mod dynamics;
 pub mod error;
 pub mod frames;
 pub mod friction;
+mod geometry_partials;
 pub mod grasp;
 pub mod inertia;
 pub mod inertia_partials;

@@ -58,6 +58,9 @@
 //! its derivative involves none, and a mode with general sliding sites is differentiated as
 //! any other.
 //!
+//! Geometric parameters (a link's length, a point contact's position) move `A` and `Ȧ` too:
+//! their partials are in `crate::geometry_partials`.
+//!
 //! Not covered: a contact on a terrain corner (its frame turns with the site; a typed
 //! [`TangentError::TurningFrame`]); a sliding site whose friction is a sticking force at
 //! rest ([`TangentError::FrictionAtRest`]).
@@ -537,6 +540,52 @@ impl Assembly {
         }
     }
 
+    /// `f += δ(f^fr terms)` of the kinetic friction under a unit step of the geometric
+    /// parameter `p` (`crate::geometry_partials`), of [`Self::applied_terms_along`]'s sign:
+    /// a general site's `δBᵀλ = μ_kσ λ_n δA_tᵀ`, a single-joint massless leg's
+    /// `μ_kσ (δλ_n A_tᵀ + λ_n δA_tᵀ)` with `δλ_n = −λ_n δden/den`,
+    /// `δden = (δA_n)_j + μ_kσ (δA_t)_j`, `δA_r = −(d_r · S u) J_ω,Q`.
+    fn geometric_friction_terms(
+        &self,
+        p: BodyParameter,
+        model: &Model,
+        data: &Data,
+        y: &[f64],
+        f: &mut DVector<f64>,
+    ) {
+        let (kin, cons) = (&data.kin, &data.constraints);
+        for &(row, coef, d_t) in &self.general {
+            let l = coef * y[row];
+            if l == 0.0 {
+                continue;
+            }
+            let contact = cons.rows[row].contact;
+            let st = p.row_shift(model, kin, contact, d_t, |_, _| {});
+            p.row_shift(model, kin, contact, d_t, |i, w| f[i] -= l * w * st);
+        }
+        for s in &self.sliding[..self.n_sliding] {
+            let contact = cons.rows[s.row].contact;
+            let d_n = self.rows[s.row].0;
+            let mut wj = 0.0;
+            let sn = p.row_shift(model, kin, contact, d_n, |i, w| {
+                if i == s.joint {
+                    wj = w
+                }
+            });
+            let st = p.row_shift(model, kin, contact, s.d_t, |_, _| {});
+            if sn == 0.0 && st == 0.0 {
+                continue;
+            }
+            let dden = -(sn + s.coef * st) * wj;
+            let dlam = -s.lambda_n * dden / s.den;
+            for i in 0..self.nq {
+                f[i] += s.coef * dlam * s.a_t[i];
+            }
+            let l = s.coef * s.lambda_n;
+            p.row_shift(model, kin, contact, s.d_t, |i, w| f[i] -= l * w * st);
+        }
+    }
+
     /// `f += D_q B[v]ᵀ y`: the folded friction's part of `dK' z` along a direction `v` of
     /// `q` (`K' = [M̄ (A + B)ᵀ; A 0]`, `z = (q̈, λ)`, module docs), added to a right-hand side
     /// `f` of [`Self::dq_terms_along`]'s sign, with `wv` a scratch buffer. Row `k` of `B` is
@@ -744,7 +793,7 @@ fn zero_shaped(a: &mut DMatrix<f64>, r: usize, c: usize) {
 /// The material point whose second and third derivatives give a contact row's: the contact
 /// point itself for a point touch, the centre of a rolling arc on a plane (the contact point
 /// is the centre plus a constant offset there).
-fn differentiable_point(
+pub(crate) fn differentiable_point(
     model: &Model,
     kin: &Kinematics,
     contact: usize,
@@ -1075,9 +1124,11 @@ pub fn sliding_velocity_gradient(
     Ok((dq, DVector::from_vec(row)))
 }
 
-/// An inertia parameter of the model: the body's mass and inertia, a joint's armature, a
-/// link's mass, inertia and centre of mass. `M̄`, `C̄q̇` and `N̄` depend on them at fixed
-/// geometry, `A` and `Ȧq̇` do not; their partials are in [`crate::inertia_partials`].
+/// A parameter of the model's bodies: its inertia — the body's mass and inertia, a joint's
+/// armature, a link's mass, inertia and centre of mass (`M̄`, `C̄q̇` and `N̄` depend on them
+/// at fixed geometry, `A` and `Ȧq̇` do not; partials in [`crate::inertia_partials`]) — or its
+/// geometry — a link's length, a point contact's position (they move `A`, `Ȧq̇` and the
+/// guards too; partials in `crate::geometry_partials`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum BodyParameter {
     /// `m_b` (kg).
@@ -1096,6 +1147,14 @@ pub enum BodyParameter {
     /// Coordinate `axis` (0 or 1) of the centre of mass of joint `j`'s link in the link's
     /// frame (m): `LinkCom(j, axis)`.
     LinkCom(usize, usize),
+    /// The length of joint `j`'s link (m), its lever `(0, l)` to the next joint: it moves the
+    /// links beyond it (their centres and contacts), so `A`, `Ȧ`, the impacts and the
+    /// guards (`crate::geometry_partials`). With `com_follows` the link's own centre of
+    /// mass is at its middle `[0, l/2]` (a description's default) and moves with it.
+    LinkLength { joint: usize, com_follows: bool },
+    /// Coordinate `axis` (0 or 1) of point contact `k`'s position in its part's frame (m):
+    /// `ContactPosition(k, axis)`; it moves `A`, `Ȧ`, the impacts and the contact's guards.
+    ContactPosition(usize, usize),
 }
 
 /// The directions of a Jacobian-times-matrix product of the flow ([`dynamics_jvp`]): `m`
@@ -1150,6 +1209,7 @@ pub struct JvpWorkspace {
     fw: DVector<f64>,
     gw: DVector<f64>,
     fb: DVector<f64>,
+    gb: DVector<f64>,
     solver: Solver,
 }
 
@@ -1178,6 +1238,7 @@ pub fn dynamics_jvp_into(
         fw,
         gw,
         fb,
+        gb,
         solver,
     } = ws;
     let fold = asm.prepare_flow_solution(model, data, qd, lambda)?;
@@ -1220,7 +1281,15 @@ pub fn dynamics_jvp_into(
             );
         }
         if let Some(p) = dirs.body.get(col).copied().flatten() {
-            p.dm_x_into(model, &data.kin, qdd, Some(qd), fb);
+            if p.is_geometric() {
+                let x = (&qdd[..], &qdd[..]);
+                let cons = &data.constraints;
+                p.geometry_terms_into(model, &data.kin, cons, x, lambda, Some(qd), (fb, gb))?;
+                asm.geometric_friction_terms(p, model, data, lambda, fb);
+                *g += &*gb;
+            } else {
+                p.dm_x_into(model, &data.kin, qdd, Some(qd), fb);
+            }
             *f += &*fb;
         }
         if let Some(dq_force) = dirs.force {
@@ -1233,8 +1302,10 @@ pub fn dynamics_jvp_into(
 
 /// `∂q̇⁺/∂p` of the plastic impact for body parameters `ps`, right after
 /// [`plastic_impact_jacobian`] (or [`plastic_impact`]) returned `impact` from `q̇⁻`: `data`
-/// still holds the impact's factorization, and `K [δΔ; δP] = [−∂M̄/∂p Δq̇; 0]` (`A` does not
-/// depend on masses; free massless joints keep their velocity). One column per parameter.
+/// still holds the impact's factorization, and `K [δΔ; δP] = [−∂M̄/∂p Δq̇; 0]` for an inertia
+/// parameter (`A` does not depend on masses), `−[∂M̄/∂p Δq̇ + ∂Aᵀ/∂p P; ∂A/∂p q̇⁺]` for a
+/// geometric one (`crate::geometry_partials`); free massless joints keep their velocity.
+/// One column per parameter.
 pub fn plastic_impact_body_derivatives(
     model: &Model,
     data: &mut Data,
@@ -1249,6 +1320,25 @@ pub fn plastic_impact_body_derivatives(
     let zeros = DVector::zeros(c);
     let mut solver = Solver::default();
     for (k, p) in ps.iter().enumerate() {
+        if p.is_geometric() {
+            let qd_plus = impact.qd_plus.as_slice();
+            let (mut f, mut g) = (DVector::zeros(0), DVector::zeros(0));
+            let terms = p.geometry_terms_into(
+                model,
+                &data.kin,
+                &data.constraints,
+                (&dx, qd_plus),
+                impact.impulse.as_slice(),
+                None,
+                (&mut f, &mut g),
+            );
+            match terms {
+                Ok(()) => solver.solve(data, -1.0, &f, &g, k, &mut out, None),
+                // a site on a terrain corner: the column is not formed
+                Err(_) => out.column_mut(k).fill(f64::NAN),
+            }
+            continue;
+        }
         let f = p.dm_x(model, &data.kin, &dx, None);
         solver.solve(data, -1.0, &f, &zeros, k, &mut out, None);
     }

@@ -10,7 +10,7 @@
 use crate::error::SimError;
 use crate::scenario::Scenario;
 use nalgebra::DMatrix;
-use selfmanip_core::tangent::TangentError;
+use selfmanip_core::tangent::{BodyParameter, TangentError};
 use selfmanip_core::{Model, Terrain};
 use selfmanip_hybrid::sensitivity::{
     execution_sensitivity_columns, ColumnSensitivity, FrictionCoefficient, Parameter,
@@ -394,7 +394,6 @@ fn route(
     full: &str,
     options: &HybridOptions,
 ) -> PathParameter {
-    use selfmanip_core::tangent::BodyParameter;
     if let Some(k) = full.strip_prefix("behaviour.parameters.") {
         return PathParameter::Engine(Parameter::Controller(k.to_string()));
     }
@@ -419,11 +418,11 @@ fn route(
         }
         _ => {}
     }
-    if let Some((_, "length_m")) = link_field(model, tree, full) {
-        return PathParameter::NotDifferentiated(format!(
-            "`{full}`: a link's length moves the kinematics (the distal joints, the contacts \
-             and the centres on it, `A`, `Ȧ` and the touchdown guards): no exact derivative yet"
-        ));
+    if let Some((j, "length_m")) = link_field(model, tree, full) {
+        return link_length(model, tree, full, j);
+    }
+    if let Some(p) = contact_position(model, tree, full) {
+        return p;
     }
     if let Some(p) = link_field(model, tree, full).and_then(|(j, f)| link_parameter(j, f)) {
         return match p.check(model) {
@@ -450,10 +449,29 @@ fn route(
         "the initial state's derivatives are the state Jacobian's (`sensitivity=True`)"
     } else {
         "no exact derivative yet: the engine differentiates the behaviour's numbers, the \
-         body's and links' masses, inertias and centres of mass, the joints' armatures, the \
-         contacts' friction coefficients and a positive `options.delta_t_s`"
+         body's and links' masses, inertias, centres of mass and lengths, the joints' \
+         armatures, the point contacts' positions and friction coefficients and a positive \
+         `options.delta_t_s`"
     };
     PathParameter::NotDifferentiated(format!("`{full}`: {what}"))
+}
+
+/// The contact a path names after `robot.contacts` (`[i]` or `.<name>`): its index among the
+/// description's contacts and among `model`'s, if it names one.
+fn contact_index(model: &Model, tree: &serde_json::Value, contact: &str) -> Option<(usize, usize)> {
+    let contacts = tree.get("robot")?.get("contacts")?.as_array()?;
+    let i = match contact.strip_prefix('[') {
+        Some(i) => i.strip_suffix(']')?.parse().ok()?,
+        None => {
+            let name = contact.strip_prefix('.')?;
+            contacts
+                .iter()
+                .position(|c| c.get("name").and_then(|n| n.as_str()) == Some(name))?
+        }
+    };
+    let name = contacts.get(i)?.get("name").and_then(|n| n.as_str())?;
+    let k = model.contacts.iter().position(|c| c.name == name)?;
+    Some((i, k))
 }
 
 /// The friction coefficient the full path `full` names (`robot.contacts.<contact>.friction.
@@ -467,19 +485,8 @@ fn friction_parameter(
 ) -> Option<PathParameter> {
     let rest = full.strip_prefix("robot.contacts")?;
     let (contact, field) = rest.rsplit_once(".friction.")?;
-    let contacts = tree.get("robot")?.get("contacts")?.as_array()?;
-    let i = match contact.strip_prefix('[') {
-        Some(i) => i.strip_suffix(']')?.parse().ok()?,
-        None => {
-            let name = contact.strip_prefix('.')?;
-            contacts
-                .iter()
-                .position(|c| c.get("name").and_then(|n| n.as_str()) == Some(name))?
-        }
-    };
-    let friction = contacts.get(i)?.get("friction")?;
-    let name = contacts[i].get("name").and_then(|n| n.as_str())?;
-    let k = model.contacts.iter().position(|c| c.name == name)?;
+    let (i, k) = contact_index(model, tree, contact)?;
+    let friction = tree["robot"]["contacts"][i].get("friction")?;
     let kinetic_given = friction.get("mu_kinetic").is_some_and(|v| !v.is_null());
     let coefficient = match field {
         "mu" if kinetic_given => FrictionCoefficient::Static,
@@ -565,10 +572,93 @@ fn link_field<'a>(
     Some((j, field))
 }
 
+/// The length of joint `j`'s link (the field `full` of `tree`): its centre of mass follows
+/// when the description leaves it to default to the link's middle; refused when a collision
+/// shape of the link is centred by default (its centre moves too, another parameter).
+fn link_length(model: &Model, tree: &serde_json::Value, full: &str, j: usize) -> PathParameter {
+    let link = full
+        .rsplit_once('.')
+        .and_then(|(l, _)| field_value_at(tree, l));
+    let given = |f: &str| {
+        link.as_ref()
+            .and_then(|l| l.get(f))
+            .is_some_and(|v| !v.is_null())
+    };
+    let default_centred = link
+        .as_ref()
+        .and_then(|l| l.get("collision"))
+        .and_then(|c| c.as_array())
+        .is_some_and(|c| {
+            c.iter()
+                .any(|c| c.get("center_m").is_none_or(|v| v.is_null()))
+        });
+    if default_centred {
+        return PathParameter::NotDifferentiated(format!(
+            "`{full}`: a collision shape of the link is centred at its middle by default and \
+             moves with its length: not differentiated (give its `center_m`)"
+        ));
+    }
+    let p = BodyParameter::LinkLength {
+        joint: j,
+        com_follows: !given("com_m"),
+    };
+    match p.check(model) {
+        Ok(()) => PathParameter::Engine(Parameter::Body(p)),
+        Err(e) => PathParameter::NotDifferentiated(e.to_string()),
+    }
+}
+
+/// The value of the object at the path `path` of `tree` (`robot.legs[0].links[1]`, legs by
+/// name or index).
+fn field_value_at(tree: &serde_json::Value, path: &str) -> Option<serde_json::Value> {
+    let mut node = tree;
+    for part in path.split('.') {
+        let (name, index) = match part.split_once('[') {
+            Some((n, i)) => (n, Some(i.strip_suffix(']')?)),
+            None => (part, None),
+        };
+        node = match node.get(name) {
+            Some(n) => n,
+            // a leg or contact named `name` of the array `node`
+            None => node
+                .as_array()?
+                .iter()
+                .find(|e| e.get("name").and_then(|n| n.as_str()) == Some(name))?,
+        };
+        if let Some(i) = index {
+            node = node.as_array()?.get(i.parse::<usize>().ok()?)?;
+        }
+    }
+    Some(node.clone())
+}
+
+/// The position of a point contact the full path `full` names (`robot.contacts.<contact>.
+/// shape.position_m[axis]`, the contact by name or index), if it names one; an arc's centre
+/// and radius are refused with the reason.
+fn contact_position(model: &Model, tree: &serde_json::Value, full: &str) -> Option<PathParameter> {
+    let rest = full.strip_prefix("robot.contacts")?;
+    let (contact, field) = rest.split_once(".shape.")?;
+    let (_, k) = contact_index(model, tree, contact)?;
+    let axis = match field {
+        "position_m[0]" => 0,
+        "position_m[1]" => 1,
+        _ => {
+            return Some(PathParameter::NotDifferentiated(format!(
+                "`{full}`: an arc's centre and radius are not differentiated yet (a point \
+                 contact's `position_m` is)"
+            )))
+        }
+    };
+    let p = BodyParameter::ContactPosition(k, axis);
+    Some(match p.check(model) {
+        Ok(()) => PathParameter::Engine(Parameter::Body(p)),
+        Err(e) => PathParameter::NotDifferentiated(e.to_string()),
+    })
+}
+
 /// The inertia parameter of a link's field (`mass_kg`, `inertia_kg_m2`, `armature_kg_m2`,
 /// `com_m[0]`, `com_m[1]`), if it is one.
 fn link_parameter(j: usize, field: &str) -> Option<selfmanip_core::tangent::BodyParameter> {
-    use selfmanip_core::tangent::BodyParameter;
     Some(match field {
         "mass_kg" => BodyParameter::LinkMass(j),
         "inertia_kg_m2" => BodyParameter::LinkInertia(j),

@@ -168,7 +168,7 @@ fn parameters_by_path_match_central_differences() {
     ];
     let flagged = [
         "legs[0].links[1].mass_kg",
-        "legs.leg.links[0].length_m",
+        "legs.leg.hip_m[0]",
         "joints[1].phases[2].torque.kind",
         "behaviour.name",
     ];

@@ -11,7 +11,8 @@ use super::types::{ColumnSensitivity, Parameter, SaltationStatus, SensitivityErr
 use crate::event::{Event, EventKind};
 use crate::execution::{Execution, Segment};
 use nalgebra::{DMatrix, RowDVector};
-use selfmanip_core::contact::ContactKind;
+use selfmanip_core::contact::{contact_geometry, ContactKind};
+use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::model::Friction;
 use selfmanip_core::tangent::BodyParameter;
 use selfmanip_core::{Model, Terrain};
@@ -151,7 +152,8 @@ fn event_columns(
 ) -> Result<RowDVector<f64>, SensitivityError> {
     let (model, n2, m) = (ev.model, x.nrows(), x.ncols());
     let nd = m - params.len();
-    // D_pg: a force guard's from ∂λ/∂p at the state before; geometric guards have none
+    // D_pg: a force guard's from ∂λ/∂p at the state before; a touchdown's and a stick's from
+    // the geometric parameters that move their contact
     let mut dpg = RowDVector::zeros(m);
     if matches!(event.kind, EventKind::Liftoff | EventKind::Slip)
         && (!params.is_empty() || ev.memory_mode)
@@ -181,6 +183,7 @@ fn event_columns(
             }
         }
     }
+    geometric_guard_partials(ev, event, &parts.y_minus, params, &mut dpg);
     let dgx = dg * &*x;
     let time = -(&dgx + &dpg) / parts.den;
     let jump = &parts.f_plus - &parts.dr * &parts.f_minus;
@@ -266,4 +269,39 @@ fn check_friction(model: &Model, exec: &Execution, p: &Parameter) -> Result<(), 
         );
     }
     Ok(())
+}
+
+/// `dpg += D_pg` of a touchdown's height guard and a stick's sliding-velocity guard in the
+/// geometric parameters among `params` that move the event's contact
+/// (`selfmanip_core::geometry_partials`), at the state `y` just before the event.
+fn geometric_guard_partials(
+    ev: &Evaluator,
+    event: &Event,
+    y: &[f64],
+    params: &[Parameter],
+    dpg: &mut RowDVector<f64>,
+) {
+    let nd = dpg.len() - params.len();
+    let geometric = |p: &Parameter| matches!(p, Parameter::Body(b) if b.is_geometric());
+    if !matches!(event.kind, EventKind::Touchdown | EventKind::Stick)
+        || !params.iter().any(geometric)
+    {
+        return;
+    }
+    let model = ev.model;
+    let (q, qd) = y.split_at(model.nq());
+    let mut kin = Kinematics::default();
+    kin.compute(model, q, qd);
+    let k = event.triggered[0];
+    let geo = contact_geometry(model, &kin, ev.terrain, k);
+    for (i, p) in params.iter().enumerate() {
+        let Parameter::Body(b) = p else { continue };
+        if !b.is_geometric() {
+            continue;
+        }
+        dpg[nd + i] += match event.kind {
+            EventKind::Touchdown => b.height_partial(model, &kin, k, geo.plane.normal()),
+            _ => b.sliding_velocity_partial(model, &kin, k, geo.plane.tangent()),
+        };
+    }
 }

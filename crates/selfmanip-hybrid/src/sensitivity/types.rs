@@ -193,8 +193,10 @@ pub struct TimeEventSensitivity {
 /// A named parameter of an execution's sensitivities ([`execution_sensitivity_columns`]).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Parameter {
-    /// An inertia parameter: the body's mass or inertia, a joint's armature, a link's mass,
-    /// inertia or centre of mass (`M̄`, `C̄q̇`, `N̄` and the impacts depend on it).
+    /// A parameter of the bodies: the body's mass or inertia, a joint's armature, a link's
+    /// mass, inertia or centre of mass (`M̄`, `C̄q̇`, `N̄` and the impacts depend on it), or
+    /// a link's length or a point contact's position (also `A`, `Ȧq̇` and the touchdown and
+    /// stick guards).
     Body(BodyParameter),
     /// A parameter the segments' controllers know by this name
     /// ([`Controller::parameter_partials`](crate::Controller::parameter_partials), [`Controller::time_events`](crate::Controller::time_events)).

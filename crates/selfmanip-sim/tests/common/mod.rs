@@ -8,6 +8,7 @@ use selfmanip_hybrid::periodic::{
 };
 use selfmanip_hybrid::{simulate, EventKind, Execution, HybridOptions};
 use selfmanip_sim::behaviour::Behaviour;
+use selfmanip_sim::sensitivity::scenario_parameter_sensitivity;
 use selfmanip_sim::{Scenario, Simulation};
 use std::path::Path;
 
@@ -193,4 +194,34 @@ pub fn central_in_path(
         fd::central_difference(&a, &b, h)
     };
     fd::richardson(d, h)
+}
+
+/// The end state `(q, q̇)` of `s`'s run followed by the event times, and the event kinds.
+pub fn run_end(s: &Scenario) -> (Vec<f64>, Vec<EventKind>) {
+    let run = Simulation::new(s).unwrap().run().unwrap();
+    fd::end_state_and_events(&run.execution)
+}
+
+/// `s`'s run differentiated in the paths of `cases` (`(path, value)`), every column against
+/// Richardson central differences (steps `1e-4 |p|`, `h/2`): the worst relative difference.
+/// The run meets the events `expected`.
+pub fn worst_run_path_error(s: &Scenario, cases: &[(&str, f64)], expected: &[EventKind]) -> f64 {
+    let sim = Simulation::new(s).unwrap();
+    let run = sim.run().unwrap();
+    let kinds: Vec<_> = run.execution.events.iter().map(|e| e.kind).collect();
+    eprintln!(
+        "{:?}",
+        run.execution
+            .events
+            .iter()
+            .map(|e| (e.kind, e.t))
+            .collect::<Vec<_>>()
+    );
+    assert_eq!(kinds, expected);
+    let names: Vec<&str> = cases.iter().map(|c| c.0).collect();
+    let p = scenario_parameter_sensitivity(s, &sim.options, &run, &names).unwrap();
+    assert_eq!(p.reason, None);
+    worst_path_error(&p, cases, |path, value| {
+        central_in_path(s, (path, value, 1e-4 * value.abs()), &kinds, run_end)
+    })
 }
