@@ -89,6 +89,10 @@ pub struct SimOptions {
     pub labels: Option<Vec<String>>,
     /// How the word is formed.
     pub word: WordOptions,
+    /// Switch to a linearly implicit method on stiff stretches (a servo's damping on a light
+    /// link): [`selfmanip_hybrid::StepOptions::stiff_switch`]. Off for runs whose derivatives
+    /// are wanted (`simulate(..., sensitivity=True)` turns it off).
+    pub stiff_switch: bool,
 }
 
 /// The default relative step tolerance of a run: the energy balance
@@ -115,6 +119,7 @@ impl Default for SimOptions {
             max_events: h.max_events,
             labels: None,
             word: WordOptions::default(),
+            stiff_switch: h.step.stiff_switch,
         }
     }
 }
@@ -145,6 +150,7 @@ impl SimOptions {
                 rtol: self.rtol,
                 atol,
                 h_max_s: self.h_max_s,
+                stiff_switch: self.stiff_switch,
                 ..d.step
             },
             event_tol_s: self.event_tol_s,
