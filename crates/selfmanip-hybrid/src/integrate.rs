@@ -80,15 +80,11 @@ pub struct StepOptions {
     pub h_min_s: f64,
     /// Switch to the linearly implicit RODAS4 ([`crate::rosenbrock`]) where DOPRI5's
     /// stiffness test finds the step held by its stability region, and back where an
-    /// explicit step of the implicit one's size would be stable (see [`Dopri5`]). Off: DOPRI5
-    /// throughout (what the sensitivity pass integrates on, see
-    /// [`crate::sensitivity::execution_sensitivity`]).
-    #[serde(default = "stiff_switch_default")]
+    /// explicit step of the implicit one's size would be stable (see [`Dopri5`]). Off (the
+    /// default): DOPRI5 throughout, what the sensitivity pass integrates its tangent on
+    /// ([`crate::sensitivity::execution_sensitivity`] refuses a record with implicit steps).
+    #[serde(default)]
     pub stiff_switch: bool,
-}
-
-fn stiff_switch_default() -> bool {
-    true
 }
 
 impl Default for StepOptions {
@@ -99,7 +95,7 @@ impl Default for StepOptions {
             h_initial_s: 1e-4,
             h_max_s: 1e-2,
             h_min_s: 1e-14,
-            stiff_switch: true,
+            stiff_switch: false,
         }
     }
 }

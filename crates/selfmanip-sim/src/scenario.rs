@@ -90,8 +90,9 @@ pub struct SimOptions {
     /// How the word is formed.
     pub word: WordOptions,
     /// Switch to a linearly implicit method on stiff stretches (a servo's damping on a light
-    /// link): [`selfmanip_hybrid::StepOptions::stiff_switch`]. Off for runs whose derivatives
-    /// are wanted (`simulate(..., sensitivity=True)` turns it off).
+    /// link): [`selfmanip_hybrid::StepOptions::stiff_switch`]. Off by default: the
+    /// derivatives of a run ([`crate::sensitivity`]) need it off
+    /// (`simulate(..., sensitivity=True)` keeps it off).
     pub stiff_switch: bool,
 }
 

@@ -8,7 +8,7 @@
 //! run's energy residual (`selfmanip_hybrid::energy_report`).
 //!
 //! ```sh
-//! cargo run --release -p selfmanip-tools --bin user_run_cost -- run471.json …
+//! cargo run --release -p selfmanip-tools --bin user_run_cost -- [--stiff-switch] run471.json …
 //! ```
 use selfmanip_hybrid::integrate::{reset_work_counters, work_counters};
 use selfmanip_sim::{Scenario, Simulation};
@@ -16,8 +16,11 @@ use std::path::Path;
 use std::time::Instant;
 
 fn main() {
-    for path in std::env::args().skip(1) {
-        let s = Scenario::from_file(Path::new(&path)).unwrap_or_else(|e| panic!("{path}: {e}"));
+    // `--stiff-switch`: the runs with the stiff switch on (`SimOptions::stiff_switch`)
+    let stiff = std::env::args().any(|a| a == "--stiff-switch");
+    for path in std::env::args().skip(1).filter(|a| a != "--stiff-switch") {
+        let mut s = Scenario::from_file(Path::new(&path)).unwrap_or_else(|e| panic!("{path}: {e}"));
+        s.options.stiff_switch |= stiff;
         let sim = Simulation::new(&s).unwrap_or_else(|e| panic!("{path}: {e}"));
         reset_work_counters();
         let t0 = Instant::now();
