@@ -385,7 +385,8 @@ def simulate(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[float], qd
     "legs.leg.links[1].length_m": 0.25}``); ``controller``: a Python callable instead of the
     behaviour (see the module documentation); ``**options``: any field of the Rust
     ``SimOptions`` (``rtol``, ``atol``, ``h_max_s``, ``event_tol_s``, ``delta_t_s``,
-    ``zeno_window_s``, ``zeno_max_events``, ``max_events``, ``labels``, ``word``).
+    ``zeno_window_s``, ``zeno_max_events``, ``max_events``, ``labels``, ``word``,
+    ``stiff_switch``).
 
     Bad input raises :class:`selfmanip.errors.InvalidInputError` (a ``ValueError``) or
     :class:`~selfmanip.errors.InvalidTypeError` (a ``TypeError``) whose ``field`` names it
@@ -421,6 +422,9 @@ def simulate(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[float], qd
         raise InvalidTypeError(f"`sensitivity` must be True or False, got {type(sensitivity).__name__}",
                                "sensitivity")
     names = _parameter_names(parameters, sensitivity)
+    if sensitivity:
+        # derivatives are integrated with the explicit method on the run's own steps
+        options.setdefault("stiff_switch", False)
     s = scenario(robot, behaviour, q0, qd0, terrain, t_final, stop_at, contacts=contacts, solve=solve,
                  params=params, **options)
     return Execution(s.run(controller), _robot(robot)[1], sensitivity, names)

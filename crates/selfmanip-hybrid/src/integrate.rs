@@ -15,6 +15,8 @@
 //! [`DenseOutput`] keeps a run of accepted steps in one flat buffer that grows by doubling:
 //! recording a step allocates nothing once the buffer has grown to the run's size.
 
+use crate::rosenbrock::Rodas4;
+
 /// Butcher tableau of DOPRI5.
 pub(crate) const C: [f64; 7] = [0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0];
 pub(crate) const A: [[f64; 6]; 7] = [
@@ -76,6 +78,13 @@ pub struct StepOptions {
     pub h_initial_s: f64,
     pub h_max_s: f64,
     pub h_min_s: f64,
+    /// Switch to the linearly implicit RODAS4 ([`crate::rosenbrock`]) where DOPRI5's
+    /// stiffness test finds the step held by its stability region, and back where an
+    /// explicit step of the implicit one's size would be stable (see [`Dopri5`]). Off (the
+    /// default): DOPRI5 throughout, what the sensitivity pass integrates its tangent on
+    /// ([`crate::sensitivity::execution_sensitivity`] refuses a record with implicit steps).
+    #[serde(default)]
+    pub stiff_switch: bool,
 }
 
 impl Default for StepOptions {
@@ -86,6 +95,7 @@ impl Default for StepOptions {
             h_initial_s: 1e-4,
             h_max_s: 1e-2,
             h_min_s: 1e-14,
+            stiff_switch: false,
         }
     }
 }
@@ -95,6 +105,10 @@ impl Default for StepOptions {
 pub struct DenseStep {
     pub t0: f64,
     pub h: f64,
+    /// Whether the step is RODAS4's (linearly implicit, [`crate::rosenbrock`]) rather than
+    /// DOPRI5's: its interpolant is cubic (`r₄ = 0`), and an explicit tangent step of its
+    /// size need not be stable.
+    pub implicit: bool,
     /// The five coefficient vectors `r₀ … r₄` of the interpolant, one after the other (one
     /// allocation per stored step).
     r: Vec<f64>,
@@ -115,6 +129,7 @@ impl DenseStep {
         StepView {
             t0: self.t0,
             h: self.h,
+            implicit: self.implicit,
             r: &self.r,
         }
     }
@@ -126,6 +141,8 @@ impl DenseStep {
 pub struct StepView<'a> {
     pub t0: f64,
     pub h: f64,
+    /// Whether the step is RODAS4's ([`DenseStep::implicit`]).
+    pub implicit: bool,
     r: &'a [f64],
 }
 
@@ -157,6 +174,8 @@ pub struct DenseOutput {
     /// Start time and size of each step.
     t0: Vec<f64>,
     h: Vec<f64>,
+    /// Whether each step is RODAS4's ([`DenseStep::implicit`]).
+    implicit: Vec<bool>,
     /// Each step's five coefficient vectors, step after step.
     r: Vec<f64>,
 }
@@ -168,6 +187,7 @@ impl DenseOutput {
         DenseOutput {
             t0: Vec::with_capacity(steps),
             h: Vec::with_capacity(steps),
+            implicit: Vec::with_capacity(steps),
             r: Vec::with_capacity(5 * n * steps),
         }
     }
@@ -178,6 +198,7 @@ impl DenseOutput {
         debug_assert!(self.t0.is_empty() || step.r.len() * self.t0.len() == self.r.len());
         self.t0.push(step.t0);
         self.h.push(step.h);
+        self.implicit.push(step.implicit);
         self.r.extend_from_slice(&step.r);
     }
 
@@ -195,8 +216,14 @@ impl DenseOutput {
         StepView {
             t0: self.t0[i],
             h: self.h[i],
+            implicit: self.implicit[i],
             r: &self.r[i * w..(i + 1) * w],
         }
+    }
+
+    /// Whether any step is RODAS4's ([`DenseStep::implicit`]).
+    pub fn has_implicit_steps(&self) -> bool {
+        self.implicit.iter().any(|&b| b)
     }
 
     /// The steps in time order.
@@ -224,9 +251,53 @@ impl DenseOutput {
 /// The right-hand side `ẏ = f(t, y)`, written into its third argument; it may fail.
 pub type Rhs<'f, E> = dyn FnMut(f64, &[f64], &mut [f64]) -> Result<(), E> + 'f;
 
-/// An integrator for `ẏ = f(t, y)`. The right-hand side is passed to every [`Self::step`]
-/// (not stored), so that its owner can use the same workspace between steps, e.g. to
-/// evaluate guards where the last stage left its results.
+/// Consecutive positive stiffness tests that switch to RODAS4 (Hairer's DOPRI5: 15).
+const STIFF_POSITIVES: u32 = 15;
+/// Negative tests after which the positives are forgotten (DOPRI5: 6).
+const STIFF_NEGATIVES: u32 = 6;
+/// The stiffness test runs on every this many accepted explicit steps until it is first
+/// positive, then on every step: nearly free where nothing is stiff.
+const STIFF_TEST_EVERY: u32 = 8;
+/// `h |λ|` beyond which DOPRI5's step is held by its stability region: the region reaches
+/// about −3.3 on the negative real axis (the code DOPRI5 tests against 3.25). Lower
+/// thresholds (2.0, 2.6) catch more of a stiff servo's stretches (the test's estimate sits
+/// at 2.7–3.0 there) but also fire on RHex leaps, whose steps the test then finds near the
+/// boundary for 15 steps in a row (at 3.25 too, on 42 of the engine corpus's 4,032 runs,
+/// after their landings: the leaps run with the switch off).
+const STIFF_HLAMBDA: f64 = 3.25;
+/// RODAS4 hands back to DOPRI5 where its next step times the Jacobian's spectral radius is
+/// below this: an explicit step of that size is stable with a margin.
+const EXPLICIT_HLAMBDA: f64 = 2.5;
+/// The spectral radius is estimated on every this many RODAS4 steps since the switch or the
+/// last restart.
+const EXPLICIT_CHECK_EVERY: u32 = 5;
+
+/// The state of DOPRI5's stiffness test (Hairer, Nørsett & Wanner, *Solving ODEs I*, IV.2 and
+/// the code DOPRI5): on an accepted step, `h λ ≈ h ‖k₇ − k₆‖ / ‖y₇ − y₆‖` (the last two stages
+/// are at `t + h` from two nearby states, so their difference quotient estimates the dominant
+/// eigenvalue along the flow) beyond [`STIFF_HLAMBDA`] on [`STIFF_POSITIVES`] tests in a row
+/// switches to RODAS4.
+#[derive(Debug, Clone, Copy, Default)]
+struct StiffnessTest {
+    positives: u32,
+    negatives: u32,
+    since_test: u32,
+}
+
+/// An integrator for `ẏ = f(t, y)`: DOPRI5, switching to the L-stable RODAS4
+/// ([`crate::rosenbrock`]) on stiff stretches and back (LSODA-style automatic stiffness
+/// switching; [`StepOptions::stiff_switch`]). The right-hand side is passed to every
+/// [`Self::step`] (not stored), so that its owner can use the same workspace between steps,
+/// e.g. to evaluate guards where the last stage left its results.
+///
+/// The switch: DOPRI5's stiffness test ([`StiffnessTest`]) finds its steps held by the
+/// stability region; RODAS4 then takes the steps its accuracy allows (a Jacobian by
+/// differences each step, `n + 1` evaluations), and every few steps compares its step with
+/// the largest stable explicit one (`EXPLICIT_HLAMBDA / ρ(J)`): smaller, DOPRI5 takes over
+/// again. The choice is kept over restarts (a new segment usually has the same stiff link).
+/// Both methods keep the contract of [`Self::step`]: the last evaluation of an accepted step
+/// is at its end point, and the dense output has one format ([`DenseStep::implicit`] tells
+/// them apart).
 pub struct Dopri5 {
     pub opts: StepOptions,
     k: [Vec<f64>; 7],
@@ -247,6 +318,13 @@ pub struct Dopri5 {
     /// Size of the last trial step (0 before the first trial of a step: a failure of the
     /// right-hand side at the step's start, which no smaller step avoids).
     trial_h: f64,
+    stiffness: StiffnessTest,
+    /// RODAS4's buffers (allocated on the run's first stiff stretch) and whether it takes
+    /// the steps now.
+    rodas: Option<Box<Rodas4>>,
+    implicit: bool,
+    /// RODAS4 steps since the switch or the last restart.
+    implicit_steps: u32,
 }
 
 impl Dopri5 {
@@ -264,7 +342,16 @@ impl Dopri5 {
             h_stable: f64::INFINITY,
             last_accepted: None,
             trial_h: 0.0,
+            stiffness: StiffnessTest::default(),
+            rodas: None,
+            implicit: false,
+            implicit_steps: 0,
         }
+    }
+
+    /// Whether the next step is RODAS4's ([`Self`]).
+    pub fn is_implicit(&self) -> bool {
+        self.implicit
     }
 
     /// The size the next step will try (s).
@@ -308,6 +395,7 @@ impl Dopri5 {
         self.fsal_valid = false;
         self.h = h_s;
         self.last_accepted = None;
+        self.implicit_steps = 0;
         bump(RESTARTS);
     }
 
@@ -332,6 +420,15 @@ impl Dopri5 {
             f(t, y, &mut self.k[0]).map_err(StepError::Rhs)?;
             self.fsal_valid = true;
         }
+        if self.implicit {
+            if let Some(r) = self.step_implicit(f, t, y, t_end, dense) {
+                return r;
+            }
+            // back to DOPRI5 (stable at RODAS4's step size, or no Jacobian here)
+            self.implicit = false;
+            self.last_accepted = None;
+            self.stiffness = StiffnessTest::default();
+        }
         let mut rejected = false;
         loop {
             let h = self
@@ -353,8 +450,12 @@ impl Dopri5 {
             if err <= 1.0 || h <= self.opts.h_min_s {
                 dense.t0 = t;
                 dense.h = h;
+                dense.implicit = false;
                 dense.r.resize(5 * n, 0.0);
                 self.dense_coefficients(y, h, &mut dense.r);
+                if self.opts.stiff_switch {
+                    self.stiffness_test(h);
+                }
                 y.copy_from_slice(&self.ynew);
                 let (first, rest) = self.k.split_at_mut(1);
                 first[0].copy_from_slice(&rest[5]);
@@ -385,6 +486,138 @@ impl Dopri5 {
             rejected = true;
             bump(REJECTED);
             self.h = h * (0.9 * err.powf(-0.2)).clamp(0.2, 1.0);
+        }
+    }
+
+    /// DOPRI5's stiffness test on the accepted step of size `h` (before `k₇` becomes the next
+    /// step's `k₁`): `h ‖k₇ − k₆‖ / ‖y₇ − y₆‖` over the components the error norm counts,
+    /// `y₇ − y₆ = h Σ_j (a₇ⱼ − a₆ⱼ) k_j`. Switches to RODAS4 on the last of
+    /// [`STIFF_POSITIVES`] positive tests in a row.
+    fn stiffness_test(&mut self, h: f64) {
+        let st = &mut self.stiffness;
+        st.since_test += 1;
+        if st.positives == 0 && st.since_test < STIFF_TEST_EVERY {
+            return;
+        }
+        st.since_test = 0;
+        let (mut num, mut den) = (0.0, 0.0);
+        for (i, &w) in self.weights.iter().enumerate() {
+            if w == 0.0 {
+                continue;
+            }
+            let dk = self.k[6][i] - self.k[5][i];
+            let dy: f64 = h
+                * (0..6)
+                    .map(|j| (A[6][j] - A[5][j]) * self.k[j][i])
+                    .sum::<f64>();
+            num += dk * dk;
+            den += dy * dy;
+        }
+        if den > 0.0 && h * (num / den).sqrt() > STIFF_HLAMBDA {
+            st.negatives = 0;
+            st.positives += 1;
+            if st.positives >= STIFF_POSITIVES {
+                *st = StiffnessTest::default();
+                self.implicit = true;
+                self.implicit_steps = 0;
+                self.last_accepted = None;
+                bump(SWITCHES);
+            }
+        } else {
+            st.negatives += 1;
+            if st.negatives >= STIFF_NEGATIVES {
+                st.positives = 0;
+            }
+        }
+    }
+
+    /// One accepted RODAS4 step ([`Self::step`]'s contract), or `None` where DOPRI5 takes
+    /// this step instead: an explicit step of RODAS4's size would be stable, or the Jacobian
+    /// cannot be formed here. `k[0]` holds `f(t, y)` on entry and `f(t + h, y₁)` on return.
+    fn step_implicit<E>(
+        &mut self,
+        f: &mut Rhs<'_, E>,
+        t: f64,
+        y: &mut [f64],
+        t_end: f64,
+        dense: &mut DenseStep,
+    ) -> Option<Result<(), StepError<E>>> {
+        let n = y.len();
+        let ros = self.rodas.get_or_insert_with(|| Box::new(Rodas4::new(n)));
+        ros.jacobian(f, t, y, &self.k[0]).ok()?;
+        // (not on a restart's first step: its size is the last segment's, not RODAS4's)
+        if self.implicit_steps > 0
+            && self.implicit_steps.is_multiple_of(EXPLICIT_CHECK_EVERY)
+            && ros.spectral_radius() * self.h.min(self.opts.h_max_s) < EXPLICIT_HLAMBDA
+        {
+            return None;
+        }
+        let mut rejected = false;
+        loop {
+            let h = self.h.min(self.opts.h_max_s).min(t_end - t);
+            if h < self.opts.h_min_s && t_end - t > self.opts.h_min_s {
+                return Some(Err(StepError::StepTooSmall(h)));
+            }
+            self.trial_h = h;
+            dense.r.resize(5 * n, 0.0);
+            match ros.trial(f, t, y, &self.k[0], h, &mut self.ynew, &mut dense.r) {
+                Err(Some(e)) => return Some(Err(StepError::Rhs(e))),
+                Err(None) => {
+                    // W = I/(hγ) − J singular at this h: another h is not
+                    rejected = true;
+                    bump(REJECTED);
+                    self.h = h * 0.5;
+                    continue;
+                }
+                Ok(()) => {}
+            }
+            let err = scaled_rms(
+                ros.error(),
+                y,
+                &self.ynew,
+                (&self.weights, self.counted),
+                (self.opts.atol, self.opts.rtol),
+            );
+            if err <= 1.0 || h <= self.opts.h_min_s {
+                // the end point's derivative: the next step's first, and the last
+                // evaluation of this one at its end point
+                let (first, rest) = self.k.split_at_mut(1);
+                if let Err(e) = f(t + h, &self.ynew, &mut rest[0]) {
+                    return Some(Err(StepError::Rhs(e)));
+                }
+                first[0].copy_from_slice(&rest[0]);
+                dense.t0 = t;
+                dense.h = h;
+                dense.implicit = true;
+                y.copy_from_slice(&self.ynew);
+                // h_new = 0.9 h err^(−1/4) (the embedded solution is of order 3), no larger
+                // than Gustafsson's predictive controller (as RODAS)
+                let mut fac = if err == 0.0 {
+                    6.0
+                } else {
+                    (0.9 * err.powf(-0.25)).clamp(0.2, 6.0)
+                };
+                if let (Some((h_acc, err_acc)), true) = (self.last_accepted, err > 0.0) {
+                    let predicted = (h / h_acc) * 0.9 * (err_acc / (err * err)).powf(0.25);
+                    fac = fac.min(predicted.clamp(0.2, 6.0));
+                }
+                if rejected {
+                    fac = fac.min(1.0);
+                }
+                self.last_accepted = Some((h, err.max(1e-2)));
+                self.h = h * fac;
+                self.implicit_steps += 1;
+                bump(ACCEPTED);
+                bump(IMPLICIT);
+                return Some(Ok(()));
+            }
+            rejected = true;
+            bump(REJECTED);
+            self.h = if err.is_finite() {
+                h * (0.9 * err.powf(-0.25)).clamp(0.2, 1.0)
+            } else {
+                h * 0.2
+            };
         }
     }
 
@@ -447,6 +680,26 @@ fn stage_point(s: usize, k: &[Vec<f64>; 7], y: &[f64], h: f64, out: &mut [f64]) 
     }
 }
 
+/// The weighted RMS norm of an error estimate `e` of a step from `y` to `y_new`, each
+/// component scaled by `atol + rtol max(|y|, |y_new|)`, over the components of non-zero
+/// weight (`Σ weights = counted`).
+fn scaled_rms(
+    e: &[f64],
+    y: &[f64],
+    ynew: &[f64],
+    (weights, counted): (&[f64], f64),
+    (atol, rtol): (f64, f64),
+) -> f64 {
+    let mut err = 0.0;
+    for i in 0..e.len() {
+        if weights[i] != 0.0 {
+            let sc = atol + rtol * y[i].abs().max(ynew[i].abs());
+            err += weights[i] * (e[i] / sc).powi(2);
+        }
+    }
+    (err / counted).sqrt()
+}
+
 /// [`stage_point`] for `S` stages known at compile time: one loop over the components on
 /// slices of the state's length, which the compiler vectorizes (a component's operations,
 /// and so its result, are those of the plain sum).
@@ -483,6 +736,10 @@ pub struct WorkCounters {
     /// Solves of the dynamics by the flow, for the right-hand side or anyone else (the
     /// guards, the set-up of a segment); an evaluation the flow's cache held is not one.
     pub solves: [u64; 2],
+    /// Accepted steps of RODAS4 (among `accepted`; [`Dopri5`]).
+    pub implicit: [u64; 2],
+    /// Switches from DOPRI5 to RODAS4 by the stiffness test.
+    pub switches: [u64; 2],
 }
 
 impl WorkCounters {
@@ -495,6 +752,8 @@ impl WorkCounters {
             restarts: d(self.restarts, earlier.restarts),
             rhs_calls: d(self.rhs_calls, earlier.rhs_calls),
             solves: d(self.solves, earlier.solves),
+            implicit: d(self.implicit, earlier.implicit),
+            switches: d(self.switches, earlier.switches),
         }
     }
 }
@@ -505,19 +764,21 @@ const REJECTED: usize = 2;
 const RESTARTS: usize = 4;
 const RHS_CALLS: usize = 6;
 const SOLVES: usize = 8;
+const IMPLICIT: usize = 10;
+const SWITCHES: usize = 12;
 
 /// The counters of one thread: one cell per counter and phase, and the phase of the last
 /// flow evaluation (0 stance, 1 flight). One thread-local access and one cell's increment per
 /// count: the counters must cost nothing measurable in a leap.
 struct WorkCells {
-    counts: [std::cell::Cell<u64>; 10],
+    counts: [std::cell::Cell<u64>; 14],
     phase: std::cell::Cell<usize>,
 }
 
 thread_local! {
     static WORK: WorkCells = const {
         WorkCells {
-            counts: [const { std::cell::Cell::new(0) }; 10],
+            counts: [const { std::cell::Cell::new(0) }; 14],
             phase: std::cell::Cell::new(0),
         }
     };
@@ -533,6 +794,8 @@ pub fn work_counters() -> WorkCounters {
             restarts: pair(RESTARTS),
             rhs_calls: pair(RHS_CALLS),
             solves: pair(SOLVES),
+            implicit: pair(IMPLICIT),
+            switches: pair(SWITCHES),
         }
     })
 }

@@ -71,6 +71,7 @@ pub mod options;
 pub mod periodic;
 pub mod reset;
 pub mod reset_workspace;
+pub mod rosenbrock;
 pub mod segment;
 pub mod sensitivity;
 pub mod simulate;

@@ -89,6 +89,11 @@ pub struct SimOptions {
     pub labels: Option<Vec<String>>,
     /// How the word is formed.
     pub word: WordOptions,
+    /// Switch to a linearly implicit method on stiff stretches (a servo's damping on a light
+    /// link): [`selfmanip_hybrid::StepOptions::stiff_switch`]. Off by default: the
+    /// derivatives of a run ([`crate::sensitivity`]) need it off
+    /// (`simulate(..., sensitivity=True)` keeps it off).
+    pub stiff_switch: bool,
 }
 
 /// The default relative step tolerance of a run: the energy balance
@@ -115,6 +120,7 @@ impl Default for SimOptions {
             max_events: h.max_events,
             labels: None,
             word: WordOptions::default(),
+            stiff_switch: h.step.stiff_switch,
         }
     }
 }
@@ -145,6 +151,7 @@ impl SimOptions {
                 rtol: self.rtol,
                 atol,
                 h_max_s: self.h_max_s,
+                stiff_switch: self.stiff_switch,
                 ..d.step
             },
             event_tol_s: self.event_tol_s,

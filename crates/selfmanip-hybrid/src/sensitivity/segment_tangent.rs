@@ -19,6 +19,9 @@ pub(super) fn segment_flow(
     switches: &mut Vec<TouchSwitch>,
     time_events: &mut Vec<TimeEventSensitivity>,
 ) -> Result<(), SensitivityError> {
+    if seg.dense.has_implicit_steps() {
+        return Err(SensitivityError::ImplicitSteps { t: seg.t0 });
+    }
     let n2 = seg.y0.len();
     let (mut ya, mut yb, mut ym) = (vec![0.0; n2], vec![0.0; n2], vec![0.0; n2]);
     let mut pending: Vec<TimeEvent> = match tangent {

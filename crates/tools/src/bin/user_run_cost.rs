@@ -2,12 +2,13 @@
 //! `selfmanip.simulation.scenario(...).to_dict()`, e.g. slow runs of
 //! `scripts/user_robot_sweep.py`) and prints, per run, its status, events, segments (one per
 //! reset, reported or not), accepted/rejected steps and restarts split by stance and flight
-//! (`selfmanip_hybrid::integrate::work_counters`), the CPU time of the run, and the segments
+//! (`selfmanip_hybrid::integrate::work_counters`, with the linearly implicit steps on stiff
+//! stretches and the switches to them), the CPU time of the run, and the segments
 //! that took the most steps with their mode, duration and smallest and median step, and the
 //! run's energy residual (`selfmanip_hybrid::energy_report`).
 //!
 //! ```sh
-//! cargo run --release -p selfmanip-tools --bin user_run_cost -- run471.json …
+//! cargo run --release -p selfmanip-tools --bin user_run_cost -- [--stiff-switch] run471.json …
 //! ```
 use selfmanip_hybrid::integrate::{reset_work_counters, work_counters};
 use selfmanip_sim::{Scenario, Simulation};
@@ -15,8 +16,11 @@ use std::path::Path;
 use std::time::Instant;
 
 fn main() {
-    for path in std::env::args().skip(1) {
-        let s = Scenario::from_file(Path::new(&path)).unwrap_or_else(|e| panic!("{path}: {e}"));
+    // `--stiff-switch`: the runs with the stiff switch on (`SimOptions::stiff_switch`)
+    let stiff = std::env::args().any(|a| a == "--stiff-switch");
+    for path in std::env::args().skip(1).filter(|a| a != "--stiff-switch") {
+        let mut s = Scenario::from_file(Path::new(&path)).unwrap_or_else(|e| panic!("{path}: {e}"));
+        s.options.stiff_switch |= stiff;
         let sim = Simulation::new(&s).unwrap_or_else(|e| panic!("{path}: {e}"));
         reset_work_counters();
         let t0 = Instant::now();
@@ -26,7 +30,7 @@ fn main() {
         let exec = &run.execution;
         println!(
             "{path}: {:?} {ms:.1} ms; events {} segments {} steps {} accepted {:?} rejected {:?} \
-             restarts {:?} rhs {:?} solves {:?}",
+             restarts {:?} rhs {:?} solves {:?} implicit {:?} switches {:?}",
             run.outcome.status,
             exec.events.len(),
             exec.segments.len(),
@@ -35,18 +39,22 @@ fn main() {
             w.rejected,
             w.restarts,
             w.rhs_calls,
-            w.solves
+            w.solves,
+            w.implicit,
+            w.switches
         );
         let mut segs: Vec<_> = exec.segments.iter().collect();
         segs.sort_by_key(|s| std::cmp::Reverse(s.dense.len()));
         for seg in segs.iter().take(6) {
+            let implicit = seg.dense.steps().filter(|st| st.implicit).count();
             let mut h: Vec<f64> = seg.dense.steps().map(|st| st.h).collect();
             h.sort_by(f64::total_cmp);
             if h.is_empty() {
                 continue;
             }
             println!(
-                "  segment t {:.6}..{:.6} mode {:?} steps {} h min {:.2e} median {:.2e} max {:.2e}",
+                "  segment t {:.6}..{:.6} mode {:?} steps {} (implicit {implicit}) h min {:.2e} \
+                 median {:.2e} max {:.2e}",
                 seg.t0,
                 seg.t1,
                 seg.mode,
