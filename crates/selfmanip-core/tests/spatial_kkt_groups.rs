@@ -16,7 +16,8 @@ fn dense_kkt(data: &SpatialData, tau: &DVector<f64>) -> (DVector<f64>, DVector<f
     let mut kkt = DMatrix::zeros(nv + c, nv + c);
     kkt.view_mut((0, 0), (nv, nv)).copy_from(&data.M);
     kkt.view_mut((nv, 0), (c, nv)).copy_from(&data.A);
-    kkt.view_mut((0, nv), (nv, c)).copy_from(&data.A.transpose());
+    kkt.view_mut((0, nv), (nv, c))
+        .copy_from(&data.A.transpose());
     let mut rhs = DVector::zeros(nv + c);
     rhs.rows_mut(0, nv).copy_from(&(tau - &data.h));
     rhs.rows_mut(nv, c).copy_from(&(-&data.A_drift));

@@ -296,10 +296,10 @@ impl TreeKkt {
         }
         for i in (1..self.nb).rev() {
             let xi = x_root[i];
-            for j in 0..i {
+            for (j, xj) in x_root[..i].iter_mut().enumerate() {
                 let l = self.root[(i, j)];
                 for p in 0..W {
-                    x_root[j][p] -= l * xi[p];
+                    xj[p] -= l * xi[p];
                 }
             }
         }
