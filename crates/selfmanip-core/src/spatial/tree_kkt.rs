@@ -16,9 +16,14 @@
 //! (with `D_k` first) is packed along `k`'s limb chain with its six root entries beside it,
 //! and each row of `A` — a contact point's row, whose entries lie on its frame's chain — gives
 //! a column of `Z` packed the same way along the chain of its deepest rate (`L⁻ᵀ` moves
-//! entries to ancestors only). The factorization's inner loops are then contiguous `axpy`s
-//! and dot products on short limb chains and unrolled `6`-vector operations on the root, and
-//! an entry of `K` is a dot product over the two rows' common limb ancestors plus the root's.
+//! entries to ancestors only). Consecutive rows whose deepest rates lie on one chain (a
+//! contact point's two or three rows) form a **group** of at most three, handled as one: its columns of `Z`
+//! are a `3`-vector per limb rate and a fixed-size `3 × 6` root part, so the chain is walked
+//! once per contact, not once per row. The factorization's inner loops are then unrolled
+//! `3`- and `6`-vector operations, and a `3 × 3` block of `K` is the product of the two
+//! groups' root parts plus, only where their chains meet below the root (rows of one limb),
+//! the outer products over their common limb ancestors: the legs of a free-flying robot
+//! couple through the root block alone.
 //!
 //! A pivot of `M` that is not clearly positive (a massless limb: singular `M`) or of `K`
 //! (dependent rows), or a row of `A` not on one chain of the tree, makes [`TreeKkt::factor`]
@@ -43,6 +48,25 @@ pub const ROW_PIVOT_FRACTION: f64 = 1e-10;
 const ROOT: usize = 6;
 type Block = nalgebra::Matrix6<f64>;
 type BlockRow = nalgebra::Vector6<f64>;
+/// Most rows in a group (a contact point with friction has three).
+const GROUP: usize = 3;
+/// A group's entries at one rate: one per row of the group (unused rows zero).
+type Lanes = [f64; GROUP];
+/// A group's root part of `Z`: its lanes at each rate of the root block (plain arrays, so
+/// that every loop over them has constant bounds and unrolls).
+type GroupRoot = [Lanes; ROOT];
+
+/// Consecutive rows of `A` whose deepest rates lie on one chain, packed along the chain of
+/// the deepest (see the module's text).
+#[derive(Debug, Clone, Copy, Default)]
+struct Group {
+    /// The first row and how many (`1..=GROUP`).
+    row: usize,
+    width: usize,
+    /// The deepest rate of the rows, and the length of its limb chain.
+    end: usize,
+    len: usize,
+}
 
 /// Workspace and factors of the range-space KKT solve for one model.
 ///
@@ -77,12 +101,14 @@ pub struct TreeKkt {
     root: Block,
     /// `D^{-1/2}`.
     d_isqrt: Vec<f64>,
-    /// Column `r` of `Z`: its limb part along the limb chain of row `r`'s deepest rate
-    /// `row_end[r]` at `z[r · nv..]` (`row_len[r]` entries), its root part `z_root[r]`.
-    z: Vec<f64>,
-    z_root: Vec<BlockRow>,
+    /// The row groups; group `g`'s columns of `Z`: their limb part along the limb chain of
+    /// the group's deepest rate at `z[g · nv..]` (a `3`-vector per rate, one entry per row),
+    /// their root part `z_root[g]`.
+    groups: Vec<Group>,
+    z: Vec<Lanes>,
+    z_root: Vec<GroupRoot>,
+    /// Each row's deepest rate.
     row_end: Vec<usize>,
-    row_len: Vec<usize>,
     /// The Cholesky factor of `K` (c × c, lower, row-major: `k[i · c + j]`, `j ≤ i`).
     k: Vec<f64>,
     w: Vec<f64>,
@@ -151,10 +177,10 @@ impl TreeKkt {
             root_row: vec![BlockRow::zeros(); nv],
             root: Block::zeros(),
             d_isqrt: vec![0.0; nv],
+            groups: Vec::new(),
             z: Vec::new(),
             z_root: Vec::new(),
             row_end: Vec::new(),
-            row_len: Vec::new(),
             k: Vec::new(),
             w: vec![0.0; nv],
         }
@@ -168,11 +194,11 @@ impl TreeKkt {
         debug_assert_eq!((M.nrows(), A.ncols()), (nv, nv));
         if c != self.c {
             self.c = c;
-            self.z.resize(nv * c, 0.0);
-            self.z_root.resize(c, BlockRow::zeros());
+            self.z.resize(nv * c, [0.0; GROUP]);
+            self.z_root.resize(c, [[0.0; GROUP]; ROOT]);
             self.k.resize(c * c, 0.0);
             self.row_end.resize(c, 0);
-            self.row_len.resize(c, 0);
+            self.groups.reserve(c);
         }
         self.supported && self.factor_mass_matrix(M) && self.factor_rows(A)
     }
@@ -243,87 +269,176 @@ impl TreeKkt {
         true
     }
 
-    /// `x ← L⁻ᵀ x` for `x` packed along a limb chain (`chain`) with its root part `x_root`
-    /// (Table 6.4's back-substitution, leaves first): `L⁻ᵀ` keeps a vector on a chain.
-    fn solve_lt_on_chain(&self, chain: &[usize], x: &mut [f64], x_root: &mut BlockRow) {
+    /// `X ← L⁻ᵀ X` for the (up to three) columns `X` of a group packed along a limb chain
+    /// (`chain`, a `3`-vector per rate) with their root part `x_root` (Table 6.4's
+    /// back-substitution, leaves first): `L⁻ᵀ` keeps a vector on a chain.
+    /// Only the first `W` lanes are touched (a group of `W` rows; the others stay zero).
+    fn solve_lt_group<const W: usize>(
+        &self,
+        chain: &[usize],
+        x: &mut [Lanes],
+        x_root: &mut GroupRoot,
+    ) {
         for (t, &i) in chain.iter().enumerate() {
             let xi = x[t];
-            if xi == 0.0 {
-                continue;
-            }
             let (b, e) = self.span(i);
-            sub_scaled(&mut x[t + 1..], xi, &self.ltdl[b + 1..e]);
-            *x_root -= self.root_row[i] * xi;
+            // i's limb ancestors are the rest of the chain
+            for (xp, &l) in x[t + 1..].iter_mut().zip(&self.ltdl[b + 1..e]) {
+                for p in 0..W {
+                    xp[p] -= xi[p] * l;
+                }
+            }
+            for (xj, &h) in x_root.iter_mut().zip(self.root_row[i].iter()) {
+                for p in 0..W {
+                    xj[p] -= h * xi[p];
+                }
+            }
         }
         for i in (1..self.nb).rev() {
             let xi = x_root[i];
-            for j in 0..i {
-                x_root[j] -= self.root[(i, j)] * xi;
+            for (j, xj) in x_root[..i].iter_mut().enumerate() {
+                let l = self.root[(i, j)];
+                for p in 0..W {
+                    xj[p] -= l * xi[p];
+                }
             }
         }
     }
 
-    /// `Z = D^{-1/2} L⁻ᵀ Aᵀ` and the dense Cholesky `K = Zᵀ Z = C Cᵀ`, `K[i, j]` the dot
-    /// product of the two columns over the rows' common ancestors.
+    /// `x ← L⁻ᵀ x` on the root block alone (a vector with no limb part).
+    fn solve_lt_root(&self, x: &mut BlockRow) {
+        for i in (1..self.nb).rev() {
+            let xi = x[i];
+            for j in 0..i {
+                x[j] -= self.root[(i, j)] * xi;
+            }
+        }
+    }
+
+    /// The deepest rate of row `r` of `A` (column-major, `c` rows), `None` when the row is
+    /// zero or has an entry off that rate's chain.
+    fn row_end_of(&self, a: &[f64], c: usize, r: usize) -> Option<usize> {
+        let nv = self.nv;
+        let row = &a[r..];
+        let entry = |k: usize| row[k * c];
+        let end = (0..nv).rev().find(|&k| entry(k) != 0.0)?;
+        let on_chain = &self.on_chain[end * nv..end * nv + end];
+        let off = on_chain
+            .iter()
+            .enumerate()
+            .any(|(k, &on)| !on && entry(k) != 0.0);
+        (!off).then_some(end)
+    }
+
+    /// `Z = D^{-1/2} L⁻ᵀ Aᵀ` group by group and the dense Cholesky `K = Zᵀ Z = C Cᵀ`, a
+    /// group pair's block of `K` the product of their root parts plus the outer products
+    /// over their common limb ancestors.
     fn factor_rows(&mut self, A: &DMatrix<f64>) -> bool {
         let (nv, c, nb) = (self.nv, self.c, self.nb);
         let a = A.as_slice();
-        let root_scale = BlockRow::from_fn(|j, _| if j < nb { self.d_isqrt[j] } else { 0.0 });
-        let mut z = std::mem::take(&mut self.z);
         for r in 0..c {
-            // A is column-major: its row r is strided by c
-            let row = &a[r..];
-            let entry = |k: usize| row[k * c];
-            let Some(end) = (0..nv).rev().find(|&k| entry(k) != 0.0) else {
-                self.z = z;
-                return false;
-            };
-            let on_chain = &self.on_chain[end * nv..end * nv + end];
-            if on_chain
-                .iter()
-                .enumerate()
-                .any(|(k, &on)| !on && entry(k) != 0.0)
-            {
-                self.z = z;
-                return false;
+            match self.row_end_of(a, c, r) {
+                Some(end) => self.row_end[r] = end,
+                None => return false,
+            }
+        }
+        self.groups.clear();
+        let mut r = 0;
+        while r < c {
+            // rows whose deepest rates lie on one chain (a point's rows: some directions
+            // leave the deepest joints' columns zero) share the deepest one's chain
+            let mut end = self.row_end[r];
+            let mut width = 1;
+            while width < GROUP && r + width < c {
+                let next = self.row_end[r + width];
+                let (deep, shallow) = (end.max(next), end.min(next));
+                if !self.on_chain[deep * nv + shallow] {
+                    break;
+                }
+                end = deep;
+                width += 1;
             }
             let (b, e) = self.span(end);
-            self.row_end[r] = end;
-            self.row_len[r] = e - b;
+            self.groups.push(Group {
+                row: r,
+                width,
+                end,
+                len: e - b,
+            });
+            r += width;
+        }
+        let root_scale = BlockRow::from_fn(|j, _| if j < nb { self.d_isqrt[j] } else { 0.0 });
+        let mut z = std::mem::take(&mut self.z);
+        let mut z_root = std::mem::take(&mut self.z_root);
+        for (g, group) in self.groups.iter().enumerate() {
+            let (b, e) = self.span(group.end);
             let chain = &self.chain[b..e];
-            let zr = &mut z[r * nv..r * nv + e - b];
-            for (x, &k) in zr.iter_mut().zip(chain) {
-                *x = entry(k);
+            // A is column-major: a column's entries for the group's rows are contiguous
+            let rows = |k: usize| {
+                let col = &a[k * c + group.row..k * c + group.row + group.width];
+                let mut x = [0.0; GROUP];
+                x[..group.width].copy_from_slice(col);
+                x
+            };
+            let zg = &mut z[g * nv..g * nv + e - b];
+            for (x, &k) in zg.iter_mut().zip(chain) {
+                *x = rows(k);
             }
-            let mut zb = BlockRow::from_fn(|j, _| if j < nb { entry(j) } else { 0.0 });
-            self.solve_lt_on_chain(chain, zr, &mut zb);
-            for (x, &k) in zr.iter_mut().zip(chain) {
-                *x *= self.d_isqrt[k];
+            let zr = &mut z_root[g];
+            for (j, x) in zr.iter_mut().enumerate() {
+                *x = if j < nb { rows(j) } else { [0.0; GROUP] };
             }
-            self.z_root[r] = zb.component_mul(&root_scale);
+            match group.width {
+                1 => self.solve_lt_group::<1>(chain, zg, zr),
+                2 => self.solve_lt_group::<2>(chain, zg, zr),
+                _ => self.solve_lt_group::<GROUP>(chain, zg, zr),
+            }
+            for (x, &k) in zg.iter_mut().zip(chain) {
+                let s = self.d_isqrt[k];
+                for xp in x.iter_mut() {
+                    *xp *= s;
+                }
+            }
+            for (x, s) in zr.iter_mut().zip(root_scale.iter()) {
+                for xp in x.iter_mut() {
+                    *xp *= s;
+                }
+            }
         }
         self.z = z;
-        for i in 0..c {
-            let (ei, li) = (self.row_end[i], self.row_len[i]);
-            let zi = &self.z[i * nv..i * nv + li];
-            for j in 0..=i {
-                let (ej, lj) = (self.row_end[j], self.row_len[j]);
-                let m = self.common[ei * nv + ej];
-                let zj = &self.z[j * nv + lj - m..j * nv + lj];
-                self.k[i * c + j] = dot(&zi[li - m..], zj) + self.z_root[i].dot(&self.z_root[j]);
+        self.z_root = z_root;
+        for (gi, bi) in self.groups.iter().enumerate() {
+            let zi = &self.z[gi * nv..gi * nv + bi.len];
+            for (gj, bj) in self.groups[..=gi].iter().enumerate() {
+                let mut block = [[0.0; GROUP]; GROUP];
+                let m = self.common[bi.end * nv + bj.end];
+                let zj = &self.z[gj * nv + bj.len - m..gj * nv + bj.len];
+                let (ri, rj) = (&self.z_root[gi], &self.z_root[gj]);
+                if bi.width == 1 && bj.width == 1 {
+                    add_outer::<1>(&mut block, ri, rj);
+                    add_outer::<1>(&mut block, &zi[bi.len - m..], zj);
+                } else {
+                    add_outer::<GROUP>(&mut block, ri, rj);
+                    add_outer::<GROUP>(&mut block, &zi[bi.len - m..], zj);
+                }
+                for (p, bp) in block.iter().enumerate().take(bi.width) {
+                    let row = &mut self.k[(bi.row + p) * c + bj.row..];
+                    let cols = if gi == gj { p + 1 } else { bj.width };
+                    row[..cols].copy_from_slice(&bp[..cols]);
+                }
             }
         }
         let largest = (0..c).map(|i| self.k[i * c + i]).fold(0.0, f64::max);
         dense_cholesky(&mut self.k, c, ROW_PIVOT_FRACTION * largest)
     }
 
-    /// Row `r`'s limb chain and its column of `Z` (limb part).
-    fn column(&self, r: usize) -> (&[usize], &[f64]) {
-        let (end, len) = (self.row_end[r], self.row_len[r]);
-        let b = self.offset[end];
+    /// Group `g`'s limb chain and its columns of `Z` (limb part).
+    fn column(&self, g: usize) -> (&[usize], &[Lanes]) {
+        let group = &self.groups[g];
+        let b = self.offset[group.end];
         (
-            &self.chain[b..b + len],
-            &self.z[r * self.nv..r * self.nv + len],
+            &self.chain[b..b + group.len],
+            &self.z[g * self.nv..g * self.nv + group.len],
         )
     }
 
@@ -345,32 +460,42 @@ impl TreeKkt {
             }
             wb -= self.root_row[i] * wi;
         }
-        self.solve_lt_on_chain(&[], &mut [], &mut wb);
+        self.solve_lt_root(&mut wb);
         w[..nb].copy_from_slice(&wb.as_slice()[..nb]);
         for (x, s) in w.iter_mut().zip(&self.d_isqrt) {
             *x *= s;
         }
-        let wb = BlockRow::from_fn(|j, _| if j < nb { w[j] } else { 0.0 });
-        for (r, yr) in y.iter_mut().enumerate().take(c) {
-            let (chain, zr) = self.column(r);
-            // root first, as the dense product would add them
-            let limb = zr
-                .iter()
-                .zip(chain)
-                .rev()
-                .fold(0.0, |s, (z, &k)| s + z * w[k]);
-            *yr = self.z_root[r].dot(&wb) + limb - g[r];
+        let mut wb = BlockRow::from_fn(|j, _| if j < nb { w[j] } else { 0.0 });
+        for (gi, group) in self.groups.iter().enumerate() {
+            let (chain, zg) = self.column(gi);
+            let mut yg = [0.0; GROUP];
+            for (z, &wj) in self.z_root[gi].iter().zip(wb.iter()) {
+                for p in 0..GROUP {
+                    yg[p] += z[p] * wj;
+                }
+            }
+            for (z, &k) in zg.iter().zip(chain) {
+                for p in 0..GROUP {
+                    yg[p] += z[p] * w[k];
+                }
+            }
+            for p in 0..group.width {
+                y[group.row + p] = yg[p] - g[group.row + p];
+            }
         }
         cholesky_solve(&self.k, c, y);
-        for (r, yr) in y.iter().enumerate().take(c) {
-            let (chain, zr) = self.column(r);
-            for (z, &k) in zr.iter().zip(chain) {
-                w[k] -= z * yr;
+        for (gi, group) in self.groups.iter().enumerate() {
+            let mut yg = [0.0; GROUP];
+            yg[..group.width].copy_from_slice(&y[group.row..group.row + group.width]);
+            let (chain, zg) = self.column(gi);
+            for (z, &k) in zg.iter().zip(chain) {
+                w[k] -= z[0] * yg[0] + z[1] * yg[1] + z[2] * yg[2];
             }
-            for (wj, z) in w[..nb].iter_mut().zip(self.z_root[r].iter()) {
-                *wj -= z * yr;
+            for (z, wj) in self.z_root[gi].iter().zip(wb.iter_mut()) {
+                *wj -= z[0] * yg[0] + z[1] * yg[1] + z[2] * yg[2];
             }
         }
+        w[..nb].copy_from_slice(&wb.as_slice()[..nb]);
         for ((xi, wi), s) in x.iter_mut().zip(w.iter()).zip(&self.d_isqrt) {
             *xi = wi * s;
         }
@@ -391,6 +516,18 @@ impl TreeKkt {
         }
     }
 }
+/// `B += Σₜ xₜ yₜᵀ` over the common length on the first `W` lanes: a block of `K` from two
+/// groups' lanes.
+fn add_outer<const W: usize>(block: &mut [Lanes; GROUP], x: &[Lanes], y: &[Lanes]) {
+    for (x, y) in x.iter().zip(y) {
+        for p in 0..W {
+            for s in 0..W {
+                block[p][s] += x[p] * y[s];
+            }
+        }
+    }
+}
+
 /// `Σ xᵢ yᵢ` over the common length of two slices, four products at a time (the chains are
 /// short: a loop per entry would cost several times its arithmetic).
 fn dot(x: &[f64], y: &[f64]) -> f64 {
