@@ -236,7 +236,7 @@ impl TreeKkt {
     /// `k`, `H[i, j] −= H[k, i]/D_k · H[k, j]` over `j` in `i`'s chain (the rest of `k`'s),
     /// the root block's part as one `6 × 6` update.
     fn factor_mass_matrix(&mut self, M: &DMatrix<f64>) -> bool {
-        let (nv, nb) = (self.nv, self.nb);
+        let (nv, nb) = (self.nv, self.root_rates());
         let m = M.as_slice();
         for k in nb..nv {
             let (b, e) = self.span(k);
@@ -275,7 +275,7 @@ impl TreeKkt {
             self.root_row[k] = hk / dk;
             self.d_isqrt[k] = 1.0 / dk.sqrt();
         }
-        for k in (0..nb).rev() {
+        for k in (0..self.root_rates()).rev() {
             let (mkk, dk) = (m[k + k * nv], self.root[(k, k)]);
             if !clear(mkk, dk) {
                 return false;
@@ -317,7 +317,7 @@ impl TreeKkt {
                 }
             }
         }
-        for i in (1..self.nb).rev() {
+        for i in (1..self.root_rates()).rev() {
             let xi = root[i];
             for (j, xj) in root[..i].iter_mut().enumerate() {
                 let l = self.root[(i, j)];
@@ -368,9 +368,19 @@ impl TreeKkt {
         }
     }
 
+    /// `nb` as a constant where the compiler can see it: the root block has all six rates or
+    /// none, and a loop with constant bounds unrolls.
+    fn root_rates(&self) -> usize {
+        if self.nb == ROOT {
+            ROOT
+        } else {
+            0
+        }
+    }
+
     /// `x ← L⁻ᵀ x` on the root block alone (a vector with no limb part).
     fn solve_lt_root(&self, x: &mut BlockRow) {
-        for i in (1..self.nb).rev() {
+        for i in (1..self.root_rates()).rev() {
             let xi = x[i];
             for j in 0..i {
                 x[j] -= self.root[(i, j)] * xi;
@@ -397,7 +407,7 @@ impl TreeKkt {
     /// group pair's block of `K` the product of their root parts plus the outer products
     /// over their common limb ancestors.
     fn factor_rows(&mut self, A: &DMatrix<f64>) -> bool {
-        let (nv, c, nb) = (self.nv, self.c, self.nb);
+        let (nv, c, nb) = (self.nv, self.c, self.root_rates());
         let a = A.as_slice();
         for r in 0..c {
             match self.row_end_of(a, c, r) {
@@ -471,7 +481,7 @@ impl TreeKkt {
 
     /// Solves `[M Aᵀ; A 0][x; y] = [f; g]` with the current factors.
     pub fn solve(&mut self, f: &[f64], g: &[f64], x: &mut [f64], y: &mut [f64]) {
-        let (nv, c, nb) = (self.nv, self.c, self.nb);
+        let (nv, c, nb) = (self.nv, self.c, self.root_rates());
         let mut w = std::mem::take(&mut self.w);
         w.copy_from_slice(f);
         // w ← L⁻ᵀ w (leaves first), then D^{-1/2}
@@ -511,7 +521,7 @@ impl TreeKkt {
         }
         self.w = w;
         // x ← L⁻¹ x (root first)
-        for i in 1..nb {
+        for i in 1..self.root_rates() {
             let xi = (0..i).fold(x[i], |s, j| s - self.root[(i, j)] * x[j]);
             x[i] = xi;
         }
