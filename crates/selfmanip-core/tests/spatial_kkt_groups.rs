@@ -3,10 +3,13 @@
 //! group of three, a frictionless point one of one. These contact sets make the other
 //! groupings — two rows (a contact held in a plane), one group spanning three frictionless
 //! contacts of one leg, rows ending in the root block (contacts on the trunk), and a run of
-//! rows on one chain split after three — and check `q̈`, `λ` against a second route: the full
-//! KKT matrix `[M Aᵀ; A 0]` solved densely by LU.
+//! rows on one chain split after three — and the six-legged RHex's toes (groups of one row,
+//! or of three with friction, each leg its own chain meeting the others at the root block),
+//! and check `q̈`, `λ` against a second route: the full KKT matrix `[M Aᵀ; A 0]` solved
+//! densely by LU.
 mod spatial_support;
 use nalgebra::{DMatrix, DVector, Vector3};
+use selfmanip_core::spatial::rhex::{RhexSixLegs, PAIRS, SIDES};
 use selfmanip_core::spatial::*;
 use spatial_support::*;
 
@@ -58,6 +61,38 @@ fn every_row_grouping_matches_the_dense_kkt_solve() {
         let (qdd, lam) = dense_kkt(&data, &tau);
         let rel = |a: &DVector<f64>, b: &DVector<f64>| (a - b).amax() / b.amax().max(1.0);
         worst = worst.max(rel(&data.qdd, &qdd)).max(rel(&data.lam, &lam));
+    }
+    assert!(worst < 1e-9, "routes differ by {worst:e}");
+}
+
+#[test]
+fn one_row_groups_of_the_rhex_match_the_dense_kkt_solve() {
+    let p = RhexSixLegs::table_4_2().with_table_4_2_legs();
+    let model = p.model().unwrap();
+    let mut data = SpatialData::new(&model);
+    let legs: Vec<String> = PAIRS
+        .iter()
+        .flat_map(|pair| SIDES.iter().map(move |side| format!("{pair}_{side}")))
+        .collect();
+    // six frictionless toes (six groups of one row), then the first two with friction
+    // (groups of three beside groups of one)
+    let toes = |friction: usize| -> Vec<PointContact> {
+        legs.iter()
+            .enumerate()
+            .map(|(i, leg)| p.toe(&model, leg, i < friction).unwrap())
+            .collect()
+    };
+    let mut rng = rng(41);
+    let mut worst: f64 = 0.0;
+    for contacts in [toes(0), toes(2)] {
+        for _ in 0..10 {
+            let (q, v, tau) = random_state(&model, &mut rng);
+            dynamics_at(&model, &mut data, &contacts, (&q, &v, &tau)).unwrap();
+            assert_eq!(data.kkt_route, KktRoute::RangeSpace);
+            let (qdd, lam) = dense_kkt(&data, &tau);
+            let rel = |a: &DVector<f64>, b: &DVector<f64>| (a - b).amax() / b.amax().max(1.0);
+            worst = worst.max(rel(&data.qdd, &qdd)).max(rel(&data.lam, &lam));
+        }
     }
     assert!(worst < 1e-9, "routes differ by {worst:e}");
 }

@@ -17,13 +17,14 @@
 //! and each row of `A` — a contact point's row, whose entries lie on its frame's chain — gives
 //! a column of `Z` packed the same way along the chain of its deepest rate (`L⁻ᵀ` moves
 //! entries to ancestors only). Consecutive rows whose deepest rates lie on one chain (a
-//! contact point's two or three rows) form a **group** of at most three, handled as one: its columns of `Z`
-//! are a `3`-vector per limb rate and a fixed-size `3 × 6` root part, so the chain is walked
-//! once per contact, not once per row. The factorization's inner loops are then unrolled
-//! `3`- and `6`-vector operations, and a `3 × 3` block of `K` is the product of the two
-//! groups' root parts plus, only where their chains meet below the root (rows of one limb),
-//! the outer products over their common limb ancestors: the legs of a free-flying robot
-//! couple through the root block alone.
+//! contact point's two or three rows) form a **group** of `W ≤ 3` rows, handled as one: its
+//! columns of `Z` are a `W`-vector per limb rate followed by its `6 × W` root part, so the
+//! chain is walked once per contact, not once per row. Every loop over a group is generic in
+//! its row count `W` (a frictionless point stores and solves one lane, not three): the
+//! factorization's inner loops are unrolled `W`- and `6`-vector operations, and a `W × W'`
+//! block of `K` is the sum of outer products over the two groups' root parts and, only where
+//! their chains meet below the root (rows of one limb), their common limb ancestors: the legs
+//! of a free-flying robot couple through the root block alone.
 //!
 //! A pivot of `M` that is not clearly positive (a massless limb: singular `M`) or of `K`
 //! (dependent rows), or a row of `A` not on one chain of the tree, makes [`TreeKkt::factor`]
@@ -50,11 +51,28 @@ type Block = nalgebra::Matrix6<f64>;
 type BlockRow = nalgebra::Vector6<f64>;
 /// Most rows in a group (a contact point with friction has three).
 const GROUP: usize = 3;
-/// A group's entries at one rate: one per row of the group (unused rows zero).
-type Lanes = [f64; GROUP];
-/// A group's root part of `Z`: its lanes at each rate of the root block (plain arrays, so
-/// that every loop over them has constant bounds and unrolls).
-type GroupRoot = [Lanes; ROOT];
+
+/// `$f::<W>(…)` for a group's row count `$w` (`1..=GROUP`): every loop over the group's
+/// lanes then has constant bounds and unrolls.
+macro_rules! by_width {
+    ($w:expr, $($f:ident)::+($($arg:expr),* $(,)?)) => {
+        match $w {
+            1 => $($f)::+::<1>($($arg),*),
+            2 => $($f)::+::<2>($($arg),*),
+            _ => $($f)::+::<GROUP>($($arg),*),
+        }
+    };
+}
+
+/// A group's columns of `Z` (`W` lanes at each rate) from their packed entries.
+fn lanes<const W: usize>(z: &[f64]) -> &[[f64; W]] {
+    z.as_chunks::<W>().0
+}
+
+/// [`lanes`], mutable.
+fn lanes_mut<const W: usize>(z: &mut [f64]) -> &mut [[f64; W]] {
+    z.as_chunks_mut::<W>().0
+}
 
 /// Consecutive rows of `A` whose deepest rates lie on one chain, packed along the chain of
 /// the deepest (see the module's text).
@@ -66,6 +84,15 @@ struct Group {
     /// The deepest rate of the rows, and the length of its limb chain.
     end: usize,
     len: usize,
+    /// Where its columns of `Z` start in [`TreeKkt::z`] (`(len + ROOT) · width` entries).
+    at: usize,
+}
+
+impl Group {
+    /// Its packed columns of `Z` in `z`.
+    fn span(&self) -> std::ops::Range<usize> {
+        self.at..self.at + (self.len + ROOT) * self.width
+    }
 }
 
 /// Workspace and factors of the range-space KKT solve for one model.
@@ -101,12 +128,11 @@ pub struct TreeKkt {
     root: Block,
     /// `D^{-1/2}`.
     d_isqrt: Vec<f64>,
-    /// The row groups; group `g`'s columns of `Z`: their limb part along the limb chain of
-    /// the group's deepest rate at `z[g · nv..]` (a `3`-vector per rate, one entry per row),
-    /// their root part `z_root[g]`.
+    /// The row groups; a group's columns of `Z` at `z[group.span()]`, rate by rate with the
+    /// group's `width` entries (one per row) together: its limb part along the limb chain
+    /// of the group's deepest rate, then its root part (`ROOT` rates, zero on a fixed base).
     groups: Vec<Group>,
-    z: Vec<Lanes>,
-    z_root: Vec<GroupRoot>,
+    z: Vec<f64>,
     /// Each row's deepest rate.
     row_end: Vec<usize>,
     /// The Cholesky factor of `K` (c × c, lower, row-major: `k[i · c + j]`, `j ≤ i`).
@@ -179,7 +205,6 @@ impl TreeKkt {
             d_isqrt: vec![0.0; nv],
             groups: Vec::new(),
             z: Vec::new(),
-            z_root: Vec::new(),
             row_end: Vec::new(),
             k: Vec::new(),
             w: vec![0.0; nv],
@@ -194,8 +219,7 @@ impl TreeKkt {
         debug_assert_eq!((M.nrows(), A.ncols()), (nv, nv));
         if c != self.c {
             self.c = c;
-            self.z.resize(nv * c, [0.0; GROUP]);
-            self.z_root.resize(c, [[0.0; GROUP]; ROOT]);
+            self.z.resize((nv + ROOT) * c, 0.0);
             self.k.resize(c * c, 0.0);
             self.row_end.resize(c, 0);
             self.groups.reserve(c);
@@ -212,7 +236,7 @@ impl TreeKkt {
     /// `k`, `H[i, j] −= H[k, i]/D_k · H[k, j]` over `j` in `i`'s chain (the rest of `k`'s),
     /// the root block's part as one `6 × 6` update.
     fn factor_mass_matrix(&mut self, M: &DMatrix<f64>) -> bool {
-        let (nv, nb) = (self.nv, self.nb);
+        let (nv, nb) = (self.nv, self.root_rates());
         let m = M.as_slice();
         for k in nb..nv {
             let (b, e) = self.span(k);
@@ -251,7 +275,7 @@ impl TreeKkt {
             self.root_row[k] = hk / dk;
             self.d_isqrt[k] = 1.0 / dk.sqrt();
         }
-        for k in (0..nb).rev() {
+        for k in (0..self.root_rates()).rev() {
             let (mkk, dk) = (m[k + k * nv], self.root[(k, k)]);
             if !clear(mkk, dk) {
                 return false;
@@ -269,34 +293,33 @@ impl TreeKkt {
         true
     }
 
-    /// `X ← L⁻ᵀ X` for the (up to three) columns `X` of a group packed along a limb chain
-    /// (`chain`, a `3`-vector per rate) with their root part `x_root` (Table 6.4's
-    /// back-substitution, leaves first): `L⁻ᵀ` keeps a vector on a chain.
-    /// Only the first `W` lanes are touched (a group of `W` rows; the others stay zero).
+    /// `X ← L⁻ᵀ X` for the `W` columns `X` of a group packed along a limb chain (`chain`, a
+    /// `W`-vector per rate) with their root part `root` (Table 6.4's back-substitution,
+    /// leaves first): `L⁻ᵀ` keeps a vector on a chain.
     fn solve_lt_group<const W: usize>(
         &self,
         chain: &[usize],
-        x: &mut [Lanes],
-        x_root: &mut GroupRoot,
+        limb: &mut [[f64; W]],
+        root: &mut [[f64; W]],
     ) {
         for (t, &i) in chain.iter().enumerate() {
-            let xi = x[t];
+            let xi = limb[t];
             let (b, e) = self.span(i);
             // i's limb ancestors are the rest of the chain
-            for (xp, &l) in x[t + 1..].iter_mut().zip(&self.ltdl[b + 1..e]) {
+            for (xp, &l) in limb[t + 1..].iter_mut().zip(&self.ltdl[b + 1..e]) {
                 for p in 0..W {
                     xp[p] -= xi[p] * l;
                 }
             }
-            for (xj, &h) in x_root.iter_mut().zip(self.root_row[i].iter()) {
+            for (xj, &h) in root.iter_mut().zip(self.root_row[i].iter()) {
                 for p in 0..W {
                     xj[p] -= h * xi[p];
                 }
             }
         }
-        for i in (1..self.nb).rev() {
-            let xi = x_root[i];
-            for (j, xj) in x_root[..i].iter_mut().enumerate() {
+        for i in (1..self.root_rates()).rev() {
+            let xi = root[i];
+            for (j, xj) in root[..i].iter_mut().enumerate() {
                 let l = self.root[(i, j)];
                 for p in 0..W {
                     xj[p] -= l * xi[p];
@@ -305,9 +328,59 @@ impl TreeKkt {
         }
     }
 
+    /// A group's `W` columns of `Z = D^{-1/2} L⁻ᵀ Aᵀ` into `z` (`(len + ROOT) · W` entries),
+    /// from its rows of `A` (column-major, `c` rows); `root_scale` is the root block's
+    /// `D^{-1/2}` (zero past `nb`).
+    fn group_columns<const W: usize>(
+        &self,
+        a: &[f64],
+        c: usize,
+        group: &Group,
+        root_scale: &BlockRow,
+        z: &mut [f64],
+    ) {
+        let (b, e) = self.span(group.end);
+        let chain = &self.chain[b..e];
+        let (limb, root) = lanes_mut::<W>(z).split_at_mut(e - b);
+        // A is column-major: a column's entries for the group's rows are contiguous
+        let rows = |k: usize| {
+            let mut x = [0.0; W];
+            x.copy_from_slice(&a[k * c + group.row..k * c + group.row + W]);
+            x
+        };
+        for (x, &k) in limb.iter_mut().zip(chain) {
+            *x = rows(k);
+        }
+        for (j, x) in root.iter_mut().enumerate() {
+            *x = if j < self.nb { rows(j) } else { [0.0; W] };
+        }
+        self.solve_lt_group(chain, limb, root);
+        for (x, &k) in limb.iter_mut().zip(chain) {
+            let s = self.d_isqrt[k];
+            for xp in x.iter_mut() {
+                *xp *= s;
+            }
+        }
+        for (x, s) in root.iter_mut().zip(root_scale.iter()) {
+            for xp in x.iter_mut() {
+                *xp *= s;
+            }
+        }
+    }
+
+    /// `nb` as a constant where the compiler can see it: the root block has all six rates or
+    /// none, and a loop with constant bounds unrolls.
+    fn root_rates(&self) -> usize {
+        if self.nb == ROOT {
+            ROOT
+        } else {
+            0
+        }
+    }
+
     /// `x ← L⁻ᵀ x` on the root block alone (a vector with no limb part).
     fn solve_lt_root(&self, x: &mut BlockRow) {
-        for i in (1..self.nb).rev() {
+        for i in (1..self.root_rates()).rev() {
             let xi = x[i];
             for j in 0..i {
                 x[j] -= self.root[(i, j)] * xi;
@@ -334,7 +407,7 @@ impl TreeKkt {
     /// group pair's block of `K` the product of their root parts plus the outer products
     /// over their common limb ancestors.
     fn factor_rows(&mut self, A: &DMatrix<f64>) -> bool {
-        let (nv, c, nb) = (self.nv, self.c, self.nb);
+        let (nv, c, nb) = (self.nv, self.c, self.root_rates());
         let a = A.as_slice();
         for r in 0..c {
             match self.row_end_of(a, c, r) {
@@ -343,7 +416,7 @@ impl TreeKkt {
             }
         }
         self.groups.clear();
-        let mut r = 0;
+        let (mut r, mut at) = (0, 0);
         while r < c {
             // rows whose deepest rates lie on one chain (a point's rows: some directions
             // leave the deepest joints' columns zero) share the deepest one's chain
@@ -359,92 +432,56 @@ impl TreeKkt {
                 width += 1;
             }
             let (b, e) = self.span(end);
+            let len = e - b;
             self.groups.push(Group {
                 row: r,
                 width,
                 end,
-                len: e - b,
+                len,
+                at,
             });
+            at += (len + ROOT) * width;
             r += width;
         }
         let root_scale = BlockRow::from_fn(|j, _| if j < nb { self.d_isqrt[j] } else { 0.0 });
         let mut z = std::mem::take(&mut self.z);
-        let mut z_root = std::mem::take(&mut self.z_root);
-        for (g, group) in self.groups.iter().enumerate() {
-            let (b, e) = self.span(group.end);
-            let chain = &self.chain[b..e];
-            // A is column-major: a column's entries for the group's rows are contiguous
-            let rows = |k: usize| {
-                let col = &a[k * c + group.row..k * c + group.row + group.width];
-                let mut x = [0.0; GROUP];
-                x[..group.width].copy_from_slice(col);
-                x
-            };
-            let zg = &mut z[g * nv..g * nv + e - b];
-            for (x, &k) in zg.iter_mut().zip(chain) {
-                *x = rows(k);
-            }
-            let zr = &mut z_root[g];
-            for (j, x) in zr.iter_mut().enumerate() {
-                *x = if j < nb { rows(j) } else { [0.0; GROUP] };
-            }
-            match group.width {
-                1 => self.solve_lt_group::<1>(chain, zg, zr),
-                2 => self.solve_lt_group::<2>(chain, zg, zr),
-                _ => self.solve_lt_group::<GROUP>(chain, zg, zr),
-            }
-            for (x, &k) in zg.iter_mut().zip(chain) {
-                let s = self.d_isqrt[k];
-                for xp in x.iter_mut() {
-                    *xp *= s;
-                }
-            }
-            for (x, s) in zr.iter_mut().zip(root_scale.iter()) {
-                for xp in x.iter_mut() {
-                    *xp *= s;
-                }
-            }
+        for group in &self.groups {
+            let zg = &mut z[group.span()];
+            by_width!(
+                group.width,
+                Self::group_columns(self, a, c, group, &root_scale, zg)
+            );
         }
         self.z = z;
-        self.z_root = z_root;
         for (gi, bi) in self.groups.iter().enumerate() {
-            let zi = &self.z[gi * nv..gi * nv + bi.len];
-            for (gj, bj) in self.groups[..=gi].iter().enumerate() {
-                let mut block = [[0.0; GROUP]; GROUP];
+            let zi = &self.z[bi.span()];
+            for bj in &self.groups[..=gi] {
+                // their common limb ancestors are the last `m` rates of both limb parts, the
+                // root parts follow
                 let m = self.common[bi.end * nv + bj.end];
-                let zj = &self.z[gj * nv + bj.len - m..gj * nv + bj.len];
-                let (ri, rj) = (&self.z_root[gi], &self.z_root[gj]);
-                if bi.width == 1 && bj.width == 1 {
-                    add_outer::<1>(&mut block, ri, rj);
-                    add_outer::<1>(&mut block, &zi[bi.len - m..], zj);
-                } else {
-                    add_outer::<GROUP>(&mut block, ri, rj);
-                    add_outer::<GROUP>(&mut block, &zi[bi.len - m..], zj);
-                }
-                for (p, bp) in block.iter().enumerate().take(bi.width) {
-                    let row = &mut self.k[(bi.row + p) * c + bj.row..];
-                    let cols = if gi == gj { p + 1 } else { bj.width };
-                    row[..cols].copy_from_slice(&bp[..cols]);
-                }
+                let zj = &self.z[bj.span()];
+                let (xi, xj) = (
+                    &zi[(bi.len - m) * bi.width..],
+                    &zj[(bj.len - m) * bj.width..],
+                );
+                let k = &mut self.k[bi.row * c + bj.row..];
+                let diagonal = bi.row == bj.row;
+                by_width!(bi.width, k_block_with(xi, xj, bj.width, diagonal, k, c));
             }
         }
         let largest = (0..c).map(|i| self.k[i * c + i]).fold(0.0, f64::max);
         dense_cholesky(&mut self.k, c, ROW_PIVOT_FRACTION * largest)
     }
 
-    /// Group `g`'s limb chain and its columns of `Z` (limb part).
-    fn column(&self, g: usize) -> (&[usize], &[Lanes]) {
-        let group = &self.groups[g];
+    /// A group's limb chain and its packed columns of `Z`.
+    fn columns(&self, group: &Group) -> (&[usize], &[f64]) {
         let b = self.offset[group.end];
-        (
-            &self.chain[b..b + group.len],
-            &self.z[g * self.nv..g * self.nv + group.len],
-        )
+        (&self.chain[b..b + group.len], &self.z[group.span()])
     }
 
     /// Solves `[M Aᵀ; A 0][x; y] = [f; g]` with the current factors.
     pub fn solve(&mut self, f: &[f64], g: &[f64], x: &mut [f64], y: &mut [f64]) {
-        let (nv, c, nb) = (self.nv, self.c, self.nb);
+        let (nv, c, nb) = (self.nv, self.c, self.root_rates());
         let mut w = std::mem::take(&mut self.w);
         w.copy_from_slice(f);
         // w ← L⁻ᵀ w (leaves first), then D^{-1/2}
@@ -466,34 +503,17 @@ impl TreeKkt {
             *x *= s;
         }
         let mut wb = BlockRow::from_fn(|j, _| if j < nb { w[j] } else { 0.0 });
-        for (gi, group) in self.groups.iter().enumerate() {
-            let (chain, zg) = self.column(gi);
-            let mut yg = [0.0; GROUP];
-            for (z, &wj) in self.z_root[gi].iter().zip(wb.iter()) {
-                for p in 0..GROUP {
-                    yg[p] += z[p] * wj;
-                }
-            }
-            for (z, &k) in zg.iter().zip(chain) {
-                for p in 0..GROUP {
-                    yg[p] += z[p] * w[k];
-                }
-            }
-            for p in 0..group.width {
-                y[group.row + p] = yg[p] - g[group.row + p];
-            }
+        for group in &self.groups {
+            let (chain, zg) = self.columns(group);
+            let rows = group.row..group.row + group.width;
+            let (yg, gg) = (&mut y[rows.clone()], &g[rows]);
+            by_width!(group.width, project(zg, chain, &w, &wb, yg, gg));
         }
         cholesky_solve(&self.k, c, y);
-        for (gi, group) in self.groups.iter().enumerate() {
-            let mut yg = [0.0; GROUP];
-            yg[..group.width].copy_from_slice(&y[group.row..group.row + group.width]);
-            let (chain, zg) = self.column(gi);
-            for (z, &k) in zg.iter().zip(chain) {
-                w[k] -= z[0] * yg[0] + z[1] * yg[1] + z[2] * yg[2];
-            }
-            for (z, wj) in self.z_root[gi].iter().zip(wb.iter_mut()) {
-                *wj -= z[0] * yg[0] + z[1] * yg[1] + z[2] * yg[2];
-            }
+        for group in &self.groups {
+            let (chain, zg) = self.columns(group);
+            let yg = &y[group.row..group.row + group.width];
+            by_width!(group.width, subtract(zg, chain, yg, &mut w, &mut wb));
         }
         w[..nb].copy_from_slice(&wb.as_slice()[..nb]);
         for ((xi, wi), s) in x.iter_mut().zip(w.iter()).zip(&self.d_isqrt) {
@@ -501,7 +521,7 @@ impl TreeKkt {
         }
         self.w = w;
         // x ← L⁻¹ x (root first)
-        for i in 1..nb {
+        for i in 1..self.root_rates() {
             let xi = (0..i).fold(x[i], |s, j| s - self.root[(i, j)] * x[j]);
             x[i] = xi;
         }
@@ -516,15 +536,92 @@ impl TreeKkt {
         }
     }
 }
-/// `B += Σₜ xₜ yₜᵀ` over the common length on the first `W` lanes: a block of `K` from two
-/// groups' lanes.
-fn add_outer<const W: usize>(block: &mut [Lanes; GROUP], x: &[Lanes], y: &[Lanes]) {
-    for (x, y) in x.iter().zip(y) {
-        for p in 0..W {
-            for s in 0..W {
+/// The block `Σₜ xₜ yₜᵀ` of `K = Zᵀ Z` between two groups of `WI` and `wj` rows, over their
+/// packed columns along the common ancestors (`x`, `y`), into `k` (row-major, `c` a row; its
+/// lower triangle when `diagonal`).
+fn k_block_with<const WI: usize>(
+    x: &[f64],
+    y: &[f64],
+    wj: usize,
+    diagonal: bool,
+    k: &mut [f64],
+    c: usize,
+) {
+    match wj {
+        1 => k_block::<WI, 1>(x, y, diagonal, k, c),
+        2 => k_block::<WI, 2>(x, y, diagonal, k, c),
+        _ => k_block::<WI, GROUP>(x, y, diagonal, k, c),
+    }
+}
+
+/// [`k_block_with`] for both row counts known.
+fn k_block<const WI: usize, const WJ: usize>(
+    x: &[f64],
+    y: &[f64],
+    diagonal: bool,
+    k: &mut [f64],
+    c: usize,
+) {
+    let mut block = [[0.0; WJ]; WI];
+    for (x, y) in lanes::<WI>(x).iter().zip(lanes::<WJ>(y)) {
+        for p in 0..WI {
+            for s in 0..WJ {
                 block[p][s] += x[p] * y[s];
             }
         }
+    }
+    for (p, bp) in block.iter().enumerate() {
+        let cols = if diagonal { p + 1 } else { WJ };
+        for (kp, b) in k[p * c..p * c + cols].iter_mut().zip(bp) {
+            *kp = *b;
+        }
+    }
+}
+
+/// `y ← Zᵀ w − g` on a group's `W` rows: `z` its packed columns of `Z` along `chain` and the
+/// root block, `wb` the root block's part of `w`.
+fn project<const W: usize>(
+    z: &[f64],
+    chain: &[usize],
+    w: &[f64],
+    wb: &BlockRow,
+    y: &mut [f64],
+    g: &[f64],
+) {
+    let (limb, root) = lanes::<W>(z).split_at(chain.len());
+    let mut yg = [0.0; W];
+    for (z, &wj) in root.iter().zip(wb.iter()) {
+        for p in 0..W {
+            yg[p] += z[p] * wj;
+        }
+    }
+    for (z, &k) in limb.iter().zip(chain) {
+        for p in 0..W {
+            yg[p] += z[p] * w[k];
+        }
+    }
+    for ((y, yg), g) in y.iter_mut().zip(yg).zip(g) {
+        *y = yg - g;
+    }
+}
+
+/// `w ← w − Z y` on a group's rows (see [`project`]).
+fn subtract<const W: usize>(
+    z: &[f64],
+    chain: &[usize],
+    y: &[f64],
+    w: &mut [f64],
+    wb: &mut BlockRow,
+) {
+    let (limb, root) = lanes::<W>(z).split_at(chain.len());
+    let mut yg = [0.0; W];
+    yg.copy_from_slice(y);
+    let zy = |z: &[f64; W]| (1..W).fold(z[0] * yg[0], |s, p| s + z[p] * yg[p]);
+    for (z, &k) in limb.iter().zip(chain) {
+        w[k] -= zy(z);
+    }
+    for (z, wj) in root.iter().zip(wb.iter_mut()) {
+        *wj -= zy(z);
     }
 }
 
