@@ -28,6 +28,27 @@ fn dense_kkt(data: &SpatialData, tau: &DVector<f64>) -> (DVector<f64>, DVector<f
     (x.rows(0, nv).into_owned(), -x.rows(nv, c).into_owned())
 }
 
+/// The largest relative difference of `q̈`, `λ` between the range-space route and
+/// [`dense_kkt`] over `n` random states of `model` standing on `contacts`.
+fn worst_route_error(
+    model: &SpatialModel,
+    contacts: &[PointContact],
+    rng: &mut rand_chacha::ChaCha8Rng,
+    n: usize,
+) -> f64 {
+    let mut data = SpatialData::new(model);
+    let rel = |a: &DVector<f64>, b: &DVector<f64>| (a - b).amax() / b.amax().max(1.0);
+    let mut worst: f64 = 0.0;
+    for _ in 0..n {
+        let (q, v, tau) = random_state(model, rng);
+        dynamics_at(model, &mut data, contacts, (&q, &v, &tau)).unwrap();
+        assert_eq!(data.kkt_route, KktRoute::RangeSpace);
+        let (qdd, lam) = dense_kkt(&data, &tau);
+        worst = worst.max(rel(&data.qdd, &qdd)).max(rel(&data.lam, &lam));
+    }
+    worst
+}
+
 fn contact(model: &SpatialModel, frame: &str, friction: bool) -> PointContact {
     PointContact::new(model, frame, friction).unwrap()
 }
@@ -35,7 +56,6 @@ fn contact(model: &SpatialModel, frame: &str, friction: bool) -> PointContact {
 #[test]
 fn every_row_grouping_matches_the_dense_kkt_solve() {
     let model = quadruped();
-    let mut data = SpatialData::new(&model);
     let contacts = vec![
         // three frictionless points of one leg: one group across three contacts
         contact(&model, "FL_foot", false),
@@ -52,16 +72,7 @@ fn every_row_grouping_matches_the_dense_kkt_solve() {
             .in_plane(Vector3::new(1.0, 0.3, 0.0))
             .unwrap(),
     ];
-    let mut rng = rng(37);
-    let mut worst: f64 = 0.0;
-    for _ in 0..20 {
-        let (q, v, tau) = random_state(&model, &mut rng);
-        dynamics_at(&model, &mut data, &contacts, (&q, &v, &tau)).unwrap();
-        assert_eq!(data.kkt_route, KktRoute::RangeSpace);
-        let (qdd, lam) = dense_kkt(&data, &tau);
-        let rel = |a: &DVector<f64>, b: &DVector<f64>| (a - b).amax() / b.amax().max(1.0);
-        worst = worst.max(rel(&data.qdd, &qdd)).max(rel(&data.lam, &lam));
-    }
+    let worst = worst_route_error(&model, &contacts, &mut rng(37), 20);
     assert!(worst < 1e-9, "routes differ by {worst:e}");
 }
 
@@ -69,7 +80,6 @@ fn every_row_grouping_matches_the_dense_kkt_solve() {
 fn one_row_groups_of_the_rhex_match_the_dense_kkt_solve() {
     let p = RhexSixLegs::table_4_2().with_table_4_2_legs();
     let model = p.model().unwrap();
-    let mut data = SpatialData::new(&model);
     let legs: Vec<String> = PAIRS
         .iter()
         .flat_map(|pair| SIDES.iter().map(move |side| format!("{pair}_{side}")))
@@ -83,16 +93,9 @@ fn one_row_groups_of_the_rhex_match_the_dense_kkt_solve() {
             .collect()
     };
     let mut rng = rng(41);
-    let mut worst: f64 = 0.0;
-    for contacts in [toes(0), toes(2)] {
-        for _ in 0..10 {
-            let (q, v, tau) = random_state(&model, &mut rng);
-            dynamics_at(&model, &mut data, &contacts, (&q, &v, &tau)).unwrap();
-            assert_eq!(data.kkt_route, KktRoute::RangeSpace);
-            let (qdd, lam) = dense_kkt(&data, &tau);
-            let rel = |a: &DVector<f64>, b: &DVector<f64>| (a - b).amax() / b.amax().max(1.0);
-            worst = worst.max(rel(&data.qdd, &qdd)).max(rel(&data.lam, &lam));
-        }
-    }
+    let worst = [toes(0), toes(2)]
+        .iter()
+        .map(|contacts| worst_route_error(&model, contacts, &mut rng, 10))
+        .fold(0.0, f64::max);
     assert!(worst < 1e-9, "routes differ by {worst:e}");
 }
