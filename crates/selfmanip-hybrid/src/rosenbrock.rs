@@ -16,8 +16,9 @@
 //!
 //! The Jacobian `∂f/∂y` and `∂f/∂t` are taken by forward differences of the right-hand side
 //! (`n + 1` evaluations per step, `δ_j = √(ε max(10⁻⁵, |y_j|))` as in RODAS); the linear
-//! systems by one LU factorization with partial pivoting per trial step. Coefficients:
-//! Hairer & Wanner's `RODAS` (method 1), as tabulated in the public `rodas.f`.
+//! systems by one LU factorization with partial pivoting (nalgebra's `LU`) per trial step.
+//! Coefficients: Hairer & Wanner's `RODAS` (method 1), as tabulated in the public `rodas.f`.
+use nalgebra::{DMatrix, DVectorViewMut, Dyn, LU};
 
 /// `γ`.
 const GAMMA: f64 = 0.25;
@@ -99,8 +100,8 @@ const H: [[f64; 6]; 2] = [
     ],
 ];
 
-/// The buffers of RODAS4 steps on a state of `n` numbers (allocated once, on the first
-/// stiff stretch of a run).
+/// The buffers of RODAS4 steps on a state of `n` numbers (allocated on the first stiff
+/// stretch of a run; the factors of `W`, once per trial).
 #[derive(Debug, Clone)]
 pub(crate) struct Rodas4 {
     n: usize,
@@ -108,10 +109,8 @@ pub(crate) struct Rodas4 {
     jac: Vec<f64>,
     /// `∂f/∂t` at the step's start.
     ft: Vec<f64>,
-    /// The LU factors of `W` (column-major, unit lower part below the diagonal) and the row
-    /// of each pivot.
-    lu: Vec<f64>,
-    piv: Vec<usize>,
+    /// The LU factors of `W` with partial pivoting, of the last trial.
+    lu: Option<LU<f64, Dyn, Dyn>>,
     u: [Vec<f64>; 6],
     ytmp: Vec<f64>,
     ftmp: Vec<f64>,
@@ -129,8 +128,7 @@ impl Rodas4 {
             n,
             jac: vec![0.0; n * n],
             ft: vec![0.0; n],
-            lu: vec![0.0; n * n],
-            piv: vec![0; n],
+            lu: None,
             u: std::array::from_fn(|_| vec![0.0; n]),
             ytmp: vec![0.0; n],
             ftmp: vec![0.0; n],
@@ -208,17 +206,19 @@ impl Rodas4 {
         (log_growth / (ITERATIONS - ITERATIONS / 2) as f64).exp()
     }
 
-    /// Factors `W = I / (h γ) − J`; `false` where it is singular.
+    /// Factors `W = I / (h γ) − J`; `false` where it is singular (a zero or non-finite
+    /// pivot).
     fn factor(&mut self, h: f64) -> bool {
         let n = self.n;
         let diag = 1.0 / (h * GAMMA);
-        for (w, j) in self.lu.iter_mut().zip(&self.jac) {
-            *w = -j;
-        }
-        for i in 0..n {
-            self.lu[i * n + i] += diag;
-        }
-        lu_factor(&mut self.lu, &mut self.piv, n)
+        let w = DMatrix::from_fn(n, n, |i, j| {
+            let d = if i == j { diag } else { 0.0 };
+            d - self.jac[j * n + i]
+        });
+        let lu = w.lu();
+        let regular = lu.u().diagonal().iter().all(|p| *p != 0.0 && p.is_finite());
+        self.lu = Some(lu);
+        regular
     }
 
     /// One trial step of size `h` from `(t, y)` (`f0 = f(t, y)`, the Jacobian taken there):
@@ -264,7 +264,8 @@ impl Rodas4 {
                 }
                 self.rhs[i] = acc;
             }
-            lu_solve(&self.lu, &self.piv, n, &mut self.rhs);
+            let lu = self.lu.as_ref().expect("factored above");
+            lu.solve_mut(&mut DVectorViewMut::from_slice(&mut self.rhs, n));
             self.u[s].copy_from_slice(&self.rhs);
         }
         // y₁ = the 6th stage point + u₆
@@ -295,91 +296,9 @@ fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
-/// LU factorization with partial pivoting of the column-major `n × n` matrix `a` in place;
-/// `piv[k]` is the row swapped with row `k` at step `k`. `false` on a zero pivot.
-fn lu_factor(a: &mut [f64], piv: &mut [usize], n: usize) -> bool {
-    for k in 0..n {
-        let (mut p, mut best) = (k, a[k * n + k].abs());
-        for i in k + 1..n {
-            let v = a[k * n + i].abs();
-            if v > best {
-                p = i;
-                best = v;
-            }
-        }
-        if best == 0.0 || !best.is_finite() {
-            return false;
-        }
-        piv[k] = p;
-        if p != k {
-            for j in 0..n {
-                a.swap(j * n + k, j * n + p);
-            }
-        }
-        let inv = 1.0 / a[k * n + k];
-        for i in k + 1..n {
-            a[k * n + i] *= inv;
-        }
-        for j in k + 1..n {
-            let akj = a[j * n + k];
-            if akj != 0.0 {
-                for i in k + 1..n {
-                    a[j * n + i] -= a[k * n + i] * akj;
-                }
-            }
-        }
-    }
-    true
-}
-
-/// Solves `A x = b` in place on the factors of [`lu_factor`].
-fn lu_solve(a: &[f64], piv: &[usize], n: usize, b: &mut [f64]) {
-    for k in 0..n {
-        b.swap(k, piv[k]);
-    }
-    for j in 0..n {
-        let x = b[j];
-        if x != 0.0 {
-            for i in j + 1..n {
-                b[i] -= a[j * n + i] * x;
-            }
-        }
-    }
-    for j in (0..n).rev() {
-        b[j] /= a[j * n + j];
-        let x = b[j];
-        if x != 0.0 {
-            for i in 0..j {
-                b[i] -= a[j * n + i] * x;
-            }
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The LU solve against a product formed by hand (a matrix that needs pivoting).
-    #[test]
-    fn lu_solves_a_pivoted_system() {
-        let n = 3;
-        // column-major [[0, 2, 1], [1, 1, 0], [4, 0, 3]]
-        let m = [0.0, 1.0, 4.0, 2.0, 1.0, 0.0, 1.0, 0.0, 3.0];
-        let x = [1.0, -2.0, 0.5];
-        let mut b = [0.0; 3];
-        for j in 0..n {
-            for i in 0..n {
-                b[i] += m[j * n + i] * x[j];
-            }
-        }
-        let (mut a, mut piv) = (m, [0; 3]);
-        assert!(lu_factor(&mut a, &mut piv, n));
-        lu_solve(&a, &piv, n, &mut b);
-        for i in 0..n {
-            assert!((b[i] - x[i]).abs() < 1e-14, "{b:?}");
-        }
-    }
 
     /// Order 4 at the step's end on `y' = λ (y − cos t) − sin t` (solution
     /// `cos t + e^{λt}(y₀ − 1)`): halving the step divides the error by about 16.
