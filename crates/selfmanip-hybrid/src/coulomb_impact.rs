@@ -402,6 +402,10 @@ pub enum NotDifferentiable {
     /// The active set's linear system is singular (dependent rows: `q̇⁺` is determined, its
     /// derivative by this system is not).
     Singular,
+    /// A geometric body parameter ([`BodyParameter::is_geometric`]: a link's length, a
+    /// contact's position) moves `A` as well as `M̄`; the Coulomb impact's column for it is not
+    /// formed (the plastic impact's is, `selfmanip_core::tangent::plastic_impact_body_derivatives`).
+    GeometricParameter(BodyParameter),
 }
 
 /// The exact Jacobian of the Coulomb impact `outcome` (one of [`coulomb_impacts`]' solutions
@@ -432,6 +436,9 @@ pub fn coulomb_impact_jacobian(
     qd_minus: &[f64],
     ps: &[BodyParameter],
 ) -> Result<Result<CoulombImpactJacobian, NotDifferentiable>, TangentError> {
+    if let Some(&p) = ps.iter().find(|p| p.is_geometric()) {
+        return Ok(Err(NotDifferentiable::GeometricParameter(p)));
+    }
     let nq = model.nq();
     let cand: Vec<usize> = outcome.states.iter().map(|s| s.0).collect();
     let (all, idx) = impact_rows(model, &cand);

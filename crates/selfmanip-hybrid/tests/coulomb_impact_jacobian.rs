@@ -16,7 +16,7 @@ use selfmanip_core::description::{
 use selfmanip_core::tangent::BodyParameter;
 use selfmanip_core::{Data, GroundPlane, Model};
 use selfmanip_hybrid::coulomb_impact::{
-    coulomb_impact_jacobian, coulomb_impacts, ContactImpact, CoulombImpact,
+    coulomb_impact_jacobian, coulomb_impacts, ContactImpact, CoulombImpact, NotDifferentiable,
 };
 
 mod systems;
@@ -175,4 +175,30 @@ fn coulomb_impact_jacobian_matches_central_differences_of_the_impact() {
     eprintln!("checked {checked} solutions ({slips} with a slip), worst {worst:.1e}");
     assert!(checked >= 20 && slips >= 10, "{checked} {slips}");
     assert!(worst < 1e-7, "{worst:e}");
+}
+
+/// A geometric parameter moves `A` too, which the Coulomb impact's columns do not carry: asked
+/// for one, the Jacobian is refused by name rather than formed without those terms.
+#[test]
+fn a_geometric_parameter_is_refused_by_name() {
+    let (m_b, m_l, mu) = NOMINAL;
+    let model = robot(m_b, m_l, mu);
+    let ground = GroundPlane::level(0.0);
+    let (q, qd) = (vec![0.3, 0.0, -0.2, 0.1], vec![1.0, 1.5, 1.0, -1.0]);
+    let outcomes = solutions(&model, &q, &qd);
+    assert!(!outcomes.is_empty());
+    for p in [
+        BodyParameter::LinkLength {
+            joint: 0,
+            com_follows: false,
+        },
+        BodyParameter::ContactPosition(0, 1),
+    ] {
+        let mut data = Data::new(&model);
+        let got = coulomb_impact_jacobian(&model, &mut data, &ground, &outcomes[0], &q, &qd, &[p]);
+        assert_eq!(
+            got.unwrap().err(),
+            Some(NotDifferentiable::GeometricParameter(p))
+        );
+    }
 }

@@ -59,6 +59,11 @@ pub(super) fn coulomb_reset(
         Ok(Err(NotDifferentiable::Singular)) => {
             return Err(not("its active set's system is singular".into()))
         }
+        Ok(Err(NotDifferentiable::GeometricParameter(p))) => {
+            return Err(not(format!(
+                "its column in the geometric parameter {p:?} is not formed"
+            )))
+        }
         Err(e) => return Err(not(e.to_string())),
     };
     gr.velocity_jump(
