@@ -25,12 +25,18 @@ fn scenario(stiff_switch: bool) -> Scenario {
             "target_rad": {target}, "kp_n_m_per_rad": 20.0, "kd_n_m_s_per_rad": 0.4}}}}]}}"#
         )
     };
+    // on: the default (the option left out)
+    let switch = if stiff_switch {
+        ""
+    } else {
+        r#", "stiff_switch": false"#
+    };
     let json = format!(
         r#"{{"robot": {{"name": "bounder", "body": {{"mass_kg": 2.0, "inertia_kg_m2": 0.0267}},
         "contacts": [{}, {}], "legs": [{}, {}]}},
         "initial": {{"q": [0.5, -1.0, 0.5, -1.0, 0.0, -0.33, 0.0]}},
         "behaviour": {{"joints": [{}, {}, {}, {}]}},
-        "options": {{"t_final_s": 0.3, "stiff_switch": {stiff_switch}}}}}"#,
+        "options": {{"t_final_s": 0.3{switch}}}}}"#,
         foot("front"),
         foot("hind"),
         leg("front", 0.2),
