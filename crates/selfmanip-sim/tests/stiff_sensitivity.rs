@@ -15,6 +15,8 @@ use selfmanip_hybrid::EventKind;
 use selfmanip_sim::periodic::run_sensitivity;
 use selfmanip_sim::sensitivity::scenario_parameter_sensitivity;
 use selfmanip_sim::{Scenario, Simulation};
+mod stiff_bounder;
+use stiff_bounder::stiff_bounder;
 #[path = "../../selfmanip-hybrid/tests/systems/fd.rs"]
 mod fd;
 use fd::{central_difference, end_state_and_events, richardson, run_jacobian_fd};
@@ -150,44 +152,14 @@ fn stiff_spring_damper_matches_its_closed_form_sensitivities() {
     assert!(e < 1e-6, "{got:?} vs {dc:?}");
 }
 
-/// The bounder of `stiff_run.rs` (a 2 g shin, servo damping 0.4 N m s on `2·10⁻⁶ kg m²`)
-/// dropped from 5 cm, to 0.1 s (before it lands at 0.108 s), at `rtol = 1e-9`: tighter,
-/// DOPRI5's steps are set by accuracy below the stiffness test's bound and the switch does
-/// not fire.
+/// The stiff bounder ([`stiff_bounder`]) with the front shin's damping `kd_shin`, dropped
+/// to 0.1 s (before it lands at 0.108 s), at `rtol = 1e-9`: tighter, DOPRI5's steps are set
+/// by accuracy below the stiffness test's bound and the switch does not fire.
 fn bounder(kd_shin: f64) -> Scenario {
-    let link = r#"{"length_m": 0.15, "mass_kg": 0.1, "inertia_kg_m2": 1.875e-4}"#;
-    let shin = r#"{"length_m": 0.15, "mass_kg": 0.002, "inertia_kg_m2": 2e-6}"#;
-    let foot = |g: &str| {
-        format!(
-            r#"{{"name": "{g}_foot", "leg": "{g}", "shape": {{"kind": "point",
-            "position_m": [0, 0.15]}}, "friction": {{"kind": "sticking", "mu": 0.8}}}}"#
-        )
-    };
-    let leg = |n: &str, x: f64| {
-        format!(r#"{{"name": "{n}", "hip_m": [{x}, 0.0], "links": [{link}, {shin}]}}"#)
-    };
-    let servo = |j: &str, target: f64, kd: f64| {
-        format!(
-            r#"{{"joint": "{j}", "phases": [{{"name": "h", "torque": {{"kind": "servo",
-            "target_rad": {target}, "kp_n_m_per_rad": 20.0, "kd_n_m_s_per_rad": {kd}}}}}]}}"#
-        )
-    };
-    let json = format!(
-        r#"{{"robot": {{"name": "bounder", "body": {{"mass_kg": 2.0, "inertia_kg_m2": 0.0267}},
-        "contacts": [{}, {}], "legs": [{}, {}]}},
-        "initial": {{"q": [0.5, -1.0, 0.5, -1.0, 0.0, -0.33, 0.0]}},
-        "behaviour": {{"joints": [{}, {}, {}, {}]}},
-        "options": {{"t_final_s": 0.1, "rtol": 1e-9, "event_tol_s": 1e-14}}}}"#,
-        foot("front"),
-        foot("hind"),
-        leg("front", 0.2),
-        leg("hind", -0.2),
-        servo("front[0]", 0.6, 0.4),
-        servo("front[1]", -0.8, kd_shin),
-        servo("hind[0]", 0.6, 0.4),
-        servo("hind[1]", -0.8, 0.4),
-    );
-    Scenario::from_json_str(&json).unwrap()
+    stiff_bounder(
+        kd_shin,
+        r#""t_final_s": 0.1, "rtol": 1e-9, "event_tol_s": 1e-14"#,
+    )
 }
 
 /// The run of `sim` from the state `x`.

@@ -51,6 +51,11 @@ fn main() {
             w.implicit,
             w.switches
         );
+        let mut kinds: std::collections::BTreeMap<String, usize> = Default::default();
+        for e in &exec.events {
+            *kinds.entry(format!("{:?}", e.kind)).or_default() += 1;
+        }
+        println!("  event kinds {kinds:?}");
         let mut segs: Vec<_> = exec.segments.iter().collect();
         segs.sort_by_key(|s| std::cmp::Reverse(s.dense.len()));
         for seg in segs.iter().take(6) {
