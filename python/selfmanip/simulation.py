@@ -422,9 +422,6 @@ def simulate(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[float], qd
         raise InvalidTypeError(f"`sensitivity` must be True or False, got {type(sensitivity).__name__}",
                                "sensitivity")
     names = _parameter_names(parameters, sensitivity)
-    if sensitivity:
-        # derivatives are integrated with the explicit method on the run's own steps
-        options.setdefault("stiff_switch", False)
     s = scenario(robot, behaviour, q0, qd0, terrain, t_final, stop_at, contacts=contacts, solve=solve,
                  params=params, **options)
     return Execution(s.run(controller), _robot(robot)[1], sensitivity, names)

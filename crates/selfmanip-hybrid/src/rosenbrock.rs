@@ -21,13 +21,13 @@
 use nalgebra::{DMatrix, DVectorViewMut, Dyn, LU};
 
 /// `γ`.
-const GAMMA: f64 = 0.25;
+pub(crate) const GAMMA: f64 = 0.25;
 /// Stage times `c_i`.
-const C: [f64; 6] = [0.0, 0.386, 0.21, 0.63, 1.0, 1.0];
+pub(crate) const C: [f64; 6] = [0.0, 0.386, 0.21, 0.63, 1.0, 1.0];
 /// `d_i` (the `∂f/∂t` weights).
-const D: [f64; 6] = [0.25, -0.1043, 0.1035, -0.0362, 0.0, 0.0];
+pub(crate) const D: [f64; 6] = [0.25, -0.1043, 0.1035, -0.0362, 0.0, 0.0];
 /// `a_ij`: row `i` gives stage `i`'s point; row 6 (index 5 plus `u₆`) the solution.
-const A: [[f64; 5]; 6] = [
+pub(crate) const A: [[f64; 5]; 6] = [
     [0.0; 5],
     [1.544, 0.0, 0.0, 0.0, 0.0],
     [0.9466785280815826, 0.2557011698983284, 0.0, 0.0, 0.0],
@@ -54,7 +54,7 @@ const A: [[f64; 5]; 6] = [
     ],
 ];
 /// `c_ij` (divided by `h` in the stages).
-const CC: [[f64; 5]; 6] = [
+pub(crate) const CC: [[f64; 5]; 6] = [
     [0.0; 5],
     [-5.6688, 0.0, 0.0, 0.0, 0.0],
     [-2.430093356833875, -0.2063599157091915, 0.0, 0.0, 0.0],

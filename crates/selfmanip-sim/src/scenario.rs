@@ -90,9 +90,8 @@ pub struct SimOptions {
     /// How the word is formed.
     pub word: WordOptions,
     /// Switch to a linearly implicit method on stiff stretches (a servo's damping on a light
-    /// link): [`selfmanip_hybrid::StepOptions::stiff_switch`]. Off by default: the
-    /// derivatives of a run ([`crate::sensitivity`]) need it off
-    /// (`simulate(..., sensitivity=True)` keeps it off).
+    /// link): [`selfmanip_hybrid::StepOptions::stiff_switch`]. On by default; the
+    /// derivatives of a run ([`crate::sensitivity`]) follow its implicit steps.
     pub stiff_switch: bool,
 }
 

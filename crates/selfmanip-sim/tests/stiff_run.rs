@@ -4,43 +4,18 @@
 //! is bit-identical from run to run and thread to thread.
 use selfmanip_hybrid::integrate::{reset_work_counters, work_counters};
 use selfmanip_sim::{Scenario, Simulation};
+mod stiff_bounder;
+use stiff_bounder::stiff_bounder;
 
-/// The newcomer's bounder of issue 30 with a light shin (2 g, 2·10⁻⁶ kg m²) and stiff servo
-/// damping, dropped from 5 cm with its joints away from their targets.
+/// The stiff bounder ([`stiff_bounder`]) to 0.3 s, the switch on (the default: the option
+/// left out) or off.
 fn scenario(stiff_switch: bool) -> Scenario {
-    let link = r#"{"length_m": 0.15, "mass_kg": 0.1, "inertia_kg_m2": 1.875e-4}"#;
-    let shin = r#"{"length_m": 0.15, "mass_kg": 0.002, "inertia_kg_m2": 2e-6}"#;
-    let foot = |g: &str| {
-        format!(
-            r#"{{"name": "{g}_foot", "leg": "{g}", "shape": {{"kind": "point",
-            "position_m": [0, 0.15]}}, "friction": {{"kind": "sticking", "mu": 0.8}}}}"#
-        )
+    let options = if stiff_switch {
+        r#""t_final_s": 0.3"#
+    } else {
+        r#""t_final_s": 0.3, "stiff_switch": false"#
     };
-    let leg = |n: &str, x: f64| {
-        format!(r#"{{"name": "{n}", "hip_m": [{x}, 0.0], "links": [{link}, {shin}]}}"#)
-    };
-    let servo = |j: &str, target: f64| {
-        format!(
-            r#"{{"joint": "{j}", "phases": [{{"name": "h", "torque": {{"kind": "servo",
-            "target_rad": {target}, "kp_n_m_per_rad": 20.0, "kd_n_m_s_per_rad": 0.4}}}}]}}"#
-        )
-    };
-    let json = format!(
-        r#"{{"robot": {{"name": "bounder", "body": {{"mass_kg": 2.0, "inertia_kg_m2": 0.0267}},
-        "contacts": [{}, {}], "legs": [{}, {}]}},
-        "initial": {{"q": [0.5, -1.0, 0.5, -1.0, 0.0, -0.33, 0.0]}},
-        "behaviour": {{"joints": [{}, {}, {}, {}]}},
-        "options": {{"t_final_s": 0.3, "stiff_switch": {stiff_switch}}}}}"#,
-        foot("front"),
-        foot("hind"),
-        leg("front", 0.2),
-        leg("hind", -0.2),
-        servo("front[0]", 0.6),
-        servo("front[1]", -0.8),
-        servo("hind[0]", 0.6),
-        servo("hind[1]", -0.8),
-    );
-    Scenario::from_json_str(&json).unwrap()
+    stiff_bounder(0.4, options)
 }
 
 /// The run's end state's bits, its accepted steps and its implicit ones.

@@ -22,6 +22,12 @@
 //! flow, so the state's steps resolve it to the same order; and the derivative of the step
 //! map with the step sequence frozen is the quantity a finite difference of whole executions
 //! converges to when perturbations do not change the step sequence's smoothness.
+//! A linearly implicit (RODAS4) step of the record, on a stiff stretch
+//! ([`crate::integrate::StepOptions::stiff_switch`]), is one an explicit tangent step of its
+//! size need not be stable on: there the tangent takes a RODAS4 step of its own along the
+//! record's state, with `W = I/(hγ) − F` from the exact `F` (the variational equation is
+//! linear in `Φ`; `implicit_tangent`), an order-4 integration of the exact flow's variational
+//! equation rather than the derivative of the engine's step map.
 //!
 //! **Saltation.** At an event with guard `g` and reset `R`:
 //! `Ξ = D_xR + (f⁺ − D_xR f⁻) D_xg / (D_xg f⁻)`, with `f⁻`, `f⁺` the flows before and after
@@ -120,6 +126,7 @@ mod coulomb_impact;
 mod evaluator;
 mod event_saltation;
 mod force_events;
+mod implicit_tangent;
 mod reset_jacobian;
 mod saltation;
 mod segment_tangent;

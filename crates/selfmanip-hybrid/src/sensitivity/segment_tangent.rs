@@ -1,4 +1,5 @@
-//! The tangent over one segment on its own steps: each step split at the controller's time
+//! The tangent over one segment on its own steps (a DOPRI5 step of the record by the DOPRI5
+//! tableau, a RODAS4 step by RODAS4: [`Tangent::step_implicit`]): each step split at the controller's time
 //! events, at rolling/point switches (with their saltations) and at kinks of the controller's
 //! law.
 use super::evaluator::{controller_names, Evaluator};
@@ -19,9 +20,6 @@ pub(super) fn segment_flow(
     switches: &mut Vec<TouchSwitch>,
     time_events: &mut Vec<TimeEventSensitivity>,
 ) -> Result<(), SensitivityError> {
-    if seg.dense.has_implicit_steps() {
-        return Err(SensitivityError::ImplicitSteps { t: seg.t0 });
-    }
     let n2 = seg.y0.len();
     let (mut ya, mut yb, mut ym) = (vec![0.0; n2], vec![0.0; n2], vec![0.0; n2]);
     let mut pending: Vec<TimeEvent> = match tangent {
@@ -74,9 +72,14 @@ pub(super) fn segment_flow(
                 ev.touches_into(seg.mode, &ya, &mut start_touches);
                 let start_piece = piece(ta, &ya);
                 if start_touches == end_touches && start_piece == end_piece {
-                    let hold =
-                        at_kink.then_some((start_piece, &record as &dyn Fn(f64, &mut [f64])));
-                    tangent.step(ev, seg, (ta, t_end - ta, t_floor, t_cap), &ya, hold)?;
+                    let span = (ta, t_end - ta, t_floor, t_cap);
+                    if step.implicit {
+                        tangent.step_implicit(ev, seg, span, &record)?;
+                    } else {
+                        let hold =
+                            at_kink.then_some((start_piece, &record as &dyn Fn(f64, &mut [f64])));
+                        tangent.step(ev, seg, span, &ya, hold)?;
+                    }
                     break;
                 }
                 // the first change of touch kinds or of the controller's piece after ta,
@@ -95,8 +98,13 @@ pub(super) fn segment_flow(
                         hi = mid;
                     }
                 }
-                let hold = (start_piece, &record as &dyn Fn(f64, &mut [f64]));
-                tangent.step(ev, seg, (ta, lo - ta, t_floor, t_cap), &ya, Some(hold))?;
+                let span = (ta, lo - ta, t_floor, t_cap);
+                if step.implicit {
+                    tangent.step_implicit(ev, seg, span, &record)?;
+                } else {
+                    let hold = (start_piece, &record as &dyn Fn(f64, &mut [f64]));
+                    tangent.step(ev, seg, span, &ya, Some(hold))?;
+                }
                 step.eval(lo, &mut ym);
                 step.eval(hi, &mut ya);
                 at_kink = true;

@@ -27,9 +27,6 @@ pub fn simulate_with_sensitivity(
     t_final: f64,
     opts: HybridOptions,
 ) -> Result<(Execution, Sensitivity), SensitivityError> {
-    // the tangent is integrated with DOPRI5 on the record's steps: no implicit ones
-    let mut opts = opts;
-    opts.step.stiff_switch = false;
     let exec = simulate(model, terrain, controller, mode0, q0, qd0, t_final, opts)?;
     let s = execution_sensitivity(model, terrain, &exec)?;
     Ok((exec, s))

@@ -38,14 +38,13 @@ pub enum SensitivityError {
         parameter: Parameter,
         reason: String,
     },
-    /// A segment was integrated with linearly implicit (RODAS4) steps on a stiff stretch
-    /// ([`crate::integrate::StepOptions::stiff_switch`]): the tangent is integrated with
-    /// DOPRI5 on the record's own steps, which need not be stable at those sizes. Run with
-    /// `stiff_switch = false` for derivatives.
+    /// The linearly implicit tangent step over a RODAS4 step of the record
+    /// (`W = I / (h γ) − F`, [`crate::integrate::StepOptions::stiff_switch`]) met a singular
+    /// `W`.
     #[error(
-        "the segment starting at t = {t} s took linearly implicit (stiff) steps; derivatives          need a run with the stiff switch off (`stiff_switch = false`)"
+        "the linearly implicit tangent step at t = {t} s has a singular matrix W = I/(h γ) − F"
     )]
-    ImplicitSteps { t: f64 },
+    SingularImplicitStep { t: f64 },
 }
 
 /// Whether an event's saltation matrix is defined.

@@ -8,7 +8,7 @@
 //! run's energy residual (`selfmanip_hybrid::energy_report`).
 //!
 //! ```sh
-//! cargo run --release -p selfmanip-tools --bin user_run_cost -- [--stiff-switch] run471.json …
+//! cargo run --release -p selfmanip-tools --bin user_run_cost -- [--[no-]stiff-switch] run471.json …
 //! ```
 use selfmanip_hybrid::integrate::{reset_work_counters, work_counters};
 use selfmanip_sim::{Scenario, Simulation};
@@ -16,11 +16,19 @@ use std::path::Path;
 use std::time::Instant;
 
 fn main() {
-    // `--stiff-switch`: the runs with the stiff switch on (`SimOptions::stiff_switch`)
-    let stiff = std::env::args().any(|a| a == "--stiff-switch");
-    for path in std::env::args().skip(1).filter(|a| a != "--stiff-switch") {
+    // `--stiff-switch` / `--no-stiff-switch`: the runs with the stiff switch on / off
+    // (`SimOptions::stiff_switch`, on by default; a file's own setting otherwise)
+    let (on, off) = ("--stiff-switch", "--no-stiff-switch");
+    let switch = std::env::args().find_map(|a| {
+        (a == on)
+            .then_some(true)
+            .or_else(|| (a == off).then_some(false))
+    });
+    for path in std::env::args().skip(1).filter(|a| a != on && a != off) {
         let mut s = Scenario::from_file(Path::new(&path)).unwrap_or_else(|e| panic!("{path}: {e}"));
-        s.options.stiff_switch |= stiff;
+        if let Some(b) = switch {
+            s.options.stiff_switch = b;
+        }
         let sim = Simulation::new(&s).unwrap_or_else(|e| panic!("{path}: {e}"));
         reset_work_counters();
         let t0 = Instant::now();
@@ -43,6 +51,11 @@ fn main() {
             w.implicit,
             w.switches
         );
+        let mut kinds: std::collections::BTreeMap<String, usize> = Default::default();
+        for e in &exec.events {
+            *kinds.entry(format!("{:?}", e.kind)).or_default() += 1;
+        }
+        println!("  event kinds {kinds:?}");
         let mut segs: Vec<_> = exec.segments.iter().collect();
         segs.sort_by_key(|s| std::cmp::Reverse(s.dense.len()));
         for seg in segs.iter().take(6) {
