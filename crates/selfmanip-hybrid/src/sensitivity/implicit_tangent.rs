@@ -104,7 +104,7 @@ impl Tangent<'_> {
             xs.copy_from(&x0);
             for (j, uj) in u.iter().enumerate() {
                 if RA[s][j] != 0.0 {
-                    axpy(&mut xs, RA[s][j], uj);
+                    xs.zip_apply(uj, |v, w| *v += RA[s][j] * w);
                 }
             }
             let mut rhs = if s == 0 {
@@ -114,10 +114,10 @@ impl Tangent<'_> {
                 gs.clone()
             };
             if RD[s] != 0.0 {
-                axpy(&mut rhs, RD[s] * h, &gt);
+                rhs.zip_apply(&gt, |v, w| *v += RD[s] * h * w);
             }
             for (j, uj) in u.iter().enumerate() {
-                axpy(&mut rhs, RCC[s][j] / h, uj);
+                rhs.zip_apply(uj, |v, w| *v += RCC[s][j] / h * w);
             }
             lu.solve_mut(&mut rhs);
             u.push(rhs);
@@ -141,12 +141,5 @@ impl Tangent<'_> {
             Tangent::Full(phi) => phi,
             Tangent::Columns { x, .. } => x,
         }
-    }
-}
-
-/// `y += a x`, entry by entry.
-fn axpy(y: &mut DMatrix<f64>, a: f64, x: &DMatrix<f64>) {
-    for (v, w) in y.as_mut_slice().iter_mut().zip(x.as_slice()) {
-        *v += a * w;
     }
 }
