@@ -7,7 +7,8 @@
 //! toes stick, the body slides) or `s` (a toe in contact but sliding, section 5.1.5).
 use crate::params::{LegPair, RhexParams};
 use crate::RhexError;
-use selfmanip_core::{ContactKind, ContactMode, Model};
+use selfmanip_core::{ContactMode, Model};
+use selfmanip_sim::{ContactLabels, SimError};
 
 /// An RHex instance: its parameters and the generic core model built from them.
 #[derive(Debug, Clone)]
@@ -16,6 +17,7 @@ pub struct Rhex {
     pub model: Model,
     /// Contact index of each label character, in label order.
     label_sites: Vec<usize>,
+    labels: ContactLabels,
 }
 
 impl Rhex {
@@ -33,10 +35,12 @@ impl Rhex {
         if pairs.len() > 1 {
             label_sites.push(leg(*pairs.last().expect("non-empty")));
         }
+        let labels = ContactLabels::from_indices(&model, label_sites.clone());
         Ok(Rhex {
             params,
             model,
             label_sites,
+            labels,
         })
     }
 
@@ -55,50 +59,43 @@ impl Rhex {
         self.label_sites.len()
     }
 
-    /// Parses a label such as `"0101"` into a contact mode.
+    /// Parses a label such as `"0101"` into a contact mode (the generic
+    /// [`ContactLabels::parse`] in this order; `s` only on a leg, the body always slides).
     pub fn mode(&self, label: &str) -> Result<ContactMode, RhexError> {
         let err = |reason: String| RhexError::ModeLabel {
             label: label.to_string(),
             reason,
         };
-        let chars: Vec<char> = label.chars().collect();
-        if chars.len() != self.label_sites.len() {
-            return Err(err(format!(
-                "expected {} characters ({}), got {}",
-                self.label_sites.len(),
-                self.label_legend(),
-                chars.len()
-            )));
+        let n = label.chars().count();
+        if n != self.label_sites.len() {
+            let (k, legend) = (self.label_sites.len(), self.label_legend());
+            return Err(err(format!("expected {k} characters ({legend}), got {n}")));
         }
-        let mut mode = ContactMode::FLIGHT;
-        for (ch, &site) in chars.iter().zip(&self.label_sites) {
-            mode = match ch {
-                '0' => mode,
-                '1' => mode.union(ContactMode::with_defaults(&self.model, &[site])?),
-                's' if self.model.contacts[site].link.is_some() => {
-                    mode.with(site, ContactKind::Slide)
-                }
-                's' => {
-                    return Err(err(
-                        "`s` (sliding) only applies to legs; the body always slides".into(),
-                    ))
-                }
-                other => return Err(err(format!("character `{other}` is not 0, 1 or s"))),
-            };
+        if label
+            .chars()
+            .zip(&self.label_sites)
+            .any(|(c, &k)| c == 's' && self.on_body(k))
+        {
+            return Err(err(
+                "`s` (sliding) only applies to legs; the body always slides".into(),
+            ));
         }
-        Ok(mode)
+        self.labels.parse(&self.model, label).map_err(|e| match e {
+            SimError::InvalidValue { reason, .. } => err(reason),
+            e => e.into(),
+        })
     }
 
-    /// The label of a mode (inverse of [`Self::mode`]).
+    /// The label of a mode (inverse of [`Self::mode`]; a body end shows `1`, sliding or not).
     pub fn label(&self, mode: ContactMode) -> String {
-        self.label_sites
-            .iter()
-            .map(|&site| match mode.kind(site) {
-                None => '0',
-                Some(ContactKind::Slide) if self.model.contacts[site].link.is_some() => 's',
-                Some(_) => '1',
-            })
+        let label = self.labels.label(mode);
+        (label.chars().zip(&self.label_sites))
+            .map(|(c, &k)| if c == 's' && self.on_body(k) { '1' } else { c })
             .collect()
+    }
+
+    fn on_body(&self, site: usize) -> bool {
+        self.model.contacts[site].link.is_none()
     }
 
     /// `"FB FL RB RL"` (or the three-pair legend).
