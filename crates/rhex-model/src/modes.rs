@@ -7,7 +7,7 @@
 //! toes stick, the body slides) or `s` (a toe in contact but sliding, section 5.1.5).
 use crate::params::{LegPair, RhexParams};
 use crate::RhexError;
-use selfmanip_core::{ContactMode, Model};
+use selfmanip_core::{ContactKind, ContactMode, Model};
 use selfmanip_sim::{ContactLabels, SimError};
 
 /// An RHex instance: its parameters and the generic core model built from them.
@@ -17,7 +17,6 @@ pub struct Rhex {
     pub model: Model,
     /// Contact index of each label character, in label order.
     label_sites: Vec<usize>,
-    labels: ContactLabels,
 }
 
 impl Rhex {
@@ -35,12 +34,10 @@ impl Rhex {
         if pairs.len() > 1 {
             label_sites.push(leg(*pairs.last().expect("non-empty")));
         }
-        let labels = ContactLabels::from_indices(&model, label_sites.clone());
         Ok(Rhex {
             params,
             model,
             label_sites,
-            labels,
         })
     }
 
@@ -80,17 +77,22 @@ impl Rhex {
                 "`s` (sliding) only applies to legs; the body always slides".into(),
             ));
         }
-        self.labels.parse(&self.model, label).map_err(|e| match e {
+        let labels = ContactLabels::from_indices(&self.model, self.label_sites.clone());
+        labels.parse(&self.model, label).map_err(|e| match e {
             SimError::InvalidValue { reason, .. } => err(reason),
             e => e.into(),
         })
     }
 
-    /// The label of a mode (inverse of [`Self::mode`]; a body end shows `1`, sliding or not).
+    /// The label of a mode (inverse of [`Self::mode`]).
     pub fn label(&self, mode: ContactMode) -> String {
-        let label = self.labels.label(mode);
-        (label.chars().zip(&self.label_sites))
-            .map(|(c, &k)| if c == 's' && self.on_body(k) { '1' } else { c })
+        self.label_sites
+            .iter()
+            .map(|&site| match mode.kind(site) {
+                None => '0',
+                Some(ContactKind::Slide) if !self.on_body(site) => 's',
+                Some(_) => '1',
+            })
             .collect()
     }
 

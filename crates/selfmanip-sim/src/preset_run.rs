@@ -38,6 +38,7 @@ pub struct PresetRun {
 
 impl std::ops::Deref for PresetRun {
     type Target = Outcome;
+    #[inline]
     fn deref(&self) -> &Outcome {
         &self.outcome
     }
@@ -47,6 +48,7 @@ impl PresetRun {
     /// The run `(exec, outcome)` of `model` on `terrain` read in `frame`, its events labelled
     /// by `label` when `event_records`.
     #[allow(clippy::too_many_arguments)]
+    #[inline]
     pub fn read(
         model: &Model,
         terrain: &TerrainSpec,
@@ -76,6 +78,7 @@ impl PresetRun {
     /// Why the run did not fly, in words (empty when it flew): the engine's
     /// [`selfmanip_hybrid::Termination::describe`] on the preset's clock with the contacts'
     /// names and the flowing mode's label (the last event's, else `start_label`).
+    #[inline]
     pub fn reason(&self, model: &Model, stop_at_apex: bool, start_label: &str) -> String {
         let mode = self
             .events
@@ -95,6 +98,7 @@ impl PresetRun {
     }
 
     /// Energy bookkeeping of the run (motor work, impact losses, start and end energy).
+    #[inline]
     pub fn energy_report(
         &self,
         model: &Model,
@@ -109,6 +113,7 @@ impl PresetRun {
 
     /// Samples the run every `dt_s` seconds (and at its end) with the generic sampler
     /// ([`crate::trajectory::sample_labelled`]), times on the preset's clock.
+    #[inline]
     pub fn trajectory(
         &self,
         model: &Model,
