@@ -1,17 +1,7 @@
 //! The leaps of the thesis's chapter-5 figures, as configurations of this model (shared by
 //! the examples `fig5_*` and the tests). Chapter 5 gives few parameters; where a choice was
-//! made here it says how, and where the model cannot reproduce a figure it says why.
-//!
-//! **Fig. 5.9** (a leap onto a 73 cm ledge; chapter 3's "leap-grab" hooks the legs over a
-//! 73 cm table at the top of a nearly vertical (−,−) leap) has no configuration here. In a
-//! search over the four strategies, the three choices of two pushing pairs, t2 from −0.2 to
-//! 0.2 s (10 ms steps) and a face 0.3–0.6 m ahead or behind, run to 1.5 s, no leap brings a
-//! body end over the top of a 73 cm ledge: beyond the face, no body-end centre comes within
-//! 2 cm of its resting height on the top (`h + ρ_b`). Nor does any leg reach the edge or the
-//! top (chapter 3's pairs, t2 from −0.1 to 0.1 s, a face 0.25–0.6 m ahead or behind, with the
-//! legs parked after liftoff or kept turning): only body ends touch the edge, briefly. The
-//! edge is a contact feature (a body end or a leg's arc can rest, roll and slide on it), so
-//! the difference lies in the leaps themselves: none carries a body end or a leg over it.
+//! made here it says how. Fig. 5.9 (a leap onto a 73 cm ledge) has no configuration: no leap
+//! of the model reaches it (`docs/fidelity.md`).
 use crate::leap::{leap_params, LeapConfig, Push, Strategy};
 use crate::params::{LegPair, RhexParams, ToeSliding};
 use selfmanip_sim::terrain::TerrainSpec;

@@ -3,20 +3,8 @@
 //! simulator. [`LeapPreset`] turns `(params, cfg)` into the robot, its start pose and a
 //! `selfmanip_sim::Scenario` that runs the strategy's behaviour (`data/behaviours/leap_*.toml`,
 //! [`LEAP_BEHAVIOURS`]) through the interpreter; [`LeapResult`] is read off the execution.
-//!
-//! The robot starts at rest on its body (`I_1010`), each leg held
-//! [`LeapConfig::wait_clearance_rad`] above its touchdown angle on the side its strategy
-//! pushes from. The front motor starts at `t = 0`, the rear one at `t = t2`; execution time
-//! starts at `min(0, t2)` and reported times are shifted so that the front leg starts at 0.
-//! A motor applies its torque (saturated `±τ_s`, or a current-limited geared DC motor's at the
-//! leg speed) in the strategy's direction: `+` increases θ (forward, rolling on the half
-//! circle), `−` the other way (a flip). Massless legs in the air follow prescribed motions of
-//! bounded acceleration (thesis 5.1.1, [`selfmanip_sim::motion`]): down to the ground, then
-//! parked pointing up once lifted off (planned once:
-//! `docs/decisions/2026-11-24-one-retraction-per-leg.md`) unless
-//! [`LeapConfig::keep_pushing_after_liftoff`]. The leap word is the sequence of
-//! ground-reaction-complex cells visited (chapter 3.1), sliding toes as contact, zero-time
-//! cells suppressed.
+//! The model (start pose, motor law, legs in the air, the word, the apex's frame) is
+//! `docs/leap-model.md`.
 use crate::params::{LegPair, RhexParams};
 use crate::{Rhex, RhexError};
 use motor::geared::{GearedDrive, GearedDriveSpec};
@@ -30,9 +18,9 @@ use selfmanip_sim::behaviour::{
 };
 use selfmanip_sim::drive::drive_error;
 pub use selfmanip_sim::drive::GearedMotor;
-use selfmanip_sim::events::{event_records_labelled, EventRecord};
 use selfmanip_sim::expr::Scalar;
-use selfmanip_sim::outcome::{BodyState, Outcome, PresetFrame, WordOptions};
+use selfmanip_sim::outcome::{BodyState, Outcome, WordOptions};
+pub use selfmanip_sim::preset_run::PresetRun;
 use selfmanip_sim::staggered::{
     search_touchdown_lag, staggered_frame, touchdown_lag_s, StaggeredScenario,
 };
@@ -348,27 +336,12 @@ pub fn leap_params() -> RhexParams {
 /// centre at the start, times from the front motor's start; `phi_rad` nose-up positive).
 pub type Apex = BodyState;
 
-/// The outcome of one leap: the generic run's [`Outcome`] (status, word in the labels
-/// `FB FL RB RL`, …), read through `Deref`, with what a leap adds on its clock (t = 0 at the
-/// front motor's start) and in chapter 3's frame.
+/// The outcome of one leap: the generic preset run ([`PresetRun`]: status, word in the labels
+/// `FB FL RB RL`, apex, events, … read through `Deref`) on the leap's clock (t = 0 at the
+/// front motor's start) and in chapter 3's frame, with the leap's timing.
 #[derive(Debug, Clone)]
 pub struct LeapResult {
-    /// The generic run's metrics (times on the simulation clock, NED frame).
-    pub outcome: Outcome,
-    /// It reached the apex of a flight after a motor started (status `apex`), or, not
-    /// stopping there, flew and ran on to `final_time`.
-    pub flew: bool,
-    /// The apex of the leap's first flight.
-    pub apex: Option<Apex>,
-    /// The execution (times on the simulation clock, which starts at `min(0, t2)`).
-    pub execution: Execution,
-    /// Subtract from execution times to get times relative to the front leg's start.
-    pub time_offset_s: f64,
-    /// Start configuration `q` (thesis coordinates, z down).
-    pub q0: Vec<f64>,
-    /// Events from the front leg's start in RHex's names and labels (empty from a preset
-    /// [`LeapPreset::without_event_records`]).
-    pub events: Vec<EventRecord>,
+    pub run: PresetRun,
     /// The rear motor's start relative to the front one's in this run (s).
     pub motor_t2_s: f64,
     /// The rear leg's first touchdown relative to the front leg's (s), each after its motor
@@ -376,14 +349,12 @@ pub struct LeapResult {
     pub touchdown_t2_s: Option<f64>,
     /// The leap it ran: its robot (the two pushing pairs), terrain and run options.
     pub leap: Arc<LeapScenario>,
-    /// Latest time of the execution (s after the front leg starts).
-    pub t_final_s: f64,
 }
 
 impl std::ops::Deref for LeapResult {
-    type Target = Outcome;
-    fn deref(&self) -> &Outcome {
-        &self.outcome
+    type Target = PresetRun;
+    fn deref(&self) -> &PresetRun {
+        &self.run
     }
 }
 
@@ -742,7 +713,7 @@ pub struct LeapPreset {
     params: RhexParams,
     /// The simulation of `cfg`'s point ([`StaggeredScenario`]: the rear motor `t2` later).
     sim: StaggeredScenario,
-    /// Its results carry [`LeapResult::events`] (a sweep that reads only rows does without).
+    /// Its results carry [`PresetRun::events`] (a sweep that reads only rows does without).
     event_records: bool,
 }
 
@@ -801,7 +772,7 @@ impl LeapPreset {
         })
     }
 
-    /// This preset with results that carry no event records ([`LeapResult::events`] empty,
+    /// This preset with results that carry no event records ([`PresetRun::events`] empty,
     /// [`LeapResult::reason`] names the start's mode), everything else bit for bit.
     pub fn without_event_records(self) -> Self {
         LeapPreset {
@@ -918,28 +889,25 @@ impl LeapPreset {
         let rhex = &self.leap.rhex;
         let x0 = self.q0[self.q0.len() - 3];
         let frame = staggered_frame(front_start, motor_t2_s, x0, self.cfg.stop_at_apex);
-        let flew = frame.flew(&exec, outcome.status);
-        let apex = frame.apex(&rhex.model, &exec);
-        let events = if self.event_records {
-            let label = |m: ContactMode| rhex.label(m);
-            event_records_labelled(&rhex.model, &self.cfg.terrain, &exec, &label, front_start)
-        } else {
-            Vec::new()
-        };
         let toes = [rhex.site(1), rhex.site(3)];
         let touchdown_t2_s = touchdown_lag_s(&exec, toes, front_start, motor_t2_s);
+        let (q0, t_final_s, terrain) = (self.q0.clone(), self.cfg.t_final_s, &self.cfg.terrain);
+        let label = |m: ContactMode| rhex.label(m);
+        let run = (exec, outcome);
         LeapResult {
-            outcome,
-            flew,
-            apex,
-            execution: exec,
-            time_offset_s: front_start,
-            q0: self.q0.clone(),
-            events,
+            run: PresetRun::read(
+                &rhex.model,
+                terrain,
+                &label,
+                run,
+                frame,
+                q0,
+                t_final_s,
+                self.event_records,
+            ),
             motor_t2_s,
             touchdown_t2_s,
             leap: Arc::clone(&self.leap),
-            t_final_s: self.cfg.t_final_s,
         }
     }
 }
@@ -962,48 +930,28 @@ pub fn simulate_leap_with(
 }
 
 impl LeapResult {
-    /// Why the leap did not fly, in words (empty when it [flew](Self::flew)): the engine's
-    /// [`Termination::describe`](selfmanip_hybrid::Termination::describe) on the leap's clock
-    /// with its contact names and the flowing mode's label.
+    /// Why the leap did not fly, in words (empty when it [flew](PresetRun::flew)):
+    /// [`PresetRun::reason`] with the leap's contacts, from `1010`.
     pub fn reason(&self) -> String {
-        let mode = self
-            .events
-            .last()
-            .map_or_else(|| "1010".to_string(), |e| e.mode_after.clone());
-        let contacts = &self.leap.rhex.model.contacts;
-        let name = |k: usize| {
-            contacts
-                .get(k)
-                .map_or_else(|| format!("#{k}"), |c| c.name.clone())
-        };
-        let frame = PresetFrame {
-            t0_s: self.time_offset_s,
-            ..PresetFrame::world(self.leap.scenario.options.stop_at_apex)
-        };
-        frame.reason(&self.execution, self.flew, self.t_final_s, &name, &mode)
+        let stop_at_apex = self.leap.scenario.options.stop_at_apex;
+        self.run.reason(&self.leap.rhex.model, stop_at_apex, "1010")
     }
 
     /// Energy bookkeeping of the leap (motor work, impact losses, start and end energy).
     pub fn energy_report(&self) -> Result<selfmanip_hybrid::EnergyReport, RhexError> {
-        Ok(selfmanip_hybrid::energy_report(
-            &self.leap.rhex.model,
-            &self.leap.scenario.terrain,
-            &self.execution,
-        )?)
+        let leap = &self.leap;
+        Ok(self
+            .run
+            .energy_report(&leap.rhex.model, &leap.scenario.terrain)?)
     }
 
-    /// Samples the leap every `dt_s` seconds (and at its end) with the generic sampler
-    /// ([`selfmanip_sim::trajectory::sample_labelled`]), times from the front leg's start.
+    /// Samples the leap every `dt_s` seconds (and at its end), times from the front leg's
+    /// start ([`PresetRun::trajectory`]).
     pub fn trajectory(&self, dt_s: f64) -> Result<Trajectory, RhexError> {
-        let rhex = &self.leap.rhex;
-        Ok(selfmanip_sim::trajectory::sample_labelled(
-            &rhex.model,
-            &self.leap.scenario.terrain,
-            &self.execution,
-            &|m| rhex.label(m),
-            dt_s,
-            self.time_offset_s,
-        )?)
+        let (rhex, terrain) = (&self.leap.rhex, &self.leap.scenario.terrain);
+        Ok(self
+            .run
+            .trajectory(&rhex.model, terrain, &|m| rhex.label(m), dt_s)?)
     }
 }
 
@@ -1190,7 +1138,7 @@ fn num(x: f64) -> Scalar {
     Scalar::Number(x)
 }
 
-/// The leap of `(params, cfg)` from the start configuration `q0` ([`LeapResult::q0`]) as a
+/// The leap of `(params, cfg)` from the start configuration `q0` ([`PresetRun::q0`]) as a
 /// scenario; its legs are timed by motor start.
 pub fn leap_scenario(
     params: &RhexParams,

@@ -1,29 +1,11 @@
-//! Sensitivities of RHex leaps to named parameters and to the start state: the apex,
-//! differentiated through every event by the generic named sensitivities
-//! ([`selfmanip_sim::sensitivity`]). What is RHex's is which engine parameters stand behind a
-//! leap's names ([`SENSITIVITY_PARAMETERS`]) and the apex in chapter 3's frame:
-//! - `t2_s` (alias `t2`): the rear motor's start (the behaviour parameter `t2`, a time event;
-//!   for `t2 < 0` the front's, and the reported times' origin; at 0 the right-hand derivative).
-//! - `gear_ratio`: the geared motors' `G` (torque line, current limit, servo, swing bounds) and,
-//!   on legs that carry their rotors, each leg joint's armature `a = n J G²`:
-//!   `d/dG = ∂/∂G + Σ_j (2a/G) ∂/∂a_j`. Not a parameter of the saturated torque.
-//! - `gearbox_efficiency`, `battery_resistance_ohm`: the geared motor's loss options (an unset
-//!   one is taken at the drive's value).
-//! - `m_b`, `I_b`; `leg_armature_kg_m2` (every leg joint's at once, only of legs that have one);
-//!   `mu_front`, `mu_middle`, `mu_rear` (a toe's static `μ`, with Coulomb toes the kinetic one
-//!   too); `delta_t_s` (zero columns: the pseudo-impulse only selects the impact's mode).
-//!
-//! The leap runs with [`LeapConfig::control_free_joints`] on: a massless leg's angle in the air
-//! decides when it touches down, and its tracking error left out of the step-size control
-//! (~1e-5 rad) would make touchdown-dependent derivatives off by ~1e-3. The execution is the
-//! one [`crate::leap::simulate_leap`] returns with that setting, bit for bit (~3× the default
-//! leap's integration). Motions started at an event carry their partials over that event
-//! ([`selfmanip_hybrid::Controller::memory_partials`]; `tests/relanding_sensitivity.rs`).
-//!
-//! **Undefined derivatives** make [`LeapSensitivity::ok`] false, every derivative NaN, with the
-//! reason: no apex; an event whose saltation is not defined (grazing, simultaneous touchdowns,
-//! zero-time modes, folds, jams met by the flow); an event at a motor's start; the power-flow
-//! gearbox law's torque jump at a leg's change of direction under load.
+//! Sensitivities of RHex leaps to named parameters ([`SENSITIVITY_PARAMETERS`]) and to the
+//! start state: the apex, differentiated through every event by the generic named
+//! sensitivities ([`selfmanip_sim::sensitivity`]). What is RHex's is which engine parameters
+//! stand behind a leap's names (`engine_terms`) and the apex in chapter 3's frame. The leap
+//! runs with [`LeapConfig::control_free_joints`] on (bit for bit
+//! [`crate::leap::simulate_leap`]'s with it); what each name moves, when a derivative is
+//! undefined (then [`LeapSensitivity::ok`] is false, every derivative NaN, with the reason)
+//! and why the free legs are step-controlled: `docs/sensitivity.md`, "The RHex leap".
 use crate::leap::{LeapConfig, LeapPreset, LeapResult, LegActuator, T2Reference};
 use crate::params::{LegPair, ToeSliding};
 use crate::{RhexError, RhexParams};
@@ -33,6 +15,7 @@ use selfmanip_hybrid::budget::NEVER;
 use selfmanip_hybrid::sensitivity::Parameter;
 use selfmanip_hybrid::{EventKind, Termination};
 use selfmanip_sim::named_terms::{armature_terms, contact_friction, offset_start};
+use selfmanip_sim::preset_run::ApexSensitivity;
 pub use selfmanip_sim::sensitivity::EventSaltation;
 use selfmanip_sim::sensitivity_preset::{end_state_sensitivity, EndStateRequest};
 
@@ -57,40 +40,9 @@ pub const SENSITIVITY_PARAMETERS: [&str; 14] = [
     "leg_damping",
 ];
 
-/// A leap with the derivatives of its apex.
-#[derive(Debug, Clone)]
-pub struct LeapSensitivity {
-    pub result: LeapResult,
-    /// The parameter names, as given.
-    pub parameters: Vec<String>,
-    /// `d_apex[c][k] = d APEX_COLUMNS[c] / d parameters[k]`; NaN unless [`Self::ok`].
-    pub d_apex: Vec<Vec<f64>>,
-    /// `d APEX_COLUMNS[c] / d (start-state direction j)` for the directions given to
-    /// [`leap_with_sensitivity_from`]; NaN unless [`Self::ok`].
-    pub d_apex_d_start: Vec<Vec<f64>>,
-    /// Whether every derivative is defined (see the module docs).
-    pub ok: bool,
-    /// Why not, when not ok.
-    pub reason: Option<String>,
-    /// One entry per event of the execution (the events of [`LeapResult::events`]).
-    pub events: Vec<EventSaltation>,
-    /// The behaviour's time events met (motor starts, knots of the swing down):
-    /// `(t_s, max |f⁺ − f⁻|)`, the jump of the flow there (0 where it is continuous).
-    pub time_events: Vec<(f64, f64)>,
-    /// `d t_e / d (directions, parameters)` of each event (its time from the front leg's
-    /// start, `t_s`), in the order of [`Self::events`]; `None` where its saltation is not
-    /// defined. Defined along the execution whether or not the apex's derivatives are.
-    pub event_times: Vec<Option<Vec<f64>>>,
-}
-
-impl LeapSensitivity {
-    /// `d column / d parameter` by names (`None` for a name not asked for).
-    pub fn get(&self, column: &str, parameter: &str) -> Option<f64> {
-        let c = APEX_COLUMNS.iter().position(|n| *n == column)?;
-        let k = self.parameters.iter().position(|n| n == parameter)?;
-        Some(self.d_apex[c][k])
-    }
-}
+/// A leap with the derivatives of its apex (the generic [`ApexSensitivity`]: times from the
+/// front leg's start, the events of [`crate::leap::PresetRun::events`]).
+pub type LeapSensitivity = ApexSensitivity<LeapResult>;
 
 /// Checks the parameter names of a sensitivity request against a leap configuration; the
 /// error names the first unknown (or inapplicable) one.
@@ -318,19 +270,10 @@ pub fn leap_with_sensitivity_from(
         not_ended,
         z_up: true,
     });
-    Ok(LeapSensitivity {
-        parameters: names.iter().map(|s| s.to_string()).collect(),
-        d_apex: d.d_state,
-        d_apex_d_start: d.d_state_d_start,
-        ok: d.ok,
-        reason: d
-            .reason
-            .map(|r| cfg.actuator.motor().undefined_derivative_reason(r)),
-        events: d.events,
-        time_events: d.time_events,
-        event_times: d.event_times,
-        result,
-    })
+    let mut s = ApexSensitivity::new(result, names, d);
+    let motor = cfg.actuator.motor();
+    s.reason = s.reason.map(|r| motor.undefined_derivative_reason(r));
+    Ok(s)
 }
 
 /// Runs the leap of `preset` (its motor start `cfg.t2_s`) from its start state plus

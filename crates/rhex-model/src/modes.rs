@@ -8,6 +8,7 @@
 use crate::params::{LegPair, RhexParams};
 use crate::RhexError;
 use selfmanip_core::{ContactKind, ContactMode, Model};
+use selfmanip_sim::{ContactLabels, SimError};
 
 /// An RHex instance: its parameters and the generic core model built from them.
 #[derive(Debug, Clone)]
@@ -55,38 +56,32 @@ impl Rhex {
         self.label_sites.len()
     }
 
-    /// Parses a label such as `"0101"` into a contact mode.
+    /// Parses a label such as `"0101"` into a contact mode (the generic
+    /// [`ContactLabels::parse`] in this order; `s` only on a leg, the body always slides).
     pub fn mode(&self, label: &str) -> Result<ContactMode, RhexError> {
         let err = |reason: String| RhexError::ModeLabel {
             label: label.to_string(),
             reason,
         };
-        let chars: Vec<char> = label.chars().collect();
-        if chars.len() != self.label_sites.len() {
-            return Err(err(format!(
-                "expected {} characters ({}), got {}",
-                self.label_sites.len(),
-                self.label_legend(),
-                chars.len()
-            )));
+        let n = label.chars().count();
+        if n != self.label_sites.len() {
+            let (k, legend) = (self.label_sites.len(), self.label_legend());
+            return Err(err(format!("expected {k} characters ({legend}), got {n}")));
         }
-        let mut mode = ContactMode::FLIGHT;
-        for (ch, &site) in chars.iter().zip(&self.label_sites) {
-            mode = match ch {
-                '0' => mode,
-                '1' => mode.union(ContactMode::with_defaults(&self.model, &[site])?),
-                's' if self.model.contacts[site].link.is_some() => {
-                    mode.with(site, ContactKind::Slide)
-                }
-                's' => {
-                    return Err(err(
-                        "`s` (sliding) only applies to legs; the body always slides".into(),
-                    ))
-                }
-                other => return Err(err(format!("character `{other}` is not 0, 1 or s"))),
-            };
+        if label
+            .chars()
+            .zip(&self.label_sites)
+            .any(|(c, &k)| c == 's' && self.on_body(k))
+        {
+            return Err(err(
+                "`s` (sliding) only applies to legs; the body always slides".into(),
+            ));
         }
-        Ok(mode)
+        let labels = ContactLabels::from_indices(&self.model, self.label_sites.clone());
+        labels.parse(&self.model, label).map_err(|e| match e {
+            SimError::InvalidValue { reason, .. } => err(reason),
+            e => e.into(),
+        })
     }
 
     /// The label of a mode (inverse of [`Self::mode`]).
@@ -95,10 +90,14 @@ impl Rhex {
             .iter()
             .map(|&site| match mode.kind(site) {
                 None => '0',
-                Some(ContactKind::Slide) if self.model.contacts[site].link.is_some() => 's',
+                Some(ContactKind::Slide) if !self.on_body(site) => 's',
                 Some(_) => '1',
             })
             .collect()
+    }
+
+    fn on_body(&self, site: usize) -> bool {
+        self.model.contacts[site].link.is_none()
     }
 
     /// `"FB FL RB RL"` (or the three-pair legend).

@@ -138,7 +138,7 @@ fn override_groups() -> [Vec<&'static str>; 3] {
     ]
 }
 
-/// Every name an override may use, each once ([`override_groups`]).
+/// Every name an override may use, each once (`override_groups`).
 pub fn sweepable_names() -> Vec<String> {
     override_groups()
         .concat()

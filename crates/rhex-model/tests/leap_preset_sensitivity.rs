@@ -39,7 +39,7 @@ fn start_pose(strategy: Strategy) -> Vec<f64> {
         t_final_s: 1e-4,
         ..LeapConfig::default()
     };
-    simulate_leap(&leap_params(), &cfg).unwrap().q0
+    simulate_leap(&leap_params(), &cfg).unwrap().run.q0
 }
 
 /// A leap through the interpreter with the behaviour's parameter `name` set to `value` (if

@@ -74,7 +74,7 @@ fn rotor_armature_scales_as_n_g_squared_and_is_the_swing_bounds_inertia() {
 #[test]
 fn a_massive_leaps_legs_carry_the_armature_and_massless_legs_stay_massless() {
     let cfg = geared(35.0, 2);
-    let q0 = simulate_leap(&leap_params(), &cfg).unwrap().q0;
+    let q0 = simulate_leap(&leap_params(), &cfg).unwrap().run.q0;
     let built = |p: &RhexParams| leap_scenario(p, &cfg, &q0).unwrap().rhex.model;
     let a = rotor_reflected_inertia(&massive(), &cfg).unwrap();
     assert_eq!(leg_armature(&massive(), &cfg).unwrap(), a);
@@ -239,10 +239,12 @@ fn gear_ratio_and_armature_derivatives_through_the_rotors_equal_central_differen
         };
         simulate_leap(&p, &cfg).unwrap()
     };
-    let err_g =
-        worst_event_time_error(&col(0), 3, 1e-5, [1e-4, 1e-3, 1e-2], |dg| leap_g(dg).events);
-    let err_a =
-        worst_event_time_error(&col(1), 3, 1e-2, [1e-7, 1e-6, 1e-5], |da| leap_a(da).events);
+    let err_g = worst_event_time_error(&col(0), 3, 1e-5, [1e-4, 1e-3, 1e-2], |dg| {
+        leap_g(dg).run.events
+    });
+    let err_a = worst_event_time_error(&col(1), 3, 1e-2, [1e-7, 1e-6, 1e-5], |da| {
+        leap_a(da).run.events
+    });
     assert!(
         err_g < 1e-5 && err_a < 1e-5,
         "d/dG {err_g:e}, d/da {err_a:e}"
@@ -299,6 +301,7 @@ fn leg_rotors_puts_the_actuators_rotors_on_any_leg_or_none() {
     };
     let q0 = simulate_leap(&leap_params(), &LeapConfig::default())
         .unwrap()
+        .run
         .q0;
     for g in [20.0, 28.0, 45.0] {
         let cfg = geared(g, 2);

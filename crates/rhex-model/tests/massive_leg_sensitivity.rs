@@ -165,7 +165,7 @@ fn event_times_through_a_massive_toes_slide_equal_central_differences() {
     let times = |d: f64| {
         let mut c = cfg.clone();
         c.t2_s += d;
-        simulate_leap(&p, &c).unwrap().events
+        simulate_leap(&p, &c).unwrap().run.events
     };
     let mut worst = 0.0_f64;
     for k in 0..3 {

@@ -18,6 +18,7 @@
 //! | [`events`] | the events of an execution in those names |
 //! | [`trajectory`] | samples of an execution from its own dense output |
 //! | [`mcap`] | MCAP logs that open in Foxglove: a frame per body and link, contacts, forces, modes, events |
+//! | [`preset_run`] | what a preset reports of a run in its frame, and of its apex's derivatives |
 //! | [`periodic`] | periodic orbits of a scenario: Newton shooting on the apex section, Floquet multipliers |
 //! | [`named_terms`] | engine parameters behind named ones on any robot: joint armatures, a contact's friction |
 //! | [`sensitivity`] | derivatives of a run by named parameters (weighted sums of the engine's) and start directions |
@@ -39,6 +40,7 @@ pub mod named_terms;
 pub mod outcome;
 pub mod path;
 pub mod periodic;
+pub mod preset_run;
 pub mod scenario;
 pub mod sensitivity;
 pub mod sensitivity_preset;

@@ -25,7 +25,7 @@ pub mod standing;
 
 use crate::RhexError;
 pub(crate) use selfmanip_sim::analysis::{
-    contact_leg, free_motion_basis, normal_rows, solve_contact_pose,
+    check_finite, contact_leg, free_motion_basis, normal_rows, solve_contact_pose,
 };
 
 pub(crate) fn bad(field: &str, reason: impl Into<String>) -> RhexError {
@@ -49,13 +49,5 @@ pub(crate) fn grid_points(n: usize) -> Result<usize, RhexError> {
             "n",
             format!("a figure's grid has 2 to {MAX_FIGURE_GRID} points per axis, got {n}"),
         ))
-    }
-}
-
-pub(crate) fn check_finite(field: &str, v: &[f64]) -> Result<(), RhexError> {
-    if v.iter().all(|x| x.is_finite()) {
-        Ok(())
-    } else {
-        Err(bad(field, "must be finite"))
     }
 }

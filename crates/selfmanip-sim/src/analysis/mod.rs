@@ -37,7 +37,8 @@ pub(crate) fn bad(field: &str, reason: impl Into<String>) -> SimError {
     crate::error::invalid(field, reason)
 }
 
-pub(crate) fn check_finite(field: &str, v: &[f64]) -> Result<(), SimError> {
+/// Every entry of `v` finite, else an invalid value naming `field`.
+pub fn check_finite(field: &str, v: &[f64]) -> Result<(), SimError> {
     if v.iter().all(|x| x.is_finite()) {
         Ok(())
     } else {

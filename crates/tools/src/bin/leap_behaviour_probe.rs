@@ -23,7 +23,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             t_final_s: 1e-4,
             ..LeapConfig::default()
         };
-        let q0 = simulate_leap(&params, &start)?.q0;
+        let q0 = simulate_leap(&params, &start)?.run.q0;
         for t2 in t2s.split(',') {
             let cfg = LeapConfig {
                 t2_s: t2.parse()?,

@@ -1,0 +1,183 @@
+//! What a preset reports of one run ([`PresetRun`]): the generic run's [`Outcome`] read in the
+//! preset's frame ([`PresetFrame`]: its clock, its forward origin), its events in the robot's
+//! labels, why it did not fly, its energy and its samples; and the run with the derivatives
+//! of its apex ([`ApexSensitivity`], from [`EndStateSensitivity`]). A leap of `rhex-model` is
+//! one (`rhex_model::leap::LeapResult`).
+use crate::events::{event_records_labelled, EventRecord};
+use crate::outcome::{BodyState, Outcome, PresetFrame, APEX_COLUMNS};
+use crate::sensitivity::EventSaltation;
+use crate::sensitivity_preset::EndStateSensitivity;
+use crate::terrain::TerrainSpec;
+use crate::{SimError, Trajectory};
+use selfmanip_core::{ContactMode, Model};
+use selfmanip_hybrid::Execution;
+
+/// A run read in a preset's frame: the generic run's metrics (read through `Deref`), whether
+/// it flew, its apex and events on the preset's clock.
+#[derive(Debug, Clone)]
+pub struct PresetRun {
+    /// The generic run's metrics (times on the simulation clock, NED frame).
+    pub outcome: Outcome,
+    /// It reached the apex of a flight after its drive started (status `apex`), or, not
+    /// stopping there, flew and ran on to `final_time`.
+    pub flew: bool,
+    /// The apex of its first flight, in the preset's frame (z up).
+    pub apex: Option<BodyState>,
+    /// The execution (times on the simulation clock).
+    pub execution: Execution,
+    /// Subtract from execution times to get times on the preset's clock.
+    pub time_offset_s: f64,
+    /// Start configuration `q`.
+    pub q0: Vec<f64>,
+    /// Events on the preset's clock in the robot's names and labels (empty where the preset
+    /// keeps none).
+    pub events: Vec<EventRecord>,
+    /// Latest time of the execution (s on the preset's clock).
+    pub t_final_s: f64,
+}
+
+impl std::ops::Deref for PresetRun {
+    type Target = Outcome;
+    #[inline]
+    fn deref(&self) -> &Outcome {
+        &self.outcome
+    }
+}
+
+impl PresetRun {
+    /// The run `(exec, outcome)` of `model` on `terrain` read in `frame`, its events labelled
+    /// by `label` when `event_records`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn read(
+        model: &Model,
+        terrain: &TerrainSpec,
+        label: &dyn Fn(ContactMode) -> String,
+        (exec, outcome): (Execution, Outcome),
+        frame: PresetFrame,
+        q0: Vec<f64>,
+        t_final_s: f64,
+        event_records: bool,
+    ) -> Self {
+        let events = match event_records {
+            true => event_records_labelled(model, terrain, &exec, label, frame.t0_s),
+            false => Vec::new(),
+        };
+        PresetRun {
+            flew: frame.flew(&exec, outcome.status),
+            apex: frame.apex(model, &exec),
+            outcome,
+            execution: exec,
+            time_offset_s: frame.t0_s,
+            q0,
+            events,
+            t_final_s,
+        }
+    }
+
+    /// Why the run did not fly, in words (empty when it flew): the engine's
+    /// [`selfmanip_hybrid::Termination::describe`] on the preset's clock with the contacts'
+    /// names and the flowing mode's label (the last event's, else `start_label`).
+    #[inline]
+    pub fn reason(&self, model: &Model, stop_at_apex: bool, start_label: &str) -> String {
+        let mode = self
+            .events
+            .last()
+            .map_or_else(|| start_label.to_string(), |e| e.mode_after.clone());
+        let name = |k: usize| {
+            model
+                .contacts
+                .get(k)
+                .map_or_else(|| format!("#{k}"), |c| c.name.clone())
+        };
+        let frame = PresetFrame {
+            t0_s: self.time_offset_s,
+            ..PresetFrame::world(stop_at_apex)
+        };
+        frame.reason(&self.execution, self.flew, self.t_final_s, &name, &mode)
+    }
+
+    /// Energy bookkeeping of the run (motor work, impact losses, start and end energy).
+    #[inline]
+    pub fn energy_report(
+        &self,
+        model: &Model,
+        terrain: &TerrainSpec,
+    ) -> Result<selfmanip_hybrid::EnergyReport, SimError> {
+        Ok(selfmanip_hybrid::energy_report(
+            model,
+            terrain,
+            &self.execution,
+        )?)
+    }
+
+    /// Samples the run every `dt_s` seconds (and at its end) with the generic sampler
+    /// ([`crate::trajectory::sample_labelled`]), times on the preset's clock.
+    #[inline]
+    pub fn trajectory(
+        &self,
+        model: &Model,
+        terrain: &TerrainSpec,
+        label: &dyn Fn(ContactMode) -> String,
+        dt_s: f64,
+    ) -> Result<Trajectory, SimError> {
+        crate::trajectory::sample_labelled(
+            model,
+            terrain,
+            &self.execution,
+            label,
+            dt_s,
+            self.time_offset_s,
+        )
+    }
+}
+
+/// A preset's run `result` with the derivatives of its apex ([`APEX_COLUMNS`], z up, on the
+/// preset's clock) with respect to named parameters and start-state directions.
+#[derive(Debug, Clone)]
+pub struct ApexSensitivity<R> {
+    pub result: R,
+    /// The parameter names, as given.
+    pub parameters: Vec<String>,
+    /// `d_apex[c][k] = d APEX_COLUMNS[c] / d parameters[k]`; NaN unless [`Self::ok`].
+    pub d_apex: Vec<Vec<f64>>,
+    /// `d APEX_COLUMNS[c] / d (start-state direction j)`; NaN unless [`Self::ok`].
+    pub d_apex_d_start: Vec<Vec<f64>>,
+    /// Whether every derivative is defined.
+    pub ok: bool,
+    /// Why not, when not ok.
+    pub reason: Option<String>,
+    /// One entry per event of the execution.
+    pub events: Vec<EventSaltation>,
+    /// The behaviour's time events met (motor starts, knots of a swing): `(t_s, max |f⁺ −
+    /// f⁻|)`, the jump of the flow there (0 where it is continuous).
+    pub time_events: Vec<(f64, f64)>,
+    /// `d t_e / d (directions, parameters)` of each event (its time on the preset's clock),
+    /// in the order of [`Self::events`]; `None` where its saltation is not defined. Defined
+    /// along the execution whether or not the apex's derivatives are.
+    pub event_times: Vec<Option<Vec<f64>>>,
+}
+
+impl<R> ApexSensitivity<R> {
+    /// The run `result` with the end-state derivatives `d` taken at its apex by `names`.
+    pub fn new(result: R, names: &[&str], d: EndStateSensitivity) -> Self {
+        ApexSensitivity {
+            result,
+            parameters: names.iter().map(|s| s.to_string()).collect(),
+            d_apex: d.d_state,
+            d_apex_d_start: d.d_state_d_start,
+            ok: d.ok,
+            reason: d.reason,
+            events: d.events,
+            time_events: d.time_events,
+            event_times: d.event_times,
+        }
+    }
+
+    /// `d column / d parameter` by names (`None` for a name not asked for).
+    pub fn get(&self, column: &str, parameter: &str) -> Option<f64> {
+        let c = APEX_COLUMNS.iter().position(|n| *n == column)?;
+        let k = self.parameters.iter().position(|n| n == parameter)?;
+        Some(self.d_apex[c][k])
+    }
+}
