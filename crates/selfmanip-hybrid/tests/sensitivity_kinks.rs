@@ -5,8 +5,8 @@
 //! law switches piece (`Controller::partials_piece`) and the tangent's steps are split there.
 //! Checked against central differences of whole executions (the independent route).
 mod systems;
-use selfmanip_core::{ContactMode, Model};
-use selfmanip_hybrid::{Controller, ControllerPartials};
+use selfmanip_core::Model;
+use selfmanip_hybrid::{ControlPoint, Controller, ControllerPartials};
 use systems::{flight_run_jacobian_fd, run_from_flight, G};
 
 /// A hip servo to `target` at rest, saturating at `±limit`; it reports its pieces
@@ -27,25 +27,20 @@ impl Saturating {
 }
 
 impl Controller for Saturating {
-    fn torque(&self, _t: f64, q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
+    fn torque(&self, at: &ControlPoint, tau: &mut [f64]) {
+        let ControlPoint { q, qd, .. } = *at;
         tau[0] = self.raw(q, qd).clamp(-self.limit, self.limit);
     }
-    fn partials(
-        &self,
-        _t: f64,
-        q: &[f64],
-        qd: &[f64],
-        _mode: ContactMode,
-        _free_joints: &[usize],
-        out: &mut ControllerPartials,
-    ) -> bool {
+    fn partials(&self, at: &ControlPoint, out: &mut ControllerPartials) -> bool {
+        let ControlPoint { q, qd, .. } = *at;
         if self.raw(q, qd).abs() < self.limit {
             out.dtau_dq[(0, 0)] = -self.k;
             out.dtau_dqd[(0, 0)] = -self.c;
         }
         true
     }
-    fn partials_piece(&self, _t: f64, q: &[f64], qd: &[f64], _mode: ContactMode) -> u64 {
+    fn partials_piece(&self, at: &ControlPoint) -> u64 {
+        let ControlPoint { q, qd, .. } = *at;
         let r = self.raw(q, qd);
         match () {
             _ if !self.pieces || r.abs() < self.limit => 0,
@@ -75,7 +70,7 @@ fn jacobian_error(model: &Model, ctrl: &Saturating, y0: &[f64], tf: f64) -> (f64
         for k in 1..400 {
             let t = seg.t0 + (seg.t1 - seg.t0) * f64::from(k) / 400.0;
             seg.eval(t, &mut y);
-            let p = probe.partials_piece(t, &y[..4], &y[4..], seg.mode);
+            let p = probe.partials_piece(&ControlPoint::new(t, &y[..4], &y[4..], seg.mode));
             kinks += usize::from(last.is_some_and(|l| l != p));
             last = Some(p);
         }

@@ -20,8 +20,8 @@ use motor::Actuator;
 use nalgebra::DMatrix;
 use selfmanip_core::ContactMode;
 use selfmanip_hybrid::{
-    Controller, ControllerPartials, Event, EventKind, EventMemoryPartials, MemoryTimeEvent,
-    TimeEvent,
+    ControlPoint, Controller, ControllerPartials, Event, EventKind, EventMemoryPartials,
+    MemoryTimeEvent, TimeEvent,
 };
 use std::sync::{Arc, Mutex, OnceLock, PoisonError};
 
@@ -1411,7 +1411,8 @@ impl ServoInForce {
 }
 
 impl Controller for BehaviourController {
-    fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]) {
+    fn torque(&self, at: &ControlPoint, tau: &mut [f64]) {
+        let ControlPoint { t, q, qd, mode, .. } = *at;
         let plan = &*self.plan;
         for &j in &plan.idle_joints {
             tau[j] = 0.0;
@@ -1496,15 +1497,15 @@ impl Controller for BehaviourController {
     /// `ActuatorLaw::at_power_flow_jump`) or for a program with a
     /// `joint_angle` level (its torque switches inside a flow at a crossing the engine does
     /// not locate, where no saltation matrix could be formed).
-    fn partials(
-        &self,
-        t: f64,
-        q: &[f64],
-        qd: &[f64],
-        mode: ContactMode,
-        free_joints: &[usize],
-        out: &mut ControllerPartials,
-    ) -> bool {
+    fn partials(&self, at: &ControlPoint, out: &mut ControllerPartials) -> bool {
+        let ControlPoint {
+            t,
+            q,
+            qd,
+            mode,
+            free_joints,
+            ..
+        } = *at;
         let plan = &*self.plan;
         for (p, prog) in plan.programs.iter().enumerate() {
             if prog.has_levels {
@@ -1550,7 +1551,8 @@ impl Controller for BehaviourController {
     /// plus 2 where its power-flow gearbox law is back-driven — where [`Self::partials`]
     /// switch branch (the tangent's steps are split there); the
     /// other laws 0. Programs past the 32nd fold into the same bits.
-    fn partials_piece(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode) -> u64 {
+    fn partials_piece(&self, at: &ControlPoint) -> u64 {
+        let ControlPoint { t, q, qd, mode, .. } = *at;
         let plan = &*self.plan;
         let mut out = 0u64;
         for (p, prog) in plan.programs.iter().enumerate() {
@@ -1589,14 +1591,18 @@ impl Controller for BehaviourController {
     /// itself planned a delay after another (not differentiated yet).
     fn parameter_partials(
         &self,
-        t: f64,
-        q: &[f64],
-        qd: &[f64],
-        mode: ContactMode,
-        free_joints: &[usize],
+        at: &ControlPoint,
         names: &[&str],
         out: &mut ControllerPartials,
     ) -> bool {
+        let ControlPoint {
+            t,
+            q,
+            qd,
+            mode,
+            free_joints,
+            ..
+        } = *at;
         let plan = &*self.plan;
         let tan = plan.tangent();
         let mut ws = self.workspace.lend();
@@ -1720,14 +1726,8 @@ impl Controller for BehaviourController {
     /// `∂Υ/∂t` at a fixed state: a `servo` that tracks the joint's motion (inside its limit)
     /// `kp ω* + kd α*`; a `schedule` between breakpoints (interpolated) its slope; every other
     /// law 0 (`motor`: its command is constant, a function of the state only).
-    fn time_partials(
-        &self,
-        t: f64,
-        q: &[f64],
-        qd: &[f64],
-        mode: ContactMode,
-        dtau_dt: &mut [f64],
-    ) -> bool {
+    fn time_partials(&self, at: &ControlPoint, dtau_dt: &mut [f64]) -> bool {
+        let ControlPoint { t, q, qd, mode, .. } = *at;
         let plan = &*self.plan;
         for (p, prog) in plan.programs.iter().enumerate() {
             let j = prog.joint;
@@ -1778,15 +1778,15 @@ impl Controller for BehaviourController {
     /// differentiated (a timed phase's motion whose start and whose previous motion depend
     /// on two different events), or where [`Controller::partials`] gives none (a `motor`
     /// that reverses past an angle).
-    fn memory_partials(
-        &self,
-        t: f64,
-        q: &[f64],
-        qd: &[f64],
-        mode: ContactMode,
-        free_joints: &[usize],
-        out: &mut Vec<EventMemoryPartials>,
-    ) -> bool {
+    fn memory_partials(&self, at: &ControlPoint, out: &mut Vec<EventMemoryPartials>) -> bool {
+        let ControlPoint {
+            t,
+            q,
+            qd,
+            mode,
+            free_joints,
+            ..
+        } = *at;
         let plan = &*self.plan;
         let n = plan.program_of_joint.len();
         if self.follows_servo_manifold(free_joints, t, q) {
