@@ -66,8 +66,8 @@ fn motor_work_equals_the_energy_gained_in_flight() {
         let segment = exec.segments.iter().find(|s| t <= s.t1 + 1e-12).unwrap();
         segment.eval(t, &mut y);
         let (q, qd) = y.split_at(model.nq());
-        use selfmanip::hybrid::{ControlPoint, Controller};
-        controller.torque(&ControlPoint::new(t, q, qd, ContactMode::FLIGHT), &mut tau);
+        use selfmanip::hybrid::Controller;
+        controller.torque(t, q, qd, ContactMode::FLIGHT, &mut tau);
         Waves.command(t, q, qd, ContactMode::FLIGHT, &mut u);
         let power: f64 = (0..nj).map(|k| tau[k] * qd[k]).sum();
         let electrical: f64 = (0..nj).map(|k| drive.electrical_power_w(u[k], qd[k])).sum();

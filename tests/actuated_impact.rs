@@ -12,7 +12,7 @@
 mod common;
 
 use selfmanip::core::{pseudo_impulse, ContactMode, Data, FlatGround};
-use selfmanip::hybrid::{simulate, ControlPoint, Controller, EventKind, HybridOptions};
+use selfmanip::hybrid::{simulate, Controller, EventKind, HybridOptions};
 
 /// Joint dampers `τ = −b q̇`.
 #[derive(Clone)]
@@ -21,8 +21,7 @@ struct Dampers {
 }
 
 impl Controller for Dampers {
-    fn torque(&self, at: &ControlPoint, tau: &mut [f64]) {
-        let ControlPoint { qd, .. } = *at;
+    fn torque(&self, _t: f64, _q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
         for (t, w) in tau.iter_mut().zip(qd) {
             *t = -self.b * w;
         }

@@ -12,9 +12,7 @@ mod common;
 use selfmanip::core::description::SpringDescription;
 use selfmanip::core::passive;
 use selfmanip::core::{ContactMode, FlatGround, Model, RobotDescription};
-use selfmanip::hybrid::{
-    simulate, ControlPoint, Controller, EventKind, HybridOptions, Termination,
-};
+use selfmanip::hybrid::{simulate, Controller, EventKind, HybridOptions, Termination};
 
 const G: f64 = 9.81;
 const M: f64 = 2.0;
@@ -57,7 +55,7 @@ struct Limp {
 }
 
 impl Controller for Limp {
-    fn torque(&self, _at: &ControlPoint, tau: &mut [f64]) {
+    fn torque(&self, _t: f64, _q: &[f64], _qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
         tau.fill(0.0);
     }
     fn free_joint_qdd(&self, _t: f64, q: &[f64], qd: &[f64], free: &[usize], out: &mut [f64]) {

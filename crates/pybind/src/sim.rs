@@ -34,7 +34,7 @@ use pyo3::types::{PyDict, PyList, PyString, PyTuple, PyType};
 use selfmanip_core::{ContactMode, RobotDescription};
 use selfmanip_hybrid::periodic::{PeriodicError, Stability};
 use selfmanip_hybrid::sensitivity::SensitivityError;
-use selfmanip_hybrid::{ControlPoint, Controller};
+use selfmanip_hybrid::Controller;
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::labels::ContactLabels;
 use selfmanip_sim::periodic::{periodic_orbit, run_sensitivity, PeriodicRunError, PeriodicSpec};
@@ -652,8 +652,7 @@ fn describe(py: Python<'_>, e: &PyErr) -> String {
 }
 
 impl Controller for PyController {
-    fn torque(&self, at: &ControlPoint, tau: &mut [f64]) {
-        let ControlPoint { t, q, qd, mode, .. } = *at;
+    fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]) {
         tau.fill(0.0);
         if self.failed() {
             return;

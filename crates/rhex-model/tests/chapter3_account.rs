@@ -12,7 +12,6 @@ use rhex_model::leap::{
 };
 use rhex_model::params::ToeSliding;
 use rhex_model::RhexParams;
-use selfmanip_hybrid::ControlPoint;
 use selfmanip_hybrid::EventKind;
 
 fn leap(strategy: &str, t2_s: f64) -> LeapResult {
@@ -275,7 +274,7 @@ fn slipping_toes_keep_their_force_on_the_default_path() {
         let mut tau = vec![0.0; 2];
         let mut out = Vec::new();
         for mode in [e.mode_before, e.mode_after] {
-            ctrl.torque(&ControlPoint::new(e.t, &e.q, &e.qd_after, mode), &mut tau);
+            ctrl.torque(e.t, &e.q, &e.qd_after, mode, &mut tau);
             let mut data = Data::new(model);
             flat_dynamics(model, &mut data, mode, &e.q, &e.qd_after, &tau);
             let (mut t, mut n) = (0.0, 0.0);

@@ -20,7 +20,7 @@ use rhex_model::leap::leap_params;
 use rhex_model::modes::Rhex;
 use rhex_model::params::{LegPair, LegShape};
 use selfmanip_core::{contact_points, ContactMode, FlatGround, Model};
-use selfmanip_hybrid::{simulate, ControlPoint, Controller, HybridOptions};
+use selfmanip_hybrid::{simulate, Controller, HybridOptions};
 use selfmanip_sim::analysis::leg_tail::effectiveness_closed_form;
 
 /// Equal drive on both legs, and an internal spring–damper between them that locks them in
@@ -33,8 +33,7 @@ struct Locked {
 }
 
 impl Controller for Locked {
-    fn torque(&self, at: &ControlPoint, tau: &mut [f64]) {
-        let ControlPoint { q, qd, .. } = *at;
+    fn torque(&self, _t: f64, q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
         let d = self.k * (q[1] - q[0]) + self.c * (qd[1] - qd[0]);
         tau[0] = self.tau + d;
         tau[1] = self.tau - d;

@@ -32,7 +32,6 @@ use selfmanip_core::friction::SlideDirection;
 use selfmanip_core::tangent::dynamics_jacobian;
 use selfmanip_core::{forward_dynamics, Data, FlatGround, Model};
 use selfmanip_hybrid::execution::Segment;
-use selfmanip_hybrid::ControlPoint;
 
 /// Table 4.2's leg-pair mass and inertia on the default leap's parameters (Coulomb toes).
 fn massive() -> RhexParams {
@@ -73,8 +72,7 @@ fn flow_jacobian_error(model: &Model, seg: &Segment, t: f64, y: &[f64]) -> (f64,
     let nq = model.nq();
     let (q, qd) = (&y[..nq], &y[nq..]);
     let mut tau = vec![0.0; model.n_joints()];
-    seg.controller
-        .torque(&ControlPoint::new(t, q, qd, seg.mode), &mut tau);
+    seg.controller.torque(t, q, qd, seg.mode, &mut tau);
     let mut data = Data::new(model);
     data.locked = seg.locked.clone();
     data.set_slide_directions(&seg.slide_directions);

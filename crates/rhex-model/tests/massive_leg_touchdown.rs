@@ -29,7 +29,6 @@ use rhex_model::{Rhex, RhexParams};
 use selfmanip_core::contact::contact_geometry;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{forward_dynamics, Data, FlatGround};
-use selfmanip_hybrid::ControlPoint;
 use selfmanip_hybrid::{EventKind, Termination};
 
 /// Table 4.2's leg-pair mass and inertia on the default leap's parameters (Coulomb toes).
@@ -89,7 +88,7 @@ fn touchdowns_agree_with_the_flow(p: &RhexParams, strategy: &str, t2_s: f64) {
         let ctrl = &seg.controller;
         let (q, qd) = (&e.q[..], &e.qd_after[..]);
         let mut tau = vec![0.0; nj];
-        ctrl.torque(&ControlPoint::new(e.t, q, qd, e.mode_after), &mut tau);
+        ctrl.torque(e.t, q, qd, e.mode_after, &mut tau);
         // a released toe: separating rate, or a gap acceleration that does not close it
         for &c in e.triggered.iter().filter(|&&c| toes.contains(&c)) {
             // the branch without the toe: the one the reset took, or the one it refused
@@ -142,7 +141,7 @@ fn touchdowns_agree_with_the_flow(p: &RhexParams, strategy: &str, t2_s: f64) {
                 e.mode_after
                     .with(c, selfmanip_core::contact::ContactKind::Slide)
             };
-            ctrl.torque(&ControlPoint::new(e.t, q, qd, toggled), &mut other);
+            ctrl.torque(e.t, q, qd, toggled, &mut other);
             assert_eq!(tau, other, "torque depends on toe {c}'s contact at {}", e.t);
         }
     }

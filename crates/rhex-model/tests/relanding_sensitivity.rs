@@ -19,7 +19,6 @@ use common::{apex_error, tight};
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapResult};
 use rhex_model::leap_sensitivity::leap_with_sensitivity;
 use rhex_model::RhexParams;
-use selfmanip_hybrid::ControlPoint;
 
 /// The two default leaps of the 164-leap sweep (`t2 ∈ [−0.2, 0.2]` by 0.01 s) in which a
 /// leg lands again under a motion started at an event.
@@ -58,7 +57,7 @@ fn servo_kink_inside_a_segment(r: &LeapResult) -> bool {
             let mut y = vec![0.0; 2 * nq];
             seg.eval(t, &mut y);
             seg.controller
-                .partials_piece(&ControlPoint::new(t, &y[..nq], &y[nq..], seg.mode))
+                .partials_piece(t, &y[..nq], &y[nq..], seg.mode)
         };
         let (a, b) = (seg.t0 + 1e-6, seg.t1 - 1e-6);
         b > a && (0..=200).any(|k| piece(a + (b - a) * f64::from(k) / 200.0) != piece(a))

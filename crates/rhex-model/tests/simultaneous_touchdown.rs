@@ -27,7 +27,6 @@ use rhex_model::Rhex;
 use selfmanip_core::friction::SlideDirection;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{forward_dynamics, Data, FlatGround, RowDirection};
-use selfmanip_hybrid::ControlPoint;
 
 fn leap(rtol: f64) -> LeapResult {
     simulate_leap(
@@ -118,8 +117,7 @@ fn simultaneous_touchdown_keeps_both_toes_leaving_rest_together() {
     // … and both legs push at the segment's start (the core's KKT with those edges)
     let (q, qd) = seg.y0.split_at(nq);
     let mut tau = vec![0.0; model.n_joints()];
-    seg.controller
-        .torque(&ControlPoint::new(seg.t0, q, qd, seg.mode), &mut tau);
+    seg.controller.torque(seg.t0, q, qd, seg.mode, &mut tau);
     let mut data = Data::new(model);
     data.slide_directions.clone_from(&seg.slide_directions);
     forward_dynamics(model, &mut data, &FlatGround, seg.mode, q, qd, &tau, None).unwrap();

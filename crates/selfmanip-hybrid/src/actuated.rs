@@ -3,7 +3,7 @@
 //! [`motor::Actuator`] turns it into torque at the joint's current speed — a saturated
 //! torque source (`τ_s` of Table 4.2) or a current-limited geared DC motor (thesis section
 //! 2.1.2, `motor::Drive`). Joint `k` is generalized coordinate `q[k]` (joints come first).
-use crate::controller::{ControlPoint, Controller};
+use crate::controller::Controller;
 use motor::Actuator;
 use selfmanip_core::ContactMode;
 use std::sync::Arc;
@@ -43,8 +43,7 @@ impl<P: CommandPolicy> Actuated<P> {
 }
 
 impl<P: CommandPolicy + Clone + Send + Sync + 'static> Controller for Actuated<P> {
-    fn torque(&self, at: &ControlPoint, tau: &mut [f64]) {
-        let ControlPoint { t, q, qd, mode, .. } = *at;
+    fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]) {
         debug_assert_eq!(tau.len(), self.actuators.len());
         // the commands are written into `tau` first, then replaced by the torques
         self.policy.command(t, q, qd, mode, tau);

@@ -34,7 +34,6 @@
 //! clarabel ([`crate::impact_qp`]): the LCP with the Delassus operator, whose KKT conditions
 //! are complementarity itself.
 use crate::contact_set::normal_push;
-use crate::controller::ControlPoint;
 use crate::error::HybridError;
 use crate::execution::Termination;
 use crate::impact::SetOutcome;
@@ -186,8 +185,7 @@ impl ResetWorkspace<'_> {
         }
         let ws = &mut self.ws;
         ws.tau.resize(self.model.n_joints(), 0.0);
-        self.ctrl
-            .torque(&ControlPoint::new(t, q, qd, prefer), &mut ws.tau);
+        self.ctrl.torque(t, q, qd, prefer, &mut ws.tau);
         let outcome = if impact {
             let pseudo = (self.delta_t_s > 0.0).then_some((&ws.tau[..], self.delta_t_s));
             impact_qp::frictionless_impact(

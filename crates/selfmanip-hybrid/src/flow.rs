@@ -24,7 +24,7 @@
 //! where its sliding velocity passes zero, and the slip→stick guard makes that an event.
 //! Nothing else writes the workspace: the resets work on one of their own
 //! ([`crate::reset_workspace::ResetWorkspace`]), so no reset can leave the cache stale.
-use crate::controller::{ControlPoint, Controller};
+use crate::controller::Controller;
 use crate::event::Event;
 use selfmanip_core::contact::{contact_geometry, ContactGeometry, ContactKind};
 use selfmanip_core::friction::{SlideDirection, SLIDING_SPEED_EPS_M_S};
@@ -349,7 +349,7 @@ impl FlowWorkspace {
         // (t, q, q̇) => Υ, and the free joints' prescribed q̈ (which joints are free is known
         // after `prepare`)
         self.tau.resize(model.n_joints(), 0.0);
-        ctrl.torque(&ControlPoint::new(t, q, qd, mode), &mut self.tau);
+        ctrl.torque(t, q, qd, mode, &mut self.tau);
         self.free.resize(self.data.free_joints.len(), 0.0);
         if !self.free.is_empty() {
             ctrl.free_joint_qdd(t, q, qd, &self.data.free_joints, &mut self.free);

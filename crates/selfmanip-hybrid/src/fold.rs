@@ -64,7 +64,7 @@
 //! parent): a massless chain carries no momentum, so its velocity after the release is not
 //! determined by mechanics, and the flow's value there grows like $1/\varepsilon$.
 use crate::bracketing::locate_crossing;
-use crate::controller::{ControlPoint, Controller};
+use crate::controller::Controller;
 use crate::options::HybridOptions;
 use crate::reset_workspace::ResetWorkspace;
 use selfmanip_core::contact::{contact_geometry, ContactKind, RowDirection};
@@ -239,7 +239,7 @@ pub fn torque_free_speed(
     let mut v = qd.to_vec();
     let mut torque = |w: f64| {
         v[j] = w;
-        ctrl.torque(&ControlPoint::new(t, q, &v, mode), tau);
+        ctrl.torque(t, q, &v, mode, tau);
         tau[j]
     };
     let w = qd[j];

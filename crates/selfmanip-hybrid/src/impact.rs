@@ -12,7 +12,6 @@
 //! a zero-speed touchdown, whose impulse vanishes — is judged by $U(P_\lambda + P_\delta)$
 //! (5.40).
 use crate::contact_set::{normal_push, IMPULSE_TOL_N_S};
-use crate::controller::ControlPoint;
 use crate::reset_workspace::ResetWorkspace;
 use selfmanip_core::contact::{ContactKind, RowDirection};
 use selfmanip_core::{plastic_impact_prepared, pseudo_impulse_prepared, ContactMode, CoreError};
@@ -142,8 +141,8 @@ impl ResetWorkspace<'_> {
         // for a servo, whose damping resists the jump
         let ws = &mut self.ws;
         ws.tau.resize(self.model.n_joints(), 0.0);
-        let at = ControlPoint::new(t, q, imp.qd_plus.as_slice(), mode);
-        self.ctrl.torque(&at, &mut ws.tau);
+        self.ctrl
+            .torque(t, q, imp.qd_plus.as_slice(), mode, &mut ws.tau);
         let d = pseudo_impulse_prepared(self.model, &mut ws.data, &ws.tau, self.delta_t_s)?;
         let pd: Vec<f64> = d.iter().copied().collect();
         let total = total_impulse(mode, &p, &pd);

@@ -6,8 +6,7 @@ mod systems;
 use selfmanip_core::description::{FrictionDescription, LinkDescription};
 use selfmanip_core::{ContactMode, CoreError, FlatGround, Model};
 use selfmanip_hybrid::{
-    simulate, simulate_with, ControlPoint, Controller, HybridError, HybridOptions, Termination,
-    ZeroTorque,
+    simulate, simulate_with, Controller, HybridError, HybridOptions, Termination, ZeroTorque,
 };
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -94,8 +93,7 @@ struct RaiseAt {
 }
 
 impl Controller for RaiseAt {
-    fn torque(&self, at: &ControlPoint, _tau: &mut [f64]) {
-        let ControlPoint { t, .. } = *at;
+    fn torque(&self, t: f64, _q: &[f64], _qd: &[f64], _mode: ContactMode, _tau: &mut [f64]) {
         if t >= self.at {
             self.flag.store(true, Ordering::Relaxed);
         }
@@ -134,7 +132,7 @@ fn a_raised_stop_flag_interrupts_the_run_within_a_step() {
 struct Overflowing;
 
 impl Controller for Overflowing {
-    fn torque(&self, _at: &ControlPoint, tau: &mut [f64]) {
+    fn torque(&self, _t: f64, _q: &[f64], _qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
         tau.fill(1e300);
     }
 }

@@ -6,7 +6,7 @@
 //! and a controller that says it remembers events but gives no partials is a typed error.
 mod systems;
 use nalgebra::DMatrix;
-use selfmanip_core::FlatGround;
+use selfmanip_core::{ContactMode, FlatGround};
 use selfmanip_hybrid::sensitivity::{execution_sensitivity_columns, Parameter, SensitivityError};
 use selfmanip_hybrid::{
     ControlPoint, Controller, ControllerPartials, Event, EventKind, EventMemoryPartials,
@@ -41,8 +41,7 @@ impl RampFromTouchdown {
 }
 
 impl Controller for RampFromTouchdown {
-    fn torque(&self, at: &ControlPoint, tau: &mut [f64]) {
-        let ControlPoint { t, q, qd, .. } = *at;
+    fn torque(&self, t: f64, q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
         let (th, w) = self.reference(t);
         tau[0] = -self.k * (q[0] - th) - self.c * (qd[0] - w);
     }

@@ -21,10 +21,9 @@
 mod systems;
 
 use selfmanip_core::description::FrictionDescription;
-use selfmanip_core::{FlatGround, Model};
+use selfmanip_core::{ContactMode, FlatGround, Model};
 use selfmanip_hybrid::{
-    energy_report, ConstantTorque, ControlPoint, Controller, EventKind, Execution, HybridOptions,
-    Termination,
+    energy_report, ConstantTorque, Controller, EventKind, Execution, HybridOptions, Termination,
 };
 use systems::{fold_options, massless_leg, sliding, toe_sliding_run, G};
 
@@ -54,8 +53,7 @@ struct SpeedLine {
 }
 
 impl Controller for SpeedLine {
-    fn torque(&self, at: &ControlPoint, tau: &mut [f64]) {
-        let ControlPoint { qd, .. } = *at;
+    fn torque(&self, _t: f64, _q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
         tau[0] = self.k * (self.omega0 - qd[0]);
     }
 }

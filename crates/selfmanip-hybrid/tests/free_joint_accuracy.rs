@@ -20,9 +20,7 @@ mod systems;
 use selfmanip_core::contact::contact_geometry;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{ContactMode, FlatGround, Model};
-use selfmanip_hybrid::{
-    simulate, ControlPoint, Controller, EventKind, HybridOptions, StepOptions, TimeEvent,
-};
+use selfmanip_hybrid::{simulate, Controller, EventKind, HybridOptions, StepOptions, TimeEvent};
 use systems::G;
 
 const LEG_M: f64 = 0.2;
@@ -59,7 +57,7 @@ impl Controller for Swing {
             dt_dp: vec![0.0; names.len()],
         }]
     }
-    fn torque(&self, _at: &ControlPoint, tau: &mut [f64]) {
+    fn torque(&self, _t: f64, _q: &[f64], _qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
         tau.fill(0.0);
     }
     fn free_joint_qdd(&self, t: f64, q: &[f64], qd: &[f64], free: &[usize], out: &mut [f64]) {

@@ -5,7 +5,7 @@
 //! law switches piece (`Controller::partials_piece`) and the tangent's steps are split there.
 //! Checked against central differences of whole executions (the independent route).
 mod systems;
-use selfmanip_core::Model;
+use selfmanip_core::{ContactMode, Model};
 use selfmanip_hybrid::{ControlPoint, Controller, ControllerPartials};
 use systems::{flight_run_jacobian_fd, run_from_flight, G};
 
@@ -27,8 +27,7 @@ impl Saturating {
 }
 
 impl Controller for Saturating {
-    fn torque(&self, at: &ControlPoint, tau: &mut [f64]) {
-        let ControlPoint { q, qd, .. } = *at;
+    fn torque(&self, _t: f64, q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
         tau[0] = self.raw(q, qd).clamp(-self.limit, self.limit);
     }
     fn partials(&self, at: &ControlPoint, out: &mut ControllerPartials) -> bool {
@@ -39,8 +38,7 @@ impl Controller for Saturating {
         }
         true
     }
-    fn partials_piece(&self, at: &ControlPoint) -> u64 {
-        let ControlPoint { q, qd, .. } = *at;
+    fn partials_piece(&self, _t: f64, q: &[f64], qd: &[f64], _mode: ContactMode) -> u64 {
         let r = self.raw(q, qd);
         match () {
             _ if !self.pieces || r.abs() < self.limit => 0,
@@ -70,7 +68,7 @@ fn jacobian_error(model: &Model, ctrl: &Saturating, y0: &[f64], tf: f64) -> (f64
         for k in 1..400 {
             let t = seg.t0 + (seg.t1 - seg.t0) * f64::from(k) / 400.0;
             seg.eval(t, &mut y);
-            let p = probe.partials_piece(&ControlPoint::new(t, &y[..4], &y[4..], seg.mode));
+            let p = probe.partials_piece(t, &y[..4], &y[4..], seg.mode);
             kinks += usize::from(last.is_some_and(|l| l != p));
             last = Some(p);
         }

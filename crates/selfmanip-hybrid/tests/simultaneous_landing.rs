@@ -7,9 +7,7 @@
 //! legs with point feet, μ = 0.8), and its four-legged sibling.
 use selfmanip_core::contact::contact_gap;
 use selfmanip_core::{ContactMode, Data, FlatGround, Model, RobotDescription};
-use selfmanip_hybrid::{
-    simulate, ControlPoint, Controller, EventKind, Execution, HybridOptions, Termination,
-};
+use selfmanip_hybrid::{simulate, Controller, EventKind, Execution, HybridOptions, Termination};
 
 mod systems;
 use systems::Lcg;
@@ -74,8 +72,7 @@ impl Servos {
 }
 
 impl Controller for Servos {
-    fn torque(&self, at: &ControlPoint, tau: &mut [f64]) {
-        let ControlPoint { t, q, qd, mode, .. } = *at;
+    fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]) {
         for (j, tj) in tau.iter_mut().enumerate() {
             let mut target = self.target_rad[j];
             if let Some((push_s, push_rad)) = self.push {

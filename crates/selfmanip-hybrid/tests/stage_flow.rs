@@ -3,7 +3,7 @@
 mod systems;
 use selfmanip_core::{forward_dynamics, ContactMode, Data, FlatGround};
 use selfmanip_hybrid::flow::Flow;
-use selfmanip_hybrid::{ControlPoint, Controller, Event, EventKind, ZeroTorque};
+use selfmanip_hybrid::{Controller, Event, EventKind, ZeroTorque};
 use std::sync::Arc;
 use systems::{block, one_leg, BLOCK, G};
 
@@ -50,7 +50,7 @@ struct Doubling {
 }
 
 impl Controller for Doubling {
-    fn torque(&self, _at: &ControlPoint, tau: &mut [f64]) {
+    fn torque(&self, _t: f64, _q: &[f64], _qd: &[f64], _m: ContactMode, tau: &mut [f64]) {
         tau[0] = self.tau;
     }
     fn on_event(&mut self, _event: &Event) {
@@ -101,10 +101,7 @@ fn cached_flow_follows_the_controller_through_an_event() {
     assert_eq!(after.as_slice(), fresh(3.0));
     assert_ne!(before, after);
     let mut tau = [0.0];
-    first.torque(
-        &ControlPoint::new(0.1, &q, &qd, ContactMode::FLIGHT),
-        &mut tau,
-    );
+    first.torque(0.1, &q, &qd, ContactMode::FLIGHT, &mut tau);
     assert_eq!(
         tau,
         [1.5],

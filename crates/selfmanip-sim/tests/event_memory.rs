@@ -10,7 +10,7 @@
 //!   `∂t_k/∂ż₀ = −t_k/ż_k` of a free fall;
 //! - a motion whose numbers depend on its start state, against central differences.
 use nalgebra::DMatrix;
-use selfmanip_core::RobotDescription;
+use selfmanip_core::{ContactMode, RobotDescription};
 use selfmanip_hybrid::{simulate, ControlPoint, Controller, ControllerPartials, EventKind};
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::periodic::run_sensitivity;
@@ -130,10 +130,9 @@ fn a_saturating_servo_state_jacobian_matches_central_differences() {
         let t = stance.t0 + (stance.t1 - stance.t0) * k as f64 / 200.0;
         let mut y = vec![0.0; 10];
         stance.dense.eval(t, &mut y);
-        let p =
-            stance
-                .controller
-                .partials_piece(&ControlPoint::new(t, &y[..5], &y[5..], stance.mode));
+        let p = stance
+            .controller
+            .partials_piece(t, &y[..5], &y[5..], stance.mode);
         if pieces.last() != Some(&p) {
             pieces.push(p);
         }
@@ -319,8 +318,8 @@ fn time_partials_match_central_differences_of_the_torque() {
             assert!(c.time_partials(&ControlPoint::new(t, &q, &qd, mode), &mut d));
             let h = 1e-6;
             let (mut tp, mut tm) = ([0.0; 2], [0.0; 2]);
-            c.torque(&ControlPoint::new(t + h, &q, &qd, mode), &mut tp);
-            c.torque(&ControlPoint::new(t - h, &q, &qd, mode), &mut tm);
+            c.torque(t + h, &q, &qd, mode, &mut tp);
+            c.torque(t - h, &q, &qd, mode, &mut tm);
             for j in 0..2 {
                 let fd = (tp[j] - tm[j]) / (2.0 * h);
                 assert!(
@@ -344,8 +343,8 @@ impl Clone for Forgetful {
 }
 
 impl Controller for Forgetful {
-    fn torque(&self, at: &ControlPoint, tau: &mut [f64]) {
-        self.0.torque(at, tau)
+    fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]) {
+        self.0.torque(t, q, qd, mode, tau)
     }
     fn free_joint_qdd(&self, t: f64, q: &[f64], qd: &[f64], free: &[usize], out: &mut [f64]) {
         self.0.free_joint_qdd(t, q, qd, free, out)

@@ -319,7 +319,7 @@ fn check_partials(
     let eval = |y: &[f64]| {
         let mut tau = vec![0.0; n];
         let mut fr = vec![0.0; free.len()];
-        ctrl.torque(&ControlPoint::new(t, &y[..nq], &y[nq..], mode), &mut tau);
+        ctrl.torque(t, &y[..nq], &y[nq..], mode, &mut tau);
         ctrl.free_joint_qdd(t, &y[..nq], &y[nq..], free, &mut fr);
         (tau, fr)
     };

@@ -262,7 +262,7 @@ impl<'a> Evaluator<'a> {
         free_joints.clear();
         free_joints.extend_from_slice(&self.data.free_joints);
         let point = ControlPoint::new(t, q, qd, mode).with_free_joints(free_joints);
-        ctrl.torque(&point, &mut self.tau);
+        ctrl.torque(t, q, qd, mode, &mut self.tau);
         self.free.resize(free_joints.len(), 0.0);
         ctrl.free_joint_qdd(t, q, qd, free_joints, &mut self.free);
         for (x, j) in self.free.iter_mut().zip(free_joints.iter()) {
@@ -385,8 +385,8 @@ pub(super) fn torque_time_derivative(
     }
     let h = 1e-6 * t.abs().max(1.0);
     let mut up = vec![0.0; n];
-    ctrl.torque(&ControlPoint::new(t + h, q, qd, mode), &mut up);
-    ctrl.torque(&ControlPoint::new(t - h, q, qd, mode), out.as_mut_slice());
+    ctrl.torque(t + h, q, qd, mode, &mut up);
+    ctrl.torque(t - h, q, qd, mode, out.as_mut_slice());
     for (o, u) in out.iter_mut().zip(&up) {
         *o = (u - *o) / (2.0 * h);
     }

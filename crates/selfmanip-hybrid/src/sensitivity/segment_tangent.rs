@@ -6,7 +6,7 @@ use super::tangent::Tangent;
 use super::time_events::time_event;
 use super::touch_switch::touch_switch;
 use super::types::{SensitivityError, TimeEventSensitivity, TouchSwitch};
-use crate::controller::{ControlPoint, TimeEvent};
+use crate::controller::TimeEvent;
 use crate::execution::Segment;
 
 /// The tangent of one segment on its own steps (see the module docs), with the saltation of
@@ -64,8 +64,7 @@ pub(super) fn segment_flow(
             let piece = move |t: f64, y: &[f64]| {
                 let t = t.max(t_floor).min(t_cap);
                 let (q, qd) = y.split_at(n2 / 2);
-                seg.controller
-                    .partials_piece(&ControlPoint::new(t, q, qd, seg.mode))
+                seg.controller.partials_piece(t, q, qd, seg.mode)
             };
             let end_piece = piece(t_end, &yb);
             let record = |t: f64, y: &mut [f64]| step.eval(t, y);

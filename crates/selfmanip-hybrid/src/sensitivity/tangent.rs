@@ -4,7 +4,6 @@
 //! [`crate::sensitivity`]).
 use super::evaluator::{fit, fit_vec, Evaluator, FlowPoint, StageBuffers};
 use super::types::{Parameter, SensitivityError};
-use crate::controller::ControlPoint;
 use crate::execution::Segment;
 use crate::integrate::{A as RK_A, C as RK_C};
 use nalgebra::{DMatrix, DVector};
@@ -102,11 +101,7 @@ impl Tangent<'_> {
             let ts = (t0 + RK_C[s] * h).max(t_floor).min(t_cap);
             if let Some((piece, record)) = hold {
                 let (q, qd) = ys.as_slice().split_at(y0.len() / 2);
-                if seg
-                    .controller
-                    .partials_piece(&ControlPoint::new(ts, q, qd, seg.mode))
-                    != piece
-                {
+                if seg.controller.partials_piece(ts, q, qd, seg.mode) != piece {
                     record(ts, ys.as_mut_slice());
                 }
             }

@@ -380,8 +380,7 @@ pub struct Servos {
 }
 
 impl Controller for Servos {
-    fn torque(&self, at: &ControlPoint, tau: &mut [f64]) {
-        let ControlPoint { q, qd, .. } = *at;
+    fn torque(&self, _t: f64, q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
         for (i, t) in tau.iter_mut().enumerate() {
             *t = -self.k * (q[i] - self.target[i]) - self.c * qd[i];
         }

@@ -1411,8 +1411,7 @@ impl ServoInForce {
 }
 
 impl Controller for BehaviourController {
-    fn torque(&self, at: &ControlPoint, tau: &mut [f64]) {
-        let ControlPoint { t, q, qd, mode, .. } = *at;
+    fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]) {
         let plan = &*self.plan;
         for &j in &plan.idle_joints {
             tau[j] = 0.0;
@@ -1498,14 +1497,8 @@ impl Controller for BehaviourController {
     /// `joint_angle` level (its torque switches inside a flow at a crossing the engine does
     /// not locate, where no saltation matrix could be formed).
     fn partials(&self, at: &ControlPoint, out: &mut ControllerPartials) -> bool {
-        let ControlPoint {
-            t,
-            q,
-            qd,
-            mode,
-            free_joints,
-            ..
-        } = *at;
+        let ControlPoint { t, q, qd, mode, .. } = *at;
+        let free_joints = at.free_joints;
         let plan = &*self.plan;
         for (p, prog) in plan.programs.iter().enumerate() {
             if prog.has_levels {
@@ -1551,8 +1544,7 @@ impl Controller for BehaviourController {
     /// plus 2 where its power-flow gearbox law is back-driven — where [`Self::partials`]
     /// switch branch (the tangent's steps are split there); the
     /// other laws 0. Programs past the 32nd fold into the same bits.
-    fn partials_piece(&self, at: &ControlPoint) -> u64 {
-        let ControlPoint { t, q, qd, mode, .. } = *at;
+    fn partials_piece(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode) -> u64 {
         let plan = &*self.plan;
         let mut out = 0u64;
         for (p, prog) in plan.programs.iter().enumerate() {
@@ -1595,14 +1587,8 @@ impl Controller for BehaviourController {
         names: &[&str],
         out: &mut ControllerPartials,
     ) -> bool {
-        let ControlPoint {
-            t,
-            q,
-            qd,
-            mode,
-            free_joints,
-            ..
-        } = *at;
+        let ControlPoint { t, q, qd, mode, .. } = *at;
+        let free_joints = at.free_joints;
         let plan = &*self.plan;
         let tan = plan.tangent();
         let mut ws = self.workspace.lend();
@@ -1779,14 +1765,8 @@ impl Controller for BehaviourController {
     /// on two different events), or where [`Controller::partials`] gives none (a `motor`
     /// that reverses past an angle).
     fn memory_partials(&self, at: &ControlPoint, out: &mut Vec<EventMemoryPartials>) -> bool {
-        let ControlPoint {
-            t,
-            q,
-            qd,
-            mode,
-            free_joints,
-            ..
-        } = *at;
+        let ControlPoint { t, q, qd, mode, .. } = *at;
+        let free_joints = at.free_joints;
         let plan = &*self.plan;
         let n = plan.program_of_joint.len();
         if self.follows_servo_manifold(free_joints, t, q) {

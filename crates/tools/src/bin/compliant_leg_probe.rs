@@ -36,9 +36,7 @@ use rhex_model::leap::{leap_params, leg_actuator, leg_swing, LeapConfig};
 use rhex_model::params::LegPair;
 use selfmanip_core::passive;
 use selfmanip_core::{ContactMode, FlatGround, Model, RobotDescription};
-use selfmanip_hybrid::{
-    simulate, ControlPoint, Controller, Event, EventKind, HybridOptions, StepOptions,
-};
+use selfmanip_hybrid::{simulate, Controller, Event, EventKind, HybridOptions, StepOptions};
 use selfmanip_sim::motion::JointMotion;
 use std::sync::Arc;
 
@@ -202,8 +200,7 @@ impl Ctrl {
 }
 
 impl Controller for Ctrl {
-    fn torque(&self, at: &ControlPoint, tau: &mut [f64]) {
-        let ControlPoint { t, q, qd, mode, .. } = *at;
+    fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]) {
         tau.fill(0.0);
         for i in 0..2 {
             let h = self.hip[i];

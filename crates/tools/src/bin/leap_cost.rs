@@ -33,7 +33,6 @@
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapPreset, LegActuator, Strategy};
 use selfmanip_hybrid::budget::NEVER;
 use selfmanip_hybrid::integrate::{reset_work_counters, work_counters, WorkCounters};
-use selfmanip_hybrid::ControlPoint;
 use selfmanip_tools::{body_from_env, print_segment_line};
 use std::collections::BTreeMap;
 
@@ -149,10 +148,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         let mut tau = vec![0.0; 2];
                         for v in sg.dense.steps().step_by(5) {
                             v.eval(v.t0, &mut y);
-                            sg.controller.torque(
-                                &ControlPoint::new(v.t0, &y[..n], &y[n..], sg.mode),
-                                &mut tau,
-                            );
+                            sg.controller
+                                .torque(v.t0, &y[..n], &y[n..], sg.mode, &mut tau);
                             println!(
                                 "      t {:.5} h {:.1e} q_leg {:+.5} {:+.5} qd_leg {:+.3} {:+.3} tau {:+.4} {:+.4}",
                                 v.t0, v.h, y[0], y[1], y[n], y[n + 1], tau[0], tau[1]
