@@ -23,9 +23,9 @@ use std::sync::Arc;
 /// accelerations it prescribes (thesis 5.1.1). The outputs themselves —
 /// [`Controller::torque`], asked at every evaluation of the flow, and
 /// [`Controller::partials_piece`], at every sub-step of a tangent — take the parts as
-/// arguments, which pass in registers (the point, by reference, cost the leap 0.1 % more
-/// instructions); the free joints' law, [`Controller::free_joint_qdd`], depends on neither
-/// the mode nor the torques' branch and takes `(t, q, q̇)` alone.
+/// arguments, which pass in registers (a point by reference stores and reloads every field
+/// on that hot path); the free joints' law, [`Controller::free_joint_qdd`], depends on
+/// neither the mode nor the torques' branch and takes `(t, q, q̇)` alone.
 #[derive(Debug, Clone, Copy)]
 pub struct ControlPoint<'a> {
     pub t: f64,
@@ -77,8 +77,8 @@ pub trait Controller: ControllerClone + Send + Sync {
     /// depends on the contact history); not for an apex recorded on the way (a run that does
     /// not stop there), which changes nothing.
     fn on_event(&mut self, _event: &Event) {}
-    /// The partial derivatives of [`Self::torque`] and [`Self::free_joint_qdd`] at the same
-    /// arguments, written into `out` (which arrives zeroed and sized), for the sensitivities
+    /// The partial derivatives of [`Self::torque`] and [`Self::free_joint_qdd`] at the point
+    /// `at`, written into `out` (which arrives zeroed and sized), for the sensitivities
     /// of [`crate::sensitivity`]. Returns whether the controller provides them: the default
     /// does not, and a sensitivity run then stops with a typed error rather than guess.
     fn partials(&self, _at: &ControlPoint, _out: &mut ControllerPartials) -> bool {
