@@ -138,14 +138,8 @@ def ground_reaction_complex() -> dict[str, Any]: ...
 
 # ---------------------------------------------------------------------------------------- leap
 
-class _Apex(TypedDict):
-    t_s: float
-    x_m: float
-    z_m: float
-    phi_rad: float
-    xdot_m_s: float
-    zdot_m_s: float
-    phidot_rad_s: float
+# the fields of ``selfmanip.leap.Apex``, which the wrapper builds from it (declared there once)
+_Apex = dict[str, float]
 
 class _Event(TypedDict):
     t_s: float
@@ -359,14 +353,8 @@ class _SimTrajectory(TypedDict):
     contact_points_m: _F64
     contact_forces_n: _F64
 
-class _SimEnergy(TypedDict):
-    initial_j: float
-    final_j: float
-    joint_work_j: float
-    damping_work_j: float
-    friction_work_j: float
-    impact_loss_j: float
-    residual_j: float
+# the fields of ``selfmanip.simulation.EnergyReport``, which the wrapper builds from it
+_SimEnergy = dict[str, float]
 
 class _SimDefaults(TypedDict):
     t_final_s: float

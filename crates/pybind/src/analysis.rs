@@ -1,7 +1,7 @@
 //! `selfmanip.analysis`'s native half: conversions only. RHex parameters arrive as a dict of
 //! Table 4.2 values (`selfmanip.rhex.Model().params`; `None`: the shipped table), results
 //! leave as plain Python dicts and lists that the Python layer turns into numpy arrays.
-use crate::convert::{to_map, to_py};
+use crate::convert::{to_map, to_py, AnyOut};
 use crate::errors::{self, guard, invalid, Source};
 use crate::robot::Robot;
 use pyo3::prelude::*;
@@ -51,7 +51,6 @@ fn leg(name: &str) -> PyResult<pc::TakeoffLeg> {
     }
 }
 
-type Obj<'py> = PyResult<Bound<'py, PyAny>>;
 type Params<'a, 'py> = Option<&'a Bound<'py, PyDict>>;
 
 /// `analysis` run with the GIL released (a figure's grid, a standing run), its result
@@ -59,7 +58,7 @@ type Params<'a, 'py> = Option<&'a Bound<'py, PyDict>>;
 fn detached<'py, T: serde::Serialize + Send>(
     py: Python<'py>,
     analysis: impl FnOnce() -> Result<T, RhexError> + Send,
-) -> Obj<'py> {
+) -> AnyOut<'py> {
     let out = py.detach(analysis).map_err(err)?;
     to_py(py, &out)
 }
@@ -75,7 +74,7 @@ fn analysis_sensor_pitch_range<'py>(
     py: Python<'py>,
     params: Params<'_, 'py>,
     grid: usize,
-) -> Obj<'py> {
+) -> AnyOut<'py> {
     guard(|| {
         to_py(
             py,
@@ -91,7 +90,7 @@ fn analysis_holding_torque<'py>(
     params: Params<'_, 'py>,
     theta1: f64,
     theta2: f64,
-) -> Obj<'py> {
+) -> AnyOut<'py> {
     guard(|| {
         to_py(
             py,
@@ -114,7 +113,7 @@ fn analysis_fig_4_8<'py>(
     theta1_range: [f64; 2],
     theta2_range: [f64; 2],
     n: usize,
-) -> Obj<'py> {
+) -> AnyOut<'py> {
     guard(|| {
         let r = rhex(params)?;
         detached(py, || ss::fig_4_8(&r, theta1_range, theta2_range, n))
@@ -130,7 +129,7 @@ fn analysis_fig_4_10<'py>(
     phi_range: [f64; 2],
     n: usize,
     gear_ratio: f64,
-) -> Obj<'py> {
+) -> AnyOut<'py> {
     guard(|| {
         let p = self::params(params)?;
         detached(py, || {
@@ -147,7 +146,7 @@ fn analysis_fig_4_11<'py>(
     ratios: Vec<f64>,
     phis: Vec<f64>,
     theta2_range: [f64; 2],
-) -> Obj<'py> {
+) -> AnyOut<'py> {
     guard(|| {
         let p = self::params(params)?;
         detached(py, || pc::fig_4_11(Some(p), &ratios, &phis, theta2_range))
@@ -163,7 +162,7 @@ fn analysis_fig_4_12<'py>(
     phis: Vec<f64>,
     theta2_range: [f64; 2],
     gear_ratio: f64,
-) -> Obj<'py> {
+) -> AnyOut<'py> {
     guard(|| {
         let p = self::params(params)?;
         detached(py, || {
@@ -182,7 +181,7 @@ fn analysis_takeoff_speed<'py>(
     phi: f64,
     phi_dot: f64,
     gear_ratio: f64,
-) -> Obj<'py> {
+) -> AnyOut<'py> {
     guard(|| {
         let model = takeoff_model(params, leg(leg_kind)?)?;
         let line = pc::xrhex_line(gear_ratio).map_err(err)?;
@@ -270,7 +269,7 @@ fn analysis_tail_effect<'py>(
     joints: Vec<usize>,
     period_s: f64,
     dt_s: f64,
-) -> Obj<'py> {
+) -> AnyOut<'py> {
     guard(|| {
         let model = robot.model().clone();
         let (mom, sim) = py
@@ -299,7 +298,7 @@ fn analysis_standing_rhex<'py>(
     tau_d0: f64,
     dt_s: f64,
     steps: usize,
-) -> Obj<'py> {
+) -> AnyOut<'py> {
     guard(|| {
         let mut p = self::params(params)?;
         p.leg_shape = match leg_shape {

@@ -13,6 +13,13 @@ use pyo3::IntoPyObjectExt;
 use serde::Serialize;
 use serde_json::{Map, Number, Value};
 
+/// What a binding returns, bound to the GIL's lifetime (or the Python exception): a numpy
+/// vector, a numpy matrix, a `dict`, any object.
+pub(crate) type VectorOut<'py> = PyResult<Bound<'py, numpy::PyArray1<f64>>>;
+pub(crate) type MatrixOut<'py> = PyResult<Bound<'py, numpy::PyArray2<f64>>>;
+pub(crate) type DictOut<'py> = PyResult<Bound<'py, PyDict>>;
+pub(crate) type AnyOut<'py> = PyResult<Bound<'py, PyAny>>;
+
 /// One field of every record as a numpy column.
 pub(crate) fn column<'py, T, V: numpy::Element>(
     py: Python<'py>,
@@ -111,7 +118,7 @@ fn to_map_at(d: &Bound<'_, PyDict>, field: &str, depth: usize) -> PyResult<Map<S
 }
 
 /// A JSON value as a plain Python object.
-pub(crate) fn from_value<'py>(py: Python<'py>, v: &Value) -> PyResult<Bound<'py, PyAny>> {
+pub(crate) fn from_value<'py>(py: Python<'py>, v: &Value) -> AnyOut<'py> {
     Ok(match v {
         Value::Null => py.None().into_bound(py),
         Value::Bool(b) => b.into_bound_py_any(py)?,
@@ -139,7 +146,7 @@ pub(crate) fn from_value<'py>(py: Python<'py>, v: &Value) -> PyResult<Bound<'py,
 }
 
 /// Any serializable Rust value as a plain Python object.
-pub(crate) fn to_py<'py>(py: Python<'py>, v: &impl Serialize) -> PyResult<Bound<'py, PyAny>> {
+pub(crate) fn to_py<'py>(py: Python<'py>, v: &impl Serialize) -> AnyOut<'py> {
     let value = serde_json::to_value(v)
         .map_err(|e| crate::errors::engine(format!("could not convert a result: {e}")))?;
     from_value(py, &value)

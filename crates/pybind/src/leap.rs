@@ -11,7 +11,7 @@
 //!
 //! **Work** runs on a worker thread with the GIL released and is interruptible by Ctrl-C
 //! ([`crate::interrupt`]); a sweep checks the cancellation flag before every point.
-use crate::convert::{column, to_map, to_py, to_value};
+use crate::convert::{column, to_map, to_py, to_value, DictOut};
 use crate::errors::{self, invalid, Source};
 use crate::interrupt::{self, Shared};
 use numpy::IntoPyArray;
@@ -147,7 +147,7 @@ fn run_leap(
 /// The sensitivities of a leap as a dict: `parameters`, `columns` (the apex columns),
 /// `values` (`len(columns) × len(parameters)`, NaN unless `ok`), `ok`, `reason` and
 /// `saltations` (one per event: an `(n, n)` array over `(q, q̇)`, or None where undefined).
-fn sensitivity_dict<'py>(py: Python<'py>, s: &LeapSensitivity) -> PyResult<Bound<'py, PyDict>> {
+fn sensitivity_dict<'py>(py: Python<'py>, s: &LeapSensitivity) -> DictOut<'py> {
     let d = PyDict::new(py);
     d.set_item("parameters", s.parameters.clone())?;
     d.set_item("columns", APEX_COLUMNS.to_vec())?;
@@ -210,7 +210,7 @@ fn leap_run<'py>(
     overrides: &Bound<'py, PyDict>,
     dt_s: Option<f64>,
     sensitivities: Option<Vec<String>>,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> DictOut<'py> {
     errors::guard(|| {
         let (params, cfg) = resolve(strategy, t2_s, gear_ratio, to_map(overrides, "")?)?;
         if let Some(dt) = dt_s {
@@ -377,7 +377,7 @@ fn leap_sweep<'py>(
     threads: usize,
     progress: Option<&Bound<'py, PyAny>>,
     sensitivities: Option<Vec<String>>,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> DictOut<'py> {
     errors::guard(|| {
         let n = strategies.len();
         if t2_s.len() != n || gear_ratio.len() != n {

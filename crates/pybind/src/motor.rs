@@ -1,7 +1,7 @@
 //! `selfmanip.motor`'s native half: conversions only. Results are plain dicts (numpy
 //! arrays for series); structured inputs (observer parameters, machine configuration)
 //! arrive as dicts, deserialized with serde so that it names any missing or mistyped field.
-use crate::convert::{column, to_map, to_py};
+use crate::convert::{column, to_map, to_py, AnyOut, DictOut};
 use crate::errors::{self, guard, invalid};
 use motor::catalog::{synthetic_motors, CaseParameters, Catalog};
 use motor::observer::{self, FaultFsmConfig, LegLog, ObserverParams};
@@ -63,7 +63,7 @@ fn motor_tail_optimum<'py>(
     power_w: f64,
     body_inertia_kg_m2: f64,
     effectiveness: f64,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> DictOut<'py> {
     guard(|| {
         let task =
             TailTask::new(theta0_rad, body_inertia_kg_m2, effectiveness).map_err(errors::motor)?;
@@ -76,7 +76,7 @@ fn motor_tail_optimum<'py>(
 }
 
 #[pyfunction]
-fn motor_tail_constants<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+fn motor_tail_constants<'py>(py: Python<'py>) -> DictOut<'py> {
     let k = tail::tail_constants();
     let d = PyDict::new(py);
     d.set_item("s_star", k.s_star)?;
@@ -99,7 +99,7 @@ fn motor_rank_tail_motors<'py>(
     catalog_toml: Option<&str>,
     synthetic_count: usize,
     seed: u64,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> DictOut<'py> {
     guard(|| {
         let task =
             TailTask::new(theta0_rad, body_inertia_kg_m2, effectiveness).map_err(errors::motor)?;
@@ -198,7 +198,7 @@ fn motor_torque_speed_curve<'py>(
     points: usize,
     current_limit_a: Option<f64>,
     catalog_toml: Option<&str>,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> DictOut<'py> {
     guard(|| {
         let cat = catalog(catalog_toml)?;
         let d = drive_with_limit(&cat, drive, current_limit_a)?;
@@ -237,7 +237,7 @@ fn motor_operating_point<'py>(
     battery_resistance_ohm: f64,
     current_limit_a: Option<f64>,
     catalog_toml: Option<&str>,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> DictOut<'py> {
     guard(|| {
         let cat = catalog(catalog_toml)?;
         let losses = DriveLosses {
@@ -285,7 +285,7 @@ fn motor_thermal_simulation<'py>(
     ambient_c: f64,
     case: &str,
     catalog_toml: Option<&str>,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> DictOut<'py> {
     guard(|| {
         let cat = catalog(catalog_toml)?;
         let d = cat.drive(drive).map_err(errors::motor)?;
@@ -397,7 +397,7 @@ fn motor_observe<'py>(
     py: Python<'py>,
     params: &Bound<'py, PyDict>,
     log: LegLogArgs<'py>,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> DictOut<'py> {
     guard(|| {
         let params = observer_params(params)?;
         let samples = run_observer(py, &params, &log, observer::observe)?;
@@ -420,7 +420,7 @@ fn motor_calibrate_observer<'py>(
     py: Python<'py>,
     initial_params: &Bound<'py, PyDict>,
     log: LegLogArgs<'py>,
-) -> PyResult<Bound<'py, PyAny>> {
+) -> AnyOut<'py> {
     guard(|| {
         let initial = observer_params(initial_params)?;
         let calibration = run_observer(py, &initial, &log, |initial, log| {
@@ -438,7 +438,7 @@ fn motor_identify_faults<'py>(
     params: &Bound<'py, PyDict>,
     config: &Bound<'py, PyDict>,
     log: LegLogArgs<'py>,
-) -> PyResult<Bound<'py, PyAny>> {
+) -> AnyOut<'py> {
     guard(|| {
         let params = observer_params(params)?;
         let config: FaultFsmConfig = from_dict(config, "config")?;

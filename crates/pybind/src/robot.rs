@@ -1,7 +1,7 @@
 //! `Robot`: any planar robot (from a description) or the RHex instance (from Table 4.2
 //! parameters), with contact modes given as RHex labels (`"0101"`) or as contact names
 //! (`"front_leg,rear_body"`, `"front_leg:slide"`).
-use crate::convert::{column, to_map, to_py};
+use crate::convert::{column, to_map, to_py, AnyOut, DictOut};
 use crate::errors::{self, guard, invalid, Source};
 use nalgebra::{DMatrix, DVector, Vector2};
 use numpy::ndarray::{Array2, Array3};
@@ -217,7 +217,7 @@ impl Robot {
         }
     }
 
-    fn pose_dict<'py>(py: Python<'py>, p: &QuasiStaticPose) -> PyResult<Bound<'py, PyDict>> {
+    fn pose_dict<'py>(py: Python<'py>, p: &QuasiStaticPose) -> DictOut<'py> {
         let d = PyDict::new(py);
         d.set_item("theta1", p.theta1)?;
         d.set_item("theta2", p.theta2)?;
@@ -336,7 +336,7 @@ impl Robot {
     }
 
     /// The description as plain data (the dict form of the TOML/JSON file).
-    fn description_data<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+    fn description_data<'py>(&self, py: Python<'py>) -> AnyOut<'py> {
         to_py(py, &self.description)
     }
 
@@ -373,7 +373,7 @@ impl Robot {
     }
 
     /// The RHex parameters as a dict (RHex models only).
-    fn params<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+    fn params<'py>(&self, py: Python<'py>) -> AnyOut<'py> {
         to_py(py, &self.rhex()?.params)
     }
 
@@ -408,7 +408,7 @@ impl Robot {
         qd: Vec<f64>,
         tau: Vec<f64>,
         free_joint_qdd: Option<Vec<f64>>,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> DictOut<'py> {
         guard(|| {
             let mode = self.mode(mode)?;
             let mut data = Data::new(&self.model);
@@ -437,7 +437,7 @@ impl Robot {
 
     /// The KKT blocks M†, A†, Λ of (5.2) and the constraint matrix A, embedded in full
     /// coordinates (rows/columns of free massless joints are zero).
-    fn kkt<'py>(&self, py: Python<'py>, mode: &str, q: Vec<f64>) -> PyResult<Bound<'py, PyDict>> {
+    fn kkt<'py>(&self, py: Python<'py>, mode: &str, q: Vec<f64>) -> DictOut<'py> {
         guard(|| {
             let mode = self.mode(mode)?;
             let nq = self.model.nq();
@@ -472,7 +472,7 @@ impl Robot {
         mode: &str,
         q: Vec<f64>,
         qd_minus: Vec<f64>,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> DictOut<'py> {
         guard(|| {
             let mode = self.mode(mode)?;
             let mut data = Data::new(&self.model);
@@ -532,7 +532,7 @@ impl Robot {
         py: Python<'py>,
         q: Vec<f64>,
         qd: Option<Vec<f64>>,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> DictOut<'py> {
         guard(|| {
             let kin = self.kinematics_at(&q, qd.as_deref())?;
             let n = self.model.n_joints();
@@ -582,7 +582,7 @@ impl Robot {
         q: Vec<f64>,
         part: Option<i64>,
         point_m: [f64; 2],
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> DictOut<'py> {
         guard(|| {
             let kin = self.kinematics_at(&q, None)?;
             check_vector("point_m", &point_m, 2)?;
@@ -610,7 +610,7 @@ impl Robot {
         py: Python<'py>,
         q: Vec<f64>,
         qd: Option<Vec<f64>>,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> DictOut<'py> {
         guard(|| {
             let kin = self.kinematics_at(&q, qd.as_deref())?;
             let (nc, nq) = (self.model.n_contacts(), self.model.nq());
@@ -665,7 +665,7 @@ impl Robot {
         mode: &str,
         q: Vec<f64>,
         torque_constraints: Vec<Vec<f64>>,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> DictOut<'py> {
         guard(|| {
             let mode = self.mode(mode)?;
             let n = self.model.n_joints();

@@ -23,7 +23,7 @@
 //! [`PyScenario::periodic_orbit`]) convert `selfmanip_hybrid::sensitivity` and
 //! `selfmanip_sim::periodic` results: matrices as 2-D numpy arrays, multipliers as complex
 //! arrays, a saltation matrix `None` with the reason where the engine flags it.
-use crate::convert::{pairs_array, rows_array, to_map, to_py, to_value};
+use crate::convert::{pairs_array, rows_array, to_map, to_py, to_value, AnyOut, DictOut};
 use crate::errors::{self, guard, invalid, invalid_type, Source};
 use crate::interrupt::{self, Shared};
 use nalgebra::DMatrix;
@@ -260,7 +260,7 @@ impl PyScenario {
     }
 
     /// The scenario as plain Python data (the form parameter paths address).
-    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+    fn to_dict<'py>(&self, py: Python<'py>) -> AnyOut<'py> {
         to_py(py, &self.inner)
     }
 
@@ -331,7 +331,7 @@ impl PyScenario {
         &self,
         py: Python<'py>,
         options: Option<&Bound<'py, PyDict>>,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> DictOut<'py> {
         guard(|| {
             let spec: PeriodicSpec = match options {
                 None => PeriodicSpec::default(),
@@ -423,7 +423,7 @@ impl PyScenario {
         over: Vec<(String, Bound<'py, PyAny>)>,
         threads: usize,
         progress: Option<&Bound<'py, PyAny>>,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> DictOut<'py> {
         guard(|| {
             let mut axes: Vec<(String, Vec<Value>)> = Vec::new();
             for (name, values) in &over {
@@ -722,13 +722,13 @@ impl PyRun {
     }
 
     /// The outcome as a dict (status, word, apex, landing, end state, …).
-    fn outcome<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+    fn outcome<'py>(&self, py: Python<'py>) -> AnyOut<'py> {
         to_py(py, &self.inner.outcome)
     }
 
     /// The events as dicts: `t_s`, `kind`, `mode_before`, `mode_after`, `contacts`,
     /// `energy_loss_j`, `impulse_n_s`, `force_n` (`selfmanip_sim::EventRecord`).
-    fn events<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+    fn events<'py>(&self, py: Python<'py>) -> AnyOut<'py> {
         to_py(py, &self.inner.events())
     }
 
@@ -759,7 +759,7 @@ impl PyRun {
 
     /// Samples every `dt_s` (default: the crate's sample interval) as numpy arrays.
     #[pyo3(signature = (dt_s=None))]
-    fn trajectory<'py>(&self, py: Python<'py>, dt_s: Option<f64>) -> PyResult<Bound<'py, PyDict>> {
+    fn trajectory<'py>(&self, py: Python<'py>, dt_s: Option<f64>) -> DictOut<'py> {
         guard(|| {
             let tr = self
                 .inner
@@ -802,7 +802,7 @@ impl PyRun {
     /// order, and `saltation` for each order); `one_sided_state_jacobian` where
     /// `state_jacobian` is `None` only for `one_sided` events (the piece of each one's first
     /// order).
-    fn sensitivity<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+    fn sensitivity<'py>(&self, py: Python<'py>) -> DictOut<'py> {
         guard(|| {
             let run = &self.inner;
             let s = py
@@ -865,11 +865,7 @@ impl PyRun {
     /// `not_differentiated` (per name, why it has no exact derivative, else `None`) and
     /// `event_time_gradients` (per event `dt_e/dp`, or `None`). A name that names nothing is
     /// an `InvalidInputError` naming `parameters[i]`.
-    fn parameter_sensitivity<'py>(
-        &self,
-        py: Python<'py>,
-        names: Vec<String>,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    fn parameter_sensitivity<'py>(&self, py: Python<'py>, names: Vec<String>) -> DictOut<'py> {
         guard(|| {
             let (run, scenario) = (&self.inner, &self.scenario);
             let refs: Vec<&str> = names.iter().map(String::as_str).collect();
@@ -905,7 +901,7 @@ impl PyRun {
 
     /// `E₁ − E₀ = W + W_d + W_fr − L`: `initial_j`, `final_j`, `joint_work_j`, `damping_work_j`,
     /// `friction_work_j`, `impact_loss_j`, `residual_j`.
-    fn energy_report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+    fn energy_report<'py>(&self, py: Python<'py>) -> DictOut<'py> {
         guard(|| {
             let r = self.inner.energy_report().map_err(engine_err)?;
             take_failure(&self.failure)?;

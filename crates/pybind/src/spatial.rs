@@ -6,6 +6,7 @@
 //! suffix `:frictionless`, the normal row alone, on flat z-up ground; or a dict
 //! `{frame: {"radius_m", "friction", "slide", "normal", "arc"}}` (`SpatialRobot::contact`):
 //! sphere feet, arcs, other ground normals and Coulomb sliding.
+use crate::convert::{DictOut, MatrixOut, VectorOut};
 use crate::errors::{self, guard, invalid, invalid_type, Source};
 use nalgebra::{DMatrix, DVector, Vector3};
 use numpy::ndarray::Array2;
@@ -44,7 +45,7 @@ fn vec1<'py>(py: Python<'py>, v: &DVector<f64>) -> Bound<'py, PyArray1<f64>> {
 fn vector<'py>(
     py: Python<'py>,
     f: impl FnOnce() -> Result<DVector<f64>, SpatialError>,
-) -> PyResult<Bound<'py, PyArray1<f64>>> {
+) -> VectorOut<'py> {
     guard(|| Ok(vec1(py, &f().map_err(spatial_err)?)))
 }
 
@@ -253,7 +254,7 @@ impl SpatialRobot {
         spec: &Bound<'_, PyAny>,
         solve: impl FnOnce(&[PointContact], &mut SpatialData) -> Result<T, SpatialError>,
         fill: impl FnOnce(&Bound<'py, PyDict>, T, &SpatialData) -> PyResult<()>,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> DictOut<'py> {
         guard(|| {
             let (contacts, rows) = self.contacts(spec)?;
             let mut data = SpatialData::new(&self.model);
@@ -364,49 +365,27 @@ impl SpatialRobot {
     }
 
     /// `q ⊕ v`.
-    fn integrate<'py>(
-        &self,
-        py: Python<'py>,
-        q: Vec<f64>,
-        v: Vec<f64>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    fn integrate<'py>(&self, py: Python<'py>, q: Vec<f64>, v: Vec<f64>) -> VectorOut<'py> {
         vector(py, || integrate(&self.model, &q, &v))
     }
 
     /// `q1 ⊖ q0`.
-    fn difference<'py>(
-        &self,
-        py: Python<'py>,
-        q0: Vec<f64>,
-        q1: Vec<f64>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    fn difference<'py>(&self, py: Python<'py>, q0: Vec<f64>, q1: Vec<f64>) -> VectorOut<'py> {
         vector(py, || difference(&self.model, &q0, &q1))
     }
 
     /// Pinocchio's `q` (a continuous joint's `(cos θ, sin θ)`) in this layout (`θ`).
-    fn q_from_pinocchio<'py>(
-        &self,
-        py: Python<'py>,
-        q: Vec<f64>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    fn q_from_pinocchio<'py>(&self, py: Python<'py>, q: Vec<f64>) -> VectorOut<'py> {
         vector(py, || from_pinocchio(&self.model, &q))
     }
 
     /// This layout's `q` in Pinocchio's.
-    fn q_to_pinocchio<'py>(
-        &self,
-        py: Python<'py>,
-        q: Vec<f64>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    fn q_to_pinocchio<'py>(&self, py: Python<'py>, q: Vec<f64>) -> VectorOut<'py> {
         vector(py, || to_pinocchio(&self.model, &q))
     }
 
     /// `M(q)` (nv × nv, CRBA).
-    fn mass_matrix<'py>(
-        &self,
-        py: Python<'py>,
-        q: Vec<f64>,
-    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    fn mass_matrix<'py>(&self, py: Python<'py>, q: Vec<f64>) -> MatrixOut<'py> {
         guard(|| {
             let mut data = SpatialData::new(&self.model);
             crba(&self.model, &mut data, &q).map_err(spatial_err)?;
@@ -415,12 +394,7 @@ impl SpatialRobot {
     }
 
     /// `h(q, v) = C(q, v) v + g(q)` (Pinocchio's `nle`, RNEA).
-    fn bias_forces<'py>(
-        &self,
-        py: Python<'py>,
-        q: Vec<f64>,
-        v: Vec<f64>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    fn bias_forces<'py>(&self, py: Python<'py>, q: Vec<f64>, v: Vec<f64>) -> VectorOut<'py> {
         vector(py, || {
             let mut data = SpatialData::new(&self.model);
             nonlinear_effects(&self.model, &mut data, &q, &v)?;
@@ -429,12 +403,7 @@ impl SpatialRobot {
     }
 
     /// The frame's placement in the world as a 4 × 4 homogeneous matrix.
-    fn frame_placement<'py>(
-        &self,
-        py: Python<'py>,
-        q: Vec<f64>,
-        name: &str,
-    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    fn frame_placement<'py>(&self, py: Python<'py>, q: Vec<f64>, name: &str) -> MatrixOut<'py> {
         guard(|| {
             let f = self.frame(name)?;
             let data = self.kinematics(&q)?;
@@ -455,7 +424,7 @@ impl SpatialRobot {
         q: Vec<f64>,
         name: &str,
         frame: &str,
-    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    ) -> MatrixOut<'py> {
         guard(|| {
             let f = self.frame(name)?;
             let reference = ReferenceFrame::from_name(frame).map_err(spatial_err)?;
@@ -478,7 +447,7 @@ impl SpatialRobot {
         v: Vec<f64>,
         tau: Vec<f64>,
         free_qdd: Option<Vec<f64>>,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> DictOut<'py> {
         self.contact_dict(
             py,
             contacts,
@@ -514,7 +483,7 @@ impl SpatialRobot {
         py: Python<'py>,
         contacts: &Bound<'py, PyAny>,
         q: Vec<f64>,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> DictOut<'py> {
         self.contact_dict(
             py,
             contacts,
@@ -544,7 +513,7 @@ impl SpatialRobot {
         q: Vec<f64>,
         v: Vec<f64>,
         lift_off: bool,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> DictOut<'py> {
         self.contact_dict(
             py,
             contacts,
@@ -564,7 +533,7 @@ impl SpatialRobot {
         q: Vec<f64>,
         v: Vec<f64>,
         lift_off: bool,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> DictOut<'py> {
         self.contact_dict(
             py,
             contacts,

@@ -20,6 +20,7 @@ use rhex_model::leap_sensitivity::leap_with_sensitivity;
 use rhex_model::{LegPair, Rhex, RhexError, RhexParams};
 use selfmanip_core::tangent::{BodyParameter, TangentError};
 use selfmanip_core::{energy, ContactMode, Data, FlatGround};
+use selfmanip_hybrid::ControlPoint;
 use selfmanip_hybrid::{simulate, ConstantTorque, HybridOptions};
 
 fn massive() -> RhexParams {
@@ -377,7 +378,7 @@ fn a_massive_legs_servo_is_critically_damped_on_its_mass_matrix_entry() {
             let mode = preset.leap.rhex.mode("1111").unwrap();
             assert!(sim
                 .controller
-                .partials(0.01, &sim.q0, &zeros, mode, &[], &mut out));
+                .partials(&ControlPoint::new(0.01, &sim.q0, &zeros, mode), &mut out));
             let (kp, kd) = (-out.dtau_dq[(i, i)], -out.dtau_dqd[(i, i)]);
             assert!((kp - 20.0 * stall).abs() < 1e-12 * kp, "leg {i}: kp {kp}");
             if critical {

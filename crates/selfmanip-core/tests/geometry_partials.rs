@@ -10,7 +10,7 @@
 //! (the length then moves the link's own centre too), and a variant with massless thighs
 //! (a massless link's length moves the kinematics only).
 use nalgebra::{DMatrix, DVector};
-use selfmanip_core::contact::{contact_geometry, ContactKind};
+use selfmanip_core::contact::{contact_geometry, ContactGeometry, ContactKind};
 use selfmanip_core::description::ShapeDescription;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::tangent::{
@@ -200,34 +200,37 @@ fn impact_partials_match_rebuilt_models() {
     }
 }
 
-/// Each foot's height above the ground and its sliding velocity at the state.
-fn guards(model: &Model) -> DVector<f64> {
+/// Two numbers of each foot at the state, `per_foot(kinematics, foot, its geometry)`, stacked.
+fn each_foot(
+    model: &Model,
+    per_foot: impl Fn(&Kinematics, usize, &ContactGeometry) -> [f64; 2],
+) -> DVector<f64> {
     let (q, qd, _) = state();
     let mut kin = Kinematics::default();
     kin.compute(model, &q, &qd);
-    let mut v = Vec::new();
-    for k in 0..2 {
-        let geo = contact_geometry(model, &kin, &FlatGround, k);
-        let vel = kin.material_velocity(geo.part, geo.point);
-        v.push(geo.gap_m);
-        v.push(geo.plane.tangent().dot(&vel));
-    }
+    let v: Vec<f64> = (0..2)
+        .flat_map(|k| per_foot(&kin, k, &contact_geometry(model, &kin, &FlatGround, k)))
+        .collect();
     DVector::from_vec(v)
+}
+
+/// Each foot's height above the ground and its sliding velocity at the state.
+fn guards(model: &Model) -> DVector<f64> {
+    each_foot(model, |kin, _, geo| {
+        let vel = kin.material_velocity(geo.part, geo.point);
+        [geo.gap_m, geo.plane.tangent().dot(&vel)]
+    })
 }
 
 #[test]
 fn guard_partials_match_rebuilt_models() {
     let exact = |m: &Model, p: BodyParameter| {
-        let (q, qd, _) = state();
-        let mut kin = Kinematics::default();
-        kin.compute(m, &q, &qd);
-        let mut v = Vec::new();
-        for k in 0..2 {
-            let geo = contact_geometry(m, &kin, &FlatGround, k);
-            v.push(p.height_partial(m, &kin, k, geo.plane.normal()));
-            v.push(p.sliding_velocity_partial(m, &kin, k, geo.plane.tangent()));
-        }
-        DVector::from_vec(v)
+        each_foot(m, |kin, k, geo| {
+            [
+                p.height_partial(m, kin, k, geo.plane.normal()),
+                p.sliding_velocity_partial(m, kin, k, geo.plane.tangent()),
+            ]
+        })
     };
     each_parameter(true, 0.1, exact, guards);
 }

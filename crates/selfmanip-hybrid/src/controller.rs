@@ -18,8 +18,48 @@ use nalgebra::DMatrix;
 use selfmanip_core::ContactMode;
 use std::sync::Arc;
 
+/// Where a [`Controller`] is asked for the partials of its outputs (for the sensitivities):
+/// the time, the state `(q, q̇)`, the contact mode and the free massless joints whose
+/// accelerations it prescribes (thesis 5.1.1). The outputs themselves —
+/// [`Controller::torque`], asked at every evaluation of the flow, and
+/// [`Controller::partials_piece`], at every sub-step of a tangent — take the parts as
+/// arguments, which pass in registers (a point by reference stores and reloads every field
+/// on that hot path); the free joints' law, [`Controller::free_joint_qdd`], depends on
+/// neither the mode nor the torques' branch and takes `(t, q, q̇)` alone.
+#[derive(Debug, Clone, Copy)]
+pub struct ControlPoint<'a> {
+    pub t: f64,
+    pub q: &'a [f64],
+    pub qd: &'a [f64],
+    pub mode: ContactMode,
+    /// The free joints, in the order of the rows of `q̈_free` and of its partials.
+    pub free_joints: &'a [usize],
+}
+
+impl<'a> ControlPoint<'a> {
+    /// The point `(t, q, q̇)` in `mode`, with no free joints.
+    pub fn new(t: f64, q: &'a [f64], qd: &'a [f64], mode: ContactMode) -> Self {
+        ControlPoint {
+            t,
+            q,
+            qd,
+            mode,
+            free_joints: &[],
+        }
+    }
+
+    /// The same point with the free joints `free_joints`.
+    pub fn with_free_joints(self, free_joints: &'a [usize]) -> Self {
+        ControlPoint {
+            free_joints,
+            ..self
+        }
+    }
+}
+
 /// Joint torques (and the motion of free massless joints) as functions of time and state.
-/// Implement it for a `Clone` type: [`ControllerClone`] comes with it.
+/// Implement it for a `Clone` type: [`ControllerClone`] comes with it. The partials are
+/// asked at a [`ControlPoint`]; a law ignores the parts it does not depend on.
 pub trait Controller: ControllerClone + Send + Sync {
     fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]);
     /// Prescribed accelerations of free massless joints (thesis 5.1.1); default 0.
@@ -37,19 +77,11 @@ pub trait Controller: ControllerClone + Send + Sync {
     /// depends on the contact history); not for an apex recorded on the way (a run that does
     /// not stop there), which changes nothing.
     fn on_event(&mut self, _event: &Event) {}
-    /// The partial derivatives of [`Self::torque`] and [`Self::free_joint_qdd`] at the same
-    /// arguments, written into `out` (which arrives zeroed and sized), for the sensitivities
+    /// The partial derivatives of [`Self::torque`] and [`Self::free_joint_qdd`] at the point
+    /// `at`, written into `out` (which arrives zeroed and sized), for the sensitivities
     /// of [`crate::sensitivity`]. Returns whether the controller provides them: the default
     /// does not, and a sensitivity run then stops with a typed error rather than guess.
-    fn partials(
-        &self,
-        _t: f64,
-        _q: &[f64],
-        _qd: &[f64],
-        _mode: ContactMode,
-        _free_joints: &[usize],
-        _out: &mut ControllerPartials,
-    ) -> bool {
+    fn partials(&self, _at: &ControlPoint, _out: &mut ControllerPartials) -> bool {
         false
     }
     /// The partial derivatives of [`Self::torque`] and [`Self::free_joint_qdd`] with respect
@@ -57,14 +89,9 @@ pub trait Controller: ControllerClone + Send + Sync {
     /// ratio), written into column `k` of `out.dtau_dp` / `out.dfree_dp` for `names[k]` (they
     /// arrive zeroed, sized `n × names.len()` and `n_free × names.len()`). Returns whether
     /// the controller knows every name: the default knows none (and accepts an empty list).
-    #[allow(clippy::too_many_arguments)]
     fn parameter_partials(
         &self,
-        _t: f64,
-        _q: &[f64],
-        _qd: &[f64],
-        _mode: ContactMode,
-        _free_joints: &[usize],
+        _at: &ControlPoint,
         names: &[&str],
         _out: &mut ControllerPartials,
     ) -> bool {
@@ -84,14 +111,7 @@ pub trait Controller: ControllerClone + Send + Sync {
     /// time at the fixed state. It enters where a guard depends on the
     /// torques: a force event's (liftoff, slip) rate along the flow is
     /// `ġ = D_xg f⁻ + ∂g/∂t`, with `∂g/∂t` from `∂λ/∂Υ ∂Υ/∂t`.
-    fn time_partials(
-        &self,
-        _t: f64,
-        _q: &[f64],
-        _qd: &[f64],
-        _mode: ContactMode,
-        _dtau_dt: &mut [f64],
-    ) -> bool {
+    fn time_partials(&self, _at: &ControlPoint, _dtau_dt: &mut [f64]) -> bool {
         false
     }
     /// Whether the controller's outputs depend on the time or the state of an event it was
@@ -113,16 +133,7 @@ pub trait Controller: ControllerClone + Send + Sync {
     /// event's time and the state after its reset (the arguments of [`Self::on_event`]).
     /// Returns whether the controller provides them: the default does when it has no event
     /// memory ([`Self::has_event_memory`]).
-    #[allow(clippy::too_many_arguments)]
-    fn memory_partials(
-        &self,
-        _t: f64,
-        _q: &[f64],
-        _qd: &[f64],
-        _mode: ContactMode,
-        _free_joints: &[usize],
-        _out: &mut Vec<EventMemoryPartials>,
-    ) -> bool {
+    fn memory_partials(&self, _at: &ControlPoint, _out: &mut Vec<EventMemoryPartials>) -> bool {
         !self.has_event_memory()
     }
     /// Which smooth piece of its law the outputs lie on at `(t, q, q̇)` in `mode` — a
@@ -275,24 +286,12 @@ impl Controller for ConstantTorque {
         tau[..k].copy_from_slice(&self.torques_n_m[..k]);
         tau[k..].fill(0.0);
     }
-    fn partials(
-        &self,
-        _t: f64,
-        _q: &[f64],
-        _qd: &[f64],
-        _mode: ContactMode,
-        _free_joints: &[usize],
-        _out: &mut ControllerPartials,
-    ) -> bool {
+    fn partials(&self, _at: &ControlPoint, _out: &mut ControllerPartials) -> bool {
         true
     }
     fn parameter_partials(
         &self,
-        _t: f64,
-        _q: &[f64],
-        _qd: &[f64],
-        _mode: ContactMode,
-        _free_joints: &[usize],
+        _at: &ControlPoint,
         names: &[&str],
         out: &mut ControllerPartials,
     ) -> bool {
@@ -317,26 +316,18 @@ mod tests {
         let c = ConstantTorque {
             torques_n_m: vec![1.5, -2.0],
         };
+        let at = ControlPoint::new(0.0, &[], &[], ContactMode::FLIGHT);
         let mut tau = [9.0; 3];
         c.torque(0.0, &[], &[], ContactMode::FLIGHT, &mut tau);
         assert_eq!(tau, [1.5, -2.0, 0.0]);
         let mut out = ControllerPartials::with_parameters(3, 4, 0, 2);
-        assert!(c.partials(0.0, &[], &[], ContactMode::FLIGHT, &[], &mut out));
-        assert!(c.parameter_partials(
-            0.0,
-            &[],
-            &[],
-            ContactMode::FLIGHT,
-            &[],
-            &["tau[1]", "tau[0]"],
-            &mut out
-        ));
+        assert!(c.partials(&at, &mut out));
+        assert!(c.parameter_partials(&at, &["tau[1]", "tau[0]"], &mut out));
         let expected = DMatrix::from_row_slice(3, 2, &[0.0, 1.0, 1.0, 0.0, 0.0, 0.0]);
         assert_eq!(out.dtau_dp, expected);
         for name in ["tau[2]", "tau", "tau[x]", "k"] {
             let mut out = ControllerPartials::with_parameters(3, 4, 0, 1);
-            let known =
-                c.parameter_partials(0.0, &[], &[], ContactMode::FLIGHT, &[], &[name], &mut out);
+            let known = c.parameter_partials(&at, &[name], &mut out);
             assert!(!known, "{name}");
         }
     }

@@ -80,8 +80,8 @@ pub mod zeno;
 
 pub use actuated::{Actuated, CommandPolicy};
 pub use controller::{
-    ConstantTorque, Controller, ControllerPartials, EventMemoryPartials, MemoryTimeEvent,
-    TimeEvent, ZeroTorque,
+    ConstantTorque, ControlPoint, Controller, ControllerPartials, EventMemoryPartials,
+    MemoryTimeEvent, TimeEvent, ZeroTorque,
 };
 pub use energy::{energy_report, EnergyReport};
 pub use error::HybridError;

@@ -10,9 +10,7 @@
 //! solution with the same states (the same active set, each slip's `σ`) — the map the
 //! Jacobian is of — with the model rebuilt for a parameter's column (the body's mass, the
 //! link's mass with its inertia held, each contact's `μ`). Agreement to 1e-7 relative to the Jacobian's size.
-use selfmanip_core::description::{
-    ContactDescription, FrictionDescription, RobotDescription, ShapeDescription,
-};
+use selfmanip_core::description::{FrictionDescription, RobotDescription};
 use selfmanip_core::tangent::BodyParameter;
 use selfmanip_core::{Data, GroundPlane, Model};
 use selfmanip_hybrid::coulomb_impact::{
@@ -20,7 +18,7 @@ use selfmanip_hybrid::coulomb_impact::{
 };
 
 mod systems;
-use systems::{one_link_leg, uniform_link, Lcg, G};
+use systems::{body_point, one_link_leg, uniform_link, Lcg, G};
 
 /// The robot with body mass `m_b`, link mass `m_l` and friction coefficients `(μ_toe, μ_nose)`.
 fn robot(m_b: f64, m_l: f64, mu: (f64, f64)) -> Model {
@@ -32,15 +30,8 @@ fn robot(m_b: f64, m_l: f64, mu: (f64, f64)) -> Model {
     let mut link = uniform_link(0.2, m_l);
     link.inertia_kg_m2 = NOMINAL.1 * 0.2 * 0.2 / 12.0;
     let mut d: RobotDescription = one_link_leg(m_b, 0.05, G, link, coulomb(mu.0));
-    d.contacts.push(ContactDescription {
-        name: "nose".into(),
-        leg: None,
-        link: None,
-        shape: ShapeDescription::Point {
-            position_m: [0.25, 0.05],
-        },
-        friction: coulomb(mu.1),
-    });
+    d.contacts
+        .push(body_point("nose", [0.25, 0.05], coulomb(mu.1)));
     d.build().unwrap()
 }
 

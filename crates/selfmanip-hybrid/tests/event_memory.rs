@@ -8,7 +8,9 @@ mod systems;
 use nalgebra::DMatrix;
 use selfmanip_core::{ContactMode, FlatGround};
 use selfmanip_hybrid::sensitivity::{execution_sensitivity_columns, Parameter, SensitivityError};
-use selfmanip_hybrid::{Controller, ControllerPartials, Event, EventKind, EventMemoryPartials};
+use selfmanip_hybrid::{
+    ControlPoint, Controller, ControllerPartials, Event, EventKind, EventMemoryPartials,
+};
 use systems::{run_from_flight, G};
 
 /// After the first touchdown (event `k` at `t_k`, hip at `θ_k`), a servo to the ramp
@@ -43,28 +45,14 @@ impl Controller for RampFromTouchdown {
         let (th, w) = self.reference(t);
         tau[0] = -self.k * (q[0] - th) - self.c * (qd[0] - w);
     }
-    fn partials(
-        &self,
-        _t: f64,
-        _q: &[f64],
-        _qd: &[f64],
-        _mode: ContactMode,
-        _free_joints: &[usize],
-        out: &mut ControllerPartials,
-    ) -> bool {
+    fn partials(&self, _at: &ControlPoint, out: &mut ControllerPartials) -> bool {
         out.dtau_dq[(0, 0)] = -self.k;
         out.dtau_dqd[(0, 0)] = -self.c;
         true
     }
     /// `∂τ/∂t = K ω*` (the ramp moves the reference at a fixed state).
-    fn time_partials(
-        &self,
-        t: f64,
-        _q: &[f64],
-        _qd: &[f64],
-        _mode: ContactMode,
-        dtau_dt: &mut [f64],
-    ) -> bool {
+    fn time_partials(&self, at: &ControlPoint, dtau_dt: &mut [f64]) -> bool {
+        let ControlPoint { t, .. } = *at;
         dtau_dt[0] = self.k * self.reference(t).1;
         self.gives_time_partials
     }
@@ -77,15 +65,8 @@ impl Controller for RampFromTouchdown {
     fn has_event_memory(&self) -> bool {
         self.started.is_some()
     }
-    fn memory_partials(
-        &self,
-        _t: f64,
-        q: &[f64],
-        _qd: &[f64],
-        _mode: ContactMode,
-        free_joints: &[usize],
-        out: &mut Vec<EventMemoryPartials>,
-    ) -> bool {
+    fn memory_partials(&self, at: &ControlPoint, out: &mut Vec<EventMemoryPartials>) -> bool {
+        let ControlPoint { q, free_joints, .. } = *at;
         if !self.gives_partials {
             return !self.has_event_memory();
         }

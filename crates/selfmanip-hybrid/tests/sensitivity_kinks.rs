@@ -6,7 +6,7 @@
 //! Checked against central differences of whole executions (the independent route).
 mod systems;
 use selfmanip_core::{ContactMode, Model};
-use selfmanip_hybrid::{Controller, ControllerPartials};
+use selfmanip_hybrid::{ControlPoint, Controller, ControllerPartials};
 use systems::{flight_run_jacobian_fd, run_from_flight, G};
 
 /// A hip servo to `target` at rest, saturating at `±limit`; it reports its pieces
@@ -30,15 +30,8 @@ impl Controller for Saturating {
     fn torque(&self, _t: f64, q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
         tau[0] = self.raw(q, qd).clamp(-self.limit, self.limit);
     }
-    fn partials(
-        &self,
-        _t: f64,
-        q: &[f64],
-        qd: &[f64],
-        _mode: ContactMode,
-        _free_joints: &[usize],
-        out: &mut ControllerPartials,
-    ) -> bool {
+    fn partials(&self, at: &ControlPoint, out: &mut ControllerPartials) -> bool {
+        let ControlPoint { q, qd, .. } = *at;
         if self.raw(q, qd).abs() < self.limit {
             out.dtau_dq[(0, 0)] = -self.k;
             out.dtau_dqd[(0, 0)] = -self.c;

@@ -16,7 +16,9 @@ use selfmanip_hybrid::sensitivity::{
     execution_sensitivity_columns, ColumnSensitivity, FrictionCoefficient, Parameter,
     SaltationStatus, SensitivityError,
 };
-use selfmanip_hybrid::{ControllerPartials, EventKind, Execution, HybridOptions, Termination};
+use selfmanip_hybrid::{
+    ControlPoint, ControllerPartials, EventKind, Execution, HybridOptions, Termination,
+};
 
 /// One event's saltation matrix over `(q, q̇)`.
 #[derive(Debug, Clone, PartialEq)]
@@ -251,10 +253,10 @@ fn unknown_name<'a>(run: &crate::Run, names: &[&'a str]) -> Option<&'a str> {
     let seg = run.execution.segments.first()?;
     let (n, nq) = (run.model.n_joints(), run.model.nq());
     let (q, qd) = seg.y0.split_at(nq);
+    let at = ControlPoint::new(seg.t0, q, qd, seg.mode);
     names.iter().copied().find(|name| {
         let mut out = ControllerPartials::with_parameters(n, nq, 0, 1);
-        !seg.controller
-            .parameter_partials(seg.t0, q, qd, seg.mode, &[], &[name], &mut out)
+        !seg.controller.parameter_partials(&at, &[name], &mut out)
     })
 }
 

@@ -10,9 +10,8 @@
 //!   `∂t_k/∂ż₀ = −t_k/ż_k` of a free fall;
 //! - a motion whose numbers depend on its start state, against central differences.
 use nalgebra::DMatrix;
-use selfmanip_core::ContactMode;
-use selfmanip_core::RobotDescription;
-use selfmanip_hybrid::{simulate, Controller, ControllerPartials, EventKind};
+use selfmanip_core::{ContactMode, RobotDescription};
+use selfmanip_hybrid::{simulate, ControlPoint, Controller, ControllerPartials, EventKind};
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::periodic::run_sensitivity;
 use selfmanip_sim::{Scenario, Simulation};
@@ -316,7 +315,7 @@ fn time_partials_match_central_differences_of_the_torque() {
         let mode = selfmanip_core::ContactMode::FLIGHT;
         for t in [0.03, 0.11, 0.27, 0.41] {
             let mut d = [0.0; 2];
-            assert!(c.time_partials(t, &q, &qd, mode, &mut d));
+            assert!(c.time_partials(&ControlPoint::new(t, &q, &qd, mode), &mut d));
             let h = 1e-6;
             let (mut tp, mut tm) = ([0.0; 2], [0.0; 2]);
             c.torque(t + h, &q, &qd, mode, &mut tp);
@@ -353,26 +352,11 @@ impl Controller for Forgetful {
     fn on_event(&mut self, e: &selfmanip_hybrid::Event) {
         self.0.on_event(e)
     }
-    fn partials(
-        &self,
-        t: f64,
-        q: &[f64],
-        qd: &[f64],
-        mode: ContactMode,
-        free: &[usize],
-        out: &mut ControllerPartials,
-    ) -> bool {
-        self.0.partials(t, q, qd, mode, free, out)
+    fn partials(&self, at: &ControlPoint, out: &mut ControllerPartials) -> bool {
+        self.0.partials(at, out)
     }
-    fn time_partials(
-        &self,
-        t: f64,
-        q: &[f64],
-        qd: &[f64],
-        mode: ContactMode,
-        out: &mut [f64],
-    ) -> bool {
-        self.0.time_partials(t, q, qd, mode, out)
+    fn time_partials(&self, at: &ControlPoint, out: &mut [f64]) -> bool {
+        self.0.time_partials(at, out)
     }
     fn time_events(&self, names: &[&str]) -> Vec<selfmanip_hybrid::TimeEvent> {
         self.0.time_events(names)

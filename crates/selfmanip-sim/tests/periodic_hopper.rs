@@ -25,7 +25,7 @@ use selfmanip_core::{ContactMode, RobotDescription};
 use selfmanip_hybrid::periodic::{
     find_periodic_orbit, floquet_multipliers, PeriodicOptions, PeriodicOrbit,
 };
-use selfmanip_hybrid::{Controller, ControllerPartials, EventKind, Segment};
+use selfmanip_hybrid::{ControlPoint, Controller, ControllerPartials, EventKind, Segment};
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::{Scenario, Simulation};
 use std::path::{Path, PathBuf};
@@ -312,7 +312,10 @@ fn check_partials(
     let nq = y.len() / 2;
     let n = nq - 3;
     let mut p = ControllerPartials::zeros(n, nq, free.len());
-    assert!(ctrl.partials(t, &y[..nq], &y[nq..], mode, free, &mut p));
+    assert!(ctrl.partials(
+        &ControlPoint::new(t, &y[..nq], &y[nq..], mode).with_free_joints(free),
+        &mut p
+    ));
     let eval = |y: &[f64]| {
         let mut tau = vec![0.0; n];
         let mut fr = vec![0.0; free.len()];
@@ -393,7 +396,10 @@ fn behaviour_partials_match_finite_differences() {
         y[0] = hip;
         y[5] = 0.1;
         let mut p = ControllerPartials::zeros(2, nq, 0);
-        assert!(ctrl.partials(t, &y[..nq], &y[nq..], stance_mode, &[], &mut p));
+        assert!(ctrl.partials(
+            &ControlPoint::new(t, &y[..nq], &y[nq..], stance_mode),
+            &mut p
+        ));
         assert_eq!(p.dtau_dq[(0, 0)] == 0.0, saturated, "hip {hip}");
         let e = check_partials(&ctrl, t, &y, stance_mode, &[]);
         assert!(e < 1e-6, "t {t}, hip {hip}: {e:e}");

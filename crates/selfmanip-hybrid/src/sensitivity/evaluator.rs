@@ -3,7 +3,7 @@
 //! the tangent `F X + ∂f/∂p` along selected columns by Jacobian-times-matrix products
 //! ([`Evaluator::eval_columns_into`]), each at a [`FlowPoint`].
 use super::types::{Parameter, SensitivityError};
-use crate::controller::{Controller, ControllerPartials, EventMemoryPartials};
+use crate::controller::{ControlPoint, Controller, ControllerPartials, EventMemoryPartials};
 use crate::execution::Segment;
 use nalgebra::{DMatrix, DVector};
 use selfmanip_core::contact::{contact_geometry, TouchKind};
@@ -261,6 +261,7 @@ impl<'a> Evaluator<'a> {
             .map_err(TangentError::from)?;
         free_joints.clear();
         free_joints.extend_from_slice(&self.data.free_joints);
+        let point = ControlPoint::new(t, q, qd, mode).with_free_joints(free_joints);
         ctrl.torque(t, q, qd, mode, &mut self.tau);
         self.free.resize(free_joints.len(), 0.0);
         ctrl.free_joint_qdd(t, q, qd, free_joints, &mut self.free);
@@ -270,7 +271,7 @@ impl<'a> Evaluator<'a> {
             }
         }
         let p = zero_partials(slot, n, nq, free_joints.len(), k);
-        if !ctrl.partials(t, q, qd, mode, free_joints, p) {
+        if !ctrl.partials(&point, p) {
             return Err(SensitivityError::ControllerWithoutPartials { t });
         }
         Ok(())
@@ -379,7 +380,7 @@ pub(super) fn torque_time_derivative(
     mode: ContactMode,
 ) -> DVector<f64> {
     let mut out = DVector::zeros(n);
-    if ctrl.time_partials(t, q, qd, mode, out.as_mut_slice()) {
+    if ctrl.time_partials(&ControlPoint::new(t, q, qd, mode), out.as_mut_slice()) {
         return out;
     }
     let h = 1e-6 * t.abs().max(1.0);
@@ -451,7 +452,8 @@ impl Evaluator<'_> {
         r?;
         let free_joints = &cb.free_joints;
         let p = cb.partials.as_mut().expect("set by prepare_controller");
-        if !ctrl.parameter_partials(t, q, qd, mode, free_joints, names, p) {
+        let point = ControlPoint::new(t, q, qd, mode).with_free_joints(free_joints);
+        if !ctrl.parameter_partials(&point, names, p) {
             return Err(SensitivityError::UnknownParameter {
                 name: names.join(", "),
                 t,
@@ -580,7 +582,8 @@ fn add_memory_tangents(
     let (q, qd) = y.split_at(nq);
     // the remembered events' tangents force every column: `∂Υ/∂m_k Dm_k`
     mem.clear();
-    if !ctrl.memory_partials(t, q, qd, mode, free_joints, mem) {
+    let point = ControlPoint::new(t, q, qd, mode).with_free_joints(free_joints);
+    if !ctrl.memory_partials(&point, mem) {
         return Err(SensitivityError::EventMemoryWithoutPartials {
             t,
             reason: "the controller gives no memory partials".into(),

@@ -20,8 +20,8 @@ use selfmanip_core::{
 use selfmanip_hybrid::integrate::StepOptions;
 use selfmanip_hybrid::sensitivity::{simulate_with_sensitivity, Sensitivity, SensitivityError};
 use selfmanip_hybrid::{
-    energy_report, simulate, Controller, ControllerPartials, Event, EventKind, Execution,
-    HybridOptions, ZeroTorque,
+    energy_report, simulate, ControlPoint, Controller, ControllerPartials, Event, EventKind,
+    Execution, HybridOptions, ZeroTorque,
 };
 
 pub const G: f64 = 9.81;
@@ -167,16 +167,27 @@ pub fn one_leg(length_m: f64, link_mass_kg: f64, gravity_m_s2: f64) -> Model {
     };
     let link = uniform_link(length_m, link_mass_kg);
     let mut d = one_link_leg(3.0, 0.05, gravity_m_s2, link, toe_friction);
-    d.contacts.push(ContactDescription {
-        name: "belly".into(),
+    d.contacts.push(body_point(
+        "belly",
+        [0.0, 0.05],
+        FrictionDescription::Sliding,
+    ));
+    d.build().unwrap()
+}
+
+/// A contact point fixed to the body at `position_m` (body coordinates).
+pub fn body_point(
+    name: &str,
+    position_m: [f64; 2],
+    friction: FrictionDescription,
+) -> ContactDescription {
+    ContactDescription {
+        name: name.into(),
         leg: None,
         link: None,
-        shape: ShapeDescription::Point {
-            position_m: [0.0, 0.05],
-        },
-        friction: FrictionDescription::Sliding,
-    });
-    d.build().unwrap()
+        shape: ShapeDescription::Point { position_m },
+        friction,
+    }
 }
 
 /// A legless body (three coordinates) released at rest at `q` in `mode` on flat ground,
@@ -374,15 +385,7 @@ impl Controller for Servos {
             *t = -self.k * (q[i] - self.target[i]) - self.c * qd[i];
         }
     }
-    fn partials(
-        &self,
-        _t: f64,
-        _q: &[f64],
-        _qd: &[f64],
-        _mode: ContactMode,
-        _free_joints: &[usize],
-        out: &mut ControllerPartials,
-    ) -> bool {
+    fn partials(&self, _at: &ControlPoint, out: &mut ControllerPartials) -> bool {
         for i in 0..self.target.len() {
             out.dtau_dq[(i, i)] = -self.k;
             out.dtau_dqd[(i, i)] = -self.c;
@@ -391,14 +394,11 @@ impl Controller for Servos {
     }
     fn parameter_partials(
         &self,
-        _t: f64,
-        q: &[f64],
-        _qd: &[f64],
-        _mode: ContactMode,
-        _free_joints: &[usize],
+        at: &ControlPoint,
         names: &[&str],
         out: &mut ControllerPartials,
     ) -> bool {
+        let ControlPoint { q, .. } = *at;
         for (col, n) in names.iter().enumerate() {
             if *n != "k" {
                 return false;

@@ -20,8 +20,8 @@ use motor::Actuator;
 use nalgebra::DMatrix;
 use selfmanip_core::ContactMode;
 use selfmanip_hybrid::{
-    Controller, ControllerPartials, Event, EventKind, EventMemoryPartials, MemoryTimeEvent,
-    TimeEvent,
+    ControlPoint, Controller, ControllerPartials, Event, EventKind, EventMemoryPartials,
+    MemoryTimeEvent, TimeEvent,
 };
 use std::sync::{Arc, Mutex, OnceLock, PoisonError};
 
@@ -1496,15 +1496,9 @@ impl Controller for BehaviourController {
     /// `ActuatorLaw::at_power_flow_jump`) or for a program with a
     /// `joint_angle` level (its torque switches inside a flow at a crossing the engine does
     /// not locate, where no saltation matrix could be formed).
-    fn partials(
-        &self,
-        t: f64,
-        q: &[f64],
-        qd: &[f64],
-        mode: ContactMode,
-        free_joints: &[usize],
-        out: &mut ControllerPartials,
-    ) -> bool {
+    fn partials(&self, at: &ControlPoint, out: &mut ControllerPartials) -> bool {
+        let ControlPoint { t, q, qd, mode, .. } = *at;
+        let free_joints = at.free_joints;
         let plan = &*self.plan;
         for (p, prog) in plan.programs.iter().enumerate() {
             if prog.has_levels {
@@ -1589,14 +1583,12 @@ impl Controller for BehaviourController {
     /// itself planned a delay after another (not differentiated yet).
     fn parameter_partials(
         &self,
-        t: f64,
-        q: &[f64],
-        qd: &[f64],
-        mode: ContactMode,
-        free_joints: &[usize],
+        at: &ControlPoint,
         names: &[&str],
         out: &mut ControllerPartials,
     ) -> bool {
+        let ControlPoint { t, q, qd, mode, .. } = *at;
+        let free_joints = at.free_joints;
         let plan = &*self.plan;
         let tan = plan.tangent();
         let mut ws = self.workspace.lend();
@@ -1720,14 +1712,8 @@ impl Controller for BehaviourController {
     /// `∂Υ/∂t` at a fixed state: a `servo` that tracks the joint's motion (inside its limit)
     /// `kp ω* + kd α*`; a `schedule` between breakpoints (interpolated) its slope; every other
     /// law 0 (`motor`: its command is constant, a function of the state only).
-    fn time_partials(
-        &self,
-        t: f64,
-        q: &[f64],
-        qd: &[f64],
-        mode: ContactMode,
-        dtau_dt: &mut [f64],
-    ) -> bool {
+    fn time_partials(&self, at: &ControlPoint, dtau_dt: &mut [f64]) -> bool {
+        let ControlPoint { t, q, qd, mode, .. } = *at;
         let plan = &*self.plan;
         for (p, prog) in plan.programs.iter().enumerate() {
             let j = prog.joint;
@@ -1778,15 +1764,9 @@ impl Controller for BehaviourController {
     /// differentiated (a timed phase's motion whose start and whose previous motion depend
     /// on two different events), or where [`Controller::partials`] gives none (a `motor`
     /// that reverses past an angle).
-    fn memory_partials(
-        &self,
-        t: f64,
-        q: &[f64],
-        qd: &[f64],
-        mode: ContactMode,
-        free_joints: &[usize],
-        out: &mut Vec<EventMemoryPartials>,
-    ) -> bool {
+    fn memory_partials(&self, at: &ControlPoint, out: &mut Vec<EventMemoryPartials>) -> bool {
+        let ControlPoint { t, q, qd, mode, .. } = *at;
+        let free_joints = at.free_joints;
         let plan = &*self.plan;
         let n = plan.program_of_joint.len();
         if self.follows_servo_manifold(free_joints, t, q) {
