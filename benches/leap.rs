@@ -43,7 +43,7 @@ fn leap(c: &mut Criterion) {
                     .unwrap()
             })
         });
-        let q0 = simulate_leap(&params, &cfg).unwrap().q0;
+        let q0 = simulate_leap(&params, &cfg).unwrap().run.q0;
         let scenario = leap_scenario(&params, &cfg, &q0).unwrap().scenario;
         let sim = Simulation::new(&scenario).unwrap();
         group.bench_with_input(BenchmarkId::new("++ behaviour_run", t2), &sim, |b, sim| {
