@@ -479,11 +479,18 @@ pub const REDUNDANT_ROW_TOLERANCE: f64 = 1e-9;
 /// leave undetermined (thesis §4.1.8's internal forces, here set to zero). Only a
 /// singular `A` pays for the decomposition (it allocates).
 ///
-/// A positive definite `M` with independent rows takes the range-space route first
-/// ([`super::tree_kkt`], the tree's sparse `LᵀDL` and the rows' `A M⁻¹ Aᵀ`), and only a
-/// singular `M` or dependent rows the null-space block inverse.
+/// A positive definite `M` with independent rows takes the range-space route: the limb
+/// elimination ([`super::limb_kkt`]) where rows pin each limb they touch, else the tree's
+/// sparse `LᵀDL` and the rows' `A M⁻¹ Aᵀ` ([`super::tree_kkt`]); only a singular `M` or
+/// dependent rows take the null-space block inverse.
 pub(super) fn factor(data: &mut SpatialData) -> SpatialResult<()> {
     data.row_basis = None;
+    data.limbs_eliminated = false;
+    if data.limb_kkt.factor(&data.M, &data.A) {
+        data.limbs_eliminated = true;
+        data.kkt_route = KktRoute::RangeSpace;
+        return Ok(());
+    }
     if data.tree_kkt.factor(&data.M, &data.A) {
         data.kkt_route = KktRoute::RangeSpace;
         return Ok(());
@@ -521,6 +528,15 @@ pub(super) fn factor(data: &mut SpatialData) -> SpatialResult<()> {
 /// `A` redundant; a right-hand side `g` outside `A`'s range (redundant rows that contradict
 /// each other) is the typed redundant-constraints error.
 pub(super) fn solve(data: &mut SpatialData) -> SpatialResult<()> {
+    if data.limbs_eliminated {
+        data.limb_kkt.solve(
+            data.rhs_f.as_slice(),
+            data.rhs_g.as_slice(),
+            data.qdd.as_mut_slice(),
+            data.lam.as_mut_slice(),
+        );
+        return Ok(());
+    }
     if data.kkt_route == KktRoute::RangeSpace {
         data.tree_kkt.solve(
             data.rhs_f.as_slice(),

@@ -7,6 +7,7 @@
 use super::error::{SpatialError, SpatialResult};
 use super::inertia::Inertia;
 use super::liegroup::{check_configuration, quaternion_at};
+use super::limb_kkt::LimbKkt;
 use super::model::{JointKind, SpatialModel};
 use super::motion::{Force, Motion};
 use super::se3::SE3;
@@ -84,10 +85,13 @@ pub struct SpatialData {
     /// With a redundant contact set, the orthonormal basis `U_r` (c × r) of `A`'s range the
     /// KKT system was factored on ([`super::contact`]); `None` when `A` has full row rank.
     pub row_basis: Option<DMatrix<f64>>,
-    /// The range-space factorization tried first ([`super::tree_kkt`]) and the route the last
-    /// solve took.
+    /// The range-space factorizations, tried first: the limb elimination
+    /// ([`super::limb_kkt`]) and the tree's `LᵀDL` ([`super::tree_kkt`]); the route the last
+    /// solve took, and whether it was the range-space route by the limb elimination.
+    pub limb_kkt: LimbKkt,
     pub tree_kkt: TreeKkt,
     pub kkt_route: KktRoute,
+    pub limbs_eliminated: bool,
     /// Right-hand sides of the KKT solve.
     pub(crate) rhs_f: DVector<f64>,
     pub(crate) rhs_g: DVector<f64>,
@@ -115,8 +119,10 @@ impl SpatialData {
             qdd: DVector::zeros(nv),
             lam: DVector::zeros(0),
             row_basis: None,
+            limb_kkt: LimbKkt::new(model),
             tree_kkt: TreeKkt::new(model),
             kkt_route: KktRoute::RangeSpace,
+            limbs_eliminated: false,
             rhs_f: DVector::zeros(nv),
             rhs_g: DVector::zeros(0),
         }

@@ -664,7 +664,7 @@ fn sub_scaled(y: &mut [f64], a: f64, x: &[f64]) {
 /// In-place Cholesky `K = C Cᵀ` of the symmetric `n × n` row-major `k` (lower triangle read
 /// and overwritten, row by row: `C[i, j] = (K[i, j] − C[i, :j]·C[j, :j]) / C[j, j]`, two
 /// contiguous slices); `false` when a pivot is at most `min_pivot`.
-fn dense_cholesky(k: &mut [f64], n: usize, min_pivot: f64) -> bool {
+pub(super) fn dense_cholesky(k: &mut [f64], n: usize, min_pivot: f64) -> bool {
     for i in 0..n {
         let (done, rest) = k.split_at_mut(i * n);
         let row_i = &mut rest[..=i];
@@ -682,7 +682,7 @@ fn dense_cholesky(k: &mut [f64], n: usize, min_pivot: f64) -> bool {
 }
 
 /// `y ← (C Cᵀ)⁻¹ y` with the factor of [`dense_cholesky`].
-fn cholesky_solve(k: &[f64], n: usize, y: &mut [f64]) {
+pub(super) fn cholesky_solve(k: &[f64], n: usize, y: &mut [f64]) {
     for i in 0..n {
         let row = &k[i * n..i * n + i + 1];
         y[i] = (y[i] - dot(&row[..i], &y[..i])) / row[i];
@@ -698,7 +698,8 @@ fn cholesky_solve(k: &[f64], n: usize, y: &mut [f64]) {
 /// Which factorization the last constrained solve of a [`super::SpatialData`] used.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum KktRoute {
-    /// `M` positive definite and the rows independent: [`TreeKkt`].
+    /// `M` positive definite and the rows independent: the limb elimination
+    /// ([`super::limb_kkt`], `SpatialData::limbs_eliminated`) or [`TreeKkt`].
     #[default]
     RangeSpace,
     /// The null-space block inverse of [`crate::kkt`] (singular `M`, or dependent rows through
