@@ -13,7 +13,8 @@
 use super::coulomb::{solve_sliding, MIN_SLIDING_SPEED};
 use super::error::{SpatialError, SpatialResult};
 use super::kinematics::{
-    forward_kinematics_velocity, frame_linear_drift, frame_placement, Matrix6xX, SpatialData,
+    forward_kinematics_velocity, frame_linear_drift, frame_origin, frame_placement, Matrix6xX,
+    SpatialData,
 };
 use super::model::SpatialModel;
 use super::rigid_body::{bias_forces_from_kinematics, mass_matrix_from_kinematics};
@@ -369,7 +370,7 @@ pub(crate) fn contact_rows(
             let (w, alpha) = (data.ov[j].angular, data.oa_drift[j].angular);
             drift += alpha.cross(&r) + w.cross(&r_dot);
         }
-        let x = frame_placement(model, data, contact.frame).translation + r;
+        let x = frame_origin(model, data, contact.frame) + r;
         let dirs = contact.directions();
         let n = contact.n_rows();
         point_rows(model, &data.oS, joint, &x, &dirs[..n], |k, col, value| {
