@@ -91,8 +91,13 @@ fn quadruped_on_its_feet_matches_the_dense_kkt_solve() {
 fn bolted_down_quadruped_matches_the_dense_kkt_solve() {
     let model = SpatialModel::from_urdf_file(QUADRUPED, BaseKind::Fixed, None).unwrap();
     let four = feet(&model, [true; 4]);
-    let worst = worst_against_dense(&model, &four, 53, 10, false)
-        .max(worst_against_dense(&model, &four[1..], 59, 10, false));
+    let worst = worst_against_dense(&model, &four, 53, 10, false).max(worst_against_dense(
+        &model,
+        &four[1..],
+        59,
+        10,
+        false,
+    ));
     assert!(worst < 1e-10, "routes differ by {worst:e}");
 }
 
@@ -107,8 +112,13 @@ fn rhex_toes_pin_their_one_joint_legs() {
         .flat_map(|pair| SIDES.iter().map(move |side| format!("{pair}_{side}")))
         .map(|leg| p.toe(&model, &leg, false).unwrap())
         .collect();
-    let worst = worst_against_dense(&model, &toes, 61, 10, true)
-        .max(worst_against_dense(&model, &toes[..4], 67, 10, false));
+    let worst = worst_against_dense(&model, &toes, 61, 10, true).max(worst_against_dense(
+        &model,
+        &toes[..4],
+        67,
+        10,
+        false,
+    ));
     assert!(worst < 1e-10, "routes differ by {worst:e}");
 }
 
@@ -154,8 +164,13 @@ fn prismatic_and_fixed_joints_pinned_in_a_plane() {
                 .unwrap()
         })
         .collect();
-    let worst = worst_against_dense(&model, &contacts, 71, 20, true)
-        .max(worst_against_dense(&model, &contacts[..1], 73, 10, false));
+    let worst = worst_against_dense(&model, &contacts, 71, 20, true).max(worst_against_dense(
+        &model,
+        &contacts[..1],
+        73,
+        10,
+        false,
+    ));
     assert!(worst < 1e-10, "routes differ by {worst:e}");
 }
 

@@ -46,7 +46,9 @@
 //! body inertia is not positive definite (see [`LimbKkt::limbs_definite`]).
 #![allow(non_snake_case)]
 use super::model::{JointKind, SpatialModel};
-use super::tree_kkt::{cholesky_solve, dense_cholesky, MASSLESS_DIAGONAL, PIVOT_FRACTION};
+use super::tree_kkt::{
+    by_width, cholesky_solve, dense_cholesky, MASSLESS_DIAGONAL, PIVOT_FRACTION,
+};
 use nalgebra::{DMatrix, Matrix6, Vector6};
 
 /// A pivot of a limb's `A_ll` (partial pivoting) at most this fraction of its largest entry
@@ -58,7 +60,8 @@ pub const REDUCED_PIVOT_FRACTION: f64 = 1e-10;
 
 /// Size of a free-flying root's block.
 const ROOT: usize = 6;
-/// Most rates of a limb the route pins (a point contact has at most three rows).
+/// Most rates of a limb the route pins (a point contact has at most three rows; the largest
+/// width of [`by_width`]).
 const MAX_PINNED: usize = 3;
 
 /// One limb: its rates `start..start + len` and (after [`LimbKkt::factor`]) whether rows pin
@@ -104,17 +107,6 @@ pub struct LimbKkt {
     /// Scratch: `z` (size `nr`) and a limb block of `M` (see [`Self::limbs_definite`]).
     z: Vec<f64>,
     block: Vec<f64>,
-}
-
-/// `$f::<W>(…)` for a limb's rate count `$w` (`1..=MAX_PINNED`).
-macro_rules! by_len {
-    ($w:expr, $($f:ident)::+($($arg:expr),* $(,)?)) => {
-        match $w {
-            1 => $($f)::+::<1>($($arg),*),
-            2 => $($f)::+::<2>($($arg),*),
-            _ => $($f)::+::<MAX_PINNED>($($arg),*),
-        }
-    };
 }
 
 impl LimbKkt {
@@ -230,7 +222,7 @@ impl LimbKkt {
                 continue;
             }
             if limb.n_rows != limb.len
-                || !by_len!(limb.len, factor_limb(limb, m, nv, nb, a, c, &mut rbb))
+                || !by_width!(limb.len, factor_limb(limb, m, nv, nb, a, c, &mut rbb))
             {
                 return None;
             }
@@ -302,7 +294,7 @@ impl LimbKkt {
         // s = A_ll⁻¹ g_l (into x's limb rates for now); r_b = f_b + Σ (Tᵀ f_l − P s)
         let mut rb = Vector6::from_fn(|j, _| if j < nb { f[j] } else { 0.0 });
         for limb in self.limbs.iter().filter(|l| l.pinned) {
-            by_len!(limb.len, limb_rhs(limb, f, g, x, &mut rb));
+            by_width!(limb.len, limb_rhs(limb, f, g, x, &mut rb));
         }
         self.reduced_solve(&mut rb, f);
         // x_b, x_f; x_l = T x_b + s and y_l = A_ll⁻ᵀ (f_l − M_lb x_b − M_ll x_l)
@@ -312,7 +304,7 @@ impl LimbKkt {
         }
         let xb = Vector6::from_fn(|j, _| if j < nb { self.z[j] } else { 0.0 });
         for limb in self.limbs.iter().filter(|l| l.pinned) {
-            by_len!(limb.len, limb_back(limb, &xb, f, x, y));
+            by_width!(limb.len, limb_back(limb, &xb, f, x, y));
         }
     }
 
