@@ -13,7 +13,8 @@
 use super::coulomb::{solve_sliding, MIN_SLIDING_SPEED};
 use super::error::{SpatialError, SpatialResult};
 use super::kinematics::{
-    forward_kinematics_velocity, frame_linear_drift, frame_placement, Matrix6xX, SpatialData,
+    forward_kinematics_velocity, frame_linear_drift, frame_origin, frame_placement, Matrix6xX,
+    SpatialData,
 };
 use super::model::SpatialModel;
 use super::rigid_body::{bias_forces_from_kinematics, mass_matrix_from_kinematics};
@@ -369,7 +370,7 @@ pub(crate) fn contact_rows(
             let (w, alpha) = (data.ov[j].angular, data.oa_drift[j].angular);
             drift += alpha.cross(&r) + w.cross(&r_dot);
         }
-        let x = frame_placement(model, data, contact.frame).translation + r;
+        let x = frame_origin(model, data, contact.frame) + r;
         let dirs = contact.directions();
         let n = contact.n_rows();
         point_rows(model, &data.oS, joint, &x, &dirs[..n], |k, col, value| {
@@ -479,11 +480,18 @@ pub const REDUNDANT_ROW_TOLERANCE: f64 = 1e-9;
 /// leave undetermined (thesis §4.1.8's internal forces, here set to zero). Only a
 /// singular `A` pays for the decomposition (it allocates).
 ///
-/// A positive definite `M` with independent rows takes the range-space route first
-/// ([`super::tree_kkt`], the tree's sparse `LᵀDL` and the rows' `A M⁻¹ Aᵀ`), and only a
-/// singular `M` or dependent rows the null-space block inverse.
+/// A positive definite `M` with independent rows takes the range-space route: the limb
+/// elimination ([`super::limb_kkt`]) where rows pin each limb they touch, else the tree's
+/// sparse `LᵀDL` and the rows' `A M⁻¹ Aᵀ` ([`super::tree_kkt`]); only a singular `M` or
+/// dependent rows take the null-space block inverse.
 pub(super) fn factor(data: &mut SpatialData) -> SpatialResult<()> {
     data.row_basis = None;
+    data.limbs_eliminated = false;
+    if data.limb_kkt.factor(&data.M, &data.A) {
+        data.limbs_eliminated = true;
+        data.kkt_route = KktRoute::RangeSpace;
+        return Ok(());
+    }
     if data.tree_kkt.factor(&data.M, &data.A) {
         data.kkt_route = KktRoute::RangeSpace;
         return Ok(());
@@ -521,6 +529,15 @@ pub(super) fn factor(data: &mut SpatialData) -> SpatialResult<()> {
 /// `A` redundant; a right-hand side `g` outside `A`'s range (redundant rows that contradict
 /// each other) is the typed redundant-constraints error.
 pub(super) fn solve(data: &mut SpatialData) -> SpatialResult<()> {
+    if data.limbs_eliminated {
+        data.limb_kkt.solve(
+            data.rhs_f.as_slice(),
+            data.rhs_g.as_slice(),
+            data.qdd.as_mut_slice(),
+            data.lam.as_mut_slice(),
+        );
+        return Ok(());
+    }
     if data.kkt_route == KktRoute::RangeSpace {
         data.tree_kkt.solve(
             data.rhs_f.as_slice(),

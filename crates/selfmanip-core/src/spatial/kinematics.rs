@@ -7,6 +7,7 @@
 use super::error::{SpatialError, SpatialResult};
 use super::inertia::Inertia;
 use super::liegroup::{check_configuration, quaternion_at};
+use super::limb_kkt::LimbKkt;
 use super::model::{JointKind, SpatialModel};
 use super::motion::{Force, Motion};
 use super::se3::SE3;
@@ -84,10 +85,18 @@ pub struct SpatialData {
     /// With a redundant contact set, the orthonormal basis `U_r` (c × r) of `A`'s range the
     /// KKT system was factored on ([`super::contact`]); `None` when `A` has full row rank.
     pub row_basis: Option<DMatrix<f64>>,
-    /// The range-space factorization tried first ([`super::tree_kkt`]) and the route the last
-    /// solve took.
+    /// The range-space factorizations, tried first: the limb elimination
+    /// ([`super::limb_kkt`]) and the tree's `LᵀDL` ([`super::tree_kkt`]); the route the last
+    /// solve took, and whether it was the range-space route by the limb elimination.
+    pub limb_kkt: LimbKkt,
     pub tree_kkt: TreeKkt,
     pub kkt_route: KktRoute,
+    pub limbs_eliminated: bool,
+    /// Each rate's joint, and the rate before it on its chain (the previous rate of a
+    /// multi-rate joint, else the last rate of the parent joint; `usize::MAX` at the root):
+    /// following it visits every rate supporting a rate.
+    pub(crate) rate_joint: Vec<usize>,
+    pub(crate) rate_parent: Vec<usize>,
     /// Right-hand sides of the KKT solve.
     pub(crate) rhs_f: DVector<f64>,
     pub(crate) rhs_g: DVector<f64>,
@@ -96,6 +105,21 @@ pub struct SpatialData {
 impl SpatialData {
     pub fn new(model: &SpatialModel) -> Self {
         let (n, nv) = (model.joints.len(), model.nv);
+        let (mut rate_joint, mut rate_parent) = (vec![0; nv], vec![usize::MAX; nv]);
+        for (i, joint) in model.joints.iter().enumerate() {
+            let last_of_parent = joint.parent.map_or(usize::MAX, |p| {
+                let pj = &model.joints[p];
+                pj.idx_v + pj.kind.nv() - 1
+            });
+            for k in joint.idx_v..joint.idx_v + joint.kind.nv() {
+                rate_joint[k] = i;
+                rate_parent[k] = if k > joint.idx_v {
+                    k - 1
+                } else {
+                    last_of_parent
+                };
+            }
+        }
         Self {
             oMi: vec![SE3::identity(); n],
             oS: Matrix6xX::zeros(nv),
@@ -115,8 +139,12 @@ impl SpatialData {
             qdd: DVector::zeros(nv),
             lam: DVector::zeros(0),
             row_basis: None,
+            limb_kkt: LimbKkt::new(model),
             tree_kkt: TreeKkt::new(model),
             kkt_route: KktRoute::RangeSpace,
+            limbs_eliminated: false,
+            rate_joint,
+            rate_parent,
             rhs_f: DVector::zeros(nv),
             rhs_g: DVector::zeros(0),
         }
@@ -258,6 +286,16 @@ pub fn frame_jacobian(
     }
 }
 
+/// The origin of frame `frame` in the world (after [`forward_kinematics`]): the translation
+/// of [`frame_placement`] without its rotation.
+pub fn frame_origin(model: &SpatialModel, data: &SpatialData, frame: usize) -> Vector3<f64> {
+    let f = &model.frames[frame];
+    match f.joint {
+        Some(j) => data.oMi[j].act_point(&f.placement.translation),
+        None => f.placement.translation,
+    }
+}
+
 /// The classical acceleration of frame `frame`'s origin at `q̈ = 0` (world axes), after
 /// [`forward_kinematics_velocity`]: `a_p = a + α × p + ω × v_p` from the body's spatial
 /// drift `(a, α)` and velocity `(v, ω)` at the world origin, `v_p = v + ω × p`
@@ -266,7 +304,7 @@ pub fn frame_linear_drift(model: &SpatialModel, data: &SpatialData, frame: usize
     let Some(j) = model.frames[frame].joint else {
         return Vector3::zeros();
     };
-    let p = frame_placement(model, data, frame).translation;
+    let p = frame_origin(model, data, frame);
     let (v, a) = (data.ov[j], data.oa_drift[j]);
     let vp = v.linear + v.angular.cross(&p);
     a.linear + a.angular.cross(&p) + v.angular.cross(&vp)
@@ -281,6 +319,6 @@ pub fn frame_linear_velocity(
     let Some(j) = model.frames[frame].joint else {
         return Vector3::zeros();
     };
-    let p = frame_placement(model, data, frame).translation;
+    let p = frame_origin(model, data, frame);
     data.ov[j].linear + data.ov[j].angular.cross(&p)
 }

@@ -29,6 +29,7 @@ mod impulse_split;
 pub mod inertia;
 pub mod kinematics;
 pub mod liegroup;
+pub mod limb_kkt;
 pub mod model;
 pub mod motion;
 pub mod quasistatic;

@@ -42,21 +42,15 @@ pub(crate) fn mass_matrix_from_kinematics(model: &SpatialModel, data: &mut Spati
     // others are zero from `SpatialData::new` and stay so ([`SpatialData::M`])
     let (s, m) = (data.oS.as_slice(), data.M.as_mut_slice());
     let column = |c: usize| Vector6::from_column_slice(&s[6 * c..6 * c + 6]);
-    for (i, joint) in model.joints.iter().enumerate() {
-        for c in joint.idx_v..joint.idx_v + joint.kind.nv() {
-            // the force column ⁰Yᶜᵢ ⁰S_c, projected on every column of the supporting joints
-            let F = data.oYc[i] * column(c);
-            let mut j = Some(i);
-            while let Some(k) = j {
-                let jk = &model.joints[k];
-                let first = if k == i { c } else { jk.idx_v };
-                for r in first..jk.idx_v + jk.kind.nv() {
-                    let x = column(r).dot(&F);
-                    m[r + c * nv] = x;
-                    m[c + r * nv] = x;
-                }
-                j = jk.parent;
-            }
+    for c in 0..nv {
+        // the force column ⁰Yᶜᵢ ⁰S_c, projected on every column supporting it
+        let F = data.oYc[data.rate_joint[c]] * column(c);
+        let mut r = c;
+        while r != usize::MAX {
+            let x = column(r).dot(&F);
+            m[r + c * nv] = x;
+            m[c + r * nv] = x;
+            r = data.rate_parent[r];
         }
     }
 }

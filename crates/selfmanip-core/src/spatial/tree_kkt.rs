@@ -52,17 +52,19 @@ type BlockRow = nalgebra::Vector6<f64>;
 /// Most rows in a group (a contact point with friction has three).
 const GROUP: usize = 3;
 
-/// `$f::<W>(…)` for a group's row count `$w` (`1..=GROUP`): every loop over the group's
-/// lanes then has constant bounds and unrolls.
+/// `$f::<W>(…)` for a group's row count `$w` (`1..=GROUP`, three: a point's rows), or a
+/// limb's rate count in [`super::limb_kkt`]: every loop over the lanes then has constant
+/// bounds and unrolls.
 macro_rules! by_width {
     ($w:expr, $($f:ident)::+($($arg:expr),* $(,)?)) => {
         match $w {
             1 => $($f)::+::<1>($($arg),*),
             2 => $($f)::+::<2>($($arg),*),
-            _ => $($f)::+::<GROUP>($($arg),*),
+            _ => $($f)::+::<3>($($arg),*),
         }
     };
 }
+pub(super) use by_width;
 
 /// A group's columns of `Z` (`W` lanes at each rate) from their packed entries.
 fn lanes<const W: usize>(z: &[f64]) -> &[[f64; W]] {
@@ -664,7 +666,7 @@ fn sub_scaled(y: &mut [f64], a: f64, x: &[f64]) {
 /// In-place Cholesky `K = C Cᵀ` of the symmetric `n × n` row-major `k` (lower triangle read
 /// and overwritten, row by row: `C[i, j] = (K[i, j] − C[i, :j]·C[j, :j]) / C[j, j]`, two
 /// contiguous slices); `false` when a pivot is at most `min_pivot`.
-fn dense_cholesky(k: &mut [f64], n: usize, min_pivot: f64) -> bool {
+pub(super) fn dense_cholesky(k: &mut [f64], n: usize, min_pivot: f64) -> bool {
     for i in 0..n {
         let (done, rest) = k.split_at_mut(i * n);
         let row_i = &mut rest[..=i];
@@ -682,7 +684,7 @@ fn dense_cholesky(k: &mut [f64], n: usize, min_pivot: f64) -> bool {
 }
 
 /// `y ← (C Cᵀ)⁻¹ y` with the factor of [`dense_cholesky`].
-fn cholesky_solve(k: &[f64], n: usize, y: &mut [f64]) {
+pub(super) fn cholesky_solve(k: &[f64], n: usize, y: &mut [f64]) {
     for i in 0..n {
         let row = &k[i * n..i * n + i + 1];
         y[i] = (y[i] - dot(&row[..i], &y[..i])) / row[i];
@@ -698,7 +700,8 @@ fn cholesky_solve(k: &[f64], n: usize, y: &mut [f64]) {
 /// Which factorization the last constrained solve of a [`super::SpatialData`] used.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum KktRoute {
-    /// `M` positive definite and the rows independent: [`TreeKkt`].
+    /// `M` positive definite and the rows independent: the limb elimination
+    /// ([`super::limb_kkt`], `SpatialData::limbs_eliminated`) or [`TreeKkt`].
     #[default]
     RangeSpace,
     /// The null-space block inverse of [`crate::kkt`] (singular `M`, or dependent rows through

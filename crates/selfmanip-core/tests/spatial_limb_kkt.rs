@@ -1,0 +1,261 @@
+#![allow(non_snake_case)]
+//! The limb elimination (`spatial::limb_kkt`: a limb's rates fixed by as many contact rows,
+//! the base's by a reduced `Nᵀ M N`) against a second route, the full KKT matrix
+//! `[M Aᵀ; A 0]` solved densely by LU, on the contact sets where it applies — the quadruped
+//! on four, three and two feet with friction (swing legs keep their rates), bolted down, an
+//! impact, the six-legged RHex on its toes, a robot with prismatic and fixed joints held in a
+//! plane — and, where it does not apply (frictionless feet on three-joint legs, a contact on
+//! the trunk, a nearly stretched leg, massless shins), that the engine takes the other routes
+//! and still satisfies the equations.
+mod spatial_support;
+use nalgebra::{DMatrix, DVector, Vector3};
+use selfmanip_core::spatial::rhex::{RhexSixLegs, PAIRS, SIDES};
+use selfmanip_core::spatial::*;
+use spatial_support::*;
+
+/// `[x; y]` of `[M Aᵀ; A 0][x; y] = [f; g]` by a dense LU of the whole matrix.
+fn dense_kkt(
+    M: &DMatrix<f64>,
+    A: &DMatrix<f64>,
+    f: &DVector<f64>,
+    g: &DVector<f64>,
+) -> (DVector<f64>, DVector<f64>) {
+    let (nv, c) = (M.nrows(), A.nrows());
+    let mut kkt = DMatrix::zeros(nv + c, nv + c);
+    kkt.view_mut((0, 0), (nv, nv)).copy_from(M);
+    kkt.view_mut((nv, 0), (c, nv)).copy_from(A);
+    kkt.view_mut((0, nv), (nv, c)).copy_from(&A.transpose());
+    let mut rhs = DVector::zeros(nv + c);
+    rhs.rows_mut(0, nv).copy_from(f);
+    rhs.rows_mut(nv, c).copy_from(g);
+    let x = kkt.lu().solve(&rhs).expect("a regular KKT matrix");
+    (x.rows(0, nv).into_owned(), x.rows(nv, c).into_owned())
+}
+
+fn rel(a: &DVector<f64>, b: &DVector<f64>) -> f64 {
+    (a - b).amax() / b.amax().max(1.0)
+}
+
+/// The largest relative difference of `q̈`, `λ` (and, with `impacts`, of the plastic impact's
+/// `v⁺` and impulse) from [`dense_kkt`] over `n` random states of `model` on `contacts`,
+/// asserting each solve took the limb elimination.
+fn worst_against_dense(
+    model: &SpatialModel,
+    contacts: &[PointContact],
+    seed: u64,
+    n: usize,
+    impacts: bool,
+) -> f64 {
+    let mut data = SpatialData::new(model);
+    let mut rng = rng(seed);
+    let mut worst: f64 = 0.0;
+    for _ in 0..n {
+        let (q, v, tau) = random_state(model, &mut rng);
+        dynamics_at(model, &mut data, contacts, (&q, &v, &tau)).unwrap();
+        assert!(data.limbs_eliminated);
+        assert_eq!(data.kkt_route, KktRoute::RangeSpace);
+        let (qdd, y) = dense_kkt(&data.M, &data.A, &(&tau - &data.h), &(-&data.A_drift));
+        worst = worst.max(rel(&data.qdd, &qdd)).max(rel(&data.lam, &(-y)));
+        if impacts {
+            let imp = impact(model, &mut data, contacts, q.as_slice(), v.as_slice()).unwrap();
+            assert!(data.limbs_eliminated);
+            let (dv, y) = dense_kkt(
+                &data.M,
+                &data.A,
+                &DVector::zeros(model.nv),
+                &(-&data.A * &v),
+            );
+            worst = worst
+                .max(rel(&imp.v_plus, &(&v + dv)))
+                .max(rel(&imp.impulse, &(-y)));
+        }
+    }
+    worst
+}
+
+#[test]
+fn quadruped_on_its_feet_matches_the_dense_kkt_solve() {
+    let model = quadruped();
+    // four feet (every limb pinned), three and two (swing legs keep their rates)
+    let four = feet(&model, [true; 4]);
+    let mut worst = worst_against_dense(&model, &four, 43, 20, true);
+    for down in [&four[..3], &[four[0].clone(), four[3].clone()][..]] {
+        worst = worst.max(worst_against_dense(&model, down, 47, 10, false));
+    }
+    assert!(worst < 1e-10, "routes differ by {worst:e}");
+}
+
+/// On a fixed base no rate is left to the reduced system when every leg is pinned (`R` is
+/// empty): the rows alone give `q̈`; with one leg free, `R` is that leg's block of `M`.
+#[test]
+fn bolted_down_quadruped_matches_the_dense_kkt_solve() {
+    let model = SpatialModel::from_urdf_file(QUADRUPED, BaseKind::Fixed, None).unwrap();
+    let four = feet(&model, [true; 4]);
+    let worst = worst_against_dense(&model, &four, 53, 10, false).max(worst_against_dense(
+        &model,
+        &four[1..],
+        59,
+        10,
+        false,
+    ));
+    assert!(worst < 1e-10, "routes differ by {worst:e}");
+}
+
+/// RHex's one-joint legs on frictionless toes (one row each): six toes, and four with two
+/// legs in the air.
+#[test]
+fn rhex_toes_pin_their_one_joint_legs() {
+    let p = RhexSixLegs::table_4_2().with_table_4_2_legs();
+    let model = p.model().unwrap();
+    let toes: Vec<PointContact> = PAIRS
+        .iter()
+        .flat_map(|pair| SIDES.iter().map(move |side| format!("{pair}_{side}")))
+        .map(|leg| p.toe(&model, &leg, false).unwrap())
+        .collect();
+    let worst = worst_against_dense(&model, &toes, 61, 10, true).max(worst_against_dense(
+        &model,
+        &toes[..4],
+        67,
+        10,
+        false,
+    ));
+    assert!(worst < 1e-10, "routes differ by {worst:e}");
+}
+
+/// A free-flying box on two legs, each a revolute hip and a prismatic shank carrying its foot
+/// on a fixed joint: a foot held in the sagittal plane (two rows) pins its two-rate leg.
+const BIPED: &str = r#"<robot name="biped">
+  <link name="body"><inertial><origin xyz="0.01 0 0.02"/><mass value="5"/>
+    <inertia ixx="0.05" ixy="0.001" ixz="0" iyy="0.08" iyz="0" izz="0.1"/></inertial></link>
+  <link name="L_thigh"><inertial><origin xyz="0 0 -0.1"/><mass value="0.6"/>
+    <inertia ixx="0.002" ixy="0" ixz="0" iyy="0.002" iyz="0" izz="0.001"/></inertial></link>
+  <link name="L_shank"><inertial><origin xyz="0 0 -0.1"/><mass value="0.3"/>
+    <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.0005"/></inertial></link>
+  <link name="L_foot"/>
+  <link name="R_thigh"><inertial><origin xyz="0 0 -0.1"/><mass value="0.6"/>
+    <inertia ixx="0.002" ixy="0" ixz="0" iyy="0.002" iyz="0" izz="0.001"/></inertial></link>
+  <link name="R_shank"><inertial><origin xyz="0 0 -0.1"/><mass value="0.3"/>
+    <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.0005"/></inertial></link>
+  <link name="R_foot"/>
+  <joint name="L_hip" type="revolute"><parent link="body"/><child link="L_thigh"/>
+    <origin xyz="0 0.1 -0.05"/><axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="10" velocity="10"/></joint>
+  <joint name="L_slide" type="prismatic"><parent link="L_thigh"/><child link="L_shank"/>
+    <origin xyz="0 0 -0.2"/><axis xyz="0 0 1"/><limit lower="-0.1" upper="0.1" effort="10" velocity="10"/></joint>
+  <joint name="L_toe" type="fixed"><parent link="L_shank"/><child link="L_foot"/>
+    <origin xyz="0.02 0 -0.2"/></joint>
+  <joint name="R_hip" type="revolute"><parent link="body"/><child link="R_thigh"/>
+    <origin xyz="0 -0.1 -0.05"/><axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="10" velocity="10"/></joint>
+  <joint name="R_slide" type="prismatic"><parent link="R_thigh"/><child link="R_shank"/>
+    <origin xyz="0 0 -0.2"/><axis xyz="0 0 1"/><limit lower="-0.1" upper="0.1" effort="10" velocity="10"/></joint>
+  <joint name="R_toe" type="fixed"><parent link="R_shank"/><child link="R_foot"/>
+    <origin xyz="0.02 0 -0.2"/></joint>
+</robot>"#;
+
+#[test]
+fn prismatic_and_fixed_joints_pinned_in_a_plane() {
+    let model = SpatialModel::from_urdf_str(BIPED, BaseKind::FreeFlyer, None).unwrap();
+    assert_eq!(model.nv, 10);
+    let contacts: Vec<PointContact> = ["L_foot", "R_foot"]
+        .iter()
+        .map(|f| {
+            PointContact::new(&model, f, true)
+                .unwrap()
+                .in_plane(Vector3::x())
+                .unwrap()
+        })
+        .collect();
+    let worst = worst_against_dense(&model, &contacts, 71, 20, true).max(worst_against_dense(
+        &model,
+        &contacts[..1],
+        73,
+        10,
+        false,
+    ));
+    assert!(worst < 1e-10, "routes differ by {worst:e}");
+}
+
+/// `forward_dynamics` at one random state of `model` on `contacts`: whether the limb
+/// elimination took it, the route, and the relative residuals of the constraint and the
+/// equations of motion.
+fn route_at(
+    model: &SpatialModel,
+    contacts: &[PointContact],
+    q: &DVector<f64>,
+) -> (bool, KktRoute, f64, f64) {
+    let mut data = SpatialData::new(model);
+    let mut rng = rng(79);
+    let (_, v, tau) = random_state(model, &mut rng);
+    dynamics_at(model, &mut data, contacts, (q, &v, &tau)).unwrap();
+    let (acc, eom) = dynamics_residuals(&data, &tau);
+    (data.limbs_eliminated, data.kkt_route, acc, eom)
+}
+
+#[test]
+fn other_contact_sets_take_the_other_routes() {
+    let model = quadruped();
+    let q = random_q(&model, &mut rng(83));
+    let with = |extra: PointContact| {
+        let mut c = feet(&model, [true; 4]);
+        c.push(extra);
+        c
+    };
+    let cases: [(&str, Vec<PointContact>, &SpatialModel, KktRoute); 4] = [
+        // one row on a three-joint leg
+        (
+            "frictionless feet",
+            feet(&model, [true, false, true, true]),
+            &model,
+            KktRoute::RangeSpace,
+        ),
+        // a row with no entry on any limb
+        (
+            "a contact on the trunk",
+            with(PointContact::new(&model, "trunk", false).unwrap()),
+            &model,
+            KktRoute::RangeSpace,
+        ),
+        // four rows on one leg
+        (
+            "a knee and its foot",
+            with(PointContact::new(&model, "FL_knee", false).unwrap()),
+            &model,
+            KktRoute::RangeSpace,
+        ),
+        ("massless shins", Vec::new(), &model, KktRoute::NullSpace),
+    ];
+    let shins = quadruped_massless_shins();
+    for (name, contacts, model, route) in cases {
+        let (model, contacts) = if name == "massless shins" {
+            (&shins, feet(&shins, [true; 4]))
+        } else {
+            (model, contacts)
+        };
+        let (limbs, taken, acc, eom) = route_at(model, &contacts, &q);
+        assert!(!limbs, "{name}: the limb elimination should decline");
+        assert_eq!(taken, route, "{name}");
+        assert!(acc < 1e-10 && eom < 1e-10, "{name}: {acc:e} {eom:e}");
+    }
+}
+
+/// A leg nearly stretched (knee 1e-8 rad: its foot's rows nearly dependent on the hip's
+/// flexion and the knee) makes a pivot of its `A_ll` fall below `LIMB_PIVOT_FRACTION`: the
+/// elimination declines; bent by 1e-3 rad it applies and agrees with the dense solve.
+#[test]
+fn a_nearly_stretched_leg_declines_the_elimination() {
+    let model = quadruped();
+    let contacts = feet(&model, [true; 4]);
+    let mut q = standing_q(&model, 0.4, 0.5);
+    let mut data = SpatialData::new(&model);
+    let mut rng = rng(89);
+    let (_, v, tau) = random_state(&model, &mut rng);
+    for (knee, applies) in [(1e-8, false), (1e-3, true)] {
+        q[7 + 2] = knee;
+        dynamics_at(&model, &mut data, &contacts, (&q, &v, &tau)).unwrap();
+        assert_eq!(data.limbs_eliminated, applies, "knee {knee}");
+        let (qdd, y) = dense_kkt(&data.M, &data.A, &(&tau - &data.h), &(-&data.A_drift));
+        // the dense LU's own error grows with the rows' condition, about 1/knee
+        let tol = 1e-12 / knee;
+        let e = rel(&data.qdd, &qdd).max(rel(&data.lam, &(-y)));
+        assert!(e < tol, "knee {knee}: routes differ by {e:e}");
+    }
+}
