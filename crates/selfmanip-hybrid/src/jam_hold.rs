@@ -120,7 +120,7 @@ pub(crate) const SEPARATION_TOL_M_S2: f64 = 1e-2;
 
 /// The second derivative of contact `c`'s gap (m/s², positive: separating) from `(t, y)`
 /// along the flow of `mode`, by a central second difference on `q ± h q̇ + ½ h² q̈`.
-pub(crate) fn gap_acceleration(
+pub fn gap_acceleration(
     flow: &mut Flow,
     mode: ContactMode,
     c: usize,

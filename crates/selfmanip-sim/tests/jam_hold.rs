@@ -21,6 +21,7 @@
 use selfmanip_core::contact::{ContactKind, RowDirection};
 use selfmanip_core::{ContactMode, Data};
 use selfmanip_hybrid::flow::Flow;
+use selfmanip_hybrid::jam_hold::gap_acceleration;
 use selfmanip_hybrid::{EventKind, Segment};
 use selfmanip_sim::{Run, RunStatus, Scenario, Simulation};
 use std::path::Path;
@@ -50,7 +51,7 @@ fn rows_of(mode: ContactMode, k: usize) -> (usize, usize) {
 }
 
 /// The hold's guard at `(t, y)` in the held `mode` (positive while held): the cone margin of
-/// the front foot's force and its gap's second derivative released (central difference).
+/// the front foot's force and its gap's second derivative released.
 fn hold_guard(flow: &mut Flow, t: f64, mode: ContactMode, y: &[f64]) -> f64 {
     let nq = y.len() / 2;
     let (tr, nr) = rows_of(mode, FRONT);
@@ -61,23 +62,7 @@ fn hold_guard(flow: &mut Flow, t: f64, mode: ContactMode, y: &[f64]) -> f64 {
         .clone();
     let push = -lambda[nr];
     let cone = (MU * push - lambda[tr].abs()).min(push);
-    let released = mode.without(FRONT);
-    let mut dy = vec![0.0; y.len()];
-    flow.rhs(t, released, y, &mut dy).unwrap();
-    let h = 1e-4;
-    let mut gap = |s: f64| {
-        let yy: Vec<f64> = (0..y.len())
-            .map(|i| {
-                if i < nq {
-                    y[i] + s * dy[i] + 0.5 * s * s * dy[nq + i]
-                } else {
-                    y[i] + s * dy[i]
-                }
-            })
-            .collect();
-        flow.geometry(FRONT, &yy).gap_m
-    };
-    let acc = (gap(h) - 2.0 * gap(0.0) + gap(-h)) / (h * h);
+    let acc = gap_acceleration(flow, mode.without(FRONT), FRONT, t, y).unwrap();
     -cone.max(acc)
 }
 
