@@ -49,6 +49,9 @@ pub struct Flow<'a> {
     /// Contacts held closed by a Zeno truncation's dwell ([`crate::zeno`]): their liftoff
     /// and stick→slip guards are not armed until the dwell ends.
     held: Vec<usize>,
+    /// Contacts held sticking by a jam hold ([`crate::jam_hold`]): their liftoff and
+    /// stick→slip guards give way to the hold's own guard.
+    jammed: Vec<usize>,
 }
 
 impl<'a> Flow<'a> {
@@ -64,7 +67,19 @@ impl<'a> Flow<'a> {
             kin: Kinematics::default(),
             kin_y: None,
             held: Vec::new(),
+            jammed: Vec::new(),
         }
+    }
+
+    /// The contacts a jam hold keeps sticking ([`crate::jam_hold`]).
+    pub fn jammed(&self) -> &[usize] {
+        &self.jammed
+    }
+
+    /// Replaces the contacts a jam hold keeps sticking (none: no hold).
+    pub fn set_jammed(&mut self, contacts: &[usize]) {
+        self.jammed.clear();
+        self.jammed.extend_from_slice(contacts);
     }
 
     /// Holds the contacts `contacts` closed (none: the hold ends): see [`Self::held`].

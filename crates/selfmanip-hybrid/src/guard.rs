@@ -78,6 +78,14 @@ pub enum Guard {
     /// `ε − π_k` of a contact whose chain is passing its fold, locked
     /// ([`crate::fold`]): it fires once the chain is `ε` past the fold.
     FoldPassed { contact: usize, threshold: f64 },
+    /// The end of a jam hold of a sticking contact ([`crate::jam_hold`]): positive while
+    /// no mode keeps it and its release would re-enter the ground.
+    Jammed {
+        contact: usize,
+        t_row: usize,
+        n_row: usize,
+        mu: f64,
+    },
 }
 
 impl Guard {
@@ -92,7 +100,10 @@ impl Guard {
 
     /// Whether the guard's value needs the flow (the contact forces), not just kinematics.
     pub fn needs_flow(self) -> bool {
-        matches!(self, Guard::Liftoff { .. } | Guard::Slip { .. })
+        matches!(
+            self,
+            Guard::Liftoff { .. } | Guard::Slip { .. } | Guard::Jammed { .. }
+        )
     }
 
     /// The guard's value at `(t, y = [q; q̇])` in the flow of `mode` (unoriented).
@@ -114,6 +125,12 @@ impl Guard {
                 mu * (-lambda[n_row]) - lambda[t_row].abs()
             }
             Guard::Apex => -qd[model.ix_z()],
+            Guard::Jammed {
+                contact,
+                t_row,
+                n_row,
+                mu,
+            } => crate::jam_hold::guard_value(flow, (t, mode, y), contact, (t_row, n_row), mu)?,
             _ => {
                 let terrain = flow.terrain();
                 let (kin, dirs) = flow.kinematics_and_directions(q, qd);
@@ -153,7 +170,7 @@ impl Guard {
                     - fold::pin(model, kin, terrain, mode, contact, dirs)
                         .expect("a fold guard's contact has a fold")
             }
-            Guard::Liftoff { .. } | Guard::Slip { .. } => {
+            Guard::Liftoff { .. } | Guard::Slip { .. } | Guard::Jammed { .. } => {
                 unreachable!("a force guard's value needs the flow")
             }
         }
@@ -420,6 +437,30 @@ impl GuardSet {
         let held = flow.held();
         self.guards
             .retain(|g| g.lets_go().is_none_or(|k| !held.contains(&k)));
+        // a jam hold's contacts end it by its own guard (crate::jam_hold): their liftoff
+        // guards give way, their stick→slip guards turn into it
+        let jammed =
+            |k: usize| flow.jammed().contains(&k) && mode.kind(k) == Some(ContactKind::Stick);
+        self.guards
+            .retain(|g| !matches!(*g, Guard::Liftoff { contact, .. } if jammed(contact)));
+        for g in &mut self.guards {
+            if let Guard::Slip {
+                contact,
+                t_row,
+                n_row,
+                mu,
+            } = *g
+            {
+                if jammed(contact) {
+                    *g = Guard::Jammed {
+                        contact,
+                        t_row,
+                        n_row,
+                        mu,
+                    };
+                }
+            }
+        }
         // a leg whose torque falls with speed meets its fold at the passage threshold
         let (q, qd) = y.split_at(flow.model().nq());
         self.scratch_tau.resize(flow.model().n_joints(), 0.0);

@@ -92,11 +92,20 @@ impl ResetWorkspace<'_> {
                 let l: Vec<f64> = self.ws.data.lambda.iter().copied().collect();
                 SetOutcome::new(mode, l.clone(), Vec::new(), l)
             };
-            let slides = self.outside_cone(mode, &outcome.judged).or_else(|| {
+            // a jammed contact keeps its stick whatever its force (crate::jam_hold)
+            let (zeroed, push_zeroed);
+            let (judged, push): (&[f64], &[(usize, f64)]) = if self.jammed.is_empty() {
+                (&outcome.judged, &outcome.push)
+            } else {
+                zeroed = self.without_jammed(mode, &outcome.judged);
+                push_zeroed = normal_push(mode, &zeroed);
+                (&zeroed, &push_zeroed)
+            };
+            let slides = self.outside_cone(mode, judged).or_else(|| {
                 if impact {
-                    self.touchdown_pull(mode, before, &outcome.push)
+                    self.touchdown_pull(mode, before, push)
                 } else {
-                    self.pulling_sticking(mode, &outcome.judged)
+                    self.pulling_sticking(mode, judged)
                 }
             });
             if let Some(k) = slides {

@@ -35,6 +35,7 @@ use crate::energy::kinetic_energy_at;
 use crate::error::HybridError;
 use crate::event::{Event, EventKind, PainleveReason};
 use crate::flow::{Flow, FlowWorkspace};
+use crate::jam_hold::{gap_acceleration, SEPARATION_TOL_M_S2};
 use crate::options::HybridOptions;
 use crate::reset::{reset_workspace, Reset};
 use crate::reset_workspace::ResetWorkspace;
@@ -207,11 +208,6 @@ pub fn own_impulse_in_cone(model: &Model, mode: ContactMode, k: usize, value: &[
     push >= -IMPULSE_TOL_N_S && p_t.abs() <= mu * push * (1.0 + 1e-12) + IMPULSE_TOL_N_S
 }
 
-/// The normal acceleration below which a contact let go counts as drawn into the ground
-/// (m/s²): far above the second difference's error (`O(h)` with `h` = 0.1 ms), far below
-/// gravity.
-const SEPARATION_TOL_M_S2: f64 = 1e-2;
-
 /// Whether contact `c`, not active in `mode`, separates from `(t, y)` in the flow of `mode`:
 /// the second derivative of its gap along the flow, `g̈ ≥ −`[`SEPARATION_TOL_M_S2`] (a
 /// central second difference on `q ± h q̇ + ½ h² q̈`).
@@ -222,25 +218,7 @@ pub(crate) fn separates(
     t: f64,
     y: &[f64],
 ) -> Result<bool, HybridError> {
-    let n = y.len();
-    let nq = n / 2;
-    let mut dy = vec![0.0; n];
-    flow.rhs(t, mode, y, &mut dy)?;
-    let h = 1e-4;
-    let mut gap_at = |s: f64| {
-        let yy: Vec<f64> = (0..n)
-            .map(|i| {
-                if i < nq {
-                    y[i] + s * dy[i] + 0.5 * s * s * dy[nq + i]
-                } else {
-                    y[i] + s * dy[i]
-                }
-            })
-            .collect();
-        flow.geometry(c, &yy).gap_m
-    };
-    let g_dd = (gap_at(h) - 2.0 * gap_at(0.0) + gap_at(-h)) / (h * h);
-    Ok(g_dd >= -SEPARATION_TOL_M_S2)
+    Ok(gap_acceleration(flow, mode, c, t, y)? >= -SEPARATION_TOL_M_S2)
 }
 
 /// A Painlevé end at `(t, y)` in `mode` — the slide of contact `k` inconsistent after the
@@ -300,6 +278,7 @@ pub fn coulomb_jam(
                 barred: &[],
                 fold_threshold: opts.fold_threshold,
                 held: Vec::new(),
+                jammed: Vec::new(),
             };
             let kept: Vec<usize> = mode_after.active().collect();
             match cx.select(t, &kept, &[], mode_after, q, &o.qd_plus, false) {

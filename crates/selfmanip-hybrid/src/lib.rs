@@ -65,6 +65,7 @@ pub mod impact;
 pub mod impact_qp;
 pub mod integrate;
 pub mod jam;
+pub mod jam_hold;
 pub mod limits;
 pub mod locate;
 pub mod options;

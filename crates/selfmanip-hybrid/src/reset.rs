@@ -74,6 +74,8 @@ pub fn reset(
         .filter(|&g| g != Guard::Apex)
         .collect();
     let mut c = FiredContacts::of(&fired);
+    // a jam hold lasts while its contact sticks, until its guard fires (crate::jam_hold)
+    let jammed_before = still_held(flow, mode, &fired);
     // a chain that is ε past its fold is unlocked
     let mut lock = flow.lock().to_vec();
     lock.retain(|j| {
@@ -126,8 +128,8 @@ pub fn reset(
     let AfterReset {
         selected,
         mut qd_after,
-        mode_after,
-        force,
+        mut mode_after,
+        mut force,
     } = match select_mode(
         cx,
         (t, mode),
@@ -140,6 +142,26 @@ pub fn reset(
         Ok(s) => s,
         Err(term) => return end(term),
     };
+    // a touched contact that the impact stuck and no force mode keeps, whose release would
+    // put it straight back into the ground, is held sticking (crate::jam_hold)
+    let mut jammed = Vec::new();
+    if impact && !c.touched.is_empty() {
+        let after = (selected.mode, mode_after);
+        jammed = crate::jam_hold::entries(flow, t, &c.touched, after, q, &qd_after);
+    }
+    if !jammed.is_empty() {
+        cx.held.extend_from_slice(&jammed);
+        cx.jammed.extend_from_slice(&jammed);
+        let mut kept: Vec<usize> = mode_after.active().chain(jammed.iter().copied()).collect();
+        kept.sort_unstable();
+        let prefer = jammed
+            .iter()
+            .fold(mode_after, |m, &k| m.with(k, ContactKind::Stick));
+        match cx.select(t, &kept, &[], prefer, q, &qd_after, false)? {
+            Ok(s) => (mode_after, force) = (s.mode, s.value),
+            Err(term) => return end(term),
+        }
+    }
     // a chain released at its fold is left at rest relative to its parent (fold module
     // docs); one released on its passage turns on at its torque-free speed
     if !passing {
@@ -151,6 +173,13 @@ pub fn reset(
     }
     let ke_after = kinetic_energy_at(model, cx.terrain, &mut cx.ws.data, q, &qd_after)?;
     fold::retain_held_locks(model, mode_after, &mut lock);
+    if !jammed_before.is_empty() || !jammed.is_empty() {
+        let mut held: Vec<usize> = jammed_before.into_iter().chain(jammed).collect();
+        held.retain(|&k| mode_after.kind(k) == Some(ContactKind::Stick));
+        held.sort_unstable();
+        held.dedup();
+        flow.set_jammed(&held);
+    }
     // without a velocity jump, a contact that stuck until now starts sliding from rest;
     // so does one whose stick the cone refused (its velocity just crossed zero). After an
     // impact a sliding contact slides with the velocity the impact leaves it — even one
@@ -194,6 +223,28 @@ pub fn reset(
         from_rest,
         lock,
     })
+}
+
+/// The contacts a jam hold keeps at a reset of the guards `fired` in `mode`
+/// ([`crate::jam_hold`]): those of `flow`'s hold still sticking in `mode` whose guard did
+/// not fire; `flow`'s hold is narrowed to them (the reset then adds those it holds).
+fn still_held(flow: &mut Flow, mode: ContactMode, fired: &[Guard]) -> Vec<usize> {
+    if flow.jammed().is_empty() {
+        return Vec::new();
+    }
+    let ended = |k: usize| {
+        fired
+            .iter()
+            .any(|g| matches!(*g, Guard::Jammed { contact, .. } if contact == k))
+    };
+    let held: Vec<usize> = flow
+        .jammed()
+        .iter()
+        .copied()
+        .filter(|&k| mode.kind(k) == Some(ContactKind::Stick) && !ended(k))
+        .collect();
+    flow.set_jammed(&held);
+    held
 }
 
 /// The apex: the end of the run, or (not stopping there) an event that changes nothing —
@@ -245,7 +296,13 @@ pub(crate) fn reset_workspace<'a: 'b, 'b>(
         ws,
         barred,
         fold_threshold: opts.fold_threshold,
-        held: flow.held().to_vec(),
+        // a jam hold keeps its contacts as a dwell does (crate::jam_hold)
+        held: if flow.jammed().is_empty() {
+            flow.held().to_vec()
+        } else {
+            flow.held().iter().chain(flow.jammed()).copied().collect()
+        },
+        jammed: flow.jammed().to_vec(),
     }
 }
 
@@ -271,6 +328,8 @@ impl FiredContacts {
                 Guard::Stick(k) => c.stuck.push(k),
                 Guard::Fold { contact, .. } => c.folded.push(contact),
                 Guard::FoldPassed { contact, .. } => c.passed.push(contact),
+                // the end of a jam hold: judged by force as at a liftoff
+                Guard::Jammed { contact, .. } => c.released.push(contact),
                 Guard::Apex => {}
             }
         }

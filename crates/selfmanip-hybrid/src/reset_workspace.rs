@@ -24,4 +24,7 @@ pub struct ResetWorkspace<'a> {
     /// Contacts a Zeno truncation's dwell holds ([`crate::zeno`]): complementarity keeps
     /// them, pushing or not, until the dwell ends.
     pub held: Vec<usize>,
+    /// Contacts a jam hold keeps sticking ([`crate::jam_hold`]), also in `held`: their own
+    /// force or impulse does not turn them to sliding.
+    pub jammed: Vec<usize>,
 }

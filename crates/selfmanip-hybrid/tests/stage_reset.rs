@@ -43,6 +43,7 @@ fn unforced_reset<'a>(
         ws,
         barred: &[],
         fold_threshold: HybridOptions::default().fold_threshold,
+        jammed: Vec::new(),
         held: Vec::new(),
     }
 }
