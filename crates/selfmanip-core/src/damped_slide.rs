@@ -44,6 +44,7 @@ use crate::friction::WEDGE_TOL;
 use crate::kinematics::Kinematics;
 use crate::model::Model;
 use crate::sliding::SlideDirection;
+pub use crate::sliding::{ChainLaw, DampedSlide};
 use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
 use std::ops::Range;
 
@@ -55,50 +56,6 @@ pub fn damped_chain(model: &Model, k: usize) -> Option<Range<usize>> {
     let j = model.contacts.get(k)?.link?;
     let first = model.chain(j).find(|&i| model.distal_massless(i))?;
     (j + 1 - first >= 2).then_some(first..j + 1)
-}
-
-/// The chain's law at a state, affine in the chain's rates: the torques `T_c` it applies at
-/// the rates `θ̇_c` (N m, joint order) and its damping `K = −∂T/∂θ̇` (N m s/rad), so that
-/// `T(θ̇) = T_c − K (θ̇ − θ̇_c)`.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ChainLaw {
-    pub joints: Range<usize>,
-    /// `θ̇_c` (rad/s).
-    pub rates: DVector<f64>,
-    pub torque: DVector<f64>,
-    pub damping: DMatrix<f64>,
-}
-
-/// The damped slide of one contact at one state ([`solve`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct DampedSlide {
-    pub contact: usize,
-    /// `(λ_t, λ_n)` in the contact's rows (N; `λ_n < 0` pushes).
-    pub lambda: [f64; 2],
-    /// `c = λ_t / λ_n = μ_k s`.
-    pub coef: f64,
-    /// The side `s = ±1` of the sliding velocity the friction opposes.
-    pub side: f64,
-    /// The foot's velocity with no force `w` and its mobility `G`, in the rows `(t, n)`.
-    pub w: Vector2<f64>,
-    pub g: Matrix2<f64>,
-    /// The foot's sliding velocity `u_t` in the tangential row (m/s).
-    pub u_t: f64,
-    /// The chain's rates `θ̇` (rad/s, joint order).
-    pub rates: DVector<f64>,
-    /// Whether the slide is consistent: the foot pushes and, with friction, slides on the
-    /// side its friction opposes, faster than the rest band
-    /// ([`crate::friction::SLIDING_SPEED_EPS_M_S`]).
-    pub consistent: bool,
-    /// The contact's rows `A` (tangential, normal; `2 × nq`).
-    pub rows: DMatrix<f64>,
-}
-
-impl DampedSlide {
-    /// The push `U = −λ_n` (N): the liftoff guard's function.
-    pub fn push(&self) -> f64 {
-        -self.lambda[1]
-    }
 }
 
 /// The contact's two rows `A` (tangential, normal; `2 × nq`) at the kinematics `kin`.

@@ -3,12 +3,11 @@
 //! KKT system that every stage above it shares.
 use crate::constraint::Constraints;
 use crate::contact::ContactMode;
-use crate::damped_slide::{ChainLaw, DampedSlide};
 use crate::inertia::InertiaScratch;
 use crate::kinematics::Kinematics;
 use crate::kkt::KktFactorization;
 use crate::model::Model;
-use crate::sliding::{SlideDirection, SlidingSite};
+use crate::sliding::{ChainLaw, DampedSlide, SlideDirection, SlidingSite};
 use nalgebra::{DMatrix, DVector};
 
 /// Reusable workspace: every intermediate and output of one evaluation.
