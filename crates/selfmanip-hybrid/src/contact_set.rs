@@ -27,7 +27,7 @@ impl ResetWorkspace<'_> {
         &mut self,
         set: &[usize],
         prefer: ContactMode,
-        (t, q, qd): (f64, &[f64], &[f64]),
+        qd: &[f64],
     ) -> Result<Option<ContactMode>, CoreError> {
         let mut base = ContactMode::with_defaults(self.model, set)?;
         for &k in set {
@@ -45,18 +45,6 @@ impl ResetWorkspace<'_> {
         for m in candidates {
             if self.barred.iter().any(|&(k, kind)| m.kind(k) == Some(kind)) {
                 continue;
-            }
-            // a sliding contact on a chain of massless joints slides damped, where its law
-            // has damping (crate::damped_slide)
-            if self.ws.damped != 0 {
-                crate::damped_slide::add_laws(
-                    self.model,
-                    &mut self.ws.data,
-                    self.ws.damped,
-                    self.ctrl,
-                    (t, q, qd),
-                    m,
-                );
             }
             match self.ws.data.prepare_mode(self.model, self.terrain, m, qd)? {
                 Ok(()) if self.within_fold(m) => return Ok(None),

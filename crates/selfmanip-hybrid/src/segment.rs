@@ -225,22 +225,6 @@ impl SegmentIntegrator {
                     // corner of the terrain: locate where
                     let off = self.surfaces.left_by(flow, y).is_some();
                     if off && self.surfaces.only_drifted(flow, y) {
-                        if self.drift_ws.damped != 0 {
-                            // the damped slides of `mode` keep out of the projection
-                            let model = flow.model();
-                            let (q, qd) = y.split_at(model.nq());
-                            let ctrl = flow.controller().clone();
-                            let ws = &mut self.drift_ws;
-                            let state = (*t, q, qd);
-                            crate::damped_slide::set_laws(
-                                model,
-                                &mut ws.data,
-                                ws.damped,
-                                &*ctrl,
-                                state,
-                                mode,
-                            );
-                        }
                         drift::project(flow, &mut self.drift_ws, mode, y)?;
                         self.ode.reset(self.ode.next_step_size());
                     } else if off {
