@@ -35,10 +35,11 @@
 //! changes nothing), slides (a consistent slide that pushes) or is released, now
 //! separating. Each event of the cycle is then a mode change of its own: one touchdown, one
 //! release, instead of a re-touch every microsecond until the event budget.
+use crate::event::Event;
 use crate::flow::Flow;
 use crate::fold;
 use crate::reset_workspace::ResetWorkspace;
-use selfmanip_core::contact::ContactKind;
+use selfmanip_core::contact::{ContactKind, RowDirection};
 use selfmanip_core::model::Friction;
 use selfmanip_core::{ContactMode, CoreError, Model};
 
@@ -52,6 +53,39 @@ pub fn held_joint(model: &Model, k: usize) -> Option<usize> {
     let on_thigh = *model.chain(link).start() < chain.start;
     let finite = matches!(model.contacts[k].friction, Friction::Sticking { mu } if mu.is_finite());
     (chain.len() == 1 && on_thigh && finite).then_some(chain.start)
+}
+
+/// The contact `event` put into a jam hold, if any: a contact that may be held
+/// ([`held_joint`]) sticking after the event with a force its cone does not hold (pulling,
+/// or outside the cone) — the force complementarity would have let it go. The sensitivity
+/// pass refuses what follows such an event (its entry and its guard are not differentiated).
+pub fn entered(model: &Model, event: &Event) -> Option<usize> {
+    let mode = event.mode_after;
+    (0..model.contacts.len()).find(|&k| {
+        if mode.kind(k) != Some(ContactKind::Stick) || held_joint(model, k).is_none() {
+            return false;
+        }
+        let Friction::Sticking { mu } = model.contacts[k].friction else {
+            return false;
+        };
+        let (mut t_row, mut n_row) = (None, None);
+        for (i, r) in mode.rows().enumerate() {
+            if r.contact == k {
+                match r.direction {
+                    RowDirection::Normal => n_row = Some(i),
+                    RowDirection::Tangential => t_row = Some(i),
+                }
+            }
+        }
+        let (Some(t_row), Some(n_row)) = (t_row, n_row) else {
+            return false;
+        };
+        let (Some(&lt), Some(&ln)) = (event.force.get(t_row), event.force.get(n_row)) else {
+            return false;
+        };
+        let push = -ln;
+        push < 0.0 || lt.abs() > mu * push
+    })
 }
 
 /// The value of the guard of a jam hold of `contact` (its tangential and normal rows

@@ -192,3 +192,32 @@ fn wedged_shin_run_is_deterministic() {
     }
     assert_eq!(a.execution.q, b.execution.q);
 }
+
+/// A run through a jam hold has no derivative formed past the hold's entry: the events from
+/// it on are refused by name (the entry is by force, the end by the hold's own guard, neither
+/// differentiated), never given a liftoff's or a touchdown's saltation; the events before it
+/// are not refused for it.
+#[test]
+fn derivatives_refuse_the_jam_hold_by_name() {
+    use selfmanip_hybrid::sensitivity::SaltationStatus;
+    let run = run();
+    let model = &*run.model;
+    let exec = &run.execution;
+    let entry = exec
+        .events
+        .iter()
+        .position(|e| selfmanip_hybrid::jam_hold::entered(model, e).is_some())
+        .expect("the wedged run enters a jam hold");
+    let s = selfmanip_sim::periodic::run_sensitivity(&run).unwrap();
+    assert!(s.state_jacobian.is_none());
+    let refused = |es: &selfmanip_hybrid::sensitivity::EventSensitivity| matches!(&es.status, SaltationStatus::Unsupported { reason } if reason.contains("jam hold"));
+    for (i, es) in s.events.iter().enumerate() {
+        assert_eq!(
+            refused(es),
+            i >= entry,
+            "event {i} at {}: {:?}",
+            es.t,
+            es.status
+        );
+    }
+}

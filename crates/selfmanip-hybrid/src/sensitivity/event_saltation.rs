@@ -38,6 +38,20 @@ pub(super) fn segment_event(
     event: &Event,
     body: &[BodyParameter],
 ) -> Result<(EventSensitivity, Option<EventParts>), SensitivityError> {
+    // a jam hold (crate::jam_hold) is entered by force and ended by its own guard, neither
+    // differentiated: the events from its entry on are refused by name
+    let hold = exec
+        .events
+        .iter()
+        .take_while(|e| e.t <= event.t)
+        .find_map(|e| crate::jam_hold::entered(ev.model, e));
+    if let Some(k) = hold {
+        let reason = format!(
+            "after a jam hold of contact {k} (a massless shin held sticking by consistency): \
+             its entry and its end are not differentiated"
+        );
+        return Ok((unsupported(event, reason), None));
+    }
     let seg = &exec.segments[si];
     let after = exec.segments.get(si + 1);
     let zero_time = seg.t1 == seg.t0 || after.is_some_and(|a| a.t1 == a.t0);
