@@ -216,3 +216,17 @@ pub fn normal_push(mode: ContactMode, v: &[f64]) -> Vec<(usize, f64)> {
         .map(|(r, &x)| (r.contact, -x))
         .collect()
 }
+
+/// Row indices, in the rows of `mode`, of contact `k`'s tangential and normal rows.
+pub(crate) fn rows_of(mode: ContactMode, k: usize) -> (Option<usize>, Option<usize>) {
+    let (mut t, mut n) = (None, None);
+    for (i, r) in mode.rows().enumerate() {
+        if r.contact == k {
+            match r.direction {
+                RowDirection::Tangential => t = Some(i),
+                RowDirection::Normal => n = Some(i),
+            }
+        }
+    }
+    (t, n)
+}

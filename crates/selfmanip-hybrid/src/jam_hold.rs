@@ -35,11 +35,12 @@
 //! changes nothing), slides (a consistent slide that pushes) or is released, now
 //! separating. Each event of the cycle is then a mode change of its own: one touchdown, one
 //! release, instead of a re-touch every microsecond until the event budget.
+use crate::contact_set::rows_of;
 use crate::event::Event;
 use crate::flow::Flow;
 use crate::fold;
 use crate::reset_workspace::ResetWorkspace;
-use selfmanip_core::contact::{ContactKind, RowDirection};
+use selfmanip_core::contact::ContactKind;
 use selfmanip_core::model::Friction;
 use selfmanip_core::{ContactMode, CoreError, Model};
 
@@ -68,16 +69,7 @@ pub fn entered(model: &Model, event: &Event) -> Option<usize> {
         let Friction::Sticking { mu } = model.contacts[k].friction else {
             return false;
         };
-        let (mut t_row, mut n_row) = (None, None);
-        for (i, r) in mode.rows().enumerate() {
-            if r.contact == k {
-                match r.direction {
-                    RowDirection::Normal => n_row = Some(i),
-                    RowDirection::Tangential => t_row = Some(i),
-                }
-            }
-        }
-        let (Some(t_row), Some(n_row)) = (t_row, n_row) else {
+        let (Some(t_row), Some(n_row)) = rows_of(mode, k) else {
             return false;
         };
         let (Some(&lt), Some(&ln)) = (event.force.get(t_row), event.force.get(n_row)) else {

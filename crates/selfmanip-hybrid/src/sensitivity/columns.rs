@@ -4,10 +4,11 @@
 use super::chain::{chain_complete, has_event_memory, EventChain};
 use super::evaluator::{controller_names, Evaluator, FlowPoint};
 use super::event_saltation::{segment_event, EventParts};
-use super::force_events::{force_guard_gradient, rows_of};
+use super::force_events::force_guard_gradient;
 use super::segment_tangent::segment_flow;
 use super::tangent::Tangent;
 use super::types::{ColumnSensitivity, Parameter, SaltationStatus, SensitivityError};
+use crate::contact_set::rows_of;
 use crate::event::{Event, EventKind};
 use crate::execution::{Execution, Segment};
 use nalgebra::{DMatrix, RowDVector};

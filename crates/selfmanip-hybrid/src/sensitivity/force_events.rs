@@ -4,12 +4,12 @@
 //! drift away (`crate::reset`), that plastic impact into the mode before ([`DRIFT_JUMP_TOL`]).
 use super::evaluator::{torque_time_derivative, FlowJacobian};
 use super::reset_jacobian::{EventAt, GuardReset, NotDifferentiated};
+use crate::contact_set::rows_of;
 use crate::event::EventKind;
 use nalgebra::{DMatrix, DVector, RowDVector};
-use selfmanip_core::contact::RowDirection;
 use selfmanip_core::model::Friction;
 use selfmanip_core::tangent::{plastic_impact_jacobian, ImpactJacobian};
-use selfmanip_core::{ContactMode, Data, Model};
+use selfmanip_core::{Data, Model};
 
 /// A liftoff's or a slip's guard gradient `D_xg` at the flow `fm` before it; its `∂g/∂t`
 /// goes into `dg_dt`.
@@ -125,18 +125,4 @@ pub(super) fn force_guard_gradient(
         return None;
     };
     Some(-mu * dlambda.row(rn) - lambda[rt].signum() * dlambda.row(rt))
-}
-
-/// Row indices, in the rows of `mode`, of contact `k`'s tangential and normal rows.
-pub(super) fn rows_of(mode: ContactMode, k: usize) -> (Option<usize>, Option<usize>) {
-    let (mut t, mut n) = (None, None);
-    for (i, r) in mode.rows().enumerate() {
-        if r.contact == k {
-            match r.direction {
-                RowDirection::Tangential => t = Some(i),
-                RowDirection::Normal => n = Some(i),
-            }
-        }
-    }
-    (t, n)
 }

@@ -15,10 +15,11 @@
 //! in a mirror-symmetric gait, the symmetric ones — and where they agree everywhere the
 //! event is differentiable.
 use super::evaluator::{torque_time_derivative, Evaluator, FlowPoint};
-use super::force_events::{drift_reset, force_guard_gradient, rows_of};
+use super::force_events::{drift_reset, force_guard_gradient};
 use super::reset_jacobian::{EventAt, GuardReset, NotDifferentiated};
 use super::saltation::saltation_with_rate;
 use super::types::{OneSidedSaltation, SensitivityError};
+use crate::contact_set::rows_of;
 use crate::controller::Controller;
 use crate::event::{Event, EventKind};
 use crate::execution::Segment;
