@@ -5,7 +5,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use selfmanip::motor::catalog::synthetic_motors;
 use selfmanip::motor::observer::LegObserver;
 use selfmanip::motor::tail::{rank_tail_motors, SelectionConstraints, TailTask};
-use selfmanip::motor::{CaseParameters, Catalog, ThermalState};
+use selfmanip::motor::{CaseParameters, Catalog, HeatInput, ThermalState};
 use std::hint::black_box;
 
 #[path = "../crates/motor/tests/common/mod.rs"]
@@ -34,12 +34,14 @@ fn motor_tools(c: &mut Criterion) {
     c.bench_function("thermal_one_hour_at_1s", |b| {
         b.iter(|| {
             thermal
-                .simulate_output_torque(
-                    &drive,
+                .simulate(
                     ThermalState::ambient(25.0),
                     25.0,
                     1.0,
-                    black_box(&torque),
+                    HeatInput::OutputTorque {
+                        drive: &drive,
+                        torque_n_m: black_box(&torque),
+                    },
                 )
                 .unwrap()
         })

@@ -268,14 +268,13 @@ def analysis_standing_rhex(
 
 # --------------------------------------------------------------------------------------- motor
 
-def motor_tail_optimum(
-    theta0_rad: float, power_w: float, body_inertia_kg_m2: float, effectiveness: float
-) -> dict[str, float]: ...
+# a tail's task: theta0_rad, body_inertia_kg_m2, effectiveness
+_TailTask = tuple[float, float, float]
+
+def motor_tail_optimum(task: _TailTask, power_w: float) -> dict[str, float]: ...
 def motor_tail_constants() -> dict[str, float]: ...
 def motor_rank_tail_motors(
-    theta0_rad: float,
-    body_inertia_kg_m2: float,
-    effectiveness: float,
+    task: _TailTask,
     max_length_m: float,
     max_mass_kg: float,
     max_completion_time_s: float,
@@ -285,12 +284,13 @@ def motor_rank_tail_motors(
 ) -> dict[str, Any]: ...
 def motor_thesis_catalog_toml() -> str: ...
 def motor_drive_table(catalog_toml: str | None = None, current_limit_a: float | None = None) -> list[dict[str, Any]]: ...
-def motor_torque_speed_curve(
-    drive: str, points: int = 50, current_limit_a: float | None = None, catalog_toml: str | None = None
-) -> dict[str, _F64]: ...
+# a drive: its name, a current limit in place of the catalog's, the catalog (TOML text)
+_DriveChoice = tuple[str, float | None, str | None]
+
+def motor_torque_speed_curve(drive: _DriveChoice, points: int = 50) -> dict[str, _F64]: ...
 def motor_operating_point(
-    drive: str, command: float, speed_rad_s: float, gearbox_loss: str = "derating",
-    battery_resistance_ohm: float = 0.0, current_limit_a: float | None = None, catalog_toml: str | None = None
+    drive: _DriveChoice, command: float, speed_rad_s: float, gearbox_loss: str = "derating",
+    battery_resistance_ohm: float = 0.0
 ) -> dict[str, float]: ...
 def motor_thermal_simulation(
     drive: str,
@@ -317,8 +317,8 @@ MOTOR_MAX_PROFILE_SAMPLES: int
 SIM_MAX_SWEEP_POINTS: int
 
 def motor_identify_faults(
-    params: dict[str, float],
     config: dict[str, Any],
+    params: dict[str, float],
     dt_s: float,
     theta_d: _F64,
     omega_d: _F64,

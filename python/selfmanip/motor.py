@@ -50,15 +50,30 @@ def _catalog(catalog_toml: Any) -> str | None:
     return None if catalog_toml is None else text("catalog_toml", catalog_toml)
 
 
+def _limit(current_limit_a: Any) -> float | None:
+    return None if current_limit_a is None else real("current_limit_a", current_limit_a)
+
+
+def _drive(drive: Any, current_limit_a: Any, catalog_toml: Any) -> tuple[str, float | None, str | None]:
+    """Which drive, as the native functions take it: its name, the controller's current
+    limit in place of the catalog's (``None``: the catalog's) and the catalog."""
+    return text("drive", drive), _limit(current_limit_a), _catalog(catalog_toml)
+
+
+def _task(theta0_rad: Any, body_inertia_kg_m2: Any, effectiveness: Any) -> tuple[float, float, float]:
+    """The tail's task as the native functions take it."""
+    return (real("theta0_rad", theta0_rad), real("body_inertia_kg_m2", body_inertia_kg_m2),
+            real("effectiveness", effectiveness))
+
+
 def tail_optimum(theta0_rad: float, power_w: float, body_inertia_kg_m2: float,
                  effectiveness: float) -> dict[str, float]:
     """Eq. (2.1): the output no-load speed (a proxy for the gear ratio: motor no-load speed
     divided by it) that turns the body by ``theta0_rad`` fastest with a tail of effectiveness
     ``effectiveness`` driven at full voltage by a motor of peak power ``power_w``, and the
     completion time. Returns ``{"no_load_speed_rad_s", "completion_time_s"}``."""
-    return dict(_native.motor_tail_optimum(
-        real("theta0_rad", theta0_rad), real("power_w", power_w),
-        real("body_inertia_kg_m2", body_inertia_kg_m2), real("effectiveness", effectiveness)))
+    return dict(_native.motor_tail_optimum(_task(theta0_rad, body_inertia_kg_m2, effectiveness),
+                                           real("power_w", power_w)))
 
 
 def tail_constants() -> dict[str, float]:
@@ -76,8 +91,7 @@ def rank_tail_motors(theta0_rad: float, body_inertia_kg_m2: float, effectiveness
     peak_power_w, gear_ratio, completion_time_s`` (fastest first) and ``invalid``: the
     ``(index, reason)`` of entries that could not be evaluated."""
     return dict(_native.motor_rank_tail_motors(
-        real("theta0_rad", theta0_rad), real("body_inertia_kg_m2", body_inertia_kg_m2),
-        real("effectiveness", effectiveness), real("max_length_m", max_length_m),
+        _task(theta0_rad, body_inertia_kg_m2, effectiveness), real("max_length_m", max_length_m),
         real("max_mass_kg", max_mass_kg), real("max_completion_time_s", max_completion_time_s),
         _catalog(catalog_toml), integer("synthetic_count", synthetic_count, 0),
         integer("seed", seed, 0, 2**64 - 1)))
@@ -94,16 +108,14 @@ def drive_table(catalog_toml: str | None = None, current_limit_a: float | None =
     the Table 2.3 thermal data. ``current_limit_a`` overrides the controller limit (the thesis
     also evaluates 9 A)."""
     return [dict(r) for r in _native.motor_drive_table(
-        _catalog(catalog_toml),
-        None if current_limit_a is None else real("current_limit_a", current_limit_a))]
+        _catalog(catalog_toml), _limit(current_limit_a))]
 
 
 def torque_speed_curve(drive: str, points: int = 50, current_limit_a: float | None = None,
                        catalog_toml: str | None = None) -> dict[str, np.ndarray]:
     """Fig. 2.6: output torque and power against output speed at full command."""
-    return dict(_native.motor_torque_speed_curve(
-        text("drive", drive), integer("points", points, 0),
-        None if current_limit_a is None else real("current_limit_a", current_limit_a), _catalog(catalog_toml)))
+    return dict(_native.motor_torque_speed_curve(_drive(drive, current_limit_a, catalog_toml),
+                                                 integer("points", points, 0)))
 
 
 def operating_point(drive: str, command: float, speed_rad_s: float, *, gearbox_loss: str = "derating",
@@ -117,9 +129,8 @@ def operating_point(drive: str, command: float, speed_rad_s: float, *, gearbox_l
     output torque, the electrical power drawn from the battery's open-circuit voltage, the
     motor's torque and current, and the battery's current and terminal voltage."""
     return dict(_native.motor_operating_point(
-        text("drive", drive), real("command", command), real("speed_rad_s", speed_rad_s),
-        text("gearbox_loss", gearbox_loss), real("battery_resistance_ohm", battery_resistance_ohm),
-        None if current_limit_a is None else real("current_limit_a", current_limit_a), _catalog(catalog_toml)))
+        _drive(drive, current_limit_a, catalog_toml), real("command", command), real("speed_rad_s", speed_rad_s),
+        text("gearbox_loss", gearbox_loss), real("battery_resistance_ohm", battery_resistance_ohm)))
 
 
 def thermal_simulation(drive: str, torque_n_m: npt.ArrayLike, dt_s: float = 1.0, ambient_c: float = 25.0,
@@ -189,5 +200,5 @@ def identify_faults(params: dict, config: dict, dt_s: float, theta_d_rad: npt.Ar
     if not isinstance(config, dict):
         raise InvalidTypeError(f"`config` must be a dict, got {type(config).__name__}", "config")
     return list(_native.motor_identify_faults(
-        _observer_params("params", params), config,
+        config, _observer_params("params", params),
         *_log(dt_s, theta_d_rad, omega_d_rad_s, theta_rad, omega_rad_s)))

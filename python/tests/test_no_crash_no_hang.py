@@ -15,6 +15,7 @@ from selfmanip import cli_sim, leap as leap_mod
 from selfmanip.errors import AllPointsFailedWarning, InvalidInputError, SelfmanipError
 
 DATA = pathlib.Path(__file__).resolve().parents[2] / "crates" / "selfmanip-sim" / "examples" / "data"
+ROBOTS = pathlib.Path(__file__).resolve().parents[2] / "tests" / "data" / "robots"
 HOP, HOPB = DATA / "hopper.toml", DATA / "hop.toml"
 Q0H = [0.5, -1.0, 0.0, -0.451, 0.0]
 
@@ -160,33 +161,19 @@ def test_an_event_tolerance_of_a_second_is_refused():
     assert "event_tol_s" in e.value.field
 
 
-SPRING_LEG = """
-name = "spring_leg"
-gravity_m_s2 = 9.81
-[body]
-mass_kg = 2.0
-inertia_kg_m2 = 0.02
-[[legs]]
-name = "leg"
-hip_m = [0.0, 0.0]
-[[legs.links]]
-length_m = 0.3
-mass_kg = 0.3
-inertia_kg_m2 = 0.002
-spring = { stiffness_n_m_per_rad = 20.0 }
-"""
-
-
-def test_a_limp_sprung_leg_balances_its_energy_and_robot_energy_counts_the_spring(tmp_path):
-    path = tmp_path / "spring_leg.toml"
-    path.write_text(SPRING_LEG)
-    e = selfmanip.simulate(path, None, [0.8, 0.0, -2.0, 0.0], t_final=0.3, rtol=1e-10)
+def test_a_limp_sprung_leg_balances_its_energy_and_robot_energy_counts_the_spring():
+    # the one-link sprung leg of the Rust spring tests, its spring 20 N m/rad; dropped from 2 m,
+    # its foot stays in the air for the 0.3 s
+    description = selfmanip.Robot.from_file(ROBOTS / "sprung_leg.toml").to_dict()
+    description["legs"][0]["links"][0]["spring"] = {"stiffness_n_m_per_rad": 20.0}
+    robot = selfmanip.Robot.from_dict(description)
+    e = selfmanip.simulate(robot, None, [0.8, 0.0, -2.0, 0.0], t_final=0.3, rtol=1e-10)
+    assert all(ev["kind"] != "touchdown" for ev in e.events), e.events
     er = e.energy_report()
     assert abs(er.residual_j) < 1e-6, er
     theta_end = e.q_end[0]
     assert abs(0.5 * 20.0 * (0.8 ** 2 - theta_end ** 2)) > 0.5   # what the old report missed
     # Robot.energy: the spring's ½kθ² on top of gravity's, same state, same robot
-    robot = selfmanip.Robot.from_file(path)
     _, v_bent = robot.energy([0.8, 0.0, -2.0, 0.0], [0.0] * 4)
     _, v_straight = robot.energy([0.0, 0.0, -2.0, 0.0], [0.0] * 4)
     # gravity: the leg's centre of mass (0.15 m along it, 0.3 kg) rises by 0.15 (1 − cos 0.8)

@@ -28,4 +28,4 @@ pub mod thermal;
 pub use catalog::{CaseParameters, Catalog, MotorSpec};
 pub use dc::{Actuator, DcMotor, Drive, DriveLosses, Gearbox, GearboxLoss, SaturatedTorque};
 pub use error::{MotorError, Result};
-pub use thermal::{ThermalModel, ThermalState};
+pub use thermal::{HeatInput, ThermalModel, ThermalState};

@@ -31,9 +31,36 @@ pub const MAX_WINDING_TEMPERATURE_C: f64 = 125.0;
 /// Absolute zero [°C]: no ambient temperature lies below it.
 pub const ABSOLUTE_ZERO_C: f64 = -273.15;
 
-/// The most samples a thermal simulation runs ([`ThermalModel::simulate_power`] and the
-/// others): 10⁷ samples are four months at 1 s, and 240 MB of trace.
+/// The most samples a thermal simulation runs ([`ThermalModel::simulate`]): 10⁷ samples are
+/// four months at 1 s, and 240 MB of trace.
 pub const MAX_PROFILE_SAMPLES: usize = 10_000_000;
+
+/// The heat input of a thermal simulation ([`ThermalModel::simulate`]), one sample per
+/// time step.
+#[derive(Debug, Clone, Copy)]
+pub enum HeatInput<'a> {
+    /// Heat flow into the winding (W).
+    Power(&'a [f64]),
+    /// Winding current (A); its Joule heat uses the winding resistance at the core
+    /// temperature at the start of each sample.
+    Current(&'a [f64]),
+    /// Output torque of `drive` (N m, Fig. 2.8), the winding current `I = τ_out / (k_M G η)`.
+    OutputTorque {
+        drive: &'a Drive,
+        torque_n_m: &'a [f64],
+    },
+}
+
+impl<'a> HeatInput<'a> {
+    /// The profile's field name (for errors) and its samples.
+    fn profile(&self) -> (&'static str, &'a [f64]) {
+        match *self {
+            HeatInput::Power(p) => ("power_w", p),
+            HeatInput::Current(i) => ("current_a", i),
+            HeatInput::OutputTorque { torque_n_m, .. } => ("torque_n_m", torque_n_m),
+        }
+    }
+}
 
 /// Core (winding) and case (housing) temperatures.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -326,65 +353,39 @@ impl ThermalModel {
         trace
     }
 
-    /// Temperatures for a heat-input profile `power_w[k]` held over `[k dt, (k+1) dt)`.
-    pub fn simulate_power(
-        &self,
-        initial: ThermalState,
-        ambient_c: f64,
-        dt_s: f64,
-        power_w: &[f64],
-    ) -> Result<ThermalTrace> {
-        Self::check_profile("power_w", power_w, dt_s, ambient_c)?;
-        let trace = self.run(initial, ambient_c, dt_s, power_w.len(), |k, _| power_w[k]);
-        Self::finite_trace("power_w", trace)
+    /// The Joule heat `I² R_c(T₁)` of the winding current `current_a` at the core
+    /// temperature `core_c`.
+    fn joule_heat_w(&self, current_a: f64, core_c: f64) -> f64 {
+        current_a * current_a * self.winding_resistance_at(core_c)
     }
 
-    /// Temperatures for a winding-current profile; the Joule heat uses the winding
-    /// resistance at the core temperature at the start of each sample.
-    pub fn simulate_current(
+    /// Temperatures from `initial` for a heat-input profile (sample `k` held over
+    /// `[k dt, (k+1) dt)`): a heat flow, a winding current or an output torque, see
+    /// [`HeatInput`]. The profile must be non-empty, finite and at most
+    /// [`MAX_PROFILE_SAMPLES`] long; a heat input that overflows the temperatures is
+    /// [`MotorError::Overflow`] naming the profile.
+    pub fn simulate(
         &self,
         initial: ThermalState,
         ambient_c: f64,
         dt_s: f64,
-        current_a: &[f64],
+        input: HeatInput<'_>,
     ) -> Result<ThermalTrace> {
-        Self::check_profile("current_a", current_a, dt_s, ambient_c)?;
-        Self::finite_trace(
-            "current_a",
-            self.run_current(initial, ambient_c, dt_s, current_a),
-        )
-    }
-
-    /// [`Self::simulate_current`] on checked inputs.
-    fn run_current(
-        &self,
-        initial: ThermalState,
-        ambient_c: f64,
-        dt_s: f64,
-        current_a: &[f64],
-    ) -> ThermalTrace {
-        self.run(initial, ambient_c, dt_s, current_a.len(), |k, core_c| {
-            current_a[k] * current_a[k] * self.winding_resistance_at(core_c)
-        })
-    }
-
-    /// Temperatures for an output-torque profile of `drive` (Fig. 2.8):
-    /// `I = τ_out / (k_M G η)`.
-    pub fn simulate_output_torque(
-        &self,
-        drive: &Drive,
-        initial: ThermalState,
-        ambient_c: f64,
-        dt_s: f64,
-        torque_n_m: &[f64],
-    ) -> Result<ThermalTrace> {
-        Self::check_profile("torque_n_m", torque_n_m, dt_s, ambient_c)?;
-        let current: Vec<f64> = torque_n_m
-            .iter()
-            .map(|&t| drive.current_for_output_torque_a(t))
-            .collect();
-        let trace = self.run_current(initial, ambient_c, dt_s, &current);
-        Self::finite_trace("torque_n_m", trace)
+        let (field, samples) = input.profile();
+        Self::check_profile(field, samples, dt_s, ambient_c)?;
+        let n = samples.len();
+        let trace = match input {
+            HeatInput::Power(power_w) => self.run(initial, ambient_c, dt_s, n, |k, _| power_w[k]),
+            HeatInput::Current(current_a) => self.run(initial, ambient_c, dt_s, n, |k, core_c| {
+                self.joule_heat_w(current_a[k], core_c)
+            }),
+            HeatInput::OutputTorque { drive, torque_n_m } => {
+                self.run(initial, ambient_c, dt_s, n, |k, core_c| {
+                    self.joule_heat_w(drive.current_for_output_torque_a(torque_n_m[k]), core_c)
+                })
+            }
+        };
+        Self::finite_trace(field, trace)
     }
 
     /// Fits the case parameters `(R₂, τ₂)` to a logged case temperature by least squares
@@ -429,7 +430,9 @@ impl ThermalModel {
             case_c: measured_case_c[0],
         };
         let rms = |model: &Self| -> f64 {
-            let trace = model.run_current(initial, ambient_c, dt_s, current_a);
+            let trace = model.run(initial, ambient_c, dt_s, current_a.len(), |k, core_c| {
+                model.joule_heat_w(current_a[k], core_c)
+            });
             let sum: f64 = trace
                 .case_c
                 .iter()

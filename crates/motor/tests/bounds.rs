@@ -5,7 +5,7 @@ use motor::catalog::{synthetic_motors, CaseParameters, Catalog, MAX_SYNTHETIC_MO
 use motor::dc::MAX_CURVE_POINTS;
 use motor::observer::{observe, LegLog, LegObserver, ObserverParams, MAX_DELAY_SAMPLES};
 use motor::tail::{rank_tail_motors, tail_optimum, SelectionConstraints, TailTask};
-use motor::thermal::{ThermalState, MAX_PROFILE_SAMPLES};
+use motor::thermal::{HeatInput, ThermalState, MAX_PROFILE_SAMPLES};
 use motor::MotorError;
 
 mod common;
@@ -109,12 +109,14 @@ fn thermal_simulation_of_an_overflowing_torque_is_an_error_naming_torque_n_m() {
         .drive_thermal("x-rhex-28", CaseParameters::Measured)
         .unwrap();
     let run = |torque: &[f64], ambient_c: f64| {
-        thermal.simulate_output_torque(
-            &drive,
+        thermal.simulate(
             ThermalState::ambient(ambient_c),
             ambient_c,
             1.0,
-            torque,
+            HeatInput::OutputTorque {
+                drive: &drive,
+                torque_n_m: torque,
+            },
         )
     };
     let e = run(&[1e308; 10], 25.0).unwrap_err();

@@ -3,7 +3,10 @@
 //! 125 °C continuous current, and the least-squares case fit of Fig. 2.9.
 use motor::catalog::CaseParameters;
 use motor::numeric::rk4_step;
-use motor::thermal::{ThermalModel, ThermalState, COPPER_ALPHA_PER_K, MAX_WINDING_TEMPERATURE_C};
+use motor::thermal::{
+    HeatInput, ThermalModel, ThermalState, ThermalTrace, COPPER_ALPHA_PER_K,
+    MAX_WINDING_TEMPERATURE_C,
+};
 use motor::{Catalog, MotorError};
 use rand::{Rng, SeedableRng};
 
@@ -14,6 +17,17 @@ fn model() -> ThermalModel {
 
 /// Classical RK4 on the circuit ODE with the heat input held per sample: an independent
 /// route to the exact exponential step ([`ThermalModel`] does not integrate numerically).
+/// `m`'s temperatures from rest at the ambient temperature `ambient_c` under `input`, one
+/// sample every `dt_s`.
+fn from_ambient(
+    m: &ThermalModel,
+    ambient_c: f64,
+    dt_s: f64,
+    input: HeatInput<'_>,
+) -> motor::Result<ThermalTrace> {
+    m.simulate(ThermalState::ambient(ambient_c), ambient_c, dt_s, input)
+}
+
 fn rk4_reference(
     m: &ThermalModel,
     ambient: f64,
@@ -52,9 +66,7 @@ fn exact_step_matches_rk4_and_converges_to_the_closed_form_steady_state() {
             }
         })
         .collect();
-    let trace = m
-        .simulate_power(ThermalState::ambient(25.0), 25.0, 1.0, &power)
-        .unwrap();
+    let trace = from_ambient(&m, 25.0, 1.0, HeatInput::Power(&power)).unwrap();
     let reference = rk4_reference(&m, 25.0, 1.0, &power, 50);
     for (k, (c1, c2)) in reference.iter().enumerate() {
         assert!(
@@ -63,9 +75,7 @@ fn exact_step_matches_rk4_and_converges_to_the_closed_form_steady_state() {
         );
     }
     // steady state x1 = P (R1 + R2), x2 = P R2
-    let long = m
-        .simulate_power(ThermalState::ambient(20.0), 20.0, 5.0, &vec![7.0; 2000])
-        .unwrap();
+    let long = from_ambient(&m, 20.0, 5.0, HeatInput::Power(&vec![7.0; 2000])).unwrap();
     let steady = m.steady_state(7.0, 20.0);
     assert!((long.core_c.last().unwrap() - (20.0 + 7.0 * 8.0)).abs() < 1e-9);
     assert!((long.case_c.last().unwrap() - (20.0 + 7.0 * 6.0)).abs() < 1e-9);
@@ -81,9 +91,7 @@ fn heat_in_equals_heat_stored_plus_heat_lost() {
     let power: Vec<f64> = (0..60_000)
         .map(|k| if k < 30_000 { 12.0 } else { 0.0 })
         .collect();
-    let trace = m
-        .simulate_power(ThermalState::ambient(0.0), 0.0, dt, &power)
-        .unwrap();
+    let trace = from_ambient(&m, 0.0, dt, HeatInput::Power(&power)).unwrap();
     let heat_in: f64 = power.iter().sum::<f64>() * dt;
     let lost: f64 = trace
         .case_c
@@ -127,12 +135,12 @@ fn table_2_3_heat_coefficients_scale_as_one_over_g_squared_and_give_the_60_perce
     let profile: Vec<f64> = (0..3600)
         .map(|k| if k % 600 < 400 { 1.5 } else { 0.3 })
         .collect();
-    let a = t18
-        .simulate_output_torque(&x18, ThermalState::ambient(25.0), 25.0, 1.0, &profile)
-        .unwrap();
-    let b = t18
-        .simulate_output_torque(&x28, ThermalState::ambient(25.0), 25.0, 1.0, &profile)
-        .unwrap();
+    let torque = |drive| HeatInput::OutputTorque {
+        drive,
+        torque_n_m: &profile,
+    };
+    let a = from_ambient(&t18, 25.0, 1.0, torque(&x18)).unwrap();
+    let b = from_ambient(&t18, 25.0, 1.0, torque(&x28)).unwrap();
     for k in 1..a.core_c.len() {
         let ratio = (b.core_c[k] - 25.0) / (a.core_c[k] - 25.0);
         assert!((ratio - s).abs() < 1e-9, "sample {k}: {ratio}");
@@ -155,14 +163,7 @@ fn continuous_current_reaches_exactly_the_winding_limit_with_hot_resistance() {
     let expected = (100.0 / (1.2 * (1.0 + COPPER_ALPHA_PER_K * 100.0) * 8.0)).sqrt();
     assert!((current - expected).abs() < 1e-12);
     // simulation with the temperature-dependent resistance settles at 125 °C
-    let trace = m
-        .simulate_current(
-            ThermalState::ambient(25.0),
-            25.0,
-            0.5,
-            &vec![current; 20_000],
-        )
-        .unwrap();
+    let trace = from_ambient(&m, 25.0, 0.5, HeatInput::Current(&vec![current; 20_000])).unwrap();
     assert!(
         (trace.core_c.last().unwrap() - 125.0).abs() < 1e-6,
         "{}",
@@ -200,9 +201,7 @@ fn case_fit_recovers_the_parameters_of_a_heating_and_cooling_log() {
             _ => 0.0,
         })
         .collect();
-    let clean = truth
-        .simulate_current(ThermalState::ambient(22.0), 22.0, 1.0, &current)
-        .unwrap();
+    let clean = from_ambient(&truth, 22.0, 1.0, HeatInput::Current(&current)).unwrap();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);
     let noisy: Vec<f64> = clean
         .case_c
@@ -243,7 +242,7 @@ fn bad_thermal_inputs_are_typed_errors() {
     ));
     let m = model();
     assert!(matches!(
-        m.simulate_power(ThermalState::ambient(25.0), 25.0, 1.0, &[1.0, f64::NAN]),
+        from_ambient(&m, 25.0, 1.0, HeatInput::Power(&[1.0, f64::NAN])),
         Err(MotorError::NonFiniteSample {
             field: "power_w",
             index: 1,

@@ -6,7 +6,7 @@ use crate::errors::{self, guard, invalid};
 use motor::catalog::{synthetic_motors, CaseParameters, Catalog};
 use motor::observer::{self, FaultFsmConfig, LegLog, ObserverParams};
 use motor::tail::{self, SelectionConstraints, TailTask};
-use motor::{Actuator, Drive, DriveLosses, GearboxLoss, ThermalState};
+use motor::{Actuator, Drive, DriveLosses, GearboxLoss, HeatInput, ThermalModel, ThermalState};
 use numpy::{IntoPyArray, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -44,6 +44,33 @@ fn case_parameters(case: &str) -> PyResult<CaseParameters> {
     }
 }
 
+/// A drive of the catalog and its thermal model with `case`'s parameters.
+fn thermal_drive(
+    catalog_toml: Option<&str>,
+    drive: &str,
+    case: &str,
+) -> PyResult<(Drive, ThermalModel)> {
+    let cat = catalog(catalog_toml)?;
+    let d = cat.drive(drive).map_err(errors::motor)?;
+    let thermal = cat
+        .drive_thermal(drive, case_parameters(case)?)
+        .map_err(errors::motor)?;
+    Ok((d, thermal))
+}
+
+/// Which drive, as `selfmanip.motor` passes it: the catalog's name for it, a controller
+/// current limit in place of the catalog's (`None`: the catalog's), and the catalog in TOML
+/// (`None`: the thesis's).
+#[derive(FromPyObject)]
+struct DriveChoice(String, Option<f64>, Option<String>);
+
+impl DriveChoice {
+    fn drive(&self) -> PyResult<Drive> {
+        let DriveChoice(name, current_limit_a, catalog_toml) = self;
+        drive_with_limit(&catalog(catalog_toml.as_deref())?, name, *current_limit_a)
+    }
+}
+
 fn drive_with_limit(cat: &Catalog, drive: &str, current_limit_a: Option<f64>) -> PyResult<Drive> {
     let d = cat.drive(drive).map_err(errors::motor)?;
     match current_limit_a {
@@ -56,18 +83,23 @@ fn drive_with_limit(cat: &Catalog, drive: &str, current_limit_a: Option<f64>) ->
     }
 }
 
+/// The tail's task as `selfmanip.motor` passes it: `(theta0_rad, body_inertia_kg_m2,
+/// effectiveness)`.
+#[derive(FromPyObject)]
+struct TailTaskArgs(f64, f64, f64);
+
+impl TailTaskArgs {
+    fn task(&self) -> PyResult<TailTask> {
+        let TailTaskArgs(theta0_rad, body_inertia_kg_m2, effectiveness) = *self;
+        TailTask::new(theta0_rad, body_inertia_kg_m2, effectiveness).map_err(errors::motor)
+    }
+}
+
+/// `motor_tail_optimum((theta0_rad, body_inertia_kg_m2, effectiveness), power_w)`.
 #[pyfunction]
-fn motor_tail_optimum<'py>(
-    py: Python<'py>,
-    theta0_rad: f64,
-    power_w: f64,
-    body_inertia_kg_m2: f64,
-    effectiveness: f64,
-) -> DictOut<'py> {
+fn motor_tail_optimum(py: Python<'_>, task: TailTaskArgs, power_w: f64) -> DictOut<'_> {
     guard(|| {
-        let task =
-            TailTask::new(theta0_rad, body_inertia_kg_m2, effectiveness).map_err(errors::motor)?;
-        let opt = tail::tail_optimum(&task, power_w).map_err(errors::motor)?;
+        let opt = tail::tail_optimum(&task.task()?, power_w).map_err(errors::motor)?;
         let d = PyDict::new(py);
         d.set_item("no_load_speed_rad_s", opt.no_load_speed_rad_s)?;
         d.set_item("completion_time_s", opt.completion_time_s)?;
@@ -85,14 +117,14 @@ fn motor_tail_constants<'py>(py: Python<'py>) -> DictOut<'py> {
     Ok(d)
 }
 
+/// `motor_rank_tail_motors((theta0_rad, body_inertia_kg_m2, effectiveness), max_length_m,
+/// max_mass_kg, max_completion_time_s, catalog_toml=None, synthetic_count=1546, seed=7)`.
 #[pyfunction]
-#[pyo3(signature = (theta0_rad, body_inertia_kg_m2, effectiveness, max_length_m, max_mass_kg, max_completion_time_s, catalog_toml=None, synthetic_count=1546, seed=7))]
+#[pyo3(signature = (task, max_length_m, max_mass_kg, max_completion_time_s, catalog_toml=None, synthetic_count=1546, seed=7))]
 #[allow(clippy::too_many_arguments)]
 fn motor_rank_tail_motors<'py>(
     py: Python<'py>,
-    theta0_rad: f64,
-    body_inertia_kg_m2: f64,
-    effectiveness: f64,
+    task: TailTaskArgs,
     max_length_m: f64,
     max_mass_kg: f64,
     max_completion_time_s: f64,
@@ -101,8 +133,7 @@ fn motor_rank_tail_motors<'py>(
     seed: u64,
 ) -> DictOut<'py> {
     guard(|| {
-        let task =
-            TailTask::new(theta0_rad, body_inertia_kg_m2, effectiveness).map_err(errors::motor)?;
+        let task = task.task()?;
         let motors = match catalog_toml {
             Some(text) => Catalog::from_toml_str(text).map_err(errors::motor)?.motor,
             None => synthetic_motors(synthetic_count, seed).map_err(errors::motor)?,
@@ -190,19 +221,15 @@ fn motor_drive_table<'py>(
     })
 }
 
+/// `motor_torque_speed_curve((drive, current_limit_a, catalog_toml), points=50)`.
 #[pyfunction]
-#[pyo3(signature = (drive, points=50, current_limit_a=None, catalog_toml=None))]
-fn motor_torque_speed_curve<'py>(
-    py: Python<'py>,
-    drive: &str,
-    points: usize,
-    current_limit_a: Option<f64>,
-    catalog_toml: Option<&str>,
-) -> DictOut<'py> {
+#[pyo3(signature = (drive, points=50))]
+fn motor_torque_speed_curve(py: Python<'_>, drive: DriveChoice, points: usize) -> DictOut<'_> {
     guard(|| {
-        let cat = catalog(catalog_toml)?;
-        let d = drive_with_limit(&cat, drive, current_limit_a)?;
-        let curve = d.torque_speed_curve(points).map_err(errors::motor)?;
+        let curve = drive
+            .drive()?
+            .torque_speed_curve(points)
+            .map_err(errors::motor)?;
         let out = PyDict::new(py);
         out.set_item("speed_rad_s", column(py, &curve, |p| p.speed_rad_s))?;
         out.set_item("torque_n_m", column(py, &curve, |p| p.torque_n_m))?;
@@ -223,30 +250,25 @@ fn parse_gearbox_loss(name: &str) -> PyResult<GearboxLoss> {
 }
 
 /// One operating point of a drive with its optional losses: output torque, electrical
-/// power, the motor's torque and current, and the battery's current and terminal voltage.
+/// power, the motor's torque and current, and the battery's current and terminal voltage:
+/// `motor_operating_point((drive, current_limit_a, catalog_toml), command, speed_rad_s,
+/// gearbox_loss="derating", battery_resistance_ohm=0.0)`.
 #[pyfunction]
-#[pyo3(signature = (drive, command, speed_rad_s, gearbox_loss="derating", battery_resistance_ohm=0.0,
-                    current_limit_a=None, catalog_toml=None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (drive, command, speed_rad_s, gearbox_loss="derating", battery_resistance_ohm=0.0))]
 fn motor_operating_point<'py>(
     py: Python<'py>,
-    drive: &str,
+    drive: DriveChoice,
     command: f64,
     speed_rad_s: f64,
     gearbox_loss: &str,
     battery_resistance_ohm: f64,
-    current_limit_a: Option<f64>,
-    catalog_toml: Option<&str>,
 ) -> DictOut<'py> {
     guard(|| {
-        let cat = catalog(catalog_toml)?;
         let losses = DriveLosses {
             gearbox_loss: parse_gearbox_loss(gearbox_loss)?,
             battery_resistance_ohm,
         };
-        let d = drive_with_limit(&cat, drive, current_limit_a)?
-            .with_losses(losses)
-            .map_err(errors::motor)?;
+        let d = drive.drive()?.with_losses(losses).map_err(errors::motor)?;
         let speed_m = speed_rad_s * d.gearbox.ratio;
         let tau_m = d
             .motor
@@ -287,20 +309,18 @@ fn motor_thermal_simulation<'py>(
     catalog_toml: Option<&str>,
 ) -> DictOut<'py> {
     guard(|| {
-        let cat = catalog(catalog_toml)?;
-        let d = cat.drive(drive).map_err(errors::motor)?;
-        let thermal = cat
-            .drive_thermal(drive, case_parameters(case)?)
-            .map_err(errors::motor)?;
+        let (d, thermal) = thermal_drive(catalog_toml, drive, case)?;
         let torque = torque_n_m.as_slice()?.to_vec();
         let trace = py
             .detach(|| {
-                thermal.simulate_output_torque(
-                    &d,
+                thermal.simulate(
                     ThermalState::ambient(ambient_c),
                     ambient_c,
                     dt_s,
-                    &torque,
+                    HeatInput::OutputTorque {
+                        drive: &d,
+                        torque_n_m: &torque,
+                    },
                 )
             })
             .map_err(errors::motor)?;
@@ -331,11 +351,7 @@ fn motor_continuous_output_torque(
     catalog_toml: Option<&str>,
 ) -> PyResult<f64> {
     guard(|| {
-        let cat = catalog(catalog_toml)?;
-        let d = cat.drive(drive).map_err(errors::motor)?;
-        let thermal = cat
-            .drive_thermal(drive, case_parameters(case)?)
-            .map_err(errors::motor)?;
+        let (d, thermal) = thermal_drive(catalog_toml, drive, case)?;
         thermal
             .continuous_output_torque_n_m(&d, max_winding_c, ambient_c)
             .map_err(errors::motor)
@@ -354,10 +370,12 @@ fn observer_params(params: &Bound<'_, PyDict>) -> PyResult<ObserverParams> {
     Ok(p)
 }
 
-/// A leg's log as the observer functions take it, after their dicts: `dt_s` and the arrays
-/// `theta_d`, `omega_d`, `theta`, `omega` (rad, rad/s), passed positionally.
+/// What the observer functions take after their own dicts: the observer's parameters and a
+/// leg's log, `(params, dt_s, theta_d, omega_d, theta, omega)` (rad, rad/s), passed
+/// positionally.
 #[derive(FromPyObject)]
-struct LegLogArgs<'py>(
+struct ObserverCall<'py>(
+    Bound<'py, PyDict>,
     f64,
     PyReadonlyArray1<'py, f64>,
     PyReadonlyArray1<'py, f64>,
@@ -365,9 +383,9 @@ struct LegLogArgs<'py>(
     PyReadonlyArray1<'py, f64>,
 );
 
-impl LegLogArgs<'_> {
+impl ObserverCall<'_> {
     fn to_log(&self) -> PyResult<LegLog> {
-        let LegLogArgs(dt_s, theta_d, omega_d, theta, omega) = self;
+        let ObserverCall(_, dt_s, theta_d, omega_d, theta, omega) = self;
         Ok(LegLog {
             dt_s: *dt_s,
             theta_d_rad: theta_d.as_slice()?.to_vec(),
@@ -376,31 +394,25 @@ impl LegLogArgs<'_> {
             omega_rad_s: omega.as_slice()?.to_vec(),
         })
     }
-}
 
-/// What the observer functions share: the log out of its Python form, then `run` on the
-/// parameters and the log with the interpreter released.
-fn run_observer<T: Send>(
-    py: Python<'_>,
-    params: &ObserverParams,
-    log: &LegLogArgs<'_>,
-    run: impl FnOnce(&ObserverParams, &LegLog) -> motor::Result<T> + Send,
-) -> PyResult<T> {
-    let log = log.to_log()?;
-    py.detach(|| run(params, &log)).map_err(errors::motor)
+    /// `run` on the checked parameters and the log, with the interpreter released.
+    fn run<T: Send>(
+        &self,
+        py: Python<'_>,
+        run: impl FnOnce(&ObserverParams, &LegLog) -> motor::Result<T> + Send,
+    ) -> PyResult<T> {
+        let params = observer_params(&self.0)?;
+        let log = self.to_log()?;
+        py.detach(|| run(&params, &log)).map_err(errors::motor)
+    }
 }
 
 /// `motor_observe(params, dt_s, theta_d, omega_d, theta, omega)`.
 #[pyfunction]
-#[pyo3(signature = (params, *log))]
-fn motor_observe<'py>(
-    py: Python<'py>,
-    params: &Bound<'py, PyDict>,
-    log: LegLogArgs<'py>,
-) -> DictOut<'py> {
+#[pyo3(signature = (*call))]
+fn motor_observe<'py>(py: Python<'py>, call: ObserverCall<'py>) -> DictOut<'py> {
     guard(|| {
-        let params = observer_params(params)?;
-        let samples = run_observer(py, &params, &log, observer::observe)?;
+        let samples = call.run(py, observer::observe)?;
         let out = PyDict::new(py);
         out.set_item("theta_hat_rad", column(py, &samples, |s| s.theta_hat_rad))?;
         out.set_item(
@@ -415,36 +427,25 @@ fn motor_observe<'py>(
 
 /// `motor_calibrate_observer(initial_params, dt_s, theta_d, omega_d, theta, omega)`.
 #[pyfunction]
-#[pyo3(signature = (initial_params, *log))]
-fn motor_calibrate_observer<'py>(
-    py: Python<'py>,
-    initial_params: &Bound<'py, PyDict>,
-    log: LegLogArgs<'py>,
-) -> AnyOut<'py> {
+#[pyo3(signature = (*call))]
+fn motor_calibrate_observer<'py>(py: Python<'py>, call: ObserverCall<'py>) -> AnyOut<'py> {
     guard(|| {
-        let initial = observer_params(initial_params)?;
-        let calibration = run_observer(py, &initial, &log, |initial, log| {
-            observer::calibrate(log, initial)
-        })?;
+        let calibration = call.run(py, |initial, log| observer::calibrate(log, initial))?;
         to_py(py, &calibration)
     })
 }
 
-/// `motor_identify_faults(params, config, dt_s, theta_d, omega_d, theta, omega)`.
+/// `motor_identify_faults(config, params, dt_s, theta_d, omega_d, theta, omega)`.
 #[pyfunction]
-#[pyo3(signature = (params, config, *log))]
+#[pyo3(signature = (config, *call))]
 fn motor_identify_faults<'py>(
     py: Python<'py>,
-    params: &Bound<'py, PyDict>,
     config: &Bound<'py, PyDict>,
-    log: LegLogArgs<'py>,
+    call: ObserverCall<'py>,
 ) -> AnyOut<'py> {
     guard(|| {
-        let params = observer_params(params)?;
         let config: FaultFsmConfig = from_dict(config, "config")?;
-        let changes = run_observer(py, &params, &log, |params, log| {
-            observer::identify(params, &config, log)
-        })?;
+        let changes = call.run(py, |params, log| observer::identify(params, &config, log))?;
         to_py(py, &changes)
     })
 }

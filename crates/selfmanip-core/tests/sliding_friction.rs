@@ -12,7 +12,8 @@
 //! robot, pushing normals negative.
 mod common;
 
-use common::{coulomb_body, one_leg_body, slide_on_flat, sliding, G};
+use common::{coulomb_body, one_leg_body, slide_on_flat, sliding, test_robot, G};
+use selfmanip_core::description::{FrictionDescription, SpringDescription};
 use selfmanip_core::friction::SlideDirection;
 use selfmanip_core::{
     forward_dynamics, CoreError, Data, FlatGround, GroundPlane, Model, RowDirection,
@@ -251,23 +252,20 @@ fn massive_leg_toe_tends_to_the_massless_statics_as_the_leg_mass_vanishes() {
 /// typed singular-KKT error (Lemma 5.1), with or without friction, never a number.
 #[test]
 fn two_joint_massless_leg_sliding_is_a_typed_singularity() {
-    let text = r#"
-[[legs.links]]
-length_m = 0.1
-mass_kg = 0.0
-inertia_kg_m2 = 0.0
-[[legs.links]]
-length_m = 0.1
-mass_kg = 0.0
-inertia_kg_m2 = 0.0
-spring = { stiffness_n_m_per_rad = 5.0 }
-[[contacts]]
-name = "toe"
-leg = "leg"
-shape = { kind = "point", position_m = [0.0, 0.1] }
-friction = { kind = "sticking", mu = 0.5, mu_kinetic = 0.5 }
-"#;
-    let model = one_leg_body("two-joint leg", 0.0, text);
+    // the shared massless two-link leg, its knee sprung, its foot sticking with mu = 0.5 and
+    // sliding with mu_k = 0.5
+    let mut robot = test_robot("massless_two_link_leg.toml");
+    robot.legs[0].links[1].spring = Some(SpringDescription {
+        stiffness_n_m_per_rad: 5.0,
+        cubic_stiffness_n_m_per_rad3: 0.0,
+        damping_n_m_s_per_rad: 0.0,
+        rest_angle_rad: 0.0,
+    });
+    robot.contacts[0].friction = FrictionDescription::Sticking {
+        mu: Some(0.5),
+        mu_kinetic: Some(0.5),
+    };
+    let model = robot.build().unwrap();
     let mut data = Data::new(&model);
     let mut q = vec![0.3, 0.4, 0.0, 0.0, 0.0];
     let p =

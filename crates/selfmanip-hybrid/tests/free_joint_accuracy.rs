@@ -15,8 +15,11 @@
 //! Putting the free joints in the step-size control instead costs 1.8 times the steps of a
 //! default leap; with a weight 10³–10⁶ times looser the embedded error estimate does not see
 //! the kink (errors of 0.03–0.9 ms at rtol 1e-6).
+#[path = "../../selfmanip-core/tests/common/bisect.rs"]
+mod bisect;
 mod systems;
 
+use bisect::bisect;
 use selfmanip_core::contact::contact_geometry;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{ContactMode, FlatGround, Model};
@@ -95,16 +98,7 @@ fn closed_form_touchdown(model: &Model) -> f64 {
         t += 1e-5;
         assert!(t < 0.2, "the swing never reaches the ground");
     }
-    let (mut lo, mut hi) = (t, t + 1e-5);
-    while hi - lo > 1e-13 {
-        let mid = 0.5 * (lo + hi);
-        if gap(mid) > 0.0 {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    hi
+    bisect(t, t + 1e-5, 1e-13, gap).1
 }
 
 fn touchdown(model: &Model, rtol: f64) -> f64 {

@@ -3,6 +3,10 @@
 //! two exponentials (closed form below). Its fast eigenvalue `≈ −c/I` holds an explicit
 //! method's step near `3.3 I / c`; the switch hands the stretch to RODAS4, whose steps are
 //! set by accuracy on the slow mode `≈ −k/c`.
+#[path = "../../selfmanip-core/tests/common/bisect.rs"]
+mod bisect;
+
+use bisect::bisect;
 use selfmanip_hybrid::integrate::{
     reset_work_counters, work_counters, DenseOutput, DenseStep, Dopri5, StepOptions,
 };
@@ -94,20 +98,12 @@ fn stiff_damped_link_in_few_steps() {
 fn event_on_a_stiff_stretch_at_its_closed_form_time() {
     let (out, _, _, _) = integrate(true);
     let level = X0 / 10.0;
-    let bisect = |g: &dyn Fn(f64) -> f64| {
-        let (mut lo, mut hi) = (0.0, T_END);
-        for _ in 0..200 {
-            let mid = 0.5 * (lo + hi);
-            if g(mid) > 0.0 {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
+    let crossing = |g: &dyn Fn(f64) -> f64| {
+        let (lo, hi) = bisect(0.0, T_END, 0.0, g);
         0.5 * (lo + hi)
     };
-    let t_exact = bisect(&|t| exact(t)[0] - level);
-    let t_dense = bisect(&|t| {
+    let t_exact = crossing(&|t| exact(t)[0] - level);
+    let t_dense = crossing(&|t| {
         let mut y = [0.0; 2];
         out.eval(t, &mut y);
         y[0] - level

@@ -18,6 +18,10 @@
 //!   foot is preceded by a reported event that let it go (a touchdown needs the foot in the
 //!   air), so no touchdown keeps the mode — the cycle that ran into the budget;
 //! - the energy balance `E1 − E0 = W + W_fr − L` to 1e-6 J, and a second run bit-identical.
+#[path = "../../selfmanip-core/tests/common/bisect.rs"]
+mod bisect;
+
+use bisect::bisect;
 use selfmanip_core::contact::{ContactKind, RowDirection};
 use selfmanip_core::{ContactMode, Data};
 use selfmanip_hybrid::flow::Flow;
@@ -158,17 +162,10 @@ fn wedged_shin_is_held_by_force_and_let_go_at_its_guard() {
         };
         // bisection from the last step's start (held) to the segment's end (let go)
         let last = prev.dense.step(prev.dense.len() - 1);
-        let (mut lo, mut hi) = (last.t0, prev.t1);
+        let (lo, hi) = (last.t0, prev.t1);
         assert!(g(lo) > 0.0, "held at the step's start: {}", g(lo));
         assert!(g(hi) <= 1e-9, "let go at the end: {}", g(hi));
-        while hi - lo > 1e-12 {
-            let mid = 0.5 * (lo + hi);
-            if g(mid) > 0.0 {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
+        let (_, hi) = bisect(lo, hi, 1e-12, &mut g);
         assert!(
             (hi - prev.t1).abs() < 1e-9,
             "the guard's time {} vs bisection {hi}",
