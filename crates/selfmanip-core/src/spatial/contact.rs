@@ -373,8 +373,9 @@ pub(crate) fn contact_rows(
         let x = frame_origin(model, data, contact.frame) + r;
         let dirs = contact.directions();
         let n = contact.n_rows();
+        let a = data.A.as_mut_slice();
         point_rows(model, &data.oS, joint, &x, &dirs[..n], |k, col, value| {
-            data.A[(row + k, col)] = value
+            a[col * c + row + k] = value
         });
         for (k, d) in dirs[..n].iter().enumerate() {
             data.A_drift[row + k] = d.dot(&drift);
@@ -693,10 +694,16 @@ fn solve_dynamics(
         return Ok(());
     }
     factor(data)?;
-    for (f, (t, h)) in data.rhs_f.iter_mut().zip(tau.iter().zip(data.h.iter())) {
+    let (f, h) = (data.rhs_f.as_mut_slice(), data.h.as_slice());
+    for (f, (t, h)) in f.iter_mut().zip(tau.iter().zip(h)) {
         *f = t - h;
     }
-    for (g, d) in data.rhs_g.iter_mut().zip(data.A_drift.iter()) {
+    for (g, d) in data
+        .rhs_g
+        .as_mut_slice()
+        .iter_mut()
+        .zip(data.A_drift.as_slice())
+    {
         *g = -d;
     }
     solve(data)?;
