@@ -530,31 +530,17 @@ pub(super) fn factor(data: &mut SpatialData) -> SpatialResult<()> {
 /// `A` redundant; a right-hand side `g` outside `A`'s range (redundant rows that contradict
 /// each other) is the typed redundant-constraints error.
 pub(super) fn solve(data: &mut SpatialData) -> SpatialResult<()> {
-    if data.limbs_eliminated {
-        data.limb_kkt.solve(
-            data.rhs_f.as_slice(),
-            data.rhs_g.as_slice(),
-            data.qdd.as_mut_slice(),
-            data.lam.as_mut_slice(),
-        );
-        return Ok(());
-    }
-    if data.kkt_route == KktRoute::RangeSpace {
-        data.tree_kkt.solve(
-            data.rhs_f.as_slice(),
-            data.rhs_g.as_slice(),
-            data.qdd.as_mut_slice(),
-            data.lam.as_mut_slice(),
-        );
-        return Ok(());
-    }
     let Some(basis) = &data.row_basis else {
-        data.kkt.solve(
-            data.rhs_f.as_slice(),
-            data.rhs_g.as_slice(),
-            data.qdd.as_mut_slice(),
-            data.lam.as_mut_slice(),
-        );
+        // independent rows: the route [`factor`] took solves in place
+        let (f, g) = (data.rhs_f.as_slice(), data.rhs_g.as_slice());
+        let (x, y) = (data.qdd.as_mut_slice(), data.lam.as_mut_slice());
+        if data.limbs_eliminated {
+            data.limb_kkt.solve(f, g, x, y);
+        } else if data.kkt_route == KktRoute::RangeSpace {
+            data.tree_kkt.solve(f, g, x, y);
+        } else {
+            data.kkt.solve(f, g, x, y);
+        }
         return Ok(());
     };
     let g = basis.transpose() * &data.rhs_g;
