@@ -141,6 +141,13 @@ mod tests {
         Inertia::new(2.5, Vector3::new(0.1, -0.2, 0.05), i)
     }
 
+    /// [`body`], a placement and a motion, shared by the transform tests.
+    fn moved_body() -> (Inertia, SE3, Motion) {
+        let g = SE3::from_xyz_rpy([0.5, 0.1, -0.3], [1.0, -0.4, 0.2]);
+        let v = Motion::new(Vector3::new(0.3, -1.1, 0.8), Vector3::new(0.9, 0.4, -0.7));
+        (body(), g, v)
+    }
+
     /// The kinetic energy `½ vᵀ I v` equals `½ m |v_c|² + ½ ωᵀ I_c ω` with `v_c` the velocity of
     /// the centre of mass (König's theorem), and the matrix form equals `apply`.
     #[test]
@@ -158,11 +165,7 @@ mod tests {
     /// a second formulation), sums as the joined bodies, and a massless body stays zero.
     #[test]
     fn origin_form_matches_the_matrix() {
-        let (y, g) = (
-            body(),
-            SE3::from_xyz_rpy([0.5, 0.1, -0.3], [1.0, -0.4, 0.2]),
-        );
-        let v = Motion::new(Vector3::new(0.3, -1.1, 0.8), Vector3::new(0.9, 0.4, -0.7));
+        let (y, g, v) = moved_body();
         let by_origin = OriginInertia::of_body(&y, &g).apply(&v).to_vector();
         let moved = g.act_force(&y.apply(&g.act_inv_motion(&v))).to_vector();
         assert!((by_origin - moved).norm() < 1e-13);
@@ -187,11 +190,7 @@ mod tests {
     /// bodies adds their 6×6 matrices (a second formulation); massless parts stay massless.
     #[test]
     fn transform_and_combine() {
-        let (y, g) = (
-            body(),
-            SE3::from_xyz_rpy([0.5, 0.1, -0.3], [1.0, -0.4, 0.2]),
-        );
-        let v = Motion::new(Vector3::new(0.3, -1.1, 0.8), Vector3::new(0.9, 0.4, -0.7));
+        let (y, g, v) = moved_body();
         let lhs = y.transformed(&g).apply(&g.act_motion(&v)).to_vector();
         assert!((lhs - g.act_force(&y.apply(&v)).to_vector()).norm() < 1e-14);
         let z = Inertia::new(
