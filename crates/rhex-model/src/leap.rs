@@ -576,7 +576,7 @@ impl Presets {
 /// behaviour's parameters ([`Simulation::rebind`]: bit for bit a fresh preset's leap).
 ///
 /// ```no_run
-/// # use rhex_model::leap::{leap_params, LeapConfig, LeapPreset, LegActuator, Strategy};
+/// # use rhex_model::leap::{leap_params, LeapConfig, LeapPreset, Strategy, X_RHEX_LEG};
 /// # let stop = std::sync::atomic::AtomicBool::new(false);
 /// let params = leap_params();
 /// for strategy in Strategy::ALL {
