@@ -9,7 +9,9 @@
 //! 10 rad/s). The truncation error of the central difference is `O(h²)` ≈ 1e-10 of the
 //! scale; the round-off of two executions at these tolerances ≈ 1e-12/h ≈ 1e-7 relative.
 use nalgebra::DMatrix;
-use selfmanip::rhex::leap::{leap_params, simulate_leap, LeapConfig, LegActuator, Strategy};
+use selfmanip::rhex::leap::{
+    leap_params, simulate_leap, LeapConfig, LegActuator, Strategy, X_RHEX_LEG,
+};
 use selfmanip::rhex::leap_sensitivity::{leap_with_sensitivity, leap_with_sensitivity_from};
 use selfmanip::rhex::RhexParams;
 
@@ -34,7 +36,7 @@ fn with(params: &RhexParams, cfg: &LeapConfig, name: &str, v: f64) -> (RhexParam
     let (mut p, mut c) = (params.clone(), cfg.clone());
     match name {
         "t2_s" => c.t2_s = v,
-        "gear_ratio" => c.actuator = c.actuator.with_gear_ratio(v),
+        "gear_ratio" => c.actuator = X_RHEX_LEG.with_gear_ratio(&c.actuator, v),
         "m_b" => p.m_b = v,
         "I_b" => p.I_b = v,
         _ => unreachable!(),

@@ -24,8 +24,8 @@ use rhex_model::leap_sensitivity::{
 };
 use rhex_model::mcap_log::{q_names, write_leap_mcap, LeapLog};
 use rhex_model::sweep::{
-    actuator_field_names, check_override_names, error_kind, gear_ratio_of, panic_message,
-    point_inputs, sweepable_names, LeapPoint, SweepRow,
+    actuator_field_names, check_override_names, error_kind, panic_message, point_inputs,
+    sweepable_names, LeapPoint, SweepRow,
 };
 use rhex_model::{RhexError, RhexParams};
 use selfmanip_sim::sweep::run_parallel;
@@ -304,7 +304,7 @@ fn sweep_row(
             }
         };
         let why = r.reason();
-        Ok::<_, RhexError>((r, why, gear_ratio_of(&cfg), sens))
+        Ok::<_, RhexError>((r, why, cfg.actuator.gear_ratio(), sens))
     }));
     let (row, sens) = sweep_row_of(outcome);
     (row, sens.or(failed_sens))

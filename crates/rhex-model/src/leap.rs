@@ -7,7 +7,6 @@
 //! `docs/leap-model.md`.
 use crate::params::{LegPair, RhexParams};
 use crate::{Rhex, RhexError};
-use motor::geared::{GearedDrive, GearedDriveSpec};
 use motor::Actuator;
 use selfmanip_core::ContactMode;
 use selfmanip_hybrid::Execution;
@@ -16,14 +15,11 @@ use selfmanip_sim::behaviour::{
     ActuatorSpec, Behaviour, FreeJointGains, JointProgram, Motion, NamedEvent, On, Phase, Torque,
     Trigger,
 };
-use selfmanip_sim::drive::drive_error;
-pub use selfmanip_sim::drive::GearedMotor;
+pub use selfmanip_sim::drive::{CatalogDrive, GearedMotor, JointActuator, JointDrive};
 use selfmanip_sim::expr::Scalar;
 use selfmanip_sim::outcome::{BodyState, Outcome, WordOptions};
 pub use selfmanip_sim::preset_run::PresetRun;
-use selfmanip_sim::staggered::{
-    search_touchdown_lag, staggered_frame, touchdown_lag_s, StaggeredScenario,
-};
+use selfmanip_sim::staggered::{staggered_frame, touchdown_lag_s, LagReference, StaggeredScenario};
 use selfmanip_sim::sweep::BuildCache;
 use selfmanip_sim::terrain::TerrainSpec;
 use selfmanip_sim::{InitialState, Scenario, SimOptions};
@@ -135,106 +131,30 @@ impl From<Strategy> for String {
 
 /// What turns a planar leg (a contralateral pair of physical legs): chapter 3's constant
 /// saturated torque `τ_s` of Table 4.2, or `motors_per_leg` X-RHex motors (Table 2.1, 37 V)
-/// behind their gearbox (section 2.1.2), the generic drive of [`GearedMotor`] whose default
-/// is chapter 5's ([`X_RHEX_LEG`]).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
-pub enum LegActuator {
-    SaturatedTorque,
-    GearedMotor(GearedMotor),
-}
+/// behind their gearbox (section 2.1.2): the generic [`JointActuator`] with RHex's catalog
+/// drive [`X_RHEX_LEG`].
+pub type LegActuator = JointActuator;
 
-/// Chapter 5's leg drive: two motors per planar leg at 28:1, the controller's 20 A limit,
-/// no loss options.
-pub const X_RHEX_LEG: GearedMotor = GearedMotor {
-    gear_ratio: 28.0,
-    current_limit_a: 20.0,
-    motors_per_leg: 2,
-    gearbox_efficiency: None,
-    gearbox_loss: motor::GearboxLoss::Derating,
-    battery_resistance_ohm: None,
+/// Chapter 5's leg drive: the thesis catalog's X-RHex motor and gearbox, two motors per
+/// planar leg at 28:1, the controller's 20 A limit, no loss options.
+pub const X_RHEX_LEG: CatalogDrive = CatalogDrive {
+    motor: "x-rhex",
+    gearbox: "x-rhex-28",
+    default: GearedMotor {
+        gear_ratio: 28.0,
+        current_limit_a: 20.0,
+        motors_per_leg: 2,
+        gearbox_efficiency: None,
+        gearbox_loss: motor::GearboxLoss::Derating,
+        battery_resistance_ohm: None,
+    },
 };
 
-impl Default for LegActuator {
-    fn default() -> Self {
-        LegActuator::GearedMotor(X_RHEX_LEG)
-    }
-}
-
-/// The thesis catalog's motor and gearbox of X-RHex.
-const LEG_MOTOR: &str = "x-rhex";
-const LEG_GEARBOX: &str = "x-rhex-28";
-
-impl LegActuator {
-    /// The geared motor with gear ratio `gear_ratio`, keeping this actuator's other values
-    /// (chapter 5's when this is the saturated torque).
-    pub fn with_gear_ratio(&self, gear_ratio: f64) -> LegActuator {
-        LegActuator::GearedMotor(GearedMotor {
-            gear_ratio,
-            ..self.motor()
-        })
-    }
-
-    /// This actuator if it is the geared motor, else chapter 5's.
-    pub fn geared(&self) -> LegActuator {
-        LegActuator::GearedMotor(self.motor())
-    }
-
-    /// The geared motor's values, chapter 5's for the saturated torque.
-    pub fn motor(&self) -> GearedMotor {
-        match self {
-            LegActuator::GearedMotor(m) => *m,
-            LegActuator::SaturatedTorque => X_RHEX_LEG,
-        }
-    }
-
-    /// The behaviour parameters the actuator binds (none for the saturated torque).
-    fn values(&self) -> Vec<(&'static str, f64)> {
-        match self {
-            LegActuator::GearedMotor(m) => m.values(),
-            LegActuator::SaturatedTorque => Vec::new(),
-        }
-    }
-
-    /// This actuator with the loss options among `names` bound as parameters
-    /// ([`GearedMotor::with_loss_parameters`]); the leap it runs is the same bit for bit.
-    pub fn with_loss_parameters(&self, names: &[&str]) -> LegActuator {
-        match self {
-            LegActuator::GearedMotor(m) => {
-                LegActuator::GearedMotor(m.with_loss_parameters(names, LEG_GEARBOX))
-            }
-            a => a.clone(),
-        }
-    }
-
-    /// The drive of this actuator ([`motor::geared`]): the geared motor's, or for the
-    /// saturated torque chapter 5's, whose legs and motors it keeps.
-    pub fn drive_spec(&self) -> GearedDriveSpec<'static> {
-        self.motor().spec(LEG_MOTOR, LEG_GEARBOX)
-    }
-
-    /// Checks the geared motor's fields (errors name them); the saturated torque has none.
-    pub fn validate(&self) -> Result<(), RhexError> {
-        match self {
-            LegActuator::SaturatedTorque => Ok(()),
-            LegActuator::GearedMotor(m) => Ok(m.validate()?),
-        }
-    }
-}
-
-/// What the coordination time `t2` times (`docs/errata/ch3-leaping.md`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum T2Reference {
-    /// The rear motor starts `t2` after the front one (chapter 5, footnote 1; what the
-    /// thesis's own simulations used). The default.
-    #[default]
-    MotorStart,
-    /// The rear leg touches down `t2` after the front one (section 3.2.2): the rear motor's
-    /// start is found leap by leap ([`selfmanip_sim::staggered::search_touchdown_lag`]); a
-    /// leap whose legs do not both touch down keeps the motor-start offset `t2`.
-    Touchdown,
-}
+/// What the coordination time `t2` times (`docs/errata/ch3-leaping.md`): the rear motor's
+/// start `t2` after the front one's (the default: chapter 5, footnote 1; what the thesis's
+/// own simulations used), or the rear leg's touchdown `t2` after the front one's (section
+/// 3.2.2), the generic [`LagReference`].
+pub type T2Reference = LagReference;
 
 /// Everything a leap needs besides the robot's parameters.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -295,7 +215,7 @@ impl Default for LeapConfig {
         LeapConfig {
             strategy: Strategy::new(Push::Plus, Push::Plus),
             t2_s: 0.0,
-            actuator: LegActuator::default(),
+            actuator: X_RHEX_LEG.actuator(),
             pairs: None,
             delta_t_s: 0.03,
             swing_accel_rad_s2: None,
@@ -456,20 +376,9 @@ impl LeapConfig {
 }
 
 /// The actuator that turns one planar leg: chapter 3's saturated torque `τ_s`, or the
-/// current-limited geared X-RHex motors ([`motor::geared`]).
+/// current-limited geared X-RHex motors ([`CatalogDrive::runtime`]).
 pub fn leg_actuator(params: &RhexParams, a: &LegActuator) -> Result<Arc<dyn Actuator>, RhexError> {
-    Ok(match a {
-        LegActuator::SaturatedTorque => {
-            Arc::new(motor::SaturatedTorque::new(params.tau_s).map_err(drive_error)?)
-        }
-        _ => Arc::new(leg_drive(a)?),
-    })
-}
-
-/// The geared drive of `a` ([`LegActuator::drive_spec`]) in the thesis catalog.
-fn leg_drive(a: &LegActuator) -> Result<GearedDrive, RhexError> {
-    let drive = a.drive_spec().build(&motor::Catalog::thesis());
-    Ok(drive.map_err(drive_error)?)
+    Ok(X_RHEX_LEG.runtime(a, params.tau_s)?)
 }
 
 /// A leg's own inertia about its hip, `I_l + m_l (ρ₁/2)²` (kg m²; zero for massless legs).
@@ -477,39 +386,16 @@ pub fn leg_inertia_about_hip(params: &RhexParams) -> f64 {
     params.I_l + params.m_l * (0.5 * params.rho1).powi(2)
 }
 
-/// The drive that turns a leg, its stall torque at the joint (N m; `τ_s` for the saturated
-/// torque, which keeps X-RHex's motors) and its reflected rotor inertia `n J G²` (kg m²; `J`
-/// from Table 2.1's mechanical time constant, [`motor::catalog::MotorSpec::rotor_inertia_kg_m2`]).
-fn leg_motor(params: &RhexParams, cfg: &LeapConfig) -> Result<(GearedDrive, f64, f64), RhexError> {
-    let drive = leg_drive(&cfg.actuator)?;
-    let stall_n_m = match cfg.actuator {
-        LegActuator::GearedMotor { .. } => drive.stall_torque_n_m(),
-        LegActuator::SaturatedTorque => params.tau_s,
-    };
-    let reflected = drive
-        .reflected_inertia_kg_m2()
-        .ok_or_else(|| RhexError::InvalidValue {
-            field: "actuator".into(),
-            reason: "the motor's mechanical time constant is needed for the rotor inertia".into(),
-        })?;
-    // torque and inertia grow as G and G²: a ratio they overflow at is the ratio's fault
-    if !(stall_n_m.is_finite() && reflected.is_finite()) {
-        return Err(RhexError::InvalidValue {
-            field: "gear_ratio".into(),
-            reason: format!(
-                "the drive's stall torque ({stall_n_m:e} N m) or reflected rotor inertia n J G² \
-                 ({reflected:e} kg m²) is not finite at G = {:e}",
-                drive.drive.gearbox.ratio
-            ),
-        });
-    }
-    Ok((drive, stall_n_m, reflected))
+/// The drive that turns a leg ([`CatalogDrive::joint_drive`]; `τ_s` for the saturated torque,
+/// which keeps X-RHex's motors).
+fn leg_motor(params: &RhexParams, cfg: &LeapConfig) -> Result<JointDrive, RhexError> {
+    Ok(X_RHEX_LEG.joint_drive(&cfg.actuator, params.tau_s)?)
 }
 
 /// The rotors' inertia seen at a leg's joint, `n J G²` (kg m²; 0.0113 for X-RHex's two motors
 /// at 28:1): the swing bound of a massless leg ([`leg_swing`]) and a massive leg's armature.
 pub fn rotor_reflected_inertia(params: &RhexParams, cfg: &LeapConfig) -> Result<f64, RhexError> {
-    Ok(leg_motor(params, cfg)?.2)
+    Ok(leg_motor(params, cfg)?.reflected_inertia_kg_m2)
 }
 
 /// The armature a leap gives each leg joint (kg m²): `params.leg_armature_kg_m2` when set,
@@ -561,12 +447,11 @@ fn overflowing_parameter(params: &RhexParams) -> &'static str {
 /// reflected rotor inertia plus the leg's own about the hip (thesis 5.1.1; the saturated
 /// torque keeps X-RHex's drive with `τ_s`). Explicit values in the configuration win.
 pub fn leg_swing(params: &RhexParams, cfg: &LeapConfig) -> Result<(f64, f64), RhexError> {
-    let (drive, stall_n_m, reflected) = leg_motor(params, cfg)?;
+    let m = leg_motor(params, cfg)?;
     let leg = leg_inertia_about_hip(params);
-    let speed = cfg.swing_speed_rad_s.unwrap_or(drive.no_load_speed_rad_s());
-    let accel = cfg
-        .swing_accel_rad_s2
-        .unwrap_or(stall_n_m / (reflected + leg));
+    let speed = (cfg.swing_speed_rad_s).unwrap_or(m.drive.no_load_speed_rad_s());
+    let accel =
+        (cfg.swing_accel_rad_s2).unwrap_or(m.stall_torque_n_m / (m.reflected_inertia_kg_m2 + leg));
     Ok((speed, accel))
 }
 
@@ -671,7 +556,7 @@ impl Presets {
         stop: &AtomicBool,
     ) -> Result<LeapResult, RhexError> {
         let actuator = match cfg.actuator {
-            LegActuator::GearedMotor { .. } => LegActuator::default(),
+            LegActuator::GearedMotor { .. } => X_RHEX_LEG.actuator(),
             LegActuator::SaturatedTorque => LegActuator::SaturatedTorque,
         };
         let key = LeapConfig {
@@ -691,14 +576,14 @@ impl Presets {
 /// behaviour's parameters ([`Simulation::rebind`]: bit for bit a fresh preset's leap).
 ///
 /// ```no_run
-/// # use rhex_model::leap::{leap_params, LeapConfig, LeapPreset, LegActuator, Strategy};
+/// # use rhex_model::leap::{leap_params, LeapConfig, LeapPreset, Strategy, X_RHEX_LEG};
 /// # let stop = std::sync::atomic::AtomicBool::new(false);
 /// let params = leap_params();
 /// for strategy in Strategy::ALL {
 ///     let preset = LeapPreset::new(&params, &LeapConfig { strategy, ..LeapConfig::default() })?;
 ///     for k in 0..41 {
 ///         let t2_s = -0.2 + 0.01 * f64::from(k);
-///         let leap = preset.run_at(t2_s, &LegActuator::default().with_gear_ratio(28.0), &stop)?;
+///         let leap = preset.run_at(t2_s, &X_RHEX_LEG.at_gear_ratio(28.0), &stop)?;
 ///     }
 /// }
 /// # Ok::<(), rhex_model::RhexError>(())
@@ -787,6 +672,14 @@ impl LeapPreset {
         Ok(self.sim.simulation(&[], motor_t2_s)?)
     }
 
+    /// Runs the leap at its motor start `cfg.t2_s` from its start state plus `start_offset`
+    /// ([`StaggeredScenario::run_from`]: the waiting legs hold the unperturbed pose).
+    pub(crate) fn run_from(&self, start_offset: Option<&[f64]>) -> Result<LeapResult, RhexError> {
+        let t2 = self.cfg.t2_s;
+        let (run, front_start) = self.sim.run_from(t2, start_offset)?;
+        Ok(self.result(run.execution, run.outcome, t2, front_start))
+    }
+
     /// Runs the leap with the rear motor starting `motor_t2_s` after the front one.
     pub fn run(&self, motor_t2_s: f64, stop: &AtomicBool) -> Result<LeapResult, RhexError> {
         self.run_with(&[], motor_t2_s, stop)
@@ -831,21 +724,8 @@ impl LeapPreset {
             // what a fresh preset asks of the actuator (its drive builds)
             leg_swing(&self.params, &point)?;
         }
-        let both_geared = matches!(
-            (&self.cfg.actuator, actuator),
-            (
-                LegActuator::GearedMotor { .. },
-                LegActuator::GearedMotor { .. }
-            )
-        );
-        let names = |a: &LegActuator| {
-            let m = a.motor();
-            let set = m.losses_set().into_iter().map(|(k, _)| k);
-            (set.collect::<Vec<_>>(), m.gearbox_loss)
-        };
         let same_robot = same
-            || (both_geared
-                && names(actuator) == names(&self.cfg.actuator)
+            || (self.cfg.actuator.binds_as(actuator)
                 && leap_leg_armature(&self.params, &point)?
                     == leap_leg_armature(&self.params, &self.cfg)?);
         if !same_robot {
@@ -860,26 +740,23 @@ impl LeapPreset {
     }
 
     /// The leap with the behaviour parameters `values` bound, at `t2` timed as
-    /// `cfg.t2_reference` says ([`search_touchdown_lag`] for touchdown timing).
+    /// `cfg.t2_reference` says ([`LagReference::run`]).
     fn run_point(
         &self,
         values: &[(&str, f64)],
         t2_s: f64,
         stop: &AtomicBool,
     ) -> Result<LeapResult, RhexError> {
-        match self.cfg.t2_reference {
-            T2Reference::MotorStart => self.run_with(values, t2_s, stop),
-            T2Reference::Touchdown => search_touchdown_lag(t2_s, self.cfg.t_final_s, |s| {
-                let r = self.run_with(values, s, stop)?;
-                let lag = r.touchdown_t2_s;
-                Ok((r, lag))
-            }),
-        }
+        self.cfg.t2_reference.run(t2_s, self.cfg.t_final_s, |s| {
+            let r = self.run_with(values, s, stop)?;
+            let lag = r.touchdown_t2_s;
+            Ok((r, lag))
+        })
     }
 
     /// The leap's result read off the generic execution `exec`, run with the rear motor
     /// starting `motor_t2_s` after the front one, the front one at `front_start` on its clock.
-    pub(crate) fn result(
+    fn result(
         &self,
         exec: Execution,
         outcome: Outcome,
@@ -1075,9 +952,12 @@ fn behaviour(strategy: Strategy, k: &Settings<'_>) -> Behaviour {
             formula("t_rear", "max(0, t2)"),
             number("s_front", strategy.front.sign()),
             number("s_rear", strategy.rear.sign()),
-            number("gear_ratio", X_RHEX_LEG.gear_ratio),
-            number("current_limit_a", X_RHEX_LEG.current_limit_a),
-            number("motors_per_leg", f64::from(X_RHEX_LEG.motors_per_leg)),
+            number("gear_ratio", X_RHEX_LEG.default.gear_ratio),
+            number("current_limit_a", X_RHEX_LEG.default.current_limit_a),
+            number(
+                "motors_per_leg",
+                f64::from(X_RHEX_LEG.default.motors_per_leg),
+            ),
             number("leg_inertia_kg_m2", 0.0),
             number("stow", 2.6),
             number("kp_hold", 20.0),
@@ -1088,8 +968,8 @@ fn behaviour(strategy: Strategy, k: &Settings<'_>) -> Behaviour {
         actuators: [(
             "leg".to_string(),
             ActuatorSpec::DcMotor {
-                motor: LEG_MOTOR.into(),
-                gearbox: LEG_GEARBOX.into(),
+                motor: X_RHEX_LEG.motor.into(),
+                gearbox: X_RHEX_LEG.gearbox.into(),
                 gear_ratio: Some("gear_ratio".into()),
                 current_limit_a: Some("current_limit_a".into()),
                 supply_voltage_v: None,

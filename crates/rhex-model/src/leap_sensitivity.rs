@@ -6,18 +6,18 @@
 //! [`crate::leap::simulate_leap`]'s with it); what each name moves, when a derivative is
 //! undefined (then [`LeapSensitivity::ok`] is false, every derivative NaN, with the reason)
 //! and why the free legs are step-controlled: `docs/sensitivity.md`, "The RHex leap".
-use crate::leap::{LeapConfig, LeapPreset, LeapResult, LegActuator, T2Reference};
+use crate::leap::{LeapConfig, LeapPreset, LeapResult, LegActuator, T2Reference, X_RHEX_LEG};
 use crate::params::{LegPair, ToeSliding};
 use crate::{RhexError, RhexParams};
 use nalgebra::DMatrix;
 use selfmanip_core::tangent::BodyParameter;
-use selfmanip_hybrid::budget::NEVER;
 use selfmanip_hybrid::sensitivity::Parameter;
 use selfmanip_hybrid::{EventKind, Termination};
-use selfmanip_sim::named_terms::{armature_terms, contact_friction, offset_start};
+use selfmanip_sim::named_terms::{armature_terms, contact_friction};
 use selfmanip_sim::preset_run::ApexSensitivity;
 pub use selfmanip_sim::sensitivity::EventSaltation;
-use selfmanip_sim::sensitivity_preset::{end_state_sensitivity, EndStateRequest};
+use selfmanip_sim::sensitivity_preset::{end_state_sensitivity, start_directions, EndStateRequest};
+use selfmanip_sim::staggered::d_first_start_d_lag;
 
 /// The apex columns a leap reports, in order (every sweep's column names).
 pub use selfmanip_sim::outcome::APEX_COLUMNS;
@@ -157,7 +157,7 @@ fn engine_terms(
         LeapParameter::GearRatio => {
             let mut t = vec![(Parameter::Controller("gear_ratio".into()), 1.0)];
             if crate::leap::armature_follows_gear(params) {
-                let g = cfg.actuator.motor().gear_ratio; // geared: `resolve` refuses others
+                let g = cfg.actuator.gear_ratio(); // geared: `resolve` refuses others
                 let a = crate::leap::leg_armature(params, cfg)?;
                 t.extend(armature_terms(model, 2.0 * a / g));
             }
@@ -208,7 +208,7 @@ pub fn leap_with_sensitivity_from(
     // and the drive's loss options asked for are the behaviour's parameters (the same leap)
     let cfg = &LeapConfig {
         control_free_joints: true,
-        actuator: cfg.actuator.with_loss_parameters(names),
+        actuator: X_RHEX_LEG.with_loss_parameters(&cfg.actuator, names),
         ..cfg.clone()
     };
     if cfg.toe_stub_rad.is_some() {
@@ -230,21 +230,12 @@ pub fn leap_with_sensitivity_from(
     }
     let preset = LeapPreset::new(params, cfg)?;
     let model = &preset.leap.rhex.model;
-    let n2 = 2 * model.nq();
-    let dirs = directions.cloned().unwrap_or_else(|| DMatrix::zeros(n2, 0));
-    if dirs.nrows() != n2 {
-        return Err(RhexError::InvalidValue {
-            field: "directions".into(),
-            reason: format!("expected {n2} rows, got {}", dirs.nrows()),
-        });
-    }
-    let result = run_from(&preset, start_offset)?;
-    // `d (front leg's start) / d t2`: the execution starts at `min(0, t2)`
-    let dstart0_dt2 = if cfg.t2_s >= 0.0 { 0.0 } else { -1.0 };
+    let dirs = start_directions(model, directions)?;
+    let result = preset.run_from(start_offset)?;
     let d_origin: Vec<f64> = ps
         .iter()
         .map(|p| match p {
-            LeapParameter::T2 => dstart0_dt2,
+            LeapParameter::T2 => d_first_start_d_lag(cfg.t2_s),
             _ => 0.0,
         })
         .collect();
@@ -271,20 +262,7 @@ pub fn leap_with_sensitivity_from(
         z_up: true,
     });
     let mut s = ApexSensitivity::new(result, names, d);
-    let motor = cfg.actuator.motor();
+    let motor = X_RHEX_LEG.motor(&cfg.actuator);
     s.reason = s.reason.map(|r| motor.undefined_derivative_reason(r));
     Ok(s)
-}
-
-/// Runs the leap of `preset` (its motor start `cfg.t2_s`) from its start state plus
-/// `start_offset` (`2nq` entries over `(q, q̇)`); the behaviour is compiled at the
-/// unperturbed start (its waiting legs hold that pose).
-fn run_from(preset: &LeapPreset, start_offset: Option<&[f64]>) -> Result<LeapResult, RhexError> {
-    let t2 = preset.cfg.t2_s;
-    let (mut sim, front_start) = preset.simulation(t2)?;
-    if let Some(dx) = start_offset {
-        offset_start(&mut sim, dx)?;
-    }
-    let run = sim.run_with(&NEVER)?;
-    Ok(preset.result(run.execution, run.outcome, t2, front_start))
 }

@@ -8,12 +8,13 @@
 //! read with the data files' serde rules (a wrong type names its field). **Gear ratio**
 //! `Some(G)` runs the geared motor of ratio `G` (the base actuator's other values, else
 //! chapter 5's); `None` keeps the base actuator (reported NaN for the saturated torque).
-use crate::leap::{LeapConfig, LeapResult, LegActuator, Presets, Strategy};
+use crate::leap::{LeapConfig, LeapResult, Presets, Strategy, X_RHEX_LEG};
 use crate::{RhexError, RhexParams};
 use selfmanip_hybrid::budget::NEVER;
-use selfmanip_sim::path::{record_with, serde_field_names, sort_by_record};
+use selfmanip_sim::path::record_with;
 pub use selfmanip_sim::sweep::{panic_message, run_row, SweepRow};
-use selfmanip_sim::sweep::{preset_sweep, Preset};
+use selfmanip_sim::sweep::{preset_error_kind, preset_sweep, Preset, RecordFields};
+use selfmanip_sim::SimError;
 use serde_json::{Map, Value};
 use std::sync::atomic::AtomicBool;
 
@@ -81,7 +82,7 @@ impl Preset for LeapSweep {
 
     fn run(&self, point: &LeapPoint, stop: &AtomicBool) -> Result<SweepRow, RhexError> {
         let (params, cfg) = point_inputs(&self.params, &self.cfg, point)?;
-        let g = gear_ratio_of(&cfg);
+        let g = cfg.actuator.gear_ratio();
         Ok(self.presets.run(&params, &cfg, stop)?.row(String::new(), g))
     }
 
@@ -123,37 +124,25 @@ pub fn actuator_field_names() -> &'static [&'static str] {
 /// Every name an override may use, each once, grouped by what they set: every field serde
 /// reads of [`RhexParams`] (but `pairs`, which names [`LeapConfig::pairs`]), of [`LeapConfig`]
 /// (but its columns) and of the geared motor.
-fn override_groups() -> [Vec<&'static str>; 3] {
-    let fields = |names: &'static [&'static str], skip: &[&str]| {
-        names
-            .iter()
-            .copied()
-            .filter(|k| !skip.contains(k))
-            .collect()
-    };
-    [
-        fields(serde_field_names::<RhexParams>(), &[LEAP_PAIRS]),
-        fields(serde_field_names::<LeapConfig>(), &OWN_COLUMNS),
+fn override_groups() -> RecordFields {
+    RecordFields(vec![
+        RecordFields::of::<RhexParams>(&[LEAP_PAIRS]),
+        RecordFields::of::<LeapConfig>(&OWN_COLUMNS),
         ACTUATOR_FIELDS.to_vec(),
-    ]
+    ])
 }
 
 /// Every name an override may use, each once (`override_groups`).
 pub fn sweepable_names() -> Vec<String> {
-    override_groups()
-        .concat()
-        .into_iter()
-        .map(String::from)
-        .collect()
+    override_groups().names()
 }
 
 /// Checks that every name is sweepable; the error names the first unknown one.
 pub fn check_override_names<'a>(names: impl IntoIterator<Item = &'a str>) -> Result<(), RhexError> {
-    let known = sweepable_names();
-    match names.into_iter().find(|n| !known.iter().any(|k| k == n)) {
+    match override_groups().unknown(names) {
         Some(n) => Err(RhexError::UnknownParameter {
             field: n.into(),
-            known: known.join(", "),
+            known: sweepable_names().join(", "),
         }),
         None => Ok(()),
     }
@@ -165,19 +154,19 @@ pub fn point_inputs(
     base_cfg: &LeapConfig,
     point: &LeapPoint,
 ) -> Result<(RhexParams, LeapConfig), RhexError> {
-    let [of_params, of_cfg, of_actuator] = override_groups();
-    let sorted = sort_by_record(&[&of_params, &of_cfg, &of_actuator], &point.overrides)
+    let sorted = (override_groups().sort(&point.overrides))
         .map_err(|n| check_override_names([n]).expect_err("an unknown name"))?;
     let unreadable = |(field, reason)| RhexError::Unreadable { field, reason };
     let params = record_with(base_params, &sorted[0]).map_err(unreadable)?;
     let mut cfg = record_with(base_cfg, &sorted[1]).map_err(unreadable)?;
     if !sorted[2].is_empty() {
-        cfg.actuator = record_with(&cfg.actuator.geared(), &sorted[2]).map_err(unreadable)?;
+        cfg.actuator =
+            record_with(&X_RHEX_LEG.geared(&cfg.actuator), &sorted[2]).map_err(unreadable)?;
     }
     cfg.strategy = point.strategy;
     cfg.t2_s = point.t2_s;
     if let Some(g) = point.gear_ratio {
-        cfg.actuator = cfg.actuator.with_gear_ratio(g);
+        cfg.actuator = X_RHEX_LEG.with_gear_ratio(&cfg.actuator, g);
     }
     // the parameters reported with a leap describe its robot: the two pushing pairs
     let mut params = params;
@@ -188,34 +177,17 @@ pub fn point_inputs(
     Ok((params, cfg))
 }
 
-/// The status string of an error (see [`SweepRow::status`]): `invalid_params` for an error
-/// of the inputs, `invalid_mode` for a bad mode label, `overflow` for a result that
-/// overflows, `off_manifold` for the engine's, else the engine's kind ([`selfmanip_sim::SimError::kind`]).
+/// The status string of an error (see [`SweepRow::status`]): `invalid_mode` for a bad mode
+/// label, `invalid_params` for another error of the inputs, else the generic preset's
+/// ([`preset_error_kind`]).
 pub fn error_kind(e: &RhexError) -> &'static str {
-    use selfmanip_core::CoreError as C;
-    use selfmanip_hybrid::HybridError as H;
-    let sim = match e {
+    preset_error_kind(&match e {
         RhexError::ModeLabel { .. } => return "invalid_mode",
-        RhexError::Core(C::NonFiniteResult { .. })
-        | RhexError::Hybrid(H::Core(C::NonFiniteResult { .. })) => return "overflow",
-        RhexError::Hybrid(H::OffManifold { .. }) => return "off_manifold",
-        RhexError::Core(c) => selfmanip_sim::SimError::Core(c.clone()),
-        RhexError::Hybrid(h) => selfmanip_sim::SimError::Hybrid(h.clone()),
+        RhexError::Core(c) => SimError::Core(c.clone()),
+        RhexError::Hybrid(h) => SimError::Hybrid(h.clone()),
         RhexError::Sim(s) => s.clone(),
         _ => return "invalid_params",
-    };
-    match sim.kind() {
-        _ if sim.is_input_error() => "invalid_params",
-        kind => kind,
-    }
-}
-
-/// The gear ratio a point ran with (NaN: the saturated torque).
-pub fn gear_ratio_of(cfg: &LeapConfig) -> f64 {
-    match cfg.actuator {
-        LegActuator::GearedMotor(m) => m.gear_ratio,
-        LegActuator::SaturatedTorque => f64::NAN,
-    }
+    })
 }
 
 /// Runs every point on a rayon pool of exactly `threads` threads; rows in input order.

@@ -267,7 +267,7 @@ fn a_sweep_reports_step_budget_per_point_and_keeps_the_good_points() {
 #[test]
 fn gear_ratio_of_1e308_names_the_gear_ratio() {
     let geared = |g: f64| LeapConfig {
-        actuator: rhex_model::leap::LegActuator::default().with_gear_ratio(g),
+        actuator: rhex_model::leap::X_RHEX_LEG.at_gear_ratio(g),
         ..LeapConfig::default()
     };
     match simulate_leap(&leap_params(), &geared(1e308)) {

@@ -18,7 +18,7 @@
 mod common;
 
 use common::state_at;
-use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator};
+use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, X_RHEX_LEG};
 use rhex_model::Rhex;
 use selfmanip_core::contact::contact_geometry;
 use selfmanip_core::kinematics::Kinematics;
@@ -33,7 +33,7 @@ fn front_toe_of_the_old_cone_edge_chatter_lets_go_once() {
     let cfg = LeapConfig {
         strategy: "+-".parse().unwrap(),
         t2_s: -0.2303,
-        actuator: LegActuator::default().with_gear_ratio(23.70),
+        actuator: X_RHEX_LEG.at_gear_ratio(23.70),
         ..LeapConfig::default()
     };
     let r = simulate_leap(&p, &cfg).unwrap();

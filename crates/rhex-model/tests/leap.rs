@@ -410,7 +410,7 @@ fn bad_input_is_a_typed_error_naming_the_field() {
     assert_eq!(with(&|c| c.delta_t_s = -0.1), "delta_t_s");
     assert_eq!(with(&|c| c.t2_s = 5.0), "t2_s");
     assert_eq!(
-        with(&|c| c.actuator = rhex_model::leap::LegActuator::default().with_gear_ratio(-3.0)),
+        with(&|c| c.actuator = rhex_model::leap::X_RHEX_LEG.at_gear_ratio(-3.0)),
         "gear_ratio"
     );
     assert_eq!(

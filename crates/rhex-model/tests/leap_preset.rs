@@ -2,7 +2,7 @@
 //! run (bit for bit) and checks its points as they do; the waiting legs' start pose.
 use rhex_model::leap::{
     leap_params, leap_rhex, leap_start_pose, simulate_leap, GearedMotor, LeapConfig, LeapPreset,
-    LeapResult, LegActuator, T2Reference,
+    LeapResult, LegActuator, T2Reference, X_RHEX_LEG,
 };
 use rhex_model::Rhex;
 use selfmanip_core::kinematics::Kinematics;
@@ -81,12 +81,12 @@ fn a_reused_preset_runs_the_leaps_of_fresh_ones() {
 #[test]
 fn a_reused_preset_checks_its_points() {
     let preset = LeapPreset::new(&leap_params(), &LeapConfig::default()).unwrap();
-    let bad = LegActuator::default().with_gear_ratio(-3.0);
+    let bad = X_RHEX_LEG.at_gear_ratio(-3.0);
     match preset.run_at(0.0, &bad, &NEVER) {
         Err(e) => assert_eq!(e.field(), Some("gear_ratio"), "{e}"),
         other => panic!("{other:?}"),
     }
-    match preset.run_at(f64::NAN, &LegActuator::default(), &NEVER) {
+    match preset.run_at(f64::NAN, &X_RHEX_LEG.actuator(), &NEVER) {
         Err(e) => assert_eq!(e.field(), Some("t2_s"), "{e}"),
         other => panic!("{other:?}"),
     }

@@ -11,7 +11,7 @@
 //! user's entry point, gives the same numbers as the interpreter's columns taken here.
 use nalgebra::DMatrix;
 use rhex_model::leap::leap_scenario;
-use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator, Strategy};
+use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator, Strategy, X_RHEX_LEG};
 use rhex_model::leap_sensitivity::{leap_with_sensitivity, APEX_COLUMNS};
 use selfmanip_hybrid::sensitivity::{execution_sensitivity_columns, Parameter, SaltationStatus};
 use selfmanip_hybrid::{EventKind, Termination};
@@ -226,7 +226,7 @@ fn leap_derivatives_match_central_differences_of_whole_leaps() {
         .iter()
         .flat_map(|&s| [-0.05, 0.025, 0.08].map(|t2| (s, t2)))
         .collect();
-    let (fd, entry) = check_grid(&grid, &LegActuator::default());
+    let (fd, entry) = check_grid(&grid, &X_RHEX_LEG.actuator());
     eprintln!("worst against differences {fd:.1e}, leap_with_sensitivity {entry:.1e}");
     assert!(fd < 1e-6, "{fd:e}");
     assert!(entry < 1e-12, "{entry:e}");
@@ -274,7 +274,7 @@ fn the_issue_points_agree_with_differences_of_the_differentiated_execution() {
     for (s, reported_fd) in [("++", -1.58886e-5), ("--", f64::NAN)] {
         let strategy: Strategy = s.parse().unwrap();
         let q0 = start_pose(strategy);
-        let cfg = config(strategy, 0.025, &LegActuator::default());
+        let cfg = config(strategy, 0.025, &X_RHEX_LEG.actuator());
         let ours = interpreter_derivatives(&cfg, &q0, &["gear_ratio"])[2][0];
         let (fd, _) = central_differences(&cfg, &q0, "gear_ratio", 28.0, 3e-3);
         let entry = leap_with_sensitivity(&leap_params(), &cfg, &["gear_ratio"]).unwrap();
@@ -292,7 +292,7 @@ fn the_issue_points_agree_with_differences_of_the_differentiated_execution() {
         // the differences of default leaps (free legs out of the step control)
         let default_leap = |g: f64| {
             let c = LeapConfig {
-                actuator: LegActuator::default().with_gear_ratio(g),
+                actuator: X_RHEX_LEG.at_gear_ratio(g),
                 ..cfg.clone()
             };
             simulate_leap(&leap_params(), &c).unwrap().apex.unwrap().z_m

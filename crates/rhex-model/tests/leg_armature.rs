@@ -14,7 +14,7 @@ use common::{apex_error, tight};
 use rhex_model::leap::leap_scenario;
 use rhex_model::leap::{
     leap_params, leg_actuator, leg_armature, leg_inertia_about_hip, leg_swing,
-    rotor_reflected_inertia, simulate_leap, GearedMotor, LeapConfig, LegActuator,
+    rotor_reflected_inertia, simulate_leap, GearedMotor, LeapConfig, LegActuator, X_RHEX_LEG,
 };
 use rhex_model::leap_sensitivity::leap_with_sensitivity;
 use rhex_model::{LegPair, Rhex, RhexError, RhexParams};
@@ -227,7 +227,7 @@ fn gear_ratio_and_armature_derivatives_through_the_rotors_equal_central_differen
     // the leaps with the gear ratio moved by `dg` and with the armature moved by `da`
     let leap_g = |dg: f64| {
         let c = LeapConfig {
-            actuator: LegActuator::default().with_gear_ratio(g + dg),
+            actuator: X_RHEX_LEG.at_gear_ratio(g + dg),
             ..cfg.clone()
         };
         simulate_leap(&massive(), &c).unwrap()

@@ -13,7 +13,7 @@
 //! contact let go is not approaching the ground; the kinetic energy does not grow; and over
 //! the whole leap the energy balances, `E₁ − E₀ = W + W_fr − L` (integrated powers against
 //! state energies). No apex numbers are asserted.
-use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator};
+use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator, X_RHEX_LEG};
 use rhex_model::{Rhex, RhexParams};
 use selfmanip_core::contact::{contact_geometry, ContactKind};
 use selfmanip_core::kinematics::Kinematics;
@@ -113,7 +113,7 @@ fn check(strategy: &str, t2_s: f64, actuator: LegActuator) {
 #[test]
 fn rear_leg_touching_down_while_the_front_toe_holds_alone_flies() {
     for t2 in [0.08, 0.09, 0.10] {
-        check("-+", t2, LegActuator::default());
+        check("-+", t2, X_RHEX_LEG.actuator());
     }
 }
 
@@ -121,7 +121,7 @@ fn rear_leg_touching_down_while_the_front_toe_holds_alone_flies() {
 /// slides, `100s`) and chapter 3's saturated-torque legs at (+,+) −0.01 and (−,+) 0.06.
 #[test]
 fn front_leg_touching_down_while_the_rear_toe_slides_flies() {
-    check("+-", -0.03, LegActuator::default());
+    check("+-", -0.03, X_RHEX_LEG.actuator());
     check("++", -0.01, LegActuator::SaturatedTorque);
     check("-+", 0.06, LegActuator::SaturatedTorque);
 }

@@ -25,7 +25,7 @@ mod common;
 mod dynamics_fd;
 use common::{apex_error, tight};
 use dynamics_fd::dynamics_jacobian_error;
-use rhex_model::leap::{leap_params, simulate_leap, LeapConfig};
+use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, X_RHEX_LEG};
 use rhex_model::leap_sensitivity::leap_with_sensitivity;
 use rhex_model::{Rhex, RhexParams};
 use selfmanip_core::friction::SlideDirection;
@@ -251,7 +251,7 @@ fn a_massive_legs_air_motion_from_its_liftoff() {
     });
     let e_g = apex_error(col(1), &[1e-5, 1e-4], 1e-4, |d| {
         let mut c = cfg.clone();
-        c.actuator = c.actuator.with_gear_ratio(28.0 + d);
+        c.actuator = X_RHEX_LEG.with_gear_ratio(&c.actuator, 28.0 + d);
         simulate_leap(&p, &c).unwrap().apex.unwrap()
     });
     assert!(e_t2 < 1e-5 && e_g < 1e-4, "d/dt2 {e_t2:e}, d/dG {e_g:e}");

@@ -16,7 +16,7 @@
 //! t2 = −0.17: 7.06183 against 7.06189).
 mod common;
 use common::{apex_error, tight};
-use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapResult};
+use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapResult, X_RHEX_LEG};
 use rhex_model::leap_sensitivity::leap_with_sensitivity;
 use rhex_model::RhexParams;
 
@@ -83,7 +83,7 @@ fn relanding_errors(p: &RhexParams, leaps: &[(&str, f64)]) -> [f64; 3] {
             }),
             apex_error(col(1), &[2.8e-4, 2.8e-3, 2.8e-2], 1e-4, |d| {
                 let mut c = cfg.clone();
-                c.actuator = c.actuator.with_gear_ratio(28.0 + d);
+                c.actuator = X_RHEX_LEG.with_gear_ratio(&c.actuator, 28.0 + d);
                 leap(&c, p)
             }),
             apex_error(col(2), &[7e-5, 7e-4, 7e-3], 1e-4, |d| {

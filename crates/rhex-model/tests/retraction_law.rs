@@ -24,9 +24,7 @@
 mod common;
 
 use common::state_at;
-use rhex_model::leap::{
-    leap_params, leg_swing, simulate_leap, LeapConfig, LeapResult, LegActuator,
-};
+use rhex_model::leap::{leap_params, leg_swing, simulate_leap, LeapConfig, LeapResult, X_RHEX_LEG};
 use rhex_model::{Rhex, RhexParams};
 use selfmanip_core::contact::contact_geometry;
 use selfmanip_core::kinematics::Kinematics;
@@ -47,7 +45,7 @@ fn point(s: &str, t2: f64, gear: f64, i_b: f64, m_b: f64) -> (RhexParams, LeapCo
     let cfg = LeapConfig {
         strategy: s.parse().unwrap(),
         t2_s: t2,
-        actuator: LegActuator::default().with_gear_ratio(gear),
+        actuator: X_RHEX_LEG.at_gear_ratio(gear),
         ..LeapConfig::default()
     };
     (p, cfg)

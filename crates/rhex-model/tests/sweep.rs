@@ -1,6 +1,8 @@
 //! Sweeps (issue 5): determinism across thread counts, per-point failure isolation,
 //! parameter overrides by name, and MCAP logs read back.
-use rhex_model::leap::{leap_params, GearedMotor, LeapConfig, LegActuator, Push, Strategy};
+use rhex_model::leap::{
+    leap_params, GearedMotor, LeapConfig, LegActuator, Push, Strategy, X_RHEX_LEG,
+};
 use rhex_model::mcap_log::{write_leap_mcap, write_leap_mcap_to, LeapLog};
 use rhex_model::sweep::{
     check_override_names, grid, point_inputs, run_row, sweep, sweepable_names, LeapPoint,
@@ -141,7 +143,7 @@ fn overrides_reach_params_config_and_actuator_by_name() {
         }) => {
             assert_eq!((gear_ratio, current_limit_a), (21.0, 12.5));
             assert_eq!(
-                LegActuator::default(),
+                X_RHEX_LEG.actuator(),
                 LegActuator::GearedMotor(GearedMotor {
                     gear_ratio: 28.0,
                     current_limit_a: 20.0,

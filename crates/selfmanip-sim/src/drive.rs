@@ -1,14 +1,18 @@
 //! A geared DC drive as numbers ([`GearedMotor`]): what a preset takes from its user for a
 //! behaviour's DC-motor actuator ([`ActuatorSpec::DcMotor`]), binds to the behaviour's
 //! parameters of the same names ([`GearedMotor::bind`], so that they are differentiable) and
-//! checks against a catalog's motor and gearbox ([`GearedMotor::spec`]).
+//! checks against a catalog's motor and gearbox ([`GearedMotor::spec`]); and the choice of a
+//! joint's actuator ([`JointActuator`]: a saturated torque or the geared motor) with the
+//! catalog drive a preset offers ([`CatalogDrive`]: which motor and gearbox, its default).
 use crate::behaviour::ActuatorSpec;
+use crate::error::invalid;
 use crate::expr::Scalar;
 use crate::SimError;
-use motor::geared::GearedDriveSpec;
+use motor::geared::{GearedDrive, GearedDriveSpec};
 use motor::GearboxLoss;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 /// `motors_per_leg` catalog motors on a joint, each behind a gearbox of ratio `gear_ratio`,
 /// with the controller current limit `current_limit_a` (thesis 2.1.2). The loss options
@@ -132,6 +136,184 @@ impl GearedMotor {
         } else {
             reason
         }
+    }
+}
+
+/// What turns a joint: a constant saturated torque (the robot's own value, such as RHex's
+/// `τ_s`), or geared catalog motors ([`GearedMotor`]). Which catalog motor and gearbox, and
+/// the geared motor a preset defaults to, are the preset's ([`CatalogDrive`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum JointActuator {
+    SaturatedTorque,
+    GearedMotor(GearedMotor),
+}
+
+impl JointActuator {
+    /// The behaviour parameters the actuator binds (none for the saturated torque).
+    pub fn values(&self) -> Vec<(&'static str, f64)> {
+        match self {
+            JointActuator::GearedMotor(m) => m.values(),
+            JointActuator::SaturatedTorque => Vec::new(),
+        }
+    }
+
+    /// The gear ratio (NaN: the saturated torque).
+    pub fn gear_ratio(&self) -> f64 {
+        match self {
+            JointActuator::GearedMotor(m) => m.gear_ratio,
+            JointActuator::SaturatedTorque => f64::NAN,
+        }
+    }
+
+    /// Checks the geared motor's fields (errors name them); the saturated torque has none.
+    pub fn validate(&self) -> Result<(), SimError> {
+        match self {
+            JointActuator::SaturatedTorque => Ok(()),
+            JointActuator::GearedMotor(m) => m.validate(),
+        }
+    }
+
+    /// Whether a simulation built with this actuator runs `other` once `other`'s
+    /// [`Self::values`] are bound (bit for bit what a fresh build of `other` runs): the same
+    /// actuator, or geared motors with the same gearbox law and the same loss options set.
+    pub fn binds_as(&self, other: &JointActuator) -> bool {
+        let set = |m: &GearedMotor| {
+            let names = m.losses_set().into_iter().map(|(k, _)| k);
+            (names.collect::<Vec<_>>(), m.gearbox_loss)
+        };
+        match (self, other) {
+            (JointActuator::GearedMotor(a), JointActuator::GearedMotor(b)) => set(a) == set(b),
+            (a, b) => a == b,
+        }
+    }
+}
+
+/// A preset's catalog drive: the motor and gearbox of the thesis catalog behind its joints,
+/// and the geared motor it defaults to, whose motors a saturated torque keeps (their speed
+/// and rotors: what a joint swings at, what its armature is).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CatalogDrive {
+    pub motor: &'static str,
+    pub gearbox: &'static str,
+    pub default: GearedMotor,
+}
+
+/// A joint's drive as built ([`CatalogDrive::joint_drive`]): the drive, its stall torque at
+/// the joint (N m) and its reflected rotor inertia `n J G²` (kg m²).
+pub struct JointDrive {
+    pub drive: GearedDrive,
+    pub stall_torque_n_m: f64,
+    pub reflected_inertia_kg_m2: f64,
+}
+
+impl CatalogDrive {
+    /// The default geared motor as an actuator.
+    pub fn actuator(&self) -> JointActuator {
+        JointActuator::GearedMotor(self.default)
+    }
+
+    /// The default geared motor at gear ratio `gear_ratio`.
+    pub fn at_gear_ratio(&self, gear_ratio: f64) -> JointActuator {
+        self.with_gear_ratio(&self.actuator(), gear_ratio)
+    }
+
+    /// The geared motor's values of `a`, the default's for the saturated torque.
+    pub fn motor(&self, a: &JointActuator) -> GearedMotor {
+        match a {
+            JointActuator::GearedMotor(m) => *m,
+            JointActuator::SaturatedTorque => self.default,
+        }
+    }
+
+    /// The geared motor with gear ratio `gear_ratio`, keeping `a`'s other values (the
+    /// default's when `a` is the saturated torque).
+    pub fn with_gear_ratio(&self, a: &JointActuator, gear_ratio: f64) -> JointActuator {
+        JointActuator::GearedMotor(GearedMotor {
+            gear_ratio,
+            ..self.motor(a)
+        })
+    }
+
+    /// `a` if it is the geared motor, else the default.
+    pub fn geared(&self, a: &JointActuator) -> JointActuator {
+        JointActuator::GearedMotor(self.motor(a))
+    }
+
+    /// `a` with the loss options among `names` bound as parameters
+    /// ([`GearedMotor::with_loss_parameters`]); the run is the same bit for bit.
+    pub fn with_loss_parameters(&self, a: &JointActuator, names: &[&str]) -> JointActuator {
+        match a {
+            JointActuator::GearedMotor(m) => {
+                JointActuator::GearedMotor(m.with_loss_parameters(names, self.gearbox))
+            }
+            a => a.clone(),
+        }
+    }
+
+    /// The drive of `a` ([`motor::geared`]): the geared motor's, or for the saturated torque
+    /// the default's, whose motors it keeps.
+    pub fn spec(&self, a: &JointActuator) -> GearedDriveSpec<'static> {
+        self.motor(a).spec(self.motor, self.gearbox)
+    }
+
+    /// The drive of `a` ([`Self::spec`]) built from the thesis catalog.
+    pub fn drive(&self, a: &JointActuator) -> Result<GearedDrive, SimError> {
+        self.spec(a)
+            .build(&motor::Catalog::thesis())
+            .map_err(drive_error)
+    }
+
+    /// The drive of `a`, its stall torque at the joint (`saturated_n_m` for the saturated
+    /// torque, which keeps the default's motors) and its reflected rotor inertia `n J G²`
+    /// (`J` from the catalog's mechanical time constant,
+    /// [`motor::catalog::MotorSpec::rotor_inertia_kg_m2`]). Errors name `gear_ratio` when
+    /// the torque or the inertia (growing as `G` and `G²`) overflows.
+    pub fn joint_drive(
+        &self,
+        a: &JointActuator,
+        saturated_n_m: f64,
+    ) -> Result<JointDrive, SimError> {
+        let drive = self.drive(a)?;
+        let stall_n_m = match a {
+            JointActuator::GearedMotor(_) => drive.stall_torque_n_m(),
+            JointActuator::SaturatedTorque => saturated_n_m,
+        };
+        let reflected = drive.reflected_inertia_kg_m2().ok_or_else(|| {
+            invalid(
+                "actuator",
+                "the motor's mechanical time constant is needed for the rotor inertia",
+            )
+        })?;
+        // torque and inertia grow as G and G²: a ratio they overflow at is the ratio's fault
+        if !(stall_n_m.is_finite() && reflected.is_finite()) {
+            let reason = format!(
+                "the drive's stall torque ({stall_n_m:e} N m) or reflected rotor inertia n J G² \
+                 ({reflected:e} kg m²) is not finite at G = {:e}",
+                drive.drive.gearbox.ratio
+            );
+            return Err(invalid("gear_ratio", reason));
+        }
+        Ok(JointDrive {
+            drive,
+            stall_torque_n_m: stall_n_m,
+            reflected_inertia_kg_m2: reflected,
+        })
+    }
+
+    /// The actuator that turns a joint: the saturated torque `saturated_n_m`, or the
+    /// current-limited geared motors of `a`.
+    pub fn runtime(
+        &self,
+        a: &JointActuator,
+        saturated_n_m: f64,
+    ) -> Result<Arc<dyn motor::Actuator>, SimError> {
+        Ok(match a {
+            JointActuator::SaturatedTorque => {
+                Arc::new(motor::SaturatedTorque::new(saturated_n_m).map_err(drive_error)?)
+            }
+            _ => Arc::new(self.drive(a)?),
+        })
     }
 }
 

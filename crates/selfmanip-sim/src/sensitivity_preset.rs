@@ -25,6 +25,21 @@ pub const BODY_STATE_ENTRIES: [&str; 7] = [
     "phidot_rad_s",
 ];
 
+/// The start-state directions of a request (`2nq × d` for `model`; none when not given);
+/// an error names `directions` when their rows are not `2nq`.
+pub fn start_directions(
+    model: &Model,
+    directions: Option<&DMatrix<f64>>,
+) -> Result<DMatrix<f64>, crate::SimError> {
+    let n2 = 2 * model.nq();
+    let dirs = directions.cloned().unwrap_or_else(|| DMatrix::zeros(n2, 0));
+    if dirs.nrows() != n2 {
+        let reason = format!("expected {n2} rows, got {}", dirs.nrows());
+        return Err(crate::error::invalid("directions", reason));
+    }
+    Ok(dirs)
+}
+
 /// A request for [`end_state_sensitivity`]: the run, what to differentiate along, and how the
 /// preset reads it.
 pub struct EndStateRequest<'a> {

@@ -1,18 +1,50 @@
 //! A scenario with two drives started a lag apart, compiled once and run at many points: its
 //! simulation is rebound per point (behaviour parameter values and the lag) on a clock that
 //! starts with the earlier drive, its runs are read in the first drive's frame, and a search
-//! finds the lag at which the two drives' legs touch down a given time apart. What a preset of
+//! finds the lag at which the two drives' legs touch down a given time apart
+//! ([`LagReference`]: what a lag times). What a preset of
 //! two staggered drives keeps per set of fixed inputs ([`crate::sweep::BuildCache`]).
 use crate::analysis::roots::secant_search;
 use crate::outcome::{first_touchdown_s, PresetFrame};
 use crate::{Run, SimError, Simulation};
 use selfmanip_hybrid::Execution;
+use serde::{Deserialize, Serialize};
 use std::sync::atomic::AtomicBool;
 
 /// Runs at most in a touchdown-timed search ([`search_touchdown_lag`]).
 pub const TOUCHDOWN_SEARCH_RUNS: usize = 12;
 /// Agreement of the touchdown lag with its target at which that search stops (s).
 pub const TOUCHDOWN_SEARCH_TOL_S: f64 = 1e-7;
+
+/// What a staggered run's lag times.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum LagReference {
+    /// The second drive's motor starts `lag` after the first's. The default.
+    #[default]
+    MotorStart,
+    /// The second drive's leg touches down `lag` after the first's: the motor lag is found
+    /// run by run ([`search_touchdown_lag`]); a run whose legs do not both touch down keeps
+    /// the motor lag `lag`.
+    Touchdown,
+}
+
+impl LagReference {
+    /// The run at the lag `lag_s` timed as this says, of `run(s) = (result, touchdown lag)`
+    /// at the motor lag `s`: the run at `s = lag_s`, or the one [`search_touchdown_lag`]
+    /// finds (`|s| < limit_s`).
+    pub fn run<R, E>(
+        self,
+        lag_s: f64,
+        limit_s: f64,
+        mut run: impl FnMut(f64) -> Result<(R, Option<f64>), E>,
+    ) -> Result<R, E> {
+        match self {
+            LagReference::MotorStart => Ok(run(lag_s)?.0),
+            LagReference::Touchdown => search_touchdown_lag(lag_s, limit_s, run),
+        }
+    }
+}
 
 /// A compiled scenario whose second drive starts `lag` seconds after the first (the behaviour
 /// parameter `lag_parameter`; negative: the second starts first): its simulation as built at
@@ -46,6 +78,21 @@ impl StaggeredScenario {
         Ok((sim, -offset))
     }
 
+    /// Runs [`Self::simulation`] at lag `lag_s` from its start state plus `start_offset`
+    /// (`2nq` entries over `(q, q̇)`, [`crate::named_terms::offset_start`]; the behaviour is
+    /// compiled at the unperturbed start): the run, and the first drive's start on its clock.
+    pub fn run_from(
+        &self,
+        lag_s: f64,
+        start_offset: Option<&[f64]>,
+    ) -> Result<(Run, f64), SimError> {
+        let (mut sim, first_start) = self.simulation(&[], lag_s)?;
+        if let Some(dx) = start_offset {
+            crate::named_terms::offset_start(&mut sim, dx)?;
+        }
+        Ok((sim.run_with(&selfmanip_hybrid::budget::NEVER)?, first_start))
+    }
+
     /// Runs [`Self::simulation`]: the run, and the first drive's start on its clock.
     pub fn run(
         &self,
@@ -55,6 +102,17 @@ impl StaggeredScenario {
     ) -> Result<(Run, f64), SimError> {
         let (sim, first_start) = self.simulation(values, lag_s)?;
         Ok((sim.run_with(stop)?, first_start))
+    }
+}
+
+/// `d (first drive's start on the execution clock) / d lag` at lag `lag_s`: the clock starts
+/// with the earlier drive, at `min(0, lag)` on the first drive's, so a negative lag moves the
+/// first drive's start (`−min(0, lag)`) by `−1` per second of lag.
+pub fn d_first_start_d_lag(lag_s: f64) -> f64 {
+    if lag_s >= 0.0 {
+        0.0
+    } else {
+        -1.0
     }
 }
 

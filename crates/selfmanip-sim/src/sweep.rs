@@ -297,6 +297,61 @@ pub trait Preset: Sync {
     fn error_kind(&self, e: &Self::Error) -> &'static str;
 }
 
+/// The status of a preset's point that failed with `e` (see [`SweepRow::status`]):
+/// `invalid_params` for an error of the inputs, `overflow` for a result that overflows,
+/// `off_manifold` for a start off its contacts, else the engine's kind ([`SimError::kind`]).
+pub fn preset_error_kind(e: &SimError) -> &'static str {
+    use selfmanip_core::CoreError as C;
+    use selfmanip_hybrid::HybridError as H;
+    match e {
+        SimError::Core(C::NonFiniteResult { .. })
+        | SimError::Hybrid(H::Core(C::NonFiniteResult { .. })) => "overflow",
+        SimError::Hybrid(H::OffManifold { .. }) => "off_manifold",
+        e if e.is_input_error() => "invalid_params",
+        e => e.kind(),
+    }
+}
+
+/// The names a preset's point may set, by the serde record each sets (a robot's parameters,
+/// a run's configuration, an actuator's values): a name is a field of the first record that
+/// lists it ([`crate::path::sort_by_record`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordFields(pub Vec<Vec<&'static str>>);
+
+impl RecordFields {
+    /// The fields serde reads of `T` ([`crate::path::serde_field_names`]) but `skip`.
+    pub fn of<T: serde::de::DeserializeOwned>(skip: &[&str]) -> Vec<&'static str> {
+        let names = crate::path::serde_field_names::<T>();
+        names
+            .iter()
+            .copied()
+            .filter(|k| !skip.contains(k))
+            .collect()
+    }
+
+    /// Every name, each once, record by record.
+    pub fn names(&self) -> Vec<String> {
+        self.0.concat().into_iter().map(String::from).collect()
+    }
+
+    /// The first of `names` that no record lists.
+    pub fn unknown<'a>(&self, names: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
+        names
+            .into_iter()
+            .find(|n| !self.0.iter().any(|r| r.contains(n)))
+    }
+
+    /// `overrides` sorted into the records they set, in their order; `Err(name)`: the first
+    /// name no record lists.
+    pub fn sort<'a>(
+        &self,
+        overrides: &'a serde_json::Map<String, Value>,
+    ) -> Result<Vec<Vec<(&'a String, &'a Value)>>, &'a str> {
+        let records: Vec<&[&str]> = self.0.iter().map(Vec::as_slice).collect();
+        crate::path::sort_by_record(&records, overrides)
+    }
+}
+
 /// The outcome of one point of a preset's sweep, flattened for a table.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SweepRow {

@@ -19,7 +19,7 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
-use rhex_model::leap::{leap_params, LeapConfig, LegActuator, Strategy};
+use rhex_model::leap::{leap_params, LeapConfig, LegActuator, Strategy, X_RHEX_LEG};
 use rhex_model::sweep::{run_row, LeapPoint, LeapSweep, SweepRow};
 use selfmanip_hybrid::budget::NEVER;
 use serde_json::{json, Map};
@@ -154,7 +154,7 @@ fn main() {
     let t2: Vec<f64> = (0..41).map(|i| -0.2 + 0.01 * i as f64).collect();
     for (aname, actuator) in [
         ("saturated torque", LegActuator::SaturatedTorque),
-        ("geared motor (default)", LegActuator::default()),
+        ("geared motor (default)", X_RHEX_LEG.actuator()),
     ] {
         let cfg = LeapConfig {
             actuator,

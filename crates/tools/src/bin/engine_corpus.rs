@@ -9,7 +9,7 @@
 //! cargo run --release -p selfmanip-tools --bin engine_corpus > corpus.jsonl
 //! ```
 use rayon::prelude::*;
-use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator, Strategy};
+use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator, Strategy, X_RHEX_LEG};
 use rhex_model::params::{LegShape, RhexParams};
 use selfmanip_sim::terrain::TerrainSpec;
 use serde_json::json;
@@ -73,7 +73,7 @@ fn main() {
     ];
     let actuators = [
         ("saturated", LegActuator::SaturatedTorque),
-        ("geared", LegActuator::default()),
+        ("geared", X_RHEX_LEG.actuator()),
     ];
     let variants = variants();
     let mut cases = Vec::new();

@@ -30,7 +30,7 @@
 //! motor start and takeoff excites the servo's transient, which decays as `(1 + λt) e^{−λt}`
 //! and is resolved to the tolerance for about 0.1 s: with the legs' own swings to their
 //! park, that is where the flight's steps go.
-use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapPreset, LegActuator, Strategy};
+use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapPreset, Strategy, X_RHEX_LEG};
 use selfmanip_hybrid::budget::NEVER;
 use selfmanip_hybrid::integrate::{reset_work_counters, work_counters, WorkCounters};
 use selfmanip_tools::{body_from_env, print_segment_line};
@@ -45,8 +45,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     body_from_env(&mut params)?;
     let actuator = match std::env::var("GEAR") {
-        Ok(g) => LegActuator::default().with_gear_ratio(g.parse()?),
-        Err(_) => LegActuator::default(),
+        Ok(g) => X_RHEX_LEG.at_gear_ratio(g.parse()?),
+        Err(_) => X_RHEX_LEG.actuator(),
     };
     let cfg = LeapConfig {
         actuator,

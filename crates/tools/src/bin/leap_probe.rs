@@ -9,7 +9,9 @@
 //! `CURRENT` (A) to change the geared motor's ratio and current limit, `M_B` (kg) and `I_B`
 //! (kg m²) to change the body's mass and inertia, `LEDGE=height,distance` (m) for a ledge,
 //! `QD=1` (with `EVENTS`) to print each event's q and q̇ after it, `LANDINGS=1` to run past the apex to `t_final`, `EVENT_TOL` (s) and `RTOL` the tolerances.
-use rhex_model::leap::{leap_params, simulate_leap, GearedMotor, LeapConfig, LegActuator};
+use rhex_model::leap::{
+    leap_params, simulate_leap, GearedMotor, LeapConfig, LegActuator, X_RHEX_LEG,
+};
 use rhex_model::params::LegPair;
 use selfmanip_tools::{body_from_env, print_leap_line, print_segment_line};
 
@@ -106,7 +108,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
 /// The default geared motor, with `GEAR` (gear ratio) and `CURRENT` (A) from the environment.
 fn geared_from_env() -> Result<LegActuator, Box<dyn std::error::Error>> {
-    let mut a = LegActuator::default();
+    let mut a = X_RHEX_LEG.actuator();
     let LegActuator::GearedMotor(GearedMotor {
         gear_ratio,
         current_limit_a,
