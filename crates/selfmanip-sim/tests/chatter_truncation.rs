@@ -33,7 +33,12 @@ fn run() -> Run {
 fn a_chatter_is_truncated_and_the_run_goes_on() {
     let run = run();
     let exec = &run.execution;
-    assert_eq!(run.outcome.status, RunStatus::FinalTime, "{:?}", exec.termination);
+    assert_eq!(
+        run.outcome.status,
+        RunStatus::FinalTime,
+        "{:?}",
+        exec.termination
+    );
     assert!(!matches!(exec.termination, Termination::Chatter { .. }));
     let t_final = scenario().options.t_final_s;
     assert!((exec.t - t_final).abs() < 1e-12);
