@@ -32,13 +32,8 @@ fn run() -> Run {
 #[test]
 fn a_chatter_is_truncated_and_the_run_goes_on() {
     let run = run();
-    let exec = &run.execution;
-    assert_eq!(
-        run.outcome.status,
-        RunStatus::FinalTime,
-        "{:?}",
-        exec.termination
-    );
+    let (exec, status) = (&run.execution, run.outcome.status);
+    assert_eq!(status, RunStatus::FinalTime, "{:?}", exec.termination);
     assert!(!matches!(exec.termination, Termination::Chatter { .. }));
     let t_final = scenario().options.t_final_s;
     assert!((exec.t - t_final).abs() < 1e-12);
