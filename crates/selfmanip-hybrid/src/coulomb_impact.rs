@@ -98,7 +98,7 @@ pub enum NotOffered {
 pub const MAX_CANDIDATES: usize = 6;
 
 /// The contact's friction coefficient for the impact (0 for a frictionless contact).
-fn mu_of(model: &Model, k: usize) -> f64 {
+pub(crate) fn mu_of(model: &Model, k: usize) -> f64 {
     match model.contacts[k].friction {
         Friction::Sticking { mu } => mu,
         Friction::Sliding => 0.0,

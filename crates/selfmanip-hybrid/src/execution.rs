@@ -55,7 +55,8 @@ pub enum Termination {
     /// A chattering execution ([`crate::zeno::ChatterDetector`]): the same cycle of
     /// `period` events ran `cycles` times in a row, over `duration_s` ending at `t`, while
     /// the configuration stayed where it was; `contacts` are the contacts that triggered the
-    /// cycle's events.
+    /// cycle's events. The end only when the chatter has nothing to truncate: otherwise the
+    /// run goes on truncated, as after a Zeno window ([`crate::zeno`]).
     Chatter {
         t: f64,
         period: usize,

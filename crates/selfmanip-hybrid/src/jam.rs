@@ -41,7 +41,6 @@ use crate::reset::{reset_workspace, Reset};
 use crate::reset_workspace::ResetWorkspace;
 use selfmanip_core::contact::{ContactKind, RowDirection};
 use selfmanip_core::friction::SLIDING_SPEED_EPS_M_S;
-use selfmanip_core::model::Friction;
 use selfmanip_core::{plastic_impact, ContactMode, Model};
 
 /// Relative tolerance on "never adds kinetic energy": a jam whose kinetic energy after
@@ -201,10 +200,7 @@ pub fn own_impulse_in_cone(model: &Model, mode: ContactMode, k: usize, value: &[
         }
     }
     let push = -p_n;
-    let mu = match model.contacts[k].friction {
-        Friction::Sticking { mu } => mu,
-        Friction::Sliding => 0.0,
-    };
+    let mu = crate::coulomb_impact::mu_of(model, k);
     push >= -IMPULSE_TOL_N_S && p_t.abs() <= mu * push * (1.0 + 1e-12) + IMPULSE_TOL_N_S
 }
 

@@ -220,8 +220,13 @@ pub fn simulate_with(
             }
             continue;
         }
+        // a chatter is truncated as a Zeno window is (crate::zeno)
         if let Some(c) = chatter.check(&events) {
-            break c;
+            let held = (&mut reset_ws, &mut flow, &mut zeno);
+            truncation = crate::zeno::truncate_and_hold(held, &opts, mode, (t, &y), &c)?;
+            if truncation.is_none() {
+                break c;
+            }
         }
         if let Some(p) = penetration(model, terrain, t, &y[..model.nq()]) {
             break p;

@@ -25,6 +25,12 @@
 //! with an [`EventKind::ZenoTruncation`] naming the window's contacts; a window with nothing
 //! to truncate (no contact of it on its surface, e.g. of feature passages only) ends the run
 //! with [`Termination::Zeno`]. Derivation: docs/singular-transitions.md section 9.
+//!
+//! A **chatter** ([`ChatterDetector`]: one cycle of transitions repeated with the robot
+//! staying where it is) is truncated the same way, over the contacts of its cycle: it is the
+//! generalized Zeno execution of section 5.1.6, whose continuation is more of the same
+//! cycle, and the truncated mode held for the dwell is that continuation's limit. Only a
+//! chatter with nothing to truncate ends the run ([`Termination::Chatter`]).
 use crate::error::HybridError;
 use crate::event::{Event, EventKind};
 use crate::execution::Termination;
@@ -134,11 +140,14 @@ pub const CHATTER_MIN_DURATION_RATIO: f64 = 0.5;
 /// where it is and the cycles do not shrink: over [`CHATTER_CYCLES`] repetitions no coordinate of `q` at the cycle's
 /// events moves more than [`CHATTER_Q_PER_CYCLE`] per cycle on average. Such a run makes
 /// events in proportion to its horizon and nothing else: its continuation is more of the
-/// same cycle, so it ends with [`Termination::Chatter`]. A gait that repeats a cycle of
+/// same cycle, its limit the truncated mode ([`truncate`]) — or, with nothing to truncate,
+/// the end ([`Termination::Chatter`]). A gait that repeats a cycle of
 /// modes moves the robot (its legs turn by a revolution per cycle, its body advances) and
 /// is not caught. Nor is an execution whose cycles shrink — the last lasting less than
 /// [`CHATTER_MIN_DURATION_RATIO`] of the first —: its transition times accumulate, a Zeno
-/// execution proper (a rocking block without the pseudo-impulse), which the window ends.
+/// execution proper (a rocking block without the pseudo-impulse), which the window catches.
+/// The run truncates a chatter as it truncates a Zeno window ([`truncate_and_hold`], module
+/// docs) and ends with it only when there is nothing to truncate.
 ///
 /// Cost: `O(CHATTER_MAX_PERIOD · CHATTER_CYCLES)` comparisons per event, on the last
 /// `CHATTER_MAX_PERIOD · CHATTER_CYCLES` events only.
@@ -276,8 +285,8 @@ pub fn truncate(
     }))
 }
 
-/// [`truncate`] for the Zeno window's end `z` at `(t, y)` in `mode`, its mode held for the
-/// dwell ([`ZenoWindow::dwell_s`]: the window, or `δt` where longer, doubled while the cycle
+/// [`truncate`] for the Zeno window's end or the chatter `z` (over the contacts it names)
+/// at `(t, y)` in `mode`, its mode held for the dwell ([`ZenoWindow::dwell_s`]: the window, or `δt` where longer, doubled while the cycle
 /// resumes): `None` when there is nothing to truncate (the run ends with `z`).
 pub fn truncate_and_hold(
     (ws, flow, zeno): (&mut FlowWorkspace, &mut Flow, &mut ZenoWindow),
@@ -286,7 +295,7 @@ pub fn truncate_and_hold(
     (t, y): (f64, &[f64]),
     z: &Termination,
 ) -> Result<Option<Reset>, HybridError> {
-    let Termination::Zeno { contacts, .. } = z else {
+    let (Termination::Zeno { contacts, .. } | Termination::Chatter { contacts, .. }) = z else {
         return Ok(None);
     };
     let truncation = truncate(ws, flow, opts, mode, (t, y), contacts)?;
