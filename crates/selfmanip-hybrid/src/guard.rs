@@ -117,7 +117,9 @@ impl Guard {
         let model = flow.model();
         let (q, qd) = y.split_at(model.nq());
         Ok(match self {
-            Guard::Liftoff { row, .. } => -flow.eval(t, mode, q, qd)?.lambda[row],
+            Guard::Liftoff { contact, row } => {
+                crate::damped_slide::liftoff_value(flow.eval(t, mode, q, qd)?, contact, row)
+            }
             Guard::Slip {
                 t_row, n_row, mu, ..
             } => {

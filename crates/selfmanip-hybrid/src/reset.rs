@@ -106,6 +106,7 @@ pub fn reset(
         c.folded.iter().map(|&k| (k, ContactKind::Stick)).collect();
     let ctrl = flow.controller().clone();
     let cx = &mut reset_workspace(flow, &*ctrl, opts, ws, &barred, &lock);
+    cx.ws.wedged.clear();
     // a landing at δt = 0 takes every contact touching with it (ResetWorkspace::touching)
     let more = cx.touching(mode, &c.touched, q, qd)?;
     c.touched.extend(more);
@@ -148,6 +149,17 @@ pub fn reset(
     if impact && !c.touched.is_empty() {
         let after = (selected.mode, mode_after);
         jammed = crate::jam_hold::entries(flow, t, &c.touched, after, q, &qd_after);
+    }
+    // a massless chain's foot whose damped slide is wedged on both sides, kept sticking,
+    // is held as a jam (crate::damped_slide)
+    if !cx.ws.wedged.is_empty() {
+        let wedged = std::mem::take(&mut cx.ws.wedged);
+        let held = crate::damped_slide::wedged_holds(flow, t, &wedged, mode_after, q, &qd_after);
+        for k in held {
+            if !jammed.contains(&k) {
+                jammed.push(k);
+            }
+        }
     }
     if !jammed.is_empty() {
         cx.held.extend_from_slice(&jammed);
