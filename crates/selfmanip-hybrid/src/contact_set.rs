@@ -73,7 +73,7 @@ impl ResetWorkspace<'_> {
                     return Ok(None)
                 }
                 // one wedged on both sides (inconsistent) is kept sticking, marked for the
-                // jam hold (crate::damped_slide::wedged_holds)
+                // jam hold (reset::wedged_holds)
                 Ok(()) if self.ws.data.damped.iter().any(|d| !d.consistent) => {
                     return self.wedged_stick(m, qd);
                 }

@@ -327,30 +327,3 @@ pub fn holds_at_slide_rates(
         .iter()
         .all(|d| chain_law(model, ctrl, (t, q, &v), mode, d.contact).is_some_and(|l| l.holds))
 }
-
-/// The contacts of `wedged` (kept sticking by a reset because their damped slide is wedged
-/// on both sides: in Painlevé's region or inconsistent) that stick in `mode_after` and,
-/// released, would not separate (their gap's second derivative in the flow without them
-/// below the jam's tolerance, as at a jam hold's entry): held sticking by the jam hold
-/// ([`crate::jam_hold`]) until its guard — the cone holds their force again, or released
-/// they separate.
-pub fn wedged_holds(
-    flow: &mut crate::flow::Flow,
-    t: f64,
-    wedged: &[usize],
-    mode_after: ContactMode,
-    q: &[f64],
-    qd: &[f64],
-) -> Vec<usize> {
-    let y: Vec<f64> = q.iter().chain(qd).copied().collect();
-    wedged
-        .iter()
-        .copied()
-        .filter(|&k| mode_after.kind(k) == Some(selfmanip_core::ContactKind::Stick))
-        .filter(|&k| {
-            crate::jam_hold::gap_acceleration(flow, mode_after.without(k), k, t, &y)
-                .unwrap_or(f64::NEG_INFINITY)
-                < -crate::jam_hold::SEPARATION_TOL_M_S2
-        })
-        .collect()
-}

@@ -352,7 +352,7 @@ pub struct FlowWorkspace {
     /// The contacts that can slide damped ([`crate::damped_slide::damped_contacts`]).
     pub damped: u32,
     /// The contacts a reset kept sticking because their damped slide is wedged on both
-    /// sides ([`crate::damped_slide::wedged_holds`]).
+    /// sides (`reset::wedged_holds`).
     pub wedged: Vec<usize>,
 }
 
