@@ -137,39 +137,21 @@ macro_rules! with_dims {
             3 0, 3 1, 3 2, 3 3,
             4 0, 4 1, 4 2, 4 3, 4 4,
             5 0, 5 1, 5 2, 5 3, 5 4, 5 5,
-            6 0, 6 1, 6 2, 6 3, 6 4, 6 5, 6 6)
+            6 0, 6 1, 6 2, 6 3, 6 4, 6 5, 6 6;
+            7, 8, 9, 10, 11, 12)
     };
-    (@go $mc:expr, $md:ident, $cd:ident, $body:expr; $($mm:literal $cc:literal),*) => {
+    (@go $mc:expr, $md:ident, $cd:ident, $body:expr;
+        $($mm:literal $cc:literal),*; $($m_only:literal),*) => {
         match $mc {
             $(($mm, $cc) => {
                 let ($md, $cd) = (Fixed::<$mm>, Fixed::<$cc>);
                 $body
             })*
             (m, c) => match m {
-                7 => {
-                    let ($md, $cd) = (Fixed::<7>, c);
+                $($m_only => {
+                    let ($md, $cd) = (Fixed::<$m_only>, c);
                     $body
-                }
-                8 => {
-                    let ($md, $cd) = (Fixed::<8>, c);
-                    $body
-                }
-                9 => {
-                    let ($md, $cd) = (Fixed::<9>, c);
-                    $body
-                }
-                10 => {
-                    let ($md, $cd) = (Fixed::<10>, c);
-                    $body
-                }
-                11 => {
-                    let ($md, $cd) = (Fixed::<11>, c);
-                    $body
-                }
-                12 => {
-                    let ($md, $cd) = (Fixed::<12>, c);
-                    $body
-                }
+                })*
                 _ => {
                     let ($md, $cd) = (m, c);
                     $body
