@@ -49,7 +49,7 @@ pub struct KktBlocks {
 /// A reusable factorization (allocates only when sizes grow).
 ///
 /// Storage is flat and column-major, sized for the current `m` and `c`. At the sizes of a
-/// planar robot (`m ≲ 10`, `c ≲ 6`) loop overhead, not arithmetic, is what costs, so:
+/// planar robot (`m ≲ 12`, `c ≲ 8`) loop overhead, not arithmetic, is what costs, so:
 /// every length-`m` operation runs over the whole column (the reflectors carry explicit
 /// zeros above their pivot), the kernels are compiled for each small `m` (a `Dim` below) so
 /// that those loops unroll, and the factor keeps `Q` explicitly and the reciprocals of the
@@ -106,7 +106,7 @@ impl<const N: usize> Dim for Fixed<N> {
     }
 }
 
-/// Calls `$kernel(dim, …)` with `dim` a [`Fixed`] size for `m` in 3..=8, else `m` itself.
+/// Calls `$kernel(dim, …)` with `dim` a [`Fixed`] size for `m` in 3..=12, else `m` itself.
 macro_rules! with_dim {
     ($m:expr, $kernel:ident($($arg:expr),*)) => {
         match $m {
@@ -116,6 +116,10 @@ macro_rules! with_dim {
             6 => $kernel(Fixed::<6>, $($arg),*),
             7 => $kernel(Fixed::<7>, $($arg),*),
             8 => $kernel(Fixed::<8>, $($arg),*),
+            9 => $kernel(Fixed::<9>, $($arg),*),
+            10 => $kernel(Fixed::<10>, $($arg),*),
+            11 => $kernel(Fixed::<11>, $($arg),*),
+            12 => $kernel(Fixed::<12>, $($arg),*),
             m => $kernel(m, $($arg),*),
         }
     };
@@ -124,31 +128,30 @@ macro_rules! with_dim {
 /// Runs `$body` with `$md`, `$cd` bound to the sizes `m` and `c`: both [`Fixed`] for the
 /// systems of planar robots (`m` in 3..=6, any `c ≤ m`), where the factorization's and
 /// solve's loops over the rows and the free motions then unroll as well; `m` alone fixed
-/// for `m` of 7 and 8; else both at run time. The same operations in the same order for
-/// every binding: the results are bit-identical.
+/// for `m` in 7..=12 (a four-legged robot of two-link legs has `m` up to 11); else both at
+/// run time. The same operations in the same order for every binding: the results are
+/// bit-identical.
 macro_rules! with_dims {
     ($m:expr, $c:expr, |$md:ident, $cd:ident| $body:expr) => {
         with_dims!(@go ($m, $c), $md, $cd, $body;
             3 0, 3 1, 3 2, 3 3,
             4 0, 4 1, 4 2, 4 3, 4 4,
             5 0, 5 1, 5 2, 5 3, 5 4, 5 5,
-            6 0, 6 1, 6 2, 6 3, 6 4, 6 5, 6 6)
+            6 0, 6 1, 6 2, 6 3, 6 4, 6 5, 6 6;
+            7, 8, 9, 10, 11, 12)
     };
-    (@go $mc:expr, $md:ident, $cd:ident, $body:expr; $($mm:literal $cc:literal),*) => {
+    (@go $mc:expr, $md:ident, $cd:ident, $body:expr;
+        $($mm:literal $cc:literal),*; $($m_only:literal),*) => {
         match $mc {
             $(($mm, $cc) => {
                 let ($md, $cd) = (Fixed::<$mm>, Fixed::<$cc>);
                 $body
             })*
             (m, c) => match m {
-                7 => {
-                    let ($md, $cd) = (Fixed::<7>, c);
+                $($m_only => {
+                    let ($md, $cd) = (Fixed::<$m_only>, c);
                     $body
-                }
-                8 => {
-                    let ($md, $cd) = (Fixed::<8>, c);
-                    $body
-                }
+                })*
                 _ => {
                     let ($md, $cd) = (m, c);
                     $body
@@ -636,7 +639,7 @@ mod tests {
         let mut r = ChaCha8Rng::seed_from_u64(7);
         let (mut fixed, mut dynamic) = (KktFactorization::default(), KktFactorization::default());
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        for m in 1..=9 {
+        for m in 1..=13 {
             for c in 0..=m {
                 for massless in [0, 1.min(c), 2.min(c)] {
                     let (mbar, a) = random_system(m, c, massless, &mut r);
@@ -666,7 +669,7 @@ mod tests {
     fn solve_matches_dense_lu_for_every_size() {
         let mut r = ChaCha8Rng::seed_from_u64(51);
         let mut k = KktFactorization::default();
-        for m in 1..=11 {
+        for m in 1..=13 {
             for c in 0..=m {
                 for massless in [0, 1.min(c), 2.min(c)] {
                     let (mbar, a) = random_system(m, c, massless, &mut r);
