@@ -46,7 +46,13 @@ fn record_fields_sort_overrides_into_their_records() {
         battery_resistance_ohm: None,
     };
     let m = record_with(&base, &sorted[0]).unwrap();
-    assert_eq!(m, GearedMotor { gear_ratio: 21.0, ..base });
+    assert_eq!(
+        m,
+        GearedMotor {
+            gear_ratio: 21.0,
+            ..base
+        }
+    );
     let opts = record_with(&SimOptions::default(), &sorted[1]).unwrap();
     let mut direct = SimOptions::default();
     direct.rtol = 1e-6;
@@ -66,7 +72,10 @@ fn preset_error_kinds() {
     assert!(input.is_input_error());
     assert_eq!(preset_error_kind(&input), "invalid_params");
     let overflow = CoreError::NonFiniteResult { quantity: "qdd" };
-    assert_eq!(preset_error_kind(&SimError::Core(overflow.clone())), "overflow");
+    assert_eq!(
+        preset_error_kind(&SimError::Core(overflow.clone())),
+        "overflow"
+    );
     let nested = SimError::Hybrid(HybridError::Core(overflow));
     assert_eq!(preset_error_kind(&nested), "overflow");
     let off = SimError::Hybrid(HybridError::OffManifold {
