@@ -98,29 +98,14 @@ fn frame_drift_is_the_derivative_of_the_velocity() {
     assert!(worst < 1e-7, "{worst}");
 }
 
-/// A free-flying body with an arm of a revolute joint about a tilted axis, one about a negative
-/// coordinate axis and a prismatic joint along a negative axis: every kind of joint
-/// transform of the forward kinematics (a coordinate axis mixes two columns, any other takes
-/// Rodrigues' matrix).
-const TILTED: &str = r#"<robot name="tilted">
-  <link name="body"><inertial><origin xyz="0.02 -0.01 0.03"/><mass value="4"/>
-    <inertia ixx="0.05" ixy="0.002" ixz="0.001" iyy="0.07" iyz="-0.003" izz="0.09"/></inertial></link>
-  <link name="a"><inertial><origin xyz="0.1 0.02 -0.05"/><mass value="0.8"/>
-    <inertia ixx="0.003" ixy="0.0002" ixz="0" iyy="0.004" iyz="0.0001" izz="0.002"/></inertial></link>
-  <link name="b"><inertial><origin xyz="0 0.05 -0.1"/><mass value="0.5"/>
-    <inertia ixx="0.002" ixy="0" ixz="0.0003" iyy="0.001" iyz="0" izz="0.0015"/></inertial></link>
-  <link name="c"><inertial><origin xyz="0.01 0 -0.08"/><mass value="0.3"/>
-    <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.0005"/></inertial></link>
-  <joint name="tilted" type="revolute"><parent link="body"/><child link="a"/>
-    <origin xyz="0.2 0.1 -0.05" rpy="0.3 -0.2 0.5"/><axis xyz="0.48 0.6 0.64"/>
-    <limit lower="-2" upper="2" effort="10" velocity="10"/></joint>
-  <joint name="negative" type="revolute"><parent link="a"/><child link="b"/>
-    <origin xyz="0.15 0 -0.1" rpy="-0.1 0.4 0"/><axis xyz="0 0 -1"/>
-    <limit lower="-2" upper="2" effort="10" velocity="10"/></joint>
-  <joint name="slide" type="prismatic"><parent link="b"/><child link="c"/>
-    <origin xyz="0 0.1 -0.2"/><axis xyz="0 -1 0"/>
-    <limit lower="-0.1" upper="0.1" effort="10" velocity="10"/></joint>
-</robot>"#;
+/// `tests/data/urdf/tilted_arm.urdf`: a free-flying body with an arm of a revolute joint about
+/// a tilted axis, one about a negative coordinate axis and a prismatic joint along a negative
+/// axis: every kind of joint transform of the forward kinematics (a coordinate axis mixes two
+/// columns, any other takes Rodrigues' matrix).
+const TILTED: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../tests/data/urdf/tilted_arm.urdf"
+);
 
 /// On [`TILTED`] at random states: each joint placement equals the composition
 /// `⁰M_λ Xᵢ Mⱼ(qᵢ)` with nalgebra's axis–angle rotation, and `½ vᵀ M v` equals the bodies'
@@ -129,7 +114,7 @@ const TILTED: &str = r#"<robot name="tilted">
 /// motion subspaces nor the origin-form inertias of the CRBA.
 #[test]
 fn tilted_negative_and_prismatic_axes_match_composition_and_energy() {
-    let model = SpatialModel::from_urdf_str(TILTED, BaseKind::FreeFlyer, None).unwrap();
+    let model = SpatialModel::from_urdf_file(TILTED, BaseKind::FreeFlyer, None).unwrap();
     let mut data = SpatialData::new(&model);
     let mut rng = rng(32);
     let eps = 1e-6;
