@@ -159,7 +159,7 @@ fn tail_optimum_at_a_huge_rotation_is_finite_and_follows_its_scaling_law() {
 /// is false); a synthetic catalog of any size was drawn.
 #[test]
 fn tail_ranking_constraints_and_catalog_size_are_checked() {
-    let task = TailTask::new(1.5708, 0.05, 1.29).unwrap();
+    let task = TailTask::new(std::f64::consts::FRAC_PI_2, 0.05, 1.29).unwrap();
     let motors = synthetic_motors(10, 7).unwrap();
     let with = |max_length_m: f64| SelectionConstraints {
         max_length_m,
