@@ -328,13 +328,8 @@ def motor_identify_faults(
 
 # ------------------------------------------------------------------------ simulation (any robot)
 
-class _SimEvent(TypedDict):
-    t_s: float
-    kind: str
-    mode_before: str
-    mode_after: str
-    contacts: list[str]
-    energy_loss_j: float
+# an event of any robot: the fields of a leap's event and the contact impulse
+class _SimEvent(_Event):
     impulse: list[float]
 
 class _SimSegment(TypedDict):

@@ -1,10 +1,12 @@
 """Bad input: typed Python errors that name the offending field, never a crash."""
 
 import math
+import re
 
 import pytest
 
 import selfmanip
+from selfmanip import _native, motor
 from selfmanip import (EngineError, IllPosedError, InvalidInputError, InvalidTypeError, SelfmanipError,
                        SingularKktError)
 
@@ -84,3 +86,20 @@ def test_bad_description(tmp_path, quadruped):
         quadruped.dynamics("fore_foot,tail", [0.0] * 7, [0.0] * 7, [0.0] * 4)
     with pytest.raises(FileNotFoundError):
         selfmanip.Robot.from_file(tmp_path / "missing.toml")
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: _native.analysis_takeoff_speed(None, "wheel", 0.0, 0.0, 0.0, 28.0),
+     '`leg` must be "stick", "half_circle" or "rolling", got "wheel"'),
+    (lambda: _native.analysis_standing_rhex(None, "square", 0, 0.1, 3.0, 1e-3, 1),
+     '`leg_shape` must be "stick" or "half_circle", got "square"'),
+    (lambda: motor.operating_point("x-rhex-28", 1.0, 0.0, gearbox_loss="lossy"),
+     '`gearbox_loss` must be "derating" or "power_flow", got "lossy"'),
+    (lambda: motor.thermal_simulation("x-rhex-18", [1.0], case="hot"),
+     '`case` must be "measured" or "listed", got "hot"'),
+])
+def test_a_name_outside_its_choices_lists_them(call, message):
+    # the native layer's own check (the Python layer checks `leg` before it gets there)
+    with pytest.raises(InvalidInputError, match=re.escape(message)) as e:
+        call()
+    assert e.value.field == message[1:message.index("`", 1)]

@@ -122,13 +122,10 @@ pub struct DriveSpec {
 
 /// A catalog of motors, gearboxes and drives.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct Catalog {
-    #[serde(default)]
     pub motor: Vec<MotorSpec>,
-    #[serde(default)]
     pub gearbox: Vec<Gearbox>,
-    #[serde(default)]
     pub drive: Vec<DriveSpec>,
 }
 

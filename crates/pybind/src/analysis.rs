@@ -2,7 +2,7 @@
 //! Table 4.2 values (`selfmanip.rhex.Model().params`; `None`: the shipped table), results
 //! leave as plain Python dicts and lists that the Python layer turns into numpy arrays.
 use crate::convert::{to_map, to_py, AnyOut};
-use crate::errors::{self, guard, invalid, Source};
+use crate::errors::{self, choice, guard, invalid, Source};
 use crate::robot::Robot;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -40,15 +40,13 @@ fn rhex(p: Option<&Bound<'_, PyDict>>) -> PyResult<Rhex> {
 }
 
 fn leg(name: &str) -> PyResult<pc::TakeoffLeg> {
-    match name {
-        "stick" => Ok(pc::TakeoffLeg::Stick),
-        "half_circle" => Ok(pc::TakeoffLeg::HalfCircle),
-        "rolling" => Ok(pc::TakeoffLeg::Rolling),
-        other => Err(invalid(
-            "leg",
-            format!("`leg` must be \"stick\", \"half_circle\" or \"rolling\", got {other:?}"),
-        )),
-    }
+    use pc::TakeoffLeg::{HalfCircle, Rolling, Stick};
+    let legs = [
+        ("stick", Stick),
+        ("half_circle", HalfCircle),
+        ("rolling", Rolling),
+    ];
+    choice("leg", name, &legs)
 }
 
 type Params<'a, 'py> = Option<&'a Bound<'py, PyDict>>;
@@ -301,16 +299,11 @@ fn analysis_standing_rhex<'py>(
 ) -> AnyOut<'py> {
     guard(|| {
         let mut p = self::params(params)?;
-        p.leg_shape = match leg_shape {
-            "stick" => LegShape::Stick,
-            "half_circle" => LegShape::HalfCircle,
-            other => {
-                return Err(invalid(
-                    "leg_shape",
-                    format!("`leg_shape` must be \"stick\" or \"half_circle\", got {other:?}"),
-                ))
-            }
-        };
+        let shapes = [
+            ("stick", LegShape::Stick),
+            ("half_circle", LegShape::HalfCircle),
+        ];
+        p.leg_shape = choice("leg_shape", leg_shape, &shapes)?;
         let r = Rhex::new(p).map_err(err)?;
         detached(py, || {
             let (q0, terrain, mode) = standing::random_rhex_stance(&r, seed, max_slope_rad)?;

@@ -127,6 +127,24 @@ pub(crate) fn invalid(field: &str, message: impl Into<String>) -> PyErr {
     raise(Kind::InvalidInput, message, Some(field))
 }
 
+/// The value that `name` stands for among `choices` (`(name, value)` pairs), or an
+/// `InvalidInputError` naming `field` that lists the names allowed:
+/// ``"`field` must be "a", "b" or "c", got "x""``.
+pub(crate) fn choice<T: Copy>(field: &str, name: &str, choices: &[(&str, T)]) -> PyResult<T> {
+    if let Some(&(_, value)) = choices.iter().find(|(n, _)| *n == name) {
+        return Ok(value);
+    }
+    let quoted: Vec<String> = choices.iter().map(|(n, _)| format!("{n:?}")).collect();
+    let allowed = match quoted.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+        _ => quoted.concat(),
+    };
+    Err(invalid(
+        field,
+        format!("`{field}` must be {allowed}, got {name:?}"),
+    ))
+}
+
 /// `InvalidTypeError` naming `field`.
 pub(crate) fn invalid_type(field: &str, message: impl Into<String>) -> PyErr {
     raise(Kind::InvalidType, message, Some(field))

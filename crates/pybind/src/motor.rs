@@ -2,7 +2,7 @@
 //! arrays for series); structured inputs (observer parameters, machine configuration)
 //! arrive as dicts, deserialized with serde so that it names any missing or mistyped field.
 use crate::convert::{column, to_map, to_py, AnyOut, DictOut};
-use crate::errors::{self, guard, invalid};
+use crate::errors::{self, choice, guard, invalid};
 use motor::catalog::{synthetic_motors, CaseParameters, Catalog};
 use motor::observer::{self, FaultFsmConfig, LegLog, ObserverParams};
 use motor::tail::{self, SelectionConstraints, TailTask};
@@ -34,14 +34,11 @@ fn catalog(catalog_toml: Option<&str>) -> PyResult<Catalog> {
 }
 
 fn case_parameters(case: &str) -> PyResult<CaseParameters> {
-    match case {
-        "measured" => Ok(CaseParameters::Measured),
-        "listed" => Ok(CaseParameters::Listed),
-        other => Err(invalid(
-            "case",
-            format!("`case` must be \"measured\" or \"listed\", got {other:?}"),
-        )),
-    }
+    let cases = [
+        ("measured", CaseParameters::Measured),
+        ("listed", CaseParameters::Listed),
+    ];
+    choice("case", case, &cases)
 }
 
 /// A drive of the catalog and its thermal model with `case`'s parameters.
@@ -239,14 +236,11 @@ fn motor_torque_speed_curve(py: Python<'_>, drive: DriveChoice, points: usize) -
 }
 
 fn parse_gearbox_loss(name: &str) -> PyResult<GearboxLoss> {
-    match name {
-        "derating" => Ok(GearboxLoss::Derating),
-        "power_flow" => Ok(GearboxLoss::PowerFlow),
-        other => Err(invalid(
-            "gearbox_loss",
-            format!("`gearbox_loss` must be \"derating\" or \"power_flow\", got {other:?}"),
-        )),
-    }
+    let losses = [
+        ("derating", GearboxLoss::Derating),
+        ("power_flow", GearboxLoss::PowerFlow),
+    ];
+    choice("gearbox_loss", name, &losses)
 }
 
 /// One operating point of a drive with its optional losses: output torque, electrical

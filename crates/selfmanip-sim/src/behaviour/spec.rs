@@ -8,27 +8,20 @@ use std::collections::BTreeMap;
 
 /// A behaviour: named parameters, actuators, named events and one program per driven joint.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct Behaviour {
-    #[serde(default)]
     pub name: String,
-    #[serde(default)]
     pub description: String,
     /// Named numbers (or formulas of other parameters) that any number field may use.
-    #[serde(default)]
     pub parameters: BTreeMap<String, Scalar>,
     /// Actuators by name; a `motor` command drives one.
-    #[serde(default)]
     pub actuators: BTreeMap<String, ActuatorSpec>,
     /// Events by name: the first event of the execution that matches a trigger.
-    #[serde(default)]
     pub events: BTreeMap<String, NamedEvent>,
     /// Gains that keep a free massless joint on its prescribed motion against round-off.
-    #[serde(default)]
     pub free_joints: FreeJointGains,
     /// One program per driven joint (joints without one: zero torque, and when free, zero
     /// prescribed acceleration).
-    #[serde(default)]
     pub joints: Vec<JointProgram>,
 }
 
@@ -149,41 +142,30 @@ pub enum On {
 /// When a phase starts (or a motion restarts, or a named event fires). Exactly one of
 /// `at_s`, `on`, `event`, `any` is given.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct Trigger {
     /// At this time of the execution clock (s).
-    #[serde(default)]
     pub at_s: Option<Scalar>,
     /// On an event of this kind.
-    #[serde(default)]
     pub on: Option<On>,
     /// The contacts the event concerns (default: in a joint program, the contacts carried by
     /// the joint's links; in a named event, every contact).
-    #[serde(default)]
     pub contacts: Option<Vec<String>>,
     /// Only events at or after this time (s).
-    #[serde(default)]
     pub not_before_s: Option<Scalar>,
     /// `on = "joint_angle"`: the joint (default: the program's own).
-    #[serde(default)]
     pub joint: Option<String>,
     /// `on = "joint_angle"`: the angle (rad).
-    #[serde(default)]
     pub angle_rad: Option<Scalar>,
     /// `on = "joint_angle"`: `+1` past the angle increasing, `−1` decreasing (default `+1`).
-    #[serde(default)]
     pub direction: Option<Scalar>,
     /// `on = "phase"`: `"joint.phase"`.
-    #[serde(default)]
     pub phase: Option<String>,
     /// `on = "phase"`: delay after that phase's start (s, default 0).
-    #[serde(default)]
     pub delay_s: Option<Scalar>,
     /// A named event (of `[events]`).
-    #[serde(default)]
     pub event: Option<String>,
     /// The first of several triggers.
-    #[serde(default)]
     pub any: Option<Vec<Trigger>>,
 }
 
