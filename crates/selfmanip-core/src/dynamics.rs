@@ -370,6 +370,80 @@ mod tests {
     use crate::contact::ContactKind;
     use crate::RobotDescription;
 
+    /// One workspace evaluating the dynamics at one configuration and several velocities —
+    /// the KKT factor then kept ([`crate::kkt::with_kept_factors`]) — gives what a fresh
+    /// workspace gives, bit for bit; so does the next evaluation at another configuration (the
+    /// factor made again), a robot with a massless leg in contact (a singular `M̄`) and one
+    /// whose massless leg is free (its joints left out of the factor) alike.
+    #[test]
+    fn a_kept_factor_gives_a_fresh_workspace_s_dynamics() {
+        let model = RobotDescription::from_toml_str(
+            r#"
+            name = "kept"
+            [body]
+            mass_kg = 2.0
+            inertia_kg_m2 = 0.02
+            [[legs]]
+            name = "fore"
+            hip_m = [0.2, 0.0]
+            links = [{ length_m = 0.12, mass_kg = 0.1, inertia_kg_m2 = 1e-4 }, { length_m = 0.12 }]
+            [[legs]]
+            name = "hind"
+            hip_m = [-0.2, 0.0]
+            links = [{ length_m = 0.12, mass_kg = 0.1, inertia_kg_m2 = 1e-4 }, { length_m = 0.12, mass_kg = 0.05, inertia_kg_m2 = 5e-5 }]
+            [[contacts]]
+            name = "fore_toe"
+            leg = "fore"
+            shape = { kind = "point", position_m = [0.0, 0.12] }
+            friction = { kind = "sticking", mu = 1.0 }
+            [[contacts]]
+            name = "hind_toe"
+            leg = "hind"
+            shape = { kind = "point", position_m = [0.0, 0.12] }
+            friction = { kind = "sticking", mu = 1.0 }
+            "#,
+        )
+        .unwrap()
+        .build()
+        .unwrap();
+        let bits = |v: &DVector<f64>| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let q = [0.4, -0.9, -0.3, 0.7, 0.01, -0.21, 0.05];
+        let q2 = [0.41, -0.9, -0.3, 0.7, 0.01, -0.21, 0.05];
+        let qds = [
+            [0.3, -1.0, 0.2, 0.5, 0.1, -0.4, 0.7],
+            [0.3, -1.0, 0.2, 0.5, 0.1 + 1e-8, -0.4, 0.7],
+            [-2.0, 1.5, 0.0, 0.3, -0.2, 0.1, -1.1],
+        ];
+        let tau = [0.5, -0.2, 0.1, 0.3];
+        let stick = ContactMode::FLIGHT.with(1, ContactKind::Stick);
+        // both toes stick (fore's massless shin pinned); only the hind toe (fore's shin free)
+        for mode in [stick.with(0, ContactKind::Stick), stick] {
+            let mut kept = Data::new(&model);
+            for (q, qd) in qds.iter().map(|qd| (&q, qd)).chain([(&q2, &qds[2])]) {
+                let mut fresh = Data::new(&model);
+                let run = |data: &mut Data| {
+                    forward_dynamics(&model, data, &crate::FlatGround, mode, q, qd, &tau, None)
+                };
+                crate::kkt::with_kept_factors(|| run(&mut kept)).unwrap();
+                run(&mut fresh).unwrap();
+                assert_eq!(bits(&kept.qdd), bits(&fresh.qdd), "{mode:?} {q:?} {qd:?}");
+                assert_eq!(bits(&kept.lambda), bits(&fresh.lambda), "{mode:?} {qd:?}");
+            }
+            // the kept factor was used (same inputs) and then left (new configuration)
+            let mut data = Data::new(&model);
+            crate::kkt::with_kept_factors(|| {
+                data.prepare(&model, &crate::FlatGround, mode, &q, &qds[0])
+            })
+            .unwrap();
+            let held = |d: &Data| d.kkt.holds(&d.m_bar, &d.constraints.a, &d.dynamic_coords);
+            assert!(held(&data));
+            data.prepare_state(&model, &q2, &qds[0]).unwrap();
+            data.constraints
+                .assemble(&model, &data.kin, &crate::FlatGround, mode, &qds[0]);
+            assert!(!held(&data));
+        }
+    }
+
     /// [`free_massless_joints`]' bit sets give the joints of its definition (thesis 5.1.1:
     /// the whole distal chain massless — no mass, inertia or armature — and no active contact
     /// on it), for every mode of a robot with a massless two-link leg, a leg whose distal link

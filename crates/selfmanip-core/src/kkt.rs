@@ -18,6 +18,7 @@
 use crate::error::{CoreError, Result, SingularityKind};
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
+use std::cell::Cell;
 use std::cmp::Ordering;
 
 /// Relative tolerance on the QR diagonal of `Aᵀ` below which rows are dependent.
@@ -79,7 +80,34 @@ pub struct KktFactorization {
     l_inv: Vec<f64>,
     /// `m` scratch entries.
     t: Vec<f64>,
+    /// `Aᵀ` (m×c) as loaded, before the QR reduced it in `r`: with `mbar`, the inputs of
+    /// the factor, when `factored`.
+    at: Vec<f64>,
+    /// Whether the storage holds a successful factor of `mbar` and `at` made inside
+    /// [`with_kept_factors`], which the same inputs, bit for bit, keep there.
+    factored: bool,
     pub info: KktInfo,
+}
+
+thread_local! {
+    /// Whether [`with_kept_factors`] runs on this thread.
+    static KEEP_FACTORS: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Runs `f` with the KKT factors kept for inputs that repeat: a factorization
+/// ([`crate::Data::prepare`]) whose `M̄` and `A` on the dynamic coordinates equal, bit for bit,
+/// those of the last successful factor it made in such a scope keeps that factor instead of
+/// factoring again. The factor is a function of these inputs alone, so every result is the
+/// same, bit for bit; only work is saved. For callers that evaluate the dynamics at one
+/// configuration and several velocities or times — the velocity and time columns of
+/// RODAS4's finite-difference Jacobian (`selfmanip_hybrid::rosenbrock`) —, where the test of
+/// the inputs pays; elsewhere (every stage of an explicit step moves `q`) it would not, and
+/// no input is tested or kept.
+pub fn with_kept_factors<R>(f: impl FnOnce() -> R) -> R {
+    let before = KEEP_FACTORS.with(|k| k.replace(true));
+    let out = f();
+    KEEP_FACTORS.with(|k| k.set(before));
+    out
 }
 
 /// A dimension known at compile time ([`Fixed`]) or only at run time (`usize`). The KKT
@@ -197,19 +225,55 @@ impl KktFactorization {
     /// [`Self::factor_on`] whose Lemma 5.1 failure is only its kind: no condition number (an
     /// SVD of the KKT matrix), for callers that discard the error (a candidate mode found
     /// singular is simply not a candidate).
+    ///
+    /// Inside [`with_kept_factors`], inputs equal bit for bit to those of the last successful
+    /// factor made there keep that factor (it is a function of them alone).
     pub(crate) fn try_factor_on(
         &mut self,
         mbar: &DMatrix<f64>,
         a: &DMatrix<f64>,
         coords: &[usize],
     ) -> std::result::Result<(), SingularityKind> {
+        let keep = KEEP_FACTORS.with(Cell::get);
+        if keep && self.holds(mbar, a, coords) {
+            return Ok(());
+        }
         self.load(mbar, a, Some(coords));
-        with_dims!(self.m, self.c, |md, cd| factor_kernel(md, cd, self))
+        if keep {
+            // the inputs, for [`Self::holds`]
+            self.at.resize(self.r.len(), 0.0);
+            self.at.copy_from_slice(&self.r);
+        }
+        let result = with_dims!(self.m, self.c, |md, cd| factor_kernel(md, cd, self));
+        self.factored = keep && result.is_ok();
+        result
+    }
+
+    /// Whether the storage holds a successful factor of `M̄[coords, coords]` and
+    /// `A[:, coords]` with these very entries (compared bit for bit: `−0.0 ≠ 0.0`).
+    pub(crate) fn holds(&self, mbar: &DMatrix<f64>, a: &DMatrix<f64>, coords: &[usize]) -> bool {
+        let (m, c, nq) = (coords.len(), a.nrows(), mbar.nrows());
+        if !self.factored || (m, c) != (self.m, self.c) {
+            return false;
+        }
+        let same = |x: f64, y: f64| x.to_bits() == y.to_bits();
+        let (mb, at) = (mbar.as_slice(), a.as_slice());
+        // (the order only sets how soon inputs that differ are told apart)
+        coords.iter().enumerate().all(|(i, &ci)| {
+            let src = &at[ci * c..(ci + 1) * c];
+            src.iter()
+                .enumerate()
+                .all(|(row, &x)| same(x, self.at[row * m + i]))
+        }) && coords.iter().enumerate().all(|(j, &cj)| {
+            let (src, dst) = (&mb[cj * nq..(cj + 1) * nq], &self.mbar[j * m..(j + 1) * m]);
+            coords.iter().zip(dst).all(|(&ci, &d)| same(src[ci], d))
+        })
     }
 
     /// Sizes the storage and copies `M̄[coords, coords]` and `A[:, coords]ᵀ` in (all
     /// coordinates when `coords` is `None`).
     fn load(&mut self, mbar: &DMatrix<f64>, a: &DMatrix<f64>, coords: Option<&[usize]>) {
+        self.factored = false;
         let m = coords.map_or(mbar.nrows(), <[usize]>::len);
         let c = a.nrows();
         if (m, c) != (self.m, self.c) || self.q.len() != m * m {
@@ -700,6 +764,82 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The factor kept for inputs equal bit for bit to the last successful one
+    /// ([`with_kept_factors`]) solves as a fresh factorization does, bit for bit;
+    /// inputs that differ in one entry by one ulp, or only in the sign of a zero, are factored
+    /// again (their solutions are a fresh factorization's too); a failed factor is never
+    /// kept (the same singular inputs fail again).
+    #[test]
+    fn a_factor_is_kept_only_for_the_same_inputs() {
+        let mut r = ChaCha8Rng::seed_from_u64(30);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        // a system on 7 of 9 coordinates, as the dynamics gathers it (free joints left out)
+        let coords = [0, 1, 3, 4, 5, 7, 8];
+        let (m, c) = (coords.len(), 3);
+        let (mbar, a) = random_system(9, c, 1, &mut r);
+        let f: Vec<f64> = (0..m).map(|_| r.gen_range(-1.0..1.0)).collect();
+        let g: Vec<f64> = (0..c).map(|_| r.gen_range(-1.0..1.0)).collect();
+        let solve = |k: &mut KktFactorization| {
+            let (mut x, mut y) = (vec![0.0; m], vec![0.0; c]);
+            k.solve(&f, &g, &mut x, &mut y);
+            (bits(&x), bits(&y))
+        };
+        let fresh = |mbar: &DMatrix<f64>, a: &DMatrix<f64>| {
+            let mut k = KktFactorization::default();
+            k.try_factor_on(mbar, a, &coords).unwrap();
+            k
+        };
+        // outside the scope nothing is kept
+        let mut k = KktFactorization::default();
+        k.try_factor_on(&mbar, &a, &coords).unwrap();
+        assert!(!k.holds(&mbar, &a, &coords));
+        with_kept_factors(|| {
+            let mut k = KktFactorization::default();
+            k.try_factor_on(&mbar, &a, &coords).unwrap();
+            let first = solve(&mut k);
+            // the same inputs: kept, and the solve is unchanged
+            assert!(k.holds(&mbar, &a, &coords));
+            k.try_factor_on(&mbar, &a, &coords).unwrap();
+            assert_eq!(solve(&mut k), first);
+            // one entry of M̄ (kept coordinates 3, 4) one ulp up, and one of A: factored again
+            let mut mbar2 = mbar.clone();
+            mbar2[(3, 4)] = f64::from_bits(mbar2[(3, 4)].to_bits() + 1);
+            mbar2[(4, 3)] = mbar2[(3, 4)];
+            let mut a2 = a.clone();
+            a2[(2, 8)] = f64::from_bits(a2[(2, 8)].to_bits() + 1);
+            for (mb, aa) in [(&mbar2, &a), (&mbar, &a2)] {
+                assert!(!k.holds(mb, aa, &coords));
+                k.try_factor_on(mb, aa, &coords).unwrap();
+                assert_eq!(solve(&mut k), solve(&mut fresh(mb, aa)));
+                assert_ne!(solve(&mut k), first);
+            }
+            // a zero of A that changes sign only: not the same input
+            k.try_factor_on(&mbar, &a, &coords).unwrap();
+            let mut a3 = a.clone();
+            a3[(0, 0)] = 0.0;
+            k.try_factor_on(&mbar, &a3, &coords).unwrap();
+            a3[(0, 0)] = -0.0;
+            assert!(!k.holds(&mbar, &a3, &coords));
+            // a column of M̄ outside `coords` is not an input
+            let mut mbar4 = mbar.clone();
+            mbar4[(2, 2)] += 1.0;
+            k.try_factor_on(&mbar, &a, &coords).unwrap();
+            assert!(k.holds(&mbar4, &a, &coords));
+            // singular inputs (a row repeated) fail every time
+            let mut a5 = a.clone();
+            for j in 0..9 {
+                a5[(1, j)] = a5[(0, j)];
+            }
+            for _ in 0..2 {
+                assert_eq!(
+                    k.try_factor_on(&mbar, &a5, &coords),
+                    Err(SingularityKind::RedundantConstraints)
+                );
+                assert!(!k.holds(&mbar, &a5, &coords));
+            }
+        });
     }
 
     /// Regression: a massless joint that no constraint row involves is free massless motion

@@ -136,8 +136,22 @@ impl Rodas4 {
         }
     }
 
-    /// `∂f/∂y` and `∂f/∂t` at `(t, y)` by forward differences, `f0 = f(t, y)`.
+    /// `∂f/∂y` and `∂f/∂t` at `(t, y)` by forward differences, `f0 = f(t, y)`. The
+    /// evaluations keep their KKT factors where the configuration repeats
+    /// ([`selfmanip_core::kkt::with_kept_factors`]: the columns of the velocities and of `t`
+    /// move no `q`), with the same results.
     pub(crate) fn jacobian<E>(
+        &mut self,
+        f: &mut dyn FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
+        t: f64,
+        y: &[f64],
+        f0: &[f64],
+    ) -> Result<(), NoJacobian> {
+        selfmanip_core::kkt::with_kept_factors(|| self.differences(f, t, y, f0))
+    }
+
+    /// [`Self::jacobian`]'s differences.
+    fn differences<E>(
         &mut self,
         f: &mut dyn FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
         t: f64,
