@@ -370,6 +370,17 @@ mod tests {
     use crate::contact::ContactKind;
     use crate::RobotDescription;
 
+    /// The robot `name` of a 2 kg body (0.02 kg m²) with the legs and contacts `rest` (TOML,
+    /// before the body's table).
+    fn robot(name: &str, rest: &str) -> Model {
+        let toml =
+            format!("name = \"{name}\"\n{rest}\n[body]\nmass_kg = 2.0\ninertia_kg_m2 = 0.02\n");
+        RobotDescription::from_toml_str(&toml)
+            .unwrap()
+            .build()
+            .unwrap()
+    }
+
     /// One workspace evaluating the dynamics at one configuration and several velocities —
     /// the KKT factor then kept ([`crate::kkt::with_kept_factors`]) — gives what a fresh
     /// workspace gives, bit for bit; so does the next evaluation at another configuration (the
@@ -377,12 +388,13 @@ mod tests {
     /// whose massless leg is free (its joints left out of the factor) alike.
     #[test]
     fn a_kept_factor_gives_a_fresh_workspace_s_dynamics() {
-        let model = RobotDescription::from_toml_str(
+        let model = robot(
+            "kept",
             r#"
-            name = "kept"
-            [body]
-            mass_kg = 2.0
-            inertia_kg_m2 = 0.02
+            contacts = [
+                { name = "fore_toe", leg = "fore", shape = { kind = "point", position_m = [0.0, 0.12] }, friction = { kind = "sticking", mu = 1.0 } },
+                { name = "hind_toe", leg = "hind", shape = { kind = "point", position_m = [0.0, 0.12] }, friction = { kind = "sticking", mu = 1.0 } },
+            ]
             [[legs]]
             name = "fore"
             hip_m = [0.2, 0.0]
@@ -391,21 +403,8 @@ mod tests {
             name = "hind"
             hip_m = [-0.2, 0.0]
             links = [{ length_m = 0.12, mass_kg = 0.1, inertia_kg_m2 = 1e-4 }, { length_m = 0.12, mass_kg = 0.05, inertia_kg_m2 = 5e-5 }]
-            [[contacts]]
-            name = "fore_toe"
-            leg = "fore"
-            shape = { kind = "point", position_m = [0.0, 0.12] }
-            friction = { kind = "sticking", mu = 1.0 }
-            [[contacts]]
-            name = "hind_toe"
-            leg = "hind"
-            shape = { kind = "point", position_m = [0.0, 0.12] }
-            friction = { kind = "sticking", mu = 1.0 }
             "#,
-        )
-        .unwrap()
-        .build()
-        .unwrap();
+        );
         let bits = |v: &DVector<f64>| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         let q = [0.4, -0.9, -0.3, 0.7, 0.01, -0.21, 0.05];
         let q2 = [0.41, -0.9, -0.3, 0.7, 0.01, -0.21, 0.05];
@@ -451,12 +450,9 @@ mod tests {
     /// proximal and distal links and on the body.
     #[test]
     fn free_massless_joints_follow_their_definition() {
-        let model = RobotDescription::from_toml_str(
+        let model = robot(
+            "mixed",
             r#"
-            name = "mixed"
-            [body]
-            mass_kg = 2.0
-            inertia_kg_m2 = 0.02
             [[legs]]
             name = "a"
             hip_m = [0.2, 0.0]
@@ -504,10 +500,7 @@ mod tests {
             shape = { kind = "point", position_m = [0.3, 0.0] }
             friction = { kind = "sliding" }
             "#,
-        )
-        .unwrap()
-        .build()
-        .unwrap();
+        );
         let nc = model.n_contacts();
         let (mut free, mut dynamic) = (Vec::new(), Vec::new());
         let mut n_free = 0;
