@@ -738,8 +738,7 @@ impl Fold {
             + (0..n)
                 .flat_map(|a| (0..n).map(move |b| (a, b)))
                 .fold(0.0f64, |m, (a, b)| m.max(ys[(rows[a], b)].abs()));
-        let sv = z.singular_values();
-        let s_min = sv.min();
+        let s_min = smallest_singular_value(&z);
         if s_min.is_nan() || s_min <= FOLD_SINGULAR_TOL * scale {
             return Err(CoreError::SingularKkt {
                 kind: SingularityKind::UnconstrainedMasslessMotion,
@@ -818,10 +817,11 @@ impl Fold {
 /// judged by its own round-off (`tests/sprung_leg_sliding.rs`).
 fn painleve_violation(w: &nalgebra::DMatrix<f64>, m_ref: f64) -> Option<(usize, f64)> {
     let n = w.nrows();
+    let mut idx: Vec<usize> = Vec::with_capacity(n);
     for subset in 1u32..(1 << n) {
-        let idx: Vec<usize> = (0..n).filter(|&b| subset >> b & 1 == 1).collect();
-        let sub = w.select_rows(&idx).select_columns(&idx);
-        let det = sub.determinant();
+        idx.clear();
+        idx.extend((0..n).filter(|&b| subset >> b & 1 == 1));
+        let det = principal_minor(w, &idx);
         let scale: f64 = idx
             .iter()
             .map(|&a| w.row(a).iter().fold(m_ref, |acc, v| acc.max(v.abs())))
@@ -831,4 +831,65 @@ fn painleve_violation(w: &nalgebra::DMatrix<f64>, m_ref: f64) -> Option<(usize, 
         }
     }
     None
+}
+
+/// The principal minor of `w` on the rows and columns `idx` (ascending): a diagonal entry
+/// and the whole determinant are read off `w` without copying the submatrix out (the same
+/// value: a 1 × 1 determinant is its entry).
+fn principal_minor(w: &nalgebra::DMatrix<f64>, idx: &[usize]) -> f64 {
+    match idx {
+        [a] => w[(*a, *a)],
+        _ if idx.len() == w.nrows() => w.determinant(),
+        _ => w.select_rows(idx).select_columns(idx).determinant(),
+    }
+}
+
+/// The smallest singular value of the square matrix `z`: of a 1 × 1 matrix, its entry's
+/// modulus (what the SVD returns, without forming it).
+fn smallest_singular_value(z: &nalgebra::DMatrix<f64>) -> f64 {
+    if z.shape() == (1, 1) {
+        z[(0, 0)].abs()
+    } else {
+        z.singular_values().min()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::DMatrix;
+
+    /// A fixed sequence of numbers in `[-1, 1)` (a linear congruential generator).
+    fn numbers(seed: u64) -> impl FnMut() -> f64 {
+        let mut s = seed;
+        move || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            2.0 * ((s >> 11) as f64 / (1u64 << 53) as f64) - 1.0
+        }
+    }
+
+    /// The minors read off `w` are the determinants of the submatrices copied out, bit for
+    /// bit, for every principal minor of matrices of order 1 to 4; and a 1 × 1 matrix's
+    /// singular value is the SVD's, over sizes from 1e-300 to 1e300.
+    #[test]
+    fn minors_and_singular_values_read_off_agree_with_the_general_route() {
+        let mut x = numbers(3);
+        for n in 1..=4 {
+            for _ in 0..20 {
+                let w = DMatrix::from_fn(n, n, |_, _| x() * 10f64.powi((3.0 * x()) as i32));
+                for subset in 1u32..(1 << n) {
+                    let idx: Vec<usize> = (0..n).filter(|&b| subset >> b & 1 == 1).collect();
+                    let copied = w.select_rows(&idx).select_columns(&idx).determinant();
+                    assert_eq!(principal_minor(&w, &idx).to_bits(), copied.to_bits());
+                }
+            }
+        }
+        for e in -300..=300 {
+            let z = DMatrix::from_element(1, 1, x() * 10f64.powi(e));
+            let svd = z.singular_values().min();
+            assert_eq!(smallest_singular_value(&z).to_bits(), svd.to_bits(), "{z}");
+        }
+    }
 }

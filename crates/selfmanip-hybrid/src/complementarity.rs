@@ -9,6 +9,16 @@
 //! at all (its KKT matrix singular). Exactly one accepted set is the answer; none or several
 //! end the execution with a typed [`Termination`].
 //!
+//! Each subset is solved at most once, and at an impact only when a verdict needs it: the
+//! subsets are judged from the largest down, and a set is refused by the first left-out
+//! contact found held in `J ∪ {k}` (solved already for a larger set, or now) before its own
+//! outcome is solved. A landing whose answer keeps most of the candidates thus refuses most
+//! small subsets through a superset already solved (a touchdown beside two held contacts:
+//! about half of the eight subsets). The verdicts are the definition's whatever is left
+//! unsolved. A force event solves every subset, in order: a slide inconsistent with Coulomb
+//! friction (Painlevé) in any subset is the reset's error, which the run resolves as a jam
+//! ([`crate::jam`]); an impact's outcomes involve no friction solve.
+//!
 //! **Contacts an impact leaves at rest** (at `delta_t_s = 0`, the default). The
 //! pseudo-impulse rule (5.39)–(5.40) judges a contact by what it transmits over the impact's
 //! duration δt, `Π_k = P_k + δt F_k + o(δt)`: the plastic impulse `P` of (5.28)–(5.29) and
@@ -80,22 +90,32 @@ impl ResetWorkspace<'_> {
         if n > ENUMERATION_LIMIT {
             return self.select_by_qp(t, candidates, prefer, q, qd, impact);
         }
-        // every subset is needed, as a candidate and as `J ∪ {k}` of others: solve each once,
-        // on the state stages (kinematics, M̄ C̄q̇ N̄) they all share
+        // each subset is solved at most once, on the state stages (kinematics, M̄ C̄q̇ N̄) they
+        // all share
         self.ws.data.prepare_state(self.model, q, qd)?;
-        let mut outcomes: Vec<Option<SetOutcome>> = Vec::with_capacity(1 << n);
-        let mut set: Vec<usize> = Vec::with_capacity(n);
-        for bits in 0u32..(1 << n) {
-            set.clear();
-            set.extend((0..n).filter(|i| bits >> i & 1 == 1).map(|i| candidates[i]));
-            outcomes.push(self.outcome_at_state((t, q, qd), &set, prefer, impact)?);
+        let mut outcomes = Outcomes::new(n);
+        // at a force event every subset is solved, in order: a slide inconsistent with
+        // Coulomb friction (Painlevé) in any of them is the reset's error (crate::jam). An
+        // impact's outcomes cannot be inconsistent (no friction solve), so only the subsets
+        // that the decision needs are solved (module docs)
+        if !impact {
+            for bits in 0u32..(1 << n) {
+                outcomes.get(self, (t, q, qd), candidates, (prefer, impact), bits)?;
+            }
         }
-        let mut accepted = accepted_sets(&outcomes, candidates, leaving, &self.held);
+        let at = (t, q, qd);
+        let problem = (candidates, (prefer, impact));
+        let held = self.held.clone();
+        let mut accepted = outcomes.accepted(self, at, problem, leaving, &held)?;
         // no set keeps every held contact: the hold gives way to complementarity (the
         // outcomes do not depend on the hold)
-        if accepted.is_empty() && !self.held.is_empty() {
-            accepted = accepted_sets(&outcomes, candidates, leaving, &[]);
+        if accepted.is_empty() && !held.is_empty() {
+            accepted = outcomes.accepted(self, at, problem, leaving, &[])?;
         }
+        let accepted: Vec<&SetOutcome> = accepted
+            .iter()
+            .filter_map(|&bits| outcomes.known(bits))
+            .collect();
         Ok(match accepted[..] {
             [one] => Ok(Selected {
                 mode: one.mode,
@@ -243,52 +263,109 @@ impl ResetWorkspace<'_> {
     }
 }
 
-/// The sets that complementarity accepts among `outcomes` (by subset of `candidates`, bit `i`
-/// for `candidates[i]`; `None`: singular): each of its contacts pushes (a `leaving` one
-/// clearly), a `held` one is in it, and each left-out contact `k` would pull in `J ∪ {k}`
-/// or cannot be held there at all (module docs).
-fn accepted_sets<'o>(
-    outcomes: &'o [Option<SetOutcome>],
-    candidates: &[usize],
-    leaving: &[usize],
-    held: &[usize],
-) -> Vec<&'o SetOutcome> {
-    let n = candidates.len();
-    let tol = 1e-12;
-    // the push a contact needs to be held: a leaving one must push clearly
-    let holds = |c: usize, u: f64| {
-        if held.contains(&c) {
-            true
-        } else if leaving.contains(&c) {
-            u > tol
-        } else {
-            u >= -tol
-        }
-    };
-    let mut accepted: Vec<&SetOutcome> = Vec::new();
-    for bits in 0u32..(1 << n) {
-        let Some(o) = &outcomes[bits as usize] else {
-            continue;
-        };
-        if o.push.iter().any(|&(c, u)| !holds(c, u)) {
-            continue;
-        }
-        // a held contact stays in every accepted set
-        let left_out = |i: usize| bits >> i & 1 == 0;
-        if (0..n).any(|i| left_out(i) && held.contains(&candidates[i])) {
-            continue;
-        }
-        // each left-out contact k must separate: singular with k means k cannot be held
-        let separates = (0..n).filter(|&i| left_out(i)).all(|i| {
-            outcomes[(bits | 1 << i) as usize]
-                .as_ref()
-                .is_none_or(|ok| !holds(candidates[i], push_of(&ok.push, candidates[i])))
-        });
-        if separates {
-            accepted.push(o);
-        }
+/// The outcomes of the subsets of a reset's candidates (by subset, bit `i` for
+/// `candidates[i]`), each solved when first asked for: `None` not yet solved, `Some(None)`
+/// singular.
+struct Outcomes(Vec<Option<Option<SetOutcome>>>);
+
+/// The candidates of a selection with the kinds `prefer` and whether it is an impact.
+type Problem<'c> = (&'c [usize], (ContactMode, bool));
+
+impl Outcomes {
+    fn new(n: usize) -> Self {
+        Outcomes(vec![None; 1 << n])
     }
-    accepted
+
+    /// The outcome of subset `bits`, if solved and not singular.
+    fn known(&self, bits: u32) -> Option<&SetOutcome> {
+        self.0[bits as usize].as_ref().and_then(Option::as_ref)
+    }
+
+    /// The outcome of subset `bits` at `(t, q, q̇)` (`cx.ws.data`'s state stages prepared
+    /// there), solved once.
+    fn get(
+        &mut self,
+        cx: &mut ResetWorkspace,
+        (t, q, qd): (f64, &[f64], &[f64]),
+        candidates: &[usize],
+        (prefer, impact): (ContactMode, bool),
+        bits: u32,
+    ) -> Result<Option<&SetOutcome>, CoreError> {
+        if self.0[bits as usize].is_none() {
+            let set: Vec<usize> = (0..candidates.len())
+                .filter(|i| bits >> i & 1 == 1)
+                .map(|i| candidates[i])
+                .collect();
+            let o = cx.outcome_at_state((t, q, qd), &set, prefer, impact)?;
+            self.0[bits as usize] = Some(o);
+        }
+        Ok(self.known(bits))
+    }
+
+    /// The sets that complementarity accepts (by subset, ascending): each of its contacts
+    /// pushes (a `leaving` one clearly), a `held` one is in it, and each left-out contact
+    /// `k` would pull in `J ∪ {k}` or cannot be held there at all (module docs). A subset is
+    /// refused by the first test that fails, so only the outcomes a verdict needs are
+    /// solved: the larger sets first (every `J ∪ {k}` comes before `J`), a set's own
+    /// outcome last. The verdicts do not depend on which outcomes were solved.
+    fn accepted(
+        &mut self,
+        cx: &mut ResetWorkspace,
+        at: (f64, &[f64], &[f64]),
+        (candidates, kinds): Problem,
+        leaving: &[usize],
+        held: &[usize],
+    ) -> Result<Vec<u32>, CoreError> {
+        let n = candidates.len();
+        let tol = 1e-12;
+        // the push a contact needs to be held: a leaving one must push clearly
+        let holds = |c: usize, u: f64| {
+            if held.contains(&c) {
+                true
+            } else if leaving.contains(&c) {
+                u > tol
+            } else {
+                u >= -tol
+            }
+        };
+        // contact `i` left out of `bits` is held in `bits ∪ {i}` (singular: it cannot be)
+        let held_with = |o: Option<&SetOutcome>, i: usize| {
+            o.is_some_and(|o| holds(candidates[i], push_of(&o.push, candidates[i])))
+        };
+        let mut accepted = Vec::new();
+        for bits in (0u32..(1 << n)).rev() {
+            let left_out: Vec<usize> = (0..n).filter(|&i| bits >> i & 1 == 0).collect();
+            // a held contact stays in every accepted set
+            if left_out.iter().any(|&i| held.contains(&candidates[i])) {
+                continue;
+            }
+            // each left-out contact must separate: first by the outcomes already solved
+            let solved = |i: &usize| self.0[(bits | 1 << i) as usize].is_some();
+            let (known, unknown): (Vec<usize>, Vec<usize>) = left_out.into_iter().partition(solved);
+            if known
+                .iter()
+                .any(|&i| held_with(self.known(bits | 1 << i), i))
+            {
+                continue;
+            }
+            let mut refused = false;
+            for i in unknown {
+                if held_with(self.get(cx, at, candidates, kinds, bits | 1 << i)?, i) {
+                    refused = true;
+                    break;
+                }
+            }
+            if refused {
+                continue;
+            }
+            let own = self.get(cx, at, candidates, kinds, bits)?;
+            if own.is_some_and(|o| o.push.iter().all(|&(c, u)| holds(c, u))) {
+                accepted.push(bits);
+            }
+        }
+        accepted.reverse();
+        Ok(accepted)
+    }
 }
 
 /// The push of contact `k` in `push` (0 if it is not there).
