@@ -679,17 +679,7 @@ impl LeapPreset {
 
     /// Runs the leap with the rear motor starting `motor_t2_s` after the front one.
     pub fn run(&self, motor_t2_s: f64, stop: &AtomicBool) -> Result<LeapResult, RhexError> {
-        self.run_with(&[], motor_t2_s, stop)
-    }
-
-    /// [`Self::run`] with the behaviour parameters `values` bound too.
-    fn run_with(
-        &self,
-        values: &[(&str, f64)],
-        motor_t2_s: f64,
-        stop: &AtomicBool,
-    ) -> Result<LeapResult, RhexError> {
-        Ok(self.result(self.sim.run(values, motor_t2_s, stop)?, motor_t2_s))
+        Ok(self.result(self.sim.run(&[], motor_t2_s, stop)?, motor_t2_s))
     }
 
     /// Runs the leap as `cfg.t2_reference` says: the motor start `t2`, or the touchdown
@@ -744,7 +734,7 @@ impl LeapPreset {
         stop: &AtomicBool,
     ) -> Result<LeapResult, RhexError> {
         self.cfg.t2_reference.run(t2_s, self.cfg.t_final_s, |s| {
-            let r = self.run_with(values, s, stop)?;
+            let r = self.result(self.sim.run(values, s, stop)?, s);
             let lag = r.touchdown_t2_s;
             Ok((r, lag))
         })
