@@ -304,7 +304,8 @@ fn sweep_row(
             }
         };
         let why = r.reason();
-        Ok::<_, RhexError>((r, why, cfg.actuator.gear_ratio(), sens))
+        let gear_ratio = cfg.actuator.gear_ratio().unwrap_or(f64::NAN); // NaN: none
+        Ok::<_, RhexError>((r, why, gear_ratio, sens))
     }));
     let (row, sens) = sweep_row_of(outcome);
     (row, sens.or(failed_sens))

@@ -9,20 +9,18 @@ use crate::params::{LegPair, RhexParams};
 use crate::{Rhex, RhexError};
 use motor::Actuator;
 use selfmanip_core::ContactMode;
-use selfmanip_hybrid::Execution;
 use selfmanip_sim::analysis::angle_to_ground;
 use selfmanip_sim::behaviour::{
-    ActuatorSpec, Behaviour, FreeJointGains, JointProgram, Motion, NamedEvent, On, Phase, Torque,
-    Trigger,
+    ActuatorSpec, Behaviour, JointProgram, Motion, NamedEvent, On, Phase, Torque, Trigger,
 };
 pub use selfmanip_sim::drive::{CatalogDrive, GearedMotor, JointActuator, JointDrive};
 use selfmanip_sim::expr::Scalar;
-use selfmanip_sim::outcome::{BodyState, Outcome, WordOptions};
+use selfmanip_sim::outcome::{BodyState, WordOptions};
 pub use selfmanip_sim::preset_run::PresetRun;
 use selfmanip_sim::staggered::{staggered_frame, touchdown_lag_s, LagReference, StaggeredScenario};
 use selfmanip_sim::sweep::BuildCache;
 use selfmanip_sim::terrain::TerrainSpec;
-use selfmanip_sim::{InitialState, Scenario, SimOptions};
+use selfmanip_sim::{InitialState, Run, Scenario, SimOptions};
 use selfmanip_sim::{Simulation, Trajectory};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
@@ -676,24 +674,12 @@ impl LeapPreset {
     /// ([`StaggeredScenario::run_from`]: the waiting legs hold the unperturbed pose).
     pub(crate) fn run_from(&self, start_offset: Option<&[f64]>) -> Result<LeapResult, RhexError> {
         let t2 = self.cfg.t2_s;
-        let (run, front_start) = self.sim.run_from(t2, start_offset)?;
-        Ok(self.result(run.execution, run.outcome, t2, front_start))
+        Ok(self.result(self.sim.run_from(t2, start_offset)?, t2))
     }
 
     /// Runs the leap with the rear motor starting `motor_t2_s` after the front one.
     pub fn run(&self, motor_t2_s: f64, stop: &AtomicBool) -> Result<LeapResult, RhexError> {
-        self.run_with(&[], motor_t2_s, stop)
-    }
-
-    /// [`Self::run`] with the behaviour parameters `values` bound too.
-    fn run_with(
-        &self,
-        values: &[(&str, f64)],
-        motor_t2_s: f64,
-        stop: &AtomicBool,
-    ) -> Result<LeapResult, RhexError> {
-        let (run, front_start) = self.sim.run(values, motor_t2_s, stop)?;
-        Ok(self.result(run.execution, run.outcome, motor_t2_s, front_start))
+        Ok(self.result(self.sim.run(&[], motor_t2_s, stop)?, motor_t2_s))
     }
 
     /// Runs the leap as `cfg.t2_reference` says: the motor start `t2`, or the touchdown
@@ -748,21 +734,16 @@ impl LeapPreset {
         stop: &AtomicBool,
     ) -> Result<LeapResult, RhexError> {
         self.cfg.t2_reference.run(t2_s, self.cfg.t_final_s, |s| {
-            let r = self.run_with(values, s, stop)?;
+            let r = self.result(self.sim.run(values, s, stop)?, s);
             let lag = r.touchdown_t2_s;
             Ok((r, lag))
         })
     }
 
-    /// The leap's result read off the generic execution `exec`, run with the rear motor
-    /// starting `motor_t2_s` after the front one, the front one at `front_start` on its clock.
-    fn result(
-        &self,
-        exec: Execution,
-        outcome: Outcome,
-        motor_t2_s: f64,
-        front_start: f64,
-    ) -> LeapResult {
+    /// The leap's result read off the generic run, with the rear motor starting `motor_t2_s`
+    /// after the front one, the front one at `front_start` on its clock.
+    fn result(&self, (run, front_start): (Run, f64), motor_t2_s: f64) -> LeapResult {
+        let (exec, outcome) = (run.execution, run.outcome);
         let rhex = &self.leap.rhex;
         let x0 = self.q0[self.q0.len() - 3];
         let frame = staggered_frame(front_start, motor_t2_s, x0, self.cfg.stop_at_apex);
@@ -877,131 +858,69 @@ fn behaviour(strategy: Strategy, k: &Settings<'_>) -> Behaviour {
         Some(a) => num(a),
         None => "leg.stall_torque_n_m / (leg.reflected_inertia_kg_m2 + leg_inertia_kg_m2)".into(),
     };
-    let servo = |i: usize| Torque::Servo {
-        target_rad: None,
-        kp_n_m_per_rad: format!("kp_hold * {motor}").as_str().into(),
-        kd_n_m_s_per_rad: match &k.kd_n_m_s_per_rad {
-            Some(kd) => Scalar::Expr(kd.clone()),
-            None => format!("kd_hold * {motor}").as_str().into(),
-        },
-        torque_limit_n_m: Some(motor.into()),
-        only_in_contact: !k.massive[i],
+    let kd = match &k.kd_n_m_s_per_rad {
+        Some(kd) => Scalar::Expr(kd.clone()),
+        None => format!("kd_hold * {motor}").as_str().into(),
     };
+    let kp = format!("kp_hold * {motor}");
+    let servo =
+        |i: usize| Torque::servo(kp.as_str(), kd.clone(), Some(motor.into()), !k.massive[i]);
     let retract = match k.keep_pushing_after_liftoff {
         true => Trigger::event("takeoff"),
-        false => Trigger {
-            any: Some(vec![Trigger::on(On::Release), Trigger::event("takeoff")]),
-            ..Trigger::default()
-        },
+        false => Trigger::any(vec![Trigger::on(On::Release), Trigger::event("takeoff")]),
     };
-    let program = |i: usize, start: &str, sign: &str| JointProgram {
-        joint: k.joints[i].into(),
-        phases: vec![
-            Phase {
-                name: "wait".into(),
-                start: None,
-                torque: servo(i),
-                motion: Some(Motion::Hold {
-                    angle_rad: "q0".into(),
-                }),
-                restart_on: None,
-            },
-            Phase {
-                name: "push".into(),
-                start: Some(Trigger::at(start)),
-                torque: Torque::Motor {
-                    actuator: "leg".into(),
-                    command: sign.into(),
-                    reverse_beyond_rad: k.toe_stub_rad.map(num),
-                },
-                motion: Some(Motion::Swing {
-                    target_rad: format!("{sign} * stow").as_str().into(),
-                    speed_rad_s: k
-                        .swing_speed_rad_s
-                        .map_or_else(|| "leg.no_load_speed_rad_s".into(), num),
-                    accel_rad_s2: accel(),
-                }),
-                restart_on: Some(vec![Trigger::on(On::Release)]),
-            },
-            Phase {
-                name: "retract".into(),
-                start: Some(retract.clone()),
-                torque: servo(i),
-                motion: Some(Motion::Park {
-                    target_rad: format!("if({sign} * theta >= 0, {sign}, -{sign}) * stow")
-                        .as_str()
-                        .into(),
-                    accel_rad_s2: accel(),
-                }),
-                restart_on: Some(Vec::new()),
-            },
-        ],
-        repeat_from: None,
+    let program = |i: usize, start: &str, sign: &str| {
+        let speed = k
+            .swing_speed_rad_s
+            .map_or_else(|| "leg.no_load_speed_rad_s".into(), num);
+        let stowed = format!("if({sign} * theta >= 0, {sign}, -{sign}) * stow");
+        let phases = vec![
+            Phase::new("wait", servo(i)).moving(Motion::hold("q0")),
+            Phase::new("push", Torque::motor("leg", sign, k.toe_stub_rad.map(num)))
+                .starting(Trigger::at(start))
+                .moving(Motion::swing(
+                    format!("{sign} * stow").as_str(),
+                    speed,
+                    accel(),
+                ))
+                .restarting_on(vec![Trigger::on(On::Release)]),
+            Phase::new("retract", servo(i))
+                .starting(retract.clone())
+                .moving(Motion::park(stowed.as_str(), accel()))
+                .restarting_on(Vec::new()),
+        ];
+        JointProgram::new(k.joints[i], phases)
     };
-    let number = |name: &str, x: f64| (name.to_string(), Scalar::Number(x));
-    let formula = |name: &str, e: &str| (name.to_string(), Scalar::from(e));
     let symbols = format!("({},{})", strategy.front.symbol(), strategy.rear.symbol());
-    Behaviour {
-        name: format!("rhex-leap-{strategy}"),
-        description: format!(
-            "RHex leap {symbols}: open-loop motor pushes with coordination time t2"
-        ),
-        parameters: [
-            number("t2", 0.0),
-            formula("t_front", "max(0, -t2)"),
-            formula("t_rear", "max(0, t2)"),
-            number("s_front", strategy.front.sign()),
-            number("s_rear", strategy.rear.sign()),
-            number("gear_ratio", X_RHEX_LEG.default.gear_ratio),
-            number("current_limit_a", X_RHEX_LEG.default.current_limit_a),
-            number(
-                "motors_per_leg",
-                f64::from(X_RHEX_LEG.default.motors_per_leg),
-            ),
-            number("leg_inertia_kg_m2", 0.0),
-            number("stow", 2.6),
-            number("kp_hold", 20.0),
-            number("kd_hold", 0.5),
-        ]
-        .into_iter()
-        .collect(),
-        actuators: [(
-            "leg".to_string(),
-            ActuatorSpec::DcMotor {
-                motor: X_RHEX_LEG.motor.into(),
-                gearbox: X_RHEX_LEG.gearbox.into(),
-                gear_ratio: Some("gear_ratio".into()),
-                current_limit_a: Some("current_limit_a".into()),
-                supply_voltage_v: None,
-                count: "motors_per_leg".into(),
-                catalog: None,
-                gearbox_efficiency: None,
-                gearbox_loss: motor::GearboxLoss::Derating,
-                battery_resistance_ohm: None,
-            },
-        )]
-        .into_iter()
-        .collect(),
-        events: [(
-            "takeoff".to_string(),
-            NamedEvent {
-                on: On::Flight,
-                contacts: None,
-                not_before_s: Some("max(t_front, t_rear)".into()),
-                after_event: None,
-            },
-        )]
-        .into_iter()
-        .collect(),
-        free_joints: FreeJointGains {
-            kp_per_s2: Scalar::Number(400.0),
-            kd_per_s: Scalar::Number(40.0),
-        },
-        joints: vec![
-            program(0, "t_front", "s_front"),
-            program(1, "t_rear", "s_rear"),
-        ],
-    }
+    let description =
+        format!("RHex leap {symbols}: open-loop motor pushes with coordination time t2");
+    let d = &X_RHEX_LEG.default;
+    let takeoff = NamedEvent::on(On::Flight, Some("max(t_front, t_rear)".into()));
+    let (ratio, limit) = (Some("gear_ratio".into()), Some("current_limit_a".into()));
+    let leg = ActuatorSpec::dc_motor(
+        X_RHEX_LEG.motor,
+        X_RHEX_LEG.gearbox,
+        ratio,
+        limit,
+        "motors_per_leg",
+    );
+    Behaviour::new(format!("rhex-leap-{strategy}"), description)
+        .parameter("t2", 0.0)
+        .parameter("t_front", "max(0, -t2)")
+        .parameter("t_rear", "max(0, t2)")
+        .parameter("s_front", strategy.front.sign())
+        .parameter("s_rear", strategy.rear.sign())
+        .parameter("gear_ratio", d.gear_ratio)
+        .parameter("current_limit_a", d.current_limit_a)
+        .parameter("motors_per_leg", f64::from(d.motors_per_leg))
+        .parameter("leg_inertia_kg_m2", 0.0)
+        .parameter("stow", 2.6)
+        .parameter("kp_hold", 20.0)
+        .parameter("kd_hold", 0.5)
+        .actuator("leg", leg)
+        .event("takeoff", takeoff)
+        .program(program(0, "t_front", "s_front"))
+        .program(program(1, "t_rear", "s_rear"))
 }
 
 /// A leap as a scenario.
@@ -1062,15 +981,11 @@ pub(crate) fn scenario_of(
         massive: [0, 1].map(|i| !rhex.model.distal_massless(i)),
         kd_n_m_s_per_rad: damping.as_ref().map(|(kd, _)| kd.clone()),
     };
-    let mut b = behaviour(cfg.strategy, &settings);
-    let p = &mut b.parameters;
-    p.insert("t2".into(), num(cfg.t2_s));
-    p.insert(
-        "leg_inertia_kg_m2".into(),
-        num(leg_inertia_about_hip(&rhex.params)),
-    );
+    let mut b = behaviour(cfg.strategy, &settings)
+        .parameter("t2", cfg.t2_s)
+        .parameter("leg_inertia_kg_m2", leg_inertia_about_hip(&rhex.params));
     if let Some((_, armature)) = damping {
-        p.insert("leg_armature_kg_m2".into(), num(armature));
+        b = b.parameter("leg_armature_kg_m2", armature);
     }
     let leg = b.actuators.get_mut("leg").expect("the files' actuator");
     match &cfg.actuator {

@@ -12,11 +12,10 @@ use crate::{RhexError, RhexParams};
 use nalgebra::DMatrix;
 use selfmanip_core::tangent::BodyParameter;
 use selfmanip_hybrid::sensitivity::Parameter;
-use selfmanip_hybrid::{EventKind, Termination};
 use selfmanip_sim::named_terms::{armature_terms, contact_friction};
 use selfmanip_sim::preset_run::ApexSensitivity;
 pub use selfmanip_sim::sensitivity::EventSaltation;
-use selfmanip_sim::sensitivity_preset::{end_state_sensitivity, start_directions, EndStateRequest};
+use selfmanip_sim::sensitivity_preset::start_directions;
 use selfmanip_sim::staggered::d_first_start_d_lag;
 
 /// The apex columns a leap reports, in order (every sweep's column names).
@@ -52,25 +51,24 @@ pub fn check_sensitivity_names(cfg: &LeapConfig, names: &[&str]) -> Result<(), R
 
 /// A parameter of a leap, by the name it was asked for.
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum LeapParameter {
+enum LeapParameter<'a> {
     T2,
     GearRatio,
     BodyMass,
     BodyInertia,
     /// The armature of every leg joint at once.
     LegArmature,
-    /// A loss option of the geared motor, a behaviour parameter by its name.
-    DriveLoss(&'static str),
+    /// A behaviour parameter by its name: a loss option of the geared motor, or the
+    /// compliant leg's stiffness or damping (`leg_stiffness`, `leg_damping`: the knee law's
+    /// gains, [`selfmanip_sim::compliant_leg`]).
+    Behaviour(&'a str),
     /// A leg pair's toe friction coefficient (static, and kinetic with Coulomb toes).
     ToeFriction(LegPair),
     /// The pseudo-impulse's `δt` ([`Parameter::PseudoImpulseDuration`]).
     PseudoImpulse,
-    /// The compliant leg's stiffness or damping (`leg_stiffness`, `leg_damping`: behaviour
-    /// parameters, the knee law's gains, [`selfmanip_sim::compliant_leg`]).
-    CompliantLeg(&'static str),
 }
 
-fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<LeapParameter>, RhexError> {
+fn resolve<'a>(cfg: &LeapConfig, names: &[&'a str]) -> Result<Vec<LeapParameter<'a>>, RhexError> {
     let geared = matches!(cfg.actuator, LegActuator::GearedMotor { .. });
     let unsupported = |field: &str, reason: &str| {
         Err(RhexError::Unsupported {
@@ -83,9 +81,8 @@ fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<LeapParameter>, RhexE
         .map(|&n| match n {
             "t2" | "t2_s" => Ok(LeapParameter::T2),
             "gear_ratio" if geared => Ok(LeapParameter::GearRatio),
-            "gearbox_efficiency" if geared => Ok(LeapParameter::DriveLoss("gearbox_efficiency")),
-            "battery_resistance_ohm" if geared => {
-                Ok(LeapParameter::DriveLoss("battery_resistance_ohm"))
+            "gearbox_efficiency" | "battery_resistance_ohm" if geared => {
+                Ok(LeapParameter::Behaviour(n))
             }
             "gear_ratio" => unsupported(
                 n,
@@ -95,11 +92,7 @@ fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<LeapParameter>, RhexE
                 unsupported(n, "the saturated-torque actuator has no drive losses")
             }
             "leg_stiffness" | "leg_damping" if cfg.compliant_leg.is_some() => {
-                Ok(LeapParameter::CompliantLeg(if n == "leg_stiffness" {
-                    "leg_stiffness"
-                } else {
-                    "leg_damping"
-                }))
+                Ok(LeapParameter::Behaviour(n))
             }
             "leg_stiffness" | "leg_damping" => {
                 unsupported(n, "the leap's legs are rigid (set `compliant_leg`)")
@@ -132,7 +125,7 @@ fn resolve(cfg: &LeapConfig, names: &[&str]) -> Result<Vec<LeapParameter>, RhexE
 /// with it). The legs' armature is every leg joint's at once, `Σ_j ∂/∂a_j` plus the
 /// behaviour's (the same damping), a parameter only of legs that have one.
 fn engine_terms(
-    p: LeapParameter,
+    p: LeapParameter<'_>,
     params: &RhexParams,
     cfg: &LeapConfig,
     model: &selfmanip_core::Model,
@@ -141,9 +134,7 @@ fn engine_terms(
         LeapParameter::T2 => vec![(Parameter::Controller("t2".into()), 1.0)],
         LeapParameter::BodyMass => vec![(Parameter::Body(BodyParameter::Mass), 1.0)],
         LeapParameter::BodyInertia => vec![(Parameter::Body(BodyParameter::Inertia), 1.0)],
-        LeapParameter::DriveLoss(name) | LeapParameter::CompliantLeg(name) => {
-            vec![(Parameter::Controller(name.into()), 1.0)]
-        }
+        LeapParameter::Behaviour(name) => vec![(Parameter::Controller(name.into()), 1.0)],
         LeapParameter::PseudoImpulse => vec![(Parameter::PseudoImpulseDuration, 1.0)],
         LeapParameter::ToeFriction(pair) => {
             let coulomb = params.toe_sliding == ToeSliding::Coulomb;
@@ -156,8 +147,11 @@ fn engine_terms(
         }
         LeapParameter::GearRatio => {
             let mut t = vec![(Parameter::Controller("gear_ratio".into()), 1.0)];
-            if crate::leap::armature_follows_gear(params) {
-                let g = cfg.actuator.gear_ratio(); // geared: `resolve` refuses others
+            // geared (`resolve` refuses others)
+            if let (true, Some(g)) = (
+                crate::leap::armature_follows_gear(params),
+                cfg.actuator.gear_ratio(),
+            ) {
                 let a = crate::leap::leg_armature(params, cfg)?;
                 t.extend(armature_terms(model, 2.0 * a / g));
             }
@@ -243,25 +237,8 @@ pub fn leap_with_sensitivity_from(
         .iter()
         .map(|&p| engine_terms(p, params, cfg, model))
         .collect::<Result<Vec<_>, _>>()?;
-    let exec = &result.execution;
-    let not_ended = (exec.termination != Termination::Apex || result.apex.is_none()).then(|| {
-        "the leap did not end at an apex (sensitivities are taken at the apex that ends a run)"
-            .to_string()
-    });
-    let d = end_state_sensitivity(&EndStateRequest {
-        model,
-        terrain: &cfg.terrain,
-        exec,
-        directions: &dirs,
-        named: &named,
-        names,
-        offset_s: result.time_offset_s,
-        d_origin: &d_origin,
-        end: (EventKind::Apex, "apex"),
-        not_ended,
-        z_up: true,
-    });
-    let mut s = ApexSensitivity::new(result, names, d);
+    let terrain = &cfg.terrain;
+    let mut s = ApexSensitivity::at_apex(result, model, terrain, &dirs, &named, names, &d_origin);
     let motor = X_RHEX_LEG.motor(&cfg.actuator);
     s.reason = s.reason.map(|r| motor.undefined_derivative_reason(r));
     Ok(s)

@@ -82,7 +82,8 @@ impl Preset for LeapSweep {
 
     fn run(&self, point: &LeapPoint, stop: &AtomicBool) -> Result<SweepRow, RhexError> {
         let (params, cfg) = point_inputs(&self.params, &self.cfg, point)?;
-        let g = cfg.actuator.gear_ratio();
+        // the column of a saturated torque's gear ratio is NaN (none)
+        let g = cfg.actuator.gear_ratio().unwrap_or(f64::NAN);
         Ok(self.presets.run(&params, &cfg, stop)?.row(String::new(), g))
     }
 

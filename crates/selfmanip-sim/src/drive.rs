@@ -158,11 +158,11 @@ impl JointActuator {
         }
     }
 
-    /// The gear ratio (NaN: the saturated torque).
-    pub fn gear_ratio(&self) -> f64 {
+    /// The gear ratio of the geared motor; `None` for the saturated torque, which has none.
+    pub fn gear_ratio(&self) -> Option<f64> {
         match self {
-            JointActuator::GearedMotor(m) => m.gear_ratio,
-            JointActuator::SaturatedTorque => f64::NAN,
+            JointActuator::GearedMotor(m) => Some(m.gear_ratio),
+            JointActuator::SaturatedTorque => None,
         }
     }
 

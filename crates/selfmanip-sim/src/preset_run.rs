@@ -6,11 +6,13 @@
 use crate::events::{event_records_labelled, EventRecord};
 use crate::outcome::{BodyState, Outcome, PresetFrame, APEX_COLUMNS};
 use crate::sensitivity::EventSaltation;
-use crate::sensitivity_preset::EndStateSensitivity;
+use crate::sensitivity_preset::{end_state_sensitivity, EndStateRequest, EndStateSensitivity};
 use crate::terrain::TerrainSpec;
 use crate::{SimError, Trajectory};
+use nalgebra::DMatrix;
 use selfmanip_core::{ContactMode, Model};
-use selfmanip_hybrid::Execution;
+use selfmanip_hybrid::sensitivity::Parameter;
+use selfmanip_hybrid::{EventKind, Execution, Termination};
 
 /// A run read in a preset's frame: the generic run's metrics (read through `Deref`), whether
 /// it flew, its apex and events on the preset's clock.
@@ -172,6 +174,48 @@ impl<R> ApexSensitivity<R> {
             time_events: d.time_events,
             event_times: d.event_times,
         }
+    }
+
+    /// The derivatives of the apex that ends a preset's run `result` (of `model` on
+    /// `terrain`, z up, on the preset's clock) along the start-state `directions` and the
+    /// named parameters `names` (each the weighted sum of engine parameters `named[k]`,
+    /// moving the preset's clock origin by `d_origin[k]`): never an error; not ok, with the
+    /// reason, where the run did not end at an apex or a derivative is undefined
+    /// ([`end_state_sensitivity`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn at_apex(
+        result: R,
+        model: &Model,
+        terrain: &TerrainSpec,
+        directions: &DMatrix<f64>,
+        named: &[Vec<(Parameter, f64)>],
+        names: &[&str],
+        d_origin: &[f64],
+    ) -> Self
+    where
+        R: std::ops::Deref<Target = PresetRun>,
+    {
+        let exec = &result.execution;
+        let not_ended =
+            (exec.termination != Termination::Apex || result.apex.is_none()).then(|| {
+                "the run did not end at an apex (sensitivities are taken at the apex that \
+                 ends a run)"
+                    .to_string()
+            });
+        let d = end_state_sensitivity(&EndStateRequest {
+            model,
+            terrain,
+            exec,
+            directions,
+            named,
+            names,
+            offset_s: result.time_offset_s,
+            d_origin,
+            end: (EventKind::Apex, "apex"),
+            not_ended,
+            z_up: true,
+        });
+        ApexSensitivity::new(result, names, d)
     }
 
     /// `d column / d parameter` by names (`None` for a name not asked for).

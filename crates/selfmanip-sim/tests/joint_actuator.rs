@@ -116,8 +116,8 @@ fn joint_drive_reads_the_catalog() {
         RESEARCH.motor(&JointActuator::SaturatedTorque),
         RESEARCH.default
     );
-    assert!(JointActuator::SaturatedTorque.gear_ratio().is_nan());
-    assert_eq!(geared.gear_ratio(), 40.0);
+    assert_eq!(JointActuator::SaturatedTorque.gear_ratio(), None);
+    assert_eq!(geared.gear_ratio(), Some(40.0));
 }
 
 /// The choice reads and writes as `{"kind": "saturated_torque"}` or the geared motor's

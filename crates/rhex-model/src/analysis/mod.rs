@@ -24,9 +24,7 @@ pub mod sensor_sweep;
 pub mod standing;
 
 use crate::RhexError;
-pub(crate) use selfmanip_sim::analysis::{
-    check_finite, contact_leg, free_motion_basis, normal_rows, solve_contact_pose,
-};
+pub(crate) use selfmanip_sim::analysis::{check_finite, contact_leg, solve_contact_pose};
 
 pub(crate) fn bad(field: &str, reason: impl Into<String>) -> RhexError {
     RhexError::InvalidValue {
@@ -35,19 +33,5 @@ pub(crate) fn bad(field: &str, reason: impl Into<String>) -> RhexError {
     }
 }
 
-/// The most points per axis of a figure's grid (Figs. 4.8, 4.10): 512² poses, each a
-/// contact problem (Fig. 4.8 solves a linear program per point), are minutes of work; the
-/// figures use 13–25.
-pub const MAX_FIGURE_GRID: usize = 512;
-
-/// `n` points per axis of a figure's grid, 2 to [`MAX_FIGURE_GRID`].
-pub(crate) fn grid_points(n: usize) -> Result<usize, RhexError> {
-    if (2..=MAX_FIGURE_GRID).contains(&n) {
-        Ok(n)
-    } else {
-        Err(bad(
-            "n",
-            format!("a figure's grid has 2 to {MAX_FIGURE_GRID} points per axis, got {n}"),
-        ))
-    }
-}
+pub use selfmanip_sim::analysis::takeoff_maps::MAX_FIGURE_GRID;
+pub(crate) use selfmanip_sim::analysis::takeoff_maps::{grid_points, linspace};

@@ -6,17 +6,18 @@
 //! not convex, grid then golden section) and the single-leg pitch acceleration are the
 //! generic ones of [`selfmanip_sim::analysis::one_leg`], here on RHex's rear leg with
 //! X-RHex's motor ([`xrhex_line`]).
-use super::{bad, check_finite, free_motion_basis, normal_rows, solve_contact_pose};
+use super::{bad, check_finite};
 use crate::params::{LegShape, RhexParams};
 use crate::{Rhex, RhexError};
-use selfmanip_core::description::ShapeDescription;
-use selfmanip_core::{forward_dynamics, ContactMode, Data, FlatGround, Model};
+use selfmanip_core::{ContactMode, Model};
+use selfmanip_sim::analysis::double_stance::{double_stance, normal_force_difference};
 pub use selfmanip_sim::analysis::maximise::{golden_max, grid_golden_max};
 pub use selfmanip_sim::analysis::one_leg::{
     best_takeoff_over_theta2, optimal_gear_ratio, rear_stance_q, rear_takeoff_speed,
     single_leg_pitch_accel,
 };
 pub use selfmanip_sim::analysis::takeoff::{takeoff_bound, TakeoffBound, TorqueSpeedLine};
+use selfmanip_sim::analysis::takeoff_maps::{self, best_takeoffs};
 use serde::Serialize;
 
 /// X-RHex's motor (catalog `x-rhex`, gearbox efficiency of `x-rhex-28`) at gear ratio
@@ -53,14 +54,7 @@ pub fn takeoff_model(params: Option<RhexParams>, leg: TakeoffLeg) -> Result<Mode
     p.validate()?;
     let mut d = p.description();
     if leg == TakeoffLeg::Rolling {
-        for c in d.contacts.iter_mut() {
-            if let ShapeDescription::Arc {
-                center_m, radius_m, ..
-            } = c.shape
-            {
-                c.shape = ShapeDescription::Circle { center_m, radius_m };
-            }
-        }
+        takeoff_maps::rolling_legs(&mut d);
     }
     Ok(d.build()?)
 }
@@ -81,30 +75,12 @@ pub fn midstance_closed_form(
     (-kb + (kb * kb + 4.0 * i * kc).sqrt()) / (2.0 * i)
 }
 
-/// One sample of Figs. 4.10–4.12.
-#[derive(Debug, Clone, Serialize)]
-pub struct TakeoffSample {
-    pub theta2: f64,
-    pub phi: f64,
-    /// Output name `phidot` (`docs/conventions.md`).
-    #[serde(rename = "phidot")]
-    pub phi_dot: f64,
-    pub gear_ratio: f64,
-    pub leg: TakeoffLeg,
-    /// `|ẋ|` at takeoff (m/s); `None` where the leg cannot hold contact even at rest. Output
-    /// name `xdot`.
-    #[serde(rename = "xdot")]
-    pub x_dot: Option<f64>,
-}
-
-fn linspace(r: [f64; 2], n: usize) -> Vec<f64> {
-    (0..n)
-        .map(|i| r[0] + (r[1] - r[0]) * i as f64 / (n.max(2) - 1) as f64)
-        .collect()
-}
+/// One sample of Figs. 4.10–4.12 (the generic [`takeoff_maps::TakeoffSample`] with RHex's
+/// legs).
+pub type TakeoffSample = takeoff_maps::TakeoffSample<TakeoffLeg>;
 
 /// Fig. 4.10: `|ẋ|` at rear-leg takeoff over `(θ₂, φ)` for stick and rolling legs, `φ̇ = 0`,
-/// X-RHex motor at gear ratio `ratio`.
+/// X-RHex motor at gear ratio `ratio` ([`takeoff_maps::takeoff_map`]).
 pub fn fig_4_10(
     params: Option<RhexParams>,
     theta2_range: [f64; 2],
@@ -117,19 +93,8 @@ pub fn fig_4_10(
     let mut out = Vec::new();
     for leg in [TakeoffLeg::Stick, TakeoffLeg::Rolling] {
         let model = takeoff_model(params.clone(), leg)?;
-        for &t2 in &linspace(theta2_range, n) {
-            for &phi in &linspace(phi_range, n) {
-                let b = rear_takeoff_speed(&model, t2, phi, 0.0, &line)?;
-                out.push(TakeoffSample {
-                    theta2: t2,
-                    phi,
-                    phi_dot: 0.0,
-                    gear_ratio: ratio,
-                    leg,
-                    x_dot: b.map(|b| b.x_dot.abs()),
-                });
-            }
-        }
+        let map = takeoff_maps::takeoff_map(&model, &line, ratio, leg, theta2_range, phi_range, n);
+        out.extend(map?);
     }
     Ok(out)
 }
@@ -145,17 +110,16 @@ pub fn fig_4_11(
     let mut out = Vec::new();
     for &g in ratios {
         let line = xrhex_line(g)?;
-        for &phi in phis {
-            let (t2, v) = best_takeoff_over_theta2(&model, phi, 0.0, &line, theta2_range);
-            out.push(TakeoffSample {
-                theta2: t2,
-                phi,
-                phi_dot: 0.0,
-                gear_ratio: g,
-                leg: TakeoffLeg::Rolling,
-                x_dot: Some(v),
-            });
-        }
+        let leg = TakeoffLeg::Rolling;
+        out.extend(best_takeoffs(
+            &model,
+            &line,
+            g,
+            leg,
+            &[0.0],
+            phis,
+            theta2_range,
+        ));
     }
     Ok(out)
 }
@@ -170,21 +134,16 @@ pub fn fig_4_12(
 ) -> Result<Vec<TakeoffSample>, RhexError> {
     let model = takeoff_model(params, TakeoffLeg::Rolling)?;
     let line = xrhex_line(ratio)?;
-    let mut out = Vec::new();
-    for &pd in phi_dots {
-        for &phi in phis {
-            let (t2, v) = best_takeoff_over_theta2(&model, phi, pd, &line, theta2_range);
-            out.push(TakeoffSample {
-                theta2: t2,
-                phi,
-                phi_dot: pd,
-                gear_ratio: ratio,
-                leg: TakeoffLeg::Rolling,
-                x_dot: Some(v),
-            });
-        }
-    }
-    Ok(out)
+    let leg = TakeoffLeg::Rolling;
+    Ok(best_takeoffs(
+        &model,
+        &line,
+        ratio,
+        leg,
+        phi_dots,
+        phis,
+        theta2_range,
+    ))
 }
 
 /// Both stick toes down at `θ = (θ_m + θ_d, θ_m − θ_d)`: body height and pitch solved from the
@@ -197,32 +156,18 @@ pub fn double_stance_state(
     theta_m_dot: f64,
 ) -> Result<(Vec<f64>, Vec<f64>, ContactMode), RhexError> {
     check_finite("theta", &[theta_m, theta_d, theta_m_dot])?;
-    let model = &rhex.model;
-    if model.n_joints() != 2 {
+    if rhex.model.n_joints() != 2 {
         return Err(bad("pairs", "double stance needs exactly two leg pairs"));
     }
     let mode = rhex.mode("0101")?;
-    let legs: Vec<usize> = mode.active().collect();
-    let mut q = vec![theta_m + theta_d, theta_m - theta_d, 0.0, -0.17, 0.0];
-    q = solve_contact_pose(
-        model,
-        &FlatGround,
-        &legs,
-        &[model.ix_z(), model.ix_phi()],
-        &q,
-    )?;
-    let h = free_motion_basis(
-        model,
-        &FlatGround,
-        mode,
-        &q,
-        &nalgebra::DMatrix::from_row_slice(1, 5, &[0.5, 0.5, 0.0, 0.0, 0.0]),
-    )?;
-    let qd: Vec<f64> = h.column(0).iter().map(|v| v * theta_m_dot).collect();
+    let q = [theta_m + theta_d, theta_m - theta_d, 0.0, -0.17, 0.0];
+    let y = [0.5, 0.5, 0.0, 0.0, 0.0];
+    let (q, qd) = double_stance(&rhex.model, mode, &q, &y, theta_m_dot)?;
     Ok((q, qd, mode))
 }
 
-/// `(Uλ)_2n − (Uλ)_1n` (4.60) in double stance with equal torques `τ` on both legs.
+/// `(Uλ)_2n − (Uλ)_1n` (4.60) in double stance with equal torques `τ` on both legs
+/// ([`normal_force_difference`]).
 pub fn normal_force_imbalance(
     rhex: &Rhex,
     theta_m: f64,
@@ -231,19 +176,13 @@ pub fn normal_force_imbalance(
     tau: f64,
 ) -> Result<f64, RhexError> {
     let (q, qd, mode) = double_stance_state(rhex, theta_m, theta_d, theta_m_dot)?;
-    let mut data = Data::new(&rhex.model);
-    forward_dynamics(
+    Ok(normal_force_difference(
         &rhex.model,
-        &mut data,
-        &FlatGround,
         mode,
         &q,
         &qd,
         &[tau, tau],
-        None,
-    )?;
-    let rows = normal_rows(&data);
-    Ok(-data.lambda[rows[1]] + data.lambda[rows[0]])
+    )?)
 }
 
 /// Result C.2 / (4.61): `∂((Uλ)_2n − (Uλ)_1n)/∂θ_d` at `θ_d = 0` by central differences of

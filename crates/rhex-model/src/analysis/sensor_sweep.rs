@@ -2,16 +2,14 @@
 //! (Result B.1, eqs. 4.55–4.56), holding torque by leg shape (B.2, eqs. 4.57–4.58), the exact
 //! pitch-rate controller from the free-motion Jacobian `H` (B.3, eq. 4.59), and the largest
 //! leg speed before a contact lifts (Fig. 4.8).
-use super::{bad, check_finite, free_motion_basis, grid_points};
+use super::{bad, check_finite, grid_points, linspace};
 use crate::quasistatic_map::{quasi_static_pose, QuasiStaticPose, Support};
 use crate::{Rhex, RhexError};
-use nalgebra::DMatrix;
-use selfmanip_core::quasistatic::quasi_static;
-use selfmanip_core::{Data, FlatGround};
 pub use selfmanip_sim::analysis::liftoff::{
     free_leg_parameterization, liftoff_speed, LiftoffSpeed,
 };
 use selfmanip_sim::analysis::maximise::pattern_search_max;
+use selfmanip_sim::analysis::pose_rates;
 use serde::Serialize;
 use std::f64::consts::PI;
 
@@ -99,46 +97,32 @@ pub struct HoldingTorque {
 
 pub fn holding_torque(rhex: &Rhex, theta1: f64, theta2: f64) -> Result<HoldingTorque, RhexError> {
     check_finite("theta", &[theta1, theta2])?;
-    let p = quasi_static_pose(rhex, theta1, theta2)
-        .ok_or_else(|| bad("theta", "no quasi-static pose at these leg angles"))?;
-    let model = &rhex.model;
-    let n = model.n_joints();
-    let q = [theta1, theta2, 0.0, -p.height_m, p.phi];
-    let c = p.mode.n_rows();
-    let t = match c.checked_sub(3) {
-        Some(0) => DMatrix::zeros(n, 0),
-        Some(1) if n == 2 => DMatrix::from_column_slice(2, 1, &[0.5, -0.5]),
-        _ => return Err(bad("mode", format!("{} rows: not a determinate stance", c))),
-    };
-    let mut data = Data::new(model);
-    let qs = quasi_static(model, &mut data, &FlatGround, p.mode, &q, &t)?;
+    let (p, q) = pose_q(rhex, theta1, theta2)?;
     Ok(HoldingTorque {
         theta1,
         theta2,
         phi: p.phi,
+        tau: pose_rates::holding_torque(&rhex.model, p.mode, &q)?,
         label: p.label,
-        tau: qs.tau_particular.iter().cloned().collect(),
     })
 }
 
-/// Result B.3 / eq. (4.59): the leg rate per unit pitch rate, `θ̇₁/φ̇ = 1/H_φ`, with
-/// `H_φ = π_φ H` from the free-motion basis (4.20) at the quasi-static pose, `y = θ₁`.
-/// Setting `θ̇₁ = φ̇_d / H_φ` tracks a desired pitch rate exactly.
-pub fn pitch_rate_gain(rhex: &Rhex, theta1: f64, theta2: f64) -> Result<f64, RhexError> {
+/// The quasi-static pose at `(θ₁, θ₂)` and its configuration (an error naming `theta` where
+/// there is none).
+fn pose_q(rhex: &Rhex, theta1: f64, theta2: f64) -> Result<(QuasiStaticPose, [f64; 5]), RhexError> {
     let p = quasi_static_pose(rhex, theta1, theta2)
         .ok_or_else(|| bad("theta", "no quasi-static pose at these leg angles"))?;
-    let model = &rhex.model;
     let q = [theta1, theta2, 0.0, -p.height_m, p.phi];
-    let y = free_leg_parameterization(model, p.mode, 0);
-    let h = free_motion_basis(model, &FlatGround, p.mode, &q, &y)?;
-    let h_phi = h[(model.ix_phi(), 0)];
-    if h_phi.abs() < 1e-12 {
-        return Err(bad(
-            "theta",
-            "H_φ = 0: the pitch does not move with θ₁ here (extremum)",
-        ));
-    }
-    Ok(1.0 / h_phi)
+    Ok((p, q))
+}
+
+/// Result B.3 / eq. (4.59): the leg rate per unit pitch rate, `θ̇₁/φ̇ = 1/H_φ`, with
+/// `H_φ = π_φ H` from the free-motion basis (4.20) at the quasi-static pose, `y = θ₁`
+/// ([`pose_rates::pitch_rate_gain`]). Setting `θ̇₁ = φ̇_d / H_φ` tracks a desired pitch rate
+/// exactly.
+pub fn pitch_rate_gain(rhex: &Rhex, theta1: f64, theta2: f64) -> Result<f64, RhexError> {
+    let (p, q) = pose_q(rhex, theta1, theta2)?;
+    Ok(pose_rates::pitch_rate_gain(&rhex.model, p.mode, &q, 0)?)
 }
 
 /// One point of Fig. 4.8.
@@ -164,12 +148,8 @@ pub fn fig_4_8(
     let n = grid_points(n)?;
     let model = &rhex.model;
     let mut out = Vec::new();
-    for i in 0..n {
-        for j in 0..n {
-            let t1 =
-                theta1_range[0] + (theta1_range[1] - theta1_range[0]) * i as f64 / (n - 1) as f64;
-            let t2 =
-                theta2_range[0] + (theta2_range[1] - theta2_range[0]) * j as f64 / (n - 1) as f64;
+    for &t1 in &linspace(theta1_range, n) {
+        for &t2 in &linspace(theta2_range, n) {
             let Some(p) = quasi_static_pose(rhex, t1, t2) else {
                 continue;
             };
@@ -181,14 +161,9 @@ pub fn fig_4_8(
                 continue; // the front leg must carry the sweep
             }
             let q = [t1, t2, 0.0, -p.height_m, p.phi];
-            let y = free_leg_parameterization(model, p.mode, 0);
-            let Ok(h) = free_motion_basis(model, &FlatGround, p.mode, &q, &y) else {
+            let Ok(speed) = pose_rates::lead_liftoff_speed(model, p.mode, &q, 0) else {
                 continue;
             };
-            let dir: Vec<f64> = h.column(0).iter().cloned().collect();
-            let speed = liftoff_speed(model, &FlatGround, p.mode, &q, &dir, &[0.0; 2])
-                .ok()
-                .and_then(|l| l.speed);
             out.push(Fig48Point {
                 theta1: t1,
                 theta2: t2,

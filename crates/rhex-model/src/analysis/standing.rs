@@ -3,6 +3,7 @@
 use super::solve_contact_pose;
 use crate::{Rhex, RhexError};
 use selfmanip_core::ContactMode;
+use selfmanip_sim::analysis::seeded::SplitMix64;
 use selfmanip_sim::analysis::standing::{sloped_plane, TwoPlaneTerrain};
 
 /// A random rough-terrain stance for a two-pair RHex: legs in D.1 (`|θ| ≤ 30°`), each leg on
@@ -17,15 +18,8 @@ pub fn random_rhex_stance(
     if model.n_joints() != 2 {
         return Err(super::bad("pairs", "random stances are for two-pair RHex"));
     }
-    let mut state = seed;
-    let mut uniform = |lo: f64, hi: f64| {
-        state = state.wrapping_add(0x9E3779B97F4A7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
-        z ^= z >> 31;
-        lo + (hi - lo) * (z >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rng = SplitMix64(seed);
+    let mut uniform = |lo: f64, hi: f64| rng.uniform(lo, hi);
     let d30 = 30f64.to_radians();
     let t1 = uniform(-d30, d30);
     let t2 = uniform(-d30, d30);

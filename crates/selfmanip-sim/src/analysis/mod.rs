@@ -19,13 +19,18 @@
 //! The RHex instances of these (Results A.1–A.3, C.5) and RHex's own analyses (sensor sweep,
 //! pitch control) are in `rhex-model`.
 #![allow(non_snake_case)]
+pub mod balance_map;
+pub mod double_stance;
 pub mod leg_tail;
 pub mod liftoff;
 pub mod maximise;
 pub mod one_leg;
+pub mod pose_rates;
 pub mod roots;
+pub mod seeded;
 pub mod standing;
 pub mod takeoff;
+pub mod takeoff_maps;
 
 use crate::error::SimError;
 use nalgebra::DMatrix;

@@ -8,6 +8,7 @@
 //! a time, on an event (touchdown, liftoff, release, slip, stick, apex, flight of named
 //! contacts), on a named event, on another joint's phase, or — as a level — while a joint is
 //! past an angle. The file format is documented in `docs/behaviours.md`.
+pub mod build;
 pub mod compile;
 pub mod interpreter;
 pub mod spec;

@@ -1,0 +1,43 @@
+//! Two contacts down (thesis 4.3.3, for any planar robot): the stance with two contacts on
+//! level ground, its body coordinates solved from the base constraints (4.41), moving along
+//! its free motion (4.46); and the difference of the two contacts' normal forces under given
+//! torques ((4.60), whose derivative in the splay is Result C.2). RHex's instance (its legs
+//! at `θ_m ± θ_d`) is in `rhex-model`.
+use super::{free_motion_basis, normal_rows, solve_contact_pose};
+use crate::error::SimError;
+use nalgebra::DMatrix;
+use selfmanip_core::{forward_dynamics, ContactMode, Data, FlatGround, Model};
+
+/// The stance of `mode` (two contacts) from `q` with the body height and pitch solved onto
+/// level ground, and its velocity along the free motion whose coordinate is `y·q` (one row
+/// of `nq` entries) at rate `y_dot`: `(q, q̇)`.
+pub fn double_stance(
+    model: &Model,
+    mode: ContactMode,
+    q: &[f64],
+    y: &[f64],
+    y_dot: f64,
+) -> Result<(Vec<f64>, Vec<f64>), SimError> {
+    let contacts: Vec<usize> = mode.active().collect();
+    let free = [model.ix_z(), model.ix_phi()];
+    let q = solve_contact_pose(model, &FlatGround, &contacts, &free, q)?;
+    let y_map = DMatrix::from_row_slice(1, model.nq(), y);
+    let h = free_motion_basis(model, &FlatGround, mode, &q, &y_map)?;
+    let qd = h.column(0).iter().map(|v| v * y_dot).collect();
+    Ok((q, qd))
+}
+
+/// `λ_n,1 − λ_n,2`: the first normal row's force less the second's (in row order) at
+/// `(q, q̇)` in `mode` with joint torques `tau`, on level ground.
+pub fn normal_force_difference(
+    model: &Model,
+    mode: ContactMode,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+) -> Result<f64, SimError> {
+    let mut data = Data::new(model);
+    forward_dynamics(model, &mut data, &FlatGround, mode, q, qd, tau, None)?;
+    let rows = normal_rows(&data);
+    Ok(-data.lambda[rows[1]] + data.lambda[rows[0]])
+}
