@@ -2,11 +2,12 @@
 //! `data`): every intermediate and output of one evaluation, with the solve of a prepared
 //! KKT system that every stage above it shares.
 use crate::constraint::Constraints;
+use crate::contact::ContactMode;
 use crate::inertia::InertiaScratch;
 use crate::kinematics::Kinematics;
 use crate::kkt::KktFactorization;
 use crate::model::Model;
-use crate::sliding::{SlideDirection, SlidingSite};
+use crate::sliding::{ChainLaw, DampedSlide, SlideDirection, SlidingSite};
 use nalgebra::{DMatrix, DVector};
 
 /// Reusable workspace: every intermediate and output of one evaluation.
@@ -44,6 +45,17 @@ pub struct Data {
     /// caller that integrates the flow needs, where a site the cone holds must stick in a
     /// mode of its own; `false` (the instantaneous law): it is held for the instant.
     pub slide_at_rest: bool,
+    /// The laws of massless chains whose contact may slide damped, by contact (set by the
+    /// caller before [`Data::prepare`]; [`crate::damped_slide`]): a contact that slides in
+    /// the prepared mode with a law here is a damped slide — its chain's joints are free,
+    /// its force an applied one, its normal row's `λ` that force.
+    pub damped_laws: Vec<(usize, ChainLaw)>,
+    /// The damped slides of the prepared mode at the last solve.
+    pub damped: Vec<DampedSlide>,
+    /// The prepared mode and the mode of the KKT system without its damped slides, where
+    /// they differ; the state's `q̇` they were prepared at.
+    pub(crate) damped_modes: Option<(ContactMode, ContactMode)>,
+    pub(crate) damped_qd: Vec<f64>,
     /// Whether a site of [`Self::sliding`] is general (folded into the solve), so that a
     /// solve without one does not look.
     pub(crate) has_general: bool,

@@ -136,6 +136,13 @@ impl Data {
         mode: ContactMode,
         qd: &[f64],
     ) -> Result<()> {
+        // => the damped slides, out of the KKT system (crate::damped_slide)
+        // (a robot without such a chain has no laws and never a split: nothing to clear)
+        let mode = if self.damped_laws.is_empty() && self.damped_modes.is_none() {
+            mode
+        } else {
+            crate::damped_slide::split(model, self, terrain, mode, qd)?
+        };
         // => A, Ȧ, Ȧq̇
         self.constraints
             .assemble(model, &self.kin, terrain, mode, qd);
@@ -251,6 +258,9 @@ pub fn forward_dynamics_prepared(
     // (τ) => kinetic friction f^fr of the sliding sites
     crate::friction::resolve(model, data, tau)?;
     crate::friction::solve_dynamics(model, data, tau, free_joint_qdd)?;
+    if data.damped_modes.is_some() {
+        data.lambda = crate::damped_slide::splice(data, &data.lambda, |d| d.lambda[1]);
+    }
     check_result("q̈", data.qdd.as_slice())?;
     check_result("λ", data.lambda.as_slice())
 }
@@ -289,7 +299,12 @@ pub fn plastic_impact_prepared(model: &Model, data: &mut Data, qd_minus: &[f64])
     let g = -(&data.constraints.a * DVector::from_column_slice(qd_minus));
     let (mut dx, mut p) = (DVector::zeros(nq), DVector::zeros(c));
     data.solve_prepared(|_, _| 0.0, |_, r| g[r], None, &mut dx, &mut p);
-    let qd_plus = DVector::from_column_slice(qd_minus) + dx;
+    let mut qd_plus = DVector::from_column_slice(qd_minus) + dx;
+    if data.damped_modes.is_some() {
+        // a damped slide takes no impulse: its chain's rates jump to the slide's
+        p = crate::damped_slide::splice(data, &p, |_| 0.0);
+        crate::damped_slide::impact_rates(model, data, &mut qd_plus)?;
+    }
     check_result("q̇⁺", qd_plus.as_slice())?;
     check_result("P_λ", p.as_slice())?;
     Ok(Impact {
@@ -332,6 +347,9 @@ pub fn pseudo_impulse_prepared(
     let c = data.constraints.n_rows();
     let (mut x, mut y) = (DVector::zeros(model.nq()), DVector::zeros(c));
     data.solve_prepared(|_, a| f[a], |_, _| 0.0, None, &mut x, &mut y);
+    if data.damped_modes.is_some() {
+        y = crate::damped_slide::splice(data, &y, |_| 0.0);
+    }
     let p = y * delta_t_s;
     check_result("P_δ", p.as_slice())?;
     Ok(p)

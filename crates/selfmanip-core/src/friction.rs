@@ -318,6 +318,14 @@ pub(crate) fn assemble(model: &Model, data: &mut Data, tau: &[f64]) -> Result<()
             friction[k] -= s.coef * lambda_n * a_tk;
         }
     }
+    // the damped slides' forces, applied (crate::damped_slide)
+    for d in data.damped.iter() {
+        let friction = data.friction.as_mut_slice();
+        for (k, f) in friction.iter_mut().enumerate() {
+            // −Aᵀλ, as every contact force enters (5.3)
+            *f -= d.rows[(0, k)] * d.lambda[0] + d.rows[(1, k)] * d.lambda[1];
+        }
+    }
     Ok(())
 }
 

@@ -16,6 +16,7 @@
 mod arc_range;
 pub mod constraint;
 pub mod contact;
+pub mod damped_slide;
 mod data;
 pub mod description;
 pub mod dynamics;

@@ -1,6 +1,9 @@
 //! The sliding sites with kinetic friction of a prepared mode, as the workspace
 //! ([`crate::Data::sliding`]) keeps them and the friction solve ([`crate::friction`]) sets
-//! them: their types only, below both.
+//! them, and the damped slides of massless chains ([`crate::damped_slide`]): their types
+//! only, below both.
+use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
+use std::ops::Range;
 
 /// How the sliding direction `σ` of a site with kinetic friction is set while a caller
 /// integrates a stretch of flow ([`crate::Data::slide_directions`], [`crate::friction`]).
@@ -57,4 +60,57 @@ pub struct SlidingSite {
     /// The friction force on the robot along the site's tangent `t̂` (the row direction of a
     /// tangential row), `μ_k σ λ_n` (N), at the last assembly.
     pub force_t: f64,
+}
+
+/// The chain's law at a state, affine in the chain's rates: the torques `T_c` it applies at
+/// the rates `θ̇_c` (N m, joint order) and its damping `K = −∂T/∂θ̇` (N m s/rad), so that
+/// `T(θ̇) = T_c − K (θ̇ − θ̇_c)`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChainLaw {
+    pub joints: Range<usize>,
+    /// `θ̇_c` (rad/s).
+    pub rates: DVector<f64>,
+    pub torque: DVector<f64>,
+    pub damping: DMatrix<f64>,
+    /// Whether the law's own damping at the state is positive definite (the damped slide
+    /// holds). Where it is not (a servo saturated, a phase without damping), `damping` is
+    /// the last one that held, carried over so that the flow stays defined up to the
+    /// slide's liftoff guard, which fires there (`selfmanip_hybrid::damped_slide`).
+    pub holds: bool,
+}
+
+/// The damped slide of one contact at one state ([`solve`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DampedSlide {
+    pub contact: usize,
+    /// `(λ_t, λ_n)` in the contact's rows (N; `λ_n < 0` pushes).
+    pub lambda: [f64; 2],
+    /// `c = λ_t / λ_n = μ_k s`.
+    pub coef: f64,
+    /// The side `s = ±1` of the sliding velocity the friction opposes.
+    pub side: f64,
+    /// The foot's velocity with no force `w` and its mobility `G`, in the rows `(t, n)`.
+    pub w: Vector2<f64>,
+    pub g: Matrix2<f64>,
+    /// The foot's sliding velocity `u_t` in the tangential row (m/s).
+    pub u_t: f64,
+    /// The chain's rates `θ̇` (rad/s, joint order).
+    pub rates: DVector<f64>,
+    /// Whether the slide is consistent: the foot pushes and, with friction, slides on the
+    /// side its friction opposes, faster than the rest band
+    /// ([`crate::friction::SLIDING_SPEED_EPS_M_S`]).
+    pub consistent: bool,
+    /// Whether its side is in Painlevé's region (`G_nn + c G_nt` within the wedge tolerance
+    /// of zero or below it; [`crate::friction::WEDGE_TOL`]): its normal force is then held
+    /// at the region's edge, and a flow keeps it only up to its liftoff guard.
+    pub wedged: bool,
+    /// The contact's rows `A` (tangential, normal; `2 × nq`).
+    pub rows: DMatrix<f64>,
+}
+
+impl DampedSlide {
+    /// The push `U = −λ_n` (N): the liftoff guard's function.
+    pub fn push(&self) -> f64 {
+        -self.lambda[1]
+    }
 }

@@ -27,7 +27,7 @@ impl ResetWorkspace<'_> {
         &mut self,
         set: &[usize],
         prefer: ContactMode,
-        qd: &[f64],
+        (t, q, qd): (f64, &[f64], &[f64]),
     ) -> Result<Option<ContactMode>, CoreError> {
         let mut base = ContactMode::with_defaults(self.model, set)?;
         for &k in set {
@@ -46,14 +46,75 @@ impl ResetWorkspace<'_> {
             if self.barred.iter().any(|&(k, kind)| m.kind(k) == Some(kind)) {
                 continue;
             }
+            // a sliding contact on a chain of massless joints slides damped, where its law
+            // has damping (crate::damped_slide)
+            if self.ws.damped != 0 {
+                crate::damped_slide::add_laws(
+                    self.model,
+                    &mut self.ws.data,
+                    self.ws.damped,
+                    self.ctrl,
+                    (t, q, qd),
+                    m,
+                );
+            }
             match self.ws.data.prepare_mode(self.model, self.terrain, m, qd)? {
                 Ok(()) if self.within_fold(m) => return Ok(None),
+                // a damped slide whose law does not hold at its own rates is no candidate
+                Ok(())
+                    if !crate::damped_slide::holds_at_slide_rates(
+                        self.model,
+                        self.ctrl,
+                        (t, q, qd),
+                        m,
+                        &self.ws.data,
+                    ) =>
+                {
+                    return Ok(None)
+                }
+                // one wedged on both sides (inconsistent) is kept sticking, marked for the
+                // jam hold (reset::wedged_holds)
+                Ok(()) if self.ws.data.damped.iter().any(|d| !d.consistent) => {
+                    return self.wedged_stick(m, qd);
+                }
                 Ok(()) => return Ok(Some(m)),
                 Err(SingularityKind::RedundantConstraints) => continue,
                 Err(SingularityKind::UnconstrainedMasslessMotion) => return Ok(None),
             }
         }
         Ok(None)
+    }
+
+    /// `mode` (prepared in `ws.data`) with its damped slides that are consistent on neither
+    /// side sticking instead, marked in `ws.wedged`; prepared as [`Self::mode_for`] leaves it.
+    fn wedged_stick(
+        &mut self,
+        mode: ContactMode,
+        qd: &[f64],
+    ) -> Result<Option<ContactMode>, CoreError> {
+        let mut stuck = mode;
+        for d in self.ws.data.damped.iter().filter(|d| !d.consistent) {
+            stuck = stuck.with(d.contact, ContactKind::Stick);
+            if !self.ws.wedged.contains(&d.contact) {
+                self.ws.wedged.push(d.contact);
+            }
+        }
+        if self
+            .barred
+            .iter()
+            .any(|&(k, kind)| stuck.kind(k) == Some(kind))
+        {
+            return Ok(None);
+        }
+        match self
+            .ws
+            .data
+            .prepare_mode(self.model, self.terrain, stuck, qd)?
+        {
+            Ok(()) if self.within_fold(stuck) => Ok(None),
+            Ok(()) => Ok(Some(stuck)),
+            Err(_) => Ok(None),
+        }
     }
 
     /// Whether a contact of `mode` (prepared in `ws.data`) is within the fold threshold of

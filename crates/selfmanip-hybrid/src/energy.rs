@@ -10,7 +10,9 @@
 //! The spring torques `−∂V_s/∂θ` are inside `V_s`, so `W` is the work of what drives the
 //! joints: the actuators' torques; at a free massless joint, whose motion is prescribed
 //! (thesis 5.1.1), the torque `−τ^p_j` that moves it against its own spring–damper (zero
-//! without one); at a joint locked for a fold passage, the torque that holds it.
+//! without one); at a joint locked for a fold passage, the torque that holds it; at a joint
+//! of a chain that slides damped (`selfmanip_core::damped_slide`), its actuator's torque
+//! (the foot's force, applied, is in `f^fr`: its work is the friction's, `λ_t u_t`).
 use crate::error::HybridError;
 use crate::execution::Execution;
 use crate::flow::Flow;
@@ -132,8 +134,12 @@ fn powers_at(
             .map_or(0.0, |s| spring_torque(&s, q[j], qd[j]))
     };
     let joint: f64 = (0..model.n_joints())
-        .map(
-            |j| match (data.free_joints.contains(&j), data.locked.contains(&j)) {
+        .map(|j| {
+            match (
+                data.free_joints.contains(&j)
+                    && !data.damped_laws.iter().any(|(_, l)| l.joints.contains(&j)),
+                data.locked.contains(&j),
+            ) {
                 // locked for a fold passage: held by the torque that balances its contact
                 // and spring, (Aᵀλ)_j − τ^p_j (its row of (5.3), M̄_j = 0)
                 (true, true) => {
@@ -143,8 +149,8 @@ fn powers_at(
                 // spring–damper only
                 (true, false) => -passive(j) * qd[j],
                 _ => tau[j] * qd[j],
-            },
-        )
+            }
+        })
         .sum();
     let friction: f64 = data.friction.iter().zip(qd).map(|(f, v)| f * v).sum();
     Ok([joint, damping_power(model, qd), friction])

@@ -94,6 +94,12 @@ impl<'a> Flow<'a> {
         &self.held
     }
 
+    /// The contacts of the model that can slide damped, as a bit set
+    /// ([`crate::damped_slide::damped_contacts`], fixed for the model).
+    pub fn damped_contacts(&self) -> u32 {
+        self.ws.damped
+    }
+
     pub fn model(&self) -> &'a Model {
         self.model
     }
@@ -184,11 +190,19 @@ impl<'a> Flow<'a> {
             let data = self.eval(t, mode, q, qd)?;
             for d in &mut dirs {
                 if d.1 == SlideDirection::FromRest {
+                    // a damped slide's side is that of u_t = −v_t
                     let sigma = data
                         .sliding
                         .iter()
                         .find(|s| s.contact == d.0)
-                        .map_or(0.0, |s| s.sigma);
+                        .map(|s| s.sigma)
+                        .or_else(|| {
+                            data.damped
+                                .iter()
+                                .find(|s| s.contact == d.0)
+                                .map(|s| -s.side)
+                        })
+                        .unwrap_or(0.0);
                     d.1 = SlideDirection::Fixed(sigma);
                 }
             }
@@ -242,11 +256,20 @@ impl<'a> Flow<'a> {
                 quantity: "state (q, q̇) of the integration",
             });
         }
+        let (model, terrain) = (self.model, self.terrain);
         self.ws
-            .data
-            .prepare(self.model, self.terrain, mode, q, qd)?;
-        self.ws
-            .solve_prepared(self.model, &*self.ctrl, t, mode, q, qd)?;
+            .prepare(model, terrain, &*self.ctrl, (t, mode), q, qd)?;
+        self.ws.solve_prepared(model, &*self.ctrl, t, mode, q, qd)?;
+        if !self.ws.data.damped.is_empty() {
+            crate::damped_slide::chain_accelerations(
+                model,
+                terrain,
+                &*self.ctrl,
+                (t, mode),
+                (q, qd),
+                &mut self.ws.data,
+            )?;
+        }
         self.y.clear();
         self.y.extend_from_slice(q);
         self.y.extend_from_slice(qd);
@@ -332,6 +355,11 @@ pub struct FlowWorkspace {
     pub data: Data,
     pub tau: Vec<f64>,
     pub free: Vec<f64>,
+    /// The contacts that can slide damped ([`crate::damped_slide::damped_contacts`]).
+    pub damped: u32,
+    /// The contacts a reset kept sticking because their damped slide is wedged on both
+    /// sides (`reset::wedged_holds`).
+    pub wedged: Vec<usize>,
 }
 
 impl FlowWorkspace {
@@ -344,7 +372,35 @@ impl FlowWorkspace {
             data,
             tau: vec![0.0; model.n_joints()],
             free: Vec::new(),
+            damped: crate::damped_slide::damped_contacts(model),
+            wedged: Vec::new(),
         }
+    }
+
+    /// Prepares `data` for the flow of `mode` at `(t, q, q̇)` under `ctrl`: the chain laws of
+    /// its damped slides ([`crate::damped_slide::set_laws`]), then every stage of the core's
+    /// [`Data::prepare`].
+    #[inline]
+    pub fn prepare(
+        &mut self,
+        model: &Model,
+        terrain: &dyn Terrain,
+        ctrl: &dyn Controller,
+        (t, mode): (f64, ContactMode),
+        q: &[f64],
+        qd: &[f64],
+    ) -> Result<(), CoreError> {
+        if self.damped != 0 {
+            crate::damped_slide::set_laws(
+                model,
+                &mut self.data,
+                self.damped,
+                ctrl,
+                (t, q, qd),
+                mode,
+            );
+        }
+        self.data.prepare(model, terrain, mode, q, qd)
     }
 
     /// The flow (5.48) of `mode` at `(t, q, q̇)`, `data` prepared there: the controller's

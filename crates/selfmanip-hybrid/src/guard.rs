@@ -117,7 +117,9 @@ impl Guard {
         let model = flow.model();
         let (q, qd) = y.split_at(model.nq());
         Ok(match self {
-            Guard::Liftoff { row, .. } => -flow.eval(t, mode, q, qd)?.lambda[row],
+            Guard::Liftoff { contact, row } => {
+                crate::damped_slide::liftoff_value(flow.eval(t, mode, q, qd)?, contact, row)
+            }
             Guard::Slip {
                 t_row, n_row, mu, ..
             } => {
@@ -433,10 +435,15 @@ impl GuardSet {
         opts: &HybridOptions,
     ) -> Result<(), CoreError> {
         Guard::of_mode(flow.model(), mode, flow.lock(), opts, &mut self.guards);
-        // a Zeno truncation's dwell holds its contacts closed (crate::zeno)
+        // a Zeno truncation's dwell holds its contacts closed (crate::zeno), all but the
+        // end of a damped slide (its liftoff guard: the foot leaves, its law stops holding
+        // or it wedges; crate::damped_slide), which no other mode continues
         let held = flow.held();
-        self.guards
-            .retain(|g| g.lets_go().is_none_or(|k| !held.contains(&k)));
+        let damped = crate::damped_slide::sliding_damped(flow.damped_contacts(), mode);
+        self.guards.retain(|g| {
+            g.lets_go().is_none_or(|k| !held.contains(&k))
+                || matches!(*g, Guard::Liftoff { contact, .. } if damped >> contact & 1 == 1)
+        });
         // a jam hold's contacts end it by its own guard (crate::jam_hold): their liftoff
         // guards give way, their stick→slip guards turn into it
         let jammed =

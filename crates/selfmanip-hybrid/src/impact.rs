@@ -81,7 +81,7 @@ impl ResetWorkspace<'_> {
         let mut offered: Vec<usize> = Vec::new();
         for _ in 0..=2 * set.len() {
             // `mode_for` leaves `ws.data` prepared at `(mode, q, q̇)`
-            let Some(mode) = self.mode_for(set, prefer, qd)? else {
+            let Some(mode) = self.mode_for(set, prefer, (t, q, qd))? else {
                 return Ok(None);
             };
             let outcome = if impact {
@@ -109,7 +109,13 @@ impl ResetWorkspace<'_> {
                 }
             });
             if let Some(k) = slides {
-                prefer = mode.with(k, ContactKind::Slide);
+                // a sticking force at the cone's edge whose damped slide is consistent on
+                // neither side: the contact sticks (crate::damped_slide)
+                let slide = mode.with(k, ContactKind::Slide);
+                if !impact && self.damped_inconsistent(set, slide, (t, q, qd), k)? {
+                    return Ok(Some(outcome));
+                }
+                prefer = slide;
                 continue;
             }
             // a sliding contact at rest whose sticking force the cone holds sticks
@@ -128,6 +134,26 @@ impl ResetWorkspace<'_> {
             }
         }
         Ok(None)
+    }
+
+    /// Whether contact `k` slides damped in the mode `set` takes from `prefer` at `(t, q, q̇)`
+    /// ([`selfmanip_core::damped_slide`]) on neither side consistently: its sticking force
+    /// is then at the cone's edge up to the location of its stick (a slide that came to
+    /// rest), and it sticks. False for a contact that cannot slide damped.
+    fn damped_inconsistent(
+        &mut self,
+        set: &[usize],
+        prefer: ContactMode,
+        state: (f64, &[f64], &[f64]),
+        k: usize,
+    ) -> Result<bool, CoreError> {
+        if self.ws.damped >> k & 1 == 0 {
+            return Ok(false);
+        }
+        // `mode_for` keeps such a slide sticking (ResetWorkspace::wedged_stick)
+        Ok(self
+            .mode_for(set, prefer, state)?
+            .is_some_and(|m| m.kind(k) == Some(ContactKind::Stick)))
     }
 
     /// The plastic impact (5.10) into `mode` (prepared in `ws.data` at `(mode, q, q̇⁻)`) with its

@@ -17,6 +17,7 @@
 //! | [`controller`] | joint torques `Υ` and the motion of free massless joints |
 //! | [`actuated`] | joint torques from actuator models |
 //! | [`execution`] | the record: segments, events, termination |
+//! | [`damped_slide`] | the damped slide's chain law (torques, damping) from a controller |
 //! | [`flow`] | the flow (5.48) of a mode, `(t, q, q̇) ⇒ (q̈, λ)`, with its cache |
 //! | [`energy`] | kinetic energy and the energy balance of an execution |
 //! | [`reset_workspace`] | the resets' own workspace, apart from the flow's cache |
@@ -50,6 +51,7 @@ pub mod complementarity;
 pub mod contact_set;
 pub mod controller;
 pub mod coulomb_impact;
+pub mod damped_slide;
 pub mod drift;
 pub mod eigen;
 pub mod energy;

@@ -106,6 +106,7 @@ pub fn reset(
         c.folded.iter().map(|&k| (k, ContactKind::Stick)).collect();
     let ctrl = flow.controller().clone();
     let cx = &mut reset_workspace(flow, &*ctrl, opts, ws, &barred, &lock);
+    cx.ws.wedged.clear();
     // a landing at δt = 0 takes every contact touching with it (ResetWorkspace::touching)
     let more = cx.touching(mode, &c.touched, q, qd)?;
     c.touched.extend(more);
@@ -148,6 +149,17 @@ pub fn reset(
     if impact && !c.touched.is_empty() {
         let after = (selected.mode, mode_after);
         jammed = crate::jam_hold::entries(flow, t, &c.touched, after, q, &qd_after);
+    }
+    // a massless chain's foot whose damped slide is wedged on both sides, kept sticking,
+    // is held as a jam (crate::damped_slide)
+    if !cx.ws.wedged.is_empty() {
+        let wedged = std::mem::take(&mut cx.ws.wedged);
+        let held = wedged_holds(flow, t, &wedged, mode_after, q, &qd_after);
+        for k in held {
+            if !jammed.contains(&k) {
+                jammed.push(k);
+            }
+        }
     }
     if !jammed.is_empty() {
         cx.held.extend_from_slice(&jammed);
@@ -563,4 +575,31 @@ struct AfterReset {
     qd_after: Vec<f64>,
     mode_after: ContactMode,
     force: Vec<f64>,
+}
+
+/// The contacts of `wedged` (kept sticking by a reset because their damped slide is wedged
+/// on both sides: in Painlevé's region or inconsistent) that stick in `mode_after` and,
+/// released, would not separate (their gap's second derivative in the flow without them
+/// below the jam's tolerance, as at a jam hold's entry): held sticking by the jam hold
+/// ([`crate::jam_hold`]) until its guard — the cone holds their force again, or released
+/// they separate.
+fn wedged_holds(
+    flow: &mut Flow,
+    t: f64,
+    wedged: &[usize],
+    mode_after: ContactMode,
+    q: &[f64],
+    qd: &[f64],
+) -> Vec<usize> {
+    let y: Vec<f64> = q.iter().chain(qd).copied().collect();
+    wedged
+        .iter()
+        .copied()
+        .filter(|&k| mode_after.kind(k) == Some(selfmanip_core::ContactKind::Stick))
+        .filter(|&k| {
+            crate::jam_hold::gap_acceleration(flow, mode_after.without(k), k, t, &y)
+                .unwrap_or(f64::NEG_INFINITY)
+                < -crate::jam_hold::SEPARATION_TOL_M_S2
+        })
+        .collect()
 }

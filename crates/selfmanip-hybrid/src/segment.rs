@@ -225,6 +225,26 @@ impl SegmentIntegrator {
                     // corner of the terrain: locate where
                     let off = self.surfaces.left_by(flow, y).is_some();
                     if off && self.surfaces.only_drifted(flow, y) {
+                        if self.drift_ws.damped != 0 {
+                            // the damped slides of `mode` keep out of the projection
+                            let model = flow.model();
+                            let (q, qd) = y.split_at(model.nq());
+                            let ctrl = flow.controller().clone();
+                            // the flow's laws, so that one that stopped holding inside
+                            // the step keeps the damping it held with (set_laws)
+                            let laws = &flow.eval(*t, mode, q, qd)?.damped_laws;
+                            let ws = &mut self.drift_ws;
+                            ws.data.damped_laws.clone_from(laws);
+                            let state = (*t, q, qd);
+                            crate::damped_slide::set_laws(
+                                model,
+                                &mut ws.data,
+                                ws.damped,
+                                &*ctrl,
+                                state,
+                                mode,
+                            );
+                        }
                         drift::project(flow, &mut self.drift_ws, mode, y)?;
                         self.ode.reset(self.ode.next_step_size());
                     } else if off {
@@ -302,6 +322,28 @@ impl SegmentIntegrator {
                 *t = s;
                 self.t_right = s.next_up();
                 self.ode.reset(self.ode.next_step_size().max(h_proposed));
+                // a chain that slides damped has no momentum: its rates are the slide's
+                // under the law that starts here (crate::damped_slide)
+                let damped = self.drift_ws.damped;
+                if crate::damped_slide::sliding_damped(damped, mode) != 0 {
+                    let model = flow.model();
+                    let ctrl = flow.controller().clone();
+                    let ws = &mut self.drift_ws;
+                    ws.data.slide_directions.clear();
+                    ws.data
+                        .slide_directions
+                        .extend_from_slice(flow.slide_directions());
+                    let (q, qd) = y.split_at_mut(model.nq());
+                    let state = (self.t_right, mode);
+                    crate::damped_slide::consistent_rates(
+                        model,
+                        flow.terrain(),
+                        &*ctrl,
+                        state,
+                        (q, qd),
+                        &mut ws.data,
+                    )?;
+                }
             }
             seg.t1 = *t;
             if feature_change.is_some_and(|tc| *t >= tc) {

@@ -134,6 +134,7 @@ pub fn simulate_with(
                 SegmentEnd::FinalTime if t >= t_final => break 'run Termination::FinalTime,
                 // the dwell of a truncation ends: its contacts are judged by force again
                 SegmentEnd::FinalTime => {
+                    fresh_laws(&mut reset_ws, &flow, (t, mode), &y);
                     let held = (&mut reset_ws, &mut flow, &mut zeno);
                     match crate::zeno::dwell_end(held, &opts, mode, (t, &y)) {
                         Ok(Some(r)) => break 'stages Ok(r),
@@ -151,6 +152,7 @@ pub fn simulate_with(
                 }
                 SegmentEnd::Ended(term) => break 'run term,
             };
+            fresh_laws(&mut reset_ws, &flow, (t, mode), &y);
             match reset(&mut reset_ws, &mut flow, &opts, &fired, mode, (t, &y), &[]) {
                 Ok(r) => Ok(r),
                 // an impact that chose an inconsistent slide: the same impact with that
@@ -199,6 +201,19 @@ pub fn simulate_with(
         }
         y[model.nq()..].copy_from_slice(&event.qd_after);
         mode = event.mode_after;
+        // a chain that slides damped starts on its slide's rates (crate::damped_slide)
+        if reset_ws.damped != 0 {
+            let (q, qd) = y.split_at_mut(model.nq());
+            let ctrl = flow.controller().clone();
+            crate::damped_slide::consistent_rates(
+                model,
+                terrain,
+                &*ctrl,
+                (t, mode),
+                (q, qd),
+                &mut reset_ws.data,
+            )?;
+        }
         from_rest = rest;
         // a silent event counts in the Zeno window too
         let zeno_window = zeno.record(t, &event.triggered);
@@ -213,6 +228,7 @@ pub fn simulate_with(
             break Termination::Interrupted { t };
         }
         if let Some(z) = zeno_window {
+            fresh_laws(&mut reset_ws, &flow, (t, mode), &y);
             let held = (&mut reset_ws, &mut flow, &mut zeno);
             truncation = crate::zeno::truncate_and_hold(held, &opts, mode, (t, &y), &z)?;
             if truncation.is_none() {
@@ -249,6 +265,19 @@ pub fn simulate_with(
         mode,
         steps: budget.steps(),
     })
+}
+
+/// The chain laws of the damped slides of `mode` at `(t, y)` on the resets' workspace
+/// (crate::damped_slide), before a reset from `mode` prepares it; nothing for a robot
+/// without a chain that can slide damped.
+fn fresh_laws(ws: &mut FlowWorkspace, flow: &Flow, (t, mode): (f64, ContactMode), y: &[f64]) {
+    if ws.damped == 0 {
+        return;
+    }
+    let model = flow.model();
+    let (q, qd) = y.split_at(model.nq());
+    let ctrl = flow.controller().clone();
+    crate::damped_slide::set_laws(model, &mut ws.data, ws.damped, &*ctrl, (t, q, qd), mode);
 }
 
 /// A collision outline inside the terrain at `(t, q)`, deeper than the drift the engine

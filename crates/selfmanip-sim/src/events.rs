@@ -146,7 +146,11 @@ fn event_vectors(
     let none = vec![None; model.n_contacts()];
     // the kinematics are complete even where the KKT matrix is singular (its factorization
     // is the last stage)
-    let factored = match ws.data.prepare(model, terrain, e.mode_after, q, qd) {
+    let prepared = match seg {
+        Some(s) => ws.prepare(model, terrain, &*s.controller, (e.t, e.mode_after), q, qd),
+        None => ws.data.prepare(model, terrain, e.mode_after, q, qd),
+    };
+    let factored = match prepared {
         Ok(()) => true,
         Err(CoreError::SingularKkt { .. }) => false,
         Err(_) => return (none.clone(), none),

@@ -155,7 +155,7 @@ pub fn sample_labelled(
         // sliding contacts' directions => (Υ, q̈, λ)
         ws.data.locked.clone_from(&seg.locked);
         ws.data.slide_directions.clone_from(&seg.slide_directions);
-        ws.data.prepare(model, terrain, seg.mode, q, qd)?;
+        ws.prepare(model, terrain, &*seg.controller, (t, seg.mode), q, qd)?;
         ws.solve_prepared(model, &*seg.controller, t, seg.mode, q, qd)?;
         let (points, forces) = site_points_and_forces(model, terrain, &ws.data, seg.mode);
         out.t_s.push(t - time_offset_s);

@@ -55,6 +55,14 @@ pub(super) fn segment_event(
     let seg = &exec.segments[si];
     let after = exec.segments.get(si + 1);
     let zero_time = seg.t1 == seg.t0 || after.is_some_and(|a| a.t1 == a.t0);
+    // a damped slide (selfmanip_core::damped_slide) before or after the event: the
+    // derivatives of its flow and of its resets are not formed
+    let damped = crate::damped_slide::damped_contacts(ev.model);
+    let slides = |m| crate::damped_slide::sliding_damped(damped, m);
+    if damped != 0 && (slides(event.mode_before) | slides(event.mode_after)) != 0 {
+        let reason = "a massless chain's damped slide before or after it: not differentiated";
+        return Ok((unsupported(event, reason), None));
+    }
     let (mut es, parts) = event_sensitivity(ev, seg, after, event, body)?;
     // an event at a time event of the controller that ran up to it was fired by the flow's
     // jump there (a torque switched on pushes a force to its cone at once), not by a

@@ -1,0 +1,353 @@
+//! The damped slide of a massless chain: the contact problem of a foot at the end of a chain
+//! of two or more massless joints under a law with damping, in the limit of vanishing link
+//! inertia that defines the chain's motion in the air (`docs/singular-transitions.md` §10).
+//!
+//! A rigid slide of such a chain is never admissible (its normal row alone is a `1 × n`
+//! block over `n ≥ 2` massless joints, §1), and where the chain's sticking force pulls the
+//! rigid model has nothing left but to release the foot, which its own law puts straight
+//! back. With link inertia `ε → 0` the chain's joints balance their torques at every
+//! instant, `T(θ̇) + Bᵀλ = 0` (`B` the contact's rows over the chain's joints, `λ` the
+//! ground's force in the contact's rows, the row convention of [`crate::contact`]), and a
+//! law whose torque falls with the joints' rates, `T(θ̇) = T_c − K (θ̇ − θ̇_c)` with the
+//! damping `K = −∂T/∂θ̇` positive definite, makes the chain's rates algebraic:
+//!
+//! ```text
+//! θ̇ = θ̇_c + K⁻¹ (T_c + Bᵀλ),      u = A q̇ + B (θ̇ − θ̇_c) = w + G λ,
+//! w = A q̇ + B K⁻¹ T_c,             G = B K⁻¹ Bᵀ,
+//! ```
+//!
+//! `u` the foot's velocity in the contact's rows and `w` the velocity it has with no force
+//! (the chain on its torque-free manifold). The **damped slide** is the contact's Coulomb
+//! solution with the foot on the ground: `λ = λ_n (e_n + c e_t)`, `c = μ_k s` with `s` the
+//! side of the foot's sliding velocity `u_t` (the friction then dissipates,
+//! `λ_t u_t = μ_k s λ_n u_t ≤ 0` with a pushing `λ_n < 0`), and the normal force from
+//! `u_n = 0`:
+//!
+//! ```text
+//! λ_n = −w_n / (G_nn + c G_nt).
+//! ```
+//!
+//! It holds while the foot pushes (`U = −λ_n > 0`; its liftoff is `λ_n → 0`, where the
+//! chain's rates meet the manifold's, `θ̇ = θ̇_c + K⁻¹ T_c`) and slides on its side
+//! (`s u_t > 0`; its stick is `u_t → 0`). The work the force does on the massive part is
+//! `λ · (u − B θ̇) = λ_t u_t + T(θ̇) · θ̇`: the friction's (never positive) plus the chain
+//! law's — the damping's, among it.
+//!
+//! This module is the contact problem at one state ([`solve`]) and the chain it applies to
+//! ([`damped_chain`]); the law's `T_c` and `K` come from the caller, which knows the
+//! controller.
+use crate::constraint::Constraints;
+use crate::contact::{ContactKind, ContactMode, RowDirection, Terrain};
+use crate::data::Data;
+use crate::error::{CoreError, Result};
+use crate::friction::WEDGE_TOL;
+use crate::kinematics::Kinematics;
+use crate::model::Model;
+use crate::sliding::SlideDirection;
+pub use crate::sliding::{ChainLaw, DampedSlide};
+use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
+use std::ops::Range;
+
+/// The massless joints of contact `k`'s chain — from the first joint whose whole distal
+/// chain is massless to the contact's link — when they are two or more (a chain whose
+/// rigid slide is singular); `None` for a body contact, a massive link, or a one-joint
+/// chain (whose slide has a square `1 × 1` block and is the rigid engine's).
+pub fn damped_chain(model: &Model, k: usize) -> Option<Range<usize>> {
+    let j = model.contacts.get(k)?.link?;
+    let first = model.chain(j).find(|&i| model.distal_massless(i))?;
+    (j + 1 - first >= 2).then_some(first..j + 1)
+}
+
+/// The contact's two rows `A` (tangential, normal; `2 × nq`) at the kinematics `kin`.
+pub fn contact_rows(
+    model: &Model,
+    kin: &Kinematics,
+    terrain: &dyn Terrain,
+    k: usize,
+    qd: &[f64],
+) -> DMatrix<f64> {
+    let mut c = Constraints::default();
+    let mode = ContactMode::FLIGHT.with(k, ContactKind::Stick);
+    c.assemble(model, kin, terrain, mode, qd);
+    debug_assert_eq!(c.rows[0].direction, RowDirection::Tangential);
+    c.a
+}
+
+/// The contact's two rows `A` (tangential, normal; `2 × nq`), their rate `Ȧ` along `q̇` and
+/// `Ȧ q̇`, at the kinematics `kin` (computed at `(q, q̇)`).
+pub fn contact_rows_and_rates(
+    model: &Model,
+    kin: &Kinematics,
+    terrain: &dyn Terrain,
+    k: usize,
+    qd: &[f64],
+) -> (DMatrix<f64>, DMatrix<f64>, DVector<f64>) {
+    let mut c = Constraints::default();
+    let mode = ContactMode::FLIGHT.with(k, ContactKind::Stick);
+    c.assemble(model, kin, terrain, mode, qd);
+    (c.a, c.a_dot, c.a_dot_qd)
+}
+
+/// The foot's velocity with no force `w` and its mobility `G` (module docs) for contact `k`
+/// at `(kin, q̇)` under the chain's law `law`; `None` where `K` is not invertible.
+pub fn mobility(
+    model: &Model,
+    kin: &Kinematics,
+    terrain: &dyn Terrain,
+    k: usize,
+    qd: &[f64],
+    law: &ChainLaw,
+) -> Option<(Vector2<f64>, Matrix2<f64>, DMatrix<f64>, DMatrix<f64>)> {
+    mobility_of(&contact_rows(model, kin, terrain, k, qd), qd, law)
+}
+
+/// [`mobility`] from the contact's rows `a`.
+#[allow(clippy::type_complexity)]
+fn mobility_of(
+    a: &DMatrix<f64>,
+    qd: &[f64],
+    law: &ChainLaw,
+) -> Option<(Vector2<f64>, Matrix2<f64>, DMatrix<f64>, DMatrix<f64>)> {
+    let b = a.columns(law.joints.start, law.joints.len()).into_owned();
+    let k_inv = law.damping.clone().try_inverse()?;
+    // A q̇ with the chain at θ̇_c
+    let mut v = DVector::from_column_slice(qd);
+    v.rows_mut(law.joints.start, law.joints.len())
+        .copy_from(&law.rates);
+    let u0 = a * v;
+    let w = &u0 + &b * (&k_inv * &law.torque);
+    let g = &b * &k_inv * b.transpose();
+    Some((
+        Vector2::new(w[0], w[1]),
+        Matrix2::new(g[(0, 0)], g[(0, 1)], g[(1, 0)], g[(1, 1)]),
+        b,
+        k_inv,
+    ))
+}
+
+/// The damped slide of contact `k` (on the chain of `law`, [`damped_chain`]) at `(kin, q̇)`
+/// with kinetic friction `mu_k`: on the side `side` (`±1`) when given (a segment keeps its
+/// side; the stick guard ends it), else on the side where it is consistent — the foot
+/// pushes and slides that way. Where both sides are or neither is, the side of the foot's
+/// sticking force `λ_s = G⁻¹ w` where it pushes (the cone's edge it reaches), else that of
+/// the frictionless slide's `u_t` (`w_t − G_tn w_n / G_nn`).
+/// Where neither side is consistent (the foot leaves, or sticks), the frictionless slide's
+/// side, flagged inconsistent ([`DampedSlide::consistent`]). `None` where `K` is singular.
+/// A law that is not finite is [`CoreError::NonFiniteResult`].
+#[allow(clippy::too_many_arguments)]
+pub fn solve(
+    model: &Model,
+    kin: &Kinematics,
+    terrain: &dyn Terrain,
+    k: usize,
+    qd: &[f64],
+    law: &ChainLaw,
+    mu_k: f64,
+    side: Option<f64>,
+) -> Result<Option<DampedSlide>> {
+    solve_rows(
+        k,
+        contact_rows(model, kin, terrain, k, qd),
+        qd,
+        law,
+        mu_k,
+        side,
+    )
+}
+
+/// [`solve`] with the contact's rows `a` ([`contact_rows`]).
+pub fn solve_rows(
+    k: usize,
+    a: DMatrix<f64>,
+    qd: &[f64],
+    law: &ChainLaw,
+    mu_k: f64,
+    side: Option<f64>,
+) -> Result<Option<DampedSlide>> {
+    if !law
+        .torque
+        .iter()
+        .chain(law.damping.iter())
+        .all(|v| v.is_finite())
+    {
+        return Err(CoreError::NonFiniteResult {
+            quantity: "a damped chain's torques or damping",
+        });
+    }
+    let Some((w, g, b, k_inv)) = mobility_of(&a, qd, law) else {
+        return Ok(None);
+    };
+    // Painlevé's region: on a side whose normal response `G_nn + c G_nt` is within the
+    // wedge tolerance of zero or below it, a pushing force draws the foot into the ground
+    let wedge = WEDGE_TOL * (g[(1, 1)] + mu_k * g[(1, 0)].abs());
+    // u = w − G λ with λ = λ_n (c e_t + e_n), c = −μ_k s: u_n = 0 sets λ_n (the response
+    // held at the wedge's edge inside Painlevé's region, so that a slide kept on its side
+    // stays finite up to its liftoff guard, which fires there: `DampedSlide::wedged`)
+    let on_side = |s: f64| {
+        let c = -mu_k * s;
+        let den = (g[(1, 1)] + c * g[(1, 0)]).max(wedge);
+        let lambda_n = w[1] / den;
+        let u_t = w[0] - (g[(0, 1)] + c * g[(0, 0)]) * lambda_n;
+        (c, lambda_n, u_t)
+    };
+    let consistent = |s: f64| {
+        let (c, lambda_n, u_t) = on_side(s);
+        // a foot at rest on its side (`|u_t|` within the rest band) is coming to rest or
+        // starting from it: sticking, not sliding, is its continuation
+        lambda_n.is_finite()
+            && g[(1, 1)] + c * g[(1, 0)] > wedge
+            && lambda_n < 0.0
+            && (mu_k == 0.0 || s * u_t > crate::friction::SLIDING_SPEED_EPS_M_S)
+    };
+    let s = match side {
+        Some(s) if s != 0.0 => s.signum(),
+        _ => {
+            // the side of the sticking force `λ_s = G⁻¹ w` (`u = 0`): a foot leaving the
+            // cone at rest slides on the edge its sticking force reached (continuity,
+            // `c = λ_t/λ_n = −μ_k s` there); else the frictionless slide's
+            let rest = g
+                .try_inverse()
+                .map(|gi| gi * w)
+                .filter(|l| l[1] < 0.0)
+                .map_or(0.0, |l| l[0].signum());
+            let free = (w[0] - g[(0, 1)] * w[1] / g[(1, 1)]).signum();
+            let first = if rest != 0.0 { rest } else { free };
+            let first = if first == 0.0 || first.is_nan() {
+                1.0
+            } else {
+                first
+            };
+            if !consistent(first) && consistent(-first) {
+                -first
+            } else {
+                first
+            }
+        }
+    };
+    let (c, lambda_n, u_t) = on_side(s);
+    if !lambda_n.is_finite() {
+        return Ok(None);
+    }
+    let consistent = consistent(s);
+    let wedged = g[(1, 1)] + c * g[(1, 0)] <= wedge;
+    let lambda = Vector2::new(c * lambda_n, lambda_n);
+    let rates = &law.rates
+        + &k_inv * (&law.torque - b.transpose() * DVector::from_column_slice(lambda.as_slice()));
+    Ok(Some(DampedSlide {
+        contact: k,
+        lambda: [lambda[0], lambda[1]],
+        coef: c,
+        side: s,
+        w,
+        g,
+        u_t,
+        rates,
+        consistent,
+        wedged,
+        rows: a,
+    }))
+}
+
+/// The mode of the KKT system for `mode`: without the contacts that slide damped — those
+/// with a law in [`Data::damped_laws`] that slide in `mode` and whose law's damping is
+/// invertible —, whose slides at `(data.kin, q̇)` go into [`Data::damped`] (on the side the
+/// caller fixed in [`Data::slide_directions`], `σ = sign v_t = −sign u_t`, else the
+/// consistent one). `mode` itself where there are none.
+#[inline(never)]
+pub(crate) fn split(
+    model: &Model,
+    data: &mut Data,
+    terrain: &dyn Terrain,
+    mode: ContactMode,
+    qd: &[f64],
+) -> Result<ContactMode> {
+    data.damped_modes = None;
+    if !data.damped.is_empty() {
+        data.damped.clear();
+    }
+    if data.damped_laws.is_empty() {
+        return Ok(mode);
+    }
+    let mut inner = mode;
+    for (k, law) in &data.damped_laws {
+        let k = *k;
+        if mode.kind(k) != Some(ContactKind::Slide) {
+            continue;
+        }
+        let side = data
+            .slide_directions
+            .iter()
+            .find(|d| d.0 == k)
+            .and_then(|d| match d.1 {
+                SlideDirection::Fixed(s) if s != 0.0 => Some(-s),
+                _ => None,
+            });
+        let a = contact_rows(model, &data.kin, terrain, k, qd);
+        let mu_k = model.contacts[k].kinetic_mu;
+        let solved = solve_rows(k, a, qd, law, mu_k, side);
+        if solved.is_err() {
+            // no slide is kept from a split that fails (Data::prepare_mode skips the split
+            // where there are no laws and no split before)
+            data.damped.clear();
+        }
+        if let Some(slide) = solved? {
+            // on a fixed side, the slide wedges where `G_nn + c G_nt` reaches zero (its
+            // normal force would grow without bound): flagged (DampedSlide::wedged), its
+            // liftoff guard ends it there and the reset judges the contact again
+            data.damped.push(slide);
+            inner = inner.without(k);
+        }
+    }
+    if inner != mode {
+        data.damped_modes = Some((mode, inner));
+        data.damped_qd.clear();
+        data.damped_qd.extend_from_slice(qd);
+    }
+    Ok(inner)
+}
+
+/// A row vector of the KKT system's mode (`v`) in the rows of the prepared mode: a damped
+/// slide's normal row takes `normal(slide)`.
+pub(crate) fn splice(
+    data: &Data,
+    v: &DVector<f64>,
+    normal: impl Fn(&DampedSlide) -> f64,
+) -> DVector<f64> {
+    let Some((mode, _)) = data.damped_modes else {
+        return v.clone();
+    };
+    let mut inner = v.iter();
+    DVector::from_iterator(
+        mode.n_rows(),
+        mode.rows().map(
+            |r| match data.damped.iter().find(|d| d.contact == r.contact) {
+                Some(d) => normal(d),
+                None => *inner.next().expect("a row of the KKT system's mode"),
+            },
+        ),
+    )
+}
+
+/// After a plastic impact into a mode with damped slides (which take no impulse): each
+/// chain's rates jump to its slide's at the impact's `q̇⁺` (on the consistent side).
+pub(crate) fn impact_rates(model: &Model, data: &Data, qd_plus: &mut DVector<f64>) -> Result<()> {
+    for d in &data.damped {
+        let Some((_, law)) = data.damped_laws.iter().find(|(k, _)| *k == d.contact) else {
+            continue;
+        };
+        let mu_k = model.contacts[d.contact].kinetic_mu;
+        if let Some(after) = solve_rows(
+            d.contact,
+            d.rows.clone(),
+            qd_plus.as_slice(),
+            law,
+            mu_k,
+            None,
+        )? {
+            for (j, r) in law.joints.clone().zip(after.rates.iter()) {
+                qd_plus[j] = *r;
+            }
+        }
+    }
+    Ok(())
+}

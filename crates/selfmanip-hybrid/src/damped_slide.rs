@@ -1,0 +1,374 @@
+//! The damped slide's chain law from a controller: the torques `T_c` a chain of massless
+//! joints carries at its current rates and its damping `K = −∂T/∂θ̇`, by differences of the
+//! controller's torque in the chain's rates (exact for the behaviours' servos and a
+//! torque–speed line, whose torque is affine in the rate), with the joints' passive springs
+//! and dampers ([`selfmanip_core::passive`]). The contact problem itself is the core's
+//! ([`selfmanip_core::damped_slide`]).
+//!
+//! A law without damping — no servo, a saturated one, a rate-independent torque — has no
+//! damped slide: [`chain_law`] is `None` and the contact keeps the rigid engine's modes
+//! (`docs/singular-transitions.md` §10).
+use crate::controller::Controller;
+use nalgebra::{DMatrix, DVector};
+use selfmanip_core::damped_slide::{contact_rows_and_rates, damped_chain, ChainLaw};
+use selfmanip_core::passive::joint_torques;
+use selfmanip_core::{ContactMode, CoreError, Data, Model, Terrain};
+
+/// The relative step in a joint's rate by which `K` is differenced (the torque is affine in
+/// the rate for every law the behaviours write, so the step only needs to stay clear of
+/// round-off).
+const RATE_STEP: f64 = 1e-6;
+
+/// The law of contact `k`'s massless chain ([`damped_chain`]) under `ctrl` in `mode` at
+/// `(t, q, q̇)`, [`ChainLaw::holds`] where the law's damping `K` is positive definite (its
+/// symmetric part has a Cholesky factor): `None` for a contact without such a chain, or a
+/// law that is not finite.
+pub fn chain_law(
+    model: &Model,
+    ctrl: &dyn Controller,
+    (t, q, qd): (f64, &[f64], &[f64]),
+    mode: ContactMode,
+    k: usize,
+) -> Option<ChainLaw> {
+    let joints = damped_chain(model, k)?;
+    let n = joints.len();
+    let torque_at = |qd: &[f64]| {
+        let mut tau = vec![0.0; model.n_joints()];
+        ctrl.torque(t, q, qd, mode, &mut tau);
+        let passive = joint_torques(model, q, qd);
+        joints
+            .clone()
+            .map(|j| tau[j] + passive.get(j).copied().unwrap_or(0.0))
+            .collect::<Vec<f64>>()
+    };
+    let torque = DVector::from_vec(torque_at(qd));
+    let mut damping = DMatrix::zeros(n, n);
+    let mut v = qd.to_vec();
+    for (c, j) in joints.clone().enumerate() {
+        let h = RATE_STEP * qd[j].abs().max(1.0);
+        v[j] = qd[j] + h;
+        let up = torque_at(&v);
+        v[j] = qd[j];
+        for r in 0..n {
+            damping[(r, c)] = -(up[r] - torque[r]) / h;
+        }
+    }
+    let finite = torque.iter().chain(damping.iter()).all(|x| x.is_finite());
+    let sym = (&damping + damping.transpose()) * 0.5;
+    let holds = sym.cholesky().is_some();
+    finite.then_some(ChainLaw {
+        rates: DVector::from_iterator(n, joints.clone().map(|j| qd[j])),
+        joints,
+        torque,
+        damping,
+        holds,
+    })
+}
+
+/// The contacts of `model` (below 32) at the end of a chain of two or more massless joints
+/// ([`damped_chain`]), as a bit set: the only ones that can slide damped.
+pub fn damped_contacts(model: &Model) -> u32 {
+    (0..model.n_contacts().min(32))
+        .filter(|&k| damped_chain(model, k).is_some())
+        .fold(0, |m, k| m | 1 << k)
+}
+
+/// The contacts of `damped` (a [`damped_contacts`] set) that slide in `mode`: the ones
+/// that may slide damped there.
+#[inline]
+pub fn sliding_damped(damped: u32, mode: ContactMode) -> u32 {
+    mode.normal_bits() & !mode.tangential_bits() & damped
+}
+
+/// Sets `data`'s chain laws ([`Data::damped_laws`]) for `mode` at `(t, q, q̇)` under `ctrl`:
+/// one for each contact of `damped` (a [`damped_contacts`] set) that slides in `mode`, whose
+/// chain carries no other active contact, and whose law has damping ([`chain_law`]). To be
+/// called before `data` is prepared for `mode`.
+pub fn set_laws(
+    model: &Model,
+    data: &mut Data,
+    damped: u32,
+    ctrl: &dyn Controller,
+    state: (f64, &[f64], &[f64]),
+    mode: ContactMode,
+) {
+    let sliding = sliding_damped(damped, mode);
+    if sliding == 0 {
+        if !data.damped_laws.is_empty() {
+            data.damped_laws.clear();
+        }
+        return;
+    }
+    // a law that stops holding inside a step keeps the damping it last held with, so that
+    // the flow stays defined up to its guard (ChainLaw::holds, the liftoff guard)
+    let before = std::mem::take(&mut data.damped_laws);
+    for k in mode.active().filter(|&k| sliding >> k & 1 == 1) {
+        if shares_chain(model, mode, k) {
+            continue;
+        }
+        let Some(mut law) = chain_law(model, ctrl, state, mode, k) else {
+            continue;
+        };
+        if !law.holds {
+            let Some((_, held)) = before.iter().find(|(c, _)| *c == k) else {
+                continue;
+            };
+            law.damping.clone_from(&held.damping);
+        }
+        data.damped_laws.push((k, law));
+    }
+}
+
+/// Whether another active contact of `mode` sits on contact `k`'s massless chain (the
+/// chain is then held by both, and its slide is not the damped one).
+fn shares_chain(model: &Model, mode: ContactMode, k: usize) -> bool {
+    let chain = damped_chain(model, k).expect("a damped contact has a chain");
+    mode.active()
+        .any(|c| c != k && model.contacts[c].link.is_some_and(|l| chain.contains(&l)))
+}
+
+/// [`set_laws`] without letting go of the laws `data` holds for other contacts (a reset
+/// evaluates several modes at one state, and prepares the one it selects again), and only
+/// where the law holds at the state: a candidate of a reset is a damped slide only there.
+pub fn add_laws(
+    model: &Model,
+    data: &mut Data,
+    damped: u32,
+    ctrl: &dyn Controller,
+    state: (f64, &[f64], &[f64]),
+    mode: ContactMode,
+) {
+    let sliding = sliding_damped(damped, mode);
+    for k in mode.active().filter(|&k| sliding >> k & 1 == 1) {
+        if shares_chain(model, mode, k) {
+            continue;
+        }
+        data.damped_laws.retain(|(c, _)| *c != k);
+        if let Some(law) = chain_law(model, ctrl, state, mode, k).filter(|l| l.holds) {
+            data.damped_laws.push((k, law));
+        }
+    }
+}
+
+/// The relative time step of the central difference by which the law's torque is
+/// differentiated along the flow with the chain's rates held (`Ṫ`; exact for a law affine
+/// in time and state, its rounding `ε_mach |T| / h` far below the integrator's tolerances).
+const FLOW_STEP: f64 = 1e-6;
+
+/// The accelerations of the damped slides' chains in `data` (solved at `(t, q, q̇)` in
+/// `mode`, `q̈` of the rest of the robot in `data.qdd`), written into `data.qdd`. The rates
+/// of each chain are algebraic ([`selfmanip_core::damped_slide`]),
+///
+/// ```text
+/// θ̇ = v − K⁻¹ Bᵀ d λ_n,   v = θ̇_c + K⁻¹ T_c,   λ_n = N / D,
+/// N = a_{n,r}ᵀ q̇_r + b_nᵀ v,   D = b_nᵀ K⁻¹ Bᵀ d,   d = (c, 1),
+/// ```
+///
+/// (`r` the joints off the chain, `b_n` the normal row over the chain, `v` the rates of the
+/// torque-free manifold), so `q̈` of the chain is their derivative along the flow in closed
+/// form, with `K` constant (the law affine in the rates) and the side `c` kept:
+///
+/// ```text
+/// v̇ = K⁻¹ Ṫ,   Ṅ = ȧ_{n,r}ᵀ q̇_r + a_{n,r}ᵀ q̈_r + ḃ_nᵀ v + b_nᵀ v̇,
+/// Ḋ = ḃ_nᵀ K⁻¹ Bᵀ d + b_nᵀ K⁻¹ Ḃᵀ d,   λ̇_n = (Ṅ − λ_n Ḋ) / D,
+/// θ̈ = v̇ − K⁻¹ (Ḃᵀ d λ_n + Bᵀ d λ̇_n),
+/// ```
+///
+/// `Ȧ` the rows' rate along `q̇` ([`selfmanip_core::damped_slide::contact_rows_and_rates`])
+/// and `Ṫ` the law's own rate with the chain's rates held — the controller's torque (and the
+/// joints' passive torques) differenced on `(t ± h, q ± h q̇, q̇_r ± h q̈_r)`, the one
+/// quantity of a controller known only by its values. The state's rates are set to the
+/// slide's at every reset ([`consistent_rates`]), and the derivative keeps them there.
+pub fn chain_accelerations(
+    model: &Model,
+    terrain: &dyn Terrain,
+    ctrl: &dyn Controller,
+    (t, mode): (f64, ContactMode),
+    (q, qd): (&[f64], &[f64]),
+    data: &mut Data,
+) -> Result<(), CoreError> {
+    if data.damped.is_empty() {
+        return Ok(());
+    }
+    let h = FLOW_STEP * t.abs().max(1.0);
+    let side = Stencil::clear_of(&ctrl.time_events(&[]), t, h);
+    let qdd: Vec<f64> = data.qdd.iter().copied().collect();
+    for i in 0..data.damped.len() {
+        let (k, coef, lambda_n) = {
+            let d = &data.damped[i];
+            (d.contact, d.coef, d.lambda[1])
+        };
+        let Some((_, law)) = data.damped_laws.iter().find(|(c, _)| *c == k) else {
+            continue;
+        };
+        let joints = law.joints.clone();
+        let Some(k_inv) = law.damping.clone().try_inverse() else {
+            continue;
+        };
+        // Ṫ: the law's torque along the flow, the chain's rates held
+        let torque_at = |s: f64| {
+            let qs: Vec<f64> = q.iter().zip(qd).map(|(x, v)| x + s * h * v).collect();
+            let vs: Vec<f64> = (0..qd.len())
+                .map(|j| {
+                    if joints.contains(&j) {
+                        qd[j]
+                    } else {
+                        qd[j] + s * h * qdd[j]
+                    }
+                })
+                .collect();
+            let mut tau = vec![0.0; model.n_joints()];
+            ctrl.torque(t + s * h, &qs, &vs, mode, &mut tau);
+            let passive = joint_torques(model, &qs, &vs);
+            DVector::from_iterator(
+                joints.len(),
+                joints
+                    .clone()
+                    .map(|j| tau[j] + passive.get(j).copied().unwrap_or(0.0)),
+            )
+        };
+        let t_dot = match side {
+            Stencil::Central => (torque_at(1.0) - torque_at(-1.0)) / (2.0 * h),
+            Stencil::Forward => {
+                (torque_at(1.0) * 4.0 - torque_at(2.0) - torque_at(0.0) * 3.0) / (2.0 * h)
+            }
+            Stencil::Backward => {
+                (torque_at(0.0) * 3.0 - torque_at(-1.0) * 4.0 + torque_at(-2.0)) / (2.0 * h)
+            }
+        };
+        let (a, a_dot, _) = contact_rows_and_rates(model, &data.kin, terrain, k, qd);
+        let (j0, n) = (joints.start, joints.len());
+        let b = a.columns(j0, n);
+        let b_dot = a_dot.columns(j0, n);
+        let dvec = nalgebra::Vector2::new(coef, 1.0);
+        // v, v̇ (the torque-free manifold's rates and their rate)
+        let v = DVector::from_iterator(n, joints.clone().map(|j| qd[j])) + &k_inv * &law.torque;
+        let v_dot = &k_inv * t_dot;
+        // N, D and their rates
+        let off = |m: &DMatrix<f64>, x: &[f64]| -> f64 {
+            (0..x.len())
+                .filter(|j| !joints.contains(j))
+                .map(|j| m[(1, j)] * x[j])
+                .sum()
+        };
+        let bn = b.row(1).transpose();
+        let bn_dot = b_dot.row(1).transpose();
+        let bd = b.transpose() * dvec;
+        let bd_dot = b_dot.transpose() * dvec;
+        let den = bn.dot(&(&k_inv * &bd));
+        let n_dot = off(&a_dot, qd) + off(&a, &qdd) + bn_dot.dot(&v) + bn.dot(&v_dot);
+        let den_dot = bn_dot.dot(&(&k_inv * &bd)) + bn.dot(&(&k_inv * &bd_dot));
+        let lambda_n_dot = (n_dot - lambda_n * den_dot) / den;
+        let theta_dd = v_dot - &k_inv * (bd_dot * lambda_n + bd * lambda_n_dot);
+        for (i, x) in theta_dd.iter().enumerate() {
+            data.qdd[j0 + i] = *x;
+        }
+    }
+    Ok(())
+}
+
+/// The difference stencil of the law's rate `Ṫ` at `t`: central, or one-sided on the side
+/// of `t` where the controller's law is one smooth piece in time — a time event of the
+/// controller (a phase that starts at a set instant) within the stencil's two steps `h`
+/// would difference the law across its jump (a rate of order `ΔT / h`), and put the chain's
+/// rates through the ground within a nanosecond.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Stencil {
+    Central,
+    Forward,
+    Backward,
+}
+
+impl Stencil {
+    /// The stencil at `t` clear of the time events `events` (a controller's law holds from
+    /// a time event on: one at `t` itself lies behind).
+    fn clear_of(events: &[crate::controller::TimeEvent], t: f64, h: f64) -> Self {
+        let reach = 2.0 * h;
+        if events.iter().any(|e| e.t > t && e.t <= t + reach) {
+            Stencil::Backward
+        } else if events.iter().any(|e| e.t <= t && e.t > t - reach) {
+            Stencil::Forward
+        } else {
+            Stencil::Central
+        }
+    }
+}
+
+/// `q̇` with the rates of every chain that slides damped in `mode` at `(t, q, q̇)` set to the
+/// slide's (a force event leaves the rest of the velocity as it is; the chain carries no
+/// momentum): what a segment in `mode` starts from. `data` is a workspace to evaluate on.
+pub fn consistent_rates(
+    model: &Model,
+    terrain: &dyn Terrain,
+    ctrl: &dyn Controller,
+    (t, mode): (f64, ContactMode),
+    (q, qd): (&[f64], &mut [f64]),
+    data: &mut Data,
+) -> Result<(), CoreError> {
+    let damped = damped_contacts(model);
+    set_laws(model, data, damped, ctrl, (t, q, qd), mode);
+    if data.damped_laws.is_empty() {
+        return Ok(());
+    }
+    data.prepare_geometry(model, terrain, mode, q, qd)?;
+    let slides = std::mem::take(&mut data.damped);
+    for d in &slides {
+        let first = damped_chain(model, d.contact).map_or(0, |c| c.start);
+        for (i, r) in d.rates.iter().enumerate() {
+            qd[first + i] = *r;
+        }
+    }
+    Ok(())
+}
+
+/// The value of the liftoff guard of active contact `contact` (its normal row `row`) from
+/// `data` evaluated in the flow: its push `U = −λ_n` — for a damped slide, while its law
+/// holds ([`ChainLaw::holds`]) and its side stays out of Painlevé's region; where the law
+/// stops holding (its damping no longer positive definite: a servo saturated, a phase
+/// without damping) or the slide wedges ([`selfmanip_core::damped_slide::DampedSlide::wedged`])
+/// the guard is negative, and the slide ends there as at a liftoff: the reset judges the
+/// contact by complementarity.
+#[inline]
+pub fn liftoff_value(data: &Data, contact: usize, row: usize) -> f64 {
+    let push = -data.lambda[row];
+    if data.damped.is_empty() {
+        return push;
+    }
+    let wedged = || data.damped.iter().any(|d| d.contact == contact && d.wedged);
+    match data.damped_laws.iter().find(|(c, _)| *c == contact) {
+        Some((_, law)) if !law.holds || wedged() => -push.abs().max(LAW_LOST_N),
+        _ => push,
+    }
+}
+
+/// The value of a damped slide's liftoff guard where its law has stopped holding (N): a
+/// clear negative, past any arming margin.
+const LAW_LOST_N: f64 = 1.0;
+
+/// Whether every damped slide of `mode` (prepared in `data` at `(t, q, q̇)`) has a law that
+/// holds at the slide's own rates — the rates the segment starts from
+/// ([`consistent_rates`]): a servo that the slide's rates would saturate has no damped
+/// slide. True for a mode without one.
+pub fn holds_at_slide_rates(
+    model: &Model,
+    ctrl: &dyn Controller,
+    (t, q, qd): (f64, &[f64], &[f64]),
+    mode: ContactMode,
+    data: &Data,
+) -> bool {
+    if data.damped.is_empty() {
+        return true;
+    }
+    let mut v = qd.to_vec();
+    for d in &data.damped {
+        let Some(chain) = damped_chain(model, d.contact) else {
+            continue;
+        };
+        for (j, r) in chain.zip(d.rates.iter()) {
+            v[j] = *r;
+        }
+    }
+    data.damped
+        .iter()
+        .all(|d| chain_law(model, ctrl, (t, q, &v), mode, d.contact).is_some_and(|l| l.holds))
+}

@@ -1,0 +1,410 @@
+//! The damped slide of a massless two-link chain (`selfmanip_core::damped_slide`,
+//! `docs/singular-transitions.md` §10): a body with one servoed leg of two massless links,
+//! its foot on level ground.
+//!
+//! - its force and its chain's rates against the 3 × 3 linear system of the zero-inertia
+//!   limit written from the leg's closed-form kinematics — the servo's balance
+//!   `τ(θ̇) = Bᵀλ` with `τ = kp (θ* − θ) − kd θ̇`, and `u_n = 0` — on the cone's edge, and
+//!   its consistency flag against the friction's power;
+//! - the power the force delivers to the body: the friction's and the servo's;
+//! - the chain law the engine reads off a servo controller: `K = diag kd`;
+//! - none fires on a leg whose chain has one massless joint.
+mod systems;
+
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use selfmanip_core::damped_slide::{contact_rows, damped_chain, solve};
+use selfmanip_core::description::{FrictionDescription, JointAxis, LinkDescription};
+use selfmanip_core::kinematics::Kinematics;
+use selfmanip_core::{ContactKind, ContactMode, FlatGround, Model};
+use selfmanip_hybrid::damped_slide::{
+    chain_accelerations, chain_law, damped_contacts, liftoff_value,
+};
+use selfmanip_hybrid::flow::FlowWorkspace;
+use selfmanip_hybrid::Controller;
+use systems::{one_link_leg, G};
+
+const L1: f64 = 0.15;
+const L2: f64 = 0.12;
+const MU: f64 = 0.6;
+const KP: [f64; 2] = [40.0, 25.0];
+const KD: [f64; 2] = [1.1, 0.7];
+const TARGET: [f64; 2] = [0.4, -0.3];
+
+fn link(length_m: f64, mass_kg: f64) -> LinkDescription {
+    LinkDescription {
+        length_m,
+        mass_kg,
+        inertia_kg_m2: mass_kg * length_m * length_m / 12.0,
+        com_m: (mass_kg > 0.0).then_some([0.0, length_m / 2.0]),
+        axis: JointAxis::PlusY,
+        spring: None,
+        armature_kg_m2: 0.0,
+        collision: Vec::new(),
+    }
+}
+
+/// A 2 kg body with one leg at its centre of two links (`thigh_kg` and a massless shin),
+/// the toe at the shin's end with Coulomb friction `MU`. `q = [θ₁, θ₂, x, z, φ]`.
+fn robot(thigh_kg: f64) -> Model {
+    let friction = FrictionDescription::Sticking {
+        mu: Some(MU),
+        mu_kinetic: Some(MU),
+    };
+    let mut d = one_link_leg(2.0, 0.03, G, link(L1, thigh_kg), friction);
+    d.legs[0].links.push(link(L2, 0.0));
+    if let selfmanip_core::description::ShapeDescription::Point { position_m } =
+        &mut d.contacts[0].shape
+    {
+        *position_m = [0.0, L2];
+    }
+    d.build().unwrap()
+}
+
+/// A servo on both joints, `τ = kp (θ* − θ) − kd θ̇`.
+#[derive(Clone)]
+struct Servo;
+
+impl Controller for Servo {
+    fn torque(&self, _t: f64, q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
+        for j in 0..2 {
+            tau[j] = KP[j] * (TARGET[j] - q[j]) - KD[j] * qd[j];
+        }
+    }
+}
+
+/// The toe's position relative to the hip, NED, from the closed-form kinematics of the
+/// chain (links along +z at zero angle, `R(a)` of the test systems), and its Jacobian
+/// in `(θ₁, θ₂)` at body pitch `φ`.
+fn toe(phi: f64, th: [f64; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
+    // R(a) [0, l] = (l sin a, l cos a)
+    let (a1, a2) = (phi + th[0], phi + th[0] + th[1]);
+    let p = [L1 * a1.sin() + L2 * a2.sin(), L1 * a1.cos() + L2 * a2.cos()];
+    // columns ∂p/∂θ₁, ∂p/∂θ₂
+    let j = [
+        [
+            L1 * a1.cos() + L2 * a2.cos(),
+            -L1 * a1.sin() - L2 * a2.sin(),
+        ],
+        [L2 * a2.cos(), -L2 * a2.sin()],
+    ];
+    (p, j)
+}
+
+/// A state with the toe on the ground (z = 0) and the body moving so that the foot's damped
+/// slide pushes: the first of a few body velocities.
+fn state() -> (Vec<f64>, Vec<f64>) {
+    let model = robot(0.0);
+    let (phi, th) = (0.1, [0.4, -0.9]);
+    let (p, _) = toe(phi, th);
+    let q = vec![th[0], th[1], 0.0, -p[1], phi];
+    let mode = ContactMode::FLIGHT.with(0, ContactKind::Slide);
+    let mut kin = Kinematics::default();
+    for vx in [0.8, -0.8, 0.2, -0.2] {
+        for vz in [0.6, -0.6, 0.1, -0.1] {
+            for w in [0.4, -0.4] {
+                let qd = vec![0.3, -0.5, vx, vz, w];
+                let law = chain_law(&model, &Servo, (0.0, &q, &qd), mode, 0).unwrap();
+                kin.compute(&model, &q, &qd);
+                let d = solve(&model, &kin, &FlatGround, 0, &qd, &law, MU, None).unwrap();
+                if d.is_some_and(|d| d.push() > 0.0) {
+                    return (q, qd);
+                }
+            }
+        }
+    }
+    panic!("no state slides damped");
+}
+
+#[test]
+fn force_and_rates_match_the_zero_inertia_limit() {
+    let model = robot(0.0);
+    let (q, qd) = state();
+    let mode = ContactMode::FLIGHT.with(0, ContactKind::Slide);
+    let law = chain_law(&model, &Servo, (0.0, &q, &qd), mode, 0).expect("a damped law");
+    let mut kin = Kinematics::default();
+    kin.compute(&model, &q, &qd);
+    // the toe on the ground
+    let gap = selfmanip_core::contact::contact_gap(&model, &kin, &FlatGround, 0);
+    assert!(gap.abs() < 1e-12, "gap {gap}");
+    let d = solve(&model, &kin, &FlatGround, 0, &qd, &law, MU, None)
+        .unwrap()
+        .expect("a slide");
+
+    // closed form: toe velocity v = (ẋ, ż) + φ̇ (r_z, −r_x) + J θ̇ (NED, the systems'
+    // rotation convention); the rows u = −(t·v, n·v) with n = (0, 1) into the ground and
+    // t = S(n); unknowns (θ̇₁, θ̇₂, λ_n) with λ = λ_n (c, 1):
+    //   kp (θ* − θ) − kd θ̇ = Bᵀ λ,   u_n(θ̇) = 0
+    let (phi, th) = (q[4], [q[0], q[1]]);
+    let (r, jac) = toe(phi, th);
+    let n = [0.0, 1.0];
+    let tan = {
+        let t = selfmanip_core::GroundPlane::level(0.0).tangent();
+        [t[0], t[1]]
+    };
+    let body_v = [qd[2] + qd[4] * r[1], qd[3] - qd[4] * r[0]];
+    let dot = |a: [f64; 2], b: [f64; 2]| a[0] * b[0] + a[1] * b[1];
+    // B: rows (t, n) over (θ₁, θ₂): −d · ∂p/∂θ_j
+    let b = [
+        [-dot(tan, jac[0]), -dot(tan, jac[1])],
+        [-dot(n, jac[0]), -dot(n, jac[1])],
+    ];
+    let c = d.coef;
+    // row j: kd_j θ̇_j + (B_tj c + B_nj) λ_n = kp_j (θ*_j − θ_j); last: −n·(v_b + J θ̇) = 0
+    let m = Matrix3::new(
+        KD[0],
+        0.0,
+        b[0][0] * c + b[1][0],
+        0.0,
+        KD[1],
+        b[0][1] * c + b[1][1],
+        -dot(n, jac[0]),
+        -dot(n, jac[1]),
+        0.0,
+    );
+    let rhs = Vector3::new(
+        KP[0] * (TARGET[0] - th[0]),
+        KP[1] * (TARGET[1] - th[1]),
+        dot(n, body_v),
+    );
+    let x = m.lu().solve(&rhs).unwrap();
+    let tol = 1e-9 * x.amax();
+    assert!((d.rates[0] - x[0]).abs() < tol, "{} {}", d.rates[0], x[0]);
+    assert!((d.rates[1] - x[1]).abs() < tol, "{} {}", d.rates[1], x[1]);
+    assert!((d.lambda[1] - x[2]).abs() < tol, "{} {}", d.lambda[1], x[2]);
+    // the rows of the engine are those of the closed form
+    let a = contact_rows(&model, &kin, &FlatGround, 0, &qd);
+    for (row, br) in b.iter().enumerate() {
+        for (col, v) in br.iter().enumerate() {
+            assert!((a[(row, col)] - v).abs() < 1e-12);
+        }
+    }
+    // on the cone's edge, pushing, and its friction dissipates: −λ_t u_t ≤ 0 with
+    // u_t = −t·v at the slide's rates
+    let v = [
+        body_v[0] + jac[0][0] * x[0] + jac[1][0] * x[1],
+        body_v[1] + jac[0][1] * x[0] + jac[1][1] * x[1],
+    ];
+    let u_t = -dot(tan, v);
+    assert!(
+        (d.u_t - u_t).abs() < 1e-8 * u_t.abs().max(1.0),
+        "{} {} {:?} {}",
+        d.u_t,
+        u_t,
+        d.lambda,
+        d.consistent
+    );
+    assert!((c.abs() - MU).abs() < 1e-15);
+    assert!(d.push() > 0.0);
+    // consistent: its friction dissipates, −λ_t u_t < 0, beyond the rest band
+    let power = -d.lambda[0] * u_t;
+    assert_eq!(
+        d.consistent,
+        power < 0.0 && u_t.abs() > 1e-6,
+        "friction power {power}"
+    );
+}
+
+/// The power the foot's force delivers to the massive part, `−λ·A_b q̇_b`, is the friction's
+/// `−λ_t u_t` plus the servo's `τ(θ̇)·θ̇` at the slide's rates (module docs of
+/// `selfmanip_core::damped_slide`), with `τ` the servo's closed form.
+#[test]
+fn the_force_does_the_friction_and_servo_work() {
+    let model = robot(0.0);
+    let (q, qd) = state();
+    let mode = ContactMode::FLIGHT.with(0, ContactKind::Slide);
+    let law = chain_law(&model, &Servo, (0.0, &q, &qd), mode, 0).unwrap();
+    let mut kin = Kinematics::default();
+    kin.compute(&model, &q, &qd);
+    let d = solve(&model, &kin, &FlatGround, 0, &qd, &law, MU, None)
+        .unwrap()
+        .unwrap();
+    let lambda = DVector::from_column_slice(&d.lambda);
+    let mut qb = DVector::from_column_slice(&qd);
+    qb[0] = 0.0;
+    qb[1] = 0.0;
+    let body_power = -lambda.dot(&(&d.rows * &qb));
+    let servo: f64 = (0..2)
+        .map(|j| (KP[j] * (TARGET[j] - q[j]) - KD[j] * d.rates[j]) * d.rates[j])
+        .sum();
+    let friction = -d.lambda[0] * d.u_t;
+    let scale = body_power.abs().max(servo.abs());
+    assert!((body_power - (friction + servo)).abs() < 1e-9 * scale);
+}
+
+#[test]
+fn the_chain_law_is_the_servos_damping() {
+    let model = robot(0.0);
+    let (q, qd) = state();
+    let mode = ContactMode::FLIGHT.with(0, ContactKind::Slide);
+    let law = chain_law(&model, &Servo, (0.0, &q, &qd), mode, 0).unwrap();
+    let k = DMatrix::from_diagonal(&DVector::from_column_slice(&KD));
+    assert!((law.damping - k).amax() < 1e-6);
+    for j in 0..2 {
+        let tau = KP[j] * (TARGET[j] - q[j]) - KD[j] * qd[j];
+        assert!((law.torque[j] - tau).abs() < 1e-12);
+    }
+    // no damping, no damped slide
+    assert!(
+        !chain_law(&model, &Stiff, (0.0, &q, &qd), mode, 0)
+            .unwrap()
+            .holds
+    );
+}
+
+/// A servo without damping (`τ = −θ`): the law does not hold.
+#[derive(Clone)]
+struct Stiff;
+
+impl Controller for Stiff {
+    fn torque(&self, _t: f64, q: &[f64], _qd: &[f64], _m: ContactMode, tau: &mut [f64]) {
+        tau[0] = -q[0];
+        tau[1] = -q[1];
+    }
+}
+
+/// The flow of the slide at a state: the workspace prepared and solved under `ctrl`.
+fn flow_at(
+    model: &Model,
+    ws: &mut FlowWorkspace,
+    ctrl: &dyn Controller,
+    (q, qd): (&[f64], &[f64]),
+) {
+    let mode = ContactMode::FLIGHT.with(0, ContactKind::Slide);
+    ws.prepare(model, &FlatGround, ctrl, (0.0, mode), q, qd)
+        .unwrap();
+    ws.solve_prepared(model, ctrl, 0.0, mode, q, qd).unwrap();
+}
+
+/// The chain's acceleration in closed form (`chain_accelerations`) is the derivative of
+/// the slide's rates along the flow: against a central difference of `solve`'s rates on
+/// `(q ± h q̇, q̇ ± h q̈)` with the side kept.
+#[test]
+fn the_chain_acceleration_is_the_rates_derivative() {
+    let model = robot(0.0);
+    let (q, qd) = state();
+    let mode = ContactMode::FLIGHT.with(0, ContactKind::Slide);
+    let mut ws = FlowWorkspace::new(&model);
+    flow_at(&model, &mut ws, &Servo, (&q, &qd));
+    assert_eq!(ws.data.damped.len(), 1);
+    let side = ws.data.damped[0].side;
+    chain_accelerations(
+        &model,
+        &FlatGround,
+        &Servo,
+        (0.0, mode),
+        (&q, &qd),
+        &mut ws.data,
+    )
+    .unwrap();
+    let qdd: Vec<f64> = ws.data.qdd.iter().copied().collect();
+    let h = 1e-6;
+    let mut kin = Kinematics::default();
+    let mut rates = |s: f64| {
+        let qs: Vec<f64> = q.iter().zip(&qd).map(|(x, v)| x + s * h * v).collect();
+        let vs: Vec<f64> = qd.iter().zip(&qdd).map(|(v, a)| v + s * h * a).collect();
+        kin.compute(&model, &qs, &vs);
+        let law = chain_law(&model, &Servo, (s * h, &qs, &vs), mode, 0).unwrap();
+        solve(&model, &kin, &FlatGround, 0, &vs, &law, MU, Some(side))
+            .unwrap()
+            .unwrap()
+            .rates
+    };
+    let fd = (rates(1.0) - rates(-1.0)) / (2.0 * h);
+    for j in 0..2 {
+        let tol = 1e-5 * fd.amax().max(1.0);
+        assert!(
+            (qdd[j] - fd[j]).abs() < tol,
+            "joint {j}: {} {}",
+            qdd[j],
+            fd[j]
+        );
+    }
+}
+
+/// Where the law stops holding (no damping) the slide's liftoff guard is negative, so the
+/// slide ends there by an event; with the damped law it is the foot's push.
+#[test]
+fn a_law_without_damping_ends_the_slide() {
+    let model = robot(0.0);
+    let (q, qd) = state();
+    let mut ws = FlowWorkspace::new(&model);
+    flow_at(&model, &mut ws, &Servo, (&q, &qd));
+    let push = ws.data.damped[0].push();
+    assert!(push > 0.0);
+    assert_eq!(liftoff_value(&ws.data, 0, 0), push);
+    assert_eq!(-ws.data.lambda[0], push);
+    // the same state under a law without damping: the flow stays defined (the damping
+    // last held is carried), the guard is negative
+    flow_at(&model, &mut ws, &Stiff, (&q, &qd));
+    assert!(!ws.data.damped_laws[0].1.holds);
+    assert!(liftoff_value(&ws.data, 0, 0) < 0.0);
+    // without a law that held before, there is no damped slide: the rigid slide of a
+    // two-joint massless chain is singular
+    let mut fresh = FlowWorkspace::new(&model);
+    let mode = ContactMode::FLIGHT.with(0, ContactKind::Slide);
+    let r = fresh.prepare(&model, &FlatGround, &Stiff, (0.0, mode), &q, &qd);
+    assert!(
+        matches!(r, Err(selfmanip_core::CoreError::SingularKkt { .. })),
+        "{r:?}"
+    );
+}
+
+/// A leg with a massive thigh and a massless shin has a one-joint chain: its slide is the
+/// rigid engine's, and no contact of it can slide damped.
+#[test]
+fn a_one_joint_chain_never_slides_damped() {
+    let model = robot(0.3);
+    assert_eq!(damped_chain(&model, 0), None);
+    assert_eq!(damped_contacts(&model), 0);
+    assert_eq!(damped_contacts(&robot(0.0)), 1);
+    let (q, qd) = state();
+    let mode = ContactMode::FLIGHT.with(0, ContactKind::Slide);
+    assert!(chain_law(&model, &Servo, (0.0, &q, &qd), mode, 0).is_none());
+}
+
+/// A slide kept on a side inside Painlevé's region (`G_nn + c G_nt ≤ 0`, here with `K = I`
+/// and the rows `b_t = (1, 0)`, `b_n = (0.3, 0.1)` over the chain: `G = B Bᵀ`, `G_nn =
+/// 0.1`, `G_nt = 0.3`, so `c = −μ s = −0.6` on `s = +1` gives `0.1 − 0.18 < 0`) is flagged
+/// wedged with a finite force, and its liftoff guard is negative there: the flow ends it by
+/// an event. On the other side (`0.1 + 0.18 > 0`) it is not, and the guard is its push.
+#[test]
+fn a_wedged_side_ends_the_slide_at_its_liftoff_guard() {
+    use selfmanip_core::damped_slide::{solve_rows, ChainLaw};
+    let a = DMatrix::from_row_slice(2, 5, &[1.0, 0.0, 0.0, 0.0, 0.0, 0.3, 0.1, 0.0, 1.0, 0.0]);
+    let law = ChainLaw {
+        joints: 0..2,
+        rates: DVector::from_vec(vec![0.0, 0.0]),
+        torque: DVector::from_vec(vec![0.0, 0.0]),
+        damping: DMatrix::identity(2, 2),
+        holds: true,
+    };
+    // the foot moving into the ground with no force: `w_n = −1` (rows `u = w − G λ`,
+    // `λ_n < 0` pushes)
+    let qd = [0.0, 0.0, 0.0, -1.0, 0.0];
+    let (g_nn, g_nt) = (0.3 * 0.3 + 0.1 * 0.1, 0.3);
+    for s in [1.0, -1.0] {
+        let d = solve_rows(0, a.clone(), &qd, &law, MU, Some(s))
+            .unwrap()
+            .unwrap();
+        let den = g_nn - MU * s * g_nt;
+        assert_eq!(d.wedged, den <= 0.0, "side {s}: G_nn + c G_nt = {den}");
+        assert!(d.lambda.iter().all(|l| l.is_finite()));
+        let mut data = selfmanip_core::Data::default();
+        data.lambda = DVector::from_vec(vec![d.lambda[0], d.lambda[1]]);
+        data.damped_laws.push((0, law.clone()));
+        let push = d.push();
+        data.damped.push(d);
+        let guard = liftoff_value(&data, 0, 1);
+        if den <= 0.0 {
+            assert!(guard < 0.0, "side {s}: guard {guard}");
+        } else {
+            // off the wedge the force is the closed form λ_n = w_n / (G_nn + c G_nt)
+            assert!(
+                (push - 1.0 / den).abs() < 1e-12,
+                "push {push} against {}",
+                1.0 / den
+            );
+            assert_eq!(guard, push);
+        }
+    }
+}

@@ -1,0 +1,213 @@
+//! A run whose feet slide damped (`selfmanip_core::damped_slide`, the decision
+//! 2026-11-29-two-link-chain-retouch): a two-legged robot of the user-robot sweep (seed 30,
+//! run 256, `data/damped_chain_push.json`) whose legs are both two massless links under
+//! servos, pushing off flat ground.
+//!
+//! What is checked, each against a route of its own:
+//! - the run reaches its final time with feet that slide damped;
+//! - where a damped slide ends at its stick or liftoff guard, the event's time is the zero
+//!   of the foot's sliding velocity `u_t` (the contact's rows times `q̇`) or of its push
+//!   (the contact problem solved again at the segment's dense states under the chain law
+//!   read off the segment's controller), found by an independent bisection of the dense
+//!   output;
+//! - the energy balance `E1 − E0 = W + W_fr − L` to 1e-6 J, with the friction's work
+//!   non-zero;
+//! - the run is deterministic: a second run's events are bit-identical.
+use selfmanip_core::damped_slide::{contact_rows, solve};
+use selfmanip_core::kinematics::Kinematics;
+use selfmanip_core::{ContactMode, Model, Terrain};
+use selfmanip_hybrid::damped_slide::{chain_law, damped_contacts, sliding_damped};
+use selfmanip_hybrid::{EventKind, Segment};
+use selfmanip_sim::{Run, RunStatus, Scenario, Simulation};
+use std::path::Path;
+
+fn scenario() -> Scenario {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/damped_chain_push.json");
+    Scenario::from_file(&path).unwrap()
+}
+
+fn run() -> Run {
+    Simulation::new(&scenario()).unwrap().run().unwrap()
+}
+
+/// The contacts of `mode` that slide damped at the segment's start (the chain law holds).
+fn damped_in(model: &Model, seg: &Segment) -> Vec<usize> {
+    let sliding = sliding_damped(damped_contacts(model), seg.mode);
+    let (q, qd) = seg.y0.split_at(model.nq());
+    (0..model.n_contacts())
+        .filter(|&k| sliding >> k & 1 == 1)
+        .filter(|&k| {
+            chain_law(model, &*seg.controller, (seg.t0, q, qd), seg.mode, k)
+                .is_some_and(|l| l.holds)
+        })
+        .collect()
+}
+
+/// The foot's sliding velocity `u_t` and push `−λ_n` of contact `k` at `t` on the
+/// segment's dense output, the contact problem solved on `side` (`None`: where it is
+/// consistent).
+fn slide_at(
+    model: &Model,
+    terrain: &dyn Terrain,
+    seg: &Segment,
+    k: usize,
+    t: f64,
+    side: Option<f64>,
+) -> (f64, f64) {
+    let mut y = vec![0.0; 2 * model.nq()];
+    seg.eval(t, &mut y);
+    let (q, qd) = y.split_at(model.nq());
+    let mut kin = Kinematics::default();
+    kin.compute(model, q, qd);
+    let a = contact_rows(model, &kin, terrain, k, qd);
+    let u_t: f64 = (0..model.nq()).map(|j| a[(0, j)] * qd[j]).sum();
+    let mode: ContactMode = seg.mode;
+    let law = chain_law(model, &*seg.controller, (t, q, qd), mode, k).unwrap();
+    let mu_k = model.contacts[k].kinetic_mu;
+    let d = solve(model, &kin, terrain, k, qd, &law, mu_k, side)
+        .unwrap()
+        .unwrap();
+    (u_t, d.push())
+}
+
+/// The first zero of `f` on `[a, b]` by sampling and bisection (`f(a)` on one side).
+fn first_zero(f: impl Fn(f64) -> f64, a: f64, b: f64) -> Option<f64> {
+    let n = 200;
+    let f0 = f(a);
+    let mut lo = a;
+    for i in 1..=n {
+        let t = a + (b - a) * i as f64 / n as f64;
+        if f(t) * f0 <= 0.0 {
+            let (mut l, mut h) = (lo, t);
+            for _ in 0..80 {
+                let m = 0.5 * (l + h);
+                if f(m) * f0 > 0.0 {
+                    l = m;
+                } else {
+                    h = m;
+                }
+            }
+            return Some(0.5 * (l + h));
+        }
+        lo = t;
+    }
+    None
+}
+
+#[test]
+fn the_run_finishes_with_feet_that_slide_damped() {
+    let run = run();
+    assert_eq!(
+        run.outcome.status,
+        RunStatus::FinalTime,
+        "{:?}",
+        run.execution.termination
+    );
+    let model = &run.model;
+    let damped: usize = run
+        .execution
+        .segments
+        .iter()
+        .filter(|s| s.t1 > s.t0 && !damped_in(model, s).is_empty())
+        .count();
+    assert!(damped > 0, "no segment slides damped");
+}
+
+#[test]
+fn a_damped_slide_ends_where_its_guard_function_is_zero() {
+    let run = run();
+    let (model, terrain) = (&*run.model, &run.terrain);
+    let exec = &run.execution;
+    let mut checked = 0;
+    for (i, seg) in exec.segments.iter().enumerate() {
+        // the event that ends the segment
+        let Some(e) = exec
+            .events
+            .iter()
+            .find(|e| e.t == seg.t1 && e.mode_before == seg.mode)
+        else {
+            continue;
+        };
+        if seg.t1 - seg.t0 < 1e-6 || i + 1 == exec.segments.len() {
+            continue;
+        }
+        for k in damped_in(model, seg) {
+            if !e.triggered.contains(&k) {
+                continue;
+            }
+            // the side the segment started on, kept for it
+            let side = {
+                let (q, qd) = seg.y0.split_at(model.nq());
+                let mut kin = Kinematics::default();
+                kin.compute(model, q, qd);
+                let law = chain_law(model, &*seg.controller, (seg.t0, q, qd), seg.mode, k);
+                let mu_k = model.contacts[k].kinetic_mu;
+                solve(model, &kin, terrain, k, qd, &law.unwrap(), mu_k, None)
+                    .unwrap()
+                    .unwrap()
+                    .side
+            };
+            let f: Box<dyn Fn(f64) -> f64> = match e.kind {
+                EventKind::Stick => Box::new(|t| slide_at(model, terrain, seg, k, t, Some(side)).0),
+                EventKind::Liftoff => {
+                    Box::new(|t| slide_at(model, terrain, seg, k, t, Some(side)).1)
+                }
+                _ => continue,
+            };
+            // start clear of the segment's first instant (a slide from rest)
+            let a = seg.t0 + 1e-3 * (seg.t1 - seg.t0);
+            // a truncation's dwell ends by time, its held contacts judged together: no zero
+            let dwell = exec
+                .events
+                .iter()
+                .any(|d| d.kind == EventKind::ZenoTruncation && d.t == seg.t0);
+            let Some(zero) = first_zero(&f, a, seg.t1 + 1e-9) else {
+                assert!(
+                    dwell,
+                    "{:?} of contact {k} at {} s: no zero from {} s",
+                    e.kind, seg.t1, seg.t0
+                );
+                continue;
+            };
+            let tol = 1e-8_f64.max(1e-6 * (seg.t1 - seg.t0));
+            assert!(
+                (zero - seg.t1).abs() < tol,
+                "{:?} of contact {k}: event at {} s, zero at {zero} s",
+                e.kind,
+                seg.t1
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 0, "no damped slide ended at its own guard");
+}
+
+#[test]
+fn the_energy_balance_holds_with_friction_work() {
+    let run = run();
+    let er = run.energy_report().unwrap();
+    assert!(
+        er.residual_j().abs() < 1e-6,
+        "residual {} J",
+        er.residual_j()
+    );
+    assert!(
+        er.friction_work_j < -1e-3,
+        "friction work {} J",
+        er.friction_work_j
+    );
+}
+
+#[test]
+fn the_run_is_deterministic() {
+    let (a, b) = (run(), run());
+    let (ea, eb) = (&a.execution.events, &b.execution.events);
+    assert_eq!(ea.len(), eb.len());
+    for (x, y) in ea.iter().zip(eb) {
+        assert_eq!(x.t.to_bits(), y.t.to_bits());
+        assert_eq!(x.mode_after, y.mode_after);
+        let bits = |v: &[f64]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&x.qd_after), bits(&y.qd_after));
+    }
+    assert_eq!(a.execution.steps, b.execution.steps);
+}
