@@ -592,22 +592,13 @@ fn factor_limb<const N: usize, const R: usize>(
         }
         limb.p[i] = p;
     }
-    // R_bb's term P T + Tᵀ M_lb (symmetric: M_bl T + Tᵀ M_ll T + Tᵀ M_lb), lower triangle
-    let (p, t, mlb) = (
-        limb.p.map(|v| v.into()),
-        limb.t.map(|v| v.into()),
-        limb.mlb.map(|v| v.into()),
-    );
-    let (p, t, mlb): (
-        [[f64; ROOT]; MAX_PINNED],
-        [[f64; ROOT]; MAX_PINNED],
-        [[f64; ROOT]; MAX_PINNED],
-    ) = (p, t, mlb);
-    for a in 0..nb {
+    // R_bb's term P T + Tᵀ M_lb (symmetric: M_bl T + Tᵀ M_lb + Tᵀ M_ll T), lower triangle,
+    // over the whole fixed-size block (past `nb` the entries are zero; constant bounds unroll)
+    for a in 0..ROOT {
         for b in 0..=a {
             let mut s = 0.0;
             for i in 0..N {
-                s += p[i][a] * t[i][b] + t[i][a] * mlb[i][b];
+                s += limb.p[i][a] * limb.t[i][b] + limb.t[i][a] * limb.mlb[i][b];
             }
             rbb[(a, b)] += s;
         }
