@@ -5,12 +5,16 @@
 //! A **limb** is the subtree of one child of the root block (the six rates `b` of a
 //! free-flying base; on a fixed base, of the world): its rates `l` are contiguous in `v`, and
 //! `M` couples two limbs only through the root block. When the rows of `A` on limb `i` (the
-//! rows with an entry on its rates) are exactly as many as its rates, with an invertible
-//! square block `A_ll` — a three-joint leg on a foot with friction, RHex's one-joint leg on a
-//! frictionless toe — the rows fix that limb's rates from the base's,
-//! `A_lb x_b + A_ll x_l = g_l`, i.e.
+//! rows with an entry on its rates) are at least as many as its rates (at most three), with a
+//! block `A_ll` of full column rank — a three-joint leg on a foot with friction, RHex's
+//! one-joint leg on a toe — Gauss–Jordan with partial pivoting finds row operations `E` with
+//! `E [A_ll | A_lb] = [1 | −T; 0 | C]` (`E = A_ll⁻¹` when `A_ll` is square): the first rows fix
+//! that limb's rates from the base's,
 //!
-//! `x_l = T x_b + s`, `T = −A_ll⁻¹ A_lb`, `s = A_ll⁻¹ g_l`.
+//! `x_l = T x_b + s`, `[s; h] = E g_l`,
+//!
+//! and the others are **base rows** `C x_b = h`, constraints on the root block alone (RHex's
+//! toe with friction: one row fixes its leg, two hold the base).
 //!
 //! The other limbs (no rows: a swing leg) keep their rates `x_f`. With `N = [1; T]` a basis of
 //! `ker A` on the root block, `[M Aᵀ; A 0][x; y] = [f; g]` reduces to the symmetric system in
@@ -20,7 +24,12 @@
 //! - `r_b = f_b + Σ_limbs (Tᵀ f_l − P s)`, `r_f = f_f`;
 //!
 //! factored by a dense Cholesky (`R = Nᵀ M N`), and each pinned limb's multipliers follow from
-//! its own rows of the equations of motion, `y_l = A_ll⁻ᵀ (f_l − M_lb x_b − M_ll x_l)`.
+//! its own rows of the equations of motion, `y_l = Eᵀ [f_l − M_lb x_b − M_ll x_l; μ_l]`. Base
+//! rows `C` (at most `nb`) add `Cᵀ μ` to `R z = r` and `C z_b = h`: a second Gauss–Jordan, with
+//! column pivoting, eliminates one base rate per base row, `z = S w + t`, and
+//! `Sᵀ R S w = Sᵀ (r − R t)` is factored instead ([`LimbKkt::factor_base_rows`]). No
+//! `A M⁻¹ Aᵀ` is formed: its condition grows with the ratio of the base's inertia to light
+//! legs' (about 1e7 on RHex's tripod with friction), this route's does not.
 //!
 //! `R` is positive definite wherever `M` is on `ker A`, so the elimination would also be exact
 //! for a massless pinned limb; the route is nevertheless taken only where `M` is positive
@@ -37,9 +46,11 @@
 //! null-space block inverse) when: `M` is not clearly positive definite (a limb's diagonal
 //! block has a pivot the range-space route would refuse: a massless limb); a joint other than a free-flying root moves more than one
 //! rate; a row has no entry on any limb (a contact on the trunk) or entries on two limbs; a
-//! limb carries rows but not as many as its rates (a frictionless foot on a three-joint leg, a
-//! foot held in a plane, a toe with friction on RHex's one-joint leg), or more than three
-//! (two contacts on a longer limb); a limb's `A_ll` is
+//! limb carries rows but fewer than its rates (a frictionless foot on a three-joint leg, a
+//! foot held in a plane), or more than three (two contacts on a longer limb); the base rows
+//! are more than `nb` (six toes with friction; any on a fixed base) or dependent (a pivot of
+//! their elimination below [`LIMB_PIVOT_FRACTION`] of their largest entry) — such sets are
+//! redundant; a limb's `A_ll` is
 //! singular or nearly so (a pivot of its LU below [`LIMB_PIVOT_FRACTION`] of its largest
 //! entry: a stretched leg); `R` is not clearly positive definite (a pivot below
 //! [`REDUCED_PIVOT_FRACTION`] of its largest diagonal entry); or a free-flying root's own
