@@ -373,8 +373,9 @@ pub(crate) fn contact_rows(
         let x = frame_origin(model, data, contact.frame) + r;
         let dirs = contact.directions();
         let n = contact.n_rows();
+        let a = data.A.as_mut_slice();
         point_rows(model, &data.oS, joint, &x, &dirs[..n], |k, col, value| {
-            data.A[(row + k, col)] = value
+            a[col * c + row + k] = value
         });
         for (k, d) in dirs[..n].iter().enumerate() {
             data.A_drift[row + k] = d.dot(&drift);
@@ -529,31 +530,17 @@ pub(super) fn factor(data: &mut SpatialData) -> SpatialResult<()> {
 /// `A` redundant; a right-hand side `g` outside `A`'s range (redundant rows that contradict
 /// each other) is the typed redundant-constraints error.
 pub(super) fn solve(data: &mut SpatialData) -> SpatialResult<()> {
-    if data.limbs_eliminated {
-        data.limb_kkt.solve(
-            data.rhs_f.as_slice(),
-            data.rhs_g.as_slice(),
-            data.qdd.as_mut_slice(),
-            data.lam.as_mut_slice(),
-        );
-        return Ok(());
-    }
-    if data.kkt_route == KktRoute::RangeSpace {
-        data.tree_kkt.solve(
-            data.rhs_f.as_slice(),
-            data.rhs_g.as_slice(),
-            data.qdd.as_mut_slice(),
-            data.lam.as_mut_slice(),
-        );
-        return Ok(());
-    }
     let Some(basis) = &data.row_basis else {
-        data.kkt.solve(
-            data.rhs_f.as_slice(),
-            data.rhs_g.as_slice(),
-            data.qdd.as_mut_slice(),
-            data.lam.as_mut_slice(),
-        );
+        // independent rows: the route [`factor`] took solves in place
+        let (f, g) = (data.rhs_f.as_slice(), data.rhs_g.as_slice());
+        let (x, y) = (data.qdd.as_mut_slice(), data.lam.as_mut_slice());
+        if data.limbs_eliminated {
+            data.limb_kkt.solve(f, g, x, y);
+        } else if data.kkt_route == KktRoute::RangeSpace {
+            data.tree_kkt.solve(f, g, x, y);
+        } else {
+            data.kkt.solve(f, g, x, y);
+        }
         return Ok(());
     };
     let g = basis.transpose() * &data.rhs_g;
@@ -693,10 +680,16 @@ fn solve_dynamics(
         return Ok(());
     }
     factor(data)?;
-    for (f, (t, h)) in data.rhs_f.iter_mut().zip(tau.iter().zip(data.h.iter())) {
+    let (f, h) = (data.rhs_f.as_mut_slice(), data.h.as_slice());
+    for (f, (t, h)) in f.iter_mut().zip(tau.iter().zip(h)) {
         *f = t - h;
     }
-    for (g, d) in data.rhs_g.iter_mut().zip(data.A_drift.iter()) {
+    for (g, d) in data
+        .rhs_g
+        .as_mut_slice()
+        .iter_mut()
+        .zip(data.A_drift.as_slice())
+    {
         *g = -d;
     }
     solve(data)?;

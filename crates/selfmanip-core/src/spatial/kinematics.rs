@@ -5,7 +5,7 @@
 //! evaluations allocate nothing once the data exists).
 #![allow(non_snake_case)]
 use super::error::{SpatialError, SpatialResult};
-use super::inertia::Inertia;
+use super::inertia::OriginInertia;
 use super::liegroup::{check_configuration, quaternion_at};
 use super::limb_kkt::LimbKkt;
 use super::model::{JointKind, SpatialModel};
@@ -13,9 +13,7 @@ use super::motion::{Force, Motion};
 use super::se3::SE3;
 use super::tree_kkt::{KktRoute, TreeKkt};
 use crate::kkt::KktFactorization;
-use nalgebra::{
-    DMatrix, DVector, Dyn, Matrix6, OMatrix, Rotation3, Unit, UnitQuaternion, Vector3, U6,
-};
+use nalgebra::{DMatrix, DVector, Dyn, OMatrix, Rotation3, Unit, UnitQuaternion, Vector3, U6};
 
 /// A 6 × n matrix of spatial columns (linear rows first).
 pub type Matrix6xX = OMatrix<f64, U6, Dyn>;
@@ -55,11 +53,10 @@ pub struct SpatialData {
     pub oMi: Vec<SE3>,
     /// World motion subspaces: the columns `⁰Sᵢ` of every joint (6 × nv).
     pub oS: Matrix6xX,
-    /// Body inertias in the world (at the world origin: `(m, c, I_c)` and the 6×6 matrix) and
-    /// the matrices' subtree sums.
-    pub oI: Vec<Inertia>,
-    pub oY: Vec<Matrix6<f64>>,
-    pub oYc: Vec<Matrix6<f64>>,
+    /// Body inertias at the world origin in world axes, and their subtree sums (the composite
+    /// inertias of the CRBA).
+    pub oI: Vec<OriginInertia>,
+    pub oIc: Vec<OriginInertia>,
     /// Body velocities in the world, and their spatial accelerations at `q̈ = 0` without
     /// gravity (the velocity-product part `Σ v × S q̇`).
     pub ov: Vec<Motion>,
@@ -123,9 +120,8 @@ impl SpatialData {
         Self {
             oMi: vec![SE3::identity(); n],
             oS: Matrix6xX::zeros(nv),
-            oI: vec![Inertia::zero(); n],
-            oY: vec![Matrix6::zeros(); n],
-            oYc: vec![Matrix6::zeros(); n],
+            oI: vec![OriginInertia::default(); n],
+            oIc: vec![OriginInertia::default(); n],
             ov: vec![Motion::zero(); n],
             oa_drift: vec![Motion::zero(); n],
             oa: vec![Motion::zero(); n],
@@ -167,8 +163,27 @@ fn joint_transform(kind: &JointKind, q: &[f64]) -> SE3 {
     }
 }
 
+/// `g R(axis, θ)`: `g` turned about the unit `axis` of its own frame by `θ`. A coordinate axis
+/// `±e_k` (most URDF joints) mixes two columns of `g`'s rotation (Featherstone 2008, Table
+/// 4.1's `rot`), any other axis takes Rodrigues' rotation matrix.
+fn turned(g: &SE3, axis: &Vector3<f64>, angle: f64) -> SE3 {
+    let k = (0..3).find(|&k| axis[k].abs() == 1.0);
+    let Some(k) = k else {
+        let r = Rotation3::from_axis_angle(&Unit::new_unchecked(*axis), angle);
+        return SE3::new(g.rotation * r.matrix(), g.translation);
+    };
+    let (s, c) = (angle * axis[k]).sin_cos();
+    let (a, b) = ((k + 1) % 3, (k + 2) % 3);
+    let mut rotation = g.rotation;
+    let (ra, rb) = (g.rotation.column(a), g.rotation.column(b));
+    rotation.set_column(a, &(ra * c + rb * s));
+    rotation.set_column(b, &(rb * c - ra * s));
+    SE3::new(rotation, g.translation)
+}
+
 /// Forward kinematics (Featherstone 2008, §4.4): `⁰Mᵢ = ⁰M_λ(i) Xᵢ Mⱼ(qᵢ)`, the world motion
-/// subspaces `⁰Sᵢ = Ad(⁰Mᵢ) Sᵢ`, and the bodies' world inertias `⁰Yᵢ`.
+/// subspaces `⁰Sᵢ = Ad(⁰Mᵢ) Sᵢ` (a revolute joint's column `[p × ω; ω]`, `ω = ⁰Rᵢ axis`), and
+/// the bodies' inertias at the world origin.
 pub fn forward_kinematics(
     model: &SpatialModel,
     data: &mut SpatialData,
@@ -176,33 +191,33 @@ pub fn forward_kinematics(
 ) -> SpatialResult<()> {
     check_configuration(model, "q", q)?;
     for (i, joint) in model.joints.iter().enumerate() {
-        let local = joint
-            .placement
-            .compose(&joint_transform(&joint.kind, &q[joint.idx_q..]));
-        let oMi = match joint.parent {
-            Some(p) => data.oMi[p].compose(&local),
-            None => local,
+        let before = match joint.parent {
+            Some(p) => data.oMi[p].compose(&joint.placement),
+            None => joint.placement,
         };
-        match joint.kind {
-            JointKind::FreeFlyer => data
-                .oS
-                .fixed_view_mut::<6, 6>(0, joint.idx_v)
-                .copy_from(&oMi.action_matrix()),
+        let qi = &q[joint.idx_q..];
+        let col = &mut data.oS.as_mut_slice()[6 * joint.idx_v..];
+        let oMi = match joint.kind {
+            JointKind::FreeFlyer => {
+                let oMi = before.compose(&joint_transform(&joint.kind, qi));
+                col[..36].copy_from_slice(oMi.action_matrix().as_slice());
+                oMi
+            }
             JointKind::Revolute { axis } => {
-                let col = oMi
-                    .act_motion(&Motion::new(Vector3::zeros(), axis))
-                    .to_vector();
-                data.oS.column_mut(joint.idx_v).copy_from(&col);
+                let oMi = turned(&before, &axis, qi[0]);
+                let w = oMi.rotation * axis;
+                let v = oMi.translation.cross(&w);
+                col[..6].copy_from_slice(&[v.x, v.y, v.z, w.x, w.y, w.z]);
+                oMi
             }
             JointKind::Prismatic { axis } => {
-                let col = oMi
-                    .act_motion(&Motion::new(axis, Vector3::zeros()))
-                    .to_vector();
-                data.oS.column_mut(joint.idx_v).copy_from(&col);
+                let u = before.rotation * axis;
+                let oMi = SE3::new(before.rotation, before.translation + u * qi[0]);
+                col[..6].copy_from_slice(&[u.x, u.y, u.z, 0.0, 0.0, 0.0]);
+                oMi
             }
-        }
-        data.oI[i] = model.inertias[i].transformed(&oMi);
-        data.oY[i] = data.oI[i].matrix();
+        };
+        data.oI[i] = OriginInertia::of_body(&model.inertias[i], &oMi);
         data.oMi[i] = oMi;
     }
     Ok(())
@@ -216,9 +231,17 @@ pub(crate) fn joint_motion(
     x: &[f64],
 ) -> Motion {
     let j = &model.joints[i];
-    let nv = j.kind.nv();
-    let cols = data.oS.columns(j.idx_v, nv);
-    Motion::from_vector(&(cols * nalgebra::DVectorView::from_slice(&x[j.idx_v..j.idx_v + nv], nv)))
+    let s = &data.oS.as_slice()[6 * j.idx_v..];
+    let mut m = [0.0; 6];
+    for (k, &xk) in x[j.idx_v..j.idx_v + j.kind.nv()].iter().enumerate() {
+        for (mr, sr) in m.iter_mut().zip(&s[6 * k..6 * k + 6]) {
+            *mr += sr * xk;
+        }
+    }
+    Motion::new(
+        Vector3::new(m[0], m[1], m[2]),
+        Vector3::new(m[3], m[4], m[5]),
+    )
 }
 
 /// [`forward_kinematics`] and the first- and second-order velocity terms: body velocities

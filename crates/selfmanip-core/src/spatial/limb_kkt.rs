@@ -5,12 +5,16 @@
 //! A **limb** is the subtree of one child of the root block (the six rates `b` of a
 //! free-flying base; on a fixed base, of the world): its rates `l` are contiguous in `v`, and
 //! `M` couples two limbs only through the root block. When the rows of `A` on limb `i` (the
-//! rows with an entry on its rates) are exactly as many as its rates, with an invertible
-//! square block `A_ll` — a three-joint leg on a foot with friction, RHex's one-joint leg on a
-//! frictionless toe — the rows fix that limb's rates from the base's,
-//! `A_lb x_b + A_ll x_l = g_l`, i.e.
+//! rows with an entry on its rates) are at least as many as its rates (at most three), with a
+//! block `A_ll` of full column rank — a three-joint leg on a foot with friction, RHex's
+//! one-joint leg on a toe — Gauss–Jordan with partial pivoting finds row operations `E` with
+//! `E [A_ll | A_lb] = [1 | −T; 0 | C]` (`E = A_ll⁻¹` when `A_ll` is square): the first rows fix
+//! that limb's rates from the base's,
 //!
-//! `x_l = T x_b + s`, `T = −A_ll⁻¹ A_lb`, `s = A_ll⁻¹ g_l`.
+//! `x_l = T x_b + s`, `[s; h] = E g_l`,
+//!
+//! and the others are **base rows** `C x_b = h`, constraints on the root block alone (RHex's
+//! toe with friction: one row fixes its leg, two hold the base).
 //!
 //! The other limbs (no rows: a swing leg) keep their rates `x_f`. With `N = [1; T]` a basis of
 //! `ker A` on the root block, `[M Aᵀ; A 0][x; y] = [f; g]` reduces to the symmetric system in
@@ -20,7 +24,12 @@
 //! - `r_b = f_b + Σ_limbs (Tᵀ f_l − P s)`, `r_f = f_f`;
 //!
 //! factored by a dense Cholesky (`R = Nᵀ M N`), and each pinned limb's multipliers follow from
-//! its own rows of the equations of motion, `y_l = A_ll⁻ᵀ (f_l − M_lb x_b − M_ll x_l)`.
+//! its own rows of the equations of motion, `y_l = Eᵀ [f_l − M_lb x_b − M_ll x_l; μ_l]`. Base
+//! rows `C` (at most `nb`) add `Cᵀ μ` to `R z = r` and `C z_b = h`: a second Gauss–Jordan, with
+//! column pivoting, eliminates one base rate per base row, `z = S w + t`, and
+//! `Sᵀ R S w = Sᵀ (r − R t)` is factored instead ([`LimbKkt::factor_base_rows`]). No
+//! `A M⁻¹ Aᵀ` is formed: its condition grows with the ratio of the base's inertia to light
+//! legs' (about 1e7 on RHex's tripod with friction), this route's does not.
 //!
 //! `R` is positive definite wherever `M` is on `ker A`, so the elimination would also be exact
 //! for a massless pinned limb; the route is nevertheless taken only where `M` is positive
@@ -37,18 +46,18 @@
 //! null-space block inverse) when: `M` is not clearly positive definite (a limb's diagonal
 //! block has a pivot the range-space route would refuse: a massless limb); a joint other than a free-flying root moves more than one
 //! rate; a row has no entry on any limb (a contact on the trunk) or entries on two limbs; a
-//! limb carries rows but not as many as its rates (a frictionless foot on a three-joint leg, a
-//! foot held in a plane, a toe with friction on RHex's one-joint leg), or more than three
-//! (two contacts on a longer limb); a limb's `A_ll` is
+//! limb carries rows but fewer than its rates (a frictionless foot on a three-joint leg, a
+//! foot held in a plane), or more than three (two contacts on a longer limb); the base rows
+//! are more than `nb` (six toes with friction; any on a fixed base) or dependent (a pivot of
+//! their elimination below [`LIMB_PIVOT_FRACTION`] of their largest entry) — such sets are
+//! redundant; a limb's `A_ll` is
 //! singular or nearly so (a pivot of its LU below [`LIMB_PIVOT_FRACTION`] of its largest
 //! entry: a stretched leg); `R` is not clearly positive definite (a pivot below
 //! [`REDUCED_PIVOT_FRACTION`] of its largest diagonal entry); or a free-flying root's own
 //! body inertia is not positive definite (see [`LimbKkt::limbs_definite`]).
 #![allow(non_snake_case)]
 use super::model::{JointKind, SpatialModel};
-use super::tree_kkt::{
-    by_width, cholesky_solve, dense_cholesky, MASSLESS_DIAGONAL, PIVOT_FRACTION,
-};
+use super::tree_kkt::{cholesky_solve, dense_cholesky, MASSLESS_DIAGONAL, PIVOT_FRACTION};
 use nalgebra::{DMatrix, Matrix6, Vector6};
 
 /// A pivot of a limb's `A_ll` (partial pivoting) at most this fraction of its largest entry
@@ -64,22 +73,41 @@ const ROOT: usize = 6;
 /// width of [`by_width`]).
 const MAX_PINNED: usize = 3;
 
+/// `$f::<N, R>(…)` for a limb's `$n` rates and `$r ≥ $n` rows (at most [`MAX_PINNED`]): every
+/// loop over them then has constant bounds and unrolls.
+macro_rules! by_shape {
+    ($n:expr, $r:expr, $f:ident($($arg:expr),* $(,)?)) => {
+        match ($n, $r) {
+            (1, 1) => $f::<1, 1>($($arg),*),
+            (1, 2) => $f::<1, 2>($($arg),*),
+            (1, _) => $f::<1, 3>($($arg),*),
+            (2, 2) => $f::<2, 2>($($arg),*),
+            (2, _) => $f::<2, 3>($($arg),*),
+            _ => $f::<3, 3>($($arg),*),
+        }
+    };
+}
+
 /// One limb: its rates `start..start + len` and (after [`LimbKkt::factor`]) whether rows pin
-/// it, with its factors then (sized for [`MAX_PINNED`] rows, the first `len` used).
+/// it, with its factors then (sized for [`MAX_PINNED`] rows, the first `len` (rates) or
+/// `n_rows` used).
 #[derive(Debug, Clone, Copy, Default)]
 struct Limb {
     start: usize,
     len: usize,
     pinned: bool,
-    /// Its rows of `A`, in order (the first `n_rows`).
+    /// Its rows of `A`, in order (the first `n_rows`, at least `len`).
     n_rows: usize,
     rows: [usize; MAX_PINNED],
-    /// `A_ll⁻¹` and `M_ll` (row-major), and per rate `k`: row `k` of `T` and of `M_lb`,
-    /// column `k` of `P` (zero past `nb`).
-    inv: [[f64; MAX_PINNED]; MAX_PINNED],
+    /// Where its `n_rows − len` base rows start among [`LimbKkt::base`].
+    base_at: usize,
+    /// The row operations `E` (row-major, `n_rows × n_rows`) that reduce its `A_ll` to
+    /// `[1; 0]`: `A_ll⁻¹` when it is square.
+    e: [[f64; MAX_PINNED]; MAX_PINNED],
+    /// `M_ll` (row-major), and per rate `k`: row `k` of `T` and of `M_lb`, column `k` of `P`
+    /// (zero past `nb`).
     mll: [[f64; MAX_PINNED]; MAX_PINNED],
     t: [Vector6<f64>; MAX_PINNED],
-    alb: [Vector6<f64>; MAX_PINNED],
     mlb: [Vector6<f64>; MAX_PINNED],
     p: [Vector6<f64>; MAX_PINNED],
 }
@@ -104,6 +132,19 @@ pub struct LimbKkt {
     free: Vec<usize>,
     r: Vec<f64>,
     root: Option<nalgebra::Cholesky<f64, nalgebra::U6>>,
+    /// The base rows `C` (rows a limb carries beyond its rates, reduced to the root block),
+    /// `Y = R⁻¹ [Cᵀ; 0]` (one `nr`-vector a row) and the Cholesky factor of `C Y`
+    /// (`nc × nc`, row-major, lower); their right-hand side, then multipliers, `mu`.
+    base: Vec<Vector6<f64>>,
+    mu: Vec<f64>,
+    /// With base rows: `R` in full (`nr × nr`), the base rates each base row eliminates, the
+    /// row operations `E` (`nc × nc`), the basis `S` (`nr × nw`) and scratch
+    /// ([`Self::factor_base_rows`]).
+    r_full: Vec<f64>,
+    elim: [usize; ROOT],
+    e_base: [[f64; ROOT]; ROOT],
+    s: Vec<f64>,
+    work: Vec<f64>,
     /// Scratch: `z` (size `nr`) and a limb block of `M` (see [`Self::limbs_definite`]).
     z: Vec<f64>,
     block: Vec<f64>,
@@ -171,6 +212,13 @@ impl LimbKkt {
             free: Vec::with_capacity(nv),
             r: Vec::new(),
             root: None,
+            base: Vec::with_capacity(ROOT),
+            mu: Vec::new(),
+            r_full: Vec::new(),
+            elim: [0; ROOT],
+            e_base: [[0.0; ROOT]; ROOT],
+            s: Vec::new(),
+            work: Vec::new(),
             z: Vec::new(),
             block: vec![0.0; longest * longest],
         }
@@ -207,7 +255,7 @@ impl LimbKkt {
         }
         for (r, &l) in self.row_limb.iter().enumerate() {
             let limb = self.limbs.get_mut(l)?;
-            if limb.n_rows == limb.len.min(MAX_PINNED) {
+            if limb.n_rows == MAX_PINNED {
                 return None;
             }
             limb.rows[limb.n_rows] = r;
@@ -215,14 +263,20 @@ impl LimbKkt {
             limb.n_rows += 1;
         }
         self.free.clear();
+        self.base.clear();
         let mut rbb = Matrix6::<f64>::zeros();
         for limb in self.limbs.iter_mut() {
             if !limb.pinned {
                 self.free.extend(limb.start..limb.start + limb.len);
                 continue;
             }
-            if limb.n_rows != limb.len
-                || !by_width!(limb.len, factor_limb(limb, m, nv, nb, a, c, &mut rbb))
+            if limb.n_rows < limb.len
+                || !by_shape!(
+                    limb.len,
+                    limb.n_rows,
+                    factor_limb(limb, m, nv, nb, a, c, &mut rbb, &mut self.base)
+                )
+                || self.base.len() > nb
             {
                 return None;
             }
@@ -230,7 +284,8 @@ impl LimbKkt {
         // R = [M_bb + Σ (P T + Tᵀ M_lb), M_bf; M_fb, M_ff]
         let nr = nb + self.free.len();
         self.z.resize(nr, 0.0);
-        if nb == ROOT && self.free.is_empty() {
+        self.mu.resize(self.base.len(), 0.0);
+        if nb == ROOT && self.free.is_empty() && self.base.is_empty() {
             let rbb = Matrix6::from_fn(|i, j| {
                 let (i, j) = (i.max(j), i.min(j));
                 m[i + j * nv] + rbb[(i, j)]
@@ -259,12 +314,97 @@ impl LimbKkt {
                     self.r[row + nb + fj] = m[k + kj * nv];
                 }
             }
+            if !self.base.is_empty() {
+                return self.factor_base_rows();
+            }
             let largest = (0..nr).map(|i| self.r[i * nr + i]).fold(0.0, f64::max);
             if !dense_cholesky(&mut self.r, nr, REDUCED_PIVOT_FRACTION * largest) {
                 return None;
             }
         }
         Some(())
+    }
+
+    /// With `nc ≤ nb` base rows `C` (`R`'s lower triangle in `r`): Gauss–Jordan with column
+    /// pivoting reduces them to `E C`, the identity on `nc` eliminated base rates and `G` on
+    /// the kept ones, so `z = S w + t` (`w`: the kept base rates, then the free rates; `t`:
+    /// the eliminated rates' `E h`), and `Sᵀ R S w = Sᵀ (r − R t)` is factored by a dense
+    /// Cholesky into `r`. `None` when a pivot of either is not clear (base rows dependent: a
+    /// contact set that holds the base redundantly).
+    fn factor_base_rows(&mut self) -> Option<()> {
+        let (nb, nc, nr) = (self.nb, self.base.len(), self.z.len());
+        let nw = nr - nc;
+        let full = &mut self.r_full;
+        full.clear();
+        full.resize(nr * nr, 0.0);
+        for i in 0..nr {
+            for j in 0..=i {
+                let x = self.r[i * nr + j];
+                full[i * nr + j] = x;
+                full[j * nr + i] = x;
+            }
+        }
+        let mut c = [Vector6::zeros(); ROOT];
+        c[..nc].copy_from_slice(&self.base);
+        let mut e = [[0.0; ROOT]; ROOT];
+        let largest = self.base.iter().fold(0.0f64, |s, r| s.max(r.amax()));
+        let mut eliminated = [false; ROOT];
+        for k in 0..nc {
+            e[k][k] = 1.0;
+        }
+        for k in 0..nc {
+            let p = (0..nb)
+                .filter(|&j| !eliminated[j])
+                .max_by(|&i, &j| c[k][i].abs().total_cmp(&c[k][j].abs()))?;
+            if !(c[k][p].abs() > LIMB_PIVOT_FRACTION * largest) {
+                return None;
+            }
+            self.elim[k] = p;
+            eliminated[p] = true;
+            let d = 1.0 / c[k][p];
+            c[k] *= d;
+            for x in &mut e[k][..nc] {
+                *x *= d;
+            }
+            for i in (0..nc).filter(|&i| i != k) {
+                let l = c[i][p];
+                let (ck, ek) = (c[k], e[k]);
+                c[i] -= ck * l;
+                for (x, y) in e[i][..nc].iter_mut().zip(&ek[..nc]) {
+                    *x -= l * y;
+                }
+            }
+        }
+        self.e_base = e;
+        // S (nr × nw, row-major)
+        let s = &mut self.s;
+        s.clear();
+        s.resize(nr * nw, 0.0);
+        for (col, j) in (0..nb).filter(|&j| !eliminated[j]).enumerate() {
+            s[j * nw + col] = 1.0;
+            for k in 0..nc {
+                s[self.elim[k] * nw + col] = -c[k][j];
+            }
+        }
+        for i in nb..nr {
+            s[i * nw + i - nc] = 1.0;
+        }
+        // Sᵀ R S, lower triangle, into r
+        let rs = &mut self.work;
+        rs.clear();
+        rs.extend((0..nr * nw).map(|ic| {
+            let (i, col) = (ic / nw, ic % nw);
+            (0..nr).fold(0.0, |x, j| x + full[i * nr + j] * s[j * nw + col])
+        }));
+        self.r.clear();
+        self.r.resize(nw * nw, 0.0);
+        for a in 0..nw {
+            for b in 0..=a {
+                self.r[a * nw + b] = (0..nr).fold(0.0, |x, i| x + s[i * nw + a] * rs[i * nw + b]);
+            }
+        }
+        let largest = (0..nw).map(|i| self.r[i * nw + i]).fold(0.0, f64::max);
+        dense_cholesky(&mut self.r, nw, REDUCED_PIVOT_FRACTION * largest).then_some(())
     }
 
     /// Whether `M` is clearly positive definite: every limb's diagonal block has clear pivots
@@ -291,10 +431,14 @@ impl LimbKkt {
     /// Solves `[M Aᵀ; A 0][x; y] = [f; g]` with the current factors.
     pub fn solve(&mut self, f: &[f64], g: &[f64], x: &mut [f64], y: &mut [f64]) {
         let nb = self.nb;
-        // s = A_ll⁻¹ g_l (into x's limb rates for now); r_b = f_b + Σ (Tᵀ f_l − P s)
+        // [s; h] = E g_l (s into x's limb rates for now, h into mu); r_b = f_b + Σ (Tᵀ f_l − P s)
         let mut rb = Vector6::from_fn(|j, _| if j < nb { f[j] } else { 0.0 });
         for limb in self.limbs.iter().filter(|l| l.pinned) {
-            by_width!(limb.len, limb_rhs(limb, f, g, x, &mut rb));
+            by_shape!(
+                limb.len,
+                limb.n_rows,
+                limb_rhs(limb, f, g, x, &mut self.mu, &mut rb)
+            );
         }
         self.reduced_solve(&mut rb, f);
         // x_b, x_f; x_l = T x_b + s and y_l = A_ll⁻ᵀ (f_l − M_lb x_b − M_ll x_l)
@@ -304,35 +448,80 @@ impl LimbKkt {
         }
         let xb = Vector6::from_fn(|j, _| if j < nb { self.z[j] } else { 0.0 });
         for limb in self.limbs.iter().filter(|l| l.pinned) {
-            by_width!(limb.len, limb_back(limb, &xb, f, x, y));
+            by_shape!(
+                limb.len,
+                limb.n_rows,
+                limb_back(limb, &xb, f, &self.mu, x, y)
+            );
         }
     }
 
-    /// `z = R⁻¹ [r_b; f_f]` (`f_f` the free rates' entries of `f`, zero where `f` is empty).
+    /// `z = R⁻¹ [r_b; f_f]` (`f_f` the free rates' entries of `f`, zero where `f` is empty),
+    /// or with base rows that of `R z + [Cᵀ; 0] μ = [r_b; f_f]`, `C z_b = h` (`h` in `mu` on
+    /// entry, `μ` on return): `z = S w + t` ([`Self::factor_base_rows`]) and
+    /// `μ = (E C)ᵀ⁻¹… = Eᵀ (r − R z)_e` on the eliminated rates.
     fn reduced_solve(&mut self, rb: &mut Vector6<f64>, f: &[f64]) {
         let (nb, nr) = (self.nb, self.nb + self.free.len());
         let z = &mut self.z;
-        match &self.root {
-            Some(chol) => {
-                chol.solve_mut(rb);
-                z.copy_from_slice(rb.as_slice());
+        if let Some(chol) = &self.root {
+            chol.solve_mut(rb);
+            z.copy_from_slice(rb.as_slice());
+            return;
+        }
+        z[..nb].copy_from_slice(&rb.as_slice()[..nb]);
+        for (zi, &k) in z[nb..].iter_mut().zip(&self.free) {
+            *zi = f.get(k).copied().unwrap_or(0.0);
+        }
+        let nc = self.base.len();
+        if nc == 0 {
+            cholesky_solve(&self.r, nr, z);
+            return;
+        }
+        let nw = nr - nc;
+        let (full, s, elim, e) = (&self.r_full, &self.s, &self.elim, &self.e_base);
+        let work = &mut self.work;
+        work.clear();
+        work.resize(4 * nr, 0.0);
+        let (r, rest) = work.split_at_mut(nr);
+        let (t, rest) = rest.split_at_mut(nr);
+        let (u, w) = rest.split_at_mut(nr);
+        r.copy_from_slice(z);
+        for k in 0..nc {
+            t[elim[k]] = (0..nc).fold(0.0, |x, j| x + e[k][j] * self.mu[j]);
+        }
+        // w = (Sᵀ R S)⁻¹ Sᵀ (r − R t), then z = S w + t
+        for (i, ui) in u.iter_mut().enumerate() {
+            *ui = (0..nr).fold(r[i], |x, j| x - full[i * nr + j] * t[j]);
+        }
+        for (col, wc) in w[..nw].iter_mut().enumerate() {
+            *wc = (0..nr).fold(0.0, |x, i| x + s[i * nw + col] * u[i]);
+        }
+        cholesky_solve(&self.r, nw, &mut w[..nw]);
+        for (i, zi) in z.iter_mut().enumerate() {
+            *zi = (0..nw).fold(t[i], |x, col| x + s[i * nw + col] * w[col]);
+        }
+        // μ = Eᵀ (r − R z) on the eliminated rates
+        let res: [f64; ROOT] = std::array::from_fn(|k| {
+            if k < nc {
+                let i = elim[k];
+                (0..nr).fold(r[i], |x, j| x - full[i * nr + j] * z[j])
+            } else {
+                0.0
             }
-            None => {
-                z[..nb].copy_from_slice(&rb.as_slice()[..nb]);
-                for (zi, &k) in z[nb..].iter_mut().zip(&self.free) {
-                    *zi = f.get(k).copied().unwrap_or(0.0);
-                }
-                cholesky_solve(&self.r, nr, z);
-            }
+        });
+        for (k, mu) in self.mu.iter_mut().enumerate() {
+            *mu = (0..nc).fold(0.0, |x, j| x + e[j][k] * res[j]);
         }
     }
 }
 
-/// Limb `limb`'s factors with `W` rates (and rows): `A_ll⁻¹`, `T = −A_ll⁻¹ A_lb`,
-/// `P = M_bl + Tᵀ M_ll`, and its term `P T + Tᵀ M_lb` of `R_bb` added to `rbb`'s lower
-/// triangle; `false` when
-/// `A_ll` is not clearly regular ([`LIMB_PIVOT_FRACTION`]).
-fn factor_limb<const W: usize>(
+/// Limb `limb`'s factors with `N` rates and `R ≥ N` rows: the row operations `E` that reduce
+/// `[A_ll | A_lb]` to `[1 | −T; 0 | C]` (Gauss–Jordan with partial pivoting), its `R − N`
+/// base rows `C` pushed to `base`, `P = M_bl + Tᵀ M_ll`, and its term `P T + Tᵀ M_lb` of
+/// `R_bb` added to `rbb`'s lower triangle; `false` when `A_ll` has not clearly full column
+/// rank ([`LIMB_PIVOT_FRACTION`]).
+#[allow(clippy::too_many_arguments)]
+fn factor_limb<const N: usize, const R: usize>(
     limb: &mut Limb,
     m: &[f64],
     nv: usize,
@@ -340,28 +529,27 @@ fn factor_limb<const W: usize>(
     a: &[f64],
     c: usize,
     rbb: &mut Matrix6<f64>,
+    base: &mut Vec<Vector6<f64>>,
 ) -> bool {
     let k0 = limb.start;
     let rows = limb.rows;
-    // [A_ll | A_lb] row by row, reduced to [1 | −T] by Gauss–Jordan with partial pivoting;
-    // A_ll⁻¹ alongside
-    let mut all = [[0.0; W]; W];
-    let mut inv = [[0.0; W]; W];
-    let mut alb = [Vector6::zeros(); W];
-    for i in 0..W {
-        for j in 0..W {
+    // [A_ll | A_lb | 1] row by row, reduced by Gauss–Jordan with partial pivoting
+    let mut all = [[0.0; N]; R];
+    let mut e = [[0.0; R]; R];
+    let mut alb = [Vector6::zeros(); R];
+    for i in 0..R {
+        for j in 0..N {
             all[i][j] = a[(k0 + j) * c + rows[i]];
         }
-        inv[i][i] = 1.0;
+        e[i][i] = 1.0;
         for j in 0..nb {
             alb[i][j] = a[j * c + rows[i]];
         }
-        limb.alb[i] = alb[i];
     }
     let largest = all.iter().flatten().fold(0.0f64, |s, x| s.max(x.abs()));
-    for k in 0..W {
+    for k in 0..N {
         let mut p = k;
-        for i in k + 1..W {
+        for i in k + 1..R {
             if all[i][k].abs() > all[p][k].abs() {
                 p = i;
             }
@@ -370,58 +558,58 @@ fn factor_limb<const W: usize>(
             return false;
         }
         all.swap(k, p);
-        inv.swap(k, p);
+        e.swap(k, p);
         alb.swap(k, p);
         let d = 1.0 / all[k][k];
-        for j in 0..W {
+        for j in 0..N {
             all[k][j] *= d;
-            inv[k][j] *= d;
+        }
+        for j in 0..R {
+            e[k][j] *= d;
         }
         alb[k] *= d;
-        for i in 0..W {
+        for i in 0..R {
             if i != k {
                 let l = all[i][k];
-                for j in 0..W {
+                for j in 0..N {
                     all[i][j] -= l * all[k][j];
-                    inv[i][j] -= l * inv[k][j];
+                }
+                for j in 0..R {
+                    e[i][j] -= l * e[k][j];
                 }
                 let row = alb[k];
                 alb[i] -= row * l;
             }
         }
     }
-    // alb is now A_ll⁻¹ A_lb = −T; M's limb blocks
-    for i in 0..W {
+    // alb is now [−T; C]; M's limb blocks
+    limb.e = [[0.0; MAX_PINNED]; MAX_PINNED];
+    for i in 0..R {
+        limb.e[i][..R].copy_from_slice(&e[i]);
+    }
+    limb.base_at = base.len();
+    base.extend_from_slice(&alb[N..]);
+    for i in 0..N {
         limb.t[i] = -alb[i];
         limb.mlb[i] = Vector6::from_fn(|j, _| if j < nb { m[(k0 + i) + j * nv] } else { 0.0 });
-        for j in 0..W {
-            limb.inv[i][j] = inv[i][j];
+        for j in 0..N {
             limb.mll[i][j] = m[(k0 + i) + (k0 + j) * nv];
         }
     }
-    for i in 0..W {
+    for i in 0..N {
         let mut p = limb.mlb[i];
-        for j in 0..W {
+        for j in 0..N {
             p += limb.t[j] * limb.mll[j][i];
         }
         limb.p[i] = p;
     }
-    // R_bb's term P T + Tᵀ M_lb (symmetric: M_bl T + Tᵀ M_lb + Tᵀ M_ll T), lower triangle
-    let (p, t, mlb) = (
-        limb.p.map(|v| v.into()),
-        limb.t.map(|v| v.into()),
-        limb.mlb.map(|v| v.into()),
-    );
-    let (p, t, mlb): (
-        [[f64; ROOT]; MAX_PINNED],
-        [[f64; ROOT]; MAX_PINNED],
-        [[f64; ROOT]; MAX_PINNED],
-    ) = (p, t, mlb);
-    for a in 0..nb {
+    // R_bb's term P T + Tᵀ M_lb (symmetric: M_bl T + Tᵀ M_lb + Tᵀ M_ll T), lower triangle,
+    // over the whole fixed-size block (past `nb` the entries are zero; constant bounds unroll)
+    for a in 0..ROOT {
         for b in 0..=a {
             let mut s = 0.0;
-            for i in 0..W {
-                s += p[i][a] * t[i][b] + t[i][a] * mlb[i][b];
+            for i in 0..N {
+                s += limb.p[i][a] * limb.t[i][b] + limb.t[i][a] * limb.mlb[i][b];
             }
             rbb[(a, b)] += s;
         }
@@ -429,44 +617,51 @@ fn factor_limb<const W: usize>(
     true
 }
 
-/// `s = A_ll⁻¹ g_l` into `x`'s limb rates, and `rb += Tᵀ f_l − P s`, `Tᵀ f_l = −A_lbᵀ A_ll⁻ᵀ f_l`.
-fn limb_rhs<const W: usize>(
+/// `[s; h] = E g_l`: `s` into `x`'s limb rates and the base rows' right-hand side `h` into
+/// `hb`; and `rb += Tᵀ f_l − P s`.
+fn limb_rhs<const N: usize, const R: usize>(
     limb: &Limb,
     f: &[f64],
     g: &[f64],
     x: &mut [f64],
+    hb: &mut [f64],
     rb: &mut Vector6<f64>,
 ) {
-    // Tᵀ f_l as −A_lbᵀ (A_ll⁻ᵀ f_l): the limb's share of the base's balance through its rows
-    for i in 0..W {
-        let s = (0..W).fold(0.0, |s, j| s + limb.inv[i][j] * g[limb.rows[j]]);
+    let eg = |i: usize| (0..R).fold(0.0, |s, j| s + limb.e[i][j] * g[limb.rows[j]]);
+    for i in 0..N {
+        let s = eg(i);
         x[limb.start + i] = s;
-        let u = (0..W).fold(0.0, |u, j| u + limb.inv[j][i] * f[limb.start + j]);
-        *rb -= limb.alb[i] * u + limb.p[i] * s;
+        *rb += limb.t[i] * f[limb.start + i] - limb.p[i] * s;
+    }
+    for i in N..R {
+        hb[limb.base_at + i - N] = eg(i);
     }
 }
 
-/// `x_l = T x_b + s` (`s` in `x`'s limb rates) and `y_l = A_ll⁻ᵀ (f_l − M_lb x_b − M_ll x_l)`.
-fn limb_back<const W: usize>(
+/// `x_l = T x_b + s` (`s` in `x`'s limb rates) and the limb's multipliers
+/// `y_l = Eᵀ [f_l − M_lb x_b − M_ll x_l; μ_l]` (`μ_l` its base rows' multipliers in `mu`).
+fn limb_back<const N: usize, const R: usize>(
     limb: &Limb,
     xb: &Vector6<f64>,
     f: &[f64],
+    mu: &[f64],
     x: &mut [f64],
     y: &mut [f64],
 ) {
-    let mut xl = [0.0; W];
-    for i in 0..W {
+    let mut xl = [0.0; N];
+    for i in 0..N {
         xl[i] = limb.t[i].dot(xb) + x[limb.start + i];
         x[limb.start + i] = xl[i];
     }
-    let mut e = [0.0; W];
-    for i in 0..W {
-        e[i] = (0..W).fold(f[limb.start + i] - limb.mlb[i].dot(xb), |s, j| {
+    let mut e = [0.0; R];
+    for i in 0..N {
+        e[i] = (0..N).fold(f[limb.start + i] - limb.mlb[i].dot(xb), |s, j| {
             s - limb.mll[i][j] * xl[j]
         });
     }
-    for j in 0..W {
-        y[limb.rows[j]] = (0..W).fold(0.0, |s, i| s + limb.inv[i][j] * e[i]);
+    e[N..].copy_from_slice(&mu[limb.base_at..limb.base_at + R - N]);
+    for j in 0..R {
+        y[limb.rows[j]] = (0..R).fold(0.0, |s, i| s + limb.e[i][j] * e[i]);
     }
 }
 

@@ -14,7 +14,7 @@ use crate::error::check_vector;
 use nalgebra::{DVector, Vector6};
 
 /// `M(q)` into `data.M` (Featherstone 2008, Table 6.2, with world-frame composite inertias
-/// `⁰Yᶜᵢ = ⁰Yᵢ + Σ_children ⁰Yᶜ`): `M[λ*, i] = ⁰Sⱼᵀ ⁰Yᶜᵢ ⁰Sᵢ` for each `j` supporting `i`.
+/// `⁰Yᶜᵢ = ⁰Yᵢ + Σ_children ⁰Yᶜ` at the world origin, [`super::inertia::OriginInertia`]): `M[λ*, i] = ⁰Sⱼᵀ ⁰Yᶜᵢ ⁰Sᵢ` for each `j` supporting `i`.
 pub fn crba(model: &SpatialModel, data: &mut SpatialData, q: &[f64]) -> SpatialResult<()> {
     forward_kinematics(model, data, q)?;
     mass_matrix_from_kinematics(model, data);
@@ -23,18 +23,12 @@ pub fn crba(model: &SpatialModel, data: &mut SpatialData, q: &[f64]) -> SpatialR
 
 /// The CRBA sweep on the kinematics already in `data`.
 pub(crate) fn mass_matrix_from_kinematics(model: &SpatialModel, data: &mut SpatialData) {
-    data.oYc.copy_from_slice(&data.oY);
+    data.oIc.copy_from_slice(&data.oI);
     for i in (1..model.joints.len()).rev() {
         if let Some(p) = model.joints[i].parent {
             // parents come first: p < i
-            let (before, from_i) = data.oYc.split_at_mut(i);
-            for (y, x) in before[p]
-                .as_mut_slice()
-                .iter_mut()
-                .zip(from_i[0].as_slice())
-            {
-                *y += x;
-            }
+            let x = data.oIc[i];
+            data.oIc[p].add(&x);
         }
     }
     let nv = model.nv;
@@ -44,7 +38,9 @@ pub(crate) fn mass_matrix_from_kinematics(model: &SpatialModel, data: &mut Spati
     let column = |c: usize| Vector6::from_column_slice(&s[6 * c..6 * c + 6]);
     for c in 0..nv {
         // the force column ⁰Yᶜᵢ ⁰S_c, projected on every column supporting it
-        let F = data.oYc[data.rate_joint[c]] * column(c);
+        let F = data.oIc[data.rate_joint[c]]
+            .apply(&Motion::from_vector(&column(c)))
+            .to_vector();
         let mut r = c;
         while r != usize::MAX {
             let x = column(r).dot(&F);
@@ -134,8 +130,8 @@ pub(crate) fn bias_forces_from_kinematics(model: &SpatialModel, data: &mut Spati
 pub fn kinetic_energy(model: &SpatialModel, data: &SpatialData) -> f64 {
     (0..model.joints.len())
         .map(|i| {
-            let v = data.ov[i].to_vector();
-            0.5 * v.dot(&(data.oY[i] * v))
+            let v = data.ov[i];
+            0.5 * v.dot(&data.oI[i].apply(&v))
         })
         .sum()
 }

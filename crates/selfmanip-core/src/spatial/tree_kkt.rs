@@ -52,9 +52,8 @@ type BlockRow = nalgebra::Vector6<f64>;
 /// Most rows in a group (a contact point with friction has three).
 const GROUP: usize = 3;
 
-/// `$f::<W>(…)` for a group's row count `$w` (`1..=GROUP`, three: a point's rows), or a
-/// limb's rate count in [`super::limb_kkt`]: every loop over the lanes then has constant
-/// bounds and unrolls.
+/// `$f::<W>(…)` for a group's row count `$w` (`1..=GROUP`, three: a point's rows): every
+/// loop over the lanes then has constant bounds and unrolls.
 macro_rules! by_width {
     ($w:expr, $($f:ident)::+($($arg:expr),* $(,)?)) => {
         match $w {
@@ -64,7 +63,6 @@ macro_rules! by_width {
         }
     };
 }
-pub(super) use by_width;
 
 /// A group's columns of `Z` (`W` lanes at each rate) from their packed entries.
 fn lanes<const W: usize>(z: &[f64]) -> &[[f64; W]] {

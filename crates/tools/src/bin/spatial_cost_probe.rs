@@ -3,7 +3,8 @@
 //! (default 1000) inside `probe_calls`, with the URDF's legs or (`LEGS=massless_shins`) with
 //! the shins (and the feet fixed to them) massless; or (`ROBOT=rhex`) the six-legged RHex on
 //! its six frictionless toes at the bench's state, with Table 4.2's legs or
-//! (`LEGS=massless`) massless ones. Under callgrind:
+//! (`LEGS=massless`) massless ones, or (`CONTACTS=tripod`) on a tripod of toes with friction
+//! (front left, middle right, rear left; the other legs in the air). Under callgrind:
 //!
 //! ```sh
 //! cargo build --release -p selfmanip-tools --bin spatial_cost_probe
@@ -66,16 +67,28 @@ fn quadruped(legs: &str) -> Result<Setup, Box<dyn std::error::Error>> {
 }
 
 /// The six-legged RHex on its six frictionless toes at the state of `benches/spatial.rs`
-/// (legs at 0.3 rad, moving slightly), with Table 4.2's legs or massless ones.
-fn rhex(legs: &str) -> Result<Setup, Box<dyn std::error::Error>> {
+/// (legs at 0.3 rad, moving slightly), with Table 4.2's legs or massless ones; or on a tripod
+/// of toes with friction.
+fn rhex(legs: &str, tripod: bool) -> Result<Setup, Box<dyn std::error::Error>> {
     let p = match legs {
         "table_4_2" => RhexSixLegs::table_4_2().with_table_4_2_legs(),
         "massless" => RhexSixLegs::table_4_2(),
         other => return Err(format!("LEGS: `{other}` (table_4_2, massless)").into()),
     };
     let model = p.model()?;
-    let (toes, q, v, tau) = rhex_standing(&p, &model);
-    let label = format!("six-legged RHex ({legs} legs), six frictionless toes");
+    let (mut toes, mut q, v, tau) = rhex_standing(&p, &model);
+    let mut label = format!("six-legged RHex ({legs} legs), six frictionless toes");
+    if tripod {
+        toes = ["front_left", "middle_right", "rear_left"]
+            .iter()
+            .map(|leg| p.toe(&model, leg, true))
+            .collect::<Result<_, _>>()?;
+        label = format!("six-legged RHex ({legs} legs), a tripod of toes with friction");
+        // legs at unequal angles: at equal ones a tripod's legs move as a parallelogram
+        for (i, x) in q.iter_mut().skip(7).enumerate() {
+            *x = 0.3 + 0.1 * i as f64;
+        }
+    }
     Ok((model, toes, [q, v, tau], label))
 }
 
@@ -84,7 +97,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let legs = std::env::var("LEGS").ok();
     let (model, contacts, [q, v, tau], label) = match std::env::var("ROBOT").as_deref() {
         Err(_) | Ok("quadruped") => quadruped(legs.as_deref().unwrap_or("urdf"))?,
-        Ok("rhex") => rhex(legs.as_deref().unwrap_or("table_4_2"))?,
+        Ok("rhex") => rhex(
+            legs.as_deref().unwrap_or("table_4_2"),
+            std::env::var("CONTACTS").as_deref() == Ok("tripod"),
+        )?,
         Ok(other) => return Err(format!("ROBOT: `{other}` (quadruped, rhex)").into()),
     };
     let mut data = SpatialData::new(&model);
