@@ -102,10 +102,7 @@ pub fn set_laws(
     // a law that stops holding inside a step keeps the damping it last held with, so that
     // the flow stays defined up to its guard (ChainLaw::holds, the liftoff guard)
     let before = std::mem::take(&mut data.damped_laws);
-    for k in mode.active().filter(|&k| sliding >> k & 1 == 1) {
-        if shares_chain(model, mode, k) {
-            continue;
-        }
+    for k in lone_slides(model, sliding, mode) {
         let Some(mut law) = chain_law(model, ctrl, state, mode, k) else {
             continue;
         };
@@ -117,6 +114,13 @@ pub fn set_laws(
         }
         data.damped_laws.push((k, law));
     }
+}
+
+/// The contacts of `sliding` (a [`sliding_damped`] set of `mode`) alone on their chain in
+/// `mode`: those that slide damped there.
+fn lone_slides(model: &Model, sliding: u32, mode: ContactMode) -> impl Iterator<Item = usize> + '_ {
+    mode.active()
+        .filter(move |&k| sliding >> k & 1 == 1 && !shares_chain(model, mode, k))
 }
 
 /// Whether another active contact of `mode` sits on contact `k`'s massless chain (the
@@ -138,11 +142,7 @@ pub fn add_laws(
     state: (f64, &[f64], &[f64]),
     mode: ContactMode,
 ) {
-    let sliding = sliding_damped(damped, mode);
-    for k in mode.active().filter(|&k| sliding >> k & 1 == 1) {
-        if shares_chain(model, mode, k) {
-            continue;
-        }
+    for k in lone_slides(model, sliding_damped(damped, mode), mode) {
         data.damped_laws.retain(|(c, _)| *c != k);
         if let Some(law) = chain_law(model, ctrl, state, mode, k).filter(|l| l.holds) {
             data.damped_laws.push((k, law));
