@@ -136,6 +136,26 @@ pub(super) fn fit(a: &mut DMatrix<f64>, r: usize, c: usize) {
     }
 }
 
+/// `out = ∂y/∂Υ ∂Υ/∂x + ∂y/∂x` for `x = q` and `x = q̇`: the partials of `y(x, Υ(x))` from
+/// its own (`direct`), its columns over the torques `dy_dtau` and the torques' `dtau` (the
+/// product, then the sum, as `a * b + c` forms them by value). Allocates only when `out`'s
+/// shape changes.
+fn chain_through_torque(
+    out: &mut StatePartials,
+    direct: &StatePartials,
+    dy_dtau: &DMatrix<f64>,
+    dtau: &StatePartials,
+) {
+    for (o, (d, t)) in [
+        (&mut out.dq, (&direct.dq, &dtau.dq)),
+        (&mut out.dqd, (&direct.dqd, &dtau.dqd)),
+    ] {
+        fit(o, d.nrows(), d.ncols());
+        o.gemm(1.0, dy_dtau, t, 0.0);
+        *o += d;
+    }
+}
+
 /// `v` of length `n`, reallocated only when its length changes (its entries are to be
 /// overwritten).
 #[inline]
@@ -326,12 +346,7 @@ impl<'a> Evaluator<'a> {
         let dj = &fb.dj;
         // the same products and sums as `∂q̈/∂q + ∂q̈/∂Υ ∂Υ/∂q` formed by value
         let c = dj.dlambda.dq.nrows();
-        fit(&mut fb.dqdd.dq, nq, nq);
-        fb.dqdd.dq.gemm(1.0, &dj.dqdd_dtau, &p.dtau.dq, 0.0);
-        fb.dqdd.dq += &dj.dqdd.dq;
-        fit(&mut fb.dqdd.dqd, nq, nq);
-        fb.dqdd.dqd.gemm(1.0, &dj.dqdd_dtau, &p.dtau.dqd, 0.0);
-        fb.dqdd.dqd += &dj.dqdd.dqd;
+        chain_through_torque(&mut fb.dqdd, &dj.dqdd, &dj.dqdd_dtau, &p.dtau);
         for (i, &j) in fb.free_joints.iter().enumerate() {
             if !locked.contains(&j) {
                 fb.dqdd.dq.set_row(j, &p.dfree.dq.row(i));
@@ -346,12 +361,7 @@ impl<'a> Evaluator<'a> {
         }
         out.jac.view_mut((nq, 0), (nq, nq)).copy_from(&fb.dqdd.dq);
         out.jac.view_mut((nq, nq), (nq, nq)).copy_from(&fb.dqdd.dqd);
-        fit(&mut fb.dlambda.dq, c, nq);
-        fb.dlambda.dq.gemm(1.0, &dj.dlambda_dtau, &p.dtau.dq, 0.0);
-        fb.dlambda.dq += &dj.dlambda.dq;
-        fit(&mut fb.dlambda.dqd, c, nq);
-        fb.dlambda.dqd.gemm(1.0, &dj.dlambda_dtau, &p.dtau.dqd, 0.0);
-        fb.dlambda.dqd += &dj.dlambda.dqd;
+        chain_through_torque(&mut fb.dlambda, &dj.dlambda, &dj.dlambda_dtau, &p.dtau);
         fit(&mut out.dlambda, c, 2 * nq);
         out.dlambda
             .view_mut((0, 0), (c, nq))
