@@ -208,11 +208,13 @@ fn result_b2_round_leg_needs_less_holding_torque() {
         let u = -PI / 2.0 * (i as f64) / 40.0; // θ₁ − φ ∈ (−π/2, 0): round side down
         let q = [u + phi, -2.5, 0.0, -0.1, phi];
         let round_mode = round.mode("0110").unwrap();
-        let tau_round =
-            flat_quasi_static(&round.model, &mut data, round_mode, &q, &none).tau_particular[0];
+        let tau_round = flat_quasi_static(&round.model, &mut data, round_mode, &q, &none)
+            .balance
+            .tau_particular[0];
         let stick_mode = stick.mode("0110").unwrap();
-        let tau_stick =
-            flat_quasi_static(&stick.model, &mut data, stick_mode, &q, &none).tau_particular[0];
+        let tau_stick = flat_quasi_static(&stick.model, &mut data, stick_mode, &q, &none)
+            .balance
+            .tau_particular[0];
         // (4.57)–(4.58): τ₁ = −ℓ₂ρ m g cos φ sin(θ₁−φ) / (k(ℓ₁+ℓ₂) cos φ − ρ sin(θ₁−φ)), k = 2 round, 1 stick
         let formula = |k: f64| {
             -l * rho * m * g * phi.cos() * u.sin() / (k * 2.0 * l * phi.cos() - rho * u.sin())

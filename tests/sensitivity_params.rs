@@ -271,14 +271,14 @@ mod sled {
             qp[k] += h;
             qm[k] -= h;
             cmp(
-                stack(&j.dqdd_dq, &j.dlambda_dq, k),
+                stack(&j.dqdd.dq, &j.dlambda.dq, k),
                 (eval(&qp, qd, tau) - eval(&qm, qd, tau)) / (2.0 * h),
             );
             let (mut vp, mut vm) = (qd.to_vec(), qd.to_vec());
             vp[k] += h;
             vm[k] -= h;
             cmp(
-                stack(&j.dqdd_dqd, &j.dlambda_dqd, k),
+                stack(&j.dqdd.dqd, &j.dlambda.dqd, k),
                 (eval(q, &vp, tau) - eval(q, &vm, tau)) / (2.0 * h),
             );
         }
@@ -304,8 +304,8 @@ mod sled {
             force: None,
         };
         let (x, y) = dynamics_jvp(model, &mut data, qd, &fd).unwrap();
-        let xf = &j.dqdd_dq * &dq + &j.dqdd_dqd * &dqd + &j.dqdd_dtau * &dtau;
-        let yf = &j.dlambda_dq * &dq + &j.dlambda_dqd * &dqd + &j.dlambda_dtau * &dtau;
+        let xf = &j.dqdd.dq * &dq + &j.dqdd.dqd * &dqd + &j.dqdd_dtau * &dtau;
+        let yf = &j.dlambda.dq * &dq + &j.dlambda.dqd * &dqd + &j.dlambda_dtau * &dtau;
         let scale = xf.amax().max(yf.amax()).max(1.0);
         worst = worst
             .max((&x - &xf).amax() / scale)

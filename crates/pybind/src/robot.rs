@@ -685,13 +685,13 @@ impl Robot {
             let qs = quasi_static(&self.model, &mut data, &FlatGround, mode, &q, &t)
                 .map_err(core_err)?;
             let d = PyDict::new(py);
-            d.set_item("G_s", mat(py, &qs.g_s))?;
-            d.set_item("J_h", mat(py, &qs.j_h))?;
-            d.set_item("internal_basis", mat(py, &qs.internal_basis))?;
-            d.set_item("internal_torques", mat(py, &qs.internal_torques))?;
-            d.set_item("f_particular", vec1(py, &qs.f_particular))?;
-            d.set_item("lam_particular", vec1(py, &qs.lambda_particular))?;
-            d.set_item("tau_particular", vec1(py, &qs.tau_particular))?;
+            d.set_item("G_s", mat(py, &qs.maps.g_s))?;
+            d.set_item("J_h", mat(py, &qs.maps.j_h))?;
+            d.set_item("internal_basis", mat(py, &qs.balance.internal_basis))?;
+            d.set_item("internal_torques", mat(py, &qs.balance.internal_torques))?;
+            d.set_item("f_particular", vec1(py, &qs.balance.f_particular))?;
+            d.set_item("lam_particular", vec1(py, &qs.lambda_particular()))?;
+            d.set_item("tau_particular", vec1(py, &qs.balance.tau_particular))?;
             d.set_item("gravity_wrench", qs.gravity_wrench.as_slice().to_vec())?;
             Ok(d)
         })

@@ -122,7 +122,7 @@ fn torque_split_4_48_4_49() {
             let mut data = Data::new(&r.model);
             let qs = quasi_static(&r.model, &mut data, &terrain, mode, &q, &t_d).unwrap();
             let h = free_motion_basis(&r.model, &terrain, mode, &q, &y).unwrap();
-            let tau = &qs.tau_particular;
+            let tau = &qs.balance.tau_particular;
             assert!((tau[0] - tau[1]).abs() < 1e-10, "τ_d,p = 0");
             let v = |e: f64| {
                 let qq: Vec<f64> = q
@@ -140,7 +140,7 @@ fn torque_split_4_48_4_49() {
                 (0.5 * (tau[0] + tau[1]) - 0.5 * dv).abs() < 1e-6 * (1.0 + dv.abs()),
                 "(4.48) by virtual work"
             );
-            let tn = qs.internal_torques.column(0);
+            let tn = qs.balance.internal_torques.column(0);
             let work = tn[0] * h[(0, 0)] + tn[1] * h[(1, 0)];
             assert!(
                 work.abs() < 1e-9 * tn.norm(),
@@ -155,11 +155,11 @@ fn torque_split_4_48_4_49() {
         let q = [th, th, 0.0, -rho * th.cos(), 0.0];
         let mut data = Data::new(&r.model);
         let qs = flat_quasi_static(&r.model, &mut data, r.mode("0101").unwrap(), &q, &t_d);
-        let tn = qs.internal_torques.column(0);
+        let tn = qs.balance.internal_torques.column(0);
         let g = 2.0 * l * rho * th.cos();
         assert!((tn[0] / tn[1] + g / g).abs() < 1e-10, "(4.49) ratio");
         // (4.48) as printed, at φ = 0, θ₁ = θ₂ (= −m_b g ρ sin θ / 2)
-        let tm = 0.5 * (qs.tau_particular[0] + qs.tau_particular[1]);
+        let tm = 0.5 * (qs.balance.tau_particular[0] + qs.balance.tau_particular[1]);
         let printed =
             -r.params.m_b * r.params.g * rho * rho * (2.0 * l * th.cos() * th.sin()) / (2.0 * g);
         println!(

@@ -379,7 +379,7 @@ fn a_massive_legs_servo_is_critically_damped_on_its_mass_matrix_entry() {
             assert!(sim
                 .controller
                 .partials(&ControlPoint::new(0.01, &sim.q0, &zeros, mode), &mut out));
-            let (kp, kd) = (-out.dtau_dq[(i, i)], -out.dtau_dqd[(i, i)]);
+            let (kp, kd) = (-out.dtau.dq[(i, i)], -out.dtau.dqd[(i, i)]);
             assert!((kp - 20.0 * stall).abs() < 1e-12 * kp, "leg {i}: kp {kp}");
             if critical {
                 let zeta = kd / (2.0 * (kp * data.m_bar[(i, i)]).sqrt());

@@ -6,10 +6,10 @@
 //! solution is fixed by torque constraints `tᵀ τ = 0` (4.23), `τ = N̄_θ + J_hᵀ f_c`.
 //! Results are returned in both conventions: `f_c` (thesis chapter 4) and `λ = −f_c`.
 #![allow(non_snake_case)]
-use crate::contact::{ConstraintRow, ContactMode, Terrain};
+use crate::contact::{ContactMode, Terrain};
 use crate::error::{check_finite, check_result, check_vector, CoreError, Result};
 use crate::frames::rot3;
-use crate::grasp::grasp_maps;
+use crate::grasp::{grasp_maps, GraspMaps};
 use crate::kinematics::Kinematics;
 use crate::model::Model;
 use crate::Data;
@@ -20,21 +20,21 @@ pub const NULL_SPACE_TOLERANCE: f64 = 1e-10;
 
 #[derive(Debug, Clone)]
 pub struct QuasiStatic {
-    pub rows: Vec<ConstraintRow>,
-    pub g_s: DMatrix<f64>,
-    pub j_h: DMatrix<f64>,
+    /// `G_s`, `J_h` and the row layout of the mode.
+    pub maps: GraspMaps,
     /// Gravity wrench on the body in body coordinates `F_g` (4.91).
     pub gravity_wrench: Vector3<f64>,
-    /// Internal force basis `f_N` (c×a), columns orthonormal, in the `f_c` convention.
-    pub internal_basis: DMatrix<f64>,
-    /// Joint torques of each internal force `J_hᵀ f_N` (n×a).
-    pub internal_torques: DMatrix<f64>,
-    /// The particular solution `f_p` of (4.23) in the `f_c` convention.
-    pub f_particular: DVector<f64>,
-    /// The same forces as Lagrange multipliers `λ_p = −f_p`.
-    pub lambda_particular: DVector<f64>,
-    /// Joint torques that hold the particular solution, `τ_p = N̄_θ + J_hᵀ f_p`.
-    pub tau_particular: DVector<f64>,
+    /// The forces that balance it, in the `f_c` convention: the internal force basis `f_N`
+    /// (c×a, columns orthonormal) with its joint torques `J_hᵀ f_N`, the particular
+    /// solution `f_p` of (4.23) and the joint torques that hold it, `τ_p = N̄_θ + J_hᵀ f_p`.
+    pub balance: ContactForceBalance,
+}
+
+impl QuasiStatic {
+    /// The particular forces as Lagrange multipliers, `λ_p = −f_p`.
+    pub fn lambda_particular(&self) -> DVector<f64> {
+        -&self.balance.f_particular
+    }
 }
 
 /// Solves (4.21)–(4.23) in `mode` at `q` with torque constraints `t` (n×a_t, the rows of
@@ -105,17 +105,10 @@ pub fn quasi_static(
         &n_theta,
         ParticularForces::TorqueConstraints(t),
     )?;
-    let f_p = balance.f_particular;
     Ok(QuasiStatic {
-        rows: maps.rows,
-        g_s: maps.g_s,
-        j_h: maps.j_h,
+        maps,
         gravity_wrench: f_g,
-        internal_basis: balance.internal_basis,
-        internal_torques: balance.internal_torques,
-        lambda_particular: -&f_p,
-        f_particular: f_p,
-        tau_particular: balance.tau_particular,
+        balance,
     })
 }
 

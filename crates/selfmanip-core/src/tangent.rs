@@ -893,17 +893,44 @@ impl Solver {
     }
 }
 
+/// The partial derivatives `∂y/∂q`, `∂y/∂q̇` of one quantity `y` over the state `(q, q̇)`
+/// (each `dim y × nq`): the flow's `q̈` and `λ` ([`DynamicsJacobian`]), an impact's `q̇⁺`
+/// over `(q, q̇⁻)` ([`ImpactJacobian`]), a controller's torques and free joints' `q̈`.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct StatePartials {
+    /// `∂y/∂q`.
+    pub dq: DMatrix<f64>,
+    /// `∂y/∂q̇`.
+    pub dqd: DMatrix<f64>,
+}
+
+impl StatePartials {
+    /// Zero partials of a quantity with `rows` entries over `nq` coordinates.
+    pub fn zeros(rows: usize, nq: usize) -> Self {
+        StatePartials {
+            dq: DMatrix::zeros(rows, nq),
+            dqd: DMatrix::zeros(rows, nq),
+        }
+    }
+
+    /// Both blocks set to zero at `rows × nq`, resized only when their shape changes.
+    pub fn zero_shaped(&mut self, rows: usize, nq: usize) {
+        zero_shaped(&mut self.dq, rows, nq);
+        zero_shaped(&mut self.dqd, rows, nq);
+    }
+}
+
 /// `∂(q̈, λ)/∂(q, q̇, Υ)` of the flow (5.3)–(5.4) at one state (rows of `λ` as in
 /// `data.constraints.rows`). Rows of free and locked massless joints are zero: their `q̈` is
 /// prescribed.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DynamicsJacobian {
-    pub dqdd_dq: DMatrix<f64>,
-    pub dqdd_dqd: DMatrix<f64>,
+    /// `∂q̈/∂(q, q̇)` (`nq × nq` each).
+    pub dqdd: StatePartials,
     /// `nq × n`: one column per joint torque.
     pub dqdd_dtau: DMatrix<f64>,
-    pub dlambda_dq: DMatrix<f64>,
-    pub dlambda_dqd: DMatrix<f64>,
+    /// `∂λ/∂(q, q̇)` (`c × nq` each).
+    pub dlambda: StatePartials,
     pub dlambda_dtau: DMatrix<f64>,
 }
 
@@ -942,11 +969,9 @@ impl Default for DynamicsJacobian {
     /// Empty (`0 × 0`) blocks, to be sized by [`dynamics_jacobian_solved_into`].
     fn default() -> Self {
         DynamicsJacobian {
-            dqdd_dq: DMatrix::zeros(0, 0),
-            dqdd_dqd: DMatrix::zeros(0, 0),
+            dqdd: StatePartials::zeros(0, 0),
             dqdd_dtau: DMatrix::zeros(0, 0),
-            dlambda_dq: DMatrix::zeros(0, 0),
-            dlambda_dqd: DMatrix::zeros(0, 0),
+            dlambda: StatePartials::zeros(0, 0),
             dlambda_dtau: DMatrix::zeros(0, 0),
         }
     }
@@ -991,11 +1016,9 @@ pub fn dynamics_jacobian_solved_into(
     let fold = asm.prepare_flow_solution(model, data, qd, lambda)?;
     let fold = fold.as_ref();
     let (nq, n, c) = (model.nq(), model.n_joints(), data.constraints.n_rows());
-    zero_shaped(&mut out.dqdd_dq, nq, nq);
-    zero_shaped(&mut out.dqdd_dqd, nq, nq);
+    out.dqdd.zero_shaped(nq, nq);
     zero_shaped(&mut out.dqdd_dtau, nq, n);
-    zero_shaped(&mut out.dlambda_dq, c, nq);
-    zero_shaped(&mut out.dlambda_dqd, c, nq);
+    out.dlambda.zero_shaped(c, nq);
     zero_shaped(&mut out.dlambda_dtau, c, n);
     e.clear();
     e.resize(nq, 0.0);
@@ -1006,11 +1029,11 @@ pub fn dynamics_jacobian_solved_into(
         let wv = &mut scratch.w;
         asm.applied_terms_along(Some(e), None, &no_tau, wv, f);
         asm.general_terms_along(e, lambda, wv, f);
-        let (x, y) = (&mut out.dqdd_dq, &mut out.dlambda_dq);
+        let (x, y) = (&mut out.dqdd.dq, &mut out.dlambda.dq);
         solver.solve_folded(data, fold, -1.0, f, g, k, x, Some(y))?;
         asm.dqd_terms_along(e, wv, f, g);
         asm.applied_terms_along(None, Some(e), &no_tau, wv, f);
-        let (x, y) = (&mut out.dqdd_dqd, &mut out.dlambda_dqd);
+        let (x, y) = (&mut out.dqdd.dqd, &mut out.dlambda.dqd);
         solver.solve_folded(data, fold, -1.0, f, g, k, x, Some(y))?;
         e[k] = 0.0;
     }
@@ -1038,8 +1061,8 @@ pub fn dynamics_jacobian_solved_into(
 #[derive(Debug, Clone, PartialEq)]
 pub struct ImpactJacobian {
     pub impact: Impact,
-    pub dqd_plus_dq: DMatrix<f64>,
-    pub dqd_plus_dqd_minus: DMatrix<f64>,
+    /// `∂q̇⁺/∂(q, q̇⁻)` (`nq × nq` each).
+    pub dqd_plus: StatePartials,
 }
 
 /// [`plastic_impact`] into `mode` at `(q, q̇⁻)` and its exact Jacobian. With
@@ -1064,8 +1087,10 @@ pub fn plastic_impact_jacobian(
     let qd_plus: Vec<f64> = impact.qd_plus.iter().copied().collect();
     let mut out = ImpactJacobian {
         impact,
-        dqd_plus_dq: DMatrix::zeros(nq, nq),
-        dqd_plus_dqd_minus: DMatrix::identity(nq, nq),
+        dqd_plus: StatePartials {
+            dq: DMatrix::zeros(nq, nq),
+            dqd: DMatrix::identity(nq, nq),
+        },
     };
     // −dM̄ Δ − dAᵀ P  and  −dA Δ − dA q̇⁻ = −dA q̇⁺ (by linearity in the vector)
     asm.set_x(&dx);
@@ -1077,11 +1102,11 @@ pub fn plastic_impact_jacobian(
     let zero_f = DVector::zeros(nq);
     for (k, f1) in f1.into_iter().enumerate() {
         let (_, g1) = asm.dq_terms(k, &zeros, false);
-        solver.solve(data, -1.0, &f1, &g1, k, &mut out.dqd_plus_dq, None);
+        solver.solve(data, -1.0, &f1, &g1, k, &mut out.dqd_plus.dq, None);
         let g = data.constraints.a.column(k).clone_owned();
         solver.solve(data, -1.0, &zero_f, &g, 0, &mut x, None);
         for i in 0..nq {
-            out.dqd_plus_dqd_minus[(i, k)] += x[i];
+            out.dqd_plus.dqd[(i, k)] += x[i];
         }
     }
     Ok(out)

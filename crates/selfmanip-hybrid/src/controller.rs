@@ -15,6 +15,7 @@
 //! [`Controller::memory_time_events`]).
 use crate::event::Event;
 use nalgebra::DMatrix;
+use selfmanip_core::tangent::StatePartials;
 use selfmanip_core::ContactMode;
 use std::sync::Arc;
 
@@ -192,11 +193,9 @@ pub struct TimeEvent {
 #[derive(Debug, Clone, PartialEq)]
 pub struct ControllerPartials {
     /// `∂Υ/∂q`, `∂Υ/∂q̇` (`n × nq`).
-    pub dtau_dq: DMatrix<f64>,
-    pub dtau_dqd: DMatrix<f64>,
+    pub dtau: StatePartials,
     /// `∂q̈_free/∂q`, `∂q̈_free/∂q̇` (one row per free joint, in the order given).
-    pub dfree_dq: DMatrix<f64>,
-    pub dfree_dqd: DMatrix<f64>,
+    pub dfree: StatePartials,
     /// `∂Υ/∂p` (`n × k`) and `∂q̈_free/∂p` (`n_free × k`) over the named parameters of
     /// [`Controller::parameter_partials`]; no columns unless [`Self::with_parameters`].
     pub dtau_dp: DMatrix<f64>,
@@ -207,10 +206,8 @@ impl ControllerPartials {
     /// Zero partials for `n` joints, `nq` coordinates and `n_free` free joints.
     pub fn zeros(n: usize, nq: usize, n_free: usize) -> Self {
         ControllerPartials {
-            dtau_dq: DMatrix::zeros(n, nq),
-            dtau_dqd: DMatrix::zeros(n, nq),
-            dfree_dq: DMatrix::zeros(n_free, nq),
-            dfree_dqd: DMatrix::zeros(n_free, nq),
+            dtau: StatePartials::zeros(n, nq),
+            dfree: StatePartials::zeros(n_free, nq),
             dtau_dp: DMatrix::zeros(n, 0),
             dfree_dp: DMatrix::zeros(n_free, 0),
         }

@@ -43,7 +43,7 @@ use nalgebra::{DMatrix, DVector};
 use selfmanip_core::constraint::Constraints;
 use selfmanip_core::contact::{ContactKind, RowDirection};
 use selfmanip_core::model::Friction;
-use selfmanip_core::tangent::{impact_partials, BodyParameter, TangentError};
+use selfmanip_core::tangent::{impact_partials, BodyParameter, StatePartials, TangentError};
 use selfmanip_core::{ContactMode, CoreError, Data, Model, Terrain};
 
 /// The state a contact takes in the impact.
@@ -377,10 +377,8 @@ fn solve_combo(
 /// The derivatives of a Coulomb impact's `q̇⁺` on its active set ([`coulomb_impact_jacobian`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct CoulombImpactJacobian {
-    /// `∂q̇⁺/∂q` (`nq × nq`).
-    pub dqd_plus_dq: DMatrix<f64>,
-    /// `∂q̇⁺/∂q̇⁻` (`nq × nq`).
-    pub dqd_plus_dqd_minus: DMatrix<f64>,
+    /// `∂q̇⁺/∂(q, q̇⁻)` (`nq × nq` each).
+    pub dqd_plus: StatePartials,
     /// `∂q̇⁺/∂p` of each body parameter asked for (`nq × |ps|`).
     pub dqd_plus_dbody: DMatrix<f64>,
     /// `∂q̇⁺/∂μ` of each candidate's static friction coefficient `μ` (the cone the impulse
@@ -551,8 +549,10 @@ pub fn coulomb_impact_jacobian(
         dqd_minus[(i, i)] += 1.0;
     }
     Ok(Ok(CoulombImpactJacobian {
-        dqd_plus_dq: d.columns(0, nq).clone_owned(),
-        dqd_plus_dqd_minus: dqd_minus,
+        dqd_plus: StatePartials {
+            dq: d.columns(0, nq).clone_owned(),
+            dqd: dqd_minus,
+        },
         dqd_plus_dbody: d.columns(2 * nq, nb).clone_owned(),
         dqd_plus_dmu: dg_mu
             .iter()

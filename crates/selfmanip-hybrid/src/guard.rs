@@ -88,12 +88,30 @@ pub enum Guard {
     },
 }
 
+/// Guards that fired together, and where: in `mode`, at `(t, y = [q; q̇])` — what a reset
+/// starts from ([`crate::reset::reset`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Firing<'a> {
+    pub guards: &'a [Guard],
+    pub mode: ContactMode,
+    pub t: f64,
+    pub y: &'a [f64],
+}
+
 impl Guard {
     /// The contact whose liftoff or stick→slip guard this is — the guards that let a
     /// contact go, which a Zeno truncation's dwell holds back ([`crate::zeno`]).
     pub fn lets_go(self) -> Option<usize> {
         match self {
             Guard::Liftoff { contact, .. } | Guard::Slip { contact, .. } => Some(contact),
+            _ => None,
+        }
+    }
+
+    /// The contact whose touchdown guard this is.
+    pub fn touchdown(self) -> Option<usize> {
+        match self {
+            Guard::Touchdown(contact) => Some(contact),
             _ => None,
         }
     }

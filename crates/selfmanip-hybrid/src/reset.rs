@@ -24,7 +24,7 @@ use crate::event::{Event, EventKind};
 use crate::execution::Termination;
 use crate::flow::{Flow, FlowWorkspace};
 use crate::fold;
-use crate::guard::Guard;
+use crate::guard::{Firing, Guard};
 use crate::options::HybridOptions;
 use crate::reset_workspace::ResetWorkspace;
 use crate::surface_tolerances::{MAX_DRIFT_M, TERRAIN_STEP_M};
@@ -49,8 +49,9 @@ pub enum Reset {
     },
 }
 
-/// The reset of the guards `fired` at `(t, y = [q; q̇])` in `mode` of `flow`, evaluated on
-/// the workspace `ws`, with the pseudo-impulse duration and the fold threshold of `opts`.
+/// The reset of the guards `at.guards` that fired at `(t, y = [q; q̇])` in `mode` of `flow`,
+/// evaluated on the workspace `ws`, with the pseudo-impulse duration and the fold threshold
+/// of `opts`.
 /// The contacts `jammed` (usually none) may not slide: an impact that left one of them on a
 /// slide inconsistent with Coulomb friction (Painlevé) is taken again with it offered the
 /// stick — the impact's tangential part, an impact without collision ([`crate::jam`]).
@@ -58,14 +59,18 @@ pub fn reset(
     ws: &mut FlowWorkspace,
     flow: &mut Flow,
     opts: &HybridOptions,
-    fired: &[Guard],
-    mode: ContactMode,
-    (t, y): (f64, &[f64]),
+    at: Firing<'_>,
     jammed: &[usize],
 ) -> Result<Reset, HybridError> {
+    let Firing {
+        guards: fired,
+        mode,
+        t,
+        y,
+    } = at;
     let model = flow.model();
     let (q, qd) = y.split_at(model.nq());
-    if let Some(apex) = apex_reset(flow, opts, fired, mode, (t, y)) {
+    if let Some(apex) = apex_reset(flow, opts, at) {
         return Ok(apex);
     }
     let fired: Vec<Guard> = fired
@@ -261,13 +266,13 @@ fn still_held(flow: &mut Flow, mode: ContactMode, fired: &[Guard]) -> Vec<usize>
 
 /// The apex: the end of the run, or (not stopping there) an event that changes nothing —
 /// unless other guards fired with it (`None`: the reset goes on without it).
-fn apex_reset(
-    flow: &Flow,
-    opts: &HybridOptions,
-    fired: &[Guard],
-    mode: ContactMode,
-    (t, y): (f64, &[f64]),
-) -> Option<Reset> {
+fn apex_reset(flow: &Flow, opts: &HybridOptions, at: Firing<'_>) -> Option<Reset> {
+    let Firing {
+        guards: fired,
+        mode,
+        t,
+        y,
+    } = at;
     let (q, qd) = y.split_at(flow.model().nq());
     let apex_only = fired == [Guard::Apex];
     if !(fired.contains(&Guard::Apex) && (opts.stop_at_apex || apex_only)) {

@@ -20,7 +20,7 @@ use crate::error::HybridError;
 use crate::event::{Event, EventKind, PainleveReason};
 use crate::execution::{Execution, Termination};
 use crate::flow::{Flow, FlowWorkspace};
-use crate::guard::Guard;
+use crate::guard::Firing;
 use crate::jam::{coulomb_jam, jam};
 use crate::options::HybridOptions;
 use crate::reset::{reset, Reset};
@@ -153,13 +153,19 @@ pub fn simulate_with(
                 SegmentEnd::Ended(term) => break 'run term,
             };
             fresh_laws(&mut reset_ws, &flow, (t, mode), &y);
-            match reset(&mut reset_ws, &mut flow, &opts, &fired, mode, (t, &y), &[]) {
+            let at = Firing {
+                guards: &fired,
+                mode,
+                t,
+                y: &y,
+            };
+            match reset(&mut reset_ws, &mut flow, &opts, at, &[]) {
                 Ok(r) => Ok(r),
                 // an impact that chose an inconsistent slide: the same impact with that
                 // contact sticking (its jam)
-                Err(e) if fired.iter().any(|g| matches!(g, Guard::Touchdown(_))) => Ok(
-                    jammed_impact(e, &mut reset_ws, &mut flow, &opts, &fired, mode, (t, &y))?,
-                ),
+                Err(e) if fired.iter().any(|g| g.touchdown().is_some()) => {
+                    Ok(jammed_impact(e, &mut reset_ws, &mut flow, &opts, at)?)
+                }
                 // at a force event (a slip onto an inconsistent slide)
                 Err(e) => Err((e, true)),
             }
@@ -394,16 +400,19 @@ fn painleve(
 /// impact left sliding, taken again with that contact barred from sliding
 /// ([`crate::reset::reset`] with it `jammed`): accepted as a [`EventKind::Jam`] when the
 /// contact sticks after it (the impulse in its cone, pushing); else the run ends typed.
-#[allow(clippy::too_many_arguments)]
 fn jammed_impact(
     e: HybridError,
     ws: &mut FlowWorkspace,
     flow: &mut Flow,
     opts: &HybridOptions,
-    fired: &[Guard],
-    mode: ContactMode,
-    (t, y): (f64, &[f64]),
+    at: Firing<'_>,
 ) -> Result<Reset, HybridError> {
+    let Firing {
+        guards: fired,
+        mode,
+        t,
+        y,
+    } = at;
     let HybridError::Core(CoreError::PainleveInconsistent { contact, .. }) = e else {
         return Err(e);
     };
@@ -420,7 +429,7 @@ fn jammed_impact(
         return Ok(end(PainleveReason::Inactive));
     };
     // any failure of the retry leaves the end as it was without it: typed
-    let rj = reset(ws, flow, opts, fired, mode, (t, y), &[k]);
+    let rj = reset(ws, flow, opts, at, &[k]);
     let reason = match rj {
         Ok(Reset::Continue {
             mut event,
@@ -446,13 +455,7 @@ fn jammed_impact(
         Ok(Reset::End { .. }) | Err(_) => PainleveReason::NoJamOutcome,
     };
     // the stick refused: the impact with Coulomb friction at every contact
-    let touched: Vec<usize> = fired
-        .iter()
-        .filter_map(|g| match g {
-            Guard::Touchdown(c) => Some(*c),
-            _ => None,
-        })
-        .collect();
+    let touched: Vec<usize> = fired.iter().filter_map(|g| g.touchdown()).collect();
     Ok(
         match coulomb_jam(ws, flow, opts, mode, (&touched, k), (t, y), reason)? {
             Ok(r) => r,

@@ -327,5 +327,11 @@ pub fn dwell_end(
     if guards.is_empty() {
         return Ok(None);
     }
-    crate::reset::reset(ws, flow, opts, &guards, mode, (t, y), &[]).map(Some)
+    let at = crate::guard::Firing {
+        guards: &guards,
+        mode,
+        t,
+        y,
+    };
+    crate::reset::reset(ws, flow, opts, at, &[]).map(Some)
 }

@@ -106,11 +106,11 @@ fn coulomb_impact_jacobian_matches_central_differences_of_the_impact() {
                     same_set(&model, &q, &qds, states)
                 };
                 cols.push((
-                    jac.dqd_plus_dq.column(j).iter().copied().collect(),
+                    jac.dqd_plus.dq.column(j).iter().copied().collect(),
                     central(fq, h),
                 ));
                 cols.push((
-                    jac.dqd_plus_dqd_minus.column(j).iter().copied().collect(),
+                    jac.dqd_plus.dqd.column(j).iter().copied().collect(),
                     central(fqd, h),
                 ));
             }

@@ -46,8 +46,8 @@ impl Controller for RampFromTouchdown {
         tau[0] = -self.k * (q[0] - th) - self.c * (qd[0] - w);
     }
     fn partials(&self, _at: &ControlPoint, out: &mut ControllerPartials) -> bool {
-        out.dtau_dq[(0, 0)] = -self.k;
-        out.dtau_dqd[(0, 0)] = -self.c;
+        out.dtau.dq[(0, 0)] = -self.k;
+        out.dtau.dqd[(0, 0)] = -self.c;
         true
     }
     /// `∂τ/∂t = K ω*` (the ramp moves the reference at a fixed state).

@@ -33,8 +33,8 @@ impl Controller for Saturating {
     fn partials(&self, at: &ControlPoint, out: &mut ControllerPartials) -> bool {
         let ControlPoint { q, qd, .. } = *at;
         if self.raw(q, qd).abs() < self.limit {
-            out.dtau_dq[(0, 0)] = -self.k;
-            out.dtau_dqd[(0, 0)] = -self.c;
+            out.dtau.dq[(0, 0)] = -self.k;
+            out.dtau.dqd[(0, 0)] = -self.c;
         }
         true
     }

@@ -6,7 +6,7 @@
 mod systems;
 use selfmanip_core::{ContactKind, ContactMode, FlatGround, GroundPlane, Model, Terrain};
 use selfmanip_hybrid::flow::{Flow, FlowWorkspace};
-use selfmanip_hybrid::guard::Guard;
+use selfmanip_hybrid::guard::{Firing, Guard};
 use selfmanip_hybrid::reset::{reset, Reset};
 use selfmanip_hybrid::reset_workspace::ResetWorkspace;
 use selfmanip_hybrid::{ConstantTorque, HybridOptions, Termination, ZeroTorque};
@@ -22,7 +22,13 @@ fn reset_block(mode: ContactMode, fired: &[Guard], y: &[f64], delta_t_s: f64) ->
         delta_t_s,
         ..HybridOptions::default()
     };
-    reset(&mut ws, &mut flow, &opts, fired, mode, (0.0, y), &[]).unwrap()
+    let at = Firing {
+        guards: fired,
+        mode,
+        t: 0.0,
+        y,
+    };
+    reset(&mut ws, &mut flow, &opts, at, &[]).unwrap()
 }
 
 /// [`ZeroTorque`] for as long as a reset stage may borrow it.
@@ -199,16 +205,13 @@ fn three_point_landing_has_several_contact_solutions() {
         Guard::Touchdown(2),
     ];
     let y = [0.0, -0.05, 0.0, 0.0, 1.0, 0.0];
-    let out = reset(
-        &mut ws,
-        &mut flow,
-        &HybridOptions::default(),
-        &fired,
-        ContactMode::FLIGHT,
-        (0.2, &y),
-        &[],
-    )
-    .unwrap();
+    let at = Firing {
+        guards: &fired,
+        mode: ContactMode::FLIGHT,
+        t: 0.2,
+        y: &y,
+    };
+    let out = reset(&mut ws, &mut flow, &HybridOptions::default(), at, &[]).unwrap();
     let pair = |s| ContactMode::parse_names(&model, s).unwrap();
     assert_eq!(
         out,

@@ -7,6 +7,7 @@
 //! Run                    => outcome (word, apex, landing), events, trajectory(dt),
 //!                           energy_report(), write_mcap(path)
 //! ```
+use crate::behaviour::spec::{parse_text, read_file};
 use crate::behaviour::{compile_bound, Behaviour, BehaviourController, Parameters, ReusableParts};
 use crate::error::{invalid, non_negative, positive, SimError};
 use crate::events::{event_records, EventRecord};
@@ -166,28 +167,16 @@ impl SimOptions {
 
 impl Scenario {
     pub fn from_toml_str(s: &str) -> Result<Self, SimError> {
-        toml::from_str(s).map_err(|e| SimError::Parse {
-            what: "scenario".into(),
-            format: "toml",
-            message: e.to_string(),
-        })
+        parse_text("scenario", "toml", s)
     }
 
     pub fn from_json_str(s: &str) -> Result<Self, SimError> {
-        serde_json::from_str(s).map_err(|e| SimError::Parse {
-            what: "scenario".into(),
-            format: "json",
-            message: e.to_string(),
-        })
+        parse_text("scenario", "json", s)
     }
 
     /// Reads a `.toml` or `.json` scenario file (by extension).
     pub fn from_file(path: &Path) -> Result<Self, SimError> {
-        let text = crate::behaviour::spec::read_text(path)?;
-        match path.extension().and_then(|e| e.to_str()) {
-            Some("json") => Self::from_json_str(&text),
-            _ => Self::from_toml_str(&text),
-        }
+        read_file("scenario", path)
     }
 
     /// A scenario of `robot` at `q` at rest in flight on flat ground, with no actuation.

@@ -331,9 +331,9 @@ fn check_partials(
         ym[c] -= h;
         let ((tp, fp), (tm, fm)) = (eval(&yp), eval(&ym));
         let (dt, df) = if c < nq {
-            (&p.dtau_dq, &p.dfree_dq)
+            (&p.dtau.dq, &p.dfree.dq)
         } else {
-            (&p.dtau_dqd, &p.dfree_dqd)
+            (&p.dtau.dqd, &p.dfree.dqd)
         };
         let cc = c % nq;
         for i in 0..n {
@@ -400,7 +400,7 @@ fn behaviour_partials_match_finite_differences() {
             &ControlPoint::new(t, &y[..nq], &y[nq..], stance_mode),
             &mut p
         ));
-        assert_eq!(p.dtau_dq[(0, 0)] == 0.0, saturated, "hip {hip}");
+        assert_eq!(p.dtau.dq[(0, 0)] == 0.0, saturated, "hip {hip}");
         let e = check_partials(&ctrl, t, &y, stance_mode, &[]);
         assert!(e < 1e-6, "t {t}, hip {hip}: {e:e}");
     }

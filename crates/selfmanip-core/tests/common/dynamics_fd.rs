@@ -19,7 +19,7 @@ pub fn dynamics_jacobian_error(
     steps: &[(f64, f64)],
     mut eval: impl FnMut(&[f64], &[f64], &[f64]) -> Option<(Vec<f64>, Vec<f64>)>,
 ) -> Option<f64> {
-    let (nq, c) = (q.len(), jac.dlambda_dq.nrows());
+    let (nq, c) = (q.len(), jac.dlambda.dq.nrows());
     let mut worst: f64 = 0.0;
     for (which, n) in [(0, nq), (1, nq), (2, tau.len())] {
         let (mut fq, mut fl) = (DMatrix::zeros(nq, n), DMatrix::zeros(c, n));
@@ -40,8 +40,8 @@ pub fn dynamics_jacobian_error(
             }
         }
         let (eq, el) = match which {
-            0 => (&jac.dqdd_dq, &jac.dlambda_dq),
-            1 => (&jac.dqdd_dqd, &jac.dlambda_dqd),
+            0 => (&jac.dqdd.dq, &jac.dlambda.dq),
+            1 => (&jac.dqdd.dqd, &jac.dlambda.dqd),
             _ => (&jac.dqdd_dtau, &jac.dlambda_dtau),
         };
         worst = worst.max(rel_err(eq, &fq)).max(rel_err(el, &fl));

@@ -67,11 +67,7 @@ pub(super) fn coulomb_reset(
         Err(e) => return Err(not(e.to_string())),
     };
     gr.velocity_jump(
-        (
-            &jac.dqd_plus_dq,
-            &jac.dqd_plus_dqd_minus,
-            &jac.dqd_plus_dbody,
-        ),
+        (&jac.dqd_plus.dq, &jac.dqd_plus.dqd, &jac.dqd_plus_dbody),
         &o.qd_plus,
     );
     gr.dr_mu = jac

@@ -11,7 +11,7 @@ use selfmanip_core::friction::SlideDirection;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::tangent::{
     dynamics_jacobian_solved_into, dynamics_jvp_into, BodyParameter, DynamicsJacobian,
-    FlowDirections, JacobianWorkspace, JvpWorkspace, TangentError,
+    FlowDirections, JacobianWorkspace, JvpWorkspace, StatePartials, TangentError,
 };
 use selfmanip_core::{forward_dynamics_prepared, ContactMode, Data, Model, Terrain};
 
@@ -87,11 +87,10 @@ pub(super) struct FullBuffers {
     free_joints: Vec<usize>,
     ws: JacobianWorkspace,
     dj: DynamicsJacobian,
-    dqdd_dq: DMatrix<f64>,
-    dqdd_dqd: DMatrix<f64>,
-    /// `∂λ/∂Υ ∂Υ/∂q` and `∂λ/∂Υ ∂Υ/∂q̇`.
-    dl_q: DMatrix<f64>,
-    dl_qd: DMatrix<f64>,
+    /// `∂q̈/∂x` with the controller's torques and free joints' motions.
+    dqdd: StatePartials,
+    /// `∂λ/∂x` with the controller's torques.
+    dlambda: StatePartials,
     /// The flow and its Jacobian at the last state evaluated.
     pub(super) out: FlowJacobian,
 }
@@ -137,6 +136,26 @@ pub(super) fn fit(a: &mut DMatrix<f64>, r: usize, c: usize) {
     }
 }
 
+/// `out = ∂y/∂Υ ∂Υ/∂x + ∂y/∂x` for `x = q` and `x = q̇`: the partials of `y(x, Υ(x))` from
+/// its own (`direct`), its columns over the torques `dy_dtau` and the torques' `dtau` (the
+/// product, then the sum, as `a * b + c` forms them by value). Allocates only when `out`'s
+/// shape changes.
+fn chain_through_torque(
+    out: &mut StatePartials,
+    direct: &StatePartials,
+    dy_dtau: &DMatrix<f64>,
+    dtau: &StatePartials,
+) {
+    for (o, (d, t)) in [
+        (&mut out.dq, (&direct.dq, &dtau.dq)),
+        (&mut out.dqd, (&direct.dqd, &dtau.dqd)),
+    ] {
+        fit(o, d.nrows(), d.ncols());
+        o.gemm(1.0, dy_dtau, t, 0.0);
+        *o += d;
+    }
+}
+
 /// `v` of length `n`, reallocated only when its length changes (its entries are to be
 /// overwritten).
 #[inline]
@@ -156,17 +175,17 @@ fn zero_partials(
     k: usize,
 ) -> &mut ControllerPartials {
     let fits = slot.as_ref().is_some_and(|p| {
-        p.dtau_dq.shape() == (n, nq)
-            && p.dfree_dq.shape() == (n_free, nq)
+        p.dtau.dq.shape() == (n, nq)
+            && p.dfree.dq.shape() == (n_free, nq)
             && p.dtau_dp.shape() == (n, k)
     });
     if fits {
         let p = slot.as_mut().expect("checked");
         for a in [
-            &mut p.dtau_dq,
-            &mut p.dtau_dqd,
-            &mut p.dfree_dq,
-            &mut p.dfree_dqd,
+            &mut p.dtau.dq,
+            &mut p.dtau.dqd,
+            &mut p.dfree.dq,
+            &mut p.dfree.dqd,
             &mut p.dtau_dp,
             &mut p.dfree_dp,
         ] {
@@ -326,17 +345,12 @@ impl<'a> Evaluator<'a> {
         dynamics_jacobian_solved_into(model, &mut self.data, qd, &mut fb.ws, &mut fb.dj)?;
         let dj = &fb.dj;
         // the same products and sums as `∂q̈/∂q + ∂q̈/∂Υ ∂Υ/∂q` formed by value
-        let c = dj.dlambda_dq.nrows();
-        fit(&mut fb.dqdd_dq, nq, nq);
-        fb.dqdd_dq.gemm(1.0, &dj.dqdd_dtau, &p.dtau_dq, 0.0);
-        fb.dqdd_dq += &dj.dqdd_dq;
-        fit(&mut fb.dqdd_dqd, nq, nq);
-        fb.dqdd_dqd.gemm(1.0, &dj.dqdd_dtau, &p.dtau_dqd, 0.0);
-        fb.dqdd_dqd += &dj.dqdd_dqd;
+        let c = dj.dlambda.dq.nrows();
+        chain_through_torque(&mut fb.dqdd, &dj.dqdd, &dj.dqdd_dtau, &p.dtau);
         for (i, &j) in fb.free_joints.iter().enumerate() {
             if !locked.contains(&j) {
-                fb.dqdd_dq.set_row(j, &p.dfree_dq.row(i));
-                fb.dqdd_dqd.set_row(j, &p.dfree_dqd.row(i));
+                fb.dqdd.dq.set_row(j, &p.dfree.dq.row(i));
+                fb.dqdd.dqd.set_row(j, &p.dfree.dqd.row(i));
             }
         }
         let out = &mut fb.out;
@@ -345,17 +359,16 @@ impl<'a> Evaluator<'a> {
         for i in 0..nq {
             out.jac[(i, nq + i)] = 1.0;
         }
-        out.jac.view_mut((nq, 0), (nq, nq)).copy_from(&fb.dqdd_dq);
-        out.jac.view_mut((nq, nq), (nq, nq)).copy_from(&fb.dqdd_dqd);
-        fit(&mut fb.dl_q, c, nq);
-        fb.dl_q.gemm(1.0, &dj.dlambda_dtau, &p.dtau_dq, 0.0);
-        fb.dl_q += &dj.dlambda_dq;
-        fit(&mut fb.dl_qd, c, nq);
-        fb.dl_qd.gemm(1.0, &dj.dlambda_dtau, &p.dtau_dqd, 0.0);
-        fb.dl_qd += &dj.dlambda_dqd;
+        out.jac.view_mut((nq, 0), (nq, nq)).copy_from(&fb.dqdd.dq);
+        out.jac.view_mut((nq, nq), (nq, nq)).copy_from(&fb.dqdd.dqd);
+        chain_through_torque(&mut fb.dlambda, &dj.dlambda, &dj.dlambda_dtau, &p.dtau);
         fit(&mut out.dlambda, c, 2 * nq);
-        out.dlambda.view_mut((0, 0), (c, nq)).copy_from(&fb.dl_q);
-        out.dlambda.view_mut((0, nq), (c, nq)).copy_from(&fb.dl_qd);
+        out.dlambda
+            .view_mut((0, 0), (c, nq))
+            .copy_from(&fb.dlambda.dq);
+        out.dlambda
+            .view_mut((0, nq), (c, nq))
+            .copy_from(&fb.dlambda.dqd);
         fit_vec(&mut out.f, 2 * nq);
         out.f.rows_mut(0, nq).copy_from_slice(qd);
         out.f.rows_mut(nq, nq).copy_from(&self.data.qdd);
@@ -476,8 +489,8 @@ impl Evaluator<'_> {
         gemm_pair(
             &mut cb.dtau,
             &mut cb.dtau2,
-            (&p.dtau_dq, &cb.dq),
-            (&p.dtau_dqd, &cb.dqd),
+            (&p.dtau.dq, &cb.dq),
+            (&p.dtau.dqd, &cb.dqd),
         );
         let nf = free_joints.len();
         fit(&mut cb.dfree, nf, m);
@@ -485,8 +498,8 @@ impl Evaluator<'_> {
         gemm_pair(
             &mut cb.dfree,
             &mut cb.dfree2,
-            (&p.dfree_dq, &cb.dq),
-            (&p.dfree_dqd, &cb.dqd),
+            (&p.dfree.dq, &cb.dq),
+            (&p.dfree.dqd, &cb.dqd),
         );
         if self.memory_mode {
             let tangents = (&mut cb.mem, &mut cb.dtau, &mut cb.dfree);

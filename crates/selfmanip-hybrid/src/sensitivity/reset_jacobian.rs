@@ -88,7 +88,7 @@ impl GuardReset {
     ) {
         let dqd_dp =
             plastic_impact_body_derivatives(at.model, data, &ij.impact, at.qd_minus(), at.body);
-        self.velocity_jump((&ij.dqd_plus_dq, &ij.dqd_plus_dqd_minus, &dqd_dp), qd_plus);
+        self.velocity_jump((&ij.dqd_plus.dq, &ij.dqd_plus.dqd, &dqd_dp), qd_plus);
     }
 
     /// The reset jumps the velocity to `qd_plus` with `∂q̇⁺/∂q`, `∂q̇⁺/∂q̇⁻` and `∂q̇⁺/∂p` of

@@ -321,9 +321,8 @@ fn touch(
         }
     }
     let mut dr = DMatrix::identity(2 * nq, 2 * nq);
-    dr.view_mut((nq, 0), (nq, nq)).copy_from(&ij.dqd_plus_dq);
-    dr.view_mut((nq, nq), (nq, nq))
-        .copy_from(&ij.dqd_plus_dqd_minus);
+    dr.view_mut((nq, 0), (nq, nq)).copy_from(&ij.dqd_plus.dq);
+    dr.view_mut((nq, nq), (nq, nq)).copy_from(&ij.dqd_plus.dqd);
     let mut y_plus = y.to_vec();
     y_plus[nq..].copy_from_slice(ij.impact.qd_plus.as_slice());
     Ok(GuardStep {

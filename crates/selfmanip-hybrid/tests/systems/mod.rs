@@ -387,8 +387,8 @@ impl Controller for Servos {
     }
     fn partials(&self, _at: &ControlPoint, out: &mut ControllerPartials) -> bool {
         for i in 0..self.target.len() {
-            out.dtau_dq[(i, i)] = -self.k;
-            out.dtau_dqd[(i, i)] = -self.c;
+            out.dtau.dq[(i, i)] = -self.k;
+            out.dtau.dqd[(i, i)] = -self.c;
         }
         true
     }

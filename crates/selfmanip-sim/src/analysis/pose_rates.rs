@@ -26,7 +26,7 @@ pub fn holding_torque(model: &Model, mode: ContactMode, q: &[f64]) -> Result<Vec
     };
     let mut data = Data::new(model);
     let qs = quasi_static(model, &mut data, &FlatGround, mode, q, &t)?;
-    Ok(qs.tau_particular.iter().cloned().collect())
+    Ok(qs.balance.tau_particular.iter().cloned().collect())
 }
 
 /// The free motion of `mode` at `q` per unit rate of joint `lead` (the column of `H` of

@@ -241,12 +241,12 @@ pub fn simulate_standing(
     let mut eval = |q: &[f64], s: &DVector<f64>| -> Result<Eval, SimError> {
         // (q, τ_d) ⇒ τ = τ_p + J_hᵀ f_N α with t_dᵀ τ = τ_d
         let qs = quasi_static(model, &mut data, terrain, mode, q, &t_lock)?;
-        let tn = &qs.internal_torques;
+        let tn = &qs.balance.internal_torques;
         let alpha = (&tl * tn)
             .lu()
             .solve(s)
             .ok_or_else(|| bad("q", "internal forces exert no locked torque here"))?;
-        let tau = &qs.tau_particular + tn * alpha;
+        let tau = &qs.balance.tau_particular + tn * alpha;
         // controller (4.53)–(4.54)
         let tau_m = &tm * &tau;
         let yd = tau_m.map(|v| g.kappa_p * sat(g.kappa_m * v, g.kappa_sigma));

@@ -1518,13 +1518,13 @@ impl Controller for BehaviourController {
                     if law.at_power_flow_jump(*command, qd[j]) {
                         return false;
                     }
-                    out.dtau_dqd[(j, j)] = law.partials(*command, &[], qd[j], &mut Vec::new());
+                    out.dtau.dqd[(j, j)] = law.partials(*command, &[], qd[j], &mut Vec::new());
                 }
                 law @ TorqueLaw::Servo(servo) => {
                     let in_force = self.servo_in_force(p, law, t, (q, qd), mode);
                     if in_force.is_some_and(|s| servo_piece(s.u, servo.limit) == 0) {
-                        out.dtau_dq[(j, j)] = -servo.kp;
-                        out.dtau_dqd[(j, j)] = -servo.kd;
+                        out.dtau.dq[(j, j)] = -servo.kp;
+                        out.dtau.dqd[(j, j)] = -servo.kd;
                     }
                 }
             }
@@ -1532,8 +1532,8 @@ impl Controller for BehaviourController {
         for (i, &j) in free_joints.iter().enumerate() {
             if let Some(p) = plan.program_of_joint.get(j).copied().flatten() {
                 let (_, (kp_f, kd_f)) = self.free_law(p, t, q);
-                out.dfree_dq[(i, j)] = -kp_f;
-                out.dfree_dqd[(i, j)] = -kd_f;
+                out.dfree.dq[(i, j)] = -kp_f;
+                out.dfree.dqd[(i, j)] = -kd_f;
             }
         }
         true

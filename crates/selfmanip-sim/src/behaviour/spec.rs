@@ -3,6 +3,7 @@
 //! [`super::compile()`] checks against a robot and turns into a [`super::BehaviourController`].
 use crate::error::SimError;
 use crate::expr::Scalar;
+use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -296,29 +297,49 @@ pub enum Motion {
 
 impl Behaviour {
     pub fn from_toml_str(s: &str) -> Result<Self, SimError> {
-        toml::from_str(s).map_err(|e| SimError::Parse {
-            what: "behaviour".into(),
-            format: "toml",
-            message: e.to_string(),
-        })
+        parse_text("behaviour", "toml", s)
     }
 
     pub fn from_json_str(s: &str) -> Result<Self, SimError> {
-        serde_json::from_str(s).map_err(|e| SimError::Parse {
-            what: "behaviour".into(),
-            format: "json",
-            message: e.to_string(),
-        })
+        parse_text("behaviour", "json", s)
     }
 
     /// Reads a `.toml` or `.json` file (by extension).
     pub fn from_file(path: &std::path::Path) -> Result<Self, SimError> {
-        let text = read_text(path)?;
-        match path.extension().and_then(|e| e.to_str()) {
-            Some("json") => Self::from_json_str(&text),
-            _ => Self::from_toml_str(&text),
-        }
+        read_file("behaviour", path)
     }
+}
+
+/// Parses `text` in `format` (`"toml"` or `"json"`) as a `what` (`"behaviour"`,
+/// `"scenario"`); the error names both.
+pub(crate) fn parse_text<T: DeserializeOwned>(
+    what: &str,
+    format: &'static str,
+    text: &str,
+) -> Result<T, SimError> {
+    let parsed = if format == "json" {
+        serde_json::from_str(text).map_err(|e| e.to_string())
+    } else {
+        toml::from_str(text).map_err(|e| e.to_string())
+    };
+    parsed.map_err(|message| SimError::Parse {
+        what: what.into(),
+        format,
+        message,
+    })
+}
+
+/// Reads a `.toml` or `.json` file (by extension) as a `what` ([`parse_text`]).
+pub(crate) fn read_file<T: DeserializeOwned>(
+    what: &str,
+    path: &std::path::Path,
+) -> Result<T, SimError> {
+    let text = read_text(path)?;
+    let format = match path.extension().and_then(|e| e.to_str()) {
+        Some("json") => "json",
+        _ => "toml",
+    };
+    parse_text(what, format, &text)
 }
 
 /// The text of a file (an empty file is an error naming the file, not a parse error).
