@@ -56,11 +56,7 @@ fn body_friction_changes_only_the_body_ends_of_the_description() {
 
 #[test]
 fn leap_whose_body_ends_lift_before_sliding_is_the_default_one() {
-    let params = RhexParams {
-        mu_body: Some(0.3),
-        ..leap_params()
-    };
-    let (r0, r1) = default_leap_and(&params);
+    let (r0, r1) = default_leap_and(|p| p.mu_body = Some(0.3));
     assert_eq!(r0.word, r1.word);
     assert_eq!(r0.word[..2], ["1010".to_string(), "0101".to_string()]);
     let (a0, a1) = (r0.apex.unwrap(), r1.apex.unwrap());

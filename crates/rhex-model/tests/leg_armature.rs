@@ -111,11 +111,7 @@ fn a_massive_leaps_legs_carry_the_armature_and_massless_legs_stay_massless() {
 
 #[test]
 fn the_default_leap_is_the_same_with_an_explicit_zero_armature() {
-    let zero = RhexParams {
-        leg_armature_kg_m2: Some(0.0),
-        ..leap_params()
-    };
-    let (a, b) = default_leap_and(&zero);
+    let (a, b) = default_leap_and(|p| p.leg_armature_kg_m2 = Some(0.0));
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     assert_eq!(a.word, b.word);
     assert_eq!(bits(&a.execution.q), bits(&b.execution.q));

@@ -116,12 +116,14 @@ pub fn flat_quasi_static(
     quasi_static(model, data, &FlatGround, mode, q, t).unwrap()
 }
 
-/// The default leap of chapters 3 and 5 and the same leap of `params` (a variant of
-/// [`leap_params`] that should leap alike).
-pub fn default_leap_and(params: &RhexParams) -> (LeapResult, LeapResult) {
+/// The default leap of chapters 3 and 5 and the same leap of [`leap_params`] changed by
+/// `change` (a variant that should leap alike).
+pub fn default_leap_and(change: impl FnOnce(&mut RhexParams)) -> (LeapResult, LeapResult) {
     let cfg = LeapConfig::default();
+    let mut params = leap_params();
+    change(&mut params);
     let run = |p: &RhexParams| simulate_leap(p, &cfg).unwrap();
-    (run(&leap_params()), run(params))
+    (run(&leap_params()), run(&params))
 }
 
 /// The events of `exec` of kind `kind`, in order.
