@@ -16,8 +16,8 @@ use selfmanip_sim::behaviour::{
 pub use selfmanip_sim::drive::{CatalogDrive, GearedMotor, JointActuator, JointDrive};
 use selfmanip_sim::expr::Scalar;
 use selfmanip_sim::outcome::{BodyState, WordOptions};
-use selfmanip_sim::preset_run::farthest_above;
 pub use selfmanip_sim::preset_run::PresetRun;
+use selfmanip_sim::preset_run::{determinate_body_start, farthest_above};
 use selfmanip_sim::staggered::{LagReference, StaggeredRun, StaggeredScenario};
 use selfmanip_sim::sweep::BuildCache;
 use selfmanip_sim::terrain::TerrainSpec;
@@ -494,20 +494,10 @@ pub fn leap_start_pose(rhex: &Rhex, cfg: &LeapConfig) -> Result<Vec<f64>, RhexEr
 }
 
 /// The mode a leap starts in: `1010`; with Coulomb body ends (`RhexParams::mu_body`) the
-/// rear one starts sliding (both sticking is statically indeterminate).
+/// rear one starts sliding ([`determinate_body_start`]: both sticking is statically
+/// indeterminate).
 fn start_mode(rhex: &Rhex) -> Result<ContactMode, RhexError> {
-    let model = &rhex.model;
-    let mut mode0 = rhex.mode("1010")?;
-    let body_friction = model
-        .contacts
-        .iter()
-        .any(|c| c.link.is_none() && c.kinetic_mu > 0.0);
-    if let (true, Ok(rear)) = (body_friction, model.contact_index("rear_body")) {
-        if mode0.kind(rear) == Some(selfmanip_core::ContactKind::Stick) {
-            mode0 = mode0.with(rear, selfmanip_core::ContactKind::Slide);
-        }
-    }
-    Ok(mode0)
+    Ok(determinate_body_start(&rhex.model, rhex.mode("1010")?))
 }
 
 /// The presets a caller keeps for the leaps it runs (a sweep builds one per strategy and set

@@ -10,7 +10,7 @@ use crate::sensitivity_preset::{end_state_sensitivity, EndStateRequest, EndState
 use crate::terrain::TerrainSpec;
 use crate::{SimError, Trajectory};
 use nalgebra::DMatrix;
-use selfmanip_core::{ContactMode, Model};
+use selfmanip_core::{ContactKind, ContactMode, Model};
 use selfmanip_hybrid::sensitivity::Parameter;
 use selfmanip_hybrid::{EventKind, Execution, Termination};
 use std::sync::Arc;
@@ -136,6 +136,17 @@ impl PresetRun {
             self.time_offset_s,
         )
     }
+}
+
+/// `mode` with every sticking contact on the body but the first (by index) sliding: two
+/// sticking points on one rigid body leave the tangential force between them statically
+/// indeterminate, so a preset that starts resting on its body lets all but one slide.
+pub fn determinate_body_start(model: &Model, mode: ContactMode) -> ContactMode {
+    let on_body = |k: &usize| model.contacts[*k].link.is_none();
+    let stick = |k: &usize| mode.kind(*k) == Some(ContactKind::Stick);
+    let mut sticking = mode.active().filter(on_body).filter(stick);
+    sticking.next();
+    sticking.fold(mode, |m, k| m.with(k, ContactKind::Slide))
 }
 
 /// Of a preset's named parameters `(name, value, reference)`, the one farthest above its

@@ -3,8 +3,9 @@
 //! read in the first drive's frame (against fresh builds of each point and the touchdowns in
 //! their event lists), its touchdown timing (against its target), the balanced pitch's range
 //! (against a finer map), the liftoff-speed map (against its single poses), the splay
-//! derivative (against differences of the two-contact stance built by hand) and the takeoff
-//! maps by gear ratio (against one map per ratio).
+//! derivative (against differences of the two-contact stance built by hand), the takeoff
+//! maps by gear ratio (against one map per ratio) and a determinate start on the body
+//! (against the mode named by hand).
 use selfmanip_core::{ContactMode, Model};
 use selfmanip_hybrid::budget::NEVER;
 use selfmanip_hybrid::EventKind;
@@ -261,4 +262,29 @@ fn takeoffs_by_ratio_are_one_map_per_ratio() {
     assert_ne!(one_by_one[0].x_dot, one_by_one[2].x_dot);
     let bad = best_takeoffs_by_ratio(&m, &[5.0, -1.0], line, 'w', &[0.0], [-0.6, 0.6]);
     assert!(bad.is_err());
+}
+
+/// Resting on a sticking nose and tail, the tail starts sliding; sliding body contacts, a
+/// single sticking one and the toes are left as they are.
+#[test]
+fn a_start_on_two_sticking_body_contacts_slides_the_second() {
+    use selfmanip_core::description::FrictionDescription;
+    use selfmanip_sim::preset_run::determinate_body_start;
+    let mut d = test_robot("biped_point_toes.toml");
+    let sliding = d.clone().build().unwrap();
+    for c in d.contacts.iter_mut().filter(|c| c.leg.is_none()) {
+        c.friction = FrictionDescription::Sticking {
+            mu: Some(0.5),
+            mu_kinetic: Some(0.5),
+        };
+    }
+    let m = d.build().unwrap();
+    let mode = |m: &Model, s: &str| ContactMode::parse_names(m, s).unwrap();
+    let start = determinate_body_start(&m, mode(&m, "nose,tail"));
+    assert_eq!(start, mode(&m, "nose,tail:slide"));
+    for s in ["nose", "tail,front_toe,rear_toe", "front_toe,rear_toe"] {
+        assert_eq!(determinate_body_start(&m, mode(&m, s)), mode(&m, s), "{s}");
+    }
+    let both = mode(&sliding, "nose,tail");
+    assert_eq!(determinate_body_start(&sliding, both), both);
 }
