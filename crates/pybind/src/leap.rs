@@ -22,13 +22,14 @@ use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapResult, LegAc
 use rhex_model::leap_sensitivity::{
     check_sensitivity_names, leap_with_sensitivity, LeapSensitivity, APEX_COLUMNS,
 };
-use rhex_model::mcap_log::{q_names, write_leap_mcap, LeapLog};
+use rhex_model::mcap_log::{write_leap_mcap, LeapLog};
 use rhex_model::sweep::{
     actuator_field_names, check_override_names, error_kind, panic_message, point_inputs,
     sweepable_names, LeapPoint, SweepRow,
 };
 use rhex_model::{RhexError, RhexParams};
 use selfmanip_sim::sweep::run_parallel;
+use selfmanip_sim::trajectory::q_names;
 use selfmanip_sim::{EventRecord, SimError, Trajectory};
 use serde_json::{Map, Value};
 use std::collections::BTreeMap;
@@ -241,7 +242,7 @@ fn leap_run<'py>(
         d.set_item("word", res.word.clone())?;
         d.set_item("events", events_list(py, &res.events)?)?;
         d.set_item("q0", res.q0.clone().into_pyarray(py))?;
-        d.set_item("q_names", q_names(&params))?;
+        d.set_item("q_names", q_names(&res.leap.rhex.model))?;
         d.set_item("time_offset_s", res.time_offset_s)?;
         d.set_item("motor_t2_s", res.motor_t2_s)?;
         d.set_item("touchdown_t2_s", res.touchdown_t2_s)?;
@@ -328,7 +329,10 @@ fn sweep_row_of(outcome: PointOutcome) -> (SweepRow, Option<(bool, Vec<f64>)>) {
             None,
         ),
         Ok(Err(e)) => (SweepRow::failed(error_kind(&e), error_message(&e), 1), None),
-        Ok(Ok((r, why, g, sens))) => (r.row(why, g), sens),
+        Ok(Ok((r, why, g, sens))) => (
+            SweepRow::of_run(&r.outcome, r.flew, r.apex, why, vec![g]),
+            sens,
+        ),
     }
 }
 
@@ -651,13 +655,12 @@ fn leap_write_mcap(
     errors::guard(|| {
         let params: RhexParams = serde_json::from_value(Value::Object(to_map(params, "params")?))
             .map_err(|e| invalid("params", format!("params: {e}")))?;
-        params
-            .validate()
-            .map_err(|e| errors::rhex(e, Source::Caller))?;
+        let rhex =
+            rhex_model::Rhex::new(params.clone()).map_err(|e| errors::rhex(e, Source::Caller))?;
         let n = t_s.len();
         let nc = contacts.len();
         let tr = Trajectory {
-            q_names: q_names(&params),
+            q_names: q_names(&rhex.model),
             tau: Vec::new(),
             q: rows_from(&q, "q", n)?,
             qd: rows_from(&qd, "qd", n)?,

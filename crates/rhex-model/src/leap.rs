@@ -9,7 +9,7 @@ use crate::params::{LegPair, RhexParams};
 use crate::{Rhex, RhexError};
 use motor::Actuator;
 use selfmanip_core::ContactMode;
-use selfmanip_sim::analysis::angle_to_ground;
+use selfmanip_sim::analysis::{angle_to_ground, body_reach_m};
 use selfmanip_sim::behaviour::{
     ActuatorSpec, Behaviour, JointProgram, Motion, NamedEvent, On, Phase, Torque, Trigger,
 };
@@ -17,10 +17,11 @@ pub use selfmanip_sim::drive::{CatalogDrive, GearedMotor, JointActuator, JointDr
 use selfmanip_sim::expr::Scalar;
 use selfmanip_sim::outcome::{BodyState, WordOptions};
 pub use selfmanip_sim::preset_run::PresetRun;
-use selfmanip_sim::staggered::{staggered_frame, touchdown_lag_s, LagReference, StaggeredScenario};
+use selfmanip_sim::preset_run::{determinate_body_start, farthest_above};
+use selfmanip_sim::staggered::{LagReference, StaggeredRun, StaggeredScenario};
 use selfmanip_sim::sweep::BuildCache;
 use selfmanip_sim::terrain::TerrainSpec;
-use selfmanip_sim::{InitialState, Run, Scenario, SimOptions};
+use selfmanip_sim::{InitialState, Scenario, SimOptions};
 use selfmanip_sim::{Simulation, Trajectory};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
@@ -280,12 +281,7 @@ impl LeapConfig {
     /// Checks every field (errors name it); the run's options as the generic simulator
     /// checks them ([`SimOptions::hybrid`]).
     pub fn validate(&self) -> Result<(), RhexError> {
-        let bad = |field: &str, reason: String| {
-            Err(RhexError::InvalidValue {
-                field: field.into(),
-                reason,
-            })
-        };
+        let bad = |field: &str, reason: String| Err(RhexError::invalid(field, reason));
         if !self.t2_s.is_finite() {
             return bad("t2_s", format!("must be finite, got {}", self.t2_s));
         }
@@ -299,10 +295,9 @@ impl LeapConfig {
             }
         }
         self.sim_options(0.0).hybrid().map_err(|e| match e {
-            selfmanip_sim::SimError::InvalidValue { field, reason } => RhexError::InvalidValue {
-                field: field.trim_start_matches("options.").into(),
-                reason,
-            },
+            selfmanip_sim::SimError::InvalidValue { field, reason } => {
+                RhexError::invalid(field.trim_start_matches("options."), reason)
+            }
             e => e.into(),
         })?;
         // the free legs' tracking law differences two values of the swing's size
@@ -419,25 +414,15 @@ pub(crate) fn armature_follows_gear(params: &RhexParams) -> bool {
 }
 
 /// The mass or inertia parameter that makes a start state overflow: the one farthest above
-/// its Table 4.2 value (scaled by at least 1, so that a massless leg's `m_l = 0` compares).
+/// its Table 4.2 value ([`farthest_above`]: a massless leg's `m_l = 0` compares).
 fn overflowing_parameter(params: &RhexParams) -> &'static str {
     let table = RhexParams::default();
-    [
+    farthest_above(&[
         ("m_b", params.m_b, table.m_b),
         ("I_b", params.I_b, table.I_b),
         ("m_l", params.m_l, table.m_l),
         ("I_l", params.I_l, table.I_l),
-    ]
-    .into_iter()
-    .map(|(name, v, t)| (name, v.abs() / t.abs().max(1.0)))
-    .fold(("m_b", f64::NEG_INFINITY), |best, c| {
-        if c.1 > best.1 {
-            c
-        } else {
-            best
-        }
-    })
-    .0
+    ])
 }
 
 /// How a leg swings in the air while its motor is on, `(speed, acceleration bound)`: the
@@ -458,10 +443,8 @@ pub fn leg_swing(params: &RhexParams, cfg: &LeapConfig) -> Result<(f64, f64), Rh
 pub fn leap_rhex(params: &RhexParams, cfg: &LeapConfig) -> Result<Rhex, RhexError> {
     let pairs = cfg.pairs.unwrap_or(cfg.strategy.chapter3_pairs());
     if pairs[0] == pairs[1] {
-        return Err(RhexError::InvalidValue {
-            field: "pairs".into(),
-            reason: "a leap strategy drives two different leg pairs".into(),
-        });
+        let reason = "a leap strategy drives two different leg pairs";
+        return Err(RhexError::invalid("pairs", reason));
     }
     params.validate()?;
     Rhex::new(RhexParams {
@@ -483,23 +466,14 @@ pub fn leap_start_pose(rhex: &Rhex, cfg: &LeapConfig) -> Result<Vec<f64>, RhexEr
     if let TerrainSpec::Ledge { distance_m, .. } = terrain {
         // the face must be clear of a body end, or a leg turned straight towards it
         let side = distance_m.signum();
-        let reach = params
-            .ordered_pairs()
-            .iter()
-            .map(|&p| side * params.hip_x(p) + params.rho(p))
-            .fold(
-                if side > 0.0 { params.l1 } else { params.l2 } + params.rho_b,
-                f64::max,
-            );
+        let reach = body_reach_m(&rhex.model, side);
         if distance_m.abs() <= reach {
-            return Err(RhexError::InvalidValue {
-                field: "terrain.distance_m".into(),
-                reason: format!(
-                    "the ledge's face must be beyond the robot's reach at the start \
-                     ({reach:.3} m {} the body centre), got {distance_m}",
-                    if side > 0.0 { "ahead of" } else { "behind" }
-                ),
-            });
+            let reason = format!(
+                "the ledge's face must be beyond the robot's reach at the start \
+                 ({reach:.3} m {} the body centre), got {distance_m}",
+                if side > 0.0 { "ahead of" } else { "behind" }
+            );
+            return Err(RhexError::invalid("terrain.distance_m", reason));
         }
     }
     let sign = [cfg.strategy.front.sign(), cfg.strategy.rear.sign()];
@@ -509,11 +483,10 @@ pub fn leap_start_pose(rhex: &Rhex, cfg: &LeapConfig) -> Result<Vec<f64>, RhexEr
         // from pointing up (clear) to pointing down (through the ground)
         let up = -sign[i] * (PI - 1e-9);
         let touchdown = angle_to_ground(&rhex.model, &terrain, &q0, i, contact, up, 0.0)
-            .ok_or_else(|| RhexError::InvalidValue {
-                field: "rho_b".into(),
-                reason:
-                    "a leg pointing straight down must reach the ground from the sitting posture"
-                        .into(),
+            .ok_or_else(|| {
+                let reason = "a leg pointing straight down must reach the ground from the \
+                              sitting posture";
+                RhexError::invalid("rho_b", reason)
             })?;
         q0[i] = touchdown - sign[i] * cfg.wait_clearance_rad;
     }
@@ -521,20 +494,10 @@ pub fn leap_start_pose(rhex: &Rhex, cfg: &LeapConfig) -> Result<Vec<f64>, RhexEr
 }
 
 /// The mode a leap starts in: `1010`; with Coulomb body ends (`RhexParams::mu_body`) the
-/// rear one starts sliding (both sticking is statically indeterminate).
+/// rear one starts sliding ([`determinate_body_start`]: both sticking is statically
+/// indeterminate).
 fn start_mode(rhex: &Rhex) -> Result<ContactMode, RhexError> {
-    let model = &rhex.model;
-    let mut mode0 = rhex.mode("1010")?;
-    let body_friction = model
-        .contacts
-        .iter()
-        .any(|c| c.link.is_none() && c.kinetic_mu > 0.0);
-    if let (true, Ok(rear)) = (body_friction, model.contact_index("rear_body")) {
-        if mode0.kind(rear) == Some(selfmanip_core::ContactKind::Stick) {
-            mode0 = mode0.with(rear, selfmanip_core::ContactKind::Slide);
-        }
-    }
-    Ok(mode0)
+    Ok(determinate_body_start(&rhex.model, rhex.mode("1010")?))
 }
 
 /// The presets a caller keeps for the leaps it runs (a sweep builds one per strategy and set
@@ -553,13 +516,9 @@ impl Presets {
         cfg: &LeapConfig,
         stop: &AtomicBool,
     ) -> Result<LeapResult, RhexError> {
-        let actuator = match cfg.actuator {
-            LegActuator::GearedMotor { .. } => X_RHEX_LEG.actuator(),
-            LegActuator::SaturatedTorque => LegActuator::SaturatedTorque,
-        };
         let key = LeapConfig {
             t2_s: 0.0,
-            actuator,
+            actuator: X_RHEX_LEG.of_kind(&cfg.actuator),
             ..cfg.clone()
         };
         let build = || LeapPreset::new(params, cfg).map(LeapPreset::without_event_records);
@@ -586,7 +545,7 @@ impl Presets {
 /// }
 /// # Ok::<(), rhex_model::RhexError>(())
 /// ```
-#[derive(Clone)]
+#[derive(Clone, Debug)]
 pub struct LeapPreset {
     pub cfg: LeapConfig,
     pub q0: Vec<f64>,
@@ -596,18 +555,6 @@ pub struct LeapPreset {
     params: RhexParams,
     /// The simulation of `cfg`'s point ([`StaggeredScenario`]: the rear motor `t2` later).
     sim: StaggeredScenario,
-    /// Its results carry [`PresetRun::events`] (a sweep that reads only rows does without).
-    event_records: bool,
-}
-
-impl std::fmt::Debug for LeapPreset {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("LeapPreset")
-            .field("cfg", &self.cfg)
-            .field("q0", &self.q0)
-            .field("leap", &self.leap)
-            .finish_non_exhaustive()
-    }
 }
 
 impl LeapPreset {
@@ -639,29 +586,22 @@ impl LeapPreset {
         sim.options.max_steps = cfg.max_steps;
         sim.options.max_events = cfg.max_events;
         sim.options.control_free_joints = cfg.control_free_joints;
-        let sim = StaggeredScenario {
-            sim,
-            lag_parameter: "t2",
-            built_lag_s: cfg.t2_s,
-            t_final_s: cfg.t_final_s,
-        };
+        let toes = [leap.rhex.site(1), leap.rhex.site(3)];
+        let sim = StaggeredScenario::new(sim, "t2", cfg.t2_s, cfg.t_final_s, toes);
         Ok(LeapPreset {
             cfg: cfg.clone(),
             q0,
             leap: Arc::new(leap),
             params: params.clone(),
             sim,
-            event_records: true,
         })
     }
 
     /// This preset with results that carry no event records ([`PresetRun::events`] empty,
     /// [`LeapResult::reason`] names the start's mode), everything else bit for bit.
-    pub fn without_event_records(self) -> Self {
-        LeapPreset {
-            event_records: false,
-            ..self
-        }
+    pub fn without_event_records(mut self) -> Self {
+        self.sim.event_records = false;
+        self
     }
 
     /// The simulation of the leap with the rear motor starting `motor_t2_s` after the front
@@ -674,18 +614,21 @@ impl LeapPreset {
     /// ([`StaggeredScenario::run_from`]: the waiting legs hold the unperturbed pose).
     pub(crate) fn run_from(&self, start_offset: Option<&[f64]>) -> Result<LeapResult, RhexError> {
         let t2 = self.cfg.t2_s;
-        Ok(self.result(self.sim.run_from(t2, start_offset)?, t2))
+        let rhex = &self.leap.rhex;
+        let run = self.sim.run_from(t2, start_offset)?;
+        Ok(self.result(self.sim.read(run, t2, &|m| rhex.label(m))))
     }
 
     /// Runs the leap with the rear motor starting `motor_t2_s` after the front one.
     pub fn run(&self, motor_t2_s: f64, stop: &AtomicBool) -> Result<LeapResult, RhexError> {
-        Ok(self.result(self.sim.run(&[], motor_t2_s, stop)?, motor_t2_s))
+        let reference = T2Reference::MotorStart;
+        self.run_point(&[], motor_t2_s, reference, stop)
     }
 
     /// Runs the leap as `cfg.t2_reference` says: the motor start `t2`, or the touchdown
     /// offset `t2` by a search over motor starts.
     pub fn run_leap(&self, stop: &AtomicBool) -> Result<LeapResult, RhexError> {
-        self.run_point(&[], self.cfg.t2_s, stop)
+        self.run_point(&[], self.cfg.t2_s, self.cfg.t2_reference, stop)
     }
 
     /// The leap of the point `(t2_s, actuator)`: what [`simulate_leap_with`] gives with
@@ -715,56 +658,35 @@ impl LeapPreset {
                 && leap_leg_armature(&self.params, &point)?
                     == leap_leg_armature(&self.params, &self.cfg)?);
         if !same_robot {
-            let fresh = LeapPreset {
-                event_records: self.event_records,
-                ..LeapPreset::new(&self.params, &point)?
-            };
+            let mut fresh = LeapPreset::new(&self.params, &point)?;
+            fresh.sim.event_records = self.sim.event_records;
             return fresh.run_leap(stop);
         }
         let values = if same { Vec::new() } else { actuator.values() };
-        self.run_point(&values, t2_s, stop)
+        self.run_point(&values, t2_s, self.cfg.t2_reference, stop)
     }
 
-    /// The leap with the behaviour parameters `values` bound, at `t2` timed as
-    /// `cfg.t2_reference` says ([`LagReference::run`]).
+    /// The leap with the behaviour parameters `values` bound, at `t2` timed as `reference`
+    /// says ([`StaggeredScenario::run_timed`]).
     fn run_point(
         &self,
         values: &[(&str, f64)],
         t2_s: f64,
+        reference: T2Reference,
         stop: &AtomicBool,
     ) -> Result<LeapResult, RhexError> {
-        self.cfg.t2_reference.run(t2_s, self.cfg.t_final_s, |s| {
-            let r = self.result(self.sim.run(values, s, stop)?, s);
-            let lag = r.touchdown_t2_s;
-            Ok((r, lag))
-        })
+        let rhex = &self.leap.rhex;
+        let label = |m: ContactMode| rhex.label(m);
+        let run = self.sim.run_timed(values, t2_s, reference, stop, &label)?;
+        Ok(self.result(run))
     }
 
-    /// The leap's result read off the generic run, with the rear motor starting `motor_t2_s`
-    /// after the front one, the front one at `front_start` on its clock.
-    fn result(&self, (run, front_start): (Run, f64), motor_t2_s: f64) -> LeapResult {
-        let (exec, outcome) = (run.execution, run.outcome);
-        let rhex = &self.leap.rhex;
-        let x0 = self.q0[self.q0.len() - 3];
-        let frame = staggered_frame(front_start, motor_t2_s, x0, self.cfg.stop_at_apex);
-        let toes = [rhex.site(1), rhex.site(3)];
-        let touchdown_t2_s = touchdown_lag_s(&exec, toes, front_start, motor_t2_s);
-        let (q0, t_final_s, terrain) = (self.q0.clone(), self.cfg.t_final_s, &self.cfg.terrain);
-        let label = |m: ContactMode| rhex.label(m);
-        let run = (exec, outcome);
+    /// The leap's result of its staggered run (the rear motor `t2` after the front one).
+    fn result(&self, r: StaggeredRun) -> LeapResult {
         LeapResult {
-            run: PresetRun::read(
-                &rhex.model,
-                terrain,
-                &label,
-                run,
-                frame,
-                q0,
-                t_final_s,
-                self.event_records,
-            ),
-            motor_t2_s,
-            touchdown_t2_s,
+            run: r.run,
+            motor_t2_s: r.lag_s,
+            touchdown_t2_s: r.touchdown_lag_s,
             leap: Arc::clone(&self.leap),
         }
     }
@@ -791,25 +713,19 @@ impl LeapResult {
     /// Why the leap did not fly, in words (empty when it [flew](PresetRun::flew)):
     /// [`PresetRun::reason`] with the leap's contacts, from `1010`.
     pub fn reason(&self) -> String {
-        let stop_at_apex = self.leap.scenario.options.stop_at_apex;
-        self.run.reason(&self.leap.rhex.model, stop_at_apex, "1010")
+        self.run.reason("1010")
     }
 
     /// Energy bookkeeping of the leap (motor work, impact losses, start and end energy).
     pub fn energy_report(&self) -> Result<selfmanip_hybrid::EnergyReport, RhexError> {
-        let leap = &self.leap;
-        Ok(self
-            .run
-            .energy_report(&leap.rhex.model, &leap.scenario.terrain)?)
+        Ok(self.run.energy_report()?)
     }
 
     /// Samples the leap every `dt_s` seconds (and at its end), times from the front leg's
     /// start ([`PresetRun::trajectory`]).
     pub fn trajectory(&self, dt_s: f64) -> Result<Trajectory, RhexError> {
-        let (rhex, terrain) = (&self.leap.rhex, &self.leap.scenario.terrain);
-        Ok(self
-            .run
-            .trajectory(&rhex.model, terrain, &|m| rhex.label(m), dt_s)?)
+        let rhex = &self.leap.rhex;
+        Ok(self.run.trajectory(&|m| rhex.label(m), dt_s)?)
     }
 }
 

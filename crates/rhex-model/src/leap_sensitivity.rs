@@ -46,108 +46,54 @@ pub type LeapSensitivity = ApexSensitivity<LeapResult>;
 /// Checks the parameter names of a sensitivity request against a leap configuration; the
 /// error names the first unknown (or inapplicable) one.
 pub fn check_sensitivity_names(cfg: &LeapConfig, names: &[&str]) -> Result<(), RhexError> {
-    resolve(cfg, names).map(|_| ())
+    names
+        .iter()
+        .try_for_each(|n| engine_terms(n, cfg, None).map(|_| ()))
 }
 
-/// A parameter of a leap, by the name it was asked for.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum LeapParameter<'a> {
-    T2,
-    GearRatio,
-    BodyMass,
-    BodyInertia,
-    /// The armature of every leg joint at once.
-    LegArmature,
-    /// A behaviour parameter by its name: a loss option of the geared motor, or the
-    /// compliant leg's stiffness or damping (`leg_stiffness`, `leg_damping`: the knee law's
-    /// gains, [`selfmanip_sim::compliant_leg`]).
-    Behaviour(&'a str),
-    /// A leg pair's toe friction coefficient (static, and kinetic with Coulomb toes).
-    ToeFriction(LegPair),
-    /// The pseudo-impulse's `δt` ([`Parameter::PseudoImpulseDuration`]).
-    PseudoImpulse,
-}
-
-fn resolve<'a>(cfg: &LeapConfig, names: &[&'a str]) -> Result<Vec<LeapParameter<'a>>, RhexError> {
+/// The engine's parameters behind the leap's parameter `name`, with the weights that make its
+/// derivative the sum of theirs, on the leap's robot `leap = (params, model)`; with `None`,
+/// only whether a leap of `cfg` has the parameter (errors name it). A behaviour parameter is
+/// itself (`t2`, a loss option of the geared motor, the compliant leg's `leg_stiffness` and
+/// `leg_damping`, [`selfmanip_sim::compliant_leg`]). The gear ratio moves the motors' torque
+/// line and the servo (a behaviour parameter) and, on legs that carry their rotors
+/// ([`crate::leap::armature_follows_gear`]), each leg joint's armature `a = n J G²`:
+/// `d/dG = ∂/∂G + Σ_j (2 a_j / G) ∂/∂a_j` (the behaviour's `∂/∂G` has the servo's damping,
+/// critical for the leg's inertia with `a`, move with it). The legs' armature is every leg
+/// joint's at once, `Σ_j ∂/∂a_j` plus the behaviour's (the same damping), a parameter only
+/// of legs that have one. A toe's friction is static, and kinetic with Coulomb toes.
+fn engine_terms(
+    name: &str,
+    cfg: &LeapConfig,
+    leap: Option<(&RhexParams, &selfmanip_core::Model)>,
+) -> Result<Option<Vec<(Parameter, f64)>>, RhexError> {
     let geared = matches!(cfg.actuator, LegActuator::GearedMotor { .. });
-    let unsupported = |field: &str, reason: &str| {
+    let unsupported = |reason: &str| {
         Err(RhexError::Unsupported {
-            field: field.into(),
+            field: name.into(),
             reason: reason.into(),
         })
     };
-    names
-        .iter()
-        .map(|&n| match n {
-            "t2" | "t2_s" => Ok(LeapParameter::T2),
-            "gear_ratio" if geared => Ok(LeapParameter::GearRatio),
-            "gearbox_efficiency" | "battery_resistance_ohm" if geared => {
-                Ok(LeapParameter::Behaviour(n))
-            }
-            "gear_ratio" => unsupported(
-                n,
-                "the saturated-torque actuator has no gear ratio to differentiate",
-            ),
-            "gearbox_efficiency" | "battery_resistance_ohm" => {
-                unsupported(n, "the saturated-torque actuator has no drive losses")
-            }
-            "leg_stiffness" | "leg_damping" if cfg.compliant_leg.is_some() => {
-                Ok(LeapParameter::Behaviour(n))
-            }
-            "leg_stiffness" | "leg_damping" => {
-                unsupported(n, "the leap's legs are rigid (set `compliant_leg`)")
-            }
-            "m_b" => Ok(LeapParameter::BodyMass),
-            "I_b" => Ok(LeapParameter::BodyInertia),
-            "leg_armature_kg_m2" => Ok(LeapParameter::LegArmature),
-            "mu_front" => Ok(LeapParameter::ToeFriction(LegPair::Front)),
-            "mu_middle" => Ok(LeapParameter::ToeFriction(LegPair::Middle)),
-            "mu_rear" => Ok(LeapParameter::ToeFriction(LegPair::Rear)),
-            "delta_t_s" if cfg.delta_t_s > 0.0 => Ok(LeapParameter::PseudoImpulse),
-            "delta_t_s" => unsupported(
-                n,
-                "at δt = 0 the impact takes the limit δt → 0⁺, another rule: the derivative \
-                 there is one-sided (differentiated at a positive δt)",
-            ),
-            other => Err(RhexError::UnknownParameter {
-                field: other.into(),
-                known: SENSITIVITY_PARAMETERS.join(", "),
-            }),
-        })
-        .collect()
-}
-
-/// The engine's parameters behind a leap's, with the weights that make its derivative the
-/// sum of theirs. The gear ratio moves the motors' torque line and the servo (a behaviour
-/// parameter) and, on legs that carry their rotors ([`crate::leap::armature_follows_gear`]),
-/// each leg joint's armature `a = n J G²`: `d/dG = ∂/∂G + Σ_j (2 a_j / G) ∂/∂a_j` (the
-/// behaviour's `∂/∂G` has the servo's damping, critical for the leg's inertia with `a`, move
-/// with it). The legs' armature is every leg joint's at once, `Σ_j ∂/∂a_j` plus the
-/// behaviour's (the same damping), a parameter only of legs that have one.
-fn engine_terms(
-    p: LeapParameter<'_>,
-    params: &RhexParams,
-    cfg: &LeapConfig,
-    model: &selfmanip_core::Model,
-) -> Result<Vec<(Parameter, f64)>, RhexError> {
-    Ok(match p {
-        LeapParameter::T2 => vec![(Parameter::Controller("t2".into()), 1.0)],
-        LeapParameter::BodyMass => vec![(Parameter::Body(BodyParameter::Mass), 1.0)],
-        LeapParameter::BodyInertia => vec![(Parameter::Body(BodyParameter::Inertia), 1.0)],
-        LeapParameter::Behaviour(name) => vec![(Parameter::Controller(name.into()), 1.0)],
-        LeapParameter::PseudoImpulse => vec![(Parameter::PseudoImpulseDuration, 1.0)],
-        LeapParameter::ToeFriction(pair) => {
-            let coulomb = params.toe_sliding == ToeSliding::Coulomb;
-            let toe = contact_friction(model, &format!("{}_leg", pair.name()), coulomb);
-            let field = format!("mu_{}", pair.name());
-            vec![(
-                toe.map_err(|reason| RhexError::Unsupported { field, reason })?,
-                1.0,
-            )]
-        }
-        LeapParameter::GearRatio => {
+    let one = |p: Parameter| Ok(leap.map(|_| vec![(p, 1.0)]));
+    let toe = |pair: LegPair| {
+        let Some((params, model)) = leap else {
+            return Ok(None);
+        };
+        let coulomb = params.toe_sliding == ToeSliding::Coulomb;
+        let toe = contact_friction(model, &format!("{}_leg", pair.name()), coulomb);
+        let field = name.to_string();
+        Ok(Some(vec![(
+            toe.map_err(|reason| RhexError::Unsupported { field, reason })?,
+            1.0,
+        )]))
+    };
+    match name {
+        "t2" | "t2_s" => one(Parameter::Controller("t2".into())),
+        "gear_ratio" if geared => {
+            let Some((params, model)) = leap else {
+                return Ok(None);
+            };
             let mut t = vec![(Parameter::Controller("gear_ratio".into()), 1.0)];
-            // geared (`resolve` refuses others)
             if let (true, Some(g)) = (
                 crate::leap::armature_follows_gear(params),
                 cfg.actuator.gear_ratio(),
@@ -155,24 +101,54 @@ fn engine_terms(
                 let a = crate::leap::leg_armature(params, cfg)?;
                 t.extend(armature_terms(model, 2.0 * a / g));
             }
-            t
+            Ok(Some(t))
         }
-        LeapParameter::LegArmature => {
+        "gearbox_efficiency" | "battery_resistance_ohm" if geared => {
+            one(Parameter::Controller(name.into()))
+        }
+        "gear_ratio" => {
+            unsupported("the saturated-torque actuator has no gear ratio to differentiate")
+        }
+        "gearbox_efficiency" | "battery_resistance_ohm" => {
+            unsupported("the saturated-torque actuator has no drive losses")
+        }
+        "leg_stiffness" | "leg_damping" if cfg.compliant_leg.is_some() => {
+            one(Parameter::Controller(name.into()))
+        }
+        "leg_stiffness" | "leg_damping" => {
+            unsupported("the leap's legs are rigid (set `compliant_leg`)")
+        }
+        "m_b" => one(Parameter::Body(BodyParameter::Mass)),
+        "I_b" => one(Parameter::Body(BodyParameter::Inertia)),
+        "leg_armature_kg_m2" => {
+            let Some((params, model)) = leap else {
+                return Ok(None);
+            };
             if crate::leap::leg_armature(params, cfg)? <= 0.0 {
-                return Err(RhexError::Unsupported {
-                    field: "leg_armature_kg_m2".into(),
-                    reason: "the legs have no armature (massless legs without their rotors): \
-                             at zero a massless leg leaves the dynamics, so the armature is \
-                             not a parameter of this leap"
-                        .into(),
-                });
+                return unsupported(
+                    "the legs have no armature (massless legs without their rotors): at zero \
+                     a massless leg leaves the dynamics, so the armature is not a parameter \
+                     of this leap",
+                );
             }
             let mut t = armature_terms(model, 1.0);
             // the servo is critically damped for the leg's inertia with its armature
             t.push((Parameter::Controller("leg_armature_kg_m2".into()), 1.0));
-            t
+            Ok(Some(t))
         }
-    })
+        "mu_front" => toe(LegPair::Front),
+        "mu_middle" => toe(LegPair::Middle),
+        "mu_rear" => toe(LegPair::Rear),
+        "delta_t_s" if cfg.delta_t_s > 0.0 => one(Parameter::PseudoImpulseDuration),
+        "delta_t_s" => unsupported(
+            "at δt = 0 the impact takes the limit δt → 0⁺, another rule: the derivative there \
+             is one-sided (differentiated at a positive δt)",
+        ),
+        other => Err(RhexError::UnknownParameter {
+            field: other.into(),
+            known: SENSITIVITY_PARAMETERS.join(", "),
+        }),
+    }
 }
 
 /// Runs one leap ([`crate::leap::simulate_leap`] with `control_free_joints = true`, the same
@@ -197,7 +173,7 @@ pub fn leap_with_sensitivity_from(
     start_offset: Option<&[f64]>,
     directions: Option<&DMatrix<f64>>,
 ) -> Result<LeapSensitivity, RhexError> {
-    let ps = resolve(cfg, names)?;
+    check_sensitivity_names(cfg, names)?;
     // the free legs' touchdowns are resolved to the tolerances (see the module docs)
     // and the drive's loss options asked for are the behaviour's parameters (the same leap)
     let cfg = &LeapConfig {
@@ -226,17 +202,17 @@ pub fn leap_with_sensitivity_from(
     let model = &preset.leap.rhex.model;
     let dirs = start_directions(model, directions)?;
     let result = preset.run_from(start_offset)?;
-    let d_origin: Vec<f64> = ps
+    let d_origin: Vec<f64> = names
         .iter()
-        .map(|p| match p {
-            LeapParameter::T2 => d_first_start_d_lag(cfg.t2_s),
+        .map(|n| match *n {
+            "t2" | "t2_s" => d_first_start_d_lag(cfg.t2_s),
             _ => 0.0,
         })
         .collect();
-    let named = ps
+    let named = names
         .iter()
-        .map(|&p| engine_terms(p, params, cfg, model))
-        .collect::<Result<Vec<_>, _>>()?;
+        .map(|n| Ok(engine_terms(n, cfg, Some((params, model)))?.unwrap_or_default()))
+        .collect::<Result<Vec<_>, RhexError>>()?;
     let terrain = &cfg.terrain;
     let mut s = ApexSensitivity::at_apex(result, model, terrain, &dirs, &named, names, &d_origin);
     let motor = X_RHEX_LEG.motor(&cfg.actuator);

@@ -59,6 +59,14 @@ pub enum RhexError {
 }
 
 impl RhexError {
+    /// The value of `field` is outside its domain: `reason`.
+    pub fn invalid(field: &str, reason: impl Into<String>) -> Self {
+        RhexError::InvalidValue {
+            field: field.into(),
+            reason: reason.into(),
+        }
+    }
+
     /// The input at fault, for an error of the caller's input: a parameter or setting by
     /// name, `mode` for a bad mode label; `None` for a failure of the engine.
     pub fn field(&self) -> Option<&str> {

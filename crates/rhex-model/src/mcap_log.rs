@@ -1,6 +1,7 @@
 //! RHex leap logs as MCAP files: a leap's trajectory and events through the generic writer
 //! of [`selfmanip_sim::mcap`] (its topics and schemas), with the leg frames named after the
-//! pairs (`<pair>_hip`) and the `q` names of a leap (`<pair>_theta`, `x`, `z`, `phi`).
+//! pairs (`<pair>_hip`); a leap's `q` names are the generic ones
+//! ([`selfmanip_sim::trajectory::q_names`]: `<pair>_theta`, `x`, `z`, `phi`).
 use crate::params::RhexParams;
 use crate::{Rhex, RhexError};
 use selfmanip_sim::events::EventRecord;
@@ -19,17 +20,6 @@ pub struct LeapLog<'a> {
     pub params: &'a RhexParams,
     /// Written as the `selfmanip` metadata record.
     pub metadata: BTreeMap<String, String>,
-}
-
-/// Coordinate names of a leap's `q`: `<pair>_theta` in body order, then `x`, `z`, `phi`.
-pub fn q_names(params: &RhexParams) -> Vec<String> {
-    let mut v: Vec<String> = params
-        .ordered_pairs()
-        .iter()
-        .map(|p| format!("{}_theta", p.name()))
-        .collect();
-    v.extend(["x", "z", "phi"].map(String::from));
-    v
 }
 
 /// The generic log of a leap log: the robot of `params`, its frames, its samples.

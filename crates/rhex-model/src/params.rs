@@ -125,12 +125,7 @@ impl RhexParams {
 
     /// Checks every field (names in errors are the Table 4.2 symbols).
     pub fn validate(&self) -> Result<(), crate::RhexError> {
-        let bad = |f: &str, r: &str| {
-            Err(crate::RhexError::InvalidValue {
-                field: f.into(),
-                reason: r.into(),
-            })
-        };
+        let bad = |f: &str, r: &str| Err(crate::RhexError::invalid(f, r));
         let fields = [
             ("m_b", self.m_b),
             ("I_b", self.I_b),

@@ -9,7 +9,7 @@
 use crate::modes::Rhex;
 use crate::RhexError;
 use selfmanip_core::ContactMode;
-use selfmanip_sim::analysis::balance_map::{balanced_pose, torus_map};
+use selfmanip_sim::analysis::balance_map::{balanced_pose, torus_map, BalancedPose};
 pub use selfmanip_sim::analysis::balance_map::{Support, MAX_MAP_N};
 use serde::Serialize;
 
@@ -44,12 +44,16 @@ fn sides(rhex: &Rhex) -> Option<[[usize; 2]; 2]> {
     ])
 }
 
-/// Pitch and supports for legs `(θ₁, θ₂)` ([`balanced_pose`]); `None` for a model without
-/// exactly two pairs or where no pitch in (−π/2, π/2) balances the two sides.
-pub fn quasi_static_pose(rhex: &Rhex, theta1: f64, theta2: f64) -> Option<QuasiStaticPose> {
+/// The generic pose for legs `(θ₁, θ₂)` on RHex's two sides ([`balanced_pose`]); `None` for
+/// a model without exactly two pairs or where no pitch in (−π/2, π/2) balances the sides.
+pub fn balanced(rhex: &Rhex, theta1: f64, theta2: f64) -> Option<BalancedPose> {
     let [front, rear] = sides(rhex)?;
-    let q = [theta1, theta2, 0.0, 0.0, 0.0];
-    let p = balanced_pose(&rhex.model, &q, &front, &rear)?;
+    balanced_pose(&rhex.model, &[theta1, theta2, 0.0, 0.0, 0.0], &front, &rear)
+}
+
+/// Pitch, supports and label for legs `(θ₁, θ₂)` ([`balanced`]).
+pub fn quasi_static_pose(rhex: &Rhex, theta1: f64, theta2: f64) -> Option<QuasiStaticPose> {
+    let p = balanced(rhex, theta1, theta2)?;
     Some(QuasiStaticPose {
         theta1,
         theta2,

@@ -8,7 +8,7 @@
 //! read with the data files' serde rules (a wrong type names its field). **Gear ratio**
 //! `Some(G)` runs the geared motor of ratio `G` (the base actuator's other values, else
 //! chapter 5's); `None` keeps the base actuator (reported NaN for the saturated torque).
-use crate::leap::{LeapConfig, LeapResult, Presets, Strategy, X_RHEX_LEG};
+use crate::leap::{LeapConfig, Presets, Strategy, X_RHEX_LEG};
 use crate::{RhexError, RhexParams};
 use selfmanip_hybrid::budget::NEVER;
 use selfmanip_sim::path::record_with;
@@ -45,14 +45,6 @@ impl LeapPoint {
 /// saturated-torque actuator or a point that failed).
 pub const LEAP_COLUMNS: [&str; 1] = ["gear_ratio"];
 
-impl LeapResult {
-    /// The sweep row of this leap run with gear ratio `gear_ratio` (`why`: why it did not
-    /// fly, or empty).
-    pub fn row(&self, why: String, gear_ratio: f64) -> SweepRow {
-        SweepRow::of_run(&self.outcome, self.flew, self.apex, why, vec![gear_ratio])
-    }
-}
-
 /// The leap as a preset of the generic sweep: each point's inputs ([`point_inputs`]) from
 /// the base parameters and configuration, run on the preset kept for its strategy and
 /// fixed inputs ([`Presets`]).
@@ -84,7 +76,14 @@ impl Preset for LeapSweep {
         let (params, cfg) = point_inputs(&self.params, &self.cfg, point)?;
         // the column of a saturated torque's gear ratio is NaN (none)
         let g = cfg.actuator.gear_ratio().unwrap_or(f64::NAN);
-        Ok(self.presets.run(&params, &cfg, stop)?.row(String::new(), g))
+        let r = self.presets.run(&params, &cfg, stop)?;
+        Ok(SweepRow::of_run(
+            &r.outcome,
+            r.flew,
+            r.apex,
+            String::new(),
+            vec![g],
+        ))
     }
 
     fn error_kind(&self, e: &RhexError) -> &'static str {

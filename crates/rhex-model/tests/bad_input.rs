@@ -118,17 +118,22 @@ fn t_final_of_1e6_without_stopping_at_apex_ends_at_its_step_budget() {
     ));
 }
 
+/// The default leap of `strategy` at t2 = −0.02 s (Fig. 5.8's timing; every strategy flies).
+fn at_fig_5_8_timing(strategy: Strategy) -> LeapConfig {
+    LeapConfig {
+        strategy,
+        t2_s: -0.02,
+        ..LeapConfig::default()
+    }
+}
+
 /// Not stopping at the apex, a leap records the apex of its first flight as an event and
 /// reports it: the same apex as the leap that stops there (the flows agree up to it). At
 /// t2 = −0.02 s (Fig. 5.8's timing) every strategy's default leap flies.
 #[test]
 fn stop_at_apex_false_reports_the_apex_of_the_first_flight() {
     for s in Strategy::ALL {
-        let cfg = LeapConfig {
-            strategy: s,
-            t2_s: -0.02,
-            ..LeapConfig::default()
-        };
+        let cfg = at_fig_5_8_timing(s);
         let stopped = leap(&cfg);
         let on = leap(&LeapConfig {
             stop_at_apex: false,
@@ -162,11 +167,7 @@ fn stop_at_apex_false_reports_the_apex_of_the_first_flight() {
 #[test]
 fn coarse_event_tolerance_and_rtol_still_leap_on_flat_ground() {
     for s in Strategy::ALL {
-        let base = LeapConfig {
-            strategy: s,
-            t2_s: -0.02,
-            ..LeapConfig::default()
-        };
+        let base = at_fig_5_8_timing(s);
         let fine = leap(&base).apex.unwrap();
         for cfg in [
             LeapConfig {

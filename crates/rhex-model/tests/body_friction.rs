@@ -6,7 +6,9 @@
 //! touchdown lifts both ends (`1010 → 0101`) — is the default leap to the last bit, because
 //! a sticking end at rest under a body at rest carries no tangential force (conservation: the
 //! friction does no work, and the flow is the same).
-use rhex_model::leap::{leap_params, simulate_leap, LeapConfig};
+mod common;
+use common::default_leap_and;
+use rhex_model::leap::leap_params;
 use rhex_model::{RhexError, RhexParams};
 use selfmanip_core::description::FrictionDescription;
 
@@ -54,13 +56,7 @@ fn body_friction_changes_only_the_body_ends_of_the_description() {
 
 #[test]
 fn leap_whose_body_ends_lift_before_sliding_is_the_default_one() {
-    let cfg = LeapConfig::default();
-    let r0 = simulate_leap(&leap_params(), &cfg).unwrap();
-    let params = RhexParams {
-        mu_body: Some(0.3),
-        ..leap_params()
-    };
-    let r1 = simulate_leap(&params, &cfg).unwrap();
+    let (r0, r1) = default_leap_and(|p| p.mu_body = Some(0.3));
     assert_eq!(r0.word, r1.word);
     assert_eq!(r0.word[..2], ["1010".to_string(), "0101".to_string()]);
     let (a0, a1) = (r0.apex.unwrap(), r1.apex.unwrap());

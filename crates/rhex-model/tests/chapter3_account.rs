@@ -6,7 +6,7 @@
 //! not reproduce have no test here; `docs/fidelity.md` (written by
 //! `crates/tools/src/bin/fidelity.rs`) lists every claim with its value and verdict.
 mod common;
-use common::{at_ledge, flat_dynamics};
+use common::{at_ledge, events_of, flat_dynamics, largest_rise};
 use rhex_model::leap::{
     leap_params, leg_swing, simulate_leap, LeapConfig, LeapResult, T2Reference,
 };
@@ -117,11 +117,7 @@ fn plus_plus_apex_height_jumps_just_after_t2_zero_and_rises_with_t2() {
         .windows(2)
         .map(|w| (w[1].0, w[1].1 - w[0].1, w[1].2 - w[0].2))
         .collect();
-    let jump =
-        steps.iter().copied().fold(
-            (0.0, f64::NEG_INFINITY, 0.0),
-            |a, s| if s.1 > a.1 { s } else { a },
-        );
+    let jump = largest_rise(&steps);
     assert!(
         jump.0 > 0.0 && jump.0 <= 0.03 + 1e-9,
         "jump at {}: {steps:?}",
@@ -297,12 +293,7 @@ fn slipping_toes_keep_their_force_on_the_default_path() {
     };
     let coulomb = leap_params();
     let r = leap("++", 0.0);
-    let slips: Vec<_> = r
-        .execution
-        .events
-        .iter()
-        .filter(|e| e.kind == EventKind::Slip)
-        .collect();
+    let slips = events_of(&r.execution, EventKind::Slip);
     assert!(!slips.is_empty(), "{}", r.word_string());
     for e in &slips {
         let (before, after) = force_at(&coulomb, &r, e);

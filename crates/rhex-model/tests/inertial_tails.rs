@@ -16,11 +16,13 @@
 //! The converted thesis prints the denominator as `I_b + 2I_l + 2m_lℓ₁ + m_r2 ρ₁/2` — two terms
 //! of the wrong unit (kg m); with Table 4.2's values that reads ε = −0.0161 instead of −0.0219
 //! (`docs/errata/ch4-analysis.md`).
+mod common;
+use common::flight;
 use rhex_model::leap::leap_params;
 use rhex_model::modes::Rhex;
 use rhex_model::params::{LegPair, LegShape};
 use selfmanip_core::{contact_points, ContactMode, FlatGround, Model};
-use selfmanip_hybrid::{simulate, Controller, HybridOptions};
+use selfmanip_hybrid::Controller;
 use selfmanip_sim::analysis::leg_tail::effectiveness_closed_form;
 
 /// Equal drive on both legs, and an internal spring–damper between them that locks them in
@@ -92,18 +94,7 @@ fn legs_turning_in_flight_turn_the_body_back_by_result_c5() {
         c: 1.0,
     };
     let q0 = [1.0, 1.0, 0.0, -2.0, 0.1];
-    let exec = simulate(
-        model,
-        &FlatGround,
-        &ctrl,
-        ContactMode::FLIGHT,
-        &q0,
-        &[0.0; 5],
-        0.12,
-        HybridOptions::default(),
-    )
-    .unwrap();
-    assert!(exec.events.is_empty(), "a flight: {:?}", exec.events);
+    let exec = flight(model, &ctrl, &q0, 0.12);
     let seg = exec.segments.last().unwrap();
 
     let eps = -effectiveness_closed_form(mb, ib, ml, il, a, &[l, -l]).unwrap();

@@ -10,7 +10,7 @@
 //! `½ a θ̇²`; the default (massless) leap bit-identical whether or not a zero armature is
 //! given explicitly.
 mod common;
-use common::{apex_error, tight};
+use common::{apex_error, default_leap_and, flight, tight};
 use rhex_model::leap::leap_scenario;
 use rhex_model::leap::{
     leap_params, leg_actuator, leg_armature, leg_inertia_about_hip, leg_swing,
@@ -19,9 +19,9 @@ use rhex_model::leap::{
 use rhex_model::leap_sensitivity::leap_with_sensitivity;
 use rhex_model::{LegPair, Rhex, RhexError, RhexParams};
 use selfmanip_core::tangent::{BodyParameter, TangentError};
-use selfmanip_core::{energy, ContactMode, Data, FlatGround};
+use selfmanip_core::{energy, Data};
+use selfmanip_hybrid::ConstantTorque;
 use selfmanip_hybrid::ControlPoint;
-use selfmanip_hybrid::{simulate, ConstantTorque, HybridOptions};
 
 fn massive() -> RhexParams {
     leap_params().with_table_4_2_legs()
@@ -111,13 +111,7 @@ fn a_massive_leaps_legs_carry_the_armature_and_massless_legs_stay_massless() {
 
 #[test]
 fn the_default_leap_is_the_same_with_an_explicit_zero_armature() {
-    let cfg = LeapConfig::default();
-    let a = simulate_leap(&leap_params(), &cfg).unwrap();
-    let zero = RhexParams {
-        leg_armature_kg_m2: Some(0.0),
-        ..leap_params()
-    };
-    let b = simulate_leap(&zero, &cfg).unwrap();
+    let (a, b) = default_leap_and(|p| p.leg_armature_kg_m2 = Some(0.0));
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     assert_eq!(a.word, b.word);
     assert_eq!(bits(&a.execution.q), bits(&b.execution.q));
@@ -138,20 +132,8 @@ fn flight_with_rotor_armature_balances_the_torques_work_in_the_engine() {
     assert!(model.joints.iter().all(|j| j.armature_kg_m2 == a));
     let tau = [0.8, -0.5];
     let q0 = [0.4, -0.2, 0.0, -2.0, 0.05];
-    let exec = simulate(
-        model,
-        &FlatGround,
-        &ConstantTorque {
-            torques_n_m: tau.to_vec(),
-        },
-        ContactMode::FLIGHT,
-        &q0,
-        &[0.0; 5],
-        0.2,
-        HybridOptions::default(),
-    )
-    .unwrap();
-    assert!(exec.events.is_empty(), "a flight: {:?}", exec.events);
+    let torques_n_m = tau.to_vec();
+    let exec = flight(model, &ConstantTorque { torques_n_m }, &q0, 0.2);
     let seg = exec.segments.last().unwrap();
     let mut data = Data::new(model);
     let (t0, v0) = energy(model, &mut data, &q0, &[0.0; 5]).unwrap();

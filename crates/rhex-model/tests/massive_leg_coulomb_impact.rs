@@ -13,6 +13,8 @@
 //! contact let go is not approaching the ground; the kinetic energy does not grow; and over
 //! the whole leap the energy balances, `E₁ − E₀ = W + W_fr − L` (integrated powers against
 //! state energies). No apex numbers are asserted.
+mod common;
+use common::events_of;
 use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LegActuator, X_RHEX_LEG};
 use rhex_model::{Rhex, RhexParams};
 use selfmanip_core::contact::{contact_geometry, ContactKind};
@@ -50,12 +52,7 @@ fn check(strategy: &str, t2_s: f64, actuator: LegActuator) {
     let nq = model.nq();
     let terrain = FlatGround;
     let mut kin = Kinematics::default();
-    let jams: Vec<_> = r
-        .execution
-        .events
-        .iter()
-        .filter(|e| e.kind == EventKind::Jam)
-        .collect();
+    let jams = events_of(&r.execution, EventKind::Jam);
     assert!(!jams.is_empty(), "no jam: {ctx}");
     for e in jams {
         let (q, qd) = (&e.q[..], &e.qd_after[..]);

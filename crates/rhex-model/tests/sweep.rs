@@ -279,7 +279,9 @@ fn synthetic() -> (Trajectory, Vec<selfmanip_sim::EventRecord>) {
         })
         .collect();
     let tr = Trajectory {
-        q_names: rhex_model::mcap_log::q_names(&leap_params()),
+        q_names: selfmanip_sim::trajectory::q_names(
+            &rhex_model::Rhex::new(leap_params()).unwrap().model,
+        ),
         tau: Vec::new(),
         contacts,
         t_s,

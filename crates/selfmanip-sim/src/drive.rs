@@ -235,6 +235,15 @@ impl CatalogDrive {
         })
     }
 
+    /// The actuator of `a`'s kind that a build keyed by kind starts from: the default geared
+    /// motor, or the saturated torque.
+    pub fn of_kind(&self, a: &JointActuator) -> JointActuator {
+        match a {
+            JointActuator::GearedMotor(_) => self.actuator(),
+            JointActuator::SaturatedTorque => JointActuator::SaturatedTorque,
+        }
+    }
+
     /// `a` if it is the geared motor, else the default.
     pub fn geared(&self, a: &JointActuator) -> JointActuator {
         JointActuator::GearedMotor(self.motor(a))

@@ -10,14 +10,19 @@ use crate::sensitivity_preset::{end_state_sensitivity, EndStateRequest, EndState
 use crate::terrain::TerrainSpec;
 use crate::{SimError, Trajectory};
 use nalgebra::DMatrix;
-use selfmanip_core::{ContactMode, Model};
+use selfmanip_core::{ContactKind, ContactMode, Model};
 use selfmanip_hybrid::sensitivity::Parameter;
 use selfmanip_hybrid::{EventKind, Execution, Termination};
+use std::sync::Arc;
 
 /// A run read in a preset's frame: the generic run's metrics (read through `Deref`), whether
-/// it flew, its apex and events on the preset's clock.
+/// it flew, its apex and events on the preset's clock, and the robot and terrain it ran on.
 #[derive(Debug, Clone)]
 pub struct PresetRun {
+    pub model: Arc<Model>,
+    pub terrain: TerrainSpec,
+    /// Whether the preset stops at the apex of a flight ([`PresetFrame::stop_at_apex`]).
+    pub stop_at_apex: bool,
     /// The generic run's metrics (times on the simulation clock, NED frame).
     pub outcome: Outcome,
     /// It reached the apex of a flight after its drive started (status `apex`), or, not
@@ -52,7 +57,7 @@ impl PresetRun {
     #[allow(clippy::too_many_arguments)]
     #[inline]
     pub fn read(
-        model: &Model,
+        model: &Arc<Model>,
         terrain: &TerrainSpec,
         label: &dyn Fn(ContactMode) -> String,
         (exec, outcome): (Execution, Outcome),
@@ -66,6 +71,9 @@ impl PresetRun {
             false => Vec::new(),
         };
         PresetRun {
+            model: Arc::clone(model),
+            terrain: *terrain,
+            stop_at_apex: frame.stop_at_apex,
             flew: frame.flew(&exec, outcome.status),
             apex: frame.apex(model, &exec),
             outcome,
@@ -81,7 +89,8 @@ impl PresetRun {
     /// [`selfmanip_hybrid::Termination::describe`] on the preset's clock with the contacts'
     /// names and the flowing mode's label (the last event's, else `start_label`).
     #[inline]
-    pub fn reason(&self, model: &Model, stop_at_apex: bool, start_label: &str) -> String {
+    pub fn reason(&self, start_label: &str) -> String {
+        let model = &self.model;
         let mode = self
             .events
             .last()
@@ -94,18 +103,15 @@ impl PresetRun {
         };
         let frame = PresetFrame {
             t0_s: self.time_offset_s,
-            ..PresetFrame::world(stop_at_apex)
+            ..PresetFrame::world(self.stop_at_apex)
         };
         frame.reason(&self.execution, self.flew, self.t_final_s, &name, &mode)
     }
 
     /// Energy bookkeeping of the run (motor work, impact losses, start and end energy).
     #[inline]
-    pub fn energy_report(
-        &self,
-        model: &Model,
-        terrain: &TerrainSpec,
-    ) -> Result<selfmanip_hybrid::EnergyReport, SimError> {
+    pub fn energy_report(&self) -> Result<selfmanip_hybrid::EnergyReport, SimError> {
+        let (model, terrain) = (&self.model, &self.terrain);
         Ok(selfmanip_hybrid::energy_report(
             model,
             terrain,
@@ -118,20 +124,48 @@ impl PresetRun {
     #[inline]
     pub fn trajectory(
         &self,
-        model: &Model,
-        terrain: &TerrainSpec,
         label: &dyn Fn(ContactMode) -> String,
         dt_s: f64,
     ) -> Result<Trajectory, SimError> {
         crate::trajectory::sample_labelled(
-            model,
-            terrain,
+            &self.model,
+            &self.terrain,
             &self.execution,
             label,
             dt_s,
             self.time_offset_s,
         )
     }
+}
+
+/// `mode` with every sticking contact on the body but the first (by index) sliding: two
+/// sticking points on one rigid body leave the tangential force between them statically
+/// indeterminate, so a preset that starts resting on its body lets all but one slide.
+pub fn determinate_body_start(model: &Model, mode: ContactMode) -> ContactMode {
+    let on_body = |k: &usize| model.contacts[*k].link.is_none();
+    let stick = |k: &usize| mode.kind(*k) == Some(ContactKind::Stick);
+    let mut sticking = mode.active().filter(on_body).filter(stick);
+    sticking.next();
+    sticking.fold(mode, |m, k| m.with(k, ContactKind::Slide))
+}
+
+/// Of a preset's named parameters `(name, value, reference)`, the one farthest above its
+/// reference relative to the reference's size (at least 1, so that a zero reference
+/// compares; the first on a tie): the parameter to name when the start state the preset
+/// builds from them overflows.
+pub fn farthest_above<'a>(values: &[(&'a str, f64, f64)]) -> &'a str {
+    let first = values.first().map_or("", |v| v.0);
+    values
+        .iter()
+        .map(|&(name, v, r)| (name, v.abs() / r.abs().max(1.0)))
+        .fold((first, f64::NEG_INFINITY), |best, c| {
+            if c.1 > best.1 {
+                c
+            } else {
+                best
+            }
+        })
+        .0
 }
 
 /// A preset's run `result` with the derivatives of its apex ([`APEX_COLUMNS`], z up, on the

@@ -1,12 +1,15 @@
 //! A scenario with two drives started a lag apart, compiled once and run at many points: its
 //! simulation is rebound per point (behaviour parameter values and the lag) on a clock that
-//! starts with the earlier drive, its runs are read in the first drive's frame, and a search
-//! finds the lag at which the two drives' legs touch down a given time apart
-//! ([`LagReference`]: what a lag times). What a preset of
-//! two staggered drives keeps per set of fixed inputs ([`crate::sweep::BuildCache`]).
+//! starts with the earlier drive, its runs are read in the first drive's frame
+//! ([`StaggeredRun`]: the preset's run with its lag and touchdown lag), and a search finds the
+//! lag at which the two drives' legs touch down a given time apart ([`LagReference`]: what a
+//! lag times). What a preset of two staggered drives keeps per set of fixed inputs
+//! ([`crate::sweep::BuildCache`]).
 use crate::analysis::roots::secant_search;
 use crate::outcome::{first_touchdown_s, PresetFrame};
+use crate::preset_run::PresetRun;
 use crate::{Run, SimError, Simulation};
+use selfmanip_core::ContactMode;
 use selfmanip_hybrid::Execution;
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::AtomicBool;
@@ -56,9 +59,59 @@ pub struct StaggeredScenario {
     pub built_lag_s: f64,
     /// Final time on the first drive's clock (s).
     pub t_final_s: f64,
+    /// The contacts whose touchdowns a run's touchdown lag compares ([`touchdown_lag_s`]):
+    /// the first drive's leg's, then the second's.
+    pub touchdowns: [usize; 2],
+    /// Its runs carry their event records ([`PresetRun::events`]; a sweep that reads only
+    /// rows does without).
+    pub event_records: bool,
+}
+
+/// A run of a [`StaggeredScenario`] read in the first drive's frame.
+#[derive(Debug, Clone)]
+pub struct StaggeredRun {
+    /// The run on the first drive's clock, `x` from the start's.
+    pub run: PresetRun,
+    /// The second drive's start after the first's in this run (s).
+    pub lag_s: f64,
+    /// The second leg's first touchdown after the first leg's, each after its drive started
+    /// ([`touchdown_lag_s`]); `None` if one never touched down.
+    pub touchdown_lag_s: Option<f64>,
+}
+
+impl std::fmt::Debug for StaggeredScenario {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("StaggeredScenario")
+            .field("lag_parameter", &self.lag_parameter)
+            .field("built_lag_s", &self.built_lag_s)
+            .field("t_final_s", &self.t_final_s)
+            .field("touchdowns", &self.touchdowns)
+            .field("event_records", &self.event_records)
+            .finish_non_exhaustive()
+    }
 }
 
 impl StaggeredScenario {
+    /// `sim`, built at the lag `built_lag_s` of its behaviour parameter `lag_parameter`, run to
+    /// `t_final_s` on the first drive's clock; its runs carry their event records and time
+    /// their legs' touchdowns at the contacts `touchdowns`.
+    pub fn new(
+        sim: Simulation,
+        lag_parameter: &'static str,
+        built_lag_s: f64,
+        t_final_s: f64,
+        touchdowns: [usize; 2],
+    ) -> Self {
+        StaggeredScenario {
+            sim,
+            lag_parameter,
+            built_lag_s,
+            t_final_s,
+            touchdowns,
+            event_records: true,
+        }
+    }
+
     /// The simulation at lag `lag_s` with the behaviour parameters `values` bound too
     /// ([`Simulation::rebind`]: what a fresh build of that point runs, bit for bit), and the
     /// first drive's start on its clock (`−min(0, lag)`).
@@ -102,6 +155,54 @@ impl StaggeredScenario {
     ) -> Result<(Run, f64), SimError> {
         let (sim, first_start) = self.simulation(values, lag_s)?;
         Ok((sim.run_with(stop)?, first_start))
+    }
+
+    /// The run `(run, first drive's start on its clock)` at lag `lag_s` read in the first
+    /// drive's frame ([`staggered_frame`]), its modes labelled by `label`.
+    pub fn read(
+        &self,
+        (run, first_start): (Run, f64),
+        lag_s: f64,
+        label: &dyn Fn(ContactMode) -> String,
+    ) -> StaggeredRun {
+        let (exec, outcome) = (run.execution, run.outcome);
+        let (model, q0) = (&self.sim.model, self.sim.q0.clone());
+        let stop_at_apex = self.sim.options.stop_at_apex;
+        let frame = staggered_frame(first_start, lag_s, q0[model.ix_x()], stop_at_apex);
+        let touchdown_lag_s = touchdown_lag_s(&exec, self.touchdowns, first_start, lag_s);
+        let run = PresetRun::read(
+            model,
+            &self.sim.terrain,
+            label,
+            (exec, outcome),
+            frame,
+            q0,
+            self.t_final_s,
+            self.event_records,
+        );
+        StaggeredRun {
+            run,
+            lag_s,
+            touchdown_lag_s,
+        }
+    }
+
+    /// The run at lag `lag_s` timed as `reference` says ([`LagReference::run`]: a touchdown
+    /// lag searched over drive lags) with the behaviour parameters `values` bound, read
+    /// ([`Self::read`]).
+    pub fn run_timed(
+        &self,
+        values: &[(&str, f64)],
+        lag_s: f64,
+        reference: LagReference,
+        stop: &AtomicBool,
+        label: &dyn Fn(ContactMode) -> String,
+    ) -> Result<StaggeredRun, SimError> {
+        reference.run(lag_s, self.t_final_s, |s| {
+            let r = self.read(self.run(values, s, stop)?, s, label);
+            let lag = r.touchdown_lag_s;
+            Ok((r, lag))
+        })
     }
 }
 

@@ -24,14 +24,11 @@ pub mod sensor_sweep;
 pub mod standing;
 
 use crate::RhexError;
-pub(crate) use selfmanip_sim::analysis::{check_finite, contact_leg, solve_contact_pose};
+pub(crate) use selfmanip_sim::analysis::{check_finite, solve_contact_pose};
 
 pub(crate) fn bad(field: &str, reason: impl Into<String>) -> RhexError {
-    RhexError::InvalidValue {
-        field: field.into(),
-        reason: reason.into(),
-    }
+    RhexError::invalid(field, reason)
 }
 
+pub(crate) use selfmanip_sim::analysis::takeoff_maps::grid_points;
 pub use selfmanip_sim::analysis::takeoff_maps::MAX_FIGURE_GRID;
-pub(crate) use selfmanip_sim::analysis::takeoff_maps::{grid_points, linspace};

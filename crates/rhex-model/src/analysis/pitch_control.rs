@@ -10,14 +10,14 @@ use super::{bad, check_finite};
 use crate::params::{LegShape, RhexParams};
 use crate::{Rhex, RhexError};
 use selfmanip_core::{ContactMode, Model};
-use selfmanip_sim::analysis::double_stance::{double_stance, normal_force_difference};
+use selfmanip_sim::analysis::double_stance::{splay_derivative as generic_splay, splay_stance};
 pub use selfmanip_sim::analysis::maximise::{golden_max, grid_golden_max};
 pub use selfmanip_sim::analysis::one_leg::{
     best_takeoff_over_theta2, optimal_gear_ratio, rear_stance_q, rear_takeoff_speed,
     single_leg_pitch_accel,
 };
 pub use selfmanip_sim::analysis::takeoff::{takeoff_bound, TakeoffBound, TorqueSpeedLine};
-use selfmanip_sim::analysis::takeoff_maps::{self, best_takeoffs};
+use selfmanip_sim::analysis::takeoff_maps::{self, best_takeoffs, best_takeoffs_by_ratio};
 use serde::Serialize;
 
 /// X-RHex's motor (catalog `x-rhex`, gearbox efficiency of `x-rhex-28`) at gear ratio
@@ -99,7 +99,8 @@ pub fn fig_4_10(
     Ok(out)
 }
 
-/// Fig. 4.11: best `|ẋ|` over `θ₂` for each gear ratio and pitch (rolling legs, `φ̇ = 0`).
+/// Fig. 4.11: best `|ẋ|` over `θ₂` for each gear ratio and pitch (rolling legs, `φ̇ = 0`,
+/// [`best_takeoffs_by_ratio`]).
 pub fn fig_4_11(
     params: Option<RhexParams>,
     ratios: &[f64],
@@ -107,21 +108,8 @@ pub fn fig_4_11(
     theta2_range: [f64; 2],
 ) -> Result<Vec<TakeoffSample>, RhexError> {
     let model = takeoff_model(params, TakeoffLeg::Rolling)?;
-    let mut out = Vec::new();
-    for &g in ratios {
-        let line = xrhex_line(g)?;
-        let leg = TakeoffLeg::Rolling;
-        out.extend(best_takeoffs(
-            &model,
-            &line,
-            g,
-            leg,
-            &[0.0],
-            phis,
-            theta2_range,
-        ));
-    }
-    Ok(out)
+    let leg = TakeoffLeg::Rolling;
+    best_takeoffs_by_ratio(&model, ratios, xrhex_line, leg, phis, theta2_range)
 }
 
 /// Fig. 4.12: best `|ẋ|` over `θ₂` for each pitch rate and pitch (rolling legs, ratio `ratio`).
@@ -146,55 +134,54 @@ pub fn fig_4_12(
     ))
 }
 
+/// The height (z down) from which RHex's double stance is solved: near its standing height.
+const STANCE_Z_GUESS_M: f64 = -0.17;
+
 /// Both stick toes down at `θ = (θ_m + θ_d, θ_m − θ_d)`: body height and pitch solved from the
 /// base constraints (4.41); velocity along the free motion with `y = θ_m` (4.46) at rate
-/// `theta_m_dot`. Returns `(q, q̇, mode)` for mode `0101`.
+/// `theta_m_dot` ([`splay_stance`]). Returns `(q, q̇, mode)` for mode `0101`.
 pub fn double_stance_state(
     rhex: &Rhex,
     theta_m: f64,
     theta_d: f64,
     theta_m_dot: f64,
 ) -> Result<(Vec<f64>, Vec<f64>, ContactMode), RhexError> {
-    check_finite("theta", &[theta_m, theta_d, theta_m_dot])?;
-    if rhex.model.n_joints() != 2 {
-        return Err(bad("pairs", "double stance needs exactly two leg pairs"));
-    }
-    let mode = rhex.mode("0101")?;
-    let q = [theta_m + theta_d, theta_m - theta_d, 0.0, -0.17, 0.0];
-    let y = [0.5, 0.5, 0.0, 0.0, 0.0];
-    let (q, qd) = double_stance(&rhex.model, mode, &q, &y, theta_m_dot)?;
+    let mode = stance_mode(rhex, &[theta_m, theta_d, theta_m_dot])?;
+    let (q, qd) = splay_stance(
+        &rhex.model,
+        mode,
+        [theta_m, theta_d],
+        theta_m_dot,
+        STANCE_Z_GUESS_M,
+    )?;
     Ok((q, qd, mode))
 }
 
-/// `(Uλ)_2n − (Uλ)_1n` (4.60) in double stance with equal torques `τ` on both legs
-/// ([`normal_force_difference`]).
-pub fn normal_force_imbalance(
-    rhex: &Rhex,
-    theta_m: f64,
-    theta_d: f64,
-    theta_m_dot: f64,
-    tau: f64,
-) -> Result<f64, RhexError> {
-    let (q, qd, mode) = double_stance_state(rhex, theta_m, theta_d, theta_m_dot)?;
-    Ok(normal_force_difference(
-        &rhex.model,
-        mode,
-        &q,
-        &qd,
-        &[tau, tau],
-    )?)
+/// The mode `0101` of a two-pair model, its inputs `theta` finite.
+fn stance_mode(rhex: &Rhex, theta: &[f64]) -> Result<ContactMode, RhexError> {
+    check_finite("theta", theta)?;
+    if rhex.model.n_joints() != 2 {
+        return Err(bad("pairs", "double stance needs exactly two leg pairs"));
+    }
+    rhex.mode("0101")
 }
 
 /// Result C.2 / (4.61): `∂((Uλ)_2n − (Uλ)_1n)/∂θ_d` at `θ_d = 0` by central differences of
-/// the general dynamics.
+/// the general dynamics (the generic [`splay_derivative`](generic_splay) on RHex's stance).
 pub fn splay_derivative(
     rhex: &Rhex,
     theta_m: f64,
     theta_m_dot: f64,
     tau: f64,
 ) -> Result<f64, RhexError> {
-    let h = 1e-5;
-    let p = normal_force_imbalance(rhex, theta_m, h, theta_m_dot, tau)?;
-    let m = normal_force_imbalance(rhex, theta_m, -h, theta_m_dot, tau)?;
-    Ok((p - m) / (2.0 * h))
+    let mode = stance_mode(rhex, &[theta_m, 0.0, theta_m_dot])?;
+    let z = STANCE_Z_GUESS_M;
+    Ok(generic_splay(
+        &rhex.model,
+        mode,
+        theta_m,
+        theta_m_dot,
+        tau,
+        z,
+    )?)
 }

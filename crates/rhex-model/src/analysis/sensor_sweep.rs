@@ -2,13 +2,13 @@
 //! (Result B.1, eqs. 4.55–4.56), holding torque by leg shape (B.2, eqs. 4.57–4.58), the exact
 //! pitch-rate controller from the free-motion Jacobian `H` (B.3, eq. 4.59), and the largest
 //! leg speed before a contact lifts (Fig. 4.8).
-use super::{bad, check_finite, grid_points, linspace};
-use crate::quasistatic_map::{quasi_static_pose, QuasiStaticPose, Support};
+use super::{bad, check_finite};
+use crate::quasistatic_map::{balanced, quasi_static_pose, QuasiStaticPose};
 use crate::{Rhex, RhexError};
+use selfmanip_sim::analysis::balance_map::{liftoff_speed_map, pitch_range};
 pub use selfmanip_sim::analysis::liftoff::{
     free_leg_parameterization, liftoff_speed, LiftoffSpeed,
 };
-use selfmanip_sim::analysis::maximise::pattern_search_max;
 use selfmanip_sim::analysis::pose_rates;
 use serde::Serialize;
 use std::f64::consts::PI;
@@ -30,54 +30,23 @@ pub struct SensorPitchRange {
     pub grid: usize,
 }
 
-fn pose(rhex: &Rhex, t: [f64; 2]) -> Option<QuasiStaticPose> {
-    quasi_static_pose(rhex, t[0], t[1])
-}
-
-/// The leg angles near `start` where `sign·φ` is largest ([`pattern_search_max`]), and `φ`
-/// there.
-fn refine(rhex: &Rhex, start: [f64; 2], sign: f64) -> ([f64; 2], f64) {
-    let (best, val) = pattern_search_max(start, &mut |t| pose(rhex, t).map(|p| sign * p.phi));
-    (best, sign * val)
-}
-
 /// Result B.1: the maximal sensor pitch, found by searching the whole joint torus — every
 /// quasi-static contact mode of Fig. 4.3 — on an `grid × grid` grid and refining the best
-/// points by pattern search. Needs a two-pair model.
+/// points by pattern search ([`pitch_range`]). Needs a two-pair model.
 pub fn max_sensor_pitch(rhex: &Rhex, grid: usize) -> Result<SensorPitchRange, RhexError> {
     if rhex.params.pairs.len() != 2 {
         return Err(bad("pairs", "the pitch map needs exactly two leg pairs"));
     }
-    if grid < 8 {
-        return Err(bad("grid", "at least 8 points per joint"));
-    }
-    let map = crate::quasistatic_map::contact_mode_map(rhex, grid)?;
-    if map.is_empty() {
-        return Err(bad("model", "no quasi-static pose exists"));
-    }
-    let hi = map
-        .iter()
-        .max_by(|a, b| a.phi.total_cmp(&b.phi))
-        .expect("non-empty");
-    let lo = map
-        .iter()
-        .min_by(|a, b| a.phi.total_cmp(&b.phi))
-        .expect("non-empty");
-    let rolling_max_phi = map
-        .iter()
-        .filter(|p| p.front == Support::Rolling && p.rear == Support::Rolling)
-        .map(|p| p.phi)
-        .fold(f64::NAN, f64::max);
-    let (argmax, max_phi) = refine(rhex, [hi.theta1, hi.theta2], 1.0);
-    let (argmin, min_phi) = refine(rhex, [lo.theta1, lo.theta2], -1.0);
-    let argmax_label = pose(rhex, argmax).map(|p| p.label).unwrap_or_default();
+    let r = pitch_range(grid, |t1, t2| balanced(rhex, t1, t2))?;
+    let argmax_label =
+        balanced(rhex, r.argmax[0], r.argmax[1]).map_or_else(String::new, |p| rhex.label(p.mode));
     Ok(SensorPitchRange {
-        max_phi,
-        argmax,
+        max_phi: r.max_phi,
+        argmax: r.argmax,
         argmax_label,
-        min_phi,
-        argmin,
-        rolling_max_phi,
+        min_phi: r.min_phi,
+        argmin: r.argmin,
+        rolling_max_phi: r.rolling_max_phi,
         grid,
     })
 }
@@ -138,42 +107,25 @@ pub struct Fig48Point {
 
 /// Fig. 4.8: the leg speed `ẏ = θ̇₁` at takeoff (no torque) over a grid of the quasi-static
 /// configuration space, each point in its own quasi-static mode, along the free motion with
-/// `y = θ₁` (other free joints at rest).
+/// `y = θ₁` (other free joints at rest): [`liftoff_speed_map`] on RHex's sides.
 pub fn fig_4_8(
     rhex: &Rhex,
     theta1_range: [f64; 2],
     theta2_range: [f64; 2],
     n: usize,
 ) -> Result<Vec<Fig48Point>, RhexError> {
-    let n = grid_points(n)?;
-    let model = &rhex.model;
-    let mut out = Vec::new();
-    for &t1 in &linspace(theta1_range, n) {
-        for &t2 in &linspace(theta2_range, n) {
-            let Some(p) = quasi_static_pose(rhex, t1, t2) else {
-                continue;
-            };
-            if !p
-                .mode
-                .active()
-                .any(|k| super::contact_leg(model, k) == Some(0))
-            {
-                continue; // the front leg must carry the sweep
-            }
-            let q = [t1, t2, 0.0, -p.height_m, p.phi];
-            let Ok(speed) = pose_rates::lead_liftoff_speed(model, p.mode, &q, 0) else {
-                continue;
-            };
-            out.push(Fig48Point {
-                theta1: t1,
-                theta2: t2,
-                phi: p.phi,
-                label: p.label,
-                max_leg_speed: speed,
-            });
-        }
-    }
-    Ok(out)
+    let ranges = [theta1_range, theta2_range];
+    let map = liftoff_speed_map(&rhex.model, ranges, n, 0, |t1, t2| balanced(rhex, t1, t2))?;
+    Ok(map
+        .into_iter()
+        .map(|s| Fig48Point {
+            theta1: s.theta[0],
+            theta2: s.theta[1],
+            phi: s.pose.phi,
+            label: rhex.label(s.pose.mode),
+            max_leg_speed: s.speed,
+        })
+        .collect())
 }
 
 /// Default window of Fig. 4.8 (rad): `θ₁ ∈ [−90°, 0°]`, `θ₂ ∈ [−180°, 0°]`.

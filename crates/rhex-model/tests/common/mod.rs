@@ -1,13 +1,15 @@
 //! Helpers shared by the RHex tests (these and the workspace's `tests/leap_sensitivity.rs`
 //! and `tests/rhex_results.rs`): tight leaps for derivatives against differences of whole
-//! leaps, an execution's state at a time, and the core's solves on flat ground.
+//! leaps, an execution's state at a time, the core's solves on flat ground, the default leap
+//! beside a variant's, an execution's events of one kind and a flight from rest.
 #![allow(dead_code)]
 use nalgebra::DMatrix;
-use rhex_model::leap::LeapConfig;
+use rhex_model::leap::{leap_params, simulate_leap, LeapConfig, LeapResult};
+use rhex_model::RhexParams;
 use selfmanip_core::quasistatic::{quasi_static, QuasiStatic};
 use selfmanip_core::reduced::{reduced_dynamics, ReducedDynamics};
 use selfmanip_core::{forward_dynamics, ContactMode, Data, FlatGround, Model};
-use selfmanip_hybrid::Execution;
+use selfmanip_hybrid::{simulate, Controller, Event, EventKind, Execution, HybridOptions};
 use selfmanip_sim::terrain::TerrainSpec;
 
 /// A leap with tight tolerances, so that central differences of whole leaps resolve 1e-6
@@ -112,4 +114,36 @@ pub fn flat_quasi_static(
     t: &DMatrix<f64>,
 ) -> QuasiStatic {
     quasi_static(model, data, &FlatGround, mode, q, t).unwrap()
+}
+
+/// The default leap of chapters 3 and 5 and the same leap of [`leap_params`] changed by
+/// `change` (a variant that should leap alike).
+pub fn default_leap_and(change: impl FnOnce(&mut RhexParams)) -> (LeapResult, LeapResult) {
+    let cfg = LeapConfig::default();
+    let mut params = leap_params();
+    change(&mut params);
+    let run = |p: &RhexParams| simulate_leap(p, &cfg).unwrap();
+    (run(&leap_params()), run(&params))
+}
+
+/// The events of `exec` of kind `kind`, in order.
+pub fn events_of(exec: &Execution, kind: EventKind) -> Vec<&Event> {
+    exec.events.iter().filter(|e| e.kind == kind).collect()
+}
+
+/// The execution of `model` under `ctrl` from rest at `q0` in flight over flat ground to
+/// `t_final` (default options), checked to meet no event.
+pub fn flight(model: &Model, ctrl: &dyn Controller, q0: &[f64], t_final: f64) -> Execution {
+    let (mode, qd0) = (ContactMode::FLIGHT, vec![0.0; q0.len()]);
+    let options = HybridOptions::default();
+    let exec = simulate(model, &FlatGround, ctrl, mode, q0, &qd0, t_final, options).unwrap();
+    assert!(exec.events.is_empty(), "a flight: {:?}", exec.events);
+    exec
+}
+
+/// The step `(t, Δz, Δφ)` of `steps` (neighbouring points of a sweep) whose `Δz` rises most,
+/// the first of equals (`(0, −∞, 0)` for none).
+pub fn largest_rise(steps: &[(f64, f64, f64)]) -> (f64, f64, f64) {
+    let start = (0.0, f64::NEG_INFINITY, 0.0);
+    (steps.iter().copied()).fold(start, |a, s| if s.1 > a.1 { s } else { a })
 }

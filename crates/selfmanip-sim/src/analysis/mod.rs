@@ -36,6 +36,7 @@ use crate::error::SimError;
 use nalgebra::DMatrix;
 use selfmanip_core::contact::{contact_geometry, RowDirection, TouchKind};
 use selfmanip_core::kinematics::Kinematics;
+use selfmanip_core::model::ContactShape;
 use selfmanip_core::{ContactMode, Data, FlatGround, Model, Terrain};
 
 pub(crate) fn bad(field: &str, reason: impl Into<String>) -> SimError {
@@ -308,6 +309,27 @@ pub fn selector_rows(nq: usize, idx: &[usize]) -> DMatrix<f64> {
         y[(r, i)] = 1.0;
     }
     y
+}
+
+/// How far `model`, level, reaches from its body centre along the body's `x` on the side
+/// `side` (`+1` ahead, `−1` behind) with a leg turned straight that way: the farthest of each
+/// leg's hip plus its links' lengths and of each body contact's extent (m).
+pub fn body_reach_m(model: &Model, side: f64) -> f64 {
+    let leg = |l: usize| -> f64 {
+        let links = model.joints.iter().filter(|j| j.leg == l);
+        side * model.legs[l].hip_m.x + links.map(|j| j.length_m).sum::<f64>()
+    };
+    let body = model.contacts.iter().filter(|c| c.link.is_none());
+    let extent = body.map(|c| match c.shape {
+        ContactShape::Point { position_m } => side * position_m.x,
+        ContactShape::Arc {
+            center_m, radius_m, ..
+        } => side * center_m.x + radius_m,
+    });
+    (0..model.legs.len())
+        .map(leg)
+        .chain(extent)
+        .fold(f64::NEG_INFINITY, f64::max)
 }
 
 /// The leg carrying contact `k` (`None` for the body).

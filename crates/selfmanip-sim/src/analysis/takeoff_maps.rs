@@ -93,6 +93,31 @@ pub fn takeoff_map<L: Copy>(
     Ok(out)
 }
 
+/// Fig. 4.11's samples: [`best_takeoffs`] at pitch rate 0 for each gear ratio of `ratios`
+/// (slowest), each with its motor `line(G)`.
+pub fn best_takeoffs_by_ratio<L: Copy, E>(
+    model: &Model,
+    ratios: &[f64],
+    line: impl Fn(f64) -> Result<TorqueSpeedLine, E>,
+    leg: L,
+    phis: &[f64],
+    theta2_range: [f64; 2],
+) -> Result<Vec<TakeoffSample<L>>, E> {
+    let mut out = Vec::with_capacity(ratios.len() * phis.len());
+    for &g in ratios {
+        out.extend(best_takeoffs(
+            model,
+            &line(g)?,
+            g,
+            leg,
+            &[0.0],
+            phis,
+            theta2_range,
+        ));
+    }
+    Ok(out)
+}
+
 /// Figs. 4.11/4.12's samples: the best `|ẋ|` over `θ₂ ∈ theta2_range`
 /// ([`best_takeoff_over_theta2`]) for each pitch rate and pitch (pitch rate slowest), with the
 /// motor `line` of gear ratio `gear_ratio`.
