@@ -97,16 +97,30 @@ fn worst_against_dense(
     worst
 }
 
+/// [`worst_against_dense`] over `cases` (contacts, seed, states, with impacts), asserted
+/// below 1e-10.
+fn assert_agrees(model: &SpatialModel, cases: &[(&[PointContact], u64, usize, bool)]) {
+    let worst = cases
+        .iter()
+        .map(|&(contacts, seed, n, impacts)| worst_against_dense(model, contacts, seed, n, impacts))
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-10, "routes differ by {worst:e}");
+}
+
 #[test]
 fn quadruped_on_its_feet_matches_the_dense_kkt_solve() {
     let model = quadruped();
     // four feet (every limb pinned), three and two (swing legs keep their rates)
     let four = feet(&model, [true; 4]);
-    let mut worst = worst_against_dense(&model, &four, 43, 20, true);
-    for down in [&four[..3], &[four[0].clone(), four[3].clone()][..]] {
-        worst = worst.max(worst_against_dense(&model, down, 47, 10, false));
-    }
-    assert!(worst < 1e-10, "routes differ by {worst:e}");
+    let two = [four[0].clone(), four[3].clone()];
+    assert_agrees(
+        &model,
+        &[
+            (&four, 43, 20, true),
+            (&four[..3], 47, 10, false),
+            (&two, 47, 10, false),
+        ],
+    );
 }
 
 /// On a fixed base no rate is left to the reduced system when every leg is pinned (`R` is
@@ -115,14 +129,10 @@ fn quadruped_on_its_feet_matches_the_dense_kkt_solve() {
 fn bolted_down_quadruped_matches_the_dense_kkt_solve() {
     let model = SpatialModel::from_urdf_file(QUADRUPED, BaseKind::Fixed, None).unwrap();
     let four = feet(&model, [true; 4]);
-    let worst = worst_against_dense(&model, &four, 53, 10, false).max(worst_against_dense(
+    assert_agrees(
         &model,
-        &four[1..],
-        59,
-        10,
-        false,
-    ));
-    assert!(worst < 1e-10, "routes differ by {worst:e}");
+        &[(&four, 53, 10, false), (&four[1..], 59, 10, false)],
+    );
 }
 
 /// RHex's one-joint legs on frictionless toes (one row each): six toes, and four with two
@@ -136,14 +146,10 @@ fn rhex_toes_pin_their_one_joint_legs() {
         .flat_map(|pair| SIDES.iter().map(move |side| format!("{pair}_{side}")))
         .map(|leg| p.toe(&model, &leg, false).unwrap())
         .collect();
-    let worst = worst_against_dense(&model, &toes, 61, 10, true).max(worst_against_dense(
+    assert_agrees(
         &model,
-        &toes[..4],
-        67,
-        10,
-        false,
-    ));
-    assert!(worst < 1e-10, "routes differ by {worst:e}");
+        &[(&toes, 61, 10, true), (&toes[..4], 67, 10, false)],
+    );
 }
 
 /// A free-flying box on two legs, each a revolute hip and a prismatic shank carrying its foot
@@ -188,14 +194,10 @@ fn prismatic_and_fixed_joints_pinned_in_a_plane() {
                 .unwrap()
         })
         .collect();
-    let worst = worst_against_dense(&model, &contacts, 71, 20, true).max(worst_against_dense(
+    assert_agrees(
         &model,
-        &contacts[..1],
-        73,
-        10,
-        false,
-    ));
-    assert!(worst < 1e-10, "routes differ by {worst:e}");
+        &[(&contacts, 71, 20, true), (&contacts[..1], 73, 10, false)],
+    );
 }
 
 /// `forward_dynamics` at one random state of `model` on `contacts`: whether the limb
@@ -327,8 +329,7 @@ fn prismatic_legs_on_feet_with_friction() {
         .iter()
         .map(|f| PointContact::new(&model, f, true).unwrap())
         .collect();
-    let worst = worst_against_dense(&model, &contacts, 109, 20, true);
-    assert!(worst < 1e-10, "routes differ by {worst:e}");
+    assert_agrees(&model, &[(&contacts, 109, 20, true)]);
 }
 
 /// Where base rows cannot be taken the elimination declines and the row space's route solves
@@ -441,8 +442,7 @@ fn a_four_joint_arm_keeps_its_rates() {
             })
             .collect()
     };
-    let worst = worst_against_dense(&model, &held(&model), 97, 10, false);
-    assert!(worst < 1e-10, "routes differ by {worst:e}");
+    assert_agrees(&model, &[(&held(&model), 97, 10, false)]);
     // a massless hand (no mass, no rotational inertia): M is singular, the elimination declines
     let light = arm(0.0);
     let mut data = SpatialData::new(&light);
