@@ -97,16 +97,30 @@ fn worst_against_dense(
     worst
 }
 
+/// [`worst_against_dense`] over `cases` (contacts, seed, states, with impacts), asserted
+/// below 1e-10.
+fn assert_agrees(model: &SpatialModel, cases: &[(&[PointContact], u64, usize, bool)]) {
+    let worst = cases
+        .iter()
+        .map(|&(contacts, seed, n, impacts)| worst_against_dense(model, contacts, seed, n, impacts))
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-10, "routes differ by {worst:e}");
+}
+
 #[test]
 fn quadruped_on_its_feet_matches_the_dense_kkt_solve() {
     let model = quadruped();
     // four feet (every limb pinned), three and two (swing legs keep their rates)
     let four = feet(&model, [true; 4]);
-    let mut worst = worst_against_dense(&model, &four, 43, 20, true);
-    for down in [&four[..3], &[four[0].clone(), four[3].clone()][..]] {
-        worst = worst.max(worst_against_dense(&model, down, 47, 10, false));
-    }
-    assert!(worst < 1e-10, "routes differ by {worst:e}");
+    let two = [four[0].clone(), four[3].clone()];
+    assert_agrees(
+        &model,
+        &[
+            (&four, 43, 20, true),
+            (&four[..3], 47, 10, false),
+            (&two, 47, 10, false),
+        ],
+    );
 }
 
 /// On a fixed base no rate is left to the reduced system when every leg is pinned (`R` is
@@ -115,14 +129,10 @@ fn quadruped_on_its_feet_matches_the_dense_kkt_solve() {
 fn bolted_down_quadruped_matches_the_dense_kkt_solve() {
     let model = SpatialModel::from_urdf_file(QUADRUPED, BaseKind::Fixed, None).unwrap();
     let four = feet(&model, [true; 4]);
-    let worst = worst_against_dense(&model, &four, 53, 10, false).max(worst_against_dense(
+    assert_agrees(
         &model,
-        &four[1..],
-        59,
-        10,
-        false,
-    ));
-    assert!(worst < 1e-10, "routes differ by {worst:e}");
+        &[(&four, 53, 10, false), (&four[1..], 59, 10, false)],
+    );
 }
 
 /// RHex's one-joint legs on frictionless toes (one row each): six toes, and four with two
@@ -136,14 +146,10 @@ fn rhex_toes_pin_their_one_joint_legs() {
         .flat_map(|pair| SIDES.iter().map(move |side| format!("{pair}_{side}")))
         .map(|leg| p.toe(&model, &leg, false).unwrap())
         .collect();
-    let worst = worst_against_dense(&model, &toes, 61, 10, true).max(worst_against_dense(
+    assert_agrees(
         &model,
-        &toes[..4],
-        67,
-        10,
-        false,
-    ));
-    assert!(worst < 1e-10, "routes differ by {worst:e}");
+        &[(&toes, 61, 10, true), (&toes[..4], 67, 10, false)],
+    );
 }
 
 /// A free-flying box on two legs, each a revolute hip and a prismatic shank carrying its foot
@@ -188,14 +194,10 @@ fn prismatic_and_fixed_joints_pinned_in_a_plane() {
                 .unwrap()
         })
         .collect();
-    let worst = worst_against_dense(&model, &contacts, 71, 20, true).max(worst_against_dense(
+    assert_agrees(
         &model,
-        &contacts[..1],
-        73,
-        10,
-        false,
-    ));
-    assert!(worst < 1e-10, "routes differ by {worst:e}");
+        &[(&contacts, 71, 20, true), (&contacts[..1], 73, 10, false)],
+    );
 }
 
 /// `forward_dynamics` at one random state of `model` on `contacts`: whether the limb
@@ -327,8 +329,7 @@ fn prismatic_legs_on_feet_with_friction() {
         .iter()
         .map(|f| PointContact::new(&model, f, true).unwrap())
         .collect();
-    let worst = worst_against_dense(&model, &contacts, 109, 20, true);
-    assert!(worst < 1e-10, "routes differ by {worst:e}");
+    assert_agrees(&model, &[(&contacts, 109, 20, true)]);
 }
 
 /// Where base rows cannot be taken the elimination declines and the row space's route solves
@@ -394,4 +395,58 @@ fn base_rows_the_reduced_system_cannot_take_decline() {
         assert_eq!(data.kkt_route, route, "{name}");
         assert!(acc < 1e-10 && eom < 1e-10, "{name}: {acc:e} {eom:e}");
     }
+}
+
+/// [`BIPED`] with a four-joint arm on its body (axes x, y, y, z; no contact): a limb of more
+/// than three rates, whose definiteness the elimination checks by the general block (the
+/// legs' by fixed-size ones). With the feet held in the plane the arm keeps its rates in the
+/// reduced system; the routes agree with the dense solve, and with the arm's hand massless
+/// (its wrist rate then moves no mass) the elimination declines.
+#[test]
+fn a_four_joint_arm_keeps_its_rates() {
+    let link = |name: &str, mass: f64| {
+        let i = 0.01 * mass;
+        format!(
+            r#"<link name="{name}"><inertial><origin xyz="0.05 0 0"/><mass value="{mass}"/>
+            <inertia ixx="{i}" ixy="0" ixz="0" iyy="{i}" iyz="0" izz="{i}"/></inertial></link>"#
+        )
+    };
+    let joint = |name: &str, parent: &str, child: &str, axis: &str| {
+        format!(
+            r#"<joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{child}"/>
+            <origin xyz="0.1 0 0.05"/><axis xyz="{axis}"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>"#
+        )
+    };
+    let arm = |hand_kg: f64| {
+        let links = ["a1", "a2", "a3", "a4"];
+        let axes = ["1 0 0", "0 1 0", "0 1 0", "0 0 1"];
+        let mut extra = String::new();
+        for (k, (l, axis)) in links.iter().zip(axes).enumerate() {
+            extra += &link(l, if k == 3 { hand_kg } else { 0.4 });
+            let parent = if k == 0 { "body" } else { links[k - 1] };
+            extra += &joint(&format!("j{k}"), parent, l, axis);
+        }
+        let urdf = BIPED.replace("</robot>", &(extra + "</robot>"));
+        SpatialModel::from_urdf_str(&urdf, BaseKind::FreeFlyer, None).unwrap()
+    };
+    let model = arm(0.2);
+    assert_eq!(model.nv, 14);
+    let held = |model: &SpatialModel| -> Vec<PointContact> {
+        ["L_foot", "R_foot"]
+            .iter()
+            .map(|f| {
+                PointContact::new(model, f, true)
+                    .unwrap()
+                    .in_plane(Vector3::x())
+                    .unwrap()
+            })
+            .collect()
+    };
+    assert_agrees(&model, &[(&held(&model), 97, 10, false)]);
+    // a massless hand (no mass, no rotational inertia): M is singular, the elimination declines
+    let light = arm(0.0);
+    let mut data = SpatialData::new(&light);
+    let (q, v, tau) = random_state(&light, &mut rng(101));
+    let _ = dynamics_at(&light, &mut data, &held(&light), (&q, &v, &tau));
+    assert!(!data.limbs_eliminated);
 }

@@ -17,7 +17,7 @@ use super::kinematics::{
     SpatialData,
 };
 use super::model::SpatialModel;
-use super::rigid_body::{bias_forces_from_kinematics, mass_matrix_from_kinematics};
+use super::rigid_body::mass_matrix_and_bias_from_kinematics;
 use super::tree_kkt::KktRoute;
 use crate::error::check_result;
 use crate::error::check_vector;
@@ -462,8 +462,7 @@ pub(super) fn prepare(
     v: &[f64],
 ) -> SpatialResult<()> {
     forward_kinematics_velocity(model, data, q, v)?;
-    mass_matrix_from_kinematics(model, data);
-    bias_forces_from_kinematics(model, data);
+    mass_matrix_and_bias_from_kinematics(model, data);
     contact_rows(model, data, contacts);
     Ok(())
 }

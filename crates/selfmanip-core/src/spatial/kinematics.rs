@@ -89,10 +89,9 @@ pub struct SpatialData {
     pub tree_kkt: TreeKkt,
     pub kkt_route: KktRoute,
     pub limbs_eliminated: bool,
-    /// Each rate's joint, and the rate before it on its chain (the previous rate of a
+    /// Each rate's previous rate on its chain (the previous rate of a
     /// multi-rate joint, else the last rate of the parent joint; `usize::MAX` at the root):
     /// following it visits every rate supporting a rate.
-    pub(crate) rate_joint: Vec<usize>,
     pub(crate) rate_parent: Vec<usize>,
     /// Right-hand sides of the KKT solve.
     pub(crate) rhs_f: DVector<f64>,
@@ -102,14 +101,13 @@ pub struct SpatialData {
 impl SpatialData {
     pub fn new(model: &SpatialModel) -> Self {
         let (n, nv) = (model.joints.len(), model.nv);
-        let (mut rate_joint, mut rate_parent) = (vec![0; nv], vec![usize::MAX; nv]);
-        for (i, joint) in model.joints.iter().enumerate() {
+        let mut rate_parent = vec![usize::MAX; nv];
+        for joint in &model.joints {
             let last_of_parent = joint.parent.map_or(usize::MAX, |p| {
                 let pj = &model.joints[p];
                 pj.idx_v + pj.kind.nv() - 1
             });
             for k in joint.idx_v..joint.idx_v + joint.kind.nv() {
-                rate_joint[k] = i;
                 rate_parent[k] = if k > joint.idx_v {
                     k - 1
                 } else {
@@ -139,7 +137,6 @@ impl SpatialData {
             tree_kkt: TreeKkt::new(model),
             kkt_route: KktRoute::RangeSpace,
             limbs_eliminated: false,
-            rate_joint,
             rate_parent,
             rhs_f: DVector::zeros(nv),
             rhs_g: DVector::zeros(0),
@@ -232,6 +229,14 @@ pub(crate) fn joint_motion(
 ) -> Motion {
     let j = &model.joints[i];
     let s = &data.oS.as_slice()[6 * j.idx_v..];
+    if j.kind.nv() == 1 {
+        // one rate (every joint below a free-flying root): ⁰Sᵢ q̇ᵢ
+        let x = x[j.idx_v];
+        return Motion::new(
+            Vector3::new(s[0] * x, s[1] * x, s[2] * x),
+            Vector3::new(s[3] * x, s[4] * x, s[5] * x),
+        );
+    }
     let mut m = [0.0; 6];
     for (k, &xk) in x[j.idx_v..j.idx_v + j.kind.nv()].iter().enumerate() {
         for (mr, sr) in m.iter_mut().zip(&s[6 * k..6 * k + 6]) {

@@ -416,15 +416,14 @@ impl LimbKkt {
         let largest = (0..nv).map(|k| m[k + k * nv]).fold(0.0, f64::max);
         let block = &mut self.block;
         self.limbs.iter().all(|limb| {
-            let (n, e) = (limb.len, limb.start + limb.len - 1);
-            // reversed order: the deepest rate first, as the tree's LᵀDL eliminates
-            for i in 0..n {
-                for j in 0..n {
-                    block[i * n + j] = m[(e - i) + (e - j) * nv];
-                }
+            let e = limb.start + limb.len - 1;
+            // a limb of up to three rates in a fixed-size block (the loops unroll)
+            match limb.len {
+                1 => limb_clear::<1>(m, nv, e, largest, &mut [0.0; 1]),
+                2 => limb_clear::<2>(m, nv, e, largest, &mut [0.0; 4]),
+                3 => limb_clear::<3>(m, nv, e, largest, &mut [0.0; 9]),
+                n => limb_clear::<0>(m, nv, e, largest, &mut block[..n * n]),
             }
-            (0..n).all(|i| m[(e - i) * (nv + 1)] > MASSLESS_DIAGONAL * largest)
-                && ldl_clear(&mut block[..n * n], n, |i| m[(e - i) * (nv + 1)])
         })
     }
 
@@ -542,8 +541,9 @@ fn factor_limb<const N: usize, const R: usize>(
             all[i][j] = a[(k0 + j) * c + rows[i]];
         }
         e[i][i] = 1.0;
-        for j in 0..nb {
-            alb[i][j] = a[j * c + rows[i]];
+        if nb == ROOT {
+            let ai = &a[rows[i]..];
+            alb[i] = Vector6::from_fn(|j, _| ai[j * c]);
         }
     }
     let largest = all.iter().flatten().fold(0.0f64, |s, x| s.max(x.abs()));
@@ -591,7 +591,12 @@ fn factor_limb<const N: usize, const R: usize>(
     base.extend_from_slice(&alb[N..]);
     for i in 0..N {
         limb.t[i] = -alb[i];
-        limb.mlb[i] = Vector6::from_fn(|j, _| if j < nb { m[(k0 + i) + j * nv] } else { 0.0 });
+        let mi = &m[k0 + i..];
+        limb.mlb[i] = if nb == ROOT {
+            Vector6::from_fn(|j, _| mi[j * nv])
+        } else {
+            Vector6::zeros()
+        };
         for j in 0..N {
             limb.mll[i][j] = m[(k0 + i) + (k0 + j) * nv];
         }
@@ -665,8 +670,32 @@ fn limb_back<const N: usize, const R: usize>(
     }
 }
 
+/// Whether the diagonal block of `M` (column-major `m`, `nv × nv`) on the limb's rates ending
+/// at `e` (`block.len()` = its rates squared; `N` that count, or 0 for any) has clear pivots:
+/// every diagonal entry above [`MASSLESS_DIAGONAL`] of `largest` and [`ldl_clear`]'s pivots,
+/// eliminated from the deepest rate up, as the tree's `LᵀDL` does.
+#[inline(always)]
+fn limb_clear<const N: usize>(
+    m: &[f64],
+    nv: usize,
+    e: usize,
+    largest: f64,
+    block: &mut [f64],
+) -> bool {
+    let n = if N == 0 { block.len().isqrt() } else { N };
+    // reversed order: the deepest rate first
+    for i in 0..n {
+        for j in 0..n {
+            block[i * n + j] = m[(e - i) + (e - j) * nv];
+        }
+    }
+    (0..n).all(|i| m[(e - i) * (nv + 1)] > MASSLESS_DIAGONAL * largest)
+        && ldl_clear(block, n, |i| m[(e - i) * (nv + 1)])
+}
+
 /// Whether the symmetric `n × n` row-major `block` has `LDLᵀ` pivots `d_i > PIVOT_FRACTION ·
 /// diagonal(i)` (eliminating in index order; `block`'s lower triangle is overwritten).
+#[inline(always)]
 fn ldl_clear(block: &mut [f64], n: usize, diagonal: impl Fn(usize) -> f64) -> bool {
     for k in 0..n {
         let d = block[k * n + k];

@@ -9,7 +9,7 @@ use super::kinematics::{
     forward_kinematics, forward_kinematics_velocity, joint_motion, SpatialData,
 };
 use super::model::SpatialModel;
-use super::motion::Motion;
+use super::motion::{Force, Motion};
 use crate::error::check_vector;
 use nalgebra::{DVector, Vector6};
 
@@ -24,30 +24,90 @@ pub fn crba(model: &SpatialModel, data: &mut SpatialData, q: &[f64]) -> SpatialR
 /// The CRBA sweep on the kinematics already in `data`.
 pub(crate) fn mass_matrix_from_kinematics(model: &SpatialModel, data: &mut SpatialData) {
     data.oIc.copy_from_slice(&data.oI);
-    for i in (1..model.joints.len()).rev() {
+    for i in (0..model.joints.len()).rev() {
+        mass_columns(model, data, i);
         if let Some(p) = model.joints[i].parent {
             // parents come first: p < i
             let x = data.oIc[i];
             data.oIc[p].add(&x);
         }
     }
+}
+
+/// Joint `i`'s columns of `M` from its composite inertia `⁰Yᶜᵢ` (complete once its children
+/// are added): the force column `⁰Yᶜᵢ ⁰S_c` of each of its rates `c`, projected on every
+/// column supporting it. Only the entries on the tree's sparsity (a rate and its ancestors)
+/// are written: the others are zero from `SpatialData::new` and stay so ([`SpatialData::M`]).
+fn mass_columns(model: &SpatialModel, data: &mut SpatialData, i: usize) {
+    let joint = &model.joints[i];
     let nv = model.nv;
-    // only the entries on the tree's sparsity (a rate and its ancestors) are written: the
-    // others are zero from `SpatialData::new` and stay so ([`SpatialData::M`])
-    let (s, m) = (data.oS.as_slice(), data.M.as_mut_slice());
-    let column = |c: usize| Vector6::from_column_slice(&s[6 * c..6 * c + 6]);
-    for c in 0..nv {
-        // the force column ⁰Yᶜᵢ ⁰S_c, projected on every column supporting it
-        let F = data.oIc[data.rate_joint[c]]
-            .apply(&Motion::from_vector(&column(c)))
-            .to_vector();
+    let (s, m) = (data.oS.as_slice().as_chunks::<6>().0, data.M.as_mut_slice());
+    let y = &data.oIc[i];
+    for c in joint.idx_v..joint.idx_v + joint.kind.nv() {
+        let F: [f64; 6] = y
+            .apply(&Motion::from_vector(&Vector6::from(s[c])))
+            .to_vector()
+            .into();
         let mut r = c;
         while r != usize::MAX {
-            let x = column(r).dot(&F);
+            let x = s[r].iter().zip(&F).fold(0.0, |x, (a, b)| x + a * b);
             m[r + c * nv] = x;
             m[c + r * nv] = x;
             r = data.rate_parent[r];
         }
+    }
+}
+
+/// `M` and the bias forces `h` (the RNEA at `q̈ = 0`) on the velocities already in `data`, in
+/// one backward sweep: a joint's composite inertia and its subtree's force are complete at
+/// the same time, so both algorithms share the pass (Featherstone 2008, Tables 5.1 and 6.2;
+/// the same operations, in the same order, as [`mass_matrix_from_kinematics`] then
+/// [`bias_forces_from_kinematics`]).
+pub(crate) fn mass_matrix_and_bias_from_kinematics(model: &SpatialModel, data: &mut SpatialData) {
+    let a0 = gravity_acceleration(model);
+    for i in 0..model.joints.len() {
+        data.of[i] = body_force(&data.oI[i], data.ov[i], a0 + data.oa_drift[i]);
+        data.oa[i] = Motion::zero();
+    }
+    data.oIc.copy_from_slice(&data.oI);
+    for i in (0..model.joints.len()).rev() {
+        mass_columns(model, data, i);
+        subtree_force(model, data, i, None);
+        if let Some(p) = model.joints[i].parent {
+            let x = data.oIc[i];
+            data.oIc[p].add(&x);
+        }
+    }
+}
+
+/// `⁰a₀ = −g`: gravity as an acceleration of the world (Featherstone 2008, §5.3).
+fn gravity_acceleration(model: &SpatialModel) -> Motion {
+    Motion::new(-model.gravity, nalgebra::Vector3::zeros())
+}
+
+/// A body's force `⁰Yᵢ ⁰aᵢ + ⁰vᵢ ×* ⁰Yᵢ ⁰vᵢ` at its acceleration `acc` and velocity `v`.
+fn body_force(y: &super::inertia::OriginInertia, v: Motion, acc: Motion) -> Force {
+    y.apply(&acc) + v.cross_force(&y.apply(&v))
+}
+
+/// The backward step of the RNEA at joint `i` (its subtree's force `⁰fᵢ` complete):
+/// `τ_c = ⁰S_cᵀ ⁰fᵢ` for its rates into `tau` (`data.h` when `None`), then `⁰fᵢ` added to
+/// its parent's.
+fn subtree_force(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    i: usize,
+    tau: Option<&mut DVector<f64>>,
+) {
+    let joint = &model.joints[i];
+    let f = data.of[i].to_vector();
+    let tau = tau.unwrap_or(&mut data.h);
+    for c in joint.idx_v..joint.idx_v + joint.kind.nv() {
+        tau[c] = data.oS.fixed_columns::<1>(c).dot(&f);
+    }
+    if let Some(p) = joint.parent {
+        let fi = data.of[i];
+        data.of[p] += fi;
     }
 }
 
@@ -62,7 +122,7 @@ fn rnea_sweeps(
     tau: &mut DVector<f64>,
 ) {
     let a0 = if gravity {
-        Motion::new(-model.gravity, nalgebra::Vector3::zeros())
+        gravity_acceleration(model)
     } else {
         Motion::zero()
     };
@@ -74,19 +134,10 @@ fn rnea_sweeps(
             None => parent,
         };
         let acc = a0 + data.oa_drift[i] + data.oa[i];
-        let (y, v) = (&data.oI[i], data.ov[i]);
-        data.of[i] = y.apply(&acc) + v.cross_force(&y.apply(&v));
+        data.of[i] = body_force(&data.oI[i], data.ov[i], acc);
     }
     for i in (0..model.joints.len()).rev() {
-        let joint = &model.joints[i];
-        let f = data.of[i].to_vector();
-        for c in joint.idx_v..joint.idx_v + joint.kind.nv() {
-            tau[c] = data.oS.fixed_columns::<1>(c).dot(&f);
-        }
-        if let Some(p) = joint.parent {
-            let fi = data.of[i];
-            data.of[p] += fi;
-        }
+        subtree_force(model, data, i, Some(tau));
     }
 }
 
