@@ -256,6 +256,26 @@ impl DenseOutput {
 /// The right-hand side `ẏ = f(t, y)`, written into its third argument; it may fail.
 pub type Rhs<'f, E> = dyn FnMut(f64, &[f64], &mut [f64]) -> Result<(), E> + 'f;
 
+/// A right-hand side `ẏ = f(t, y)` that may also give its Jacobian `∂f/∂y` (for the
+/// linearly implicit steps, [`crate::rosenbrock`]); any [`Rhs`] closure is one without.
+pub trait OdeSystem<E> {
+    /// `f(t, y)` into `dy`.
+    fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), E>;
+
+    /// `∂f/∂y` at `(t, y)`, column-major into `jac` (`n × n`), or `false` (the integrator
+    /// then takes it by forward differences of [`Self::rhs`]). None by default.
+    fn jacobian(&mut self, _t: f64, _y: &[f64], _jac: &mut [f64]) -> bool {
+        false
+    }
+}
+
+impl<E, F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), E> + ?Sized> OdeSystem<E> for F {
+    #[inline]
+    fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), E> {
+        self(t, y, dy)
+    }
+}
+
 /// Consecutive positive stiffness tests that switch to RODAS4 (Hairer's DOPRI5: 15).
 const STIFF_POSITIVES: u32 = 15;
 /// Negative tests after which the positives are forgotten (DOPRI5: 6).
@@ -415,11 +435,12 @@ impl Dopri5 {
     /// `(t + h, y_new)` exactly (FSAL). `Err(Rhs(e))` if the right-hand side failed,
     /// `Err(StepTooSmall(h))` if the step size fell below `h_min`. Kept out of line: inlined
     /// into the segment loop (as one change of unrelated code made the compiler do) it cost
-    /// the default leap +0.7 % instructions.
+    /// the default leap +0.7 % instructions. `f` is any [`Rhs`] closure, or a system that
+    /// gives its Jacobian ([`OdeSystem`]) to the linearly implicit steps.
     #[inline(never)]
-    pub fn step<E>(
+    pub fn step<E, S: OdeSystem<E> + ?Sized>(
         &mut self,
-        f: &mut Rhs<'_, E>,
+        f: &mut S,
         t: f64,
         y: &mut [f64],
         t_end: f64,
@@ -428,7 +449,7 @@ impl Dopri5 {
         let n = y.len();
         self.trial_h = 0.0;
         if !self.fsal_valid {
-            f(t, y, &mut self.k[0]).map_err(StepError::Rhs)?;
+            f.rhs(t, y, &mut self.k[0]).map_err(StepError::Rhs)?;
             self.fsal_valid = true;
         }
         if self.implicit {
@@ -453,7 +474,8 @@ impl Dopri5 {
             self.trial_h = h;
             for s in 1..7 {
                 stage_point(s, &self.k, y, h, &mut self.ytmp);
-                f(t + C[s] * h, &self.ytmp, &mut self.k[s]).map_err(StepError::Rhs)?;
+                f.rhs(t + C[s] * h, &self.ytmp, &mut self.k[s])
+                    .map_err(StepError::Rhs)?;
             }
             // the 7th stage point is y_{n+1} (FSAL)
             self.ynew.copy_from_slice(&self.ytmp);
@@ -470,25 +492,8 @@ impl Dopri5 {
                 y.copy_from_slice(&self.ynew);
                 let (first, rest) = self.k.split_at_mut(1);
                 first[0].copy_from_slice(&rest[5]);
-                // h_new = 0.9 h err^(−1/5), and no larger than Gustafsson's predictive
-                // controller (Hairer & Wanner, *Solving ODEs II*, IV.8, as in RADAU5), which
-                // extrapolates the change of the error between the last two accepted steps:
-                // h_new = 0.9 h (h / h_acc) (err_acc / err²)^(1/5). Where the error grows
-                // from step to step (a flow speeding up towards a liftoff), the plain
-                // controller settles at err ≈ 1 and rejects every other step.
-                let mut fac = if err == 0.0 {
-                    5.0
-                } else {
-                    (0.9 * err.powf(-0.2)).clamp(0.2, 5.0)
-                };
-                if let (Some((h_acc, err_acc)), true) = (self.last_accepted, err > 0.0) {
-                    let predicted = (h / h_acc) * 0.9 * (err_acc / (err * err)).powf(0.2);
-                    fac = fac.min(predicted.clamp(0.2, 5.0));
-                }
-                if rejected {
-                    // no growth right after a rejection (DOPRI5)
-                    fac = fac.min(1.0);
-                }
+                // the error estimate is of order 4: exponent 1/5
+                let fac = next_step_factor((h, err), self.last_accepted, rejected, (0.2, 5.0));
                 self.last_accepted = Some((h, err.max(1e-2)));
                 self.h = h * fac;
                 bump(ACCEPTED);
@@ -545,9 +550,9 @@ impl Dopri5 {
     /// One accepted RODAS4 step ([`Self::step`]'s contract), or `None` where DOPRI5 takes
     /// this step instead: an explicit step of RODAS4's size would be stable, or the Jacobian
     /// cannot be formed here. `k[0]` holds `f(t, y)` on entry and `f(t + h, y₁)` on return.
-    fn step_implicit<E>(
+    fn step_implicit<E, S: OdeSystem<E> + ?Sized>(
         &mut self,
-        f: &mut Rhs<'_, E>,
+        f: &mut S,
         t: f64,
         y: &mut [f64],
         t_end: f64,
@@ -593,7 +598,7 @@ impl Dopri5 {
                 // the end point's derivative: the next step's first, and the last
                 // evaluation of this one at its end point
                 let (first, rest) = self.k.split_at_mut(1);
-                if let Err(e) = f(t + h, &self.ynew, &mut rest[0]) {
+                if let Err(e) = f.rhs(t + h, &self.ynew, &mut rest[0]) {
                     return Some(Err(StepError::Rhs(e)));
                 }
                 first[0].copy_from_slice(&rest[0]);
@@ -601,20 +606,8 @@ impl Dopri5 {
                 dense.h = h;
                 dense.implicit = true;
                 y.copy_from_slice(&self.ynew);
-                // h_new = 0.9 h err^(−1/4) (the embedded solution is of order 3), no larger
-                // than Gustafsson's predictive controller (as RODAS)
-                let mut fac = if err == 0.0 {
-                    6.0
-                } else {
-                    (0.9 * err.powf(-0.25)).clamp(0.2, 6.0)
-                };
-                if let (Some((h_acc, err_acc)), true) = (self.last_accepted, err > 0.0) {
-                    let predicted = (h / h_acc) * 0.9 * (err_acc / (err * err)).powf(0.25);
-                    fac = fac.min(predicted.clamp(0.2, 6.0));
-                }
-                if rejected {
-                    fac = fac.min(1.0);
-                }
+                // the embedded solution is of order 3: exponent 1/4, growth up to 6 (RODAS)
+                let fac = next_step_factor((h, err), self.last_accepted, rejected, (0.25, 6.0));
                 self.last_accepted = Some((h, err.max(1e-2)));
                 self.h = h * fac;
                 self.implicit_steps += 1;
@@ -676,6 +669,36 @@ impl Dopri5 {
             r4[i] = h * (0..7).map(|j| D[j] * k[j][i]).sum::<f64>();
         }
     }
+}
+
+/// The factor from an accepted step of size `h` and error norm `err` to the next step's
+/// size, for an error estimate of order `1/expo − 1`: `0.9 err^(−expo)` in `[0.2, fac_max]`,
+/// no larger than Gustafsson's predictive controller (Hairer & Wanner, *Solving ODEs II*,
+/// IV.8, as in RADAU5 and RODAS), which extrapolates the change of the error between the
+/// last two accepted steps (`last_accepted`: size and error norm of the one before):
+/// `0.9 (h / h_acc) (err_acc / err²)^expo` — where the error grows from step to step (a flow
+/// speeding up towards a liftoff), the plain controller settles at `err ≈ 1` and rejects
+/// every other step — and no growth right after a rejection (DOPRI5).
+#[inline]
+fn next_step_factor(
+    (h, err): (f64, f64),
+    last_accepted: Option<(f64, f64)>,
+    rejected: bool,
+    (expo, fac_max): (f64, f64),
+) -> f64 {
+    let mut fac = if err == 0.0 {
+        fac_max
+    } else {
+        (0.9 * err.powf(-expo)).clamp(0.2, fac_max)
+    };
+    if let (Some((h_acc, err_acc)), true) = (last_accepted, err > 0.0) {
+        let predicted = (h / h_acc) * 0.9 * (err_acc / (err * err)).powf(expo);
+        fac = fac.min(predicted.clamp(0.2, fac_max));
+    }
+    if rejected {
+        fac = fac.min(1.0);
+    }
+    fac
 }
 
 /// The point of stage `s` (1 … 6) of a step of size `h` from `y`: `out = y + h Σ_{j<s} a_sj k_j`,
