@@ -302,21 +302,17 @@ const EXPLICIT_HLAMBDA: f64 = 2.5;
 /// The spectral radius is estimated on every this many RODAS4 steps since the switch or the
 /// last restart.
 const EXPLICIT_CHECK_EVERY: u32 = 5;
-/// The most times the stiffness test's count of positives is doubled ([`SwitchBackoff`]):
-/// up to `16 × 15` tests in a row.
+/// The most times the stiffness test's count of positives is doubled (up to `16 × 15` tests
+/// in a row): the **switch backoff**. A switch to RODAS4 pays where RODAS4's accuracy allows
+/// steps longer than DOPRI5's stability did (LSODA switches only where the other method's
+/// step is the longer). Where DOPRI5's step is held near where its stability and its
+/// accuracy bind alike (`h |λ|` estimates of 2–3), the stiffness test fires, RODAS4 takes
+/// steps no longer than DOPRI5's (its error estimate is of order 3), and hands back at its
+/// first check: a cycle of about 20 explicit and 5 implicit steps, 30 times in the stance of
+/// run 178 of the user-robot sweep. A stretch of RODAS4 whose mean step was no longer than
+/// the last explicit step before it doubles the positives the next switch needs; a stretch
+/// that paid sets them back to [`STIFF_POSITIVES`].
 const MAX_BACKOFF: u32 = 4;
-
-/// **Switch backoff.** A switch to RODAS4 pays where RODAS4's accuracy allows steps longer
-/// than DOPRI5's stability did (LSODA switches only where the other method's step is the
-/// longer). Where DOPRI5's step is held near where its stability and its accuracy bind alike
-/// (`h |λ|` estimates of 2–3), the stiffness test fires, RODAS4 takes steps no longer than
-/// DOPRI5's (its error estimate is of order 3), and hands back at its first check: a cycle
-/// of about 20 explicit and 5 implicit steps, 30 times in the stance of run 178 of the
-/// user-robot sweep. A stretch of RODAS4 whose mean step was no longer than the last
-/// explicit step before it doubles the positives the next switch needs (up to
-/// [`MAX_BACKOFF`] times); a stretch that paid sets them back to [`STIFF_POSITIVES`].
-#[allow(dead_code)]
-enum SwitchBackoff {}
 
 /// The state of DOPRI5's stiffness test (Hairer, Nørsett & Wanner, *Solving ODEs I*, IV.2 and
 /// the code DOPRI5): on an accepted step, `h λ ≈ h ‖k₇ − k₆‖ / ‖y₇ − y₆‖` (the last two stages
@@ -372,7 +368,7 @@ pub struct Dopri5 {
     /// RODAS4 steps since the switch or the last restart.
     implicit_steps: u32,
     /// The last explicit step before the switch to RODAS4 (s), and the sum and count of
-    /// RODAS4's accepted steps since: whether the stretch paid ([`SwitchBackoff`]).
+    /// RODAS4's accepted steps since: whether the stretch paid ([`MAX_BACKOFF`]).
     switch_h: f64,
     stretch: (f64, u32),
     /// How many times [`STIFF_POSITIVES`] the stiffness test needs, as a power of 2.
@@ -481,7 +477,7 @@ impl Dopri5 {
                 return r;
             }
             // back to DOPRI5 (stable at RODAS4's step size, or no Jacobian here); a stretch
-            // whose steps were no longer than DOPRI5's before it did not pay (SwitchBackoff)
+            // whose steps were no longer than DOPRI5's before it did not pay (MAX_BACKOFF)
             let (sum, count) = self.stretch;
             if count > 0 {
                 self.backoff = if sum <= self.switch_h * f64::from(count) {
