@@ -26,7 +26,7 @@
 //! ([`crate::reset_workspace::ResetWorkspace`]), so no reset can leave the cache stale.
 use crate::controller::Controller;
 use crate::event::Event;
-use crate::integrate::OdeSystem;
+use crate::ode_system::OdeSystem;
 use crate::sensitivity::EngineJacobian;
 use selfmanip_core::contact::{contact_geometry, ContactGeometry, ContactKind};
 use selfmanip_core::friction::{SlideDirection, SLIDING_SPEED_EPS_M_S};

@@ -15,6 +15,7 @@
 //! [`DenseOutput`] keeps a run of accepted steps in one flat buffer that grows by doubling:
 //! recording a step allocates nothing once the buffer has grown to the run's size.
 
+pub use crate::ode_system::OdeSystem;
 use crate::rosenbrock::Rodas4;
 
 /// Butcher tableau of DOPRI5.
@@ -255,26 +256,6 @@ impl DenseOutput {
 
 /// The right-hand side `ẏ = f(t, y)`, written into its third argument; it may fail.
 pub type Rhs<'f, E> = dyn FnMut(f64, &[f64], &mut [f64]) -> Result<(), E> + 'f;
-
-/// A right-hand side `ẏ = f(t, y)` that may also give its Jacobian `∂f/∂y` (for the
-/// linearly implicit steps, [`crate::rosenbrock`]); any [`Rhs`] closure is one without.
-pub trait OdeSystem<E> {
-    /// `f(t, y)` into `dy`.
-    fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), E>;
-
-    /// `∂f/∂y` at `(t, y)`, column-major into `jac` (`n × n`), or `false` (the integrator
-    /// then takes it by forward differences of [`Self::rhs`]). None by default.
-    fn jacobian(&mut self, _t: f64, _y: &[f64], _jac: &mut [f64]) -> bool {
-        false
-    }
-}
-
-impl<E, F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), E> + ?Sized> OdeSystem<E> for F {
-    #[inline]
-    fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), E> {
-        self(t, y, dy)
-    }
-}
 
 /// Consecutive positive stiffness tests that switch to RODAS4 (Hairer's DOPRI5: 15).
 const STIFF_POSITIVES: u32 = 15;

@@ -20,7 +20,7 @@
 //! in RODAS); `∂f/∂t` by one forward difference; the linear
 //! systems by one LU factorization with partial pivoting (nalgebra's `LU`) per trial step.
 //! Coefficients: Hairer & Wanner's `RODAS` (method 1), as tabulated in the public `rodas.f`.
-use crate::integrate::OdeSystem;
+use crate::ode_system::OdeSystem;
 use nalgebra::{DMatrix, DVectorViewMut, Dyn, LU};
 
 /// `γ`.

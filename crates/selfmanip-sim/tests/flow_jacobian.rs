@@ -6,44 +6,23 @@
 use selfmanip_core::ContactMode;
 use selfmanip_hybrid::flow::Flow;
 use selfmanip_sim::{Scenario, Simulation};
+mod stiff_bounder;
+use stiff_bounder::stiff_bounder;
 
-/// The newcomer's bounder of issue 30 (shins of `shin_kg` and `shin_inertia` kg m²) under
-/// servos with the stiff damping of the user-robot sweep's slow runs.
+/// The stiff bounder of `stiff_run.rs` (the front shin's servo damping 7.5 N m s) with both
+/// shins of `shin_kg` and `shin_inertia` kg m².
 fn bounder(shin_kg: f64, shin_inertia: f64) -> Scenario {
-    let link = r#"{"length_m": 0.15, "mass_kg": 0.1, "inertia_kg_m2": 1.875e-4}"#;
-    let shin =
-        format!(r#"{{"length_m": 0.15, "mass_kg": {shin_kg}, "inertia_kg_m2": {shin_inertia}}}"#);
-    let foot = |g: &str| {
-        format!(
-            r#"{{"name": "{g}_foot", "leg": "{g}", "shape": {{"kind": "point",
-            "position_m": [0, 0.15]}}, "friction": {{"kind": "sticking", "mu": 0.8}}}}"#
+    let mut s = stiff_bounder(7.5, r#""t_final_s": 0.1"#);
+    for leg in ["front", "hind"] {
+        s.set(&format!("robot.legs.{leg}.links[1].mass_kg"), shin_kg)
+            .unwrap();
+        s.set(
+            &format!("robot.legs.{leg}.links[1].inertia_kg_m2"),
+            shin_inertia,
         )
-    };
-    let leg = |n: &str, x: f64| {
-        format!(r#"{{"name": "{n}", "hip_m": [{x}, 0.0], "links": [{link}, {shin}]}}"#)
-    };
-    let servo = |j: &str, target: f64, kd: f64| {
-        format!(
-            r#"{{"joint": "{j}", "phases": [{{"name": "h", "torque": {{"kind": "servo",
-            "target_rad": {target}, "kp_n_m_per_rad": 170.0, "kd_n_m_s_per_rad": {kd}}}}}]}}"#
-        )
-    };
-    let json = format!(
-        r#"{{"robot": {{"name": "bounder", "body": {{"mass_kg": 2.0, "inertia_kg_m2": 0.0267}},
-        "contacts": [{}, {}], "legs": [{}, {}]}},
-        "initial": {{"q": [0.5, -1.0, 0.5, -1.0, 0.0, -0.33, 0.0]}},
-        "behaviour": {{"joints": [{}, {}, {}, {}]}},
-        "options": {{"t_final_s": 0.1}}}}"#,
-        foot("front"),
-        foot("hind"),
-        leg("front", 0.2),
-        leg("hind", -0.2),
-        servo("front[0]", 0.6, 7.5),
-        servo("front[1]", -0.8, 7.5),
-        servo("hind[0]", 0.6, 7.5),
-        servo("hind[1]", -0.8, 7.5),
-    );
-    Scenario::from_json_str(&json).unwrap()
+        .unwrap();
+    }
+    s
 }
 
 /// The largest difference between the exact Jacobian and central differences of the flow
