@@ -26,6 +26,8 @@
 //! ([`crate::reset_workspace::ResetWorkspace`]), so no reset can leave the cache stale.
 use crate::controller::Controller;
 use crate::event::Event;
+use crate::ode_system::OdeSystem;
+use crate::sensitivity::EngineJacobian;
 use selfmanip_core::contact::{contact_geometry, ContactGeometry, ContactKind};
 use selfmanip_core::friction::{SlideDirection, SLIDING_SPEED_EPS_M_S};
 use selfmanip_core::kinematics::Kinematics;
@@ -52,6 +54,32 @@ pub struct Flow<'a> {
     /// Contacts held sticking by a jam hold ([`crate::jam_hold`]): their liftoff and
     /// stick→slip guards give way to the hold's own guard.
     jammed: Vec<usize>,
+    /// The exact flow Jacobian's workspace ([`Self::jacobian`]; made on the first call).
+    engine_jacobian: Option<Box<EngineJacobian<'a>>>,
+}
+
+/// The flow of one mode as the integrator's right-hand side ([`OdeSystem`]), with its exact
+/// Jacobian ([`Flow::jacobian`]) for the linearly implicit steps. Its time is clamped to
+/// `[t_right, t_left]`: the stages of a step that ends on a time event of the controller
+/// take the flow's left limit there, those of the step after it the right limit.
+pub struct FlowSystem<'s, 'a> {
+    pub flow: &'s mut Flow<'a>,
+    pub mode: ContactMode,
+    pub t_right: f64,
+    pub t_left: f64,
+}
+
+impl OdeSystem<CoreError> for FlowSystem<'_, '_> {
+    #[inline]
+    fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), CoreError> {
+        let t = t.max(self.t_right).min(self.t_left);
+        self.flow.rhs(t, self.mode, y, dy)
+    }
+
+    fn jacobian(&mut self, t: f64, y: &[f64], jac: &mut [f64]) -> bool {
+        let t = t.max(self.t_right).min(self.t_left);
+        self.flow.jacobian(t, self.mode, y, jac)
+    }
 }
 
 impl<'a> Flow<'a> {
@@ -68,7 +96,32 @@ impl<'a> Flow<'a> {
             kin_y: None,
             held: Vec::new(),
             jammed: Vec::new(),
+            engine_jacobian: None,
         }
+    }
+
+    /// The exact Jacobian `∂f/∂y` of [`Self::rhs`] for `mode` at `(t, y)`, column-major into
+    /// `jac` (`2nq × 2nq`): the sensitivity engine's closed form
+    /// ([`crate::sensitivity::EngineJacobian`]) under the flow's controller, locked joints and
+    /// sliding directions. `false` (nothing written) where it has none: a controller without
+    /// partials, a mode in which a massless chain may slide damped (its rates are solved
+    /// for, [`crate::damped_slide`], which the closed form does not differentiate), or
+    /// singular dynamics.
+    pub fn jacobian(&mut self, t: f64, mode: ContactMode, y: &[f64], jac: &mut [f64]) -> bool {
+        if crate::damped_slide::sliding_damped(self.ws.damped, mode) != 0 {
+            return false;
+        }
+        let (model, terrain) = (self.model, self.terrain);
+        let ej = self
+            .engine_jacobian
+            .get_or_insert_with(|| Box::new(EngineJacobian::new(model, terrain)));
+        let data = &self.ws.data;
+        ej.jacobian(
+            (&*self.ctrl, &data.locked, &data.slide_directions),
+            (t, mode),
+            y,
+            jac,
+        )
     }
 
     /// The contacts a jam hold keeps sticking ([`crate::jam_hold`]).

@@ -15,6 +15,7 @@
 //! [`DenseOutput`] keeps a run of accepted steps in one flat buffer that grows by doubling:
 //! recording a step allocates nothing once the buffer has grown to the run's size.
 
+pub use crate::ode_system::OdeSystem;
 use crate::rosenbrock::Rodas4;
 
 /// Butcher tableau of DOPRI5.
@@ -282,6 +283,17 @@ const EXPLICIT_HLAMBDA: f64 = 2.5;
 /// The spectral radius is estimated on every this many RODAS4 steps since the switch or the
 /// last restart.
 const EXPLICIT_CHECK_EVERY: u32 = 5;
+/// The most times the stiffness test's count of positives is doubled (up to `16 × 15` tests
+/// in a row): the **switch backoff**. A switch to RODAS4 pays where RODAS4's accuracy allows
+/// steps longer than DOPRI5's stability did (LSODA switches only where the other method's
+/// step is the longer). Where DOPRI5's step is held near where its stability and its
+/// accuracy bind alike (`h |λ|` estimates of 2–3), the stiffness test fires, RODAS4 takes
+/// steps no longer than DOPRI5's (its error estimate is of order 3), and hands back at its
+/// first check: a cycle of about 20 explicit and 5 implicit steps, 30 times in the stance of
+/// run 178 of the user-robot sweep. A stretch of RODAS4 whose mean step was no longer than
+/// the last explicit step before it doubles the positives the next switch needs; a stretch
+/// that paid sets them back to [`STIFF_POSITIVES`].
+const MAX_BACKOFF: u32 = 4;
 
 /// The state of DOPRI5's stiffness test (Hairer, Nørsett & Wanner, *Solving ODEs I*, IV.2 and
 /// the code DOPRI5): on an accepted step, `h λ ≈ h ‖k₇ − k₆‖ / ‖y₇ − y₆‖` (the last two stages
@@ -336,6 +348,12 @@ pub struct Dopri5 {
     implicit: bool,
     /// RODAS4 steps since the switch or the last restart.
     implicit_steps: u32,
+    /// The last explicit step before the switch to RODAS4 (s), and the sum and count of
+    /// RODAS4's accepted steps since: whether the stretch paid ([`MAX_BACKOFF`]).
+    switch_h: f64,
+    stretch: (f64, u32),
+    /// How many times [`STIFF_POSITIVES`] the stiffness test needs, as a power of 2.
+    backoff: u32,
 }
 
 impl Dopri5 {
@@ -357,6 +375,9 @@ impl Dopri5 {
             rodas: None,
             implicit: false,
             implicit_steps: 0,
+            switch_h: 0.0,
+            stretch: (0.0, 0),
+            backoff: 0,
         }
     }
 
@@ -415,11 +436,12 @@ impl Dopri5 {
     /// `(t + h, y_new)` exactly (FSAL). `Err(Rhs(e))` if the right-hand side failed,
     /// `Err(StepTooSmall(h))` if the step size fell below `h_min`. Kept out of line: inlined
     /// into the segment loop (as one change of unrelated code made the compiler do) it cost
-    /// the default leap +0.7 % instructions.
+    /// the default leap +0.7 % instructions. `f` is any [`Rhs`] closure, or a system that
+    /// gives its Jacobian ([`OdeSystem`]) to the linearly implicit steps.
     #[inline(never)]
-    pub fn step<E>(
+    pub fn step<E, S: OdeSystem<E> + ?Sized>(
         &mut self,
-        f: &mut Rhs<'_, E>,
+        f: &mut S,
         t: f64,
         y: &mut [f64],
         t_end: f64,
@@ -428,14 +450,23 @@ impl Dopri5 {
         let n = y.len();
         self.trial_h = 0.0;
         if !self.fsal_valid {
-            f(t, y, &mut self.k[0]).map_err(StepError::Rhs)?;
+            f.rhs(t, y, &mut self.k[0]).map_err(StepError::Rhs)?;
             self.fsal_valid = true;
         }
         if self.implicit {
             if let Some(r) = self.step_implicit(f, t, y, t_end, dense) {
                 return r;
             }
-            // back to DOPRI5 (stable at RODAS4's step size, or no Jacobian here)
+            // back to DOPRI5 (stable at RODAS4's step size, or no Jacobian here); a stretch
+            // whose steps were no longer than DOPRI5's before it did not pay (MAX_BACKOFF)
+            let (sum, count) = self.stretch;
+            if count > 0 {
+                self.backoff = if sum <= self.switch_h * f64::from(count) {
+                    (self.backoff + 1).min(MAX_BACKOFF)
+                } else {
+                    0
+                };
+            }
             self.implicit = false;
             self.last_accepted = None;
             self.stiffness = StiffnessTest::default();
@@ -453,7 +484,8 @@ impl Dopri5 {
             self.trial_h = h;
             for s in 1..7 {
                 stage_point(s, &self.k, y, h, &mut self.ytmp);
-                f(t + C[s] * h, &self.ytmp, &mut self.k[s]).map_err(StepError::Rhs)?;
+                f.rhs(t + C[s] * h, &self.ytmp, &mut self.k[s])
+                    .map_err(StepError::Rhs)?;
             }
             // the 7th stage point is y_{n+1} (FSAL)
             self.ynew.copy_from_slice(&self.ytmp);
@@ -470,25 +502,8 @@ impl Dopri5 {
                 y.copy_from_slice(&self.ynew);
                 let (first, rest) = self.k.split_at_mut(1);
                 first[0].copy_from_slice(&rest[5]);
-                // h_new = 0.9 h err^(−1/5), and no larger than Gustafsson's predictive
-                // controller (Hairer & Wanner, *Solving ODEs II*, IV.8, as in RADAU5), which
-                // extrapolates the change of the error between the last two accepted steps:
-                // h_new = 0.9 h (h / h_acc) (err_acc / err²)^(1/5). Where the error grows
-                // from step to step (a flow speeding up towards a liftoff), the plain
-                // controller settles at err ≈ 1 and rejects every other step.
-                let mut fac = if err == 0.0 {
-                    5.0
-                } else {
-                    (0.9 * err.powf(-0.2)).clamp(0.2, 5.0)
-                };
-                if let (Some((h_acc, err_acc)), true) = (self.last_accepted, err > 0.0) {
-                    let predicted = (h / h_acc) * 0.9 * (err_acc / (err * err)).powf(0.2);
-                    fac = fac.min(predicted.clamp(0.2, 5.0));
-                }
-                if rejected {
-                    // no growth right after a rejection (DOPRI5)
-                    fac = fac.min(1.0);
-                }
+                // the error estimate is of order 4: exponent 1/5
+                let fac = next_step_factor((h, err), self.last_accepted, rejected, (0.2, 5.0));
                 self.last_accepted = Some((h, err.max(1e-2)));
                 self.h = h * fac;
                 bump(ACCEPTED);
@@ -527,10 +542,12 @@ impl Dopri5 {
         if den > 0.0 && h * (num / den).sqrt() > STIFF_HLAMBDA {
             st.negatives = 0;
             st.positives += 1;
-            if st.positives >= STIFF_POSITIVES {
+            if st.positives >= STIFF_POSITIVES << self.backoff {
                 *st = StiffnessTest::default();
                 self.implicit = true;
                 self.implicit_steps = 0;
+                self.switch_h = h;
+                self.stretch = (0.0, 0);
                 self.last_accepted = None;
                 bump(SWITCHES);
             }
@@ -545,9 +562,9 @@ impl Dopri5 {
     /// One accepted RODAS4 step ([`Self::step`]'s contract), or `None` where DOPRI5 takes
     /// this step instead: an explicit step of RODAS4's size would be stable, or the Jacobian
     /// cannot be formed here. `k[0]` holds `f(t, y)` on entry and `f(t + h, y₁)` on return.
-    fn step_implicit<E>(
+    fn step_implicit<E, S: OdeSystem<E> + ?Sized>(
         &mut self,
-        f: &mut Rhs<'_, E>,
+        f: &mut S,
         t: f64,
         y: &mut [f64],
         t_end: f64,
@@ -593,7 +610,7 @@ impl Dopri5 {
                 // the end point's derivative: the next step's first, and the last
                 // evaluation of this one at its end point
                 let (first, rest) = self.k.split_at_mut(1);
-                if let Err(e) = f(t + h, &self.ynew, &mut rest[0]) {
+                if let Err(e) = f.rhs(t + h, &self.ynew, &mut rest[0]) {
                     return Some(Err(StepError::Rhs(e)));
                 }
                 first[0].copy_from_slice(&rest[0]);
@@ -601,23 +618,12 @@ impl Dopri5 {
                 dense.h = h;
                 dense.implicit = true;
                 y.copy_from_slice(&self.ynew);
-                // h_new = 0.9 h err^(−1/4) (the embedded solution is of order 3), no larger
-                // than Gustafsson's predictive controller (as RODAS)
-                let mut fac = if err == 0.0 {
-                    6.0
-                } else {
-                    (0.9 * err.powf(-0.25)).clamp(0.2, 6.0)
-                };
-                if let (Some((h_acc, err_acc)), true) = (self.last_accepted, err > 0.0) {
-                    let predicted = (h / h_acc) * 0.9 * (err_acc / (err * err)).powf(0.25);
-                    fac = fac.min(predicted.clamp(0.2, 6.0));
-                }
-                if rejected {
-                    fac = fac.min(1.0);
-                }
+                // the embedded solution is of order 3: exponent 1/4, growth up to 6 (RODAS)
+                let fac = next_step_factor((h, err), self.last_accepted, rejected, (0.25, 6.0));
                 self.last_accepted = Some((h, err.max(1e-2)));
                 self.h = h * fac;
                 self.implicit_steps += 1;
+                self.stretch = (self.stretch.0 + h, self.stretch.1 + 1);
                 bump(ACCEPTED);
                 bump(IMPLICIT);
                 return Some(Ok(()));
@@ -676,6 +682,36 @@ impl Dopri5 {
             r4[i] = h * (0..7).map(|j| D[j] * k[j][i]).sum::<f64>();
         }
     }
+}
+
+/// The factor from an accepted step of size `h` and error norm `err` to the next step's
+/// size, for an error estimate of order `1/expo − 1`: `0.9 err^(−expo)` in `[0.2, fac_max]`,
+/// no larger than Gustafsson's predictive controller (Hairer & Wanner, *Solving ODEs II*,
+/// IV.8, as in RADAU5 and RODAS), which extrapolates the change of the error between the
+/// last two accepted steps (`last_accepted`: size and error norm of the one before):
+/// `0.9 (h / h_acc) (err_acc / err²)^expo` — where the error grows from step to step (a flow
+/// speeding up towards a liftoff), the plain controller settles at `err ≈ 1` and rejects
+/// every other step — and no growth right after a rejection (DOPRI5).
+#[inline]
+fn next_step_factor(
+    (h, err): (f64, f64),
+    last_accepted: Option<(f64, f64)>,
+    rejected: bool,
+    (expo, fac_max): (f64, f64),
+) -> f64 {
+    let mut fac = if err == 0.0 {
+        fac_max
+    } else {
+        (0.9 * err.powf(-expo)).clamp(0.2, fac_max)
+    };
+    if let (Some((h_acc, err_acc)), true) = (last_accepted, err > 0.0) {
+        let predicted = (h / h_acc) * 0.9 * (err_acc / (err * err)).powf(expo);
+        fac = fac.min(predicted.clamp(0.2, fac_max));
+    }
+    if rejected {
+        fac = fac.min(1.0);
+    }
+    fac
 }
 
 /// The point of stage `s` (1 … 6) of a step of size `h` from `y`: `out = y + h Σ_{j<s} a_sj k_j`,

@@ -70,6 +70,7 @@ pub mod jam;
 pub mod jam_hold;
 pub mod limits;
 pub mod locate;
+pub mod ode_system;
 pub mod options;
 pub mod periodic;
 pub mod reset;

@@ -14,10 +14,13 @@
 //! `u_i` — the quartic form of DOPRI5's dense output with `r₄ = 0`, so that a step of either
 //! method is stored, sampled and located on in one format.
 //!
-//! The Jacobian `∂f/∂y` and `∂f/∂t` are taken by forward differences of the right-hand side
-//! (`n + 1` evaluations per step, `δ_j = √(ε max(10⁻⁵, |y_j|))` as in RODAS); the linear
+//! The Jacobian `∂f/∂y` is the right-hand side's own where it gives one
+//! ([`OdeSystem::jacobian`]: the flow's exact Jacobian, [`crate::flow::FlowSystem`]), else
+//! taken by forward differences (`n` evaluations per step, `δ_j = √(ε max(10⁻⁵, |y_j|))` as
+//! in RODAS); `∂f/∂t` by one forward difference; the linear
 //! systems by one LU factorization with partial pivoting (nalgebra's `LU`) per trial step.
 //! Coefficients: Hairer & Wanner's `RODAS` (method 1), as tabulated in the public `rodas.f`.
+use crate::ode_system::OdeSystem;
 use nalgebra::{DMatrix, DVectorViewMut, Dyn, LU};
 
 /// `γ`.
@@ -136,29 +139,32 @@ impl Rodas4 {
         }
     }
 
-    /// `∂f/∂y` and `∂f/∂t` at `(t, y)` by forward differences, `f0 = f(t, y)`.
-    pub(crate) fn jacobian<E>(
+    /// `∂f/∂y` at `(t, y)` from the system where it gives it ([`OdeSystem::jacobian`]), else
+    /// by forward differences; `∂f/∂t` by a forward difference; `f0 = f(t, y)`.
+    pub(crate) fn jacobian<E, S: OdeSystem<E> + ?Sized>(
         &mut self,
-        f: &mut dyn FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
+        f: &mut S,
         t: f64,
         y: &[f64],
         f0: &[f64],
     ) -> Result<(), NoJacobian> {
         let n = self.n;
-        self.ytmp.copy_from_slice(y);
-        for j in 0..n {
-            let dj = (f64::EPSILON * y[j].abs().max(1e-5)).sqrt();
-            self.ytmp[j] = y[j] + dj;
-            let r = f(t, &self.ytmp, &mut self.ftmp);
-            self.ytmp[j] = y[j];
-            r.map_err(|_| NoJacobian)?;
-            let col = &mut self.jac[j * n..(j + 1) * n];
-            for i in 0..n {
-                col[i] = (self.ftmp[i] - f0[i]) / dj;
+        if !f.jacobian(t, y, &mut self.jac) {
+            self.ytmp.copy_from_slice(y);
+            for j in 0..n {
+                let dj = (f64::EPSILON * y[j].abs().max(1e-5)).sqrt();
+                self.ytmp[j] = y[j] + dj;
+                let r = f.rhs(t, &self.ytmp, &mut self.ftmp);
+                self.ytmp[j] = y[j];
+                r.map_err(|_| NoJacobian)?;
+                let col = &mut self.jac[j * n..(j + 1) * n];
+                for i in 0..n {
+                    col[i] = (self.ftmp[i] - f0[i]) / dj;
+                }
             }
         }
         let dt = (f64::EPSILON * t.abs().max(1e-5)).sqrt();
-        f(t + dt, y, &mut self.ftmp).map_err(|_| NoJacobian)?;
+        f.rhs(t + dt, y, &mut self.ftmp).map_err(|_| NoJacobian)?;
         for i in 0..n {
             self.ft[i] = (self.ftmp[i] - f0[i]) / dt;
         }
@@ -226,9 +232,9 @@ impl Rodas4 {
     /// coefficients `r₀ … r₄` into `r` (`5 n`). `Err(Some(e))`: the right-hand side failed at
     /// a stage; `Err(None)`: `W` is singular at this `h`.
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn trial<E>(
+    pub(crate) fn trial<E, S: OdeSystem<E> + ?Sized>(
         &mut self,
-        f: &mut dyn FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
+        f: &mut S,
         t: f64,
         y: &[f64],
         f0: &[f64],
@@ -254,7 +260,8 @@ impl Rodas4 {
             if s == 0 {
                 self.rhs.copy_from_slice(f0);
             } else {
-                f(t + C[s] * h, &self.ytmp, &mut self.rhs).map_err(Some)?;
+                f.rhs(t + C[s] * h, &self.ytmp, &mut self.rhs)
+                    .map_err(Some)?;
             }
             let dh = D[s] * h;
             for i in 0..n {

@@ -24,7 +24,7 @@ use crate::drift;
 use crate::error::HybridError;
 use crate::execution::{Segment, Termination};
 use crate::features::{FeatureChange, Surfaces};
-use crate::flow::{Flow, FlowWorkspace};
+use crate::flow::{Flow, FlowSystem, FlowWorkspace};
 use crate::free_joints::FreeJointStability;
 use crate::guard::{Guard, GuardSet};
 use crate::integrate::{DenseOutput, DenseStep, Dopri5, StepError};
@@ -209,7 +209,12 @@ impl SegmentIntegrator {
             let t_right = self.t_right;
             let (t_start, h_proposed) = (*t, self.ode.next_step_size());
             let step = self.ode.step(
-                &mut |tt, yy, dy| flow.rhs(tt.max(t_right).min(t_left), mode, yy, dy),
+                &mut FlowSystem {
+                    flow,
+                    mode,
+                    t_right,
+                    t_left,
+                },
                 *t,
                 y,
                 t_end,

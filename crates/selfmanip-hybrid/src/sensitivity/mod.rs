@@ -123,6 +123,7 @@
 mod chain;
 mod columns;
 mod coulomb_impact;
+mod engine_jacobian;
 mod evaluator;
 mod event_saltation;
 mod force_events;
@@ -139,6 +140,7 @@ mod touchdown;
 mod types;
 
 pub use columns::execution_sensitivity_columns;
+pub(crate) use engine_jacobian::EngineJacobian;
 pub use force_events::DRIFT_JUMP_TOL;
 pub use saltation::{saltation, GRAZING_TOL};
 pub use simultaneous::{MAX_SIMULTANEOUS_GUARDS, ORDER_AGREEMENT_TOL, SIMULTANEOUS_GUARD_S};

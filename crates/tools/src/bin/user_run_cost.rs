@@ -58,7 +58,12 @@ fn main() {
         println!("  event kinds {kinds:?}");
         let mut segs: Vec<_> = exec.segments.iter().collect();
         segs.sort_by_key(|s| std::cmp::Reverse(s.dense.len()));
-        for seg in segs.iter().take(6) {
+        // USER_RUN_COST_SEGMENTS=N: the N longest segments (6)
+        let shown = std::env::var("USER_RUN_COST_SEGMENTS")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(6);
+        for seg in segs.iter().take(shown) {
             let implicit = seg.dense.steps().filter(|st| st.implicit).count();
             let mut h: Vec<f64> = seg.dense.steps().map(|st| st.h).collect();
             h.sort_by(f64::total_cmp);
@@ -83,6 +88,20 @@ fn main() {
                 er.residual_j(),
                 er.friction_work_j
             );
+        }
+        // USER_RUN_COST_STEPS_AT=t: the step sizes of the segment that holds t
+        if let Some(at) = std::env::var("USER_RUN_COST_STEPS_AT")
+            .ok()
+            .and_then(|v| v.parse::<f64>().ok())
+        {
+            for seg in exec.segments.iter().filter(|s| s.t0 <= at && at < s.t1) {
+                let h: Vec<String> = seg
+                    .dense
+                    .steps()
+                    .map(|st| format!("{:.2e}{}", st.h, if st.implicit { "i" } else { "" }))
+                    .collect();
+                println!("  steps of the segment at {at}: {}", h.join(" "));
+            }
         }
         let short = exec.segments.iter().filter(|s| s.dense.len() <= 1).count();
         println!("  segments of at most one step: {short}");
