@@ -387,3 +387,50 @@ fn sticking_puck_on_a_steep_incline_slips_at_once_and_slides_with_coulomb_decele
     );
     assert!(e.residual_j().abs() < 1e-6, "{e:?}");
 }
+
+/// A contact that pulls carries no kinetic friction (`selfmanip_core::friction`, "A contact
+/// that pulls"): a body spinning at `ω` about its centre, its site at `r` straight below
+/// it, sliding along level ground at `ẋ`. At that instant the site's normal acceleration is
+/// `z̈ − ω² r` (the centripetal part, toward the centre), so holding it on the ground takes
+/// the vertical force `m (ω² r − g)` (NED, down positive): a push below `ω² r = g`, which
+/// brakes the slide with `μ m (g − ω² r)`, and a pull above it — the force of a contact
+/// held closed (a Zeno truncation's dwell), which presses nothing: `ẍ = 0`, and the
+/// friction does no work. (Coulomb's `μ_k σ λ_n` with a pulling `λ_n` would push the
+/// site along its slide.)
+#[test]
+fn a_pulling_contact_carries_no_friction() {
+    use selfmanip_core::{forward_dynamics, Data, FlatGround};
+    let (m, r, mu, xdot) = (2.0, 0.1, 0.7, 5.0);
+    let model = body(m, 0.01, &[("foot", 0.0, r)], mu);
+    let mode = ContactMode::FLIGHT.with(0, ContactKind::Slide);
+    let mut data = Data::new(&model);
+    for omega in [5.0, -5.0, 20.0, -20.0] {
+        let (q, qd) = ([0.0, -r, 0.0], [xdot, 0.0, omega]);
+        forward_dynamics(&model, &mut data, &FlatGround, mode, &q, &qd, &[], None).unwrap();
+        let pull = m * (omega * omega * r - G);
+        // the site's normal force: |λ_n| = |m (ω² r − g)|, pushing (λ_n < 0) below ω² r = g
+        assert!(
+            (data.lambda[0].abs() - pull.abs()).abs() < 1e-9 * m * G,
+            "ω {omega}: λ {} vs {pull}",
+            data.lambda[0]
+        );
+        assert_eq!(data.lambda[0] > 0.0, pull > 0.0, "ω {omega}");
+        assert!((data.qdd[1] - omega * omega * r).abs() < 1e-9, "ω {omega}");
+        let brake = if pull > 0.0 {
+            0.0
+        } else {
+            -mu * pull.abs() / m
+        };
+        assert!(
+            (data.qdd[0] - brake).abs() < 1e-9,
+            "ω {omega}: ẍ {} vs {brake}",
+            data.qdd[0]
+        );
+        let power: f64 = data.friction.iter().zip(qd).map(|(f, v)| f * v).sum();
+        if pull > 0.0 {
+            assert_eq!(power, 0.0, "ω {omega}");
+        } else {
+            assert!(power < -1.0, "ω {omega}: {power}");
+        }
+    }
+}
