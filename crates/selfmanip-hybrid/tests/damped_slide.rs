@@ -408,3 +408,59 @@ fn a_wedged_side_ends_the_slide_at_its_liftoff_guard() {
         }
     }
 }
+
+/// A stick that ends a damped slide at a force event (a controller's phase, another
+/// contact's guard: no impact) starts with the foot at rest: the chain carries no
+/// momentum, and its rates are set so that the toe's velocity — `(ẋ, ż) + φ̇ (r_z, −r_x) +
+/// J θ̇` by the leg's closed-form kinematics — is zero, the body's rates untouched
+/// ([`selfmanip_hybrid::damped_slide::consistent_rates`]). A foot left moving would be held
+/// at that velocity by the stick, its sticking force working on the robot.
+#[test]
+fn a_stick_starts_with_the_foot_at_rest() {
+    use selfmanip_hybrid::damped_slide::consistent_rates;
+    let model = robot(0.0);
+    let (q, qd0) = state();
+    let toe_velocity = |qd: &[f64]| {
+        let (r, jac) = toe(q[4], [q[0], q[1]]);
+        [0, 1].map(|i| {
+            [qd[2] + qd[4] * r[1], qd[3] - qd[4] * r[0]][i] + jac[0][i] * qd[0] + jac[1][i] * qd[1]
+        })
+    };
+    let before = toe_velocity(&qd0);
+    assert!(before[0].hypot(before[1]) > 0.1, "{before:?}");
+    let stick = ContactMode::FLIGHT.with(0, ContactKind::Stick);
+    let mut qd = qd0.clone();
+    let mut data = selfmanip_core::Data::new(&model);
+    consistent_rates(
+        &model,
+        &FlatGround,
+        &Servo,
+        (0.0, stick),
+        (&q, &mut qd),
+        &mut data,
+    )
+    .unwrap();
+    let after = toe_velocity(&qd);
+    assert!(
+        after[0].abs() < 1e-12 && after[1].abs() < 1e-12,
+        "{after:?}"
+    );
+    assert_eq!(qd[2..], qd0[2..]);
+    // a slide keeps the slide's own rates (not the stick's)
+    let slide = ContactMode::FLIGHT.with(0, ContactKind::Slide);
+    let mut qd = qd0.clone();
+    consistent_rates(
+        &model,
+        &FlatGround,
+        &Servo,
+        (0.0, slide),
+        (&q, &mut qd),
+        &mut data,
+    )
+    .unwrap();
+    let sliding = toe_velocity(&qd);
+    assert!(
+        sliding[0].abs() > 1e-3 && sliding[1].abs() < 1e-9,
+        "{sliding:?}"
+    );
+}
