@@ -12,7 +12,10 @@
 //! (thesis 5.1.1), the torque `−τ^p_j` that moves it against its own spring–damper (zero
 //! without one); at a joint locked for a fold passage, the torque that holds it; at a joint
 //! of a chain that slides damped (`selfmanip_core::damped_slide`), its actuator's torque
-//! (the foot's force, applied, is in `f^fr`: its work is the friction's, `λ_t u_t`).
+//! (the foot's force, applied as `−Aᵀλ`, is in `f^fr`: its power is the friction's,
+//! `−λ_t u_t = μ_k λ_n |u_t| ≤ 0`). A contact whose normal force pulls (held closed by a
+//! Zeno truncation's dwell) carries no kinetic friction (`selfmanip_core::friction`), so
+//! `W_fr` has no positive part.
 use crate::error::HybridError;
 use crate::execution::Execution;
 use crate::flow::Flow;
