@@ -119,20 +119,9 @@ pub fn contact_rows_and_rates(
     (c.a, c.a_dot, c.a_dot_qd)
 }
 
-/// The foot's velocity with no force `w` and its mobility `G` (module docs) for contact `k`
-/// at `(kin, q̇)` under the chain's law `law`; `None` where `K` is not invertible.
-pub fn mobility(
-    model: &Model,
-    kin: &Kinematics,
-    terrain: &dyn Terrain,
-    k: usize,
-    qd: &[f64],
-    law: &ChainLaw,
-) -> Option<(Vector2<f64>, Matrix2<f64>, DMatrix<f64>, DMatrix<f64>)> {
-    mobility_of(&contact_rows(model, kin, terrain, k, qd), qd, law)
-}
-
-/// [`mobility`] from the contact's rows `a`.
+/// The foot's velocity with no force `w` and its mobility `G` (module docs) from the
+/// contact's rows `a` at `q̇` under the chain's law `law`, with the chain's block `B` of `a`
+/// and `K⁻¹`; `None` where `K` is not invertible.
 #[allow(clippy::type_complexity)]
 fn mobility_of(
     a: &DMatrix<f64>,

@@ -115,12 +115,25 @@ fn state() -> (Vec<f64>, Vec<f64>) {
     panic!("no state slides damped");
 }
 
-#[test]
-fn force_and_rates_match_the_zero_inertia_limit() {
+/// The robot with two massless links at [`state`], its slide mode and the servo's chain law
+/// there.
+fn slide_law() -> (
+    Model,
+    Vec<f64>,
+    Vec<f64>,
+    ContactMode,
+    selfmanip_core::damped_slide::ChainLaw,
+) {
     let model = robot(0.0);
     let (q, qd) = state();
     let mode = ContactMode::FLIGHT.with(0, ContactKind::Slide);
     let law = chain_law(&model, &Servo, (0.0, &q, &qd), mode, 0).expect("a damped law");
+    (model, q, qd, mode, law)
+}
+
+#[test]
+fn force_and_rates_match_the_zero_inertia_limit() {
+    let (model, q, qd, _, law) = slide_law();
     let mut kin = Kinematics::default();
     kin.compute(&model, &q, &qd);
     // the toe on the ground
@@ -209,10 +222,7 @@ fn force_and_rates_match_the_zero_inertia_limit() {
 /// `selfmanip_core::damped_slide`), with `τ` the servo's closed form.
 #[test]
 fn the_force_does_the_friction_and_servo_work() {
-    let model = robot(0.0);
-    let (q, qd) = state();
-    let mode = ContactMode::FLIGHT.with(0, ContactKind::Slide);
-    let law = chain_law(&model, &Servo, (0.0, &q, &qd), mode, 0).unwrap();
+    let (model, q, qd, _, law) = slide_law();
     let mut kin = Kinematics::default();
     kin.compute(&model, &q, &qd);
     let d = solve(&model, &kin, &FlatGround, 0, &qd, &law, MU, None)
@@ -233,10 +243,7 @@ fn the_force_does_the_friction_and_servo_work() {
 
 #[test]
 fn the_chain_law_is_the_servos_damping() {
-    let model = robot(0.0);
-    let (q, qd) = state();
-    let mode = ContactMode::FLIGHT.with(0, ContactKind::Slide);
-    let law = chain_law(&model, &Servo, (0.0, &q, &qd), mode, 0).unwrap();
+    let (model, q, qd, mode, law) = slide_law();
     let k = DMatrix::from_diagonal(&DVector::from_column_slice(&KD));
     assert!((law.damping - k).amax() < 1e-6);
     for j in 0..2 {
