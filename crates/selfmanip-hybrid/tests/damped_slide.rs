@@ -435,18 +435,22 @@ fn a_stick_starts_with_the_foot_at_rest() {
     };
     let before = toe_velocity(&qd0);
     assert!(before[0].hypot(before[1]) > 0.1, "{before:?}");
-    let stick = ContactMode::FLIGHT.with(0, ContactKind::Stick);
-    let mut qd = qd0.clone();
     let mut data = selfmanip_core::Data::new(&model);
-    consistent_rates(
-        &model,
-        &FlatGround,
-        &Servo,
-        (0.0, stick),
-        (&q, &mut qd),
-        &mut data,
-    )
-    .unwrap();
+    let mut rates_in = |kind: ContactKind| {
+        let mut qd = qd0.clone();
+        let mode = ContactMode::FLIGHT.with(0, kind);
+        consistent_rates(
+            &model,
+            &FlatGround,
+            &Servo,
+            (0.0, mode),
+            (&q, &mut qd),
+            &mut data,
+        )
+        .unwrap();
+        qd
+    };
+    let qd = rates_in(ContactKind::Stick);
     let after = toe_velocity(&qd);
     assert!(
         after[0].abs() < 1e-12 && after[1].abs() < 1e-12,
@@ -454,17 +458,7 @@ fn a_stick_starts_with_the_foot_at_rest() {
     );
     assert_eq!(qd[2..], qd0[2..]);
     // a slide keeps the slide's own rates (not the stick's)
-    let slide = ContactMode::FLIGHT.with(0, ContactKind::Slide);
-    let mut qd = qd0.clone();
-    consistent_rates(
-        &model,
-        &FlatGround,
-        &Servo,
-        (0.0, slide),
-        (&q, &mut qd),
-        &mut data,
-    )
-    .unwrap();
+    let qd = rates_in(ContactKind::Slide);
     let sliding = toe_velocity(&qd);
     assert!(
         sliding[0].abs() > 1e-3 && sliding[1].abs() < 1e-9,
