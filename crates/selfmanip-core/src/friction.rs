@@ -96,18 +96,17 @@
 //! `painleve_rod`).
 //!
 //! **A contact that pulls.** Coulomb's cone bounds the friction by the force that presses the
-//! site on the ground, `|λ_t| ≤ μ_k max(0, −λ_n)`: a site whose normal force pulls
-//! (`λ_n > 0`) carries none. In the flow a sliding site's liftoff guard ends its mode where
-//! `λ_n` reaches zero, but a Zeno truncation's dwell holds its contacts closed whatever
-//! their force (`selfmanip_hybrid::zeno`): that force is the pseudo-impulse (5.39) applied
-//! as a force, and the pseudo-impulse carries no kinetic friction (below). With the law's
-//! `μ_k σ λ_n` a pulling `λ_n` would push the site *along* its slide and feed it energy
-//! (a user's quadruped gained 3.2 J of "friction work" so, its foot sliding up to 4 m/s).
-//! So a general site whose folded `λ_n` pulls, and still pulls folded without its
-//! friction, is folded without it ([`fold_general`]; where the two signs differ — inside
-//! Painlevé's region, where the sign is not the contact's own — the friction stays). The
-//! statics of a single-joint massless leg keep `μ_k σ λ_n` as it is: the RHex leaps'
-//! resets evaluate such sites with pulling forces, and their behaviour stays identical.
+//! site on the ground, `|λ_t| ≤ μ_k max(0, −λ_n)`. In the flow a sliding site's liftoff
+//! guard ends its mode where `λ_n` reaches zero, so the law `μ_k σ λ_n` meets a pulling
+//! `λ_n` only past that zero, inside the step that locates it (kept smooth there, which the
+//! step's accuracy needs). A Zeno truncation's dwell, though, holds its contacts closed
+//! whatever their force (`selfmanip_hybrid::zeno`); that force is the pseudo-impulse (5.39)
+//! applied as a force, which carries no kinetic friction (below), and with `μ_k σ λ_n` a
+//! pulling `λ_n` would push the site *along* its slide and feed it energy (a user's
+//! quadruped gained 3.2 J of "friction work" so, its foot sliding up to 4 m/s). So the
+//! engine gives a general site that the dwell holds sliding while it pulls at the segment's
+//! start the direction `σ = 0` for that segment (`selfmanip_hybrid::flow::Flow::fix_slide_directions`):
+//! it slides without friction there.
 //!
 //! **Impacts** keep Assumption 5.9 for sliding sites: the plastic impact (5.10) and the
 //! pseudo-impulse (5.39) carry no kinetic friction (a Coulomb impact law with sliding
@@ -652,43 +651,9 @@ pub(crate) fn fold_general(model: &Model, data: &mut Data) -> Result<()> {
         return Ok(());
     }
     let coords = std::mem::take(&mut data.dynamic_coords);
-    let x0: Vec<f64> = coords.iter().map(|&k| data.qdd[k]).collect();
-    let y0: Vec<f64> = data.lambda.as_slice().to_vec();
-    let (mut x, mut y) = (x0.clone(), y0.clone());
-    let mut folded = fold_into(model, &mut data.kkt, &coords, &data.sliding, &mut x, &mut y);
-    // a site whose normal force pulls, with its friction and without, carries none (module
-    // docs, "A contact that pulls"): folded again without it
-    let pulling: Vec<(usize, f64)> = folded.as_ref().map_or(Vec::new(), |sites| {
-        sites
-            .iter()
-            .filter(|&&(_, l)| l > 0.0)
-            .map(|&(i, _)| (i, data.sliding[i].coef))
-            .collect()
-    });
-    if !pulling.is_empty() {
-        for &(i, _) in &pulling {
-            data.sliding[i].coef = 0.0;
-        }
-        let (mut xf, mut yf) = (x0.clone(), y0.clone());
-        let free = fold_into(
-            model,
-            &mut data.kkt,
-            &coords,
-            &data.sliding,
-            &mut xf,
-            &mut yf,
-        );
-        let pulls = free.is_ok() && pulling.iter().all(|&(i, _)| yf[data.sliding[i].row] > 0.0);
-        if pulls {
-            (x, y, folded) = (xf, yf, free);
-        } else {
-            // its normal force pushes without its friction (Painlevé's region, where the
-            // sign is not the contact's own): the friction stays
-            for &(i, coef) in &pulling {
-                data.sliding[i].coef = coef;
-            }
-        }
-    }
+    let mut x: Vec<f64> = coords.iter().map(|&k| data.qdd[k]).collect();
+    let mut y: Vec<f64> = data.lambda.as_slice().to_vec();
+    let folded = fold_into(model, &mut data.kkt, &coords, &data.sliding, &mut x, &mut y);
     for (p, &k) in coords.iter().enumerate() {
         data.qdd[k] = x[p];
     }
