@@ -6,32 +6,39 @@
 //! block over `n ≥ 2` massless joints, §1), and where the chain's sticking force pulls the
 //! rigid model has nothing left but to release the foot, which its own law puts straight
 //! back. With link inertia `ε → 0` the chain's joints balance their torques at every
-//! instant, `T(θ̇) + Bᵀλ = 0` (`B` the contact's rows over the chain's joints, `λ` the
-//! ground's force in the contact's rows, the row convention of [`crate::contact`]), and a
-//! law whose torque falls with the joints' rates, `T(θ̇) = T_c − K (θ̇ − θ̇_c)` with the
-//! damping `K = −∂T/∂θ̇` positive definite, makes the chain's rates algebraic:
+//! instant, `T(θ̇) = Bᵀλ` (`B` the contact's rows over the chain's joints, `λ` the ground's
+//! force in the contact's rows, entering the dynamics as every contact force does, `−Aᵀλ`
+//! in (5.3): the row convention of [`crate::contact`], `λ_n < 0` pushes), and a law whose
+//! torque falls with the joints' rates, `T(θ̇) = T_c − K (θ̇ − θ̇_c)` with the damping
+//! `K = −∂T/∂θ̇` positive definite, makes the chain's rates algebraic:
 //!
 //! ```text
-//! θ̇ = θ̇_c + K⁻¹ (T_c + Bᵀλ),      u = A q̇ + B (θ̇ − θ̇_c) = w + G λ,
+//! θ̇ = θ̇_c + K⁻¹ (T_c − Bᵀλ),      u = A q̇ + B (θ̇ − θ̇_c) = w − G λ,
 //! w = A q̇ + B K⁻¹ T_c,             G = B K⁻¹ Bᵀ,
 //! ```
 //!
 //! `u` the foot's velocity in the contact's rows and `w` the velocity it has with no force
 //! (the chain on its torque-free manifold). The **damped slide** is the contact's Coulomb
-//! solution with the foot on the ground: `λ = λ_n (e_n + c e_t)`, `c = μ_k s` with `s` the
-//! side of the foot's sliding velocity `u_t` (the friction then dissipates,
-//! `λ_t u_t = μ_k s λ_n u_t ≤ 0` with a pushing `λ_n < 0`), and the normal force from
+//! solution with the foot on the ground: `λ = λ_n (c e_t + e_n)`, `c = −μ_k s` with `s` the
+//! side of the foot's sliding velocity `u_t` (`s = sign u_t`), and the normal force from
 //! `u_n = 0`:
 //!
 //! ```text
-//! λ_n = −w_n / (G_nn + c G_nt).
+//! λ_n = w_n / (G_nn + c G_nt).
 //! ```
 //!
+//! The friction then dissipates: its power on the robot is `−λ_t u_t = μ_k s λ_n u_t =
+//! μ_k λ_n |u_t| ≤ 0` with a pushing `λ_n < 0`.
 //! It holds while the foot pushes (`U = −λ_n > 0`; its liftoff is `λ_n → 0`, where the
 //! chain's rates meet the manifold's, `θ̇ = θ̇_c + K⁻¹ T_c`) and slides on its side
-//! (`s u_t > 0`; its stick is `u_t → 0`). The work the force does on the massive part is
-//! `λ · (u − B θ̇) = λ_t u_t + T(θ̇) · θ̇`: the friction's (never positive) plus the chain
-//! law's — the damping's, among it.
+//! (`s u_t > 0`; its stick is `u_t → 0`). The force's power on the whole robot is
+//! `−λ · u = −λ_t u_t` (`u_n = 0`): the friction's; on the massive part,
+//! `−λ · (u − B θ̇) = −λ_t u_t + T(θ̇) · θ̇`, the friction's plus the chain law's (the
+//! damping's among it), which an energy balance counts at the chain's joints.
+//!
+//! A stick that ends a damped slide without an impact (at a force event: a controller's
+//! phase, another contact's guard) holds the foot at rest: the chain's rates are set so
+//! that the foot's velocity is zero ([`stick_rates`]; the chain carries no momentum).
 //!
 //! This module is the contact problem at one state ([`solve`]) and the chain it applies to
 //! ([`damped_chain`]); the law's `T_c` and `K` come from the caller, which knows the
@@ -56,6 +63,30 @@ pub fn damped_chain(model: &Model, k: usize) -> Option<Range<usize>> {
     let j = model.contacts.get(k)?.link?;
     let first = model.chain(j).find(|&i| model.distal_massless(i))?;
     (j + 1 - first >= 2).then_some(first..j + 1)
+}
+
+/// The rates of contact `k`'s two-joint chain ([`damped_chain`]) that hold its foot at rest
+/// at `(kin, q̇)`, the rest of `q̇` as it is: `θ̇ + B⁻¹ (−A q̇)`, `B` the contact's rows over
+/// the chain (`2 × 2`). What a mode that sticks the foot starts from — the chain carries no
+/// momentum, and a stick that finds its foot moving (a force event ends its slide, no impact
+/// comes) holds the foot at that velocity otherwise, its sticking force then working on
+/// the robot (`docs/singular-transitions.md` §10). `None` for a chain of other length or
+/// where `B` is singular (the foot's rows do not fix the chain).
+pub fn stick_rates(
+    model: &Model,
+    kin: &Kinematics,
+    terrain: &dyn Terrain,
+    k: usize,
+    qd: &[f64],
+) -> Option<DVector<f64>> {
+    let joints = damped_chain(model, k).filter(|c| c.len() == 2)?;
+    let a = contact_rows(model, kin, terrain, k, qd);
+    let b = a.fixed_view::<2, 2>(0, joints.start).into_owned();
+    let u = &a * DVector::from_column_slice(qd);
+    let d = b.lu().solve(&Vector2::new(-u[0], -u[1]))?;
+    d.iter()
+        .all(|x| x.is_finite())
+        .then(|| DVector::from_iterator(2, joints.zip(d.iter()).map(|(j, x)| qd[j] + x)))
 }
 
 /// The contact's two rows `A` (tangential, normal; `2 × nq`) at the kinematics `kin`.
@@ -88,20 +119,9 @@ pub fn contact_rows_and_rates(
     (c.a, c.a_dot, c.a_dot_qd)
 }
 
-/// The foot's velocity with no force `w` and its mobility `G` (module docs) for contact `k`
-/// at `(kin, q̇)` under the chain's law `law`; `None` where `K` is not invertible.
-pub fn mobility(
-    model: &Model,
-    kin: &Kinematics,
-    terrain: &dyn Terrain,
-    k: usize,
-    qd: &[f64],
-    law: &ChainLaw,
-) -> Option<(Vector2<f64>, Matrix2<f64>, DMatrix<f64>, DMatrix<f64>)> {
-    mobility_of(&contact_rows(model, kin, terrain, k, qd), qd, law)
-}
-
-/// [`mobility`] from the contact's rows `a`.
+/// The foot's velocity with no force `w` and its mobility `G` (module docs) from the
+/// contact's rows `a` at `q̇` under the chain's law `law`, with the chain's block `B` of `a`
+/// and `K⁻¹`; `None` where `K` is not invertible.
 #[allow(clippy::type_complexity)]
 fn mobility_of(
     a: &DMatrix<f64>,

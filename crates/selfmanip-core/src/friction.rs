@@ -95,6 +95,19 @@
 //! $\mu > (1 + 3\cos^2\theta)/(3\sin\theta\cos\theta)$, at least 4/3 (test
 //! `painleve_rod`).
 //!
+//! **A contact that pulls.** Coulomb's cone bounds the friction by the force that presses the
+//! site on the ground, `|λ_t| ≤ μ_k max(0, −λ_n)`. In the flow a sliding site's liftoff
+//! guard ends its mode where `λ_n` reaches zero, so the law `μ_k σ λ_n` meets a pulling
+//! `λ_n` only past that zero, inside the step that locates it (kept smooth there, which the
+//! step's accuracy needs). A Zeno truncation's dwell, though, holds its contacts closed
+//! whatever their force (`selfmanip_hybrid::zeno`); that force is the pseudo-impulse (5.39)
+//! applied as a force, which carries no kinetic friction (below), and with `μ_k σ λ_n` a
+//! pulling `λ_n` would push the site *along* its slide and feed it energy (a user's
+//! quadruped gained 3.2 J of "friction work" so, its foot sliding up to 4 m/s). So the
+//! engine gives a general site that the dwell holds sliding while it pulls at the segment's
+//! start the direction `σ = 0` for that segment (`selfmanip_hybrid::flow::Flow::fix_slide_directions`):
+//! it slides without friction there.
+//!
 //! **Impacts** keep Assumption 5.9 for sliding sites: the plastic impact (5.10) and the
 //! pseudo-impulse (5.39) carry no kinetic friction (a Coulomb impact law with sliding
 //! sites is not unique in general — the impulse analogue of Painlevé's paradox — so no rule

@@ -85,9 +85,9 @@ pub struct DampedSlide {
     pub contact: usize,
     /// `(λ_t, λ_n)` in the contact's rows (N; `λ_n < 0` pushes).
     pub lambda: [f64; 2],
-    /// `c = λ_t / λ_n = μ_k s`.
+    /// `c = λ_t / λ_n = −μ_k s`.
     pub coef: f64,
-    /// The side `s = ±1` of the sliding velocity the friction opposes.
+    /// The side `s = ±1` of the sliding velocity `u_t` the friction opposes (`s = sign u_t`).
     pub side: f64,
     /// The foot's velocity with no force `w` and its mobility `G`, in the rows `(t, n)`.
     pub w: Vector2<f64>,

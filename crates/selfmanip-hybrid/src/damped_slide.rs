@@ -10,7 +10,7 @@
 //! (`docs/singular-transitions.md` §10).
 use crate::controller::Controller;
 use nalgebra::{DMatrix, DVector};
-use selfmanip_core::damped_slide::{contact_rows_and_rates, damped_chain, ChainLaw};
+use selfmanip_core::damped_slide::{contact_rows_and_rates, damped_chain, stick_rates, ChainLaw};
 use selfmanip_core::passive::joint_torques;
 use selfmanip_core::{ContactMode, CoreError, Data, Model, Terrain};
 
@@ -306,6 +306,7 @@ pub fn consistent_rates(
     data: &mut Data,
 ) -> Result<(), CoreError> {
     let damped = damped_contacts(model);
+    stuck_rates(model, terrain, damped, mode, q, qd);
     set_laws(model, data, damped, ctrl, (t, q, qd), mode);
     if data.damped_laws.is_empty() {
         return Ok(());
@@ -319,6 +320,35 @@ pub fn consistent_rates(
         }
     }
     Ok(())
+}
+
+/// `q̇` with the rates of every two-joint massless chain whose foot sticks alone on it in
+/// `mode` set to hold the foot at rest ([`selfmanip_core::damped_slide::stick_rates`]): a
+/// stick that ends a damped slide at a force event (a controller's phase, a guard of
+/// another contact) finds the foot at its slide's velocity, and no impact stops it.
+fn stuck_rates(
+    model: &Model,
+    terrain: &dyn Terrain,
+    damped: u32,
+    mode: ContactMode,
+    q: &[f64],
+    qd: &mut [f64],
+) {
+    let stuck = mode.tangential_bits() & damped;
+    if stuck == 0 {
+        return;
+    }
+    let mut kin = selfmanip_core::kinematics::Kinematics::default();
+    kin.compute(model, q, qd);
+    for k in lone_slides(model, stuck, mode).collect::<Vec<_>>() {
+        let Some(rates) = stick_rates(model, &kin, terrain, k, qd) else {
+            continue;
+        };
+        let first = damped_chain(model, k).map_or(0, |c| c.start);
+        for (i, r) in rates.iter().enumerate() {
+            qd[first + i] = *r;
+        }
+    }
 }
 
 /// The value of the liftoff guard of active contact `contact` (its normal row `row`) from

@@ -12,7 +12,10 @@
 //! (thesis 5.1.1), the torque `−τ^p_j` that moves it against its own spring–damper (zero
 //! without one); at a joint locked for a fold passage, the torque that holds it; at a joint
 //! of a chain that slides damped (`selfmanip_core::damped_slide`), its actuator's torque
-//! (the foot's force, applied, is in `f^fr`: its work is the friction's, `λ_t u_t`).
+//! (the foot's force, applied as `−Aᵀλ`, is in `f^fr`: its power is the friction's,
+//! `−λ_t u_t = μ_k λ_n |u_t| ≤ 0`). A general site that a Zeno truncation's dwell holds
+//! sliding while its normal force pulls slides without friction (`selfmanip_core::friction`,
+//! "A contact that pulls"), so `W_fr` has no positive part there.
 use crate::error::HybridError;
 use crate::execution::Execution;
 use crate::flow::Flow;
@@ -262,7 +265,11 @@ mod tests {
         let mut calls = 0u32;
         let mut noisy = |t: f64| -> Result<[f64; 3], ()> {
             calls += 1;
-            Ok([t + if calls % 2 == 0 { 1e-6 } else { -1e-6 }, 0.0, 0.0])
+            Ok([
+                t + if calls.is_multiple_of(2) { 1e-6 } else { -1e-6 },
+                0.0,
+                0.0,
+            ])
         };
         let got = adaptive_gauss(&mut noisy, 0.0, 1.0).unwrap()[0];
         assert!((got - 0.5).abs() < 1e-5, "{got}");

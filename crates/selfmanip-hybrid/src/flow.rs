@@ -260,6 +260,25 @@ impl<'a> Flow<'a> {
                 }
             }
         }
+        // a general site that a Zeno truncation's dwell holds sliding while its normal force
+        // pulls slides without friction for the segment (selfmanip_core::friction, "A
+        // contact that pulls")
+        if !self.held.is_empty() && dirs.iter().any(|d| self.held.contains(&d.0)) {
+            self.set_slide_directions(&dirs);
+            let (q, qd) = y.split_at(model.nq());
+            let data = self.eval(t, mode, q, qd)?;
+            let pulls: Vec<usize> = data
+                .sliding
+                .iter()
+                .filter(|s| s.general && data.lambda[s.row] > 0.0)
+                .map(|s| s.contact)
+                .collect();
+            for d in &mut dirs {
+                if pulls.contains(&d.0) && self.held.contains(&d.0) {
+                    d.1 = SlideDirection::Fixed(0.0);
+                }
+            }
+        }
         self.set_slide_directions(&dirs);
         Ok(rest)
     }

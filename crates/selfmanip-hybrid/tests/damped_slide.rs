@@ -115,12 +115,25 @@ fn state() -> (Vec<f64>, Vec<f64>) {
     panic!("no state slides damped");
 }
 
-#[test]
-fn force_and_rates_match_the_zero_inertia_limit() {
+/// The robot with two massless links at [`state`], its slide mode and the servo's chain law
+/// there.
+fn slide_law() -> (
+    Model,
+    Vec<f64>,
+    Vec<f64>,
+    ContactMode,
+    selfmanip_core::damped_slide::ChainLaw,
+) {
     let model = robot(0.0);
     let (q, qd) = state();
     let mode = ContactMode::FLIGHT.with(0, ContactKind::Slide);
     let law = chain_law(&model, &Servo, (0.0, &q, &qd), mode, 0).expect("a damped law");
+    (model, q, qd, mode, law)
+}
+
+#[test]
+fn force_and_rates_match_the_zero_inertia_limit() {
+    let (model, q, qd, _, law) = slide_law();
     let mut kin = Kinematics::default();
     kin.compute(&model, &q, &qd);
     // the toe on the ground
@@ -209,10 +222,7 @@ fn force_and_rates_match_the_zero_inertia_limit() {
 /// `selfmanip_core::damped_slide`), with `τ` the servo's closed form.
 #[test]
 fn the_force_does_the_friction_and_servo_work() {
-    let model = robot(0.0);
-    let (q, qd) = state();
-    let mode = ContactMode::FLIGHT.with(0, ContactKind::Slide);
-    let law = chain_law(&model, &Servo, (0.0, &q, &qd), mode, 0).unwrap();
+    let (model, q, qd, _, law) = slide_law();
     let mut kin = Kinematics::default();
     kin.compute(&model, &q, &qd);
     let d = solve(&model, &kin, &FlatGround, 0, &qd, &law, MU, None)
@@ -233,10 +243,7 @@ fn the_force_does_the_friction_and_servo_work() {
 
 #[test]
 fn the_chain_law_is_the_servos_damping() {
-    let model = robot(0.0);
-    let (q, qd) = state();
-    let mode = ContactMode::FLIGHT.with(0, ContactKind::Slide);
-    let law = chain_law(&model, &Servo, (0.0, &q, &qd), mode, 0).unwrap();
+    let (model, q, qd, mode, law) = slide_law();
     let k = DMatrix::from_diagonal(&DVector::from_column_slice(&KD));
     assert!((law.damping - k).amax() < 1e-6);
     for j in 0..2 {
@@ -407,4 +414,54 @@ fn a_wedged_side_ends_the_slide_at_its_liftoff_guard() {
             assert_eq!(guard, push);
         }
     }
+}
+
+/// A stick that ends a damped slide at a force event (a controller's phase, another
+/// contact's guard: no impact) starts with the foot at rest: the chain carries no
+/// momentum, and its rates are set so that the toe's velocity — `(ẋ, ż) + φ̇ (r_z, −r_x) +
+/// J θ̇` by the leg's closed-form kinematics — is zero, the body's rates untouched
+/// ([`selfmanip_hybrid::damped_slide::consistent_rates`]). A foot left moving would be held
+/// at that velocity by the stick, its sticking force working on the robot.
+#[test]
+fn a_stick_starts_with_the_foot_at_rest() {
+    use selfmanip_hybrid::damped_slide::consistent_rates;
+    let model = robot(0.0);
+    let (q, qd0) = state();
+    let toe_velocity = |qd: &[f64]| {
+        let (r, jac) = toe(q[4], [q[0], q[1]]);
+        [0, 1].map(|i| {
+            [qd[2] + qd[4] * r[1], qd[3] - qd[4] * r[0]][i] + jac[0][i] * qd[0] + jac[1][i] * qd[1]
+        })
+    };
+    let before = toe_velocity(&qd0);
+    assert!(before[0].hypot(before[1]) > 0.1, "{before:?}");
+    let mut data = selfmanip_core::Data::new(&model);
+    let mut rates_in = |kind: ContactKind| {
+        let mut qd = qd0.clone();
+        let mode = ContactMode::FLIGHT.with(0, kind);
+        consistent_rates(
+            &model,
+            &FlatGround,
+            &Servo,
+            (0.0, mode),
+            (&q, &mut qd),
+            &mut data,
+        )
+        .unwrap();
+        qd
+    };
+    let qd = rates_in(ContactKind::Stick);
+    let after = toe_velocity(&qd);
+    assert!(
+        after[0].abs() < 1e-12 && after[1].abs() < 1e-12,
+        "{after:?}"
+    );
+    assert_eq!(qd[2..], qd0[2..]);
+    // a slide keeps the slide's own rates (not the stick's)
+    let qd = rates_in(ContactKind::Slide);
+    let sliding = toe_velocity(&qd);
+    assert!(
+        sliding[0].abs() > 1e-3 && sliding[1].abs() < 1e-9,
+        "{sliding:?}"
+    );
 }
