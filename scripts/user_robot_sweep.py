@@ -19,7 +19,8 @@ extend at 0.15 s and swing back on flight with the examples' swing settings, 15 
 It prints the status histogram, the share of ``zeno`` + ``several_contact_solutions`` (the
 statuses a run on the defaults must not end in), the Zeno truncations, the touchdowns that change no mode (issue 30
 item 2: a massless chain put back on the ground; their largest energy loss tells zero-impulse
-touches from real ones) and the slowest runs. A run that raises is
+touches from real ones), the runs whose energy balance shows a positive friction or damping
+work or a residual over 1e-6 J, and the slowest runs. A run that raises is
 counted under ``error:<ExceptionType>``.
 """
 
@@ -155,6 +156,7 @@ def run_one(i: int, seed: int) -> dict[str, Any]:
     run = draw(i, seed)
     out: dict[str, Any] = {"i": i, **run["tags"]}
     t0 = time.process_time()
+    e = None
     try:
         robot = selfmanip.Robot.from_dict(run["robot"])
         q0 = place(run, robot)
@@ -174,6 +176,15 @@ def run_one(i: int, seed: int) -> dict[str, Any]:
     # CPU time (the process's, the engine's worker thread included): on a loaded machine wall
     # time measures the other jobs
     out["cpu_s"] = time.process_time() - t0
+    # the energy balance E1 - E0 = W + W_d + W_fr - L (issue 30), after the timing: W_fr and
+    # W_d are never positive, the residual zero to the integration's tolerance
+    if e is not None:
+        try:
+            er = e.energy_report()
+            out.update(friction_work_j=er.friction_work_j, damping_work_j=er.damping_work_j,
+                       energy_residual_j=er.residual_j)
+        except Exception as exc:  # named in the record, never hidden
+            out["energy_error"] = f"{type(exc).__name__}: {exc}"[:160]
     return out
 
 
@@ -189,6 +200,14 @@ def summarise(rows: list[dict[str, Any]], slowest: int = 10) -> str:
     truncated = [r for r in rows if r.get("truncations", 0)]
     lines.append(f"Zeno truncations: {sum(r['truncations'] for r in truncated)} in {len(truncated)} runs "
                  f"({sum(r['status'] in BAD for r in truncated)} of them still bad)")
+    energy = [r for r in rows if "energy_residual_j" in r]
+    if energy:
+        # above round-off (a quadrature of zero power leaves ~1e-16 J)
+        positive = [r["i"] for r in energy if max(r["friction_work_j"], r["damping_work_j"]) > 1e-9]
+        lines.append(f"energy balance of {len(energy)} runs: positive friction or damping work in "
+                     f"{len(positive)} {positive[:10]}; residual over 1e-6 J in "
+                     f"{sum(abs(r['energy_residual_j']) > 1e-6 for r in energy)}, largest "
+                     f"{max(abs(r['energy_residual_j']) for r in energy):.3g} J")
     steps = sorted(r.get("steps", 0) for r in rows)
     if steps:
         lines.append(f"steps per run: median {steps[len(steps) // 2]}, 99th percentile "

@@ -14,8 +14,9 @@
 //! of a chain that slides damped (`selfmanip_core::damped_slide`), its actuator's torque
 //! (the foot's force, applied as `−Aᵀλ`, is in `f^fr`: its power is the friction's,
 //! `−λ_t u_t = μ_k λ_n |u_t| ≤ 0`). A general site that a Zeno truncation's dwell holds
-//! sliding while its normal force pulls slides without friction (`selfmanip_core::friction`,
-//! "A contact that pulls"), so `W_fr` has no positive part there.
+//! sliding while its normal force pulls slides without friction, from the instant its force
+//! comes to pull to the dwell's end (`selfmanip_core::friction`, "A contact that pulls"), so
+//! `W_fr` has no positive part there.
 use crate::error::HybridError;
 use crate::execution::Execution;
 use crate::flow::Flow;

@@ -51,6 +51,13 @@ pub struct Flow<'a> {
     /// Contacts held closed by a Zeno truncation's dwell ([`crate::zeno`]): their liftoff
     /// and stick→slip guards are not armed until the dwell ends.
     held: Vec<usize>,
+    /// Contacts of `held` that slide, as general sites with kinetic friction, pushing at the
+    /// segment's start ([`Self::fix_slide_directions`]): their liftoff guard stays armed, and
+    /// where their normal force comes to pull they slide without friction ([`Self::pulled`]).
+    held_slides: Vec<usize>,
+    /// Contacts of `held` whose normal force came to pull in the dwell: they slide without
+    /// friction until it ends ([`Self::pulled`]).
+    frictionless: Vec<usize>,
     /// Contacts held sticking by a jam hold ([`crate::jam_hold`]): their liftoff and
     /// stick→slip guards give way to the hold's own guard.
     jammed: Vec<usize>,
@@ -95,6 +102,8 @@ impl<'a> Flow<'a> {
             kin: Kinematics::default(),
             kin_y: None,
             held: Vec::new(),
+            held_slides: Vec::new(),
+            frictionless: Vec::new(),
             jammed: Vec::new(),
             engine_jacobian: None,
         }
@@ -129,6 +138,24 @@ impl<'a> Flow<'a> {
         &self.jammed
     }
 
+    /// The contacts the dwell holds sliding that push at the segment's start, with their
+    /// friction: their liftoff guard stays armed ([`Self::fix_slide_directions`]).
+    pub fn held_slides(&self) -> &[usize] {
+        &self.held_slides
+    }
+
+    /// Where the liftoff guard of `contact`, one of [`Self::held_slides`], fires (its normal
+    /// force comes to pull), the dwell holds it on, sliding without friction until the dwell
+    /// ends (from the next segment on, [`Self::fix_slide_directions`];
+    /// `selfmanip_core::friction`, "A contact that pulls"). Returns whether it was one.
+    pub fn pulled(&mut self, contact: usize) -> bool {
+        let held_slide = self.held_slides.contains(&contact);
+        if held_slide {
+            self.frictionless.push(contact);
+        }
+        held_slide
+    }
+
     /// Replaces the contacts a jam hold keeps sticking (none: no hold).
     pub fn set_jammed(&mut self, contacts: &[usize]) {
         self.jammed.clear();
@@ -139,6 +166,7 @@ impl<'a> Flow<'a> {
     pub fn set_held(&mut self, contacts: &[usize]) {
         self.held.clear();
         self.held.extend_from_slice(contacts);
+        self.frictionless.clear();
     }
 
     /// The contacts a Zeno truncation holds closed for its dwell ([`crate::zeno`]): the
@@ -261,21 +289,26 @@ impl<'a> Flow<'a> {
             }
         }
         // a general site that a Zeno truncation's dwell holds sliding while its normal force
-        // pulls slides without friction for the segment (selfmanip_core::friction, "A
-        // contact that pulls")
+        // pulls slides without friction for the segment, and so does one whose force came to
+        // pull in the dwell; one that pushes keeps its liftoff guard, which marks where it
+        // comes to pull (selfmanip_core::friction, "A contact that pulls"; Self::pulled)
+        self.held_slides.clear();
         if !self.held.is_empty() && dirs.iter().any(|d| self.held.contains(&d.0)) {
             self.set_slide_directions(&dirs);
             let (q, qd) = y.split_at(model.nq());
+            let held = self.held.clone();
             let data = self.eval(t, mode, q, qd)?;
-            let pulls: Vec<usize> = data
+            let (pulls, pushes): (Vec<_>, Vec<_>) = data
                 .sliding
                 .iter()
-                .filter(|s| s.general && data.lambda[s.row] > 0.0)
-                .map(|s| s.contact)
-                .collect();
+                .filter(|s| s.general && held.contains(&s.contact))
+                .map(|s| (s.contact, data.lambda[s.row] > 0.0))
+                .partition(|&(_, pull)| pull);
             for d in &mut dirs {
-                if pulls.contains(&d.0) && self.held.contains(&d.0) {
+                if pulls.iter().any(|&(c, _)| c == d.0) || self.frictionless.contains(&d.0) {
                     d.1 = SlideDirection::Fixed(0.0);
+                } else if pushes.iter().any(|&(c, _)| c == d.0) {
+                    self.held_slides.push(d.0);
                 }
             }
         }

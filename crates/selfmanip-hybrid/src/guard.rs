@@ -412,6 +412,14 @@ impl GuardState {
     }
 }
 
+/// Takes out of `fired` the liftoff guards that mark where a site the dwell holds sliding
+/// comes to pull ([`Flow::pulled`]: it slides on without friction). Returns whether any
+/// guard fired besides them.
+pub fn take_pulls(flow: &mut Flow, fired: &mut Vec<Guard>) -> bool {
+    fired.retain(|g| !matches!(*g, Guard::Liftoff { contact, .. } if flow.pulled(contact)));
+    !fired.is_empty()
+}
+
 /// A guard that crossed between two samples: its shifted oriented value is positive at `lo`
 /// and non-positive at the sample that found it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -455,12 +463,14 @@ impl GuardSet {
         Guard::of_mode(flow.model(), mode, flow.lock(), opts, &mut self.guards);
         // a Zeno truncation's dwell holds its contacts closed (crate::zeno), all but the
         // end of a damped slide (its liftoff guard: the foot leaves, its law stops holding
-        // or it wedges; crate::damped_slide), which no other mode continues
-        let held = flow.held();
+        // or it wedges; crate::damped_slide), which no other mode continues, and the pull
+        // of a general site held sliding with its friction (its liftoff guard, Flow::pulled)
+        let (held, slides) = (flow.held(), flow.held_slides());
         let damped = crate::damped_slide::sliding_damped(flow.damped_contacts(), mode);
         self.guards.retain(|g| {
             g.lets_go().is_none_or(|k| !held.contains(&k))
-                || matches!(*g, Guard::Liftoff { contact, .. } if damped >> contact & 1 == 1)
+                || matches!(*g, Guard::Liftoff { contact, .. }
+                    if damped >> contact & 1 == 1 || slides.contains(&contact))
         });
         // a jam hold's contacts end it by its own guard (crate::jam_hold): their liftoff
         // guards give way, their stick→slip guards turn into it

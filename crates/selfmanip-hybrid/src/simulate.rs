@@ -126,7 +126,14 @@ pub fn simulate_with(
             };
             segments.push(segment);
             let fired = match end {
-                SegmentEnd::Event { fired } => fired,
+                // a site held sliding that comes to pull slides on without friction: the
+                // segment ends there, and the next one starts with σ = 0 (Flow::pulled)
+                SegmentEnd::Event { mut fired } => {
+                    if !crate::guard::take_pulls(&mut flow, &mut fired) {
+                        continue 'run;
+                    }
+                    fired
+                }
                 SegmentEnd::FeatureChange => match zeno.record(t, &[]) {
                     Some(z) => break 'run z,
                     None => continue 'run,

@@ -18,7 +18,8 @@
 //! window that is on its surface, in the mode impulse complementarity gives it (every contact
 //! sticking where that mode is singular), and then the **dwell**: the run goes on in that
 //! mode with its contacts held — no liftoff or stick→slip guard armed ([`Flow::held`]), kept
-//! by the complementarity of any reset in between — for
+//! by the complementarity of any reset in between; a general site held sliding whose force
+//! comes to pull slides on without friction ([`Flow::pulled`]) — for
 //! [`ZenoWindow::dwell_s`], after which force complementarity (5.19)–(5.20) judges them
 //! ([`dwell_end`]). Holding `J` for `δt` and judging it by force is the pseudo-impulse of
 //! (5.39), the impulse of mode `J`'s forces over `δt`, applied as that force. The run goes on

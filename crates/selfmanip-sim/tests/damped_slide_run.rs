@@ -16,8 +16,9 @@
 //! - over runs of the user-robot sweep (seed 30) whose massless two-link legs slide and
 //!   stick (`data/user_run_N.json`: run 211, a general site held sliding by a Zeno
 //!   truncation's dwell while its normal force pulls; run 32, a damped slide ended by a
-//!   stick at a controller's phase; runs 394 and 452, which showed the same faults), the
-//!   friction's and the dampers' works are never positive and the balance closes to 1e-6 J.
+//!   stick at a controller's phase; run 402, a general site held sliding whose force comes
+//!   to pull inside a segment of the dwell; runs 394 and 452, which showed the same faults),
+//!   the friction's and the dampers' works are never positive and the balance closes to 1e-6 J.
 use selfmanip_core::damped_slide::{contact_rows, solve};
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{ContactMode, Model, Terrain};
@@ -227,9 +228,10 @@ fn the_run_is_deterministic() {
 /// and are held by a Zeno truncation: the kinetic friction `−μ_k |λ_n| |v_t|` and the
 /// dampers `−c θ̇²` only take energy (never positive, to round-off), and the balance — with
 /// the friction's work non-zero — closes to 1e-6 J. Before a pulling contact lost its
-/// friction, the friction of runs 211 and 452 did +3.2 J and +1.4 J; before a stick set its
-/// chain's rates, the balance of run 32 missed by 66 J (its stuck foot kept sliding at
-/// 3.2 m/s) and that of run 394 by 1.1 kJ.
+/// friction, the friction of runs 211 and 452 did +3.2 J and +1.4 J, and before a site that
+/// comes to pull inside a segment lost it there, that of run 402 did +1.4 J (its foot driven
+/// to 29 m/s); before a stick set its chain's rates, the balance of run 32 missed by 66 J
+/// (its stuck foot kept sliding at 3.2 m/s) and that of run 394 by 1.1 kJ.
 #[test]
 fn user_runs_dissipate_and_balance() {
     for file in [
@@ -237,6 +239,7 @@ fn user_runs_dissipate_and_balance() {
         "user_run_211.json",
         "user_run_32.json",
         "user_run_394.json",
+        "user_run_402.json",
         "user_run_452.json",
     ] {
         let run = Simulation::new(&scenario_of(file)).unwrap().run().unwrap();
