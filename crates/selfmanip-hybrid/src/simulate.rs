@@ -191,7 +191,7 @@ pub fn simulate_with(
                 events.last(),
             )?,
         };
-        let (event, rest) = match reset {
+        let (mut event, rest) = match reset {
             Reset::Continue {
                 event,
                 from_rest,
@@ -226,6 +226,8 @@ pub fn simulate_with(
                 (q, qd),
                 &mut reset_ws.data,
             )?;
+            // the event records the velocity the run goes on from
+            event.qd_after.copy_from_slice(qd);
         }
         from_rest = rest;
         // a silent event counts in the Zeno window too
