@@ -116,11 +116,11 @@ pub fn set_laws(
     }
 }
 
-/// The contacts of `sliding` (a [`sliding_damped`] set of `mode`) alone on their chain in
-/// `mode`: those that slide damped there.
-fn lone_slides(model: &Model, sliding: u32, mode: ContactMode) -> impl Iterator<Item = usize> + '_ {
+/// The contacts of `set` (of [`damped_contacts`], active in `mode`) alone on their chain in
+/// `mode`: of a [`sliding_damped`] set, those that slide damped there.
+fn lone_slides(model: &Model, set: u32, mode: ContactMode) -> impl Iterator<Item = usize> + '_ {
     mode.active()
-        .filter(move |&k| sliding >> k & 1 == 1 && !shares_chain(model, mode, k))
+        .filter(move |&k| set >> k & 1 == 1 && !shares_chain(model, mode, k))
 }
 
 /// Whether another active contact of `mode` sits on contact `k`'s massless chain (the
@@ -314,12 +314,15 @@ pub fn consistent_rates(
     data.prepare_geometry(model, terrain, mode, q, qd)?;
     let slides = std::mem::take(&mut data.damped);
     for d in &slides {
-        let first = damped_chain(model, d.contact).map_or(0, |c| c.start);
-        for (i, r) in d.rates.iter().enumerate() {
-            qd[first + i] = *r;
-        }
+        set_chain_rates(model, d.contact, d.rates.as_slice(), qd);
     }
     Ok(())
+}
+
+/// Writes `rates` into `q̇` at the joints of contact `k`'s massless chain ([`damped_chain`]).
+fn set_chain_rates(model: &Model, k: usize, rates: &[f64], qd: &mut [f64]) {
+    let first = damped_chain(model, k).map_or(0, |c| c.start);
+    qd[first..first + rates.len()].copy_from_slice(rates);
 }
 
 /// `q̇` with the rates of every two-joint massless chain whose foot sticks alone on it in
@@ -340,13 +343,9 @@ fn stuck_rates(
     }
     let mut kin = selfmanip_core::kinematics::Kinematics::default();
     kin.compute(model, q, qd);
-    for k in lone_slides(model, stuck, mode).collect::<Vec<_>>() {
-        let Some(rates) = stick_rates(model, &kin, terrain, k, qd) else {
-            continue;
-        };
-        let first = damped_chain(model, k).map_or(0, |c| c.start);
-        for (i, r) in rates.iter().enumerate() {
-            qd[first + i] = *r;
+    for k in lone_slides(model, stuck, mode) {
+        if let Some(rates) = stick_rates(model, &kin, terrain, k, qd) {
+            set_chain_rates(model, k, rates.as_slice(), qd);
         }
     }
 }
