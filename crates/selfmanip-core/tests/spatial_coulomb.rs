@@ -242,7 +242,7 @@ fn arc_contacts_roll_on_the_arc_and_pivot_on_its_ends() {
                 .transpose()
                 * r;
             let end = |t: f64, data: &mut SpatialData| {
-                let qt = integrate(&model, q.as_slice(), (&v * t).as_slice()).unwrap();
+                let qt = along(&model, &q, &v, t);
                 forward_kinematics(&model, data, qt.as_slice()).unwrap();
                 let placement = frame_placement(&model, data, arc.frame);
                 placement.translation + placement.rotation * body_r

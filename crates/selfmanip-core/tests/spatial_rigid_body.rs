@@ -197,7 +197,7 @@ fn mass_matrix_and_bias_forces_agree_with_energy() {
         w_grav = w_grav.max((g.dot(&dv) - dpot).abs());
 
         let mut kin = |t: f64| {
-            let qs = integrate(&model, q.as_slice(), (&v * t).as_slice()).unwrap();
+            let qs = along(&model, &q, &v, t);
             let vs = &v + &a * t;
             forward_kinematics_velocity(&model, &mut data, qs.as_slice(), vs.as_slice()).unwrap();
             kinetic_energy(&model, &data)
