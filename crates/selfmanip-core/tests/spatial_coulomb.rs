@@ -98,7 +98,7 @@ fn ball_slides_on_its_sphere_at_the_closed_form_rate() {
         dynamics_at(
             &model,
             &mut data,
-            &[contact.clone()],
+            std::slice::from_ref(&contact),
             (&q, &v, &DVector::zeros(6)),
         )
         .unwrap();
