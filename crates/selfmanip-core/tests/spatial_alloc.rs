@@ -3,7 +3,6 @@
 //! by a global allocator wrapper).
 mod spatial_support;
 use selfmanip_core::spatial::rigid_body::{crba, nonlinear_effects};
-use selfmanip_core::spatial::*;
 use spatial_support::*;
 
 /// The hybrid crate's per-thread counting allocator (std only), shared as source.
@@ -12,10 +11,8 @@ mod counting;
 
 #[test]
 fn forward_dynamics_does_not_allocate() {
-    let model = quadruped_massless_shins();
-    let mut data = SpatialData::new(&model);
+    let (model, mut data, mut rng) = setup(quadruped_massless_shins(), 13);
     let contacts = feet(&model, [true; 4]);
-    let mut rng = rng(13);
     let states: Vec<_> = (0..10).map(|_| random_state(&model, &mut rng)).collect();
     // warm up: sizes the contact buffers and the KKT factorization
     dynamics_at(

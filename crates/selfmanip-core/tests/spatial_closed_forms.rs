@@ -70,7 +70,7 @@ fn run(dt: f64, t_end: f64) -> (f64, bool) {
     let (mut worst, mut flipped) = (0.0f64, false);
     for _ in 0..(t_end / dt).round() as usize {
         let a1 = accel(&mut data, &q, &v);
-        let q_half = integrate(&model, q.as_slice(), (&v * (0.5 * dt)).as_slice()).unwrap();
+        let q_half = along(&model, &q, &v, 0.5 * dt);
         let v_half = &v + a1 * (0.5 * dt);
         let a2 = accel(&mut data, &q_half, &v_half);
         q = integrate(&model, q.as_slice(), (&v_half * dt).as_slice()).unwrap();

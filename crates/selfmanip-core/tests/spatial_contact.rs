@@ -90,9 +90,7 @@ fn four_feet_statics_by_hand() {
 /// impact is `P = −(A M⁻¹ Aᵀ)⁻¹ A q̇⁻`, `q̇⁺ = q̇⁻ + M⁻¹AᵀP`, and loses kinetic energy.
 #[test]
 fn massive_robot_matches_the_schur_complement() {
-    let model = quadruped();
-    let mut data = SpatialData::new(&model);
-    let mut rng = rng(8);
+    let (model, mut data, mut rng) = setup(quadruped(), 8);
     let modes = [
         [true; 4],
         [true, false, false, true],
@@ -135,9 +133,7 @@ fn massive_robot_matches_the_schur_complement() {
 /// singular-KKT error (Lemma 5.1).
 #[test]
 fn massless_shins_give_exact_finite_answers() {
-    let model = quadruped_massless_shins();
-    let mut data = SpatialData::new(&model);
-    let mut rng = rng(9);
+    let (model, mut data, mut rng) = setup(quadruped_massless_shins(), 9);
     let modes = [[true; 4], [true, false, false, true], [false; 4]];
     let (mut w_acc, mut w_eom, mut w_imp) = (0.0f64, 0.0f64, 0.0f64);
     for k in 0..60 {

@@ -18,11 +18,6 @@ const BLOCK: &str = r#"<robot name="block">
   <link name="foot_c"/><joint name="c" type="fixed"><origin xyz="-0.2 0 -0.1"/><parent link="block"/><child link="foot_c"/></joint>
 </robot>"#;
 
-/// A uniform ball of mass 1.5 kg and radius 0.1 m (`I = 2/5 m r²`).
-const BALL: &str = r#"<robot name="ball">
-  <link name="ball"><inertial><origin xyz="0 0 0"/><mass value="1.5"/><inertia ixx="0.006" ixy="0" ixz="0" iyy="0.006" iyz="0" izz="0.006"/></inertial></link>
-</robot>"#;
-
 /// A block on its three feet sliding along a slope of angle `α` (normal
 /// `(sin α, 0, cos α)`, the block turned by `R_y(α)`): down the slope it accelerates at
 /// `g(sin α − μ cos α)`, up the slope it decelerates at `g(sin α + μ cos α)`, with no
@@ -103,7 +98,7 @@ fn ball_slides_on_its_sphere_at_the_closed_form_rate() {
         dynamics_at(
             &model,
             &mut data,
-            &[contact.clone()],
+            std::slice::from_ref(&contact),
             (&q, &v, &DVector::zeros(6)),
         )
         .unwrap();
@@ -121,8 +116,7 @@ fn ball_slides_on_its_sphere_at_the_closed_form_rate() {
 /// force `J_pᵀ F` (frame Jacobians, local-world-aligned, at the feet).
 #[test]
 fn sliding_feet_match_the_fixed_point_of_the_symmetric_solve() {
-    let model = quadruped();
-    let mut data = SpatialData::new(&model);
+    let (model, mut data, mut rng) = setup(quadruped(), 34);
     let mu = 0.3;
     let sliding: Vec<PointContact> = feet(&model, [false, false, true, true])
         .into_iter()
@@ -132,7 +126,6 @@ fn sliding_feet_match_the_fixed_point_of_the_symmetric_solve() {
     let frictionless: Vec<PointContact> = feet(&model, [false, false, true, true]);
     let normal_rows = [0, 1];
     let q = standing_q(&model, 0.4, 0.5);
-    let mut rng = rng(34);
     let mut worst = 0.0f64;
     for _ in 0..10 {
         let v = random_vector(model.nv, 0.5, &mut rng);
@@ -249,7 +242,7 @@ fn arc_contacts_roll_on_the_arc_and_pivot_on_its_ends() {
                 .transpose()
                 * r;
             let end = |t: f64, data: &mut SpatialData| {
-                let qt = integrate(&model, q.as_slice(), (&v * t).as_slice()).unwrap();
+                let qt = along(&model, &q, &v, t);
                 forward_kinematics(&model, data, qt.as_slice()).unwrap();
                 let placement = frame_placement(&model, data, arc.frame);
                 placement.translation + placement.rotation * body_r

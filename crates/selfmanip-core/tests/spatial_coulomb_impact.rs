@@ -10,11 +10,6 @@ use selfmanip_core::spatial::rhex::RhexSixLegs;
 use selfmanip_core::spatial::*;
 use spatial_support::*;
 
-/// A uniform ball of mass 1.5 kg and radius 0.1 m (`I = k m r²`, `k = 2/5`).
-const BALL: &str = r#"<robot name="ball">
-  <link name="ball"><inertial><origin xyz="0 0 0"/><mass value="1.5"/><inertia ixx="0.006" ixy="0" ixz="0" iyy="0.006" iyz="0" izz="0.006"/></inertial></link>
-</robot>"#;
-
 fn rel(a: &DVector<f64>, b: &DVector<f64>) -> f64 {
     (a - b).amax() / b.amax().max(1e-300)
 }

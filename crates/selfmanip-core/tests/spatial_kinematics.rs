@@ -2,17 +2,33 @@
 //! `q ⊕ εv`, in all three reference frames, and the contact drift `Ȧq̇` against differences of
 //! the frame's velocity.
 mod spatial_support;
-use nalgebra::Vector6;
+use nalgebra::{DVector, Vector6};
+use rand_chacha::ChaCha8Rng;
 use selfmanip_core::spatial::explog::log6;
 use selfmanip_core::spatial::kinematics::*;
 use selfmanip_core::spatial::*;
 use spatial_support::*;
 
+/// `check(q, v, f)` for each frame `f` of `frames` at `n` random motions `(q, v)`, rates
+/// within `scale` (`(n, scale)`).
+fn each_frame_at_random_motions(
+    model: &SpatialModel,
+    rng: &mut ChaCha8Rng,
+    (n, scale): (usize, f64),
+    frames: &[&str],
+    mut check: impl FnMut(&DVector<f64>, &DVector<f64>, usize),
+) {
+    for _ in 0..n {
+        let (q, v) = random_motion(model, scale, rng);
+        for name in frames {
+            check(&q, &v, model.frame_id(name).unwrap());
+        }
+    }
+}
+
 #[test]
 fn jacobians_match_finite_differences_of_placements() {
-    let model = quadruped();
-    let mut data = SpatialData::new(&model);
-    let mut rng = rng(6);
+    let (model, mut data, mut rng) = setup(quadruped(), 6);
     let frames = [
         "FL_foot",
         "HR_foot",
@@ -24,76 +40,63 @@ fn jacobians_match_finite_differences_of_placements() {
     ];
     let eps = 1e-5;
     let mut worst = [0.0f64; 3];
-    for _ in 0..20 {
-        let q = random_q(&model, &mut rng);
-        let v = random_vector(model.nv, 1.0, &mut rng);
-        for name in frames {
-            let f = model.frame_id(name).unwrap();
-            let mut place = |s: f64| {
-                let qs = integrate(&model, q.as_slice(), (&v * s).as_slice()).unwrap();
-                forward_kinematics(&model, &mut data, qs.as_slice()).unwrap();
-                frame_placement(&model, &data, f)
-            };
-            let (m0, mp, mm) = (place(0.0), place(eps), place(-eps));
-            let local = (log6(&m0.inverse_compose(&mp)).to_vector()
-                - log6(&m0.inverse_compose(&mm)).to_vector())
-                / (2.0 * eps);
-            let world = (log6(&mp.compose(&m0.inverse())).to_vector()
-                - log6(&mm.compose(&m0.inverse())).to_vector())
-                / (2.0 * eps);
-            let mut aligned = Vector6::zeros();
-            aligned
-                .fixed_rows_mut::<3>(0)
-                .copy_from(&((mp.translation - mm.translation) / (2.0 * eps)));
-            aligned
-                .fixed_rows_mut::<3>(3)
-                .copy_from(&world.fixed_rows::<3>(3));
-            forward_kinematics(&model, &mut data, q.as_slice()).unwrap();
-            for (k, (reference, fd)) in [
-                (ReferenceFrame::Local, local),
-                (ReferenceFrame::World, world),
-                (ReferenceFrame::LocalWorldAligned, aligned),
-            ]
-            .into_iter()
-            .enumerate()
-            {
-                frame_jacobian(&model, &mut data, f, reference);
-                worst[k] = worst[k].max((&data.J * &v - fd).amax());
-            }
+    each_frame_at_random_motions(&model, &mut rng, (20, 1.0), &frames, |q, v, f| {
+        let mut place = |s: f64| {
+            forward_kinematics(&model, &mut data, along(&model, q, v, s).as_slice()).unwrap();
+            frame_placement(&model, &data, f)
+        };
+        let (m0, mp, mm) = (place(0.0), place(eps), place(-eps));
+        let local = (log6(&m0.inverse_compose(&mp)).to_vector()
+            - log6(&m0.inverse_compose(&mm)).to_vector())
+            / (2.0 * eps);
+        let world = (log6(&mp.compose(&m0.inverse())).to_vector()
+            - log6(&mm.compose(&m0.inverse())).to_vector())
+            / (2.0 * eps);
+        let mut aligned = Vector6::zeros();
+        aligned
+            .fixed_rows_mut::<3>(0)
+            .copy_from(&((mp.translation - mm.translation) / (2.0 * eps)));
+        aligned
+            .fixed_rows_mut::<3>(3)
+            .copy_from(&world.fixed_rows::<3>(3));
+        forward_kinematics(&model, &mut data, q.as_slice()).unwrap();
+        for (k, (reference, fd)) in [
+            (ReferenceFrame::Local, local),
+            (ReferenceFrame::World, world),
+            (ReferenceFrame::LocalWorldAligned, aligned),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            frame_jacobian(&model, &mut data, f, reference);
+            worst[k] = worst[k].max((&data.J * v - fd).amax());
         }
-    }
-    eprintln!(
-        "|J v − finite difference|: local {:.2e}, world {:.2e}, local_world_aligned {:.2e}",
-        worst[0], worst[1], worst[2]
+    });
+    assert_worst(
+        "|J v − finite difference|:",
+        &["local", "world", "local_world_aligned"],
+        &worst,
+        1e-8,
     );
-    assert!(worst.iter().all(|&w| w < 1e-8), "{worst:?}");
 }
 
 /// The classical acceleration of a frame origin at `q̈ = 0` is `d/dt (J_lin v)` along
 /// `(q ⊕ tv, v)`, by central differences of the frame velocity.
 #[test]
 fn frame_drift_is_the_derivative_of_the_velocity() {
-    let model = quadruped();
-    let mut data = SpatialData::new(&model);
-    let mut rng = rng(7);
+    let (model, mut data, mut rng) = setup(quadruped(), 7);
     let eps = 1e-5;
     let mut worst = 0.0f64;
-    for _ in 0..20 {
-        let q = random_q(&model, &mut rng);
-        let v = random_vector(model.nv, 2.0, &mut rng);
-        for name in FEET {
-            let f = model.frame_id(name).unwrap();
-            let mut vel = |s: f64| {
-                let qs = integrate(&model, q.as_slice(), (&v * s).as_slice()).unwrap();
-                forward_kinematics_velocity(&model, &mut data, qs.as_slice(), v.as_slice())
-                    .unwrap();
-                frame_linear_velocity(&model, &data, f)
-            };
-            let fd = (vel(eps) - vel(-eps)) / (2.0 * eps);
-            forward_kinematics_velocity(&model, &mut data, q.as_slice(), v.as_slice()).unwrap();
-            worst = worst.max((frame_linear_drift(&model, &data, f) - fd).amax());
-        }
-    }
+    each_frame_at_random_motions(&model, &mut rng, (20, 2.0), &FEET, |q, v, f| {
+        let mut vel = |s: f64| {
+            let qs = along(&model, q, v, s);
+            forward_kinematics_velocity(&model, &mut data, qs.as_slice(), v.as_slice()).unwrap();
+            frame_linear_velocity(&model, &data, f)
+        };
+        let fd = (vel(eps) - vel(-eps)) / (2.0 * eps);
+        forward_kinematics_velocity(&model, &mut data, q.as_slice(), v.as_slice()).unwrap();
+        worst = worst.max((frame_linear_drift(&model, &data, f) - fd).amax());
+    });
     eprintln!("|drift − d/dt v_frame| {worst:.2e}");
     assert!(worst < 1e-7, "{worst}");
 }
@@ -114,13 +117,13 @@ const TILTED: &str = concat!(
 /// motion subspaces nor the origin-form inertias of the CRBA.
 #[test]
 fn tilted_negative_and_prismatic_axes_match_composition_and_energy() {
-    let model = SpatialModel::from_urdf_file(TILTED, BaseKind::FreeFlyer, None).unwrap();
-    let mut data = SpatialData::new(&model);
-    let mut rng = rng(32);
+    let (model, mut data, mut rng) = setup(
+        SpatialModel::from_urdf_file(TILTED, BaseKind::FreeFlyer, None).unwrap(),
+        32,
+    );
     let eps = 1e-6;
     for _ in 0..10 {
-        let q = random_q(&model, &mut rng);
-        let v = random_vector(model.nv, 1.0, &mut rng);
+        let (q, v) = random_motion(&model, 1.0, &mut rng);
         forward_kinematics(&model, &mut data, q.as_slice()).unwrap();
         let o_mi = data.oMi.clone();
         for (i, joint) in model.joints.iter().enumerate().skip(1) {
@@ -144,8 +147,7 @@ fn tilted_negative_and_prismatic_axes_match_composition_and_energy() {
         rigid_body::crba(&model, &mut data, q.as_slice()).unwrap();
         let by_m = 0.5 * v.dot(&(&data.M * &v));
         let mut place = |s: f64| {
-            let qs = integrate(&model, q.as_slice(), (&v * s).as_slice()).unwrap();
-            forward_kinematics(&model, &mut data, qs.as_slice()).unwrap();
+            forward_kinematics(&model, &mut data, along(&model, &q, &v, s).as_slice()).unwrap();
             data.oMi.clone()
         };
         let (mp, mm) = (place(eps), place(-eps));

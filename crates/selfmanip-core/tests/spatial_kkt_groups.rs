@@ -9,7 +9,7 @@
 //! densely by LU.
 mod spatial_support;
 use nalgebra::{DMatrix, DVector, Vector3};
-use selfmanip_core::spatial::rhex::{RhexSixLegs, PAIRS, SIDES};
+use selfmanip_core::spatial::rhex::RhexSixLegs;
 use selfmanip_core::spatial::*;
 use spatial_support::*;
 
@@ -80,10 +80,7 @@ fn every_row_grouping_matches_the_dense_kkt_solve() {
 fn one_row_groups_of_the_rhex_match_the_dense_kkt_solve() {
     let p = RhexSixLegs::table_4_2().with_table_4_2_legs();
     let model = p.model().unwrap();
-    let legs: Vec<String> = PAIRS
-        .iter()
-        .flat_map(|pair| SIDES.iter().map(move |side| format!("{pair}_{side}")))
-        .collect();
+    let legs = rhex_legs();
     // six frictionless toes (six groups of one row), then the first two with friction
     // (groups of three beside groups of one)
     let toes = |friction: usize| -> Vec<PointContact> {

@@ -34,9 +34,7 @@ fn rel(a: &DVector<f64>, b: &DVector<f64>) -> f64 {
 
 #[test]
 fn range_space_route_matches_the_block_inverse() {
-    let model = quadruped();
-    let mut data = SpatialData::new(&model);
-    let mut rng = rng(29);
+    let (model, mut data, mut rng) = setup(quadruped(), 29);
     let mut worst: f64 = 0.0;
     for friction in [[true; 4], [true, false, true, false], [false; 4]] {
         let contacts = feet(&model, friction);
@@ -62,9 +60,10 @@ fn range_space_route_matches_the_block_inverse() {
 /// still agrees with the block inverse.
 #[test]
 fn range_space_route_on_a_fixed_base_matches_the_block_inverse() {
-    let model = SpatialModel::from_urdf_file(QUADRUPED, BaseKind::Fixed, None).unwrap();
-    let mut data = SpatialData::new(&model);
-    let mut rng = rng(31);
+    let (model, mut data, mut rng) = setup(
+        SpatialModel::from_urdf_file(QUADRUPED, BaseKind::Fixed, None).unwrap(),
+        31,
+    );
     let mut worst: f64 = 0.0;
     for friction in [[true, false, true, false], [false; 4]] {
         let contacts = feet(&model, friction);
@@ -85,10 +84,8 @@ fn range_space_route_on_a_fixed_base_matches_the_block_inverse() {
 
 #[test]
 fn singular_mass_matrix_takes_the_null_space_route() {
-    let model = quadruped_massless_shins();
-    let mut data = SpatialData::new(&model);
+    let (model, mut data, mut rng) = setup(quadruped_massless_shins(), 31);
     let contacts = feet(&model, [true; 4]);
-    let mut rng = rng(31);
     let (q, v, tau) = random_state(&model, &mut rng);
     dynamics_at(&model, &mut data, &contacts, (&q, &v, &tau)).unwrap();
     assert_eq!(data.kkt_route, KktRoute::NullSpace);

@@ -9,7 +9,7 @@
 //! and still satisfies the equations.
 mod spatial_support;
 use nalgebra::{DMatrix, DVector, Vector3};
-use selfmanip_core::spatial::rhex::{RhexSixLegs, PAIRS, SIDES};
+use selfmanip_core::spatial::rhex::RhexSixLegs;
 use selfmanip_core::spatial::*;
 use spatial_support::*;
 
@@ -141,10 +141,9 @@ fn bolted_down_quadruped_matches_the_dense_kkt_solve() {
 fn rhex_toes_pin_their_one_joint_legs() {
     let p = RhexSixLegs::table_4_2().with_table_4_2_legs();
     let model = p.model().unwrap();
-    let toes: Vec<PointContact> = PAIRS
+    let toes: Vec<PointContact> = rhex_legs()
         .iter()
-        .flat_map(|pair| SIDES.iter().map(move |side| format!("{pair}_{side}")))
-        .map(|leg| p.toe(&model, &leg, false).unwrap())
+        .map(|leg| p.toe(&model, leg, false).unwrap())
         .collect();
     assert_agrees(
         &model,
@@ -153,37 +152,45 @@ fn rhex_toes_pin_their_one_joint_legs() {
 }
 
 /// A free-flying box on two legs, each a revolute hip and a prismatic shank carrying its foot
-/// on a fixed joint: a foot held in the sagittal plane (two rows) pins its two-rate leg.
-const BIPED: &str = r#"<robot name="biped">
+/// on a fixed joint (the right leg the left one mirrored): a foot held in the sagittal plane (two
+/// rows) pins its two-rate leg.
+fn biped() -> String {
+    let links = |side: &str| {
+        format!(
+            r#"
+  <link name="{side}_thigh"><inertial><origin xyz="0 0 -0.1"/><mass value="0.6"/>
+    <inertia ixx="0.002" ixy="0" ixz="0" iyy="0.002" iyz="0" izz="0.001"/></inertial></link>
+  <link name="{side}_shank"><inertial><origin xyz="0 0 -0.1"/><mass value="0.3"/>
+    <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.0005"/></inertial></link>
+  <link name="{side}_foot"/>"#
+        )
+    };
+    let joints = |side: &str, y: &str| {
+        format!(
+            r#"
+  <joint name="{side}_hip" type="revolute"><parent link="body"/><child link="{side}_thigh"/>
+    <origin xyz="0 {y} -0.05"/><axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="10" velocity="10"/></joint>
+  <joint name="{side}_slide" type="prismatic"><parent link="{side}_thigh"/><child link="{side}_shank"/>
+    <origin xyz="0 0 -0.2"/><axis xyz="0 0 1"/><limit lower="-0.1" upper="0.1" effort="10" velocity="10"/></joint>
+  <joint name="{side}_toe" type="fixed"><parent link="{side}_shank"/><child link="{side}_foot"/>
+    <origin xyz="0.02 0 -0.2"/></joint>"#
+        )
+    };
+    format!(
+        r#"<robot name="biped">
   <link name="body"><inertial><origin xyz="0.01 0 0.02"/><mass value="5"/>
-    <inertia ixx="0.05" ixy="0.001" ixz="0" iyy="0.08" iyz="0" izz="0.1"/></inertial></link>
-  <link name="L_thigh"><inertial><origin xyz="0 0 -0.1"/><mass value="0.6"/>
-    <inertia ixx="0.002" ixy="0" ixz="0" iyy="0.002" iyz="0" izz="0.001"/></inertial></link>
-  <link name="L_shank"><inertial><origin xyz="0 0 -0.1"/><mass value="0.3"/>
-    <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.0005"/></inertial></link>
-  <link name="L_foot"/>
-  <link name="R_thigh"><inertial><origin xyz="0 0 -0.1"/><mass value="0.6"/>
-    <inertia ixx="0.002" ixy="0" ixz="0" iyy="0.002" iyz="0" izz="0.001"/></inertial></link>
-  <link name="R_shank"><inertial><origin xyz="0 0 -0.1"/><mass value="0.3"/>
-    <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.0005"/></inertial></link>
-  <link name="R_foot"/>
-  <joint name="L_hip" type="revolute"><parent link="body"/><child link="L_thigh"/>
-    <origin xyz="0 0.1 -0.05"/><axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="10" velocity="10"/></joint>
-  <joint name="L_slide" type="prismatic"><parent link="L_thigh"/><child link="L_shank"/>
-    <origin xyz="0 0 -0.2"/><axis xyz="0 0 1"/><limit lower="-0.1" upper="0.1" effort="10" velocity="10"/></joint>
-  <joint name="L_toe" type="fixed"><parent link="L_shank"/><child link="L_foot"/>
-    <origin xyz="0.02 0 -0.2"/></joint>
-  <joint name="R_hip" type="revolute"><parent link="body"/><child link="R_thigh"/>
-    <origin xyz="0 -0.1 -0.05"/><axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="10" velocity="10"/></joint>
-  <joint name="R_slide" type="prismatic"><parent link="R_thigh"/><child link="R_shank"/>
-    <origin xyz="0 0 -0.2"/><axis xyz="0 0 1"/><limit lower="-0.1" upper="0.1" effort="10" velocity="10"/></joint>
-  <joint name="R_toe" type="fixed"><parent link="R_shank"/><child link="R_foot"/>
-    <origin xyz="0.02 0 -0.2"/></joint>
-</robot>"#;
+    <inertia ixx="0.05" ixy="0.001" ixz="0" iyy="0.08" iyz="0" izz="0.1"/></inertial></link>{}{}{}{}
+</robot>"#,
+        links("L"),
+        links("R"),
+        joints("L", "0.1"),
+        joints("R", "-0.1")
+    )
+}
 
 #[test]
 fn prismatic_and_fixed_joints_pinned_in_a_plane() {
-    let model = SpatialModel::from_urdf_str(BIPED, BaseKind::FreeFlyer, None).unwrap();
+    let model = SpatialModel::from_urdf_str(&biped(), BaseKind::FreeFlyer, None).unwrap();
     assert_eq!(model.nv, 10);
     let contacts: Vec<PointContact> = ["L_foot", "R_foot"]
         .iter()
@@ -286,13 +293,10 @@ fn a_nearly_stretched_leg_declines_the_elimination() {
     }
 }
 
-/// RHex's toes on the legs `legs` (indices into `PAIRS × SIDES`), with friction where
+/// RHex's toes on the legs `legs` (indices into [`rhex_legs`]), with friction where
 /// `friction`.
 fn rhex_toes(p: &RhexSixLegs, model: &SpatialModel, legs: &[(usize, bool)]) -> Vec<PointContact> {
-    let names: Vec<String> = PAIRS
-        .iter()
-        .flat_map(|pair| SIDES.iter().map(move |side| format!("{pair}_{side}")))
-        .collect();
+    let names = rhex_legs();
     legs.iter()
         .map(|&(i, friction)| p.toe(model, &names[i], friction).unwrap())
         .collect()
@@ -324,7 +328,7 @@ fn rhex_toes_with_friction_hold_the_base_through_extra_rows() {
 /// The biped's two-rate legs on feet with friction (three rows: one base row each).
 #[test]
 fn prismatic_legs_on_feet_with_friction() {
-    let model = SpatialModel::from_urdf_str(BIPED, BaseKind::FreeFlyer, None).unwrap();
+    let model = SpatialModel::from_urdf_str(&biped(), BaseKind::FreeFlyer, None).unwrap();
     let contacts: Vec<PointContact> = ["L_foot", "R_foot"]
         .iter()
         .map(|f| PointContact::new(&model, f, true).unwrap())
@@ -341,9 +345,9 @@ fn base_rows_the_reduced_system_cannot_take_decline() {
     let p = RhexSixLegs::table_4_2().with_table_4_2_legs();
     let rhex = p.model().unwrap();
     let six: Vec<(usize, bool)> = (0..6).map(|i| (i, true)).collect();
-    let fixed = SpatialModel::from_urdf_str(BIPED, BaseKind::Fixed, None).unwrap();
+    let fixed = SpatialModel::from_urdf_str(&biped(), BaseKind::Fixed, None).unwrap();
     let one_hip = SpatialModel::from_urdf_str(
-        &BIPED.replace("0 -0.1 -0.05", "0 0.1 -0.05"),
+        &biped().replace("0 -0.1 -0.05", "0 0.1 -0.05"),
         BaseKind::FreeFlyer,
         None,
     )
@@ -397,7 +401,7 @@ fn base_rows_the_reduced_system_cannot_take_decline() {
     }
 }
 
-/// [`BIPED`] with a four-joint arm on its body (axes x, y, y, z; no contact): a limb of more
+/// [`biped`] with a four-joint arm on its body (axes x, y, y, z; no contact): a limb of more
 /// than three rates, whose definiteness the elimination checks by the general block (the
 /// legs' by fixed-size ones). With the feet held in the plane the arm keeps its rates in the
 /// reduced system; the routes agree with the dense solve, and with the arm's hand massless
@@ -426,7 +430,7 @@ fn a_four_joint_arm_keeps_its_rates() {
             let parent = if k == 0 { "body" } else { links[k - 1] };
             extra += &joint(&format!("j{k}"), parent, l, axis);
         }
-        let urdf = BIPED.replace("</robot>", &(extra + "</robot>"));
+        let urdf = biped().replace("</robot>", &(extra + "</robot>"));
         SpatialModel::from_urdf_str(&urdf, BaseKind::FreeFlyer, None).unwrap()
     };
     let model = arm(0.2);

@@ -3,7 +3,7 @@
 //! rounded body ends by finite differences, and redundant (statically indeterminate) toe sets.
 mod spatial_support;
 use nalgebra::DVector;
-use selfmanip_core::spatial::rhex::{RhexSixLegs, PAIRS, SIDES};
+use selfmanip_core::spatial::rhex::RhexSixLegs;
 use selfmanip_core::spatial::*;
 use spatial_support::*;
 
@@ -11,13 +11,6 @@ const RHEX6: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/../../tests/data/urdf/rhex6.urdf"
 );
-
-fn legs() -> Vec<String> {
-    PAIRS
-        .iter()
-        .flat_map(|p| SIDES.iter().map(move |s| format!("{p}_{s}")))
-        .collect()
-}
 
 /// The shipped `tests/data/urdf/rhex6.urdf` (Table 4.2's legs, for Pinocchio, which needs a
 /// mass on every moving link) is what the generator writes; regenerate it with
@@ -54,10 +47,10 @@ fn structure_and_massless_legs() {
     let model = SpatialModel::from_urdf_file(RHEX6, BaseKind::FreeFlyer, None).unwrap();
     assert_eq!((model.nq, model.nv), (13, 12));
     let hips: Vec<String> = model.joints[1..].iter().map(|j| j.name.clone()).collect();
-    let want: Vec<String> = legs().iter().map(|l| format!("{l}_hip")).collect();
+    let want: Vec<String> = rhex_legs().iter().map(|l| format!("{l}_hip")).collect();
     assert_eq!(hips, want);
     assert!((model.total_mass() - (7.15 + 6.0 * 0.063)).abs() < 1e-12);
-    for l in legs() {
+    for l in rhex_legs() {
         for f in ["toe", "arc", "leg"] {
             model.frame_id(&format!("{l}_{f}")).unwrap();
         }
@@ -89,9 +82,7 @@ fn structure_and_massless_legs() {
 #[test]
 fn contact_drift_is_the_rate_of_the_rows() {
     let p = RhexSixLegs::table_4_2().with_table_4_2_legs();
-    let model = p.model().unwrap();
-    let mut data = SpatialData::new(&model);
-    let mut rng = rng(32);
+    let (model, mut data, mut rng) = setup(p.model().unwrap(), 32);
     let contacts = vec![
         p.toe(&model, "front_left", true).unwrap(),
         p.leg_arc(&model, "middle_right", true).unwrap(),
@@ -143,7 +134,7 @@ fn redundant_toes_give_the_unique_motion_and_minimum_norm_forces() {
     let four = ["front_left", "front_right", "rear_left", "rear_right"];
     for (p, legs, in_plane) in [
         (massive, four.map(String::from).to_vec(), false),
-        (massless, legs(), true),
+        (massless, rhex_legs(), true),
     ] {
         let model = p.model().unwrap();
         let mut data = SpatialData::new(&model);

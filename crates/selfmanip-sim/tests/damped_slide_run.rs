@@ -19,6 +19,8 @@
 //!   stick at a controller's phase; run 402, a general site held sliding whose force comes
 //!   to pull inside a segment of the dwell; runs 394 and 452, which showed the same faults),
 //!   the friction's and the dampers' works are never positive and the balance closes to 1e-6 J.
+mod common;
+
 use selfmanip_core::damped_slide::{contact_rows, solve};
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{ContactMode, Model, Terrain};
@@ -212,16 +214,7 @@ fn the_energy_balance_holds_with_friction_work() {
 
 #[test]
 fn the_run_is_deterministic() {
-    let (a, b) = (run(), run());
-    let (ea, eb) = (&a.execution.events, &b.execution.events);
-    assert_eq!(ea.len(), eb.len());
-    for (x, y) in ea.iter().zip(eb) {
-        assert_eq!(x.t.to_bits(), y.t.to_bits());
-        assert_eq!(x.mode_after, y.mode_after);
-        let bits = |v: &[f64]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
-        assert_eq!(bits(&x.qd_after), bits(&y.qd_after));
-    }
-    assert_eq!(a.execution.steps, b.execution.steps);
+    common::assert_deterministic(run, |a, b| assert_eq!(a.steps, b.steps));
 }
 
 /// The energy balance `E1 − E0 = W + W_d + W_fr − L` of user runs whose feet slide, stick

@@ -14,7 +14,7 @@ use selfmanip_core::{ContactMode, RobotDescription};
 use selfmanip_hybrid::{simulate, ControlPoint, Controller, ControllerPartials, EventKind};
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::periodic::run_sensitivity;
-use selfmanip_sim::{Scenario, Simulation};
+use selfmanip_sim::{Run, Scenario, Simulation};
 mod common;
 use common::fd::{end_state_and_events, run_jacobian_fd};
 use common::{data, hopper, run_from_state};
@@ -209,6 +209,22 @@ fn arm_swung_from_a_touchdown_follows_its_time_in_closed_form() {
     }
 }
 
+/// Asserts the fall columns (`z`, `ż`: 2 and 6) of `sim`'s state Jacobian `j` against
+/// central differences of whole runs.
+fn assert_fall_columns(sim: &Simulation, j: &DMatrix<f64>) {
+    let fd = central_differences(sim, &[2, 6], 1e-6);
+    for c in [2, 6] {
+        let e = (j.column(c) - fd.column(c)).amax();
+        assert!(e < 1e-7, "column {c}: {e:e}");
+    }
+}
+
+/// Whether the controller of `run`'s last segment keeps memory of an event.
+fn ends_with_event_memory(run: &Run) -> bool {
+    let last = run.execution.segments.last().unwrap();
+    last.controller.has_event_memory()
+}
+
 fn arm_closed_form(landed: &str) {
     let sim = dropped_arm(landed, 0.4);
     let run = sim.run().unwrap();
@@ -239,11 +255,7 @@ fn arm_closed_form(landed: &str) {
     // and those columns whole against central differences of whole runs (not the arm's own
     // directions: a swing from rest sits on `JointMotion::swing`'s switch to a park at
     // `ω₀ < 0`, where the motion, hence the run, jumps — no derivative to compare)
-    let fd = central_differences(&sim, &[2, 6], 1e-6);
-    for c in [2, 6] {
-        let e = (j.column(c) - fd.column(c)).amax();
-        assert!(e < 1e-7, "column {c}: {e:e}");
-    }
+    assert_fall_columns(&sim, &j);
 }
 
 /// A motion whose numbers depend on the state where it starts (`theta`) is memory the
@@ -257,28 +269,12 @@ fn memory_of_the_start_state_is_differentiated() {
         0.4,
     );
     let run = sim.run().unwrap();
-    assert!(run
-        .execution
-        .segments
-        .last()
-        .unwrap()
-        .controller
-        .has_event_memory());
+    assert!(ends_with_event_memory(&run));
     let j = run_sensitivity(&run).unwrap().state_jacobian.unwrap();
-    let fd = central_differences(&sim, &[2, 6], 1e-6);
-    for c in [2, 6] {
-        let e = (j.column(c) - fd.column(c)).amax();
-        assert!(e < 1e-7, "column {c}: {e:e}");
-    }
+    assert_fall_columns(&sim, &j);
     let sim = dropped_arm(r#"motion = { kind = "hold", angle_rad = 3.0 }"#, 0.4);
     let run = sim.run().unwrap();
-    assert!(!run
-        .execution
-        .segments
-        .last()
-        .unwrap()
-        .controller
-        .has_event_memory());
+    assert!(!ends_with_event_memory(&run));
     assert!(run_sensitivity(&run).unwrap().state_jacobian.is_some());
 }
 

@@ -1,17 +1,26 @@
-//! Shared set-up of the spatial tests: the shipped quadruped with chosen leg masses, and
-//! random states.
+//! Shared set-up of the spatial tests: the shipped quadruped with chosen leg masses, a
+//! ball, RHex's legs by name, random states, a model with its workspace, and the report of
+//! the worst errors.
 #![allow(dead_code)]
 use nalgebra::{DVector, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use selfmanip_core::spatial::rhex::{PAIRS, SIDES};
 use selfmanip_core::spatial::{
-    forward_dynamics, neutral, BaseKind, PointContact, SpatialData, SpatialModel, SpatialResult,
+    forward_dynamics, integrate, neutral, BaseKind, PointContact, SpatialData, SpatialModel,
+    SpatialResult,
 };
 
 pub const QUADRUPED: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/../../tests/data/urdf/quadruped12.urdf"
 );
+
+/// A uniform ball of mass 1.5 kg and radius 0.1 m (`I = k m r²`, `k = 2/5`).
+pub const BALL: &str = r#"<robot name="ball">
+  <link name="ball"><inertial><origin xyz="0 0 0"/><mass value="1.5"/><inertia ixx="0.006" ixy="0" ixz="0" iyy="0.006" iyz="0" izz="0.006"/></inertial></link>
+</robot>"#;
+
 pub const FEET: [&str; 4] = ["FL_foot", "FR_foot", "HL_foot", "HR_foot"];
 pub const KNEES: [&str; 4] = ["FL_knee", "FR_knee", "HL_knee", "HR_knee"];
 
@@ -42,8 +51,34 @@ pub fn quadruped_massless_shins() -> SpatialModel {
     quadruped_scaled(&["_shin", "_foot"], 0.0)
 }
 
+/// RHex's six legs by name, `PAIRS × SIDES` in order.
+pub fn rhex_legs() -> Vec<String> {
+    PAIRS
+        .iter()
+        .flat_map(|pair| SIDES.iter().map(move |side| format!("{pair}_{side}")))
+        .collect()
+}
+
 pub fn rng(seed: u64) -> ChaCha8Rng {
     ChaCha8Rng::seed_from_u64(seed)
+}
+
+/// Prints `what` and the worst error of each check (`names[k]`: `worst[k]`), and asserts
+/// every one below `tol`.
+pub fn assert_worst(what: &str, names: &[&str], worst: &[f64], tol: f64) {
+    let each: Vec<String> = names
+        .iter()
+        .zip(worst)
+        .map(|(name, w)| format!("{name} {w:.2e}"))
+        .collect();
+    eprintln!("{what} {}", each.join(", "));
+    assert!(worst.iter().all(|&w| w < tol), "{what} {worst:?}");
+}
+
+/// The set-up most tests open with: `model`, its workspace and a generator seeded `seed`.
+pub fn setup(model: SpatialModel, seed: u64) -> (SpatialModel, SpatialData, ChaCha8Rng) {
+    let data = SpatialData::new(&model);
+    (model, data, rng(seed))
 }
 
 /// A random configuration: base within 1 m of the origin at a random orientation, joints in
@@ -64,6 +99,21 @@ pub fn random_q(model: &SpatialModel, rng: &mut ChaCha8Rng) -> DVector<f64> {
         *x = rng.gen_range(-1.5..1.5);
     }
     q
+}
+
+/// A random motion `(q, v)`: a configuration by [`random_q`], then rates within `scale`.
+pub fn random_motion(
+    model: &SpatialModel,
+    scale: f64,
+    rng: &mut ChaCha8Rng,
+) -> (DVector<f64>, DVector<f64>) {
+    let q = random_q(model, rng);
+    (q, random_vector(model.nv, scale, rng))
+}
+
+/// `q ⊕ s v`: the configuration reached from `q` at the rates `v` after `s`.
+pub fn along(model: &SpatialModel, q: &DVector<f64>, v: &DVector<f64>, s: f64) -> DVector<f64> {
+    integrate(model, q.as_slice(), (v * s).as_slice()).unwrap()
 }
 
 pub fn random_vector(n: usize, scale: f64, rng: &mut ChaCha8Rng) -> DVector<f64> {

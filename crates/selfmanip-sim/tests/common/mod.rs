@@ -9,7 +9,7 @@ use selfmanip_hybrid::periodic::{
 use selfmanip_hybrid::{simulate, EventKind, Execution, HybridOptions};
 use selfmanip_sim::behaviour::Behaviour;
 use selfmanip_sim::sensitivity::scenario_parameter_sensitivity;
-use selfmanip_sim::{Scenario, Simulation};
+use selfmanip_sim::{Run, Scenario, Simulation};
 use std::path::Path;
 
 #[path = "../../examples/common/mod.rs"]
@@ -18,6 +18,20 @@ pub mod examples;
 pub mod fd;
 #[allow(unused_imports)] // not every test reads the examples' data
 pub use examples::data;
+
+/// Runs `run` twice and asserts the events of the two executions bit-identical (as many, and
+/// each one's time, mode after and rates after), then `more` on the two executions.
+pub fn assert_deterministic(run: impl Fn() -> Run, more: impl Fn(&Execution, &Execution)) {
+    let (a, b) = (run().execution, run().execution);
+    assert_eq!(a.events.len(), b.events.len());
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    for (x, y) in a.events.iter().zip(&b.events) {
+        assert_eq!(x.t.to_bits(), y.t.to_bits());
+        assert_eq!(x.mode_after, y.mode_after);
+        assert_eq!(bits(&x.qd_after), bits(&y.qd_after));
+    }
+    more(&a, &b);
+}
 
 /// A robot of the workspace's `tests/data/robots`.
 pub fn test_robot(name: &str) -> RobotDescription {
