@@ -181,6 +181,14 @@ pub const CHATTER_MIN_DURATION_RATIO: f64 = 0.5;
 /// The run truncates a chatter as it truncates a Zeno window ([`truncate_and_hold`], module
 /// docs) and ends with it only when there is nothing to truncate.
 ///
+/// **Re-touch cycles.** The cycle must make transitions ([`Event::makes_transitions`]): an
+/// apex recorded again and again makes none. A touchdown that leaves the mode as it was but
+/// whose impact kept its contact, which force complementarity then let go at once, makes two
+/// — into the impact's mode and out of it — in one event: Fig. 5.7's chatter (the leg lifted
+/// by its own law after the impact, put back by it a little later) with one event per
+/// cycle, a cycle of period 1. Its truncation holds the contact for the dwell or until
+/// another contact touches down ([`ZenoWindow::hold_cycle_only`]).
+///
 /// Cost: `O(CHATTER_MAX_PERIOD · CHATTER_CYCLES)` comparisons per event, on the last
 /// `CHATTER_MAX_PERIOD · CHATTER_CYCLES` events only.
 #[derive(Debug, Clone, Default)]
