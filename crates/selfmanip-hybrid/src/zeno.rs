@@ -114,14 +114,16 @@ impl ZenoWindow {
     /// not hold (`held`). The dwell then ends: the caller lets its contacts go
     /// ([`Flow::set_held`]) before the reset.
     pub fn end_hold_at(&mut self, fired: &[crate::guard::Guard], held: &[usize]) -> bool {
+        if !(self.holding && self.cycle_only) {
+            return false;
+        }
         let other = fired
             .iter()
             .any(|g| g.touchdown().is_some_and(|k| !held.contains(&k)));
-        let ends = self.holding && self.cycle_only && other;
-        if ends {
+        if other {
             self.holding = false;
         }
-        ends
+        other
     }
 
     /// Records a transition at `t` (not before the last one) triggered by `contacts` (none
