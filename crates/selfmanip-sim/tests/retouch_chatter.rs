@@ -67,12 +67,8 @@ fn retouch(e: &Event) -> bool {
 fn a_retouch_cycle_is_truncated_and_the_energy_balances() {
     let run = run();
     let exec = &run.execution;
-    assert_eq!(
-        run.outcome.status,
-        RunStatus::FinalTime,
-        "{:?}",
-        exec.termination
-    );
+    let ended = (run.outcome.status, &exec.termination);
+    assert!(ended.0 == RunStatus::FinalTime, "{ended:?}");
     let retouches: Vec<&Event> = exec.events.iter().filter(|e| retouch(e)).collect();
     assert!(retouches.len() >= CHATTER_CYCLES, "{}", retouches.len());
     for e in &retouches {
