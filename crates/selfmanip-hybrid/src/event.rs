@@ -122,6 +122,21 @@ impl Event {
 }
 
 impl Event {
+    /// Whether the event is a transition of Definition 5.2 between distinct modes: its mode
+    /// changes, or it is a **re-touch** — an impact that kept a contact (`impulse_mode`) which
+    /// force complementarity then let go at once (`mode_after`), two transitions (into the
+    /// impact's mode and out of it) in one event that leaves the mode as it was: a leg whose
+    /// own law lifts its foot off the ground after its impact and puts it back (thesis
+    /// Fig. 5.7). Not an apex, a fold passed, or a touchdown whose impact kept nothing new.
+    pub fn makes_transitions(&self) -> bool {
+        self.mode_before != self.mode_after
+            || (self.kind.is_impulsive()
+                && self
+                    .impulse_mode
+                    .active()
+                    .any(|k| !self.mode_after.contains(k)))
+    }
+
     /// Whether the event changes no contact mode and carries no impulse: a touchdown whose
     /// contact complementarity let go at once, its impulse zero (`|P_λ| ≤`
     /// [`IMPULSE_TOL_N_S`]: a massless chain's foot, whose stop needs none, thesis 5.1.3 —

@@ -159,6 +159,10 @@ pub fn simulate_with(
                 }
                 SegmentEnd::Ended(term) => break 'run term,
             };
+            // a re-touch cycle's dwell ends at another contact's touchdown (crate::zeno)
+            if zeno.end_hold_at(&fired, flow.held()) {
+                flow.set_held(&[]);
+            }
             fresh_laws(&mut reset_ws, &flow, (t, mode), &y);
             let at = Firing {
                 guards: &fired,
@@ -257,6 +261,13 @@ pub fn simulate_with(
             truncation = crate::zeno::truncate_and_hold(held, &opts, mode, (t, &y), &c)?;
             if truncation.is_none() {
                 break c;
+            }
+            // a re-touch cycle's hold is bounded to that cycle
+            if let Termination::Chatter { period, .. } = c {
+                let cycle = &events[events.len() - period..];
+                if cycle.iter().all(|e| e.mode_before == e.mode_after) {
+                    zeno.hold_cycle_only();
+                }
             }
         }
         if let Some(p) = penetration(model, terrain, t, &y[..model.nq()]) {

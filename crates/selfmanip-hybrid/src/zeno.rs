@@ -52,6 +52,9 @@ pub struct ZenoWindow {
     dwell: Option<(f64, f64)>,
     /// Whether that dwell still holds its contacts ([`dwell_end`] has not been reached).
     holding: bool,
+    /// Whether that dwell holds a re-touch cycle's contacts, and so ends at a touchdown of
+    /// another contact ([`Self::hold_cycle_only`]).
+    cycle_only: bool,
 }
 
 impl ZenoWindow {
@@ -63,6 +66,7 @@ impl ZenoWindow {
             triggered: Vec::new(),
             dwell: None,
             holding: false,
+            cycle_only: false,
         }
     }
 
@@ -91,6 +95,35 @@ impl ZenoWindow {
         self.triggered.clear();
         self.dwell = Some((dwell_s, t + dwell_s));
         self.holding = true;
+        self.cycle_only = false;
+    }
+
+    /// Bounds the dwell just begun ([`Self::truncated`]) to the cycle it truncates: a
+    /// **re-touch cycle** (its events change no mode: a foot that its impact keeps and its
+    /// force lets go at once, back on the ground a little later, [`Event::makes_transitions`])
+    /// is the continuation of one contact's own law, and its truncated mode is that
+    /// continuation's limit — not a constraint on the impacts of the others. A touchdown of
+    /// another contact during the dwell ends it before its reset ([`Self::end_hold_at`]):
+    /// that impact's complementarity judges every contact afresh, the held one with them.
+    pub fn hold_cycle_only(&mut self) {
+        self.cycle_only = true;
+    }
+
+    /// Whether a reset of the guards `fired` ends a dwell bounded to its cycle
+    /// ([`Self::hold_cycle_only`]): one of them is a touchdown of a contact the dwell does
+    /// not hold (`held`). The dwell then ends: the caller lets its contacts go
+    /// ([`Flow::set_held`]) before the reset.
+    pub fn end_hold_at(&mut self, fired: &[crate::guard::Guard], held: &[usize]) -> bool {
+        if !(self.holding && self.cycle_only) {
+            return false;
+        }
+        let other = fired
+            .iter()
+            .any(|g| g.touchdown().is_some_and(|k| !held.contains(&k)));
+        if other {
+            self.holding = false;
+        }
+        other
     }
 
     /// Records a transition at `t` (not before the last one) triggered by `contacts` (none
@@ -150,6 +183,14 @@ pub const CHATTER_MIN_DURATION_RATIO: f64 = 0.5;
 /// The run truncates a chatter as it truncates a Zeno window ([`truncate_and_hold`], module
 /// docs) and ends with it only when there is nothing to truncate.
 ///
+/// **Re-touch cycles.** The cycle must make transitions ([`Event::makes_transitions`]): an
+/// apex recorded again and again makes none. A touchdown that leaves the mode as it was but
+/// whose impact kept its contact, which force complementarity then let go at once, makes two
+/// — into the impact's mode and out of it — in one event: Fig. 5.7's chatter (the leg lifted
+/// by its own law after the impact, put back by it a little later) with one event per
+/// cycle, a cycle of period 1. Its truncation holds the contact for the dwell or until
+/// another contact touches down ([`ZenoWindow::hold_cycle_only`]).
+///
 /// Cost: `O(CHATTER_MAX_PERIOD · CHATTER_CYCLES)` comparisons per event, on the last
 /// `CHATTER_MAX_PERIOD · CHATTER_CYCLES` events only.
 #[derive(Debug, Clone, Default)]
@@ -157,14 +198,14 @@ pub struct ChatterDetector;
 
 impl ChatterDetector {
     /// `Some(Chatter)` if `events` (latest last) end with a chatter.
-    pub fn check(&self, events: &[crate::event::Event]) -> Option<Termination> {
+    pub fn check(&self, events: &[Event]) -> Option<Termination> {
         for p in 1..=CHATTER_MAX_PERIOD {
             let span = p * CHATTER_CYCLES;
             if events.len() < span {
                 break;
             }
             let tail = &events[events.len() - span..];
-            let same = |a: &crate::event::Event, b: &crate::event::Event| {
+            let same = |a: &Event, b: &Event| {
                 a.kind == b.kind
                     && a.mode_before == b.mode_before
                     && a.mode_after == b.mode_after
@@ -174,8 +215,9 @@ impl ChatterDetector {
             if !(0..span - p).all(|i| same(&tail[i], &tail[i + p])) {
                 continue;
             }
-            // the cycle changes the mode (a cycle of unchanged modes is no chatter)
-            if tail[..p].iter().all(|e| e.mode_before == e.mode_after) {
+            // the cycle makes a transition (a cycle of events that make none — apexes — is
+            // no chatter); a re-touch makes two ([`Event::makes_transitions`])
+            if !tail[..p].iter().any(Event::makes_transitions) {
                 continue;
             }
             // not accumulating: the last cycle lasts at least half as long as the first (a

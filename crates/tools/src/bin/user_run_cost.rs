@@ -103,6 +103,22 @@ fn main() {
                 println!("  steps of the segment at {at}: {}", h.join(" "));
             }
         }
+        // USER_RUN_COST_EVENTS=1: every event (time, kind, modes, contacts, energy lost) and
+        // the termination
+        if std::env::var("USER_RUN_COST_EVENTS").is_ok() {
+            for e in &exec.events {
+                println!(
+                    "  {:.7} {:?} {:?} -> {:?} {:?} lost {:.3e} J",
+                    e.t,
+                    e.kind,
+                    e.mode_before,
+                    e.mode_after,
+                    e.triggered,
+                    e.kinetic_before - e.kinetic_after
+                );
+            }
+            println!("  termination {:?}", exec.termination);
+        }
         let short = exec.segments.iter().filter(|s| s.dense.len() <= 1).count();
         println!("  segments of at most one step: {short}");
     }
