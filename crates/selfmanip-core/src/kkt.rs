@@ -210,6 +210,10 @@ impl KktFactorization {
     /// Sizes the storage and copies `M̄[coords, coords]` and `A[:, coords]ᵀ` in (all
     /// coordinates when `coords` is `None`).
     fn load(&mut self, mbar: &DMatrix<f64>, a: &DMatrix<f64>, coords: Option<&[usize]>) {
+        // every coordinate, in order (a mode without free joints): the plain copies
+        let all =
+            |c: &[usize]| c.len() == mbar.nrows() && c.iter().enumerate().all(|(i, &k)| i == k);
+        let coords = coords.filter(|c| !all(c));
         let m = coords.map_or(mbar.nrows(), <[usize]>::len);
         let c = a.nrows();
         if (m, c) != (self.m, self.c) || self.q.len() != m * m {

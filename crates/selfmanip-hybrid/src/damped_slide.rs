@@ -35,20 +35,20 @@ pub fn chain_law(
     let joints = damped_chain(model, k)?;
     let n = joints.len();
     let mut tau = vec![0.0; model.n_joints()];
-    let mut torque_at = |qd: &[f64]| {
+    let mut torque_at = |qd: &[f64], out: &mut [f64]| {
         tau.fill(0.0);
         ctrl.torque(t, q, qd, mode, &mut tau);
-        let mut out = DVector::zeros(n);
-        law_torques_into(model, joints.clone(), &tau, (q, qd), out.as_mut_slice());
-        out
+        law_torques_into(model, joints.clone(), &tau, (q, qd), out);
     };
-    let torque = torque_at(qd);
+    let mut torque = DVector::zeros(n);
+    torque_at(qd, torque.as_mut_slice());
     let mut damping = DMatrix::zeros(n, n);
     let mut v = qd.to_vec();
+    let mut up = vec![0.0; n];
     for (c, j) in joints.clone().enumerate() {
         let h = RATE_STEP * qd[j].abs().max(1.0);
         v[j] = qd[j] + h;
-        let up = torque_at(&v);
+        torque_at(&v, &mut up);
         v[j] = qd[j];
         for r in 0..n {
             damping[(r, c)] = -(up[r] - torque[r]) / h;
