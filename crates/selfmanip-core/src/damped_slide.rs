@@ -490,3 +490,95 @@ pub(crate) fn impact_rates(model: &Model, data: &Data, qd_plus: &mut DVector<f64
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn bits(v: &[f64]) -> Vec<u64> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    /// The slice products give nalgebra's own products bit for bit (what they replace):
+    /// `M x` for every shape up to 12 × 12 (with a zero-column one), and `uᵀv` for every
+    /// length up to 12, across the 8 entries where nalgebra's dot unrolls.
+    #[test]
+    fn exact_products_are_nalgebras_bit_for_bit() {
+        let mut r = ChaCha8Rng::seed_from_u64(30);
+        for rows in 1..=12 {
+            for cols in 0..=12 {
+                let m = DMatrix::from_fn(rows, cols, |_, _| r.gen_range(-1.0..1.0));
+                let x = DVector::from_fn(cols, |_, _| r.gen_range(-1.0..1.0));
+                let mut y = vec![f64::NAN; rows];
+                exact::gemv(m.as_slice(), x.as_slice(), &mut y);
+                assert_eq!(bits(&y), bits((&m * &x).as_slice()), "{rows}×{cols}");
+            }
+            let u = DVector::from_fn(rows, |_, _| r.gen_range(-1.0..1.0));
+            let v = DVector::from_fn(rows, |_, _| r.gen_range(-1.0..1.0));
+            let d = exact::dot(u.as_slice(), v.as_slice());
+            assert_eq!(d.to_bits(), u.dot(&v).to_bits(), "dot of {rows}");
+        }
+    }
+
+    /// The damped slide on slices ([`solve_rows`]) against its products written in
+    /// nalgebra (the route it replaced), bit for bit, for chains of 2 to 10 joints (beyond
+    /// [`MAX_EXACT`] too) at random rows, rates and laws; and the slide's own physics: the
+    /// foot stays on the ground (`u_n = (A q̇)_n = 0` at the slide's rates) and the chain's
+    /// torques balance the ground's force (`T(θ̇) = Bᵀλ`).
+    #[test]
+    fn damped_slide_on_slices_is_the_nalgebra_route() {
+        let mut r = ChaCha8Rng::seed_from_u64(31);
+        let mut checked = 0;
+        for n in 2..=10 {
+            for _ in 0..20 {
+                let nq = n + 4;
+                let j0 = 1;
+                let a = DMatrix::from_fn(2, nq, |_, _| r.gen_range(-1.0..1.0));
+                let qd: Vec<f64> = (0..nq).map(|_| r.gen_range(-2.0..2.0)).collect();
+                let c = DMatrix::from_fn(n, n, |_, _| r.gen_range(-0.3..0.3));
+                let law = ChainLaw {
+                    joints: j0..j0 + n,
+                    rates: DVector::from_fn(n, |_, _| r.gen_range(-2.0..2.0)),
+                    torque: DVector::from_fn(n, |_, _| r.gen_range(-1.0..1.0)),
+                    damping: &c * c.transpose() + DMatrix::identity(n, n),
+                    holds: true,
+                };
+                let Some(slide) = solve_rows(0, a.clone(), &qd, &law, 0.6, None).unwrap() else {
+                    continue;
+                };
+                // the nalgebra route
+                let b = a.columns(j0, n).into_owned();
+                let k_inv = law.damping.clone().try_inverse().unwrap();
+                let mut v = DVector::from_column_slice(&qd);
+                v.rows_mut(j0, n).copy_from(&law.rates);
+                let w = &a * v + &b * (&k_inv * &law.torque);
+                let g = &b * &k_inv * b.transpose();
+                let lambda = DVector::from_column_slice(&slide.lambda);
+                let rates = &law.rates + &k_inv * (&law.torque - b.transpose() * &lambda);
+                assert_eq!(bits(slide.w.as_slice()), bits(w.as_slice()), "w, n={n}");
+                assert_eq!(bits(slide.g.as_slice()), bits(g.as_slice()), "G, n={n}");
+                assert_eq!(
+                    bits(slide.rates.as_slice()),
+                    bits(rates.as_slice()),
+                    "θ̇, n={n}"
+                );
+                // u_n = 0 and T(θ̇) = T_c − K (θ̇ − θ̇_c) = Bᵀλ, where the normal response
+                // is outside Painlevé's region (the normal force is then not held)
+                if !slide.wedged {
+                    let mut qd_s = DVector::from_column_slice(&qd);
+                    qd_s.rows_mut(j0, n).copy_from(&slide.rates);
+                    let u = &a * qd_s;
+                    let scale = 1.0 + w.norm() + g.norm() * lambda.norm();
+                    assert!(u[1].abs() < 1e-12 * scale, "u_n = {}, n={n}", u[1]);
+                    let t = &law.torque - &law.damping * (&slide.rates - &law.rates);
+                    let bt = b.transpose() * &lambda;
+                    assert!((t - bt).norm() < 1e-11 * scale, "torque balance, n={n}");
+                }
+                checked += 1;
+            }
+        }
+        assert!(checked > 150, "{checked}");
+    }
+}
