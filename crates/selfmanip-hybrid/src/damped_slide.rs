@@ -192,19 +192,38 @@ pub fn chain_accelerations(
         return Ok(());
     }
     let events: Vec<f64> = ctrl.time_events(&[]).iter().map(|e| e.t).collect();
-    chain_accelerations_clear_of(model, terrain, ctrl, (t, mode), (q, qd), &events, data)
+    let mut scratch = ChainScratch::default();
+    chain_accelerations_clear_of(
+        model,
+        terrain,
+        ctrl,
+        (t, mode),
+        (q, qd),
+        (&events, &mut scratch),
+        data,
+    )
+}
+
+/// The buffers of [`chain_accelerations`], kept by a caller that evaluates it often.
+#[derive(Debug, Clone, Default)]
+pub struct ChainScratch {
+    qdd: Vec<f64>,
+    qs: Vec<f64>,
+    vs: Vec<f64>,
+    tau: Vec<f64>,
+    work: Vec<f64>,
 }
 
 /// [`chain_accelerations`] with the controller's time events `events` (their instants,
 /// [`Controller::time_events`]), which a caller that evaluates one controller many times
-/// asks for once.
+/// asks for once, and buffers `scratch`.
 pub(crate) fn chain_accelerations_clear_of(
     model: &Model,
     terrain: &dyn Terrain,
     ctrl: &dyn Controller,
     (t, mode): (f64, ContactMode),
     (q, qd): (&[f64], &[f64]),
-    events: &[f64],
+    (events, scratch): (&[f64], &mut ChainScratch),
     data: &mut Data,
 ) -> Result<(), CoreError> {
     if data.damped.is_empty() {
@@ -212,11 +231,19 @@ pub(crate) fn chain_accelerations_clear_of(
     }
     let h = FLOW_STEP * t.abs().max(1.0);
     let side = Stencil::clear_of(events, t, h);
-    let qdd: Vec<f64> = data.qdd.iter().copied().collect();
-    // the stencil's states and torques, one buffer each for every evaluation
-    let (mut qs, mut vs) = (Vec::with_capacity(q.len()), Vec::with_capacity(qd.len()));
-    let mut tau = vec![0.0; model.n_joints()];
-    let mut work = Vec::new();
+    // q̈ of the rest of the robot, and the stencil's states and torques
+    let ChainScratch {
+        qdd,
+        qs,
+        vs,
+        tau,
+        work,
+    } = scratch;
+    qdd.clear();
+    qdd.extend_from_slice(data.qdd.as_slice());
+    let qdd = &qdd[..];
+    tau.clear();
+    tau.resize(model.n_joints(), 0.0);
     for i in 0..data.damped.len() {
         let (k, coef, lambda_n) = {
             let d = &data.damped[i];
@@ -233,7 +260,7 @@ pub(crate) fn chain_accelerations_clear_of(
         work.clear();
         work.resize(13 * n, 0.0);
         let [t_up, t_mid, t_down, t_dot, v, v_dot, bn, bn_dot, bd, bd_dot, kbd, kbd_dot, w] =
-            split_n(&mut work, n);
+            split_n(work, n);
         // Ṫ: the law's torque along the flow, the chain's rates held
         let mut torque_at = |s: f64, out: &mut [f64]| {
             qs.clear();
@@ -247,8 +274,8 @@ pub(crate) fn chain_accelerations_clear_of(
                 }
             }));
             tau.fill(0.0);
-            ctrl.torque(t + s * h, &qs, &vs, mode, &mut tau);
-            law_torques_into(model, joints.clone(), &tau, (&qs, &vs), out);
+            ctrl.torque(t + s * h, qs, vs, mode, tau);
+            law_torques_into(model, joints.clone(), tau, (qs, vs), out);
         };
         match side {
             Stencil::Central => {
@@ -312,7 +339,7 @@ pub(crate) fn chain_accelerations_clear_of(
         exact::gemv(ki, bd, kbd);
         exact::gemv(ki, bd_dot, kbd_dot);
         let den = exact::dot(bn, kbd);
-        let n_dot = off(a_dot, qd) + off(a, &qdd) + exact::dot(bn_dot, v) + exact::dot(bn, v_dot);
+        let n_dot = off(a_dot, qd) + off(a, qdd) + exact::dot(bn_dot, v) + exact::dot(bn, v_dot);
         let den_dot = exact::dot(bn_dot, kbd) + exact::dot(bn, kbd_dot);
         let lambda_n_dot = (n_dot - lambda_n * den_dot) / den;
         // θ̈ = v̇ − K⁻¹ (Ḃᵀd λ_n + Bᵀd λ̇_n)

@@ -66,6 +66,8 @@ pub struct Flow<'a> {
     /// The instants of the controller's time events ([`Controller::time_events`]) and the
     /// generation they were asked at: fixed for one controller, they are asked once.
     time_events: (Option<u64>, Vec<f64>),
+    /// The buffers of the damped slides' chain accelerations.
+    chain_scratch: crate::damped_slide::ChainScratch,
 }
 
 /// The flow of one mode as the integrator's right-hand side ([`OdeSystem`]), with its exact
@@ -110,6 +112,7 @@ impl<'a> Flow<'a> {
             jammed: Vec::new(),
             engine_jacobian: None,
             time_events: (None, Vec::new()),
+            chain_scratch: Default::default(),
         }
     }
 
@@ -382,7 +385,7 @@ impl<'a> Flow<'a> {
                 &*self.ctrl,
                 (t, mode),
                 (q, qd),
-                events,
+                (events, &mut self.chain_scratch),
                 &mut self.ws.data,
             )?;
         }
