@@ -219,7 +219,7 @@ pub mod exact {
                 first = false;
             } else {
                 for (yi, mi) in y.iter_mut().zip(col) {
-                    *yi = xj * mi + *yi;
+                    *yi += xj * mi;
                 }
             }
         }
@@ -364,7 +364,7 @@ pub fn solve_rows(
     let mut rates = DVector::zeros(n);
     exact::gemv(k_inv.as_slice(), rest.as_slice(), rates.as_mut_slice());
     for (r, c) in rates.iter_mut().zip(law.rates.iter()) {
-        *r = c + *r;
+        *r += c;
     }
     Ok(Some(DampedSlide {
         contact: k,

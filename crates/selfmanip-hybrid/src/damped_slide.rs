@@ -320,7 +320,7 @@ pub(crate) fn chain_accelerations_clear_of(
         // v = θ̇_c + K⁻¹ T_c, v̇ = K⁻¹ Ṫ (the torque-free manifold's rates and their rate)
         exact::gemv(ki, law.torque.as_slice(), v);
         for (p, x) in v.iter_mut().enumerate() {
-            *x = qd[j0 + p] + *x;
+            *x += qd[j0 + p];
         }
         exact::gemv(ki, t_dot, v_dot);
         // N, D and their rates; Bᵀd = (c b_t + b_n) with d = (c, 1)
