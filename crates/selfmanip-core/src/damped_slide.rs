@@ -120,29 +120,131 @@ pub fn contact_rows_and_rates(
 }
 
 /// The foot's velocity with no force `w` and its mobility `G` (module docs) from the
-/// contact's rows `a` at `q̇` under the chain's law `law`, with the chain's block `B` of `a`
-/// and `K⁻¹`; `None` where `K` is not invertible.
-#[allow(clippy::type_complexity)]
+/// contact's rows `a` at `q̇` under the chain's law `law`, with `K⁻¹`; `None` where `K` is
+/// not invertible.
+///
+/// ```text
+/// w = A q̇|_{θ̇ = θ̇_c} + B (K⁻¹ T_c),   G = (B K⁻¹) Bᵀ
+/// ```
 fn mobility_of(
     a: &DMatrix<f64>,
     qd: &[f64],
     law: &ChainLaw,
-) -> Option<(Vector2<f64>, Matrix2<f64>, DMatrix<f64>, DMatrix<f64>)> {
-    let b = a.columns(law.joints.start, law.joints.len()).into_owned();
+) -> Option<(Vector2<f64>, Matrix2<f64>, DMatrix<f64>)> {
+    let (j0, n) = (law.joints.start, law.joints.len());
     let k_inv = law.damping.clone().try_inverse()?;
+    let (a_s, ki) = (a.as_slice(), k_inv.as_slice());
+    let b = &a_s[2 * j0..2 * (j0 + n)];
     // A q̇ with the chain at θ̇_c
-    let mut v = DVector::from_column_slice(qd);
-    v.rows_mut(law.joints.start, law.joints.len())
-        .copy_from(&law.rates);
-    let u0 = a * v;
-    let w = &u0 + &b * (&k_inv * &law.torque);
+    let rate = |j: usize| {
+        if law.joints.contains(&j) {
+            law.rates[j - j0]
+        } else {
+            qd[j]
+        }
+    };
+    let mut u0 = [0.0; 2];
+    exact::gemv_with(a_s, (0..qd.len()).map(rate), &mut u0);
+    // B (K⁻¹ T_c)
+    let mut kt = [0.0; MAX_EXACT];
+    let mut bkt = [0.0; 2];
+    let kt = if n <= MAX_EXACT {
+        exact::gemv(ki, law.torque.as_slice(), &mut kt[..n]);
+        &kt[..n]
+    } else {
+        return Some(mobility_general(a, &u0, law, k_inv));
+    };
+    exact::gemv(b, kt, &mut bkt);
+    let w = Vector2::new(u0[0] + bkt[0], u0[1] + bkt[1]);
+    // G = (B K⁻¹) Bᵀ, column by column
+    let mut bk = [0.0; 2 * MAX_EXACT];
+    for j in 0..n {
+        exact::gemv(b, &ki[j * n..(j + 1) * n], &mut bk[2 * j..2 * j + 2]);
+    }
+    let mut g = [0.0; 4];
+    for j in 0..2 {
+        exact::gemv_with(
+            &bk[..2 * n],
+            (0..n).map(|p| b[2 * p + j]),
+            &mut g[2 * j..2 * j + 2],
+        );
+    }
+    Some((w, Matrix2::from_column_slice(&g), k_inv))
+}
+
+/// [`mobility_of`] for a chain of more than [`MAX_EXACT`] joints, in nalgebra's own
+/// products (the same order of operations), from `u0 = A q̇|_{θ̇ = θ̇_c}`.
+#[cold]
+fn mobility_general(
+    a: &DMatrix<f64>,
+    u0: &[f64; 2],
+    law: &ChainLaw,
+    k_inv: DMatrix<f64>,
+) -> (Vector2<f64>, Matrix2<f64>, DMatrix<f64>) {
+    let b = a.columns(law.joints.start, law.joints.len()).into_owned();
+    let bkt = &b * (&k_inv * &law.torque);
     let g = &b * &k_inv * b.transpose();
-    Some((
-        Vector2::new(w[0], w[1]),
+    (
+        Vector2::new(u0[0] + bkt[0], u0[1] + bkt[1]),
         Matrix2::new(g[(0, 0)], g[(0, 1)], g[(1, 0)], g[(1, 1)]),
-        b,
         k_inv,
-    ))
+    )
+}
+
+/// The longest chain whose small products run on the stack ([`exact`]).
+const MAX_EXACT: usize = 8;
+
+/// Small dense products on slices, without allocating, in nalgebra's own order of
+/// operations (so that they give its results bit for bit): `y = M x` as its `gemv` — column
+/// by column, `y = x₀ M₀`, then `y = xⱼ Mⱼ + y` — and `uᵀv` as its `dot` — below 8 entries
+/// a running sum from `+0`, else nalgebra's own.
+pub mod exact {
+    /// `y = M x`, `M` column-major with `y.len()` rows and `x.len()` columns.
+    #[inline]
+    pub fn gemv(m: &[f64], x: &[f64], y: &mut [f64]) {
+        gemv_with(m, x.iter().copied(), y);
+    }
+
+    /// [`gemv`] with `x` given by its entries in order.
+    #[inline]
+    pub fn gemv_with(m: &[f64], x: impl Iterator<Item = f64>, y: &mut [f64]) {
+        let r = y.len();
+        let mut first = true;
+        for (j, xj) in x.enumerate() {
+            let col = &m[j * r..(j + 1) * r];
+            if first {
+                for (yi, mi) in y.iter_mut().zip(col) {
+                    *yi = xj * mi;
+                }
+                first = false;
+            } else {
+                for (yi, mi) in y.iter_mut().zip(col) {
+                    *yi += xj * mi;
+                }
+            }
+        }
+        if first {
+            y.fill(0.0);
+        }
+    }
+
+    /// `uᵀ v`.
+    #[inline]
+    pub fn dot(u: &[f64], v: &[f64]) -> f64 {
+        debug_assert_eq!(u.len(), v.len());
+        if u.len() >= 8 {
+            let (u, v) = (
+                nalgebra::DVectorView::from_slice(u, u.len()),
+                nalgebra::DVectorView::from_slice(v, v.len()),
+            );
+            return u.dot(&v);
+        }
+        let mut s = 0.0;
+        for (a, b) in u.iter().zip(v) {
+            s += a * b;
+        }
+        s
+    }
 }
 
 /// The damped slide of contact `k` (on the chain of `law`, [`damped_chain`]) at `(kin, q̇)`
@@ -194,7 +296,7 @@ pub fn solve_rows(
             quantity: "a damped chain's torques or damping",
         });
     }
-    let Some((w, g, b, k_inv)) = mobility_of(&a, qd, law) else {
+    let Some((w, g, k_inv)) = mobility_of(&a, qd, law) else {
         return Ok(None);
     };
     // Painlevé's region: on a side whose normal response `G_nn + c G_nt` is within the
@@ -251,8 +353,19 @@ pub fn solve_rows(
     let consistent = consistent(s);
     let wedged = g[(1, 1)] + c * g[(1, 0)] <= wedge;
     let lambda = Vector2::new(c * lambda_n, lambda_n);
-    let rates = &law.rates
-        + &k_inv * (&law.torque - b.transpose() * DVector::from_column_slice(lambda.as_slice()));
+    // θ̇ = θ̇_c + K⁻¹ (T_c − Bᵀ λ)
+    let (j0, n) = (law.joints.start, law.joints.len());
+    let b = &a.as_slice()[2 * j0..2 * (j0 + n)];
+    let mut rest = DVector::zeros(n);
+    for (p, r) in rest.iter_mut().enumerate() {
+        let bt_lambda = lambda[1] * b[2 * p + 1] + lambda[0] * b[2 * p];
+        *r = law.torque[p] - bt_lambda;
+    }
+    let mut rates = DVector::zeros(n);
+    exact::gemv(k_inv.as_slice(), rest.as_slice(), rates.as_mut_slice());
+    for (r, c) in rates.iter_mut().zip(law.rates.iter()) {
+        *r += c;
+    }
     Ok(Some(DampedSlide {
         contact: k,
         lambda: [lambda[0], lambda[1]],
@@ -265,6 +378,7 @@ pub fn solve_rows(
         consistent,
         wedged,
         rows: a,
+        rows_dot: None,
     }))
 }
 
@@ -302,15 +416,20 @@ pub(crate) fn split(
                 SlideDirection::Fixed(s) if s != 0.0 => Some(-s),
                 _ => None,
             });
-        let a = contact_rows(model, &data.kin, terrain, k, qd);
+        // the contact's rows A and their rate Ȧ (contact_rows_and_rates), in the
+        // workspace's own buffers
+        let rows = &mut data.damped_rows;
+        let mode_k = ContactMode::FLIGHT.with(k, ContactKind::Stick);
+        rows.assemble(model, &data.kin, terrain, mode_k, qd);
         let mu_k = model.contacts[k].kinetic_mu;
-        let solved = solve_rows(k, a, qd, law, mu_k, side);
+        let solved = solve_rows(k, rows.a.clone(), qd, law, mu_k, side);
         if solved.is_err() {
             // no slide is kept from a split that fails (Data::prepare_mode skips the split
             // where there are no laws and no split before)
             data.damped.clear();
         }
-        if let Some(slide) = solved? {
+        if let Some(mut slide) = solved? {
+            slide.rows_dot = Some(data.damped_rows.a_dot.clone());
             // on a fixed side, the slide wedges where `G_nn + c G_nt` reaches zero (its
             // normal force would grow without bound): flagged (DampedSlide::wedged), its
             // liftoff guard ends it there and the reset judges the contact again
@@ -370,4 +489,96 @@ pub(crate) fn impact_rates(model: &Model, data: &Data, qd_plus: &mut DVector<f64
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn bits(v: &[f64]) -> Vec<u64> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    /// The slice products give nalgebra's own products bit for bit (what they replace):
+    /// `M x` for every shape up to 12 × 12 (with a zero-column one), and `uᵀv` for every
+    /// length up to 12, across the 8 entries where nalgebra's dot unrolls.
+    #[test]
+    fn exact_products_are_nalgebras_bit_for_bit() {
+        let mut r = ChaCha8Rng::seed_from_u64(30);
+        for rows in 1..=12 {
+            for cols in 0..=12 {
+                let m = DMatrix::from_fn(rows, cols, |_, _| r.gen_range(-1.0..1.0));
+                let x = DVector::from_fn(cols, |_, _| r.gen_range(-1.0..1.0));
+                let mut y = vec![f64::NAN; rows];
+                exact::gemv(m.as_slice(), x.as_slice(), &mut y);
+                assert_eq!(bits(&y), bits((&m * &x).as_slice()), "{rows}×{cols}");
+            }
+            let u = DVector::from_fn(rows, |_, _| r.gen_range(-1.0..1.0));
+            let v = DVector::from_fn(rows, |_, _| r.gen_range(-1.0..1.0));
+            let d = exact::dot(u.as_slice(), v.as_slice());
+            assert_eq!(d.to_bits(), u.dot(&v).to_bits(), "dot of {rows}");
+        }
+    }
+
+    /// The damped slide on slices ([`solve_rows`]) against its products written in
+    /// nalgebra (the route it replaced), bit for bit, for chains of 2 to 10 joints (beyond
+    /// [`MAX_EXACT`] too) at random rows, rates and laws; and the slide's own physics: the
+    /// foot stays on the ground (`u_n = (A q̇)_n = 0` at the slide's rates) and the chain's
+    /// torques balance the ground's force (`T(θ̇) = Bᵀλ`).
+    #[test]
+    fn damped_slide_on_slices_is_the_nalgebra_route() {
+        let mut r = ChaCha8Rng::seed_from_u64(31);
+        let mut checked = 0;
+        for n in 2..=10 {
+            for _ in 0..20 {
+                let nq = n + 4;
+                let j0 = 1;
+                let a = DMatrix::from_fn(2, nq, |_, _| r.gen_range(-1.0..1.0));
+                let qd: Vec<f64> = (0..nq).map(|_| r.gen_range(-2.0..2.0)).collect();
+                let c = DMatrix::from_fn(n, n, |_, _| r.gen_range(-0.3..0.3));
+                let law = ChainLaw {
+                    joints: j0..j0 + n,
+                    rates: DVector::from_fn(n, |_, _| r.gen_range(-2.0..2.0)),
+                    torque: DVector::from_fn(n, |_, _| r.gen_range(-1.0..1.0)),
+                    damping: &c * c.transpose() + DMatrix::identity(n, n),
+                    holds: true,
+                };
+                let Some(slide) = solve_rows(0, a.clone(), &qd, &law, 0.6, None).unwrap() else {
+                    continue;
+                };
+                // the nalgebra route
+                let b = a.columns(j0, n).into_owned();
+                let k_inv = law.damping.clone().try_inverse().unwrap();
+                let mut v = DVector::from_column_slice(&qd);
+                v.rows_mut(j0, n).copy_from(&law.rates);
+                let w = &a * v + &b * (&k_inv * &law.torque);
+                let g = &b * &k_inv * b.transpose();
+                let lambda = DVector::from_column_slice(&slide.lambda);
+                let rates = &law.rates + &k_inv * (&law.torque - b.transpose() * &lambda);
+                assert_eq!(bits(slide.w.as_slice()), bits(w.as_slice()), "w, n={n}");
+                assert_eq!(bits(slide.g.as_slice()), bits(g.as_slice()), "G, n={n}");
+                assert_eq!(
+                    bits(slide.rates.as_slice()),
+                    bits(rates.as_slice()),
+                    "θ̇, n={n}"
+                );
+                // u_n = 0 and T(θ̇) = T_c − K (θ̇ − θ̇_c) = Bᵀλ, where the normal response
+                // is outside Painlevé's region (the normal force is then not held)
+                if !slide.wedged {
+                    let mut qd_s = DVector::from_column_slice(&qd);
+                    qd_s.rows_mut(j0, n).copy_from(&slide.rates);
+                    let u = &a * qd_s;
+                    let scale = 1.0 + w.norm() + g.norm() * lambda.norm();
+                    assert!(u[1].abs() < 1e-12 * scale, "u_n = {}, n={n}", u[1]);
+                    let t = &law.torque - &law.damping * (&slide.rates - &law.rates);
+                    let bt = b.transpose() * &lambda;
+                    assert!((t - bt).norm() < 1e-11 * scale, "torque balance, n={n}");
+                }
+                checked += 1;
+            }
+        }
+        assert!(checked > 150, "{checked}");
+    }
 }

@@ -56,6 +56,8 @@ pub struct Data {
     /// they differ; the state's `q̇` they were prepared at.
     pub(crate) damped_modes: Option<(ContactMode, ContactMode)>,
     pub(crate) damped_qd: Vec<f64>,
+    /// The rows of one damped slide's contact, assembled for its split (reused).
+    pub(crate) damped_rows: Constraints,
     /// Whether a site of [`Self::sliding`] is general (folded into the solve), so that a
     /// solve without one does not look.
     pub(crate) has_general: bool,

@@ -210,6 +210,10 @@ impl KktFactorization {
     /// Sizes the storage and copies `M̄[coords, coords]` and `A[:, coords]ᵀ` in (all
     /// coordinates when `coords` is `None`).
     fn load(&mut self, mbar: &DMatrix<f64>, a: &DMatrix<f64>, coords: Option<&[usize]>) {
+        // every coordinate, in order (a mode without free joints): the plain copies
+        let all =
+            |c: &[usize]| c.len() == mbar.nrows() && c.iter().enumerate().all(|(i, &k)| i == k);
+        let coords = coords.filter(|c| !all(c));
         let m = coords.map_or(mbar.nrows(), <[usize]>::len);
         let c = a.nrows();
         if (m, c) != (self.m, self.c) || self.q.len() != m * m {
@@ -658,6 +662,36 @@ mod tests {
                     assert_eq!(bits(&x1), bits(&x2), "x, m={m} c={c}");
                     assert_eq!(bits(&y1), bits(&y2), "y, m={m} c={c}");
                 }
+            }
+        }
+    }
+
+    /// [`KktFactorization::factor_on`] gathers the system of its coordinates: on every
+    /// coordinate in order (loaded by plain copies) and on a subset (gathered by index) it
+    /// gives the factorization of the selected matrices bit for bit.
+    #[test]
+    fn factor_on_coordinates_is_the_factor_of_the_selection() {
+        let mut r = ChaCha8Rng::seed_from_u64(33);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let (mut on, mut plain) = (KktFactorization::default(), KktFactorization::default());
+        for m in 3..=13 {
+            let (mbar, a) = random_system(m, 2, 1, &mut r);
+            let all: Vec<usize> = (0..m).collect();
+            let subset: Vec<usize> = (0..m).filter(|i| i % 3 != 1).collect();
+            for coords in [&all, &subset] {
+                let (mb, ac) = (
+                    mbar.select_rows(coords.iter())
+                        .select_columns(coords.iter()),
+                    a.select_columns(coords.iter()),
+                );
+                let on_ok = on.factor_on(&mbar, &a, coords).is_ok();
+                assert_eq!(on_ok, plain.factor(&mb, &ac).is_ok(), "m={m}");
+                if !on_ok {
+                    continue;
+                }
+                assert_eq!(bits(&on.q), bits(&plain.q), "Q, m={m}");
+                assert_eq!(bits(&on.l), bits(&plain.l), "L, m={m}");
+                assert_eq!(bits(&on.mbar), bits(&plain.mbar), "M̄, m={m}");
             }
         }
     }

@@ -106,6 +106,10 @@ pub struct DampedSlide {
     pub wedged: bool,
     /// The contact's rows `A` (tangential, normal; `2 × nq`).
     pub rows: DMatrix<f64>,
+    /// Their rate `Ȧ` along `q̇` (`2 × nq`) where the slide was solved from the rows'
+    /// assembly ([`crate::Data::prepare`]; `None` from rows a caller gave): what the chain's
+    /// accelerations read (`selfmanip_hybrid::damped_slide::chain_accelerations`).
+    pub rows_dot: Option<DMatrix<f64>>,
 }
 
 impl DampedSlide {

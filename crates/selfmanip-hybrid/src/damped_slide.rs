@@ -10,8 +10,10 @@
 //! (`docs/singular-transitions.md` §10).
 use crate::controller::Controller;
 use nalgebra::{DMatrix, DVector};
-use selfmanip_core::damped_slide::{contact_rows_and_rates, damped_chain, stick_rates, ChainLaw};
-use selfmanip_core::passive::joint_torques;
+use selfmanip_core::damped_slide::{
+    contact_rows_and_rates, damped_chain, exact, stick_rates, ChainLaw,
+};
+use selfmanip_core::passive::spring_torque;
 use selfmanip_core::{ContactMode, CoreError, Data, Model, Terrain};
 
 /// The relative step in a joint's rate by which `K` is differenced (the torque is affine in
@@ -32,22 +34,21 @@ pub fn chain_law(
 ) -> Option<ChainLaw> {
     let joints = damped_chain(model, k)?;
     let n = joints.len();
-    let torque_at = |qd: &[f64]| {
-        let mut tau = vec![0.0; model.n_joints()];
+    let mut tau = vec![0.0; model.n_joints()];
+    let mut torque_at = |qd: &[f64], out: &mut [f64]| {
+        tau.fill(0.0);
         ctrl.torque(t, q, qd, mode, &mut tau);
-        let passive = joint_torques(model, q, qd);
-        joints
-            .clone()
-            .map(|j| tau[j] + passive.get(j).copied().unwrap_or(0.0))
-            .collect::<Vec<f64>>()
+        law_torques_into(model, joints.clone(), &tau, (q, qd), out);
     };
-    let torque = DVector::from_vec(torque_at(qd));
+    let mut torque = DVector::zeros(n);
+    torque_at(qd, torque.as_mut_slice());
     let mut damping = DMatrix::zeros(n, n);
     let mut v = qd.to_vec();
+    let mut up = vec![0.0; n];
     for (c, j) in joints.clone().enumerate() {
         let h = RATE_STEP * qd[j].abs().max(1.0);
         v[j] = qd[j] + h;
-        let up = torque_at(&v);
+        torque_at(&v, &mut up);
         v[j] = qd[j];
         for r in 0..n {
             damping[(r, c)] = -(up[r] - torque[r]) / h;
@@ -190,9 +191,59 @@ pub fn chain_accelerations(
     if data.damped.is_empty() {
         return Ok(());
     }
+    let events: Vec<f64> = ctrl.time_events(&[]).iter().map(|e| e.t).collect();
+    let mut scratch = ChainScratch::default();
+    chain_accelerations_clear_of(
+        model,
+        terrain,
+        ctrl,
+        (t, mode),
+        (q, qd),
+        (&events, &mut scratch),
+        data,
+    )
+}
+
+/// The buffers of [`chain_accelerations`], kept by a caller that evaluates it often.
+#[derive(Debug, Clone, Default)]
+pub struct ChainScratch {
+    qdd: Vec<f64>,
+    qs: Vec<f64>,
+    vs: Vec<f64>,
+    tau: Vec<f64>,
+    work: Vec<f64>,
+}
+
+/// [`chain_accelerations`] with the controller's time events `events` (their instants,
+/// [`Controller::time_events`]), which a caller that evaluates one controller many times
+/// asks for once, and buffers `scratch`.
+pub(crate) fn chain_accelerations_clear_of(
+    model: &Model,
+    terrain: &dyn Terrain,
+    ctrl: &dyn Controller,
+    (t, mode): (f64, ContactMode),
+    (q, qd): (&[f64], &[f64]),
+    (events, scratch): (&[f64], &mut ChainScratch),
+    data: &mut Data,
+) -> Result<(), CoreError> {
+    if data.damped.is_empty() {
+        return Ok(());
+    }
     let h = FLOW_STEP * t.abs().max(1.0);
-    let side = Stencil::clear_of(&ctrl.time_events(&[]), t, h);
-    let qdd: Vec<f64> = data.qdd.iter().copied().collect();
+    let side = Stencil::clear_of(events, t, h);
+    // q̈ of the rest of the robot, and the stencil's states and torques
+    let ChainScratch {
+        qdd,
+        qs,
+        vs,
+        tau,
+        work,
+    } = scratch;
+    qdd.clear();
+    qdd.extend_from_slice(data.qdd.as_slice());
+    let qdd = &qdd[..];
+    tau.clear();
+    tau.resize(model.n_joints(), 0.0);
     for i in 0..data.damped.len() {
         let (k, coef, lambda_n) = {
             let d = &data.damped[i];
@@ -205,66 +256,125 @@ pub fn chain_accelerations(
         let Some(k_inv) = law.damping.clone().try_inverse() else {
             continue;
         };
+        let (j0, n) = (joints.start, joints.len());
+        work.clear();
+        work.resize(13 * n, 0.0);
+        let [t_up, t_mid, t_down, t_dot, v, v_dot, bn, bn_dot, bd, bd_dot, kbd, kbd_dot, w] =
+            split_n(work, n);
         // Ṫ: the law's torque along the flow, the chain's rates held
-        let torque_at = |s: f64| {
-            let qs: Vec<f64> = q.iter().zip(qd).map(|(x, v)| x + s * h * v).collect();
-            let vs: Vec<f64> = (0..qd.len())
-                .map(|j| {
-                    if joints.contains(&j) {
-                        qd[j]
-                    } else {
-                        qd[j] + s * h * qdd[j]
-                    }
-                })
-                .collect();
-            let mut tau = vec![0.0; model.n_joints()];
-            ctrl.torque(t + s * h, &qs, &vs, mode, &mut tau);
-            let passive = joint_torques(model, &qs, &vs);
-            DVector::from_iterator(
-                joints.len(),
-                joints
-                    .clone()
-                    .map(|j| tau[j] + passive.get(j).copied().unwrap_or(0.0)),
-            )
+        let mut torque_at = |s: f64, out: &mut [f64]| {
+            qs.clear();
+            qs.extend(q.iter().zip(qd).map(|(x, v)| x + s * h * v));
+            vs.clear();
+            vs.extend((0..qd.len()).map(|j| {
+                if joints.contains(&j) {
+                    qd[j]
+                } else {
+                    qd[j] + s * h * qdd[j]
+                }
+            }));
+            tau.fill(0.0);
+            ctrl.torque(t + s * h, qs, vs, mode, tau);
+            law_torques_into(model, joints.clone(), tau, (qs, vs), out);
         };
-        let t_dot = match side {
-            Stencil::Central => (torque_at(1.0) - torque_at(-1.0)) / (2.0 * h),
+        match side {
+            Stencil::Central => {
+                torque_at(1.0, t_up);
+                torque_at(-1.0, t_down);
+                for p in 0..n {
+                    t_dot[p] = (t_up[p] - t_down[p]) / (2.0 * h);
+                }
+            }
             Stencil::Forward => {
-                (torque_at(1.0) * 4.0 - torque_at(2.0) - torque_at(0.0) * 3.0) / (2.0 * h)
+                torque_at(1.0, t_up);
+                torque_at(2.0, t_mid);
+                torque_at(0.0, t_down);
+                for p in 0..n {
+                    t_dot[p] = (t_up[p] * 4.0 - t_mid[p] - t_down[p] * 3.0) / (2.0 * h);
+                }
             }
             Stencil::Backward => {
-                (torque_at(0.0) * 3.0 - torque_at(-1.0) * 4.0 + torque_at(-2.0)) / (2.0 * h)
+                torque_at(0.0, t_up);
+                torque_at(-1.0, t_mid);
+                torque_at(-2.0, t_down);
+                for p in 0..n {
+                    t_dot[p] = (t_up[p] * 3.0 - t_mid[p] * 4.0 + t_down[p]) / (2.0 * h);
+                }
+            }
+        }
+        // A and Ȧ as the split assembled them at this state, else assembled here
+        let d = &data.damped[i];
+        let assembled;
+        let (a, a_dot) = match &d.rows_dot {
+            Some(a_dot) => (&d.rows, a_dot),
+            None => {
+                let (a, a_dot, _) = contact_rows_and_rates(model, &data.kin, terrain, k, qd);
+                assembled = (a, a_dot);
+                (&assembled.0, &assembled.1)
             }
         };
-        let (a, a_dot, _) = contact_rows_and_rates(model, &data.kin, terrain, k, qd);
-        let (j0, n) = (joints.start, joints.len());
-        let b = a.columns(j0, n);
-        let b_dot = a_dot.columns(j0, n);
-        let dvec = nalgebra::Vector2::new(coef, 1.0);
-        // v, v̇ (the torque-free manifold's rates and their rate)
-        let v = DVector::from_iterator(n, joints.clone().map(|j| qd[j])) + &k_inv * &law.torque;
-        let v_dot = &k_inv * t_dot;
-        // N, D and their rates
+        // B, Ḃ: the rows over the chain (2 × n, column-major)
+        let b = &a.as_slice()[2 * j0..2 * (j0 + n)];
+        let b_dot = &a_dot.as_slice()[2 * j0..2 * (j0 + n)];
+        let ki = k_inv.as_slice();
+        // v = θ̇_c + K⁻¹ T_c, v̇ = K⁻¹ Ṫ (the torque-free manifold's rates and their rate)
+        exact::gemv(ki, law.torque.as_slice(), v);
+        for (p, x) in v.iter_mut().enumerate() {
+            *x += qd[j0 + p];
+        }
+        exact::gemv(ki, t_dot, v_dot);
+        // N, D and their rates; Bᵀd = (c b_t + b_n) with d = (c, 1)
         let off = |m: &DMatrix<f64>, x: &[f64]| -> f64 {
             (0..x.len())
                 .filter(|j| !joints.contains(j))
                 .map(|j| m[(1, j)] * x[j])
                 .sum()
         };
-        let bn = b.row(1).transpose();
-        let bn_dot = b_dot.row(1).transpose();
-        let bd = b.transpose() * dvec;
-        let bd_dot = b_dot.transpose() * dvec;
-        let den = bn.dot(&(&k_inv * &bd));
-        let n_dot = off(&a_dot, qd) + off(&a, &qdd) + bn_dot.dot(&v) + bn.dot(&v_dot);
-        let den_dot = bn_dot.dot(&(&k_inv * &bd)) + bn.dot(&(&k_inv * &bd_dot));
+        for p in 0..n {
+            bn[p] = b[2 * p + 1];
+            bn_dot[p] = b_dot[2 * p + 1];
+            bd[p] = b[2 * p + 1] + coef * b[2 * p];
+            bd_dot[p] = b_dot[2 * p + 1] + coef * b_dot[2 * p];
+        }
+        exact::gemv(ki, bd, kbd);
+        exact::gemv(ki, bd_dot, kbd_dot);
+        let den = exact::dot(bn, kbd);
+        let n_dot = off(a_dot, qd) + off(a, qdd) + exact::dot(bn_dot, v) + exact::dot(bn, v_dot);
+        let den_dot = exact::dot(bn_dot, kbd) + exact::dot(bn, kbd_dot);
         let lambda_n_dot = (n_dot - lambda_n * den_dot) / den;
-        let theta_dd = v_dot - &k_inv * (bd_dot * lambda_n + bd * lambda_n_dot);
-        for (i, x) in theta_dd.iter().enumerate() {
-            data.qdd[j0 + i] = *x;
+        // θ̈ = v̇ − K⁻¹ (Ḃᵀd λ_n + Bᵀd λ̇_n)
+        for p in 0..n {
+            w[p] = bd_dot[p] * lambda_n + bd[p] * lambda_n_dot;
+        }
+        exact::gemv(ki, w, kbd);
+        for p in 0..n {
+            data.qdd[j0 + p] = v_dot[p] - kbd[p];
         }
     }
     Ok(())
+}
+
+/// `work` (of length `13 n`) as thirteen slices of `n`.
+fn split_n(work: &mut [f64], n: usize) -> [&mut [f64]; 13] {
+    let mut parts = work.chunks_mut(n);
+    std::array::from_fn(|_| parts.next().expect("13 n entries"))
+}
+
+/// The torques of the chain `joints` under its law into `out`: the controller's `tau` and
+/// the joints' passive torques at `(q, q̇)` ([`selfmanip_core::passive::joint_torques`]).
+fn law_torques_into(
+    model: &Model,
+    joints: std::ops::Range<usize>,
+    tau: &[f64],
+    (q, qd): (&[f64], &[f64]),
+    out: &mut [f64],
+) {
+    for (o, j) in out.iter_mut().zip(joints) {
+        let passive = model.joints[j]
+            .spring
+            .map_or(0.0, |s| spring_torque(&s, q[j], qd[j]));
+        *o = tau[j] + passive;
+    }
 }
 
 /// The difference stencil of the law's rate `Ṫ` at `t`: central, or one-sided on the side
@@ -282,11 +392,11 @@ enum Stencil {
 impl Stencil {
     /// The stencil at `t` clear of the time events `events` (a controller's law holds from
     /// a time event on: one at `t` itself lies behind).
-    fn clear_of(events: &[crate::controller::TimeEvent], t: f64, h: f64) -> Self {
+    fn clear_of(events: &[f64], t: f64, h: f64) -> Self {
         let reach = 2.0 * h;
-        if events.iter().any(|e| e.t > t && e.t <= t + reach) {
+        if events.iter().any(|&e| e > t && e <= t + reach) {
             Stencil::Backward
-        } else if events.iter().any(|e| e.t <= t && e.t > t - reach) {
+        } else if events.iter().any(|&e| e <= t && e > t - reach) {
             Stencil::Forward
         } else {
             Stencil::Central

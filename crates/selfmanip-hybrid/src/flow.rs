@@ -63,6 +63,11 @@ pub struct Flow<'a> {
     jammed: Vec<usize>,
     /// The exact flow Jacobian's workspace ([`Self::jacobian`]; made on the first call).
     engine_jacobian: Option<Box<EngineJacobian<'a>>>,
+    /// The instants of the controller's time events ([`Controller::time_events`]) and the
+    /// generation they were asked at: fixed for one controller, they are asked once.
+    time_events: (Option<u64>, Vec<f64>),
+    /// The buffers of the damped slides' chain accelerations.
+    chain_scratch: crate::damped_slide::ChainScratch,
 }
 
 /// The flow of one mode as the integrator's right-hand side ([`OdeSystem`]), with its exact
@@ -106,6 +111,8 @@ impl<'a> Flow<'a> {
             frictionless: Vec::new(),
             jammed: Vec::new(),
             engine_jacobian: None,
+            time_events: (None, Vec::new()),
+            chain_scratch: Default::default(),
         }
     }
 
@@ -366,12 +373,19 @@ impl<'a> Flow<'a> {
             .prepare(model, terrain, &*self.ctrl, (t, mode), q, qd)?;
         self.ws.solve_prepared(model, &*self.ctrl, t, mode, q, qd)?;
         if !self.ws.data.damped.is_empty() {
-            crate::damped_slide::chain_accelerations(
+            let (asked, events) = &mut self.time_events;
+            if *asked != Some(self.generation) {
+                events.clear();
+                events.extend(self.ctrl.time_events(&[]).iter().map(|e| e.t));
+                *asked = Some(self.generation);
+            }
+            crate::damped_slide::chain_accelerations_clear_of(
                 model,
                 terrain,
                 &*self.ctrl,
                 (t, mode),
                 (q, qd),
+                (events, &mut self.chain_scratch),
                 &mut self.ws.data,
             )?;
         }
