@@ -89,6 +89,9 @@ pub struct SpatialData {
     pub tree_kkt: TreeKkt,
     pub kkt_route: KktRoute,
     pub limbs_eliminated: bool,
+    /// Whether each joint's placement in its parent is a translation alone (its rotation the
+    /// identity), fixed by the model.
+    pub(crate) shift_only: Vec<bool>,
     /// Right-hand sides of the KKT solve.
     pub(crate) rhs_f: DVector<f64>,
     pub(crate) rhs_g: DVector<f64>,
@@ -119,6 +122,11 @@ impl SpatialData {
             tree_kkt: TreeKkt::new(model),
             kkt_route: KktRoute::RangeSpace,
             limbs_eliminated: false,
+            shift_only: model
+                .joints
+                .iter()
+                .map(|j| j.placement.rotation == nalgebra::Matrix3::identity())
+                .collect(),
             rhs_f: DVector::zeros(nv),
             rhs_g: DVector::zeros(0),
         }
@@ -177,6 +185,11 @@ pub fn forward_kinematics(
 fn place_joint(model: &SpatialModel, data: &mut SpatialData, i: usize, q: &[f64]) {
     let joint = &model.joints[i];
     let before = match joint.parent {
+        // most URDF origins only shift (rpy = 0): `⁰M_λ X` keeps the parent's rotation
+        Some(p) if data.shift_only[i] => {
+            let g = &data.oMi[p];
+            SE3::new(g.rotation, g.act_point(&joint.placement.translation))
+        }
         Some(p) => data.oMi[p].compose(&joint.placement),
         None => joint.placement,
     };
