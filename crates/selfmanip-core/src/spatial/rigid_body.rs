@@ -54,9 +54,7 @@ fn mass_columns(model: &SpatialModel, data: &mut SpatialData, i: usize) {
     for c in joint.idx_v..joint.idx_v + joint.kind.nv() {
         let force = y.apply(&Motion::from_vector(&Vector6::from(s[c])));
         let F: [f64; 6] = force.to_vector().into();
-        for r in joint.idx_v..=c {
-            put(r, c, dot(&s[r], &F));
-        }
+        (joint.idx_v..=c).for_each(|r| put(r, c, dot(&s[r], &F)));
         let mut ancestor = joint.parent;
         while let Some(a) = ancestor {
             let aj = &model.joints[a];
