@@ -264,6 +264,10 @@ impl PointContact {
         if let Some(t) = self.tangent {
             return [t, n, Vector3::zeros()];
         }
+        if n == Vector3::z() {
+            // flat z-up ground: the general construction's rows, exactly, without its norm
+            return [Vector3::x(), Vector3::y(), n];
+        }
         let e = if n.x.abs() < 0.9 {
             Vector3::x()
         } else {

@@ -89,10 +89,9 @@ pub struct SpatialData {
     pub tree_kkt: TreeKkt,
     pub kkt_route: KktRoute,
     pub limbs_eliminated: bool,
-    /// Each rate's previous rate on its chain (the previous rate of a
-    /// multi-rate joint, else the last rate of the parent joint; `usize::MAX` at the root):
-    /// following it visits every rate supporting a rate.
-    pub(crate) rate_parent: Vec<usize>,
+    /// Whether each joint's placement in its parent is a translation alone (its rotation the
+    /// identity), fixed by the model.
+    pub(crate) shift_only: Vec<bool>,
     /// Right-hand sides of the KKT solve.
     pub(crate) rhs_f: DVector<f64>,
     pub(crate) rhs_g: DVector<f64>,
@@ -101,20 +100,6 @@ pub struct SpatialData {
 impl SpatialData {
     pub fn new(model: &SpatialModel) -> Self {
         let (n, nv) = (model.joints.len(), model.nv);
-        let mut rate_parent = vec![usize::MAX; nv];
-        for joint in &model.joints {
-            let last_of_parent = joint.parent.map_or(usize::MAX, |p| {
-                let pj = &model.joints[p];
-                pj.idx_v + pj.kind.nv() - 1
-            });
-            for k in joint.idx_v..joint.idx_v + joint.kind.nv() {
-                rate_parent[k] = if k > joint.idx_v {
-                    k - 1
-                } else {
-                    last_of_parent
-                };
-            }
-        }
         Self {
             oMi: vec![SE3::identity(); n],
             oS: Matrix6xX::zeros(nv),
@@ -137,7 +122,11 @@ impl SpatialData {
             tree_kkt: TreeKkt::new(model),
             kkt_route: KktRoute::RangeSpace,
             limbs_eliminated: false,
-            rate_parent,
+            shift_only: model
+                .joints
+                .iter()
+                .map(|j| j.placement.rotation == nalgebra::Matrix3::identity())
+                .collect(),
             rhs_f: DVector::zeros(nv),
             rhs_g: DVector::zeros(0),
         }
@@ -187,37 +176,63 @@ pub fn forward_kinematics(
     q: &[f64],
 ) -> SpatialResult<()> {
     check_configuration(model, "q", q)?;
-    for (i, joint) in model.joints.iter().enumerate() {
-        let before = match joint.parent {
-            Some(p) => data.oMi[p].compose(&joint.placement),
-            None => joint.placement,
-        };
-        let qi = &q[joint.idx_q..];
-        let col = &mut data.oS.as_mut_slice()[6 * joint.idx_v..];
-        let oMi = match joint.kind {
-            JointKind::FreeFlyer => {
-                let oMi = before.compose(&joint_transform(&joint.kind, qi));
-                col[..36].copy_from_slice(oMi.action_matrix().as_slice());
-                oMi
-            }
-            JointKind::Revolute { axis } => {
-                let oMi = turned(&before, &axis, qi[0]);
-                let w = oMi.rotation * axis;
-                let v = oMi.translation.cross(&w);
-                col[..6].copy_from_slice(&[v.x, v.y, v.z, w.x, w.y, w.z]);
-                oMi
-            }
-            JointKind::Prismatic { axis } => {
-                let u = before.rotation * axis;
-                let oMi = SE3::new(before.rotation, before.translation + u * qi[0]);
-                col[..6].copy_from_slice(&[u.x, u.y, u.z, 0.0, 0.0, 0.0]);
-                oMi
-            }
-        };
-        data.oI[i] = OriginInertia::of_body(&model.inertias[i], &oMi);
-        data.oMi[i] = oMi;
-    }
+    kinematics_pass(model, data, q, None);
     Ok(())
+}
+
+/// Joint `i`'s placement, world motion columns and body inertia at the world origin
+/// ([`forward_kinematics`]'s step, its parent's placement known).
+fn place_joint(model: &SpatialModel, data: &mut SpatialData, i: usize, q: &[f64]) {
+    let joint = &model.joints[i];
+    let before = match joint.parent {
+        // most URDF origins only shift (rpy = 0): `⁰M_λ X` keeps the parent's rotation
+        Some(p) if data.shift_only[i] => {
+            let g = &data.oMi[p];
+            SE3::new(g.rotation, g.act_point(&joint.placement.translation))
+        }
+        Some(p) => data.oMi[p].compose(&joint.placement),
+        None => joint.placement,
+    };
+    let qi = &q[joint.idx_q..];
+    let col = &mut data.oS.as_mut_slice()[6 * joint.idx_v..];
+    let oMi = match joint.kind {
+        JointKind::FreeFlyer => {
+            let oMi = before.compose(&joint_transform(&joint.kind, qi));
+            col[..36].copy_from_slice(oMi.action_matrix().as_slice());
+            oMi
+        }
+        JointKind::Revolute { axis } => {
+            let oMi = turned(&before, &axis, qi[0]);
+            let w = oMi.rotation * axis;
+            let v = oMi.translation.cross(&w);
+            col[..6].copy_from_slice(&[v.x, v.y, v.z, w.x, w.y, w.z]);
+            oMi
+        }
+        JointKind::Prismatic { axis } => {
+            let u = before.rotation * axis;
+            let oMi = SE3::new(before.rotation, before.translation + u * qi[0]);
+            col[..6].copy_from_slice(&[u.x, u.y, u.z, 0.0, 0.0, 0.0]);
+            oMi
+        }
+    };
+    data.oI[i] = OriginInertia::of_body(&model.inertias[i], &oMi);
+    data.oMi[i] = oMi;
+}
+
+/// One forward sweep over the tree (inputs checked): each joint's [`place_joint`] and, with
+/// rates `v`, its body's velocity and drift ([`forward_kinematics_velocity`]) at the same step.
+fn kinematics_pass(model: &SpatialModel, data: &mut SpatialData, q: &[f64], v: Option<&[f64]>) {
+    for (i, joint) in model.joints.iter().enumerate() {
+        place_joint(model, data, i, q);
+        let Some(v) = v else { continue };
+        let vj = joint_motion(model, data, i, v);
+        let (vp, ap) = match joint.parent {
+            Some(p) => (data.ov[p], data.oa_drift[p]),
+            None => (Motion::zero(), Motion::zero()),
+        };
+        data.ov[i] = vp + vj;
+        data.oa_drift[i] = ap + data.ov[i].cross(&vj);
+    }
 }
 
 /// The joint's world motion `⁰Sᵢ q̇ᵢ` for the rates `x` (length nv).
@@ -259,17 +274,9 @@ pub fn forward_kinematics_velocity(
     q: &[f64],
     v: &[f64],
 ) -> SpatialResult<()> {
-    forward_kinematics(model, data, q)?;
+    check_configuration(model, "q", q)?;
     crate::error::check_vector("v", v, model.nv)?;
-    for (i, joint) in model.joints.iter().enumerate() {
-        let vj = joint_motion(model, data, i, v);
-        let (vp, ap) = match joint.parent {
-            Some(p) => (data.ov[p], data.oa_drift[p]),
-            None => (Motion::zero(), Motion::zero()),
-        };
-        data.ov[i] = vp + vj;
-        data.oa_drift[i] = ap + data.ov[i].cross(&vj);
-    }
+    kinematics_pass(model, data, q, Some(v));
     Ok(())
 }
 

@@ -8,7 +8,7 @@ use super::error::SpatialResult;
 use super::kinematics::{
     forward_kinematics, forward_kinematics_velocity, joint_motion, SpatialData,
 };
-use super::model::SpatialModel;
+use super::model::{JointKind, SpatialModel};
 use super::motion::{Force, Motion};
 use crate::error::check_vector;
 use nalgebra::{DVector, Vector6};
@@ -35,25 +35,45 @@ pub(crate) fn mass_matrix_from_kinematics(model: &SpatialModel, data: &mut Spati
 }
 
 /// Joint `i`'s columns of `M` from its composite inertia `⁰Yᶜᵢ` (complete once its children
-/// are added): the force column `⁰Yᶜᵢ ⁰S_c` of each of its rates `c`, projected on every
-/// column supporting it. Only the entries on the tree's sparsity (a rate and its ancestors)
-/// are written: the others are zero from `SpatialData::new` and stay so ([`SpatialData::M`]).
+/// are added): the force column `F = ⁰Yᶜᵢ ⁰S_c` of each of its rates `c`, projected on every
+/// column supporting it — its own joint's up to `c`, then each ancestor's: a one-rate joint's
+/// `⁰Sⱼᵀ F`, a free flyer's six at once as `Ad(⁰Mⱼ)ᵀ F` (its columns are `Ad(⁰Mⱼ)`,
+/// [`super::kinematics::forward_kinematics`]). Only the entries on the tree's sparsity (a
+/// rate and its ancestors) are written: the others are zero from `SpatialData::new` and stay
+/// so ([`SpatialData::M`]).
 fn mass_columns(model: &SpatialModel, data: &mut SpatialData, i: usize) {
     let joint = &model.joints[i];
     let nv = model.nv;
     let (s, m) = (data.oS.as_slice().as_chunks::<6>().0, data.M.as_mut_slice());
     let y = &data.oIc[i];
+    let mut put = |r: usize, c: usize, x: f64| {
+        m[r + c * nv] = x;
+        m[c + r * nv] = x;
+    };
+    let dot = |s: &[f64; 6], f: &[f64; 6]| s.iter().zip(f).fold(0.0, |x, (a, b)| x + a * b);
     for c in joint.idx_v..joint.idx_v + joint.kind.nv() {
-        let F: [f64; 6] = y
-            .apply(&Motion::from_vector(&Vector6::from(s[c])))
-            .to_vector()
-            .into();
-        let mut r = c;
-        while r != usize::MAX {
-            let x = s[r].iter().zip(&F).fold(0.0, |x, (a, b)| x + a * b);
-            m[r + c * nv] = x;
-            m[c + r * nv] = x;
-            r = data.rate_parent[r];
+        let force = y.apply(&Motion::from_vector(&Vector6::from(s[c])));
+        let F: [f64; 6] = force.to_vector().into();
+        (joint.idx_v..=c).for_each(|r| put(r, c, dot(&s[r], &F)));
+        let mut ancestor = joint.parent;
+        while let Some(a) = ancestor {
+            let aj = &model.joints[a];
+            if aj.kind == JointKind::FreeFlyer {
+                // Ad(g)ᵀ [f; n] = [Rᵀ f; Rᵀ (n − p × f)]
+                let g = &data.oMi[a];
+                let n = force.angular - g.translation.cross(&force.linear);
+                let (lin, ang) = (g.rotation.tr_mul(&force.linear), g.rotation.tr_mul(&n));
+                let r = aj.idx_v;
+                put(r, c, lin.x);
+                put(r + 1, c, lin.y);
+                put(r + 2, c, lin.z);
+                put(r + 3, c, ang.x);
+                put(r + 4, c, ang.y);
+                put(r + 5, c, ang.z);
+            } else {
+                put(aj.idx_v, c, dot(&s[aj.idx_v], &F));
+            }
+            ancestor = aj.parent;
         }
     }
 }
