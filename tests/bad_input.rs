@@ -17,6 +17,9 @@ fn massless_rhex_and_pose() -> (Rhex, Data, [f64; 5]) {
     (rhex, d, [0.1, 0.1, 0.0, -0.17, 0.0])
 }
 
+/// A bad state: `(q, q̇, Υ)` and what the error must name.
+type StateCase<'a> = (&'a [f64], &'a [f64], &'a [f64], &'a str);
+
 #[test]
 fn non_finite_and_wrong_length_states() {
     let (rhex, mut d, q) = massless_rhex_and_pose();
@@ -24,7 +27,7 @@ fn non_finite_and_wrong_length_states() {
     let mode = rhex.mode("0101").unwrap();
     let (rest, idle) = ([0.0; 5], [0.0; 2]);
     // (q, q̇, Υ) with one bad entry or length each, and what the error must name
-    let cases: [(&[f64], &[f64], &[f64], &str); 5] = [
+    let cases: [StateCase<'_>; 5] = [
         (
             &[0.1, f64::NAN, 0.0, 0.0, 0.0],
             &rest,

@@ -297,7 +297,7 @@ fn energy_is_conserved_along_constrained_flow() {
         let mut x: Vec<f64> = q0
             .iter()
             .cloned()
-            .chain(std::iter::repeat(0.0).take(5))
+            .chain(std::iter::repeat_n(0.0, 5))
             .collect();
         // start with a consistent velocity
         let qd0 = project_to_constraints(model, mode, &q0, &[1.0, -1.0, 0.2, 0.1, 0.3]);

@@ -12,10 +12,8 @@
 mod common;
 #[path = "../crates/selfmanip-core/tests/common/dynamics_fd.rs"]
 mod dynamics_fd;
-#[path = "../crates/selfmanip-hybrid/tests/systems/mod.rs"]
-mod systems;
 
-use common::{feasible_labels, random_q, random_vec, rhex_massive, rhex_massless, rng};
+use common::{feasible_labels, random_q, random_vec, rhex_massive, rhex_massless, rng, systems};
 use dynamics_fd::{dynamics_jacobian_error, rel_err};
 use nalgebra::DMatrix;
 use selfmanip::core::contact::{ContactKind, TouchKind};

@@ -247,7 +247,8 @@ impl Catalog {
                 thesis_motor(
                     ["research-rhex", "maxon 118752"],
                     MotorKind::Brushed,
-                    [24.0, 1424.1886696273727, 0.016333333333333333, 15.0, 0.0231],
+                    // the torque constant is 245 mNm / 15 A, as in the catalog file
+                    [24.0, 1424.1886696273727, 0.245 / 15.0, 15.0, 0.0231],
                     [0.00428, 0.0545, 0.025, 0.130],
                 ),
                 thesis_motor(

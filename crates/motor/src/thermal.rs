@@ -290,7 +290,8 @@ impl ThermalModel {
         ambient_c: f64,
     ) -> Result<()> {
         positive("dt_s", dt_s)?;
-        if !(finite("ambient_c", ambient_c)? >= ABSOLUTE_ZERO_C) {
+        // finite: no NaN reaches the comparison
+        if finite("ambient_c", ambient_c)? < ABSOLUTE_ZERO_C {
             return Err(MotorError::InvalidParameter {
                 field: "ambient_c",
                 value: ambient_c,

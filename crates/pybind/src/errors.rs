@@ -345,7 +345,7 @@ pub(crate) fn inertia_free_joints(model: &Model, q: &[f64]) -> Vec<usize> {
     let scale = eig.eigenvalues.iter().fold(0.0f64, |a, v| a.max(v.abs()));
     let mut joints = Vec::new();
     for (i, &lambda) in eig.eigenvalues.iter().enumerate() {
-        if !(lambda.abs() <= 1e-12 * scale) {
+        if lambda.is_nan() || lambda.abs() > 1e-12 * scale {
             continue;
         }
         let v = eig.eigenvectors.column(i);

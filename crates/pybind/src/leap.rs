@@ -336,11 +336,15 @@ fn sweep_row_of(outcome: PointOutcome) -> (SweepRow, Option<(bool, Vec<f64>)>) {
     }
 }
 
+/// A point's apex sensitivities when asked for: whether they are valid, and the values
+/// (apex column by column, one per parameter).
+type RowSensitivities = Option<(bool, Vec<f64>)>;
+/// A point's row and its sensitivities.
+type Row = (SweepRow, RowSensitivities);
+
 /// Runs the points on a pool of exactly `threads` threads, one task per point, rows in input
 /// order (bit-identical for any thread count). A point skipped because the sweep was
 /// interrupted is `None`. `bases[saturated]` is each point's base.
-type Row = (SweepRow, Option<(bool, Vec<f64>)>);
-
 fn sweep_rows(
     bases: &[(RhexParams, LeapConfig); 2],
     points: &[(bool, LeapPoint)],
@@ -457,7 +461,7 @@ fn leap_sweep<'py>(
             .into_iter()
             .collect::<Option<Vec<_>>>()
             .ok_or_else(|| errors::engine("the sweep was cancelled"))?;
-        let (rows, sens): (Vec<SweepRow>, Vec<Option<(bool, Vec<f64>)>>) = rows.into_iter().unzip();
+        let (rows, sens): (Vec<SweepRow>, Vec<RowSensitivities>) = rows.into_iter().unzip();
         let d = PyDict::new(py);
         if let Some(names) = &sensitivities {
             let k = names.len();

@@ -166,7 +166,7 @@ impl RhexParams {
             ("mu_middle", self.mu_middle),
             ("mu_rear", self.mu_rear),
         ] {
-            if mu.is_some_and(|m| !(m >= 0.0)) {
+            if mu.is_some_and(|m| m.is_nan() || m < 0.0) {
                 return bad(name, "must be non-negative");
             }
         }

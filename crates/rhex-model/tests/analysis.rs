@@ -21,9 +21,11 @@ use selfmanip_sim::analysis::{free_motion_basis, solve_contact_pose};
 use std::f64::consts::PI;
 
 fn rhex(shape: LegShape) -> Rhex {
-    let mut p = RhexParams::default();
-    p.leg_shape = shape;
-    Rhex::new(p).unwrap()
+    Rhex::new(RhexParams {
+        leg_shape: shape,
+        ..Default::default()
+    })
+    .unwrap()
 }
 
 fn deg(x: f64) -> f64 {
@@ -180,12 +182,14 @@ fn torque_split_4_48_4_49() {
 /// (`cos y = 1`).
 #[test]
 fn result_b1_sensor_pitch_range_by_search() {
-    let mut asym = RhexParams::default();
-    asym.l1 = 0.25;
-    asym.l2 = 0.18;
-    asym.rho1 = 0.19;
-    asym.rho2 = 0.15;
-    asym.rho_b = 0.04;
+    let asym = RhexParams {
+        l1: 0.25,
+        l2: 0.18,
+        rho1: 0.19,
+        rho2: 0.15,
+        rho_b: 0.04,
+        ..Default::default()
+    };
     for p in [RhexParams::default(), asym] {
         let r = Rhex::new(p.clone()).unwrap();
         let range = max_sensor_pitch(&r, 72).unwrap();
@@ -407,9 +411,11 @@ fn fig_4_8_liftoff_speed_linear_program() {
 /// `I_b = 0`, and its sign checked with Table 4.2's `I_b` and at speed.
 #[test]
 fn result_c2_splay_reduces_imbalance() {
-    let mut p = RhexParams::default();
-    p.leg_shape = LegShape::Stick;
-    p.I_b = 0.0;
+    let p = RhexParams {
+        leg_shape: LegShape::Stick,
+        I_b: 0.0,
+        ..Default::default()
+    };
     let point_mass = Rhex::new(p.clone()).unwrap();
     let (rho, l) = (p.rho1, p.l1);
     for tm in [5.0, 15.0, 25.0] {

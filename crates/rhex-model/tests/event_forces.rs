@@ -268,8 +268,9 @@ fn engine_event_forces_are_the_flow_forces() {
             let mut kin = Kinematics::default();
             kin.compute(&model, &e.q, &e.qd_after);
             let rows = site_vectors(&model, &FlatGround, &kin, e.mode_after, &e.force);
-            for k in 0..model.n_contacts() {
-                match (rows[k], rec.force_n[k]) {
+            assert_eq!(rows.len(), rec.force_n.len(), "{:?}", e.kind);
+            for (k, (&row, &recorded)) in rows.iter().zip(&rec.force_n).enumerate() {
+                match (row, recorded) {
                     (None, None) => {}
                     (Some(a), Some(b)) => {
                         let sticking = e.mode_after.kind(k) == Some(ContactKind::Stick);

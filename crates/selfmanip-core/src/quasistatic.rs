@@ -231,7 +231,7 @@ fn torque_constrained(
     rhs.rows_mut(b, at).copy_from(&(-(t.transpose() * tau_0)));
     let svd = lhs.clone().svd(false, false);
     let (smax, smin) = (svd.singular_values.max(), svd.singular_values.min());
-    if !(smin > 1e-12 * smax) {
+    if smin.is_nan() || smax.is_nan() || smin <= 1e-12 * smax {
         return Err(CoreError::IllPosedQuasiStatic {
             reason: format!(
                 "the augmented grasp map is singular (condition {:.3e})",

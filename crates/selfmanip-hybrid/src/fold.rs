@@ -73,6 +73,10 @@ use selfmanip_core::friction::SlideDirection;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{plastic_impact, ContactMode, CoreError, Model, Terrain};
 
+/// A passage through a fold: the velocity after it and the locked joints, the passing
+/// contact's joint among them.
+pub type Passage = (Vec<f64>, Vec<usize>);
+
 /// The massless joints that pin contact `k` (the distal, all-massless part of the chain of
 /// its link), as a range of joint indices; empty for a body contact or a massive chain.
 pub fn massless_chain(model: &Model, k: usize) -> std::ops::Range<usize> {
@@ -323,7 +327,7 @@ impl ResetWorkspace<'_> {
         lock: &[usize],
         (k, pin): (usize, f64),
         (q, qd): (&[f64], &[f64]),
-    ) -> Result<Option<(Vec<f64>, Vec<usize>)>, CoreError> {
+    ) -> Result<Option<Passage>, CoreError> {
         let chain = massless_chain(self.model, k);
         // the slaving needs the force's moment arm to vanish at the fold: with kinetic
         // friction it is μ_k σ (A_t)_j there, not zero (module docs)

@@ -482,9 +482,9 @@ impl Dopri5 {
                 return Err(StepError::StepTooSmall(h));
             }
             self.trial_h = h;
-            for s in 1..7 {
+            for (s, c) in C.iter().enumerate().skip(1) {
                 stage_point(s, &self.k, y, h, &mut self.ytmp);
-                f.rhs(t + C[s] * h, &self.ytmp, &mut self.k[s])
+                f.rhs(t + c * h, &self.ytmp, &mut self.k[s])
                     .map_err(StepError::Rhs)?;
             }
             // the 7th stage point is y_{n+1} (FSAL)

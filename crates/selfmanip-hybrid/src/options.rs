@@ -1,6 +1,7 @@
 //! The options of an execution, checked once before it starts.
 use crate::error::HybridError;
 use crate::integrate::StepOptions;
+use std::cmp::Ordering;
 
 /// The default step budget of a run: a leap takes a few hundred accepted steps, a
 /// thousand-step run of the robots in this repository is rare; this bounds a run that
@@ -153,7 +154,10 @@ impl HybridOptions {
             });
         }
         // a largest step below the smallest one ends the run at its first step
-        if !(self.step.h_max_s >= self.step.h_min_s) {
+        if matches!(
+            self.step.h_max_s.partial_cmp(&self.step.h_min_s),
+            None | Some(Ordering::Less)
+        ) {
             return Err(HybridError::InvalidOption {
                 field: "h_max_s",
                 reason: format!(

@@ -471,7 +471,7 @@ fn fold_passage(
     lock: &[usize],
     (folded, pins): (&[usize], &[f64]),
     (q, qd): (&[f64], &[f64]),
-) -> Result<Option<(Vec<f64>, Vec<usize>)>, HybridError> {
+) -> Result<Option<fold::Passage>, HybridError> {
     let (mut v, mut l) = (qd.to_vec(), lock.to_vec());
     for (&k, &pin) in folded.iter().zip(pins) {
         match cx.passage(t, mode, &l, (k, pin), (q, &v))? {

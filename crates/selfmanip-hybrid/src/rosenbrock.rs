@@ -151,11 +151,11 @@ impl Rodas4 {
         let n = self.n;
         if !f.jacobian(t, y, &mut self.jac) {
             self.ytmp.copy_from_slice(y);
-            for j in 0..n {
-                let dj = (f64::EPSILON * y[j].abs().max(1e-5)).sqrt();
-                self.ytmp[j] = y[j] + dj;
+            for (j, &yj) in y[..n].iter().enumerate() {
+                let dj = (f64::EPSILON * yj.abs().max(1e-5)).sqrt();
+                self.ytmp[j] = yj + dj;
                 let r = f.rhs(t, &self.ytmp, &mut self.ftmp);
-                self.ytmp[j] = y[j];
+                self.ytmp[j] = yj;
                 r.map_err(|_| NoJacobian)?;
                 let col = &mut self.jac[j * n..(j + 1) * n];
                 for i in 0..n {
@@ -165,8 +165,8 @@ impl Rodas4 {
         }
         let dt = (f64::EPSILON * t.abs().max(1e-5)).sqrt();
         f.rhs(t + dt, y, &mut self.ftmp).map_err(|_| NoJacobian)?;
-        for i in 0..n {
-            self.ft[i] = (self.ftmp[i] - f0[i]) / dt;
+        for ((ft, fp), f0) in self.ft.iter_mut().zip(&self.ftmp).zip(f0) {
+            *ft = (fp - f0) / dt;
         }
         if self.jac.iter().chain(&self.ft).all(|v| v.is_finite()) {
             Ok(())
@@ -249,10 +249,9 @@ impl Rodas4 {
         for s in 0..6 {
             // the stage point and its right-hand side
             self.ytmp.copy_from_slice(y);
-            for j in 0..s {
-                let a = A[s][j];
+            for (&a, uj) in A[s][..s].iter().zip(&self.u) {
                 if a != 0.0 {
-                    for (v, u) in self.ytmp.iter_mut().zip(&self.u[j]) {
+                    for (v, u) in self.ytmp.iter_mut().zip(uj) {
                         *v += a * u;
                     }
                 }
@@ -266,8 +265,8 @@ impl Rodas4 {
             let dh = D[s] * h;
             for i in 0..n {
                 let mut acc = self.rhs[i] + dh * self.ft[i];
-                for j in 0..s {
-                    acc += CC[s][j] / h * self.u[j][i];
+                for (cc, uj) in CC[s][..s].iter().zip(&self.u) {
+                    acc += cc / h * uj[i];
                 }
                 self.rhs[i] = acc;
             }
@@ -276,8 +275,8 @@ impl Rodas4 {
             self.u[s].copy_from_slice(&self.rhs);
         }
         // y₁ = the 6th stage point + u₆
-        for i in 0..n {
-            ynew[i] = self.ytmp[i] + self.u[5][i];
+        for ((yn, yt), u) in ynew[..n].iter_mut().zip(&self.ytmp).zip(&self.u[5]) {
+            *yn = yt + u;
         }
         let (r0, rest) = r.split_at_mut(n);
         let (r1, rest) = rest.split_at_mut(n);

@@ -16,9 +16,7 @@ use selfmanip_hybrid::flow::FlowWorkspace;
 use selfmanip_hybrid::{Event, EventKind, Execution};
 use serde::Serialize;
 
-/// A vector per contact site (description order), world NED `[x, z]`; `None` where the site
-/// has none.
-pub type SiteVectors = Vec<Option<[f64; 2]>>;
+pub use crate::trajectory::SiteVectors;
 
 /// A record of one event in the robot's own names.
 #[derive(Debug, Clone, PartialEq, Serialize)]

@@ -19,6 +19,10 @@ use selfmanip_hybrid::flow::FlowWorkspace;
 use selfmanip_hybrid::Execution;
 use serde::Serialize;
 
+/// A vector per contact site (description order), world NED `[x, z]`; `None` where the site
+/// has none.
+pub type SiteVectors = Vec<Option<[f64; 2]>>;
+
 /// The sample interval of logs and plots when the caller gives none (s): 200 samples a
 /// second, finer than a stance of a few tens of milliseconds needs to show its shape.
 pub const DEFAULT_DT_S: f64 = 0.005;
@@ -115,7 +119,7 @@ pub fn sample_labelled(
     positive("dt_s", dt_s)?;
     let t_end = exec.t;
     let samples = (t_end / dt_s).floor();
-    if !(samples < MAX_TRAJECTORY_SAMPLES as f64) {
+    if samples.is_nan() || samples >= MAX_TRAJECTORY_SAMPLES as f64 {
         return Err(SimError::InvalidValue {
             field: "dt_s".into(),
             reason: format!(
@@ -179,7 +183,7 @@ pub fn site_vectors(
     kin: &Kinematics,
     mode: ContactMode,
     rows: &[f64],
-) -> Vec<Option<[f64; 2]>> {
+) -> SiteVectors {
     let mut out = vec![None; model.n_contacts()];
     for (r, &value) in mode.rows().zip(rows) {
         let geom = contact_geometry(model, kin, terrain, r.contact);
@@ -200,7 +204,7 @@ pub fn site_points_and_forces(
     terrain: &dyn Terrain,
     data: &Data,
     mode: ContactMode,
-) -> (Vec<Option<[f64; 2]>>, Vec<Option<[f64; 2]>>) {
+) -> (SiteVectors, SiteVectors) {
     let mut forces = site_vectors(model, terrain, &data.kin, mode, data.lambda.as_slice());
     let mut points = vec![None; model.n_contacts()];
     for k in mode.active() {

@@ -123,8 +123,7 @@ fn bounce_matches_the_damped_spring_mass() {
             );
             errs.push([(t - tc) / tc, r - ratio]);
         }
-        for j in 0..2 {
-            let (big, small) = (errs[0][j], errs[1][j]);
+        for (j, (&big, &small)) in errs[0].iter().zip(&errs[1]).enumerate() {
             let limit = (4.0 * small - big) / 3.0;
             println!("  component {j}: errors {big:.3e}, {small:.3e}; extrapolated {limit:.3e}");
             assert!(

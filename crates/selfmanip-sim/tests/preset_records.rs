@@ -54,8 +54,10 @@ fn record_fields_sort_overrides_into_their_records() {
         }
     );
     let opts = record_with(&SimOptions::default(), &sorted[1]).unwrap();
-    let mut direct = SimOptions::default();
-    direct.rtol = 1e-6;
+    let direct = SimOptions {
+        rtol: 1e-6,
+        ..Default::default()
+    };
     assert_eq!(opts, direct);
     o.insert("motors_per_leg".into(), json!(3));
     assert_eq!(r.sort(&o).unwrap_err(), "motors_per_leg");

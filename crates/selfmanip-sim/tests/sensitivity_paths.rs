@@ -20,9 +20,7 @@ use selfmanip_sim::periodic::run_sensitivity;
 use selfmanip_sim::sensitivity::{scenario_parameter_sensitivity, ParameterPathError};
 use selfmanip_sim::{Scenario, Simulation};
 mod common;
-use common::{data, hopper, path_column_error};
-#[path = "../../selfmanip-hybrid/tests/systems/fd.rs"]
-mod fd;
+use common::{data, fd, hopper, path_column_error};
 use fd::{end_state_and_events, run_jacobian_fd};
 
 /// The hopper under `hop.toml` to `t_final` (tight tolerances: [`hopper`]).

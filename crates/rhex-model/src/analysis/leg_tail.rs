@@ -17,7 +17,7 @@ pub fn tail_rhex(base: Option<RhexParams>, pairs: usize) -> Result<Rhex, RhexErr
         3 => vec![LegPair::Front, LegPair::Middle, LegPair::Rear],
         _ => return Err(bad("pairs", "must be 1, 2 or 3")),
     };
-    if !(p.m_l > 0.0) {
+    if p.m_l.is_nan() || p.m_l <= 0.0 {
         return Err(bad("m_l", "legs must have mass for the tail effect"));
     }
     Rhex::new(p)

@@ -38,6 +38,7 @@ use selfmanip_core::contact::{contact_geometry, RowDirection, TouchKind};
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::model::ContactShape;
 use selfmanip_core::{ContactMode, Data, FlatGround, Model, Terrain};
+use std::cmp::Ordering;
 
 pub(crate) fn bad(field: &str, reason: impl Into<String>) -> SimError {
     crate::error::invalid(field, reason)
@@ -93,7 +94,8 @@ pub fn free_motion_basis(
     ay.view_mut((0, 0), (c, nq)).copy_from(a);
     ay.view_mut((c, 0), (e, nq)).copy_from(y_map);
     let sv = ay.clone().svd(false, false).singular_values;
-    if !(sv.min() > 1e-10 * sv.max()) {
+    let (smin, smax) = (sv.min(), sv.max());
+    if smin.is_nan() || smax.is_nan() || smin <= 1e-10 * smax {
         return Err(bad(
             "Y",
             "[A; Y] is singular: y does not parameterize the free motion here",
@@ -192,7 +194,10 @@ fn lowest(model: &Model, kin: &Kinematics, sites: &[usize]) -> SideSupport {
     let mut best = at(sites[0]);
     for &k in &sites[1..] {
         let s = at(k);
-        if !(best.depth_m >= s.depth_m) {
+        if matches!(
+            best.depth_m.partial_cmp(&s.depth_m),
+            None | Some(Ordering::Less)
+        ) {
             best = s;
         }
     }

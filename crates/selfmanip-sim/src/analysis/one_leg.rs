@@ -48,15 +48,7 @@ pub fn rear_takeoff_speed(
 ) -> Result<Option<TakeoffBound>, SimError> {
     let (q, mode) = rear_stance_q(model, theta2, phi)?;
     let (j, _) = rear_leg(model)?;
-    Ok(takeoff_bound(
-        model,
-        &FlatGround,
-        mode,
-        &q,
-        j,
-        phi_dot,
-        line,
-    )?)
+    takeoff_bound(model, &FlatGround, mode, &q, j, phi_dot, line)
 }
 
 /// Fig. 4.11/4.12's inner problem: the best takeoff speed over the rear leg angle

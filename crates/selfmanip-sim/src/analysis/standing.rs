@@ -229,7 +229,7 @@ pub fn simulate_standing(
             return Err(bad(f, "must be positive and finite"));
         }
     }
-    if !(dt_s > 0.0) {
+    if dt_s.is_nan() || dt_s <= 0.0 {
         return Err(bad("dt_s", "must be positive"));
     }
     let tm = split.mean_rows();

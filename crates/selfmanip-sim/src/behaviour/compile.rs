@@ -213,7 +213,7 @@ impl Context<'_> {
         e: &'e Expr,
         q0: Option<f64>,
         at_start: bool,
-    ) -> Result<(f64, Vec<(&'e str, f64)>), SimError> {
+    ) -> Result<(f64, NamesRead<'e>), SimError> {
         let lookup = |v: &str| match v {
             "q0" => q0,
             "theta" | "omega" if at_start => Some(0.0),
@@ -674,6 +674,12 @@ struct StartGrads {
 /// Where a phase reference points: `(program, phase)`.
 type PhaseRef = (usize, usize);
 
+/// The names an expression reads, with their values.
+type NamesRead<'e> = Vec<(&'e str, f64)>;
+
+/// A compiled joint program, its phases' tangents, and its phases as recorded for reuse.
+type CompiledProgram = (Program, Vec<PhaseTangent>, Vec<Reused<PhasePlan>>);
+
 struct Compiler<'a> {
     cx: Context<'a>,
     named: &'a [String],
@@ -1084,7 +1090,7 @@ impl Compiler<'_> {
         q0: &[f64],
         (remap, actuator_names): (&[usize], &[String]),
         (reuse, record): (Option<&[Reused<PhasePlan>]>, bool),
-    ) -> Result<(Program, Vec<PhaseTangent>, Vec<Reused<PhasePlan>>), SimError> {
+    ) -> Result<CompiledProgram, SimError> {
         let own = joint_contacts(self.cx.model, j);
         let mut phases: Vec<PhasePlan> = Vec::with_capacity(prog.phases.len());
         let mut tangents: Vec<PhaseTangent> = Vec::new();

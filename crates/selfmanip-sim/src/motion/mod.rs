@@ -100,7 +100,7 @@ impl JointMotion {
         // each smoothstep ramp covers the mean of its end speeds times its duration
         let ramps = 0.5 * (omega0 + v) * up + 0.5 * v * down;
         let cruise = (target - theta0 - ramps) / v;
-        if dir * omega0 < 0.0 || !(cruise >= 0.0) || !cruise.is_finite() {
+        if dir * omega0 < 0.0 || !cruise.is_finite() || cruise < 0.0 {
             return Self::park(t0, theta0, omega0, target, accel);
         }
         let mut theta = theta0;
