@@ -1047,7 +1047,7 @@ impl BehaviourController {
                 axpy(&mut d, row[3 + k], &num.dp);
             }
             if let Some(start) = &start {
-                for (w, g) in fold_row(&row, &numbers).iter().zip(start) {
+                for (w, g) in fold_row(&row, numbers).iter().zip(start) {
                     axpy(&mut d, *w, g);
                 }
             }
@@ -1062,7 +1062,7 @@ impl BehaviourController {
     /// through its numbers where they depend on `θ₀`, `ω₀` (`theta`, `omega`).
     fn start_columns(&self, p: usize, i: usize, t: f64) -> [[f64; 3]; 3] {
         let (d, numbers) = self.law_partials(p, i, t);
-        fold_start(&d, &numbers)
+        fold_start(&d, numbers)
     }
 
     /// The gradients over the parameters, at fixed memory, of program `p`'s motion `i`'s
@@ -1096,7 +1096,7 @@ impl BehaviourController {
             }
         }
         if let Some(start) = self.start_dp(ws, p, i) {
-            let cols = fold_start(&d, &numbers);
+            let cols = fold_start(&d, numbers);
             for (r, c) in cols.iter().enumerate() {
                 for (w, g) in c.iter().zip(&start) {
                     axpy(&mut out[r], *w, g);
@@ -1309,7 +1309,7 @@ impl BehaviourController {
                     phase: k,
                     theta0: theta,
                     omega0: omega,
-                    timed: Some((i, grad.clone())),
+                    timed: Some((i, *grad)),
                     numbers: OnceLock::new(),
                     law: OnceLock::new(),
                 });
