@@ -166,21 +166,16 @@ pub fn jam(
         })
         .collect();
     Ok(Ok(Reset::Continue {
-        event: Event {
+        event: Event::reset(
             t,
-            kind: EventKind::Jam,
-            mode_before: mode,
-            mode_after,
-            triggered: vec![k],
-            impulse,
-            impulse_mode,
-            pseudo_impulse,
+            EventKind::Jam,
+            (mode, mode_after),
+            vec![k],
+            (impulse_mode, impulse, pseudo_impulse),
             force,
-            kinetic_before: ke_before,
-            kinetic_after: ke_after,
-            q: q.to_vec(),
-            qd_after,
-        },
+            (ke_before, ke_after),
+            (q, qd_after),
+        ),
         from_rest,
         lock,
     }))
@@ -336,21 +331,16 @@ pub fn coulomb_jam(
         .map(|p| p.unwrap_or(0.0))
         .collect();
     Ok(Ok(Reset::Continue {
-        event: Event {
+        event: Event::reset(
             t,
-            kind: EventKind::Jam,
-            mode_before: mode,
-            mode_after: *mode_after,
+            EventKind::Jam,
+            (mode, *mode_after),
             triggered,
-            impulse,
-            impulse_mode,
-            pseudo_impulse: Vec::new(),
-            force: force.clone(),
-            kinetic_before: ke_before,
-            kinetic_after: ke_after,
-            q: q.to_vec(),
-            qd_after: o.qd_plus.clone(),
-        },
+            (impulse_mode, impulse, Vec::new()),
+            force.clone(),
+            (ke_before, ke_after),
+            (q, o.qd_plus.clone()),
+        ),
         from_rest: Vec::new(),
         lock: Vec::new(),
     }))

@@ -217,26 +217,22 @@ pub fn reset(
     } else {
         (Vec::new(), selected.value)
     };
+    let impulse_mode = if impact {
+        selected.mode
+    } else {
+        ContactMode::FLIGHT
+    };
     Ok(Reset::Continue {
-        event: Event {
+        event: Event::reset(
             t,
             kind,
-            mode_before: mode,
-            mode_after,
+            (mode, mode_after),
             triggered,
-            impulse,
-            impulse_mode: if impact {
-                selected.mode
-            } else {
-                ContactMode::FLIGHT
-            },
-            pseudo_impulse: selected.pseudo_impulse,
+            (impulse_mode, impulse, selected.pseudo_impulse),
             force,
-            kinetic_before: ke_before,
-            kinetic_after: ke_after,
-            q: q.to_vec(),
-            qd_after,
-        },
+            (ke_before, ke_after),
+            (q, qd_after),
+        ),
         from_rest,
         lock,
     })
