@@ -161,3 +161,54 @@ fn flat_ground_rows_are_the_world_axes() {
     let frictionless = PointContact::new(&model, "FL_foot", false).unwrap();
     assert_eq!(frictionless.directions()[0], Vector3::z());
 }
+
+/// Each contact's rows of `A` are its directions on the point's world linear Jacobian
+/// (`frame_jacobian`, local-world-aligned, a second formulation): for feet with friction on
+/// flat z-up ground (the rows are then `J_p`'s own entries, no products) and for the general
+/// route's directions — a tilted normal with friction, a frictionless foot, a foot held in a
+/// plane — at random states of the quadruped and of its massless-shin variant.
+#[test]
+fn contact_rows_are_directions_on_the_point_jacobian() {
+    let mut rng = rng(18);
+    for model in [quadruped(), quadruped_massless_shins()] {
+        let tilted = Vector3::new(0.3, -0.2, 1.0);
+        let contacts = vec![
+            PointContact::new(&model, "FL_foot", true).unwrap(),
+            PointContact::new(&model, "FR_foot", true).unwrap(),
+            PointContact::with_normal(&model, "HL_foot", true, tilted).unwrap(),
+            PointContact::new(&model, "HR_foot", false).unwrap(),
+        ];
+        let in_plane = PointContact::new(&model, "HR_foot", true)
+            .unwrap()
+            .in_plane(Vector3::x())
+            .unwrap();
+        for set in [contacts.clone(), vec![contacts[0].clone(), in_plane]] {
+            let mut data = SpatialData::new(&model);
+            let (q, v, tau) = random_state(&model, &mut rng);
+            // the rows are formed before the solve, which massless shins on two feet refuse
+            let solved = dynamics_at(&model, &mut data, &set, (&q, &v, &tau));
+            assert!(solved.is_ok() || set.len() == 2, "{solved:?}");
+            let a = data.A.clone();
+            let mut row = 0;
+            for contact in &set {
+                frame_jacobian(
+                    &model,
+                    &mut data,
+                    contact.frame,
+                    ReferenceFrame::LocalWorldAligned,
+                );
+                let jp = data.J.fixed_rows::<3>(0).into_owned();
+                for d in &contact.directions()[..contact.n_rows()] {
+                    let expected = d.transpose() * &jp;
+                    let off = (a.row(row) - &expected).amax();
+                    assert!(
+                        off < 1e-12 * expected.amax().max(1.0),
+                        "row {row}: off {off:.2e}"
+                    );
+                    row += 1;
+                }
+            }
+            assert_eq!(row, a.nrows());
+        }
+    }
+}

@@ -390,7 +390,8 @@ pub(crate) fn contact_rows(
 /// The rows `d·J_p` of the material point `x` (world) of joint `joint`'s body along the world
 /// directions `dirs`, `d·(v + ω × x)` on each supporting joint's world column `⁰S = [v; ω]`
 /// (Featherstone 2008, (2.20)), through `put(direction index, column, value)`; the columns of
-/// other joints (zero) are not visited.
+/// other joints (zero) are not visited. Directions that are the world axes `x, y, z` in order
+/// (a foot with friction on flat z-up ground) give `J_p`'s own entries without the products.
 pub(crate) fn point_rows(
     model: &SpatialModel,
     oS: &Matrix6xX,
@@ -399,6 +400,7 @@ pub(crate) fn point_rows(
     dirs: &[Vector3<f64>],
     mut put: impl FnMut(usize, usize, f64),
 ) {
+    let axes = dirs == [Vector3::x(), Vector3::y(), Vector3::z()];
     let s = oS.as_slice();
     let mut j = joint;
     while let Some(i) = j {
@@ -406,6 +408,12 @@ pub(crate) fn point_rows(
         for col in jt.idx_v..jt.idx_v + jt.kind.nv() {
             let c = &s[6 * col..6 * col + 6];
             let jp = Vector3::new(c[0], c[1], c[2]) + Vector3::new(c[3], c[4], c[5]).cross(x);
+            if axes {
+                put(0, col, jp.x);
+                put(1, col, jp.y);
+                put(2, col, jp.z);
+                continue;
+            }
             for (k, d) in dirs.iter().enumerate() {
                 put(k, col, d.dot(&jp));
             }

@@ -92,6 +92,9 @@ pub struct SpatialData {
     /// Whether each joint's placement in its parent is a translation alone (its rotation the
     /// identity), fixed by the model.
     pub(crate) shift_only: Vec<bool>,
+    /// Each joint's coordinate axis `k` when it turns about `±e_k` (most URDF joints), fixed
+    /// by the model ([`turned`]).
+    pub(crate) axis_index: Vec<Option<usize>>,
     /// Right-hand sides of the KKT solve.
     pub(crate) rhs_f: DVector<f64>,
     pub(crate) rhs_g: DVector<f64>,
@@ -127,6 +130,14 @@ impl SpatialData {
                 .iter()
                 .map(|j| j.placement.rotation == nalgebra::Matrix3::identity())
                 .collect(),
+            axis_index: model
+                .joints
+                .iter()
+                .map(|j| match j.kind {
+                    JointKind::Revolute { axis } => coordinate_axis(&axis),
+                    _ => None,
+                })
+                .collect(),
             rhs_f: DVector::zeros(nv),
             rhs_g: DVector::zeros(0),
         }
@@ -149,11 +160,16 @@ fn joint_transform(kind: &JointKind, q: &[f64]) -> SE3 {
     }
 }
 
+/// The index `k` of a unit `axis` that is a coordinate axis `±e_k`.
+fn coordinate_axis(axis: &Vector3<f64>) -> Option<usize> {
+    (0..3).find(|&k| axis[k].abs() == 1.0)
+}
+
 /// `g R(axis, θ)`: `g` turned about the unit `axis` of its own frame by `θ`. A coordinate axis
 /// `±e_k` (most URDF joints) mixes two columns of `g`'s rotation (Featherstone 2008, Table
-/// 4.1's `rot`), any other axis takes Rodrigues' rotation matrix.
-fn turned(g: &SE3, axis: &Vector3<f64>, angle: f64) -> SE3 {
-    let k = (0..3).find(|&k| axis[k].abs() == 1.0);
+/// 4.1's `rot`), any other axis takes Rodrigues' rotation matrix; `k`, the coordinate axis's
+/// index, is fixed when `SpatialData` is made.
+fn turned(g: &SE3, axis: &Vector3<f64>, angle: f64, k: Option<usize>) -> SE3 {
     let Some(k) = k else {
         let r = Rotation3::from_axis_angle(&Unit::new_unchecked(*axis), angle);
         return SE3::new(g.rotation * r.matrix(), g.translation);
@@ -202,7 +218,7 @@ fn place_joint(model: &SpatialModel, data: &mut SpatialData, i: usize, q: &[f64]
             oMi
         }
         JointKind::Revolute { axis } => {
-            let oMi = turned(&before, &axis, qi[0]);
+            let oMi = turned(&before, &axis, qi[0], data.axis_index[i]);
             let w = oMi.rotation * axis;
             let v = oMi.translation.cross(&w);
             col[..6].copy_from_slice(&[v.x, v.y, v.z, w.x, w.y, w.z]);

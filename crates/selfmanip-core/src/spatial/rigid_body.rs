@@ -10,6 +10,7 @@ use super::kinematics::{
 };
 use super::model::{JointKind, SpatialModel};
 use super::motion::{Force, Motion};
+use super::se3::skew;
 use crate::error::check_vector;
 use nalgebra::{DVector, Vector6};
 
@@ -44,6 +45,9 @@ pub(crate) fn mass_matrix_from_kinematics(model: &SpatialModel, data: &mut Spati
 fn mass_columns(model: &SpatialModel, data: &mut SpatialData, i: usize) {
     let joint = &model.joints[i];
     let nv = model.nv;
+    if joint.kind == JointKind::FreeFlyer && joint.parent.is_none() {
+        return root_block(data, joint.idx_v, nv, i);
+    }
     let (s, m) = (data.oS.as_slice().as_chunks::<6>().0, data.M.as_mut_slice());
     let y = &data.oIc[i];
     let mut put = |r: usize, c: usize, x: f64| {
@@ -74,6 +78,34 @@ fn mass_columns(model: &SpatialModel, data: &mut SpatialData, i: usize) {
                 put(aj.idx_v, c, dot(&s[aj.idx_v], &F));
             }
             ancestor = aj.parent;
+        }
+    }
+}
+
+/// A free-flying root's `6 × 6` block of `M`, `Ad(g)ᵀ ⁰Yᶜ Ad(g)` (`g = ⁰M₀`): its composite
+/// inertia in its own frame, `[m 1, −[h]ₓ; [h]ₓ, I]` with the first moment `h = Rᵀ (h₀ − m p)`
+/// and `I = Rᵀ I_p R` about its origin, `I_p = I₀ + [h₀]ₓ[p]ₓ + [p]ₓ[h₀]ₓ − m [p]ₓ²`
+/// (the parallel-axis theorem in first moments) — the same entries as its six columns'
+/// projections, [`mass_columns`]'s route for other joints, in about a fifth of the products.
+fn root_block(data: &mut SpatialData, r: usize, nv: usize, i: usize) {
+    let (y, g) = (&data.oIc[i], &data.oMi[i]);
+    let (rot, p) = (&g.rotation, &g.translation);
+    let (px, hx) = (skew(p), skew(&y.first_moment));
+    let ip = y.rotational + hx * px + px * hx - px * px * y.mass;
+    let inertia = rot.tr_mul(&ip) * rot;
+    let h = skew(&rot.tr_mul(&(y.first_moment - p * y.mass)));
+    // the lower triangle, mirrored: M symmetric to the bit
+    let entry = |k: usize, c: usize| match (k < 3, c < 3) {
+        (true, _) => f64::from(u8::from(k == c)) * y.mass,
+        (false, true) => h[(k - 3, c)],
+        (false, false) => inertia[(k - 3, c - 3)],
+    };
+    let m = data.M.as_mut_slice();
+    for c in 0..6 {
+        for k in c..6 {
+            let x = entry(k, c);
+            m[r + k + (r + c) * nv] = x;
+            m[r + c + (r + k) * nv] = x;
         }
     }
 }
