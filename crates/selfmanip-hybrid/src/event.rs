@@ -94,38 +94,6 @@ pub struct Event {
 }
 
 impl Event {
-    /// A reset's event at `(t, q)`: `kind`, fired by `triggered`, from `mode_before` to
-    /// `mode_after`; the impact's `impulse` and `pseudo_impulse` on the rows of `impulse_mode`
-    /// (empty, and [`ContactMode::FLIGHT`], without an impact), the `force` after the reset,
-    /// the kinetic energies `(before, after)` and the velocity after, `qd_after`.
-    #[allow(clippy::too_many_arguments)]
-    pub fn reset(
-        t: f64,
-        kind: EventKind,
-        (mode_before, mode_after): (ContactMode, ContactMode),
-        triggered: Vec<usize>,
-        (impulse_mode, impulse, pseudo_impulse): (ContactMode, Vec<f64>, Vec<f64>),
-        force: Vec<f64>,
-        (kinetic_before, kinetic_after): (f64, f64),
-        (q, qd_after): (&[f64], Vec<f64>),
-    ) -> Self {
-        Event {
-            t,
-            kind,
-            mode_before,
-            mode_after,
-            triggered,
-            impulse,
-            impulse_mode,
-            pseudo_impulse,
-            force,
-            kinetic_before,
-            kinetic_after,
-            q: q.to_vec(),
-            qd_after,
-        }
-    }
-
     /// An event that changes neither the contact mode nor the velocity (a fold passed, an
     /// apex): no impulses, and no kinetic energies (NaN) since nothing is lost.
     pub fn without_jump(
@@ -135,18 +103,21 @@ impl Event {
         triggered: Vec<usize>,
         (q, qd): (&[f64], &[f64]),
     ) -> Self {
-        let no_impact = (ContactMode::FLIGHT, vec![], vec![]);
-        let kinetic = (f64::NAN, f64::NAN);
-        Event::reset(
+        Event {
             t,
             kind,
-            (mode, mode),
+            mode_before: mode,
+            mode_after: mode,
             triggered,
-            no_impact,
-            vec![],
-            kinetic,
-            (q, qd.to_vec()),
-        )
+            impulse: vec![],
+            impulse_mode: ContactMode::FLIGHT,
+            pseudo_impulse: vec![],
+            force: vec![],
+            kinetic_before: f64::NAN,
+            kinetic_after: f64::NAN,
+            q: q.to_vec(),
+            qd_after: qd.to_vec(),
+        }
     }
 }
 

@@ -166,16 +166,21 @@ pub fn jam(
         })
         .collect();
     Ok(Ok(Reset::Continue {
-        event: Event::reset(
+        event: Event {
             t,
-            EventKind::Jam,
-            (mode, mode_after),
-            vec![k],
-            (impulse_mode, impulse, pseudo_impulse),
+            kind: EventKind::Jam,
+            mode_before: mode,
+            mode_after,
+            triggered: vec![k],
+            impulse,
+            impulse_mode,
+            pseudo_impulse,
             force,
-            (ke_before, ke_after),
-            (q, qd_after),
-        ),
+            kinetic_before: ke_before,
+            kinetic_after: ke_after,
+            q: q.to_vec(),
+            qd_after,
+        },
         from_rest,
         lock,
     }))
@@ -331,16 +336,21 @@ pub fn coulomb_jam(
         .map(|p| p.unwrap_or(0.0))
         .collect();
     Ok(Ok(Reset::Continue {
-        event: Event::reset(
+        event: Event {
             t,
-            EventKind::Jam,
-            (mode, *mode_after),
+            kind: EventKind::Jam,
+            mode_before: mode,
+            mode_after: *mode_after,
             triggered,
-            (impulse_mode, impulse, Vec::new()),
-            force.clone(),
-            (ke_before, ke_after),
-            (q, o.qd_plus.clone()),
-        ),
+            impulse,
+            impulse_mode,
+            pseudo_impulse: Vec::new(),
+            force: force.clone(),
+            kinetic_before: ke_before,
+            kinetic_after: ke_after,
+            q: q.to_vec(),
+            qd_after: o.qd_plus.clone(),
+        },
         from_rest: Vec::new(),
         lock: Vec::new(),
     }))

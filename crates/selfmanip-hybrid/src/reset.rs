@@ -217,22 +217,26 @@ pub fn reset(
     } else {
         (Vec::new(), selected.value)
     };
-    let impulse_mode = if impact {
-        selected.mode
-    } else {
-        ContactMode::FLIGHT
-    };
     Ok(Reset::Continue {
-        event: Event::reset(
+        event: Event {
             t,
             kind,
-            (mode, mode_after),
+            mode_before: mode,
+            mode_after,
             triggered,
-            (impulse_mode, impulse, selected.pseudo_impulse),
+            impulse,
+            impulse_mode: if impact {
+                selected.mode
+            } else {
+                ContactMode::FLIGHT
+            },
+            pseudo_impulse: selected.pseudo_impulse,
             force,
-            (ke_before, ke_after),
-            (q, qd_after),
-        ),
+            kinetic_before: ke_before,
+            kinetic_after: ke_after,
+            q: q.to_vec(),
+            qd_after,
+        },
         from_rest,
         lock,
     })

@@ -308,16 +308,21 @@ pub fn truncate(
     let ke_after =
         crate::energy::kinetic_energy_at(model, cx.terrain, &mut cx.ws.data, q, &qd_after)?;
     Ok(Some(Reset::Continue {
-        event: Event::reset(
+        event: Event {
             t,
-            EventKind::ZenoTruncation,
-            (mode, held),
-            contacts.to_vec(),
-            (held, imp.impulse.iter().copied().collect(), vec![]),
-            vec![],
-            (ke_before, ke_after),
-            (q, qd_after),
-        ),
+            kind: EventKind::ZenoTruncation,
+            mode_before: mode,
+            mode_after: held,
+            triggered: contacts.to_vec(),
+            impulse: imp.impulse.iter().copied().collect(),
+            impulse_mode: held,
+            pseudo_impulse: vec![],
+            force: vec![],
+            kinetic_before: ke_before,
+            kinetic_after: ke_after,
+            q: q.to_vec(),
+            qd_after,
+        },
         from_rest: vec![],
         lock,
     }))
