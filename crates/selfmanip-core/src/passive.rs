@@ -73,13 +73,18 @@ pub fn add_passive_bias(model: &Model, q: &[f64], qd: &[f64], n_bar: &mut DVecto
     }
 }
 
-/// Passive torque of every joint (zero where there is no spring).
+/// Passive torque of joint `j` at `(q, q̇)` (zero where there is no spring).
+#[inline]
+pub fn joint_torque(model: &Model, j: usize, q: &[f64], qd: &[f64]) -> f64 {
+    model.joints[j]
+        .spring
+        .map_or(0.0, |s| spring_torque(&s, q[j], qd[j]))
+}
+
+/// Passive torque of every joint ([`joint_torque`]).
 pub fn joint_torques(model: &Model, q: &[f64], qd: &[f64]) -> Vec<f64> {
-    model
-        .joints
-        .iter()
-        .enumerate()
-        .map(|(j, joint)| joint.spring.map_or(0.0, |s| spring_torque(&s, q[j], qd[j])))
+    (0..model.joints.len())
+        .map(|j| joint_torque(model, j, q, qd))
         .collect()
 }
 

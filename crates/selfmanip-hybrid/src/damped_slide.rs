@@ -13,7 +13,7 @@ use nalgebra::{DMatrix, DVector};
 use selfmanip_core::damped_slide::{
     contact_rows_and_rates, damped_chain, exact, stick_rates, ChainLaw,
 };
-use selfmanip_core::passive::spring_torque;
+use selfmanip_core::passive::joint_torque;
 use selfmanip_core::{ContactMode, CoreError, Data, Model, Terrain};
 
 /// The relative step in a joint's rate by which `K` is differenced (the torque is affine in
@@ -361,7 +361,7 @@ fn split_n(work: &mut [f64], n: usize) -> [&mut [f64]; 13] {
 }
 
 /// The torques of the chain `joints` under its law into `out`: the controller's `tau` and
-/// the joints' passive torques at `(q, q̇)` ([`selfmanip_core::passive::joint_torques`]).
+/// the joints' passive torques at `(q, q̇)` ([`joint_torque`]).
 fn law_torques_into(
     model: &Model,
     joints: std::ops::Range<usize>,
@@ -370,10 +370,7 @@ fn law_torques_into(
     out: &mut [f64],
 ) {
     for (o, j) in out.iter_mut().zip(joints) {
-        let passive = model.joints[j]
-            .spring
-            .map_or(0.0, |s| spring_torque(&s, q[j], qd[j]));
-        *o = tau[j] + passive;
+        *o = tau[j] + joint_torque(model, j, q, qd);
     }
 }
 

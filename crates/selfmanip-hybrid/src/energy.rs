@@ -21,7 +21,7 @@ use crate::error::HybridError;
 use crate::execution::Execution;
 use crate::flow::Flow;
 use selfmanip_core::dynamics::potential_energy;
-use selfmanip_core::passive::{damping_power, spring_torque};
+use selfmanip_core::passive::{damping_power, joint_torque};
 use selfmanip_core::{kinetic_energy, ContactMode, CoreError, Data, Model, Terrain};
 
 /// The energy balance of an execution (J).
@@ -132,11 +132,7 @@ fn powers_at(
     flow.eval(t, mode, q, qd)?;
     let (data, tau) = flow.last();
     // the spring–damper's torque τ^p_j (0 without one)
-    let passive = |j: usize| {
-        model.joints[j]
-            .spring
-            .map_or(0.0, |s| spring_torque(&s, q[j], qd[j]))
-    };
+    let passive = |j: usize| joint_torque(model, j, q, qd);
     let joint: f64 = (0..model.n_joints())
         .map(|j| {
             match (
