@@ -628,11 +628,11 @@ fn dot<D: Dim>(dim: D, a: &[f64], b: &[f64]) -> f64 {
     s0 + s1
 }
 
-/// Whether the first `dim` entries are finite (`v − v` is `0` then, else NaN: no branch per
+/// Whether the first `dim` entries are finite (`v·0` is `±0` then, else NaN: no branch per
 /// entry).
 #[inline(always)]
 fn all_finite<D: Dim>(dim: D, v: &[f64]) -> bool {
-    v[..dim.get()].iter().fold(0.0, |s, &x| s + (x - x)) == 0.0
+    v[..dim.get()].iter().fold(0.0, |s, &x| s + x * 0.0) == 0.0
 }
 
 /// `y ← y + α x` over the first `dim` entries.
