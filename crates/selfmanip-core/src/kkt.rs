@@ -20,6 +20,9 @@ use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 use std::cmp::Ordering;
 
+/// The largest `m` for which the kernels do not look for `Q`'s unit columns.
+const SMALL_M: usize = 6;
+
 /// Relative tolerance on the QR diagonal of `Aᵀ` below which rows are dependent.
 pub const RANK_TOLERANCE: f64 = 1e-10;
 /// Relative tolerance on the Cholesky pivots of `M̃` (relative to the largest diagonal entry
@@ -53,7 +56,11 @@ pub struct KktBlocks {
 /// every length-`m` operation runs over the whole column (the reflectors carry explicit
 /// zeros above their pivot), the kernels are compiled for each small `m` (a `Dim` below) so
 /// that those loops unroll, and the factor keeps `Q` explicitly and the reciprocals of the
-/// pivots so that [`Self::solve`] is a few matrix–vector products with no divisions.
+/// pivots so that [`Self::solve`] is a few matrix–vector products with no divisions. The
+/// coordinates no constraint row involves (the joints of the legs off the ground; all of
+/// them in flight) are where `Q` is the identity: beyond `m = 6`, factor and solve take its
+/// unit columns as such instead of multiplying by them, with the same results bit for bit
+/// (see [`factor_kernel`]).
 #[derive(Debug, Clone, Default)]
 pub struct KktFactorization {
     m: usize,
@@ -72,6 +79,11 @@ pub struct KktFactorization {
     r_inv: Vec<f64>,
     /// `Q = H₁ ⋯ H_c = [Q₁ Q₂]` (m×m).
     q: Vec<f64>,
+    /// The rows `T` some reflector touches (and the first `c`): outside them `Q` is the
+    /// identity, exactly (see [`factor_kernel`]).
+    touched: Vec<bool>,
+    /// Every row in `T` (no structure to use).
+    all_touched: bool,
     /// `Q₁ᵀ M̄ Q₂` (c×e).
     g12: Vec<f64>,
     /// `M̃ = Q₂ᵀ M̄ Q₂` (e×e), overwritten by its Cholesky factor `L` (lower), and `1/L_jj`.
@@ -126,18 +138,24 @@ macro_rules! with_dim {
 }
 
 /// Runs `$body` with `$md`, `$cd` bound to the sizes `m` and `c`: both [`Fixed`] for the
-/// systems of planar robots (`m` in 3..=6, any `c ≤ m`), where the factorization's and
-/// solve's loops over the rows and the free motions then unroll as well; `m` alone fixed
-/// for `m` in 7..=12 (a four-legged robot of two-link legs has `m` up to 11); else both at
-/// run time. The same operations in the same order for every binding: the results are
-/// bit-identical.
+/// systems of planar robots (`m` in 3..=6, any `c ≤ m`; `m` in 7..=11 with the even `c ≤ 8`
+/// of feet that add two rows each, as a four-legged robot of two-link legs has, `m ≤ 11`),
+/// where the factorization's and solve's loops over the rows and the free motions then
+/// unroll as well (the Cholesky factor's above all); `m` alone fixed for the other `c` and
+/// `m` up to 12; else both at run time. The same operations in the same order for every
+/// binding: the results are bit-identical.
 macro_rules! with_dims {
     ($m:expr, $c:expr, |$md:ident, $cd:ident| $body:expr) => {
         with_dims!(@go ($m, $c), $md, $cd, $body;
             3 0, 3 1, 3 2, 3 3,
             4 0, 4 1, 4 2, 4 3, 4 4,
             5 0, 5 1, 5 2, 5 3, 5 4, 5 5,
-            6 0, 6 1, 6 2, 6 3, 6 4, 6 5, 6 6;
+            6 0, 6 1, 6 2, 6 3, 6 4, 6 5, 6 6,
+            7 0, 7 2, 7 4,
+            8 0, 8 2, 8 4, 8 6, 8 8,
+            9 0, 9 2, 9 4, 9 6, 9 8,
+            10 0, 10 2, 10 4, 10 6, 10 8,
+            11 0, 11 2, 11 4, 11 6, 11 8;
             7, 8, 9, 10, 11, 12)
     };
     (@go $mc:expr, $md:ident, $cd:ident, $body:expr;
@@ -173,12 +191,16 @@ impl KktFactorization {
     pub fn factor(&mut self, mbar: &DMatrix<f64>, a: &DMatrix<f64>) -> Result<()> {
         debug_assert_eq!(a.ncols(), mbar.nrows());
         self.load(mbar, a, None);
-        with_dims!(self.m, self.c, |md, cd| factor_kernel(md, cd, self))
+        // a non-finite M̄ takes the plain route, whose NaNs the structured one would skip
+        let dense = !self.mbar.iter().all(|x| x.is_finite());
+        with_dims!(self.m, self.c, |md, cd| factor_kernel(md, cd, self, dense))
             .map_err(|kind| singular(mbar.clone(), a.clone(), kind))
     }
 
     /// [`Self::factor`] on the coordinates `coords` of a larger system: `M̄[coords, coords]`
     /// and `A[:, coords]`, gathered straight into the factorization (no reduced copies).
+    /// `M̄` is finite (the flow checks it where it computes it), which [`Self::factor`]
+    /// tests instead.
     pub(crate) fn factor_on(
         &mut self,
         mbar: &DMatrix<f64>,
@@ -204,7 +226,8 @@ impl KktFactorization {
         coords: &[usize],
     ) -> std::result::Result<(), SingularityKind> {
         self.load(mbar, a, Some(coords));
-        with_dims!(self.m, self.c, |md, cd| factor_kernel(md, cd, self))
+        debug_assert!(self.mbar.iter().all(|x| x.is_finite()), "M̄ not finite");
+        with_dims!(self.m, self.c, |md, cd| factor_kernel(md, cd, self, false))
     }
 
     /// Sizes the storage and copies `M̄[coords, coords]` and `A[:, coords]ᵀ` in (all
@@ -227,6 +250,7 @@ impl KktFactorization {
             self.r_diag.resize(c, 0.0);
             self.r_inv.resize(c, 0.0);
             self.q.resize(m * m, 0.0);
+            self.touched.resize(m, true);
             self.g12.resize(c * e, 0.0);
             self.l.resize(e * e, 0.0);
             self.l_inv.resize(e, 0.0);
@@ -251,7 +275,7 @@ impl KktFactorization {
     pub fn solve(&mut self, f: &[f64], g: &[f64], x: &mut [f64], y: &mut [f64]) {
         let (m, c) = (self.m, self.c);
         assert!(f.len() == m && g.len() == c && x.len() == m && y.len() == c);
-        with_dims!(m, c, |md, cd| solve_kernel(md, cd, self, f, g, x, y));
+        with_dims!(m, c, |md, cd| solve_kernel(md, cd, self, f, g, x, y, false));
     }
 
     /// The blocks `M†`, `A†`, `Λ` of the inverse (column by column).
@@ -332,12 +356,27 @@ fn load_at<D: Dim, C: Dim>(
     }
 }
 
-/// The factorization proper, on the loaded `M̄` and `Aᵀ`, for `m = dim` and `c = cdim`; a Lemma 5.1 failure
-/// is returned as its kind (the caller, which still holds the inputs, adds the condition).
+/// The factorization proper, on the loaded `M̄` and `Aᵀ`, for `m = dim` and `c = cdim`; a
+/// Lemma 5.1 failure is returned as its kind (the caller, which still holds the inputs, adds
+/// the condition).
+///
+/// A contact row of a legged robot involves the body's coordinates and its own leg's joints,
+/// so the reflectors are zero on the rows `T` of the other legs' joints (and all of `Q` is
+/// the identity in flight, `c = 0`): outside `T`, `Q e_j = e_j`, `M̄ e_j` is a column of `M̄`
+/// and `e_iᵀ M̄ Q e_j` an entry. The kernel takes them as such and runs the plain products
+/// (`Q e_j` by its reflectors, `M̄ q_j` by columns of `M̄`, dot products over all `m` rows)
+/// only on the columns in `T`, skipping exactly the terms that are exact zeros there: every
+/// sum it forms keeps its other terms, their order and their partial sums, so that the
+/// factor is bit for bit that of the plain route (`dense`; the terms skipped are `±0` when
+/// `M̄` and the reflectors are finite, and `+0` added to a sum started at `+0` changes
+/// nothing; where the plain route turns a `−0` of `M̄` into `+0`, so does this one). A
+/// non-finite reflector takes the plain route, and so do the systems of up to
+/// [`SMALL_M`] coordinates.
 fn factor_kernel<D: Dim, C: Dim>(
     dim: D,
     cdim: C,
     kkt: &mut KktFactorization,
+    dense: bool,
 ) -> std::result::Result<(), SingularityKind> {
     let (m, c) = (dim.get(), cdim.get());
     debug_assert_eq!(c, kkt.c);
@@ -390,11 +429,29 @@ fn factor_kernel<D: Dim, C: Dim>(
         *ri = 1.0 / d;
     }
 
-    // Q e_j = H₁ ⋯ H_c e_j, where H_i e_j = e_j for i > j (v_i is zero above row i)
+    // T: the first c rows and those where a reflector is nonzero. After the rank test the
+    // β_k are finite unless the reflectors are not (a NaN pivot passes it); then every row
+    // counts, as a NaN β turns Q e_j into NaNs for every j. Up to m = 6 (RHex) finding T
+    // costs more than it saves.
+    let mut dense = dense || m <= SMALL_M || !kkt.beta[..c].iter().all(|b| b.is_finite());
+    let touched = &mut kkt.touched[..m];
+    if !dense {
+        for (p, tp) in touched.iter_mut().enumerate() {
+            *tp = p < c || (0..c).any(|k| v[k * m + p] != 0.0);
+        }
+        dense = touched.iter().all(|&t| t);
+    }
+    kkt.all_touched = dense;
+
+    // Q e_j = H₁ ⋯ H_c e_j, where H_i e_j = e_j for i > j (v_i is zero above row i), and for
+    // j ∉ T (each reflection adds β(vᵢᵀe_j)vᵢ = ±0 to every entry)
     for j in 0..m {
         let qj = &mut q[col(j)];
         qj.fill(0.0);
         qj[j] = 1.0;
+        if !dense && !touched[j] {
+            continue;
+        }
         for i in (0..c.min(j + 1)).rev() {
             if kkt.beta[i] != 0.0 {
                 reflect(dim, &v[col(i)], kkt.beta[i], qj);
@@ -402,18 +459,32 @@ fn factor_kernel<D: Dim, C: Dim>(
         }
     }
 
-    // t = M̄ q_{c+j};  Q₁ᵀ M̄ Q₂ and the lower triangle of M̃ = Q₂ᵀ M̄ Q₂
+    // t = M̄ q_{c+j};  Q₁ᵀ M̄ Q₂ and the lower triangle of M̃ = Q₂ᵀ M̄ Q₂. A column q_s of Q
+    // is +0 outside T (and e_s for s ∉ T): M̄ q_s sums the columns of M̄ in T only (the others
+    // add +0·M̄ = ±0); M̄ e_s is M̄'s column with −0 turned into +0 (the +0 terms before it);
+    // e_sᵀ t is t_s (the sum of one term).
     let t = &mut kkt.t[..m];
     for j in 0..e {
-        t.fill(0.0);
-        for s in 0..m {
-            axpy(dim, q[(c + j) * m + s], &mbar[col(s)], t);
+        let qj = &q[col(c + j)];
+        if dense || touched[c + j] {
+            t.fill(0.0);
+            for s in (0..m).filter(|&s| dense || touched[s]) {
+                axpy(dim, qj[s], &mbar[col(s)], t);
+            }
+        } else {
+            for (tp, &x) in t.iter_mut().zip(&mbar[col(c + j)]) {
+                *tp = x + 0.0;
+            }
         }
         for i in 0..c {
             kkt.g12[j * c + i] = dot(dim, &q[col(i)], t);
         }
         for i in j..e {
-            kkt.l[j * e + i] = dot(dim, &q[col(c + i)], t);
+            kkt.l[j * e + i] = if dense || touched[c + i] {
+                dot(dim, &q[col(c + i)], t)
+            } else {
+                t[c + i]
+            };
         }
     }
 
@@ -454,7 +525,10 @@ fn factor_kernel<D: Dim, C: Dim>(
     Ok(())
 }
 
-/// [`KktFactorization::solve`] for `m = dim` and `c = cdim`.
+/// [`KktFactorization::solve`] for `m = dim` and `c = cdim`: `Q`'s unit columns outside `T`
+/// taken as such, as in [`factor_kernel`], bit for bit the plain route (`dense`) when `f`
+/// and `x̃` are finite (which it tests: it takes the plain route otherwise).
+#[allow(clippy::too_many_arguments)]
 fn solve_kernel<D: Dim, C: Dim>(
     dim: D,
     cdim: C,
@@ -463,6 +537,7 @@ fn solve_kernel<D: Dim, C: Dim>(
     g: &[f64],
     x: &mut [f64],
     y: &mut [f64],
+    dense: bool,
 ) {
     let (m, c) = (dim.get(), cdim.get());
     debug_assert_eq!(c, kkt.c);
@@ -482,11 +557,17 @@ fn solve_kernel<D: Dim, C: Dim>(
         let s = g[i] - ri.iter().zip(&xt[..i]).map(|(a, b)| a * b).sum::<f64>();
         xt[i] = s * kkt.r_inv[i];
     }
-    // x̃₂ = L⁻ᵀ L⁻¹ (Q₂ᵀ f − (Q₁ᵀ M̄ Q₂)ᵀ x̃₁)
+    // x̃₂ = L⁻ᵀ L⁻¹ (Q₂ᵀ f − (Q₁ᵀ M̄ Q₂)ᵀ x̃₁), where e_sᵀ f = f_s + 0 for s ∉ T
+    let touched = &kkt.touched[..m];
+    let dense = dense || m <= SMALL_M || kkt.all_touched || !all_finite(dim, f);
     for j in 0..e {
         let g12j = &kkt.g12[j * c..(j + 1) * c];
-        xt[c + j] = dot(dim, &q[col(c + j)], f)
-            - g12j.iter().zip(&xt[..c]).map(|(a, b)| a * b).sum::<f64>();
+        let qf = if dense || touched[c + j] {
+            dot(dim, &q[col(c + j)], f)
+        } else {
+            f[c + j] + 0.0
+        };
+        xt[c + j] = qf - g12j.iter().zip(&xt[..c]).map(|(a, b)| a * b).sum::<f64>();
     }
     let (l, z) = (&kkt.l[..e * e], &mut xt[c..]);
     for i in 0..e {
@@ -503,10 +584,15 @@ fn solve_kernel<D: Dim, C: Dim>(
         }
         z[i] = s * kkt.l_inv[i];
     }
-    // x = Q x̃
+    // x = Q x̃, where x̃_s e_s adds x̃_s to x_s (and ±0 elsewhere) for s ∉ T
+    let dense = dense || !all_finite(dim, xt);
     x.fill(0.0);
     for j in 0..m {
-        axpy(dim, xt[j], &q[col(j)], x);
+        if dense || touched[j] {
+            axpy(dim, xt[j], &q[col(j)], x);
+        } else {
+            x[j] += xt[j];
+        }
     }
     // t = f − M̄ x   (M̄ symmetric: row p = column p);  y = R⁻¹ Q₁ᵀ t
     if c == 0 {
@@ -542,6 +628,13 @@ fn dot<D: Dim>(dim: D, a: &[f64], b: &[f64]) -> f64 {
     s0 + s1
 }
 
+/// Whether the first `dim` entries are finite (`v·0` is `±0` then, else NaN: no branch per
+/// entry).
+#[inline(always)]
+fn all_finite<D: Dim>(dim: D, v: &[f64]) -> bool {
+    v[..dim.get()].iter().fold(0.0, |s, &x| s + x * 0.0) == 0.0
+}
+
 /// `y ← y + α x` over the first `dim` entries.
 #[inline(always)]
 fn axpy<D: Dim>(dim: D, alpha: f64, x: &[f64], y: &mut [f64]) {
@@ -567,9 +660,13 @@ fn singular(mbar: DMatrix<f64>, a: DMatrix<f64>, kind: SingularityKind) -> CoreE
     }
 }
 
-/// The 2-norm condition number of `[M̄ Aᵀ; A 0]` (an SVD; used on error paths and in tests).
+/// The 2-norm condition number of `[M̄ Aᵀ; A 0]` (an SVD; used on error paths and in tests),
+/// NaN when the matrix is not finite (the SVD would not converge).
 pub fn kkt_condition_number(mbar: &DMatrix<f64>, a: &DMatrix<f64>) -> f64 {
     let k = kkt_matrix(mbar, a);
+    if !k.iter().all(|x| x.is_finite()) {
+        return f64::NAN;
+    }
     let sv = k.svd(false, false).singular_values;
     let max = sv.max();
     let min = sv.min();
@@ -649,7 +746,7 @@ mod tests {
                     let (mbar, a) = random_system(m, c, massless, &mut r);
                     fixed.factor(&mbar, &a).unwrap();
                     dynamic.load(&mbar, &a, None);
-                    factor_kernel(m, c, &mut dynamic).unwrap();
+                    factor_kernel(m, c, &mut dynamic, false).unwrap();
                     assert_eq!(bits(&fixed.q), bits(&dynamic.q), "Q, m={m} c={c}");
                     assert_eq!(bits(&fixed.l), bits(&dynamic.l), "L, m={m} c={c}");
                     assert_eq!(bits(&fixed.r_diag), bits(&dynamic.r_diag), "R, m={m} c={c}");
@@ -658,7 +755,7 @@ mod tests {
                     let (mut x1, mut y1) = (vec![0.0; m], vec![0.0; c]);
                     let (mut x2, mut y2) = (vec![0.0; m], vec![0.0; c]);
                     fixed.solve(&f, &g, &mut x1, &mut y1);
-                    solve_kernel(m, c, &mut dynamic, &f, &g, &mut x2, &mut y2);
+                    solve_kernel(m, c, &mut dynamic, &f, &g, &mut x2, &mut y2, false);
                     assert_eq!(bits(&x1), bits(&x2), "x, m={m} c={c}");
                     assert_eq!(bits(&y1), bits(&y2), "y, m={m} c={c}");
                 }
@@ -764,5 +861,189 @@ mod tests {
         a4[(3, 0)] = 1.0;
         a4[(3, 1)] = 0.2;
         k.factor(&mbar, &a4).unwrap();
+    }
+
+    /// A system shaped like a legged robot's (a body of three coordinates, the rest legs of
+    /// two joints): each constraint row involves the body and one leg, or is a joint limit
+    /// of one joint; `M̄ = BᵀB` with each row of `B` on the body and one leg (exact zeros
+    /// between legs), some coordinates massless; exact zeros are `±0` at random.
+    fn legged_system(
+        m: usize,
+        c: usize,
+        massless: usize,
+        r: &mut ChaCha8Rng,
+    ) -> (DMatrix<f64>, DMatrix<f64>) {
+        let body = r.gen_range(0..m.saturating_sub(2).max(1));
+        let is_body = |p: usize| (body..body + 3).contains(&p);
+        let legs: Vec<usize> = (0..m).filter(|&p| !is_body(p)).collect();
+        let leg_of = |p: usize| legs.iter().position(|&l| l == p).map(|i| i / 2);
+        let rows = |r: &mut ChaCha8Rng, n: usize, limit: bool| {
+            let mut out = DMatrix::zeros(n, m);
+            for i in 0..n {
+                let leg = r.gen_range(0..legs.len().div_ceil(2).max(1));
+                let joint = legs.get(r.gen_range(0..legs.len().max(1))).copied();
+                for p in 0..m {
+                    let on = if limit && r.gen_bool(0.3) {
+                        Some(p) == joint
+                    } else {
+                        is_body(p) || leg_of(p) == Some(leg)
+                    };
+                    out[(i, p)] = if on {
+                        r.gen_range(-1.0..1.0)
+                    } else if r.gen_bool(0.5) {
+                        -0.0
+                    } else {
+                        0.0
+                    };
+                }
+            }
+            out
+        };
+        let b = rows(r, m + 2, false);
+        let mut mbar = b.transpose() * &b;
+        for p in 0..m {
+            if p < massless {
+                mbar.row_mut(p).fill(0.0);
+                mbar.column_mut(p).fill(0.0);
+            } else {
+                mbar[(p, p)] += 0.5;
+            }
+        }
+        mbar.iter_mut()
+            .filter(|x| **x == 0.0 && r.gen_bool(0.5))
+            .for_each(|x| *x = -0.0);
+        (mbar, rows(r, c, true))
+    }
+
+    /// Factors `(M̄, A)` and solves for `(f, g)` by the structured route and by the plain
+    /// dense one (every row touched): the same outcome, and on success the same factor,
+    /// diagnostics and solution, bit for bit (signed zeros included).
+    fn assert_routes_agree(mbar: &DMatrix<f64>, a: &DMatrix<f64>, f: &[f64], g: &[f64]) {
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let (m, c) = (mbar.nrows(), a.nrows());
+        let mut k = [KktFactorization::default(), KktFactorization::default()];
+        let mut out = vec![];
+        for (kkt, dense) in k.iter_mut().zip([false, true]) {
+            kkt.load(mbar, a, None);
+            let res = with_dims!(m, c, |md, cd| factor_kernel(md, cd, kkt, dense));
+            let (mut x, mut y) = (vec![0.0; m], vec![0.0; c]);
+            if res.is_ok() {
+                with_dims!(m, c, |md, cd| solve_kernel(
+                    md, cd, kkt, f, g, &mut x, &mut y, dense
+                ));
+            }
+            out.push((res, x, y));
+        }
+        let ([s, d], [(rs, xs, ys), (rd, xd, yd)]) = (&k, &out[..]) else {
+            unreachable!()
+        };
+        assert_eq!(rs, rd, "outcome, m={m} c={c}");
+        if rs.is_err() {
+            return;
+        }
+        for (name, u, w) in [
+            ("Q", &s.q, &d.q),
+            ("R", &s.r, &d.r),
+            ("R_kk", &s.r_diag, &d.r_diag),
+            ("β", &s.beta, &d.beta),
+            ("Q₁ᵀM̄Q₂", &s.g12, &d.g12),
+            ("L", &s.l, &d.l),
+            ("1/L_jj", &s.l_inv, &d.l_inv),
+            ("x", xs, xd),
+            ("y", ys, yd),
+        ] {
+            assert_eq!(bits(u), bits(w), "{name}, m={m} c={c}");
+        }
+        assert_eq!(s.info, d.info);
+    }
+
+    /// The structured route (unit columns of `Q` outside the reflectors' rows) gives the
+    /// plain dense route's results bit for bit: legged systems of every size the kernels
+    /// are compiled for and beyond, flight (`c = 0`) to fully constrained (`c = m`),
+    /// massless coordinates, signed zeros in `M̄`, `A`, `f`, `g`; rank-deficient `A`, nearly
+    /// dependent rows, a nearly singular `M̃`; and non-finite right-hand sides.
+    #[test]
+    fn structured_route_is_bit_identical_to_the_dense_one() {
+        let mut r = ChaCha8Rng::seed_from_u64(30);
+        let signed = |r: &mut ChaCha8Rng, n: usize| -> Vec<f64> {
+            (0..n)
+                .map(|_| match r.gen_range(0..6) {
+                    0 => 0.0,
+                    1 => -0.0,
+                    _ => r.gen_range(-1.0..1.0),
+                })
+                .collect()
+        };
+        let (mut touched, mut cases) = (0, 0);
+        for m in 3..=13 {
+            for c in 0..=m {
+                for massless in [0, 1, 2] {
+                    let (mbar, a) = legged_system(m, c, massless, &mut r);
+                    let (f, g) = (signed(&mut r, m), signed(&mut r, c));
+                    assert_routes_agree(&mbar, &a, &f, &g);
+                    // a repeated row; a row nearly a copy of another
+                    if c >= 2 {
+                        let mut dup = a.clone();
+                        dup.set_row(1, &a.row(0));
+                        assert_routes_agree(&mbar, &dup, &f, &g);
+                        dup.row_mut(1).iter_mut().for_each(|x| *x *= 1.0 + 1e-9);
+                        dup[(1, r.gen_range(0..m))] += 1e-9;
+                        assert_routes_agree(&mbar, &dup, &f, &g);
+                    }
+                    // M̃ nearly singular: a nearly massless coordinate
+                    let mut light = mbar.clone();
+                    let p = r.gen_range(0..m);
+                    light.row_mut(p).iter_mut().for_each(|x| *x *= 1e-6);
+                    light.column_mut(p).iter_mut().for_each(|x| *x *= 1e-6);
+                    assert_routes_agree(&light, &a, &f, &g);
+                    // non-finite f or g take the plain route
+                    let mut bad = f.clone();
+                    bad[r.gen_range(0..m)] = [f64::NAN, f64::INFINITY][r.gen_range(0..2)];
+                    assert_routes_agree(&mbar, &a, &bad, &g);
+                    if c > 0 {
+                        let mut bad = g.clone();
+                        bad[0] = f64::NEG_INFINITY;
+                        assert_routes_agree(&mbar, &a, &f, &bad);
+                    }
+                    // the case exercises the structure when some row is untouched
+                    let mut k = KktFactorization::default();
+                    if m > SMALL_M && k.factor(&mbar, &a).is_ok() {
+                        cases += 1;
+                        touched += usize::from(!k.all_touched);
+                    }
+                }
+            }
+        }
+        assert!(
+            touched * 3 > cases,
+            "{touched} of {cases} with untouched rows"
+        );
+    }
+
+    /// A non-finite `M̄` (or `A`) through the public entry: the outcome of the plain route
+    /// (a Lemma 5.1 failure when anything is free to move, `c < m`).
+    #[test]
+    fn non_finite_inputs_fail_as_on_the_dense_route() {
+        let mut r = ChaCha8Rng::seed_from_u64(31);
+        for m in [4, 11, 13] {
+            for c in [0, 2, m] {
+                let (mbar, a) = legged_system(m, c, 0, &mut r);
+                let mut bad = mbar.clone();
+                bad[(m - 1, 0)] = f64::NAN;
+                let mut k = KktFactorization::default();
+                let got = k.factor(&bad, &a).is_ok();
+                let mut d = KktFactorization::default();
+                d.load(&bad, &a, None);
+                let dense = with_dims!(m, c, |md, cd| factor_kernel(md, cd, &mut d, true));
+                assert_eq!(got, dense.is_ok(), "m={m} c={c}");
+                assert!(!got || c == m, "m={m} c={c}");
+                if c > 0 {
+                    let mut bad = a.clone();
+                    bad[(c - 1, m - 1)] = f64::NAN;
+                    let f = vec![1.0; m];
+                    assert_routes_agree(&mbar, &bad, &f, &vec![0.5; c]);
+                }
+            }
+        }
     }
 }
