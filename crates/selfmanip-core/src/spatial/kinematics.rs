@@ -96,8 +96,8 @@ pub struct SpatialData {
     /// the model ([`turned`]).
     pub(crate) axis_index: Vec<Option<CoordinateAxis>>,
     /// Each joint's place in a limb below a free-flying root, fixed by the model
-    /// ([`super::rigid_body::limb_joints`]).
-    pub(crate) limb_joints: Vec<Option<super::rigid_body::LimbJoint>>,
+    /// ([`limb_joints`]).
+    pub(crate) limb_joints: Vec<Option<LimbJoint>>,
     /// Right-hand sides of the KKT solve.
     pub(crate) rhs_f: DVector<f64>,
     pub(crate) rhs_g: DVector<f64>,
@@ -141,11 +141,56 @@ impl SpatialData {
                     _ => None,
                 })
                 .collect(),
-            limb_joints: super::rigid_body::limb_joints(model),
+            limb_joints: limb_joints(model),
             rhs_f: DVector::zeros(nv),
             rhs_g: DVector::zeros(0),
         }
     }
+}
+
+/// A one-rate joint hanging from a free-flying root through `n_above ≤ 2` one-rate joints
+/// (a leg's hip, thigh or knee): its rate, the rates of those joints, the root joint and its
+/// first rate. Fixed when `SpatialData` is made ([`limb_joints`]); [`mass_columns`] then writes the
+/// joint's column with constant bounds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct LimbJoint {
+    pub(crate) rate: usize,
+    pub(crate) above: [usize; 2],
+    pub(crate) n_above: usize,
+    pub(crate) root: usize,
+    pub(crate) root_v: usize,
+}
+
+/// Each joint's [`LimbJoint`], `None` for the others (the root, a joint of several rates, a
+/// joint deeper than three in its limb, a tree on a fixed base).
+pub(crate) fn limb_joints(model: &SpatialModel) -> Vec<Option<LimbJoint>> {
+    let limb_joint = |joint: &super::model::Joint| {
+        if joint.kind.nv() != 1 {
+            return None;
+        }
+        let (mut above, mut n_above) = ([0; 2], 0);
+        let mut ancestor = joint.parent;
+        while let Some(a) = ancestor {
+            let aj = &model.joints[a];
+            if aj.kind == JointKind::FreeFlyer {
+                return aj.parent.is_none().then_some(LimbJoint {
+                    rate: joint.idx_v,
+                    above,
+                    n_above,
+                    root: a,
+                    root_v: aj.idx_v,
+                });
+            }
+            if aj.kind.nv() != 1 || n_above == above.len() {
+                return None;
+            }
+            above[n_above] = aj.idx_v;
+            n_above += 1;
+            ancestor = aj.parent;
+        }
+        None
+    };
+    model.joints.iter().map(limb_joint).collect()
 }
 
 /// The joint's own transform `ʲ⁻Mⱼ(q)` (parent-side joint frame to body frame) and its world

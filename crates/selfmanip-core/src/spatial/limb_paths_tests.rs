@@ -1,5 +1,5 @@
 //! The constant-size paths fixed when `SpatialData` is made against the general routes they
-//! stand in for: a limb joint's column of `M` ([`super::rigid_body::LimbJoint`]) against the
+//! stand in for: a limb joint's column of `M` ([`super::kinematics::LimbJoint`]) against the
 //! ancestor walk, bit for bit, and a coordinate axis's turn and world axis
 //! ([`super::kinematics`]'s `CoordinateAxis`) against Rodrigues' rotation and `R axis` — on
 //! the quadruped (every joint on a path) and on a robot where most are not (a four-joint
@@ -13,56 +13,134 @@ use nalgebra::{DVector, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+/// A link `name` of mass `mass` (none when 0) at `com` with principal inertias `inertia`.
+fn link(name: &str, mass: f64, com: [f64; 3], inertia: [f64; 3]) -> String {
+    if mass == 0.0 {
+        return format!(r#"<link name="{name}"/>"#);
+    }
+    let [x, y, z] = com;
+    let [ixx, iyy, izz] = inertia;
+    format!(
+        r#"<link name="{name}"><inertial><origin xyz="{x} {y} {z}"/><mass value="{mass}"/>
+        <inertia ixx="{ixx}" ixy="0.0001" ixz="0" iyy="{iyy}" iyz="0" izz="{izz}"/></inertial></link>"#
+    )
+}
+
+/// A joint `name` of `kind` from `parent` to `child` at `xyz`, `rpy` about `axis`.
+fn joint(
+    name: &str,
+    kind: &str,
+    [parent, child]: [&str; 2],
+    xyz: &str,
+    rpy: &str,
+    axis: &str,
+) -> String {
+    format!(
+        r#"<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>
+        <origin xyz="{xyz}" rpy="{rpy}"/><axis xyz="{axis}"/>
+        <limit effort="1" velocity="1" lower="-3" upper="3"/></joint>"#
+    )
+}
+
 /// A body with three limbs: four revolute joints in a chain (about x, −y, y, z), a prismatic
 /// joint along z then an oblique revolute joint (0, 0.6, 0.8) to a massless link and a joint
 /// about x, and one joint about −z whose origin is rotated.
-const LIMBS: &str = r#"<robot name="limbs">
-  <link name="body"><inertial><origin xyz="0.02 -0.01 0.03"/><mass value="4.0"/>
-    <inertia ixx="0.05" ixy="0.002" ixz="-0.001" iyy="0.08" iyz="0.003" izz="0.09"/></inertial></link>
-  <link name="a1"><inertial><origin xyz="0 0.02 0"/><mass value="0.5"/>
-    <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.002" iyz="0" izz="0.001"/></inertial></link>
-  <link name="a2"><inertial><origin xyz="0.01 0 -0.1"/><mass value="0.8"/>
-    <inertia ixx="0.004" ixy="0.0001" ixz="0" iyy="0.004" iyz="0" izz="0.001"/></inertial></link>
-  <link name="a3"><inertial><origin xyz="0 0 -0.1" rpy="0.1 0 0"/><mass value="0.3"/>
-    <inertia ixx="0.002" ixy="0" ixz="0" iyy="0.002" iyz="0" izz="0.0002"/></inertial></link>
-  <link name="a4"><inertial><origin xyz="0.03 0 -0.02"/><mass value="0.1"/>
-    <inertia ixx="0.0001" ixy="0" ixz="0" iyy="0.0002" iyz="0" izz="0.0001"/></inertial></link>
-  <link name="b1"><inertial><origin xyz="0 0 -0.05"/><mass value="0.6"/>
-    <inertia ixx="0.002" ixy="0" ixz="0" iyy="0.002" iyz="0" izz="0.001"/></inertial></link>
-  <link name="b2"/>
-  <link name="b3"><inertial><origin xyz="0 0.04 -0.05"/><mass value="0.2"/>
-    <inertia ixx="0.0003" ixy="0" ixz="0" iyy="0.0002" iyz="0" izz="0.0001"/></inertial></link>
-  <link name="c1"><inertial><origin xyz="0.05 0 0"/><mass value="0.4"/>
-    <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/></inertial></link>
-  <joint name="a_hip" type="revolute"><parent link="body"/><child link="a1"/>
-    <origin xyz="0.2 0.1 0"/><axis xyz="1 0 0"/><limit effort="1" velocity="1" lower="-3" upper="3"/></joint>
-  <joint name="a_thigh" type="revolute"><parent link="a1"/><child link="a2"/>
-    <origin xyz="0 0.05 0"/><axis xyz="0 -1 0"/><limit effort="1" velocity="1" lower="-3" upper="3"/></joint>
-  <joint name="a_knee" type="revolute"><parent link="a2"/><child link="a3"/>
-    <origin xyz="0 0 -0.2"/><axis xyz="0 1 0"/><limit effort="1" velocity="1" lower="-3" upper="3"/></joint>
-  <joint name="a_ankle" type="revolute"><parent link="a3"/><child link="a4"/>
-    <origin xyz="0 0 -0.2"/><axis xyz="0 0 1"/><limit effort="1" velocity="1" lower="-3" upper="3"/></joint>
-  <joint name="b_slide" type="prismatic"><parent link="body"/><child link="b1"/>
-    <origin xyz="-0.2 0 0"/><axis xyz="0 0 1"/><limit effort="1" velocity="1" lower="-1" upper="1"/></joint>
-  <joint name="b_turn" type="revolute"><parent link="b1"/><child link="b2"/>
-    <origin xyz="0 0 -0.1"/><axis xyz="0 0.6 0.8"/><limit effort="1" velocity="1" lower="-3" upper="3"/></joint>
-  <joint name="b_end" type="revolute"><parent link="b2"/><child link="b3"/>
-    <origin xyz="0 0 -0.1"/><axis xyz="1 0 0"/><limit effort="1" velocity="1" lower="-3" upper="3"/></joint>
-  <joint name="c_hip" type="revolute"><parent link="body"/><child link="c1"/>
-    <origin xyz="0 -0.2 0" rpy="0.3 -0.2 0.1"/><axis xyz="0 0 -1"/><limit effort="1" velocity="1" lower="-3" upper="3"/></joint>
-</robot>"#;
+fn limbs() -> String {
+    let links = [
+        link("body", 4.0, [0.02, -0.01, 0.03], [0.05, 0.08, 0.09]),
+        link("a1", 0.5, [0.0, 0.02, 0.0], [0.001, 0.002, 0.001]),
+        link("a2", 0.8, [0.01, 0.0, -0.1], [0.004, 0.004, 0.001]),
+        link("a3", 0.3, [0.0, 0.0, -0.1], [0.002, 0.002, 0.0002]),
+        link("a4", 0.1, [0.03, 0.0, -0.02], [0.0001, 0.0002, 0.0001]),
+        link("b1", 0.6, [0.0, 0.0, -0.05], [0.002, 0.002, 0.001]),
+        link("b2", 0.0, [0.0; 3], [0.0; 3]),
+        link("b3", 0.2, [0.0, 0.04, -0.05], [0.0003, 0.0002, 0.0001]),
+        link("c1", 0.4, [0.05, 0.0, 0.0], [0.001, 0.001, 0.001]),
+    ];
+    let joints = [
+        joint(
+            "a_hip",
+            "revolute",
+            ["body", "a1"],
+            "0.2 0.1 0",
+            "0 0 0",
+            "1 0 0",
+        ),
+        joint(
+            "a_thigh",
+            "revolute",
+            ["a1", "a2"],
+            "0 0.05 0",
+            "0 0 0",
+            "0 -1 0",
+        ),
+        joint(
+            "a_knee",
+            "revolute",
+            ["a2", "a3"],
+            "0 0 -0.2",
+            "0 0 0",
+            "0 1 0",
+        ),
+        joint(
+            "a_ankle",
+            "revolute",
+            ["a3", "a4"],
+            "0 0 -0.2",
+            "0 0 0",
+            "0 0 1",
+        ),
+        joint(
+            "b_slide",
+            "prismatic",
+            ["body", "b1"],
+            "-0.2 0 0",
+            "0 0 0",
+            "0 0 1",
+        ),
+        joint(
+            "b_turn",
+            "revolute",
+            ["b1", "b2"],
+            "0 0 -0.1",
+            "0 0 0",
+            "0 0.6 0.8",
+        ),
+        joint(
+            "b_end",
+            "revolute",
+            ["b2", "b3"],
+            "0 0 -0.1",
+            "0 0 0",
+            "1 0 0",
+        ),
+        joint(
+            "c_hip",
+            "revolute",
+            ["body", "c1"],
+            "0 -0.2 0",
+            "0.3 -0.2 0.1",
+            "0 0 -1",
+        ),
+    ];
+    format!(
+        r#"<robot name="limbs">{}{}</robot>"#,
+        links.concat(),
+        joints.concat()
+    )
+}
 
 const QUADRUPED: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/../../tests/data/urdf/quadruped12.urdf"
 );
 
-/// The quadruped and [`LIMBS`] on a free-flying and on a fixed base.
+/// The quadruped and [`limbs`] on a free-flying and on a fixed base.
 fn models() -> Vec<SpatialModel> {
     vec![
         SpatialModel::from_urdf_file(QUADRUPED, BaseKind::FreeFlyer, None).unwrap(),
-        SpatialModel::from_urdf_str(LIMBS, BaseKind::FreeFlyer, None).unwrap(),
-        SpatialModel::from_urdf_str(LIMBS, BaseKind::Fixed, None).unwrap(),
+        SpatialModel::from_urdf_str(&limbs(), BaseKind::FreeFlyer, None).unwrap(),
+        SpatialModel::from_urdf_str(&limbs(), BaseKind::Fixed, None).unwrap(),
     ]
 }
 
@@ -88,7 +166,7 @@ fn sweep(model: &SpatialModel, data: &mut SpatialData, q: &DVector<f64>, v: &DVe
 }
 
 /// A limb joint's column of `M` by constant bounds equals the ancestor walk's to the bit;
-/// the quadruped's twelve joints take the path, [`LIMBS`] seven (any one-rate joint within
+/// the quadruped's twelve joints take the path, [`limbs`] seven (any one-rate joint within
 /// three of the free-flying root: the prismatic and oblique ones too, not the four-joint
 /// limb's ankle), none on a fixed base.
 #[test]
@@ -114,7 +192,7 @@ fn limb_columns_match_the_ancestor_walk() {
 /// A turn about a coordinate axis `±e_k` mixes two columns of the parent's rotation and
 /// takes its world axis as `±` column `k`: the world axis equals `R axis` exactly, and the
 /// placements, world columns and `M` equal Rodrigues' route (every joint's `CoordinateAxis`
-/// removed) to 1e-12; the oblique and prismatic joints of [`LIMBS`] take the general route
+/// removed) to 1e-12; the oblique and prismatic joints of [`limbs`] take the general route
 /// in both.
 #[test]
 fn coordinate_axes_match_rodrigues() {

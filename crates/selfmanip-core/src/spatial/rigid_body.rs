@@ -6,7 +6,7 @@
 #![allow(non_snake_case)]
 use super::error::SpatialResult;
 use super::kinematics::{
-    forward_kinematics, forward_kinematics_velocity, joint_motion, SpatialData,
+    forward_kinematics, forward_kinematics_velocity, joint_motion, LimbJoint, SpatialData,
 };
 use super::model::{JointKind, SpatialModel};
 use super::motion::{Force, Motion};
@@ -95,51 +95,6 @@ fn dot6(s: &[f64; 6], f: &[f64; 6]) -> f64 {
 fn free_flyer_rows(g: &super::se3::SE3, force: &Force) -> [nalgebra::Vector3<f64>; 2] {
     let n = force.angular - g.translation.cross(&force.linear);
     [g.rotation.tr_mul(&force.linear), g.rotation.tr_mul(&n)]
-}
-
-/// A one-rate joint hanging from a free-flying root through `n_above ≤ 2` one-rate joints
-/// (a leg's hip, thigh or knee): its rate, the rates of those joints, the root joint and its
-/// first rate. Fixed when `SpatialData` is made ([`limb_joints`]); [`mass_columns`] then writes the
-/// joint's column with constant bounds.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) struct LimbJoint {
-    rate: usize,
-    above: [usize; 2],
-    n_above: usize,
-    root: usize,
-    root_v: usize,
-}
-
-/// Each joint's [`LimbJoint`], `None` for the others (the root, a joint of several rates, a
-/// joint deeper than three in its limb, a tree on a fixed base).
-pub(crate) fn limb_joints(model: &SpatialModel) -> Vec<Option<LimbJoint>> {
-    let limb_joint = |joint: &super::model::Joint| {
-        if joint.kind.nv() != 1 {
-            return None;
-        }
-        let (mut above, mut n_above) = ([0; 2], 0);
-        let mut ancestor = joint.parent;
-        while let Some(a) = ancestor {
-            let aj = &model.joints[a];
-            if aj.kind == JointKind::FreeFlyer {
-                return aj.parent.is_none().then_some(LimbJoint {
-                    rate: joint.idx_v,
-                    above,
-                    n_above,
-                    root: a,
-                    root_v: aj.idx_v,
-                });
-            }
-            if aj.kind.nv() != 1 || n_above == above.len() {
-                return None;
-            }
-            above[n_above] = aj.idx_v;
-            n_above += 1;
-            ancestor = aj.parent;
-        }
-        None
-    };
-    model.joints.iter().map(limb_joint).collect()
 }
 
 /// [`mass_columns`] for a [`LimbJoint`] `i` with `D` one-rate joints above it: its column `c`
