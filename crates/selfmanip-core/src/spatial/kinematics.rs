@@ -92,9 +92,12 @@ pub struct SpatialData {
     /// Whether each joint's placement in its parent is a translation alone (its rotation the
     /// identity), fixed by the model.
     pub(crate) shift_only: Vec<bool>,
-    /// Each joint's coordinate axis `k` when it turns about `±e_k` (most URDF joints), fixed
-    /// by the model ([`turned`]).
-    pub(crate) axis_index: Vec<Option<usize>>,
+    /// Each joint's coordinate axis when it turns about `±e_k` (most URDF joints), fixed by
+    /// the model ([`turned`]).
+    pub(crate) axis_index: Vec<Option<CoordinateAxis>>,
+    /// Each joint's place in a limb below a free-flying root, fixed by the model
+    /// ([`limb_joints`]).
+    pub(crate) limb_joints: Vec<Option<LimbJoint>>,
     /// Right-hand sides of the KKT solve.
     pub(crate) rhs_f: DVector<f64>,
     pub(crate) rhs_g: DVector<f64>,
@@ -138,10 +141,56 @@ impl SpatialData {
                     _ => None,
                 })
                 .collect(),
+            limb_joints: limb_joints(model),
             rhs_f: DVector::zeros(nv),
             rhs_g: DVector::zeros(0),
         }
     }
+}
+
+/// A one-rate joint hanging from a free-flying root through `n_above ≤ 2` one-rate joints
+/// (a leg's hip, thigh or knee): its rate, the rates of those joints, the root joint and its
+/// first rate. Fixed when `SpatialData` is made ([`limb_joints`]); [`mass_columns`] then writes the
+/// joint's column with constant bounds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct LimbJoint {
+    pub(crate) rate: usize,
+    pub(crate) above: [usize; 2],
+    pub(crate) n_above: usize,
+    pub(crate) root: usize,
+    pub(crate) root_v: usize,
+}
+
+/// Each joint's [`LimbJoint`], `None` for the others (the root, a joint of several rates, a
+/// joint deeper than three in its limb, a tree on a fixed base).
+pub(crate) fn limb_joints(model: &SpatialModel) -> Vec<Option<LimbJoint>> {
+    let limb_joint = |joint: &super::model::Joint| {
+        if joint.kind.nv() != 1 {
+            return None;
+        }
+        let (mut above, mut n_above) = ([0; 2], 0);
+        let mut ancestor = joint.parent;
+        while let Some(a) = ancestor {
+            let aj = &model.joints[a];
+            if aj.kind == JointKind::FreeFlyer {
+                return aj.parent.is_none().then_some(LimbJoint {
+                    rate: joint.idx_v,
+                    above,
+                    n_above,
+                    root: a,
+                    root_v: aj.idx_v,
+                });
+            }
+            if aj.kind.nv() != 1 || n_above == above.len() {
+                return None;
+            }
+            above[n_above] = aj.idx_v;
+            n_above += 1;
+            ancestor = aj.parent;
+        }
+        None
+    };
+    model.joints.iter().map(limb_joint).collect()
 }
 
 /// The joint's own transform `ʲ⁻Mⱼ(q)` (parent-side joint frame to body frame) and its world
@@ -160,27 +209,49 @@ fn joint_transform(kind: &JointKind, q: &[f64]) -> SE3 {
     }
 }
 
-/// The index `k` of a unit `axis` that is a coordinate axis `±e_k`.
-fn coordinate_axis(axis: &Vector3<f64>) -> Option<usize> {
-    (0..3).find(|&k| axis[k].abs() == 1.0)
+/// A revolute joint's axis `±e_k`: `k` and the two columns `a = k + 1`, `b = k + 2` (mod 3)
+/// a turn about it mixes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct CoordinateAxis {
+    k: usize,
+    a: usize,
+    b: usize,
+}
+
+/// The [`CoordinateAxis`] of a unit `axis` that is a coordinate axis `±e_k`.
+fn coordinate_axis(axis: &Vector3<f64>) -> Option<CoordinateAxis> {
+    (0..3)
+        .find(|&k| axis[k].abs() == 1.0)
+        .map(|k| CoordinateAxis {
+            k,
+            a: (k + 1) % 3,
+            b: (k + 2) % 3,
+        })
 }
 
 /// `g R(axis, θ)`: `g` turned about the unit `axis` of its own frame by `θ`. A coordinate axis
 /// `±e_k` (most URDF joints) mixes two columns of `g`'s rotation (Featherstone 2008, Table
 /// 4.1's `rot`), any other axis takes Rodrigues' rotation matrix; `k`, the coordinate axis's
-/// index, is fixed when `SpatialData` is made.
-fn turned(g: &SE3, axis: &Vector3<f64>, angle: f64, k: Option<usize>) -> SE3 {
-    let Some(k) = k else {
+/// index, is fixed when `SpatialData` is made. With it, the turned frame's world axis
+/// `R axis` is column `k` of its rotation times `±1` (the product's other terms are zeros).
+fn turned(
+    g: &SE3,
+    axis: &Vector3<f64>,
+    angle: f64,
+    k: Option<CoordinateAxis>,
+) -> (SE3, Vector3<f64>) {
+    let Some(CoordinateAxis { k, a, b }) = k else {
         let r = Rotation3::from_axis_angle(&Unit::new_unchecked(*axis), angle);
-        return SE3::new(g.rotation * r.matrix(), g.translation);
+        let rotation = g.rotation * r.matrix();
+        return (SE3::new(rotation, g.translation), rotation * axis);
     };
     let (s, c) = (angle * axis[k]).sin_cos();
-    let (a, b) = ((k + 1) % 3, (k + 2) % 3);
     let mut rotation = g.rotation;
     let (ra, rb) = (g.rotation.column(a), g.rotation.column(b));
     rotation.set_column(a, &(ra * c + rb * s));
     rotation.set_column(b, &(rb * c - ra * s));
-    SE3::new(rotation, g.translation)
+    let w = g.rotation.column(k) * axis[k];
+    (SE3::new(rotation, g.translation), w)
 }
 
 /// Forward kinematics (Featherstone 2008, §4.4): `⁰Mᵢ = ⁰M_λ(i) Xᵢ Mⱼ(qᵢ)`, the world motion
@@ -218,8 +289,7 @@ fn place_joint(model: &SpatialModel, data: &mut SpatialData, i: usize, q: &[f64]
             oMi
         }
         JointKind::Revolute { axis } => {
-            let oMi = turned(&before, &axis, qi[0], data.axis_index[i]);
-            let w = oMi.rotation * axis;
+            let (oMi, w) = turned(&before, &axis, qi[0], data.axis_index[i]);
             let v = oMi.translation.cross(&w);
             col[..6].copy_from_slice(&[v.x, v.y, v.z, w.x, w.y, w.z]);
             oMi

@@ -227,7 +227,8 @@ impl LimbKkt {
     }
 
     /// Factors the limb elimination of `[M Aᵀ; A 0]`; `false` (nothing usable) when the
-    /// route does not apply (the module's text lists when).
+    /// route does not apply (the module's text lists when). `M` is symmetric to the bit (as
+    /// the backward sweep writes it): a limb's `M_lb` is read from its columns' base rows.
     pub fn factor(&mut self, M: &DMatrix<f64>, A: &DMatrix<f64>) -> bool {
         let (m, a) = (M.as_slice(), A.as_slice());
         self.supported && self.limbs_definite(m) && self.factor_rows(m, a, A.nrows()).is_some()
@@ -631,9 +632,9 @@ fn factor_limb<const N: usize, const R: usize>(
     base.extend_from_slice(&alb[N..]);
     for i in 0..N {
         limb.t[i] = -alb[i];
-        let mi = &m[k0 + i..];
+        // row k0 + i of M_b·, read as its column (M is symmetric to the bit)
         limb.mlb[i] = if nb == ROOT {
-            Vector6::from_fn(|j, _| mi[j * nv])
+            Vector6::from_column_slice(&m[(k0 + i) * nv..][..ROOT])
         } else {
             Vector6::zeros()
         };

@@ -30,6 +30,8 @@ pub mod inertia;
 pub mod kinematics;
 pub mod liegroup;
 pub mod limb_kkt;
+#[cfg(test)]
+mod limb_paths_tests;
 pub mod model;
 pub mod motion;
 pub mod quasistatic;

@@ -6,7 +6,7 @@
 #![allow(non_snake_case)]
 use super::error::SpatialResult;
 use super::kinematics::{
-    forward_kinematics, forward_kinematics_velocity, joint_motion, SpatialData,
+    forward_kinematics, forward_kinematics_velocity, joint_motion, LimbJoint, SpatialData,
 };
 use super::model::{JointKind, SpatialModel};
 use super::motion::{Force, Motion};
@@ -48,25 +48,28 @@ fn mass_columns(model: &SpatialModel, data: &mut SpatialData, i: usize) {
     if joint.kind == JointKind::FreeFlyer && joint.parent.is_none() {
         return root_block(data, joint.idx_v, nv, i);
     }
+    if let Some(limb) = data.limb_joints[i] {
+        return match limb.n_above {
+            0 => limb_column::<0>(data, nv, i, &limb),
+            1 => limb_column::<1>(data, nv, i, &limb),
+            _ => limb_column::<2>(data, nv, i, &limb),
+        };
+    }
     let (s, m) = (data.oS.as_slice().as_chunks::<6>().0, data.M.as_mut_slice());
     let y = &data.oIc[i];
     let mut put = |r: usize, c: usize, x: f64| {
         m[r + c * nv] = x;
         m[c + r * nv] = x;
     };
-    let dot = |s: &[f64; 6], f: &[f64; 6]| s.iter().zip(f).fold(0.0, |x, (a, b)| x + a * b);
     for c in joint.idx_v..joint.idx_v + joint.kind.nv() {
         let force = y.apply(&Motion::from_vector(&Vector6::from(s[c])));
         let F: [f64; 6] = force.to_vector().into();
-        (joint.idx_v..=c).for_each(|r| put(r, c, dot(&s[r], &F)));
+        (joint.idx_v..=c).for_each(|r| put(r, c, dot6(&s[r], &F)));
         let mut ancestor = joint.parent;
         while let Some(a) = ancestor {
             let aj = &model.joints[a];
             if aj.kind == JointKind::FreeFlyer {
-                // Ad(g)ᵀ [f; n] = [Rᵀ f; Rᵀ (n − p × f)]
-                let g = &data.oMi[a];
-                let n = force.angular - g.translation.cross(&force.linear);
-                let (lin, ang) = (g.rotation.tr_mul(&force.linear), g.rotation.tr_mul(&n));
+                let [lin, ang] = free_flyer_rows(&data.oMi[a], &force);
                 let r = aj.idx_v;
                 put(r, c, lin.x);
                 put(r + 1, c, lin.y);
@@ -75,10 +78,49 @@ fn mass_columns(model: &SpatialModel, data: &mut SpatialData, i: usize) {
                 put(r + 4, c, ang.y);
                 put(r + 5, c, ang.z);
             } else {
-                put(aj.idx_v, c, dot(&s[aj.idx_v], &F));
+                put(aj.idx_v, c, dot6(&s[aj.idx_v], &F));
             }
             ancestor = aj.parent;
         }
+    }
+}
+
+/// `⁰Sᵀ F` for one spatial column `⁰S` and force `F` (stacked, linear first).
+fn dot6(s: &[f64; 6], f: &[f64; 6]) -> f64 {
+    s.iter().zip(f).fold(0.0, |x, (a, b)| x + a * b)
+}
+
+/// A free flyer's six entries `Ad(g)ᵀ F` of a force column: `Ad(g)ᵀ [f; n] = [Rᵀ f; Rᵀ (n − p × f)]`
+/// (its columns are `Ad(g)`, `g = ⁰Mⱼ`).
+fn free_flyer_rows(g: &super::se3::SE3, force: &Force) -> [nalgebra::Vector3<f64>; 2] {
+    let n = force.angular - g.translation.cross(&force.linear);
+    [g.rotation.tr_mul(&force.linear), g.rotation.tr_mul(&n)]
+}
+
+/// [`mass_columns`] for a [`LimbJoint`] `i` with `D` one-rate joints above it: its column `c`
+/// holds `⁰Sᵣᵀ F` on its own rate and the `D` above, and the root's `Ad(g)ᵀ F`, `F = ⁰Yᶜᵢ
+/// ⁰S_c` — the general route's entries, written through the column's slice and mirrored into
+/// row `c` of the columns before it.
+fn limb_column<const D: usize>(data: &mut SpatialData, nv: usize, i: usize, limb: &LimbJoint) {
+    let s = data.oS.as_slice().as_chunks::<6>().0;
+    let c = limb.rate;
+    let force = data.oIc[i].apply(&Motion::from_vector(&Vector6::from(s[c])));
+    let F: [f64; 6] = force.to_vector().into();
+    let [lin, ang] = free_flyer_rows(&data.oMi[limb.root], &force);
+    let above: [usize; D] = std::array::from_fn(|k| limb.above[k]);
+    let own = dot6(&s[c], &F);
+    let dots: [f64; D] = std::array::from_fn(|k| dot6(&s[above[k]], &F));
+    let (before, column) = data.M.as_mut_slice().split_at_mut(c * nv);
+    let column = &mut column[..nv];
+    column[c] = own;
+    let r0 = limb.root_v;
+    column[r0..r0 + 6].copy_from_slice(&[lin.x, lin.y, lin.z, ang.x, ang.y, ang.z]);
+    for (r, x) in (r0..r0 + 6).zip(column[r0..r0 + 6].iter()) {
+        before[c + r * nv] = *x;
+    }
+    for (&r, &x) in above.iter().zip(&dots) {
+        column[r] = x;
+        before[c + r * nv] = x;
     }
 }
 
