@@ -65,6 +65,29 @@ impl Data {
             .factor_on(&self.m_bar, &self.constraints.a, &self.dynamic_coords)
     }
 
+    /// [`Self::prepare`] at the state of the last [`Self::prepare`] or
+    /// [`Self::prepare_state`], which must have been at the same `(q, q̇)` (`qd` here): the
+    /// stages of `mode` and the KKT factor only, with `prepare`'s result — for a caller that
+    /// evaluates another mode, time or controller at a state it has just prepared.
+    pub fn prepare_at_state(
+        &mut self,
+        model: &Model,
+        terrain: &dyn Terrain,
+        mode: ContactMode,
+        qd: &[f64],
+    ) -> Result<()> {
+        check_vector("qd", qd, model.nq())?;
+        mode.validate(model)?;
+        debug_assert_eq!(
+            self.m_bar.shape(),
+            (model.nq(), model.nq()),
+            "state not prepared"
+        );
+        self.mode_stages(model, terrain, mode, qd)?;
+        self.kkt
+            .factor_on(&self.m_bar, &self.constraints.a, &self.dynamic_coords)
+    }
+
     /// The stages of [`Self::prepare`] that depend on the state `(q, q̇)` alone — kinematics,
     /// `M̄ C̄q̇ N̄` —: what every candidate mode at one event shares. [`Self::prepare_mode`]
     /// then runs the rest for each mode.
@@ -387,6 +410,96 @@ mod tests {
     use super::*;
     use crate::contact::ContactKind;
     use crate::RobotDescription;
+
+    /// [`Data::prepare_at_state`] after a preparation at the same state in another mode
+    /// gives what [`Data::prepare`] gives on a fresh workspace, bit for bit — `q̈` and `λ`,
+    /// or the same error — for every mode of sticking and sliding contacts on a massive leg,
+    /// a massless leg and the body, at random states.
+    #[test]
+    fn prepare_at_state_matches_a_fresh_prepare_bit_for_bit() {
+        use crate::contact::FlatGround;
+        use rand::{Rng, SeedableRng};
+        let model = RobotDescription::from_toml_str(
+            r#"
+            name = "two_legs"
+            [body]
+            mass_kg = 2.0
+            inertia_kg_m2 = 0.02
+            [[legs]]
+            name = "a"
+            hip_m = [0.2, 0.0]
+            links = [{ length_m = 0.12, mass_kg = 0.2, inertia_kg_m2 = 2e-4 },
+                     { length_m = 0.1, mass_kg = 0.1, inertia_kg_m2 = 1e-4 }]
+            [[legs]]
+            name = "b"
+            hip_m = [-0.2, 0.0]
+            links = [{ length_m = 0.12 }, { length_m = 0.1 }]
+            [[contacts]]
+            name = "a_toe"
+            leg = "a"
+            shape = { kind = "point", position_m = [0.0, 0.1] }
+            friction = { kind = "sticking", mu = 0.8 }
+            [[contacts]]
+            name = "b_toe"
+            leg = "b"
+            shape = { kind = "point", position_m = [0.0, 0.1] }
+            friction = { kind = "sticking", mu = 0.8 }
+            [[contacts]]
+            name = "nose"
+            shape = { kind = "point", position_m = [0.3, 0.05] }
+            friction = { kind = "sticking", mu = 0.8 }
+            "#,
+        )
+        .unwrap()
+        .build()
+        .unwrap();
+        let (nq, nc) = (model.nq(), model.n_contacts());
+        let tau = vec![0.3; model.n_joints()];
+        let modes: Vec<ContactMode> = (0..3u32.pow(nc as u32))
+            .map(|code| {
+                (0..nc).fold(ContactMode::FLIGHT, |m, k| {
+                    match code / 3u32.pow(k as u32) % 3 {
+                        1 => m.with(k, ContactKind::Stick),
+                        2 => m.with(k, ContactKind::Slide),
+                        _ => m,
+                    }
+                })
+            })
+            .collect();
+        let solve = |data: &mut Data, prepared: Result<()>| {
+            prepared.and_then(|()| {
+                let free = vec![0.0; data.free_joints.len()];
+                forward_dynamics_prepared(&model, data, &tau, Some(&free))?;
+                let bits = |v: &DVector<f64>| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                Ok((bits(&data.qdd), bits(&data.lambda)))
+            })
+        };
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(17);
+        let mut shared = Data::new(&model);
+        let mut solved = 0;
+        for _ in 0..20 {
+            let q: Vec<f64> = (0..nq).map(|_| rng.gen_range(-2.0..2.0)).collect();
+            let qd: Vec<f64> = (0..nq).map(|_| rng.gen_range(-5.0..5.0)).collect();
+            shared
+                .prepare(&model, &FlatGround, ContactMode::FLIGHT, &q, &qd)
+                .unwrap();
+            for &mode in &modes {
+                let mut fresh = Data::new(&model);
+                let p = fresh.prepare(&model, &FlatGround, mode, &q, &qd);
+                let expected = solve(&mut fresh, p);
+                let p = shared.prepare_at_state(&model, &FlatGround, mode, &qd);
+                let got = solve(&mut shared, p);
+                assert_eq!(
+                    format!("{got:?}"),
+                    format!("{expected:?}"),
+                    "{mode:?} at {q:?}"
+                );
+                solved += usize::from(expected.is_ok());
+            }
+        }
+        // (most modes are regular at most states)
+        assert!(solved > 10 * modes.len(), "{solved}");
+    }
 
     /// [`free_massless_joints`]' bit sets give the joints of its definition (thesis 5.1.1:
     /// the whole distal chain massless — no mass, inertia or armature — and no active contact

@@ -222,6 +222,37 @@ impl Kinematics {
         }
     }
 
+    /// Calls `f(k, J_p e_k, J̇_p e_k, J_ω e_k)` for the columns that rotate `part` — its
+    /// chain's joints, then `φ` — at the material point at `p` moving with `p_dot`: the
+    /// entries of [`Self::point_jacobian_columns`], [`Self::point_jacobian_rate_columns`]
+    /// and [`Self::angular_jacobian_entries`] but those of `x, z`, which only translate it
+    /// (`J e_x = (1, 0)`, `J e_z = (0, 1)`, no rate, no rotation).
+    #[inline]
+    pub(crate) fn rotation_columns(
+        &self,
+        model: &Model,
+        part: Part,
+        p: Vector2<f64>,
+        p_dot: Vector2<f64>,
+        mut f: impl FnMut(usize, Vector2<f64>, Vector2<f64>, f64),
+    ) {
+        for k in Self::chain(model, part) {
+            let s = model.joints[k].axis_sign;
+            f(
+                k,
+                s * perp(p - self.origin[k]),
+                s * perp(p_dot - self.origin_vel[k]),
+                s,
+            );
+        }
+        f(
+            model.n_joints() + 2,
+            perp(p - self.body_pos),
+            perp(p_dot - self.body_vel),
+            1.0,
+        );
+    }
+
     /// Calls `f(k, J_ω e_k)` for the nonzero entries of the angular Jacobian row of a part:
     /// the chain's joints, then `φ`.
     #[inline]

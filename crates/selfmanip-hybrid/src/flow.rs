@@ -357,7 +357,8 @@ impl<'a> Flow<'a> {
         q: &[f64],
         qd: &[f64],
     ) -> Result<&Data, CoreError> {
-        if self.key == Some((t, mode, self.generation)) && self.holds_state(q, qd) {
+        let same_state = self.holds_state(q, qd);
+        if same_state && self.key == Some((t, mode, self.generation)) {
             return Ok(&self.ws.data);
         }
         self.key = None;
@@ -369,8 +370,15 @@ impl<'a> Flow<'a> {
             });
         }
         let (model, terrain) = (self.model, self.terrain);
-        self.ws
-            .prepare(model, terrain, &*self.ctrl, (t, mode), q, qd)?;
+        if same_state {
+            // another mode, time or controller at the state of the last evaluation (a jam
+            // hold's guard asks for the flow without its contact): its state stages stand
+            self.ws
+                .prepare_at_state(model, terrain, &*self.ctrl, (t, mode), q, qd)?;
+        } else {
+            self.ws
+                .prepare(model, terrain, &*self.ctrl, (t, mode), q, qd)?;
+        }
         self.ws.solve_prepared(model, &*self.ctrl, t, mode, q, qd)?;
         if !self.ws.data.damped.is_empty() {
             let (asked, events) = &mut self.time_events;
@@ -509,6 +517,37 @@ impl FlowWorkspace {
         q: &[f64],
         qd: &[f64],
     ) -> Result<(), CoreError> {
+        self.set_laws(model, ctrl, (t, mode), q, qd);
+        self.data.prepare(model, terrain, mode, q, qd)
+    }
+
+    /// [`Self::prepare`] with `data`'s state stages already at `(q, q̇)` (its last
+    /// preparation was there): the chain laws and the stages of `mode`
+    /// ([`selfmanip_core::Data::prepare_at_state`]).
+    pub fn prepare_at_state(
+        &mut self,
+        model: &Model,
+        terrain: &dyn Terrain,
+        ctrl: &dyn Controller,
+        (t, mode): (f64, ContactMode),
+        q: &[f64],
+        qd: &[f64],
+    ) -> Result<(), CoreError> {
+        self.set_laws(model, ctrl, (t, mode), q, qd);
+        self.data.prepare_at_state(model, terrain, mode, qd)
+    }
+
+    /// The chain laws of `mode`'s damped slides at `(t, q, q̇)`
+    /// ([`crate::damped_slide::set_laws`]).
+    #[inline]
+    fn set_laws(
+        &mut self,
+        model: &Model,
+        ctrl: &dyn Controller,
+        (t, mode): (f64, ContactMode),
+        q: &[f64],
+        qd: &[f64],
+    ) {
         if self.damped != 0 {
             crate::damped_slide::set_laws(
                 model,
@@ -519,7 +558,6 @@ impl FlowWorkspace {
                 mode,
             );
         }
-        self.data.prepare(model, terrain, mode, q, qd)
     }
 
     /// The flow (5.48) of `mode` at `(t, q, q̇)`, `data` prepared there: the controller's
