@@ -310,9 +310,9 @@ mod tests {
         [mb, c_qd, n_bar]
     }
 
-    /// [`mass_coriolis_gravity`] gives the general sums bit for bit, on a robot with legs of one to three links, massless, massive, inertia
-    /// only and armature only links, both axis signs and offset centres of mass, at random
-    /// states.
+    /// [`mass_coriolis_gravity`] gives the general sums bit for bit, on a robot with legs of
+    /// one to three links, massless, massive, inertia only and armature only links, both axis
+    /// signs and offset centres of mass, at random states.
     #[test]
     fn translations_in_closed_form_match_the_general_sums_bit_for_bit() {
         let model = RobotDescription::from_toml_str(
