@@ -76,14 +76,7 @@ impl Data {
         mode: ContactMode,
         qd: &[f64],
     ) -> Result<()> {
-        check_vector("qd", qd, model.nq())?;
-        mode.validate(model)?;
-        debug_assert_eq!(
-            self.m_bar.shape(),
-            (model.nq(), model.nq()),
-            "state not prepared"
-        );
-        self.mode_stages(model, terrain, mode, qd)?;
+        self.checked_mode_stages(model, terrain, mode, qd)?;
         self.kkt
             .factor_on(&self.m_bar, &self.constraints.a, &self.dynamic_coords)
     }
@@ -110,6 +103,21 @@ impl Data {
         mode: ContactMode,
         qd: &[f64],
     ) -> Result<std::result::Result<(), SingularityKind>> {
+        self.checked_mode_stages(model, terrain, mode, qd)?;
+        Ok(self
+            .kkt
+            .try_factor_on(&self.m_bar, &self.constraints.a, &self.dynamic_coords))
+    }
+
+    /// The stages of `mode` at the prepared state, its inputs checked: what
+    /// [`Self::prepare_at_state`] and [`Self::prepare_mode`] run before their factor.
+    fn checked_mode_stages(
+        &mut self,
+        model: &Model,
+        terrain: &dyn Terrain,
+        mode: ContactMode,
+        qd: &[f64],
+    ) -> Result<()> {
         check_vector("qd", qd, model.nq())?;
         mode.validate(model)?;
         debug_assert_eq!(
@@ -117,10 +125,7 @@ impl Data {
             (model.nq(), model.nq()),
             "state not prepared"
         );
-        self.mode_stages(model, terrain, mode, qd)?;
-        Ok(self
-            .kkt
-            .try_factor_on(&self.m_bar, &self.constraints.a, &self.dynamic_coords))
+        self.mode_stages(model, terrain, mode, qd)
     }
 
     /// Kinematics and `M̄ C̄q̇ N̄` at `(q, q̇)` (checked by the caller).
