@@ -373,8 +373,8 @@ impl<'a> Flow<'a> {
         if same_state {
             // another mode, time or controller at the state of the last evaluation (a jam
             // hold's guard asks for the flow without its contact): its state stages stand
-            self.ws
-                .prepare_at_state(model, terrain, &*self.ctrl, (t, mode), q, qd)?;
+            self.ws.set_laws(model, &*self.ctrl, (t, mode), q, qd);
+            self.ws.data.prepare_at_state(model, terrain, mode, qd)?;
         } else {
             self.ws
                 .prepare(model, terrain, &*self.ctrl, (t, mode), q, qd)?;
@@ -519,22 +519,6 @@ impl FlowWorkspace {
     ) -> Result<(), CoreError> {
         self.set_laws(model, ctrl, (t, mode), q, qd);
         self.data.prepare(model, terrain, mode, q, qd)
-    }
-
-    /// [`Self::prepare`] with `data`'s state stages already at `(q, q̇)` (its last
-    /// preparation was there): the chain laws and the stages of `mode`
-    /// ([`selfmanip_core::Data::prepare_at_state`]).
-    pub fn prepare_at_state(
-        &mut self,
-        model: &Model,
-        terrain: &dyn Terrain,
-        ctrl: &dyn Controller,
-        (t, mode): (f64, ContactMode),
-        q: &[f64],
-        qd: &[f64],
-    ) -> Result<(), CoreError> {
-        self.set_laws(model, ctrl, (t, mode), q, qd);
-        self.data.prepare_at_state(model, terrain, mode, qd)
     }
 
     /// The chain laws of `mode`'s damped slides at `(t, q, q̇)`
