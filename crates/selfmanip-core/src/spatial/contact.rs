@@ -13,7 +13,7 @@
 use super::coulomb::{solve_sliding, MIN_SLIDING_SPEED};
 use super::error::{SpatialError, SpatialResult};
 use super::kinematics::{
-    forward_kinematics_velocity, frame_linear_drift, frame_origin, frame_placement, Matrix6xX,
+    forward_kinematics_velocity, frame_origin, frame_placement, point_linear_drift, Matrix6xX,
     SpatialData,
 };
 use super::model::SpatialModel;
@@ -22,6 +22,7 @@ use super::tree_kkt::KktRoute;
 use crate::error::check_result;
 use crate::error::check_vector;
 use nalgebra::{DMatrix, DVector, Vector3};
+use std::cmp::Ordering;
 
 /// Where on its frame a contact touches the ground.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -368,13 +369,15 @@ pub(crate) fn contact_rows(
     let mut row = 0;
     for contact in contacts {
         let (r, r_dot) = contact.offset(model, data);
-        let mut drift = frame_linear_drift(model, data, contact.frame);
+        // the frame's origin once, for its drift and the rows' point
+        let origin = frame_origin(model, data, contact.frame);
         let joint = model.frames[contact.frame].joint;
+        let mut drift = Vector3::zeros();
         if let Some(j) = joint {
             let (w, alpha) = (data.ov[j].angular, data.oa_drift[j].angular);
-            drift += alpha.cross(&r) + w.cross(&r_dot);
+            drift = point_linear_drift(data, j, &origin) + (alpha.cross(&r) + w.cross(&r_dot));
         }
-        let x = frame_origin(model, data, contact.frame) + r;
+        let x = origin + r;
         let dirs = contact.directions();
         let n = contact.n_rows();
         let a = data.A.as_mut_slice();
@@ -443,7 +446,7 @@ pub fn friction_rows(
             let n = contact.normal;
             let v_t = v_x - n * n.dot(&v_x);
             let speed = v_t.norm();
-            if !(speed > MIN_SLIDING_SPEED) {
+            if speed.partial_cmp(&MIN_SLIDING_SPEED) != Some(Ordering::Greater) {
                 return Err(SpatialError::InvalidArgument {
                     field: "v".into(),
                     reason: format!(

@@ -19,6 +19,7 @@
 use super::error::SpatialResult;
 use super::kinematics::SpatialData;
 use nalgebra::{DMatrix, DVector};
+use std::cmp::Ordering;
 
 /// A sliding velocity `|v_t|` at most this (m/s) has no direction: the contact is sticking or
 /// starting to slide, and needs its tangent rows.
@@ -45,7 +46,7 @@ pub fn solve_sliding(data: &mut SpatialData, B: &DMatrix<f64>, tau: &[f64]) -> S
     let lu = K.lu();
     let diag = lu.u().diagonal().map(f64::abs);
     let ratio = diag.min() / diag.max().max(f64::MIN_POSITIVE);
-    if !(ratio > SINGULAR_PIVOT_RATIO) {
+    if ratio.partial_cmp(&SINGULAR_PIVOT_RATIO) != Some(Ordering::Greater) {
         return Err(crate::CoreError::SingularKkt {
             kind: crate::SingularityKind::UnconstrainedMasslessMotion,
             condition_estimate: 1.0 / ratio,

@@ -64,6 +64,7 @@ use super::model::SpatialModel;
 use crate::error::check_result;
 use nalgebra::DVectorView;
 use nalgebra::{DMatrix, DVector, RowDVector, Vector3};
+use std::cmp::Ordering;
 
 /// The state a contact takes in a plastic impact.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -275,7 +276,7 @@ fn solve_square(K: DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
     }
     let svd = K.clone().svd(true, true);
     let top = svd.singular_values.max();
-    if !(top > 0.0) {
+    if top.partial_cmp(&0.0) != Some(Ordering::Greater) {
         return None;
     }
     let x = svd.solve(b, 1e-12 * top).ok()?;
@@ -545,7 +546,8 @@ impl Problem<'_> {
         // leaves the generalized impulse, and so ΔT, as it is
         let (after, before) = (v_rows.dot(&P), self.v0.dot(&P));
         let change = 0.5 * (after + before);
-        if !(change <= INEQUALITY_TOLERANCE * (after.abs() + before.abs())) {
+        let bound = INEQUALITY_TOLERANCE * (after.abs() + before.abs());
+        if change.partial_cmp(&bound).is_none_or(Ordering::is_gt) {
             return None;
         }
         Some(SpatialImpact {
@@ -574,25 +576,30 @@ impl Problem<'_> {
             let (r, n) = (site.row, site.normal());
             if c == Choice::Separate {
                 // no impulse; leaving or grazing, never approaching
-                if !(v_rows[n] >= -tol_v) {
+                if v_rows[n].partial_cmp(&-tol_v).is_none_or(Ordering::is_lt) {
                     return Verdict::Motion;
                 }
                 states.push(ImpactState::Separate);
                 continue;
             }
             // every held contact's normal impulse pushes (held, frictionless or in a cone)
-            pulls |= !(P[n] >= -tol_p);
+            pulls |= P[n].partial_cmp(&-tol_p).is_none_or(Ordering::is_lt);
             let state = match (site.law, c) {
                 (Law::Held, _) if site.n_rows > 1 => ImpactState::Stick,
                 (Law::Held | Law::NormalOnly, _) => ImpactState::Frictionless,
                 (Law::Cone { mu }, Choice::Stick) => {
                     let tangential = P.rows(r, site.n_rows - 1).norm();
-                    pulls |= !(tangential <= mu * P[n] + tol_p);
+                    pulls |= tangential
+                        .partial_cmp(&(mu * P[n] + tol_p))
+                        .is_none_or(Ordering::is_gt);
                     ImpactState::Stick
                 }
                 (Law::Cone { .. }, _) => {
                     let s = self.slip_row(site, c, phi).expect("a slip");
-                    if !((s * v_plus)[0] >= -tol_v) {
+                    if (s * v_plus)[0]
+                        .partial_cmp(&-tol_v)
+                        .is_none_or(Ordering::is_lt)
+                    {
                         return Verdict::Motion;
                     }
                     ImpactState::Slip {
@@ -683,7 +690,7 @@ pub fn impact_outcomes(
             let law = match (c.friction, c.impact_friction) {
                 (false, _) => Law::Held,
                 (true, mu) if mu == f64::INFINITY => Law::Held,
-                (true, mu) if mu == 0.0 => Law::NormalOnly,
+                (true, 0.0) => Law::NormalOnly,
                 (true, mu) => Law::Cone { mu },
             };
             let site = Site {
@@ -804,7 +811,7 @@ fn enumerate(
     loop {
         let choice: Vec<Choice> = (0..n).map(|k| options[k][code[k]]).collect();
         let mut trials: Vec<(Trial, Vec<f64>)> = Vec::new();
-        if choice.iter().any(|&c| c == Choice::SlipAngle) {
+        if choice.contains(&Choice::SlipAngle) {
             for start in &starts {
                 trials.extend(p.solve_angles(&choice, start.clone()));
             }

@@ -425,10 +425,14 @@ pub fn frame_linear_drift(model: &SpatialModel, data: &SpatialData, frame: usize
     let Some(j) = model.frames[frame].joint else {
         return Vector3::zeros();
     };
-    let p = frame_origin(model, data, frame);
+    point_linear_drift(data, j, &frame_origin(model, data, frame))
+}
+
+/// [`frame_linear_drift`] of the material point `p` (world) of joint `j`'s body.
+pub(crate) fn point_linear_drift(data: &SpatialData, j: usize, p: &Vector3<f64>) -> Vector3<f64> {
     let (v, a) = (data.ov[j], data.oa_drift[j]);
-    let vp = v.linear + v.angular.cross(&p);
-    a.linear + a.angular.cross(&p) + v.angular.cross(&vp)
+    let vp = v.linear + v.angular.cross(p);
+    a.linear + a.angular.cross(p) + v.angular.cross(&vp)
 }
 
 /// The classical velocity of frame `frame`'s origin (world axes).

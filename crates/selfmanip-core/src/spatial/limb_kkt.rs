@@ -59,6 +59,7 @@
 use super::model::{JointKind, SpatialModel};
 use super::tree_kkt::{cholesky_solve, dense_cholesky, MASSLESS_DIAGONAL, PIVOT_FRACTION};
 use nalgebra::{DMatrix, Matrix6, Vector6};
+use std::cmp::Ordering;
 
 /// A pivot of a limb's `A_ll` (partial pivoting) at most this fraction of its largest entry
 /// (a leg near a singular configuration) declines the route.
@@ -196,11 +197,12 @@ impl LimbKkt {
                 });
             }
             let l = limb_index[root];
-            for k in joint.idx_v..joint.idx_v + joint.kind.nv() {
+            let rates = joint.idx_v..joint.idx_v + joint.kind.nv();
+            for (k, of) in rates.clone().zip(&mut limb_of[rates]) {
                 let limb = &mut limbs[l];
                 contiguous &= k == limb.start + limb.len;
                 limb.len += 1;
-                limb_of[k] = l;
+                *of = l;
             }
         }
         let longest = limbs.iter().map(|l| l.len).max().unwrap_or(0);
@@ -333,7 +335,10 @@ impl LimbKkt {
             });
             let largest = rbb.diagonal().max();
             let chol = nalgebra::Cholesky::new_unchecked(rbb);
-            if !(chol.l_dirty().diagonal().min() > (REDUCED_PIVOT_FRACTION * largest).sqrt()) {
+            let least = chol.l_dirty().diagonal().min();
+            if least.partial_cmp(&(REDUCED_PIVOT_FRACTION * largest).sqrt())
+                != Some(Ordering::Greater)
+            {
                 return None;
             }
             self.root = Some(chol);
@@ -390,14 +395,16 @@ impl LimbKkt {
         let mut e = [[0.0; ROOT]; ROOT];
         let largest = self.base.iter().fold(0.0f64, |s, r| s.max(r.amax()));
         let mut eliminated = [false; ROOT];
-        for k in 0..nc {
-            e[k][k] = 1.0;
+        for (k, row) in e[..nc].iter_mut().enumerate() {
+            row[k] = 1.0;
         }
         for k in 0..nc {
             let p = (0..nb)
                 .filter(|&j| !eliminated[j])
                 .max_by(|&i, &j| c[k][i].abs().total_cmp(&c[k][j].abs()))?;
-            if !(c[k][p].abs() > LIMB_PIVOT_FRACTION * largest) {
+            if c[k][p].abs().partial_cmp(&(LIMB_PIVOT_FRACTION * largest))
+                != Some(Ordering::Greater)
+            {
                 return None;
             }
             self.elim[k] = p;
@@ -595,38 +602,38 @@ fn factor_limb<const N: usize, const R: usize>(
                 p = i;
             }
         }
-        if !(all[p][k].abs() > LIMB_PIVOT_FRACTION * largest) {
+        if all[p][k]
+            .abs()
+            .partial_cmp(&(LIMB_PIVOT_FRACTION * largest))
+            != Some(Ordering::Greater)
+        {
             return false;
         }
         all.swap(k, p);
         e.swap(k, p);
         alb.swap(k, p);
         let d = 1.0 / all[k][k];
-        for j in 0..N {
-            all[k][j] *= d;
-        }
-        for j in 0..R {
-            e[k][j] *= d;
-        }
+        all[k].iter_mut().for_each(|x| *x *= d);
+        e[k].iter_mut().for_each(|x| *x *= d);
         alb[k] *= d;
-        for i in 0..R {
+        let (all_k, e_k, alb_k) = (all[k], e[k], alb[k]);
+        for (i, ((all_i, e_i), alb_i)) in all.iter_mut().zip(&mut e).zip(&mut alb).enumerate() {
             if i != k {
-                let l = all[i][k];
-                for j in 0..N {
-                    all[i][j] -= l * all[k][j];
+                let l = all_i[k];
+                for (x, y) in all_i.iter_mut().zip(&all_k) {
+                    *x -= l * y;
                 }
-                for j in 0..R {
-                    e[i][j] -= l * e[k][j];
+                for (x, y) in e_i.iter_mut().zip(&e_k) {
+                    *x -= l * y;
                 }
-                let row = alb[k];
-                alb[i] -= row * l;
+                *alb_i -= alb_k * l;
             }
         }
     }
     // alb is now [−T; C]; M's limb blocks
     limb.e = [[0.0; MAX_PINNED]; MAX_PINNED];
-    for i in 0..R {
-        limb.e[i][..R].copy_from_slice(&e[i]);
+    for (to, from) in limb.e.iter_mut().zip(&e) {
+        to[..R].copy_from_slice(from);
     }
     limb.base_at = base.len();
     base.extend_from_slice(&alb[N..]);
@@ -740,7 +747,7 @@ fn limb_clear<const N: usize>(
 fn ldl_clear(block: &mut [f64], n: usize, diagonal: impl Fn(usize) -> f64) -> bool {
     for k in 0..n {
         let d = block[k * n + k];
-        if !(d > PIVOT_FRACTION * diagonal(k)) {
+        if d.partial_cmp(&(PIVOT_FRACTION * diagonal(k))) != Some(Ordering::Greater) {
             return false;
         }
         for i in k + 1..n {

@@ -33,6 +33,7 @@
 #![allow(non_snake_case)]
 use super::model::{JointKind, SpatialModel};
 use nalgebra::DMatrix;
+use std::cmp::Ordering;
 
 /// A pivot `D_k` of `M = Lᵀ D L` below this fraction of `M_kk` (the rate has lost nearly
 /// all its inertia to its descendants' constraints of the factorization: `M` is singular or
@@ -673,7 +674,7 @@ pub(super) fn dense_cholesky(k: &mut [f64], n: usize, min_pivot: f64) -> bool {
             row_i[j] = (row_i[j] - dot(&row_i[..j], &row_j[..j])) / row_j[j];
         }
         let d = row_i[i] - dot(&row_i[..i], &row_i[..i]);
-        if !(d > min_pivot) {
+        if d.partial_cmp(&min_pivot) != Some(Ordering::Greater) {
             return false;
         }
         row_i[i] = d.sqrt();
