@@ -322,6 +322,7 @@ fn kinematics_pass(model: &SpatialModel, data: &mut SpatialData, q: &[f64], v: O
 }
 
 /// The joint's world motion `⁰Sᵢ q̇ᵢ` for the rates `x` (length nv).
+#[inline]
 pub(crate) fn joint_motion(
     model: &SpatialModel,
     data: &SpatialData,

@@ -85,7 +85,8 @@ fn mass_columns(model: &SpatialModel, data: &mut SpatialData, i: usize) {
     }
 }
 
-/// `⁰Sᵀ F` for one spatial column `⁰S` and force `F` (stacked, linear first).
+/// `⁰Sᵀ F` for one spatial column `⁰S` and force `F` (stacked, linear first), summed in index
+/// order from zero (as nalgebra's `dot` of six entries).
 fn dot6(s: &[f64; 6], f: &[f64; 6]) -> f64 {
     s.iter().zip(f).fold(0.0, |x, (a, b)| x + a * b)
 }
@@ -187,6 +188,7 @@ fn body_force(y: &super::inertia::OriginInertia, v: Motion, acc: Motion) -> Forc
 /// The backward step of the RNEA at joint `i` (its subtree's force `⁰fᵢ` complete):
 /// `τ_c = ⁰S_cᵀ ⁰fᵢ` for its rates into `tau` (`data.h` when `None`), then `⁰fᵢ` added to
 /// its parent's.
+#[inline]
 fn subtree_force(
     model: &SpatialModel,
     data: &mut SpatialData,
@@ -194,10 +196,12 @@ fn subtree_force(
     tau: Option<&mut DVector<f64>>,
 ) {
     let joint = &model.joints[i];
-    let f = data.of[i].to_vector();
-    let tau = tau.unwrap_or(&mut data.h);
-    for c in joint.idx_v..joint.idx_v + joint.kind.nv() {
-        tau[c] = data.oS.fixed_columns::<1>(c).dot(&f);
+    let f: [f64; 6] = data.of[i].to_vector().into();
+    let s = data.oS.as_slice().as_chunks::<6>().0;
+    let tau = tau.unwrap_or(&mut data.h).as_mut_slice();
+    let rates = joint.idx_v..joint.idx_v + joint.kind.nv();
+    for (t, column) in tau[rates.clone()].iter_mut().zip(&s[rates]) {
+        *t = dot6(column, &f);
     }
     if let Some(p) = joint.parent {
         let fi = data.of[i];
