@@ -41,7 +41,7 @@ use crate::reset::{reset_workspace, Reset};
 use crate::reset_workspace::ResetWorkspace;
 use selfmanip_core::contact::{ContactKind, RowDirection};
 use selfmanip_core::friction::SLIDING_SPEED_EPS_M_S;
-use selfmanip_core::{plastic_impact, ContactMode, Model};
+use selfmanip_core::{plastic_impact, ContactMode, CoreError, Model};
 
 /// Relative tolerance on "never adds kinetic energy": a jam whose kinetic energy after
 /// exceeds the one before by more than this share (plus 1e-12 J) is refused (round-off of a
@@ -127,9 +127,14 @@ pub fn jam(
     let mut force = Vec::new();
     if !mode_after.is_flight() {
         let kept: Vec<usize> = mode_after.active().collect();
-        match cx.select(t, &kept, &[], mode_after, q, &qd_after, false)? {
-            Ok(s) => (mode_after, force) = (s.mode, s.value),
-            Err(_) => return Ok(Err(PainleveReason::NoJamOutcome)),
+        // a slide of the kept contacts inconsistent in turn (Painlevé): no jam outcome
+        match cx.select(t, &kept, &[], mode_after, q, &qd_after, false) {
+            Ok(Ok(s)) => (mode_after, force) = (s.mode, s.value),
+            Ok(Err(_)) => return Ok(Err(PainleveReason::NoJamOutcome)),
+            Err(HybridError::Core(CoreError::PainleveInconsistent { .. })) => {
+                return Ok(Err(PainleveReason::NoJamOutcome))
+            }
+            Err(e) => return Err(e),
         }
     }
     if !impact {
