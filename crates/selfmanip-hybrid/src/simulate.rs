@@ -8,10 +8,10 @@
 //!   locate    the first crossing, to event_tol_s              [locate, features]
 //!   reset     impact or force complementarity ⇒ (mode, q̇⁺)   [reset, complementarity,
 //!                                                              impact, contact_set]
-//!   zeno      too many transitions in a window ⇒ truncated by the pseudo-impulse's
-//!             limit (a reset) whose mode is held for a dwell, or the end when there is
-//!             nothing to truncate; one cycle of transitions repeated with the robot
-//!             staying where it is ⇒ end                                  [zeno]
+//!   zeno      too many transitions in a window, or one cycle of transitions repeated
+//!             with the robot staying where it is (a chatter, or a truncated one
+//!             resuming) ⇒ truncated by the pseudo-impulse's limit (a reset) whose mode
+//!             is held for a dwell, or the end when there is nothing to truncate  [zeno]
 //!   budget    out of steps or events, or stopped from outside ⇒ end  [budget]
 //! ```
 use crate::budget::{Budget, NEVER};
@@ -255,19 +255,21 @@ pub fn simulate_with(
             }
             continue;
         }
-        // a chatter is truncated as a Zeno window is (crate::zeno)
-        if let Some(c) = chatter.check(&events) {
+        // a chatter is truncated as a Zeno window is, and so is a truncated one resuming
+        // (crate::zeno); only the first, with nothing to truncate, ends the run
+        let found = chatter
+            .check(&events)
+            .map(|c| (c, true))
+            .or_else(|| zeno.resumed(&events).map(|c| (c, false)));
+        if let Some((c, ends)) = found {
             let held = (&mut reset_ws, &mut flow, &mut zeno);
             truncation = crate::zeno::truncate_and_hold(held, &opts, mode, (t, &y), &c)?;
-            if truncation.is_none() {
+            if truncation.is_none() && ends {
                 break c;
             }
-            // a re-touch cycle's hold is bounded to that cycle
-            if let Termination::Chatter { period, .. } = c {
+            if let (Some(_), Termination::Chatter { period, .. }) = (&truncation, &c) {
                 let cycle = &events[events.len() - period..];
-                if cycle.iter().all(|e| e.mode_before == e.mode_after) {
-                    zeno.hold_cycle_only();
-                }
+                zeno.truncated_chatter(cycle, &c, events.len() + 1);
             }
         }
         if let Some(p) = penetration(model, terrain, t, &y[..model.nq()]) {

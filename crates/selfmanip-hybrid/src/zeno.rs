@@ -55,6 +55,21 @@ pub struct ZenoWindow {
     /// Whether that dwell holds a re-touch cycle's contacts, and so ends at a touchdown of
     /// another contact ([`Self::hold_cycle_only`]).
     cycle_only: bool,
+    /// The cycle of the last truncated chatter, while it may resume ([`Self::resumed`]).
+    cycle: Option<TruncatedCycle>,
+}
+
+/// A chatter's cycle as its truncation left it ([`ZenoWindow::truncated_chatter`]).
+#[derive(Debug, Clone)]
+struct TruncatedCycle {
+    /// Its last repetition before the truncation (`p` events).
+    events: Vec<Event>,
+    /// The contacts the truncation named.
+    contacts: Vec<usize>,
+    /// The truncation's time (s).
+    t: f64,
+    /// The index of the first event after the truncation's.
+    after: usize,
 }
 
 impl ZenoWindow {
@@ -67,6 +82,7 @@ impl ZenoWindow {
             dwell: None,
             holding: false,
             cycle_only: false,
+            cycle: None,
         }
     }
 
@@ -96,6 +112,64 @@ impl ZenoWindow {
         self.dwell = Some((dwell_s, t + dwell_s));
         self.holding = true;
         self.cycle_only = false;
+        self.cycle = None;
+    }
+
+    /// Records that the truncation just made ([`Self::truncated`], at `t`) is of the chatter
+    /// `z` whose last repetition is `cycle`, `after` the index its truncation's event will
+    /// have plus one: a cycle of re-touches bounds its dwell to itself
+    /// ([`Self::hold_cycle_only`]), and the cycle is remembered while it may resume
+    /// ([`Self::resumed`]).
+    pub fn truncated_chatter(&mut self, cycle: &[Event], z: &Termination, after: usize) {
+        if cycle.iter().all(|e| e.mode_before == e.mode_after) {
+            self.hold_cycle_only();
+        }
+        let Termination::Chatter { t, contacts, .. } = z else {
+            return;
+        };
+        self.cycle = Some(TruncatedCycle {
+            events: cycle.to_vec(),
+            contacts: contacts.clone(),
+            t: *t,
+            after,
+        });
+    }
+
+    /// A truncated chatter that **resumes**: its dwell over, before a quiet window (a whole
+    /// window without a transition, which ends the doubling of [`Self::dwell_s`]: the cycle
+    /// stopped), the latest events ([`Event`]s after the truncation's, latest last) repeat
+    /// its cycle once ([`same_transition`]) with the robot where it was — no coordinate of
+    /// `q` moved more than [`CHATTER_Q_PER_CYCLE`], the allowance of one cycle, since the
+    /// cycle's last repetition. It is the same chatter, its truncation's continuation: the
+    /// criterion's [`CHATTER_CYCLES`] repetitions identified its cycle already, and one
+    /// repetition is the fewest that show it again. `Some(Chatter)` over the truncated
+    /// contacts and those of the repetition (`cycles: 1`), truncated as before with the dwell
+    /// doubled ([`Self::dwell_s`]).
+    pub fn resumed(&self, events: &[Event]) -> Option<Termination> {
+        let c = self.cycle.as_ref().filter(|_| !self.holding)?;
+        let p = c.events.len();
+        let since = events.get(c.after..)?;
+        let tail = since.get(since.len().checked_sub(p)?..)?;
+        if !tail
+            .iter()
+            .zip(&c.events)
+            .all(|(a, b)| same_transition(a, b))
+        {
+            return None;
+        }
+        if max_change(&c.events[0].q, &tail[0].q) > CHATTER_Q_PER_CYCLE {
+            return None;
+        }
+        let t = tail[p - 1].t;
+        let mut lists = vec![c.contacts.clone()];
+        lists.extend(tail.iter().map(|e| e.triggered.clone()));
+        Some(Termination::Chatter {
+            t,
+            period: p,
+            cycles: 1,
+            duration_s: t - c.t,
+            contacts: union(&lists),
+        })
     }
 
     /// Bounds the dwell just begun ([`Self::truncated`]) to the cycle it truncates: a
@@ -136,6 +210,7 @@ impl ZenoWindow {
         if let Some((_, end)) = self.dwell {
             if t - last.unwrap_or(end).max(end) > self.window_s {
                 self.dwell = None;
+                self.cycle = None;
             }
         }
         self.times.push(t);
@@ -205,14 +280,8 @@ impl ChatterDetector {
                 break;
             }
             let tail = &events[events.len() - span..];
-            let same = |a: &Event, b: &Event| {
-                a.kind == b.kind
-                    && a.mode_before == b.mode_before
-                    && a.mode_after == b.mode_after
-                    && a.triggered == b.triggered
-            };
             // every event equals the one a period later
-            if !(0..span - p).all(|i| same(&tail[i], &tail[i + p])) {
+            if !(0..span - p).all(|i| same_transition(&tail[i], &tail[i + p])) {
                 continue;
             }
             // the cycle makes a transition (a cycle of events that make none — apexes — is
@@ -227,12 +296,7 @@ impl ChatterDetector {
             if last_cycle < CHATTER_MIN_DURATION_RATIO * first_cycle {
                 continue;
             }
-            let (first, last) = (&tail[0].q, &tail[span - p].q);
-            let moved = first
-                .iter()
-                .zip(last)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max);
+            let moved = max_change(&tail[0].q, &tail[span - p].q);
             if moved <= CHATTER_Q_PER_CYCLE * (CHATTER_CYCLES - 1) as f64 {
                 let t = events.last().map_or(0.0, |e| e.t);
                 let cycle: Vec<Vec<usize>> =
@@ -248,6 +312,23 @@ impl ChatterDetector {
         }
         None
     }
+}
+
+/// Whether `b` repeats the transition `a` in a chatter's cycle: the same kind, mode before
+/// and after, and contacts.
+fn same_transition(a: &Event, b: &Event) -> bool {
+    a.kind == b.kind
+        && a.mode_before == b.mode_before
+        && a.mode_after == b.mode_after
+        && a.triggered == b.triggered
+}
+
+/// The largest change of any coordinate between the configurations `a` and `b`.
+fn max_change(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
 }
 
 /// The contacts of `lists`, sorted, each once.
