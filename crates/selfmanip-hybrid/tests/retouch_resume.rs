@@ -146,6 +146,23 @@ fn a_truncated_chatter_resuming_is_truncated_at_its_first_repetition() {
         }) => assert_eq!((period, cycles, contacts), (1, 1, vec![1])),
         other => panic!("{other:?}"),
     }
+    // another contact's touchdown between (the one that ended the hold, contact 2 landing
+    // in the mode) does not break the cycle: the latest event repeats it, counted for
+    // contact 1 alone
+    let mut landing = retouch(0.104, 0.0);
+    landing.triggered = vec![2];
+    landing.mode_after = standing().with(2, ContactKind::Stick);
+    let through: Vec<Event> = before
+        .iter()
+        .cloned()
+        .chain([landing, retouch(0.105, 0.0)])
+        .collect();
+    match z.resumed(&through) {
+        Some(Termination::Chatter {
+            cycles, contacts, ..
+        }) => assert_eq!((cycles, contacts), (1, vec![1])),
+        other => panic!("{other:?}"),
+    }
     // the robot moved more than one cycle's allowance: another motion
     assert_eq!(
         z.resumed(&with(retouch(0.105, 2.0 * CHATTER_Q_PER_CYCLE))),
