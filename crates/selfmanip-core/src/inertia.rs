@@ -63,12 +63,11 @@ impl InertiaScratch {
     }
 }
 
-/// Column `k` of a part's Jacobians: `J e_k` (its COM), `J̇ e_k` and `J_ω e_k`.
+/// Column `k` of a part's Jacobians: `J e_k` (its COM) and `J_ω e_k`.
 #[derive(Debug, Clone, Copy)]
 struct PartColumn {
     k: usize,
     j: Vector2<f64>,
-    jd: Vector2<f64>,
     w: f64,
 }
 
@@ -101,54 +100,45 @@ pub fn mass_coriolis_gravity(
         c_qd.as_mut_slice(),
         n_bar.as_mut_slice(),
     );
+    debug_assert_eq!(mb.len(), nq * nq);
     mb.fill(0.0);
     c_qd.fill(0.0);
     n_bar.fill(0.0);
     let g = model.gravity_m_s2;
-    // M̄_ab += v and, off the diagonal, M̄_ba += v
-    let mut add = |a: usize, b: usize, v: f64| {
-        mb[b * nq + a] += v;
-        if a != b {
-            mb[a * nq + b] += v;
-        }
-    };
     for (part, m, inertia, com) in massive_parts(model) {
         let p = kin.point(part, com);
         let pd = kin.material_velocity(part, p);
-        // the columns that rotate the part, ascending: its chain's joints, then φ
+        // the columns that rotate the part, ascending: its chain's joints, then φ; and
+        // J̇ q̇ over them (planar: J̇_ω = 0; J̇ e_x = J̇ e_z = 0)
         let cols = &mut s.cols;
         cols.clear();
-        kin.rotation_columns(model, part, p, pd, |k, j, jd, w| {
-            cols.push(PartColumn { k, j, jd, w })
-        });
-        // M̄ += m Jᵀ J + I J_ωᵀ J_ω   (one triangle, mirrored: M̄ is exactly symmetric)
-        for (ib, b) in cols.iter().enumerate() {
-            for a in &cols[ib..] {
-                add(
-                    a.k,
-                    b.k,
-                    m * (a.j.x * b.j.x + a.j.y * b.j.y) + inertia * a.w * b.w,
-                );
-            }
-        }
-        // … and on x, z: m Jᵀ J with J e_x = (1, 0), J e_z = (0, 1)
-        for c in cols.iter() {
-            add(ix, c.k, m * c.j.x);
-            add(iz, c.k, m * c.j.y);
-        }
-        add(ix, ix, m);
-        add(iz, iz, m);
-        // C̄ q̇ += m Jᵀ (J̇ q̇)   (planar: J̇_ω = 0; J̇ e_x = J̇ e_z = 0)
         let (mut ax, mut az) = (0.0, 0.0);
-        for c in cols.iter() {
-            ax += c.jd.x * qd[c.k];
-            az += c.jd.y * qd[c.k];
+        kin.rotation_columns(model, part, p, pd, |k, j, jd, w| {
+            ax += jd.x * qd[k];
+            az += jd.y * qd[k];
+            cols.push(PartColumn { k, j, w })
+        });
+        // M̄ += m Jᵀ J + I J_ωᵀ J_ω, each term added to an entry and to its mirror image
+        // (M̄ is exactly symmetric); the columns ascend
+        for (ib, b) in cols.iter().enumerate() {
+            mb[b.k * nq + b.k] += m * (b.j.x * b.j.x + b.j.y * b.j.y) + inertia * b.w * b.w;
+            for a in &cols[ib + 1..] {
+                let v = m * (a.j.x * b.j.x + a.j.y * b.j.y) + inertia * a.w * b.w;
+                mb[b.k * nq + a.k] += v;
+                mb[a.k * nq + b.k] += v;
+            }
+            // … and on x, z: m Jᵀ J with J e_x = (1, 0), J e_z = (0, 1)
+            let (vx, vz) = (m * b.j.x, m * b.j.y);
+            mb[b.k * nq + ix] += vx;
+            mb[ix * nq + b.k] += vx;
+            mb[b.k * nq + iz] += vz;
+            mb[iz * nq + b.k] += vz;
+            // C̄ q̇ += m Jᵀ (J̇ q̇); N̄ = ∂V/∂q with V = −m g z_com (z down)
+            c_qd[b.k] += m * (b.j.x * ax + b.j.y * az);
+            n_bar[b.k] -= m * g * b.j.y;
         }
-        for c in cols.iter() {
-            c_qd[c.k] += m * (c.j.x * ax + c.j.y * az);
-            // N̄ = ∂V/∂q with V = −m g z_com (z down)
-            n_bar[c.k] -= m * g * c.j.y;
-        }
+        mb[ix * nq + ix] += m;
+        mb[iz * nq + iz] += m;
         c_qd[ix] += m * ax;
         c_qd[iz] += m * az;
         n_bar[iz] -= m * g;
@@ -261,22 +251,29 @@ mod tests {
     /// part (the `x, z` columns included), part by part: the route
     /// [`mass_coriolis_gravity`] writes the translations of in closed form.
     fn by_all_columns(model: &Model, kin: &Kinematics, qd: &[f64]) -> [Vec<f64>; 3] {
+        /// Column `k` of a part's Jacobians: `J e_k` (its COM), `J̇ e_k` and `J_ω e_k`.
+        struct Column {
+            k: usize,
+            j: Vector2<f64>,
+            jd: Vector2<f64>,
+            w: f64,
+        }
         let nq = model.nq();
         let (mut mb, mut c_qd, mut n_bar) = (vec![0.0; nq * nq], vec![0.0; nq], vec![0.0; nq]);
         let g = model.gravity_m_s2;
         for (part, m, inertia, com) in massive_parts(model) {
             let p = kin.point(part, com);
             let pd = kin.material_velocity(part, p);
-            let mut cols: Vec<PartColumn> = Vec::new();
+            let mut cols: Vec<Column> = Vec::new();
             kin.point_jacobian_columns(model, part, p, |k, j| {
-                cols.push(PartColumn {
+                cols.push(Column {
                     k,
                     j,
                     jd: Vector2::zeros(),
                     w: 0.0,
                 })
             });
-            let at = |cols: &[PartColumn], k: usize| cols.iter().position(|c| c.k == k).unwrap();
+            let at = |cols: &[Column], k: usize| cols.iter().position(|c| c.k == k).unwrap();
             kin.point_jacobian_rate_columns(model, part, pd, |k, jd| {
                 let i = at(&cols, k);
                 cols[i].jd = jd;
