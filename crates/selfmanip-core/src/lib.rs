@@ -16,6 +16,7 @@
 mod arc_range;
 pub mod constraint;
 pub mod contact;
+pub mod cpu;
 pub mod damped_slide;
 mod data;
 pub mod description;
