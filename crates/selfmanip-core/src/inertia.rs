@@ -13,7 +13,6 @@
 //! `½ a_j θ̇_j²` to the kinetic energy `½ q̇ᵀM̄q̇`; being constant it adds nothing to `∂M̄/∂q`,
 //! `C̄` or `N̄` (MuJoCo's `armature`: the rotor's coupling with the parent's rotation is
 //! dropped).
-use crate::cpu::multiversion;
 use crate::kinematics::{Kinematics, Part};
 use crate::model::Model;
 use nalgebra::{DMatrix, DVector, Vector2};
@@ -75,34 +74,17 @@ struct PartColumn {
 const EX: Vector2<f64> = Vector2::new(1.0, 0.0);
 const EZ: Vector2<f64> = Vector2::new(0.0, 1.0);
 
-multiversion! {
-    /// Writes `M̄`, `C̄ q̇` and `N̄` (the latter two as vectors) for the current kinematics, the
-    /// joints' armature on `M̄`'s diagonal.
-    ///
-    /// A part's Jacobians vanish outside its support (its chain and `x, z, φ`: for RHex's body,
-    /// 3 of 5 coordinates), so each part's sums run over its nonzero columns only. Of these the
-    /// columns of `x` and `z` are constants — `J e_x = (1, 0)`, `J e_z = (0, 1)`, no rotation, no
-    /// rate — so their entries are written in closed form (`m`, `m J_x`, `m J_z`, `m (J̇q̇)_x`,
-    /// `m g`): the terms of the general sums they stand for differ from these by added or
-    /// multiplied zeros, so every entry is the same number, and each part adds its terms to the
-    /// sums in the same order, part by part.
-    /// Compiled for AVX2 too ([`crate::cpu`]).
-    pub fn mass_coriolis_gravity(
-        model: &Model,
-        kin: &Kinematics,
-        qd: &[f64],
-        s: &mut InertiaScratch,
-        m_bar: &mut DMatrix<f64>,
-        c_qd: &mut DVector<f64>,
-        n_bar: &mut DVector<f64>,
-    ) {
-        mass_coriolis_gravity_body(model, kin, qd, s, m_bar, c_qd, n_bar)
-    }
-}
-
-/// [`mass_coriolis_gravity`]'s body, compiled into each copy.
-#[inline(always)]
-fn mass_coriolis_gravity_body(
+/// Writes `M̄`, `C̄ q̇` and `N̄` (the latter two as vectors) for the current kinematics, the
+/// joints' armature on `M̄`'s diagonal.
+///
+/// A part's Jacobians vanish outside its support (its chain and `x, z, φ`: for RHex's body,
+/// 3 of 5 coordinates), so each part's sums run over its nonzero columns only. Of these the
+/// columns of `x` and `z` are constants — `J e_x = (1, 0)`, `J e_z = (0, 1)`, no rotation, no
+/// rate — so their entries are written in closed form (`m`, `m J_x`, `m J_z`, `m (J̇q̇)_x`,
+/// `m g`): the terms of the general sums they stand for differ from these by added or
+/// multiplied zeros, so every entry is the same number, and each part adds its terms to the
+/// sums in the same order, part by part.
+pub fn mass_coriolis_gravity(
     model: &Model,
     kin: &Kinematics,
     qd: &[f64],

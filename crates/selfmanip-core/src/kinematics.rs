@@ -7,7 +7,6 @@
 //! the point at which the Jacobian is evaluated (the material velocity for a fixed point,
 //! the centre's velocity for a rolling contact on a plane).
 use crate::arc_range::ArcRange;
-use crate::cpu::multiversion;
 use crate::frames::{perp, rotate_sc};
 use crate::model::{ContactShape, Model};
 use nalgebra::{DMatrix, Vector2};
@@ -42,15 +41,8 @@ pub struct Kinematics {
 }
 
 impl Kinematics {
-    /// Recomputes every pose and velocity (no allocation after the first call). Compiled for
-    /// AVX2 too ([`crate::cpu`]).
+    /// Recomputes every pose and velocity (no allocation after the first call).
     pub fn compute(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
-        compute(self, model, q, qd);
-    }
-
-    /// [`Self::compute`]'s body, compiled into each copy of [`compute`].
-    #[inline(always)]
-    fn compute_body(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
         let n = model.n_joints();
         if self.link_sc.len() != n {
             self.origin.resize(n, Vector2::zeros());
@@ -234,9 +226,8 @@ impl Kinematics {
     /// chain's joints, then `φ` — at the material point at `p` moving with `p_dot`: the
     /// entries of [`Self::point_jacobian_columns`], [`Self::point_jacobian_rate_columns`]
     /// and [`Self::angular_jacobian_entries`] but those of `x, z`, which only translate it
-    /// (`J e_x = (1, 0)`, `J e_z = (0, 1)`, no rate, no rotation). Inlined into each copy of
-    /// [`crate::inertia::mass_coriolis_gravity`] ([`crate::cpu`]).
-    #[inline(always)]
+    /// (`J e_x = (1, 0)`, `J e_z = (0, 1)`, no rate, no rotation).
+    #[inline]
     pub(crate) fn rotation_columns(
         &self,
         model: &Model,
@@ -326,12 +317,5 @@ impl Kinematics {
             }
         }
         j
-    }
-}
-
-multiversion! {
-    /// [`Kinematics::compute`].
-    fn compute(kin: &mut Kinematics, model: &Model, q: &[f64], qd: &[f64]) {
-        kin.compute_body(model, q, qd)
     }
 }

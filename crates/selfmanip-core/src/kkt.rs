@@ -15,7 +15,6 @@
 //! `x₁ = R⁻ᵀ g`, `x₂ = M̃⁻¹ Q₂ᵀ (f − M̄ Q₁ x₁)`, `x = Q₁x₁ + Q₂x₂`, `y = R⁻¹ Q₁ᵀ (f − M̄ x)`,
 //! hence `M† = Q₂ M̃⁻¹ Q₂ᵀ`, `A†ᵀ = (I − M†M̄) Q₁ R⁻ᵀ`, `Λ = −R⁻¹ Q₁ᵀ M̄ A†ᵀ`.
 #![allow(non_snake_case)]
-use crate::cpu::multiversion;
 use crate::error::{CoreError, Result, SingularityKind};
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
@@ -357,18 +356,6 @@ fn load_at<D: Dim, C: Dim>(
     }
 }
 
-multiversion! {
-    /// [`factor_kernel_body`], compiled for AVX2 too ([`crate::cpu`]).
-    fn factor_kernel<D: Dim, C: Dim>(
-        dim: D,
-        cdim: C,
-        kkt: &mut KktFactorization,
-        dense: bool,
-    ) -> std::result::Result<(), SingularityKind> {
-        factor_kernel_body(dim, cdim, kkt, dense)
-    }
-}
-
 /// The factorization proper, on the loaded `M̄` and `Aᵀ`, for `m = dim` and `c = cdim`; a
 /// Lemma 5.1 failure is returned as its kind (the caller, which still holds the inputs, adds
 /// the condition).
@@ -385,8 +372,7 @@ multiversion! {
 /// nothing; where the plain route turns a `−0` of `M̄` into `+0`, so does this one). A
 /// non-finite reflector takes the plain route, and so do the systems of up to
 /// [`SMALL_M`] coordinates.
-#[inline(always)]
-fn factor_kernel_body<D: Dim, C: Dim>(
+fn factor_kernel<D: Dim, C: Dim>(
     dim: D,
     cdim: C,
     kkt: &mut KktFactorization,
@@ -539,29 +525,11 @@ fn factor_kernel_body<D: Dim, C: Dim>(
     Ok(())
 }
 
-multiversion! {
-    /// [`solve_kernel_body`], compiled for AVX2 too ([`crate::cpu`]).
-    #[allow(clippy::too_many_arguments)]
-    fn solve_kernel<D: Dim, C: Dim>(
-        dim: D,
-        cdim: C,
-        kkt: &mut KktFactorization,
-        f: &[f64],
-        g: &[f64],
-        x: &mut [f64],
-        y: &mut [f64],
-        dense: bool,
-    ) {
-        solve_kernel_body(dim, cdim, kkt, f, g, x, y, dense)
-    }
-}
-
 /// [`KktFactorization::solve`] for `m = dim` and `c = cdim`: `Q`'s unit columns outside `T`
 /// taken as such, as in [`factor_kernel`], bit for bit the plain route (`dense`) when `f`
 /// and `x̃` are finite (which it tests: it takes the plain route otherwise).
 #[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn solve_kernel_body<D: Dim, C: Dim>(
+fn solve_kernel<D: Dim, C: Dim>(
     dim: D,
     cdim: C,
     kkt: &mut KktFactorization,

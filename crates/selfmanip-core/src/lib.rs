@@ -16,7 +16,6 @@
 mod arc_range;
 pub mod constraint;
 pub mod contact;
-pub mod cpu;
 pub mod damped_slide;
 mod data;
 pub mod description;
