@@ -137,6 +137,13 @@ impl Event {
                     .any(|k| !self.mode_after.contains(k)))
     }
 
+    /// Whether the event is a **re-touch**: it leaves the mode as it was and makes
+    /// transitions ([`Self::makes_transitions`]) — an impact that kept a contact which force
+    /// complementarity let go at once.
+    pub fn is_retouch(&self) -> bool {
+        self.mode_before == self.mode_after && self.makes_transitions()
+    }
+
     /// Whether the event changes no contact mode and carries no impulse: a touchdown whose
     /// contact complementarity let go at once, its impulse zero (`|P_λ| ≤`
     /// [`IMPULSE_TOL_N_S`]: a massless chain's foot, whose stop needs none, thesis 5.1.3 —

@@ -255,12 +255,14 @@ pub fn simulate_with(
             }
             continue;
         }
-        // a chatter is truncated as a Zeno window is, and so is a truncated one resuming
-        // (crate::zeno); only the first, with nothing to truncate, ends the run
-        let found = chatter
-            .check(&events)
-            .map(|c| (c, true))
-            .or_else(|| zeno.resumed(&events).map(|c| (c, false)));
+        // a chatter is truncated as a Zeno window is, and so are a truncated one resuming
+        // and a re-touch after a flight shorter than the run resolves (crate::zeno); only
+        // the first, with nothing to truncate, ends the run
+        let found = chatter.check(&events).map(|c| (c, true)).or_else(|| {
+            zeno.resumed(&events)
+                .or_else(|| crate::zeno::retouch_unresolved(&events, opts.rest_time_s()))
+                .map(|c| (c, false))
+        });
         if let Some((c, ends)) = found {
             let held = (&mut reset_ws, &mut flow, &mut zeno);
             truncation = crate::zeno::truncate_and_hold(held, &opts, mode, (t, &y), &c)?;

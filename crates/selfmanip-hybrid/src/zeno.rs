@@ -39,7 +39,7 @@ use crate::flow::{Flow, FlowWorkspace};
 use crate::options::HybridOptions;
 use crate::reset::{reset_workspace, Reset};
 use crate::surface_tolerances::TERRAIN_STEP_M;
-use selfmanip_core::{plastic_impact, ContactMode, CoreError};
+use selfmanip_core::{plastic_impact, ContactKind, ContactMode, CoreError};
 
 /// The times of the transitions so far, latest last, with the contacts that triggered each.
 #[derive(Debug, Clone)]
@@ -312,6 +312,52 @@ impl ChatterDetector {
         }
         None
     }
+}
+
+/// A **re-touch after a flight the run does not resolve**: the latest event (`events`,
+/// latest last) is a touchdown that re-touches ([`Event::is_retouch`]) a contact which left
+/// its surface less than `rest_time_s` ([`crate::HybridOptions::rest_time_s`], the run's
+/// time resolution) before, **from rest and by its own event**: the latest event that
+/// involved it took it out of the mode, was triggered by it (its own liftoff, slip or fold
+/// — not another contact's impact, whose complementarity judges it afresh), and the mode
+/// before that event held it sticking (a re-touch's mode before does not hold it: a
+/// series of re-touches is the criterion's and [`ZenoWindow::resumed`]'s). A flight
+/// that short from rest is no flight at that resolution — the rule by which an impact
+/// leaves a contact at rest ([`crate::complementarity`], (5.40) with `δt = τ/2` for it):
+/// the contact stayed, and the impact that kept it and the force that let it go at once
+/// are the start of the chatter of thesis Fig. 5.7 below the resolution, whose
+/// continuation is more of the same cycle. A contact that slid, or that another contact's
+/// impact let go (a see-saw of two feet), is no contact at rest: it is left to the
+/// 30-repetition criterion. `Some(Chatter)` of period 1 and one cycle over the contacts so
+/// back (`duration_s` the shortest such flight), truncated as a chatter is.
+pub fn retouch_unresolved(events: &[Event], rest_time_s: f64) -> Option<Termination> {
+    let (e, before) = events.split_last()?;
+    if e.kind != EventKind::Touchdown || !e.is_retouch() {
+        return None;
+    }
+    let flight = |k: usize| {
+        // the latest event that involved `k`; it left there unless it stays after it
+        let last = before.iter().rev().find(|ev| {
+            ev.mode_before.contains(k) || ev.impulse_mode.contains(k) || ev.mode_after.contains(k)
+        })?;
+        let from_rest =
+            last.mode_before.kind(k) == Some(ContactKind::Stick) && last.triggered.contains(&k);
+        (from_rest && !last.mode_after.contains(k)).then(|| e.t - last.t)
+    };
+    let flights: Vec<(usize, f64)> = e
+        .triggered
+        .iter()
+        .filter_map(|&k| flight(k).map(|f| (k, f)))
+        .filter(|&(_, f)| f < rest_time_s)
+        .collect();
+    let shortest = flights.iter().map(|&(_, f)| f).reduce(f64::min)?;
+    Some(Termination::Chatter {
+        t: e.t,
+        period: 1,
+        cycles: 1,
+        duration_s: shortest,
+        contacts: flights.iter().map(|&(k, _)| k).collect(),
+    })
 }
 
 /// Whether `b` repeats the transition `a` in a chatter's cycle: the same kind, mode before

@@ -1,10 +1,13 @@
 //! The re-touch chatters truncated without `CHATTER_CYCLES` repetitions
 //! (`selfmanip_hybrid::zeno`), on event records built by hand:
+//! - a re-touch after a flight shorter than the run's time resolution `rest_time_s`
+//!   (`retouch_unresolved`): the flight is the time since the contact's own event took it
+//!   out of the mode it stuck in, compared strictly with the resolution;
 //! - a truncated chatter that resumes after its dwell (`ZenoWindow::resumed`): one
 //!   repetition of its cycle, the robot where it was, before a quiet window.
 use selfmanip_core::{ContactKind, ContactMode};
 use selfmanip_hybrid::guard::Guard;
-use selfmanip_hybrid::zeno::{ZenoWindow, CHATTER_Q_PER_CYCLE};
+use selfmanip_hybrid::zeno::{retouch_unresolved, ZenoWindow, CHATTER_Q_PER_CYCLE};
 use selfmanip_hybrid::{Event, EventKind, Termination};
 
 fn standing() -> ContactMode {
@@ -52,6 +55,57 @@ impl ModeAfter for Event {
         self.mode_after = m;
         self
     }
+}
+
+#[test]
+fn a_retouch_after_an_unresolved_flight_is_a_chatter() {
+    let tau = 2e-4;
+    // released at 0.1, back 0.1 ms later: shorter than the resolution
+    let events = vec![release(0.1), retouch(0.1 + 1e-4, 0.0)];
+    match retouch_unresolved(&events, tau) {
+        Some(Termination::Chatter {
+            period,
+            cycles,
+            contacts,
+            duration_s,
+            ..
+        }) => {
+            assert_eq!((period, cycles, contacts), (1, 1, vec![1]));
+            assert!((duration_s - 1e-4).abs() < 1e-15, "{duration_s}");
+        }
+        other => panic!("{other:?}"),
+    }
+    // back after 0.3 ms: a flight the run resolves
+    let events = vec![release(0.1), retouch(0.1 + 3e-4, 0.0)];
+    assert_eq!(retouch_unresolved(&events, tau), None);
+    // the flight counts from the latest event that involved the contact: after a previous
+    // re-touch (whose mode before does not hold it) it is no flight from rest
+    let events = vec![
+        release(0.1),
+        retouch(0.1 + 3e-4, 0.0),
+        retouch(0.1 + 4e-4, 0.0),
+    ];
+    assert_eq!(retouch_unresolved(&events, tau), None);
+    // a contact that slid before it left is not at rest
+    let mut slid = release(0.1);
+    slid.mode_before = standing().with(1, ContactKind::Slide);
+    assert_eq!(
+        retouch_unresolved(&[slid, retouch(0.1 + 1e-4, 0.0)], tau),
+        None
+    );
+    // a contact another contact's event let go (a see-saw) is left to the criterion
+    let mut other = release(0.1);
+    other.triggered = vec![2];
+    assert_eq!(
+        retouch_unresolved(&[other, retouch(0.1 + 1e-4, 0.0)], tau),
+        None
+    );
+    // a touchdown that keeps its contact is no re-touch; nor one with nothing released
+    // before it (its contact's flight unknown)
+    let mut kept = retouch(0.1 + 1e-4, 0.0);
+    kept.mode_after = kept.impulse_mode;
+    assert_eq!(retouch_unresolved(&[release(0.1), kept], tau), None);
+    assert_eq!(retouch_unresolved(&[retouch(0.1, 0.0)], tau), None);
 }
 
 /// A window whose last truncation (at 0.1, dwell 0.01 s) was of the re-touch cycle
