@@ -342,7 +342,7 @@ pub fn retouch_unresolved(events: &[Event], rest_time_s: f64) -> Option<Terminat
         })?;
         let from_rest =
             last.mode_before.kind(k) == Some(ContactKind::Stick) && last.triggered.contains(&k);
-        (from_rest && !last.mode_after.contains(k)).then(|| e.t - last.t)
+        (from_rest && !last.mode_after.contains(k)).then_some(e.t - last.t)
     };
     let flights: Vec<(usize, f64)> = e
         .triggered
