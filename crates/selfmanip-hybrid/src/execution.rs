@@ -281,6 +281,11 @@ pub struct Execution {
     /// Accepted integration steps of the run (what [`crate::HybridOptions::max_steps`]
     /// bounds).
     pub steps: usize,
+    /// The times at which a Zeno truncation's dwell ended by its length ([`crate::zeno`],
+    /// `dwell_end`): each ends a segment, with the event of the force complementarity that
+    /// judged the held contacts there, or none when it kept them all. The latest truncation
+    /// before each sets it: it moves with that truncation's time (the sensitivities).
+    pub dwell_ends: Vec<f64>,
 }
 
 impl Execution {

@@ -39,6 +39,9 @@ impl EventChain {
         });
         match event {
             Some(_) => self.next_event += 1,
+            // a truncation's dwell that ended by its length and kept its contacts: a time
+            // event with no event recorded (super::truncation)
+            None if !last && exec.dwell_ends.contains(&seg.t1) => {}
             None if !last => {
                 feature_changes.push(si);
                 self.defined = false;
@@ -46,6 +49,22 @@ impl EventChain {
             None => {}
         }
         event
+    }
+
+    /// The Zeno truncation taken at once after `event` (the event just matched, at the same
+    /// instant, with no segment between them), if any (then matched): the two are
+    /// differentiated as one event ([`super::truncation`]).
+    pub(super) fn truncation<'e>(
+        &mut self,
+        exec: &'e Execution,
+        event: &Event,
+    ) -> Option<&'e Event> {
+        let next = exec
+            .events
+            .get(self.next_event)
+            .filter(|e| e.kind == EventKind::ZenoTruncation && e.t == event.t)?;
+        self.next_event += 1;
+        Some(next)
     }
 }
 

@@ -5,8 +5,10 @@ use super::chain::{chain_complete, has_event_memory, EventChain};
 use super::evaluator::{controller_names, Evaluator, FlowPoint};
 use super::event_saltation::{segment_event, EventParts};
 use super::force_events::force_guard_gradient;
+use super::reset_jacobian::NotDifferentiated;
 use super::segment_tangent::segment_flow;
 use super::tangent::Tangent;
+use super::truncation::{dwell_end, not_differentiated, reason_after, truncation_defined};
 use super::types::{ColumnSensitivity, Parameter, SaltationStatus, SensitivityError};
 use crate::contact_set::rows_of;
 use crate::event::{Event, EventKind};
@@ -75,6 +77,8 @@ pub fn execution_sensitivity_columns(
         names: controller_names(params),
     };
     let mut chain = EventChain::new();
+    // the time row of the latest truncation, which its dwell's end moves with
+    let mut truncated: Option<RowDVector<f64>> = None;
     for (si, seg) in exec.segments.iter().enumerate() {
         segment_flow(
             &mut ev,
@@ -83,10 +87,34 @@ pub fn execution_sensitivity_columns(
             &mut out.touch_switches,
             &mut out.time_events,
         )?;
-        let Some(event) = chain.ending(exec, si, &mut out.feature_changes) else {
+        let ending = chain.ending(exec, si, &mut out.feature_changes);
+        if exec.dwell_ends.contains(&seg.t1) {
+            // a truncation's dwell ended by its length: a time event (super::truncation)
+            let Tangent::Columns { x, .. } = &mut tangent else {
+                unreachable!("columns stay columns")
+            };
+            let r = dwell_end(&mut ev, exec, si, (ending, truncated.as_ref()), x)?;
+            if r.is_err() {
+                chain.defined = false;
+            }
+            if let Some(e) = ending {
+                if r.is_err() && ev.memory_mode {
+                    ev.memory.push(DMatrix::from_element(1 + n2, m, f64::NAN));
+                }
+                out.event_time_columns
+                    .push(truncated.clone().filter(|_| r.is_ok()));
+                out.events.push(match r {
+                    Ok(()) => truncation_defined(e, n2),
+                    Err(NotDifferentiated(why)) => not_differentiated(e, why),
+                });
+            }
+            continue;
+        }
+        let Some(event) = ending else {
             continue;
         };
-        let (mut es, parts) = segment_event(&mut ev, exec, si, event, &body)?;
+        let trunc = chain.truncation(exec, event);
+        let (mut es, parts) = segment_event(&mut ev, exec, si, (event, trunc), &body)?;
         if let (Some(xi), Some(first)) = (&es.saltation, es.one_sided.first()) {
             // several guards at once whose orders agree: the initial-state directions go
             // through its saltation; parameters and memory are not carried across it yet
@@ -107,20 +135,35 @@ pub fn execution_sensitivity_columns(
         }
         let (Some(xi), Some(parts), Some(dg)) = (&es.saltation, parts, &es.guard_gradient) else {
             chain.defined = false;
+            truncated = None;
+            let told = 1 + usize::from(trunc.is_some());
             if ev.memory_mode && event.kind != EventKind::Apex {
                 // the event's memory has no derivative: the run's columns are not returned
-                ev.memory.push(DMatrix::from_element(1 + n2, m, f64::NAN));
+                for _ in 0..told {
+                    ev.memory.push(DMatrix::from_element(1 + n2, m, f64::NAN));
+                }
             }
+            let reason = reason_after(&es);
             out.event_time_columns.push(None);
             out.events.push(es);
+            if let Some(z) = trunc {
+                out.event_time_columns.push(None);
+                out.events.push(not_differentiated(z, reason));
+            }
             continue;
         };
         let Tangent::Columns { x, .. } = &mut tangent else {
             unreachable!("columns stay columns")
         };
         let time = event_columns(&mut ev, (seg, event), (xi, parts, dg), x, params)?;
-        out.event_time_columns.push(Some(time));
+        out.event_time_columns.push(Some(time.clone()));
         out.events.push(es);
+        if let Some(z) = trunc {
+            // the truncation's saltation is the pair's, taken above
+            out.event_time_columns.push(Some(time.clone()));
+            out.events.push(truncation_defined(z, n2));
+            truncated = Some(time);
+        }
     }
     // a controller's time event moves the parameter columns only (its instant does not
     // depend on the state), so only this path needs its statuses
@@ -219,6 +262,24 @@ fn event_columns(
             if dpg[col] != 0.0 {
                 xn.column_mut(col).axpy(dpg[col] / parts.den, &jump, 1.0);
             }
+        }
+        if let Some(first) = &parts.first {
+            // the event before a truncation taken at once, as the controller remembers it:
+            // `Dx₁⁺ = D_xR₁ (X⁻ + f⁻ Dt_e) + D_pR₁` (super::truncation)
+            let mut d = DMatrix::zeros(1 + n2, m);
+            d.row_mut(0).copy_from(&time);
+            let mut moved = &first.dr * (&*x + &parts.f_minus * &time);
+            let mut bi = 0;
+            for (k, p) in params.iter().enumerate() {
+                if let Parameter::Body(_) = p {
+                    moved
+                        .column_mut(nd + k)
+                        .axpy(1.0, &first.dr_p.column(bi), 1.0);
+                    bi += 1;
+                }
+            }
+            d.rows_mut(1, n2).copy_from(&moved);
+            ev.memory.push(d);
         }
         if event.kind != EventKind::Apex {
             // the event as the controller remembers it: `(t_e, x⁺)` with

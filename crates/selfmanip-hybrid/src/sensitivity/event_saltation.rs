@@ -8,6 +8,7 @@ use super::reset_jacobian::{EventAt, GuardReset, KindOutcome, NotDifferentiated}
 use super::saltation::saltation_with_rate;
 use super::simultaneous::{guards_at_once, one_sided_saltations, orders_agree};
 use super::touchdown::{jam, touchdown};
+use super::truncation::{compose, FirstReset};
 use super::types::{EventSensitivity, SaltationStatus, SensitivityError};
 use crate::event::{Event, EventKind};
 use crate::execution::{Execution, Segment};
@@ -27,15 +28,19 @@ pub(super) struct EventParts {
     /// `D_xg f⁻`.
     pub(super) den: f64,
     pub(super) y_minus: Vec<f64>,
+    /// The reset of the event alone where a Zeno truncation followed it at once (the two
+    /// differentiated as one, [`super::truncation`]): its memory's derivative needs it.
+    pub(super) first: Option<FirstReset>,
 }
 
-/// [`event_sensitivity`] of the event that ended segment `si`, flagged simultaneous (without
-/// parts) when a neighbouring mode lasted zero time.
+/// [`event_sensitivity`] of the event that ended segment `si` (with the Zeno truncation
+/// `trunc` taken at once after it, if any: one event, [`super::truncation`]), flagged
+/// simultaneous (without parts) when a neighbouring mode lasted zero time.
 pub(super) fn segment_event(
     ev: &mut Evaluator,
     exec: &Execution,
     si: usize,
-    event: &Event,
+    (event, trunc): (&Event, Option<&Event>),
     body: &[BodyParameter],
 ) -> Result<(EventSensitivity, Option<EventParts>), SensitivityError> {
     // a jam hold (crate::jam_hold) is entered by force and ended by its own guard, neither
@@ -59,11 +64,12 @@ pub(super) fn segment_event(
     // derivatives of its flow and of its resets are not formed
     let damped = crate::damped_slide::damped_contacts(ev.model);
     let slides = |m| crate::damped_slide::sliding_damped(damped, m);
-    if damped != 0 && (slides(event.mode_before) | slides(event.mode_after)) != 0 {
+    let held = trunc.map_or(0, |z| slides(z.mode_after));
+    if damped != 0 && (slides(event.mode_before) | slides(event.mode_after) | held) != 0 {
         let reason = "a massless chain's damped slide before or after it: not differentiated";
         return Ok((unsupported(event, reason), None));
     }
-    let (mut es, parts) = event_sensitivity(ev, seg, after, event, body)?;
+    let (mut es, parts) = event_sensitivity(ev, (seg, after), (event, trunc), body)?;
     // an event at a time event of the controller that ran up to it was fired by the flow's
     // jump there (a torque switched on pushes a force to its cone at once), not by a
     // crossing: its instant follows the time event's, which the state event's
@@ -142,12 +148,12 @@ fn simultaneous_event(
     Ok(es)
 }
 
-/// The saltation matrix of `event`, which ended `before` (and started `after`, if any).
+/// The saltation matrix of `event`, which ended `before` (and started `after`, if any; with
+/// the Zeno truncation `trunc` taken at once after it, the pair's).
 fn event_sensitivity(
     ev: &mut Evaluator,
-    before: &Segment,
-    after: Option<&Segment>,
-    event: &Event,
+    (before, after): (&Segment, Option<&Segment>),
+    (event, trunc): (&Event, Option<&Event>),
     body: &[BodyParameter],
 ) -> Result<(EventSensitivity, Option<EventParts>), SensitivityError> {
     let (model, terrain) = (ev.model, ev.terrain);
@@ -157,6 +163,13 @@ fn event_sensitivity(
     before.eval(t, &mut y);
     let guards = guards_at_once(ev, before, event, &y)?;
     let single = guards.len() <= 1;
+    if let (false, Some(_)) = (single, trunc) {
+        let reason = format!(
+            "a Zeno truncation after the guards of contacts {guards:?} fired at once: not \
+             differentiated"
+        );
+        return Ok((unsupported(event, reason), None));
+    }
     if let (false, Some(a)) = (single, after) {
         return Ok((
             simultaneous_event(ev, (before, a), (event, &guards), &y)?,
@@ -166,10 +179,16 @@ fn event_sensitivity(
     let fm = ev.eval(FlowPoint::on(before, t, &y))?;
     let mut simultaneous = !single;
     let at = EventAt::new((model, terrain), before, event, body, &y);
-    let gr = match guard_and_reset(&at, &fm)? {
+    let mut gr = match guard_and_reset(&at, &fm)? {
         Ok(gr) => gr,
         Err(NotDifferentiated(reason)) => return Ok((unsupported(event, reason), None)),
     };
+    let first = match trunc.map(|z| compose((model, terrain), &mut gr, z, body)) {
+        Some(Err(NotDifferentiated(reason))) => return Ok((unsupported(event, reason), None)),
+        Some(Ok(r)) => Some(r),
+        None => None,
+    };
+    let mode_after = trunc.map_or(event.mode_after, |z| z.mode_after);
     if event.kind == EventKind::Touchdown && event.triggered.is_empty() {
         simultaneous = true;
     }
@@ -206,7 +225,7 @@ fn event_sensitivity(
         // an apex passed on the way is no reset (the controller is not told of it): the flow
         // after it is the next segment's, and the saltation the identity up to round-off
         (_, Some(a)) => ev.flow(FlowPoint {
-            mode: event.mode_after,
+            mode: mode_after,
             ..FlowPoint::on(a, t, &y_plus)
         })?,
         (_, None) => {
@@ -228,6 +247,7 @@ fn event_sensitivity(
                 dr_p,
                 dr_mu,
                 y_minus: y,
+                first,
             })
         }
         Err(status) => {

@@ -137,6 +137,7 @@ mod tangent;
 mod time_events;
 mod touch_switch;
 mod touchdown;
+mod truncation;
 mod types;
 
 pub use columns::execution_sensitivity_columns;

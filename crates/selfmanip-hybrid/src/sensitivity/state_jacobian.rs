@@ -4,14 +4,16 @@ use super::chain::{chain_complete, has_event_memory, EventChain};
 use super::columns::execution_sensitivity_columns;
 use super::evaluator::Evaluator;
 use super::event_saltation::segment_event;
+use super::reset_jacobian::NotDifferentiated;
 use super::segment_tangent::segment_flow;
 use super::tangent::Tangent;
+use super::truncation::{dwell_end_flows, not_differentiated, reason_after, truncation_defined};
 use super::types::{SaltationStatus, Sensitivity, SensitivityError};
 use crate::controller::Controller;
 use crate::execution::Execution;
 use crate::options::HybridOptions;
 use crate::simulate::simulate;
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, RowDVector};
 use selfmanip_core::{ContactMode, Model, Terrain};
 
 /// Runs [`simulate`] and then [`execution_sensitivity`] on its result. The execution is
@@ -52,6 +54,8 @@ pub fn execution_sensitivity(
     let mut total = DMatrix::identity(n2, n2);
     let mut chain = EventChain::new();
     let mut one_sided = false;
+    // dt/dx(0) of the latest truncation, which its dwell's end moves with
+    let mut truncated: Option<RowDVector<f64>> = None;
     for (si, seg) in exec.segments.iter().enumerate() {
         let mut tangent = Tangent::Full(DMatrix::identity(n2, n2));
         segment_flow(
@@ -66,10 +70,36 @@ pub fn execution_sensitivity(
         };
         total = &phi * total;
         out.segment_flows.push(phi);
-        let Some(event) = chain.ending(exec, si, &mut out.feature_changes) else {
+        let ending = chain.ending(exec, si, &mut out.feature_changes);
+        if exec.dwell_ends.contains(&seg.t1) {
+            // a truncation's dwell ended by its length: `+(f⁻ − f⁺) dt_trunc/dx(0)`
+            // (super::truncation)
+            let r = match &truncated {
+                Some(tg) => dwell_end_flows(&mut ev, exec, si)?.map(|(fm, fp)| {
+                    total += (fm - fp) * tg;
+                }),
+                None => Err(NotDifferentiated(
+                    "the end of a dwell whose truncation was not differentiated".into(),
+                )),
+            };
+            if r.is_err() {
+                chain.defined = false;
+            }
+            if let Some(e) = ending {
+                let mut es = match r {
+                    Ok(()) => truncation_defined(e, n2),
+                    Err(NotDifferentiated(why)) => not_differentiated(e, why),
+                };
+                es.time_gradient = truncated.clone().filter(|_| es.saltation.is_some());
+                out.events.push(es);
+            }
+            continue;
+        }
+        let Some(event) = ending else {
             continue;
         };
-        let (mut es, parts) = segment_event(&mut ev, exec, si, event, &[])?;
+        let trunc = chain.truncation(exec, event);
+        let (mut es, parts) = segment_event(&mut ev, exec, si, (event, trunc), &[])?;
         if let (Some(dg), Some(parts)) = (&es.guard_gradient, &parts) {
             // `ġ = D_xg f⁻ (+ ∂g/∂t)` at the event, as its saltation had it
             es.time_gradient = Some(-(dg * &total) / parts.den);
@@ -85,6 +115,21 @@ pub fn execution_sensitivity(
                 total = &es.one_sided[0].saltation * total;
             }
             _ => chain.defined = false,
+        }
+        if let Some(z) = trunc {
+            // the truncation's saltation is the pair's, taken with the event before it
+            let zs = match &es.saltation {
+                Some(_) if es.one_sided.is_empty() => {
+                    let mut zs = truncation_defined(z, n2);
+                    zs.time_gradient = es.time_gradient.clone();
+                    zs
+                }
+                _ => not_differentiated(z, reason_after(&es)),
+            };
+            truncated = zs.time_gradient.clone();
+            out.events.push(es);
+            out.events.push(zs);
+            continue;
         }
         out.events.push(es);
     }
