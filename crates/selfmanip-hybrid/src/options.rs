@@ -57,6 +57,13 @@ pub struct HybridOptions {
     /// a later touchdown of such a joint.
     #[serde(default)]
     pub control_free_joints: bool,
+    /// Truncate at once a re-touch after a flight from rest shorter than
+    /// [`Self::rest_time_s`] ([`crate::zeno::retouch_unresolved`]). Off by default: on, it
+    /// moves the compliant RHex leap's apex by centimetres in narrow bands of the leg's
+    /// stiffness, and the calibration of `crates/rhex-model/tests/compliant_leap.rs` then
+    /// falls into its second minimum (docs/decisions/2026-11-30-chatter-truncated.md).
+    #[serde(default)]
+    pub truncate_unresolved_flights: bool,
 }
 
 impl Default for HybridOptions {
@@ -74,6 +81,7 @@ impl Default for HybridOptions {
             fold_threshold: DEFAULT_FOLD_THRESHOLD,
             passage_threshold: DEFAULT_PASSAGE_THRESHOLD,
             control_free_joints: false,
+            truncate_unresolved_flights: false,
         }
     }
 }

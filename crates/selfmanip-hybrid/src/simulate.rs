@@ -90,6 +90,7 @@ pub fn simulate_with(
     let (mut t, mut mode) = (0.0, mode0);
     let mut y: Vec<f64> = q0.iter().chain(qd0).copied().collect();
     let (mut segments, mut events) = (Vec::new(), Vec::new());
+    let mut dwell_ends = Vec::new();
     let mut integrator = SegmentIntegrator::new(model, &opts);
     let mut zeno = ZenoWindow::new(opts.zeno_window_s, opts.zeno_max_events);
     let chatter = ChatterDetector;
@@ -141,6 +142,7 @@ pub fn simulate_with(
                 SegmentEnd::FinalTime if t >= t_final => break 'run Termination::FinalTime,
                 // the dwell of a truncation ends: its contacts are judged by force again
                 SegmentEnd::FinalTime => {
+                    dwell_ends.push(t);
                     fresh_laws(&mut reset_ws, &flow, (t, mode), &y);
                     let held = (&mut reset_ws, &mut flow, &mut zeno);
                     match crate::zeno::dwell_end(held, &opts, mode, (t, &y)) {
@@ -256,11 +258,17 @@ pub fn simulate_with(
             continue;
         }
         // a chatter is truncated as a Zeno window is, and so are a truncated one resuming
-        // and a re-touch after a flight shorter than the run resolves (crate::zeno); only
-        // the first, with nothing to truncate, ends the run
+        // and, when asked (HybridOptions::truncate_unresolved_flights), a re-touch after a
+        // flight shorter than the run resolves (crate::zeno); only the first, with nothing
+        // to truncate, ends the run
+        let unresolved = |events: &[Event]| {
+            let on = opts.truncate_unresolved_flights;
+            on.then(|| crate::zeno::retouch_unresolved(events, opts.rest_time_s()))
+                .flatten()
+        };
         let found = chatter.check(&events).map(|c| (c, true)).or_else(|| {
             zeno.resumed(&events)
-                .or_else(|| crate::zeno::retouch_unresolved(&events, opts.rest_time_s()))
+                .or_else(|| unresolved(&events))
                 .map(|c| (c, false))
         });
         if let Some((c, ends)) = found {
@@ -294,6 +302,7 @@ pub fn simulate_with(
         qd: qd.to_vec(),
         mode,
         steps: budget.steps(),
+        dwell_ends,
     })
 }
 
