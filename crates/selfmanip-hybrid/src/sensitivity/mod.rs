@@ -77,8 +77,17 @@
 //! held for zero time between two events at one instant, several guards whose orders are
 //! not formed (more than [`MAX_SIMULTANEOUS_GUARDS`], an order whose single impact would
 //! pull, event memory), and events not covered yet (folds, a fold passage's end, a segment
-//! that ended on a terrain feature change, Zeno truncations, a jam met by the flow, a
-//! Coulomb impact on the boundary of its active set). [`Sensitivity::state_jacobian`] is then `None`.
+//! that ended on a terrain feature change, a Zeno truncation after several guards at once, a
+//! jam met by the flow, a Coulomb impact on the boundary of its active set).
+//! [`Sensitivity::state_jacobian`] is then `None`.
+//!
+//! **A Zeno truncation** ([`crate::zeno::truncate`]) is taken at once after the event that
+//! filled the window or the chatter's criterion, at its instant: the pair is one event with
+//! that event's guard and the reset `R₂ ∘ R₁`, `R₂` the plastic impact (5.52) into the held
+//! mode, and `f⁺` the held mode's flow. The dwell's end ([`crate::Execution::dwell_ends`]) is
+//! a time event that moves with the truncation's time: `X⁺ = X⁻ + (f⁻ − f⁺) dt_trunc/dx`, the
+//! hold let go into the mode force complementarity gives (`truncation`,
+//! `docs/sensitivity.md`, "A Zeno truncation").
 //!
 //! **Parameters and selected columns** ([`execution_sensitivity_columns`]): named parameters
 //! `p` are constant states (`x̃ = (x, p)`, `ṗ = 0`), so the same variational equations and
