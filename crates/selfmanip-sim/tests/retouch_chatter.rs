@@ -23,34 +23,13 @@
 use selfmanip_hybrid::zeno::{ChatterDetector, CHATTER_CYCLES};
 use selfmanip_hybrid::{Event, EventKind};
 use selfmanip_sim::{Run, RunStatus, Scenario, Simulation};
+mod common;
 
 fn scenario() -> Scenario {
-    let link = |m: f64, i: f64, l: f64| serde_json::json!({"length_m": l, "mass_kg": m, "inertia_kg_m2": i});
-    let leg = |name: &str, x: f64| {
-        serde_json::json!({"name": name, "hip_m": [x, 0.0],
-            "links": [link(0.35, 1.5e-3, 0.2312), link(0.17, 1.17e-4, 0.0904)]})
-    };
-    let foot = |name: &str| {
-        serde_json::json!({"name": format!("{name}_foot"), "leg": name,
-            "shape": {"kind": "point", "position_m": [0.0, 0.0904]},
-            "friction": {"kind": "sticking", "mu": 1.18}})
-    };
-    let servo = |target: f64| {
-        serde_json::json!({"kind": "servo", "kp_n_m_per_rad": 385.65, "kd_n_m_s_per_rad": 16.33,
-            "torque_limit_n_m": 20.2, "target_rad": target})
-    };
-    let joint = |j: &str, target: f64| serde_json::json!({"joint": j, "phases": [{"name": "hold", "torque": servo(target)}]});
-    let (hip, knee) = (0.46, -0.7254);
-    let s = serde_json::json!({
-        "robot": {"name": "retouch", "body": {"mass_kg": 9.5, "inertia_kg_m2": 0.22},
-                  "legs": [leg("front", 0.25), leg("hind", -0.25)],
-                  "contacts": [foot("front"), foot("hind")]},
-        "behaviour": {"joints": [joint("front[0]", hip), joint("front[1]", knee),
-                                 joint("hind[0]", hip), joint("hind[1]", knee)]},
-        // the lowest foot 1 cm above the ground (NED: z down)
-        "initial": {"q": [hip, knee, hip, knee, 0.0, -0.3205, -0.05]},
-        "options": {"t_final_s": 0.2}
-    });
+    let mut s = common::retouch_robot(serde_json::json!(385.65));
+    // the lowest foot 1 cm above the ground (NED: z down)
+    s["initial"] = serde_json::json!({"q": [0.46, -0.7254, 0.46, -0.7254, 0.0, -0.3205, -0.05]});
+    s["options"] = serde_json::json!({"t_final_s": 0.2});
     Scenario::from_json_str(&s.to_string()).unwrap()
 }
 

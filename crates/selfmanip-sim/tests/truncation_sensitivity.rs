@@ -19,38 +19,17 @@ use selfmanip_hybrid::sensitivity::{execution_sensitivity_columns, Parameter};
 use selfmanip_hybrid::{EventKind, Execution};
 use selfmanip_sim::periodic::run_sensitivity;
 use selfmanip_sim::{Run, Scenario, Simulation};
+mod common;
 
 const Q0: [f64; 7] = [0.46, -0.7254, 0.46, -0.7254, 0.0, -0.3205, -0.05];
 const KP: f64 = 385.65;
 
+/// The robot (its hind knee's stiffness the parameter `kp`) from `(q0, qd0)` to `t_final`.
 fn scenario(q0: &[f64], qd0: &[f64], kp: f64, t_final: f64) -> Scenario {
-    let link = |m: f64, i: f64, l: f64| serde_json::json!({"length_m": l, "mass_kg": m, "inertia_kg_m2": i});
-    let leg = |name: &str, x: f64| {
-        serde_json::json!({"name": name, "hip_m": [x, 0.0],
-            "links": [link(0.35, 1.5e-3, 0.2312), link(0.17, 1.17e-4, 0.0904)]})
-    };
-    let foot = |name: &str| {
-        serde_json::json!({"name": format!("{name}_foot"), "leg": name,
-            "shape": {"kind": "point", "position_m": [0.0, 0.0904]},
-            "friction": {"kind": "sticking", "mu": 1.18}})
-    };
-    let servo = |kp: serde_json::Value, target: f64| {
-        serde_json::json!({"kind": "servo", "kp_n_m_per_rad": kp, "kd_n_m_s_per_rad": 16.33,
-            "torque_limit_n_m": 20.2, "target_rad": target})
-    };
-    let joint = |j: &str, kp: serde_json::Value, target: f64| serde_json::json!({"joint": j, "phases": [{"name": "hold", "torque": servo(kp, target)}]});
-    let (hip, knee) = (0.46, -0.7254);
-    let k = serde_json::json!(KP);
-    let s = serde_json::json!({
-        "robot": {"name": "retouch", "body": {"mass_kg": 9.5, "inertia_kg_m2": 0.22},
-                  "legs": [leg("front", 0.25), leg("hind", -0.25)],
-                  "contacts": [foot("front"), foot("hind")]},
-        "behaviour": {"parameters": {"kp": kp},
-                      "joints": [joint("front[0]", k.clone(), hip), joint("front[1]", k.clone(), knee),
-                                 joint("hind[0]", k, hip), joint("hind[1]", "kp".into(), knee)]},
-        "initial": {"q": q0, "qd": qd0},
-        "options": {"t_final_s": t_final, "rtol": 1e-11}
-    });
+    let mut s = common::retouch_robot("kp".into());
+    s["behaviour"]["parameters"] = serde_json::json!({ "kp": kp });
+    s["initial"] = serde_json::json!({"q": q0, "qd": qd0});
+    s["options"] = serde_json::json!({"t_final_s": t_final, "rtol": 1e-11});
     Scenario::from_json_str(&s.to_string()).unwrap()
 }
 

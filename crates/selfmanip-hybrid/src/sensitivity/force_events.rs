@@ -73,7 +73,7 @@ pub(super) fn drift_reset(at: &EventAt, gr: &mut GuardReset) -> Result<(), NotDi
 }
 
 /// `max |a − b|`.
-fn max_diff(a: &[f64], b: &[f64]) -> f64 {
+pub(super) fn max_diff(a: &[f64], b: &[f64]) -> f64 {
     a.iter()
         .zip(b)
         .map(|(a, b)| (a - b).abs())

@@ -7,6 +7,7 @@
 //! guard and its reset is one of the same impacts (the stick jam a plastic impact, the
 //! Coulomb jam a Coulomb impact).
 use super::coulomb_impact::coulomb_reset;
+use super::force_events::max_diff;
 use super::reset_jacobian::{EventAt, GuardReset, NotDifferentiated};
 use crate::event::Event;
 use nalgebra::RowDVector;
@@ -74,13 +75,7 @@ fn impact_reset(at: &EventAt, gr: &mut GuardReset) -> Result<(), NotDifferentiat
         let Ok(ij) = plastic_impact_jacobian(model, &mut data, at.terrain, m, q, qd_minus) else {
             continue;
         };
-        let mismatch = ij
-            .impact
-            .qd_plus
-            .iter()
-            .zip(&event.qd_after)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
+        let mismatch = max_diff(ij.impact.qd_plus.as_slice(), &event.qd_after);
         worst = worst.min(mismatch);
         if mismatch <= 1e-9 * scale {
             found = Some((m, ij));

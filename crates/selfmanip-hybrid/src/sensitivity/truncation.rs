@@ -17,7 +17,7 @@
 //! mode switch with the identity reset; its event, when the complementarity changed the
 //! mode, is remembered as `(Dt_trunc, X⁻ + f⁻ Dt_trunc)`.
 use super::evaluator::{Evaluator, FlowPoint};
-use super::force_events::DRIFT_JUMP_TOL;
+use super::force_events::{max_diff, DRIFT_JUMP_TOL};
 use super::reset_jacobian::{GuardReset, KindOutcome, NotDifferentiated};
 use super::types::{EventSensitivity, SaltationStatus};
 use crate::event::Event;
@@ -57,13 +57,7 @@ pub(super) fn compose(
         |e| NotDifferentiated(format!("a Zeno truncation's impact has no Jacobian: {e}")),
     )?;
     let scale = 1.0 + trunc.qd_after.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-    let mismatch = ij
-        .impact
-        .qd_plus
-        .iter()
-        .zip(&trunc.qd_after)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
+    let mismatch = max_diff(ij.impact.qd_plus.as_slice(), &trunc.qd_after);
     if mismatch > 1e-9 * scale {
         return Err(NotDifferentiated(format!(
             "a Zeno truncation's q̇⁺ is not the plastic impact into its held mode \
@@ -107,11 +101,7 @@ pub(super) fn dwell_end_flows(
     };
     let mut y = vec![0.0; seg.y0.len()];
     seg.eval(seg.t1, &mut y);
-    let jump = y
-        .iter()
-        .zip(&next.y0)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
+    let jump = max_diff(&y, &next.y0);
     if jump > DRIFT_JUMP_TOL {
         return Ok(Err(NotDifferentiated(format!(
             "the state jumped by {jump:.2e} at a Zeno truncation's dwell end"

@@ -239,3 +239,36 @@ pub fn worst_run_path_error(s: &Scenario, cases: &[(&str, f64)], expected: &[Eve
         central_in_path(s, (path, value, 1e-4 * value.abs()), &kinds, run_end)
     })
 }
+
+/// The re-touching robot of `retouch_chatter.rs` as scenario JSON (robot and behaviour): a
+/// 9.5 kg body on two legs of two massive links (a 0.35 kg thigh, a 0.17 kg shin of
+/// `I = 1.17·10⁻⁴` kg m²) under stiff servos (`k_p = 385.65` N m/rad, `k_d = 16.33`
+/// N m s/rad) holding their pose; the hind knee's `k_p` is `hind_knee_kp` (a number, or a
+/// behaviour parameter's name). The caller adds `initial` and `options`.
+pub fn retouch_robot(hind_knee_kp: serde_json::Value) -> serde_json::Value {
+    let link = |m: f64, i: f64, l: f64| serde_json::json!({"length_m": l, "mass_kg": m, "inertia_kg_m2": i});
+    let leg = |name: &str, x: f64| {
+        serde_json::json!({"name": name, "hip_m": [x, 0.0],
+            "links": [link(0.35, 1.5e-3, 0.2312), link(0.17, 1.17e-4, 0.0904)]})
+    };
+    let foot = |name: &str| {
+        serde_json::json!({"name": format!("{name}_foot"), "leg": name,
+            "shape": {"kind": "point", "position_m": [0.0, 0.0904]},
+            "friction": {"kind": "sticking", "mu": 1.18}})
+    };
+    let joint = |j: &str, kp: serde_json::Value, target: f64| {
+        let servo = serde_json::json!({"kind": "servo", "kp_n_m_per_rad": kp,
+            "kd_n_m_s_per_rad": 16.33, "torque_limit_n_m": 20.2, "target_rad": target});
+        serde_json::json!({"joint": j, "phases": [{"name": "hold", "torque": servo}]})
+    };
+    let (hip, knee, kp) = (0.46, -0.7254, serde_json::json!(385.65));
+    serde_json::json!({
+        "robot": {"name": "retouch", "body": {"mass_kg": 9.5, "inertia_kg_m2": 0.22},
+                  "legs": [leg("front", 0.25), leg("hind", -0.25)],
+                  "contacts": [foot("front"), foot("hind")]},
+        "behaviour": {"joints": [joint("front[0]", kp.clone(), hip),
+                                 joint("front[1]", kp.clone(), knee),
+                                 joint("hind[0]", kp, hip),
+                                 joint("hind[1]", hind_knee_kp, knee)]}
+    })
+}

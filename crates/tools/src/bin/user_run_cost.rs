@@ -8,8 +8,11 @@
 //! run's energy residual (`selfmanip_hybrid::energy_report`).
 //!
 //! ```sh
-//! cargo run --release -p selfmanip-tools --bin user_run_cost -- [--[no-]stiff-switch] run471.json …
+//! cargo run --release -p selfmanip-tools --bin user_run_cost -- [--[no-]stiff-switch] \
+//!     [--unresolved-flights] run471.json …
 //! ```
+//!
+//! `--unresolved-flights` runs with `HybridOptions::truncate_unresolved_flights` on.
 use selfmanip_hybrid::integrate::{reset_work_counters, work_counters};
 use selfmanip_sim::{Scenario, Simulation};
 use std::path::Path;
@@ -24,12 +27,19 @@ fn main() {
             .then_some(true)
             .or_else(|| (a == off).then_some(false))
     });
-    for path in std::env::args().skip(1).filter(|a| a != on && a != off) {
+    let flights = "--unresolved-flights";
+    let unresolved = std::env::args().any(|a| a == flights);
+    let flags = [on, off, flights];
+    for path in std::env::args()
+        .skip(1)
+        .filter(|a| !flags.contains(&a.as_str()))
+    {
         let mut s = Scenario::from_file(Path::new(&path)).unwrap_or_else(|e| panic!("{path}: {e}"));
         if let Some(b) = switch {
             s.options.stiff_switch = b;
         }
-        let sim = Simulation::new(&s).unwrap_or_else(|e| panic!("{path}: {e}"));
+        let mut sim = Simulation::new(&s).unwrap_or_else(|e| panic!("{path}: {e}"));
+        sim.options.truncate_unresolved_flights = unresolved;
         reset_work_counters();
         let t0 = Instant::now();
         let run = sim.run().unwrap_or_else(|e| panic!("{path}: {e}"));
