@@ -98,14 +98,13 @@ fn check(unresolved: bool) {
     let qd0 = [0.0, 0.0, 0.0, 0.0, 0.0, 0.1, 0.0];
     let probe = run(&Q0, &qd0, KP, (0.2, unresolved));
     let ex = &probe.execution;
-    let zi = ex
-        .events
-        .iter()
-        .position(|e| e.kind == EventKind::ZenoTruncation)
-        .expect("the re-touch chatter is truncated");
-    let tz = ex.events[zi].t;
     // taken at once after the re-touch that filled the criterion, at its instant
-    let before = &ex.events[zi - 1];
+    let pair = ex.events.windows(2);
+    let (before, tz) = pair
+        .map(|w| (&w[0], &w[1]))
+        .find(|(_, z)| z.kind == EventKind::ZenoTruncation)
+        .map(|(b, z)| (b, z.t))
+        .expect("the re-touch chatter is truncated");
     assert!(
         before.kind == EventKind::Touchdown && before.t == tz,
         "{before:?}"
