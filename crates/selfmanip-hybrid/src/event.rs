@@ -221,3 +221,12 @@ impl PainleveReason {
         }
     }
 }
+
+/// `max |a − b|` over the components of two states, e.g. an event's `q` or `q̇⁺` against
+/// another's or against a reset's.
+pub(crate) fn max_diff(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max)
+}

@@ -33,7 +33,7 @@
 //! cycle, and the truncated mode held for the dwell is that continuation's limit. Only a
 //! chatter with nothing to truncate ends the run ([`Termination::Chatter`]).
 use crate::error::HybridError;
-use crate::event::{Event, EventKind};
+use crate::event::{max_diff, Event, EventKind};
 use crate::execution::Termination;
 use crate::flow::{Flow, FlowWorkspace};
 use crate::options::HybridOptions;
@@ -157,7 +157,7 @@ impl ZenoWindow {
         {
             return None;
         }
-        if max_change(&c.events[0].q, &tail[0].q) > CHATTER_Q_PER_CYCLE {
+        if max_diff(&c.events[0].q, &tail[0].q) > CHATTER_Q_PER_CYCLE {
             return None;
         }
         let t = tail[p - 1].t;
@@ -296,7 +296,7 @@ impl ChatterDetector {
             if last_cycle < CHATTER_MIN_DURATION_RATIO * first_cycle {
                 continue;
             }
-            let moved = max_change(&tail[0].q, &tail[span - p].q);
+            let moved = max_diff(&tail[0].q, &tail[span - p].q);
             if moved <= CHATTER_Q_PER_CYCLE * (CHATTER_CYCLES - 1) as f64 {
                 let t = events.last().map_or(0.0, |e| e.t);
                 let cycle: Vec<Vec<usize>> =
@@ -369,14 +369,6 @@ fn same_transition(a: &Event, b: &Event) -> bool {
         && a.mode_before == b.mode_before
         && a.mode_after == b.mode_after
         && a.triggered == b.triggered
-}
-
-/// The largest change of any coordinate between the configurations `a` and `b`.
-fn max_change(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
 }
 
 /// The contacts of `lists`, sorted, each once.

@@ -6,6 +6,7 @@
 //! and each slipping contact's `∂R/∂μ`.
 use super::reset_jacobian::{EventAt, GuardReset, NotDifferentiated};
 use crate::coulomb_impact::{coulomb_impact_jacobian, coulomb_impacts, NotDifferentiable};
+use crate::event::max_diff;
 use nalgebra::DVector;
 use selfmanip_core::Data;
 
@@ -35,13 +36,8 @@ pub(super) fn coulomb_reset(
         Ok(Err(e)) => return Err(not(format!("not offered ({e:?})"))),
         Err(e) => return Err(not(e.to_string())),
     };
-    let mismatch = |o: &&crate::coulomb_impact::CoulombImpact| {
-        o.qd_plus
-            .iter()
-            .zip(&event.qd_after)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max)
-    };
+    let mismatch =
+        |o: &&crate::coulomb_impact::CoulombImpact| max_diff(o.qd_plus.as_slice(), &event.qd_after);
     let Some(o) = outcomes.iter().find(|o| mismatch(o) <= tol) else {
         return Err(not(format!(
             "none of its {} solutions is the recorded q̇⁺",

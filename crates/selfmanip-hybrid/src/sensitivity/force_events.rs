@@ -5,7 +5,7 @@
 use super::evaluator::{torque_time_derivative, FlowJacobian};
 use super::reset_jacobian::{EventAt, GuardReset, NotDifferentiated};
 use crate::contact_set::rows_of;
-use crate::event::EventKind;
+use crate::event::{max_diff, EventKind};
 use nalgebra::{DMatrix, DVector, RowDVector};
 use selfmanip_core::model::Friction;
 use selfmanip_core::tangent::{plastic_impact_jacobian, ImpactJacobian};
@@ -70,14 +70,6 @@ pub(super) fn drift_reset(at: &EventAt, gr: &mut GuardReset) -> Result<(), NotDi
         }
     }
     Ok(())
-}
-
-/// `max |a − b|`.
-pub(super) fn max_diff(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max)
 }
 
 /// Relative size `|q̇⁺ − q̇⁻| / (1 + |q̇⁻|)` (max norms) up to which a velocity jump at a

@@ -21,7 +21,7 @@ use super::saltation::saltation_with_rate;
 use super::types::{OneSidedSaltation, SensitivityError};
 use crate::contact_set::rows_of;
 use crate::controller::Controller;
-use crate::event::{Event, EventKind};
+use crate::event::{max_diff, Event, EventKind};
 use crate::execution::Segment;
 use nalgebra::{DMatrix, DVector, RowDVector};
 use selfmanip_core::contact::{contact_geometry, RowDirection};
@@ -253,11 +253,7 @@ fn fire_in_order(
         cur = step.y_plus;
     }
     let scale = 1.0 + event.qd_after.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-    let mismatch = cur[model.nq()..]
-        .iter()
-        .zip(&event.qd_after)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
+    let mismatch = max_diff(&cur[model.nq()..], &event.qd_after);
     if mode != event.mode_after || mismatch > 1e-9 * scale {
         return Ok(Err(NotDifferentiated(format!(
             "the guards fired one by one in the order {order:?} do not reproduce the event's \

@@ -7,9 +7,8 @@
 //! guard and its reset is one of the same impacts (the stick jam a plastic impact, the
 //! Coulomb jam a Coulomb impact).
 use super::coulomb_impact::coulomb_reset;
-use super::force_events::max_diff;
 use super::reset_jacobian::{EventAt, GuardReset, NotDifferentiated};
-use crate::event::Event;
+use crate::event::{max_diff, Event};
 use nalgebra::RowDVector;
 use selfmanip_core::contact::{contact_geometry, ContactKind};
 use selfmanip_core::model::Friction;

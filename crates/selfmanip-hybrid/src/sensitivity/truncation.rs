@@ -17,10 +17,10 @@
 //! mode switch with the identity reset; its event, when the complementarity changed the
 //! mode, is remembered as `(Dt_trunc, X⁻ + f⁻ Dt_trunc)`.
 use super::evaluator::{Evaluator, FlowPoint};
-use super::force_events::{max_diff, DRIFT_JUMP_TOL};
+use super::force_events::DRIFT_JUMP_TOL;
 use super::reset_jacobian::{GuardReset, KindOutcome, NotDifferentiated};
 use super::types::{EventSensitivity, SaltationStatus};
-use crate::event::Event;
+use crate::event::{max_diff, Event};
 use crate::execution::Execution;
 use nalgebra::{DMatrix, DVector, RowDVector};
 use selfmanip_core::tangent::{
