@@ -277,9 +277,18 @@ pub fn simulate_with(
             if truncation.is_none() && ends {
                 break c;
             }
-            if let (Some(_), Termination::Chatter { period, .. }) = (&truncation, &c) {
+            if let (
+                Some(_),
+                Termination::Chatter {
+                    period,
+                    t,
+                    contacts,
+                    ..
+                },
+            ) = (&truncation, &c)
+            {
                 let cycle = &events[events.len() - period..];
-                zeno.truncated_chatter(cycle, &c, events.len() + 1);
+                zeno.truncated_chatter(cycle, (*t, contacts), events.len() + 1);
             }
         }
         if let Some(p) = penetration(model, terrain, t, &y[..model.nq()]) {

@@ -115,22 +115,24 @@ impl ZenoWindow {
         self.cycle = None;
     }
 
-    /// Records that the truncation just made ([`Self::truncated`], at `t`) is of the chatter
-    /// `z` whose last repetition is `cycle`, `after` the index its truncation's event will
-    /// have plus one: a cycle of re-touches bounds its dwell to itself
-    /// ([`Self::hold_cycle_only`]), and the cycle is remembered while it may resume
+    /// Records that the truncation just made ([`Self::truncated`]) is of a chatter whose last
+    /// repetition is `cycle`, truncated at `t` over `contacts`, `after` the index its
+    /// truncation's event will have plus one: a cycle of re-touches bounds its dwell to
+    /// itself ([`Self::hold_cycle_only`]), and the cycle is remembered while it may resume
     /// ([`Self::resumed`]).
-    pub fn truncated_chatter(&mut self, cycle: &[Event], z: &Termination, after: usize) {
+    pub fn truncated_chatter(
+        &mut self,
+        cycle: &[Event],
+        (t, contacts): (f64, &[usize]),
+        after: usize,
+    ) {
         if cycle.iter().all(|e| e.mode_before == e.mode_after) {
             self.hold_cycle_only();
         }
-        let Termination::Chatter { t, contacts, .. } = z else {
-            return;
-        };
         self.cycle = Some(TruncatedCycle {
             events: cycle.to_vec(),
-            contacts: contacts.clone(),
-            t: *t,
+            contacts: contacts.to_vec(),
+            t,
             after,
         });
     }

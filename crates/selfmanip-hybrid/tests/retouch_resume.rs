@@ -113,14 +113,7 @@ fn a_retouch_after_an_unresolved_flight_is_a_chatter() {
 fn holding_window() -> ZenoWindow {
     let mut z = ZenoWindow::new(0.01, 50);
     z.truncated(0.1, 0.01);
-    let c = Termination::Chatter {
-        t: 0.1,
-        period: 1,
-        cycles: 30,
-        duration_s: 0.01,
-        contacts: vec![1],
-    };
-    z.truncated_chatter(&[retouch(0.1, 0.0)], &c, 2);
+    z.truncated_chatter(&[retouch(0.1, 0.0)], (0.1, &[1]), 2);
     z
 }
 
