@@ -386,7 +386,7 @@ def simulate(robot: RobotLike, behaviour: BehaviourLike, q0: Sequence[float], qd
     behaviour (see the module documentation); ``**options``: any field of the Rust
     ``SimOptions`` (``rtol``, ``atol``, ``h_max_s``, ``event_tol_s``, ``delta_t_s``,
     ``zeno_window_s``, ``zeno_max_events``, ``max_events``, ``labels``, ``word``,
-    ``stiff_switch``).
+    ``stiff_switch``, ``velocity_tolerance``, ``truncate_unresolved_flights``).
 
     Bad input raises :class:`selfmanip.errors.InvalidInputError` (a ``ValueError``) or
     :class:`~selfmanip.errors.InvalidTypeError` (a ``TypeError``) whose ``field`` names it

@@ -9,6 +9,7 @@ use crate::params::{LegPair, RhexParams};
 use crate::{Rhex, RhexError};
 use motor::Actuator;
 use selfmanip_core::ContactMode;
+use selfmanip_hybrid::VelocityTolerance;
 use selfmanip_sim::analysis::{angle_to_ground, body_reach_m};
 use selfmanip_sim::behaviour::{
     ActuatorSpec, Behaviour, JointProgram, Motion, NamedEvent, On, Phase, Torque, Trigger,
@@ -363,6 +364,12 @@ impl LeapConfig {
             // DOPRI5 throughout: the leaps' figures and corpus are DOPRI5's (the stiffness
             // test finds a few post-landing stretches of the half-circle legs near its bound)
             stiff_switch: false,
+            // one absolute tolerance for every component: the figures and corpus are
+            // those of the leaps' own `rtol` with `atol = rtol / 100` throughout
+            velocity_tolerance: VelocityTolerance::Uniform,
+            // the compliant leg's toes re-touch after short flights that its calibration
+            // resolves event by event (docs/decisions/2026-11-30-chatter-truncated.md)
+            truncate_unresolved_flights: false,
             ..SimOptions::default()
         }
     }

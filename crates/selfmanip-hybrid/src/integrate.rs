@@ -86,6 +86,60 @@ pub struct StepOptions {
     /// record with a RODAS4 step of its own ([`crate::sensitivity`]). Off: DOPRI5 throughout.
     #[serde(default = "stiff_switch_default")]
     pub stiff_switch: bool,
+    /// How a mechanical state's velocities share the absolute tolerance `atol`
+    /// ([`VelocityTolerance`]; default [`VelocityTolerance::Uniform`], a scenario's
+    /// `selfmanip_sim::SimOptions` [`VelocityTolerance::KineticEnergy`]).
+    #[serde(default)]
+    pub velocity_tolerance: VelocityTolerance,
+}
+
+/// The absolute tolerance of each velocity of a mechanical state `y = [q; q̇]` (the positions
+/// always have `atol`).
+///
+/// Below `atol / rtol` a component's error is measured against `atol` alone, so a velocity
+/// passing through zero is resolved to `atol` whatever it carries. After an impact, a servo's
+/// fast transient on a light link (`k_d / M̄ᵢᵢ` of 10⁴–10⁵ /s) then sets the step for tens of
+/// steps although its error moves next to no energy: the error of a velocity changes the
+/// kinetic energy by `δT = q̇ᵀ M̄ δq̇ ≤ √(2T) ‖δq̇‖_M̄` (Cauchy–Schwarz in the kinetic-energy
+/// metric), so the metric, not the coordinate, says how much a velocity's error weighs.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum VelocityTolerance {
+    /// Every velocity has `atol`.
+    #[default]
+    Uniform,
+    /// Velocity `i` has `atol √(M̄_max / M̄ᵢᵢ)`, `M̄ᵢᵢ` the mass matrix's diagonal at the
+    /// segment's start and `M̄_max` its largest entry ([`Self::scales`]): the velocities'
+    /// errors measured in the diagonal of the kinetic-energy metric, the heaviest coordinate
+    /// at `atol`, none looser than [`MAX_VELOCITY_ATOL_SCALE`] times it (a coordinate lighter
+    /// than a millionth of the heaviest, massless ones included, counts as that millionth).
+    KineticEnergy,
+}
+
+/// The largest factor [`VelocityTolerance::KineticEnergy`] loosens a velocity's absolute
+/// tolerance by: `√(10⁶)`, a coordinate a millionth as heavy as the heaviest.
+pub const MAX_VELOCITY_ATOL_SCALE: f64 = 1e3;
+
+impl VelocityTolerance {
+    /// The factors on `atol` of the state `[q; q̇]` (`scales.len() = 2 nq`) from the mass
+    /// matrix's diagonal `mass_diagonal` (`nq` entries, kg or kg m²): 1 for the positions,
+    /// [`Self`]'s rule for the velocities. A diagonal with no positive entry (or a
+    /// non-finite one) leaves every factor 1.
+    pub fn scales(self, mass_diagonal: impl Iterator<Item = f64> + Clone, scales: &mut [f64]) {
+        scales.fill(1.0);
+        if self == VelocityTolerance::Uniform {
+            return;
+        }
+        let heaviest = mass_diagonal.clone().fold(0.0, f64::max);
+        if !(heaviest > 0.0 && heaviest.is_finite()) {
+            return;
+        }
+        let nq = scales.len() / 2;
+        let lightest = heaviest / (MAX_VELOCITY_ATOL_SCALE * MAX_VELOCITY_ATOL_SCALE);
+        for (s, m) in scales[nq..].iter_mut().zip(mass_diagonal) {
+            *s = (heaviest / m.max(lightest)).sqrt();
+        }
+    }
 }
 
 impl Default for StepOptions {
@@ -97,6 +151,7 @@ impl Default for StepOptions {
             h_max_s: 1e-2,
             h_min_s: 1e-14,
             stiff_switch: stiff_switch_default(),
+            velocity_tolerance: VelocityTolerance::default(),
         }
     }
 }
@@ -334,6 +389,8 @@ pub struct Dopri5 {
     weights: Vec<f64>,
     /// `Σ weights` (at least 1).
     counted: f64,
+    /// Each component's factor on `opts.atol` (1 unless set: [`Self::set_atol_scales`]).
+    atol_scales: Vec<f64>,
     /// Largest step the components left out of the error norm stay stable at (s).
     h_stable: f64,
     /// Size and error norm (at least 1e-2) of the last accepted step since the last reset.
@@ -368,6 +425,7 @@ impl Dopri5 {
             fsal_valid: false,
             weights: vec![1.0; n],
             counted: n.max(1) as f64,
+            atol_scales: vec![1.0; n],
             h_stable: f64::INFINITY,
             last_accepted: None,
             trial_h: 0.0,
@@ -398,6 +456,14 @@ impl Dopri5 {
         if weights.len() == self.weights.len() {
             self.weights.copy_from_slice(weights);
             self.counted = self.weights.iter().sum::<f64>().max(1.0);
+        }
+    }
+
+    /// Each component's absolute tolerance as a factor on `opts.atol` (all 1 at first;
+    /// e.g. [`VelocityTolerance::scales`]). Wrong length: ignored.
+    pub fn set_atol_scales(&mut self, scales: &[f64]) {
+        if scales.len() == self.atol_scales.len() {
+            self.atol_scales.copy_from_slice(scales);
         }
     }
 
@@ -604,7 +670,7 @@ impl Dopri5 {
                 y,
                 &self.ynew,
                 (&self.weights, self.counted),
-                (self.opts.atol, self.opts.rtol),
+                (self.opts.atol, &self.atol_scales, self.opts.rtol),
             );
             if err <= 1.0 || h <= self.opts.h_min_s {
                 // the end point's derivative: the next step's first, and the last
@@ -639,7 +705,8 @@ impl Dopri5 {
     }
 
     /// The weighted RMS norm of the error estimate `h Σ_s (b_s − b̂_s) k_s` of the trial step
-    /// of size `h` from `y` (to `ynew`), scaled by `atol + rtol max(|y|, |y_new|)`.
+    /// of size `h` from `y` (to `ynew`), scaled by `atolᵢ + rtol max(|y|, |y_new|)`
+    /// (`atolᵢ = atol ·` the component's factor, [`Self::set_atol_scales`]).
     /// Each component's term first (one loop the compiler vectorizes), then their weighted
     /// sum in component order, over the components the norm counts.
     fn error_norm(&mut self, y: &[f64], h: f64) -> f64 {
@@ -647,9 +714,10 @@ impl Dopri5 {
         let k: [&[f64]; 7] = std::array::from_fn(|j| &self.k[j][..n]);
         let (atol, rtol) = (self.opts.atol, self.opts.rtol);
         let (ynew, terms) = (&self.ynew[..n], &mut self.err_terms[..n]);
+        let scales = &self.atol_scales[..n];
         for i in 0..n {
             let e: f64 = h * (0..7).map(|j| E[j] * k[j][i]).sum::<f64>();
-            let sc = atol + rtol * y[i].abs().max(ynew[i].abs());
+            let sc = atol * scales[i] + rtol * y[i].abs().max(ynew[i].abs());
             terms[i] = (e / sc).powi(2);
         }
         let mut err = 0.0;
@@ -728,19 +796,19 @@ fn stage_point(s: usize, k: &[Vec<f64>; 7], y: &[f64], h: f64, out: &mut [f64]) 
 }
 
 /// The weighted RMS norm of an error estimate `e` of a step from `y` to `y_new`, each
-/// component scaled by `atol + rtol max(|y|, |y_new|)`, over the components of non-zero
-/// weight (`Σ weights = counted`).
+/// component scaled by `atol · scaleᵢ + rtol max(|y|, |y_new|)`, over the components of
+/// non-zero weight (`Σ weights = counted`).
 fn scaled_rms(
     e: &[f64],
     y: &[f64],
     ynew: &[f64],
     (weights, counted): (&[f64], f64),
-    (atol, rtol): (f64, f64),
+    (atol, scales, rtol): (f64, &[f64], f64),
 ) -> f64 {
     let mut err = 0.0;
     for i in 0..e.len() {
         if weights[i] != 0.0 {
-            let sc = atol + rtol * y[i].abs().max(ynew[i].abs());
+            let sc = atol * scales[i] + rtol * y[i].abs().max(ynew[i].abs());
             err += weights[i] * (e[i] / sc).powi(2);
         }
     }

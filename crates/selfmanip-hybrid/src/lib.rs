@@ -91,7 +91,7 @@ pub use energy::{energy_report, EnergyReport};
 pub use error::HybridError;
 pub use event::{Event, EventKind, PainleveReason};
 pub use execution::{Execution, Segment, Termination};
-pub use integrate::StepOptions;
+pub use integrate::{StepOptions, VelocityTolerance};
 pub use limits::ENUMERATION_LIMIT;
 pub use options::HybridOptions;
 pub use options::DEFAULT_MAX_STEPS;

@@ -58,10 +58,12 @@ pub struct HybridOptions {
     #[serde(default)]
     pub control_free_joints: bool,
     /// Truncate at once a re-touch after a flight from rest shorter than
-    /// [`Self::rest_time_s`] ([`crate::zeno::retouch_unresolved`]). Off by default: on, it
-    /// moves the compliant RHex leap's apex by centimetres in narrow bands of the leg's
-    /// stiffness, and the calibration of `crates/rhex-model/tests/compliant_leap.rs` then
-    /// falls into its second minimum (docs/decisions/2026-11-30-chatter-truncated.md).
+    /// [`Self::rest_time_s`] ([`crate::zeno::retouch_unresolved`]). Off here; on in a
+    /// scenario's options (`selfmanip_sim::SimOptions`, what a user's run takes), off in
+    /// the RHex leaps': on, it moves the compliant RHex leap's apex by centimetres in narrow
+    /// bands of the leg's stiffness, and the calibration of
+    /// `crates/rhex-model/tests/compliant_leap.rs` then falls into its second minimum
+    /// (docs/decisions/2026-11-30-chatter-truncated.md).
     #[serde(default)]
     pub truncate_unresolved_flights: bool,
 }

@@ -27,7 +27,7 @@ use crate::features::{FeatureChange, Surfaces};
 use crate::flow::{Flow, FlowSystem, FlowWorkspace};
 use crate::free_joints::FreeJointStability;
 use crate::guard::{Guard, GuardSet};
-use crate::integrate::{DenseOutput, DenseStep, Dopri5, StepError};
+use crate::integrate::{DenseOutput, DenseStep, Dopri5, StepError, VelocityTolerance};
 use crate::locate::first_event;
 use crate::options::HybridOptions;
 use selfmanip_core::{free_massless_joints, ContactMode, CoreError, Model};
@@ -65,6 +65,8 @@ pub struct SegmentIntegrator {
     /// The state at sample and trial times.
     y_probe: Vec<f64>,
     weights: Vec<f64>,
+    /// Each component's factor on the absolute tolerance ([`VelocityTolerance::scales`]).
+    atol_scales: Vec<f64>,
     /// The step bound of the free joints' law (out of the error norm).
     free_stability: FreeJointStability,
     /// The step size the next segment starts with: the one the last segment reached (a
@@ -92,6 +94,7 @@ impl SegmentIntegrator {
             y_probe: vec![0.0; 2 * nq],
             free_stability: FreeJointStability::default(),
             weights: vec![1.0; 2 * nq],
+            atol_scales: vec![1.0; 2 * nq],
             h_carry: opts.step.h_initial_s,
             guards: GuardSet::default(),
             surfaces: Surfaces::default(),
@@ -104,7 +107,8 @@ impl SegmentIntegrator {
     }
 
     /// Prepares the segment of `mode` from `(t, y)`: the error weights (free and locked
-    /// joints out of the norm), the free joints' step cap, the controller's time events ahead
+    /// joints out of the norm), the velocities' absolute tolerances from the mass matrix
+    /// there ([`VelocityTolerance`]), the free joints' step cap, the controller's time events ahead
     /// as step stops, each sliding toe's friction side, the guards armed, the terrain
     /// features under the active contacts, and the integrator. Returns the guards of the
     /// contacts that slip at the start.
@@ -154,8 +158,18 @@ impl SegmentIntegrator {
         self.guards.arm(flow, mode, t, y, &from_rest, opts)?;
         let slipping_now = self.guards.slipping_at_start(opts.arm_margin);
         self.surfaces.at_start(flow, mode, y);
+        let rule = opts.step.velocity_tolerance;
+        if rule != VelocityTolerance::Uniform {
+            // the flow at the segment's start (its first step's first stage, then cached);
+            // where it fails, the first step reports the failure
+            match flow.eval(t, mode, &y[..nq], &y[nq..]) {
+                Ok(data) => rule.scales((0..nq).map(|i| data.m_bar[(i, i)]), &mut self.atol_scales),
+                Err(_) => self.atol_scales.fill(1.0),
+            }
+        }
         self.ode.reset(self.h_carry);
         self.ode.set_error_weights(&self.weights);
+        self.ode.set_atol_scales(&self.atol_scales);
         self.ode.set_stability_cap(cap);
         Ok(slipping_now)
     }

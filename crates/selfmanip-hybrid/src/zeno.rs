@@ -332,8 +332,9 @@ impl ChatterDetector {
 /// impact let go (a see-saw of two feet), is no contact at rest: it is left to the
 /// 30-repetition criterion. `Some(Chatter)` of period 1 and one cycle over the contacts so
 /// back (`duration_s` the shortest such flight), truncated as a chatter is. The run applies
-/// it only when asked ([`crate::HybridOptions::truncate_unresolved_flights`], off by
-/// default: docs/decisions/2026-11-30-chatter-truncated.md).
+/// it only when asked ([`crate::HybridOptions::truncate_unresolved_flights`]: on in a
+/// scenario's defaults, off in the engine's and the RHex leaps';
+/// docs/decisions/2026-11-30-chatter-truncated.md).
 pub fn retouch_unresolved(events: &[Event], rest_time_s: f64) -> Option<Termination> {
     let (e, before) = events.split_last()?;
     if e.kind != EventKind::Touchdown || !e.is_retouch() {

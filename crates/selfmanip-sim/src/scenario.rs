@@ -20,6 +20,7 @@ use crate::trajectory::{coordinate_indices, q_names, sample, Trajectory};
 use selfmanip_core::{ContactKind, ContactMode, Model, RobotDescription};
 use selfmanip_hybrid::{
     energy_report, Controller, EnergyReport, Execution, HybridOptions, StepOptions,
+    VelocityTolerance,
 };
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -76,8 +77,12 @@ pub struct SimOptions {
     pub delta_t_s: f64,
     /// Relative error tolerance per step.
     pub rtol: f64,
-    /// Absolute error tolerance per step (default: `rtol / 100`).
+    /// Absolute error tolerance per step (default: `rtol / 100`), the heaviest coordinate's
+    /// where the velocities' are scaled by their mass (`velocity_tolerance`).
     pub atol: Option<f64>,
+    /// How the velocities share `atol`: `kinetic_energy` (the default: each by the mass it
+    /// moves, [`VelocityTolerance::KineticEnergy`]) or `uniform`.
+    pub velocity_tolerance: VelocityTolerance,
     /// Largest step (s).
     pub h_max_s: f64,
     /// More than `zeno_max_events` events within `zeno_window_s` end the run (Zeno).
@@ -94,15 +99,20 @@ pub struct SimOptions {
     /// link): [`selfmanip_hybrid::StepOptions::stiff_switch`]. On by default; the
     /// derivatives of a run ([`crate::sensitivity`]) follow its implicit steps.
     pub stiff_switch: bool,
+    /// Truncate at once a contact's re-touch after a flight from rest too short for an impact
+    /// to resolve ([`HybridOptions::truncate_unresolved_flights`]) instead of after the
+    /// chatter criterion's repetitions of it. On by default.
+    pub truncate_unresolved_flights: bool,
 }
 
 /// The default relative step tolerance of a run: the energy balance
 /// `E₁ − E₀ = W + W_d + W_fr − L` ([`selfmanip_hybrid::energy_report`]) closes to the
 /// integration error of the state, which scales with `rtol`; over a run of a thousand steps
-/// of a robot of a few joules it is about `100 J × rtol` (the newcomer's bounder of issue 30:
-/// 1.2e-6 J at 1e-8, 5e-7 J at 5e-9). At 5e-9 a run balances its energy to 1e-6 J — one part
-/// in 10⁷ of its energy — for 12 % more steps than at 1e-8.
-pub const DEFAULT_RTOL: f64 = 5e-9;
+/// of a robot of a few joules it is about `100 J × rtol`. With the velocities' absolute
+/// tolerances scaled by their mass ([`VelocityTolerance::KineticEnergy`]), 2e-9 balances the
+/// newcomer's bounder of issue 30 to 2.1e-7 J over its 20-point bound sweep, one part in 10⁷
+/// of its energy, in fewer steps than the uniform tolerance took at 5e-9.
+pub const DEFAULT_RTOL: f64 = 2e-9;
 
 impl Default for SimOptions {
     fn default() -> Self {
@@ -114,6 +124,7 @@ impl Default for SimOptions {
             delta_t_s: 0.0,
             rtol: DEFAULT_RTOL,
             atol: None,
+            velocity_tolerance: VelocityTolerance::KineticEnergy,
             h_max_s: h.step.h_max_s,
             zeno_window_s: h.zeno_window_s,
             zeno_max_events: h.zeno_max_events,
@@ -121,6 +132,7 @@ impl Default for SimOptions {
             labels: None,
             word: WordOptions::default(),
             stiff_switch: h.step.stiff_switch,
+            truncate_unresolved_flights: true,
         }
     }
 }
@@ -152,6 +164,7 @@ impl SimOptions {
                 atol,
                 h_max_s: self.h_max_s,
                 stiff_switch: self.stiff_switch,
+                velocity_tolerance: self.velocity_tolerance,
                 ..d.step
             },
             event_tol_s: self.event_tol_s,
@@ -160,6 +173,7 @@ impl SimOptions {
             zeno_max_events: self.zeno_max_events,
             max_events: self.max_events,
             stop_at_apex: self.stop_at_apex,
+            truncate_unresolved_flights: self.truncate_unresolved_flights,
             ..d
         })
     }
