@@ -108,9 +108,9 @@ impl SegmentIntegrator {
 
     /// Prepares the segment of `mode` from `(t, y)`: the error weights (free and locked
     /// joints out of the norm), the velocities' absolute tolerances from the mass matrix
-    /// there ([`VelocityTolerance`]), the free joints' step cap, the controller's time events ahead
-    /// as step stops, each sliding toe's friction side, the guards armed, the terrain
-    /// features under the active contacts, and the integrator. Returns the guards of the
+    /// there ([`VelocityTolerance`]), the free joints' step cap, the controller's time
+    /// events ahead as step stops, each sliding toe's friction side, the guards armed, the
+    /// terrain features under the active contacts, and the integrator. Returns the guards of the
     /// contacts that slip at the start.
     fn start(
         &mut self,

@@ -423,6 +423,8 @@ fn run_sensitivity_passes_an_apex_on_the_way() {
     let h = opts().hybrid;
     (s.options.rtol, s.options.atol, s.options.event_tol_s) =
         (h.step.rtol, Some(h.step.atol), h.event_tol_s);
+    s.options.velocity_tolerance = h.step.velocity_tolerance;
+    s.options.truncate_unresolved_flights = h.truncate_unresolved_flights;
     s.options.t_final_s = o.period_s + 0.1;
     let run = Simulation::new(&s).unwrap().run().unwrap();
     let sens = selfmanip_sim::periodic::run_sensitivity(&run).unwrap();
