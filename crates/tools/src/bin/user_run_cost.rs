@@ -9,27 +9,34 @@
 //!
 //! ```sh
 //! cargo run --release -p selfmanip-tools --bin user_run_cost -- [--[no-]stiff-switch] \
-//!     [--unresolved-flights] run471.json …
+//!     [--[no-]unresolved-flights] run471.json …
 //! ```
 //!
-//! `--unresolved-flights` runs with `HybridOptions::truncate_unresolved_flights` on.
+//! Each flag overrides the file's setting (`SimOptions::stiff_switch`,
+//! `SimOptions::truncate_unresolved_flights`; both on by default).
 use selfmanip_hybrid::integrate::{reset_work_counters, work_counters};
 use selfmanip_sim::{Scenario, Simulation};
 use std::path::Path;
 use std::time::Instant;
 
 fn main() {
-    // `--stiff-switch` / `--no-stiff-switch`: the runs with the stiff switch on / off
-    // (`SimOptions::stiff_switch`, on by default; a file's own setting otherwise)
-    let (on, off) = ("--stiff-switch", "--no-stiff-switch");
-    let switch = std::env::args().find_map(|a| {
-        (a == on)
-            .then_some(true)
-            .or_else(|| (a == off).then_some(false))
-    });
-    let flights = "--unresolved-flights";
-    let unresolved = std::env::args().any(|a| a == flights);
-    let flags = [on, off, flights];
+    // `--stiff-switch` / `--no-stiff-switch` (and the same for `unresolved-flights`): the
+    // runs with the option on / off; a file's own setting otherwise
+    let flag = |on: &'static str, off: &'static str| {
+        std::env::args().find_map(|a| {
+            (a == on)
+                .then_some(true)
+                .or_else(|| (a == off).then_some(false))
+        })
+    };
+    let switch = flag("--stiff-switch", "--no-stiff-switch");
+    let unresolved = flag("--unresolved-flights", "--no-unresolved-flights");
+    let flags = [
+        "--stiff-switch",
+        "--no-stiff-switch",
+        "--unresolved-flights",
+        "--no-unresolved-flights",
+    ];
     for path in std::env::args()
         .skip(1)
         .filter(|a| !flags.contains(&a.as_str()))
@@ -38,8 +45,10 @@ fn main() {
         if let Some(b) = switch {
             s.options.stiff_switch = b;
         }
-        let mut sim = Simulation::new(&s).unwrap_or_else(|e| panic!("{path}: {e}"));
-        sim.options.truncate_unresolved_flights = unresolved;
+        if let Some(b) = unresolved {
+            s.options.truncate_unresolved_flights = b;
+        }
+        let sim = Simulation::new(&s).unwrap_or_else(|e| panic!("{path}: {e}"));
         reset_work_counters();
         let t0 = Instant::now();
         let run = sim.run().unwrap_or_else(|e| panic!("{path}: {e}"));
