@@ -44,7 +44,7 @@ fn check_lemmas(model: &Model, modes: &[ContactMode], seed: u64) {
             if forward_dynamics(model, &mut data, &FlatGround, mode, &q, &qd, &tau, None).is_err() {
                 continue; // kinematically singular sample
             }
-            if data.kkt.info.constraint_condition > 100.0 {
+            if data.kkt.info().constraint_condition > 100.0 {
                 // Near a kinematic singularity both formulas lose digits (the classical one
                 // through M̄⁻¹, whose condition is ~10⁴ with Table 4.2 legs, cf. Fig. 5.2), so
                 // 1e-10 agreement is only meaningful on well-conditioned samples.
@@ -63,7 +63,7 @@ fn check_lemmas(model: &Model, modes: &[ContactMode], seed: u64) {
                 "λ differs in {mode:?}: {} vs {} (cond {:?})",
                 data.lambda,
                 lambda,
-                data.kkt.info
+                data.kkt.info()
             );
             // Lemma 5.3: (5.10) ≡ (5.11) for an arbitrary incoming velocity
             let qd_minus = random_vec(model.nq(), 2.0, &mut r);

@@ -252,7 +252,7 @@ fn six_legs_in_pairs_are_the_planar_model() {
                 // the round-off of two KKT solvers grows with the condition of the contact
                 // rows (`κ_A`, the planar factorization's): errors are measured against
                 // 1e-12 where κ_A ≤ 10 and 1e-13 κ_A above
-                let kappa = (data.kkt.info.constraint_condition / 10.0).max(1.0);
+                let kappa = (data.kkt.info().constraint_condition / 10.0).max(1.0);
                 kappa_max = kappa_max.max(10.0 * kappa);
                 let rel = |a: &DVector<f64>, b: &DVector<f64>| rel(a, b) / kappa;
                 let (qdd, right) = rhex::acceleration_to_planar(
@@ -339,7 +339,7 @@ fn coulomb_impact_of_the_pairs_is_the_planar_one() {
             ) else {
                 continue;
             };
-            let kappa = (data.kkt.info.constraint_condition / 10.0).max(1.0);
+            let kappa = (data.kkt.info().constraint_condition / 10.0).max(1.0);
             let geometry = data.constraints.geometry.clone();
             let contacts: Vec<PointContact> = spatial_contacts(&rhex, &data, &p, &model, &qs)
                 .into_iter()

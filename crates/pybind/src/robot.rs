@@ -456,10 +456,10 @@ impl Robot {
             d.set_item("M", mat(py, &data.m_bar))?;
             d.set_item("rows", self.rows(py, &data)?)?;
             d.set_item("dynamic_coords", dc)?;
-            d.set_item("constraint_condition", data.kkt.info.constraint_condition)?;
+            d.set_item("constraint_condition", data.kkt.info().constraint_condition)?;
             d.set_item(
                 "reduced_mass_condition",
-                data.kkt.info.reduced_mass_condition,
+                data.kkt.info().reduced_mass_condition,
             )?;
             Ok(d)
         })
