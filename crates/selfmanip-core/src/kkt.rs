@@ -344,23 +344,32 @@ impl KktFactorization {
     }
 
     /// Sizes the storage for `m` coordinates and `c` rows.
+    #[inline(always)]
     fn size(&mut self, m: usize, c: usize) {
         if (m, c) != (self.m, self.c) || self.q.len() != m * m {
-            let e = m.saturating_sub(c);
-            self.m = m;
-            self.c = c;
-            self.mbar.resize(m * m, 0.0);
-            self.r.resize(m * c, 0.0);
-            self.v.resize(m * c, 0.0);
-            self.beta.resize(c, 0.0);
-            self.r_diag.resize(c, 0.0);
-            self.r_inv.resize(c, 0.0);
-            self.q.resize(m * m, 0.0);
-            self.touched.resize(m, true);
-            self.g12.resize(c * e, 0.0);
-            self.l.resize(e * e, 0.0);
-            self.l_inv.resize(e, 0.0);
-            self.t.resize(m, 0.0);
+            self.resize(m, c);
+        }
+    }
+
+    /// [`Self::size`] when a size changed; the range-space route's storage only beyond
+    /// [`SMALL_M`] coordinates, where the route may be taken.
+    fn resize(&mut self, m: usize, c: usize) {
+        let e = m.saturating_sub(c);
+        self.m = m;
+        self.c = c;
+        self.mbar.resize(m * m, 0.0);
+        self.r.resize(m * c, 0.0);
+        self.v.resize(m * c, 0.0);
+        self.beta.resize(c, 0.0);
+        self.r_diag.resize(c, 0.0);
+        self.r_inv.resize(c, 0.0);
+        self.q.resize(m * m, 0.0);
+        self.touched.resize(m, true);
+        self.g12.resize(c * e, 0.0);
+        self.l.resize(e * e, 0.0);
+        self.l_inv.resize(e, 0.0);
+        self.t.resize(m, 0.0);
+        if m > SMALL_M {
             self.ml.resize(m * m, 0.0);
             self.ml_inv.resize(m, 0.0);
             self.z.resize(m * c, 0.0);
