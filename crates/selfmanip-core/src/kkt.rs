@@ -763,7 +763,11 @@ fn range_factor_kernel<D: Dim, C: Dim>(
     let mbar = &kkt.mbar[..m * m];
     let largest = (0..m).map(|i| mbar[i * m + i]).fold(0.0, f64::max);
     let floor = massless * largest;
-    let accept = |ajj: f64, d: f64| ajj > floor && d > pivot * ajj;
+    // a massless coordinate declines the route before any elimination (a NaN fails too)
+    if !(0..m).all(|i| mbar[i * m + i] > floor) {
+        return false;
+    }
+    let accept = |ajj: f64, d: f64| d > pivot * ajj;
     if !cholesky(dim, mbar, &mut kkt.ml, &mut kkt.ml_inv, accept) {
         return false;
     }
