@@ -23,6 +23,14 @@
 //! is not clearly positive (see [`RANGE_PIVOT_FRACTION`]); the null-space factors
 //! ([`KktFactorization::null_space_basis`], [`KktFactorization::info`]) are then formed on
 //! demand only.
+//!
+//! Massless range-space method, where some coordinates move no mass (their row and column
+//! of `M̄` exactly zero: a joint whose links outward are all massless) and the others are
+//! clearly positive definite: the range-space method on the massive coordinates, the
+//! massless ones then solved through the rows that hold them, `T x_Z = f_Z − Vᵀ u` with
+//! `V = C⁻¹ A_Z` and `T = Vᵀ V` ([`massless_range_factor`]). It declines where a massless
+//! coordinate is held by no row (or fewer rows than massless coordinates), and the
+//! null-space method runs.
 #![allow(non_snake_case)]
 use crate::error::{CoreError, Result, SingularityKind};
 use nalgebra::{DMatrix, DVector};
@@ -43,7 +51,8 @@ pub const PIVOT_TOLERANCE: f64 = 1e-11;
 /// accuracy (`docs/decisions/2026-11-30-range-space-kkt-for-planar-trees.md`).
 pub const RANGE_PIVOT_FRACTION: f64 = 1e-4;
 /// A diagonal entry of `M̄` below this fraction of the largest marks a coordinate moving no
-/// mass: the range-space route declines.
+/// mass: the range-space route declines, and the massless one takes it as massless where
+/// its row and column are exactly zero (else declines too).
 pub const RANGE_MASSLESS_DIAGONAL: f64 = 1e-6;
 
 /// Which factors [`KktFactorization::solve`] uses.
@@ -52,6 +61,10 @@ enum Route {
     #[default]
     NullSpace,
     RangeSpace,
+    /// The range-space route on the coordinates that move mass, the massless ones
+    /// (`M̄`'s row and column exactly zero) eliminated through the rows that hold them
+    /// ([`massless_range_factor`]).
+    MasslessRange,
 }
 
 /// Non-fatal diagnostics of a successful factorization.
@@ -126,7 +139,20 @@ pub struct KktFactorization {
     z: Vec<f64>,
     sl: Vec<f64>,
     sl_inv: Vec<f64>,
-    /// On the range-space route, the null-space factors of the same system once asked for
+    /// The massless range-space route: the coordinates that move mass, then the massless
+    /// ones (`perm`, the first `n_massive` massive), `M̄` on the massive ones (`mp`, whose
+    /// Cholesky factor is `ml`; `Z` and `S`'s factor as above, over the massive coordinates),
+    /// `V = C⁻¹ B` (c×z, `B` the rows' columns of the massless coordinates) and the Cholesky
+    /// factor of `T = Vᵀ V` (z×z) with the reciprocals of its diagonal; `m + c` scratch entries.
+    perm: Vec<usize>,
+    n_massive: usize,
+    mp: Vec<f64>,
+    vz: Vec<f64>,
+    tm: Vec<f64>,
+    tl: Vec<f64>,
+    tl_inv: Vec<f64>,
+    scratch: Vec<f64>,
+    /// On the range-space routes, the null-space factors of the same system once asked for
     /// (`null_ready`: of the current system).
     null: Option<Box<KktFactorization>>,
     null_ready: bool,
@@ -282,6 +308,10 @@ impl KktFactorization {
             self.route = Route::RangeSpace;
             return Ok(());
         }
+        if self.m > SMALL_M && range_space_allowed() && massless_range_factor(self, floor, pivot) {
+            self.route = Route::MasslessRange;
+            return Ok(());
+        }
         self.route = Route::NullSpace;
         with_dims!(self.m, self.c, |md, cd| factor_kernel(md, cd, self, dense))
     }
@@ -298,7 +328,7 @@ impl KktFactorization {
             k.size(m, c);
             k.mbar.copy_from_slice(&self.mbar);
             k.r.copy_from_slice(&self.r);
-            // M̄ is clearly positive definite here: the null-space route succeeds
+            // the system is regular here (Lemma 5.1): the null-space route succeeds
             let ok = with_dims!(m, c, |md, cd| factor_kernel(md, cd, &mut k, false));
             debug_assert!(
                 ok.is_ok(),
@@ -316,9 +346,10 @@ impl KktFactorization {
         self.null_factors().info
     }
 
-    /// Whether [`Self::solve`] uses the range-space factors.
+    /// Whether [`Self::solve`] uses range-space factors (of `M̄`, or of `M̄` on the
+    /// coordinates that move mass).
     pub fn is_range_space(&self) -> bool {
-        self.route == Route::RangeSpace
+        self.route != Route::NullSpace
     }
 
     /// Sizes the storage and copies `M̄[coords, coords]` and `A[:, coords]ᵀ` in (all
@@ -375,6 +406,13 @@ impl KktFactorization {
             self.z.resize(m * c, 0.0);
             self.sl.resize(c * c, 0.0);
             self.sl_inv.resize(c, 0.0);
+            self.perm.resize(m, 0);
+            self.mp.resize(m * m, 0.0);
+            self.vz.resize(m * c, 0.0);
+            self.tm.resize(c * c, 0.0);
+            self.tl.resize(c * c, 0.0);
+            self.tl_inv.resize(c, 0.0);
+            self.scratch.resize(m + c, 0.0);
         }
     }
 
@@ -392,6 +430,7 @@ impl KktFactorization {
             Route::RangeSpace => {
                 with_dims!(m, c, |md, cd| range_solve_kernel(md, cd, self, f, g, x, y))
             }
+            Route::MasslessRange => massless_range_solve(self, f, g, x, y),
         }
     }
 
@@ -815,6 +854,186 @@ fn range_solve_kernel<D: Dim, C: Dim>(
         }
     }
     backward(dim, l, l_inv, x);
+}
+
+/// The range-space factorization of the loaded system where some coordinates move no mass
+/// (`M̄`'s row and column exactly zero, `P` the others, `Z` these; `m = p + z`):
+///
+/// ```text
+/// [ M̄_PP  0   A_Pᵀ ] [x_P]   [f_P]
+/// [ 0     0   Bᵀ   ] [x_Z] = [f_Z],   B = A_Z,
+/// [ A_P   B   0    ] [ y ]   [ g ]
+/// ```
+///
+/// `M̄_PP = L Lᵀ`, `Z = L⁻¹ A_Pᵀ`, `S = Zᵀ Z = C Cᵀ`, `V = C⁻¹ B`, `T = Vᵀ V = D Dᵀ`. With
+/// `w = L⁻¹ f_P` and `u = C⁻¹ (Zᵀ w − g)`, eliminating `x_P = L⁻ᵀ (w − Z y)` leaves
+/// `S y − B x_Z = Zᵀ w − g` and `Bᵀ y = f_Z`: so `T x_Z = f_Z − Vᵀ u`,
+/// `y = C⁻ᵀ (u + V x_Z)` ([`massless_range_solve`]). The massless coordinates' rates are set
+/// by the rows that hold them (a massless leg's foot on the ground), the massive ones by
+/// their inertia and the rows' forces. `false` (the route does not apply) where no
+/// coordinate is massless, a massive one's diagonal entry is below `massless` of the
+/// largest (nearly massless: not exactly zero), there are more massless coordinates than
+/// rows, or a pivot of `M̄_PP`, `S` or `T` is below `pivot` of its diagonal entry (a
+/// massless coordinate no row holds, rows dependent or nearly so); the null-space route
+/// then runs.
+fn massless_range_factor(kkt: &mut KktFactorization, massless: f64, pivot: f64) -> bool {
+    let (m, c) = (kkt.m, kkt.c);
+    let mbar = &kkt.mbar[..m * m];
+    let largest = (0..m).map(|i| mbar[i * m + i]).fold(0.0, f64::max);
+    let floor = massless * largest;
+    // the massive coordinates in order, then the massless ones
+    let perm = &mut kkt.perm[..m];
+    let mut p = 0;
+    for i in 0..m {
+        if mbar[i * m + i] > floor {
+            perm[p] = i;
+            p += 1;
+        }
+    }
+    let nz = m - p;
+    if nz == 0 || nz > c || largest.is_nan() {
+        return false;
+    }
+    let mut z_at = p;
+    for i in 0..m {
+        let massive = mbar[i * m + i] > floor;
+        if massive {
+            continue;
+        }
+        // exactly massless: its whole column zero (a NaN is not)
+        if !mbar[i * m..(i + 1) * m].iter().all(|&v| v == 0.0) {
+            return false;
+        }
+        perm[z_at] = i;
+        z_at += 1;
+    }
+    let perm = &kkt.perm[..m];
+    let mp = &mut kkt.mp[..p * p];
+    for (b, &j) in perm[..p].iter().enumerate() {
+        for (a, &i) in perm[..p].iter().enumerate() {
+            mp[b * p + a] = mbar[j * m + i];
+        }
+    }
+    kkt.n_massive = p;
+    with_dims!(p, c, |pd, cd| massless_range_kernel(pd, cd, kkt, pivot))
+}
+
+/// The factors of [`massless_range_factor`] once `M̄_PP` is gathered, for `p = pdim`
+/// massive coordinates and `c = cdim` rows.
+fn massless_range_kernel<D: Dim, C: Dim>(
+    pdim: D,
+    cdim: C,
+    kkt: &mut KktFactorization,
+    pivot: f64,
+) -> bool {
+    let (m, p, c) = (kkt.m, pdim.get(), cdim.get());
+    let nz = m - p;
+    let perm = &kkt.perm[..m];
+    let accept = |ajj: f64, d: f64| d > pivot * ajj;
+    if !cholesky(pdim, &kkt.mp[..p * p], &mut kkt.ml, &mut kkt.ml_inv, accept) {
+        return false;
+    }
+    let (l, l_inv) = (&kkt.ml[..p * p], &kkt.ml_inv[..p]);
+    // Z = L⁻¹ A_Pᵀ (p×c) and V's columns B = A_Z (c×z) from Aᵀ's storage
+    let r = &kkt.r[..m * c];
+    let z = &mut kkt.z[..p * c];
+    for k in 0..c {
+        let zk = &mut z[k * p..(k + 1) * p];
+        for (a, &i) in perm[..p].iter().enumerate() {
+            zk[a] = r[k * m + i];
+        }
+        forward(pdim, l, l_inv, zk);
+    }
+    let s = &mut kkt.q[..c * c];
+    for j in 0..c {
+        for i in j..c {
+            s[j * c + i] = dot(pdim, &z[i * p..(i + 1) * p], &z[j * p..(j + 1) * p]);
+        }
+    }
+    if !cholesky(cdim, &kkt.q[..c * c], &mut kkt.sl, &mut kkt.sl_inv, accept) {
+        return false;
+    }
+    let (sl, sl_inv) = (&kkt.sl[..c * c], &kkt.sl_inv[..c]);
+    let v = &mut kkt.vz[..c * nz];
+    for (b, &i) in perm[p..].iter().enumerate() {
+        let vb = &mut v[b * c..(b + 1) * c];
+        for (k, x) in vb.iter_mut().enumerate() {
+            *x = r[k * m + i];
+        }
+        forward(cdim, sl, sl_inv, vb);
+    }
+    let t = &mut kkt.tm[..nz * nz];
+    for j in 0..nz {
+        for i in j..nz {
+            t[j * nz + i] = dot(cdim, &v[i * c..(i + 1) * c], &v[j * c..(j + 1) * c]);
+        }
+    }
+    cholesky(nz, &kkt.tm[..nz * nz], &mut kkt.tl, &mut kkt.tl_inv, accept)
+}
+
+/// [`KktFactorization::solve`] on the factors of [`massless_range_factor`].
+fn massless_range_solve(
+    kkt: &mut KktFactorization,
+    f: &[f64],
+    g: &[f64],
+    x: &mut [f64],
+    y: &mut [f64],
+) {
+    let (p, c) = (kkt.n_massive, kkt.c);
+    with_dims!(p, c, |pd, cd| massless_solve_kernel(
+        pd, cd, kkt, f, g, x, y
+    ))
+}
+
+/// [`massless_range_solve`] for `p = pdim` massive coordinates and `c = cdim` rows.
+fn massless_solve_kernel<D: Dim, C: Dim>(
+    pdim: D,
+    cdim: C,
+    kkt: &mut KktFactorization,
+    f: &[f64],
+    g: &[f64],
+    x: &mut [f64],
+    y: &mut [f64],
+) {
+    let (m, p, c) = (kkt.m, pdim.get(), cdim.get());
+    let nz = m - p;
+    let (perm, z, v) = (&kkt.perm[..m], &kkt.z[..p * c], &kkt.vz[..c * nz]);
+    let (l, l_inv) = (&kkt.ml[..p * p], &kkt.ml_inv[..p]);
+    let (sl, sl_inv) = (&kkt.sl[..c * c], &kkt.sl_inv[..c]);
+    let (tl, tl_inv) = (&kkt.tl[..nz * nz], &kkt.tl_inv[..nz]);
+    let (w, u) = kkt.scratch[..m + c].split_at_mut(m);
+    let (w, xz) = w.split_at_mut(p);
+    // w = L⁻¹ f_P, u = C⁻¹ (Zᵀ w − g)
+    for (a, &i) in perm[..p].iter().enumerate() {
+        w[a] = f[i];
+    }
+    forward(pdim, l, l_inv, w);
+    for (k, uk) in u.iter_mut().enumerate() {
+        *uk = dot(pdim, &z[k * p..(k + 1) * p], w) - g[k];
+    }
+    forward(cdim, sl, sl_inv, u);
+    // T x_Z = f_Z − Vᵀ u
+    for (b, &i) in perm[p..].iter().enumerate() {
+        xz[b] = f[i] - dot(cdim, &v[b * c..(b + 1) * c], u);
+    }
+    forward(nz, tl, tl_inv, xz);
+    backward(nz, tl, tl_inv, xz);
+    // y = C⁻ᵀ (u + V x_Z), x_P = L⁻ᵀ (w − Z y)
+    for (b, &xb) in xz.iter().enumerate() {
+        axpy(cdim, xb, &v[b * c..(b + 1) * c], u);
+    }
+    backward(cdim, sl, sl_inv, u);
+    y[..c].copy_from_slice(u);
+    for (k, &yk) in u.iter().enumerate() {
+        axpy(pdim, -yk, &z[k * p..(k + 1) * p], w);
+    }
+    backward(pdim, l, l_inv, w);
+    for (a, &i) in perm[..p].iter().enumerate() {
+        x[i] = w[a];
+    }
+    for (b, &i) in perm[p..].iter().enumerate() {
+        x[i] = xz[b];
+    }
 }
 
 /// The Cholesky factor `A = L Lᵀ` of the symmetric `a` (n×n for `n = dim`, column-major,
