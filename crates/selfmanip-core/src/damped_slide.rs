@@ -120,8 +120,8 @@ pub fn contact_rows_and_rates(
 }
 
 /// The foot's velocity with no force `w` and its mobility `G` (module docs) from the
-/// contact's rows `a` at `q̇` under the chain's law `law`, with `K⁻¹`; `None` where `K` is
-/// not invertible.
+/// contact's rows `a` at `q̇` under the chain's law `law`, with `K⁻¹` (`ki`, column-major
+/// `n × n`).
 ///
 /// ```text
 /// w = A q̇|_{θ̇ = θ̇_c} + B (K⁻¹ T_c),   G = (B K⁻¹) Bᵀ
@@ -130,21 +130,19 @@ fn mobility_of(
     a: &DMatrix<f64>,
     qd: &[f64],
     law: &ChainLaw,
-) -> Option<(Vector2<f64>, Matrix2<f64>, DMatrix<f64>)> {
+    ki: &[f64],
+) -> (Vector2<f64>, Matrix2<f64>) {
     let (j0, n) = (law.joints.start, law.joints.len());
-    let k_inv = law.damping.clone().try_inverse()?;
-    let (a_s, ki) = (a.as_slice(), k_inv.as_slice());
+    let a_s = a.as_slice();
     let b = &a_s[2 * j0..2 * (j0 + n)];
     // A q̇ with the chain at θ̇_c
-    let rate = |j: usize| {
-        if law.joints.contains(&j) {
-            law.rates[j - j0]
-        } else {
-            qd[j]
-        }
-    };
+    let rate = qd[..j0]
+        .iter()
+        .chain(law.rates.iter())
+        .chain(&qd[j0 + n..])
+        .copied();
     let mut u0 = [0.0; 2];
-    exact::gemv_with(a_s, (0..qd.len()).map(rate), &mut u0);
+    exact::gemv_with(a_s, rate, &mut u0);
     // B (K⁻¹ T_c)
     let mut kt = [0.0; MAX_EXACT];
     let mut bkt = [0.0; 2];
@@ -152,7 +150,7 @@ fn mobility_of(
         exact::gemv(ki, law.torque.as_slice(), &mut kt[..n]);
         &kt[..n]
     } else {
-        return Some(mobility_general(a, &u0, law, k_inv));
+        return mobility_general(a, &u0, law, DMatrix::from_column_slice(n, n, ki));
     };
     exact::gemv(b, kt, &mut bkt);
     let w = Vector2::new(u0[0] + bkt[0], u0[1] + bkt[1]);
@@ -169,7 +167,7 @@ fn mobility_of(
             &mut g[2 * j..2 * j + 2],
         );
     }
-    Some((w, Matrix2::from_column_slice(&g), k_inv))
+    (w, Matrix2::from_column_slice(&g))
 }
 
 /// [`mobility_of`] for a chain of more than [`MAX_EXACT`] joints, in nalgebra's own
@@ -180,14 +178,13 @@ fn mobility_general(
     u0: &[f64; 2],
     law: &ChainLaw,
     k_inv: DMatrix<f64>,
-) -> (Vector2<f64>, Matrix2<f64>, DMatrix<f64>) {
+) -> (Vector2<f64>, Matrix2<f64>) {
     let b = a.columns(law.joints.start, law.joints.len()).into_owned();
     let bkt = &b * (&k_inv * &law.torque);
     let g = &b * &k_inv * b.transpose();
     (
         Vector2::new(u0[0] + bkt[0], u0[1] + bkt[1]),
         Matrix2::new(g[(0, 0)], g[(0, 1)], g[(1, 0)], g[(1, 1)]),
-        k_inv,
     )
 }
 
@@ -286,6 +283,54 @@ pub fn solve_rows(
     mu_k: f64,
     side: Option<f64>,
 ) -> Result<Option<DampedSlide>> {
+    let mut slide = DampedSlide::unsolved(k, law.joints.len(), DMatrix::zeros(0, 0));
+    Ok(solve_into(&a, qd, law, mu_k, side, &mut slide)?.then(|| {
+        slide.rows = a;
+        slide
+    }))
+}
+
+impl DampedSlide {
+    /// A slide of contact `k` on a chain of `n` joints with the rows `rows`, its numbers
+    /// not yet solved: the buffers [`solve_into`] fills.
+    fn unsolved(k: usize, n: usize, rows: DMatrix<f64>) -> Self {
+        DampedSlide {
+            contact: k,
+            lambda: [0.0; 2],
+            coef: 0.0,
+            side: 0.0,
+            w: Vector2::zeros(),
+            g: Matrix2::zeros(),
+            u_t: 0.0,
+            rates: DVector::zeros(n),
+            consistent: false,
+            wedged: false,
+            rows,
+            rows_dot: None,
+        }
+    }
+}
+
+/// `dst = src`, in `dst`'s own buffer where the shapes agree.
+pub fn assign(dst: &mut DMatrix<f64>, src: &DMatrix<f64>) {
+    if dst.shape() == src.shape() {
+        dst.as_mut_slice().copy_from_slice(src.as_slice());
+    } else {
+        *dst = src.clone();
+    }
+}
+
+/// [`solve_rows`] into `slide`'s numbers and rates (its contact, rows and `Ȧ` left to the
+/// caller), without allocating for a chain of up to [`MAX_EXACT`] joints: whether there is
+/// a slide.
+fn solve_into(
+    a: &DMatrix<f64>,
+    qd: &[f64],
+    law: &ChainLaw,
+    mu_k: f64,
+    side: Option<f64>,
+    slide: &mut DampedSlide,
+) -> Result<bool> {
     if !law
         .torque
         .iter()
@@ -296,9 +341,22 @@ pub fn solve_rows(
             quantity: "a damped chain's torques or damping",
         });
     }
-    let Some((w, g, k_inv)) = mobility_of(&a, qd, law) else {
-        return Ok(None);
+    // K⁻¹ in place, on the stack for a short chain
+    let (j0, n) = (law.joints.start, law.joints.len());
+    let mut stack = [0.0; MAX_EXACT * MAX_EXACT];
+    let mut heap = Vec::new();
+    let ki = if n <= MAX_EXACT {
+        &mut stack[..n * n]
+    } else {
+        heap.resize(n * n, 0.0);
+        &mut heap[..]
     };
+    ki.copy_from_slice(law.damping.as_slice());
+    if !nalgebra::DMatrixViewMut::from_slice(ki, n, n).try_inverse_mut() {
+        return Ok(false);
+    }
+    let ki = &*ki;
+    let (w, g) = mobility_of(a, qd, law, ki);
     // Painlevé's region: on a side whose normal response `G_nn + c G_nt` is within the
     // wedge tolerance of zero or below it, a pushing force draws the foot into the ground
     let wedge = WEDGE_TOL * (g[(1, 1)] + mu_k * g[(1, 0)].abs());
@@ -348,38 +406,31 @@ pub fn solve_rows(
     };
     let (c, lambda_n, u_t) = on_side(s);
     if !lambda_n.is_finite() {
-        return Ok(None);
+        return Ok(false);
     }
-    let consistent = consistent(s);
-    let wedged = g[(1, 1)] + c * g[(1, 0)] <= wedge;
     let lambda = Vector2::new(c * lambda_n, lambda_n);
     // θ̇ = θ̇_c + K⁻¹ (T_c − Bᵀ λ)
-    let (j0, n) = (law.joints.start, law.joints.len());
     let b = &a.as_slice()[2 * j0..2 * (j0 + n)];
-    let mut rest = DVector::zeros(n);
-    for (p, r) in rest.iter_mut().enumerate() {
+    let rest = (0..n).map(|p| {
         let bt_lambda = lambda[1] * b[2 * p + 1] + lambda[0] * b[2 * p];
-        *r = law.torque[p] - bt_lambda;
+        law.torque[p] - bt_lambda
+    });
+    if slide.rates.len() != n {
+        slide.rates = DVector::zeros(n);
     }
-    let mut rates = DVector::zeros(n);
-    exact::gemv(k_inv.as_slice(), rest.as_slice(), rates.as_mut_slice());
-    for (r, c) in rates.iter_mut().zip(law.rates.iter()) {
+    exact::gemv_with(ki, rest, slide.rates.as_mut_slice());
+    for (r, c) in slide.rates.iter_mut().zip(law.rates.iter()) {
         *r += c;
     }
-    Ok(Some(DampedSlide {
-        contact: k,
-        lambda: [lambda[0], lambda[1]],
-        coef: c,
-        side: s,
-        w,
-        g,
-        u_t,
-        rates,
-        consistent,
-        wedged,
-        rows: a,
-        rows_dot: None,
-    }))
+    slide.lambda = [lambda[0], lambda[1]];
+    slide.coef = c;
+    slide.side = s;
+    slide.w = w;
+    slide.g = g;
+    slide.u_t = u_t;
+    slide.consistent = consistent(s);
+    slide.wedged = g[(1, 1)] + c * g[(1, 0)] <= wedge;
+    Ok(true)
 }
 
 /// The mode of the KKT system for `mode`: without the contacts that slide damped — those
@@ -396,12 +447,14 @@ pub(crate) fn split(
     qd: &[f64],
 ) -> Result<ContactMode> {
     data.damped_modes = None;
-    if !data.damped.is_empty() {
-        data.damped.clear();
-    }
     if data.damped_laws.is_empty() {
+        if !data.damped.is_empty() {
+            data.damped.clear();
+        }
         return Ok(mode);
     }
+    // the slides are solved into the buffers of the last split's (`used` of them so far)
+    let mut used = 0;
     let mut inner = mode;
     for (k, law) in &data.damped_laws {
         let k = *k;
@@ -422,21 +475,34 @@ pub(crate) fn split(
         let mode_k = ContactMode::FLIGHT.with(k, ContactKind::Stick);
         rows.assemble(model, &data.kin, terrain, mode_k, qd);
         let mu_k = model.contacts[k].kinetic_mu;
-        let solved = solve_rows(k, rows.a.clone(), qd, law, mu_k, side);
-        if solved.is_err() {
+        if used == data.damped.len() {
+            let slide = DampedSlide::unsolved(k, law.joints.len(), rows.a.clone());
+            data.damped.push(slide);
+        }
+        let slide = &mut data.damped[used];
+        match solve_into(&rows.a, qd, law, mu_k, side, slide) {
             // no slide is kept from a split that fails (Data::prepare_mode skips the split
             // where there are no laws and no split before)
-            data.damped.clear();
+            Err(e) => {
+                data.damped.clear();
+                return Err(e);
+            }
+            Ok(false) => continue,
+            Ok(true) => {}
         }
-        if let Some(mut slide) = solved? {
-            slide.rows_dot = Some(data.damped_rows.a_dot.clone());
-            // on a fixed side, the slide wedges where `G_nn + c G_nt` reaches zero (its
-            // normal force would grow without bound): flagged (DampedSlide::wedged), its
-            // liftoff guard ends it there and the reset judges the contact again
-            data.damped.push(slide);
-            inner = inner.without(k);
+        slide.contact = k;
+        assign(&mut slide.rows, &rows.a);
+        match &mut slide.rows_dot {
+            Some(a_dot) => assign(a_dot, &rows.a_dot),
+            None => slide.rows_dot = Some(rows.a_dot.clone()),
         }
+        // on a fixed side, the slide wedges where `G_nn + c G_nt` reaches zero (its
+        // normal force would grow without bound): flagged (DampedSlide::wedged), its
+        // liftoff guard ends it there and the reset judges the contact again
+        used += 1;
+        inner = inner.without(k);
     }
+    data.damped.truncate(used);
     if inner != mode {
         data.damped_modes = Some((mode, inner));
         data.damped_qd.clear();
@@ -522,6 +588,27 @@ mod tests {
         }
     }
 
+    /// Random rows `A` (`2 × nq`), rates `q̇` and a law with positive definite damping
+    /// over the chain of `n` joints from `j0`.
+    fn random_slide(
+        r: &mut ChaCha8Rng,
+        n: usize,
+        nq: usize,
+        j0: usize,
+    ) -> (DMatrix<f64>, Vec<f64>, ChainLaw) {
+        let a = DMatrix::from_fn(2, nq, |_, _| r.gen_range(-1.0..1.0));
+        let qd: Vec<f64> = (0..nq).map(|_| r.gen_range(-2.0..2.0)).collect();
+        let c = DMatrix::from_fn(n, n, |_, _| r.gen_range(-0.3..0.3));
+        let law = ChainLaw {
+            joints: j0..j0 + n,
+            rates: DVector::from_fn(n, |_, _| r.gen_range(-2.0..2.0)),
+            torque: DVector::from_fn(n, |_, _| r.gen_range(-1.0..1.0)),
+            damping: &c * c.transpose() + DMatrix::identity(n, n),
+            holds: true,
+        };
+        (a, qd, law)
+    }
+
     /// The damped slide on slices ([`solve_rows`]) against its products written in
     /// nalgebra (the route it replaced), bit for bit, for chains of 2 to 10 joints (beyond
     /// [`MAX_EXACT`] too) at random rows, rates and laws; and the slide's own physics: the
@@ -533,18 +620,8 @@ mod tests {
         let mut checked = 0;
         for n in 2..=10 {
             for _ in 0..20 {
-                let nq = n + 4;
                 let j0 = 1;
-                let a = DMatrix::from_fn(2, nq, |_, _| r.gen_range(-1.0..1.0));
-                let qd: Vec<f64> = (0..nq).map(|_| r.gen_range(-2.0..2.0)).collect();
-                let c = DMatrix::from_fn(n, n, |_, _| r.gen_range(-0.3..0.3));
-                let law = ChainLaw {
-                    joints: j0..j0 + n,
-                    rates: DVector::from_fn(n, |_, _| r.gen_range(-2.0..2.0)),
-                    torque: DVector::from_fn(n, |_, _| r.gen_range(-1.0..1.0)),
-                    damping: &c * c.transpose() + DMatrix::identity(n, n),
-                    holds: true,
-                };
+                let (a, qd, law) = random_slide(&mut r, n, n + 4, j0);
                 let Some(slide) = solve_rows(0, a.clone(), &qd, &law, 0.6, None).unwrap() else {
                     continue;
                 };
@@ -580,5 +657,50 @@ mod tests {
             }
         }
         assert!(checked > 150, "{checked}");
+    }
+
+    /// A slide solved into the buffers of another ([`solve_into`], as the split reuses the
+    /// last one's) is the fresh one of [`solve_rows`] bit for bit, across chains of 2 to 10
+    /// joints whose lengths change from one solve to the next.
+    #[test]
+    fn a_slide_solved_in_place_is_the_fresh_one() {
+        let mut r = ChaCha8Rng::seed_from_u64(32);
+        let mut slide = DampedSlide::unsolved(0, 0, DMatrix::zeros(0, 0));
+        let mut solved = 0;
+        for i in 0..60 {
+            let n = 2 + (i * 7) % 9;
+            let (a, qd, law) = random_slide(&mut r, n, n + 3, i % 3);
+            let side = [None, Some(1.0), Some(-1.0)][i % 3];
+            let fresh = solve_rows(0, a.clone(), &qd, &law, 0.6, side).unwrap();
+            let kept = solve_into(&a, &qd, &law, 0.6, side, &mut slide).unwrap();
+            assert_eq!(kept, fresh.is_some());
+            let Some(fresh) = fresh else {
+                continue;
+            };
+            slide.rows = a;
+            assert_eq!(bits(&fresh.lambda), bits(&slide.lambda), "λ, n={n}");
+            assert_eq!(
+                bits(fresh.w.as_slice()),
+                bits(slide.w.as_slice()),
+                "w, n={n}"
+            );
+            assert_eq!(
+                bits(fresh.g.as_slice()),
+                bits(slide.g.as_slice()),
+                "G, n={n}"
+            );
+            assert_eq!(bits(fresh.rates.as_slice()), bits(slide.rates.as_slice()));
+            assert_eq!(
+                bits(&[fresh.coef, fresh.side, fresh.u_t]),
+                bits(&[slide.coef, slide.side, slide.u_t])
+            );
+            assert_eq!(
+                (fresh.consistent, fresh.wedged),
+                (slide.consistent, slide.wedged)
+            );
+            assert_eq!(fresh, slide);
+            solved += 1;
+        }
+        assert!(solved > 40, "{solved}");
     }
 }

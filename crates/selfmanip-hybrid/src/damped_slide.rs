@@ -11,7 +11,7 @@
 use crate::controller::Controller;
 use nalgebra::{DMatrix, DVector};
 use selfmanip_core::damped_slide::{
-    contact_rows_and_rates, damped_chain, exact, stick_rates, ChainLaw,
+    assign, contact_rows_and_rates, damped_chain, exact, stick_rates, ChainLaw,
 };
 use selfmanip_core::passive::joint_torque;
 use selfmanip_core::{ContactMode, CoreError, Data, Model, Terrain};
@@ -28,42 +28,108 @@ const RATE_STEP: f64 = 1e-6;
 pub fn chain_law(
     model: &Model,
     ctrl: &dyn Controller,
-    (t, q, qd): (f64, &[f64], &[f64]),
+    state: (f64, &[f64], &[f64]),
     mode: ContactMode,
     k: usize,
 ) -> Option<ChainLaw> {
     let joints = damped_chain(model, k)?;
+    let mut law = ChainLaw {
+        rates: DVector::zeros(0),
+        torque: DVector::zeros(0),
+        damping: DMatrix::zeros(0, 0),
+        joints,
+        holds: false,
+    };
+    let mut scratch = LawScratch::default();
+    law.holds = law_into(model, ctrl, state, mode, &mut law, &mut scratch)?;
+    law.damping = scratch.damping;
+    Some(law)
+}
+
+/// The buffers of the chain laws ([`set_laws`]), kept by a caller that sets them
+/// often.
+#[derive(Debug, Clone, Default)]
+pub struct LawScratch {
+    tau: Vec<f64>,
+    v: Vec<f64>,
+    up: Vec<f64>,
+    /// The law's own damping `K` at the state.
+    damping: DMatrix<f64>,
+    sym: DMatrix<f64>,
+}
+
+/// The law of the chain `law.joints` at `(t, q, q̇)` ([`chain_law`]): its `θ̇_c` and `T_c`
+/// into `law`, its damping `K` into `scratch.damping`; whether `K` is positive definite, or
+/// `None` for a law that is not finite.
+fn law_into(
+    model: &Model,
+    ctrl: &dyn Controller,
+    (t, q, qd): (f64, &[f64], &[f64]),
+    mode: ContactMode,
+    law: &mut ChainLaw,
+    scratch: &mut LawScratch,
+) -> Option<bool> {
+    let LawScratch {
+        tau,
+        v,
+        up,
+        damping,
+        sym,
+    } = scratch;
+    let joints = law.joints.clone();
     let n = joints.len();
-    let mut tau = vec![0.0; model.n_joints()];
+    tau.clear();
+    tau.resize(model.n_joints(), 0.0);
     let mut torque_at = |qd: &[f64], out: &mut [f64]| {
         tau.fill(0.0);
-        ctrl.torque(t, q, qd, mode, &mut tau);
-        law_torques_into(model, joints.clone(), &tau, (q, qd), out);
+        ctrl.torque(t, q, qd, mode, tau);
+        law_torques_into(model, joints.clone(), tau, (q, qd), out);
     };
-    let mut torque = DVector::zeros(n);
+    if law.torque.len() != n {
+        law.torque = DVector::zeros(n);
+    }
+    let torque = &mut law.torque;
     torque_at(qd, torque.as_mut_slice());
-    let mut damping = DMatrix::zeros(n, n);
-    let mut v = qd.to_vec();
-    let mut up = vec![0.0; n];
+    if damping.shape() != (n, n) {
+        *damping = DMatrix::zeros(n, n);
+    }
+    v.clear();
+    v.extend_from_slice(qd);
+    up.clear();
+    up.resize(n, 0.0);
     for (c, j) in joints.clone().enumerate() {
         let h = RATE_STEP * qd[j].abs().max(1.0);
         v[j] = qd[j] + h;
-        torque_at(&v, &mut up);
+        torque_at(v, up);
         v[j] = qd[j];
         for r in 0..n {
             damping[(r, c)] = -(up[r] - torque[r]) / h;
         }
     }
     let finite = torque.iter().chain(damping.iter()).all(|x| x.is_finite());
-    let sym = (&damping + damping.transpose()) * 0.5;
-    let holds = sym.cholesky().is_some();
-    finite.then_some(ChainLaw {
-        rates: DVector::from_iterator(n, joints.clone().map(|j| qd[j])),
-        joints,
-        torque,
-        damping,
-        holds,
-    })
+    // the symmetric part (K + Kᵀ)/2, factored in its own buffer
+    if sym.shape() != (n, n) {
+        *sym = DMatrix::zeros(n, n);
+    }
+    for c in 0..n {
+        for r in 0..n {
+            sym[(r, c)] = (damping[(r, c)] + damping[(c, r)]) * 0.5;
+        }
+    }
+    let holds = match std::mem::take(sym).cholesky() {
+        Some(factor) => {
+            *sym = factor.unpack_dirty();
+            true
+        }
+        None => false,
+    };
+    if law.rates.len() != n {
+        law.rates = DVector::zeros(n);
+    }
+    for (r, j) in law.rates.iter_mut().zip(joints) {
+        *r = qd[j];
+    }
+    finite.then_some(holds)
 }
 
 /// The contacts of `model` (below 32) at the end of a chain of two or more massless joints
@@ -84,7 +150,9 @@ pub fn sliding_damped(damped: u32, mode: ContactMode) -> u32 {
 /// Sets `data`'s chain laws ([`Data::damped_laws`]) for `mode` at `(t, q, q̇)` under `ctrl`:
 /// one for each contact of `damped` (a [`damped_contacts`] set) that slides in `mode`, whose
 /// chain carries no other active contact, and whose law has damping ([`chain_law`]). To be
-/// called before `data` is prepared for `mode`.
+/// called before `data` is prepared for `mode`. The laws are set in the buffers of the ones
+/// `data` holds, with buffers `scratch`: no allocation where the contacts that slide damped
+/// stay the same.
 pub fn set_laws(
     model: &Model,
     data: &mut Data,
@@ -92,6 +160,7 @@ pub fn set_laws(
     ctrl: &dyn Controller,
     state: (f64, &[f64], &[f64]),
     mode: ContactMode,
+    scratch: &mut LawScratch,
 ) {
     let sliding = sliding_damped(damped, mode);
     if sliding == 0 {
@@ -100,21 +169,49 @@ pub fn set_laws(
         }
         return;
     }
-    // a law that stops holding inside a step keeps the damping it last held with, so that
-    // the flow stays defined up to its guard (ChainLaw::holds, the liftoff guard)
-    let before = std::mem::take(&mut data.damped_laws);
+    // the laws set so far lead `laws` (`set` of them), the ones held before follow; a law
+    // that stops holding inside a step keeps the damping it last held with, so that the
+    // flow stays defined up to its guard (ChainLaw::holds, the liftoff guard)
+    let laws = &mut data.damped_laws;
+    let mut set = 0;
     for k in lone_slides(model, sliding, mode) {
-        let Some(mut law) = chain_law(model, ctrl, state, mode, k) else {
+        let Some(joints) = damped_chain(model, k) else {
             continue;
         };
-        if !law.holds {
-            let Some((_, held)) = before.iter().find(|(c, _)| *c == k) else {
-                continue;
-            };
-            law.damping.clone_from(&held.damping);
+        let before = laws[set..].iter().position(|(c, _)| *c == k);
+        let law = match before {
+            Some(i) => {
+                laws.swap(set, set + i);
+                &mut laws[set].1
+            }
+            None => {
+                let n = joints.len();
+                let fresh = ChainLaw {
+                    joints: joints.clone(),
+                    rates: DVector::zeros(n),
+                    torque: DVector::zeros(n),
+                    damping: DMatrix::zeros(n, n),
+                    holds: false,
+                };
+                laws.push((k, fresh));
+                let last = laws.len() - 1;
+                laws.swap(set, last);
+                &mut laws[set].1
+            }
+        };
+        law.joints = joints;
+        let Some(holds) = law_into(model, ctrl, state, mode, law, scratch) else {
+            continue;
+        };
+        law.holds = holds;
+        if holds {
+            assign(&mut law.damping, &scratch.damping);
+        } else if before.is_none() {
+            continue;
         }
-        data.damped_laws.push((k, law));
+        set += 1;
     }
+    laws.truncate(set);
 }
 
 /// The contacts of `set` (of [`damped_contacts`], active in `mode`) alone on their chain in
@@ -191,7 +288,8 @@ pub fn chain_accelerations(
     if data.damped.is_empty() {
         return Ok(());
     }
-    let events: Vec<f64> = ctrl.time_events(&[]).iter().map(|e| e.t).collect();
+    let mut events = Vec::new();
+    event_instants(ctrl, &mut events);
     let mut scratch = ChainScratch::default();
     chain_accelerations_clear_of(
         model,
@@ -212,11 +310,26 @@ pub struct ChainScratch {
     vs: Vec<f64>,
     tau: Vec<f64>,
     work: Vec<f64>,
+    k_inv: DMatrix<f64>,
+}
+
+/// The instants of `ctrl`'s time events ([`Controller::time_events`]) into `out`, in
+/// ascending order, without a NaN (which no stencil would stay clear of): what
+/// [`Stencil::clear_of`] searches.
+pub(crate) fn event_instants(ctrl: &dyn Controller, out: &mut Vec<f64>) {
+    out.clear();
+    out.extend(
+        ctrl.time_events(&[])
+            .iter()
+            .map(|e| e.t)
+            .filter(|t| !t.is_nan()),
+    );
+    out.sort_by(f64::total_cmp);
 }
 
 /// [`chain_accelerations`] with the controller's time events `events` (their instants,
-/// [`Controller::time_events`]), which a caller that evaluates one controller many times
-/// asks for once, and buffers `scratch`.
+/// [`event_instants`]), which a caller that evaluates one controller many times asks for
+/// once, and buffers `scratch`.
 pub(crate) fn chain_accelerations_clear_of(
     model: &Model,
     terrain: &dyn Terrain,
@@ -238,6 +351,7 @@ pub(crate) fn chain_accelerations_clear_of(
         vs,
         tau,
         work,
+        k_inv,
     } = scratch;
     qdd.clear();
     qdd.extend_from_slice(data.qdd.as_slice());
@@ -253,9 +367,10 @@ pub(crate) fn chain_accelerations_clear_of(
             continue;
         };
         let joints = law.joints.clone();
-        let Some(k_inv) = law.damping.clone().try_inverse() else {
+        assign(k_inv, &law.damping);
+        if !k_inv.try_inverse_mut() {
             continue;
-        };
+        }
         let (j0, n) = (joints.start, joints.len());
         work.clear();
         work.resize(13 * n, 0.0);
@@ -325,9 +440,10 @@ pub(crate) fn chain_accelerations_clear_of(
         exact::gemv(ki, t_dot, v_dot);
         // N, D and their rates; Bᵀd = (c b_t + b_n) with d = (c, 1)
         let off = |m: &DMatrix<f64>, x: &[f64]| -> f64 {
-            (0..x.len())
-                .filter(|j| !joints.contains(j))
-                .map(|j| m[(1, j)] * x[j])
+            let m = m.as_slice();
+            (0..j0)
+                .chain(j0 + n..x.len())
+                .map(|j| m[2 * j + 1] * x[j])
                 .sum()
         };
         for p in 0..n {
@@ -387,13 +503,15 @@ enum Stencil {
 }
 
 impl Stencil {
-    /// The stencil at `t` clear of the time events `events` (a controller's law holds from
-    /// a time event on: one at `t` itself lies behind).
+    /// The stencil at `t` clear of the time events `events` (ascending, no NaN:
+    /// [`event_instants`]; a controller's law holds from a time event on: one at `t` itself
+    /// lies behind). The first event after `t` and the last one up to it decide.
     fn clear_of(events: &[f64], t: f64, h: f64) -> Self {
         let reach = 2.0 * h;
-        if events.iter().any(|&e| e > t && e <= t + reach) {
+        let after = events.partition_point(|&e| e <= t);
+        if events.get(after).is_some_and(|&e| e <= t + reach) {
             Stencil::Backward
-        } else if events.iter().any(|&e| e <= t && e > t - reach) {
+        } else if after > 0 && events[after - 1] > t - reach {
             Stencil::Forward
         } else {
             Stencil::Central
@@ -414,7 +532,8 @@ pub fn consistent_rates(
 ) -> Result<(), CoreError> {
     let damped = damped_contacts(model);
     stuck_rates(model, terrain, damped, mode, q, qd);
-    set_laws(model, data, damped, ctrl, (t, q, qd), mode);
+    let mut scratch = LawScratch::default();
+    set_laws(model, data, damped, ctrl, (t, q, qd), mode, &mut scratch);
     if data.damped_laws.is_empty() {
         return Ok(());
     }
@@ -507,4 +626,40 @@ pub fn holds_at_slide_rates(
     data.damped
         .iter()
         .all(|d| chain_law(model, ctrl, (t, q, &v), mode, d.contact).is_some_and(|l| l.holds))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Stencil;
+
+    /// The stencil read off the sorted instants by bisection is the one of the rule itself —
+    /// backward where an event lies in `(t, t + 2h]`, else forward where one lies in
+    /// `(t − 2h, t]`, else central — scanned over the events in any order, at instants on,
+    /// between and at the reach of events (the reach's bounds included and excluded).
+    #[test]
+    fn the_bisected_stencil_is_the_rule() {
+        let rule = |events: &[f64], t: f64, h: f64| {
+            let reach = 2.0 * h;
+            if events.iter().any(|&e| e > t && e <= t + reach) {
+                Stencil::Backward
+            } else if events.iter().any(|&e| e <= t && e > t - reach) {
+                Stencil::Forward
+            } else {
+                Stencil::Central
+            }
+        };
+        let h = 0.25;
+        let events = [3.0, -1.0, 0.5, 0.75, 2.0, 0.0, 3.0];
+        let mut sorted = events.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        let mut seen = [0; 3];
+        for i in -16..=20 {
+            let t = f64::from(i) * 0.125 - 0.0625 * f64::from(i % 2);
+            let s = Stencil::clear_of(&sorted, t, h);
+            assert_eq!(s, rule(&events, t, h), "t = {t}");
+            seen[s as usize] += 1;
+        }
+        assert!(seen.iter().all(|&n| n > 0), "{seen:?}");
+        assert_eq!(Stencil::clear_of(&[], 0.0, h), Stencil::Central);
+    }
 }

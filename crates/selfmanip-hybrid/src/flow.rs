@@ -383,8 +383,7 @@ impl<'a> Flow<'a> {
         if !self.ws.data.damped.is_empty() {
             let (asked, events) = &mut self.time_events;
             if *asked != Some(self.generation) {
-                events.clear();
-                events.extend(self.ctrl.time_events(&[]).iter().map(|e| e.t));
+                crate::damped_slide::event_instants(&*self.ctrl, events);
                 *asked = Some(self.generation);
             }
             crate::damped_slide::chain_accelerations_clear_of(
@@ -487,6 +486,8 @@ pub struct FlowWorkspace {
     /// The contacts a reset kept sticking because their damped slide is wedged on both
     /// sides (`reset::wedged_holds`).
     pub wedged: Vec<usize>,
+    /// The buffers of the chain laws ([`crate::damped_slide::set_laws`]).
+    pub(crate) laws: crate::damped_slide::LawScratch,
 }
 
 impl FlowWorkspace {
@@ -501,6 +502,7 @@ impl FlowWorkspace {
             free: Vec::new(),
             damped: crate::damped_slide::damped_contacts(model),
             wedged: Vec::new(),
+            laws: Default::default(),
         }
     }
 
@@ -540,6 +542,7 @@ impl FlowWorkspace {
                 ctrl,
                 (t, q, qd),
                 mode,
+                &mut self.laws,
             );
         }
     }

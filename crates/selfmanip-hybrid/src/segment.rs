@@ -246,23 +246,11 @@ impl SegmentIntegrator {
                     if off && self.surfaces.only_drifted(flow, y) {
                         if self.drift_ws.damped != 0 {
                             // the damped slides of `mode` keep out of the projection
-                            let model = flow.model();
-                            let (q, qd) = y.split_at(model.nq());
-                            let ctrl = flow.controller().clone();
-                            // the flow's laws, so that one that stopped holding inside
-                            // the step keeps the damping it held with (set_laws)
+                            let (q, qd) = y.split_at(flow.model().nq());
+                            // the flow's laws at this state (set_laws), in which one that
+                            // stopped holding inside the step keeps the damping it held with
                             let laws = &flow.eval(*t, mode, q, qd)?.damped_laws;
-                            let ws = &mut self.drift_ws;
-                            ws.data.damped_laws.clone_from(laws);
-                            let state = (*t, q, qd);
-                            crate::damped_slide::set_laws(
-                                model,
-                                &mut ws.data,
-                                ws.damped,
-                                &*ctrl,
-                                state,
-                                mode,
-                            );
+                            self.drift_ws.data.damped_laws.clone_from(laws);
                         }
                         drift::project(flow, &mut self.drift_ws, mode, y)?;
                         self.ode.reset(self.ode.next_step_size());

@@ -325,7 +325,16 @@ fn fresh_laws(ws: &mut FlowWorkspace, flow: &Flow, (t, mode): (f64, ContactMode)
     let model = flow.model();
     let (q, qd) = y.split_at(model.nq());
     let ctrl = flow.controller().clone();
-    crate::damped_slide::set_laws(model, &mut ws.data, ws.damped, &*ctrl, (t, q, qd), mode);
+    let state = (t, q, qd);
+    crate::damped_slide::set_laws(
+        model,
+        &mut ws.data,
+        ws.damped,
+        &*ctrl,
+        state,
+        mode,
+        &mut ws.laws,
+    );
 }
 
 /// A collision outline inside the terrain at `(t, q)`, deeper than the drift the engine

@@ -465,3 +465,51 @@ fn a_stick_starts_with_the_foot_at_rest() {
         "{sliding:?}"
     );
 }
+
+/// The laws [`set_laws`] sets in the buffers of the ones a workspace holds are the
+/// fresh laws of [`chain_law`] bit for bit, state after state; a law that stops holding (the
+/// servo without damping) keeps the damping it last held with, and a mode without the slide
+/// lets go of it.
+#[test]
+fn laws_set_in_place_are_the_fresh_laws() {
+    use selfmanip_hybrid::damped_slide::{set_laws, LawScratch};
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let (model, q, qd, mode, _) = slide_law();
+    let damped = damped_contacts(&model);
+    let mut data = selfmanip_core::Data::new(&model);
+    let mut scratch = LawScratch::default();
+    let mut held = None;
+    for i in 0..6 {
+        let s = f64::from(i) * 0.37;
+        let qd_i: Vec<f64> = qd.iter().map(|v| v * (1.0 + s)).collect();
+        let state = (0.01 * s, &q[..], &qd_i[..]);
+        let ctrl: &dyn Controller = if i == 4 { &Stiff } else { &Servo };
+        set_laws(&model, &mut data, damped, ctrl, state, mode, &mut scratch);
+        let fresh = chain_law(&model, ctrl, state, mode, 0).unwrap();
+        let [(k, law)] = &data.damped_laws[..] else {
+            panic!("one law: {:?}", data.damped_laws);
+        };
+        assert_eq!(*k, 0);
+        assert_eq!(law.joints, fresh.joints);
+        assert_eq!(law.holds, fresh.holds);
+        assert_eq!(bits(law.torque.as_slice()), bits(fresh.torque.as_slice()));
+        assert_eq!(bits(law.rates.as_slice()), bits(fresh.rates.as_slice()));
+        let damping = if fresh.holds {
+            bits(fresh.damping.as_slice())
+        } else {
+            held.clone().expect("a law held before")
+        };
+        assert_eq!(bits(law.damping.as_slice()), damping, "state {i}");
+        held = Some(damping);
+    }
+    set_laws(
+        &model,
+        &mut data,
+        damped,
+        &Servo,
+        (0.0, &q, &qd),
+        ContactMode::FLIGHT,
+        &mut scratch,
+    );
+    assert!(data.damped_laws.is_empty());
+}
