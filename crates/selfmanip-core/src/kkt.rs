@@ -873,7 +873,7 @@ fn range_solve_kernel<D: Dim, C: Dim>(
 /// their inertia and the rows' forces. `false` (the route does not apply) where no
 /// coordinate is massless, a massive one's diagonal entry is below `massless` of the
 /// largest (nearly massless: not exactly zero), there are more massless coordinates than
-/// rows, or a pivot of `M̄_PP`, `S` or `T` is below `pivot` of its diagonal entry (a
+/// rows or more rows than massive coordinates, or a pivot of `M̄_PP`, `S` or `T` is below `pivot` of its diagonal entry (a
 /// massless coordinate no row holds, rows dependent or nearly so); the null-space route
 /// then runs.
 fn massless_range_factor(kkt: &mut KktFactorization, massless: f64, pivot: f64) -> bool {
@@ -891,7 +891,8 @@ fn massless_range_factor(kkt: &mut KktFactorization, massless: f64, pivot: f64) 
         }
     }
     let nz = m - p;
-    if nz == 0 || nz > c || largest.is_nan() {
+    // (`S`, c×c, has rank at most p: more rows than massive coordinates leave it singular)
+    if nz == 0 || nz > c || c > p || largest.is_nan() {
         return false;
     }
     let mut z_at = p;

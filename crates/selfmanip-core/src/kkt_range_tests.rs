@@ -544,7 +544,8 @@ fn fixed_size_range_kernels_are_bit_identical_to_run_time_ones() {
 /// The route choice: beyond six coordinates a clearly positive definite `M̄` with
 /// independent rows takes the range-space route, and one with massless coordinates the
 /// rows hold the massless range-space route; a massless coordinate no row holds, more
-/// massless coordinates than rows, a nearly massless coordinate, dependent or nearly
+/// massless coordinates than rows, more rows than massive coordinates, a nearly massless
+/// coordinate, dependent or nearly
 /// dependent rows, more rows than coordinates, a non-finite `M̄` or `A`, and any system of
 /// up to six coordinates take the null-space route, with its outcome (the same typed error
 /// where it fails).
@@ -578,6 +579,11 @@ fn route_choice() {
         unheld.column_mut(1).fill(0.0);
         let cases: Vec<(&str, DMatrix<f64>, DMatrix<f64>)> = vec![
             ("massless, no row holds it", massless.clone(), unheld),
+            ("massless, more rows than coordinates", massless.clone(), {
+                let mut d = DMatrix::from_fn(m + 1, m, |_, _| r.gen_range(-1.0..1.0));
+                d[(0, 1)] = 1.0;
+                d
+            }),
             (
                 "two massless, one row",
                 {
