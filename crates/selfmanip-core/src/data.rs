@@ -61,6 +61,9 @@ pub struct Data {
     /// Whether a site of [`Self::sliding`] is general (folded into the solve), so that a
     /// solve without one does not look.
     pub(crate) has_general: bool,
+    /// The fold of the general sliding sites' friction at the last solve, its buffers kept
+    /// ([`crate::friction::fold::Fold`]).
+    pub(crate) fold: crate::friction::fold::Fold,
     pub(crate) scratch: InertiaScratch,
     /// The KKT right-hand side and solution on the dynamic coordinates.
     f_r: Vec<f64>,

@@ -69,7 +69,7 @@ use crate::contact::{row_direction, ContactGeometry, ContactMode, RowDirection, 
 use crate::dynamics::{forward_dynamics, plastic_impact, Data, Impact};
 use crate::error::CoreError;
 use crate::frames::perp;
-use crate::friction::Fold;
+use crate::friction::fold::Fold;
 use crate::kinematics::{Kinematics, Part};
 use crate::model::{ContactShape, Model};
 use crate::Terrain;
@@ -818,6 +818,8 @@ struct Solver {
     gr: Vec<f64>,
     xr: Vec<f64>,
     y: Vec<f64>,
+    /// The folded sites' normal forces ([`Fold::lambda`]).
+    lambda: Vec<f64>,
 }
 
 impl Solver {
@@ -852,8 +854,8 @@ impl Solver {
     ) -> Result<(), TangentError> {
         self.solve_reduced(data, sigma, f, g);
         if let Some(fold) = fold {
-            let lambda = fold.lambda(&self.y)?;
-            fold.add(&lambda, &mut self.xr, &mut self.y);
+            fold.lambda(&self.y, &mut self.lambda)?;
+            fold.add(&self.lambda, &mut self.xr, &mut self.y);
         }
         self.scatter(data, k, x_out, y_out);
         Ok(())
