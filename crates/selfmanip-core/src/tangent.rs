@@ -323,7 +323,7 @@ impl Assembly {
         model: &Model,
         data: &mut Data,
         qd: &[f64],
-    ) -> Result<Option<Fold>, TangentError> {
+    ) -> Result<Option<Box<Fold>>, TangentError> {
         self.reset(model, data, qd)?;
         self.check_flow()?;
         self.fold(model, data)
@@ -338,7 +338,7 @@ impl Assembly {
         data: &mut Data,
         qd: &[f64],
         lambda: &mut Vec<f64>,
-    ) -> Result<Option<Fold>, TangentError> {
+    ) -> Result<Option<Box<Fold>>, TangentError> {
         let fold = self.prepare_flow(model, data, qd)?;
         self.set_x(data.qdd.as_slice());
         lambda.clear();
@@ -612,16 +612,12 @@ impl Assembly {
     /// The fold of the general sliding sites' friction at the prepared state
     /// (`friction::Fold`: the solve with `K'` from the symmetric factorization), if
     /// any site folds.
-    fn fold(&self, model: &Model, data: &mut Data) -> Result<Option<Fold>, TangentError> {
+    fn fold(&self, model: &Model, data: &mut Data) -> Result<Option<Box<Fold>>, TangentError> {
         if self.general.is_empty() {
             return Ok(None);
         }
-        Ok(Fold::new(
-            model,
-            &mut data.kkt,
-            &data.dynamic_coords,
-            &data.sliding,
-        )?)
+        // boxed: the fold's buffers stay put while the result moves through the callers
+        Ok(Fold::new(model, &mut data.kkt, &data.dynamic_coords, &data.sliding)?.map(Box::new))
     }
 
     /// The current state's masses.
@@ -1016,7 +1012,7 @@ pub fn dynamics_jacobian_solved_into(
         solver,
     } = ws;
     let fold = asm.prepare_flow_solution(model, data, qd, lambda)?;
-    let fold = fold.as_ref();
+    let fold = fold.as_deref();
     let (nq, n, c) = (model.nq(), model.n_joints(), data.constraints.n_rows());
     out.dqdd.zero_shaped(nq, nq);
     zero_shaped(&mut out.dqdd_dtau, nq, n);
@@ -1322,7 +1318,7 @@ pub fn dynamics_jvp_into(
         if let Some(dq_force) = dirs.force {
             *f -= dq_force.column(col);
         }
-        solver.solve_folded(data, fold.as_ref(), -1.0, f, g, col, dqdd, Some(dlambda))?;
+        solver.solve_folded(data, fold.as_deref(), -1.0, f, g, col, dqdd, Some(dlambda))?;
     }
     Ok(())
 }
