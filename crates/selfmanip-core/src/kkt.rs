@@ -83,7 +83,8 @@ pub struct KktBlocks {
     pub m_dagger: DMatrix<f64>,
     /// `A†` (c×q), the mass-weighted left inverse: `A† Aᵀ = I`.
     pub a_dagger: DMatrix<f64>,
-    /// `Λ` (c×c), symmetric negative definite (`Λ = −(A M̄⁻¹ Aᵀ)⁻¹` when `M̄` is invertible).
+    /// `Λ` (c×c), symmetric negative semi-definite: negative definite, `−(A M̄⁻¹ Aᵀ)⁻¹`,
+    /// when `M̄` is invertible; zero on the rows' combinations massless coordinates take up.
     pub lambda: DMatrix<f64>,
 }
 
