@@ -111,8 +111,9 @@ pub struct SimOptions {
 /// of a robot of a few joules it is about `100 J × rtol`. With the velocities' absolute
 /// tolerances scaled by their mass ([`VelocityTolerance::KineticEnergy`]), 2e-9 balances the
 /// newcomer's bounder of issue 30 to 6.6e-7 J over its 20-point bound sweep (7.8e-7 J over
-/// 200 runs of it with the gains moved by parts in 10⁹), one part in 10⁷ of its energy, and the user sweep (`scripts/user_robot_sweep.py`) in 11 % fewer steps than
-/// the uniform tolerance took at 5e-9, its residuals smaller
+/// 200 runs of it with the gains moved by parts in 10⁹), one part in 10⁷ of its energy, and
+/// runs the user sweep (`scripts/user_robot_sweep.py`) in 11 % fewer steps than a uniform
+/// tolerance at 5e-9, with smaller residuals
 /// (docs/decisions/2026-11-30-kinetic-energy-velocity-tolerance.md).
 pub const DEFAULT_RTOL: f64 = 2e-9;
 
