@@ -22,13 +22,19 @@ fn null_route(
 
 /// `‖u − v‖ / ‖v‖` (`‖u − v‖` for `v = 0`).
 fn rel(u: &[f64], v: &[f64]) -> f64 {
+    rel_above(u, v, 0.0)
+}
+
+/// `‖u − v‖ / max(‖v‖, floor)` (`‖u − v‖` where both are zero): [`rel`] against a size `v`
+/// may fall below by cancellation.
+fn rel_above(u: &[f64], v: &[f64], floor: f64) -> f64 {
     let d = u
         .iter()
         .zip(v)
         .map(|(a, b)| (a - b).powi(2))
         .sum::<f64>()
         .sqrt();
-    let n = v.iter().map(|b| b * b).sum::<f64>().sqrt();
+    let n = v.iter().map(|b| b * b).sum::<f64>().sqrt().max(floor);
     if n > 0.0 {
         d / n
     } else {
@@ -228,12 +234,7 @@ fn check_robot(model: &Model, n_states: usize, r: &mut ChaCha8Rng, tally: &mut T
                 0.0
             };
             let diff = |u: &DMatrix<f64>, v: &DMatrix<f64>, floor: f64| {
-                let (d, n) = ((u - v).norm(), v.norm().max(floor));
-                if n > 0.0 {
-                    d / n
-                } else {
-                    d
-                }
+                rel_above(u.as_slice(), v.as_slice(), floor)
             };
             for (name, u, v, w, floor) in [
                 ("M†", &b.m_dagger, &bd.m_dagger, &bn.m_dagger, 0.0),
