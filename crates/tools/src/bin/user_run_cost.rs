@@ -22,24 +22,21 @@ use std::time::Instant;
 fn main() {
     // `--stiff-switch` / `--no-stiff-switch` (and the same for `unresolved-flights`): the
     // runs with the option on / off; a file's own setting otherwise
-    let flag = |on: &'static str, off: &'static str| {
+    let flags = [
+        ("--stiff-switch", "--no-stiff-switch"),
+        ("--unresolved-flights", "--no-unresolved-flights"),
+    ];
+    let flag = |(on, off): (&str, &str)| {
         std::env::args().find_map(|a| {
             (a == on)
                 .then_some(true)
                 .or_else(|| (a == off).then_some(false))
         })
     };
-    let switch = flag("--stiff-switch", "--no-stiff-switch");
-    let unresolved = flag("--unresolved-flights", "--no-unresolved-flights");
-    let flags = [
-        "--stiff-switch",
-        "--no-stiff-switch",
-        "--unresolved-flights",
-        "--no-unresolved-flights",
-    ];
+    let (switch, unresolved) = (flag(flags[0]), flag(flags[1]));
     for path in std::env::args()
         .skip(1)
-        .filter(|a| !flags.contains(&a.as_str()))
+        .filter(|a| !flags.iter().any(|&(on, off)| a == on || a == off))
     {
         let mut s = Scenario::from_file(Path::new(&path)).unwrap_or_else(|e| panic!("{path}: {e}"));
         if let Some(b) = switch {
