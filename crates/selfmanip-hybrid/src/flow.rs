@@ -403,6 +403,11 @@ impl<'a> Flow<'a> {
         Ok(&self.ws.data)
     }
 
+    /// The solution of the flow's last evaluation ([`Self::eval`]).
+    pub fn solution(&self) -> &Data {
+        &self.ws.data
+    }
+
     /// The integrator's right-hand side `ẏ = [q̇; q̈]` of the flow of `mode` at `y = [q; q̇]`.
     pub fn rhs(
         &mut self,

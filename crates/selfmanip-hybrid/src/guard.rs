@@ -40,20 +40,31 @@
 //! there cost nothing and are sampled first. Force guards (a flow evaluation per sample)
 //! are sampled at the coarse samples (mid-step and end), and also at a fine sample where a
 //! cheap (kinematic) guard crosses, so that none of them can cross unseen before the
-//! earliest event; the kinematic guards at every sample.
+//! earliest event; the kinematic guards at every sample. The mid-step sample of the force
+//! guards is skipped where the step's own stages show them clear: DOPRI5 solves the flow
+//! at `t₀ + c h`, `c = 0, 1/5, 3/10, 4/5, 8/9, 1`, at states within the step's local error
+//! of the solution, and the force guards' values there are watched
+//! ([`GuardSet::watch_stage`]); a step on which each of them stays above the arming
+//! margin by more than its own spread over those instants (`2 min − max > margin`) is one
+//! on which it neither crosses nor arms at mid-step (it is armed by the end sample, where
+//! it is as clear), unless its force swings by more than that spread between two stages
+//! that an accepted step resolves. Any other step — implicit, or with a force guard near
+//! its margin, moving, or not read off the flow's solution (a jam hold's) — takes the
+//! mid-step sample.
 // the slip→stick guard's value is defined with the flow, which fixes a sliding contact's
 // direction by it
 use crate::flow::sliding_velocity;
-use crate::flow::Flow;
+use crate::flow::{Flow, FlowSystem};
 use crate::fold;
 use crate::integrate::DenseStep;
+use crate::ode_system::OdeSystem;
 use crate::options::HybridOptions;
 use selfmanip_core::contact::contact_gap;
 use selfmanip_core::contact::{ContactKind, RowDirection};
 use selfmanip_core::friction::SlideDirection;
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::model::Friction;
-use selfmanip_core::{ContactMode, CoreError, Model, Terrain};
+use selfmanip_core::{ContactMode, CoreError, Data, Model, Terrain};
 
 /// A guard of a mode.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -124,6 +135,20 @@ impl Guard {
         )
     }
 
+    /// The value of a liftoff or stick→slip guard from the flow's solution `data` in its
+    /// mode; `None` for any other guard.
+    fn force_value(self, data: &Data) -> Option<f64> {
+        match self {
+            Guard::Liftoff { contact, row } => {
+                Some(crate::damped_slide::liftoff_value(data, contact, row))
+            }
+            Guard::Slip {
+                t_row, n_row, mu, ..
+            } => Some(mu * (-data.lambda[n_row]) - data.lambda[t_row].abs()),
+            _ => None,
+        }
+    }
+
     /// The guard's value at `(t, y = [q; q̇])` in the flow of `mode` (unoriented).
     pub fn value(
         self,
@@ -135,14 +160,9 @@ impl Guard {
         let model = flow.model();
         let (q, qd) = y.split_at(model.nq());
         Ok(match self {
-            Guard::Liftoff { contact, row } => {
-                crate::damped_slide::liftoff_value(flow.eval(t, mode, q, qd)?, contact, row)
-            }
-            Guard::Slip {
-                t_row, n_row, mu, ..
-            } => {
-                let lambda = &flow.eval(t, mode, q, qd)?.lambda;
-                mu * (-lambda[n_row]) - lambda[t_row].abs()
+            Guard::Liftoff { .. } | Guard::Slip { .. } => {
+                let data = flow.eval(t, mode, q, qd)?;
+                self.force_value(data).expect("a force guard")
             }
             Guard::Apex => -qd[model.ix_z()],
             Guard::Jammed {
@@ -432,6 +452,26 @@ pub struct Crossing {
     pub f_hi: f64,
 }
 
+/// The flow as the integrator's system ([`FlowSystem`]), with `guards` watching the force
+/// guards at every stage it evaluates ([`GuardSet::watch_stage`]).
+pub struct WatchedFlow<'s, 'a> {
+    pub system: FlowSystem<'s, 'a>,
+    pub guards: &'s mut GuardSet,
+}
+
+impl OdeSystem<CoreError> for WatchedFlow<'_, '_> {
+    #[inline]
+    fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), CoreError> {
+        self.system.rhs(t, y, dy)?;
+        self.guards.watch_stage(self.system.flow.solution());
+        Ok(())
+    }
+
+    fn jacobian(&mut self, t: f64, y: &[f64], jac: &mut [f64]) -> bool {
+        self.system.jacobian(t, y, jac)
+    }
+}
+
 /// Where the guards are sampled in each step (fractions of it; the last is its end point).
 pub const SAMPLES: [f64; 4] = [0.25, 0.5, 0.75, 1.0];
 
@@ -446,6 +486,12 @@ pub struct GuardSet {
     crossings: Vec<Crossing>,
     /// Scratch torques for the fold thresholds.
     scratch_tau: Vec<f64>,
+    /// The force guards' oriented values over the stages of the step being taken
+    /// ([`Self::watch_step`]): the least and the greatest, one entry per guard.
+    stage_lo: Vec<f64>,
+    stage_hi: Vec<f64>,
+    /// Whether every stage of the step being sampled was watched.
+    watched: bool,
 }
 
 impl GuardSet {
@@ -538,6 +584,46 @@ impl GuardSet {
         self.states.is_empty()
     }
 
+    /// Starts watching the force guards over the stages of the next step
+    /// ([`Self::watch_stage`]), from their values at its start.
+    pub fn watch_step(&mut self) {
+        self.stage_lo.clear();
+        self.stage_lo.extend(self.states.iter().map(|st| st.last));
+        self.stage_hi.clone_from(&self.stage_lo);
+        self.watched = true;
+    }
+
+    /// Records the force guards' values in the flow's solution `data` at one stage of the
+    /// step being taken (a value that is not finite, or a guard whose value is not read off
+    /// the solution, counts as crossed).
+    pub fn watch_stage(&mut self, data: &Data) {
+        for (gi, st) in self.states.iter().enumerate() {
+            if !st.guard.needs_flow() {
+                continue;
+            }
+            let v = match st.guard.force_value(data) {
+                Some(raw) if raw.is_finite() => st.direction.orient(raw),
+                _ => f64::NEG_INFINITY,
+            };
+            self.stage_lo[gi] = self.stage_lo[gi].min(v);
+            self.stage_hi[gi] = self.stage_hi[gi].max(v);
+        }
+    }
+
+    /// Whether the force guards need their mid-step sample on the step `dense`: unless the
+    /// step is explicit and every stage was watched ([`Self::watch_step`]), with each force
+    /// guard's values over the stages clear of its arming margin by more than their own
+    /// spread (`2 lo − hi > margin`).
+    fn mid_step_needed(&self, dense: &DenseStep, margin: f64) -> bool {
+        if dense.implicit || !self.watched {
+            return true;
+        }
+        self.states
+            .iter()
+            .zip(self.stage_lo.iter().zip(&self.stage_hi))
+            .any(|(st, (&lo, &hi))| st.guard.needs_flow() && !(2.0 * lo - hi > margin))
+    }
+
     /// Sticking contacts whose force already lies outside their cone at the segment's start
     /// (an inconsistent start, or a cone that a reset left violated): they slip at once.
     pub fn slipping_at_start(&self, margin: f64) -> Vec<Guard> {
@@ -564,7 +650,11 @@ impl GuardSet {
     ) -> Result<Option<f64>, CoreError> {
         let (t0, h) = (dense.t0, dense.h);
         let ng = self.states.len();
-        let coarse = |si: usize| si % 2 == 1;
+        // the samples at which the force guards are sampled before any kinematic guard
+        // crossed: the end point, and mid-step unless the step's stages showed them clear
+        let mid = self.mid_step_needed(dense, margin);
+        self.watched = false;
+        let coarse = |si: usize| si == SAMPLES.len() - 1 || (si == 1 && mid);
         // the raw values at every sample, the end point first (its flow is cached)
         let mut sample_t = [0.0; SAMPLES.len()];
         for si in [3, 1, 0, 2] {

@@ -26,7 +26,7 @@ use crate::execution::{Segment, Termination};
 use crate::features::{FeatureChange, Surfaces};
 use crate::flow::{Flow, FlowSystem, FlowWorkspace};
 use crate::free_joints::FreeJointStability;
-use crate::guard::{Guard, GuardSet};
+use crate::guard::{Guard, GuardSet, WatchedFlow};
 use crate::integrate::{DenseOutput, DenseStep, Dopri5, StepError, VelocityTolerance};
 use crate::locate::first_event;
 use crate::options::HybridOptions;
@@ -222,12 +222,16 @@ impl SegmentIntegrator {
             let t_left = stop.map_or(f64::INFINITY, f64::next_down);
             let t_right = self.t_right;
             let (t_start, h_proposed) = (*t, self.ode.next_step_size());
+            self.guards.watch_step();
             let step = self.ode.step(
-                &mut FlowSystem {
-                    flow,
-                    mode,
-                    t_right,
-                    t_left,
+                &mut WatchedFlow {
+                    system: FlowSystem {
+                        flow,
+                        mode,
+                        t_right,
+                        t_left,
+                    },
+                    guards: &mut self.guards,
                 },
                 *t,
                 y,

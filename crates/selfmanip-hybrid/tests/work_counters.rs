@@ -96,3 +96,38 @@ fn flow_counters_split_a_falling_block_into_flight_and_stance() {
         assert!(w.solves[p] > 0);
     }
 }
+
+/// The force guards are sampled mid-step only where the step's own stages do not show them
+/// clear (`guard::GuardSet::watch_stage`): a block standing on both corners (the right one
+/// sliding) pushes with `m g / 2` at each (a closed form, `stage_guard.rs`) at every stage,
+/// so its 50 fixed steps solve the flow at most at their stages; the same block in zero
+/// gravity pushes with nothing, within the arming margin, and takes the same steps with one
+/// more solve each, at mid-step.
+#[test]
+fn force_guards_clear_over_a_step_take_no_mid_step_solve() {
+    let h = 0.01;
+    let opts = HybridOptions {
+        step: StepOptions {
+            h_initial_s: h,
+            h_max_s: h,
+            ..StepOptions::default()
+        },
+        ..HybridOptions::default()
+    };
+    let counts = [G, 0.0].map(|g| {
+        let model = systems::block(g);
+        let mode = ContactMode::parse_names(&model, "left,right:slide").unwrap();
+        reset_work_counters();
+        let exec = released(&model, mode, &[0.0, -BLOCK.1 / 2.0, 0.0], 0.5, opts);
+        assert_eq!(exec.events.len(), 0, "g = {g}: it stands");
+        work_counters()
+    });
+    let [clear, zero] = &counts;
+    assert_eq!(clear.accepted[0], 50, "{clear:?}");
+    assert_eq!(
+        (zero.accepted, zero.rhs_calls),
+        (clear.accepted, clear.rhs_calls)
+    );
+    assert!(clear.solves[0] <= clear.rhs_calls[0], "{clear:?}");
+    assert_eq!(zero.solves[0], clear.solves[0] + 50, "{zero:?} {clear:?}");
+}
