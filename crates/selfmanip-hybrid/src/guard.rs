@@ -486,8 +486,9 @@ pub struct GuardSet {
     crossings: Vec<Crossing>,
     /// Scratch torques for the fold thresholds.
     scratch_tau: Vec<f64>,
-    /// The force guards' oriented values over the stages of the step being taken
-    /// ([`Self::watch_step`]): the least and the greatest, one entry per guard.
+    /// The force guards (their indices), and their oriented values over the stages of the
+    /// step being taken ([`Self::watch_step`]): the least and the greatest, one entry each.
+    force: Vec<usize>,
     stage_lo: Vec<f64>,
     stage_hi: Vec<f64>,
     /// Whether every stage of the step being sampled was watched.
@@ -573,6 +574,9 @@ impl GuardSet {
                 .push(GuardState::arm(g, raw, rest, sigma, opts.arm_margin));
         }
         self.raw.resize(SAMPLES.len() * self.states.len(), 0.0);
+        self.force.clear();
+        self.force
+            .extend((0..self.states.len()).filter(|&gi| self.states[gi].guard.needs_flow()));
         Ok(())
     }
 
@@ -588,7 +592,8 @@ impl GuardSet {
     /// ([`Self::watch_stage`]), from their values at its start.
     pub fn watch_step(&mut self) {
         self.stage_lo.clear();
-        self.stage_lo.extend(self.states.iter().map(|st| st.last));
+        self.stage_lo
+            .extend(self.force.iter().map(|&gi| self.states[gi].last));
         self.stage_hi.clone_from(&self.stage_lo);
         self.watched = true;
     }
@@ -597,16 +602,15 @@ impl GuardSet {
     /// step being taken (a value that is not finite, or a guard whose value is not read off
     /// the solution, counts as crossed).
     pub fn watch_stage(&mut self, data: &Data) {
-        for (gi, st) in self.states.iter().enumerate() {
-            if !st.guard.needs_flow() {
-                continue;
-            }
+        let watched = self.stage_lo.iter_mut().zip(&mut self.stage_hi);
+        for (&gi, (lo, hi)) in self.force.iter().zip(watched) {
+            let st = &self.states[gi];
             let v = match st.guard.force_value(data) {
                 Some(raw) if raw.is_finite() => st.direction.orient(raw),
                 _ => f64::NEG_INFINITY,
             };
-            self.stage_lo[gi] = self.stage_lo[gi].min(v);
-            self.stage_hi[gi] = self.stage_hi[gi].max(v);
+            *lo = lo.min(v);
+            *hi = hi.max(v);
         }
     }
 
@@ -618,10 +622,10 @@ impl GuardSet {
         if dense.implicit || !self.watched {
             return true;
         }
-        self.states
+        self.stage_lo
             .iter()
-            .zip(self.stage_lo.iter().zip(&self.stage_hi))
-            .any(|(st, (&lo, &hi))| st.guard.needs_flow() && !(2.0 * lo - hi > margin))
+            .zip(&self.stage_hi)
+            .any(|(&lo, &hi)| !(2.0 * lo - hi > margin))
     }
 
     /// Sticking contacts whose force already lies outside their cone at the segment's start
