@@ -63,6 +63,21 @@ impl<'a> ControlPoint<'a> {
 /// asked at a [`ControlPoint`]; a law ignores the parts it does not depend on.
 pub trait Controller: ControllerClone + Send + Sync {
     fn torque(&self, t: f64, q: &[f64], qd: &[f64], mode: ContactMode, tau: &mut [f64]);
+    /// The torques of `joints` at least (the entries of `tau` in that range; any other entry
+    /// may be written too), the same numbers as [`Self::torque`]'s: what a damped slide asks
+    /// for its chain several times per evaluation. By default [`Self::torque`]; a controller
+    /// whose joints' laws are independent computes only those.
+    fn torque_of(
+        &self,
+        t: f64,
+        (q, qd): (&[f64], &[f64]),
+        mode: ContactMode,
+        joints: std::ops::Range<usize>,
+        tau: &mut [f64],
+    ) {
+        let _ = joints;
+        self.torque(t, q, qd, mode, tau);
+    }
     /// Prescribed accelerations of free massless joints (thesis 5.1.1); default 0.
     fn free_joint_qdd(
         &self,

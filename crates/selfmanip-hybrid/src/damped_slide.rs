@@ -82,7 +82,7 @@ fn law_into(
     tau.resize(model.n_joints(), 0.0);
     let mut torque_at = |qd: &[f64], out: &mut [f64]| {
         tau.fill(0.0);
-        ctrl.torque(t, q, qd, mode, tau);
+        ctrl.torque_of(t, (q, qd), mode, joints.clone(), tau);
         law_torques_into(model, joints.clone(), tau, (q, qd), out);
     };
     if law.torque.len() != n {
@@ -389,7 +389,7 @@ pub(crate) fn chain_accelerations_clear_of(
                 }
             }));
             tau.fill(0.0);
-            ctrl.torque(t + s * h, qs, vs, mode, tau);
+            ctrl.torque_of(t + s * h, (qs, vs), mode, joints.clone(), tau);
             law_torques_into(model, joints.clone(), tau, (qs, vs), out);
         };
         match side {

@@ -19,6 +19,8 @@
 //!   stick at a controller's phase; run 402, a general site held sliding whose force comes
 //!   to pull inside a segment of the dwell; runs 394 and 452, which showed the same faults),
 //!   the friction's and the dampers' works are never positive and the balance closes to 1e-6 J.
+//! - the chain's torques the slide asks for (`Controller::torque_of`) are the whole
+//!   torque's, bit for bit.
 mod common;
 
 use selfmanip_core::damped_slide::{contact_rows, solve};
@@ -241,5 +243,52 @@ fn user_runs_dissipate_and_balance() {
         assert!(er.friction_work_j < -1e-4, "{file}: friction {er:?}");
         assert!(er.damping_work_j <= 1e-12, "{file}: damping {er:?}");
         assert!(er.residual_j().abs() < 1e-6, "{file}: residual {er:?}");
+    }
+}
+
+/// A damped slide asks the behaviour for its chain's torques alone
+/// (`Controller::torque_of`), several times per evaluation: they are the whole torque's
+/// numbers, bit for bit, for every range of joints, in every contact mode of the robot's
+/// feet, at random times and states — for the behaviours of the sweep's runs (servos, held
+/// and tracking, with torque limits, in and out of contact, before and after their pushes).
+#[test]
+fn a_chain_s_torques_are_the_whole_torque_s() {
+    use selfmanip_sim::analysis::seeded::SplitMix64;
+    let mut rng = SplitMix64(17);
+    for file in [
+        "damped_chain_push.json",
+        "user_run_32.json",
+        "user_run_211.json",
+        "user_run_394.json",
+        "user_run_402.json",
+        "user_run_452.json",
+    ] {
+        let sim = Simulation::new(&scenario_of(file)).unwrap();
+        let (model, ctrl) = (&sim.model, &*sim.controller);
+        let (nq, nj, nc) = (model.nq(), model.n_joints(), model.n_contacts());
+        let mut whole = vec![0.0; nj];
+        let mut part = vec![0.0; nj];
+        for _ in 0..40 {
+            let t = rng.uniform(0.0, 0.5);
+            let q: Vec<f64> = (0..nq).map(|_| rng.uniform(-1.5, 1.5)).collect();
+            let qd: Vec<f64> = (0..nq).map(|_| rng.uniform(-20.0, 20.0)).collect();
+            for normal in 0..1u32 << nc {
+                let mode = ContactMode::from_bits(normal, normal).unwrap();
+                ctrl.torque(t, &q, &qd, mode, &mut whole);
+                for lo in 0..nj {
+                    for hi in lo + 1..=nj {
+                        part.fill(f64::NAN);
+                        ctrl.torque_of(t, (&q, &qd), mode, lo..hi, &mut part);
+                        for j in lo..hi {
+                            assert_eq!(
+                                part[j].to_bits(),
+                                whole[j].to_bits(),
+                                "{file}: joint {j} of {lo}..{hi} at t = {t} in {mode:?}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
     }
 }

@@ -1316,6 +1316,57 @@ impl BehaviourController {
             }
         }
     }
+
+    /// The torque of program `p`'s joint at `(t, q, q̇)` in `mode`: the law in force.
+    #[inline]
+    fn program_torque(
+        &self,
+        p: usize,
+        t: f64,
+        (q, qd): (&[f64], &[f64]),
+        mode: ContactMode,
+    ) -> f64 {
+        let plan = &*self.plan;
+        let (prog, mem) = (&plan.programs[p], &self.programs[p]);
+        let j = prog.joint;
+        let servo_off =
+            |only_in_contact: bool| only_in_contact && mode.normal_bits() & prog.contacts == 0;
+        match mem.law(t) {
+            ActiveLaw::Zero => 0.0,
+            ActiveLaw::Constant(c) => c,
+            ActiveLaw::Motor { actuator, command } => {
+                plan.actuators[actuator].joint_torque_n_m(command, qd[j])
+            }
+            ActiveLaw::MotorReversing {
+                actuator,
+                command,
+                sign,
+                reverse_beyond,
+            } => {
+                let reversed = sign * q[j] > reverse_beyond;
+                let u = if reversed { -command } else { command };
+                plan.actuators[actuator].joint_torque_n_m(u, qd[j])
+            }
+            ActiveLaw::ServoAt {
+                only_in_contact, ..
+            }
+            | ActiveLaw::ServoTracking {
+                only_in_contact, ..
+            } if servo_off(only_in_contact) => 0.0,
+            ActiveLaw::ServoAt {
+                target,
+                gains,
+                limit,
+                ..
+            } => mem
+                .servo_command(t, Some(target), gains, q[j], qd[j])
+                .clamp(-limit, limit),
+            ActiveLaw::ServoTracking { gains, limit, .. } => mem
+                .servo_command(t, None, gains, q[j], qd[j])
+                .clamp(-limit, limit),
+            ActiveLaw::General => law_torque(plan, prog, mem, (t, q, qd), mode),
+        }
+    }
 }
 
 /// The joint-angle phase right after phase `k` of `prog` whose level holds at `q`, else `k`.
@@ -1416,44 +1467,24 @@ impl Controller for BehaviourController {
         for &j in &plan.idle_joints {
             tau[j] = 0.0;
         }
-        for (prog, mem) in plan.programs.iter().zip(&self.programs) {
-            let j = prog.joint;
-            let servo_off =
-                |only_in_contact: bool| only_in_contact && mode.normal_bits() & prog.contacts == 0;
-            tau[j] = match mem.law(t) {
-                ActiveLaw::Zero => 0.0,
-                ActiveLaw::Constant(c) => c,
-                ActiveLaw::Motor { actuator, command } => {
-                    plan.actuators[actuator].joint_torque_n_m(command, qd[j])
-                }
-                ActiveLaw::MotorReversing {
-                    actuator,
-                    command,
-                    sign,
-                    reverse_beyond,
-                } => {
-                    let reversed = sign * q[j] > reverse_beyond;
-                    let u = if reversed { -command } else { command };
-                    plan.actuators[actuator].joint_torque_n_m(u, qd[j])
-                }
-                ActiveLaw::ServoAt {
-                    only_in_contact, ..
-                }
-                | ActiveLaw::ServoTracking {
-                    only_in_contact, ..
-                } if servo_off(only_in_contact) => 0.0,
-                ActiveLaw::ServoAt {
-                    target,
-                    gains,
-                    limit,
-                    ..
-                } => mem
-                    .servo_command(t, Some(target), gains, q[j], qd[j])
-                    .clamp(-limit, limit),
-                ActiveLaw::ServoTracking { gains, limit, .. } => mem
-                    .servo_command(t, None, gains, q[j], qd[j])
-                    .clamp(-limit, limit),
-                ActiveLaw::General => law_torque(plan, prog, mem, (t, q, qd), mode),
+        for p in 0..plan.programs.len() {
+            tau[plan.programs[p].joint] = self.program_torque(p, t, (q, qd), mode);
+        }
+    }
+
+    /// Each joint's law is its program's alone: only the programs of `joints` run.
+    fn torque_of(
+        &self,
+        t: f64,
+        (q, qd): (&[f64], &[f64]),
+        mode: ContactMode,
+        joints: std::ops::Range<usize>,
+        tau: &mut [f64],
+    ) {
+        for j in joints {
+            tau[j] = match self.plan.program_of_joint.get(j).copied().flatten() {
+                Some(p) => self.program_torque(p, t, (q, qd), mode),
+                None => 0.0,
             };
         }
     }
