@@ -622,10 +622,9 @@ impl GuardSet {
         if dense.implicit || !self.watched {
             return true;
         }
-        self.stage_lo
-            .iter()
-            .zip(&self.stage_hi)
-            .any(|(&lo, &hi)| !(2.0 * lo - hi > margin))
+        // (a NaN compares false: not clear)
+        let clear = |(&lo, &hi): (&f64, &f64)| 2.0 * lo - hi > margin;
+        !self.stage_lo.iter().zip(&self.stage_hi).all(clear)
     }
 
     /// Sticking contacts whose force already lies outside their cone at the segment's start
