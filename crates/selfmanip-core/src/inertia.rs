@@ -45,7 +45,8 @@ pub struct InertiaScratch {
     jw: Vec<f64>,
     jdx: Vec<f64>,
     jdz: Vec<f64>,
-    /// The current part's Jacobian columns that rotate it, in ascending coordinate.
+    /// The current part's Jacobian columns at its chain's joints, ascending (φ's, the other
+    /// column that rotates it, is kept apart).
     cols: Vec<PartColumn>,
 }
 
@@ -70,6 +71,9 @@ struct PartColumn {
     j: Vector2<f64>,
     w: f64,
 }
+
+/// `J_ω e_φ`: φ turns every part.
+const W_PHI: f64 = 1.0;
 
 const EX: Vector2<f64> = Vector2::new(1.0, 0.0);
 const EZ: Vector2<f64> = Vector2::new(0.0, 1.0);
@@ -105,44 +109,76 @@ pub fn mass_coriolis_gravity(
     c_qd.fill(0.0);
     n_bar.fill(0.0);
     let g = model.gravity_m_s2;
+    let iphi = model.ix_phi();
+    // the entries of x, z, φ alone, which every part adds to: M̄_xx (= M̄_zz), M̄_xφ, M̄_zφ,
+    // M̄_φφ, C̄q̇ and N̄ at x, z, φ (N̄_x = 0)
+    let (mut m_xx, mut m_xphi, mut m_zphi, mut m_phiphi) = (0.0, 0.0, 0.0, 0.0);
+    let (mut c_x, mut c_z, mut c_phi, mut n_z, mut n_phi) = (0.0, 0.0, 0.0, 0.0, 0.0);
     for (part, m, inertia, com) in massive_parts(model) {
         let p = kin.point(part, com);
         let pd = kin.material_velocity(part, p);
-        // the columns that rotate the part, ascending: its chain's joints, then φ; and
+        // the columns that rotate the part: its chain's joints, ascending, then φ; and
         // J̇ q̇ over them (planar: J̇_ω = 0; J̇ e_x = J̇ e_z = 0)
         let cols = &mut s.cols;
         cols.clear();
         let (mut ax, mut az) = (0.0, 0.0);
-        kin.rotation_columns(model, part, p, pd, |k, j, jd, w| {
+        let (phi, phi_rate) = kin.rotation_columns(model, part, p, pd, |k, j, jd, w| {
             ax += jd.x * qd[k];
             az += jd.y * qd[k];
             cols.push(PartColumn { k, j, w })
         });
+        ax += phi_rate.x * qd[iphi];
+        az += phi_rate.y * qd[iphi];
         // M̄ += m Jᵀ J + I J_ωᵀ J_ω, each term added to an entry and to its mirror image
-        // (M̄ is exactly symmetric); the columns ascend
+        // (M̄ is exactly symmetric: both hold the same number before and after); the
+        // columns ascend
+        let mut add = |at: usize, mirror: usize, v: f64| {
+            let sum = mb[at] + v;
+            mb[at] = sum;
+            mb[mirror] = sum;
+        };
         for (ib, b) in cols.iter().enumerate() {
-            mb[b.k * nq + b.k] += m * (b.j.x * b.j.x + b.j.y * b.j.y) + inertia * b.w * b.w;
+            let row = b.k * nq;
+            add(
+                row + b.k,
+                row + b.k,
+                m * (b.j.x * b.j.x + b.j.y * b.j.y) + inertia * b.w * b.w,
+            );
             for a in &cols[ib + 1..] {
                 let v = m * (a.j.x * b.j.x + a.j.y * b.j.y) + inertia * a.w * b.w;
-                mb[b.k * nq + a.k] += v;
-                mb[a.k * nq + b.k] += v;
+                add(row + a.k, a.k * nq + b.k, v);
             }
-            // … and on x, z: m Jᵀ J with J e_x = (1, 0), J e_z = (0, 1)
-            let (vx, vz) = (m * b.j.x, m * b.j.y);
-            mb[b.k * nq + ix] += vx;
-            mb[ix * nq + b.k] += vx;
-            mb[b.k * nq + iz] += vz;
-            mb[iz * nq + b.k] += vz;
+            // … with φ, and on x, z: m Jᵀ J with J e_x = (1, 0), J e_z = (0, 1)
+            let v = m * (phi.x * b.j.x + phi.y * b.j.y) + inertia * W_PHI * b.w;
+            add(row + iphi, iphi * nq + b.k, v);
+            add(row + ix, ix * nq + b.k, m * b.j.x);
+            add(row + iz, iz * nq + b.k, m * b.j.y);
             // C̄ q̇ += m Jᵀ (J̇ q̇); N̄ = ∂V/∂q with V = −m g z_com (z down)
             c_qd[b.k] += m * (b.j.x * ax + b.j.y * az);
             n_bar[b.k] -= m * g * b.j.y;
         }
-        mb[ix * nq + ix] += m;
-        mb[iz * nq + iz] += m;
-        c_qd[ix] += m * ax;
-        c_qd[iz] += m * az;
-        n_bar[iz] -= m * g;
+        m_phiphi += m * (phi.x * phi.x + phi.y * phi.y) + inertia * W_PHI * W_PHI;
+        m_xphi += m * phi.x;
+        m_zphi += m * phi.y;
+        m_xx += m;
+        c_x += m * ax;
+        c_z += m * az;
+        c_phi += m * (phi.x * ax + phi.y * az);
+        n_z -= m * g;
+        n_phi -= m * g * phi.y;
     }
+    mb[ix * nq + ix] = m_xx;
+    mb[iz * nq + iz] = m_xx;
+    mb[iphi * nq + iphi] = m_phiphi;
+    mb[iphi * nq + ix] = m_xphi;
+    mb[ix * nq + iphi] = m_xphi;
+    mb[iphi * nq + iz] = m_zphi;
+    mb[iz * nq + iphi] = m_zphi;
+    c_qd[ix] = c_x;
+    c_qd[iz] = c_z;
+    c_qd[iphi] = c_phi;
+    n_bar[iz] = n_z;
+    n_bar[iphi] = n_phi;
     // M̄_jj += a_j   (armature: the drive's rotors reflected to the joint)
     for (j, joint) in model.joints.iter().enumerate() {
         if joint.armature_kg_m2 != 0.0 {

@@ -63,32 +63,46 @@ impl Kinematics {
                 *arc = range.map(ArcRange::new);
             }
         }
-        self.body_pos = Vector2::new(q[n], q[n + 1]);
-        self.body_vel = Vector2::new(qd[n], qd[n + 1]);
-        self.phi = q[n + 2];
-        self.phi_dot = qd[n + 2];
-        self.body_sc = self.phi.sin_cos();
-        for leg in &model.legs {
-            // hip: o = X + R(φ) h,  ȯ = Ẋ + φ̇ S(R(φ) h)
-            let rh = rotate_sc(self.body_sc, leg.hip_m);
-            let mut o = self.body_pos + rh;
-            let mut od = self.body_vel + self.phi_dot * perp(rh);
-            let mut b = self.phi;
-            let mut bd = self.phi_dot;
-            for j in leg.first_joint..leg.first_joint + leg.n_links {
-                let joint = &model.joints[j];
-                b += joint.axis_sign * q[j];
-                bd += joint.axis_sign * qd[j];
-                self.origin[j] = o;
-                self.origin_vel[j] = od;
-                self.beta[j] = b;
-                self.beta_dot[j] = bd;
-                self.link_sc[j] = b.sin_cos();
-                // next joint at the link's tip
-                let tip = rotate_sc(self.link_sc[j], Vector2::new(0.0, joint.length_m));
-                o += tip;
-                od += bd * perp(tip);
+        let (q_joints, q_body) = q.split_at(n);
+        let (qd_joints, qd_body) = qd.split_at(n);
+        let (x, xd) = (
+            Vector2::new(q_body[0], q_body[1]),
+            Vector2::new(qd_body[0], qd_body[1]),
+        );
+        let (phi, phi_dot, body_sc) = (q_body[2], qd_body[2], q_body[2].sin_cos());
+        (self.body_pos, self.body_vel) = (x, xd);
+        (self.phi, self.phi_dot, self.body_sc) = (phi, phi_dot, body_sc);
+        // the joints leg by leg, proximal to distal: each leg's first starts at its hip
+        let inputs = model.joints.iter().zip(q_joints).zip(qd_joints);
+        let poses = self
+            .origin
+            .iter_mut()
+            .zip(&mut self.beta)
+            .zip(&mut self.link_sc);
+        let rates = self.origin_vel.iter_mut().zip(&mut self.beta_dot);
+        let (mut o, mut od, mut b, mut bd) = (x, xd, phi, phi_dot);
+        for (((joint, &qj), &qdj), (((origin, beta), sc), (origin_vel, beta_dot))) in
+            inputs.zip(poses.zip(rates))
+        {
+            if joint.index_in_leg == 0 {
+                // hip: o = X + R(φ) h,  ȯ = Ẋ + φ̇ S(R(φ) h)
+                let rh = rotate_sc(body_sc, model.legs[joint.leg].hip_m);
+                o = x + rh;
+                od = xd + phi_dot * perp(rh);
+                b = phi;
+                bd = phi_dot;
             }
+            b += joint.axis_sign * qj;
+            bd += joint.axis_sign * qdj;
+            *origin = o;
+            *origin_vel = od;
+            *beta = b;
+            *beta_dot = bd;
+            *sc = b.sin_cos();
+            // next joint at the link's tip
+            let tip = rotate_sc(*sc, Vector2::new(0.0, joint.length_m));
+            o += tip;
+            od += bd * perp(tip);
         }
     }
 
@@ -222,10 +236,11 @@ impl Kinematics {
         }
     }
 
-    /// Calls `f(k, J_p e_k, J̇_p e_k, J_ω e_k)` for the columns that rotate `part` — its
-    /// chain's joints, then `φ` — at the material point at `p` moving with `p_dot`: the
-    /// entries of [`Self::point_jacobian_columns`], [`Self::point_jacobian_rate_columns`]
-    /// and [`Self::angular_jacobian_entries`] but those of `x, z`, which only translate it
+    /// Calls `f(k, J_p e_k, J̇_p e_k, J_ω e_k)` for the joints of `part`'s chain, ascending,
+    /// and returns `(J_p e_φ, J̇_p e_φ)` (`J_ω e_φ = 1`): the columns that rotate `part`, at
+    /// the material point at `p` moving with `p_dot` — the entries of
+    /// [`Self::point_jacobian_columns`], [`Self::point_jacobian_rate_columns`] and
+    /// [`Self::angular_jacobian_entries`] but those of `x, z`, which only translate it
     /// (`J e_x = (1, 0)`, `J e_z = (0, 1)`, no rate, no rotation).
     #[inline]
     pub(crate) fn rotation_columns(
@@ -235,7 +250,7 @@ impl Kinematics {
         p: Vector2<f64>,
         p_dot: Vector2<f64>,
         mut f: impl FnMut(usize, Vector2<f64>, Vector2<f64>, f64),
-    ) {
+    ) -> (Vector2<f64>, Vector2<f64>) {
         for k in Self::chain(model, part) {
             let s = model.joints[k].axis_sign;
             f(
@@ -245,12 +260,7 @@ impl Kinematics {
                 s,
             );
         }
-        f(
-            model.n_joints() + 2,
-            perp(p - self.body_pos),
-            perp(p_dot - self.body_vel),
-            1.0,
-        );
+        (perp(p - self.body_pos), perp(p_dot - self.body_vel))
     }
 
     /// Calls `f(k, J_ω e_k)` for the nonzero entries of the angular Jacobian row of a part:
