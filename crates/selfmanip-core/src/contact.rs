@@ -83,6 +83,26 @@ pub trait Terrain: Send + Sync {
     fn corner_near(&self, _c: Vector2<f64>) -> Option<Vector2<f64>> {
         None
     }
+
+    /// What a site with reference point `p` may touch, asked at once: the
+    /// [`Terrain::plane_under`] `p.x`, the [`Terrain::face_near`] `p` and, if `corner`, the
+    /// [`Terrain::corner_near`] `p` (`None` otherwise). A terrain that finds them with one
+    /// look-up overrides it; the answers are those of the three methods, bit for bit.
+    fn features_near(&self, p: Vector2<f64>, corner: bool) -> NearbyFeatures {
+        NearbyFeatures {
+            plane: self.plane_under(p.x),
+            face: self.face_near(p),
+            corner: if corner { self.corner_near(p) } else { None },
+        }
+    }
+}
+
+/// The terrain's surfaces near a site's reference point ([`Terrain::features_near`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NearbyFeatures {
+    pub plane: GroundPlane,
+    pub face: Option<GroundPlane>,
+    pub corner: Option<Vector2<f64>>,
 }
 
 /// Level ground at world `z = 0`.
@@ -391,131 +411,139 @@ fn site_reference<'m>(
     (site, part, kin.point(part, reference))
 }
 
-/// Contact geometry for site `k` at the current kinematics.
+/// Where a site touches or would touch the terrain: on the feature its shape comes nearest
+/// to (the smallest gap), as [`Terrain`] describes; [`contact_geometry`] without the rates.
+struct NearestTouch<'m> {
+    site: &'m crate::model::Contact,
+    part: Part,
+    /// The site's reference point (world): a point site's point, an arc's centre.
+    reference: Vector2<f64>,
+    plane: GroundPlane,
+    /// The touching point (world).
+    point: Vector2<f64>,
+    gap_m: f64,
+    touch: TouchKind,
+    /// On a convex corner: the unit normal `n` from the centre to it, the centre's distance
+    /// from it and the arc's radius.
+    corner: Option<(Vector2<f64>, f64, f64)>,
+}
+
+/// [`NearestTouch`] of site `k` at the current kinematics: the plane under its reference
+/// point, a face that is nearer, a convex corner that a circle or arc faces (touching it in
+/// its interior) and is nearer still; ties keep the earlier.
+fn nearest_touch<'m>(
+    model: &'m Model,
+    kin: &Kinematics,
+    terrain: &dyn Terrain,
+    k: usize,
+) -> NearestTouch<'m> {
+    let (site, part, reference) = site_reference(model, kin, k);
+    let radius = match site.shape {
+        ContactShape::Point { .. } => None,
+        ContactShape::Arc { radius_m, .. } => Some(radius_m),
+    };
+    // a point has no normal on a corner: its corner is not asked for
+    let near = terrain.features_near(reference, radius.is_some());
+    let (point, gap_m, touch) = touch_on(site, k, part, kin, reference, &near.plane);
+    let mut best = NearestTouch {
+        site,
+        part,
+        reference,
+        plane: near.plane,
+        point,
+        gap_m,
+        touch,
+        corner: None,
+    };
+    if let Some(face) = near.face {
+        let (point, gap_m, touch) = touch_on(site, k, part, kin, reference, &face);
+        if gap_m < best.gap_m {
+            (best.plane, best.point, best.gap_m, best.touch) = (face, point, gap_m, touch);
+        }
+    }
+    // the tangent plane at the corner `v`, normal `n = (v − c)/|v − c|`, when the arc faces
+    // it (its end, a point, would touch otherwise) and the centre is off it
+    if let (Some(v), Some(radius_m)) = (near.corner, radius) {
+        let to_corner = v - reference;
+        let dist = to_corner.norm();
+        if dist > 0.0 {
+            let n = to_corner / dist;
+            let plane = GroundPlane {
+                point_m: [v.x, v.y],
+                normal_into_ground: [n.x, n.y],
+            };
+            let (point, gap_m, touch) = touch_on(site, k, part, kin, reference, &plane);
+            if touch == TouchKind::Rolling && gap_m < best.gap_m {
+                (best.plane, best.point, best.gap_m, best.touch) = (plane, point, gap_m, touch);
+                best.corner = Some((n, dist, radius_m));
+            }
+        }
+    }
+    best
+}
+
+/// The point of site `k` (on `part`, reference point `reference`) that touches or would
+/// touch `plane` (world), its gap and how it touches.
+#[inline(always)]
+fn touch_on(
+    site: &crate::model::Contact,
+    k: usize,
+    part: Part,
+    kin: &Kinematics,
+    reference: Vector2<f64>,
+    plane: &GroundPlane,
+) -> (Vector2<f64>, f64, TouchKind) {
+    let (point, touch) = match site.shape {
+        // a point site touches with its reference point, whatever the plane
+        ContactShape::Point { .. } => (reference, TouchKind::Point),
+        ContactShape::Arc { .. } => {
+            let (local, touch) = touch_point(site, k, part, kin, plane);
+            (kin.point(part, local), touch)
+        }
+    };
+    (point, plane.height_of(point), touch)
+}
+
+/// Contact geometry for site `k` at the current kinematics ([`Terrain`] says which feature
+/// it is on). On a convex corner the tangent plane turns at `ṅ = −(I − n nᵀ) ċ / |v − c|` as
+/// the centre `c` moves, and the contact point `c + r n` moves at `ċ + r ṅ`.
 pub fn contact_geometry(
     model: &Model,
     kin: &Kinematics,
     terrain: &dyn Terrain,
     k: usize,
 ) -> ContactGeometry {
-    let (site, part, reference) = site_reference(model, kin, k);
-    let mut best = geometry_on(site, k, part, kin, terrain.plane_under(reference.x));
-    if let Some(face) = terrain.face_near(reference) {
-        let on_face = geometry_on(site, k, part, kin, face);
-        if on_face.gap_m < best.gap_m {
-            best = on_face;
+    let t = nearest_touch(model, kin, terrain, k);
+    let (point_rate, normal_rate) = match t.corner {
+        Some((n, dist, radius_m)) => {
+            let c_rate = kin.material_velocity(t.part, t.reference);
+            let n_rate = -(c_rate - n * n.dot(&c_rate)) / dist;
+            (c_rate + radius_m * n_rate, n_rate)
         }
-    }
-    if let Some(on_corner) = terrain
-        .corner_near(reference)
-        .and_then(|v| geometry_on_corner(site, k, part, kin, reference, v))
-    {
-        if on_corner.gap_m < best.gap_m {
-            best = on_corner;
-        }
-    }
-    best
-}
-
-/// [`contact_geometry`] of a circle or arc site (centre `c`, world) against the convex
-/// corner `v`: the tangent plane at `v` with normal `n = (v − c)/|v − c|`, which turns at
-/// `ṅ = −(I − n nᵀ) ċ / |v − c|` as the centre moves; the contact point `c + r n` moves at
-/// `ċ + r ṅ`. `None` for a point site, or when the arc does not face the corner (its end,
-/// a point, is what would touch), or with the centre on the corner.
-fn geometry_on_corner(
-    site: &crate::model::Contact,
-    k: usize,
-    part: Part,
-    kin: &Kinematics,
-    c: Vector2<f64>,
-    v: Vector2<f64>,
-) -> Option<ContactGeometry> {
-    let ContactShape::Arc { radius_m, .. } = site.shape else {
-        return None;
-    };
-    let to_corner = v - c;
-    let dist = to_corner.norm();
-    if dist <= 0.0 {
-        return None;
-    }
-    let n = to_corner / dist;
-    let plane = GroundPlane {
-        point_m: [v.x, v.y],
-        normal_into_ground: [n.x, n.y],
-    };
-    let mut g = geometry_on(site, k, part, kin, plane);
-    if g.touch != TouchKind::Rolling {
-        return None;
-    }
-    let c_rate = kin.material_velocity(part, c);
-    let n_rate = -(c_rate - n * n.dot(&c_rate)) / dist;
-    g.normal_rate = n_rate;
-    g.point_rate = c_rate + radius_m * n_rate;
-    g.on_corner = true;
-    Some(g)
-}
-
-/// [`contact_geometry`] of site `k` (on `part`) against one plane.
-fn geometry_on(
-    site: &crate::model::Contact,
-    k: usize,
-    part: Part,
-    kin: &Kinematics,
-    plane: GroundPlane,
-) -> ContactGeometry {
-    let (local, touch) = touch_point(site, k, part, kin, &plane);
-    let point = kin.point(part, local);
-    let point_rate = match (touch, &site.shape) {
-        (TouchKind::Rolling, ContactShape::Arc { center_m, .. }) => {
-            let c = kin.point(part, *center_m);
-            kin.material_velocity(part, c)
-        }
-        _ => kin.material_velocity(part, point),
+        // rolling: the centre's velocity; a point: its material velocity
+        None => match (t.touch, &t.site.shape) {
+            (TouchKind::Rolling, ContactShape::Arc { .. }) => {
+                (kin.material_velocity(t.part, t.reference), Vector2::zeros())
+            }
+            _ => (kin.material_velocity(t.part, t.point), Vector2::zeros()),
+        },
     };
     ContactGeometry {
-        part,
-        plane,
-        point,
-        gap_m: plane.height_of(point),
-        touch,
+        part: t.part,
+        plane: t.plane,
+        point: t.point,
+        gap_m: t.gap_m,
+        touch: t.touch,
         point_rate,
-        normal_rate: Vector2::zeros(),
-        on_corner: false,
+        normal_rate,
+        on_corner: t.corner.is_some(),
     }
 }
 
-/// The gap `a_k(q)` of [`contact_geometry`] alone, bit for bit (the same feature chosen
-/// by the same comparisons), without the rates and frames: what a touchdown guard samples
-/// several times per step.
+/// The gap `a_k(q)` of [`contact_geometry`] alone, without the rates: what a touchdown
+/// guard samples several times per step.
 pub fn contact_gap(model: &Model, kin: &Kinematics, terrain: &dyn Terrain, k: usize) -> f64 {
-    let (site, part, reference) = site_reference(model, kin, k);
-    let gap_on = |plane: GroundPlane| {
-        let (local, touch) = touch_point(site, k, part, kin, &plane);
-        (plane.height_of(kin.point(part, local)), touch)
-    };
-    let mut best = gap_on(terrain.plane_under(reference.x)).0;
-    if let Some(face) = terrain.face_near(reference) {
-        let on_face = gap_on(face).0;
-        if on_face < best {
-            best = on_face;
-        }
-    }
-    // as geometry_on_corner: an arc facing the corner, touching it in its interior
-    if let (Some(v), ContactShape::Arc { .. }) = (terrain.corner_near(reference), &site.shape) {
-        let to_corner = v - reference;
-        let dist = to_corner.norm();
-        if dist > 0.0 {
-            let n = to_corner / dist;
-            let (on_corner, touch) = gap_on(GroundPlane {
-                point_m: [v.x, v.y],
-                normal_into_ground: [n.x, n.y],
-            });
-            if touch == TouchKind::Rolling && on_corner < best {
-                best = on_corner;
-            }
-        }
-    }
-    best
+    nearest_touch(model, kin, terrain, k).gap_m
 }
 
 /// The point of site `k` (on `part`, in the part's frame) that touches or would touch

@@ -14,6 +14,7 @@
 //! site touches one surface at a time). Surfaces take each contact's own friction.
 use crate::error::SimError;
 use nalgebra::Vector2;
+use selfmanip_core::contact::NearbyFeatures;
 use selfmanip_core::{GroundPlane, Terrain};
 use serde::{Deserialize, Serialize};
 
@@ -174,10 +175,15 @@ impl TerrainSpec {
     pub fn height_at(&self, x_m: f64) -> f64 {
         match *self {
             TerrainSpec::Incline { slope_rad } => x_m * slope_rad.tan(),
-            _ => match self.next_step(x_m) {
-                (0, _) => 0.0,
-                (passed, _) => self.rise() * passed as f64,
-            },
+            _ => self.height_of_top(self.next_step(x_m).0),
+        }
+    }
+
+    /// Height (up) of the level ground with `passed` steps behind (not on an incline).
+    fn height_of_top(&self, passed: u32) -> f64 {
+        match passed {
+            0 => 0.0,
+            passed => self.rise() * passed as f64,
         }
     }
 
@@ -239,6 +245,25 @@ impl TerrainSpec {
     }
 }
 
+impl TerrainSpec {
+    /// The face still ahead of world `p` (`(x of the face, height of its top)`, from
+    /// [`Self::next_step`]) as one `p` touches: below its top edge (z down).
+    fn face_ahead(p: Vector2<f64>, ahead: Option<(f64, f64)>) -> Option<GroundPlane> {
+        let (face, top) = ahead?;
+        (p.y > -top).then(|| GroundPlane {
+            point_m: [face, 0.0],
+            normal_into_ground: [face.signum(), 0.0],
+        })
+    }
+
+    /// The top edge of the face still ahead of world `c` as a corner `c` faces: `c` above
+    /// the top (z down).
+    fn corner_ahead(c: Vector2<f64>, ahead: Option<(f64, f64)>) -> Option<Vector2<f64>> {
+        let (face, top) = ahead?;
+        (c.y <= -top).then(|| Vector2::new(face, -top))
+    }
+}
+
 impl Terrain for TerrainSpec {
     fn plane_under(&self, x_m: f64) -> GroundPlane {
         match *self {
@@ -252,22 +277,32 @@ impl Terrain for TerrainSpec {
     }
 
     fn face_near(&self, p: Vector2<f64>) -> Option<GroundPlane> {
-        let (_, Some((face, top))) = self.next_step(p.x) else {
-            return None;
-        };
-        // below the top edge (z down) and on the open side of the face
-        (p.y > -top).then(|| GroundPlane {
-            point_m: [face, 0.0],
-            normal_into_ground: [face.signum(), 0.0],
-        })
+        Self::face_ahead(p, self.next_step(p.x).1)
     }
 
     fn corner_near(&self, c: Vector2<f64>) -> Option<Vector2<f64>> {
-        let (_, Some((face, top))) = self.next_step(c.x) else {
-            return None;
-        };
-        // above the top (z down) and on the open side of the face
-        (c.y <= -top).then(|| Vector2::new(face, -top))
+        Self::corner_ahead(c, self.next_step(c.x).1)
+    }
+
+    /// The three answers from one look-up of the steps passed at `p.x`.
+    fn features_near(&self, p: Vector2<f64>, corner: bool) -> NearbyFeatures {
+        if let TerrainSpec::Incline { .. } = self {
+            return NearbyFeatures {
+                plane: self.plane_under(p.x),
+                face: None,
+                corner: None,
+            };
+        }
+        let (passed, ahead) = self.next_step(p.x);
+        NearbyFeatures {
+            plane: GroundPlane::level(-self.height_of_top(passed)),
+            face: Self::face_ahead(p, ahead),
+            corner: if corner {
+                Self::corner_ahead(p, ahead)
+            } else {
+                None
+            },
+        }
     }
 }
 
@@ -357,12 +392,29 @@ mod tests {
         .is_err());
     }
 
+    /// The terrain as its three separate look-ups (`plane_under`, `face_near`,
+    /// `corner_near`), without the one-look-up [`Terrain::features_near`].
+    struct Separately<'t>(&'t TerrainSpec);
+
+    impl Terrain for Separately<'_> {
+        fn plane_under(&self, x_m: f64) -> GroundPlane {
+            self.0.plane_under(x_m)
+        }
+        fn face_near(&self, p: Vector2<f64>) -> Option<GroundPlane> {
+            self.0.face_near(p)
+        }
+        fn corner_near(&self, c: Vector2<f64>) -> Option<Vector2<f64>> {
+            self.0.corner_near(c)
+        }
+    }
+
     /// The touchdown guards' gap ([`selfmanip_core::contact::contact_gap`]) is the gap of
     /// the full contact geometry ([`selfmanip_core::contact::contact_geometry`]) bit for
-    /// bit, by its own route (no rates, no frames): for a toe, a rolling foot and an arc
-    /// body end, over random poses near a ledge's face and corner, on stairs, an incline
-    /// and flat ground. The poses reach every feature (plane, face, corner) and both kinds
-    /// of touch of the arc (interior and end).
+    /// bit, and the geometry on the terrain's one look-up of its features
+    /// ([`Terrain::features_near`]) is that on its three separate look-ups, bit for bit:
+    /// for a toe, a rolling foot and an arc body end, over random poses near a ledge's face
+    /// and corner, on stairs, an incline and flat ground. The poses reach every feature
+    /// (plane, face, corner) and both kinds of touch of the arc (interior and end).
     #[test]
     fn contact_gap_is_the_geometry_gap_bit_for_bit() {
         use selfmanip_core::contact::{contact_gap, contact_geometry, TouchKind};
@@ -412,6 +464,26 @@ mod tests {
                     let geo = contact_geometry(&model, &kin, terrain, k);
                     let gap = contact_gap(&model, &kin, terrain, k);
                     assert_eq!(gap.to_bits(), geo.gap_m.to_bits(), "{terrain:?} {q:?} {k}");
+                    let apart = contact_geometry(&model, &kin, &Separately(terrain), k);
+                    let bits = |g: &selfmanip_core::contact::ContactGeometry| {
+                        let [p, n] = [g.plane.point_m, g.plane.normal_into_ground];
+                        [
+                            p[0],
+                            p[1],
+                            n[0],
+                            n[1],
+                            g.point.x,
+                            g.point.y,
+                            g.gap_m,
+                            g.point_rate.x,
+                            g.point_rate.y,
+                            g.normal_rate.x,
+                            g.normal_rate.y,
+                        ]
+                        .map(f64::to_bits)
+                    };
+                    assert_eq!(bits(&apart), bits(&geo), "{terrain:?} {q:?} {k}");
+                    assert_eq!((apart.touch, apart.on_corner), (geo.touch, geo.on_corner));
                     corners += usize::from(geo.on_corner);
                     faces += usize::from(geo.plane.normal_into_ground[1] == 0.0 && !geo.on_corner);
                     if k == 2 {
