@@ -203,11 +203,12 @@ fn collect_into(model: &Model, data: &mut Data, qd: &[f64], n: &mut usize) -> Re
         if mu_k == 0.0 || row.direction != RowDirection::Normal {
             continue;
         }
-        let tangential_row_active = data
-            .constraints
-            .rows
-            .iter()
-            .any(|o| o.contact == k && o.direction == RowDirection::Tangential);
+        // the rows are by contact, a tangential row right before its normal row
+        // (`ContactMode::rows`)
+        let tangential_row_active = r > 0 && {
+            let before = data.constraints.rows[r - 1];
+            before.contact == k && before.direction == RowDirection::Tangential
+        };
         if tangential_row_active {
             continue; // sticking: the cone, not kinetic friction
         }
