@@ -817,14 +817,9 @@ fn range_factor_kernel<D: Dim, C: Dim>(
         forward(dim, l, l_inv, zk);
     }
     // S in Q's storage, which the range-space route does not use
-    let s = &mut kkt.q[..c * c];
-    for j in 0..c {
-        for i in j..c {
-            s[j * c + i] = dot(dim, &z[i * m..(i + 1) * m], &z[j * m..(j + 1) * m]);
-        }
-    }
+    gram_lower(dim, z, c, &mut kkt.q[..c * c]);
     let accept = |sjj: f64, d: f64| d > pivot * sjj;
-    cholesky(cdim, s, &mut kkt.sl, &mut kkt.sl_inv, accept)
+    cholesky(cdim, &kkt.q[..c * c], &mut kkt.sl, &mut kkt.sl_inv, accept)
 }
 
 /// [`KktFactorization::solve`] on the range-space factors, for `m = dim` and `c = cdim`:
@@ -946,12 +941,7 @@ fn massless_range_kernel<D: Dim, C: Dim>(
         }
         forward(pdim, l, l_inv, zk);
     }
-    let s = &mut kkt.q[..c * c];
-    for j in 0..c {
-        for i in j..c {
-            s[j * c + i] = dot(pdim, &z[i * p..(i + 1) * p], &z[j * p..(j + 1) * p]);
-        }
-    }
+    gram_lower(pdim, z, c, &mut kkt.q[..c * c]);
     if !cholesky(cdim, &kkt.q[..c * c], &mut kkt.sl, &mut kkt.sl_inv, accept) {
         return false;
     }
@@ -964,12 +954,7 @@ fn massless_range_kernel<D: Dim, C: Dim>(
         }
         forward(cdim, sl, sl_inv, vb);
     }
-    let t = &mut kkt.tm[..nz * nz];
-    for j in 0..nz {
-        for i in j..nz {
-            t[j * nz + i] = dot(cdim, &v[i * c..(i + 1) * c], &v[j * c..(j + 1) * c]);
-        }
-    }
+    gram_lower(cdim, v, nz, &mut kkt.tm[..nz * nz]);
     cholesky(nz, &kkt.tm[..nz * nz], &mut kkt.tl, &mut kkt.tl_inv, accept)
 }
 
@@ -1097,6 +1082,18 @@ fn backward<D: Dim>(dim: D, l: &[f64], l_inv: &[f64], w: &mut [f64]) {
     let n = dim.get();
     for i in (0..n).rev() {
         w[i] = (w[i] - dot(dim, &l[i * n..(i + 1) * n], w)) * l_inv[i];
+    }
+}
+
+/// The lower triangle of the Gram matrix `Xᵀ X` (k×k, column-major into `g`) of the `k`
+/// columns of `x`, each of `dim` entries.
+#[inline(always)]
+fn gram_lower<D: Dim>(dim: D, x: &[f64], k: usize, g: &mut [f64]) {
+    let n = dim.get();
+    for j in 0..k {
+        for i in j..k {
+            g[j * k + i] = dot(dim, &x[i * n..(i + 1) * n], &x[j * n..(j + 1) * n]);
+        }
     }
 }
 
