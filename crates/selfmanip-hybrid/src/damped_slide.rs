@@ -11,8 +11,9 @@
 use crate::controller::Controller;
 use nalgebra::{DMatrix, DVector};
 use selfmanip_core::damped_slide::{
-    assign, contact_rows_and_rates, damped_chain, exact, stick_rates, ChainLaw,
+    contact_rows_and_rates, damped_chain, exact, stick_rates, ChainLaw, DampedSlide,
 };
+use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::passive::joint_torque;
 use selfmanip_core::{ContactMode, CoreError, Data, Model, Terrain};
 
@@ -33,16 +34,39 @@ pub fn chain_law(
     k: usize,
 ) -> Option<ChainLaw> {
     let joints = damped_chain(model, k)?;
-    let mut law = ChainLaw {
+    law_in(
+        model,
+        ctrl,
+        state,
+        mode,
+        empty_law(joints),
+        &mut LawScratch::default(),
+    )
+}
+
+/// A law of the chain `joints` with no numbers yet: the buffers [`law_in`] sets.
+fn empty_law(joints: std::ops::Range<usize>) -> ChainLaw {
+    ChainLaw {
         rates: DVector::zeros(0),
         torque: DVector::zeros(0),
         damping: DMatrix::zeros(0, 0),
         joints,
         holds: false,
-    };
-    let mut scratch = LawScratch::default();
-    law.holds = law_into(model, ctrl, state, mode, &mut law, &mut scratch)?;
-    law.damping = scratch.damping;
+    }
+}
+
+/// [`chain_law`] of the chain `law.joints`, in the buffers of `law` (whose numbers it
+/// replaces) and `scratch`.
+fn law_in(
+    model: &Model,
+    ctrl: &dyn Controller,
+    state: (f64, &[f64], &[f64]),
+    mode: ContactMode,
+    mut law: ChainLaw,
+    scratch: &mut LawScratch,
+) -> Option<ChainLaw> {
+    law.holds = law_into(model, ctrl, state, mode, &mut law, scratch)?;
+    std::mem::swap(&mut law.damping, &mut scratch.damping);
     Some(law)
 }
 
@@ -55,7 +79,9 @@ pub struct LawScratch {
     up: Vec<f64>,
     /// The law's own damping `K` at the state.
     damping: DMatrix<f64>,
-    sym: DMatrix<f64>,
+    /// The lower triangle of the symmetric part of `K` (column-major `n × n`), factored in
+    /// place.
+    sym: Vec<f64>,
 }
 
 /// The law of the chain `law.joints` at `(t, q, q̇)` ([`chain_law`]): its `θ̇_c` and `T_c`
@@ -64,9 +90,26 @@ pub struct LawScratch {
 fn law_into(
     model: &Model,
     ctrl: &dyn Controller,
-    (t, q, qd): (f64, &[f64], &[f64]),
+    state: (f64, &[f64], &[f64]),
     mode: ContactMode,
     law: &mut ChainLaw,
+    scratch: &mut LawScratch,
+) -> Option<bool> {
+    // a chain of two joints (the usual one) in code for its own length
+    match law.joints.len() {
+        2 => law_of_len(model, ctrl, state, mode, (law, 2), scratch),
+        n => law_of_len(model, ctrl, state, mode, (law, n), scratch),
+    }
+}
+
+/// [`law_into`] for a chain of `n` joints.
+#[inline(always)]
+fn law_of_len(
+    model: &Model,
+    ctrl: &dyn Controller,
+    (t, q, qd): (f64, &[f64], &[f64]),
+    mode: ContactMode,
+    (law, n): (&mut ChainLaw, usize),
     scratch: &mut LawScratch,
 ) -> Option<bool> {
     let LawScratch {
@@ -77,8 +120,8 @@ fn law_into(
         sym,
     } = scratch;
     let joints = law.joints.clone();
-    let n = joints.len();
-    tau.clear();
+    debug_assert_eq!(n, joints.len());
+    // every buffer below is written in full before it is read
     tau.resize(model.n_joints(), 0.0);
     let mut torque_at = |qd: &[f64], out: &mut [f64]| {
         tau.fill(0.0);
@@ -88,48 +131,73 @@ fn law_into(
     if law.torque.len() != n {
         law.torque = DVector::zeros(n);
     }
-    let torque = &mut law.torque;
-    torque_at(qd, torque.as_mut_slice());
+    let torque = &mut law.torque.as_mut_slice()[..n];
+    torque_at(qd, torque);
+    let torque = &*torque;
     if damping.shape() != (n, n) {
         *damping = DMatrix::zeros(n, n);
     }
+    let k = &mut damping.as_mut_slice()[..n * n];
     v.clear();
     v.extend_from_slice(qd);
-    up.clear();
     up.resize(n, 0.0);
-    for (c, j) in joints.clone().enumerate() {
+    let up = &mut up[..n];
+    for c in 0..n {
+        let j = joints.start + c;
         let h = RATE_STEP * qd[j].abs().max(1.0);
         v[j] = qd[j] + h;
         torque_at(v, up);
         v[j] = qd[j];
-        for r in 0..n {
-            damping[(r, c)] = -(up[r] - torque[r]) / h;
+        for ((k, u), t) in k[c * n..(c + 1) * n].iter_mut().zip(&*up).zip(torque) {
+            *k = -(u - t) / h;
         }
     }
-    let finite = torque.iter().chain(damping.iter()).all(|x| x.is_finite());
-    // the symmetric part (K + Kᵀ)/2, factored in its own buffer
-    if sym.shape() != (n, n) {
-        *sym = DMatrix::zeros(n, n);
-    }
+    let k = &*k;
+    let finite = torque.iter().chain(k).all(|x| x.is_finite());
+    // the symmetric part (K + Kᵀ)/2, its lower triangle factored in its own buffer
+    sym.resize(n * n, 0.0);
+    let sym = &mut sym[..n * n];
     for c in 0..n {
-        for r in 0..n {
-            sym[(r, c)] = (damping[(r, c)] + damping[(c, r)]) * 0.5;
+        for r in c..n {
+            sym[c * n + r] = (k[c * n + r] + k[r * n + c]) * 0.5;
         }
     }
-    let holds = match std::mem::take(sym).cholesky() {
-        Some(factor) => {
-            *sym = factor.unpack_dirty();
-            true
-        }
-        None => false,
-    };
+    let holds = cholesky_in_place(sym, n);
     if law.rates.len() != n {
         law.rates = DVector::zeros(n);
     }
-    for (r, j) in law.rates.iter_mut().zip(joints) {
-        *r = qd[j];
-    }
+    law.rates
+        .copy_from_slice(&qd[joints.start..joints.start + n]);
     finite.then_some(holds)
+}
+
+/// The Cholesky factor `L` of the symmetric `n × n` matrix whose lower triangle `m`
+/// holds (column-major; the upper triangle is neither read nor written), in place: whether
+/// it exists (every pivot positive). The operations of nalgebra's `Cholesky::new` in its
+/// order, so that the two agree on every matrix, bit for bit.
+#[inline(always)]
+fn cholesky_in_place(m: &mut [f64], n: usize) -> bool {
+    for j in 0..n {
+        for k in 0..j {
+            // column j from row j on: += −L[j, k] · column k (nalgebra's axpy, whose
+            // `a x + y` is this sum: addition commutes bit for bit)
+            let factor = -m[k * n + j];
+            for i in j..n {
+                m[j * n + i] += factor * m[k * n + i];
+            }
+        }
+        let diag = m[j * n + j];
+        // nalgebra's test: a pivot that is zero or has no square root (negative, NaN)
+        if diag.is_nan() || diag <= 0.0 {
+            return false;
+        }
+        let denom = diag.sqrt();
+        m[j * n + j] = denom;
+        for x in &mut m[j * n + j + 1..(j + 1) * n] {
+            *x /= denom;
+        }
+    }
+    true
 }
 
 /// The contacts of `model` (below 32) at the end of a chain of two or more massless joints
@@ -174,38 +242,37 @@ pub fn set_laws(
     // flow stays defined up to its guard (ChainLaw::holds, the liftoff guard)
     let laws = &mut data.damped_laws;
     let mut set = 0;
-    for k in lone_slides(model, sliding, mode) {
-        let Some(joints) = damped_chain(model, k) else {
-            continue;
-        };
+    for k in mode.active().filter(|&k| sliding >> k & 1 == 1) {
+        // a law held for the contact has its chain (`data` is the model's)
         let before = laws[set..].iter().position(|(c, _)| *c == k);
-        let law = match before {
-            Some(i) => {
-                laws.swap(set, set + i);
-                &mut laws[set].1
-            }
+        let joints = match before {
+            Some(i) => laws[set + i].1.joints.clone(),
+            None => match damped_chain(model, k) {
+                Some(joints) => joints,
+                None => continue,
+            },
+        };
+        debug_assert_eq!(Some(&joints), damped_chain(model, k).as_ref());
+        if shares_chain(model, mode, k, &joints) {
+            continue;
+        }
+        let at = match before {
+            Some(i) => set + i,
             None => {
-                let n = joints.len();
-                let fresh = ChainLaw {
-                    joints: joints.clone(),
-                    rates: DVector::zeros(n),
-                    torque: DVector::zeros(n),
-                    damping: DMatrix::zeros(n, n),
-                    holds: false,
-                };
-                laws.push((k, fresh));
-                let last = laws.len() - 1;
-                laws.swap(set, last);
-                &mut laws[set].1
+                laws.push((k, empty_law(joints)));
+                laws.len() - 1
             }
         };
-        law.joints = joints;
+        if at != set {
+            laws.swap(set, at);
+        }
+        let law = &mut laws[set].1;
         let Some(holds) = law_into(model, ctrl, state, mode, law, scratch) else {
             continue;
         };
         law.holds = holds;
         if holds {
-            assign(&mut law.damping, &scratch.damping);
+            std::mem::swap(&mut law.damping, &mut scratch.damping);
         } else if before.is_none() {
             continue;
         }
@@ -217,14 +284,20 @@ pub fn set_laws(
 /// The contacts of `set` (of [`damped_contacts`], active in `mode`) alone on their chain in
 /// `mode`: of a [`sliding_damped`] set, those that slide damped there.
 fn lone_slides(model: &Model, set: u32, mode: ContactMode) -> impl Iterator<Item = usize> + '_ {
-    mode.active()
-        .filter(move |&k| set >> k & 1 == 1 && !shares_chain(model, mode, k))
+    mode.active().filter(move |&k| {
+        set >> k & 1 == 1
+            && damped_chain(model, k).is_some_and(|chain| !shares_chain(model, mode, k, &chain))
+    })
 }
 
-/// Whether another active contact of `mode` sits on contact `k`'s massless chain (the
-/// chain is then held by both, and its slide is not the damped one).
-fn shares_chain(model: &Model, mode: ContactMode, k: usize) -> bool {
-    let chain = damped_chain(model, k).expect("a damped contact has a chain");
+/// Whether another active contact of `mode` sits on contact `k`'s massless chain `chain`
+/// (the chain is then held by both, and its slide is not the damped one).
+fn shares_chain(
+    model: &Model,
+    mode: ContactMode,
+    k: usize,
+    chain: &std::ops::Range<usize>,
+) -> bool {
     mode.active()
         .any(|c| c != k && model.contacts[c].link.is_some_and(|l| chain.contains(&l)))
 }
@@ -240,10 +313,30 @@ pub fn add_laws(
     state: (f64, &[f64], &[f64]),
     mode: ContactMode,
 ) {
-    for k in lone_slides(model, sliding_damped(damped, mode), mode) {
-        data.damped_laws.retain(|(c, _)| *c != k);
-        if let Some(law) = chain_law(model, ctrl, state, mode, k).filter(|l| l.holds) {
-            data.damped_laws.push((k, law));
+    let sliding = sliding_damped(damped, mode);
+    if sliding == 0 {
+        return;
+    }
+    let mut scratch = LawScratch::default();
+    for k in lone_slides(model, sliding, mode) {
+        let Some(joints) = damped_chain(model, k) else {
+            continue;
+        };
+        // the law held for the contact (one at most) lets go, its buffers kept for the new
+        let laws = &mut data.damped_laws;
+        let held = laws
+            .iter()
+            .position(|(c, _)| *c == k)
+            .map(|i| laws.remove(i).1);
+        let law = held.map_or_else(
+            || empty_law(joints.clone()),
+            |law| ChainLaw {
+                joints: joints.clone(),
+                ..law
+            },
+        );
+        if let Some(law) = law_in(model, ctrl, state, mode, law, &mut scratch).filter(|l| l.holds) {
+            laws.push((k, law));
         }
     }
 }
@@ -310,7 +403,7 @@ pub struct ChainScratch {
     vs: Vec<f64>,
     tau: Vec<f64>,
     work: Vec<f64>,
-    k_inv: DMatrix<f64>,
+    k_inv: Vec<f64>,
 }
 
 /// The instants of `ctrl`'s time events ([`Controller::time_events`]) into `out`, in
@@ -344,7 +437,8 @@ pub(crate) fn chain_accelerations_clear_of(
     }
     let h = FLOW_STEP * t.abs().max(1.0);
     let side = Stencil::clear_of(events, t, h);
-    // q̈ of the rest of the robot, and the stencil's states and torques
+    // q̈ of the rest of the robot, and the stencil's states and torques (every buffer
+    // written in full before it is read)
     let ChainScratch {
         qdd,
         qs,
@@ -356,118 +450,154 @@ pub(crate) fn chain_accelerations_clear_of(
     qdd.clear();
     qdd.extend_from_slice(data.qdd.as_slice());
     let qdd = &qdd[..];
-    tau.clear();
+    let on = (model, terrain, ctrl, (t, mode), (h, side));
     tau.resize(model.n_joints(), 0.0);
+    qs.resize(q.len(), 0.0);
+    vs.resize(qd.len(), 0.0);
     for i in 0..data.damped.len() {
-        let (k, coef, lambda_n) = {
-            let d = &data.damped[i];
-            (d.contact, d.coef, d.lambda[1])
-        };
-        let Some((_, law)) = data.damped_laws.iter().find(|(c, _)| *c == k) else {
-            continue;
-        };
-        let joints = law.joints.clone();
-        assign(k_inv, &law.damping);
-        if !k_inv.try_inverse_mut() {
-            continue;
-        }
-        let (j0, n) = (joints.start, joints.len());
-        work.clear();
-        work.resize(13 * n, 0.0);
-        let [t_up, t_mid, t_down, t_dot, v, v_dot, bn, bn_dot, bd, bd_dot, kbd, kbd_dot, w] =
-            split_n(work, n);
-        // Ṫ: the law's torque along the flow, the chain's rates held
-        let mut torque_at = |s: f64, out: &mut [f64]| {
-            qs.clear();
-            qs.extend(q.iter().zip(qd).map(|(x, v)| x + s * h * v));
-            vs.clear();
-            vs.extend((0..qd.len()).map(|j| {
-                if joints.contains(&j) {
-                    qd[j]
-                } else {
-                    qd[j] + s * h * qdd[j]
-                }
-            }));
-            tau.fill(0.0);
-            ctrl.torque_of(t + s * h, (qs, vs), mode, joints.clone(), tau);
-            law_torques_into(model, joints.clone(), tau, (qs, vs), out);
-        };
-        match side {
-            Stencil::Central => {
-                torque_at(1.0, t_up);
-                torque_at(-1.0, t_down);
-                for p in 0..n {
-                    t_dot[p] = (t_up[p] - t_down[p]) / (2.0 * h);
-                }
-            }
-            Stencil::Forward => {
-                torque_at(1.0, t_up);
-                torque_at(2.0, t_mid);
-                torque_at(0.0, t_down);
-                for p in 0..n {
-                    t_dot[p] = (t_up[p] * 4.0 - t_mid[p] - t_down[p] * 3.0) / (2.0 * h);
-                }
-            }
-            Stencil::Backward => {
-                torque_at(0.0, t_up);
-                torque_at(-1.0, t_mid);
-                torque_at(-2.0, t_down);
-                for p in 0..n {
-                    t_dot[p] = (t_up[p] * 3.0 - t_mid[p] * 4.0 + t_down[p]) / (2.0 * h);
-                }
-            }
-        }
-        // A and Ȧ as the split assembled them at this state, else assembled here
         let d = &data.damped[i];
-        let assembled;
-        let (a, a_dot) = match &d.rows_dot {
-            Some(a_dot) => (&d.rows, a_dot),
-            None => {
-                let (a, a_dot, _) = contact_rows_and_rates(model, &data.kin, terrain, k, qd);
-                assembled = (a, a_dot);
-                (&assembled.0, &assembled.1)
-            }
+        let Some((_, law)) = data.damped_laws.iter().find(|(c, _)| *c == d.contact) else {
+            continue;
         };
-        // B, Ḃ: the rows over the chain (2 × n, column-major)
-        let b = &a.as_slice()[2 * j0..2 * (j0 + n)];
-        let b_dot = &a_dot.as_slice()[2 * j0..2 * (j0 + n)];
-        let ki = k_inv.as_slice();
-        // v = θ̇_c + K⁻¹ T_c, v̇ = K⁻¹ Ṫ (the torque-free manifold's rates and their rate)
-        exact::gemv(ki, law.torque.as_slice(), v);
-        for (p, x) in v.iter_mut().enumerate() {
-            *x += qd[j0 + p];
+        let n = law.joints.len();
+        // K⁻¹ in place, as the core's slide inverts it
+        k_inv.clear();
+        k_inv.extend_from_slice(law.damping.as_slice());
+        if !nalgebra::DMatrixViewMut::from_slice(k_inv, n, n).try_inverse_mut() {
+            continue;
         }
-        exact::gemv(ki, t_dot, v_dot);
-        // N, D and their rates; Bᵀd = (c b_t + b_n) with d = (c, 1)
-        let off = |m: &DMatrix<f64>, x: &[f64]| -> f64 {
-            let m = m.as_slice();
-            (0..j0)
-                .chain(j0 + n..x.len())
-                .map(|j| m[2 * j + 1] * x[j])
-                .sum()
-        };
-        for p in 0..n {
-            bn[p] = b[2 * p + 1];
-            bn_dot[p] = b_dot[2 * p + 1];
-            bd[p] = b[2 * p + 1] + coef * b[2 * p];
-            bd_dot[p] = b_dot[2 * p + 1] + coef * b_dot[2 * p];
+        if work.len() < 13 * n {
+            work.resize(13 * n, 0.0);
         }
-        exact::gemv(ki, bd, kbd);
-        exact::gemv(ki, bd_dot, kbd_dot);
-        let den = exact::dot(bn, kbd);
-        let n_dot = off(a_dot, qd) + off(a, qdd) + exact::dot(bn_dot, v) + exact::dot(bn, v_dot);
-        let den_dot = exact::dot(bn_dot, kbd) + exact::dot(bn, kbd_dot);
-        let lambda_n_dot = (n_dot - lambda_n * den_dot) / den;
-        // θ̈ = v̇ − K⁻¹ (Ḃᵀd λ_n + Bᵀd λ̇_n)
-        for p in 0..n {
-            w[p] = bd_dot[p] * lambda_n + bd[p] * lambda_n_dot;
-        }
-        exact::gemv(ki, w, kbd);
-        for p in 0..n {
-            data.qdd[j0 + p] = v_dot[p] - kbd[p];
+        let slide = (d, law, &data.kin, &k_inv[..]);
+        let bufs = (&mut qs[..], &mut vs[..], &mut tau[..], &mut work[..]);
+        let out = data.qdd.as_mut_slice();
+        // a chain of two joints (the usual one) in code for its own length
+        match n {
+            2 => slide_accelerations(on, (q, qd, qdd), (slide, 2), bufs, out),
+            n => slide_accelerations(on, (q, qd, qdd), (slide, n), bufs, out),
         }
     }
     Ok(())
+}
+
+/// The accelerations of the chain of one damped slide `d` under its law `law` (of `n`
+/// joints, `K⁻¹` in `ki`; [`chain_accelerations_clear_of`]) into `out` (`q̈`), with the
+/// rest of the robot's `q̈` in `qdd`, the stencil `side` of step `h` and buffers `bufs`.
+#[inline(always)]
+#[allow(clippy::type_complexity)]
+fn slide_accelerations(
+    (model, terrain, ctrl, (t, mode), (h, side)): (
+        &Model,
+        &dyn Terrain,
+        &dyn Controller,
+        (f64, ContactMode),
+        (f64, Stencil),
+    ),
+    (q, qd, qdd): (&[f64], &[f64], &[f64]),
+    ((d, law, kin, ki), n): ((&DampedSlide, &ChainLaw, &Kinematics, &[f64]), usize),
+    (qs, vs, tau, work): (&mut [f64], &mut [f64], &mut [f64], &mut [f64]),
+    out: &mut [f64],
+) {
+    let [t_up, t_mid, t_down, t_dot, v, v_dot, bn, bn_dot, bd, bd_dot, kbd, kbd_dot, w] =
+        split_n(&mut work[..13 * n], n);
+    let (coef, lambda_n) = (d.coef, d.lambda[1]);
+    let joints = law.joints.clone();
+    let j0 = joints.start;
+    debug_assert_eq!(n, joints.len());
+    // Ṫ: the law's torque along the flow, the chain's rates held
+    let mut torque_at = |s: f64, into: &mut [f64]| {
+        let step = s * h;
+        for ((x, qj), vj) in qs.iter_mut().zip(q).zip(qd) {
+            *x = qj + step * vj;
+        }
+        for ((x, vj), aj) in vs.iter_mut().zip(qd).zip(qdd) {
+            *x = vj + step * aj;
+        }
+        vs[joints.clone()].copy_from_slice(&qd[joints.clone()]);
+        tau.fill(0.0);
+        ctrl.torque_of(t + s * h, (qs, vs), mode, joints.clone(), tau);
+        law_torques_into(model, joints.clone(), tau, (qs, vs), into);
+    };
+    match side {
+        Stencil::Central => {
+            torque_at(1.0, t_up);
+            torque_at(-1.0, t_down);
+            for p in 0..n {
+                t_dot[p] = (t_up[p] - t_down[p]) / (2.0 * h);
+            }
+        }
+        Stencil::Forward => {
+            torque_at(1.0, t_up);
+            torque_at(2.0, t_mid);
+            torque_at(0.0, t_down);
+            for p in 0..n {
+                t_dot[p] = (t_up[p] * 4.0 - t_mid[p] - t_down[p] * 3.0) / (2.0 * h);
+            }
+        }
+        Stencil::Backward => {
+            torque_at(0.0, t_up);
+            torque_at(-1.0, t_mid);
+            torque_at(-2.0, t_down);
+            for p in 0..n {
+                t_dot[p] = (t_up[p] * 3.0 - t_mid[p] * 4.0 + t_down[p]) / (2.0 * h);
+            }
+        }
+    }
+    // A and Ȧ as the split assembled them at this state, else assembled here
+    let assembled;
+    let (a, a_dot) = match &d.rows_dot {
+        Some(a_dot) => (&d.rows, a_dot),
+        None => {
+            let (a, a_dot, _) = contact_rows_and_rates(model, kin, terrain, d.contact, qd);
+            assembled = (a, a_dot);
+            (&assembled.0, &assembled.1)
+        }
+    };
+    // B, Ḃ: the rows over the chain (2 × n, column-major)
+    let b = &a.as_slice()[2 * j0..2 * (j0 + n)];
+    let b_dot = &a_dot.as_slice()[2 * j0..2 * (j0 + n)];
+    // v = θ̇_c + K⁻¹ T_c, v̇ = K⁻¹ Ṫ (the torque-free manifold's rates and their rate)
+    exact::gemv(ki, law.torque.as_slice(), v);
+    for (p, x) in v.iter_mut().enumerate() {
+        *x += qd[j0 + p];
+    }
+    exact::gemv(ki, t_dot, v_dot);
+    // N, D and their rates; Bᵀd = (c b_t + b_n) with d = (c, 1)
+    let off = |m: &DMatrix<f64>, x: &[f64]| normal_off_chain(m.as_slice(), x, &joints);
+    for p in 0..n {
+        bn[p] = b[2 * p + 1];
+        bn_dot[p] = b_dot[2 * p + 1];
+        bd[p] = b[2 * p + 1] + coef * b[2 * p];
+        bd_dot[p] = b_dot[2 * p + 1] + coef * b_dot[2 * p];
+    }
+    exact::gemv(ki, bd, kbd);
+    exact::gemv(ki, bd_dot, kbd_dot);
+    let den = exact::dot(bn, kbd);
+    let n_dot = off(a_dot, qd) + off(a, qdd) + exact::dot(bn_dot, v) + exact::dot(bn, v_dot);
+    let den_dot = exact::dot(bn_dot, kbd) + exact::dot(bn, kbd_dot);
+    let lambda_n_dot = (n_dot - lambda_n * den_dot) / den;
+    // θ̈ = v̇ − K⁻¹ (Ḃᵀd λ_n + Bᵀd λ̇_n)
+    for p in 0..n {
+        w[p] = bd_dot[p] * lambda_n + bd[p] * lambda_n_dot;
+    }
+    exact::gemv(ki, w, kbd);
+    for p in 0..n {
+        out[j0 + p] = v_dot[p] - kbd[p];
+    }
+}
+
+/// `Σ_j A_{n,j} x_j` over the joints `j` off `chain` in order (`A` the contact's rows, `2 × nq`
+/// column-major, its normal row second), summed as `Iterator::sum` sums: from `−0`.
+fn normal_off_chain(a: &[f64], x: &[f64], chain: &std::ops::Range<usize>) -> f64 {
+    let mut s = -0.0;
+    for j in 0..chain.start {
+        s += a[2 * j + 1] * x[j];
+    }
+    for j in chain.end..x.len() {
+        s += a[2 * j + 1] * x[j];
+    }
+    s
 }
 
 /// `work` (of length `13 n`) as thirteen slices of `n`.
@@ -623,14 +753,70 @@ pub fn holds_at_slide_rates(
             v[j] = *r;
         }
     }
-    data.damped
-        .iter()
-        .all(|d| chain_law(model, ctrl, (t, q, &v), mode, d.contact).is_some_and(|l| l.holds))
+    let (mut law, mut scratch) = (empty_law(0..0), LawScratch::default());
+    data.damped.iter().all(|d| {
+        damped_chain(model, d.contact).is_some_and(|joints| {
+            law.joints = joints;
+            law_into(model, ctrl, (t, q, &v), mode, &mut law, &mut scratch) == Some(true)
+        })
+    })
 }
 
 #[cfg(test)]
 mod tests {
-    use super::Stencil;
+    use super::{cholesky_in_place, Stencil};
+    use nalgebra::DMatrix;
+
+    /// The Cholesky factor in place is nalgebra's (`Cholesky::new`, what it replaces) bit
+    /// for bit — whether it exists, and its lower triangle where it does — on symmetric
+    /// matrices of 1 to 6 rows: positive definite, indefinite, and singular positive
+    /// semidefinite ones (`C Cᵀ` of a rank below `n`, whose last pivots are round-off of
+    /// either sign or exactly zero), with the upper triangle left out of the buffer.
+    #[test]
+    fn the_factor_in_place_is_nalgebras_bit_for_bit() {
+        // entries spread over [lo, hi) by the fractional parts of a sine's large multiples
+        let mut drawn = 0.0_f64;
+        let mut uniform = |lo: f64, hi: f64| {
+            drawn += 1.0;
+            lo + (hi - lo) * ((drawn * 12.9898).sin() * 43758.5453).rem_euclid(1.0)
+        };
+        let (mut held, mut failed) = (0, 0);
+        for n in 1..=6 {
+            for case in 0..300 {
+                let rank = if case % 3 == 2 { n - 1 } else { n };
+                let c = DMatrix::from_fn(n, rank.max(1), |_, _| uniform(-1.0, 1.0));
+                let mut m = &c * c.transpose();
+                if case % 3 == 1 {
+                    // indefinite, or definite with a small margin
+                    m -= DMatrix::identity(n, n) * uniform(0.0, 0.5);
+                }
+                if rank == 0 {
+                    m.fill(0.0);
+                }
+                let mut lower = m.as_slice().to_vec();
+                for col in 0..n {
+                    for row in 0..col {
+                        lower[col * n + row] = f64::NAN;
+                    }
+                }
+                let ours = cholesky_in_place(&mut lower, n);
+                let theirs = m.clone().cholesky().map(|f| f.unpack_dirty());
+                assert_eq!(ours, theirs.is_some(), "n = {n}, {m}");
+                let Some(l) = theirs else {
+                    failed += 1;
+                    continue;
+                };
+                for col in 0..n {
+                    for row in col..n {
+                        let i = col * n + row;
+                        assert_eq!(lower[i].to_bits(), l[(row, col)].to_bits(), "n = {n}, {m}");
+                    }
+                }
+                held += 1;
+            }
+        }
+        assert!(held > 600 && failed > 300, "{held} held, {failed} failed");
+    }
 
     /// The stencil read off the sorted instants by bisection is the one of the rule itself —
     /// backward where an event lies in `(t, t + 2h]`, else forward where one lies in
