@@ -320,6 +320,17 @@ pub fn assign(dst: &mut DMatrix<f64>, src: &DMatrix<f64>) {
     }
 }
 
+/// `dst = src` by swapping their buffers where the shapes agree (`src` then holds `dst`'s
+/// old entries), else by a copy.
+#[inline]
+fn take_rows(dst: &mut DMatrix<f64>, src: &mut DMatrix<f64>) {
+    if dst.shape() == src.shape() {
+        std::mem::swap(dst, src);
+    } else {
+        *dst = src.clone();
+    }
+}
+
 /// [`solve_rows`] into `slide`'s numbers and rates (its contact, rows and `Ȧ` left to the
 /// caller), without allocating for a chain of up to [`MAX_EXACT`] joints: whether there is
 /// a slide.
@@ -333,8 +344,9 @@ fn solve_into(
 ) -> Result<bool> {
     if !law
         .torque
+        .as_slice()
         .iter()
-        .chain(law.damping.iter())
+        .chain(law.damping.as_slice())
         .all(|v| v.is_finite())
     {
         return Err(CoreError::NonFiniteResult {
@@ -491,9 +503,11 @@ pub(crate) fn split(
             Ok(true) => {}
         }
         slide.contact = k;
-        assign(&mut slide.rows, &rows.a);
+        // the rows go to the slide, its old buffers back to the workspace (the next
+        // assembly rewrites them)
+        take_rows(&mut slide.rows, &mut rows.a);
         match &mut slide.rows_dot {
-            Some(a_dot) => assign(a_dot, &rows.a_dot),
+            Some(a_dot) => take_rows(a_dot, &mut rows.a_dot),
             None => slide.rows_dot = Some(rows.a_dot.clone()),
         }
         // on a fixed side, the slide wedges where `G_nn + c G_nt` reaches zero (its
@@ -511,26 +525,49 @@ pub(crate) fn split(
     Ok(inner)
 }
 
-/// A row vector of the KKT system's mode (`v`) in the rows of the prepared mode: a damped
-/// slide's normal row takes `normal(slide)`.
-pub(crate) fn splice(
-    data: &Data,
-    v: &DVector<f64>,
-    normal: impl Fn(&DampedSlide) -> f64,
-) -> DVector<f64> {
+/// A row vector of the KKT system's mode (`v`) in the rows of the prepared mode, in `v`'s
+/// own buffer: a damped slide's normal row takes `normal(slide)`.
+pub(crate) fn splice(data: &Data, v: &mut DVector<f64>, normal: impl Fn(&DampedSlide) -> f64) {
     let Some((mode, _)) = data.damped_modes else {
-        return v.clone();
+        return;
     };
-    let mut inner = v.iter();
-    DVector::from_iterator(
-        mode.n_rows(),
-        mode.rows().map(
-            |r| match data.damped.iter().find(|d| d.contact == r.contact) {
-                Some(d) => normal(d),
-                None => *inner.next().expect("a row of the KKT system's mode"),
-            },
-        ),
-    )
+    // the active contacts and those that stick, as bits
+    let (mut active, mut stick) = (0u32, 0u32);
+    for k in mode.active() {
+        active |= 1 << k;
+        if mode.kind(k) == Some(ContactKind::Stick) {
+            stick |= 1 << k;
+        }
+    }
+    let slides = data.damped.iter().fold(0u32, |m, d| m | 1 << d.contact);
+    // from the last contact back (`ContactMode::rows`: by contact, tangential before
+    // normal), each row of the KKT system's mode to its own row of the prepared mode — as
+    // late as it was or later: the slides' rows come in between
+    let mut inner = v.len();
+    let mut buf = crate::data::take_entries(v);
+    buf.resize(mode.n_rows(), 0.0);
+    let mut r = buf.len();
+    while active != 0 {
+        let k = 31 - active.leading_zeros() as usize;
+        active &= !(1 << k);
+        let rows = 1 + (stick >> k & 1) as usize;
+        if slides >> k & 1 == 1 {
+            let d = data.damped.iter().find(|d| d.contact == k);
+            let value = normal(d.expect("a damped slide"));
+            for _ in 0..rows {
+                r -= 1;
+                buf[r] = value;
+            }
+        } else {
+            for _ in 0..rows {
+                r -= 1;
+                inner -= 1;
+                buf[r] = buf[inner];
+            }
+        }
+    }
+    debug_assert_eq!((r, inner), (0, 0), "the rows of the KKT system's mode");
+    *v = crate::data::vector_on(buf);
 }
 
 /// After a plastic impact into a mode with damped slides (which take no impulse): each

@@ -65,6 +65,10 @@ pub struct Data {
     /// ([`crate::friction::fold::Fold`]).
     pub(crate) fold: crate::friction::fold::Fold,
     pub(crate) scratch: InertiaScratch,
+    /// What [`Self::free_joints`] and [`Self::dynamic_coords`] were last found from: the
+    /// key of the mode on the model and [`Self::locked`] then (`None` where not kept).
+    pub(crate) free_key: Option<FreeJointsKey>,
+    pub(crate) free_locked: Vec<usize>,
     /// The KKT right-hand side and solution on the dynamic coordinates.
     f_r: Vec<f64>,
     g_r: Vec<f64>,
@@ -112,23 +116,19 @@ impl Data {
                 && (self.locked.contains(&j)
                     || self.constraints.a.column(j).iter().all(|&v| v == 0.0))
         }));
-        self.f_r.resize(m, 0.0);
-        self.g_r.resize(c, 0.0);
         self.x_r.resize(m, 0.0);
         if x.len() != nq {
-            *x = DVector::zeros(nq);
+            set_zeros(x, nq);
         }
         if y.len() != c {
-            *y = DVector::zeros(c);
+            set_zeros(y, c);
         }
-        for i in 0..m {
-            let fa = f(self, self.dynamic_coords[i]);
-            self.f_r[i] = fa;
-        }
-        for r in 0..c {
-            let gr = g(self, r);
-            self.g_r[r] = gr;
-        }
+        let (mut f_r, mut g_r) = (std::mem::take(&mut self.f_r), std::mem::take(&mut self.g_r));
+        f_r.clear();
+        f_r.extend(self.dynamic_coords.iter().map(|&a| f(self, a)));
+        g_r.clear();
+        g_r.extend((0..c).map(|r| g(self, r)));
+        (self.f_r, self.g_r) = (f_r, g_r);
         if let (false, Some(xf)) = (self.locked.is_empty(), x_free) {
             let a = &self.constraints.a;
             for (i, &j) in self.free_joints.iter().enumerate() {
@@ -141,6 +141,7 @@ impl Data {
         }
         self.kkt
             .solve(&self.f_r, &self.g_r, &mut self.x_r, y.as_mut_slice());
+        let x = x.as_mut_slice();
         for (&a, &xr) in self.dynamic_coords.iter().zip(&self.x_r) {
             x[a] = xr;
         }
@@ -168,10 +169,108 @@ impl Data {
 
     /// Entry `a` of [`Self::generalized_force`].
     pub(crate) fn generalized_force_at(&self, model: &Model, tau: &[f64], a: usize) -> f64 {
-        let f = -self.c_qd.as_slice()[a] - self.n_bar.as_slice()[a] + self.friction[a];
+        let f = -self.c_qd.as_slice()[a] - self.n_bar.as_slice()[a] + self.friction.as_slice()[a];
         match tau.get(a) {
             Some(t) if a < model.n_joints() => f + t,
             _ => f,
         }
     }
+}
+
+/// All that [`crate::dynamics::free_massless_joints`] reads of a model of at most 64 joints
+/// and a mode, as bit sets over the joints: the links an active contact touches, the joints
+/// that are not massless, the last joint of each leg (a joint's distal chain runs to its
+/// leg's end); and the numbers of joints and coordinates. The free joints are a function of
+/// it alone ([`Self::split`]), so that a workspace keeps them while it is the same
+/// ([`Data::free_key`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct FreeJointsKey {
+    touched: u64,
+    massive: u64,
+    ends: u64,
+    n: usize,
+    nq: usize,
+}
+
+impl FreeJointsKey {
+    /// The key of `mode` on `model`; `None` for a model of more than 64 joints.
+    pub(crate) fn of(model: &Model, mode: ContactMode) -> Option<Self> {
+        let n = model.n_joints();
+        if n > 64 {
+            return None;
+        }
+        let (mut touched, mut massive, mut ends) = (0u64, 0u64, 0u64);
+        for c in mode.active() {
+            if let Some(l) = model.contacts[c].link {
+                touched |= 1 << l;
+            }
+        }
+        for (j, joint) in model.joints.iter().enumerate() {
+            massive |= u64::from(!joint.is_massless()) << j;
+        }
+        for leg in &model.legs {
+            if leg.n_links > 0 {
+                // (a leg past the joints has no key: the general route reads the model)
+                let last = leg.first_joint + leg.n_links - 1;
+                if last >= n {
+                    return None;
+                }
+                ends |= 1 << last;
+            }
+        }
+        Some(FreeJointsKey {
+            touched,
+            massive,
+            ends,
+            n,
+            nq: model.nq(),
+        })
+    }
+
+    /// The free joints into `free` and the kept coordinates into `dynamic`
+    /// ([`crate::dynamics::free_massless_joints`]): joint `j` is free iff neither an active
+    /// contact nor a joint that is not massless lies on its distal chain.
+    pub(crate) fn split(&self, free: &mut Vec<usize>, dynamic: &mut Vec<usize>) {
+        free.clear();
+        dynamic.clear();
+        let blocked = self.touched | self.massive;
+        for j in 0..self.n {
+            // bits j..=e, e the first leg's end at or after j
+            let above = self.ends & (u64::MAX << j);
+            let chain = ((above & above.wrapping_neg()) << 1).wrapping_sub(1) & (u64::MAX << j);
+            if blocked & chain == 0 {
+                free.push(j);
+            } else {
+                dynamic.push(j);
+            }
+        }
+        dynamic.extend(self.n..self.nq);
+    }
+}
+
+/// `v = 0ₙ` in `v`'s own buffer: a workspace vector whose length moves between modes
+/// allocates only to grow.
+#[inline]
+pub(crate) fn set_zeros(v: &mut DVector<f64>, n: usize) {
+    let mut buf = take_entries(v);
+    buf.clear();
+    buf.resize(n, 0.0);
+    *v = vector_on(buf);
+}
+
+/// The entries of `v`, its buffer taken (`v` left empty; neither allocates).
+#[inline]
+pub(crate) fn take_entries(v: &mut DVector<f64>) -> Vec<f64> {
+    std::mem::take(v).data.into()
+}
+
+/// The vector of the entries `buf`, on its buffer (nalgebra's `from_vec` collects them anew).
+#[inline]
+pub(crate) fn vector_on(buf: Vec<f64>) -> DVector<f64> {
+    let n = buf.len();
+    DVector::from_data(nalgebra::VecStorage::new(
+        nalgebra::Dyn(n),
+        nalgebra::U1,
+        buf,
+    ))
 }

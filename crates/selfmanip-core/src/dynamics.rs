@@ -22,6 +22,7 @@
 //! acceleration enter the constraint's right-hand side, `A_d q̈_d = −Ȧq̇ − A_ℓ q̈_ℓ`.
 use crate::contact::{ContactMode, Terrain};
 pub use crate::data::Data;
+use crate::data::FreeJointsKey;
 use crate::error::{check_result, check_vector, Result, SingularityKind};
 use crate::inertia::mass_coriolis_gravity;
 use crate::model::Model;
@@ -178,8 +179,19 @@ impl Data {
         check_result("Ȧq̇", self.constraints.a_dot_qd.as_slice())?;
         // => sliding sites with kinetic friction
         crate::friction::collect(model, self, qd)?;
-        // => which joints are free and massless
-        free_massless_joints(model, mode, &mut self.free_joints, &mut self.dynamic_coords);
+        // => which joints are free and massless, and the locked ones: kept from the last
+        // mode where what they depend on is the same (the common case: a mode's flow)
+        let key = FreeJointsKey::of(model, mode);
+        if key.is_some() && key == self.free_key && self.locked == self.free_locked {
+            return Ok(());
+        }
+        self.free_key = None;
+        match key {
+            Some(key) => key.split(&mut self.free_joints, &mut self.dynamic_coords),
+            None => {
+                free_massless_joints(model, mode, &mut self.free_joints, &mut self.dynamic_coords)
+            }
+        }
         // => locked joints prescribed as well
         for &j in &self.locked {
             if let Some(p) = self.dynamic_coords.iter().position(|&d| d == j) {
@@ -193,6 +205,8 @@ impl Data {
                 self.free_joints.insert(at, j);
             }
         }
+        self.free_key = key;
+        self.free_locked.clone_from(&self.locked);
         Ok(())
     }
 }
@@ -207,36 +221,11 @@ pub fn free_massless_joints(
     free: &mut Vec<usize>,
     dynamic: &mut Vec<usize>,
 ) {
+    if let Some(key) = FreeJointsKey::of(model, mode) {
+        return key.split(free, dynamic);
+    }
     free.clear();
     dynamic.clear();
-    let n = model.n_joints();
-    if n <= 64 {
-        // bit sets over the joints: the links an active contact touches, and the joints
-        // that are not massless; joint j is free iff neither meets its distal chain
-        let (mut touched, mut massive) = (0u64, 0u64);
-        for c in mode.active() {
-            if let Some(l) = model.contacts[c].link {
-                touched |= 1 << l;
-            }
-        }
-        for (j, joint) in model.joints.iter().enumerate() {
-            if !joint.is_massless() {
-                massive |= 1 << j;
-            }
-        }
-        for j in 0..n {
-            let end = model.distal(j).end;
-            // bits j..end
-            let chain = (u64::MAX >> (64 - end)) & (u64::MAX << j);
-            if (touched | massive) & chain == 0 {
-                free.push(j);
-            } else {
-                dynamic.push(j);
-            }
-        }
-        dynamic.extend(n..model.nq());
-        return;
-    }
     for j in 0..model.n_joints() {
         let distal = model.distal(j);
         let massless = model.distal_massless(j);
@@ -287,7 +276,9 @@ pub fn forward_dynamics_prepared(
     crate::friction::resolve(model, data, tau)?;
     crate::friction::solve_dynamics(model, data, tau, free_joint_qdd)?;
     if data.damped_modes.is_some() {
-        data.lambda = crate::damped_slide::splice(data, &data.lambda, |d| d.lambda[1]);
+        let mut lambda = std::mem::take(&mut data.lambda);
+        crate::damped_slide::splice(data, &mut lambda, |d| d.lambda[1]);
+        data.lambda = lambda;
     }
     check_result("q̈", data.qdd.as_slice())?;
     check_result("λ", data.lambda.as_slice())
@@ -330,7 +321,7 @@ pub fn plastic_impact_prepared(model: &Model, data: &mut Data, qd_minus: &[f64])
     let mut qd_plus = DVector::from_column_slice(qd_minus) + dx;
     if data.damped_modes.is_some() {
         // a damped slide takes no impulse: its chain's rates jump to the slide's
-        p = crate::damped_slide::splice(data, &p, |_| 0.0);
+        crate::damped_slide::splice(data, &mut p, |_| 0.0);
         crate::damped_slide::impact_rates(model, data, &mut qd_plus)?;
     }
     check_result("q̇⁺", qd_plus.as_slice())?;
@@ -376,7 +367,7 @@ pub fn pseudo_impulse_prepared(
     let (mut x, mut y) = (DVector::zeros(model.nq()), DVector::zeros(c));
     data.solve_prepared(|_, a| f[a], |_, _| 0.0, None, &mut x, &mut y);
     if data.damped_modes.is_some() {
-        y = crate::damped_slide::splice(data, &y, |_| 0.0);
+        crate::damped_slide::splice(data, &mut y, |_| 0.0);
     }
     let p = y * delta_t_s;
     check_result("P_δ", p.as_slice())?;
@@ -416,15 +407,10 @@ mod tests {
     use crate::contact::ContactKind;
     use crate::RobotDescription;
 
-    /// [`Data::prepare_at_state`] after a preparation at the same state in another mode
-    /// gives what [`Data::prepare`] gives on a fresh workspace, bit for bit — `q̈` and `λ`,
-    /// or the same error — for every mode of sticking and sliding contacts on a massive leg,
-    /// a massless leg and the body, at random states.
-    #[test]
-    fn prepare_at_state_matches_a_fresh_prepare_bit_for_bit() {
-        use crate::contact::FlatGround;
-        use rand::{Rng, SeedableRng};
-        let model = RobotDescription::from_toml_str(
+    /// A body with a massive two-link leg, a massless two-link leg and a nose, each with a
+    /// sticking contact (the leg's at its toe).
+    fn two_legs_and_a_nose() -> Model {
+        RobotDescription::from_toml_str(
             r#"
             name = "two_legs"
             [body]
@@ -453,11 +439,22 @@ mod tests {
             name = "nose"
             shape = { kind = "point", position_m = [0.3, 0.05] }
             friction = { kind = "sticking", mu = 0.8 }
-            "#,
+        "#,
         )
         .unwrap()
         .build()
-        .unwrap();
+        .unwrap()
+    }
+
+    /// [`Data::prepare_at_state`] after a preparation at the same state in another mode
+    /// gives what [`Data::prepare`] gives on a fresh workspace, bit for bit — `q̈` and `λ`,
+    /// or the same error — for every mode of sticking and sliding contacts on a massive leg,
+    /// a massless leg and the body, at random states.
+    #[test]
+    fn prepare_at_state_matches_a_fresh_prepare_bit_for_bit() {
+        use crate::contact::FlatGround;
+        use rand::{Rng, SeedableRng};
+        let model = two_legs_and_a_nose();
         let (nq, nc) = (model.nq(), model.n_contacts());
         let tau = vec![0.3; model.n_joints()];
         let modes: Vec<ContactMode> = (0..3u32.pow(nc as u32))
@@ -504,6 +501,67 @@ mod tests {
         }
         // (most modes are regular at most states)
         assert!(solved > 10 * modes.len(), "{solved}");
+    }
+
+    /// The free and locked joints a workspace keeps from one preparation to the next are a
+    /// fresh workspace's — its joint lists, `q̈` and `λ` bit for bit, or the same error —
+    /// as the locked joints change at one mode, as the mode changes, and as the model
+    /// changes under the same workspace (a massless leg's link gains mass, or armature).
+    #[test]
+    fn kept_free_joints_are_a_fresh_workspaces() {
+        use crate::contact::FlatGround;
+        let model = two_legs_and_a_nose();
+        let mut heavy = model.clone();
+        heavy.joints[3].mass_kg = 0.05;
+        let mut turning = model.clone();
+        turning.joints[2].armature_kg_m2 = 1e-3;
+        let nq = model.nq();
+        let q: Vec<f64> = (0..nq).map(|i| 0.3 * (i as f64 + 1.0).sin()).collect();
+        let qd: Vec<f64> = (0..nq).map(|i| 0.7 * (i as f64 + 2.0).cos()).collect();
+        let tau = vec![0.2; model.n_joints()];
+        let a = ContactMode::FLIGHT.with(0, ContactKind::Stick);
+        let ab = a.with(1, ContactKind::Stick);
+        let run = |data: &mut Data, model: &Model, mode: ContactMode, locked: &[usize]| {
+            data.locked = locked.to_vec();
+            let solved = data
+                .prepare(model, &FlatGround, mode, &q, &qd)
+                .and_then(|()| {
+                    let free = vec![0.1; data.free_joints.len()];
+                    forward_dynamics_prepared(model, data, &tau, Some(&free))?;
+                    let bits = |v: &DVector<f64>| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    Ok((bits(&data.qdd), bits(&data.lambda)))
+                });
+            format!(
+                "{solved:?} {:?} {:?}",
+                data.free_joints, data.dynamic_coords
+            )
+        };
+        let steps: [(&Model, ContactMode, &[usize]); 9] = [
+            (&model, a, &[]),
+            (&model, a, &[]),
+            (&model, ab, &[]),
+            (&model, ab, &[2]),
+            (&model, ab, &[2]),
+            (&model, ab, &[]),
+            (&heavy, ab, &[]),
+            (&heavy, a, &[]),
+            (&turning, a, &[]),
+        ];
+        let mut shared = Data::new(&model);
+        let mut outcomes = Vec::new();
+        for (model, mode, locked) in steps {
+            let expected = run(&mut Data::new(model), model, mode, locked);
+            assert_eq!(
+                run(&mut shared, model, mode, locked),
+                expected,
+                "{mode:?} {locked:?}"
+            );
+            outcomes.push(expected);
+        }
+        // (the steps do move the free joints: b's leg free in flight, not when its link has
+        // mass; locked or not in contact)
+        outcomes.dedup();
+        assert!(outcomes.len() >= 5, "{outcomes:#?}");
     }
 
     /// [`free_massless_joints`]' bit sets give the joints of its definition (thesis 5.1.1:
