@@ -43,6 +43,26 @@ pub struct Kinematics {
 impl Kinematics {
     /// Recomputes every pose and velocity (no allocation after the first call).
     pub fn compute(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
+        self.compute_where(model, q, qd, |_| true);
+    }
+
+    /// [`Self::compute`] for the body and the legs of `legs` only (bit `l` for leg `l`; a
+    /// leg from the 64th on is always computed): what the geometry of contacts on those
+    /// legs and on the body reads. The other legs' poses and velocities are left as they
+    /// were, so that these kinematics answer only for those contacts. The values computed
+    /// are those of [`Self::compute`], bit for bit (each leg starts from its hip).
+    pub fn compute_legs(&mut self, model: &Model, q: &[f64], qd: &[f64], legs: u64) {
+        self.compute_where(model, q, qd, |leg| leg >= 64 || legs >> leg & 1 == 1);
+    }
+
+    #[inline(always)]
+    fn compute_where(
+        &mut self,
+        model: &Model,
+        q: &[f64],
+        qd: &[f64],
+        computed: impl Fn(usize) -> bool,
+    ) {
         let n = model.n_joints();
         if self.link_sc.len() != n {
             self.origin.resize(n, Vector2::zeros());
@@ -84,6 +104,9 @@ impl Kinematics {
         for (((joint, &qj), &qdj), (((origin, beta), sc), (origin_vel, beta_dot))) in
             inputs.zip(poses.zip(rates))
         {
+            if !computed(joint.leg) {
+                continue;
+            }
             if joint.index_in_leg == 0 {
                 // hip: o = X + R(φ) h,  ȯ = Ẋ + φ̇ S(R(φ) h)
                 let rh = rotate_sc(body_sc, model.legs[joint.leg].hip_m);

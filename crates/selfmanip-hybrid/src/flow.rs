@@ -450,6 +450,33 @@ impl<'a> Flow<'a> {
         (kin, &self.ws.data.slide_directions)
     }
 
+    /// [`Self::kinematics_and_directions`] for guards that read only the legs `legs` and the
+    /// body: the flow's kinematics where it holds them at `(q, q̇)`, else those legs' alone,
+    /// computed into `scratch` ([`Kinematics::compute_legs`]; the flow's cache is left as
+    /// it was).
+    pub fn kinematics_of_legs<'s>(
+        &'s mut self,
+        q: &[f64],
+        qd: &[f64],
+        legs: u64,
+        scratch: &'s mut Kinematics,
+    ) -> (&'s Kinematics, &'s [(usize, SlideDirection)]) {
+        let nq = q.len();
+        let kin = if self.holds_state(q, qd) {
+            &self.ws.data.kin
+        } else if self
+            .kin_y
+            .as_ref()
+            .is_some_and(|y| y[..nq] == *q && y[nq..] == *qd)
+        {
+            &self.kin
+        } else {
+            scratch.compute_legs(self.model, q, qd, legs);
+            &*scratch
+        };
+        (kin, &self.ws.data.slide_directions)
+    }
+
     /// Whether the flow's workspace holds the kinematics at `(q, q̇)`; if not, they are made
     /// current in `self.kin` (computed unless they are already).
     fn refresh_kinematics(&mut self, q: &[f64], qd: &[f64]) -> bool {

@@ -472,6 +472,24 @@ impl OdeSystem<CoreError> for WatchedFlow<'_, '_> {
     }
 }
 
+/// The legs whose poses and velocities the kinematic guards of `guards` read, as a bit set
+/// ([`Kinematics::compute_legs`]): those of their contacts' links (a fold's chain ends at
+/// its contact's link; a contact on the body and the apex read the body alone).
+fn kinematic_legs(model: &Model, guards: &[Guard]) -> u64 {
+    guards
+        .iter()
+        .filter_map(|g| match *g {
+            Guard::Touchdown(k)
+            | Guard::Stick(k)
+            | Guard::Fold { contact: k, .. }
+            | Guard::FoldPassed { contact: k, .. } => model.contacts[k].link,
+            _ => None,
+        })
+        .map(|j| model.joints[j].leg)
+        .filter(|&leg| leg < 64)
+        .fold(0, |legs, leg| legs | 1 << leg)
+}
+
 /// Where the guards are sampled in each step (fractions of it; the last is its end point).
 pub const SAMPLES: [f64; 4] = [0.25, 0.5, 0.75, 1.0];
 
@@ -493,6 +511,10 @@ pub struct GuardSet {
     stage_hi: Vec<f64>,
     /// Whether every stage of the step being sampled was watched.
     watched: bool,
+    /// The legs the kinematic guards read (bit `l` for leg `l`: [`kinematic_legs`]), and
+    /// the kinematics of those legs at a sample the flow holds no kinematics for.
+    legs: u64,
+    sample_kin: Kinematics,
 }
 
 impl GuardSet {
@@ -577,6 +599,7 @@ impl GuardSet {
         self.force.clear();
         self.force
             .extend((0..self.states.len()).filter(|&gi| self.states[gi].guard.needs_flow()));
+        self.legs = kinematic_legs(flow.model(), &self.guards);
         Ok(())
     }
 
@@ -681,10 +704,11 @@ impl GuardSet {
                     }
                 }
             }
-            // the kinematic guards from one look-up of the kinematics at this sample
+            // the kinematic guards from one look-up of the kinematics at this sample (of
+            // the legs they read)
             let (model, terrain) = (flow.model(), flow.terrain());
             let (q, qd) = y.split_at(model.nq());
-            let (kin, dirs) = flow.kinematics_and_directions(q, qd);
+            let (kin, dirs) = flow.kinematics_of_legs(q, qd, self.legs, &mut self.sample_kin);
             for (gi, st) in self.states.iter().enumerate() {
                 if !st.guard.needs_flow() {
                     self.raw[si * ng + gi] = st
