@@ -608,6 +608,7 @@ fn split_n(work: &mut [f64], n: usize) -> [&mut [f64]; 13] {
 
 /// The torques of the chain `joints` under its law into `out`: the controller's `tau` and
 /// the joints' passive torques at `(q, q̇)` ([`joint_torque`]).
+#[inline]
 fn law_torques_into(
     model: &Model,
     joints: std::ops::Range<usize>,
