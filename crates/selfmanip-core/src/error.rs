@@ -75,14 +75,19 @@ pub(crate) fn check_vector(field: &'static str, v: &[f64], expected: usize) -> R
     check_finite(field, v)
 }
 
-/// Whether every entry is finite, without a branch per entry: `x · 0` is `±0` for a finite
-/// `x` and NaN for an infinite or NaN one, and a sum of signed zeros is zero. Every flow
-/// evaluation checks `M̄`, `C̄q̇`, `N̄`, `A`, `Ȧq̇`, `q̈` and `λ` so that finite inputs too large
-/// for double precision end in a typed error; this form costs 0.6 % fewer instructions per
-/// leap than a short-circuiting `all(is_finite)` (callgrind, `leap_probe "++" 0`).
+/// Whether every entry is finite, without a branch per entry and on integers, which the
+/// compiler may reorder and vectorize: an entry is infinite or NaN exactly when its exponent
+/// bits are all ones, and then adding one unit of the exponent carries into the sign bit.
+/// Every flow evaluation checks `M̄`, `C̄q̇`, `N̄`, `A`, `Ȧq̇`, `q̈` and `λ` so that finite
+/// inputs too large for double precision end in a typed error.
 #[inline]
 pub(crate) fn all_finite(v: &[f64]) -> bool {
-    v.iter().fold(0.0, |acc, &x| acc + x * 0.0) == 0.0
+    const EXPONENT: u64 = 0x7ff0_0000_0000_0000;
+    const ONE: u64 = 1 << 52;
+    v.iter()
+        .fold(0u64, |acc, x| acc | ((x.to_bits() & EXPONENT) + ONE))
+        >> 63
+        == 0
 }
 
 /// Checks that a computed quantity is finite ([`CoreError::NonFiniteResult`] naming it).
