@@ -303,6 +303,7 @@ impl DampedSlide {
             g: Matrix2::zeros(),
             u_t: 0.0,
             rates: DVector::zeros(n),
+            k_inv: Vec::new(),
             consistent: false,
             wedged: false,
             rows,
@@ -332,8 +333,7 @@ fn take_rows(dst: &mut DMatrix<f64>, src: &mut DMatrix<f64>) {
 }
 
 /// [`solve_rows`] into `slide`'s numbers and rates (its contact, rows and `Ȧ` left to the
-/// caller), without allocating for a chain of up to [`MAX_EXACT`] joints: whether there is
-/// a slide.
+/// caller), in its own buffers: whether there is a slide.
 fn solve_into(
     a: &DMatrix<f64>,
     qd: &[f64],
@@ -353,21 +353,14 @@ fn solve_into(
             quantity: "a damped chain's torques or damping",
         });
     }
-    // K⁻¹ in place, on the stack for a short chain
+    // K⁻¹ in place, in the slide's own buffer
     let (j0, n) = (law.joints.start, law.joints.len());
-    let mut stack = [0.0; MAX_EXACT * MAX_EXACT];
-    let mut heap = Vec::new();
-    let ki = if n <= MAX_EXACT {
-        &mut stack[..n * n]
-    } else {
-        heap.resize(n * n, 0.0);
-        &mut heap[..]
-    };
-    ki.copy_from_slice(law.damping.as_slice());
-    if !nalgebra::DMatrixViewMut::from_slice(ki, n, n).try_inverse_mut() {
+    slide.k_inv.clear();
+    slide.k_inv.extend_from_slice(law.damping.as_slice());
+    if !nalgebra::DMatrixViewMut::from_slice(&mut slide.k_inv, n, n).try_inverse_mut() {
         return Ok(false);
     }
-    let ki = &*ki;
+    let ki = &slide.k_inv[..];
     let (w, g) = mobility_of(a, qd, law, ki);
     // Painlevé's region: on a side whose normal response `G_nn + c G_nt` is within the
     // wedge tolerance of zero or below it, a pushing force draws the foot into the ground

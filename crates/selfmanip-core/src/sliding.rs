@@ -96,6 +96,9 @@ pub struct DampedSlide {
     pub u_t: f64,
     /// The chain's rates `θ̇` (rad/s, joint order).
     pub rates: DVector<f64>,
+    /// `K⁻¹`, the inverse of its law's damping (`n × n`, column-major), which the slide was
+    /// solved with (and the chain's accelerations read).
+    pub k_inv: Vec<f64>,
     /// Whether the slide is consistent: the foot pushes and, with friction, slides on the
     /// side its friction opposes, faster than the rest band
     /// ([`crate::friction::SLIDING_SPEED_EPS_M_S`]).

@@ -403,7 +403,6 @@ pub struct ChainScratch {
     vs: Vec<f64>,
     tau: Vec<f64>,
     work: Vec<f64>,
-    k_inv: Vec<f64>,
 }
 
 /// The instants of `ctrl`'s time events ([`Controller::time_events`]) into `out`, in
@@ -445,7 +444,6 @@ pub(crate) fn chain_accelerations_clear_of(
         vs,
         tau,
         work,
-        k_inv,
     } = scratch;
     qdd.clear();
     qdd.extend_from_slice(data.qdd.as_slice());
@@ -460,16 +458,11 @@ pub(crate) fn chain_accelerations_clear_of(
             continue;
         };
         let n = law.joints.len();
-        // K⁻¹ in place, as the core's slide inverts it
-        k_inv.clear();
-        k_inv.extend_from_slice(law.damping.as_slice());
-        if !nalgebra::DMatrixViewMut::from_slice(k_inv, n, n).try_inverse_mut() {
-            continue;
-        }
         if work.len() < 13 * n {
             work.resize(13 * n, 0.0);
         }
-        let slide = (d, law, &data.kin, &k_inv[..]);
+        // K⁻¹ as the slide was solved with it
+        let slide = (d, law, &data.kin, &d.k_inv[..]);
         let bufs = (&mut qs[..], &mut vs[..], &mut tau[..], &mut work[..]);
         let out = data.qdd.as_mut_slice();
         // a chain of two joints (the usual one) in code for its own length
