@@ -79,10 +79,16 @@ impl ResetWorkspace<'_> {
         let mut prefer = prefer;
         // contacts offered the stick because the cone holds them at rest (once each)
         let mut offered: Vec<usize> = Vec::new();
+        // the mode of `prefer`, prepared already (by the damped-slide test below)
+        let mut prepared: Option<ContactMode> = None;
         for _ in 0..=2 * set.len() {
             // `mode_for` leaves `ws.data` prepared at `(mode, q, q̇)`
-            let Some(mode) = self.mode_for(set, prefer, (t, q, qd))? else {
-                return Ok(None);
+            let mode = match prepared.take() {
+                Some(mode) => mode,
+                None => match self.mode_for(set, prefer, (t, q, qd))? {
+                    Some(mode) => mode,
+                    None => return Ok(None),
+                },
             };
             let outcome = if impact {
                 self.impact_outcome(t, mode, q, qd)?
@@ -109,11 +115,19 @@ impl ResetWorkspace<'_> {
                 }
             });
             if let Some(k) = slides {
-                // a sticking force at the cone's edge whose damped slide is consistent on
-                // neither side: the contact sticks (crate::damped_slide)
                 let slide = mode.with(k, ContactKind::Slide);
-                if !impact && self.damped_inconsistent(set, slide, (t, q, qd), k)? {
-                    return Ok(Some(outcome));
+                // a contact that can slide damped: the slide's mode, prepared, is the next
+                // pass's; a sticking force at the cone's edge whose damped slide is
+                // consistent on neither side keeps it sticking (`mode_for` keeps such a
+                // slide sticking, ResetWorkspace::wedged_stick; crate::damped_slide)
+                if !impact && self.ws.damped >> k & 1 == 1 {
+                    match self.mode_for(set, slide, (t, q, qd))? {
+                        Some(m) if m.kind(k) == Some(ContactKind::Stick) => {
+                            return Ok(Some(outcome))
+                        }
+                        Some(m) => prepared = Some(m),
+                        None => return Ok(None),
+                    }
                 }
                 prefer = slide;
                 continue;
@@ -134,26 +148,6 @@ impl ResetWorkspace<'_> {
             }
         }
         Ok(None)
-    }
-
-    /// Whether contact `k` slides damped in the mode `set` takes from `prefer` at `(t, q, q̇)`
-    /// ([`selfmanip_core::damped_slide`]) on neither side consistently: its sticking force
-    /// is then at the cone's edge up to the location of its stick (a slide that came to
-    /// rest), and it sticks. False for a contact that cannot slide damped.
-    fn damped_inconsistent(
-        &mut self,
-        set: &[usize],
-        prefer: ContactMode,
-        state: (f64, &[f64], &[f64]),
-        k: usize,
-    ) -> Result<bool, CoreError> {
-        if self.ws.damped >> k & 1 == 0 {
-            return Ok(false);
-        }
-        // `mode_for` keeps such a slide sticking (ResetWorkspace::wedged_stick)
-        Ok(self
-            .mode_for(set, prefer, state)?
-            .is_some_and(|m| m.kind(k) == Some(ContactKind::Stick)))
     }
 
     /// The plastic impact (5.10) into `mode` (prepared in `ws.data` at `(mode, q, q̇⁻)`) with its
