@@ -301,6 +301,13 @@ impl ContactMode {
         })
     }
 
+    /// How many rows contact `k` has: 2 sticking, 1 sliding, 0 inactive. [`Self::rows`]
+    /// gives each active contact's rows together, the contacts ascending.
+    #[inline]
+    pub fn n_rows_of(self, k: usize) -> usize {
+        ((self.normal >> k & 1) + (self.tangential >> k & 1)) as usize
+    }
+
     /// The rows in order: by contact, tangential before normal.
     pub fn rows(self) -> impl Iterator<Item = ConstraintRow> {
         let mut active = self.active();
@@ -711,5 +718,10 @@ mod tests {
         assert_eq!(rows, [(0, T), (0, N), (2, N), (3, T), (3, N)]);
         assert_eq!(rows.len(), mode.n_rows());
         assert_eq!(ContactMode::FLIGHT.rows().count(), 0);
+        // each contact's rows together, as many as n_rows_of counts
+        for k in 0..5 {
+            let of_k = rows.iter().filter(|r| r.0 == k).count();
+            assert_eq!(mode.n_rows_of(k), of_k);
+        }
     }
 }

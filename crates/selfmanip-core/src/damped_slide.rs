@@ -524,18 +524,12 @@ pub(crate) fn splice(data: &Data, v: &mut DVector<f64>, normal: impl Fn(&DampedS
     let Some((mode, _)) = data.damped_modes else {
         return;
     };
-    // the active contacts and those that stick, as bits
-    let (mut active, mut stick) = (0u32, 0u32);
-    for k in mode.active() {
-        active |= 1 << k;
-        if mode.kind(k) == Some(ContactKind::Stick) {
-            stick |= 1 << k;
-        }
-    }
+    // the active contacts, as bits
+    let mut active = mode.active().fold(0u32, |m, k| m | 1 << k);
     let slides = data.damped.iter().fold(0u32, |m, d| m | 1 << d.contact);
-    // from the last contact back (`ContactMode::rows`: by contact, tangential before
-    // normal), each row of the KKT system's mode to its own row of the prepared mode — as
-    // late as it was or later: the slides' rows come in between
+    // from the last contact back (`ContactMode::rows`: each contact's rows together, the
+    // contacts ascending), each row of the KKT system's mode to its own row of the prepared
+    // mode — as late as it was or later: the slides' rows come in between
     let mut inner = v.len();
     let mut buf = crate::data::take_entries(v);
     buf.resize(mode.n_rows(), 0.0);
@@ -543,7 +537,7 @@ pub(crate) fn splice(data: &Data, v: &mut DVector<f64>, normal: impl Fn(&DampedS
     while active != 0 {
         let k = 31 - active.leading_zeros() as usize;
         active &= !(1 << k);
-        let rows = 1 + (stick >> k & 1) as usize;
+        let rows = mode.n_rows_of(k);
         if slides >> k & 1 == 1 {
             let d = data.damped.iter().find(|d| d.contact == k);
             let value = normal(d.expect("a damped slide"));
