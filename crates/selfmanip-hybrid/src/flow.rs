@@ -48,6 +48,9 @@ pub struct Flow<'a> {
     /// Kinematics at `kin_y`, for states where no flow was evaluated.
     kin: Kinematics,
     kin_y: Option<Vec<f64>>,
+    /// The kinematics of one contact's leg at a state the flow holds none for
+    /// ([`Self::leg_geometry`]).
+    leg_kin: Kinematics,
     /// Contacts held closed by a Zeno truncation's dwell ([`crate::zeno`]): their liftoff
     /// and stick→slip guards are not armed until the dwell ends.
     held: Vec<usize>,
@@ -106,6 +109,7 @@ impl<'a> Flow<'a> {
             y: Vec::with_capacity(2 * model.nq()),
             kin: Kinematics::default(),
             kin_y: None,
+            leg_kin: Kinematics::default(),
             held: Vec::new(),
             held_slides: Vec::new(),
             frictionless: Vec::new(),
@@ -496,6 +500,34 @@ impl<'a> Flow<'a> {
             y.extend_from_slice(qd);
         }
         false
+    }
+
+    /// [`Self::geometry`] from the kinematics of the body and contact `k`'s leg alone where
+    /// the flow holds none at `y` ([`Kinematics::compute_legs`], bit for bit those of
+    /// [`Kinematics::compute`]; the flow's kinematics are left as they were): for states
+    /// visited once, such as the points of a difference.
+    pub fn leg_geometry(&mut self, k: usize, y: &[f64]) -> ContactGeometry {
+        let (model, terrain) = (self.model, self.terrain);
+        let (q, qd) = y.split_at(model.nq());
+        let nq = q.len();
+        let kin = if self.holds_state(q, qd) {
+            &self.ws.data.kin
+        } else if self
+            .kin_y
+            .as_ref()
+            .is_some_and(|y| y[..nq] == *q && y[nq..] == *qd)
+        {
+            &self.kin
+        } else {
+            let legs = model.contacts[k]
+                .link
+                .map(|j| model.joints[j].leg)
+                .filter(|&leg| leg < 64)
+                .map_or(0, |leg| 1u64 << leg);
+            self.leg_kin.compute_legs(model, q, qd, legs);
+            &self.leg_kin
+        };
+        contact_geometry(model, kin, terrain, k)
     }
 
     /// The geometry of contact `k` at `y = [q; q̇]`.

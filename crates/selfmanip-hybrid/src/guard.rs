@@ -135,6 +135,12 @@ impl Guard {
         )
     }
 
+    /// Whether this is a jam hold's guard ([`Guard::Jammed`]), whose value also evaluates
+    /// the flow without its contact ([`crate::jam_hold::guard_value`]).
+    pub fn is_jammed(self) -> bool {
+        matches!(self, Guard::Jammed { .. })
+    }
+
     /// The value of a liftoff or stick→slip guard from the flow's solution `data` in its
     /// mode; `None` for any other guard.
     fn force_value(self, data: &Data) -> Option<f64> {
@@ -698,9 +704,13 @@ impl GuardSet {
             // kinematics there, which the kinematic guards then reuse (the other order
             // computed them twice); every value is a function of the state alone
             if coarse(si) {
-                for (gi, st) in self.states.iter().enumerate() {
-                    if st.guard.needs_flow() {
-                        self.raw[si * ng + gi] = st.guard.value(flow, ts, mode, y)?;
+                // those that read the flow of `mode` before the jam holds', whose flow
+                // without their contact replaces the flow's evaluation of `mode` here
+                for jammed in [false, true] {
+                    for (gi, st) in self.states.iter().enumerate() {
+                        if st.guard.needs_flow() && st.guard.is_jammed() == jammed {
+                            self.raw[si * ng + gi] = st.guard.value(flow, ts, mode, y)?;
+                        }
                     }
                 }
             }

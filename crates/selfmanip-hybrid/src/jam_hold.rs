@@ -158,17 +158,16 @@ pub fn gap_acceleration(
     let mut dy = vec![0.0; n];
     flow.rhs(t, mode, y, &mut dy)?;
     let h = 1e-4;
+    let mut yy = vec![0.0; n];
     let mut gap_at = |s: f64| {
-        let yy: Vec<f64> = (0..n)
-            .map(|i| {
-                if i < nq {
-                    y[i] + s * dy[i] + 0.5 * s * s * dy[nq + i]
-                } else {
-                    y[i] + s * dy[i]
-                }
-            })
-            .collect();
-        flow.geometry(c, &yy).gap_m
+        for (i, v) in yy.iter_mut().enumerate() {
+            *v = if i < nq {
+                y[i] + s * dy[i] + 0.5 * s * s * dy[nq + i]
+            } else {
+                y[i] + s * dy[i]
+            };
+        }
+        flow.leg_geometry(c, &yy).gap_m
     };
     Ok((gap_at(h) - 2.0 * gap_at(0.0) + gap_at(-h)) / (h * h))
 }
