@@ -510,8 +510,9 @@ pub struct GuardSet {
     crossings: Vec<Crossing>,
     /// Scratch torques for the fold thresholds.
     scratch_tau: Vec<f64>,
-    /// The force guards (their indices), and their oriented values over the stages of the
-    /// step being taken ([`Self::watch_step`]): the least and the greatest, one entry each.
+    /// The force guards (their indices; the jam holds' last, [`Self::arm`]), and their
+    /// oriented values over the stages of the step being taken ([`Self::watch_step`]): the
+    /// least and the greatest, one entry each.
     force: Vec<usize>,
     stage_lo: Vec<f64>,
     stage_hi: Vec<f64>,
@@ -602,9 +603,15 @@ impl GuardSet {
                 .push(GuardState::arm(g, raw, rest, sigma, opts.arm_margin));
         }
         self.raw.resize(SAMPLES.len() * self.states.len(), 0.0);
+        // the force guards, those that read the flow of `mode` before the jam holds', whose
+        // flow without their contact replaces the flow's evaluation of `mode` at a sample
         self.force.clear();
-        self.force
-            .extend((0..self.states.len()).filter(|&gi| self.states[gi].guard.needs_flow()));
+        for jammed in [false, true] {
+            self.force.extend((0..self.states.len()).filter(|&gi| {
+                let g = self.states[gi].guard;
+                g.needs_flow() && g.is_jammed() == jammed
+            }));
+        }
         self.legs = kinematic_legs(flow.model(), &self.guards);
         Ok(())
     }
@@ -704,14 +711,9 @@ impl GuardSet {
             // kinematics there, which the kinematic guards then reuse (the other order
             // computed them twice); every value is a function of the state alone
             if coarse(si) {
-                // those that read the flow of `mode` before the jam holds', whose flow
-                // without their contact replaces the flow's evaluation of `mode` here
-                for jammed in [false, true] {
-                    for (gi, st) in self.states.iter().enumerate() {
-                        if st.guard.needs_flow() && st.guard.is_jammed() == jammed {
-                            self.raw[si * ng + gi] = st.guard.value(flow, ts, mode, y)?;
-                        }
-                    }
+                for fi in 0..self.force.len() {
+                    let gi = self.force[fi];
+                    self.raw[si * ng + gi] = self.states[gi].guard.value(flow, ts, mode, y)?;
                 }
             }
             // the kinematic guards from one look-up of the kinematics at this sample (of
