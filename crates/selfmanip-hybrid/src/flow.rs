@@ -509,25 +509,16 @@ impl<'a> Flow<'a> {
     pub fn leg_geometry(&mut self, k: usize, y: &[f64]) -> ContactGeometry {
         let (model, terrain) = (self.model, self.terrain);
         let (q, qd) = y.split_at(model.nq());
-        let nq = q.len();
-        let kin = if self.holds_state(q, qd) {
-            &self.ws.data.kin
-        } else if self
-            .kin_y
-            .as_ref()
-            .is_some_and(|y| y[..nq] == *q && y[nq..] == *qd)
-        {
-            &self.kin
-        } else {
-            let legs = model.contacts[k]
-                .link
-                .map(|j| model.joints[j].leg)
-                .filter(|&leg| leg < 64)
-                .map_or(0, |leg| 1u64 << leg);
-            self.leg_kin.compute_legs(model, q, qd, legs);
-            &self.leg_kin
-        };
-        contact_geometry(model, kin, terrain, k)
+        let legs = model.contacts[k]
+            .link
+            .map(|j| model.joints[j].leg)
+            .filter(|&leg| leg < 64)
+            .map_or(0, |leg| 1u64 << leg);
+        let mut scratch = std::mem::take(&mut self.leg_kin);
+        let (kin, _) = self.kinematics_of_legs(q, qd, legs, &mut scratch);
+        let geometry = contact_geometry(model, kin, terrain, k);
+        self.leg_kin = scratch;
+        geometry
     }
 
     /// The geometry of contact `k` at `y = [q; q̇]`.
