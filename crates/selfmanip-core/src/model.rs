@@ -207,6 +207,11 @@ impl Model {
             })
     }
 
+    /// The leg carrying contact `k` (`None` for a contact on the body).
+    pub fn contact_leg(&self, k: usize) -> Option<usize> {
+        self.contacts[k].link.map(|j| self.joints[j].leg)
+    }
+
     /// Joints `first..=j` of the leg of joint `j`: the chain that moves link `j`.
     pub fn chain(&self, j: usize) -> std::ops::RangeInclusive<usize> {
         self.legs[self.joints[j].leg].first_joint..=j

@@ -282,12 +282,18 @@ pub fn set_laws(
 }
 
 /// The contacts of `set` (of [`damped_contacts`], active in `mode`) alone on their chain in
-/// `mode`: of a [`sliding_damped`] set, those that slide damped there.
-fn lone_slides(model: &Model, set: u32, mode: ContactMode) -> impl Iterator<Item = usize> + '_ {
-    mode.active().filter(move |&k| {
-        set >> k & 1 == 1
-            && damped_chain(model, k).is_some_and(|chain| !shares_chain(model, mode, k, &chain))
-    })
+/// `mode`, with their chains: of a [`sliding_damped`] set, those that slide damped there.
+fn lone_slides(
+    model: &Model,
+    set: u32,
+    mode: ContactMode,
+) -> impl Iterator<Item = (usize, std::ops::Range<usize>)> + '_ {
+    mode.active()
+        .filter(move |&k| set >> k & 1 == 1)
+        .filter_map(move |k| {
+            let chain = damped_chain(model, k)?;
+            (!shares_chain(model, mode, k, &chain)).then_some((k, chain))
+        })
 }
 
 /// Whether another active contact of `mode` sits on contact `k`'s massless chain `chain`
@@ -318,23 +324,17 @@ pub fn add_laws(
         return;
     }
     let mut scratch = LawScratch::default();
-    for k in lone_slides(model, sliding, mode) {
-        let Some(joints) = damped_chain(model, k) else {
-            continue;
-        };
+    for (k, joints) in lone_slides(model, sliding, mode) {
         // the law held for the contact (one at most) lets go, its buffers kept for the new
         let laws = &mut data.damped_laws;
         let held = laws
             .iter()
             .position(|(c, _)| *c == k)
             .map(|i| laws.remove(i).1);
-        let law = held.map_or_else(
-            || empty_law(joints.clone()),
-            |law| ChainLaw {
-                joints: joints.clone(),
-                ..law
-            },
-        );
+        let law = match held {
+            Some(law) => ChainLaw { joints, ..law },
+            None => empty_law(joints),
+        };
         if let Some(law) = law_in(model, ctrl, state, mode, law, &mut scratch).filter(|l| l.holds) {
             laws.push((k, law));
         }
@@ -693,7 +693,7 @@ fn stuck_rates(
     }
     let mut kin = selfmanip_core::kinematics::Kinematics::default();
     kin.compute(model, q, qd);
-    for k in lone_slides(model, stuck, mode) {
+    for (k, _) in lone_slides(model, stuck, mode) {
         if let Some(rates) = stick_rates(model, &kin, terrain, k, qd) {
             set_chain_rates(model, k, rates.as_slice(), qd);
         }

@@ -465,14 +465,9 @@ impl<'a> Flow<'a> {
         legs: u64,
         scratch: &'s mut Kinematics,
     ) -> (&'s Kinematics, &'s [(usize, SlideDirection)]) {
-        let nq = q.len();
         let kin = if self.holds_state(q, qd) {
             &self.ws.data.kin
-        } else if self
-            .kin_y
-            .as_ref()
-            .is_some_and(|y| y[..nq] == *q && y[nq..] == *qd)
-        {
+        } else if self.kin_holds(q, qd) {
             &self.kin
         } else {
             scratch.compute_legs(self.model, q, qd, legs);
@@ -481,18 +476,21 @@ impl<'a> Flow<'a> {
         (kin, &self.ws.data.slide_directions)
     }
 
+    /// Whether `self.kin` holds the kinematics at `(q, q̇)`.
+    fn kin_holds(&self, q: &[f64], qd: &[f64]) -> bool {
+        let nq = q.len();
+        self.kin_y
+            .as_ref()
+            .is_some_and(|y| y[..nq] == *q && y[nq..] == *qd)
+    }
+
     /// Whether the flow's workspace holds the kinematics at `(q, q̇)`; if not, they are made
     /// current in `self.kin` (computed unless they are already).
     fn refresh_kinematics(&mut self, q: &[f64], qd: &[f64]) -> bool {
         if self.holds_state(q, qd) {
             return true;
         }
-        let nq = q.len();
-        let current = self
-            .kin_y
-            .as_ref()
-            .is_some_and(|y| y[..nq] == *q && y[nq..] == *qd);
-        if !current {
+        if !self.kin_holds(q, qd) {
             self.kin.compute(self.model, q, qd);
             let y = self.kin_y.get_or_insert_with(Vec::new);
             y.clear();
@@ -509,9 +507,8 @@ impl<'a> Flow<'a> {
     pub fn leg_geometry(&mut self, k: usize, y: &[f64]) -> ContactGeometry {
         let (model, terrain) = (self.model, self.terrain);
         let (q, qd) = y.split_at(model.nq());
-        let legs = model.contacts[k]
-            .link
-            .map(|j| model.joints[j].leg)
+        let legs = model
+            .contact_leg(k)
             .filter(|&leg| leg < 64)
             .map_or(0, |leg| 1u64 << leg);
         let mut scratch = std::mem::take(&mut self.leg_kin);

@@ -488,10 +488,9 @@ fn kinematic_legs(model: &Model, guards: &[Guard]) -> u64 {
             Guard::Touchdown(k)
             | Guard::Stick(k)
             | Guard::Fold { contact: k, .. }
-            | Guard::FoldPassed { contact: k, .. } => model.contacts[k].link,
+            | Guard::FoldPassed { contact: k, .. } => model.contact_leg(k),
             _ => None,
         })
-        .map(|j| model.joints[j].leg)
         .filter(|&leg| leg < 64)
         .fold(0, |legs, leg| legs | 1 << leg)
 }

@@ -7,7 +7,7 @@
 use super::maximise::pattern_search_max;
 use super::pose_rates::lead_liftoff_speed;
 use super::takeoff_maps::{grid_points, linspace};
-use super::{bad, balance_pitch, contact_leg, SideSupport};
+use super::{bad, balance_pitch, SideSupport};
 use crate::error::SimError;
 use selfmanip_core::contact::TouchKind;
 use selfmanip_core::{ContactMode, Model};
@@ -188,7 +188,7 @@ pub fn liftoff_speed_map(
             let Some(p) = pose(t1, t2) else {
                 continue;
             };
-            if !p.mode.active().any(|k| contact_leg(model, k) == Some(leg)) {
+            if !p.mode.active().any(|k| model.contact_leg(k) == Some(leg)) {
                 continue; // the lead leg must carry the sweep
             }
             let mut q = vec![0.0; model.nq()];

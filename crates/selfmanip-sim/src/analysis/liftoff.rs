@@ -1,7 +1,7 @@
 //! The largest speed along a velocity direction before a contact lifts off (the optimisation
 //! under thesis Fig. 4.8, for any planar robot), and the velocity parameterization of a
 //! stance whose unloaded legs move freely. RHex's sensor sweep (Fig. 4.8) is in `rhex-model`.
-use super::{bad, check_finite, contact_leg, normal_rows, selector_rows};
+use super::{bad, check_finite, normal_rows, selector_rows};
 use crate::error::SimError;
 use nalgebra::{DMatrix, DVector};
 use selfmanip_core::{forward_dynamics, ContactMode, Data, Model, Terrain};
@@ -17,7 +17,7 @@ pub fn free_leg_parameterization(
 ) -> DMatrix<f64> {
     let mut idx = vec![lead_joint];
     for (li, leg) in model.legs.iter().enumerate() {
-        let touching = mode.active().any(|k| contact_leg(model, k) == Some(li));
+        let touching = mode.active().any(|k| model.contact_leg(k) == Some(li));
         if !touching {
             for j in leg.first_joint..leg.first_joint + leg.n_links {
                 if j != lead_joint {

@@ -336,8 +336,3 @@ pub fn body_reach_m(model: &Model, side: f64) -> f64 {
         .chain(extent)
         .fold(f64::NEG_INFINITY, f64::max)
 }
-
-/// The leg carrying contact `k` (`None` for the body).
-pub fn contact_leg(model: &Model, k: usize) -> Option<usize> {
-    model.contacts[k].link.map(|j| model.joints[j].leg)
-}
