@@ -119,7 +119,7 @@ impl ResetWorkspace<'_> {
 
     /// Whether a contact of `mode` (prepared in `ws.data`) is within the fold threshold of
     /// its fold: the mode counts as singular there, as at the fold itself.
-    fn within_fold(&self, mode: ContactMode) -> bool {
+    pub(crate) fn within_fold(&self, mode: ContactMode) -> bool {
         let locked = &self.ws.data.locked;
         mode.active().any(|k| {
             // a chain passing its fold (locked) is within it by design

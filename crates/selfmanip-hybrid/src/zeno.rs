@@ -418,7 +418,16 @@ pub fn truncate(
     let inconsistent = |e: &CoreError| matches!(e, CoreError::PainleveInconsistent { .. });
     let held = match cx.outcome(t, &set, mode, q, qd, true) {
         Ok(Some(o)) => o.mode,
-        Ok(None) => ContactMode::with_defaults(model, &set)?,
+        // no set is consistent: the set held in its own kinds — unless a contact of it is
+        // within the fold threshold of its fold, where the impact's KKT matrix is as good
+        // as singular (as `mode_for` takes it): there is nothing to truncate into
+        Ok(None) => {
+            let m = ContactMode::with_defaults(model, &set)?;
+            if cx.within_fold(m) {
+                return Ok(None);
+            }
+            m
+        }
         Err(e) if inconsistent(&e) => return Ok(None),
         Err(e) => return Err(e.into()),
     };

@@ -15,8 +15,16 @@
 //!   contacts are held for the dwell: no liftoff or slip of them within `zeno_window_s`
 //!   (the dwell's shortest length);
 //! - the energy balance `E1 − E0 = W + W_fr − L` to 1e-6 J across the truncations.
+//!
+//! A truncation into a mode whose KKT matrix is as good as singular truncates nothing
+//! (`data/fold_truncation.json`: a two-legged robot of the user-robot sweep, seed 41, run
+//! 113, both legs two massless links, on stairs, with re-touch series at its hind chain's
+//! fold). Held sticking there, the chain's stop takes rates of 10⁴ rad/s, and the run ended
+//! in an error (`Ȧq̇` not finite). It now ends typed, with the Zeno window's status, at a
+//! state that is finite and where a chain of the window's contacts is within the fold
+//! threshold of its fold, by the closed form of a two-link chain's pin.
 use selfmanip_hybrid::zeno::ChatterDetector;
-use selfmanip_hybrid::{EventKind, Termination};
+use selfmanip_hybrid::{EventKind, HybridOptions, Termination};
 use selfmanip_sim::{Run, RunStatus, Scenario, Simulation};
 use std::path::Path;
 
@@ -86,4 +94,45 @@ fn the_energy_balance_closes_across_the_truncations() {
     let run = run();
     let report = run.energy_report().unwrap();
     assert!(report.residual_j().abs() < 1e-6, "{report:?}");
+}
+
+/// The pin of a two-link chain's sticking foot (`docs/singular-transitions.md` §3) in closed
+/// form: `√|r₁ × r₂| / max |r_j|` with `r₁` the hip-to-foot and `r₂` the knee-to-foot vectors,
+/// so `|r₁ × r₂| = ℓ₁ ℓ₂ |sin θ_knee|` and `|r₁|² = ℓ₁² + ℓ₂² + 2 ℓ₁ ℓ₂ cos θ_knee`.
+fn two_link_pin(l1: f64, l2: f64, knee: f64) -> f64 {
+    let reach = (l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * knee.cos()).sqrt();
+    (l1 * l2 * knee.sin().abs()).sqrt() / reach.max(l2)
+}
+
+#[test]
+fn a_truncation_at_a_fold_truncates_nothing() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fold_truncation.json");
+    let scenario = Scenario::from_file(&path).unwrap();
+    let run = Simulation::new(&scenario)
+        .unwrap()
+        .run()
+        .expect("the run ends typed, not with an error");
+    let (model, exec) = (&run.model, &run.execution);
+    assert!(
+        exec.q.iter().chain(&exec.qd).all(|v| v.is_finite()),
+        "{:?} {:?}",
+        exec.q,
+        exec.qd
+    );
+    // it ends with the Zeno window's status, one of whose contacts sits at the foot of a
+    // two-link massless chain within the fold threshold of its fold at the run's last state
+    let Termination::Zeno { contacts, .. } = &exec.termination else {
+        panic!("{:?}", exec.termination)
+    };
+    let folded = contacts.iter().any(|&k| {
+        let Some(link) = model.contacts[k].link else {
+            return false;
+        };
+        let leg = &model.legs[model.joints[link].leg];
+        let (thigh, shin) = (&model.joints[leg.first_joint], &model.joints[leg.first_joint + 1]);
+        assert!(leg.n_links == 2 && thigh.mass_kg == 0.0 && shin.mass_kg == 0.0);
+        two_link_pin(thigh.length_m, shin.length_m, exec.q[leg.first_joint + 1])
+            <= HybridOptions::default().fold_threshold
+    });
+    assert!(folded, "no chain of {contacts:?} at its fold: {:?}", exec.q);
 }
