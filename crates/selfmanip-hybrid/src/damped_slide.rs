@@ -5,9 +5,13 @@
 //! and dampers ([`selfmanip_core::passive`]). The contact problem itself is the core's
 //! ([`selfmanip_core::damped_slide`]).
 //!
-//! A law without damping — no servo, a saturated one, a rate-independent torque — has no
-//! damped slide: [`chain_law`] is `None` and the contact keeps the rigid engine's modes
-//! (`docs/singular-transitions.md` §10).
+//! A law without damping — no servo, a rate-independent torque — has no damped slide: its
+//! [`chain_law`] does not hold and the contact keeps the rigid engine's modes
+//! (`docs/singular-transitions.md` §10). A servo that a stop has taken to its torque limit
+//! has no damping at the stop's rates but has it inside the limit: where a reset judges the
+//! contact and where a segment starts, the law is linearized on the chain's torque-free
+//! manifold instead ([`torque_free_rates`]), and the slide is kept where its own rates lie
+//! inside the limit too ([`holds_at_slide_rates`]).
 use crate::controller::Controller;
 use nalgebra::{DMatrix, DVector};
 use selfmanip_core::damped_slide::{
@@ -70,6 +74,21 @@ fn law_in(
     Some(law)
 }
 
+/// [`law_in`], linearized on the chain's torque-free manifold where the law has no damping
+/// at the state's rates ([`law_off_state_into`]).
+fn law_off_state_in(
+    model: &Model,
+    ctrl: &dyn Controller,
+    state: (f64, &[f64], &[f64]),
+    mode: ContactMode,
+    mut law: ChainLaw,
+    scratch: &mut LawScratch,
+) -> Option<ChainLaw> {
+    law.holds = law_off_state_into(model, ctrl, state, mode, &mut law, scratch)?;
+    std::mem::swap(&mut law.damping, &mut scratch.damping);
+    Some(law)
+}
+
 /// The buffers of the chain laws ([`set_laws`]), kept by a caller that sets them
 /// often.
 #[derive(Debug, Clone, Default)]
@@ -100,6 +119,38 @@ fn law_into(
         2 => law_of_len(model, ctrl, state, mode, (law, 2), scratch),
         n => law_of_len(model, ctrl, state, mode, (law, n), scratch),
     }
+}
+
+/// [`law_into`], where the law has damping at the state's rates; where it has none there (a
+/// servo at its torque limit), the law linearized on the chain's torque-free manifold
+/// ([`torque_free_rates`]), the rest of the state as it is, where it has damping there. A
+/// massless chain's rates are algebraic, not a state: they are whatever its contact problem
+/// makes them, and where a stop has taken them to a servo's limit (a plastic impact stops
+/// a foot by a jump of its chain's rates that costs no impulse, thesis 5.1.3) the law at
+/// them has no damping, although the slide lies on the law's affine piece inside the limit
+/// — the piece the manifold lies on, its torque zero. The slide's own rates are then
+/// checked to lie where the law has damping too ([`holds_at_slide_rates`]). Where neither
+/// holds, the law at the state.
+fn law_off_state_into(
+    model: &Model,
+    ctrl: &dyn Controller,
+    (t, q, qd): (f64, &[f64], &[f64]),
+    mode: ContactMode,
+    law: &mut ChainLaw,
+    scratch: &mut LawScratch,
+) -> Option<bool> {
+    if law_into(model, ctrl, (t, q, qd), mode, law, scratch)? {
+        return Some(true);
+    }
+    let joints = law.joints.clone();
+    if let Some(rates) = torque_free_rates(model, ctrl, (t, q, qd), mode, joints.clone()) {
+        let mut v = qd.to_vec();
+        v[joints].copy_from_slice(&rates);
+        if law_into(model, ctrl, (t, q, &v), mode, law, scratch) == Some(true) {
+            return Some(true);
+        }
+    }
+    law_into(model, ctrl, (t, q, qd), mode, law, scratch)
 }
 
 /// [`law_into`] for a chain of `n` joints.
@@ -220,11 +271,14 @@ pub fn sliding_damped(damped: u32, mode: ContactMode) -> u32 {
 /// chain carries no other active contact, and whose law has damping ([`chain_law`]). To be
 /// called before `data` is prepared for `mode`. The laws are set in the buffers of the ones
 /// `data` holds, with buffers `scratch`: no allocation where the contacts that slide damped
-/// stay the same.
+/// stay the same. With `off_state` (where a segment starts, [`consistent_rates`]) a law
+/// without damping at the state's rates is linearized on its torque-free manifold
+/// ([`law_off_state_into`]); inside a segment (the flow) it is not, and keeps the damping it
+/// last held with up to its guard.
 pub fn set_laws(
     model: &Model,
     data: &mut Data,
-    damped: u32,
+    (damped, off_state): (u32, bool),
     ctrl: &dyn Controller,
     state: (f64, &[f64], &[f64]),
     mode: ContactMode,
@@ -267,7 +321,12 @@ pub fn set_laws(
             laws.swap(set, at);
         }
         let law = &mut laws[set].1;
-        let Some(holds) = law_into(model, ctrl, state, mode, law, scratch) else {
+        let holds = if off_state {
+            law_off_state_into(model, ctrl, state, mode, law, scratch)
+        } else {
+            law_into(model, ctrl, state, mode, law, scratch)
+        };
+        let Some(holds) = holds else {
             continue;
         };
         law.holds = holds;
@@ -310,7 +369,8 @@ fn shares_chain(
 
 /// [`set_laws`] without letting go of the laws `data` holds for other contacts (a reset
 /// evaluates several modes at one state, and prepares the one it selects again), and only
-/// where the law holds at the state: a candidate of a reset is a damped slide only there.
+/// where the law holds — at the state, or on the chain's torque-free manifold
+/// ([`law_off_state_into`]): a candidate of a reset is a damped slide only there.
 pub fn add_laws(
     model: &Model,
     data: &mut Data,
@@ -335,11 +395,91 @@ pub fn add_laws(
             Some(law) => ChainLaw { joints, ..law },
             None => empty_law(joints),
         };
-        if let Some(law) = law_in(model, ctrl, state, mode, law, &mut scratch).filter(|l| l.holds) {
+        if let Some(law) =
+            law_off_state_in(model, ctrl, state, mode, law, &mut scratch).filter(|l| l.holds)
+        {
             laws.push((k, law));
         }
     }
 }
+
+/// The rates of the chain `joints` at which its law's torque vanishes, `T(t, q, θ̇) = 0`, the
+/// rest of `q̇` held: the chain's torque-free manifold (`docs/singular-transitions.md` §10).
+/// Joint by joint (sweeps over the chain, for a law that couples its joints), each by
+/// Newton's steps on the torque's difference in the joint's own rate where the law has
+/// damping there, and by steps doubling from `max(1, |θ̇|)` rad/s along the torque's sign
+/// where it has none (a saturated servo's flat piece: a law with damping falls with its
+/// rate), bisecting once the torque's sign has turned. `None` where the torque does not
+/// vanish to [`TORQUE_FREE_TOL`] within the sweeps (a law without damping anywhere, one
+/// that rises with the rate).
+pub fn torque_free_rates(
+    model: &Model,
+    ctrl: &dyn Controller,
+    (t, q, qd): (f64, &[f64], &[f64]),
+    mode: ContactMode,
+    joints: std::ops::Range<usize>,
+) -> Option<Vec<f64>> {
+    const SWEEPS: usize = 4;
+    const STEPS: usize = 64;
+    let n = joints.len();
+    let mut v = qd.to_vec();
+    let (mut tau, mut out) = (vec![0.0; model.n_joints()], vec![0.0; n]);
+    let mut torque = |v: &[f64], p: usize| {
+        tau.fill(0.0);
+        ctrl.torque_of(t, (q, v), mode, joints.clone(), &mut tau);
+        law_torques_into(model, joints.clone(), &tau, (q, v), &mut out);
+        out[p]
+    };
+    let scale = (0..n).map(|p| torque(&v, p).abs()).fold(1.0, f64::max);
+    let tol = TORQUE_FREE_TOL * scale;
+    for _ in 0..SWEEPS {
+        for (p, j) in joints.clone().enumerate() {
+            let (mut x, mut tx) = (v[j], torque(&v, p));
+            // the last rates found with a positive and with a negative torque: a bracket
+            // once both are
+            let (mut pos, mut neg) = (None, None);
+            let mut reach = x.abs().max(1.0);
+            for _ in 0..STEPS {
+                if !tx.is_finite() {
+                    return None;
+                }
+                if tx.abs() <= tol {
+                    break;
+                }
+                if tx > 0.0 {
+                    pos = Some(x);
+                } else {
+                    neg = Some(x);
+                }
+                let h = RATE_STEP * x.abs().max(1.0);
+                v[j] = x + h;
+                let slope = (torque(&v, p) - tx) / h;
+                let newton = x - tx / slope;
+                x = match (pos, neg) {
+                    (Some(a), Some(b)) if newton > a.min(b) && newton < a.max(b) => newton,
+                    (Some(a), Some(b)) => 0.5 * (a + b),
+                    _ if slope < 0.0 && newton.is_finite() => newton,
+                    _ => {
+                        reach *= 2.0;
+                        x + 0.5 * reach * tx.signum()
+                    }
+                };
+                v[j] = x;
+                tx = torque(&v, p);
+            }
+            v[j] = x;
+        }
+        if (0..n).all(|p| torque(&v, p).abs() <= tol) {
+            return Some(v[joints].to_vec());
+        }
+    }
+    None
+}
+
+/// The share of the chain's largest torque (at least 1 N m) within which its law counts as
+/// torque-free ([`torque_free_rates`]): Newton's step on the law's affine piece lands within
+/// round-off of zero.
+const TORQUE_FREE_TOL: f64 = 1e-10;
 
 /// The relative time step of the central difference by which the law's torque is
 /// differentiated along the flow with the chain's rates held (`Ṫ`; exact for a law affine
@@ -657,7 +797,15 @@ pub fn consistent_rates(
     let damped = damped_contacts(model);
     stuck_rates(model, terrain, damped, mode, q, qd);
     let mut scratch = LawScratch::default();
-    set_laws(model, data, damped, ctrl, (t, q, qd), mode, &mut scratch);
+    set_laws(
+        model,
+        data,
+        (damped, true),
+        ctrl,
+        (t, q, qd),
+        mode,
+        &mut scratch,
+    );
     if data.damped_laws.is_empty() {
         return Ok(());
     }

@@ -590,7 +590,7 @@ impl FlowWorkspace {
             crate::damped_slide::set_laws(
                 model,
                 &mut self.data,
-                self.damped,
+                (self.damped, false),
                 ctrl,
                 (t, q, qd),
                 mode,

@@ -329,7 +329,7 @@ fn fresh_laws(ws: &mut FlowWorkspace, flow: &Flow, (t, mode): (f64, ContactMode)
     crate::damped_slide::set_laws(
         model,
         &mut ws.data,
-        ws.damped,
+        (ws.damped, false),
         &*ctrl,
         state,
         mode,

@@ -8,6 +8,9 @@
 //!   its consistency flag against the friction's power;
 //! - the power the force delivers to the body: the friction's and the servo's;
 //! - the chain law the engine reads off a servo controller: `K = diag kd`;
+//! - a servo saturating at its limit: its torque-free rates against the closed form of its
+//!   manifold, and the slide of a chain whose stop saturated it, linearized there, against
+//!   the unsaturated servo's;
 //! - none fires on a leg whose chain has one massless joint.
 mod systems;
 
@@ -17,7 +20,8 @@ use selfmanip_core::description::{FrictionDescription, JointAxis, LinkDescriptio
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{ContactKind, ContactMode, FlatGround, Model};
 use selfmanip_hybrid::damped_slide::{
-    chain_accelerations, chain_law, damped_contacts, liftoff_value,
+    add_laws, chain_accelerations, chain_law, damped_contacts, holds_at_slide_rates, liftoff_value,
+    torque_free_rates,
 };
 use selfmanip_hybrid::flow::FlowWorkspace;
 use selfmanip_hybrid::Controller;
@@ -484,7 +488,15 @@ fn laws_set_in_place_are_the_fresh_laws() {
         let qd_i: Vec<f64> = qd.iter().map(|v| v * (1.0 + s)).collect();
         let state = (0.01 * s, &q[..], &qd_i[..]);
         let ctrl: &dyn Controller = if i == 4 { &Stiff } else { &Servo };
-        set_laws(&model, &mut data, damped, ctrl, state, mode, &mut scratch);
+        set_laws(
+            &model,
+            &mut data,
+            (damped, false),
+            ctrl,
+            state,
+            mode,
+            &mut scratch,
+        );
         let fresh = chain_law(&model, ctrl, state, mode, 0).unwrap();
         let [(k, law)] = &data.damped_laws[..] else {
             panic!("one law: {:?}", data.damped_laws);
@@ -505,11 +517,115 @@ fn laws_set_in_place_are_the_fresh_laws() {
     set_laws(
         &model,
         &mut data,
-        damped,
+        (damped, false),
         &Servo,
         (0.0, &q, &qd),
         ContactMode::FLIGHT,
         &mut scratch,
     );
     assert!(data.damped_laws.is_empty());
+}
+
+/// The servo saturating at `±limit`, `τ = sat(kp (θ* − θ) − kd θ̇, ±limit)`.
+#[derive(Clone)]
+struct Saturating {
+    limit: f64,
+}
+
+impl Controller for Saturating {
+    fn torque(&self, _t: f64, q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
+        for j in 0..2 {
+            let u = KP[j] * (TARGET[j] - q[j]) - KD[j] * qd[j];
+            tau[j] = u.clamp(-self.limit, self.limit);
+        }
+    }
+}
+
+/// The chain's torque-free rates (`torque_free_rates`) are the servo's manifold in closed
+/// form, `θ̇ = kp (θ* − θ) / kd` (the saturated torque vanishes where its command does),
+/// from rates deep in saturation on either side, inside it, and on one joint's piece and
+/// the other's; a law without damping has none.
+#[test]
+fn the_torque_free_rates_are_the_servos_manifold() {
+    let (model, q, _, mode, _) = slide_law();
+    let ctrl = Saturating { limit: 0.5 };
+    let manifold: Vec<f64> = (0..2).map(|j| KP[j] * (TARGET[j] - q[j]) / KD[j]).collect();
+    let mut tried = 0;
+    for start in [
+        [40.0, -35.0],
+        [-60.0, 80.0],
+        [0.1, -0.2],
+        [1e3, 0.0],
+        [manifold[0], -1e4],
+    ] {
+        let qd = vec![start[0], start[1], 0.3, -0.2, 0.1];
+        let rates = torque_free_rates(&model, &ctrl, (0.0, &q, &qd), mode, 0..2)
+            .expect("the servo's manifold");
+        for j in 0..2 {
+            assert!(
+                (rates[j] - manifold[j]).abs() < 1e-9 * manifold[j].abs().max(1.0),
+                "from {start:?}: {rates:?} against {manifold:?}"
+            );
+        }
+        tried += 1;
+    }
+    assert_eq!(tried, 5);
+    let qd = vec![3.0, -2.0, 0.3, -0.2, 0.1];
+    assert!(torque_free_rates(&model, &Stiff, (0.0, &q, &qd), mode, 0..2).is_none());
+}
+
+/// A chain whose rates a stop has taken to its servos' limit has no damping there (`K = 0`),
+/// and its slide lies on the servo's linear piece: the reset's candidate law
+/// (`add_laws`) is the servo's linearized on its torque-free manifold, and the slide it
+/// gives is the one of the unsaturated servo (`force_and_rates_match_the_zero_inertia_limit`
+/// checks that one against the closed form) — where the slide's rates lie inside the limit
+/// (`holds_at_slide_rates`); with a limit below the slide's torques it is no candidate.
+#[test]
+fn a_saturated_stop_slides_on_the_servos_linear_piece() {
+    let (model, q, qd, mode, linear) = slide_law();
+    let mut kin = Kinematics::default();
+    kin.compute(&model, &q, &qd);
+    let want = solve(&model, &kin, &FlatGround, 0, &qd, &linear, MU, None)
+        .unwrap()
+        .expect("the unsaturated servo's slide");
+    let torques = (0..2).map(|j| KP[j] * (TARGET[j] - q[j]) - KD[j] * want.rates[j]);
+    let peak = torques.fold(0.0f64, |m, t| m.max(t.abs()));
+    // the stop's rates: the servo's command beyond the limit on both joints
+    let mut stopped = qd.clone();
+    stopped[0] = qd[0] + 1e3;
+    stopped[1] = qd[1] - 1e3;
+    for (limit, offered) in [(2.0 * peak, true), (0.5 * peak, false)] {
+        let ctrl = Saturating { limit };
+        let at_stop = chain_law(&model, &ctrl, (0.0, &q, &stopped), mode, 0).unwrap();
+        assert!(!at_stop.holds, "saturated at the stop's rates");
+        let mut ws = FlowWorkspace::new(&model);
+        add_laws(&model, &mut ws.data, 1, &ctrl, (0.0, &q, &stopped), mode);
+        let [(0, law)] = &ws.data.damped_laws[..] else {
+            panic!("one law for contact 0: {:?}", ws.data.damped_laws);
+        };
+        assert!(law.holds);
+        let k = DMatrix::from_diagonal(&DVector::from_column_slice(&KD));
+        assert!((&law.damping - k).amax() < 1e-6, "{}", law.damping);
+        let got = solve(&model, &kin, &FlatGround, 0, &stopped, law, MU, None)
+            .unwrap()
+            .expect("a slide");
+        let tol = 1e-9 * want.rates.amax().max(want.lambda[1].abs());
+        assert!(
+            (&got.rates - &want.rates).amax() < tol,
+            "{} {}",
+            got.rates,
+            want.rates
+        );
+        assert!((got.lambda[1] - want.lambda[1]).abs() < tol);
+        ws.data.prepare_state(&model, &q, &stopped).unwrap();
+        ws.data
+            .prepare_mode(&model, &FlatGround, mode, &stopped)
+            .unwrap()
+            .unwrap();
+        let holds = holds_at_slide_rates(&model, &ctrl, (0.0, &q, &stopped), mode, &ws.data);
+        assert_eq!(
+            holds, offered,
+            "limit {limit} against the slide's {peak} N m"
+        );
+    }
 }

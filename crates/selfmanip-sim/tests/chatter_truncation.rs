@@ -129,7 +129,10 @@ fn a_truncation_at_a_fold_truncates_nothing() {
             return false;
         };
         let leg = &model.legs[model.joints[link].leg];
-        let (thigh, shin) = (&model.joints[leg.first_joint], &model.joints[leg.first_joint + 1]);
+        let (thigh, shin) = (
+            &model.joints[leg.first_joint],
+            &model.joints[leg.first_joint + 1],
+        );
         assert!(leg.n_links == 2 && thigh.mass_kg == 0.0 && shin.mass_kg == 0.0);
         two_link_pin(thigh.length_m, shin.length_m, exec.q[leg.first_joint + 1])
             <= HybridOptions::default().fold_threshold

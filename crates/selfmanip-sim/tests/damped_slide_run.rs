@@ -17,7 +17,9 @@
 //!   stick (`data/user_run_N.json`: run 211, a general site held sliding by a Zeno
 //!   truncation's dwell while its normal force pulls; run 32, a damped slide ended by a
 //!   stick at a controller's phase; run 402, a general site held sliding whose force comes
-//!   to pull inside a segment of the dwell; runs 394 and 452, which showed the same faults),
+//!   to pull inside a segment of the dwell; runs 394 and 452, which showed the same faults;
+//!   seed 44's run 405, `data/saturated_chain_stairs.json`, whose feet slide where a stop
+//!   has saturated their chains' servos),
 //!   the friction's and the dampers' works are never positive and the balance closes to 1e-6 J.
 //! - the chain's torques the slide asks for (`Controller::torque_of`) are the whole
 //!   torque's, bit for bit.
@@ -226,7 +228,11 @@ fn the_run_is_deterministic() {
 /// friction, the friction of runs 211 and 452 did +3.2 J and +1.4 J, and before a site that
 /// comes to pull inside a segment lost it there, that of run 402 did +1.4 J (its foot driven
 /// to 29 m/s); before a stick set its chain's rates, the balance of run 32 missed by 66 J
-/// (its stuck foot kept sliding at 3.2 m/s) and that of run 394 by 1.1 kJ.
+/// (its stuck foot kept sliding at 3.2 m/s) and that of run 394 by 1.1 kJ. Seed 44's run
+/// 405 (`saturated_chain_stairs.json`: two legs of two massless links under servos with a
+/// torque limit, on stairs) slides where a stop has taken its servos to their limit (the
+/// chain's law linearized on its torque-free manifold); before, its feet re-touched
+/// 59,658 times without an event and the run ended at its step budget.
 #[test]
 fn user_runs_dissipate_and_balance() {
     for file in [
@@ -236,9 +242,20 @@ fn user_runs_dissipate_and_balance() {
         "user_run_394.json",
         "user_run_402.json",
         "user_run_452.json",
+        "saturated_chain_stairs.json",
     ] {
         let run = Simulation::new(&scenario_of(file)).unwrap().run().unwrap();
         assert_eq!(run.outcome.status, RunStatus::FinalTime, "{file}");
+        if file == "saturated_chain_stairs.json" {
+            let model = &run.model;
+            let segments = &run.execution.segments;
+            assert!(
+                segments
+                    .iter()
+                    .any(|s| s.t1 > s.t0 && !damped_in(model, s).is_empty()),
+                "{file}: no segment slides damped"
+            );
+        }
         let er = run.energy_report().unwrap();
         assert!(er.friction_work_j < -1e-4, "{file}: friction {er:?}");
         assert!(er.damping_work_j <= 1e-12, "{file}: damping {er:?}");
