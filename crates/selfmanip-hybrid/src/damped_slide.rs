@@ -41,7 +41,7 @@ pub fn chain_law(
     law_in(
         model,
         ctrl,
-        state,
+        (state, false),
         mode,
         empty_law(joints),
         &mut LawScratch::default(),
@@ -60,31 +60,21 @@ fn empty_law(joints: std::ops::Range<usize>) -> ChainLaw {
 }
 
 /// [`chain_law`] of the chain `law.joints`, in the buffers of `law` (whose numbers it
-/// replaces) and `scratch`.
+/// replaces) and `scratch`; with `off_state`, linearized on the chain's torque-free manifold
+/// where the law has no damping at the state's rates ([`law_off_state_into`]).
 fn law_in(
     model: &Model,
     ctrl: &dyn Controller,
-    state: (f64, &[f64], &[f64]),
+    (state, off_state): ((f64, &[f64], &[f64]), bool),
     mode: ContactMode,
     mut law: ChainLaw,
     scratch: &mut LawScratch,
 ) -> Option<ChainLaw> {
-    law.holds = law_into(model, ctrl, state, mode, &mut law, scratch)?;
-    std::mem::swap(&mut law.damping, &mut scratch.damping);
-    Some(law)
-}
-
-/// [`law_in`], linearized on the chain's torque-free manifold where the law has no damping
-/// at the state's rates ([`law_off_state_into`]).
-fn law_off_state_in(
-    model: &Model,
-    ctrl: &dyn Controller,
-    state: (f64, &[f64], &[f64]),
-    mode: ContactMode,
-    mut law: ChainLaw,
-    scratch: &mut LawScratch,
-) -> Option<ChainLaw> {
-    law.holds = law_off_state_into(model, ctrl, state, mode, &mut law, scratch)?;
+    law.holds = if off_state {
+        law_off_state_into(model, ctrl, state, mode, &mut law, scratch)?
+    } else {
+        law_into(model, ctrl, state, mode, &mut law, scratch)?
+    };
     std::mem::swap(&mut law.damping, &mut scratch.damping);
     Some(law)
 }
@@ -396,7 +386,7 @@ pub fn add_laws(
             None => empty_law(joints),
         };
         if let Some(law) =
-            law_off_state_in(model, ctrl, state, mode, law, &mut scratch).filter(|l| l.holds)
+            law_in(model, ctrl, (state, true), mode, law, &mut scratch).filter(|l| l.holds)
         {
             laws.push((k, law));
         }
