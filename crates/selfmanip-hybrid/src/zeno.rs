@@ -390,8 +390,9 @@ fn union(lists: &[Vec<usize>]) -> Vec<usize> {
 /// massless two-link chain cannot slide, section 1 of docs/singular-transitions.md), with
 /// every contact of `J` sticking. The run goes on in that mode, which the caller holds for
 /// the dwell ([`ZenoWindow::dwell_s`], [`Flow::set_held`]). `None` when there is nothing to
-/// truncate (no contact of the window in `J`, `J` singular either way, or a slide without
-/// consistent forces): the window's end stands.
+/// truncate (no contact of the window in `J`, `J` singular either way — within the fold
+/// threshold of a contact's fold too —, or a slide without consistent forces): the
+/// window's end stands.
 pub fn truncate(
     ws: &mut FlowWorkspace,
     flow: &mut Flow,
