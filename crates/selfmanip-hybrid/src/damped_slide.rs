@@ -70,11 +70,7 @@ fn law_in(
     mut law: ChainLaw,
     scratch: &mut LawScratch,
 ) -> Option<ChainLaw> {
-    law.holds = if off_state {
-        law_off_state_into(model, ctrl, state, mode, &mut law, scratch)?
-    } else {
-        law_into(model, ctrl, state, mode, &mut law, scratch)?
-    };
+    law.holds = law_off_state_into(model, ctrl, (state, off_state), mode, &mut law, scratch)?;
     std::mem::swap(&mut law.damping, &mut scratch.damping);
     Some(law)
 }
@@ -111,26 +107,27 @@ fn law_into(
     }
 }
 
-/// [`law_into`], where the law has damping at the state's rates; where it has none there (a
-/// servo at its torque limit), the law linearized on the chain's torque-free manifold
-/// ([`torque_free_rates`]), the rest of the state as it is, where it has damping there. A
-/// massless chain's rates are algebraic, not a state: they are whatever its contact problem
-/// makes them, and where a stop has taken them to a servo's limit (a plastic impact stops
-/// a foot by a jump of its chain's rates that costs no impulse, thesis 5.1.3) the law at
-/// them has no damping, although the slide lies on the law's affine piece inside the limit
-/// — the piece the manifold lies on, its torque zero. The slide's own rates are then
-/// checked to lie where the law has damping too ([`holds_at_slide_rates`]). Where neither
-/// holds, the law at the state.
+/// [`law_into`]; with `off_state`, where the law has damping at the state's rates, and where
+/// it has none there (a servo at its torque limit), the law linearized on the chain's
+/// torque-free manifold ([`torque_free_rates`]), the rest of the state as it is, where it
+/// has damping there. A massless chain's rates are algebraic, not a state: they are
+/// whatever its contact problem makes them, and where a stop has taken them to a servo's
+/// limit (a plastic impact stops a foot by a jump of its chain's rates that costs no
+/// impulse, thesis 5.1.3) the law at them has no damping, although the slide lies on the
+/// law's affine piece inside the limit — the piece the manifold lies on, its torque zero.
+/// The slide's own rates are then checked to lie where the law has damping too
+/// ([`holds_at_slide_rates`]). Where neither holds, the law at the state.
 fn law_off_state_into(
     model: &Model,
     ctrl: &dyn Controller,
-    (t, q, qd): (f64, &[f64], &[f64]),
+    ((t, q, qd), off_state): ((f64, &[f64], &[f64]), bool),
     mode: ContactMode,
     law: &mut ChainLaw,
     scratch: &mut LawScratch,
 ) -> Option<bool> {
-    if law_into(model, ctrl, (t, q, qd), mode, law, scratch)? {
-        return Some(true);
+    let holds = law_into(model, ctrl, (t, q, qd), mode, law, scratch)?;
+    if holds || !off_state {
+        return Some(holds);
     }
     let joints = law.joints.clone();
     if let Some(rates) = torque_free_rates(model, ctrl, (t, q, qd), mode, joints.clone()) {
@@ -311,12 +308,8 @@ pub fn set_laws(
             laws.swap(set, at);
         }
         let law = &mut laws[set].1;
-        let holds = if off_state {
-            law_off_state_into(model, ctrl, state, mode, law, scratch)
-        } else {
-            law_into(model, ctrl, state, mode, law, scratch)
-        };
-        let Some(holds) = holds else {
+        let Some(holds) = law_off_state_into(model, ctrl, (state, off_state), mode, law, scratch)
+        else {
             continue;
         };
         law.holds = holds;
@@ -457,7 +450,6 @@ pub fn torque_free_rates(
                 v[j] = x;
                 tx = torque(&v, p);
             }
-            v[j] = x;
         }
         if (0..n).all(|p| torque(&v, p).abs() <= tol) {
             return Some(v[joints].to_vec());
