@@ -36,6 +36,23 @@
 //! `−λ · (u − B θ̇) = −λ_t u_t + T(θ̇) · θ̇`, the friction's plus the chain law's (the
 //! damping's among it), which an energy balance counts at the chain's joints.
 //!
+//! **The saturated piece.** A servo at its torque limit carries its torque whatever its
+//! rate: the law's row of `K` for that joint `p` is zero ([`ChainLaw::saturated`]), `K` is
+//! singular, and the chain's balance with `u_n = 0` is the bordered system
+//!
+//! ```text
+//! [ K      Bᵀd ] [θ̇ − θ̇_c]   [ T_c            ]
+//! [ b_nᵀ   0   ] [  λ_n   ] = [ −(A q̇)_n|_{θ̇_c} ],     d = (c, 1),
+//! ```
+//!
+//! whose row `p` alone sets the normal force, `λ_n = T_p / (Bᵀd)_p`; the other joints'
+//! balance sets their rates up to the saturated joint's free motion (the null vector `r` of
+//! `K`, [`saturated_split`]), and `u_n = 0` sets that motion. It is the limit of the slide
+//! with that joint damped by `ε → 0`, and its side's normal response is the limit
+//! `ε (G_nn + c G_nt) = (b_nᵀ r) (Bᵀd)_p` (Painlevé's region where it is not positive).
+//! Which piece of the law the slide lies on is the caller's to settle (the law at the
+//! slide's own rates, `selfmanip_hybrid::damped_slide::prepare_on_pieces`).
+//!
 //! A stick that ends a damped slide without an impact (at a force event: a controller's
 //! phase, another contact's guard) holds the foot at rest: the chain's rates are set so
 //! that the foot's velocity is zero ([`stick_rates`]; the chain carries no momentum).
@@ -353,6 +370,9 @@ fn solve_into(
             quantity: "a damped chain's torques or damping",
         });
     }
+    if let Some(p) = law.saturated {
+        return solve_saturated_into(a, qd, law, p, mu_k, side, slide);
+    }
     // K⁻¹ in place, in the slide's own buffer
     let (j0, n) = (law.joints.start, law.joints.len());
     slide.k_inv.clear();
@@ -384,31 +404,16 @@ fn solve_into(
             && lambda_n < 0.0
             && (mu_k == 0.0 || s * u_t > crate::friction::SLIDING_SPEED_EPS_M_S)
     };
-    let s = match side {
-        Some(s) if s != 0.0 => s.signum(),
-        _ => {
-            // the side of the sticking force `λ_s = G⁻¹ w` (`u = 0`): a foot leaving the
-            // cone at rest slides on the edge its sticking force reached (continuity,
-            // `c = λ_t/λ_n = −μ_k s` there); else the frictionless slide's
-            let rest = g
-                .try_inverse()
-                .map(|gi| gi * w)
-                .filter(|l| l[1] < 0.0)
-                .map_or(0.0, |l| l[0].signum());
-            let free = (w[0] - g[(0, 1)] * w[1] / g[(1, 1)]).signum();
-            let first = if rest != 0.0 { rest } else { free };
-            let first = if first == 0.0 || first.is_nan() {
-                1.0
-            } else {
-                first
-            };
-            if !consistent(first) && consistent(-first) {
-                -first
-            } else {
-                first
-            }
-        }
+    // the side of the sticking force `λ_s = G⁻¹ w` (`u = 0`), else the frictionless
+    // slide's `u_t`
+    let rest = || {
+        g.try_inverse()
+            .map(|gi| gi * w)
+            .filter(|l| l[1] < 0.0)
+            .map_or(0.0, |l| l[0].signum())
     };
+    let free = || (w[0] - g[(0, 1)] * w[1] / g[(1, 1)]).signum();
+    let s = chosen_side(side, rest, free, consistent);
     let (c, lambda_n, u_t) = on_side(s);
     if !lambda_n.is_finite() {
         return Ok(false);
@@ -435,6 +440,160 @@ fn solve_into(
     slide.u_t = u_t;
     slide.consistent = consistent(s);
     slide.wedged = g[(1, 1)] + c * g[(1, 0)] <= wedge;
+    Ok(true)
+}
+
+/// The side a slide takes: `side` where given (a segment keeps its side), else the side of
+/// the foot's sticking force `rest` where it pushes — a foot leaving the cone at rest slides
+/// on the edge its sticking force reached (continuity, `c = λ_t/λ_n = −μ_k s` there) —, else
+/// that of the frictionless slide's `u_t` (`free`); the other side where only it is
+/// `consistent`.
+fn chosen_side(
+    side: Option<f64>,
+    rest: impl FnOnce() -> f64,
+    free: impl FnOnce() -> f64,
+    consistent: impl Fn(f64) -> bool,
+) -> f64 {
+    if let Some(s) = side.filter(|&s| s != 0.0) {
+        return s.signum();
+    }
+    let rest = rest();
+    let first = if rest != 0.0 { rest } else { free() };
+    let first = if first == 0.0 || first.is_nan() {
+        1.0
+    } else {
+        first
+    };
+    if !consistent(first) && consistent(-first) {
+        -first
+    } else {
+        first
+    }
+}
+
+/// The split of a saturated piece's damping `K` (`n × n`, its row `p` zero:
+/// [`ChainLaw::saturated`]): the solution `x₀` of `K x = y` with `x₀_p = 0` —
+/// `K_FF x₀_F = y_F` over the other joints `F`; row `p` of `y` is the caller's to balance —
+/// and the null vector `r` of `K` with `r_p = 1` (`K_FF r_F = −K_Fp`), so that every
+/// solution is `x₀ + σ r`. `None` where `K_FF` is singular.
+pub fn saturated_split(
+    k: &DMatrix<f64>,
+    p: usize,
+    y: &[f64],
+) -> Option<(DVector<f64>, DVector<f64>)> {
+    let n = k.nrows();
+    let free: Vec<usize> = (0..n).filter(|&i| i != p).collect();
+    let lu = DMatrix::from_fn(n - 1, n - 1, |r, c| k[(free[r], free[c])]).lu();
+    let x = lu.solve(&DVector::from_iterator(n - 1, free.iter().map(|&i| y[i])))?;
+    let r = lu.solve(&DVector::from_iterator(
+        n - 1,
+        free.iter().map(|&i| -k[(i, p)]),
+    ))?;
+    let (mut x0, mut r0) = (DVector::zeros(n), DVector::zeros(n));
+    for (c, &i) in free.iter().enumerate() {
+        x0[i] = x[c];
+        r0[i] = r[c];
+    }
+    r0[p] = 1.0;
+    (x0.iter().chain(r0.iter()).all(|v| v.is_finite())).then_some((x0, r0))
+}
+
+/// [`solve_into`] on a saturated piece (module docs): joint `p` of the chain carries its
+/// law's torque `T_p` whatever its rate, so its balance alone sets the normal force on a
+/// side, `λ_n = T_p / (Bᵀd)_p`, the other joints' balance sets their rates up to the
+/// saturated joint's free motion `r` (the null vector of `K`, [`saturated_split`]), and
+/// `u_n = 0` sets that motion. The side's normal response is the limit `ε D = (b_nᵀ r)
+/// (Bᵀd)_p` of `ε (G_nn + c G_nt)` as the saturated joint's damping `ε → 0`: Painlevé's
+/// region where it is within the wedge tolerance of zero or below.
+#[allow(clippy::too_many_arguments)]
+fn solve_saturated_into(
+    a: &DMatrix<f64>,
+    qd: &[f64],
+    law: &ChainLaw,
+    p: usize,
+    mu_k: f64,
+    side: Option<f64>,
+    slide: &mut DampedSlide,
+) -> Result<bool> {
+    let (j0, n) = (law.joints.start, law.joints.len());
+    if p >= n || n < 2 {
+        return Ok(false);
+    }
+    let a_s = a.as_slice();
+    let b = &a_s[2 * j0..2 * (j0 + n)];
+    let (b_t, b_n) = (|i: usize| b[2 * i], |i: usize| b[2 * i + 1]);
+    // u0 = A q̇ with the chain at θ̇_c
+    let rate = qd[..j0]
+        .iter()
+        .chain(law.rates.iter())
+        .chain(&qd[j0 + n..])
+        .copied();
+    let mut u0 = [0.0; 2];
+    exact::gemv_with(a_s, rate, &mut u0);
+    let k = &law.damping;
+    // on the cone's edge `d = (c, 1)`: λ_n, the rates' step from θ̇_c, u_t and the normal
+    // response with its wedge tolerance
+    let on_edge = |c: f64| {
+        let bd_p = b_n(p) + c * b_t(p);
+        let lambda_n = law.torque[p] / bd_p;
+        let y: Vec<f64> = (0..n)
+            .map(|i| law.torque[i] - (b_n(i) + c * b_t(i)) * lambda_n)
+            .collect();
+        let (x0, r) = saturated_split(k, p, &y)?;
+        let bn_r: f64 = (0..n).map(|i| b_n(i) * r[i]).sum();
+        let bn_x0: f64 = (0..n).map(|i| b_n(i) * x0[i]).sum();
+        let step = x0 + r.clone() * (-(u0[1] + bn_x0) / bn_r);
+        let u_t = u0[0] + (0..n).map(|i| b_t(i) * step[i]).sum::<f64>();
+        let response = bn_r * bd_p;
+        let wedge = WEDGE_TOL * bn_r.abs() * (b_n(p).abs() + mu_k * b_t(p).abs());
+        let finite = lambda_n.is_finite() && u_t.is_finite() && step.iter().all(|v| v.is_finite());
+        finite.then_some((lambda_n, step, u_t, response, wedge, r))
+    };
+    let consistent = |s: f64| {
+        on_edge(-mu_k * s).is_some_and(|(lambda_n, _, u_t, response, wedge, _)| {
+            response > wedge
+                && lambda_n < 0.0
+                && (mu_k == 0.0 || s * u_t > crate::friction::SLIDING_SPEED_EPS_M_S)
+        })
+    };
+    // the sticking force: [K Bᵀ; B 0] [θ̇ − θ̇_c; λ] = [T_c; −u0]
+    let rest = || {
+        let h = DMatrix::from_fn(n + 2, n + 2, |r, c| match (r < n, c < n) {
+            (true, true) => k[(r, c)],
+            (true, false) => b[2 * r + (c - n)],
+            (false, true) => b[2 * c + (r - n)],
+            (false, false) => 0.0,
+        });
+        let rhs = DVector::from_iterator(n + 2, law.torque.iter().copied().chain([-u0[0], -u0[1]]));
+        h.lu()
+            .solve(&rhs)
+            .filter(|x| x[n + 1] < 0.0)
+            .map_or(0.0, |x| x[n].signum())
+    };
+    let free = || on_edge(0.0).map_or(0.0, |e| e.2.signum());
+    let s = chosen_side(side, rest, free, consistent);
+    let c = -mu_k * s;
+    let Some((lambda_n, step, u_t, response, wedge, r)) = on_edge(c) else {
+        return Ok(false);
+    };
+    if slide.rates.len() != n {
+        slide.rates = DVector::zeros(n);
+    }
+    for (i, x) in slide.rates.iter_mut().enumerate() {
+        *x = law.rates[i] + step[i];
+    }
+    let br_t: f64 = (0..n).map(|i| b_t(i) * r[i]).sum();
+    let br_n: f64 = (0..n).map(|i| b_n(i) * r[i]).sum();
+    slide.lambda = [c * lambda_n, lambda_n];
+    slide.coef = c;
+    slide.side = s;
+    slide.w = Vector2::new(u0[0], u0[1]);
+    // ε G → (B r) b_pᵀ
+    slide.g = Matrix2::new(br_t * b_t(p), br_t * b_n(p), br_n * b_t(p), br_n * b_n(p));
+    slide.u_t = u_t;
+    slide.k_inv.clear();
+    slide.consistent = consistent(s);
+    slide.wedged = response <= wedge;
     Ok(true)
 }
 
@@ -629,6 +788,7 @@ mod tests {
             torque: DVector::from_fn(n, |_, _| r.gen_range(-1.0..1.0)),
             damping: &c * c.transpose() + DMatrix::identity(n, n),
             holds: true,
+            saturated: None,
         };
         (a, qd, law)
     }
@@ -681,6 +841,68 @@ mod tests {
             }
         }
         assert!(checked > 150, "{checked}");
+    }
+
+    /// The slide on a saturated piece (a joint `p` whose row of `K` is zero, its torque
+    /// fixed: [`solve_saturated_into`]) is the limit of the slide with that joint damped by
+    /// `ε → 0` (`K + ε e_p e_pᵀ`, the full piece's route): on a fixed side, the force and
+    /// the rates of chains of 2 to 5 joints — whose other joints couple to the saturated
+    /// one, `K_Fp ≠ 0` — at random rows, rates and laws, their difference falling with
+    /// `ε`; and its own equations hold: `u_n = 0` and `T_c − K (θ̇ − θ̇_c) = Bᵀλ`, the
+    /// saturated row included.
+    #[test]
+    fn the_saturated_piece_is_the_limit_of_vanishing_damping() {
+        let mut r = ChaCha8Rng::seed_from_u64(33);
+        let mut checked = 0;
+        for n in 2..=5 {
+            for case in 0..40 {
+                let j0 = 1;
+                let (a, qd, mut law) = random_slide(&mut r, n, n + 4, j0);
+                let p = case % n;
+                for c in 0..n {
+                    law.damping[(p, c)] = 0.0;
+                }
+                law.saturated = Some(p);
+                let side = Some(if case % 2 == 0 { 1.0 } else { -1.0 });
+                let Some(sat) = solve_rows(0, a.clone(), &qd, &law, 0.6, side).unwrap() else {
+                    continue;
+                };
+                if sat.wedged {
+                    continue;
+                }
+                // its equations
+                let b = a.columns(j0, n).into_owned();
+                let lambda = DVector::from_column_slice(&sat.lambda);
+                let mut qd_s = DVector::from_column_slice(&qd);
+                qd_s.rows_mut(j0, n).copy_from(&sat.rates);
+                let scale = 1.0 + lambda.norm() + sat.rates.norm();
+                assert!((&a * qd_s)[1].abs() < 1e-10 * scale, "u_n, n={n}");
+                let t = &law.torque - &law.damping * (&sat.rates - &law.rates);
+                assert!(
+                    (t - b.transpose() * &lambda).amax() < 1e-10 * scale,
+                    "balance"
+                );
+                // the limit
+                let gap = |eps: f64| {
+                    let mut damped = law.clone();
+                    damped.damping[(p, p)] = eps;
+                    damped.saturated = None;
+                    let d = solve_rows(0, a.clone(), &qd, &damped, 0.6, side)
+                        .unwrap()
+                        .expect("the slide of the damped joint");
+                    let dl = (DVector::from_column_slice(&d.lambda) - &lambda).amax();
+                    (dl + (&d.rates - &sat.rates).amax()) / scale
+                };
+                // O(ε), down to the round-off of K⁻¹'s entries of order 1/ε
+                let (coarse, fine) = (gap(1e-4), gap(1e-6));
+                assert!(
+                    fine < 0.03 * coarse + 1e-9,
+                    "n={n}, p={p}: {coarse:e} → {fine:e}"
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 60, "{checked}");
     }
 
     /// A slide solved into the buffers of another ([`solve_into`], as the split reuses the

@@ -72,11 +72,18 @@ pub struct ChainLaw {
     pub rates: DVector<f64>,
     pub torque: DVector<f64>,
     pub damping: DMatrix<f64>,
-    /// Whether the law's own damping at the state is positive definite (the damped slide
-    /// holds). Where it is not (a servo saturated, a phase without damping), `damping` is
-    /// the last one that held, carried over so that the flow stays defined up to the
-    /// slide's liftoff guard, which fires there (`selfmanip_hybrid::damped_slide`).
+    /// Whether the damped slide holds on the law's piece at the state: its damping is
+    /// positive definite, or it is on a saturated piece ([`Self::saturated`]) with damping
+    /// at every other joint. Where it does not (both servos of a two-joint chain saturated,
+    /// a phase without damping), `damping` and `saturated` are the last ones that held,
+    /// carried over so that the flow stays defined up to the slide's liftoff guard, which
+    /// fires there (`selfmanip_hybrid::damped_slide`).
     pub holds: bool,
+    /// The chain's joint (its index in the chain) whose torque does not move with the
+    /// chain's rates on the law's piece — a servo at its torque limit: its row of `K` is
+    /// zero — with the symmetric part of `K` over the other joints positive definite; `None`
+    /// on a piece with damping at every joint (`crate::damped_slide`, the saturated piece).
+    pub saturated: Option<usize>,
 }
 
 /// The damped slide of one contact at one state ([`solve`]).
@@ -89,7 +96,10 @@ pub struct DampedSlide {
     pub coef: f64,
     /// The side `s = ±1` of the sliding velocity `u_t` the friction opposes (`s = sign u_t`).
     pub side: f64,
-    /// The foot's velocity with no force `w` and its mobility `G`, in the rows `(t, n)`.
+    /// The foot's velocity with no force `w` and its mobility `G`, in the rows `(t, n)`. On
+    /// a saturated piece, where the saturated joint moves the foot freely (`G` unbounded),
+    /// `w` is the foot's velocity at the law's rates `θ̇_c` and `g` the limit `ε G` as that
+    /// joint's damping `ε → 0`.
     pub w: Vector2<f64>,
     pub g: Matrix2<f64>,
     /// The foot's sliding velocity `u_t` in the tangential row (m/s).
@@ -97,7 +107,8 @@ pub struct DampedSlide {
     /// The chain's rates `θ̇` (rad/s, joint order).
     pub rates: DVector<f64>,
     /// `K⁻¹`, the inverse of its law's damping (`n × n`, column-major), which the slide was
-    /// solved with (and the chain's accelerations read).
+    /// solved with (and the chain's accelerations read); empty on a saturated piece, whose
+    /// `K` is singular ([`ChainLaw::saturated`]).
     pub k_inv: Vec<f64>,
     /// Whether the slide is consistent: the foot pushes and, with friction, slides on the
     /// side its friction opposes, faster than the rest band

@@ -58,20 +58,21 @@ impl ResetWorkspace<'_> {
                     m,
                 );
             }
-            match self.ws.data.prepare_mode(self.model, self.terrain, m, qd)? {
+            // a damped slide is solved on the piece of its law where its own rates lie, and
+            // one whose law holds on none is no candidate
+            let prepared = crate::damped_slide::prepare_on_pieces(
+                self.model,
+                self.terrain,
+                self.ctrl,
+                (t, q, qd),
+                m,
+                &mut self.ws.data,
+            )?;
+            let Some(prepared) = prepared else {
+                return Ok(None);
+            };
+            match prepared {
                 Ok(()) if self.within_fold(m) => return Ok(None),
-                // a damped slide whose law does not hold at its own rates is no candidate
-                Ok(())
-                    if !crate::damped_slide::holds_at_slide_rates(
-                        self.model,
-                        self.ctrl,
-                        (t, q, qd),
-                        m,
-                        &self.ws.data,
-                    ) =>
-                {
-                    return Ok(None)
-                }
                 // one wedged on both sides (inconsistent) is kept sticking, marked for the
                 // jam hold (reset::wedged_holds)
                 Ok(()) if self.ws.data.damped.iter().any(|d| !d.consistent) => {

@@ -5,21 +5,26 @@
 //! and dampers ([`selfmanip_core::passive`]). The contact problem itself is the core's
 //! ([`selfmanip_core::damped_slide`]).
 //!
-//! A law without damping — no servo, a rate-independent torque — has no damped slide: its
-//! [`chain_law`] does not hold and the contact keeps the rigid engine's modes
-//! (`docs/singular-transitions.md` §10). A servo that a stop has taken to its torque limit
-//! has no damping at the stop's rates but has it inside the limit: where a reset judges the
-//! contact and where a segment starts, the law is linearized on the chain's torque-free
-//! manifold instead ([`torque_free_rates`]), and the slide is kept where its own rates lie
-//! inside the limit too ([`holds_at_slide_rates`]).
+//! A law without damping — no servo, a rate-independent torque, every servo of the chain at
+//! its limit — has no damped slide: its [`chain_law`] does not hold and the contact keeps
+//! the rigid engine's modes (`docs/singular-transitions.md` §10). A law with one servo at
+//! its limit holds on that saturated piece ([`ChainLaw::saturated`], solved by the core).
+//! The law is affine on each piece and kinks between them, so a slide is solved on the piece
+//! where its own rates lie: where a reset judges the contact and where a segment starts, the
+//! law is linearized at the state — or, where it holds on no piece there (a stop that took
+//! the servos past their limits), on the chain's torque-free manifold
+//! ([`torque_free_rates`]) — and moved to the piece of the slide's rates until it stays
+//! there ([`prepare_on_pieces`], [`laws_on_slide_pieces`]).
 use crate::controller::Controller;
 use nalgebra::{DMatrix, DVector};
 use selfmanip_core::damped_slide::{
-    contact_rows_and_rates, damped_chain, exact, stick_rates, ChainLaw, DampedSlide,
+    contact_rows_and_rates, damped_chain, exact, saturated_split, stick_rates, ChainLaw,
+    DampedSlide,
 };
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::passive::joint_torque;
-use selfmanip_core::{ContactMode, CoreError, Data, Model, Terrain};
+use selfmanip_core::{ContactMode, CoreError, Data, Model, SingularityKind, Terrain};
+use std::borrow::Cow;
 
 /// The relative step in a joint's rate by which `K` is differenced (the torque is affine in
 /// the rate for every law the behaviours write, so the step only needs to stay clear of
@@ -56,6 +61,7 @@ fn empty_law(joints: std::ops::Range<usize>) -> ChainLaw {
         damping: DMatrix::zeros(0, 0),
         joints,
         holds: false,
+        saturated: None,
     }
 }
 
@@ -72,6 +78,7 @@ fn law_in(
 ) -> Option<ChainLaw> {
     law.holds = law_off_state_into(model, ctrl, (state, off_state), mode, &mut law, scratch)?;
     std::mem::swap(&mut law.damping, &mut scratch.damping);
+    law.saturated = scratch.saturated;
     Some(law)
 }
 
@@ -87,11 +94,15 @@ pub struct LawScratch {
     /// The lower triangle of the symmetric part of `K` (column-major `n × n`), factored in
     /// place.
     sym: Vec<f64>,
+    /// The law's saturated joint at the state ([`ChainLaw::saturated`]).
+    saturated: Option<usize>,
 }
 
 /// The law of the chain `law.joints` at `(t, q, q̇)` ([`chain_law`]): its `θ̇_c` and `T_c`
-/// into `law`, its damping `K` into `scratch.damping`; whether `K` is positive definite, or
-/// `None` for a law that is not finite.
+/// into `law`, its damping `K` into `scratch.damping` and its saturated joint into
+/// `scratch.saturated`; whether the slide holds on the law's piece there — `K` positive
+/// definite, or one joint saturated ([`saturated_joint`]) —, or `None` for a law that is
+/// not finite.
 fn law_into(
     model: &Model,
     ctrl: &dyn Controller,
@@ -107,16 +118,15 @@ fn law_into(
     }
 }
 
-/// [`law_into`]; with `off_state`, where the law has damping at the state's rates, and where
-/// it has none there (a servo at its torque limit), the law linearized on the chain's
-/// torque-free manifold ([`torque_free_rates`]), the rest of the state as it is, where it
-/// has damping there. A massless chain's rates are algebraic, not a state: they are
+/// [`law_into`]; with `off_state`, where the law holds at the state's rates (on any piece),
+/// and where it holds on none there (its servos at their torque limits), the law linearized
+/// on the chain's torque-free manifold ([`torque_free_rates`]), the rest of the state as it
+/// is, where it holds there. A massless chain's rates are algebraic, not a state: they are
 /// whatever its contact problem makes them, and where a stop has taken them to a servo's
-/// limit (a plastic impact stops a foot by a jump of its chain's rates that costs no
-/// impulse, thesis 5.1.3) the law at them has no damping, although the slide lies on the
-/// law's affine piece inside the limit — the piece the manifold lies on, its torque zero.
-/// The slide's own rates are then checked to lie where the law has damping too
-/// ([`holds_at_slide_rates`]). Where neither holds, the law at the state.
+/// limits (a plastic impact stops a foot by a jump of its chain's rates that costs no
+/// impulse, thesis 5.1.3) the law at them has no damping, although the slide lies on a
+/// piece with damping — the manifold's, its torque zero, is a start from which the slide's
+/// own piece is found ([`prepare_on_pieces`]). Where neither holds, the law at the state.
 fn law_off_state_into(
     model: &Model,
     ctrl: &dyn Controller,
@@ -156,6 +166,7 @@ fn law_of_len(
         up,
         damping,
         sym,
+        saturated,
     } = scratch;
     let joints = law.joints.clone();
     debug_assert_eq!(n, joints.len());
@@ -200,7 +211,12 @@ fn law_of_len(
             sym[c * n + r] = (k[c * n + r] + k[r * n + c]) * 0.5;
         }
     }
-    let holds = cholesky_in_place(sym, n);
+    let mut holds = cholesky_in_place(sym, n);
+    *saturated = None;
+    if !holds {
+        *saturated = saturated_joint(k, torque, n, sym);
+        holds = saturated.is_some();
+    }
     if law.rates.len() != n {
         law.rates = DVector::zeros(n);
     }
@@ -208,6 +224,36 @@ fn law_of_len(
         .copy_from_slice(&qd[joints.start..joints.start + n]);
     finite.then_some(holds)
 }
+
+/// The joint of a chain of `n` joints whose row of the damping `k` (column-major) is zero
+/// while the symmetric part of `K` over the other joints is positive definite (factored in
+/// `sym`): the law's saturated piece ([`ChainLaw::saturated`]). A row counts as zero below
+/// the differences' round-off, [`SATURATED_ROW`] of the law's largest torque (at least
+/// 1 N m) per unit rate. `None` where no row or more than one is zero.
+fn saturated_joint(k: &[f64], torque: &[f64], n: usize, sym: &mut [f64]) -> Option<usize> {
+    let scale = torque.iter().fold(1.0f64, |m, t| m.max(t.abs())) * SATURATED_ROW;
+    let zero = |r: usize| (0..n).all(|c| k[c * n + r].abs() <= scale);
+    let mut rows = (0..n).filter(|&r| zero(r));
+    let p = rows.next()?;
+    if rows.next().is_some() || n < 2 {
+        return None;
+    }
+    let m = n - 1;
+    let free = |i: usize| if i < p { i } else { i + 1 };
+    for c in 0..m {
+        for r in c..m {
+            let (i, j) = (free(r), free(c));
+            sym[c * m + r] = (k[j * n + i] + k[i * n + j]) * 0.5;
+        }
+    }
+    cholesky_in_place(&mut sym[..m * m], m).then_some(p)
+}
+
+/// The bound below which a row of the differenced damping is zero, per N m of the law's
+/// torque ([`saturated_joint`]): the differences' round-off, `ε_mach |T| / h` with the
+/// step `h` = [`RATE_STEP`], is some `1e-10` per N m; a joint damped by less than a
+/// millionth of its torque per rad/s counts as saturated.
+const SATURATED_ROW: f64 = 1e-6;
 
 /// The Cholesky factor `L` of the symmetric `n × n` matrix whose lower triangle `m`
 /// holds (column-major; the upper triangle is neither read nor written), in place: whether
@@ -315,6 +361,7 @@ pub fn set_laws(
         law.holds = holds;
         if holds {
             std::mem::swap(&mut law.damping, &mut scratch.damping);
+            law.saturated = scratch.saturated;
         } else if before.is_none() {
             continue;
         }
@@ -659,16 +706,11 @@ fn slide_accelerations(
             }
         }
     }
-    // A and Ȧ as the split assembled them at this state, else assembled here
-    let assembled;
-    let (a, a_dot) = match &d.rows_dot {
-        Some(a_dot) => (&d.rows, a_dot),
-        None => {
-            let (a, a_dot, _) = contact_rows_and_rates(model, kin, terrain, d.contact, qd);
-            assembled = (a, a_dot);
-            (&assembled.0, &assembled.1)
-        }
-    };
+    let (a, a_dot) = rows_and_rates(d, (model, kin, terrain), qd);
+    let (a, a_dot) = (&*a, &*a_dot);
+    if let Some(p) = law.saturated {
+        return saturated_accelerations((qd, qdd), (d, law, p), (a, a_dot), t_dot, out);
+    }
     // B, Ḃ: the rows over the chain (2 × n, column-major)
     let b = &a.as_slice()[2 * j0..2 * (j0 + n)];
     let b_dot = &a_dot.as_slice()[2 * j0..2 * (j0 + n)];
@@ -699,6 +741,71 @@ fn slide_accelerations(
     exact::gemv(ki, w, kbd);
     for p in 0..n {
         out[j0 + p] = v_dot[p] - kbd[p];
+    }
+}
+
+/// The accelerations of the chain of one damped slide `d` on its law's saturated piece
+/// (joint `p` saturated, [`ChainLaw::saturated`]; `K` singular) into `out` (`q̈`), with
+/// the rest of the robot's `q̈` in `qdd` and the law's rate `Ṫ` (the chain's rates held)
+/// in `t_dot`: the balance `T = Bᵀd λ_n` and `u_n = 0` differentiated along the flow, the
+/// side `c` kept,
+///
+/// ```text
+/// K θ̈ + Bᵀd λ̇_n = Ṫ − Ḃᵀd λ_n,
+/// b_nᵀ θ̈ = −(ȧ_{n,r}ᵀ q̇_r + a_{n,r}ᵀ q̈_r + ḃ_nᵀ θ̇),
+/// ```
+///
+/// whose row `p` sets `λ̇_n`, the other rows `θ̈` up to the saturated joint's free motion
+/// `r` ([`saturated_split`]), and the last row that motion.
+fn saturated_accelerations(
+    (qd, qdd): (&[f64], &[f64]),
+    (d, law, p): (&DampedSlide, &ChainLaw, usize),
+    (a, a_dot): (&DMatrix<f64>, &DMatrix<f64>),
+    t_dot: &[f64],
+    out: &mut [f64],
+) {
+    let joints = law.joints.clone();
+    let (j0, n) = (joints.start, joints.len());
+    let (b, b_dot) = (
+        &a.as_slice()[2 * j0..2 * (j0 + n)],
+        &a_dot.as_slice()[2 * j0..2 * (j0 + n)],
+    );
+    let (coef, lambda_n) = (d.coef, d.lambda[1]);
+    let bd = |m: &[f64], i: usize| m[2 * i + 1] + coef * m[2 * i];
+    let lambda_n_dot = (t_dot[p] - bd(b_dot, p) * lambda_n) / bd(b, p);
+    let y: Vec<f64> = (0..n)
+        .map(|i| t_dot[i] - bd(b_dot, i) * lambda_n - bd(b, i) * lambda_n_dot)
+        .collect();
+    // K_FF is nonsingular where the law held (its symmetric part positive definite)
+    let Some((x0, r)) = saturated_split(&law.damping, p, &y) else {
+        out[joints].fill(f64::NAN);
+        return;
+    };
+    let off = |m: &DMatrix<f64>, x: &[f64]| normal_off_chain(m.as_slice(), x, &joints);
+    let rates = d.rates.as_slice();
+    let normal =
+        -(off(a_dot, qd) + off(a, qdd) + (0..n).map(|i| b_dot[2 * i + 1] * rates[i]).sum::<f64>());
+    let bn_r: f64 = (0..n).map(|i| b[2 * i + 1] * r[i]).sum();
+    let bn_x0: f64 = (0..n).map(|i| b[2 * i + 1] * x0[i]).sum();
+    let sigma = (normal - bn_x0) / bn_r;
+    for i in 0..n {
+        out[j0 + i] = x0[i] + sigma * r[i];
+    }
+}
+
+/// The rows `A` of damped slide `d` and their rate `Ȧ`: as the split assembled them at
+/// this state, else assembled here at `(kin, q̇)`.
+fn rows_and_rates<'d>(
+    d: &'d DampedSlide,
+    (model, kin, terrain): (&Model, &Kinematics, &dyn Terrain),
+    qd: &[f64],
+) -> (Cow<'d, DMatrix<f64>>, Cow<'d, DMatrix<f64>>) {
+    match &d.rows_dot {
+        Some(a_dot) => (Cow::Borrowed(&d.rows), Cow::Borrowed(a_dot)),
+        None => {
+            let (a, a_dot, _) = contact_rows_and_rates(model, kin, terrain, d.contact, qd);
+            (Cow::Owned(a), Cow::Owned(a_dot))
+        }
     }
 }
 
@@ -792,11 +899,48 @@ pub fn consistent_rates(
         return Ok(());
     }
     data.prepare_geometry(model, terrain, mode, q, qd)?;
-    let slides = std::mem::take(&mut data.damped);
-    for d in &slides {
+    // each slide on the law's piece where its rates lie
+    for _ in 0..PIECE_PASSES {
+        if laws_on_slide_pieces(model, ctrl, (t, q, qd), mode, data) != Some(false) {
+            break;
+        }
+        data.prepare_geometry(model, terrain, mode, q, qd)?;
+    }
+    slide_rates_into(model, data, qd);
+    data.damped.clear();
+    Ok(())
+}
+
+/// `q̇` with the rates of every chain that slides damped in `data` set to its slide's.
+fn slide_rates_into(model: &Model, data: &Data, qd: &mut [f64]) {
+    for d in &data.damped {
         set_chain_rates(model, d.contact, d.rates.as_slice(), qd);
     }
-    Ok(())
+}
+
+/// Sets the rates of every chain that slides damped in `data` (solved at the state of `q̇`)
+/// to its slide's where one of them has drifted from its slide's by more than the tolerance
+/// `(atol, rtol)`, `atol + rtol |θ̇|`: whether it did. The chain's rates are algebraic; the
+/// flow carries them by their derivative, which jumps where a servo meets or leaves its
+/// torque limit, and which an error norm does not watch (the chain has no mass).
+pub fn project_drifted_rates(
+    model: &Model,
+    data: &Data,
+    qd: &mut [f64],
+    (atol, rtol): (f64, f64),
+) -> bool {
+    let drifted = data.damped.iter().any(|d| {
+        damped_chain(model, d.contact).is_some_and(|chain| {
+            let tol = |r: f64| atol + rtol * r.abs();
+            chain
+                .zip(d.rates.iter())
+                .any(|(j, r)| (qd[j] - r).abs() > tol(*r))
+        })
+    });
+    if drifted {
+        slide_rates_into(model, data, qd);
+    }
+    drifted
 }
 
 /// Writes `rates` into `q̇` at the joints of contact `k`'s massless chain ([`damped_chain`]).
@@ -854,19 +998,22 @@ pub fn liftoff_value(data: &Data, contact: usize, row: usize) -> f64 {
 /// clear negative, past any arming margin.
 const LAW_LOST_N: f64 = 1.0;
 
-/// Whether every damped slide of `mode` (prepared in `data` at `(t, q, q̇)`) has a law that
-/// holds at the slide's own rates — the rates the segment starts from
-/// ([`consistent_rates`]): a servo that the slide's rates would saturate has no damped
-/// slide. True for a mode without one.
-pub fn holds_at_slide_rates(
+/// Moves the law of each damped slide of `mode` (prepared in `data` at `(t, q, q̇)`) to the
+/// piece where the slide's own rates lie — the rates the segment starts from
+/// ([`consistent_rates`]): a servo that the slide's rates saturate (or release) puts the
+/// slide on another affine piece of the law than the one it was solved on. Whether every
+/// law was on its slide's piece already (`Some(true)`; a mode without damped slides too);
+/// `Some(false)` where one moved (the caller solves the slides again); `None` where a law
+/// does not hold at its slide's rates (both servos saturated, no damping: no damped slide).
+pub fn laws_on_slide_pieces(
     model: &Model,
     ctrl: &dyn Controller,
     (t, q, qd): (f64, &[f64], &[f64]),
     mode: ContactMode,
-    data: &Data,
-) -> bool {
+    data: &mut Data,
+) -> Option<bool> {
     if data.damped.is_empty() {
-        return true;
+        return Some(true);
     }
     let mut v = qd.to_vec();
     for d in &data.damped {
@@ -877,13 +1024,83 @@ pub fn holds_at_slide_rates(
             v[j] = *r;
         }
     }
-    let (mut law, mut scratch) = (empty_law(0..0), LawScratch::default());
-    data.damped.iter().all(|d| {
-        damped_chain(model, d.contact).is_some_and(|joints| {
-            law.joints = joints;
-            law_into(model, ctrl, (t, q, &v), mode, &mut law, &mut scratch) == Some(true)
-        })
+    let mut scratch = LawScratch::default();
+    let mut settled = true;
+    for d in &data.damped {
+        let Some((_, law)) = data.damped_laws.iter_mut().find(|(c, _)| *c == d.contact) else {
+            continue;
+        };
+        let mut fresh = empty_law(law.joints.clone());
+        if law_into(model, ctrl, (t, q, &v), mode, &mut fresh, &mut scratch) != Some(true) {
+            return None;
+        }
+        if law.holds && same_piece(law, &fresh, &scratch.damping) {
+            continue;
+        }
+        std::mem::swap(&mut fresh.damping, &mut scratch.damping);
+        fresh.saturated = scratch.saturated;
+        fresh.holds = true;
+        *law = fresh;
+        settled = false;
+    }
+    Some(settled)
+}
+
+/// Whether the law `fresh` (its damping `k`), linearized at other rates, is the affine
+/// piece `law` is: the same damping, and the same torque at `law`'s rates,
+/// `T_f − K (θ̇_c − θ̇_f) = T_c`, within [`PIECE_TOL`] — a servo saturated at either end of
+/// its range, or inside it, is each its own piece.
+fn same_piece(law: &ChainLaw, fresh: &ChainLaw, k: &DMatrix<f64>) -> bool {
+    let n = law.joints.len();
+    if law.damping.shape() != (n, n) || k.shape() != (n, n) {
+        return false;
+    }
+    let scale = |m: &[f64]| m.iter().fold(1.0f64, |a, x| a.max(x.abs()));
+    let k_tol = PIECE_TOL * scale(k.as_slice());
+    if (law.damping.as_slice().iter().zip(k.as_slice())).any(|(a, b)| (a - b).abs() > k_tol) {
+        return false;
+    }
+    let t_tol = PIECE_TOL * scale(law.torque.as_slice()).max(scale(fresh.torque.as_slice()));
+    (0..n).all(|i| {
+        let dk: f64 = (0..n)
+            .map(|j| k[(i, j)] * (law.rates[j] - fresh.rates[j]))
+            .sum();
+        (fresh.torque[i] - dk - law.torque[i]).abs() <= t_tol
     })
+}
+
+/// The relative tolerance of [`same_piece`]: far above the differenced damping's round-off
+/// (some `1e-10` per N m), far below a servo's jump between its limits.
+const PIECE_TOL: f64 = 1e-6;
+
+/// The passes of [`prepare_on_pieces`]: each solves the slides on the pieces the last
+/// pass's rates lie on (a Newton step on the piecewise affine law, exact within a piece).
+const PIECE_PASSES: usize = 4;
+
+/// `data` (its state prepared at `(q, q̇)`) prepared in `mode` ([`Data::prepare_mode`]) with
+/// each damped slide solved on the piece of its law where its own rates lie
+/// ([`laws_on_slide_pieces`]), within [`PIECE_PASSES`] passes: the preparation's result, or
+/// `None` where a slide finds no such piece.
+pub fn prepare_on_pieces(
+    model: &Model,
+    terrain: &dyn Terrain,
+    ctrl: &dyn Controller,
+    (t, q, qd): (f64, &[f64], &[f64]),
+    mode: ContactMode,
+    data: &mut Data,
+) -> Result<Option<Result<(), SingularityKind>>, CoreError> {
+    let mut prepared = data.prepare_mode(model, terrain, mode, qd)?;
+    for _ in 0..PIECE_PASSES {
+        if prepared.is_err() {
+            return Ok(Some(prepared));
+        }
+        match laws_on_slide_pieces(model, ctrl, (t, q, qd), mode, data) {
+            Some(true) => return Ok(Some(prepared)),
+            Some(false) => prepared = data.prepare_mode(model, terrain, mode, qd)?,
+            None => return Ok(None),
+        }
+    }
+    Ok(None)
 }
 
 #[cfg(test)]

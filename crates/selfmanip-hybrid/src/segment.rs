@@ -83,6 +83,9 @@ pub struct SegmentIntegrator {
     /// One ulp after the last time event a step landed on (stages there take the flow's
     /// right limit).
     t_right: f64,
+    /// Whether a chain may slide damped in the segment's mode
+    /// ([`crate::damped_slide::sliding_damped`]).
+    damped_mode: bool,
 }
 
 impl SegmentIntegrator {
@@ -103,6 +106,7 @@ impl SegmentIntegrator {
             dynamic_coords: Vec::new(),
             stops: Vec::new(),
             t_right: f64::NEG_INFINITY,
+            damped_mode: false,
         }
     }
 
@@ -167,6 +171,7 @@ impl SegmentIntegrator {
                 Err(_) => self.atol_scales.fill(1.0),
             }
         }
+        self.damped_mode = crate::damped_slide::sliding_damped(self.drift_ws.damped, mode) != 0;
         self.ode.reset(self.h_carry);
         self.ode.set_error_weights(&self.weights);
         self.ode.set_atol_scales(&self.atol_scales);
@@ -354,6 +359,21 @@ impl SegmentIntegrator {
                         (q, qd),
                         &mut ws.data,
                     )?;
+                }
+            } else if self.damped_mode {
+                // the chain rates of a damped slide are algebraic, carried by their
+                // derivative, which the error norm does not watch (the chain has no mass)
+                // and which jumps where a servo meets or leaves its torque limit (the law's
+                // differences straddle the kink there): where they drifted from the slide's
+                // beyond the integrator's tolerance, they are set to the slide's, and the
+                // next step starts afresh
+                let model = flow.model();
+                let (q, qd) = y.split_at_mut(model.nq());
+                let data = flow.eval(*t, mode, q, qd)?;
+                let atol = opts.step.atol * crate::integrate::MAX_VELOCITY_ATOL_SCALE;
+                let tol = (atol, opts.step.rtol);
+                if crate::damped_slide::project_drifted_rates(model, data, qd, tol) {
+                    self.ode.reset(self.ode.next_step_size());
                 }
             }
             seg.t1 = *t;

@@ -20,8 +20,8 @@ use selfmanip_core::description::{FrictionDescription, JointAxis, LinkDescriptio
 use selfmanip_core::kinematics::Kinematics;
 use selfmanip_core::{ContactKind, ContactMode, FlatGround, Model};
 use selfmanip_hybrid::damped_slide::{
-    add_laws, chain_accelerations, chain_law, damped_contacts, holds_at_slide_rates, liftoff_value,
-    torque_free_rates,
+    add_laws, chain_accelerations, chain_law, damped_contacts, laws_on_slide_pieces, liftoff_value,
+    prepare_on_pieces, torque_free_rates,
 };
 use selfmanip_hybrid::flow::FlowWorkspace;
 use selfmanip_hybrid::Controller;
@@ -388,6 +388,7 @@ fn a_wedged_side_ends_the_slide_at_its_liftoff_guard() {
         torque: DVector::from_vec(vec![0.0, 0.0]),
         damping: DMatrix::identity(2, 2),
         holds: true,
+        saturated: None,
     };
     // the foot moving into the ground with no force: `w_n = −1` (rows `u = w − G λ`,
     // `λ_n < 0` pushes)
@@ -526,17 +527,20 @@ fn laws_set_in_place_are_the_fresh_laws() {
     assert!(data.damped_laws.is_empty());
 }
 
-/// The servo saturating at `±limit`, `τ = sat(kp (θ* − θ) − kd θ̇, ±limit)`.
+/// The servo saturating at `±limit` (joint `j` at `±limit · share[j]`),
+/// `τ = sat(kp (θ* − θ) − kd θ̇, ±limit)`.
 #[derive(Clone)]
 struct Saturating {
     limit: f64,
+    share: [f64; 2],
 }
 
 impl Controller for Saturating {
     fn torque(&self, _t: f64, q: &[f64], qd: &[f64], _mode: ContactMode, tau: &mut [f64]) {
         for j in 0..2 {
             let u = KP[j] * (TARGET[j] - q[j]) - KD[j] * qd[j];
-            tau[j] = u.clamp(-self.limit, self.limit);
+            let limit = self.limit * self.share[j];
+            tau[j] = u.clamp(-limit, limit);
         }
     }
 }
@@ -548,7 +552,10 @@ impl Controller for Saturating {
 #[test]
 fn the_torque_free_rates_are_the_servos_manifold() {
     let (model, q, _, mode, _) = slide_law();
-    let ctrl = Saturating { limit: 0.5 };
+    let ctrl = Saturating {
+        limit: 0.5,
+        share: [1.0, 1.0],
+    };
     let manifold: Vec<f64> = (0..2).map(|j| KP[j] * (TARGET[j] - q[j]) / KD[j]).collect();
     let mut tried = 0;
     for start in [
@@ -578,8 +585,8 @@ fn the_torque_free_rates_are_the_servos_manifold() {
 /// and its slide lies on the servo's linear piece: the reset's candidate law
 /// (`add_laws`) is the servo's linearized on its torque-free manifold, and the slide it
 /// gives is the one of the unsaturated servo (`force_and_rates_match_the_zero_inertia_limit`
-/// checks that one against the closed form) — where the slide's rates lie inside the limit
-/// (`holds_at_slide_rates`); with a limit below the slide's torques it is no candidate.
+/// checks that one against the closed form), which the reset's passes over the law's pieces
+/// (`prepare_on_pieces`) keep: its rates lie inside the limit.
 #[test]
 fn a_saturated_stop_slides_on_the_servos_linear_piece() {
     let (model, q, qd, mode, linear) = slide_law();
@@ -594,38 +601,254 @@ fn a_saturated_stop_slides_on_the_servos_linear_piece() {
     let mut stopped = qd.clone();
     stopped[0] = qd[0] + 1e3;
     stopped[1] = qd[1] - 1e3;
-    for (limit, offered) in [(2.0 * peak, true), (0.5 * peak, false)] {
-        let ctrl = Saturating { limit };
-        let at_stop = chain_law(&model, &ctrl, (0.0, &q, &stopped), mode, 0).unwrap();
-        assert!(!at_stop.holds, "saturated at the stop's rates");
-        let mut ws = FlowWorkspace::new(&model);
-        add_laws(&model, &mut ws.data, 1, &ctrl, (0.0, &q, &stopped), mode);
-        let [(0, law)] = &ws.data.damped_laws[..] else {
-            panic!("one law for contact 0: {:?}", ws.data.damped_laws);
-        };
-        assert!(law.holds);
-        let k = DMatrix::from_diagonal(&DVector::from_column_slice(&KD));
-        assert!((&law.damping - k).amax() < 1e-6, "{}", law.damping);
-        let got = solve(&model, &kin, &FlatGround, 0, &stopped, law, MU, None)
+    let ctrl = Saturating {
+        limit: 2.0 * peak,
+        share: [1.0, 1.0],
+    };
+    let at_stop = chain_law(&model, &ctrl, (0.0, &q, &stopped), mode, 0).unwrap();
+    assert!(!at_stop.holds, "saturated at the stop's rates");
+    let mut ws = FlowWorkspace::new(&model);
+    add_laws(&model, &mut ws.data, 1, &ctrl, (0.0, &q, &stopped), mode);
+    let [(0, law)] = &ws.data.damped_laws[..] else {
+        panic!("one law for contact 0: {:?}", ws.data.damped_laws);
+    };
+    assert!(law.holds && law.saturated.is_none());
+    let k = DMatrix::from_diagonal(&DVector::from_column_slice(&KD));
+    assert!((&law.damping - k).amax() < 1e-6, "{}", law.damping);
+    let got = solve(&model, &kin, &FlatGround, 0, &stopped, law, MU, None)
+        .unwrap()
+        .expect("a slide");
+    let tol = 1e-9 * want.rates.amax().max(want.lambda[1].abs());
+    assert!(
+        (&got.rates - &want.rates).amax() < tol,
+        "{} {}",
+        got.rates,
+        want.rates
+    );
+    assert!((got.lambda[1] - want.lambda[1]).abs() < tol);
+    ws.data.prepare_state(&model, &q, &stopped).unwrap();
+    let state = (0.0, &q[..], &stopped[..]);
+    prepare_on_pieces(&model, &FlatGround, &ctrl, state, mode, &mut ws.data)
+        .unwrap()
+        .expect("a piece")
+        .unwrap();
+    assert!(ws.data.damped_laws[0].1.saturated.is_none());
+    assert!((&ws.data.damped[0].rates - &want.rates).amax() < tol);
+}
+
+/// A stop that takes both servos past their limits, where the foot's slide lies on a
+/// saturated piece (one servo at its limit, [`saturated_slide`], which
+/// `a_saturated_servo_slides_on_its_piece` checks against the closed form): the reset's
+/// passes (`prepare_on_pieces`) go from the torque-free manifold's linear piece to the
+/// saturated one and find that slide, its rates on the piece it was solved on
+/// (`laws_on_slide_pieces` moves nothing more).
+#[test]
+fn a_saturated_stop_finds_the_saturated_piece() {
+    let (model, q, qd, mode, ctrl, p) = saturated_slide();
+    let mut stopped = qd.clone();
+    stopped[0] = qd[0] + 1e3;
+    stopped[1] = qd[1] - 1e3;
+    assert!(
+        !chain_law(&model, &ctrl, (0.0, &q, &stopped), mode, 0)
             .unwrap()
-            .expect("a slide");
-        let tol = 1e-9 * want.rates.amax().max(want.lambda[1].abs());
+            .holds
+    );
+    let mut ws = FlowWorkspace::new(&model);
+    add_laws(&model, &mut ws.data, 1, &ctrl, (0.0, &q, &stopped), mode);
+    assert!(ws.data.damped_laws[0].1.saturated.is_none());
+    ws.data.prepare_state(&model, &q, &stopped).unwrap();
+    let state = (0.0, &q[..], &stopped[..]);
+    prepare_on_pieces(&model, &FlatGround, &ctrl, state, mode, &mut ws.data)
+        .unwrap()
+        .expect("a piece")
+        .unwrap();
+    assert_eq!(ws.data.damped_laws[0].1.saturated, Some(p));
+    let d = &ws.data.damped[0];
+    let want = DVector::from_column_slice(&qd[..2]);
+    assert!(
+        (&d.rates - &want).amax() < 1e-9 * want.amax(),
+        "{} {want}",
+        d.rates
+    );
+    assert_eq!(
+        laws_on_slide_pieces(&model, &ctrl, state, mode, &mut ws.data),
+        Some(true)
+    );
+}
+
+/// A state of the robot at which the foot's damped slide lies on a saturated piece of the
+/// [`Saturating`] servo — one joint at its limit, the other inside it — with the chain's
+/// rates the slide's own ([`consistent_rates`](selfmanip_hybrid::damped_slide::consistent_rates)):
+/// over the body velocities of [`state`], the limit between the unsaturated slide's two
+/// torques, the first state whose slide settles there. The model, `q`, `q̇`, the mode, the
+/// servo and the saturated joint.
+fn saturated_slide() -> (Model, Vec<f64>, Vec<f64>, ContactMode, Saturating, usize) {
+    use selfmanip_hybrid::damped_slide::consistent_rates;
+    let (model, q, _) = {
+        let (q, qd) = state();
+        (robot(0.0), q, qd)
+    };
+    let mode = ContactMode::FLIGHT.with(0, ContactKind::Slide);
+    let mut kin = Kinematics::default();
+    let mut data = selfmanip_core::Data::new(&model);
+    for vx in [3.0, -3.0, 1.0, -1.0] {
+        for vz in [0.6, -0.6, 0.1, -0.1] {
+            for w in [0.4, -0.4] {
+                let qd = vec![0.3, -0.5, vx, vz, w];
+                let linear = chain_law(&model, &Servo, (0.0, &q, &qd), mode, 0).unwrap();
+                kin.compute(&model, &q, &qd);
+                let Some(free) =
+                    solve(&model, &kin, &FlatGround, 0, &qd, &linear, MU, None).unwrap()
+                else {
+                    continue;
+                };
+                if !free.consistent {
+                    continue;
+                }
+                let torque = |j: usize| (KP[j] * (TARGET[j] - q[j]) - KD[j] * free.rates[j]).abs();
+                for p in [1, 0] {
+                    // joint p's limit below its torque, the other's far above its own
+                    let limit = 0.9 * torque(p);
+                    let mut share = [1.0; 2];
+                    share[1 - p] = 4.0 * torque(1 - p).max(1.0) / limit;
+                    let ctrl = Saturating { limit, share };
+                    let mut at = qd.clone();
+                    at[..2].copy_from_slice(free.rates.as_slice());
+                    consistent_rates(
+                        &model,
+                        &FlatGround,
+                        &ctrl,
+                        (0.0, mode),
+                        (&q, &mut at),
+                        &mut data,
+                    )
+                    .unwrap();
+                    let law = chain_law(&model, &ctrl, (0.0, &q, &at), mode, 0).unwrap();
+                    kin.compute(&model, &q, &at);
+                    let settled = solve(&model, &kin, &FlatGround, 0, &at, &law, MU, None)
+                        .unwrap()
+                        .is_some_and(|d| {
+                            d.consistent
+                                && (&d.rates - DVector::from_column_slice(&at[..2])).amax() < 1e-9
+                        });
+                    if law.holds && law.saturated == Some(p) && settled {
+                        return (model, q, at, mode, ctrl, p);
+                    }
+                }
+            }
+        }
+    }
+    panic!("no state's slide settles on a saturated piece");
+}
+
+/// On a saturated piece (one servo at its limit `L`, the other inside it) the slide is the
+/// zero-inertia limit's 3 × 3 system written from the leg's closed-form kinematics, with the
+/// saturated joint's row `(Bᵀd)_p λ_n = ±L` (its torque no longer moves with its rate) in
+/// place of its servo balance; its law's damping has that joint's row zero; and the
+/// commands at the slide's rates put that joint beyond its limit and the other inside it
+/// (the slide lies on the piece it was solved on).
+#[test]
+fn a_saturated_servo_slides_on_its_piece() {
+    let (model, q, qd, mode, ctrl, p) = saturated_slide();
+    let law = chain_law(&model, &ctrl, (0.0, &q, &qd), mode, 0).unwrap();
+    assert!(
+        (0..2).all(|c| law.damping[(p, c)] == 0.0),
+        "{}",
+        law.damping
+    );
+    let mut kin = Kinematics::default();
+    kin.compute(&model, &q, &qd);
+    let d = solve(&model, &kin, &FlatGround, 0, &qd, &law, MU, None)
+        .unwrap()
+        .expect("a slide");
+    assert!(d.consistent && !d.wedged && d.push() > 0.0, "{d:?}");
+    let (phi, th) = (q[4], [q[0], q[1]]);
+    let (r, jac) = toe(phi, th);
+    let n = [0.0, 1.0];
+    let tan = {
+        let t = selfmanip_core::GroundPlane::level(0.0).tangent();
+        [t[0], t[1]]
+    };
+    let dot = |a: [f64; 2], b: [f64; 2]| a[0] * b[0] + a[1] * b[1];
+    let body_v = [qd[2] + qd[4] * r[1], qd[3] - qd[4] * r[0]];
+    let b = [
+        [-dot(tan, jac[0]), -dot(tan, jac[1])],
+        [-dot(n, jac[0]), -dot(n, jac[1])],
+    ];
+    let c = d.coef;
+    let command = |j: usize, rate: f64| KP[j] * (TARGET[j] - th[j]) - KD[j] * rate;
+    let limit = |j: usize| ctrl.limit * ctrl.share[j];
+    let held = command(p, d.rates[p]).clamp(-limit(p), limit(p));
+    let mut m = Matrix3::zeros();
+    let mut rhs = Vector3::zeros();
+    for j in 0..2 {
+        m[(j, 2)] = b[0][j] * c + b[1][j];
+        if j == p {
+            rhs[j] = held;
+        } else {
+            m[(j, j)] = KD[j];
+            rhs[j] = KP[j] * (TARGET[j] - th[j]);
+        }
+        m[(2, j)] = -dot(n, jac[j]);
+    }
+    rhs[2] = dot(n, body_v);
+    let x = m.lu().solve(&rhs).unwrap();
+    let tol = 1e-9 * x.amax();
+    for j in 0..2 {
         assert!(
-            (&got.rates - &want.rates).amax() < tol,
-            "{} {}",
-            got.rates,
-            want.rates
+            (d.rates[j] - x[j]).abs() < tol,
+            "θ̇{j}: {} {}",
+            d.rates[j],
+            x[j]
         );
-        assert!((got.lambda[1] - want.lambda[1]).abs() < tol);
-        ws.data.prepare_state(&model, &q, &stopped).unwrap();
-        ws.data
-            .prepare_mode(&model, &FlatGround, mode, &stopped)
+    }
+    assert!((d.lambda[1] - x[2]).abs() < tol, "{} {}", d.lambda[1], x[2]);
+    assert!(command(p, x[p]).abs() > limit(p));
+    assert!(command(1 - p, x[1 - p]).abs() < limit(1 - p));
+}
+
+/// The chain's acceleration on a saturated piece (`chain_accelerations`, the bordered
+/// system differentiated) is the derivative of the slide's rates along the flow: against a
+/// central difference of `solve`'s rates on `(q ± h q̇, q̇ ± h q̈)` with the side kept.
+#[test]
+fn the_saturated_chain_acceleration_is_the_rates_derivative() {
+    let (model, q, qd, mode, ctrl, _) = saturated_slide();
+    let mut ws = FlowWorkspace::new(&model);
+    flow_at(&model, &mut ws, &ctrl, (&q, &qd));
+    assert_eq!(ws.data.damped.len(), 1);
+    assert!(ws.data.damped_laws[0].1.saturated.is_some());
+    let side = ws.data.damped[0].side;
+    chain_accelerations(
+        &model,
+        &FlatGround,
+        &ctrl,
+        (0.0, mode),
+        (&q, &qd),
+        &mut ws.data,
+    )
+    .unwrap();
+    let qdd: Vec<f64> = ws.data.qdd.iter().copied().collect();
+    let h = 1e-6;
+    let mut kin = Kinematics::default();
+    let mut rates = |s: f64| {
+        let qs: Vec<f64> = q.iter().zip(&qd).map(|(x, v)| x + s * h * v).collect();
+        let vs: Vec<f64> = qd.iter().zip(&qdd).map(|(v, a)| v + s * h * a).collect();
+        kin.compute(&model, &qs, &vs);
+        let law = chain_law(&model, &ctrl, (s * h, &qs, &vs), mode, 0).unwrap();
+        assert!(law.saturated.is_some());
+        solve(&model, &kin, &FlatGround, 0, &vs, &law, MU, Some(side))
             .unwrap()
-            .unwrap();
-        let holds = holds_at_slide_rates(&model, &ctrl, (0.0, &q, &stopped), mode, &ws.data);
-        assert_eq!(
-            holds, offered,
-            "limit {limit} against the slide's {peak} N m"
+            .unwrap()
+            .rates
+    };
+    let fd = (rates(1.0) - rates(-1.0)) / (2.0 * h);
+    for j in 0..2 {
+        let tol = 1e-5 * fd.amax().max(1.0);
+        assert!(
+            (qdd[j] - fd[j]).abs() < tol,
+            "joint {j}: {} {}",
+            qdd[j],
+            fd[j]
         );
     }
 }

@@ -61,6 +61,14 @@ fn damped_in(model: &Model, seg: &Segment) -> Vec<usize> {
         .collect()
 }
 
+/// Whether contact `k`'s chain law at the segment's start is on a saturated piece (a servo
+/// at its torque limit, `ChainLaw::saturated`).
+fn saturated_at_start(model: &Model, seg: &Segment, k: usize) -> bool {
+    let (q, qd) = seg.y0.split_at(model.nq());
+    chain_law(model, &*seg.controller, (seg.t0, q, qd), seg.mode, k)
+        .is_some_and(|l| l.holds && l.saturated.is_some())
+}
+
 /// The foot's sliding velocity `u_t` and push `−λ_n` of contact `k` at `t` on the
 /// segment's dense output, the contact problem solved on `side` (`None`: where it is
 /// consistent).
@@ -232,7 +240,11 @@ fn the_run_is_deterministic() {
 /// 405 (`saturated_chain_stairs.json`: two legs of two massless links under servos with a
 /// torque limit, on stairs) slides where a stop has taken its servos to their limit (the
 /// chain's law linearized on its torque-free manifold); before, its feet re-touched
-/// 59,658 times without an event and the run ended at its step budget.
+/// 59,658 times without an event and the run ended at its step budget. Seed 38's run 47
+/// (`saturated_knee_slide.json`: four legs of two massless links whose knee servos push to
+/// their torque limit) slides with a knee at its limit (the slide on the law's saturated
+/// piece); before, its feet re-touched 13,083 times and the run ended as
+/// `several_contact_solutions` after 411 events.
 #[test]
 fn user_runs_dissipate_and_balance() {
     for file in [
@@ -243,9 +255,23 @@ fn user_runs_dissipate_and_balance() {
         "user_run_402.json",
         "user_run_452.json",
         "saturated_chain_stairs.json",
+        "saturated_knee_slide.json",
     ] {
         let run = Simulation::new(&scenario_of(file)).unwrap().run().unwrap();
         assert_eq!(run.outcome.status, RunStatus::FinalTime, "{file}");
+        if file == "saturated_knee_slide.json" {
+            let model = &run.model;
+            let saturated = run.execution.segments.iter().any(|s| {
+                s.t1 > s.t0
+                    && damped_in(model, s)
+                        .iter()
+                        .any(|&k| saturated_at_start(model, s, k))
+            });
+            assert!(
+                saturated,
+                "{file}: no segment slides with a servo at its limit"
+            );
+        }
         if file == "saturated_chain_stairs.json" {
             let model = &run.model;
             let segments = &run.execution.segments;
