@@ -136,6 +136,20 @@ pub fn contact_rows_and_rates(
     (c.a, c.a_dot, c.a_dot_qd)
 }
 
+/// The foot's velocity `A q̇` (tangential, normal) in the contact's rows `a_s` (`2 × nq`,
+/// column-major) with the chain's joints at the law's rates `θ̇_c`, the rest of `q̇` as it is.
+fn velocity_at_law_rates(a_s: &[f64], qd: &[f64], law: &ChainLaw) -> [f64; 2] {
+    let (j0, n) = (law.joints.start, law.joints.len());
+    let rate = qd[..j0]
+        .iter()
+        .chain(law.rates.iter())
+        .chain(&qd[j0 + n..])
+        .copied();
+    let mut u0 = [0.0; 2];
+    exact::gemv_with(a_s, rate, &mut u0);
+    u0
+}
+
 /// The foot's velocity with no force `w` and its mobility `G` (module docs) from the
 /// contact's rows `a` at `q̇` under the chain's law `law`, with `K⁻¹` (`ki`, column-major
 /// `n × n`).
@@ -152,14 +166,7 @@ fn mobility_of(
     let (j0, n) = (law.joints.start, law.joints.len());
     let a_s = a.as_slice();
     let b = &a_s[2 * j0..2 * (j0 + n)];
-    // A q̇ with the chain at θ̇_c
-    let rate = qd[..j0]
-        .iter()
-        .chain(law.rates.iter())
-        .chain(&qd[j0 + n..])
-        .copied();
-    let mut u0 = [0.0; 2];
-    exact::gemv_with(a_s, rate, &mut u0);
+    let u0 = velocity_at_law_rates(a_s, qd, law);
     // B (K⁻¹ T_c)
     let mut kt = [0.0; MAX_EXACT];
     let mut bkt = [0.0; 2];
@@ -522,14 +529,7 @@ fn solve_saturated_into(
     let a_s = a.as_slice();
     let b = &a_s[2 * j0..2 * (j0 + n)];
     let (b_t, b_n) = (|i: usize| b[2 * i], |i: usize| b[2 * i + 1]);
-    // u0 = A q̇ with the chain at θ̇_c
-    let rate = qd[..j0]
-        .iter()
-        .chain(law.rates.iter())
-        .chain(&qd[j0 + n..])
-        .copied();
-    let mut u0 = [0.0; 2];
-    exact::gemv_with(a_s, rate, &mut u0);
+    let u0 = velocity_at_law_rates(a_s, qd, law);
     let k = &law.damping;
     // on the cone's edge `d = (c, 1)`: λ_n, the rates' step from θ̇_c, u_t and the normal
     // response with its wedge tolerance
