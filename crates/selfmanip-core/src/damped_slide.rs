@@ -544,8 +544,13 @@ fn solve_saturated_into(
         let bn_x0: f64 = (0..n).map(|i| b_n(i) * x0[i]).sum();
         let step = x0 + r.clone() * (-(u0[1] + bn_x0) / bn_r);
         let u_t = u0[0] + (0..n).map(|i| b_t(i) * step[i]).sum::<f64>();
+        // the normal response `(b_nᵀ r)(Bᵀd)_p` against its scale `|b_n| |r| (|b_np| + μ
+        // |b_tp|)`: it wedges where the saturated joint's free motion stops moving the foot
+        // normally (`b_nᵀ r → 0`, the rates' step growing as its inverse) as where `(Bᵀd)_p`
+        // vanishes
         let response = bn_r * bd_p;
-        let wedge = WEDGE_TOL * bn_r.abs() * (b_n(p).abs() + mu_k * b_t(p).abs());
+        let bn_norm = (0..n).map(|i| b_n(i) * b_n(i)).sum::<f64>().sqrt();
+        let wedge = WEDGE_TOL * bn_norm * r.norm() * (b_n(p).abs() + mu_k * b_t(p).abs());
         let finite = lambda_n.is_finite() && u_t.is_finite() && step.iter().all(|v| v.is_finite());
         finite.then_some((lambda_n, step, u_t, response, wedge, r))
     };
@@ -903,6 +908,72 @@ mod tests {
             }
         }
         assert!(checked > 60, "{checked}");
+    }
+
+    /// A saturated slide wedges where the saturated joint's free motion `r` (the null vector
+    /// of `K`) stops moving the foot normally: with the chain's normal row `b_n` turned so
+    /// that `b_nᵀ r = δ |b_n| |r|`, the rates' step grows as `1/δ` (the bordered system's
+    /// `σ = −(u0_n + b_nᵀ x₀)/(b_nᵀ r)`), and the slide is flagged wedged — its liftoff
+    /// guard ends it — once `|δ|` is below the wedge tolerance, on either side of the right
+    /// angle, and not while `|δ|` is well above it.
+    #[test]
+    fn a_saturated_slide_wedges_where_its_free_motion_leaves_the_normal() {
+        let mut rng = ChaCha8Rng::seed_from_u64(34);
+        let mut checked = 0;
+        for case in 0..60 {
+            let n = 2 + case % 3;
+            let j0 = 1;
+            let (mut a, qd, mut law) = random_slide(&mut rng, n, n + 4, j0);
+            let p = case % n;
+            for c in 0..n {
+                law.damping[(p, c)] = 0.0;
+            }
+            law.saturated = Some(p);
+            let (_, r) = saturated_split(&law.damping, p, &vec![0.0; n]).unwrap();
+            // the chain's normal row without its component along `r`
+            let r_hat = r.normalize();
+            let b_n = DVector::from_fn(n, |i, _| a[(1, j0 + i)]);
+            let b_perp = &b_n - &r_hat * b_n.dot(&r_hat);
+            let mut wedged_at = Vec::new();
+            let mut steps = Vec::new();
+            for delta in [0.3, 0.1, 1e-5, -1e-5, 1e-8] {
+                // b_nᵀ r = δ |b_⊥| |r|
+                let row = &b_perp + &r_hat * (delta * b_perp.norm());
+                for i in 0..n {
+                    a[(1, j0 + i)] = row[i];
+                }
+                // the edge's lever at the saturated joint, `(Bᵀd)_p` on side `s = 1`, clear
+                // of zero (else the slide wedges there whatever `δ`)
+                if row[p] - 0.6 * a[(0, j0 + p)] < 0.1 {
+                    break;
+                }
+                let Some(d) = solve_rows(0, a.clone(), &qd, &law, 0.6, Some(1.0)).unwrap() else {
+                    break;
+                };
+                wedged_at.push((delta, d.wedged));
+                steps.push((row.dot(&r), (&d.rates - &law.rates).amax()));
+            }
+            if wedged_at.len() < 5 {
+                continue;
+            }
+            for &(delta, wedged) in &wedged_at {
+                assert_eq!(
+                    wedged,
+                    delta.abs() < WEDGE_TOL,
+                    "n={n}, p={p}, δ={delta}: {wedged_at:?}"
+                );
+            }
+            // the step grows as 1/(b_nᵀ r) towards the right angle
+            let (near, far) = (steps[4], steps[1]);
+            let ratio = near.1 / far.1;
+            let want = (far.0 / near.0).abs();
+            assert!(
+                ratio > 0.01 * want && ratio < 100.0 * want,
+                "n={n}, p={p}: {steps:?}"
+            );
+            checked += 1;
+        }
+        assert!(checked > 15, "{checked}");
     }
 
     /// A slide solved into the buffers of another ([`solve_into`], as the split reuses the
