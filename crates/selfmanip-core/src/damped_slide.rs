@@ -531,6 +531,7 @@ fn solve_saturated_into(
     let (b_t, b_n) = (|i: usize| b[2 * i], |i: usize| b[2 * i + 1]);
     let u0 = velocity_at_law_rates(a_s, qd, law);
     let k = &law.damping;
+    let bn_norm = (0..n).map(|i| b_n(i) * b_n(i)).sum::<f64>().sqrt();
     // on the cone's edge `d = (c, 1)`: λ_n, the rates' step from θ̇_c, u_t and the normal
     // response with its wedge tolerance
     let on_edge = |c: f64| {
@@ -549,7 +550,6 @@ fn solve_saturated_into(
         // normally (`b_nᵀ r → 0`, the rates' step growing as its inverse) as where `(Bᵀd)_p`
         // vanishes
         let response = bn_r * bd_p;
-        let bn_norm = (0..n).map(|i| b_n(i) * b_n(i)).sum::<f64>().sqrt();
         let wedge = WEDGE_TOL * bn_norm * r.norm() * (b_n(p).abs() + mu_k * b_t(p).abs());
         let finite = lambda_n.is_finite() && u_t.is_finite() && step.iter().all(|v| v.is_finite());
         finite.then_some((lambda_n, step, u_t, response, wedge, r))
