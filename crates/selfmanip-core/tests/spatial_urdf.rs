@@ -102,6 +102,13 @@ fn bad_urdf_names_the_field() {
             "{joints} with mass {mass_b}"
         );
     }
+    // a URDF with no link (a xacro left unexpanded) is refused by name, not by a panic
+    assert_eq!(
+        field_of(
+            SpatialModel::from_urdf_str("<robot name=\"r\"></robot>", free, None).unwrap_err()
+        ),
+        "link"
+    );
     let bogus = two_links(&joint("j", "bogus", "a", "b", "0 0 1"), "0.5");
     assert!(matches!(
         SpatialModel::from_urdf_str(&bogus, free, None).unwrap_err(),
@@ -166,4 +173,88 @@ fn bad_state_names_the_field() {
     assert!(
         matches!(kinematics::ReferenceFrame::from_name("body").unwrap_err(), SpatialError::InvalidArgument { field, .. } if field == "frame")
     );
+}
+
+/// A robot whose links' child joints are written out of name order: `base` carries `b_j`,
+/// `a_j` (which carries `y_j`) and `c_j`, in that order in the file.
+fn siblings_out_of_name_order(extra: &str) -> String {
+    let link = |name: &str| {
+        format!(
+            r#"<link name="{name}"><inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>{extra}</link>"#
+        )
+    };
+    let links: String = ["base", "zl", "al", "ml", "cl"].map(link).concat();
+    let joints = joint("b_j", "revolute", "base", "zl", "1 0 0")
+        + &joint("a_j", "revolute", "base", "al", "0 1 0")
+        + &joint("y_j", "revolute", "al", "cl", "0 0 1")
+        + &joint("c_j", "revolute", "base", "ml", "0 -1 0");
+    format!(r#"<robot name="r">{links}{joints}</robot>"#)
+}
+
+#[test]
+fn sibling_joints_are_ordered_by_name_as_urdfdom_orders_them() {
+    // urdfdom keeps a link's child joints in a map by name, and Pinocchio walks the tree
+    // depth first over them: a_j, its child y_j, then b_j, c_j (the file has b_j first)
+    let model = SpatialModel::from_urdf_str(&siblings_out_of_name_order(""), BaseKind::Fixed, None)
+        .unwrap();
+    let names: Vec<&str> = model.joints.iter().map(|j| j.name.as_str()).collect();
+    assert_eq!(names, ["a_j", "y_j", "b_j", "c_j"]);
+    // and their coordinates in that order
+    let idx: Vec<usize> = model.joints.iter().map(|j| j.idx_q).collect();
+    assert_eq!(idx, [0, 1, 2, 3]);
+}
+
+#[test]
+fn what_the_model_does_not_read_is_not_parsed() {
+    // urdfdom's schema lets a texture go without a file name (robots exported from
+    // urdfdom write `<texture />`); the looks and collision shapes are not the model's
+    let looks = r#"<visual><geometry><mesh filename="m.stl"/></geometry><material name="grey"><texture /><color rgba="0.5 0.5 0.5 1"/></material></visual><collision><geometry><box size="1 1 1"/></geometry></collision>"#;
+    let with = SpatialModel::from_urdf_str(
+        &siblings_out_of_name_order(looks),
+        BaseKind::FreeFlyer,
+        None,
+    )
+    .unwrap();
+    let without =
+        SpatialModel::from_urdf_str(&siblings_out_of_name_order(""), BaseKind::FreeFlyer, None)
+            .unwrap();
+    assert_eq!(format!("{with:?}"), format!("{without:?}"));
+    // malformed XML is still a parse error
+    assert!(matches!(
+        SpatialModel::from_urdf_str("<robot><link name=\"a\"></robot>", BaseKind::Fixed, None)
+            .unwrap_err(),
+        SpatialError::UrdfParse { .. }
+    ));
+}
+
+#[test]
+fn an_inertia_is_positive_semi_definite_to_round_off() {
+    // b's rotational inertia with `ixy`, over a mass of 0.5 kg
+    let robot = |ixy: &str, diagonal: &str| {
+        let j = joint("j", "revolute", "a", "b", "0 0 1");
+        two_links(&j, "0.5")
+            .replace(
+                r#"ixx="0.1" ixy="0""#,
+                &format!(r#"ixx="{diagonal}" ixy="{ixy}""#),
+            )
+            .replace(
+                r#"iyy="0.1" iyz="0" izz="0.1""#,
+                &format!(r#"iyy="{diagonal}" iyz="0" izz="{diagonal}""#),
+            )
+    };
+    let load = |ixy: &str, diagonal: &str| {
+        SpatialModel::from_urdf_str(&robot(ixy, diagonal), BaseKind::FreeFlyer, None)
+    };
+    // |ixy| > ixx = iyy: an eigenvalue ixx − |ixy| < 0
+    assert_eq!(
+        field_of(load("0.2", "0.1").unwrap_err()),
+        "link[b].inertial.inertia"
+    );
+    assert_eq!(
+        field_of(load("-1e-9", "0").unwrap_err()),
+        "link[b].inertial.inertia"
+    );
+    // a point mass written with round-off off the diagonal, and the edge of the cone
+    load("1.35525e-20", "0").unwrap();
+    load("0.1", "0.1").unwrap();
 }

@@ -6,9 +6,10 @@
 //! Pinocchio's, so arrays and matrices pass between the two unchanged):
 //! - Spatial vectors are **linear first**: a [`Motion`] `[v; ω]`, a [`Force`] `[f; n]`;
 //!   Jacobians are 6 × nv with the linear rows first.
-//! - `q` stacks each joint's coordinates in joint order (depth first over the URDF tree,
-//!   children in file order); a free-flying base has `q = [x, y, z, qx, qy, qz, qw]` and
-//!   `v = [v_lin, ω]`, its twist in the **base frame** (`nq = nv + 1`); see [`liegroup`].
+//! - `q` stacks each joint's coordinates in joint order (depth first over the URDF tree, a
+//!   link's child joints in the order of their names, as Pinocchio through urdfdom); a
+//!   free-flying base has `q = [x, y, z, qx, qy, qz, qw]` and `v = [v_lin, ω]`, its twist in
+//!   the **base frame** (`nq = nv + 1`); see [`liegroup`].
 //! - The world is URDF's: z up, gravity a vector of the model
 //!   ([`SpatialModel::gravity`], `[0, 0, −9.81]` from a URDF).
 //! - Contact rows and forces: see [`contact`] (`M q̈ + h = τ + Aᵀλ`, λ the ground's force on

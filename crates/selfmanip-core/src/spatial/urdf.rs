@@ -1,8 +1,13 @@
 //! A [`SpatialModel`] from a URDF file (parsed by `urdf-rs`), built the way Pinocchio's URDF
 //! parser builds it: the tree rooted at the one link that is no joint's child (or a chosen
-//! link), joints depth first in file order, each moving joint's child link as its body, fixed
-//! joints merged into the parent body (their child's inertia added, its frames kept), every
-//! link and joint a named frame. A link with zero mass stays massless.
+//! link), joints depth first with a link's child joints in the order of their names (as
+//! urdfdom, which Pinocchio reads URDF through, keeps them: not the file's order), each moving
+//! joint's child link as its body, fixed joints merged into the parent body (their child's
+//! inertia added, its frames kept), every link and joint a named frame. A link with zero mass
+//! stays massless. What the model does not read — a link's `visual` and `collision` blocks,
+//! `material`s — is dropped before `urdf-rs` parses the text ([`without_geometry`]), so an
+//! element it would refuse there (an empty `<texture/>`, which urdfdom's schema allows) does
+//! not stop the load.
 use super::error::{SpatialError, SpatialResult};
 use super::inertia::Inertia;
 use super::model::{BaseKind, Frame, FrameKind, Joint, JointKind, SpatialModel};
@@ -32,7 +37,8 @@ fn pose(field: String, p: &urdf_rs::Pose) -> SpatialResult<SE3> {
 }
 
 /// A link's inertial block as an [`Inertia`] in the link frame; checks mass ≥ 0, finite
-/// entries and a positive semi-definite rotational inertia.
+/// entries and a positive semi-definite rotational inertia (to round-off: an eigenvalue
+/// above `−10⁻¹²` times the larger of its largest entry and the mass times 1 m²).
 fn link_inertia(link: &urdf_rs::Link) -> SpatialResult<Inertia> {
     let field = format!("link[{}].inertial", link.name);
     let (m, i) = (link.inertial.mass.value, &link.inertial.inertia);
@@ -45,9 +51,15 @@ fn link_inertia(link: &urdf_rs::Link) -> SpatialResult<Inertia> {
     let ic = Matrix3::new(
         i.ixx, i.ixy, i.ixz, i.ixy, i.iyy, i.iyz, i.ixz, i.iyz, i.izz,
     );
-    let scale = ic.abs().max();
-    if SymmetricEigen::new(ic).eigenvalues.min() < -1e-12 * scale {
-        return Err(invalid(field + ".inertia", "not positive semi-definite"));
+    // round-off at the scale of the matrix or of the mass over a metre (a point mass written
+    // with off-diagonal entries of 1e-20 kg m², as iCub's ankles are, is a point mass)
+    let scale = ic.abs().max().max(m * 1.0);
+    let smallest = SymmetricEigen::new(ic).eigenvalues.min();
+    if smallest < -1e-12 * scale {
+        return Err(invalid(
+            field + ".inertia",
+            format!("not positive semi-definite (an eigenvalue of {smallest:.3e} kg m²)"),
+        ));
     }
     let origin = pose(field + ".origin", &link.inertial.origin)?;
     Ok(Inertia::new(m, Vector3::zeros(), ic).transformed(&origin))
@@ -80,7 +92,8 @@ fn joint_kind(joint: &urdf_rs::Joint) -> SpatialResult<Option<JointKind>> {
     })
 }
 
-/// The tree's structure: children joints of each link (file order) and the root link.
+/// The tree's structure: children joints of each link (in the order of their names) and the
+/// root link.
 struct Tree<'a> {
     links: HashMap<&'a str, &'a urdf_rs::Link>,
     children: HashMap<&'a str, Vec<&'a urdf_rs::Joint>>,
@@ -88,6 +101,9 @@ struct Tree<'a> {
 }
 
 fn tree<'a>(robot: &'a urdf_rs::Robot, root: Option<&'a str>) -> SpatialResult<Tree<'a>> {
+    if robot.links.is_empty() {
+        return Err(invalid("link".into(), "the URDF has no link"));
+    }
     let mut links = HashMap::new();
     for link in &robot.links {
         if links.insert(link.name.as_str(), link).is_some() {
@@ -122,6 +138,10 @@ fn tree<'a>(robot: &'a urdf_rs::Robot, root: Option<&'a str>) -> SpatialResult<T
             .entry(joint.parent.link.as_str())
             .or_default()
             .push(joint);
+    }
+    // urdfdom keeps a link's child joints in a map by name: Pinocchio's joint order
+    for siblings in children.values_mut() {
+        siblings.sort_by(|a, b| a.name.cmp(&b.name));
     }
     let root = match root {
         Some(name) if links.contains_key(name) => name,
@@ -176,6 +196,44 @@ fn cycle(robot: &urdf_rs::Robot, parent_of: &HashMap<&str, &str>) -> SpatialErro
             .find(|j| j.name == joint)
             .map_or("", |j| j.parent.link.as_str());
     }
+}
+
+/// The elements of a URDF that the model does not read: a link's looks and collision shapes
+/// and the materials they name.
+const UNREAD: [&[u8]; 3] = [b"visual", b"collision", b"material"];
+
+/// `text` without its [`UNREAD`] elements (and whatever they hold), every other event of the
+/// XML as it was. The message of an XML error otherwise.
+fn without_geometry(text: &str) -> Result<String, String> {
+    use quick_xml::events::Event;
+    let mut reader = quick_xml::Reader::from_str(text);
+    let mut writer = quick_xml::Writer::new(Vec::with_capacity(text.len()));
+    // how deep the reader is inside an element that is dropped
+    let mut dropped = 0usize;
+    loop {
+        let event = reader
+            .read_event()
+            .map_err(|e| format!("XML at byte {}: {e}", reader.error_position()))?;
+        let keep = match &event {
+            Event::Eof => break,
+            Event::Start(e) => {
+                if dropped > 0 || UNREAD.contains(&e.name().as_ref()) {
+                    dropped += 1;
+                }
+                dropped == 0
+            }
+            Event::End(_) if dropped > 0 => {
+                dropped -= 1;
+                false
+            }
+            Event::Empty(e) => dropped == 0 && !UNREAD.contains(&e.name().as_ref()),
+            _ => dropped == 0,
+        };
+        if keep {
+            writer.write_event(event).map_err(|e| e.to_string())?;
+        }
+    }
+    String::from_utf8(writer.into_inner()).map_err(|e| e.to_string())
 }
 
 /// Building state: the model so far and where the current link hangs.
@@ -273,9 +331,9 @@ impl SpatialModel {
         base: BaseKind,
         root_link: Option<&str>,
     ) -> SpatialResult<Self> {
-        let robot = urdf_rs::read_from_string(text).map_err(|e| SpatialError::UrdfParse {
-            message: e.to_string(),
-        })?;
+        let parse_error = |message: String| SpatialError::UrdfParse { message };
+        let text = without_geometry(text).map_err(parse_error)?;
+        let robot = urdf_rs::read_from_string(&text).map_err(|e| parse_error(e.to_string()))?;
         Self::from_urdf_robot(&robot, base, root_link)
     }
 
