@@ -2,8 +2,10 @@
 `example-robot-data` (in the test extra) — quadrupeds, humanoids, arms, hands, drones — loaded
 by ``SpatialRobot.from_urdf`` and by Pinocchio. Each one either matches Pinocchio — the same
 joints in the same order, so that ``from_pinocchio`` passes arrays across, and at random
-states ``M``, ``nle``, every frame's placement and Jacobian to 1e-10 of their scale; for the
-legged ones, the constrained dynamics and the plastic impact on their feet to 1e-9 — or is
+states ``M``, ``nle``, every frame's placement and Jacobian (world, local and
+local-world-aligned) to 1e-10 of their scale, ``neutral`` and ``q ⊕ v``; for the
+legged ones, the constrained dynamics and the plastic impact on their feet to 1e-9 and the
+quasi-static standing against Pinocchio's gravity — or is
 refused with a typed error naming a field that a check of our own, from the XML, finds
 invalid: a rotational inertia with a negative eigenvalue beyond round-off (which Pinocchio
 takes as it is), or a file without a link (a xacro left unexpanded, which Pinocchio refuses
@@ -118,9 +120,16 @@ def test_a_third_party_urdf_matches_pinocchio_or_is_refused_by_field(path: pathl
             fid = pinocchio_frame(model, name)
             placement = ours.frame_placement(q, name)
             assert np.allclose(placement, data.oMf[fid].homogeneous, rtol=0, atol=1e-10 * reach), name
-            jacobian = ours.frame_jacobian(q, name, frame="local_world_aligned")
-            expected = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
-            assert np.allclose(jacobian, expected, rtol=0, atol=1e-10 * reach), name
+            for frame, ref in (("world", pin.WORLD), ("local", pin.LOCAL),
+                               ("local_world_aligned", pin.LOCAL_WORLD_ALIGNED)):
+                jacobian = ours.frame_jacobian(q, name, frame=frame)
+                expected = pin.getFrameJacobian(model, data, fid, ref)
+                assert np.allclose(jacobian, expected, rtol=0, atol=1e-10 * reach), (name, frame)
+        # the configuration group: q ⊕ v and back, in Pinocchio's layout
+        q1, _ = ours.to_pinocchio(ours.integrate(q, vp), vp)
+        assert np.allclose(q1, pin.integrate(model, qp, vp), rtol=0, atol=1e-12 * max(1.0, abs(qp).max()))
+    q0, _ = ours.to_pinocchio(ours.neutral(), np.zeros(model.nv))
+    assert np.array_equal(q0, pin.neutral(model))
 
 
 def feet(model) -> list[str]:
@@ -228,3 +237,34 @@ def test_a_third_party_robot_on_its_feet_matches_pinocchio(path: pathlib.Path):
             assert rel(imp.v_plus[kept], data.dq_after) < tol and rel(imp.impulse, data.impulse_c) < tol
             compared += 1
     assert compared > 0
+
+
+@pytest.mark.parametrize("path", LEGGED, ids=lambda p: str(p.relative_to(ROBOTS)) if ROBOTS else str(p))
+def test_a_third_party_robot_stands_against_pinocchios_gravity(path: pathlib.Path):
+    """Quasi-static standing on its feet (thesis 4.21-4.22) against Pinocchio's generalized
+    gravity ``g(q)``: at rest ``g = [0; τ] + Jᵀλ`` for the external forces and their torques,
+    and every internal force ``n`` pushes nothing into the base (``J_bᵀ n = 0``) and takes the
+    torques ``−J_jᵀ n``. Where the feet cannot hold the base (two point feet cannot resist a
+    moment about the line through them: the bipeds), it is refused naming ``contacts``, and
+    the least squares of ``J_bᵀ λ = g_b`` leave a residual."""
+    model = pinocchio_model(path)
+    data = model.createData()
+    ours = SpatialRobot.from_urdf(path)
+    names = feet(model)
+    qp, _, _ = next(random_state(model, path))
+    q, _ = ours.from_pinocchio(qp, np.zeros(model.nv))
+    J, _ = contact_rows(model, data, qp, np.zeros(model.nv), names)
+    g = pin.computeGeneralizedGravity(model, data, qp)
+    scale = max(1.0, abs(g).max())
+    try:
+        qs = ours.quasi_static(names, q)
+    except InvalidInputError as e:
+        assert e.field == "contacts"
+        lam, *_ = np.linalg.lstsq(J[:, :6].T, g[:6], rcond=None)
+        assert abs(J[:, :6].T @ lam - g[:6]).max() > 1e-6 * scale
+        return
+    held = np.concatenate([np.zeros(6), qs.tau_external]) + J.T @ qs.lam_external
+    assert abs(held - g).max() < 1e-10 * scale
+    pushed = J.T @ qs.internal_basis
+    assert abs(pushed[:6]).max() < 1e-12 * max(1.0, abs(J).max())
+    assert abs(pushed[6:] + qs.internal_torques).max() < 1e-12 * max(1.0, abs(J).max())

@@ -88,3 +88,36 @@ fn quaternion_norm_stays_one() {
     eprintln!("full turn in {n} steps returns the pose to {err:.2e}");
     assert!(err < 1e-12, "{err}");
 }
+
+/// A step that turns the base by more than π keeps the quaternion in its start's hemisphere
+/// (Pinocchio's convention: the same numbers as its `integrate`), and the rotation is still
+/// the step's, `R(q₁) = R(q₀) exp(θ a)` by Rodrigues' formula.
+#[test]
+fn a_turn_beyond_pi_keeps_the_quaternion_in_its_hemisphere() {
+    let model = quadruped();
+    let mut rng = rng(7);
+    for _ in 0..50 {
+        let q0 = random_q(&model, &mut rng);
+        let axis = random_vector(3, 1.0, &mut rng).normalize();
+        for theta in [0.5, 3.0, 3.5, 5.0, 6.2] {
+            let mut v = nalgebra::DVector::zeros(model.nv);
+            v.rows_mut(3, 3).copy_from(&(axis.clone() * theta));
+            let q1 = integrate(&model, q0.as_slice(), v.as_slice()).unwrap();
+            let (r0, r1) = (
+                quaternion_at(q0.as_slice(), 3),
+                quaternion_at(q1.as_slice(), 3),
+            );
+            assert!(r1.dot(&r0) >= 0.0, "θ = {theta}");
+            let a = nalgebra::Vector3::new(axis[0], axis[1], axis[2]);
+            let k = a.cross_matrix();
+            let turn =
+                nalgebra::Matrix3::identity() + k * theta.sin() + k * k * (1.0 - theta.cos());
+            let expected = nalgebra::UnitQuaternion::from_quaternion(r0)
+                .to_rotation_matrix()
+                .matrix()
+                * turn;
+            let got = nalgebra::UnitQuaternion::from_quaternion(r1).to_rotation_matrix();
+            assert!((got.matrix() - expected).amax() < 1e-12, "θ = {theta}");
+        }
+    }
+}

@@ -62,7 +62,9 @@ pub fn neutral(model: &SpatialModel) -> DVector<f64> {
 }
 
 /// `q ⊕ v`: the configuration reached from `q` by moving with the constant rates `v` for unit
-/// time (`v dt` for a step `dt`).
+/// time (`v dt` for a step `dt`). A free flyer's quaternion stays in the hemisphere of `q`'s
+/// (`q₁ · q₀ ≥ 0`, as Pinocchio keeps it): the same rotation as its negative, and the same
+/// numbers as Pinocchio's `integrate` where a step turns the base by more than π.
 pub fn integrate(model: &SpatialModel, q: &[f64], v: &[f64]) -> SpatialResult<DVector<f64>> {
     check_configuration(model, "q", q)?;
     check_vector("v", v, model.nv)?;
@@ -79,10 +81,14 @@ pub fn integrate(model: &SpatialModel, q: &[f64], v: &[f64]) -> SpatialResult<DV
                 let (dr, dp) = exp6_quaternion(&twist);
                 let p = Vector3::from_column_slice(&q[iq..iq + 3]) + r0 * dp;
                 out.as_mut_slice()[iq..iq + 3].copy_from_slice(p.as_slice());
+                let mut r1 = *(r0 * dr).quaternion();
+                if r1.coords.dot(&r0.coords) < 0.0 {
+                    r1 = -r1;
+                }
                 store_quaternion(
                     out.as_mut_slice(),
                     iq + 3,
-                    &UnitQuaternion::new_normalize(*(r0 * dr).quaternion()),
+                    &UnitQuaternion::new_normalize(r1),
                 );
             }
             _ => out[iq] += v[iv],
