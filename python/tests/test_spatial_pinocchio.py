@@ -18,6 +18,8 @@ from selfmanip.errors import InvalidInputError, SingularKktError
 
 pin = pytest.importorskip("pinocchio", reason="Pinocchio (`pip install pin`, in the test extra) is the independent route")
 
+from pinocchio_routes import contact_rows, rel  # noqa: E402
+
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 QUADRUPED = ROOT / "tests" / "data" / "urdf" / "quadruped12.urdf"
 # the six-legged RHex of Table 4.2 (its legs 0.063 kg each), written by
@@ -62,32 +64,9 @@ def random_state(rng: np.random.Generator, nq: int, nv: int):
     return q, rng.uniform(-2, 2, nv), rng.uniform(-5, 5, nv)
 
 
-def contact_rows(model, data, q, v, contacts):
-    """Pinocchio's contact Jacobian and drift for our rows: the frames' LOCAL_WORLD_ALIGNED
-    linear Jacobians (world x, y, z: two tangents and the normal on flat z-up ground) and their
-    classical accelerations at zero joint acceleration."""
-    pin.computeJointJacobians(model, data, q)
-    pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
-    pin.updateFramePlacements(model, data)
-    J, gamma = [], []
-    for spec in contacts:
-        name, _, kind = spec.partition(":")
-        fid = model.getFrameId(name)
-        jac = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)[:3]
-        acc = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED).linear
-        rows = [2] if kind == "frictionless" else [0, 1, 2]
-        J.append(jac[rows])
-        gamma.append(acc[rows])
-    return np.vstack(J), np.concatenate(gamma)
-
-
 def pin_mass_matrix(model, data, q):
     M = pin.crba(model, data, q)
     return np.triu(M) + np.triu(M, 1).T
-
-
-def rel(a, b):
-    return float(np.max(np.abs(np.asarray(a) - np.asarray(b))) / max(1.0, float(np.max(np.abs(b)))))
 
 
 VARIANTS = {"as_shipped": ((), 1.0), "small_leg_masses": (LEGS, 1e-2), "massless_shins": (SHINS, 0.0)}

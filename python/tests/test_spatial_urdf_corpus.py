@@ -27,6 +27,8 @@ from selfmanip.errors import InvalidInputError, SingularKktError
 
 pin = pytest.importorskip("pinocchio", reason="Pinocchio (`pip install pin`, in the test extra) is the independent route")
 
+from pinocchio_routes import contact_rows, frame_id, rel  # noqa: E402
+
 
 def robots_dir() -> pathlib.Path | None:
     try:
@@ -83,14 +85,6 @@ def random_state(model, path: pathlib.Path):
         yield pin.randomConfiguration(model, lower, upper), rng.normal(size=model.nv), rng.normal(size=model.nv)
 
 
-def pinocchio_frame(model, name: str) -> int:
-    """The frame Pinocchio names ``name`` (a link's body frame where a joint shares it)."""
-    ids = [i for i, f in enumerate(model.frames) if f.name == name]
-    assert ids, f"Pinocchio has no frame `{name}`"
-    body = [i for i in ids if model.frames[i].type == pin.FrameType.BODY]
-    return (body or ids)[0]
-
-
 @pytest.mark.parametrize("base", ["free_flyer", "fixed"])
 @pytest.mark.parametrize("path", URDFS, ids=lambda p: str(p.relative_to(ROBOTS)) if ROBOTS else str(p))
 def test_a_third_party_urdf_matches_pinocchio_or_is_refused_by_field(path: pathlib.Path, base: str):
@@ -120,7 +114,7 @@ def test_a_third_party_urdf_matches_pinocchio_or_is_refused_by_field(path: pathl
         pin.computeJointJacobians(model, data, qp)
         reach = max(1.0, max(np.abs(f.translation).max() for f in data.oMf))
         for name in ours.frame_names:
-            fid = pinocchio_frame(model, name)
+            fid = frame_id(model, name)
             placement = ours.frame_placement(q, name)
             assert np.allclose(placement, data.oMf[fid].homogeneous, rtol=0, atol=1e-10 * reach), name
             for frame, ref in (("world", pin.WORLD), ("local", pin.LOCAL),
@@ -150,29 +144,6 @@ def feet(model) -> list[str]:
     return list(by_joint.values())
 
 
-def contact_rows(model, data, q, v, contacts):
-    """Pinocchio's contact Jacobian and drift for our rows (world x, y, z; the normal alone
-    for a frictionless foot): LOCAL_WORLD_ALIGNED linear Jacobians and classical accelerations."""
-    pin.computeJointJacobians(model, data, q)
-    pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
-    pin.updateFramePlacements(model, data)
-    J, gamma = [], []
-    for spec in contacts:
-        name, _, kind = spec.partition(":")
-        fid = pinocchio_frame(model, name)
-        rows = [2] if kind == "frictionless" else [0, 1, 2]
-        J.append(pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)[:3][rows])
-        gamma.append(pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED).linear[rows])
-    return np.vstack(J), np.concatenate(gamma)
-
-
-def rel(a, b) -> float:
-    a, b = np.asarray(a), np.asarray(b)
-    if b.size == 0:
-        return 0.0 if a.size == 0 else np.inf
-    return float(np.max(np.abs(a - b)) / max(1.0, float(np.max(np.abs(b)))))
-
-
 def loads(path: pathlib.Path) -> bool:
     try:
         SpatialRobot.from_urdf(path)
@@ -188,7 +159,7 @@ LEGGED = [p for p in URDFS if (m := pinocchio_model(p)) is not None and len(feet
 def massless_rates(model, contacts) -> list[int]:
     """The rates of the joints whose whole subtree carries no mass and no contact, read off
     Pinocchio's model (which takes such links as they are and cannot solve with them)."""
-    feet_joints = {model.frames[pinocchio_frame(model, c.partition(":")[0])].parentJoint for c in contacts}
+    feet_joints = {model.frames[frame_id(model, c.partition(":")[0])].parentJoint for c in contacts}
     rates = []
     for j in range(1, model.njoints):
         subtree = model.subtrees[j]

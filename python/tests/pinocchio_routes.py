@@ -1,0 +1,42 @@
+"""Pinocchio's side of the spatial comparisons: its contact rows for ours, and the relative
+error the comparisons bound. Imported by tests that have first skipped where Pinocchio (`pip
+install pin`, in the test extra) is missing."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+
+def frame_id(model, name: str) -> int:
+    """The frame Pinocchio names ``name`` (a link's body frame where a joint shares it)."""
+    ids = [i for i, f in enumerate(model.frames) if f.name == name]
+    assert ids, f"Pinocchio has no frame `{name}`"
+    body = [i for i in ids if model.frames[i].type == pin.FrameType.BODY]
+    return (body or ids)[0]
+
+
+def contact_rows(model, data, q, v, contacts):
+    """Pinocchio's contact Jacobian and drift for our rows: the frames' LOCAL_WORLD_ALIGNED
+    linear Jacobians (world x, y, z: two tangents and the normal on flat z-up ground; the
+    normal alone for a ``name:frictionless`` contact) and their classical accelerations at
+    zero joint acceleration."""
+    pin.computeJointJacobians(model, data, q)
+    pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
+    pin.updateFramePlacements(model, data)
+    J, gamma = [], []
+    for spec in contacts:
+        name, _, kind = spec.partition(":")
+        fid = frame_id(model, name)
+        rows = [2] if kind == "frictionless" else [0, 1, 2]
+        J.append(pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)[:3][rows])
+        gamma.append(pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED).linear[rows])
+    return np.vstack(J), np.concatenate(gamma)
+
+
+def rel(a, b) -> float:
+    """``max |a − b|`` over ``max(1, max |b|)`` (0 for two empty arrays)."""
+    a, b = np.asarray(a), np.asarray(b)
+    if b.size == 0:
+        return 0.0 if a.size == 0 else np.inf
+    return float(np.max(np.abs(a - b)) / max(1.0, float(np.max(np.abs(b)))))
