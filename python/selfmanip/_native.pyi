@@ -415,9 +415,11 @@ class Run:
 @final
 class SpatialRobot:
     @staticmethod
-    def from_urdf(path: str, base: str = "free_flyer", root_link: str | None = None) -> SpatialRobot: ...
+    def from_urdf(path: str, base: str = "free_flyer", root_link: str | None = None,
+                  frames: dict[str, dict[str, Any]] | None = None) -> SpatialRobot: ...
     @staticmethod
-    def from_urdf_text(urdf: str, base: str = "free_flyer", root_link: str | None = None) -> SpatialRobot: ...
+    def from_urdf_text(urdf: str, base: str = "free_flyer", root_link: str | None = None,
+                       frames: dict[str, dict[str, Any]] | None = None) -> SpatialRobot: ...
     @staticmethod
     def rhex(
         leg_mass_kg: float = 0.0, leg_inertia_kg_m2: float = 0.0, hip_half_width_m: float | None = None

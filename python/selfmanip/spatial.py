@@ -12,7 +12,9 @@ then the normal), ``"FL_foot:frictionless"`` the normal only; ``lam`` is the gro
 the robot along those rows (a pushing normal force is positive), with
 ``M qdd + h = tau + A^T lam``.
 
-Contacts may also be a dict ``{frame: {"radius_m": r, "friction": mu}}``: a point (``r = 0``)
+A contact may be any frame, including frames added to the URDF's with
+``from_urdf(path, frames={name: {"parent": frame, "xyz_m": [..], "rpy_rad": [..]}})`` (a flat
+foot's corners). Contacts may also be a dict ``{frame: {"radius_m": r, "friction": mu}}``: a point (``r = 0``)
 or a sphere foot of radius ``r`` about the frame's origin, with three rows if ``mu > 0`` (and
 in ``impact`` Coulomb's circular cone of ``mu``: each contact sticks inside it or slips on its
 edge) and the normal row alone if ``mu = 0``; ``"slide": True`` keeps the normal row and applies Coulomb
@@ -109,12 +111,17 @@ class SpatialRobot(WrappedModel):
 
     @classmethod
     def from_urdf(cls, path: str | os.PathLike[str], base: Literal["free_flyer", "fixed"] = "free_flyer",
-                  root_link: str | None = None) -> "SpatialRobot":
+                  root_link: str | None = None,
+                  frames: Mapping[str, Mapping[str, Any]] | None = None) -> "SpatialRobot":
         """Loads a URDF; ``base`` attaches its root link to the world (``"free_flyer"`` or
-        ``"fixed"``). Links with zero mass stay massless."""
+        ``"fixed"``). Links with zero mass stay massless. ``frames`` adds frames to the
+        URDF's, ``{name: {"parent": frame, "xyz_m": [x, y, z], "rpy_rad": [r, p, y]}}``
+        (placed in the parent frame as a URDF joint origin places its child; offsets zero
+        where not given; Pinocchio's operational frames): points to name as contacts, such
+        as the corners of a flat foot."""
         if not isinstance(path, (str, os.PathLike)):
             raise InvalidTypeError(f"`path` must be a file path, got {type(path).__name__}", "path")
-        return cls(_NativeSpatialRobot.from_urdf(os.fspath(path), base, root_link))
+        return cls(_NativeSpatialRobot.from_urdf(os.fspath(path), base, root_link, frames))
 
     @classmethod
     def rhex(cls, leg_mass_kg: float = 0.0, leg_inertia_kg_m2: float = 0.0,

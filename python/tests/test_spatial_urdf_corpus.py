@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import importlib.metadata
 import pathlib
+import pickle
 import re
 import xml.etree.ElementTree as ET
 import zlib
@@ -249,3 +250,61 @@ def test_a_third_party_robot_stands_against_pinocchios_gravity(path: pathlib.Pat
     pushed = J.T @ qs.internal_basis
     assert abs(pushed[:6]).max() < 1e-12 * max(1.0, abs(J).max())
     assert abs(pushed[6:] + qs.internal_torques).max() < 1e-12 * max(1.0, abs(J).max())
+
+
+def sole_corners(model, sole: str, half_length_m: float = 0.08, half_width_m: float = 0.04):
+    """Four corners of a flat foot about the sole frame ``sole``, as added frames."""
+    return {f"{sole}_{x}_{y}": {"parent": sole, "xyz_m": [sx * half_length_m, sy * half_width_m, 0.0]}
+            for x, sx in (("toe", 1), ("heel", -1)) for y, sy in (("left", 1), ("right", -1))}
+
+
+BIPEDS = [p for p in LEGGED if len(feet(pinocchio_model(p))) == 2]
+
+
+@pytest.mark.parametrize("path", BIPEDS, ids=lambda p: str(p.relative_to(ROBOTS)) if ROBOTS else str(p))
+def test_a_biped_stands_on_the_corners_of_its_feet(path: pathlib.Path):
+    """A biped refused on two point feet stands on the four corners of each sole, frames added
+    to its URDF (``frames=``): the added frames are Pinocchio's operational frames at the same
+    placements (placements and Jacobians), and the quasi-static forces and torques on the eight
+    corners balance Pinocchio's generalized gravity. The added frames survive a pickle."""
+    model = pinocchio_model(path)
+    names = feet(model)
+    added = {k: v for sole in names for k, v in sole_corners(model, sole).items()}
+    ours = SpatialRobot.from_urdf(path, frames=added)
+    for name, spec in added.items():
+        parent = model.frames[frame_id(model, spec["parent"])]
+        placement = parent.placement * pin.SE3(np.eye(3), np.array(spec["xyz_m"]))
+        model.addFrame(pin.Frame(name, parent.parentJoint, placement, pin.FrameType.OP_FRAME))
+    data = model.createData()
+    qp, _, _ = next(random_state(model, path))
+    q, _ = ours.from_pinocchio(qp, np.zeros(model.nv))
+    pin.framesForwardKinematics(model, data, qp)
+    pin.computeJointJacobians(model, data, qp)
+    for name in added:
+        fid = frame_id(model, name)
+        assert rel(ours.frame_placement(q, name), data.oMf[fid].homogeneous) < 1e-12
+        assert rel(ours.frame_jacobian(q, name, frame="world"), pin.getFrameJacobian(model, data, fid, pin.WORLD)) < 1e-12
+    corners = list(added)
+    J, _ = contact_rows(model, data, qp, np.zeros(model.nv), corners)
+    g = pin.computeGeneralizedGravity(model, data, qp)
+    qs = ours.quasi_static(corners, q)
+    held = np.concatenate([np.zeros(6), qs.tau_external]) + J.T @ qs.lam_external
+    assert abs(held - g).max() < 1e-10 * max(1.0, abs(g).max())
+    copy = pickle.loads(pickle.dumps(ours))
+    assert np.array_equal(copy.frame_placement(q, corners[0]), ours.frame_placement(q, corners[0]))
+
+
+def test_added_frames_name_their_bad_fields():
+    path = next(p for p in URDFS if p.name == "solo12.urdf")
+    cases = [({"toe": {"parent": "nowhere"}}, "frames[toe].parent"),
+             ({"toe": {}}, "frames[toe].parent"),
+             ({"FL_FOOT": {"parent": "base_link"}}, "frames[FL_FOOT]"),
+             ({"toe": {"parent": "FL_FOOT", "xyz_m": [0, 0]}}, "frames[toe].xyz_m"),
+             ({"toe": {"parent": "FL_FOOT", "xyz_m": [0, float("nan"), 0]}}, "frames[toe].xyz_m"),
+             ({"toe": {"parent": "FL_FOOT", "offset": [0, 0, 0]}}, "frames[toe].offset")]
+    for frames, field in cases:
+        with pytest.raises(InvalidInputError) as bad:
+            SpatialRobot.from_urdf(path, frames=frames)
+        assert bad.value.field == field, (frames, bad.value)
+    with pytest.raises(TypeError):
+        SpatialRobot.from_urdf(path, frames=["toe"])

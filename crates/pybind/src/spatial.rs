@@ -64,18 +64,109 @@ pub struct SpatialRobot {
     source: UrdfSource,
 }
 
-/// A URDF model's inputs: `SpatialRobot.from_urdf_text(urdf, base, root_link)` rebuilds it.
+/// A URDF model's inputs: `SpatialRobot.from_urdf_text(urdf, base, root_link, frames)`
+/// rebuilds it.
 struct UrdfSource {
     urdf: String,
     base: String,
     root_link: Option<String>,
+    frames: Vec<AddedFrame>,
+}
+
+/// A frame added to the URDF's (`SpatialModel::add_frame`): `{name: {"parent": frame,
+/// "xyz_m": [x, y, z], "rpy_rad": [r, p, y]}}`, the offsets zero where not given.
+#[derive(Clone)]
+struct AddedFrame {
+    name: String,
+    parent: String,
+    xyz: [f64; 3],
+    rpy: [f64; 3],
+}
+
+impl AddedFrame {
+    /// The frames of `spec`, a dict `{name: {...}}` (`None`: none).
+    fn parse(spec: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<Self>> {
+        let Some(spec) = spec.filter(|s| !s.is_none()) else {
+            return Ok(Vec::new());
+        };
+        let dict = spec
+            .cast::<PyDict>()
+            .map_err(|_| invalid_type("frames", "a dict {name: {\"parent\": frame, ...}}"))?;
+        let mut frames = Vec::new();
+        for (key, value) in dict.iter() {
+            let name: String = key
+                .extract()
+                .map_err(|_| invalid_type("frames", "frame names as keys"))?;
+            let field = |k: &str| format!("frames[{name}]{k}");
+            let entry = value
+                .cast::<PyDict>()
+                .map_err(|_| invalid_type(&field(""), "a dict with parent, xyz_m, rpy_rad"))?;
+            for k in entry.keys() {
+                let k: String = k.extract()?;
+                if !["parent", "xyz_m", "rpy_rad"].contains(&k.as_str()) {
+                    return Err(invalid(
+                        &field(&format!(".{k}")),
+                        format!("unknown key `{k}` (parent, xyz_m, rpy_rad)"),
+                    ));
+                }
+            }
+            let parent: String = entry
+                .get_item("parent")?
+                .ok_or_else(|| invalid(&field(".parent"), "missing"))?
+                .extract()
+                .map_err(|_| invalid_type(&field(".parent"), "a frame name"))?;
+            let triple = |k: &str| -> PyResult<[f64; 3]> {
+                let Some(x) = entry.get_item(k)? else {
+                    return Ok([0.0; 3]);
+                };
+                let x: Vec<f64> = x
+                    .extract()
+                    .map_err(|_| invalid_type(&field(&format!(".{k}")), "three numbers"))?;
+                <[f64; 3]>::try_from(x.as_slice()).map_err(|_| {
+                    invalid(
+                        &field(&format!(".{k}")),
+                        format!("{} numbers, expected 3", x.len()),
+                    )
+                })
+            };
+            let (xyz, rpy) = (triple("xyz_m")?, triple("rpy_rad")?);
+            frames.push(AddedFrame {
+                name,
+                parent,
+                xyz,
+                rpy,
+            });
+        }
+        Ok(frames)
+    }
+
+    /// The dict [`Self::parse`] reads back.
+    fn to_dict<'py>(frames: &[Self], py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let out = PyDict::new(py);
+        for f in frames {
+            let entry = PyDict::new(py);
+            entry.set_item("parent", &f.parent)?;
+            entry.set_item("xyz_m", f.xyz.to_vec())?;
+            entry.set_item("rpy_rad", f.rpy.to_vec())?;
+            out.set_item(&f.name, entry)?;
+        }
+        Ok(out)
+    }
 }
 
 impl UrdfSource {
     fn build(self) -> PyResult<SpatialRobot> {
         let base = BaseKind::from_name(&self.base).map_err(spatial_err)?;
-        let model = SpatialModel::from_urdf_str(&self.urdf, base, self.root_link.as_deref())
+        let mut model = SpatialModel::from_urdf_str(&self.urdf, base, self.root_link.as_deref())
             .map_err(spatial_err)?;
+        for f in &self.frames {
+            model
+                .add_frame(&f.name, &f.parent, f.xyz, f.rpy)
+                .map_err(|e| match e {
+                    SpatialError::UnknownFrame { ref field, .. } => invalid(field, e.to_string()),
+                    other => spatial_err(other),
+                })?;
+        }
         Ok(SpatialRobot {
             model,
             source: self,
@@ -270,29 +361,41 @@ impl SpatialRobot {
 #[pymethods]
 impl SpatialRobot {
     /// From a URDF file; `base` is `"free_flyer"` or `"fixed"`; `root_link` defaults to the
-    /// one link that is no joint's child.
+    /// one link that is no joint's child; `frames` adds frames to the URDF's
+    /// ([`AddedFrame`]).
     #[staticmethod]
-    #[pyo3(signature = (path, base="free_flyer", root_link=None))]
-    fn from_urdf(path: &str, base: &str, root_link: Option<&str>) -> PyResult<Self> {
+    #[pyo3(signature = (path, base="free_flyer", root_link=None, frames=None))]
+    fn from_urdf(
+        path: &str,
+        base: &str,
+        root_link: Option<&str>,
+        frames: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
         guard(|| {
             let urdf = std::fs::read_to_string(path).map_err(|e| {
                 spatial_err(SpatialError::UrdfParse {
                     message: format!("{path}: {e}"),
                 })
             })?;
-            Self::from_urdf_text(&urdf, base, root_link)
+            Self::from_urdf_text(&urdf, base, root_link, frames)
         })
     }
 
     /// From URDF text (see `from_urdf`).
     #[staticmethod]
-    #[pyo3(signature = (urdf, base="free_flyer", root_link=None))]
-    fn from_urdf_text(urdf: &str, base: &str, root_link: Option<&str>) -> PyResult<Self> {
+    #[pyo3(signature = (urdf, base="free_flyer", root_link=None, frames=None))]
+    fn from_urdf_text(
+        urdf: &str,
+        base: &str,
+        root_link: Option<&str>,
+        frames: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
         guard(|| {
             UrdfSource {
                 urdf: urdf.to_owned(),
                 base: base.to_owned(),
                 root_link: root_link.map(str::to_owned),
+                frames: AddedFrame::parse(frames)?,
             }
             .build()
         })
@@ -316,17 +419,19 @@ impl SpatialRobot {
                 ..table
             };
             let urdf = params.urdf().map_err(spatial_err)?;
-            Self::from_urdf_text(&urdf, "free_flyer", None)
+            Self::from_urdf_text(&urdf, "free_flyer", None, None)
         })
     }
 
-    /// `pickle` and `copy`: rebuilt from its URDF text, base and root link.
+    /// `pickle` and `copy`: rebuilt from its URDF text, base, root link and added frames.
     fn __reduce__<'py>(
         slf: &Bound<'py, Self>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
         let py = slf.py();
         let s = &slf.get().source;
-        let args = (s.urdf.clone(), s.base.clone(), s.root_link.clone()).into_pyobject(py)?;
+        let frames = AddedFrame::to_dict(&s.frames, py)?;
+        let args =
+            (s.urdf.clone(), s.base.clone(), s.root_link.clone(), frames).into_pyobject(py)?;
         Ok((slf.get_type().getattr("from_urdf_text")?, args))
     }
 

@@ -258,3 +258,61 @@ fn an_inertia_is_positive_semi_definite_to_round_off() {
     load("1.35525e-20", "0").unwrap();
     load("0.1", "0.1").unwrap();
 }
+
+#[test]
+fn an_added_frame_is_a_massless_fixed_link_at_the_same_origin() {
+    use selfmanip_core::spatial::kinematics::{
+        forward_kinematics, frame_jacobian, frame_placement,
+    };
+    // the quadruped's front-left foot with a toe 3 cm ahead and 1 cm down, turned: once as an
+    // added frame, once as a massless link on a fixed joint written into the URDF
+    let (xyz, rpy) = ([0.03, 0.0, -0.01], [0.1, -0.2, 0.3]);
+    let mut added = quadruped();
+    let id = added.add_frame("toe", "FL_foot", xyz, rpy).unwrap();
+    assert_eq!(added.frames[id].kind, FrameKind::Operational);
+    let toe_link = r#"<link name="toe"/><joint name="toe_joint" type="fixed"><origin xyz="0.03 0 -0.01" rpy="0.1 -0.2 0.3"/><parent link="FL_foot"/><child link="toe"/></joint></robot>"#;
+    let urdf = std::fs::read_to_string(QUADRUPED)
+        .unwrap()
+        .replace("</robot>", toe_link);
+    let written = SpatialModel::from_urdf_str(&urdf, BaseKind::FreeFlyer, None).unwrap();
+    let mut rng = rng(3);
+    for _ in 0..5 {
+        let q = random_q(&added, &mut rng);
+        let (mut a, mut w) = (SpatialData::new(&added), SpatialData::new(&written));
+        forward_kinematics(&added, &mut a, q.as_slice()).unwrap();
+        forward_kinematics(&written, &mut w, q.as_slice()).unwrap();
+        let (fa, fw) = (id, written.frame_id("toe").unwrap());
+        let (pa, pw) = (
+            frame_placement(&added, &a, fa),
+            frame_placement(&written, &w, fw),
+        );
+        assert!((pa.rotation - pw.rotation).amax() < 1e-15);
+        assert!((pa.translation - pw.translation).amax() < 1e-15);
+        for reference in [
+            ReferenceFrame::World,
+            ReferenceFrame::Local,
+            ReferenceFrame::LocalWorldAligned,
+        ] {
+            frame_jacobian(&added, &mut a, fa, reference);
+            frame_jacobian(&written, &mut w, fw, reference);
+            assert!((&a.J - &w.J).amax() < 1e-14);
+        }
+    }
+    // what is refused, by field
+    let field = |name: &str, parent: &str, xyz: [f64; 3]| match quadruped()
+        .add_frame(name, parent, xyz, [0.0; 3])
+        .unwrap_err()
+    {
+        SpatialError::InvalidArgument { field, .. } | SpatialError::UnknownFrame { field, .. } => {
+            field
+        }
+        other => panic!("{other:?}"),
+    };
+    assert_eq!(field("FL_foot", "trunk", [0.0; 3]), "frames[FL_foot]");
+    assert_eq!(field("", "trunk", [0.0; 3]), "frames[]");
+    assert_eq!(field("tip", "nowhere", [0.0; 3]), "frames[tip].parent");
+    assert_eq!(
+        field("tip", "trunk", [0.0, f64::NAN, 0.0]),
+        "frames[tip].xyz_m"
+    );
+}

@@ -64,6 +64,9 @@ pub enum FrameKind {
     Joint,
     /// A fixed joint, merged into its parent body.
     FixedJoint,
+    /// A frame added to the description by its user ([`SpatialModel::add_frame`]): a foot's
+    /// corner, a tool tip (Pinocchio's `OP_FRAME`).
+    Operational,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -135,6 +138,50 @@ impl SpatialModel {
                 field: field.into(),
                 name: name.into(),
             })
+    }
+
+    /// Adds the frame `name` fixed to the frame `parent` at `xyz` (m) and `rpy` (rad, URDF's
+    /// roll–pitch–yaw) in `parent`'s axes, as a URDF joint origin places its child: a point
+    /// of the robot to name as a contact (a flat foot's corners) or to read. Returns its index.
+    /// Errors name `frames[name]…`: an empty or taken name, an unknown parent, a non-finite
+    /// offset.
+    pub fn add_frame(
+        &mut self,
+        name: &str,
+        parent: &str,
+        xyz: [f64; 3],
+        rpy: [f64; 3],
+    ) -> SpatialResult<usize> {
+        let field = |key: &str| format!("frames[{name}]{key}");
+        let taken = self.frames.iter().any(|f| f.name == name);
+        if name.is_empty() || taken {
+            return Err(SpatialError::InvalidArgument {
+                field: field(""),
+                reason: if taken {
+                    "a frame of this name exists".into()
+                } else {
+                    "an empty name".into()
+                },
+            });
+        }
+        let parent_id = self.frame_id_of(&field(".parent"), parent)?;
+        for (key, values) in [(".xyz_m", xyz), (".rpy_rad", rpy)] {
+            if let Some(x) = values.iter().find(|x| !x.is_finite()) {
+                return Err(SpatialError::InvalidArgument {
+                    field: field(key),
+                    reason: format!("non-finite value {x}"),
+                });
+            }
+        }
+        let parent = &self.frames[parent_id];
+        let frame = Frame {
+            name: name.into(),
+            kind: FrameKind::Operational,
+            joint: parent.joint,
+            placement: parent.placement.compose(&SE3::from_xyz_rpy(xyz, rpy)),
+        };
+        self.frames.push(frame);
+        Ok(self.frames.len() - 1)
     }
 
     /// Total mass (kg).
