@@ -11,7 +11,7 @@ import pathlib
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import HealthCheck, example, given, settings, strategies as st
 
 import selfmanip
 from selfmanip import motor
@@ -150,3 +150,62 @@ def _numbers(x):
             yield from _numbers(v)
     elif isinstance(x, (int, float, np.ndarray, np.floating)):
         yield np.asarray(x, dtype=float)
+
+
+QUADRUPED_URDF = pathlib.Path(__file__).resolve().parents[2] / "tests" / "data" / "urdf" / "quadruped12.urdf"
+odd_attribute = st.sampled_from(["nan", "inf", "-inf", "-1", "0", "", "abc", "1 2", "1e309", "-1e308",
+                                 "0 0 0", "nan 0 0", "1 1 1 1", "FL_foot", "trunk", "floating", "planar"])
+
+
+@BUDGET
+@given(seed=st.integers(0, 2**32 - 1), kind=st.sampled_from(["delete", "strip", "empty", "attribute", "rename", "truncate"]),
+       value=odd_attribute)
+@example(seed=0, kind="empty", value="nan")
+def test_a_mangled_urdf_loads_or_is_refused_by_field(seed, kind, value):
+    """The shipped quadruped's URDF with one element deleted, every element of one tag deleted
+    (every link, say) or all of them (an unexpanded xacro), one attribute set to an odd value,
+    one link or joint renamed (to another's name, or empty) or the text cut short:
+    ``SpatialRobot.from_urdf`` loads it (and its ``M`` and bias forces at the neutral
+    configuration are finite or a typed error) or refuses it with a typed error naming a
+    field — never an internal error (a caught panic, as an empty robot once gave)."""
+    import random
+    import tempfile
+    import xml.etree.ElementTree as ET
+
+    rng = random.Random(seed)
+    tree = ET.parse(QUADRUPED_URDF)
+    root = tree.getroot()
+    elements = [(parent, child) for parent in root.iter() for child in parent]
+    if kind == "delete":
+        parent, child = rng.choice(elements)
+        parent.remove(child)
+    elif kind == "empty":
+        for child in list(root):
+            root.remove(child)
+    elif kind == "strip":
+        tag = rng.choice(sorted({child.tag for _, child in elements}))
+        for parent, child in elements:
+            if child.tag == tag:
+                parent.remove(child)
+    elif kind == "attribute":
+        element = rng.choice([e for _, e in elements if e.attrib])
+        element.set(rng.choice(sorted(element.attrib)), value)
+    elif kind == "rename":
+        named = [e for _, e in elements if e.tag in ("link", "joint")]
+        element = rng.choice(named)
+        element.set("name", rng.choice([e.get("name") for e in named] + [""]))
+    text = ET.tostring(root, encoding="unicode")
+    if kind == "truncate":
+        text = text[: rng.randrange(len(text))]
+    with tempfile.NamedTemporaryFile("w", suffix=".urdf", delete=False) as f:
+        f.write(text)
+    try:
+        robot = selfmanip.SpatialRobot.from_urdf(f.name)
+        q = robot.neutral()
+        m, h = robot.mass_matrix(q), robot.bias_forces(q, np.zeros(robot.nv))
+        assert np.all(np.isfinite(m)) and np.all(np.isfinite(h))
+    except SelfmanipError as err:
+        assert not isinstance(err, selfmanip.errors.EngineError), err
+        assert err.field, err
+    finally:
+        pathlib.Path(f.name).unlink()
