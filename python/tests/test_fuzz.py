@@ -158,7 +158,8 @@ odd_attribute = st.sampled_from(["nan", "inf", "-inf", "-1", "0", "", "abc", "1 
 
 
 @BUDGET
-@given(seed=st.integers(0, 2**32 - 1), kind=st.sampled_from(["delete", "strip", "empty", "attribute", "rename", "truncate"]),
+@given(seed=st.integers(0, 2**32 - 1),
+       kind=st.sampled_from(["delete", "strip", "empty", "attribute", "rename", "truncate"]),
        value=odd_attribute)
 @example(seed=0, kind="empty", value="nan")
 def test_a_mangled_urdf_loads_or_is_refused_by_field(seed, kind, value):

@@ -1,12 +1,13 @@
 """Robots we did not design for (issue 32): every URDF of Pinocchio's own robot collection,
 `example-robot-data` (in the test extra) — quadrupeds, humanoids, arms, hands, drones — loaded
-by ``SpatialRobot.from_urdf`` and by Pinocchio, with the root link free-flying and fixed. Each one either matches Pinocchio — the same
-joints in the same order, so that ``from_pinocchio`` passes arrays across, and at random
-states ``M``, ``nle``, every frame's placement and Jacobian (world, local and
-local-world-aligned) to 1e-10 of their scale, ``neutral`` and ``q ⊕ v``; for the
-legged ones, the constrained dynamics and the plastic impact on their feet to 1e-9 and the
-quasi-static standing against Pinocchio's gravity — or is
-refused with a typed error naming a field that a check of our own, from the XML, finds
+by ``SpatialRobot.from_urdf`` and by Pinocchio, with the root link free-flying and fixed.
+
+Each one either matches Pinocchio — the same joints in the same order, so that
+``from_pinocchio`` passes arrays across, and at random states ``M``, ``nle``, every frame's
+placement and Jacobian (world, local and local-world-aligned) to 1e-10 of their scale,
+``neutral`` and ``q ⊕ v``; for the legged ones, the constrained dynamics and the plastic
+impact on their feet to 1e-9 and the quasi-static standing against Pinocchio's gravity — or
+is refused with a typed error naming a field that a check of our own, from the XML, finds
 invalid: a rotational inertia with a negative eigenvalue beyond round-off (which Pinocchio
 takes as it is), or a file without a link (a xacro left unexpanded, which Pinocchio refuses
 too)."""
@@ -283,7 +284,8 @@ def test_a_biped_stands_on_the_corners_of_its_feet(path: pathlib.Path):
     for name in added:
         fid = frame_id(model, name)
         assert rel(ours.frame_placement(q, name), data.oMf[fid].homogeneous) < 1e-12
-        assert rel(ours.frame_jacobian(q, name, frame="world"), pin.getFrameJacobian(model, data, fid, pin.WORLD)) < 1e-12
+        expected = pin.getFrameJacobian(model, data, fid, pin.WORLD)
+        assert rel(ours.frame_jacobian(q, name, frame="world"), expected) < 1e-12
     corners = list(added)
     J, _ = contact_rows(model, data, qp, np.zeros(model.nv), corners)
     g = pin.computeGeneralizedGravity(model, data, qp)
