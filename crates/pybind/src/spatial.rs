@@ -37,6 +37,15 @@ fn spatial_err(e: SpatialError) -> PyErr {
     }
 }
 
+/// Three numbers from `x`, the input that `label` names.
+fn three_numbers(x: &Bound<'_, PyAny>, label: &str) -> PyResult<[f64; 3]> {
+    let v: Vec<f64> = x
+        .extract()
+        .map_err(|_| invalid_type(label, "three numbers"))?;
+    <[f64; 3]>::try_from(v.as_slice())
+        .map_err(|_| invalid(label, format!("{} numbers, expected 3", v.len())))
+}
+
 fn vec1<'py>(py: Python<'py>, v: &DVector<f64>) -> Bound<'py, PyArray1<f64>> {
     v.as_slice().to_vec().into_pyarray(py)
 }
@@ -116,18 +125,10 @@ impl AddedFrame {
                 .extract()
                 .map_err(|_| invalid_type(&field(".parent"), "a frame name"))?;
             let triple = |k: &str| -> PyResult<[f64; 3]> {
-                let Some(x) = entry.get_item(k)? else {
-                    return Ok([0.0; 3]);
-                };
-                let x: Vec<f64> = x
-                    .extract()
-                    .map_err(|_| invalid_type(&field(&format!(".{k}")), "three numbers"))?;
-                <[f64; 3]>::try_from(x.as_slice()).map_err(|_| {
-                    invalid(
-                        &field(&format!(".{k}")),
-                        format!("{} numbers, expected 3", x.len()),
-                    )
-                })
+                match entry.get_item(k)? {
+                    None => Ok([0.0; 3]),
+                    Some(x) => three_numbers(&x, &field(&format!(".{k}"))),
+                }
             };
             let (xyz, rpy) = (triple("xyz_m")?, triple("rpy_rad")?);
             frames.push(AddedFrame {
@@ -254,15 +255,8 @@ impl SpatialRobot {
             }
         };
         let triple = |d: &Bound<'_, PyDict>, key: &str, label: String| -> PyResult<Vector3<f64>> {
-            let x: Vec<f64> = d
-                .get_item(key)?
-                .ok_or_else(|| invalid(&label, "missing"))?
-                .extract()
-                .map_err(|_| invalid_type(&label, "three numbers"))?;
-            if x.len() != 3 {
-                return Err(invalid(&label, format!("{} numbers, expected 3", x.len())));
-            }
-            Ok(Vector3::new(x[0], x[1], x[2]))
+            let x = d.get_item(key)?.ok_or_else(|| invalid(&label, "missing"))?;
+            Ok(Vector3::from(three_numbers(&x, &label)?))
         };
         let (radius_m, mu) = (number("radius_m", 0.0)?, number("friction", 0.0)?);
         let slide: bool = match get("slide")? {
