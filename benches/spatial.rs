@@ -2,7 +2,8 @@
 //! quadruped (`tests/data/urdf/quadruped12.urdf`) standing on its four feet, each a point
 //! contact with friction (three rows): with the URDF's leg masses, and with massless shins
 //! (singular `M`, the KKT block inverse of chapter 5). Also `M` (CRBA) and the bias forces
-//! (RNEA) alone; and the six-legged RHex of Table 4.2 on its six toes. `scripts/bench-pinocchio.py` times Pinocchio's constrained forward dynamics
+//! (RNEA) alone; the quadruped on a planar base, its feet held in the plane (two rows each);
+//! and the six-legged RHex of Table 4.2 on its six toes. `scripts/bench-pinocchio.py` times Pinocchio's constrained forward dynamics
 //! on the same robot and state and prints the ratio. Target: ≤ 2 µs per KKT evaluation.
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::DVector;
@@ -21,8 +22,8 @@ const QUADRUPED: &str = concat!(
 );
 const FEET: [&str; 4] = ["FL_foot", "FR_foot", "HL_foot", "HR_foot"];
 
-/// The quadruped, with its shins' and feet's masses scaled by `shin_scale`.
-fn quadruped(shin_scale: f64) -> SpatialModel {
+/// The quadruped on `base`, with its shins' and feet's masses scaled by `shin_scale`.
+fn quadruped(base: BaseKind, shin_scale: f64) -> SpatialModel {
     let mut robot = urdf_rs::read_file(QUADRUPED).expect("the shipped URDF parses");
     for link in &mut robot.links {
         if link.name.ends_with("_shin") || link.name.ends_with("_foot") {
@@ -35,7 +36,7 @@ fn quadruped(shin_scale: f64) -> SpatialModel {
             }
         }
     }
-    SpatialModel::from_urdf_robot(&robot, BaseKind::FreeFlyer, None).expect("a tree")
+    SpatialModel::from_urdf_robot(&robot, base, None).expect("a tree")
 }
 
 type State<'a> = (&'a DVector<f64>, &'a DVector<f64>, &'a DVector<f64>);
@@ -54,8 +55,12 @@ fn bench_dynamics(
 
 fn spatial(c: &mut Criterion) {
     let mut group = c.benchmark_group("spatial_quadruped");
-    for (label, scale) in [("massive_legs", 1.0), ("massless_shins", 0.0)] {
-        let model = quadruped(scale);
+    for (label, base, scale) in [
+        ("massive_legs", BaseKind::FreeFlyer, 1.0),
+        ("massless_shins", BaseKind::FreeFlyer, 0.0),
+        ("planar_base", BaseKind::Planar, 1.0),
+    ] {
+        let model = quadruped(base, scale);
         let feet: Vec<PointContact> = FEET
             .iter()
             .map(|f| PointContact::new(&model, f, true).expect("a foot frame"))
@@ -71,7 +76,7 @@ fn spatial(c: &mut Criterion) {
             &feet,
             state,
         );
-        if scale > 0.0 {
+        if label == "massive_legs" {
             group.bench_function("crba", |b| {
                 b.iter(|| {
                     crba(&model, &mut data, black_box(q.as_slice())).unwrap();

@@ -422,7 +422,10 @@ class SpatialRobot:
                        frames: dict[str, dict[str, Any]] | None = None) -> SpatialRobot: ...
     @staticmethod
     def rhex(
-        leg_mass_kg: float = 0.0, leg_inertia_kg_m2: float = 0.0, hip_half_width_m: float | None = None
+        leg_mass_kg: float = 0.0,
+        leg_inertia_kg_m2: float = 0.0,
+        hip_half_width_m: float | None = None,
+        base: str = "free_flyer",
     ) -> SpatialRobot: ...
     def __reduce__(self) -> tuple[Callable[..., Any], tuple[Any, ...]]: ...
     @property

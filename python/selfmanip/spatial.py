@@ -5,8 +5,11 @@ part 1).
 Conventions (Pinocchio's, so arrays pass between the two unchanged): the world is URDF's, z
 up, gravity ``[0, 0, -9.81]``; a free-flying base has ``q = [x, y, z, qx, qy, qz, qw, joints...]``
 (unit quaternion) and ``v = [v_lin, omega, joint rates...]`` with the base twist in the
-**base frame**, so ``nq = nv + 1``; joints are ordered depth first over the URDF tree as in
-Pinocchio; Jacobians are ``6 x nv`` with the linear rows first. Contacts are frame names:
+**base frame**, so ``nq = nv + 1``; a planar base (``base="planar"``) moves in the world's
+``x``-``z`` plane with ``q = [x, z, theta, joints...]`` and ``v = dq/dt`` (``theta`` the turn
+about ``y``; Pinocchio's composite root joint of ``PX``, ``PZ``, ``RY``), and its contacts
+with friction hold no force across the plane (rows ``[t, n]``, ``t`` the world ``x`` on flat
+ground); joints are ordered depth first over the URDF tree as in Pinocchio; Jacobians are ``6 x nv`` with the linear rows first. Contacts are frame names:
 ``"FL_foot"`` constrains three rows (world ``x``, ``y``, ``z`` on flat ground: two tangents,
 then the normal), ``"FL_foot:frictionless"`` the normal only; ``lam`` is the ground's force on
 the robot along those rows (a pushing normal force is positive), with
@@ -82,8 +85,8 @@ class SpatialImpact:
 
 @dataclass(frozen=True)
 class SpatialQuasiStatic:
-    """Quasi-static forces at rest (thesis 4.21-4.22): the grasp map ``grasp`` (6 x c, the
-    contact rows' base columns transposed), the base's gravity wrench ``gravity_wrench`` with
+    """Quasi-static forces at rest (thesis 4.21-4.22): the grasp map ``grasp`` (b x c, the
+    contact rows' base columns transposed; b = 6 on a free-flying base, 3 on a planar one), the base's gravity wrench ``gravity_wrench`` with
     ``grasp @ lam = gravity_wrench``; the minimum-norm external forces ``lam_external`` and an
     orthonormal basis ``internal_basis`` of the internal forces (``ker grasp``); the joint
     torques ``tau_external`` that hold ``lam_external`` and ``internal_torques`` of each
@@ -110,11 +113,11 @@ class SpatialRobot(WrappedModel):
     _construct_with = "SpatialRobot.from_urdf"
 
     @classmethod
-    def from_urdf(cls, path: str | os.PathLike[str], base: Literal["free_flyer", "fixed"] = "free_flyer",
+    def from_urdf(cls, path: str | os.PathLike[str], base: Literal["free_flyer", "planar", "fixed"] = "free_flyer",
                   root_link: str | None = None,
                   frames: Mapping[str, Mapping[str, Any]] | None = None) -> "SpatialRobot":
-        """Loads a URDF; ``base`` attaches its root link to the world (``"free_flyer"`` or
-        ``"fixed"``). Links with zero mass stay massless. ``frames`` adds frames to the
+        """Loads a URDF; ``base`` attaches its root link to the world (``"free_flyer"``,
+        ``"planar"``: in the world's ``x``-``z`` plane, or ``"fixed"``). Links with zero mass stay massless. ``frames`` adds frames to the
         URDF's, ``{name: {"parent": frame, "xyz_m": [x, y, z], "rpy_rad": [r, p, y]}}``
         (placed in the parent frame as a URDF joint origin places its child; offsets zero
         where not given; Pinocchio's operational frames): points to name as contacts, such
@@ -125,12 +128,15 @@ class SpatialRobot(WrappedModel):
 
     @classmethod
     def rhex(cls, leg_mass_kg: float = 0.0, leg_inertia_kg_m2: float = 0.0,
-             hip_half_width_m: float | None = None) -> "SpatialRobot":
+             hip_half_width_m: float | None = None,
+             base: Literal["free_flyer", "planar", "fixed"] = "free_flyer") -> "SpatialRobot":
         """RHex with six legs (thesis Table 4.2; massless legs by default, Assumption C.6):
         hips ``{front,middle,rear}_{left,right}_hip``, toe frames ``..._toe``. The hips'
-        half-width (0.125 m by default) is an assumption, the thesis gives none."""
+        half-width (0.125 m by default) is an assumption, the thesis gives none. ``base`` as
+        in :meth:`from_urdf` (``"planar"``: the body in the sagittal plane)."""
         return cls(_NativeSpatialRobot.rhex(float(leg_mass_kg), float(leg_inertia_kg_m2),
-                                            None if hip_half_width_m is None else float(hip_half_width_m)))
+                                            None if hip_half_width_m is None else float(hip_half_width_m),
+                                            base))
 
     @property
     def nv(self) -> int:

@@ -16,11 +16,12 @@ def frame_id(model, name: str) -> int:
     return (body or ids)[0]
 
 
-def contact_rows(model, data, q, v, contacts):
+def contact_rows(model, data, q, v, contacts, friction_rows=(0, 1, 2)):
     """Pinocchio's contact Jacobian and drift for our rows: the frames' LOCAL_WORLD_ALIGNED
-    linear Jacobians (world x, y, z: two tangents and the normal on flat z-up ground; the
-    normal alone for a ``name:frictionless`` contact) and their classical accelerations at
-    zero joint acceleration."""
+    linear Jacobians (world x, y, z: two tangents and the normal on flat z-up ground;
+    ``friction_rows=(0, 2)``, x and z, on a planar base; the normal alone for a
+    ``name:frictionless`` contact) and their classical accelerations at zero joint
+    acceleration."""
     pin.computeJointJacobians(model, data, q)
     pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
     pin.updateFramePlacements(model, data)
@@ -28,10 +29,19 @@ def contact_rows(model, data, q, v, contacts):
     for spec in contacts:
         name, _, kind = spec.partition(":")
         fid = frame_id(model, name)
-        rows = [2] if kind == "frictionless" else [0, 1, 2]
+        rows = [2] if kind == "frictionless" else list(friction_rows)
         J.append(pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)[:3][rows])
         gamma.append(pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED).linear[rows])
     return np.vstack(J), np.concatenate(gamma)
+
+
+def planar_root_joint():
+    """Pinocchio's planar base as ours: a composite root joint translating along the world's
+    x and z, then turning about y, with ``q = [x, z, theta]`` and ``v = dq/dt``."""
+    joint = pin.JointModelComposite()
+    for sub in (pin.JointModelPX(), pin.JointModelPZ(), pin.JointModelRY()):
+        joint.addJoint(sub)
+    return joint
 
 
 def rel(a, b) -> float:

@@ -228,7 +228,7 @@ def test_bad_input_names_the_field(tmp_path):
         robot.frame_jacobian(q, "FL_foot", "body")
     assert e.value.field == "frame"
     with pytest.raises(InvalidInputError) as e:
-        SpatialRobot.from_urdf(QUADRUPED, base="planar")
+        SpatialRobot.from_urdf(QUADRUPED, base="sagittal")
     assert e.value.field == "base"
     v = np.zeros(18)
     v[3] = np.nan

@@ -1,6 +1,7 @@
 """Robots we did not design for (issue 32): every URDF of Pinocchio's own robot collection,
 `example-robot-data` (in the test extra) — quadrupeds, humanoids, arms, hands, drones — loaded
-by ``SpatialRobot.from_urdf`` and by Pinocchio, with the root link free-flying and fixed.
+by ``SpatialRobot.from_urdf`` and by Pinocchio, with the root link free-flying, planar (in the
+world's x-z plane; Pinocchio's composite root joint of PX, PZ, RY) and fixed.
 
 Each one either matches Pinocchio — the same joints in the same order, so that
 ``from_pinocchio`` passes arrays across, and at random states ``M``, ``nle``, every frame's
@@ -29,7 +30,7 @@ from selfmanip.errors import InvalidInputError, SingularKktError
 
 pin = pytest.importorskip("pinocchio", reason="Pinocchio (`pip install pin`, in the test extra) is the independent route")
 
-from pinocchio_routes import contact_rows, frame_id, rel  # noqa: E402
+from pinocchio_routes import contact_rows, frame_id, planar_root_joint, rel  # noqa: E402
 
 
 def robots_dir() -> pathlib.Path | None:
@@ -46,12 +47,13 @@ pytestmark = pytest.mark.skipif(not URDFS, reason="`pip install example-robot-da
 
 
 def pinocchio_model(path: pathlib.Path, base: str = "free_flyer"):
-    """Pinocchio's model of ``path`` with its root link free-flying or fixed, or None where
-    it cannot read the file."""
+    """Pinocchio's model of ``path`` with its root link free-flying, planar or fixed, or None
+    where it cannot read the file."""
     try:
         if base == "fixed":
             return pin.buildModelFromUrdf(str(path))
-        return pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
+        root = planar_root_joint() if base == "planar" else pin.JointModelFreeFlyer()
+        return pin.buildModelFromUrdf(str(path), root)
     except (RuntimeError, ValueError):
         return None
 
@@ -87,7 +89,7 @@ def random_state(model, path: pathlib.Path):
         yield pin.randomConfiguration(model, lower, upper), rng.normal(size=model.nv), rng.normal(size=model.nv)
 
 
-@pytest.mark.parametrize("base", ["free_flyer", "fixed"])
+@pytest.mark.parametrize("base", ["free_flyer", "planar", "fixed"])
 @pytest.mark.parametrize("path", URDFS, ids=lambda p: str(p.relative_to(ROBOTS)) if ROBOTS else str(p))
 def test_a_third_party_urdf_matches_pinocchio_or_is_refused_by_field(path: pathlib.Path, base: str):
     # what Pinocchio cannot read (urdfdom refuses a file without a link) we refuse too
@@ -177,16 +179,22 @@ def tolerance(m: np.ndarray) -> float:
     return 1e-9 + 100 * np.linalg.cond(m) * np.finfo(float).eps
 
 
+# a floating base's rates, and a foot's rows with friction (world x, y, z; x, z in the plane)
+FLOATING = {"free_flyer": (6, (0, 1, 2)), "planar": (3, (0, 2))}
+
+
+@pytest.mark.parametrize("base", list(FLOATING))
 @pytest.mark.parametrize("path", LEGGED, ids=lambda p: str(p.relative_to(ROBOTS)) if ROBOTS else str(p))
-def test_a_third_party_robot_on_its_feet_matches_pinocchio(path: pathlib.Path):
+def test_a_third_party_robot_on_its_feet_matches_pinocchio(path: pathlib.Path, base: str):
     """On its feet, each as a point with friction, then all but one frictionless: ``q̈`` and
     ``λ`` against ``pin.forwardDynamics``, the plastic impact against ``pin.impulseDynamics``,
-    with the same contact Jacobian and drift. A massless limb in the air (Romeo's fingers)
+    with the same contact Jacobian and drift, free-flying and in the plane. A massless limb in the air (Romeo's fingers)
     follows the accelerations given for it (zero here), and the rest of the robot is
     Pinocchio's with that limb welded; a set of feet whose rows are dependent (Solo's
     two-joint legs) is refused as redundant where Pinocchio's Jacobian is rank deficient."""
-    full = pinocchio_model(path)
-    ours = SpatialRobot.from_urdf(path)
+    full = pinocchio_model(path, base)
+    ours = SpatialRobot.from_urdf(path, base=base)
+    rows = FLOATING[base][1]
     names = feet(full)
     states = random_state(full, path)
     compared = 0
@@ -204,7 +212,7 @@ def test_a_third_party_robot_on_its_feet_matches_pinocchio(path: pathlib.Path):
             qr = np.concatenate([qp[full.idx_qs[j]:full.idx_qs[j] + full.nqs[j]]
                                  for j in range(1, full.njoints) if j not in locked])
             vr, taur = vp[kept], tau[kept]
-            J, gamma = contact_rows(model, data, qr, vr, contacts)
+            J, gamma = contact_rows(model, data, qr, vr, contacts, friction_rows=rows)
             if np.linalg.matrix_rank(J) < J.shape[0]:
                 with pytest.raises(SingularKktError) as refused:
                     ours.dynamics(contacts, q, v, tau, np.zeros(len(free)) if free else None)
@@ -222,35 +230,37 @@ def test_a_third_party_robot_on_its_feet_matches_pinocchio(path: pathlib.Path):
     assert compared > 0
 
 
+@pytest.mark.parametrize("base", list(FLOATING))
 @pytest.mark.parametrize("path", LEGGED, ids=lambda p: str(p.relative_to(ROBOTS)) if ROBOTS else str(p))
-def test_a_third_party_robot_stands_against_pinocchios_gravity(path: pathlib.Path):
+def test_a_third_party_robot_stands_against_pinocchios_gravity(path: pathlib.Path, base: str):
     """Quasi-static standing on its feet (thesis 4.21-4.22) against Pinocchio's generalized
     gravity ``g(q)``: at rest ``g = [0; τ] + Jᵀλ`` for the external forces and their torques,
     and every internal force ``n`` pushes nothing into the base (``J_bᵀ n = 0``) and takes the
     torques ``−J_jᵀ n``. Where the feet cannot hold the base (two point feet cannot resist a
     moment about the line through them: the bipeds), it is refused naming ``contacts``, and
     the least squares of ``J_bᵀ λ = g_b`` leave a residual."""
-    model = pinocchio_model(path)
+    model = pinocchio_model(path, base)
     data = model.createData()
-    ours = SpatialRobot.from_urdf(path)
+    ours = SpatialRobot.from_urdf(path, base=base)
+    nb, rows = FLOATING[base]
     names = feet(model)
     qp, _, _ = next(random_state(model, path))
     q, _ = ours.from_pinocchio(qp, np.zeros(model.nv))
-    J, _ = contact_rows(model, data, qp, np.zeros(model.nv), names)
+    J, _ = contact_rows(model, data, qp, np.zeros(model.nv), names, friction_rows=rows)
     g = pin.computeGeneralizedGravity(model, data, qp)
     scale = max(1.0, abs(g).max())
     try:
         qs = ours.quasi_static(names, q)
     except InvalidInputError as e:
         assert e.field == "contacts"
-        lam, *_ = np.linalg.lstsq(J[:, :6].T, g[:6], rcond=None)
-        assert abs(J[:, :6].T @ lam - g[:6]).max() > 1e-6 * scale
+        lam, *_ = np.linalg.lstsq(J[:, :nb].T, g[:nb], rcond=None)
+        assert abs(J[:, :nb].T @ lam - g[:nb]).max() > 1e-6 * scale
         return
-    held = np.concatenate([np.zeros(6), qs.tau_external]) + J.T @ qs.lam_external
+    held = np.concatenate([np.zeros(nb), qs.tau_external]) + J.T @ qs.lam_external
     assert abs(held - g).max() < 1e-10 * scale
     pushed = J.T @ qs.internal_basis
-    assert abs(pushed[:6]).max() < 1e-12 * max(1.0, abs(J).max())
-    assert abs(pushed[6:] + qs.internal_torques).max() < 1e-12 * max(1.0, abs(J).max())
+    assert abs(pushed[:nb]).max() < 1e-12 * max(1.0, abs(J).max())
+    assert abs(pushed[nb:] + qs.internal_torques).max() < 1e-12 * max(1.0, abs(J).max())
 
 
 def sole_corners(model, sole: str, half_length_m: float = 0.08, half_width_m: float = 0.04):

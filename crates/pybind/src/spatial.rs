@@ -62,7 +62,8 @@ fn mat<'py>(py: Python<'py>, m: &DMatrix<f64>) -> Bound<'py, PyArray2<f64>> {
     Array2::from_shape_fn((m.nrows(), m.ncols()), |(i, j)| m[(i, j)]).into_pyarray(py)
 }
 
-/// A contact row's label: `(frame, "t1" | "t2" | "n")`.
+/// A contact row's label: `(frame, "t1" | "t2" | "n")`, `(frame, "t" | "n")` on a planar
+/// base.
 type RowLabel = (String, String);
 
 /// A spatial robot: `SpatialRobot.from_urdf(path, base="free_flyer")`.
@@ -184,6 +185,7 @@ impl SpatialRobot {
         let mut push = |name: &str, c: PointContact| {
             let labels: &[&str] = match c.n_rows() {
                 3 => &["t1", "t2", "n"],
+                2 => &["t", "n"],
                 _ => &["n"],
             };
             rows.extend(labels.iter().map(|l| (name.to_string(), l.to_string())));
@@ -354,7 +356,8 @@ impl SpatialRobot {
 
 #[pymethods]
 impl SpatialRobot {
-    /// From a URDF file; `base` is `"free_flyer"` or `"fixed"`; `root_link` defaults to the
+    /// From a URDF file; `base` is `"free_flyer"`, `"planar"` or `"fixed"`
+    /// (`BaseKind::from_name`); `root_link` defaults to the
     /// one link that is no joint's child; `frames` adds frames to the URDF's
     /// ([`AddedFrame`]).
     #[staticmethod]
@@ -398,11 +401,12 @@ impl SpatialRobot {
     /// The six-legged RHex of thesis Table 4.2 (`selfmanip_core::spatial::rhex`), massless
     /// legs by default; the other parameters default to Table 4.2 and the stated assumptions.
     #[staticmethod]
-    #[pyo3(signature = (leg_mass_kg=0.0, leg_inertia_kg_m2=0.0, hip_half_width_m=None))]
+    #[pyo3(signature = (leg_mass_kg=0.0, leg_inertia_kg_m2=0.0, hip_half_width_m=None, base="free_flyer"))]
     fn rhex(
         leg_mass_kg: f64,
         leg_inertia_kg_m2: f64,
         hip_half_width_m: Option<f64>,
+        base: &str,
     ) -> PyResult<Self> {
         guard(|| {
             let table = RhexSixLegs::table_4_2();
@@ -413,7 +417,7 @@ impl SpatialRobot {
                 ..table
             };
             let urdf = params.urdf().map_err(spatial_err)?;
-            Self::from_urdf_text(&urdf, "free_flyer", None, None)
+            Self::from_urdf_text(&urdf, base, None, None)
         })
     }
 

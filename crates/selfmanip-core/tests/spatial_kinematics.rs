@@ -137,7 +137,7 @@ fn tilted_negative_and_prismatic_axes_match_composition_and_energy() {
                     SE3::new(*r.matrix(), nalgebra::Vector3::zeros())
                 }
                 JointKind::Prismatic { axis } => SE3::new(nalgebra::Matrix3::identity(), axis * qi),
-                JointKind::FreeFlyer => unreachable!("the root only"),
+                JointKind::FreeFlyer | JointKind::Planar => unreachable!("the root only"),
             };
             let expected = o_mi[joint.parent.unwrap()]
                 .compose(&joint.placement)

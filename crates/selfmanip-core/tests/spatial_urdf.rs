@@ -115,7 +115,7 @@ fn bad_urdf_names_the_field() {
         SpatialError::UrdfParse { .. }
     ));
     assert!(
-        matches!(BaseKind::from_name("planar").unwrap_err(), SpatialError::InvalidArgument { field, .. } if field == "base")
+        matches!(BaseKind::from_name("sagittal").unwrap_err(), SpatialError::InvalidArgument { field, .. } if field == "base")
     );
 }
 

@@ -107,7 +107,10 @@ impl PointContact {
         Self::with_normal(model, frame_name, friction, Vector3::z())
     }
 
-    /// A contact on ground of normal `normal` (normalized).
+    /// A contact on ground of normal `normal` (normalized). On a robot with a planar base the
+    /// normal lies in the base's plane and a contact with friction has the rows `[t, n]`,
+    /// `t = e × n` for the plane's normal `e` ([`SpatialModel::plane_normal`]): the planar
+    /// model's contact, whose ground holds no force across the plane ([`Self::in_plane`]).
     pub fn with_normal(
         model: &SpatialModel,
         frame_name: &str,
@@ -115,11 +118,25 @@ impl PointContact {
         normal: Vector3<f64>,
     ) -> SpatialResult<Self> {
         let frame = model.frame_id_of(&format!("contacts[{frame_name}]"), frame_name)?;
+        let normal = unit("normal", normal)?;
+        let tangent = match model.plane_normal() {
+            None => None,
+            Some(e) if e.dot(&normal).abs() > 1e-9 => {
+                return Err(SpatialError::InvalidArgument {
+                    field: "normal".into(),
+                    reason: format!(
+                        "{normal:?} leaves the planar base's plane (normal {e:?}): \
+                         a planar robot's ground normal lies in its plane"
+                    ),
+                })
+            }
+            Some(e) => Some(e.cross(&normal).normalize()),
+        };
         Ok(Self {
             frame,
             friction,
-            normal: unit("normal", normal)?,
-            tangent: None,
+            normal,
+            tangent,
             shape: ContactShape::Point,
             kinetic_friction: 0.0,
             impact_friction: f64::INFINITY,

@@ -193,20 +193,19 @@ pub(crate) fn limb_joints(model: &SpatialModel) -> Vec<Option<LimbJoint>> {
     model.joints.iter().map(limb_joint).collect()
 }
 
-/// The joint's own transform `ʲ⁻Mⱼ(q)` (parent-side joint frame to body frame) and its world
-/// motion-subspace columns once `⁰Mᵢ` is known (Featherstone 2008, Table 4.1).
-fn joint_transform(kind: &JointKind, q: &[f64]) -> SE3 {
-    match kind {
-        JointKind::FreeFlyer => {
-            let r = UnitQuaternion::new_normalize(quaternion_at(q, 3));
-            SE3::from_quaternion(&r, Vector3::new(q[0], q[1], q[2]))
-        }
-        JointKind::Revolute { axis } => {
-            let r = Rotation3::from_axis_angle(&Unit::new_unchecked(*axis), q[0]);
-            SE3::new(*r.matrix(), Vector3::zeros())
-        }
-        JointKind::Prismatic { axis } => SE3::new(nalgebra::Matrix3::identity(), axis * q[0]),
-    }
+/// A free flyer's own transform `ʲ⁻Mⱼ(q)` (parent-side joint frame to body frame; Featherstone
+/// 2008, Table 4.1): `q = [p, qx, qy, qz, qw]`. One-rate joints turn or shift in place
+/// ([`turned`], [`place_joint`]).
+fn free_flyer_transform(q: &[f64]) -> SE3 {
+    let r = UnitQuaternion::new_normalize(quaternion_at(q, 3));
+    SE3::from_quaternion(&r, Vector3::new(q[0], q[1], q[2]))
+}
+
+/// A planar joint's own transform: the shift `(x, 0, z)`, then the turn `θ` about `y`
+/// (`q = [x, z, θ]`).
+fn planar_transform(q: &[f64]) -> SE3 {
+    let r = Rotation3::from_axis_angle(&Vector3::y_axis(), q[2]);
+    SE3::new(*r.matrix(), Vector3::new(q[0], 0.0, q[1]))
 }
 
 /// A revolute joint's axis `±e_k`: `k` and the two columns `a = k + 1`, `b = k + 2` (mod 3)
@@ -284,7 +283,7 @@ fn place_joint(model: &SpatialModel, data: &mut SpatialData, i: usize, q: &[f64]
     let col = &mut data.oS.as_mut_slice()[6 * joint.idx_v..];
     let oMi = match joint.kind {
         JointKind::FreeFlyer => {
-            let oMi = before.compose(&joint_transform(&joint.kind, qi));
+            let oMi = before.compose(&free_flyer_transform(qi));
             col[..36].copy_from_slice(oMi.action_matrix().as_slice());
             oMi
         }
@@ -298,6 +297,19 @@ fn place_joint(model: &SpatialModel, data: &mut SpatialData, i: usize, q: &[f64]
             let u = before.rotation * axis;
             let oMi = SE3::new(before.rotation, before.translation + u * qi[0]);
             col[..6].copy_from_slice(&[u.x, u.y, u.z, 0.0, 0.0, 0.0]);
+            oMi
+        }
+        JointKind::Planar => {
+            // the joint frame's x and z (translations), then the turn about its y axis, which
+            // the turn keeps: `[p × w; w]` at the body's origin `p`
+            let oMi = before.compose(&planar_transform(qi));
+            let r = &before.rotation;
+            let (x, z, w) = (r.column(0), r.column(2), r.column(1));
+            let v = oMi.translation.cross(&w);
+            col[..18].copy_from_slice(&[
+                x[0], x[1], x[2], 0.0, 0.0, 0.0, z[0], z[1], z[2], 0.0, 0.0, 0.0, v.x, v.y, v.z,
+                w[0], w[1], w[2],
+            ]);
             oMi
         }
     };
@@ -317,8 +329,35 @@ fn kinematics_pass(model: &SpatialModel, data: &mut SpatialData, q: &[f64], v: O
             None => (Motion::zero(), Motion::zero()),
         };
         data.ov[i] = vp + vj;
-        data.oa_drift[i] = ap + data.ov[i].cross(&vj);
+        // `d/dt(⁰Sᵢ) q̇ᵢ`: `⁰vᵢ × vj` for columns fixed in the joint's body (Featherstone
+        // 2008, (5.7)), every joint's but a planar one's
+        let column_drift = match joint.kind {
+            JointKind::Planar => planar_column_drift(data, i, joint.idx_v, vp, vj, v),
+            _ => data.ov[i].cross(&vj),
+        };
+        data.oa_drift[i] = ap + column_drift;
     }
+}
+
+/// `d/dt(⁰Sᵢ) q̇ᵢ` of the planar joint `i` (first rate `iv`) with world motion `vj = ⁰Sᵢ q̇ᵢ`
+/// and parent velocity `vp`: its translation columns are fixed in the parent body,
+/// `vp × ⁰S_t q̇_t`, and only its turn's column moves with its own body, `⁰vᵢ × ⁰S_θ θ̇`.
+#[cold]
+fn planar_column_drift(
+    data: &SpatialData,
+    i: usize,
+    iv: usize,
+    vp: Motion,
+    vj: Motion,
+    v: &[f64],
+) -> Motion {
+    let c = iv + 2;
+    let s = &data.oS.as_slice()[6 * c..6 * c + 6];
+    let turn = Motion::new(
+        Vector3::new(s[0], s[1], s[2]) * v[c],
+        Vector3::new(s[3], s[4], s[5]) * v[c],
+    );
+    vp.cross(&(vj - turn)) + data.ov[i].cross(&turn)
 }
 
 /// The joint's world motion `⁰Sᵢ q̇ᵢ` for the rates `x` (length nv).
@@ -354,7 +393,8 @@ pub(crate) fn joint_motion(
 /// [`forward_kinematics`] and the first- and second-order velocity terms: body velocities
 /// `⁰vᵢ = ⁰v_λ(i) + ⁰Sᵢ q̇ᵢ` and the accelerations at `q̈ = 0`,
 /// `⁰aᵢ = ⁰a_λ(i) + ⁰vᵢ × ⁰Sᵢ q̇ᵢ` (Featherstone 2008, (5.7) in world coordinates, where
-/// `d/dt ⁰Sᵢ = ⁰vᵢ × ⁰Sᵢ`).
+/// `d/dt ⁰Sᵢ = ⁰vᵢ × ⁰Sᵢ`; a planar joint's translations, fixed in its parent, give
+/// `⁰v_λ(i) × ⁰S_t q̇_t` instead).
 pub fn forward_kinematics_velocity(
     model: &SpatialModel,
     data: &mut SpatialData,

@@ -91,7 +91,8 @@ pub fn integrate(model: &SpatialModel, q: &[f64], v: &[f64]) -> SpatialResult<DV
                     &UnitQuaternion::new_normalize(r1),
                 );
             }
-            _ => out[iq] += v[iv],
+            // vector-space coordinates: a one-rate joint's, a planar joint's `[x, z, θ]`
+            kind => (0..kind.nv()).for_each(|k| out[iq + k] += v[iv + k]),
         }
     }
     Ok(out)
@@ -115,7 +116,7 @@ pub fn difference(model: &SpatialModel, q0: &[f64], q1: &[f64]) -> SpatialResult
                 let m = log6_quaternion(&(r0.inverse() * r1), &dp);
                 v.as_mut_slice()[iv..iv + 6].copy_from_slice(m.to_vector().as_slice());
             }
-            _ => v[iv] = q1[iq] - q0[iq],
+            kind => (0..kind.nv()).for_each(|k| v[iv + k] = q1[iq + k] - q0[iq + k]),
         }
     }
     Ok(v)

@@ -21,18 +21,27 @@ pub enum JointKind {
     Revolute { axis: Vector3<f64> },
     /// Translation along a unit axis of the joint frame.
     Prismatic { axis: Vector3<f64> },
+    /// Three degrees of freedom in the joint frame's x–z plane (a sagittal-plane base):
+    /// `q = [x, z, θ]`, the translation along the frame's x and z axes and the turn about its
+    /// y axis, then the turn (Pinocchio's composite of `PX`, `PZ`, `RY`; MuJoCo's slide, slide,
+    /// hinge; Drake's `PlanarJoint` in that plane), and `v = q̇` (`ẋ`, `ż` along the joint
+    /// frame's axes, `θ̇`). Its translation columns are fixed in the parent body, its turn's in
+    /// its own ([`super::kinematics::forward_kinematics_velocity`] differentiates each so).
+    Planar,
 }
 
 impl JointKind {
     pub fn nq(&self) -> usize {
         match self {
             JointKind::FreeFlyer => 7,
+            JointKind::Planar => 3,
             _ => 1,
         }
     }
     pub fn nv(&self) -> usize {
         match self {
             JointKind::FreeFlyer => 6,
+            JointKind::Planar => 3,
             _ => 1,
         }
     }
@@ -86,17 +95,25 @@ pub enum BaseKind {
     FreeFlyer,
     /// The root link is the world (a manipulator bolted down).
     Fixed,
+    /// The root link moves in the world's x–z plane (x forward, z up, the turn about y): a
+    /// [`JointKind::Planar`] joint named `root_joint` — the sagittal model of a robot on a
+    /// planarizing boom, the planar model (`d = 2`) of a URDF robot. The joints below it move
+    /// as the URDF says, in or out of the plane.
+    Planar,
 }
 
 impl BaseKind {
-    /// `"free_flyer"` or `"fixed"` (the names of the Python API).
+    /// `"free_flyer"`, `"planar"` or `"fixed"` (the names of the Python API).
     pub fn from_name(name: &str) -> SpatialResult<Self> {
         match name {
             "free_flyer" => Ok(BaseKind::FreeFlyer),
+            "planar" => Ok(BaseKind::Planar),
             "fixed" => Ok(BaseKind::Fixed),
             other => Err(SpatialError::InvalidArgument {
                 field: "base".into(),
-                reason: format!("unknown base `{other}` (expected `free_flyer` or `fixed`; `planar` is not yet supported)"),
+                reason: format!(
+                    "unknown base `{other}` (expected `free_flyer`, `planar` or `fixed`)"
+                ),
             }),
         }
     }
@@ -187,5 +204,24 @@ impl SpatialModel {
     /// Total mass (kg).
     pub fn total_mass(&self) -> f64 {
         self.inertias.iter().map(|y| y.mass).sum()
+    }
+
+    /// The root joint's kind when it moves freely in the world (a free flyer or a planar
+    /// base): its rates are the base's, `v[..kind.nv()]`, which no actuator drives.
+    pub fn floating_base(&self) -> Option<JointKind> {
+        self.joints
+            .first()
+            .filter(|j| j.parent.is_none())
+            .map(|j| j.kind)
+            .filter(|k| matches!(k, JointKind::FreeFlyer | JointKind::Planar))
+    }
+
+    /// The world normal of the plane a planar base moves in (its joint frame's y axis; `None`
+    /// for other bases). Its contacts hold no force along it: a contact with friction has the
+    /// rows `[t, n]`, `t = y × n` ([`super::contact::PointContact::with_normal`]).
+    pub fn plane_normal(&self) -> Option<Vector3<f64>> {
+        let root = self.joints.first()?;
+        (root.kind == JointKind::Planar && root.parent.is_none())
+            .then(|| root.placement.rotation * Vector3::y())
     }
 }

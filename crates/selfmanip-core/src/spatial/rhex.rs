@@ -188,7 +188,13 @@ impl RhexSixLegs {
 
     /// The robot with a free-flying body, by the URDF path.
     pub fn model(&self) -> SpatialResult<SpatialModel> {
-        SpatialModel::from_urdf_str(&self.urdf()?, BaseKind::FreeFlyer, None)
+        self.model_on(BaseKind::FreeFlyer)
+    }
+
+    /// The robot with its body attached to the world by `base` (a planar base: the body in
+    /// the world's x–z plane, the sagittal plane of the planar model).
+    pub fn model_on(&self, base: BaseKind) -> SpatialResult<SpatialModel> {
+        SpatialModel::from_urdf_str(&self.urdf()?, base, None)
     }
 
     /// The toe of leg `name` (`"front_left"`, …) as a point contact on flat ground.

@@ -37,8 +37,8 @@ pub(crate) fn mass_matrix_from_kinematics(model: &SpatialModel, data: &mut Spati
 
 /// Joint `i`'s columns of `M` from its composite inertia `⁰Yᶜᵢ` (complete once its children
 /// are added): the force column `F = ⁰Yᶜᵢ ⁰S_c` of each of its rates `c`, projected on every
-/// column supporting it — its own joint's up to `c`, then each ancestor's: a one-rate joint's
-/// `⁰Sⱼᵀ F`, a free flyer's six at once as `Ad(⁰Mⱼ)ᵀ F` (its columns are `Ad(⁰Mⱼ)`,
+/// column supporting it — its own joint's up to `c`, then each ancestor's: `⁰S_rᵀ F` for
+/// each of its rates `r`, a free flyer's six at once as `Ad(⁰Mⱼ)ᵀ F` (its columns are `Ad(⁰Mⱼ)`,
 /// [`super::kinematics::forward_kinematics`]). Only the entries on the tree's sparsity (a
 /// rate and its ancestors) are written: the others are zero from `SpatialData::new` and stay
 /// so ([`SpatialData::M`]).
@@ -78,7 +78,11 @@ fn mass_columns(model: &SpatialModel, data: &mut SpatialData, i: usize) {
                 put(r + 4, c, ang.y);
                 put(r + 5, c, ang.z);
             } else {
-                put(aj.idx_v, c, dot6(&s[aj.idx_v], &F));
+                // a one-rate joint's row, or each of a planar base's three
+                let rates = aj.idx_v..aj.idx_v + aj.kind.nv();
+                for (r, column) in rates.clone().zip(&s[rates]) {
+                    put(r, c, dot6(column, &F));
+                }
             }
             ancestor = aj.parent;
         }

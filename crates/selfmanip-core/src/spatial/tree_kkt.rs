@@ -99,7 +99,8 @@ impl Group {
 /// Workspace and factors of the range-space KKT solve for one model.
 ///
 /// The rates are split into the **root block** `b` (the six rates of a free-flying base, or
-/// none on a fixed base) and the **limb rates** (one per joint, every other joint). A limb
+/// none on a planar or fixed base) and the **limb rates** (one per joint, every other joint;
+/// a planar base's three, a chain). A limb
 /// rate's chain is its limb part (the rate and its limb ancestors, `chain`) followed by the
 /// whole root block, whose factors are fixed-size (`Matrix6`/`Vector6`): the dense `6 × 6`
 /// corner of `M` and the six root entries of each limb row.
@@ -109,8 +110,8 @@ pub struct TreeKkt {
     c: usize,
     /// The rates of the root block: 6 with a free-flying base, 0 on a fixed one.
     nb: usize,
-    /// `false` when a joint other than a free-flying root moves more than one rate (no such
-    /// joint exists today): [`Self::factor`] then declines.
+    /// `false` when a joint other than a free-flying root or a planar joint moves more than
+    /// one rate (no such joint exists today): [`Self::factor`] then declines.
     supported: bool,
     /// Every limb rate's limb chain `[k, λ(k), …]` (down to the root block or the world),
     /// rate `k`'s at `chain[offset[k]..offset[k + 1]]` (empty for the root block's rates).
@@ -148,18 +149,22 @@ impl TreeKkt {
             Some(JointKind::FreeFlyer) => ROOT,
             _ => 0,
         };
-        let supported = model
-            .joints
-            .iter()
-            .enumerate()
-            .all(|(i, j)| j.kind.nv() == 1 || (i == 0 && nb == ROOT));
-        // a limb rate's parent rate: its joint's parent joint's rate, if that is a limb rate
+        let supported = model.joints.iter().enumerate().all(|(i, j)| {
+            j.kind.nv() == 1 || j.kind == JointKind::Planar || (i == 0 && nb == ROOT)
+        });
+        // a limb rate's parent rate: the last rate of its joint's parent joint, if that is a
+        // limb rate; a planar joint's three rates are a chain of three (`M`'s dense 3 × 3
+        // block is a chain's: each rate's ancestors are the ones before it)
         let mut parent = vec![None; nv];
         for joint in model.joints.iter().filter(|j| j.idx_v >= nb) {
             parent[joint.idx_v] = joint
                 .parent
-                .map(|p| model.joints[p].idx_v)
+                .map(|p| model.joints[p].idx_v + model.joints[p].kind.nv() - 1)
                 .filter(|&r| r >= nb);
+            let rates = joint.idx_v..joint.idx_v + joint.kind.nv();
+            for (r, p) in rates.clone().zip(&mut parent[rates]).skip(1) {
+                *p = Some(r - 1);
+            }
         }
         let (mut chain, mut offset) = (Vec::new(), vec![0]);
         for k in 0..nv {

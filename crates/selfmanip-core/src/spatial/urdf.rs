@@ -376,15 +376,13 @@ impl SpatialModel {
             tree,
             visited: 0,
         };
-        let joint = match base {
-            BaseKind::FreeFlyer => Some(b.add_joint(
-                "root_joint".into(),
-                JointKind::FreeFlyer,
-                None,
-                SE3::identity(),
-            )),
+        let root_kind = match base {
+            BaseKind::FreeFlyer => Some(JointKind::FreeFlyer),
+            BaseKind::Planar => Some(JointKind::Planar),
             BaseKind::Fixed => None,
         };
+        let joint =
+            root_kind.map(|kind| b.add_joint("root_joint".into(), kind, None, SE3::identity()));
         b.add_link(root, joint, SE3::identity(), 0)?;
         if b.visited != robot.links.len() {
             let unreached = robot.links.iter().find(|l| {

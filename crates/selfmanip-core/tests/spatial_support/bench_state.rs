@@ -2,20 +2,28 @@
 //! `scripts/bench-pinocchio.py`), shared as source.
 use nalgebra::DVector;
 use selfmanip_core::spatial::rhex::{RhexSixLegs, PAIRS, SIDES};
-use selfmanip_core::spatial::{forward_dynamics, neutral, PointContact, SpatialData, SpatialModel};
+use selfmanip_core::spatial::{
+    forward_dynamics, neutral, JointKind, PointContact, SpatialData, SpatialModel,
+};
 use std::hint::black_box;
 
-/// Standing at 0.4 m on legs bent by 0.5 rad (knees −1 rad), moving: `(q, v, τ)`.
+/// Standing at 0.4 m on legs bent by 0.5 rad (knees −1 rad), moving: `(q, v, τ)`, on a
+/// free-flying base (`q[2]` the height) or a planar one (`q[1]`).
 pub fn standing_state(model: &SpatialModel) -> (DVector<f64>, DVector<f64>, DVector<f64>) {
+    let (height, legs) = match model.floating_base() {
+        Some(JointKind::Planar) => (1, 3),
+        _ => (2, 7),
+    };
+    let base_rates = model.nv - 12;
     let mut q = neutral(model);
-    q[2] = 0.4;
+    q[height] = 0.4;
     for leg in 0..4 {
-        q[7 + 3 * leg + 1] = 0.5;
-        q[7 + 3 * leg + 2] = -1.0;
+        q[legs + 3 * leg + 1] = 0.5;
+        q[legs + 3 * leg + 2] = -1.0;
     }
     let v = DVector::from_fn(model.nv, |i, _| 0.1 * ((i as f64) * 0.7).sin());
     let tau = DVector::from_fn(model.nv, |i, _| {
-        if i < 6 {
+        if i < base_rates {
             0.0
         } else {
             2.0 * ((i as f64) * 1.3).cos()

@@ -27,6 +27,11 @@ pub const KNEES: [&str; 4] = ["FL_knee", "FR_knee", "HL_knee", "HR_knee"];
 /// The quadruped with every link whose name ends in one of `suffixes` scaled in mass and
 /// rotational inertia by `scale` (0: massless).
 pub fn quadruped_scaled(suffixes: &[&str], scale: f64) -> SpatialModel {
+    quadruped_scaled_on(BaseKind::FreeFlyer, suffixes, scale)
+}
+
+/// [`quadruped_scaled`] on the base `base`.
+pub fn quadruped_scaled_on(base: BaseKind, suffixes: &[&str], scale: f64) -> SpatialModel {
     let mut robot = urdf_rs::read_file(QUADRUPED).unwrap();
     for link in &mut robot.links {
         if suffixes.iter().any(|s| link.name.ends_with(s)) {
@@ -39,7 +44,7 @@ pub fn quadruped_scaled(suffixes: &[&str], scale: f64) -> SpatialModel {
             }
         }
     }
-    SpatialModel::from_urdf_robot(&robot, BaseKind::FreeFlyer, None).unwrap()
+    SpatialModel::from_urdf_robot(&robot, base, None).unwrap()
 }
 
 pub fn quadruped() -> SpatialModel {

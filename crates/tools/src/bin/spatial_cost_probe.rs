@@ -1,7 +1,8 @@
 //! A probe for instruction counts: `forward_dynamics` of the shipped quadruped standing on its
 //! four feet with friction (the state of `benches/spatial.rs`), repeated `CALLS` times
 //! (default 1000) inside `probe_calls`, with the URDF's legs or (`LEGS=massless_shins`) with
-//! the shins (and the feet fixed to them) massless; or (`ROBOT=rhex`) the six-legged RHex on
+//! the shins (and the feet fixed to them) massless, free-flying or (`BASE=planar`) on a
+//! planar base, its feet held in the plane; or (`ROBOT=rhex`) the six-legged RHex on
 //! its six frictionless toes at the bench's state, with Table 4.2's legs or
 //! (`LEGS=massless`) massless ones, or (`CONTACTS=tripod`) on a tripod of toes with friction
 //! (front left, middle right, rear left; the other legs in the air). Under callgrind:
@@ -42,14 +43,15 @@ fn probe_calls(
 
 type Setup = (SpatialModel, Vec<PointContact>, [DVector<f64>; 3], String);
 
-/// The quadruped on four feet with friction, with the URDF's legs or massless shins.
-fn quadruped(legs: &str) -> Result<Setup, Box<dyn std::error::Error>> {
+/// The quadruped on four feet with friction, with the URDF's legs or massless shins, on a
+/// free-flying base or (`BASE=planar`) a planar one.
+fn quadruped(legs: &str, base: &str) -> Result<Setup, Box<dyn std::error::Error>> {
     let massless = match legs {
         "urdf" => false,
         "massless_shins" => true,
         other => return Err(format!("LEGS: `{other}` (urdf, massless_shins)").into()),
     };
-    let mut model = SpatialModel::from_urdf_file(QUADRUPED, BaseKind::FreeFlyer, None)?;
+    let mut model = SpatialModel::from_urdf_file(QUADRUPED, BaseKind::from_name(base)?, None)?;
     if massless {
         for (joint, inertia) in model.joints.iter().zip(model.inertias.iter_mut()) {
             if joint.name.ends_with("_knee") {
@@ -62,7 +64,7 @@ fn quadruped(legs: &str) -> Result<Setup, Box<dyn std::error::Error>> {
         .map(|f| PointContact::new(&model, f, true))
         .collect::<Result<Vec<_>, _>>()?;
     let (q, v, tau) = standing_state(&model);
-    let label = format!("quadruped ({legs}), four feet with friction");
+    let label = format!("quadruped ({legs}, {base} base), four feet with friction");
     Ok((model, contacts, [q, v, tau], label))
 }
 
@@ -96,7 +98,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let calls: usize = std::env::var("CALLS").map_or(Ok(1000), |s| s.parse())?;
     let legs = std::env::var("LEGS").ok();
     let (model, contacts, [q, v, tau], label) = match std::env::var("ROBOT").as_deref() {
-        Err(_) | Ok("quadruped") => quadruped(legs.as_deref().unwrap_or("urdf"))?,
+        Err(_) | Ok("quadruped") => quadruped(
+            legs.as_deref().unwrap_or("urdf"),
+            std::env::var("BASE").as_deref().unwrap_or("free_flyer"),
+        )?,
         Ok("rhex") => rhex(
             legs.as_deref().unwrap_or("table_4_2"),
             std::env::var("CONTACTS").as_deref() == Ok("tripod"),
