@@ -327,3 +327,46 @@ def test_impact_with_lift_off_is_pinocchios_on_the_feet_it_holds(friction):
           f"({unresolved} states without exactly one), {separated} feet separated; feet held "
           f"{sorted(held_counts)}")
     assert worst < 1e-9 and separated >= 10 and len(held_counts) >= 3
+
+
+def test_a_floating_joint_inside_the_tree_is_pinocchios(tmp_path):
+    """A URDF ``floating`` joint is a free flyer at its origin, as Pinocchio reads it: a 1.5 kg
+    payload floating on the quadruped's trunk (a second free flyer inside the tree, nq 26, nv
+    24): ``M``, ``nle``, its frames' placements and Jacobians to 1e-10, and the constrained
+    dynamics and impact on the four feet to 1e-9, at random states."""
+    tree = ET.parse(QUADRUPED)
+    root = tree.getroot()
+    root.append(ET.fromstring(
+        '<link name="payload"><inertial><origin xyz="0.02 0 0.01"/><mass value="1.5"/>'
+        '<inertia ixx="0.01" ixy="0.001" ixz="0" iyy="0.02" iyz="0" izz="0.015"/></inertial></link>'))
+    root.append(ET.fromstring(
+        '<joint name="payload_joint" type="floating"><origin xyz="0.1 0 0.2" rpy="0.2 0.1 0"/>'
+        '<parent link="trunk"/><child link="payload"/></joint>'))
+    path = tmp_path / "quadruped_payload.urdf"
+    tree.write(path)
+    ours, model, data = both(path)
+    assert (ours.nq, ours.nv) == (model.nq, model.nv) == (26, 24)
+    assert ours.joint_names == list(model.names)[1:]
+    rng = np.random.default_rng(12)
+    lower, upper = -np.ones(model.nq), np.ones(model.nq)
+    worst = dict(M=0.0, nle=0.0, frames=0.0, qdd=0.0, lam=0.0, impact=0.0)
+    for _ in range(10):
+        q = pin.randomConfiguration(model, lower, upper)
+        v, tau = rng.uniform(-2, 2, model.nv), rng.uniform(-5, 5, model.nv)
+        worst["M"] = max(worst["M"], rel(ours.mass_matrix(q), pin_mass_matrix(model, data, q)))
+        worst["nle"] = max(worst["nle"], rel(ours.bias_forces(q, v), pin.nonLinearEffects(model, data, q, v)))
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        for name in ("payload", "payload_joint", "FL_foot"):
+            fid = model.getFrameId(name)
+            worst["frames"] = max(worst["frames"], rel(ours.frame_placement(q, name), data.oMf[fid].homogeneous),
+                                  rel(ours.frame_jacobian(q, name, "local"), pin.getFrameJacobian(model, data, fid, pin.LOCAL)))
+        J, gamma = contact_rows(model, data, q, v, FEET)
+        out = ours.dynamics(FEET, q, v, tau)
+        worst["qdd"] = max(worst["qdd"], rel(out.qdd, pin.forwardDynamics(model, data, q, v, tau, J, gamma)))
+        worst["lam"] = max(worst["lam"], rel(out.lam, data.lambda_c))
+        imp = ours.impact(FEET, q, v)
+        pin.impulseDynamics(model, data, q, v, J, 0.0)
+        worst["impact"] = max(worst["impact"], rel(imp.v_plus, data.dq_after), rel(imp.impulse, data.impulse_c))
+    print({k: f"{w:.1e}" for k, w in worst.items()})
+    assert max(worst["M"], worst["nle"], worst["frames"]) < 1e-10 and max(worst["qdd"], worst["lam"], worst["impact"]) < 1e-9, worst

@@ -316,3 +316,62 @@ fn an_added_frame_is_a_massless_fixed_link_at_the_same_origin() {
         "frames[tip].xyz_m"
     );
 }
+
+/// A URDF `floating` joint is a free flyer at its origin, as Pinocchio reads it: the quadruped
+/// hung from a `world` link by a floating joint whose origin `g₀` is shifted and turned, on a
+/// fixed base, is the quadruped on a free-flying base posed at `g₀ g(q)` — the same `M`, bias
+/// forces, frame placements and constrained dynamics on four feet (the free flyer is the
+/// root, so the same fast routes), at random states.
+#[test]
+fn a_floating_joint_is_a_free_flyer_at_its_origin() {
+    let text = std::fs::read_to_string(QUADRUPED).unwrap();
+    let (xyz, rpy) = ([0.3, -0.2, 0.5], [0.4, -0.3, 1.1]);
+    let world = format!(
+        r#"<link name="world"/><joint name="world_to_trunk" type="floating"><origin xyz="{} {} {}" rpy="{} {} {}"/><parent link="world"/><child link="trunk"/></joint></robot>"#,
+        xyz[0], xyz[1], xyz[2], rpy[0], rpy[1], rpy[2]
+    );
+    let hung = text.replace("</robot>", &world);
+    let floating = SpatialModel::from_urdf_str(&hung, BaseKind::Fixed, None).unwrap();
+    let free = quadruped();
+    assert_eq!((floating.nq, floating.nv), (free.nq, free.nv));
+    assert_eq!(floating.joints[0].kind, JointKind::FreeFlyer);
+    assert_eq!(floating.joints[0].name, "world_to_trunk");
+    let g0 = SE3::from_xyz_rpy(xyz, rpy);
+    let (mut d_floating, mut d_free) = (SpatialData::new(&floating), SpatialData::new(&free));
+    let mut rng = rng(71);
+    let mut worst = [0.0f64; 4];
+    for _ in 0..10 {
+        let (q, v, tau) = random_state(&floating, &mut rng);
+        let mut q_free = q.clone();
+        let r = nalgebra::UnitQuaternion::new_normalize(liegroup::quaternion_at(q.as_slice(), 3));
+        let p = g0.act_point(&nalgebra::Vector3::new(q[0], q[1], q[2]));
+        let r0 = nalgebra::UnitQuaternion::from_matrix(&g0.rotation);
+        let turned = r0 * r;
+        q_free.as_mut_slice()[..7]
+            .copy_from_slice(&[p.x, p.y, p.z, turned.i, turned.j, turned.k, turned.w]);
+        let contacts = |m: &SpatialModel| feet(m, [true; 4]);
+        let (c_floating, c_free) = (contacts(&floating), contacts(&free));
+        dynamics_at(&floating, &mut d_floating, &c_floating, (&q, &v, &tau)).unwrap();
+        dynamics_at(&free, &mut d_free, &c_free, (&q_free, &v, &tau)).unwrap();
+        worst[0] = worst[0].max((&d_floating.M - &d_free.M).amax());
+        worst[1] = worst[1].max((&d_floating.h - &d_free.h).amax() / d_free.h.amax());
+        worst[2] =
+            worst[2].max((&d_floating.qdd - &d_free.qdd).amax() / d_free.qdd.amax().max(1.0));
+        for name in FEET {
+            let (a, b) = (
+                floating.frame_id(name).unwrap(),
+                free.frame_id(name).unwrap(),
+            );
+            let gap = kinematics::frame_placement(&floating, &d_floating, a)
+                .max_abs_diff(&kinematics::frame_placement(&free, &d_free, b));
+            worst[3] = worst[3].max(gap);
+        }
+        assert_eq!(d_floating.kkt_route, d_free.kkt_route);
+    }
+    assert_worst(
+        "floating joint vs free-flying base:",
+        &["M", "h", "q̈", "feet"],
+        &worst,
+        1e-12,
+    );
+}

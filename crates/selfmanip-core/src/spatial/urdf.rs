@@ -80,13 +80,19 @@ fn joint_kind(joint: &urdf_rs::Joint) -> SpatialResult<Option<JointKind>> {
     Ok(match joint.joint_type {
         T::Revolute | T::Continuous => Some(JointKind::Revolute { axis: axis()? }),
         T::Prismatic => Some(JointKind::Prismatic { axis: axis()? }),
+        // six degrees of freedom, as Pinocchio's parser reads it: a free flyer placed at the
+        // joint's origin (a `world` link's `floating` child on a fixed base is the robot's
+        // free-flying base)
+        T::Floating => Some(JointKind::FreeFlyer),
         T::Fixed => None,
         ref other => {
             return Err(invalid(
                 field + ".type",
                 format!(
-                "joint type `{other:?}` is not supported (revolute, continuous, prismatic, fixed)"
-            ),
+                    "joint type `{other:?}` is not supported (revolute, continuous, prismatic, \
+                     floating, fixed; a `planar` URDF joint moves in its frame's x–y plane, \
+                     unlike `base=\"planar\"`)"
+                ),
             ))
         }
     })
