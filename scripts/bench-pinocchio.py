@@ -4,7 +4,8 @@
 Times Pinocchio's constrained forward dynamics (`pin.constraintDynamics`, four 3-D foot
 contacts: kinematics, CRBA, bias forces, contact Jacobians and the KKT solve in one C++ call),
 `pin.crba` and `pin.nonLinearEffects` on `tests/data/urdf/quadruped12.urdf` at the standing,
-moving state of the bench, and prints them with the matching criterion estimates of
+moving state of the bench (and the quadruped on a planar base, and the six-legged RHex),
+and prints them with the matching criterion estimates of
 `cargo bench --bench spatial` (run that first) and the ratio. Python's call overhead
 (about 0.1–0.5 µs a call, measured here on an empty binding call) is reported, not subtracted.
 
@@ -83,7 +84,43 @@ def main():
     ours = criterion_us("forward_dynamics_4_feet/massless_shins")
     if ours:
         print(f"{'forward_dynamics_4_feet/massless_shins':40s} {'(singular M)':>13s} {ours:13.2f}")
+    planar()
     rhex()
+
+
+def planar():
+    """The quadruped on a planar base (Pinocchio's composite root joint of PX, PZ, RY), its
+    feet held in the plane (rows world x, z): Pinocchio has no two-row contact model, so its
+    KKT forward dynamics with the same rows (`computeAllTerms`, then `forwardDynamics` with
+    the rows and drift computed once outside the timing)."""
+    root = pin.JointModelComposite()
+    for sub in (pin.JointModelPX(), pin.JointModelPZ(), pin.JointModelRY()):
+        root.addJoint(sub)
+    model = pin.buildModelFromUrdf(str(URDF), root)
+    data = model.createData()
+    q = pin.neutral(model)
+    q[1] = 0.4
+    for leg in range(4):
+        q[3 + 3 * leg + 1] = 0.5
+        q[3 + 3 * leg + 2] = -1.0
+    v = np.array([0.1 * math.sin(0.7 * i) for i in range(model.nv)])
+    tau = np.array([0.0 if i < 3 else 2.0 * math.cos(1.3 * i) for i in range(model.nv)])
+    pin.computeJointJacobians(model, data, q)
+    pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
+    pin.updateFramePlacements(model, data)
+    ids = [model.getFrameId(f) for f in FEET]
+    J = np.vstack([pin.getFrameJacobian(model, data, i, pin.LOCAL_WORLD_ALIGNED)[[0, 2]] for i in ids])
+    gamma = np.concatenate([pin.getFrameClassicalAcceleration(model, data, i, pin.LOCAL_WORLD_ALIGNED).linear[[0, 2]]
+                            for i in ids])
+
+    def fd():
+        pin.computeAllTerms(model, data, q, v)
+        return pin.forwardDynamics(model, data, tau, J, gamma)
+
+    theirs = per_call_us(fd)
+    ours = criterion_us("forward_dynamics_4_feet/planar_base")
+    name = "forward_dynamics_4_feet/planar_base"
+    print(f"{name:40s} {theirs:13.2f} " + (f"{ours:13.2f} {ours / theirs:7.2f}" if ours else "  (no bench)"))
 
 
 def rhex():
