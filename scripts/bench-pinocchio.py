@@ -25,16 +25,37 @@ CRITERION = ROOT / "target/criterion/spatial_quadruped"
 FEET = ["FL_foot", "FR_foot", "HL_foot", "HR_foot"]
 
 
-def standing_state(model):
-    """The bench's state: base at 0.4 m, level; legs bent by 0.5 rad; a small motion."""
+def standing_state(model, planar=False):
+    """The bench's state: base at 0.4 m, level; legs bent by 0.5 rad; a small motion. On a
+    free-flying base ``q = [p, quat, legs]``, on a planar one ``q = [x, z, theta, legs]``."""
+    height, legs, base_rates = (1, 3, 3) if planar else (2, 7, 6)
     q = pin.neutral(model)
-    q[2] = 0.4
+    q[height] = 0.4
     for leg in range(4):
-        q[7 + 3 * leg + 1] = 0.5
-        q[7 + 3 * leg + 2] = -1.0
+        q[legs + 3 * leg + 1] = 0.5
+        q[legs + 3 * leg + 2] = -1.0
     v = np.array([0.1 * math.sin(0.7 * i) for i in range(model.nv)])
-    tau = np.array([0.0 if i < 6 else 2.0 * math.cos(1.3 * i) for i in range(model.nv)])
+    tau = np.array([0.0 if i < base_rates else 2.0 * math.cos(1.3 * i) for i in range(model.nv)])
     return q, v, tau
+
+
+def kkt_forward_dynamics_us(model, data, q, v, tau, frames, rows):
+    """Pinocchio's KKT forward dynamics (``computeAllTerms``, then ``forwardDynamics``) with the
+    ``rows`` (world axes) of the frames' LOCAL_WORLD_ALIGNED linear Jacobians and drift, the
+    rows computed once outside the timing: for contacts Pinocchio has no model of."""
+    pin.computeJointJacobians(model, data, q)
+    pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
+    pin.updateFramePlacements(model, data)
+    ids = [model.getFrameId(f) for f in frames]
+    J = np.vstack([pin.getFrameJacobian(model, data, i, pin.LOCAL_WORLD_ALIGNED)[list(rows)] for i in ids])
+    gamma = np.concatenate([pin.getFrameClassicalAcceleration(model, data, i, pin.LOCAL_WORLD_ALIGNED).linear[list(rows)]
+                            for i in ids])
+
+    def fd():
+        pin.computeAllTerms(model, data, q, v)
+        return pin.forwardDynamics(model, data, tau, J, gamma)
+
+    return per_call_us(fd)
 
 
 def per_call_us(fn, repeat=7):
@@ -90,34 +111,13 @@ def main():
 
 def planar():
     """The quadruped on a planar base (Pinocchio's composite root joint of PX, PZ, RY), its
-    feet held in the plane (rows world x, z): Pinocchio has no two-row contact model, so its
-    KKT forward dynamics with the same rows (`computeAllTerms`, then `forwardDynamics` with
-    the rows and drift computed once outside the timing)."""
+    feet held in the plane (rows world x, z; Pinocchio has no two-row contact model)."""
     root = pin.JointModelComposite()
     for sub in (pin.JointModelPX(), pin.JointModelPZ(), pin.JointModelRY()):
         root.addJoint(sub)
     model = pin.buildModelFromUrdf(str(URDF), root)
-    data = model.createData()
-    q = pin.neutral(model)
-    q[1] = 0.4
-    for leg in range(4):
-        q[3 + 3 * leg + 1] = 0.5
-        q[3 + 3 * leg + 2] = -1.0
-    v = np.array([0.1 * math.sin(0.7 * i) for i in range(model.nv)])
-    tau = np.array([0.0 if i < 3 else 2.0 * math.cos(1.3 * i) for i in range(model.nv)])
-    pin.computeJointJacobians(model, data, q)
-    pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
-    pin.updateFramePlacements(model, data)
-    ids = [model.getFrameId(f) for f in FEET]
-    J = np.vstack([pin.getFrameJacobian(model, data, i, pin.LOCAL_WORLD_ALIGNED)[[0, 2]] for i in ids])
-    gamma = np.concatenate([pin.getFrameClassicalAcceleration(model, data, i, pin.LOCAL_WORLD_ALIGNED).linear[[0, 2]]
-                            for i in ids])
-
-    def fd():
-        pin.computeAllTerms(model, data, q, v)
-        return pin.forwardDynamics(model, data, tau, J, gamma)
-
-    theirs = per_call_us(fd)
+    q, v, tau = standing_state(model, planar=True)
+    theirs = kkt_forward_dynamics_us(model, model.createData(), q, v, tau, FEET, (0, 2))
     ours = criterion_us("forward_dynamics_4_feet/planar_base")
     name = "forward_dynamics_4_feet/planar_base"
     print(f"{name:40s} {theirs:13.2f} " + (f"{ours:13.2f} {ours / theirs:7.2f}" if ours else "  (no bench)"))
@@ -125,29 +125,15 @@ def planar():
 
 def rhex():
     """The six-legged RHex of `benches/spatial.rs` (`tests/data/urdf/rhex6.urdf`, Table 4.2's
-    legs) on six frictionless toes: Pinocchio has no one-row contact model, so its KKT forward
-    dynamics with our toes' Jacobian rows (`computeAllTerms`, then `forwardDynamics` with the
-    rows and drift computed once outside the timing)."""
+    legs) on six frictionless toes (one row each; Pinocchio has no one-row contact model)."""
     model = pin.buildModelFromUrdf(str(ROOT / "tests/data/urdf/rhex6.urdf"), pin.JointModelFreeFlyer())
-    data = model.createData()
     q = pin.neutral(model)
     q[2] = 0.17 * math.cos(0.3)
     q[7:] = 0.3
     v = np.array([0.1 * math.sin(0.7 * i) for i in range(model.nv)])
     tau = np.array([0.0 if i < 6 else 1.0 for i in range(model.nv)])
     toes = [f"{p}_{s}_toe" for p in ("front", "middle", "rear") for s in ("left", "right")]
-    pin.computeJointJacobians(model, data, q)
-    pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
-    pin.updateFramePlacements(model, data)
-    J = np.vstack([pin.getFrameJacobian(model, data, model.getFrameId(t), pin.LOCAL_WORLD_ALIGNED)[2] for t in toes])
-    gamma = np.array([pin.getFrameClassicalAcceleration(model, data, model.getFrameId(t), pin.LOCAL_WORLD_ALIGNED).linear[2]
-                      for t in toes])
-
-    def fd():
-        pin.computeAllTerms(model, data, q, v)
-        return pin.forwardDynamics(model, data, tau, J, gamma)
-
-    theirs = per_call_us(fd)
+    theirs = kkt_forward_dynamics_us(model, model.createData(), q, v, tau, toes, (2,))
     path = ROOT / "target/criterion/spatial_rhex/forward_dynamics_6_toes_table_4_2_legs/new/estimates.json"
     ours = json.loads(path.read_text())["median"]["point_estimate"] / 1e3 if path.exists() else None
     name = "rhex6 forward_dynamics_6_toes/table_4_2_legs"

@@ -18,7 +18,7 @@ from selfmanip.errors import InvalidInputError, SingularKktError
 
 pin = pytest.importorskip("pinocchio", reason="Pinocchio (`pip install pin`, in the test extra) is the independent route")
 
-from pinocchio_routes import contact_rows, rel  # noqa: E402
+from pinocchio_routes import contact_rows, dynamics_errors, kinematics_errors, rel  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 QUADRUPED = ROOT / "tests" / "data" / "urdf" / "quadruped12.urdf"
@@ -89,16 +89,8 @@ def test_kinematics_mass_matrix_and_bias_forces_match_pinocchio(tmp_path, case):
     worst = dict(M=0.0, nle=0.0, placement=0.0, jacobian=0.0)
     for _ in range(20):
         q, v, _ = random_state(rng, model.nq, model.nv)
-        worst["M"] = max(worst["M"], rel(ours.mass_matrix(q), pin_mass_matrix(model, data, q)))
-        worst["nle"] = max(worst["nle"], rel(ours.bias_forces(q, v), pin.nonLinearEffects(model, data, q, v)))
-        pin.computeJointJacobians(model, data, q)
-        pin.updateFramePlacements(model, data)
-        for name in frames:
-            fid = model.getFrameId(name)
-            worst["placement"] = max(worst["placement"], rel(ours.frame_placement(q, name), data.oMf[fid].homogeneous))
-            for ref, pref in [("local", pin.LOCAL), ("world", pin.WORLD), ("local_world_aligned", pin.LOCAL_WORLD_ALIGNED)]:
-                J = pin.getFrameJacobian(model, data, fid, pref)
-                worst["jacobian"] = max(worst["jacobian"], rel(ours.frame_jacobian(q, name, ref), J))
+        for k, e in kinematics_errors(ours, model, data, q, v, frames).items():
+            worst[k] = max(worst[k], e)
     print(case, {k: f"{w:.1e}" for k, w in worst.items()})
     assert all(w < 1e-10 for w in worst.values()), worst
     if variant.startswith("massless"):
@@ -146,17 +138,8 @@ def test_constrained_dynamics_and_impact_match_pinocchio(tmp_path, case):
     for k in range(24):
         contacts = modes[k % len(modes)]
         q, v, tau = random_state(rng, model.nq, model.nv)
-        J, gamma = contact_rows(model, data, q, v, contacts)
-        out = ours.dynamics(contacts, q, v, tau)
-        worst["A"] = max(worst["A"], rel(out.A, J))
-        worst["drift"] = max(worst["drift"], rel(out.drift, gamma))
-        qdd = pin.forwardDynamics(model, data, q, v, tau, J, gamma)
-        worst["qdd"] = max(worst["qdd"], rel(out.qdd, qdd))
-        worst["lam"] = max(worst["lam"], rel(out.lam, data.lambda_c))
-        imp = ours.impact(contacts, q, v)
-        pin.impulseDynamics(model, data, q, v, J, 0.0)
-        worst["v_plus"] = max(worst["v_plus"], rel(imp.v_plus, data.dq_after))
-        worst["impulse"] = max(worst["impulse"], rel(imp.impulse, data.impulse_c))
+        for k, e in dynamics_errors(ours, model, data, contacts, q, v, tau).items():
+            worst[k] = max(worst[k], e)
     print(case, {k: f"{w:.1e}" for k, w in worst.items()})
     assert all(w < 1e-9 for w in worst.values()), worst
 

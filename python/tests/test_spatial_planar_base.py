@@ -18,7 +18,7 @@ from selfmanip.errors import InvalidInputError
 
 pin = pytest.importorskip("pinocchio", reason="Pinocchio (`pip install pin`, in the test extra) is the independent route")
 
-from pinocchio_routes import contact_rows, planar_root_joint, rel  # noqa: E402
+from pinocchio_routes import contact_rows, dynamics_errors, kinematics_errors, planar_root_joint, rel  # noqa: E402
 from test_spatial_pinocchio import FEET, FRAMES, QUADRUPED, RHEX6, RHEX_FRAMES, RHEX_MODES, scaled_urdf  # noqa: E402
 
 PLANE = (0, 2)  # a contact's rows with friction on a planar base: world x, z
@@ -61,17 +61,8 @@ def test_planar_base_kinematics_and_rigid_body_terms_are_pinocchios(tmp_path, ro
     worst = dict(M=0.0, nle=0.0, placement=0.0, jacobian=0.0, integrate=0.0)
     for _ in range(20):
         q, v, _, qp, vp = random_state(ours, rng)
-        M = pin.crba(model, data, qp)
-        worst["M"] = max(worst["M"], rel(ours.mass_matrix(q), np.triu(M) + np.triu(M, 1).T))
-        worst["nle"] = max(worst["nle"], rel(ours.bias_forces(q, v), pin.nonLinearEffects(model, data, qp, vp)))
-        pin.computeJointJacobians(model, data, qp)
-        pin.updateFramePlacements(model, data)
-        for name in frames:
-            fid = model.getFrameId(name)
-            worst["placement"] = max(worst["placement"], rel(ours.frame_placement(q, name), data.oMf[fid].homogeneous))
-            for ref, pref in [("local", pin.LOCAL), ("world", pin.WORLD), ("local_world_aligned", pin.LOCAL_WORLD_ALIGNED)]:
-                worst["jacobian"] = max(worst["jacobian"],
-                                        rel(ours.frame_jacobian(q, name, ref), pin.getFrameJacobian(model, data, fid, pref)))
+        for k, e in kinematics_errors(ours, model, data, q, v, frames, (qp, vp)).items():
+            worst[k] = max(worst[k], e)
         q1, _ = ours.to_pinocchio(ours.integrate(q, v), v)
         worst["integrate"] = max(worst["integrate"], rel(q1, pin.integrate(model, qp, vp)))
     print(robot, {k: f"{w:.1e}" for k, w in worst.items()})
@@ -87,17 +78,10 @@ def test_planar_base_dynamics_and_impact_are_pinocchios(tmp_path, robot):
     for k in range(24):
         contacts = modes[k % len(modes)]
         q, v, tau, qp, vp = random_state(ours, rng)
-        J, gamma = contact_rows(model, data, qp, vp, contacts, friction_rows=PLANE)
-        out = ours.dynamics(contacts, q, v, tau)
-        assert [r for _, r in out.rows] == [r for c in contacts for r in (["n"] if c.endswith("frictionless") else ["t", "n"])]
-        worst["A"] = max(worst["A"], rel(out.A, J))
-        worst["drift"] = max(worst["drift"], rel(out.drift, gamma))
-        worst["qdd"] = max(worst["qdd"], rel(out.qdd, pin.forwardDynamics(model, data, qp, vp, tau, J, gamma)))
-        worst["lam"] = max(worst["lam"], rel(out.lam, data.lambda_c))
-        imp = ours.impact(contacts, q, v)
-        pin.impulseDynamics(model, data, qp, vp, J, 0.0)
-        worst["v_plus"] = max(worst["v_plus"], rel(imp.v_plus, data.dq_after))
-        worst["impulse"] = max(worst["impulse"], rel(imp.impulse, data.impulse_c))
+        for k, e in dynamics_errors(ours, model, data, contacts, q, v, tau, (qp, vp), PLANE).items():
+            worst[k] = max(worst[k], e)
+        rows = [r for _, r in ours.dynamics(contacts, q, v, tau).rows]
+        assert rows == [r for c in contacts for r in (["n"] if c.endswith("frictionless") else ["t", "n"])]
     print(robot, {k: f"{w:.1e}" for k, w in worst.items()})
     assert all(w < 1e-9 for w in worst.values()), worst
 
