@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
-from typing import Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
 
@@ -21,6 +21,9 @@ from . import _checks
 from ._native import Robot as _NativeRobot
 from ._wrapped_model import WrappedModel
 from .errors import InvalidInputError, InvalidTypeError
+
+if TYPE_CHECKING:
+    from .spatial import SpatialRobot
 
 
 @dataclass(frozen=True)
@@ -182,6 +185,17 @@ class Robot(WrappedModel):
         description_format(path)
         text = _checks.read_text_file("path", path)
         return cls(_NativeRobot.from_description(text, description_format(path, text)))
+
+    @staticmethod
+    def from_urdf(path: str | os.PathLike[str], base: str = "free_flyer", root_link: str | None = None,
+                  frames: Mapping[str, Mapping[str, Any]] | None = None,
+                  contacts: Mapping[str, Mapping[str, Any]] | None = None) -> "SpatialRobot":
+        """A URDF robot is spatial: :meth:`selfmanip.SpatialRobot.from_urdf` (the same
+        arguments; ``base`` ``"free_flyer"``, ``"planar"`` or ``"fixed"``), returning a
+        :class:`~selfmanip.SpatialRobot`."""
+        from .spatial import SpatialRobot
+
+        return SpatialRobot.from_urdf(path, base, root_link, frames, contacts)
 
     @classmethod
     def from_dict(cls, description: Mapping[str, Any]) -> "Robot":

@@ -27,6 +27,9 @@ friction ``mu`` on the circular cone's edge against the contact point's sliding 
 the angles ``a..b`` about ``axis`` from the direction ``zero``; RHex's C-leg is the arc of
 radius 0.085 about ``..._arc`` with axis ``[0, -1, 0]``, zero ``[0, 0, -1]`` and range
 ``[0, pi]``). A bad entry raises ``InvalidInputError`` naming ``contacts[frame].key``.
+Contacts declared once, ``from_urdf(path, contacts={frame: {...}})`` (or
+``selfmanip.Robot.from_urdf``), are then named by a mode string of one ``0``/``1`` per declared
+contact (``robot.dynamics("1011", q, v, tau)``), a list of declared names, or ``None`` (all).
 
 Example::
 
@@ -45,15 +48,10 @@ import numpy as np
 
 from ._native import SpatialRobot as _NativeSpatialRobot
 from ._wrapped_model import WrappedModel
-from .errors import InvalidTypeError
+from .errors import InvalidInputError, InvalidTypeError
 
 ReferenceFrame = Literal["local", "world", "local_world_aligned"]
-Contacts = Sequence[str] | Mapping[str, Mapping[str, Any]]
-
-
-def _contacts(contacts: Contacts) -> list[str] | dict[str, Mapping[str, Any]]:
-    """Frame names as a list, the dict form as a dict (see the module's conventions)."""
-    return dict(contacts) if isinstance(contacts, Mapping) else list(contacts)
+Contacts = Sequence[str] | Mapping[str, Mapping[str, Any]] | str | None
 
 
 @dataclass(frozen=True)
@@ -67,6 +65,27 @@ class SpatialDynamics:
     rows: list[tuple[str, str]]
     A: np.ndarray
     drift: np.ndarray
+
+
+@dataclass(frozen=True)
+class SpatialKkt:
+    """The blocks of the KKT inverse (thesis 5.2) of a contact set: ``[M A^T; A 0]^-1 =
+    [M_dagger A_dagger^T; A_dagger Lambda]``, exact for a singular ``M`` (Lemma 5.1), with the
+    system's ``A`` and ``M``. In this module's sign (``M qdd + h = tau + A^T lam``):
+    ``qdd = M_dagger (tau - h) - A_dagger^T drift`` and ``lam = -A_dagger (tau - h) + Lambda
+    drift``. The ``free_rates`` of a massless limb in the air are left out (zero rows and
+    columns); ``constraint_condition`` and ``reduced_mass_condition`` are the factorization's
+    condition numbers of the rows and of the motion they leave free."""
+
+    m_dagger: np.ndarray
+    a_dagger: np.ndarray
+    Lambda: np.ndarray
+    A: np.ndarray
+    M: np.ndarray
+    rows: list[tuple[str, str]]
+    free_rates: list[int]
+    constraint_condition: float
+    reduced_mass_condition: float
 
 
 @dataclass(frozen=True)
@@ -86,8 +105,8 @@ class SpatialImpact:
 @dataclass(frozen=True)
 class SpatialQuasiStatic:
     """Quasi-static forces at rest (thesis 4.21-4.22): the grasp map ``grasp`` (b x c, the
-    contact rows' base columns transposed; b = 6 on a free-flying base, 3 on a planar one), the base's gravity wrench ``gravity_wrench`` with
-    ``grasp @ lam = gravity_wrench``; the minimum-norm external forces ``lam_external`` and an
+    contact rows' base columns transposed; b = 6 on a free-flying base, 3 on a planar one),
+    the base's gravity wrench ``gravity_wrench`` with ``grasp @ lam = gravity_wrench``; the minimum-norm external forces ``lam_external`` and an
     orthonormal basis ``internal_basis`` of the internal forces (``ker grasp``); the joint
     torques ``tau_external`` that hold ``lam_external`` and ``internal_torques`` of each
     internal force."""
@@ -112,19 +131,68 @@ class SpatialRobot(WrappedModel):
     _native_class = _NativeSpatialRobot
     _construct_with = "SpatialRobot.from_urdf"
 
+    _declared: dict[str, dict[str, Any]] = {}
+
     @classmethod
     def from_urdf(cls, path: str | os.PathLike[str], base: Literal["free_flyer", "planar", "fixed"] = "free_flyer",
                   root_link: str | None = None,
-                  frames: Mapping[str, Mapping[str, Any]] | None = None) -> "SpatialRobot":
+                  frames: Mapping[str, Mapping[str, Any]] | None = None,
+                  contacts: Mapping[str, Mapping[str, Any]] | None = None) -> "SpatialRobot":
         """Loads a URDF; ``base`` attaches its root link to the world (``"free_flyer"``,
         ``"planar"``: in the world's ``x``-``z`` plane, or ``"fixed"``). Links with zero mass stay massless. ``frames`` adds frames to the
         URDF's, ``{name: {"parent": frame, "xyz_m": [x, y, z], "rpy_rad": [r, p, y]}}``
         (placed in the parent frame as a URDF joint origin places its child; offsets zero
         where not given; Pinocchio's operational frames): points to name as contacts, such
-        as the corners of a flat foot."""
+        as the corners of a flat foot. ``contacts`` declares the robot's contacts in the dict
+        form, ``{frame: {"radius_m": r, "friction": mu, ...}}`` (checked here, each bad entry
+        naming ``contacts[frame].key``): the methods that take contacts then take ``None``
+        (all of them), a mode string of one ``0``/``1`` per declared contact in order
+        (``"1011"``), or a list of declared names, each with its declared form."""
         if not isinstance(path, (str, os.PathLike)):
             raise InvalidTypeError(f"`path` must be a file path, got {type(path).__name__}", "path")
-        return cls(_NativeSpatialRobot.from_urdf(os.fspath(path), base, root_link, frames))
+        robot = cls(_NativeSpatialRobot.from_urdf(os.fspath(path), base, root_link, frames))
+        return robot._declare(contacts)
+
+    def _declare(self, contacts: Mapping[str, Mapping[str, Any]] | None) -> "SpatialRobot":
+        if contacts is None:
+            return self
+        if not isinstance(contacts, Mapping) or not all(isinstance(v, Mapping) for v in contacts.values()):
+            raise InvalidTypeError("`contacts` must be a dict {frame: {\"radius_m\": ..., \"friction\": ...}}",
+                                   "contacts")
+        declared = {k: dict(v) for k, v in contacts.items()}
+        self._native.free_rates(declared)  # parses every entry: a bad one names its field
+        self._declared = declared
+        return self
+
+    @property
+    def contacts(self) -> dict[str, dict[str, Any]]:
+        """The contacts declared at ``from_urdf(contacts=...)``, in order (empty if none)."""
+        return {k: dict(v) for k, v in self._declared.items()}
+
+    def _contact_set(self, contacts: Contacts) -> list[str] | dict[str, Mapping[str, Any]]:
+        """The contact set a method is given: frame names as a list, the dict form as a dict;
+        with declared contacts, ``None`` (all), a mode string or a list of declared names."""
+        declared = self._declared
+        if isinstance(contacts, Mapping):
+            return dict(contacts)
+        if contacts is None or isinstance(contacts, str):
+            if not declared:
+                raise InvalidInputError("no contacts declared (from_urdf(contacts=...)): give the contacts, "
+                                        "a list of frame names or a dict", "contacts")
+            if contacts is None:
+                return dict(declared)
+            if len(contacts) != len(declared) or set(contacts) - {"0", "1"}:
+                raise InvalidInputError(f"mode {contacts!r}: one 0/1 per declared contact ({len(declared)}: "
+                                        f"{', '.join(declared)})", "contacts")
+            return {k: v for (k, v), bit in zip(declared.items(), contacts) if bit == "1"}
+        names = list(contacts)
+        known = [n in declared for n in names]
+        if declared and all(known):
+            return {n: declared[n] for n in names}
+        if any(known):
+            raise InvalidInputError("a list mixing declared contacts with other frames: give a dict "
+                                    "for the others", "contacts")
+        return names
 
     @classmethod
     def rhex(cls, leg_mass_kg: float = 0.0, leg_inertia_kg_m2: float = 0.0,
@@ -210,7 +278,7 @@ class SpatialRobot(WrappedModel):
     def free_rates(self, contacts: Contacts) -> list[int]:
         """The rates of the massless limbs that ``contacts`` leave in the air (their subtree
         has no mass and no contact), ascending: ``dynamics`` needs their ``free_qdd``."""
-        return self._native.free_rates(_contacts(contacts))
+        return self._native.free_rates(self._contact_set(contacts))
 
     def dynamics(self, contacts: Contacts, q: np.ndarray | Sequence[float],
                  v: np.ndarray | Sequence[float], tau: np.ndarray | Sequence[float],
@@ -219,12 +287,19 @@ class SpatialRobot(WrappedModel):
         limb in the air (``free_rates``) follows the accelerations ``free_qdd`` (one per free
         rate); without them it is ``SingularKktError`` (Lemma 5.1)."""
         free = None if free_qdd is None else _vector(free_qdd)
-        d = self._native.dynamics(_contacts(contacts), _vector(q), _vector(v), _vector(tau), free)
+        d = self._native.dynamics(self._contact_set(contacts), _vector(q), _vector(v), _vector(tau), free)
         return SpatialDynamics(d["qdd"], d["lam"], [tuple(r) for r in d["rows"]], d["A"], d["drift"])
+
+    def kkt(self, contacts: Contacts, q: np.ndarray | Sequence[float]) -> SpatialKkt:
+        """The blocks ``M_dagger``, ``A_dagger``, ``Lambda`` of the KKT inverse of ``contacts``
+        at ``q`` (thesis 5.2; :class:`SpatialKkt`). Dependent rows raise ``SingularKktError``."""
+        d = self._native.kkt(self._contact_set(contacts), _vector(q))
+        d["rows"] = [tuple(r) for r in d["rows"]]
+        return SpatialKkt(**d)
 
     def quasi_static(self, contacts: Contacts, q: np.ndarray | Sequence[float]) -> SpatialQuasiStatic:
         """Quasi-static forces of ``contacts`` at rest at ``q`` (thesis 4.21-4.22)."""
-        d = self._native.quasi_static(_contacts(contacts), _vector(q))
+        d = self._native.quasi_static(self._contact_set(contacts), _vector(q))
         return SpatialQuasiStatic(d["grasp"], d["gravity_wrench"], d["lam_external"], d["internal_basis"],
                                   d["tau_external"], d["internal_torques"], [tuple(r) for r in d["rows"]])
 
@@ -235,7 +310,7 @@ class SpatialRobot(WrappedModel):
         ``"separate"``: no impulse, its normal velocity after non-negative), sticks or slips
         by complementarity, frictionless contacts alike. Raises ``InvalidInputError`` naming
         ``contacts`` when no impact, or more than one, satisfies the contacts."""
-        d = self._native.impact(_contacts(contacts), _vector(q), _vector(v), _flag(lift_off, "lift_off"))
+        d = self._native.impact(self._contact_set(contacts), _vector(q), _vector(v), _flag(lift_off, "lift_off"))
         return _impact(d, d["rows"])
 
     def impact_outcomes(self, contacts: Contacts, q: np.ndarray | Sequence[float],
@@ -243,7 +318,7 @@ class SpatialRobot(WrappedModel):
         """Every outcome of ``impact``'s complementarity problem, distinct in ``v_plus`` (none
         when no state of the contacts satisfies them, several in a Painlevé configuration,
         where ``impact`` raises)."""
-        d = self._native.impact_outcomes(_contacts(contacts), _vector(q), _vector(v),
+        d = self._native.impact_outcomes(self._contact_set(contacts), _vector(q), _vector(v),
                                          _flag(lift_off, "lift_off"))
         return [_impact(o, d["rows"]) for o in d["outcomes"]]
 

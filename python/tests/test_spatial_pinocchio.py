@@ -353,3 +353,54 @@ def test_a_floating_joint_inside_the_tree_is_pinocchios(tmp_path):
         worst["impact"] = max(worst["impact"], rel(imp.v_plus, data.dq_after), rel(imp.impulse, data.impulse_c))
     print({k: f"{w:.1e}" for k, w in worst.items()})
     assert max(worst["M"], worst["nle"], worst["frames"]) < 1e-10 and max(worst["qdd"], worst["lam"], worst["impact"]) < 1e-9, worst
+
+
+def kkt_inverse(M, A):
+    """``[M A^T; A 0]^-1`` by numpy, from Pinocchio's ``M`` and contact rows."""
+    n, c = M.shape[0], A.shape[0]
+    return np.linalg.inv(np.block([[M, A.T], [A, np.zeros((c, c))]])), n
+
+
+@pytest.mark.parametrize("variant", ["as_shipped", "massless_shins"])
+def test_kkt_blocks_are_the_inverse_of_pinocchios_kkt_matrix(tmp_path, variant):
+    """``kkt`` gives the blocks of ``[M A^T; A 0]^-1`` (thesis 5.2), against numpy's inverse of
+    the matrix assembled from Pinocchio's ``M`` and contact rows: on four feet (with massless
+    shins ``M`` is singular, the KKT matrix regular), and on three with the massless fourth
+    shin in the air, where its free rate is left out (zero rows and columns) and the rest is
+    the inverse on the other rates. The blocks give ``dynamics``'s ``qdd`` and ``lam``."""
+    suffixes, scale = VARIANTS[variant][0], VARIANTS[variant][1]
+    ours, model, data = both(scaled_urdf(tmp_path, suffixes, scale) if suffixes else QUADRUPED)
+    rng = np.random.default_rng(13)
+    worst = dict(blocks=0.0, dynamics=0.0)
+    for contacts in (FEET, FEET[1:]):
+        for _ in range(5):
+            q, v, tau = random_state(rng, model.nq, model.nv)
+            out = ours.kkt(contacts, q)
+            free = out.free_rates
+            # the FL knee's rate, its massless shin in the air
+            assert free == ([8] if variant == "massless_shins" and contacts == FEET[1:] else [])
+            assert all(ours.joint_names[k - 5] == "FL_knee" for k in free)  # joint 0 has rates 0..5
+            kept = [i for i in range(model.nv) if i not in free]
+            J, gamma = contact_rows(model, data, q, v, contacts)
+            M = pin_mass_matrix(model, data, q)
+            inverse, n = kkt_inverse(M[np.ix_(kept, kept)], J[:, kept])
+            m_dagger = np.zeros((model.nv, model.nv))
+            m_dagger[np.ix_(kept, kept)] = inverse[:n, :n]
+            a_dagger = np.zeros((J.shape[0], model.nv))
+            a_dagger[:, kept] = inverse[n:, :n]
+            scale_ = max(1.0, np.abs(inverse).max())
+            worst["blocks"] = max(worst["blocks"], np.abs(out.m_dagger - m_dagger).max() / scale_,
+                                  np.abs(out.a_dagger - a_dagger).max() / scale_,
+                                  np.abs(out.Lambda - inverse[n:, n:]).max() / scale_)
+            if free:
+                continue
+            d = ours.dynamics(contacts, q, v, tau)
+            h = ours.bias_forces(q, v)
+            qdd = out.m_dagger @ (tau - h) - out.a_dagger.T @ d.drift
+            lam = -out.a_dagger @ (tau - h) + out.Lambda @ d.drift
+            worst["dynamics"] = max(worst["dynamics"], rel(qdd, d.qdd), rel(lam, d.lam))
+    print(variant, {k: f"{w:.1e}" for k, w in worst.items()})
+    assert worst["blocks"] < 1e-9 and worst["dynamics"] < 1e-9, worst
+    # dependent rows: the quadruped's four feet with a fifth row on a foot already held
+    with pytest.raises(SingularKktError):
+        ours.kkt(FEET + ["FL_foot:frictionless"], ours.neutral())

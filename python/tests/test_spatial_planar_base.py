@@ -116,3 +116,33 @@ def test_planar_base_pickles_and_refuses_out_of_plane_ground():
     assert "normal" in e.value.field
     rhex = SpatialRobot.rhex(base="planar")
     assert (rhex.nq, rhex.nv) == (9, 9)
+
+
+def test_declared_contacts_are_named_by_mode_or_name():
+    """``Robot.from_urdf`` is ``SpatialRobot.from_urdf``; contacts declared there are named by
+    a mode string, a list of declared names or ``None``, and give what the same dict gives;
+    bad declarations and modes name ``contacts``; a pickle keeps them."""
+    from selfmanip import Robot
+
+    declared = {f: {"friction": 0.8, "radius_m": 0.02} for f in FEET}
+    robot = Robot.from_urdf(QUADRUPED, base="planar", contacts=declared)
+    assert isinstance(robot, SpatialRobot) and robot.contacts == declared
+    rng = np.random.default_rng(62)
+    q, v, tau = rng.uniform(-0.5, 0.5, robot.nq), rng.uniform(-1, 1, robot.nv), rng.uniform(-1, 1, robot.nv)
+    three = {f: declared[f] for f in ("FL_foot", "HL_foot", "HR_foot")}
+    for named, given in ((None, declared), ("1011", three), (["FL_foot", "HL_foot", "HR_foot"], three)):
+        a, b = robot.dynamics(named, q, v, tau), robot.dynamics(given, q, v, tau)
+        assert np.array_equal(a.qdd, b.qdd) and a.rows == b.rows
+    copy = pickle.loads(pickle.dumps(robot))
+    assert copy.contacts == declared
+    assert np.array_equal(copy.dynamics("1011", q, v, tau).qdd, robot.dynamics(three, q, v, tau).qdd)
+    for bad in ("101", "10x1", ["FL_foot", "trunk"]):
+        with pytest.raises(InvalidInputError) as e:
+            robot.dynamics(bad, q, v, tau)
+        assert e.value.field == "contacts"
+    with pytest.raises(InvalidInputError) as e:
+        SpatialRobot.from_urdf(QUADRUPED).dynamics(None, q[:0], v, tau)
+    assert e.value.field == "contacts"
+    with pytest.raises(InvalidInputError) as e:
+        Robot.from_urdf(QUADRUPED, contacts={"FL_foot": {"radius_m": -1.0}})
+    assert e.value.field.startswith("contacts[FL_foot]")

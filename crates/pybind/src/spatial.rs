@@ -20,8 +20,9 @@ use selfmanip_core::spatial::rhex::RhexSixLegs;
 use selfmanip_core::spatial::rigid_body::{crba, nonlinear_effects};
 use selfmanip_core::spatial::{
     difference, forward_dynamics, forward_dynamics_prescribed, free_rates, from_pinocchio,
-    impact_outcomes, impact_with, integrate, neutral, quasi_static, to_pinocchio, BaseKind,
-    ImpactState, PointContact, Separation, SpatialData, SpatialError, SpatialImpact, SpatialModel,
+    impact_outcomes, impact_with, integrate, kkt_blocks, neutral, quasi_static, to_pinocchio,
+    BaseKind, ImpactState, PointContact, Separation, SpatialData, SpatialError, SpatialImpact,
+    SpatialModel,
 };
 
 /// A spatial error as the Python exception of its kind, naming the field.
@@ -565,6 +566,27 @@ impl SpatialRobot {
                 d.set_item("lam", vec1(py, &data.lam))?;
                 d.set_item("A", mat(py, &data.A))?;
                 d.set_item("drift", vec1(py, &data.A_drift))
+            },
+        )
+    }
+
+    /// The blocks of the KKT inverse (thesis (5.2)) of `contacts` at `q`:
+    /// `{"m_dagger", "a_dagger", "Lambda", "A", "M", "rows", "free_rates",
+    /// "constraint_condition", "reduced_mass_condition"}` (`selfmanip_core::spatial::kkt_blocks`).
+    fn kkt<'py>(&self, py: Python<'py>, contacts: &Bound<'py, PyAny>, q: Vec<f64>) -> DictOut<'py> {
+        self.contact_dict(
+            py,
+            contacts,
+            |contacts, data| kkt_blocks(&self.model, data, contacts, &q),
+            |d, out, data| {
+                d.set_item("m_dagger", mat(py, &out.blocks.m_dagger))?;
+                d.set_item("a_dagger", mat(py, &out.blocks.a_dagger))?;
+                d.set_item("Lambda", mat(py, &out.blocks.lambda))?;
+                d.set_item("A", mat(py, &data.A))?;
+                d.set_item("M", mat(py, &data.M))?;
+                d.set_item("free_rates", out.free_rates.clone())?;
+                d.set_item("constraint_condition", out.info.constraint_condition)?;
+                d.set_item("reduced_mass_condition", out.info.reduced_mass_condition)
             },
         )
     }

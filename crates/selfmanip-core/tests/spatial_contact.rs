@@ -175,3 +175,68 @@ fn massless_shins_give_exact_finite_answers() {
         "{err:?}"
     );
 }
+
+/// `kkt_blocks` is the inverse of `[M Aᵀ; A 0]` (thesis (5.2)): the assembled matrix times
+/// `[M† A†ᵀ; A† Λ]` is the identity, on the rates it keeps — the quadruped on four feet, with
+/// massless shins on four feet (`M` singular, the system regular) and on three (the fourth
+/// shin's free rate left out: zero rows and columns), and on a planar base.
+#[test]
+fn kkt_blocks_invert_the_kkt_matrix() {
+    let cases = [
+        (quadruped(), [true; 4]),
+        (quadruped_massless_shins(), [true; 4]),
+        (quadruped_massless_shins(), [false, true, true, true]),
+        (quadruped_scaled_on(BaseKind::Planar, &[], 1.0), [true; 4]),
+    ];
+    let mut worst = 0.0f64;
+    for (k, (model, down)) in cases.into_iter().enumerate() {
+        let (model, mut data, mut rng) = setup(model, 90 + k as u64);
+        let contacts: Vec<PointContact> = feet(&model, [true; 4])
+            .into_iter()
+            .zip(down)
+            .filter_map(|(c, d)| d.then_some(c))
+            .collect();
+        for _ in 0..5 {
+            let q = if model.joints[0].kind == JointKind::Planar {
+                DVector::from_fn(model.nq, |_, _| rand::Rng::gen_range(&mut rng, -1.0..1.0))
+            } else {
+                random_q(&model, &mut rng)
+            };
+            let out = kkt_blocks(&model, &mut data, &contacts, q.as_slice()).unwrap();
+            assert_eq!(out.free_rates, free_rates(&model, &contacts));
+            assert_eq!(out.free_rates.is_empty(), down[0]);
+            let kept: Vec<usize> = (0..model.nv)
+                .filter(|i| !out.free_rates.contains(i))
+                .collect();
+            let (n, c) = (kept.len(), data.A.nrows());
+            let mut kkt = DMatrix::zeros(n + c, n + c);
+            let mut inverse = DMatrix::zeros(n + c, n + c);
+            let b = &out.blocks;
+            for (j, &kj) in kept.iter().enumerate() {
+                for (i, &ki) in kept.iter().enumerate() {
+                    kkt[(i, j)] = data.M[(ki, kj)];
+                    inverse[(i, j)] = b.m_dagger[(ki, kj)];
+                }
+                for r in 0..c {
+                    kkt[(n + r, j)] = data.A[(r, kj)];
+                    kkt[(j, n + r)] = data.A[(r, kj)];
+                    inverse[(n + r, j)] = b.a_dagger[(r, kj)];
+                    inverse[(j, n + r)] = b.a_dagger[(r, kj)];
+                }
+            }
+            inverse.view_mut((n, n), (c, c)).copy_from(&b.lambda);
+            let product = &kkt * &inverse;
+            let gap = (product - DMatrix::identity(n + c, n + c)).amax();
+            worst = worst.max(gap / inverse.amax().max(1.0));
+            for &f in &out.free_rates {
+                assert!(b
+                    .m_dagger
+                    .row(f)
+                    .iter()
+                    .chain(b.a_dagger.column(f).iter())
+                    .all(|&x| x == 0.0));
+            }
+        }
+    }
+    assert_worst("[M Aᵀ; A 0] [M† A†ᵀ; A† Λ] − I:", &["max"], &[worst], 1e-10);
+}

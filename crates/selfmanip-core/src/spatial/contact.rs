@@ -729,3 +729,55 @@ fn solve_dynamics(
     check_result("λ", data.lam.as_slice())?;
     Ok(())
 }
+
+/// The blocks of the KKT inverse of a contact set at `q` (thesis (5.2)): with
+/// `[M Aᵀ; A 0]⁻¹ = [M† A†ᵀ; A† Λ]`, `M†` (nv × nv), `A†` (c × nv) and `Λ` (c × c), by the
+/// planar core's null-space block inverse (Lemma 5.1), exact for a singular `M`. The rows
+/// are [`contact_rows`]'; in this engine's sign (`M q̈ + h = τ + Aᵀλ`) the dynamics read
+/// `q̈ = M†(τ − h) − A†ᵀ Ȧq̇` and `λ = −A†(τ − h) + Λ Ȧq̇`. The free rates of a massless limb
+/// in the air ([`free_rates`]) leave the system out (their rows and columns of the blocks are
+/// zero), as the planar core's prescribed joints; a contact set whose rows are dependent is
+/// the typed redundant-constraints error.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpatialKkt {
+    pub blocks: crate::KktBlocks,
+    /// The rates left out, [`free_rates`].
+    pub free_rates: Vec<usize>,
+    /// The condition numbers of the rows and of the motion they leave free.
+    pub info: crate::KktInfo,
+}
+
+/// [`SpatialKkt`] of `contacts` at `q` (the factorization uses `data`'s `M` and `A`, and
+/// leaves them there).
+pub fn kkt_blocks(
+    model: &SpatialModel,
+    data: &mut SpatialData,
+    contacts: &[PointContact],
+    q: &[f64],
+) -> SpatialResult<SpatialKkt> {
+    let nv = model.nv;
+    prepare(model, data, contacts, q, &vec![0.0; nv])?;
+    let free = free_rates(model, contacts);
+    let kept: Vec<usize> = (0..nv).filter(|k| !free.contains(k)).collect();
+    let mut kkt = crate::KktFactorization::default();
+    kkt.factor_on(&data.M, &data.A, &kept)?;
+    let b = kkt.blocks();
+    let c = data.A.nrows();
+    let mut m_dagger = DMatrix::zeros(nv, nv);
+    let mut a_dagger = DMatrix::zeros(c, nv);
+    for (j, &kj) in kept.iter().enumerate() {
+        for (i, &ki) in kept.iter().enumerate() {
+            m_dagger[(ki, kj)] = b.m_dagger[(i, j)];
+        }
+        a_dagger.column_mut(kj).copy_from(&b.a_dagger.column(j));
+    }
+    Ok(SpatialKkt {
+        blocks: crate::KktBlocks {
+            m_dagger,
+            a_dagger,
+            lambda: b.lambda,
+        },
+        free_rates: free,
+        info: kkt.info(),
+    })
+}

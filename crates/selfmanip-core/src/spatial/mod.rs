@@ -43,7 +43,8 @@ pub mod tree_kkt;
 pub mod urdf;
 
 pub use contact::{
-    forward_dynamics, forward_dynamics_prescribed, free_rates, ContactShape, PointContact,
+    forward_dynamics, forward_dynamics_prescribed, free_rates, kkt_blocks, ContactShape,
+    PointContact, SpatialKkt,
 };
 pub use error::{SpatialError, SpatialResult};
 pub use impact::{
