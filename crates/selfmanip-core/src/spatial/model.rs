@@ -22,8 +22,8 @@ pub enum JointKind {
     /// Translation along a unit axis of the joint frame.
     Prismatic { axis: Vector3<f64> },
     /// Three degrees of freedom in the joint frame's x–z plane (a sagittal-plane base):
-    /// `q = [x, z, θ]`, the translation along the frame's x and z axes and the turn about its
-    /// y axis, then the turn (Pinocchio's composite of `PX`, `PZ`, `RY`; MuJoCo's slide, slide,
+    /// `q = [x, z, θ]`, the translations along the frame's x and z axes, then the turn `θ`
+    /// about its y axis (Pinocchio's composite of `PX`, `PZ`, `RY`; MuJoCo's slide, slide,
     /// hinge; Drake's `PlanarJoint` in that plane), and `v = q̇` (`ẋ`, `ż` along the joint
     /// frame's axes, `θ̇`). Its translation columns are fixed in the parent body, its turn's in
     /// its own ([`super::kinematics::forward_kinematics_velocity`] differentiates each so).

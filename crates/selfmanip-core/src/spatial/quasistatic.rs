@@ -39,8 +39,8 @@ pub struct SpatialQuasiStatic {
 }
 
 /// The quasi-static forces of `contacts` at `q` (see the module's doc). The robot must have a
-/// free-flying or planar base; contacts that cannot hold the base at rest (`g_b` outside `G`'s range,
-/// to 1e-9 relative) are an error naming `contacts`.
+/// free-flying or planar base; contacts that cannot hold the base at rest (`g_b` outside
+/// `G`'s range, to 1e-9 relative) are an error naming `contacts`.
 pub fn quasi_static(
     model: &SpatialModel,
     data: &mut SpatialData,

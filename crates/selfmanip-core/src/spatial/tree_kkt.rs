@@ -111,7 +111,8 @@ pub struct TreeKkt {
     /// The rates of the root block: 6 with a free-flying base, 0 on a fixed one.
     nb: usize,
     /// `false` when a joint other than a free-flying root or a planar joint moves more than
-    /// one rate (no such joint exists today): [`Self::factor`] then declines.
+    /// one rate (a free flyer inside the tree, a URDF `floating` joint): [`Self::factor`]
+    /// then declines.
     supported: bool,
     /// Every limb rate's limb chain `[k, λ(k), …]` (down to the root block or the world),
     /// rate `k`'s at `chain[offset[k]..offset[k + 1]]` (empty for the root block's rates).
