@@ -75,7 +75,8 @@ class SpatialKkt:
     ``qdd = M_dagger (tau - h) - A_dagger^T drift`` and ``lam = -A_dagger (tau - h) + Lambda
     drift``. The ``free_rates`` of a massless limb in the air are left out (zero rows and
     columns); ``constraint_condition`` and ``reduced_mass_condition`` are the factorization's
-    condition numbers of the rows and of the motion they leave free."""
+    condition numbers of the rows and of the motion they leave free. Iterating yields
+    ``m_dagger, a_dagger, Lambda, A``, as the planar robots' ``kkt``."""
 
     m_dagger: np.ndarray
     a_dagger: np.ndarray
@@ -86,6 +87,9 @@ class SpatialKkt:
     free_rates: list[int]
     constraint_condition: float
     reduced_mass_condition: float
+
+    def __iter__(self):
+        return iter((self.m_dagger, self.a_dagger, self.Lambda, self.A))
 
 
 @dataclass(frozen=True)

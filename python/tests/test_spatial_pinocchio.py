@@ -376,6 +376,8 @@ def test_kkt_blocks_are_the_inverse_of_pinocchios_kkt_matrix(tmp_path, variant):
         for _ in range(5):
             q, v, tau = random_state(rng, model.nq, model.nv)
             out = ours.kkt(contacts, q)
+            m_dagger_, a_dagger_, lambda_, a_ = out  # unpacks as the planar robots' kkt
+            assert m_dagger_ is out.m_dagger and lambda_ is out.Lambda and a_ is out.A
             free = out.free_rates
             # the FL knee's rate, its massless shin in the air
             assert free == ([8] if variant == "massless_shins" and contacts == FEET[1:] else [])
