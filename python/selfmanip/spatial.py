@@ -194,8 +194,9 @@ class SpatialRobot(WrappedModel):
         if declared and all(known):
             return {n: declared[n] for n in names}
         if any(known):
-            raise InvalidInputError("a list mixing declared contacts with other frames: give a dict "
-                                    "for the others", "contacts")
+            others = ", ".join(str(n) for n, k in zip(names, known) if not k)
+            raise InvalidInputError(f"a list mixing declared contacts with frames not declared ({others}): "
+                                    "name declared contacts only, or give every contact as a dict", "contacts")
         return names
 
     @classmethod

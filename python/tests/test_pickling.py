@@ -69,7 +69,8 @@ def _execution():
 
 
 def _spatial():
-    return selfmanip.SpatialRobot.from_urdf(URDF)
+    feet = ("FL_foot", "FR_foot", "HL_foot", "HR_foot")
+    return selfmanip.SpatialRobot.from_urdf(URDF, contacts={f: {"friction": 0.8} for f in feet})
 
 
 def _spatial_dynamics():
@@ -80,6 +81,11 @@ def _spatial_dynamics():
 def _spatial_impact():
     r = _spatial()
     return r.impact(["FL_foot", "FR_foot"], r.neutral(), np.linspace(-0.1, 0.1, r.nv))
+
+
+def _spatial_kkt():
+    r = _spatial()
+    return r.kkt("1111", r.neutral())
 
 
 def _spatial_quasi_static():
@@ -134,6 +140,7 @@ EXAMPLES = {
     "selfmanip.spatial.SpatialDynamics": _spatial_dynamics,
     "selfmanip.spatial.SpatialImpact": _spatial_impact,
     "selfmanip.spatial.SpatialQuasiStatic": _spatial_quasi_static,
+    "selfmanip.spatial.SpatialKkt": _spatial_kkt,
     "selfmanip.calibrate.Calibration": lambda: selfmanip.calibrate(
         "leap", {"strategy": ["--"] * 2, "t2_s": [-0.03, 0.04], "apex_z_m": [0.52, 0.42]}, {"m_b": (5.0, 9.5)}),
     "selfmanip.calibrate.LeapModel": lambda: LeapModel({"mu_rear": 2.0}),
@@ -218,9 +225,11 @@ def same_behaviour(a, b, where) -> None:
         same(a.dynamics(mode, q, qd, tau), b.dynamics(mode, q, qd, tau), where)
         same(a.energy(q, qd), b.energy(q, qd), where)
     elif isinstance(a, selfmanip.SpatialRobot):
-        assert a.frame_names == b.frame_names, where
+        assert a.frame_names == b.frame_names and a.contacts == b.contacts, where
         q = a.neutral()
         same(a.mass_matrix(q), b.mass_matrix(q), where)
+        if a.contacts:
+            same(a.kkt(None, q), b.kkt(None, q), where)
     else:
         for k in ("status", "reason", "word", "q_names", "labels", "outcome", "events", "segments",
                   "state_jacobian", "parameter_jacobian"):
