@@ -9,7 +9,8 @@ up, gravity ``[0, 0, -9.81]``; a free-flying base has ``q = [x, y, z, qx, qy, qz
 ``x``-``z`` plane with ``q = [x, z, theta, joints...]`` and ``v = dq/dt`` (``theta`` the turn
 about ``y``; Pinocchio's composite root joint of ``PX``, ``PZ``, ``RY``), and its contacts
 with friction hold no force across the plane (rows ``[t, n]``, ``t`` the world ``x`` on flat
-ground); joints are ordered depth first over the URDF tree as in Pinocchio; Jacobians are ``6 x nv`` with the linear rows first. Contacts are frame names:
+ground); joints are ordered depth first over the URDF tree as in Pinocchio; Jacobians are
+``6 x nv`` with the linear rows first. Contacts are frame names:
 ``"FL_foot"`` constrains three rows (world ``x``, ``y``, ``z`` on flat ground: two tangents,
 then the normal), ``"FL_foot:frictionless"`` the normal only; ``lam`` is the ground's force on
 the robot along those rows (a pushing normal force is positive), with
@@ -110,10 +111,10 @@ class SpatialImpact:
 class SpatialQuasiStatic:
     """Quasi-static forces at rest (thesis 4.21-4.22): the grasp map ``grasp`` (b x c, the
     contact rows' base columns transposed; b = 6 on a free-flying base, 3 on a planar one),
-    the base's gravity wrench ``gravity_wrench`` with ``grasp @ lam = gravity_wrench``; the minimum-norm external forces ``lam_external`` and an
-    orthonormal basis ``internal_basis`` of the internal forces (``ker grasp``); the joint
-    torques ``tau_external`` that hold ``lam_external`` and ``internal_torques`` of each
-    internal force."""
+    the base's gravity wrench ``gravity_wrench`` with ``grasp @ lam = gravity_wrench``; the
+    minimum-norm external forces ``lam_external`` and an orthonormal basis ``internal_basis`` of
+    the internal forces (``ker grasp``); the joint torques ``tau_external`` that hold
+    ``lam_external`` and ``internal_torques`` of each internal force."""
 
     grasp: np.ndarray
     gravity_wrench: np.ndarray
@@ -143,8 +144,8 @@ class SpatialRobot(WrappedModel):
                   frames: Mapping[str, Mapping[str, Any]] | None = None,
                   contacts: Mapping[str, Mapping[str, Any]] | None = None) -> "SpatialRobot":
         """Loads a URDF; ``base`` attaches its root link to the world (``"free_flyer"``,
-        ``"planar"``: in the world's ``x``-``z`` plane, or ``"fixed"``). Links with zero mass stay massless. ``frames`` adds frames to the
-        URDF's, ``{name: {"parent": frame, "xyz_m": [x, y, z], "rpy_rad": [r, p, y]}}``
+        ``"planar"``: in the world's ``x``-``z`` plane, or ``"fixed"``). Links with zero mass
+        stay massless. ``frames`` adds frames to the URDF's, ``{name: {"parent": frame, "xyz_m": [x, y, z], "rpy_rad": [r, p, y]}}``
         (placed in the parent frame as a URDF joint origin places its child; offsets zero
         where not given; Pinocchio's operational frames): points to name as contacts, such
         as the corners of a flat foot. ``contacts`` declares the robot's contacts in the dict
