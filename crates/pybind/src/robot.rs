@@ -85,23 +85,6 @@ fn mat<'py>(py: Python<'py>, m: &DMatrix<f64>) -> Bound<'py, PyArray2<f64>> {
     Array2::from_shape_fn((m.nrows(), m.ncols()), |(i, j)| m[(i, j)]).into_pyarray(py)
 }
 
-/// Embeds a matrix over the `dynamic` coordinates into a `rows × nq` (or `nq × nq`) one.
-fn embed(
-    m: &DMatrix<f64>,
-    row_map: &[usize],
-    col_map: &[usize],
-    nrows: usize,
-    ncols: usize,
-) -> DMatrix<f64> {
-    let mut out = DMatrix::zeros(nrows, ncols);
-    for (i, &r) in row_map.iter().enumerate() {
-        for (j, &c) in col_map.iter().enumerate() {
-            out[(r, c)] = m[(i, j)];
-        }
-    }
-    out
-}
-
 /// A planar robot with its contact-mode vocabulary.
 #[pyclass(module = "selfmanip._native", frozen)]
 pub struct Robot {
@@ -444,13 +427,11 @@ impl Robot {
             let mut data = Data::new(&self.model);
             data.prepare(&self.model, &FlatGround, mode, &q, &vec![0.0; nq])
                 .map_err(core_err)?;
-            let b = data.kkt.blocks();
-            let c = data.constraints.n_rows();
-            let rows: Vec<usize> = (0..c).collect();
             let dc = data.dynamic_coords.clone();
+            let b = data.kkt.blocks().embedded(&dc, nq);
             let d = PyDict::new(py);
-            d.set_item("m_dagger", mat(py, &embed(&b.m_dagger, &dc, &dc, nq, nq)))?;
-            d.set_item("a_dagger", mat(py, &embed(&b.a_dagger, &rows, &dc, c, nq)))?;
+            d.set_item("m_dagger", mat(py, &b.m_dagger))?;
+            d.set_item("a_dagger", mat(py, &b.a_dagger))?;
             d.set_item("Lambda", mat(py, &b.lambda))?;
             d.set_item("A", mat(py, &data.constraints.a))?;
             d.set_item("M", mat(py, &data.m_bar))?;

@@ -88,6 +88,28 @@ pub struct KktBlocks {
     pub lambda: DMatrix<f64>,
 }
 
+impl KktBlocks {
+    /// The blocks of a system factored on the coordinates `coords` of `n` (a massless limb's
+    /// prescribed coordinates left out) in all `n`: `M†` n × n and `A†` c × n, zero on the
+    /// rows and columns of the coordinates left out; `Λ` as it is.
+    pub fn embedded(self, coords: &[usize], n: usize) -> KktBlocks {
+        let c = self.a_dagger.nrows();
+        let mut m_dagger = DMatrix::zeros(n, n);
+        let mut a_dagger = DMatrix::zeros(c, n);
+        for (j, &kj) in coords.iter().enumerate() {
+            for (i, &ki) in coords.iter().enumerate() {
+                m_dagger[(ki, kj)] = self.m_dagger[(i, j)];
+            }
+            a_dagger.column_mut(kj).copy_from(&self.a_dagger.column(j));
+        }
+        KktBlocks {
+            m_dagger,
+            a_dagger,
+            lambda: self.lambda,
+        }
+    }
+}
+
 /// A reusable factorization (allocates only when sizes grow).
 ///
 /// Storage is flat and column-major, sized for the current `m` and `c`. At the sizes of a

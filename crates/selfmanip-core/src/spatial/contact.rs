@@ -761,22 +761,8 @@ pub fn kkt_blocks(
     let kept: Vec<usize> = (0..nv).filter(|k| !free.contains(k)).collect();
     let mut kkt = crate::KktFactorization::default();
     kkt.factor_on(&data.M, &data.A, &kept)?;
-    let b = kkt.blocks();
-    let c = data.A.nrows();
-    let mut m_dagger = DMatrix::zeros(nv, nv);
-    let mut a_dagger = DMatrix::zeros(c, nv);
-    for (j, &kj) in kept.iter().enumerate() {
-        for (i, &ki) in kept.iter().enumerate() {
-            m_dagger[(ki, kj)] = b.m_dagger[(i, j)];
-        }
-        a_dagger.column_mut(kj).copy_from(&b.a_dagger.column(j));
-    }
     Ok(SpatialKkt {
-        blocks: crate::KktBlocks {
-            m_dagger,
-            a_dagger,
-            lambda: b.lambda,
-        },
+        blocks: kkt.blocks().embedded(&kept, nv),
         free_rates: free,
         info: kkt.info(),
     })
