@@ -109,11 +109,52 @@ fn bad_urdf_names_the_field() {
         ),
         "link"
     );
-    let bogus = two_links(&joint("j", "bogus", "a", "b", "0 0 1"), "0.5");
-    assert!(matches!(
-        SpatialModel::from_urdf_str(&bogus, free, None).unwrap_err(),
-        SpatialError::UrdfParse { .. }
-    ));
+    // what `urdf-rs` refuses is named too: the text changed by `edit` in a good robot, and the
+    // field that names the change
+    let good = two_links(&joint("j", "revolute", "a", "b", "0 0 1"), "0.5");
+    let malformed = [
+        (("type=\"revolute\"", "type=\"bogus\""), "joint[j].type"),
+        // commas, four angles, a number with two points (as in `pybullet_data`'s bicycle,
+        // microtaur and biped2d)
+        (
+            ("xyz=\"0 0 1\"/><parent", "xyz=\"0, 0, 1\"/><parent"),
+            "joint[j].origin.xyz",
+        ),
+        (
+            ("<origin xyz", "<origin rpy=\"0 1.57 0 0\" xyz"),
+            "joint[j].origin.rpy",
+        ),
+        (("lower=\"-1\"", "lower=\"-1.57.\""), "joint[j].limit.lower"),
+        // an unexpanded xacro expression (husky)
+        (
+            ("<axis xyz=\"0 0 1\"", "<axis xyz=\"$(arg axis)\""),
+            "joint[j].axis.xyz",
+        ),
+        (("velocity=\"1\"", ""), "joint[j].limit.velocity"),
+        (("<parent link=\"a\"/>", ""), "joint[j].parent"),
+        (("<mass value=\"0.5\"/>", ""), "link[b].inertial.mass"),
+        (
+            ("<mass value=\"0.5\"/>", "<mass value=\"half\"/>"),
+            "link[b].inertial.mass",
+        ),
+        (
+            ("iyz=\"0\" izz=\"0.1\"", "iyz=\"0\""),
+            "link[b].inertial.inertia.izz",
+        ),
+    ];
+    for ((from, to), expected) in malformed {
+        assert!(good.contains(from), "{from}");
+        let text = good.replacen(from, to, 1);
+        let err = SpatialModel::from_urdf_str(&text, free, None).unwrap_err();
+        assert_eq!(field_of(err.clone()), expected, "{text}: {err}");
+    }
+    // past URDF 1.2 a limit's velocity has a default (urdf-rs reads it so)
+    let v12 = good.replacen("velocity=\"1\"", "", 1).replacen(
+        "<robot name=\"r\"",
+        "<robot name=\"r\" version=\"1.2\"",
+        1,
+    );
+    SpatialModel::from_urdf_str(&v12, free, None).unwrap();
     assert!(
         matches!(BaseKind::from_name("sagittal").unwrap_err(), SpatialError::InvalidArgument { field, .. } if field == "base")
     );
@@ -225,6 +266,31 @@ fn what_the_model_does_not_read_is_not_parsed() {
             .unwrap_err(),
         SpatialError::UrdfParse { .. }
     ));
+}
+
+#[test]
+fn an_element_urdfdom_reads_once_is_read_from_its_first() {
+    // urdfdom (Pinocchio's reader) takes a joint's first `axis`, `origin`, `limit`, a link's
+    // first `inertial` and an inertial's first `mass` (Spirit 40 in `pybullet_data` gives a
+    // joint two axes): the second of each changes nothing
+    let first = siblings_out_of_name_order("");
+    let second = first
+        .replacen(
+            r#"<axis xyz="0 1 0"/>"#,
+            r#"<axis xyz="0 1 0"/><axis xyz="1 0 0"/><origin xyz="5 5 5"/>"#,
+            1,
+        )
+        .replacen(
+            r#"<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>"#,
+            r#"<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/><mass value="7"/></inertial><inertial><mass value="9"/><inertia ixx="2" ixy="0" ixz="0" iyy="2" iyz="0" izz="2"/></inertial>"#,
+            1,
+        );
+    assert_ne!(first, second);
+    for base in [BaseKind::FreeFlyer, BaseKind::Fixed] {
+        let with = SpatialModel::from_urdf_str(&second, base, None).unwrap();
+        let without = SpatialModel::from_urdf_str(&first, base, None).unwrap();
+        assert_eq!(format!("{with:?}"), format!("{without:?}"));
+    }
 }
 
 #[test]

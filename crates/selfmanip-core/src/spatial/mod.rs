@@ -41,6 +41,7 @@ pub mod rigid_body;
 pub mod se3;
 pub mod tree_kkt;
 pub mod urdf;
+mod urdf_xml;
 
 pub use contact::{
     forward_dynamics, forward_dynamics_prescribed, free_rates, kkt_blocks, ContactShape,

@@ -4,14 +4,13 @@
 //! urdfdom, which Pinocchio reads URDF through, keeps them: not the file's order), each moving
 //! joint's child link as its body, fixed joints merged into the parent body (their child's
 //! inertia added, its frames kept), every link and joint a named frame. A link with zero mass
-//! stays massless. What the model does not read — a link's `visual` and `collision` blocks,
-//! `material`s — is dropped before `urdf-rs` parses the text ([`without_geometry`]), so an
-//! element it would refuse there (an empty `<texture/>`, which urdfdom's schema allows) does
-//! not stop the load.
+//! stays massless. `urdf-rs` parses the XML as urdfdom reads it, and a field it refuses is
+//! named ([`super::urdf_xml`]).
 use super::error::{SpatialError, SpatialResult};
 use super::inertia::Inertia;
 use super::model::{BaseKind, Frame, FrameKind, Joint, JointKind, SpatialModel};
 use super::se3::SE3;
+use super::urdf_xml::{as_urdfdom_reads_it, malformed_field};
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 use std::collections::HashMap;
 use std::path::Path;
@@ -204,44 +203,6 @@ fn cycle(robot: &urdf_rs::Robot, parent_of: &HashMap<&str, &str>) -> SpatialErro
     }
 }
 
-/// The elements of a URDF that the model does not read: a link's looks and collision shapes
-/// and the materials they name.
-const UNREAD: [&[u8]; 3] = [b"visual", b"collision", b"material"];
-
-/// `text` without its [`UNREAD`] elements (and whatever they hold), every other event of the
-/// XML as it was. The message of an XML error otherwise.
-fn without_geometry(text: &str) -> Result<String, String> {
-    use quick_xml::events::Event;
-    let mut reader = quick_xml::Reader::from_str(text);
-    let mut writer = quick_xml::Writer::new(Vec::with_capacity(text.len()));
-    // how deep the reader is inside an element that is dropped
-    let mut dropped = 0usize;
-    loop {
-        let event = reader
-            .read_event()
-            .map_err(|e| format!("XML at byte {}: {e}", reader.error_position()))?;
-        let keep = match &event {
-            Event::Eof => break,
-            Event::Start(e) => {
-                if dropped > 0 || UNREAD.contains(&e.name().as_ref()) {
-                    dropped += 1;
-                }
-                dropped == 0
-            }
-            Event::End(_) if dropped > 0 => {
-                dropped -= 1;
-                false
-            }
-            Event::Empty(e) => dropped == 0 && !UNREAD.contains(&e.name().as_ref()),
-            _ => dropped == 0,
-        };
-        if keep {
-            writer.write_event(event).map_err(|e| e.to_string())?;
-        }
-    }
-    String::from_utf8(writer.into_inner()).map_err(|e| e.to_string())
-}
-
 /// Building state: the model so far and where the current link hangs.
 struct Builder<'a> {
     model: SpatialModel,
@@ -338,8 +299,9 @@ impl SpatialModel {
         root_link: Option<&str>,
     ) -> SpatialResult<Self> {
         let parse_error = |message: String| SpatialError::UrdfParse { message };
-        let text = without_geometry(text).map_err(parse_error)?;
-        let robot = urdf_rs::read_from_string(&text).map_err(|e| parse_error(e.to_string()))?;
+        let text = as_urdfdom_reads_it(text).map_err(parse_error)?;
+        let robot = urdf_rs::read_from_string(&text)
+            .map_err(|e| malformed_field(&text).unwrap_or_else(|| parse_error(e.to_string())))?;
         Self::from_urdf_robot(&robot, base, root_link)
     }
 
