@@ -2,9 +2,9 @@
 //! quadruped (`tests/data/urdf/quadruped12.urdf`) standing on its four feet, each a point
 //! contact with friction (three rows): with the URDF's leg masses, and with massless shins
 //! (singular `M`, the KKT block inverse of chapter 5). Also `M` (CRBA) and the bias forces
-//! (RNEA) alone; the quadruped on a planar base, its feet held in the plane (two rows each);
+//! (RNEA) alone, and the dynamics in flight; the quadruped on a planar base, its feet held in the plane (two rows each);
 //! and the six-legged RHex of Table 4.2 on its six toes. `scripts/bench-pinocchio.py` times Pinocchio's constrained forward dynamics
-//! on the same robot and state and prints the ratio. Target: ≤ 2 µs per KKT evaluation.
+//! (and MuJoCo's dynamics in flight) on the same robot and state and prints the ratios. Target: ≤ 2 µs per KKT evaluation.
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::DVector;
 use selfmanip::core::spatial::rhex::RhexSixLegs;
@@ -77,6 +77,16 @@ fn spatial(c: &mut Criterion) {
             state,
         );
         if label == "massive_legs" {
+            // in flight: M, the bias forces and M's factorization alone (no contact rows),
+            // what MuJoCo's `mj_forward` with its constraints off computes
+            bench_dynamics(
+                &mut group,
+                "forward_dynamics_flight",
+                &model,
+                &mut data,
+                &[],
+                state,
+            );
             group.bench_function("crba", |b| {
                 b.iter(|| {
                     crba(&model, &mut data, black_box(q.as_slice())).unwrap();

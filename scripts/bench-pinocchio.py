@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Pinocchio's timings on the quadruped of `benches/spatial.rs`, beside ours.
+"""Pinocchio's (and MuJoCo's) timings on the quadruped of `benches/spatial.rs`, beside ours.
 
 Times Pinocchio's constrained forward dynamics (`pin.constraintDynamics`, four 3-D foot
 contacts: kinematics, CRBA, bias forces, contact Jacobians and the KKT solve in one C++ call),
@@ -107,6 +107,42 @@ def main():
         print(f"{'forward_dynamics_4_feet/massless_shins':40s} {'(singular M)':>13s} {ours:13.2f}")
     planar()
     rhex()
+    mujoco_flight(q, v, tau)
+
+
+def mujoco_flight(q, v, tau):
+    """MuJoCo's ``mj_forward`` on the same URDF through its own compiler, on a free joint, with
+    its constraints off: kinematics, ``M`` and its factorization, the bias forces and ``q̈`` in
+    flight, against ``forward_dynamics_flight``. (MuJoCo's contacts are soft, solved by an
+    optimization: its constrained step is no KKT solve to time against ours.) The state is
+    the bench's, mapped to MuJoCo's layout: quaternion ``w`` first, free-joint velocity
+    ``[R v_lin, ω]``, joints by name."""
+    try:
+        import mujoco
+    except ImportError:
+        print("mujoco not installed: `pip install mujoco` for its row")
+        return
+    spec = mujoco.MjSpec.from_file(str(URDF))
+    spec.worldbody.first_body().add_freejoint()
+    m = spec.compile()
+    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+    d = mujoco.MjData(m)
+    model = pin.buildModelFromUrdf(str(URDF), pin.JointModelFreeFlyer())
+    d.qpos[:3] = q[:3]
+    d.qpos[3:7] = [q[6], q[3], q[4], q[5]]
+    R = np.zeros(9)
+    mujoco.mju_quat2Mat(R, d.qpos[3:7])
+    d.qvel[:3] = R.reshape(3, 3) @ v[:3]
+    d.qvel[3:6] = v[3:6]
+    for i, name in enumerate(list(model.names)[2:]):
+        j = m.joint(name)
+        d.qpos[j.qposadr[0]] = q[7 + i]
+        d.qvel[j.dofadr[0]] = v[6 + i]
+        d.qfrc_applied[j.dofadr[0]] = tau[6 + i]
+    theirs = per_call_us(lambda: mujoco.mj_forward(m, d))
+    ours = criterion_us("forward_dynamics_flight")
+    name = f"forward_dynamics_flight (MuJoCo {mujoco.__version__})"
+    print(f"{name:40s} {theirs:13.2f} " + (f"{ours:13.2f} {ours / theirs:7.2f}" if ours else "  (no bench)"))
 
 
 def planar():

@@ -9,7 +9,7 @@ Pinocchio: the same robots written for MuJoCo's own compiler and dynamics.
   ``armature``, ``stiffness``/``springref``, ``damping``), and gravity's magnitude are
   carried over field by field. In flight ``q̈`` is MuJoCo's ``qacc`` (contacts off), and the
   kinetic and potential energies its ``mj_energyVel``/``mj_energyPos``; with both feet
-  sticking, ``q̈`` and the feet's forces solve the KKT system of MuJoCo's ``M``, bias forces,
+  sticking, ``q̈`` and the feet's forces (as generalized forces) solve the KKT system of MuJoCo's ``M``, bias forces,
   passive forces and the feet's Jacobians (``mj_jac``) and drifts (``mj_jacDot``).
 - **Spatial robots**: the shipped quadruped URDF read by MuJoCo's own URDF compiler, on a
   free joint (MuJoCo's free-joint velocity is ``[v_world, ω_body]``, Pinocchio's and ours
@@ -205,8 +205,13 @@ def test_a_planar_robot_on_both_feet_solves_mujocos_kkt_system(name):
         rhs = np.concatenate([d.qfrc_applied - d.qfrc_bias + d.qfrc_passive, -np.array(drift)])
         solution = np.linalg.solve(kkt, rhs)
         expected = p.from_mujoco(solution[: m.nv])
-        qdd = p.ours.dynamics("front_foot,hind_foot", q, qd, tau).qdd
-        assert np.allclose(qdd, expected, rtol=0, atol=1e-9 * max(1.0, np.abs(expected).max())), (qdd, expected)
+        ours = p.ours.dynamics("front_foot,hind_foot", q, qd, tau)
+        assert np.allclose(ours.qdd, expected, rtol=0, atol=1e-9 * max(1.0, np.abs(expected).max())), (ours.qdd, expected)
+        # the feet's forces as generalized forces, whatever the rows' frames: ours enter
+        # M q̈ + h + Aᵀλ = τ (thesis (5.2)), MuJoCo's as + Jᵀ f
+        A = np.asarray(p.ours.kkt("front_foot,hind_foot", q).A)
+        generalized = p.from_mujoco(J.T @ solution[m.nv:])
+        assert np.allclose(-A.T @ ours.lam, generalized, rtol=0, atol=1e-9 * max(1.0, np.abs(generalized).max()))
 
 
 def test_the_quadruped_urdf_in_mujocos_compiler_has_our_mass_matrix_and_bias_forces():
